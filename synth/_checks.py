@@ -1,0 +1,87 @@
+"""Validation helpers shared by every public constructor and function.
+
+Each helper takes the dotted field name used in messages (``plate.thickness``),
+the value, and the unit, and returns the value as a Python ``float``. Nothing is
+ever clamped: a value outside the allowed range raises ``ParameterError`` with a
+message such as ``plate.thickness=-0.002 must be > 0 (metres)``.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from .errors import ParameterError
+
+
+def _unit(unit: str) -> str:
+    return f" ({unit})" if unit else ""
+
+
+def real(name: str, value, unit: str = "") -> float:
+    """Return ``value`` as a finite float, or raise ``ParameterError``."""
+    if type(value) is float:  # fast path for the common case
+        if math.isfinite(value):
+            return value
+        raise ParameterError(f"{name}={value!r} must be finite{_unit(unit)}")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(
+            f"{name}={value!r} must be a real number{_unit(unit)}, "
+            f"not {type(value).__name__}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ParameterError(f"{name}={value!r} must be finite{_unit(unit)}")
+    return x
+
+
+def positive(name: str, value, unit: str = "") -> float:
+    """A finite float ``> 0``."""
+    x = real(name, value, unit)
+    if not x > 0.0:
+        raise ParameterError(f"{name}={value!r} must be > 0{_unit(unit)}")
+    return x
+
+
+def nonnegative(name: str, value, unit: str = "") -> float:
+    """A finite float ``>= 0``."""
+    x = real(name, value, unit)
+    if not x >= 0.0:
+        raise ParameterError(f"{name}={value!r} must be >= 0{_unit(unit)}")
+    return x
+
+
+def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
+             lo_open: bool = True, hi_open: bool = True) -> float:
+    """A finite float inside an interval; open or closed at either end."""
+    x = real(name, value, unit)
+    ok_lo = x > lo if lo_open else x >= lo
+    ok_hi = x < hi if hi_open else x <= hi
+    if not (ok_lo and ok_hi):
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        raise ParameterError(
+            f"{name}={value!r} must be in {left}{lo:g}, {hi:g}{right}{_unit(unit)}")
+    return x
+
+
+def choice(name: str, value, allowed) -> str:
+    """One of a fixed set of strings."""
+    allowed = tuple(allowed)
+    if value not in allowed:
+        raise ParameterError(
+            f"{name}={value!r} must be one of {', '.join(map(repr, allowed))}")
+    return value
+
+
+def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...]:
+    """A tuple of ``dims`` finite floats (a position)."""
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise ParameterError(
+            f"{name}={value!r} must be a sequence of {dims} numbers ({unit})") from None
+    if len(items) != dims:
+        raise ParameterError(
+            f"{name}={value!r} must have {dims} coordinates ({unit}), got {len(items)}")
+    axes = "xyz"
+    return tuple(real(f"{name}.{axes[i]}", v, unit) for i, v in enumerate(items))

@@ -1,0 +1,231 @@
+"""Benchmarks: numerical error against run time (``synth bench ...``).
+
+Every figure is measured in one run on this machine, after a warm-up. Nothing
+here is imported by the rest of the engine.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import contact, impedance
+from .scene import Ball, Plate
+
+
+@dataclass(frozen=True)
+class ContactCase:
+    """A benchmark impact, in lumped parameters (SI)."""
+
+    name: str
+    mass: float          # kg
+    stiffness: float     # N/m^n
+    admittance: float    # m/(N s)
+    speed: float         # m/s
+    gravity: float       # m/s^2
+    exponent: float = 1.5
+    dissipation: float = 0.0   # s/m
+
+
+def _case(name, ball, plate, speed, gravity=9.81, contact_law="hertz", **kw):
+    K, n, mu = contact.contact_law(ball, plate, contact_law, **kw)
+    beta = 1.0 / impedance.infinite_plate_impedance(plate)
+    return ContactCase(name, ball.mass, K, beta, speed, gravity, n, mu)
+
+
+def contact_cases() -> list[ContactCase]:
+    """The benchmark's impacts (the issue's four, plus a stiff and a lossy one)."""
+    steel10 = Ball("steel", 0.005)
+    mdf18 = Plate("mdf-18", 0.018, 1.227, 0.49)
+    return [
+        _case("steel 10 mm on MDF 18 mm, 1 m/s", steel10, mdf18, 1.0),
+        _case("steel 10 mm on steel 5 mm, 1 m/s", steel10, Plate("steel", 0.005, 1.0, 0.8), 1.0),
+        _case("steel 20 mm on aluminium 4 mm, 1 m/s (lam > 1)", Ball("steel", 0.01),
+              Plate("aluminium", 0.004, 1.0, 0.8), 1.0),
+        _case("steel 10 mm on MDF 18 mm, 1 mm/s (gravity)", steel10, mdf18, 1e-3),
+        _case("steel 50 mm on aluminium 0.5 mm, 5 m/s (stiff, Radau)", Ball("steel", 0.025),
+              Plate("aluminium", 0.0005, 1.0, 0.8), 5.0),
+        _case("glass 12.55 mm on MDF 6 mm, Hunt-Crossley mu=0.2 s/m", Ball("glass", 0.006275),
+              Plate("mdf-6", 0.00615, 1.2, 0.4895), 1.4, contact_law="hunt-crossley",
+              dissipation=0.2),
+    ]
+
+
+def _scaled(case):
+    v0 = case.speed
+    n = case.exponent
+    theta = (case.mass / (case.stiffness * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
+    lam = case.admittance * case.mass / theta
+    G = case.gravity * theta / v0
+    return theta, lam, G, case.dissipation * v0
+
+
+def scipy_contact(case, method="Radau", rtol=1e-12, atol=1e-15):
+    """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
+    implementation of the same dimensionless equations), for reference and comparison.
+
+    Returns (restitution, contact_time (s), sol (dense output in s, dimensionless), theta).
+    """
+    from scipy.integrate import solve_ivp
+
+    theta, lam, G, c = _scaled(case)
+    n = case.exponent
+
+    def force(x, w):
+        if x <= 0.0:
+            return 0.0
+        a = x ** n
+        if c == 0.0:
+            return a
+        return max(0.0, a * (1.0 + c * w) / (1.0 + c * lam * a))
+
+    def rhs(s, y):
+        f = force(y[0], y[1])
+        return [y[1] - lam * f, G - f]
+
+    def jac(s, y):
+        x, w = y
+        if x <= 0.0:
+            return [[0.0, 1.0], [0.0, 0.0]]
+        a = x ** n
+        da = n * a / x
+        if c == 0.0:
+            fx, fw = da, 0.0
+        else:
+            num, den = 1.0 + c * w, 1.0 + c * lam * a
+            fx, fw = (da * num / den ** 2, a * c / den) if num > 0 else (0.0, 0.0)
+        return [[-lam * fx, 1.0 - lam * fw], [-fx, -fw]]
+
+    def end(s, y):
+        return y[0]
+    end.terminal = True
+    end.direction = -1
+
+    def settle(s, y):
+        x, w = y
+        u = lam * G - w
+        W = 0.5 * u * u + (x ** (n + 1) / (n + 1) - G * x if x > 0 else 0.0)
+        return W - 0.5 * (lam * G) ** 2
+    settle.terminal = True
+    settle.direction = -1
+
+    events = [end, settle] if (G > 0 and lam > 0) else [end]
+    kw = dict(jac=jac) if method in ("Radau", "BDF", "LSODA") else {}
+    # start a hair after first touch so that the x = 0 event does not fire at s = 0
+    # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s)
+    s0 = 1e-10
+    y0 = [s0 + 0.5 * G * s0 * s0, 1.0 + G * s0]
+    sol = solve_ivp(rhs, (s0, 1e9), y0, method=method, rtol=rtol, atol=atol, events=events,
+                    dense_output=True, **kw)
+    if sol.t_events[0].size:
+        s_end = sol.t_events[0][0]
+        w_end = sol.y_events[0][0][1]
+        e = max(0.0, -w_end)
+    else:
+        s_end = sol.t_events[1][0] if len(sol.t_events) > 1 and sol.t_events[1].size else sol.t[-1]
+        e = 0.0
+    return e, s_end * theta, sol, theta
+
+
+def _median_time(fn, repeat):
+    ts = np.empty(repeat)
+    for i in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts[i] = time.perf_counter() - t0
+    return float(np.median(ts))
+
+
+def _pulse_error(res, sol, theta, case):
+    """Relative L2 error of the force pulse against the reference's dense output."""
+    _, lam, G, c = _scaled(case)
+    n = case.exponent
+    s = res.time / theta
+    y = sol.sol(np.clip(s, sol.t[0], sol.t[-1]))
+    x = np.maximum(y[0], 0.0)
+    a = x ** n
+    if c == 0.0:
+        f = a
+    else:
+        f = np.maximum(0.0, a * (1.0 + c * y[1]) / (1.0 + c * lam * a))
+    f_ref = f * case.mass * case.speed / theta
+    return float(np.linalg.norm(res.force - f_ref) / np.linalg.norm(f_ref))
+
+
+def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300):
+    """Error of e, tau and the pulse against the reference, and time per impact.
+
+    Returns a dict with ``rows`` (one per case and tolerance) and ``scipy`` (for each
+    case: our time at the default rtol, scipy DOP853's time at matched error, ratio).
+    """
+    cases = contact_cases()
+    rows = []
+    comparisons = []
+    # warm up the kernels (compilation is cached on disk, but the first call loads it)
+    for meth in ("DOP853", "Radau"):
+        contact.solve_contact(mass=1e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=meth)
+    for case in cases:
+        e_ref, tau_ref, sol, theta = scipy_contact(case)
+        kw = dict(mass=case.mass, stiffness=case.stiffness, admittance=case.admittance,
+                  speed=case.speed, gravity=case.gravity, exponent=case.exponent,
+                  dissipation=case.dissipation)
+        ours_default = None
+        for tol in tolerances:
+            res = contact.solve_contact(rtol=tol, **kw)
+            t = _median_time(lambda: contact.solve_contact(rtol=tol, **kw), repeat)
+            err_e = abs(res.restitution - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(res.restitution)
+            row = dict(case=case.name, rtol=tol, restitution=res.restitution,
+                       inelasticity=res.inelasticity, settled=res.settled,
+                       err_restitution=err_e,
+                       err_contact_time=abs(res.contact_time - tau_ref) / tau_ref,
+                       err_pulse=_pulse_error(res, sol, theta, case),
+                       energy_residual=res.energy_residual, steps=res.n_steps,
+                       method=res.method, us_per_impact=t * 1e6)
+            rows.append(row)
+            if tol == 1e-6:
+                ours_default = row
+        # scipy DOP853 at matched error: the loosest rtol whose errors are no larger
+        target = max(ours_default["err_restitution"], ours_default["err_contact_time"], 1e-13)
+        match = None
+        for srtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
+            e_s, tau_s, _, _ = scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6)
+            err = max(abs(e_s - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(e_s),
+                      abs(tau_s - tau_ref) / tau_ref)
+            if err <= target:
+                match = (srtol, err)
+                break
+        if match is None:
+            srtol, err = 1e-13, float("nan")
+        else:
+            srtol, err = match
+        reps = max(3, repeat // 30)
+        t_s = _median_time(lambda: scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6), reps)
+        comparisons.append(dict(case=case.name, ours_us=ours_default["us_per_impact"],
+                                ours_error=target, scipy_rtol=srtol, scipy_error=err,
+                                scipy_us=t_s * 1e6, speedup=t_s * 1e6 / ours_default["us_per_impact"]))
+    return dict(rows=rows, scipy=comparisons)
+
+
+def format_contact(result) -> str:
+    """The contact benchmark as a Markdown table."""
+    lines = ["| case | rtol | e | lambda | err e | err tau | err pulse (L2) | energy residual | steps | method | us/impact |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        e = "settled" if r["settled"] else f"{r['restitution']:.6f}"
+        lines.append(
+            f"| {r['case']} | {r['rtol']:.0e} | {e} | {r['inelasticity']:.3g} | {r['err_restitution']:.1e} | "
+            f"{r['err_contact_time']:.1e} | {r['err_pulse']:.1e} | {r['energy_residual']:.1e} | "
+            f"{r['steps']} | {r['method']} | {r['us_per_impact']:.1f} |")
+    lines += ["", "| case | ours at rtol 1e-6 (us) | its error | solve_ivp DOP853 rtol at matched error | its error | solve_ivp (us) | speed-up |",
+              "|---|---|---|---|---|---|---|"]
+    for c in result["scipy"]:
+        lines.append(f"| {c['case']} | {c['ours_us']:.1f} | {c['ours_error']:.1e} | {c['scipy_rtol']:.0e} | "
+                     f"{c['scipy_error']:.1e} | {c['scipy_us']:.0f} | {c['speedup']:.0f}x |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(format_contact(run_contact(repeat=100)))

@@ -1,0 +1,125 @@
+"""The command line: ``synth SUBCOMMAND ...`` (argparse).
+
+Subcommands: ``info`` (the impact table of a preset), ``presets`` (list them),
+``materials`` (the material table), ``bench`` (error against run time).
+Errors in the input are reported in one line on stderr with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from .errors import SynthError
+
+
+def _add_preset_args(p):
+    p.add_argument("preset", help="preset file (presets/NAME.toml) or preset name")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a preset key, e.g. --set ball.radius=0.007 (repeatable)")
+
+
+def _cmd_info(args):
+    from .presets import load_preset_with_options
+    from .scheduler import simulate_scene
+
+    scene, _, data = load_preset_with_options(args.preset, args.overrides)
+    seq = simulate_scene(scene)
+    rows = seq.table()
+    if args.json:
+        json.dump(dict(preset=args.preset, description=data.get("description", ""),
+                       stop_reason=seq.stop_reason, duration=seq.duration, impacts=rows),
+                  sys.stdout, indent=1)
+        print()
+        return 0
+    if data.get("description"):
+        print(data["description"])
+    print(f"{'n':>4} {'time (s)':>10} {'speed (m/s)':>12} {'e':>8} {'tau (us)':>9} "
+          f"{'F_max (N)':>10} {'lambda':>8}")
+    for r in rows:
+        e = "settled" if r["settled"] else f"{r['restitution']:.4f}"
+        print(f"{r['n']:>4} {r['time']:>10.5f} {r['speed']:>12.5f} {e:>8} "
+              f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}")
+    print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    return 0
+
+
+def _cmd_presets(args):
+    from .presets import available, read
+
+    for name, path in available().items():
+        try:
+            desc = read(path).get("description", "")
+        except SynthError as exc:
+            desc = f"(unreadable: {exc})"
+        print(f"{name:<28} {desc}")
+    return 0
+
+
+def _cmd_materials(args):
+    from . import materials
+
+    for m in (materials.get(n) for n in materials.names()):
+        print(f"{m.name:<16} rho={m.density:>7g} kg/m^3  E={m.young / 1e9:>7.4g} GPa  "
+              f"nu={m.poisson:<5g} damping={m.damping}")
+    return 0
+
+
+def _cmd_bench(args):
+    from . import bench
+
+    if args.what == "contact":
+        tols = tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10)
+        result = bench.run_contact(tolerances=tols, repeat=args.repeat)
+        if args.json:
+            json.dump(result, sys.stdout, indent=1)
+            print()
+        else:
+            print(bench.format_contact(result))
+        return 0
+    raise SystemExit(f"unknown benchmark {args.what!r}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="synth", description="Physically based bouncing and impact sounds.")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("info", help="print the impact table of a preset's scene")
+    _add_preset_args(p)
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("presets", help="list the presets")
+    p.set_defaults(func=_cmd_presets)
+
+    p = sub.add_parser("materials", help="list the built-in materials")
+    p.set_defaults(func=_cmd_materials)
+
+    p = sub.add_parser("bench", help="error against run time")
+    p.add_argument("what", choices=["contact"])
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
+    p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
+    p.set_defaults(func=_cmd_bench)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except SynthError as exc:
+        print(f"synth: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:  # output piped into a program that stopped reading (head)
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,359 @@
+"""One impact: a ball against a plate's local contact stiffness and its mechanical impedance.
+
+The model is PHYSICS.md sections 2 and 4 (thesis eqs. 2.9-2.11, 2.34, 2.42):
+
+    d(delta)/dt = v_plate - v_s,    v_plate = v_free - beta F(delta)
+    d(v_s)/dt   = F / m - g
+    F = K delta^n                   (Hertz: n = 3/2, K = 4/3 sqrt(R) E*)
+    F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
+
+``solve_contact`` takes the lumped parameters; ``solve_impact`` derives them from
+a :class:`~synth.scene.Ball` and a :class:`~synth.scene.Plate`. Both return an
+:class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
+and ``message``; only bad input raises (``ParameterError``).
+
+Numerics (see ``synth/_contact_kernels.py``): the equations are scaled by
+Zener's time ``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0``, so
+every state variable is of order one and one relative tolerance means the same
+for every ball and plate; they are integrated by DOP853 where the contact is not
+stiff and by Radau IIA (order 5) where it is (Zener's inelasticity
+``lam = beta m / theta`` above :data:`STIFF_LAMBDA`). The end of contact is
+located on the dense output to machine precision.
+
+Error control: the integrators' local tolerance is ``rtol *``
+:data:`TOLERANCE_SAFETY`, a proportionality factor chosen once from the
+benchmark ``synth bench contact`` so that the measured global relative errors of
+the restitution and the contact time stay below the ``rtol`` asked for over the
+benchmark's cases and tolerances (1e-3 to 1e-10). For very small restitution
+(``e`` below about ``rtol``) the error bound is absolute, ``rtol``, not relative.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _checks
+from . import _contact_kernels as _k
+from .errors import ParameterError
+
+#: Zener's inelasticity above which the contact is integrated by the implicit
+#: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
+STIFF_LAMBDA = 20.0
+#: Local tolerance of the integrators relative to the requested ``rtol``.
+TOLERANCE_SAFETY = 0.2
+#: Absolute tolerance of the dimensionless state relative to the local tolerance: the
+#: state starts at order one, so this keeps the control relative down to 1e-6 of that
+#: scale (small restitutions, the long tails of very inelastic contacts).
+ABSOLUTE_FACTOR = 1e-6
+#: Steps before DOP853 gives up and the implicit method takes over.
+EXPLICIT_STEP_LIMIT = 20_000
+#: Steps before the implicit method reports failure.
+IMPLICIT_STEP_LIMIT = 200_000
+
+_MESSAGES = {
+    _k.SEPARATED: "The ball separated from the plate.",
+    _k.SETTLED: "The ball settled: its energy fell below what a separation needs.",
+    _k.MAX_STEPS: "The step limit was reached before the contact ended.",
+    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactResult:
+    """The outcome of one impact (SI units).
+
+    Attributes
+    ----------
+    restitution : float
+        ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
+    contact_time : float
+        Duration of the contact ``tau``, s. For a settled ball: the time at which
+        the ball was proven unable to separate.
+    max_penetration : float
+        Largest local deformation ``delta_max``, m.
+    peak_force : float
+        Largest contact force, N.
+    impulse : float
+        Integral of the contact force over the contact, N s.
+    inelasticity : float
+        Zener's parameter ``lam = beta m / theta``, dimensionless.
+    settled : bool
+        True if the ball never separated (it came to rest on the plate).
+    rebound_speed : float
+        Relative speed of separation ``v_out = v_s(tau) - v_free``, m/s (0 if settled).
+    plate_energy : float
+        Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
+    time : ndarray
+        Times of the pulse samples from first touch, s (uniform, ``n_points``).
+    force : ndarray
+        Contact force at those times, N.
+    energy_residual : float
+        Relative error of the energy balance of PHYSICS.md section 4 (with the
+        Hunt-Crossley loss), relative to the impact's kinetic energy.
+    success : bool
+        True if the contact was integrated to its end.
+    status : int
+        0 separated, 1 settled, negative: failure (see ``message``).
+    message : str
+        Human-readable description of ``status``.
+    n_steps : int
+        Accepted integration steps.
+    method : str
+        ``"DOP853"`` or ``"Radau"``.
+    """
+
+    restitution: float
+    contact_time: float
+    max_penetration: float
+    peak_force: float
+    impulse: float
+    inelasticity: float
+    settled: bool
+    rebound_speed: float
+    plate_energy: float
+    time: np.ndarray = field(repr=False)
+    force: np.ndarray = field(repr=False)
+    energy_residual: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    method: str
+
+
+def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=1.5,
+                  dissipation=0.0, plate_velocity=0.0, rtol=1e-6, n_points=128,
+                  method="auto") -> ImpactResult:
+    """Solve one impact from lumped parameters.
+
+    Parameters
+    ----------
+    mass : float > 0
+        Ball mass ``m``, kg.
+    stiffness : float > 0
+        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
+    admittance : float >= 0
+        Plate mechanical admittance ``beta = 1/Z`` at the impact point, m/(N s).
+        0 is a rigid plate.
+    speed : float > 0
+        Ball's impact speed ``v_in`` (downward), m/s.
+    gravity : float >= 0
+        Gravitational acceleration ``g``, m/s^2 (0 turns gravity off).
+    exponent : float in (1, 4]
+        Contact law exponent ``n`` (Hertz 1.5, elastic foundation 2).
+    dissipation : float >= 0
+        Hunt-Crossley damping ``mu``, s/m (0: purely elastic contact).
+    plate_velocity : float
+        Velocity of the plate surface at the impact point before the impact,
+        ``v_free``, m/s, positive upward; constant over the contact.
+    rtol : float in [1e-12, 0.1]
+        Relative accuracy asked for the restitution and the contact time.
+    n_points : int >= 16
+        Number of uniform samples of the force pulse over the contact.
+    method : {"auto", "DOP853", "Radau"}
+        Integrator; "auto" chooses by stiffness.
+
+    Returns
+    -------
+    ImpactResult
+    """
+    m = _checks.positive("mass", mass, "kg")
+    K = _checks.positive("stiffness", stiffness, "N/m^n")
+    beta = _checks.nonnegative("admittance", admittance, "m/(N s)")
+    v_in = _checks.positive("speed", speed, "m/s")
+    g = _checks.nonnegative("gravity", gravity, "m/s^2")
+    n = _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+    mu = _checks.nonnegative("dissipation", dissipation, "s/m")
+    v_free = _checks.real("plate_velocity", plate_velocity, "m/s")
+    tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
+    if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 16:
+        raise ParameterError(f"n_points={n_points!r} must be an integer >= 16")
+    _checks.choice("method", method, ("auto", "DOP853", "Radau"))
+    v0 = v_in + v_free
+    if not v0 > 0.0:
+        raise ParameterError(
+            f"speed={v_in!r} with plate_velocity={v_free!r}: the approach speed "
+            f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate")
+    return _solve(m, K, beta, v_in, g, n, mu, v_free, tol, int(n_points), method)
+
+
+def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
+    v0 = v_in + v_free
+    theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
+    lam = beta * m / theta
+    G = g * theta / v0
+    c = mu * v0
+    itol = tol * TOLERANCE_SAFETY
+    stiff = (lam > STIFF_LAMBDA) if method == "auto" else (method == "Radau")
+    atol = itol * ABSOLUTE_FACTOR
+    f_scale = m * v0 / theta
+    times = np.empty(n_points)
+    forces = np.empty(n_points)
+    out = _k.solve(lam, G, n, c, itol, atol, IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT,
+                   stiff, times, forces, theta, f_scale)
+    if out[0] == _k.MAX_STEPS and not stiff and method == "auto":
+        stiff = True
+        out = _k.solve(lam, G, n, c, itol, atol, IMPLICIT_STEP_LIMIT, True, times, forces,
+                       theta, f_scale)
+    status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, nst, _nrej = out
+    status = int(status)
+    settled = status == _k.SETTLED
+    message = _MESSAGES.get(status, "Unknown status.")
+    if status == _k.SEPARATED and w_end > 0.0:
+        # The contact ended with the ball still (barely) approaching: the rebound is
+        # below the solver's absolute resolution (rtol * ABSOLUTE_FACTOR of v0).
+        w_end = 0.0
+        message = ("The ball separated with a rebound speed below the solver's "
+                   "resolution; restitution reported as 0.")
+    I1 = 1.0 - w_end + G * s_end                      # from w' = G - f
+    # energy balance, dimensionless (PHYSICS.md s.4, in the plate's frame)
+    elastic = x_end ** (n + 1.0) / (n + 1.0) if x_end > 0.0 else 0.0
+    lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
+    rhs = G * lam * I1 - lam * I2 - loss
+    residual = abs(lhs - rhs) / 0.5
+    v_out = 0.0 if settled else -w_end * v0
+    return ImpactResult(
+        restitution=v_out / v_in if status == _k.SEPARATED else 0.0,
+        contact_time=s_contact * theta,
+        max_penetration=x_max * theta * v0,
+        peak_force=f_max * f_scale,
+        impulse=I1 * m * v0,
+        inelasticity=lam,
+        settled=settled,
+        rebound_speed=v_out if status == _k.SEPARATED else 0.0,
+        plate_energy=lam * I2 * m * v0 * v0,
+        time=times,
+        force=forces,
+        energy_residual=residual,
+        success=status >= 0,
+        status=status,
+        message=message,
+        n_steps=int(nst),
+        method="Radau" if stiff else "DOP853",
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# From scene objects
+# ---------------------------------------------------------------------------------------
+from .scene import CONTACT_LAWS  # noqa: E402  (one list of laws)
+
+
+def effective_modulus(ball, plate) -> float:
+    """Contact modulus ``E*`` with ``1/E* = 1/E'_ball + 1/E'_plate``, Pa."""
+    return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate.material.effective_modulus)
+
+
+def hertz_stiffness(ball, plate) -> float:
+    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5."""
+    return 4.0 / 3.0 * math.sqrt(ball.radius) * effective_modulus(ball, plate)
+
+
+def foundation_stiffness(ball, plate, depth=None) -> float:
+    """Elastic-foundation constant ``K = pi E'_plate R / h`` (thesis 4.3.2), N/m^2.
+
+    ``depth`` is the Winkler layer's depth ``h`` in metres (default: the plate thickness).
+    """
+    h = plate.thickness if depth is None else _checks.positive("layer_depth", depth, "metres")
+    return math.pi * plate.material.effective_modulus * ball.radius / h
+
+
+def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None,
+                stiffness=None, layer_depth=None) -> tuple[float, float, float]:
+    """Contact parameters ``(K, n, mu)`` for a named law (PHYSICS.md section 2).
+
+    Parameters
+    ----------
+    contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+    dissipation : float > 0
+        Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
+    exponent, stiffness : float
+        ``n`` (dimensionless, in (1, 4]) and ``K_n`` (N/m^n): required for "power-law".
+    layer_depth : float > 0
+        Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
+    """
+    _checks.choice("contact", contact, CONTACT_LAWS)
+    given = {"dissipation": dissipation, "exponent": exponent, "stiffness": stiffness,
+             "layer_depth": layer_depth}
+    allowed = {"hertz": (), "hunt-crossley": ("dissipation",),
+               "elastic-foundation": ("layer_depth",), "power-law": ("exponent", "stiffness")}[contact]
+    for key, value in given.items():
+        if value is not None and key not in allowed:
+            raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
+    if contact == "hertz":
+        return hertz_stiffness(ball, plate), 1.5, 0.0
+    if contact == "hunt-crossley":
+        if dissipation is None:
+            raise ParameterError("contact='hunt-crossley' needs dissipation (mu, s/m, > 0)")
+        return hertz_stiffness(ball, plate), 1.5, _checks.positive("dissipation", dissipation, "s/m")
+    if contact == "elastic-foundation":
+        return foundation_stiffness(ball, plate, layer_depth), 2.0, 0.0
+    if exponent is None or stiffness is None:
+        raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
+    return (_checks.positive("stiffness", stiffness, "N/m^n"),
+            _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False), 0.0)
+
+
+def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="hertz",
+                 rtol=1e-6, dissipation=None, exponent=None, stiffness=None,
+                 layer_depth=None, plate_velocity=0.0, n_points=128) -> ImpactResult:
+    """Solve the impact of ``ball`` on ``plate`` at ``speed``.
+
+    Parameters
+    ----------
+    ball : Ball
+    plate : Plate
+    speed : float > 0
+        Impact speed, m/s.
+    position : (float, float), optional
+        Impact point, metres from a plate corner. None: far from the edges (the
+        infinite-plate impedance). Near an edge or corner the admittance grows
+        (see :func:`synth.impedance.point_admittance`); it depends on the contact
+        time, so the two are solved together by fixed-point iteration.
+    gravity : float >= 0
+        m/s^2.
+    contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+        Contact law and its parameters (see :func:`contact_law`).
+    rtol : float
+        Relative accuracy of restitution and contact time.
+    plate_velocity : float
+        Plate surface velocity before the impact, m/s, positive upward.
+    n_points : int
+        Samples of the force pulse.
+
+    Returns
+    -------
+    ImpactResult
+    """
+    from . import impedance
+    from .scene import Ball, Plate
+
+    if not isinstance(ball, Ball):
+        raise ParameterError(f"ball={ball!r} must be a Ball")
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    K, n, mu = contact_law(ball, plate, contact, dissipation=dissipation, exponent=exponent,
+                           stiffness=stiffness, layer_depth=layer_depth)
+    beta = 1.0 / impedance.infinite_plate_impedance(plate)
+    kwargs = dict(mass=ball.mass, stiffness=K, speed=speed, gravity=gravity, exponent=n,
+                  dissipation=mu, plate_velocity=plate_velocity, rtol=rtol, n_points=n_points)
+    result = solve_contact(admittance=beta, **kwargs)
+    if position is None:
+        return result
+    pos = plate.check_position(position, "position")
+    # Edge and corner: only within the critical distance (leave out otherwise).
+    for _ in range(50):
+        if not result.success:
+            return result
+        beta_new = impedance.point_admittance(plate, pos, result.contact_time)
+        if beta_new == beta:
+            return result
+        converged = abs(beta_new - beta) <= 0.1 * rtol * beta_new
+        beta = beta_new
+        result = solve_contact(admittance=beta, **kwargs)
+        if converged:
+            return result
+    return result

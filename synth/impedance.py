@@ -1,0 +1,109 @@
+"""Driving-point impedance of a plate at the impact point (PHYSICS.md section 3).
+
+* Infinite thin plate (thesis eqs. 2.34 / 4.30; Cremer, Heckl & Petersson,
+  "Structure-Borne Sound", 3rd ed., section 5.3): real and frequency-independent,
+
+      Z_inf = 8 sqrt(D rho h) = 4 h^2 sqrt(E rho / (3 (1 - nu^2)))        N s/m
+
+* At a free straight edge of a semi-infinite plate, for ka < 1 (Eichler 1964,
+  J. Acoust. Soc. Am. 36, 344; thesis Table 3.4, measured Z_middle/Z_edge =
+  3.3 ... 3.7): ``Z_edge = 0.29 Z_inf`` (:data:`EDGE_RATIO`).
+
+* At a free corner there is no closed form; the thesis measured
+  Z_middle/Z_corner = 7.6 (18 mm MDF), 7.4 (12 mm) and 4.9 (6.15 mm). The thick
+  boards, where ka < 1 holds over the pulse's band as it does for Eichler's edge
+  value, agree: :data:`CORNER_RATIO` = 1/7.5, their mean. (The 6 mm board's
+  lower ratio is outside that regime and is not used.)
+
+* Position dependence: the boundary is felt only within a critical distance of
+  the order of half the distance a flexural wave travels during the contact,
+  ``d_c = c_g tau / 2`` with the group velocity ``c_g = 2 sqrt(omega)
+  (D / (rho h))^(1/4)`` at the pulse's dominant angular frequency
+  ``omega = pi / tau`` (PHYSICS.md sections 3 and 6). The admittance is blended
+  between the middle, edge and corner values with the smooth weight
+  ``s(d) = cos^2(pi d / (2 d_c))`` for ``d < d_c`` (0 beyond) of each distance
+  ``d`` to the nearest edge along x and along y:
+
+      beta / beta_inf = 1 + (r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y
+
+  with ``r_e = 1/EDGE_RATIO`` and ``r_c = 1/CORNER_RATIO``: the middle value far
+  from edges, the edge value on an edge far from corners, the corner value at a
+  corner. This blend is empirical (a bilinear interpolation of the three
+  measured regimes with a C1 taper); its scale ``d_c`` and its end values are
+  those of the thesis.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import _checks
+
+#: Z_edge / Z_inf at a free straight edge (Eichler; thesis Table 3.4).
+EDGE_RATIO = 0.29
+#: Z_corner / Z_inf at a free right-angled corner (thesis Table 3.4, 18 and 12 mm boards).
+CORNER_RATIO = 1.0 / 7.5
+
+
+def infinite_plate_impedance(plate) -> float:
+    """``Z_inf = 8 sqrt(D rho h)``, N s/m (thesis eq. 2.34)."""
+    return 8.0 * math.sqrt(plate.flexural_rigidity * plate.surface_density)
+
+
+def edge_impedance(plate) -> float:
+    """Driving-point impedance at a free straight edge, ``0.29 Z_inf``, N s/m."""
+    return EDGE_RATIO * infinite_plate_impedance(plate)
+
+
+def corner_impedance(plate) -> float:
+    """Driving-point impedance at a free corner, ``Z_inf / 7.5``, N s/m."""
+    return CORNER_RATIO * infinite_plate_impedance(plate)
+
+
+def group_velocity(plate, omega) -> float:
+    """Flexural group velocity ``c_g = 2 sqrt(omega) (D / (rho h))^(1/4)``, m/s.
+
+    ``omega`` is an angular frequency, rad/s.
+    """
+    omega = _checks.positive("omega", omega, "rad/s")
+    return 2.0 * math.sqrt(omega) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
+
+
+def critical_distance(plate, contact_time) -> float:
+    """Distance from an edge within which the edge is felt, ``c_g tau / 2``, m.
+
+    ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
+    ``omega = pi / tau``.
+    """
+    tau = _checks.positive("contact_time", contact_time, "s")
+    return 0.5 * group_velocity(plate, math.pi / tau) * tau
+
+
+def _taper(d, dc):
+    if d >= dc:
+        return 0.0
+    c = math.cos(0.5 * math.pi * d / dc)
+    return c * c
+
+
+def point_admittance(plate, position, contact_time) -> float:
+    """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
+    duration ``contact_time`` (s).
+
+    Equals ``1 / Z_inf`` farther than the critical distance from every edge. Only
+    free edges soften the plate this way; for simply supported and clamped plates
+    the infinite-plate value is returned (the thesis measured free edges only;
+    those boundaries are handled by the plate's modes).
+    """
+    x, y = plate.check_position(position, "position")
+    beta_inf = 1.0 / infinite_plate_impedance(plate)
+    if plate.boundary != "free":
+        return beta_inf
+    dc = critical_distance(plate, contact_time)
+    sx = _taper(min(x, plate.length - x), dc)
+    sy = _taper(min(y, plate.width - y), dc)
+    if sx == 0.0 and sy == 0.0:
+        return beta_inf
+    re = 1.0 / EDGE_RATIO
+    rc = 1.0 / CORNER_RATIO
+    return beta_inf * (1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy)

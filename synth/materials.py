@@ -1,0 +1,304 @@
+"""Materials: elastic constants, density and internal damping.
+
+A :class:`Material` holds Young's modulus ``young`` (Pa), ``density`` (kg/m^3),
+Poisson's ratio ``poisson`` (dimensionless, in (-1, 0.5)) and an internal damping
+law (:class:`Rayleigh` or :class:`LossFactor`) that sets the decay rate of a
+plate's bending modes (PHYSICS.md section 6).
+
+The built-in table :data:`TABLE` has a cited source for every row; look a row
+up with :func:`get` (case-insensitive) and print it with :func:`table_markdown`.
+Any :class:`Material` can also be built by hand.
+
+Where the numbers come from
+---------------------------
+* Thesis rows (``mdf-18``, ``mdf-12``, ``mdf-6``, ``steel``, ``glass``): the
+  thesis' Table 3.1 (PHYSICS.md section 1). The MDF moduli were measured on the
+  three boards; their Rayleigh damping is the fit to the thesis' recordings
+  (PHYSICS.md section 6).
+* Handbook rows: the elastic constants and the loss factor of one printed row
+  of one of these tables, unless the row's ``source`` says otherwise:
+
+  - Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed. (Springer
+    2005), Table 4.3 (metals; flexural loss factors, as ranges);
+  - Bies, Hansen & Howard, *Engineering Noise Control*, 5th ed. (CRC Press
+    2017), Appendix C, Table C.1 (its loss-factor column prints two numbers:
+    the lower is the material's own, the upper a panel built into a building;
+    the lower is used here);
+  - Hopkins, *Sound Insulation* (Butterworth-Heinemann 2007), Table A2 (it
+    prints the quasi-longitudinal plate speed ``c_L`` instead of ``E``; the row
+    then takes ``E = c_L**2 * rho * (1 - nu**2)``);
+  - Mechel (ed.), *Formulas of Acoustics*, 2nd ed. (Springer 2008), the
+    material table "Table 3", pp. 529-530;
+  - Vigran, *Building Acoustics* (Taylor & Francis 2008), Table 3.1;
+  - Norton & Karczub, *Fundamentals of Noise and Vibration Analysis for
+    Engineers*, 2nd ed. (Cambridge UP 2003), Table 6.1 (loss factors only);
+  - granite: Leet & Ewing, "Velocity of elastic waves in granite", Physics 2,
+    160 (1932) for the elastic constants, and Birch & Bancroft, "Elasticity and
+    internal friction in a long column of granite", Bull. Seismol. Soc. Am. 28,
+    243 (1938) for the damping (Q = 150 at 140-4500 Hz, so ``eta = 1/Q``).
+
+Loss factors are those of bending waves at audio frequencies. They are the
+least certain column of any such table: the handbooks give ranges or single
+"representative" values, and a metal's loss factor depends on its working and
+heat treatment (Cremer et al. section 4.5.1). Where the books disagree the row's
+``source`` says which value was taken and names the others.
+
+Woods are orthotropic; the table gives the modulus along the grain (the handbook
+value), which overstates the stiffness of a board bent across the grain.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _checks
+from .errors import ParameterError
+
+
+@dataclass(frozen=True)
+class Rayleigh:
+    """Rayleigh damping: modal decay rate ``sigma = alpha/2 + beta * omega**2 / 2``.
+
+    Parameters
+    ----------
+    alpha : float >= 0
+        Mass-proportional coefficient, 1/s.
+    beta : float >= 0
+        Stiffness-proportional coefficient, s.
+    """
+
+    alpha: float
+    beta: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "alpha", _checks.nonnegative("damping.alpha", self.alpha, "1/s"))
+        object.__setattr__(self, "beta", _checks.nonnegative("damping.beta", self.beta, "s"))
+
+    def decay_rate(self, omega):
+        """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
+        omega = np.asarray(omega, dtype=float)
+        return 0.5 * self.alpha + 0.5 * self.beta * omega * omega
+
+
+@dataclass(frozen=True)
+class LossFactor:
+    """Constant loss factor: modal decay rate ``sigma = eta * omega / 2``.
+
+    Parameters
+    ----------
+    eta : float in [0, 1)
+        Loss factor (dimensionless).
+    """
+
+    eta: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "eta", _checks.in_range(
+            "damping.eta", self.eta, 0.0, 1.0, "dimensionless", lo_open=False))
+
+    def decay_rate(self, omega):
+        """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
+        return 0.5 * self.eta * np.asarray(omega, dtype=float)
+
+
+Damping = Rayleigh | LossFactor
+
+
+@dataclass(frozen=True)
+class Material:
+    """An isotropic elastic material.
+
+    Parameters
+    ----------
+    name : str
+        Name used in messages and presets.
+    density : float > 0
+        Mass density, kg/m^3.
+    young : float > 0
+        Young's modulus, Pa.
+    poisson : float in (-1, 0.5)
+        Poisson's ratio, dimensionless.
+    damping : Rayleigh or LossFactor
+        Internal damping law of the material's bending modes.
+    source : str
+        Where the values come from (citation), for table rows.
+    """
+
+    name: str
+    density: float
+    young: float
+    poisson: float
+    damping: Damping = field(default_factory=lambda: LossFactor(0.01))
+    source: str = ""
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ParameterError(f"material.name={self.name!r} must be a non-empty string")
+        n = self.name
+        object.__setattr__(self, "density", _checks.positive(f"{n}.density", self.density, "kg/m^3"))
+        object.__setattr__(self, "young", _checks.positive(f"{n}.young", self.young, "Pa"))
+        object.__setattr__(self, "poisson", _checks.in_range(
+            f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"))
+        if not isinstance(self.damping, (Rayleigh, LossFactor)):
+            raise ParameterError(
+                f"{n}.damping={self.damping!r} must be a Rayleigh(alpha, beta) or LossFactor(eta)")
+
+    @property
+    def effective_modulus(self) -> float:
+        """Plane-strain modulus ``E' = E / (1 - nu^2)``, Pa."""
+        return self.young / (1.0 - self.poisson ** 2)
+
+
+# The built-in table. Every row cites its source (``source=``); the module
+# docstring lists the references in full.
+_CHP = "Cremer, Heckl & Petersson, Structure-Borne Sound, 3rd ed. (Springer 2005), Table 4.3"
+_BHH = "Bies, Hansen & Howard, Engineering Noise Control, 5th ed. (CRC Press 2017), Table C.1"
+_HOP = "Hopkins, Sound Insulation (Butterworth-Heinemann 2007), Table A2"
+_MEC = "Mechel (ed.), Formulas of Acoustics, 2nd ed. (Springer 2008), Table 3, pp. 529-530"
+_VIG = "Vigran, Building Acoustics (Taylor & Francis 2008), Table 3.1"
+_NKT = "Norton & Karczub, Fundamentals of Noise and Vibration Analysis, 2nd ed. (CUP 2003), Table 6.1"
+
+_ROWS: list[Material] = [
+    # Thesis (PHYSICS.md section 1, Table 3.1): the three MDF boards, measured moduli.
+    # Damping: Rayleigh fit to the thesis' MDF recordings (PHYSICS.md section 6).
+    Material("mdf-18", 700.0, 5.689e9, 0.4, Rayleigh(35.0, 5e-7),
+             "thesis Table 3.1 (18 mm board, measured modulus); damping PHYSICS.md s.6"),
+    Material("mdf-12", 700.0, 5.058e9, 0.4, Rayleigh(35.0, 5e-7),
+             "thesis Table 3.1 (12 mm board, measured modulus); damping PHYSICS.md s.6"),
+    Material("mdf-6", 700.0, 3.385e9, 0.4, Rayleigh(35.0, 5e-7),
+             "thesis Table 3.1 (6.15 mm board, measured modulus); damping PHYSICS.md s.6"),
+
+    # Metals.
+    Material("steel", 7800.0, 216e9, 0.3, LossFactor(1e-4),
+             "elastic: thesis Table 3.1 (steel balls: E = 216 GPa, nu = 0.3, rho 7730-7960); "
+             f"damping: eta = 1e-4, {_BHH} (mild steel); {_CHP} gives 2e-5 to 3e-4 "
+             "for flexural waves"),
+    Material("stainless-steel", 7910.0, 200e9, 0.3, LossFactor(1e-4),
+             f"{_BHH}, row 'Stainless steel 302' (rho, E, nu, eta)"),
+    Material("aluminium", 2700.0, 72e9, 0.34, LossFactor(1e-4),
+             f"elastic: {_CHP} (aluminium); damping: eta = 1e-4, {_BHH} (aluminium sheet), "
+             "the top of the 3e-6 to 1e-4 flexural range of Cremer et al."),
+    Material("brass", 8500.0, 95e9, 0.33, LossFactor(1e-3),
+             f"elastic: {_CHP} (brass); damping: eta = 1e-3, {_BHH} and {_MEC}, "
+             "the top of the 2e-4 to 1e-3 flexural range of Cremer et al."),
+    Material("copper", 8900.0, 125e9, 0.35, LossFactor(2e-3),
+             f"{_CHP}, row 'Copper, polycrystal' (rho, E, nu, flexural eta = 2e-3)"),
+
+    # Glass and stone.
+    Material("glass", 2480.0, 70e9, 0.2, LossFactor(1e-3),
+             "elastic: thesis Table 3.1 (glass balls: rho 2480, E 70 GPa, nu 0.2); "
+             f"damping: eta = 1e-3, {_NKT} and {_MEC}; {_VIG} gives 6e-4 to 2e-3"),
+    Material("granite", 2650.0, 43e9, 0.333, LossFactor(1.0 / 150.0),
+             "elastic: Leet & Ewing, 'Velocity of elastic waves in granite', Physics 2, 160 "
+             "(1932), Quincy granite (rho 2650, E 43 GPa, nu 0.333, from in-situ wave "
+             "speeds); damping: eta = 1/Q, Q = 150 at 140-4500 Hz, Birch & Bancroft, "
+             "'Elasticity and internal friction in a long column of granite', "
+             "Bull. Seismol. Soc. Am. 28, 243 (1938)"),
+    Material("concrete", 2300.0, 24e9, 0.2, LossFactor(5e-3),
+             f"{_BHH}, row 'Concrete, normal' (rho 2300, nu 0.2, eta 5e-3; E = 24 GPa is the "
+             f"middle of the printed 18-30 GPa); {_HOP} also gives eta = 5e-3 for cast concrete"),
+    Material("plasterboard", 860.0, 1490.0 ** 2 * 860.0 * (1.0 - 0.3 ** 2), 0.3,
+             LossFactor(0.0141),
+             f"{_HOP}, row 'Plasterboard, natural gypsum' (rho 860, c_L 1490 m/s, nu 0.3, "
+             "eta 0.0141); E = c_L^2 rho (1 - nu^2)"),
+
+    # Plastics and rubber.
+    Material("acrylic", 1200.0, 5.6e9, 0.35, LossFactor(0.06),
+             f"PMMA; rho, E (dynamic) and eta = 0.06: {_MEC}, row 'Acryl glass'; nu: {_BHH} "
+             "(Plexiglass); Bies et al. and Beranek & Ver (1992) print eta = 0.002 for "
+             "Plexiglas, far below Mechel's value"),
+    Material("polycarbonate", 1200.0, 2.3e9, 0.35, LossFactor(3e-3),
+             f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta)"),
+    Material("rubber", 1150.0, 55e6, 0.49, LossFactor(0.05),
+             f"{_BHH}, row 'Rubber-neoprene' (nu 0.49, eta 0.05; rho and E are the middles of "
+             "the printed 1100-1200 kg/m^3 and 10-100 MPa); nu = 0.49 as printed: the "
+             "incompressible limit 0.5 (infinite bulk modulus) is outside the allowed range"),
+
+    # Woods (modulus along the grain).
+    Material("oak", 630.0, 12e9, 0.35, LossFactor(0.01),
+             f"elastic: {_BHH}, row 'Oak' (rho 630, E 12 GPa along the grain, nu 0.35); "
+             f"damping: eta = 0.01, {_MEC} (oak wood); Bies et al. print 0.04"),
+    Material("hardwood", 630.0, 12e9, 0.35, LossFactor(0.01),
+             f"the 'oak' row: elastic {_BHH} (Oak), damping {_MEC} (oak wood, eta = 0.01)"),
+    Material("pine", 500.0, 10.1e9, 0.4, LossFactor(0.01),
+             f"rho, E (along the grain): {_BHH}, row 'Scots pine'; nu 0.4: {_VIG} (fir, "
+             f"spruce); damping: eta = 0.01, {_MEC} (pine wood); Vigran gives 0.008-0.01"),
+    Material("plywood", 710.0, 3850.0 ** 2 * 710.0 * (1.0 - 0.3 ** 2), 0.3,
+             LossFactor(0.016),
+             f"{_HOP}, row 'Plywood (Birch)' (rho 710, c_L 3850 m/s, nu 0.3, eta 0.016); "
+             f"E = c_L^2 rho (1 - nu^2); {_NKT} gives eta = 0.015"),
+]
+
+TABLE: dict[str, Material] = {m.name: m for m in _ROWS}
+
+
+def names() -> list[str]:
+    """Names of the built-in materials, sorted."""
+    return sorted(TABLE)
+
+
+def get(name: str) -> Material:
+    """Return the built-in material called ``name``.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown name; the message suggests the nearest names.
+    """
+    if not isinstance(name, str):
+        raise ParameterError(f"material={name!r} must be a material name (str) or a Material")
+    key = name.strip().lower()
+    try:
+        return TABLE[key]
+    except KeyError:
+        near = difflib.get_close_matches(key, TABLE, n=3, cutoff=0.5)
+        hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+        raise ParameterError(
+            f"material={name!r} is not in the table{hint} "
+            f"(known: {', '.join(names())})") from None
+
+
+def resolve(value, field_name: str = "material") -> Material:
+    """A :class:`Material` given as itself or as a table name."""
+    if isinstance(value, Material):
+        return value
+    if isinstance(value, str):
+        try:
+            return get(value)
+        except ParameterError as exc:
+            raise ParameterError(f"{field_name}: {exc}") from None
+    raise ParameterError(f"{field_name}={value!r} must be a Material or a material name")
+
+
+def _damping_text(d) -> str:
+    if isinstance(d, LossFactor):
+        return f"loss factor {d.eta:.3g}"
+    return f"Rayleigh alpha {d.alpha:g} 1/s, beta {d.beta:g} s"
+
+
+def table_markdown() -> str:
+    """The built-in table as a Markdown table, one line per row, sorted by name.
+
+    Columns: name, density (kg/m^3), Young's modulus (GPa), Poisson's ratio
+    (dimensionless), damping law (loss factor, dimensionless; or Rayleigh
+    ``alpha`` in 1/s and ``beta`` in s) and source.
+
+    Returns
+    -------
+    str
+        The table, ending with a newline.
+    """
+    lines = [
+        "| name | density (kg/m^3) | E (GPa) | nu | damping | source |",
+        "|---|---|---|---|---|---|",
+    ]
+    for key in names():
+        m = TABLE[key]
+        source = m.source.replace("|", "\\|")
+        lines.append(
+            f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
+            f"{_damping_text(m.damping)} | {source} |")
+    return "\n".join(lines) + "\n"

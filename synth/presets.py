@@ -1,0 +1,265 @@
+"""Presets: scenes described in TOML files.
+
+A preset has one section per scene object; the keys of ``[ball]``, ``[plate]``
+and ``[contact]`` are exactly the fields of :class:`~synth.scene.Ball`,
+:class:`~synth.scene.Plate` and :class:`~synth.scene.Contact` (one declaration
+each, so the dataclass field, the preset key and the ``--set`` option cannot
+drift apart)::
+
+    description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"
+    gravity = 9.81                  # m/s^2 (optional)
+
+    [ball]
+    material = "steel"              # a table name, or an inline table (below)
+    radius = 0.005                  # m
+    mass = 4.17e-3                  # kg (optional: from density)
+
+    [plate]
+    material = "mdf-18"
+    thickness = 0.018               # m
+    length = 1.227                  # m, along x
+    width = 0.49                    # m, along y
+    boundary = "free"               # "free", "simply-supported" or "clamped"
+
+    [drop]
+    height = 0.1                    # m, lowest point of the ball above the plate
+    position = [0.6135, 0.245]      # m from a plate corner (optional: the centre)
+
+    [listener]
+    type = "microphone"             # or "accelerometer"
+    position = [0.6135, 0.245, 0.2] # m (x, y on the plate; z above it, microphone only)
+
+    [contact]
+    law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley", "power-law"
+    rtol = 1e-6
+
+    [render]                        # options of synth.render (samplerate in Hz, ...)
+
+An inline material is ``{ name = "oak-board", density = 700.0, young = 12e9,
+poisson = 0.35, damping = { eta = 0.01 } }`` (``damping`` is ``{ eta = ... }``
+or ``{ alpha = ..., beta = ... }``). An unknown key, a wrong type or an
+impossible scene is a :class:`PresetError` naming the file, key and value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import os
+import tomllib
+from pathlib import Path
+
+from .errors import ParameterError
+from .materials import LossFactor, Material, Rayleigh
+from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+
+
+class PresetError(ParameterError):
+    """A preset file (or a ``--set`` override) that cannot describe a scene."""
+
+
+def _fields(cls):
+    return tuple(f.name for f in dataclasses.fields(cls))
+
+
+#: Keys allowed in each section. Ball, plate and contact keys are the dataclass fields.
+SECTIONS = {
+    "ball": _fields(Ball),
+    "plate": _fields(Plate),
+    "drop": ("height", "position"),
+    "listener": ("type", "position"),
+    "contact": _fields(Contact),
+    "render": None,  # validated by the renderer, which owns its options
+}
+TOP_LEVEL = ("description", "gravity")
+_MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source")
+
+
+def preset_dirs() -> list[Path]:
+    """Folders searched for a preset given by name, in order: ``$SYNTH_PRESETS``,
+    ``./presets``, the source tree's ``presets/`` and the installed copy."""
+    dirs = []
+    if os.environ.get("SYNTH_PRESETS"):
+        dirs.append(Path(os.environ["SYNTH_PRESETS"]))
+    dirs.append(Path.cwd() / "presets")
+    dirs.append(Path(__file__).resolve().parent.parent / "presets")
+    try:
+        from importlib.resources import files
+        dirs.append(Path(str(files("synth._presets"))))
+    except (ModuleNotFoundError, TypeError):
+        pass
+    seen, out = set(), []
+    for d in dirs:
+        if d not in seen and d.is_dir():
+            seen.add(d)
+            out.append(d)
+    return out
+
+
+def available() -> dict[str, Path]:
+    """Preset names and their files (the first folder that has a name wins)."""
+    found = {}
+    for d in preset_dirs():
+        for p in sorted(d.glob("*.toml")):
+            found.setdefault(p.stem, p)
+    return dict(sorted(found.items()))
+
+
+def find(name_or_path) -> Path:
+    """The file of a preset given as a path or a name."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise PresetError(f"preset file {str(p)!r} does not exist")
+        return p
+    names = available()
+    if str(name_or_path) in names:
+        return names[str(name_or_path)]
+    near = difflib.get_close_matches(str(name_or_path), names, n=3, cutoff=0.4)
+    hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+    raise PresetError(f"preset={str(name_or_path)!r} is not a file or a known preset{hint} "
+                      f"(known: {', '.join(names) or 'none'})")
+
+
+def read(path) -> dict:
+    """The raw TOML of a preset file, as a dict."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise PresetError(f"{path}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise PresetError(f"{path}: cannot be read: {exc.strerror}") from None
+
+
+def apply_overrides(data: dict, overrides, source="--set") -> dict:
+    """Apply ``key=value`` overrides (dotted keys, TOML values) to a preset dict."""
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    for item in overrides or ():
+        if "=" not in item:
+            raise PresetError(f"{source} {item!r}: expected key=value, e.g. ball.radius=0.007")
+        key, text = item.split("=", 1)
+        key = key.strip()
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()  # a bare word is a string: material=glass
+        parts = key.split(".")
+        if len(parts) == 1:
+            data[key] = value
+        elif len(parts) == 2:
+            section = data.setdefault(parts[0], {})
+            if not isinstance(section, dict):
+                raise PresetError(f"{source} {key}: {parts[0]!r} is not a section")
+            section[parts[1]] = value
+        else:
+            raise PresetError(f"{source} {key}: keys are 'key' or 'section.key'")
+    return data
+
+
+def _material(value, where):
+    if isinstance(value, str):
+        return value
+    if not isinstance(value, dict):
+        raise PresetError(f"{where}={value!r} must be a material name or an inline table")
+    for k in value:
+        if k not in _MATERIAL_KEYS:
+            raise PresetError(f"{where}.{k}: unknown key (allowed: {', '.join(_MATERIAL_KEYS)})")
+    kw = dict(value)
+    kw.setdefault("name", "custom")
+    damping = kw.pop("damping", None)
+    if damping is not None:
+        if not isinstance(damping, dict):
+            raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
+        if set(damping) == {"eta"}:
+            kw["damping"] = LossFactor(damping["eta"])
+        elif set(damping) == {"alpha", "beta"}:
+            kw["damping"] = Rayleigh(damping["alpha"], damping["beta"])
+        else:
+            raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
+    return Material(**kw)
+
+
+def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
+    """Build a :class:`Scene` and the render options from a preset dict."""
+    try:
+        return _scene_from_dict(data, source)
+    except PresetError:
+        raise
+    except ParameterError as exc:
+        raise PresetError(f"{source}: {exc}") from None
+
+
+def _scene_from_dict(data, source):
+    for key, value in data.items():
+        if key in SECTIONS:
+            if not isinstance(value, dict):
+                raise PresetError(f"{source}: [{key}] must be a table, got {value!r}")
+            allowed = SECTIONS[key]
+            if allowed is not None:
+                for k in value:
+                    if k not in allowed:
+                        near = difflib.get_close_matches(k, allowed, n=1)
+                        hint = f" (did you mean {near[0]!r}?)" if near else ""
+                        raise PresetError(f"{source}: {key}.{k}={value[k]!r} is not a known key{hint}; "
+                                          f"allowed: {', '.join(allowed)}")
+        elif key not in TOP_LEVEL:
+            raise PresetError(f"{source}: {key}={value!r} is not a known key; sections: "
+                              f"{', '.join(SECTIONS)}; top-level keys: {', '.join(TOP_LEVEL)}")
+    for required in ("ball", "plate", "drop"):
+        if required not in data:
+            raise PresetError(f"{source}: the [{required}] section is missing")
+    b = dict(data["ball"])
+    p = dict(data["plate"])
+    if "material" not in b or "material" not in p:
+        raise PresetError(f"{source}: ball.material and plate.material are required")
+    b["material"] = _material(b["material"], "ball.material")
+    p["material"] = _material(p["material"], "plate.material")
+    for sec, kw in (("ball", b), ("plate", p)):
+        for k, v in kw.items():
+            if k not in ("material", "boundary", "mass") and not isinstance(v, (int, float)):
+                raise PresetError(f"{source}: {sec}.{k}={v!r} must be a number")
+    ball = Ball(**b)
+    plate = Plate(**p)
+    drop = data["drop"]
+    if "height" not in drop:
+        raise PresetError(f"{source}: drop.height is required (metres)")
+    position = drop.get("position")
+    if position is not None:
+        if not isinstance(position, list):
+            raise PresetError(f"{source}: drop.position={position!r} must be [x, y] in metres")
+        position = tuple(position)
+    listener = None
+    if "listener" in data:
+        lst = data["listener"]
+        kind = lst.get("type", "microphone")
+        if kind not in ("microphone", "accelerometer"):
+            raise PresetError(f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'")
+        if "position" not in lst:
+            raise PresetError(f"{source}: listener.position is required")
+        lp = lst["position"]
+        if not isinstance(lp, list):
+            raise PresetError(f"{source}: listener.position={lp!r} must be a list of numbers (metres)")
+        listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
+    contact = Contact(**data["contact"]) if "contact" in data else None
+    gravity = data.get("gravity", 9.81)
+    scene = Scene(ball, plate, drop_height=drop["height"], position=position,
+                  listener=listener, gravity=gravity, contact=contact)
+    return scene, dict(data.get("render", {}))
+
+
+def load_preset_with_options(name_or_path, overrides=()) -> tuple[Scene, dict, dict]:
+    """Scene, render options and the raw (overridden) dict of a preset."""
+    path = find(name_or_path)
+    data = apply_overrides(read(path), overrides)
+    scene, render = scene_from_dict(data, str(path))
+    return scene, render, data
+
+
+def load_preset(name_or_path, overrides=()) -> Scene:
+    """The :class:`Scene` of a preset, given by file path or by name (``"default"``).
+
+    ``overrides`` are ``"section.key=value"`` strings applied before validation.
+    """
+    return load_preset_with_options(name_or_path, overrides)[0]

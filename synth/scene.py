@@ -1,0 +1,265 @@
+"""Scene objects: the ball, the plate, the listener and the scene that joins them.
+
+All are frozen dataclasses validated on construction. Positions on a plate are
+``(x, y)`` in metres from a corner, ``x`` along the plate's length and ``y``
+along its width; a microphone's ``z`` is its height above the plate, metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import _checks
+from .errors import ParameterError
+from .materials import Material, resolve
+
+BOUNDARIES = ("free", "simply-supported", "clamped")
+
+
+@dataclass(frozen=True)
+class Ball:
+    """A homogeneous elastic sphere.
+
+    Parameters
+    ----------
+    material : Material or str
+        The ball's material (a :class:`Material` or a table name).
+    radius : float > 0
+        Radius, metres.
+    mass : float > 0, optional
+        Mass, kg. Default: ``density * 4/3 pi radius^3``.
+    """
+
+    material: Material | str
+    radius: float
+    mass: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "material", resolve(self.material, "ball.material"))
+        object.__setattr__(self, "radius", _checks.positive("ball.radius", self.radius, "metres"))
+        if self.mass is None:
+            m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
+        else:
+            m = _checks.positive("ball.mass", self.mass, "kg")
+        object.__setattr__(self, "mass", m)
+
+
+@dataclass(frozen=True)
+class Plate:
+    """A rectangular plate of uniform thickness.
+
+    Parameters
+    ----------
+    material : Material or str
+        The plate's material (a :class:`Material` or a table name).
+    thickness : float > 0
+        Thickness ``h``, metres.
+    length : float > 0
+        Side ``a`` along x, metres.
+    width : float > 0
+        Side ``b`` along y, metres.
+    boundary : {"free", "simply-supported", "clamped"}
+        Condition on all four edges.
+    """
+
+    material: Material | str
+    thickness: float
+    length: float
+    width: float
+    boundary: str = "free"
+
+    def __post_init__(self):
+        object.__setattr__(self, "material", resolve(self.material, "plate.material"))
+        for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
+            object.__setattr__(self, name, _checks.positive(f"plate.{name}", getattr(self, name), unit))
+        _checks.choice("plate.boundary", self.boundary, BOUNDARIES)
+        if self.thickness > min(self.length, self.width):
+            raise ParameterError(
+                f"plate.thickness={self.thickness!r} must not exceed the plate's smaller side "
+                f"{min(self.length, self.width)!r} (metres): a thin-plate model needs h << a, b")
+
+    @property
+    def flexural_rigidity(self) -> float:
+        """Bending stiffness ``D = E h^3 / (12 (1 - nu^2))``, N m."""
+        m = self.material
+        return m.young * self.thickness ** 3 / (12.0 * (1.0 - m.poisson ** 2))
+
+    @property
+    def surface_density(self) -> float:
+        """Mass per unit area ``rho h``, kg/m^2."""
+        return self.material.density * self.thickness
+
+    @property
+    def mass(self) -> float:
+        """Total mass ``rho h a b``, kg."""
+        return self.surface_density * self.length * self.width
+
+    def check_position(self, position, name: str = "position") -> tuple[float, float]:
+        """Validate a point ``(x, y)`` (metres from a corner) on the plate and return it."""
+        x, y = _checks.point(name, position, 2)
+        if not (0.0 <= x <= self.length and 0.0 <= y <= self.width):
+            raise ParameterError(
+                f"{name}=({x!r}, {y!r}) is off the plate: x must be in [0, {self.length!r}] "
+                f"and y in [0, {self.width!r}] (metres from a corner)")
+        return (x, y)
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        """The middle of the plate, ``(length/2, width/2)``, metres."""
+        return (0.5 * self.length, 0.5 * self.width)
+
+
+@dataclass(frozen=True)
+class Accelerometer:
+    """A pickup on the plate measuring its normal acceleration (m/s^2).
+
+    Parameters
+    ----------
+    position : (float, float)
+        ``(x, y)`` on the plate, metres from a corner.
+    """
+
+    position: tuple[float, float]
+
+    def __post_init__(self):
+        object.__setattr__(self, "position", _checks.point("listener.position", self.position, 2))
+
+
+@dataclass(frozen=True)
+class Microphone:
+    """A pressure microphone in the air above the (baffled) plate (Pa).
+
+    Parameters
+    ----------
+    position : (float, float, float)
+        ``(x, y, z)``: x, y in metres from a plate corner, z > 0 the height above
+        the plate, metres.
+    """
+
+    position: tuple[float, float, float]
+
+    def __post_init__(self):
+        pos = _checks.point("listener.position", self.position, 3)
+        if not pos[2] > 0.0:
+            raise ParameterError(
+                f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)")
+        object.__setattr__(self, "position", pos)
+
+
+Listener = Accelerometer | Microphone
+
+CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "power-law")
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The contact model and its accuracy (PHYSICS.md section 2).
+
+    Parameters
+    ----------
+    law : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+        Contact force law.
+    dissipation : float > 0, optional
+        Hunt-Crossley damping ``mu``, s/m (only with "hunt-crossley").
+    exponent : float in (1, 4], optional
+        Power-law exponent ``n`` (only with "power-law").
+    stiffness : float > 0, optional
+        Power-law constant ``K_n``, N/m^n (only with "power-law").
+    layer_depth : float > 0, optional
+        Winkler layer depth, metres (only with "elastic-foundation"; default the
+        plate thickness).
+    rtol : float in [1e-12, 0.1]
+        Relative accuracy of each impact's restitution and contact time.
+    """
+
+    law: str = "hertz"
+    dissipation: float | None = None
+    exponent: float | None = None
+    stiffness: float | None = None
+    layer_depth: float | None = None
+    rtol: float = 1e-6
+
+    def __post_init__(self):
+        _checks.choice("contact.law", self.law, CONTACT_LAWS)
+        object.__setattr__(self, "rtol", _checks.in_range(
+            "contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False))
+        for name, unit in (("dissipation", "s/m"), ("stiffness", "N/m^n"), ("layer_depth", "metres")):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _checks.positive(f"contact.{name}", value, unit))
+        if self.exponent is not None:
+            object.__setattr__(self, "exponent", _checks.in_range(
+                "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False))
+        needs = {"hertz": (), "hunt-crossley": ("dissipation",), "elastic-foundation": (),
+                 "power-law": ("exponent", "stiffness")}[self.law]
+        allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
+        for name in ("dissipation", "exponent", "stiffness", "layer_depth"):
+            value = getattr(self, name)
+            if value is None and name in needs:
+                raise ParameterError(f"contact.law={self.law!r} needs contact.{name}")
+            if value is not None and name not in allowed:
+                raise ParameterError(
+                    f"contact.{name}={value!r} does not apply to contact.law={self.law!r}")
+
+    def options(self) -> dict:
+        """The law's parameters as keyword arguments of :func:`synth.contact.contact_law`."""
+        return {k: getattr(self, k) for k in ("dissipation", "exponent", "stiffness", "layer_depth")
+                if getattr(self, k) is not None}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A ball dropped on a plate, heard by a listener.
+
+    Parameters
+    ----------
+    ball : Ball
+    plate : Plate
+    drop_height : float > 0
+        Height of the ball's lowest point above the plate at release, metres.
+    position : (float, float), optional
+        Impact point on the plate, metres from a corner. Default: the centre.
+    listener : Accelerometer or Microphone, optional
+        Default: a microphone 0.2 m above the impact point.
+    gravity : float > 0
+        Gravitational acceleration, m/s^2.
+    contact : Contact, optional
+        Contact model (default: Hertz at rtol 1e-6).
+    """
+
+    ball: Ball
+    plate: Plate
+    drop_height: float
+    position: tuple[float, float] | None = None
+    listener: Listener | None = None
+    gravity: float = 9.81
+    contact: Contact | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.ball, Ball):
+            raise ParameterError(f"ball={self.ball!r} must be a Ball")
+        if not isinstance(self.plate, Plate):
+            raise ParameterError(f"plate={self.plate!r} must be a Plate")
+        object.__setattr__(self, "drop_height",
+                           _checks.positive("drop.height", self.drop_height, "metres"))
+        object.__setattr__(self, "gravity", _checks.positive("gravity", self.gravity, "m/s^2"))
+        pos = self.plate.centre if self.position is None else self.position
+        pos = self.plate.check_position(pos, "drop.position")
+        object.__setattr__(self, "position", pos)
+        if 2.0 * self.ball.radius > min(self.plate.length, self.plate.width):
+            raise ParameterError(
+                f"ball.radius={self.ball.radius!r} is too large for the plate: the ball's "
+                f"diameter must not exceed the plate's smaller side "
+                f"{min(self.plate.length, self.plate.width)!r} (metres)")
+        if self.contact is None:
+            object.__setattr__(self, "contact", Contact())
+        elif not isinstance(self.contact, Contact):
+            raise ParameterError(f"contact={self.contact!r} must be a Contact")
+        if self.listener is None:
+            object.__setattr__(self, "listener", Microphone((pos[0], pos[1], 0.2)))
+        elif isinstance(self.listener, Accelerometer):
+            self.plate.check_position(self.listener.position, "listener.position")
+        elif not isinstance(self.listener, Microphone):
+            raise ParameterError(
+                f"listener={self.listener!r} must be an Accelerometer or a Microphone")

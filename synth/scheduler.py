@@ -1,0 +1,203 @@
+"""The bounce sequence: impacts strung together by free flight (PHYSICS.md section 5).
+
+A ball released with its lowest point ``h0`` above the plate first touches at
+``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``. After impact n (starting at
+``t_n``, lasting ``tau_n``, rebounding at ``v_out,n``; air drag is negligible,
+thesis A.2)::
+
+    t_(n+1) = t_n + tau_n + 2 v_out,n / g,      v_(n+1) = v_out,n
+
+Each impact is solved from first principles at its own speed (restitution
+depends on speed). The series would go on forever (Zeno); it ends by the first
+of these rules, named in :attr:`BounceSequence.stop_reason`:
+
+* ``"settled"``: the ball did not separate (physical: it rests on the plate);
+* ``"flight-shorter-than-contact"``: the next flight ``2 v_out / g`` is shorter
+  than the contact itself, so the ball no longer leaves the plate in any audible
+  sense (physical: it rolls into rest);
+* ``"floor"``: the next impact's kinetic energy ``m v^2 / 2`` is below
+  ``floor_db`` (default -60 dB) relative to the first impact's. A tick's energy
+  scales with the impact's kinetic energy (it falls by about ``e^2`` per bounce,
+  PHYSICS.md section 7), so this is a perceptual floor: 60 dB below the first
+  tick;
+* ``"max-duration"``: the next impact would start after ``max_duration``
+  seconds;
+* ``"max-impacts"``: ``max_impacts`` impacts were computed (a guard for
+  lossless scenes, e.g. a rigid plate, where e = 1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import _checks, contact, impedance
+from .contact import ImpactResult
+from .errors import ParameterError
+from .scene import Ball, Plate
+
+STOP_REASONS = ("settled", "flight-shorter-than-contact", "floor", "max-duration",
+                "max-impacts", "solver-failure")
+
+
+@dataclass(frozen=True)
+class Impact:
+    """One impact of the sequence.
+
+    Attributes
+    ----------
+    index : int
+        1 for the first impact.
+    time : float
+        Time of first touch, s from the release of the ball.
+    speed : float
+        Impact speed, m/s.
+    result : ImpactResult
+        The contact solution (restitution, contact time, force pulse, ...).
+    """
+
+    index: int
+    time: float
+    speed: float
+    result: ImpactResult
+
+
+@dataclass(frozen=True)
+class BounceSequence:
+    """The impacts of one drop, in order, and why the sequence ended.
+
+    Behaves as a sequence of :class:`Impact` (``len``, indexing, iteration).
+    """
+
+    impacts: tuple[Impact, ...]
+    stop_reason: str
+    drop_height: float
+    gravity: float
+
+    def __len__(self):
+        return len(self.impacts)
+
+    def __iter__(self):
+        return iter(self.impacts)
+
+    def __getitem__(self, i):
+        return self.impacts[i]
+
+    @property
+    def duration(self) -> float:
+        """End of the last contact, s from release."""
+        if not self.impacts:
+            return 0.0
+        last = self.impacts[-1]
+        return last.time + last.result.contact_time
+
+    def table(self) -> list[dict]:
+        """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
+        peak_force (N), inelasticity (lambda), settled."""
+        return [dict(n=i.index, time=i.time, speed=i.speed,
+                     restitution=i.result.restitution, contact_time=i.result.contact_time,
+                     peak_force=i.result.peak_force, max_penetration=i.result.max_penetration,
+                     inelasticity=i.result.inelasticity, settled=i.result.settled)
+                for i in self.impacts]
+
+
+def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
+                     contact_law="hertz", rtol=1e-6, floor_db=-60.0, max_duration=60.0,
+                     max_impacts=10_000, n_points=128, **contact_options) -> BounceSequence:
+    """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
+
+    Parameters
+    ----------
+    ball : Ball
+    plate : Plate
+    drop_height : float > 0
+        Height of the ball's lowest point above the plate at release, m.
+    position : (float, float), optional
+        Impact point, m from a plate corner (None: far from the edges).
+    gravity : float > 0
+        m/s^2.
+    contact_law : str
+        "hertz" (default), "elastic-foundation", "hunt-crossley" or "power-law";
+        its parameters go in ``contact_options`` (see :func:`synth.contact.contact_law`).
+    rtol : float
+        Relative accuracy of each impact's restitution and contact time.
+    floor_db : float < 0
+        Perceptual floor: stop when an impact's kinetic energy is this many dB
+        below the first impact's.
+    max_duration : float > 0
+        Latest start of an impact, s from release.
+    max_impacts : int >= 1
+        Most impacts computed.
+    n_points : int
+        Samples of each force pulse.
+
+    Returns
+    -------
+    BounceSequence
+    """
+    if not isinstance(ball, Ball):
+        raise ParameterError(f"ball={ball!r} must be a Ball")
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    h0 = _checks.positive("drop_height", drop_height, "metres")
+    g = _checks.positive("gravity", gravity, "m/s^2")
+    floor = _checks.real("floor_db", floor_db, "dB")
+    if not floor < 0.0:
+        raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB relative to the first tick)")
+    t_max = _checks.positive("max_duration", max_duration, "s")
+    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
+        raise ParameterError(f"max_impacts={max_impacts!r} must be an integer >= 1")
+    pos = None if position is None else plate.check_position(position, "position")
+    K, n, mu = contact.contact_law(ball, plate, contact_law, **contact_options)
+    tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
+    beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
+    energy_floor = 10.0 ** (floor / 10.0)
+
+    def solve(v):
+        if pos is None:
+            return contact._solve(ball.mass, K, beta_inf, v, g, n, mu, 0.0, tol, n_points, "auto")
+        return contact.solve_impact(ball, plate, v, position=pos, gravity=g,
+                                    contact=contact_law, rtol=tol, n_points=n_points,
+                                    **contact_options)
+
+    t = math.sqrt(2.0 * h0 / g)
+    v = math.sqrt(2.0 * g * h0)
+    v1 = v
+    impacts = []
+    reason = "max-impacts"
+    while len(impacts) < max_impacts:
+        res = solve(v)
+        impacts.append(Impact(len(impacts) + 1, t, v, res))
+        if not res.success:
+            reason = "solver-failure"
+            break
+        if res.settled:
+            reason = "settled"
+            break
+        v_out = res.rebound_speed
+        flight = 2.0 * v_out / g
+        if flight < res.contact_time:
+            reason = "flight-shorter-than-contact"
+            break
+        if (v_out / v1) ** 2 < energy_floor:
+            reason = "floor"
+            break
+        t_next = t + res.contact_time + flight
+        if t_next > t_max:
+            reason = "max-duration"
+            break
+        t, v = t_next, v_out
+    return BounceSequence(tuple(impacts), reason, h0, g)
+
+
+def simulate_scene(scene, **options) -> BounceSequence:
+    """:func:`simulate_bounces` for a :class:`~synth.scene.Scene` (its ball, plate,
+    drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
+    from .scene import Scene
+
+    if not isinstance(scene, Scene):
+        raise ParameterError(f"scene={scene!r} must be a Scene")
+    c = scene.contact
+    return simulate_bounces(scene.ball, scene.plate, drop_height=scene.drop_height,
+                            position=scene.position, gravity=scene.gravity, contact_law=c.law,
+                            rtol=c.rtol, **c.options(), **options)
