@@ -4,14 +4,23 @@ A ball is dropped on a plate; every impact is computed from the materials and
 sizes (Hertz contact against the plate's mechanical impedance, with gravity),
 strung together by a bounce scheduler, and heard through a modal model of the
 finite plate. SI units throughout.
+
+Heavy optional parts (plotting, playback, loudness, distributed batches) are
+imported only where used.
 """
 
+from . import contact, materials
+from .contact import ImpactResult, solve_contact, solve_impact
 from .errors import ParameterError, SynthError
 from .materials import LossFactor, Material, Rayleigh
-from .scene import Accelerometer, Ball, Microphone, Plate, Scene
+from .presets import load_preset
+from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+from .scheduler import BounceSequence, Impact, simulate_bounces, simulate_scene
 
 __all__ = [
-    "Accelerometer", "Ball", "LossFactor", "Material", "Microphone", "ParameterError",
-    "Plate", "Rayleigh", "Scene", "SynthError",
+    "Accelerometer", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
+    "LossFactor", "Material", "Microphone", "ParameterError", "Plate", "Rayleigh", "Scene",
+    "SynthError", "contact", "load_preset", "materials", "simulate_bounces", "simulate_scene",
+    "solve_contact", "solve_impact",
 ]
 __version__ = "0.1.0"

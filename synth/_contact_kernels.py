@@ -147,6 +147,25 @@ def _energy_w(x, w, lam, G, n):
 
 
 @numba.njit(cache=True)
+def _hermite_root(x0, x1, d0, d1):
+    """Fraction of a step at which the cubic Hermite interpolant of x (values x0 > 0,
+    x1 <= 0; d0, d1 the derivatives times the step) crosses zero, by bisection."""
+    a = 0.0
+    b = 1.0
+    for _ in range(50):
+        m = 0.5 * (a + b)
+        t2 = m * m
+        t3 = t2 * m
+        v = ((2.0 * t3 - 3.0 * t2 + 1.0) * x0 + (t3 - 2.0 * t2 + m) * d0
+             + (3.0 * t2 - 2.0 * t3) * x1 + (t3 - t2) * d1)
+        if v > 0.0:
+            a = m
+        else:
+            b = m
+    return b
+
+
+@numba.njit(cache=True)
 def _grow(hist, k):
     if k < hist.shape[0]:
         return hist
@@ -317,14 +336,17 @@ def _root_x(hist, k, radau):
 
 @numba.njit(cache=True)
 def _root_settle(hist, k, radau, lam, G, n, thr):
-    """Dimensionless time inside step k where W falls below the separation threshold."""
+    """Dimensionless time inside step k where W falls below the separation threshold
+    (the step's end if W was below it already: the contact is then reported up to
+    the step in which the first penetration peak was passed)."""
     a = hist[k, _H_T0]
     b = a + hist[k, _H_H]
     fa = _energy_w(hist[k, _H_X0], hist[k, _H_W0], lam, G, n) - thr
     xb, wb = _dense(hist, k, b, radau)
     fb = _energy_w(xb, wb, lam, G, n) - thr
     if fa <= 0.0:
-        return a
+        # settled before this step; the step is where the first peak was passed
+        return b
     if fb >= 0.0:
         return b
     side = 0
@@ -369,6 +391,7 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, h0):
     settle = G > 0.0 and lam > 0.0
     wthr = 0.5 * (lam * G) ** 2
     started = False
+    peaked = False   # past the first penetration peak (a settled pulse keeps its landing)
     rejected = False
     h_rej = 0.0
     err_rej = 0.0
@@ -425,6 +448,16 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, h0):
             nrej += 1
             rejected = True
             continue
+        if started and ynew[0] < 0.0:
+            # The step crosses the end of contact, where the force switches off: its
+            # error estimate and dense output assume a smooth right-hand side and are
+            # not to be trusted across that kink. Redo it to land just past the root
+            # (cubic Hermite estimate), so that its stages see a smooth problem.
+            th = _hermite_root(y[0], ynew[0], h * K[0, 0], h * K[_NS, 0])
+            if th < 0.999:
+                h *= th * 1.0001 + 1e-9
+                nrej += 1
+                continue
         # accepted: dense output coefficients for x and w
         hist = _grow(hist, nst)
         for i in range(_NS + 1, 16):
@@ -461,7 +494,9 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, h0):
             started = True
         elif started:
             return SEPARATED, s, y, nst, nrej, hist, nst
-        if settle and _energy_w(y[0], y[1], lam, G, n) < wthr:
+        if K[0, 0] <= 0.0:
+            peaked = True
+        if settle and peaked and _energy_w(y[0], y[1], lam, G, n) < wthr:
             return SETTLED, s, y, nst, nrej, hist, nst
         fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
         if rejected:
@@ -490,6 +525,7 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, h0):
     settle = G > 0.0 and lam > 0.0
     wthr = 0.5 * (lam * G) ** 2
     started = False
+    peaked = False
     have_dense = False
     newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol ** 0.5))
     j11, j12, j21, j22 = _jac2(y[0], y[1], lam, n, c)
@@ -640,7 +676,9 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, h0):
             started = True
         elif started:
             return SEPARATED, s, y, nst, nrej, hist, nst
-        if settle and _energy_w(y[0], y[1], lam, G, n) < wthr:
+        if f0[0] <= 0.0:
+            peaked = True
+        if settle and peaked and _energy_w(y[0], y[1], lam, G, n) < wthr:
             return SETTLED, s, y, nst, nrej, hist, nst
         if h_old > 0.0 and err_old > 0.0 and err > 0.0:
             mult = min(1.0, h / h_old * (err_old / err) ** 0.25)

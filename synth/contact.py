@@ -91,8 +91,9 @@ class ImpactResult:
     force : ndarray
         Contact force at those times, N.
     energy_residual : float
-        Relative error of the energy balance of PHYSICS.md section 4 (with the
-        Hunt-Crossley loss), relative to the impact's kinetic energy.
+        Error of the energy balance of PHYSICS.md section 4 (with the Hunt-Crossley
+        loss), relative to the energy exchanged: the impact's kinetic energy, or
+        the work of gravity or the energy carried into the plate where larger.
     success : bool
         True if the contact was integrated to its end.
     status : int
@@ -213,7 +214,10 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
     elastic = x_end ** (n + 1.0) / (n + 1.0) if x_end > 0.0 else 0.0
     lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
     rhs = G * lam * I1 - lam * I2 - loss
-    residual = abs(lhs - rhs) / 0.5
+    # relative to the energy exchanged: the arrival energy, or the work of gravity and the
+    # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
+    scale = max(0.5, abs(G * lam * I1), lam * I2, abs(loss), abs(G * x_end))
+    residual = abs(lhs - rhs) / scale
     v_out = 0.0 if settled else -w_end * v0
     return ImpactResult(
         restitution=v_out / v_in if status == _k.SEPARATED else 0.0,
@@ -259,6 +263,15 @@ def foundation_stiffness(ball, plate, depth=None) -> float:
     """
     h = plate.thickness if depth is None else _checks.positive("layer_depth", depth, "metres")
     return math.pi * plate.material.effective_modulus * ball.radius / h
+
+
+def settled_penetration(ball, plate, gravity=9.81) -> float:
+    """Static penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis 2.48), m.
+
+    ``gravity`` in m/s^2; Hertz contact.
+    """
+    g = _checks.positive("gravity", gravity, "m/s^2")
+    return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
 def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None,

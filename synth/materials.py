@@ -37,6 +37,13 @@ Where the numbers come from
     internal friction in a long column of granite", Bull. Seismol. Soc. Am. 28,
     243 (1938) for the damping (Q = 150 at 140-4500 Hz, so ``eta = 1/Q``).
 
+  - Ashby, *Materials Selection in Mechanical Design*, 4th ed.
+    (Butterworth-Heinemann 2011): ABS and porcelain, whose loss factors are read
+    off its loss coefficient-modulus chart (an order of magnitude, not a
+    measurement of one grade);
+  - Kingery, Bowen & Uhlmann, *Introduction to Ceramics*, 2nd ed. (Wiley 1976):
+    porcelain's modulus.
+
 Loss factors are those of bending waves at audio frequencies. They are the
 least certain column of any such table: the handbooks give ranges or single
 "representative" values, and a metal's loss factor depends on its working and
@@ -159,6 +166,8 @@ _BHH = "Bies, Hansen & Howard, Engineering Noise Control, 5th ed. (CRC Press 201
 _HOP = "Hopkins, Sound Insulation (Butterworth-Heinemann 2007), Table A2"
 _MEC = "Mechel (ed.), Formulas of Acoustics, 2nd ed. (Springer 2008), Table 3, pp. 529-530"
 _VIG = "Vigran, Building Acoustics (Taylor & Francis 2008), Table 3.1"
+_ASH = ("Ashby, Materials Selection in Mechanical Design, 4th ed. (Butterworth-Heinemann 2011), "
+        "Appendix C data tables and the loss coefficient-modulus chart (Fig. 4.9)")
 _NKT = "Norton & Karczub, Fundamentals of Noise and Vibration Analysis, 2nd ed. (CUP 2003), Table 6.1"
 
 _ROWS: list[Material] = [
@@ -212,6 +221,15 @@ _ROWS: list[Material] = [
              "Plexiglas, far below Mechel's value"),
     Material("polycarbonate", 1200.0, 2.3e9, 0.35, LossFactor(3e-3),
              f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta)"),
+    Material("abs", 1050.0, 2.2e9, 0.39, LossFactor(0.02),
+             f"{_ASH}, ABS (acrylonitrile-butadiene-styrene): rho 1010-1210 kg/m^3, E 1.1-2.9 GPa, "
+             "nu 0.38-0.42 (middles taken); eta from the loss-coefficient chart, where the "
+             "glassy thermoplastics lie at about 1e-2 ... 5e-2 at room temperature"),
+    Material("porcelain", 2400.0, 70e9, 0.22, LossFactor(1e-3),
+             "Kingery, Bowen & Uhlmann, Introduction to Ceramics, 2nd ed. (Wiley 1976), "
+             f"Table 15.5 (porcelain: E about 70 GPa); rho and nu: {_ASH}, technical ceramics "
+             "and glasses; eta from the same loss-coefficient chart, where glassy ceramics lie "
+             "at about 1e-4 ... 1e-3 (the glassy phase of porcelain puts it at the upper end)"),
     Material("rubber", 1150.0, 55e6, 0.49, LossFactor(0.05),
              f"{_BHH}, row 'Rubber-neoprene' (nu 0.49, eta 0.05; rho and E are the middles of "
              "the printed 1100-1200 kg/m^3 and 10-100 MPa); nu = 0.49 as printed: the "
@@ -235,6 +253,11 @@ _ROWS: list[Material] = [
 TABLE: dict[str, Material] = {m.name: m for m in _ROWS}
 
 
+#: Other names of table rows.
+ALIASES = {"ceramic": "porcelain", "pmma": "acrylic", "aluminum": "aluminium",
+           "stainless": "stainless-steel"}
+
+
 def names() -> list[str]:
     """Names of the built-in materials, sorted."""
     return sorted(TABLE)
@@ -251,6 +274,7 @@ def get(name: str) -> Material:
     if not isinstance(name, str):
         raise ParameterError(f"material={name!r} must be a material name (str) or a Material")
     key = name.strip().lower()
+    key = ALIASES.get(key, key)
     try:
         return TABLE[key]
     except KeyError:

@@ -129,6 +129,8 @@ def read(path) -> dict:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise PresetError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise PresetError(f"{path}: not valid TOML: not UTF-8 text ({exc.reason})") from None
     except OSError as exc:
         raise PresetError(f"{path}: cannot be read: {exc.strerror}") from None
 
@@ -165,7 +167,8 @@ def _material(value, where):
         raise PresetError(f"{where}={value!r} must be a material name or an inline table")
     for k in value:
         if k not in _MATERIAL_KEYS:
-            raise PresetError(f"{where}.{k}: unknown key (allowed: {', '.join(_MATERIAL_KEYS)})")
+            raise PresetError(f"{where}.{k}={value[k]!r} is not a known key "
+                              f"(allowed: {', '.join(_MATERIAL_KEYS)})")
     kw = dict(value)
     kw.setdefault("name", "custom")
     damping = kw.pop("damping", None)
@@ -178,17 +181,21 @@ def _material(value, where):
             kw["damping"] = Rayleigh(damping["alpha"], damping["beta"])
         else:
             raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
-    return Material(**kw)
+    try:
+        return Material(**kw)
+    except ParameterError as exc:
+        raise PresetError(f"{where}: {exc}") from None
 
 
 def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
     """Build a :class:`Scene` and the render options from a preset dict."""
     try:
         return _scene_from_dict(data, source)
-    except PresetError:
-        raise
     except ParameterError as exc:
-        raise PresetError(f"{source}: {exc}") from None
+        text = str(exc)
+        if text.startswith(f"{source}:"):
+            raise
+        raise PresetError(f"{source}: {text}") from None
 
 
 def _scene_from_dict(data, source):

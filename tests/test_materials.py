@@ -141,7 +141,7 @@ def test_get_is_case_insensitive(spelling):
     assert get(spelling) is TABLE["steel"]
 
 
-@pytest.mark.parametrize("bad, hint", [("stel", "steel"), ("aluminum", "aluminium"),
+@pytest.mark.parametrize("bad, hint", [("stel", "steel"), ("alumnium", "aluminium"),
                                        ("mdf18", "mdf-18"), ("plywod", "plywood")])
 def test_get_rejects_unknown_name_with_suggestion(bad, hint):
     # An unknown name raises and suggests the nearest names (difflib).
@@ -323,3 +323,15 @@ def test_table_markdown_rejects_pipe_breaking_rows():
     text = materials.table_markdown()
     for line in text.strip().split("\n")[2:]:
         assert line.replace("\\|", "").count("|") == 7
+
+
+@pytest.mark.parametrize("alias, row", [("ceramic", "porcelain"), ("PMMA", "acrylic"),
+                                        ("aluminum", "aluminium"), ("stainless", "stainless-steel")])
+def test_aliases_name_table_rows(alias, row):
+    # an alias is the same row, not a copy
+    assert materials.get(alias) is materials.get(row)
+
+
+def test_aliases_rejects_unknown_alias():
+    with pytest.raises(ParameterError, match="ceramik"):
+        materials.get("ceramik")

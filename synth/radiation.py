@@ -1,0 +1,667 @@
+"""Sound radiated by plate modes to a microphone: the Rayleigh integral.
+
+The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid
+baffle, air on the side ``z > 0``. When its normal surface velocity is one mode,
+``v(xs, t) = phi_k(xs) u(t)`` with ``u(t) = exp(s t)``, the pressure at the
+listener ``xL = (x, y, z)`` is ``p(xL, t) = H_k(s) exp(s t)`` with the exact
+transfer function of the Rayleigh integral (PHYSICS.md section 6)::
+
+    H_k(s) = (rho s / (2 pi)) Int_plate phi_k(xs) exp(-s R / c) / R dA,   R = |xL - xs|
+
+(``rho s u`` is the surface acceleration; the integral is linear and
+time-invariant, so an exponential input returns the same exponential times
+``H_k(s)``, the propagation delay included). ``s`` may be any complex number: a
+damped mode ringing as ``exp(p_k t)``, ``p_k = -sigma_k + i omega_dk``, takes
+``s = p_k`` (the analytic continuation of the same formula). Units: ``H`` is in
+pascals per metre-per-second of the modal velocity ``u`` (Pa s/m).
+
+For synthesis with one pure delay per listener, the gain can be returned with a
+reference delay factored out, ``H_k(s) exp(+s R0 / c)``, where ``R0`` is the
+distance from the listener to a reference point (for instance the impact point,
+:func:`distance`); the pressure is then that gain applied ``R0 / c`` seconds
+(:func:`delay`) later.
+
+Quadrature
+----------
+Tensor Gauss-Legendre panels. The integrand oscillates along the plate at most at
+``kappa = max_wavenumber + max|s| / c`` rad/m (the mode's bending wavenumber plus
+the acoustic one: the phase of ``exp(-s R / c)`` changes along the plate at most
+at ``|s| / c``). Along each axis the panels are at most ``h = 2 w24 / kappa``
+long, ``w24`` the largest half-panel phase that 24-point Gauss-Legendre
+integrates (``exp(i w t)`` on ``[-1, 1]``) to ``tol / 10``; each panel then gets
+the fewest points that do so for its own length. Towards the microphone's
+projection ``(x, y)`` the panels are graded: a panel whose near end is a
+distance ``d`` (along the axis) from the projection is at most ``2 max(z, d)``
+long, so that the near-singular ``1 / R`` peak (its complex singularities lie at
+a distance ``>= sqrt(d^2 + z^2)``) is resolved for any height ``z > 0``; such a
+panel gets at least ``ln(1/tol) / (2 ln 2.89)`` points (its Bernstein-ellipse
+parameter is ``>= 2.89``).
+
+Convergence is checked by a second rule on the same panels with 1.25 times the
+points per axis (about 1.5 times in all); while any mode fails the test below
+the rule is refined again by 1.25 per axis (up to six times), each rule compared
+with the previous one. The estimated error of mode ``k`` is the change
+``|H_fine - H_coarse|`` and the rule is accepted when for every mode::
+
+    |H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 * S_k),
+    S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA  >= |H_k|
+
+``S_k`` is the gain the mode would have if the whole plate radiated in phase;
+for a mode whose radiation cancels to below ``1e-4`` of it (-80 dB), the
+tolerance is taken relative to ``1e-4 S_k`` instead of ``|H_k|`` (round-off,
+about ``1e-16 S_k`` times the square root of the number of points, would
+otherwise dominate). The finer rule's gains are returned.
+
+Shapes are evaluated in chunks of points so that one chunk of mode values takes
+at most about 32 MB (``n_modes * chunk * 8`` bytes) whatever the number of
+modes and points.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import warnings
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from . import _checks
+from .errors import ParameterError
+
+__all__ = ["RadiationResult", "rayleigh_gains", "delay", "distance"]
+
+AIR_DENSITY = 1.204
+"""Density of air at 20 degrees C and 101.325 kPa, kg/m^3."""
+SOUND_SPEED = 343.0
+"""Speed of sound in air at 20 degrees C, m/s."""
+
+_MAX_ORDER = 24            # Gauss-Legendre points per axis of the longest panels, first rule
+_REFINE = 1.25             # ratio of points per axis between successive rules (1.56 in 2-D)
+_MAX_RULES = 7             # first rule and up to six refinements
+_GRADING = 2.0             # near-field panel length / max(z, d)
+_NEAR_RHO = 2.89           # Bernstein-ellipse parameter of the worst graded panel (see _min_order)
+_COHERENT_FLOOR = 1e-4                   # see the module docstring
+_CHUNK_BYTES = 32e6                      # one chunk of mode values, bytes
+_TOL_RANGE = (1e-9, 0.1)
+
+
+@dataclass(frozen=True)
+class RadiationResult:
+    """Gains of the Rayleigh integral and how they were obtained.
+
+    Attributes
+    ----------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` if a reference distance was
+        given), Pa per (m/s) of modal velocity.
+    error : ndarray of float, shape (n_modes,)
+        Estimated absolute error of each gain, ``|H_fine - H_coarse|``, Pa s/m.
+    coherent : ndarray of float, shape (n_modes,)
+        ``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA``, an upper bound of
+        ``|H_k|``, Pa s/m.
+    n_points : int
+        Number of quadrature points of the returned (finer) rule.
+    refinements : int
+        How many times the first rule was refined (by 1.25 in points per axis) to
+        give the returned rule (1 when the first check passed).
+    panels : (int, int)
+        Number of panels along x and along y.
+    success : bool
+        Whether the convergence test passed for every mode.
+    status : int
+        0 converged; 1 stopped after the last refinement; 2 stopped at ``max_points``.
+    message : str
+        A sentence saying which.
+    """
+
+    gains: np.ndarray
+    error: np.ndarray
+    coherent: np.ndarray
+    n_points: int
+    refinements: int
+    panels: tuple[int, int]
+    success: bool
+    status: int
+    message: str
+
+
+# ----------------------------------------------------------------------------------------
+# Validation helpers
+
+
+def _listener(listener_position) -> tuple[float, float, float]:
+    x, y, z = _checks.point("listener_position", listener_position, 3)
+    if not z > 0.0:
+        raise ParameterError(
+            f"listener_position.z={z!r} must be > 0 (metres above the plate, on the air side)")
+    return x, y, z
+
+
+def _size(size) -> tuple[float, float]:
+    try:
+        items = tuple(size)
+    except TypeError:
+        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)") from None
+    if len(items) != 2:
+        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
+    return (_checks.positive("size.a", items[0], "metres"),
+            _checks.positive("size.b", items[1], "metres"))
+
+
+def _poles(s) -> np.ndarray:
+    try:
+        arr = np.asarray(s)
+    except Exception:  # noqa: BLE001 - anything numpy cannot read is bad input
+        raise ParameterError(f"s={s!r} must be a 1-D array of complex poles (rad/s)") from None
+    if arr.ndim != 1 or not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
+        raise ParameterError(
+            f"s (shape {arr.shape}, dtype {arr.dtype}) must be a 1-D numeric array "
+            f"of complex poles (rad/s), one per mode")
+    arr = arr.astype(complex)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ParameterError(f"s[{i}]={arr[i]!r} must be finite (rad/s)")
+    return arr
+
+
+# ----------------------------------------------------------------------------------------
+# Gauss-Legendre rules and panels
+
+
+@functools.lru_cache(maxsize=None)
+def _gauss(p: int) -> tuple[np.ndarray, np.ndarray]:
+    t, w = np.polynomial.legendre.leggauss(p)
+    t.setflags(write=False)
+    w.setflags(write=False)
+    return t, w
+
+
+@functools.lru_cache(maxsize=256)
+def _half_phase(p: int, tol: float) -> float:
+    """Largest ``w`` such that ``p``-point Gauss-Legendre integrates ``exp(i w' t)``
+    on ``[-1, 1]`` with error ``<= tol`` times the interval length, for all ``w' <= w``."""
+    t, wts = _gauss(p)
+    omega = np.arange(1, 4000) * (0.005 * p)          # up to 20 p, beyond any useful panel
+    quad = np.exp(1j * np.outer(omega, t)) @ wts
+    err = np.abs(quad - 2.0 * np.sin(omega) / omega) / 2.0
+    bad = np.flatnonzero(err > tol)
+    return float(omega[bad[0] - 1]) if bad.size and bad[0] > 0 else float(omega[0])
+
+
+def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
+    """Panel ends on ``[0, length]``: at most ``h`` long, and at most ``2 max(height, d)``
+    long where ``d`` is the distance from ``centre`` (the microphone's projection on this
+    axis) to the panel's near end."""
+    c = min(max(centre, 0.0), length)
+    right = [c]
+    t = c
+    while t < length:
+        d = abs(t - centre)
+        t = min(t + min(h, _GRADING * max(height, d)), length)
+        right.append(t)
+    left = []
+    t = c
+    while t > 0.0:
+        d = abs(centre - t)
+        t = max(t - min(h, _GRADING * max(height, d)), 0.0)
+        left.append(t)
+    ends = np.array(left[::-1] + right)
+    # a panel shorter than 1e-12 of the plate is a rounding artefact of the stepping
+    keep = np.concatenate(([True], np.diff(ends) > 1e-12 * length))
+    ends = ends[keep]
+    ends[-1] = length
+    ends[0] = 0.0
+    return ends
+
+
+def _min_order(tol: float) -> int:
+    """Points per axis that resolve the 1/R peak on a graded panel to ``tol``.
+
+    The worst graded panel, ``[0, 2 z]`` from the projection, has the complex
+    singularity of ``1/R`` at ``-1 +- i`` in its own coordinate ``t in [-1, 1]``:
+    the Bernstein ellipse through it has ``rho = 2.89``, and Gauss-Legendre's error
+    decays as ``rho^(-2 p)``.
+    """
+    p = math.ceil(math.log(1.0 / tol) / (2.0 * math.log(_NEAR_RHO)))
+    return min(max(p, 6), _MAX_ORDER)
+
+
+def _panel_orders(ends: np.ndarray, kappa: float, tol: float) -> np.ndarray:
+    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``."""
+    lengths = np.diff(ends)
+    p_min = _min_order(tol)
+    orders = np.full(lengths.size, p_min, dtype=np.int64)
+    for i, length in enumerate(lengths):
+        w = 0.5 * kappa * length
+        p = p_min
+        while p < _MAX_ORDER and _half_phase(p, tol) < w:
+            p += 1
+        orders[i] = p
+    return orders
+
+
+def _nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    xs, ws = [], []
+    for lo, hi, p in zip(ends[:-1], ends[1:], orders):
+        t, w = _gauss(int(p))
+        half = 0.5 * (hi - lo)
+        xs.append(0.5 * (lo + hi) + half * t)
+        ws.append(half * w)
+    return np.concatenate(xs), np.concatenate(ws)
+
+
+# ----------------------------------------------------------------------------------------
+# Kernels
+#
+# Each accumulates, for a chunk of quadrature points j and every mode k,
+#     acc_k += w_j phi_jk exp(-q_k (R_j - Rm)) / R_j,   q_k = s_k / c,
+#     mag_k += w_j |phi_jk| / R_j,
+# with Rm the middle of the range of R over the plate (the factor exp(-q_k Rm) is
+# applied once per mode afterwards). exp(-q dR) = exp(-Re(q) dR) (cos - i sin)(Im(q) dR).
+# The fast kernel uses polynomial sin, cos (fdlibm's kernels after a Cody-Waite reduction
+# by pi/2) and a Taylor exp on |u| <= 1 squared up to 6 times (|Re(q) dR| <= 64), so that
+# the loop over modes vectorises; the general kernel calls libm. Only fused multiply-add contraction is allowed
+# ('contract'), which keeps the error within a few ulp.
+
+_PIO2_1 = 1.57079632673412561417e+00      # first 33 bits of pi/2 (fdlibm)
+_PIO2_1T = 6.07710050650619224932e-11     # pi/2 - _PIO2_1
+_INVPIO2 = 6.36619772367581382433e-01     # 2/pi
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+
+
+@numba.njit(cache=True, fastmath={'contract'})
+def _cis(theta):
+    """(cos theta, sin theta) for |theta| < 2^19 pi, within a few ulp."""
+    n = np.floor(theta * _INVPIO2 + 0.5)
+    r = (theta - n * _PIO2_1) - n * _PIO2_1T
+    z = r * r
+    sn = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
+    cs = 1.0 - 0.5 * z + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
+    q = n - 4.0 * np.floor(0.25 * n)       # quadrant 0, 1, 2 or 3 (kept in floats
+    swap = q == 1.0 or q == 3.0               # so that the loop vectorises without AVX-512)
+    c0 = sn if swap else cs
+    s0 = cs if swap else sn
+    c_sign = -1.0 if (q == 1.0 or q == 2.0) else 1.0
+    s_sign = -1.0 if q >= 2.0 else 1.0
+    return c0 * c_sign, s0 * s_sign
+
+
+@numba.njit(cache=True, fastmath={'contract'})
+def _exp_small(u):
+    """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
+    e = 1.0 / 6402373705728000.0
+    e = 1.0 / 355687428096000.0 + u * e
+    e = 1.0 / 20922789888000.0 + u * e
+    e = 1.0 / 1307674368000.0 + u * e
+    e = 1.0 / 87178291200.0 + u * e
+    e = 1.0 / 6227020800.0 + u * e
+    e = 1.0 / 479001600.0 + u * e
+    e = 1.0 / 39916800.0 + u * e
+    e = 1.0 / 3628800.0 + u * e
+    e = 1.0 / 362880.0 + u * e
+    e = 1.0 / 40320.0 + u * e
+    e = 1.0 / 5040.0 + u * e
+    e = 1.0 / 720.0 + u * e
+    e = 1.0 / 120.0 + u * e
+    e = 1.0 / 24.0 + u * e
+    e = 1.0 / 6.0 + u * e
+    e = 0.5 + u * e
+    e = 1.0 + u * e
+    return 1.0 + u * e
+
+
+@numba.njit(cache=True, fastmath={'contract'})
+def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+    """Rayleigh sums over points ``j0 <= j < j1``.
+
+    dist : (n,) R_j - Rm, metres; wr : (n,) w_j / R_j, metres; phi : (n, m) shapes;
+    qr : (m,) Re(s_k / c) / 2^halvings, 1/m; qi : (m,) Im(s_k / c), 1/m; halvings : int
+    in [0, 6]; acc_re, acc_im, mag : (m,) accumulators. Requires |qr_k dist_j| <= 1 and
+    |qi_k dist_j| < 2^19 pi. exp(u) = exp(u / 2^J)^(2^J) (relative error <= 2^J ulp-ish).
+    """
+    m = phi.shape[1]
+    for j in range(j0, j1):
+        d = dist[j]
+        w = wr[j]
+        row = phi[j]
+        for k in range(m):
+            f = row[k] * w
+            e = _exp_small(-qr[k] * d)
+            if halvings > 0:
+                e = e * e
+            if halvings > 1:
+                e = e * e
+            if halvings > 2:
+                e = e * e
+            if halvings > 3:
+                e = e * e
+            if halvings > 4:
+                e = e * e
+            if halvings > 5:
+                e = e * e
+            amp = f * e
+            c, sn = _cis(qi[k] * d)
+            acc_re[k] += amp * c
+            acc_im[k] -= amp * sn
+            mag[k] += abs(f)
+
+
+@numba.njit(cache=True)
+def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
+    """As :func:`_rows_fast` with ``halvings = 0``, with libm exp, cos and sin (any arguments)."""
+    m = phi.shape[1]
+    for j in range(j0, j1):
+        d = dist[j]
+        w = wr[j]
+        row = phi[j]
+        for k in range(m):
+            f = row[k] * w
+            amp = f * math.exp(-qr[k] * d)
+            th = qi[k] * d
+            acc_re[k] += amp * math.cos(th)
+            acc_im[k] -= amp * math.sin(th)
+            mag[k] += abs(f)
+
+
+@numba.njit(cache=True, parallel=True)
+def _accumulate(dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag, threads):
+    """Add one chunk's Rayleigh sums to acc_re, acc_im, mag (see _rows_fast; halvings < 0:
+    libm kernel); the points are split between ``threads`` parts, each with its own
+    accumulators."""
+    n, m = phi.shape
+    parts = max(1, min(threads, n))
+    t_re = np.zeros((parts, m))
+    t_im = np.zeros((parts, m))
+    t_mag = np.zeros((parts, m))
+    for t in numba.prange(parts):
+        j0 = t * n // parts
+        j1 = (t + 1) * n // parts
+        if halvings >= 0:
+            _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, t_re[t], t_im[t], t_mag[t])
+        else:
+            _rows_libm(j0, j1, dist, wr, phi, qr, qi, t_re[t], t_im[t], t_mag[t])
+    for t in range(parts):
+        for k in range(m):
+            acc_re[k] += t_re[t, k]
+            acc_im[k] += t_im[t, k]
+            mag[k] += t_mag[t, k]
+
+
+# ----------------------------------------------------------------------------------------
+# One rule
+
+
+def _apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA``."""
+    xl, yl, zl = listener
+    m = q.size
+    ny = ys.size
+    n_total = xs.size * ny
+    acc_re = np.zeros(m)
+    acc_im = np.zeros(m)
+    mag = np.zeros(m)
+    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+    qi = np.ascontiguousarray(q.imag)
+    for start in range(0, n_total, chunk):
+        idx = np.arange(start, min(start + chunk, n_total))
+        ix, iy = np.divmod(idx, ny)
+        pts = np.empty((idx.size, 2))
+        pts[:, 0] = xs[ix]
+        pts[:, 1] = ys[iy]
+        phi = shape_fn(pts)
+        phi = _check_shapes(phi, idx.size, m)
+        r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
+        wr = wx[ix] * wy[iy] / r
+        _accumulate(r - r_mid, wr, phi, qr, qi, halvings, acc_re, acc_im, mag,
+                    numba.get_num_threads())
+    if not np.isfinite(mag).all():      # NaN or inf anywhere in phi propagates here
+        k = int(np.flatnonzero(~np.isfinite(mag))[0])
+        raise ParameterError(
+            f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}")
+    return acc_re + 1j * acc_im, mag
+
+
+def _check_shapes(phi, n, m):
+    try:
+        arr = np.asarray(phi)
+    except Exception:  # noqa: BLE001
+        raise ParameterError("shape_fn must return an array of mode shape values") from None
+    if arr.shape != (n, m):
+        raise ParameterError(
+            f"shape_fn returned shape {arr.shape} for {n} points; expected ({n}, {m}) "
+            f"(points, modes), one column per pole in s")
+    if np.iscomplexobj(arr):
+        raise ParameterError("shape_fn must return real mode shape values, got complex")
+    if not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
+        raise ParameterError(f"shape_fn must return real numbers, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------------------
+# Public API
+
+
+def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
+                   air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
+                   reference_distance=None, tol=1e-6, max_points=4_000_000,
+                   full_output=False):
+    """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral).
+
+    Parameters
+    ----------
+    shape_fn : callable
+        ``shape_fn(points) -> values``: ``points`` an ``(n, 2)`` float array of
+        plate positions ``(x, y)``, metres from the corner; ``values`` an
+        ``(n, n_modes)`` real array of the modes' normal-velocity shapes
+        ``phi_k`` there (dimensionless: the surface velocity is ``phi_k u``).
+        It is called on chunks of points (at most about 32 MB of values each).
+    size : (float > 0, float > 0)
+        ``(a, b)``: the plate's extent along x and y, metres.
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres; any ``x, y``; ``z > 0`` the
+        height above the plate's plane (the air side of the baffle).
+    s : array of complex, shape (n_modes,)
+        The complex frequency of each mode, rad/s: ``i omega`` for a steady
+        sinusoid, the pole ``-sigma_k + i omega_dk`` for a mode ringing freely.
+    max_wavenumber : float >= 0
+        Largest bending wavenumber of the modes, ``k_b = (omega^2 rho h / D)^(1/4)``,
+        rad/m (0 for a rigid piston); sets the panel size with ``max|s| / c``.
+    air_density : float > 0
+        Density of air, kg/m^3.
+    sound_speed : float > 0
+        Speed of sound in air, m/s.
+    reference_distance : float >= 0 or None
+        ``R0``, metres. If given, the gains are ``H_k(s_k) exp(+s_k R0 / c)``: the
+        transfer function with a pure delay ``R0 / c`` taken out (see :func:`distance`
+        and :func:`delay`). None: ``H_k(s_k)`` itself.
+    tol : float in [1e-9, 0.1]
+        Relative accuracy of each gain (dimensionless), in the sense of the
+        module docstring: ``|error| <= tol * max(|H_k|, 1e-4 S_k)``.
+    max_points : int > 0
+        Most quadrature points one rule may use; refinement stops there.
+    full_output : bool
+        If True return a :class:`RadiationResult` (gains, error estimates,
+        success flag); if False return the gains alone, and warn
+        (``RuntimeWarning``) if the convergence test failed.
+
+    Returns
+    -------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)``, Pa per (m/s) of modal velocity ``u``; or a
+        :class:`RadiationResult` if ``full_output``.
+
+    Raises
+    ------
+    ParameterError
+        For any input outside the ranges above (the message names the field),
+        NaN or infinite shape values, or a plate needing more than ``max_points``
+        points for the first two rules.
+
+    Notes
+    -----
+    Cost: about ``1.6 N n_modes`` evaluations of ``phi exp(-s R / c) / R`` plus
+    ``1.6 N`` points of ``shape_fn`` for the two rules, ``N`` the returned rule's
+    points (``RadiationResult.n_points``; a few 10^4 for ``kappa ~ 800`` rad/m on
+    a 0.5 x 0.4 m plate). A ``shape_fn`` returning a C-ordered (row per point)
+    float64 array is used without a copy. For a damped pole the gain grows as
+    ``exp(sigma R / c)``; with a distant microphone give ``reference_distance``
+    so that only ``exp(sigma (R - R0) / c)`` remains.
+    """
+    if not callable(shape_fn):
+        raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
+    a, b = _size(size)
+    listener = _listener(listener_position)
+    q_s = _poles(s)
+    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
+    rho = _checks.positive("air_density", air_density, "kg/m^3")
+    c = _checks.positive("sound_speed", sound_speed, "m/s")
+    r0 = None if reference_distance is None else _checks.nonnegative(
+        "reference_distance", reference_distance, "metres")
+    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
+                           hi_open=False)
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
+            or max_points <= 0:
+        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    m = q_s.size
+    if m == 0:
+        empty = np.zeros(0, complex)
+        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0,
+                              "no modes")
+        return res if full_output else empty
+
+    q = q_s / c
+    kappa = kb + float(np.max(np.abs(q)))
+    xl, yl, zl = listener
+    # Panels: oscillation (kappa) and the near-field peak under the microphone.
+    tol_panel = 0.1 * tol
+    w_half = _half_phase(_MAX_ORDER, tol_panel)
+    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
+    p_min = _min_order(tol_panel)
+    if (a / h) * (b / h) * p_min * p_min > max_points:     # before building the panels
+        raise ParameterError(
+            f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m and "
+            f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
+            f"{(a / h) * (b / h) * p_min * p_min:.3g} points")
+    ex = _breakpoints(a, xl, zl, h)
+    ey = _breakpoints(b, yl, zl, h)
+    px0 = _panel_orders(ex, kappa, tol_panel)
+    py0 = _panel_orders(ey, kappa, tol_panel)
+    panels = (ex.size - 1, ey.size - 1)
+
+    # Range of R over the plate: the middle is factored out of the exponentials.
+    dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
+    dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
+    r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
+    r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+    r_mid = 0.5 * (r_max + r_min)
+    spread = 0.5 * (r_max - r_min)
+    # exp(-Re(q) dR) with |Re(q) dR| <= u_max by Taylor on [-1, 1] and `halvings`
+    # squarings; libm beyond 2^6 (or for phases beyond the Cody-Waite range).
+    u_max = float(np.max(np.abs(q.real))) * spread
+    halvings = max(0, math.ceil(math.log2(u_max))) if u_max > 0 else 0
+    if halvings > 6 or float(np.max(np.abs(q.imag))) * spread >= 2.0 ** 18:
+        halvings = -1
+    chunk = max(1, int(_CHUNK_BYTES // (8 * m)))
+
+    def orders(level):
+        f = _REFINE ** level
+        return np.ceil(px0 * f).astype(np.int64), np.ceil(py0 * f).astype(np.int64)
+
+    def npoints(level):
+        ox, oy = orders(level)
+        return int(ox.sum()) * int(oy.sum())
+
+    if npoints(1) > max_points:
+        raise ParameterError(
+            f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m, "
+            f"max|s|/c={kappa - kb:.6g} rad/m and z={zl!r} m the plate needs "
+            f"{panels[0]} x {panels[1]} panels and {npoints(1)} points for the "
+            f"convergence check")
+
+    def rule(level):
+        ox, oy = orders(level)
+        xs, wx = _nodes(ex, ox)
+        ys, wy = _nodes(ey, oy)
+        return _apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
+
+    # Per-mode factor rho s / (2 pi) exp(-s (Rm - R0) / c).
+    shift = r_mid - (0.0 if r0 is None else r0)
+    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
+    scale = rho * np.abs(q_s) / (2.0 * math.pi)
+
+    coarse, _ = rule(0)
+    status, message = 1, "stopped at the last refinement without meeting tol"
+    for level in range(1, _MAX_RULES):
+        fine, mag = rule(level)
+        h_fine = factor * fine
+        error = np.abs(factor * (fine - coarse))
+        coherent = scale * mag
+        allowed = tol * np.maximum(np.abs(h_fine), _COHERENT_FLOOR * coherent)
+        n_points = npoints(level)
+        if np.all(error <= allowed):
+            status, message = 0, f"converged with {n_points} points (refinement {level})"
+            break
+        if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
+            status, message = 2, (f"stopped at {n_points} points: the next rule would "
+                                  f"exceed max_points={max_points}")
+            break
+        coarse = fine
+    result = RadiationResult(gains=h_fine, error=error, coherent=coherent,
+                             n_points=n_points, refinements=level, panels=panels,
+                             success=status == 0, status=status, message=message)
+    if full_output:
+        return result
+    if not result.success:
+        worst = int(np.argmax(error / np.maximum(allowed, 1e-300)))
+        warnings.warn(f"rayleigh_gains: {message} (mode {worst}: estimated error "
+                      f"{error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
+                      RuntimeWarning, stacklevel=2)
+    return result.gains
+
+
+def distance(listener_position, reference_point) -> float:
+    """Distance from the microphone to a point of the plate, metres.
+
+    Parameters
+    ----------
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
+    reference_point : (float, float)
+        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
+
+    Returns
+    -------
+    float
+        ``|xL - xr|``, metres (the ``reference_distance`` of :func:`rayleigh_gains`).
+    """
+    xl, yl, zl = _listener(listener_position)
+    xr, yr = _checks.point("reference_point", reference_point, 2)
+    return math.sqrt((xl - xr) ** 2 + (yl - yr) ** 2 + zl * zl)
+
+
+def delay(listener_position, reference_point, sound_speed=SOUND_SPEED) -> float:
+    """Propagation delay from a point of the plate to the microphone, seconds.
+
+    Parameters
+    ----------
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
+    reference_point : (float, float)
+        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
+    sound_speed : float > 0
+        Speed of sound in air, m/s.
+
+    Returns
+    -------
+    float
+        ``|xL - xr| / c``, seconds: the delay to apply to gains computed with
+        ``reference_distance = distance(listener_position, reference_point)``.
+    """
+    c = _checks.positive("sound_speed", sound_speed, "m/s")
+    return distance(listener_position, reference_point) / c

@@ -1,0 +1,209 @@
+"""Tests of synth.cli: the ``synth`` command line (info, presets, materials, bench parser)."""
+
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from synth.cli import build_parser, main
+from synth.presets import load_preset
+from synth.scheduler import STOP_REASONS, simulate_scene
+
+REPO = Path(__file__).resolve().parent.parent
+DEFAULT = REPO / "presets" / "default.toml"
+ROW_KEYS = {"n", "time", "speed", "restitution", "contact_time", "peak_force", "inelasticity"}
+
+
+def run(capsys, *argv):
+    """Exit status, stdout and stderr of ``synth ARGV``."""
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def data_rows(text):
+    """The impact rows of the text table (lines that start with an impact number)."""
+    return [line.split() for line in text.splitlines() if re.match(r"^\s*\d+\s+\d", line)]
+
+
+# --------------------------------------------------------------------------- info
+
+def test_info(capsys):
+    # Thesis section 2.4.3: a 10 mm steel ball at 1.4 m/s (10 cm drop) mid-plate on 18 mm MDF,
+    # with gravity, has e = 0.87; 0.01 is the thesis' two printed figures. The table ends with
+    # the scheduler's stop reason and counts the rows it printed.
+    code, out, err = run(capsys, "info", "default")
+    assert code == 0 and err == ""
+    lines = out.splitlines()
+    assert lines[0] == tomllib.loads(DEFAULT.read_text())["description"]
+    rows = data_rows(out)
+    first = rows[0]
+    assert first[0] == "1"
+    assert float(first[3]) == pytest.approx(0.87, abs=0.01)
+    # Free fall from 0.1 m: t1 = sqrt(2 h / g), v1 = sqrt(2 g h), printed to 5 decimals.
+    assert float(first[1]) == pytest.approx(math.sqrt(2 * 0.1 / 9.81), abs=5e-6)
+    assert float(first[2]) == pytest.approx(math.sqrt(2 * 9.81 * 0.1), abs=5e-6)
+    seq = simulate_scene(load_preset("default"))
+    assert seq.stop_reason in STOP_REASONS
+    assert lines[-1] == f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}"
+    assert len(rows) == len(seq.table())
+
+
+def test_info_rejects_bad_override(capsys):
+    # A negative radius: exit status 2, nothing on stdout, one line on stderr naming the key
+    # and the value.
+    code, out, err = run(capsys, "info", "default", "--set", "ball.radius=-1")
+    assert code == 2
+    assert out == ""
+    assert len(err.splitlines()) == 1
+    assert "ball.radius=-1" in err
+
+
+def test_info_json(capsys):
+    # The JSON output parses; each impact row carries the documented keys; the first impact
+    # is free fall from 0.1 m: t1 = sqrt(2 h / g) and v1 = sqrt(2 g h) (closed form, 1e-12 is
+    # float rounding); impact times increase and restitution stays in (0, 1] (energy balance).
+    code, out, err = run(capsys, "info", "default", "--json")
+    assert code == 0 and err == ""
+    doc = json.loads(out)
+    assert doc["preset"] == "default"
+    assert doc["stop_reason"] in STOP_REASONS
+    rows = doc["impacts"]
+    assert rows and all(ROW_KEYS <= set(r) for r in rows)
+    assert [r["n"] for r in rows] == list(range(1, len(rows) + 1))
+    assert rows[0]["time"] == pytest.approx(math.sqrt(2 * 0.1 / 9.81), rel=1e-12)
+    assert rows[0]["speed"] == pytest.approx(math.sqrt(2 * 9.81 * 0.1), rel=1e-12)
+    assert rows[0]["restitution"] == pytest.approx(0.87, abs=0.01)
+    times = [r["time"] for r in rows]
+    assert all(b > a for a, b in zip(times, times[1:]))
+    assert all(0.0 <= r["restitution"] <= 1.0 for r in rows)
+    assert doc["duration"] >= times[-1]
+
+
+def test_info_json_rejects_unknown_preset(capsys):
+    # An unknown preset: status 2, no JSON on stdout, one line naming it and the near name.
+    code, out, err = run(capsys, "info", "defualt", "--json")
+    assert code == 2 and out == ""
+    assert len(err.splitlines()) == 1
+    assert "'defualt'" in err and "did you mean 'default'" in err
+
+
+def test_info_override(capsys):
+    # --set applies before the simulation: a 5 cm drop first lands at sqrt(2 h / g) (closed
+    # form, 1e-12 relative).
+    code, out, _ = run(capsys, "info", "default", "--json", "--set", "drop.height=0.05")
+    assert code == 0
+    assert json.loads(out)["impacts"][0]["time"] == pytest.approx(math.sqrt(2 * 0.05 / 9.81),
+                                                                  rel=1e-12)
+
+
+@pytest.mark.parametrize("item, part", [("ball.radius", "'ball.radius'"),
+                                        ("a.b.c=1", "a.b.c"),
+                                        ("plate.boundary=pinned", "plate.boundary='pinned'")])
+def test_info_override_rejects_malformed(capsys, item, part):
+    # Malformed or impossible --set items: status 2 and one line on stderr naming the item.
+    code, out, err = run(capsys, "info", "default", "--set", item)
+    assert code == 2 and out == ""
+    assert len(err.splitlines()) == 1 and part in err
+
+
+def test_info_module_entry_point():
+    # `python -m synth info default` runs the same command in a fresh interpreter: status 0,
+    # the preset's description first.
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "synth", "info", "default"], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[0] == tomllib.loads(DEFAULT.read_text())["description"]
+
+
+def test_info_module_entry_point_rejects_bad_override():
+    # The exit status 2 of a bad --set reaches the shell through `python -m synth`.
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-m", "synth", "info", "default", "--set",
+                           "ball.radius=-1"], cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert len(proc.stderr.splitlines()) == 1 and "ball.radius=-1" in proc.stderr
+
+
+# --------------------------------------------------------------------------- presets
+
+def test_presets(capsys):
+    # `presets` lists "default" with the description in its file.
+    code, out, err = run(capsys, "presets")
+    assert code == 0 and err == ""
+    desc = tomllib.loads(DEFAULT.read_text())["description"]
+    lines = {line.split(maxsplit=1)[0]: line.split(maxsplit=1)[1] for line in out.splitlines()}
+    assert lines["default"] == desc
+
+
+def test_presets_rejects_broken_file(capsys, monkeypatch, tmp_path):
+    # A broken file in $SYNTH_PRESETS is listed as unreadable; the command still succeeds.
+    (tmp_path / "broken.toml").write_text("description = \n", encoding="utf-8")
+    monkeypatch.setenv("SYNTH_PRESETS", str(tmp_path))
+    code, out, _ = run(capsys, "presets")
+    assert code == 0
+    line = next(line for line in out.splitlines() if line.startswith("broken "))
+    assert "(unreadable:" in line and str(tmp_path / "broken.toml") in line
+    assert any(line.startswith("default ") for line in out.splitlines())
+
+
+def test_presets_rejects_non_utf8_file(capsys, monkeypatch, tmp_path):
+    # A file that is not UTF-8 is a broken preset too: listed as unreadable, status 0.
+    (tmp_path / "latin1.toml").write_bytes(b'description = "b\xe9ton"\n')
+    monkeypatch.setenv("SYNTH_PRESETS", str(tmp_path))
+    code, out, _ = run(capsys, "presets")
+    assert code == 0
+    line = next(line for line in out.splitlines() if line.startswith("latin1 "))
+    assert "(unreadable:" in line
+
+
+# --------------------------------------------------------------------------- materials
+
+def test_materials(capsys):
+    # `materials` lists the thesis' rows with their constants (thesis Table 3.1: steel
+    # rho 7800 kg/m^3, E 216 GPa; 18 mm MDF rho 700 kg/m^3, E 5.689 GPa), as printed (4 figures).
+    code, out, err = run(capsys, "materials")
+    assert code == 0 and err == ""
+    rows = {}
+    for line in out.splitlines():
+        m = re.match(r"^(\S+)\s+rho=\s*(\S+) kg/m\^3\s+E=\s*(\S+) GPa\s+nu=(\S+)", line)
+        assert m, line
+        rows[m.group(1)] = tuple(float(g) for g in m.group(2, 3, 4))
+    assert rows["steel"] == (7800.0, 216.0, 0.3)
+    assert rows["mdf-18"] == (700.0, 5.689, 0.4)
+
+
+def test_materials_rejects_arguments():
+    # `materials` takes no argument: argparse exits with status 2.
+    with pytest.raises(SystemExit) as info:
+        main(["materials", "steel"])
+    assert info.value.code == 2
+
+
+# --------------------------------------------------------------------------- parser
+
+def test_parser_bench_accepts_contact():
+    # The bench subcommand parses "contact" and its options (nothing is run here).
+    args = build_parser().parse_args(["bench", "contact", "--repeat", "3", "--tolerances", "1e-3",
+                                      "1e-6"])
+    assert (args.what, args.repeat, args.tolerances) == ("contact", 3, [1e-3, 1e-6])
+
+
+@pytest.mark.parametrize("argv", [["bench", "plates"], ["bench"], [], ["render-all"],
+                                  ["info"], ["bench", "contact", "--repeat", "many"]])
+def test_parser_rejects_bad_arguments(argv, capsys):
+    # Unknown benchmark, missing or unknown subcommand, missing preset, non-integer repeat:
+    # argparse exits with status 2 before anything runs.
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    assert capsys.readouterr().err.strip()
