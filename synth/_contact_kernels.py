@@ -771,4 +771,20 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff, times, forces, t_scale, f_
     if status == SEPARATED:
         forces[0] = 0.0
         forces[n_points - 1] = 0.0
-    return (status, s_contact, s_end, w_end, x_end, y[2], y[3], x_max, f_max, nst, nrej)
+    return (status, s_contact, s_end, w_end, x_end, y[2], y[3], x_max, f_max, nst, nrej, hist[:nh])
+
+
+@numba.njit(cache=True)
+def force_at(hist, radau, lam, n, c, s_contact, s, out):
+    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
+    output ``hist``; 0 outside ``[0, s_contact]``. Written into ``out``."""
+    nh = hist.shape[0]
+    for i in range(s.shape[0]):
+        si = s[i]
+        if si <= 0.0 or si >= s_contact:
+            out[i] = 0.0
+            continue
+        k = _find_step(hist, nh, si)
+        x, w = _dense(hist, k, si, radau)
+        f, _ = _force(x, w, lam, n, c)
+        out[i] = f

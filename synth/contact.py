@@ -124,6 +124,18 @@ class ImpactResult:
     n_steps: int
     method: str
 
+    _dense: tuple = field(default=None, repr=False, compare=False)
+
+    def force_at(self, t):
+        """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
+        solver's dense output (its accuracy is the solver's); 0 outside the contact."""
+        hist, stiff, lam, n, c, s_contact, theta, f_scale = self._dense
+        s = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)) / theta)
+        out = np.empty_like(s)
+        _k.force_at(hist, stiff, lam, n, c, s_contact, s, out)
+        out *= f_scale
+        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
+
     @classmethod
     def _from_solver(cls, **values):
         # The solver's own values need no checks: fill the frozen instance directly
@@ -207,7 +219,7 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         stiff = True
         out = _k.solve(lam, G, n, c, itol, atol, IMPLICIT_STEP_LIMIT, True, times, forces,
                        theta, f_scale)
-    status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, nst, _nrej = out
+    status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, nst, _nrej, hist = out
     status = int(status)
     settled = status == _k.SETTLED
     message = _MESSAGES.get(status, "Unknown status.")
@@ -245,6 +257,7 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         message=message,
         n_steps=int(nst),
         method="Radau" if stiff else "DOP853",
+        _dense=(hist, stiff, lam, n, c, s_contact, theta, f_scale),
     )
 
 

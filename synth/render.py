@@ -1,0 +1,201 @@
+"""Render a scene: bounces -> plate modes -> exact modal synthesis -> level.
+
+``render(scene, samplerate=48000)`` returns a :class:`Render` with the audio
+(float32), the impacts on the audio's time axis and the settings used. Its
+signal is what the scene's listener picks up: plate acceleration (m/s^2) for an
+:class:`~synth.scene.Accelerometer`, sound pressure (Pa) for a
+:class:`~synth.scene.Microphone` above the baffled plate, scaled by the level
+stage (``normalize``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _checks
+from . import plate as plate_modes
+from .errors import ParameterError
+from .scene import Accelerometer, Microphone, Scene
+from .scheduler import BounceSequence, Impact, simulate_scene
+from .synthesis import synthesize
+
+NORMALIZE = ("peak", "loudness", "physical", "none")
+#: Speed of sound (m/s) and density of air (kg/m^3) at 20 degC, 1 atm.
+SOUND_SPEED = 343.0
+AIR_DENSITY = 1.204
+
+_GAINS: dict = {}
+
+
+@dataclass(frozen=True, eq=False)
+class Render:
+    """A rendered scene.
+
+    Attributes
+    ----------
+    audio : ndarray, float32, (frames,)
+        The signal, scaled by ``gain`` from its physical units.
+    samplerate : int
+        Hz.
+    impacts : BounceSequence
+        The impacts; each ``Impact.time`` is the onset of its tick in the audio, s
+        from the first sample (first touch plus, for a microphone, the sound's travel
+        time).
+    units : str
+        Physical units of ``audio / gain``: "Pa" or "m/s^2".
+    gain : float
+        ``audio = physical signal * gain``.
+    settings : dict
+        The render settings used, and what the engine left out.
+    """
+
+    audio: np.ndarray = field(repr=False)
+    samplerate: int
+    impacts: BounceSequence
+    units: str
+    gain: float
+    settings: dict = field(repr=False)
+
+    @property
+    def duration(self) -> float:
+        """Length of the audio, s."""
+        return self.audio.shape[0] / self.samplerate
+
+
+def _samplerate(value) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 8000 <= value <= 384000:
+        raise ParameterError(f"samplerate={value!r} must be an integer number of Hz in [8000, 384000]")
+    return int(value)
+
+
+def _microphone_gains(modes, scene, poles, k_max):
+    from .radiation import rayleigh_gains
+
+    p = scene.plate
+    key = (p, scene.listener.position, scene.position, len(modes), poles.tobytes())
+    if key not in _GAINS:
+        if len(_GAINS) > 16:
+            _GAINS.clear()
+        _GAINS[key] = rayleigh_gains(
+            modes.shapes, (p.length, p.width), scene.listener.position, poles,
+            max_wavenumber=k_max, air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
+            reference_distance=_distance(scene))
+    return _GAINS[key]
+
+
+def _distance(scene) -> float:
+    x, y, z = scene.listener.position
+    x0, y0 = scene.position
+    return math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + z * z)
+
+
+def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
+           floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005, max_duration=30.0,
+           sequence=None) -> Render:
+    """Render ``scene`` at ``samplerate``.
+
+    Parameters
+    ----------
+    scene : Scene
+    samplerate : int
+        Hz, in [8000, 384000]. Explicit: there is no global rate.
+    normalize : {"peak", "loudness", "physical", "none"}
+        Level stage: peak to ``peak_db`` dBFS; integrated loudness to ``loudness_lufs``
+        LUFS (needs pyloudnorm); a fixed physical calibration (see
+        :mod:`synth.audio_io`); or none (audio in Pa or m/s^2).
+    peak_db : float <= 0
+        dBFS for "peak".
+    loudness_lufs : float < 0
+        LUFS for "loudness".
+    floor_db : float < 0
+        Omission floor, dB below the reference amplitude (the bound on the loudest tick's
+        peak): omitted modes and tails add up to at most this (see :mod:`synth.synthesis`).
+    max_frequency : float > 0, optional
+        Highest mode rendered, Hz (default and upper bound: the Nyquist frequency).
+    preroll : float >= 0
+        Silence before the first tick, s.
+    fade : float >= 0
+        Raised-cosine fade at the end, s (the tail there is already below the floor).
+    max_duration : float > 0
+        Longest bounce series, s from release.
+    sequence : BounceSequence, optional
+        Precomputed impacts of this scene (default: computed here).
+    """
+    if not isinstance(scene, Scene):
+        raise ParameterError(f"scene={scene!r} must be a Scene")
+    fs = _samplerate(samplerate)
+    _checks.choice("normalize", normalize, NORMALIZE)
+    floor = 10.0 ** (_checks.real("floor_db", floor_db, "dB") / 20.0)
+    if not floor_db < 0:
+        raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
+    nyquist = 0.5 * fs
+    if max_frequency is None:
+        f_max = nyquist
+    else:
+        f_max = min(_checks.positive("max_frequency", max_frequency, "Hz"), nyquist)
+    pre = _checks.nonnegative("preroll", preroll, "s")
+    fade_s = _checks.nonnegative("fade", fade, "s")
+    if sequence is None:
+        sequence = simulate_scene(scene, max_duration=_checks.positive("max_duration", max_duration, "s"))
+    elif not isinstance(sequence, BounceSequence):
+        raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
+
+    # the plate's modes below Nyquist, as poles
+    modes = plate_modes.modes(scene.plate, max_frequency=f_max * (1.0 - 1e-9))
+    sigma = np.asarray(modes.decay_rates, dtype=float)
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    under = sigma < omega
+    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
+    ok = under & (wd < math.pi * fs)
+    poles = (-sigma + 1j * wd)[ok]
+    x0 = np.array([scene.position])
+    phi0 = modes.shapes(x0)[0][ok]
+    excitation = phi0 / np.asarray(modes.modal_masses, dtype=float)[ok]
+
+    listener = scene.listener
+    if isinstance(listener, Accelerometer):
+        phip = modes.shapes(np.array([listener.position]))[0][ok]
+        output = phip * poles ** 2
+        direct = phip * excitation
+        delay = 0.0
+        units = "m/s^2"
+    else:
+        D = scene.plate.flexural_rigidity
+        rho_h = scene.plate.surface_density
+        k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
+        all_gains = _microphone_gains(modes, scene, (-sigma + 1j * wd), k_max)
+        output = np.asarray(all_gains)[ok] * poles
+        direct = None
+        delay = _distance(scene) / SOUND_SPEED
+        units = "Pa"
+
+    times = np.array([imp.time for imp in sequence])
+    start = (times[0] + delay - pre) if len(times) else 0.0
+    onsets = times + delay - start
+    weights = [scene.ball.mass * scene.gravity if imp.result.settled else 0.0 for imp in sequence]
+    max_samples = int(math.ceil((sequence.duration + delay - start + 60.0) * fs))
+    audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
+                             floor=floor, settled_weight=weights, direct=direct,
+                             max_samples=max_samples)
+    if fade_s > 0 and audio.size:
+        n = min(audio.size, int(round(fade_s * fs)))
+        if n > 1:
+            audio[-n:] *= 0.5 * (1.0 + np.cos(np.linspace(0.0, math.pi, n)))
+    from . import audio_io
+
+    scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
+                                      peak_db=peak_db, loudness_lufs=loudness_lufs)
+    shifted = BounceSequence(tuple(Impact(imp.index, float(t), imp.speed, imp.result)
+                                   for imp, t in zip(sequence, onsets)),
+                             sequence.stop_reason, sequence.drop_height, sequence.gravity)
+    settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,
+                    floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s,
+                    listener=type(listener).__name__.lower(), listener_position=list(listener.position),
+                    delay=delay, audio_start=start, n_impacts=len(sequence),
+                    stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
+                    n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
+                    reference_amplitude=info["reference"])
+    return Render(np.asarray(scaled, dtype=np.float32), fs, shifted, units, float(gain), settings)
