@@ -1,6 +1,7 @@
 """The command line: ``synth SUBCOMMAND ...`` (argparse).
 
-Subcommands: ``info`` (the impact table of a preset), ``presets`` (list them),
+Subcommands: ``render`` (a preset to a WAV/FLAC file), ``info`` (the impact table of a
+preset), ``presets`` (list them),
 ``materials`` (the material table), ``bench`` (error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
 """
@@ -43,6 +44,78 @@ def _cmd_info(args):
               f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}")
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
     return 0
+
+
+def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
+    """Render keywords from a preset's [render] section and the command line (which wins)."""
+    import inspect
+
+    from .presets import PresetError
+    from .render import render
+
+    allowed = [n for n, p in inspect.signature(render).parameters.items()
+               if p.kind is p.KEYWORD_ONLY and n != "sequence"] + ["subtype"]
+    opts = {}
+    for key, value in scene_render.items():
+        if key not in allowed:
+            raise PresetError(f"{source}: render.{key}={value!r} is not a known key; allowed: "
+                              f"{', '.join(allowed)}")
+        opts[key] = value
+    for key in ("samplerate", "normalize", "subtype"):
+        value = getattr(args, key, None)
+        if value is not None:
+            opts[key] = value
+    subtype = opts.pop("subtype", None)
+    return opts, subtype
+
+
+def _report(rendered, data, preset) -> dict:
+    return dict(preset=str(preset), description=data.get("description", ""),
+                samplerate=rendered.samplerate, duration=rendered.duration, units=rendered.units,
+                gain=rendered.gain, settings=rendered.settings,
+                impacts=[dict(row, time=imp.time) for row, imp in
+                         zip(rendered.impacts.table(), rendered.impacts)])
+
+
+def _cmd_render(args):
+    from . import audio_io
+    from .presets import find, load_preset_with_options
+    from .render import render
+
+    scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
+    opts, subtype = render_options(render_section, args, str(find(args.preset)))
+    rendered = render(scene, **opts)
+    audio_io.write_audio(args.output, rendered.audio, rendered.samplerate, subtype=subtype)
+    if args.report:
+        _write_json(args.report, _report(rendered, data, args.preset))
+    if args.plot:
+        from .plot import plot_render
+        plot_render(rendered, args.plot)
+    print(f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
+          f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
+          f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
+          f"normalize={rendered.settings['normalize']}")
+    return 0
+
+
+def _write_json(path, obj):
+    import os
+    import tempfile
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise SynthError(f"report={str(path)!r}: the directory {str(path.parent)!r} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".json.tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(obj, fh, indent=1, default=float)
+            fh.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def _cmd_presets(args):
@@ -89,6 +162,17 @@ def build_parser() -> argparse.ArgumentParser:
     _add_preset_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
+    _add_preset_args(p)
+    p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
+    p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
+    p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
+    p.add_argument("--normalize", choices=["peak", "loudness", "physical", "none"],
+                   help="level: peak (-1 dBFS, default), loudness (LUFS), physical, none")
+    p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
+    p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
+    p.set_defaults(func=_cmd_render)
 
     p = sub.add_parser("presets", help="list the presets")
     p.set_defaults(func=_cmd_presets)

@@ -1,0 +1,454 @@
+"""The output stage: levels, fades and audio files (WAV, FLAC) via soundfile.
+
+Audio arrays are ``(frames,)`` or ``(frames, channels)`` floats, as soundfile
+and sounddevice take them; ``samplerate`` is always an explicit argument, Hz.
+
+Levels (:func:`normalize`) map the physical signal (pascals from a microphone,
+m/s^2 from an accelerometer) to digital full scale, ``audio = signal * gain``:
+
+* ``"peak"``: the largest sample is put at ``peak_db`` dBFS;
+* ``"loudness"``: the integrated loudness of ITU-R BS.1770 is put at
+  ``loudness_lufs`` (needs the optional ``pyloudnorm``);
+* ``"physical"``: one fixed calibration for every scene,
+  :data:`PHYSICAL_FULL_SCALE`, so that renders keep their true level relation
+  (what a sound bank needs);
+* ``"none"``: gain 1, the physical units themselves.
+
+Files are never left half written: :func:`write_audio` writes a temporary file
+beside the target and renames it into place only once it is complete, and it
+refuses to let a PCM subtype clip.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+import soundfile
+
+from . import _checks
+from .errors import ParameterError, SynthError
+
+#: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
+#: the listener's signal. ``"Pa"``: 20 Pa, i.e. 120 dB SPL re 20 uPa
+#: (20 log10(20 / 20e-6) = 120), near the threshold of pain, so that any impact
+#: heard at a normal distance stays below full scale. ``"m/s^2"``: 1000 m/s^2
+#: (about 102 g), the range of a general-purpose piezoelectric accelerometer.
+PHYSICAL_FULL_SCALE = {"Pa": 20.0, "m/s^2": 1000.0}
+
+#: Level modes of :func:`normalize`.
+NORMALIZE_MODES = ("peak", "loudness", "physical", "none")
+
+#: File formats written by :func:`write_audio`, by file suffix.
+FORMATS = {".wav": "WAV", ".flac": "FLAC"}
+
+#: Subtype written when none is given (WAV and FLAC alike).
+DEFAULT_SUBTYPE = "PCM_24"
+
+#: Subtypes that store floats and so can hold samples beyond full scale.
+FLOAT_SUBTYPES = ("FLOAT", "DOUBLE")
+
+#: Gating block of ITU-R BS.1770 integrated loudness, s.
+LOUDNESS_BLOCK = 0.4
+
+#: Most channels the BS.1770 channel weights are defined for (L, R, C, Ls, Rs).
+LOUDNESS_MAX_CHANNELS = 5
+
+
+class AudioFileError(ParameterError):
+    """An audio file that cannot be read or written: missing, corrupt, unsupported
+    format, or a directory that does not exist. The message names the path."""
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def _check_audio(name: str, audio) -> np.ndarray:
+    """A non-empty, finite, floating-point array of shape (frames,) or (frames, channels)."""
+    if audio is None or isinstance(audio, (str, bytes)):
+        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
+                             f"(frames, channels)")
+    try:
+        a = np.asarray(audio)
+    except Exception:  # noqa: BLE001 - any conversion failure is bad input
+        raise ParameterError(f"{name} of type {type(audio).__name__} is not an array") from None
+    if not np.issubdtype(a.dtype, np.floating):
+        raise ParameterError(
+            f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
+            f"of full scale, or physical units before normalize)")
+    if a.ndim not in (1, 2):
+        raise ParameterError(
+            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
+    if a.size == 0:
+        raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
+        raise ParameterError(
+            f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
+            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
+    return a
+
+
+def _check_samplerate(samplerate) -> int:
+    """An integer sample rate > 0, Hz."""
+    if (isinstance(samplerate, bool) or not isinstance(samplerate, numbers.Integral)
+            or samplerate <= 0):
+        raise ParameterError(f"samplerate={samplerate!r} must be an integer > 0 (Hz)")
+    return int(samplerate)
+
+
+def _check_units(units) -> str:
+    return _checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
+
+
+def _peak(a: np.ndarray) -> float:
+    return float(np.max(np.abs(a)))
+
+
+def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
+    """Validate an output path: a known suffix and an existing directory.
+
+    ``kinds`` maps lower-case suffixes to format names; ``error`` is the exception
+    class for a missing directory (default :class:`AudioFileError`).
+    """
+    error = AudioFileError if error is None else error
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in kinds:
+        raise ParameterError(
+            f"path={str(p)!r}: suffix {p.suffix!r} is not a {what} format; use one of "
+            f"{', '.join(map(repr, kinds))}")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise error(
+            f"path={str(p)!r}: directory {str(parent)!r} does not exist (it is not "
+            f"created automatically)")
+    if p.is_dir():
+        raise error(f"path={str(p)!r} is a directory, not a file")
+    return p, kinds[suffix]
+
+
+def _temporary_sibling(p: Path, error) -> Path:
+    """Create (exclusively, with the usual umask permissions) an empty file beside ``p``."""
+    for _ in range(100):
+        tmp = p.with_name(f".{p.stem}.{secrets.token_hex(6)}.part{p.suffix}")
+        try:
+            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise error(f"path={str(p)!r}: cannot create a file there ({exc})") from exc
+        os.close(fd)
+        return tmp
+    raise error(f"path={str(p)!r}: no free temporary name beside it")
+
+
+def _write_atomically(p: Path, write, error=None) -> None:
+    """Call ``write(tmp)`` on a temporary file beside ``p``, then rename it to ``p``.
+
+    On any failure the temporary file is removed and the error re-raised, so ``p``
+    is either left as it was or replaced by a complete file.
+    """
+    tmp = _temporary_sibling(p, AudioFileError if error is None else error)
+    try:
+        write(tmp)
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+# --------------------------------------------------------------------------- files
+
+
+def write_audio(path, audio, samplerate, subtype=None) -> Path:
+    """Write audio to a WAV or FLAC file, chosen by the file suffix.
+
+    The file is first written to a temporary file in the same directory and then
+    renamed onto ``path``, so a failure never leaves a partial or corrupt file and
+    an existing file at ``path`` is untouched unless the write succeeds.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its suffix (``.wav`` or ``.flac``, any case) sets the format.
+        Its directory must exist.
+    audio : ndarray of float, shape (frames,) or (frames, channels)
+        Samples in units of digital full scale (1.0 = 0 dBFS), finite, not empty.
+    samplerate : int > 0
+        Sample rate, Hz.
+    subtype : str, optional
+        A soundfile subtype the format supports (``soundfile.available_subtypes``):
+        e.g. ``"PCM_16"``, ``"PCM_24"``, ``"FLOAT"`` (WAV only). Default
+        ``"PCM_24"`` for WAV and FLAC alike. Any subtype but ``"FLOAT"`` and
+        ``"DOUBLE"`` stores integers: samples beyond +-1.0 would clip, so they are
+        refused (``ParameterError``) rather than clipped.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
+    p, fmt = _target_path(path, FORMATS, "sound file")
+    a = _check_audio("audio", audio)
+    sr = _check_samplerate(samplerate)
+    st = DEFAULT_SUBTYPE if subtype is None else subtype
+    if not isinstance(st, str) or not soundfile.check_format(fmt, st.upper()):
+        raise ParameterError(
+            f"subtype={subtype!r} is not supported by {fmt} ({str(p)!r}); use one of "
+            f"{', '.join(map(repr, soundfile.available_subtypes(fmt)))}")
+    st = st.upper()
+    if st not in FLOAT_SUBTYPES:
+        peak = _peak(a)
+        if peak > 1.0:
+            hint = "or subtype='FLOAT'" if fmt == "WAV" else "or a .wav file with subtype='FLOAT'"
+            raise ParameterError(
+                f"audio peak {peak:.6g} ({20 * math.log10(peak):+.2f} dBFS) exceeds full "
+                f"scale 1.0 and subtype {st!r} of {str(p)!r} would clip it; scale it down "
+                f"(normalize='peak') {hint}")
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+
+    def write(tmp):
+        try:
+            soundfile.write(tmp, a, sr, subtype=st, format=fmt)
+        except (soundfile.SoundFileError, RuntimeError) as exc:
+            raise AudioFileError(f"cannot write {str(p)!r} ({fmt} {st}, {sr} Hz, "
+                                 f"{1 if a.ndim == 1 else a.shape[1]} channels): "
+                                 f"{getattr(exc, 'error_string', None) or exc}") from exc
+
+    _write_atomically(p, write)
+    return p
+
+
+def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
+    """Read an audio file (WAV, FLAC or any format soundfile reads).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    channel : None, int or "mix"
+        ``None`` keeps every channel (shape ``(frames,)`` for a mono file,
+        ``(frames, channels)`` otherwise); an int ``0 <= channel < channels``
+        returns that channel, shape ``(frames,)``; ``"mix"`` returns the mean of
+        the channels, shape ``(frames,)``.
+
+    Returns
+    -------
+    audio : ndarray of float64
+        Samples in units of full scale (as stored for float files).
+    samplerate : int
+        Sample rate, Hz.
+
+    Raises
+    ------
+    AudioFileError
+        The file is missing, not a file, corrupt or in a format soundfile cannot read.
+    ParameterError
+        ``channel`` is not None, "mix" or a channel index of the file.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
+    if not (channel is None or (isinstance(channel, str) and channel == "mix")
+            or (isinstance(channel, numbers.Integral) and not isinstance(channel, bool))):
+        raise ParameterError(
+            f"channel={channel!r} must be None (all channels), 'mix' or a channel index")
+    p = Path(path)
+    if not p.exists():
+        raise AudioFileError(f"path={str(p)!r}: no such file")
+    if not p.is_file():
+        raise AudioFileError(f"path={str(p)!r} is not a file")
+    try:
+        audio, sr = soundfile.read(p, dtype="float64", always_2d=True)
+    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
+        reason = getattr(exc, "error_string", None) or str(exc)
+        raise AudioFileError(
+            f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}") from exc
+    n_ch = audio.shape[1]
+    if channel is None:
+        out = audio[:, 0] if n_ch == 1 else audio
+    elif isinstance(channel, str):
+        out = audio.mean(axis=1)
+    else:
+        if not 0 <= channel < n_ch:
+            raise ParameterError(
+                f"channel={channel!r} is out of range: {str(p)!r} has {n_ch} channel"
+                f"{'s' if n_ch != 1 else ''} (0 to {n_ch - 1})")
+        out = audio[:, int(channel)]
+    return np.ascontiguousarray(out), int(sr)
+
+
+# --------------------------------------------------------------------------- levels
+
+
+def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23.0,
+              max_peak=1.0) -> tuple[np.ndarray, float]:
+    """Scale a physical signal to digital full scale.
+
+    Parameters
+    ----------
+    audio : ndarray of float, shape (frames,) or (frames, channels)
+        The listener's signal in physical units (``units``), finite, not empty.
+    mode : {"peak", "loudness", "physical", "none"}
+        ``"peak"``: the largest ``|sample|`` becomes ``10^(peak_db/20)`` (sample
+        peak, not true peak). All-zero audio is returned with gain 1.
+        ``"loudness"``: the integrated loudness of ITU-R BS.1770-4 (K-weighted,
+        gated, via the optional ``pyloudnorm``) becomes ``loudness_lufs``. BS.1770
+        needs at least one 400 ms gating block: shorter audio is padded with zeros
+        for the measurement only, so a short tick's loudness is its energy spread
+        over 400 ms. Because the -70 LUFS absolute gate is not scale invariant,
+        the gain is refined by measuring the scaled audio again until it is within
+        0.001 LU of the target. All-zero audio is returned with gain 1.
+        ``"physical"``: gain ``1 / PHYSICAL_FULL_SCALE[units]`` whatever the
+        audio, so different scenes keep their true level relation; samples above
+        full scale are kept as they are (write them with a float subtype).
+        ``"none"``: gain 1, the physical units.
+    samplerate : int > 0
+        Sample rate, Hz.
+    units : {"Pa", "m/s^2"}
+        Units of ``audio``: sound pressure (microphone) or acceleration
+        (accelerometer).
+    peak_db : float <= 0
+        Target sample peak of ``"peak"``, dBFS.
+    loudness_lufs : float <= 0
+        Target integrated loudness of ``"loudness"``, LUFS (EBU R128: -23).
+    max_peak : float > 0 or None
+        Largest ``|sample|`` allowed after ``"loudness"`` scaling, full scale
+        units; beyond it a ``ParameterError`` is raised (the audio is never
+        clipped). ``None`` lifts the limit, for float output files.
+
+    Returns
+    -------
+    scaled : ndarray
+        ``audio * gain``, same shape and float dtype as ``audio``.
+    gain : float
+        Full-scale units per physical unit (per Pa or per m/s^2).
+    """
+    mode = _checks.choice("mode", mode, NORMALIZE_MODES)
+    a = _check_audio("audio", audio)
+    sr = _check_samplerate(samplerate)
+    u = _check_units(units)
+    target_peak_db = _checks.real("peak_db", peak_db, "dBFS")
+    if target_peak_db > 0.0:
+        raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
+    target_lufs = _checks.real("loudness_lufs", loudness_lufs, "LUFS")
+    if target_lufs > 0.0:
+        raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be <= 0 (LUFS)")
+    limit = None if max_peak is None else _checks.positive("max_peak", max_peak, "full scale")
+    dtype = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    x = a.astype(np.float64)
+
+    if mode == "none":
+        return x.astype(dtype), 1.0
+    if mode == "physical":
+        gain = 1.0 / PHYSICAL_FULL_SCALE[u]
+        return (x * gain).astype(dtype), gain
+    peak = _peak(x)
+    if peak == 0.0:
+        return x.astype(dtype), 1.0
+    if mode == "peak":
+        target = 10.0 ** (target_peak_db / 20.0)
+        # (x / peak) is exactly +-1 at the peak and below it elsewhere (correct
+        # rounding is monotonic), so the result never overshoots the target.
+        return ((x / peak) * target).astype(dtype), target / peak
+    gain = _loudness_gain(x / peak, sr, target_lufs) / peak
+    y = x * gain
+    out_peak = _peak(y)
+    if limit is not None and out_peak > limit:
+        highest = target_lufs - 20.0 * math.log10(out_peak / limit)
+        raise ParameterError(
+            f"loudness_lufs={loudness_lufs!r} puts the sample peak at {out_peak:.4g} "
+            f"({20 * math.log10(out_peak):+.2f} dBFS), above max_peak={limit!r}: "
+            f"lower loudness_lufs to <= {math.floor(highest * 100) / 100:.2f} LUFS, use "
+            f"mode 'peak', or pass max_peak=None and write a float subtype "
+            f"(subtype='FLOAT', WAV only); the audio is never clipped")
+    return y.astype(dtype), gain
+
+
+def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
+    """Gain that puts the BS.1770 integrated loudness of ``x`` (peak 1) at ``target``."""
+    try:
+        import pyloudnorm
+    except ImportError:
+        raise SynthError(
+            "normalize='loudness' needs the optional package pyloudnorm: "
+            "pip install pyloudnorm (or pip install 'impact-synth[loudness]')") from None
+    if x.ndim == 2 and x.shape[1] > LOUDNESS_MAX_CHANNELS:
+        raise ParameterError(
+            f"audio has {x.shape[1]} channels; BS.1770 loudness is defined for at most "
+            f"{LOUDNESS_MAX_CHANNELS} (L, R, C, Ls, Rs): use mode 'peak' or 'physical'")
+    meter = pyloudnorm.Meter(sr, block_size=LOUDNESS_BLOCK)
+    need = int(math.ceil(LOUDNESS_BLOCK * sr))
+    if x.shape[0] < need:
+        pad = [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1)
+        x = np.pad(x, pad)
+
+    def measure(g):
+        return float(meter.integrated_loudness(x * g))
+
+    gain = 1.0
+    for _ in range(8):
+        lufs = measure(gain)
+        if not math.isfinite(lufs) or lufs < -70.0:
+            raise ParameterError(
+                f"audio has no measurable loudness ({lufs:.1f} LUFS at gain {gain:.3g}: every "
+                f"400 ms block is below the -70 LUFS absolute gate of BS.1770, e.g. only "
+                f"content below about 40 Hz, which K-weighting removes); use mode 'peak'")
+        step = target - lufs
+        gain *= 10.0 ** (step / 20.0)
+        if abs(step) < 1e-3:
+            return gain
+    raise SynthError(
+        f"BS.1770 loudness did not settle at {target} LUFS (last step {step:.3g} LU): "
+        f"blocks keep crossing the gates; use mode 'peak'")
+
+
+def fade_out(audio, samplerate, duration) -> np.ndarray:
+    """A raised-cosine fade over the last ``duration`` seconds (on a copy).
+
+    The last ``n = round(duration * samplerate)`` frames are multiplied by
+    ``w[k] = (1 + cos(pi (k + 1) / n)) / 2``, ``k = 0 .. n-1``: the half of a Hann
+    window that continues smoothly from 1 before the fade to exactly 0 at the
+    last frame.
+
+    Parameters
+    ----------
+    audio : ndarray of float, shape (frames,) or (frames, channels)
+        Finite, not empty.
+    samplerate : int > 0
+        Sample rate, Hz.
+    duration : float >= 0
+        Length of the fade, s; at most the length of the audio. 0: no fade.
+
+    Returns
+    -------
+    ndarray
+        A faded copy of ``audio`` (same shape and dtype).
+    """
+    a = _check_audio("audio", audio)
+    sr = _check_samplerate(samplerate)
+    d = _checks.nonnegative("duration", duration, "s")
+    frames = a.shape[0]
+    n = int(round(d * sr))
+    if n > frames:
+        raise ParameterError(
+            f"duration={duration!r} must be <= the audio's length {frames / sr:.6g} s "
+            f"({frames} frames at {sr} Hz)")
+    out = a.copy()
+    if n == 0:
+        return out
+    w = 0.5 * (1.0 + np.cos(np.pi * np.arange(1, n + 1) / n))
+    if out.ndim == 2:
+        w = w[:, None]
+    out[frames - n:] *= w.astype(out.dtype)
+    return out

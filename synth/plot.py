@@ -1,0 +1,237 @@
+"""Pictures of a render: waveform, spectrogram and force pulses in one PNG.
+
+matplotlib is optional (``pip install 'impact-synth[plot]'``) and imported only
+inside :func:`plot_render`; the figure is drawn by the Agg canvas, so no display
+is needed, and no pyplot state is touched.
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+from . import _checks
+from .audio_io import (_check_audio, _check_samplerate, _check_units, _target_path,
+                       _write_atomically)
+from .errors import ParameterError, SynthError
+
+#: Size of the figure, inches (width, height), and its resolution, dots per inch:
+#: the PNG is ``FIGSIZE * DPI`` pixels.
+FIGSIZE = (11.0, 11.0)
+DPI = 100
+#: Force pulses drawn, at most (the first impacts).
+MAX_PULSES = 8
+#: Length of a spectrogram frame, s (rounded to a power of two samples): about
+#: 20 ms resolves the ticks in time and the plate's modes to ~50 Hz.
+SPECTROGRAM_FRAME = 0.02
+#: Dynamic range shown by the spectrogram, dB below its maximum.
+SPECTROGRAM_RANGE_DB = 100.0
+#: Above this many frames per channel the waveform is drawn as its min/max
+#: envelope over ENVELOPE_BINS bins (what a screen can show anyway).
+ENVELOPE_THRESHOLD = 20_000
+ENVELOPE_BINS = 4_000
+
+_QUANTITY = {"Pa": ("Sound pressure", "Pa"), "m/s^2": ("Acceleration", "m/s²")}
+
+
+def _import_matplotlib():
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise SynthError(
+            "plotting needs the optional package matplotlib: pip install matplotlib "
+            "(or pip install 'impact-synth[plot]')") from None
+    return Figure, FigureCanvasAgg
+
+
+def _attr(render, name):
+    try:
+        return getattr(render, name)
+    except AttributeError:
+        raise ParameterError(
+            f"render={type(render).__name__} has no attribute {name!r}; it needs audio, "
+            f"samplerate, impacts, settings, units and gain") from None
+
+
+def _impact_times(impacts) -> np.ndarray:
+    try:
+        times = [float(i.time) for i in impacts]
+    except (TypeError, AttributeError, ValueError):
+        raise ParameterError(
+            "render.impacts must be a sequence of impacts with a time (s)") from None
+    t = np.asarray(times, dtype=float)
+    if not np.all(np.isfinite(t)):
+        raise ParameterError("render.impacts: every impact time must be finite (s)")
+    return t
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _title(settings, samplerate, units, gain, n_impacts, frames, channels) -> str:
+    if settings is None:
+        settings = {}
+    if not hasattr(settings, "get"):
+        raise ParameterError(f"render.settings={settings!r} must be a mapping")
+    parts = [f"samplerate={settings.get('samplerate', samplerate)} Hz"]
+    for key in ("normalize", "listener"):
+        if key in settings:
+            parts.append(f"{key}={settings[key]}")
+    line1 = textwrap.fill(", ".join(parts), width=120)
+    line2 = (f"{_count(n_impacts, 'impact')}, {frames / samplerate:.4g} s, "
+             f"{_count(channels, 'channel')}, gain {gain:.4g} full scale per {units}")
+    return f"{line1}\n{line2}"
+
+
+def _draw_waveform(ax, t, x, labels):
+    """Each channel as a line, or as its min/max envelope when too long to see."""
+    frames = x.shape[0]
+    for c in range(x.shape[1]):
+        if frames > ENVELOPE_THRESHOLD:
+            edges = np.linspace(0, frames, ENVELOPE_BINS + 1).astype(int)
+            lo = np.minimum.reduceat(x[:, c], edges[:-1])
+            hi = np.maximum.reduceat(x[:, c], edges[:-1])
+            tb = t[edges[:-1]]
+            ax.fill_between(tb, lo, hi, step="post", linewidth=0.3, alpha=0.8,
+                            label=labels[c])
+        else:
+            ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
+
+
+def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
+    """Draw a render into one PNG: waveform, spectrogram and the first force pulses.
+
+    Panels: (a) the waveform in physical units (``audio / gain``, with the full
+    scale on the right axis) and a marker at each impact; (b) the spectrogram of
+    the first channel, power spectral density in dB re 1 unit^2/Hz up to the
+    Nyquist frequency, impacts marked on its top edge; (c) the contact force of
+    the first ``max_pulses`` impacts against time from first touch, with their
+    speed, restitution ``e`` and contact time ``tau``. The title gives the render
+    settings. The PNG is written to a temporary file beside ``path`` and renamed.
+
+    Parameters
+    ----------
+    render : Render or any object with the same attributes
+        ``audio`` (float array, (frames,) or (frames, channels), full-scale
+        units), ``samplerate`` (int, Hz), ``impacts`` (impacts with ``time``, s
+        from the start of the audio, ``speed``, m/s, and ``result`` with ``time``,
+        s, ``force``, N, ``restitution``, ``contact_time``, s), ``settings``
+        (mapping), ``units`` ("Pa" or "m/s^2") and ``gain`` (full scale per
+        physical unit, > 0).
+    path : str or os.PathLike
+        Output PNG (suffix ``.png``); its directory must exist.
+    max_pulses : int >= 0
+        Force pulses drawn, at most.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
+    p, _ = _target_path(path, {".png": "PNG"}, "picture", error=ParameterError)
+    if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
+        raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")
+    audio = _check_audio("render.audio", _attr(render, "audio"))
+    sr = _check_samplerate(_attr(render, "samplerate"))
+    units = _check_units(_attr(render, "units"))
+    gain = _checks.positive("render.gain", _attr(render, "gain"), "full scale per physical unit")
+    impacts = list(_attr(render, "impacts"))
+    times = _impact_times(impacts)
+    settings = _attr(render, "settings")
+    Figure, FigureCanvasAgg = _import_matplotlib()
+    from scipy import signal
+
+    x = audio.astype(np.float64).reshape(audio.shape[0], -1) / gain
+    frames, channels = x.shape
+    t = np.arange(frames) / sr
+    quantity, unit_label = _QUANTITY[units]
+
+    fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    # A narrow second column holds the spectrogram's colour bar, so that the three
+    # panels share one time-axis width.
+    grid = fig.add_gridspec(3, 2, height_ratios=(1.0, 1.3, 1.0), width_ratios=(1.0, 0.025))
+    ax_w = fig.add_subplot(grid[0, 0])
+    ax_s = fig.add_subplot(grid[1, 0])
+    ax_f = fig.add_subplot(grid[2, 0])
+    ax_bar = fig.add_subplot(grid[1, 1])
+    fig.suptitle(_title(settings, sr, units, gain, len(impacts), frames, channels),
+                 fontsize=10)
+
+    # (a) waveform
+    labels = [f"channel {c + 1}" for c in range(channels)]
+    _draw_waveform(ax_w, t, x, labels)
+    for ti in times:
+        ax_w.axvline(ti, color="tab:red", linewidth=0.6, alpha=0.5)
+    ax_w.set_xlim(0.0, frames / sr)
+    ax_w.set_xlabel("Time (s)")
+    ax_w.set_ylabel(f"{quantity} ({unit_label})")
+    ax_w.set_title(f"(a) Waveform; red lines: {_count(len(times), 'impact')}", fontsize=10,
+                   loc="left")
+    fs_axis = ax_w.secondary_yaxis("right", functions=(lambda y: y * gain,
+                                                       lambda y: y / gain))
+    fs_axis.set_ylabel("Full scale")
+    if channels > 1:
+        ax_w.legend(loc="upper right", fontsize=8)
+    ax_w.grid(alpha=0.3)
+
+    # (b) spectrogram of the first channel
+    # Frames of about SPECTROGRAM_FRAME, but short enough for at least 13 frames
+    # (hop = nper / 4) when the audio is short; never longer than the audio.
+    nper = 2 ** max(5, int(round(math.log2(SPECTROGRAM_FRAME * sr))))
+    nper = min(nper, max(32, 2 ** int(math.floor(math.log2(max(frames // 4, 1))))), frames)
+    f, ts, sxx = signal.spectrogram(x[:, 0], fs=sr, window="hann", nperseg=nper,
+                                    noverlap=(3 * nper) // 4, scaling="density",
+                                    mode="psd")
+    with np.errstate(divide="ignore"):
+        db = 10.0 * np.log10(sxx)
+    top = float(np.max(db[np.isfinite(db)])) if np.any(np.isfinite(db)) else 0.0
+    db = np.where(np.isfinite(db), db, top - SPECTROGRAM_RANGE_DB)
+    # Each column is centred on its frame and one hop wide; a single frame spans the audio.
+    hop = (nper - (3 * nper) // 4) / sr
+    t0, t1 = (ts[0] - hop / 2, ts[-1] + hop / 2) if ts.size > 1 else (0.0, frames / sr)
+    image = ax_s.imshow(db, origin="lower", aspect="auto", cmap="magma",
+                        extent=(t0, t1, 0.0, sr / 2000.0), interpolation="nearest",
+                        vmin=top - SPECTROGRAM_RANGE_DB, vmax=top)
+    ax_s.set_xlim(0.0, frames / sr)
+    ax_s.set_ylim(0.0, sr / 2000.0)
+    ax_s.plot(times, np.ones_like(times), "v", color="tab:cyan", markersize=5,
+              transform=ax_s.get_xaxis_transform(), clip_on=False)
+    ax_s.set_xlabel("Time (s)")
+    ax_s.set_ylabel("Frequency (kHz)")
+    ax_s.set_title(f"(b) Spectrogram{' of channel 1' if channels > 1 else ''} "
+                   f"(Hann, {nper} samples = {1000 * nper / sr:.3g} ms, 75 % overlap); "
+                   f"triangles: impacts", fontsize=10, loc="left")
+    bar = fig.colorbar(image, cax=ax_bar)
+    bar.set_label(f"PSD (dB re 1 {unit_label}²/Hz)")
+
+    # (c) force pulses of the first impacts
+    shown = impacts[:max_pulses]
+    for imp in shown:
+        r = imp.result
+        ax_f.plot(np.asarray(r.time) * 1e6, np.asarray(r.force), linewidth=1.2,
+                  label=(f"#{getattr(imp, 'index', '?')}: v = {imp.speed:.3g} m/s, "
+                         f"e = {r.restitution:.3f}, τ = {r.contact_time * 1e6:.4g} µs"))
+    if shown:
+        ax_f.legend(fontsize=8, loc="upper right")
+    else:
+        ax_f.text(0.5, 0.5, "no impacts", transform=ax_f.transAxes, ha="center")
+    ax_f.set_xlabel("Time from first touch (µs)")
+    ax_f.set_ylabel("Contact force (N)")
+    ax_f.set_title(f"(c) Force pulses of the first {len(shown)} of "
+                   f"{_count(len(impacts), 'impact')}", fontsize=10, loc="left")
+    ax_f.grid(alpha=0.3)
+
+    def write(tmp):
+        try:
+            fig.savefig(tmp, format="png", dpi=DPI)
+        except (OSError, ValueError, RuntimeError) as exc:
+            raise SynthError(f"cannot write {str(p)!r}: {exc}") from exc
+
+    _write_atomically(p, write, error=ParameterError)
+    return p
