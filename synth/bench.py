@@ -229,3 +229,159 @@ def format_contact(result) -> str:
 
 if __name__ == "__main__":  # pragma: no cover
     print(format_contact(run_contact(repeat=100)))
+
+
+# ---------------------------------------------------------------------------------------
+# Rendering
+# ---------------------------------------------------------------------------------------
+def render_scenes():
+    """The render benchmark's scenes: the default preset, a thin steel sheet with
+    thousands of modes, and a long series of fast small bounces."""
+    from .presets import load_preset
+    from .scene import Ball, Microphone, Plate, Scene
+
+    sheet = Plate("steel", 0.0005, 0.5, 0.4)
+    return [
+        ("default preset (10 mm steel on 18 mm MDF, microphone)", load_preset("default")),
+        ("steel sheet 0.5 mm, 0.5 x 0.4 m, 2600 modes", Scene(
+            Ball("steel", 0.002), sheet, drop_height=0.05, position=(0.21, 0.17),
+            listener=Microphone((0.25, 0.2, 0.3)))),
+        ("small-click-on-acrylic (101 fast small bounces)", load_preset("small-click-on-acrylic")),
+    ]
+
+
+def _lsd(a, b, fs):
+    """Log-spectral distance (dB) between two signals, Welch PSDs over the band where the
+    reference has energy (within 100 dB of its maximum)."""
+    from scipy.signal import welch
+
+    n = min(a.size, b.size)
+    f, pa = welch(a[:n], fs, nperseg=2048)
+    _, pb = welch(b[:n], fs, nperseg=2048)
+    band = pb > pb.max() * 1e-10
+    return float(np.sqrt(np.mean((10 * np.log10((pa[band] + 1e-300) / pb[band])) ** 2)))
+
+
+def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), samplerate=48000,
+               repeat=3):
+    """Error of the audio against a reference render (no omissions, contact rtol 1e-10)
+    against render time; the modal bank's cost per mode-sample; the real-time factor."""
+    import dataclasses
+
+    from .render import render
+
+    rows = []
+    for name, scene in render_scenes():
+        ref_scene = dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, rtol=1e-10))
+        ref = render(ref_scene, samplerate=samplerate, normalize="none", floor_db=-200.0, fade=0.0)
+        ref_audio = ref.audio.astype(float)
+        ref_norm = np.linalg.norm(ref_audio)
+        for tol in tolerances:
+            sc = dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, rtol=tol))
+            for floor in floors:
+                render(sc, samplerate=samplerate, normalize="none", floor_db=floor)   # warm-up
+                times, banks = [], []
+                for _ in range(repeat):
+                    t0 = time.perf_counter()
+                    r = render(sc, samplerate=samplerate, normalize="none", floor_db=floor)
+                    times.append(time.perf_counter() - t0)
+                    banks.append(r.settings["bank_seconds"])
+                a = r.audio.astype(float)
+                n = max(a.size, ref_audio.size)
+                a = np.pad(a, (0, n - a.size))
+                b = np.pad(ref_audio, (0, n - ref_audio.size))
+                err = np.linalg.norm(a - b) / ref_norm
+                t = float(np.median(times))
+                ms = r.settings["mode_samples"]
+                rows.append(dict(scene=name, rtol=tol, floor_db=floor,
+                                 error_db=20 * math.log10(max(err, 1e-300)), error=err,
+                                 lsd_db=_lsd(a, b, samplerate), seconds=t,
+                                 realtime=r.duration / t, duration=r.duration,
+                                 modes=r.settings["n_modes"], modes_rendered=r.settings["n_modes_rendered"],
+                                 mode_samples=ms, impacts=len(r.impacts),
+                                 ns_per_mode_sample=float(np.median(banks)) / max(ms, 1) * 1e9))
+    return dict(samplerate=samplerate, rows=rows)
+
+
+def format_render(result) -> str:
+    """The render benchmark as a Markdown table."""
+    lines = ["| scene | rtol | floor (dB) | error re reference (dB, rel. L2) | log-spectral distance (dB) | "
+             "render (ms) | real-time factor | modes rendered / below Nyquist | mode-samples | bank (ns per mode-sample) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        lines.append(f"| {r['scene']} | {r['rtol']:.0e} | {r['floor_db']:.0f} | {r['error_db']:.1f} | "
+                     f"{r['lsd_db']:.3f} | {r['seconds'] * 1e3:.1f} | {r['realtime']:.0f}x | "
+                     f"{r['modes_rendered']} / {r['modes']} | {r['mode_samples']:.3g} | "
+                     f"{r['ns_per_mode_sample']:.2f} |")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------
+# The thesis' measurements
+# ---------------------------------------------------------------------------------------
+def _decay_time(x, fs, smooth=0.5e-3):
+    """Time (s) for the amplitude envelope (Hilbert, smoothed over ``smooth`` s) to fall
+    from its peak to 1/e (37 %) of it."""
+    from scipy.signal import hilbert
+
+    env = np.abs(hilbert(x))
+    n = max(1, int(smooth * fs))
+    env = np.convolve(env, np.ones(n) / n, mode="same")
+    i = int(np.argmax(env))
+    below = np.nonzero(env[i:] < env[i] / math.e)[0]
+    return float(below[0] / fs) if below.size else float("nan")
+
+
+def _edc_decay_time(x, fs, lo_db=-5.0, hi_db=-25.0):
+    """Decay time (s, amplitude to 1/e, i.e. 8.69 dB) from the slope of the Schroeder
+    energy decay curve fitted between ``lo_db`` and ``hi_db``."""
+    edc = np.cumsum((x ** 2)[::-1])[::-1]
+    edc_db = 10 * np.log10(edc / edc[0] + 1e-300)
+    sel = (edc_db <= lo_db) & (edc_db >= hi_db)
+    if sel.sum() < 10:
+        return float("nan")
+    t = np.nonzero(sel)[0] / fs
+    slope = np.polyfit(t, edc_db[sel], 1)[0]          # dB/s, negative
+    return float(-20 * math.log10(math.e) / slope)
+
+
+def thesis_comparison(samplerate=48000):
+    """The first tick of the thesis setup (10 mm steel ball, 10 cm, 18 mm MDF, microphone
+    20 cm above the impact point) against the thesis' recordings: decay time (amplitude
+    to 37 %) overall and in the 2-3 kHz band (thesis: 11-14 ms around 2-3 kHz), spectral
+    centroid (thesis: a few kHz), and the e of the first impact (thesis: 0.87)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    from .presets import load_preset
+    from .render import render
+    from .scheduler import BounceSequence, simulate_scene
+
+    scene = load_preset("default")
+    seq = simulate_scene(scene)
+    first = BounceSequence(seq.impacts[:1], "max-impacts", seq.drop_height, seq.gravity)
+    r = render(scene, samplerate=samplerate, normalize="none", sequence=first)
+    x = r.audio.astype(float)
+    fs = r.samplerate
+    spec = np.abs(np.fft.rfft(x)) ** 2
+    f = np.fft.rfftfreq(x.size, 1 / fs)
+    centroid = float(np.sum(f * spec) / np.sum(spec))
+    band = sosfiltfilt(butter(4, [2000, 3000], btype="band", fs=fs, output="sos"), x)
+    return dict(restitution=seq[0].result.restitution, contact_time=seq[0].result.contact_time,
+                decay_time=_decay_time(x, fs), decay_time_2_3k=_decay_time(band, fs),
+                edc_decay_time=_edc_decay_time(x, fs), edc_decay_time_2_3k=_edc_decay_time(band, fs),
+                centroid=centroid, peak_pa=float(np.max(np.abs(x))))
+
+
+def format_thesis(c) -> str:
+    return "\n".join([
+        "| quantity | engine | thesis (measured) |", "|---|---|---|",
+        f"| restitution of the first impact (1.4 m/s) | {c['restitution']:.3f} | 0.87 |",
+        f"| contact time (us) | {c['contact_time'] * 1e6:.1f} | (~110 at 1 m/s, Fig. 2.8) |",
+        f"| decay time, 2-3 kHz band, energy decay curve -5 to -25 dB (ms, amplitude to 37 %) | "
+        f"{c['edc_decay_time_2_3k'] * 1e3:.1f} | 11-14 |",
+        f"| decay time, 2-3 kHz band, envelope peak to 37 % (ms) | {c['decay_time_2_3k'] * 1e3:.2f} | 11-14 |",
+        f"| decay time, whole tick, energy decay curve (ms) | {c['edc_decay_time'] * 1e3:.1f} | - |",
+        f"| decay time, whole tick, envelope peak to 37 % (ms) | {c['decay_time'] * 1e3:.2f} | - |",
+        f"| spectral centroid of the first tick (Hz) | {c['centroid']:.0f} | a few kHz |",
+        f"| peak pressure at 20 cm (Pa) | {c['peak_pa']:.1f} | - |",
+    ])

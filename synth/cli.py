@@ -1,6 +1,6 @@
 """The command line: ``synth SUBCOMMAND ...`` (argparse).
 
-Subcommands: ``render`` (a preset to a WAV/FLAC file), ``info`` (the impact table of a
+Subcommands: ``render`` (a preset to a WAV/FLAC file), ``gallery`` (the reference renders), ``info`` (the impact table of a
 preset), ``presets`` (list them),
 ``materials`` (the material table), ``bench`` (error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
@@ -111,11 +111,42 @@ def _write_json(path, obj):
         with os.fdopen(fd, "w") as fh:
             json.dump(obj, fh, indent=1, default=float)
             fh.write("\n")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)    # mkstemp makes it 0600; give it the usual mode
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+#: The presets of the reference gallery in renders/ (`synth gallery`).
+GALLERY = ("default", "thesis-steel10-mdf18-corner", "small-click-on-acrylic",
+           "ceramic-cup-on-stone")
+
+
+def _cmd_gallery(args):
+    from pathlib import Path
+
+    from . import audio_io
+    from .plot import plot_render
+    from .presets import find, load_preset_with_options
+    from .render import render
+
+    out = Path(args.output_dir)
+    if not out.is_dir():
+        raise SynthError(f"output_dir={str(out)!r} is not a directory")
+    for name in GALLERY:
+        scene, section, data = load_preset_with_options(name)
+        opts, subtype = render_options(section, args, str(find(name)))
+        rendered = render(scene, **opts)
+        audio_io.write_audio(out / f"{name}.wav", rendered.audio, rendered.samplerate,
+                             subtype=subtype or "PCM_16")
+        plot_render(rendered, out / f"{name}.png")
+        _write_json(out / f"{name}.json", _report(rendered, data, name))
+        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, {len(rendered.impacts)} impacts")
+    return 0
 
 
 def _cmd_presets(args):
@@ -151,6 +182,23 @@ def _cmd_bench(args):
         else:
             print(bench.format_contact(result))
         return 0
+    if args.what == "render":
+        result = bench.run_render()
+        if args.json:
+            json.dump(result, sys.stdout, indent=1)
+            print()
+        else:
+            print(f"samplerate {result['samplerate']} Hz; reference: no omissions, contact rtol 1e-10")
+            print(bench.format_render(result))
+        return 0
+    if args.what == "thesis":
+        c = bench.thesis_comparison()
+        if args.json:
+            json.dump(c, sys.stdout, indent=1)
+            print()
+        else:
+            print(bench.format_thesis(c))
+        return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
 
 
@@ -174,6 +222,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
     p.set_defaults(func=_cmd_render)
 
+    p = sub.add_parser("gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/")
+    p.add_argument("--output-dir", default="renders", help="folder (default: renders)")
+    p.set_defaults(func=_cmd_gallery)
+
     p = sub.add_parser("presets", help="list the presets")
     p.set_defaults(func=_cmd_presets)
 
@@ -181,7 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_materials)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact"])
+    p.add_argument("what", choices=["contact", "render", "thesis"])
     p.add_argument("--json", action="store_true")
     p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")

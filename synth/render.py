@@ -197,5 +197,6 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                     delay=delay, audio_start=start, n_impacts=len(sequence),
                     stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
                     n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
+                    bank_seconds=info["bank_seconds"],
                     reference_amplitude=info["reference"])
     return Render(np.asarray(scaled, dtype=np.float32), fs, shifted, units, float(gain), settings)

@@ -41,6 +41,7 @@ sample.
 from __future__ import annotations
 
 import math
+import time
 
 import numba
 import numpy as np
@@ -307,8 +308,10 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     if max_samples is not None:
         length = min(length, int(max_samples))
     out = np.zeros(length)
+    t_bank = time.perf_counter()
     work = _bank(out, fs, poles[keep], np.ascontiguousarray(amps[:, keep]), inject,
                  np.full(int(keep.sum()), thr), BLOCK) if keep.any() else 0
+    t_bank = time.perf_counter() - t_bank
     for (idx, resp, off_f) in contact_samples:
         ok = idx < length
         if not ok.any():
@@ -317,5 +320,5 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
         if direct is not None:
             out[idx[ok]] += off_f[ok] * float(np.sum(direct.real))
     info = dict(n_modes=K, n_modes_rendered=int(keep.sum()), mode_samples=int(work),
-                reference=reference, threshold=thr, length=length)
+                reference=reference, threshold=thr, length=length, bank_seconds=t_bank)
     return out, info
