@@ -94,7 +94,7 @@ def _distance(scene) -> float:
 
 def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
            floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005, max_duration=30.0,
-           sequence=None) -> Render:
+           max_tail=60.0, sequence=None) -> Render:
     """Render ``scene`` at ``samplerate``.
 
     Parameters
@@ -121,6 +121,10 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         Raised-cosine fade at the end, s (the tail there is already below the floor).
     max_duration : float > 0
         Longest bounce series, s from release.
+    max_tail : float > 0
+        Longest ringing after the last impact, s: the audio ends when every tail has
+        fallen below the floor, or at this limit (lightly damped plates, e.g. steel with
+        a loss factor of 1e-4, ring for minutes).
     sequence : BounceSequence, optional
         Precomputed impacts of this scene (default: computed here).
     """
@@ -137,6 +141,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     else:
         f_max = min(_checks.positive("max_frequency", max_frequency, "Hz"), nyquist)
     pre = _checks.nonnegative("preroll", preroll, "s")
+    tail = _checks.positive("max_tail", max_tail, "s")
     fade_s = _checks.nonnegative("fade", fade, "s")
     if sequence is None:
         sequence = simulate_scene(scene, max_duration=_checks.positive("max_duration", max_duration, "s"))
@@ -176,7 +181,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     start = (times[0] + delay - pre) if len(times) else 0.0
     onsets = times + delay - start
     weights = [scene.ball.mass * scene.gravity if imp.result.settled else 0.0 for imp in sequence]
-    max_samples = int(math.ceil((sequence.duration + delay - start + 60.0) * fs))
+    max_samples = int(math.ceil((sequence.duration + delay - start + tail) * fs))
     audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
                              floor=floor, settled_weight=weights, direct=direct,
                              max_samples=max_samples)
@@ -192,7 +197,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                                    for imp, t in zip(sequence, onsets)),
                              sequence.stop_reason, sequence.drop_height, sequence.gravity)
     settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,
-                    floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s,
+                    floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s, max_tail=tail,
                     listener=type(listener).__name__.lower(), listener_position=list(listener.position),
                     delay=delay, audio_start=start, n_impacts=len(sequence),
                     stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
