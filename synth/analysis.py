@@ -14,7 +14,7 @@ small bumps on the earlier tails. All the ticks of one recording are the
 response of one resonator (plate, room, microphone) to short contact forces, so
 the detector first takes the resonator out:
 
-1. **Whitening.** A linear predictor of order ``p`` (default 1 ms of samples)
+1. **Whitening.** A linear predictor of order ``p`` (default 2 ms of samples)
    is fitted to the whole signal (autocorrelation method, solved by Levinson
    recursion) and the prediction error ``r = A(z) x`` is formed. The ringing of a
    tick is predictable from its own past and largely cancels; what is left is
@@ -446,7 +446,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     onset_fraction : float in (0, 1)
         Level of the onset crossing, as a fraction of the burst's peak.
     lpc_order : int >= 2, optional
-        Order of the whitening predictor. Default: 1 ms of samples, at least 8.
+        Order of the whitening predictor. Default: 2 ms of samples, at least 8.
     window : float > 0
         Longest measurement window of a tick, s.
     subtract_tails : bool
@@ -489,7 +489,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     _checks.choice("on_clipping", on_clipping, ("warn", "raise"))
     if not isinstance(subtract_tails, (bool, np.bool_)):
         raise ParameterError(f"subtract_tails={subtract_tails!r} must be True or False")
-    order = (max(8, int(round(0.001 * fs))) if lpc_order is None
+    order = (max(8, int(round(0.002 * fs))) if lpc_order is None
              else _integer("lpc_order", lpc_order, 2))
 
     used = chans if ch is None else chans[:, [ch]]

@@ -25,7 +25,8 @@ def test_ci_runs_the_readme_test_command():
     assert "README.md" in ci and "sed -n 2p" in ci
 
 
-def test_main_job_preset_exists():
-    # The first command's preset file is in the repository.
-    preset = _commands()[0].split("synth info ")[1].split()[0]
-    assert (ROOT / preset).is_file()
+def test_main_job_renders_a_preset_of_the_repository():
+    # The first command renders a preset file of the repository to a WAV in renders/.
+    words = _commands()[0].split("synth render ")[1].split()
+    assert (ROOT / words[0]).is_file()
+    assert words[1] == "-o" and words[2].startswith("renders/") and words[2].endswith(".wav")
