@@ -84,6 +84,15 @@ def _cmd_render(args):
 
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
+    if args.timing_from is not None or args.restitution_scale is not None:
+        from . import stimuli
+
+        k = 1.0 if args.restitution_scale is None else args.restitution_scale
+        timing = scene if args.timing_from is None else load_preset_with_options(args.timing_from)[0]
+        seq = stimuli.scaled_sequence(timing, k)
+        if args.timing_from is not None:
+            seq = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
+        opts["sequence"] = seq
     rendered = render(scene, **opts)
     audio_io.write_audio(args.output, rendered.audio, rendered.samplerate, subtype=subtype)
     if args.report:
@@ -220,6 +229,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="level: peak (-1 dBFS, default), loudness (LUFS), physical, none")
     p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
+    p.add_argument("--restitution-scale", type=float, metavar="K",
+                   help="perception stimulus: 1 - e' = K (1 - e) for every tick (thesis 5.2.2)")
+    p.add_argument("--timing-from", metavar="PRESET",
+                   help="perception stimulus: impact times and speeds of another preset, ticks of this one")
     p.set_defaults(func=_cmd_render)
 
     p = sub.add_parser("gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/")

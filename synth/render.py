@@ -193,7 +193,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
 
     scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
                                       peak_db=peak_db, loudness_lufs=loudness_lufs)
-    shifted = BounceSequence(tuple(Impact(imp.index, float(t), imp.speed, imp.result)
+    shifted = BounceSequence(tuple(Impact(imp.index, float(t), imp.speed, imp.result, imp.restitution)
                                    for imp, t in zip(sequence, onsets)),
                              sequence.stop_reason, sequence.drop_height, sequence.gravity)
     settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,

@@ -54,12 +54,20 @@ class Impact:
         Impact speed, m/s.
     result : ImpactResult
         The contact solution (restitution, contact time, force pulse, ...).
+    restitution : float
+        The restitution that set the next flight: the physical ``result.restitution``,
+        unless a perception stimulus altered it (``restitution_scale``).
     """
 
     index: int
     time: float
     speed: float
     result: ImpactResult
+    restitution: float | None = None
+
+    def __post_init__(self):
+        if self.restitution is None:
+            object.__setattr__(self, "restitution", self.result.restitution)
 
 
 @dataclass(frozen=True)
@@ -95,7 +103,7 @@ class BounceSequence:
         """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
         peak_force (N), inelasticity (lambda), settled."""
         return [dict(n=i.index, time=i.time, speed=i.speed,
-                     restitution=i.result.restitution, contact_time=i.result.contact_time,
+                     restitution=i.restitution, contact_time=i.result.contact_time,
                      peak_force=i.result.peak_force, max_penetration=i.result.max_penetration,
                      inelasticity=i.result.inelasticity, settled=i.result.settled)
                 for i in self.impacts]
@@ -103,7 +111,8 @@ class BounceSequence:
 
 def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
                      contact_law="hertz", rtol=1e-6, floor_db=-60.0, max_duration=60.0,
-                     max_impacts=10_000, n_points=128, **contact_options) -> BounceSequence:
+                     max_impacts=10_000, n_points=128, restitution_scale=1.0,
+                     **contact_options) -> BounceSequence:
     """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
 
     Parameters
@@ -130,6 +139,12 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         Most impacts computed.
     n_points : int
         Samples of each force pulse.
+    restitution_scale : float >= 0
+        Perception stimuli (thesis section 5.2.2): each rebound uses ``e' = 1 - k (1 - e)``
+        instead of the physical ``e``, so restitution changes while every impact is still
+        solved physically at its own speed (its tick keeps the physics of its spectrum).
+        ``k = 1`` is the physical sequence; ``k < 1`` bouncier, ``k > 1`` deader. Where
+        ``e' <= 0`` the ball does not leave the plate (stop reason "settled").
 
     Returns
     -------
@@ -150,6 +165,7 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     pos = None if position is None else plate.check_position(position, "position")
     K, n, mu = contact.contact_law(ball, plate, contact_law, **contact_options)
     tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
+    k = _checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
     beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
     energy_floor = 10.0 ** (floor / 10.0)
 
@@ -167,14 +183,15 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     reason = "max-impacts"
     while len(impacts) < max_impacts:
         res = solve(v)
-        impacts.append(Impact(len(impacts) + 1, t, v, res))
+        e = res.restitution if k == 1.0 else 1.0 - k * (1.0 - res.restitution)
+        impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
         if not res.success:
             reason = "solver-failure"
             break
-        if res.settled:
+        if res.settled or e <= 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed
+        v_out = res.rebound_speed if k == 1.0 else e * v
         flight = 2.0 * v_out / g
         if flight < res.contact_time:
             reason = "flight-shorter-than-contact"
