@@ -9,18 +9,21 @@ Heavy optional parts (plotting, playback, loudness, distributed batches) are
 imported only where used.
 """
 
-from . import contact, materials
+from . import contact, materials, plate
+from .audio_io import read_audio, write_audio
 from .contact import ImpactResult, solve_contact, solve_impact
 from .errors import ParameterError, SynthError
 from .materials import LossFactor, Material, Rayleigh
+from .playback import play
 from .presets import load_preset
+from .render import Render, render
 from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
 from .scheduler import BounceSequence, Impact, simulate_bounces, simulate_scene
 
 __all__ = [
     "Accelerometer", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
     "LossFactor", "Material", "Microphone", "ParameterError", "Plate", "Rayleigh", "Scene",
-    "SynthError", "contact", "load_preset", "materials", "simulate_bounces", "simulate_scene",
-    "solve_contact", "solve_impact",
+    "Render", "SynthError", "contact", "load_preset", "materials", "plate", "play", "read_audio",
+    "render", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",
 ]
 __version__ = "0.1.0"

@@ -1,0 +1,50 @@
+"""Live playback through ``sounddevice`` (imported only here, only when playing).
+
+``sounddevice`` loads the PortAudio C library when it is imported; on a machine without it
+the import fails with an ``OSError``. :func:`play` turns that into a :class:`SynthError`
+that says what to install.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _checks
+from .errors import ParameterError, SynthError
+
+PORTAUDIO_HELP = ("playback needs the PortAudio library: on Debian/Ubuntu `apt-get install "
+                  "libportaudio2`, on Fedora `dnf install portaudio`, on macOS `brew install "
+                  "portaudio` (Windows wheels of sounddevice include it)")
+
+
+def _sounddevice():
+    try:
+        import sounddevice
+    except OSError as exc:          # sounddevice is installed, PortAudio is not
+        raise SynthError(f"{PORTAUDIO_HELP} ({exc})") from None
+    except ImportError as exc:
+        raise SynthError(f"playback needs the sounddevice package: pip install sounddevice ({exc})") from None
+    return sounddevice
+
+
+def play(audio, samplerate=None, *, blocking=True):
+    """Play ``audio`` (a :class:`~synth.render.Render`, or an array with ``samplerate`` in Hz).
+
+    ``blocking=False`` returns at once (``sounddevice.wait()`` or :func:`stop` later).
+    """
+    if hasattr(audio, "audio") and hasattr(audio, "samplerate"):
+        audio, samplerate = audio.audio, audio.samplerate if samplerate is None else samplerate
+    if samplerate is None:
+        raise ParameterError("samplerate=None: give the sample rate in Hz (there is no default)")
+    fs = _checks.positive("samplerate", samplerate, "Hz")
+    x = np.asarray(audio, dtype=np.float32)
+    if x.ndim not in (1, 2) or x.size == 0 or not np.all(np.isfinite(x)):
+        raise ParameterError(f"audio with shape {x.shape} must be a finite, non-empty (frames,) "
+                             f"or (frames, channels) array")
+    sd = _sounddevice()
+    sd.play(x, int(round(fs)), blocking=blocking)
+
+
+def stop():
+    """Stop a playback started with ``blocking=False``."""
+    _sounddevice().stop()
