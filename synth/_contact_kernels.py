@@ -268,55 +268,36 @@ def _xdot(x, w, lam, n, c):
 
 
 @numba.njit(cache=True)
-def _root_xdot(hist, k, radau, lam, n, c):
-    """Time inside step k where x' = w - lam f falls through 0 (peak penetration)."""
-    a = hist[k, _H_T0]
-    b = a + hist[k, _H_H]
-    fa = _xdot(hist[k, _H_X0], hist[k, _H_W0], lam, n, c)
-    xb, wb = _dense(hist, k, b, radau)
-    fb = _xdot(xb, wb, lam, n, c)
-    side = 0
-    for _ in range(100):
-        m = (a * fb - b * fa) / (fb - fa)
-        if not (a < m < b):
-            m = 0.5 * (a + b)
-        xm, wm = _dense(hist, k, m, radau)
-        fm = _xdot(xm, wm, lam, n, c)
-        if fm > 0.0:
-            a, fa = m, fm
-            if side == 1:
-                fb *= 0.5
-            side = 1
-        elif fm < 0.0:
-            b, fb = m, fm
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            return m
-        if b - a <= 1e-10 * (hist[k, _H_H]):
-            break
-    return 0.5 * (a + b)
+def _event(which, x, w, lam, G, n, c, thr):
+    """The functions whose roots end or mark a contact: 0, the penetration x (end of
+    contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
+    docstring)."""
+    if which == 0:
+        return x
+    if which == 1:
+        return _xdot(x, w, lam, n, c)
+    return _energy_w(x, w, lam, G, n) - thr
 
 
 @numba.njit(cache=True)
-def _root_x(hist, k, radau):
-    """Dimensionless time where x crosses 0 inside step k (x > 0 at its start, <= 0 at its end).
-
-    Illinois (modified regula falsi) on the dense output, to machine precision.
-    """
+def _root(hist, k, radau, which, lam, G, n, c, thr):
+    """Where the event function ``which`` falls through 0 inside step k (positive at the
+    step's start, not positive at its end): Illinois (modified regula falsi) on the dense
+    output, to machine precision. If it is not positive at the start, the step's end."""
     a = hist[k, _H_T0]
     b = a + hist[k, _H_H]
-    fa = hist[k, _H_X0]
-    fb, _ = _dense(hist, k, b, radau)
-    if fb == 0.0:
+    fa = _event(which, hist[k, _H_X0], hist[k, _H_W0], lam, G, n, c, thr)
+    xb, wb = _dense(hist, k, b, radau)
+    fb = _event(which, xb, wb, lam, G, n, c, thr)
+    if fa <= 0.0 or fb >= 0.0:
         return b
     side = 0
     for _ in range(200):
         m = (a * fb - b * fa) / (fb - fa)
         if not (a < m < b):
             m = 0.5 * (a + b)
-        fm, _ = _dense(hist, k, m, radau)
+        xm, wm = _dense(hist, k, m, radau)
+        fm = _event(which, xm, wm, lam, G, n, c, thr)
         if fm > 0.0:
             a, fa = m, fm
             if side == 1:
@@ -329,48 +310,10 @@ def _root_x(hist, k, radau):
             side = -1
         else:
             return m
-        if b - a <= 4e-16 * b:
+        # the peak (which 1) is quadratic: 1e-10 of the step places it to ~1e-20 in value
+        if b - a <= (1e-10 * hist[k, _H_H] if which == 1 else 4e-16 * b):
             break
     return b if -fb < fa else a
-
-
-@numba.njit(cache=True)
-def _root_settle(hist, k, radau, lam, G, n, thr):
-    """Dimensionless time inside step k where W falls below the separation threshold
-    (the step's end if W was below it already: the contact is then reported up to
-    the step in which the first penetration peak was passed)."""
-    a = hist[k, _H_T0]
-    b = a + hist[k, _H_H]
-    fa = _energy_w(hist[k, _H_X0], hist[k, _H_W0], lam, G, n) - thr
-    xb, wb = _dense(hist, k, b, radau)
-    fb = _energy_w(xb, wb, lam, G, n) - thr
-    if fa <= 0.0:
-        # settled before this step; the step is where the first peak was passed
-        return b
-    if fb >= 0.0:
-        return b
-    side = 0
-    for _ in range(200):
-        m = (a * fb - b * fa) / (fb - fa)
-        if not (a < m < b):
-            m = 0.5 * (a + b)
-        xm, wm = _dense(hist, k, m, radau)
-        fm = _energy_w(xm, wm, lam, G, n) - thr
-        if fm > 0.0:
-            a, fa = m, fm
-            if side == 1:
-                fb *= 0.5
-            side = 1
-        elif fm < 0.0:
-            b, fb = m, fm
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            return m
-        if b - a <= 4e-16 * b:
-            break
-    return b
 
 
 # ---------------------------------------------------------------------------------------
@@ -718,12 +661,12 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff, times, forces, t_scale, f_
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = _root_x(hist, nh - 1, radau)
+        s_end = _root(hist, nh - 1, radau, 0, lam, G, n, c, 0.0)
         x_end, w_end = _dense(hist, nh - 1, s_end, radau)
         x_end = 0.0
         s_contact = s_end
     elif status == SETTLED:
-        s_contact = _root_settle(hist, nh - 1, radau, lam, G, n, 0.5 * (lam * G) ** 2)
+        s_contact = _root(hist, nh - 1, radau, 2, lam, G, n, c, 0.5 * (lam * G) ** 2)
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
     vbest = -1.0
@@ -740,7 +683,7 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff, times, forces, t_scale, f_
         g0 = _xdot(hist[k, _H_X0], hist[k, _H_W0], lam, n, c)
         xe, we = _dense(hist, k, hist[k, _H_T0] + hist[k, _H_H], radau)
         if g0 > 0.0 and _xdot(xe, we, lam, n, c) <= 0.0:
-            xr, _ = _dense(hist, k, _root_xdot(hist, k, radau, lam, n, c), radau)
+            xr, _ = _dense(hist, k, _root(hist, k, radau, 1, lam, G, n, c, 0.0), radau)
             x_max = max(x_max, xr)
     if c == 0.0:
         f_max = _power(x_max, n) if x_max > 0.0 else 0.0

@@ -182,31 +182,22 @@ def _cmd_materials(args):
 def _cmd_bench(args):
     from . import bench
 
-    if args.what == "contact":
-        tols = tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10)
-        result = bench.run_contact(tolerances=tols, repeat=args.repeat)
+    runs = {
+        "contact": (lambda: bench.run_contact(
+            tolerances=tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
+            repeat=args.repeat), bench.format_contact),
+        "render": (bench.run_render, lambda r: f"samplerate {r['samplerate']} Hz; reference: no "
+                   f"omissions, contact rtol 1e-10\n" + bench.format_render(r)),
+        "thesis": (bench.thesis_comparison, bench.format_thesis),
+    }
+    if args.what in runs:
+        run, fmt = runs[args.what]
+        result = run()
         if args.json:
             json.dump(result, sys.stdout, indent=1)
             print()
         else:
-            print(bench.format_contact(result))
-        return 0
-    if args.what == "render":
-        result = bench.run_render()
-        if args.json:
-            json.dump(result, sys.stdout, indent=1)
-            print()
-        else:
-            print(f"samplerate {result['samplerate']} Hz; reference: no omissions, contact rtol 1e-10")
-            print(bench.format_render(result))
-        return 0
-    if args.what == "thesis":
-        c = bench.thesis_comparison()
-        if args.json:
-            json.dump(c, sys.stdout, indent=1)
-            print()
-        else:
-            print(bench.format_thesis(c))
+            print(fmt(result))
         return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
 
