@@ -1,6 +1,7 @@
 """The command line: ``synth SUBCOMMAND ...`` (argparse).
 
-Subcommands: ``render`` (a preset to a WAV/FLAC file), ``gallery`` (the reference renders), ``info`` (the impact table of a
+Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter`` (a
+recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
 preset), ``presets`` (list them),
 ``materials`` (the material table), ``bench`` (error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
@@ -11,6 +12,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+
+import numpy as np
 
 from .errors import SynthError
 
@@ -130,6 +133,47 @@ def _write_json(path, obj):
         raise
 
 
+def _cmd_analyze(args):
+    from . import analysis
+
+    result = analysis.analyze_file(args.file, gravity=args.gravity, channel=_channel(args.channel))
+    if args.json:
+        json.dump(analysis.to_dict(result), sys.stdout, indent=1, default=float)
+        print()
+    elif args.csv:
+        sys.stdout.write(analysis.to_csv(result))
+    else:
+        print(analysis.format_table(result))
+    if args.plot:
+        from .audio_io import read_audio
+        audio, fs = read_audio(args.file, channel=_channel(args.channel))
+        analysis.plot_analysis(result, audio, fs, args.plot)
+    return 0
+
+
+def _channel(value):
+    if value is None or value == "mix":
+        return None
+    try:
+        return int(value)
+    except ValueError:
+        raise SynthError(f"channel={value!r} must be a channel number (0, 1, ...) or 'mix'") from None
+
+
+def _cmd_alter(args):
+    from . import audio_io
+    from .alter import alter_restitution
+
+    audio, fs = audio_io.read_audio(args.file)
+    out, t_new, e, e_new = alter_restitution(audio, fs, args.restitution_scale,
+                                             channel=_channel(args.channel), gravity=args.gravity,
+                                             scale_amplitude=not args.keep_amplitude)
+    audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
+    print(f"{args.output}: {len(t_new)} ticks re-timed; e {np.mean(e):.3f} -> {np.mean(e_new):.3f} "
+          f"(mean over bounces), {out.shape[0] / fs:.3f} s")
+    return 0
+
+
 #: The presets of the reference gallery in renders/ (`synth gallery`).
 GALLERY = ("default", "thesis-steel10-mdf18-corner", "small-click-on-acrylic",
            "ceramic-cup-on-stone")
@@ -189,6 +233,7 @@ def _cmd_bench(args):
         "render": (bench.run_render, lambda r: f"samplerate {r['samplerate']} Hz; reference: no "
                    f"omissions, contact rtol 1e-10\n" + bench.format_render(r)),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
+        "analysis": (bench.run_analysis, bench.format_analysis),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -226,6 +271,26 @@ def build_parser() -> argparse.ArgumentParser:
                    help="perception stimulus: impact times and speeds of another preset, ticks of this one")
     p.set_defaults(func=_cmd_render)
 
+    p = sub.add_parser("analyze", help="detect and measure the ticks of a recording (WAV, FLAC, ...)")
+    p.add_argument("file")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--csv", action="store_true", help="one row per tick")
+    p.add_argument("--plot", metavar="OUT.png", help="ticks, bounce times, restitution, energy, centroid, decay")
+    p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
+    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2, for the impact speeds")
+    p.set_defaults(func=_cmd_analyze)
+
+    p = sub.add_parser("alter", help="change the restitution of a recording: 1 - e' = K (1 - e)")
+    p.add_argument("file")
+    p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
+    p.add_argument("--restitution-scale", type=float, required=True, metavar="K")
+    p.add_argument("--keep-amplitude", action="store_true",
+                   help="do not scale each tick by its new impact speed over its old one")
+    p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
+    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2")
+    p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
+    p.set_defaults(func=_cmd_alter)
+
     p = sub.add_parser("gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/")
     p.add_argument("--output-dir", default="renders", help="folder (default: renders)")
     p.set_defaults(func=_cmd_gallery)
@@ -237,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_materials)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis"])
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis"])
     p.add_argument("--json", action="store_true")
     p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
