@@ -163,7 +163,8 @@ def _bank(out, fs, poles, amps, inject, thresholds, block):
     impacts' ringing, already referred to the injection samples inject (I,) int64 (ascending):
     the mode's state at sample inject[i] gains amps[i, k]. thresholds (K,): a mode whose
     amplitude falls below its threshold stops until the next injection.
-    Returns the number of mode-samples computed.
+    Returns the number of mode-samples computed and the end of the last one written (the
+    samples after it are exactly zero).
     """
     S = out.shape[0]
     K = poles.shape[0]
@@ -171,6 +172,7 @@ def _bank(out, fs, poles, amps, inject, thresholds, block):
     pr = np.empty(block + 1)
     pi = np.empty(block + 1)
     work = 0
+    last = 0
     for k in range(K):
         p = poles[k]
         # r^j for j = 0..block: by recurrence, re-anchored on an exact exponential every
@@ -200,6 +202,8 @@ def _bank(out, fs, poles, amps, inject, thresholds, block):
                     for j in range(n):
                         out[b + j] += zr * pr[j] - zi * pi[j]
                     work += n
+                    if b + n > last:
+                        last = b + n
                     # advance the state by n samples
                     if n == block:
                         cr = pr[block]
@@ -221,7 +225,7 @@ def _bank(out, fs, poles, amps, inject, thresholds, block):
             zr += amps[i, k].real
             zi += amps[i, k].imag
             active = zr * zr + zi * zi >= thr2
-    return work
+    return work, last
 
 
 def pulse_grid(result, omega_max, min_points=64):
@@ -279,7 +283,7 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     I = len(impacts)
     amps = np.zeros((I, K), dtype=complex)
     inject = np.zeros(I, dtype=np.int64)
-    contact_samples = []  # per impact: (sample indices, complex partial responses (M, K), forces)
+    contact_samples = []  # per impact: in-contact sample indices, responses there, forces there
     coef = -1j * excitation / wd * output            # response per unit transform
     pr = np.ascontiguousarray(poles.real)
     pim = np.ascontiguousarray(poles.imag)
@@ -301,11 +305,11 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
     thr = floor * reference / max(K, 1)
     keep = np.max(np.abs(amps), axis=0) >= thr if I else np.zeros(K, bool)
-    # length: until the last kept tail falls below the threshold
+    # buffer: until the last kept tail can fall below the threshold (the sum of a mode's
+    # amplitudes bounds its state after the last impact); trimmed below to what was written
     if I and keep.any():
         sig = -poles.real[keep]
-        amax = np.abs(amps[-1, keep]) + 1e-300
-        amax = np.maximum(amax, np.max(np.abs(amps[:, keep]), axis=0))
+        amax = np.sum(np.abs(amps[:, keep]), axis=0)
         t_tail = np.log(np.maximum(amax / max(thr, 1e-300), 1.0)) / np.maximum(sig, 1e-12)
         length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + BLOCK)
     else:
@@ -314,16 +318,20 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
         length = min(length, int(max_samples))
     out = np.zeros(length)
     t_bank = time.perf_counter()
-    work = _bank(out, fs, poles[keep], np.ascontiguousarray(amps[:, keep]), inject,
-                 np.full(int(keep.sum()), thr), BLOCK) if keep.any() else 0
+    work, last = _bank(out, fs, poles[keep], np.ascontiguousarray(amps[:, keep]), inject,
+                       np.full(int(keep.sum()), thr), BLOCK) if keep.any() else (0, 0)
     t_bank = time.perf_counter() - t_bank
+    mass_line = float(np.sum(direct.real)) if direct is not None else 0.0
     for (idx, resp, off_f) in contact_samples:
         ok = idx < length
         if not ok.any():
             continue
         out[idx[ok]] += resp[ok]
         if direct is not None:
-            out[idx[ok]] += off_f[ok] * float(np.sum(direct.real))
+            out[idx[ok]] += off_f[ok] * mass_line
+        last = max(last, int(idx[ok][-1]) + 1)
+    length = max(1, min(length, last))
+    out = out[:length]
     info = dict(n_modes=K, n_modes_rendered=int(keep.sum()), mode_samples=int(work),
                 reference=reference, threshold=thr, length=length, bank_seconds=t_bank)
     return out, info
