@@ -14,44 +14,61 @@ small bumps on the earlier tails. All the ticks of one recording are the
 response of one resonator (plate, room, microphone) to short contact forces, so
 the detector first takes the resonator out:
 
-1. **Whitening.** A linear predictor of order ``p`` (default 2 ms of samples)
-   is fitted to the whole signal (autocorrelation method, solved by Levinson
-   recursion) and the prediction error ``r = A(z) x`` is formed. The ringing of a
-   tick is predictable from its own past and largely cancels; what is left is
-   close to the excitation, one short burst per contact, in whitened noise. This
-   is the inverse filter of linear-prediction analysis (Makhoul 1975, Proc. IEEE
-   63, 561), used as the whitening step of an onset detector (Stowell and
-   Plumbley 2007, ICMC).
-2. **Detection function.** The energy of ``r`` in frames of ``hop`` seconds
-   (default 0.25 ms).
+1. **Whitening.** A linear predictor of order ``p`` (default 20 ms of
+   samples, enough poles for a few hundred modes) is fitted to the whole signal
+   (autocorrelation method, Levinson recursion) and the prediction error
+   ``r = A(z) x`` is formed, the recording taken as silent before its first
+   sample. The ringing of a tick is predictable from its own past and largely
+   cancels; what is left is close to the excitation, one short burst per
+   contact, in whitened noise. This is the inverse filter of linear-prediction
+   analysis (Makhoul 1975, Proc. IEEE 63, 561), used as the whitening step of an
+   onset detector (Stowell and Plumbley 2007, ICMC).
+2. **Detection function.** The energy of ``r`` over frames starting every
+   ``hop`` seconds (default 0.25 ms), each at least 12 samples long (at low
+   rates the frames overlap, so that a frame of noise is never a sum of only a
+   few squares, whose scatter would pass for a tick).
 3. **Adaptive threshold.** A frame is a candidate when it is a local maximum
-   and it clears all of: ``threshold_db`` above the local background (running
-   median over ``background`` seconds, robust to the ticks, which are sparse in
-   time); ``rise_db`` above a memory of the earlier frames (from two frames
-   back) that fades by ``release`` dB per ms, which rejects the decaying
-   remainder of a tick; and the floor ``dynamic_range_db`` below the strongest
-   frame. Candidates closer than ``min_separation`` form one tick, whose onset
-   is the first candidate's: a long contact makes a second burst at its end
-   (as strong as the first for a symmetric force pulse), so ``min_separation``
-   must exceed the longest contact time (about 1 ms for a heavy ball on a thin
-   plate, 0.1 ms for the thesis' steel balls on MDF).
+   and clears all of: ``threshold_db`` above the local background (running
+   median over ``background`` seconds, robust to the ticks, which are sparse
+   in time); ``rise_db`` above a memory of the earlier frames (from two frames
+   back) that fades by ``release`` dB per ms, which rejects what the whitening
+   leaves of a tick in its first milliseconds; and the floor
+   ``dynamic_range_db`` below the strongest frame. Taken in time order, a
+   candidate more than ``max_drop_db`` (20 dB) weaker than the previous tick
+   is not a bounce (a tick's energy goes as the impact speed
+   squared: that would be a restitution below 0.1) but a remainder of the
+   earlier ticks (with more modes than the predictor has poles, the beats of
+   close modes come back at fixed delays after every tick). Candidates closer
+   than ``min_separation`` form one tick, whose onset is the first
+   candidate's: a long contact makes a second burst at its end, as strong as
+   the first for a symmetric force pulse, so ``min_separation`` must exceed
+   the contact time (0.1 ms for the thesis' steel balls on MDF, 1.6 ms for a
+   rubber ball on a wooden floor).
 4. **Onset refinement.** From the largest ``|r|`` near the candidate, walk back
    through the samples at or above a level, bridging gaps up to 0.25 ms (the
    zero crossings inside a burst), to the earliest; the onset is the crossing
    of the level just before it, linearly interpolated between the two samples.
-   The level is ``onset_fraction`` of the burst's largest ``|r|`` but at least
-   4 standard deviations of the whitened background, so that noise cannot
-   continue the walk (a Gaussian sample exceeds 4 sigma with probability 6e-5).
+   The level is ``onset_fraction`` (0.1) of the burst's largest ``|r|``, but at
+   least 4 standard deviations of the whitened background, so that noise
+   cannot continue the walk (a Gaussian sample exceeds 4 sigma with
+   probability 6e-5). A candidate whose onset walks back to within
+   ``min_separation`` of the previous tick's belongs to it; one that walks back
+   to the first sample is the recording's cut, not a contact.
 
 The onset is where the whitened excitation first reaches the level: the start
 of contact to within a few samples. Measured on synthetic ticks with known
-sub-sample onsets (``tests/test_analysis.py``: damped sinusoids, and their
-exact response to half-sine contact forces of 0.05 to 0.6 ms, tails
-overlapping), the onset errors of the first ten ticks are within -0.3..+1.4
-sample periods: 7 us at 96 kHz, 16 us at 44.1 kHz, 35 us at 22.05 kHz, and stay
-so with white noise down to 20 dB SNR and with a reverberant tail as strong as
-the direct sound. Weak ticks (``strength`` below about 5 dB) may be a few
-samples late: the noise level then cuts the beginning of the burst.
+sub-sample onsets (``tests/test_analysis.py``, tails overlapping): for sums of
+damped sinusoids started abruptly (the onset lies anywhere in the sample period
+before the first non-zero sample), within 0.9 sample periods of it (9 us at
+96 kHz, 21 us at 44.1 kHz, 41 us at 22.05 kHz); for their exact response to
+half-sine contact forces of 0.05 to 0.5 ms, within 0.8 sample periods of the
+first touch (0.4 at 44.1 and 96 kHz). The first ten ticks keep that accuracy
+with white noise down to 20 dB SNR and in a room whose reverberation carries
+as much energy as the direct sound. Weak ticks (``strength`` below about 5 dB)
+may be a few samples late: the noise level then cuts the beginning of the
+burst. Where the whitening leaves much of a plate's ringing (lightly damped,
+dense modes: a thin steel sheet) the later ticks drown in it, and weak
+remainders of it can pass for ticks (``strength`` of a few dB).
 
 Tick measurements
 -----------------
@@ -73,7 +90,12 @@ signal ``y`` over its window:
   envelope (root of ``y^2`` smoothed by a Hann window of ``decay_smoothing``
   seconds) from its peak to the end of the window, or to where it comes within
   10 dB of the noise floor. ``None`` when that span is shorter than the
-  smoothing or the envelope does not fall.
+  smoothing, or when the fitted envelope falls by less than 0.1 neper (0.87 dB)
+  over it (a decay time over ten times the span: lengthen ``window``).
+
+The window holds the noise too: at low SNR the energy of weak ticks is
+raised by ``noise_floor^2 * window`` and their centroid and spread move
+towards the noise's.
 
 The noise floor is the RMS of the 10 ms frames within 3 dB of the quietest one
 (frames of noise alone scatter far less than that; frames with a tick or a
@@ -102,10 +124,15 @@ from .errors import ParameterError, SynthError
 ONSET_NOISE_SIGMAS = 4.0
 #: Longest gap bridged by the onset walk inside one burst, s.
 ONSET_GAP = 0.00025
+#: Fewest samples summed in a frame of the detection function.
+MIN_FRAME = 12
 #: Samples kept before the refined onset in a tick's window.
 WINDOW_GUARD = 2
 #: The decay fit stops where the envelope comes within this of the noise floor, dB.
 DECAY_NOISE_MARGIN_DB = 10.0
+#: Least fall of the fitted envelope over the fitted span, nepers (0.87 dB): a
+#: smaller one cannot be told from noise and the other ticks' tails.
+DECAY_MIN_FALL = 0.1
 #: Frame length of the noise-floor estimate, s, and the spread of its quiet frames, dB.
 NOISE_FRAME = 0.01
 NOISE_SPREAD_DB = 3.0
@@ -273,13 +300,21 @@ def _analysis(name: str, value) -> Analysis:
 def _lpc(x: np.ndarray, order: int) -> np.ndarray:
     """Prediction-error filter ``[1, a1, ..., ap]`` of ``x`` (autocorrelation method).
 
-    The autocorrelation takes ``order + 1`` dot products (no FFT of the whole
-    file); the zero lag is raised by 1e-9 (a -90 dB white-noise correction) so
-    that a noiseless sum of a few sinusoids stays solvable.
+    The autocorrelation up to lag ``order`` is summed over blocks by FFT (exact:
+    each block is correlated with itself extended by ``order`` samples); the zero
+    lag is raised by 1e-9 (a -90 dB white-noise correction) so that a noiseless
+    sum of a few sinusoids stays solvable.
     """
+    from scipy.fft import irfft, next_fast_len, rfft
     from scipy.linalg import solve_toeplitz
 
-    r = np.array([np.dot(x[: x.size - k], x[k:]) for k in range(order + 1)])
+    block = max(4 * order, 1 << 16)
+    nfft = next_fast_len(block + order, real=True)
+    r = np.zeros(order + 1)
+    for s in range(0, x.size, block):
+        a = rfft(x[s: s + block], nfft)
+        b = rfft(x[s: s + block + order], nfft)
+        r += irfft(np.conj(a) * b, nfft)[: order + 1]
     r[0] *= 1.0 + 1e-9
     return np.concatenate(([1.0], solve_toeplitz(r[:order], -r[1:])))
 
@@ -312,7 +347,8 @@ def _clipping(chans: np.ndarray, min_count: int) -> str | None:
 
 
 def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
-            threshold_db: float, rise_db: float, release: float, dynamic_range_db: float):
+            threshold_db: float, rise_db: float, release: float, dynamic_range_db: float,
+            max_drop_db: float):
     """Ticks in the whitened signal ``r`` (module docstring, steps 2 and 3).
 
     Returns the tick frames, the detection function ``d`` (energy of ``r`` per
@@ -321,8 +357,12 @@ def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
     from scipy.ndimage import median_filter
     from scipy.signal import find_peaks
 
-    frames = r.size // hop
-    d = np.sum(r[: frames * hop].reshape(frames, hop) ** 2, axis=1)
+    # frame k: the energy of r over [k hop, k hop + w), w at least MIN_FRAME samples
+    # (frames overlap at low rates, so that a frame of noise is never a sum of
+    # only a few squares, whose large scatter would pass for a tick)
+    w = max(hop, MIN_FRAME)
+    d = np.lib.stride_tricks.sliding_window_view(r * r, w)[::hop].sum(axis=1)
+    frames = d.size
     size = max(3, int(round(background * fs / hop)) | 1)
     med = median_filter(d, size=size, mode="nearest")
     # memory of frames j <= k - 2 (frame k - 1 may hold the start of the same
@@ -341,19 +381,25 @@ def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
     ])
     q = np.where(d >= threshold, d, 0.0)
     candidates = find_peaks(np.concatenate(([0.0], q, [0.0])))[0] - 1
-    keep = []
-    for k in candidates:            # the first candidate of a cluster is the tick
-        if not keep or (k - keep[-1]) * hop >= min_sep:
-            keep.append(k)
+    keep, energies = [], []
+    drop = 10.0 ** (-max_drop_db / 10.0)
+    for k in candidates:
+        if keep and (k - keep[-1]) * hop < min_sep:
+            continue                # the first candidate of a cluster is the tick
+        energy = d[k: k + 2].max()  # its burst may straddle two frames
+        if keep and energy < energies[-1] * drop:
+            continue
+        keep.append(k)
+        energies.append(energy)
     return np.array(keep, dtype=int), d, threshold, med
 
 
-def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
+def _refine(mag: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
             noise: float) -> float:
-    """Sub-sample onset (samples) of the burst of ``r`` peaking in ``[lo, hi)`` (step 4)."""
-    mag = np.abs(r)
+    """Sub-sample onset (samples) of the burst of ``mag = |r|`` peaking in ``[lo, hi)``
+    (module docstring, step 4)."""
     k = lo + int(np.argmax(mag[lo:hi]))
-    level = max(fraction * mag[k], noise)
+    level = max(fraction * mag[k], min(noise, mag[k]))
     i = k
     while True:
         j0 = max(0, i - gap)
@@ -368,12 +414,17 @@ def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
 
 def _tail(x: np.ndarray, a: np.ndarray, start: int, length: int) -> np.ndarray:
     """Free continuation of ``x`` from ``start`` by the predictor ``a`` (no excitation)."""
-    from scipy.signal import lfilter, lfiltic
+    from scipy.signal import correlate, lfilter
 
-    past = x[max(0, start - (a.size - 1)): start][::-1]
+    p = a.size - 1
+    past = x[max(0, start - p): start][::-1]          # x[start-1], x[start-2], ...
     if past.size == 0:
         return np.zeros(length)
-    return lfilter([1.0], a, np.zeros(length), zi=lfiltic([1.0], a, past))[0]
+    past = np.concatenate((past, np.zeros(p - past.size)))
+    # state of the transposed direct form of 1/A(z) after the past samples:
+    # zi[m] = -sum_{j >= 0} a[m + 1 + j] past[j]
+    zi = -correlate(a[1:], past, mode="full")[p - 1:]
+    return lfilter([1.0], a, np.zeros(length), zi=zi)[0]
 
 
 def _decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
@@ -391,7 +442,9 @@ def _decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
     if seg.size < max(3, n):
         return None
     slope = np.polyfit(np.arange(seg.size) / fs, np.log(seg), 1)[0]
-    return float(-1.0 / slope) if slope < 0.0 else None
+    if not -slope * seg.size / fs >= DECAY_MIN_FALL:
+        return None
+    return float(-1.0 / slope)
 
 
 def _spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
@@ -413,10 +466,10 @@ def _spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
 
 
 def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.001,
-            hop=0.00025, threshold_db=10.0, rise_db=6.0, release=10.0,
-            dynamic_range_db=60.0, background=0.02, onset_fraction=0.3, lpc_order=None,
-            window=0.02, subtract_tails=True, decay_smoothing=0.002, clip_samples=4,
-            on_clipping="warn") -> Analysis:
+            hop=0.00025, threshold_db=10.0, rise_db=6.0, release=5.0,
+            dynamic_range_db=60.0, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
+            lpc_order=None, window=0.02, subtract_tails=True, decay_smoothing=0.002,
+            clip_samples=4, on_clipping="warn") -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (module docstring).
 
     Parameters
@@ -432,7 +485,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     min_separation : float > 0
         Shortest time between two ticks, s; must exceed the contact time.
     hop : float > 0
-        Frame length of the detection function, s (at least one sample).
+        Spacing of the detection function's frames, s (at least one sample; each
+        frame spans at least 12 samples).
     threshold_db : float > 0
         Margin above the local background, dB.
     rise_db : float > 0
@@ -441,12 +495,15 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         How fast that memory fades, dB per ms.
     dynamic_range_db : float > 0
         Ticks more than this below the strongest are ignored, dB.
+    max_drop_db : float > 0
+        A tick more than this below the previous tick is ignored, dB (20 dB: a
+        restitution below 0.1).
     background : float > 0
         Length of the running median giving the local background, s.
     onset_fraction : float in (0, 1)
         Level of the onset crossing, as a fraction of the burst's peak.
     lpc_order : int >= 2, optional
-        Order of the whitening predictor. Default: 2 ms of samples, at least 8.
+        Order of the whitening predictor. Default: 20 ms of samples, at least 8.
     window : float > 0
         Longest measurement window of a tick, s.
     subtract_tails : bool
@@ -481,6 +538,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     rise = _checks.positive("rise_db", rise_db, "dB")
     rel = _checks.positive("release", release, "dB/ms")
     dyn = _checks.positive("dynamic_range_db", dynamic_range_db, "dB")
+    drop = _checks.positive("max_drop_db", max_drop_db, "dB")
     bg = _checks.positive("background", background, "s")
     frac = _checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
     win_n = _samples("window", window, fs)
@@ -489,7 +547,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     _checks.choice("on_clipping", on_clipping, ("warn", "raise"))
     if not isinstance(subtract_tails, (bool, np.bool_)):
         raise ParameterError(f"subtract_tails={subtract_tails!r} must be True or False")
-    order = (max(8, int(round(0.002 * fs))) if lpc_order is None
+    order = (max(8, int(round(0.02 * fs))) if lpc_order is None
              else _integer("lpc_order", lpc_order, 2))
 
     used = chans if ch is None else chans[:, [ch]]
@@ -507,19 +565,34 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
             raise AnalysisError(clip)
         warnings.append(clip)
 
-    from scipy.signal import lfilter
+    from scipy.signal import oaconvolve
 
     A = _lpc(x, order)
-    r = lfilter(A, [1.0], x)
-    peaks, d, threshold, med = _detect(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn)
+    # the prediction error, the recording taken as silent before its first sample
+    r = oaconvolve(x, A)[: x.size]
+    peaks, d, threshold, med = _detect(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop)
     if peaks.size == 0:
         raise AnalysisError("no tick detected: nothing rises above the background "
                             "(is this a recording of impacts?)")
     gap = max(2, int(round(ONSET_GAP * fs)))
-    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / hop_n)
+    # the background is an energy per frame of max(hop, MIN_FRAME) samples
+    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / max(hop_n, MIN_FRAME))
+    mag = np.abs(r)
     onsets = np.array([
-        _refine(r, max(0, (k - 1) * hop_n), min(r.size, (k + 2) * hop_n), frac, gap, s)
+        _refine(mag, max(0, (k - 1) * hop_n), min(r.size, (k + 2) * hop_n), frac, gap, s)
         for k, s in zip(peaks, sigma)])
+    # a candidate whose refined onset walks back to within min_separation of the
+    # previous tick's is part of that tick's burst
+    kept = []
+    for i in range(onsets.size):
+        if onsets[i] == 0.0:
+            continue        # a burst from the first sample on: the recording's cut
+        if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
+            kept.append(i)
+    if not kept:
+        raise AnalysisError("no tick detected: nothing rises above the background "
+                            "(is this a recording of impacts?)")
+    peaks, onsets = peaks[kept], onsets[kept]
     strength = 10.0 * np.log10(d[peaks] / threshold[peaks])
 
     noise = _noise_floor(x, fs)
@@ -663,7 +736,7 @@ def to_csv(analysis) -> str:
 
 
 def plot_analysis(analysis, audio, samplerate, path) -> None:
-    """Draw the analysis to an image file (format from the suffix: png, pdf, svg, ...).
+    """Draw the analysis to an image file (format from the suffix: .png, .pdf, .svg ...).
 
     Four panels: the analysed signal with the detected onsets; bounce time (ms)
     and restitution per bounce; tick energy on a log scale against bounce
@@ -704,12 +777,16 @@ def plot_analysis(analysis, audio, samplerate, path) -> None:
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise ParameterError(f"path={path!r}: directory {folder!r} does not exist")
-    fmt = os.path.splitext(path)[1].lstrip(".").lower() or "png"
+    fmt = os.path.splitext(path)[1].lstrip(".").lower()
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
     except ImportError:
         raise SynthError("plot_analysis needs matplotlib: pip install matplotlib") from None
+    formats = FigureCanvasAgg.get_supported_filetypes()
+    if fmt not in formats:
+        raise ParameterError(
+            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}")
 
     x = chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
     t = np.arange(x.size) / fs
@@ -753,6 +830,10 @@ def plot_analysis(analysis, audio, samplerate, path) -> None:
     a3b.plot(n, column("decay_time", 1e3), "s-", color="tab:brown", ms=3)
     a3b.set_ylabel("decay time (ms)", color="tab:brown")
 
+    from matplotlib.ticker import MaxNLocator
+
+    for a_ in (a1, a2, a3):
+        a_.xaxis.set_major_locator(MaxNLocator(integer=True))
     fd, tmp = tempfile.mkstemp(prefix=".plot-", suffix="." + fmt, dir=folder)
     os.close(fd)
     try:
