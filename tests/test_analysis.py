@@ -188,11 +188,42 @@ def test_onset_is_start_of_contact_rejects_bad_options():
            ("onset_fraction", 0.0), ("onset_fraction", 1.5), ("lpc_order", 1),
            ("lpc_order", 2.5), ("window", -0.02),
            ("decay_smoothing", 1e-5), ("clip_samples", 1), ("clip_samples", 4.0),
-           ("on_clipping", "ignore"), ("subtract_tails", "yes"), ("gravity", 0.0),
+           ("on_clipping", "ignore"), ("subtract_tails", "yes"), ("deflate", 1),
+           ("gravity", 0.0),
            ("gravity", -9.81)]
     for name, value in bad:
         with pytest.raises(ParameterError, match=name):
             analyze(x, 44100, **{name: value})
+
+
+def test_deflation_rejects_bad_flag():
+    x, _, _ = bouncing(44100)
+    for bad in ("no", 0, None):
+        with pytest.raises(ParameterError, match="deflate"):
+            analyze(x, 44100, deflate=bad)
+
+
+def test_bounce_order_drops_doubtful_remainders():
+    # Step 6: onsets 0, 100, 105 (a doubtful remainder splitting a bounce), 180, 240,
+    # then 260 and 400 ms (a doubtful late remainder, after bounces that shrink): the two
+    # doubtful ticks go; a strong tick after a long gap (a second drop) stays.
+    from synth.analysis import _bounce_order
+
+    on = np.array([0.0, 100.0, 105.0, 180.0, 240.0, 285.0, 400.0, 1000.0, 1100.0])
+    st = np.array([40.0, 30.0, 2.0, 25.0, 20.0, 15.0, 3.0, 40.0, 35.0])
+    got_on, got_st = _bounce_order(on, st)
+    assert list(got_on) == [0.0, 100.0, 180.0, 240.0, 285.0, 1000.0, 1100.0]
+    assert list(got_st) == [40.0, 30.0, 25.0, 20.0, 15.0, 40.0, 35.0]
+
+
+def test_bounce_order_rejects_nothing_strong():
+    # strong ticks are never dropped, whatever their order
+    from synth.analysis import _bounce_order
+
+    on = np.array([0.0, 10.0, 100.0, 105.0, 400.0])
+    st = np.full(on.size, 30.0)
+    got_on, _ = _bounce_order(on, st)
+    assert list(got_on) == list(on)
 
 
 # ---------------------------------------------------------------------------
