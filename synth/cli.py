@@ -136,7 +136,9 @@ def _write_json(path, obj):
 def _cmd_analyze(args):
     from . import analysis
 
-    result = analysis.analyze_file(args.file, gravity=args.gravity, channel=_channel(args.channel))
+    result = analysis.analyze_file(args.file, gravity=args.gravity, channel=_channel(args.channel),
+                                   min_separation=args.min_separation,
+                                   deflate=not args.no_deflate)
     if args.json:
         json.dump(analysis.to_dict(result), sys.stdout, indent=1, default=float)
         print()
@@ -164,9 +166,14 @@ def _cmd_alter(args):
     from . import audio_io
     from .alter import alter_restitution
 
+    from .analysis import analyze
+
     audio, fs = audio_io.read_audio(args.file)
-    out, t_new, e, e_new = alter_restitution(audio, fs, args.restitution_scale,
-                                             channel=_channel(args.channel), gravity=args.gravity,
+    channel = _channel(args.channel)
+    onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,
+                                      min_separation=args.min_separation).ticks]
+    out, t_new, e, e_new = alter_restitution(audio, fs, args.restitution_scale, onsets=onsets,
+                                             gravity=args.gravity,
                                              scale_amplitude=not args.keep_amplitude)
     audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
     print(f"{args.output}: {len(t_new)} ticks re-timed; e {np.mean(e):.3f} -> {np.mean(e_new):.3f} "
@@ -278,6 +285,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="OUT.png", help="ticks, bounce times, restitution, energy, centroid, decay")
     p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
     p.add_argument("--gravity", type=float, default=9.81, help="m/s^2, for the impact speeds")
+    p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
+                   help="shortest time between two ticks, s; must exceed the contact time "
+                        "(default 0.001; a rubber ball's contact lasts about 2 ms)")
+    p.add_argument("--no-deflate", action="store_true",
+                   help="do not take the earlier ticks out when looking for the later ones")
     p.set_defaults(func=_cmd_analyze)
 
     p = sub.add_parser("alter", help="change the restitution of a recording: 1 - e' = K (1 - e)")
@@ -288,6 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="do not scale each tick by its new impact speed over its old one")
     p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
     p.add_argument("--gravity", type=float, default=9.81, help="m/s^2")
+    p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
+                   help="shortest time between two ticks, s (as for analyze)")
     p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
     p.set_defaults(func=_cmd_alter)
 

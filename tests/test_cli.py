@@ -1,4 +1,5 @@
-"""Tests of synth.cli: the ``synth`` command line (info, presets, materials, bench parser)."""
+"""Tests of synth.cli: the ``synth`` command line (info, presets, materials, bench parser,
+analyze, alter)."""
 
 import json
 import math
@@ -9,6 +10,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from synth.cli import build_parser, main
@@ -207,3 +209,85 @@ def test_parser_rejects_bad_arguments(argv, capsys):
         main(argv)
     assert info.value.code == 2
     assert capsys.readouterr().err.strip()
+
+
+# --------------------------------------------------------------------------- analyze, alter
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """The default preset rendered to a stereo FLAC (the same signal in both channels)
+    and the render's impact times, s."""
+    import soundfile
+
+    from synth.render import render
+
+    r = render(load_preset("default"), samplerate=44100, max_frequency=12000.0, max_tail=1.0)
+    path = tmp_path_factory.mktemp("rec") / "default.flac"
+    soundfile.write(path, np.stack([r.audio, r.audio], axis=1), 44100, subtype="PCM_24")
+    return path, np.array([imp.time for imp in r.impacts])
+
+
+def test_analyze_command(capsys, rendered, tmp_path):
+    # The table, JSON, CSV and plot of one recording: the first five onsets of the render
+    # within 0.2 ms (the analysis' requirement; 24-bit FLAC at 44.1 kHz, channel 1).
+    path, truth = rendered
+    code, out, _ = run(capsys, "analyze", str(path), "--channel", "1")
+    assert code == 0
+    rows = [line.split() for line in out.splitlines() if re.match(r"^\s*\d+\s+\d", line)]
+    assert [float(r[1]) for r in rows[:5]] == pytest.approx(truth[:5], abs=2e-4)
+    code, out, _ = run(capsys, "analyze", str(path), "--json")
+    data = json.loads(out)
+    assert [t["time"] for t in data["ticks"][:5]] == pytest.approx(truth[:5], abs=2e-4)
+    assert data["channel"] is None and data["units"]["time"] == "s"
+    code, out, _ = run(capsys, "analyze", str(path), "--csv", "--min-separation", "0.002")
+    header, *lines = out.splitlines()
+    assert header.split(",")[:3] == ["index", "time", "bounce_time"]
+    assert float(lines[0].split(",")[1]) == pytest.approx(truth[0], abs=2e-4)
+    png = tmp_path / "a.png"
+    assert run(capsys, "analyze", str(path), "--plot", str(png))[0] == 0
+    assert png.stat().st_size > 10_000
+
+
+def test_analyze_command_rejects_bad_input(capsys, rendered, tmp_path):
+    path, _ = rendered
+    bad = tmp_path / "bad.wav"
+    bad.write_bytes(b"RIFF0000WAVEjunk")
+    for argv, words in (([str(bad)], "cannot read"), ([str(tmp_path / "none.wav")], "no such file"),
+                        ([str(path), "--channel", "2"], "channel"),
+                        ([str(path), "--channel", "left"], "channel"),
+                        ([str(path), "--min-separation", "-1"], "min_separation")):
+        code, _, err = run(capsys, "analyze", *argv)
+        assert code == 2 and words in err, (argv, err)
+
+
+def test_alter_command(capsys, rendered, tmp_path):
+    # K = 0.5 halves 1 - e for every bounce: the altered file, analysed, has the new
+    # restitution (mean within 1 %) and the same first onset.
+    import soundfile
+
+    from synth.analysis import analyze_file
+
+    path, truth = rendered
+    out = tmp_path / "half.wav"
+    code, text, _ = run(capsys, "alter", str(path), "-o", str(out), "--restitution-scale", "0.5")
+    assert code == 0 and str(out) in text
+    before = analyze_file(path)
+    after = analyze_file(out)
+    e0 = np.array([t.restitution for t in before.ticks[2:8]])
+    e1 = np.array([t.restitution for t in after.ticks[2:8]])
+    assert e1 == pytest.approx(1.0 - 0.5 * (1.0 - e0), rel=0.01)
+    assert after.ticks[0].time == pytest.approx(before.ticks[0].time, abs=1e-4)
+    assert soundfile.info(out).channels == 2
+
+
+def test_alter_command_rejects_bad_input(capsys, rendered, tmp_path):
+    path, _ = rendered
+    for argv, words in (([str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "-1"],
+                         "restitution_scale"),
+                        ([str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "50"],
+                         "restitution_scale"),
+                        ([str(path), "-o", str(tmp_path / "nodir" / "x.wav"),
+                          "--restitution-scale", "0.5"], "nodir")):
+        code, _, err = run(capsys, "alter", *argv)
+        assert code == 2 and words in err, (argv, err)
+        assert not (tmp_path / "x.wav").exists()
