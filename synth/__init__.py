@@ -10,6 +10,7 @@ imported only where used.
 """
 
 from . import contact, materials, plate
+from .analysis import Analysis, Tick, analyze, analyze_file
 from .audio_io import read_audio, write_audio
 from .contact import ImpactResult, solve_contact, solve_impact
 from .errors import ParameterError, SynthError
@@ -21,9 +22,9 @@ from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
 from .scheduler import BounceSequence, Impact, simulate_bounces, simulate_scene
 
 __all__ = [
-    "Accelerometer", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
+    "Accelerometer", "Analysis", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
     "LossFactor", "Material", "Microphone", "ParameterError", "Plate", "Rayleigh", "Scene",
-    "Render", "SynthError", "contact", "load_preset", "materials", "plate", "play", "read_audio",
+    "Render", "SynthError", "Tick", "analyze", "analyze_file", "contact", "load_preset", "materials", "plate", "play", "read_audio",
     "render", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",
 ]
 __version__ = "0.1.0"

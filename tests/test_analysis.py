@@ -607,3 +607,22 @@ def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     with pytest.raises(ParameterError, match="image format"):
         plot_analysis(an, x, 44100, tmp_path / "a.xyz")
+
+
+def test_top_level_names():
+    # the names other code relies on: synth.analyze, synth.analyze_file, Analysis.ticks
+    import synth
+
+    x, onsets, _ = bouncing(44100)
+    an = synth.analyze(x, 44100, gravity=G)
+    assert isinstance(an, synth.Analysis) and isinstance(an.ticks[0], synth.Tick)
+    assert synth.analyze_file is analyze_file
+    assert an.ticks[0].time == pytest.approx(onsets[0], abs=1e-4)
+
+
+def test_top_level_names_reject_bad_gravity():
+    import synth
+
+    x, _, _ = bouncing(44100)
+    with pytest.raises(ParameterError, match="gravity"):
+        synth.analyze(x, 44100, gravity=float("nan"))
