@@ -470,15 +470,13 @@ class _Deflation:
     fitted by least squares; ``r - q`` is what was taken out.
     """
 
-    def __init__(self, r, template, start, fs, hop, w, min_sep, background, threshold_db,
-                 rise_db, release, floor, subtracted_db, noise):
+    def __init__(self, r, template, start, fs, hop, w, background, threshold_db, rise_db,
+                 release, floor, subtracted_db, noise):
         self.r = r
         self.q = r.copy()
         self.T = template
-        self.fs = fs
         self.hop = hop
         self.w = w
-        self.min_sep = min_sep
         self.bg = max(3, int(round(background * fs / hop)))
         self.thr = 10.0 ** (threshold_db / 10.0)
         self.rise = rise_db / 10.0
@@ -495,6 +493,8 @@ class _Deflation:
     def candidate(self, after: int):
         """The first tick in ``q`` starting at or after sample ``after``: ``(frame start,
         frame energy, threshold, local background)`` (energies per frame), or None."""
+        from scipy.ndimage import median_filter
+
         hop, w, bg = self.hop, self.w, self.bg
         q = self.q
         lo = max(0, after - (4 * bg + 2) * hop)
@@ -510,8 +510,6 @@ class _Deflation:
             k = np.arange(d.size)
             # local background: median of the frames k-2-bg .. k-3 (the past, with the
             # earlier ticks taken out; frame k-1 may hold the start of this burst)
-            from scipy.ndimage import median_filter
-
             med = median_filter(d, size=bg, mode="nearest")
             past_med = np.full_like(d, np.inf)
             j = k - 2 - bg // 2 - 1
@@ -623,8 +621,8 @@ def _deflated_onsets(r, fs, onset1, strength1, peak2, hop, min_sep, background, 
     loud = np.nonzero(e_t > 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * w)[0]
     if loud.size:
         template = template[: min(template.size, int(loud[-1]) * hop + w)]
-    dfl = _Deflation(r, template, s1, fs, hop, w, min_sep, background, threshold_db, rise_db,
-                     release, floor, DEFLATION_KAPPA_DB, noise)
+    dfl = _Deflation(r, template, s1, fs, hop, w, background, threshold_db, rise_db, release,
+                     floor, DEFLATION_KAPPA_DB, noise)
     L = template.size
     onsets, strengths = [float(onset1)], [float(strength1)]
     after = int(math.floor(onset1)) + min_sep
