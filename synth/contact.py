@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -59,6 +60,10 @@ _MESSAGES = {
     _k.MAX_STEPS: "The step limit was reached before the contact ended.",
     _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
 }
+_TINY_REBOUND = ("The ball separated with a rebound speed below the solver's resolution; "
+                 "restitution reported as 0.")
+_METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
+_INF = math.inf
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,7 +92,8 @@ class ImpactResult:
     plate_energy : float
         Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
     time : ndarray
-        Times of the pulse samples from first touch, s (uniform, ``n_points``).
+        Times of the pulse samples from first touch, s (uniform, ``n_points``);
+        sampled from the dense output on first access, like ``force``.
     force : ndarray
         Contact force at those times, N.
     energy_residual : float
@@ -101,7 +107,7 @@ class ImpactResult:
     message : str
         Human-readable description of ``status``.
     n_steps : int
-        Accepted integration steps.
+        Accepted integration steps (after the series start of the contact).
     method : str
         ``"DOP853"`` or ``"Radau"``.
     """
@@ -115,8 +121,6 @@ class ImpactResult:
     settled: bool
     rebound_speed: float
     plate_energy: float
-    time: np.ndarray = field(repr=False)
-    force: np.ndarray = field(repr=False)
     energy_residual: float
     success: bool
     status: int
@@ -126,23 +130,34 @@ class ImpactResult:
 
     _dense: tuple = field(default=None, repr=False, compare=False)
 
+    @cached_property
+    def time(self) -> np.ndarray:
+        return self._sample_pulse()[0]
+
+    @cached_property
+    def force(self) -> np.ndarray:
+        return self._sample_pulse()[1]
+
+    def _sample_pulse(self):
+        # Both arrays at once, cached beside each other (most uses of an impact, such as
+        # rendering, need only force_at).
+        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, n_points = self._dense
+        times = np.empty(n_points)
+        forces = np.empty(n_points)
+        _k.pulse(hist, stiff, lam, G, n, c, s_contact, self.status == _k.SEPARATED, theta,
+                 f_scale, times, forces)
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
     def force_at(self, t):
         """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
         solver's dense output (its accuracy is the solver's); 0 outside the contact."""
-        hist, stiff, lam, n, c, s_contact, theta, f_scale = self._dense
+        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, _ = self._dense
         s = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)) / theta)
         out = np.empty_like(s)
-        _k.force_at(hist, stiff, lam, n, c, s_contact, s, out)
+        _k.force_at(hist, stiff, lam, G, n, c, s_contact, s, out)
         out *= f_scale
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
-
-    @classmethod
-    def _from_solver(cls, **values):
-        # The solver's own values need no checks: fill the frozen instance directly
-        # (3 us of the 20 us an impact takes otherwise go into the generated __init__).
-        obj = object.__new__(cls)
-        obj.__dict__.update(values)
-        return obj
 
 
 def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=1.5,
@@ -181,84 +196,68 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
     -------
     ImpactResult
     """
-    m = _checks.positive("mass", mass, "kg")
-    K = _checks.positive("stiffness", stiffness, "N/m^n")
-    beta = _checks.nonnegative("admittance", admittance, "m/(N s)")
-    v_in = _checks.positive("speed", speed, "m/s")
-    g = _checks.nonnegative("gravity", gravity, "m/s^2")
-    n = _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
-    mu = _checks.nonnegative("dissipation", dissipation, "s/m")
-    v_free = _checks.real("plate_velocity", plate_velocity, "m/s")
-    tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
-    if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 16:
-        raise ParameterError(f"n_points={n_points!r} must be an integer >= 16")
-    _checks.choice("method", method, ("auto", "DOP853", "Radau"))
-    v0 = v_in + v_free
-    if not v0 > 0.0:
+    # Plain floats inside their ranges (the usual call) pass at once; anything else goes
+    # through the checks, which convert it or name the field, its value and the range.
+    if not (type(mass) is float and type(stiffness) is float and type(admittance) is float
+            and type(speed) is float and type(gravity) is float and type(exponent) is float
+            and type(dissipation) is float and type(plate_velocity) is float
+            and type(rtol) is float and type(n_points) is int
+            and 0.0 < mass < _INF and 0.0 < stiffness < _INF and 0.0 <= admittance < _INF
+            and 0.0 < speed < _INF and 0.0 <= gravity < _INF and 1.0 < exponent <= 4.0
+            and 0.0 <= dissipation < _INF and -_INF < plate_velocity < _INF
+            and 1e-12 <= rtol <= 0.1 and n_points >= 16 and type(method) is str
+            and method in _METHODS):
+        mass = _checks.positive("mass", mass, "kg")
+        stiffness = _checks.positive("stiffness", stiffness, "N/m^n")
+        admittance = _checks.nonnegative("admittance", admittance, "m/(N s)")
+        speed = _checks.positive("speed", speed, "m/s")
+        gravity = _checks.nonnegative("gravity", gravity, "m/s^2")
+        exponent = _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+        dissipation = _checks.nonnegative("dissipation", dissipation, "s/m")
+        plate_velocity = _checks.real("plate_velocity", plate_velocity, "m/s")
+        rtol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False,
+                                hi_open=False)
+        if (isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer))
+                or n_points < 16):
+            raise ParameterError(f"n_points={n_points!r} must be an integer >= 16")
+        n_points = int(n_points)
+        _checks.choice("method", method, _METHODS)
+    if not speed + plate_velocity > 0.0:
         raise ParameterError(
-            f"speed={v_in!r} with plate_velocity={v_free!r}: the approach speed "
+            f"speed={speed!r} with plate_velocity={plate_velocity!r}: the approach speed "
             f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate")
-    return _solve(m, K, beta, v_in, g, n, mu, v_free, tol, int(n_points), method)
+    return _solve(mass, stiffness, admittance, speed, gravity, exponent, dissipation,
+                  plate_velocity, rtol, n_points, method)
 
 
 def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
-    v0 = v_in + v_free
-    theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
-    lam = beta * m / theta
-    G = g * theta / v0
-    c = mu * v0
-    itol = tol * TOLERANCE_SAFETY
-    stiff = (lam > STIFF_LAMBDA) if method == "auto" else (method == "Radau")
-    atol = itol * ABSOLUTE_FACTOR
-    f_scale = m * v0 / theta
-    times = np.empty(n_points)
-    forces = np.empty(n_points)
-    out = _k.solve(lam, G, n, c, itol, atol, IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT,
-                   stiff, times, forces, theta, f_scale)
-    if out[0] == _k.MAX_STEPS and not stiff and method == "auto":
-        stiff = True
-        out = _k.solve(lam, G, n, c, itol, atol, IMPLICIT_STEP_LIMIT, True, times, forces,
-                       theta, f_scale)
-    status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, nst, _nrej, hist = out
-    status = int(status)
-    settled = status == _k.SETTLED
-    message = _MESSAGES.get(status, "Unknown status.")
-    if status == _k.SEPARATED and w_end > 0.0:
-        # The contact ended with the ball still (barely) approaching: the rebound is
-        # below the solver's absolute resolution (rtol * ABSOLUTE_FACTOR of v0).
-        w_end = 0.0
-        message = ("The ball separated with a rebound speed below the solver's "
-                   "resolution; restitution reported as 0.")
-    I1 = 1.0 - w_end + G * s_end                      # from w' = G - f
-    # energy balance, dimensionless (PHYSICS.md s.4, in the plate's frame)
-    elastic = x_end ** (n + 1.0) / (n + 1.0) if x_end > 0.0 else 0.0
-    lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
-    rhs = G * lam * I1 - lam * I2 - loss
-    # relative to the energy exchanged: the arrival energy, or the work of gravity and the
-    # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
-    scale = max(0.5, abs(G * lam * I1), lam * I2, abs(loss), abs(G * x_end))
-    residual = abs(lhs - rhs) / scale
-    v_out = 0.0 if settled else -w_end * v0
-    return ImpactResult._from_solver(
-        restitution=v_out / v_in if status == _k.SEPARATED else 0.0,
-        contact_time=s_contact * theta,
-        max_penetration=x_max * theta * v0,
-        peak_force=f_max * f_scale,
-        impulse=I1 * m * v0,
-        inelasticity=lam,
-        settled=settled,
-        rebound_speed=v_out if status == _k.SEPARATED else 0.0,
-        plate_energy=lam * I2 * m * v0 * v0,
-        time=times,
-        force=forces,
-        energy_residual=residual,
-        success=status >= 0,
-        status=status,
-        message=message,
-        n_steps=int(nst),
-        method="Radau" if stiff else "DOP853",
-        _dense=(hist, stiff, lam, n, c, s_contact, theta, f_scale),
-    )
+    """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
+    (status, tiny_rebound, stiff, e, tau, x_max, f_max, impulse, lam, v_out, plate_energy,
+     residual, n_steps, hist, G, c, s_contact, theta, f_scale) = _k.impact(
+        m, K, beta, v_in, g, n, mu, v_free, tol * TOLERANCE_SAFETY, ABSOLUTE_FACTOR,
+        STIFF_LAMBDA, _METHODS[method], EXPLICIT_STEP_LIMIT, IMPLICIT_STEP_LIMIT)
+    obj = object.__new__(ImpactResult)
+    # The solver's own values need no checks: fill the frozen instance directly (the
+    # generated __init__ would take a good part of the time an impact takes).
+    object.__setattr__(obj, "__dict__", {
+        "restitution": e,
+        "contact_time": tau,
+        "max_penetration": x_max,
+        "peak_force": f_max,
+        "impulse": impulse,
+        "inelasticity": lam,
+        "settled": status == _k.SETTLED,
+        "rebound_speed": v_out,
+        "plate_energy": plate_energy,
+        "energy_residual": residual,
+        "success": status >= 0,
+        "status": status,
+        "message": _TINY_REBOUND if tiny_rebound else _MESSAGES.get(status, "Unknown status."),
+        "n_steps": n_steps,
+        "method": "Radau" if stiff else "DOP853",
+        "_dense": (hist, stiff, lam, G, n, c, s_contact, theta, f_scale, n_points),
+    })
+    return obj
 
 
 # ---------------------------------------------------------------------------------------
