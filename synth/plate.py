@@ -138,6 +138,12 @@ _SHIFT = 100.0
 _MAX_UNKNOWNS = 12000
 # Temporary-array budget of shapes(): elements (8 bytes each).
 _CHUNK_ELEMENTS = 1 << 22
+# Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
+# runs products up to 4 * 65536 multiply-adds on one thread (its default
+# GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
+# Rayleigh sums of synth.radiation); a multithreaded product whose helper thread
+# waits for a busy core stalls (measured: 5 to 10 times slower than on one thread).
+_PIECE = 1 << 18
 # Parity classes (x, y): 0 = even, 1 = odd.
 _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
 # Version of the stored solution layout and algorithm; part of the cache key.
@@ -153,27 +159,50 @@ def _alpha(boundary: str) -> int:
     return 0 if boundary == "free" else 4
 
 
+@numba.njit(cache=True)
+def _recurrence(x, a, p0, out):  # pragma: no cover
+    """Orthonormal symmetric Jacobi polynomials and derivatives by their recurrence.
+
+    ``out[d, i, m]`` becomes ``d^d p_m / dxi^d`` at ``x[i]`` for ``d < out.shape[0]``:
+    ``p_0 = p0``, ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and, differentiated,
+    ``p_(m+1)^(d) = (d p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)``
+    (``a`` as in :func:`_basis_1d`, ``a[0] = 0``). The operations are those of the
+    recurrence written term by term, in the same order.
+    """
+    nd, nx, n = out.shape
+    if n == 0:
+        return
+    for i in range(nx):
+        xi = x[i]
+        out[0, i, 0] = p0
+        for d in range(1, nd):
+            out[d, i, 0] = 0.0
+        for m in range(n - 1):
+            prev = out[0, i, m - 1] if m > 0 else 0.0
+            out[0, i, m + 1] = (xi * out[0, i, m] - a[m] * prev) / a[m + 1]
+            for d in range(1, nd):
+                prev = out[d, i, m - 1] if m > 0 else 0.0
+                out[d, i, m + 1] = (d * out[d - 1, i, m] + xi * out[d, i, m]
+                                    - a[m] * prev) / a[m + 1]
+
+
 def _basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
     """Basis functions ``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1].
 
     Returns an array ``(derivatives + 1, len(x), n)``. The orthonormal symmetric
     Jacobi polynomials come from the three-term recurrence
     ``xi p_m = a_(m+1) p_(m+1) + a_m p_(m-1)``, ``a_m^2 = m (m + 2 alpha) /
-    ((2m + 2 alpha + 1)(2m + 2 alpha - 1))``, differentiated term by term; for
-    ``alpha = 4`` the polynomials are multiplied by ``u = (1 - xi^2)^2``.
+    ((2m + 2 alpha + 1)(2m + 2 alpha - 1))``, differentiated term by term
+    (:func:`_recurrence`); for ``alpha = 4`` the polynomials are multiplied by
+    ``u = (1 - xi^2)^2``.
     """
-    x = np.asarray(x, dtype=float)
-    p = np.zeros((derivatives + 1, x.size, n))
+    x = np.ascontiguousarray(x, dtype=float).ravel()
+    p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp((2 * alpha + 1) * math.log(2.0) + 2 * gammaln(alpha + 1) - gammaln(2 * alpha + 2))
-    p[0, :, 0] = 1.0 / math.sqrt(mu0)
     m = np.arange(n + 1, dtype=float)
     a = np.sqrt(m * (m + 2 * alpha) / ((2 * m + 2 * alpha + 1) * (2 * m + 2 * alpha - 1)))
     a[0] = 0.0
-    for k in range(n - 1):
-        prev = p[:, :, k - 1] if k > 0 else np.zeros((derivatives + 1, x.size))
-        p[0, :, k + 1] = (x * p[0, :, k] - a[k] * prev[0]) / a[k + 1]
-        for d in range(1, derivatives + 1):
-            p[d, :, k + 1] = (d * p[d - 1, :, k] + x * p[d, :, k] - a[k] * prev[d]) / a[k + 1]
+    _recurrence(x, a, 1.0 / math.sqrt(mu0), p)
     if alpha == 0:
         return p
     x2 = (x * x)[:, None]
@@ -319,6 +348,32 @@ def _solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
 # Dimensionless solutions (cached)
 # --------------------------------------------------------------------------------------
 
+def _product(a, b, out):
+    """``out[...] = a @ b`` (2-D arrays) by products of at most ``_PIECE`` multiply-adds
+    each: square-ish blocks of ``out`` (so that BLAS copies each operand into its
+    packed layout a few times only), every entry one whole dot product."""
+    n, k = a.shape
+    m = b.shape[1]
+    rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))
+    cols = min(m, max(8, _PIECE // max(1, k * rows)))
+    for r0 in range(0, n, rows):
+        for c0 in range(0, m, cols):
+            np.matmul(a[r0:r0 + rows], b[:, c0:c0 + cols], out=out[r0:r0 + rows, c0:c0 + cols])
+
+
+@numba.njit(cache=True)
+def _take_columns(a, index):  # pragma: no cover
+    """Reorder the columns of ``a`` in place, row by row: ``a[p, k] = a_old[p, index[k]]``
+    (``index`` a permutation of ``range(a.shape[1])``)."""
+    n, m = a.shape
+    row = np.empty(m)
+    for p in range(n):
+        for k in range(m):
+            row[k] = a[p, index[k]]
+        for k in range(m):
+            a[p, k] = row[k]
+
+
 class _RitzSolution:
     """Free or clamped modes of a plate of aspect ``a/b``, Poisson ``nu``, up to
     ``omega_max`` (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``).
@@ -343,72 +398,112 @@ class _RitzSolution:
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
+        self.key = json.dumps({"solution": _key(boundary, nu, aspect),
+                               "omega_max": float(omega_max).hex()}, sort_keys=True)
+        # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the
+        # latest few are kept (a grid is usually evaluated chunk by chunk).
+        self._dense = {}
+
+    def _dense_coefficients(self, c, m, axis):
+        """Coefficients of class ``c``'s first ``m`` modes as a dense
+        ``(n_s, n_t * m)`` matrix, ``s`` the degrees along ``axis`` (0: xi, 1: eta)
+        and ``t`` along the other, one parity each (degree ``d`` at ``d // 2``);
+        zero where the basis has no such degree pair. Read-only, cached."""
+        key = (c, m, axis)
+        dense = self._dense.get(key)
+        if dense is None:
+            S, T = self.index[c] if axis == 0 else self.index[c][::-1]
+            dense = np.zeros((int(S.max()) // 2 + 1, int(T.max()) // 2 + 1, m))
+            dense[S // 2, T // 2] = self.coef[c][:, :m]
+            dense = dense.reshape(dense.shape[0], -1)
+            dense.setflags(write=False)
+            if len(self._dense) >= 8:
+                self._dense.clear()
+            self._dense[key] = dense
+        return dense
 
     def shapes(self, xi, eta, n_modes):
         """Mode shapes ``phi_k`` of the first ``n_modes`` modes at ``(xi, eta)``.
 
-        Returns ``(len(xi), n_modes)``. Points sharing a coordinate (a grid)
-        share the partial sum over that direction; temporaries stay below
-        ``_CHUNK_ELEMENTS`` doubles.
+        Returns ``(len(xi), n_modes)``. Each symmetry class is evaluated as one
+        block of columns by matrix products (its coefficients form one matrix);
+        the columns are put in frequency order at the end (:func:`_take_columns`).
+        Points sharing a coordinate (a grid) share the partial sum over that
+        direction. Temporaries stay below ``_CHUNK_ELEMENTS`` doubles.
         """
         out = np.empty((xi.size, n_modes))
         if n_modes == 0 or xi.size == 0:
             return out
         alpha = _alpha(self.boundary)
         cls = self.cls[:n_modes]
+        counts = np.bincount(cls, minlength=4)
+        start = np.concatenate(([0], np.cumsum(counts)))
+        # A class's modes come in the order of its columns (ascending frequency):
+        # class c's j-th mode is column start[c] + j of the block layout.
+        parts = [(c, slice(int(start[c]), int(start[c + 1])), self.coef[c][:, :counts[c]],
+                  *self.index[c]) for c in range(4) if counts[c]]
         # Group on the coordinate with fewer distinct values, if it has few.
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
-        grouped = min(ux.size, uy.size) * 8 <= xi.size
-        swap = uy.size < ux.size
-        parts = []
+        if min(ux.size, uy.size) * 8 <= xi.size:
+            if uy.size < ux.size:
+                self._grouped(out, parts, 1, uy, inv_y, ux, inv_x, alpha)
+            else:
+                self._grouped(out, parts, 0, ux, inv_x, uy, inv_y, alpha)
+        else:
+            # Scattered points: phi[p, k] = 2 sum_b psi_I[b](xi_p) psi_J[b](eta_p) coef[b, k].
+            nx = max(int(I.max()) for *_, I, _ in parts) + 1
+            ny = max(int(J.max()) for *_, J in parts) + 1
+            nb = max(I.size for *_, I, _ in parts)
+            chunk = max(1, _CHUNK_ELEMENTS // max(nb, n_modes, nx, ny))
+            for first in range(0, xi.size, chunk):
+                rows = slice(first, first + chunk)
+                px = _basis_1d(alpha, nx, xi[rows])[0]
+                py = _basis_1d(alpha, ny, eta[rows])[0]
+                for _, cols, coef, I, J in parts:
+                    _product(2.0 * (px[:, I] * py[:, J]), coef, out[rows, cols])
+        index = np.empty(n_modes, dtype=np.int64)
         for c in range(4):
-            sel = np.nonzero(cls == c)[0]
-            if sel.size:
-                # A class's modes come in the order of its columns (ascending frequency).
-                parts.append((sel, self.coef[c][:, : sel.size], *self.index[c]))
-        if grouped:
-            for sel, coef, I, J in parts:
-                if swap:
-                    self._grouped(out, sel, coef, J, I, uy, inv_y, eta, xi, alpha)
-                else:
-                    self._grouped(out, sel, coef, I, J, ux, inv_x, xi, eta, alpha)
-            return out
-        # Scattered points: phi[p, k] = 2 sum_b psi_I[b](xi_p) psi_J[b](eta_p) coef[b, k].
-        nx = max(int(I.max()) for _, _, I, _ in parts) + 1
-        ny = max(int(J.max()) for _, _, _, J in parts) + 1
-        nb = max(I.size for _, _, I, _ in parts)
-        chunk = max(1, _CHUNK_ELEMENTS // max(nb, n_modes, nx, ny))
-        for start in range(0, xi.size, chunk):
-            rows = slice(start, start + chunk)
-            px = _basis_1d(alpha, nx, xi[rows])[0]
-            py = _basis_1d(alpha, ny, eta[rows])[0]
-            for sel, coef, I, J in parts:
-                out[rows, sel] = (2.0 * (px[:, I] * py[:, J])) @ coef
+            index[cls == c] = np.arange(start[c], start[c + 1])
+        _take_columns(out, index)
         return out
 
-    @staticmethod
-    def _grouped(out, sel, coef, I, J, u, inv, s, t, alpha):
-        """As :meth:`_direct`, summing first over the grouped coordinate ``s`` (values
-        ``u``, point ``p`` has ``s_p = u[inv[p]]``), then over ``t`` point by point."""
-        m = sel.size
-        ni, nj = int(I.max()) // 2 + 1, int(J.max()) // 2 + 1
-        dense = np.zeros((ni, nj, m))
-        dense[I // 2, J // 2] = coef            # degrees of one parity: index // 2
-        dense = dense.reshape(ni, nj * m)
-        pi = _basis_1d(alpha, int(I.max()) + 1, u)[0][:, int(I[0]) % 2::2]
+    def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
+        """Shapes at points that share values of one coordinate, into column blocks.
+
+        ``axis`` is the grouped coordinate (0: xi, 1: eta); point ``p`` lies at
+        ``u[inv[p]]`` along it and at ``v[inv_v[p]]`` along the other. ``parts``
+        holds, per class, ``(c, cols, coef, I, J)``: the class, its block of
+        ``out``, its coefficients and degrees. The sum over the grouped
+        coordinate's degrees is done once per distinct ``u`` (matrix products for
+        a batch of them), then the points of each ``u`` take the sum over the
+        other's (matrix products per ``u``; see :func:`_product`).
+        """
+        deg = [(I, J) if axis == 0 else (J, I) for *_, I, J in parts]
+        ps = 2.0 * _basis_1d(alpha, max(int(S.max()) for S, _ in deg) + 1, u)[0]
+        pv = _basis_1d(alpha, max(int(T.max()) for _, T in deg) + 1, v)[0]
         order = np.argsort(inv, kind="stable")
         bounds = np.searchsorted(inv[order], np.arange(u.size + 1))
-        chunk = max(1, _CHUNK_ELEMENTS // (nj * m))
-        for start in range(0, u.size, chunk):
-            part = (2.0 * pi[start:start + chunk]) @ dense   # (chunk, nj * m)
-            part = part.reshape(-1, nj, m)
-            for g in range(part.shape[0]):
-                pts = order[bounds[start + g]:bounds[start + g + 1]]
-                if pts.size == 0:
-                    continue
-                pj = _basis_1d(alpha, int(J.max()) + 1, t[pts])[0][:, int(J[0]) % 2::2]
-                out[np.ix_(pts, sel)] = pj @ part[g]
+        for (c, cols, coef, *_), (S, T) in zip(parts, deg):
+            m = coef.shape[1]
+            dense = self._dense_coefficients(c, m, axis)
+            ni, nj = dense.shape[0], dense.shape[1] // m
+            ps_c = ps[:, int(S[0]) % 2::2][:, :ni]
+            pv_c = pv[:, int(T[0]) % 2::2][:, :nj]
+            batch = max(1, _CHUNK_ELEMENTS // (nj * m))
+            for g0 in range(0, u.size, batch):
+                s_batch = ps_c[g0:g0 + batch]
+                part = np.empty((s_batch.shape[0], nj * m))
+                _product(s_batch, dense, part)
+                part = part.reshape(-1, nj, m)
+                for g in range(part.shape[0]):
+                    pts = order[bounds[g0 + g]:bounds[g0 + g + 1]]
+                    if pts[-1] - pts[0] == pts.size - 1:      # consecutive rows
+                        _product(pv_c[inv_v[pts]], part[g], out[pts[0]:pts[-1] + 1, cols])
+                    else:
+                        block = np.empty((pts.size, m))
+                        _product(pv_c[inv_v[pts]], part[g], block)
+                        out[pts, cols] = block
 
 
 class _SimplySupported:
@@ -428,6 +523,9 @@ class _SimplySupported:
         self.m = m[order]
         self.n = n[order]
         self.omega_max = omega_max
+        self.key = json.dumps({"version": _VERSION, "boundary": "simply-supported",
+                               "aspect": float(aspect).hex(),
+                               "omega_max": float(omega_max).hex()}, sort_keys=True)
 
     def shapes(self, xi, eta, n_modes):
         out = np.empty((xi.size, n_modes))
@@ -618,33 +716,43 @@ def _path(key: str, boundary: str) -> Path:
     return cache_dir() / f"plate-modes-{boundary}-{digest}.npz"
 
 
-def _save(sol: _RitzSolution, key: str) -> None:
-    """Write ``sol`` to the disk cache: a temporary file in the same directory,
-    then an atomic rename. A cache that cannot be written is skipped."""
-    arrays = {"key": np.array(key), "omega_max": np.array(sol.omega_max),
-              "omega": sol.omega, "cls": sol.cls, "col": sol.col}
-    for c in range(4):
-        arrays[f"I{c}"], arrays[f"J{c}"] = sol.index[c]
-        arrays[f"coef{c}"] = sol.coef[c]
+def _savez_atomic(path: Path, arrays: dict) -> bool:
+    """Write ``arrays`` to ``path`` (``.npz``): a temporary file in the same directory,
+    then an atomic rename, so that a reader never sees a partial file. Returns False,
+    having written nothing, if the file cannot be written (a cache is then skipped)."""
     tmp = None
     try:
-        path = _path(key, sol.boundary)
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, **arrays)
         os.replace(tmp, path)
         tmp = None
-        with _LOCK:
-            _STATS["disk_writes"] += 1
+        return True
     except (OSError, RuntimeError):  # unwritable or no home directory: no disk cache
-        pass
+        return False
     finally:
         if tmp is not None:
             try:
                 os.unlink(tmp)
             except OSError:
                 pass
+
+
+def _save(sol: _RitzSolution, key: str) -> None:
+    """Write ``sol`` to the disk cache (:func:`_savez_atomic`); skipped if impossible."""
+    arrays = {"key": np.array(key), "omega_max": np.array(sol.omega_max),
+              "omega": sol.omega, "cls": sol.cls, "col": sol.col}
+    for c in range(4):
+        arrays[f"I{c}"], arrays[f"J{c}"] = sol.index[c]
+        arrays[f"coef{c}"] = sol.coef[c]
+    try:
+        path = _path(key, sol.boundary)
+    except RuntimeError:  # no home directory
+        return
+    if _savez_atomic(path, arrays):
+        with _LOCK:
+            _STATS["disk_writes"] += 1
 
 
 def _load(key: str, boundary: str, nu: float, aspect: float):
@@ -767,6 +875,22 @@ class Modes:
 
     def __len__(self) -> int:
         return int(self.frequencies.size)
+
+    @property
+    def shape_key(self) -> str:
+        """Text that identifies :meth:`shapes` exactly, for caches of results
+        computed from them (such as radiation gains).
+
+        Two :class:`Modes` with equal keys return equal shape values at every
+        point. The key holds the plate's length and width, the number of modes
+        and the eigen-solution the shapes come from (boundary, Poisson ratio,
+        aspect ratio, the band it was solved for, the solver settings): not the
+        material's stiffness, density or damping, which do not change the shapes.
+        """
+        p = self.plate
+        return json.dumps({"solution": self._solution.key, "length": float(p.length).hex(),
+                           "width": float(p.width).hex(), "modes": len(self)},
+                          sort_keys=True)
 
     def __repr__(self) -> str:
         p = self.plate

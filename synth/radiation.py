@@ -54,23 +54,41 @@ otherwise dominate). The finer rule's gains are returned.
 
 Shapes are evaluated in chunks of points so that one chunk of mode values takes
 at most about 32 MB (``n_modes * chunk * 8`` bytes) whatever the number of
-modes and points.
+modes and points. The sums over a chunk run in worker threads without the GIL
+while the calling thread evaluates the next chunk's shapes (two chunks are held
+at a time); each worker always takes the same share of every chunk, so the
+result does not depend on the timing.
+
+Cache
+-----
+:func:`plate_gains` computes the gains of a :class:`synth.plate.Modes` and keeps
+them in memory and on disk (``radiation-gains-*.npz`` beside the plate-mode cache,
+``$SYNTH_CACHE_DIR`` if set), keyed by everything that determines them, so that a
+scene rendered again (in this process or another) does not repeat the integral.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
+import threading
 import warnings
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from pathlib import Path
 
 import numba
 import numpy as np
 
 from . import _checks
 from .errors import ParameterError
+from .plate import Modes, _savez_atomic, cache_dir
 
-__all__ = ["RadiationResult", "rayleigh_gains", "delay", "distance"]
+__all__ = ["RadiationResult", "rayleigh_gains", "plate_gains", "delay", "distance",
+           "cache_info", "clear_memory_cache"]
 
 AIR_DENSITY = 1.204
 """Density of air at 20 degrees C and 101.325 kPa, kg/m^3."""
@@ -317,6 +335,25 @@ def _exp_small(u):
 
 
 @numba.njit(cache=True, fastmath={'contract'})
+def _damping(u, halvings):
+    """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 and halvings in [0, 6]."""
+    e = _exp_small(u)
+    if halvings > 0:
+        e = e * e
+    if halvings > 1:
+        e = e * e
+    if halvings > 2:
+        e = e * e
+    if halvings > 3:
+        e = e * e
+    if halvings > 4:
+        e = e * e
+    if halvings > 5:
+        e = e * e
+    return e
+
+
+@numba.njit(cache=True, fastmath={'contract'})
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
 
@@ -324,28 +361,41 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     qr : (m,) Re(s_k / c) / 2^halvings, 1/m; qi : (m,) Im(s_k / c), 1/m; halvings : int
     in [0, 6]; acc_re, acc_im, mag : (m,) accumulators. Requires |qr_k dist_j| <= 1 and
     |qi_k dist_j| < 2^19 pi. exp(u) = exp(u / 2^J)^(2^J) (relative error <= 2^J ulp-ish).
+
+    Points are taken four at a time (four independent evaluations per mode keep
+    the vector units busy), their terms added to each accumulator in point order:
+    the same sums, term by term, as one point at a time.
     """
     m = phi.shape[1]
-    for j in range(j0, j1):
+    j = j0
+    while j + 4 <= j1:
+        d0, d1, d2, d3 = dist[j], dist[j + 1], dist[j + 2], dist[j + 3]
+        w0, w1, w2, w3 = wr[j], wr[j + 1], wr[j + 2], wr[j + 3]
+        r0, r1, r2, r3 = phi[j], phi[j + 1], phi[j + 2], phi[j + 3]
+        for k in range(m):
+            f0 = r0[k] * w0
+            f1 = r1[k] * w1
+            f2 = r2[k] * w2
+            f3 = r3[k] * w3
+            a0 = f0 * _damping(-qr[k] * d0, halvings)
+            a1 = f1 * _damping(-qr[k] * d1, halvings)
+            a2 = f2 * _damping(-qr[k] * d2, halvings)
+            a3 = f3 * _damping(-qr[k] * d3, halvings)
+            c0, s0 = _cis(qi[k] * d0)
+            c1, s1 = _cis(qi[k] * d1)
+            c2, s2 = _cis(qi[k] * d2)
+            c3, s3 = _cis(qi[k] * d3)
+            acc_re[k] = (((acc_re[k] + a0 * c0) + a1 * c1) + a2 * c2) + a3 * c3
+            acc_im[k] = (((acc_im[k] - a0 * s0) - a1 * s1) - a2 * s2) - a3 * s3
+            mag[k] = (((mag[k] + abs(f0)) + abs(f1)) + abs(f2)) + abs(f3)
+        j += 4
+    for j in range(j, j1):
         d = dist[j]
         w = wr[j]
         row = phi[j]
         for k in range(m):
             f = row[k] * w
-            e = _exp_small(-qr[k] * d)
-            if halvings > 0:
-                e = e * e
-            if halvings > 1:
-                e = e * e
-            if halvings > 2:
-                e = e * e
-            if halvings > 3:
-                e = e * e
-            if halvings > 4:
-                e = e * e
-            if halvings > 5:
-                e = e * e
-            amp = f * e
+            amp = f * _damping(-qr[k] * d, halvings)
             c, sn = _cis(qi[k] * d)
             acc_re[k] += amp * c
             acc_im[k] -= amp * sn
@@ -369,57 +419,64 @@ def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
             mag[k] += abs(f)
 
 
-@numba.njit(cache=True, parallel=True)
-def _accumulate(dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag, threads):
-    """Add one chunk's Rayleigh sums to acc_re, acc_im, mag (see _rows_fast; halvings < 0:
-    libm kernel); the points are split between ``threads`` parts, each with its own
-    accumulators."""
-    n, m = phi.shape
-    parts = max(1, min(threads, n))
-    t_re = np.zeros((parts, m))
-    t_im = np.zeros((parts, m))
-    t_mag = np.zeros((parts, m))
-    for t in numba.prange(parts):
-        j0 = t * n // parts
-        j1 = (t + 1) * n // parts
-        if halvings >= 0:
-            _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, t_re[t], t_im[t], t_mag[t])
-        else:
-            _rows_libm(j0, j1, dist, wr, phi, qr, qi, t_re[t], t_im[t], t_mag[t])
-    for t in range(parts):
-        for k in range(m):
-            acc_re[k] += t_re[t, k]
-            acc_im[k] += t_im[t, k]
-            mag[k] += t_mag[t, k]
+@numba.njit(cache=True, nogil=True)
+def _accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+    """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
+    _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""
+    if halvings >= 0:
+        _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
+    else:
+        _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)
 
 
 # ----------------------------------------------------------------------------------------
 # One rule
 
 
+def _workers() -> int:
+    """Threads that run the Rayleigh sums: one less than numba's thread count (at
+    least one); the calling thread meanwhile evaluates the next chunk's shapes."""
+    return max(1, numba.get_num_threads() - 1)
+
+
 def _apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
-    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA``."""
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA``.
+
+    Pipelined: while the worker threads add up one chunk of points (GIL released),
+    the calling thread evaluates ``shape_fn`` on the next. Each worker owns its
+    accumulators and always takes the same share of every chunk, so the result does
+    not depend on the timing.
+    """
     xl, yl, zl = listener
     m = q.size
     ny = ys.size
     n_total = xs.size * ny
-    acc_re = np.zeros(m)
-    acc_im = np.zeros(m)
-    mag = np.zeros(m)
+    workers = _workers()
+    acc = np.zeros((workers, 3, m))          # per worker: real, imaginary, magnitude
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
-    for start in range(0, n_total, chunk):
-        idx = np.arange(start, min(start + chunk, n_total))
-        ix, iy = np.divmod(idx, ny)
-        pts = np.empty((idx.size, 2))
-        pts[:, 0] = xs[ix]
-        pts[:, 1] = ys[iy]
-        phi = shape_fn(pts)
-        phi = _check_shapes(phi, idx.size, m)
-        r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
-        wr = wx[ix] * wy[iy] / r
-        _accumulate(r - r_mid, wr, phi, qr, qi, halvings, acc_re, acc_im, mag,
-                    numba.get_num_threads())
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        running = []
+        for start in range(0, n_total, chunk):
+            idx = np.arange(start, min(start + chunk, n_total))
+            ix, iy = np.divmod(idx, ny)
+            pts = np.empty((idx.size, 2))
+            pts[:, 0] = xs[ix]
+            pts[:, 1] = ys[iy]
+            phi = shape_fn(pts)
+            phi = _check_shapes(phi, idx.size, m)
+            r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
+            wr = wx[ix] * wy[iy] / r
+            dist = r - r_mid
+            for job in running:
+                job.result()
+            n = idx.size
+            running = [pool.submit(_accumulate, w * n // workers, (w + 1) * n // workers,
+                                   dist, wr, phi, qr, qi, halvings, *acc[w])
+                       for w in range(workers)]
+        for job in running:
+            job.result()
+    acc_re, acc_im, mag = acc.sum(axis=0)
     if not np.isfinite(mag).all():      # NaN or inf anywhere in phi propagates here
         k = int(np.flatnonzero(~np.isfinite(mag))[0])
         raise ParameterError(
@@ -460,7 +517,9 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
         plate positions ``(x, y)``, metres from the corner; ``values`` an
         ``(n, n_modes)`` real array of the modes' normal-velocity shapes
         ``phi_k`` there (dimensionless: the surface velocity is ``phi_k u``).
-        It is called on chunks of points (at most about 32 MB of values each).
+        It is called on chunks of points (at most about 32 MB of values each);
+        the returned array is read while the next chunk is evaluated, so it
+        must not be reused for the next call's values.
     size : (float > 0, float > 0)
         ``(a, b)``: the plate's extent along x and y, metres.
     listener_position : (float, float, float)
@@ -618,10 +677,224 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
     if full_output:
         return result
     if not result.success:
-        worst = int(np.argmax(error / np.maximum(allowed, 1e-300)))
-        warnings.warn(f"rayleigh_gains: {message} (mode {worst}: estimated error "
-                      f"{error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
-                      RuntimeWarning, stacklevel=2)
+        _warn_unconverged("rayleigh_gains", result, tol)
+    return result.gains
+
+
+def _warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
+    """RuntimeWarning naming the mode furthest from the convergence test."""
+    allowed = tol * np.maximum(np.abs(result.gains), _COHERENT_FLOOR * result.coherent)
+    worst = int(np.argmax(result.error / np.maximum(allowed, 1e-300)))
+    warnings.warn(f"{caller}: {result.message} (mode {worst}: estimated error "
+                  f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
+                  RuntimeWarning, stacklevel=3)
+
+
+# ----------------------------------------------------------------------------------------
+# Gains of a plate's modes, cached in memory and on disk
+
+
+_CACHE_VERSION = 1          # layout of the stored gains and the algorithm; part of the key
+_MEMORY_ENTRIES = 32        # results held in memory (least recently used dropped)
+_MEMORY: "OrderedDict[str, RadiationResult]" = OrderedDict()
+_LOCK = threading.Lock()
+_STATS = {"computations": 0, "memory_hits": 0, "disk_hits": 0, "disk_writes": 0}
+
+
+def cache_info() -> dict:
+    """Counters of the gain cache of :func:`plate_gains` since start-up (or
+    :func:`clear_memory_cache`).
+
+    Returns
+    -------
+    dict
+        ``computations`` (Rayleigh integrals evaluated), ``memory_hits``,
+        ``disk_hits`` (results read from disk), ``disk_writes``, and ``entries``
+        (results held in memory).
+    """
+    with _LOCK:
+        return dict(_STATS, entries=len(_MEMORY))
+
+
+def clear_memory_cache() -> None:
+    """Forget the gains held in memory and reset the counters (disk untouched)."""
+    with _LOCK:
+        _MEMORY.clear()
+        for k in _STATS:
+            _STATS[k] = 0
+
+
+def _gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points) -> str:
+    """Everything that determines the gains of :func:`plate_gains`, as canonical JSON."""
+    return json.dumps({
+        "version": _CACHE_VERSION, "shapes": modes.shape_key,
+        "listener": [float(v).hex() for v in listener],
+        "poles": hashlib.sha256(np.ascontiguousarray(s, dtype=np.complex128).tobytes()).hexdigest(),
+        "n_poles": int(s.size), "max_wavenumber": float(kb).hex(),
+        "air_density": float(rho).hex(), "sound_speed": float(c).hex(),
+        "reference_distance": None if r0 is None else float(r0).hex(),
+        "tol": float(tol).hex(), "max_points": int(max_points),
+        "quadrature": [_MAX_ORDER, _REFINE, _MAX_RULES, _GRADING, _NEAR_RHO, _COHERENT_FLOOR],
+    }, sort_keys=True)
+
+
+def _gains_path(key: str) -> Path:
+    digest = hashlib.sha256(key.encode()).hexdigest()[:24]
+    return cache_dir() / f"radiation-gains-{digest}.npz"
+
+
+def _save_gains(result: RadiationResult, key: str) -> None:
+    """Write ``result`` to the disk cache (atomically); skipped if impossible."""
+    arrays = {"key": np.array(key), "gains": result.gains, "error": result.error,
+              "coherent": result.coherent, "n_points": np.array(result.n_points),
+              "refinements": np.array(result.refinements), "panels": np.array(result.panels),
+              "status": np.array(result.status), "message": np.array(result.message)}
+    try:
+        path = _gains_path(key)
+    except RuntimeError:  # no home directory
+        return
+    if _savez_atomic(path, arrays):
+        with _LOCK:
+            _STATS["disk_writes"] += 1
+
+
+def _load_gains(key: str, m: int):
+    """The stored result for ``key`` (``m`` modes), or None if absent, unreadable or
+    inconsistent."""
+    try:
+        path = _gains_path(key)
+        if not path.is_file():
+            return None
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["key"][()]) != key:
+                return None
+            gains, error, coherent = z["gains"], z["error"], z["coherent"]
+            n_points, refinements = int(z["n_points"][()]), int(z["refinements"][()])
+            panels, status, message = z["panels"], int(z["status"][()]), str(z["message"][()])
+        ok = (gains.dtype == np.complex128 and gains.shape == (m,)
+              and error.shape == (m,) and coherent.shape == (m,) and panels.shape == (2,)
+              and np.all(np.isfinite(gains)) and np.all(np.isfinite(error))
+              and np.all(np.isfinite(coherent)) and status in (0, 1, 2)
+              and n_points >= 0 and refinements >= 0)
+        if not ok:
+            return None
+        return _frozen(RadiationResult(gains, error.astype(float), coherent.astype(float),
+                                       n_points, refinements,
+                                       (int(panels[0]), int(panels[1])), status == 0,
+                                       status, message))
+    except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
+        return None
+
+
+def _frozen(result: RadiationResult) -> RadiationResult:
+    """``result`` with read-only arrays (it is shared between callers)."""
+    for arr in (result.gains, result.error, result.coherent):
+        arr.setflags(write=False)
+    return result
+
+
+def _remember(key: str, result: RadiationResult) -> None:
+    """Hold ``result`` in memory (caller holds the lock), least recently used dropped."""
+    _MEMORY[key] = result
+    _MEMORY.move_to_end(key)
+    while len(_MEMORY) > _MEMORY_ENTRIES:
+        _MEMORY.popitem(last=False)
+
+
+def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_DENSITY,
+                sound_speed=SOUND_SPEED, reference_distance=None, tol=1e-6,
+                max_points=4_000_000, full_output=False, cache=True):
+    """:func:`rayleigh_gains` of a plate's modes, cached in memory and on disk.
+
+    Parameters
+    ----------
+    modes : synth.plate.Modes
+        The plate's modes; their :meth:`~synth.plate.Modes.shapes` are the
+        normal-velocity shapes and the plate's length and width the size.
+    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points, full_output
+        As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
+    cache : bool
+        Reuse and store the result (memory and disk). ``False`` computes afresh
+        and stores nothing.
+
+    Returns
+    -------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)``, Pa per (m/s) of modal velocity (read-only); or a
+        :class:`RadiationResult` if ``full_output``.
+
+    Raises
+    ------
+    ParameterError
+        If ``modes`` is not a :class:`~synth.plate.Modes`, ``s`` does not have one
+        entry per mode, ``cache`` is not a bool, or as :func:`rayleigh_gains`.
+
+    Notes
+    -----
+    The result is stored under a key made of everything that determines it:
+    :attr:`~synth.plate.Modes.shape_key` (the plate's size and eigen-solution),
+    the listener position, the poles ``s`` (exact bytes), the maximum wavenumber,
+    the air constants, the reference distance, ``tol``, ``max_points`` and the
+    quadrature's settings. Files ``radiation-gains-*.npz`` sit beside the mode
+    cache (:func:`synth.plate.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
+    atomically; an unreadable or inconsistent file is ignored and rewritten. A
+    result loaded from disk equals the computed one exactly (the
+    convergence warning, if any, is repeated).
+    """
+    if not isinstance(modes, Modes):
+        raise ParameterError(f"modes={modes!r} must be a synth.plate.Modes")
+    if not isinstance(cache, bool):
+        raise ParameterError(f"cache={cache!r} must be True or False")
+    listener = _listener(listener_position)
+    q_s = _poles(s)
+    if q_s.size != len(modes):
+        raise ParameterError(
+            f"s has {q_s.size} poles for {len(modes)} modes: one complex frequency (rad/s) "
+            f"per mode is needed")
+    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
+    rho = _checks.positive("air_density", air_density, "kg/m^3")
+    c = _checks.positive("sound_speed", sound_speed, "m/s")
+    r0 = None if reference_distance is None else _checks.nonnegative(
+        "reference_distance", reference_distance, "metres")
+    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
+                           hi_open=False)
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
+            or max_points <= 0:
+        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+
+    def compute():
+        result = rayleigh_gains(modes.shapes, (modes.plate.length, modes.plate.width),
+                                listener, q_s, max_wavenumber=kb, air_density=rho,
+                                sound_speed=c, reference_distance=r0, tol=tol,
+                                max_points=max_points, full_output=True)
+        with _LOCK:
+            _STATS["computations"] += 1
+        return _frozen(result)
+
+    if not cache:
+        result = compute()
+    else:
+        key = _gains_key(modes, listener, q_s, kb, rho, c, r0, tol, max_points)
+        with _LOCK:
+            result = _MEMORY.get(key)
+            if result is not None:
+                _STATS["memory_hits"] += 1
+                _MEMORY.move_to_end(key)
+        if result is None:
+            result = _load_gains(key, q_s.size)
+            if result is not None:
+                with _LOCK:
+                    _STATS["disk_hits"] += 1
+                    _remember(key, result)
+            else:
+                result = compute()
+                with _LOCK:
+                    _remember(key, result)
+                _save_gains(result, key)
+    if full_output:
+        return result
+    if not result.success:
+        _warn_unconverged("plate_gains", result, tol)
     return result.gains
 
 

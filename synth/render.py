@@ -27,8 +27,6 @@ NORMALIZE = ("peak", "loudness", "physical", "none")
 SOUND_SPEED = 343.0
 AIR_DENSITY = 1.204
 
-_GAINS: dict = {}
-
 
 @dataclass(frozen=True, eq=False)
 class Render:
@@ -72,18 +70,13 @@ def _samplerate(value) -> int:
 
 
 def _microphone_gains(modes, scene, poles, k_max):
-    from .radiation import rayleigh_gains
+    """Radiation gains of every mode to the scene's microphone (cached: see
+    :func:`synth.radiation.plate_gains`)."""
+    from .radiation import plate_gains
 
-    p = scene.plate
-    key = (p, scene.listener.position, scene.position, len(modes), poles.tobytes())
-    if key not in _GAINS:
-        if len(_GAINS) > 16:
-            _GAINS.clear()
-        _GAINS[key] = rayleigh_gains(
-            modes.shapes, (p.length, p.width), scene.listener.position, poles,
-            max_wavenumber=k_max, air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-            reference_distance=_distance(scene))
-    return _GAINS[key]
+    return plate_gains(modes, scene.listener.position, poles, max_wavenumber=k_max,
+                       air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
+                       reference_distance=_distance(scene))
 
 
 def _distance(scene) -> float:

@@ -447,3 +447,37 @@ def test_modes_repr_and_len():
     m = P.modes(Plate(STEEL, 0.001, 0.3, 0.3, "free"), max_frequency=500.0)
     assert len(m) == m.frequencies.size == m.decay_rates.size == m.modal_masses.size
     assert "free" in repr(m) and f"{len(m)} modes" in repr(m)
+
+
+def test_shape_key_identifies_shapes():
+    plate = Plate(STEEL, 0.001, 0.5, 0.4, "free")
+    m1 = P.modes(plate, max_frequency=2000.0)
+    m2 = P.modes(plate, max_frequency=2000.0)
+    assert m1.shape_key == m2.shape_key
+    pts = [[0.1, 0.2], [0.33, 0.07]]
+    np.testing.assert_array_equal(m1.shapes(pts), m2.shapes(pts))
+    # Another material with the same nu reuses the solution: the same modes (the
+    # frequencies scaled by sqrt(D / rho h)) have the same shapes and the same key.
+    other = Material("other", 2700.0, 7.0e10, 0.3, LossFactor(1e-4))
+    m3 = P.modes(Plate(other, 0.001, 0.5, 0.4, "free"), max_frequency=1000.0)
+    ratio = m3.frequencies[0] / m1.frequencies[0]
+    m4 = P.modes(plate, max_frequency=m3.frequencies[-1] * (1.0 + 1e-7) / ratio)
+    assert len(m4) == len(m3) and m4.shape_key == m3.shape_key
+    np.testing.assert_array_equal(m4.shapes(pts), m3.shapes(pts))
+    # Size, boundary, Poisson ratio, number of modes and the solution's band all count.
+    keys = {m1.shape_key, P.modes(Plate(STEEL, 0.001, 0.5, 0.41, "free"),
+                                  max_frequency=2000.0).shape_key,
+            P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "clamped"), max_frequency=2000.0).shape_key,
+            P.modes(Plate(Material("nu", 7800.0, 2.0e11, 0.25, LossFactor(1e-3)), 0.001, 0.5,
+                          0.4, "free"), max_frequency=2000.0).shape_key,
+            P.modes(plate, max_frequency=1500.0).shape_key,
+            P.modes(plate, max_frequency=1500.0, cache=False).shape_key,
+            P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "simply-supported"),
+                    max_frequency=2000.0).shape_key}
+    assert len(keys) == 7
+
+
+def test_shape_key_identifies_shapes_rejects_assignment():
+    m = P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "free"), max_frequency=500.0)
+    with pytest.raises(AttributeError):
+        m.shape_key = "something"
