@@ -18,25 +18,33 @@ def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 
 
-def real(name: str, value, unit: str = "") -> float:
-    """Return ``value`` as a finite float, or raise ``ParameterError``."""
+def real(name: str, value, unit: str = "", allowed: str = "") -> float:
+    """Return ``value`` as a finite float, or raise ``ParameterError``.
+
+    ``allowed`` (such as ``"> 0"``) is the range the caller will check next; it is
+    named in the message for a value that is not even a finite number.
+    """
     if type(value) is float:  # fast path for the common case
         if math.isfinite(value):
             return value
-        raise ParameterError(f"{name}={value!r} must be finite{_unit(unit)}")
+        raise ParameterError(_not_finite(name, value, unit, allowed))
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ParameterError(
-            f"{name}={value!r} must be a real number{_unit(unit)}, "
-            f"not {type(value).__name__}")
+            f"{name}={value!r} must be a real number{' ' + allowed if allowed else ''}"
+            f"{_unit(unit)}, not {type(value).__name__}")
     x = float(value)
     if not math.isfinite(x):
-        raise ParameterError(f"{name}={value!r} must be finite{_unit(unit)}")
+        raise ParameterError(_not_finite(name, value, unit, allowed))
     return x
+
+
+def _not_finite(name, value, unit, allowed) -> str:
+    return f"{name}={value!r} must be finite{' and ' + allowed if allowed else ''}{_unit(unit)}"
 
 
 def positive(name: str, value, unit: str = "") -> float:
     """A finite float ``> 0``."""
-    x = real(name, value, unit)
+    x = real(name, value, unit, "> 0")
     if not x > 0.0:
         raise ParameterError(f"{name}={value!r} must be > 0{_unit(unit)}")
     return x
@@ -44,7 +52,7 @@ def positive(name: str, value, unit: str = "") -> float:
 
 def nonnegative(name: str, value, unit: str = "") -> float:
     """A finite float ``>= 0``."""
-    x = real(name, value, unit)
+    x = real(name, value, unit, ">= 0")
     if not x >= 0.0:
         raise ParameterError(f"{name}={value!r} must be >= 0{_unit(unit)}")
     return x
@@ -53,14 +61,14 @@ def nonnegative(name: str, value, unit: str = "") -> float:
 def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
              lo_open: bool = True, hi_open: bool = True) -> float:
     """A finite float inside an interval; open or closed at either end."""
-    x = real(name, value, unit)
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    interval = f"in {left}{lo:g}, {hi:g}{right}"
+    x = real(name, value, unit, interval)
     ok_lo = x > lo if lo_open else x >= lo
     ok_hi = x < hi if hi_open else x <= hi
     if not (ok_lo and ok_hi):
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
-        raise ParameterError(
-            f"{name}={value!r} must be in {left}{lo:g}, {hi:g}{right}{_unit(unit)}")
+        raise ParameterError(f"{name}={value!r} must be {interval}{_unit(unit)}")
     return x
 
 

@@ -38,6 +38,7 @@ import numpy as np
 
 from . import _checks
 from . import _contact_kernels as _k
+from . import impedance
 from .errors import ParameterError
 
 #: Zener's inelasticity above which the contact is integrated by the implicit
@@ -49,6 +50,8 @@ TOLERANCE_SAFETY = 0.2
 #: state starts at order one, so this keeps the control relative down to 1e-6 of that
 #: scale (small restitutions, the long tails of very inelastic contacts).
 ABSOLUTE_FACTOR = 1e-6
+#: Fewest samples of a force pulse over the contact.
+MIN_POINTS = 64
 #: Steps before DOP853 gives up and the implicit method takes over.
 EXPLICIT_STEP_LIMIT = 20_000
 #: Steps before the implicit method reports failure.
@@ -187,7 +190,7 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
         ``v_free``, m/s, positive upward; constant over the contact.
     rtol : float in [1e-12, 0.1]
         Relative accuracy asked for the restitution and the contact time.
-    n_points : int >= 16
+    n_points : int >= 64
         Number of uniform samples of the force pulse over the contact.
     method : {"auto", "DOP853", "Radau"}
         Integrator; "auto" chooses by stiffness.
@@ -205,7 +208,7 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
             and 0.0 < mass < _INF and 0.0 < stiffness < _INF and 0.0 <= admittance < _INF
             and 0.0 < speed < _INF and 0.0 <= gravity < _INF and 1.0 < exponent <= 4.0
             and 0.0 <= dissipation < _INF and -_INF < plate_velocity < _INF
-            and 1e-12 <= rtol <= 0.1 and n_points >= 16 and type(method) is str
+            and 1e-12 <= rtol <= 0.1 and n_points >= MIN_POINTS and type(method) is str
             and method in _METHODS):
         mass = _checks.positive("mass", mass, "kg")
         stiffness = _checks.positive("stiffness", stiffness, "N/m^n")
@@ -217,10 +220,7 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
         plate_velocity = _checks.real("plate_velocity", plate_velocity, "m/s")
         rtol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False,
                                 hi_open=False)
-        if (isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer))
-                or n_points < 16):
-            raise ParameterError(f"n_points={n_points!r} must be an integer >= 16")
-        n_points = int(n_points)
+        n_points = _check_points(n_points)
         _checks.choice("method", method, _METHODS)
     if not speed + plate_velocity > 0.0:
         raise ParameterError(
@@ -228,6 +228,15 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
             f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate")
     return _solve(mass, stiffness, admittance, speed, gravity, exponent, dissipation,
                   plate_velocity, rtol, n_points, method)
+
+
+def _check_points(n_points) -> int:
+    """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
+    if (isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer))
+            or n_points < MIN_POINTS):
+        raise ParameterError(f"n_points={n_points!r} must be an integer >= {MIN_POINTS} "
+                             f"(samples of the force pulse over the contact)")
+    return int(n_points)
 
 
 def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
@@ -361,7 +370,6 @@ def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="he
     -------
     ImpactResult
     """
-    from . import impedance
     from .scene import Ball, Plate
 
     if not isinstance(ball, Ball):
@@ -376,17 +384,84 @@ def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="he
     result = solve_contact(admittance=beta, **kwargs)
     if position is None:
         return result
-    pos = plate.check_position(position, "position")
-    # Edge and corner: only within the critical distance (leave out otherwise).
-    for _ in range(50):
+    x, y = plate.check_position(position, "position")
+    return _solve_at(plate, x, y, ball.mass, K, float(speed), float(gravity), n, mu,
+                     float(plate_velocity), float(rtol), int(n_points), first=result)
+
+
+#: Most contact solutions spent on the admittance near an edge (fixed point and bisection).
+EDGE_ITERATIONS = 80
+
+
+def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=None):
+    """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
+    :func:`synth.impedance.point_admittance` (lumped values checked by the caller).
+
+    The admittance ``beta`` depends on the contact time, which depends on ``beta``:
+    the pair is the root of ``r(beta) = A(tau(beta)) - beta``, with ``A`` the edge
+    blend. Far from the edges (beyond the critical distance for the infinite-plate
+    contact time) the first solution is already exact and is returned at once (edge
+    effects are left out where they do not apply). Otherwise: fixed-point iteration
+    ``beta <- A(tau(beta))``, kept inside a bracket ``[lo, hi]`` (``r(lo) >= 0 >=
+    r(hi)``; initially the middle and the corner values, between which ``A`` always
+    lies) and replaced by bisection when it leaves the bracket or stalls, until
+    ``|r| <= rtol beta / 10`` or the bracket is that narrow. ``A(tau(beta))`` can
+    jump (a contact that switches between settling and separating): then the
+    bracket closes on the jump and the message says so.
+    """
+    beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
+    result = first if first is not None else _solve(m, K, beta_inf, v_in, g, n, mu, v_free, tol,
+                                                   n_points, "auto")
+    if plate.boundary != "free" or not result.success:
+        return result
+    if impedance._critical_distance(plate, result.contact_time) <= min(
+            x, plate.length - x, y, plate.width - y):
+        return result
+    lo = beta_inf
+    hi = beta_inf / impedance.CORNER_RATIO
+    settled_lo = settled_hi = False
+    beta = beta_inf
+    target = impedance._point_admittance(plate, x, y, result.contact_time, beta_inf)
+    best = (abs(target - beta), result, beta)
+    for it in range(EDGE_ITERATIONS):
+        resid = target - beta
+        if abs(resid) <= 0.1 * tol * beta:
+            return result
+        if resid > 0.0:
+            lo, settled_lo = beta, result.settled
+        else:
+            hi, settled_hi = beta, result.settled
+        if hi - lo <= 0.1 * tol * hi:
+            err, res_b, beta_b = best
+            if settled_lo and settled_hi:
+                # e = 0 on both sides: only the landing transient depends on beta there
+                why = ("the ball settles on both sides, and the contact time of a settled "
+                       "contact (when settling was proven) does not fix the distance at "
+                       "which the edge is felt")
+            else:
+                why = "the contact switches between settling and separating there"
+            return _with_message(res_b, (
+                f"{res_b.message} The edge admittance has no consistent value: "
+                f"A(tau(beta)) jumps across beta = {beta_b:.6g} m/(N s) ({why}); the "
+                f"solution there is reported (|A - beta| = {err:.3g} m/(N s))."))
+        # fixed-point step while it stays inside the bracket and contracts; else bisect
+        beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
+        result = _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, "auto")
         if not result.success:
             return result
-        beta_new = impedance.point_admittance(plate, pos, result.contact_time)
-        if beta_new == beta:
-            return result
-        converged = abs(beta_new - beta) <= 0.1 * rtol * beta_new
-        beta = beta_new
-        result = solve_contact(admittance=beta, **kwargs)
-        if converged:
-            return result
-    return result
+        target = impedance._point_admittance(plate, x, y, result.contact_time, beta_inf)
+        if abs(target - beta) < best[0]:
+            best = (abs(target - beta), result, beta)
+    err, res_b, beta_b = best
+    return _with_message(res_b, (
+        f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
+        f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."))
+
+
+def _with_message(result, message):
+    """A copy of ``result`` (an :class:`ImpactResult`) with another ``message``."""
+    obj = object.__new__(ImpactResult)
+    d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
+    d["message"] = message
+    object.__setattr__(obj, "__dict__", d)
+    return obj

@@ -76,7 +76,12 @@ def critical_distance(plate, contact_time) -> float:
     ``omega = pi / tau``.
     """
     tau = _checks.positive("contact_time", contact_time, "s")
-    return 0.5 * group_velocity(plate, math.pi / tau) * tau
+    return _critical_distance(plate, tau)
+
+
+def _critical_distance(plate, tau: float) -> float:
+    """:func:`critical_distance` for a checked ``tau`` (s): ``sqrt(pi tau) (D / rho h)^(1/4)``."""
+    return math.sqrt(math.pi * tau) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
 def _taper(d, dc):
@@ -96,10 +101,15 @@ def point_admittance(plate, position, contact_time) -> float:
     those boundaries are handled by the plate's modes).
     """
     x, y = plate.check_position(position, "position")
-    beta_inf = 1.0 / infinite_plate_impedance(plate)
+    tau = _checks.positive("contact_time", contact_time, "s")
+    return _point_admittance(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
+
+
+def _point_admittance(plate, x: float, y: float, tau: float, beta_inf: float) -> float:
+    """:func:`point_admittance` on checked values (``beta_inf = 1 / Z_inf``)."""
     if plate.boundary != "free":
         return beta_inf
-    dc = critical_distance(plate, contact_time)
+    dc = _critical_distance(plate, tau)
     sx = _taper(min(x, plate.length - x), dc)
     sy = _taper(min(y, plate.width - y), dc)
     if sx == 0.0 and sy == 0.0:

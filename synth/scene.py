@@ -230,7 +230,7 @@ class Scene:
     gravity : float > 0
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
-        Contact model (default: Hertz at rtol 1e-6).
+        Contact model (default: Hertz at rtol 1e-9, see :class:`Contact`).
     """
 
     ball: Ball

@@ -75,6 +75,17 @@ class BounceSequence:
     """The impacts of one drop, in order, and why the sequence ended.
 
     Behaves as a sequence of :class:`Impact` (``len``, indexing, iteration).
+
+    Attributes
+    ----------
+    impacts : tuple of Impact
+        In time order.
+    stop_reason : str
+        Why the sequence ended (one of :data:`STOP_REASONS`, see the module docstring).
+    drop_height : float
+        Height of the ball's lowest point above the plate at release, m.
+    gravity : float
+        Gravitational acceleration, m/s^2.
     """
 
     impacts: tuple[Impact, ...]
@@ -137,8 +148,8 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         Latest start of an impact, s from release.
     max_impacts : int >= 1
         Most impacts computed.
-    n_points : int
-        Samples of each force pulse.
+    n_points : int >= 64
+        Samples of each force pulse (``ImpactResult.time`` and ``force``).
     restitution_scale : float >= 0
         Perception stimuli (thesis section 5.2.2): each rebound uses ``e' = 1 - k (1 - e)``
         instead of the physical ``e``, so restitution changes while every impact is still
@@ -165,6 +176,7 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     pos = None if position is None else plate.check_position(position, "position")
     K, n, mu = contact.contact_law(ball, plate, contact_law, **contact_options)
     tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
+    n_points = contact._check_points(n_points)
     k = _checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
     beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
     energy_floor = 10.0 ** (floor / 10.0)
@@ -172,9 +184,8 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     def solve(v):
         if pos is None:
             return contact._solve(ball.mass, K, beta_inf, v, g, n, mu, 0.0, tol, n_points, "auto")
-        return contact.solve_impact(ball, plate, v, position=pos, gravity=g,
-                                    contact=contact_law, rtol=tol, n_points=n_points,
-                                    **contact_options)
+        return contact._solve_at(plate, pos[0], pos[1], ball.mass, K, v, g, n, mu, 0.0, tol,
+                                 n_points)
 
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)

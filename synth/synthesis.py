@@ -46,8 +46,13 @@ import time
 import numba
 import numpy as np
 
-#: Samples per block of the modal bank (the tail floor is checked once a block).
-BLOCK = 256
+from .errors import ParameterError
+
+#: Samples a mode writes from its power table before its state is advanced (and the
+#: tail floor checked).
+SUB = 32
+#: Samples per tile of the modal bank's output (16 kB of float64: stays in cache).
+TILE = 2048
 
 
 # fast-math without approximate transcendental functions ("afn"): exp, cos, sin stay exact
@@ -55,54 +60,55 @@ _FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"}
 
 
 @numba.njit(cache=True, fastmath=_FAST)
-def _impact(pr, pi, cr, ci, h, forces, offsets, offset_forces, weight, tau, shift, amps, resp):
+def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, d0, offset_forces, weight, tau, amps,
+            resp):
     """One impact's contribution (vectorised over the K modes).
 
-    pr, pi: poles (real, imaginary parts); cr, ci: listener response per unit transform
-    (``-i b_k output_k / omega_dk``); h, forces: the pulse on a uniform grid u_j = j h;
-    offsets (M,), offset_forces (M,): times inside the contact (s from first touch) of the
-    audio samples there (equally spaced, one sample apart), and the force at them; weight: the weight m g (N) left on the plate
-    after a settled contact (0 otherwise); shift: time from first touch to the injection
-    sample (s). Writes amps (K,) complex: the ringing at the injection sample; resp (M,):
-    the exact response at the in-contact samples (partial transforms).
+    pr, pi: poles (real, imaginary parts), rad/s; cr, ci: listener response per unit
+    transform (``-i b_k output_k / omega_dk``); ur, ui: ``e^(p_k period)``, the ringing
+    over one sample; period: ``1 / fs``, s; h, forces: the pulse on a uniform grid
+    ``u_j = j h`` (s, N); d0: time from first touch to the first audio sample at or
+    after it (s, in ``[0, period)``); offset_forces (M,): the force at the M audio
+    samples inside the contact, at ``d0 + m period`` from first touch (N); weight: the
+    weight ``m g`` (N) left on the plate after a settled contact (0 otherwise); tau:
+    contact time, s.
+
+    Writes amps (K,) complex: the ringing injected at the first sample after the
+    contact, ``d0 + M period`` from first touch; resp (M,): the exact response at the
+    in-contact samples (partial transforms ``Int_0^d``, the last, partial panel by the
+    trapezoid rule to the force at ``d``).
+
+    Two complex exponentials per mode: ``e^(-p h)`` (the transform's step) and
+    ``e^(p d0)``; the in-contact samples and the injection time follow from it by
+    powers of ``e^(p period)``.
     """
     K = pr.shape[0]
     N = forces.shape[0]
-    M = offsets.shape[0]
+    M = offset_forces.shape[0]
     er = np.ones(K)
     ei = np.zeros(K)
     sr = np.empty(K)
     si = np.empty(K)
     ar = np.zeros(K)
     ai = np.zeros(K)
-    for k in range(K):
-        mag = math.exp(-pr[k] * h)
-        sr[k] = mag * math.cos(-pi[k] * h)
-        si[k] = mag * math.sin(-pi[k] * h)
-    # e^(+p d) at the in-contact samples, advanced sample by sample (d_(m+1) = d_m + 1/fs)
+    # g = e^(p d), d the next in-contact sample (then the injection sample)
     gr = np.empty(K)
     gi = np.empty(K)
-    rr = np.empty(K)
-    ri = np.empty(K)
-    if M > 0:
-        d0 = offsets[0]
-        dt = (offsets[M - 1] - d0) / (M - 1) if M > 1 else 0.0
-        for k in range(K):
-            mag = math.exp(pr[k] * d0)
-            gr[k] = mag * math.cos(pi[k] * d0)
-            gi[k] = mag * math.sin(pi[k] * d0)
-            mag = math.exp(pr[k] * dt)
-            rr[k] = mag * math.cos(pi[k] * dt)
-            ri[k] = mag * math.sin(pi[k] * dt)
+    for k in range(K):
+        mag = math.exp(-pr[k] * h)
+        sr[k] = mag * math.cos(pi[k] * h)
+        si[k] = -mag * math.sin(pi[k] * h)
+        mag = math.exp(pr[k] * d0)
+        gr[k] = mag * math.cos(pi[k] * d0)
+        gi[k] = mag * math.sin(pi[k] * d0)
     m = 0
     half = 0.5 * h
     f_prev = forces[0]
     for j in range(N):
         fj = forces[j]
         if j > 0:
-            # acc += h/2 (F_(j-1) E_(j-1) + F_j E_j), with E_(j-1) = E_j / step
+            # acc += h/2 (F_(j-1) E_(j-1) + F_j E_j), E_j = E_(j-1) e^(-p h)
             for k in range(K):
-                # E_j = E_(j-1) * step
                 nr = er[k] * sr[k] - ei[k] * si[k]
                 ni = er[k] * si[k] + ei[k] * sr[k]
                 ar[k] += half * (f_prev * er[k] + fj * nr)
@@ -110,9 +116,8 @@ def _impact(pr, pi, cr, ci, h, forces, offsets, offset_forces, weight, tau, shif
                 er[k] = nr
                 ei[k] = ni
         uj = j * h
-        while m < M and (j == N - 1 or offsets[m] < uj + h):
-            d = offsets[m]
-            dd = d - uj
+        while m < M and (j == N - 1 or d0 + m * period < uj + h):
+            dd = d0 + m * period - uj
             if dd < 0.0:
                 dd = 0.0
             fd = offset_forces[m]
@@ -124,13 +129,13 @@ def _impact(pr, pi, cr, ci, h, forces, offsets, offset_forces, weight, tau, shif
                 ti = -gi[k] / g2
                 qr = ar[k] + 0.5 * dd * (fj * er[k] + fd * tr)
                 qi = ai[k] + 0.5 * dd * (fj * ei[k] + fd * ti)
-                # Re[c * q * e^(p d)]
+                # Re[c q e^(p d)]
                 xr = qr * gr[k] - qi * gi[k]
                 xi = qr * gi[k] + qi * gr[k]
                 acc += cr[k] * xr - ci[k] * xi
-                # advance e^(p d) to the next sample
-                nr = gr[k] * rr[k] - gi[k] * ri[k]
-                gi[k] = gr[k] * ri[k] + gi[k] * rr[k]
+                # advance e^(p d) by one sample
+                nr = gr[k] * ur[k] - gi[k] * ui[k]
+                gi[k] = gr[k] * ui[k] + gi[k] * ur[k]
                 gr[k] = nr
             resp[m] = acc
             m += 1
@@ -141,105 +146,134 @@ def _impact(pr, pi, cr, ci, h, forces, offsets, offset_forces, weight, tau, shif
         if weight != 0.0:
             # the weight left on the plate: + m g e^(-p tau) / p
             mag = math.exp(-pr[k] * tau)
-            wr = mag * math.cos(-pi[k] * tau)
-            wi = mag * math.sin(-pi[k] * tau)
+            wr = mag * math.cos(pi[k] * tau)
+            wi = -mag * math.sin(pi[k] * tau)
             den = pr[k] * pr[k] + pi[k] * pi[k]
             zr += weight * (wr * pr[k] + wi * pi[k]) / den
             zi += weight * (wi * pr[k] - wr * pi[k]) / den
-        # times c, times e^(p shift)
+        # times c, times e^(p (d0 + M period)) (g, advanced past the last sample)
         xr = zr * cr[k] - zi * ci[k]
         xi = zr * ci[k] + zi * cr[k]
-        mag = math.exp(pr[k] * shift)
-        gr = mag * math.cos(pi[k] * shift)
-        gi = mag * math.sin(pi[k] * shift)
-        amps[k] = complex(xr * gr - xi * gi, xr * gi + xi * gr)
+        amps[k] = complex(xr * gr[k] - xi * gi[k], xr * gi[k] + xi * gr[k])
 
 
 @numba.njit(cache=True, fastmath=_FAST)
-def _bank(out, fs, poles, amps, inject, thresholds, block):
-    """The modal bank, mode by mode.
+def _bank(out, fs, poles, amps, inject, thresholds):
+    """The modal bank: every mode's ringing after every injection, added into ``out``.
 
-    out (S,) float64 accumulates; poles (K,) complex; amps (I, K) complex amplitudes of the
-    impacts' ringing, already referred to the injection samples inject (I,) int64 (ascending):
-    the mode's state at sample inject[i] gains amps[i, k]. thresholds (K,): a mode whose
-    amplitude falls below its threshold stops until the next injection.
+    out (S,) float64 accumulates; poles (K,) complex, rad/s; amps (I, K) complex
+    amplitudes of the impacts' ringing, already referred to the injection samples inject
+    (I,) int64 (ascending): the mode's state at sample inject[i] gains amps[i, k].
+    thresholds (K,): a mode whose amplitude falls below its threshold stops until the
+    next injection (checked every ``SUB`` samples).
+
+    Layout: the output is taken in tiles of ``TILE`` samples (they stay in the L1/L2
+    cache while every mode adds to them); a mode writes ``Re[z r^j]`` over ``SUB``
+    samples at a time from a table of ``r^j = e^(p j / fs)``, ``j = 0..SUB`` (exact
+    exponentials), then advances its state ``z`` by ``r^SUB``: one complex product per
+    ``SUB`` samples, so the state's rounding error grows by about one ulp per ``SUB``
+    samples, and the inner loop (two multiply-adds a sample) vectorises.
+
     Returns the number of mode-samples computed and the end of the last one written (the
     samples after it are exactly zero).
     """
     S = out.shape[0]
     K = poles.shape[0]
     I = inject.shape[0]
-    pr = np.empty(block + 1)
-    pi = np.empty(block + 1)
+    table = np.empty((K, 2, SUB + 1))
+    for k in range(K):
+        for j in range(SUB + 1):
+            z = np.exp(poles[k] * (j / fs))
+            table[k, 0, j] = z.real
+            table[k, 1, j] = z.imag
+    zr = np.zeros(K)
+    zi = np.zeros(K)
+    active = np.zeros(K, dtype=np.bool_)
+    thr2 = thresholds * thresholds
     work = 0
     last = 0
-    for k in range(K):
-        p = poles[k]
-        # r^j for j = 0..block: by recurrence, re-anchored on an exact exponential every
-        # 32 steps (rounding stays below ~32 ulp; 1/32 of the exponentials)
-        r1 = np.exp(p / fs)
-        for j in range(block + 1):
-            if j % 32 == 0:
-                z = np.exp(p * (j / fs))
-            else:
-                z = z * r1
-            pr[j] = z.real
-            pi[j] = z.imag
-        thr2 = thresholds[k] * thresholds[k]
-        zr = 0.0
-        zi = 0.0
-        active = False
-        s = 0
-        for i in range(I + 1):
-            stop = inject[i] if i < I else S
-            if stop > S:
-                stop = S
-            # propagate the current state from s to stop
-            if active:
-                b = s
-                while b < stop:
-                    n = min(block, stop - b)
-                    for j in range(n):
-                        out[b + j] += zr * pr[j] - zi * pi[j]
-                    work += n
-                    if b + n > last:
-                        last = b + n
-                    # advance the state by n samples
-                    if n == block:
-                        cr = pr[block]
-                        ci = pi[block]
-                    else:
-                        w = np.exp(p * (n / fs))
-                        cr = w.real
-                        ci = w.imag
-                    zr, zi = zr * cr - zi * ci, zr * ci + zi * cr
-                    b += n
-                    if zr * zr + zi * zi < thr2:
-                        active = False
-                        zr = 0.0
-                        zi = 0.0
-                        break
-            if i == I or inject[i] >= S:
-                break
-            s = inject[i]
-            zr += amps[i, k].real
-            zi += amps[i, k].imag
-            active = zr * zr + zi * zi >= thr2
+    nxt = 0
+    a = 0
+    while a < S:
+        # inject the impacts that start at sample a
+        while nxt < I and inject[nxt] <= a:
+            if inject[nxt] == a:
+                for k in range(K):
+                    zr[k] += amps[nxt, k].real
+                    zi[k] += amps[nxt, k].imag
+                    active[k] = zr[k] * zr[k] + zi[k] * zi[k] >= thr2[k]
+            nxt += 1
+        # this segment ends at the tile's end or at the next injection
+        b = min(S, (a // TILE + 1) * TILE)
+        if nxt < I and inject[nxt] < b:
+            b = inject[nxt]
+        for k in range(K):
+            if not active[k]:
+                continue
+            pr = table[k, 0]
+            pi = table[k, 1]
+            cr = zr[k]
+            ci = zi[k]
+            s = a
+            while s < b:
+                n = min(SUB, b - s)
+                o = out[s:s + n]          # a view: unsigned indexing, the loop vectorises
+                for j in range(n):
+                    o[j] += cr * pr[j] - ci * pi[j]
+                er = pr[n]
+                ei = pi[n]
+                cr, ci = cr * er - ci * ei, cr * ei + ci * er
+                s += n
+                if cr * cr + ci * ci < thr2[k]:
+                    active[k] = False
+                    cr = 0.0
+                    ci = 0.0
+                    break
+            work += s - a
+            if s > last:
+                last = s
+            zr[k] = cr
+            zi[k] = ci
+        a = b
     return work, last
+
+
+def _grid_size(tau, omega_max, min_points=64):
+    """Points of the uniform pulse grid over a contact of ``tau`` s: at least
+    ``min_points``, with a step ``h`` such that ``omega_max h <= pi / 2``."""
+    return max(min_points, int(math.ceil(2.0 * omega_max * tau / math.pi)) + 1)
 
 
 def pulse_grid(result, omega_max, min_points=64):
     """Uniform grid of a pulse fine enough for the transform: ``(h, forces)``.
 
     ``omega_max`` (rad/s) is the highest mode's angular frequency; the grid has at least
-    ``min_points`` points and a step ``h`` with ``omega_max h <= pi / 2``.
+    ``min_points`` points and a step ``h`` (s) with ``omega_max h <= pi / 2``; ``forces``
+    in N.
     """
     tau = result.contact_time
-    n = max(min_points, int(math.ceil(2.0 * omega_max * tau / math.pi)) + 1)
+    n = _grid_size(tau, omega_max, min_points)
     h = tau / (n - 1)
     u = np.arange(n) * h
     f = result.force_at(u)
     return h, np.ascontiguousarray(f)
+
+
+def pulse_transforms(result, poles, omega_max=None):
+    """Laplace transforms ``L_k = Int_0^tau F(u) exp(-p_k u) du`` of an impact's force
+    pulse at the poles ``p_k`` (rad/s), N s, by the rule the renderer uses (trapezoid
+    rule on :func:`pulse_grid`'s grid for ``omega_max``, rad/s; default the highest
+    ``|Im p_k|``). A settled contact's remaining weight is not included."""
+    poles = np.ascontiguousarray(poles, dtype=complex)
+    if omega_max is None:
+        omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
+    h, f = pulse_grid(result, omega_max)
+    out = np.empty(poles.size, dtype=complex)
+    one = np.ones(poles.size)
+    zero = np.zeros(poles.size)
+    _impact(np.ascontiguousarray(poles.real), np.ascontiguousarray(poles.imag), one, zero,
+            one, zero, 1.0, h, f, 0.0, np.zeros(0), 0.0, result.contact_time, out, np.zeros(0))
+    return out
 
 
 def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor, settled_weight=None,
@@ -276,6 +310,10 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     (audio float64 (S,), info dict: n_modes_rendered, mode_samples, reference, length)
     """
     fs = float(samplerate)
+    onsets = np.asarray(onsets, dtype=float)
+    if onsets.size and not np.min(onsets) >= 0.0:
+        raise ParameterError(f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
+                             f"(from the first sample of the audio)")
     poles = np.ascontiguousarray(poles, dtype=complex)
     K = poles.size
     omega_max = float(np.max(np.abs(poles.imag))) if K else 0.0
@@ -289,19 +327,29 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     pim = np.ascontiguousarray(poles.imag)
     cr = np.ascontiguousarray(coef.real)
     ci = np.ascontiguousarray(coef.imag)
+    period = 1.0 / fs
+    step = np.exp(poles * period)                     # one sample's ringing
+    ur = np.ascontiguousarray(step.real)
+    ui = np.ascontiguousarray(step.imag)
     for i, (res, t0) in enumerate(zip(impacts, onsets)):
-        h, forces = pulse_grid(res, omega_max)
         tau = res.contact_time
+        n = _grid_size(tau, omega_max)
+        h = tau / (n - 1)
+        # the audio samples inside the contact: first .. first + M - 1, from d0 after first
+        # touch (the kernel guards the rounding of a sample that falls on the touch)
         first = int(math.ceil(t0 * fs - 1e-9))
-        end = int(math.ceil((t0 + tau) * fs - 1e-9))
-        idx = np.arange(max(first, 0), max(end, 0), dtype=np.int64)
-        offsets = np.ascontiguousarray(idx / fs - t0)   # one sample apart; the kernel guards d < 0
-        off_f = np.ascontiguousarray(res.force_at(offsets)) if idx.size else np.zeros(0)
+        M = max(0, int(math.ceil((t0 + tau) * fs - 1e-9)) - first)
+        d0 = first * period - t0
+        times = np.empty(n + M)
+        times[:n] = np.arange(n) * h
+        times[n:] = d0 + np.arange(M) * period
+        forces = res.force_at(times)
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
-        resp = np.empty(idx.size)
-        _impact(pr, pim, cr, ci, h, forces, offsets, off_f, weight, tau, end / fs - t0, amps[i], resp)
-        inject[i] = end
-        contact_samples.append((idx, resp, off_f))
+        resp = np.empty(M)
+        _impact(pr, pim, cr, ci, ur, ui, period, h, forces[:n], d0, forces[n:], weight, tau,
+                amps[i], resp)
+        inject[i] = first + M
+        contact_samples.append((np.arange(first, first + M, dtype=np.int64), resp, forces[n:]))
     reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
     thr = floor * reference / max(K, 1)
     keep = np.max(np.abs(amps), axis=0) >= thr if I else np.zeros(K, bool)
@@ -311,7 +359,7 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
         sig = -poles.real[keep]
         amax = np.sum(np.abs(amps[:, keep]), axis=0)
         t_tail = np.log(np.maximum(amax / max(thr, 1e-300), 1.0)) / np.maximum(sig, 1e-12)
-        length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + BLOCK)
+        length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + TILE)
     else:
         length = int(inject[-1] + 1) if I else 1
     if max_samples is not None:
@@ -319,7 +367,7 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     out = np.zeros(length)
     t_bank = time.perf_counter()
     work, last = _bank(out, fs, poles[keep], np.ascontiguousarray(amps[:, keep]), inject,
-                       np.full(int(keep.sum()), thr), BLOCK) if keep.any() else (0, 0)
+                       np.full(int(keep.sum()), thr)) if keep.any() else (0, 0)
     t_bank = time.perf_counter() - t_bank
     mass_line = float(np.sum(direct.real)) if direct is not None else 0.0
     for (idx, resp, off_f) in contact_samples:

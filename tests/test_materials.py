@@ -15,12 +15,14 @@ NAME_RE = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 BAD_REALS = [0.0, -1.0, float("nan"), float("inf"), float("-inf")]
 NOT_NUMBERS = ["7800", None, True, [1.0], 1j]
 
-# Rows the task requires (PHYSICS.md section 1 and the materials a user expects).
+# Rows a user expects to find (PHYSICS.md section 1 and common handbook materials).
 REQUIRED = [
     "mdf-18", "mdf-12", "mdf-6", "steel", "stainless-steel", "aluminium", "brass", "glass",
     "acrylic", "polycarbonate", "hardwood", "oak", "pine", "plywood", "concrete", "granite",
-    "rubber",
+    "rubber", "abs", "porcelain",
 ]
+# Names a user may type for rows listed under another name.
+REQUIRED_ALIASES = {"ceramic": "porcelain", "pmma": "acrylic"}
 
 
 # --------------------------------------------------------------------------- the table
@@ -48,6 +50,12 @@ def test_table_row_is_valid(key):
 def test_required_rows_present(key):
     # The table must hold every required row, each with a loss factor or Rayleigh law.
     assert key in TABLE
+
+
+@pytest.mark.parametrize("alias, row", sorted(REQUIRED_ALIASES.items()))
+def test_required_aliases_name_rows(alias, row):
+    # Common names reach their row: get(alias) is the row itself.
+    assert get(alias) is TABLE[row]
 
 
 def test_required_rows_present_rejects_unknown_name():

@@ -1,5 +1,6 @@
 """The README's two opening commands and the CI script stay in step."""
 
+import subprocess
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -20,9 +21,13 @@ def test_readme_opens_with_exactly_two_commands():
 
 
 def test_ci_runs_the_readme_test_command():
-    # .ci/run extracts the second command from the README rather than repeating it.
+    # .ci/run extracts the second command from the README rather than repeating it, and
+    # runs it in a fresh copy of the repository (so the environment it creates is new).
+    out = subprocess.run(["bash", str(ROOT / ".ci" / "run"), "--print-command"],
+                         capture_output=True, text=True, check=True).stdout
+    assert out.strip() == _commands()[1].strip()
     ci = (ROOT / ".ci" / "run").read_text()
-    assert "README.md" in ci and "sed -n 2p" in ci
+    assert "mktemp -d" in ci and "--exclude=./.venv" in ci
 
 
 def test_main_job_renders_a_preset_of_the_repository():

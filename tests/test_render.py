@@ -10,7 +10,7 @@ from synth import plate as plate_modes
 from synth.errors import ParameterError
 from synth.render import render
 from synth.scene import Accelerometer, Microphone, Scene
-from synth.synthesis import _impact, pulse_grid, synthesize
+from synth.synthesis import pulse_grid, pulse_transforms, synthesize
 
 DEFAULT = synth.load_preset("default")
 EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)   # no omission, no fade
@@ -51,7 +51,7 @@ def test_each_impact_starts_at_its_onset():
     # Superposition: the audio of the first n impacts minus that of the first n-1 is impact
     # n's contribution, exactly 0 before its onset (to rounding, 1e-9 of the peak) and
     # present from the first sample after it: onsets placed to the sample (well within the
-    # issue's 0.1 ms), for the first ten impacts.
+    # required 0.1 ms), for the first ten impacts.
     scene = accel_scene()
     seq = synth.simulate_scene(scene)
     full = render(scene, samplerate=48000, sequence=seq, **EXACT)
@@ -108,10 +108,7 @@ def test_modal_energy_equals_energy_sent_into_plate():
     poles = -sig + 1j * wd
     M = np.asarray(modes.modal_masses)
     b = modes.shapes(np.array([DEFAULT.position]))[0] / M
-    h, f = pulse_grid(res, wd.max())
-    amps = np.empty(poles.size, complex)
-    _impact(poles.real.copy(), poles.imag.copy(), np.ones(poles.size), np.zeros(poles.size),
-            h, f, np.zeros(0), np.zeros(0), 0.0, res.contact_time, 0.0, amps, np.zeros(0))
+    amps = pulse_transforms(res, poles)
     A = -1j * b / wd * amps
     energy = 0.5 * np.sum(M * np.abs(poles * A) ** 2)
     assert energy == pytest.approx(res.plate_energy, rel=0.05)

@@ -5,7 +5,8 @@ depends on neither) and analysed with the analysis' defaults, but for ``min_sepa
 which the analysis asks to be longer than the contact time (1.5 times the longest contact
 of the first ten, at least the default 1 ms). The first ten onsets must come within 0.2 ms
 of the engine's and the restitution ``e_n = T_n / T_(n-1)`` from consecutive onsets within
-1 % of the engine's own (from its onsets): the tolerances of the task.
+1 % of the engine's own (from its onsets): the accuracy a perception study needs
+(well below the just-noticeable difference of a bounce rhythm).
 
 A tick is recovered only while it can be told from the ringing of the earlier ones: its
 tick-to-masker ratio (TMR), the energy of the tick alone over its window (to the next tick,
