@@ -1178,3 +1178,37 @@ def force_at(hist, radau, lam, G, n, c, s_contact, s, out):
         x, w = _dense(hist, S, k, si, radau, n)
         f, _ = _force(x, w, lam, n, c)
         out[i] = f
+
+
+@numba.njit(cache=True)
+def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
+    """As ``force_at``, with the force's rate of change ``df/ds`` into ``slope``.
+
+    ``x' = w - lam f`` and ``w' = G - f`` (module docstring); with ``a = x^n``,
+    ``a' = n x^(n-1) x'``. Hertz and power laws: ``f' = a'``. Hunt-Crossley:
+    ``f = a (1 + c w) / D``, ``D = 1 + c lam a``, so
+    ``f' = (a' (1 + c w) + a c w') / D - f c lam a' / D`` (0 where f is clipped at 0).
+    """
+    S = np.empty((7, _SN, _SN))
+    _series(lam, G, n, c, S)
+    nh = hist.shape[0]
+    for i in range(s.shape[0]):
+        si = s[i]
+        if si <= 0.0 or si >= s_contact:
+            out[i] = 0.0
+            slope[i] = 0.0
+            continue
+        k = _find_step(hist, nh, si)
+        x, w = _dense(hist, S, k, si, radau, n)
+        f, a = _force(x, w, lam, n, c)
+        out[i] = f
+        if x <= 0.0 or f <= 0.0:
+            slope[i] = 0.0
+            continue
+        dx = w - lam * f
+        da = n * _power(x, n - 1.0) * dx
+        if c == 0.0:
+            slope[i] = da
+        else:
+            D = 1.0 + c * lam * a
+            slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D - f * c * lam * da / D

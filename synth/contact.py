@@ -141,6 +141,13 @@ class ImpactResult:
     def force(self) -> np.ndarray:
         return self._sample_pulse()[1]
 
+    @property
+    def exponent(self) -> float:
+        """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
+        rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
+        separation."""
+        return self._dense[4]
+
     def _sample_pulse(self):
         # Both arrays at once, cached beside each other (most uses of an impact, such as
         # rendering, need only force_at).
@@ -161,6 +168,18 @@ class ImpactResult:
         _k.force_at(hist, stiff, lam, G, n, c, s_contact, s, out)
         out *= f_scale
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
+
+    def force_and_slope_at(self, t):
+        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
+        touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
+        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, _ = self._dense
+        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / theta)
+        out = np.empty_like(s)
+        slope = np.empty_like(s)
+        _k.force_slope_at(hist, stiff, lam, G, n, c, s_contact, s, out, slope)
+        out *= f_scale
+        slope *= f_scale / theta
+        return out, slope
 
 
 def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=1.5,

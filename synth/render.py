@@ -87,7 +87,7 @@ def _distance(scene) -> float:
 
 def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
            floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005, max_duration=30.0,
-           max_tail=60.0, sequence=None) -> Render:
+           max_tail=60.0, sequence=None, pulse_points=65) -> Render:
     """Render ``scene`` at ``samplerate``.
 
     Parameters
@@ -107,7 +107,8 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         Omission floor, dB below the reference amplitude (the bound on the loudest tick's
         peak): omitted modes and tails add up to at most this (see :mod:`synth.synthesis`).
     max_frequency : float > 0, optional
-        Highest mode rendered, Hz (default and upper bound: the Nyquist frequency).
+        Highest mode rendered, Hz, at most the Nyquist frequency ``samplerate / 2``
+        (default: the Nyquist frequency; a mode at or above it is never rendered).
     preroll : float >= 0
         Silence before the first tick, s.
     fade : float >= 0
@@ -117,9 +118,15 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     max_tail : float > 0
         Longest ringing after the last impact, s: the audio ends when every tail has
         fallen below the floor, or at this limit (lightly damped plates, e.g. steel with
-        a loss factor of 1e-4, ring for minutes).
+        a loss factor of 1e-4, ring for minutes). A tail cut here is reported in
+        ``settings["tail_cut"]`` and ``settings["left_at_end"]`` (the bound, relative to
+        the reference amplitude, of what rings on after the end).
     sequence : BounceSequence, optional
         Precomputed impacts of this scene (default: computed here).
+    pulse_points : int >= 5
+        Fewest points of the uniform grid on which each force pulse's Laplace
+        transforms are taken (see :mod:`synth.synthesis`; the default keeps their error
+        below 2e-6 of the impulse; a reference render may ask for more).
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
@@ -132,7 +139,14 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     if max_frequency is None:
         f_max = nyquist
     else:
-        f_max = min(_checks.positive("max_frequency", max_frequency, "Hz"), nyquist)
+        f_max = _checks.positive("max_frequency", max_frequency, "Hz")
+        if f_max > nyquist:
+            raise ParameterError(
+                f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
+                f"{nyquist:g} Hz at samplerate={fs} (Hz)")
+    if isinstance(pulse_points, bool) or not isinstance(pulse_points, (int, np.integer)) \
+            or pulse_points < 5:
+        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer >= 5")
     pre = _checks.nonnegative("preroll", preroll, "s")
     tail = _checks.positive("max_tail", max_tail, "s")
     fade_s = _checks.nonnegative("fade", fade, "s")
@@ -141,7 +155,9 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     elif not isinstance(sequence, BounceSequence):
         raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
 
-    # the plate's modes below Nyquist, as poles
+    # the plate's modes below Nyquist, as poles. A mode with sigma >= omega is overdamped:
+    # it does not ring (possible only for a loss factor >= 2, or a Rayleigh law far
+    # outside any material's range); it is left out and counted in the settings.
     modes = plate_modes.modes(scene.plate, max_frequency=f_max * (1.0 - 1e-9))
     sigma = np.asarray(modes.decay_rates, dtype=float)
     omega = np.asarray(modes.angular_frequencies, dtype=float)
@@ -177,7 +193,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     max_samples = int(math.ceil((sequence.duration + delay - start + tail) * fs))
     audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
                              floor=floor, settled_weight=weights, direct=direct,
-                             max_samples=max_samples)
+                             max_samples=max_samples, pulse_points=int(pulse_points))
     if fade_s > 0 and audio.size:
         n = min(audio.size, int(round(fade_s * fs)))
         if n > 1:
@@ -195,6 +211,10 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                     delay=delay, audio_start=start, n_impacts=len(sequence),
                     stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
                     n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
+                    n_modes_overdamped=int(np.sum(~under)),
+                    tail_cut=bool(info["length"] >= max_samples
+                                  and info["left_at_end"] > floor * info["reference"]),
+                    left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
                     bank_seconds=info["bank_seconds"],
                     reference_amplitude=info["reference"])
     return Render(np.asarray(scaled, dtype=np.float32), fs, shifted, units, float(gain), settings)
