@@ -16,7 +16,7 @@ from .contact import ImpactResult, solve_contact, solve_impact
 from .errors import ParameterError, SynthError
 from .materials import LossFactor, Material, Rayleigh
 from .playback import play
-from .presets import load_preset
+from .presets import load_preset, render_preset
 from .render import Render, render
 from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
 from .scheduler import BounceSequence, Impact, simulate_bounces, simulate_scene
@@ -25,6 +25,6 @@ __all__ = [
     "Accelerometer", "Analysis", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
     "LossFactor", "Material", "Microphone", "ParameterError", "Plate", "Rayleigh", "Scene",
     "Render", "SynthError", "Tick", "analyze", "analyze_file", "contact", "load_preset", "materials", "plate", "play", "read_audio",
-    "render", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",
+    "render", "render_preset", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",
 ]
 __version__ = "0.1.0"

@@ -50,21 +50,10 @@ def _cmd_info(args):
 
 
 def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
-    """Render keywords from a preset's [render] section and the command line (which wins)."""
-    import inspect
-
-    from .presets import PresetError
-    from .render import render
-
-    allowed = [n for n, p in inspect.signature(render).parameters.items()
-               if p.kind is p.KEYWORD_ONLY and n != "sequence"] + ["subtype"]
-    opts = {}
-    for key, value in scene_render.items():
-        if key not in allowed:
-            raise PresetError(f"{source}: render.{key}={value!r} is not a known key; allowed: "
-                              f"{', '.join(allowed)}")
-        opts[key] = value
-    for key in ("samplerate", "normalize", "subtype"):
+    """Render keywords from a preset's [render] section (checked when the preset was
+    read) and the command line (which wins)."""
+    opts = dict(scene_render)
+    for key in ("samplerate", "normalize", "subtype", "loudness_lufs", "peak_db", "floor_db"):
         value = getattr(args, key, None)
         if value is not None:
             opts[key] = value

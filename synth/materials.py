@@ -57,7 +57,7 @@ value), which overstates the stiffness of a board bent across the grain.
 from __future__ import annotations
 
 import difflib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -128,8 +128,9 @@ class Material:
         Young's modulus, Pa.
     poisson : float in (-1, 0.5)
         Poisson's ratio, dimensionless.
-    damping : Rayleigh or LossFactor
-        Internal damping law of the material's bending modes.
+    damping : Rayleigh or LossFactor or None
+        Internal damping law of the material's bending modes. Needed for a plate
+        (its modes decay by it); a ball's material may leave it out (None).
     source : str
         Where the values come from (citation), for table rows.
     """
@@ -138,7 +139,7 @@ class Material:
     density: float
     young: float
     poisson: float
-    damping: Damping = field(default_factory=lambda: LossFactor(0.01))
+    damping: Damping | None = None
     source: str = ""
 
     def __post_init__(self):
@@ -149,9 +150,10 @@ class Material:
         object.__setattr__(self, "young", _checks.positive(f"{n}.young", self.young, "Pa"))
         object.__setattr__(self, "poisson", _checks.in_range(
             f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"))
-        if not isinstance(self.damping, (Rayleigh, LossFactor)):
+        if self.damping is not None and not isinstance(self.damping, (Rayleigh, LossFactor)):
             raise ParameterError(
-                f"{n}.damping={self.damping!r} must be a Rayleigh(alpha, beta) or LossFactor(eta)")
+                f"{n}.damping={self.damping!r} must be a Rayleigh(alpha, beta) or LossFactor(eta) "
+                f"(or None for a ball's material)")
 
     @property
     def effective_modulus(self) -> float:

@@ -4,41 +4,61 @@ A preset has one section per scene object; the keys of ``[ball]``, ``[plate]``
 and ``[contact]`` are exactly the fields of :class:`~synth.scene.Ball`,
 :class:`~synth.scene.Plate` and :class:`~synth.scene.Contact` (one declaration
 each, so the dataclass field, the preset key and the ``--set`` option cannot
-drift apart)::
+drift apart), and those of ``[render]`` the options of :func:`synth.render`
+(:data:`synth.render.OPTIONS`). Every key, with its unit::
 
-    description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"
-    gravity = 9.81                  # m/s^2 (optional)
+    description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"  # text
+    gravity = 9.81                  # m/s^2 (optional, default 9.81)
 
     [ball]
-    material = "steel"              # a table name, or an inline table (below)
+    material = "steel"              # a table name (synth materials), or an inline table
     radius = 0.005                  # m
-    mass = 4.17e-3                  # kg (optional: from density)
+    mass = 4.17e-3                  # kg (optional: from the density and radius)
 
     [plate]
-    material = "mdf-18"
+    material = "mdf-18"             # a table name or an inline table (needs damping)
     thickness = 0.018               # m
     length = 1.227                  # m, along x
     width = 0.49                    # m, along y
-    boundary = "free"               # "free", "simply-supported" or "clamped"
+    boundary = "free"               # "free" (default), "simply-supported" or "clamped"
 
     [drop]
     height = 0.1                    # m, lowest point of the ball above the plate
-    position = [0.6135, 0.245]      # m from a plate corner (optional: the centre)
+    position = [0.6135, 0.245]      # m from a plate corner (optional: far from the edges)
 
-    [listener]
+    [listener]                      # optional: a microphone 0.2 m above the impact point
     type = "microphone"             # or "accelerometer"
-    position = [0.6135, 0.245, 0.2] # m (x, y on the plate; z above it, microphone only)
+    position = [0.6135, 0.245, 0.2] # m: x, y on the plate; z above it (microphone only)
 
-    [contact]
+    [contact]                       # optional
     law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley", "power-law"
-    rtol = 1e-6
+    rtol = 1e-9                     # relative accuracy of e and tau, dimensionless
+    dissipation = 0.2               # s/m, Hunt-Crossley mu (only with "hunt-crossley")
+    exponent = 1.5                  # dimensionless n in (1, 4] (only with "power-law")
+    stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
+    layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")
 
-    [render]                        # options of synth.render (samplerate in Hz, ...)
+    [render]                        # optional: options of synth.render
+    samplerate = 48000              # Hz
+    normalize = "peak"              # "peak", "loudness", "physical" or "none"
+    peak_db = -1.0                  # dBFS, for "peak"
+    loudness_lufs = -23.0           # LUFS, for "loudness"
+    floor_db = -80.0                # dB below the reference amplitude: omission floor
+    max_frequency = 20000.0         # Hz, highest mode (at most samplerate / 2)
+    preroll = 0.005                 # s of silence before the first tick
+    fade = 0.005                    # s, raised-cosine fade at the end
+    max_duration = 30.0             # s from release: latest impact
+    max_tail = 60.0                 # s of ringing after the last impact, at most
+    pulse_points = 65               # fewest points per pulse for the transforms
+    subtype = "PCM_24"              # the output file's sample format (soundfile subtype)
 
 An inline material is ``{ name = "oak-board", density = 700.0, young = 12e9,
-poisson = 0.35, damping = { eta = 0.01 } }`` (``damping`` is ``{ eta = ... }``
-or ``{ alpha = ..., beta = ... }``). An unknown key, a wrong type or an
-impossible scene is a :class:`PresetError` naming the file, key and value.
+poisson = 0.35, damping = { eta = 0.01 }, source = "..." }`` (density in
+kg/m^3, young in Pa, poisson dimensionless; ``damping`` is ``{ eta = ... }``, a
+dimensionless loss factor, or ``{ alpha = ..., beta = ... }``, Rayleigh's 1/s
+and s; a ball's material may leave it out, a plate's may not). An unknown key,
+a wrong type or an impossible scene is a :class:`PresetError` naming the file,
+key and value.
 """
 
 from __future__ import annotations
@@ -69,7 +89,7 @@ SECTIONS = {
     "drop": ("height", "position"),
     "listener": ("type", "position"),
     "contact": _fields(Contact),
-    "render": None,  # validated by the renderer, which owns its options
+    "render": None,  # the options of synth.render (synth.render.OPTIONS) and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
 _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source")
@@ -251,9 +271,40 @@ def _scene_from_dict(data, source):
         listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
     contact = Contact(**data["contact"]) if "contact" in data else None
     gravity = data.get("gravity", 9.81)
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise PresetError(f"{source}: description={description!r} must be a string")
     scene = Scene(ball, plate, drop_height=drop["height"], position=position,
                   listener=listener, gravity=gravity, contact=contact)
-    return scene, dict(data.get("render", {}))
+    return scene, _render_section(data.get("render", {}), source)
+
+
+def _render_section(section: dict, source: str) -> dict:
+    """The ``[render]`` section, checked: its keys are options of :func:`synth.render`
+    (checked by :func:`synth.render.check_options`) and ``subtype`` (a soundfile
+    subtype name such as "PCM_24" or "FLOAT")."""
+    from .render import OPTIONS, check_options
+
+    allowed = OPTIONS + ("subtype",)
+    for k, v in section.items():
+        if k not in allowed:
+            near = difflib.get_close_matches(k, allowed, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise PresetError(f"{source}: render.{k}={v!r} is not a known key{hint}; "
+                              f"allowed: {', '.join(allowed)}")
+    opts = {k: v for k, v in section.items() if k != "subtype"}
+    try:
+        check_options(**opts)
+    except ParameterError as exc:
+        raise PresetError(f"{source}: render.{exc}") from None
+    if "subtype" in section:
+        import soundfile
+
+        st = section["subtype"]
+        if not isinstance(st, str) or st.upper() not in soundfile.available_subtypes():
+            raise PresetError(f"{source}: render.subtype={st!r} must be a soundfile subtype "
+                              f"such as 'PCM_16', 'PCM_24' or 'FLOAT'")
+    return dict(section)
 
 
 def load_preset_with_options(name_or_path, overrides=()) -> tuple[Scene, dict, dict]:
@@ -267,6 +318,23 @@ def load_preset_with_options(name_or_path, overrides=()) -> tuple[Scene, dict, d
 def load_preset(name_or_path, overrides=()) -> Scene:
     """The :class:`Scene` of a preset, given by file path or by name (``"default"``).
 
-    ``overrides`` are ``"section.key=value"`` strings applied before validation.
+    ``overrides`` are ``"section.key=value"`` strings applied before validation. The
+    ``[render]`` section is checked too; its options are used by :func:`render_preset`
+    and ``synth render``.
     """
     return load_preset_with_options(name_or_path, overrides)[0]
+
+
+def render_preset(name_or_path, *, overrides=(), **options):
+    """Render a preset with the options of its ``[render]`` section, which ``options``
+    (keywords of :func:`synth.render`, ``samplerate`` in Hz ...) override.
+
+    Returns the :class:`synth.render.Render`. The section's ``subtype`` (the output
+    file's) is not a render option and is left out here.
+    """
+    from .render import render
+
+    scene, section, _ = load_preset_with_options(name_or_path, overrides)
+    opts = {k: v for k, v in section.items() if k != "subtype"}
+    opts.update(options)
+    return render(scene, **opts)

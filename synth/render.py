@@ -85,6 +85,48 @@ def _distance(scene) -> float:
     return math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + z * z)
 
 
+#: The render options a preset's ``[render]`` section may set (with ``subtype``, the
+#: output file's, see :func:`synth.audio_io.write_audio`).
+OPTIONS = ("samplerate", "normalize", "peak_db", "loudness_lufs", "floor_db", "max_frequency",
+           "preroll", "fade", "max_duration", "max_tail", "pulse_points")
+
+
+def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
+                  floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005,
+                  max_duration=30.0, max_tail=60.0, pulse_points=65) -> dict:
+    """Check the options of :func:`render` (units and ranges there) and return them
+    converted (floats, an int rate); a bad one is a ``ParameterError`` naming it, its
+    value and what is allowed. Used by :func:`render` itself and by presets."""
+    fs = _samplerate(samplerate)
+    _checks.choice("normalize", normalize, NORMALIZE)
+    peak = _checks.real("peak_db", peak_db, "dBFS", "<= 0")
+    if not peak <= 0.0:
+        raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
+    lufs = _checks.real("loudness_lufs", loudness_lufs, "LUFS", "< 0")
+    if not lufs < 0.0:
+        raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be < 0 (LUFS)")
+    floor = _checks.real("floor_db", floor_db, "dB", "< 0")
+    if not floor < 0.0:
+        raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
+    f_max = None
+    if max_frequency is not None:
+        f_max = _checks.positive("max_frequency", max_frequency, "Hz")
+        if f_max > 0.5 * fs:
+            raise ParameterError(
+                f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
+                f"{0.5 * fs:g} Hz at samplerate={fs} (Hz)")
+    if isinstance(pulse_points, bool) or not isinstance(pulse_points, (int, np.integer)) \
+            or pulse_points < 5:
+        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer >= 5")
+    return dict(samplerate=fs, normalize=normalize, peak_db=peak, loudness_lufs=lufs,
+                floor_db=floor, max_frequency=f_max,
+                preroll=_checks.nonnegative("preroll", preroll, "s"),
+                fade=_checks.nonnegative("fade", fade, "s"),
+                max_duration=_checks.positive("max_duration", max_duration, "s"),
+                max_tail=_checks.positive("max_tail", max_tail, "s"),
+                pulse_points=int(pulse_points))
+
+
 def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
            floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005, max_duration=30.0,
            max_tail=60.0, sequence=None, pulse_points=65) -> Render:
@@ -102,7 +144,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     peak_db : float <= 0
         dBFS for "peak".
     loudness_lufs : float < 0
-        LUFS for "loudness".
+        LUFS for "loudness" (integrated, ITU-R BS.1770).
     floor_db : float < 0
         Omission floor, dB below the reference amplitude (the bound on the loudest tick's
         peak): omitted modes and tails add up to at most this (see :mod:`synth.synthesis`).
@@ -130,28 +172,17 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
-    fs = _samplerate(samplerate)
-    _checks.choice("normalize", normalize, NORMALIZE)
-    floor = 10.0 ** (_checks.real("floor_db", floor_db, "dB") / 20.0)
-    if not floor_db < 0:
-        raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
-    nyquist = 0.5 * fs
-    if max_frequency is None:
-        f_max = nyquist
-    else:
-        f_max = _checks.positive("max_frequency", max_frequency, "Hz")
-        if f_max > nyquist:
-            raise ParameterError(
-                f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
-                f"{nyquist:g} Hz at samplerate={fs} (Hz)")
-    if isinstance(pulse_points, bool) or not isinstance(pulse_points, (int, np.integer)) \
-            or pulse_points < 5:
-        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer >= 5")
-    pre = _checks.nonnegative("preroll", preroll, "s")
-    tail = _checks.positive("max_tail", max_tail, "s")
-    fade_s = _checks.nonnegative("fade", fade, "s")
+    o = check_options(samplerate=samplerate, normalize=normalize, peak_db=peak_db,
+                      loudness_lufs=loudness_lufs, floor_db=floor_db,
+                      max_frequency=max_frequency, preroll=preroll, fade=fade,
+                      max_duration=max_duration, max_tail=max_tail, pulse_points=pulse_points)
+    fs = o["samplerate"]
+    floor = 10.0 ** (o["floor_db"] / 20.0)
+    f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
+    pre, tail, fade_s = o["preroll"], o["max_tail"], o["fade"]
+    max_duration = o["max_duration"]
     if sequence is None:
-        sequence = simulate_scene(scene, max_duration=_checks.positive("max_duration", max_duration, "s"))
+        sequence = simulate_scene(scene, max_duration=max_duration)
     elif not isinstance(sequence, BounceSequence):
         raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
 

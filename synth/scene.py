@@ -8,7 +8,7 @@ along its width; a microphone's ``z`` is its height above the plate, metres.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 from . import _checks
 from .errors import ParameterError
@@ -71,6 +71,10 @@ class Plate:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "plate.material"))
+        if self.material.damping is None:
+            raise ParameterError(
+                f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
+                f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
             object.__setattr__(self, name, _checks.positive(f"plate.{name}", getattr(self, name), unit))
         _checks.choice("plate.boundary", self.boundary, BOUNDARIES)
@@ -235,6 +239,7 @@ class Scene:
 
     ball: Ball
     plate: Plate
+    _: KW_ONLY
     drop_height: float
     position: tuple[float, float] | None = None
     listener: Listener | None = None

@@ -64,3 +64,15 @@ def test_defaults_of_the_documented_signatures():
             sig["rtol"].default) == (None, 9.81, "hertz", 1e-6)
     sig = inspect.signature(synth.render).parameters
     assert (sig["samplerate"].default, sig["normalize"].default) == (48000, "peak")
+
+
+def test_scene_takes_the_drop_by_keyword():
+    # Scene(ball, plate, *, drop_height, position=None, listener=None, gravity=9.81)
+    params = inspect.signature(synth.Scene).parameters
+    assert [p for p in params][:2] == ["ball", "plate"]
+    for k in ("drop_height", "position", "listener", "gravity"):
+        assert params[k].kind is inspect.Parameter.KEYWORD_ONLY
+    assert (params["position"].default, params["listener"].default, params["gravity"].default) \
+        == (None, None, 9.81)
+    with pytest.raises(TypeError):
+        synth.Scene(synth.Ball("steel", 0.005), synth.Plate("mdf-18", 0.018, 1.2, 0.5), 0.1)

@@ -237,7 +237,16 @@ def test_material_rejects_poisson_outside_range(bad):
         Material("m", 1000.0, 1e9, bad)
 
 
-@pytest.mark.parametrize("bad", [0.01, None, "loss", (35.0, 5e-7), {"eta": 0.01}])
+def test_material_without_damping_is_for_balls_only():
+    # A ball's material needs no damping law; a plate's does (its modes decay by it).
+    from synth.scene import Ball, Plate
+    m = Material("m", 1000.0, 1e9, 0.3)
+    assert m.damping is None and Ball(m, 0.01).material is m
+    with pytest.raises(ParameterError, match=r"plate\.material\.damping=None"):
+        Plate(m, 0.002, 0.3, 0.2)
+
+
+@pytest.mark.parametrize("bad", [0.01, "loss", (35.0, 5e-7), {"eta": 0.01}])
 def test_material_rejects_bad_damping(bad):
     # The damping must be a Rayleigh or LossFactor object, not a bare number or tuple.
     with pytest.raises(ParameterError, match=r"m\.damping="):

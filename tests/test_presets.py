@@ -178,12 +178,33 @@ def test_load_defaults_rejects_missing_material(tmp_path):
 
 
 def test_render_options_pass_through(tmp_path):
-    # [render] belongs to the renderer: its keys come back unchanged (48 kHz as an int).
-    data = thesis(render={"samplerate": 48000, "level": "peak"})
+    # [render] holds options of synth.render (and the file's subtype): they come back
+    # unchanged (48 kHz as an int).
+    data = thesis(render={"samplerate": 48000, "normalize": "peak", "subtype": "FLOAT"})
     scene, render, raw = load_preset_with_options(write(tmp_path, data))
-    assert render == {"samplerate": 48000, "level": "peak"}
+    assert render == {"samplerate": 48000, "normalize": "peak", "subtype": "FLOAT"}
     assert raw["render"]["samplerate"] == 48000
     assert scene.drop_height == 0.1
+
+
+@pytest.mark.parametrize("section, words", [
+    ({"level": "peak"}, ["render.level='peak'", "not a known key", "normalize"]),
+    ({"samplerate": "48k"}, ["render.samplerate='48k'", "integer number of Hz"]),
+    ({"floor_db": 3}, ["render.floor_db=3", "< 0 (dB)"]),
+    ({"normalize": "loud"}, ["render.normalize='loud'", "'loudness'"]),
+    ({"max_frequency": 30000.0}, ["render.max_frequency=30000.0", "Nyquist"]),
+    ({"subtype": "MP3_SUPER"}, ["render.subtype='MP3_SUPER'", "PCM_24"]),
+])
+def test_render_options_rejects_bad_keys_and_values(tmp_path, section, words):
+    # A bad [render] option is found when the preset is read, by the API as by the CLI, and
+    # the message names the file, the full key, the value and what is allowed.
+    msg, path = error_of(tmp_path, thesis(render=section))
+    assert_names(msg, path, *words)
+
+
+def test_description_rejects_non_string(tmp_path):
+    msg, path = error_of(tmp_path, dict(thesis(), description=5))
+    assert_names(msg, path, "description=5", "string")
 
 
 def test_render_options_rejects_render_not_a_table(tmp_path):
@@ -532,3 +553,13 @@ def test_env_presets_rejects_broken_file(monkeypatch, tmp_path):
     with pytest.raises(PresetError) as info:
         load_preset("broken")
     assert str(tmp_path / "broken.toml") in str(info.value)
+
+
+def test_render_preset_uses_the_render_section(tmp_path):
+    # The [render] section's options reach the renderer through the API too; keywords win.
+    import synth
+    path = write(tmp_path, thesis(render={"samplerate": 22050, "max_frequency": 5000.0}))
+    r = synth.render_preset(path, overrides=["drop.height=0.02"])
+    assert r.samplerate == 22050 and r.settings["max_frequency"] == 5000.0
+    r = synth.render_preset(path, samplerate=16000, overrides=["drop.height=0.02"])
+    assert r.samplerate == 16000

@@ -206,3 +206,37 @@ def test_render_rejects_bad_input(kw, word):
 def test_render_rejects_non_scene():
     with pytest.raises(ParameterError, match="scene"):
         render("default", samplerate=48000)
+
+
+@pytest.mark.parametrize("preset, floor_db", [("default", -40.0), ("default", -60.0),
+                                              ("small-click-on-acrylic", -40.0)])
+def test_omissions_stay_within_the_floor(preset, floor_db):
+    # The omission budget (synth.synthesis): at every sample, the modes and tails left out
+    # add up to at most floor * reference, for any number of impacts (the acrylic click
+    # has dozens). Against the same render with nothing left out (floor -200 dB), fade off.
+    scene = synth.load_preset(preset)
+    seq = synth.simulate_scene(scene)
+    full = render(scene, samplerate=48000, sequence=seq, **EXACT)
+    cut = render(scene, samplerate=48000, sequence=seq, normalize="none", floor_db=floor_db,
+                 fade=0.0)
+    ref = cut.settings["reference_amplitude"]
+    a = np.pad(cut.audio.astype(float), (0, max(0, full.audio.size - cut.audio.size)))
+    diff = np.abs(a[:full.audio.size] - full.audio.astype(float))
+    # float32 output: the audio's own rounding (6e-8 of its peak) is allowed on top
+    assert np.max(diff) <= 10 ** (floor_db / 20) * ref + 1e-7 * np.max(np.abs(full.audio))
+    assert cut.settings["mode_samples"] < full.settings["mode_samples"]
+
+
+def test_render_rejects_max_frequency_above_nyquist():
+    with pytest.raises(ParameterError, match=r"max_frequency=30000.0 must be <= the Nyquist"):
+        render(DEFAULT, samplerate=48000, max_frequency=30000.0)
+
+
+def test_tail_cut_is_reported():
+    # A steel plate (loss factor 1e-4) rings for tens of seconds: a 0.2 s max_tail cuts it,
+    # and the render says so, with the bound of what rings on after the end.
+    scene = synth.load_preset("steel-ball-on-steel-sheet")
+    r = render(scene, samplerate=48000, max_tail=0.2, normalize="none")
+    assert r.settings["tail_cut"] and r.settings["left_at_end"] > 10 ** (-80 / 20)
+    r = render(DEFAULT, samplerate=48000, normalize="none")
+    assert not r.settings["tail_cut"]

@@ -198,7 +198,7 @@ def test_accelerometer_rejects_malformed(bad):
 
 def test_scene_defaults():
     # Documented defaults (exact: halves of the sides, 0.2 m, 9.81 m/s^2).
-    s = Scene(ball10(), mdf18(), 0.1)
+    s = Scene(ball10(), mdf18(), drop_height=0.1)
     # Default impact point: the centre; default listener: a microphone 0.2 m above it.
     assert s.position == (A / 2.0, B / 2.0)
     assert isinstance(s.listener, Microphone)
@@ -209,17 +209,17 @@ def test_scene_defaults():
 
 def test_scene_default_listener_follows_position():
     # The default microphone is 0.2 m above the given impact point.
-    s = Scene(ball10(), mdf18(), 0.1, position=[0.2, 0.1])
+    s = Scene(ball10(), mdf18(), drop_height=0.1, position=[0.2, 0.1])
     assert s.position == (0.2, 0.1)
     assert s.listener.position == (0.2, 0.1, 0.2)
 
 
 def test_scene_accepts_listeners_on_corner_and_in_air():
     # An accelerometer on a corner is on the plate; a microphone needs only z > 0.
-    s = Scene(ball10(), mdf18(), 0.1, listener=Accelerometer((A, B)))
+    s = Scene(ball10(), mdf18(), drop_height=0.1, listener=Accelerometer((A, B)))
     assert s.listener.position == (A, B)
     # A microphone may be anywhere above the plane, even beyond the plate's outline.
-    s = Scene(ball10(), mdf18(), 0.1, listener=Microphone((-1.0, 3.0, 0.5)))
+    s = Scene(ball10(), mdf18(), drop_height=0.1, listener=Microphone((-1.0, 3.0, 0.5)))
     assert s.listener.position == (-1.0, 3.0, 0.5)
 
 
@@ -227,29 +227,29 @@ def test_scene_rejects_ball_larger_than_plate():
     # Ball diameter 0.22 m > smaller side 0.2 m.
     plate = Plate("steel", 0.002, 0.3, 0.2)
     with pytest.raises(ParameterError, match=r"ball\.radius.*too large"):
-        Scene(Ball("steel", 0.11), plate, 0.1)
+        Scene(Ball("steel", 0.11), plate, drop_height=0.1)
     # Exactly the side is still allowed (diameter == 0.2 m).
-    assert Scene(Ball("steel", 0.1), plate, 0.1).ball.radius == 0.1
+    assert Scene(Ball("steel", 0.1), plate, drop_height=0.1).ball.radius == 0.1
 
 
 @pytest.mark.parametrize("pos", [(-0.01, 0.1), (A + 0.01, 0.1), (0.1, B + 0.01)])
 def test_scene_rejects_position_off_plate(pos):
     # An impact point 1 cm off any edge is rejected, naming drop.position.
     with pytest.raises(ParameterError, match=r"^drop\.position="):
-        Scene(ball10(), mdf18(), 0.1, position=pos)
+        Scene(ball10(), mdf18(), drop_height=0.1, position=pos)
 
 
 @pytest.mark.parametrize("pos", [(float("nan"), 0.1), (0.1,), "centre"])
 def test_scene_rejects_malformed_position(pos):
     # Non-finite, short or non-numeric positions are rejected, naming drop.position.
     with pytest.raises(ParameterError, match=r"drop\.position"):
-        Scene(ball10(), mdf18(), 0.1, position=pos)
+        Scene(ball10(), mdf18(), drop_height=0.1, position=pos)
 
 
 def test_scene_rejects_accelerometer_off_plate():
     # An accelerometer must sit on the plate.
     with pytest.raises(ParameterError, match=r"^listener\.position=.*off the plate"):
-        Scene(ball10(), mdf18(), 0.1, listener=Accelerometer((A + 0.1, 0.1)))
+        Scene(ball10(), mdf18(), drop_height=0.1, listener=Accelerometer((A + 0.1, 0.1)))
 
 
 @pytest.mark.parametrize("kwargs, match", [
