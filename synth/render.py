@@ -70,19 +70,45 @@ def _samplerate(value) -> int:
 
 
 def _microphone_gains(modes, scene, poles, k_max):
-    """Radiation gains of every mode to the scene's microphone (cached: see
-    :func:`synth.radiation.plate_gains`)."""
+    """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
+    for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
+
+    A mode rings only after its impact, so a plate element at distance ``R`` is heard
+    from ``R / c`` on: the Rayleigh integral's exact gain at the pole, ``H_k(p_k)``,
+    holds only once every element has been heard, and it weights an element by
+    ``exp(sigma_k (R - R0) / c)``, the mode's amplitude when that element's sound set
+    out: for strongly damped modes and large plates (1 / sigma_k shorter than the
+    spread of arrival times), a growth of many orders of magnitude that the early
+    samples would carry. Instead each mode gets the one complex gain that makes its
+    ringing ``G_k exp(p_k t)``, from the first arrival ``R0 / c`` on (``R0`` the
+    distance to the nearest point of the plate), closest in the least-squares sense to
+    the causal pressure: the projection of ``Int W(tau) exp(p (t - tau)) [t > tau] dtau``
+    (``W`` the arrival-time density of ``phi_k / R``) on ``exp(p t)``, which is
+
+        G_k = (rho p_k / 2 pi) Int phi_k exp(-(sigma_k + i omega_k) (R - R0) / c) / R dA
+            = H_k(s'_k) p_k / s'_k,      s'_k = sigma_k + i omega_k = -conj(p_k),
+
+    the Rayleigh gain at the mirror pole: every element weighted by ``exp(-sigma_k (R -
+    R0) / c) <= 1`` (so ``|G_k|`` never exceeds the in-phase bound), and equal to
+    ``H_k(p_k)`` for a lightly damped mode (``sigma_k (R - R0) / c << 1``). Cached: see
+    :func:`synth.radiation.plate_gains`.
+    """
     from .radiation import plate_gains
 
-    return plate_gains(modes, scene.listener.position, poles, max_wavenumber=k_max,
-                       air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                       reference_distance=_distance(scene))
+    mirror = -np.conj(poles)
+    h = plate_gains(modes, scene.listener.position, mirror, max_wavenumber=k_max,
+                    air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
+                    reference_distance=_nearest_distance(scene))
+    return np.asarray(h) * poles / mirror
 
 
-def _distance(scene) -> float:
+def _nearest_distance(scene) -> float:
+    """Distance (m) from the microphone to the nearest point of the plate."""
     x, y, z = scene.listener.position
-    x0, y0 = scene.position
-    return math.sqrt((x - x0) ** 2 + (y - y0) ** 2 + z * z)
+    p = scene.plate
+    dx = max(0.0, -x, x - p.length)
+    dy = max(0.0, -y, y - p.width)
+    return math.sqrt(dx * dx + dy * dy + z * z)
 
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the
@@ -214,7 +240,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         all_gains = _microphone_gains(modes, scene, (-sigma + 1j * wd), k_max)
         output = np.asarray(all_gains)[ok] * poles
         direct = None
-        delay = _distance(scene) / SOUND_SPEED
+        delay = _nearest_distance(scene) / SOUND_SPEED
         units = "Pa"
 
     times = np.array([imp.time for imp in sequence])
