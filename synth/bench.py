@@ -166,7 +166,7 @@ def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else x
 
 
-def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300):
+def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300, cases=None):
     """Error of e, tau and the pulse against the reference, and time per impact.
 
     Returns a dict with ``rows`` (one per case and tolerance; the default rtol 1e-6 is
@@ -176,7 +176,7 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300):
     targets and the figures that meet them or not). Errors are None where undefined.
     """
     tolerances = tuple(sorted(set(float(t) for t in tolerances) | {DEFAULT_RTOL}, reverse=True))
-    cases = contact_cases()
+    cases = contact_cases() if cases is None else list(cases)
     rows = []
     comparisons = []
     gravity_rows = []
@@ -194,7 +194,7 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300):
             t = _median_time(lambda: contact.solve_contact(rtol=tol, **kw), repeat)
             err_e = abs(res.restitution - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(res.restitution)
             row = dict(case=case.name, rtol=tol, restitution=res.restitution,
-                       inelasticity=res.inelasticity, settled=res.settled,
+                       inelasticity=res.inelasticity, settled=bool(res.settled),
                        err_restitution=err_e,
                        err_contact_time=abs(res.contact_time - tau_ref) / tau_ref,
                        err_pulse=_pulse_error(res, sol, theta, case),
@@ -239,9 +239,9 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300):
         max_us_per_impact=max(r["us_per_impact"] for r in at_default),
         min_speedup=min(c["speedup"] for c in comparisons))
     summary["met"] = dict(
-        err_restitution=summary["max_err_restitution"] <= CONTACT_TARGETS["err_restitution"],
-        us_per_impact=summary["median_us_per_impact"] <= CONTACT_TARGETS["us_per_impact"],
-        speedup=summary["min_speedup"] >= CONTACT_TARGETS["speedup"])
+        err_restitution=bool(summary["max_err_restitution"] <= CONTACT_TARGETS["err_restitution"]),
+        us_per_impact=bool(summary["median_us_per_impact"] <= CONTACT_TARGETS["us_per_impact"]),
+        speedup=bool(summary["min_speedup"] >= CONTACT_TARGETS["speedup"]))
     for c in comparisons:
         c["scipy_error"] = _finite_or_none(c["scipy_error"])
     return dict(rows=rows, scipy=comparisons, gravity=gravity_rows, summary=summary)
@@ -413,9 +413,10 @@ def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), sa
             default_preset_realtime=first["realtime"],
             worst_ns_per_mode_sample=max(r["ns_per_mode_sample"] for r in defaults))
         summary["met"] = dict(
-            error_db=summary["worst_error_db"] <= RENDER_TARGETS["error_db"],
-            realtime=summary["default_preset_realtime"] >= RENDER_TARGETS["realtime"],
-            ns_per_mode_sample=summary["worst_ns_per_mode_sample"] <= RENDER_TARGETS["ns_per_mode_sample"])
+            error_db=bool(summary["worst_error_db"] <= RENDER_TARGETS["error_db"]),
+            realtime=bool(summary["default_preset_realtime"] >= RENDER_TARGETS["realtime"]),
+            ns_per_mode_sample=bool(summary["worst_ns_per_mode_sample"]
+                                    <= RENDER_TARGETS["ns_per_mode_sample"]))
     return dict(samplerate=samplerate, reference=REFERENCE, rows=rows, summary=summary)
 
 

@@ -80,11 +80,11 @@ def _cmd_render(args):
         from . import stimuli
 
         k = 1.0 if args.restitution_scale is None else args.restitution_scale
-        timing = scene if args.timing_from is None else load_preset_with_options(args.timing_from)[0]
-        seq = stimuli.scaled_sequence(timing, k)
-        if args.timing_from is not None:
-            seq = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
-        opts["sequence"] = seq
+        if args.timing_from is None:
+            opts["sequence"] = stimuli.scaled_sequence(scene, k)
+        else:
+            timing = load_preset_with_options(args.timing_from)[0]
+            opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
     rendered = render(scene, **opts)
     audio_io.write_audio(args.output, rendered.audio, rendered.samplerate, subtype=subtype)
     if args.report:
@@ -189,12 +189,14 @@ def _cmd_gallery(args):
     out = Path(args.output_dir)
     if not out.is_dir():
         raise SynthError(f"output_dir={str(out)!r} is not a directory")
-    for name in GALLERY:
+    names = args.names or GALLERY
+    for name in names:
         scene, section, data = load_preset_with_options(name)
         opts, subtype = render_options(section, args, str(find(name)))
         rendered = render(scene, **opts)
+        # the file synth render writes (same options, same subtype)
         audio_io.write_audio(out / f"{name}.wav", rendered.audio, rendered.samplerate,
-                             subtype=subtype or "PCM_16")
+                             subtype=subtype)
         plot_render(rendered, out / f"{name}.png")
         _write_json(out / f"{name}.json", _report(rendered, data, name))
         print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, {len(rendered.impacts)} impacts")
@@ -260,7 +262,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
     p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
     p.add_argument("--normalize", choices=["peak", "loudness", "physical", "none"],
-                   help="level: peak (-1 dBFS, default), loudness (LUFS), physical, none")
+                   help="level: peak (-1 dBFS, default), loudness (LUFS), physical (1000 Pa or "
+                        "10 000 m/s^2 full scale), none (Pa or m/s^2; needs --subtype FLOAT)")
+    p.add_argument("--peak-db", type=float, metavar="DBFS", help="peak level for --normalize peak "
+                   "(default -1)")
+    p.add_argument("--loudness-lufs", type=float, metavar="LUFS",
+                   help="integrated loudness for --normalize loudness (default -23; a bouncing "
+                        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower)")
+    p.add_argument("--floor-db", type=float, metavar="DB",
+                   help="omission floor below the loudest tick's peak (default -80)")
     p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
     p.add_argument("--restitution-scale", type=float, metavar="K",
@@ -302,6 +312,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_alter)
 
     p = sub.add_parser("gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/")
+    p.add_argument("names", nargs="*", metavar="PRESET",
+                   help=f"presets to render (default: {', '.join(GALLERY)})")
     p.add_argument("--output-dir", default="renders", help="folder (default: renders)")
     p.set_defaults(func=_cmd_gallery)
 

@@ -278,16 +278,27 @@ def test_normalize_loudness_rejects_unmeasurable_audio():
                   samplerate=SR, units="Pa")
 
 
+@pytest.mark.parametrize("preset", ["thesis-glass17-mdf12", "thesis-steel10-mdf6",
+                                    "ceramic-cup-on-stone"])
+def test_physical_level_fits_the_loudest_presets(preset, tmp_path):
+    # The calibration leaves headroom for the engine's own loudest scenes (microphone and
+    # accelerometer): their physical render writes to a 24-bit file without clipping.
+    import synth
+    r = synth.render_preset(preset, normalize="physical", max_frequency=12000.0)
+    assert 0.0 < np.max(np.abs(r.audio)) < 10 ** (-6 / 20)
+    synth.write_audio(tmp_path / "x.wav", r.audio, r.samplerate)
+
+
 def test_normalize_physical():
-    # Fixed calibration: 20 Pa (120 dB SPL re 20 uPa) and 1000 m/s^2 are full scale.
-    assert 20 * math.log10(PHYSICAL_FULL_SCALE["Pa"] / 20e-6) == pytest.approx(120.0, abs=1e-12)
-    x = decaying_tone(0.1, amplitude=30.0)  # above full scale: kept, not clipped
+    # Fixed calibration: 1000 Pa (154 dB SPL re 20 uPa) and 10 000 m/s^2 are full scale.
+    assert 20 * math.log10(PHYSICAL_FULL_SCALE["Pa"] / 20e-6) == pytest.approx(154.0, abs=0.1)
+    x = decaying_tone(0.1, amplitude=1500.0)  # above full scale: kept, not clipped
     y, gain = normalize(x, "physical", samplerate=SR, units="Pa")
-    assert gain == 1 / 20
-    assert np.max(np.abs(y)) == pytest.approx(np.max(np.abs(x)) / 20, rel=1e-15)
+    assert gain == 1 / 1000
+    assert np.max(np.abs(y)) == pytest.approx(np.max(np.abs(x)) / 1000, rel=1e-15)
     assert np.max(np.abs(y)) > 1.0
     _, gain_acc = normalize(x, "physical", samplerate=SR, units="m/s^2")
-    assert gain_acc == 1 / 1000
+    assert gain_acc == 1 / 10000
     # The same gain for any scene: the level relation between scenes is kept.
     _, gain_quiet = normalize(x * 1e-3, "physical", samplerate=SR, units="Pa")
     assert gain_quiet == gain

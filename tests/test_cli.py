@@ -291,3 +291,74 @@ def test_alter_command_rejects_bad_input(capsys, rendered, tmp_path):
         code, _, err = run(capsys, "alter", *argv)
         assert code == 2 and words in err, (argv, err)
         assert not (tmp_path / "x.wav").exists()
+
+
+# --------------------------------------------------------------------------- render
+
+def test_render_command_options(capsys, tmp_path):
+    # Every option reaches the file: rate, subtype, level, overrides, plot and report.
+    import soundfile
+    out = tmp_path / "x.wav"
+    rep = tmp_path / "x.json"
+    png = tmp_path / "x.png"
+    code, text, err = run(capsys, "render", "default", "-o", str(out), "--samplerate", "22050",
+                          "--subtype", "PCM_16", "--normalize", "peak", "--peak-db", "-6",
+                          "--set", "drop.height=0.05", "--set", "render.max_tail=0.5",
+                          "--floor-db", "-60", "--plot", str(png), "--report", str(rep))
+    assert code == 0, err
+    info = soundfile.info(out)
+    assert (info.samplerate, info.subtype, info.channels) == (22050, "PCM_16", 1)
+    x, _ = soundfile.read(out)
+    assert 20 * math.log10(np.max(np.abs(x))) == pytest.approx(-6.0, abs=0.01)  # 16-bit steps
+    data = json.loads(rep.read_text())
+    assert data["settings"]["floor_db"] == -60.0 and data["settings"]["max_tail"] == 0.5
+    assert data["impacts"][0]["speed"] == pytest.approx(math.sqrt(2 * 9.81 * 0.05), rel=1e-12)
+    assert png.stat().st_size > 10_000
+    assert str(out) in text
+
+
+def test_render_command_physical_and_none(capsys, tmp_path):
+    # physical fits a 24-bit file; none (pascals) needs a float file, and a PCM file that
+    # would clip is refused with a one-line message, leaving nothing behind.
+    import soundfile
+    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "p.wav"),
+                       "--normalize", "physical")
+    assert code == 0, err
+    x, _ = soundfile.read(tmp_path / "p.wav")
+    assert 0.01 < np.max(np.abs(x)) < 1.0
+    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "n.wav"),
+                       "--normalize", "none", "--subtype", "FLOAT")
+    assert code == 0, err
+    y, _ = soundfile.read(tmp_path / "n.wav")
+    assert np.max(np.abs(y)) > 10.0          # pascals: the tick peaks near 100 Pa
+    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "c.wav"),
+                       "--normalize", "none")
+    assert code == 2 and "clip" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "c.wav").exists()
+
+
+def test_render_command_loudness(capsys, tmp_path):
+    # Integrated loudness (ITU-R BS.1770, pyloudnorm) to the asked target, within 0.1 LU.
+    import pyloudnorm
+    import soundfile
+    out = tmp_path / "l.wav"
+    code, _, err = run(capsys, "render", "default", "-o", str(out), "--normalize", "loudness",
+                       "--loudness-lufs", "-45", "--subtype", "FLOAT")
+    assert code == 0, err
+    x, fs = soundfile.read(out)
+    assert pyloudnorm.Meter(fs, block_size=0.4).integrated_loudness(x) == pytest.approx(-45.0, abs=0.1)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--samplerate", "1000"], ["samplerate=1000"]),
+    (["--set", "render.max_frequency=40000"], ["render.max_frequency=40000", "Nyquist"]),
+    (["--set", "ball.radius=-1"], ["ball.radius=-1", "> 0"]),
+    (["--peak-db", "3"], ["peak_db=3.0", "<= 0"]),
+])
+def test_render_command_rejects_bad_options(capsys, tmp_path, argv, words):
+    out = tmp_path / "bad.wav"
+    code, _, err = run(capsys, "render", "default", "-o", str(out), *argv)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    for w in words:
+        assert w in err, (w, err)
+    assert not out.exists()

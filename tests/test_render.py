@@ -145,16 +145,19 @@ def test_samplerate_invariance_48_96():
 
 
 def test_samplerate_invariance_44k1():
-    # 44.1 kHz against 48 kHz, band-limited to 20 kHz: resampled to 48 kHz (polyphase, 160/147)
-    # the two agree within -40 dB relative L2 over the first 0.3 s (the resampler's own
-    # transition band near 20 kHz limits this comparison, not the renderer).
-    from scipy.signal import resample_poly
+    # 44.1 kHz against 48 kHz, same band (modes to 15 kHz), no omission: both sample the
+    # same continuous signal, so at the instants they share (every 147th sample at
+    # 44.1 kHz is every 160th at 48 kHz: n / 300 s) they agree to 1e-6 of the peak (the
+    # transforms' grids and the float32 output differ).
     a = render(accel_scene(), samplerate=48000, max_frequency=15000.0, **EXACT)
     b = render(accel_scene(), samplerate=44100, max_frequency=15000.0, **EXACT)
-    up = resample_poly(b.audio.astype(float), 160, 147)
-    n = int(0.3 * 48000)
-    err = np.linalg.norm(up[200:n] - a.audio[200:n]) / np.linalg.norm(a.audio[200:n])
-    assert err < 1e-2
+    assert a.settings["audio_start"] == pytest.approx(b.settings["audio_start"], abs=1e-15)
+    n = min(a.audio.size // 160, b.audio.size // 147)
+    xa = a.audio[::160][:n].astype(float)
+    xb = b.audio[::147][:n].astype(float)
+    peak = np.max(np.abs(a.audio))
+    assert np.max(np.abs(xa - xb)) <= 1e-6 * peak
+    assert np.max(np.abs(xa)) > 0.1 * peak
 
 
 def test_no_mode_at_or_above_nyquist():

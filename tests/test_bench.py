@@ -1,0 +1,91 @@
+"""The benchmarks' figures and the reference gallery (synth bench, synth gallery)."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soundfile
+
+from synth import bench
+from synth.cli import GALLERY, main
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def test_thesis_comparison():
+    # The first tick of the thesis setup against the thesis' measurements (PHYSICS.md
+    # sections 4 and 6): restitution 0.87 at 1.4 m/s mid-plate (+-0.01, its two-figure
+    # precision), the 2-3 kHz decay from the energy decay curve within the measured
+    # 11-14 ms, and a centroid of "a few kHz" (taken as 1-5 kHz).
+    c = bench.thesis_comparison()
+    assert c["restitution"] == pytest.approx(0.87, abs=0.01)
+    assert 11e-3 <= c["edc_decay_time_2_3k"] <= 14e-3
+    assert 1000.0 <= c["centroid"] <= 5000.0
+    table = bench.format_thesis(c)
+    assert "11-14" in table and f"{c['centroid']:.0f}" in table
+
+
+def test_run_contact_summary():
+    # The contact benchmark on two tolerances (rtol 1e-6 always added) and two of its cases
+    # (the others' scipy references take seconds each): every error below its rtol, a
+    # summary with the targets, and JSON-clean (no NaN).
+    cases = bench.contact_cases()[:2]
+    r = bench.run_contact(tolerances=(1e-4,), repeat=3, cases=cases)
+    assert {row["rtol"] for row in r["rows"]} == {1e-4, 1e-6}
+    for row in r["rows"]:
+        assert row["err_restitution"] < row["rtol"] and row["err_contact_time"] < row["rtol"]
+    assert r["summary"]["max_err_restitution"] < 1e-6 and r["summary"]["met"]["err_restitution"]
+    assert len(r["gravity"]) == len(cases)
+    json.loads(json.dumps(r, allow_nan=False))
+    text = bench.format_contact(r)
+    assert "Targets at rtol 1e-06" in text and "Gravity during the contact" in text
+
+
+def test_run_render_one_floor():
+    # The render benchmark at the default settings only: every scene within -60 dB of its
+    # reference (no omission, fine transforms), the modal bank's cost measured.
+    r = bench.run_render(floors=(-80.0,), tolerances=(1e-9,), repeat=1)
+    assert len(r["rows"]) == len(bench.render_scenes())
+    for row in r["rows"]:
+        assert row["default"] and row["error_db"] <= -60.0, row
+        assert row["mode_samples"] > 0 and row["ns_per_mode_sample"] > 0
+    assert r["summary"]["met"]["error_db"]
+    assert "Targets at the default settings" in bench.format_render(r)
+
+
+def test_gallery_command(tmp_path, capsys):
+    # synth gallery NAME writes the WAV that synth render writes (same samples, subtype),
+    # a PNG and a JSON report.
+    assert main(["gallery", "small-click-on-acrylic", "--output-dir", str(tmp_path)]) == 0
+    assert main(["render", "small-click-on-acrylic", "-o", str(tmp_path / "r.wav")]) == 0
+    a, fa = soundfile.read(tmp_path / "small-click-on-acrylic.wav", dtype="int32")
+    b, fb = soundfile.read(tmp_path / "r.wav", dtype="int32")
+    assert fa == fb and np.array_equal(a, b)
+    assert (tmp_path / "small-click-on-acrylic.png").stat().st_size > 10_000
+    report = json.loads((tmp_path / "small-click-on-acrylic.json").read_text())
+    assert report["impacts"] and report["settings"]["samplerate"] == fa
+
+
+def test_gallery_command_rejects_missing_folder(tmp_path, capsys):
+    assert main(["gallery", "default", "--output-dir", str(tmp_path / "nope")]) == 2
+    assert "output_dir" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", GALLERY)
+def test_committed_gallery_is_current(name):
+    # renders/ holds what `synth gallery` makes today: each committed WAV equals a fresh
+    # render of its preset to 1e-5 of full scale (a few 24-bit steps: the plate's
+    # eigen-solution may differ in its last digits between BLAS builds).
+    path = REPO / "renders" / f"{name}.wav"
+    committed, fs = soundfile.read(path)
+    import synth
+    fresh = synth.render_preset(name)
+    assert fs == fresh.samplerate
+    n = max(committed.size, fresh.audio.size)
+    a = np.pad(committed, (0, n - committed.size))
+    b = np.pad(fresh.audio.astype(float), (0, n - fresh.audio.size))
+    assert np.max(np.abs(a - b)) <= 1e-5, name
+    assert abs(committed.size - fresh.audio.size) <= 1
+    assert math.isfinite(float(np.max(np.abs(a))))
