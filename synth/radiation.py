@@ -338,17 +338,7 @@ def _exp_small(u):
 def _damping(u, halvings):
     """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 and halvings in [0, 6]."""
     e = _exp_small(u)
-    if halvings > 0:
-        e = e * e
-    if halvings > 1:
-        e = e * e
-    if halvings > 2:
-        e = e * e
-    if halvings > 3:
-        e = e * e
-    if halvings > 4:
-        e = e * e
-    if halvings > 5:
+    for _ in range(halvings):
         e = e * e
     return e
 
@@ -504,6 +494,24 @@ def _check_shapes(phi, n, m):
 # Public API
 
 
+def _check_settings(max_wavenumber, air_density, sound_speed, reference_distance, tol,
+                    max_points):
+    """The settings shared by :func:`rayleigh_gains` and :func:`plate_gains`, checked:
+    ``(kb rad/m, rho kg/m^3, c m/s, R0 m or None, tol)``; ``max_points`` must be a positive
+    integer."""
+    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
+    rho = _checks.positive("air_density", air_density, "kg/m^3")
+    c = _checks.positive("sound_speed", sound_speed, "m/s")
+    r0 = None if reference_distance is None else _checks.nonnegative(
+        "reference_distance", reference_distance, "metres")
+    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
+                           hi_open=False)
+    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
+            or max_points <= 0:
+        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    return kb, rho, c, r0, tol
+
+
 def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
                    air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
                    reference_distance=None, tol=1e-6, max_points=4_000_000,
@@ -577,16 +585,8 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
     a, b = _size(size)
     listener = _listener(listener_position)
     q_s = _poles(s)
-    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
-    rho = _checks.positive("air_density", air_density, "kg/m^3")
-    c = _checks.positive("sound_speed", sound_speed, "m/s")
-    r0 = None if reference_distance is None else _checks.nonnegative(
-        "reference_distance", reference_distance, "metres")
-    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
-                           hi_open=False)
-    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
-            or max_points <= 0:
-        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    kb, rho, c, r0, tol = _check_settings(max_wavenumber, air_density, sound_speed,
+                                          reference_distance, tol, max_points)
     m = q_s.size
     if m == 0:
         empty = np.zeros(0, complex)
@@ -851,16 +851,8 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
         raise ParameterError(
             f"s has {q_s.size} poles for {len(modes)} modes: one complex frequency (rad/s) "
             f"per mode is needed")
-    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
-    rho = _checks.positive("air_density", air_density, "kg/m^3")
-    c = _checks.positive("sound_speed", sound_speed, "m/s")
-    r0 = None if reference_distance is None else _checks.nonnegative(
-        "reference_distance", reference_distance, "metres")
-    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
-                           hi_open=False)
-    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
-            or max_points <= 0:
-        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    kb, rho, c, r0, tol = _check_settings(max_wavenumber, air_density, sound_speed,
+                                          reference_distance, tol, max_points)
 
     def compute():
         result = rayleigh_gains(modes.shapes, (modes.plate.length, modes.plate.width),
