@@ -6,6 +6,19 @@ previous tick, the restitution ``e_n = t_n / t_(n-1)`` and the impact speed
 ``v_n = g t_n / 2`` that follow from the bounce times, the tick's energy and
 peak, its spectral centroid and spread, and its decay time.
 
+Restitution from bounce times
+-----------------------------
+``e_n = t_n / t_(n-1)`` is the thesis' definition (section 3.1) and what a listener
+hears, but it is not exactly the physical restitution of an impact (rebound over impact
+speed). A bounce time holds the contact too: ``t_n = tau_n + 2 e_n v_n / g`` (PHYSICS.md
+section 5), so ``t_n / t_(n-1) = (tau_n + e_n a) / (tau_(n-1) + a)`` with ``a = 2 v_n / g``
+and ``t_n / t_(n-1) / e_n - 1 = (tau_n / e_n - tau_(n-1)) / t_(n-1)``: of the order of the
+contact time over the bounce time. That is below 1e-3 while bounces last 100 times a
+contact (the first bounces of hard balls: 20-500 us contacts, 50-500 ms bounces), and
+tens of per cent for the last bounces of a ball coming to rest, whose flights are as
+short as their contacts. ``v_n = g t_n / 2`` likewise holds the contact: it overestimates
+the impact speed by ``g tau_(n-1) / 2``.
+
 Tick detection
 --------------
 A bouncing ball's ticks come closer and closer (the last ones a few ms apart)
@@ -15,14 +28,15 @@ response of one resonator (plate, room, microphone) to short contact forces, so
 the detector first takes the resonator out:
 
 1. **Whitening.** A linear predictor of order ``p`` (default 20 ms of
-   samples, enough poles for a few hundred modes) is fitted to the whole signal
-   (autocorrelation method, Levinson recursion) and the prediction error
-   ``r = A(z) x`` is formed, the recording taken as silent before its first
-   sample. The ringing of a tick is predictable from its own past and largely
-   cancels; what is left is close to the excitation, one short burst per
+   samples, enough poles for a few hundred modes and for the early reflections of a
+   room) is fitted to the whole signal (autocorrelation method, Levinson recursion)
+   and the prediction error ``r = A(z) x`` is formed, the recording taken as silent
+   before its first sample. The ringing of a tick is predictable from its own past
+   and largely cancels; what is left is close to the excitation, one short burst per
    contact, in whitened noise. This is the inverse filter of linear-prediction
    analysis (Makhoul 1975, Proc. IEEE 63, 561), used as the whitening step of an
-   onset detector (Stowell and Plumbley 2007, ICMC).
+   onset detector (Stowell and Plumbley 2007, ICMC). Clipped samples (below) are
+   interpolated first.
 2. **Detection function.** The energy of ``r`` over frames starting every
    ``hop`` seconds (default 0.25 ms), each at least 12 samples long (at low
    rates the frames overlap, so that a frame of noise is never a sum of only a
@@ -35,75 +49,115 @@ the detector first takes the resonator out:
    leaves of a tick in its first milliseconds; and the floor
    ``dynamic_range_db`` below the strongest frame. Taken in time order, a
    candidate more than ``max_drop_db`` (20 dB) weaker than the previous tick
-   is not a bounce (a tick's energy goes as the impact speed
-   squared: that would be a restitution below 0.1) but a remainder of the
-   earlier ticks (with more modes than the predictor has poles, the beats of
-   close modes come back at fixed delays after every tick). Candidates closer
-   than ``min_separation`` form one tick, whose onset is the first
-   candidate's: a long contact makes a second burst at its end, as strong as
-   the first for a symmetric force pulse, so ``min_separation`` must exceed
-   the contact time (0.1 ms for the thesis' steel balls on MDF, 1.6 ms for a
-   rubber ball on a wooden floor).
-4. **Onset refinement.** From the largest ``|r|`` near the candidate, walk back
-   through the samples at or above a level, bridging gaps up to 0.25 ms (the
-   zero crossings inside a burst), to the earliest; the onset is the crossing
-   of the level just before it, linearly interpolated between the two samples.
-   The level is ``onset_fraction`` (0.1) of the burst's largest ``|r|``, but at
-   least 4 standard deviations of the whitened background, so that noise
-   cannot continue the walk (a Gaussian sample exceeds 4 sigma with
-   probability 6e-5). A candidate whose onset walks back to within
-   ``min_separation`` of the previous tick's belongs to it; one that walks back
-   to the first sample is the recording's cut, not a contact.
-
+   is not a bounce (a tick's energy goes as the impact speed squared: that
+   would be a restitution below ``e_min = 10^(-max_drop_db / 20) = 0.1``) but a
+   remainder of the earlier ticks. Candidates closer than ``min_separation``
+   (1 ms) form one tick, whose onset is the first candidate's. The first
+   candidate is the first tick. The second is chosen by the physics of a bounce
+   series: every bounce time lies between ``e_min`` and ``BOUNCE_GROWTH`` (1.5)
+   times the one before (the ball loses energy at every impact, so its flights
+   shrink; 1.5 leaves room for the contact time, which grows as the ball slows,
+   and for a tick missed in between), and the second tick is the one that starts
+   the longest such series from the first (dynamic programming over the first 64
+   candidates; of equally long series, the one whose second tick comes first).
+   The candidates before it are the first tick's own response: the end of a long
+   contact (a second burst, as strong as the first for a symmetric force pulse,
+   1.5-5 ms later for a rubber ball) and the room's early reflections (delayed,
+   filtered copies of the tick, weaker than it). The ticks of that series standing
+   ``ANCHOR_DB`` (20 dB) or more above their threshold are sure.
+4. **Onset refinement.** From the largest ``|r|`` near the candidate (its frame and a
+   hop either side), walk back through the samples at or above a level, bridging gaps
+   up to 0.25 ms (the zero crossings inside a burst), to the earliest; the onset is
+   the crossing of the level just before it, linearly interpolated between the two
+   samples. The level is ``onset_fraction`` (0.1) of the burst's largest ``|r|``,
+   but at least 4 standard deviations of the whitened background, so that noise
+   cannot continue the walk (a Gaussian sample exceeds 4 sigma with probability
+   6e-5). A burst preceded by a run of 3 or more samples alternating in sign and
+   growing towards it is a tick recorded through a linear-phase anti-aliasing
+   filter: its whitened burst is a sampled sinc whose magnitude falls only as
+   ``1/k`` before its centre (the level crossing would land up to 3.6 sample periods
+   early), and the onset is that centre, ``m + f`` with ``f / (1 - f)`` the ratio of
+   the two central samples ``r[m+1] / r[m]`` (for ``A sinc(t - m - f)``). A candidate
+   whose onset walks back to within ``min_separation`` of the previous tick's
+   belongs to it; one that walks back to the first sample is the recording's cut,
+   not a contact.
 5. **Deflation.** Whitening leaves each tick's excitation smeared over tens of
    milliseconds (the inverse of an all-pole fit to a resonator with hundreds of
    modes is not its exact inverse), and late, weak ticks drown in the smear of the
    earlier, strong ones. But every tick goes through the same path (impact point,
    plate, room, pickup) and differs from the others only by its contact force:
    in the whitened signal a later tick is the first tick's response ``T``
-   (from its onset to the next tick of step 3, ended where it sinks into the
-   noise) through a short filter (lags -0.06 to +0.17 ms: an onset error, a
-   longer pulse). So the ticks after the first are found one by one on
-   ``q = r - (what the earlier ticks explain)``: the first candidate of ``q``
-   after the previous onset plus ``min_separation`` that clears the rules of step
+   (from its onset to the second tick of step 3, with its contact's end and its
+   reflections, ended where it sinks into the noise) through a short filter (lags
+   -0.06 to +0.17 ms: an onset error, a longer pulse). So the ticks after the
+   first are found one by one on ``q = r - (what the earlier ticks explain)``: the
+   first candidate of ``q`` after the previous onset that clears the rules of step
    3 (against the median of the past 20 ms of ``q``, never below the whitened
-   noise floor) and also carries more energy than was taken out of its frame
-   (else it is a remainder of the earlier ticks); its onset by step 4 on ``q``;
-   then the filter ``h`` is fitted by least squares to ``q`` from the onset to
-   the next candidate, and ``h * T`` is taken out of ``q``. If that removes the
-   next candidate (a remainder of this tick), the fit is redone over the longer
-   stretch. Rendered bounces whose late ticks lie 20-25 dB under the ringing
-   of the earlier ones (their tick-to-masker ratio) are found this way to
-   within 20 us (``tests/test_roundtrip.py``). ``deflate=False`` keeps the
-   ticks of step 3.
-6. **Bounce order.** A bounce time more than 1.5 times the previous one (a
-   restitution over 1.5) breaks a bounce series: the tick that ends it is
-   dropped if doubtful (``strength`` below 6 dB: a late remainder), else the
-   tick that starts it if doubtful (a remainder that split a bounce in two).
-   Two drops in one recording keep their strong ticks.
+   noise floor) and carries more energy than was taken out of its frame and over
+   the 1 ms from the frame before it (else it is a remainder of the earlier
+   ticks: a model a fraction of a sample off leaves its remainder spread around a
+   burst); its onset by step 4 on ``q``. Two rules of the bounce series reject
+   what is left of the previous tick's own response (the end of a contact that
+   lasted longer than the first tick's, a reflection the model left over): a
+   bounce shorter than ``e_min`` times the previous one, and a candidate whose
+   whitened energy is more than ``MAX_EXCESS_DB`` (6 dB) above what its bounce
+   time allows, ``(t_n / t_(n-1))^2`` times the previous tick's (the impact speed
+   goes as the flight time and a tick's energy as the speed squared; 6 dB covers a
+   remainder of the earlier ticks as large as the tick, which the remainder test
+   lets through, and a background 10 dB under the threshold). Neither applies
+   after a doubtful tick (``strength`` below 6 dB), which may be a remainder
+   itself. No sure tick of step 3 is passed over: where the search would skip one
+   (a model that fits the earlier ticks badly, as clipped ones), it is taken.
+   Then the filter ``h`` is fitted by least squares to ``q`` from the onset to the
+   next candidate, and ``h * T`` is taken out of ``q``. If that removes the next
+   candidate (a remainder of this tick), the fit is redone over the longer
+   stretch. ``deflate=False`` keeps the ticks of step 3.
+6. **Bounce order.** Taken in time order, a tick sooner than ``e_min`` times the
+   last bounce time after the last tick is dropped (a doubtful last tick gives
+   way to a stronger one just after it). Where a bounce time is more than 1.5
+   times the previous one, a weaker tick of the short bounce split a bounce in two
+   and goes when that restores the order (the one that ends it, the one that
+   starts it, or a run of the last few ticks that are not sure); else the new
+   tick is dropped if doubtful (a late remainder) and kept if not (a missed tick
+   or a second drop). Last, a tick that is not sure is dropped when the bounce
+   across it continues the series' restitution within ``RESTITUTION_STEP`` (25 %)
+   and the two bounces it makes do not: a restitution changes slowly along a
+   series, with the impact speed (the presets' steepest step is 18 %).
 
 The onset is where the whitened excitation first reaches the level: the start
 of contact to within a few samples. Measured on synthetic ticks with known
 sub-sample onsets (``tests/test_analysis.py``, tails overlapping): for sums of
 damped sinusoids started abruptly (the onset lies anywhere in the sample period
-before the first non-zero sample), within 0.9 sample periods of it (9 us at
-96 kHz, 21 us at 44.1 kHz, 41 us at 22.05 kHz); for their exact response to
-half-sine contact forces of 0.05 to 0.5 ms, within 0.8 sample periods of the
-first touch (0.4 at 44.1 and 96 kHz). The first ten ticks keep that accuracy
-with white noise down to 20 dB SNR and in a room whose reverberation carries
-as much energy as the direct sound. Weak ticks (``strength`` below about 5 dB)
-may be a few samples late: the noise level then cuts the beginning of the
-burst. Ticks far under the ringing of the earlier ones (a tick-to-masker ratio
-below about -20 dB, on a lightly damped plate with dense modes) stay hidden.
+before the first non-zero sample), within 0.9 sample periods of it at every
+rate from 22.05 to 96 kHz; for their exact response to half-sine contact forces
+of 0.1 and 0.5 ms, within 0.4 sample periods of the first touch. Recorded through
+an anti-aliasing filter (scipy's ``resample_poly``: a Kaiser-windowed sinc), within
+-1.3 to +0.6 sample periods at 8 to 96 kHz (the window makes the burst differ from
+an ideal sinc): at most 74 us at 8 kHz, 57 us at 11.025 kHz, 81 us at 16 kHz. Where a
+tick's modes lie above the Nyquist frequency of a low rate the filter removes them
+and the tick is what is left below it; bounce times and ``e_n`` keep their accuracy
+(within 0.3 % at 8 kHz). The first ten ticks keep their accuracy with white noise
+down to 20 dB SNR, with early reflections of gains up to 0.7 at 2-25 ms, in a room
+whose diffuse reverberation carries as much energy as the direct sound, and in that
+room with 20 dB SNR. Weak ticks (``strength`` below about 5 dB) may be a few samples
+late: the noise level then cuts the beginning of the burst. Ticks far under the
+ringing of the earlier ones (a tick-to-masker ratio below about -10 to -15 dB on a
+lightly damped plate with dense modes, or with a force pulse that changes shape
+along the series: ``tests/test_roundtrip.py``) stay hidden.
 
 Tick measurements
 -----------------
-Tick ``n``'s window runs from 2 samples before its onset to the next tick's
-window, at most ``window`` seconds. Unless ``subtract_tails=False`` the earlier
-ticks' tails are removed first: the predictor of step 1 continues the signal
-from the samples before the window with no new excitation (what the earlier
-ticks would have rung on their own), and that is subtracted. On the tick's own
-signal ``y`` over its window:
+Every tick is measured over the same window: ``window`` seconds (default 20 ms) from
+2 samples before its onset (less where the recording ends). The signal there holds the
+tails of the earlier ticks and, when the next bounce is shorter than the window, the
+next ticks; the tick's own sound ``y`` is made from its own excitation through the
+whitening predictor's all-pole model ``1/A`` (the resonator): with the deflation, the
+tick's model ``h * T`` plus what no tick explains (``q``, the noise) over the window;
+without it, ``r`` from the tick's onset to the next tick's, its free ringing after. So a
+series of identical ticks gives the same centroid, spread and decay time for every
+tick, and energies and peaks in the ratio of the ticks' amplitudes squared and
+amplitudes, whatever the bounce times. ``subtract_tails=False`` measures the
+recording itself over the window instead. On ``y``:
 
 * ``energy = sum(y^2) / samplerate``, signal units^2 s;
 * ``peak = max |y|``, signal units;
@@ -127,9 +181,19 @@ The noise floor is the RMS of the 10 ms frames within 3 dB of the quietest one
 (frames of noise alone scatter far less than that; frames with a tick or a
 tail stand above).
 
-Clipping is reported, not raised, unless ``on_clipping="raise"``: when
-``clip_samples`` or more samples of a channel sit at exactly its largest
-magnitude, :attr:`Analysis.clipped` is true and :attr:`Analysis.warnings` says so.
+Clipping
+--------
+When ``clip_samples`` or more samples of a channel sit at exactly its largest (or
+smallest) value, the channel is taken as clipped there: :attr:`Analysis.clipped` is
+true and :attr:`Analysis.warnings` says so (``on_clipping="raise"`` raises instead).
+A clipped run is a kink the resonator cannot make, which the whitening turns into
+bursts that pass for ticks; so the clipped samples are treated as missing and
+interpolated by least squares under a linear predictor fitted to the unclipped
+ringing (Janssen, Veldhuis and Vries 1986, IEEE Trans. ASSP 34, 317), each kept at
+least at its clipped magnitude, before the ticks are sought. The loudest ticks'
+peaks, energies and spectra stay unreliable, and their onsets may be off too. Runs of a
+millisecond or more (the low thud of a rubber ball clipped 6 dB or more) cannot be
+restored, and false ticks may remain.
 """
 
 from __future__ import annotations
@@ -150,6 +214,10 @@ from .errors import ParameterError, SynthError
 ONSET_NOISE_SIGMAS = 4.0
 #: Longest gap bridged by the onset walk inside one burst, s.
 ONSET_GAP = 0.00025
+#: Samples alternating in sign and growing towards a burst, at least, that are taken for
+#: an anti-aliasing filter's pre-ringing rather than the start of the contact (ending on
+#: a sample at least a quarter of the burst's largest).
+PRE_RINGING_RUN = 3
 #: Fewest samples summed in a frame of the detection function.
 MIN_FRAME = 12
 #: Samples kept before the refined onset in a tick's window.
@@ -166,6 +234,9 @@ DEFLATION_POST = 0.00017
 #: A candidate must carry at least this much more energy than what the deflation took
 #: out of its frame, dB (else it is a remainder of an earlier tick).
 DEFLATION_KAPPA_DB = 0.0
+#: A candidate must also carry more energy than was taken out over the frames spanning
+#: this from the frame before its own, s.
+REMAINDER_SPAN = 0.001
 #: The template ends at its last frame this far above the whitened noise floor, dB.
 TEMPLATE_NOISE_DB = 6.0
 #: Fits of a tick's filter at most, each over a longer stretch.
@@ -173,6 +244,23 @@ DEFLATION_REFITS = 3
 #: A bounce time more than this many times the previous one breaks a bounce series
 #: (a restitution above 1.5).
 BOUNCE_GROWTH = 1.5
+#: Candidates over which the longest bounce series from the first tick is sought when
+#: choosing the second tick.
+SERIES_HORIZON = 64
+#: A candidate more than this above the energy its bounce time allows, ``(t_n / t_(n-1))^2``
+#: times the last tick's (the impact speed goes as the flight time), is not a bounce,
+#: dB: 3 dB for a remainder of the earlier ticks as large as the tick itself (the most
+#: the deflation's remainder test lets through), 0.4 dB for a background 10 dB under
+#: the threshold, rounded up.
+MAX_EXCESS_DB = 6.0
+#: Ticks at least this far above their threshold are sure, dB: no bounce-order rule
+#: drops them for a weaker one, and the deflation passes over none of step 3's series
+#: (100 times the threshold; the remainders and reflections met so far reached 11 dB).
+ANCHOR_DB = 20.0
+#: Largest relative change of the restitution from one bounce to the next in a series:
+#: the presets' steepest is 18 % (a steel ball on a 6 mm board, whose contact time
+#: grows to a sizeable part of the bounce time).
+RESTITUTION_STEP = 0.25
 #: Ticks weaker than this (``strength``, dB) are doubtful.
 DOUBTFUL_DB = 6.0
 #: Frame length of the noise-floor estimate, s, and the spread of its quiet frames, dB.
@@ -199,12 +287,17 @@ class Tick:
         previous contact); ``None`` for the first tick.
     restitution : float or None
         ``e_n = t_n / t_(n-1)``, dimensionless: the restitution of the previous
-        tick's impact (thesis 3.1). ``None`` for the first two ticks.
+        tick's impact as the thesis defines it from bounce times (section 3.1).
+        Bounce times hold the contact times, so it exceeds the impact's physical
+        restitution (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) /
+        t_(n-1)`` (module docstring): of the order of contact time over bounce time.
+        ``None`` for the first two ticks.
     speed : float or None
-        Impact speed ``v_n = g t_n / 2``, m/s; ``None`` for the first tick.
+        Impact speed ``v_n = g t_n / 2``, m/s (the flight alone gives ``g (t_n -
+        tau) / 2``: this exceeds it by ``g tau / 2``); ``None`` for the first tick.
     energy : float
-        Sum of squares of the tick's own signal over its window divided by the
-        sample rate, signal units^2 s.
+        Sum of squares of the tick's own signal (without the other ticks) over its
+        window divided by the sample rate, signal units^2 s.
     peak : float
         Largest magnitude of the tick's own signal, signal units.
     centroid : float
@@ -215,7 +308,8 @@ class Tick:
         Time for the amplitude envelope to fall to 1/e of its peak, s; ``None``
         when the window is too short to fit it.
     window : float
-        Length of the measurement window, s.
+        Length of the measurement window, s: ``window`` of :func:`analyze` for every
+        tick, shorter only where the recording ends.
     strength : float
         How far the tick's whitened energy stands above the threshold it had to
         clear, dB.
@@ -241,7 +335,7 @@ class Analysis:
 
     Attributes
     ----------
-    ticks : tuple of Tick
+    ticks : list of Tick
         In time order.
     samplerate : float
         Sample rate, Hz.
@@ -259,7 +353,7 @@ class Analysis:
         What the measurements should be read with (clipping).
     """
 
-    ticks: tuple[Tick, ...]
+    ticks: list[Tick]
     samplerate: float
     duration: float
     noise_floor: float
@@ -372,20 +466,104 @@ def _noise_floor(x: np.ndarray, fs: float) -> float:
     return float(np.sqrt(quiet.mean()))
 
 
-def _clipping(chans: np.ndarray, min_count: int) -> str | None:
-    """A warning when ``min_count`` samples of a channel sit at its largest magnitude."""
+def _clipping(chans: np.ndarray, min_count: int):
+    """The clipped samples of each channel and a warning, or ``(None, None)``.
+
+    A channel is clipped at its positive (negative) extreme when ``min_count`` or more of
+    its samples sit at exactly its largest (smallest) value.
+    """
+    mask = np.zeros(chans.shape, dtype=bool)
     worst = None
     for c in range(chans.shape[1]):
-        mag = np.abs(chans[:, c])
-        peak = mag.max()
-        count = int(np.count_nonzero(mag == peak)) if peak > 0.0 else 0
-        if count >= min_count and (worst is None or count > worst[1]):
-            worst = (c, count, peak)
+        col = chans[:, c]
+        for level in (col.max(), col.min()):
+            if level == 0.0:
+                continue
+            at = col == level
+            count = int(np.count_nonzero(at))
+            if count >= min_count:
+                mask[:, c] |= at
+        count = int(np.count_nonzero(mask[:, c]))
+        if count and (worst is None or count > worst[1]):
+            worst = (c, count, float(np.abs(col).max()))
     if worst is None:
-        return None
+        return None, None
     c, count, peak = worst
-    return (f"clipping: {count} samples of channel {c} sit at its largest magnitude "
-            f"{peak:.6g}; the peaks, energies and spectra of the loudest ticks are wrong")
+    total = int(np.count_nonzero(mask))
+    return mask, (
+        f"clipping: {total} samples sit at a channel's extreme ({count} in channel {c}, "
+        f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
+        f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
+        f"are unreliable, and their onsets and bounce times may be off too")
+
+
+def _ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``x`` with the samples at ``missing`` replaced by their least-squares estimate under
+    the prediction-error filter ``a`` (Janssen, Veldhuis and Vries 1986, IEEE Trans. ASSP
+    34, 317): minimise ``sum (a * x)^2`` over the missing samples. Each clipped sample
+    keeps at least its clipped magnitude (its sign and level are known): a sample whose
+    estimate falls short is fixed there and the rest are solved again.
+    """
+    from scipy.linalg import solveh_banded
+    from scipy.signal import correlate, oaconvolve
+
+    p = a.size - 1
+    ra = correlate(a, a, mode="full")[p:]           # autocorrelation of a, lags 0..p
+    y = x.copy()
+    level = x[missing]
+    free = np.nonzero(missing)[0]
+    for _ in range(4):
+        if free.size == 0:
+            break
+        y[free] = 0.0
+        e0 = oaconvolve(y, a)[: y.size + p]         # prediction error with the gaps at 0
+        # b_i = -sum_k a_k e0[i + k]
+        b = -correlate(e0, a, mode="valid")[free]
+        # G_ij = ra(|pos_i - pos_j|), zero beyond lag p: banded in index order
+        bw = int(np.max(np.searchsorted(free, free + p, side="right") - np.arange(free.size))) - 1
+        bw = max(bw, 0)
+        ab = np.zeros((bw + 1, free.size))
+        for k in range(bw + 1):
+            lag = free[k:] - free[: free.size - k]
+            ab[bw - k, k:] = np.where(lag <= p, ra[np.minimum(lag, p)], 0.0)
+        ab[bw] *= 1.0 + 1e-9
+        v = solveh_banded(ab, b)
+        short = np.abs(v) < np.abs(x[free])
+        short |= np.sign(v) != np.sign(x[free])
+        y[free] = v
+        if not short.any():
+            break
+        fixed = free[short]
+        y[fixed] = x[fixed]
+        free = free[~short]
+    y[missing] = np.where(np.abs(y[missing]) < np.abs(level), level, y[missing])
+    return y
+
+
+def _declip(chans: np.ndarray, mask: np.ndarray, order: int):
+    """The mix of ``chans`` with each channel's clipped samples interpolated, and the
+    whitening predictor of the repaired mix.
+
+    The interpolating predictor is fitted to the channel after its last clipped sample when
+    that holds at least ``4 order`` samples (the unclipped ringing of the same resonator),
+    else to the whole channel; its order is 3 times the longest clipped run (Janssen et
+    al. recommend at least that), at least 1 ms, at most the whitening order.
+    """
+    out = np.empty_like(chans)
+    for c in range(chans.shape[1]):
+        col, m = chans[:, c], mask[:, c]
+        if not m.any():
+            out[:, c] = col
+            continue
+        idx = np.nonzero(m)[0]
+        breaks = np.nonzero(np.diff(idx) > 1)[0]
+        runs = np.diff(np.r_[-1, breaks, idx.size - 1])
+        p = int(min(order, max(3 * int(runs.max()), order // 20, 8)))
+        tail = col[idx[-1] + 1:]
+        a = _lpc(tail if tail.size >= 4 * order else col, p)
+        out[:, c] = _ar_interpolate(col, m, a)
+    x = out[:, 0] if out.shape[1] == 1 else out.mean(axis=1)
+    return x, _lpc(x, order)
 
 
 def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
@@ -436,10 +614,11 @@ def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
     return np.array(keep, dtype=int), d, threshold, med
 
 
-def _refine(mag: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
+def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
             noise: float) -> float:
-    """Sub-sample onset (samples) of the burst of ``mag = |r|`` peaking in ``[lo, hi)``
-    (module docstring, step 4)."""
+    """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
+    ``[lo, hi)`` (module docstring, step 4)."""
+    mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(fraction * mag[k], min(noise, mag[k]))
     i = k
@@ -449,6 +628,20 @@ def _refine(mag: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
         if above.size == 0:
             break
         i = j0 + int(above[0])
+    # a run of samples alternating in sign and growing towards the burst is the
+    # pre-ringing of a linear-phase anti-aliasing filter (acausal, at the Nyquist rate),
+    # not the contact: the burst is a sampled sinc, and the contact its centre. With
+    # r[m] = A sinc(f) and r[m+1] = A sinc(1 - f), the two samples either side of the
+    # centre m + f (same sign), r[m+1] / r[m] = f / (1 - f)
+    m = i
+    while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
+        m += 1
+    j = m
+    while j > 0 and r[j - 1] * r[j] < 0.0 and mag[j - 1] < mag[j]:
+        j -= 1
+    if m - j >= PRE_RINGING_RUN and mag[m] >= 0.25 * mag[k]:
+        rho = mag[m + 1] / mag[m] if m + 1 < r.size and r[m] * r[m + 1] > 0.0 else 0.0
+        return m + rho / (1.0 + rho)
     if i == 0:
         return 0.0
     return (i - 1) + (level - mag[i - 1]) / (mag[i] - mag[i - 1])
@@ -484,6 +677,7 @@ class _Deflation:
         self.floor = floor
         self.kappa = 10.0 ** (subtracted_db / 10.0)
         self.noise = noise * noise * w      # energy per frame of the whitened noise floor
+        self.span = max(2, int(round(REMAINDER_SPAN * fs / hop)))
         # lags of the FIR filter, samples: a little before (onset error) and after (a
         # longer pulse than the first tick's)
         self.pre = max(1, int(round(DEFLATION_PRE * fs)))
@@ -524,24 +718,34 @@ class _Deflation:
             threshold = np.maximum.reduce([
                 np.where(np.isfinite(past_med), past_med * self.thr, 0.0), past,
                 np.full_like(d, self.floor), sub * self.kappa])
-            hit = np.nonzero((d >= threshold) & (k >= first))[0]
+            # and over the frames from k-1 on spanning REMAINDER_SPAN, more energy than was
+            # taken out there: a model a fraction of a sample off leaves its remainder
+            # spread over the frames around a burst
+            span = np.ones(self.span)
+            d_near = np.convolve(d, span)[self.span - 2: self.span - 2 + d.size]
+            sub_near = np.convolve(sub, span)[self.span - 2: self.span - 2 + d.size]
+            hit = np.nonzero((d >= threshold) & (d_near >= sub_near * self.kappa)
+                             & (k >= first))[0]
             if hit.size:
-                m = int(hit[0])
+                first_hit = m = int(hit[0])
                 while m + 1 < d.size and d[m + 1] > d[m]:
                     m += 1                      # on to the frame's local maximum
                 noise = past_med[m] if np.isfinite(past_med[m]) else threshold[m] / self.thr
-                return lo + m * hop, float(d[m]), float(max(threshold[m], 1e-300)), float(noise)
+                # the threshold the burst cleared: its first frame's
+                return (lo + m * hop, float(d[m]), float(max(threshold[first_hit], 1e-300)),
+                        float(noise))
             if hi >= q.size:
                 return None
             chunk *= 2
 
-    def remove(self, s: int, end: int) -> None:
-        """Fit ``q[s:end] ~ (h * T)`` and take ``h * T`` out of ``q`` from ``s`` on."""
+    def remove(self, s: int, end: int) -> np.ndarray:
+        """Fit ``q[s:end] ~ (h * T)``, take ``h * T`` out of ``q`` from ``s`` on and return
+        it (from ``s`` on)."""
         T, q = self.T, self.q
         pre, post = self.pre, self.post
         W = min(end, q.size) - s
         if W <= 0:
-            return
+            return np.zeros(0)
         if W < 2 * (pre + post + 1):
             pre = post = 0                      # too short a window for a filter
         ntap = pre + post + 1
@@ -555,21 +759,7 @@ class _Deflation:
         contrib = np.convolve(T, h[::-1])[pre:]
         n = min(contrib.size, q.size - s)
         q[s: s + n] -= contrib[:n]
-
-
-def _tail(x: np.ndarray, a: np.ndarray, start: int, length: int) -> np.ndarray:
-    """Free continuation of ``x`` from ``start`` by the predictor ``a`` (no excitation)."""
-    from scipy.signal import correlate, lfilter
-
-    p = a.size - 1
-    past = x[max(0, start - p): start][::-1]          # x[start-1], x[start-2], ...
-    if past.size == 0:
-        return np.zeros(length)
-    past = np.concatenate((past, np.zeros(p - past.size)))
-    # state of the transposed direct form of 1/A(z) after the past samples:
-    # zi[m] = -sum_{j >= 0} a[m + 1 + j] past[j]
-    zi = -correlate(a[1:], past, mode="full")[p - 1:]
-    return lfilter([1.0], a, np.zeros(length), zi=zi)[0]
+        return contrib
 
 
 def _decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
@@ -606,14 +796,90 @@ def _spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
     return c, float(np.sqrt(np.dot((f - c) ** 2, p) / total))
 
 
-def _deflated_onsets(r, fs, onset1, strength1, peak2, hop, min_sep, background, threshold_db,
-                     rise_db, release, floor, fraction, gap):
-    """Onsets (samples) and strengths (dB) of the ticks after the first, found one by one
-    with the earlier ticks taken out (module docstring, step 5)."""
+def _separation(onsets, strengths, min_sep: int, e_min: float) -> int:
+    """Shortest plausible bounce after the last of ``onsets`` (samples): ``min_separation``,
+    and ``e_min`` times the last bounce time unless the last tick is doubtful (module
+    docstring, step 5)."""
+    if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
+        return min_sep
+    return max(min_sep, int(math.ceil(e_min * (onsets[-1] - onsets[-2]))))
+
+
+def _bounce_series(onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH,
+                   horizon: int = SERIES_HORIZON) -> list[int]:
+    """Indices in ``onsets`` of the longest bounce series that starts at the first tick
+    (module docstring, step 3).
+
+    A series is a subsequence of the candidates whose every bounce time lies between
+    ``e_min`` and ``growth`` times the one before; the longest is found by dynamic
+    programming over the first ``horizon`` candidates (of equally long ones, the one whose
+    second tick comes first).
+    """
+    t = np.asarray(onsets[:horizon], dtype=float)
+    n = t.size
+    if n < 3:
+        return list(range(n))
+    # best[i, j]: most ticks in a series from tick 0 ending ..., t_i, t_j; second[i, j]:
+    # its second tick; back[i, j]: the tick before t_i
+    best = np.zeros((n, n), dtype=int)
+    second = np.zeros((n, n), dtype=int)
+    back = np.full((n, n), -1, dtype=int)
+    best[0, 1:] = 2
+    second[0, 1:] = np.arange(1, n)
+    for i in range(1, n - 1):
+        col, sec = best[:i, i], second[:i, i]
+        for j in range(i + 1, n):
+            bounce = t[j] - t[i]
+            # the bounce before, t_i - t_k, must lie in [bounce / growth, bounce / e_min]
+            lo = np.searchsorted(t[:i], t[i] - bounce / e_min, side="left")
+            hi = np.searchsorted(t[:i], t[i] - bounce / growth, side="right")
+            if hi <= lo:
+                continue
+            c = col[lo:hi]
+            m = int(c.max())
+            if m == 0:
+                continue
+            pick = np.nonzero(c == m)[0]
+            k = lo + int(pick[np.argmin(sec[lo:hi][pick])])
+            best[i, j] = m + 1
+            second[i, j] = second[k, i]
+            back[i, j] = k
+    top = best.max()
+    ends = np.argwhere(best == top)
+    i, j = min(ends, key=lambda ij: (second[ij[0], ij[1]], ij[1]))
+    chain = [int(j), int(i)]
+    while back[i, j] >= 0:
+        i, j = back[i, j], i
+        chain.append(int(i))
+    if chain[-1] != 0:
+        chain.append(0)
+    return chain[::-1]
+
+
+def _too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
+    """Whether a candidate at ``on`` (samples) with whitened frame energy ``energy`` is
+    stronger than its bounce time allows (module docstring, step 5): more than
+    :data:`MAX_EXCESS_DB` above ``(t_n / t_(n-1))^2`` times the last tick's energy, that
+    tick being trusted (not doubtful)."""
+    if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
+        return False
+    ratio = (on - onsets[-1]) / (onsets[-1] - onsets[-2])
+    return energy > energies[-1] * ratio * ratio * 10.0 ** (MAX_EXCESS_DB / 10.0)
+
+
+def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_sep, e_min,
+                     background, threshold_db, rise_db, release, floor, fraction, gap, keep):
+    """Ticks after the first, found one by one with the earlier ticks taken out (module
+    docstring, step 5). ``anchors`` (onsets, samples, and their strengths, dB) are the
+    ticks of step 3's bounce series: none is passed over.
+
+    Returns the onsets (samples), strengths (dB), the residual ``q`` (``r`` with every
+    tick's model taken out) and each tick's model (its whitened response from its
+    window's start, at most ``keep`` samples).
+    """
     w = max(hop, MIN_FRAME)
     s1 = max(int(math.floor(onset1)) - WINDOW_GUARD, 0)
-    end = (peak2 - 1) * hop if peak2 is not None else r.size
-    template = r[s1: max(end, s1 + 1)].copy()
+    template = r[s1: max(end1, s1 + 1)].copy()
     noise = _noise_floor(r, fs)
     # the template ends where it sinks into the noise: beyond, taking it out of a later
     # tick would only add its noise
@@ -624,24 +890,47 @@ def _deflated_onsets(r, fs, onset1, strength1, peak2, hop, min_sep, background, 
     dfl = _Deflation(r, template, s1, fs, hop, w, background, threshold_db, rise_db, release,
                      floor, DEFLATION_KAPPA_DB, noise)
     L = template.size
-    onsets, strengths = [float(onset1)], [float(strength1)]
+    onsets, strengths, energies = [float(onset1)], [float(strength1)], [float(energy1)]
+    models = [template[:keep].copy()]
+    anchor_on, anchor_strength = anchors
     after = int(math.floor(onset1)) + min_sep
     while True:
         c = dfl.candidate(after)
-        if c is None:
+        # the next tick of step 3's series, when this search would pass over it
+        nxt = np.nonzero(anchor_on > onsets[-1] + min_sep)[0]
+        a = int(nxt[0]) if nxt.size else None
+        if a is not None and (c is None or anchor_on[a] < c[0] - min_sep):
+            on, strength = float(anchor_on[a]), float(anchor_strength[a])
+            i0 = int(math.floor(on))
+            burst = _frame_energies(dfl.q[max(0, i0 - w + 1): i0 + w + 2 * hop], hop, w)
+            energy = float(burst.max()) if burst.size else 0.0
+        elif c is None:
             break
-        pos, energy, thr_k, bg = c
-        # onset: the walk of step 4 on q, not back past the previous tick
-        lo = int(math.floor(onsets[-1])) + 1
-        hi = min(r.size, pos + w + 2 * hop)
-        sigma = ONSET_NOISE_SIGMAS * math.sqrt(bg / w)
-        on = lo + _refine(np.abs(dfl.q[lo:hi]), max(0, pos - hop - lo), hi - lo, fraction, gap,
-                          sigma)
-        if on - onsets[-1] < min_sep:
-            after = pos + hop           # part of the previous tick's burst
-            continue
+        else:
+            pos, energy, thr_k, bg = c
+            # onset: the walk of step 4 on q, not back past the previous tick
+            lo = int(math.floor(onsets[-1])) + 1
+            hi = min(r.size, pos + w + 2 * hop)
+            sigma = ONSET_NOISE_SIGMAS * math.sqrt(bg / w)
+            on = lo + _refine(dfl.q[lo:hi], max(0, pos - hop - lo), hi - lo, fraction, gap,
+                              sigma)
+            # the burst's energy: the largest frame holding its first samples (the
+            # candidate frame may be an earlier one on its rising edge)
+            i0 = int(math.floor(on))
+            burst = _frame_energies(dfl.q[max(0, i0 - w + 1): i0 + w + 2 * hop], hop, w)
+            energy = max(energy, float(burst.max())) if burst.size else energy
+            near = np.abs(anchor_on - on) < min_sep
+            if not near.any() and (
+                    on - onsets[-1] < _separation(onsets, strengths, min_sep, e_min)
+                    or _too_strong(onsets, strengths, energies, on, energy)):
+                after = pos + hop           # part of the previous tick's response
+                continue
+            strength = 10.0 * math.log10(energy / thr_k)
+            if near.any():
+                strength = max(strength, float(anchor_strength[near].max()))
         s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
-        after = int(math.floor(on)) + min_sep
+        after = int(math.floor(on)) + _separation(onsets + [on], strengths + [strength],
+                                                  min_sep, e_min)
 
         def fit_end():
             nxt = dfl.candidate(after)
@@ -650,39 +939,98 @@ def _deflated_onsets(r, fs, onset1, strength1, peak2, hop, min_sep, background, 
         # fit over the tick's own stretch, up to the next tick; if taking this one out
         # removes what looked like the next tick (its own remainder), fit again longer
         e = fit_end()
-        keep = dfl.q[s: s + L + dfl.post + 1].copy()
-        for _ in range(DEFLATION_REFITS):
-            dfl.remove(s, e)
+        saved = dfl.q[s: s + L + dfl.post + 1].copy()
+        model = dfl.remove(s, e)
+        for _ in range(DEFLATION_REFITS - 1):
             e2 = fit_end()
             if e2 <= e:
                 break
-            dfl.q[s: s + keep.size] = keep
+            dfl.q[s: s + saved.size] = saved
             e = e2
+            model = dfl.remove(s, e)
         onsets.append(float(on))
-        strengths.append(10.0 * math.log10(energy / thr_k))
-    return np.array(onsets), np.array(strengths)
+        strengths.append(strength)
+        energies.append(float(energy))
+        models.append(model[:keep].copy())
+    return np.array(onsets), np.array(strengths), dfl.q, models
 
 
-def _bounce_order(onsets: np.ndarray, strengths: np.ndarray):
-    """Drop the doubtful ticks that break the order of a bounce series (module docstring,
-    step 6): where a bounce time is over :data:`BOUNCE_GROWTH` times the one before, the
-    tick that ends it goes if doubtful (a late remainder), else the tick that starts it
-    (a remainder that split a bounce in two)."""
-    on = list(onsets)
-    st = list(strengths)
-    k = 1
-    while k + 1 < len(on):
-        if on[k + 1] - on[k] > BOUNCE_GROWTH * (on[k] - on[k - 1]):
-            for j in (k + 1, k):
-                if st[j] < DOUBTFUL_DB:
-                    del on[j], st[j]
-                    k = max(1, k - 1)
+def _in_order(on, kept, e_min, growth) -> bool:
+    """Whether the last bounce of the ticks ``kept`` lies within ``e_min`` and ``growth``
+    times the one before (true when there is no bounce before)."""
+    if len(kept) < 3:
+        return True
+    before = on[kept[-2]] - on[kept[-3]]
+    return e_min * before <= on[kept[-1]] - on[kept[-2]] <= growth * before
+
+
+def _bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float,
+                  growth: float = BOUNCE_GROWTH) -> np.ndarray:
+    """Indices of the ticks that keep the order of a bounce series (module docstring,
+    step 6).
+
+    Taken in time order after the first two: a tick sooner than ``e_min`` times the last
+    bounce time after the last tick is dropped (part of that tick's response). Where a
+    bounce time is over ``growth`` times the one before, the tick that ends the shorter
+    bounce, or the one that starts it, is dropped when it is weaker than the new tick and
+    its removal restores the order (it split a bounce in two; the weaker of the two if
+    both do), or else the last few ticks, when all are weaker than the new tick and not
+    sure and their removal restores the order; else the new tick is dropped if doubtful (a late remainder) and kept if
+    not (a missed tick, or a second drop). Last, a
+    tick that is not sure is dropped when the bounce across it continues the series'
+    restitution (within ``RESTITUTION_STEP``) and the two bounces it makes do not.
+    """
+    on = onsets
+    kept = list(range(min(2, on.size)))
+    for i in range(2, on.size):
+        t_last = on[kept[-1]] - on[kept[-2]]
+        t = on[i] - on[kept[-1]]
+        if t < e_min * t_last:
+            # too soon for a bounce: part of the last tick's response, unless the last
+            # tick is a doubtful remainder just before this stronger one
+            if (strengths[kept[-1]] < DOUBTFUL_DB and strengths[i] > strengths[kept[-1]]
+                    and _in_order(on, kept[:-1] + [i], e_min, growth)):
+                kept[-1] = i
+            continue
+        if t > growth * t_last:
+            # one of the two ticks of the short bounce, weaker than this one, split a
+            # bounce in two: drop the weaker of those whose removal restores the order
+            options = [j for j in (len(kept) - 1, len(kept) - 2)
+                       if j >= 2 and strengths[kept[j]] < strengths[i]
+                       and _in_order(on, kept[:j] + kept[j + 1:] + [i], e_min, growth)
+                       and _in_order(on, kept[:j] + kept[j + 1:], e_min, growth)]
+            # or the last few ticks, all weaker than this one and not sure, split it
+            run = None
+            for m in range(2, len(kept) - 1):
+                if max(strengths[j] for j in kept[-m:]) >= min(strengths[i], ANCHOR_DB):
                     break
-            else:
-                k += 1
-        else:
-            k += 1
-    return np.array(on), np.array(st)
+                if _in_order(on, kept[:-m] + [i], e_min, growth):
+                    run = m
+                    break
+            if options:
+                del kept[min(options, key=lambda j: strengths[kept[j]])]
+            elif run is not None:
+                del kept[-run:]
+            elif strengths[i] < DOUBTFUL_DB:
+                continue                    # a late remainder
+        kept.append(i)
+    # a tick that is not sure, between two others, is dropped when the bounce across it
+    # continues the series' restitution and the two bounces it makes do not (a
+    # restitution changes slowly along a series, with the impact speed: PHYSICS.md
+    # section 5)
+    k = 3
+    while k + 1 < len(kept):
+        t = on[kept[k - 3: k + 2]]
+        if strengths[kept[k]] < ANCHOR_DB:
+            e_before = (t[2] - t[1]) / (t[1] - t[0])
+            split = max(abs((t[3] - t[2]) / (t[2] - t[1]) / e_before - 1.0),
+                        abs((t[4] - t[3]) / (t[3] - t[2]) / e_before - 1.0))
+            merged = abs((t[4] - t[2]) / (t[2] - t[1]) / e_before - 1.0)
+            if merged < RESTITUTION_STEP < split:
+                del kept[k]
+                continue
+        k += 1
+    return np.array(kept, dtype=int)
 
 
 # ---------------------------------------------------------------------------
@@ -707,7 +1055,10 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     channel : int or None
         The channel to analyse (0-based); ``None`` mixes them (mean).
     min_separation : float > 0
-        Shortest time between two ticks, s; must exceed the contact time.
+        Shortest time between two ticks, s: a burst closer than this to a tick is part
+        of it (default 1 ms). Longer contacts are told apart by the bounce-series rules
+        (steps 3, 5 and 6); lower it (0.2 ms) for hard balls whose last bounces are
+        shorter than 1 ms.
     hop : float > 0
         Spacing of the detection function's frames, s (at least one sample; each
         frame spans at least 12 samples).
@@ -721,7 +1072,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Ticks more than this below the strongest are ignored, dB.
     max_drop_db : float > 0
         A tick more than this below the previous tick is ignored, dB (20 dB: a
-        restitution below 0.1).
+        restitution below 0.1); it also sets the shortest plausible bounce,
+        ``10^(-max_drop_db / 20)`` times the previous one.
     background : float > 0
         Length of the running median giving the local background, s.
     onset_fraction : float in (0, 1)
@@ -729,9 +1081,11 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     lpc_order : int >= 2, optional
         Order of the whitening predictor. Default: 20 ms of samples, at least 8.
     window : float > 0
-        Longest measurement window of a tick, s.
+        Length of every tick's measurement window, s (shorter only where the recording
+        ends).
     subtract_tails : bool
-        Remove the earlier ticks' predicted tails before measuring a tick.
+        Measure each tick's own sound (its excitation through the resonator's all-pole
+        model, without the other ticks); False measures the recording over the window.
     deflate : bool
         Find the ticks after the first one by one, each with the earlier ticks' whitened
         responses taken out (step 5); False keeps the ticks of step 3.
@@ -739,7 +1093,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Length of the Hann window smoothing the envelope for the decay fit, s
         (at least 3 samples).
     clip_samples : int >= 2
-        Samples at exactly a channel's largest magnitude that mean clipping.
+        Samples at exactly a channel's largest (or smallest) value that mean clipping.
     on_clipping : {"warn", "raise"}
         Report clipping in :attr:`Analysis.warnings`, or raise ``AnalysisError``.
 
@@ -779,23 +1133,29 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
              else _integer("lpc_order", lpc_order, 2))
 
     used = chans if ch is None else chans[:, [ch]]
-    x = used[:, 0] if used.shape[1] == 1 else used.mean(axis=1)
-    if x.size <= 2 * order:
+    n_frames = used.shape[0]
+    if n_frames <= 2 * order:
         raise ParameterError(
-            f"audio has {x.size} frames: too short for a whitening predictor of order {order} "
+            f"audio has {n_frames} frames: too short for a whitening predictor of order {order} "
             f"(needs more than {2 * order})")
-    if not np.any(x):
+    if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     warnings = []
-    clip = _clipping(used, clip_n)
+    clip_mask, clip = _clipping(used, clip_n)
     if clip is not None:
         if on_clipping == "raise":
             raise AnalysisError(clip)
         warnings.append(clip)
+    x = used[:, 0] if used.shape[1] == 1 else used.mean(axis=1)
+    if not np.any(x):
+        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
 
-    from scipy.signal import oaconvolve
+    from scipy.signal import lfilter, oaconvolve
 
-    A = _lpc(x, order)
+    if clip is not None:
+        x, A = _declip(used, clip_mask, order)
+    else:
+        A = _lpc(x, order)
     # the prediction error, the recording taken as silent before its first sample
     r = oaconvolve(x, A)[: x.size]
     peaks, d, threshold, med = _detect(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop)
@@ -803,11 +1163,12 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         raise AnalysisError("no tick detected: nothing rises above the background "
                             "(is this a recording of impacts?)")
     gap = max(2, int(round(ONSET_GAP * fs)))
-    # the background is an energy per frame of max(hop, MIN_FRAME) samples
-    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / max(hop_n, MIN_FRAME))
-    mag = np.abs(r)
+    w = max(hop_n, MIN_FRAME)
+    # the background is an energy per frame of w samples
+    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / w)
+    # frame k spans [k hop, k hop + w): search it and a hop either side
     onsets = np.array([
-        _refine(mag, max(0, (k - 1) * hop_n), min(r.size, (k + 2) * hop_n), frac, gap, s)
+        _refine(r, max(0, (k - 1) * hop_n), min(r.size, k * hop_n + w + hop_n), frac, gap, s)
         for k, s in zip(peaks, sigma)])
     # a candidate whose refined onset walks back to within min_separation of the
     # previous tick's is part of that tick's burst
@@ -822,21 +1183,48 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
                             "(is this a recording of impacts?)")
     peaks, onsets = peaks[kept], onsets[kept]
     strength = 10.0 * np.log10(d[peaks] / threshold[peaks])
+    e_min = 10.0 ** (-drop / 20.0)
+    anchors, anchor_strength = onsets[:1], strength[:1]
+    if peaks.size > 1:
+        # the candidates before the second tick are the first tick's own response
+        series = _bounce_series(onsets, e_min)
+        anchors, anchor_strength = onsets[series], strength[series]
+        sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
+        anchors, anchor_strength = anchors[sure], anchor_strength[sure]
+        keep = np.r_[0, series[1]:peaks.size]
+        peaks, onsets, strength = peaks[keep], onsets[keep], strength[keep]
+    models = None
     if deflate:
-        onsets, strength = _deflated_onsets(
-            r, fs, onsets[0], strength[0], peaks[1] if peaks.size > 1 else None, hop_n,
-            min_sep, bg, thr, rise, rel, d.max() * 10.0 ** (-dyn / 10.0), frac, gap)
-    onsets, strength = _bounce_order(onsets, strength)
+        end1 = (peaks[1] - 1) * hop_n if peaks.size > 1 else r.size
+        onsets, strength, q, models = _deflated_onsets(
+            r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
+            (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
+            d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n)
+    order_kept = _bounce_order(onsets, strength, e_min)
+    onsets, strength = onsets[order_kept], strength[order_kept]
+    if models is not None:
+        models = [models[i] for i in order_kept]
 
     noise = _noise_floor(x, fs)
     starts = np.maximum(np.floor(onsets).astype(int) - WINDOW_GUARD, 0)
     ticks = []
     for i, (on, s) in enumerate(zip(onsets, starts)):
-        e = min(x.size, s + win_n, starts[i + 1] if i + 1 < starts.size else x.size)
-        e = max(e, s + 1)
-        y = x[s:e].copy()
-        if subtract_tails and s > 0:
-            y -= _tail(x, A, s, y.size)
+        e = min(x.size, s + win_n)
+        if not subtract_tails:
+            y = x[s:e].copy()
+        else:
+            # the tick's own excitation, through the resonator's all-pole model 1/A
+            exc = np.zeros(e - s)
+            stop = min(e, starts[i + 1]) if i + 1 < starts.size else e
+            if models is not None:
+                # the tick's model, and what no tick explains up to the next tick (beyond,
+                # that is the later ticks' remainders)
+                m = models[i][: e - s]
+                exc[: m.size] += m
+                exc[: stop - s] += q[s:stop]
+            else:
+                exc[: stop - s] = r[s:stop]
+            y = lfilter([1.0], A, exc)
         bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
         prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
         c, sp = _spectral_moments(y, fs)
@@ -847,9 +1235,46 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
             energy=float(np.dot(y, y) / fs), peak=float(np.abs(y).max()),
             centroid=c, spread=sp, decay_time=_decay_time(y, fs, dec_n, noise),
             window=float(y.size / fs), strength=float(strength[i])))
-    return Analysis(ticks=tuple(ticks), samplerate=fs, duration=x.size / fs,
+    return Analysis(ticks=ticks, samplerate=fs, duration=x.size / fs,
                     noise_floor=noise, gravity=g, channel=ch, clipped=clip is not None,
                     warnings=tuple(warnings))
+
+
+def read_recording(path) -> tuple[np.ndarray, float]:
+    """Read a sound file for :func:`analyze`: every channel, as it is stored.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (WAV, FLAC, OGG, AIFF, ... at any sample rate, any number of channels).
+
+    Returns
+    -------
+    audio : ndarray of float64, (frames, channels)
+        The samples, in units of full scale.
+    samplerate : float
+        Sample rate, Hz.
+
+    Raises
+    ------
+    ParameterError
+        ``path`` is not a file name, or no such file.
+    AnalysisError
+        An unreadable file (corrupt header, unknown format) or one without samples.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    if not os.path.isfile(path):
+        raise ParameterError(f"path={os.fspath(path)!r}: no such file")
+    import soundfile
+
+    try:
+        audio, samplerate = soundfile.read(path, dtype="float64", always_2d=True)
+    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
+        raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
+    if audio.shape[0] == 0:
+        raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
+    return audio, float(samplerate)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
@@ -874,18 +1299,7 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
         An unreadable file (corrupt header, unknown format) and the cases of
         :func:`analyze`.
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
-    if not os.path.isfile(path):
-        raise ParameterError(f"path={os.fspath(path)!r}: no such file")
-    import soundfile
-
-    try:
-        audio, samplerate = soundfile.read(path, dtype="float64", always_2d=True)
-    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-        raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
-    if audio.shape[0] == 0:
-        raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
+    audio, samplerate = read_recording(path)
     return analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
 
 
@@ -908,21 +1322,26 @@ _COLUMNS = (
 )
 
 
-def format_table(analysis) -> str:
+def format_table(analysis, *, warnings=True) -> str:
     """A terminal table of the ticks, one line each, with a summary header.
 
     Columns: n, time (s), bounce time (ms), e, speed (m/s), energy (signal
     units^2 s), peak (signal units), centroid (Hz), spread (Hz), decay (ms),
-    strength (dB). Undefined values print as ``-``.
+    strength (dB). Undefined values print as ``-``. With ``warnings`` (default) the
+    analysis' warnings follow the header, one line each (the command line prints
+    them to stderr instead).
     """
     an = _analysis("analysis", analysis)
+    if not isinstance(warnings, (bool, np.bool_)):
+        raise ParameterError(f"warnings={warnings!r} must be True or False")
     e = an.mean_restitution
     lines = [
         f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
         f"channel {'mix' if an.channel is None else an.channel}, "
         f"noise floor {an.noise_floor:.3g}, mean e "
         f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2"]
-    lines += [f"warning: {w}" for w in an.warnings]
+    if warnings:
+        lines += [f"warning: {w}" for w in an.warnings]
     head = [h + (f" ({u})" if u else "") for _, h, u, _, _ in _COLUMNS]
     rows = []
     for t in an.ticks:
@@ -968,7 +1387,43 @@ def to_csv(analysis) -> str:
     return buf.getvalue()
 
 
-def plot_analysis(analysis, audio, samplerate, path) -> None:
+def check_plot_path(path) -> str:
+    """Check that an image can be written to ``path`` before any work is done.
+
+    The directory must exist and be writable, and the suffix must name an image format
+    matplotlib writes (.png, .pdf, .svg, ...). Returns the format (the suffix, lower
+    case).
+
+    Raises
+    ------
+    ParameterError
+        A bad path or format; the message names ``path``.
+    SynthError
+        matplotlib is not installed (``pip install matplotlib``).
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ParameterError(f"path={path!r}: directory {folder!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(f"path={path!r}: directory {folder!r} is not writable")
+    if os.path.isdir(path):
+        raise ParameterError(f"path={path!r} is a directory, not an image file name")
+    fmt = os.path.splitext(path)[1].lstrip(".").lower()
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+    except ImportError:
+        raise SynthError("plotting needs matplotlib: pip install matplotlib") from None
+    formats = FigureCanvasAgg.get_supported_filetypes()
+    if fmt not in formats:
+        raise ParameterError(
+            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}")
+    return fmt
+
+
+def plot_analysis(analysis, audio, samplerate, path):
     """Draw the analysis to an image file (format from the suffix: .png, .pdf, .svg ...).
 
     Four panels: the analysed signal with the detected onsets; bounce time (ms)
@@ -982,11 +1437,17 @@ def plot_analysis(analysis, audio, samplerate, path) -> None:
     analysis : Analysis
         From :func:`analyze` of the same audio.
     audio : array of float, (frames,) or (frames, channels)
-        The recording that was analysed.
+        The recording that was analysed, with all its channels (the analysis says
+        which channel, or the mix, it used).
     samplerate : float > 0
         Its sample rate, Hz; must be the analysis' rate.
     path : str or path-like
-        The image file to write; its directory must exist.
+        The image file to write (:func:`check_plot_path`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure drawn (four panels, titled as above).
 
     Raises
     ------
@@ -1003,23 +1464,17 @@ def plot_analysis(analysis, audio, samplerate, path) -> None:
             f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz")
     if an.channel is not None and an.channel >= chans.shape[1]:
         raise ParameterError(
-            f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}")
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+            f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}"
+            f" (pass the recording with all its channels)")
+    if chans.shape[0] != int(round(an.duration * fs)):
+        raise ParameterError(
+            f"audio has {chans.shape[0]} frames but the analysis was of "
+            f"{int(round(an.duration * fs))}")
+    fmt = check_plot_path(path)
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise ParameterError(f"path={path!r}: directory {folder!r} does not exist")
-    fmt = os.path.splitext(path)[1].lstrip(".").lower()
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise SynthError("plot_analysis needs matplotlib: pip install matplotlib") from None
-    formats = FigureCanvasAgg.get_supported_filetypes()
-    if fmt not in formats:
-        raise ParameterError(
-            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     x = chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
     t = np.arange(x.size) / fs
@@ -1076,3 +1531,4 @@ def plot_analysis(analysis, audio, samplerate, path) -> None:
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+    return fig

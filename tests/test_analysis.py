@@ -6,8 +6,10 @@ bouncing ball with a geometric restitution ``e`` (bounce times
 damped sinusoids (500 Hz - 8 kHz, decay 5 - 45 ms) starting at a known
 sub-sample onset with an amplitude proportional to the impact speed, so that
 tick energies fall by ``e^2`` per bounce and every tick's tail runs under the
-next ones. Variants add white noise at a given SNR, a reverberant room, or
-replace the abrupt start by the exact response to a half-sine contact force.
+next ones. Variants add white noise at a given SNR (the mean power of the
+bouncing part over the noise's), a room (early reflections, a diffuse tail),
+clipping, replace the abrupt start by the exact response to a half-sine contact
+force, or record at a low rate through an anti-aliasing filter.
 """
 
 import csv
@@ -18,13 +20,15 @@ import os
 import re
 import sys
 from dataclasses import fields
+from fractions import Fraction
 
 import numpy as np
 import pytest
 import soundfile
 
 from synth.analysis import (Analysis, AnalysisError, Tick, analyze, analyze_file,
-                            format_table, plot_analysis, to_csv, to_dict)
+                            check_plot_path, format_table, plot_analysis, read_recording,
+                            to_csv, to_dict)
 from synth.errors import ParameterError, SynthError
 
 G = 9.81
@@ -82,31 +86,72 @@ def bouncing(fs, e=E, modes=MODES, tail=0.15, t0=T0, contact=None):
         i0 = max(0, int(math.floor(on * fs)) - 2)
         i1 = min(n, i0 + span)
         t = np.arange(i0, i1) / fs - on
-        x[i0:i1] += v * (_damped(t, modes) if contact is None else _contact(t, modes, contact))
+        x[i0:i1] += v * (_damped(t, modes) if contact is None else _contact(t, modes, tau_c=contact))
     return x, onsets, speeds
 
 
+def recorded(fs, **kw):
+    """:func:`bouncing` as a converter records it at ``fs``: made at 176.4 or 192 kHz and
+    brought down by ``scipy.signal.resample_poly`` (a linear-phase Kaiser-windowed
+    anti-aliasing filter: the modes above the new Nyquist frequency are removed, and
+    every tick starts with the filter's pre-ringing)."""
+    from scipy.signal import resample_poly
+
+    high = 176400 if 176400 % fs == 0 else 192000
+    x, onsets, speeds = bouncing(high, **kw)
+    ratio = Fraction(fs, high)
+    return resample_poly(x, ratio.numerator, ratio.denominator), onsets, speeds
+
+
 def add_noise(x, snr_db, onsets, fs, seed=0):
-    """White noise at ``snr_db`` below the mean power of the bouncing part."""
+    """White noise at ``snr_db`` below the mean power of the bouncing part (from the first
+    onset to 50 ms after the last)."""
     i0, i1 = int(onsets[0] * fs), int((onsets[-1] + 0.05) * fs)
     power = np.mean(x[i0:i1] ** 2)
     rng = np.random.default_rng(seed)
     return x + rng.normal(0.0, math.sqrt(power * 10.0 ** (-snr_db / 10.0)), x.size)
 
 
-def add_room(x, fs, decay=0.1, drr_db=0.0, seed=1):
-    """Convolve with a room: the direct sound, then from 2 ms an exponentially
-    decaying Gaussian noise tail (amplitude time constant ``decay``, RT60 =
-    6.9 decay) carrying ``-drr_db`` dB of the direct sound's energy."""
+#: Early reflections of a small room, image-source-like: (delay s, gain). The floor and
+#: the table under the plate first (2-4 ms, gains up to 0.7), then walls and ceiling; one
+#: off a surface that inverts the pressure.
+REFLECTIONS = ((0.0023, 0.7), (0.0041, 0.55), (0.0077, 0.45), (0.0112, -0.35),
+               (0.0159, 0.3), (0.0194, 0.25), (0.0246, 0.2))
+
+
+def _delayed_impulse(n, delay, fs, half=16):
+    """A band-limited unit impulse ``delay`` seconds late (Hann-windowed sinc), length n."""
+    h = np.zeros(n)
+    c = delay * fs
+    k = np.arange(int(math.floor(c)) - half, int(math.floor(c)) + half + 1)
+    k = k[(k >= 0) & (k < n)]
+    u = k - c
+    h[k] = np.sinc(u) * (0.5 + 0.5 * np.cos(np.pi * u / (half + 1)))
+    return h
+
+
+def room_ir(fs, reflections=REFLECTIONS, decay=None, drr_db=0.0, seed=1):
+    """A room's impulse response: the direct sound, the early ``reflections`` at their
+    fractional delays, and, with ``decay`` (amplitude time constant, s; RT60 = 6.9 decay),
+    an exponentially decaying Gaussian diffuse tail from 2.5 ms carrying ``-drr_db`` dB of
+    the direct sound's energy."""
+    n = int((0.03 if decay is None else 6 * decay) * fs)
+    ir = np.zeros(n)
+    ir[0] = 1.0
+    for d, g in reflections:
+        ir += g * _delayed_impulse(n, d, fs)
+    if decay is not None:
+        rng = np.random.default_rng(seed)
+        tail = rng.normal(size=n) * np.exp(-np.arange(n) / fs / decay)
+        tail[: int(0.0025 * fs)] = 0.0
+        ir += tail * math.sqrt(10.0 ** (-drr_db / 10.0) / np.sum(tail ** 2))
+    return ir
+
+
+def in_room(x, fs, **kw):
     from scipy.signal import fftconvolve
 
-    rng = np.random.default_rng(seed)
-    n = int(6 * decay * fs)
-    ir = rng.normal(size=n) * np.exp(-np.arange(n) / fs / decay)
-    ir[: int(0.002 * fs)] = 0.0
-    ir *= math.sqrt(10.0 ** (-drr_db / 10.0) / np.sum(ir ** 2))
-    ir[0] = 1.0
-    return fftconvolve(x, ir)[: x.size]
+    return fftconvolve(x, room_ir(fs, **kw))[: x.size]
 
 
 def match(an, onsets):
@@ -116,8 +161,20 @@ def match(an, onsets):
     return idx, t[idx] - onsets
 
 
+def false_ticks(an, onsets, tol=0.5e-3):
+    """Detected ticks more than ``tol`` (s) from every true onset."""
+    t = np.array([tk.time for tk in an.ticks])
+    return int(np.sum(np.min(np.abs(t[:, None] - onsets[None, :]), axis=1) > tol))
+
+
 def restitutions(an, idx, ticks=slice(2, 10)):
     return np.array([an.ticks[i].restitution for i in idx[ticks]], dtype=float)
+
+
+# bound on e_n from the onset requirement: onsets within d = 0.2 ms make
+# e_n = t_n / t_(n-1) wrong by at most 2d/t_n + 2d/t_(n-1) <= 4d / t_9 = 1.2 %
+# (t_9 = 2 V1 E^9 / g = 66 ms, the shortest bounce time among the first ten ticks)
+E_BOUND = 4 * 0.2e-3 / (2 * V1 * E ** 9 / G)
 
 
 @pytest.fixture(scope="module")
@@ -129,22 +186,33 @@ def clean44():
 # ---------------------------------------------------------------------------
 # onsets, restitution, speeds
 
+#: Onset errors (sample periods, [low, high]) at each rate. Sampled directly (every mode
+#: below 0.45 fs): the tick starts between two samples and shows from the next on; the
+#: level crossing (10 % of the burst, after the last zero sample) lies in the period
+#: before that sample, so within [-1, 0], but for the earlier ticks' whitened remainder
+#: in that last sample, which moves the interpolated crossing by a small fraction of a
+#: sample (measured +0.06): within [-1, 0.1]. Recorded through an anti-aliasing filter (the
+#: 7.6 kHz mode above 0.45 fs): the whitened burst is a sampled sinc whose centre is
+#: taken from its two central samples (step 4); the Kaiser window of the filter makes it
+#: differ from an ideal sinc, measured -1.3 to +0.6 sample periods: within [-1.5, 1].
+RATES = {8000: (-1.5, 1.0), 11025: (-1.5, 1.0), 16000: (-1.5, 1.0), 22050: (-1.0, 0.1),
+         44100: (-1.0, 0.1), 48000: (-1.0, 0.1), 96000: (-1.0, 0.1)}
 
-@pytest.mark.parametrize("fs", [22050, 44100, 96000])
+
+@pytest.mark.parametrize("fs", sorted(RATES))
 def test_onsets_restitution_speeds(fs):
-    x, onsets, speeds = bouncing(fs)
+    lo, hi = RATES[fs]
+    x, onsets, speeds = (bouncing if fs >= 22050 else recorded)(fs)
     an = analyze(x, fs)
     # every tick is >= 2 ms from the next (> min_separation) and within 42 dB of the
     # first (< dynamic_range_db): all are found, no more
     assert len(an.ticks) == onsets.size
     idx, err = match(an, onsets)
     assert np.array_equal(idx, np.arange(onsets.size))
-    # the requirement: onsets within 0.2 ms for the first ten ticks
+    assert lo <= np.min(err * fs) and np.max(err * fs) <= hi
+    # the requirement, at every rate: onsets within 0.2 ms for the first ten ticks (1.5
+    # sample periods at 8 kHz are 188 us)
     assert np.max(np.abs(err[:10])) < 0.2e-3
-    # a tick starting between two samples shows from the next sample on: the
-    # onset is known to one sample period, and the level crossing (at 10 % of
-    # the burst, just after the last zero sample) stays within it for every tick
-    assert np.max(np.abs(err)) < 1.0 / fs
     # e_n = t_n / t_(n-1) within 1 % (requirement) for the first ten ticks
     e = restitutions(an, idx)
     assert np.max(np.abs(e / E - 1.0)) < 0.01
@@ -156,6 +224,7 @@ def test_onsets_restitution_speeds(fs):
     assert an.channel is None and an.samplerate == fs
     assert an.duration == pytest.approx(x.size / fs, rel=1e-12)
     assert not an.clipped and an.warnings == ()
+    assert isinstance(an.ticks, list)
 
 
 def test_onsets_rejects_bad_samplerate():
@@ -180,50 +249,70 @@ def test_onset_is_start_of_contact(tau_c):
     assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 0.01
 
 
-def test_onset_is_start_of_contact_rejects_bad_options():
+def test_options():
+    # The options are honoured: every window is `window` long; without the deflation the
+    # same ticks are found; with subtract_tails=False a tick's energy is that of the
+    # recording over its window
+    fs = 44100
+    x, onsets, _ = bouncing(fs)
+    an = analyze(x, fs, window=0.01, deflate=False)
+    assert len(an.ticks) == onsets.size
+    assert all(t.window == pytest.approx(0.01, abs=0.5 / fs) for t in an.ticks)
+    raw = analyze(x, fs, subtract_tails=False, window=0.01)
+    k = int(math.floor(raw.ticks[3].time * fs)) - 2
+    n = int(round(0.01 * fs))
+    assert raw.ticks[3].energy == pytest.approx(np.sum(x[k: k + n] ** 2) / fs, rel=1e-12)
+
+
+def test_options_reject_bad_values():
     x, _, _ = bouncing(44100)
     bad = [("min_separation", 0.0), ("min_separation", 1e-6), ("hop", -1.0), ("hop", 1e-6),
            ("threshold_db", 0.0), ("rise_db", -3.0), ("release", float("nan")),
            ("dynamic_range_db", 0), ("max_drop_db", -20.0), ("background", 0.0),
            ("onset_fraction", 0.0), ("onset_fraction", 1.5), ("lpc_order", 1),
-           ("lpc_order", 2.5), ("window", -0.02),
+           ("lpc_order", 2.5), ("window", -0.02), ("window", 1e-6),
            ("decay_smoothing", 1e-5), ("clip_samples", 1), ("clip_samples", 4.0),
            ("on_clipping", "ignore"), ("subtract_tails", "yes"), ("deflate", 1),
-           ("gravity", 0.0),
-           ("gravity", -9.81)]
+           ("deflate", None), ("gravity", 0.0), ("gravity", -9.81)]
     for name, value in bad:
         with pytest.raises(ParameterError, match=name):
             analyze(x, 44100, **{name: value})
 
 
-def test_deflation_rejects_bad_flag():
-    x, _, _ = bouncing(44100)
-    for bad in ("no", 0, None):
-        with pytest.raises(ParameterError, match="deflate"):
-            analyze(x, 44100, deflate=bad)
-
-
-def test_bounce_order_drops_doubtful_remainders():
-    # Step 6: onsets 0, 100, 105 (a doubtful remainder splitting a bounce), 180, 240,
-    # then 260 and 400 ms (a doubtful late remainder, after bounces that shrink): the two
-    # doubtful ticks go; a strong tick after a long gap (a second drop) stays.
+def test_bounce_order_drops_what_breaks_a_series():
+    # Step 6, onsets in ms: 0, 100, then 105 (5 ms after a 100 ms bounce: a restitution
+    # below 0.1, part of the tick at 100), 180, 240, 285, then 400 (doubtful: a late
+    # remainder after bounces that shrink), then a strong tick after a long gap (a
+    # second drop, kept) and its bounce.
     from synth.analysis import _bounce_order
 
     on = np.array([0.0, 100.0, 105.0, 180.0, 240.0, 285.0, 400.0, 1000.0, 1100.0])
-    st = np.array([40.0, 30.0, 2.0, 25.0, 20.0, 15.0, 3.0, 40.0, 35.0])
-    got_on, got_st = _bounce_order(on, st)
-    assert list(got_on) == [0.0, 100.0, 180.0, 240.0, 285.0, 1000.0, 1100.0]
-    assert list(got_st) == [40.0, 30.0, 25.0, 20.0, 15.0, 40.0, 35.0]
+    st = np.array([40.0, 30.0, 25.0, 25.0, 20.0, 15.0, 3.0, 40.0, 35.0])
+    kept = _bounce_order(on, st, 0.1)
+    assert list(on[kept]) == [0.0, 100.0, 180.0, 240.0, 285.0, 1000.0, 1100.0]
+    # a weak tick splitting a bounce in two (30 = 12 + 18 after bounces of 50 and 40 ms,
+    # restitution 0.8, against 0.3 and 1.5 for the two halves) goes
+    on = np.array([0.0, 50.0, 90.0, 102.0, 120.0, 144.0])
+    kept = _bounce_order(on, np.array([40.0, 35.0, 30.0, 5.0, 28.0, 20.0]), 0.1)
+    assert list(on[kept]) == [0.0, 50.0, 90.0, 120.0, 144.0]
+    # a weak tick just before a strong one, too soon after it to be a bounce (the
+    # remainder of an earlier tick) gives way to it
+    on = np.array([0.0, 100.0, 175.0, 180.0, 240.0])
+    kept = _bounce_order(on, np.array([40.0, 35.0, 2.0, 30.0, 25.0]), 0.1)
+    assert list(on[kept]) == [0.0, 100.0, 180.0, 240.0]
 
 
-def test_bounce_order_rejects_nothing_strong():
-    # strong ticks are never dropped, whatever their order
+def test_bounce_order_keeps_a_series_with_a_missed_tick():
+    # a geometric series of strong and weak ticks (restitution 0.7, then 0.75 at the
+    # end as the contact time grows), and a missed tick (bounce 5 absent): all stay
     from synth.analysis import _bounce_order
 
-    on = np.array([0.0, 10.0, 100.0, 105.0, 400.0])
-    st = np.full(on.size, 30.0)
-    got_on, _ = _bounce_order(on, st)
-    assert list(got_on) == list(on)
+    T = 100.0 * 0.7 ** np.arange(12)
+    T[9:] *= 0.75 / 0.7
+    on = np.r_[0.0, np.cumsum(T)]
+    on = np.delete(on, 5)
+    st = np.linspace(40.0, 3.0, on.size)
+    assert list(_bounce_order(on, st, 0.1)) == list(range(on.size))
 
 
 # ---------------------------------------------------------------------------
@@ -233,29 +322,53 @@ def test_bounce_order_rejects_nothing_strong():
 def test_energy_falls_by_e_squared(clean44):
     _, onsets, _, an = clean44
     idx, _ = match(an, onsets)
-    energy = np.array([an.ticks[i].energy for i in idx[:10]])
+    energy = np.array([an.ticks[i].energy for i in idx])
     ratio = energy[1:] / energy[:-1]
-    # amplitude ~ speed, so energy falls by e^2 per bounce. Tolerance 2 %: the
-    # sampled energy of the short 7.6 kHz mode (5.8 samples per period, 220 per
-    # decay time) depends on where the onset falls between samples by up to ~1 %,
-    # and the predicted tails of the earlier ticks leave < -45 dB (0.6 % of energy)
+    # amplitude ~ speed, so energy falls by e^2 per bounce, for every tick (each is
+    # measured over the same 20 ms of its own sound). Tolerance 2 %: the sampled energy
+    # of the short 7.6 kHz mode (5.8 samples per period, 220 per decay time) depends on
+    # where the onset falls between samples by up to ~1 %
     assert np.max(np.abs(ratio / E ** 2 - 1.0)) < 0.02
-    # the geometric trend over ten ticks averages the sampling-phase scatter
-    slope = np.polyfit(np.arange(10), np.log(energy), 1)[0]
-    assert math.exp(slope) == pytest.approx(E ** 2, rel=0.005)
-    # the windows are equal (20 ms < every bounce time among the first ten)
-    assert all(an.ticks[i].window == pytest.approx(0.02, abs=2.0 / 44100) for i in idx[:10])
+    # the geometric trend over all ticks averages the sampling-phase scatter
+    slope = np.polyfit(np.arange(energy.size), np.log(energy), 1)[0]
+    assert math.exp(slope) == pytest.approx(E ** 2, rel=0.002)
+    assert all(t.window == pytest.approx(0.02, abs=0.5 / 44100) for t in an.ticks)
     # peak ~ speed: falls by e per bounce (same sampling-phase scatter, on amplitude)
-    peak = np.array([an.ticks[i].peak for i in idx[:10]])
+    peak = np.array([an.ticks[i].peak for i in idx])
     assert np.max(np.abs(peak[1:] / peak[:-1] / E - 1.0)) < 0.03
 
 
-def test_energy_rejects_audio_not_samples():
+def test_audio():
+    # audio in any real dtype, as a list, a column or a (frames,) array: the same ticks
+    x, onsets, _ = bouncing(44100)
+    ref = [t.time for t in analyze(x, 44100).ticks]
+    for audio in (x[:, None], list(x), x.astype(np.float32)):
+        assert [t.time for t in analyze(audio, 44100).ticks] == pytest.approx(ref, abs=1e-6)
+    pcm = np.round(x / np.abs(x).max() * 32000).astype(np.int16)
+    assert [t.time for t in analyze(pcm, 44100).ticks][:10] == pytest.approx(ref[:10], abs=1e-5)
+
+
+def test_audio_rejects_bad_arrays():
     for bad, word in ((np.zeros((10, 2, 2)), "shape"), (np.zeros(0), "empty"),
                       (np.array(["a", "b"] * 500), "dtype"), (np.ones(1000, complex), "dtype"),
                       (np.ones(1000, bool), "dtype"), (np.ones(20), "too short")):
         with pytest.raises(ParameterError, match=word):
             analyze(bad, 44100)
+    for silent in (np.zeros(44100), np.zeros((44100, 2))):
+        with pytest.raises(AnalysisError, match="silent"):
+            analyze(silent, 44100)
+    with pytest.raises(AnalysisError, match="silent"):
+        analyze(np.stack([np.ones(44100), np.zeros(44100)], axis=1), 44100, channel=1)
+    # channels that cancel in the mix
+    x, _, _ = bouncing(44100)
+    with pytest.raises(AnalysisError, match="mean of the channels"):
+        analyze(np.stack([x, -x], axis=1), 44100)
+    x[1000] = np.nan
+    with pytest.raises(ParameterError, match="NaN"):
+        analyze(x, 44100)
+    x[1000] = np.inf
+    with pytest.raises(ParameterError, match="NaN or infinite"):
+        analyze(x, 44100)
 
 
 def _sine_centroid(f0, tau, fs):
@@ -273,49 +386,69 @@ def test_centroid_and_decay_of_single_mode(f0, tau):
     x, onsets, _ = bouncing(fs, modes=((f0, tau, 1.0, -np.pi / 2),))
     an = analyze(x, fs)
     idx, _ = match(an, onsets)
-    c = np.array([an.ticks[i].centroid for i in idx[:10]])
-    d = np.array([an.ticks[i].decay_time for i in idx[:10]])
+    c = np.array([an.ticks[i].centroid for i in idx])
+    d = np.array([an.ticks[i].decay_time for i in idx])
     # closed form: the centroid of the damped sine's spectrum (below f0: the line
     # has a half-width 1/(2 pi tau) and leans to low frequencies, -2.4 % for
-    # 800 Hz / 5 ms, -0.5 % for the others); the 20 ms window's taper broadens
-    # the line a little more: 1 %
+    # 800 Hz / 5 ms, -0.5 % for the others), for every tick; the 20 ms window cuts the
+    # sine after 4 (800 Hz) to 5 decay times, its taper broadens the line: measured 0.4 %
+    # at most, bound 1 %
     assert np.max(np.abs(c / _sine_centroid(f0, tau, fs) - 1.0)) < 0.01
     if f0 * tau >= 20:    # a narrow line (20 periods per decay time): f0 itself within 2 %
         assert np.max(np.abs(c / f0 - 1.0)) < 0.02
-    # an exponential envelope exp(-t / tau): smoothing keeps it exponential, so
-    # the log-linear fit returns tau; bound 5 % (requirement)
-    assert np.max(np.abs(d / tau - 1.0)) < 0.05
+    # an exponential envelope exp(-t / tau): smoothing by a Hann window keeps it
+    # exponential away from the window's ends, so the log-linear fit returns tau; the
+    # ripple of the smoothed envelope (twice the mode's frequency, 2 ms Hann: under
+    # 1e-3 of it) and the envelope's curvature at its start leave 0.1 %
+    assert np.max(np.abs(d / tau - 1.0)) < 1e-3
+
+
+def test_same_ticks_measure_the_same():
+    # Identical ticks (the same half-sine contact, scaled by the impact speed) measure
+    # the same along the series, whatever their bounce time (242 ms down to 2 ms): each
+    # tick is measured over the same 20 ms of its own sound, the others taken out.
+    # Centroid and spread within 0.5 % (measured 0.06 %: the tail's model differs from
+    # the tick's own ringing by the whitening's error), decay time within 1 %, energy
+    # ratios e^2 within 1 %
+    fs = 44100
+    x, onsets, _ = bouncing(fs, contact=1e-4)
+    an = analyze(x, fs)
+    assert len(an.ticks) == onsets.size
+    c = np.array([t.centroid for t in an.ticks])
+    sp = np.array([t.spread for t in an.ticks])
+    d = np.array([t.decay_time for t in an.ticks], dtype=float)
+    en = np.array([t.energy for t in an.ticks])
+    assert np.max(np.abs(c / c[0] - 1.0)) < 0.005
+    assert np.max(np.abs(sp / sp[0] - 1.0)) < 0.005
+    assert np.max(np.abs(d / d[0] - 1.0)) < 0.01
+    assert np.max(np.abs(en[1:] / en[:-1] / E ** 2 - 1.0)) < 0.01
+    # the abrupt starts: the sampled spectrum of a tick started between two samples
+    # depends on where it starts (the step's skirt aliases differently), measured 1.4 %
+    # between ticks: 2 %
+    x, onsets, _ = bouncing(fs)
+    c = np.array([t.centroid for t in analyze(x, fs).ticks])
+    assert np.max(np.abs(c / c[0] - 1.0)) < 0.02
 
 
 def test_long_decay():
     # a 300 Hz mode decaying in 0.5 s falls by 0.04 neper over the default 20 ms
     # window: too little to tell from noise or tails, so no decay time is claimed
-    # (first ten ticks; later ones sit on the summed tails of all the earlier
-    # ticks, many times their own level, whose predicted removal leaves beats)
+    # (the first ten ticks: the later ones, bounces under 20 ms, are measured partly from
+    # their model h * T, ill-determined when the template is a single sinusoid)
     fs = 44100
     x, _, _ = bouncing(fs, modes=((300.0, 0.5, 1.0, -np.pi / 2),), tail=0.5)
     assert all(t.decay_time is None for t in analyze(x, fs).ticks[:10])
-    # over the first bounce (243 ms, no earlier tail) the exponential is measured:
-    # the requirement's 5 %
+    # over a 0.5 s window the exponential is measured: the first tick (no earlier tail)
+    # to 0.1 % as in the single-mode test
     first = analyze(x, fs, window=0.5).ticks[0]
-    assert first.window == pytest.approx(2 * V1 * E / G, rel=0.01)
-    assert first.decay_time == pytest.approx(0.5, rel=0.05)
+    assert first.window == pytest.approx(0.5, abs=1.0 / fs)
+    assert first.decay_time == pytest.approx(0.5, rel=1e-3)
 
 
 def test_long_decay_rejects_short_smoothing():
     x, _, _ = bouncing(44100)
     with pytest.raises(ParameterError, match="decay_smoothing.*3 sample"):
         analyze(x, 44100, decay_smoothing=2.0 / 44100)
-
-
-def test_centroid_and_decay_reject_bad_channel():
-    x, _, _ = bouncing(44100)
-    stereo = np.stack([x, x], axis=1)
-    for bad in (2, -1, 1.0, "0", True):
-        with pytest.raises(ParameterError, match="channel"):
-            analyze(stereo, 44100, channel=bad)
-    with pytest.raises(ParameterError, match="channel"):
-        analyze(x, 44100, channel=1)
 
 
 def test_spread_of_two_lines():
@@ -336,29 +469,16 @@ def test_spread_of_two_lines():
     var = w1 * a.spread ** 2 + w3 * b.spread ** 2 + w1 * w3 * (b.centroid - a.centroid) ** 2
     assert tick.spread == pytest.approx(math.sqrt(var), rel=0.03)
     assert tick.energy == pytest.approx(a.energy + b.energy, rel=0.01)
-    # closed form of the line spectrum alone: 1 kHz; each line's own width (the
-    # 20 ms window and the 50 ms decay) adds in quadrature: within 5 %
+    # the line spectrum alone has a spread of 1 kHz; each line's own width (1/(2 pi
+    # 50 ms) = 3 Hz, broadened by the 20 ms window's taper to ~50 Hz) adds in
+    # quadrature: well within 5 %; the centroid of two equal lines is their mean, moved
+    # by the lines' skirts (above): 2 %
     assert tick.spread == pytest.approx(1000.0, rel=0.05)
     assert tick.centroid == pytest.approx(2000.0, rel=0.02)
 
 
-def test_spread_rejects_nan_input():
-    x, _, _ = bouncing(44100)
-    x[1000] = np.nan
-    with pytest.raises(ParameterError, match="NaN"):
-        analyze(x, 44100)
-    x[1000] = np.inf
-    with pytest.raises(ParameterError, match="NaN or infinite"):
-        analyze(x, 44100)
-
-
 # ---------------------------------------------------------------------------
-# noise, room, channels, sample rates
-
-# bound on e_n from the onset requirement: onsets within d = 0.2 ms make
-# e_n = t_n / t_(n-1) wrong by at most 2d/t_n + 2d/t_(n-1) <= 4d / t_9 = 1.2 %
-# (t_9 = 2 V1 E^9 / g = 66 ms, the shortest bounce time among the first ten ticks)
-E_BOUND = 4 * 0.2e-3 / (2 * V1 * E ** 9 / G)
+# noise, rooms, channels
 
 
 @pytest.mark.parametrize("snr_db", [40, 30, 20])
@@ -371,8 +491,7 @@ def test_noise(clean44, snr_db):
     assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < E_BOUND
     # no false tick: every detection is a true tick (weak late ones may be a few
     # samples late, see the module docstring: 0.5 ms)
-    t = np.array([tk.time for tk in an.ticks])
-    assert np.max(np.min(np.abs(t[:, None] - onsets[None, :]), axis=1)) < 0.5e-3
+    assert false_ticks(an, onsets) == 0
     # the noise floor estimate (quiet frames) against the noise added: the
     # quietest frames hold a little tail too: within 15 %
     sigma = math.sqrt(np.mean(x[int(T0 * fs): int((onsets[-1] + 0.05) * fs)] ** 2)
@@ -390,23 +509,40 @@ def test_noise_rejects_pure_noise():
         analyze(lfilter([1.0], [1.0, -0.99], rng.normal(size=44100)), 44100)
 
 
-def test_room():
-    # a room with RT60 0.69 s whose reverberant energy equals the direct sound's
+@pytest.mark.parametrize("fs", [44100, 48000])
+def test_early_reflections(fs):
+    # Seven image-source reflections at 2.3-24.6 ms with gains 0.7 down to 0.2: each is a
+    # delayed copy of every tick, as loud as a tick 0.7 times as fast, and the late ticks
+    # come as close as the reflections (2-25 ms). All 31 ticks are found, none of the
+    # 7 x 31 reflections (the first tick's are part of its response, step 3; the later
+    # ones' are taken out with their ticks' models, step 5); onsets within a sample period
+    # as without the room (measured 20 us at 44.1 kHz), restitution within 0.1 %
+    x, onsets, _ = bouncing(fs)
+    an = analyze(in_room(x, fs), fs)
+    assert len(an.ticks) == onsets.size and false_ticks(an, onsets) == 0
+    idx, err = match(an, onsets)
+    assert np.max(np.abs(err)) < 1.0 / fs
+    assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 1e-3
+
+
+@pytest.mark.parametrize("snr_db", [None, 20])
+def test_room(snr_db):
+    # The early reflections above and a diffuse tail (RT60 0.69 s) carrying as much
+    # energy as the direct sound; then also white noise 20 dB under the bouncing part.
+    # No false tick; the first ten onsets within a sample period of the truth and their
+    # restitution within 0.1 % (measured 21 us and 0.02 %); the late ticks drown in the
+    # reverberation (25 of 31 found) and the noise (12 of 31)
     fs = 44100
     x, onsets, _ = bouncing(fs)
-    an = analyze(add_room(x, fs, decay=0.1, drr_db=0.0), fs)
+    y = in_room(x, fs, decay=0.1, drr_db=0.0)
+    if snr_db is not None:
+        y = add_noise(y, snr_db, onsets, fs)
+    an = analyze(y, fs)
+    assert false_ticks(an, onsets) == 0
+    assert len(an.ticks) >= (20 if snr_db is None else 10)
     idx, err = match(an, onsets)
-    assert np.max(np.abs(err[:10])) < 0.2e-3
-    assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 0.01
-    t = np.array([tk.time for tk in an.ticks])
-    assert np.max(np.min(np.abs(t[:, None] - onsets[None, :]), axis=1)) < 0.5e-3
-
-
-def test_room_rejects_silence():
-    with pytest.raises(AnalysisError, match="silent"):
-        analyze(np.zeros(44100), 44100)
-    with pytest.raises(AnalysisError, match="silent"):
-        analyze(np.zeros((44100, 2)), 44100, channel=1)
+    assert np.max(np.abs(err[:10])) < 1.5 / fs
+    assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 1e-3
 
 
 def test_channels(clean44):
@@ -432,10 +568,16 @@ def test_channels(clean44):
         assert a.centroid == pytest.approx(b.centroid, rel=1e-6)
 
 
-def test_channels_reject_mono_index_out_of_range():
+def test_channels_reject_bad_channel():
     x, _, _ = bouncing(44100)
+    stereo = np.stack([x, x], axis=1)
+    for bad in (2, -1, 1.0, "0", True):
+        with pytest.raises(ParameterError, match="channel"):
+            analyze(stereo, 44100, channel=bad)
     with pytest.raises(ParameterError, match=r"channel=3 is out of range.*2 channel"):
-        analyze(np.stack([x, x], axis=1), 44100, channel=3)
+        analyze(stereo, 44100, channel=3)
+    with pytest.raises(ParameterError, match="channel"):
+        analyze(x, 44100, channel=1)
 
 
 # ---------------------------------------------------------------------------
@@ -443,15 +585,45 @@ def test_channels_reject_mono_index_out_of_range():
 
 
 def test_clipping(clean44):
-    x, _, _, an = clean44
+    x, onsets, _, an = clean44
     assert not an.clipped
     clipped = np.clip(x, -0.5 * np.abs(x).max(), 0.5 * np.abs(x).max())
     a = analyze(clipped, 44100)
     # hard clipping at half the peak flattens the loudest ticks: many samples at
-    # exactly the largest magnitude
-    assert a.clipped and len(a.warnings) == 1 and "clipping" in a.warnings[0]
+    # exactly the largest magnitude; the warning says what is unreliable, timing too
+    assert a.clipped and len(a.warnings) == 1
+    assert "clipping" in a.warnings[0] and "onsets" in a.warnings[0]
     with pytest.raises(AnalysisError, match="clipping"):
         analyze(clipped, 44100, on_clipping="raise")
+    # the clipped samples are interpolated before the ticks are sought: every tick is
+    # found, none false, the first ten onsets and restitutions as without clipping
+    idx, err = match(a, onsets)
+    assert len(a.ticks) == onsets.size and false_ticks(a, onsets) == 0
+    assert np.max(np.abs(err[:10])) < 1.0 / 44100
+    assert np.max(np.abs(restitutions(a, idx) / E - 1.0)) < 1e-3
+
+
+@pytest.mark.parametrize("name", ["ceramic-cup-on-stone", "glass-marble-on-glass-table"])
+def test_clipping_of_a_render(name):
+    # Rendered bounces clipped at a tenth of their peak (20 dB). Each clipped run is a
+    # kink the plate cannot make; whitened, it is a burst like a tick's: without the
+    # interpolation of the clipped samples the analysis finds 5 false ticks on the cup
+    # and 2 on the marble. With it: none, the first ten onsets within 0.2 ms and their
+    # restitution within 1 % of the engine's (requirements)
+    import synth
+    from synth.render import render
+
+    r = render(synth.load_preset(name), normalize="none")
+    x = np.asarray(r.audio, dtype=float)
+    c = 0.1 * np.abs(x).max()
+    a = analyze(np.clip(x, -c, c), r.samplerate)
+    truth = np.array([imp.time for imp in r.impacts])
+    assert a.clipped and false_ticks(a, truth) == 0
+    got = np.array([t.time for t in a.ticks[:10]])
+    assert np.max(np.abs(got - truth[:10])) < 0.2e-3
+    T = np.diff(truth)
+    e = np.array([t.restitution for t in a.ticks[2:10]])
+    assert np.max(np.abs(e / (T[1:9] / T[:8]) - 1.0)) < 0.01
 
 
 def test_clipping_rejects_bad_policy():
@@ -471,6 +643,8 @@ def test_analyze_file(tmp_path, clean44):
     a = analyze_file(wav, channel=1)
     b = analyze(stereo, 44100, channel=1)
     assert [t.time for t in a.ticks] == [t.time for t in b.ticks]
+    audio, fs = read_recording(wav)
+    assert fs == 44100 and audio.shape == stereo.shape
     # 24-bit FLAC at 96 kHz: quantisation noise at -140 dB of full scale moves
     # nothing measurable: onsets within 1 us of the float analysis
     x96, onsets96, _ = bouncing(96000)
@@ -481,6 +655,13 @@ def test_analyze_file(tmp_path, clean44):
     b = analyze(x96, 96000)
     assert a.samplerate == 96000 and len(a.ticks) == len(b.ticks)
     assert max(abs(p.time - q.time) for p, q in zip(a.ticks, b.ticks)) < 1e-6
+    # 16-bit WAV at 8 kHz through an anti-aliasing filter: the first ten onsets within
+    # 0.2 ms (test_onsets_restitution_speeds)
+    x8, onsets8, _ = recorded(8000)
+    low = tmp_path / "drop8k.wav"
+    soundfile.write(low, x8 / (1.1 * np.abs(x8).max()), 8000, subtype="PCM_16")
+    a = analyze_file(low)
+    assert np.max(np.abs(match(a, onsets8)[1][:10])) < 0.2e-3
     # a clipped 16-bit WAV: flagged
     clipped = tmp_path / "clipped.wav"
     soundfile.write(clipped, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100,
@@ -534,12 +715,19 @@ def test_format_table(clean44):
     assert float(third[1]) == pytest.approx(an.ticks[2].time, abs=1e-5)
     assert float(third[3]) == pytest.approx(an.ticks[2].restitution, abs=1e-4)
     assert float(third[2]) == pytest.approx(an.ticks[2].bounce_time * 1e3, abs=1e-3)
+    # warnings follow the header unless asked not to
+    x = clean44[0]
+    clipped = analyze(np.clip(x, -0.5 * np.abs(x).max(), 0.5 * np.abs(x).max()), 44100)
+    assert format_table(clipped).splitlines()[1].startswith("warning: clipping")
+    assert "warning" not in format_table(clipped, warnings=False)
 
 
-def test_format_table_rejects_non_analysis():
+def test_format_table_rejects_non_analysis(clean44):
     for f in (format_table, to_dict, to_csv):
         with pytest.raises(ParameterError, match="must be an Analysis"):
             f({"ticks": []})
+    with pytest.raises(ParameterError, match="warnings"):
+        format_table(clean44[-1], warnings="no")
 
 
 def test_to_dict(clean44):
@@ -577,13 +765,20 @@ def test_to_csv_rejects_list_of_ticks(clean44):
         to_csv(list(an.ticks))
 
 
+PANELS = ["31 ticks detected", "bounce time and restitution", "energy per tick",
+          "centroid and decay time"]
+
+
 def test_plot_analysis(tmp_path, clean44):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     x, _, _, an = clean44
     out = tmp_path / "analysis.png"
-    plot_analysis(an, x, 44100, out)
-    data = out.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+    fig = plot_analysis(an, x, 44100, out)
+    # four panels (two with a second y axis: restitution, decay time)
+    titles = [a.get_title() for a in fig.axes if a.get_title()]
+    assert titles == PANELS and len(fig.axes) == 6
+    assert len(fig.axes[0].lines) == 1 + len(an.ticks)      # the signal and one line a tick
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert os.listdir(tmp_path) == ["analysis.png"]         # the temp file was renamed
 
 
@@ -591,6 +786,8 @@ def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
     x, _, _, an = clean44
     with pytest.raises(ParameterError, match="samplerate"):
         plot_analysis(an, x, 48000, tmp_path / "a.png")
+    with pytest.raises(ParameterError, match="frames"):
+        plot_analysis(an, x[:-10], 44100, tmp_path / "a.png")
     with pytest.raises(ParameterError, match="does not exist"):
         plot_analysis(an, x, 44100, tmp_path / "missing" / "a.png")
     with pytest.raises(ParameterError, match="analysis"):
@@ -607,6 +804,17 @@ def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     with pytest.raises(ParameterError, match="image format"):
         plot_analysis(an, x, 44100, tmp_path / "a.xyz")
+    with pytest.raises(ParameterError, match="is a directory"):
+        check_plot_path(tmp_path)
+    if os.geteuid() != 0:               # root writes anywhere
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        ro.chmod(0o500)
+        try:
+            with pytest.raises(ParameterError, match="not writable"):
+                check_plot_path(ro / "a.png")
+        finally:
+            ro.chmod(0o700)
 
 
 def test_top_level_names():
@@ -616,6 +824,7 @@ def test_top_level_names():
     x, onsets, _ = bouncing(44100)
     an = synth.analyze(x, 44100, gravity=G)
     assert isinstance(an, synth.Analysis) and isinstance(an.ticks[0], synth.Tick)
+    assert isinstance(an.ticks, list)
     assert synth.analyze_file is analyze_file
     assert an.ticks[0].time == pytest.approx(onsets[0], abs=1e-4)
 
@@ -626,3 +835,106 @@ def test_top_level_names_reject_bad_gravity():
     x, _, _ = bouncing(44100)
     with pytest.raises(ParameterError, match="gravity"):
         synth.analyze(x, 44100, gravity=float("nan"))
+
+
+# ---------------------------------------------------------------------------
+# command line
+
+
+def _run(capsys, *argv):
+    from synth.cli import main
+
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def three_channels(tmp_path_factory):
+    """A 3-channel 24-bit FLAC: silence-free noise, a bouncing ball (e = 0.85) in channel 1,
+    another (e = 0.7) in channel 2; and channel 1's true onsets."""
+    fs = 44100
+    x, onsets, _ = bouncing(fs)
+    other, _, _ = bouncing(fs, e=0.7)
+    n = min(x.size, other.size)
+    rng = np.random.default_rng(5)
+    audio = np.stack([rng.normal(0.0, 1e-3, n), x[:n], other[:n]], axis=1)
+    audio /= 1.1 * np.abs(audio).max()
+    path = tmp_path_factory.mktemp("rec") / "three.flac"
+    soundfile.write(path, audio, fs, subtype="PCM_24")
+    return path, onsets[onsets < n / fs - 0.01]
+
+
+def test_analyze_command(capsys, three_channels, tmp_path):
+    pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
+    path, onsets = three_channels
+    png = tmp_path / "a.png"
+    code, out, err = _run(capsys, "analyze", str(path), "--channel", "1", "--plot", str(png),
+                          "--window", "0.01")
+    assert code == 0 and err == ""
+    rows = [line.split() for line in out.splitlines() if re.match(r"^\s*\d+\s+\d", line)]
+    assert [float(r[1]) for r in rows[:10]] == pytest.approx(onsets[:10], abs=2e-4)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, _ = _run(capsys, "analyze", str(path), "--channel", "2", "--json")
+    data = json.loads(out)
+    assert data["channel"] == 2 and data["ticks"][0]["window"] == pytest.approx(0.02, abs=1e-4)
+
+
+def test_analyze_command_rejects_bad_input(capsys, three_channels, tmp_path):
+    path, _ = three_channels
+    # --json and --csv exclude each other (argparse: status 2 before anything runs)
+    with pytest.raises(SystemExit) as info:
+        _run(capsys, "analyze", str(path), "--json", "--csv")
+    assert info.value.code == 2 and "not allowed with" in capsys.readouterr().err
+    # a bad image path or format is reported before any output
+    for bad, words in ((tmp_path / "none" / "a.png", "does not exist"),
+                       (tmp_path / "a.xyz", "image format")):
+        code, out, err = _run(capsys, "analyze", str(path), "--plot", str(bad))
+        assert code == 2 and out == "" and words in err
+    for argv, words in ((["--channel", "3"], "channel"), (["--channel", "left"], "channel"),
+                        (["--window", "-1"], "window")):
+        code, out, err = _run(capsys, "analyze", str(path), *argv)
+        assert code == 2 and out == "" and words in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("fmt", [[], ["--json"], ["--csv"]])
+def test_analyze_command_warns_on_clipping(capsys, tmp_path, fmt):
+    # a clipped file: the warning goes to stderr whatever the output format
+    x, _, _ = bouncing(44100)
+    path = tmp_path / "clipped.wav"
+    soundfile.write(path, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100,
+                    subtype="PCM_16")
+    code, out, err = _run(capsys, "analyze", str(path), *fmt)
+    assert code == 0 and err.startswith("synth: warning: clipping") and "onsets" in err
+    assert "warning" not in out or fmt == ["--json"]
+
+
+# ---------------------------------------------------------------------------
+# benchmark
+
+
+def test_bench_analysis():
+    # `synth bench analysis` with one restitution and two seeds: the table's rows and
+    # columns, every tick found without noise and at 40 dB SNR, and the restitution
+    # within what onsets within a sample period allow: 2 d / T_8 + 2 d / T_7 = 0.23 %
+    # (d = 20.8 us at 48 kHz, T_n = 0.15 s 0.8^(n-1))
+    from synth import bench
+
+    result = bench.run_analysis(snrs=(None, 40.0), restitutions=(0.8,), seeds=2)
+    assert result["samplerate"] == 48000 and result["restitutions"] == [0.8]
+    rows = result["rows"]
+    assert [r["snr_db"] for r in rows] == [None, 40.0]
+    d, T = 1.0 / 48000, 0.15 * 0.8 ** np.arange(8)
+    for r in rows:
+        assert r["files"] == 2 and r["ticks_found"] + r["ticks_missed"] == 16
+        assert r["ticks_found"] == 16
+        assert r["e_error_max"] < 2 * d / T[7] + 2 * d / T[6]
+        assert r["onset_error_rms_ms"] < d * 1e3
+    table = bench.format_analysis(result).splitlines()
+    assert "over the ticks found" in table[0]
+    assert table[1].count("|") == 8 and len(table) == 3 + len(rows)
+    assert table[3].startswith("| no noise | 8 / 0 |".replace("8", "16"))
+    # the seeds draw different files
+    a, _, _ = bench.synthetic_bounce(0.8, 48000, seed=0)
+    b, _, _ = bench.synthetic_bounce(0.8, 48000, seed=1)
+    assert np.max(np.abs(a - b)) > 0.1 * np.max(np.abs(a))
