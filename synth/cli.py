@@ -166,10 +166,24 @@ def _cmd_alter(args):
                                       min_separation=args.min_separation).ticks]
     out, t_new, e, e_new = alter_restitution(audio, fs, args.restitution_scale, onsets=onsets,
                                              gravity=args.gravity,
-                                             scale_amplitude=not args.keep_amplitude)
+                                             scale_amplitude=not args.keep_amplitude,
+                                             min_bounce=args.min_bounce,
+                                             normalize=args.normalize)
+    peak = float(np.max(np.abs(out)))
+    subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
+    if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:
+        raise SynthError(
+            f"the altered audio peaks at {20 * np.log10(peak):+.2f} dBFS, above full scale, "
+            f"and {args.output!r} would clip it (nothing written); use --normalize peak "
+            f"(or a .wav file with --subtype FLOAT)")
     audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
-    print(f"{args.output}: {len(t_new)} ticks re-timed; e {np.mean(e):.3f} -> {np.mean(e_new):.3f} "
-          f"(mean over bounces), {out.shape[0] / fs:.3f} s")
+    dropped = len(onsets) - len(t_new)
+    shortest = args.min_bounce if args.min_bounce is not None else float(np.min(np.diff(onsets)))
+    end = (f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
+           f"would be shorter than {shortest * 1e3:.3g} ms)" if dropped else "")
+    print(f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
+          f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
+          f"normalize={args.normalize}")
     return 0
 
 
@@ -308,6 +322,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gravity", type=float, default=9.81, help="m/s^2")
     p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
                    help="shortest time between two ticks, s (as for analyze)")
+    p.add_argument("--min-bounce", type=float, metavar="S",
+                   help="shortest new bounce time, s: the series ends before a shorter one "
+                        "(default: the shortest bounce of the recording)")
+    p.add_argument("--normalize", choices=["none", "peak"], default="none",
+                   help="level: none (the recording's, default) or peak (-1 dBFS)")
     p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
     p.set_defaults(func=_cmd_alter)
 
