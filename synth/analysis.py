@@ -27,9 +27,10 @@ small bumps on the earlier tails. All the ticks of one recording are the
 response of one resonator (plate, room, microphone) to short contact forces, so
 the detector first takes the resonator out:
 
-1. **Whitening.** A linear predictor of order ``p`` (default 20 ms of
-   samples, enough poles for a few hundred modes and for the early reflections of a
-   room) is fitted to the whole signal (autocorrelation method, Levinson recursion)
+1. **Whitening.** A linear predictor of order ``p`` (default 20 ms of samples,
+   enough poles for a few hundred modes and for the early reflections of a room; step
+   7 replaces it by the resonator's own where it leaves the first tick ringing) is
+   fitted to the whole signal (autocorrelation method, Levinson recursion)
    and the prediction error ``r = A(z) x`` is formed, the recording taken as silent
    before its first sample. The ringing of a tick is predictable from its own past
    and largely cancels; what is left is close to the excitation, one short burst per
@@ -123,6 +124,59 @@ the detector first takes the resonator out:
    across it continues the series' restitution within ``RESTITUTION_STEP`` (25 %)
    and the two bounces it makes do not: a restitution changes slowly along a
    series, with the impact speed (the presets' steepest step is 18 %).
+7. **The resonator's search.** On a lightly damped resonator with many modes (a thin
+   steel sheet: hundreds of modes ringing for seconds) the 20 ms predictor leaves the
+   first tick ringing above the floor of the dynamic range over the whole first bounce
+   (the median frame energy of its second half), beyond the span over which step 5
+   knows that tick's response, and the later ticks stay under what is left. Then the
+   ringing itself is cancelled. The free ringing of the first bounce (from
+   ``CLEAN_GUARD``, 2 ms, after the first onset to the second tick) is a sum of
+   decaying modes, which a predictor of at least twice their number annihilates. It is
+   fitted by the covariance method (least squares over the stretch: a window would bias
+   the poles of the slowly decaying modes), of the order of least description length
+   ``N ln(E_m / N) + m ln N`` (Rissanen 1983, Ann. Stat. 11, 416; ``E_m`` the
+   prediction error over the stretch, counted down to 120 dB of prediction gain) whose
+   all-pole model is stable, from 20 ms up to a third of the stretch and 4096; in noise
+   the error reaches the noise, and the order stops there. The noise, which no order
+   predicts, is then added to the normal equations as white noise (a ridge): else a band
+   that the ringing leaves empty (above its modes, under an anti-aliasing filter) would
+   be lifted far over the noise, and the ticks' onsets drown in it. Whitened by it, a
+   tick's response is its force through a filter of that order: it ends. Steps 2-6 run
+   again on that signal, with these rules:
+
+   * the local background of step 3 is the median over four predictor orders (a
+     tick's whitened response lasts one);
+   * the templates are the first tick's whitened response and those of the next sure
+     ticks (at most three in all) whose response ends before the next bounce begins:
+     the series' soonest (its restitution changes by ``RESTITUTION_STEP`` at most), or
+     for the second tick the next tick the first search found (the ticks of a series
+     only weaken: one it missed comes later). Their sub-sample onsets differ, and a
+     tick's sampled response near the Nyquist frequency depends on where its onset
+     falls between two samples, which no short filter of one template reproduces;
+     filters on two or three templates do;
+   * each later tick is modelled through a filter on each template, lags -0.06 to
+     +0.5 ms (contacts up to 0.5 ms longer than the first), -0.06 to +0.17 ms, or -1 to
+     +2 samples, over all templates or the first ones: of the choices with two samples
+     of the fit window per unknown, the one of least description length;
+   * a candidate must carry more energy than the earlier ticks' models are expected to
+     leave in its frames (their relative error in their fit windows, raised 10 dB), not
+     than all they took out;
+   * a tick's fit window ends where the next tick shows, which its own response may
+     hide: windows ending from the soonest bounce the series allows (``1 -
+     RESTITUTION_STEP`` times the last restitution times the last bounce), each 10 %
+     longer, up to the latest (``BOUNCE_GROWTH`` times instead), until one uncovers a
+     tick at its end; the search for the next tick starts at that soonest bounce, not
+     ``min_separation``;
+   * the onset walk stays within a frame of the first frame above the threshold (the
+     earlier ticks' remainders lie before), and alternating samples under the noise
+     level are no filter's pre-ringing.
+
+   This search is kept when its predictor leaves the first tick at least
+   ``RESONATOR_GAIN_DB`` (20 dB) less ringing and it finds the first search's ticks, from
+   the first on (at least two), within ``AGREEMENT`` (40 us) of theirs: then it continues
+   their series where the two part (where the first search has no more ticks, or its
+   next one later). Not for a clipped recording, nor with ``lpc_order`` given or
+   ``deflate=False``.
 
 The onset is where the whitened excitation first reaches the level: the start
 of contact to within a few samples. Measured on synthetic ticks with known
@@ -140,10 +194,24 @@ and the tick is what is left below it; bounce times and ``e_n`` keep their accur
 down to 20 dB SNR, with early reflections of gains up to 0.7 at 2-25 ms, in a room
 whose diffuse reverberation carries as much energy as the direct sound, and in that
 room with 20 dB SNR. Weak ticks (``strength`` below about 5 dB) may be a few samples
-late: the noise level then cuts the beginning of the burst. Ticks far under the
-ringing of the earlier ones (a tick-to-masker ratio below about -10 to -15 dB on a
-lightly damped plate with dense modes, or with a force pulse that changes shape
-along the series: ``tests/test_roundtrip.py``) stay hidden.
+late: the noise level then cuts the beginning of the burst. On a lightly damped plate
+with dense modes, step 7 finds ticks far under the ringing of the earlier ones: on the
+1 mm steel sheet of ``tests/test_roundtrip.py`` its ticks 4-10, 14.8 to 35.2 dB under the
+ringing, stand 63 to 25 dB above what the earlier ticks leave in their first millisecond
+(2.6 to -21 dB after steps 1-6), and the first ten onsets come within 20 us of the
+engine's. There a contact of one or two sample periods makes a tick's onset depend on
+where it falls between two samples by up to a sample period (tick 10: 20 us, against 7
+us for tick 9: its ``e_n``, over a bounce of 0.97 ms, is 1.5 % off). Ticks more than
+``dynamic_range_db`` under the strongest in the whitened signal stay out: on the 6 mm
+board of the same test, the late, slow contacts (0.37 to 0.55 ms) take the high
+frequencies out of ticks 7-9 and leave them 66 to 81 dB under the first tick there.
+Noise limits step 7 through its predictor: on a synthetic plate of 300 modes
+(``tests/test_analysis.py``) it finds all 11 ticks (8 without it) with white noise 60 dB
+under the ticks, and at 40 dB its predictor no longer gains 20 dB on the 20 ms one. On the
+steel sheet, white noise even 120 dB under the ticks leaves no stable predictor among the
+orders that cancel its modes (900 to 1480: fitted to noisy ringing, the extra zeros of the
+least-squares predictor fall outside the unit circle); the stable one of order 344 gains
+only 18 dB, and the first search's three ticks stand.
 
 Tick measurements
 -----------------
@@ -151,7 +219,8 @@ Every tick is measured over the same window: ``window`` seconds (default 20 ms) 
 2 samples before its onset (less where the recording ends). The signal there holds the
 tails of the earlier ticks and, when the next bounce is shorter than the window, the
 next ticks; the tick's own sound ``y`` is made from its own excitation through the
-whitening predictor's all-pole model ``1/A`` (the resonator): with the deflation, the
+whitening predictor's all-pole model ``1/A`` (the resonator; for a tick of step 7, its
+predictor's, whose stability step 7 ensures): with the deflation, the
 tick's model ``h * T`` plus what no tick explains (``q``, the noise) over the window;
 without it, ``r`` from the tick's onset to the next tick's, its free ringing after. So a
 series of identical ticks gives the same centroid, spread and decay time for every
@@ -231,14 +300,30 @@ DECAY_MIN_FALL = 0.1
 #: tick's, s: before (onset error) and after (a longer contact than the first).
 DEFLATION_PRE = 0.00006
 DEFLATION_POST = 0.00017
+#: In the resonator's search (step 7), the longest lag after, s: a contact up to 0.5 ms
+#: longer than the first tick's (a slow ball's on a soft board).
+RESONATOR_POST = 0.0005
+#: In the resonator's search, least samples of the fit window per unknown filter tap.
+FIT_SAMPLES_PER_TAP = 2
+#: In the resonator's search, ticks whose whitened response is taken whole as a template,
+#: at most: the first tick's and the next sure ones alone over their whole response (their
+#: sub-sample onsets differ; two or three such span the sampled responses of the others).
+MAX_TEMPLATES = 3
 #: A candidate must carry at least this much more energy than what the deflation took
 #: out of its frame, dB (else it is a remainder of an earlier tick).
 DEFLATION_KAPPA_DB = 0.0
+#: In the resonator's search, what a tick's model leaves outside its fit window is expected
+#: at its relative error in the window raised by this, dB (at most all of it).
+REMAINDER_MARGIN_DB = 10.0
 #: A candidate must also carry more energy than was taken out over the frames spanning
 #: this from the frame before its own, s.
 REMAINDER_SPAN = 0.001
 #: The template ends at its last frame this far above the whitened noise floor, dB.
 TEMPLATE_NOISE_DB = 6.0
+#: In the resonator's search, the template ends where it sinks under the noise or this far
+#: under the floor of the dynamic range, dB (its whitened response ends: beyond, what it
+#: leaves raises no frame to the floor).
+TEMPLATE_FLOOR_DB = 10.0
 #: Fits of a tick's filter at most, each over a longer stretch.
 DEFLATION_REFITS = 3
 #: A bounce time more than this many times the previous one breaks a bounce series
@@ -263,6 +348,24 @@ ANCHOR_DB = 20.0
 RESTITUTION_STEP = 0.25
 #: Ticks weaker than this (``strength``, dB) are doubtful.
 DOUBTFUL_DB = 6.0
+#: Highest order of the resonator's predictor (step 7): its cost grows as the cube.
+MAX_ORDER = 4096
+#: In the resonator's search, the local background of step 3 is the running median over
+#: this many times the predictor's order (the length of a tick's whitened response), at
+#: least ``background``.
+BACKGROUND_SPAN = 4
+#: The resonator's search (step 7) is kept when its predictor leaves at least this much
+#: less of the first tick's ringing than the first search's, dB.
+RESONATOR_GAIN_DB = 20.0
+#: The resonator's search must find the first search's ticks within this, s (two sample
+#: periods at 48 kHz), to continue their series.
+AGREEMENT = 0.00004
+#: Least prediction error energy of the resonator's predictor counted by its order
+#: criterion, relative to the stretch's energy (120 dB of prediction gain; below, rounding).
+PREDICTION_FLOOR = 1e-12
+#: The free ringing of the first bounce is taken from this long after the first onset (past
+#: the contact), s.
+CLEAN_GUARD = 0.002
 #: Frame length of the noise-floor estimate, s, and the spread of its quiet frames, dB.
 NOISE_FRAME = 0.01
 NOISE_SPREAD_DB = 3.0
@@ -455,6 +558,126 @@ def _lpc(x: np.ndarray, order: int) -> np.ndarray:
     return np.concatenate(([1.0], solve_toeplitz(r[:order], -r[1:])))
 
 
+def _covariance(x: np.ndarray, p: int) -> np.ndarray:
+    """``C[i, j] = sum_{t=p}^{N-1} x[t-i] x[t-j]`` for ``i, j = 0..p`` (the normal equations
+    of the covariance method of linear prediction, Makhoul 1975 section 3.1.2).
+
+    Row 0 from the full autocorrelation by FFT less the first ``p`` products; then
+    ``C[i+1, j+1] = C[i, j] + x[p-1-i] x[p-1-j] - x[N-1-i] x[N-1-j]``, row by row:
+    O(N log N + p^2).
+    """
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    n = x.size
+    nfft = next_fast_len(n + p + 1, real=True)
+    X = rfft(x, nfft)
+    full = irfft(X * np.conj(X), nfft)[: p + 1]       # sum_t x[t] x[t+d]
+    head = np.array([np.dot(x[d:p], x[: p - d]) for d in range(p + 1)])
+    C = np.empty((p + 1, p + 1))
+    C[0] = full - head
+    u = x[p - 1:: -1][:p]               # x[p-1-i], i = 0..p-1
+    v = x[n - 1:: -1][:p]               # x[n-1-i]
+    for i in range(p):
+        C[i + 1, i + 1:] = C[i, i:p] + u[i] * u[i:p] - v[i] * v[i:p]
+    iu = np.triu_indices(p + 1, 1)
+    C[(iu[1], iu[0])] = C[iu]
+    return C
+
+
+def _stable(a: np.ndarray) -> bool:
+    """Whether the prediction-error filter ``a`` (``a[0] = 1``) is minimum phase, its all-pole
+    model ``1/A`` stable: every reflection coefficient of the step-down (backward Levinson)
+    recursion below 1 in magnitude (the Schur-Cohn test)."""
+    a = np.asarray(a, dtype=float)
+    for m in range(a.size - 1, 0, -1):
+        k = a[m]
+        if not abs(k) < 1.0:
+            return False
+        a = (a[:m] - k * a[m:0:-1]) / (1.0 - k * k)
+    return True
+
+
+def _resonator_predictor(seg: np.ndarray, fs: float, start: int):
+    """The prediction-error filter of the free ringing ``seg`` (the covariance method: least
+    squares over the stretch, no window), of an order chosen by the data; None when the
+    stretch is too short or no order gives a stable all-pole model. Module docstring,
+    step 7.
+
+    The order minimises the description length ``N ln(E_m / N) + m ln N`` (Rissanen 1983,
+    Ann. Stat. 11, 416) of the prediction error energy ``E_m`` over the ``N`` predicted
+    samples (never below :data:`PREDICTION_FLOOR` of the stretch's energy), over a grid of
+    96 orders; every predictor comes from one Cholesky factorisation at the largest order
+    (its leading blocks factor the smaller systems). The orders tried start at ``start`` and
+    double while the best lies in the top quarter, up to a third of the stretch (two
+    equations per unknown, at least) and :data:`MAX_ORDER`. Then the normal equations are
+    solved again with the least prediction error energy added to their diagonal: the
+    noise, which no order predicts, as white noise (a ridge), so that no predictor lifts a
+    band that the ringing leaves empty (above its modes, under an anti-aliasing filter) far
+    over the noise there; without noise it changes nothing. Of the orders tried, the one
+    of least description length whose all-pole model is stable is taken (a resonator's
+    modes all decay; the measurements go through ``1/A``).
+    """
+    from scipy.linalg import LinAlgError, cholesky, solve_triangular
+    from scipy.signal import oaconvolve
+
+    cap = min(MAX_ORDER, (seg.size - 1) // 3)
+    if cap < 2 or not np.any(seg):
+        return None
+
+    def factor(G, load):
+        for _ in range(4):
+            try:
+                return cholesky(G + load * np.eye(G.shape[0]), lower=True, check_finite=False)
+            except LinAlgError:
+                load *= 100.0
+        return None
+
+    def description(Lc, C):
+        # the prediction error energy of each order's predictor over the same samples, on a
+        # grid of orders (never below PREDICTION_FLOOR of the stretch's energy: rounding),
+        # and the description length
+        p = Lc.shape[0]
+        y = solve_triangular(Lc, C[1:, 0], lower=True, check_finite=False)
+        n = seg.size - p
+        grid = np.unique(np.round(np.geomspace(1, p, 96)).astype(int))
+        energy = np.empty(grid.size)
+        for i, order in enumerate(grid):
+            a = np.concatenate(([1.0], -solve_triangular(
+                Lc[:order, :order].T, y[:order], lower=False, check_finite=False)))
+            err = oaconvolve(seg, a)[p: seg.size]
+            energy[i] = max(float(np.dot(err, err)), PREDICTION_FLOOR * C[0, 0])
+        return grid, energy, n * np.log(energy / n) + grid * math.log(n), y
+
+    p_max = min(cap, max(start, 2))
+    while True:
+        C = _covariance(seg, p_max)
+        G = C[1:, 1:]
+        Lc = factor(G, 1e-12 * np.trace(G) / p_max)
+        if Lc is None:
+            return None
+        grid, energy, mdl, y = description(Lc, C)
+        best = int(grid[int(np.argmin(mdl))])
+        if best <= 0.75 * p_max or p_max >= cap:
+            break
+        p_max = min(cap, 2 * p_max)
+    # what no order predicts is the noise: as much white noise is added to the normal
+    # equations (a ridge: the least error energy on the diagonal), so that no predictor
+    # lifts a band the ringing leaves empty (above the modes, under an anti-aliasing
+    # filter) far over the noise there, where a tick's onset would drown
+    Lc = factor(G, max(float(energy.min()), 1e-12 * np.trace(G) / p_max))
+    if Lc is None:
+        return None
+    grid, energy, mdl, y = description(Lc, C)
+    # the stable predictor of least description length
+    for i in np.argsort(mdl, kind="stable"):
+        order = int(grid[i])
+        a = np.concatenate(([1.0], -solve_triangular(
+            Lc[:order, :order].T, y[:order], lower=False, check_finite=False)))
+        if _stable(a):
+            return a
+    return None
+
+
 def _noise_floor(x: np.ndarray, fs: float) -> float:
     """RMS of the 10 ms frames within 3 dB of the quietest one, signal units."""
     n = max(1, int(round(NOISE_FRAME * fs)))
@@ -615,7 +838,7 @@ def _detect(r: np.ndarray, fs: float, hop: int, min_sep: int, background: float,
 
 
 def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
-            noise: float) -> float:
+            noise: float, strict: bool = False) -> float:
     """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
     ``[lo, hi)`` (module docstring, step 4)."""
     mag = np.abs(r)
@@ -636,8 +859,11 @@ def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
     m = i
     while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
         m += 1
+    # (with ``strict``, the run's samples stand above the noise: a few alternating samples
+    # of the earlier ticks' remainders are not a filter's pre-ringing)
+    floor = min(noise, mag[k]) if strict else 0.0
     j = m
-    while j > 0 and r[j - 1] * r[j] < 0.0 and mag[j - 1] < mag[j]:
+    while j > 0 and r[j - 1] * r[j] < 0.0 and floor <= mag[j - 1] < mag[j]:
         j -= 1
     if m - j >= PRE_RINGING_RUN and mag[m] >= 0.25 * mag[k]:
         rho = mag[m + 1] / mag[m] if m + 1 < r.size and r[m] * r[m + 1] > 0.0 else 0.0
@@ -656,18 +882,26 @@ def _frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
 
 class _Deflation:
     """Tick-by-tick detection on the whitened signal with the earlier ticks taken out
-    (module docstring, step 5).
+    (module docstring, step 5; with ``exact``, step 7).
 
     ``q`` is the whitened signal ``r`` minus the whitened responses of the ticks found so
     far, each modelled as the first tick's response ``T`` through a short FIR filter
-    fitted by least squares; ``r - q`` is what was taken out.
+    fitted by least squares; ``r - q`` is what was taken out. With ``exact`` (the
+    resonator's search), ``T`` is a list of templates (the first tick's whitened response
+    and those of the next ticks taken whole), each tick is modelled through a filter on
+    each, and ``expect`` holds what each model is expected to leave (per sample), against
+    which a candidate's energy is weighed instead of all that was taken out.
     """
 
     def __init__(self, r, template, start, fs, hop, w, background, threshold_db, rise_db,
-                 release, floor, subtracted_db, noise):
+                 release, floor, subtracted_db, noise, exact=False):
+        self.exact = exact
         self.r = r
         self.q = r.copy()
-        self.T = template
+        self.T = [template]
+        # energy per sample that each model is expected to leave (its fit's relative
+        # error, raised by REMAINDER_MARGIN_DB, times its energy there)
+        self.expect = np.zeros_like(r)
         self.hop = hop
         self.w = w
         self.bg = max(3, int(round(background * fs / hop)))
@@ -682,11 +916,13 @@ class _Deflation:
         # longer pulse than the first tick's)
         self.pre = max(1, int(round(DEFLATION_PRE * fs)))
         self.post = max(1, int(round(DEFLATION_POST * fs)))
+        self.post_long = max(self.post, int(round(RESONATOR_POST * fs)))
         self.q[start: start + template.size] -= template
 
     def candidate(self, after: int):
         """The first tick in ``q`` starting at or after sample ``after``: ``(frame start,
-        frame energy, threshold, local background)`` (energies per frame), or None."""
+        frame energy, threshold, local background, first frame above the threshold)``
+        (energies per frame), or None."""
         from scipy.ndimage import median_filter
 
         hop, w, bg = self.hop, self.w, self.bg
@@ -699,7 +935,10 @@ class _Deflation:
             d = _frame_energies(seg, hop, w)
             if d.size == 0:
                 return None
-            sub = _frame_energies(self.r[lo:hi] - seg, hop, w)
+            if self.exact:
+                sub = _frame_energies(np.sqrt(self.expect[lo:hi]), hop, w)
+            else:
+                sub = _frame_energies(self.r[lo:hi] - seg, hop, w)
             first = -(-(after - lo) // hop)
             k = np.arange(d.size)
             # local background: median of the frames k-2-bg .. k-3 (the past, with the
@@ -733,33 +972,105 @@ class _Deflation:
                 noise = past_med[m] if np.isfinite(past_med[m]) else threshold[m] / self.thr
                 # the threshold the burst cleared: its first frame's
                 return (lo + m * hop, float(d[m]), float(max(threshold[first_hit], 1e-300)),
-                        float(noise))
+                        float(noise), lo + first_hit * hop)
             if hi >= q.size:
                 return None
             chunk *= 2
 
     def remove(self, s: int, end: int) -> np.ndarray:
-        """Fit ``q[s:end] ~ (h * T)``, take ``h * T`` out of ``q`` from ``s`` on and return
-        it (from ``s`` on)."""
-        T, q = self.T, self.q
-        pre, post = self.pre, self.post
+        """Fit ``q[s:end] ~ sum_j (h_j * T_j)`` over the templates ``T_j``, take the fit out
+        of ``q`` from ``s`` on and return it (from ``s`` on).
+
+        Without ``exact``: one template, lags ``-pre .. post``. With it, the lags span
+        ``-pre .. post_long`` (a contact up to :data:`RESONATOR_POST` longer than the
+        first tick's), ``-pre .. post`` or ``-1 .. 2`` samples, over all templates or the
+        first few: of the choices with at least :data:`FIT_SAMPLES_PER_TAP` samples per
+        unknown, the one of least description length ``W ln(RSS) + P ln W`` (``W``
+        samples, ``P`` unknowns); the model is expected to leave, outside the window, its
+        relative error in the window raised by :data:`REMAINDER_MARGIN_DB`.
+        """
+        q = self.q
         W = min(end, q.size) - s
         if W <= 0:
             return np.zeros(0)
-        if W < 2 * (pre + post + 1):
-            pre = post = 0                      # too short a window for a filter
+        if not self.exact:
+            # one template, lags -pre .. post
+            T = self.T[0]
+            pre, post = self.pre, self.post
+            if W < 2 * (pre + post + 1):
+                pre = post = 0                      # too short a window for a filter
+            ntap = pre + post + 1
+            # M[i, j] = T[i - l_j] with lags l_j = post - j
+            Tp = np.concatenate((np.zeros(post), T[: W + pre],
+                                 np.zeros(pre + max(0, W - T.size))))
+            M = np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W]
+            G = M.T @ M
+            G[np.diag_indices(ntap)] += 1e-9 * np.trace(G) / ntap + 1e-300
+            h = np.linalg.solve(G, M.T @ q[s: s + W])
+            # contribution at s + t: sum_j h_j T[t - l_j]
+            contrib = np.convolve(T, h[::-1])[pre:]
+            n = min(contrib.size, q.size - s)
+            q[s: s + n] -= contrib[:n]
+            return contrib
+        y = q[s: s + W]
+        best = None
+        for n_t in range(len(self.T), 0, -1):
+            for pre, post in ((self.pre, self.post_long), (self.pre, self.post), (1, 2)):
+                P = n_t * (pre + post + 1)
+                if W < FIT_SAMPLES_PER_TAP * P:
+                    continue
+                fit = self._fit(self.T[:n_t], y, pre, post)
+                rss = max(float(np.dot(fit[1], fit[1])), 1e-300 * float(np.dot(y, y)) + 1e-300)
+                crit = W * math.log(rss) + P * math.log(W)
+                if best is None or crit < best[0]:
+                    best = (crit, self.T[:n_t], pre, post, fit[0], fit[1])
+        if best is None:
+            # too short a window for filters: one tap on as many templates as it allows
+            n_t = max(1, min(len(self.T), W // FIT_SAMPLES_PER_TAP))
+            h, res = self._fit(self.T[:n_t], y, 0, 0)
+            best = (0.0, self.T[:n_t], 0, 0, h, res)
+        _, Ts, pre, post, h = best[:5]
+        rss = float(np.dot(best[5], best[5])) if len(best) > 5 else 0.0
         ntap = pre + post + 1
-        # M[i, j] = T[i - l_j] with lags l_j = post - j
-        Tp = np.concatenate((np.zeros(post), T[: W + pre], np.zeros(pre + max(0, W - T.size))))
-        M = np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W]
-        G = M.T @ M
-        G[np.diag_indices(ntap)] += 1e-9 * np.trace(G) / ntap + 1e-300
-        h = np.linalg.solve(G, M.T @ q[s: s + W])
         # contribution at s + t: sum_j h_j T[t - l_j]
-        contrib = np.convolve(T, h[::-1])[pre:]
+        n_c = max(T.size for T in Ts) + post
+        contrib = np.zeros(n_c)
+        for i, T in enumerate(Ts):
+            c = np.convolve(T, h[i * ntap: (i + 1) * ntap][::-1])[pre:]
+            contrib[: c.size] += c
         n = min(contrib.size, q.size - s)
         q[s: s + n] -= contrib[:n]
+        fitted = float(np.dot(contrib[:W], contrib[:W]))
+        eps = min(1.0, 10.0 ** (REMAINDER_MARGIN_DB / 10.0) * rss / max(fitted, 1e-300))
+        self.expect[s: s + n] += eps * contrib[:n] ** 2
         return contrib
+
+    @staticmethod
+    def _fit(Ts, y, pre, post):
+        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts`` fitting ``y``:
+        the taps and the residual."""
+        W = y.size
+        ntap = pre + post + 1
+        cols = []
+        for T in Ts:
+            # M[i, j] = T[i - l_j] with lags l_j = post - j
+            Tp = np.concatenate((np.zeros(post), T[: W + pre],
+                                 np.zeros(pre + max(0, W - T.size))))
+            cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        M = np.concatenate(cols, axis=1)
+        G = M.T @ M
+        P = G.shape[0]
+        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
+        h = np.linalg.solve(G, M.T @ y)
+        return h, y - M @ h
+
+    def take(self, s: int, n: int) -> np.ndarray:
+        """Take ``q[s:s+n]`` as a new template (a tick alone over its whole whitened
+        response): out of ``q``, and returned."""
+        T = self.q[s: s + n].copy()
+        self.q[s: s + n] = 0.0
+        self.T.append(T)
+        return T
 
 
 def _decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
@@ -803,6 +1114,17 @@ def _separation(onsets, strengths, min_sep: int, e_min: float) -> int:
     if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
         return min_sep
     return max(min_sep, int(math.ceil(e_min * (onsets[-1] - onsets[-2]))))
+
+
+def _soonest(onsets, strengths, min_sep: int) -> int:
+    """Shortest plausible bounce after the last of ``onsets`` in the resonator's search
+    (samples): ``(1 - RESTITUTION_STEP)`` times the last restitution times the last bounce
+    (a restitution changes slowly along a series), after a tick that is not doubtful;
+    else ``min_separation``."""
+    if len(onsets) < 3 or strengths[-1] < DOUBTFUL_DB:
+        return min_sep
+    t = onsets[-1] - onsets[-2]
+    return max(1, int(math.ceil((1.0 - RESTITUTION_STEP) * t * t / (onsets[-2] - onsets[-3]))))
 
 
 def _bounce_series(onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH,
@@ -868,32 +1190,50 @@ def _too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
 
 
 def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_sep, e_min,
-                     background, threshold_db, rise_db, release, floor, fraction, gap, keep):
+                     background, threshold_db, rise_db, release, floor, fraction, gap, keep,
+                     exact=False, known=()):
     """Ticks after the first, found one by one with the earlier ticks taken out (module
-    docstring, step 5). ``anchors`` (onsets, samples, and their strengths, dB) are the
-    ticks of step 3's bounce series: none is passed over.
+    docstring, step 5; with ``exact``, the resonator's search of step 7, whose rules it
+    applies: templates, the fit windows' search, the shortest bounce the series allows,
+    the onset walk). ``anchors`` (onsets, samples, and their strengths, dB) are the ticks
+    of step 3's bounce series: none is passed over. ``known`` (onsets, samples) are the
+    ticks of the first search, which decide whether the second tick is a template.
 
     Returns the onsets (samples), strengths (dB), the residual ``q`` (``r`` with every
-    tick's model taken out) and each tick's model (its whitened response from its
-    window's start, at most ``keep`` samples).
+    tick's model taken out), each tick's model (its whitened response from its window's
+    start, at most ``keep`` samples), and what the whitening leaves of the first tick's
+    ringing in the second half of the first bounce, relative to its strongest frame (its
+    median frame energy over its largest, a power ratio).
     """
     w = max(hop, MIN_FRAME)
     s1 = max(int(math.floor(onset1)) - WINDOW_GUARD, 0)
     template = r[s1: max(end1, s1 + 1)].copy()
     noise = _noise_floor(r, fs)
-    # the template ends where it sinks into the noise: beyond, taking it out of a later
-    # tick would only add its noise
     e_t = _frame_energies(template, hop, w)
-    loud = np.nonzero(e_t > 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * w)[0]
+    left = (float(np.median(e_t[e_t.size // 2:]) / e_t.max())
+            if e_t.size > 1 and e_t.max() > 0.0 else 0.0)
+    cut = 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * w
+    if exact:
+        cut = max(cut, floor * 10.0 ** (-TEMPLATE_FLOOR_DB / 10.0))
+    # the template ends where it sinks into the noise (or under the floor): beyond, taking
+    # it out of a later tick would only add its noise
+    loud = np.nonzero(e_t > cut)[0]
     if loud.size:
         template = template[: min(template.size, int(loud[-1]) * hop + w)]
     dfl = _Deflation(r, template, s1, fs, hop, w, background, threshold_db, rise_db, release,
-                     floor, DEFLATION_KAPPA_DB, noise)
+                     floor, DEFLATION_KAPPA_DB, noise, exact)
     L = template.size
     onsets, strengths, energies = [float(onset1)], [float(strength1)], [float(energy1)]
     models = [template[:keep].copy()]
     anchor_on, anchor_strength = anchors
+    known = np.asarray(known, dtype=float)
     after = int(math.floor(onset1)) + min_sep
+
+    def separation(ons, strs):
+        if exact:
+            return _soonest(ons, strs, min_sep)
+        return _separation(ons, strs, min_sep, e_min)
+
     while True:
         c = dfl.candidate(after)
         # the next tick of step 3's series, when this search would pass over it
@@ -907,13 +1247,17 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         elif c is None:
             break
         else:
-            pos, energy, thr_k, bg = c
-            # onset: the walk of step 4 on q, not back past the previous tick
+            pos, energy, thr_k, bg, first = c
+            # onset: the walk of step 4 on q, not back past the previous tick (with
+            # ``exact``, nor more than a frame before the first frame that cleared the
+            # threshold: further back lie the earlier ticks' remainders, not this burst)
             lo = int(math.floor(onsets[-1])) + 1
+            if exact:
+                lo = max(lo, first - w)
             hi = min(r.size, pos + w + 2 * hop)
             sigma = ONSET_NOISE_SIGMAS * math.sqrt(bg / w)
             on = lo + _refine(dfl.q[lo:hi], max(0, pos - hop - lo), hi - lo, fraction, gap,
-                              sigma)
+                              sigma, strict=exact)
             # the burst's energy: the largest frame holding its first samples (the
             # candidate frame may be an earlier one on its rising edge)
             i0 = int(math.floor(on))
@@ -921,7 +1265,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             energy = max(energy, float(burst.max())) if burst.size else energy
             near = np.abs(anchor_on - on) < min_sep
             if not near.any() and (
-                    on - onsets[-1] < _separation(onsets, strengths, min_sep, e_min)
+                    on - onsets[-1] < separation(onsets, strengths)
                     or _too_strong(onsets, strengths, energies, on, energy)):
                 after = pos + hop           # part of the previous tick's response
                 continue
@@ -929,30 +1273,73 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             if near.any():
                 strength = max(strength, float(anchor_strength[near].max()))
         s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
-        after = int(math.floor(on)) + _separation(onsets + [on], strengths + [strength],
-                                                  min_sep, e_min)
+        after = int(math.floor(on)) + separation(onsets + [on], strengths + [strength])
 
         def fit_end():
             nxt = dfl.candidate(after)
-            return min(s + L, nxt[0] - hop if nxt is not None else s + L)
+            if nxt is None:
+                return s + L
+            return min(s + L, (nxt[4] if exact else nxt[0]) - hop)
 
         # fit over the tick's own stretch, up to the next tick; if taking this one out
         # removes what looked like the next tick (its own remainder), fit again longer
+        # (with ``exact``, and shorter if it uncovers an earlier one)
         e = fit_end()
-        saved = dfl.q[s: s + L + dfl.post + 1].copy()
-        model = dfl.remove(s, e)
-        for _ in range(DEFLATION_REFITS - 1):
-            e2 = fit_end()
-            if e2 <= e:
-                break
+        saved = dfl.q[s: s + L + dfl.post_long + 1].copy()
+        saved_expect = dfl.expect[s: s + saved.size].copy()
+
+        def restore():
             dfl.q[s: s + saved.size] = saved
+            dfl.expect[s: s + saved.size] = saved_expect
+
+        uncovered = False
+        if exact and len(onsets) >= 2 and strength >= DOUBTFUL_DB:
+            # while this tick is in q it may hide the next one, which the series puts
+            # between (1 - RESTITUTION_STEP) and BOUNCE_GROWTH times the last restitution
+            # times this bounce after it: windows ending from the soonest on, each 10 %
+            # longer, until one uncovers a tick at its end
+            t_last = on - onsets[-1]
+            ratio = t_last / (onsets[-1] - onsets[-2])
+            end = s + int((1.0 - RESTITUTION_STEP) * ratio * t_last)
+            latest = min(e, s + int(BOUNCE_GROWTH * ratio * t_last) + hop)
+            while end < latest:
+                dfl.remove(s, end)
+                c = dfl.candidate(after)
+                restore()
+                if c is not None and c[4] <= end + 2 * hop:
+                    e = max(c[4] - hop, int(math.floor(on)) + 1)
+                    uncovered = True
+                    break
+                end = max(end + hop, s + int(1.1 * (end - s)))
+        model = dfl.remove(s, e)
+        for _ in range(0 if uncovered else DEFLATION_REFITS - 1):
+            e2 = fit_end()
+            if e2 <= e and not (exact and e2 < e):
+                break
+            restore()
             e = e2
             model = dfl.remove(s, e)
+        if len(onsets) >= 2:
+            # the soonest next bounce the series allows (its restitution changes slowly)
+            t_last = on - onsets[-1]
+            clear = (1.0 - RESTITUTION_STEP) * t_last * t_last / (onsets[-1] - onsets[-2])
+        else:
+            # the second tick: up to the next tick the first search found (a tick it missed
+            # between would be stronger than that one: the ticks of a series only weaken)
+            later = known[known > on + min_sep]
+            clear = later[0] - s if later.size else 0.0
+        if (exact and len(dfl.T) < MAX_TEMPLATES and strength >= ANCHOR_DB
+                and L < end1 - s1 and clear >= L + w):
+            # a sure tick alone over its whole whitened response: a template itself
+            restore()
+            model = dfl.take(s, L)
+            e = s + L
         onsets.append(float(on))
         strengths.append(strength)
         energies.append(float(energy))
         models.append(model[:keep].copy())
-    return np.array(onsets), np.array(strengths), dfl.q, models
+
+    return np.array(onsets), np.array(strengths), dfl.q, models, left
 
 
 def _in_order(on, kept, e_min, growth) -> bool:
@@ -1033,6 +1420,47 @@ def _bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float,
     return np.array(kept, dtype=int)
 
 
+def _first_ticks(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop, frac, gap, e_min):
+    """Steps 2-4 on the whitened signal ``r``: the candidate frames from the first tick on
+    (the first tick's own response, before the second tick, left out), their onsets
+    (samples) and strengths (dB), the detection function, and the sure ticks of the bounce
+    series (onsets and strengths)."""
+    peaks, d, threshold, med = _detect(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop)
+    if peaks.size == 0:
+        raise AnalysisError("no tick detected: nothing rises above the background "
+                            "(is this a recording of impacts?)")
+    w = max(hop_n, MIN_FRAME)
+    # the background is an energy per frame of w samples
+    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / w)
+    # frame k spans [k hop, k hop + w): search it and a hop either side
+    onsets = np.array([
+        _refine(r, max(0, (k - 1) * hop_n), min(r.size, k * hop_n + w + hop_n), frac, gap, s)
+        for k, s in zip(peaks, sigma)])
+    # a candidate whose refined onset walks back to within min_separation of the
+    # previous tick's is part of that tick's burst
+    kept = []
+    for i in range(onsets.size):
+        if onsets[i] == 0.0:
+            continue        # a burst from the first sample on: the recording's cut
+        if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
+            kept.append(i)
+    if not kept:
+        raise AnalysisError("no tick detected: nothing rises above the background "
+                            "(is this a recording of impacts?)")
+    peaks, onsets = peaks[kept], onsets[kept]
+    strength = 10.0 * np.log10(d[peaks] / threshold[peaks])
+    anchors, anchor_strength = onsets[:1], strength[:1]
+    if peaks.size > 1:
+        # the candidates before the second tick are the first tick's own response
+        series = _bounce_series(onsets, e_min)
+        anchors, anchor_strength = onsets[series], strength[series]
+        sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
+        anchors, anchor_strength = anchors[sure], anchor_strength[sure]
+        keep = np.r_[0, series[1]:peaks.size]
+        peaks, onsets, strength = peaks[keep], onsets[keep], strength[keep]
+    return peaks, onsets, strength, d, anchors, anchor_strength
+
+
 # ---------------------------------------------------------------------------
 # public API
 
@@ -1079,7 +1507,9 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     onset_fraction : float in (0, 1)
         Level of the onset crossing, as a fraction of the burst's peak.
     lpc_order : int >= 2, optional
-        Order of the whitening predictor. Default: 20 ms of samples, at least 8.
+        Order of the whitening predictor. Default: 20 ms of samples, at least 8, and where
+        the first tick rings on under it, the resonator's own predictor (step 7). Given,
+        that order alone (no step 7).
     window : float > 0
         Length of every tick's measurement window, s (shorter only where the recording
         ends).
@@ -1088,7 +1518,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         model, without the other ticks); False measures the recording over the window.
     deflate : bool
         Find the ticks after the first one by one, each with the earlier ticks' whitened
-        responses taken out (step 5); False keeps the ticks of step 3.
+        responses taken out (steps 5 and 7); False keeps the ticks of step 3.
     decay_smoothing : float > 0
         Length of the Hann window smoothing the envelope for the decay fit, s
         (at least 3 samples).
@@ -1158,52 +1588,71 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         A = _lpc(x, order)
     # the prediction error, the recording taken as silent before its first sample
     r = oaconvolve(x, A)[: x.size]
-    peaks, d, threshold, med = _detect(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop)
-    if peaks.size == 0:
-        raise AnalysisError("no tick detected: nothing rises above the background "
-                            "(is this a recording of impacts?)")
-    gap = max(2, int(round(ONSET_GAP * fs)))
-    w = max(hop_n, MIN_FRAME)
-    # the background is an energy per frame of w samples
-    sigma = ONSET_NOISE_SIGMAS * np.sqrt(med[peaks] / w)
-    # frame k spans [k hop, k hop + w): search it and a hop either side
-    onsets = np.array([
-        _refine(r, max(0, (k - 1) * hop_n), min(r.size, k * hop_n + w + hop_n), frac, gap, s)
-        for k, s in zip(peaks, sigma)])
-    # a candidate whose refined onset walks back to within min_separation of the
-    # previous tick's is part of that tick's burst
-    kept = []
-    for i in range(onsets.size):
-        if onsets[i] == 0.0:
-            continue        # a burst from the first sample on: the recording's cut
-        if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
-            kept.append(i)
-    if not kept:
-        raise AnalysisError("no tick detected: nothing rises above the background "
-                            "(is this a recording of impacts?)")
-    peaks, onsets = peaks[kept], onsets[kept]
-    strength = 10.0 * np.log10(d[peaks] / threshold[peaks])
     e_min = 10.0 ** (-drop / 20.0)
-    anchors, anchor_strength = onsets[:1], strength[:1]
-    if peaks.size > 1:
-        # the candidates before the second tick are the first tick's own response
-        series = _bounce_series(onsets, e_min)
-        anchors, anchor_strength = onsets[series], strength[series]
-        sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
-        anchors, anchor_strength = anchors[sure], anchor_strength[sure]
-        keep = np.r_[0, series[1]:peaks.size]
-        peaks, onsets, strength = peaks[keep], onsets[keep], strength[keep]
-    models = None
-    if deflate:
+    gap = max(2, int(round(ONSET_GAP * fs)))
+    detect = (fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop, frac, gap, e_min)
+
+    def search(r, exact=0, known=()):
+        # steps 2-5 (with exact, the order of the resonator's predictor: step 7) on the
+        # whitened signal r: onsets, strengths, residual, models, and what is left of the
+        # first tick's ringing in the second half of the first bounce (None without a
+        # second tick)
+        args = detect
+        if exact:
+            # each tick's whitened response lasts about the predictor's order: the local
+            # background is the median over BACKGROUND_SPAN of them
+            args = detect[:3] + (max(bg, BACKGROUND_SPAN * exact / fs),) + detect[4:]
+        peaks, onsets, strength, d, anchors, anchor_strength = _first_ticks(r, *args)
+        if not deflate:
+            return onsets, strength, None, None, None, peaks
         end1 = (peaks[1] - 1) * hop_n if peaks.size > 1 else r.size
-        onsets, strength, q, models = _deflated_onsets(
+        if exact and peaks.size > 1:
+            # the first bounce ends where the second tick's burst begins
+            end1 = min(end1, max(int(math.floor(onsets[1])) - WINDOW_GUARD, 1))
+        onsets, strength, q, models, left = _deflated_onsets(
             r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
             (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
-            d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n)
-    order_kept = _bounce_order(onsets, strength, e_min)
-    onsets, strength = onsets[order_kept], strength[order_kept]
-    if models is not None:
-        models = [models[i] for i in order_kept]
+            d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n, bool(exact), known)
+        return onsets, strength, q, models, left if peaks.size > 1 else None, peaks
+
+    onsets, strength, q, models, left, peaks = search(r)
+    kept = _bounce_order(onsets, strength, e_min)
+    # per tick: its onset, strength, model and which search found it (0: steps 2-6, 1: 7)
+    found = [(onsets[i], strength[i], None if models is None else models[i], 0) for i in kept]
+    sources = [(A, r, q)]
+    if (left is not None and left > 10.0 ** (-dyn / 10.0) and lpc_order is None
+            and clip is None):
+        # step 7: the first tick rings on above the floor up to the second under the
+        # whitening; the resonator's own predictor, from the free ringing of the first
+        # bounce, and the search again
+        lo = int(math.floor(onsets[0])) + int(round(CLEAN_GUARD * fs))
+        hi = (peaks[1] - 1) * hop_n
+        a_res = _resonator_predictor(x[lo:hi], fs, order) if hi > lo else None
+        res = None
+        if a_res is not None:
+            r_res = oaconvolve(x, a_res)[: x.size]
+            try:
+                res = search(r_res, a_res.size - 1, onsets[kept])
+            except AnalysisError:
+                res = None
+        # kept when it leaves RESONATOR_GAIN_DB less of the first tick's ringing and agrees
+        # with the first search on the ticks that one found, which it continues
+        if res is not None and res[4] is not None and (
+                res[4] < left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)):
+            on2, st2, q2, models2 = res[:4]
+            kept2 = _bounce_order(on2, st2, e_min)
+            on2 = on2[kept2]
+            tol = AGREEMENT * fs
+            n = 0
+            while (n < min(len(found), on2.size)
+                   and abs(on2[n] - found[n][0]) <= tol):
+                n += 1
+            if n >= 2 and (n == len(found) or on2.size > n and on2[n] < found[n][0] - tol):
+                sources.append((a_res, r_res, q2))
+                found = found[:n] + [(on2[j], st2[kept2[j]], models2[kept2[j]], 1)
+                                     for j in range(n, on2.size)]
+    onsets = np.array([f[0] for f in found])
+    strength = np.array([f[1] for f in found])
 
     noise = _noise_floor(x, fs)
     starts = np.maximum(np.floor(onsets).astype(int) - WINDOW_GUARD, 0)
@@ -1213,18 +1662,20 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         if not subtract_tails:
             y = x[s:e].copy()
         else:
-            # the tick's own excitation, through the resonator's all-pole model 1/A
+            # the tick's own excitation, through the resonator's all-pole model 1/A (of the
+            # search that found it)
+            A_i, r_i, q_i = sources[found[i][3]]
             exc = np.zeros(e - s)
             stop = min(e, starts[i + 1]) if i + 1 < starts.size else e
-            if models is not None:
+            if found[i][2] is not None:
                 # the tick's model, and what no tick explains up to the next tick (beyond,
                 # that is the later ticks' remainders)
-                m = models[i][: e - s]
+                m = found[i][2][: e - s]
                 exc[: m.size] += m
-                exc[: stop - s] += q[s:stop]
+                exc[: stop - s] += q_i[s:stop]
             else:
-                exc[: stop - s] = r[s:stop]
-            y = lfilter([1.0], A, exc)
+                exc[: stop - s] = r_i[s:stop]
+            y = lfilter([1.0], A_i, exc)
         bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
         prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
         c, sp = _spectral_moments(y, fs)

@@ -9,20 +9,24 @@ perception study needs (well below the just-noticeable difference of a bounce rh
 A tick is recovered only while it can be told from the ringing of the earlier ones. Its
 tick-to-masker ratio (TMR) is the energy of the tick alone over its window (to the next
 tick, at most 20 ms) over the energy of all the other ticks' sound there, computed by
-rendering the tick alone (the synthesis is linear). On two presets the analysis stops
-short of ten ticks, and :data:`MASKED` names the first tick it does not recover with its
-measured TMR, which the test checks:
+rendering the tick alone (the synthesis is linear). Two presets ring far over their late
+ticks, and :data:`LIMITS` says how many of their first ticks meet each requirement, for the
+reasons checked below:
 
-* ``steel-ball-on-steel-sheet``: a 1 mm steel sheet ringing for seconds with about 1800
+* ``steel-ball-on-steel-sheet``: a 1 mm steel sheet ringing for seconds with hundreds of
   modes below 24 kHz. Ticks 4-10 lie 14.8, 20.0, 25.8, 27.0, 31.4, 34.0 and 35.2 dB under
-  the ringing of the earlier ones. The 20 ms whitening predictor (960 poles) cannot cancel
-  that many modes: after it, tick 4 stands only 1.3 dB above the earlier ticks' whitened
-  ringing in its first millisecond (tick 5: -0.4 dB, tick 10: -22 dB), most of it the
-  first tick's, beyond the span over which the first tick's response is known (its first
-  bounce, 95 ms). Found: ticks 1-3.
+  the ringing of the earlier ones. The 20 ms whitening predictor (960 poles) leaves the
+  first tick ringing all over its first bounce, and steps 1-6 of the analysis find ticks
+  1-3 only; the resonator's own predictor (step 7: order 1483, fitted to the first
+  bounce) cancels the ringing, and all ten onsets come within 20 us of the engine's. The
+  tenth tick's contact (46 us, 2.2 sample periods) puts its onset 20 us late against 7 us
+  for the ninth (where a short contact's onset falls between two samples moves the level
+  crossing by up to a sample period): over its bounce of 0.97 ms its ``e_n`` is 1.5 % off.
+  Onsets: ten; ``e_n``: the first nine.
 * ``thesis-steel10-mdf6``: the slow last bounces on the 6 mm board (contacts growing from
-  0.15 to 0.55 ms, the force pulse's spectrum changing with them) barely excite it: ticks
-  6-9 lie 8.9, 17.4, 19.3 and 24.6 dB under the ringing. Found: ticks 1-5.
+  0.15 to 0.55 ms) take the high frequencies out of the late ticks: whitened, ticks 7-9
+  stand 66, 73 and 81 dB under the first, beyond the analysis' 60 dB dynamic range.
+  Steps 1-6 find ticks 1-5, step 7 tick 6 too. Onsets and ``e_n``: six.
 
 The restitution from bounce times differs from the physical restitution of the impacts
 (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) / T_(n-1)`` (contact times over
@@ -40,9 +44,9 @@ from synth.render import render
 from synth.scheduler import BounceSequence, simulate_scene
 
 PRESETS = sorted(available())
-#: Presets whose first ten ticks are not all recovered: (ticks recovered, TMR of the next
-#: one in dB, measured, rounded up).
-MASKED = {"steel-ball-on-steel-sheet": (3, -14.5), "thesis-steel10-mdf6": (5, -8.5)}
+#: Presets whose first ten ticks do not all meet the requirements: (ticks whose onsets meet
+#: it, ticks whose ``e_n`` meet it), the first ticks of the series.
+LIMITS = {"steel-ball-on-steel-sheet": (10, 9), "thesis-steel10-mdf6": (6, 6)}
 #: The onset requirement, s.
 ONSET_TOL = 0.2e-3
 
@@ -57,16 +61,23 @@ def _render(name):
     return scene, seq, r
 
 
+def _alone(scene, seq, r, i):
+    """Tick ``i`` (0-based) of the render ``r`` (normalize='none') rendered alone, on the
+    same timeline, its tail up to 50 ms."""
+    imp = seq[i]
+    pre = r.impacts[i].time         # the tick's onset in the audio, s
+    return render(scene, samplerate=r.samplerate, max_tail=0.05, normalize="none",
+                  preroll=pre, fade=0.0,
+                  sequence=BounceSequence((imp,), seq.stop_reason, seq.drop_height,
+                                          seq.gravity)).audio.astype(float)
+
+
 def _tick_to_masker(scene, seq, r, i):
     """TMR (dB) of tick ``i`` (0-based) of the render ``r`` (normalize='none')."""
     fs = r.samplerate
     full = np.asarray(r.audio, dtype=float)
-    imp = seq[i]
-    pre = r.impacts[i].time         # the tick's onset in the audio, s
-    alone = render(scene, samplerate=fs, max_tail=0.05, normalize="none",
-                   preroll=pre, fade=0.0,
-                   sequence=BounceSequence((imp,), seq.stop_reason, seq.drop_height,
-                                           seq.gravity)).audio.astype(float)
+    alone = _alone(scene, seq, r, i)
+    pre = r.impacts[i].time
     a = int(round(pre * fs))
     b = a + int(0.02 * fs)
     if i + 1 < len(seq):
@@ -81,19 +92,74 @@ def _tick_to_masker(scene, seq, r, i):
 def test_roundtrip_recovers_onsets_and_restitution(name):
     scene, seq, r = _render(name)
     truth = np.array([imp.time for imp in r.impacts])
-    n = min(10, truth.size)
-    if name in MASKED:
-        n, tmr_bound = MASKED[name]
-        # the first tick not recovered is masked by the earlier ones' ringing
-        assert _tick_to_masker(scene, seq, r, n) < tmr_bound, name
+    n_on, n_e = LIMITS.get(name, (min(10, truth.size),) * 2)
     a = analyze(r.audio, r.samplerate, gravity=scene.gravity)
-    got = np.array([t.time for t in a.ticks[:n]])
-    assert got.size == n, (name, got.size, n)
-    assert np.max(np.abs(got - truth[:n])) < ONSET_TOL, (name, got - truth[:n])
+    got = np.array([t.time for t in a.ticks[:n_on]])
+    assert got.size == n_on, (name, got.size, n_on)
+    assert np.max(np.abs(got - truth[:n_on])) < ONSET_TOL, (name, got - truth[:n_on])
     T = np.diff(truth)
-    for i in range(2, n):
+    for i in range(2, n_e):
         e_true = T[i - 1] / T[i - 2]
         assert a.ticks[i].restitution == pytest.approx(e_true, rel=0.01), (name, i)
+
+
+def test_roundtrip_steel_sheet_masked_ticks():
+    # The first ten ticks of the steel sheet, 14.8 to 35.2 dB under the ringing of the
+    # earlier ones (TMR checked for ticks 4 and 10): steps 1-6 alone (an explicit whitening
+    # order) find the first three within the requirement and no more; with step 7 all ten
+    # come within 20 us of the engine's onsets (measured 19.9 us, the tenth), a sample
+    # period at 48 kHz. The tenth tick's e_n is off by what its onset's 13 us more delay
+    # than the ninth's makes over a 0.97 ms bounce: measured 1.46 %, under 2 %.
+    name = "steel-ball-on-steel-sheet"
+    scene, seq, r = _render(name)
+    truth = np.array([imp.time for imp in r.impacts])
+    assert _tick_to_masker(scene, seq, r, 3) < -14.5
+    assert _tick_to_masker(scene, seq, r, 9) < -35.0
+    fs = r.samplerate
+    first = analyze(r.audio, fs, lpc_order=int(round(0.02 * fs)))
+    got = np.array([t.time for t in first.ticks])
+    ok = np.abs(got[:, None] - truth[None, :10]).min(axis=0) < ONSET_TOL
+    assert ok.sum() == 3 and ok[:3].all()
+    a = analyze(r.audio, fs, gravity=scene.gravity)
+    got = np.array([t.time for t in a.ticks[:10]])
+    assert np.max(np.abs(got - truth[:10])) < 1.0 / fs
+    T = np.diff(truth)
+    assert a.ticks[9].restitution / (T[8] / T[7]) - 1.0 == pytest.approx(0.0, abs=0.02)
+
+
+def test_roundtrip_board_late_ticks_under_the_dynamic_range():
+    # On the 6 mm board the late contacts lengthen (0.37 to 0.55 ms for ticks 7-9) and take
+    # the high frequencies out of their ticks: through the resonator's predictor of step 7
+    # (fitted as the analysis fits it, to the free ringing of the first bounce), ticks 7-9
+    # stand 66.0, 72.8 and 81.1 dB under the first tick (measured), beyond the analysis'
+    # dynamic range (60 dB), while tick 6 stands 57.9 dB under it and is found. Steps 1-6
+    # alone find ticks 1-5.
+    import math
+
+    from scipy.signal import oaconvolve
+
+    from synth import analysis
+
+    name = "thesis-steel10-mdf6"
+    scene, seq, r = _render(name)
+    fs = r.samplerate
+    x = np.asarray(r.audio, dtype=float)
+    truth = np.array([imp.time for imp in r.impacts])
+    lo = int(math.floor(truth[0] * fs)) + int(round(analysis.CLEAN_GUARD * fs))
+    hi = int(math.floor(truth[1] * fs)) - 12
+    A = analysis._resonator_predictor(x[lo:hi], fs, int(round(0.02 * fs)))
+    level = []
+    for i in (0, 5, 6, 7, 8):
+        alone = _alone(scene, seq, r, i)
+        a0 = int(math.floor(truth[i] * fs)) - 2
+        w = oaconvolve(alone, A)[a0: a0 + int(0.02 * fs)]
+        level.append(analysis._frame_energies(w, 12, 12).max())
+    level = 10.0 * np.log10(np.array(level) / level[0])
+    assert level[1] > -60.0 > max(level[2:])
+    first = analyze(r.audio, fs, lpc_order=int(round(0.02 * fs)))
+    got = np.array([t.time for t in first.ticks])
+    ok = np.abs(got[:, None] - truth[None, :9]).min(axis=0) < ONSET_TOL
+    assert ok[:5].all() and not ok[5:].any()
 
 
 @pytest.mark.parametrize("name", ["thesis-steel10-mdf18-corner", "thesis-steel10-mdf6"])
@@ -106,7 +172,7 @@ def test_restitution_from_bounce_times(name):
     # exceeds 1 % on the last bounces (corner: 0.27 ms contacts, 9-46 ms bounces; 6 mm
     # board: 0.29 ms against 4.3 ms).
     scene, seq, r = _render(name)
-    n = min(10, len(seq)) if name not in MASKED else MASKED[name][0]
+    n = min(10, len(seq)) if name not in LIMITS else LIMITS[name][1]
     t = np.array([imp.time for imp in r.impacts])
     T = np.diff(t)
     tau = np.array([imp.result.contact_time for imp in seq])
