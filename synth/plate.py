@@ -95,14 +95,8 @@ A. W. Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import os
-import sys
-import tempfile
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -113,6 +107,7 @@ from scipy.linalg import lapack
 from scipy.special import gammaln, roots_legendre
 
 from . import _checks
+from ._cache import MemoryCache, cache_dir, cache_path, savez_atomic
 from .errors import ParameterError, SynthError
 from .scene import Plate
 
@@ -655,12 +650,9 @@ class _TooLarge(Exception):
 # Cache (memory and disk)
 # --------------------------------------------------------------------------------------
 
-_MEMORY: "OrderedDict[str, _RitzSolution]" = OrderedDict()
-# Memory held by cached solutions, bytes: least recently used ones are dropped
-# beyond it (the newest is always kept).
-_MEMORY_BUDGET = 1 << 30
-_LOCK = threading.Lock()
-_STATS = {"solves": 0, "memory_hits": 0, "disk_hits": 0, "disk_writes": 0}
+# Solutions held in memory: least recently used ones are dropped beyond 1 GiB (the
+# newest is always kept).
+_CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 
 def cache_info() -> dict:
@@ -673,33 +665,12 @@ def cache_info() -> dict:
         (solutions read from disk), ``disk_writes``, and ``entries`` (solutions
         held in memory).
     """
-    with _LOCK:
-        return dict(_STATS, entries=len(_MEMORY))
+    return _CACHE.info()
 
 
 def clear_memory_cache() -> None:
     """Forget the solutions held in memory and reset the counters (disk untouched)."""
-    with _LOCK:
-        _MEMORY.clear()
-        for k in _STATS:
-            _STATS[k] = 0
-
-
-def cache_dir() -> Path:
-    """Directory of the disk cache: ``$SYNTH_CACHE_DIR`` if set, else the platform's
-    user cache directory (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux,
-    ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) + ``synth``."""
-    env = os.environ.get("SYNTH_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    home = Path.home()
-    if sys.platform == "win32":
-        base = os.environ.get("LOCALAPPDATA")
-        return (Path(base) if base else home / "AppData" / "Local") / "synth" / "Cache"
-    if sys.platform == "darwin":
-        return home / "Library" / "Caches" / "synth"
-    base = os.environ.get("XDG_CACHE_HOME")
-    return (Path(base) if base else home / ".cache") / "synth"
+    _CACHE.clear()
 
 
 def _key(boundary: str, nu: float, aspect: float) -> str:
@@ -712,35 +683,11 @@ def _key(boundary: str, nu: float, aspect: float) -> str:
 
 
 def _path(key: str, boundary: str) -> Path:
-    digest = hashlib.sha256(key.encode()).hexdigest()[:24]
-    return cache_dir() / f"plate-modes-{boundary}-{digest}.npz"
-
-
-def _savez_atomic(path: Path, arrays: dict) -> bool:
-    """Write ``arrays`` to ``path`` (``.npz``): a temporary file in the same directory,
-    then an atomic rename, so that a reader never sees a partial file. Returns False,
-    having written nothing, if the file cannot be written (a cache is then skipped)."""
-    tmp = None
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-        tmp = None
-        return True
-    except (OSError, RuntimeError):  # unwritable or no home directory: no disk cache
-        return False
-    finally:
-        if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
+    return cache_path(f"plate-modes-{boundary}", key)
 
 
 def _save(sol: _RitzSolution, key: str) -> None:
-    """Write ``sol`` to the disk cache (:func:`_savez_atomic`); skipped if impossible."""
+    """Write ``sol`` to the disk cache (atomically); skipped if impossible."""
     arrays = {"key": np.array(key), "omega_max": np.array(sol.omega_max),
               "omega": sol.omega, "cls": sol.cls, "col": sol.col}
     for c in range(4):
@@ -750,9 +697,8 @@ def _save(sol: _RitzSolution, key: str) -> None:
         path = _path(key, sol.boundary)
     except RuntimeError:  # no home directory
         return
-    if _savez_atomic(path, arrays):
-        with _LOCK:
-            _STATS["disk_writes"] += 1
+    if savez_atomic(path, arrays):
+        _CACHE.count("disk_writes")
 
 
 def _load(key: str, boundary: str, nu: float, aspect: float):
@@ -791,42 +737,27 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
         return None
 
 
-def _remember(key: str, sol: _RitzSolution) -> None:
-    """Hold ``sol`` in memory (caller holds the lock), within the memory budget."""
-    _MEMORY[key] = sol
-    _MEMORY.move_to_end(key)
-    total = sum(s.nbytes for s in _MEMORY.values())
-    while total > _MEMORY_BUDGET and len(_MEMORY) > 1:
-        _, old = _MEMORY.popitem(last=False)
-        total -= old.nbytes
-
-
 def _ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
     """A converged solution covering ``omega_req``: from memory, disk, or solved."""
     if not cache:
         sol = _solve_ritz(boundary, nu, aspect, omega_req)
-        with _LOCK:
-            _STATS["solves"] += 1
+        _CACHE.count("computed")
         return sol
     key = _key(boundary, nu, aspect)
-    with _LOCK:
-        sol = _MEMORY.get(key)
-        if sol is not None and sol.omega_max >= omega_req:
-            _STATS["memory_hits"] += 1
-            _MEMORY.move_to_end(key)
-            return sol
+
+    def covers(held):
+        return held.omega_max >= omega_req
+
+    sol = _CACHE.get(key, covers)
+    if sol is not None:
+        return sol
     sol = _load(key, boundary, nu, aspect)
-    if sol is not None and sol.omega_max >= omega_req:
-        with _LOCK:
-            _STATS["disk_hits"] += 1
-            _remember(key, sol)
+    if sol is not None and covers(sol):
+        _CACHE.put(key, sol, source="disk")
         return sol
     sol = _solve_ritz(boundary, nu, aspect, omega_req)
-    with _LOCK:
-        _STATS["solves"] += 1
-        old = _MEMORY.get(key)
-        if old is None or old.omega_max < sol.omega_max:
-            _remember(key, sol)
+    _CACHE.put(key, sol, source="computed",
+               better=lambda held, new: held.omega_max >= new.omega_max)
     _save(sol, key)
     return sol
 

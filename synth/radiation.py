@@ -73,9 +73,7 @@ import functools
 import hashlib
 import json
 import math
-import threading
 import warnings
-from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,7 +83,8 @@ import numpy as np
 
 from . import _checks
 from .errors import ParameterError
-from .plate import Modes, _savez_atomic, cache_dir
+from ._cache import MemoryCache, cache_path, savez_atomic
+from .plate import Modes
 
 __all__ = ["RadiationResult", "rayleigh_gains", "plate_gains", "delay", "distance",
            "cache_info", "clear_memory_cache"]
@@ -695,10 +694,7 @@ def _warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
 
 
 _CACHE_VERSION = 1          # layout of the stored gains and the algorithm; part of the key
-_MEMORY_ENTRIES = 32        # results held in memory (least recently used dropped)
-_MEMORY: "OrderedDict[str, RadiationResult]" = OrderedDict()
-_LOCK = threading.Lock()
-_STATS = {"computations": 0, "memory_hits": 0, "disk_hits": 0, "disk_writes": 0}
+_CACHE = MemoryCache("computations", max_entries=32)   # least recently used dropped
 
 
 def cache_info() -> dict:
@@ -712,16 +708,12 @@ def cache_info() -> dict:
         ``disk_hits`` (results read from disk), ``disk_writes``, and ``entries``
         (results held in memory).
     """
-    with _LOCK:
-        return dict(_STATS, entries=len(_MEMORY))
+    return _CACHE.info()
 
 
 def clear_memory_cache() -> None:
     """Forget the gains held in memory and reset the counters (disk untouched)."""
-    with _LOCK:
-        _MEMORY.clear()
-        for k in _STATS:
-            _STATS[k] = 0
+    _CACHE.clear()
 
 
 def _gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points) -> str:
@@ -739,8 +731,7 @@ def _gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points) -> str:
 
 
 def _gains_path(key: str) -> Path:
-    digest = hashlib.sha256(key.encode()).hexdigest()[:24]
-    return cache_dir() / f"radiation-gains-{digest}.npz"
+    return cache_path("radiation-gains", key)
 
 
 def _save_gains(result: RadiationResult, key: str) -> None:
@@ -753,9 +744,8 @@ def _save_gains(result: RadiationResult, key: str) -> None:
         path = _gains_path(key)
     except RuntimeError:  # no home directory
         return
-    if _savez_atomic(path, arrays):
-        with _LOCK:
-            _STATS["disk_writes"] += 1
+    if savez_atomic(path, arrays):
+        _CACHE.count("disk_writes")
 
 
 def _load_gains(key: str, m: int):
@@ -791,14 +781,6 @@ def _frozen(result: RadiationResult) -> RadiationResult:
     for arr in (result.gains, result.error, result.coherent):
         arr.setflags(write=False)
     return result
-
-
-def _remember(key: str, result: RadiationResult) -> None:
-    """Hold ``result`` in memory (caller holds the lock), least recently used dropped."""
-    _MEMORY[key] = result
-    _MEMORY.move_to_end(key)
-    while len(_MEMORY) > _MEMORY_ENTRIES:
-        _MEMORY.popitem(last=False)
 
 
 def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_DENSITY,
@@ -859,29 +841,21 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
                                 listener, q_s, max_wavenumber=kb, air_density=rho,
                                 sound_speed=c, reference_distance=r0, tol=tol,
                                 max_points=max_points, full_output=True)
-        with _LOCK:
-            _STATS["computations"] += 1
         return _frozen(result)
 
     if not cache:
         result = compute()
+        _CACHE.count("computed")
     else:
         key = _gains_key(modes, listener, q_s, kb, rho, c, r0, tol, max_points)
-        with _LOCK:
-            result = _MEMORY.get(key)
-            if result is not None:
-                _STATS["memory_hits"] += 1
-                _MEMORY.move_to_end(key)
+        result = _CACHE.get(key)
         if result is None:
             result = _load_gains(key, q_s.size)
             if result is not None:
-                with _LOCK:
-                    _STATS["disk_hits"] += 1
-                    _remember(key, result)
+                _CACHE.put(key, result, source="disk")
             else:
                 result = compute()
-                with _LOCK:
-                    _remember(key, result)
+                _CACHE.put(key, result, source="computed")
                 _save_gains(result, key)
     if full_output:
         return result

@@ -392,7 +392,7 @@ def test_cache_disk_round_trip(tmp_path):
 
 def test_cache_memory_is_bounded(monkeypatch):
     # Least recently used solutions are dropped beyond the memory budget.
-    monkeypatch.setattr(P, "_MEMORY_BUDGET", 1)
+    monkeypatch.setattr(P._CACHE, "max_bytes", 1)
     P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "free"), max_frequency=500.0)
     P.modes(Plate(STEEL, 0.001, 0.5, 0.3, "free"), max_frequency=500.0)
     assert P.cache_info()["entries"] == 1
@@ -409,21 +409,11 @@ def test_cache_disk_round_trip_rejects_nothing_when_disabled(tmp_path):
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncate", "wrong-key"])
-def test_cache_corrupt_file_recovered(tmp_path, damage):
+def test_cache_corrupt_file_recovered(tmp_path, damage, damage_cache_file):
     plate = Plate(STEEL, 0.001, 0.5, 0.4, "free")
     m1 = P.modes(plate, max_frequency=2000.0)
     (path,) = _cache_files(tmp_path)
-    data = path.read_bytes()
-    if damage == "garbage":
-        path.write_bytes(b"not an npz file")
-    elif damage == "truncate":
-        path.write_bytes(data[: len(data) // 2])
-    else:
-        with np.load(path) as z:
-            arrays = dict(z)
-        arrays["key"] = np.array("something else")
-        with open(path, "wb") as fh:
-            np.savez(fh, **arrays)
+    damage_cache_file(path, damage)
     P.clear_memory_cache()
     m2 = P.modes(plate, max_frequency=2000.0)
     # The bad file is ignored: solved again, same result, file rewritten and readable.

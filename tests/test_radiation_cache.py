@@ -167,26 +167,11 @@ def test_cache_disk_round_trip_rejects_unwritable_directory(tmp_path, monkeypatc
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncate", "wrong-key", "wrong-shape", "nan"])
-def test_cache_corrupt_file_recomputed(tmp_path, damage):
+def test_cache_corrupt_file_recomputed(tmp_path, damage, damage_cache_file):
     m = _modes()
     g1 = _gains(m)
     (path,) = _files(tmp_path)
-    data = path.read_bytes()
-    if damage == "garbage":
-        path.write_bytes(b"not an npz file")
-    elif damage == "truncate":
-        path.write_bytes(data[: len(data) // 2])
-    else:
-        with np.load(path) as z:
-            arrays = dict(z)
-        if damage == "wrong-key":
-            arrays["key"] = np.array("something else")
-        elif damage == "wrong-shape":
-            arrays["gains"] = arrays["gains"][:-1]
-        else:
-            arrays["gains"] = np.full_like(arrays["gains"], np.nan)
-        with open(path, "wb") as fh:
-            np.savez(fh, **arrays)
+    damage_cache_file(path, damage, "gains")
     R.clear_memory_cache()
     g2 = _gains(m)
     # The bad file is ignored: computed again, same result, file rewritten and readable.
@@ -230,7 +215,7 @@ def test_cache_key_changes_with_listener_and_plate_rejects_bad_listener():
 
 
 def test_cache_memory_is_bounded(monkeypatch):
-    monkeypatch.setattr(R, "_MEMORY_ENTRIES", 2)
+    monkeypatch.setattr(R._CACHE, "max_entries", 2)
     m = _modes()
     for z in (0.2, 0.21, 0.22):
         _gains(m, listener=(0.1, 0.05, z))
