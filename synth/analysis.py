@@ -324,6 +324,11 @@ TEMPLATE_NOISE_DB = 6.0
 #: under the floor of the dynamic range, dB (its whitened response ends: beyond, what it
 #: leaves raises no frame to the floor).
 TEMPLATE_FLOOR_DB = 10.0
+#: In the resonator's search, the cross-correlation that times a tick against the first
+#: tick's template is interpolated on a grid this many times finer than the sample period
+#: (band-limited), then by a parabola through its peak (off by well under 1e-3 sample
+#: periods at that spacing for a main lobe about a sample period wide).
+DELAY_UPSAMPLING = 16
 #: Fits of a tick's filter at most, each over a longer stretch.
 DEFLATION_REFITS = 3
 #: A bounce time more than this many times the previous one breaks a bounce series
@@ -873,6 +878,39 @@ def _refine(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
     return (i - 1) + (level - mag[i - 1]) / (mag[i] - mag[i - 1])
 
 
+def _delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float:
+    """Sub-sample delay (samples, within ``[lo, hi]``) of ``y`` behind ``template``: the
+    peak of their cross-correlation with the phase transform (each frequency's cross
+    spectrum ``Y T*`` taken at unit magnitude; Knapp and Carter 1976, IEEE Trans. ASSP
+    24, 320), interpolated band-limited (module docstring, step 7).
+
+    For ``y = h * template`` it is the delay ``d`` whose linear phase best fits the phase of
+    the filter ``h`` over the band, ``max sum_f cos(arg H(f) - 2 pi f d)``: every frequency
+    counts once, so the band where the whitened responses carry most of their energy (near
+    the Nyquist frequency) sets no lobes two samples apart, and a pulse-shape ratio of zero
+    phase (a longer symmetric contact) moves the delay by nothing more than its centre.
+    """
+    n = 1 << int(math.ceil(math.log2(y.size + template.size)))
+    C = np.fft.rfft(y, n) * np.conj(np.fft.rfft(template, n))
+    mag = np.abs(C)
+    C = np.where(mag > 1e-12 * mag.max(), C / np.maximum(mag, 1e-300), 0.0)
+    # band-limited interpolation of the (circular) correlation: its spectrum zero-padded
+    # DELAY_UPSAMPLING times (the Nyquist bin split between the two halves), then a
+    # parabola through the finest grid's peak
+    up = DELAY_UPSAMPLING
+    if n % 2 == 0:
+        C[-1] *= 0.5
+    c = np.fft.irfft(C, n * up)
+    i0 = int(math.ceil(lo * up))
+    i1 = int(math.floor(hi * up))
+    lags = np.arange(i0, i1 + 1)
+    k = int(lags[np.argmax(c[lags % c.size])])
+    a, b, d = c[(k - 1) % c.size], c[k % c.size], c[(k + 1) % c.size]
+    den = a - 2.0 * b + d
+    frac = 0.5 * (a - d) / den if den < 0.0 else 0.0
+    return (k + min(0.5, max(-0.5, frac))) / up
+
+
 def _frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
     """Energy of ``z`` over frames ``[k hop, k hop + w)`` (the detection function)."""
     if z.size < w:
@@ -1225,6 +1263,8 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
     L = template.size
     onsets, strengths, energies = [float(onset1)], [float(strength1)], [float(energy1)]
     models = [template[:keep].copy()]
+    # with ``exact``, the onsets timed by cross-correlation against the first tick's template
+    timed = [float(onset1)]
     anchor_on, anchor_strength = anchors
     known = np.asarray(known, dtype=float)
     after = int(math.floor(onset1)) + min_sep
@@ -1338,8 +1378,14 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         strengths.append(strength)
         energies.append(float(energy))
         models.append(model[:keep].copy())
+        if exact:
+            # the tick timed against the first tick's whitened response: the delay of its
+            # model behind that template (within the lags of its filters), from the
+            # template's own onset
+            timed.append(onset1 + (s - s1) + _delay(model, dfl.T[0], -dfl.pre, dfl.post_long))
 
-    return np.array(onsets), np.array(strengths), dfl.q, models, left
+    return (np.array(onsets), np.array(strengths), dfl.q, models, left,
+            np.array(timed) if exact else None)
 
 
 def _in_order(on, kept, e_min, growth) -> bool:
@@ -1604,21 +1650,23 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
             args = detect[:3] + (max(bg, BACKGROUND_SPAN * exact / fs),) + detect[4:]
         peaks, onsets, strength, d, anchors, anchor_strength = _first_ticks(r, *args)
         if not deflate:
-            return onsets, strength, None, None, None, peaks
+            return onsets, strength, None, None, None, peaks, None
         end1 = (peaks[1] - 1) * hop_n if peaks.size > 1 else r.size
         if exact and peaks.size > 1:
             # the first bounce ends where the second tick's burst begins
             end1 = min(end1, max(int(math.floor(onsets[1])) - WINDOW_GUARD, 1))
-        onsets, strength, q, models, left = _deflated_onsets(
+        onsets, strength, q, models, left, timed = _deflated_onsets(
             r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
             (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
             d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n, bool(exact), known)
-        return onsets, strength, q, models, left if peaks.size > 1 else None, peaks
+        return onsets, strength, q, models, left if peaks.size > 1 else None, peaks, timed
 
-    onsets, strength, q, models, left, peaks = search(r)
+    onsets, strength, q, models, left, peaks, _ = search(r)
     kept = _bounce_order(onsets, strength, e_min)
-    # per tick: its onset, strength, model and which search found it (0: steps 2-6, 1: 7)
-    found = [(onsets[i], strength[i], None if models is None else models[i], 0) for i in kept]
+    # per tick: its onset, strength, model, which search found it (0: steps 2-6, 1: 7) and
+    # the onset its search detected it at (where its model and its window start)
+    found = [(onsets[i], strength[i], None if models is None else models[i], 0, onsets[i])
+             for i in kept]
     sources = [(A, r, q)]
     if (left is not None and left > 10.0 ** (-dyn / 10.0) and lpc_order is None
             and clip is None):
@@ -1640,6 +1688,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         if res is not None and res[4] is not None and (
                 res[4] < left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)):
             on2, st2, q2, models2 = res[:4]
+            timed2 = res[6]
             kept2 = _bounce_order(on2, st2, e_min)
             on2 = on2[kept2]
             tol = AGREEMENT * fs
@@ -1649,13 +1698,14 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
                 n += 1
             if n >= 2 and (n == len(found) or on2.size > n and on2[n] < found[n][0] - tol):
                 sources.append((a_res, r_res, q2))
-                found = found[:n] + [(on2[j], st2[kept2[j]], models2[kept2[j]], 1)
-                                     for j in range(n, on2.size)]
+                # the ticks it adds, timed against the first tick's template
+                found = found[:n] + [(timed2[kept2[j]], st2[kept2[j]], models2[kept2[j]], 1,
+                                      on2[j]) for j in range(n, on2.size)]
     onsets = np.array([f[0] for f in found])
     strength = np.array([f[1] for f in found])
 
     noise = _noise_floor(x, fs)
-    starts = np.maximum(np.floor(onsets).astype(int) - WINDOW_GUARD, 0)
+    starts = np.maximum(np.floor([f[4] for f in found]).astype(int) - WINDOW_GUARD, 0)
     ticks = []
     for i, (on, s) in enumerate(zip(onsets, starts)):
         e = min(x.size, s + win_n)
