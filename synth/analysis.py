@@ -169,14 +169,52 @@ the detector first takes the resonator out:
      ``min_separation``;
    * the onset walk stays within a frame of the first frame above the threshold (the
      earlier ticks' remainders lie before), and alternating samples under the noise
-     level are no filter's pre-ringing.
+     level are no filter's pre-ringing;
+   * every tick after the first is then timed against the first tick's whitened response
+     (the first template), not by its level crossing: a contact of one or two sample
+     periods leaves a burst of two or three samples, whose crossing moves by up to a
+     sample period with where the contact starts between two samples. The tick's model
+     (its filters on the templates, fitted above: it holds no noise, and for one template
+     its cross spectrum with it is ``H |T|^2``, of the filter's phase) is delayed behind
+     the template where their cross-correlation with the phase transform peaks (each
+     frequency's cross spectrum at unit magnitude, Knapp and Carter 1976, IEEE Trans.
+     ASSP 24, 320: the delay whose linear phase best fits the filter's over the band; the
+     plain cross-correlation is ruled by the band near the Nyquist frequency, where the
+     whitened responses carry most of their energy, and has lobes two samples apart of
+     nearly the same height: over the ticks' fit windows it took a wrong one for two of
+     the steel sheet's nine), interpolated band-limited (its spectrum zero-padded
+     ``DELAY_UPSAMPLING`` (16) times, a parabola through the peak), within the lags of the
+     filters. The onset is the template's onset plus that delay. The template's own onset
+     is its level crossing (step 4): the first tick is the strongest, the one whose
+     crossing the noise cuts least, and its error (within a sample period for a contact
+     shorter than one) is common to every onset this search times: it cancels in their
+     bounce times. Against the first tick's, a longer symmetric contact force is a filter
+     of zero phase about the two pulses' centres, as long as neither spectrum changes sign
+     over the band (a half-sine's first zero lies at ``1.5 / tau``: above the Nyquist
+     frequency for contacts shorter than 3 sample periods, 62.5 us at 48 kHz). Then the
+     delay aligns their centres, and a tick's onset comes late by half its contact's
+     growth, ``(tau_n - tau_1) / 2``. The contact time grows slowly along a series (as
+     ``v^(-1/5)`` for a Hertz contact), so this bias changes little from one tick to the
+     next and mostly cancels in bounce times: on the 1 mm steel sheet of
+     ``tests/test_roundtrip.py`` (contacts 15 to 43 us) it is 1.5 to 13.7 us for ticks
+     2-10, 1.5 to 1.7 us more from one tick to the next: at most 0.17 % of a bounce time
+     and 0.06 % of ``e_n`` (the tenth). The onsets measured there follow it within 2.7 us;
+     on the aluminium plate (contacts 40 to 60 us, 0.8 to 10.1 us of bias) within 0.4 us.
+     Contacts of many sample periods (0.15 to 0.32 ms on the 6 mm board of the same test)
+     have spectra that change sign in the band, and above their first zeros are the
+     transients at the contacts' two ends; there the phase transform aligns the starts
+     (measured, not a rule): onsets 2-6 come 1.6 to 3.9 us later than the first (whose
+     level crossing is 87 us late), not the 16 to 86 us of their centres. When the search
+     is kept (below), its onsets replace the first search's for the ticks they share too:
+     one estimator for every bounce time. A tick's model, and its measurement window,
+     start from its level crossing.
 
    This search is kept when its predictor leaves the first tick at least
    ``RESONATOR_GAIN_DB`` (20 dB) less ringing and it finds the first search's ticks, from
-   the first on (at least two), within ``AGREEMENT`` (40 us) of theirs: then it continues
-   their series where the two part (where the first search has no more ticks, or its
-   next one later). Not for a clipped recording, nor with ``lpc_order`` given or
-   ``deflate=False``.
+   the first on (at least two), within ``AGREEMENT`` (40 us) of theirs (their level
+   crossings): then it continues their series where the two part (where the first search
+   has no more ticks, or its next one later). Not for a clipped recording, nor with
+   ``lpc_order`` given or ``deflate=False``.
 
 The onset is where the whitened excitation first reaches the level: the start
 of contact to within a few samples. Measured on synthetic ticks with known
@@ -198,17 +236,22 @@ late: the noise level then cuts the beginning of the burst. On a lightly damped 
 with dense modes, step 7 finds ticks far under the ringing of the earlier ones: on the
 1 mm steel sheet of ``tests/test_roundtrip.py`` its ticks 4-10, 14.8 to 35.2 dB under the
 ringing, stand 63 to 25 dB above what the earlier ticks leave in their first millisecond
-(2.6 to -21 dB after steps 1-6), and the first ten onsets come within 20 us of the
-engine's. There a contact of one or two sample periods makes a tick's onset depend on
-where it falls between two samples by up to a sample period (tick 10: 20 us, against 7
-us for tick 9: its ``e_n``, over a bounce of 0.97 ms, is 1.5 % off). Ticks more than
+(2.6 to -21 dB after steps 1-6). Timed against the first tick's template, the first ten
+onsets come 2.1 to 18.4 us after the engine's (the first tick's level crossing, 2.1 us, plus
+the bias of the contacts' growth, 0 to 13.7 us, plus at most 2.7 us), their bounce times
+0.1 to 3.9 us long, and ``e_n`` within 0.26 % (the tenth, over a bounce of 0.97 ms). By
+their level crossings, whose place moves by up to a sample period with where a contact of
+one or two sample periods starts between two samples, the onsets came 1.2 to 19.9 us late,
+the bounce times -9.0 to +13.3 us off, and the tenth ``e_n`` 1.46 %. Ticks more than
 ``dynamic_range_db`` under the strongest in the whitened signal stay out: on the 6 mm
 board of the same test, the late, slow contacts (0.37 to 0.55 ms) take the high
 frequencies out of ticks 7-9 and leave them 66 to 81 dB under the first tick there.
 Noise limits step 7 through its predictor: on a synthetic plate of 300 modes
-(``tests/test_analysis.py``) it finds all 11 ticks (8 without it) with white noise 60 dB
-under the ticks, and at 40 dB its predictor no longer gains 20 dB on the 20 ms one. On the
-steel sheet, white noise even 120 dB under the ticks leaves no stable predictor among the
+(``tests/test_analysis.py``: identical ticks, impulses between samples) it finds all 11
+ticks (8 without it), 4.4 to 7.2 us early (the first tick's level crossing: 7.1 us) and
+``e_n`` within 0.1 % (by level crossings: -12.5 to +6.8 us, 1.2 %), also with white noise
+60 dB under the ticks, and at 40 dB its predictor no longer gains 20 dB on the 20 ms one.
+On the steel sheet, white noise even 120 dB under the ticks leaves no stable predictor among the
 orders that cancel its modes (900 to 1480: fitted to noisy ringing, the extra zeros of the
 least-squares predictor fall outside the unit circle); the stable one of order 344 gains
 only 18 dB, and the first search's three ticks stand.
@@ -216,7 +259,8 @@ only 18 dB, and the first search's three ticks stand.
 Tick measurements
 -----------------
 Every tick is measured over the same window: ``window`` seconds (default 20 ms) from
-2 samples before its onset (less where the recording ends). The signal there holds the
+2 samples before its onset (its level crossing, for a tick timed by step 7; less where the
+recording ends). The signal there holds the
 tails of the earlier ticks and, when the next bounce is shorter than the window, the
 next ticks; the tick's own sound ``y`` is made from its own excitation through the
 whitening predictor's all-pole model ``1/A`` (the resonator; for a tick of step 7, its
@@ -887,12 +931,14 @@ def _delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float:
     For ``y = h * template`` it is the delay ``d`` whose linear phase best fits the phase of
     the filter ``h`` over the band, ``max sum_f cos(arg H(f) - 2 pi f d)``: every frequency
     counts once, so the band where the whitened responses carry most of their energy (near
-    the Nyquist frequency) sets no lobes two samples apart, and a pulse-shape ratio of zero
-    phase (a longer symmetric contact) moves the delay by nothing more than its centre.
+    the Nyquist frequency) sets no lobes two samples apart, and a ratio of pulse shapes of
+    zero phase that keeps its sign over the band (a longer symmetric contact, shorter than
+    3 sample periods for a half-sine) moves the delay by its centre alone.
     """
     n = 1 << int(math.ceil(math.log2(y.size + template.size)))
     C = np.fft.rfft(y, n) * np.conj(np.fft.rfft(template, n))
     mag = np.abs(C)
+    # unit magnitude, but for bins 240 dB under the strongest (rounding: they have no phase)
     C = np.where(mag > 1e-12 * mag.max(), C / np.maximum(mag, 1e-300), 0.0)
     # band-limited interpolation of the (circular) correlation: its spectrum zero-padded
     # DELAY_UPSAMPLING times (the Nyquist bin split between the two halves), then a
@@ -1381,8 +1427,9 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         if exact:
             # the tick timed against the first tick's whitened response: the delay of its
             # model behind that template (within the lags of its filters), from the
-            # template's own onset
-            timed.append(onset1 + (s - s1) + _delay(model, dfl.T[0], -dfl.pre, dfl.post_long))
+            # template's own onset; a model of nothing keeps the level crossing
+            timed.append(onset1 + (s - s1) + _delay(model, dfl.T[0], -dfl.pre, dfl.post_long)
+                         if np.any(model) else float(on))
 
     return (np.array(onsets), np.array(strengths), dfl.q, models, left,
             np.array(timed) if exact else None)
@@ -1698,9 +1745,11 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
                 n += 1
             if n >= 2 and (n == len(found) or on2.size > n and on2[n] < found[n][0] - tol):
                 sources.append((a_res, r_res, q2))
-                # the ticks it adds, timed against the first tick's template
-                found = found[:n] + [(timed2[kept2[j]], st2[kept2[j]], models2[kept2[j]], 1,
-                                      on2[j]) for j in range(n, on2.size)]
+                # its ticks, those it shares with the first search too, timed against the
+                # first tick's template: one estimator for every bounce time
+                found = ([(timed2[kept2[j]],) + found[j][1:] for j in range(n)]
+                         + [(timed2[kept2[j]], st2[kept2[j]], models2[kept2[j]], 1, on2[j])
+                            for j in range(n, on2.size)])
     onsets = np.array([f[0] for f in found])
     strength = np.array([f[1] for f in found])
 
