@@ -366,6 +366,10 @@ PREDICTION_FLOOR = 1e-12
 #: The free ringing of the first bounce is taken from this long after the first onset (past
 #: the contact), s.
 CLEAN_GUARD = 0.002
+#: Default floor of the detection, dB under the strongest frame of the whitened signal, in
+#: steps 1-6 (a guard against what the 20 ms predictor leaves of the earlier ticks, which
+#: those steps do not model over their whole response) and for the test that calls step 7.
+DYNAMIC_RANGE_DB = 60.0
 #: Frame length of the noise-floor estimate, s, and the spread of its quiet frames, dB.
 NOISE_FRAME = 0.01
 NOISE_SPREAD_DB = 3.0
@@ -1213,6 +1217,15 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
     left = (float(np.median(e_t[e_t.size // 2:]) / e_t.max())
             if e_t.size > 1 and e_t.max() > 0.0 else 0.0)
     cut = 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * w
+    # step 7 with the default dynamic range: no fixed floor under the strongest frame but
+    # the whitened noise floor raised by the threshold (never under PREDICTION_FLOOR of the
+    # strongest frame: rounding), and max_drop_db under the last tick (``e_min^2`` times its
+    # energy: a bounce's tick goes as its impact speed squared); the earlier ticks'
+    # remainders are weighed by their models
+    relative = floor is None
+    if relative:
+        floor = max(10.0 ** (threshold_db / 10.0) * noise * noise * w,
+                    PREDICTION_FLOOR * float(_frame_energies(r, hop, w).max()))
     if exact:
         cut = max(cut, floor * 10.0 ** (-TEMPLATE_FLOOR_DB / 10.0))
     # the template ends where it sinks into the noise (or under the floor): beyond, taking
@@ -1234,7 +1247,12 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             return _soonest(ons, strs, min_sep)
         return _separation(ons, strs, min_sep, e_min)
 
+    def drop_floor(energy):
+        if relative:
+            dfl.floor = max(floor, e_min * e_min * energy)
+
     while True:
+        drop_floor(energies[-1])
         c = dfl.candidate(after)
         # the next tick of step 3's series, when this search would pass over it
         nxt = np.nonzero(anchor_on > onsets[-1] + min_sep)[0]
@@ -1272,6 +1290,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             strength = 10.0 * math.log10(energy / thr_k)
             if near.any():
                 strength = max(strength, float(anchor_strength[near].max()))
+        drop_floor(energy)
         s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
         after = int(math.floor(on)) + separation(onsets + [on], strengths + [strength])
 
@@ -1467,7 +1486,7 @@ def _first_ticks(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop, frac, gap
 
 def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.001,
             hop=0.00025, threshold_db=10.0, rise_db=6.0, release=5.0,
-            dynamic_range_db=60.0, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
+            dynamic_range_db=None, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
             lpc_order=None, window=0.02, subtract_tails=True, deflate=True,
             decay_smoothing=0.002, clip_samples=4, on_clipping="warn") -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (module docstring).
@@ -1496,8 +1515,12 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Margin above the fading memory of the earlier frames, dB.
     release : float > 0
         How fast that memory fades, dB per ms.
-    dynamic_range_db : float > 0
-        Ticks more than this below the strongest are ignored, dB.
+    dynamic_range_db : float > 0, optional
+        Ticks more than this below the strongest frame of the whitened signal are ignored,
+        dB, in every step. Default: :data:`DYNAMIC_RANGE_DB` (60 dB) in steps 1-6; in the
+        resonator's search (step 7), which models every earlier tick and weighs a candidate
+        against what those models are expected to leave, no fixed range: the floor there is
+        the whitened noise floor raised by ``threshold_db`` (module docstring, step 7).
     max_drop_db : float > 0
         A tick more than this below the previous tick is ignored, dB (20 dB: a
         restitution below 0.1); it also sets the shortest plausible bounce,
@@ -1548,7 +1571,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     thr = _checks.positive("threshold_db", threshold_db, "dB")
     rise = _checks.positive("rise_db", rise_db, "dB")
     rel = _checks.positive("release", release, "dB/ms")
-    dyn = _checks.positive("dynamic_range_db", dynamic_range_db, "dB")
+    dyn = (DYNAMIC_RANGE_DB if dynamic_range_db is None
+           else _checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
     drop = _checks.positive("max_drop_db", max_drop_db, "dB")
     bg = _checks.positive("background", background, "s")
     frac = _checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
@@ -1612,7 +1636,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         onsets, strength, q, models, left = _deflated_onsets(
             r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
             (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
-            d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n, bool(exact), known)
+            None if exact and dynamic_range_db is None else d.max() * 10.0 ** (-dyn / 10.0),
+            frac, gap, win_n, bool(exact), known)
         return onsets, strength, q, models, left if peaks.size > 1 else None, peaks
 
     onsets, strength, q, models, left, peaks = search(r)
