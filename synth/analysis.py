@@ -48,7 +48,8 @@ the detector first takes the resonator out:
    in time); ``rise_db`` above a memory of the earlier frames (from two frames
    back) that fades by ``release`` dB per ms, which rejects what the whitening
    leaves of a tick in its first milliseconds; and the floor
-   ``dynamic_range_db`` below the strongest frame. Taken in time order, a
+   ``dynamic_range_db`` (default 60 dB; step 7 sets its own) below the strongest frame.
+   Taken in time order, a
    candidate more than ``max_drop_db`` (20 dB) weaker than the previous tick
    is not a bounce (a tick's energy goes as the impact speed squared: that
    would be a restitution below ``e_min = 10^(-max_drop_db / 20) = 0.1``) but a
@@ -210,6 +211,19 @@ the detector first takes the resonator out:
      is kept (below), its onsets replace the first search's for the ticks they share too:
      one estimator for every bounce time. A tick's model, and its measurement window,
      start from its level crossing.
+   * with the default ``dynamic_range_db`` there is no fixed floor under the strongest
+     frame: the fixed 60 dB (:data:`DYNAMIC_RANGE_DB`) guards steps 1-6 against what the
+     whitening leaves of the earlier ticks, which here their models and the remainder test
+     account for. The floor is the whitened noise floor (per frame) raised by
+     ``threshold_db``, as the local background's, and, as step 3's ``max_drop_db`` rule,
+     ``e_min^2`` times the last tick's energy (20 dB under it: a bounce's tick goes as its
+     impact speed squared; without it, on the steel sheet below, remainders of the earlier
+     ticks pass for ticks in its first bounces, 0.3 to 3.3 dB over their thresholds),
+     never under :data:`PREDICTION_FLOOR` (120 dB) of the strongest frame (rounding).
+     Where the whitened noise lies within 60 dB plus ``threshold_db`` of the strongest
+     frame, the background's threshold (never under the noise raised by ``threshold_db``)
+     already stood over the fixed floor, and nothing is lower than before. A
+     ``dynamic_range_db`` given holds here too, as asked.
 
    This search is kept when its predictor leaves the first tick at least
    ``RESONATOR_GAIN_DB`` (20 dB) less ringing and it finds the first search's ticks, from
@@ -245,9 +259,17 @@ the bias of the contacts' growth, 0 to 13.7 us, plus at most 2.7 us), their boun
 their level crossings, whose place moves by up to a sample period with where a contact of
 one or two sample periods starts between two samples, the onsets came 1.2 to 19.9 us late,
 the bounce times -9.0 to +13.3 us off, and the tenth ``e_n`` 1.46 %. Ticks more than
-``dynamic_range_db`` under the strongest in the whitened signal stay out: on the 6 mm
-board of the same test, the late, slow contacts (0.37 to 0.55 ms) take the high
-frequencies out of ticks 7-9 and leave them 66 to 81 dB under the first tick there.
+``dynamic_range_db`` under the strongest in the whitened signal stay out of steps 1-6: on
+the 6 mm board of the same test, the late, slow contacts (0.37 to 0.55 ms)
+take the high frequencies out of ticks 7-9 and leave them 66 to 81 dB under the first tick
+there, where the whitened noise of the clean render is 196 dB under it. Step 7's floor
+(noise and last tick) lets tick 7 in; timed against the template, onsets 1-7 come 87 to 91
+us late (the first tick's level crossing, 87 us: the start of its slow burst is taken for a
+filter's pre-ringing, step 4) and ``e_n`` within 0.04 %. Ticks 8 and 9 stay under what the
+models of ticks 6 and 7, fitted over bounces of 2.6 and 1.6 ms, are expected to leave
+(their fit error raised by :data:`REMAINDER_MARGIN_DB`): tick 8's first frame stands 7 dB
+under that, 23 dB over what is really left before it; tick 9's stands level with what tick
+8's model leaves.
 Noise limits step 7 through its predictor: on a synthetic plate of 300 modes
 (``tests/test_analysis.py``: identical ticks, impulses between samples) it finds all 11
 ticks (8 without it), 4.4 to 7.2 us early (the first tick's level crossing: 7.1 us) and
@@ -417,6 +439,10 @@ PREDICTION_FLOOR = 1e-12
 #: The free ringing of the first bounce is taken from this long after the first onset (past
 #: the contact), s.
 CLEAN_GUARD = 0.002
+#: Default floor of the detection, dB under the strongest frame of the whitened signal, in
+#: steps 1-6 (a guard against what the 20 ms predictor leaves of the earlier ticks, which
+#: those steps do not model over their whole response) and for the test that calls step 7.
+DYNAMIC_RANGE_DB = 60.0
 #: Frame length of the noise-floor estimate, s, and the spread of its quiet frames, dB.
 NOISE_FRAME = 0.01
 NOISE_SPREAD_DB = 3.0
@@ -1299,6 +1325,15 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
     left = (float(np.median(e_t[e_t.size // 2:]) / e_t.max())
             if e_t.size > 1 and e_t.max() > 0.0 else 0.0)
     cut = 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * w
+    # step 7 with the default dynamic range: no fixed floor under the strongest frame but
+    # the whitened noise floor raised by the threshold (never under PREDICTION_FLOOR of the
+    # strongest frame: rounding), and max_drop_db under the last tick (``e_min^2`` times its
+    # energy: a bounce's tick goes as its impact speed squared); the earlier ticks'
+    # remainders are weighed by their models
+    relative = floor is None
+    if relative:
+        floor = max(10.0 ** (threshold_db / 10.0) * noise * noise * w,
+                    PREDICTION_FLOOR * float(_frame_energies(r, hop, w).max()))
     if exact:
         cut = max(cut, floor * 10.0 ** (-TEMPLATE_FLOOR_DB / 10.0))
     # the template ends where it sinks into the noise (or under the floor): beyond, taking
@@ -1322,7 +1357,12 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             return _soonest(ons, strs, min_sep)
         return _separation(ons, strs, min_sep, e_min)
 
+    def drop_floor(energy):
+        if relative:
+            dfl.floor = max(floor, e_min * e_min * energy)
+
     while True:
+        drop_floor(energies[-1])
         c = dfl.candidate(after)
         # the next tick of step 3's series, when this search would pass over it
         nxt = np.nonzero(anchor_on > onsets[-1] + min_sep)[0]
@@ -1360,6 +1400,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             strength = 10.0 * math.log10(energy / thr_k)
             if near.any():
                 strength = max(strength, float(anchor_strength[near].max()))
+        drop_floor(energy)
         s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
         after = int(math.floor(on)) + separation(onsets + [on], strengths + [strength])
 
@@ -1562,7 +1603,7 @@ def _first_ticks(r, fs, hop_n, min_sep, bg, thr, rise, rel, dyn, drop, frac, gap
 
 def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.001,
             hop=0.00025, threshold_db=10.0, rise_db=6.0, release=5.0,
-            dynamic_range_db=60.0, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
+            dynamic_range_db=None, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
             lpc_order=None, window=0.02, subtract_tails=True, deflate=True,
             decay_smoothing=0.002, clip_samples=4, on_clipping="warn") -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (module docstring).
@@ -1591,8 +1632,13 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Margin above the fading memory of the earlier frames, dB.
     release : float > 0
         How fast that memory fades, dB per ms.
-    dynamic_range_db : float > 0
-        Ticks more than this below the strongest are ignored, dB.
+    dynamic_range_db : float > 0, optional
+        Ticks more than this below the strongest frame of the whitened signal are ignored,
+        dB, in every step. Default: :data:`DYNAMIC_RANGE_DB` (60 dB) in steps 1-6; in the
+        resonator's search (step 7), which models every earlier tick and weighs a candidate
+        against what those models are expected to leave, no fixed range: the floor there is
+        the whitened noise floor raised by ``threshold_db`` and ``max_drop_db`` under the
+        last tick (module docstring, step 7).
     max_drop_db : float > 0
         A tick more than this below the previous tick is ignored, dB (20 dB: a
         restitution below 0.1); it also sets the shortest plausible bounce,
@@ -1643,7 +1689,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     thr = _checks.positive("threshold_db", threshold_db, "dB")
     rise = _checks.positive("rise_db", rise_db, "dB")
     rel = _checks.positive("release", release, "dB/ms")
-    dyn = _checks.positive("dynamic_range_db", dynamic_range_db, "dB")
+    dyn = (DYNAMIC_RANGE_DB if dynamic_range_db is None
+           else _checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
     drop = _checks.positive("max_drop_db", max_drop_db, "dB")
     bg = _checks.positive("background", background, "s")
     frac = _checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
@@ -1707,7 +1754,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         onsets, strength, q, models, left, timed = _deflated_onsets(
             r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
             (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
-            d.max() * 10.0 ** (-dyn / 10.0), frac, gap, win_n, bool(exact), known)
+            None if exact and dynamic_range_db is None else d.max() * 10.0 ** (-dyn / 10.0),
+            frac, gap, win_n, bool(exact), known)
         return onsets, strength, q, models, left if peaks.size > 1 else None, peaks, timed
 
     onsets, strength, q, models, left, peaks, _ = search(r)
