@@ -1089,7 +1089,7 @@ class _Deflation:
                 return None
             chunk *= 2
 
-    def remove(self, s: int, end: int) -> np.ndarray:
+    def remove(self, s: int, end: int, joint=(), alone=None) -> np.ndarray:
         """Fit ``q[s:end] ~ sum_j (h_j * T_j)`` over the templates ``T_j``, take the fit out
         of ``q`` from ``s`` on and return it (from ``s`` on).
 
@@ -1099,7 +1099,12 @@ class _Deflation:
         first few: of the choices with at least :data:`FIT_SAMPLES_PER_TAP` samples per
         unknown, the one of least description length ``W ln(RSS) + P ln W`` (``W``
         samples, ``P`` unknowns); the model is expected to leave, outside the window, its
-        relative error in the window raised by :data:`REMAINDER_MARGIN_DB`.
+        relative error in the window raised by :data:`REMAINDER_MARGIN_DB`, counted up to
+        ``alone`` (sample; the soonest next bounce the series allows: beyond, the window may
+        hold a later tick that no model there explains, whose energy is no error of this
+        one). ``joint`` (with ``exact``): the starts of later ticks in the window, modelled
+        alike (``P`` counts their unknowns) and fitted with this one, whose models are not
+        taken out.
         """
         q = self.q
         W = min(end, q.size) - s
@@ -1124,27 +1129,29 @@ class _Deflation:
             n = min(contrib.size, q.size - s)
             q[s: s + n] -= contrib[:n]
             return contrib
-        y = q[s: s + W]
+        y = q[s: s + W].copy()
+        offsets = [0] + [int(o) - s for o in joint]
+        K = len(offsets)
         best = None
         for n_t in range(len(self.T), 0, -1):
             for pre, post in ((self.pre, self.post_long), (self.pre, self.post), (1, 2)):
-                P = n_t * (pre + post + 1)
+                P = K * n_t * (pre + post + 1)
                 if W < FIT_SAMPLES_PER_TAP * P:
                     continue
-                fit = self._fit(self.T[:n_t], y, pre, post)
+                fit = self._fit(self.T[:n_t], y, pre, post, offsets)
                 rss = max(float(np.dot(fit[1], fit[1])), 1e-300 * float(np.dot(y, y)) + 1e-300)
                 crit = W * math.log(rss) + P * math.log(W)
                 if best is None or crit < best[0]:
                     best = (crit, self.T[:n_t], pre, post, fit[0], fit[1])
         if best is None:
             # too short a window for filters: one tap on as many templates as it allows
-            n_t = max(1, min(len(self.T), W // FIT_SAMPLES_PER_TAP))
-            h, res = self._fit(self.T[:n_t], y, 0, 0)
+            n_t = max(1, min(len(self.T), W // (FIT_SAMPLES_PER_TAP * K)))
+            h, res = self._fit(self.T[:n_t], y, 0, 0, offsets)
             best = (0.0, self.T[:n_t], 0, 0, h, res)
-        _, Ts, pre, post, h = best[:5]
-        rss = float(np.dot(best[5], best[5])) if len(best) > 5 else 0.0
+        _, Ts, pre, post, h, res = best
+        rss = float(np.dot(res, res))
         ntap = pre + post + 1
-        # contribution at s + t: sum_j h_j T[t - l_j]
+        # contribution at s + t: sum_j h_j T[t - l_j] (this tick's taps come first)
         n_c = max(T.size for T in Ts) + post
         contrib = np.zeros(n_c)
         for i, T in enumerate(Ts):
@@ -1152,23 +1159,29 @@ class _Deflation:
             contrib[: c.size] += c
         n = min(contrib.size, q.size - s)
         q[s: s + n] -= contrib[:n]
-        fitted = float(np.dot(contrib[:W], contrib[:W]))
+        # the relative error up to ``alone``: of all the ticks fitted, the window's own
+        model = y - res
+        m = W if alone is None else max(1, min(W, int(alone) - s))
+        rss = float(np.dot(res[:m], res[:m]))
+        fitted = float(np.dot(model[:m], model[:m]))
         eps = min(1.0, 10.0 ** (REMAINDER_MARGIN_DB / 10.0) * rss / max(fitted, 1e-300))
         self.expect[s: s + n] += eps * contrib[:n] ** 2
         return contrib
 
     @staticmethod
-    def _fit(Ts, y, pre, post):
-        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts`` fitting ``y``:
-        the taps and the residual."""
+    def _fit(Ts, y, pre, post, offsets=(0,)):
+        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts``, started at
+        each of ``offsets`` (samples into ``y``), fitting ``y``: the taps (offset by offset,
+        template by template) and the residual."""
         W = y.size
         ntap = pre + post + 1
         cols = []
-        for T in Ts:
-            # M[i, j] = T[i - l_j] with lags l_j = post - j
-            Tp = np.concatenate((np.zeros(post), T[: W + pre],
-                                 np.zeros(pre + max(0, W - T.size))))
-            cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        for o in offsets:
+            for T in Ts:
+                # M[i, j] = T[i - o - l_j] with lags l_j = post - j
+                Tp = np.concatenate((np.zeros(post + o), T[: max(0, W - o + pre)],
+                                     np.zeros(pre + max(0, W - o - T.size))))
+                cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
         M = np.concatenate(cols, axis=1)
         G = M.T @ M
         P = G.shape[0]
@@ -1351,6 +1364,9 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
     anchor_on, anchor_strength = anchors
     known = np.asarray(known, dtype=float)
     after = int(math.floor(onset1)) + min_sep
+    # with ``exact``: the last tick's window start, and ``q`` and ``expect`` from there as
+    # they were before its model was taken out (None after the first tick and a template)
+    prev = None
 
     def separation(ons, strs):
         if exact:
@@ -1432,7 +1448,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             end = s + int((1.0 - RESTITUTION_STEP) * ratio * t_last)
             latest = min(e, s + int(BOUNCE_GROWTH * ratio * t_last) + hop)
             while end < latest:
-                dfl.remove(s, end)
+                dfl.remove(s, end, alone=after)
                 c = dfl.candidate(after)
                 restore()
                 if c is not None and c[4] <= end + 2 * hop:
@@ -1440,14 +1456,14 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
                     uncovered = True
                     break
                 end = max(end + hop, s + int(1.1 * (end - s)))
-        model = dfl.remove(s, e)
+        model = dfl.remove(s, e, alone=after)
         for _ in range(0 if uncovered else DEFLATION_REFITS - 1):
             e2 = fit_end()
             if e2 <= e and not (exact and e2 < e):
                 break
             restore()
             e = e2
-            model = dfl.remove(s, e)
+            model = dfl.remove(s, e, alone=after)
         if len(onsets) >= 2:
             # the soonest next bounce the series allows (its restitution changes slowly)
             t_last = on - onsets[-1]
@@ -1457,12 +1473,32 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             # between would be stronger than that one: the ticks of a series only weaken)
             later = known[known > on + min_sep]
             clear = later[0] - s if later.size else 0.0
+        template_taken = False
         if (exact and len(dfl.T) < MAX_TEMPLATES and strength >= ANCHOR_DB
                 and L < end1 - s1 and clear >= L + w):
             # a sure tick alone over its whole whitened response: a template itself
             restore()
             model = dfl.take(s, L)
             e = s + L
+            template_taken = True
+        if exact and prev is not None and not template_taken:
+            # the previous tick's model was fitted up to where this tick shows (a bounce: 1.1
+            # ms for the board's last ones, too short a window for the filters of a long
+            # contact), while its response goes on under this tick: fitted again, jointly
+            # with this tick's over this tick's window, both ticks' filters over the whole
+            # span; then this tick's alone again, with the previous one's new model out
+            ps, psaved, psaved_expect = prev
+            restore()
+            dfl.q[ps: ps + psaved.size] = psaved
+            dfl.expect[ps: ps + psaved.size] = psaved_expect
+            pmodel = dfl.remove(ps, e, joint=(s,), alone=after)
+            models[-1] = pmodel[:keep].copy()
+            timed[-1] = (onset1 + (ps - s1) + _delay(pmodel, dfl.T[0], -dfl.pre, dfl.post_long)
+                         if np.any(pmodel) else timed[-1])
+            saved = dfl.q[s: s + L + dfl.post_long + 1].copy()
+            saved_expect = dfl.expect[s: s + saved.size].copy()
+            model = dfl.remove(s, e, alone=after)
+        prev = None if template_taken or not exact else (s, saved, saved_expect)
         onsets.append(float(on))
         strengths.append(strength)
         energies.append(float(energy))

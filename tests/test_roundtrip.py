@@ -54,7 +54,7 @@ from synth.scheduler import BounceSequence, simulate_scene
 PRESETS = sorted(available())
 #: Presets whose first ten ticks do not all meet the requirements: (ticks whose onsets meet
 #: it, ticks whose ``e_n`` meet it), the first ticks of the series.
-LIMITS = {"thesis-steel10-mdf6": (7, 7)}
+LIMITS = {"thesis-steel10-mdf6": (8, 8)}
 #: The onset requirement, s.
 ONSET_TOL = 0.2e-3
 
@@ -196,11 +196,13 @@ def test_roundtrip_board_late_ticks_over_the_noise_floor():
     # the default: ticks 1-7, each within the requirement, no false tick
     a = analyze(r.audio, fs, gravity=scene.gravity)
     got = np.array([t.time for t in a.ticks])
-    assert got.size == 7
-    assert np.max(np.abs(got - truth[:7])) < ONSET_TOL
+    assert got.size == 8
+    assert np.max(np.abs(got - truth[:8])) < ONSET_TOL
     T = np.diff(truth)
-    # e_7 within the requirement (measured -0.04 %: onsets 6 and 7 both 90-91 us late)
-    assert a.ticks[6].restitution / (T[5] / T[4]) - 1.0 == pytest.approx(0.0, abs=0.01)
+    # e_7 and e_8 within the requirement (measured -0.014 and +0.014 %: onsets 6-8 all 90.7
+    # to 90.8 us late)
+    for i in (6, 7):
+        assert a.ticks[i].restitution / (T[i - 1] / T[i - 2]) - 1.0 == pytest.approx(0.0, abs=0.01)
     # steps 1-6 alone (an explicit whitening order) find ticks 1-5
     first = analyze(r.audio, fs, lpc_order=int(round(0.02 * fs)))
     got = np.array([t.time for t in first.ticks])
