@@ -193,7 +193,9 @@ the detector first takes the resonator out:
      (the filters' choice above: ``N`` the samples of the whitened signal in the window,
      ``E`` the residual energy there, ``k`` the filter taps, each fit of its own choice of
      templates and lags), plus ``2 ln M`` for its place among the ``M`` tried, must fall;
-     the tick must also clear the floor (below) as any candidate, and it is not tried
+     the tick must also clear the floor (below) as any candidate (only the places where
+     the residual does are tried: each costs a fit of every choice of templates and lags,
+     and in a noisy recording the range spans tens of milliseconds), and it is not tried
      after a bounce longer than the one before (a tick missed in between, whose response
      no model holds, would be taken for it). Its onset comes from the timing against the
      template (below) and its ``strength`` is the fall of the description length per
@@ -1473,22 +1475,29 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         W = y.size
         null = dfl.choose(y)[0]
         places = range(lo, hi + 1, HYPOTHESIS_STEP)
+        # only where the residual clears the floor (the dynamic range asked for, the
+        # whitened noise, max_drop_db under the last tick), as any candidate must: a tick
+        # elsewhere would be refused whatever its description length, and each place tried
+        # costs a fit of every choice of templates and lags
+        # (the energies of the frames starting at every sample: a place's burst is its
+        # frames at 0, hop and 2 hop, as a candidate's)
+        e_s = _frame_energies(dfl.q[lo: hi + w + 2 * hop], 1, w)
         best = None
         for p in places:
-            # the place is one of len(places): ln(len(places)) nats more to describe, twice
-            # that in the criterion (twice a code length in nats, as W ln E + P ln W)
+            k = p - lo
+            burst = e_s[k: k + 2 * hop + 1: hop]
+            energy = float(burst.max()) if burst.size else 0.0
+            if energy < dfl.floor:
+                continue
+            # the place is one of len(places) (all of the range, tried or not): ln(len(places))
+            # nats more to describe, twice that in the criterion (twice a code length in nats,
+            # as W ln E + P ln W)
             crit = dfl.choose(y, (0, p - ps))[0] + 2.0 * math.log(len(places))
             if best is None or crit < best[0]:
-                best = (crit, p)
-        if best[0] >= null:
+                best = (crit, p, energy)
+        if best is None or best[0] >= null:
             return None
-        p = best[1]
-        burst = _frame_energies(dfl.q[p: p + w + 2 * hop], hop, w)
-        energy = float(burst.max()) if burst.size else 0.0
-        if energy < dfl.floor:
-            # under the floor (the dynamic range asked for, the whitened noise, max_drop_db
-            # under the last tick), as any candidate
-            return None
+        p, energy = best[1], best[2]
         # its strength: the fall of the description length per sample, in dB of residual
         return float(p + WINDOW_GUARD), 10.0 / math.log(10.0) * (null - best[0]) / W, energy
 
