@@ -1389,20 +1389,24 @@ def _too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
 
 def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_sep, e_min,
                      background, threshold_db, rise_db, release, floor, fraction, gap, keep,
-                     exact=False, known=()):
+                     exact=False, known=(), strongest=None):
     """Ticks after the first, found one by one with the earlier ticks taken out (module
     docstring, step 5; with ``exact``, the resonator's search of step 7, whose rules it
     applies: templates, the fit windows' search, the shortest bounce the series allows,
     the onset walk, each tick's model fitted again jointly with the next tick's).
     ``anchors`` (onsets, samples, and their strengths, dB) are the ticks of step 3's
     bounce series: none is passed over. ``known`` (onsets, samples) are the ticks of the
-    first search, which decide whether the second tick is a template.
+    first search, which decide whether the second tick is a template. ``floor`` (energy
+    per frame) is the floor of the dynamic range, or None for step 7's own (the whitened
+    noise and the last tick), never under :data:`PREDICTION_FLOOR` of ``strongest``, the
+    strongest frame of ``r`` (step 3's detection function).
 
     Returns the onsets (samples), strengths (dB), the residual ``q`` (``r`` with every
     tick's model taken out), each tick's model (its whitened response from its window's
     start, at most ``keep`` samples), and what the whitening leaves of the first tick's
     ringing in the second half of the first bounce, relative to its strongest frame (its
-    median frame energy over its largest, a power ratio).
+    median frame energy over its largest, a power ratio), and with ``exact`` the onsets
+    timed against the first tick's template (samples; else None).
     """
     w = max(hop, MIN_FRAME)
     s1 = max(int(math.floor(onset1)) - WINDOW_GUARD, 0)
@@ -1420,7 +1424,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
     relative = floor is None
     if relative:
         floor = max(10.0 ** (threshold_db / 10.0) * noise * noise * w,
-                    PREDICTION_FLOOR * float(_frame_energies(r, hop, w).max()))
+                    PREDICTION_FLOOR * strongest)
     if exact:
         cut = max(cut, floor * 10.0 ** (-TEMPLATE_FLOOR_DB / 10.0))
     # the template ends where it sinks into the noise (or under the floor): beyond, taking
@@ -1446,6 +1450,15 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         if exact:
             return _soonest(ons, strs, min_sep)
         return _separation(ons, strs, min_sep, e_min)
+
+    def timing(start, model, level_crossing):
+        # the onset of a tick whose window starts at ``start``, timed against the first
+        # tick's whitened response: the delay of its model behind that template (within the
+        # lags of its filters), from the template's own onset; a model of nothing keeps the
+        # level crossing
+        if not np.any(model):
+            return level_crossing
+        return onset1 + (start - s1) + _delay(model, dfl.T[0], -dfl.pre, dfl.post_long)
 
     def drop_floor(energy):
         if relative:
@@ -1501,8 +1514,8 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         # its strength: the fall of the description length per sample, in dB of residual
         return float(p + WINDOW_GUARD), 10.0 / math.log(10.0) * (null - best[0]) / W, energy
 
+    drop_floor(energies[-1])
     while True:
-        drop_floor(energies[-1])
         c = dfl.candidate(after)
         # the next tick of step 3's series, when this search would pass over it
         nxt = np.nonzero(anchor_on > onsets[-1] + min_sep)[0]
@@ -1620,8 +1633,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
             dfl.expect[ps: ps + psaved.size] = psaved_expect
             pmodel = dfl.remove(ps, e, joint=(s,), alone=after)
             models[-1] = pmodel[:keep].copy()
-            timed[-1] = (onset1 + (ps - s1) + _delay(pmodel, dfl.T[0], -dfl.pre, dfl.post_long)
-                         if np.any(pmodel) else timed[-1])
+            timed[-1] = timing(ps, pmodel, timed[-1])
             saved = dfl.q[s: s + L + dfl.post_long + 1].copy()
             saved_expect = dfl.expect[s: s + saved.size].copy()
             model = dfl.remove(s, e, alone=after)
@@ -1631,11 +1643,7 @@ def _deflated_onsets(r, fs, onset1, strength1, energy1, end1, anchors, hop, min_
         energies.append(float(energy))
         models.append(model[:keep].copy())
         if exact:
-            # the tick timed against the first tick's whitened response: the delay of its
-            # model behind that template (within the lags of its filters), from the
-            # template's own onset; a model of nothing keeps the level crossing
-            timed.append(onset1 + (s - s1) + _delay(model, dfl.T[0], -dfl.pre, dfl.post_long)
-                         if np.any(model) else float(on))
+            timed.append(timing(s, model, float(on)))
 
     return (np.array(onsets), np.array(strengths), dfl.q, models, left,
             np.array(timed) if exact else None)
@@ -1918,7 +1926,7 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
             r, fs, onsets[0], strength[0], d[peaks[0]: peaks[0] + 2].max(), end1,
             (anchors[1:], anchor_strength[1:]), hop_n, min_sep, e_min, bg, thr, rise, rel,
             None if exact and dynamic_range_db is None else d.max() * 10.0 ** (-dyn / 10.0),
-            frac, gap, win_n, bool(exact), known)
+            frac, gap, win_n, bool(exact), known, float(d.max()))
         return onsets, strength, q, models, left if peaks.size > 1 else None, peaks, timed
 
     onsets, strength, q, models, left, peaks, _ = search(r)

@@ -10,8 +10,7 @@ A tick is recovered only while it can be told from the ringing of the earlier on
 tick-to-masker ratio (TMR) is the energy of the tick alone over its window (to the next
 tick, at most 20 ms) over the energy of all the other ticks' sound there, computed by
 rendering the tick alone (the synthesis is linear). Two presets ring far over their late
-ticks, for the reasons checked below (:data:`LIMITS`, empty now, would say how many of the
-first ticks of a preset that stays short meet each requirement):
+ticks, and meet the requirements for the reasons checked below:
 
 * ``steel-ball-on-steel-sheet``: a 1 mm steel sheet ringing for seconds with hundreds of
   modes below 24 kHz. Ticks 4-10 lie 14.8, 20.0, 25.8, 27.0, 31.4, 34.0 and 35.2 dB under
@@ -61,9 +60,6 @@ from synth.render import render
 from synth.scheduler import BounceSequence, simulate_scene
 
 PRESETS = sorted(available())
-#: Presets whose first ten ticks do not all meet the requirements: (ticks whose onsets meet
-#: it, ticks whose ``e_n`` meet it), the first ticks of the series.
-LIMITS: dict[str, tuple[int, int]] = {}
 #: The onset requirement, s.
 ONSET_TOL = 0.2e-3
 
@@ -109,13 +105,13 @@ def _tick_to_masker(scene, seq, r, i):
 def test_roundtrip_recovers_onsets_and_restitution(name):
     scene, seq, r = _render(name)
     truth = np.array([imp.time for imp in r.impacts])
-    n_on, n_e = LIMITS.get(name, (min(10, truth.size),) * 2)
+    n = min(10, truth.size)
     a = analyze(r.audio, r.samplerate, gravity=scene.gravity)
-    got = np.array([t.time for t in a.ticks[:n_on]])
-    assert got.size == n_on, (name, got.size, n_on)
-    assert np.max(np.abs(got - truth[:n_on])) < ONSET_TOL, (name, got - truth[:n_on])
+    got = np.array([t.time for t in a.ticks[:n]])
+    assert got.size == n, (name, got.size, n)
+    assert np.max(np.abs(got - truth[:n])) < ONSET_TOL, (name, got - truth[:n])
     T = np.diff(truth)
-    for i in range(2, n_e):
+    for i in range(2, n):
         e_true = T[i - 1] / T[i - 2]
         assert a.ticks[i].restitution == pytest.approx(e_true, rel=0.01), (name, i)
 
@@ -250,7 +246,7 @@ def test_restitution_from_bounce_times(name):
     # exceeds 1 % on the last bounces (corner: 0.27 ms contacts, 9-46 ms bounces; 6 mm
     # board: 0.29 ms against 4.3 ms).
     scene, seq, r = _render(name)
-    n = min(10, len(seq)) if name not in LIMITS else LIMITS[name][1]
+    n = min(10, len(seq))
     t = np.array([imp.time for imp in r.impacts])
     T = np.diff(t)
     tau = np.array([imp.result.contact_time for imp in seq])
