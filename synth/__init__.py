@@ -9,17 +9,18 @@ Heavy optional parts (plotting, playback, loudness, distributed batches) are
 imported only where used.
 """
 
-from . import contact, materials, plate
-from .analysis import Analysis, Tick, analyze, analyze_file
-from .audio_io import read_audio, write_audio
-from .contact import ImpactResult, solve_contact, solve_impact
-from .errors import ParameterError, SynthError
-from .materials import LossFactor, Material, Rayleigh
-from .playback import play
-from .presets import load_preset, render_preset
-from .render import Render, render
-from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
-from .scheduler import BounceSequence, Impact, simulate_bounces, simulate_scene
+from synth.analysis import Analysis, Tick, analyze, analyze_file
+from synth.errors import ParameterError, SynthError
+from synth.io.audio import read_audio, write_audio
+from synth.io.playback import play
+from synth.io.presets import load_preset, render_preset
+from synth.physics import contact, materials
+from synth.physics.bounces import BounceSequence, Impact, simulate_bounces, simulate_scene
+from synth.physics.contact import ImpactResult, solve_contact, solve_impact
+from synth.physics.materials import LossFactor, Material, Rayleigh
+from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+from synth.sound import modes as plate  # the plate's modes (kept under its public name)
+from synth.sound.render import Render, render
 
 __all__ = [
     "Accelerometer", "Analysis", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",

@@ -1,5 +1,5 @@
 """``python -m synth``: the command-line interface."""
 
-from .cli import main
+from synth.cli import main
 
 raise SystemExit(main())

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import contact, impedance
-from .scene import Ball, Plate
+from synth.physics import contact
+from synth.physics import impedance
+from synth.physics.scene import Ball, Plate
 
 
 @dataclass(frozen=True)
@@ -294,8 +295,8 @@ def render_scenes():
     """The render benchmark's scenes: ``(name, scene, render options)``: the default
     preset; a thin steel sheet whose modal bank carries thousands of modes; a long series
     of fast small bounces."""
-    from .presets import load_preset
-    from .scene import Accelerometer, Ball, Plate, Scene
+    from synth.io.presets import load_preset
+    from synth.physics.scene import Accelerometer, Ball, Plate, Scene
 
     sheet = Plate("steel", 0.0005, 0.8, 0.6, "simply-supported")
     return [
@@ -361,7 +362,7 @@ def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), sa
 
     import numba
 
-    from .render import render
+    from synth.sound.render import render
 
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
@@ -485,9 +486,9 @@ def thesis_comparison(samplerate=48000):
     centroid (thesis: a few kHz), and the e of the first impact (thesis: 0.87)."""
     from scipy.signal import butter, sosfiltfilt
 
-    from .presets import load_preset
-    from .render import render
-    from .scheduler import BounceSequence, simulate_scene
+    from synth.io.presets import load_preset
+    from synth.sound.render import render
+    from synth.physics.bounces import BounceSequence, simulate_scene
 
     scene = load_preset("default")
     seq = simulate_scene(scene)
@@ -597,7 +598,7 @@ def run_analysis(snrs=(None, 40.0, 30.0, 20.0, 10.0), restitutions=(0.6, 0.8, 0.
     restitution and onset errors are over the found ticks only. A file in which nothing
     is detected (``AnalysisError``) counts all its ticks as missed.
     """
-    from .analysis import AnalysisError, analyze
+    from synth.analysis import AnalysisError, analyze
 
     rows = []
     for snr in snrs:

@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from .errors import SynthError
+from synth.errors import SynthError
 
 
 def _add_preset_args(p):
@@ -25,8 +25,8 @@ def _add_preset_args(p):
 
 
 def _cmd_info(args):
-    from .presets import load_preset_with_options
-    from .scheduler import simulate_scene
+    from synth.io.presets import load_preset_with_options
+    from synth.physics.bounces import simulate_scene
 
     scene, _, data = load_preset_with_options(args.preset, args.overrides)
     seq = simulate_scene(scene)
@@ -70,14 +70,14 @@ def _report(rendered, data, preset) -> dict:
 
 
 def _cmd_render(args):
-    from . import audio_io
-    from .presets import find, load_preset_with_options
-    from .render import render
+    from synth.io import audio as audio_io
+    from synth.io.presets import find, load_preset_with_options
+    from synth.sound.render import render
 
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
     if args.timing_from is not None or args.restitution_scale is not None:
-        from . import stimuli
+        from synth.stimuli import sequences as stimuli
 
         k = 1.0 if args.restitution_scale is None else args.restitution_scale
         if args.timing_from is None:
@@ -90,7 +90,7 @@ def _cmd_render(args):
     if args.report:
         _write_json(args.report, _report(rendered, data, args.preset))
     if args.plot:
-        from .plot import plot_render
+        from synth.io.plot import plot_render
         plot_render(rendered, args.plot)
     print(f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
           f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
@@ -123,7 +123,7 @@ def _write_json(path, obj):
 
 
 def _cmd_analyze(args):
-    from . import analysis
+    from synth import analysis
 
     if args.plot:
         analysis.check_plot_path(args.plot)     # a bad image path fails before any output
@@ -155,10 +155,10 @@ def _channel(value):
 
 
 def _cmd_alter(args):
-    from . import audio_io
-    from .alter import alter_restitution
+    from synth.io import audio as audio_io
+    from synth.stimuli.alter import alter_restitution
 
-    from .analysis import analyze
+    from synth.analysis import analyze
 
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
@@ -195,10 +195,10 @@ GALLERY = ("default", "thesis-steel10-mdf18-corner", "small-click-on-acrylic",
 def _cmd_gallery(args):
     from pathlib import Path
 
-    from . import audio_io
-    from .plot import plot_render
-    from .presets import find, load_preset_with_options
-    from .render import render
+    from synth.io import audio as audio_io
+    from synth.io.plot import plot_render
+    from synth.io.presets import find, load_preset_with_options
+    from synth.sound.render import render
 
     out = Path(args.output_dir)
     if not out.is_dir():
@@ -218,7 +218,7 @@ def _cmd_gallery(args):
 
 
 def _cmd_presets(args):
-    from .presets import available, read
+    from synth.io.presets import available, read
 
     for name, path in available().items():
         try:
@@ -230,7 +230,7 @@ def _cmd_presets(args):
 
 
 def _cmd_materials(args):
-    from . import materials
+    from synth.physics import materials
 
     for m in (materials.get(n) for n in materials.names()):
         print(f"{m.name:<16} rho={m.density:>7g} kg/m^3  E={m.young / 1e9:>7.4g} GPa  "
@@ -239,7 +239,7 @@ def _cmd_materials(args):
 
 
 def _cmd_bench(args):
-    from . import bench
+    from synth import bench
 
     runs = {
         "contact": (lambda: bench.run_contact(

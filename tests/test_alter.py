@@ -1,4 +1,4 @@
-"""Altering a recording's restitution (thesis section 5.2.2): synth.alter and `synth alter`.
+"""Altering a recording's restitution (thesis section 5.2.2): synth.stimuli.alter and `synth alter`.
 
 The recordings are renders of the default scene (10 mm steel ball, 10 cm drop on 18 mm MDF,
 82 ticks in 2.4 s), with white or pink noise added at a given SNR (the mean power of the
@@ -13,12 +13,12 @@ import soundfile
 from scipy.signal import resample_poly, welch
 
 import synth
-from synth import alter
-from synth.alter import alter_restitution, extend
+from synth.stimuli import alter
+from synth.stimuli.alter import alter_restitution, extend
 from synth.cli import main
 from synth.errors import ParameterError
-from synth.render import render
-from synth.scheduler import BounceSequence, Impact
+from synth.sound.render import render
+from synth.physics.bounces import BounceSequence, Impact
 
 FS = 48000
 

@@ -780,7 +780,7 @@ def test_clipping_of_a_render(name):
     # and 2 on the marble. With it: none, the first ten onsets within 0.2 ms and their
     # restitution within 1 % of the engine's (requirements)
     import synth
-    from synth.render import render
+    from synth.sound.render import render
 
     r = render(synth.load_preset(name), normalize="none")
     x = np.asarray(r.audio, dtype=float)

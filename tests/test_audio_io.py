@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import soundfile
 
-from synth.audio_io import (PHYSICAL_FULL_SCALE, AudioFileError, fade_out, normalize,
+from synth.io.audio import (PHYSICAL_FULL_SCALE, AudioFileError, fade_out, normalize,
                             read_audio, write_audio)
 from synth.errors import ParameterError, SynthError
 

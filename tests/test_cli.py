@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from synth.cli import build_parser, main
-from synth.presets import load_preset
-from synth.scheduler import STOP_REASONS, simulate_scene
+from synth.io.presets import load_preset
+from synth.physics.bounces import STOP_REASONS, simulate_scene
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT = REPO / "presets" / "default.toml"
@@ -219,7 +219,7 @@ def rendered(tmp_path_factory):
     and the render's impact times, s."""
     import soundfile
 
-    from synth.render import render
+    from synth.sound.render import render
 
     r = render(load_preset("default"), samplerate=44100, max_frequency=12000.0, max_tail=1.0)
     path = tmp_path_factory.mktemp("rec") / "default.flac"

@@ -6,11 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from synth import contact, impedance
+from synth.physics import contact
+from synth.physics import impedance
 from synth.bench import ContactCase, contact_cases, scipy_contact
 from synth.errors import ParameterError
-from synth.materials import TABLE
-from synth.scene import Ball, Plate
+from synth.physics.materials import TABLE
+from synth.physics.scene import Ball, Plate
 
 STEEL10 = Ball("steel", 0.005)                   # rho 7800, E 216 GPa, nu 0.3 (thesis Fig. 2.8)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)      # E 5.689 GPa, rho 700, nu 0.4

@@ -4,9 +4,9 @@ import math
 
 import pytest
 
-from synth import impedance
+from synth.physics import impedance
 from synth.errors import ParameterError
-from synth.scene import Plate
+from synth.physics.scene import Plate
 
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
 

@@ -1,4 +1,4 @@
-"""Tests of synth.materials: the built-in table, lookup, validation, damping laws."""
+"""Tests of synth.physics.materials: the built-in table, lookup, validation, damping laws."""
 
 import dataclasses
 import math
@@ -7,9 +7,9 @@ import re
 import numpy as np
 import pytest
 
-from synth import materials
+from synth.physics import materials
 from synth.errors import ParameterError
-from synth.materials import TABLE, LossFactor, Material, Rayleigh, get, names, resolve
+from synth.physics.materials import TABLE, LossFactor, Material, Rayleigh, get, names, resolve
 
 NAME_RE = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 BAD_REALS = [0.0, -1.0, float("nan"), float("inf"), float("-inf")]
@@ -239,7 +239,7 @@ def test_material_rejects_poisson_outside_range(bad):
 
 def test_material_without_damping_is_for_balls_only():
     # A ball's material needs no damping law; a plate's does (its modes decay by it).
-    from synth.scene import Ball, Plate
+    from synth.physics.scene import Ball, Plate
     m = Material("m", 1000.0, 1e9, 0.3)
     assert m.damping is None and Ball(m, 0.01).material is m
     with pytest.raises(ParameterError, match=r"plate\.material\.damping=None"):

@@ -1,4 +1,4 @@
-"""Tests of synth.plate: the finite plate's bending modes (PHYSICS.md section 6)."""
+"""Tests of synth.sound.modes: the finite plate's bending modes (PHYSICS.md section 6)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from numpy.polynomial.legendre import leggauss
 
-from synth import plate as P
+from synth.sound import modes as P
 from synth.errors import ParameterError
-from synth.materials import LossFactor, Material, Rayleigh
-from synth.scene import Plate
+from synth.physics.materials import LossFactor, Material, Rayleigh
+from synth.physics.scene import Plate
 
 # A steel-like material with nu = 0.3, the Poisson ratio of the published tables.
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))

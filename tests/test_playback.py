@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from synth import playback
+from synth.io import playback
 from synth.errors import ParameterError, SynthError
 
 

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from synth.errors import ParameterError, SynthError
-from synth.scene import Ball, Plate
-from synth.scheduler import simulate_bounces
+from synth.physics.scene import Ball, Plate
+from synth.physics.bounces import simulate_bounces
 
 pytest.importorskip("matplotlib", reason="optional plot extra not installed")
 
-from synth.plot import DPI, FIGSIZE, plot_render  # noqa: E402
+from synth.io.plot import DPI, FIGSIZE, plot_render  # noqa: E402
 
 SR = 48000
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

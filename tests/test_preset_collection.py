@@ -10,9 +10,9 @@ import pytest
 
 from synth import simulate_scene
 from synth.errors import ParameterError
-from synth.materials import TABLE
-from synth.presets import PresetError, find, load_preset, load_preset_with_options, read
-from synth.scene import Accelerometer, Microphone
+from synth.physics.materials import TABLE
+from synth.io.presets import PresetError, find, load_preset, load_preset_with_options, read
+from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
 FILES = sorted((REPO / "presets").glob("*.toml"))

@@ -1,4 +1,4 @@
-"""Tests of synth.presets: loading TOML presets, ``--set`` overrides and their errors."""
+"""Tests of synth.io.presets: loading TOML presets, ``--set`` overrides and their errors."""
 
 import copy
 import json
@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from synth.errors import ParameterError, SynthError
-from synth.materials import TABLE, LossFactor, Rayleigh
-from synth.presets import (
+from synth.physics.materials import TABLE, LossFactor, Rayleigh
+from synth.io.presets import (
     PresetError,
     apply_overrides,
     available,
@@ -20,7 +20,7 @@ from synth.presets import (
     preset_dirs,
     read,
 )
-from synth.scene import Accelerometer, Microphone
+from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT = REPO / "presets" / "default.toml"

@@ -1,4 +1,4 @@
-"""Tests of synth.radiation: the Rayleigh integral from plate modes to a microphone.
+"""Tests of synth.sound.radiation: the Rayleigh integral from plate modes to a microphone.
 
 References are closed forms (baffled point source, Fraunhofer integrals of a
 rectangular piston and of simply supported modes, the static potential of a
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from synth import radiation
+from synth.sound import radiation
 from synth.errors import ParameterError
-from synth.radiation import delay, distance, rayleigh_gains
+from synth.sound.radiation import delay, distance, rayleigh_gains
 
 RHO = 1.204      # kg/m^3
 C = 343.0        # m/s

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 import synth
-from synth import plate as plate_modes
+from synth.sound import modes as plate_modes
 from synth.errors import ParameterError
-from synth.render import render
-from synth.scene import Accelerometer, Microphone, Scene
-from synth.synthesis import pulse_grid, pulse_transforms, synthesize
+from synth.sound.render import render
+from synth.physics.scene import Accelerometer, Microphone, Scene
+from synth.sound.modal_bank import pulse_grid, pulse_transforms, synthesize
 
 DEFAULT = synth.load_preset("default")
 EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)   # no omission, no fade
@@ -214,7 +214,7 @@ def test_render_rejects_non_scene():
 @pytest.mark.parametrize("preset, floor_db", [("default", -40.0), ("default", -60.0),
                                               ("small-click-on-acrylic", -40.0)])
 def test_omissions_stay_within_the_floor(preset, floor_db):
-    # The omission budget (synth.synthesis): at every sample, the modes and tails left out
+    # The omission budget (synth.sound.modal_bank): at every sample, the modes and tails left out
     # add up to at most floor * reference, for any number of impacts (the acrylic click
     # has dozens). Against the same render with nothing left out (floor -200 dB), fade off.
     scene = synth.load_preset(preset)
@@ -253,8 +253,8 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     # at the mirror pole) is that fit within 1e-3 (the elements' and time grid's
     # discretisation), and the gain at the pole itself, which weights far elements by
     # exp(sigma (R - R0) / c) ~ e^3, fits far worse.
-    from synth import radiation as R
-    from synth.render import AIR_DENSITY, SOUND_SPEED, _microphone_gains
+    from synth.sound import radiation as R
+    from synth.sound.render import AIR_DENSITY, SOUND_SPEED, _microphone_gains
     plate = synth.Plate("steel", 0.001, 0.12, 0.1, "simply-supported")
     modes = plate_modes.modes(plate, max_frequency=20000.0)
     k = 2

@@ -55,9 +55,9 @@ import numpy as np
 import pytest
 
 from synth.analysis import analyze
-from synth.presets import available, load_preset_with_options
-from synth.render import render
-from synth.scheduler import BounceSequence, simulate_scene
+from synth.io.presets import available, load_preset_with_options
+from synth.sound.render import render
+from synth.physics.bounces import BounceSequence, simulate_scene
 
 PRESETS = sorted(available())
 #: The onset requirement, s.

@@ -1,4 +1,4 @@
-"""Tests of synth.scene: Ball, Plate, listeners and Scene."""
+"""Tests of synth.physics.scene: Ball, Plate, listeners and Scene."""
 
 import dataclasses
 import math
@@ -6,8 +6,8 @@ import math
 import pytest
 
 from synth.errors import ParameterError
-from synth.materials import TABLE, Material
-from synth.scene import BOUNDARIES, Accelerometer, Ball, Microphone, Plate, Scene
+from synth.physics.materials import TABLE, Material
+from synth.physics.scene import BOUNDARIES, Accelerometer, Ball, Microphone, Plate, Scene
 
 BAD_POSITIVE = [0.0, -1.0, float("nan"), float("inf"), float("-inf"), "1", None, True]
 

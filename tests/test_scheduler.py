@@ -5,8 +5,8 @@ import math
 import pytest
 
 from synth.errors import ParameterError
-from synth.scene import Ball, Plate, Scene
-from synth.scheduler import simulate_bounces, simulate_scene
+from synth.physics.scene import Ball, Plate, Scene
+from synth.physics.bounces import simulate_bounces, simulate_scene
 
 BALL = Ball("steel", 0.005, mass=4.17e-3)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
@@ -75,7 +75,7 @@ def test_corner_impact_loses_more():
 
 
 def test_simulate_scene_uses_scene_contact():
-    from synth.scene import Contact
+    from synth.physics.scene import Contact
     s = Scene(BALL, MDF18, drop_height=0.1, contact=Contact("hunt-crossley", dissipation=0.3))
     hc = simulate_scene(s, max_impacts=1)
     hz = simulate_scene(Scene(BALL, MDF18, drop_height=0.1), max_impacts=1)

@@ -5,7 +5,8 @@ import math
 import pytest
 
 import synth
-from synth import contact, stimuli
+from synth.physics import contact
+from synth.stimuli import sequences as stimuli
 from synth.cli import main
 from synth.errors import ParameterError
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import numbers
 
-from .errors import ParameterError
+from synth.errors import ParameterError
 
 
 def _unit(unit: str) -> str:

@@ -9,16 +9,16 @@ purpose while the rest stays physical.
   ball, plate and contact at the same speed and time (the "physical mismatch" stimuli the
   thesis proposes: a large ball's rhythm with a small ball's clicks, and so on).
 
-Render either with :func:`synth.render.render` (``sequence=``) using the scene whose plate
+Render either with :func:`synth.sound.render.render` (``sequence=``) using the scene whose plate
 and listener should be heard.
 """
 
 from __future__ import annotations
 
-from . import contact
-from .errors import ParameterError
-from .scene import Scene
-from .scheduler import BounceSequence, Impact, simulate_scene
+from synth.physics import contact
+from synth.errors import ParameterError
+from synth.physics.scene import Scene
+from synth.physics.bounces import BounceSequence, Impact, simulate_scene
 
 
 def scaled_sequence(scene, restitution_scale, **options) -> BounceSequence:

@@ -1,6 +1,6 @@
 """The finite rectangular plate's bending modes (PHYSICS.md section 6).
 
-:func:`modes` returns every bending mode of a :class:`~synth.scene.Plate` up to a
+:func:`modes` returns every bending mode of a :class:`~synth.physics.scene.Plate` up to a
 frequency: natural frequencies, modal damping, modal masses and the mode shapes
 ``phi_k(x, y)``, which the synthesis combines as
 
@@ -106,10 +106,10 @@ import scipy.linalg
 from scipy.linalg import lapack
 from scipy.special import gammaln, roots_legendre
 
-from . import _checks
-from ._cache import MemoryCache, cache_dir, cache_path, savez_atomic
-from .errors import ParameterError, SynthError
-from .scene import Plate
+from synth import checks
+from synth.io.cache import MemoryCache, cache_dir, cache_path, savez_atomic
+from synth.errors import ParameterError, SynthError
+from synth.physics.scene import Plate
 
 __all__ = ["Modes", "modes", "TOLERANCE", "cache_info", "clear_memory_cache", "cache_dir"]
 
@@ -136,7 +136,7 @@ _CHUNK_ELEMENTS = 1 << 22
 # Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
 # runs products up to 4 * 65536 multiply-adds on one thread (its default
 # GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
-# Rayleigh sums of synth.radiation); a multithreaded product whose helper thread
+# Rayleigh sums of synth.sound.radiation); a multithreaded product whose helper thread
 # waits for a busy core stalls (measured: 5 to 10 times slower than on one thread).
 _PIECE = 1 << 18
 # Parity classes (x, y): 0 = even, 1 = odd.
@@ -917,7 +917,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
-    fmax = _checks.positive("max_frequency", max_frequency, "Hz")
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     a, b = plate.length, plate.width

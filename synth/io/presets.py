@@ -1,11 +1,11 @@
 """Presets: scenes described in TOML files.
 
 A preset has one section per scene object; the keys of ``[ball]``, ``[plate]``
-and ``[contact]`` are exactly the fields of :class:`~synth.scene.Ball`,
-:class:`~synth.scene.Plate` and :class:`~synth.scene.Contact` (one declaration
+and ``[contact]`` are exactly the fields of :class:`~synth.physics.scene.Ball`,
+:class:`~synth.physics.scene.Plate` and :class:`~synth.physics.scene.Contact` (one declaration
 each, so the dataclass field, the preset key and the ``--set`` option cannot
 drift apart), and those of ``[render]`` the options of :func:`synth.render`
-(:data:`synth.render.OPTIONS`). Every key, with its unit::
+(:data:`synth.sound.render.OPTIONS`). Every key, with its unit::
 
     description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"  # text
     gravity = 9.81                  # m/s^2 (optional, default 9.81)
@@ -69,9 +69,9 @@ import os
 import tomllib
 from pathlib import Path
 
-from .errors import ParameterError
-from .materials import LossFactor, Material, Rayleigh
-from .scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+from synth.errors import ParameterError
+from synth.physics.materials import LossFactor, Material, Rayleigh
+from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
 
 
 class PresetError(ParameterError):
@@ -89,7 +89,7 @@ SECTIONS = {
     "drop": ("height", "position"),
     "listener": ("type", "position"),
     "contact": _fields(Contact),
-    "render": None,  # the options of synth.render (synth.render.OPTIONS) and "subtype"
+    "render": None,  # the options of synth.render (synth.sound.render.OPTIONS) and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
 _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source")
@@ -102,7 +102,7 @@ def preset_dirs() -> list[Path]:
     if os.environ.get("SYNTH_PRESETS"):
         dirs.append(Path(os.environ["SYNTH_PRESETS"]))
     dirs.append(Path.cwd() / "presets")
-    dirs.append(Path(__file__).resolve().parent.parent / "presets")
+    dirs.append(Path(__file__).resolve().parents[2] / "presets")
     try:
         from importlib.resources import files
         dirs.append(Path(str(files("synth._presets"))))
@@ -281,9 +281,9 @@ def _scene_from_dict(data, source):
 
 def _render_section(section: dict, source: str) -> dict:
     """The ``[render]`` section, checked: its keys are options of :func:`synth.render`
-    (checked by :func:`synth.render.check_options`) and ``subtype`` (a soundfile
+    (checked by :func:`synth.sound.render.check_options`) and ``subtype`` (a soundfile
     subtype name such as "PCM_24" or "FLOAT")."""
-    from .render import OPTIONS, check_options
+    from synth.sound.render import OPTIONS, check_options
 
     allowed = OPTIONS + ("subtype",)
     for k, v in section.items():
@@ -329,10 +329,10 @@ def render_preset(name_or_path, *, overrides=(), **options):
     """Render a preset with the options of its ``[render]`` section, which ``options``
     (keywords of :func:`synth.render`, ``samplerate`` in Hz ...) override.
 
-    Returns the :class:`synth.render.Render`. The section's ``subtype`` (the output
+    Returns the :class:`synth.sound.render.Render`. The section's ``subtype`` (the output
     file's) is not a render option and is left out here.
     """
-    from .render import render
+    from synth.sound.render import render
 
     scene, section, _ = load_preset_with_options(name_or_path, overrides)
     opts = {k: v for k, v in section.items() if k != "subtype"}

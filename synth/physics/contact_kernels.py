@@ -84,7 +84,7 @@ _SN = int(SERIES_DEGREE) + 1          # coefficient arrays are (_SN, _SN): i, j 
 #: The series is used at most up to this dimensionless time (the contact lasts ~3).
 SERIES_MAX_TIME = 1.0
 
-# Status codes shared with synth.contact.
+# Status codes shared with synth.physics.contact.
 SEPARATED = 0
 SETTLED = 1
 MAX_STEPS = -1

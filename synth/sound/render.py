@@ -3,8 +3,8 @@
 ``render(scene, samplerate=48000)`` returns a :class:`Render` with the audio
 (float32), the impacts on the audio's time axis and the settings used. Its
 signal is what the scene's listener picks up: plate acceleration (m/s^2) for an
-:class:`~synth.scene.Accelerometer`, sound pressure (Pa) for a
-:class:`~synth.scene.Microphone` above the baffled plate, scaled by the level
+:class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa) for a
+:class:`~synth.physics.scene.Microphone` above the baffled plate, scaled by the level
 stage (``normalize``).
 """
 
@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _checks
-from . import plate as plate_modes
-from .errors import ParameterError
-from .scene import Accelerometer, Microphone, Scene
-from .scheduler import BounceSequence, Impact, simulate_scene
-from .synthesis import synthesize
+from synth import checks
+from synth.sound import modes as plate_modes
+from synth.errors import ParameterError
+from synth.physics.scene import Accelerometer, Microphone, Scene
+from synth.physics.bounces import BounceSequence, Impact, simulate_scene
+from synth.sound.modal_bank import synthesize
 
 NORMALIZE = ("peak", "loudness", "physical", "none")
 #: Speed of sound (m/s) and density of air (kg/m^3) at 20 degC, 1 atm.
@@ -91,9 +91,9 @@ def _microphone_gains(modes, scene, poles, k_max):
     the Rayleigh gain at the mirror pole: every element weighted by ``exp(-sigma_k (R -
     R0) / c) <= 1`` (so ``|G_k|`` never exceeds the in-phase bound), and equal to
     ``H_k(p_k)`` for a lightly damped mode (``sigma_k (R - R0) / c << 1``). Cached: see
-    :func:`synth.radiation.plate_gains`.
+    :func:`synth.sound.radiation.plate_gains`.
     """
-    from .radiation import plate_gains
+    from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
     h = plate_gains(modes, scene.listener.position, mirror, max_wavenumber=k_max,
@@ -112,7 +112,7 @@ def _nearest_distance(scene) -> float:
 
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the
-#: output file's, see :func:`synth.audio_io.write_audio`).
+#: output file's, see :func:`synth.io.audio.write_audio`).
 OPTIONS = ("samplerate", "normalize", "peak_db", "loudness_lufs", "floor_db", "max_frequency",
            "preroll", "fade", "max_duration", "max_tail", "pulse_points")
 
@@ -124,19 +124,19 @@ def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     converted (floats, an int rate); a bad one is a ``ParameterError`` naming it, its
     value and what is allowed. Used by :func:`render` itself and by presets."""
     fs = _samplerate(samplerate)
-    _checks.choice("normalize", normalize, NORMALIZE)
-    peak = _checks.real("peak_db", peak_db, "dBFS", "<= 0")
+    checks.choice("normalize", normalize, NORMALIZE)
+    peak = checks.real("peak_db", peak_db, "dBFS", "<= 0")
     if not peak <= 0.0:
         raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
-    lufs = _checks.real("loudness_lufs", loudness_lufs, "LUFS", "< 0")
+    lufs = checks.real("loudness_lufs", loudness_lufs, "LUFS", "< 0")
     if not lufs < 0.0:
         raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be < 0 (LUFS)")
-    floor = _checks.real("floor_db", floor_db, "dB", "< 0")
+    floor = checks.real("floor_db", floor_db, "dB", "< 0")
     if not floor < 0.0:
         raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
     f_max = None
     if max_frequency is not None:
-        f_max = _checks.positive("max_frequency", max_frequency, "Hz")
+        f_max = checks.positive("max_frequency", max_frequency, "Hz")
         if f_max > 0.5 * fs:
             raise ParameterError(
                 f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
@@ -146,10 +146,10 @@ def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         raise ParameterError(f"pulse_points={pulse_points!r} must be an integer >= 5")
     return dict(samplerate=fs, normalize=normalize, peak_db=peak, loudness_lufs=lufs,
                 floor_db=floor, max_frequency=f_max,
-                preroll=_checks.nonnegative("preroll", preroll, "s"),
-                fade=_checks.nonnegative("fade", fade, "s"),
-                max_duration=_checks.positive("max_duration", max_duration, "s"),
-                max_tail=_checks.positive("max_tail", max_tail, "s"),
+                preroll=checks.nonnegative("preroll", preroll, "s"),
+                fade=checks.nonnegative("fade", fade, "s"),
+                max_duration=checks.positive("max_duration", max_duration, "s"),
+                max_tail=checks.positive("max_tail", max_tail, "s"),
                 pulse_points=int(pulse_points))
 
 
@@ -166,14 +166,14 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     normalize : {"peak", "loudness", "physical", "none"}
         Level stage: peak to ``peak_db`` dBFS; integrated loudness to ``loudness_lufs``
         LUFS (needs pyloudnorm); a fixed physical calibration (see
-        :mod:`synth.audio_io`); or none (audio in Pa or m/s^2).
+        :mod:`synth.io.audio`); or none (audio in Pa or m/s^2).
     peak_db : float <= 0
         dBFS for "peak".
     loudness_lufs : float < 0
         LUFS for "loudness" (integrated, ITU-R BS.1770).
     floor_db : float < 0
         Omission floor, dB below the reference amplitude (the bound on the loudest tick's
-        peak): omitted modes and tails add up to at most this (see :mod:`synth.synthesis`).
+        peak): omitted modes and tails add up to at most this (see :mod:`synth.sound.modal_bank`).
     max_frequency : float > 0, optional
         Highest mode rendered, Hz, at most the Nyquist frequency ``samplerate / 2``
         (default: the Nyquist frequency; a mode at or above it is never rendered).
@@ -193,7 +193,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         Precomputed impacts of this scene (default: computed here).
     pulse_points : int >= 5
         Fewest points of the uniform grid on which each force pulse's Laplace
-        transforms are taken (see :mod:`synth.synthesis`; the default keeps their error
+        transforms are taken (see :mod:`synth.sound.modal_bank`; the default keeps their error
         below 2e-6 of the impulse; a reference render may ask for more).
     """
     if not isinstance(scene, Scene):
@@ -255,7 +255,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         n = min(audio.size, int(round(fade_s * fs)))
         if n > 1:
             audio[-n:] *= 0.5 * (1.0 + np.cos(np.linspace(0.0, math.pi, n)))
-    from . import audio_io
+    from synth.io import audio as audio_io
 
     scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
                                       peak_db=peak_db, loudness_lufs=loudness_lufs)

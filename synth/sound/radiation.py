@@ -61,7 +61,7 @@ result does not depend on the timing.
 
 Cache
 -----
-:func:`plate_gains` computes the gains of a :class:`synth.plate.Modes` and keeps
+:func:`plate_gains` computes the gains of a :class:`synth.sound.modes.Modes` and keeps
 them in memory and on disk (``radiation-gains-*.npz`` beside the plate-mode cache,
 ``$SYNTH_CACHE_DIR`` if set), keyed by everything that determines them, so that a
 scene rendered again (in this process or another) does not repeat the integral.
@@ -81,10 +81,10 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from . import _checks
-from .errors import ParameterError
-from ._cache import MemoryCache, cache_path, savez_atomic
-from .plate import Modes
+from synth import checks
+from synth.errors import ParameterError
+from synth.io.cache import MemoryCache, cache_path, savez_atomic
+from synth.sound.modes import Modes
 
 __all__ = ["RadiationResult", "rayleigh_gains", "plate_gains", "delay", "distance",
            "cache_info", "clear_memory_cache"]
@@ -149,7 +149,7 @@ class RadiationResult:
 
 
 def _listener(listener_position) -> tuple[float, float, float]:
-    x, y, z = _checks.point("listener_position", listener_position, 3)
+    x, y, z = checks.point("listener_position", listener_position, 3)
     if not z > 0.0:
         raise ParameterError(
             f"listener_position.z={z!r} must be > 0 (metres above the plate, on the air side)")
@@ -163,8 +163,8 @@ def _size(size) -> tuple[float, float]:
         raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)") from None
     if len(items) != 2:
         raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
-    return (_checks.positive("size.a", items[0], "metres"),
-            _checks.positive("size.b", items[1], "metres"))
+    return (checks.positive("size.a", items[0], "metres"),
+            checks.positive("size.b", items[1], "metres"))
 
 
 def _poles(s) -> np.ndarray:
@@ -498,12 +498,12 @@ def _check_settings(max_wavenumber, air_density, sound_speed, reference_distance
     """The settings shared by :func:`rayleigh_gains` and :func:`plate_gains`, checked:
     ``(kb rad/m, rho kg/m^3, c m/s, R0 m or None, tol)``; ``max_points`` must be a positive
     integer."""
-    kb = _checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
-    rho = _checks.positive("air_density", air_density, "kg/m^3")
-    c = _checks.positive("sound_speed", sound_speed, "m/s")
-    r0 = None if reference_distance is None else _checks.nonnegative(
+    kb = checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
+    rho = checks.positive("air_density", air_density, "kg/m^3")
+    c = checks.positive("sound_speed", sound_speed, "m/s")
+    r0 = None if reference_distance is None else checks.nonnegative(
         "reference_distance", reference_distance, "metres")
-    tol = _checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
+    tol = checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
                            hi_open=False)
     if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
             or max_points <= 0:
@@ -790,8 +790,8 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
 
     Parameters
     ----------
-    modes : synth.plate.Modes
-        The plate's modes; their :meth:`~synth.plate.Modes.shapes` are the
+    modes : synth.sound.modes.Modes
+        The plate's modes; their :meth:`~synth.sound.modes.Modes.shapes` are the
         normal-velocity shapes and the plate's length and width the size.
     listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points, full_output
         As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
@@ -808,23 +808,23 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
     Raises
     ------
     ParameterError
-        If ``modes`` is not a :class:`~synth.plate.Modes`, ``s`` does not have one
+        If ``modes`` is not a :class:`~synth.sound.modes.Modes`, ``s`` does not have one
         entry per mode, ``cache`` is not a bool, or as :func:`rayleigh_gains`.
 
     Notes
     -----
     The result is stored under a key made of everything that determines it:
-    :attr:`~synth.plate.Modes.shape_key` (the plate's size and eigen-solution),
+    :attr:`~synth.sound.modes.Modes.shape_key` (the plate's size and eigen-solution),
     the listener position, the poles ``s`` (exact bytes), the maximum wavenumber,
     the air constants, the reference distance, ``tol``, ``max_points`` and the
     quadrature's settings. Files ``radiation-gains-*.npz`` sit beside the mode
-    cache (:func:`synth.plate.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
+    cache (:func:`synth.sound.modes.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
     atomically; an unreadable or inconsistent file is ignored and rewritten. A
     result loaded from disk equals the computed one exactly (the
     convergence warning, if any, is repeated).
     """
     if not isinstance(modes, Modes):
-        raise ParameterError(f"modes={modes!r} must be a synth.plate.Modes")
+        raise ParameterError(f"modes={modes!r} must be a synth.sound.modes.Modes")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     listener = _listener(listener_position)
@@ -880,7 +880,7 @@ def distance(listener_position, reference_point) -> float:
         ``|xL - xr|``, metres (the ``reference_distance`` of :func:`rayleigh_gains`).
     """
     xl, yl, zl = _listener(listener_position)
-    xr, yr = _checks.point("reference_point", reference_point, 2)
+    xr, yr = checks.point("reference_point", reference_point, 2)
     return math.sqrt((xl - xr) ** 2 + (yl - yr) ** 2 + zl * zl)
 
 
@@ -902,5 +902,5 @@ def delay(listener_position, reference_point, sound_speed=SOUND_SPEED) -> float:
         ``|xL - xr| / c``, seconds: the delay to apply to gains computed with
         ``reference_distance = distance(listener_position, reference_point)``.
     """
-    c = _checks.positive("sound_speed", sound_speed, "m/s")
+    c = checks.positive("sound_speed", sound_speed, "m/s")
     return distance(listener_position, reference_point) / c

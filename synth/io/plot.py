@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _checks
-from .audio_io import (_check_audio, _check_samplerate, _check_units, _target_path,
+from synth import checks
+from synth.io.audio import (_check_audio, _check_samplerate, _check_units, _target_path,
                        _write_atomically)
-from .errors import ParameterError, SynthError
+from synth.errors import ParameterError, SynthError
 
 #: Size of the figure, inches (width, height), and its resolution, dots per inch:
 #: the PNG is ``FIGSIZE * DPI`` pixels.
@@ -139,7 +139,7 @@ def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
     audio = _check_audio("render.audio", _attr(render, "audio"))
     sr = _check_samplerate(_attr(render, "samplerate"))
     units = _check_units(_attr(render, "units"))
-    gain = _checks.positive("render.gain", _attr(render, "gain"), "full scale per physical unit")
+    gain = checks.positive("render.gain", _attr(render, "gain"), "full scale per physical unit")
     impacts = list(_attr(render, "impacts"))
     times = _impact_times(impacts)
     settings = _attr(render, "settings")

@@ -126,8 +126,8 @@ import numba
 from scipy.linalg import solve_toeplitz
 from scipy.signal import lfilter
 
-from . import _checks
-from .errors import ParameterError
+from synth import checks
+from synth.errors import ParameterError
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
 ORDER = 1.0 / 120.0
@@ -363,9 +363,9 @@ def extend(x, n, samplerate, *, context=CONTEXT, order=ORDER):
     The continuation is exact for a sum of at most ``order * samplerate / 2`` decaying
     sinusoids (1e-9 for two); a rendered tick of the default scene is continued to 1e-3
     over 30 ms from its tail 100 ms after the onset."""
-    fs = _checks.positive("samplerate", samplerate, "Hz")
-    ctx = _checks.positive("context", context, "s")
-    od = _checks.positive("order", order, "s")
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    ctx = checks.positive("context", context, "s")
+    od = checks.positive("order", order, "s")
     x = np.asarray(x, dtype=float)
     if x.ndim != 1 or not np.all(np.isfinite(x)):
         raise ParameterError(f"x with shape {x.shape} must be (frames,) and finite")
@@ -497,10 +497,10 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
         raise ParameterError(f"audio with shape {x.shape} must be (frames,) or (frames, channels)")
     if not np.all(np.isfinite(x)):
         raise ParameterError("audio contains NaN or inf; every sample must be finite")
-    fs = _checks.positive("samplerate", samplerate, "Hz")
-    k = _checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
-    mode = _checks.choice("normalize", normalize, NORMALIZE_MODES)
-    target_db = _checks.real("peak_db", peak_db, "dBFS")
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
+    mode = checks.choice("normalize", normalize, NORMALIZE_MODES)
+    target_db = checks.real("peak_db", peak_db, "dBFS")
     if target_db > 0.0:
         raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
     if not isinstance(scale_amplitude, (bool, np.bool_)):
@@ -510,7 +510,7 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     mono = x.ndim == 1
     X = x[:, None] if mono else x
     if onsets is None:
-        from .analysis import analyze
+        from synth.analysis import analyze
         onsets = [t.time for t in analyze(x, fs, gravity=gravity, channel=channel).ticks]
     t = np.asarray(onsets, dtype=float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)):
@@ -522,7 +522,7 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     if min_bounce is None:
         min_b = float(np.min(np.diff(t)))
     else:
-        min_b = _checks.positive("min_bounce", min_bounce, "s")
+        min_b = checks.positive("min_bounce", min_bounce, "s")
         if min_b < 2.0 / fs:
             raise ParameterError(f"min_bounce={min_bounce!r} must be at least 2 sample periods "
                                  f"({2.0 / fs:.4g} s at {fs:g} Hz)")

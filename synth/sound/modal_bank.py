@@ -61,7 +61,7 @@ import time
 import numba
 import numpy as np
 
-from .errors import ParameterError
+from synth.errors import ParameterError
 
 #: Fewest points of the uniform grid on which a pulse's transforms are taken.
 PULSE_POINTS = 65

@@ -8,7 +8,7 @@ The model is PHYSICS.md sections 2 and 4 (thesis eqs. 2.9-2.11, 2.34, 2.42):
     F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
 
 ``solve_contact`` takes the lumped parameters; ``solve_impact`` derives them from
-a :class:`~synth.scene.Ball` and a :class:`~synth.scene.Plate`. Both return an
+a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate`. Both return an
 :class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
 and ``message``; only bad input raises (``ParameterError``).
 
@@ -36,10 +36,10 @@ from functools import cached_property
 
 import numpy as np
 
-from . import _checks
-from . import _contact_kernels as _k
-from . import impedance
-from .errors import ParameterError
+from synth import checks
+from synth.physics import contact_kernels as _k
+from synth.physics import impedance
+from synth.errors import ParameterError
 
 #: Zener's inelasticity above which the contact is integrated by the implicit
 #: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
@@ -229,18 +229,18 @@ def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=
             and 0.0 <= dissipation < _INF and -_INF < plate_velocity < _INF
             and 1e-12 <= rtol <= 0.1 and n_points >= MIN_POINTS and type(method) is str
             and method in _METHODS):
-        mass = _checks.positive("mass", mass, "kg")
-        stiffness = _checks.positive("stiffness", stiffness, "N/m^n")
-        admittance = _checks.nonnegative("admittance", admittance, "m/(N s)")
-        speed = _checks.positive("speed", speed, "m/s")
-        gravity = _checks.nonnegative("gravity", gravity, "m/s^2")
-        exponent = _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
-        dissipation = _checks.nonnegative("dissipation", dissipation, "s/m")
-        plate_velocity = _checks.real("plate_velocity", plate_velocity, "m/s")
-        rtol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False,
+        mass = checks.positive("mass", mass, "kg")
+        stiffness = checks.positive("stiffness", stiffness, "N/m^n")
+        admittance = checks.nonnegative("admittance", admittance, "m/(N s)")
+        speed = checks.positive("speed", speed, "m/s")
+        gravity = checks.nonnegative("gravity", gravity, "m/s^2")
+        exponent = checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+        dissipation = checks.nonnegative("dissipation", dissipation, "s/m")
+        plate_velocity = checks.real("plate_velocity", plate_velocity, "m/s")
+        rtol = checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False,
                                 hi_open=False)
         n_points = _check_points(n_points)
-        _checks.choice("method", method, _METHODS)
+        checks.choice("method", method, _METHODS)
     if not speed + plate_velocity > 0.0:
         raise ParameterError(
             f"speed={speed!r} with plate_velocity={plate_velocity!r}: the approach speed "
@@ -291,7 +291,7 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from .scene import CONTACT_LAWS  # noqa: E402  (one list of laws)
+from synth.physics.scene import CONTACT_LAWS  # noqa: E402  (one list of laws)
 
 
 def effective_modulus(ball, plate) -> float:
@@ -309,7 +309,7 @@ def foundation_stiffness(ball, plate, depth=None) -> float:
 
     ``depth`` is the Winkler layer's depth ``h`` in metres (default: the plate thickness).
     """
-    h = plate.thickness if depth is None else _checks.positive("layer_depth", depth, "metres")
+    h = plate.thickness if depth is None else checks.positive("layer_depth", depth, "metres")
     return math.pi * plate.material.effective_modulus * ball.radius / h
 
 
@@ -318,7 +318,7 @@ def settled_penetration(ball, plate, gravity=9.81) -> float:
 
     ``gravity`` in m/s^2; Hertz contact.
     """
-    g = _checks.positive("gravity", gravity, "m/s^2")
+    g = checks.positive("gravity", gravity, "m/s^2")
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
@@ -336,7 +336,7 @@ def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None
     layer_depth : float > 0
         Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
     """
-    _checks.choice("contact", contact, CONTACT_LAWS)
+    checks.choice("contact", contact, CONTACT_LAWS)
     given = {"dissipation": dissipation, "exponent": exponent, "stiffness": stiffness,
              "layer_depth": layer_depth}
     allowed = {"hertz": (), "hunt-crossley": ("dissipation",),
@@ -349,13 +349,13 @@ def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None
     if contact == "hunt-crossley":
         if dissipation is None:
             raise ParameterError("contact='hunt-crossley' needs dissipation (mu, s/m, > 0)")
-        return hertz_stiffness(ball, plate), 1.5, _checks.positive("dissipation", dissipation, "s/m")
+        return hertz_stiffness(ball, plate), 1.5, checks.positive("dissipation", dissipation, "s/m")
     if contact == "elastic-foundation":
         return foundation_stiffness(ball, plate, layer_depth), 2.0, 0.0
     if exponent is None or stiffness is None:
         raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
-    return (_checks.positive("stiffness", stiffness, "N/m^n"),
-            _checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False), 0.0)
+    return (checks.positive("stiffness", stiffness, "N/m^n"),
+            checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False), 0.0)
 
 
 def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="hertz",
@@ -372,7 +372,7 @@ def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="he
     position : (float, float), optional
         Impact point, metres from a plate corner. None: far from the edges (the
         infinite-plate impedance). Near an edge or corner the admittance grows
-        (see :func:`synth.impedance.point_admittance`); it depends on the contact
+        (see :func:`synth.physics.impedance.point_admittance`); it depends on the contact
         time, so the two are solved together by fixed-point iteration.
     gravity : float >= 0
         m/s^2.
@@ -389,7 +389,7 @@ def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="he
     -------
     ImpactResult
     """
-    from .scene import Ball, Plate
+    from synth.physics.scene import Ball, Plate
 
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
@@ -414,7 +414,7 @@ EDGE_ITERATIONS = 80
 
 def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=None):
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
-    :func:`synth.impedance.point_admittance` (lumped values checked by the caller).
+    :func:`synth.physics.impedance.point_admittance` (lumped values checked by the caller).
 
     The admittance ``beta`` depends on the contact time, which depends on ``beta``:
     the pair is the root of ``r(beta) = A(tau(beta)) - beta``, with ``A`` the edge

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _checks
-from .errors import ParameterError, SynthError
+from synth import checks
+from synth.errors import ParameterError, SynthError
 
 PORTAUDIO_HELP = ("playback needs the PortAudio library: on Debian/Ubuntu `apt-get install "
                   "libportaudio2`, on Fedora `dnf install portaudio`, on macOS `brew install "
@@ -28,7 +28,7 @@ def _sounddevice():
 
 
 def play(audio, samplerate=None, *, blocking=True):
-    """Play ``audio`` (a :class:`~synth.render.Render`, or an array with ``samplerate`` in Hz).
+    """Play ``audio`` (a :class:`~synth.sound.render.Render`, or an array with ``samplerate`` in Hz).
 
     ``blocking=False`` returns at once (``sounddevice.wait()`` or :func:`stop` later).
     """
@@ -36,7 +36,7 @@ def play(audio, samplerate=None, *, blocking=True):
         audio, samplerate = audio.audio, audio.samplerate if samplerate is None else samplerate
     if samplerate is None:
         raise ParameterError("samplerate=None: give the sample rate in Hz (there is no default)")
-    fs = _checks.positive("samplerate", samplerate, "Hz")
+    fs = checks.positive("samplerate", samplerate, "Hz")
     x = np.asarray(audio, dtype=np.float32)
     if x.ndim not in (1, 2) or x.size == 0 or not np.all(np.isfinite(x)):
         raise ParameterError(f"audio with shape {x.shape} must be a finite, non-empty (frames,) "

@@ -31,10 +31,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import _checks, contact, impedance
-from .contact import ImpactResult
-from .errors import ParameterError
-from .scene import Ball, Plate
+from synth import checks
+from synth.physics import contact
+from synth.physics import impedance
+from synth.physics.contact import ImpactResult
+from synth.errors import ParameterError
+from synth.physics.scene import Ball, Plate
 
 STOP_REASONS = ("settled", "flight-shorter-than-contact", "floor", "max-duration",
                 "max-impacts", "solver-failure")
@@ -138,7 +140,7 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         m/s^2.
     contact_law : str
         "hertz" (default), "elastic-foundation", "hunt-crossley" or "power-law";
-        its parameters go in ``contact_options`` (see :func:`synth.contact.contact_law`).
+        its parameters go in ``contact_options`` (see :func:`synth.physics.contact.contact_law`).
     rtol : float
         Relative accuracy of each impact's restitution and contact time.
     floor_db : float < 0
@@ -165,19 +167,19 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
-    h0 = _checks.positive("drop_height", drop_height, "metres")
-    g = _checks.positive("gravity", gravity, "m/s^2")
-    floor = _checks.real("floor_db", floor_db, "dB")
+    h0 = checks.positive("drop_height", drop_height, "metres")
+    g = checks.positive("gravity", gravity, "m/s^2")
+    floor = checks.real("floor_db", floor_db, "dB")
     if not floor < 0.0:
         raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB relative to the first tick)")
-    t_max = _checks.positive("max_duration", max_duration, "s")
+    t_max = checks.positive("max_duration", max_duration, "s")
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError(f"max_impacts={max_impacts!r} must be an integer >= 1")
     pos = None if position is None else plate.check_position(position, "position")
     K, n, mu = contact.contact_law(ball, plate, contact_law, **contact_options)
-    tol = _checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
+    tol = checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
     n_points = contact._check_points(n_points)
-    k = _checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
+    k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
     beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
     energy_floor = 10.0 ** (floor / 10.0)
 
@@ -219,9 +221,9 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
 
 
 def simulate_scene(scene, **options) -> BounceSequence:
-    """:func:`simulate_bounces` for a :class:`~synth.scene.Scene` (its ball, plate,
+    """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
     drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
-    from .scene import Scene
+    from synth.physics.scene import Scene
 
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")

@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 import soundfile
 
-from . import _checks
-from .errors import ParameterError, SynthError
+from synth import checks
+from synth.errors import ParameterError, SynthError
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
@@ -105,7 +105,7 @@ def _check_samplerate(samplerate) -> int:
 
 
 def _check_units(units) -> str:
-    return _checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
+    return checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
 
 
 def _peak(a: np.ndarray) -> float:
@@ -337,17 +337,17 @@ def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23
     gain : float
         Full-scale units per physical unit (per Pa or per m/s^2).
     """
-    mode = _checks.choice("mode", mode, NORMALIZE_MODES)
+    mode = checks.choice("mode", mode, NORMALIZE_MODES)
     a = _check_audio("audio", audio)
     sr = _check_samplerate(samplerate)
     u = _check_units(units)
-    target_peak_db = _checks.real("peak_db", peak_db, "dBFS")
+    target_peak_db = checks.real("peak_db", peak_db, "dBFS")
     if target_peak_db > 0.0:
         raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
-    target_lufs = _checks.real("loudness_lufs", loudness_lufs, "LUFS")
+    target_lufs = checks.real("loudness_lufs", loudness_lufs, "LUFS")
     if target_lufs > 0.0:
         raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be <= 0 (LUFS)")
-    limit = None if max_peak is None else _checks.positive("max_peak", max_peak, "full scale")
+    limit = None if max_peak is None else checks.positive("max_peak", max_peak, "full scale")
     dtype = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
     x = a.astype(np.float64)
 
@@ -440,7 +440,7 @@ def fade_out(audio, samplerate, duration) -> np.ndarray:
     """
     a = _check_audio("audio", audio)
     sr = _check_samplerate(samplerate)
-    d = _checks.nonnegative("duration", duration, "s")
+    d = checks.nonnegative("duration", duration, "s")
     frames = a.shape[0]
     n = int(round(d * sr))
     if n > frames:

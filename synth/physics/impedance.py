@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 
-from . import _checks
+from synth import checks
 
 #: Z_edge / Z_inf at a free straight edge (Eichler; thesis Table 3.4).
 EDGE_RATIO = 0.29
@@ -65,7 +65,7 @@ def group_velocity(plate, omega) -> float:
 
     ``omega`` is an angular frequency, rad/s.
     """
-    omega = _checks.positive("omega", omega, "rad/s")
+    omega = checks.positive("omega", omega, "rad/s")
     return 2.0 * math.sqrt(omega) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
@@ -75,7 +75,7 @@ def critical_distance(plate, contact_time) -> float:
     ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
     ``omega = pi / tau``.
     """
-    tau = _checks.positive("contact_time", contact_time, "s")
+    tau = checks.positive("contact_time", contact_time, "s")
     return _critical_distance(plate, tau)
 
 
@@ -101,7 +101,7 @@ def point_admittance(plate, position, contact_time) -> float:
     those boundaries are handled by the plate's modes).
     """
     x, y = plate.check_position(position, "position")
-    tau = _checks.positive("contact_time", contact_time, "s")
+    tau = checks.positive("contact_time", contact_time, "s")
     return _point_admittance(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
 
 

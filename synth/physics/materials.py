@@ -61,8 +61,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _checks
-from .errors import ParameterError
+from synth import checks
+from synth.errors import ParameterError
 
 
 @dataclass(frozen=True)
@@ -81,8 +81,8 @@ class Rayleigh:
     beta: float
 
     def __post_init__(self):
-        object.__setattr__(self, "alpha", _checks.nonnegative("damping.alpha", self.alpha, "1/s"))
-        object.__setattr__(self, "beta", _checks.nonnegative("damping.beta", self.beta, "s"))
+        object.__setattr__(self, "alpha", checks.nonnegative("damping.alpha", self.alpha, "1/s"))
+        object.__setattr__(self, "beta", checks.nonnegative("damping.beta", self.beta, "s"))
 
     def decay_rate(self, omega):
         """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
@@ -103,7 +103,7 @@ class LossFactor:
     eta: float
 
     def __post_init__(self):
-        object.__setattr__(self, "eta", _checks.in_range(
+        object.__setattr__(self, "eta", checks.in_range(
             "damping.eta", self.eta, 0.0, 1.0, "dimensionless", lo_open=False))
 
     def decay_rate(self, omega):
@@ -146,9 +146,9 @@ class Material:
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"material.name={self.name!r} must be a non-empty string")
         n = self.name
-        object.__setattr__(self, "density", _checks.positive(f"{n}.density", self.density, "kg/m^3"))
-        object.__setattr__(self, "young", _checks.positive(f"{n}.young", self.young, "Pa"))
-        object.__setattr__(self, "poisson", _checks.in_range(
+        object.__setattr__(self, "density", checks.positive(f"{n}.density", self.density, "kg/m^3"))
+        object.__setattr__(self, "young", checks.positive(f"{n}.young", self.young, "Pa"))
+        object.__setattr__(self, "poisson", checks.in_range(
             f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"))
         if self.damping is not None and not isinstance(self.damping, (Rayleigh, LossFactor)):
             raise ParameterError(

@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 from dataclasses import KW_ONLY, dataclass
 
-from . import _checks
-from .errors import ParameterError
-from .materials import Material, resolve
+from synth import checks
+from synth.errors import ParameterError
+from synth.physics.materials import Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
@@ -37,11 +37,11 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(self, "radius", _checks.positive("ball.radius", self.radius, "metres"))
+        object.__setattr__(self, "radius", checks.positive("ball.radius", self.radius, "metres"))
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
         else:
-            m = _checks.positive("ball.mass", self.mass, "kg")
+            m = checks.positive("ball.mass", self.mass, "kg")
         object.__setattr__(self, "mass", m)
 
 
@@ -76,8 +76,8 @@ class Plate:
                 f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
                 f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(self, name, _checks.positive(f"plate.{name}", getattr(self, name), unit))
-        _checks.choice("plate.boundary", self.boundary, BOUNDARIES)
+            object.__setattr__(self, name, checks.positive(f"plate.{name}", getattr(self, name), unit))
+        checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
                 f"plate.thickness={self.thickness!r} must not exceed the plate's smaller side "
@@ -101,7 +101,7 @@ class Plate:
 
     def check_position(self, position, name: str = "position") -> tuple[float, float]:
         """Validate a point ``(x, y)`` (metres from a corner) on the plate and return it."""
-        x, y = _checks.point(name, position, 2)
+        x, y = checks.point(name, position, 2)
         if not (0.0 <= x <= self.length and 0.0 <= y <= self.width):
             raise ParameterError(
                 f"{name}=({x!r}, {y!r}) is off the plate: x must be in [0, {self.length!r}] "
@@ -127,7 +127,7 @@ class Accelerometer:
     position: tuple[float, float]
 
     def __post_init__(self):
-        object.__setattr__(self, "position", _checks.point("listener.position", self.position, 2))
+        object.__setattr__(self, "position", checks.point("listener.position", self.position, 2))
 
 
 @dataclass(frozen=True)
@@ -144,7 +144,7 @@ class Microphone:
     position: tuple[float, float, float]
 
     def __post_init__(self):
-        pos = _checks.point("listener.position", self.position, 3)
+        pos = checks.point("listener.position", self.position, 3)
         if not pos[2] > 0.0:
             raise ParameterError(
                 f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)")
@@ -190,15 +190,15 @@ class Contact:
     rtol: float = 1e-9
 
     def __post_init__(self):
-        _checks.choice("contact.law", self.law, CONTACT_LAWS)
-        object.__setattr__(self, "rtol", _checks.in_range(
+        checks.choice("contact.law", self.law, CONTACT_LAWS)
+        object.__setattr__(self, "rtol", checks.in_range(
             "contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False))
         for name, unit in (("dissipation", "s/m"), ("stiffness", "N/m^n"), ("layer_depth", "metres")):
             value = getattr(self, name)
             if value is not None:
-                object.__setattr__(self, name, _checks.positive(f"contact.{name}", value, unit))
+                object.__setattr__(self, name, checks.positive(f"contact.{name}", value, unit))
         if self.exponent is not None:
-            object.__setattr__(self, "exponent", _checks.in_range(
+            object.__setattr__(self, "exponent", checks.in_range(
                 "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False))
         needs = {"hertz": (), "hunt-crossley": ("dissipation",), "elastic-foundation": (),
                  "power-law": ("exponent", "stiffness")}[self.law]
@@ -212,7 +212,7 @@ class Contact:
                     f"contact.{name}={value!r} does not apply to contact.law={self.law!r}")
 
     def options(self) -> dict:
-        """The law's parameters as keyword arguments of :func:`synth.contact.contact_law`."""
+        """The law's parameters as keyword arguments of :func:`synth.physics.contact.contact_law`."""
         return {k: getattr(self, k) for k in ("dissipation", "exponent", "stiffness", "layer_depth")
                 if getattr(self, k) is not None}
 
@@ -252,8 +252,8 @@ class Scene:
         if not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate")
         object.__setattr__(self, "drop_height",
-                           _checks.positive("drop.height", self.drop_height, "metres"))
-        object.__setattr__(self, "gravity", _checks.positive("gravity", self.gravity, "m/s^2"))
+                           checks.positive("drop.height", self.drop_height, "metres"))
+        object.__setattr__(self, "gravity", checks.positive("gravity", self.gravity, "m/s^2"))
         pos = self.plate.centre if self.position is None else self.position
         pos = self.plate.check_position(pos, "drop.position")
         object.__setattr__(self, "position", pos)

@@ -401,8 +401,8 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from . import _checks
-from .errors import ParameterError, SynthError
+from synth import checks
+from synth.errors import ParameterError, SynthError
 
 #: Level of the onset walk relative to the whitened background, standard deviations.
 ONSET_NOISE_SIGMAS = 4.0
@@ -655,7 +655,7 @@ def _integer(name: str, value, lo: int) -> int:
 
 def _samples(name: str, value, fs: float, lo: int = 1) -> int:
     """A duration in s, as a whole number of samples (at least ``lo``)."""
-    t = _checks.positive(name, value, "s")
+    t = checks.positive(name, value, "s")
     n = int(round(t * fs))
     if n < lo:
         raise ParameterError(
@@ -1852,23 +1852,23 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         ``on_clipping="raise"``.
     """
     chans = _audio_array(audio)
-    fs = _checks.positive("samplerate", samplerate, "Hz")
-    g = _checks.positive("gravity", gravity, "m/s^2")
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    g = checks.positive("gravity", gravity, "m/s^2")
     ch = _channel(channel, chans.shape[1])
     min_sep = _samples("min_separation", min_separation, fs)
     hop_n = _samples("hop", hop, fs)
-    thr = _checks.positive("threshold_db", threshold_db, "dB")
-    rise = _checks.positive("rise_db", rise_db, "dB")
-    rel = _checks.positive("release", release, "dB/ms")
+    thr = checks.positive("threshold_db", threshold_db, "dB")
+    rise = checks.positive("rise_db", rise_db, "dB")
+    rel = checks.positive("release", release, "dB/ms")
     dyn = (DYNAMIC_RANGE_DB if dynamic_range_db is None
-           else _checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
-    drop = _checks.positive("max_drop_db", max_drop_db, "dB")
-    bg = _checks.positive("background", background, "s")
-    frac = _checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
+           else checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
+    drop = checks.positive("max_drop_db", max_drop_db, "dB")
+    bg = checks.positive("background", background, "s")
+    frac = checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
     win_n = _samples("window", window, fs)
     dec_n = _samples("decay_smoothing", decay_smoothing, fs, lo=3)
     clip_n = _integer("clip_samples", clip_samples, 2)
-    _checks.choice("on_clipping", on_clipping, ("warn", "raise"))
+    checks.choice("on_clipping", on_clipping, ("warn", "raise"))
     for name, flag in (("subtract_tails", subtract_tails), ("deflate", deflate)):
         if not isinstance(flag, (bool, np.bool_)):
             raise ParameterError(f"{name}={flag!r} must be True or False")
@@ -2229,7 +2229,7 @@ def plot_analysis(analysis, audio, samplerate, path):
     """
     an = _analysis("analysis", analysis)
     chans = _audio_array(audio)
-    fs = _checks.positive("samplerate", samplerate, "Hz")
+    fs = checks.positive("samplerate", samplerate, "Hz")
     if fs != an.samplerate:
         raise ParameterError(
             f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz")

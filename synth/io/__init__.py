@@ -1,0 +1,2 @@
+"""Everything that touches files or devices: audio files, presets, plots, playback and the
+on-disk cache."""

@@ -1,0 +1,41 @@
+"""Every preset renders to the very samples recorded in tests/data/preset_renders.json, and the
+analysis finds the same ticks in it.
+
+The file was written by rendering each preset with its own [render] options before the package
+was reorganised; a refactoring must not change a single sample (SHA-256 of the float32 audio,
+little-endian) nor a tick time (to 1 ns, the precision recorded). A change that is meant to alter
+the sound records new values with ``python tests/data/record_preset_renders.py`` and says why in
+its commit.
+"""
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import synth
+
+RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())
+
+
+def audio_sha256(audio: np.ndarray) -> str:
+    """SHA-256 of the audio as little-endian float32."""
+    return hashlib.sha256(np.ascontiguousarray(audio, dtype="<f4").tobytes()).hexdigest()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(RECORDED))
+def test_preset_renders_the_recorded_samples(name):
+    want = RECORDED[name]
+    r = synth.render_preset(name)
+    assert r.samplerate == want["samplerate"]
+    assert r.audio.size == want["samples"]
+    assert audio_sha256(r.audio) == want["sha256"]
+    ticks = synth.analyze(r.audio, samplerate=r.samplerate).ticks
+    np.testing.assert_allclose([t.time for t in ticks], want["ticks"], rtol=0, atol=1e-9)
+
+
+def test_every_preset_is_recorded():
+    assert sorted(RECORDED) == sorted(synth.io.presets.available())
