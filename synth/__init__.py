@@ -29,3 +29,12 @@ __all__ = [
     "render", "render_preset", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name):
+    # synth.bank (sound banks) is imported on first use: it is not needed to render.
+    if name == "bank":
+        import importlib
+
+        return importlib.import_module("synth.bank")
+    raise AttributeError(f"module 'synth' has no attribute {name!r}")

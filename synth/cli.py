@@ -261,6 +261,30 @@ def _cmd_bench(args):
     raise SystemExit(f"unknown benchmark {args.what!r}")
 
 
+def _cmd_bank(args):
+    from synth import bank
+
+    result = bank.run(args.spec, args.output, jobs=args.jobs, scheduler=args.scheduler,
+                      dry_run=args.dry_run, force=args.force)
+    print(result.summary(), file=sys.stderr)
+    return 0 if result.ok else 1
+
+
+def _cmd_cache(args):
+    from synth.io import cache
+
+    if args.action == "clear":
+        n, freed = cache.clear_disk()
+        print(f"{cache.cache_dir()}: {n} files deleted, {freed / 1e6:.1f} MB freed")
+        return 0
+    info = cache.disk_info()
+    print(f"{info.directory}: {info.entries} entries, {info.bytes / 1e6:.1f} MB of at most "
+          f"{info.max_bytes / 1e6:.0f} MB (SYNTH_CACHE_MAX_BYTES; least recently used evicted)")
+    for kind, (n, size) in info.by_kind.items():
+        print(f"  {kind:<32} {n:>5} entries {size / 1e6:>9.1f} MB")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="synth", description="Physically based bouncing and impact sounds.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -341,6 +365,25 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("materials", help="list the built-in materials")
     p.set_defaults(func=_cmd_materials)
+
+    p = sub.add_parser("bank", help="render a sound bank: many variations of a preset, "
+                                    "resumable, with a manifest")
+    p.add_argument("spec", help="bank spec (TOML): preset, [vary] axes, count, name, format")
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="folder of the files, manifest.csv/.jsonl and the stored spec")
+    p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: the cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on a Dask cluster (tcp://host:8786) instead of local workers")
+    p.add_argument("--dry-run", action="store_true",
+                   help="write the plan (the manifest without audio) and estimate the time")
+    p.add_argument("--force", action="store_true",
+                   help="start over in a folder made by another spec (deletes its files)")
+    p.set_defaults(func=_cmd_bank)
+
+    p = sub.add_parser("cache", help="the disk cache of plate modes and radiation gains")
+    p.add_argument("action", choices=["info", "clear"],
+                   help="info: entries and size; clear: delete every entry")
+    p.set_defaults(func=_cmd_cache)
 
     p = sub.add_parser("bench", help="error against run time")
     p.add_argument("what", choices=["contact", "render", "thesis", "analysis"],

@@ -2,10 +2,23 @@
 
 A :class:`MemoryCache` holds results under a key (a canonical JSON string of everything
 that determines them), drops the least recently used beyond an entry count or a size in
-bytes, and counts its traffic; it is thread-safe. On disk, results are ``.npz`` files in
-:func:`cache_dir`, named by a digest of the key, written atomically by
-:func:`savez_atomic` (a reader never sees a partial file); the key is stored in the file
-too, and the reader checks it and the arrays' consistency before use.
+bytes, and counts its traffic; it is thread-safe.
+
+On disk, results are ``.npz`` files in :func:`cache_dir`, named by a digest of the key.
+The disk cache is shared by every process of the machine (a sound bank's workers, several
+``synth`` commands), so:
+
+* :func:`savez_atomic` writes each entry to a temporary file of a unique name and renames
+  it into place (``os.replace`` is atomic): two processes filling the same entry at once
+  both succeed, the last rename wins, and a reader never sees a partial file;
+* every entry stores the SHA-256 of its arrays (names, dtypes, shapes and bytes), and
+  :func:`load_npz` returns the arrays only when it matches, so an altered or damaged file
+  is recomputed (the callers also check the stored key and the arrays' consistency);
+* the total size is bounded (:func:`max_bytes`, ``$SYNTH_CACHE_MAX_BYTES``, default
+  :data:`DEFAULT_MAX_BYTES`): after each write the least recently used entries are
+  evicted, "used" being the file's modification time, which :func:`load_npz` refreshes.
+
+:func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and ``synth cache clear``.
 """
 
 from __future__ import annotations
@@ -15,10 +28,24 @@ import os
 import sys
 import tempfile
 import threading
+import time
 from collections import OrderedDict
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from synth.errors import ParameterError
+
+#: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
+#: radiation gains well under 1 MB: a few dozen plates fit).
+DEFAULT_MAX_BYTES = 512 * 1024 * 1024
+
+#: Name of the array holding the SHA-256 of the others in every entry.
+DIGEST_ARRAY = "__sha256__"
+
+#: A temporary file older than this (s) was left by a process that died mid-write.
+STALE_TEMPORARY_AGE = 3600.0
 
 
 def cache_dir() -> Path:
@@ -38,6 +65,21 @@ def cache_dir() -> Path:
     return (Path(base) if base else home / ".cache") / "synth"
 
 
+def max_bytes() -> int:
+    """Bound of the disk cache's total size, bytes: ``$SYNTH_CACHE_MAX_BYTES`` (an
+    integer >= 0; 0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
+    text = os.environ.get("SYNTH_CACHE_MAX_BYTES")
+    if text is None or not text.strip():
+        return DEFAULT_MAX_BYTES
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise ParameterError(f"SYNTH_CACHE_MAX_BYTES={text!r} must be an integer >= 0 (bytes)")
+    return value
+
+
 def cache_path(prefix: str, key: str) -> Path:
     """The file of ``key`` in :func:`cache_dir`: ``{prefix}-{digest}.npz``. Raises
     RuntimeError where there is no home directory."""
@@ -45,20 +87,34 @@ def cache_path(prefix: str, key: str) -> Path:
     return cache_dir() / f"{prefix}-{digest}.npz"
 
 
+def arrays_digest(arrays: dict) -> str:
+    """SHA-256 (hex) of named arrays: each name, dtype, shape and bytes, by name."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == DIGEST_ARRAY:
+            continue
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def savez_atomic(path: Path, arrays: dict) -> bool:
-    """Write ``arrays`` to ``path`` (``.npz``): a temporary file in the same directory,
-    then an atomic rename, so that a reader never sees a partial file. Returns False,
-    having written nothing, if the file cannot be written (a cache is then skipped)."""
+    """Write ``arrays`` and their digest to ``path`` (``.npz``): a temporary file of a
+    unique name in the same directory, then an atomic rename, so that a reader never
+    sees a partial file and concurrent writers of one entry all succeed. Then evict the
+    least recently used entries beyond :func:`max_bytes`. Returns False, having written
+    nothing, if the file cannot be written (a cache is then skipped)."""
     tmp = None
     try:
+        limit = max_bytes()
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
         with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
+            np.savez(fh, **arrays, **{DIGEST_ARRAY: np.array(arrays_digest(arrays))})
         os.replace(tmp, path)
         tmp = None
-        return True
-    except (OSError, RuntimeError):  # unwritable or no home directory: no disk cache
+    except (OSError, RuntimeError, ParameterError):  # unwritable, no home, bad bound: no disk cache
         return False
     finally:
         if tmp is not None:
@@ -66,6 +122,148 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
                 os.unlink(tmp)
             except OSError:
                 pass
+    evict(limit, keep=path)
+    return True
+
+
+class CacheEntryError(ValueError):
+    """A disk cache entry whose stored digest does not match its arrays (or has none)."""
+
+
+class VerifiedArrays(dict):
+    """The arrays of a cache entry whose digest matched (a dict; usable in ``with``)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def load_npz(path: Path) -> VerifiedArrays:
+    """The arrays of the cache entry ``path``, checked against its stored digest, and
+    the entry marked as used (its modification time set to now) for the eviction order.
+
+    Raises OSError (missing, unreadable), ValueError (not an npz file) or
+    :class:`CacheEntryError` (digest missing or wrong): the caller recomputes."""
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {name: z[name] for name in z.files}
+    stored = arrays.pop(DIGEST_ARRAY, None)
+    if stored is None or str(stored[()]) != arrays_digest(arrays):
+        raise CacheEntryError(f"{path}: the arrays do not match the stored digest")
+    try:
+        os.utime(path)
+    except OSError:  # evicted meanwhile or read-only: the arrays read are still good
+        pass
+    return VerifiedArrays(arrays)
+
+
+@dataclass(frozen=True)
+class DiskEntry:
+    """A file of the disk cache: ``path``, ``size`` (bytes) and ``used`` (Unix time of
+    the last write or read, s)."""
+
+    path: Path
+    size: int
+    used: float
+
+
+def _entries(directory: Path) -> list[DiskEntry]:
+    out = []
+    for p in directory.glob("*.npz"):
+        try:
+            st = p.stat()
+        except FileNotFoundError:  # evicted by another process meanwhile
+            continue
+        out.append(DiskEntry(p, st.st_size, st.st_mtime))
+    return out
+
+
+def _stale_temporaries(directory: Path, now: float) -> list[Path]:
+    out = []
+    for p in directory.glob("*.tmp"):
+        try:
+            if now - p.stat().st_mtime > STALE_TEMPORARY_AGE:
+                out.append(p)
+        except FileNotFoundError:
+            continue
+    return out
+
+
+def evict(limit: int, *, keep: Path | None = None) -> int:
+    """Delete the least recently used entries of :func:`cache_dir` until their total
+    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
+    temporary files left by dead writers. Safe against other processes doing the same.
+    Returns the number of entries deleted."""
+    try:
+        directory = cache_dir()
+        if not directory.is_dir():
+            return 0
+        for p in _stale_temporaries(directory, time.time()):
+            _unlink(p)
+        entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
+    except (OSError, RuntimeError):
+        return 0
+    total = sum(e.size for e in entries)
+    deleted = 0
+    for e in entries:
+        if total <= limit:
+            break
+        if _unlink(e.path):
+            deleted += 1
+        total -= e.size
+    return deleted
+
+
+def _unlink(p: Path) -> bool:
+    try:
+        p.unlink()
+        return True
+    except OSError:  # already gone (another process) or not removable
+        return False
+
+
+@dataclass(frozen=True)
+class DiskInfo:
+    """The disk cache: ``directory``, ``entries`` (files), ``bytes`` (their total),
+    ``max_bytes`` (the bound), and ``by_kind`` (entries and bytes per file prefix)."""
+
+    directory: Path
+    entries: int
+    bytes: int
+    max_bytes: int
+    by_kind: dict
+
+
+def disk_info() -> DiskInfo:
+    """What the disk cache holds (``synth cache info``)."""
+    directory = cache_dir()
+    entries = _entries(directory) if directory.is_dir() else []
+    kinds: dict = {}
+    for e in entries:
+        kind = e.path.stem.rsplit("-", 1)[0]
+        n, b = kinds.get(kind, (0, 0))
+        kinds[kind] = (n + 1, b + e.size)
+    return DiskInfo(directory, len(entries), sum(e.size for e in entries), max_bytes(),
+                    dict(sorted(kinds.items())))
+
+
+def clear_disk() -> tuple[int, int]:
+    """Delete every entry (and temporary file) of the disk cache (``synth cache clear``).
+    Returns (files deleted, bytes freed)."""
+    directory = cache_dir()
+    if not directory.is_dir():
+        return 0, 0
+    n = freed = 0
+    for p in list(directory.glob("*.npz")) + list(directory.glob("*.tmp")):
+        try:
+            size = p.stat().st_size
+        except FileNotFoundError:
+            continue
+        if _unlink(p):
+            n += 1
+            freed += size
+    return n, freed
 
 
 class MemoryCache:

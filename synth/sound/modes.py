@@ -107,7 +107,7 @@ from scipy.linalg import lapack
 from scipy.special import gammaln, roots_legendre
 
 from synth import checks
-from synth.io.cache import MemoryCache, cache_dir, cache_path, savez_atomic
+from synth.io.cache import MemoryCache, cache_dir, cache_path, load_npz, savez_atomic
 from synth.errors import ParameterError, SynthError
 from synth.physics.scene import Plate
 
@@ -707,7 +707,7 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
         path = _path(key, boundary)
         if not path.is_file():
             return None
-        with np.load(path, allow_pickle=False) as z:
+        with load_npz(path) as z:
             if str(z["key"][()]) != key:
                 return None
             omega_max = float(z["omega_max"][()])

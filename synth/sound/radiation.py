@@ -83,7 +83,7 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.io.cache import MemoryCache, cache_path, savez_atomic
+from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.sound.modes import Modes
 
 __all__ = ["RadiationResult", "rayleigh_gains", "plate_gains", "delay", "distance",
@@ -755,7 +755,7 @@ def _load_gains(key: str, m: int):
         path = _gains_path(key)
         if not path.is_file():
             return None
-        with np.load(path, allow_pickle=False) as z:
+        with load_npz(path) as z:
             if str(z["key"][()]) != key:
                 return None
             gains, error, coherent = z["gains"], z["error"], z["coherent"]

@@ -1,0 +1,181 @@
+"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv`` in the bank's folder,
+one row per sound, and the spec stored beside them (``bank.json``).
+
+Rows are appended by one process (the bank's parent) as the sounds finish, each line
+written whole, flushed and fsynced, after its audio file is in place: a ``kill -9`` at any
+moment leaves every finished row with its file. The JSON Lines file is the record; the
+CSV carries the same rows for spreadsheets. At the start and the end of a run both are
+rewritten atomically from the rows that still hold (one per index, by index), so a line
+cut by a crash or a full disk is dropped and the sound redone.
+
+Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
+``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
+``duration`` (s), ``ticks``, ``first_restitution``, ``peak_dbfs`` (dBFS), ``loudness_lufs``
+(LUFS, ITU-R BS.1770, when pyloudnorm is installed) and ``sha256`` of the file.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import os
+import re
+import secrets
+from pathlib import Path
+
+JSONL = "manifest.jsonl"
+CSV = "manifest.csv"
+SPEC = "bank.json"
+LOCK = ".bank.lock"
+
+#: Columns after the varied keys.
+RESULT_COLUMNS = ("seed", "status", "error", "duration", "ticks", "first_restitution",
+                  "peak_dbfs", "loudness_lufs", "sha256")
+
+#: Temporary files this package writes beside their targets: ``.{name}.{12 hex}.part[.ext]``.
+TEMPORARY = re.compile(r"^\..+\.[0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
+
+
+def columns(keys) -> list[str]:
+    """The manifest's columns for the varied ``keys``."""
+    return ["index", "file", *keys, *RESULT_COLUMNS]
+
+
+def temporary_name(target: Path) -> Path:
+    """A fresh temporary path beside ``target`` of the package's naming."""
+    return target.with_name(f".{target.stem}.{secrets.token_hex(6)}.part{target.suffix}")
+
+
+def write_atomic(target: Path, data: bytes) -> None:
+    """Write ``data`` to ``target``: a temporary file beside it, flushed and fsynced,
+    then renamed into place, so ``target`` is either as it was or complete. An OSError
+    (a full disk ...) leaves no temporary file behind."""
+    tmp = temporary_name(target)
+    fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
+    try:
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def clean_temporaries(folder: Path) -> int:
+    """Delete the temporary files of this package's naming in ``folder`` (left by a
+    run that was killed). Returns how many."""
+    n = 0
+    for p in folder.iterdir():
+        if TEMPORARY.match(p.name) and p.is_file():
+            try:
+                p.unlink()
+                n += 1
+            except FileNotFoundError:
+                pass
+    return n
+
+
+def sha256_file(path: Path) -> str:
+    """SHA-256 (hex) of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _csv_value(v):
+    if v is None:
+        return ""
+    if isinstance(v, (list, tuple, dict)):
+        return json.dumps(v)
+    return v
+
+
+def _csv_line(row: dict, cols) -> str:
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow([_csv_value(row.get(c)) for c in cols])
+    return buf.getvalue()
+
+
+def _json_line(row: dict, cols) -> str:
+    return json.dumps({c: row.get(c) for c in cols}, allow_nan=False) + "\n"
+
+
+def read_rows(folder: Path) -> list[dict]:
+    """The rows of ``folder``'s JSON Lines manifest (none if absent), the last one kept
+    for each index; a line that is not a whole JSON object (cut by a crash) is skipped."""
+    path = folder / JSONL
+    if not path.is_file():
+        return []
+    rows = {}
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for line in fh:
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(row, dict) and isinstance(row.get("index"), int) and line.endswith("\n"):
+                rows[row["index"]] = row
+    return [rows[i] for i in sorted(rows)]
+
+
+class Manifest:
+    """The two manifest files of a bank's ``folder``, with the columns ``cols``."""
+
+    def __init__(self, folder: Path, cols: list[str]):
+        self.folder = Path(folder)
+        self.cols = list(cols)
+        self._files = None
+
+    def rewrite(self, rows) -> None:
+        """Replace both files, atomically, by ``rows`` (sorted by index)."""
+        self.close()
+        rows = sorted(rows, key=lambda r: r["index"])
+        header = _csv_line({c: c for c in self.cols}, self.cols)
+        write_atomic(self.folder / CSV, (header + "".join(
+            _csv_line(r, self.cols) for r in rows)).encode())
+        write_atomic(self.folder / JSONL, "".join(_json_line(r, self.cols) for r in rows).encode())
+
+    def append(self, row: dict) -> None:
+        """Add one row to both files, each line written whole, flushed and fsynced."""
+        if self._files is None:
+            self._files = [open(self.folder / JSONL, "a", encoding="utf-8"),
+                           open(self.folder / CSV, "a", encoding="utf-8", newline="")]
+        for fh, line in zip(self._files, (_json_line(row, self.cols), _csv_line(row, self.cols))):
+            fh.write(line)
+            fh.flush()
+            os.fsync(fh.fileno())
+
+    def close(self) -> None:
+        if self._files is not None:
+            for fh in self._files:
+                try:
+                    fh.close()
+                except OSError:
+                    pass
+            self._files = None
+
+
+def read_spec(folder: Path) -> dict | None:
+    """The spec stored in ``folder`` (None if none)."""
+    path = folder / SPEC
+    if not path.is_file():
+        return None
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def write_spec(folder: Path, spec: dict) -> None:
+    """Store ``spec`` (JSON) in ``folder``, atomically."""
+    write_atomic(folder / SPEC, (json.dumps(spec, indent=1, sort_keys=True) + "\n").encode())

@@ -1,0 +1,488 @@
+"""Running a bank: the sounds of a plan rendered by long-lived workers, each file written
+atomically, each finished row appended to the manifest; a rerun resumes.
+
+Workers: a pool of ``jobs`` processes (default: the machine's cores) that import the
+engine and render the base scene once (loading the compiled kernels and filling the
+plate-mode and radiation caches), then render rows until the plan is done; ``jobs=1``
+renders in this process. With ``scheduler``, the same task function runs on a Dask
+cluster (``dask.distributed.Client(scheduler)``; the optional extra ``dask``), whose
+workers must see the bank's folder.
+
+The parent alone writes the manifest (see :mod:`synth.bank.manifest`). A row whose scene
+cannot be rendered is recorded ``failed`` with its error and the others go on; a file that
+cannot be written (a full disk) stops the bank cleanly: the finished rows and files stay,
+and running the bank again completes it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import math
+import os
+import resource
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from synth.bank import manifest as mf
+from synth.bank import spec as bank_spec
+from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
+from synth.errors import SynthError
+
+#: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
+_WORKER_THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                   "NUMBA_NUM_THREADS": "1"}
+
+#: Renders timed by a dry run to estimate the bank's time.
+ESTIMATE_RENDERS = 3
+
+
+class BankRunError(SynthError):
+    """A bank that cannot go on: its folder is in use, or a file cannot be written."""
+
+
+@dataclass
+class RowResult:
+    """What a worker returns for a row: the manifest ``row``, or ``fatal`` (a file that
+    could not be written; the row is not recorded), and the worker's peak memory."""
+
+    row: dict | None
+    fatal: str | None = None
+    max_rss: int = 0
+
+
+@dataclass
+class BankResult:
+    """The outcome of :func:`run`.
+
+    ``planned`` rows in the plan; ``done`` rendered now (ok), ``skipped`` found complete,
+    ``failed`` recorded with their error (``failures``: index and error), ``stopped`` the
+    reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
+    ``peak_worker_rss`` the largest resident memory of a worker, bytes; for a dry run,
+    ``estimate`` the time the bank would take, s.
+    """
+
+    out_dir: Path
+    planned: int
+    done: int = 0
+    skipped: int = 0
+    failed: int = 0
+    failures: list = field(default_factory=list)
+    stopped: str | None = None
+    elapsed: float = 0.0
+    peak_worker_rss: int = 0
+    estimate: float | None = None
+
+    @property
+    def rate(self) -> float:
+        """Sounds rendered per second of the run."""
+        return self.done / self.elapsed if self.elapsed > 0 else 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.failed == 0 and self.stopped is None
+
+    def summary(self) -> str:
+        """The summary printed at the end of ``synth bank``."""
+        if self.estimate is not None:
+            return (f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
+                    f"already done); estimated {self.estimate:.1f} s to render the rest")
+        text = (f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
+                f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s)")
+        for index, error in self.failures[:5]:
+            text += f"\n  row {index} failed: {error}"
+        if len(self.failures) > 5:
+            text += f"\n  ... {len(self.failures) - 5} more failures in the manifest"
+        if self.stopped:
+            text += f"\nstopped: {self.stopped}"
+        return text
+
+
+# ------------------------------------------------------------------------ one row
+
+
+def _max_rss() -> int:
+    """Peak resident memory of this process, bytes."""
+    r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(r if sys.platform == "darwin" else r * 1024)
+
+
+def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
+    """Integrated loudness (ITU-R BS.1770, LUFS) of ``audio`` zero-padded to one 400 ms
+    gating block, or None without pyloudnorm or below the -70 LUFS gate."""
+    try:
+        import pyloudnorm
+    except ImportError:
+        return None
+    from synth.io.audio import LOUDNESS_BLOCK
+
+    x = np.asarray(audio, dtype=np.float64)
+    need = int(math.ceil(LOUDNESS_BLOCK * samplerate))
+    if x.shape[0] < need:
+        x = np.pad(x, [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1))
+    value = float(pyloudnorm.Meter(samplerate, block_size=LOUDNESS_BLOCK).integrated_loudness(x))
+    return round(value, 6) if math.isfinite(value) else None
+
+
+def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) -> bytes:
+    """The file's bytes in the spec's format and ``subtype``; PCM never clips."""
+    import soundfile
+
+    from synth.io.audio import FLOAT_SUBTYPES
+
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
+    if subtype not in FLOAT_SUBTYPES and peak > 1.0:
+        raise BankSpecError(
+            f"the audio peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, and "
+            f"subtype {subtype!r} would clip it: use render.normalize = 'peak', or "
+            f"format = 'wav' with render.subtype = 'FLOAT'")
+    buf = io.BytesIO()
+    soundfile.write(buf, audio, samplerate, subtype=subtype,
+                    format=bank_spec.FORMATS[spec.format][1])
+    return buf.getvalue()
+
+
+def _render(spec: BankSpec, item: PlanItem):
+    """Render row ``item``: the Render, the file's bytes, and the row's figures."""
+    from synth.io.presets import scene_from_dict
+    from synth.sound.render import render
+    from synth.stimuli.sequences import scaled_sequence
+
+    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values),
+                                     f"row {item.index}")
+    subtype = str(options.pop("subtype", spec.subtype)).upper()
+    k = item.values.get(RESTITUTION_SCALE)
+    sequence = None if k is None else scaled_sequence(
+        scene, k, max_duration=options.get("max_duration", 30.0))
+    rendered = render(scene, sequence=sequence, **options)
+    data = _encode(rendered.audio, rendered.samplerate, spec, subtype)
+    peak = float(np.max(np.abs(rendered.audio)))
+    figures = dict(duration=rendered.duration, ticks=len(rendered.impacts),
+                   first_restitution=(rendered.impacts[0].restitution
+                                      if len(rendered.impacts) else None),
+                   peak_dbfs=round(20 * math.log10(peak), 6) if peak > 0 else None,
+                   loudness_lufs=_loudness(rendered.audio, rendered.samplerate))
+    return rendered, data, figures
+
+
+def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
+    row = {"index": item.index, "file": item.file, "seed": spec.seed, "status": status}
+    for k, v in item.values.items():
+        row[k] = list(v) if isinstance(v, tuple) else v
+    return row
+
+
+def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
+    """Render row ``item`` of ``spec`` and write its file into ``out_dir`` atomically:
+    the task function of every worker (pool or Dask). A scene that fails gives a
+    ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
+    try:
+        _, data, figures = _render(spec, item)
+    except Exception as exc:  # noqa: BLE001 - any error of one scene is recorded, the rest go on
+        row = _base_row(spec, item, "failed")
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        return RowResult(row, max_rss=_max_rss())
+    try:
+        mf.write_atomic(Path(out_dir) / item.file, data)
+    except OSError as exc:
+        return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
+    row = _base_row(spec, item, "ok")
+    row.update(figures, sha256=hashlib.sha256(data).hexdigest())
+    return RowResult(row, max_rss=_max_rss())
+
+
+def warm(spec: BankSpec) -> None:
+    """Load the engine in this process: render the base scene once (compiled kernels,
+    plate modes and radiation gains into the caches). Errors are left to the rows."""
+    try:
+        _render(spec, PlanItem(-1, "warm", {}))
+    except Exception:  # noqa: BLE001 - a base scene that fails is reported by its rows
+        pass
+
+
+# ------------------------------------------------------------------------ executors
+
+_WORKER_SPEC: BankSpec | None = None
+_WORKER_DIR: str | None = None
+
+
+def _pool_init(spec: BankSpec, out_dir: str) -> None:
+    global _WORKER_SPEC, _WORKER_DIR
+    _WORKER_SPEC, _WORKER_DIR = spec, out_dir
+    warm(spec)
+
+
+def _pool_task(item: PlanItem) -> RowResult:
+    return render_item(_WORKER_SPEC, item, _WORKER_DIR)
+
+
+class _Serial:
+    def __init__(self, spec, out_dir):
+        self.spec, self.out_dir = spec, out_dir
+
+    def results(self, items):
+        warm(self.spec)
+        for item in items:
+            yield render_item(self.spec, item, self.out_dir)
+
+    def close(self):
+        pass
+
+
+class _Pool:
+    """Long-lived spawned processes, one thread of numerics each."""
+
+    def __init__(self, spec, out_dir, jobs):
+        import multiprocessing
+
+        saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
+        os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
+        try:
+            self.pool = multiprocessing.get_context("spawn").Pool(
+                jobs, initializer=_pool_init, initargs=(spec, out_dir))
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+
+    def results(self, items):
+        yield from self.pool.imap_unordered(_pool_task, items, chunksize=1)
+
+    def close(self):
+        self.pool.terminate()
+        self.pool.join()
+
+
+class _Dask:
+    """The same task function on a Dask cluster (``scheduler``: an address or a Client)."""
+
+    def __init__(self, spec, out_dir, scheduler):
+        try:
+            from dask.distributed import Client
+        except ImportError:
+            raise BankRunError("scheduler= needs the optional package dask.distributed: "
+                               "pip install 'impact-synth[dask]'") from None
+        self.own = not isinstance(scheduler, Client)
+        try:
+            self.client = Client(scheduler) if self.own else scheduler
+        except (OSError, ValueError, TimeoutError) as exc:
+            raise BankRunError(f"scheduler={scheduler!r}: cannot connect ({exc})") from None
+        self.spec, self.out_dir = spec, out_dir
+        self.client.run(warm, spec)
+
+    def results(self, items):
+        from dask.distributed import as_completed
+
+        spec = self.client.scatter(self.spec, broadcast=True)
+        futures = [self.client.submit(render_item, spec, item, self.out_dir, pure=False)
+                   for item in items]
+        self._futures = futures
+        for fut in as_completed(futures):
+            yield fut.result()
+
+    def close(self):
+        for fut in getattr(self, "_futures", ()):
+            fut.cancel()
+        if self.own:
+            self.client.close()
+
+
+# ------------------------------------------------------------------------ the run
+
+
+def _lock(out_dir: Path):
+    """Hold the folder's lock file for the run (another run into it is refused)."""
+    try:
+        import fcntl
+    except ImportError:  # no advisory locks on this platform
+        return None
+    fh = open(out_dir / mf.LOCK, "a")
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        raise BankRunError(f"out_dir={str(out_dir)!r} is in use by another synth bank") from None
+    return fh
+
+
+def _as_spec(spec) -> BankSpec:
+    if isinstance(spec, BankSpec):
+        return spec
+    if isinstance(spec, dict):
+        return bank_spec.from_dict(spec)
+    if isinstance(spec, (str, os.PathLike)):
+        return bank_spec.load(spec)
+    raise BankSpecError(f"spec={spec!r} must be a spec file, a dict or a BankSpec")
+
+
+def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
+    """Refuse a folder made by another spec (naming the keys that differ), or with
+    ``force`` delete its files and manifest to start over."""
+    stored = mf.read_spec(out_dir)
+    new = spec.as_dict()
+    if stored is not None and stored != new:
+        diff = bank_spec.differences(stored, new)
+        if not force:
+            raise BankSpecError(
+                f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
+                f"{', '.join(diff)}): use the same spec to resume, another folder, or "
+                f"--force to start over")
+        for row in mf.read_rows(out_dir):
+            f = out_dir / str(row.get("file", ""))
+            if f.parent == out_dir and f.is_file():
+                f.unlink()
+        for name in (mf.JSONL, mf.CSV):
+            (out_dir / name).unlink(missing_ok=True)
+    mf.write_spec(out_dir, new)
+
+
+def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
+    """The rows that are complete: ``ok``, in the plan, and their file present with the
+    recorded SHA-256. ``failed`` and ``planned`` rows are redone."""
+    out = []
+    for row in rows:
+        item = plan.get(row.get("index"))
+        if item is None or row.get("status") != "ok" or row.get("file") != item.file:
+            continue
+        path = out_dir / item.file
+        if path.is_file() and mf.sha256_file(path) == row.get("sha256"):
+            out.append(row)
+    return out
+
+
+def _estimate(spec: BankSpec, items, jobs: int) -> float:
+    """Time to render ``items`` on ``jobs`` workers, from a few renders timed here."""
+    if not items:
+        return 0.0
+    warm(spec)
+    sample = items[:ESTIMATE_RENDERS]
+    t0 = time.perf_counter()
+    for item in sample:
+        try:
+            _render(spec, item)
+        except Exception:  # noqa: BLE001 - a failing row costs about as much as a render
+            pass
+    per = (time.perf_counter() - t0) / len(sample)
+    return per * len(items) / max(1, jobs)
+
+
+def _progress(total: int):
+    if not sys.stderr.isatty():
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=total, file=sys.stderr, unit="sound")
+
+
+def _executor(spec, out_dir: Path, jobs: int, scheduler):
+    if scheduler is not None:
+        return _Dask(spec, str(out_dir), scheduler)
+    if jobs == 1:
+        return _Serial(spec, str(out_dir))
+    return _Pool(spec, str(out_dir), jobs)
+
+
+def _jobs(jobs) -> int:
+    if jobs is None:
+        return os.cpu_count() or 1
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise BankSpecError(f"jobs={jobs!r} must be an integer >= 1 (worker processes)")
+    return jobs
+
+
+def run(spec, out_dir, *, jobs: int | None = None, scheduler=None, dry_run: bool = False,
+        force: bool = False) -> BankResult:
+    """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
+    folder ``out_dir`` (created if needed), resuming what an earlier run left.
+
+    Parameters
+    ----------
+    jobs : int >= 1, optional
+        Worker processes (default: ``os.cpu_count()``); 1 renders in this process.
+    scheduler : str or dask.distributed.Client, optional
+        A Dask scheduler's address (``"tcp://host:8786"``) or a client: the rows run on
+        that cluster instead of the pool.
+    dry_run : bool
+        Write the plan (the manifest, rows ``planned``) without audio, and estimate the
+        time from a few renders.
+    force : bool
+        Start over in a folder made by another spec (its files and manifest deleted).
+
+    Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
+    raises :class:`~synth.bank.spec.BankSpecError` before any work.
+    """
+    spec = _as_spec(spec)
+    n_jobs = _jobs(jobs)
+    items = bank_spec.plan(spec)
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
+    lock = _lock(out)
+    try:
+        return _run(spec, items, out, n_jobs, scheduler, dry_run, force)
+    finally:
+        if lock is not None:
+            lock.close()
+
+
+def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
+    t0 = time.perf_counter()
+    _check_stored(out, spec, force)
+    mf.clean_temporaries(out)
+    plan = {item.index: item for item in items}
+    book = mf.Manifest(out, mf.columns(spec.keys))
+    kept = _verified(out, mf.read_rows(out), plan)
+    result = BankResult(out, len(items), skipped=len(kept))
+    done_ids = {r["index"] for r in kept}
+    todo = [item for item in items if item.index not in done_ids]
+    if dry_run:
+        planned = [_base_row(spec, item, "planned") for item in todo]
+        book.rewrite(kept + planned)
+        result.estimate = _estimate(spec, todo, n_jobs if scheduler is None else 1)
+        result.elapsed = time.perf_counter() - t0
+        return result
+    book.rewrite(kept)
+    rows = list(kept)
+    bar = _progress(len(todo))
+    executor = _executor(spec, out, n_jobs, scheduler) if todo else None
+    t_start = time.perf_counter()
+    try:
+        for res in (executor.results(todo) if executor else ()):
+            result.peak_worker_rss = max(result.peak_worker_rss, res.max_rss)
+            if res.fatal is not None:
+                result.stopped = f"{res.fatal}; the finished rows are kept: run again to resume"
+                break
+            try:
+                book.append(res.row)
+            except OSError as exc:
+                result.stopped = (f"cannot append to the manifest: {exc}; the finished rows "
+                                  f"are kept: run again to resume")
+                break
+            rows.append(res.row)
+            if res.row["status"] == "ok":
+                result.done += 1
+            else:
+                result.failed += 1
+                result.failures.append((res.row["index"], res.row.get("error")))
+            if bar is not None:
+                bar.update()
+    finally:
+        if executor is not None:
+            executor.close()
+        if bar is not None:
+            bar.close()
+        book.close()
+    result.elapsed = time.perf_counter() - t_start
+    try:
+        book.rewrite(rows)
+    except OSError as exc:  # the appended rows stay; the next run rewrites them
+        result.stopped = result.stopped or f"cannot rewrite the manifest: {exc}"
+    return result

@@ -1,0 +1,456 @@
+"""Bank specs: a TOML file describing many variations of one preset, and their plan.
+
+A spec (every key; only ``preset`` is required)::
+
+    preset = "default"              # a preset name or a .toml file (relative to the spec)
+    description = "..."             # text
+    count = 200                     # random variations; leave out for the full grid of lists
+    seed = 7                        # integer >= 0 for the draws (default 0)
+    name = "{preset}-{index:04d}"   # file name template, without the suffix
+    format = "flac"                 # "wav", "flac" (default) or "ogg" (Vorbis)
+
+    [vary]                          # axes: any preset key, dotted as in `synth render --set`
+    "drop.height" = { min = 0.05, max = 0.3 }              # a range, drawn uniformly
+    "drop.position" = { min = [0.2, 0.1], max = [1.0, 0.4] }  # vectors: per component
+    "ball.radius" = [0.004, 0.005, 0.006]                   # a list: a grid axis
+    "plate.thickness" = { min = 0.006, max = 0.018, log = true }  # log-uniform
+    restitution_scale = [0.5, 1.0, 1.5]   # perception stimuli: 1 - e' = k (1 - e)
+
+    [render]                        # overrides the preset's [render] (synth.render options)
+    samplerate = 48000              # Hz
+    normalize = "physical"          # "physical" (default for banks), "peak", "loudness", "none"
+    subtype = "PCM_24"              # the files' sample format (soundfile subtype)
+
+With ``count``, variation ``i`` draws every axis from its own generator
+``numpy.random.default_rng([seed, i])`` (a list uniformly, a range uniformly or
+log-uniformly), so a variation does not depend on the count or on the other rows.
+Without ``count``, the plan is the grid of the list axes (the first axis varies
+slowest) and the ranges are drawn per grid point the same way.
+
+The name template is a Python format string over ``preset`` (the preset's name),
+``index`` and the axes: a dotted key is both ``{drop.height}`` and ``{drop_height}``
+(``{drop.position[0]:.2f}`` for a vector's component). The suffix comes from ``format``.
+
+``restitution_scale`` (dimensionless ``k >= 0``) is the bank's one key that is not a preset
+key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene, as
+``synth render --restitution-scale`` renders them (thesis section 5.2.2, see
+docs/physics.md).
+
+A spec that cannot be run is a :class:`BankSpecError` naming the key, its value and what is
+allowed, raised before any work (the first scene is built too).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import itertools
+import math
+import string
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.io import presets
+
+#: Top-level keys of a spec.
+TOP_LEVEL = ("preset", "description", "count", "seed", "name", "format", "vary", "render")
+
+#: File formats: suffix and soundfile format name, and the default subtype of each.
+FORMATS = {"wav": ("wav", "WAV", "PCM_24"), "flac": ("flac", "FLAC", "PCM_24"),
+           "ogg": ("ogg", "OGG", "VORBIS")}
+
+#: The axis key of the perception stimuli's restitution scaling.
+RESTITUTION_SCALE = "restitution_scale"
+
+#: The bank's level default: one calibration for every file (see synth.io.audio).
+DEFAULT_NORMALIZE = "physical"
+
+#: Largest plan accepted (rows), a guard against a mistyped count or grid.
+MAX_ROWS = 10_000_000
+
+
+class BankSpecError(ParameterError):
+    """A bank spec that cannot be run; the message names the key and value."""
+
+
+@dataclass(frozen=True)
+class ListAxis:
+    """A grid axis (or, with ``count``, a list sampled uniformly): ``key``, ``values``."""
+
+    key: str
+    values: tuple
+
+
+@dataclass(frozen=True)
+class RangeAxis:
+    """A range drawn uniformly (``log``: log-uniformly) between ``low`` and ``high``,
+    scalars or vectors of one length (``tuple``), in the key's units."""
+
+    key: str
+    low: float | tuple
+    high: float | tuple
+    log: bool = False
+
+    def draw(self, rng: np.random.Generator):
+        """One value, drawn with ``rng``."""
+        lo = np.atleast_1d(np.asarray(self.low, dtype=float))
+        hi = np.atleast_1d(np.asarray(self.high, dtype=float))
+        u = rng.random(lo.size)
+        if self.log:
+            v = np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
+        else:
+            v = lo + u * (hi - lo)
+        v = np.clip(v, lo, hi)  # rounding of lo + u (hi - lo) may cross hi by an ulp
+        return [float(x) for x in v] if isinstance(self.low, tuple) else float(v[0])
+
+
+@dataclass(frozen=True)
+class BankSpec:
+    """A checked bank spec (see the module docstring for the keys).
+
+    ``base`` is the preset's raw dict with the spec's ``[render]`` applied, ``render``
+    the render options (``normalize`` defaulted to "physical"), ``subtype`` the files'.
+    """
+
+    preset: str
+    preset_name: str
+    base: dict
+    description: str
+    count: int | None
+    seed: int
+    name: str
+    format: str
+    subtype: str
+    render: dict
+    axes: tuple
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """The varied keys, in the spec's order."""
+        return tuple(a.key for a in self.axes)
+
+    @property
+    def suffix(self) -> str:
+        return FORMATS[self.format][0]
+
+    def as_dict(self) -> dict:
+        """Everything that determines the bank's files, as JSON-able data (stored with
+        the bank to refuse a changed spec)."""
+        axes = {}
+        for a in self.axes:
+            if isinstance(a, ListAxis):
+                axes[a.key] = list(a.values)
+            else:
+                axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
+        return {"preset": self.preset_name, "preset_data": self.base, "count": self.count,
+                "seed": self.seed, "name": self.name, "format": self.format,
+                "subtype": self.subtype, "render": self.render, "vary": axes}
+
+
+@dataclass(frozen=True)
+class PlanItem:
+    """One sound of the bank: ``index``, ``file`` (relative to the bank's folder) and
+    ``values`` (the varied keys and their values)."""
+
+    index: int
+    file: str
+    values: dict
+
+
+def _jsonable(v):
+    return list(v) if isinstance(v, tuple) else v
+
+
+def _error(key: str, value, allowed: str) -> BankSpecError:
+    return BankSpecError(f"{key}={value!r} {allowed}")
+
+
+def load(path) -> BankSpec:
+    """Read and check the spec file ``path`` (TOML)."""
+    p = Path(path)
+    try:
+        with open(p, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise BankSpecError(f"{p}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise BankSpecError(f"spec={str(p)!r} cannot be read: {exc.strerror}") from None
+    return from_dict(data, base_dir=p.parent, source=str(p))
+
+
+def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
+    """Check a spec given as a dict (``base_dir``: where a relative preset file is)."""
+    try:
+        return _from_dict(data, Path(base_dir))
+    except BankSpecError as exc:
+        raise BankSpecError(f"{source}: {exc}") from None
+
+
+def _from_dict(data: dict, base_dir: Path) -> BankSpec:
+    for key in data:
+        if key not in TOP_LEVEL:
+            near = difflib.get_close_matches(key, TOP_LEVEL, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise _error(key, data[key], f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}")
+    if "preset" not in data:
+        raise BankSpecError("preset is required: a preset name or a .toml file")
+    preset_path, preset_name = _preset(data["preset"], base_dir)
+    count = data.get("count")
+    if count is not None and (isinstance(count, bool) or not isinstance(count, int) or count < 1):
+        raise _error("count", count, "must be an integer >= 1 (or left out for the full grid)")
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise _error("seed", seed, "must be an integer >= 0")
+    fmt = data.get("format", "flac")
+    if fmt not in FORMATS:
+        raise _error("format", fmt, f"must be one of {', '.join(map(repr, FORMATS))}")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise _error("description", description, "must be a string")
+    vary = data.get("vary", {})
+    if not isinstance(vary, dict):
+        raise _error("vary", vary, "must be a table of axes")
+    base_raw = presets.read(preset_path)
+    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    render_section = data.get("render", {})
+    if not isinstance(render_section, dict):
+        raise _error("render", render_section, "must be a table of render options")
+    base = dict(base_raw)
+    base["render"] = {"normalize": DEFAULT_NORMALIZE, **base_raw.get("render", {}),
+                      **render_section}
+    try:
+        _, options = presets.scene_from_dict(base, str(preset_path))
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    subtype = options.pop("subtype", FORMATS[fmt][2]).upper()
+    _check_subtype(fmt, subtype)
+    name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
+    if not isinstance(name, str) or not name:
+        raise _error("name", name, "must be a non-empty format string such as '{preset}-{index:04d}'")
+    spec = BankSpec(preset=str(preset_path), preset_name=preset_name, base=base,
+                    description=description, count=count, seed=seed, name=name, format=fmt,
+                    subtype=subtype, render=options, axes=axes)
+    _check_template(spec)
+    return spec
+
+
+def _preset(value, base_dir: Path) -> tuple[Path, str]:
+    if not isinstance(value, str) or not value:
+        raise _error("preset", value, "must be a preset name or a .toml file")
+    candidate = base_dir / value
+    try:
+        path = presets.find(candidate if value.endswith(".toml") and candidate.is_file() else value)
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    return path, path.stem
+
+
+def _check_subtype(fmt: str, subtype: str) -> None:
+    import soundfile
+
+    if not soundfile.check_format(FORMATS[fmt][1], subtype):
+        raise _error("render.subtype", subtype,
+                     f"is not a subtype of format={fmt!r}; allowed: "
+                     f"{', '.join(soundfile.available_subtypes(FORMATS[fmt][1]))}")
+
+
+def _allowed_keys() -> list[str]:
+    from synth.sound.render import OPTIONS
+
+    keys = [RESTITUTION_SCALE] + list(presets.TOP_LEVEL)
+    for section, fields in presets.SECTIONS.items():
+        for f in (OPTIONS + ("subtype",) if fields is None else fields):
+            keys.append(f"{section}.{f}")
+    return [k for k in keys if k != "description"]
+
+
+def _axis(key: str, value, base_raw: dict):
+    where = f"vary.{key}"
+    allowed = _allowed_keys()
+    if key not in allowed:
+        near = difflib.get_close_matches(key, allowed, n=1)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise BankSpecError(f"{where}: {key!r} is not a preset key{hint}; keys are "
+                            f"'section.key' as in synth render --set (e.g. drop.height), or "
+                            f"{RESTITUTION_SCALE}")
+    if isinstance(value, list):
+        if not value:
+            raise _error(where, value, "is an empty list: give at least one value")
+        return ListAxis(key, tuple(value))
+    if isinstance(value, dict):
+        return _range_axis(where, key, value)
+    raise _error(where, value, "must be a list of values (a grid axis) or a range "
+                               "{ min = ..., max = ..., log = false }")
+
+
+def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
+    for k in value:
+        if k not in ("min", "max", "log"):
+            raise _error(f"{where}.{k}", value[k], "is not a range key; allowed: min, max, log")
+    if "min" not in value or "max" not in value:
+        raise _error(where, value, "needs both min and max")
+    log = value.get("log", False)
+    if not isinstance(log, bool):
+        raise _error(f"{where}.log", log, "must be true or false")
+    lo, hi = _bound(f"{where}.min", value["min"]), _bound(f"{where}.max", value["max"])
+    if isinstance(lo, tuple) != isinstance(hi, tuple) or (
+            isinstance(lo, tuple) and len(lo) != len(hi)):
+        raise _error(where, value, "needs min and max of one shape (two numbers, or two "
+                                   "lists of one length)")
+    for a, b in zip(np.atleast_1d(lo), np.atleast_1d(hi)):
+        if a > b:
+            raise _error(where, value, f"has min > max ({a!r} > {b!r})")
+        if log and a <= 0.0:
+            raise _error(where, value, "with log = true needs min > 0")
+    return RangeAxis(key, lo, hi, log)
+
+
+def _bound(where: str, v):
+    def number(x):
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+            raise _error(where, v, "must be a finite number or a list of them")
+        return float(x)
+
+    if isinstance(v, list):
+        if not v:
+            raise _error(where, v, "is an empty list")
+        return tuple(number(x) for x in v)
+    return number(v)
+
+
+# ----------------------------------------------------------------------------- the plan
+
+
+def _draw(spec: BankSpec, index: int, grid_point: dict | None) -> dict:
+    rng = np.random.default_rng([spec.seed, index])
+    values = {}
+    for axis in spec.axes:
+        if grid_point is not None and axis.key in grid_point:
+            values[axis.key] = grid_point[axis.key]
+        elif isinstance(axis, ListAxis):
+            values[axis.key] = axis.values[int(rng.integers(len(axis.values)))]
+        else:
+            values[axis.key] = axis.draw(rng)
+    return values
+
+
+def _rows(spec: BankSpec) -> int:
+    if spec.count is not None:
+        return spec.count
+    return math.prod(len(a.values) for a in spec.axes if isinstance(a, ListAxis))
+
+
+def variations(spec: BankSpec):
+    """The varied values of every row, in index order (a generator of dicts)."""
+    if spec.count is not None:
+        for i in range(spec.count):
+            yield _draw(spec, i, None)
+        return
+    lists = [a for a in spec.axes if isinstance(a, ListAxis)]
+    for i, combo in enumerate(itertools.product(*(a.values for a in lists))):
+        yield _draw(spec, i, {a.key: v for a, v in zip(lists, combo)})
+
+
+def _mapping(spec: BankSpec, index: int, values: dict) -> dict:
+    m = {"preset": spec.preset_name, "index": index}
+    sections: dict = {}
+    for key, v in values.items():
+        m[key.replace(".", "_")] = v
+        if "." in key:
+            section, field = key.split(".", 1)
+            sections.setdefault(section, {})[field] = v
+    for section, fields in sections.items():
+        m[section] = SimpleNamespace(**fields)
+    return m
+
+
+def file_name(spec: BankSpec, index: int, values: dict) -> str:
+    """The file of row ``index`` (relative to the bank's folder), from the template."""
+    try:
+        stem = spec.name.format_map(_mapping(spec, index, values))
+    except (KeyError, AttributeError, IndexError, ValueError, TypeError) as exc:
+        raise _error("name", spec.name, f"cannot be filled ({type(exc).__name__}: {exc}); "
+                     f"fields: preset, index, {', '.join(_field_names(spec))}") from None
+    if not stem or "/" in stem or "\\" in stem or stem.startswith(".") or "\0" in stem:
+        raise _error("name", spec.name, f"makes the file name {stem!r}: a name must not be "
+                     f"empty, contain a path separator or start with '.'")
+    return f"{stem}.{spec.suffix}"
+
+
+def _field_names(spec: BankSpec) -> list[str]:
+    out = []
+    for k in spec.keys:
+        out.append(k.replace(".", "_"))
+        if "." in k:
+            out.append(k)
+    return out
+
+
+def _check_template(spec: BankSpec) -> None:
+    allowed_roots = {"preset", "index"} | {k.replace(".", "_") for k in spec.keys} \
+        | {k.split(".", 1)[0] for k in spec.keys if "." in k}
+    try:
+        fields = [f for _, f, _, _ in string.Formatter().parse(spec.name) if f is not None]
+    except ValueError as exc:
+        raise _error("name", spec.name, f"is not a format string: {exc}") from None
+    for f in fields:
+        root = f.split(".", 1)[0].split("[", 1)[0]
+        if root not in allowed_roots:
+            raise _error("name", spec.name,
+                         f"names {{{f}}}, which is not an axis; fields: preset, index, "
+                         f"{', '.join(_field_names(spec)) or '(no axes)'}")
+        if root not in ("preset", "index") and f.startswith(root + ".") \
+                and f.split("[", 1)[0] not in spec.keys:
+            raise _error("name", spec.name, f"names {{{f}}}, which is not an axis; axes: "
+                                            f"{', '.join(spec.keys)}")
+
+
+def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
+    """Every row of the bank, checked: the file names are distinct."""
+    n = _rows(spec)
+    if n > MAX_ROWS:
+        raise _error("count" if spec.count is not None else "vary", n,
+                     f"rows is more than the {MAX_ROWS} a bank may have")
+    items, seen = [], {}
+    for index, values in enumerate(variations(spec)):
+        f = file_name(spec, index, values)
+        if f in seen:
+            raise _error("name", spec.name, f"makes two files the same name {f!r} (rows "
+                         f"{seen[f]} and {index}): use {{index}} or more axes in it")
+        seen[f] = index
+        items.append(PlanItem(index, f, values))
+    return tuple(items)
+
+
+def scene_data(spec: BankSpec, values: dict) -> dict:
+    """The preset dict of a row: the base with the row's values set under their dotted
+    keys, as ``synth render --set`` sets them (the restitution scale is not a preset key
+    and is left out)."""
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in spec.base.items()}
+    for key, value in values.items():
+        if key == RESTITUTION_SCALE:
+            continue
+        if "." in key:
+            section, field = key.split(".", 1)
+            data.setdefault(section, {})[field] = list(value) if isinstance(value, tuple) else value
+        else:
+            data[key] = value
+    return data
+
+
+def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
+    """The dotted keys whose values differ between two spec dicts (:meth:`BankSpec.as_dict`)."""
+    out = []
+    for k in sorted(set(old) | set(new), key=str):
+        a, b = old.get(k, dataclasses.MISSING), new.get(k, dataclasses.MISSING)
+        key = f"{prefix}{k}"
+        if isinstance(a, dict) and isinstance(b, dict):
+            out.extend(differences(a, b, key + "."))
+        elif a != b:
+            out.append(key)
+    return out
