@@ -180,10 +180,11 @@ def test_dask_local_cluster_equals_pool(serial, tmp_path):
 
 @pytest.mark.slow
 def test_kill_9_at_random_moments_then_resume(tmp_path, cache_dir):
-    # SIGKILL to the whole bank (parent and workers) three times at random moments: every
+    # SIGKILL to the whole bank (parent and workers) three times while it renders (after
+    # a random 2-8 new rows, plus 0-20 ms; a warm worker renders a row in ~15 ms): every
     # finished row keeps its file, no partial file survives the next run, and the last run
     # completes with every row once and every hash right.
-    spec = _write_spec(tmp_path / "spec", count=30)
+    spec = _write_spec(tmp_path / "spec", count=40)
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--jobs", "2"]
     rng = random.Random(13)
@@ -191,16 +192,22 @@ def test_kill_9_at_random_moments_then_resume(tmp_path, cache_dir):
     for _ in range(3):
         proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(3.0, 9.0))
+        target = (rows_seen[-1] if rows_seen else 0) + rng.randint(2, 8)
+        deadline = time.monotonic() + 120
+        while len(mf.read_rows(out)) < target and proc.poll() is None \
+                and time.monotonic() < deadline:   # the workers are rendering
+            time.sleep(0.002)
+        time.sleep(rng.uniform(0.0, 0.02))
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         rows = mf.read_rows(out)
         rows_seen.append(len(rows))
         for r in rows:       # every recorded row has its whole file
             assert mf.sha256_file(out / r["file"]) == r["sha256"]
+    assert rows_seen[-1] < 40           # the kills came before the end
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    _check_complete(out, 30)
+    _check_complete(out, 40)
 
 
 def _mount_tmpfs(path: Path, size: str) -> bool:
