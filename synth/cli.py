@@ -248,6 +248,7 @@ def _cmd_bench(args):
         "render": (bench.run_render, bench.format_render),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
+        "bank": (lambda: _bank_bench().run_bank(count=args.count), lambda r: _bank_bench().format_bank(r)),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -259,6 +260,12 @@ def _cmd_bench(args):
             print(fmt(result))
         return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
+
+
+def _bank_bench():
+    from synth.bank import bench
+
+    return bench
 
 
 def _cmd_bank(args):
@@ -386,14 +393,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_cache)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "bank"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
-                        "onsets against noise")
+                        "onsets against noise; bank: sounds/s of a sound bank against one "
+                        "process per file")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
+    p.add_argument("--count", type=int, default=200, help="sounds of the bank benchmark (default 200)")
     p.set_defaults(func=_cmd_bench)
     return parser
 

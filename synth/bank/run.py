@@ -62,8 +62,9 @@ class BankResult:
     ``planned`` rows in the plan; ``done`` rendered now (ok), ``skipped`` found complete,
     ``failed`` recorded with their error (``failures``: index and error), ``stopped`` the
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
-    ``peak_worker_rss`` the largest resident memory of a worker, bytes; for a dry run,
-    ``estimate`` the time the bank would take, s.
+    ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
+    largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
+    bank would take, s.
     """
 
     out_dir: Path
@@ -74,6 +75,7 @@ class BankResult:
     failures: list = field(default_factory=list)
     stopped: str | None = None
     elapsed: float = 0.0
+    startup: float = 0.0
     peak_worker_rss: int = 0
     estimate: float | None = None
 
@@ -81,6 +83,12 @@ class BankResult:
     def rate(self) -> float:
         """Sounds rendered per second of the run."""
         return self.done / self.elapsed if self.elapsed > 0 else 0.0
+
+    @property
+    def render_rate(self) -> float:
+        """Sounds rendered per second once the workers were warm."""
+        busy = self.elapsed - self.startup
+        return self.done / busy if busy > 0 else 0.0
 
     @property
     def ok(self) -> bool:
@@ -92,7 +100,8 @@ class BankResult:
             return (f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
                     f"already done); estimated {self.estimate:.1f} s to render the rest")
         text = (f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
-                f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s)")
+                f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
+                f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)")
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
@@ -210,10 +219,26 @@ _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
 
 
-def _pool_init(spec: BankSpec, out_dir: str) -> None:
+def _pool_init(spec: BankSpec, out_dir: str, ready) -> None:
     global _WORKER_SPEC, _WORKER_DIR
     _WORKER_SPEC, _WORKER_DIR = spec, out_dir
     warm(spec)
+    _meet(ready)
+
+
+def _meet(barrier) -> None:
+    """Wait at ``barrier`` (the pool's start-up); a broken or late one is let go: a
+    worker replaced after a crash must not hold the others."""
+    import threading
+
+    try:
+        barrier.wait(timeout=_STARTUP_TIMEOUT)
+    except threading.BrokenBarrierError:
+        pass
+
+
+#: Longest wait for the pool's workers to be warm, s (then rows are sent anyway).
+_STARTUP_TIMEOUT = 600.0
 
 
 def _pool_task(item: PlanItem) -> RowResult:
@@ -223,9 +248,9 @@ def _pool_task(item: PlanItem) -> RowResult:
 class _Serial:
     def __init__(self, spec, out_dir):
         self.spec, self.out_dir = spec, out_dir
+        warm(spec)
 
     def results(self, items):
-        warm(self.spec)
         for item in items:
             yield render_item(self.spec, item, self.out_dir)
 
@@ -234,20 +259,24 @@ class _Serial:
 
 
 class _Pool:
-    """Long-lived spawned processes, one thread of numerics each."""
+    """Long-lived spawned processes, one thread of numerics each; returns once every
+    worker has warmed the engine."""
 
     def __init__(self, spec, out_dir, jobs):
         import multiprocessing
 
+        ctx = multiprocessing.get_context("spawn")
+        ready = ctx.Barrier(jobs + 1)
         saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
         os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
         try:
-            self.pool = multiprocessing.get_context("spawn").Pool(
-                jobs, initializer=_pool_init, initargs=(spec, out_dir))
+            self.pool = ctx.Pool(jobs, initializer=_pool_init, initargs=(spec, out_dir, ready))
         finally:
             for k, v in saved.items():
                 if v is None:
                     os.environ.pop(k, None)
+        _meet(ready)
+        ready.abort()    # a worker started later (after a crash) does not wait
 
     def results(self, items):
         yield from self.pool.imap_unordered(_pool_task, items, chunksize=1)
@@ -451,9 +480,10 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
         return result
     book.rewrite(kept)
     rows = list(kept)
-    bar = _progress(len(todo))
-    executor = _executor(spec, out, n_jobs, scheduler) if todo else None
     t_start = time.perf_counter()
+    executor = _executor(spec, out, n_jobs, scheduler) if todo else None
+    result.startup = time.perf_counter() - t_start
+    bar = _progress(len(todo))
     try:
         for res in (executor.results(todo) if executor else ()):
             result.peak_worker_rss = max(result.peak_worker_rss, res.max_rss)
