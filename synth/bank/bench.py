@@ -122,12 +122,13 @@ def _dask(spec, folder: Path, count: int, pool: dict) -> dict:
 def format_bank(r: dict) -> str:
     """The bank benchmark as a Markdown table, with the targets and whether they are met."""
     n = r["count"]
-    lines = [f"{n}-sound bank of the default scene (issue example: height, impact point, "
+    title = (f"{n}-sound bank of the default scene (issue example: height, impact point, "
              f"ball radius; FLAC 48 kHz, physical level); wall time of each way, worker "
              f"start-up included (`--jobs 1` renders in the benchmark's process, warmed "
-             f"before the clock as the caches are)",
-             "| way | seconds | of which start-up (s) | sounds/s | sounds/s once warm | "
-             "peak memory per worker (MB) |", "|---|---|---|---|---|---|"]
+             f"before the clock as the caches are)")
+    header = ("| way | seconds | of which start-up (s) | sounds/s | sounds/s once warm | "
+              "peak memory per worker (MB) |")
+    lines = [title, header, "|---|---|---|---|---|---|"]
     p = r["process_per_file"]
     lines.append(f"| one `synth render` process per file (timed on {r['process_files']} files, "
                  f"extrapolated to {n}) | {p['seconds_per_sound'] * n:.1f} | - | "
@@ -135,8 +136,9 @@ def format_bank(r: dict) -> str:
     rows = [(f"`synth bank --jobs {j}`", r[f"jobs{j}"]) for j in (1, 2)]
     d = r.get("dask")
     if d and "skipped" not in d:
-        rows.append((f"Dask LocalCluster, 2 worker processes (cluster started in "
-                     f"{d['cluster_start']:.1f} s, not counted)", d))
+        way = (f"Dask LocalCluster, 2 worker processes (cluster started in "
+               f"{d['cluster_start']:.1f} s, not counted)")
+        rows.append((way, d))
     for way, f in rows:
         lines.append(f"| {way} | {f['seconds']:.1f} | {f['startup']:.1f} | {f['rate']:.1f} | "
                      f"{f['render_rate']:.1f} | {f['peak_worker_rss'] / 1e6:.0f} |")
@@ -145,12 +147,13 @@ def format_bank(r: dict) -> str:
     def verdict(name):
         return "met" if ratios[name] >= targets[name] else "NOT met"
 
-    lines += ["", f"- `--jobs 1` / process per file: {ratios['jobs1_over_process']:.1f}x "
-                  f"(target >= {targets['jobs1_over_process']:.0f}x): {verdict('jobs1_over_process')}",
-              f"- `--jobs 2` / `--jobs 1` once warm: {ratios['jobs2_over_jobs1']:.2f}x "
-              f"(target >= {targets['jobs2_over_jobs1']}x on two cores): "
-              f"{verdict('jobs2_over_jobs1')}; with the start-up: "
-              f"{ratios['jobs2_over_jobs1_with_startup']:.2f}x"]
+    lines += ["", (f"- `--jobs 1` / process per file: {ratios['jobs1_over_process']:.1f}x "
+                   f"(target >= {targets['jobs1_over_process']:.0f}x): "
+                   f"{verdict('jobs1_over_process')}"),
+              (f"- `--jobs 2` / `--jobs 1` once warm: {ratios['jobs2_over_jobs1']:.2f}x "
+               f"(target >= {targets['jobs2_over_jobs1']}x on two cores): "
+               f"{verdict('jobs2_over_jobs1')}; with the start-up: "
+               f"{ratios['jobs2_over_jobs1_with_startup']:.2f}x")]
     if d and "skipped" not in d:
         lines.append(f"- Dask overhead per sound against `--jobs 2`: "
                      f"{d['overhead_per_sound'] * 1e3:+.1f} ms")

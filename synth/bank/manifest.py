@@ -150,8 +150,9 @@ class Manifest:
     def append(self, row: dict) -> None:
         """Add one row to both files, each line written whole, flushed and fsynced."""
         if self._files is None:
-            self._files = [open(self.folder / JSONL, "a", encoding="utf-8"),
-                           open(self.folder / CSV, "a", encoding="utf-8", newline="")]
+            # held open for the run (closed by close()): one open per run, not per row
+            self._files = [open(self.folder / JSONL, "a", encoding="utf-8"),  # noqa: SIM115
+                           open(self.folder / CSV, "a", encoding="utf-8", newline="")]  # noqa: SIM115
         for fh, line in zip(self._files, (_json_line(row, self.cols), _csv_line(row, self.cols))):
             fh.write(line)
             fh.flush()

@@ -130,7 +130,7 @@ def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
     from synth.io.audio import LOUDNESS_BLOCK
 
     x = np.asarray(audio, dtype=np.float64)
-    need = int(math.ceil(LOUDNESS_BLOCK * samplerate))
+    need = math.ceil(LOUDNESS_BLOCK * samplerate)
     if x.shape[0] < need:
         x = np.pad(x, [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1))
     value = float(pyloudnorm.Meter(samplerate, block_size=LOUDNESS_BLOCK).integrated_loudness(x))
@@ -170,11 +170,11 @@ def _render(spec: BankSpec, item: PlanItem):
     rendered = render(scene, sequence=sequence, **options)
     data = _encode(rendered.audio, rendered.samplerate, spec, subtype)
     peak = float(np.max(np.abs(rendered.audio)))
-    figures = dict(duration=rendered.duration, ticks=len(rendered.impacts),
-                   first_restitution=(rendered.impacts[0].restitution
-                                      if len(rendered.impacts) else None),
-                   peak_dbfs=round(20 * math.log10(peak), 6) if peak > 0 else None,
-                   loudness_lufs=_loudness(rendered.audio, rendered.samplerate))
+    figures = {"duration": rendered.duration, "ticks": len(rendered.impacts),
+               "first_restitution": (rendered.impacts[0].restitution
+                                     if len(rendered.impacts) else None),
+               "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
+               "loudness_lufs": _loudness(rendered.audio, rendered.samplerate)}
     return rendered, data, figures
 
 
@@ -209,7 +209,7 @@ def warm(spec: BankSpec) -> None:
     plate modes and radiation gains into the caches). Errors are left to the rows."""
     try:
         _render(spec, PlanItem(-1, "warm", {}))
-    except Exception:  # noqa: BLE001 - a base scene that fails is reported by its rows
+    except Exception:  # noqa: BLE001, S110 - a base scene that fails is reported by its rows
         pass
 
 
@@ -329,7 +329,7 @@ def _lock(out_dir: Path):
         import fcntl
     except ImportError:  # no advisory locks on this platform
         return None
-    fh = open(out_dir / mf.LOCK, "a")
+    fh = open(out_dir / mf.LOCK, "a")  # noqa: SIM115 - held for the run, closed by run()
     try:
         fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
@@ -393,7 +393,7 @@ def _estimate(spec: BankSpec, items, jobs: int) -> float:
     for item in sample:
         try:
             _render(spec, item)
-        except Exception:  # noqa: BLE001 - a failing row costs about as much as a render
+        except Exception:  # noqa: BLE001, S110 - a failing row costs about as much as a render
             pass
     per = (time.perf_counter() - t0) / len(sample)
     return per * len(items) / max(1, jobs)

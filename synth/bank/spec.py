@@ -192,11 +192,11 @@ def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
 
 
 def _from_dict(data: dict, base_dir: Path) -> BankSpec:
-    for key in data:
+    for key, value in data.items():
         if key not in TOP_LEVEL:
             near = difflib.get_close_matches(key, TOP_LEVEL, n=1)
             hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise _error(key, data[key], f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}")
+            raise _error(key, value, f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}")
     if "preset" not in data:
         raise BankSpecError("preset is required: a preset name or a .toml file")
     preset_path, preset_name = _preset(data["preset"], base_dir)
@@ -289,9 +289,9 @@ def _axis(key: str, value, base_raw: dict):
 
 
 def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
-    for k in value:
+    for k, v in value.items():
         if k not in ("min", "max", "log"):
-            raise _error(f"{where}.{k}", value[k], "is not a range key; allowed: min, max, log")
+            raise _error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log")
     if "min" not in value or "max" not in value:
         raise _error(where, value, "needs both min and max")
     log = value.get("log", False)
