@@ -390,3 +390,18 @@ def test_restitution_scale_changes_the_ticks(tmp_path, cache_dir):
     e = simulate_scene(load_preset(tmp_path / "small.toml")).impacts[0].restitution
     assert rows[0]["first_restitution"] == pytest.approx(1.0, abs=1e-12)
     assert rows[1]["first_restitution"] == pytest.approx(e, rel=1e-12)
+
+
+@pytest.mark.slow
+def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
+    # Where the pool cannot fork (not Linux, or threads in this process) its workers are
+    # spawned and import the engine themselves: the same files.
+    import synth.bank.run  # noqa: F401 - the module (synth.bank.run is also the function)
+
+    run_module = sys.modules["synth.bank.run"]
+    monkeypatch.setattr(run_module, "_start_method", lambda: "spawn")
+    spec, ref = serial
+    result = bank.run(spec, tmp_path / "spawn", jobs=2)
+    assert result.ok and result.done == 12
+    assert _audio_files(tmp_path / "spawn") == _audio_files(ref)
+    assert (tmp_path / "spawn" / mf.JSONL).read_bytes() == (ref / mf.JSONL).read_bytes()

@@ -3,8 +3,9 @@ atomically, each finished row appended to the manifest; a rerun resumes.
 
 Workers: a pool of ``jobs`` processes (default: the machine's cores) that import the
 engine and render the base scene once (loading the compiled kernels and filling the
-plate-mode and radiation caches), then render rows until the plan is done; ``jobs=1``
-renders in this process. With ``scheduler``, the same task function runs on a Dask
+plate-mode and radiation caches), then render rows until the plan is done; on Linux they
+are forked from this process once it has warmed the engine itself (when no other thread
+runs here), elsewhere spawned. ``jobs=1`` renders in this process. With ``scheduler``, the same task function runs on a Dask
 cluster (``dask.distributed.Client(scheduler)``; the optional extra ``dask``), whose
 workers must see the bank's folder.
 
@@ -258,14 +259,28 @@ class _Serial:
         pass
 
 
+def _start_method() -> str:
+    """``fork`` where it is safe and available (Linux, no other thread in this process
+    that could hold a lock across the fork): the workers then start with the engine this
+    process has imported and warmed. Else ``spawn``: each worker imports and warms it."""
+    import threading
+
+    if sys.platform.startswith("linux") and threading.active_count() == 1:
+        return "fork"
+    return "spawn"
+
+
 class _Pool:
-    """Long-lived spawned processes, one thread of numerics each; returns once every
+    """Long-lived worker processes, one thread of numerics each; returns once every
     worker has warmed the engine."""
 
     def __init__(self, spec, out_dir, jobs):
         import multiprocessing
 
-        ctx = multiprocessing.get_context("spawn")
+        method = _start_method()
+        if method == "fork":
+            warm(spec)
+        ctx = multiprocessing.get_context(method)
         ready = ctx.Barrier(jobs + 1)
         saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
         os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
