@@ -405,3 +405,19 @@ def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
     assert result.ok and result.done == 12
     assert _audio_files(tmp_path / "spawn") == _audio_files(ref)
     assert (tmp_path / "spawn" / mf.JSONL).read_bytes() == (ref / mf.JSONL).read_bytes()
+
+
+def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
+    # The issue's spec as written, through `synth bank --dry-run`: 200 planned rows with the
+    # varied values, no audio, an estimate; a bad spec is exit status 2 naming the key.
+    spec = tmp_path / "bank.toml"
+    spec.write_text(ISSUE_SPEC)
+    assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "2"]) == 0
+    assert "estimated" in capsys.readouterr().err
+    rows = mf.read_rows(tmp_path / "out")
+    assert len(rows) == 200 and rows[5]["file"] == "default-0005.flac"
+    assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "sha256"}
+    assert not _audio_files(tmp_path / "out")
+    spec.write_text(ISSUE_SPEC.replace("count = 200", "count = 0"))
+    assert main(["bank", str(spec), "-o", str(tmp_path / "out2")]) == 2
+    assert "count=0" in capsys.readouterr().err
