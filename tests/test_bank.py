@@ -77,16 +77,13 @@ normalize = "physical"
 
 
 @pytest.fixture(scope="module")
-def cache_dir(tmp_path_factory):
-    """One disk cache for the module (the plate's modes are computed once)."""
-    d = tmp_path_factory.mktemp("cache")
-    old = os.environ.get("SYNTH_CACHE_DIR")
-    os.environ["SYNTH_CACHE_DIR"] = str(d)
-    yield d
-    if old is None:
-        os.environ.pop("SYNTH_CACHE_DIR", None)
-    else:
-        os.environ["SYNTH_CACHE_DIR"] = old
+def cache_dir():
+    """The disk cache the suite shares (``$SYNTH_CACHE_DIR``): the default plate's modes,
+    solved once for the suite, are read from it; the bank's workers share it too (the
+    cache's own tests, tests/test_cache.py, use private ones)."""
+    from synth.io.cache import cache_dir as shared
+
+    return shared()
 
 
 def _write_spec(folder: Path, count: int = 12, extra: str = "") -> Path:
