@@ -418,3 +418,16 @@ def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     spec.write_text(ISSUE_SPEC.replace("count = 200", "count = 0"))
     assert main(["bank", str(spec), "-o", str(tmp_path / "out2")]) == 2
     assert "count=0" in capsys.readouterr().err
+
+
+def test_unwritable_folder_is_a_clean_error(tmp_path, monkeypatch):
+    # A folder that cannot be written before any sound (a disk already full) is one
+    # BankRunError naming the folder, not a traceback.
+    spec = _write_spec(tmp_path / "spec", count=2)
+
+    def full(folder, spec):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(mf, "write_spec", full)
+    with pytest.raises(bank.BankRunError, match="No space left"):
+        bank.run(spec, tmp_path / "out", jobs=1)

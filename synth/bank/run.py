@@ -469,12 +469,16 @@ def run(spec, out_dir, *, jobs: int | None = None, scheduler=None, dry_run: bool
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
-    lock = _lock(out)
     try:
-        return _run(spec, items, out, n_jobs, scheduler, dry_run, force)
-    finally:
-        if lock is not None:
-            lock.close()
+        lock = _lock(out)
+        try:
+            return _run(spec, items, out, n_jobs, scheduler, dry_run, force)
+        finally:
+            if lock is not None:
+                lock.close()
+    except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
+        raise BankRunError(f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
+                           f"again once it can be written") from None
 
 
 def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
