@@ -264,7 +264,7 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     scene = Scene(synth.Ball("steel", 0.002), plate, drop_height=0.01,
                   listener=Microphone(listener))
     kmax = (om.max() ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
-    G = _microphone_gains(modes, scene, poles, kmax)[k]
+    G = _microphone_gains(modes, scene.plate, scene.listener, poles, kmax)[k]
     # time domain: elements on a 500 x 500 midpoint grid, pressure per unit modal velocity
     n = 500
     xs = (np.arange(n) + 0.5) * 0.12 / n

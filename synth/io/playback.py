@@ -27,6 +27,12 @@ def _sounddevice():
     return sounddevice
 
 
+def sounddevice_module():
+    """The ``sounddevice`` module, imported now; a SynthError saying what to install when
+    it or the PortAudio library is missing."""
+    return _sounddevice()
+
+
 def play(audio, samplerate=None, *, blocking=True):
     """Play ``audio`` (a :class:`~synth.sound.render.Render`, or an array with ``samplerate`` in Hz).
 

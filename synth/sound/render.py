@@ -69,7 +69,7 @@ def _samplerate(value) -> int:
     return int(value)
 
 
-def _microphone_gains(modes, scene, poles, k_max):
+def _microphone_gains(modes, plate, microphone, poles, k_max):
     """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
     for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
 
@@ -96,19 +96,130 @@ def _microphone_gains(modes, scene, poles, k_max):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
-    h = plate_gains(modes, scene.listener.position, mirror, max_wavenumber=k_max,
+    h = plate_gains(modes, microphone.position, mirror, max_wavenumber=k_max,
                     air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                    reference_distance=_nearest_distance(scene))
+                    reference_distance=_nearest_distance(plate, microphone))
     return np.asarray(h) * poles / mirror
 
 
-def _nearest_distance(scene) -> float:
+def _nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    x, y, z = scene.listener.position
-    p = scene.plate
+    x, y, z = microphone.position
+    p = plate
     dx = max(0.0, -x, x - p.length)
     dy = max(0.0, -y, y - p.width)
     return math.sqrt(dx * dx + dy * dy + z * z)
+
+
+@dataclass(frozen=True, eq=False)
+class ListenerOutput:
+    """How a listener hears the plate's modes.
+
+    output: complex (K,), listener gain per unit modal displacement ``q_k`` at the pole
+    (``phi_k(xp) p_k^2`` for acceleration, m/s^2 per m; ``G_k p_k`` for a microphone, Pa
+    per m); shape: ``phi_k(xp)`` for the accelerometer's direct term inside contacts, or
+    None; delay: the sound's travel time to the listener from the nearest point of the
+    plate, s; units: "m/s^2" or "Pa".
+    """
+
+    output: np.ndarray
+    shape: np.ndarray | None
+    delay: float
+    units: str
+
+
+def _accelerometer_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+    phip = modes.shapes(np.array([listener.position]))[0][ok]
+    return ListenerOutput(phip * poles ** 2, phip, 0.0, "m/s^2")
+
+
+def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+    D = plate.flexural_rigidity
+    rho_h = plate.surface_density
+    k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
+    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max)
+    return ListenerOutput(np.asarray(all_gains)[ok] * poles, None,
+                          _nearest_distance(plate, listener) / SOUND_SPEED, "Pa")
+
+
+#: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
+#: plate; Microphone: Rayleigh radiation of the baffled plate).
+LISTENER_OUTPUTS = {Accelerometer: _accelerometer_output, Microphone: _microphone_output}
+
+
+@dataclass(frozen=True, eq=False)
+class ModalModel:
+    """A plate's modes as one listener hears them: what :func:`render` and the live engine
+    (:mod:`synth.live`) build once per plate and listener.
+
+    Attributes
+    ----------
+    modes : synth.sound.modes.Modes
+        The plate's modes below ``max_frequency``.
+    poles : complex ndarray (K,)
+        ``p_k = -sigma_k + i omega_dk``, rad/s, of the ringing modes below Nyquist.
+    rendered : bool ndarray
+        Which of ``modes`` the poles are (overdamped modes and modes whose damped
+        frequency reaches Nyquist are left out).
+    listener : ListenerOutput
+        The listener's gains, direct-term shape, delay (s) and units.
+    n_overdamped : int
+        Modes left out as overdamped (``sigma >= omega``: they do not ring).
+    samplerate : int
+        Hz.
+    """
+
+    modes: object
+    poles: np.ndarray
+    rendered: np.ndarray
+    listener: ListenerOutput
+    n_overdamped: int
+    samplerate: int
+
+    @property
+    def output(self) -> np.ndarray:
+        return self.listener.output
+
+    @property
+    def delay(self) -> float:
+        return self.listener.delay
+
+    @property
+    def units(self) -> str:
+        return self.listener.units
+
+    def excitation(self, position) -> np.ndarray:
+        """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
+        phi0 = self.modes.shapes(np.array([position]))[0][self.rendered]
+        return phi0 / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
+
+    def direct(self, excitation) -> np.ndarray | None:
+        """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
+        microphone)."""
+        return None if self.listener.shape is None else self.listener.shape * excitation
+
+
+def modal_model(plate, listener, *, samplerate: int, max_frequency: float | None = None) -> ModalModel:
+    """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
+    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
+    a mode at or above Nyquist is never rendered). Plate modes and microphone gains come
+    from their caches when present.
+
+    A mode with sigma >= omega is overdamped: it does not ring (possible only for a loss
+    factor >= 2, or a Rayleigh law far outside any material's range); it is left out and
+    counted.
+    """
+    fs = samplerate
+    f_max = 0.5 * fs if max_frequency is None else max_frequency
+    modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
+    sigma = np.asarray(modes.decay_rates, dtype=float)
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    under = sigma < omega
+    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
+    ok = under & (wd < math.pi * fs)
+    poles = (-sigma + 1j * wd)[ok]
+    gains = LISTENER_OUTPUTS[type(listener)](modes, plate, listener, poles, ok, sigma, omega, wd)
+    return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
 
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the
@@ -212,36 +323,14 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     elif not isinstance(sequence, BounceSequence):
         raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
 
-    # the plate's modes below Nyquist, as poles. A mode with sigma >= omega is overdamped:
-    # it does not ring (possible only for a loss factor >= 2, or a Rayleigh law far
-    # outside any material's range); it is left out and counted in the settings.
-    modes = plate_modes.modes(scene.plate, max_frequency=f_max * (1.0 - 1e-9))
-    sigma = np.asarray(modes.decay_rates, dtype=float)
-    omega = np.asarray(modes.angular_frequencies, dtype=float)
-    under = sigma < omega
-    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
-    ok = under & (wd < math.pi * fs)
-    poles = (-sigma + 1j * wd)[ok]
-    x0 = np.array([scene.position])
-    phi0 = modes.shapes(x0)[0][ok]
-    excitation = phi0 / np.asarray(modes.modal_masses, dtype=float)[ok]
-
+    model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
+    poles = model.poles
+    excitation = model.excitation(scene.position)
+    output = model.output
+    direct = model.direct(excitation)
+    delay = model.delay
+    units = model.units
     listener = scene.listener
-    if isinstance(listener, Accelerometer):
-        phip = modes.shapes(np.array([listener.position]))[0][ok]
-        output = phip * poles ** 2
-        direct = phip * excitation
-        delay = 0.0
-        units = "m/s^2"
-    else:
-        D = scene.plate.flexural_rigidity
-        rho_h = scene.plate.surface_density
-        k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
-        all_gains = _microphone_gains(modes, scene, (-sigma + 1j * wd), k_max)
-        output = np.asarray(all_gains)[ok] * poles
-        direct = None
-        delay = _nearest_distance(scene) / SOUND_SPEED
-        units = "Pa"
 
     times = np.array([imp.time for imp in sequence])
     start = (times[0] + delay - pre) if len(times) else 0.0
@@ -266,9 +355,9 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                     floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s, max_tail=tail,
                     listener=type(listener).__name__.lower(), listener_position=list(listener.position),
                     delay=delay, audio_start=start, n_impacts=len(sequence),
-                    stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
+                    stop_reason=sequence.stop_reason, n_modes=int(poles.size),
                     n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
-                    n_modes_overdamped=int(np.sum(~under)),
+                    n_modes_overdamped=model.n_overdamped,
                     tail_cut=bool(info["length"] >= max_samples
                                   and info["left_at_end"] > floor * info["reference"]),
                     left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
