@@ -51,6 +51,8 @@ DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
 #: together.
 HIT_RTOL = 1e-6
+#: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
+WARM_UP_BALL_RADIUS = 0.005
 
 
 @dataclass(frozen=True)
@@ -109,10 +111,18 @@ class Body:
                               np.zeros(K, dtype=np.int64), np.zeros(K), np.zeros(K))
         zr, zi, active, debt, debt_at, thr, thr2 = self._state_arrays
         self._level = np.zeros(1)
+        self._warm_up()
         self._kernel_args = (power_table(poles, float(fs)), poles, float(fs), zr, zi, active, debt,
                              debt_at, thr, thr2, self._level, engine.floor, r.state, r.inject,
                              r.first, r.length, r.amplitudes, r.response, r.reference,
                              self._counters)
+
+    def _warm_up(self):
+        """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
+        them at their first call), so that the first real hit takes microseconds."""
+        ball = Ball(self.plate.material, WARM_UP_BALL_RADIUS)
+        result = solve_impact(ball, self.plate, 1.0, position=self.plate.centre, rtol=HIT_RTOL)
+        impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
 
     def __repr__(self):
         return (f"Body(plate={self.plate!r}, listener={self.listener!r}, gain={self.gain!r}, "
@@ -316,6 +326,7 @@ class Engine:
         self._mix = np.zeros(max(self.blocksize, 4096))
         self._frame = 0                    # next frame to mix
         self._fade_at = -1                 # position in the stop fade, -1: none
+        self.fade_frame = None             # where the last stop() fade began (frame)
         self._stream = None
         self._state = "idle"               # idle -> running -> stopped
         # the clock of the last callback: its first frame, the perf_counter time at which
@@ -427,6 +438,8 @@ class Engine:
                     body._apply_silence()
                 kernel.mix_body(self._mix, t0, n, *body._kernel_args)
             block = outdata[done:done + n]
+            if self._fade_at == 0:
+                self.fade_frame = t0
             self._fade_at = kernel.write_output(self._mix, n, block, self._fade_at,
                                                 self._fade_length)
             if self._recorded < self.recording.shape[0]:
@@ -437,14 +450,17 @@ class Engine:
             done += n
 
     def process(self, frames: int) -> np.ndarray:
-        """Mix the next ``frames`` frames without a device: float32 (frames, channels), the
-        very samples the stream's callback would emit. Not while the stream runs."""
+        """Mix the next ``frames`` frames without a device, in blocks of ``blocksize``:
+        float32 (frames, channels), the very samples the stream's callback would emit.
+        Not while the stream runs."""
         n = _check_int("frames", frames, 0, 1 << 40, "frames")
         if self.running:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
         out = np.empty((n, self.channels), dtype=np.float32)
-        self._mix_into(out, n)
+        for a in range(0, n, self.blocksize):      # the callback's blocks
+            b = min(n, a + self.blocksize)
+            self._mix_into(out[a:b], b - a)
         return out
 
     def _callback(self, outdata, frames, time_info, status):
