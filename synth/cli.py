@@ -3,7 +3,8 @@
 Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter`` (a
 recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
 preset), ``presets`` (list them),
-``materials`` (the material table), ``bench`` (error against run time).
+``materials`` (the material table), ``play`` (a preset through the live engine),
+``bench`` (error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
 """
 
@@ -238,8 +239,45 @@ def _cmd_materials(args):
     return 0
 
 
+def _device(value):
+    """A PortAudio device: an index when the value is a number, else a name."""
+    return int(value) if value.isdigit() else value
+
+
+def _cmd_play(args):
+    import time
+
+    from synth.io.presets import load_preset_with_options
+    from synth.live import Engine
+
+    scene, render_section, _ = load_preset_with_options(args.preset, args.overrides)
+    fs = args.samplerate or int(render_section.get("samplerate", 48000))
+    engine = Engine(samplerate=fs, blocksize=args.blocksize, device=args.device,
+                    latency=args.latency)
+    body = engine.add(scene.plate, listener=scene.listener, gain=10.0 ** (args.gain_db / 20.0))
+    engine.start()
+    try:
+        for n in range(args.repeat):
+            onsets = body.drop(scene.ball, scene.drop_height, position=scene.position)
+            print(f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
+                  if onsets else f"drop {n + 1}: no impact", flush=True)
+            deadline = time.monotonic() + args.max_seconds
+            while body.awake and time.monotonic() < deadline:
+                time.sleep(0.02)
+    except KeyboardInterrupt:
+        engine.stop()
+        print("stopped", file=sys.stderr)
+        return 130
+    engine.stop()
+    stats = engine.stats
+    print(f"{stats.impacts_played} impacts played, {stats.output_underflows} output underflows, "
+          f"callback mean {100 * stats.callback_mean:.1f} % of the block")
+    return 0
+
+
 def _cmd_bench(args):
     from synth import bench
+    from synth.live import bench as live_bench
 
     runs = {
         "contact": (lambda: bench.run_contact(
@@ -248,6 +286,7 @@ def _cmd_bench(args):
         "render": (bench.run_render, bench.format_render),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
+        "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -342,15 +381,33 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("materials", help="list the built-in materials")
     p.set_defaults(func=_cmd_materials)
 
+    p = sub.add_parser("play", help="play a preset's scene through the live engine (Ctrl-C stops)")
+    _add_preset_args(p)
+    p.add_argument("--device", type=_device, help="output device: index or name (default: the "
+                   "system's; list them with `python -m sounddevice`)")
+    p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
+    p.add_argument("--blocksize", type=int, default=256, help="frames per block (default 256)")
+    p.add_argument("--latency", default="low", help="low (default), high, or seconds")
+    p.add_argument("--gain-db", type=float, default=0.0, metavar="DB",
+                   help="level above the physical calibration (1000 Pa or 10 000 m/s^2 full "
+                        "scale), dB (default 0)")
+    p.add_argument("--repeat", type=int, default=1, help="drops, one after the other (default 1)")
+    p.add_argument("--max-seconds", type=float, default=30.0, metavar="S",
+                   help="longest wait for a drop to ring out, s (default 30)")
+    p.set_defaults(func=_cmd_play)
+
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
-                        "onsets against noise")
+                        "onsets against noise; live: the live engine's callback, hit() and "
+                        "add() costs, and underflows through a JACK dummy server")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
+    p.add_argument("--seconds", type=float, default=30.0,
+                   help="live: length of the JACK dummy server run, s (default 30)")
     p.set_defaults(func=_cmd_bench)
     return parser
 

@@ -236,3 +236,11 @@ def test_start_without_the_device_says_so():
     with pytest.raises(SynthError, match="no audio output device 9999"):
         engine.start()
     assert not engine.running
+
+
+def test_synth_play_without_the_device_is_a_one_line_error(capsys):
+    pytest.importorskip("sounddevice", exc_type=OSError)
+    from synth.cli import main
+
+    assert main(["play", "default", "--device", "9999"]) == 2
+    assert "no audio output device 9999" in capsys.readouterr().err

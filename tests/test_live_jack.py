@@ -118,3 +118,13 @@ def test_add_while_running_and_stop_fades_out(jack, scene):
     # largest step of the free ringing before stop)
     steps = np.abs(np.diff(out[:end]))
     assert np.max(steps[stopped_at:]) <= np.max(steps[:stopped_at])
+
+
+def test_synth_play_runs_a_preset_through_the_engine(jack, capsys):
+    # the command plays the preset's drop on the server and returns once it has rung out
+    from synth.cli import main
+
+    assert main(["play", "default", "--device", str(jack.device), "--max-seconds", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "drop 1:" in out and "impacts played" in out
+    assert client_ports(jack) == []

@@ -299,8 +299,11 @@ class Engine:
             raise ParameterError(f"device={device!r} must be None, a device index or a device name")
         self.device = device
         if isinstance(latency, str):
-            checks.choice("latency", latency, LATENCIES)
-        else:
+            try:
+                latency = float(latency)
+            except ValueError:
+                checks.choice("latency", latency, LATENCIES)
+        if not isinstance(latency, str):
             latency = checks.in_range("latency", latency, 0.0, 10.0, "s", hi_open=False)
         self.latency_setting = latency
         self.channels = _check_int("channels", channels, 1, 64, "channels")
