@@ -244,3 +244,17 @@ def test_synth_play_without_the_device_is_a_one_line_error(capsys):
 
     assert main(["play", "default", "--device", "9999"]) == 2
     assert "no audio output device 9999" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("script, argv", [("ui_button.py", []), ("game_loop.py", ["--seconds", "2"])])
+def test_examples_run_offline(script, argv, tmp_path, monkeypatch, capsys):
+    # the examples' offline modes run the same engine on its own clock and write a file
+    import runpy
+    from pathlib import Path
+
+    out = tmp_path / "out.wav"
+    path = Path(__file__).parent.parent / "examples" / script
+    monkeypatch.setattr(sys, "argv", [str(path), *argv, "--offline", str(out)])
+    runpy.run_path(str(path), run_name="__main__")
+    audio, fs = synth.read_audio(out)
+    assert fs == FS and np.any(audio)

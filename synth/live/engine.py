@@ -24,7 +24,7 @@ mixed, in seconds. A hit starts one block plus the stream's output latency after
 from __future__ import annotations
 
 import math
-import threading
+import sys
 import time
 from dataclasses import dataclass
 
@@ -41,6 +41,10 @@ from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
 from synth.sound.modal_bank import bank_coefficients, impact_excitation, power_table
 from synth.sound.render import modal_model
 
+#: Python's thread switch interval while a stream runs, s. The callback runs a little
+#: Python around its kernels and needs the GIL: with the default 5 ms interval a trigger
+#: thread running Python code can keep it waiting for about a block.
+SWITCH_INTERVAL = 0.0002
 #: Latency settings PortAudio takes by name (else a positive number of seconds).
 LATENCIES = ("low", "high")
 #: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
@@ -513,6 +517,8 @@ class Engine:
                              f"{self.samplerate} Hz with {self.channels} channel(s): {exc}") from None
         self._latency = float(stream.latency)
         self._lead = self._latency
+        self._switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL))
         self._anchor_seq = 0
         self._fade_at = -1
         self._stream = stream
@@ -538,6 +544,7 @@ class Engine:
             self._stream = None
             self._state = "stopped"
             self._latency = 0.0
+            sys.setswitchinterval(self._switch_interval)
         for body in self._bodies:
             body._apply_silence()
         self._fade_at = -1
