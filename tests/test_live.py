@@ -188,6 +188,7 @@ def test_add_hit_drop_reject_bad_arguments(scene):
     ball = scene.ball
     for call, name in [
         (lambda: body.hit("ball", 1.0), "ball"),
+        (lambda: body.hit(synth.Ball("steel", radius=0.3), 1.0), "ball.radius"),
         (lambda: body.hit(ball, 0.0), "speed"),
         (lambda: body.hit(ball, float("nan")), "speed"),
         (lambda: body.hit(ball, 1.0, position=(9.0, 0.1)), "position"),

@@ -173,6 +173,11 @@ class Body:
     def _check_ball(self, ball):
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
+        if 2.0 * ball.radius > min(self.plate.length, self.plate.width):
+            raise ParameterError(
+                f"ball.radius={ball.radius!r} is too large for the plate: the ball's diameter "
+                f"must not exceed the plate's smaller side "
+                f"{min(self.plate.length, self.plate.width)!r} (metres)")
         return ball
 
     def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
@@ -360,11 +365,11 @@ class Engine:
         if listener is None:
             cx, cy = plate.centre
             listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
-        elif not isinstance(listener, (Accelerometer, Microphone)):
+        elif isinstance(listener, Accelerometer):
+            plate.check_position(listener.position, "listener.position")
+        elif not isinstance(listener, Microphone):
             raise ParameterError(f"listener={listener!r} must be None, an Accelerometer or a "
                                  f"Microphone")
-        else:
-            plate.check_position(listener.position[:2], "listener.position")
         g = checks.positive("gain", gain, "dimensionless")
         self._check_open("add a body")
         model = modal_model(plate, listener, samplerate=self.samplerate,
