@@ -258,7 +258,8 @@ def _cmd_play(args):
     engine.start()
     try:
         for n in range(args.repeat):
-            onsets = body.drop(scene.ball, scene.drop_height, position=scene.position)
+            onsets = body.drop(scene.ball, scene.drop_height, position=scene.position,
+                               contact=scene.contact, gravity=scene.gravity)
             print(f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
                   if onsets else f"drop {n + 1}: no impact", flush=True)
             deadline = time.monotonic() + args.max_seconds

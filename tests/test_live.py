@@ -78,6 +78,20 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
 
+def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
+    # the drop takes a scene's contact model and gravity: Hunt-Crossley damping on the Moon
+    moon = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.2),
+                       gravity=1.62, contact=synth.Contact("hunt-crossley", dissipation=0.2))
+    r = rendered(moon)
+    engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
+    body = engine.add(moon.plate, listener=moon.listener)
+    onsets = body.drop(moon.ball, moon.drop_height, position=moon.position, at=PRE,
+                       contact=moon.contact, gravity=moon.gravity)
+    assert len(onsets) == r.settings["n_impacts"]
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
 def test_several_bodies_add_up(scene, accel_scene):
     # each body is its own modal bank; the output is their sum (a microphone over one
     # plate and an accelerometer on another), each in its physical calibration
@@ -216,6 +230,8 @@ def test_add_hit_drop_reject_bad_arguments(scene):
         (lambda: body.drop(ball, 0.1, position=(0.1, 7.0)), "position"),
         (lambda: body.drop(ball, 0.1, gain=float("nan")), "gain"),
         (lambda: body.drop(ball, 0.1, at="soon"), "at"),
+        (lambda: body.drop(ball, 0.1, contact="hertz"), "contact"),
+        (lambda: body.hit(ball, 1.0, gravity=0.0), "gravity"),
         (lambda: engine.process(-1), "frames"),
     ]:
         with pytest.raises(ParameterError, match=name):

@@ -181,6 +181,14 @@ class Body:
                 f"{min(self.plate.length, self.plate.width)!r} (metres)")
         return ball
 
+    @staticmethod
+    def _check_contact(contact) -> Contact:
+        if contact is None:
+            return Contact()
+        if not isinstance(contact, Contact):
+            raise ParameterError(f"contact={contact!r} must be None or a Contact")
+        return contact
+
     def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
         """Hand one contact over, its tick starting at ``onset`` s on the engine's clock."""
         ex = impact_excitation(prepared.coefficients, result, onset, weight=weight,
@@ -196,7 +204,8 @@ class Body:
         return self._ring.put(ex.inject, ex.first, amplitudes, response, reference)
 
     def hit(self, ball: Ball, speed: float, *, position=None, gain: float = 1.0,
-            at: float | None = None) -> float | None:
+            at: float | None = None, contact: Contact | None = None,
+            gravity: float = 9.81) -> float | None:
         """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
         plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
         thread: the contact is solved here and handed to the audio thread without blocking
@@ -204,6 +213,8 @@ class Body:
 
         The tick starts at ``at`` (s on the engine's clock, not before :attr:`Engine.time`)
         or, by default, one block plus the stream's output latency after the call.
+        ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
+        is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
         Returns its start time in s, or None if the body's ring of pending impacts is full
         (the impact is refused and counted in :attr:`Engine.stats`).
         """
@@ -211,29 +222,35 @@ class Body:
         v = checks.positive("speed", speed, "m/s")
         pos = self._position(position)
         g = checks.positive("gain", gain, "dimensionless")
+        law = self._check_contact(contact)
+        g0 = checks.positive("gravity", gravity, "m/s^2")
         onset = self._engine._onset(at)
-        result = solve_impact(ball, self.plate, v, position=pos, rtol=HIT_RTOL)
+        result = solve_impact(ball, self.plate, v, position=pos, rtol=HIT_RTOL, gravity=g0,
+                              contact=law.law, **law.options())
         if not result.success:
             raise SynthError(f"the contact of {ball!r} at speed={v!r} m/s did not converge: "
                              f"{result.message}")
         return onset if self._submit(result, onset, self._prepare(pos), g) else None
 
     def drop(self, ball: Ball, height: float, *, position=None, gain: float = 1.0,
-             at: float | None = None) -> tuple[float, ...]:
+             at: float | None = None, contact: Contact | None = None,
+             gravity: float = 9.81) -> tuple[float, ...]:
         """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
-        engine's clock from ``at`` (as :meth:`hit`: the first tick's start). Returns the
+        engine's clock from ``at`` (as :meth:`hit`: the first tick's start); ``contact``
+        (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's. Returns the
         start times (s) of the ticks handed over; impacts refused by a full ring are
         counted in :attr:`Engine.stats`."""
         ball = self._check_ball(ball)
         h = checks.positive("height", height, "m")
         pos = self._position(position)
         g = checks.positive("gain", gain, "dimensionless")
+        law = self._check_contact(contact)
+        gravity = checks.positive("gravity", gravity, "m/s^2")
         onset0 = self._engine._onset(at)
-        gravity = 9.81
         sequence = simulate_bounces(ball, self.plate, drop_height=h, position=pos, gravity=gravity,
-                                    rtol=Contact().rtol)
+                                    contact_law=law.law, rtol=law.rtol, **law.options())
         prepared = self._prepare(pos)
         t0 = sequence[0].time if len(sequence) else 0.0
         played = []
