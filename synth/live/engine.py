@@ -111,6 +111,7 @@ class Body:
         self._ring = PendingRing(max_pending, K, int(math.ceil(MAX_CONTACT * fs)))
         self._counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
         self._silence = False
+        self._puts_seen = 0
         r = self._ring
         self._state_arrays = (np.zeros(K), np.zeros(K), np.zeros(K, dtype=np.bool_), np.zeros(K),
                               np.zeros(K, dtype=np.int64), np.zeros(K), np.zeros(K))
@@ -476,6 +477,10 @@ class Engine:
             for body in self._bodies:
                 if body._silence:
                     body._apply_silence()
+                puts = body._ring.puts
+                if puts == body._puts_seen and not body._counters[kernel.AWAKE]:
+                    continue              # quiet, nothing new: costs nothing
+                body._puts_seen = puts
                 kernel.mix_body(self._mix, t0, n, *body._kernel_args)
             block = outdata[done:done + n]
             if self._fade_at == 0:

@@ -33,6 +33,7 @@ class PendingRing:
         self.response = np.zeros((capacity, max_contact))
         self.reference = np.zeros(capacity)
         self.refused = 0
+        self.puts = 0                   # impacts handed over so far (written after READY)
         self._lock = threading.Lock()   # between producers only
 
     @property
@@ -63,6 +64,7 @@ class PendingRing:
             self.inject[i] = inject
             self.reference[i] = reference
             self.state[i] = READY
+            self.puts += 1
             return True
 
     def free_slots(self) -> int:
