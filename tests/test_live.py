@@ -290,3 +290,17 @@ def test_examples_run_offline(script, argv, tmp_path, monkeypatch, capsys):
     runpy.run_path(str(path), run_name="__main__")
     audio, fs = synth.read_audio(out)
     assert fs == FS and np.any(audio)
+
+
+def test_bench_live_figures_format():
+    # the benchmark's pieces run and print their targets (figures themselves are not
+    # asserted: wall-clock times depend on the machine)
+    from synth.live import bench
+
+    result = dict(callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+                  hit_us=bench.hit_cost(repeat=5),
+                  add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001), jack=None)
+    assert [r["bodies"] for r in result["callback"]] == [1, 2]
+    assert all(r["played"] >= 1 for r in result["callback"])
+    text = bench.format_live(result)
+    assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
