@@ -16,6 +16,11 @@ Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the
 calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
 times each body's and each hit's gain, so bodies and hits keep their true level relation.
 
+The callback allocates no array (it mixes into a preallocated buffer and writes the
+stream's), touches no file and takes no lock: a trigger thread never holds anything the
+audio thread waits for, except, briefly, Python's GIL (hence a short switch interval while
+the stream runs). A body with no ringing mode and nothing new handed over is skipped.
+
 The engine's clock counts output frames from 0; ``Engine.time`` is the next frame to be
 mixed, in seconds. A hit starts one block plus the stream's output latency after the call
 (sub-sample exact, the same offset for every call, so there is no jitter), or at ``at``.
