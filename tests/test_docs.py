@@ -125,12 +125,23 @@ def _significant(token):
 
 def _block_figures(body):
     """Measured figures of a block: numbers with three or more significant digits in its
-    table cells, apart from the first column (the case or quantity measured)."""
+    table cells, apart from the first column (the case or quantity measured) and the
+    columns of published values (a header naming the thesis)."""
     figures = set()
+    skip = set()
     for line in body.splitlines():
-        if not line.startswith("|") or line.startswith("|---"):
+        if not line.startswith("|"):
+            skip = set()            # a new table starts after any other line
             continue
-        for cell in line.strip().strip("|").split("|")[1:]:
+        cells = line.strip().strip("|").split("|")
+        if line.startswith("|---"):
+            continue
+        if not skip:                # the header row
+            skip = {0} | {i for i, c in enumerate(cells) if "thesis" in c}
+            continue
+        for i, cell in enumerate(cells):
+            if i in skip:
+                continue
             for token in re.findall(r"-?\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+|\d{3,}", cell):
                 if _significant(token) >= 3:
                     figures.add(token.lstrip("-"))
@@ -156,13 +167,15 @@ def test_measured_figures_are_not_pasted_outside_their_block():
 
 
 def test_block_figures_are_found():
-    body = ("Printed by `synth bench thesis --markdown` on ...\n\n| quantity | engine | ref |\n"
-            "|---|---|---|\n| steel 12.55 mm | 0.871 | 0.87 |\n| time (us) | 103.7 | 3.4e-07 |\n")
-    assert _block_figures(body) == {"0.871", "103.7"}
+    body = ("Printed by `synth bench thesis --markdown` on ...\n\n"
+            "| quantity | engine | thesis (measured) | error |\n|---|---|---|---|\n"
+            "| steel 12.55 mm | 0.871 | 0.87 | 3.4e-07 |\n| time (us) | 103.7 | 110 | 3.41e-07 |\n")
+    assert _block_figures(body) == {"0.871", "103.7", "3.41e-07"}
 
 
 def test_replace_bench_block():
-    text = "a\n<!-- bench:thesis -->\nold\n<!-- /bench:thesis -->\nb\n<!-- bench:render -->\nx\n<!-- /bench:render -->\n"
+    text = ("a\n<!-- bench:thesis -->\nold\n<!-- /bench:thesis -->\n"
+            "b\n<!-- bench:render -->\nx\n<!-- /bench:render -->\n")
     new = docs.replace_bench_block(text, "thesis", "new figures")
     assert docs.bench_blocks(new) == {"thesis": "new figures\n", "render": "x\n"}
     assert docs.replace_bench_block(new, "thesis", "new figures") == new
