@@ -24,16 +24,19 @@ BENCH_PAGES = {
     "analysis": "validation.md",
 }
 
-_BLOCK = re.compile(r"(<!-- bench:(?P<name>[a-z]+) -->\n)(?P<body>.*?)(<!-- /bench:(?P=name) -->)",
-                    re.S)
+_BLOCK = re.compile(
+    r"(<!-- bench:(?P<name>[a-z]+) -->\n)(?P<body>.*?)(<!-- /bench:(?P=name) -->)", re.S
+)
 
 
 def docs_dir() -> Path:
     """The docs/ folder of the source checkout this package runs from."""
     path = Path(__file__).resolve().parent.parent / "docs"
     if not path.is_dir():
-        raise SynthError(f"docs={str(path)!r} does not exist: the documentation is updated "
-                         "from a source checkout of the repository (pip install -e .)")
+        raise SynthError(
+            f"docs={str(path)!r} does not exist: the documentation is updated "
+            "from a source checkout of the repository (pip install -e .)"
+        )
     return path
 
 
@@ -51,8 +54,7 @@ def materials_page() -> str:
         "factor dimensionless, Rayleigh `alpha` in 1/s and `beta` in s. What the damping "
         "column does and where each value comes from: [physics.md, Materials]"
         "(physics.md#materials); the works cited: [physics.md, References]"
-        "(physics.md#references).\n\n"
-        + materials.table_markdown()
+        "(physics.md#references).\n\n" + materials.table_markdown()
     )
 
 
@@ -64,11 +66,13 @@ def bench_blocks(text: str) -> dict[str, str]:
 def replace_bench_block(text: str, name: str, body: str) -> str:
     """``text`` with the block of benchmark ``name`` replaced by ``body``."""
     if name not in bench_blocks(text):
-        raise SynthError(f"bench={name!r}: no block <!-- bench:{name} --> ... "
-                         f"<!-- /bench:{name} --> in the page")
+        raise SynthError(
+            f"bench={name!r}: no block <!-- bench:{name} --> ... <!-- /bench:{name} --> in the page"
+        )
     body = body if body.endswith("\n") else body + "\n"
-    return _BLOCK.sub(lambda m: m.group(1) + body + m.group(4) if m["name"] == name else m.group(0),
-                      text)
+    return _BLOCK.sub(
+        lambda m: m.group(1) + body + m.group(4) if m["name"] == name else m.group(0), text
+    )
 
 
 def write_text_atomic(path: Path, text: str) -> None:
@@ -97,8 +101,11 @@ def update_bench_docs(name: str, body: str) -> Path:
 def main(argv: list[str] | None = None) -> int:
     """Rewrite docs/materials.md (``python -m synth.docs``)."""
     if argv:
-        print("usage: python -m synth.docs   (rewrites docs/materials.md; the benchmark blocks: "
-              "synth bench NAME --update-docs)", file=sys.stderr)
+        print(
+            "usage: python -m synth.docs   (rewrites docs/materials.md; the benchmark blocks: "
+            "synth bench NAME --update-docs)",
+            file=sys.stderr,
+        )
         return 2
     page = docs_dir() / "materials.md"
     write_text_atomic(page, materials_page())

@@ -17,8 +17,18 @@ DOCS = ROOT / "docs"
 PAGES = ("physics.md", "analysis.md", "validation.md", "benchmarks.md", "cli.md", "materials.md")
 
 #: The sections of docs/physics.md that code and other pages link to.
-PHYSICS_SECTIONS = ["Materials", "Plate impedance", "Hertz contact", "Bounces", "Plate modes",
-                    "Radiation", "Modal synthesis", "Levels", "Known limitations", "References"]
+PHYSICS_SECTIONS = [
+    "Materials",
+    "Plate impedance",
+    "Hertz contact",
+    "Bounces",
+    "Plate modes",
+    "Radiation",
+    "Modal synthesis",
+    "Levels",
+    "Known limitations",
+    "References",
+]
 
 
 def _read(name):
@@ -78,8 +88,9 @@ def _anchors(path):
     return {_slug(h) for h in re.findall(r"^#+ (.+)$", path.read_text(), flags=re.M)}
 
 
-@pytest.mark.parametrize("path", [ROOT / "README.md"] + [DOCS / n for n in PAGES],
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "path", [ROOT / "README.md"] + [DOCS / n for n in PAGES], ids=lambda p: p.name
+)
 def test_links_resolve(path):
     # Every relative link points at a file of the repository, and every #anchor at a heading.
     for target in re.findall(r"\]\(([^)\s]+)\)", path.read_text()):
@@ -115,7 +126,7 @@ def test_every_benchmark_has_one_block_in_its_page():
     assert set(blocks) == set(docs.BENCH_PAGES)
     for key, (page, _) in blocks.items():
         assert page == docs.BENCH_PAGES[key]
-        assert f"`synth bench {key}`" in _read(page)    # the command that writes it
+        assert f"`synth bench {key}`" in _read(page)  # the command that writes it
 
 
 def _significant(token):
@@ -138,14 +149,17 @@ def _block_figures(body):
     skip = set()
     for line in body.splitlines():
         if not line.startswith("|"):
-            skip = set()            # a new table starts after any other line
+            skip = set()  # a new table starts after any other line
             continue
         cells = line.strip().strip("|").split("|")
         if line.startswith("|---"):
             continue
-        if not skip:                # the header row
-            skip = {0} | {i for i, c in enumerate(cells)
-                          if "thesis" in c or (_TIMING.search(c.strip()) and "error" not in c)}
+        if not skip:  # the header row
+            skip = {0} | {
+                i
+                for i, c in enumerate(cells)
+                if "thesis" in c or (_TIMING.search(c.strip()) and "error" not in c)
+            }
             continue
         for i, cell in enumerate(cells):
             if i in skip:
@@ -170,23 +184,28 @@ def test_measured_figures_are_not_pasted_outside_their_block():
     for path in [ROOT / "README.md"] + [DOCS / n for n in PAGES]:
         text = _outside_blocks(path.read_text())
         for fig in figures:
-            assert not re.search(rf"(?<![\d.]){re.escape(fig)}(?![\d])", text), \
+            assert not re.search(rf"(?<![\d.]){re.escape(fig)}(?![\d])", text), (
                 f"{path.name} repeats the measured figure {fig} outside its block"
+            )
 
 
 def test_block_figures_are_found():
-    body = ("Printed by `synth bench thesis --markdown` on ...\n\n"
-            "| quantity | engine | thesis (measured) | error | render (ms) | onset error, RMS (ms) |\n"
-            "|---|---|---|---|---|---|\n"
-            "| steel 12.55 mm | 0.871 | 0.87 | 3.4e-07 | 12.6 | 0.013 |\n"
-            "| time (us) | 103.7 | 110.0 | 3.41e-07 | 12.7 | 0.0291 |\n"
-            "| DOP853 | 1e-03 | 5148 / 7137 | -86.6 | 13.8 | 0.068 |\n")
+    body = (
+        "Printed by `synth bench thesis --markdown` on ...\n\n"
+        "| quantity | engine | thesis (measured) | error | render (ms) | onset error, RMS (ms) |\n"
+        "|---|---|---|---|---|---|\n"
+        "| steel 12.55 mm | 0.871 | 0.87 | 3.4e-07 | 12.6 | 0.013 |\n"
+        "| time (us) | 103.7 | 110.0 | 3.41e-07 | 12.7 | 0.0291 |\n"
+        "| DOP853 | 1e-03 | 5148 / 7137 | -86.6 | 13.8 | 0.068 |\n"
+    )
     assert _block_figures(body) == {"0.871", "103.7", "3.41e-07", "86.6", "0.0291"}
 
 
 def test_replace_bench_block():
-    text = ("a\n<!-- bench:thesis -->\nold\n<!-- /bench:thesis -->\n"
-            "b\n<!-- bench:render -->\nx\n<!-- /bench:render -->\n")
+    text = (
+        "a\n<!-- bench:thesis -->\nold\n<!-- /bench:thesis -->\n"
+        "b\n<!-- bench:render -->\nx\n<!-- /bench:render -->\n"
+    )
     new = docs.replace_bench_block(text, "thesis", "new figures")
     assert docs.bench_blocks(new) == {"thesis": "new figures\n", "render": "x\n"}
     assert docs.replace_bench_block(new, "thesis", "new figures") == new
