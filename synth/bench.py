@@ -648,3 +648,20 @@ def format_analysis(result) -> str:
                      f"{r['e_error_p95']:.2e} | {r['e_error_max']:.2e} | {r['onset_error_rms_ms']:.3f} | "
                      f"{r['seconds_per_file'] * 1e3:.0f} |")
     return "\n".join(lines)
+
+
+def markdown_block(command: str, table: str) -> str:
+    """A benchmark's output as a block for docs/: one line naming the command, the date and
+    the machine (CPUs, load average), then the benchmark's Markdown tables."""
+    import datetime
+    import os
+    import platform
+
+    import numba
+
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    head = (f"Printed by `{command}` on {now} (Python {platform.python_version()}, "
+            f"numba {numba.__version__}, {os.cpu_count()} CPUs, load average {load:.1f} "
+            "at the end of the run).")
+    return f"{head}\n\n{table}\n"

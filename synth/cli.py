@@ -283,22 +283,42 @@ def _cmd_bench(args):
     runs = {
         "contact": (lambda: bench.run_contact(
             tolerances=tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
-            repeat=args.repeat), bench.format_contact),
-        "render": (bench.run_render, bench.format_render),
+            repeat=300 if args.repeat is None else args.repeat), bench.format_contact),
+        "render": (lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
+                   bench.format_render),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
+        if args.json and (args.markdown or args.update_docs):
+            raise SynthError("--json cannot be combined with --markdown or --update-docs")
         result = run()
         if args.json:
             json.dump(result, sys.stdout, indent=1)
             print()
+        elif args.markdown or args.update_docs:
+            block = bench.markdown_block(_bench_command(args), fmt(result))
+            if args.update_docs:
+                from synth.docs import update_bench_docs
+                print(f"{update_bench_docs(args.what, block)}: block bench:{args.what} updated")
+            else:
+                print(block, end="")
         else:
             print(fmt(result))
         return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
+
+
+def _bench_command(args) -> str:
+    """The benchmark's command line, as printed in a docs/ block."""
+    words = ["synth", "bench", args.what]
+    if args.repeat is not None:
+        words += ["--repeat", str(args.repeat)]
+    if args.tolerances:
+        words += ["--tolerances", *(f"{t:g}" for t in args.tolerances)]
+    return " ".join(words + ["--markdown"])
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -405,7 +425,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "onsets against noise; live: the live engine's callback, hit() and "
                         "add() costs, and underflows through a JACK dummy server")
     p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
+    p.add_argument("--markdown", action="store_true",
+                   help="the block for docs/: the command, date and machine, then the tables")
+    p.add_argument("--update-docs", action="store_true",
+                   help="write that block between its markers in docs/ (a source checkout)")
+    p.add_argument("--repeat", type=int, help="timed calls per figure, median (default: "
+                   "contact 300, render 5; thesis and analysis time nothing)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
     p.add_argument("--seconds", type=float, default=30.0,
                    help="live: length of the JACK dummy server run, s (default 30)")
