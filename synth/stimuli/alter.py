@@ -121,12 +121,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import numba
-from scipy.linalg import solve_toeplitz
+import numpy as np
 from scipy.signal import lfilter
 
-from synth import checks
+from synth import checks, dsp
 from synth.errors import ParameterError
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
@@ -144,9 +143,8 @@ LEAD = 0.0001
 EXCITATION = 0.001
 #: Slowest decay of a predicted mode: 60 dB in this many seconds.
 MAX_T60 = 15.0
-#: Frames of the noise-floor estimate, s, and the spread of the quiet frames, dB.
-NOISE_FRAME = 0.01
-NOISE_SPREAD_DB = 3.0
+#: Frames of the noise-floor estimate and of the end level, s.
+NOISE_FRAME = dsp.NOISE_FRAME
 #: Past spanned by the noise model, s.
 NOISE_ORDER = 0.001
 #: Smoothing of a tick's short-time power for its gain, s.
@@ -162,32 +160,6 @@ NORMALIZE_MODES = ("none", "peak")
 
 
 # --------------------------------------------------------------------------- prediction
-
-
-@numba.njit(cache=True, fastmath=True)
-def _normal_equations(z, n1, n2, p):  # pragma: no cover - compiled
-    """``Phi[i, j] = sum_n z[n-i] z[n-j]`` (0 <= i, j <= p) over the targets ``n`` of the
-    blocks ``[n1[b], n2[b])`` (n1 >= p): the covariance method of linear prediction
-    (Makhoul 1975, Proc. IEEE 63, 561). Row 0 is a correlation; the rest follows
-    from ``Phi[i+1, j+1] = Phi[i, j] + sum_b (z[n1-1-i] z[n1-1-j] - z[n2-1-i] z[n2-1-j])``:
-    O(n p + p^2) per block instead of O(n p^2)."""
-    phi = np.zeros((p + 1, p + 1))
-    for b in range(n1.size):
-        for d in range(p + 1):
-            s = 0.0
-            for n in range(n1[b], n2[b]):
-                s += z[n] * z[n - d]
-            phi[0, d] += s
-    for i in range(p):
-        for j in range(i, p):
-            s = phi[i, j]
-            for b in range(n1.size):
-                s += z[n1[b] - 1 - i] * z[n1[b] - 1 - j] - z[n2[b] - 1 - i] * z[n2[b] - 1 - j]
-            phi[i + 1, j + 1] = s
-    for i in range(p + 1):
-        for j in range(i):
-            phi[i, j] = phi[j, i]
-    return phi
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -224,25 +196,6 @@ def _cholesky_solve(A, b):  # pragma: no cover - compiled
     return x
 
 
-@numba.njit(cache=True)
-def _step_down(c):  # pragma: no cover - compiled
-    """True when every root of ``c`` (c[0] = 1) lies inside the unit circle: the
-    step-down (Schur-Cohn) recursion, ``k_m = c_m``,
-    ``c'_i = (c_i - k_m c_(m-i)) / (1 - k_m^2)``, stable iff every ``|k_m| < 1``
-    (the Schur-Cohn test; Markel and Gray, Linear Prediction of Speech, 1976)."""
-    c = c.copy()
-    for m in range(c.size - 1, 0, -1):
-        k = c[m]
-        if not abs(k) < 1.0:
-            return False
-        d = 1.0 - k * k
-        new = np.empty(m)
-        for i in range(m):
-            new[i] = (c[i] - k * c[m - i]) / d
-        c[:m] = new
-    return True
-
-
 def _solve(phi, ridge):
     """Prediction-error filter ``[1, a1 .. ap]`` from the normal equations, with a ridge
     of ``ridge`` times the mean diagonal (a white-noise correction) for conditioning."""
@@ -256,7 +209,7 @@ def _solve(phi, ridge):
 
 def _inside(a, radius):
     """True when every root of ``a`` (a[0] = 1) lies inside ``radius``."""
-    return bool(_step_down(a * radius ** -np.arange(a.size, dtype=float)))
+    return dsp.is_minimum_phase(a * radius ** -np.arange(a.size, dtype=float))
 
 
 #: Ridges tried in turn (white-noise corrections, relative to the mean signal power, from
@@ -326,8 +279,7 @@ def _fit_model(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
             break
     if p < least:
         return None, False
-    phi = _normal_equations(z, np.array([b[0] for b in blocks], dtype=np.int64),
-                            np.array([b[1] for b in blocks], dtype=np.int64), p)
+    phi = dsp.covariance_matrix(z, p, blocks)
     if not phi[0, 0] > 0.0:
         return None, False
     return _stable_fit(phi, fs), clean
@@ -383,23 +335,22 @@ class _Noise:
 
     def __init__(self, z, fs):
         self.level, self.a, self.drive = 0.0, np.ones(1), 0.0
-        n = max(8, int(round(NOISE_FRAME * fs)))
-        frames = z.size // n
-        if frames == 0:
+        fr = dsp.noise_frames(z, fs, least=8)
+        if fr.shape[0] == 0:
             return
-        fr = z[:frames * n].reshape(frames, n)
+        n = fr.shape[1]
         ms = np.mean(fr * fr, axis=1)
         live = ms > 0.0
         if not np.any(live):
             return
-        quiet = live & (ms <= ms[live].min() * 10.0 ** (NOISE_SPREAD_DB / 10.0))
+        quiet = dsp.quiet_frames(ms, among=live)
         power = float(np.mean(ms[quiet]))
         q = max(1, min(int(round(NOISE_ORDER * fs)), n // 4))
         w = np.hanning(n + 2)[1:-1]
         spec = np.fft.rfft(fr[quiet] * w, 2 * n, axis=1)
         r = np.fft.irfft(np.mean(np.abs(spec) ** 2, axis=0), 2 * n)[:q + 1]
-        r[0] *= 1.0 + 1e-9
-        a = np.r_[1.0, solve_toeplitz(r[:q], -r[1:])]
+        r = dsp.white_noise_corrected(r)
+        a = dsp.levinson_predictor(r)
         self.level = math.sqrt(power)
         self.a = a
         self.drive = math.sqrt(power * max(float(np.dot(a, r)) / r[0], 0.0))
