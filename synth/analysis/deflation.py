@@ -273,6 +273,7 @@ class DeflationSearch:
     # -- what step 7 changes
 
     def _initial_floor(self, floor: float | None, noise: float, strongest: float) -> float:
+        """The floor of the detection (energy per frame): the dynamic range's."""
         return floor
 
     def _template_cut(self, noise: float) -> float:
@@ -280,6 +281,7 @@ class DeflationSearch:
         return 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * self.w
 
     def _residual(self, template: np.ndarray, noise: float) -> Residual:
+        """The residual from which the ticks are taken out."""
         return Residual(self.r, template, self.s1, self.settings, self.floor, noise)
 
     def _separation(self, onsets, strengths) -> int:
@@ -321,6 +323,7 @@ class DeflationSearch:
         """Record what step 7 keeps of an accepted tick."""
 
     def _timed(self) -> np.ndarray | None:
+        """The onsets timed against the first tick's template (step 7 only)."""
         return None
 
     # -- the search

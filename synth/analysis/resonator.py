@@ -191,8 +191,8 @@ def _rss(res: np.ndarray, y: np.ndarray) -> float:
 
 
 class ResonatorSearch(DeflationSearch):
-    """The deflation of step 5 on the resonator's whitening, with the rules of step 7 (docs/
-    analysis.md): templates from the sure ticks, each tick's fit window found where the next
+    """The deflation of step 5 on the resonator's whitening, with the rules of step 7
+    (docs/analysis.md): templates from the sure ticks, each tick's fit window found where the next
     tick shows, each model refitted jointly with the next tick's, the shortest bounce the
     series allows, one more tick tried by description length, and every tick timed against
     the first tick's template. ``floor`` None: no fixed floor under the strongest frame (the
