@@ -149,11 +149,11 @@ def format_table(analysis, *, warnings=True) -> str:
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")
     e = an.mean_restitution
-    lines = [
-        f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
-        f"channel {'mix' if an.channel is None else an.channel}, "
-        f"noise floor {an.noise_floor:.3g}, mean e "
-        f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2"]
+    summary = (f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
+               f"channel {'mix' if an.channel is None else an.channel}, "
+               f"noise floor {an.noise_floor:.3g}, mean e "
+               f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2")
+    lines = [summary]
     if warnings:
         lines += [f"warning: {w}" for w in an.warnings]
     head = [h + (f" ({u})" if u else "") for _, h, u, _, _ in _COLUMNS]
