@@ -46,7 +46,7 @@ ticks, and meet the requirements for the reasons checked below:
 
 The restitution from bounce times differs from the physical restitution of the impacts
 (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) / T_(n-1)`` (contact times over
-bounce times; ``synth.analysis`` module docstring): ``test_restitution_from_bounce_times``.
+bounce times; docs/analysis.md, Restitution from bounce times): ``test_restitution_from_bounce_times``.
 """
 
 import functools
@@ -183,7 +183,9 @@ def test_roundtrip_board_late_ticks_over_the_noise_floor():
 
     from scipy.signal import oaconvolve
 
-    from synth import analysis
+    from synth import analysis, dsp
+    from synth.analysis.detection import frame_energies
+    from synth.analysis.whitening import resonator_predictor
 
     name = "thesis-steel10-mdf6"
     scene, seq, r = _render(name)
@@ -192,19 +194,19 @@ def test_roundtrip_board_late_ticks_over_the_noise_floor():
     truth = np.array([imp.time for imp in r.impacts])
     lo = int(math.floor(truth[0] * fs)) + int(round(analysis.CLEAN_GUARD * fs))
     hi = int(math.floor(truth[1] * fs)) - 12
-    A = analysis._resonator_predictor(x[lo:hi], fs, int(round(0.02 * fs)))
+    A = resonator_predictor(x[lo:hi], fs, int(round(0.02 * fs)))
     level = []
     for i in (0, 5, 6, 7, 8):
         alone = _alone(scene, seq, r, i)
         a0 = int(math.floor(truth[i] * fs)) - 2
         w = oaconvolve(alone, A)[a0: a0 + int(0.02 * fs)]
-        level.append(analysis._frame_energies(w, 12, 12).max())
+        level.append(frame_energies(w, 12, 12).max())
     first_level = level[0]
     level = 10.0 * np.log10(np.array(level) / first_level)
     # (measured -57.9, -66.0, -72.8, -81.1 dB; 0.5 dB for the predictor's order)
     assert level[1:] == pytest.approx([-57.9, -66.0, -72.8, -81.1], abs=0.5)
     # the whitened noise, per frame of 12 samples, far under every tick (measured -196.1 dB)
-    noise = analysis._noise_floor(oaconvolve(x, A)[: x.size], fs)
+    noise = dsp.noise_floor(oaconvolve(x, A)[: x.size], fs)
     assert 10.0 * math.log10(noise * noise * 12 / first_level) < -150.0
     # the user's dynamic range holds in every step: ticks 1-6
     fixed = analyze(r.audio, fs, dynamic_range_db=60.0)
