@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 import numbers
 
+import numpy as np
+
 from synth.errors import ParameterError
 
 
@@ -93,3 +95,38 @@ def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...
             f"{name}={value!r} must have {dims} coordinates ({unit}), got {len(items)}")
     axes = "xyz"
     return tuple(real(f"{name}.{axes[i]}", v, unit) for i, v in enumerate(items))
+
+
+def audio_array(name: str, audio) -> np.ndarray:
+    """A non-empty, finite, floating-point array of shape ``(frames,)`` or
+    ``(frames, channels)`` (samples in full-scale or physical units); returned as an
+    ndarray without copying where possible."""
+    if audio is None or isinstance(audio, (str, bytes)):
+        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
+                             f"(frames, channels)")
+    try:
+        a = np.asarray(audio)
+    except Exception:  # noqa: BLE001 - any conversion failure is bad input
+        raise ParameterError(f"{name} of type {type(audio).__name__} is not an array") from None
+    if not np.issubdtype(a.dtype, np.floating):
+        raise ParameterError(
+            f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
+            f"of full scale, or physical units before normalize)")
+    if a.ndim not in (1, 2):
+        raise ParameterError(
+            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
+    if a.size == 0:
+        raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
+        raise ParameterError(
+            f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
+            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
+    return a
+
+
+def samplerate(value, name: str = "samplerate") -> int:
+    """An integer sample rate ``> 0``, Hz."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
+        raise ParameterError(f"{name}={value!r} must be an integer > 0 (Hz)")
+    return int(value)
