@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -20,7 +21,7 @@ def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 
 
-def real(name: str, value, unit: str = "", allowed: str = "") -> float:
+def real(name: str, value: object, unit: str = "", allowed: str = "") -> float:
     """Return ``value`` as a finite float, or raise ``ParameterError``.
 
     ``allowed`` (such as ``"> 0"``) is the range the caller will check next; it is
@@ -44,7 +45,7 @@ def _not_finite(name, value, unit, allowed) -> str:
     return f"{name}={value!r} must be finite{' and ' + allowed if allowed else ''}{_unit(unit)}"
 
 
-def positive(name: str, value, unit: str = "") -> float:
+def positive(name: str, value: object, unit: str = "") -> float:
     """A finite float ``> 0``."""
     x = real(name, value, unit, "> 0")
     if not x > 0.0:
@@ -52,7 +53,7 @@ def positive(name: str, value, unit: str = "") -> float:
     return x
 
 
-def nonnegative(name: str, value, unit: str = "") -> float:
+def nonnegative(name: str, value: object, unit: str = "") -> float:
     """A finite float ``>= 0``."""
     x = real(name, value, unit, ">= 0")
     if not x >= 0.0:
@@ -60,7 +61,7 @@ def nonnegative(name: str, value, unit: str = "") -> float:
     return x
 
 
-def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
+def in_range(name: str, value: object, lo: float, hi: float, unit: str = "", *,
              lo_open: bool = True, hi_open: bool = True) -> float:
     """A finite float inside an interval; open or closed at either end."""
     left = "(" if lo_open else "["
@@ -74,7 +75,7 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
     return x
 
 
-def choice(name: str, value, allowed) -> str:
+def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     """One of a fixed set of strings."""
     allowed = tuple(allowed)
     if value not in allowed:
@@ -83,7 +84,7 @@ def choice(name: str, value, allowed) -> str:
     return value
 
 
-def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...]:
+def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:
     """A tuple of ``dims`` finite floats (a position)."""
     try:
         items = tuple(value)
@@ -97,7 +98,7 @@ def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...
     return tuple(real(f"{name}.{axes[i]}", v, unit) for i, v in enumerate(items))
 
 
-def audio_array(name: str, audio) -> np.ndarray:
+def audio_array(name: str, audio: object) -> np.ndarray:
     """A non-empty, finite, floating-point array of shape ``(frames,)`` or
     ``(frames, channels)`` (samples in full-scale or physical units); returned as an
     ndarray without copying where possible."""
@@ -125,7 +126,7 @@ def audio_array(name: str, audio) -> np.ndarray:
     return a
 
 
-def samplerate(value, name: str = "samplerate") -> int:
+def samplerate(value: object, name: str = "samplerate") -> int:
     """An integer sample rate ``> 0``, Hz."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
         raise ParameterError(f"{name}={value!r} must be an integer > 0 (Hz)")

@@ -106,7 +106,8 @@ def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
 # --------------------------------------------------------------------------- files
 
 
-def write_audio(path, audio, samplerate, subtype=None) -> Path:
+def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
+                subtype: str | None = None) -> Path:
     """Write audio to a WAV or FLAC file, chosen by the file suffix.
 
     The file is first written to a temporary file in the same directory and then
@@ -166,7 +167,8 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
     return p
 
 
-def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
+def read_audio(path: str | os.PathLike, *,
+               channel: int | str | None = None) -> tuple[np.ndarray, int]:
     """Read an audio file (WAV, FLAC or any format soundfile reads).
 
     Parameters
@@ -227,8 +229,9 @@ def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
 # --------------------------------------------------------------------------- levels
 
 
-def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23.0,
-              max_peak=1.0) -> tuple[np.ndarray, float]:
+def normalize(audio: np.ndarray, mode: str, *, samplerate: int, units: str,
+              peak_db: float = -1.0, loudness_lufs: float = -23.0,
+              max_peak: float | None = 1.0) -> tuple[np.ndarray, float]:
     """Scale a physical signal to digital full scale.
 
     Parameters
@@ -367,7 +370,7 @@ def apply_fade_out(audio: np.ndarray, frames: int) -> None:
     audio[audio.shape[0] - frames:] *= w
 
 
-def fade_out(audio, samplerate, duration) -> np.ndarray:
+def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
     """A raised-cosine fade over the last ``duration`` seconds (on a copy).
 
     The last ``n = round(duration * samplerate)`` frames are multiplied by

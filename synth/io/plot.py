@@ -8,8 +8,10 @@ is needed, and no pyplot state is touched.
 from __future__ import annotations
 
 import math
+import os
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,6 +19,9 @@ from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.io.atomic import write_atomically
 from synth.io.audio import PHYSICAL_FULL_SCALE, output_path
+
+if TYPE_CHECKING:
+    from synth.sound.render import Render
 
 #: Size of the figure, inches (width, height), and its resolution, dots per inch:
 #: the PNG is ``FIGSIZE * DPI`` pixels.
@@ -103,7 +108,8 @@ def _draw_waveform(ax, t, x, labels):
             ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
 
 
-def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
+def plot_render(render: Render, path: str | os.PathLike, *,
+                max_pulses: int = MAX_PULSES) -> Path:
     """Draw a render into one PNG: waveform, spectrogram and the first force pulses.
 
     Panels: (a) the waveform in physical units (``audio / gain``, with the full

@@ -37,8 +37,12 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from synth import checks
+
+if TYPE_CHECKING:
+    from synth.physics.scene import Plate
 
 #: Z_edge / Z_inf at a free straight edge (Eichler; thesis Table 3.4).
 EDGE_RATIO = 0.29
@@ -46,22 +50,22 @@ EDGE_RATIO = 0.29
 CORNER_RATIO = 1.0 / 7.5
 
 
-def infinite_plate_impedance(plate) -> float:
+def infinite_plate_impedance(plate: Plate) -> float:
     """``Z_inf = 8 sqrt(D rho h)``, N s/m (thesis eq. 2.34)."""
     return 8.0 * math.sqrt(plate.flexural_rigidity * plate.surface_density)
 
 
-def edge_impedance(plate) -> float:
+def edge_impedance(plate: Plate) -> float:
     """Driving-point impedance at a free straight edge, ``0.29 Z_inf``, N s/m."""
     return EDGE_RATIO * infinite_plate_impedance(plate)
 
 
-def corner_impedance(plate) -> float:
+def corner_impedance(plate: Plate) -> float:
     """Driving-point impedance at a free corner, ``Z_inf / 7.5``, N s/m."""
     return CORNER_RATIO * infinite_plate_impedance(plate)
 
 
-def group_velocity(plate, omega) -> float:
+def group_velocity(plate: Plate, omega: float) -> float:
     """Flexural group velocity ``c_g = 2 sqrt(omega) (D / (rho h))^(1/4)``, m/s.
 
     ``omega`` is an angular frequency, rad/s.
@@ -70,7 +74,7 @@ def group_velocity(plate, omega) -> float:
     return 2.0 * math.sqrt(omega) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
-def critical_distance(plate, contact_time) -> float:
+def critical_distance(plate: Plate, contact_time: float) -> float:
     """Distance from an edge within which the edge is felt, ``c_g tau / 2``, m.
 
     ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
@@ -81,7 +85,7 @@ def critical_distance(plate, contact_time) -> float:
     return _critical_distance(plate, tau)
 
 
-def _critical_distance(plate, tau: float) -> float:
+def _critical_distance(plate: Plate, tau: float) -> float:
     """``sqrt(pi tau) (D / rho h)^(1/4)`` (m) for a checked ``tau`` (s)."""
     return math.sqrt(math.pi * tau) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
@@ -93,7 +97,8 @@ def _taper(d, dc):
     return c * c
 
 
-def point_admittance(plate, position, contact_time) -> float:
+def point_admittance(plate: Plate, position: tuple[float, float],
+                     contact_time: float) -> float:
     """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
     duration ``contact_time`` (s).
 
@@ -107,7 +112,7 @@ def point_admittance(plate, position, contact_time) -> float:
     return admittance_at(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
 
 
-def admittance_at(plate, x: float, y: float, contact_time: float,
+def admittance_at(plate: Plate, x: float, y: float, contact_time: float,
                   infinite_admittance: float) -> float:
     """:func:`point_admittance` at ``(x, y)`` (m, inside the plate) for a contact of
     ``contact_time`` (s, > 0), given the plate's ``infinite_admittance = 1 / Z_inf``

@@ -48,13 +48,13 @@ class RestitutionScaling:
         return 1.0 - self.scale * (1.0 - result.restitution)
 
 
-def _rebound_rule(restitution_scale) -> RestitutionScaling | None:
+def _rebound_rule(restitution_scale: float) -> RestitutionScaling | None:
     """The rule for ``k``; None (the physical rebound, bit for bit) for ``k = 1``."""
     rule = RestitutionScaling(restitution_scale)
     return None if rule.scale == 1.0 else rule
 
 
-def scaled_sequence(scene, restitution_scale, **options) -> BounceSequence:
+def scaled_sequence(scene: Scene, restitution_scale: float, **options) -> BounceSequence:
     """The bounce sequence of ``scene`` with ``1 - e' = k (1 - e)`` for every tick.
 
     ``restitution_scale`` is ``k >= 0`` (dimensionless, see
@@ -63,8 +63,8 @@ def scaled_sequence(scene, restitution_scale, **options) -> BounceSequence:
     return simulate_scene(scene, rebound=_rebound_rule(restitution_scale), **options)
 
 
-def mismatch_sequence(timing_scene, spectrum_scene, *, restitution_scale=1.0,
-                      **options) -> BounceSequence:
+def mismatch_sequence(timing_scene: Scene, spectrum_scene: Scene, *,
+                      restitution_scale: float = 1.0, **options) -> BounceSequence:
     """Impact times and speeds of ``timing_scene``, contacts of ``spectrum_scene``.
 
     Each impact keeps its time (s from release) and speed (m/s) from ``timing_scene``
