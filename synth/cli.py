@@ -16,6 +16,7 @@ import sys
 
 import numpy as np
 
+from synth.constants import GRAVITY
 from synth.errors import SynthError
 
 
@@ -66,8 +67,8 @@ def _report(rendered, data, preset) -> dict:
     return dict(preset=str(preset), description=data.get("description", ""),
                 samplerate=rendered.samplerate, duration=rendered.duration, units=rendered.units,
                 gain=rendered.gain, settings=rendered.settings,
-                impacts=[dict(row, time=imp.time) for row, imp in
-                         zip(rendered.impacts.table(), rendered.impacts)])
+                impacts=[dict(row, onset=float(onset)) for row, onset in
+                         zip(rendered.impacts.table(), rendered.onsets)])
 
 
 def _cmd_render(args):
@@ -101,26 +102,14 @@ def _cmd_render(args):
 
 
 def _write_json(path, obj):
-    import os
-    import tempfile
     from pathlib import Path
+
+    from synth.io.atomic import write_json_atomically
 
     path = Path(path)
     if not path.parent.is_dir():
         raise SynthError(f"report={str(path)!r}: the directory {str(path.parent)!r} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".json.tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=1, default=float)
-            fh.write("\n")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)    # mkstemp makes it 0600; give it the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_json_atomically(path, obj, error=SynthError)
 
 
 def _cmd_analyze(args):
@@ -156,10 +145,9 @@ def _channel(value):
 
 
 def _cmd_alter(args):
+    from synth.analysis import analyze
     from synth.io import audio as audio_io
     from synth.stimuli.alter import alter_restitution
-
-    from synth.analysis import analyze
 
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
@@ -214,7 +202,8 @@ def _cmd_gallery(args):
                              subtype=subtype)
         plot_render(rendered, out / f"{name}.png")
         _write_json(out / f"{name}.json", _report(rendered, data, name))
-        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, {len(rendered.impacts)} impacts")
+        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
+              f"{len(rendered.impacts)} impacts")
     return 0
 
 
@@ -360,7 +349,7 @@ def build_parser() -> argparse.ArgumentParser:
     out.add_argument("--csv", action="store_true", help="one row per tick")
     p.add_argument("--plot", metavar="OUT.png", help="ticks, bounce times, restitution, energy, centroid, decay")
     p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
-    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2, for the impact speeds")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2, for the impact speeds")
     p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
                    help="shortest time between two ticks, s (default 0.001): a burst closer "
                         "than this to a tick is part of it (the end of a long contact); lower it "
@@ -379,7 +368,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--keep-amplitude", action="store_true",
                    help="do not scale each tick by its new impact speed over its old one")
     p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
-    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2")
     p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
                    help="shortest time between two ticks, s (as for analyze)")
     p.add_argument("--min-bounce", type=float, metavar="S",

@@ -1,4 +1,4 @@
-"""Exact pulse-to-mode synthesis (PHYSICS.md section 6).
+"""Exact pulse-to-mode synthesis (docs/physics.md, "Modal synthesis").
 
 A force ``F(t)`` at ``x0`` drives each mode ``k`` of the plate (pole
 ``p_k = -sigma_k + i omega_dk``, shape ``phi_k``, modal mass ``M_k``)::

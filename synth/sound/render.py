@@ -1,9 +1,9 @@
 """Render a scene: bounces -> plate modes -> exact modal synthesis -> level.
 
 ``render(scene, samplerate=48000)`` returns a :class:`Render` with the audio
-(float32), the impacts on the audio's time axis and the settings used. Its
-signal is what the scene's listener picks up: plate acceleration (m/s^2) for an
-:class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa) for a
+(float32), the impacts (times from release) with their onsets in the audio, and the
+settings used. Its signal is what the scene's listener picks up: plate acceleration
+(m/s^2) for an :class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa) for a
 :class:`~synth.physics.scene.Microphone` above the baffled plate, scaled by the level
 stage (``normalize``).
 """
@@ -16,16 +16,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synth import checks
-from synth.sound import modes as plate_modes
+from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
-from synth.physics.scene import Accelerometer, Microphone, Scene
-from synth.physics.bounces import BounceSequence, Impact, simulate_scene
+from synth.physics.bounces import BounceSequence, simulate_scene
+from synth.physics.scene import Accelerometer, Scene
+from synth.sound import modes as plate_modes
 from synth.sound.modal_bank import synthesize
 
 NORMALIZE = ("peak", "loudness", "physical", "none")
-#: Speed of sound (m/s) and density of air (kg/m^3) at 20 degC, 1 atm.
-SOUND_SPEED = 343.0
-AIR_DENSITY = 1.204
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,9 +37,8 @@ class Render:
     samplerate : int
         Hz.
     impacts : BounceSequence
-        The impacts; each ``Impact.time`` is the onset of its tick in the audio, s
-        from the first sample (first touch plus, for a microphone, the sound's travel
-        time).
+        The impacts rendered; ``Impact.time`` is s from the release of the ball, as
+        everywhere (their ticks' places in the audio are :attr:`onsets`).
     units : str
         Physical units of ``audio / gain``: "Pa" or "m/s^2".
     gain : float
@@ -61,6 +58,19 @@ class Render:
     def duration(self) -> float:
         """Length of the audio, s."""
         return self.audio.shape[0] / self.samplerate
+
+    @property
+    def audio_start(self) -> float:
+        """Time of the first sample, s from the release of the ball."""
+        return self.settings["audio_start"]
+
+    @property
+    def onsets(self) -> np.ndarray:
+        """Onset of each impact's tick in the audio, s from the first sample: the
+        impact's time plus the sound's travel time ``settings["delay"]`` (0 for an
+        accelerometer) less :attr:`audio_start`."""
+        times = np.array([imp.time for imp in self.impacts])
+        return times + self.settings["delay"] - self.settings["audio_start"]
 
 
 def _samplerate(value) -> int:
@@ -340,17 +350,15 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
                              floor=floor, settled_weight=weights, direct=direct,
                              max_samples=max_samples, pulse_points=int(pulse_points))
-    if fade_s > 0 and audio.size:
-        n = min(audio.size, int(round(fade_s * fs)))
-        if n > 1:
-            audio[-n:] *= 0.5 * (1.0 + np.cos(np.linspace(0.0, math.pi, n)))
     from synth.io import audio as audio_io
+
+    if fade_s > 0 and audio.size:
+        # the fade's n frames run from full level (the first) to 0 (the last)
+        n = min(audio.size, int(round(fade_s * fs)))
+        audio_io.apply_fade_out(audio, n - 1)
 
     scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
                                       peak_db=peak_db, loudness_lufs=loudness_lufs)
-    shifted = BounceSequence(tuple(Impact(imp.index, float(t), imp.speed, imp.result, imp.restitution)
-                                   for imp, t in zip(sequence, onsets)),
-                             sequence.stop_reason, sequence.drop_height, sequence.gravity)
     settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,
                     floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s, max_tail=tail,
                     listener=type(listener).__name__.lower(), listener_position=list(listener.position),
@@ -363,4 +371,4 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                     left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
                     bank_seconds=info["bank_seconds"],
                     reference_amplitude=info["reference"])
-    return Render(np.asarray(scaled, dtype=np.float32), fs, shifted, units, float(gain), settings)
+    return Render(np.asarray(scaled, dtype=np.float32), fs, sequence, units, float(gain), settings)
