@@ -19,7 +19,7 @@ from synth import checks
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.physics.bounces import BounceSequence, simulate_scene
-from synth.physics.scene import Accelerometer, Scene
+from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
 from synth.sound.modal_bank import synthesize
 
