@@ -22,8 +22,9 @@ import io
 import json
 import os
 import re
-import secrets
 from pathlib import Path
+
+from synth.io.atomic import write_atomically
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -34,7 +35,7 @@ LOCK = ".bank.lock"
 RESULT_COLUMNS = ("seed", "status", "error", "duration", "ticks", "first_restitution",
                   "peak_dbfs", "loudness_lufs", "sha256")
 
-#: Temporary files this package writes beside their targets: ``.{name}.{12 hex}.part[.ext]``.
+#: Temporary files of :mod:`synth.io.atomic` beside their targets: ``.{name}.{12 hex}.part[.ext]``.
 TEMPORARY = re.compile(r"^\..+\.[0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
 
 
@@ -43,32 +44,12 @@ def columns(keys) -> list[str]:
     return ["index", "file", *keys, *RESULT_COLUMNS]
 
 
-def temporary_name(target: Path) -> Path:
-    """A fresh temporary path beside ``target`` of the package's naming."""
-    return target.with_name(f".{target.stem}.{secrets.token_hex(6)}.part{target.suffix}")
-
-
 def write_atomic(target: Path, data: bytes) -> None:
-    """Write ``data`` to ``target``: a temporary file beside it, flushed and fsynced,
-    then renamed into place, so ``target`` is either as it was or complete. An OSError
-    (a full disk ...) leaves no temporary file behind."""
-    tmp = temporary_name(target)
-    fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-    try:
-        try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, target)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    """Write ``data`` to ``target`` atomically (:func:`synth.io.atomic.write_atomically`:
+    a temporary sibling ``.{stem}.{12 hex}.part{suffix}``, fsynced, renamed), so
+    ``target`` is either as it was or complete; an OSError (a full disk ...) leaves no
+    temporary file behind."""
+    write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def clean_temporaries(folder: Path) -> int:

@@ -5,7 +5,8 @@ Workers: a pool of ``jobs`` processes (default: the machine's cores) that import
 engine and render the base scene once (loading the compiled kernels and filling the
 plate-mode and radiation caches), then render rows until the plan is done; on Linux they
 are forked from this process once it has warmed the engine itself (when no other thread
-runs here), elsewhere spawned. ``jobs=1`` renders in this process. With ``scheduler``, the same task function runs on a Dask
+runs here), elsewhere spawned. ``jobs=1`` renders in this process. With ``scheduler``,
+the same task function runs on a Dask
 cluster (``dask.distributed.Client(scheduler)``; the optional extra ``dask``), whose
 workers must see the bank's folder.
 

@@ -231,7 +231,8 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     _check_subtype(fmt, subtype)
     name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
     if not isinstance(name, str) or not name:
-        raise _error("name", name, "must be a non-empty format string such as '{preset}-{index:04d}'")
+        raise _error("name", name,
+                     "must be a non-empty format string such as '{preset}-{index:04d}'")
     spec = BankSpec(preset=str(preset_path), preset_name=preset_name, base=base,
                     description=description, count=count, seed=seed, name=name, format=fmt,
                     subtype=subtype, render=options, axes=axes)

@@ -9,8 +9,9 @@ The disk cache is shared by every process of the machine (a sound bank's workers
 ``synth`` commands), so:
 
 * :func:`savez_atomic` writes each entry to a temporary file of a unique name and renames
-  it into place (``os.replace`` is atomic): two processes filling the same entry at once
-  both succeed, the last rename wins, and a reader never sees a partial file;
+  it into place (:func:`synth.io.atomic.write_atomically`; ``os.replace`` is atomic): two
+  processes filling the same entry at once both succeed, the last rename wins, and a
+  reader never sees a partial file;
 * every entry stores the SHA-256 of its arrays (names, dtypes, shapes and bytes), and
   :func:`load_npz` returns the arrays only when it matches, so an altered or damaged file
   is recomputed (the callers also check the stored key and the arrays' consistency);
@@ -26,7 +27,6 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
-import tempfile
 import threading
 import time
 from collections import OrderedDict
@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.errors import ParameterError
+from synth.io.atomic import write_atomically
 
 #: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
 #: radiation gains well under 1 MB: a few dozen plates fit).
@@ -105,23 +106,13 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
     sees a partial file and concurrent writers of one entry all succeed. Then evict the
     least recently used entries beyond :func:`max_bytes`. Returns False, having written
     nothing, if the file cannot be written (a cache is then skipped)."""
-    tmp = None
+    digest = np.array(arrays_digest(arrays))
     try:
         limit = max_bytes()
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays, **{DIGEST_ARRAY: np.array(arrays_digest(arrays))})
-        os.replace(tmp, path)
-        tmp = None
+        write_atomically(path, lambda tmp: np.savez(tmp, **arrays, **{DIGEST_ARRAY: digest}))
     except (OSError, RuntimeError, ParameterError):  # unwritable, no home, bad bound: no disk cache
         return False
-    finally:
-        if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
     evict(limit, keep=path)
     return True
 
@@ -168,9 +159,17 @@ class DiskEntry:
     used: float
 
 
+def _is_temporary(p: Path) -> bool:
+    """A file being written (or left by a writer that died): ``.name.<hex>.part.npz``
+    (:mod:`synth.io.atomic`), or ``*.tmp`` of earlier versions."""
+    return p.name.startswith(".") or p.suffix == ".tmp"
+
+
 def _entries(directory: Path) -> list[DiskEntry]:
     out = []
     for p in directory.glob("*.npz"):
+        if _is_temporary(p):
+            continue
         try:
             st = p.stat()
         except FileNotFoundError:  # evicted by another process meanwhile
@@ -181,7 +180,9 @@ def _entries(directory: Path) -> list[DiskEntry]:
 
 def _stale_temporaries(directory: Path, now: float) -> list[Path]:
     out = []
-    for p in directory.glob("*.tmp"):
+    for p in directory.iterdir():
+        if not _is_temporary(p):
+            continue
         try:
             if now - p.stat().st_mtime > STALE_TEMPORARY_AGE:
                 out.append(p)
@@ -255,7 +256,7 @@ def clear_disk() -> tuple[int, int]:
     if not directory.is_dir():
         return 0, 0
     n = freed = 0
-    for p in list(directory.glob("*.npz")) + list(directory.glob("*.tmp")):
+    for p in [p for p in directory.iterdir() if p.suffix in (".npz", ".tmp")]:
         try:
             size = p.stat().st_size
         except FileNotFoundError:
