@@ -35,8 +35,9 @@ LOCK = ".bank.lock"
 RESULT_COLUMNS = ("seed", "status", "error", "duration", "ticks", "first_restitution",
                   "peak_dbfs", "loudness_lufs", "sha256")
 
-#: Temporary files of :mod:`synth.io.atomic` beside their targets: ``.{name}.{12 hex}.part[.ext]``.
-TEMPORARY = re.compile(r"^\..+\.[0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
+#: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,
+#: then ``.part[.ext]`` (``.{name}.{hex}.part.wav``, ``.synth-{pid}-{hex}.part.wav``).
+TEMPORARY = re.compile(r"^\..+[.-][0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
 
 
 def columns(keys) -> list[str]:
