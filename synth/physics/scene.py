@@ -16,6 +16,23 @@ from synth.physics.materials import Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
+# Ranges of the scene's numbers, checked when an object is made, before any work. They
+# bound what the model describes (a ball dropped on a thin plate in a room, thesis ch. 2;
+# see docs/physics.md) with a wide margin, and keep every derived figure (impact speed,
+# contact time, mode count, audio length) finite and within memory:
+#: Largest ball radius, m (a bowling ball is 0.109 m).
+MAX_BALL_RADIUS = 1.0
+#: Largest ball mass, kg (a bowling ball is 7 kg).
+MAX_BALL_MASS = 1000.0
+#: Largest plate side or thickness, m.
+MAX_PLATE_SIZE = 100.0
+#: Drop heights, m: from 1 um (an impact speed of 4.4 mm/s) to 1 km (140 m/s; the
+#: contact stays elastic far below it for every material of the table).
+MIN_DROP_HEIGHT = 1e-6
+MAX_DROP_HEIGHT = 1000.0
+#: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
+MAX_GRAVITY = 1000.0
+
 
 @dataclass(frozen=True)
 class Ball:
@@ -37,11 +54,12 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(self, "radius", checks.positive("ball.radius", self.radius, "metres"))
+        object.__setattr__(self, "radius", checks.in_range(
+            "ball.radius", self.radius, 0.0, MAX_BALL_RADIUS, "metres", hi_open=False))
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
         else:
-            m = checks.positive("ball.mass", self.mass, "kg")
+            m = checks.in_range("ball.mass", self.mass, 0.0, MAX_BALL_MASS, "kg", hi_open=False)
         object.__setattr__(self, "mass", m)
 
 
@@ -76,7 +94,8 @@ class Plate:
                 f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
                 f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(self, name, checks.positive(f"plate.{name}", getattr(self, name), unit))
+            object.__setattr__(self, name, checks.in_range(
+                f"plate.{name}", getattr(self, name), 0.0, MAX_PLATE_SIZE, unit, hi_open=False))
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -251,9 +270,11 @@ class Scene:
             raise ParameterError(f"ball={self.ball!r} must be a Ball")
         if not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate")
-        object.__setattr__(self, "drop_height",
-                           checks.positive("drop.height", self.drop_height, "metres"))
-        object.__setattr__(self, "gravity", checks.positive("gravity", self.gravity, "m/s^2"))
+        object.__setattr__(self, "drop_height", checks.in_range(
+            "drop.height", self.drop_height, MIN_DROP_HEIGHT, MAX_DROP_HEIGHT, "metres",
+            lo_open=False, hi_open=False))
+        object.__setattr__(self, "gravity", checks.in_range(
+            "gravity", self.gravity, 0.0, MAX_GRAVITY, "m/s^2", hi_open=False))
         pos = self.plate.centre if self.position is None else self.position
         pos = self.plate.check_position(pos, "drop.position")
         object.__setattr__(self, "position", pos)
