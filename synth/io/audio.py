@@ -96,12 +96,45 @@ def _check_audio(name: str, audio) -> np.ndarray:
     return a
 
 
+#: Highest sample rate of a written file, Hz (libsndfile stores the rate as a 32-bit int;
+#: the engine renders at most 384 kHz, and no converter exceeds 768 kHz).
+MAX_FILE_SAMPLERATE = 768_000
+
+
 def _check_samplerate(samplerate) -> int:
-    """An integer sample rate > 0, Hz."""
+    """An integer sample rate in [1, MAX_FILE_SAMPLERATE], Hz."""
     if (isinstance(samplerate, bool) or not isinstance(samplerate, numbers.Integral)
-            or samplerate <= 0):
-        raise ParameterError(f"samplerate={samplerate!r} must be an integer > 0 (Hz)")
+            or not 1 <= samplerate <= MAX_FILE_SAMPLERATE):
+        raise ParameterError(f"samplerate={samplerate!r} must be an integer in "
+                             f"[1, {MAX_FILE_SAMPLERATE}] (Hz)")
     return int(samplerate)
+
+
+#: Quantisation step of the integer subtypes, in units of full scale.
+PCM_STEP = {"PCM_S8": 2.0 ** -7, "PCM_U8": 2.0 ** -7, "PCM_16": 2.0 ** -15,
+            "PCM_24": 2.0 ** -23, "PCM_32": 2.0 ** -31}
+
+
+def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = False) -> str:
+    """libsndfile's bare "System error" made specific: the operating system's own reason
+    (permission denied, no space left on device, ...), found by doing the same access
+    with Python."""
+    if "system error" not in reason.lower():
+        return reason
+    import shutil
+
+    try:
+        if reading:
+            with open(path, "rb") as fh:
+                fh.read(1)
+        else:
+            free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
+            if free < nbytes + 65536:
+                return (f"no space left on the device ({free} bytes free, about {nbytes} "
+                        f"needed)")
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return reason
 
 
 def _check_units(units) -> str:
@@ -137,16 +170,85 @@ def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     return p, kinds[suffix]
 
 
+#: Prefix of the engine's temporary files: ``.synth-<pid>-<hex>.part<suffix>``. The name
+#: does not grow with the target's (a 255-byte output name still has a temporary name),
+#: and it carries the writer's process id, so that a temporary left by a killed process
+#: is recognised and removed (:func:`remove_stale_temporaries`).
+TEMPORARY_PREFIX = ".synth-"
+
+
+def temporary_name(suffix: str) -> str:
+    """A fresh temporary file name of this process, ending in ``.part<suffix>``."""
+    return f"{TEMPORARY_PREFIX}{os.getpid()}-{secrets.token_hex(6)}.part{suffix}"
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder) -> list[Path]:
+    """Remove the temporaries (:func:`temporary_name`) in ``folder`` whose writer process
+    no longer runs (it was killed mid-write); return the paths removed. A live process's
+    temporaries, and every other file, are left alone."""
+    removed = []
+    try:
+        entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
+    except OSError:
+        return removed
+    for tmp in entries:
+        pid_text = tmp.name[len(TEMPORARY_PREFIX):].split("-", 1)[0]
+        if not pid_text.isdigit() or _process_alive(int(pid_text)):
+            continue
+        try:
+            tmp.unlink()
+            removed.append(tmp)
+        except OSError:
+            pass
+    return removed
+
+
+def check_output_path(path, field: str = "path") -> Path:
+    """Check, before any work, that a file can be written at ``path``: it is not a
+    directory, its folder exists and a file can be created there (tried: this catches
+    a read-only folder or file system). Stale temporaries there are removed. Returns the
+    path; raises :class:`AudioFileError` naming ``field``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"{field}={path!r} must be a file path (str or os.PathLike)")
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    if p.is_dir():
+        raise AudioFileError(f"{field}={str(p)!r} is a directory, not a file")
+    if not parent.is_dir():
+        raise AudioFileError(f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
+                             f"(it is not created automatically)")
+    probe = parent / temporary_name(".probe")
+    try:
+        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+        os.unlink(probe)
+    except OSError as exc:
+        raise AudioFileError(f"{field}={str(p)!r}: cannot create a file in {str(parent)!r} "
+                             f"({exc.strerror})") from None
+    remove_stale_temporaries(parent)
+    return p
+
+
 def _temporary_sibling(p: Path, error) -> Path:
     """Create (exclusively, with the usual umask permissions) an empty file beside ``p``."""
+    remove_stale_temporaries(p.parent if str(p.parent) else Path("."))
     for _ in range(100):
-        tmp = p.with_name(f".{p.stem}.{secrets.token_hex(6)}.part{p.suffix}")
+        tmp = p.with_name(temporary_name(p.suffix))
         try:
             fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
         except FileExistsError:
             continue
         except OSError as exc:
-            raise error(f"path={str(p)!r}: cannot create a file there ({exc})") from exc
+            raise error(f"path={str(p)!r}: cannot create a file there ({exc.strerror})") from exc
         os.close(fd)
         return tmp
     raise error(f"path={str(p)!r}: no free temporary name beside it")
@@ -218,6 +320,12 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
                 f"audio peak {peak:.6g} ({20 * math.log10(peak):+.2f} dBFS) exceeds full "
                 f"scale 1.0 and subtype {st!r} of {str(p)!r} would clip it; scale it down "
                 f"(normalize='peak') {hint}")
+        step = PCM_STEP.get(st)
+        if step is not None and 0.0 < peak < 0.5 * step:
+            raise ParameterError(
+                f"audio peak {peak:.6g} ({20 * math.log10(peak):+.1f} "
+                f"dBFS) is below half a step of subtype {st!r} ({0.5 * step:.3g}): "
+                f"{str(p)!r} would hold only silence; raise the level or use subtype='FLOAT'")
     if a.dtype not in (np.float32, np.float64):
         a = a.astype(np.float64)
 
@@ -225,9 +333,10 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
         try:
             soundfile.write(tmp, a, sr, subtype=st, format=fmt)
         except (soundfile.SoundFileError, RuntimeError) as exc:
+            reason = getattr(exc, "error_string", None) or str(exc)
             raise AudioFileError(f"cannot write {str(p)!r} ({fmt} {st}, {sr} Hz, "
                                  f"{1 if a.ndim == 1 else a.shape[1]} channels): "
-                                 f"{getattr(exc, 'error_string', None) or exc}") from exc
+                                 f"{_system_reason(tmp, reason, a.nbytes)}") from exc
 
     _write_atomically(p, write)
     return p
@@ -267,6 +376,8 @@ def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
         raise ParameterError(
             f"channel={channel!r} must be None (all channels), 'mix' or a channel index")
     p = Path(path)
+    if p.is_dir():
+        raise AudioFileError(f"path={str(p)!r} is a directory, not a file")
     if not p.exists():
         raise AudioFileError(f"path={str(p)!r}: no such file")
     if not p.is_file():
@@ -274,7 +385,10 @@ def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
     try:
         audio, sr = soundfile.read(p, dtype="float64", always_2d=True)
     except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-        reason = getattr(exc, "error_string", None) or str(exc)
+        reason = _system_reason(p, getattr(exc, "error_string", None) or str(exc),
+                                reading=True)
+        if reason != (getattr(exc, "error_string", None) or str(exc)):
+            raise AudioFileError(f"cannot read {str(p)!r}: {reason}") from exc
         raise AudioFileError(
             f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}") from exc
     n_ch = audio.shape[1]

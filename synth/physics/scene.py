@@ -54,12 +54,12 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(self, "radius", checks.in_range(
-            "ball.radius", self.radius, 0.0, MAX_BALL_RADIUS, "metres", hi_open=False))
+        object.__setattr__(self, "radius", checks.positive_at_most(
+            "ball.radius", self.radius, MAX_BALL_RADIUS, "metres"))
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
         else:
-            m = checks.in_range("ball.mass", self.mass, 0.0, MAX_BALL_MASS, "kg", hi_open=False)
+            m = checks.positive_at_most("ball.mass", self.mass, MAX_BALL_MASS, "kg")
         object.__setattr__(self, "mass", m)
 
 
@@ -94,8 +94,8 @@ class Plate:
                 f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
                 f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(self, name, checks.in_range(
-                f"plate.{name}", getattr(self, name), 0.0, MAX_PLATE_SIZE, unit, hi_open=False))
+            object.__setattr__(self, name, checks.positive_at_most(
+                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit))
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -270,11 +270,13 @@ class Scene:
             raise ParameterError(f"ball={self.ball!r} must be a Ball")
         if not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate")
-        object.__setattr__(self, "drop_height", checks.in_range(
-            "drop.height", self.drop_height, MIN_DROP_HEIGHT, MAX_DROP_HEIGHT, "metres",
-            lo_open=False, hi_open=False))
-        object.__setattr__(self, "gravity", checks.in_range(
-            "gravity", self.gravity, 0.0, MAX_GRAVITY, "m/s^2", hi_open=False))
+        h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
+        if h < MIN_DROP_HEIGHT:
+            raise ParameterError(f"drop.height={self.drop_height!r} must be >= "
+                                 f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)")
+        object.__setattr__(self, "drop_height", h)
+        object.__setattr__(self, "gravity", checks.positive_at_most(
+            "gravity", self.gravity, MAX_GRAVITY, "m/s^2"))
         pos = self.plate.centre if self.position is None else self.position
         pos = self.plate.check_position(pos, "drop.position")
         object.__setattr__(self, "position", pos)
