@@ -17,7 +17,7 @@ import numpy as np
 
 from synth import checks
 from synth.sound import modes as plate_modes
-from synth.errors import ParameterError
+from synth.errors import ParameterError, SynthError
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.physics.bounces import BounceSequence, Impact, simulate_scene
 from synth.sound.modal_bank import synthesize
@@ -277,6 +277,11 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         sequence = simulate_scene(scene, max_duration=max_duration)
     else:
         check_sequence(scene, sequence)
+    for imp in sequence:
+        if not imp.result.success:
+            raise SynthError(
+                f"impact {imp.index} (at {imp.speed:.4g} m/s) could not be solved: "
+                f"{imp.result.message} The scene is outside what the contact solver handles")
 
     # the plate's modes below Nyquist, as poles. A mode with sigma >= omega is overdamped:
     # it does not ring (possible only for a loss factor >= 2, or a Rayleigh law far
