@@ -209,6 +209,7 @@ def _cmd_alter(args):
 
     from synth.analysis import analyze
 
+    audio_io.check_output_path(args.output, "output")   # before the analysis, not after
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
     onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,

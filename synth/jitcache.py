@@ -67,7 +67,7 @@ def configure(environ=None, source_dirs=None, stream=None) -> str | None:
 
 def _disable_caching() -> None:
     """Make ``cache=True`` a no-op: numba then compiles in memory only."""
-    import numba.core.dispatcher as dispatcher
+    from numba.core import dispatcher
 
     dispatcher.Dispatcher.enable_caching = lambda self: None
 

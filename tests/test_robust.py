@@ -17,8 +17,8 @@ from synth.cli import main
 from synth.errors import ParameterError, SynthError
 from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset, scene_from_dict
-from synth.physics.contact import ENERGY_IMBALANCE, solve_contact
 from synth.physics.bounces import simulate_scene
+from synth.physics.contact import ENERGY_IMBALANCE, solve_contact
 from synth.sound import modal_bank
 from synth.sound.render import render
 
@@ -234,7 +234,7 @@ def test_unwritable_folder_is_a_clean_error(capsys, tmp_path):
 def test_all_outputs_or_none(capsys, tmp_path, monkeypatch):
     # the report fails (full disk) after the audio was written: the old audio stays, no
     # temporary is left
-    import synth.cli as cli
+    from synth import cli
 
     out = tmp_path / "x.wav"
     out.write_bytes(b"precious")
@@ -353,7 +353,8 @@ def test_help_without_a_writable_home(tmp_path):
     env.update(HOME="/dev/null", XDG_CACHE_HOME="/dev/null/cache", PYTHONPATH=str(pkg),
                PYTHONDONTWRITEBYTECODE="1")
     proc = subprocess.run([sys.executable, "-c", "import synth.cli; synth.cli.main(['--help'])"],
-                          env=env, capture_output=True, text=True, timeout=600, cwd=tmp_path)
+                          check=False, env=env, capture_output=True, text=True, timeout=600,
+                          cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "usage: synth" in proc.stdout
     assert "note: no writable numba cache folder" in proc.stderr

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent / "fuzz"))
-import run_corpus  # noqa: E402
+import run_corpus
 
 CASES = run_corpus.load_corpus()
 OUTCOMES = []

@@ -42,9 +42,9 @@ class Ball:
     ----------
     material : Material or str
         The ball's material (a :class:`Material` or a table name).
-    radius : float > 0
+    radius : float in (0, 1]
         Radius, metres.
-    mass : float > 0, optional
+    mass : float in (0, 1000], optional
         Mass, kg. Default: ``density * 4/3 pi radius^3``.
     """
 
@@ -71,11 +71,11 @@ class Plate:
     ----------
     material : Material or str
         The plate's material (a :class:`Material` or a table name).
-    thickness : float > 0
-        Thickness ``h``, metres.
-    length : float > 0
+    thickness : float in (0, 100]
+        Thickness ``h``, metres (at most the smaller side).
+    length : float in (0, 100]
         Side ``a`` along x, metres.
-    width : float > 0
+    width : float in (0, 100]
         Side ``b`` along y, metres.
     boundary : {"free", "simply-supported", "clamped"}
         Condition on all four edges.
@@ -244,13 +244,13 @@ class Scene:
     ----------
     ball : Ball
     plate : Plate
-    drop_height : float > 0
+    drop_height : float in [1e-6, 1000]
         Height of the ball's lowest point above the plate at release, metres.
     position : (float, float), optional
         Impact point on the plate, metres from a corner. Default: the centre.
     listener : Accelerometer or Microphone, optional
         Default: a microphone 0.2 m above the impact point.
-    gravity : float > 0
+    gravity : float in (0, 1000]
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
         Contact model (default: Hertz at rtol 1e-9, see :class:`Contact`).
