@@ -364,3 +364,31 @@ def test_synth_errors_are_synth_errors():
     # every refusal above is a SynthError (the CLI's one-line error, exit 2)
     assert issubclass(PresetError, SynthError) and issubclass(audio_io.AudioFileError, SynthError)
     assert synth.ParameterError is ParameterError
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [5.0, 15.0, 25.0])
+def test_sigterm_at_any_moment_leaves_no_partial_file(tmp_path, delay):
+    # a real `synth render` killed with SIGTERM after `delay` s (while importing,
+    # rendering or writing): it exits cleanly (143, or 0 if it had finished) and leaves
+    # either no output or a complete one, and no temporary
+    import time
+
+    import soundfile
+
+    out = tmp_path / "x.wav"
+    proc = subprocess.Popen([sys.executable, "-m", "synth", "render", "default", "-o", str(out),
+                             "--report", str(tmp_path / "x.json")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    if proc.returncode == -signal.SIGTERM:
+        # killed while Python was still importing the package: nothing was written
+        assert list(tmp_path.iterdir()) == []
+        return
+    assert proc.returncode in (0, 128 + signal.SIGTERM), err.decode()[-2000:]
+    assert b"Traceback" not in err
+    assert leftovers(tmp_path) == []
+    if out.exists():
+        assert soundfile.info(str(out)).frames > 0 and (tmp_path / "x.json").exists()
