@@ -85,7 +85,8 @@ def _cmd_render(args):
         else:
             timing = load_preset_with_options(args.timing_from)[0]
             opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
-    outputs = Outputs({"output": args.output, "report": args.report, "plot": args.plot})
+    outputs = Outputs({"output": args.output, "report": args.report, "plot": args.plot},
+                      {"output": audio_io.FORMATS})
     rendered = render(scene, **opts)
     with outputs:
         audio_io.write_audio(outputs.staged("output"), rendered.audio, rendered.samplerate,
@@ -112,14 +113,14 @@ class Outputs:
     failure (or SIGTERM, SIGINT) leaves every existing output as it was.
     """
 
-    def __init__(self, paths: dict):
+    def __init__(self, paths: dict, suffixes: dict | None = None):
         from pathlib import Path
 
         from synth.io.audio import check_output_path
 
         self.paths = {k: Path(v) for k, v in paths.items() if v}
         for field, path in self.paths.items():
-            check_output_path(path, field)
+            check_output_path(path, field, (suffixes or {}).get(field))
         self.temporaries: dict = {}
 
     def staged(self, field: str):
@@ -209,7 +210,7 @@ def _cmd_alter(args):
 
     from synth.analysis import analyze
 
-    audio_io.check_output_path(args.output, "output")   # before the analysis, not after
+    audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
     onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,

@@ -213,17 +213,21 @@ def remove_stale_temporaries(folder) -> list[Path]:
     return removed
 
 
-def check_output_path(path, field: str = "path") -> Path:
-    """Check, before any work, that a file can be written at ``path``: it is not a
-    directory, its folder exists and a file can be created there (tried: this catches
-    a read-only folder or file system). Stale temporaries there are removed. Returns the
-    path; raises :class:`AudioFileError` naming ``field``."""
+def check_output_path(path, field: str = "path", suffixes=None) -> Path:
+    """Check, before any work, that a file can be written at ``path``: its suffix is one
+    of ``suffixes`` (if given, e.g. :data:`FORMATS`), it is not a directory, its folder
+    exists and a file can be created there (tried: this catches a read-only folder or
+    file system). Stale temporaries there are removed. Returns the path; raises
+    :class:`AudioFileError` (or ``ParameterError`` for the suffix) naming ``field``."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"{field}={path!r} must be a file path (str or os.PathLike)")
     p = Path(path)
     parent = p.parent if str(p.parent) else Path(".")
     if p.is_dir():
         raise AudioFileError(f"{field}={str(p)!r} is a directory, not a file")
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ParameterError(f"{field}={str(p)!r}: suffix {p.suffix!r} is not one of "
+                             f"{', '.join(map(repr, suffixes))}")
     if not parent.is_dir():
         raise AudioFileError(f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
                              f"(it is not created automatically)")
