@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import secrets
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ import soundfile
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
+from synth.io.atomic import remove_stale_temporaries, temporary_name, write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
@@ -70,44 +70,9 @@ class AudioFileError(ParameterError):
 # --------------------------------------------------------------------------- checks
 
 
-def _check_audio(name: str, audio) -> np.ndarray:
-    """A non-empty, finite, floating-point array of shape (frames,) or (frames, channels)."""
-    if audio is None or isinstance(audio, (str, bytes)):
-        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
-                             f"(frames, channels)")
-    try:
-        a = np.asarray(audio)
-    except Exception:  # noqa: BLE001 - any conversion failure is bad input
-        raise ParameterError(f"{name} of type {type(audio).__name__} is not an array") from None
-    if not np.issubdtype(a.dtype, np.floating):
-        raise ParameterError(
-            f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
-            f"of full scale, or physical units before normalize)")
-    if a.ndim not in (1, 2):
-        raise ParameterError(
-            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
-    if a.size == 0:
-        raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
-        raise ParameterError(
-            f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
-            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
-    return a
-
-
 #: Highest sample rate of a written file, Hz (libsndfile stores the rate as a 32-bit int;
 #: the engine renders at most 384 kHz, and no converter exceeds 768 kHz).
 MAX_FILE_SAMPLERATE = 768_000
-
-
-def _check_samplerate(samplerate) -> int:
-    """An integer sample rate in [1, MAX_FILE_SAMPLERATE], Hz."""
-    if (isinstance(samplerate, bool) or not isinstance(samplerate, numbers.Integral)
-            or not 1 <= samplerate <= MAX_FILE_SAMPLERATE):
-        raise ParameterError(f"samplerate={samplerate!r} must be an integer in "
-                             f"[1, {MAX_FILE_SAMPLERATE}] (Hz)")
-    return int(samplerate)
 
 
 #: Quantisation step of the integer subtypes, in units of full scale.
@@ -145,7 +110,7 @@ def _peak(a: np.ndarray) -> float:
     return float(np.max(np.abs(a)))
 
 
-def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
+def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     """Validate an output path: a known suffix and an existing directory.
 
     ``kinds`` maps lower-case suffixes to format names; ``error`` is the exception
@@ -168,49 +133,6 @@ def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     if p.is_dir():
         raise error(f"path={str(p)!r} is a directory, not a file")
     return p, kinds[suffix]
-
-
-#: Prefix of the engine's temporary files: ``.synth-<pid>-<hex>.part<suffix>``. The name
-#: does not grow with the target's (a 255-byte output name still has a temporary name),
-#: and it carries the writer's process id, so that a temporary left by a killed process
-#: is recognised and removed (:func:`remove_stale_temporaries`).
-TEMPORARY_PREFIX = ".synth-"
-
-
-def temporary_name(suffix: str) -> str:
-    """A fresh temporary file name of this process, ending in ``.part<suffix>``."""
-    return f"{TEMPORARY_PREFIX}{os.getpid()}-{secrets.token_hex(6)}.part{suffix}"
-
-
-def _process_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError, ValueError):
-        return True
-    return True
-
-
-def remove_stale_temporaries(folder) -> list[Path]:
-    """Remove the temporaries (:func:`temporary_name`) in ``folder`` whose writer process
-    no longer runs (it was killed mid-write); return the paths removed. A live process's
-    temporaries, and every other file, are left alone."""
-    removed = []
-    try:
-        entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
-    except OSError:
-        return removed
-    for tmp in entries:
-        pid_text = tmp.name[len(TEMPORARY_PREFIX):].split("-", 1)[0]
-        if not pid_text.isdigit() or _process_alive(int(pid_text)):
-            continue
-        try:
-            tmp.unlink()
-            removed.append(tmp)
-        except OSError:
-            pass
-    return removed
 
 
 def check_output_path(path, field: str = "path", suffixes=None) -> Path:
@@ -242,44 +164,11 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
     return p
 
 
-def _temporary_sibling(p: Path, error) -> Path:
-    """Create (exclusively, with the usual umask permissions) an empty file beside ``p``."""
-    remove_stale_temporaries(p.parent if str(p.parent) else Path("."))
-    for _ in range(100):
-        tmp = p.with_name(temporary_name(p.suffix))
-        try:
-            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise error(f"path={str(p)!r}: cannot create a file there ({exc.strerror})") from exc
-        os.close(fd)
-        return tmp
-    raise error(f"path={str(p)!r}: no free temporary name beside it")
-
-
-def _write_atomically(p: Path, write, error=None) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``p``, then rename it to ``p``.
-
-    On any failure the temporary file is removed and the error re-raised, so ``p``
-    is either left as it was or replaced by a complete file.
-    """
-    tmp = _temporary_sibling(p, AudioFileError if error is None else error)
-    try:
-        write(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 # --------------------------------------------------------------------------- files
 
 
-def write_audio(path, audio, samplerate, subtype=None) -> Path:
+def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
+                subtype: str | None = None) -> Path:
     """Write audio to a WAV or FLAC file, chosen by the file suffix.
 
     The file is first written to a temporary file in the same directory and then
@@ -307,9 +196,12 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
     pathlib.Path
         The path written.
     """
-    p, fmt = _target_path(path, FORMATS, "sound file")
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    p, fmt = output_path(path, FORMATS, "sound file")
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
+    if sr > MAX_FILE_SAMPLERATE:
+        raise ParameterError(f"samplerate={samplerate!r} must be an integer in "
+                             f"[1, {MAX_FILE_SAMPLERATE}] (Hz)")
     st = DEFAULT_SUBTYPE if subtype is None else subtype
     if not isinstance(st, str) or not soundfile.check_format(fmt, st.upper()):
         raise ParameterError(
@@ -342,11 +234,12 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
                                  f"{1 if a.ndim == 1 else a.shape[1]} channels): "
                                  f"{_system_reason(tmp, reason, a.nbytes)}") from exc
 
-    _write_atomically(p, write)
+    write_atomically(p, write, error=AudioFileError)
     return p
 
 
-def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
+def read_audio(path: str | os.PathLike, *,
+               channel: int | str | None = None) -> tuple[np.ndarray, int]:
     """Read an audio file (WAV, FLAC or any format soundfile reads).
 
     Parameters
@@ -412,8 +305,9 @@ def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
 # --------------------------------------------------------------------------- levels
 
 
-def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23.0,
-              max_peak=1.0) -> tuple[np.ndarray, float]:
+def normalize(audio: np.ndarray, mode: str, *, samplerate: int, units: str,
+              peak_db: float = -1.0, loudness_lufs: float = -23.0,
+              max_peak: float | None = 1.0) -> tuple[np.ndarray, float]:
     """Scale a physical signal to digital full scale.
 
     Parameters
@@ -456,8 +350,8 @@ def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23
         Full-scale units per physical unit (per Pa or per m/s^2).
     """
     mode = checks.choice("mode", mode, NORMALIZE_MODES)
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
     u = _check_units(units)
     target_peak_db = checks.real("peak_db", peak_db, "dBFS")
     if target_peak_db > 0.0:
@@ -534,13 +428,29 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
         f"blocks keep crossing the gates; use mode 'peak'")
 
 
-def fade_out(audio, samplerate, duration) -> np.ndarray:
+def fade_out_window(frames: int) -> np.ndarray:
+    """The raised-cosine fade-out ``w[k] = (1 + cos(pi (k + 1) / frames)) / 2``,
+    ``k = 0 .. frames-1``: the falling half of a Hann window, continuing smoothly from
+    1 on the frame before it to exactly 0 on its last frame."""
+    return 0.5 * (1.0 + np.cos(np.linspace(0.0, np.pi, frames + 1)[1:]))
+
+
+def apply_fade_out(audio: np.ndarray, frames: int) -> None:
+    """Multiply the last ``frames`` frames of ``audio`` (axis 0) by
+    :func:`fade_out_window`, in place. 0 frames: nothing changes."""
+    if frames <= 0:
+        return
+    w = fade_out_window(frames)
+    if audio.ndim == 2:
+        w = w[:, None]
+    audio[audio.shape[0] - frames:] *= w
+
+
+def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
     """A raised-cosine fade over the last ``duration`` seconds (on a copy).
 
     The last ``n = round(duration * samplerate)`` frames are multiplied by
-    ``w[k] = (1 + cos(pi (k + 1) / n)) / 2``, ``k = 0 .. n-1``: the half of a Hann
-    window that continues smoothly from 1 before the fade to exactly 0 at the
-    last frame.
+    :func:`fade_out_window` (``n``).
 
     Parameters
     ----------
@@ -556,8 +466,8 @@ def fade_out(audio, samplerate, duration) -> np.ndarray:
     ndarray
         A faded copy of ``audio`` (same shape and dtype).
     """
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
     d = checks.nonnegative("duration", duration, "s")
     frames = a.shape[0]
     n = int(round(d * sr))
@@ -566,10 +476,5 @@ def fade_out(audio, samplerate, duration) -> np.ndarray:
             f"duration={duration!r} must be <= the audio's length {frames / sr:.6g} s "
             f"({frames} frames at {sr} Hz)")
     out = a.copy()
-    if n == 0:
-        return out
-    w = 0.5 * (1.0 + np.cos(np.pi * np.arange(1, n + 1) / n))
-    if out.ndim == 2:
-        w = w[:, None]
-    out[frames - n:] *= w.astype(out.dtype)
+    apply_fade_out(out, n)
     return out
