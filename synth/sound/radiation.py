@@ -69,6 +69,7 @@ scene rendered again (in this process or another) does not repeat the integral.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import json
@@ -133,6 +134,9 @@ class RadiationResult:
         0 converged; 1 stopped after the last refinement; 2 stopped at ``max_points``.
     message : str
         A sentence saying which.
+    rule : str
+        "rectangle" (:func:`rayleigh_gains`: panels along x and y) or "polar"
+        (:func:`separable_gains`: radial panels about the microphone, and 0).
     """
 
     gains: np.ndarray
@@ -144,6 +148,7 @@ class RadiationResult:
     success: bool
     status: int
     message: str
+    rule: str = "rectangle"
 
 
 # ----------------------------------------------------------------------------------------
@@ -1033,7 +1038,8 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     shift = r_mid - (0.0 if r0 is None else r0)
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
-    result = _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0))
+    result = dataclasses.replace(
+        _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0)), rule="polar")
     if full_output:
         return result
     if not result.success:
@@ -1093,7 +1099,8 @@ def _save_gains(result: RadiationResult, key: str) -> None:
     arrays = {"key": np.array(key), "gains": result.gains, "error": result.error,
               "coherent": result.coherent, "n_points": np.array(result.n_points),
               "refinements": np.array(result.refinements), "panels": np.array(result.panels),
-              "status": np.array(result.status), "message": np.array(result.message)}
+              "status": np.array(result.status), "message": np.array(result.message),
+              "rule": np.array(result.rule)}
     try:
         path = _gains_path(key)
     except RuntimeError:  # no home directory
@@ -1115,17 +1122,18 @@ def _load_gains(key: str, m: int):
             gains, error, coherent = z["gains"], z["error"], z["coherent"]
             n_points, refinements = int(z["n_points"][()]), int(z["refinements"][()])
             panels, status, message = z["panels"], int(z["status"][()]), str(z["message"][()])
+            rule = str(z["rule"][()]) if "rule" in z.files else "rectangle"
         ok = (gains.dtype == np.complex128 and gains.shape == (m,)
               and error.shape == (m,) and coherent.shape == (m,) and panels.shape == (2,)
               and np.all(np.isfinite(gains)) and np.all(np.isfinite(error))
               and np.all(np.isfinite(coherent)) and status in (0, 1, 2)
-              and n_points >= 0 and refinements >= 0)
+              and n_points >= 0 and refinements >= 0 and rule in ("rectangle", "polar"))
         if not ok:
             return None
         return _frozen(RadiationResult(gains, error.astype(float), coherent.astype(float),
                                        n_points, refinements,
                                        (int(panels[0]), int(panels[1])), status == 0,
-                                       status, message))
+                                       status, message, rule))
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 
@@ -1138,10 +1146,11 @@ def _frozen(result: RadiationResult) -> RadiationResult:
 
 
 # Work of the rectangle rule (modes times points of its first rule) above which a plate
-# with separable shapes takes the polar rule of separable_gains. Below it the two
-# cost about the same and the rectangle rule is kept (its gains, to rounding, are
-# those every stored render was made with).
-_POLAR_WORK = 2e8
+# with separable shapes takes the polar rule of separable_gains. Below it the rectangle
+# rule takes at most a few seconds and is kept: its gains (the polar rule's agree to
+# tol, not to the last bit) are those the presets' recorded renders were made with
+# (the largest simply supported preset, 550 modes at 48 kHz, is 3.7e7).
+_POLAR_WORK = 5e7
 
 
 def _use_separable(modes, size, listener, q_s, kb, c, tol):
