@@ -799,14 +799,36 @@ class SeparableShapes:
     def x_values(self, x: np.ndarray) -> np.ndarray:
         """``X_i(x)`` for every index ``i`` in use: shape ``(len(x), max(x_index) + 1)``
         (``x`` in metres)."""
-        m = np.arange(1, int(self.x_index.max()) + 2) if self.x_index.size else np.zeros(0)
-        return math.sqrt(2.0) * np.sin(np.outer(np.asarray(x, float) * (math.pi / self.length), m))
+        n = int(self.x_index.max()) + 1 if self.x_index.size else 0
+        return _sine_table(np.ascontiguousarray(x, dtype=float) * (math.pi / self.length), n)
 
     def y_values(self, y: np.ndarray) -> np.ndarray:
         """``Y_j(y)`` for every index ``j`` in use: shape ``(len(y), max(y_index) + 1)``
         (``y`` in metres)."""
-        n = np.arange(1, int(self.y_index.max()) + 2) if self.y_index.size else np.zeros(0)
-        return math.sqrt(2.0) * np.sin(np.outer(np.asarray(y, float) * (math.pi / self.width), n))
+        n = int(self.y_index.max()) + 1 if self.y_index.size else 0
+        return _sine_table(np.ascontiguousarray(y, dtype=float) * (math.pi / self.width), n)
+
+
+@numba.njit(cache=True)
+def _sine_table(t, n):  # pragma: no cover
+    """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
+    ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every
+    32 orders (rounding grows by about one ulp per order: a few 1e-15)."""
+    out = np.empty((t.size, n))
+    root2 = math.sqrt(2.0)
+    for j in range(t.size):
+        c1 = math.cos(t[j])
+        s1 = math.sin(t[j])
+        c = 1.0
+        s = 0.0
+        for m in range(n):
+            if m % 32 == 31:
+                c = math.cos((m + 1) * t[j])
+                s = math.sin((m + 1) * t[j])
+            else:
+                c, s = c * c1 - s * s1, s * c1 + c * s1
+            out[j, m] = root2 * s
+    return out
 
 
 @dataclass(frozen=True, eq=False)

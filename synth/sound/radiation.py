@@ -797,6 +797,45 @@ def _radial_panels(a, b, listener, h):
     return panels
 
 
+def _panel_phase(lo, hi, kind, tangents, kb, qa, z):
+    """Largest phase change (rad) over a radial panel of the polar integrand's terms.
+
+    ``exp(-q R)`` turns by at most ``|q| (R(hi) - R(lo))``; a shape's plane waves by
+    at most ``k_b`` per metre of radius inside the arcs, and by ``k_b`` per metre that
+    an arc's end travels along an edge's line at distance ``d``
+    (``sqrt(r^2 - d^2)``, much faster than ``r`` just beyond ``d``). A substituted
+    panel (``kind != 0``) is taken as twice as long in radius (``dr/du <= 2 L``).
+    """
+    stretch = 1.0 if kind == 0 else 2.0
+    travel = max((math.sqrt(max(hi * hi - d * d, 0.0)) - math.sqrt(max(lo * lo - d * d, 0.0))
+                  for d in tangents), default=0.0)
+    big = math.hypot(hi, z) - math.hypot(lo, z)
+    return stretch * qa * big + kb * max(stretch * (hi - lo), travel)
+
+
+def _radial_orders(panels, size, listener, kb, qa, tol):
+    """Panels split until each one's phase (:func:`_panel_phase`) is integrated to
+    ``tol`` by at most ``_MAX_ORDER`` points, and their first-rule orders."""
+    a, b = size
+    xl, yl, _ = listener
+    tangents = (abs(xl), abs(xl - a), abs(yl), abs(yl - b))
+    w_max = _half_phase(_MAX_ORDER, tol)
+    p_min = _min_order(tol)
+    todo = list(reversed(panels))
+    out, orders = [], []
+    while todo:
+        lo, hi, kind = todo.pop()
+        half = 0.5 * _panel_phase(lo, hi, kind, tangents, kb, qa, listener[2])
+        if half > w_max and hi - lo > 1e-9 * hi:
+            mid = 0.5 * (lo + hi)
+            todo.append((mid, hi, -1 if kind < 0 else 0))
+            todo.append((lo, mid, 1 if kind > 0 else 0))
+            continue
+        out.append((lo, hi, kind))
+        orders.append(_fewest_points(half, tol, p_min))
+    return out, np.array(orders, dtype=np.int64)
+
+
 def _fewest_points(phase: float, tol: float, p_min: int) -> int:
     """Fewest Gauss-Legendre points (at least ``p_min``, at most ``_MAX_ORDER``) that
     integrate ``exp(i w t)``, ``|w| <= phase``, on ``[-1, 1]`` to ``tol``."""
@@ -856,11 +895,8 @@ def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
 
 
 _ANGLE_MIN_ORDER = 4        # Gauss-Legendre points of the shortest angular panels
-# Panel accuracy of the polar rule, relative to tol: a poorly radiating mode (|H_k| near
-# 1e-4 S_k) sums errors of many radii; at 0.1 tol the first rule often fails the
-# convergence test and a third rule is needed (measured: 0.01 tol costs 1.1 to 1.2
-# times the points and saves that rule).
-_POLAR_PANEL_TOL = 0.01
+# Panel accuracy of the polar rule, relative to tol (as the rectangle rule's).
+_POLAR_PANEL_TOL = 0.1
 
 
 @functools.lru_cache(maxsize=4096)
@@ -1008,11 +1044,9 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     tol_panel = _POLAR_PANEL_TOL * tol
     w_half = _half_phase(_MAX_ORDER, tol_panel)
     h = 2.0 * w_half / kappa if kappa > 0 else math.inf
-    panels = _radial_panels(a, b, listener, h)
-    p_min = _min_order(tol_panel)
-    orders0 = np.array([_fewest_points(0.5 * kappa * (hi - lo) * (1 if kind == 0 else 2),
-                                       tol_panel, p_min) for lo, hi, kind in panels])
     xl, yl, zl = listener
+    panels, orders0 = _radial_orders(_radial_panels(a, b, listener, h), (a, b), listener, kb,
+                                     kappa - kb, tol_panel)
     r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
     big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
     r_mid = 0.5 * (big_min + big_max)
