@@ -248,6 +248,7 @@ def _cmd_bench(args):
         "render": (bench.run_render, bench.format_render),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
+        "scale": (bench.run_scale, bench.format_scale),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -343,11 +344,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_materials)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "scale"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
-                        "onsets against noise")
+                        "onsets against noise; scale: cold and warm cost of modes, radiation "
+                        "gains and synthesis for a ladder of plates")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")

@@ -919,8 +919,8 @@ def _angular_rule(r, a, b, listener, kb, tol, refine):
     (:func:`_angular_band`); orders times ``refine``."""
     xl, yl, _ = listener
     arcs = _arcs(r, a, b, xl, yl)
-    # kb r rounded up to 1/64 so that neighbouring radii share the band's computation
-    rate = float(_angular_band(math.ceil(kb * r * 64.0) / 64.0, tol))
+    # kb r rounded up to an integer so that neighbouring radii share the computation
+    rate = float(_angular_band(float(math.ceil(kb * r)), tol))
     w24 = _half_phase(_MAX_ORDER, tol)
     h = 2.0 * w24 / rate if rate > 0 else math.inf
     ts, ws = [], []
