@@ -1204,11 +1204,12 @@ def _frozen(result: RadiationResult) -> RadiationResult:
     return result
 
 
-# Work of the rectangle rule (modes times points of its first rule) above which a plate
+# Work of the rectangle rule (modes times points of its first rule, estimated from its
+# longest panels) above which a plate
 # with separable shapes takes the polar rule of separable_gains. Below it the rectangle
 # rule takes at most a few seconds and is kept: its gains (the polar rule's agree to
 # tol, not to the last bit) are those the presets' recorded renders were made with
-# (the largest simply supported preset, 550 modes at 48 kHz, is 3.7e7).
+# (the largest simply supported preset, 550 modes at 48 kHz, is 3.6e7).
 _POLAR_WORK = 5e7
 
 
@@ -1219,8 +1220,9 @@ def _use_separable(modes, size, listener, q_s, kb, c, tol):
     if shapes is None or q_s.size == 0:
         return None
     kappa = kb + float(np.max(np.abs(q_s))) / c
-    _, _, px0, py0 = _first_rule(size[0], size[1], listener, kappa, 0.1 * tol)
-    work = float(q_s.size) * float(px0.sum()) * float(py0.sum())
+    # points of the rectangle rule's longest panels (24 points each, 2 w24 / kappa long)
+    per_metre = _MAX_ORDER * kappa / (2.0 * _half_phase(_MAX_ORDER, 0.1 * tol))
+    work = float(q_s.size) * (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
     return shapes if work > _POLAR_WORK else None
 
 
