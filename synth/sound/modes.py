@@ -72,6 +72,11 @@ Free and clamped edges
     does not, the basis is enlarged and the solve repeated. Nothing above
     ``max_frequency`` is returned.
 
+Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
+:meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
+over many points can be shared between modes (the polar rule of
+:func:`synth.sound.radiation.separable_gains`).
+
 Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
 1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
 orthogonal: ``Int phi_k phi_l dA = 0`` for ``k != l``. A shape's sign is arbitrary
