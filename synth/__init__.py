@@ -14,6 +14,7 @@ from synth.errors import ParameterError, SynthError
 from synth.io.audio import read_audio, write_audio
 from synth.io.playback import play
 from synth.io.presets import load_preset, render_preset
+from synth.live import Body, Engine, EngineStats
 from synth.physics import contact, materials
 from synth.physics.bounces import BounceSequence, Impact, simulate_bounces, simulate_scene
 from synth.physics.contact import ImpactResult, solve_contact, solve_impact
@@ -23,7 +24,7 @@ from synth.sound import modes as plate  # the plate's modes (kept under its publ
 from synth.sound.render import Render, render
 
 __all__ = [
-    "Accelerometer", "Analysis", "Ball", "BounceSequence", "Contact", "Impact", "ImpactResult",
+    "Accelerometer", "Analysis", "Ball", "Body", "BounceSequence", "Contact", "Engine", "EngineStats", "Impact", "ImpactResult",
     "LossFactor", "Material", "Microphone", "ParameterError", "Plate", "Rayleigh", "Scene",
     "Render", "SynthError", "Tick", "analyze", "analyze_file", "contact", "load_preset", "materials", "plate", "play", "read_audio",
     "render", "render_preset", "simulate_bounces", "simulate_scene", "solve_contact", "solve_impact", "write_audio",

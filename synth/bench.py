@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.physics import contact
-from synth.physics import impedance
+from synth.constants import GRAVITY
+from synth.physics import contact, impedance
 from synth.physics.scene import Ball, Plate
 
 
@@ -31,7 +31,7 @@ class ContactCase:
     dissipation: float = 0.0   # s/m
 
 
-def _case(name, ball, plate, speed, gravity=9.81, contact_law="hertz", **kw):
+def _case(name, ball, plate, speed, gravity=GRAVITY, contact_law="hertz", **kw):
     K, n, mu = contact.contact_law(ball, plate, contact_law, **kw)
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
     return ContactCase(name, ball.mass, K, beta, speed, gravity, n, mu)
@@ -65,7 +65,8 @@ def _scaled(case):
     return theta, lam, G, case.dissipation * v0
 
 
-def scipy_contact(case, method="Radau", rtol=1e-12, atol=1e-15):
+def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
+                  atol: float = 1e-15) -> tuple:
     """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
     implementation of the same dimensionless equations), for reference and comparison.
 
@@ -167,7 +168,8 @@ def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else x
 
 
-def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat=300, cases=None):
+def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300,
+                cases=None) -> dict:
     """Error of e, tau and the pulse against the reference, and time per impact.
 
     Returns a dict with ``rows`` (one per case and tolerance; the default rtol 1e-6 is
@@ -291,7 +293,7 @@ if __name__ == "__main__":  # pragma: no cover
 # ---------------------------------------------------------------------------------------
 # Rendering
 # ---------------------------------------------------------------------------------------
-def render_scenes():
+def render_scenes() -> list:
     """The render benchmark's scenes: ``(name, scene, render options)``: the default
     preset; a thin steel sheet whose modal bank carries thousands of modes; a long series
     of fast small bounces."""
@@ -328,7 +330,7 @@ REFERENCE = dict(floor_db=-200.0, rtol=1e-10, pulse_points=1025)
 
 
 def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), samplerate=48000,
-               repeat=5):
+               repeat: int = 5) -> dict:
     """Error of the audio against a reference render against render time, the modal
     bank's cost per mode-sample and the real-time factor, on one thread.
 
@@ -479,7 +481,7 @@ def _edc_decay_time(x, fs, lo_db=-5.0, hi_db=-25.0):
     return float(-20 * math.log10(math.e) / slope)
 
 
-def thesis_comparison(samplerate=48000):
+def thesis_comparison(samplerate: int = 48000) -> dict:
     """The first tick of the thesis setup (10 mm steel ball, 10 cm, 18 mm MDF, microphone
     20 cm above the impact point) against the thesis' recordings: decay time (amplitude
     to 37 %) overall and in the 2-3 kHz band (thesis: 11-14 ms around 2-3 kHz), spectral
@@ -487,8 +489,8 @@ def thesis_comparison(samplerate=48000):
     from scipy.signal import butter, sosfiltfilt
 
     from synth.io.presets import load_preset
-    from synth.sound.render import render
     from synth.physics.bounces import BounceSequence, simulate_scene
+    from synth.sound.render import render
 
     scene = load_preset("default")
     seq = simulate_scene(scene)
@@ -531,7 +533,8 @@ _BOUNCE_MODES = ((620.0, 0.040, 1.0), (1370.0, 0.025, 0.8), (2450.0, 0.015, 0.7)
                  (4100.0, 0.008, 0.5), (6900.0, 0.004, 0.4))
 
 
-def synthetic_bounce(e, samplerate, *, t1=0.15, n_ticks=20, snr_db=None, seed=0):
+def synthetic_bounce(e: float, samplerate: int, *, t1: float = 0.15, n_ticks: int = 20,
+                     snr_db: float | None = None, seed: int = 0) -> tuple:
     """A bouncing sound with a known geometric restitution, not made by the engine.
 
     Bounce times ``T_n = t1 e^(n-1)`` (s); each tick is five damped sinusoids (0.6-7 kHz,
@@ -591,7 +594,7 @@ def synthetic_bounce(e, samplerate, *, t1=0.15, n_ticks=20, snr_db=None, seed=0)
 
 
 def run_analysis(snrs=(None, 40.0, 30.0, 20.0, 10.0), restitutions=(0.6, 0.8, 0.9), seeds=10,
-                 samplerate=48000):
+                 samplerate: int = 48000) -> dict:
     """Accuracy of the recovered restitution (bounces 2-8) and onsets (ticks 1-8) against SNR.
 
     A true tick counts as found when a detected onset lies within 1 ms of it; the
@@ -648,6 +651,23 @@ def format_analysis(result) -> str:
                      f"{r['e_error_p95']:.2e} | {r['e_error_max']:.2e} | {r['onset_error_rms_ms']:.3f} | "
                      f"{r['seconds_per_file'] * 1e3:.0f} |")
     return "\n".join(lines)
+
+
+def markdown_block(command: str, table: str) -> str:
+    """A benchmark's output as a block for docs/: one line naming the command, the date and
+    the machine (CPUs, load average), then the benchmark's Markdown tables."""
+    import datetime
+    import os
+    import platform
+
+    import numba
+
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    head = (f"Printed by `{command}` on {now} (Python {platform.python_version()}, "
+            f"numba {numba.__version__}, {os.cpu_count()} CPUs, load average {load:.1f} "
+            "at the end of the run).")
+    return f"{head}\n\n{table}\n"
 
 
 # ----------------------------------------------------------------------------------------

@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterable
+
+import numpy as np
 
 from synth.errors import ParameterError
 
@@ -18,7 +21,7 @@ def _unit(unit: str) -> str:
     return f" ({unit})" if unit else ""
 
 
-def real(name: str, value, unit: str = "", allowed: str = "") -> float:
+def real(name: str, value: object, unit: str = "", allowed: str = "") -> float:
     """Return ``value`` as a finite float, or raise ``ParameterError``.
 
     ``allowed`` (such as ``"> 0"``) is the range the caller will check next; it is
@@ -42,7 +45,7 @@ def _not_finite(name, value, unit, allowed) -> str:
     return f"{name}={value!r} must be finite{' and ' + allowed if allowed else ''}{_unit(unit)}"
 
 
-def positive(name: str, value, unit: str = "") -> float:
+def positive(name: str, value: object, unit: str = "") -> float:
     """A finite float ``> 0``."""
     x = real(name, value, unit, "> 0")
     if not x > 0.0:
@@ -50,7 +53,7 @@ def positive(name: str, value, unit: str = "") -> float:
     return x
 
 
-def nonnegative(name: str, value, unit: str = "") -> float:
+def nonnegative(name: str, value: object, unit: str = "") -> float:
     """A finite float ``>= 0``."""
     x = real(name, value, unit, ">= 0")
     if not x >= 0.0:
@@ -58,7 +61,7 @@ def nonnegative(name: str, value, unit: str = "") -> float:
     return x
 
 
-def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
+def in_range(name: str, value: object, lo: float, hi: float, unit: str = "", *,
              lo_open: bool = True, hi_open: bool = True) -> float:
     """A finite float inside an interval; open or closed at either end."""
     left = "(" if lo_open else "["
@@ -72,7 +75,7 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "", *,
     return x
 
 
-def choice(name: str, value, allowed) -> str:
+def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     """One of a fixed set of strings."""
     allowed = tuple(allowed)
     if value not in allowed:
@@ -81,7 +84,7 @@ def choice(name: str, value, allowed) -> str:
     return value
 
 
-def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...]:
+def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:
     """A tuple of ``dims`` finite floats (a position)."""
     try:
         items = tuple(value)
@@ -93,3 +96,38 @@ def point(name: str, value, dims: int, unit: str = "metres") -> tuple[float, ...
             f"{name}={value!r} must have {dims} coordinates ({unit}), got {len(items)}")
     axes = "xyz"
     return tuple(real(f"{name}.{axes[i]}", v, unit) for i, v in enumerate(items))
+
+
+def audio_array(name: str, audio: object) -> np.ndarray:
+    """A non-empty, finite, floating-point array of shape ``(frames,)`` or
+    ``(frames, channels)`` (samples in full-scale or physical units); returned as an
+    ndarray without copying where possible."""
+    if audio is None or isinstance(audio, (str, bytes)):
+        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
+                             f"(frames, channels)")
+    try:
+        a = np.asarray(audio)
+    except Exception:  # noqa: BLE001 - any conversion failure is bad input
+        raise ParameterError(f"{name} of type {type(audio).__name__} is not an array") from None
+    if not np.issubdtype(a.dtype, np.floating):
+        raise ParameterError(
+            f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
+            f"of full scale, or physical units before normalize)")
+    if a.ndim not in (1, 2):
+        raise ParameterError(
+            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
+    if a.size == 0:
+        raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
+        raise ParameterError(
+            f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
+            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
+    return a
+
+
+def samplerate(value: object, name: str = "samplerate") -> int:
+    """An integer sample rate ``> 0``, Hz."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
+        raise ParameterError(f"{name}={value!r} must be an integer > 0 (Hz)")
+    return int(value)

@@ -3,7 +3,8 @@
 Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter`` (a
 recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
 preset), ``presets`` (list them),
-``materials`` (the material table), ``bench`` (error against run time).
+``materials`` (the material table), ``play`` (a preset through the live engine),
+``bench`` (error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
 """
 
@@ -15,6 +16,7 @@ import sys
 
 import numpy as np
 
+from synth.constants import GRAVITY
 from synth.errors import SynthError
 
 
@@ -65,8 +67,8 @@ def _report(rendered, data, preset) -> dict:
     return dict(preset=str(preset), description=data.get("description", ""),
                 samplerate=rendered.samplerate, duration=rendered.duration, units=rendered.units,
                 gain=rendered.gain, settings=rendered.settings,
-                impacts=[dict(row, time=imp.time) for row, imp in
-                         zip(rendered.impacts.table(), rendered.impacts)])
+                impacts=[dict(row, onset=float(onset)) for row, onset in
+                         zip(rendered.impacts.table(), rendered.onsets)])
 
 
 def _cmd_render(args):
@@ -100,26 +102,14 @@ def _cmd_render(args):
 
 
 def _write_json(path, obj):
-    import os
-    import tempfile
     from pathlib import Path
+
+    from synth.io.atomic import write_json_atomically
 
     path = Path(path)
     if not path.parent.is_dir():
         raise SynthError(f"report={str(path)!r}: the directory {str(path.parent)!r} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".json.tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=1, default=float)
-            fh.write("\n")
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)    # mkstemp makes it 0600; give it the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    write_json_atomically(path, obj, error=SynthError)
 
 
 def _cmd_analyze(args):
@@ -155,10 +145,9 @@ def _channel(value):
 
 
 def _cmd_alter(args):
+    from synth.analysis import analyze
     from synth.io import audio as audio_io
     from synth.stimuli.alter import alter_restitution
-
-    from synth.analysis import analyze
 
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
@@ -213,7 +202,8 @@ def _cmd_gallery(args):
                              subtype=subtype)
         plot_render(rendered, out / f"{name}.png")
         _write_json(out / f"{name}.json", _report(rendered, data, name))
-        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, {len(rendered.impacts)} impacts")
+        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
+              f"{len(rendered.impacts)} impacts")
     return 0
 
 
@@ -238,28 +228,87 @@ def _cmd_materials(args):
     return 0
 
 
+def _device(value):
+    """A PortAudio device: an index when the value is a number, else a name."""
+    return int(value) if value.isdigit() else value
+
+
+def _cmd_play(args):
+    import time
+
+    from synth.io.presets import load_preset_with_options
+    from synth.live import Engine
+
+    scene, render_section, _ = load_preset_with_options(args.preset, args.overrides)
+    fs = args.samplerate or int(render_section.get("samplerate", 48000))
+    engine = Engine(samplerate=fs, blocksize=args.blocksize, device=args.device,
+                    latency=args.latency)
+    body = engine.add(scene.plate, listener=scene.listener, gain=10.0 ** (args.gain_db / 20.0))
+    engine.start()
+    try:
+        for n in range(args.repeat):
+            onsets = body.drop(scene.ball, scene.drop_height, position=scene.position,
+                               contact=scene.contact, gravity=scene.gravity)
+            print(f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
+                  if onsets else f"drop {n + 1}: no impact", flush=True)
+            deadline = time.monotonic() + args.max_seconds
+            while body.awake and time.monotonic() < deadline:
+                time.sleep(0.02)
+    except KeyboardInterrupt:
+        engine.stop()
+        print("stopped", file=sys.stderr)
+        return 130
+    engine.stop()
+    stats = engine.stats
+    print(f"{stats.impacts_played} impacts played, {stats.output_underflows} output underflows, "
+          f"callback mean {100 * stats.callback_mean:.1f} % of the block")
+    return 0
+
+
 def _cmd_bench(args):
     from synth import bench
+    from synth.live import bench as live_bench
 
     runs = {
         "contact": (lambda: bench.run_contact(
             tolerances=tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
-            repeat=args.repeat), bench.format_contact),
-        "render": (bench.run_render, bench.format_render),
+            repeat=300 if args.repeat is None else args.repeat), bench.format_contact),
+        "render": (lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
+                   bench.format_render),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
+        "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
+        if args.json and (args.markdown or args.update_docs):
+            raise SynthError("--json cannot be combined with --markdown or --update-docs")
         result = run()
         if args.json:
             json.dump(result, sys.stdout, indent=1)
             print()
+        elif args.markdown or args.update_docs:
+            block = bench.markdown_block(_bench_command(args), fmt(result))
+            if args.update_docs:
+                from synth.docs import update_bench_docs
+                print(f"{update_bench_docs(args.what, block)}: block bench:{args.what} updated")
+            else:
+                print(block, end="")
         else:
             print(fmt(result))
         return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
+
+
+def _bench_command(args) -> str:
+    """The benchmark's command line, as printed in a docs/ block."""
+    words = ["synth", "bench", args.what]
+    if args.repeat is not None:
+        words += ["--repeat", str(args.repeat)]
+    if args.tolerances:
+        words += ["--tolerances", *(f"{t:g}" for t in args.tolerances)]
+    return " ".join(words + ["--markdown"])
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -301,7 +350,7 @@ def build_parser() -> argparse.ArgumentParser:
     out.add_argument("--csv", action="store_true", help="one row per tick")
     p.add_argument("--plot", metavar="OUT.png", help="ticks, bounce times, restitution, energy, centroid, decay")
     p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
-    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2, for the impact speeds")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2, for the impact speeds")
     p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
                    help="shortest time between two ticks, s (default 0.001): a burst closer "
                         "than this to a tick is part of it (the end of a long contact); lower it "
@@ -320,7 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--keep-amplitude", action="store_true",
                    help="do not scale each tick by its new impact speed over its old one")
     p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
-    p.add_argument("--gravity", type=float, default=9.81, help="m/s^2")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2")
     p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
                    help="shortest time between two ticks, s (as for analyze)")
     p.add_argument("--min-bounce", type=float, metavar="S",
@@ -343,16 +392,40 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("materials", help="list the built-in materials")
     p.set_defaults(func=_cmd_materials)
 
+    p = sub.add_parser("play", help="play a preset's scene through the live engine (Ctrl-C stops)")
+    _add_preset_args(p)
+    p.add_argument("--device", type=_device, help="output device: index or name (default: the "
+                   "system's; list them with `python -m sounddevice`)")
+    p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
+    p.add_argument("--blocksize", type=int, default=256, help="frames per block (default 256)")
+    p.add_argument("--latency", default="low", help="low (default), high, or seconds")
+    p.add_argument("--gain-db", type=float, default=0.0, metavar="DB",
+                   help="level above the physical calibration (1000 Pa or 10 000 m/s^2 full "
+                        "scale), dB (default 0)")
+    p.add_argument("--repeat", type=int, default=1, help="drops, one after the other (default 1)")
+    p.add_argument("--max-seconds", type=float, default=30.0, metavar="S",
+                   help="longest wait for a drop to ring out, s (default 30)")
+    p.set_defaults(func=_cmd_play)
+
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "scale"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "scale"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
-                        "onsets against noise; scale: cold and warm cost of modes, radiation "
-                        "gains and synthesis for a ladder of plates")
+                        "onsets against noise; live: the live engine's callback, hit() and "
+                        "add() costs, and underflows through a JACK dummy server; scale: cold "
+                        "and warm cost of modes, radiation gains and synthesis for a ladder "
+                        "of plates")
     p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--repeat", type=int, default=300, help="timed calls per figure (median)")
+    p.add_argument("--markdown", action="store_true",
+                   help="the block for docs/: the command, date and machine, then the tables")
+    p.add_argument("--update-docs", action="store_true",
+                   help="write that block between its markers in docs/ (a source checkout)")
+    p.add_argument("--repeat", type=int, help="timed calls per figure, median (default: "
+                   "contact 300, render 5; thesis and analysis time nothing)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
+    p.add_argument("--seconds", type=float, default=30.0,
+                   help="live: length of the JACK dummy server run, s (default 30)")
     p.set_defaults(func=_cmd_bench)
     return parser
 

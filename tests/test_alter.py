@@ -31,7 +31,7 @@ def scene():
 @pytest.fixture(scope="module")
 def recording(scene):
     r = render(scene, samplerate=FS)
-    return r.audio.astype(float), np.array([imp.time for imp in r.impacts])
+    return r.audio.astype(float), r.onsets
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +39,7 @@ def short(scene):
     """The first 10 ticks (the first 1.6 s), rung out for 0.3 s."""
     seq = synth.simulate_scene(scene, max_impacts=10)
     r = render(scene, samplerate=FS, sequence=seq, max_tail=0.3)
-    return r.audio.astype(float), np.array([imp.time for imp in r.impacts])
+    return r.audio.astype(float), r.onsets
 
 
 def noise_for(x, onsets, snr_db, kind="white", seed=1):
@@ -257,7 +257,7 @@ def test_deader_ball_against_the_rendered_relaying(scene):
     # sample at the ticks' 3.7 kHz centroid alone is a 12 dB error).
     full = synth.simulate_scene(scene)
     r = render(scene, samplerate=FS, sequence=full, normalize="none")
-    x, on = r.audio.astype(float), np.array([imp.time for imp in r.impacts])
+    x, on = r.audio.astype(float), r.onsets
     release = full[0].time - on[0]              # impact times are from the release
     y, t_new, _, _ = alter_restitution(x, FS, 2.0, onsets=on)
     gain = np.r_[1.0, np.diff(t_new) / np.diff(on)[:t_new.size - 1]]
@@ -297,7 +297,7 @@ def test_same_alteration_at_any_rate(scene):
     #   band empty above 10 kHz and the fits are regularised more; 0.2 dB at 96 kHz).
     seq = synth.simulate_scene(scene, max_impacts=12)
     r = render(scene, samplerate=FS, sequence=seq)
-    x, on = r.audio.astype(float), np.array([imp.time for imp in r.impacts])
+    x, on = r.audio.astype(float), r.onsets
     for k in (0.5, 2.0):
         levels = []
         for fs, (up, down) in ((22050, (147, 320)), (44100, (147, 160)), (96000, (2, 1))):
@@ -399,7 +399,7 @@ def test_extend_continues_decaying_modes(scene):
     seq = synth.simulate_scene(scene, max_impacts=1)
     r = render(scene, samplerate=FS, sequence=seq, normalize="none")
     a = r.audio.astype(float)
-    o = int(r.impacts[0].time * FS)
+    o = int(r.onsets[0] * FS)
     cut, n = o + int(0.1 * FS), int(0.03 * FS)
     ext = extend(a[o + 96:cut], n, FS)
     assert np.linalg.norm(ext - a[cut:cut + n]) / np.linalg.norm(a[cut:cut + n]) < 1e-3

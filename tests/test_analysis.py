@@ -284,7 +284,7 @@ def test_bounce_order_drops_what_breaks_a_series():
     # below 0.1, part of the tick at 100), 180, 240, 285, then 400 (doubtful: a late
     # remainder after bounces that shrink), then a strong tick after a long gap (a
     # second drop, kept) and its bounce.
-    from synth.analysis import _bounce_order
+    from synth.analysis.series import bounce_order as _bounce_order
 
     on = np.array([0.0, 100.0, 105.0, 180.0, 240.0, 285.0, 400.0, 1000.0, 1100.0])
     st = np.array([40.0, 30.0, 25.0, 25.0, 20.0, 15.0, 3.0, 40.0, 35.0])
@@ -305,7 +305,7 @@ def test_bounce_order_drops_what_breaks_a_series():
 def test_bounce_order_keeps_a_series_with_a_missed_tick():
     # a geometric series of strong and weak ticks (restitution 0.7, then 0.75 at the
     # end as the contact time grows), and a missed tick (bounce 5 absent): all stay
-    from synth.analysis import _bounce_order
+    from synth.analysis.series import bounce_order as _bounce_order
 
     T = 100.0 * 0.7 ** np.arange(12)
     T[9:] *= 0.75 / 0.7
@@ -651,7 +651,7 @@ def test_delay_is_sub_sample_and_aligns_centres():
     # the first's, for half-sines below their first spectral zero, 1.5 / tau) the delay is
     # the filter's centre: 5 + 2 samples here (binomial, 4 (1 + cos w)^2 >= 0). One whose
     # response changes sign (1, 3, 4, 3, 1: negative above fs / 3) is timed elsewhere.
-    from synth.analysis import _delay
+    from synth.analysis.detection import delay as _delay
 
     k = np.arange(200.0)
 
@@ -676,7 +676,8 @@ def test_resonator_predictor():
     # predictor's all-pole model is stable. With white noise 40 dB under the ringing the
     # error stops at the noise, raised by the predictor's own gain on it (sum of its
     # squared taps, at least 1): measured +0.7 dB, within 1 dB.
-    from synth.analysis import _resonator_predictor, _stable
+    from synth.analysis.whitening import resonator_predictor as _resonator_predictor
+    from synth.dsp import is_minimum_phase as _stable
 
     fs = 48000
     rng = np.random.default_rng(2)
@@ -697,7 +698,7 @@ def test_resonator_predictor():
 
 def test_resonator_predictor_rejects_short_stretch():
     # A stretch too short for two equations per unknown of the smallest order: no predictor.
-    from synth.analysis import _resonator_predictor
+    from synth.analysis.whitening import resonator_predictor as _resonator_predictor
 
     assert _resonator_predictor(np.ones(6), 48000, 64) is None
 
@@ -705,7 +706,7 @@ def test_resonator_predictor_rejects_short_stretch():
 def test_covariance_normal_equations():
     # The covariance method's matrix from the autocorrelation and its edge corrections
     # equals the direct sums C[i, j] = sum_{t=p}^{N-1} x[t-i] x[t-j] (to rounding).
-    from synth.analysis import _covariance
+    from synth.dsp import covariance_matrix as _covariance
 
     x = np.random.default_rng(4).normal(size=200)
     p = 7
@@ -786,7 +787,7 @@ def test_clipping_of_a_render(name):
     x = np.asarray(r.audio, dtype=float)
     c = 0.1 * np.abs(x).max()
     a = analyze(np.clip(x, -c, c), r.samplerate)
-    truth = np.array([imp.time for imp in r.impacts])
+    truth = r.onsets
     assert a.clipped and false_ticks(a, truth) == 0
     got = np.array([t.time for t in a.ticks[:10]])
     assert np.max(np.abs(got - truth[:10])) < 0.2e-3

@@ -7,7 +7,6 @@ import pytest
 import synth
 from synth import contact, materials
 
-
 # Names that UI, game and batch code rely on (README, Python API).
 PUBLIC = ["Material", "Ball", "Plate", "Scene", "Contact", "Accelerometer", "Microphone",
           "Rayleigh", "LossFactor", "solve_impact", "solve_contact", "simulate_bounces",
@@ -76,3 +75,11 @@ def test_scene_takes_the_drop_by_keyword():
         == (None, None, 9.81)
     with pytest.raises(TypeError):
         synth.Scene(synth.Ball("steel", 0.005), synth.Plate("mdf-18", 0.018, 1.2, 0.5), 0.1)
+
+
+def test_version_is_declared_once():
+    # pyproject.toml reads the version from synth.__version__ (setuptools dynamic), so the
+    # installed metadata and the package agree.
+    from importlib.metadata import version
+
+    assert version("impact-synth") == synth.__version__

@@ -8,9 +8,15 @@ import numpy as np
 import pytest
 import soundfile
 
-from synth.io.audio import (PHYSICAL_FULL_SCALE, AudioFileError, fade_out, normalize,
-                            read_audio, write_audio)
 from synth.errors import ParameterError, SynthError
+from synth.io.audio import (
+    PHYSICAL_FULL_SCALE,
+    AudioFileError,
+    fade_out,
+    normalize,
+    read_audio,
+    write_audio,
+)
 
 SR = 48000
 

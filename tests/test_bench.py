@@ -15,8 +15,9 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def test_thesis_comparison():
-    # The first tick of the thesis setup against the thesis' measurements (PHYSICS.md
-    # sections 4 and 6): restitution 0.87 at 1.4 m/s mid-plate (+-0.01, its two-figure
+    # The first tick of the thesis setup against the thesis' measurements (docs/physics.md,
+    # "Hertz contact" and "Modal synthesis"): restitution 0.87 at 1.4 m/s mid-plate (+-0.01, its
+    # two-figure
     # precision), the 2-3 kHz decay from the energy decay curve within the measured
     # 11-14 ms, and a centroid of "a few kHz" (taken as 1-5 kHz).
     c = bench.thesis_comparison()

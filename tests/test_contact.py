@@ -6,10 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from synth.physics import contact
-from synth.physics import impedance
-from synth.bench import ContactCase, contact_cases, scipy_contact
+from synth.bench import contact_cases, scipy_contact
 from synth.errors import ParameterError
+from synth.physics import contact, impedance
 from synth.physics.materials import TABLE
 from synth.physics.scene import Ball, Plate
 
@@ -61,7 +60,8 @@ def test_settled_impact_penetration_between_static_and_sudden_load():
 # --- closed forms ----------------------------------------------------------------------
 @pytest.mark.parametrize("v", [0.01, 1.0, 10.0])
 def test_rigid_plate_closed_forms(v):
-    # Rigid plate, no gravity (PHYSICS.md s.4): e = 1 (1e-6); delta_max, tau, F_max from
+    # Rigid plate, no gravity (docs/physics.md, "Hertz contact"): e = 1 (1e-6); delta_max, tau,
+    # F_max from
     # Hertz's closed forms within 1e-4 (the constants 2.9433 and 1.2827 have 5 digits).
     m = STEEL10.mass
     R = STEEL10.radius
@@ -84,7 +84,8 @@ def test_inelasticity_is_zeners_lambda():
 
 
 def test_no_gravity_restitution_depends_on_lambda_only():
-    # Without gravity the problem has one parameter (PHYSICS.md s.4): two impacts with
+    # Without gravity the problem has one parameter (docs/physics.md, "Hertz contact"): two impacts
+    # with
     # different m, K, beta, v but the same lambda have the same e (1e-7, 10x rtol).
     a = contact.solve_contact(mass=0.004, stiffness=1e9, admittance=1e-3, speed=1.0, gravity=0.0)
     m, K, v = 0.1, 3e10, 5.0
@@ -97,7 +98,8 @@ def test_no_gravity_restitution_depends_on_lambda_only():
 # --- invariants ------------------------------------------------------------------------
 @pytest.mark.parametrize("speed, gravity", [(1.0, 0.0), (1.4, 9.81), (1e-3, 9.81), (20.0, 9.81)])
 def test_energy_balance_residual(speed, gravity):
-    # PHYSICS.md s.4 energy balance, computed from independent quadratures: residual
+    # The energy balance (docs/physics.md, "Hertz contact"), computed from independent quadratures:
+    # residual
     # below 1e-6 of the impact energy at the default rtol.
     r = contact.solve_impact(STEEL10, MDF18, speed, gravity=gravity)
     assert r.energy_residual < 1e-6
@@ -165,7 +167,7 @@ def test_integrators_agree():
     assert b.contact_time == pytest.approx(a.contact_time, rel=1e-6)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _reference(i):
     """scipy Radau at rtol 1e-12 for the benchmark's case i: (case, e, tau)."""
     case = contact_cases()[i]
@@ -333,3 +335,43 @@ def test_solve_impact_rejects_non_objects():
         contact.solve_impact("steel", MDF18, 1.0)
     with pytest.raises(ParameterError, match="plate"):
         contact.solve_impact(STEEL10, "mdf-18", 1.0)
+
+
+# --- the solver object (the seam the bounce scheduler calls) ---------------------------
+SAME_FIELDS = ("restitution", "contact_time", "max_penetration", "peak_force", "impulse",
+               "inelasticity", "settled", "rebound_speed", "plate_energy", "energy_residual",
+               "status", "message", "n_steps", "method")
+
+
+def same(a, b):
+    return all(getattr(a, f) == getattr(b, f) for f in SAME_FIELDS)
+
+
+def test_contact_solver_equals_the_functions():
+    # One computation behind both doors: the solver's impacts equal those of solve_impact
+    # (middle and near a corner) and of solve_contact (lumped) to the last bit.
+    solver = contact.ContactSolver.for_pair(STEEL10, MDF18)
+    assert same(solver.solve(1.4), contact.solve_impact(STEEL10, MDF18, 1.4))
+    corner = (0.01, 0.02)
+    assert same(solver.solve(1.4, position=corner),
+                contact.solve_impact(STEEL10, MDF18, 1.4, position=corner))
+    lump = lumped()
+    assert same(solver.solve(0.7, admittance=lump["admittance"], free_velocity=0.1),
+                contact.solve_contact(speed=0.7, plate_velocity=0.1, **lump))
+    np.testing.assert_array_equal(solver.solve(1.4).force,
+                                  contact.solve_impact(STEEL10, MDF18, 1.4).force)
+
+
+def test_contact_solver_rejects_bad_input():
+    solver = contact.ContactSolver.for_pair(STEEL10, MDF18)
+    for kw, field in ((dict(speed=-1.0), "speed"), (dict(speed=1.0, free_velocity=-2.0), "free"),
+                      (dict(speed=1.0, admittance=-1.0), "admittance"),
+                      (dict(speed=1.0, position=(5.0, 0.1)), "position")):
+        with pytest.raises(ParameterError, match=field):
+            solver.solve(**kw)
+    with pytest.raises(ParameterError, match="admittance"):
+        contact.ContactSolver(1e-3, 1e9, 1.5).solve(1.0)
+    with pytest.raises(ParameterError, match="n_points"):
+        contact.ContactSolver.for_pair(STEEL10, MDF18, n_points=10)
+    with pytest.raises(ParameterError, match="rtol"):
+        contact.ContactSolver(1e-3, 1e9, 1.5, rtol=0.5)

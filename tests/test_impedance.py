@@ -1,11 +1,11 @@
-"""Plate impedance at the impact point (PHYSICS.md section 3)."""
+"""Plate impedance at the impact point (docs/physics.md, "Plate impedance")."""
 
 import math
 
 import pytest
 
-from synth.physics import impedance
 from synth.errors import ParameterError
+from synth.physics import impedance
 from synth.physics.scene import Plate
 
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)

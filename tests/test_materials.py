@@ -7,15 +7,15 @@ import re
 import numpy as np
 import pytest
 
-from synth.physics import materials
 from synth.errors import ParameterError
+from synth.physics import materials
 from synth.physics.materials import TABLE, LossFactor, Material, Rayleigh, get, names, resolve
 
 NAME_RE = re.compile(r"^[a-z0-9]+(-[a-z0-9]+)*$")
 BAD_REALS = [0.0, -1.0, float("nan"), float("inf"), float("-inf")]
 NOT_NUMBERS = ["7800", None, True, [1.0], 1j]
 
-# Rows a user expects to find (PHYSICS.md section 1 and common handbook materials).
+# Rows a user expects to find (docs/physics.md, "Materials" and common handbook materials).
 REQUIRED = [
     "mdf-18", "mdf-12", "mdf-6", "steel", "stainless-steel", "aluminium", "brass", "glass",
     "acrylic", "polycarbonate", "hardwood", "oak", "pine", "plywood", "concrete", "granite",
@@ -42,7 +42,8 @@ def test_table_row_is_valid(key):
     else:
         assert m.damping.alpha >= 0.0 and m.damping.beta >= 0.0
     assert isinstance(m.source, str) and len(m.source.strip()) > 10
-    # E' = E / (1 - nu^2) by definition (PHYSICS.md section 1); relative 1e-15 is float rounding.
+    # E' = E / (1 - nu^2) by definition (docs/physics.md, "Materials"); relative 1e-15 is float
+    # rounding.
     assert m.effective_modulus == pytest.approx(m.young / (1.0 - m.poisson ** 2), rel=1e-15)
 
 
@@ -71,7 +72,8 @@ def test_names_sorted_and_complete():
 
 
 def test_thesis_rows_unchanged():
-    # Published values, thesis Table 3.1 (PHYSICS.md section 1): exact, they are table entries.
+    # Published values, thesis Table 3.1 (docs/physics.md, "Materials"): exact, they are table
+    # entries.
     expected = {
         "mdf-18": (700.0, 5.689e9, 0.4),
         "mdf-12": (700.0, 5.058e9, 0.4),
@@ -83,7 +85,7 @@ def test_thesis_rows_unchanged():
         m = TABLE[key]
         assert (m.density, m.young, m.poisson) == (rho, e, nu)
     for key in ("mdf-18", "mdf-12", "mdf-6"):
-        # MDF damping fit of PHYSICS.md section 6.
+        # MDF damping fit of docs/physics.md, "Materials".
         assert TABLE[key].damping == Rayleigh(35.0, 5e-7)
 
 
@@ -263,7 +265,7 @@ def test_material_rejects_bad_name(bad):
 # --------------------------------------------------------------------------- damping laws
 
 def test_rayleigh_decay_rate_closed_form():
-    # sigma = alpha/2 + beta omega^2 / 2 (PHYSICS.md section 6); float rounding only.
+    # sigma = alpha/2 + beta omega^2 / 2 (docs/physics.md, "Materials"); float rounding only.
     d = Rayleigh(35.0, 5e-7)
     omega = np.array([0.0, 1.0, 2.0 * math.pi * 100.0, 2.0 * math.pi * 1e4])
     sigma = d.decay_rate(omega)

@@ -1,4 +1,4 @@
-"""Tests of synth.sound.modes: the finite plate's bending modes (PHYSICS.md section 6)."""
+"""Tests of synth.sound.modes: the finite plate's bending modes (docs/physics.md, "Plate modes")."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from numpy.polynomial.legendre import leggauss
 
-from synth.sound import modes as P
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, Material, Rayleigh
 from synth.physics.scene import Plate
+from synth.sound import modes as P
 
 # A steel-like material with nu = 0.3, the Poisson ratio of the published tables.
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -318,7 +318,7 @@ def test_decay_rates_follow_damping_law(damping):
     w = m.angular_frequencies
     expect = (0.5 * damping.alpha + 0.5 * damping.beta * w ** 2 if isinstance(damping, Rayleigh)
               else 0.5 * damping.eta * w)
-    # sigma = alpha/2 + beta omega^2/2 or eta omega/2 (PHYSICS.md s.6), to rounding.
+    # sigma = alpha/2 + beta omega^2/2 or eta omega/2 (docs/physics.md, "Plate modes"), to rounding.
     np.testing.assert_allclose(m.decay_rates, expect, rtol=1e-14)
 
 

@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from synth.io import playback
 from synth.errors import ParameterError, SynthError
+from synth.io import playback
 
 
 def test_importing_synth_does_not_import_sounddevice():

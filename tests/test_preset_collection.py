@@ -1,6 +1,6 @@
 """Tests of the preset collection in ``presets/``: every file loads, describes itself and
 computes a physically sensible bounce sequence; the thesis presets carry the thesis' balls
-and boards (PHYSICS.md section 1, thesis Table 3.1) exactly."""
+and boards (docs/physics.md, "Materials", thesis Table 3.1) exactly."""
 
 import math
 import re
@@ -10,8 +10,8 @@ import pytest
 
 from synth import simulate_scene
 from synth.errors import ParameterError
-from synth.physics.materials import TABLE
 from synth.io.presets import PresetError, find, load_preset, load_preset_with_options, read
+from synth.physics.materials import TABLE
 from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
@@ -20,7 +20,7 @@ NAMES = [p.stem for p in FILES]
 THESIS_FILES = [p for p in FILES if p.stem.startswith("thesis-") or p.stem == "default"]
 
 # The thesis' balls: material row, radius (m, half the measured diameter) and weighed mass
-# (kg), thesis Table 3.1 as quoted in PHYSICS.md section 1.
+# (kg), thesis Table 3.1 as quoted in docs/physics.md, "Materials".
 BALLS = {
     "steel10": ("steel", 0.01000 / 2, 4.17e-3),
     "steel14": ("steel", 0.01430 / 2, 11.83e-3),
@@ -107,17 +107,17 @@ def test_preset_scene_computes(path):
     assert seq.stop_reason != "solver-failure"
     g, h0 = scene.gravity, scene.drop_height
     # First impact after free fall from h0: t1 = sqrt(2 h0 / g), v1 = sqrt(2 g h0) (closed
-    # form, PHYSICS.md section 5), to rounding (1e-12 relative).
+    # form, docs/physics.md, "Bounces"), to rounding (1e-12 relative).
     assert seq[0].time == pytest.approx(math.sqrt(2.0 * h0 / g), rel=1e-12)
     assert seq[0].speed == pytest.approx(math.sqrt(2.0 * g * h0), rel=1e-12)
     for imp in seq:
         r = imp.result
         assert r.success
         # A plate at rest only takes energy from the ball: 0 <= e <= 1 (energy balance,
-        # PHYSICS.md section 4); a tolerance of 1e-9 covers the solver's rounding.
+        # docs/physics.md, "Hertz contact"); a tolerance of 1e-9 covers the solver's rounding.
         assert -1e-9 <= r.restitution <= 1.0 + 1e-9
         # Contact times lie between ~10 us (steel on steel) and ~1 ms (heavy ball on a thin
-        # plate), PHYSICS.md section 4; a soft rubber ball is allowed a decade more.
+        # plate), docs/physics.md, "Hertz contact"; a soft rubber ball is allowed a decade more.
         assert 1e-6 < r.contact_time < 1e-2
     # Every scene of the collection bounces (no first-impact settling): e1 > 0.1.
     assert seq[0].result.restitution > 0.1
@@ -172,11 +172,11 @@ def test_thesis_masses_rejects_negative_mass(path):
 def test_thesis_restitution_orders():
     # Zener's inelasticity lambda = K^(2/5) m^(3/5) v^(1/5) / Z grows as the board thins
     # (Z ~ h^2 sqrt(E)), so e falls from the 18 mm to the 12 mm to the 6.15 mm board
-    # (PHYSICS.md section 4); 0.05 separates them with margin (e: 0.87, 0.73, 0.30).
+    # (docs/physics.md, "Hertz contact"); 0.05 separates them with margin (e: 0.87, 0.73, 0.30).
     e18, e12, e6 = _e1("default"), _e1("thesis-steel10-mdf12"), _e1("thesis-steel10-mdf6")
     assert e18 - e12 > 0.05 and e12 - e6 > 0.05
-    # Mid-plate 10 mm steel on 18 mm MDF: e = 0.87 at a 10 cm drop (thesis, PHYSICS.md
-    # section 4), to the figure's printed precision 0.005.
+    # Mid-plate 10 mm steel on 18 mm MDF: e = 0.87 at a 10 cm drop (thesis, docs/physics.md,
+    # "Hertz contact"), to the figure's printed precision 0.005.
     assert e18 == pytest.approx(0.87, abs=0.005)
     # The board is softer at a free edge (Z_edge = 0.29 Z_inf) and softer still at a corner
     # (Z_corner = Z_inf / 7.5), thesis Table 3.4, so e falls from middle to edge to corner

@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from synth.errors import ParameterError, SynthError
-from synth.physics.materials import TABLE, LossFactor, Rayleigh
 from synth.io.presets import (
     PresetError,
     apply_overrides,
@@ -20,12 +19,14 @@ from synth.io.presets import (
     preset_dirs,
     read,
 )
+from synth.physics.materials import TABLE, LossFactor, Rayleigh
 from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
 DEFAULT = REPO / "presets" / "default.toml"
 
-# The thesis setup (PHYSICS.md sections 1 and 4; thesis Table 3.1) written as a preset dict.
+# The thesis setup (docs/physics.md, "Materials" and "Hertz contact"; thesis Table 3.1) written as
+# a preset dict.
 THESIS = {
     "description": "thesis setup",
     "ball": {"material": "steel", "radius": 0.005, "mass": 4.17e-3},
@@ -401,7 +402,8 @@ def test_inline_material_loss_factor(tmp_path):
 
 
 def test_inline_material_rayleigh(tmp_path):
-    # {alpha, beta} is Rayleigh damping: the MDF fit alpha = 35 1/s, beta = 5e-7 s (PHYSICS.md 6).
+    # {alpha, beta} is Rayleigh damping: the MDF fit alpha = 35 1/s, beta = 5e-7 s
+    # (docs/physics.md, "Materials").
     mat = dict(OAK, damping={"alpha": 35.0, "beta": 5e-7})
     m = load_preset(write(tmp_path, thesis(plate={"material": mat}))).plate.material
     assert m.damping == Rayleigh(35.0, 5e-7)

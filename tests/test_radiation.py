@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from synth.sound import radiation
 from synth.errors import ParameterError
+from synth.sound import radiation
 from synth.sound.radiation import delay, distance, rayleigh_gains
 
 RHO = 1.204      # kg/m^3

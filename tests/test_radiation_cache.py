@@ -9,11 +9,11 @@ import warnings
 import numpy as np
 import pytest
 
-from synth.sound import modes as P
-from synth.sound import radiation as R
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
+from synth.sound import modes as P
+from synth.sound import radiation as R
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 LISTENER = (0.1, 0.05, 0.2)        # m, above a 0.3 m x 0.2 m plate

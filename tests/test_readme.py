@@ -35,3 +35,39 @@ def test_main_job_renders_a_preset_of_the_repository():
     words = _commands()[0].split("synth render ")[1].split()
     assert (ROOT / words[0]).is_file()
     assert words[1] == "-o" and words[2].startswith("renders/") and words[2].endswith(".wav")
+
+
+def _api_example():
+    text = (ROOT / "README.md").read_text()
+    return text.split("```python", 1)[1].split("```", 1)[0]
+
+
+def test_readme_is_short():
+    # A newcomer reads it in five minutes; the rest is in docs/.
+    assert len((ROOT / "README.md").read_bytes()) < 12_000
+
+
+def test_readme_api_example_runs(tmp_path, monkeypatch):
+    # The Python example of the README runs as printed (it writes tick.wav in the current
+    # folder, here a temporary one) and is about fifteen lines.
+    code = _api_example()
+    assert 12 <= len([line for line in code.splitlines() if line.strip()]) <= 17
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {"__name__": "readme_example"})
+    assert (tmp_path / "tick.wav").is_file()
+
+
+def test_readme_layout_lists_every_module():
+    # The layout map names every module of the package, one line each.
+    text = (ROOT / "README.md").read_text()
+    layout = text.split("## Layout", 1)[1].split("```")[1]
+    listed = {line.split()[0] for line in layout.splitlines() if line.strip()}
+    files = {p.relative_to(ROOT).as_posix() for p in (ROOT / "synth").rglob("*.py")}
+    required = {f for f in files if not f.endswith(("/__init__.py", "/__main__.py"))}
+    assert required - listed == set()
+    assert {m for m in listed if m.endswith(".py")} - files == set()
+
+
+def test_readme_shows_a_reference_render():
+    text = (ROOT / "README.md").read_text()
+    assert "](renders/default.png)" in text and (ROOT / "renders" / "default.png").is_file()

@@ -1,4 +1,4 @@
-"""Modal synthesis and rendering (PHYSICS.md section 6)."""
+"""Modal synthesis and rendering (docs/physics.md, "Modal synthesis")."""
 
 import math
 
@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 import synth
-from synth.sound import modes as plate_modes
 from synth.errors import ParameterError
-from synth.sound.render import render
 from synth.physics.scene import Accelerometer, Microphone, Scene
-from synth.sound.modal_bank import pulse_grid, pulse_transforms, synthesize
+from synth.sound import modes as plate_modes
+from synth.sound.modal_bank import pulse_transforms, synthesize
+from synth.sound.render import render
 
 DEFAULT = synth.load_preset("default")
 EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)   # no omission, no fade
@@ -40,7 +40,7 @@ def test_first_tick_is_causal_to_the_sample():
     # Nothing before the first touch reaches the listener: every sample before the onset
     # (first touch + travel time) is exactly 0, and the first sample after it is not.
     r = render(accel_scene(), samplerate=48000, **EXACT)
-    t0 = r.impacts[0].time
+    t0 = r.onsets[0]
     first = math.ceil(t0 * r.samplerate)
     assert np.all(r.audio[:first] == 0.0)
     assert r.audio[first] != 0.0
@@ -63,7 +63,7 @@ def test_each_impact_starts_at_its_onset():
         if prev is not None:
             L = min(r.audio.size, prev.size)
             diff = r.audio[:L].astype(float) - prev[:L]
-            onset = r.impacts[n - 1].time
+            onset = r.onsets[n - 1]
             first = math.ceil(onset * 48000)
             assert np.max(np.abs(diff[:first])) <= 1e-6 * peak
             assert abs(diff[first]) > 1e-6 * peak
@@ -169,7 +169,7 @@ def test_no_mode_at_or_above_nyquist():
 
 
 def test_tick_energy_falls_by_e_squared():
-    # PHYSICS.md s.7: the tick energy falls by about e^2 per bounce. Each tick's energy
+    # docs/physics.md, "Bounces": the tick energy falls by about e^2 per bounce. Each tick's energy
     # (its own contribution, by superposition) over the previous one's, against e^2 of
     # the impact between them, within 15 % (the pulse shortens as the speed falls, which
     # shifts the spectrum: "about").
@@ -264,7 +264,7 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     scene = Scene(synth.Ball("steel", 0.002), plate, drop_height=0.01,
                   listener=Microphone(listener))
     kmax = (om.max() ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
-    G = _microphone_gains(modes, scene, poles, kmax)[k]
+    G = _microphone_gains(modes, scene.plate, scene.listener, poles, kmax)[k]
     # time domain: elements on a 500 x 500 midpoint grid, pressure per unit modal velocity
     n = 500
     xs = (np.arange(n) + 0.5) * 0.12 / n

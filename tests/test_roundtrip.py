@@ -46,7 +46,7 @@ ticks, and meet the requirements for the reasons checked below:
 
 The restitution from bounce times differs from the physical restitution of the impacts
 (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) / T_(n-1)`` (contact times over
-bounce times; ``synth.analysis`` module docstring): ``test_restitution_from_bounce_times``.
+bounce times; docs/analysis.md, Restitution from bounce times): ``test_restitution_from_bounce_times``.
 """
 
 import functools
@@ -56,15 +56,15 @@ import pytest
 
 from synth.analysis import analyze
 from synth.io.presets import available, load_preset_with_options
-from synth.sound.render import render
 from synth.physics.bounces import BounceSequence, simulate_scene
+from synth.sound.render import render
 
 PRESETS = sorted(available())
 #: The onset requirement, s.
 ONSET_TOL = 0.2e-3
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _render(name):
     """The preset rendered as its file sets it (no normalisation): (scene, sequence, render)."""
     scene, options, _ = load_preset_with_options(name)
@@ -78,7 +78,7 @@ def _alone(scene, seq, r, i):
     """Tick ``i`` (0-based) of the render ``r`` (normalize='none') rendered alone, on the
     same timeline, its tail up to 50 ms."""
     imp = seq[i]
-    pre = r.impacts[i].time         # the tick's onset in the audio, s
+    pre = r.onsets[i]         # the tick's onset in the audio, s
     return render(scene, samplerate=r.samplerate, max_tail=0.05, normalize="none",
                   preroll=pre, fade=0.0,
                   sequence=BounceSequence((imp,), seq.stop_reason, seq.drop_height,
@@ -90,11 +90,11 @@ def _tick_to_masker(scene, seq, r, i):
     fs = r.samplerate
     full = np.asarray(r.audio, dtype=float)
     alone = _alone(scene, seq, r, i)
-    pre = r.impacts[i].time
+    pre = r.onsets[i]
     a = int(round(pre * fs))
     b = a + int(0.02 * fs)
     if i + 1 < len(seq):
-        b = min(b, int(round(r.impacts[i + 1].time * fs)))
+        b = min(b, int(round(r.onsets[i + 1] * fs)))
     b = min(b, alone.size, full.size)
     own = np.sum(alone[a:b] ** 2)
     other = np.sum((full[a:b] - alone[a:b]) ** 2)
@@ -104,7 +104,7 @@ def _tick_to_masker(scene, seq, r, i):
 @pytest.mark.parametrize("name", PRESETS)
 def test_roundtrip_recovers_onsets_and_restitution(name):
     scene, seq, r = _render(name)
-    truth = np.array([imp.time for imp in r.impacts])
+    truth = r.onsets
     n = min(10, truth.size)
     a = analyze(r.audio, r.samplerate, gravity=scene.gravity)
     got = np.array([t.time for t in a.ticks[:n]])
@@ -134,7 +134,7 @@ def test_roundtrip_steel_sheet_masked_ticks():
     # 0.5 % (half the requirement, for the bounce times' errors above).
     name = "steel-ball-on-steel-sheet"
     scene, seq, r = _render(name)
-    truth = np.array([imp.time for imp in r.impacts])
+    truth = r.onsets
     assert _tick_to_masker(scene, seq, r, 3) < -14.5
     assert _tick_to_masker(scene, seq, r, 9) < -35.0
     fs = r.samplerate
@@ -183,28 +183,30 @@ def test_roundtrip_board_late_ticks_over_the_noise_floor():
 
     from scipy.signal import oaconvolve
 
-    from synth import analysis
+    from synth import analysis, dsp
+    from synth.analysis.detection import frame_energies
+    from synth.analysis.whitening import resonator_predictor
 
     name = "thesis-steel10-mdf6"
     scene, seq, r = _render(name)
     fs = r.samplerate
     x = np.asarray(r.audio, dtype=float)
-    truth = np.array([imp.time for imp in r.impacts])
+    truth = r.onsets
     lo = int(math.floor(truth[0] * fs)) + int(round(analysis.CLEAN_GUARD * fs))
     hi = int(math.floor(truth[1] * fs)) - 12
-    A = analysis._resonator_predictor(x[lo:hi], fs, int(round(0.02 * fs)))
+    A = resonator_predictor(x[lo:hi], fs, int(round(0.02 * fs)))
     level = []
     for i in (0, 5, 6, 7, 8):
         alone = _alone(scene, seq, r, i)
         a0 = int(math.floor(truth[i] * fs)) - 2
         w = oaconvolve(alone, A)[a0: a0 + int(0.02 * fs)]
-        level.append(analysis._frame_energies(w, 12, 12).max())
+        level.append(frame_energies(w, 12, 12).max())
     first_level = level[0]
     level = 10.0 * np.log10(np.array(level) / first_level)
     # (measured -57.9, -66.0, -72.8, -81.1 dB; 0.5 dB for the predictor's order)
     assert level[1:] == pytest.approx([-57.9, -66.0, -72.8, -81.1], abs=0.5)
     # the whitened noise, per frame of 12 samples, far under every tick (measured -196.1 dB)
-    noise = analysis._noise_floor(oaconvolve(x, A)[: x.size], fs)
+    noise = dsp.noise_floor(oaconvolve(x, A)[: x.size], fs)
     assert 10.0 * math.log10(noise * noise * 12 / first_level) < -150.0
     # the user's dynamic range holds in every step: ticks 1-6
     fixed = analyze(r.audio, fs, dynamic_range_db=60.0)
@@ -247,7 +249,7 @@ def test_restitution_from_bounce_times(name):
     # board: 0.29 ms against 4.3 ms).
     scene, seq, r = _render(name)
     n = min(10, len(seq))
-    t = np.array([imp.time for imp in r.impacts])
+    t = r.onsets
     T = np.diff(t)
     tau = np.array([imp.result.contact_time for imp in seq])
     e = np.array([imp.result.restitution for imp in seq])
@@ -284,7 +286,7 @@ def test_deflation_finds_the_late_ticks(name, gain):
     # (20.8 us at 48 kHz: the level crossing of a burst that starts within a sample), in
     # order: no false tick.
     scene, seq, r = _render(name)
-    truth = np.array([imp.time for imp in r.impacts])
+    truth = r.onsets
     d = 1.0 / r.samplerate
     got = np.array([t.time for t in analyze(r.audio, r.samplerate).ticks])
     assert got.size <= truth.size

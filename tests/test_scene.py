@@ -11,7 +11,7 @@ from synth.physics.scene import BOUNDARIES, Accelerometer, Ball, Microphone, Pla
 
 BAD_POSITIVE = [0.0, -1.0, float("nan"), float("inf"), float("-inf"), "1", None, True]
 
-# The thesis' 18 mm MDF board (PHYSICS.md section 1): 1227 x 490 x 18 mm.
+# The thesis' 18 mm MDF board (docs/physics.md, "Materials"): 1227 x 490 x 18 mm.
 A, B, H = 1.227, 0.490, 0.018
 
 

@@ -1,12 +1,12 @@
-"""The bounce scheduler (PHYSICS.md section 5)."""
+"""The bounce scheduler (docs/physics.md, "Bounces")."""
 
 import math
 
 import pytest
 
 from synth.errors import ParameterError
-from synth.physics.scene import Ball, Plate, Scene
 from synth.physics.bounces import simulate_bounces, simulate_scene
+from synth.physics.scene import Ball, Plate, Scene
 
 BALL = Ball("steel", 0.005, mass=4.17e-3)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
@@ -24,7 +24,8 @@ def test_first_impact_is_free_fall(thesis):
 
 
 def test_flight_law(thesis):
-    # t_(n+1) = t_n + tau_n + 2 v_out,n / g and v_(n+1) = v_out,n (PHYSICS.md s.5, rounding).
+    # t_(n+1) = t_n + tau_n + 2 v_out,n / g and v_(n+1) = v_out,n (docs/physics.md, "Bounces",
+    # rounding).
     for a, b in zip(thesis, thesis[1:]):
         r = a.result
         assert b.time == pytest.approx(a.time + r.contact_time + 2 * r.rebound_speed / 9.81, rel=1e-12)
@@ -98,3 +99,17 @@ def test_simulate_bounces_rejects_bad_input(kw, word):
 def test_simulate_scene_rejects_non_scene():
     with pytest.raises(ParameterError, match="scene"):
         simulate_scene("default")
+
+
+def test_rebound_rule_replaces_the_restitution():
+    # A rule e' = 0.5: every flight starts at half the impact speed (v_(n+1) = e' v_n, exact
+    # arithmetic), each impact still solved physically; and a rule e' = 0 stops at once.
+    seq = simulate_bounces(BALL, MDF18, drop_height=0.1, max_impacts=5,
+                           rebound=lambda result, speed: 0.5)
+    for a, b in zip(seq, seq[1:]):
+        assert b.speed == 0.5 * a.speed
+        assert a.restitution == 0.5
+    stop = simulate_bounces(BALL, MDF18, drop_height=0.1, rebound=lambda result, speed: 0.0)
+    assert len(stop) == 1 and stop.stop_reason == "settled"
+    with pytest.raises(ParameterError, match="rebound"):
+        simulate_bounces(BALL, MDF18, drop_height=0.1, rebound=0.5)

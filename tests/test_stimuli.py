@@ -5,10 +5,10 @@ import math
 import pytest
 
 import synth
-from synth.physics import contact
-from synth.stimuli import sequences as stimuli
 from synth.cli import main
 from synth.errors import ParameterError
+from synth.physics import contact
+from synth.stimuli import sequences as stimuli
 
 DEFAULT = synth.load_preset("default")
 

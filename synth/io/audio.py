@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import secrets
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ import soundfile
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
+from synth.io.atomic import write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
@@ -70,40 +70,6 @@ class AudioFileError(ParameterError):
 # --------------------------------------------------------------------------- checks
 
 
-def _check_audio(name: str, audio) -> np.ndarray:
-    """A non-empty, finite, floating-point array of shape (frames,) or (frames, channels)."""
-    if audio is None or isinstance(audio, (str, bytes)):
-        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
-                             f"(frames, channels)")
-    try:
-        a = np.asarray(audio)
-    except Exception:  # noqa: BLE001 - any conversion failure is bad input
-        raise ParameterError(f"{name} of type {type(audio).__name__} is not an array") from None
-    if not np.issubdtype(a.dtype, np.floating):
-        raise ParameterError(
-            f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
-            f"of full scale, or physical units before normalize)")
-    if a.ndim not in (1, 2):
-        raise ParameterError(
-            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
-    if a.size == 0:
-        raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
-    if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
-        raise ParameterError(
-            f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
-            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
-    return a
-
-
-def _check_samplerate(samplerate) -> int:
-    """An integer sample rate > 0, Hz."""
-    if (isinstance(samplerate, bool) or not isinstance(samplerate, numbers.Integral)
-            or samplerate <= 0):
-        raise ParameterError(f"samplerate={samplerate!r} must be an integer > 0 (Hz)")
-    return int(samplerate)
-
-
 def _check_units(units) -> str:
     return checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
 
@@ -112,7 +78,7 @@ def _peak(a: np.ndarray) -> float:
     return float(np.max(np.abs(a)))
 
 
-def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
+def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     """Validate an output path: a known suffix and an existing directory.
 
     ``kinds`` maps lower-case suffixes to format names; ``error`` is the exception
@@ -137,43 +103,11 @@ def _target_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     return p, kinds[suffix]
 
 
-def _temporary_sibling(p: Path, error) -> Path:
-    """Create (exclusively, with the usual umask permissions) an empty file beside ``p``."""
-    for _ in range(100):
-        tmp = p.with_name(f".{p.stem}.{secrets.token_hex(6)}.part{p.suffix}")
-        try:
-            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise error(f"path={str(p)!r}: cannot create a file there ({exc})") from exc
-        os.close(fd)
-        return tmp
-    raise error(f"path={str(p)!r}: no free temporary name beside it")
-
-
-def _write_atomically(p: Path, write, error=None) -> None:
-    """Call ``write(tmp)`` on a temporary file beside ``p``, then rename it to ``p``.
-
-    On any failure the temporary file is removed and the error re-raised, so ``p``
-    is either left as it was or replaced by a complete file.
-    """
-    tmp = _temporary_sibling(p, AudioFileError if error is None else error)
-    try:
-        write(tmp)
-        os.replace(tmp, p)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 # --------------------------------------------------------------------------- files
 
 
-def write_audio(path, audio, samplerate, subtype=None) -> Path:
+def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
+                subtype: str | None = None) -> Path:
     """Write audio to a WAV or FLAC file, chosen by the file suffix.
 
     The file is first written to a temporary file in the same directory and then
@@ -201,9 +135,9 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
     pathlib.Path
         The path written.
     """
-    p, fmt = _target_path(path, FORMATS, "sound file")
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    p, fmt = output_path(path, FORMATS, "sound file")
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
     st = DEFAULT_SUBTYPE if subtype is None else subtype
     if not isinstance(st, str) or not soundfile.check_format(fmt, st.upper()):
         raise ParameterError(
@@ -229,11 +163,12 @@ def write_audio(path, audio, samplerate, subtype=None) -> Path:
                                  f"{1 if a.ndim == 1 else a.shape[1]} channels): "
                                  f"{getattr(exc, 'error_string', None) or exc}") from exc
 
-    _write_atomically(p, write)
+    write_atomically(p, write, error=AudioFileError)
     return p
 
 
-def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
+def read_audio(path: str | os.PathLike, *,
+               channel: int | str | None = None) -> tuple[np.ndarray, int]:
     """Read an audio file (WAV, FLAC or any format soundfile reads).
 
     Parameters
@@ -294,8 +229,9 @@ def read_audio(path, *, channel=None) -> tuple[np.ndarray, int]:
 # --------------------------------------------------------------------------- levels
 
 
-def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23.0,
-              max_peak=1.0) -> tuple[np.ndarray, float]:
+def normalize(audio: np.ndarray, mode: str, *, samplerate: int, units: str,
+              peak_db: float = -1.0, loudness_lufs: float = -23.0,
+              max_peak: float | None = 1.0) -> tuple[np.ndarray, float]:
     """Scale a physical signal to digital full scale.
 
     Parameters
@@ -338,8 +274,8 @@ def normalize(audio, mode, *, samplerate, units, peak_db=-1.0, loudness_lufs=-23
         Full-scale units per physical unit (per Pa or per m/s^2).
     """
     mode = checks.choice("mode", mode, NORMALIZE_MODES)
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
     u = _check_units(units)
     target_peak_db = checks.real("peak_db", peak_db, "dBFS")
     if target_peak_db > 0.0:
@@ -416,13 +352,29 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
         f"blocks keep crossing the gates; use mode 'peak'")
 
 
-def fade_out(audio, samplerate, duration) -> np.ndarray:
+def fade_out_window(frames: int) -> np.ndarray:
+    """The raised-cosine fade-out ``w[k] = (1 + cos(pi (k + 1) / frames)) / 2``,
+    ``k = 0 .. frames-1``: the falling half of a Hann window, continuing smoothly from
+    1 on the frame before it to exactly 0 on its last frame."""
+    return 0.5 * (1.0 + np.cos(np.linspace(0.0, np.pi, frames + 1)[1:]))
+
+
+def apply_fade_out(audio: np.ndarray, frames: int) -> None:
+    """Multiply the last ``frames`` frames of ``audio`` (axis 0) by
+    :func:`fade_out_window`, in place. 0 frames: nothing changes."""
+    if frames <= 0:
+        return
+    w = fade_out_window(frames)
+    if audio.ndim == 2:
+        w = w[:, None]
+    audio[audio.shape[0] - frames:] *= w
+
+
+def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
     """A raised-cosine fade over the last ``duration`` seconds (on a copy).
 
     The last ``n = round(duration * samplerate)`` frames are multiplied by
-    ``w[k] = (1 + cos(pi (k + 1) / n)) / 2``, ``k = 0 .. n-1``: the half of a Hann
-    window that continues smoothly from 1 before the fade to exactly 0 at the
-    last frame.
+    :func:`fade_out_window` (``n``).
 
     Parameters
     ----------
@@ -438,8 +390,8 @@ def fade_out(audio, samplerate, duration) -> np.ndarray:
     ndarray
         A faded copy of ``audio`` (same shape and dtype).
     """
-    a = _check_audio("audio", audio)
-    sr = _check_samplerate(samplerate)
+    a = checks.audio_array("audio", audio)
+    sr = checks.samplerate(samplerate)
     d = checks.nonnegative("duration", duration, "s")
     frames = a.shape[0]
     n = int(round(d * sr))
@@ -448,10 +400,5 @@ def fade_out(audio, samplerate, duration) -> np.ndarray:
             f"duration={duration!r} must be <= the audio's length {frames / sr:.6g} s "
             f"({frames} frames at {sr} Hz)")
     out = a.copy()
-    if n == 0:
-        return out
-    w = 0.5 * (1.0 + np.cos(np.pi * np.arange(1, n + 1) / n))
-    if out.ndim == 2:
-        w = w[:, None]
-    out[frames - n:] *= w.astype(out.dtype)
+    apply_fade_out(out, n)
     return out

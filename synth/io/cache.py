@@ -13,12 +13,13 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
-import tempfile
 import threading
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
+
+from synth.io.atomic import write_atomically
 
 
 def cache_dir() -> Path:
@@ -49,23 +50,12 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
     """Write ``arrays`` to ``path`` (``.npz``): a temporary file in the same directory,
     then an atomic rename, so that a reader never sees a partial file. Returns False,
     having written nothing, if the file cannot be written (a cache is then skipped)."""
-    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-        tmp = None
+        write_atomically(path, lambda tmp: np.savez(tmp, **arrays))
         return True
     except (OSError, RuntimeError):  # unwritable or no home directory: no disk cache
         return False
-    finally:
-        if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
 
 
 class MemoryCache:
@@ -110,7 +100,7 @@ class MemoryCache:
         with self._lock:
             self._stats[self._computed if name == "computed" else name] += 1
 
-    def get(self, key: str, usable=None):
+    def get(self, key: str, usable=None) -> object | None:
         """The result held for ``key`` (counted as a memory hit) if there is one and
         ``usable(result)`` is true (default: always), else None."""
         with self._lock:

@@ -17,7 +17,9 @@ PORTAUDIO_HELP = ("playback needs the PortAudio library: on Debian/Ubuntu `apt-g
                   "portaudio` (Windows wheels of sounddevice include it)")
 
 
-def _sounddevice():
+def sounddevice_module():
+    """The ``sounddevice`` module, imported on first use: a SynthError saying what to install
+    when it or the PortAudio library is missing."""
     try:
         import sounddevice
     except OSError as exc:          # sounddevice is installed, PortAudio is not
@@ -27,8 +29,9 @@ def _sounddevice():
     return sounddevice
 
 
-def play(audio, samplerate=None, *, blocking=True):
-    """Play ``audio`` (a :class:`~synth.sound.render.Render`, or an array with ``samplerate`` in Hz).
+def play(audio, samplerate: float | None = None, *, blocking: bool = True) -> None:
+    """Play ``audio``: a :class:`~synth.sound.render.Render`, or an array with ``samplerate``
+    in Hz.
 
     ``blocking=False`` returns at once (``sounddevice.wait()`` or :func:`stop` later).
     """
@@ -37,14 +40,11 @@ def play(audio, samplerate=None, *, blocking=True):
     if samplerate is None:
         raise ParameterError("samplerate=None: give the sample rate in Hz (there is no default)")
     fs = checks.positive("samplerate", samplerate, "Hz")
-    x = np.asarray(audio, dtype=np.float32)
-    if x.ndim not in (1, 2) or x.size == 0 or not np.all(np.isfinite(x)):
-        raise ParameterError(f"audio with shape {x.shape} must be a finite, non-empty (frames,) "
-                             f"or (frames, channels) array")
-    sd = _sounddevice()
+    x = np.asarray(checks.audio_array("audio", audio), dtype=np.float32)
+    sd = sounddevice_module()
     sd.play(x, int(round(fs)), blocking=blocking)
 
 
-def stop():
+def stop() -> None:
     """Stop a playback started with ``blocking=False``."""
-    _sounddevice().stop()
+    sounddevice_module().stop()

@@ -8,15 +8,20 @@ is needed, and no pyplot state is touched.
 from __future__ import annotations
 
 import math
+import os
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from synth import checks
-from synth.io.audio import (_check_audio, _check_samplerate, _check_units, _target_path,
-                       _write_atomically)
 from synth.errors import ParameterError, SynthError
+from synth.io.atomic import write_atomically
+from synth.io.audio import PHYSICAL_FULL_SCALE, output_path
+
+if TYPE_CHECKING:
+    from synth.sound.render import Render
 
 #: Size of the figure, inches (width, height), and its resolution, dots per inch:
 #: the PNG is ``FIGSIZE * DPI`` pixels.
@@ -54,18 +59,18 @@ def _attr(render, name):
     except AttributeError:
         raise ParameterError(
             f"render={type(render).__name__} has no attribute {name!r}; it needs audio, "
-            f"samplerate, impacts, settings, units and gain") from None
+            f"samplerate, impacts, onsets, settings, units and gain") from None
 
 
-def _impact_times(impacts) -> np.ndarray:
+def _onsets(onsets, n_impacts: int) -> np.ndarray:
     try:
-        times = [float(i.time) for i in impacts]
-    except (TypeError, AttributeError, ValueError):
-        raise ParameterError(
-            "render.impacts must be a sequence of impacts with a time (s)") from None
-    t = np.asarray(times, dtype=float)
+        t = np.asarray(onsets, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ParameterError("render.onsets must be an array of times (s)") from None
+    if t.size != n_impacts:
+        raise ParameterError(f"render.onsets has {t.size} times for {n_impacts} impacts")
     if not np.all(np.isfinite(t)):
-        raise ParameterError("render.impacts: every impact time must be finite (s)")
+        raise ParameterError("render.onsets: every onset must be finite (s)")
     return t
 
 
@@ -103,7 +108,8 @@ def _draw_waveform(ax, t, x, labels):
             ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
 
 
-def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
+def plot_render(render: Render, path: str | os.PathLike, *,
+                max_pulses: int = MAX_PULSES) -> Path:
     """Draw a render into one PNG: waveform, spectrogram and the first force pulses.
 
     Panels: (a) the waveform in physical units (``audio / gain``, with the full
@@ -118,9 +124,10 @@ def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
     ----------
     render : Render or any object with the same attributes
         ``audio`` (float array, (frames,) or (frames, channels), full-scale
-        units), ``samplerate`` (int, Hz), ``impacts`` (impacts with ``time``, s
-        from the start of the audio, ``speed``, m/s, and ``result`` with ``time``,
-        s, ``force``, N, ``restitution``, ``contact_time``, s), ``settings``
+        units), ``samplerate`` (int, Hz), ``impacts`` (impacts with ``speed``,
+        m/s, and ``result`` with ``time``, s, ``force``, N, ``restitution``,
+        ``contact_time``, s), ``onsets`` (one per impact, s from the start of the
+        audio), ``settings``
         (mapping), ``units`` ("Pa" or "m/s^2") and ``gain`` (full scale per
         physical unit, > 0).
     path : str or os.PathLike
@@ -133,15 +140,15 @@ def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
     pathlib.Path
         The path written.
     """
-    p, _ = _target_path(path, {".png": "PNG"}, "picture", error=ParameterError)
+    p, _ = output_path(path, {".png": "PNG"}, "picture", error=ParameterError)
     if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
         raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")
-    audio = _check_audio("render.audio", _attr(render, "audio"))
-    sr = _check_samplerate(_attr(render, "samplerate"))
-    units = _check_units(_attr(render, "units"))
+    audio = checks.audio_array("render.audio", _attr(render, "audio"))
+    sr = checks.samplerate(_attr(render, "samplerate"), "render.samplerate")
+    units = checks.choice("render.units", _attr(render, "units"), tuple(PHYSICAL_FULL_SCALE))
     gain = checks.positive("render.gain", _attr(render, "gain"), "full scale per physical unit")
     impacts = list(_attr(render, "impacts"))
-    times = _impact_times(impacts)
+    times = _onsets(_attr(render, "onsets"), len(impacts))
     settings = _attr(render, "settings")
     Figure, FigureCanvasAgg = _import_matplotlib()
     from scipy import signal
@@ -233,5 +240,5 @@ def plot_render(render, path, *, max_pulses=MAX_PULSES) -> Path:
         except (OSError, ValueError, RuntimeError) as exc:
             raise SynthError(f"cannot write {str(p)!r}: {exc}") from exc
 
-    _write_atomically(p, write, error=ParameterError)
+    write_atomically(p, write, error=ParameterError)
     return p

@@ -68,10 +68,15 @@ import difflib
 import os
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, Material, Rayleigh
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+
+if TYPE_CHECKING:
+    from synth.sound.render import Render
 
 
 class PresetError(ParameterError):
@@ -270,7 +275,7 @@ def _scene_from_dict(data, source):
             raise PresetError(f"{source}: listener.position={lp!r} must be a list of numbers (metres)")
         listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
     contact = Contact(**data["contact"]) if "contact" in data else None
-    gravity = data.get("gravity", 9.81)
+    gravity = data.get("gravity", GRAVITY)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise PresetError(f"{source}: description={description!r} must be a string")
@@ -325,7 +330,7 @@ def load_preset(name_or_path, overrides=()) -> Scene:
     return load_preset_with_options(name_or_path, overrides)[0]
 
 
-def render_preset(name_or_path, *, overrides=(), **options):
+def render_preset(name_or_path, *, overrides=(), **options) -> Render:
     """Render a preset with the options of its ``[render]`` section, which ``options``
     (keywords of :func:`synth.render`, ``samplerate`` in Hz ...) override.
 

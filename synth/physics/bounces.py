@@ -1,9 +1,9 @@
-"""The bounce sequence: impacts strung together by free flight (PHYSICS.md section 5).
+"""The bounce sequence: impacts strung together by free flight (docs/physics.md, "Bounces").
 
 A ball released with its lowest point ``h0`` above the plate first touches at
 ``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``. After impact n (starting at
-``t_n``, lasting ``tau_n``, rebounding at ``v_out,n``; air drag is negligible,
-thesis A.2)::
+``t_n``, lasting ``tau_n``, rebounding at ``v_out,n``; air drag is negligible by
+appendix A.2 of the thesis, docs/physics.md, References)::
 
     t_(n+1) = t_n + tau_n + 2 v_out,n / g,      v_(n+1) = v_out,n
 
@@ -18,7 +18,7 @@ of these rules, named in :attr:`BounceSequence.stop_reason`:
 * ``"floor"``: the next impact's kinetic energy ``m v^2 / 2`` is below
   ``floor_db`` (default -60 dB) relative to the first impact's. A tick's energy
   scales with the impact's kinetic energy (it falls by about ``e^2`` per bounce,
-  PHYSICS.md section 7), so this is a perceptual floor: 60 dB below the first
+  docs/physics.md, "Bounces"), so this is a perceptual floor: 60 dB below the first
   tick;
 * ``"max-duration"``: the next impact would start after ``max_duration``
   seconds;
@@ -29,14 +29,14 @@ of these rules, named in :attr:`BounceSequence.stop_reason`:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from synth import checks
-from synth.physics import contact
-from synth.physics import impedance
-from synth.physics.contact import ImpactResult
+from synth.constants import GRAVITY
 from synth.errors import ParameterError
-from synth.physics.scene import Ball, Plate
+from synth.physics.contact import ContactSolver, ImpactResult
+from synth.physics.scene import Ball, Plate, Scene
 
 STOP_REASONS = ("settled", "flight-shorter-than-contact", "floor", "max-duration",
                 "max-impacts", "solver-failure")
@@ -58,7 +58,7 @@ class Impact:
         The contact solution (restitution, contact time, force pulse, ...).
     restitution : float
         The restitution that set the next flight: the physical ``result.restitution``,
-        unless a perception stimulus altered it (``restitution_scale``).
+        unless a rebound rule of :func:`simulate_bounces` replaced it.
     """
 
     index: int
@@ -122,10 +122,17 @@ class BounceSequence:
                 for i in self.impacts]
 
 
-def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
-                     contact_law="hertz", rtol=1e-6, floor_db=-60.0, max_duration=60.0,
-                     max_impacts=10_000, n_points=128, restitution_scale=1.0,
-                     **contact_options) -> BounceSequence:
+#: A rebound rule: the restitution ``e'`` (dimensionless) that sets the flight after an
+#: impact, from its contact solution and its impact speed (m/s). ``e' <= 0`` ends the
+#: sequence (the ball does not leave the plate).
+ReboundRule = Callable[[ImpactResult, float], float]
+
+
+def simulate_bounces(ball: Ball, plate: Plate, *, drop_height: float,
+                     position: tuple[float, float] | None = None, gravity: float = GRAVITY,
+                     contact_law: str = "hertz", rtol: float = 1e-6, floor_db: float = -60.0,
+                     max_duration: float = 60.0, max_impacts: int = 10_000, n_points: int = 128,
+                     rebound: ReboundRule | None = None, **contact_options) -> BounceSequence:
     """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
 
     Parameters
@@ -152,12 +159,11 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         Most impacts computed.
     n_points : int >= 64
         Samples of each force pulse (``ImpactResult.time`` and ``force``).
-    restitution_scale : float >= 0
-        Perception stimuli (thesis section 5.2.2): each rebound uses ``e' = 1 - k (1 - e)``
-        instead of the physical ``e``, so restitution changes while every impact is still
-        solved physically at its own speed (its tick keeps the physics of its spectrum).
-        ``k = 1`` is the physical sequence; ``k < 1`` bouncier, ``k > 1`` deader. Where
-        ``e' <= 0`` the ball does not leave the plate (stop reason "settled").
+    rebound : callable, optional
+        A :data:`ReboundRule` that replaces the physical restitution of each flight
+        (the next impact speed is then ``e' v``) while every impact is still solved
+        physically at its own speed; None: the physical rebound. The perception
+        stimuli of :mod:`synth.stimuli.sequences` use it.
 
     Returns
     -------
@@ -175,19 +181,13 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     t_max = checks.positive("max_duration", max_duration, "s")
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError(f"max_impacts={max_impacts!r} must be an integer >= 1")
+    if rebound is not None and not callable(rebound):
+        raise ParameterError(f"rebound={rebound!r} must be a callable (ImpactResult, speed) -> "
+                             f"restitution, or None")
     pos = None if position is None else plate.check_position(position, "position")
-    K, n, mu = contact.contact_law(ball, plate, contact_law, **contact_options)
-    tol = checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False)
-    n_points = contact._check_points(n_points)
-    k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
-    beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
+    solver = ContactSolver.for_pair(ball, plate, gravity=g, law=contact_law, rtol=rtol,
+                                    n_points=n_points, **contact_options)
     energy_floor = 10.0 ** (floor / 10.0)
-
-    def solve(v):
-        if pos is None:
-            return contact._solve(ball.mass, K, beta_inf, v, g, n, mu, 0.0, tol, n_points, "auto")
-        return contact._solve_at(plate, pos[0], pos[1], ball.mass, K, v, g, n, mu, 0.0, tol,
-                                 n_points)
 
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)
@@ -195,8 +195,8 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     impacts = []
     reason = "max-impacts"
     while len(impacts) < max_impacts:
-        res = solve(v)
-        e = res.restitution if k == 1.0 else 1.0 - k * (1.0 - res.restitution)
+        res = solver.solve(v, position=pos)
+        e = res.restitution if rebound is None else rebound(res, v)
         impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
         if not res.success:
             reason = "solver-failure"
@@ -204,7 +204,7 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
         if res.settled or e <= 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed if k == 1.0 else e * v
+        v_out = res.rebound_speed if rebound is None else e * v
         flight = 2.0 * v_out / g
         if flight < res.contact_time:
             reason = "flight-shorter-than-contact"
@@ -220,11 +220,9 @@ def simulate_bounces(ball, plate, *, drop_height, position=None, gravity=9.81,
     return BounceSequence(tuple(impacts), reason, h0, g)
 
 
-def simulate_scene(scene, **options) -> BounceSequence:
+def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
     drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
-    from synth.physics.scene import Scene
-
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     c = scene.contact

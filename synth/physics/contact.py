@@ -1,6 +1,7 @@
 """One impact: a ball against a plate's local contact stiffness and its mechanical impedance.
 
-The model is PHYSICS.md sections 2 and 4 (thesis eqs. 2.9-2.11, 2.34, 2.42):
+The model of docs/physics.md, "Hertz contact" (the thesis, docs/physics.md, References,
+eqs. 2.9-2.11, 2.34, 2.42):
 
     d(delta)/dt = v_plate - v_s,    v_plate = v_free - beta F(delta)
     d(v_s)/dt   = F / m - g
@@ -33,13 +34,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
 from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
-from synth.errors import ParameterError
 
 #: Zener's inelasticity above which the contact is integrated by the implicit
 #: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
@@ -67,6 +70,24 @@ _TINY_REBOUND = ("The ball separated with a rebound speed below the solver's res
                  "restitution reported as 0.")
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
 _INF = math.inf
+
+
+class DenseOutput(NamedTuple):
+    """The solver's dense output of one contact, for sampling the pulse afterwards:
+    the step history of the kernels, the integrator (``radau``), the dimensionless
+    parameters (``lam``, ``G``, ``n``, ``c``, end of contact ``s_contact``) and the
+    scales back to SI units (``theta``, s; ``f_scale``, N)."""
+
+    hist: np.ndarray
+    radau: bool
+    lam: float
+    G: float
+    n: float
+    c: float
+    s_contact: float
+    theta: float
+    f_scale: float
+    n_points: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,8 +121,8 @@ class ImpactResult:
     force : ndarray
         Contact force at those times, N.
     energy_residual : float
-        Error of the energy balance of PHYSICS.md section 4 (with the Hunt-Crossley
-        loss), relative to the energy exchanged: the impact's kinetic energy, or
+        Error of the energy balance (docs/physics.md, "Hertz contact"; with the
+        Hunt-Crossley loss), relative to the energy exchanged: the impact's kinetic energy, or
         the work of gravity or the energy carried into the plate where larger.
     success : bool
         True if the contact was integrated to its end.
@@ -131,7 +152,7 @@ class ImpactResult:
     n_steps: int
     method: str
 
-    _dense: tuple = field(default=None, repr=False, compare=False)
+    _dense: DenseOutput | None = field(default=None, repr=False, compare=False)
 
     @cached_property
     def time(self) -> np.ndarray:
@@ -146,45 +167,46 @@ class ImpactResult:
         """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
         rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
         separation."""
-        return self._dense[4]
+        return self._dense.n
 
     def _sample_pulse(self):
         # Both arrays at once, cached beside each other (most uses of an impact, such as
         # rendering, need only force_at).
-        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, n_points = self._dense
-        times = np.empty(n_points)
-        forces = np.empty(n_points)
-        _k.pulse(hist, stiff, lam, G, n, c, s_contact, self.status == _k.SEPARATED, theta,
-                 f_scale, times, forces)
+        d = self._dense
+        times = np.empty(d.n_points)
+        forces = np.empty(d.n_points)
+        _k.pulse(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact,
+                 self.status == _k.SEPARATED, d.theta, d.f_scale, times, forces)
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
-    def force_at(self, t):
+    def force_at(self, t) -> float | np.ndarray:
         """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
         solver's dense output (its accuracy is the solver's); 0 outside the contact."""
-        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, _ = self._dense
-        s = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)) / theta)
+        d = self._dense
+        s = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)) / d.theta)
         out = np.empty_like(s)
-        _k.force_at(hist, stiff, lam, G, n, c, s_contact, s, out)
-        out *= f_scale
+        _k.force_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact, s, out)
+        out *= d.f_scale
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
-    def force_and_slope_at(self, t):
+    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
         touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
-        hist, stiff, lam, G, n, c, s_contact, theta, f_scale, _ = self._dense
-        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / theta)
+        d = self._dense
+        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / d.theta)
         out = np.empty_like(s)
         slope = np.empty_like(s)
-        _k.force_slope_at(hist, stiff, lam, G, n, c, s_contact, s, out, slope)
-        out *= f_scale
-        slope *= f_scale / theta
+        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact, s, out, slope)
+        out *= d.f_scale
+        slope *= d.f_scale / d.theta
         return out, slope
 
 
-def solve_contact(*, mass, stiffness, admittance, speed, gravity=9.81, exponent=1.5,
-                  dissipation=0.0, plate_velocity=0.0, rtol=1e-6, n_points=128,
-                  method="auto") -> ImpactResult:
+def solve_contact(*, mass: float, stiffness: float, admittance: float, speed: float,
+                  gravity: float = GRAVITY, exponent: float = 1.5, dissipation: float = 0.0,
+                  plate_velocity: float = 0.0, rtol: float = 1e-6, n_points: int = 128,
+                  method: str = "auto") -> ImpactResult:
     """Solve one impact from lumped parameters.
 
     Parameters
@@ -260,30 +282,35 @@ def _check_points(n_points) -> int:
 
 def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
-    (status, tiny_rebound, stiff, e, tau, x_max, f_max, impulse, lam, v_out, plate_energy,
-     residual, n_steps, hist, G, c, s_contact, theta, f_scale) = _k.impact(
+    r, hist = _k.impact(
         m, K, beta, v_in, g, n, mu, v_free, tol * TOLERANCE_SAFETY, ABSOLUTE_FACTOR,
         STIFF_LAMBDA, _METHODS[method], EXPLICIT_STEP_LIMIT, IMPLICIT_STEP_LIMIT)
+    status = int(r[_k.R_STATUS])
+    stiff = bool(r[_k.R_STIFF])
+    lam = float(r[_k.R_INELASTICITY])
     obj = object.__new__(ImpactResult)
     # The solver's own values need no checks: fill the frozen instance directly (the
     # generated __init__ would take a good part of the time an impact takes).
     object.__setattr__(obj, "__dict__", {
-        "restitution": e,
-        "contact_time": tau,
-        "max_penetration": x_max,
-        "peak_force": f_max,
-        "impulse": impulse,
+        "restitution": float(r[_k.R_RESTITUTION]),
+        "contact_time": float(r[_k.R_CONTACT_TIME]),
+        "max_penetration": float(r[_k.R_MAX_PENETRATION]),
+        "peak_force": float(r[_k.R_PEAK_FORCE]),
+        "impulse": float(r[_k.R_IMPULSE]),
         "inelasticity": lam,
         "settled": status == _k.SETTLED,
-        "rebound_speed": v_out,
-        "plate_energy": plate_energy,
-        "energy_residual": residual,
+        "rebound_speed": float(r[_k.R_REBOUND_SPEED]),
+        "plate_energy": float(r[_k.R_PLATE_ENERGY]),
+        "energy_residual": float(r[_k.R_ENERGY_RESIDUAL]),
         "success": status >= 0,
         "status": status,
-        "message": _TINY_REBOUND if tiny_rebound else _MESSAGES.get(status, "Unknown status."),
-        "n_steps": n_steps,
+        "message": (_TINY_REBOUND if r[_k.R_TINY_REBOUND]
+                    else _MESSAGES.get(status, "Unknown status.")),
+        "n_steps": int(r[_k.R_N_STEPS]),
         "method": "Radau" if stiff else "DOP853",
-        "_dense": (hist, stiff, lam, G, n, c, s_contact, theta, f_scale, n_points),
+        "_dense": DenseOutput(hist, stiff, lam, float(r[_k.R_G]), n, float(r[_k.R_C]),
+                              float(r[_k.R_S_CONTACT]), float(r[_k.R_THETA]),
+                              float(r[_k.R_F_SCALE]), n_points),
     })
     return obj
 
@@ -291,20 +318,20 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from synth.physics.scene import CONTACT_LAWS  # noqa: E402  (one list of laws)
+from synth.physics.scene import CONTACT_LAWS, Ball, Plate  # noqa: E402  (one list of laws)
 
 
-def effective_modulus(ball, plate) -> float:
+def effective_modulus(ball: Ball, plate: Plate) -> float:
     """Contact modulus ``E*`` with ``1/E* = 1/E'_ball + 1/E'_plate``, Pa."""
     return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate.material.effective_modulus)
 
 
-def hertz_stiffness(ball, plate) -> float:
+def hertz_stiffness(ball: Ball, plate: Plate) -> float:
     """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5."""
     return 4.0 / 3.0 * math.sqrt(ball.radius) * effective_modulus(ball, plate)
 
 
-def foundation_stiffness(ball, plate, depth=None) -> float:
+def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -> float:
     """Elastic-foundation constant ``K = pi E'_plate R / h`` (thesis 4.3.2), N/m^2.
 
     ``depth`` is the Winkler layer's depth ``h`` in metres (default: the plate thickness).
@@ -313,7 +340,7 @@ def foundation_stiffness(ball, plate, depth=None) -> float:
     return math.pi * plate.material.effective_modulus * ball.radius / h
 
 
-def settled_penetration(ball, plate, gravity=9.81) -> float:
+def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
     """Static penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis 2.48), m.
 
     ``gravity`` in m/s^2; Hertz contact.
@@ -322,9 +349,11 @@ def settled_penetration(ball, plate, gravity=9.81) -> float:
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
-def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None,
-                stiffness=None, layer_depth=None) -> tuple[float, float, float]:
-    """Contact parameters ``(K, n, mu)`` for a named law (PHYSICS.md section 2).
+def contact_law(ball: Ball, plate: Plate, contact: str = "hertz", *,
+                dissipation: float | None = None, exponent: float | None = None,
+                stiffness: float | None = None,
+                layer_depth: float | None = None) -> tuple[float, float, float]:
+    """Contact parameters ``(K, n, mu)`` for a named law (docs/physics.md, "Hertz contact").
 
     Parameters
     ----------
@@ -358,9 +387,12 @@ def contact_law(ball, plate, contact="hertz", *, dissipation=None, exponent=None
             checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False), 0.0)
 
 
-def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="hertz",
-                 rtol=1e-6, dissipation=None, exponent=None, stiffness=None,
-                 layer_depth=None, plate_velocity=0.0, n_points=128) -> ImpactResult:
+def solve_impact(ball: Ball, plate: Plate, speed: float, *,
+                 position: tuple[float, float] | None = None, gravity: float = GRAVITY,
+                 contact: str = "hertz", rtol: float = 1e-6, dissipation: float | None = None,
+                 exponent: float | None = None, stiffness: float | None = None,
+                 layer_depth: float | None = None, plate_velocity: float = 0.0,
+                 n_points: int = 128) -> ImpactResult:
     """Solve the impact of ``ball`` on ``plate`` at ``speed``.
 
     Parameters
@@ -389,8 +421,6 @@ def solve_impact(ball, plate, speed, *, position=None, gravity=9.81, contact="he
     -------
     ImpactResult
     """
-    from synth.physics.scene import Ball, Plate
-
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):
@@ -433,14 +463,14 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
                                                    n_points, "auto")
     if plate.boundary != "free" or not result.success:
         return result
-    if impedance._critical_distance(plate, result.contact_time) <= min(
+    if impedance.critical_distance(plate, result.contact_time) <= min(
             x, plate.length - x, y, plate.width - y):
         return result
     lo = beta_inf
     hi = beta_inf / impedance.CORNER_RATIO
     settled_lo = settled_hi = False
     beta = beta_inf
-    target = impedance._point_admittance(plate, x, y, result.contact_time, beta_inf)
+    target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
     best = (abs(target - beta), result, beta)
     for it in range(EDGE_ITERATIONS):
         resid = target - beta
@@ -468,7 +498,7 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
         result = _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, "auto")
         if not result.success:
             return result
-        target = impedance._point_admittance(plate, x, y, result.contact_time, beta_inf)
+        target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
         if abs(target - beta) < best[0]:
             best = (abs(target - beta), result, beta)
     err, res_b, beta_b = best
@@ -484,3 +514,120 @@ def _with_message(result, message):
     d["message"] = message
     object.__setattr__(obj, "__dict__", d)
     return obj
+
+
+@dataclass(frozen=True, eq=False)
+class ContactSolver:
+    """Impacts of one ball on one plate under one contact law, at any speed.
+
+    Built once (the contact law's parameters, the plate's impedance and every
+    setting are checked and derived here) and then asked for impacts by
+    :meth:`solve`: the seam through which the bounce scheduler
+    (:mod:`synth.physics.bounces`) and the stimuli solve their impacts.
+
+    Attributes
+    ----------
+    mass : float
+        Ball mass ``m``, kg.
+    stiffness : float
+        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
+    exponent : float
+        Contact law exponent ``n``, dimensionless.
+    dissipation : float
+        Hunt-Crossley damping ``mu``, s/m (0: elastic contact).
+    gravity : float
+        Gravitational acceleration ``g``, m/s^2.
+    rtol : float
+        Relative accuracy of restitution and contact time.
+    n_points : int
+        Samples of each force pulse.
+    plate : Plate or None
+        The plate, for its infinite-plate admittance and the admittance near its
+        edges; None for a solver of lumped parameters (give ``admittance``).
+    method : {"auto", "DOP853", "Radau"}
+        Integrator.
+    """
+
+    mass: float
+    stiffness: float
+    exponent: float
+    dissipation: float = 0.0
+    gravity: float = GRAVITY
+    rtol: float = 1e-6
+    n_points: int = 128
+    plate: Plate | None = None
+    method: str = "auto"
+
+    def __post_init__(self):
+        checked = dict(
+            mass=checks.positive("mass", self.mass, "kg"),
+            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
+            exponent=checks.in_range("exponent", self.exponent, 1.0, 4.0, "dimensionless",
+                                     hi_open=False),
+            dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
+            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+            rtol=checks.in_range("rtol", self.rtol, 1e-12, 0.1, "dimensionless",
+                                 lo_open=False, hi_open=False),
+            n_points=_check_points(self.n_points),
+            method=checks.choice("method", self.method, _METHODS))
+        if self.plate is not None and not isinstance(self.plate, Plate):
+            raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+        beta_inf = (None if self.plate is None
+                    else 1.0 / impedance.infinite_plate_impedance(self.plate))
+        object.__setattr__(self, "_beta_inf", beta_inf)
+
+    @classmethod
+    def for_pair(cls, ball, plate, *, gravity: float = GRAVITY, law: str = "hertz",
+                 rtol: float = 1e-6, n_points: int = 128, method: str = "auto",
+                 **contact_options) -> ContactSolver:
+        """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
+        ``contact_options``, see :func:`contact_law`); gravity in m/s^2."""
+        if not isinstance(ball, Ball):
+            raise ParameterError(f"ball={ball!r} must be a Ball")
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate")
+        K, n, mu = contact_law(ball, plate, law, **contact_options)
+        return cls(ball.mass, K, n, mu, gravity, rtol, n_points, plate, method)
+
+    @property
+    def infinite_admittance(self) -> float | None:
+        """``1 / Z_inf`` of the plate, m/(N s) (None without a plate)."""
+        return self._beta_inf
+
+    def solve(self, speed: float, *, admittance: float | None = None, position=None,
+              free_velocity: float = 0.0) -> ImpactResult:
+        """The impact at ``speed`` (m/s, downward).
+
+        The plate's admittance at the impact point is ``admittance`` (m/(N s)) if
+        given; else, with ``position`` (m from a plate corner), the position-dependent
+        admittance near free edges (:func:`synth.physics.impedance.point_admittance`,
+        solved together with the contact time); else the infinite plate's.
+        ``free_velocity`` is the plate surface's velocity before the impact, m/s,
+        positive upward.
+        """
+        v = speed if type(speed) is float and 0.0 < speed < _INF else checks.positive(
+            "speed", speed, "m/s")
+        v_free = (free_velocity if type(free_velocity) is float
+                  and -_INF < free_velocity < _INF
+                  else checks.real("free_velocity", free_velocity, "m/s"))
+        if not v + v_free > 0.0:
+            raise ParameterError(
+                f"speed={speed!r} with free_velocity={free_velocity!r}: the approach speed "
+                f"speed + free_velocity must be > 0 (m/s) for the ball to hit the plate")
+        if admittance is not None:
+            if position is not None:
+                raise ParameterError("give admittance or position, not both")
+            beta = checks.nonnegative("admittance", admittance, "m/(N s)")
+            return _solve(self.mass, self.stiffness, beta, v, self.gravity, self.exponent,
+                          self.dissipation, v_free, self.rtol, self.n_points, self.method)
+        if self.plate is None:
+            raise ParameterError("a ContactSolver without a plate needs admittance (m/(N s))")
+        if position is None:
+            return _solve(self.mass, self.stiffness, self._beta_inf, v, self.gravity,
+                          self.exponent, self.dissipation, v_free, self.rtol, self.n_points,
+                          self.method)
+        x, y = self.plate.check_position(position, "position")
+        return _solve_at(self.plate, x, y, self.mass, self.stiffness, v, self.gravity,
+                         self.exponent, self.dissipation, v_free, self.rtol, self.n_points)

@@ -1,7 +1,8 @@
 """numba kernels of the contact solver (private).
 
-They integrate the dimensionless contact equations of PHYSICS.md section 4
-(thesis eq. 2.42 generalised to a power law, gravity, Hunt-Crossley loss):
+They integrate the dimensionless contact equations of docs/physics.md, "Hertz contact"
+(the thesis, docs/physics.md, References, eq. 2.42 generalised to a power law, gravity,
+Hunt-Crossley loss):
 
     x' = w - lam * f(x, w)          x = delta / (theta v0)   (penetration)
     w' = -f(x, w) + G               w = -v_rel / v0          (ball's downward speed)
@@ -21,7 +22,8 @@ s^(i + j n) (a series in s and s^n, see ``_series``) and taken from that series
 up to the point ``s1`` where its truncation error is below the local tolerance.
 
 Two integrators share one driver from there: DOP853 (Hairer, Norsett & Wanner,
-"Solving ODEs I", II.10; the coefficients are scipy's) for the non-stiff range,
+"Solving ODEs I", II.10; the coefficients of their dop853.f, in
+``synth/physics/dop853_tableau.py``) for the non-stiff range,
 and the 3-stage Radau IIA method of order 5 (Hairer & Wanner, "Solving ODEs II",
 IV.8, following scipy's implementation) for the stiff range (lam >> 1, where the
 penetration relaxes much faster than the ball slows down). Both keep a dense
@@ -42,9 +44,10 @@ import math
 
 import numba
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as _dop
 
-# --- DOP853 tableau (scipy's copy of Hairer's coefficients) ----------------------------
+from synth.physics import dop853_tableau as _dop
+
+# --- DOP853 tableau (Hairer's coefficients, synth/physics/dop853_tableau.py) ------------
 _NS = _dop.N_STAGES  # 12
 _A = np.ascontiguousarray(_dop.A[:_NS, :_NS])
 _B = np.ascontiguousarray(_dop.B)
@@ -1093,25 +1096,44 @@ AUTO = 0
 DOP853 = 1
 RADAU = 2
 
+# Fields of the result array of ``impact``: the one place that names their order.
+R_STATUS = 0             # SEPARATED, SETTLED or a failure code
+R_TINY_REBOUND = 1       # 1: separated with a rebound below the solver's resolution
+R_STIFF = 2              # 1: integrated by Radau IIA, 0: by DOP853
+R_RESTITUTION = 3        # v_out / v_in
+R_CONTACT_TIME = 4       # s
+R_MAX_PENETRATION = 5    # m
+R_PEAK_FORCE = 6         # N
+R_IMPULSE = 7            # N s
+R_INELASTICITY = 8       # Zener's lam = beta m / theta
+R_REBOUND_SPEED = 9      # m/s
+R_PLATE_ENERGY = 10      # J
+R_ENERGY_RESIDUAL = 11   # relative error of the energy balance
+R_N_STEPS = 12           # accepted steps
+R_G = 13                 # dimensionless gravity g theta / v0 (dense output)
+R_C = 14                 # dimensionless Hunt-Crossley loss mu v0 (dense output)
+R_S_CONTACT = 15         # dimensionless end of contact (dense output)
+R_THETA = 16             # Zener's time scale, s
+R_F_SCALE = 17           # force scale m v0 / theta, N
+N_RESULT = 18
+
 
 @numba.njit(cache=True)
 def impact(m, K, beta, v_in, g, n, mu, v_free, rtol, atol_factor, stiff_lambda, method,
            max_explicit, max_implicit):
     """One impact from lumped parameters (SI units, checked by the caller).
 
-    Scales the equations of PHYSICS.md section 4 by Zener's time ``theta`` and
+    Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
     length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
     integrates them by ``solve`` (``method``: AUTO picks Radau IIA above
     ``stiff_lambda`` and falls back to it when DOP853 reaches ``max_explicit`` steps),
-    and takes the energy balance of PHYSICS.md section 4 (with the Hunt-Crossley loss).
+    and takes the energy balance (docs/physics.md, "Hertz contact"; Hunt-Crossley loss included).
     ``rtol`` is the integrators' local tolerance, ``atol_factor`` the absolute one
     relative to it.
 
-    Returns (status, tiny_rebound, stiff, restitution, contact_time, max_penetration,
-    peak_force, impulse, lam, rebound_speed, plate_energy, energy_residual, n_steps,
-    hist, G, c, s_contact, theta, f_scale): ``tiny_rebound`` flags a separation with a
-    rebound below the solver's resolution (reported as 0), ``stiff`` the use of Radau,
-    and the last six the dense output for ``pulse`` and ``force_at``.
+    Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
+    fields are named by the ``R_*`` indices above (flags and counts stored as
+    floats), ``hist`` the dense output that ``pulse`` and ``force_at`` read.
     """
     v0 = v_in + v_free
     theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
@@ -1133,7 +1155,7 @@ def impact(m, K, beta, v_in, g, n, mu, v_free, rtol, atol_factor, stiff_lambda, 
         # below the solver's absolute resolution (atol of v0).
         w_end = 0.0
     i1 = 1.0 - w_end + G * s_end                      # from w' = G - f
-    # energy balance, dimensionless (PHYSICS.md s.4, in the plate's frame)
+    # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
     elastic = x_end * _power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
     lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
     rhs = G * lam * i1 - lam * i2 - loss
@@ -1141,9 +1163,26 @@ def impact(m, K, beta, v_in, g, n, mu, v_free, rtol, atol_factor, stiff_lambda, 
     # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
     scale = max(0.5, abs(G * lam * i1), lam * i2, abs(loss), abs(G * x_end))
     v_out = -w_end * v0 if separated else 0.0
-    return (status, tiny_rebound, stiff, v_out / v_in, s_contact * theta, x_max * theta * v0,
-            f_max * f_scale, i1 * m * v0, lam, v_out, lam * i2 * m * v0 * v0,
-            abs(lhs - rhs) / scale, nst, hist, G, c, s_contact, theta, f_scale)
+    r = np.empty(N_RESULT)
+    r[R_STATUS] = status
+    r[R_TINY_REBOUND] = 1.0 if tiny_rebound else 0.0
+    r[R_STIFF] = 1.0 if stiff else 0.0
+    r[R_RESTITUTION] = v_out / v_in
+    r[R_CONTACT_TIME] = s_contact * theta
+    r[R_MAX_PENETRATION] = x_max * theta * v0
+    r[R_PEAK_FORCE] = f_max * f_scale
+    r[R_IMPULSE] = i1 * m * v0
+    r[R_INELASTICITY] = lam
+    r[R_REBOUND_SPEED] = v_out
+    r[R_PLATE_ENERGY] = lam * i2 * m * v0 * v0
+    r[R_ENERGY_RESIDUAL] = abs(lhs - rhs) / scale
+    r[R_N_STEPS] = nst
+    r[R_G] = G
+    r[R_C] = c
+    r[R_S_CONTACT] = s_contact
+    r[R_THETA] = theta
+    r[R_F_SCALE] = f_scale
+    return r, hist
 
 
 @numba.njit(cache=True)

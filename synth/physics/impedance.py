@@ -1,6 +1,7 @@
-"""Driving-point impedance of a plate at the impact point (PHYSICS.md section 3).
+"""Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance").
 
-* Infinite thin plate (thesis eqs. 2.34 / 4.30; Cremer, Heckl & Petersson,
+* Infinite thin plate (the thesis, docs/physics.md, References, eqs. 2.34 / 4.30;
+  Cremer, Heckl & Petersson,
   "Structure-Borne Sound", 3rd ed., section 5.3): real and frequency-independent,
 
       Z_inf = 8 sqrt(D rho h) = 4 h^2 sqrt(E rho / (3 (1 - nu^2)))        N s/m
@@ -19,7 +20,7 @@
   the order of half the distance a flexural wave travels during the contact,
   ``d_c = c_g tau / 2`` with the group velocity ``c_g = 2 sqrt(omega)
   (D / (rho h))^(1/4)`` at the pulse's dominant angular frequency
-  ``omega = pi / tau`` (PHYSICS.md sections 3 and 6). The admittance is blended
+  ``omega = pi / tau`` (docs/physics.md, "Plate impedance"). The admittance is blended
   between the middle, edge and corner values with the smooth weight
   ``s(d) = cos^2(pi d / (2 d_c))`` for ``d < d_c`` (0 beyond) of each distance
   ``d`` to the nearest edge along x and along y:
@@ -36,8 +37,12 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from synth import checks
+
+if TYPE_CHECKING:
+    from synth.physics.scene import Plate
 
 #: Z_edge / Z_inf at a free straight edge (Eichler; thesis Table 3.4).
 EDGE_RATIO = 0.29
@@ -45,22 +50,22 @@ EDGE_RATIO = 0.29
 CORNER_RATIO = 1.0 / 7.5
 
 
-def infinite_plate_impedance(plate) -> float:
+def infinite_plate_impedance(plate: Plate) -> float:
     """``Z_inf = 8 sqrt(D rho h)``, N s/m (thesis eq. 2.34)."""
     return 8.0 * math.sqrt(plate.flexural_rigidity * plate.surface_density)
 
 
-def edge_impedance(plate) -> float:
+def edge_impedance(plate: Plate) -> float:
     """Driving-point impedance at a free straight edge, ``0.29 Z_inf``, N s/m."""
     return EDGE_RATIO * infinite_plate_impedance(plate)
 
 
-def corner_impedance(plate) -> float:
+def corner_impedance(plate: Plate) -> float:
     """Driving-point impedance at a free corner, ``Z_inf / 7.5``, N s/m."""
     return CORNER_RATIO * infinite_plate_impedance(plate)
 
 
-def group_velocity(plate, omega) -> float:
+def group_velocity(plate: Plate, omega: float) -> float:
     """Flexural group velocity ``c_g = 2 sqrt(omega) (D / (rho h))^(1/4)``, m/s.
 
     ``omega`` is an angular frequency, rad/s.
@@ -69,18 +74,19 @@ def group_velocity(plate, omega) -> float:
     return 2.0 * math.sqrt(omega) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
-def critical_distance(plate, contact_time) -> float:
+def critical_distance(plate: Plate, contact_time: float) -> float:
     """Distance from an edge within which the edge is felt, ``c_g tau / 2``, m.
 
     ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
     ``omega = pi / tau``.
     """
-    tau = checks.positive("contact_time", contact_time, "s")
+    tau = (contact_time if type(contact_time) is float and 0.0 < contact_time < math.inf
+           else checks.positive("contact_time", contact_time, "s"))
     return _critical_distance(plate, tau)
 
 
-def _critical_distance(plate, tau: float) -> float:
-    """:func:`critical_distance` for a checked ``tau`` (s): ``sqrt(pi tau) (D / rho h)^(1/4)``."""
+def _critical_distance(plate: Plate, tau: float) -> float:
+    """``sqrt(pi tau) (D / rho h)^(1/4)`` (m) for a checked ``tau`` (s)."""
     return math.sqrt(math.pi * tau) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
@@ -91,7 +97,8 @@ def _taper(d, dc):
     return c * c
 
 
-def point_admittance(plate, position, contact_time) -> float:
+def point_admittance(plate: Plate, position: tuple[float, float],
+                     contact_time: float) -> float:
     """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
     duration ``contact_time`` (s).
 
@@ -102,11 +109,15 @@ def point_admittance(plate, position, contact_time) -> float:
     """
     x, y = plate.check_position(position, "position")
     tau = checks.positive("contact_time", contact_time, "s")
-    return _point_admittance(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
+    return admittance_at(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
 
 
-def _point_admittance(plate, x: float, y: float, tau: float, beta_inf: float) -> float:
-    """:func:`point_admittance` on checked values (``beta_inf = 1 / Z_inf``)."""
+def admittance_at(plate: Plate, x: float, y: float, contact_time: float,
+                  infinite_admittance: float) -> float:
+    """:func:`point_admittance` at ``(x, y)`` (m, inside the plate) for a contact of
+    ``contact_time`` (s, > 0), given the plate's ``infinite_admittance = 1 / Z_inf``
+    (m/(N s)): the contact solver's inner loop, which has checked these values."""
+    tau, beta_inf = contact_time, infinite_admittance
     if plate.boundary != "free":
         return beta_inf
     dc = _critical_distance(plate, tau)

@@ -3,7 +3,7 @@
 A :class:`Material` holds Young's modulus ``young`` (Pa), ``density`` (kg/m^3),
 Poisson's ratio ``poisson`` (dimensionless, in (-1, 0.5)) and an internal damping
 law (:class:`Rayleigh` or :class:`LossFactor`) that sets the decay rate of a
-plate's bending modes (PHYSICS.md section 6).
+plate's bending modes (docs/physics.md, "Materials").
 
 The built-in table :data:`TABLE` has a cited source for every row; look a row
 up with :func:`get` (case-insensitive) and print it with :func:`table_markdown`.
@@ -12,9 +12,10 @@ Any :class:`Material` can also be built by hand.
 Where the numbers come from
 ---------------------------
 * Thesis rows (``mdf-18``, ``mdf-12``, ``mdf-6``, ``steel``, ``glass``): the
-  thesis' Table 3.1 (PHYSICS.md section 1). The MDF moduli were measured on the
+  Table 3.1 of the thesis (docs/physics.md, "Materials" and References). The MDF moduli were
+  measured on the
   three boards; their Rayleigh damping is the fit to the thesis' recordings
-  (PHYSICS.md section 6).
+  (docs/physics.md, "Materials").
 * Handbook rows: the elastic constants and the loss factor of one printed row
   of one of these tables, unless the row's ``source`` says otherwise:
 
@@ -84,7 +85,7 @@ class Rayleigh:
         object.__setattr__(self, "alpha", checks.nonnegative("damping.alpha", self.alpha, "1/s"))
         object.__setattr__(self, "beta", checks.nonnegative("damping.beta", self.beta, "s"))
 
-    def decay_rate(self, omega):
+    def decay_rate(self, omega) -> np.ndarray:
         """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
         omega = np.asarray(omega, dtype=float)
         return 0.5 * self.alpha + 0.5 * self.beta * omega * omega
@@ -106,7 +107,7 @@ class LossFactor:
         object.__setattr__(self, "eta", checks.in_range(
             "damping.eta", self.eta, 0.0, 1.0, "dimensionless", lo_open=False))
 
-    def decay_rate(self, omega):
+    def decay_rate(self, omega) -> np.ndarray:
         """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
         return 0.5 * self.eta * np.asarray(omega, dtype=float)
 
@@ -173,14 +174,14 @@ _ASH = ("Ashby, Materials Selection in Mechanical Design, 4th ed. (Butterworth-H
 _NKT = "Norton & Karczub, Fundamentals of Noise and Vibration Analysis, 2nd ed. (CUP 2003), Table 6.1"
 
 _ROWS: list[Material] = [
-    # Thesis (PHYSICS.md section 1, Table 3.1): the three MDF boards, measured moduli.
-    # Damping: Rayleigh fit to the thesis' MDF recordings (PHYSICS.md section 6).
+    # Thesis Table 3.1 (docs/physics.md, "Materials"): the three MDF boards, measured moduli.
+    # Damping: Rayleigh fit to the thesis' MDF recordings (docs/physics.md, "Materials").
     Material("mdf-18", 700.0, 5.689e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (18 mm board, measured modulus); damping PHYSICS.md s.6"),
+             "thesis Table 3.1 (18 mm board, measured modulus); damping: docs/physics.md, Materials"),
     Material("mdf-12", 700.0, 5.058e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (12 mm board, measured modulus); damping PHYSICS.md s.6"),
+             "thesis Table 3.1 (12 mm board, measured modulus); damping: docs/physics.md, Materials"),
     Material("mdf-6", 700.0, 3.385e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (6.15 mm board, measured modulus); damping PHYSICS.md s.6"),
+             "thesis Table 3.1 (6.15 mm board, measured modulus); damping: docs/physics.md, Materials"),
 
     # Metals.
     Material("steel", 7800.0, 216e9, 0.3, LossFactor(1e-4),

@@ -11,6 +11,7 @@ import math
 from dataclasses import KW_ONLY, dataclass
 
 from synth import checks
+from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics.materials import Material, resolve
 
@@ -158,7 +159,7 @@ CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "power-law")
 
 @dataclass(frozen=True)
 class Contact:
-    """The contact model and its accuracy (PHYSICS.md section 2).
+    """The contact model and its accuracy (docs/physics.md, "Hertz contact").
 
     Parameters
     ----------
@@ -212,7 +213,8 @@ class Contact:
                     f"contact.{name}={value!r} does not apply to contact.law={self.law!r}")
 
     def options(self) -> dict:
-        """The law's parameters as keyword arguments of :func:`synth.physics.contact.contact_law`."""
+        """The law's parameters as keyword arguments of
+        :func:`synth.physics.contact.contact_law`."""
         return {k: getattr(self, k) for k in ("dissipation", "exponent", "stiffness", "layer_depth")
                 if getattr(self, k) is not None}
 
@@ -243,7 +245,7 @@ class Scene:
     drop_height: float
     position: tuple[float, float] | None = None
     listener: Listener | None = None
-    gravity: float = 9.81
+    gravity: float = GRAVITY
     contact: Contact | None = None
 
     def __post_init__(self):

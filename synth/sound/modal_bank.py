@@ -1,4 +1,4 @@
-"""Exact pulse-to-mode synthesis (PHYSICS.md section 6).
+"""Exact pulse-to-mode synthesis (docs/physics.md, "Modal synthesis").
 
 A force ``F(t)`` at ``x0`` drives each mode ``k`` of the plate (pole
 ``p_k = -sigma_k + i omega_dk``, shape ``phi_k``, modal mass ``M_k``)::
@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -215,6 +216,123 @@ def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces
         amps[k] = complex(xr * gr[k] - xi * gi[k], xr * gi[k] + xi * gr[k])
 
 
+@numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
+def power_table(poles, fs):
+    """``r^j = e^(p_k j / fs)``, ``j = 0..SUB``, of every mode: (K, 2, SUB + 1) real and
+    imaginary parts, by recurrence from ``r = e^(p / fs)`` re-anchored on an exact
+    exponential every 8 steps (rounding within a few ulp). poles (K,) complex, rad/s;
+    fs: Hz."""
+    K = poles.shape[0]
+    table = np.empty((K, 2, SUB + 1))
+    for k in range(K):
+        r = np.exp(poles[k] / fs)
+        z = 1.0 + 0.0j
+        for j in range(SUB + 1):
+            if j % 8 == 0 and j > 0:
+                z = np.exp(poles[k] * (j / fs))
+            elif j > 0:
+                z = z * r
+            table[k, 0, j] = z.real
+            table[k, 1, j] = z.imag
+    return table
+
+
+@numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
+def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a):
+    """Add one impact's complex amplitudes ``amps`` (K,) to the modes' states ``zr + i zi``
+    at sample ``a`` (the bank's state, see :func:`ring_modes`); a mode whose state plus what
+    it has already left out (decayed to ``a``) is within its threshold stops (its ``|z|``
+    joins its debt), any other one rings."""
+    K = zr.shape[0]
+    for k in range(K):
+        zr[k] += amps[k].real
+        zi[k] += amps[k].imag
+        mag = math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
+        d = debt[k]
+        if d > 0.0:
+            d *= math.exp(poles[k].real * ((a - debt_at[k]) / fs))
+        if mag + d <= thresholds[k]:
+            debt[k] = d + mag
+            debt_at[k] = a
+            zr[k] = 0.0
+            zi[k] = 0.0
+            active[k] = False
+        else:
+            active[k] = True
+
+
+@numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
+def ring_modes(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs):
+    """Advance every ringing mode from sample ``a`` to ``b`` (no injection in between),
+    adding ``Re[z_k r_k^j]`` into ``out[s - offset]`` for ``s`` in ``[a, b)``.
+
+    The bank's state, per mode ``k``: ``zr, zi`` its complex amplitude at the current
+    sample, ``active`` whether it rings, ``debt`` a bound of what it has left out so far as
+    of sample ``debt_at``, ``thresholds`` its share of the omission budget (``thr2`` its
+    square). table: :func:`power_table`; poles (K,) complex, rad/s; fs: Hz.
+
+    A mode writes from the table ``SUB`` samples at a time, then advances its state by
+    ``r^SUB`` (one complex product; the inner loop, two multiply-adds a sample,
+    vectorises); there its state is checked against its share: it stops if ``|z| + debt
+    <= threshold``. Returns (mode-samples computed, end of the last sample written,
+    absolute).
+    """
+    K = zr.shape[0]
+    work = 0
+    last = 0
+    for k in range(K):
+        if not active[k]:
+            continue
+        pr = table[k, 0]
+        pi = table[k, 1]
+        cr = zr[k]
+        ci = zi[k]
+        s = a
+        while s < b:
+            n = min(SUB, b - s)
+            o = out[s - offset:s - offset + n]   # a view: unsigned indexing, the loop vectorises
+            for j in range(n):
+                o[j] += cr * pr[j] - ci * pi[j]
+            er = pr[n]
+            ei = pi[n]
+            cr, ci = cr * er - ci * ei, cr * ei + ci * er
+            s += n
+            m2 = cr * cr + ci * ci
+            if m2 < thr2[k]:
+                d = debt[k]
+                if d > 0.0:
+                    d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
+                mag = math.sqrt(m2)
+                if mag + d <= thresholds[k]:
+                    debt[k] = d + mag
+                    debt_at[k] = s
+                    active[k] = False
+                    cr = 0.0
+                    ci = 0.0
+                    break
+        work += s - a
+        if s > last:
+            last = s
+        zr[k] = cr
+        zi[k] = ci
+    return work, last
+
+
+@numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
+def remainder(zr, zi, active, debt, debt_at, poles, fs, at):
+    """Bound of what the bank's modes leave out at sample ``at``: ``|z|`` of the modes still
+    ringing plus every mode's debt decayed to ``at``."""
+    left = 0.0
+    for k in range(zr.shape[0]):
+        d = debt[k]
+        if d > 0.0:
+            d *= math.exp(poles[k].real * ((at - debt_at[k]) / fs))
+        left += d
+        if active[k]:
+            left += math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
+    return left
+
+
 @numba.njit(cache=True, fastmath=_FAST)
 def _bank(out, fs, poles, amps, inject, thresholds):
     """The modal bank: every mode's ringing after every injection, added into ``out``.
@@ -232,11 +350,9 @@ def _bank(out, fs, poles, amps, inject, thresholds):
     threshold.
 
     Layout: the output is taken in tiles of ``TILE`` samples (they stay in the L1/L2
-    cache while every mode adds to them); a mode writes ``Re[z r^j]`` over ``SUB``
-    samples at a time from a table of ``r^j = e^(p j / fs)``, ``j = 0..SUB`` (to a few
-    ulp), then advances its state ``z`` by ``r^SUB``: one complex product per
-    ``SUB`` samples, so the state's rounding error grows by about one ulp per ``SUB``
-    samples, and the inner loop (two multiply-adds a sample) vectorises.
+    cache while every mode adds to them); every segment between injections and tile
+    ends is one :func:`ring_modes` (the block-wise step the live engine takes too), so
+    the state's rounding error grows by about one ulp per ``SUB`` samples.
 
     Returns (mode-samples computed, end of the last sample written (the samples after it
     are exactly zero), the sum over the modes of what is left at the end of ``out``:
@@ -245,19 +361,7 @@ def _bank(out, fs, poles, amps, inject, thresholds):
     S = out.shape[0]
     K = poles.shape[0]
     I = inject.shape[0]
-    table = np.empty((K, 2, SUB + 1))
-    for k in range(K):
-        # r^j by recurrence from r = e^(p / fs), re-anchored on an exact exponential every
-        # 8 steps (rounding within a few ulp)
-        r = np.exp(poles[k] / fs)
-        z = 1.0 + 0.0j
-        for j in range(SUB + 1):
-            if j % 8 == 0 and j > 0:
-                z = np.exp(poles[k] * (j / fs))
-            elif j > 0:
-                z = z * r
-            table[k, 0, j] = z.real
-            table[k, 1, j] = z.imag
+    table = power_table(poles, fs)
     zr = np.zeros(K)
     zi = np.zeros(K)
     active = np.zeros(K, dtype=np.bool_)
@@ -272,71 +376,20 @@ def _bank(out, fs, poles, amps, inject, thresholds):
         # inject the impacts that start at sample a
         while nxt < I and inject[nxt] <= a:
             if inject[nxt] == a:
-                for k in range(K):
-                    zr[k] += amps[nxt, k].real
-                    zi[k] += amps[nxt, k].imag
-                    mag = math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
-                    d = debt[k]
-                    if d > 0.0:
-                        d *= math.exp(poles[k].real * ((a - debt_at[k]) / fs))
-                    if mag + d <= thresholds[k]:
-                        debt[k] = d + mag
-                        debt_at[k] = a
-                        zr[k] = 0.0
-                        zi[k] = 0.0
-                        active[k] = False
-                    else:
-                        active[k] = True
+                inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs,
+                                  amps[nxt], a)
             nxt += 1
         # this segment ends at the tile's end or at the next injection
         b = min(S, (a // TILE + 1) * TILE)
         if nxt < I and inject[nxt] < b:
             b = inject[nxt]
-        for k in range(K):
-            if not active[k]:
-                continue
-            pr = table[k, 0]
-            pi = table[k, 1]
-            cr = zr[k]
-            ci = zi[k]
-            s = a
-            while s < b:
-                n = min(SUB, b - s)
-                o = out[s:s + n]          # a view: unsigned indexing, the loop vectorises
-                for j in range(n):
-                    o[j] += cr * pr[j] - ci * pi[j]
-                er = pr[n]
-                ei = pi[n]
-                cr, ci = cr * er - ci * ei, cr * ei + ci * er
-                s += n
-                m2 = cr * cr + ci * ci
-                if m2 < thr2[k]:
-                    d = debt[k]
-                    if d > 0.0:
-                        d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
-                    mag = math.sqrt(m2)
-                    if mag + d <= thresholds[k]:
-                        debt[k] = d + mag
-                        debt_at[k] = s
-                        active[k] = False
-                        cr = 0.0
-                        ci = 0.0
-                        break
-            work += s - a
-            if s > last:
-                last = s
-            zr[k] = cr
-            zi[k] = ci
+        w, e = ring_modes(out, 0, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
+                          poles, fs)
+        work += w
+        if e > last:
+            last = e
         a = b
-    left = 0.0
-    for k in range(K):
-        d = debt[k]
-        if d > 0.0:
-            d *= math.exp(poles[k].real * ((S - debt_at[k]) / fs))
-        left += d
-        if active[k]:
-            left += math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
-    return work, last, left
+    return work, last, remainder(zr, zi, active, debt, debt_at, poles, fs, S)
 
 
 def _grid_size(tau, omega_max, min_points=PULSE_POINTS):
@@ -380,6 +433,98 @@ def pulse_transforms(result, poles, omega_max=None):
     return out
 
 
+@dataclass(frozen=True, eq=False)
+class BankCoefficients:
+    """What every impact on one plate, heard by one listener, shares (see :func:`synthesize`):
+    the poles ``p_k`` (rad/s), the listener response per unit pulse transform
+    ``-i b_k output_k / omega_dk`` and the ringing over one sample ``e^(p_k / fs)``, as
+    contiguous real and imaginary parts; ``samplerate`` in Hz."""
+
+    poles: np.ndarray
+    samplerate: float
+    omega_max: float
+    pole_re: np.ndarray
+    pole_im: np.ndarray
+    coef_re: np.ndarray
+    coef_im: np.ndarray
+    step_re: np.ndarray
+    step_im: np.ndarray
+
+
+def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients:
+    """:class:`BankCoefficients` of modes with ``poles`` (rad/s, below Nyquist), excited
+    with ``excitation`` ``b_k`` (1/kg) and heard with ``output`` (see :func:`synthesize`),
+    at ``samplerate`` Hz."""
+    fs = float(samplerate)
+    poles = np.ascontiguousarray(poles, dtype=complex)
+    omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
+    coef = -1j * excitation / poles.imag * output            # response per unit transform
+    step = np.exp(poles * (1.0 / fs))                         # one sample's ringing
+    return BankCoefficients(poles, fs, omega_max, np.ascontiguousarray(poles.real),
+                            np.ascontiguousarray(poles.imag), np.ascontiguousarray(coef.real),
+                            np.ascontiguousarray(coef.imag), np.ascontiguousarray(step.real),
+                            np.ascontiguousarray(step.imag))
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactExcitation:
+    """One impact as the modal bank takes it.
+
+    Attributes
+    ----------
+    amplitudes : complex ndarray (K,)
+        The modes' ringing, referred to sample ``inject`` (listener units).
+    inject : int
+        The first sample after the contact, where the amplitudes join the bank's state.
+    first : int
+        The first sample inside the contact.
+    response : ndarray (M,)
+        The exact listener response at the in-contact samples ``first .. first + M - 1``.
+    forces : ndarray (M,)
+        The contact force there, N (for an accelerometer's direct term).
+    """
+
+    amplitudes: np.ndarray
+    inject: int
+    first: int
+    response: np.ndarray
+    forces: np.ndarray
+
+
+def impact_excitation(coefficients: BankCoefficients, result, onset: float, *, weight=0.0,
+                      pulse_points=PULSE_POINTS, amplitudes=None) -> ImpactExcitation:
+    """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
+    touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
+    sample after the contact and its exact response inside it (see ``_impact``).
+
+    weight: ``m g`` (N) left on the plate after a settled contact, else 0; pulse_points:
+    fewest points of the pulse grid; amplitudes: an optional (K,) complex array to write
+    the amplitudes into.
+    """
+    c = coefficients
+    period = 1.0 / c.samplerate
+    fs = c.samplerate
+    t0 = onset
+    tau = result.contact_time
+    n = _grid_size(tau, c.omega_max, pulse_points)
+    h = tau / (n - 1)
+    # the audio samples inside the contact: first .. first + M - 1, from d0 after first
+    # touch (the kernel guards the rounding of a sample that falls on the touch)
+    first = int(math.ceil(t0 * fs - 1e-9))
+    M = max(0, int(math.ceil((t0 + tau) * fs - 1e-9)) - first)
+    d0 = first * period - t0
+    times = np.empty(n + M)
+    times[:n] = np.arange(n) * h
+    times[n:] = d0 + np.arange(M) * period
+    forces, slopes = result.force_and_slope_at(times)
+    resp = np.empty(M)
+    amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
+    _impact(c.pole_re, c.pole_im, c.coef_re, c.coef_im, c.step_re, c.step_im, period, h,
+            forces[:n], slopes[:n], d0, forces[n:], slopes[n:], float(weight), tau,
+            result.exponent + 1.0, amps, resp)
+    return ImpactExcitation(amps, first + M, first, resp, forces[n:])
+
+
 def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor, settled_weight=None,
                direct=None, max_samples=None, pulse_points=PULSE_POINTS):
     """Mix the ringing of every mode after every impact.
@@ -420,42 +565,20 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     if onsets.size and not np.min(onsets) >= 0.0:
         raise ParameterError(f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
                              f"(from the first sample of the audio)")
-    poles = np.ascontiguousarray(poles, dtype=complex)
+    coefficients = bank_coefficients(poles, excitation, output, fs)
+    poles = coefficients.poles
     K = poles.size
-    omega_max = float(np.max(np.abs(poles.imag))) if K else 0.0
-    wd = poles.imag
     I = len(impacts)
     amps = np.zeros((I, K), dtype=complex)
     inject = np.zeros(I, dtype=np.int64)
     contact_samples = []  # per impact: in-contact sample indices, responses there, forces there
-    coef = -1j * excitation / wd * output            # response per unit transform
-    pr = np.ascontiguousarray(poles.real)
-    pim = np.ascontiguousarray(poles.imag)
-    cr = np.ascontiguousarray(coef.real)
-    ci = np.ascontiguousarray(coef.imag)
-    period = 1.0 / fs
-    step = np.exp(poles * period)                     # one sample's ringing
-    ur = np.ascontiguousarray(step.real)
-    ui = np.ascontiguousarray(step.imag)
     for i, (res, t0) in enumerate(zip(impacts, onsets)):
-        tau = res.contact_time
-        n = _grid_size(tau, omega_max, pulse_points)
-        h = tau / (n - 1)
-        # the audio samples inside the contact: first .. first + M - 1, from d0 after first
-        # touch (the kernel guards the rounding of a sample that falls on the touch)
-        first = int(math.ceil(t0 * fs - 1e-9))
-        M = max(0, int(math.ceil((t0 + tau) * fs - 1e-9)) - first)
-        d0 = first * period - t0
-        times = np.empty(n + M)
-        times[:n] = np.arange(n) * h
-        times[n:] = d0 + np.arange(M) * period
-        forces, slopes = res.force_and_slope_at(times)
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
-        resp = np.empty(M)
-        _impact(pr, pim, cr, ci, ur, ui, period, h, forces[:n], slopes[:n], d0, forces[n:],
-                slopes[n:], weight, tau, res.exponent + 1.0, amps[i], resp)
-        inject[i] = first + M
-        contact_samples.append((np.arange(first, first + M, dtype=np.int64), resp, forces[n:]))
+        ex = impact_excitation(coefficients, res, float(t0), weight=weight,
+                               pulse_points=pulse_points, amplitudes=amps[i])
+        inject[i] = ex.inject
+        contact_samples.append((ex.first + np.arange(ex.response.size, dtype=np.int64),
+                                ex.response, ex.forces))
     reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
     thr = floor * reference / max(K, 1)
     # a mode whose amplitudes add up to at most its share is left out whole

@@ -1,4 +1,4 @@
-"""The finite rectangular plate's bending modes (PHYSICS.md section 6).
+"""The finite rectangular plate's bending modes (docs/physics.md, "Plate modes").
 
 :func:`modes` returns every bending mode of a :class:`~synth.physics.scene.Plate` up to a
 frequency: natural frequencies, modal damping, modal masses and the mode shapes
@@ -112,8 +112,8 @@ from scipy.linalg import lapack
 from scipy.special import gammaln, roots_legendre
 
 from synth import checks
-from synth.io.cache import MemoryCache, cache_dir, cache_path, savez_atomic
 from synth.errors import ParameterError, SynthError
+from synth.io.cache import MemoryCache, cache_dir, cache_path, savez_atomic
 from synth.physics.scene import Plate
 
 __all__ = ["Modes", "modes", "SeparableShapes", "TOLERANCE", "cache_info",

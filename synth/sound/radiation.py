@@ -4,7 +4,7 @@ The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid
 baffle, air on the side ``z > 0``. When its normal surface velocity is one mode,
 ``v(xs, t) = phi_k(xs) u(t)`` with ``u(t) = exp(s t)``, the pressure at the
 listener ``xL = (x, y, z)`` is ``p(xL, t) = H_k(s) exp(s t)`` with the exact
-transfer function of the Rayleigh integral (PHYSICS.md section 6)::
+transfer function of the Rayleigh integral (docs/physics.md, "Radiation")::
 
     H_k(s) = (rho s / (2 pi)) Int_plate phi_k(xs) exp(-s R / c) / R dA,   R = |xL - xs|
 
@@ -109,6 +109,7 @@ import numpy as np
 import scipy.special
 
 from synth import checks
+from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.io.cache import MemoryCache, cache_path, savez_atomic
 from synth.sound.modes import Modes, single_thread_product
@@ -117,10 +118,6 @@ __all__ = ["RadiationResult", "rayleigh_gains", "separable_gains", "plate_gains"
            "distance",
            "cache_info", "clear_memory_cache"]
 
-AIR_DENSITY = 1.204
-"""Density of air at 20 degrees C and 101.325 kPa, kg/m^3."""
-SOUND_SPEED = 343.0
-"""Speed of sound in air at 20 degrees C, m/s."""
 
 _MAX_ORDER = 24            # Gauss-Legendre points per axis of the longest panels, first rule
 _REFINE = 1.25             # ratio of points per axis between successive rules (1.56 in 2-D)
@@ -220,7 +217,7 @@ def _poles(s) -> np.ndarray:
 # Gauss-Legendre rules and panels
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _gauss(p: int) -> tuple[np.ndarray, np.ndarray]:
     t, w = np.polynomial.legendre.leggauss(p)
     t.setflags(write=False)
@@ -312,8 +309,8 @@ def _nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray
 # applied once per mode afterwards). exp(-q dR) = exp(-Re(q) dR) (cos - i sin)(Im(q) dR).
 # The fast kernel uses polynomial sin, cos (fdlibm's kernels after a Cody-Waite reduction
 # by pi/2) and a Taylor exp on |u| <= 1 squared up to 6 times (|Re(q) dR| <= 64), so that
-# the loop over modes vectorises; the general kernel calls libm. Only fused multiply-add contraction is allowed
-# ('contract'), which keeps the error within a few ulp.
+# the loop over modes vectorises; the general kernel calls libm. Only fused multiply-add
+# contraction is allowed ('contract'), which keeps the error within a few ulp.
 
 _PIO2_1 = 1.57079632673412561417e+00      # first 33 bits of pi/2 (fdlibm)
 _PIO2_1T = 6.07710050650619224932e-11     # pi/2 - _PIO2_1
@@ -1236,7 +1233,8 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
     modes : synth.sound.modes.Modes
         The plate's modes; their :meth:`~synth.sound.modes.Modes.shapes` are the
         normal-velocity shapes and the plate's length and width the size.
-    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points, full_output
+    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol,
+    max_points, full_output
         As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
     cache : bool
         Reuse and store the result (memory and disk). ``False`` computes afresh

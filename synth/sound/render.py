@@ -1,9 +1,9 @@
 """Render a scene: bounces -> plate modes -> exact modal synthesis -> level.
 
 ``render(scene, samplerate=48000)`` returns a :class:`Render` with the audio
-(float32), the impacts on the audio's time axis and the settings used. Its
-signal is what the scene's listener picks up: plate acceleration (m/s^2) for an
-:class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa) for a
+(float32), the impacts (times from release) with their onsets in the audio, and the
+settings used. Its signal is what the scene's listener picks up: plate acceleration
+(m/s^2) for an :class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa) for a
 :class:`~synth.physics.scene.Microphone` above the baffled plate, scaled by the level
 stage (``normalize``).
 """
@@ -16,16 +16,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synth import checks
-from synth.sound import modes as plate_modes
+from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
+from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Accelerometer, Microphone, Scene
-from synth.physics.bounces import BounceSequence, Impact, simulate_scene
+from synth.sound import modes as plate_modes
 from synth.sound.modal_bank import synthesize
 
 NORMALIZE = ("peak", "loudness", "physical", "none")
-#: Speed of sound (m/s) and density of air (kg/m^3) at 20 degC, 1 atm.
-SOUND_SPEED = 343.0
-AIR_DENSITY = 1.204
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,9 +37,8 @@ class Render:
     samplerate : int
         Hz.
     impacts : BounceSequence
-        The impacts; each ``Impact.time`` is the onset of its tick in the audio, s
-        from the first sample (first touch plus, for a microphone, the sound's travel
-        time).
+        The impacts rendered; ``Impact.time`` is s from the release of the ball, as
+        everywhere (their ticks' places in the audio are :attr:`onsets`).
     units : str
         Physical units of ``audio / gain``: "Pa" or "m/s^2".
     gain : float
@@ -62,6 +59,19 @@ class Render:
         """Length of the audio, s."""
         return self.audio.shape[0] / self.samplerate
 
+    @property
+    def audio_start(self) -> float:
+        """Time of the first sample, s from the release of the ball."""
+        return self.settings["audio_start"]
+
+    @property
+    def onsets(self) -> np.ndarray:
+        """Onset of each impact's tick in the audio, s from the first sample: the
+        impact's time plus the sound's travel time ``settings["delay"]`` (0 for an
+        accelerometer) less :attr:`audio_start`."""
+        times = np.array([imp.time for imp in self.impacts])
+        return times + self.settings["delay"] - self.settings["audio_start"]
+
 
 def _samplerate(value) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 8000 <= value <= 384000:
@@ -69,7 +79,7 @@ def _samplerate(value) -> int:
     return int(value)
 
 
-def _microphone_gains(modes, scene, poles, k_max):
+def _microphone_gains(modes, plate, microphone, poles, k_max):
     """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
     for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
 
@@ -96,19 +106,130 @@ def _microphone_gains(modes, scene, poles, k_max):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
-    h = plate_gains(modes, scene.listener.position, mirror, max_wavenumber=k_max,
+    h = plate_gains(modes, microphone.position, mirror, max_wavenumber=k_max,
                     air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                    reference_distance=_nearest_distance(scene))
+                    reference_distance=_nearest_distance(plate, microphone))
     return np.asarray(h) * poles / mirror
 
 
-def _nearest_distance(scene) -> float:
+def _nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    x, y, z = scene.listener.position
-    p = scene.plate
+    x, y, z = microphone.position
+    p = plate
     dx = max(0.0, -x, x - p.length)
     dy = max(0.0, -y, y - p.width)
     return math.sqrt(dx * dx + dy * dy + z * z)
+
+
+@dataclass(frozen=True, eq=False)
+class ListenerOutput:
+    """How a listener hears the plate's modes.
+
+    output: complex (K,), listener gain per unit modal displacement ``q_k`` at the pole
+    (``phi_k(xp) p_k^2`` for acceleration, m/s^2 per m; ``G_k p_k`` for a microphone, Pa
+    per m); shape: ``phi_k(xp)`` for the accelerometer's direct term inside contacts, or
+    None; delay: the sound's travel time to the listener from the nearest point of the
+    plate, s; units: "m/s^2" or "Pa".
+    """
+
+    output: np.ndarray
+    shape: np.ndarray | None
+    delay: float
+    units: str
+
+
+def _accelerometer_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+    phip = modes.shapes(np.array([listener.position]))[0][ok]
+    return ListenerOutput(phip * poles ** 2, phip, 0.0, "m/s^2")
+
+
+def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+    D = plate.flexural_rigidity
+    rho_h = plate.surface_density
+    k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
+    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max)
+    return ListenerOutput(np.asarray(all_gains)[ok] * poles, None,
+                          _nearest_distance(plate, listener) / SOUND_SPEED, "Pa")
+
+
+#: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
+#: plate; Microphone: Rayleigh radiation of the baffled plate).
+LISTENER_OUTPUTS = {Accelerometer: _accelerometer_output, Microphone: _microphone_output}
+
+
+@dataclass(frozen=True, eq=False)
+class ModalModel:
+    """A plate's modes as one listener hears them: what :func:`render` and the live engine
+    (:mod:`synth.live`) build once per plate and listener.
+
+    Attributes
+    ----------
+    modes : synth.sound.modes.Modes
+        The plate's modes below ``max_frequency``.
+    poles : complex ndarray (K,)
+        ``p_k = -sigma_k + i omega_dk``, rad/s, of the ringing modes below Nyquist.
+    rendered : bool ndarray
+        Which of ``modes`` the poles are (overdamped modes and modes whose damped
+        frequency reaches Nyquist are left out).
+    listener : ListenerOutput
+        The listener's gains, direct-term shape, delay (s) and units.
+    n_overdamped : int
+        Modes left out as overdamped (``sigma >= omega``: they do not ring).
+    samplerate : int
+        Hz.
+    """
+
+    modes: object
+    poles: np.ndarray
+    rendered: np.ndarray
+    listener: ListenerOutput
+    n_overdamped: int
+    samplerate: int
+
+    @property
+    def output(self) -> np.ndarray:
+        return self.listener.output
+
+    @property
+    def delay(self) -> float:
+        return self.listener.delay
+
+    @property
+    def units(self) -> str:
+        return self.listener.units
+
+    def excitation(self, position) -> np.ndarray:
+        """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
+        phi0 = self.modes.shapes(np.array([position]))[0][self.rendered]
+        return phi0 / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
+
+    def direct(self, excitation) -> np.ndarray | None:
+        """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
+        microphone)."""
+        return None if self.listener.shape is None else self.listener.shape * excitation
+
+
+def modal_model(plate, listener, *, samplerate: int, max_frequency: float | None = None) -> ModalModel:
+    """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
+    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
+    a mode at or above Nyquist is never rendered). Plate modes and microphone gains come
+    from their caches when present.
+
+    A mode with sigma >= omega is overdamped: it does not ring (possible only for a loss
+    factor >= 2, or a Rayleigh law far outside any material's range); it is left out and
+    counted.
+    """
+    fs = samplerate
+    f_max = 0.5 * fs if max_frequency is None else max_frequency
+    modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
+    sigma = np.asarray(modes.decay_rates, dtype=float)
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    under = sigma < omega
+    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
+    ok = under & (wd < math.pi * fs)
+    poles = (-sigma + 1j * wd)[ok]
+    gains = LISTENER_OUTPUTS[type(listener)](modes, plate, listener, poles, ok, sigma, omega, wd)
+    return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
 
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the
@@ -212,36 +333,14 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     elif not isinstance(sequence, BounceSequence):
         raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
 
-    # the plate's modes below Nyquist, as poles. A mode with sigma >= omega is overdamped:
-    # it does not ring (possible only for a loss factor >= 2, or a Rayleigh law far
-    # outside any material's range); it is left out and counted in the settings.
-    modes = plate_modes.modes(scene.plate, max_frequency=f_max * (1.0 - 1e-9))
-    sigma = np.asarray(modes.decay_rates, dtype=float)
-    omega = np.asarray(modes.angular_frequencies, dtype=float)
-    under = sigma < omega
-    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
-    ok = under & (wd < math.pi * fs)
-    poles = (-sigma + 1j * wd)[ok]
-    x0 = np.array([scene.position])
-    phi0 = modes.shapes(x0)[0][ok]
-    excitation = phi0 / np.asarray(modes.modal_masses, dtype=float)[ok]
-
+    model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
+    poles = model.poles
+    excitation = model.excitation(scene.position)
+    output = model.output
+    direct = model.direct(excitation)
+    delay = model.delay
+    units = model.units
     listener = scene.listener
-    if isinstance(listener, Accelerometer):
-        phip = modes.shapes(np.array([listener.position]))[0][ok]
-        output = phip * poles ** 2
-        direct = phip * excitation
-        delay = 0.0
-        units = "m/s^2"
-    else:
-        D = scene.plate.flexural_rigidity
-        rho_h = scene.plate.surface_density
-        k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
-        all_gains = _microphone_gains(modes, scene, (-sigma + 1j * wd), k_max)
-        output = np.asarray(all_gains)[ok] * poles
-        direct = None
-        delay = _nearest_distance(scene) / SOUND_SPEED
-        units = "Pa"
 
     times = np.array([imp.time for imp in sequence])
     start = (times[0] + delay - pre) if len(times) else 0.0
@@ -251,27 +350,25 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
                              floor=floor, settled_weight=weights, direct=direct,
                              max_samples=max_samples, pulse_points=int(pulse_points))
-    if fade_s > 0 and audio.size:
-        n = min(audio.size, int(round(fade_s * fs)))
-        if n > 1:
-            audio[-n:] *= 0.5 * (1.0 + np.cos(np.linspace(0.0, math.pi, n)))
     from synth.io import audio as audio_io
+
+    if fade_s > 0 and audio.size:
+        # the fade's n frames run from full level (the first) to 0 (the last)
+        n = min(audio.size, int(round(fade_s * fs)))
+        audio_io.apply_fade_out(audio, n - 1)
 
     scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
                                       peak_db=peak_db, loudness_lufs=loudness_lufs)
-    shifted = BounceSequence(tuple(Impact(imp.index, float(t), imp.speed, imp.result, imp.restitution)
-                                   for imp, t in zip(sequence, onsets)),
-                             sequence.stop_reason, sequence.drop_height, sequence.gravity)
     settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,
                     floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s, max_tail=tail,
                     listener=type(listener).__name__.lower(), listener_position=list(listener.position),
                     delay=delay, audio_start=start, n_impacts=len(sequence),
-                    stop_reason=sequence.stop_reason, n_modes=int(ok.sum()),
+                    stop_reason=sequence.stop_reason, n_modes=int(poles.size),
                     n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
-                    n_modes_overdamped=int(np.sum(~under)),
+                    n_modes_overdamped=model.n_overdamped,
                     tail_cut=bool(info["length"] >= max_samples
                                   and info["left_at_end"] > floor * info["reference"]),
                     left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
                     bank_seconds=info["bank_seconds"],
                     reference_amplitude=info["reference"])
-    return Render(np.asarray(scaled, dtype=np.float32), fs, shifted, units, float(gain), settings)
+    return Render(np.asarray(scaled, dtype=np.float32), fs, sequence, units, float(gain), settings)

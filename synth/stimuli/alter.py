@@ -121,12 +121,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import numba
-from scipy.linalg import solve_toeplitz
+import numpy as np
 from scipy.signal import lfilter
 
-from synth import checks
+from synth import checks, dsp
 from synth.errors import ParameterError
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
@@ -144,9 +143,8 @@ LEAD = 0.0001
 EXCITATION = 0.001
 #: Slowest decay of a predicted mode: 60 dB in this many seconds.
 MAX_T60 = 15.0
-#: Frames of the noise-floor estimate, s, and the spread of the quiet frames, dB.
-NOISE_FRAME = 0.01
-NOISE_SPREAD_DB = 3.0
+#: Frames of the noise-floor estimate and of the end level, s.
+NOISE_FRAME = dsp.NOISE_FRAME
 #: Past spanned by the noise model, s.
 NOISE_ORDER = 0.001
 #: Smoothing of a tick's short-time power for its gain, s.
@@ -162,32 +160,6 @@ NORMALIZE_MODES = ("none", "peak")
 
 
 # --------------------------------------------------------------------------- prediction
-
-
-@numba.njit(cache=True, fastmath=True)
-def _normal_equations(z, n1, n2, p):  # pragma: no cover - compiled
-    """``Phi[i, j] = sum_n z[n-i] z[n-j]`` (0 <= i, j <= p) over the targets ``n`` of the
-    blocks ``[n1[b], n2[b])`` (n1 >= p): the covariance method of linear prediction
-    (Makhoul 1975, Proc. IEEE 63, 561). Row 0 is a correlation; the rest follows
-    from ``Phi[i+1, j+1] = Phi[i, j] + sum_b (z[n1-1-i] z[n1-1-j] - z[n2-1-i] z[n2-1-j])``:
-    O(n p + p^2) per block instead of O(n p^2)."""
-    phi = np.zeros((p + 1, p + 1))
-    for b in range(n1.size):
-        for d in range(p + 1):
-            s = 0.0
-            for n in range(n1[b], n2[b]):
-                s += z[n] * z[n - d]
-            phi[0, d] += s
-    for i in range(p):
-        for j in range(i, p):
-            s = phi[i, j]
-            for b in range(n1.size):
-                s += z[n1[b] - 1 - i] * z[n1[b] - 1 - j] - z[n2[b] - 1 - i] * z[n2[b] - 1 - j]
-            phi[i + 1, j + 1] = s
-    for i in range(p + 1):
-        for j in range(i):
-            phi[i, j] = phi[j, i]
-    return phi
 
 
 @numba.njit(cache=True, fastmath=True)
@@ -224,25 +196,6 @@ def _cholesky_solve(A, b):  # pragma: no cover - compiled
     return x
 
 
-@numba.njit(cache=True)
-def _step_down(c):  # pragma: no cover - compiled
-    """True when every root of ``c`` (c[0] = 1) lies inside the unit circle: the
-    step-down (Schur-Cohn) recursion, ``k_m = c_m``,
-    ``c'_i = (c_i - k_m c_(m-i)) / (1 - k_m^2)``, stable iff every ``|k_m| < 1``
-    (the Schur-Cohn test; Markel and Gray, Linear Prediction of Speech, 1976)."""
-    c = c.copy()
-    for m in range(c.size - 1, 0, -1):
-        k = c[m]
-        if not abs(k) < 1.0:
-            return False
-        d = 1.0 - k * k
-        new = np.empty(m)
-        for i in range(m):
-            new[i] = (c[i] - k * c[m - i]) / d
-        c[:m] = new
-    return True
-
-
 def _solve(phi, ridge):
     """Prediction-error filter ``[1, a1 .. ap]`` from the normal equations, with a ridge
     of ``ridge`` times the mean diagonal (a white-noise correction) for conditioning."""
@@ -256,7 +209,7 @@ def _solve(phi, ridge):
 
 def _inside(a, radius):
     """True when every root of ``a`` (a[0] = 1) lies inside ``radius``."""
-    return bool(_step_down(a * radius ** -np.arange(a.size, dtype=float)))
+    return dsp.is_minimum_phase(a * radius ** -np.arange(a.size, dtype=float))
 
 
 #: Ridges tried in turn (white-noise corrections, relative to the mean signal power, from
@@ -326,8 +279,7 @@ def _fit_model(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
             break
     if p < least:
         return None, False
-    phi = _normal_equations(z, np.array([b[0] for b in blocks], dtype=np.int64),
-                            np.array([b[1] for b in blocks], dtype=np.int64), p)
+    phi = dsp.covariance_matrix(z, p, blocks)
     if not phi[0, 0] > 0.0:
         return None, False
     return _stable_fit(phi, fs), clean
@@ -383,23 +335,22 @@ class _Noise:
 
     def __init__(self, z, fs):
         self.level, self.a, self.drive = 0.0, np.ones(1), 0.0
-        n = max(8, int(round(NOISE_FRAME * fs)))
-        frames = z.size // n
-        if frames == 0:
+        fr = dsp.noise_frames(z, fs, least=8)
+        if fr.shape[0] == 0:
             return
-        fr = z[:frames * n].reshape(frames, n)
+        n = fr.shape[1]
         ms = np.mean(fr * fr, axis=1)
         live = ms > 0.0
         if not np.any(live):
             return
-        quiet = live & (ms <= ms[live].min() * 10.0 ** (NOISE_SPREAD_DB / 10.0))
+        quiet = dsp.quiet_frames(ms, among=live)
         power = float(np.mean(ms[quiet]))
         q = max(1, min(int(round(NOISE_ORDER * fs)), n // 4))
         w = np.hanning(n + 2)[1:-1]
         spec = np.fft.rfft(fr[quiet] * w, 2 * n, axis=1)
         r = np.fft.irfft(np.mean(np.abs(spec) ** 2, axis=0), 2 * n)[:q + 1]
-        r[0] *= 1.0 + 1e-9
-        a = np.r_[1.0, solve_toeplitz(r[:q], -r[1:])]
+        r = dsp.white_noise_corrected(r)
+        a = dsp.levinson_predictor(r)
         self.level = math.sqrt(power)
         self.a = a
         self.drive = math.sqrt(power * max(float(np.dot(a, r)) / r[0], 0.0))
@@ -527,7 +478,7 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
             raise ParameterError(f"min_bounce={min_bounce!r} must be at least 2 sample periods "
                                  f"({2.0 / fs:.4g} s at {fs:g} Hz)")
     T, e, e_new, T_new = _timing(t, k, min_b)
-    M, N = T_new.size + 1, t.size
+    M = T_new.size + 1
     if M < 3:
         raise ParameterError(
             f"restitution_scale={k!r} ends the series after 2 ticks (e' = 1 - k (1 - e) = "
@@ -602,137 +553,157 @@ class _Channel:
     def __init__(self, z, fs, cut, join, join_new, gain, speed, excluded, excluded_new,
                  lead, rng):
         self.z, self.fs = z, fs
-        N, M = cut.size, gain.size
+        self.cut, self.join, self.join_new = cut, join, join_new
+        self.gain, self.speed = gain, speed
+        self.excluded, self.excluded_new = excluded, excluded_new
+        self.N, self.M = cut.size, gain.size
         self.noise = _Noise(z, fs)
         self.level = _end_level(z, fs, self.noise.level)
-        # the unchanged beginning (at least the first bounce) is the recording itself
-        i0 = 1
-        while i0 < M and join_new[i0] == join[i0] and gain[i0] == 1.0 \
-                and (join_new[i0 + 1] == join[i0 + 1] if i0 + 1 < M else M == N):
-            i0 += 1
-        self.unchanged = i0 == M
+        self.i0 = self._first_changed()
+        self.unchanged = self.i0 == self.M
         if self.unchanged:
             return
-        models = {}
-
-        def model(q):                   # the recording before sample q, and if it is clean
-            if q not in models:
-                models[q] = _fit_model(z, q, fs, excluded)
-            return models[q]
-
-        def ringing(q, at):
-            """The recording's ringing predicted from before sample q, from ``at`` on."""
-            P = _Ringing(model(q)[0], z[:q])
-            P.take(at - q)
-            return P
-
-        npow = self.noise.level ** 2
+        self.models = {}
+        self.npow = self.noise.level ** 2
         r = max(1, int(round(lead * fs)))        # ramps: the lead
         self.r = r
-        self.ramp = ramp = 0.5 * (1.0 - np.cos(np.pi * (np.arange(r) + 0.5) / r))   # 0 -> 1
-        lx = max(r, int(round(SMOOTHING * fs)))         # crossfade to a tick's continuation
-        stop = 0.01 * self.level        # contributions are followed 40 dB under the end
-        longest = int(round(MAX_TAIL * fs))
+        self.ramp = 0.5 * (1.0 - np.cos(np.pi * (np.arange(r) + 0.5) / r))   # 0 -> 1
+        self.lx = max(r, int(round(SMOOTHING * fs)))    # crossfade to a tick's continuation
+        self.stop = 0.01 * self.level   # contributions are followed 40 dB under the end
+        self.longest = int(round(MAX_TAIL * fs))
         self.rng = rng
-        self.y, self.done, self.F = [z[:join[i0]].copy()], join[i0], np.zeros(0)
+        self.y, self.done, self.F = [z[:join[self.i0]].copy()], join[self.i0], np.zeros(0)
         self.syn = []                   # (start, samples) of synthesised noise
-        ref = self._reference(z, cut, join, ringing, npow,
-                              stop * min(1.0, float(np.min(speed[1:]))), longest)
-
-        def own_sound(j, need):
-            """Tick j's own sound as recorded (from its join to ``obs``, the next tick's
-            cut, clear of that tick's pre-echo; with the recorded noise), and its
-            deterministic continuation ``d`` from sample ``d0``, crossfaded over
-            ``[st - lx_j, st)``."""
-            jj = join[j]
-            obs = cut[j + 1] - jj if j + 1 < N else min(z.size - jj, jj - join[j - 1])
-            # predicted from the cut, clear of the attack's pre-echo; but a model that
-            # had to be fitted over the starts of ticks (the closely spaced last ones)
-            # predicts a short way only: from the join
-            Pj = ringing(cut[j] if model(cut[j])[1] else jj, jj)
-            own = z[jj:jj + obs] - Pj.take(obs)
-            own[:r] *= ramp[:own.size]
-            # recorded and at least 10 dB above the noise: up to where it sinks below
-            loud = _wiener(own, 10.0 * npow, fs) > 0.0
-            top = int(np.argmax(own ** 2)) if obs > 0 else 0
-            sink = top + int(np.argmin(loud[top:])) if not np.all(loud[top:]) else obs
-            q = jj + obs
-            if sink == obs and q < z.size and model(q)[1]:
-                # the recording's ringing after q (every tick up to j) less that of the
-                # earlier ticks: own_j rung on alone, continuing it where it stops
-                d = _follow(ringing(q, q), Pj, stop, max(0, need - obs), fs)
-                return own, obs, obs, 0, d, obs
-            # a tick recorded too briefly or too weakly to be continued from its own
-            # recording: the template (tick 1's own sound) at its impact speed
-            st = max(min(sink, obs), r)
-            k = min(lx, st - r)
-            return own, obs, st, k, speed[j] * ref[st - k:max(st, need)], st - k
-
-        def rebase(j):
-            """No onset of the output within the reach of tick j's model: the output's
-            ringing is continued from the output itself (replacing what the earlier
-            ticks' parts would give)."""
-            if j >= M:
-                return False
-            a = model(cut[j])[0]
-            reach = join_new[j] - excluded_new[j - 1][1]
-            return j == i0 or reach >= (0 if a is None else a.size - 1)
-
-        for j in range(i0, M):
-            cn = join_new[j]
-            span = join_new[j + 1] - cn if j + 1 < M else None
-            # what tick j leaves after the next tick is needed only if that one does not
-            # start afresh from the output
-            need = span if rebase(j + 1) else longest
-            if rebase(j):
-                # (the synthesised noise is not continued: it is not the output's ringing)
-                yp = np.concatenate(self.y)
-                for s0, nz in self.syn:
-                    yp[s0:s0 + nz.size] -= nz
-                self.F = _follow(_Ringing(model(cut[j])[0], yp), None, stop, need, fs)
-            own, obs, st, k, d, d0 = own_sound(j, need)
-            ends = span is None or span > obs         # the record ends before the next tick
-            latest = obs if ends else span
-            n = max(obs, d0 + d.size)
-            rec = np.zeros(n)
-            rec[:obs] = own
-            det = np.zeros(n)
-            det[d0:d0 + d.size] = d
-            g = gain[j]
-            # while tick j is the latest and recorded its recorded noise is kept (lam);
-            # handed over to the next tick's (its fade-in) or to synthesised noise
-            lam = np.zeros(n)
-            at = max(0, latest - r) if ends else latest
-            lam[:at] = 1.0
-            m = min(r, max(0, n - at))
-            lam[at:at + m] = 1.0 - ramp[:m]
-            w = np.ones(n)
-            w[:obs] = _wiener(own, npow, fs)
-            recorded = (lam * (1.0 + (g - 1.0) * w) + (1.0 - lam) * g * w) * rec
-            continued = g * det + lam * (rec - det)
-            mu = np.zeros(n)                # from the recorded form to the continued one
-            mu[st - k:st] = 0.5 * (1.0 - np.cos(np.pi * (np.arange(k) + 0.5) / max(k, 1)))
-            mu[st:] = 1.0
-            self._add(cn, (1.0 - mu) * recorded + mu * continued)
-            if span is not None:
-                self._final(cn + span, cn + at if ends else None)
-        self.tail = join_new[M - 1] + latest        # deterministic after this, but for noise
-        self.gap = join_new[M - 1] + at             # synthesised noise from here on
+        self.ref = self._reference(self.stop * min(1.0, float(np.min(speed[1:]))))
+        for j in range(self.i0, self.M):
+            latest, at = self._lay(j)
+        self.tail = join_new[self.M - 1] + latest   # deterministic after this, but for noise
+        self.gap = join_new[self.M - 1] + at        # synthesised noise from here on
         self.end = self.done + self._end()
 
-    def _reference(self, z, cut, join, ringing, npow, stop, longest):
+    def _first_changed(self):
+        """The first tick laid anew: before it (at least the first bounce) the output is the
+        recording itself."""
+        join, join_new, gain, M = self.join, self.join_new, self.gain, self.M
+        i0 = 1
+        while i0 < M and join_new[i0] == join[i0] and gain[i0] == 1.0 \
+                and (join_new[i0 + 1] == join[i0 + 1] if i0 + 1 < M else M == self.N):
+            i0 += 1
+        return i0
+
+    def _model(self, q):
+        """The prediction model of the recording before sample q, and whether it is clean
+        (:func:`_fit_model`), fitted once."""
+        if q not in self.models:
+            self.models[q] = _fit_model(self.z, q, self.fs, self.excluded)
+        return self.models[q]
+
+    def _ringing(self, q, at):
+        """The recording's ringing predicted from before sample q, from ``at`` on."""
+        P = _Ringing(self._model(q)[0], self.z[:q])
+        P.take(at - q)
+        return P
+
+    def _own_sound(self, j, need):
+        """Tick j's own sound as recorded (from its join to ``obs``, the next tick's cut,
+        clear of that tick's pre-echo; with the recorded noise), and its deterministic
+        continuation ``d`` from sample ``d0``, crossfaded over ``[st - k, st)``: ``(own, obs,
+        st, k, d, d0)``."""
+        z, fs, cut, join, r = self.z, self.fs, self.cut, self.join, self.r
+        jj = join[j]
+        obs = cut[j + 1] - jj if j + 1 < self.N else min(z.size - jj, jj - join[j - 1])
+        # predicted from the cut, clear of the attack's pre-echo; but a model that had to be
+        # fitted over the starts of ticks (the closely spaced last ones) predicts a short way
+        # only: from the join
+        Pj = self._ringing(cut[j] if self._model(cut[j])[1] else jj, jj)
+        own = z[jj:jj + obs] - Pj.take(obs)
+        own[:r] *= self.ramp[:own.size]
+        # recorded and at least 10 dB above the noise: up to where it sinks below
+        loud = _wiener(own, 10.0 * self.npow, fs) > 0.0
+        top = int(np.argmax(own ** 2)) if obs > 0 else 0
+        sink = top + int(np.argmin(loud[top:])) if not np.all(loud[top:]) else obs
+        q = jj + obs
+        if sink == obs and q < z.size and self._model(q)[1]:
+            # the recording's ringing after q (every tick up to j) less that of the earlier
+            # ticks: own_j rung on alone, continuing it where it stops
+            d = _follow(self._ringing(q, q), Pj, self.stop, max(0, need - obs), fs)
+            return own, obs, obs, 0, d, obs
+        # a tick recorded too briefly or too weakly to be continued from its own recording:
+        # the template (tick 1's own sound) at its impact speed
+        st = max(min(sink, obs), r)
+        k = min(self.lx, st - r)
+        return own, obs, st, k, self.speed[j] * self.ref[st - k:max(st, need)], st - k
+
+    def _rebase(self, j):
+        """No onset of the output within the reach of tick j's model: the output's ringing
+        is continued from the output itself (replacing what the earlier ticks' parts would
+        give)."""
+        if j >= self.M:
+            return False
+        a = self._model(self.cut[j])[0]
+        reach = self.join_new[j] - self.excluded_new[j - 1][1]
+        return j == self.i0 or reach >= (0 if a is None else a.size - 1)
+
+    def _lay(self, j):
+        """Lay tick j's own sound, scaled by its gain, at its new join (module docstring,
+        steps 2-3). Returns ``(latest, at)``: where its recorded part ends, and where its
+        recorded noise is handed over (samples after its join)."""
+        r, ramp, npow, fs = self.r, self.ramp, self.npow, self.fs
+        cn = self.join_new[j]
+        span = self.join_new[j + 1] - cn if j + 1 < self.M else None
+        # what tick j leaves after the next tick is needed only if that one does not start
+        # afresh from the output
+        need = span if self._rebase(j + 1) else self.longest
+        if self._rebase(j):
+            # (the synthesised noise is not continued: it is not the output's ringing)
+            yp = np.concatenate(self.y)
+            for s0, nz in self.syn:
+                yp[s0:s0 + nz.size] -= nz
+            self.F = _follow(_Ringing(self._model(self.cut[j])[0], yp), None, self.stop, need,
+                             fs)
+        own, obs, st, k, d, d0 = self._own_sound(j, need)
+        ends = span is None or span > obs         # the record ends before the next tick
+        latest = obs if ends else span
+        n = max(obs, d0 + d.size)
+        rec = np.zeros(n)
+        rec[:obs] = own
+        det = np.zeros(n)
+        det[d0:d0 + d.size] = d
+        g = self.gain[j]
+        # while tick j is the latest and recorded its recorded noise is kept (lam); handed
+        # over to the next tick's (its fade-in) or to synthesised noise
+        lam = np.zeros(n)
+        at = max(0, latest - r) if ends else latest
+        lam[:at] = 1.0
+        m = min(r, max(0, n - at))
+        lam[at:at + m] = 1.0 - ramp[:m]
+        w = np.ones(n)
+        w[:obs] = _wiener(own, npow, fs)
+        recorded = (lam * (1.0 + (g - 1.0) * w) + (1.0 - lam) * g * w) * rec
+        continued = g * det + lam * (rec - det)
+        mu = np.zeros(n)                # from the recorded form to the continued one
+        mu[st - k:st] = 0.5 * (1.0 - np.cos(np.pi * (np.arange(k) + 0.5) / max(k, 1)))
+        mu[st:] = 1.0
+        self._add(cn, (1.0 - mu) * recorded + mu * continued)
+        if span is not None:
+            self._final(cn + span, cn + at if ends else None)
+        return latest, at
+
+    def _reference(self, stop):
         """The template of a tick's tail: tick 1's own sound (its recording less tick 0's
         ringing), continued by its model from where it comes within 20 dB of the noise."""
+        z, cut, join = self.z, self.cut, self.join
         jj = join[1]
         obs = join[2] - jj
-        P = ringing(cut[1], jj)
+        P = self._ringing(cut[1], jj)
         own = z[jj:jj + obs] - P.take(obs)
         top = int(np.argmax(own ** 2))
-        clear = _wiener(own, 100.0 * npow, self.fs)[top:] > 0.0
+        clear = _wiener(own, 100.0 * self.npow, self.fs)[top:] > 0.0
         n = top + (int(np.argmin(clear)) if not np.all(clear) else clear.size)
         n = max(n, top + 1)
-        P = ringing(cut[1], jj + n)
-        return np.r_[own[:n], _follow(ringing(jj + n, jj + n), P, stop, longest, self.fs)]
+        P = self._ringing(cut[1], jj + n)
+        return np.r_[own[:n], _follow(self._ringing(jj + n, jj + n), P, stop, self.longest,
+                                      self.fs)]
 
     def _add(self, start, a):
         """Add ``a`` from output sample ``start`` (>= done) to the future."""

@@ -1,5 +1,5 @@
-"""Perception stimuli (thesis section 5.2): bouncing sounds whose parameters are varied on
-purpose while the rest stays physical.
+"""Perception stimuli: bouncing sounds whose parameters are varied on purpose while the
+rest stays physical (the thesis, docs/physics.md, References, section 5.2).
 
 * :func:`scaled_sequence`: restitution changed by the thesis' rule ``1 - e' = k (1 - e)`` for
   every tick, each impact still solved physically at its own speed (the tick keeps the
@@ -15,38 +15,74 @@ and listener should be heard.
 
 from __future__ import annotations
 
-from synth.physics import contact
+from dataclasses import dataclass
+
+from synth import checks
 from synth.errors import ParameterError
-from synth.physics.scene import Scene
+from synth.physics import contact
 from synth.physics.bounces import BounceSequence, Impact, simulate_scene
+from synth.physics.contact import ImpactResult
+from synth.physics.scene import Scene
 
 
-def scaled_sequence(scene, restitution_scale, **options) -> BounceSequence:
+@dataclass(frozen=True)
+class RestitutionScaling:
+    """The rebound rule ``1 - e' = k (1 - e)`` of the thesis (section 5.2.2) for
+    :func:`synth.physics.bounces.simulate_bounces`: ``k = 1`` is physical, ``k < 1``
+    bouncier, ``k > 1`` deader; where ``e' <= 0`` the ball stays on the plate.
+
+    Attributes
+    ----------
+    scale : float >= 0
+        ``k``, dimensionless.
+    """
+
+    scale: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "scale", checks.nonnegative(
+            "restitution_scale", self.scale, "dimensionless"))
+
+    def __call__(self, result: ImpactResult, speed: float) -> float:
+        """``e'`` from the impact's physical restitution (``speed``, m/s, unused)."""
+        return 1.0 - self.scale * (1.0 - result.restitution)
+
+
+def _rebound_rule(restitution_scale: float) -> RestitutionScaling | None:
+    """The rule for ``k``; None (the physical rebound, bit for bit) for ``k = 1``."""
+    rule = RestitutionScaling(restitution_scale)
+    return None if rule.scale == 1.0 else rule
+
+
+def scaled_sequence(scene: Scene, restitution_scale: float, **options) -> BounceSequence:
     """The bounce sequence of ``scene`` with ``1 - e' = k (1 - e)`` for every tick.
 
-    ``restitution_scale`` is ``k >= 0`` (dimensionless); ``options`` as in
-    :func:`synth.simulate_bounces`.
+    ``restitution_scale`` is ``k >= 0`` (dimensionless, see
+    :class:`RestitutionScaling`); ``options`` as in :func:`synth.simulate_bounces`.
     """
-    return simulate_scene(scene, restitution_scale=restitution_scale, **options)
+    return simulate_scene(scene, rebound=_rebound_rule(restitution_scale), **options)
 
 
-def mismatch_sequence(timing_scene, spectrum_scene, **options) -> BounceSequence:
+def mismatch_sequence(timing_scene: Scene, spectrum_scene: Scene, *,
+                      restitution_scale: float = 1.0, **options) -> BounceSequence:
     """Impact times and speeds of ``timing_scene``, contacts of ``spectrum_scene``.
 
-    Each impact keeps its time (s from release) and speed (m/s) from ``timing_scene``;
-    its contact (pulse, contact time) is solved with ``spectrum_scene``'s ball, plate,
-    impact point, gravity and contact model at that speed. ``options`` go to the
-    timing scene's :func:`synth.simulate_bounces`.
+    Each impact keeps its time (s from release) and speed (m/s) from ``timing_scene``
+    (with its restitution scaled by ``restitution_scale``, as in
+    :func:`scaled_sequence`); its contact (pulse, contact time) is solved with
+    ``spectrum_scene``'s ball, plate, impact point, gravity and contact model at that
+    speed. ``options`` go to the timing scene's :func:`synth.simulate_bounces`.
     """
     for name, s in (("timing_scene", timing_scene), ("spectrum_scene", spectrum_scene)):
         if not isinstance(s, Scene):
             raise ParameterError(f"{name}={s!r} must be a Scene")
-    timing = simulate_scene(timing_scene, **options)
+    timing = simulate_scene(timing_scene, rebound=_rebound_rule(restitution_scale), **options)
     c = spectrum_scene.contact
+    solver = contact.ContactSolver.for_pair(
+        spectrum_scene.ball, spectrum_scene.plate, gravity=spectrum_scene.gravity,
+        law=c.law, rtol=c.rtol, **c.options())
     impacts = []
     for imp in timing:
-        res = contact.solve_impact(spectrum_scene.ball, spectrum_scene.plate, imp.speed,
-                                   position=spectrum_scene.position, gravity=spectrum_scene.gravity,
-                                   contact=c.law, rtol=c.rtol, **c.options())
+        res = solver.solve(imp.speed, position=spectrum_scene.position)
         impacts.append(Impact(imp.index, imp.time, imp.speed, res, imp.restitution))
     return BounceSequence(tuple(impacts), timing.stop_reason, timing.drop_height, timing.gravity)

@@ -1,0 +1,130 @@
+"""Clipped samples: found, and interpolated before the ticks are sought.
+
+A clipped run is a kink the resonator cannot make, which the whitening turns into bursts that
+pass for ticks; so the clipped samples are treated as missing and interpolated by least squares
+under a linear predictor fitted to the unclipped ringing (Janssen, Veldhuis and Vries 1986,
+"Adaptive interpolation of discrete-time signals that can be modeled as autoregressive
+processes", IEEE Trans. ASSP 34, 317), each kept at least at its clipped magnitude.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import dsp
+
+
+@dataclass(frozen=True)
+class Clipping:
+    """The clipped samples of each channel (``mask``, shaped as the audio) and the warning
+    that goes with them."""
+
+    mask: np.ndarray
+    warning: str
+
+
+def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
+    """The clipped samples of ``chans`` (frames, channels), or None.
+
+    A channel is clipped at its positive (negative) extreme when ``min_count`` or more of
+    its samples sit at exactly its largest (smallest) value.
+    """
+    mask = np.zeros(chans.shape, dtype=bool)
+    worst = None
+    for c in range(chans.shape[1]):
+        col = chans[:, c]
+        for level in (col.max(), col.min()):
+            if level == 0.0:
+                continue
+            at = col == level
+            count = int(np.count_nonzero(at))
+            if count >= min_count:
+                mask[:, c] |= at
+        count = int(np.count_nonzero(mask[:, c]))
+        if count and (worst is None or count > worst[1]):
+            worst = (c, count, float(np.abs(col).max()))
+    if worst is None:
+        return None
+    c, count, peak = worst
+    total = int(np.count_nonzero(mask))
+    return Clipping(mask, (
+        f"clipping: {total} samples sit at a channel's extreme ({count} in channel {c}, "
+        f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
+        f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
+        f"are unreliable, and their onsets and bounce times may be off too"))
+
+
+def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``x`` with the samples at ``missing`` replaced by their least-squares estimate under
+    the prediction-error filter ``a``: minimise ``sum (a * x)^2`` over the missing samples
+    (Janssen et al. 1986). Each clipped sample keeps at least its clipped magnitude (its
+    sign and level are known): a sample whose estimate falls short is fixed there and the
+    rest are solved again.
+    """
+    from scipy.signal import correlate, oaconvolve
+
+    p = a.size - 1
+    ra = correlate(a, a, mode="full")[p:]           # autocorrelation of a, lags 0..p
+    y = x.copy()
+    level = x[missing]
+    free = np.nonzero(missing)[0]
+    for _ in range(4):
+        if free.size == 0:
+            break
+        y[free] = 0.0
+        e0 = oaconvolve(y, a)[: y.size + p]         # prediction error with the gaps at 0
+        # b_i = -sum_k a_k e0[i + k]
+        b = -correlate(e0, a, mode="valid")[free]
+        v = _solve_banded_gram(free, ra, b)
+        short = np.abs(v) < np.abs(x[free])
+        short |= np.sign(v) != np.sign(x[free])
+        y[free] = v
+        if not short.any():
+            break
+        fixed = free[short]
+        y[fixed] = x[fixed]
+        free = free[~short]
+    y[missing] = np.where(np.abs(y[missing]) < np.abs(level), level, y[missing])
+    return y
+
+
+def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve ``G v = b`` with ``G_ij = ra(|free_i - free_j|)``, zero beyond lag ``p`` (banded
+    in index order), the diagonal raised by 1e-9 for conditioning."""
+    from scipy.linalg import solveh_banded
+
+    p = ra.size - 1
+    bw = int(np.max(np.searchsorted(free, free + p, side="right") - np.arange(free.size))) - 1
+    bw = max(bw, 0)
+    ab = np.zeros((bw + 1, free.size))
+    for k in range(bw + 1):
+        lag = free[k:] - free[: free.size - k]
+        ab[bw - k, k:] = np.where(lag <= p, ra[np.minimum(lag, p)], 0.0)
+    ab[bw] *= 1.0 + 1e-9
+    return solveh_banded(ab, b)
+
+
+def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray:
+    """The mix (mean) of ``chans`` with each channel's clipped samples interpolated.
+
+    The interpolating predictor is fitted to the channel after its last clipped sample when
+    that holds at least ``4 order`` samples (the unclipped ringing of the same resonator),
+    else to the whole channel; its order is 3 times the longest clipped run (Janssen et
+    al. recommend at least that), at least 1/20 of ``order`` and 8, at most ``order``.
+    """
+    out = np.empty_like(chans)
+    for c in range(chans.shape[1]):
+        col, m = chans[:, c], mask[:, c]
+        if not m.any():
+            out[:, c] = col
+            continue
+        idx = np.nonzero(m)[0]
+        breaks = np.nonzero(np.diff(idx) > 1)[0]
+        runs = np.diff(np.r_[-1, breaks, idx.size - 1])
+        p = int(min(order, max(3 * int(runs.max()), order // 20, 8)))
+        tail = col[idx[-1] + 1:]
+        a = dsp.autocorrelation_predictor(tail if tail.size >= 4 * order else col, p)
+        out[:, c] = ar_interpolate(col, m, a)
+    return out[:, 0] if out.shape[1] == 1 else out.mean(axis=1)

@@ -1,0 +1,432 @@
+"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, found one
+by one on the whitened signal with the earlier ticks taken out.
+
+Every tick goes through the same path (impact point, plate, room, pickup) and differs from the
+others only by its contact force, so in the whitened signal ``r`` a later tick is the first
+tick's whitened response ``T`` through a short filter. :class:`Residual` holds ``q = r - (what
+the earlier ticks explain)`` and fits those filters; :class:`DeflationSearch` walks the series.
+The resonator's search of step 7 (:mod:`synth.analysis.resonator`) subclasses both.
+
+Positions are in samples, energies are sums of squares per frame of ``r``, strengths in dB.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import dsp
+from synth.analysis.detection import ONSET_NOISE_SIGMAS, frame_energies, refine_onset
+from synth.analysis.measures import WINDOW_GUARD
+from synth.analysis.series import separation, too_strong
+from synth.analysis.settings import Settings
+
+#: Lags of the FIR filter that shapes the first tick's whitened response into a later
+#: tick's, s: before (onset error) and after (a longer contact than the first).
+DEFLATION_PRE = 0.00006
+DEFLATION_POST = 0.00017
+#: A candidate must carry at least this much more energy than what the deflation took
+#: out of its frame, dB (else it is a remainder of an earlier tick).
+DEFLATION_KAPPA_DB = 0.0
+#: A candidate must also carry more energy than was taken out over the frames spanning
+#: this from the frame before its own, s: a model a fraction of a sample off leaves its
+#: remainder spread over the frames around a burst.
+REMAINDER_SPAN = 0.001
+#: The template ends at its last frame this far above the whitened noise floor, dB.
+TEMPLATE_NOISE_DB = 6.0
+#: Fits of a tick's filter at most, each over a longer stretch.
+DEFLATION_REFITS = 3
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """The first tick in the residual after a given sample: the start of its strongest frame
+    (the local maximum from the first frame that cleared the threshold), that frame's energy,
+    the threshold its first frame cleared, the local background there (energies per frame),
+    and the start of that first frame."""
+
+    start: int
+    energy: float
+    threshold: float
+    background: float
+    first: int
+
+
+@dataclass(frozen=True)
+class NewTick:
+    """A tick accepted by the search: onset (samples), strength (dB) and whitened energy of
+    its burst (per frame)."""
+
+    onset: float
+    strength: float
+    energy: float
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The residual (and, in step 7, the expected remainders) from ``start`` on, saved before
+    a tick's model is taken out."""
+
+    start: int
+    q: np.ndarray
+    expect: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class FirstTick:
+    """The first tick as step 3 found it: onset (samples), strength (dB), whitened energy of its
+    burst, and the end of its whitened response that serves as the template (samples)."""
+
+    onset: float
+    strength: float
+    energy: float
+    end: int
+
+
+@dataclass(frozen=True)
+class SearchOutcome:
+    """The ticks of a deflating search: onsets (samples), strengths (dB), the residual ``q``
+    (the whitened signal with every tick's model taken out), each tick's whitened model from
+    its window's start, what the whitening leaves of the first tick's ringing in the second
+    half of the first bounce (its median frame energy over its largest: a power ratio), and
+    in step 7 the onsets timed against the first tick's template (samples; else None)."""
+
+    onsets: np.ndarray
+    strengths: np.ndarray
+    residual: np.ndarray
+    models: list
+    ringing_left: float
+    timed: np.ndarray | None
+
+
+class Residual:
+    """The whitened signal ``r`` less the whitened responses of the ticks found so far, each
+    the first tick's response ``T`` through an FIR filter of lags ``-pre .. post`` fitted by
+    least squares; ``r - q`` is what was taken out, against which a candidate is weighed."""
+
+    def __init__(self, r: np.ndarray, template: np.ndarray, start: int, settings: Settings,
+                 floor: float, noise: float):
+        fs, hop = settings.samplerate, settings.hop
+        self.r = r
+        self.q = r.copy()
+        self.T = [template]
+        self.hop = hop
+        self.w = settings.frame
+        self.bg = max(3, int(round(settings.background * fs / hop)))
+        self.thr = 10.0 ** (settings.threshold_db / 10.0)
+        self.rise = settings.rise_db / 10.0
+        self.fade = settings.release * 1000.0 * hop / fs / 10.0   # log10 units per frame
+        self.floor = floor
+        self.kappa = 10.0 ** (DEFLATION_KAPPA_DB / 10.0)
+        self.noise = noise * noise * self.w     # energy per frame of the whitened noise floor
+        self.span = max(2, int(round(REMAINDER_SPAN * fs / hop)))
+        self.pre = max(1, int(round(DEFLATION_PRE * fs)))
+        self.post = max(1, int(round(DEFLATION_POST * fs)))
+        self.q[start: start + template.size] -= template
+
+    @property
+    def longest_lag(self) -> int:
+        """The longest lag of any filter fitted, samples."""
+        return self.post
+
+    def snapshot(self, s: int, n: int) -> Snapshot:
+        """``q[s:s+n]``, saved."""
+        return Snapshot(s, self.q[s: s + n].copy(), None)
+
+    def restore(self, snap: Snapshot) -> None:
+        """Put back what :meth:`snapshot` saved."""
+        self.q[snap.start: snap.start + snap.q.size] = snap.q
+
+    def taken_out(self, lo: int, hi: int) -> np.ndarray:
+        """What a candidate's frames over ``[lo, hi)`` are weighed against (energy per frame):
+        all that the earlier ticks' models took out there."""
+        return frame_energies(self.r[lo:hi] - self.q[lo:hi], self.hop, self.w)
+
+    def candidate(self, after: int) -> Candidate | None:
+        """The first tick in ``q`` starting at or after sample ``after``, or None: the first
+        frame over its threshold (the local background of the past, the fading memory of
+        the earlier frames, the floor, and what was taken out there) that also carries more
+        energy than was taken out over :data:`REMAINDER_SPAN` around it."""
+        hop, bg = self.hop, self.bg
+        lo = max(0, after - (4 * bg + 2) * hop)
+        chunk = max(8 * bg * hop, 4096)
+        while True:
+            hi = min(self.q.size, after + chunk)
+            d = frame_energies(self.q[lo:hi], hop, self.w)
+            if d.size == 0:
+                return None
+            found = self._first_clearing(d, self.taken_out(lo, hi), -(-(after - lo) // hop), lo)
+            if found is not None:
+                return found
+            if hi >= self.q.size:
+                return None
+            chunk *= 2
+
+    def _first_clearing(self, d: np.ndarray, sub: np.ndarray, first: int,
+                        lo: int) -> Candidate | None:
+        """The first frame from ``first`` on of the detection function ``d`` (its frame 0 at
+        sample ``lo``) that clears the rules, against ``sub`` taken out per frame."""
+        k = np.arange(d.size)
+        past_med = self._past_background(d, k)
+        threshold = np.maximum.reduce([
+            np.where(np.isfinite(past_med), past_med * self.thr, 0.0), self._memory(d, k),
+            np.full_like(d, self.floor), sub * self.kappa])
+        span = np.ones(self.span)
+        d_near = np.convolve(d, span)[self.span - 2: self.span - 2 + d.size]
+        sub_near = np.convolve(sub, span)[self.span - 2: self.span - 2 + d.size]
+        hit = np.nonzero((d >= threshold) & (d_near >= sub_near * self.kappa) & (k >= first))[0]
+        if not hit.size:
+            return None
+        first_hit = m = int(hit[0])
+        while m + 1 < d.size and d[m + 1] > d[m]:
+            m += 1                      # on to the frame's local maximum
+        noise = past_med[m] if np.isfinite(past_med[m]) else threshold[m] / self.thr
+        return Candidate(lo + m * self.hop, float(d[m]),
+                         float(max(threshold[first_hit], 1e-300)), float(noise),
+                         lo + first_hit * self.hop)
+
+    def _past_background(self, d: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Local background of each frame: the median of frames ``k-2-bg .. k-3`` (the past,
+        with the earlier ticks taken out; frame ``k-1`` may hold the start of this burst),
+        never below the noise floor (the first tick's stretch of ``q`` is exactly 0); inf
+        where the past is too short."""
+        from scipy.ndimage import median_filter
+
+        bg = self.bg
+        med = median_filter(d, size=bg, mode="nearest")
+        past_med = np.full_like(d, np.inf)
+        j = k - 2 - bg // 2 - 1
+        ok = j >= bg // 2
+        past_med[ok] = np.maximum(med[j[ok]], self.noise)
+        return past_med
+
+    def _memory(self, d: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """Fading memory of the frames ``j <= k - 2`` raised by ``rise_db`` (as in step 3)."""
+        with np.errstate(divide="ignore"):
+            memory = np.maximum.accumulate(np.log10(d) + k * self.fade)
+        past = np.zeros_like(d)
+        past[2:] = 10.0 ** (memory[:-2] - k[2:] * self.fade + self.rise)
+        return past
+
+    def remove(self, s: int, end: int, alone: int | None = None) -> np.ndarray:
+        """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap if the window is shorter
+        than two per lag), take the fit out of ``q`` from ``s`` on and return it (from ``s``
+        on). ``alone`` is used by step 7 only."""
+        q = self.q
+        W = min(end, q.size) - s
+        if W <= 0:
+            return np.zeros(0)
+        T = self.T[0]
+        pre, post = self.pre, self.post
+        if W < 2 * (pre + post + 1):
+            pre = post = 0
+        ntap = pre + post + 1
+        # M[i, j] = T[i - l_j] with lags l_j = post - j
+        Tp = np.concatenate((np.zeros(post), T[: W + pre], np.zeros(pre + max(0, W - T.size))))
+        M = np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W]
+        G = M.T @ M
+        G[np.diag_indices(ntap)] += 1e-9 * np.trace(G) / ntap + 1e-300
+        h = np.linalg.solve(G, M.T @ q[s: s + W])
+        # contribution at s + t: sum_j h_j T[t - l_j]
+        contrib = np.convolve(T, h[::-1])[pre:]
+        n = min(contrib.size, q.size - s)
+        q[s: s + n] -= contrib[:n]
+        return contrib
+
+
+class DeflationSearch:
+    """Step 5: the ticks after the first, one by one on the residual. ``anchors`` (onsets and
+    strengths) are the sure ticks of step 3's bounce series, none of which is passed over;
+    ``floor`` (energy per frame) the floor of the dynamic range."""
+
+    def __init__(self, r: np.ndarray, settings: Settings, first: FirstTick, anchors,
+                 floor: float | None, strongest: float, known=()):
+        self.settings = settings
+        self.r = r
+        self.hop, self.w = settings.hop, settings.frame
+        self.min_sep = settings.min_separation
+        self.first = first
+        self.s1 = max(int(math.floor(first.onset)) - WINDOW_GUARD, 0)
+        template = r[self.s1: max(first.end, self.s1 + 1)].copy()
+        noise = dsp.noise_floor(r, settings.samplerate)
+        e_t = frame_energies(template, self.hop, self.w)
+        self.ringing_left = (float(np.median(e_t[e_t.size // 2:]) / e_t.max())
+                             if e_t.size > 1 and e_t.max() > 0.0 else 0.0)
+        self.floor = self._initial_floor(floor, noise, strongest)
+        # the template ends where it sinks into the noise (or under the floor): beyond, taking
+        # it out of a later tick would only add its noise
+        loud = np.nonzero(e_t > self._template_cut(noise))[0]
+        if loud.size:
+            template = template[: min(template.size, int(loud[-1]) * self.hop + self.w)]
+        self.residual = self._residual(template, noise)
+        self.L = template.size
+        self.onsets = [float(first.onset)]
+        self.strengths = [float(first.strength)]
+        self.energies = [float(first.energy)]
+        self.models = [template[: settings.window].copy()]
+        self.anchor_on, self.anchor_strength = anchors
+        self.known = np.asarray(known, dtype=float)
+        self.after = int(math.floor(first.onset)) + self.min_sep
+
+    # -- what step 7 changes
+
+    def _initial_floor(self, floor: float | None, noise: float, strongest: float) -> float:
+        """The floor of the detection (energy per frame): the dynamic range's."""
+        return floor
+
+    def _template_cut(self, noise: float) -> float:
+        """Frame energy under which the template has sunk into the whitened noise."""
+        return 10.0 ** (TEMPLATE_NOISE_DB / 10.0) * noise * noise * self.w
+
+    def _residual(self, template: np.ndarray, noise: float) -> Residual:
+        """The residual from which the ticks are taken out."""
+        return Residual(self.r, template, self.s1, self.settings, self.floor, noise)
+
+    def _separation(self, onsets, strengths) -> int:
+        """Shortest plausible bounce after the last of ``onsets``."""
+        return separation(onsets, strengths, self.min_sep, self.settings.e_min)
+
+    def _lower_floor(self, energy: float) -> None:
+        """Set the floor after a tick of whitened energy ``energy`` (step 7 only)."""
+
+    def _hypothesis(self) -> NewTick | None:
+        """One more tick when no candidate clears the rules (step 7 only)."""
+        return None
+
+    def _onset_walk_start(self, c: Candidate) -> int:
+        """The onset walk goes back no further than the previous tick."""
+        return int(math.floor(self.onsets[-1])) + 1
+
+    strict_onsets = False
+
+    def _next_start(self, c: Candidate) -> int:
+        """Where the next tick shows: its candidate frame."""
+        return c.start
+
+    def _refit(self, e2: int, e: int) -> bool:
+        """Whether the fit is redone over ``e2`` instead of ``e``: when the next tick was this
+        tick's own remainder (it lies further on once this one is out)."""
+        return e2 > e
+
+    def _uncover(self, s: int, new: NewTick, e: int, snap: Snapshot) -> tuple[int, bool]:
+        """The end of the tick's fit window, and whether a search uncovered it (step 7)."""
+        return e, False
+
+    def _finish(self, s: int, new: NewTick, e: int, model: np.ndarray,
+                snap: Snapshot) -> np.ndarray:
+        """The tick's model once fitted (step 7 refits it)."""
+        return model
+
+    def _record(self, s: int, model: np.ndarray, on: float) -> None:
+        """Record what step 7 keeps of an accepted tick."""
+
+    def _timed(self) -> np.ndarray | None:
+        """The onsets timed against the first tick's template (step 7 only)."""
+        return None
+
+    # -- the search
+
+    def run(self) -> SearchOutcome:
+        """Find the ticks after the first, in time order."""
+        self._lower_floor(self.energies[-1])
+        while True:
+            c = self.residual.candidate(self.after)
+            anchor = self._passed_anchor(c)
+            if anchor is not None:
+                new = self._anchor_tick(anchor)
+            elif c is None:
+                new = self._hypothesis()
+                if new is None:
+                    break
+            else:
+                new = self._candidate_tick(c)
+                if new is None:
+                    self.after = c.start + self.hop     # part of the previous tick's response
+                    continue
+            self._add(new)
+        return SearchOutcome(np.array(self.onsets), np.array(self.strengths), self.residual.q,
+                             self.models, self.ringing_left, self._timed())
+
+    def _passed_anchor(self, c: Candidate | None) -> int | None:
+        """The next sure tick of step 3's series when the search would pass over it."""
+        nxt = np.nonzero(self.anchor_on > self.onsets[-1] + self.min_sep)[0]
+        a = int(nxt[0]) if nxt.size else None
+        if a is not None and (c is None or self.anchor_on[a] < c.start - self.min_sep):
+            return a
+        return None
+
+    def _burst(self, on: float) -> np.ndarray:
+        """Frame energies of ``q`` around the onset ``on``: the frames holding its first
+        samples."""
+        i0 = int(math.floor(on))
+        w, hop = self.w, self.hop
+        return frame_energies(self.residual.q[max(0, i0 - w + 1): i0 + w + 2 * hop], hop, w)
+
+    def _anchor_tick(self, a: int) -> NewTick:
+        on, strength = float(self.anchor_on[a]), float(self.anchor_strength[a])
+        burst = self._burst(on)
+        return NewTick(on, strength, float(burst.max()) if burst.size else 0.0)
+
+    def _candidate_tick(self, c: Candidate) -> NewTick | None:
+        """The candidate's onset by the walk of step 4 on ``q`` and its energy (the largest
+        frame holding its first samples: the candidate frame may be an earlier one on its
+        rising edge); None when the bounce series rejects it: too soon after the previous
+        tick, or stronger than its bounce time allows (unless a sure tick of step 3 lies
+        there)."""
+        s = self.settings
+        lo = self._onset_walk_start(c)
+        hi = min(self.r.size, c.start + self.w + 2 * self.hop)
+        sigma = ONSET_NOISE_SIGMAS * math.sqrt(c.background / self.w)
+        on = lo + refine_onset(self.residual.q[lo:hi], max(0, c.start - self.hop - lo), hi - lo,
+                               s.onset_fraction, s.onset_gap, sigma, strict=self.strict_onsets)
+        burst = self._burst(on)
+        energy = max(c.energy, float(burst.max())) if burst.size else c.energy
+        near = np.abs(self.anchor_on - on) < self.min_sep
+        if not near.any() and (
+                on - self.onsets[-1] < self._separation(self.onsets, self.strengths)
+                or too_strong(self.onsets, self.strengths, self.energies, on, energy)):
+            return None
+        strength = 10.0 * math.log10(energy / c.threshold)
+        if near.any():
+            strength = max(strength, float(self.anchor_strength[near].max()))
+        return NewTick(on, strength, energy)
+
+    def _fit_end(self, s: int) -> int:
+        """The end of a fit window from ``s``: where the next tick shows, at most the
+        template's length."""
+        nxt = self.residual.candidate(self.after)
+        if nxt is None:
+            return s + self.L
+        return min(s + self.L, self._next_start(nxt) - self.hop)
+
+    def _add(self, new: NewTick) -> None:
+        """Model the new tick, take it out of the residual, and record it."""
+        self._lower_floor(new.energy)
+        on = new.onset
+        s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
+        self.after = int(math.floor(on)) + self._separation(self.onsets + [on],
+                                                            self.strengths + [new.strength])
+        model = self._model(s, new)
+        self.onsets.append(float(on))
+        self.strengths.append(new.strength)
+        self.energies.append(float(new.energy))
+        self.models.append(model[: self.settings.window].copy())
+        self._record(s, model, float(on))
+
+    def _model(self, s: int, new: NewTick) -> np.ndarray:
+        """Fit the tick's model over its own stretch, up to the next tick, and take it out; if
+        that removes what looked like the next tick (its own remainder), fit again longer."""
+        e = self._fit_end(s)
+        snap = self.residual.snapshot(s, self.L + self.residual.longest_lag + 1)
+        e, uncovered = self._uncover(s, new, e, snap)
+        model = self.residual.remove(s, e, alone=self.after)
+        for _ in range(0 if uncovered else DEFLATION_REFITS - 1):
+            e2 = self._fit_end(s)
+            if not self._refit(e2, e):
+                break
+            self.residual.restore(snap)
+            e = e2
+            model = self.residual.remove(s, e, alone=self.after)
+        return self._finish(s, new, e, model, snap)

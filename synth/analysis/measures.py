@@ -1,0 +1,137 @@
+"""The measurements of every tick (docs/analysis.md, Tick measurements): bounce time,
+restitution and impact speed from the onsets, and energy, peak, spectral centroid and spread
+and decay time of the tick's own sound.
+
+A tick's own sound is its excitation (its model in the whitened signal, and what no tick
+explains up to the next one) through the resonator's all-pole model ``1/A``, over the same
+``window`` from each onset: so a series of identical ticks gives the same spectrum and decay
+for every tick, whatever the bounce times.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.analysis.report import Tick
+from synth.analysis.settings import Settings
+
+#: Samples kept before the onset in a tick's window (and in its model's).
+WINDOW_GUARD = 2
+#: The decay fit stops where the envelope comes within this of the noise floor, dB.
+DECAY_NOISE_MARGIN_DB = 10.0
+#: Least fall of the fitted envelope over the fitted span, nepers (0.87 dB): a
+#: smaller one cannot be told from noise and the other ticks' tails.
+DECAY_MIN_FALL = 0.1
+
+
+@dataclass(frozen=True)
+class Whitening:
+    """One whitening of the recording: the prediction-error filter ``A`` (``A[0] = 1``), the
+    whitened signal ``r = A * x`` and, after a deflating search, its residual ``q`` (``r``
+    with every tick's model taken out; None without deflation)."""
+
+    predictor: np.ndarray
+    whitened: np.ndarray
+    residual: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class FoundTick:
+    """A tick the search kept: its onset (samples), strength (dB), whitened model (from its
+    window's start; None without deflation), the whitening it was found in (index into the
+    list of :class:`Whitening`), and the onset it was detected at (its level crossing,
+    samples: where its model and its window start)."""
+
+    onset: float
+    strength: float
+    model: np.ndarray | None
+    whitening: int
+    detected: float
+
+
+def measure_ticks(x: np.ndarray, found: list[FoundTick], whitenings: list[Whitening],
+                  settings: Settings, noise: float) -> list[Tick]:
+    """The :class:`Tick` of each tick found in the recording ``x`` (``noise``: its noise
+    floor, signal units)."""
+    fs = settings.samplerate
+    onsets = np.array([f.onset for f in found])
+    starts = np.maximum(np.floor([f.detected for f in found]).astype(int) - WINDOW_GUARD, 0)
+    ticks = []
+    for i, on in enumerate(onsets):
+        s = starts[i]
+        e = min(x.size, s + settings.window)
+        if not settings.subtract_tails:
+            y = x[s:e].copy()
+        else:
+            stop = min(e, starts[i + 1]) if i + 1 < starts.size else e
+            y = own_sound(found[i], whitenings[found[i].whitening], s, e, stop)
+        bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
+        prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
+        c, sp = spectral_moments(y, fs)
+        ticks.append(Tick(
+            index=i + 1, time=float(on / fs), bounce_time=bt,
+            restitution=None if prev is None else float(bt / prev),
+            speed=None if bt is None else float(settings.gravity * bt / 2.0),
+            energy=float(np.dot(y, y) / fs), peak=float(np.abs(y).max()),
+            centroid=c, spread=sp,
+            decay_time=decay_time(y, fs, settings.decay_smoothing, noise),
+            window=float(y.size / fs), strength=float(found[i].strength)))
+    return ticks
+
+
+def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) -> np.ndarray:
+    """The tick's own sound over ``[s, e)``: its excitation through ``1/A``. With a model,
+    the model plus what no tick explains up to ``stop`` (the next tick's window: beyond, that
+    is the later ticks' remainders); without one, the whitened signal up to ``stop``."""
+    from scipy.signal import lfilter
+
+    exc = np.zeros(e - s)
+    if tick.model is not None:
+        m = tick.model[: e - s]
+        exc[: m.size] += m
+        exc[: stop - s] += whitening.residual[s:stop]
+    else:
+        exc[: stop - s] = whitening.whitened[s:stop]
+    return lfilter([1.0], whitening.predictor, exc)
+
+
+def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
+    """Time for the amplitude envelope of ``y`` to fall to 1/e, s: ``-1/slope`` of a
+    least-squares line through the log of the envelope (root of ``y^2`` smoothed by a Hann
+    window of ``n`` samples) from its peak to the end, or to where it comes within
+    :data:`DECAY_NOISE_MARGIN_DB` of the noise floor ``floor``. None when that span is
+    shorter than the smoothing or falls by less than :data:`DECAY_MIN_FALL`."""
+    if y.size < 2 * n:
+        return None
+    w = np.hanning(n + 2)[1:-1]
+    env = np.sqrt(np.convolve(y * y, w / w.sum(), mode="same"))
+    env = env[: env.size - n // 2]          # the last half-window feels the window's end
+    k = int(np.argmax(env))
+    seg = env[k:]
+    low = np.nonzero(seg <= floor * 10.0 ** (DECAY_NOISE_MARGIN_DB / 20.0))[0]
+    if low.size:
+        seg = seg[: low[0]]
+    if seg.size < max(3, n):
+        return None
+    slope = np.polyfit(np.arange(seg.size) / fs, np.log(seg), 1)[0]
+    if not -slope * seg.size / fs >= DECAY_MIN_FALL:
+        return None
+    return float(-1.0 / slope)
+
+
+def spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
+    """Power-weighted mean and standard deviation of frequency, Hz, of ``y`` tapered by the
+    falling half of a Hann window (the onset kept, the cut at the window's end smoothed)."""
+    n = y.size
+    taper = np.cos(0.5 * np.pi * np.arange(n) / n) ** 2
+    nfft = 1 << max(12, int(math.ceil(math.log2(2 * n))))
+    p = np.abs(np.fft.rfft(y * taper, nfft)) ** 2
+    f = np.fft.rfftfreq(nfft, 1.0 / fs)
+    total = p.sum()
+    if not total > 0.0:
+        return 0.0, 0.0
+    c = float(np.dot(f, p) / total)
+    return c, float(np.sqrt(np.dot((f - c) ** 2, p) / total))

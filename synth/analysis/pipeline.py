@@ -1,0 +1,284 @@
+"""The analysis of a recording, stage by stage: checked inputs, clipping, whitening (step 1),
+the first search (steps 2-6), the resonator's search where the first tick rings on (step 7),
+and the measurements of every tick (docs/analysis.md, Method)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from synth import dsp
+from synth.analysis.clipping import Clipping, declipped_mix, find_clipping
+from synth.analysis.deflation import DeflationSearch, FirstTick
+from synth.analysis.detection import first_ticks
+from synth.analysis.measures import WINDOW_GUARD, FoundTick, Whitening, measure_ticks
+from synth.analysis.report import Analysis
+from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
+from synth.analysis.series import bounce_order
+from synth.analysis.settings import (
+    AnalysisError,
+    Settings,
+    audio_array,
+    make_settings,
+    read_recording,
+)
+from synth.analysis.whitening import resonator_predictor, whiten
+from synth.errors import ParameterError
+
+#: The resonator's search (step 7) is kept when its predictor leaves at least this much
+#: less of the first tick's ringing than the first search's, dB.
+RESONATOR_GAIN_DB = 20.0
+#: The resonator's search must find the first search's ticks within this, s (two sample
+#: periods at 48 kHz), to continue their series.
+AGREEMENT = 0.00004
+#: The free ringing of the first bounce is taken from this long after the first onset (past
+#: the contact), s.
+CLEAN_GUARD = 0.002
+
+
+def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.001,
+            hop=0.00025, threshold_db=10.0, rise_db=6.0, release=5.0,
+            dynamic_range_db=None, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
+            lpc_order=None, window=0.02, subtract_tails=True, deflate=True,
+            decay_smoothing=0.002, clip_samples=4, on_clipping="warn") -> Analysis:
+    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method).
+
+    Parameters
+    ----------
+    audio : array of float, (frames,) or (frames, channels)
+        The recording, in any signal units (energies and peaks are in them).
+    samplerate : float > 0
+        Sample rate, Hz.
+    gravity : float > 0
+        Gravity for the impact speeds ``v_n = g t_n / 2``, m/s^2.
+    channel : int or None
+        The channel to analyse (0-based); ``None`` mixes them (mean).
+    min_separation : float > 0
+        Shortest time between two ticks, s: a burst closer than this to a tick is part
+        of it (default 1 ms). Longer contacts are told apart by the bounce-series rules
+        (steps 3, 5 and 6); lower it (0.2 ms) for hard balls whose last bounces are
+        shorter than 1 ms.
+    hop : float > 0
+        Spacing of the detection function's frames, s (at least one sample; each
+        frame spans at least 12 samples).
+    threshold_db : float > 0
+        Margin above the local background, dB.
+    rise_db : float > 0
+        Margin above the fading memory of the earlier frames, dB.
+    release : float > 0
+        How fast that memory fades, dB per ms.
+    dynamic_range_db : float > 0, optional
+        Ticks more than this below the strongest frame of the whitened signal are ignored,
+        dB, in every step. Default: :data:`~synth.analysis.settings.DYNAMIC_RANGE_DB`
+        (60 dB) in steps 1-6; in the resonator's search (step 7), which models every earlier
+        tick and weighs a candidate against what those models are expected to leave, no
+        fixed range: the floor there is the whitened noise floor raised by ``threshold_db``
+        and ``max_drop_db`` under the last tick.
+    max_drop_db : float > 0
+        A tick more than this below the previous tick is ignored, dB (20 dB: a
+        restitution below 0.1); it also sets the shortest plausible bounce,
+        ``10^(-max_drop_db / 20)`` times the previous one.
+    background : float > 0
+        Length of the running median giving the local background, s.
+    onset_fraction : float in (0, 1)
+        Level of the onset crossing, as a fraction of the burst's peak.
+    lpc_order : int >= 2, optional
+        Order of the whitening predictor. Default: 20 ms of samples, at least 8, and where
+        the first tick rings on under it, the resonator's own predictor (step 7). Given,
+        that order alone (no step 7).
+    window : float > 0
+        Length of every tick's measurement window, s (shorter only where the recording
+        ends).
+    subtract_tails : bool
+        Measure each tick's own sound (its excitation through the resonator's all-pole
+        model, without the other ticks); False measures the recording over the window.
+    deflate : bool
+        Find the ticks after the first one by one, each with the earlier ticks' whitened
+        responses taken out (steps 5 and 7); False keeps the ticks of step 3.
+    decay_smoothing : float > 0
+        Length of the Hann window smoothing the envelope for the decay fit, s
+        (at least 3 samples).
+    clip_samples : int >= 2
+        Samples at exactly a channel's largest (or smallest) value that mean clipping.
+    on_clipping : {"warn", "raise"}
+        Report clipping in :attr:`Analysis.warnings`, or raise ``AnalysisError``.
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    ParameterError
+        Bad input; the message names the field and its value.
+    AnalysisError
+        A silent recording, one without a detectable tick, or a clipped one with
+        ``on_clipping="raise"``.
+    """
+    chans = audio_array(audio)
+    settings = make_settings(
+        chans.shape[1], samplerate, gravity=gravity, channel=channel,
+        min_separation=min_separation, hop=hop, threshold_db=threshold_db, rise_db=rise_db,
+        release=release, dynamic_range_db=dynamic_range_db, max_drop_db=max_drop_db,
+        background=background, onset_fraction=onset_fraction, lpc_order=lpc_order,
+        window=window, subtract_tails=subtract_tails, deflate=deflate,
+        decay_smoothing=decay_smoothing, clip_samples=clip_samples, on_clipping=on_clipping)
+    used = chans if settings.channel is None else chans[:, [settings.channel]]
+    clipping = _checked_signal(used, settings)
+    x = _mix(used)
+    if not np.any(x):
+        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
+    if clipping is not None:
+        x = declipped_mix(used, clipping.mask, settings.whitening_order)
+    A = dsp.autocorrelation_predictor(x, settings.whitening_order)
+    first = _search(whiten(x, A), settings)
+    found = [FoundTick(first.onsets[i], first.strengths[i],
+                       None if first.models is None else first.models[i], 0, first.onsets[i])
+             for i in bounce_order(first.onsets, first.strengths, settings.e_min)]
+    whitenings = [Whitening(A, first.whitened, first.residual)]
+    if (first.ringing_left is not None
+            and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
+            and not settings.fixed_order and clipping is None):
+        found = _resonator_stage(x, settings, first, found, whitenings)
+    noise = dsp.noise_floor(x, settings.samplerate)
+    return Analysis(ticks=measure_ticks(x, found, whitenings, settings, noise),
+                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
+                    noise_floor=noise, gravity=settings.gravity, channel=settings.channel,
+                    clipped=clipping is not None,
+                    warnings=() if clipping is None else (clipping.warning,))
+
+
+def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
+    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (WAV, FLAC, OGG, AIFF, ...).
+    gravity : float > 0
+        Gravity for the impact speeds, m/s^2.
+    channel : int or None
+        The channel to analyse (0-based); ``None`` mixes them (mean).
+    **options
+        The other keyword arguments of :func:`analyze`.
+
+    Raises
+    ------
+    ParameterError
+        A missing file or bad options.
+    AnalysisError
+        An unreadable file (corrupt header, unknown format) and the cases of
+        :func:`analyze`.
+    """
+    audio, samplerate = read_recording(path)
+    return analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+
+
+def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
+    """Check that the analysed channels are long enough for the whitening and not silent,
+    and find their clipping (raised with ``on_clipping="raise"``)."""
+    order = settings.whitening_order
+    if used.shape[0] <= 2 * order:
+        raise ParameterError(
+            f"audio has {used.shape[0]} frames: too short for a whitening predictor of order "
+            f"{order} (needs more than {2 * order})")
+    if not np.any(used):
+        raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
+    clipping = find_clipping(used, settings.clip_samples)
+    if clipping is not None and settings.on_clipping == "raise":
+        raise AnalysisError(clipping.warning)
+    return clipping
+
+
+def _mix(used: np.ndarray) -> np.ndarray:
+    """The analysed signal: the one channel, or the mean of the channels."""
+    return used[:, 0] if used.shape[1] == 1 else used.mean(axis=1)
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """The ticks one search found in one whitening: onsets (samples) and strengths (dB) in
+    time order, the residual and each tick's model (None without deflation), what the
+    whitening leaves of the first tick's ringing (None without a second tick), the candidate
+    frames of steps 2-4, and the onsets timed against the first tick's template (step 7)."""
+
+    whitened: np.ndarray
+    onsets: np.ndarray
+    strengths: np.ndarray
+    residual: np.ndarray | None
+    models: list | None
+    ringing_left: float | None
+    peaks: np.ndarray
+    timed: np.ndarray | None
+
+
+def _search(r: np.ndarray, settings: Settings, order: int | None = None,
+            known=()) -> SearchResult:
+    """Steps 2-5 on the whitened signal ``r``; with ``order`` (the resonator's predictor's),
+    the rules of step 7: the local background of step 3 over :data:`BACKGROUND_SPAN` times
+    the order (a tick's whitened response lasts about that), the first bounce ending where
+    the second tick's burst begins, and no fixed floor unless ``dynamic_range_db`` was
+    given. ``known``: the onsets of the first search (samples)."""
+    fs, hop = settings.samplerate, settings.hop
+    background = (settings.background if order is None
+                  else max(settings.background, BACKGROUND_SPAN * order / fs))
+    ft = first_ticks(r, settings, background)
+    if not settings.deflate:
+        return SearchResult(r, ft.onsets, ft.strengths, None, None, None, ft.peaks, None)
+    peaks, d = ft.peaks, ft.d
+    end1 = (peaks[1] - 1) * hop if peaks.size > 1 else r.size
+    if order is not None and peaks.size > 1:
+        end1 = min(end1, max(int(math.floor(ft.onsets[1])) - WINDOW_GUARD, 1))
+    first = FirstTick(ft.onsets[0], ft.strengths[0], d[peaks[0]: peaks[0] + 2].max(), end1)
+    anchors = (ft.anchors[1:], ft.anchor_strengths[1:])
+    fixed_floor = d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)
+    if order is None:
+        search = DeflationSearch(r, settings, first, anchors, fixed_floor, float(d.max()), known)
+    else:
+        search = ResonatorSearch(r, settings, first, anchors,
+                                 fixed_floor if settings.fixed_range else None,
+                                 float(d.max()), known)
+    out = search.run()
+    return SearchResult(r, out.onsets, out.strengths, out.residual, out.models,
+                        out.ringing_left if peaks.size > 1 else None, peaks, out.timed)
+
+
+def _resonator_stage(x: np.ndarray, settings: Settings, first: SearchResult,
+                     found: list[FoundTick], whitenings: list[Whitening]) -> list[FoundTick]:
+    """Step 7: the first tick rings on above the floor up to the second under the whitening;
+    the resonator's own predictor, from the free ringing of the first bounce, and the search
+    again. Kept when it leaves :data:`RESONATOR_GAIN_DB` less of the first tick's ringing and
+    finds the first search's ticks, from the first on (at least two), within
+    :data:`AGREEMENT`: then it continues their series where the two part, and its onsets
+    (timed against the first tick's template) replace the first search's for the ticks they
+    share: one estimator for every bounce time. Its whitening is appended to
+    ``whitenings``."""
+    fs = settings.samplerate
+    lo = int(math.floor(first.onsets[0])) + int(round(CLEAN_GUARD * fs))
+    hi = (first.peaks[1] - 1) * settings.hop
+    a_res = resonator_predictor(x[lo:hi], fs, settings.whitening_order) if hi > lo else None
+    if a_res is None:
+        return found
+    known = np.array([f.onset for f in found])
+    try:
+        res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
+    except AnalysisError:
+        return found
+    if res.ringing_left is None or not (
+            res.ringing_left < first.ringing_left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)):
+        return found
+    kept = bounce_order(res.onsets, res.strengths, settings.e_min)
+    on2 = res.onsets[kept]
+    tol = AGREEMENT * fs
+    n = 0
+    while n < min(len(found), on2.size) and abs(on2[n] - found[n].onset) <= tol:
+        n += 1
+    if not (n >= 2 and (n == len(found) or on2.size > n and on2[n] < found[n].onset - tol)):
+        return found
+    whitenings.append(Whitening(a_res, res.whitened, res.residual))
+    timed = res.timed
+    return ([replace(found[j], onset=timed[kept[j]]) for j in range(n)]
+            + [FoundTick(timed[kept[j]], res.strengths[kept[j]], res.models[kept[j]], 1, on2[j])
+               for j in range(n, on2.size)])

@@ -1,0 +1,182 @@
+"""Drawing of an analysis to an image file (matplotlib, written atomically)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+from synth import checks
+from synth.analysis.report import Analysis, checked_analysis
+from synth.analysis.settings import audio_array
+from synth.errors import ParameterError, SynthError
+
+
+def check_plot_path(path) -> str:
+    """Check that an image can be written to ``path`` before any work is done.
+
+    The directory must exist and be writable, and the suffix must name an image format
+    matplotlib writes (.png, .pdf, .svg, ...). Returns the format (the suffix, lower
+    case).
+
+    Raises
+    ------
+    ParameterError
+        A bad path or format; the message names ``path``.
+    SynthError
+        matplotlib is not installed (``pip install matplotlib``).
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ParameterError(f"path={path!r}: directory {folder!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ParameterError(f"path={path!r}: directory {folder!r} is not writable")
+    if os.path.isdir(path):
+        raise ParameterError(f"path={path!r} is a directory, not an image file name")
+    fmt = os.path.splitext(path)[1].lstrip(".").lower()
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+    except ImportError:
+        raise SynthError("plotting needs matplotlib: pip install matplotlib") from None
+    formats = FigureCanvasAgg.get_supported_filetypes()
+    if fmt not in formats:
+        raise ParameterError(
+            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}")
+    return fmt
+
+
+def plot_analysis(analysis, audio, samplerate, path):
+    """Draw the analysis to an image file (format from the suffix: .png, .pdf, .svg ...).
+
+    Four panels: the analysed signal with the detected onsets; bounce time (ms)
+    and restitution per bounce; tick energy on a log scale against bounce
+    number, with the line ``E_1 ebar^(2 (n - 1))`` through the first tick
+    (``ebar`` the mean restitution); centroid (Hz) and decay time (ms) per
+    bounce. Written to a temporary file beside ``path`` and renamed onto it.
+
+    Parameters
+    ----------
+    analysis : Analysis
+        From :func:`~synth.analysis.analyze` of the same audio.
+    audio : array of float, (frames,) or (frames, channels)
+        The recording that was analysed, with all its channels (the analysis says
+        which channel, or the mix, it used).
+    samplerate : float > 0
+        Its sample rate, Hz; must be the analysis' rate.
+    path : str or path-like
+        The image file to write (:func:`check_plot_path`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure drawn (four panels, titled as above).
+
+    Raises
+    ------
+    ParameterError
+        Bad input.
+    SynthError
+        matplotlib is not installed (``pip install matplotlib``).
+    """
+    an = checked_analysis("analysis", analysis)
+    x = _analysed_signal(an, audio, samplerate)
+    fmt = check_plot_path(path)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
+
+    fig = Figure(figsize=(11, 8), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots(2, 2)
+    _signal_panel(ax[0, 0], an, x)
+    _bounce_panel(ax[0, 1], an)
+    _energy_panel(ax[1, 0], an)
+    _spectrum_panel(ax[1, 1], an)
+    for a_ in (ax[0, 1], ax[1, 0], ax[1, 1]):
+        a_.xaxis.set_major_locator(MaxNLocator(integer=True))
+    _save_atomically(fig, os.fspath(path), fmt)
+    return fig
+
+
+def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
+    """The signal the analysis used (its channel, or the mix) from the recording, checked
+    against the analysis' rate, channels and length."""
+    chans = audio_array(audio)
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    if fs != an.samplerate:
+        raise ParameterError(
+            f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz")
+    if an.channel is not None and an.channel >= chans.shape[1]:
+        raise ParameterError(
+            f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}"
+            f" (pass the recording with all its channels)")
+    if chans.shape[0] != int(round(an.duration * fs)):
+        raise ParameterError(
+            f"audio has {chans.shape[0]} frames but the analysis was of "
+            f"{int(round(an.duration * fs))}")
+    return chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
+
+
+def _column(an: Analysis, name: str, scale: float = 1.0) -> np.ndarray:
+    """One field of every tick, NaN where undefined."""
+    return np.array([np.nan if getattr(tk, name) is None else getattr(tk, name) * scale
+                     for tk in an.ticks])
+
+
+def _numbers(an: Analysis) -> np.ndarray:
+    return np.array([tk.index for tk in an.ticks])
+
+
+def _signal_panel(ax, an: Analysis, x: np.ndarray) -> None:
+    ax.plot(np.arange(x.size) / an.samplerate, x, lw=0.5, color="0.3")
+    for tk in an.ticks:
+        ax.axvline(tk.time, color="tab:red", lw=0.6, alpha=0.7)
+    ax.set(xlabel="time (s)", ylabel="signal", title=f"{len(an.ticks)} ticks detected")
+
+
+def _bounce_panel(ax, an: Analysis) -> None:
+    n = _numbers(an)
+    ax.plot(n, _column(an, "bounce_time", 1e3), "o-", color="tab:blue", ms=3)
+    ax.set(xlabel="tick", ylabel="bounce time (ms)", title="bounce time and restitution")
+    twin = ax.twinx()
+    twin.plot(n, _column(an, "restitution"), "s-", color="tab:orange", ms=3)
+    twin.set_ylabel("restitution e", color="tab:orange")
+
+
+def _energy_panel(ax, an: Analysis) -> None:
+    n = _numbers(an)
+    energy = _column(an, "energy")
+    ax.semilogy(n, energy, "o", color="tab:green", ms=4, label="tick energy")
+    e = an.mean_restitution
+    if e is not None and energy.size:
+        ax.semilogy(n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4",
+                    label=f"slope e^2, e = {e:.3f}")
+    ax.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
+    ax.legend(loc="upper right")
+
+
+def _spectrum_panel(ax, an: Analysis) -> None:
+    n = _numbers(an)
+    ax.plot(n, _column(an, "centroid"), "o-", color="tab:purple", ms=3)
+    ax.set(xlabel="tick", ylabel="centroid (Hz)", title="centroid and decay time")
+    twin = ax.twinx()
+    twin.plot(n, _column(an, "decay_time", 1e3), "s-", color="tab:brown", ms=3)
+    twin.set_ylabel("decay time (ms)", color="tab:brown")
+
+
+def _save_atomically(fig, path: str, fmt: str) -> None:
+    """Write ``fig`` to a temporary file beside ``path`` and rename it onto ``path``."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".plot-", suffix="." + fmt, dir=folder)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, format=fmt, dpi=110)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise

@@ -1,0 +1,201 @@
+"""The result of an analysis: :class:`Tick` and :class:`Analysis`, and their presentation as a
+terminal table, JSON-ready data and CSV (SI units throughout)."""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from synth.errors import ParameterError
+
+
+@dataclass(frozen=True)
+class Tick:
+    """One detected tick (SI units).
+
+    Attributes
+    ----------
+    index : int
+        1 for the first tick.
+    time : float
+        Onset, s from the start of the recording.
+    bounce_time : float or None
+        Time since the previous tick's onset ``t_n``, s (the flight plus the
+        previous contact); ``None`` for the first tick.
+    restitution : float or None
+        ``e_n = t_n / t_(n-1)``, dimensionless: the restitution of the previous
+        tick's impact as the thesis (see docs/physics.md, References) defines it from
+        bounce times (section 3.1).
+        Bounce times hold the contact times, so it exceeds the impact's physical
+        restitution (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) /
+        t_(n-1)`` (docs/analysis.md): of the order of contact time over bounce time.
+        ``None`` for the first two ticks.
+    speed : float or None
+        Impact speed ``v_n = g t_n / 2``, m/s (the flight alone gives ``g (t_n -
+        tau) / 2``: this exceeds it by ``g tau / 2``); ``None`` for the first tick.
+    energy : float
+        Sum of squares of the tick's own signal (without the other ticks) over its
+        window divided by the sample rate, signal units^2 s.
+    peak : float
+        Largest magnitude of the tick's own signal, signal units.
+    centroid : float
+        Spectral centroid (power-weighted mean frequency), Hz.
+    spread : float
+        Spectral spread (power-weighted standard deviation of frequency), Hz.
+    decay_time : float or None
+        Time for the amplitude envelope to fall to 1/e of its peak, s; ``None``
+        when the window is too short to fit it.
+    window : float
+        Length of the measurement window, s: ``window`` of :func:`analyze` for every
+        tick, shorter only where the recording ends.
+    strength : float
+        How far the tick's whitened energy stands above the threshold it had to
+        clear, dB; for a tick that step 7 found by description length (no threshold
+        cleared), how far that fell with it, in dB of residual energy per sample.
+    """
+
+    index: int
+    time: float
+    bounce_time: float | None
+    restitution: float | None
+    speed: float | None
+    energy: float
+    peak: float
+    centroid: float
+    spread: float
+    decay_time: float | None
+    window: float
+    strength: float
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """The ticks found in one recording.
+
+    Attributes
+    ----------
+    ticks : list of Tick
+        In time order.
+    samplerate : float
+        Sample rate, Hz.
+    duration : float
+        Length of the recording, s.
+    noise_floor : float
+        RMS of the noise estimate, signal units.
+    gravity : float
+        Gravity used for the speeds, m/s^2.
+    channel : int or None
+        The channel analysed; ``None`` when the channels were mixed (mean).
+    clipped : bool
+        True when the recording looks clipped.
+    warnings : tuple of str
+        What the measurements should be read with (clipping).
+    """
+
+    ticks: list[Tick]
+    samplerate: float
+    duration: float
+    noise_floor: float
+    gravity: float
+    channel: int | None
+    clipped: bool
+    warnings: tuple[str, ...]
+
+    @property
+    def mean_restitution(self) -> float | None:
+        """Mean of the defined ``e_n``, dimensionless; ``None`` when there is none."""
+        e = [t.restitution for t in self.ticks if t.restitution is not None]
+        return float(np.mean(e)) if e else None
+
+
+def checked_analysis(name: str, value) -> Analysis:
+    """``value`` when it is an :class:`Analysis`; else ParameterError naming ``name``."""
+    if not isinstance(value, Analysis):
+        raise ParameterError(
+            f"{name} must be an Analysis (from analyze or analyze_file), "
+            f"not {type(value).__name__}")
+    return value
+
+
+#: Columns of :func:`format_table` and :func:`to_csv`: (field, heading, unit, scale, format).
+_COLUMNS = (
+    ("index", "n", "", 1.0, "d"),
+    ("time", "time", "s", 1.0, ".5f"),
+    ("bounce_time", "bounce", "ms", 1e3, ".3f"),
+    ("restitution", "e", "", 1.0, ".4f"),
+    ("speed", "speed", "m/s", 1.0, ".4f"),
+    ("energy", "energy", "u^2 s", 1.0, ".4g"),
+    ("peak", "peak", "u", 1.0, ".4g"),
+    ("centroid", "centroid", "Hz", 1.0, ".0f"),
+    ("spread", "spread", "Hz", 1.0, ".0f"),
+    ("decay_time", "decay", "ms", 1e3, ".2f"),
+    ("strength", "strength", "dB", 1.0, ".1f"),
+)
+
+
+def format_table(analysis, *, warnings=True) -> str:
+    """A terminal table of the ticks, one line each, with a summary header.
+
+    Columns: n, time (s), bounce time (ms), e, speed (m/s), energy (signal
+    units^2 s), peak (signal units), centroid (Hz), spread (Hz), decay (ms),
+    strength (dB). Undefined values print as ``-``. With ``warnings`` (default) the
+    analysis' warnings follow the header, one line each (the command line prints
+    them to stderr instead).
+    """
+    an = checked_analysis("analysis", analysis)
+    if not isinstance(warnings, (bool, np.bool_)):
+        raise ParameterError(f"warnings={warnings!r} must be True or False")
+    e = an.mean_restitution
+    summary = (f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
+               f"channel {'mix' if an.channel is None else an.channel}, "
+               f"noise floor {an.noise_floor:.3g}, mean e "
+               f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2")
+    lines = [summary]
+    if warnings:
+        lines += [f"warning: {w}" for w in an.warnings]
+    head = [h + (f" ({u})" if u else "") for _, h, u, _, _ in _COLUMNS]
+    rows = []
+    for t in an.ticks:
+        row = []
+        for name, _, _, scale, fmt in _COLUMNS:
+            v = getattr(t, name)
+            row.append("-" if v is None else format(v * scale if scale != 1.0 else v, fmt))
+        rows.append(row)
+    widths = [max(len(h), *(len(r[j]) for r in rows)) if rows else len(h)
+              for j, h in enumerate(head)]
+    lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths)))
+    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(lines)
+
+
+def to_dict(analysis) -> dict:
+    """The analysis as plain JSON-ready data (SI units; ``None`` where undefined)."""
+    an = checked_analysis("analysis", analysis)
+    out = {f.name: getattr(an, f.name) for f in fields(an) if f.name != "ticks"}
+    out["warnings"] = list(an.warnings)
+    out["mean_restitution"] = an.mean_restitution
+    out["units"] = {"time": "s", "bounce_time": "s", "speed": "m/s",
+                    "energy": "signal units^2 s", "peak": "signal units", "centroid": "Hz",
+                    "spread": "Hz", "decay_time": "s", "window": "s", "strength": "dB",
+                    "samplerate": "Hz", "duration": "s", "noise_floor": "signal units",
+                    "gravity": "m/s^2"}
+    out["ticks"] = [asdict(t) for t in an.ticks]
+    return out
+
+
+def to_csv(analysis) -> str:
+    """The ticks as CSV: a header of the :class:`Tick` field names, SI units, one row each.
+
+    Undefined values are empty cells.
+    """
+    an = checked_analysis("analysis", analysis)
+    names = [f.name for f in fields(Tick)]
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(names)
+    for t in an.ticks:
+        w.writerow(["" if getattr(t, n) is None else repr(getattr(t, n)) for n in names])
+    return buf.getvalue()

@@ -1,0 +1,362 @@
+"""Step 7 of the tick detection (docs/analysis.md, Method): the resonator's search.
+
+On a lightly damped resonator with many modes the 20 ms whitening predictor leaves the first
+tick ringing over the whole first bounce, and the later ticks stay under what is left. Then the
+ringing itself is cancelled by the resonator's own predictor
+(:func:`synth.analysis.whitening.resonator_predictor`), a tick's whitened response ends, and
+the deflation of step 5 runs again with every earlier tick modelled over its whole response:
+:class:`ResonatorResidual` (models on several templates, their expected remainders) and
+:class:`ResonatorSearch` (fit windows, templates, joint refits, one more tick by description
+length, timing against the first tick's template).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot
+from synth.analysis.detection import delay, frame_energies
+from synth.analysis.measures import WINDOW_GUARD
+from synth.analysis.series import (
+    ANCHOR_DB,
+    BOUNCE_GROWTH,
+    DOUBTFUL_DB,
+    RESTITUTION_STEP,
+    soonest,
+)
+from synth.analysis.settings import Settings
+from synth.analysis.whitening import PREDICTION_FLOOR
+
+#: The longest lag after of a tick's filter, s: a contact up to 0.5 ms longer than the first
+#: tick's (a slow ball's on a soft board).
+RESONATOR_POST = 0.0005
+#: Least samples of the fit window per unknown filter tap.
+FIT_SAMPLES_PER_TAP = 2
+#: Ticks whose whitened response is taken whole as a template, at most: the first tick's and
+#: the next sure ones alone over their whole response (their sub-sample onsets differ; two or
+#: three such span the sampled responses of the others).
+MAX_TEMPLATES = 3
+#: What a tick's model leaves outside its fit window is expected at its relative error in the
+#: window raised by this, dB (at most all of it).
+REMAINDER_MARGIN_DB = 10.0
+#: The template ends where it sinks under the noise or this far under the floor of the
+#: dynamic range, dB (its whitened response ends: beyond, what it leaves raises no frame to
+#: the floor).
+TEMPLATE_FLOOR_DB = 10.0
+#: The spacing of the places where one more tick of the series is tried when no candidate
+#: clears the rules, samples: the span of the shortest filters' lags (-1 to +2 samples), so
+#: that an onset lies within those lags of one of the places.
+HYPOTHESIS_STEP = 4
+#: The local background of step 3 is the running median over this many times the
+#: predictor's order (the length of a tick's whitened response), at least ``background``.
+BACKGROUND_SPAN = 4
+
+
+@dataclass(frozen=True)
+class ModelChoice:
+    """A fit of tick models on templates: its description length ``W ln(RSS) + P ln W``, the
+    templates used, the lags ``-pre .. post`` (samples), the taps and the residual."""
+
+    length: float
+    templates: list
+    pre: int
+    post: int
+    taps: np.ndarray
+    residual: np.ndarray
+
+
+class ResonatorResidual(Residual):
+    """The residual of step 7: each tick modelled through a filter on each of up to
+    :data:`MAX_TEMPLATES` templates, and ``expect``, what each model is expected to leave
+    (energy per sample), against which a candidate is weighed instead of all that was taken
+    out."""
+
+    def __init__(self, r: np.ndarray, template: np.ndarray, start: int, settings: Settings,
+                 floor: float, noise: float):
+        super().__init__(r, template, start, settings, floor, noise)
+        self.expect = np.zeros_like(r)
+        self.post_long = max(self.post, int(round(RESONATOR_POST * settings.samplerate)))
+
+    @property
+    def longest_lag(self) -> int:
+        return self.post_long
+
+    def snapshot(self, s: int, n: int) -> Snapshot:
+        q = self.q[s: s + n].copy()
+        return Snapshot(s, q, self.expect[s: s + q.size].copy())
+
+    def restore(self, snap: Snapshot) -> None:
+        self.q[snap.start: snap.start + snap.q.size] = snap.q
+        self.expect[snap.start: snap.start + snap.q.size] = snap.expect
+
+    def taken_out(self, lo: int, hi: int) -> np.ndarray:
+        return frame_energies(np.sqrt(self.expect[lo:hi]), self.hop, self.w)
+
+    def remove(self, s: int, end: int, alone: int | None = None, joint=()) -> np.ndarray:
+        """Fit the model of :meth:`choose` to ``q[s:end]``, take it out of ``q`` from ``s`` on
+        and return it (from ``s`` on). The model is expected to leave, outside the window, its
+        relative error in the window raised by :data:`REMAINDER_MARGIN_DB`, counted up to
+        ``alone`` (the soonest next bounce the series allows: beyond, the window may hold a
+        later tick that no model there explains). ``joint``: the starts of later ticks in the
+        window, fitted with this one, whose models are not taken out."""
+        q = self.q
+        W = min(end, q.size) - s
+        if W <= 0:
+            return np.zeros(0)
+        y = q[s: s + W].copy()
+        fit = self.choose(y, [0] + [int(o) - s for o in joint])
+        contrib = self._contribution(fit)
+        n = min(contrib.size, q.size - s)
+        q[s: s + n] -= contrib[:n]
+        model = y - fit.residual
+        m = W if alone is None else max(1, min(W, int(alone) - s))
+        rss = float(np.dot(fit.residual[:m], fit.residual[:m]))
+        fitted = float(np.dot(model[:m], model[:m]))
+        eps = min(1.0, 10.0 ** (REMAINDER_MARGIN_DB / 10.0) * rss / max(fitted, 1e-300))
+        self.expect[s: s + n] += eps * contrib[:n] ** 2
+        return contrib
+
+    @staticmethod
+    def _contribution(fit: ModelChoice) -> np.ndarray:
+        """The first tick's model of ``fit`` from its start: ``sum_j h_j T[t - l_j]``."""
+        ntap = fit.pre + fit.post + 1
+        contrib = np.zeros(max(T.size for T in fit.templates) + fit.post)
+        for i, T in enumerate(fit.templates):
+            c = np.convolve(T, fit.taps[i * ntap: (i + 1) * ntap][::-1])[fit.pre:]
+            contrib[: c.size] += c
+        return contrib
+
+    def choose(self, y: np.ndarray, offsets=(0,)) -> ModelChoice:
+        """The models of ticks started at ``offsets`` (samples into ``y``) fitted to ``y``: of
+        the templates (all, or the first few) and lags (``-pre .. post_long``, ``-pre ..
+        post`` or ``-1 .. 2`` samples) with at least :data:`FIT_SAMPLES_PER_TAP` samples per
+        unknown, the one of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983,
+        Ann. Stat. 11, 416); one tap per template, on as many as the window allows, when no
+        filter fits it."""
+        W = y.size
+        K = len(offsets)
+        best = None
+        for n_t in range(len(self.T), 0, -1):
+            for pre, post in ((self.pre, self.post_long), (self.pre, self.post), (1, 2)):
+                P = K * n_t * (pre + post + 1)
+                if W < FIT_SAMPLES_PER_TAP * P:
+                    continue
+                h, res = self._fit(self.T[:n_t], y, pre, post, offsets)
+                crit = W * math.log(_rss(res, y)) + P * math.log(W)
+                if best is None or crit < best.length:
+                    best = ModelChoice(crit, self.T[:n_t], pre, post, h, res)
+        if best is None:
+            n_t = max(1, min(len(self.T), W // (FIT_SAMPLES_PER_TAP * K)))
+            h, res = self._fit(self.T[:n_t], y, 0, 0, offsets)
+            best = ModelChoice(W * math.log(_rss(res, y)) + K * n_t * math.log(W),
+                               self.T[:n_t], 0, 0, h, res)
+        return best
+
+    @staticmethod
+    def _fit(Ts, y, pre, post, offsets=(0,)):
+        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts``, started at
+        each of ``offsets`` (samples into ``y``), fitting ``y``: the taps (offset by offset,
+        template by template) and the residual."""
+        W = y.size
+        ntap = pre + post + 1
+        cols = []
+        for o in offsets:
+            for T in Ts:
+                # M[i, j] = T[i - o - l_j] with lags l_j = post - j
+                Tp = np.concatenate((np.zeros(post + o), T[: max(0, W - o + pre)],
+                                     np.zeros(pre + max(0, W - o - T.size))))
+                cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        M = np.concatenate(cols, axis=1)
+        G = M.T @ M
+        P = G.shape[0]
+        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
+        h = np.linalg.solve(G, M.T @ y)
+        return h, y - M @ h
+
+    def take(self, s: int, n: int) -> np.ndarray:
+        """Take ``q[s:s+n]`` as a new template (a tick alone over its whole whitened
+        response): out of ``q``, and returned."""
+        T = self.q[s: s + n].copy()
+        self.q[s: s + n] = 0.0
+        self.T.append(T)
+        return T
+
+
+def _rss(res: np.ndarray, y: np.ndarray) -> float:
+    """Residual energy, never under 1e-300 of ``y``'s (rounding)."""
+    return max(float(np.dot(res, res)), 1e-300 * float(np.dot(y, y)) + 1e-300)
+
+
+class ResonatorSearch(DeflationSearch):
+    """The deflation of step 5 on the resonator's whitening, with the rules of step 7
+    (docs/analysis.md): templates from the sure ticks, each tick's fit window found where the next
+    tick shows, each model refitted jointly with the next tick's, the shortest bounce the
+    series allows, one more tick tried by description length, and every tick timed against
+    the first tick's template. ``floor`` None: no fixed floor under the strongest frame (the
+    whitened noise raised by ``threshold_db`` and ``e_min^2`` times the last tick's energy,
+    never under :data:`PREDICTION_FLOOR` of ``strongest``). ``known``: the onsets of the
+    first search, which decide whether the second tick is a template."""
+
+    strict_onsets = True
+
+    def __init__(self, *args, **kwargs):
+        self.relative = False
+        # the last tick's window start, and ``q`` and ``expect`` from there before its model
+        # was taken out (None after the first tick and a template)
+        self.prev: Snapshot | None = None
+        super().__init__(*args, **kwargs)
+        self.timed = [float(self.first.onset)]
+
+    def _initial_floor(self, floor, noise, strongest):
+        self.relative = floor is None
+        if self.relative:
+            return max(10.0 ** (self.settings.threshold_db / 10.0) * noise * noise * self.w,
+                       PREDICTION_FLOOR * strongest)
+        return floor
+
+    def _template_cut(self, noise):
+        return max(super()._template_cut(noise), self.floor * 10.0 ** (-TEMPLATE_FLOOR_DB / 10.0))
+
+    def _residual(self, template, noise):
+        return ResonatorResidual(self.r, template, self.s1, self.settings, self.floor, noise)
+
+    def _separation(self, onsets, strengths):
+        return soonest(onsets, strengths, self.min_sep)
+
+    def _lower_floor(self, energy):
+        """``e_min^2`` times the last tick's energy: ``max_drop_db`` under it."""
+        if self.relative:
+            e_min = self.settings.e_min
+            self.residual.floor = max(self.floor, e_min * e_min * energy)
+
+    def _onset_walk_start(self, c):
+        """Not more than a frame before the first frame that cleared the threshold: further
+        back lie the earlier ticks' remainders, not this burst."""
+        return max(super()._onset_walk_start(c), c.first - self.w)
+
+    def _next_start(self, c):
+        return c.first
+
+    def _refit(self, e2, e):
+        return e2 != e
+
+    def _timing(self, start: int, model: np.ndarray, level_crossing: float) -> float:
+        """The onset of a tick whose window starts at ``start``: its level crossing delayed by
+        its model's delay behind the first tick's template (within the lags of its filters)
+        from the template's own onset; a model of nothing keeps the level crossing."""
+        if not np.any(model):
+            return level_crossing
+        res = self.residual
+        return (self.first.onset + (start - self.s1)
+                + delay(model, res.T[0], -res.pre, res.post_long))
+
+    def _uncover(self, s, new, e, snap):
+        """While this tick is in ``q`` it may hide the next one, which the series puts between
+        ``(1 - RESTITUTION_STEP)`` and ``BOUNCE_GROWTH`` times the last restitution times this
+        bounce after it: windows ending from the soonest on, each 10 % longer, until one
+        uncovers a tick at its end."""
+        if not (len(self.onsets) >= 2 and new.strength >= DOUBTFUL_DB):
+            return e, False
+        on = new.onset
+        t_last = on - self.onsets[-1]
+        ratio = t_last / (self.onsets[-1] - self.onsets[-2])
+        end = s + int((1.0 - RESTITUTION_STEP) * ratio * t_last)
+        latest = min(e, s + int(BOUNCE_GROWTH * ratio * t_last) + self.hop)
+        while end < latest:
+            self.residual.remove(s, end, alone=self.after)
+            c = self.residual.candidate(self.after)
+            self.residual.restore(snap)
+            if c is not None and c.first <= end + 2 * self.hop:
+                return max(c.first - self.hop, int(math.floor(on)) + 1), True
+            end = max(end + self.hop, s + int(1.1 * (end - s)))
+        return e, False
+
+    def _clear_span(self, s: int, on: float) -> float:
+        """How long the tick rings alone from ``s``: up to the soonest next bounce the series
+        allows; for the second tick, up to the next tick the first search found (one it
+        missed between would be stronger than that one: the ticks of a series only
+        weaken)."""
+        if len(self.onsets) >= 2:
+            t_last = on - self.onsets[-1]
+            return (1.0 - RESTITUTION_STEP) * t_last * t_last / (self.onsets[-1] - self.onsets[-2])
+        later = self.known[self.known > on + self.min_sep]
+        return later[0] - s if later.size else 0.0
+
+    def _finish(self, s, new, e, model, snap):
+        """A sure tick alone over its whole whitened response becomes a template; else the
+        previous tick's model, fitted up to where this tick shows while its response goes on
+        under this one, is fitted again jointly with this tick's over this tick's window, and
+        this tick's alone again with the previous one's new model out."""
+        res = self.residual
+        if (len(res.T) < MAX_TEMPLATES and new.strength >= ANCHOR_DB
+                and self.L < self.first.end - self.s1
+                and self._clear_span(s, new.onset) >= self.L + self.w):
+            res.restore(snap)
+            self.prev = None
+            return res.take(s, self.L)
+        if self.prev is not None:
+            res.restore(snap)
+            res.restore(self.prev)
+            ps = self.prev.start
+            pmodel = res.remove(ps, e, joint=(s,), alone=self.after)
+            self.models[-1] = pmodel[: self.settings.window].copy()
+            self.timed[-1] = self._timing(ps, pmodel, self.timed[-1])
+            snap = res.snapshot(s, self.L + res.longest_lag + 1)
+            model = res.remove(s, e, alone=self.after)
+        self.prev = snap
+        return model
+
+    def _record(self, s, model, on):
+        self.timed.append(self._timing(s, model, on))
+
+    def _timed(self):
+        return np.array(self.timed)
+
+    def _hypothesis(self):
+        """No candidate clears the rules: one more tick of the series, where the series allows
+        the next bounce, against none, by description length over a window holding the last
+        tick's response (its model not taken out) and the new tick's: the last tick's model
+        alone, or jointly with the new one's. Only the places where the residual clears the
+        floor are tried (a tick elsewhere would be refused whatever its description length),
+        every :data:`HYPOTHESIS_STEP` samples; the place costs ``2 ln M`` for one of ``M``.
+        Its strength is the fall of the description length per sample, in dB of residual
+        energy."""
+        if self.prev is None or len(self.onsets) < 3:
+            return None
+        onsets, res = self.onsets, self.residual
+        ps, psaved = self.prev.start, self.prev.q
+        t_last = onsets[-1] - onsets[-2]
+        ratio = t_last / (onsets[-2] - onsets[-3])
+        if ratio >= 1.0:
+            # a bounce longer than the one before: a tick was missed in between (a ball's
+            # flights only shorten), whose response no model holds
+            return None
+        lo = int(math.ceil(onsets[-1])) + self._separation(onsets, self.strengths) - WINDOW_GUARD
+        hi = int(math.floor(onsets[-1] + BOUNCE_GROWTH * ratio * t_last)) - WINDOW_GUARD
+        end = min(self.r.size, hi + WINDOW_GUARD + int(t_last))
+        if end - hi < 2 or lo > hi:
+            return None
+        y = np.concatenate((psaved, res.q[ps + psaved.size: end]))[: end - ps]
+        null = res.choose(y).length
+        places = range(lo, hi + 1, HYPOTHESIS_STEP)
+        # the energies of the frames starting at every sample: a place's burst is its frames
+        # at 0, hop and 2 hop, as a candidate's
+        e_s = frame_energies(res.q[lo: hi + self.w + 2 * self.hop], 1, self.w)
+        best = None
+        for p in places:
+            k = p - lo
+            burst = e_s[k: k + 2 * self.hop + 1: self.hop]
+            energy = float(burst.max()) if burst.size else 0.0
+            if energy < res.floor:
+                continue
+            crit = res.choose(y, (0, p - ps)).length + 2.0 * math.log(len(places))
+            if best is None or crit < best[0]:
+                best = (crit, p, energy)
+        if best is None or best[0] >= null:
+            return None
+        crit, p, energy = best
+        return NewTick(float(p + WINDOW_GUARD), 10.0 / math.log(10.0) * (null - crit) / y.size,
+                       energy)

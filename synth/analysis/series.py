@@ -1,0 +1,205 @@
+"""The rules of a bounce series that tell a bounce's tick from what rings on after one.
+
+A ball loses energy at every impact, so its flights shrink and its ticks weaken: every bounce
+time lies between ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, a tick's energy goes
+as its impact speed squared (the flight time squared), and the restitution changes slowly along
+a series (the thesis, see docs/physics.md, References: section 3.1). Onsets are in samples,
+strengths in dB over the threshold a tick cleared.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: A bounce time more than this many times the previous one breaks a bounce series (a
+#: restitution above 1.5: room for the contact time, which grows as the ball slows, and for a
+#: tick missed in between).
+BOUNCE_GROWTH = 1.5
+#: Candidates over which the longest bounce series from the first tick is sought when
+#: choosing the second tick.
+SERIES_HORIZON = 64
+#: A candidate more than this above the energy its bounce time allows, ``(t_n / t_(n-1))^2``
+#: times the last tick's (the impact speed goes as the flight time), is not a bounce,
+#: dB: 3 dB for a remainder of the earlier ticks as large as the tick itself (the most
+#: the deflation's remainder test lets through), 0.4 dB for a background 10 dB under
+#: the threshold, rounded up.
+MAX_EXCESS_DB = 6.0
+#: Ticks at least this far above their threshold are sure, dB: no bounce-order rule
+#: drops them for a weaker one, and the deflation passes over none of step 3's series
+#: (100 times the threshold; the remainders and reflections met so far reached 11 dB).
+ANCHOR_DB = 20.0
+#: Largest relative change of the restitution from one bounce to the next in a series:
+#: the presets' steepest is 18 % (a steel ball on a 6 mm board, whose contact time
+#: grows to a sizeable part of the bounce time).
+RESTITUTION_STEP = 0.25
+#: Ticks weaker than this (``strength``, dB) are doubtful.
+DOUBTFUL_DB = 6.0
+
+
+def separation(onsets, strengths, min_sep: int, e_min: float) -> int:
+    """Shortest plausible bounce after the last of ``onsets`` (step 5): ``min_sep``, and
+    ``e_min`` times the last bounce time unless the last tick is doubtful."""
+    if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
+        return min_sep
+    return max(min_sep, int(math.ceil(e_min * (onsets[-1] - onsets[-2]))))
+
+
+def soonest(onsets, strengths, min_sep: int) -> int:
+    """Shortest plausible bounce after the last of ``onsets`` in the resonator's search (step
+    7): ``(1 - RESTITUTION_STEP)`` times the last restitution times the last bounce, after a
+    tick that is not doubtful; else ``min_sep``."""
+    if len(onsets) < 3 or strengths[-1] < DOUBTFUL_DB:
+        return min_sep
+    t = onsets[-1] - onsets[-2]
+    return max(1, int(math.ceil((1.0 - RESTITUTION_STEP) * t * t / (onsets[-2] - onsets[-3]))))
+
+
+def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
+    """Whether a candidate at ``on`` with whitened frame energy ``energy`` is stronger than
+    its bounce time allows (step 5): more than :data:`MAX_EXCESS_DB` above ``(t_n /
+    t_(n-1))^2`` times the last tick's energy, that tick being trusted (not doubtful)."""
+    if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
+        return False
+    ratio = (on - onsets[-1]) / (onsets[-1] - onsets[-2])
+    return energy > energies[-1] * ratio * ratio * 10.0 ** (MAX_EXCESS_DB / 10.0)
+
+
+def bounce_series(onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH,
+                  horizon: int = SERIES_HORIZON) -> list[int]:
+    """Indices in ``onsets`` of the longest bounce series that starts at the first tick
+    (step 3).
+
+    A series is a subsequence of the candidates whose every bounce time lies between
+    ``e_min`` and ``growth`` times the one before; the longest is found by dynamic
+    programming over the first ``horizon`` candidates (of equally long ones, the one whose
+    second tick comes first).
+    """
+    t = np.asarray(onsets[:horizon], dtype=float)
+    n = t.size
+    if n < 3:
+        return list(range(n))
+    # best[i, j]: most ticks in a series from tick 0 ending ..., t_i, t_j; second[i, j]:
+    # its second tick; back[i, j]: the tick before t_i
+    best = np.zeros((n, n), dtype=int)
+    second = np.zeros((n, n), dtype=int)
+    back = np.full((n, n), -1, dtype=int)
+    best[0, 1:] = 2
+    second[0, 1:] = np.arange(1, n)
+    for i in range(1, n - 1):
+        col, sec = best[:i, i], second[:i, i]
+        for j in range(i + 1, n):
+            bounce = t[j] - t[i]
+            # the bounce before, t_i - t_k, must lie in [bounce / growth, bounce / e_min]
+            lo = np.searchsorted(t[:i], t[i] - bounce / e_min, side="left")
+            hi = np.searchsorted(t[:i], t[i] - bounce / growth, side="right")
+            if hi <= lo:
+                continue
+            c = col[lo:hi]
+            m = int(c.max())
+            if m == 0:
+                continue
+            pick = np.nonzero(c == m)[0]
+            k = lo + int(pick[np.argmin(sec[lo:hi][pick])])
+            best[i, j] = m + 1
+            second[i, j] = second[k, i]
+            back[i, j] = k
+    top = best.max()
+    ends = np.argwhere(best == top)
+    i, j = min(ends, key=lambda ij: (second[ij[0], ij[1]], ij[1]))
+    chain = [int(j), int(i)]
+    while back[i, j] >= 0:
+        i, j = back[i, j], i
+        chain.append(int(i))
+    if chain[-1] != 0:
+        chain.append(0)
+    return chain[::-1]
+
+
+def _in_order(on, kept, e_min, growth) -> bool:
+    """Whether the last bounce of the ticks ``kept`` lies within ``e_min`` and ``growth``
+    times the one before (true when there is no bounce before)."""
+    if len(kept) < 3:
+        return True
+    before = on[kept[-2]] - on[kept[-3]]
+    return e_min * before <= on[kept[-1]] - on[kept[-2]] <= growth * before
+
+
+def bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float,
+                 growth: float = BOUNCE_GROWTH) -> np.ndarray:
+    """Indices of the ticks that keep the order of a bounce series (step 6).
+
+    Taken in time order after the first two: a tick too soon for a bounce is dropped
+    (:func:`_too_soon`); where a bounce is over ``growth`` times the one before, a weaker
+    tick split a bounce in two (:func:`_split_bounce`); last, the ticks that split a
+    bounce of the series' restitution are dropped (:func:`_drop_splits`).
+    """
+    on = onsets
+    kept = list(range(min(2, on.size)))
+    for i in range(2, on.size):
+        t_last = on[kept[-1]] - on[kept[-2]]
+        t = on[i] - on[kept[-1]]
+        if t < e_min * t_last:
+            _too_soon(on, strengths, kept, i, e_min, growth)
+            continue
+        if t > growth * t_last and not _split_bounce(on, strengths, kept, i, e_min, growth):
+            continue                    # a late remainder
+        kept.append(i)
+    _drop_splits(on, strengths, kept)
+    return np.array(kept, dtype=int)
+
+
+def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) -> None:
+    """Tick ``i`` comes sooner than ``e_min`` times the last bounce: part of the last tick's
+    response, unless the last tick is a doubtful remainder just before this stronger one,
+    which then takes its place in ``kept``."""
+    if (strengths[kept[-1]] < DOUBTFUL_DB and strengths[i] > strengths[kept[-1]]
+            and _in_order(on, kept[:-1] + [i], e_min, growth)):
+        kept[-1] = i
+
+
+def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float) -> bool:
+    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop from ``kept`` the
+    weaker of the two ticks of the short bounce whose removal restores the order (it split
+    a bounce in two), or else the last few ticks, all weaker than this one and not sure,
+    when that restores it. Returns whether tick ``i`` is kept: it is unless nothing was
+    dropped and it is doubtful (a late remainder); a sure one is a missed tick or a second
+    drop."""
+    options = [j for j in (len(kept) - 1, len(kept) - 2)
+               if j >= 2 and strengths[kept[j]] < strengths[i]
+               and _in_order(on, kept[:j] + kept[j + 1:] + [i], e_min, growth)
+               and _in_order(on, kept[:j] + kept[j + 1:], e_min, growth)]
+    run = None
+    for m in range(2, len(kept) - 1):
+        if max(strengths[j] for j in kept[-m:]) >= min(strengths[i], ANCHOR_DB):
+            break
+        if _in_order(on, kept[:-m] + [i], e_min, growth):
+            run = m
+            break
+    if options:
+        del kept[min(options, key=lambda j: strengths[kept[j]])]
+    elif run is not None:
+        del kept[-run:]
+    elif strengths[i] < DOUBTFUL_DB:
+        return False
+    return True
+
+
+def _drop_splits(on, strengths, kept: list) -> None:
+    """Drop from ``kept`` each tick that is not sure, between two others, when the bounce
+    across it continues the series' restitution (within :data:`RESTITUTION_STEP`) and the
+    two bounces it makes do not (a restitution changes slowly along a series, with the
+    impact speed: docs/physics.md)."""
+    k = 3
+    while k + 1 < len(kept):
+        t = on[kept[k - 3: k + 2]]
+        if strengths[kept[k]] < ANCHOR_DB:
+            e_before = (t[2] - t[1]) / (t[1] - t[0])
+            split = max(abs((t[3] - t[2]) / (t[2] - t[1]) / e_before - 1.0),
+                        abs((t[4] - t[3]) / (t[3] - t[2]) / e_before - 1.0))
+            merged = abs((t[4] - t[2]) / (t[2] - t[1]) / e_before - 1.0)
+            if merged < RESTITUTION_STEP < split:
+                del kept[k]
+                continue
+        k += 1

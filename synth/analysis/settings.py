@@ -1,0 +1,207 @@
+"""The checked inputs of :func:`synth.analysis.analyze`: the audio, and its settings in samples.
+
+Every bad argument raises :class:`~synth.errors.ParameterError` naming the field, its value and
+what is allowed; nothing is clamped.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError, SynthError
+
+#: Fewest samples summed in a frame of the detection function: at low rates the frames
+#: overlap, so that a frame of noise is never a sum of only a few squares, whose scatter
+#: would pass for a tick.
+MIN_FRAME = 12
+#: Longest gap bridged by the onset walk inside one burst (the zero crossings of a burst), s.
+ONSET_GAP = 0.00025
+#: Default floor of the detection, dB under the strongest frame of the whitened signal, in
+#: steps 1-6 (a guard against what the 20 ms predictor leaves of the earlier ticks, which
+#: those steps do not model over their whole response) and for the test that calls step 7.
+DYNAMIC_RANGE_DB = 60.0
+#: Length of the default whitening predictor, s (at least 8 samples).
+WHITENING_SPAN = 0.02
+
+
+class AnalysisError(SynthError, ValueError):
+    """The recording cannot be analysed: unreadable, silent, clipped, or without ticks."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The options of :func:`synth.analysis.analyze`, checked, durations in samples.
+
+    ``dynamic_range_db`` is the floor of steps 1-6 (:data:`DYNAMIC_RANGE_DB` unless given);
+    ``fixed_range`` says whether the caller gave it (then it holds in step 7 too).
+    """
+
+    samplerate: float           # Hz
+    gravity: float              # m/s^2
+    channel: int | None
+    min_separation: int         # samples
+    hop: int                    # samples
+    threshold_db: float
+    rise_db: float
+    release: float              # dB/ms
+    dynamic_range_db: float
+    fixed_range: bool
+    max_drop_db: float
+    background: float           # s
+    onset_fraction: float
+    whitening_order: int
+    fixed_order: bool           # lpc_order given: that order alone, no step 7
+    window: int                 # samples
+    subtract_tails: bool
+    deflate: bool
+    decay_smoothing: int        # samples
+    clip_samples: int
+    on_clipping: str
+
+    @property
+    def frame(self) -> int:
+        """Samples summed in a frame of the detection function."""
+        return max(self.hop, MIN_FRAME)
+
+    @property
+    def e_min(self) -> float:
+        """Least restitution of a bounce, ``10^(-max_drop_db / 20)``."""
+        return 10.0 ** (-self.max_drop_db / 20.0)
+
+    @property
+    def onset_gap(self) -> int:
+        """Longest gap bridged by the onset walk, samples."""
+        return max(2, int(round(ONSET_GAP * self.samplerate)))
+
+
+def make_settings(channels: int, samplerate, *, gravity, channel, min_separation, hop,
+                  threshold_db, rise_db, release, dynamic_range_db, max_drop_db, background,
+                  onset_fraction, lpc_order, window, subtract_tails, deflate, decay_smoothing,
+                  clip_samples, on_clipping) -> Settings:
+    """Check the options of :func:`synth.analysis.analyze` for audio of ``channels`` channels.
+
+    Raises
+    ------
+    ParameterError
+        A bad option; the message names it, its value and what is allowed.
+    """
+    fs = checks.positive("samplerate", samplerate, "Hz")
+    g = checks.positive("gravity", gravity, "m/s^2")
+    ch = _channel(channel, channels)
+    min_sep = _samples("min_separation", min_separation, fs)
+    hop_n = _samples("hop", hop, fs)
+    thr = checks.positive("threshold_db", threshold_db, "dB")
+    rise = checks.positive("rise_db", rise_db, "dB")
+    rel = checks.positive("release", release, "dB/ms")
+    dyn = (DYNAMIC_RANGE_DB if dynamic_range_db is None
+           else checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
+    drop = checks.positive("max_drop_db", max_drop_db, "dB")
+    bg = checks.positive("background", background, "s")
+    frac = checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
+    win_n = _samples("window", window, fs)
+    dec_n = _samples("decay_smoothing", decay_smoothing, fs, lo=3)
+    clip_n = _integer("clip_samples", clip_samples, 2)
+    checks.choice("on_clipping", on_clipping, ("warn", "raise"))
+    for name, flag in (("subtract_tails", subtract_tails), ("deflate", deflate)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise ParameterError(f"{name}={flag!r} must be True or False")
+    order = (max(8, int(round(WHITENING_SPAN * fs))) if lpc_order is None
+             else _integer("lpc_order", lpc_order, 2))
+    settings = Settings(
+        samplerate=fs, gravity=g, channel=ch, min_separation=min_sep, hop=hop_n,
+        threshold_db=thr, rise_db=rise, release=rel, dynamic_range_db=dyn,
+        fixed_range=dynamic_range_db is not None, max_drop_db=drop, background=bg,
+        onset_fraction=frac, whitening_order=order, fixed_order=lpc_order is not None,
+        window=win_n, subtract_tails=bool(subtract_tails), deflate=bool(deflate),
+        decay_smoothing=dec_n, clip_samples=clip_n, on_clipping=on_clipping)
+    return settings
+
+
+def audio_array(audio) -> np.ndarray:
+    """``audio`` as float64 ``(frames, channels)``: real, finite, not empty."""
+    a = audio if isinstance(audio, np.ndarray) else np.asarray(audio)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.floating)
+                               or np.issubdtype(a.dtype, np.integer)):
+        raise ParameterError(f"audio must hold real samples (floats), not dtype {a.dtype}")
+    if a.ndim not in (1, 2):
+        raise ParameterError(f"audio must be (frames,) or (frames, channels), got shape {a.shape}")
+    if a.size == 0:
+        raise ParameterError(f"audio is empty (shape {a.shape})")
+    a = a.astype(np.float64, copy=False)
+    finite = np.isfinite(a)
+    if not finite.all():
+        raise ParameterError(
+            f"audio holds {a.size - int(np.count_nonzero(finite))} NaN or infinite samples; "
+            f"all must be finite")
+    return a if a.ndim == 2 else a[:, None]
+
+
+def _channel(channel, n: int) -> int | None:
+    if channel is None:
+        return None
+    if isinstance(channel, (bool, np.bool_)) or not isinstance(channel, (int, np.integer)):
+        raise ParameterError(f"channel={channel!r} must be None (mix) or a channel index")
+    if not 0 <= channel < n:
+        raise ParameterError(
+            f"channel={channel!r} is out of range: the audio has {n} channel(s), "
+            f"allowed 0..{n - 1} or None (mix)")
+    return int(channel)
+
+
+def _integer(name: str, value, lo: int) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ParameterError(f"{name}={value!r} must be an integer >= {lo}")
+    if value < lo:
+        raise ParameterError(f"{name}={value!r} must be >= {lo}")
+    return int(value)
+
+
+def _samples(name: str, value, fs: float, lo: int = 1) -> int:
+    """A duration in s, as a whole number of samples (at least ``lo``)."""
+    t = checks.positive(name, value, "s")
+    n = int(round(t * fs))
+    if n < lo:
+        raise ParameterError(
+            f"{name}={value!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)")
+    return n
+
+
+def read_recording(path) -> tuple[np.ndarray, float]:
+    """Read a sound file for :func:`synth.analysis.analyze`: every channel, as it is stored.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (WAV, FLAC, OGG, AIFF, ... at any sample rate, any number of channels).
+
+    Returns
+    -------
+    audio : ndarray of float64, (frames, channels)
+        The samples, in units of full scale.
+    samplerate : float
+        Sample rate, Hz.
+
+    Raises
+    ------
+    ParameterError
+        ``path`` is not a file name, or no such file.
+    AnalysisError
+        An unreadable file (corrupt header, unknown format) or one without samples.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    if not os.path.isfile(path):
+        raise ParameterError(f"path={os.fspath(path)!r}: no such file")
+    import soundfile
+
+    try:
+        audio, samplerate = soundfile.read(path, dtype="float64", always_2d=True)
+    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
+        raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
+    if audio.shape[0] == 0:
+        raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
+    return audio, float(samplerate)

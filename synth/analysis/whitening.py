@@ -1,0 +1,128 @@
+"""Step 1 of the tick detection (docs/analysis.md, Method): the whitening of the recording by a
+linear predictor, and the resonator's own predictor of step 7.
+
+The prediction error ``r = A(z) x`` (the recording taken as silent before its first sample) is
+the inverse filter of linear-prediction analysis (Makhoul 1975, Proc. IEEE 63, 561), used as
+the whitening step of an onset detector (Stowell and Plumbley 2007, ICMC): the ringing of a
+tick is predictable from its own past and largely cancels, leaving one short burst per
+contact.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import dsp
+
+#: Highest order of the resonator's predictor (step 7): its cost grows as the cube.
+MAX_ORDER = 4096
+#: Least prediction error energy of the resonator's predictor counted by its order
+#: criterion, relative to the stretch's energy (120 dB of prediction gain; below, rounding).
+PREDICTION_FLOOR = 1e-12
+#: Orders on the geometric grid over which the resonator's order criterion is evaluated.
+ORDER_GRID = 96
+
+
+def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
+    """The prediction error of ``x`` under ``predictor`` (``[1, a1, ..., ap]``), the signal
+    taken as silent before its first sample; as long as ``x``."""
+    from scipy.signal import oaconvolve
+
+    return oaconvolve(x, predictor)[: x.size]
+
+
+@dataclass(frozen=True)
+class _OrderCriterion:
+    """Description lengths of the predictors of the orders ``grid``: their prediction error
+    energies over the same samples (never below :data:`PREDICTION_FLOOR` of the stretch's),
+    the criterion ``N ln(E_m / N) + m ln N``, and the forward-substituted right-hand side
+    ``y`` from which each order's predictor follows."""
+
+    grid: np.ndarray
+    energy: np.ndarray
+    length: np.ndarray
+    y: np.ndarray
+
+
+def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
+    """The prediction-error filter of the free ringing ``seg`` by the covariance method
+    (least squares over the stretch, no window: a window would bias the poles of slowly
+    decaying modes), of the order of least description length ``N ln(E_m / N) + m ln N``
+    (Rissanen 1983, Ann. Stat. 11, 416) whose all-pole model is stable; None when the stretch
+    is too short or no order gives a stable model (step 7).
+
+    The orders tried start at ``start`` and double while the best lies in the top quarter, up
+    to a third of the stretch (two equations per unknown, at least) and :data:`MAX_ORDER`;
+    every predictor comes from one Cholesky factorisation at the largest order (its leading
+    blocks factor the smaller systems). Then the normal equations are solved again with the
+    least prediction error energy on their diagonal: the noise, which no order predicts, as
+    white noise (a ridge), so that no predictor lifts a band the ringing leaves empty (above
+    its modes, under an anti-aliasing filter) far over the noise, where a tick's onset would
+    drown; without noise it changes nothing. ``fs`` (Hz) is the sample rate of ``seg``.
+    """
+    cap = min(MAX_ORDER, (seg.size - 1) // 3)
+    if cap < 2 or not np.any(seg):
+        return None
+    p_max = min(cap, max(start, 2))
+    while True:
+        C = dsp.covariance_matrix(seg, p_max)
+        G = C[1:, 1:]
+        Lc = _loaded_cholesky(G, 1e-12 * np.trace(G) / p_max)
+        if Lc is None:
+            return None
+        crit = _order_criterion(seg, Lc, C)
+        best = int(crit.grid[int(np.argmin(crit.length))])
+        if best <= 0.75 * p_max or p_max >= cap:
+            break
+        p_max = min(cap, 2 * p_max)
+    Lc = _loaded_cholesky(G, max(float(crit.energy.min()), 1e-12 * np.trace(G) / p_max))
+    if Lc is None:
+        return None
+    crit = _order_criterion(seg, Lc, C)
+    for i in np.argsort(crit.length, kind="stable"):
+        a = _predictor(Lc, crit.y, int(crit.grid[i]))
+        if dsp.is_minimum_phase(a):
+            return a
+    return None
+
+
+def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
+    """Lower Cholesky factor of ``G`` with ``load`` on its diagonal, raised a hundredfold up
+    to three times while ``G`` is not positive definite to rounding; None if it stays so."""
+    from scipy.linalg import LinAlgError, cholesky
+
+    for _ in range(4):
+        try:
+            return cholesky(G + load * np.eye(G.shape[0]), lower=True, check_finite=False)
+        except LinAlgError:
+            load *= 100.0
+    return None
+
+
+def _predictor(Lc: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
+    """The prediction-error filter of ``order`` from the leading block of the factor ``Lc``
+    (back substitution of ``y``)."""
+    from scipy.linalg import solve_triangular
+
+    return np.concatenate(([1.0], -solve_triangular(
+        Lc[:order, :order].T, y[:order], lower=False, check_finite=False)))
+
+
+def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCriterion:
+    """The description length of the predictors on a geometric grid of orders up to the
+    factor's, each one's error counted over the same samples (those the largest predicts)."""
+    from scipy.linalg import solve_triangular
+    from scipy.signal import oaconvolve
+
+    p = Lc.shape[0]
+    y = solve_triangular(Lc, C[1:, 0], lower=True, check_finite=False)
+    n = seg.size - p
+    grid = np.unique(np.round(np.geomspace(1, p, ORDER_GRID)).astype(int))
+    energy = np.empty(grid.size)
+    for i, order in enumerate(grid):
+        err = oaconvolve(seg, _predictor(Lc, y, int(order)))[p: seg.size]
+        energy[i] = max(float(np.dot(err, err)), PREDICTION_FLOOR * C[0, 0])
+    return _OrderCriterion(grid, energy, n * np.log(energy / n) + grid * math.log(n), y)

@@ -1,0 +1,170 @@
+"""Signal processing shared by the analysis of recordings and their alteration.
+
+* Linear prediction: the autocorrelation method (Levinson recursion on a Toeplitz system) and
+  the normal equations of the covariance method (least squares over the signal itself, no
+  window), Makhoul 1975, "Linear prediction: a tutorial review", Proc. IEEE 63, 561,
+  sections 3.1.1 and 3.1.2.
+* The Schur-Cohn stability test of an all-pole model by the step-down recursion (Markel and
+  Gray, Linear Prediction of Speech, 1976, section 5.3).
+* The noise floor of a recording from its quietest frames.
+
+Signals are float64 arrays of samples in any signal units; times are in seconds and every
+function that converts one takes ``samplerate`` (Hz) explicitly.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+#: Frame length of the noise-floor estimate, s.
+NOISE_FRAME = 0.01
+#: Frames within this of the quietest one hold noise alone, dB: frames of noise scatter far
+#: less than that, frames with a tick or a tail stand above.
+NOISE_SPREAD_DB = 3.0
+#: White-noise correction of the autocorrelation method: the zero lag raised by this
+#: fraction (-90 dB), so that a noiseless sum of a few sinusoids stays solvable.
+WHITE_NOISE_CORRECTION = 1e-9
+
+
+# --------------------------------------------------------------------------- linear prediction
+
+
+def white_noise_corrected(r: np.ndarray) -> np.ndarray:
+    """A copy of the autocorrelation ``r`` with its zero lag raised by
+    :data:`WHITE_NOISE_CORRECTION` (white noise -90 dB under the signal added)."""
+    r = np.array(r, dtype=float)
+    r[0] *= 1.0 + WHITE_NOISE_CORRECTION
+    return r
+
+
+def levinson_predictor(r: np.ndarray) -> np.ndarray:
+    """Prediction-error filter ``[1, a1, ..., ap]`` from the autocorrelation ``r[0..p]``: the
+    autocorrelation method's Toeplitz system, solved by the Levinson recursion."""
+    from scipy.linalg import solve_toeplitz
+
+    order = r.size - 1
+    return np.concatenate(([1.0], solve_toeplitz(r[:order], -r[1:])))
+
+
+def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
+    """Prediction-error filter ``[1, a1, ..., ap]`` of ``x`` by the autocorrelation method.
+
+    The autocorrelation up to lag ``order`` is summed over blocks by FFT (exact: each block
+    is correlated with itself extended by ``order`` samples).
+    """
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    block = max(4 * order, 1 << 16)
+    nfft = next_fast_len(block + order, real=True)
+    r = np.zeros(order + 1)
+    for s in range(0, x.size, block):
+        a = rfft(x[s: s + block], nfft)
+        b = rfft(x[s: s + block + order], nfft)
+        r += irfft(np.conj(a) * b, nfft)[: order + 1]
+    return levinson_predictor(white_noise_corrected(r))
+
+
+def covariance_matrix(x: np.ndarray, order: int, blocks=None) -> np.ndarray:
+    """Normal equations of the covariance method: ``C[i, j] = sum_n x[n-i] x[n-j]`` for
+    ``i, j = 0..order``, the sum over the targets ``n`` of ``blocks`` (pairs ``[n1, n2)``
+    with ``n1 >= order``; default the whole signal, ``[order, x.size)``).
+
+    Row 0 of each block from its autocorrelation by FFT less the first ``order`` products;
+    then ``C[i+1, j+1] = C[i, j] + sum_b (x[n1-1-i] x[n1-1-j] - x[n2-1-i] x[n2-1-j])``:
+    O(N log N + p^2) instead of O(N p^2).
+    """
+    p = int(order)
+    x = np.ascontiguousarray(x, dtype=float)
+    if blocks is None:
+        blocks = [(p, x.size)]
+    C = np.zeros((p + 1, p + 1))
+    C[0] = sum(_covariance_row(x[n1 - p: n2], p) for n1, n2 in blocks)
+    first = np.array([x[n1 - 1:: -1][:p] for n1, _ in blocks])
+    last = np.array([x[n2 - 1:: -1][:p] for _, n2 in blocks])
+    _shift_recursion(C, first, last)
+    return C
+
+
+def _covariance_row(seg: np.ndarray, p: int) -> np.ndarray:
+    """``sum_{n=p}^{N-1} seg[n] seg[n-d]`` for ``d = 0..p``: the full autocorrelation by FFT
+    less the products of the first ``p`` samples."""
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    n = seg.size
+    nfft = next_fast_len(n + p + 1, real=True)
+    X = rfft(seg, nfft)
+    full = irfft(X * np.conj(X), nfft)[: p + 1]       # sum_t seg[t] seg[t+d]
+    head = np.array([np.dot(seg[d:p], seg[: p - d]) for d in range(p + 1)])
+    return full - head
+
+
+@numba.njit(cache=True)
+def _shift_recursion(C, first, last):  # pragma: no cover - compiled
+    """Rows 1..p of the covariance matrix from row 0 (in place), ``first[b, i] = x[n1-1-i]``
+    and ``last[b, i] = x[n2-1-i]`` of each block; the lower triangle mirrored."""
+    p = C.shape[0] - 1
+    for i in range(p):
+        for j in range(i, p):
+            s = C[i, j]
+            for b in range(first.shape[0]):
+                s += first[b, i] * first[b, j]
+            for b in range(last.shape[0]):
+                s -= last[b, i] * last[b, j]
+            C[i + 1, j + 1] = s
+    for i in range(p + 1):
+        for j in range(i):
+            C[i, j] = C[j, i]
+
+
+def is_minimum_phase(a: np.ndarray) -> bool:
+    """Whether the prediction-error filter ``a`` (``a[0] = 1``) has every root inside the unit
+    circle, its all-pole model ``1/A`` stable: the step-down (backward Levinson) recursion,
+    ``k_m = a_m``, ``a'_i = (a_i - k_m a_(m-i)) / (1 - k_m^2)``, every ``|k_m| < 1`` (the
+    Schur-Cohn test)."""
+    return bool(_step_down(np.ascontiguousarray(a, dtype=float)))
+
+
+@numba.njit(cache=True)
+def _step_down(c):  # pragma: no cover - compiled
+    c = c.copy()
+    for m in range(c.size - 1, 0, -1):
+        k = c[m]
+        if not abs(k) < 1.0:
+            return False
+        d = 1.0 - k * k
+        new = np.empty(m)
+        for i in range(m):
+            new[i] = (c[i] - k * c[m - i]) / d
+        c[:m] = new
+    return True
+
+
+# --------------------------------------------------------------------------- noise floor
+
+
+def noise_frames(x: np.ndarray, samplerate: float, least: int = 1) -> np.ndarray:
+    """``x`` cut into consecutive frames of :data:`NOISE_FRAME` s (at least ``least``
+    samples), shape ``(frames, samples)``; the remainder after the last whole frame is left
+    out."""
+    n = max(least, int(round(NOISE_FRAME * samplerate)))
+    frames = x.size // n
+    return x[: frames * n].reshape(frames, n)
+
+
+def quiet_frames(power: np.ndarray, among: np.ndarray | None = None) -> np.ndarray:
+    """Mask of the frames whose mean power ``power`` lies within :data:`NOISE_SPREAD_DB` of the
+    quietest frame (of those in the mask ``among``, default all): the frames of noise alone."""
+    pool = power if among is None else power[among]
+    quiet = power <= pool.min() * 10.0 ** (NOISE_SPREAD_DB / 10.0)
+    return quiet if among is None else among & quiet
+
+
+def noise_floor(x: np.ndarray, samplerate: float) -> float:
+    """RMS of the :data:`NOISE_FRAME` frames of ``x`` within :data:`NOISE_SPREAD_DB` of the
+    quietest one, signal units (of the whole signal when it is shorter than a frame)."""
+    fr = noise_frames(x, samplerate)
+    if fr.shape[0] == 0:
+        return float(np.sqrt(np.mean(x * x)))
+    ms = np.mean(fr ** 2, axis=1)
+    return float(np.sqrt(ms[quiet_frames(ms)].mean()))

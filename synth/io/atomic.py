@@ -1,0 +1,84 @@
+"""Atomic file writing: a file is either left as it was or replaced by a complete one.
+
+The content is written to a temporary sibling (same directory, so the rename stays on
+one file system), flushed to disk with ``fsync`` and renamed onto the target with
+``os.replace``, which POSIX and Windows make atomic. A reader therefore never sees a
+partial file, and a crash or an exception during the write leaves the target
+untouched. The temporary file gets the usual permissions (``0o666`` less the umask).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = ["temporary_sibling", "write_atomically", "write_json_atomically"]
+
+
+def temporary_sibling(path: Path, error: type[Exception] = OSError) -> Path:
+    """Create (exclusively) an empty hidden file beside ``path`` and return its path.
+
+    Its name keeps ``path``'s suffix (``.name.<random>.part<suffix>``) so that writers
+    that choose the format by suffix still work. ``error`` is the exception class
+    raised, naming ``path``, when no file can be created there.
+    """
+    path = Path(path)
+    for _ in range(100):
+        tmp = path.with_name(f".{path.stem}.{secrets.token_hex(6)}.part{path.suffix}")
+        try:
+            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise error(f"path={str(path)!r}: cannot create a file there ({exc})") from exc
+        os.close(fd)
+        return tmp
+    raise error(f"path={str(path)!r}: no free temporary name beside it")
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_atomically(path: str | os.PathLike, write: Callable[[Path], None], *,
+                     error: type[Exception] = OSError) -> Path:
+    """Call ``write(tmp)`` on a temporary sibling of ``path``, then move it onto ``path``.
+
+    ``write`` receives the temporary file's path (it exists, empty) and must write the
+    whole content there. On any failure the temporary file is removed and the
+    exception re-raised. ``error`` is the exception class for a temporary file that
+    cannot be created. Returns ``path`` as a :class:`~pathlib.Path`.
+    """
+    path = Path(path)
+    tmp = temporary_sibling(path, error)
+    try:
+        write(tmp)
+        _fsync(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def write_json_atomically(path: str | os.PathLike, obj, *, error: type[Exception] = OSError,
+                          indent: int = 1) -> Path:
+    """Write ``obj`` as JSON (numbers that are not JSON types as floats) plus a newline,
+    atomically (see :func:`write_atomically`)."""
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(obj, fh, indent=indent, default=float)
+            fh.write("\n")
+
+    return write_atomically(path, write, error=error)

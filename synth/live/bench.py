@@ -1,0 +1,247 @@
+"""``synth bench live``: what the live engine costs, measured in one run.
+
+* the callback's mixing cost per block for 1, 4 and 16 bodies of the default preset's plate
+  (all ringing: each is hit ten times a second), as a fraction of the block's duration;
+* ``Body.hit`` on the calling thread (median over many calls; at one impact point, and at a
+  new point each time, which adds the mode shapes there);
+* ``Engine.add`` with a cold cache (an empty cache directory: plate modes and microphone
+  gains computed) and warm (from memory, and from disk);
+* through JACK's dummy server (:mod:`synth.live.jack`): the time from ``hit()`` to the end of
+  the callback whose block holds the tick's first sample, and to that sample's output time;
+  then underflows and late impacts over ``seconds`` of 20 hits/s on 4 bodies.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import threading
+import time
+
+import numpy as np
+
+#: Targets of the issue (fractions of a block, microseconds, counts).
+TARGETS = dict(callback_1=0.05, callback_16=0.5, hit_us=50.0, underflows=0)
+
+
+def _scene():
+    import synth
+
+    return synth.load_preset("default")
+
+
+def add_times(samplerate=48000) -> dict:
+    """``Engine.add`` of the default plate: cold (empty cache directory, nothing in memory),
+    warm from disk (memory cleared), warm from memory; seconds."""
+    from synth.live.engine import Engine
+    from synth.sound import modes, radiation
+
+    scene = _scene()
+    saved = os.environ.get("SYNTH_CACHE_DIR")
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["SYNTH_CACHE_DIR"] = tmp
+        try:
+            engine = Engine(samplerate=samplerate)
+            for name, clear in (("cold", True), ("warm_disk", True), ("warm_memory", False)):
+                if clear:
+                    modes.clear_memory_cache()
+                    radiation.clear_memory_cache()
+                t = time.perf_counter()
+                engine.add(scene.plate, listener=scene.listener)
+                out[name] = time.perf_counter() - t
+        finally:
+            if saved is None:
+                os.environ.pop("SYNTH_CACHE_DIR", None)
+            else:
+                os.environ["SYNTH_CACHE_DIR"] = saved
+    return out
+
+
+def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.0, seed=0) -> list:
+    """Mixing cost of one block (the callback's work, :meth:`Engine._mix_into`) with ``n``
+    ringing bodies: mean and max over ``seconds`` of audio, as a fraction of the block."""
+    from synth.live.engine import Engine
+
+    scene = _scene()
+    rng = np.random.default_rng(seed)
+    rows = []
+    for n in bodies:
+        engine = Engine(samplerate=samplerate, blocksize=blocksize)
+        for _ in range(n):
+            body = engine.add(scene.plate, listener=scene.listener)
+            for t in np.arange(0.0, seconds, 0.1) + rng.uniform(0.0, 0.1):
+                body.hit(scene.ball, float(rng.uniform(0.3, 2.0)), at=float(t),
+                         position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))))
+        out = np.zeros((blocksize, 1), dtype=np.float32)
+        costs = []
+        for _ in range(int(seconds * samplerate / blocksize)):
+            t = time.perf_counter()
+            engine._mix_into(out, blocksize)
+            costs.append(time.perf_counter() - t)
+        block = blocksize / samplerate
+        costs = np.array(costs) / block
+        rows.append(dict(bodies=n, modes=engine.bodies[0].modes, mean=float(costs.mean()),
+                         p99=float(np.percentile(costs, 99)), max=float(costs.max()),
+                         played=engine.stats.impacts_played))
+    return rows
+
+
+def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
+    """``Body.hit`` on the calling thread, microseconds: median and 90th percentile at one
+    point, at a new point each call, and at one point with the fewest pulse points the
+    grid rule allows (``pulse_points=5``)."""
+    from synth.live.engine import Engine
+
+    scene = _scene()
+    rng = np.random.default_rng(seed)
+    engines = {pp: Engine(samplerate=samplerate, max_pending=4096, pulse_points=pp) for pp in (65, 5)}
+    bodies = {pp: e.add(scene.plate, listener=scene.listener) for pp, e in engines.items()}
+    out = {}
+    for name, new_point, pp in (("same_point", False, 65), ("new_point", True, 65),
+                                ("same_point_coarse_pulse", False, 5)):
+        body = bodies[pp]
+        times = []
+        for i in range(repeat):
+            pos = ((float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))) if new_point
+                   else scene.position)
+            v = float(rng.uniform(0.3, 2.0))
+            t = time.perf_counter()
+            body.hit(scene.ball, v, position=pos)
+            times.append(time.perf_counter() - t)
+            if body.pending > 4000:
+                body.stop_all()
+        body.stop_all()
+        times = np.array(times) * 1e6
+        out[name] = dict(median=float(np.median(times)), p90=float(np.percentile(times, 90)))
+    return out
+
+
+def _wait_mixed(engine, frame, timeout=1.0):
+    """Wait until a callback has mixed ``frame``; the perf_counter time at that callback's
+    end, or None."""
+    deadline = time.perf_counter() + timeout
+    while time.perf_counter() < deadline:
+        end, mixed = engine._anchor[2], engine._anchor[3]
+        if mixed > frame:
+            return end
+        time.sleep(0.0002)
+    return None
+
+
+def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4, seed=2) -> dict:
+    """Through the JACK dummy server: end-to-end latency of single hits, then ``seconds``
+    of ``rate`` hits/s on ``bodies`` bodies from another thread."""
+    from synth.live.engine import Engine
+    from synth.live.jack import JackDummyServer
+
+    scene = _scene()
+    rng = np.random.default_rng(seed)
+    with JackDummyServer(samplerate=samplerate, period=blocksize) as server:
+        engine = Engine(samplerate=samplerate, blocksize=blocksize, device=server.device)
+        handles = [engine.add(scene.plate, listener=scene.listener) for _ in range(bodies)]
+        engine.start()
+        time.sleep(0.2)
+        to_callback = []
+        for _ in range(40):
+            time.sleep(float(rng.uniform(0.005, 0.03)))
+            t = time.perf_counter()
+            onset = handles[0].hit(scene.ball, 1.0)
+            end = _wait_mixed(engine, int(np.ceil(onset * samplerate)))
+            if end is not None:
+                to_callback.append(end - t)
+        latency, nominal = engine.latency, engine._latency
+        stats0 = engine.stats
+
+        def trigger(stop):
+            while not stop.is_set():
+                time.sleep(float(rng.exponential(1.0 / rate)))
+                b = handles[int(rng.integers(bodies))]
+                b.hit(scene.ball, float(rng.uniform(0.2, 2.0)),
+                      position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))))
+
+        stop = threading.Event()
+        thread = threading.Thread(target=trigger, args=(stop,))
+        thread.start()
+        time.sleep(seconds)
+        stop.set()
+        thread.join()
+        time.sleep(0.1)
+        stats = engine.stats
+        engine.stop()
+        realtime = server.realtime
+    block = blocksize / samplerate
+    return dict(realtime_server=realtime, block_s=block, latency_s=latency, nominal_latency_s=nominal,
+                handover_s=engine.handover,
+                hit_to_callback_ms=dict(median=float(np.median(to_callback)) * 1e3,
+                                        max=float(np.max(to_callback)) * 1e3) if to_callback else None,
+                hit_to_output_ms=(block + latency + engine.handover) * 1e3,
+                seconds=seconds, rate=rate, bodies=bodies,
+                callbacks=stats.callbacks - stats0.callbacks,
+                underflows=stats.output_underflows - stats0.output_underflows,
+                played=stats.impacts_played - stats0.impacts_played,
+                late=stats.impacts_late - stats0.impacts_late,
+                refused=stats.impacts_refused - stats0.impacts_refused,
+                callback_mean=stats.callback_mean, callback_max=stats.callback_max)
+
+
+def run_live(seconds=30.0) -> dict:
+    """Every figure of the live benchmark (``seconds``: the JACK run's length)."""
+    from synth.live.jack import jackd_available
+
+    result = dict(add_s=add_times(), callback=callback_cost(), hit_us=hit_cost())
+    if jackd_available():
+        result["jack"] = jack_run(seconds=seconds)
+    else:
+        result["jack"] = None
+    return result
+
+
+def format_live(result) -> str:
+    """The live benchmark as Markdown, with the targets and whether they are met."""
+    ok = {True: "met", False: "NOT met"}
+    rows = result["callback"]
+    by_n = {r["bodies"]: r for r in rows}
+    lines = ["Callback (mixing) cost per 256-frame block at 48 kHz, default plate "
+             f"({rows[0]['modes']} modes), every body ringing (hit 10 times a second):",
+             "| bodies | mean (% of block) | 99th percentile | max |", "|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['bodies']} | {100 * r['mean']:.2f} | {100 * r['p99']:.2f} | "
+                     f"{100 * r['max']:.2f} |")
+    h = result["hit_us"]
+    a = result["add_s"]
+    lines += ["", f"- 1 body: {100 * by_n[1]['mean']:.2f} % of the block (target < "
+                  f"{100 * TARGETS['callback_1']:.0f} %): {ok[by_n[1]['mean'] < TARGETS['callback_1']]}"]
+    if 16 in by_n:
+        lines.append(f"- 16 bodies: {100 * by_n[16]['mean']:.2f} % (target < "
+                     f"{100 * TARGETS['callback_16']:.0f} %): "
+                     f"{ok[by_n[16]['mean'] < TARGETS['callback_16']]}")
+    lines += [f"- hit() on the calling thread, same point: median {h['same_point']['median']:.0f} us, "
+              f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
+              f"median): {ok[h['same_point']['median'] < TARGETS['hit_us']]}; at a new point each "
+              f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "
+              f"median {h['same_point_coarse_pulse']['median']:.0f} us",
+              f"- Engine.add(default plate): cold cache {a['cold']:.2f} s, warm from disk "
+              f"{a['warm_disk'] * 1e3:.0f} ms, warm from memory {a['warm_memory'] * 1e3:.0f} ms"]
+    j = result["jack"]
+    if j is None:
+        lines.append("- JACK dummy server: jackd not installed, not measured")
+        return "\n".join(lines)
+    lines += [f"- JACK dummy server ({'realtime' if j['realtime_server'] else 'not realtime'}), "
+              f"{j['block_s'] * 1e3:.2f} ms blocks, output latency {j['latency_s'] * 1e3:.2f} ms "
+              f"(PortAudio's nominal {j['nominal_latency_s'] * 1e3:.2f} ms), hand-over allowance "
+              f"{j['handover_s'] * 1e3:.1f} ms:"]
+    if j["hit_to_callback_ms"]:
+        target = (j["block_s"] + j["latency_s"]) * 1e3
+        lines.append(f"  - hit() to the end of the callback holding the tick's first sample: median "
+                     f"{j['hit_to_callback_ms']['median']:.2f} ms, max "
+                     f"{j['hit_to_callback_ms']['max']:.2f} ms (target <= one block + latency = "
+                     f"{target:.2f} ms): {ok[j['hit_to_callback_ms']['max'] <= target]}")
+    lines += [f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
+              f"(one block + output latency + hand-over allowance, the same for every hit)",
+              f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies: "
+              f"{j['callbacks']} callbacks, {j['underflows']} output underflows (target "
+              f"{TARGETS['underflows']}): {ok[j['underflows'] <= TARGETS['underflows']]}; "
+              f"{j['played']} impacts played, {j['late']} late, {j['refused']} refused; callback "
+              f"mean {100 * j['callback_mean']:.2f} %, max {100 * j['callback_max']:.1f} % of the block"]
+    return "\n".join(lines)

@@ -1,0 +1,158 @@
+"""A JACK server on its dummy backend: a clocked audio server that needs no sound card.
+
+``jackd -d dummy -r RATE -p FRAMES`` runs the JACK graph on a timer, and PortAudio's JACK
+host API sees it as an output device, so the live engine's stream runs for real (the
+callback is driven by the server's clock, underflows are reported) on a machine without
+audio hardware: the tests and ``synth bench live`` use it. Needs the ``jackd`` program
+(Debian/Ubuntu: ``apt-get install jackd2``) and PortAudio built with JACK support
+(Debian's ``libportaudio2`` is).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+import uuid
+
+from synth.errors import SynthError
+
+#: Seconds to wait for the server to come up (or to go away).
+STARTUP_TIMEOUT = 15.0
+
+
+def jackd_available() -> bool:
+    """Whether the ``jackd`` program is on the PATH."""
+    return shutil.which("jackd") is not None
+
+
+def _reinitialize(sd) -> None:
+    """Make PortAudio list the host APIs again (it scans them once, when initialised):
+    sounddevice's documented way to refresh its device list."""
+    sd._terminate()
+    sd._initialize()
+
+
+def jack_output_device(sd) -> int | None:
+    """Index of the JACK host API's default output device, or None."""
+    for api in sd.query_hostapis():
+        if "JACK" in api["name"] and api["default_output_device"] >= 0:
+            return int(api["default_output_device"])
+    return None
+
+
+class JackDummyServer:
+    """A private ``jackd`` on the dummy backend at ``samplerate`` Hz and ``period`` frames.
+
+    Use as a context manager: it starts the server under a name of its own (so that it
+    never meets another JACK server on the machine), points PortAudio's JACK client at it
+    (``JACK_DEFAULT_SERVER``), and yields itself with ``device``, the PortAudio output
+    device index. On exit it stops the server and lets PortAudio rescan.
+    """
+
+    def __init__(self, samplerate: int = 48000, period: int = 256):
+        self.samplerate = int(samplerate)
+        self.period = int(period)
+        self.name = f"synth-{uuid.uuid4().hex[:8]}"
+        self.device: int | None = None
+        self._process: subprocess.Popen | None = None
+        self._log = None
+        self.realtime = False
+        self._saved_env: dict = {}
+
+    def _set_env(self, key, value):
+        self._saved_env.setdefault(key, os.environ.get(key))
+        os.environ[key] = value
+
+    def start(self) -> "JackDummyServer":
+        """Start the server, with realtime scheduling when the system allows it (without
+        it, on a busy machine, the server's period can come late and the clients' output
+        runs dry), else without."""
+        try:
+            return self._start(realtime=True)
+        except SynthError:
+            return self._start(realtime=False)
+
+    def _start(self, realtime: bool) -> "JackDummyServer":
+        if not jackd_available():
+            raise SynthError("the JACK server is not installed (Debian/Ubuntu: apt-get install jackd2)")
+        from synth.io.playback import sounddevice_module
+
+        sd = sounddevice_module()
+        # no D-Bus device reservation (there is no session bus in a container)
+        self._set_env("JACK_NO_AUDIO_RESERVATION", "1")
+        self._set_env("JACK_DEFAULT_SERVER", self.name)
+        self._set_env("JACK_NO_START_SERVER", "1")
+        self._log = tempfile.TemporaryFile(mode="w+")
+        self._process = subprocess.Popen(
+            ["jackd", "-n", self.name, "--realtime" if realtime else "--no-realtime", "-d",
+             "dummy", "-r", str(self.samplerate), "-p", str(self.period)],
+            stdout=self._log, stderr=subprocess.STDOUT, text=True)
+        deadline = time.monotonic() + STARTUP_TIMEOUT
+        while time.monotonic() < deadline:
+            status = self._process.poll()
+            if status is not None:
+                self._log.seek(0)
+                err = self._log.read()
+                self._process = None
+                self.stop()
+                raise SynthError(f"jackd exited with status {status}: "
+                                 f"{err.strip()[-500:]}")
+            _reinitialize(sd)
+            self.device = jack_output_device(sd)
+            if self.device is not None:
+                self.realtime = realtime
+                return self
+            time.sleep(0.2)
+        self.stop()
+        raise SynthError(f"the JACK dummy server did not come up within {STARTUP_TIMEOUT} s")
+
+    @property
+    def alive(self) -> bool:
+        return self._process is not None and self._process.poll() is None
+
+    def ports(self) -> list[str]:
+        """The server's ports (``jack_lsp``), e.g. to check that a client has left."""
+        out = subprocess.run(["jack_lsp", "-s", self.name], capture_output=True, text=True,
+                             timeout=10, env=os.environ.copy())
+        return [line.strip() for line in out.stdout.splitlines() if line.strip()]
+
+    def _restore_env(self):
+        for key, value in self._saved_env.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        self._saved_env = {}
+
+    def stop(self) -> None:
+        # PortAudio's JACK host API must let go of the server before it goes away
+        try:
+            from synth.io.playback import sounddevice_module
+
+            sd = sounddevice_module()
+            sd._terminate()
+        except SynthError:
+            sd = None
+        if self._process is not None and self._process.poll() is None:
+            self._process.terminate()
+            try:
+                self._process.wait(timeout=STARTUP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                self._process.kill()
+                self._process.wait()
+        self._process = None
+        if self._log is not None:
+            self._log.close()
+            self._log = None
+        self._restore_env()
+        if sd is not None:
+            sd._initialize()
+
+    def __enter__(self) -> "JackDummyServer":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()

@@ -1,0 +1,174 @@
+"""The audio thread's work: one compiled call per body per block, one to write the output.
+
+A body's modal state is the offline modal bank's (:mod:`synth.sound.modal_bank`): its
+modes' complex amplitudes, which of them ring, their omission debts and thresholds.
+:func:`mix_body` advances it over one block with the bank's own steps
+(:func:`~synth.sound.modal_bank.ring_modes` between injections,
+:func:`~synth.sound.modal_bank.inject_amplitudes` at each impact that falls in the block),
+so a sequence of impacts played block by block is the offline render of the same impacts,
+up to the rounding of the state's advance (the segments end at block boundaries instead
+of the bank's tiles).
+
+Compiled ``nogil=True``: while a block is mixed, trigger threads keep running (they solve
+contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from synth.sound.modal_bank import inject_amplitudes, ring_modes
+
+#: Slot states of the pending ring (see :mod:`synth.live.queue`).
+FREE = 0
+READY = 1
+
+#: Per-body counters (int64 array): impacts played, impacts that arrived after their
+#: start (played at the start of the block they were found in), blocks in which the body
+#: rang, 1 while the body has ringing modes or pending impacts.
+PLAYED = 0
+LATE = 1
+BUSY_BLOCKS = 2
+AWAKE = 3
+N_COUNTERS = 4
+
+
+@numba.njit(cache=True, nogil=True)
+def _contact_samples(out, t0, n, state, first, length, response):
+    """Add the in-contact samples of every pending impact that fall in ``[t0, t0 + n)``."""
+    end = t0 + n
+    for i in range(state.shape[0]):
+        if state[i] != READY:
+            continue
+        lo = max(first[i], t0)
+        hi = min(first[i] + length[i], end)
+        for s in range(lo, hi):
+            out[s - t0] += response[i, s - first[i]]
+
+
+@numba.njit(cache=True, nogil=True)
+def _next_due(state, inject, end):
+    """The pending slot with the earliest injection before ``end``, or -1."""
+    best = -1
+    when = end
+    for i in range(state.shape[0]):
+        if state[i] == READY and inject[i] < when:
+            when = inject[i]
+            best = i
+    return best
+
+
+@numba.njit(cache=True, nogil=True)
+def mix_body(out, t0, n, table, poles, fs, zr, zi, active, debt, debt_at, thresholds, thr2,
+             level, floor, state, inject, first, length, amplitudes, response, reference,
+             counters):
+    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock).
+
+    The bank's state (``table`` .. ``thr2``, see :func:`~synth.sound.modal_bank.ring_modes`);
+    level[0]: the body's reference amplitude, the largest ``reference`` (sum of ``|amps|``)
+    of the impacts played so far; floor: the omission floor, a fraction of it, shared by
+    the ``K`` modes (each mode's threshold is ``floor * level / K``, as offline). The
+    pending ring: ``state`` (FREE/READY), ``inject`` (sample of the amplitudes),
+    ``first``/``length``/``response`` (in-contact samples), ``amplitudes`` (R, K),
+    ``reference`` (R,). A body with no ringing mode and nothing pending returns at once.
+    """
+    end = t0 + n
+    due = _next_due(state, inject, end + (1 << 40))
+    if counters[AWAKE] == 0 and due < 0:
+        return
+    counters[AWAKE] = 1
+    if due >= 0:
+        _contact_samples(out, t0, n, state, first, length, response)
+    K = zr.shape[0]
+    a = t0
+    while True:
+        i = _next_due(state, inject, end)
+        if i < 0:
+            ring_modes(out, t0, a, end, table, zr, zi, active, debt, debt_at, thresholds, thr2,
+                       poles, fs)
+            break
+        at = inject[i]
+        if at < t0:
+            counters[LATE] += 1
+            at = t0
+        if at > a:
+            ring_modes(out, t0, a, at, table, zr, zi, active, debt, debt_at, thresholds, thr2,
+                       poles, fs)
+            a = at
+        if reference[i] > level[0]:
+            level[0] = reference[i]
+            share = floor * level[0] / max(K, 1)
+            for k in range(K):
+                thresholds[k] = share
+                thr2[k] = share * share
+        inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amplitudes[i], a)
+        state[i] = FREE
+        counters[PLAYED] += 1
+    counters[BUSY_BLOCKS] += 1
+    awake = 0
+    for k in range(K):
+        if active[k]:
+            awake = 1
+            break
+    if awake == 0:
+        for i in range(state.shape[0]):
+            if state[i] == READY:
+                awake = 1
+                break
+    counters[AWAKE] = awake
+
+
+@numba.njit(cache=True, nogil=True)
+def silence(zr, zi, active, debt, state):
+    """Stop every mode and drop every pending impact of a body (its level is kept)."""
+    for k in range(zr.shape[0]):
+        zr[k] = 0.0
+        zi[k] = 0.0
+        active[k] = False
+        debt[k] = 0.0
+    for i in range(state.shape[0]):
+        state[i] = FREE
+
+
+@numba.njit(cache=True, nogil=True)
+def write_output(mix, n, outdata, fade_at, fade_length):
+    """Copy the mono ``mix[0:n]`` (float64) to every channel of ``outdata`` (n, channels)
+    float32 and clear ``mix``. ``fade_at`` >= 0: the block's first sample is that far into
+    a raised-cosine fade of ``fade_length`` samples (after it, silence); -1: no fade.
+    Returns the fade position after the block (-1 without a fade)."""
+    channels = outdata.shape[1]
+    pos = fade_at
+    for s in range(n):
+        g = 1.0
+        if pos >= 0:
+            g = 0.5 * (1.0 + math.cos(math.pi * pos / fade_length)) if pos < fade_length else 0.0
+            pos += 1
+        v = mix[s] * g
+        for c in range(channels):
+            outdata[s, c] = v
+        mix[s] = 0.0
+    return pos
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel the audio thread calls, on a
+    one-mode body, so that the first callback does not compile."""
+    import numpy as np
+
+    from synth.sound.modal_bank import power_table
+
+    poles = np.array([-10.0 + 1000.0j])
+    K, R = 1, 1
+    mix = np.zeros(8)
+    out = np.zeros((8, 1), dtype=np.float32)
+    args = (power_table(poles, 48000.0), poles, 48000.0, np.zeros(K), np.zeros(K),
+            np.zeros(K, dtype=np.bool_), np.zeros(K), np.zeros(K, dtype=np.int64), np.zeros(K),
+            np.zeros(K), np.zeros(1), 1e-4, np.ones(R, dtype=np.int64), np.zeros(R, dtype=np.int64),
+            np.zeros(R, dtype=np.int64), np.ones(R, dtype=np.int64),
+            np.ones((R, K), dtype=complex), np.ones((R, 2)), np.ones(R),
+            np.zeros(N_COUNTERS, dtype=np.int64))
+    mix_body(mix, 0, 8, *args)
+    silence(args[3], args[4], args[5], args[6], args[12])
+    write_output(mix, 8, out, 0, 4)

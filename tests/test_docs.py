@@ -1,0 +1,240 @@
+"""The documentation in docs/ stays true to the code: generated parts equal their generators,
+every command-line option is documented, links resolve, and measured figures live in one
+place (the block their command writes)."""
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+from synth import bench, docs
+from synth.cli import build_parser, main
+from synth.errors import SynthError
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+PAGES = ("physics.md", "analysis.md", "validation.md", "benchmarks.md", "cli.md", "materials.md")
+
+#: The sections of docs/physics.md that code and other pages link to.
+PHYSICS_SECTIONS = [
+    "Materials",
+    "Plate impedance",
+    "Hertz contact",
+    "Bounces",
+    "Plate modes",
+    "Radiation",
+    "Modal synthesis",
+    "Levels",
+    "Known limitations",
+    "References",
+]
+
+
+def _read(name):
+    return (DOCS / name).read_text()
+
+
+def test_every_page_exists():
+    for name in PAGES:
+        assert (DOCS / name).is_file(), name
+
+
+def test_physics_has_exactly_the_linked_sections():
+    headings = re.findall(r"^## (.+)$", _read("physics.md"), flags=re.M)
+    assert headings == PHYSICS_SECTIONS
+
+
+def test_materials_page_is_generated_from_the_table():
+    # docs/materials.md is exactly what `python -m synth.docs` writes; regenerate it with
+    # that command when the table changes.
+    assert _read("materials.md") == docs.materials_page()
+
+
+def _undocumented(parser, text):
+    """``synth NAME OPTION`` for every subcommand and option string (and every choice of a
+    positional argument) of ``parser`` that its section of ``text`` does not name."""
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    missing = []
+    for name, p in sub.choices.items():
+        if f"## synth {name}" not in text:
+            missing.append(f"synth {name}")
+            continue
+        section = text.split(f"## synth {name}", 1)[1].split("\n## ", 1)[0]
+        words = [s for a in p._actions for s in a.option_strings if s not in ("-h", "--help")]
+        words += [c for a in p._actions if not a.option_strings and a.choices for c in a.choices]
+        missing += [f"synth {name} {w}" for w in words if f"`{w}" not in section]
+    return missing
+
+
+def test_cli_page_documents_every_subcommand_and_option():
+    assert _undocumented(build_parser(), _read("cli.md")) == []
+
+
+def test_cli_page_check_finds_an_undocumented_option():
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    sub.choices["render"].add_argument("--not-documented")
+    assert _undocumented(parser, _read("cli.md")) == ["synth render --not-documented"]
+
+
+def _slug(heading):
+    """GitHub's anchor of a Markdown heading."""
+    s = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return s.replace(" ", "-")
+
+
+def _anchors(path):
+    return {_slug(h) for h in re.findall(r"^#+ (.+)$", path.read_text(), flags=re.M)}
+
+
+@pytest.mark.parametrize(
+    "path", [ROOT / "README.md"] + [DOCS / n for n in PAGES], ids=lambda p: p.name
+)
+def test_links_resolve(path):
+    # Every relative link points at a file of the repository, and every #anchor at a heading.
+    for target in re.findall(r"\]\(([^)\s]+)\)", path.read_text()):
+        if re.match(r"[a-z]+://", target):
+            continue
+        file, _, anchor = target.partition("#")
+        dest = (path.parent / file).resolve() if file else path
+        assert dest.exists(), f"{path.name}: {target}"
+        if anchor:
+            assert anchor in _anchors(dest), f"{path.name}: {target}"
+
+
+def test_no_reference_outside_the_repository():
+    # The physics reference of the project is docs/physics.md. (materials.md is generated
+    # from the table's sources in synth/physics/materials.py and checked with them.)
+    for path in [ROOT / "README.md"] + [DOCS / n for n in PAGES if n != "materials.md"]:
+        text = path.read_text()
+        assert "PHYSICS.md" not in text and "../shared" not in text, path.name
+
+
+# --- measured figures: in the block their command writes, nowhere else -------------------
+def _all_blocks():
+    blocks = {}
+    for name in PAGES:
+        for key, body in docs.bench_blocks(_read(name)).items():
+            assert key not in blocks, f"bench:{key} appears twice"
+            blocks[key] = (name, body)
+    return blocks
+
+
+def test_every_benchmark_has_one_block_in_its_page():
+    blocks = _all_blocks()
+    assert set(blocks) == set(docs.BENCH_PAGES)
+    for key, (page, _) in blocks.items():
+        assert page == docs.BENCH_PAGES[key]
+        assert f"`synth bench {key}`" in _read(page)  # the command that writes it
+
+
+def _significant(token):
+    digits = re.sub(r"e[+-]?\d+$", "", token).replace(".", "").replace("-", "").lstrip("0")
+    return len(digits)
+
+
+#: A measured figure: a decimal or exponent number standing alone (not part of a name).
+_NUMBER = r"(?<![\w.])-?(?:\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+)(?![\w.])"
+#: Headers of columns of run times, which vary from run to run (a coincidence with a number
+#: of the prose would not be a pasted figure): left out of the check.
+_TIMING = re.compile(r"\bus\b|us/|\(ms\)$|render \(ms\)|time per|factor|speed-up|ns per")
+
+
+def _block_figures(body):
+    """Measured figures of a block: decimal numbers with three or more significant digits
+    in its table cells, apart from the first column (the case or quantity measured), the
+    columns of published values (a header naming the thesis) and of run times."""
+    figures = set()
+    skip = set()
+    for line in body.splitlines():
+        if not line.startswith("|"):
+            skip = set()  # a new table starts after any other line
+            continue
+        cells = line.strip().strip("|").split("|")
+        if line.startswith("|---"):
+            continue
+        if not skip:  # the header row
+            skip = {0} | {
+                i
+                for i, c in enumerate(cells)
+                if "thesis" in c or (_TIMING.search(c.strip()) and "error" not in c)
+            }
+            continue
+        for i, cell in enumerate(cells):
+            if i in skip:
+                continue
+            for token in re.findall(_NUMBER, cell):
+                if _significant(token) >= 3:
+                    figures.add(token.lstrip("-"))
+    return figures
+
+
+def _outside_blocks(text):
+    return re.sub(r"<!-- bench:([a-z]+) -->.*?<!-- /bench:\1 -->", "", text, flags=re.S)
+
+
+def test_measured_figures_are_not_pasted_outside_their_block():
+    # A figure a benchmark prints is written by `synth bench NAME --update-docs` into its
+    # block; prose refers to the block rather than repeating the figure (which would go
+    # stale at the next run).
+    figures = set()
+    for _, body in _all_blocks().values():
+        figures |= _block_figures(body)
+    for path in [ROOT / "README.md"] + [DOCS / n for n in PAGES]:
+        text = _outside_blocks(path.read_text())
+        for fig in figures:
+            assert not re.search(rf"(?<![\d.]){re.escape(fig)}(?![\d])", text), (
+                f"{path.name} repeats the measured figure {fig} outside its block"
+            )
+
+
+def test_block_figures_are_found():
+    body = (
+        "Printed by `synth bench thesis --markdown` on ...\n\n"
+        "| quantity | engine | thesis (measured) | error | render (ms) | onset error, RMS (ms) |\n"
+        "|---|---|---|---|---|---|\n"
+        "| steel 12.55 mm | 0.871 | 0.87 | 3.4e-07 | 12.6 | 0.013 |\n"
+        "| time (us) | 103.7 | 110.0 | 3.41e-07 | 12.7 | 0.0291 |\n"
+        "| DOP853 | 1e-03 | 5148 / 7137 | -86.6 | 13.8 | 0.068 |\n"
+    )
+    assert _block_figures(body) == {"0.871", "103.7", "3.41e-07", "86.6", "0.0291"}
+
+
+def test_replace_bench_block():
+    text = (
+        "a\n<!-- bench:thesis -->\nold\n<!-- /bench:thesis -->\n"
+        "b\n<!-- bench:render -->\nx\n<!-- /bench:render -->\n"
+    )
+    new = docs.replace_bench_block(text, "thesis", "new figures")
+    assert docs.bench_blocks(new) == {"thesis": "new figures\n", "render": "x\n"}
+    assert docs.replace_bench_block(new, "thesis", "new figures") == new
+    with pytest.raises(SynthError, match="bench='contact'"):
+        docs.replace_bench_block(text, "contact", "y")
+
+
+def test_markdown_block_names_its_command():
+    block = bench.markdown_block("synth bench thesis --markdown", "| a | b |\n|---|---|")
+    assert block.startswith("Printed by `synth bench thesis --markdown` on ")
+    assert block.endswith("| a | b |\n|---|---|\n")
+
+
+def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
+    # `synth bench thesis --update-docs` replaces the block of a copy of docs/ and nothing
+    # else of the page.
+    copy = tmp_path / "docs"
+    shutil.copytree(DOCS, copy)
+    monkeypatch.setattr(docs, "docs_dir", lambda: copy)
+    before = (copy / "validation.md").read_text()
+    assert main(["bench", "thesis", "--update-docs"]) == 0
+    after = (copy / "validation.md").read_text()
+    assert _outside_blocks(after) == _outside_blocks(before)
+    body = docs.bench_blocks(after)["thesis"]
+    assert body.startswith("Printed by `synth bench thesis --markdown` on ")
+    assert "| restitution of the first impact (1.4 m/s) |" in body
+    assert "bench:thesis updated" in capsys.readouterr().out
+
+
+def test_bench_rejects_json_with_markdown(capsys):
+    assert main(["bench", "thesis", "--json", "--markdown"]) == 2
+    assert "--json cannot be combined" in capsys.readouterr().err

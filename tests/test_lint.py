@@ -1,0 +1,25 @@
+"""The code passes the project's linter and formatter (ruff, configured in pyproject.toml),
+when ruff is installed (it is in the ``test`` extra)."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def ruff() -> list[str]:
+    exe = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
+    if exe is None:
+        pytest.skip("ruff is not installed (pip install 'impact-synth[test]')")
+    return [exe]
+
+
+@pytest.mark.parametrize("args", [["check", "synth", "tests"],
+                                  ["format", "--check", "synth", "tests"]])
+def test_ruff(args):
+    done = subprocess.run(ruff() + args, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr

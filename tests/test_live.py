@@ -1,0 +1,306 @@
+"""The live engine without a device: ``Engine.process`` against ``synth.render`` of the same
+impacts, its limits, and its checks of every argument."""
+
+import builtins
+import sys
+
+import numpy as np
+import pytest
+
+import synth
+from synth.errors import ParameterError, SynthError
+from synth.live.engine import HIT_RTOL
+from synth.physics.bounces import BounceSequence, Impact
+from synth.physics.contact import solve_impact
+
+FS = 48000
+PRE = 0.005          # s: the first tick's start, in the render (preroll) and live (at)
+EXACT_DB = -200.0    # an omission floor far below float32 resolution
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return synth.load_preset("default")
+
+
+@pytest.fixture(scope="module")
+def accel_scene():
+    s = synth.load_preset("default")
+    return synth.Scene(s.ball, s.plate, drop_height=s.drop_height, position=(0.4, 0.2),
+                       listener=synth.Accelerometer((0.9, 0.3)))
+
+
+def float32_ulp_of_peak(x):
+    """Half an ulp of float32 at the signal's peak: the rounding of its last conversion."""
+    return float(np.spacing(np.float32(np.max(np.abs(x)))))
+
+
+def rendered(scene, sequence=None, **kw):
+    """The scene's render in the engine's level (normalize="physical"), exact tails."""
+    return synth.render(scene, samplerate=FS, normalize="physical", floor_db=kw.pop("floor_db", EXACT_DB),
+                        fade=0.0, preroll=PRE, sequence=sequence, **kw)
+
+
+def hits_sequence(scene, times, speeds):
+    """A BounceSequence of single hits at ``times`` (s) with ``speeds`` (m/s), solved as
+    Body.hit solves them."""
+    impacts = tuple(Impact(i + 1, t, v, solve_impact(scene.ball, scene.plate, v, position=scene.position,
+                                                     rtol=HIT_RTOL), 0.5)
+                    for i, (t, v) in enumerate(zip(times, speeds)))
+    return BounceSequence(impacts, "max-impacts", 1.0, 9.81)
+
+
+def test_a_drop_played_live_is_the_render(scene):
+    # both are the exact modal sum (the floor far below float32's resolution); the live
+    # bank advances its state from block boundaries instead of tiles, which changes only
+    # float64 rounding: the float32 outputs agree to the last conversion's rounding
+    r = rendered(scene)
+    engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE)
+    assert len(onsets) == r.settings["n_impacts"]
+    live = engine.process(r.audio.size)[:, 0]
+    assert engine.stats.impacts_played == len(onsets)
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
+def test_hits_in_the_middle_of_blocks_are_the_render(scene):
+    # onsets at arbitrary sub-sample times, several in one block and overlapping tails:
+    # the same exact sum as the offline bank's
+    times = np.array([0.0, 0.00123457, 0.0029, 0.0311, 0.03113, 0.1207])
+    speeds = [1.5, 0.3, 0.8, 1.2, 0.05, 0.6]
+    r = rendered(scene, hits_sequence(scene, times, speeds))
+    engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    for t, v in zip(times, speeds):
+        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t) == PRE + t
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
+def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
+    # the drop takes a scene's contact model and gravity: Hunt-Crossley damping on the Moon
+    moon = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.2),
+                       gravity=1.62, contact=synth.Contact("hunt-crossley", dissipation=0.2))
+    r = rendered(moon)
+    engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
+    body = engine.add(moon.plate, listener=moon.listener)
+    onsets = body.drop(moon.ball, moon.drop_height, position=moon.position, at=PRE,
+                       contact=moon.contact, gravity=moon.gravity)
+    assert len(onsets) == r.settings["n_impacts"]
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
+def test_several_bodies_add_up(scene, accel_scene):
+    # each body is its own modal bank; the output is their sum (a microphone over one
+    # plate and an accelerometer on another), each in its physical calibration
+    a = rendered(scene)
+    b = rendered(accel_scene)
+    n = max(a.audio.size, b.audio.size)
+    want = np.zeros(n)
+    want[:a.audio.size] += a.audio
+    want[:b.audio.size] += b.audio
+    engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
+    for s in (scene, accel_scene):
+        engine.add(s.plate, listener=s.listener).drop(s.ball, s.drop_height, position=s.position,
+                                                      at=PRE)
+    live = engine.process(n)[:, 0]
+    tol = float32_ulp_of_peak(a.audio) + float32_ulp_of_peak(b.audio) + float32_ulp_of_peak(want)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_default_floor_keeps_within_its_budget(scene):
+    # the render and the engine each leave out at most floor * reference at any sample
+    # (modal_bank's budget; the reference is the loudest impact's, the first of a drop)
+    r = synth.render(scene, samplerate=FS, normalize="physical", fade=0.0, preroll=PRE)
+    engine = synth.Engine(samplerate=FS)
+    engine.add(scene.plate, listener=scene.listener).drop(scene.ball, scene.drop_height,
+                                                          position=scene.position, at=PRE)
+    live = engine.process(r.audio.size)[:, 0]
+    budget = 10 ** (-80 / 20) * r.settings["reference_amplitude"] * r.gain
+    assert np.max(np.abs(live - r.audio)) <= 2 * budget + float32_ulp_of_peak(r.audio)
+
+
+def test_fewer_pulse_points_stay_below_the_floor(scene):
+    # a coarser pulse grid makes hit() cheaper; its transform error is of order h^3.5 (see
+    # modal_bank): 23 points instead of 65 multiply it by about (65/23)^3.5 = 38, from below
+    # 2e-6 of the impulse to below 1e-4, which keeps the ticks within -60 dB of the loudest
+    # (measured: -76 dB on the default scene)
+    times, speeds = np.array([0.0, 0.05]), [1.5, 0.7]
+    r = rendered(scene, hits_sequence(scene, times, speeds))
+    engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB, pulse_points=5)
+    body = engine.add(scene.plate, listener=scene.listener)
+    for t, v in zip(times, speeds):
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+    live = engine.process(r.audio.size)[:, 0]
+    assert 0 < np.max(np.abs(live - r.audio)) < 1e-3 * r.settings["reference_amplitude"] * r.gain
+
+
+def test_a_quiet_body_sleeps_and_silence_is_exact(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    assert not body.awake
+    assert not np.any(engine.process(1024))
+    body.hit(scene.ball, 1.0)
+    assert body.awake and body.pending == 1
+    engine.process(FS * 4)              # the default plate's tail falls below -80 dB in ~1 s
+    assert not body.awake
+    assert not np.any(engine.process(512))
+
+
+def test_stop_all_silences_a_body(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    body.hit(scene.ball, 1.0)
+    assert np.any(engine.process(2048))
+    body.hit(scene.ball, 1.0)
+    body.stop_all()
+    assert body.pending == 0 and not body.awake
+    assert not np.any(engine.process(2048))
+
+
+def test_a_full_ring_refuses_and_counts(scene):
+    engine = synth.Engine(samplerate=FS, max_pending=2)
+    body = engine.add(scene.plate, listener=scene.listener)
+    assert body.hit(scene.ball, 1.0) is not None
+    assert body.hit(scene.ball, 1.0) is not None
+    assert body.hit(scene.ball, 1.0) is None
+    assert engine.stats.impacts_refused == 1 and engine.stats.impacts_pending == 2
+    engine.process(1024)
+    assert engine.stats.impacts_played == 2
+    assert body.hit(scene.ball, 1.0) is not None   # room again once played
+
+
+def test_default_start_is_one_block_ahead(scene):
+    # without a stream the clock is the next frame to mix; a hit starts one block later
+    engine = synth.Engine(samplerate=FS, blocksize=256)
+    body = engine.add(scene.plate)
+    engine.process(1000)
+    assert body.hit(scene.ball, 1.0) == (1000 + 256) / FS
+    assert engine.time == 1000 / FS
+
+
+def test_channels_carry_the_mono_mix(scene):
+    engine = synth.Engine(samplerate=FS, channels=2)
+    engine.add(scene.plate).hit(scene.ball, 1.0, at=0.0)
+    out = engine.process(4096)
+    assert out.shape == (4096, 2) and out.dtype == np.float32
+    assert np.any(out) and np.array_equal(out[:, 0], out[:, 1])
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(samplerate=1000), "samplerate"), (dict(samplerate=48000.0), "samplerate"),
+    (dict(blocksize=0), "blocksize"), (dict(blocksize=True), "blocksize"),
+    (dict(device=1.5), "device"), (dict(latency="fast"), "latency"), (dict(latency=-1.0), "latency"),
+    (dict(channels=0), "channels"), (dict(floor_db=0.0), "floor_db"),
+    (dict(max_pending=0), "max_pending"), (dict(fade=0.0), "fade"), (dict(handover=-1.0), "handover"),
+    (dict(record_seconds=-1.0), "record_seconds"), (dict(pulse_points=4), "pulse_points"), (dict(max_frequency=0.0), "max_frequency"),
+    (dict(max_frequency=30000.0), "max_frequency"),
+])
+def test_engine_rejects_bad_arguments(kwargs, name):
+    with pytest.raises(ParameterError, match=name):
+        synth.Engine(**kwargs)
+
+
+def test_add_hit_drop_reject_bad_arguments(scene):
+    engine = synth.Engine(samplerate=FS)
+    with pytest.raises(ParameterError, match="plate"):
+        engine.add("plate")
+    with pytest.raises(ParameterError, match="listener"):
+        engine.add(scene.plate, listener=(0.1, 0.1, 0.2))
+    with pytest.raises(ParameterError, match="listener.position"):
+        engine.add(scene.plate, listener=synth.Accelerometer((5.0, 0.1)))
+    with pytest.raises(ParameterError, match="gain"):
+        engine.add(scene.plate, gain=0.0)
+    body = engine.add(scene.plate)
+    ball = scene.ball
+    for call, name in [
+        (lambda: body.hit("ball", 1.0), "ball"),
+        (lambda: body.hit(synth.Ball("steel", radius=0.3), 1.0), "ball.radius"),
+        (lambda: body.hit(ball, 0.0), "speed"),
+        (lambda: body.hit(ball, float("nan")), "speed"),
+        (lambda: body.hit(ball, 1.0, position=(9.0, 0.1)), "position"),
+        (lambda: body.hit(ball, 1.0, position="middle"), "position"),
+        (lambda: body.hit(ball, 1.0, gain=-1.0), "gain"),
+        (lambda: body.hit(ball, 1.0, at=-1.0), "at"),
+        (lambda: body.hit(ball, 1.0, at=float("inf")), "at"),
+        (lambda: body.drop(None, 0.1), "ball"),
+        (lambda: body.drop(ball, -0.1), "height"),
+        (lambda: body.drop(ball, 0.1, position=(0.1, 7.0)), "position"),
+        (lambda: body.drop(ball, 0.1, gain=float("nan")), "gain"),
+        (lambda: body.drop(ball, 0.1, at="soon"), "at"),
+        (lambda: body.drop(ball, 0.1, contact="hertz"), "contact"),
+        (lambda: body.hit(ball, 1.0, gravity=0.0), "gravity"),
+        (lambda: engine.process(-1), "frames"),
+    ]:
+        with pytest.raises(ParameterError, match=name):
+            call()
+    engine.process(4800)
+    with pytest.raises(ParameterError, match="at"):
+        body.hit(ball, 1.0, at=0.05)         # before the next frame to mix (0.1 s)
+    assert engine.stats.impacts_pending == 0
+
+
+def test_start_without_portaudio_says_what_to_install(monkeypatch, scene):
+    # sounddevice raises OSError at import when the PortAudio library is missing
+    real_import = builtins.__import__
+
+    def no_portaudio(name, *args, **kwargs):
+        if name == "sounddevice":
+            raise OSError("PortAudio library not found")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.delitem(sys.modules, "sounddevice", raising=False)
+    monkeypatch.setattr(builtins, "__import__", no_portaudio)
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    with pytest.raises(SynthError, match="libportaudio2"):
+        engine.start()
+    assert not engine.running
+    body.hit(scene.ball, 1.0, at=0.0)          # process() works all the same
+    assert np.any(engine.process(2048))
+
+
+def test_start_without_the_device_says_so():
+    pytest.importorskip("sounddevice", exc_type=OSError)
+    engine = synth.Engine(samplerate=FS, device=9999)
+    with pytest.raises(SynthError, match="no audio output device 9999"):
+        engine.start()
+    assert not engine.running
+
+
+def test_synth_play_without_the_device_is_a_one_line_error(capsys):
+    pytest.importorskip("sounddevice", exc_type=OSError)
+    from synth.cli import main
+
+    assert main(["play", "default", "--device", "9999"]) == 2
+    assert "no audio output device 9999" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("script, argv", [("ui_button.py", []), ("game_loop.py", ["--seconds", "2"])])
+def test_examples_run_offline(script, argv, tmp_path, monkeypatch, capsys):
+    # the examples' offline modes run the same engine on its own clock and write a file
+    import runpy
+    from pathlib import Path
+
+    out = tmp_path / "out.wav"
+    path = Path(__file__).parent.parent / "examples" / script
+    monkeypatch.setattr(sys, "argv", [str(path), *argv, "--offline", str(out)])
+    runpy.run_path(str(path), run_name="__main__")
+    audio, fs = synth.read_audio(out)
+    assert fs == FS and np.any(audio)
+
+
+def test_bench_live_figures_format():
+    # the benchmark's pieces run and print their targets (figures themselves are not
+    # asserted: wall-clock times depend on the machine)
+    from synth.live import bench
+
+    result = dict(callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+                  hit_us=bench.hit_cost(repeat=5),
+                  add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001), jack=None)
+    assert [r["bodies"] for r in result["callback"]] == [1, 2]
+    assert all(r["played"] >= 1 for r in result["callback"])
+    text = bench.format_live(result)
+    assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
