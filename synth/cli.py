@@ -329,6 +329,7 @@ def _cmd_bench(args):
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
+        "scale": (bench.run_scale, bench.format_scale),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -468,12 +469,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_play)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "scale"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
                         "onsets against noise; live: the live engine's callback, hit() and "
-                        "add() costs, and underflows through a JACK dummy server")
+                        "add() costs, and underflows through a JACK dummy server; scale: cold "
+                        "and warm cost of modes, radiation gains and synthesis for a ladder "
+                        "of plates")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--markdown", action="store_true",
                    help="the block for docs/: the command, date and machine, then the tables")
