@@ -9,6 +9,7 @@ Heavy optional parts (plotting, playback, loudness, distributed batches) are
 imported only where used.
 """
 
+from synth import jitcache  # noqa: F401  (first: picks numba's cache folder before numba loads)
 from synth.analysis import Analysis, Tick, analyze, analyze_file
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import read_audio, write_audio

@@ -668,3 +668,147 @@ def markdown_block(command: str, table: str) -> str:
             f"numba {numba.__version__}, {os.cpu_count()} CPUs, load average {load:.1f} "
             "at the end of the run).")
     return f"{head}\n\n{table}\n"
+
+
+# ----------------------------------------------------------------------------------------
+# Scale: cold and warm costs of modes, radiation gains and synthesis for a ladder of plates
+
+
+SCALE_LADDER = (
+    # name, material, thickness m, length m, width m, boundary, samplerate Hz
+    ("small stiff glass", "glass", 0.010, 0.15, 0.10, "clamped", 48000),
+    ("glass table", "glass", 0.008, 1.0, 0.6, "simply-supported", 48000),
+    ("steel sheet", "steel", 0.001, 0.5, 0.4, "free", 22050),
+    ("steel sheet", "steel", 0.001, 0.5, 0.4, "free", 48000),
+    ("thunder sheet", "steel", 0.001, 1.5, 1.0, "simply-supported", 48000),
+    ("2 m thin metal", "steel", 0.0021, 1.86, 1.86, "simply-supported", 44100),
+    ("free bar", "steel", 0.0037, 1.84, 0.10, "free", 48000),
+)
+
+
+def _scale_scene(material, thickness, length, width, boundary):
+    """A 16 mm glass marble dropped 10 cm on a point off the middle (0.4, 0.45 of each
+    side), microphone 0.4 m above the middle."""
+    from synth.io import presets
+
+    scene, _, _ = presets.load_preset_with_options("glass-marble-on-glass-table", [
+        f"plate.material='{material}'", f"plate.thickness={thickness!r}",
+        f"plate.length={length!r}", f"plate.width={width!r}", f"plate.boundary='{boundary}'",
+        f"drop.position=[{0.4 * length!r}, {0.45 * width!r}]",
+        f"listener.position=[{0.5 * length!r}, {0.5 * width!r}, 0.4]"])
+    return scene
+
+
+def _peak_rss_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: KiB
+
+
+def scale_child(spec: dict) -> dict:
+    """One plate of the ladder in this process: seconds and peak resident memory (MB)
+    after the modes, the microphone's gains and the whole render (whose modes and
+    gains then come from the memory cache: the rest is contact, scheduler and
+    synthesis)."""
+    from synth.sound import modes as plate_modes
+    from synth.sound import render as render_mod
+    from synth.sound.radiation import plate_gains
+
+    scene = _scale_scene(spec["material"], spec["thickness"], spec["length"], spec["width"],
+                         spec["boundary"])
+    fs = spec["samplerate"]
+    out = {}
+    t0 = time.perf_counter()
+    try:
+        modes = plate_modes.modes(scene.plate, max_frequency=0.5 * fs * (1.0 - 1e-9))
+    except Exception as exc:  # noqa: BLE001 - a refusal is a figure of this benchmark
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    out["modes_s"] = time.perf_counter() - t0
+    out["n_modes"] = len(modes)
+    out["modes_mb"] = _peak_rss_mb()
+    omega = np.asarray(modes.angular_frequencies)
+    sigma = np.asarray(modes.decay_rates)
+    poles = -sigma + 1j * np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
+    k_max = (float(omega.max()) ** 2 * scene.plate.surface_density
+             / scene.plate.flexural_rigidity) ** 0.25
+    t0 = time.perf_counter()
+    result = plate_gains(modes, scene.listener.position, -np.conj(poles), max_wavenumber=k_max,
+                         reference_distance=render_mod._nearest_distance(scene),
+                         full_output=True)
+    out["gains_s"] = time.perf_counter() - t0
+    out["gains_mb"] = _peak_rss_mb()
+    out["rule"] = result.rule
+    t0 = time.perf_counter()
+    r = render_mod.render(scene, samplerate=fs)
+    out["render_s"] = time.perf_counter() - t0
+    out["render_mb"] = _peak_rss_mb()
+    out["audio_s"] = r.duration
+    return out
+
+
+def _scale_run(spec, cache_dir, timeout):
+    import json
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, SYNTH_CACHE_DIR=str(cache_dir))
+    code = ("import json, sys; from synth import bench; "
+            "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))")
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, "-c", code, json.dumps(spec)], env=env,
+                              capture_output=True, text=True, timeout=timeout, check=False)
+    except subprocess.TimeoutExpired:
+        return {"error": f"over {timeout:g} s"}
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        return {"error": proc.stderr.strip().splitlines()[-1] if proc.stderr else "failed"}
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    res["process_s"] = wall
+    return res
+
+
+def run_scale(ladder=SCALE_LADDER, timeout=600.0) -> list:
+    """Each plate of ``ladder`` rendered in a new process with an empty cache directory
+    (cold), then in another process with that directory (warm: modes and gains from
+    disk). Seconds and peak memory of each stage; see :func:`scale_child`."""
+    import tempfile
+
+    rows = []
+    for name, material, h, a, b, boundary, fs in ladder:
+        spec = {"material": material, "thickness": h, "length": a, "width": b,
+                "boundary": boundary, "samplerate": fs}
+        with tempfile.TemporaryDirectory(prefix="synth-scale-") as tmp:
+            cold = _scale_run(spec, tmp, timeout)
+            warm = _scale_run(spec, tmp, timeout) if "error" not in cold else cold
+        rows.append({"name": name, **spec, "cold": cold, "warm": warm})
+    return rows
+
+
+def format_scale(rows) -> str:
+    """The scale benchmark as a Markdown table (cold / warm)."""
+    lines = [("| plate | fs Hz | modes | modes s | gains s (rule) | render s | process s | "
+              "peak MB | audio s |"),
+             "|---|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        plate = (f"{row['name']}: {row['material']} {row['length']:g} x {row['width']:g} x "
+                 f"{row['thickness'] * 1e3:g} mm {row['boundary']}")
+        c, w = row["cold"], row["warm"]
+        if "error" in c:
+            lines.append(f"| {plate} | {row['samplerate']} | refused or failed: {c['error']} "
+                         f"| | | | | | |")
+            continue
+        lines.append(
+            f"| {plate} | {row['samplerate']} | {c['n_modes']} | {c['modes_s']:.3g} / "
+            f"{w.get('modes_s', float('nan')):.3g} | {c['gains_s']:.3g} / "
+            f"{w.get('gains_s', float('nan')):.3g} ({c['rule']}) | {c['render_s']:.3g} / "
+            f"{w.get('render_s', float('nan')):.3g} | {c['process_s']:.3g} / "
+            f"{w.get('process_s', float('nan')):.3g} | {c['render_mb']:.0f} / "
+            f"{w.get('render_mb', float('nan')):.0f} | {c['audio_s']:.2f} |")
+    lines.append("")
+    lines.append("Cold: a new process with an empty SYNTH_CACHE_DIR; warm: a second process "
+                 "with the first one's cache. 'render s' is the whole render after the modes "
+                 "and gains are in memory (contact, bounces, synthesis); 'process s' includes "
+                 "the interpreter, imports and numba's cache loading.")
+    return "\n".join(lines)

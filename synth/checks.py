@@ -53,6 +53,14 @@ def positive(name: str, value: object, unit: str = "") -> float:
     return x
 
 
+def positive_at_most(name: str, value: object, hi: float, unit: str = "") -> float:
+    """A finite float ``> 0`` and ``<= hi`` (the documented upper end of its range)."""
+    x = real(name, value, unit, f"> 0 and <= {hi:g}")
+    if not 0.0 < x <= hi:
+        raise ParameterError(f"{name}={value!r} must be > 0 and <= {hi:g}{_unit(unit)}")
+    return x
+
+
 def nonnegative(name: str, value: object, unit: str = "") -> float:
     """A finite float ``>= 0``."""
     x = real(name, value, unit, ">= 0")

@@ -87,18 +87,68 @@ def _cmd_render(args):
         else:
             timing = load_preset_with_options(args.timing_from)[0]
             opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
+    outputs = Outputs({"output": args.output, "report": args.report, "plot": args.plot},
+                      {"output": audio_io.FORMATS})
     rendered = render(scene, **opts)
-    audio_io.write_audio(args.output, rendered.audio, rendered.samplerate, subtype=subtype)
-    if args.report:
-        _write_json(args.report, _report(rendered, data, args.preset))
-    if args.plot:
-        from synth.io.plot import plot_render
-        plot_render(rendered, args.plot)
+    with outputs:
+        audio_io.write_audio(outputs.staged("output"), rendered.audio, rendered.samplerate,
+                             subtype=subtype)
+        if args.report:
+            _write_json(outputs.staged("report"), _report(rendered, data, args.preset))
+        if args.plot:
+            from synth.io.plot import plot_render
+            plot_render(rendered, outputs.staged("plot"))
     print(f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
           f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
           f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
           f"normalize={rendered.settings['normalize']}")
     return 0
+
+
+class Outputs:
+    """The output files of one command, written all or none.
+
+    Each path is checked when the command starts (before any work): not a directory, in
+    an existing folder where a file can be created. Inside ``with outputs:`` every file
+    is written to a temporary name beside its target (:meth:`staged`); they are renamed
+    onto their targets only when the block ends without an error, else removed, so a
+    failure (or SIGTERM, SIGINT) leaves every existing output as it was.
+    """
+
+    def __init__(self, paths: dict, suffixes: dict | None = None):
+        from pathlib import Path
+
+        from synth.io.audio import check_output_path
+
+        self.paths = {k: Path(v) for k, v in paths.items() if v}
+        for field, path in self.paths.items():
+            check_output_path(path, field, (suffixes or {}).get(field))
+        self.temporaries: dict = {}
+
+    def staged(self, field: str):
+        """The temporary path to write ``field``'s file to (same folder and suffix)."""
+        from synth.io.audio import temporary_name
+
+        target = self.paths[field]
+        tmp = target.with_name(temporary_name(target.suffix))
+        self.temporaries[field] = tmp
+        return tmp
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        import os
+
+        try:
+            if kind is None:
+                for field, tmp in self.temporaries.items():
+                    os.replace(tmp, self.paths[field])
+        finally:
+            for tmp in self.temporaries.values():
+                if tmp.exists():
+                    tmp.unlink()
+        return False
 
 
 def _write_json(path, obj):
@@ -149,6 +199,7 @@ def _cmd_alter(args):
     from synth.io import audio as audio_io
     from synth.stimuli.alter import alter_restitution
 
+    audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     audio, fs = audio_io.read_audio(args.file)
     channel = _channel(args.channel)
     onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,
@@ -278,6 +329,7 @@ def _cmd_bench(args):
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
+        "scale": (bench.run_scale, bench.format_scale),
         "bank": (lambda: _bank_bench().run_bank(count=args.count),
                  lambda r: _bank_bench().format_bank(r)),
     }
@@ -330,6 +382,16 @@ def _cmd_cache(args):
     for kind, (n, size) in info.by_kind.items():
         print(f"  {kind:<32} {n:>5} entries {size / 1e6:>9.1f} MB")
     return 0
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return value
 
 
 def _bench_command(args) -> str:
@@ -458,19 +520,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_play)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "bank"],
+    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "scale", "bank"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the first tick "
                         "against the thesis' measurements; analysis: recovered restitution and "
                         "onsets against noise; live: the live engine's callback, hit() and "
-                        "add() costs, and underflows through a JACK dummy server; bank: "
-                        "sounds/s of a sound bank against one process per file")
+                        "add() costs, and underflows through a JACK dummy server; scale: cold "
+                        "and warm cost of modes, radiation gains and synthesis for a ladder "
+                        "of plates; bank: sounds/s of a sound bank against one process "
+                        "per file")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--markdown", action="store_true",
                    help="the block for docs/: the command, date and machine, then the tables")
     p.add_argument("--update-docs", action="store_true",
                    help="write that block between its markers in docs/ (a source checkout)")
-    p.add_argument("--repeat", type=int, help="timed calls per figure, median (default: "
+    p.add_argument("--repeat", type=_positive_int, help="timed calls per figure, median, >= 1 (default: "
                    "contact 300, render 5; thesis and analysis time nothing)")
     p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
     p.add_argument("--seconds", type=float, default=30.0,
@@ -481,20 +545,45 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C (SIGINT): every
+    temporary file is removed on the way out."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
+    import signal
+    import threading
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return args.func(args)
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        return 130
     except BrokenPipeError:  # output piped into a program that stopped reading (head)
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:     # the system refused: full disk, read-only folder, I/O error
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"synth: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
+    except Terminated:
+        print("synth: terminated (SIGTERM); nothing partial was left", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

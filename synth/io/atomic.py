@@ -15,25 +15,71 @@ import secrets
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["temporary_sibling", "write_atomically", "write_json_atomically"]
+__all__ = ["remove_stale_temporaries", "temporary_name", "temporary_sibling", "write_atomically",
+           "write_json_atomically"]
+
+
+#: Prefix of the engine's temporary files: ``.synth-<pid>-<hex>.part<suffix>``. The name
+#: does not grow with the target's (a 255-byte output name still has a temporary name),
+#: and it carries the writer's process id, so that a temporary left by a killed process
+#: is recognised and removed (:func:`remove_stale_temporaries`).
+TEMPORARY_PREFIX = ".synth-"
+
+
+def temporary_name(suffix: str) -> str:
+    """A fresh temporary file name of this process, ending in ``.part<suffix>``."""
+    return f"{TEMPORARY_PREFIX}{os.getpid()}-{secrets.token_hex(6)}.part{suffix}"
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder) -> list[Path]:
+    """Remove the temporaries (:func:`temporary_name`) in ``folder`` whose writer process
+    no longer runs (it was killed mid-write); return the paths removed. A live process's
+    temporaries, and every other file, are left alone."""
+    removed = []
+    try:
+        entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
+    except OSError:
+        return removed
+    for tmp in entries:
+        pid_text = tmp.name[len(TEMPORARY_PREFIX):].split("-", 1)[0]
+        if not pid_text.isdigit() or _process_alive(int(pid_text)):
+            continue
+        try:
+            tmp.unlink()
+            removed.append(tmp)
+        except OSError:
+            pass
+    return removed
 
 
 def temporary_sibling(path: Path, error: type[Exception] = OSError) -> Path:
     """Create (exclusively) an empty hidden file beside ``path`` and return its path.
 
-    Its name keeps ``path``'s suffix (``.name.<random>.part<suffix>``) so that writers
-    that choose the format by suffix still work. ``error`` is the exception class
-    raised, naming ``path``, when no file can be created there.
+    Its name keeps ``path``'s suffix (:func:`temporary_name`) so that writers that
+    choose the format by suffix still work; stale temporaries of killed writers there
+    are removed first. ``error`` is the exception class raised, naming ``path``, when
+    no file can be created there.
     """
     path = Path(path)
+    remove_stale_temporaries(path.parent if str(path.parent) else Path("."))
     for _ in range(100):
-        tmp = path.with_name(f".{path.stem}.{secrets.token_hex(6)}.part{path.suffix}")
+        tmp = path.with_name(temporary_name(path.suffix))
         try:
             fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
         except FileExistsError:
             continue
         except OSError as exc:
-            raise error(f"path={str(path)!r}: cannot create a file there ({exc})") from exc
+            raise error(f"path={str(path)!r}: cannot create a file there ({exc.strerror})") from exc
         os.close(fd)
         return tmp
     raise error(f"path={str(path)!r}: no free temporary name beside it")

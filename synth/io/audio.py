@@ -31,7 +31,7 @@ import soundfile
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.io.atomic import write_atomically
+from synth.io.atomic import remove_stale_temporaries, temporary_name, write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
@@ -70,6 +70,38 @@ class AudioFileError(ParameterError):
 # --------------------------------------------------------------------------- checks
 
 
+#: Highest sample rate of a written file, Hz (libsndfile stores the rate as a 32-bit int;
+#: the engine renders at most 384 kHz, and no converter exceeds 768 kHz).
+MAX_FILE_SAMPLERATE = 768_000
+
+
+#: Quantisation step of the integer subtypes, in units of full scale.
+PCM_STEP = {"PCM_S8": 2.0 ** -7, "PCM_U8": 2.0 ** -7, "PCM_16": 2.0 ** -15,
+            "PCM_24": 2.0 ** -23, "PCM_32": 2.0 ** -31}
+
+
+def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = False) -> str:
+    """libsndfile's bare "System error" made specific: the operating system's own reason
+    (permission denied, no space left on device, ...), found by doing the same access
+    with Python."""
+    if "system error" not in reason.lower():
+        return reason
+    import shutil
+
+    try:
+        if reading:
+            with open(path, "rb") as fh:
+                fh.read(1)
+        else:
+            free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
+            if free < nbytes + 65536:
+                return (f"no space left on the device ({free} bytes free, about {nbytes} "
+                        f"needed)")
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return reason
+
+
 def _check_units(units) -> str:
     return checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
 
@@ -101,6 +133,35 @@ def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     if p.is_dir():
         raise error(f"path={str(p)!r} is a directory, not a file")
     return p, kinds[suffix]
+
+
+def check_output_path(path, field: str = "path", suffixes=None) -> Path:
+    """Check, before any work, that a file can be written at ``path``: its suffix is one
+    of ``suffixes`` (if given, e.g. :data:`FORMATS`), it is not a directory, its folder
+    exists and a file can be created there (tried: this catches a read-only folder or
+    file system). Stale temporaries there are removed. Returns the path; raises
+    :class:`AudioFileError` (or ``ParameterError`` for the suffix) naming ``field``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"{field}={path!r} must be a file path (str or os.PathLike)")
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    if p.is_dir():
+        raise AudioFileError(f"{field}={str(p)!r} is a directory, not a file")
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ParameterError(f"{field}={str(p)!r}: suffix {p.suffix!r} is not one of "
+                             f"{', '.join(map(repr, suffixes))}")
+    if not parent.is_dir():
+        raise AudioFileError(f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
+                             f"(it is not created automatically)")
+    probe = parent / temporary_name(".probe")
+    try:
+        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+        os.unlink(probe)
+    except OSError as exc:
+        raise AudioFileError(f"{field}={str(p)!r}: cannot create a file in {str(parent)!r} "
+                             f"({exc.strerror})") from None
+    remove_stale_temporaries(parent)
+    return p
 
 
 # --------------------------------------------------------------------------- files
@@ -138,6 +199,9 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
     p, fmt = output_path(path, FORMATS, "sound file")
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
+    if sr > MAX_FILE_SAMPLERATE:
+        raise ParameterError(f"samplerate={samplerate!r} must be an integer in "
+                             f"[1, {MAX_FILE_SAMPLERATE}] (Hz)")
     st = DEFAULT_SUBTYPE if subtype is None else subtype
     if not isinstance(st, str) or not soundfile.check_format(fmt, st.upper()):
         raise ParameterError(
@@ -152,6 +216,12 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
                 f"audio peak {peak:.6g} ({20 * math.log10(peak):+.2f} dBFS) exceeds full "
                 f"scale 1.0 and subtype {st!r} of {str(p)!r} would clip it; scale it down "
                 f"(normalize='peak') {hint}")
+        step = PCM_STEP.get(st)
+        if step is not None and 0.0 < peak < 0.5 * step:
+            raise ParameterError(
+                f"audio peak {peak:.6g} ({20 * math.log10(peak):+.1f} "
+                f"dBFS) is below half a step of subtype {st!r} ({0.5 * step:.3g}): "
+                f"{str(p)!r} would hold only silence; raise the level or use subtype='FLOAT'")
     if a.dtype not in (np.float32, np.float64):
         a = a.astype(np.float64)
 
@@ -159,9 +229,10 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
         try:
             soundfile.write(tmp, a, sr, subtype=st, format=fmt)
         except (soundfile.SoundFileError, RuntimeError) as exc:
+            reason = getattr(exc, "error_string", None) or str(exc)
             raise AudioFileError(f"cannot write {str(p)!r} ({fmt} {st}, {sr} Hz, "
                                  f"{1 if a.ndim == 1 else a.shape[1]} channels): "
-                                 f"{getattr(exc, 'error_string', None) or exc}") from exc
+                                 f"{_system_reason(tmp, reason, a.nbytes)}") from exc
 
     write_atomically(p, write, error=AudioFileError)
     return p
@@ -202,6 +273,8 @@ def read_audio(path: str | os.PathLike, *,
         raise ParameterError(
             f"channel={channel!r} must be None (all channels), 'mix' or a channel index")
     p = Path(path)
+    if p.is_dir():
+        raise AudioFileError(f"path={str(p)!r} is a directory, not a file")
     if not p.exists():
         raise AudioFileError(f"path={str(p)!r}: no such file")
     if not p.is_file():
@@ -209,7 +282,10 @@ def read_audio(path: str | os.PathLike, *,
     try:
         audio, sr = soundfile.read(p, dtype="float64", always_2d=True)
     except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-        reason = getattr(exc, "error_string", None) or str(exc)
+        reason = _system_reason(p, getattr(exc, "error_string", None) or str(exc),
+                                reading=True)
+        if reason != (getattr(exc, "error_string", None) or str(exc)):
+            raise AudioFileError(f"cannot read {str(p)!r}: {reason}") from exc
         raise AudioFileError(
             f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}") from exc
     n_ch = audio.shape[1]

@@ -122,7 +122,12 @@ class CacheEntryError(ValueError):
 
 
 class VerifiedArrays(dict):
-    """The arrays of a cache entry whose digest matched (a dict; usable in ``with``)."""
+    """The arrays of a cache entry whose digest matched: a dict, usable in ``with`` and
+    with ``files`` (the names), as the ``NpzFile`` of ``numpy.load``."""
+
+    @property
+    def files(self) -> list[str]:
+        return list(self)
 
     def __enter__(self):
         return self

@@ -168,10 +168,16 @@ def apply_overrides(data: dict, overrides, source="--set") -> dict:
             raise PresetError(f"{source} {item!r}: expected key=value, e.g. ball.radius=0.007")
         key, text = item.split("=", 1)
         key = key.strip()
+        if any(c in item for c in "\r\n"):
+            raise PresetError(f"{source} {item!r}: one key=value per option (no line breaks)")
         try:
-            value = tomllib.loads(f"v = {text}")["v"]
+            parsed = tomllib.loads(f"v = {text}")
         except tomllib.TOMLDecodeError:
-            value = text.strip()  # a bare word is a string: material=glass
+            parsed = {"v": text.strip()}  # a bare word is a string: material=glass
+        if set(parsed) != {"v"}:
+            raise PresetError(f"{source} {item!r}: the value must be one TOML value, e.g. "
+                              f"ball.radius=0.007")
+        value = parsed["v"]
         parts = key.split(".")
         if len(parts) == 1:
             data[key] = value
@@ -206,10 +212,24 @@ def _material(value, where):
             kw["damping"] = Rayleigh(damping["alpha"], damping["beta"])
         else:
             raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
+    _require(kw, ("density", "young", "poisson"), where)
     try:
         return Material(**kw)
     except ParameterError as exc:
         raise PresetError(f"{where}: {exc}") from None
+
+
+def _require(section: dict, keys, where: str) -> None:
+    """Name the first of ``keys`` missing from ``section`` (a ``PresetError``)."""
+    for k in keys:
+        if k not in section:
+            raise PresetError(f"{where}.{k} is missing (required keys: {', '.join(keys)})")
+
+
+def _required_fields(cls) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls)
+                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+                 and f.kw_only is False)
 
 
 def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
@@ -246,6 +266,8 @@ def _scene_from_dict(data, source):
     p = dict(data["plate"])
     if "material" not in b or "material" not in p:
         raise PresetError(f"{source}: ball.material and plate.material are required")
+    _require(b, _required_fields(Ball), "ball")
+    _require(p, _required_fields(Plate), "plate")
     b["material"] = _material(b["material"], "ball.material")
     p["material"] = _material(p["material"], "plate.material")
     for sec, kw in (("ball", b), ("plate", p)):

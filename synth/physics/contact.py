@@ -68,6 +68,20 @@ _MESSAGES = {
 }
 _TINY_REBOUND = ("The ball separated with a rebound speed below the solver's resolution; "
                  "restitution reported as 0.")
+#: Status of a contact integrated to its end whose energy balance is not met.
+ENERGY_IMBALANCE = -3
+#: Largest energy residual (relative, see ``ImpactResult.energy_residual``) of a result
+#: reported as a success: the solver meets its tolerance with residuals of 1e-7 and
+#: below; 1 % means the integration lost the physics (e.g. an admittance so large
+#: that the contact lasts less than the time axis resolves).
+ENERGY_RESIDUAL_LIMIT = 0.01
+
+
+def _energy_message(residual: float) -> str:
+    return (f"The energy balance is not met: residual {residual:.3g} of the energy "
+            f"exchanged (at most {ENERGY_RESIDUAL_LIMIT:g}); the result is not physical.")
+
+
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
 _INF = math.inf
 
@@ -127,7 +141,8 @@ class ImpactResult:
     success : bool
         True if the contact was integrated to its end.
     status : int
-        0 separated, 1 settled, negative: failure (see ``message``).
+        0 separated, 1 settled, negative: failure (see ``message``; -3: the energy
+        balance is off by more than ``ENERGY_RESIDUAL_LIMIT``).
     message : str
         Human-readable description of ``status``.
     n_steps : int
@@ -288,6 +303,10 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
     status = int(r[_k.R_STATUS])
     stiff = bool(r[_k.R_STIFF])
     lam = float(r[_k.R_INELASTICITY])
+    residual = float(r[_k.R_ENERGY_RESIDUAL])
+    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
+    if energy_failed:
+        status = ENERGY_IMBALANCE
     obj = object.__new__(ImpactResult)
     # The solver's own values need no checks: fill the frozen instance directly (the
     # generated __init__ would take a good part of the time an impact takes).
@@ -304,7 +323,8 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         "energy_residual": float(r[_k.R_ENERGY_RESIDUAL]),
         "success": status >= 0,
         "status": status,
-        "message": (_TINY_REBOUND if r[_k.R_TINY_REBOUND]
+        "message": (_energy_message(residual) if energy_failed else
+                    _TINY_REBOUND if r[_k.R_TINY_REBOUND]
                     else _MESSAGES.get(status, "Unknown status.")),
         "n_steps": int(r[_k.R_N_STEPS]),
         "method": "Radau" if stiff else "DOP853",

@@ -17,6 +17,23 @@ from synth.physics.materials import Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
+# Ranges of the scene's numbers, checked when an object is made, before any work. They
+# bound what the model describes (a ball dropped on a thin plate in a room, thesis ch. 2;
+# see docs/physics.md) with a wide margin, and keep every derived figure (impact speed,
+# contact time, mode count, audio length) finite and within memory:
+#: Largest ball radius, m (a bowling ball is 0.109 m).
+MAX_BALL_RADIUS = 1.0
+#: Largest ball mass, kg (a bowling ball is 7 kg).
+MAX_BALL_MASS = 1000.0
+#: Largest plate side or thickness, m.
+MAX_PLATE_SIZE = 100.0
+#: Drop heights, m: from 1 um (an impact speed of 4.4 mm/s) to 1 km (140 m/s; the
+#: contact stays elastic far below it for every material of the table).
+MIN_DROP_HEIGHT = 1e-6
+MAX_DROP_HEIGHT = 1000.0
+#: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
+MAX_GRAVITY = 1000.0
+
 
 @dataclass(frozen=True)
 class Ball:
@@ -26,9 +43,9 @@ class Ball:
     ----------
     material : Material or str
         The ball's material (a :class:`Material` or a table name).
-    radius : float > 0
+    radius : float in (0, 1]
         Radius, metres.
-    mass : float > 0, optional
+    mass : float in (0, 1000], optional
         Mass, kg. Default: ``density * 4/3 pi radius^3``.
     """
 
@@ -38,11 +55,12 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(self, "radius", checks.positive("ball.radius", self.radius, "metres"))
+        object.__setattr__(self, "radius", checks.positive_at_most(
+            "ball.radius", self.radius, MAX_BALL_RADIUS, "metres"))
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
         else:
-            m = checks.positive("ball.mass", self.mass, "kg")
+            m = checks.positive_at_most("ball.mass", self.mass, MAX_BALL_MASS, "kg")
         object.__setattr__(self, "mass", m)
 
 
@@ -54,11 +72,11 @@ class Plate:
     ----------
     material : Material or str
         The plate's material (a :class:`Material` or a table name).
-    thickness : float > 0
-        Thickness ``h``, metres.
-    length : float > 0
+    thickness : float in (0, 100]
+        Thickness ``h``, metres (at most the smaller side).
+    length : float in (0, 100]
         Side ``a`` along x, metres.
-    width : float > 0
+    width : float in (0, 100]
         Side ``b`` along y, metres.
     boundary : {"free", "simply-supported", "clamped"}
         Condition on all four edges.
@@ -77,7 +95,8 @@ class Plate:
                 f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
                 f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(self, name, checks.positive(f"plate.{name}", getattr(self, name), unit))
+            object.__setattr__(self, name, checks.positive_at_most(
+                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit))
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -227,13 +246,13 @@ class Scene:
     ----------
     ball : Ball
     plate : Plate
-    drop_height : float > 0
+    drop_height : float in [1e-6, 1000]
         Height of the ball's lowest point above the plate at release, metres.
     position : (float, float), optional
         Impact point on the plate, metres from a corner. Default: the centre.
     listener : Accelerometer or Microphone, optional
         Default: a microphone 0.2 m above the impact point.
-    gravity : float > 0
+    gravity : float in (0, 1000]
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
         Contact model (default: Hertz at rtol 1e-9, see :class:`Contact`).
@@ -253,9 +272,13 @@ class Scene:
             raise ParameterError(f"ball={self.ball!r} must be a Ball")
         if not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate")
-        object.__setattr__(self, "drop_height",
-                           checks.positive("drop.height", self.drop_height, "metres"))
-        object.__setattr__(self, "gravity", checks.positive("gravity", self.gravity, "m/s^2"))
+        h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
+        if h < MIN_DROP_HEIGHT:
+            raise ParameterError(f"drop.height={self.drop_height!r} must be >= "
+                                 f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)")
+        object.__setattr__(self, "drop_height", h)
+        object.__setattr__(self, "gravity", checks.positive_at_most(
+            "gravity", self.gravity, MAX_GRAVITY, "m/s^2"))
         pos = self.plate.centre if self.position is None else self.position
         pos = self.plate.check_position(pos, "drop.position")
         object.__setattr__(self, "position", pos)

@@ -216,6 +216,116 @@ def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces
         amps[k] = complex(xr * gr[k] - xi * gi[k], xr * gi[k] + xi * gr[k])
 
 
+#: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
+#: for :func:`_impact`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and
+#: ``|e^(p d)|^2`` reaches ``e^(-2 sigma tau)``: both stay inside float64 (about
+#: ``e^(+-708)``) with a margin. Longer contacts (a heavy ball resting on a damped
+#: plate) go to :func:`_impact_long`.
+LONG_CONTACT_NEPERS = 300.0
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _impact_long(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces,
+                 offset_slopes, weight, tau, order, amps, resp):
+    """:func:`_impact` (same arguments, same result) for contacts so long that the
+    factors ``e^(-p u)`` over the contact leave float64.
+
+    The transforms are carried in the frame of the current time instead: the state
+    ``S(u) = Int_0^u F(v) e^(p (u - v)) dv`` (trapezoid rule, ``S <- S e^(p h) + h/2
+    (F_(j-1) e^(p h) + F_j)``) only ever decays, and a sample at ``d`` inside the
+    contact hears ``Re[c S(d)]``; the end corrections and the Richardson step are those
+    of :func:`_impact`, each term multiplied by the same ``e^(p u)``.
+    """
+    K = pr.size
+    N = forces.size
+    M = offset_forces.size
+    # e^(p h), e^(2 p h)
+    sr = np.empty(K)
+    si = np.empty(K)
+    s2r = np.empty(K)
+    s2i = np.empty(K)
+    for k in range(K):
+        mag = math.exp(pr[k] * h)
+        sr[k] = mag * math.cos(pi[k] * h)
+        si[k] = mag * math.sin(pi[k] * h)
+        mag = math.exp(2.0 * pr[k] * h)
+        s2r[k] = mag * math.cos(2.0 * pi[k] * h)
+        s2i[k] = mag * math.sin(2.0 * pi[k] * h)
+    ar = np.zeros(K)
+    ai = np.zeros(K)
+    br = np.zeros(K)
+    bi = np.zeros(K)
+    m = 0
+    half = 0.5 * h
+    f_prev = forces[0]
+    for j in range(N):
+        fj = forces[j]
+        if j > 0:
+            for k in range(K):
+                nr = ar[k] * sr[k] - ai[k] * si[k] + half * f_prev * sr[k] + half * fj
+                ni = ar[k] * si[k] + ai[k] * sr[k] + half * f_prev * si[k]
+                ar[k] = nr
+                ai[k] = ni
+        if order > 0.0 and j % 2 == 0:
+            w2 = fj * (h if (j == 0 or j == N - 1) else 2.0 * h)
+            for k in range(K):
+                if j > 0:
+                    nr = br[k] * s2r[k] - bi[k] * s2i[k]
+                    bi[k] = br[k] * s2i[k] + bi[k] * s2r[k]
+                    br[k] = nr
+                br[k] += w2
+        uj = j * h
+        while m < M and (j == N - 1 or d0 + m * period < uj + h):
+            dd = d0 + m * period - uj
+            if dd < 0.0:
+                dd = 0.0
+            fd = offset_forces[m]
+            sd = offset_slopes[m]
+            sj = slopes[j]
+            wj = (dd * dd - h * h) / 12.0
+            wd = dd * dd / 12.0
+            acc = 0.0
+            for k in range(K):
+                mag = math.exp(pr[k] * dd)
+                er = mag * math.cos(pi[k] * dd)     # e^(p dd)
+                ei = mag * math.sin(pi[k] * dd)
+                a1 = sj - pr[k] * fj
+                b1 = -pi[k] * fj
+                a2 = sd - pr[k] * fd
+                b2 = -pi[k] * fd
+                # (S + dd/2 F_j + wj g'(u_j)) e^(p dd) + dd/2 F_d - wd g'(d), g' in the frame
+                zr = ar[k] + 0.5 * dd * fj + wj * a1
+                zi = ai[k] + wj * b1
+                xr = zr * er - zi * ei + 0.5 * dd * fd - wd * a2
+                xi = zr * ei + zi * er - wd * b2
+                acc += cr[k] * xr - ci[k] * xi
+            resp[m] = acc
+            m += 1
+        f_prev = fj
+    if order > 0.0 and N % 2 == 1 and N >= 5:
+        c = 2.0 ** order
+        for k in range(K):
+            if abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
+                ar[k] = (c * ar[k] - br[k]) / (c - 1.0)
+                ai[k] = (c * ai[k] - bi[k]) / (c - 1.0)
+    # the injection sample lies d_inj - tau >= 0 after the end of the contact
+    rest = d0 + M * period - tau
+    for k in range(K):
+        zr = ar[k]
+        zi = ai[k]
+        if weight != 0.0:
+            # the weight left on the plate: + m g / p in this frame
+            den = pr[k] * pr[k] + pi[k] * pi[k]
+            zr += weight * pr[k] / den
+            zi -= weight * pi[k] / den
+        mag = math.exp(pr[k] * rest)
+        gr = mag * math.cos(pi[k] * rest)
+        gi = mag * math.sin(pi[k] * rest)
+        xr = zr * cr[k] - zi * ci[k]
+        xi = zr * ci[k] + zi * cr[k]
+        amps[k] = complex(xr * gr - xi * gi, xr * gi + xi * gr)
+
+
 @numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
 def power_table(poles, fs):
     """``r^j = e^(p_k j / fs)``, ``j = 0..SUB``, of every mode: (K, 2, SUB + 1) real and
@@ -519,9 +629,11 @@ def impact_excitation(coefficients: BankCoefficients, result, onset: float, *, w
     forces, slopes = result.force_and_slope_at(times)
     resp = np.empty(M)
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
-    _impact(c.pole_re, c.pole_im, c.coef_re, c.coef_im, c.step_re, c.step_im, period, h,
-            forces[:n], slopes[:n], d0, forces[n:], slopes[n:], float(weight), tau,
-            result.exponent + 1.0, amps, resp)
+    sigma_max = float(np.max(-c.pole_re)) if c.pole_re.size else 0.0
+    kernel = _impact_long if sigma_max * tau > LONG_CONTACT_NEPERS else _impact
+    kernel(c.pole_re, c.pole_im, c.coef_re, c.coef_im, c.step_re, c.step_im, period, h,
+           forces[:n], slopes[:n], d0, forces[n:], slopes[n:], float(weight), tau,
+           result.exponent + 1.0, amps, resp)
     return ImpactExcitation(amps, first + M, first, resp, forces[n:])
 
 

@@ -72,6 +72,11 @@ Free and clamped edges
     does not, the basis is enlarged and the solve repeated. Nothing above
     ``max_frequency`` is returned.
 
+Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
+:meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
+over many points can be shared between modes (the polar rule of
+:func:`synth.sound.radiation.separable_gains`).
+
 Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
 1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
 orthogonal: ``Int phi_k phi_l dA = 0`` for ``k != l``. A shape's sign is arbitrary
@@ -111,7 +116,8 @@ from synth.errors import ParameterError, SynthError
 from synth.io.cache import MemoryCache, cache_dir, cache_path, load_npz, savez_atomic
 from synth.physics.scene import Plate
 
-__all__ = ["Modes", "modes", "TOLERANCE", "cache_info", "clear_memory_cache", "cache_dir"]
+__all__ = ["Modes", "modes", "SeparableShapes", "TOLERANCE", "cache_info",
+           "clear_memory_cache", "cache_dir", "single_thread_product"]
 
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
@@ -343,10 +349,12 @@ def _solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
 # Dimensionless solutions (cached)
 # --------------------------------------------------------------------------------------
 
-def _product(a, b, out):
-    """``out[...] = a @ b`` (2-D arrays) by products of at most ``_PIECE`` multiply-adds
-    each: square-ish blocks of ``out`` (so that BLAS copies each operand into its
-    packed layout a few times only), every entry one whole dot product."""
+def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE``
+    multiply-adds each, which OpenBLAS runs on the calling thread: square-ish blocks
+    of ``out`` (so that BLAS copies each operand into its packed layout a few times
+    only), every entry one whole dot product. On a machine whose cores are busy, a
+    multithreaded product waits for them (see ``_PIECE``)."""
     n, k = a.shape
     m = b.shape[1]
     rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))
@@ -456,7 +464,7 @@ class _RitzSolution:
                 px = _basis_1d(alpha, nx, xi[rows])[0]
                 py = _basis_1d(alpha, ny, eta[rows])[0]
                 for _, cols, coef, I, J in parts:
-                    _product(2.0 * (px[:, I] * py[:, J]), coef, out[rows, cols])
+                    single_thread_product(2.0 * (px[:, I] * py[:, J]), coef, out[rows, cols])
         index = np.empty(n_modes, dtype=np.int64)
         for c in range(4):
             index[cls == c] = np.arange(start[c], start[c + 1])
@@ -489,15 +497,15 @@ class _RitzSolution:
             for g0 in range(0, u.size, batch):
                 s_batch = ps_c[g0:g0 + batch]
                 part = np.empty((s_batch.shape[0], nj * m))
-                _product(s_batch, dense, part)
+                single_thread_product(s_batch, dense, part)
                 part = part.reshape(-1, nj, m)
                 for g in range(part.shape[0]):
                     pts = order[bounds[g0 + g]:bounds[g0 + g + 1]]
                     if pts[-1] - pts[0] == pts.size - 1:      # consecutive rows
-                        _product(pv_c[inv_v[pts]], part[g], out[pts[0]:pts[-1] + 1, cols])
+                        single_thread_product(pv_c[inv_v[pts]], part[g], out[pts[0]:pts[-1] + 1, cols])
                     else:
                         block = np.empty((pts.size, m))
-                        _product(pv_c[inv_v[pts]], part[g], block)
+                        single_thread_product(pv_c[inv_v[pts]], part[g], block)
                         out[pts, cols] = block
 
 
@@ -766,6 +774,68 @@ def _ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool
 # Public API
 # --------------------------------------------------------------------------------------
 
+@dataclass(frozen=True)
+class SeparableShapes:
+    """Mode shapes that are products of one function of x and one of y.
+
+    ``phi_k(x, y) = X_(i_k)(x) Y_(j_k)(y)``: :meth:`x_values` and :meth:`y_values`
+    give the factors of every index at once, so that sums over points of a grid
+    or a curve can be shared between the modes (matrix products). Used by
+    :func:`synth.sound.radiation.plate_gains` for the simply supported plate,
+    ``X_m(x) = sqrt(2) sin(m pi x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``.
+
+    Attributes
+    ----------
+    length, width : float
+        ``a`` and ``b``, metres.
+    x_index, y_index : ndarray of int, shape (n_modes,)
+        ``i_k`` and ``j_k``: mode ``k`` takes column ``x_index[k]`` of
+        :meth:`x_values` and column ``y_index[k]`` of :meth:`y_values`.
+    wavenumber : float
+        Largest rate of oscillation of any factor along its axis, rad/m.
+    """
+
+    length: float
+    width: float
+    x_index: np.ndarray = field(repr=False)
+    y_index: np.ndarray = field(repr=False)
+    wavenumber: float
+
+    def x_values(self, x: np.ndarray) -> np.ndarray:
+        """``X_i(x)`` for every index ``i`` in use: shape ``(len(x), max(x_index) + 1)``
+        (``x`` in metres)."""
+        n = int(self.x_index.max()) + 1 if self.x_index.size else 0
+        return _sine_table(np.ascontiguousarray(x, dtype=float) * (math.pi / self.length), n)
+
+    def y_values(self, y: np.ndarray) -> np.ndarray:
+        """``Y_j(y)`` for every index ``j`` in use: shape ``(len(y), max(y_index) + 1)``
+        (``y`` in metres)."""
+        n = int(self.y_index.max()) + 1 if self.y_index.size else 0
+        return _sine_table(np.ascontiguousarray(y, dtype=float) * (math.pi / self.width), n)
+
+
+@numba.njit(cache=True)
+def _sine_table(t, n):  # pragma: no cover
+    """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
+    ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every
+    32 orders (rounding grows by about one ulp per order: a few 1e-15)."""
+    out = np.empty((t.size, n))
+    root2 = math.sqrt(2.0)
+    for j in range(t.size):
+        c1 = math.cos(t[j])
+        s1 = math.sin(t[j])
+        c = 1.0
+        s = 0.0
+        for m in range(n):
+            if m % 32 == 31:
+                c = math.cos((m + 1) * t[j])
+                s = math.sin((m + 1) * t[j])
+            else:
+                c, s = c * c1 - s * s1, s * c1 + c * s1
+            out[j, m] = root2 * s
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class Modes:
     """The bending modes of a plate up to a frequency (see :func:`modes`).
@@ -830,6 +900,20 @@ class Modes:
         return (f"Modes({len(self)} modes, {band}, max_frequency={self.max_frequency:g} Hz; "
                 f"{p.boundary} {p.material.name} plate {p.length:g} x {p.width:g} x "
                 f"{p.thickness:g} m)")
+
+    def separable(self) -> SeparableShapes | None:
+        """The shapes as products ``X_i(x) Y_j(y)`` (:class:`SeparableShapes`), or None
+        when they are not (free and clamped plates: sums of such products)."""
+        sol = self._solution
+        if not isinstance(sol, _SimplySupported):
+            return None
+        n = len(self)
+        p = self.plate
+        m_idx = np.asarray(sol.m[:n], dtype=np.int64) - 1
+        n_idx = np.asarray(sol.n[:n], dtype=np.int64) - 1
+        k = math.pi * max((int(m_idx.max()) + 1) / p.length if n else 0.0,
+                          (int(n_idx.max()) + 1) / p.width if n else 0.0)
+        return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points) -> np.ndarray:
         """Mode shapes ``phi_k`` at points on the plate.

@@ -17,7 +17,7 @@ import numpy as np
 
 from synth import checks
 from synth.constants import AIR_DENSITY, SOUND_SPEED
-from synth.errors import ParameterError
+from synth.errors import ParameterError, SynthError
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
@@ -238,6 +238,23 @@ OPTIONS = ("samplerate", "normalize", "peak_db", "loudness_lufs", "floor_db", "m
            "preroll", "fade", "max_duration", "max_tail", "pulse_points")
 
 
+#: Longest preroll and fade, s.
+MAX_PREROLL = 10.0
+#: Longest bounce series and tail, s each (10 minutes each: the longest render, 20 minutes,
+#: is a float64 buffer of 3.7 GB at 384 kHz, 0.46 GB at 48 kHz).
+MAX_DURATION = 600.0
+#: Lowest peak level and loudness, dBFS and LUFS: a peak at -120 dBFS spans a few levels
+#: of a 24-bit file (its step is 2^-23, -138 dBFS); below it the file is silence.
+MIN_LEVEL_DB = -120.0
+#: Most points of a pulse's grid: the rule's error falls as ``n^-2.5`` (see
+#: :mod:`synth.sound.modal_bank`) from 2e-6 of the impulse at 65 points, so at 4097 it is
+#: below 1e-10, far under float32 audio's resolution (6e-8); more points only cost time.
+MAX_PULSE_POINTS = 4097
+#: Relative agreement of a passed sequence's first contact with the scene's own (the
+#: solver's tolerance is far tighter; another ball or plate differs by percents).
+SEQUENCE_RTOL = 1e-4
+
+
 def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
                   floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005,
                   max_duration=30.0, max_tail=60.0, pulse_points=65) -> dict:
@@ -263,15 +280,56 @@ def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
                 f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
                 f"{0.5 * fs:g} Hz at samplerate={fs} (Hz)")
     if isinstance(pulse_points, bool) or not isinstance(pulse_points, (int, np.integer)) \
-            or pulse_points < 5:
-        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer >= 5")
+            or not 5 <= pulse_points <= MAX_PULSE_POINTS:
+        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer in "
+                             f"[5, {MAX_PULSE_POINTS}]")
+    if peak < MIN_LEVEL_DB:
+        raise ParameterError(f"peak_db={peak_db!r} must be in [{MIN_LEVEL_DB:g}, 0] (dBFS)")
+    if lufs < MIN_LEVEL_DB:
+        raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be in [{MIN_LEVEL_DB:g}, 0) "
+                             f"(LUFS)")
     return dict(samplerate=fs, normalize=normalize, peak_db=peak, loudness_lufs=lufs,
                 floor_db=floor, max_frequency=f_max,
-                preroll=checks.nonnegative("preroll", preroll, "s"),
-                fade=checks.nonnegative("fade", fade, "s"),
-                max_duration=checks.positive("max_duration", max_duration, "s"),
-                max_tail=checks.positive("max_tail", max_tail, "s"),
+                preroll=_seconds("preroll", preroll, MAX_PREROLL, lo_open=False),
+                fade=_seconds("fade", fade, MAX_PREROLL, lo_open=False),
+                max_duration=_seconds("max_duration", max_duration, MAX_DURATION),
+                max_tail=_seconds("max_tail", max_tail, MAX_DURATION),
                 pulse_points=int(pulse_points))
+
+
+def _seconds(name, value, hi, lo_open=True) -> float:
+    if lo_open:
+        return checks.positive_at_most(name, value, hi, "s")
+    x = checks.nonnegative(name, value, "s")
+    if x > hi:
+        raise ParameterError(f"{name}={value!r} must be >= 0 and <= {hi:g} (s)")
+    return x
+
+
+def check_sequence(scene, sequence) -> BounceSequence:
+    """``sequence`` as the impacts of ``scene``: a non-empty :class:`BounceSequence` whose
+    contacts are ``scene``'s (its first impact solved again with the scene's ball, plate,
+    impact point and contact law at the same speed gives the same contact time and peak
+    force to within ``SEQUENCE_RTOL``). The impacts' times and speeds may come from
+    another scene (:func:`synth.stimuli.sequences.mismatch_sequence`)."""
+    from synth.physics import contact
+
+    if not isinstance(sequence, BounceSequence):
+        raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
+    if not len(sequence):
+        raise ParameterError("sequence has no impacts: there is nothing to render")
+    first = sequence[0]
+    c = scene.contact
+    own = contact.solve_impact(scene.ball, scene.plate, first.speed, position=scene.position,
+                               gravity=scene.gravity, contact=c.law, rtol=c.rtol, **c.options())
+    for name in ("contact_time", "peak_force"):
+        got, want = getattr(first.result, name), getattr(own, name)
+        if not abs(got - want) <= SEQUENCE_RTOL * abs(want):
+            raise ParameterError(
+                f"sequence: its first impact's {name} {got:.6g} is not this scene's "
+                f"({want:.6g} at {first.speed:.6g} m/s): the sequence belongs to another ball, "
+                f"plate or contact law; pass the scene it was computed for")
+    return sequence
 
 
 def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
@@ -288,31 +346,34 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         Level stage: peak to ``peak_db`` dBFS; integrated loudness to ``loudness_lufs``
         LUFS (needs pyloudnorm); a fixed physical calibration (see
         :mod:`synth.io.audio`); or none (audio in Pa or m/s^2).
-    peak_db : float <= 0
+    peak_db : float in [-120, 0]
         dBFS for "peak".
-    loudness_lufs : float < 0
+    loudness_lufs : float in [-120, 0)
         LUFS for "loudness" (integrated, ITU-R BS.1770).
     floor_db : float < 0
         Omission floor, dB below the reference amplitude (the bound on the loudest tick's
         peak): omitted modes and tails add up to at most this (see :mod:`synth.sound.modal_bank`).
     max_frequency : float > 0, optional
         Highest mode rendered, Hz, at most the Nyquist frequency ``samplerate / 2``
-        (default: the Nyquist frequency; a mode at or above it is never rendered).
-    preroll : float >= 0
+        (default: the Nyquist frequency; a mode at or above it is never rendered). A value
+        below the plate's lowest mode is refused (the render would be silent).
+    preroll : float in [0, 10]
         Silence before the first tick, s.
-    fade : float >= 0
-        Raised-cosine fade at the end, s (the tail there is already below the floor).
-    max_duration : float > 0
-        Longest bounce series, s from release.
-    max_tail : float > 0
+    fade : float in [0, 10]
+        Raised-cosine fade at the end, s (the tail there is already below the floor); a
+        fade longer than the audio is refused.
+    max_duration : float in (0, 600]
+        Longest bounce series, s from release; the first impact must fall inside it.
+    max_tail : float in (0, 600]
         Longest ringing after the last impact, s: the audio ends when every tail has
         fallen below the floor, or at this limit (lightly damped plates, e.g. steel with
         a loss factor of 1e-4, ring for minutes). A tail cut here is reported in
         ``settings["tail_cut"]`` and ``settings["left_at_end"]`` (the bound, relative to
         the reference amplitude, of what rings on after the end).
     sequence : BounceSequence, optional
-        Precomputed impacts of this scene (default: computed here).
-    pulse_points : int >= 5
+        Precomputed impacts of this scene (default: computed here); not empty, and its
+        contacts must be this scene's (see :func:`check_sequence`).
+    pulse_points : int in [5, 4097]
         Fewest points of the uniform grid on which each force pulse's Laplace
         transforms are taken (see :mod:`synth.sound.modal_bank`; the default keeps their error
         below 2e-6 of the impulse; a reference render may ask for more).
@@ -329,9 +390,19 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     pre, tail, fade_s = o["preroll"], o["max_tail"], o["fade"]
     max_duration = o["max_duration"]
     if sequence is None:
+        first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
+        if first_touch > max_duration:
+            raise ParameterError(
+                f"drop.height={scene.drop_height!r} m: the first impact, {first_touch:.4g} s "
+                f"after release, is later than max_duration={max_duration!r} (s)")
         sequence = simulate_scene(scene, max_duration=max_duration)
-    elif not isinstance(sequence, BounceSequence):
-        raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
+    else:
+        check_sequence(scene, sequence)
+    for imp in sequence:
+        if not imp.result.success:
+            raise SynthError(
+                f"impact {imp.index} (at {imp.speed:.4g} m/s) could not be solved: "
+                f"{imp.result.message} The scene is outside what the contact solver handles")
 
     model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
     poles = model.poles
@@ -340,6 +411,10 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     direct = model.direct(excitation)
     delay = model.delay
     units = model.units
+    if not poles.size:
+        raise ParameterError(
+            f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
+            f"render would be silent; raise it (default: samplerate / 2)")
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])
@@ -350,6 +425,9 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
                              floor=floor, settled_weight=weights, direct=direct,
                              max_samples=max_samples, pulse_points=int(pulse_points))
+    if fade_s > audio.size / fs:
+        raise ParameterError(f"fade={fade_s!r} s is longer than the audio "
+                             f"({audio.size / fs:.6g} s); it must be at most that")
     from synth.io import audio as audio_io
 
     if fade_s > 0 and audio.size:

@@ -1,0 +1,75 @@
+"""Where numba keeps the compiled kernels (``cache=True``), chosen before numba loads.
+
+numba caches beside the source (``__pycache__``) or, failing that, in the user's cache
+folder (``$XDG_CACHE_HOME/numba``, else ``~/.cache/numba``); with neither writable (an
+installed package and a read-only or missing home) it refuses to compile a cached
+function at all. In that case the cache goes to a folder of this user in the system's
+temporary directory (``NUMBA_CACHE_DIR``), with a note on stderr; if no folder at all is
+writable, numba's caching is turned off (the kernels compile on every start). A
+``NUMBA_CACHE_DIR`` set by the user is always kept.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+
+def _writable(folder: Path) -> bool:
+    """True if a file can be created in ``folder`` (made if missing), as numba tests it."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        return False
+    return True
+
+
+def _source_dirs() -> list[Path]:
+    """The package's folders that hold numba kernels' sources."""
+    root = Path(__file__).resolve().parent
+    return [root / "physics", root / "sound"]
+
+
+def _user_cache_dir(environ) -> Path | None:
+    base = environ.get("XDG_CACHE_HOME") or (
+        os.path.join(environ["HOME"], ".cache") if environ.get("HOME") else None)
+    return Path(base) / "numba" if base else None
+
+
+def configure(environ=None, source_dirs=None, stream=None) -> str | None:
+    """Set ``NUMBA_CACHE_DIR`` (in ``environ``, default ``os.environ``) when numba would
+    find no writable cache folder; return the folder chosen, or None if numba's own
+    choice works. Must run before numba is imported."""
+    environ = os.environ if environ is None else environ
+    stream = sys.stderr if stream is None else stream
+    if environ.get("NUMBA_CACHE_DIR") or environ.get("NUMBA_DISABLE_JIT") == "1":
+        return None
+    dirs = _source_dirs() if source_dirs is None else source_dirs
+    if all(_writable(Path(d) / "__pycache__") for d in dirs):
+        return None
+    user = _user_cache_dir(environ)
+    if user is not None and _writable(user):
+        return None
+    fallback = Path(tempfile.gettempdir()) / f"synth-numba-cache-{os.getuid()}"
+    if _writable(fallback):
+        environ["NUMBA_CACHE_DIR"] = str(fallback)
+        print(f"synth: note: no writable numba cache folder (the package's __pycache__, "
+              f"{user or '~/.cache/numba'}); caching compiled code in {fallback}", file=stream)
+        return str(fallback)
+    _disable_caching()
+    print("synth: note: no writable folder for numba's cache; compiled code is not cached "
+          "(every start compiles again, about a minute)", file=stream)
+    return None
+
+
+def _disable_caching() -> None:
+    """Make ``cache=True`` a no-op: numba then compiles in memory only."""
+    from numba.core import dispatcher
+
+    dispatcher.Dispatcher.enable_caching = lambda self: None
+
+
+configure()

@@ -1,0 +1,116 @@
+"""Tests of synth.sound.radiation.separable_gains: the Rayleigh integral of separable
+(simply supported) mode shapes by the polar rule about the microphone, checked against
+the rectangle rule of rayleigh_gains, and the crossover of plate_gains between them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from synth.errors import ParameterError
+from synth.physics.materials import LossFactor, Material
+from synth.physics.scene import Plate
+from synth.sound import modes as P
+from synth.sound import radiation as R
+
+STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
+    P.clear_memory_cache()
+    R.clear_memory_cache()
+    yield
+    P.clear_memory_cache()
+    R.clear_memory_cache()
+
+
+def _ss_modes(a=0.3, b=0.2, h=0.002, max_frequency=6000.0):
+    return P.modes(Plate(STEEL, h, a, b, "simply-supported"), max_frequency=max_frequency)
+
+
+def _poles(m):
+    s = -m.decay_rates + 1j * m.angular_frequencies
+    kb = (m.angular_frequencies.max() ** 2 * m.plate.surface_density
+          / m.plate.flexural_rigidity) ** 0.25
+    return s, kb
+
+
+# Microphone above the middle, above an edge's line, outside the plate, close to the
+# plate (the 1/R peak), and where a corner's distance equals an edge's (0.4, 0.3 from
+# the corner (0, 0): both 0.5 m on a 0.9 m plate).
+LISTENERS = [((0.3, 0.2), (0.1, 0.05, 0.2)), ((0.3, 0.2), (0.3, 0.0, 0.1)),
+             ((0.3, 0.2), (0.5, -0.2, 0.05)), ((0.3, 0.2), (0.12, 0.13, 0.01)),
+             ((0.9, 0.7), (0.4, 0.3, 0.3))]
+
+
+@pytest.mark.parametrize("size, listener", LISTENERS)
+def test_polar_rule_equals_rectangle_rule(size, listener):
+    """Both rules estimate the same integral to tol (relative to max(|H|, 1e-4 S)): they
+    differ by at most the sum of their errors, 2 tol, here with tol = 1e-6."""
+    m = _ss_modes(*size, max_frequency=6000.0 if size[0] < 0.5 else 2500.0)
+    s, kb = _poles(m)
+    rect = R.rayleigh_gains(m.shapes, size, listener, s, max_wavenumber=kb, full_output=True)
+    polar = R.separable_gains(m.separable(), listener, s, max_wavenumber=kb, full_output=True)
+    assert rect.success and polar.success and polar.rule == "polar"
+    scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+    assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6
+    # the in-phase bound is the same integral of |phi| / R (|sin| has kinks: 5 %)
+    assert np.allclose(polar.coherent, rect.coherent, rtol=0.05)
+
+
+def test_polar_rule_with_damping_and_reference_distance():
+    """The mirror poles and a reference distance, as render() asks for them."""
+    m = _ss_modes()
+    s, kb = _poles(m)
+    mirror = -np.conj(s) * (1.0 + 0.05)           # strongly damped: sigma = 5 % omega
+    mirror = mirror.real * 50 + 1j * mirror.imag
+    listener = (0.2, 0.1, 0.3)
+    r0 = R.distance(listener, (0.2, 0.1))
+    rect = R.rayleigh_gains(m.shapes, (0.3, 0.2), listener, mirror, max_wavenumber=kb,
+                            reference_distance=r0, full_output=True)
+    polar = R.separable_gains(m.separable(), listener, mirror, max_wavenumber=kb,
+                              reference_distance=r0, full_output=True)
+    scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+    assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6
+
+
+def test_separable_shapes_equal_shapes():
+    m = _ss_modes()
+    sep = m.separable()
+    pts = np.random.default_rng(1).uniform([0, 0], [0.3, 0.2], (50, 2))
+    prod = sep.x_values(pts[:, 0])[:, sep.x_index] * sep.y_values(pts[:, 1])[:, sep.y_index]
+    assert np.allclose(prod, m.shapes(pts), rtol=0, atol=1e-12)
+    free = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, "free"), max_frequency=2000.0)
+    assert free.separable() is None
+
+
+def test_plate_gains_crossover():
+    """Small plates keep the rectangle rule; a plate whose rectangle rule would take
+    more than 5e7 mode-points gets the polar rule."""
+    small = _ss_modes()
+    s, kb = _poles(small)
+    res = R.plate_gains(small, (0.1, 0.05, 0.2), s, max_wavenumber=kb, full_output=True)
+    assert res.rule == "rectangle"
+    big = _ss_modes(1.0, 0.8, 0.001, 10000.0)
+    s, kb = _poles(big)
+    res = R.plate_gains(big, (0.5, 0.4, 0.3), s, max_wavenumber=kb, full_output=True)
+    assert res.rule == "polar" and res.success
+    again = R.plate_gains(big, (0.5, 0.4, 0.3), s, max_wavenumber=kb, full_output=True)
+    assert again is res
+    R.clear_memory_cache()
+    loaded = R.plate_gains(big, (0.5, 0.4, 0.3), s, max_wavenumber=kb, full_output=True)
+    assert loaded.rule == "polar" and np.array_equal(loaded.gains, res.gains)
+    assert R.cache_info()["disk_hits"] == 1
+
+
+def test_separable_gains_bad_input():
+    m = _ss_modes()
+    s, kb = _poles(m)
+    with pytest.raises(ParameterError, match="shapes"):
+        R.separable_gains(m.shapes, (0.1, 0.1, 0.1), s, max_wavenumber=kb)
+    with pytest.raises(ParameterError, match="poles"):
+        R.separable_gains(m.separable(), (0.1, 0.1, 0.1), s[:-1], max_wavenumber=kb)
+    with pytest.raises(ParameterError, match="listener_position.z"):
+        R.separable_gains(m.separable(), (0.1, 0.1, 0.0), s, max_wavenumber=kb)

@@ -1,0 +1,394 @@
+"""Robustness: bad input, extreme numbers, kills and leftovers (every case here failed,
+with a traceback, a partial file or a silent wrong result, before its fix)."""
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import synth
+from synth import jitcache
+from synth.cli import main
+from synth.errors import ParameterError, SynthError
+from synth.io import audio as audio_io
+from synth.io.presets import PresetError, apply_overrides, load_preset, scene_from_dict
+from synth.physics.bounces import simulate_scene
+from synth.physics.contact import ENERGY_IMBALANCE, solve_contact
+from synth.sound import modal_bank
+from synth.sound.render import render
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def leftovers(folder: Path) -> list[str]:
+    """Temporary files of the engine left in ``folder``."""
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
+
+
+# --------------------------------------------------------------------------- heavy ball
+
+def test_long_contact_kernel_matches_the_short_one(monkeypatch):
+    # the frame-of-the-current-time kernel computes the same transforms: forced on every
+    # impact of the default scene it gives the same float32 audio to 1e-6 of the peak
+    # (both are the same quadrature; they differ by rounding only)
+    scene = load_preset("default")
+    a = render(scene, normalize="none").audio.astype(float)
+    monkeypatch.setattr(modal_bank, "LONG_CONTACT_NEPERS", -1.0)
+    b = render(scene, normalize="none").audio.astype(float)
+    assert a.size == b.size
+    assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(a))
+
+
+def test_bowling_ball_renders():
+    # a 7 kg ball of 0.109 m radius dropped 1 m on the default board settles in one
+    # impact whose contact (sigma_max tau >> 700 Np) overflowed e^(sigma tau) before
+    scene = load_preset("default", ["ball.radius=0.109", "ball.mass=7", "drop.height=1"])
+    r = render(scene, samplerate=16000)
+    assert len(r.impacts) == 1 and r.impacts.stop_reason == "settled"
+    assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0.5
+
+
+# --------------------------------------------------------------------------- ranges
+
+@pytest.mark.parametrize("override, words", [
+    ("plate.length=1e308", ["plate.length", "1e+308", "<= 100"]),
+    ("plate.thickness=1e308", ["plate.thickness", "<= 100"]),
+    ("drop.height=1e308", ["drop.height", "<= 1000"]),
+    ("drop.height=1e-300", ["drop.height", ">= 1e-06"]),
+    ("drop.height=1e6", ["drop.height", "<= 1000"]),
+    ("ball.mass=1e308", ["ball.mass", "<= 1000"]),
+    ("ball.radius=1e308", ["ball.radius", "<= 1"]),
+    ("gravity=1e308", ["gravity", "<= 1000"]),
+    ("render.preroll=1e6", ["render.preroll", "<= 10"]),
+    ("render.fade=1e4", ["render.fade", "<= 10"]),
+    ("render.max_tail=1e9", ["render.max_tail", "<= 600"]),
+    ("render.max_duration=1e9", ["render.max_duration", "<= 600"]),
+    ("render.pulse_points=10000000", ["render.pulse_points", "[5, 4097]"]),
+    ("render.peak_db=-10000", ["render.peak_db", "[-120, 0]"]),
+    ("render.loudness_lufs=-10000", ["render.loudness_lufs", "-120"]),
+])
+def test_extreme_numbers_are_refused_before_work(capsys, tmp_path, override, words):
+    out = tmp_path / "x.wav"
+    code, _, err = run(capsys, "render", "default", "-o", out, "--set", override)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    for w in words:
+        assert w in err, (w, err)
+    assert not out.exists() and leftovers(tmp_path) == []
+
+
+def test_peak_db_on_the_command_line_is_checked(capsys, tmp_path):
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "x.wav", "--peak-db", "-10000")
+    assert code == 2 and "peak_db" in err and "-120" in err
+
+
+def test_bench_repeat_must_be_positive(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "contact", "--repeat", "-5"])
+    assert exc.value.code == 2
+    assert "--repeat" in capsys.readouterr().err
+
+
+def test_write_audio_samplerate_range(tmp_path):
+    with pytest.raises(ParameterError, match=r"samplerate=1099511627776 .*\[1, 768000\]"):
+        audio_io.write_audio(tmp_path / "x.wav", np.zeros(10), 2 ** 40)
+    assert leftovers(tmp_path) == []
+
+
+# --------------------------------------------------------------------------- silent results
+
+def test_silent_render_is_refused():
+    scene = load_preset("default")
+    with pytest.raises(ParameterError, match="max_frequency=1.0 .*silent"):
+        render(scene, max_frequency=1.0)
+
+
+def test_pcm_file_that_would_hold_only_silence_is_refused(tmp_path):
+    # 1e-6 of full scale is below half a 16-bit step (2^-16 = 1.5e-5): every sample would
+    # be written as 0; exact silence (all zeros) is written as asked
+    x = np.full(100, 1e-6)
+    with pytest.raises(ParameterError, match="only silence"):
+        audio_io.write_audio(tmp_path / "x.wav", x, 48000, subtype="PCM_16")
+    audio_io.write_audio(tmp_path / "y.wav", x, 48000, subtype="PCM_24")
+    audio_io.write_audio(tmp_path / "z.wav", np.zeros(100), 48000, subtype="PCM_16")
+
+
+def test_fade_longer_than_the_audio_is_refused():
+    scene = load_preset("default")
+    with pytest.raises(ParameterError, match="fade=9.0 s is longer than the audio"):
+        render(scene, samplerate=8000, fade=9.0)
+
+
+def test_first_impact_after_max_duration_is_refused():
+    # a 100 m drop first touches sqrt(2 h / g) = 4.5 s after release
+    scene = load_preset("default", ["drop.height=100"])
+    with pytest.raises(ParameterError, match="drop.height=100.0 .*4.515 s.*max_duration=1"):
+        render(scene, max_duration=1.0)
+
+
+def test_sequence_of_another_scene_is_refused_and_a_mismatch_accepted():
+    from synth.stimuli.sequences import mismatch_sequence
+
+    scene = load_preset("default")
+    other = load_preset("thesis-glass17-mdf12")
+    with pytest.raises(ParameterError, match="another ball, plate or contact law"):
+        render(scene, sequence=simulate_scene(other), samplerate=8000)
+    seq = mismatch_sequence(other, scene)     # the other's timing, this scene's contacts
+    r = render(scene, sequence=seq, samplerate=8000)
+    assert len(r.impacts) == len(seq)
+
+
+def test_empty_sequence_is_refused():
+    from synth.physics.bounces import BounceSequence
+
+    scene = load_preset("default")
+    empty = BounceSequence((), "settled", scene.drop_height, scene.gravity)
+    with pytest.raises(ParameterError, match="sequence has no impacts"):
+        render(scene, sequence=empty)
+
+
+def test_energy_imbalance_is_not_a_success():
+    # an admittance of 1e30 m/(N s) ends the contact within the time axis' resolution:
+    # the energy balance is off by 100 %, so the result must not claim success
+    r = solve_contact(mass=4e-3, stiffness=1e9, admittance=1e30, speed=1.0)
+    assert not r.success and r.status == ENERGY_IMBALANCE
+    assert "energy balance" in r.message
+    ok = solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0)
+    assert ok.success and ok.energy_residual < 1e-6
+
+
+# --------------------------------------------------------------------------- presets, --set
+
+def test_set_takes_one_value():
+    with pytest.raises(PresetError, match="no line breaks"):
+        apply_overrides({}, ["gravity=9.81\nfoo=1"])
+    assert apply_overrides({}, ["gravity=9.81"]) == {"gravity": 9.81}
+
+
+BASE = {"ball": {"material": "steel", "radius": 0.005},
+        "plate": {"material": "mdf-18", "thickness": 0.018, "length": 1.0, "width": 0.5},
+        "drop": {"height": 0.1}}
+
+
+@pytest.mark.parametrize("section, key, words", [
+    ("ball", "radius", ["ball.radius is missing"]),
+    ("ball", "material", ["ball.material"]),
+    ("plate", "thickness", ["plate.thickness is missing"]),
+    ("plate", "width", ["plate.width is missing"]),
+    ("drop", "height", ["drop.height"]),
+])
+def test_missing_preset_keys_are_named(section, key, words):
+    data = {k: dict(v) for k, v in BASE.items()}
+    del data[section][key]
+    with pytest.raises(PresetError) as exc:
+        scene_from_dict(data)
+    for w in words:
+        assert w in str(exc.value)
+
+
+def test_inline_material_with_only_density_names_the_missing_key():
+    data = {k: dict(v) for k, v in BASE.items()}
+    data["ball"]["material"] = {"density": 7800.0}
+    with pytest.raises(PresetError, match="ball.material.young is missing"):
+        scene_from_dict(data)
+
+
+# --------------------------------------------------------------------------- outputs
+
+def test_report_onto_a_directory_fails_before_anything_is_written(capsys, tmp_path):
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
+    (tmp_path / "dir.json").mkdir()
+    code, _, err = run(capsys, "render", "default", "-o", out, "--report", tmp_path / "dir.json")
+    assert code == 2 and "report=" in err and "is a directory" in err
+    assert out.read_bytes() == b"precious"
+
+
+def test_bad_plot_path_fails_before_the_audio_is_replaced(capsys, tmp_path):
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
+    code, _, err = run(capsys, "render", "default", "-o", out, "--plot",
+                       tmp_path / "missing" / "p.png")
+    assert code == 2 and "plot=" in err and "does not exist" in err
+    assert out.read_bytes() == b"precious"
+
+
+def test_unwritable_folder_is_a_clean_error(capsys, tmp_path):
+    # /proc refuses new files even to root
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "x.wav", "--report",
+                       "/proc/report.json")
+    assert code == 2 and "report=" in err and "cannot create a file" in err
+    assert leftovers(tmp_path) == [] and not (tmp_path / "x.wav").exists()
+
+
+def test_all_outputs_or_none(capsys, tmp_path, monkeypatch):
+    # the report fails (full disk) after the audio was written: the old audio stays, no
+    # temporary is left
+    from synth import cli
+
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
+
+    def full_disk(path, obj):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(cli, "_write_json", full_disk)
+    code, _, err = run(capsys, "render", "default", "-o", out, "--report", tmp_path / "r.json",
+                       "--samplerate", 8000)
+    assert code == 1 and "No space left on device" in err and len(err.strip().splitlines()) == 1
+    assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_sigterm_during_the_write_unwinds_and_cleans(capsys, tmp_path, monkeypatch):
+    import soundfile
+
+    real_write = soundfile.write
+
+    def killed_mid_write(file, data, *a, **kw):
+        real_write(file, data[: len(data) // 2], *a, **kw)   # half the file is on disk
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(soundfile, "write", killed_mid_write)
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
+    code, _, err = run(capsys, "render", "default", "-o", out, "--samplerate", 8000)
+    assert code == 128 + signal.SIGTERM and "SIGTERM" in err
+    assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
+
+
+def test_stale_temporaries_of_dead_writers_are_removed(tmp_path):
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    stale = tmp_path / f".synth-{dead}-0123456789ab.part.wav"
+    live = tmp_path / f".synth-{os.getpid()}-0123456789ab.part.wav"
+    foreign = tmp_path / ".x.0123456789ab.part.wav"
+    for p in (stale, live, foreign):
+        p.write_bytes(b"partial")
+    audio_io.write_audio(tmp_path / "x.wav", np.zeros(10), 8000)
+    assert not stale.exists() and live.exists() and foreign.exists()
+
+
+@pytest.mark.parametrize("length", [237, 250, 255])
+def test_long_output_names(tmp_path, length):
+    name = "a" * (length - 4) + ".wav"
+    assert len(name.encode()) == length
+    p = audio_io.write_audio(tmp_path / name, np.zeros(10), 8000)
+    assert p.exists() and leftovers(tmp_path) == []
+
+
+# --------------------------------------------------------------------------- messages
+
+def test_reading_a_directory_says_so(tmp_path):
+    with pytest.raises(audio_io.AudioFileError, match="is a directory"):
+        audio_io.read_audio(tmp_path)
+
+
+def test_system_error_is_made_specific(tmp_path, monkeypatch):
+    import shutil
+    from collections import namedtuple
+
+    f = tmp_path / "x.wav"
+    f.write_bytes(b"RIFF")
+    real_open = open
+
+    def denied(path, *a, **kw):
+        if Path(path) == f:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, *a, **kw)
+
+    monkeypatch.setattr("builtins.open", denied)
+    assert audio_io._system_reason(f, "System error.", reading=True) == "Permission denied"
+    monkeypatch.setattr("builtins.open", real_open)
+    usage = namedtuple("usage", "total used free")
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10 ** 9, 10 ** 9, 100))
+    assert "no space left" in audio_io._system_reason(f, "System error.", nbytes=10 ** 6)
+    assert audio_io._system_reason(f, "Format not recognised.") == "Format not recognised."
+
+
+# --------------------------------------------------------------------------- numba cache
+
+def test_jit_cache_falls_back_when_nothing_is_writable(tmp_path):
+    # a file named __pycache__ cannot be made a folder (not even by root), and /dev/null
+    # as home has no .cache
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "__pycache__").write_text("")
+    env = {"HOME": "/dev/null", "XDG_CACHE_HOME": "/dev/null/cache"}
+    notes = []
+
+    class Stream:
+        def write(self, text):
+            notes.append(text)
+
+    chosen = jitcache.configure(env, [src], Stream())
+    assert chosen and env["NUMBA_CACHE_DIR"] == chosen and "numba cache" in "".join(notes)
+    # a user's own choice and a working in-tree folder are kept
+    assert jitcache.configure({"NUMBA_CACHE_DIR": "/x"}, [src], Stream()) is None
+    assert jitcache.configure({"HOME": "/dev/null"}, [tmp_path], Stream()) is None
+
+
+@pytest.mark.slow
+def test_help_without_a_writable_home(tmp_path):
+    # an installed copy (its __pycache__ folders unusable) and a home that cannot be
+    # written: `synth --help` works and says where the compiled code went
+    import shutil
+
+    pkg = tmp_path / "site"
+    shutil.copytree(REPO / "synth", pkg / "synth",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    for d in [pkg / "synth", *[p for p in (pkg / "synth").rglob("*") if p.is_dir()]]:
+        (d / "__pycache__").write_text("")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(HOME="/dev/null", XDG_CACHE_HOME="/dev/null/cache", PYTHONPATH=str(pkg),
+               PYTHONDONTWRITEBYTECODE="1")
+    proc = subprocess.run([sys.executable, "-c", "import synth.cli; synth.cli.main(['--help'])"],
+                          check=False, env=env, capture_output=True, text=True, timeout=600,
+                          cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "usage: synth" in proc.stdout
+    assert "note: no writable numba cache folder" in proc.stderr
+
+
+def test_synth_errors_are_synth_errors():
+    # every refusal above is a SynthError (the CLI's one-line error, exit 2)
+    assert issubclass(PresetError, SynthError) and issubclass(audio_io.AudioFileError, SynthError)
+    assert synth.ParameterError is ParameterError
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("delay", [5.0, 15.0, 25.0])
+def test_sigterm_at_any_moment_leaves_no_partial_file(tmp_path, delay):
+    # a real `synth render` killed with SIGTERM after `delay` s (while importing,
+    # rendering or writing): it exits cleanly (143, or 0 if it had finished) and leaves
+    # either no output or a complete one, and no temporary
+    import time
+
+    import soundfile
+
+    out = tmp_path / "x.wav"
+    proc = subprocess.Popen([sys.executable, "-m", "synth", "render", "default", "-o", str(out),
+                             "--report", str(tmp_path / "x.json")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO)
+    time.sleep(delay)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    if proc.returncode == -signal.SIGTERM:
+        # killed while Python was still importing the package: nothing was written
+        assert list(tmp_path.iterdir()) == []
+        return
+    assert proc.returncode in (0, 128 + signal.SIGTERM), err.decode()[-2000:]
+    assert b"Traceback" not in err
+    assert leftovers(tmp_path) == []
+    if out.exists():
+        assert soundfile.info(str(out)).frames > 0 and (tmp_path / "x.json").exists()
