@@ -22,6 +22,9 @@ BENCH_PAGES = {
     "render": "benchmarks.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
+    "live": "benchmarks.md",
+    "bank": "benchmarks.md",
+    "scale": "benchmarks.md",
 }
 
 _BLOCK = re.compile(
