@@ -3,6 +3,7 @@ robustness of edge and corner contacts, and the honesty of the thesis comparison
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from synth.errors import ParameterError
@@ -97,3 +98,71 @@ def test_thesis_row_gap():
     assert thesis_row("q", "m", 0.040, None, (0.035, 0.045))["gap"] == 0.0
     r = thesis_row("q", "", 0.871, 0.87, 0.76)
     assert r["gap"] == pytest.approx(0.111) and r["relative_gap"] == pytest.approx(0.111 / 0.76)
+
+
+# --- robust contacts: the default tolerance settles on the tight tolerance's branch ----------
+def _extreme_scene(rng, kind, i):
+    """A random extreme impact (ball, plate, speed in m/s, position in m) of one of three
+    families: near an edge or corner at low speed with a small ball (gravity dominates the
+    contact), anything anywhere near an edge, and heavy balls on thin plates (stiff, lam
+    >> 1) at low speed."""
+    from synth.physics.materials import TABLE
+
+    names = sorted(TABLE)
+    radius, thickness, speed = {
+        "slow": ((-4.0, -2.5), (np.log10(3e-4), np.log10(5e-2)), (-5.0, -2.0)),
+        "broad": ((-4.0, np.log10(5e-2)), (np.log10(3e-4), np.log10(5e-2)), (-4.0, np.log10(30.0))),
+        "stiff": ((-2.3, np.log10(5e-2)), (np.log10(3e-4), -2.7), (-5.0, -1.0)),
+    }[kind]
+    ball = Ball(names[rng.integers(len(names))], 10 ** rng.uniform(*radius))
+    plate = Plate(names[rng.integers(len(names))], 10 ** rng.uniform(*thickness), 1.2, 0.8)
+    v = 10 ** rng.uniform(*speed)
+    d = 10 ** rng.uniform(-4.0, -1.3)
+    pos = [(d, 0.4), (d, d), (0.6, 0.8 - d), (0.6, 0.4)][i % 4]
+    return ball, plate, v, pos
+
+
+@pytest.mark.parametrize("kind, count", [("slow", 4000), ("broad", 800), ("stiff", 200)])
+def test_default_tolerance_agrees_with_a_tight_one(kind, count):
+    # Every impact solved at the default rtol (1e-6) agrees with the same impact at rtol
+    # 1e-10 within 1e-4 in e (the issue's bound; 100x the rtol asked: the error bound is
+    # relative to e, and e enters the edge admittance's fixed point), and in whether the
+    # ball settled. Near an edge and at low speed the ball may leave the plate and land
+    # again within one integration step (a flight of 2 v_out / g, microseconds at 1e-5 m/s);
+    # a solver that misses it reports the second landing, or a settled ball, instead.
+    rng = np.random.default_rng({"slow": 14, "broad": 1414, "stiff": 141414}[kind])
+    for i in range(count):
+        ball, plate, v, pos = _extreme_scene(rng, kind, i)
+        a = solve_impact(ball, plate, v, position=pos)
+        b = solve_impact(ball, plate, v, position=pos, rtol=1e-10)
+        assert abs(a.restitution - b.restitution) <= 1e-4, (ball, plate, v, pos, a.message)
+        assert a.settled == b.settled, (ball, plate, v, pos)
+
+
+def test_issue_example_near_a_corner():
+    # A 0.23 mm ball 1.2 mm from a corner at 0.2 mm/s, every ball and plate material of the
+    # table, four thicknesses: the default and the tight tolerance agree within 1e-4 in e.
+    from synth.physics.materials import TABLE
+
+    for ball_name in ("steel", "glass", "rubber", "abs"):
+        for plate_name in sorted(TABLE):
+            for h in (3e-4, 1e-3, 5e-3, 0.02):
+                ball, plate = Ball(ball_name, 0.23e-3), Plate(plate_name, h, 1.2, 0.8)
+                a = solve_impact(ball, plate, 2e-4, position=(1.2e-3, 1.2e-3))
+                b = solve_impact(ball, plate, 2e-4, position=(1.2e-3, 1.2e-3), rtol=1e-10)
+                assert abs(a.restitution - b.restitution) <= 1e-4, (ball_name, plate_name, h)
+
+
+def test_a_flight_inside_one_step_ends_the_contact():
+    # A 5.1 mm plasterboard ball on a 39 mm steel plate at 16 um/s, mid-plate: e = 0.964,
+    # the ball in the air for 2 v_out / g = 3 us after a 284 us contact. The default
+    # tolerance used to step over that flight and report the second landing (a contact
+    # twice as long and e = 0.927). Now both tolerances end the contact at the first
+    # separation: contact times within 1e-6 relative (the rtol asked), e within 1e-4.
+    ball = Ball("plasterboard", 0.002569465673431993)
+    plate = Plate("steel", 0.03904719041286581, 1.2, 0.8)
+    a = solve_impact(ball, plate, 1.6111030878803728e-05)
+    b = solve_impact(ball, plate, 1.6111030878803728e-05, rtol=1e-10)
+    assert a.contact_time == pytest.approx(b.contact_time, rel=1e-6)
+    assert abs(a.restitution - b.restitution) <= 1e-4
+    assert b.restitution == pytest.approx(0.964, abs=1e-3)
