@@ -541,7 +541,8 @@ def _tick_decay_times(scene, seq, ticks, samplerate):
     return out
 
 
-def thesis_row(quantity, unit, engine, model, measured, note=""):
+def thesis_row(quantity: str, unit: str, engine: float, model: float | None,
+               measured: float | tuple[float, float] | None, note: str = "") -> dict:
     """One row of the thesis comparison: the engine's value, the thesis' model value (None:
     the thesis has none), its measurement (a value, a (low, high) range or None) and the
     engine's gap to the measurement (engine minus the nearest end of a range; 0 inside)."""
@@ -591,21 +592,23 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
     ball, plate = _thesis_pair("steel 10.0 mm", "18 mm")
     first = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
     rows.append(thesis_row("restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)", "",
-                     first.restitution, THESIS_RESTITUTION["model"],
-                     THESIS_RESTITUTION["measured"]))
-    for (ball_name, board_name), (tau_meas, ratio, dc_meas) in THESIS_IMPACTS.items():
+                           first.restitution, THESIS_RESTITUTION["model"],
+                           THESIS_RESTITUTION["measured"]))
+    impacts = {}
+    for (ball_name, board_name), (tau_meas, ratio, _) in THESIS_IMPACTS.items():
         ball, plate = _thesis_pair(ball_name, board_name)
         r = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
-        rows.append(thesis_row(f"contact time, {ball_name} on {board_name}", "s", r.contact_time,
-                         tau_meas / ratio, tau_meas, "model: Table 3.3 over Table 3.2's ratio"))
-    for (ball_name, board_name), (tau_meas, ratio, dc_meas) in THESIS_IMPACTS.items():
-        ball, plate = _thesis_pair(ball_name, board_name)
-        r = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
+        impacts[ball_name, board_name] = (plate, r.contact_time)
+        rows.append(thesis_row(f"contact time, {ball_name} on {board_name}", "s",
+                               r.contact_time, tau_meas / ratio, tau_meas,
+                               "model: Table 3.3 over Table 3.2's ratio"))
+    for (ball_name, board_name), (tau_meas, _, dc_meas) in THESIS_IMPACTS.items():
+        plate, tau = impacts[ball_name, board_name]
         wave_speed = THESIS_BOARDS[board_name][4]
         rows.append(thesis_row(f"critical distance, {ball_name} on {board_name}", "m",
-                         impedance.critical_distance(plate, r.contact_time),
-                         0.5 * tau_meas * wave_speed, dc_meas,
-                         "model: the thesis' tau c / 2 from its measured tau and c"))
+                               impedance.critical_distance(plate, tau),
+                               0.5 * tau_meas * wave_speed, dc_meas,
+                               "model: the thesis' tau c / 2 from its measured tau and c"))
     _, plate = _thesis_pair("steel 10.0 mm", "18 mm")
     z_inf = impedance.infinite_plate_impedance(plate)
     engine_z = {"middle": z_inf, "edge": impedance.edge_impedance(plate),
@@ -620,8 +623,8 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
     seq = simulate_scene(scene)
     decays = _tick_decay_times(scene, seq, sorted(THESIS_TICK_DECAY), samplerate)
     for n, measured in THESIS_TICK_DECAY.items():
-        rows.append(thesis_row(f"tick {n} decay at 20 cm, envelope peak to 37 %", "s", decays[n], None,
-                         measured, "the thesis has no model of the sound"))
+        rows.append(thesis_row(f"tick {n} decay at 20 cm, envelope peak to 37 %", "s",
+                               decays[n], None, measured, "the thesis has no model of the sound"))
 
     alone = BounceSequence(seq.impacts[:1], "max-impacts", seq.drop_height, seq.gravity)
     r = render(scene, samplerate=samplerate, normalize="none", sequence=alone)
@@ -654,7 +657,7 @@ def _shown(value, scale, fmt):
     return fmt.format(value * scale)
 
 
-def format_thesis(c) -> str:
+def format_thesis(c: dict) -> str:
     """The table of :func:`thesis_comparison` (Markdown): engine, thesis model, thesis
     measurement and the engine's gap to the measurement, per quantity."""
     lines = ["| quantity | engine | thesis model | thesis measurement | engine - measurement |",
@@ -681,7 +684,8 @@ def format_thesis(c) -> str:
               f"(ms) | {t['edc_decay_time_2_3k'] * 1e3:.1f} |",
               f"| decay time, 2-3 kHz band, envelope peak to 37 % (ms) | "
               f"{t['decay_time_2_3k'] * 1e3:.2f} |",
-              f"| decay time, whole tick, energy decay curve (ms) | {t['edc_decay_time'] * 1e3:.1f} |",
+              f"| decay time, whole tick, energy decay curve (ms) | "
+              f"{t['edc_decay_time'] * 1e3:.1f} |",
               f"| spectral centroid (Hz; the thesis: \"a few kHz\") | {t['centroid']:.0f} |",
               f"| peak pressure (Pa) | {t['peak_pa']:.1f} |"]
     return "\n".join(lines)

@@ -410,9 +410,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live"],
                    help="contact: solver error and time per impact against scipy; render: audio "
                         "error against a reference and real-time factor; thesis: the engine "
-                        "beside the thesis' model and measurements; analysis: recovered restitution and "
-                        "onsets against noise; live: the live engine's callback, hit() and "
-                        "add() costs, and underflows through a JACK dummy server")
+                        "beside the thesis' model and measurements; analysis: recovered "
+                        "restitution and onsets against noise; live: the live engine's "
+                        "callback, hit() and add() costs, and underflows through a JACK dummy "
+                        "server")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--markdown", action="store_true",
                    help="the block for docs/: the command, date and machine, then the tables")
