@@ -30,8 +30,9 @@ def test_contact_needs_no_damping_law():
 def test_bounces_need_no_damping_law():
     from synth.physics.bounces import simulate_bounces
 
-    seq = simulate_bounces(Ball("steel", 0.005), Plate(UNDAMPED_MDF, 0.018, 1.227, 0.49),
-                           drop_height=0.1)
+    seq = simulate_bounces(
+        Ball("steel", 0.005), Plate(UNDAMPED_MDF, 0.018, 1.227, 0.49), drop_height=0.1
+    )
     assert len(seq.impacts) > 3
 
 
@@ -42,10 +43,10 @@ def test_render_names_the_missing_damping_law():
     from synth.physics.scene import Scene
     from synth.sound.render import render
 
-    scene = Scene(Ball("steel", 0.005), Plate(UNDAMPED_MDF, 0.018, 1.227, 0.49),
-                           drop_height=0.1)
-    with pytest.raises(ParameterError,
-                       match=r"plate\.material\.damping=None.*Rayleigh.*LossFactor"):
+    scene = Scene(Ball("steel", 0.005), Plate(UNDAMPED_MDF, 0.018, 1.227, 0.49), drop_height=0.1)
+    with pytest.raises(
+        ParameterError, match=r"plate\.material\.damping=None.*Rayleigh.*LossFactor"
+    ):
         render(scene, samplerate=48000)
     assert synth.ParameterError is ParameterError
 
@@ -56,8 +57,7 @@ def test_preset_with_undamped_inline_plate_material(tmp_path, capsys):
     from synth.cli import main
 
     text = (Path(__file__).resolve().parent.parent / "presets" / "default.toml").read_text()
-    inline = ('material = { name = "mdf-undamped", density = 700.0, young = 5.689e9, '
-              'poisson = 0.4 }')
+    inline = 'material = { name = "mdf-undamped", density = 700.0, young = 5.689e9, poisson = 0.4 }'
     assert 'material = "mdf-18"' in text
     path = tmp_path / "undamped.toml"
     path.write_text(text.replace('material = "mdf-18"', inline))
@@ -77,7 +77,10 @@ def test_thesis_measurements_are_the_published_ones():
 
     assert bench.THESIS_RESTITUTION == {"model": 0.87, "measured": 0.76}
     assert {k: v[1] for k, v in bench.THESIS_IMPEDANCE.items()} == {
-        "middle": 1271.0, "edge": 389.0, "corner": 168.0}
+        "middle": 1271.0,
+        "edge": 389.0,
+        "corner": 168.0,
+    }
     assert bench.THESIS_IMPEDANCE["middle"][0] == 1629.0
     assert bench.THESIS_TICK_DECAY == {1: 11.0e-3, 6: 12.3e-3, 8: 14.0e-3}
     measured_tau = sorted(v[0] for v in bench.THESIS_IMPACTS.values())
