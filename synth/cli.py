@@ -522,13 +522,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="error against run time")
     p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "scale", "bank"],
                    help="contact: solver error and time per impact against scipy; render: audio "
-                        "error against a reference and real-time factor; thesis: the first tick "
-                        "against the thesis' measurements; analysis: recovered restitution and "
-                        "onsets against noise; live: the live engine's callback, hit() and "
-                        "add() costs, and underflows through a JACK dummy server; scale: cold "
-                        "and warm cost of modes, radiation gains and synthesis for a ladder "
-                        "of plates; bank: sounds/s of a sound bank against one process "
-                        "per file")
+                        "error against a reference and real-time factor; thesis: the engine "
+                        "beside the thesis' model and measurements; analysis: recovered "
+                        "restitution and onsets against noise; live: the live engine's "
+                        "callback, hit() and add() costs, and underflows through a JACK dummy "
+                        "server; scale: cold and warm cost of modes, radiation gains and "
+                        "synthesis for a ladder of plates; bank: sounds/s of a sound bank "
+                        "against one process per file")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--markdown", action="store_true",
                    help="the block for docs/: the command, date and machine, then the tables")

@@ -15,17 +15,29 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def test_thesis_comparison():
-    # The first tick of the thesis setup against the thesis' measurements (docs/physics.md,
-    # "Hertz contact" and "Modal synthesis"): restitution 0.87 at 1.4 m/s mid-plate (+-0.01, its
-    # two-figure
-    # precision), the 2-3 kHz decay from the energy decay curve within the measured
-    # 11-14 ms, and a centroid of "a few kHz" (taken as 1-5 kHz).
+    # The engine against the thesis' model and its measurements (docs/validation.md): the
+    # engine reproduces the model's restitution (0.87 at 1.4 m/s mid-plate, +-0.01, its
+    # two-figure precision) and the model's contact times (Table 3.3 over Table 3.2's ratio,
+    # 18 mm board, where the thesis' theory used the board's own modulus: within 5 %, the
+    # ratios' two- and three-figure rounding); the 2-3 kHz decay from the energy decay curve
+    # lies within the 11-14 ms the MDF damping law was fitted to; the centroid is "a few
+    # kHz" (taken as 1-5 kHz). Every row shows three columns and the gap to the measurement.
     c = bench.thesis_comparison()
-    assert c["restitution"] == pytest.approx(0.87, abs=0.01)
-    assert 11e-3 <= c["edc_decay_time_2_3k"] <= 14e-3
-    assert 1000.0 <= c["centroid"] <= 5000.0
+    rows = {r["quantity"]: r for r in c["rows"]}
+    e = rows["restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)"]
+    assert e["engine"] == pytest.approx(0.87, abs=0.01)
+    assert e["measured"] == 0.76 and e["gap"] == pytest.approx(e["engine"] - 0.76, abs=1e-15)
+    for (ball, board) in bench.THESIS_IMPACTS:
+        row = rows[f"contact time, {ball} on {board}"]
+        if board == "18 mm":
+            assert row["engine"] == pytest.approx(row["model"], rel=0.05), row
+    t = c["first_tick"]
+    assert 11e-3 <= t["edc_decay_time_2_3k"] <= 14e-3
+    assert 1000.0 <= t["centroid"] <= 5000.0
     table = bench.format_thesis(c)
-    assert "11-14" in table and f"{c['centroid']:.0f}" in table
+    assert "| thesis model | thesis measurement | engine - measurement |" in table
+    assert "| 0.871 | 0.870 | 0.760 |" in table and f"{t['centroid']:.0f}" in table
+    json.loads(json.dumps(c, allow_nan=False))
 
 
 def test_run_contact_summary():

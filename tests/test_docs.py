@@ -231,7 +231,7 @@ def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     assert _outside_blocks(after) == _outside_blocks(before)
     body = docs.bench_blocks(after)["thesis"]
     assert body.startswith("Printed by `synth bench thesis --markdown` on ")
-    assert "| restitution of the first impact (1.4 m/s) |" in body
+    assert "| restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s) |" in body
     assert "bench:thesis updated" in capsys.readouterr().out
 
 

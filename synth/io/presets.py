@@ -16,7 +16,7 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     mass = 4.17e-3                  # kg (optional: from the density and radius)
 
     [plate]
-    material = "mdf-18"             # a table name or an inline table (needs damping)
+    material = "mdf-18"             # a table name or an inline table (damping: to render)
     thickness = 0.018               # m
     length = 1.227                  # m, along x
     width = 0.49                    # m, along y

@@ -160,6 +160,36 @@ def _energy_w(x, w, lam, G, n):
 
 
 @numba.njit(cache=True)
+def _hermite_dips(x0, x1, d0, d1):
+    """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1
+    the derivatives times the step) reaches 0 inside it: the ball left the plate and came
+    back within one step (a flight of length 2 |w| / G, short where gravity dominates).
+    Such a step hides the end of contact from a test on its end points. A flight is a
+    parabola, which the cubic reproduces exactly; the test looks only where x' turns
+    from negative to positive, at the interpolant's minimum (a root of its derivative)."""
+    if not (d0 < 0.0 < d1):
+        return False
+    a = 2.0 * x0 + d0 - 2.0 * x1 + d1       # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
+    b = -3.0 * x0 - 2.0 * d0 + 3.0 * x1 - d1
+    # x'(t) = 3 a t^2 + 2 b t + d0: its roots in (0, 1)
+    qa = 3.0 * a
+    qb = 2.0 * b
+    lowest = min(x0, x1)
+    if qa == 0.0:
+        roots = (-d0 / qb if qb != 0.0 else -1.0, -1.0)
+    else:
+        disc = qb * qb - 4.0 * qa * d0
+        if disc < 0.0:
+            return False
+        r = math.sqrt(disc)
+        roots = ((-qb - r) / (2.0 * qa), (-qb + r) / (2.0 * qa))
+    for t in roots:
+        if 0.0 < t < 1.0:
+            lowest = min(lowest, ((a * t + b) * t + d0) * t + x0)
+    return lowest <= 0.0
+
+
+@numba.njit(cache=True)
 def _hermite_root(x0, x1, d0, d1):
     """Fraction of a step at which the cubic Hermite interpolant of x (values x0 > 0,
     x1 <= 0; d0, d1 the derivatives times the step) crosses zero, by bisection to 1e-6
@@ -685,6 +715,14 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             landing = False
             rejected = True
             continue
+        if xn > 0.0 and _hermite_dips(x, xn, h * K[0, 0], h * K[_NS, 0]):
+            # The ball separated and landed again inside the step: redo it shorter, so
+            # that the end of contact is seen (and located) by the test below.
+            h *= 0.5
+            nrej += 1
+            landing = False
+            rejected = True
+            continue
         if xn < 0.0:
             # The step crosses the end of contact, where the force switches off: its
             # error estimate and dense output assume a smooth right-hand side and are
@@ -896,6 +934,13 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                 mult = 1.0
             fac = mult * err ** -0.25 if math.isfinite(err) and err > 0 else 0.2
             h *= max(0.2, safety * fac)
+            nrej += 1
+            rejected = True
+            j11, j12, j21, j22 = _jac2(y[0], y[1], lam, n, c)
+            continue
+        if xn > 0.0 and _hermite_dips(y[0], xn, h * f0[0], h * _rhs(xn, wn, lam, G, n, c)[0]):
+            # separated and landed again inside the step (see the DOP853 driver)
+            h *= 0.5
             nrej += 1
             rejected = True
             j11, j12, j21, j22 = _jac2(y[0], y[1], lam, n, c)

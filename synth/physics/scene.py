@@ -13,7 +13,7 @@ from dataclasses import KW_ONLY, dataclass
 from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
-from synth.physics.materials import Material, resolve
+from synth.physics.materials import Damping, Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
@@ -90,10 +90,6 @@ class Plate:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "plate.material"))
-        if self.material.damping is None:
-            raise ParameterError(
-                f"plate.material.damping=None ({self.material.name!r}): a plate's material needs "
-                f"a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for its modes' decay")
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
             object.__setattr__(self, name, checks.positive_at_most(
                 f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit))
@@ -102,6 +98,17 @@ class Plate:
             raise ParameterError(
                 f"plate.thickness={self.thickness!r} must not exceed the plate's smaller side "
                 f"{min(self.length, self.width)!r} (metres): a thin-plate model needs h << a, b")
+
+    def damping_law(self) -> Damping:
+        """The material's damping law, for computing the plate's modes (their decay rates,
+        1/s). A plate used only in a contact computation needs none; computing its modes
+        without one raises ``ParameterError`` naming the missing law."""
+        if self.material.damping is None:
+            raise ParameterError(
+                f"plate.material.damping=None ({self.material.name!r}): computing the plate's "
+                f"modes needs a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for "
+                f"their decay (a contact computation alone needs none)")
+        return self.material.damping
 
     @property
     def flexural_rigidity(self) -> float:

@@ -1001,6 +1001,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
+    damping = plate.damping_law()
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
@@ -1026,7 +1027,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     freq = omega / (2.0 * math.pi)
     n = int(np.searchsorted(freq, fmax, side="right"))
     omega, freq = omega[:n].copy(), freq[:n].copy()
-    sigma = np.asarray(plate.material.damping.decay_rate(omega), dtype=float)
+    sigma = np.asarray(damping.decay_rate(omega), dtype=float)
     sigma = np.broadcast_to(sigma, omega.shape).copy()
     mass = np.full(n, plate.mass)
     for arr in (omega, freq, sigma, mass):

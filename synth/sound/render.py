@@ -380,6 +380,7 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
+    scene.plate.damping_law()           # before the bounces: the modes will need it
     o = check_options(samplerate=samplerate, normalize=normalize, peak_db=peak_db,
                       loudness_lufs=loudness_lufs, floor_db=floor_db,
                       max_frequency=max_frequency, preroll=preroll, fade=fade,
