@@ -24,8 +24,18 @@ from synth.analysis.settings import (
     make_settings,
     read_recording,
 )
+from synth.analysis.validity import (
+    Series,
+    as_series_start,
+    check_impulsive,
+    flag_series,
+    flag_warnings,
+    make_series,
+    new_series_at,
+)
 from synth.analysis.whitening import resonator_predictor, whiten
 from synth.errors import ParameterError
+from synth.io.audio import wav_shortfall
 
 #: The resonator's search (step 7) is kept when its predictor leaves at least this much
 #: less of the first tick's ringing than the first search's, dB.
@@ -33,6 +43,10 @@ RESONATOR_GAIN_DB = 20.0
 #: The resonator's search must find the first search's ticks within this, s (two sample
 #: periods at 48 kHz), to continue their series.
 AGREEMENT = 0.00004
+#: Largest fraction of the samples in flat tops (clipping) of a recording of impacts: its
+#: ticks' peaks are short and their ringing decays below the clip level within each bounce,
+#: so a signal held at its extremes for half its length is no such recording.
+CLIPPED_AT_MOST = 0.5
 #: The free ringing of the first bounce is taken from this long after the first onset (past
 #: the contact), s.
 CLEAN_GUARD = 0.002
@@ -101,7 +115,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Length of the Hann window smoothing the envelope for the decay fit, s
         (at least 3 samples).
     clip_samples : int >= 2
-        Samples at exactly a channel's largest (or smallest) value that mean clipping.
+        Samples at exactly a channel's largest (or smallest) value, in flat tops of at
+        least two consecutive samples, that mean clipping.
     on_clipping : {"warn", "raise"}
         Report clipping in :attr:`Analysis.warnings`, or raise ``AnalysisError``.
 
@@ -132,6 +147,55 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
+    series = _series(x, settings, clipping is not None)
+    check_impulsive([t for s in series for t in s.ticks])
+    warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
+    return Analysis(ticks=[t for s in series for t in s.ticks],
+                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
+                    noise_floor=dsp.noise_floor(x, settings.samplerate),
+                    gravity=settings.gravity, channel=settings.channel,
+                    clipped=clipping is not None, warnings=warnings, series=series)
+
+
+def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
+    """The bounce series of ``x``, each found and measured on its own: the ticks of the
+    whole signal up to where a new series starts (:func:`new_series_at`), then the same
+    on the signal from the local background's length before that tick's onset (the
+    detection's reference; ticks found there before it belong to the series before), and
+    so on. So a later drop is sought with no bounce rule of the earlier one in the way."""
+    out: list[Series] = []
+    start = 0
+    rest: list = []
+    lead = 0.0
+    while True:
+        try:
+            ticks = _ticks(x[start:], settings, clipped)
+        except AnalysisError:
+            if not out:
+                raise
+            ticks = rest                # the later drop as the signal before it showed it
+        else:
+            shift = start / settings.samplerate
+            ticks = [replace(t, time=t.time + shift) for t in ticks
+                     if not rest or t.time + shift > rest[0].time - lead]
+        cut = new_series_at(ticks)
+        mine = ticks if cut is None else ticks[:cut]
+        index = sum(len(s.ticks) for s in out)
+        mine = [replace(t, index=index + j + 1) for j, t in enumerate(mine)]
+        if out:
+            mine[0] = as_series_start(mine[0])
+            if len(mine) > 1:
+                mine[1] = replace(mine[1], restitution=None)
+        out.append(make_series(flag_series(mine)))
+        if cut is None:
+            return out
+        rest = ticks[cut:]
+        lead = settings.background + WINDOW_GUARD / settings.samplerate
+        start = max(start + 1, int(math.floor((rest[0].time - lead) * settings.samplerate)))
+
+
+def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
+    """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``)."""
     A = dsp.autocorrelation_predictor(x, settings.whitening_order)
     first = _search(whiten(x, A), settings)
     found = [FoundTick(first.onsets[i], first.strengths[i],
@@ -140,14 +204,10 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     whitenings = [Whitening(A, first.whitened, first.residual)]
     if (first.ringing_left is not None
             and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
-            and not settings.fixed_order and clipping is None):
+            and not settings.fixed_order and not clipped):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    return Analysis(ticks=measure_ticks(x, found, whitenings, settings, noise),
-                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
-                    noise_floor=noise, gravity=settings.gravity, channel=settings.channel,
-                    clipped=clipping is not None,
-                    warnings=() if clipping is None else (clipping.warning,))
+    return measure_ticks(x, found, whitenings, settings, noise)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
@@ -164,6 +224,9 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
     **options
         The other keyword arguments of :func:`analyze`.
 
+    A WAV file that holds fewer frames than its header declares is analysed as far as it
+    goes, with a warning in :attr:`Analysis.warnings` (and a ``TruncatedAudioWarning``).
+
     Raises
     ------
     ParameterError
@@ -173,7 +236,9 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
         :func:`analyze`.
     """
     audio, samplerate = read_recording(path)
-    return analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    short = wav_shortfall(path)
+    return result if short is None else replace(result, warnings=result.warnings + (short,))
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
@@ -187,6 +252,11 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     clipping = find_clipping(used, settings.clip_samples)
+    if clipping is not None and np.count_nonzero(clipping.mask) > CLIPPED_AT_MOST * used.size:
+        raise AnalysisError(
+            f"{np.count_nonzero(clipping.mask)} of {used.size} samples sit in flat tops at "
+            f"the extremes: not a recording of impacts (a square wave, or one clipped "
+            f"throughout)")
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
