@@ -158,40 +158,68 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
 
 
 def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
-    """The bounce series of ``x``, each found and measured on its own: the ticks of the
-    whole signal up to where a new series starts (:func:`new_series_at`), then the same
-    on the signal from the local background's length before that tick's onset (the
-    detection's reference; ticks found there before it belong to the series before), and
-    so on. So a later drop is sought with no bounce rule of the earlier one in the way."""
-    out: list[Series] = []
-    start = 0
-    rest: list = []
-    lead = 0.0
-    while True:
+    """The bounce series of ``x``, each found and measured on its own.
+
+    The ticks of the whole signal give the series up to where a new one starts
+    (:func:`new_series_at`); the signal from the local background's length before that
+    tick's onset (the detection's reference) up to the same length before the start of the
+    drop after it, as those ticks show it, is then searched on its own, and so on. So a later
+    drop is sought with no bounce rule of an earlier one in the way, and every sample is
+    searched about twice whatever the number of drops."""
+    fs = settings.samplerate
+    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
+    ticks = _ticks(x, settings, clipped)
+    cut = new_series_at(ticks)
+    if cut is not None:                 # the first drop, too, on its own
+        end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
         try:
-            ticks = _ticks(x[start:], settings, clipped)
-        except AnalysisError:
-            if not out:
-                raise
-            ticks = rest                # the later drop as the signal before it showed it
-        else:
-            shift = start / settings.samplerate
-            ticks = [replace(t, time=t.time + shift) for t in ticks
-                     if not rest or t.time + shift > rest[0].time - lead]
+            ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
+        except (AnalysisError, ParameterError):
+            pass
+    found: list[list] = []
+    while True:
         cut = new_series_at(ticks)
-        mine = ticks if cut is None else ticks[:cut]
-        index = sum(len(s.ticks) for s in out)
-        mine = [replace(t, index=index + j + 1) for j, t in enumerate(mine)]
-        if out:
+        if cut is None:
+            found.append(ticks)
+            break
+        found.append(ticks[:cut])
+        rest = ticks[cut:]
+        start = max(0, int(math.floor(rest[0].time * fs)) - lead)
+        after = new_series_at(rest)
+        while True:
+            end = x.size if after is None else max(
+                start + 1, int(math.floor(rest[after].time * fs)) - lead)
+            later = [] if after is None else rest[after:]
+            try:
+                seg = [replace(t, time=t.time + start / fs)
+                       for t in _ticks(x[start:end], settings, clipped)]
+            except (AnalysisError, ParameterError):
+                seg = rest if after is None else rest[:after]   # as the longer search had it
+            if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
+                break
+            # the next drop's start as the longer search had it is no start with the ticks
+            # found now (it followed a tick that search missed): search on to the next one
+            nxt = new_series_at(later)
+            after = None if nxt is None else after + nxt
+        ticks = seg + later
+    return _numbered(found)
+
+
+def _numbered(found: list[list]) -> list[Series]:
+    """The series of the tick lists ``found``: ticks numbered over the recording, a later
+    series' first tick without a bounce time and its second without a restitution (their
+    bounces would span two drops), impossible values flagged."""
+    out: list[Series] = []
+    index = 0
+    for k, ticks in enumerate(t for t in found if t):
+        mine = [replace(t, index=index + j + 1) for j, t in enumerate(ticks)]
+        if k:
             mine[0] = as_series_start(mine[0])
             if len(mine) > 1:
                 mine[1] = replace(mine[1], restitution=None)
+        index += len(mine)
         out.append(make_series(flag_series(mine)))
-        if cut is None:
-            return out
-        rest = ticks[cut:]
-        lead = settings.background + WINDOW_GUARD / settings.samplerate
-        start = max(start + 1, int(math.floor((rest[0].time - lead) * settings.samplerate)))
+    return out
 
 
 def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:

@@ -57,11 +57,9 @@ def new_series_at(ticks: list[Tick]) -> int | None:
     bounce is over :data:`MISSED_GROWTH` times the one before (a silence). The second tick
     has no bounce before it to compare with and never starts one.
     """
+    times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
-        t_prev, t = ticks[i - 1].bounce_time, ticks[i].bounce_time
-        if t_prev is None or t is None:
-            continue
-        ratio = t / t_prev
+        ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
         louder = ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
         if ratio > BOUNCE_GROWTH and (louder or ratio > MISSED_GROWTH):
             return i
