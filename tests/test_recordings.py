@@ -217,3 +217,19 @@ def test_twelve_drops_in_thirty_seconds():
         assert len(s.ticks) == parts[k][0].size
         assert s.mean_restitution == pytest.approx(0.8, rel=1e-3)
     assert not any(t.flags for t in an.ticks)
+
+
+def test_analyze_command_warns_on_a_truncated_file(tmp_path, capsys):
+    # the command line says it in its own words, on stderr, and analyses what is there
+    from synth.cli import main
+
+    on, amps = drop(0.05, 0.8, 0.2)
+    x = ticks(on, amps, 2.0)
+    path = tmp_path / "cut.wav"
+    soundfile.write(path, 0.5 * x / np.abs(x).max(), FS, subtype="PCM_16")
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) - FS * 2])
+    code = main(["analyze", str(path)])
+    out, err = capsys.readouterr()
+    assert code == 0 and err.startswith("synth: warning: ") and "truncated" in err
+    assert "TruncatedAudioWarning" not in err and out.startswith(f"{on[on < 1.0].size} ticks")
