@@ -167,7 +167,7 @@ def _cmd_analyze(args):
 
     if args.plot:
         analysis.check_plot_path(args.plot)     # a bad image path fails before any output
-    audio, fs = analysis.read_recording(args.file)
+    audio, fs = _read_warned(analysis.read_recording, args.file)
     result = analysis.analyze(audio, fs, gravity=args.gravity, channel=_channel(args.channel),
                               min_separation=args.min_separation, window=args.window,
                               deflate=not args.no_deflate)
@@ -185,6 +185,18 @@ def _cmd_analyze(args):
     return 0
 
 
+def _read_warned(reader, path):
+    """``reader(path)``, its warnings (a truncated file) printed as the command's own."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = reader(path)
+    for w in caught:
+        print(f"synth: warning: {w.message}", file=sys.stderr)
+    return out
+
+
 def _channel(value):
     if value is None or value == "mix":
         return None
@@ -200,7 +212,7 @@ def _cmd_alter(args):
     from synth.stimuli.alter import alter_restitution
 
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
-    audio, fs = audio_io.read_audio(args.file)
+    audio, fs = _read_warned(audio_io.read_audio, args.file)
     channel = _channel(args.channel)
     onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,
                                       min_separation=args.min_separation).ticks]

@@ -869,7 +869,7 @@ def test_analyze_file_rejects_bad_files(tmp_path):
 # presentation
 
 COLUMNS = ["n", "time (s)", "bounce (ms)", "e", "speed (m/s)", "energy (u^2 s)", "peak (u)",
-           "centroid (Hz)", "spread (Hz)", "decay (ms)", "strength (dB)"]
+           "centroid (Hz)", "spread (Hz)", "decay (ms)", "strength (dB)", "flags"]
 
 
 def test_format_table(clean44):

@@ -19,6 +19,8 @@ The stages, one module each:
   taken out; :mod:`~synth.analysis.resonator`: step 7, its variant on the resonator's
   whitening;
 * :mod:`~synth.analysis.measures`: each tick's measurements;
+* :mod:`~synth.analysis.validity`: the bounce series (drops) of a recording, the
+  physically impossible restitutions flagged, input that holds no impact refused;
 * :mod:`~synth.analysis.pipeline`: :func:`analyze`, the stages in order;
 * :mod:`~synth.analysis.report` and :mod:`~synth.analysis.plotting`: the results and their
   presentation.
@@ -42,6 +44,7 @@ from synth.analysis.series import (
                                      RESTITUTION_STEP,
                                      SERIES_HORIZON,
 )
+from synth.analysis.validity import MISSED_GROWTH, Series
 from synth.analysis.settings import (
                                      DYNAMIC_RANGE_DB,
                                      MIN_FRAME,
@@ -61,12 +64,14 @@ __all__ = [
                                      "DYNAMIC_RANGE_DB",
                                      "MAX_EXCESS_DB",
                                      "MIN_FRAME",
+                                     "MISSED_GROWTH",
                                      "RESONATOR_GAIN_DB",
                                      "RESTITUTION_STEP",
                                      "SERIES_HORIZON",
                                      "WINDOW_GUARD",
                                      "Analysis",
                                      "AnalysisError",
+                                     "Series",
                                      "Settings",
                                      "Tick",
                                      "analyze",

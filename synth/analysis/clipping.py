@@ -16,6 +16,12 @@ import numpy as np
 from synth import dsp
 
 
+#: Fewest consecutive samples at a channel's extreme that make a flat top (clipping). Two
+#: equal samples at the very extreme of a band-limited waveform need its peak to fall within
+#: a quantisation step over a sample period: rare, and never many times at the one level.
+FLAT_TOP = 2
+
+
 @dataclass(frozen=True)
 class Clipping:
     """The clipped samples of each channel (``mask``, shaped as the audio) and the warning
@@ -29,7 +35,12 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
     """The clipped samples of ``chans`` (frames, channels), or None.
 
     A channel is clipped at its positive (negative) extreme when ``min_count`` or more of
-    its samples sit at exactly its largest (smallest) value.
+    its samples sit at exactly its largest (smallest) value in flat tops: runs of at least
+    :data:`FLAT_TOP` consecutive samples. A converter or a gain stage that clips holds the
+    signal at its limit while the waveform would go on beyond it; a waveform that merely
+    peaks there (a peak-normalised file whose ticks repeat, or a quantised one) meets its
+    extreme at isolated samples, one per peak, and is not clipped. In a clipped channel
+    every sample at the clip level is clipped, a lone one (a peak one sample wide) too.
     """
     mask = np.zeros(chans.shape, dtype=bool)
     worst = None
@@ -39,8 +50,7 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
             if level == 0.0:
                 continue
             at = col == level
-            count = int(np.count_nonzero(at))
-            if count >= min_count:
+            if np.count_nonzero(flat_tops(at)) >= min_count:
                 mask[:, c] |= at
         count = int(np.count_nonzero(mask[:, c]))
         if count and (worst is None or count > worst[1]):
@@ -54,6 +64,19 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
         f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
         f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
         f"are unreliable, and their onsets and bounce times may be off too"))
+
+
+def flat_tops(at: np.ndarray) -> np.ndarray:
+    """The samples of the boolean ``at`` that lie in runs of at least :data:`FLAT_TOP`
+    consecutive True values."""
+    padded = np.r_[False, at, False].astype(np.int8)
+    edges = np.diff(padded)
+    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+    out = np.zeros(at.size, dtype=bool)
+    for a, b in zip(starts, stops):
+        if b - a >= FLAT_TOP:
+            out[a:b] = True
+    return out
 
 
 def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:

@@ -24,8 +24,18 @@ from synth.analysis.settings import (
     make_settings,
     read_recording,
 )
+from synth.analysis.validity import (
+    Series,
+    as_series_start,
+    check_impulsive,
+    flag_series,
+    flag_warnings,
+    make_series,
+    new_series_at,
+)
 from synth.analysis.whitening import resonator_predictor, whiten
 from synth.errors import ParameterError
+from synth.io.audio import wav_shortfall
 
 #: The resonator's search (step 7) is kept when its predictor leaves at least this much
 #: less of the first tick's ringing than the first search's, dB.
@@ -33,6 +43,10 @@ RESONATOR_GAIN_DB = 20.0
 #: The resonator's search must find the first search's ticks within this, s (two sample
 #: periods at 48 kHz), to continue their series.
 AGREEMENT = 0.00004
+#: Largest fraction of the samples in flat tops (clipping) of a recording of impacts: its
+#: ticks' peaks are short and their ringing decays below the clip level within each bounce,
+#: so a signal held at its extremes for half its length is no such recording.
+CLIPPED_AT_MOST = 0.5
 #: The free ringing of the first bounce is taken from this long after the first onset (past
 #: the contact), s.
 CLEAN_GUARD = 0.002
@@ -101,7 +115,8 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         Length of the Hann window smoothing the envelope for the decay fit, s
         (at least 3 samples).
     clip_samples : int >= 2
-        Samples at exactly a channel's largest (or smallest) value that mean clipping.
+        Samples at exactly a channel's largest (or smallest) value, in flat tops of at
+        least two consecutive samples, that mean clipping.
     on_clipping : {"warn", "raise"}
         Report clipping in :attr:`Analysis.warnings`, or raise ``AnalysisError``.
 
@@ -132,6 +147,83 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
+    series = _series(x, settings, clipping is not None)
+    check_impulsive([t for s in series for t in s.ticks])
+    warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
+    return Analysis(ticks=[t for s in series for t in s.ticks],
+                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
+                    noise_floor=dsp.noise_floor(x, settings.samplerate),
+                    gravity=settings.gravity, channel=settings.channel,
+                    clipped=clipping is not None, warnings=warnings, series=series)
+
+
+def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
+    """The bounce series of ``x``, each found and measured on its own.
+
+    The ticks of the whole signal give the series up to where a new one starts
+    (:func:`new_series_at`); the signal from the local background's length before that
+    tick's onset (the detection's reference) up to the same length before the start of the
+    drop after it, as those ticks show it, is then searched on its own, and so on. So a later
+    drop is sought with no bounce rule of an earlier one in the way, and every sample is
+    searched about twice whatever the number of drops."""
+    fs = settings.samplerate
+    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
+    ticks = _ticks(x, settings, clipped)
+    cut = new_series_at(ticks)
+    if cut is not None:                 # the first drop, too, on its own
+        end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
+        try:
+            ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
+        except (AnalysisError, ParameterError):
+            pass
+    found: list[list] = []
+    while True:
+        cut = new_series_at(ticks)
+        if cut is None:
+            found.append(ticks)
+            break
+        found.append(ticks[:cut])
+        rest = ticks[cut:]
+        start = max(0, int(math.floor(rest[0].time * fs)) - lead)
+        after = new_series_at(rest)
+        while True:
+            end = x.size if after is None else max(
+                start + 1, int(math.floor(rest[after].time * fs)) - lead)
+            later = [] if after is None else rest[after:]
+            try:
+                seg = [replace(t, time=t.time + start / fs)
+                       for t in _ticks(x[start:end], settings, clipped)]
+            except (AnalysisError, ParameterError):
+                seg = rest if after is None else rest[:after]   # as the longer search had it
+            if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
+                break
+            # the next drop's start as the longer search had it is no start with the ticks
+            # found now (it followed a tick that search missed): search on to the next one
+            nxt = new_series_at(later)
+            after = None if nxt is None else after + nxt
+        ticks = seg + later
+    return _numbered(found)
+
+
+def _numbered(found: list[list]) -> list[Series]:
+    """The series of the tick lists ``found``: ticks numbered over the recording, a later
+    series' first tick without a bounce time and its second without a restitution (their
+    bounces would span two drops), impossible values flagged."""
+    out: list[Series] = []
+    index = 0
+    for k, ticks in enumerate(t for t in found if t):
+        mine = [replace(t, index=index + j + 1) for j, t in enumerate(ticks)]
+        if k:
+            mine[0] = as_series_start(mine[0])
+            if len(mine) > 1:
+                mine[1] = replace(mine[1], restitution=None)
+        index += len(mine)
+        out.append(make_series(flag_series(mine)))
+    return out
+
+
+def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
+    """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``)."""
     A = dsp.autocorrelation_predictor(x, settings.whitening_order)
     first = _search(whiten(x, A), settings)
     found = [FoundTick(first.onsets[i], first.strengths[i],
@@ -140,14 +232,10 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     whitenings = [Whitening(A, first.whitened, first.residual)]
     if (first.ringing_left is not None
             and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
-            and not settings.fixed_order and clipping is None):
+            and not settings.fixed_order and not clipped):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    return Analysis(ticks=measure_ticks(x, found, whitenings, settings, noise),
-                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
-                    noise_floor=noise, gravity=settings.gravity, channel=settings.channel,
-                    clipped=clipping is not None,
-                    warnings=() if clipping is None else (clipping.warning,))
+    return measure_ticks(x, found, whitenings, settings, noise)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
@@ -164,6 +252,9 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
     **options
         The other keyword arguments of :func:`analyze`.
 
+    A WAV file that holds fewer frames than its header declares is analysed as far as it
+    goes, with a warning in :attr:`Analysis.warnings` (and a ``TruncatedAudioWarning``).
+
     Raises
     ------
     ParameterError
@@ -173,7 +264,9 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
         :func:`analyze`.
     """
     audio, samplerate = read_recording(path)
-    return analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    short = wav_shortfall(path)
+    return result if short is None else replace(result, warnings=result.warnings + (short,))
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
@@ -187,6 +280,11 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     clipping = find_clipping(used, settings.clip_samples)
+    if clipping is not None and np.count_nonzero(clipping.mask) > CLIPPED_AT_MOST * used.size:
+        raise AnalysisError(
+            f"{np.count_nonzero(clipping.mask)} of {used.size} samples sit in flat tops at "
+            f"the extremes: not a recording of impacts (a square wave, or one clipped "
+            f"throughout)")
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping

@@ -5,11 +5,22 @@ from __future__ import annotations
 
 import csv
 import io
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
 from synth.errors import ParameterError
+
+
+#: Flag of a tick whose bounce time is not shorter than the one before (``e_n >= 1``).
+GROWN_BOUNCE = "restitution>=1"
+#: Flag of a tick whose restitution divides by a bounce that had grown (a missed tick).
+AFTER_GROWN = "after-restitution>=1"
+#: Flag of a tick whose own sound does not decay over its window: not the response of a
+#: resonator to an impact (a step, an edge of a periodic wave).
+NO_DECAY = "no-decay"
+#: The flags that make a tick's restitution impossible (left out of every mean).
+RESTITUTION_FLAGS = (GROWN_BOUNCE, AFTER_GROWN)
 
 
 @dataclass(frozen=True)
@@ -55,6 +66,13 @@ class Tick:
         How far the tick's whitened energy stands above the threshold it had to
         clear, dB; for a tick that step 7 found by description length (no threshold
         cleared), how far that fell with it, in dB of residual energy per sample.
+    flags : tuple of str
+        Why the tick's measurements are physically impossible or doubtful (empty when
+        none): ``"restitution>=1"``, its bounce time did not shrink (a tick was missed
+        before it); ``"after-restitution>=1"``, its restitution is measured against such a
+        bounce; ``"no-decay"``, its own sound does not ring down as an impact's does
+        (:mod:`~synth.analysis.validity`). The restitutions of the first two are left out
+        of every mean.
     """
 
     index: int
@@ -69,6 +87,7 @@ class Tick:
     decay_time: float | None
     window: float
     strength: float
+    flags: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -92,7 +111,11 @@ class Analysis:
     clipped : bool
         True when the recording looks clipped.
     warnings : tuple of str
-        What the measurements should be read with (clipping).
+        What the measurements should be read with (clipping, impossible restitutions,
+        several drops, not a bouncing sound, a truncated file).
+    series : list of Series
+        The bounce series (drops) of the recording, in time order, each with its ticks and
+        mean restitution (:mod:`~synth.analysis.validity`); one for a single drop.
     """
 
     ticks: list[Tick]
@@ -103,11 +126,15 @@ class Analysis:
     channel: int | None
     clipped: bool
     warnings: tuple[str, ...]
+    series: list = field(default_factory=list)
 
     @property
     def mean_restitution(self) -> float | None:
-        """Mean of the defined ``e_n``, dimensionless; ``None`` when there is none."""
-        e = [t.restitution for t in self.ticks if t.restitution is not None]
+        """Mean of the defined ``e_n`` that are not flagged (physically possible), over every
+        series, dimensionless; ``None`` when there is none."""
+        e = [t.restitution for t in self.ticks
+             if t.restitution is not None
+             and not set(RESTITUTION_FLAGS) & set(t.flags)]
         return float(np.mean(e)) if e else None
 
 
@@ -133,6 +160,7 @@ _COLUMNS = (
     ("spread", "spread", "Hz", 1.0, ".0f"),
     ("decay_time", "decay", "ms", 1e3, ".2f"),
     ("strength", "strength", "dB", 1.0, ".1f"),
+    ("flags", "flags", "", 1.0, "s"),
 )
 
 
@@ -162,6 +190,8 @@ def format_table(analysis, *, warnings=True) -> str:
         row = []
         for name, _, _, scale, fmt in _COLUMNS:
             v = getattr(t, name)
+            if name == "flags":
+                v = ",".join(v) or None
             row.append("-" if v is None else format(v * scale if scale != 1.0 else v, fmt))
         rows.append(row)
     widths = [max(len(h), *(len(r[j]) for r in rows)) if rows else len(h)
@@ -174,7 +204,7 @@ def format_table(analysis, *, warnings=True) -> str:
 def to_dict(analysis) -> dict:
     """The analysis as plain JSON-ready data (SI units; ``None`` where undefined)."""
     an = checked_analysis("analysis", analysis)
-    out = {f.name: getattr(an, f.name) for f in fields(an) if f.name != "ticks"}
+    out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
     out["warnings"] = list(an.warnings)
     out["mean_restitution"] = an.mean_restitution
     out["units"] = {"time": "s", "bounce_time": "s", "speed": "m/s",
@@ -182,14 +212,16 @@ def to_dict(analysis) -> dict:
                     "spread": "Hz", "decay_time": "s", "window": "s", "strength": "dB",
                     "samplerate": "Hz", "duration": "s", "noise_floor": "signal units",
                     "gravity": "m/s^2"}
-    out["ticks"] = [asdict(t) for t in an.ticks]
+    out["ticks"] = [asdict(t) | {"flags": list(t.flags)} for t in an.ticks]
+    out["series"] = [{"first": s.first, "last": s.last, "ticks": [t.index for t in s.ticks],
+                      "mean_restitution": s.mean_restitution} for s in an.series]
     return out
 
 
 def to_csv(analysis) -> str:
     """The ticks as CSV: a header of the :class:`Tick` field names, SI units, one row each.
 
-    Undefined values are empty cells.
+    Undefined values are empty cells; a tick's flags are joined by ``;``.
     """
     an = checked_analysis("analysis", analysis)
     names = [f.name for f in fields(Tick)]
@@ -197,5 +229,14 @@ def to_csv(analysis) -> str:
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(names)
     for t in an.ticks:
-        w.writerow(["" if getattr(t, n) is None else repr(getattr(t, n)) for n in names])
+        w.writerow([_cell(getattr(t, n)) for n in names])
     return buf.getvalue()
+
+
+def _cell(value) -> str:
+    """A CSV cell: empty for None, the flags joined by ``;``, else the exact ``repr``."""
+    if value is None:
+        return ""
+    if isinstance(value, tuple):
+        return ";".join(value)
+    return repr(value)

@@ -7,12 +7,14 @@ what is allowed; nothing is clamped.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
+from synth.io.audio import TruncatedAudioWarning, wav_shortfall
 
 #: Fewest samples summed in a frame of the detection function: at low rates the frames
 #: overlap, so that a frame of noise is never a sum of only a few squares, whose scatter
@@ -185,6 +187,11 @@ def read_recording(path) -> tuple[np.ndarray, float]:
     samplerate : float
         Sample rate, Hz.
 
+    Warns
+    -----
+    TruncatedAudioWarning
+        A WAV file holds fewer frames than its header declares.
+
     Raises
     ------
     ParameterError
@@ -204,4 +211,7 @@ def read_recording(path) -> tuple[np.ndarray, float]:
         raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
     if audio.shape[0] == 0:
         raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
+    short = wav_shortfall(path)
+    if short is not None:
+        warnings.warn(short, TruncatedAudioWarning, stacklevel=2)
     return audio, float(samplerate)

@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -238,6 +240,49 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
     return p
 
 
+class TruncatedAudioWarning(UserWarning):
+    """A sound file holds fewer samples than its header declares (a cut-off copy or an
+    interrupted write): what is read is only the part that is there."""
+
+
+def wav_shortfall(path: str | os.PathLike) -> str | None:
+    """Why a RIFF/WAVE file's ``data`` chunk is shorter than its header says, or None.
+
+    The header's ``data`` size (bytes) over the ``fmt`` block alignment gives the frames
+    declared; soundfile reads only the frames the file holds, without a word, so a
+    truncated file would pass for a shorter recording. Files that are not RIFF/WAVE, and
+    headers that leave the size open (0 or 0xFFFFFFFF, as streaming writers do), give None.
+    """
+    try:
+        with open(path, "rb") as f:
+            head = f.read(12)
+            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+                return None
+            size = os.fstat(f.fileno()).st_size
+            align = None
+            while True:
+                chunk = f.read(8)
+                if len(chunk) < 8:
+                    return None
+                cid, n = chunk[:4], struct.unpack("<I", chunk[4:])[0]
+                if cid == b"fmt ":
+                    fmt = f.read(min(n, 16))
+                    if len(fmt) >= 14:
+                        align = struct.unpack("<H", fmt[12:14])[0]
+                    f.seek(n - len(fmt) + (n & 1), os.SEEK_CUR)
+                elif cid == b"data":
+                    break
+                else:
+                    f.seek(n + (n & 1), os.SEEK_CUR)
+            held = size - f.tell()
+    except OSError:
+        return None
+    if n in (0, 0xFFFFFFFF) or held >= n or not align:
+        return None
+    return (f"{os.fspath(path)!r} is truncated: its header declares {n // align} frames "
+            f"({n} bytes of data) but the file holds {held // align}; only those were read")
+
+
 def read_audio(path: str | os.PathLike, *,
                channel: int | str | None = None) -> tuple[np.ndarray, int]:
     """Read an audio file (WAV, FLAC or any format soundfile reads).
@@ -258,6 +303,11 @@ def read_audio(path: str | os.PathLike, *,
         Samples in units of full scale (as stored for float files).
     samplerate : int
         Sample rate, Hz.
+
+    Warns
+    -----
+    TruncatedAudioWarning
+        A WAV file holds fewer frames than its header declares (:func:`wav_shortfall`).
 
     Raises
     ------
@@ -288,6 +338,9 @@ def read_audio(path: str | os.PathLike, *,
             raise AudioFileError(f"cannot read {str(p)!r}: {reason}") from exc
         raise AudioFileError(
             f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}") from exc
+    short = wav_shortfall(p)
+    if short is not None:
+        warnings.warn(short, TruncatedAudioWarning, stacklevel=2)
     n_ch = audio.shape[1]
     if channel is None:
         out = audio[:, 0] if n_ch == 1 else audio

@@ -395,6 +395,23 @@ def _timing(t, k, min_bounce):
     return T, e, e_new, np.array(T_new)
 
 
+def _check_one_series(t: np.ndarray) -> None:
+    """Refuse onsets that are not one bounce series: a bounce time that does not shrink
+    (``e_n >= 1``) is no restitution of a ball but a missed tick or a new drop, and the
+    rule would turn it the wrong way (``k > 1`` raises an ``e_n > 1``: a deader ball
+    would bounce livelier)."""
+    T = np.diff(t)
+    grown = np.nonzero(T[1:] >= T[:-1])[0]
+    if grown.size:
+        n = int(grown[0])
+        raise ParameterError(
+            f"onsets are not one bounce series: the bounce before tick {n + 3} "
+            f"({T[n + 1] * 1e3:.4g} ms) is not shorter than the one before it "
+            f"({T[n] * 1e3:.4g} ms), e = {T[n + 1] / T[n]:.3g} >= 1, which no ball does (a "
+            f"tick missed in between, or a new drop); pass the onsets of one series, every "
+            f"tick found (synth.analyze reports each series and flags such ticks)")
+
+
 def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, gravity=9.81,
                       scale_amplitude=True, channel=None, min_bounce=None, normalize="none",
                       peak_db=-1.0, seed=0):
@@ -410,7 +427,8 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     restitution_scale : float >= 0
         ``k``, dimensionless.
     onsets : array of float, optional
-        Tick onsets, s, at least 3, increasing, at least 2 samples apart; default:
+        Tick onsets, s, at least 3, increasing, at least 2 samples apart, of one bounce
+        series (every bounce time shorter than the one before: ``e_n < 1``); default:
         detected by :func:`synth.analysis.analyze`.
     gravity : float > 0
         m/s^2, for the detection (impact speeds), when ``onsets`` is None.
@@ -441,7 +459,8 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     Raises
     ------
     ParameterError
-        Bad input, or an alteration that leaves fewer than 3 ticks.
+        Bad input, onsets that are not one bounce series (a bounce time that grows: a
+        missed tick or several drops), or an alteration that leaves fewer than 3 ticks.
     """
     x = np.asarray(audio, dtype=float)
     if x.ndim not in (1, 2) or x.shape[0] == 0 or (x.ndim == 2 and x.shape[1] == 0):
@@ -470,6 +489,7 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
         raise ParameterError(
             f"onsets must increase by at least 2 sample periods ({2e3 / fs:.4g} ms) and lie "
             f"inside the audio (0 to {X.shape[0] / fs:.6g} s)")
+    _check_one_series(t)
     if min_bounce is None:
         min_b = float(np.min(np.diff(t)))
     else:

@@ -1,0 +1,135 @@
+"""What a bouncing ball can and cannot do, checked on the ticks found: where one bounce series
+(one drop) ends and the next begins, and which measurements are physically impossible.
+
+A ball loses energy at every impact, so along one series its bounce times shrink (``e_n =
+t_n / t_(n-1) < 1``) and its ticks weaken (a tick's energy goes as its impact speed squared,
+the bounce time squared: the thesis, see docs/physics.md, References, section 3.1). A bounce
+time that grows is therefore never a restitution: either ticks were missed in between (one
+missed tick makes the bounce ``e (1 + e)`` times the one before, two ``e (1 + e + e^2)``:
+at most :data:`MISSED_GROWTH`) or a new drop began. A new drop shows as a tick louder than
+the one before after a grown bounce, or as a silence longer than missed ticks explain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, NO_DECAY, RESTITUTION_FLAGS, Tick
+from synth.analysis.settings import AnalysisError
+from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB
+
+#: A bounce time more than this many times the previous one is a silence no missed ticks
+#: explain, whatever the tick's level: two missed ticks make at most ``e (1 + e + e^2) < 3``
+#: times the previous bounce.
+MISSED_GROWTH = 3.0
+
+@dataclass(frozen=True)
+class Series:
+    """One bounce series (one drop) of a recording (SI units).
+
+    Attributes
+    ----------
+    ticks : list of Tick
+        Its ticks, in time order (``index`` counts over the whole recording).
+    first : float
+        Onset of its first tick, s.
+    last : float
+        Onset of its last tick, s.
+    mean_restitution : float or None
+        Mean of its restitutions that are not flagged, dimensionless; None without one.
+    """
+
+    ticks: list[Tick]
+    first: float
+    last: float
+    mean_restitution: float | None
+
+
+def new_series_at(ticks: list[Tick]) -> int | None:
+    """Index of the first tick (after the first) that starts a new bounce series, or None.
+
+    Tick ``i`` does when its bounce is over :data:`~synth.analysis.series.BOUNCE_GROWTH`
+    times the one before and either it is louder than the tick before by more than
+    :data:`~synth.analysis.series.MAX_EXCESS_DB` (a ball's ticks weaken along a series,
+    the more so across missed ticks; the margin is the measurement's own scatter) or the
+    bounce is over :data:`MISSED_GROWTH` times the one before (a silence). The second tick
+    has no bounce before it to compare with and never starts one.
+    """
+    times = [t.time for t in ticks]
+    for i in range(2, len(ticks)):
+        ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
+        louder = ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
+        if ratio > BOUNCE_GROWTH and (louder or ratio > MISSED_GROWTH):
+            return i
+    return None
+
+
+def as_series_start(tick: Tick) -> Tick:
+    """``tick`` as the first tick of a series: no bounce time, speed nor restitution."""
+    return replace(tick, bounce_time=None, speed=None, restitution=None)
+
+
+def flag_series(ticks: list[Tick]) -> list[Tick]:
+    """The ticks of one series with the impossible restitutions flagged: :data:`GROWN_BOUNCE`
+    where ``e_n >= 1``, :data:`AFTER_GROWN` on the tick after one (its restitution is
+    measured against the grown bounce, so it is too low by as much), and :data:`NO_DECAY`
+    where the tick's own sound has no decay time (an impact excites a ringing that
+    decays)."""
+    out = []
+    for i, t in enumerate(ticks):
+        flags = list(t.flags)
+        if t.restitution is not None and not t.restitution < 1.0:
+            flags.append(GROWN_BOUNCE)
+        if i > 0 and GROWN_BOUNCE in out[-1].flags and t.restitution is not None:
+            flags.append(AFTER_GROWN)
+        if t.decay_time is None:
+            flags.append(NO_DECAY)
+        out.append(replace(t, flags=tuple(flags)))
+    return out
+
+
+def valid_restitution(tick: Tick) -> bool:
+    """Whether ``tick`` has a restitution that is not flagged impossible."""
+    return tick.restitution is not None and not set(tick.flags) & set(RESTITUTION_FLAGS)
+
+
+def check_impulsive(ticks: list[Tick]) -> None:
+    """Raise AnalysisError when no tick has a decaying response: the input holds no impact
+    (a square or sawtooth wave's edges whiten to bursts like ticks, but nothing rings
+    down after them)."""
+    if ticks and all(NO_DECAY in t.flags for t in ticks):
+        raise AnalysisError(
+            f"no impact found: none of the {len(ticks)} bursts found is followed by a "
+            f"decaying ringing (is this a recording of impacts? a periodic wave's edges "
+            f"are not)")
+
+
+def make_series(ticks: list[Tick]) -> Series:
+    """The :class:`Series` of ``ticks`` (one series, flags set)."""
+    e = [t.restitution for t in ticks if valid_restitution(t)]
+    return Series(ticks=ticks, first=ticks[0].time, last=ticks[-1].time,
+                  mean_restitution=float(np.mean(e)) if e else None)
+
+
+def flag_warnings(series: list[Series]) -> tuple[str, ...]:
+    """The summary of the flags and of the series, one warning each, in words."""
+    out = []
+    grown = [t for s in series for t in s.ticks if GROWN_BOUNCE in t.flags]
+    if grown:
+        listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in grown[:5])
+        more = f" and {len(grown) - 5} more" if len(grown) > 5 else ""
+        out.append(
+            f"physically impossible restitution at {len(grown)} tick(s): {listed}{more}; a "
+            f"ball's bounce times shrink, so a tick was missed before each (its restitution "
+            f"and the next one's are flagged and left out of the means)")
+    silent = [t for s in series for t in s.ticks if NO_DECAY in t.flags]
+    if silent:
+        out.append(f"{len(silent)} tick(s) without a decaying response (first: tick "
+                   f"{silent[0].index} at {silent[0].time:.4f} s): doubtful impacts")
+    if len(series) > 1:
+        starts = ", ".join(f"{s.first:.3f} s" for s in series)
+        out.append(f"{len(series)} bounce series (drops) starting at {starts}: each is "
+                   f"measured on its own (Analysis.series)")
+    return tuple(out)
