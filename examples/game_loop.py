@@ -22,8 +22,8 @@ import numpy as np
 import synth
 
 FPS = 60
-GRAVITY = 9.81                 # m/s^2
-BOUNCE = 0.5                   # the game's restitution (the sound uses the contact physics)
+GRAVITY = 9.81  # m/s^2
+BOUNCE = 0.5  # the game's restitution (the sound uses the contact physics)
 TABLE = synth.Plate("mdf-18", thickness=0.018, length=1.2, width=0.6)
 BALLS = [synth.Ball("steel", radius=0.005), synth.Ball("glass", radius=0.008)]
 
@@ -33,15 +33,22 @@ class Falling:
     ball: synth.Ball
     x: float
     y: float
-    height: float              # m above the table (lowest point of the ball)
-    velocity: float            # m/s, positive upward
+    height: float  # m above the table (lowest point of the ball)
+    velocity: float  # m/s, positive upward
 
 
 def step(balls, body, dt, rng):
     """Advance the game by ``dt`` s: maybe drop a new ball, move the others, sound landings."""
-    if rng.random() < 2.0 * dt:                                   # two new balls a second
-        balls.append(Falling(BALLS[rng.integers(len(BALLS))], rng.uniform(0.1, 1.1),
-                             rng.uniform(0.1, 0.5), rng.uniform(0.05, 0.5), 0.0))
+    if rng.random() < 2.0 * dt:  # two new balls a second
+        balls.append(
+            Falling(
+                BALLS[rng.integers(len(BALLS))],
+                rng.uniform(0.1, 1.1),
+                rng.uniform(0.1, 0.5),
+                rng.uniform(0.05, 0.5),
+                0.0,
+            )
+        )
     for b in list(balls):
         b.velocity -= GRAVITY * dt
         b.height += b.velocity * dt
@@ -49,7 +56,7 @@ def step(balls, body, dt, rng):
             speed = -b.velocity
             body.hit(b.ball, speed, position=(b.x, b.y), gain=1.0)
             b.height, b.velocity = 0.0, BOUNCE * speed
-            if b.velocity < 0.05:                                   # at rest: leaves the game
+            if b.velocity < 0.05:  # at rest: leaves the game
                 balls.remove(b)
 
 
@@ -65,7 +72,7 @@ def main():
     frames = int(args.seconds * FPS)
     if args.offline:
         chunks = []
-        for _ in range(frames):                                     # the engine's clock is the game's
+        for _ in range(frames):  # the engine's clock is the game's
             step(balls, body, 1.0 / FPS, rng)
             chunks.append(engine.process(48000 // FPS))
         audio = np.concatenate(chunks)
@@ -78,7 +85,7 @@ def main():
             step(balls, body, 1.0 / FPS, rng)
             next_frame += 1.0 / FPS
             time.sleep(max(0.0, next_frame - time.perf_counter()))
-        time.sleep(1.0)                                             # let the last ones ring
+        time.sleep(1.0)  # let the last ones ring
     print(engine.stats)
 
 

@@ -18,7 +18,7 @@ import synth
 PANEL = synth.Plate("acrylic", thickness=0.003, length=0.12, width=0.06, boundary="free")
 TIP = synth.Ball("steel", radius=0.002)
 LISTENER = synth.Microphone((0.06, 0.03, 0.3))
-GAIN = 3000.0       # 70 dB above the physical calibration (1000 Pa full scale): about -20 dBFS
+GAIN = 3000.0  # 70 dB above the physical calibration (1000 Pa full scale): about -20 dBFS
 
 
 def make_engine():
@@ -35,10 +35,12 @@ def run_window():
     import tkinter as tk
 
     engine, body = make_engine()
-    with engine:                                  # the stream stays open while the window lives
+    with engine:  # the stream stays open while the window lives
         root = tk.Tk()
         root.title("physical click")
-        tk.Button(root, text="Click me", width=20, command=lambda: click(body)).pack(padx=40, pady=30)
+        tk.Button(root, text="Click me", width=20, command=lambda: click(body)).pack(
+            padx=40, pady=30
+        )
         root.mainloop()
 
 
@@ -53,6 +55,8 @@ def run_offline(path):
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--offline", metavar="OUT.wav", help="no window, no device: write the clicks")
+    parser.add_argument(
+        "--offline", metavar="OUT.wav", help="no window, no device: write the clicks"
+    )
     args = parser.parse_args()
     run_offline(args.offline) if args.offline else run_window()

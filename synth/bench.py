@@ -22,13 +22,13 @@ class ContactCase:
     """A benchmark impact, in lumped parameters (SI)."""
 
     name: str
-    mass: float          # kg
-    stiffness: float     # N/m^n
-    admittance: float    # m/(N s)
-    speed: float         # m/s
-    gravity: float       # m/s^2
+    mass: float  # kg
+    stiffness: float  # N/m^n
+    admittance: float  # m/(N s)
+    speed: float  # m/s
+    gravity: float  # m/s^2
     exponent: float = 1.5
-    dissipation: float = 0.0   # s/m
+    dissipation: float = 0.0  # s/m
 
 
 def _case(name, ball, plate, speed, gravity=GRAVITY, contact_law="hertz", **kw):
@@ -45,14 +45,27 @@ def contact_cases() -> list[ContactCase]:
     return [
         _case("steel 10 mm on MDF 18 mm, 1 m/s", steel10, mdf18, 1.0),
         _case("steel 10 mm on steel 5 mm, 1 m/s", steel10, Plate("steel", 0.005, 1.0, 0.8), 1.0),
-        _case("steel 20 mm on aluminium 4 mm, 1 m/s (lam > 1)", Ball("steel", 0.01),
-              Plate("aluminium", 0.004, 1.0, 0.8), 1.0),
+        _case(
+            "steel 20 mm on aluminium 4 mm, 1 m/s (lam > 1)",
+            Ball("steel", 0.01),
+            Plate("aluminium", 0.004, 1.0, 0.8),
+            1.0,
+        ),
         _case("steel 10 mm on MDF 18 mm, 1 mm/s (gravity)", steel10, mdf18, 1e-3),
-        _case("steel 50 mm on aluminium 0.5 mm, 5 m/s (stiff, Radau)", Ball("steel", 0.025),
-              Plate("aluminium", 0.0005, 1.0, 0.8), 5.0),
-        _case("glass 12.55 mm on MDF 6 mm, Hunt-Crossley mu=0.2 s/m", Ball("glass", 0.006275),
-              Plate("mdf-6", 0.00615, 1.2, 0.4895), 1.4, contact_law="hunt-crossley",
-              dissipation=0.2),
+        _case(
+            "steel 50 mm on aluminium 0.5 mm, 5 m/s (stiff, Radau)",
+            Ball("steel", 0.025),
+            Plate("aluminium", 0.0005, 1.0, 0.8),
+            5.0,
+        ),
+        _case(
+            "glass 12.55 mm on MDF 6 mm, Hunt-Crossley mu=0.2 s/m",
+            Ball("glass", 0.006275),
+            Plate("mdf-6", 0.00615, 1.2, 0.4895),
+            1.4,
+            contact_law="hunt-crossley",
+            dissipation=0.2,
+        ),
     ]
 
 
@@ -65,8 +78,9 @@ def _scaled(case):
     return theta, lam, G, case.dissipation * v0
 
 
-def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
-                  atol: float = 1e-15) -> tuple:
+def scipy_contact(
+    case: ContactCase, method: str = "Radau", rtol: float = 1e-12, atol: float = 1e-15
+) -> tuple:
     """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
     implementation of the same dimensionless equations), for reference and comparison.
 
@@ -80,7 +94,7 @@ def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
     def force(x, w):
         if x <= 0.0:
             return 0.0
-        a = x ** n
+        a = x**n
         if c == 0.0:
             return a
         return max(0.0, a * (1.0 + c * w) / (1.0 + c * lam * a))
@@ -93,17 +107,18 @@ def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
         x, w = y
         if x <= 0.0:
             return [[0.0, 1.0], [0.0, 0.0]]
-        a = x ** n
+        a = x**n
         da = n * a / x
         if c == 0.0:
             fx, fw = da, 0.0
         else:
             num, den = 1.0 + c * w, 1.0 + c * lam * a
-            fx, fw = (da * num / den ** 2, a * c / den) if num > 0 else (0.0, 0.0)
+            fx, fw = (da * num / den**2, a * c / den) if num > 0 else (0.0, 0.0)
         return [[-lam * fx, 1.0 - lam * fw], [-fx, -fw]]
 
     def end(s, y):
         return y[0]
+
     end.terminal = True
     end.direction = -1
 
@@ -112,6 +127,7 @@ def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
         u = lam * G - w
         W = 0.5 * u * u + (x ** (n + 1) / (n + 1) - G * x if x > 0 else 0.0)
         return W - 0.5 * (lam * G) ** 2
+
     settle.terminal = True
     settle.direction = -1
 
@@ -121,8 +137,17 @@ def scipy_contact(case: ContactCase, method: str = "Radau", rtol: float = 1e-12,
     # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s)
     s0 = 1e-10
     y0 = [s0 + 0.5 * G * s0 * s0, 1.0 + G * s0]
-    sol = solve_ivp(rhs, (s0, 1e9), y0, method=method, rtol=rtol, atol=atol, events=events,
-                    dense_output=True, **kw)
+    sol = solve_ivp(
+        rhs,
+        (s0, 1e9),
+        y0,
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        events=events,
+        dense_output=True,
+        **kw,
+    )
     if sol.t_events[0].size:
         s_end = sol.t_events[0][0]
         w_end = sol.y_events[0][0][1]
@@ -149,7 +174,7 @@ def _pulse_error(res, sol, theta, case):
     s = res.time / theta
     y = sol.sol(np.clip(s, sol.t[0], sol.t[-1]))
     x = np.maximum(y[0], 0.0)
-    a = x ** n
+    a = x**n
     if c == 0.0:
         f = a
     else:
@@ -168,8 +193,7 @@ def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else x
 
 
-def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300,
-                cases=None) -> dict:
+def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300, cases=None) -> dict:
     """Error of e, tau and the pulse against the reference, and time per impact.
 
     Returns a dict with ``rows`` (one per case and tolerance; the default rtol 1e-6 is
@@ -188,21 +212,38 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300,
         contact.solve_contact(mass=1e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=meth)
     for case in cases:
         e_ref, tau_ref, sol, theta = scipy_contact(case)
-        kw = dict(mass=case.mass, stiffness=case.stiffness, admittance=case.admittance,
-                  speed=case.speed, gravity=case.gravity, exponent=case.exponent,
-                  dissipation=case.dissipation)
+        kw = dict(
+            mass=case.mass,
+            stiffness=case.stiffness,
+            admittance=case.admittance,
+            speed=case.speed,
+            gravity=case.gravity,
+            exponent=case.exponent,
+            dissipation=case.dissipation,
+        )
         ours_default = None
         for tol in tolerances:
             res = contact.solve_contact(rtol=tol, **kw)
             t = _median_time(lambda: contact.solve_contact(rtol=tol, **kw), repeat)
-            err_e = abs(res.restitution - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(res.restitution)
-            row = dict(case=case.name, rtol=tol, restitution=res.restitution,
-                       inelasticity=res.inelasticity, settled=bool(res.settled),
-                       err_restitution=err_e,
-                       err_contact_time=abs(res.contact_time - tau_ref) / tau_ref,
-                       err_pulse=_pulse_error(res, sol, theta, case),
-                       energy_residual=res.energy_residual, steps=res.n_steps,
-                       method=res.method, us_per_impact=t * 1e6)
+            err_e = (
+                abs(res.restitution - e_ref) / max(e_ref, 1e-300)
+                if e_ref > 0
+                else abs(res.restitution)
+            )
+            row = dict(
+                case=case.name,
+                rtol=tol,
+                restitution=res.restitution,
+                inelasticity=res.inelasticity,
+                settled=bool(res.settled),
+                err_restitution=err_e,
+                err_contact_time=abs(res.contact_time - tau_ref) / tau_ref,
+                err_pulse=_pulse_error(res, sol, theta, case),
+                energy_residual=res.energy_residual,
+                steps=res.n_steps,
+                method=res.method,
+                us_per_impact=t * 1e6,
+            )
             rows.append(row)
             if tol == DEFAULT_RTOL:
                 ours_default = row
@@ -211,40 +252,61 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300,
         match = None
         for srtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13):
             e_s, tau_s, _, _ = scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6)
-            err = max(abs(e_s - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(e_s),
-                      abs(tau_s - tau_ref) / tau_ref)
+            err = max(
+                abs(e_s - e_ref) / max(e_ref, 1e-300) if e_ref > 0 else abs(e_s),
+                abs(tau_s - tau_ref) / tau_ref,
+            )
             if err <= target:
                 match = (srtol, err)
                 break
         srtol, err = match if match is not None else (1e-13, None)
         reps = max(3, repeat // 30)
-        t_s = _median_time(lambda: scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6), reps)
-        comparisons.append(dict(case=case.name, ours_us=ours_default["us_per_impact"],
-                                ours_error=target, scipy_rtol=srtol, scipy_error=err,
-                                matched=match is not None, scipy_us=t_s * 1e6,
-                                speedup=t_s * 1e6 / ours_default["us_per_impact"]))
+        t_s = _median_time(
+            lambda: scipy_contact(case, "DOP853", rtol=srtol, atol=srtol * 1e-6), reps
+        )
+        comparisons.append(
+            dict(
+                case=case.name,
+                ours_us=ours_default["us_per_impact"],
+                ours_error=target,
+                scipy_rtol=srtol,
+                scipy_error=err,
+                matched=match is not None,
+                scipy_us=t_s * 1e6,
+                speedup=t_s * 1e6 / ours_default["us_per_impact"],
+            )
+        )
         # gravity: what it changes and what it costs (the solver always includes it)
         kw0 = dict(kw, gravity=0.0)
         res0 = contact.solve_contact(rtol=DEFAULT_RTOL, **kw0)
         t0 = _median_time(lambda: contact.solve_contact(rtol=DEFAULT_RTOL, **kw0), repeat)
         t1 = _median_time(lambda: contact.solve_contact(rtol=DEFAULT_RTOL, **kw), repeat)
         _, lam, G, _ = _scaled(case)
-        gravity_rows.append(dict(case=case.name, g_theta_over_v=G,
-                                 e_with=ours_default["restitution"],
-                                 e_without=res0.restitution,
-                                 change=abs(ours_default["restitution"] - res0.restitution),
-                                 us_with=t1 * 1e6, us_without=t0 * 1e6))
+        gravity_rows.append(
+            dict(
+                case=case.name,
+                g_theta_over_v=G,
+                e_with=ours_default["restitution"],
+                e_without=res0.restitution,
+                change=abs(ours_default["restitution"] - res0.restitution),
+                us_with=t1 * 1e6,
+                us_without=t0 * 1e6,
+            )
+        )
     at_default = [r for r in rows if r["rtol"] == DEFAULT_RTOL]
     summary = dict(
-        rtol=DEFAULT_RTOL, targets=CONTACT_TARGETS,
+        rtol=DEFAULT_RTOL,
+        targets=CONTACT_TARGETS,
         max_err_restitution=max(r["err_restitution"] for r in at_default),
         median_us_per_impact=float(np.median([r["us_per_impact"] for r in at_default])),
         max_us_per_impact=max(r["us_per_impact"] for r in at_default),
-        min_speedup=min(c["speedup"] for c in comparisons))
+        min_speedup=min(c["speedup"] for c in comparisons),
+    )
     summary["met"] = dict(
         err_restitution=bool(summary["max_err_restitution"] <= CONTACT_TARGETS["err_restitution"]),
         us_per_impact=bool(summary["median_us_per_impact"] <= CONTACT_TARGETS["us_per_impact"]),
-        speedup=bool(summary["min_speedup"] >= CONTACT_TARGETS["speedup"]))
+        speedup=bool(summary["min_speedup"] >= CONTACT_TARGETS["speedup"]),
+    )
     for c in comparisons:
         c["scipy_error"] = _finite_or_none(c["scipy_error"])
     return dict(rows=rows, scipy=comparisons, gravity=gravity_rows, summary=summary)
@@ -252,37 +314,53 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300,
 
 def format_contact(result) -> str:
     """The contact benchmark as Markdown tables, with the targets and whether they are met."""
-    lines = ["| case | rtol | e | lambda | err e | err tau | err pulse (L2) | energy residual | steps | method | us/impact |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| case | rtol | e | lambda | err e | err tau | err pulse (L2) | energy residual | steps | method | us/impact |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["rows"]:
         e = "settled" if r["settled"] else f"{r['restitution']:.6f}"
         lines.append(
             f"| {r['case']} | {r['rtol']:.0e} | {e} | {r['inelasticity']:.3g} | {r['err_restitution']:.1e} | "
             f"{r['err_contact_time']:.1e} | {r['err_pulse']:.1e} | {r['energy_residual']:.1e} | "
-            f"{r['steps']} | {r['method']} | {r['us_per_impact']:.1f} |")
-    lines += ["", "| case | ours at rtol 1e-6 (us) | its error | solve_ivp DOP853 rtol at matched error | its error | solve_ivp (us) | speed-up |",
-              "|---|---|---|---|---|---|---|"]
+            f"{r['steps']} | {r['method']} | {r['us_per_impact']:.1f} |"
+        )
+    lines += [
+        "",
+        "| case | ours at rtol 1e-6 (us) | its error | solve_ivp DOP853 rtol at matched error | its error | solve_ivp (us) | speed-up |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for c in result["scipy"]:
         err = "not reached" if c["scipy_error"] is None else f"{c['scipy_error']:.1e}"
-        lines.append(f"| {c['case']} | {c['ours_us']:.1f} | {c['ours_error']:.1e} | {c['scipy_rtol']:.0e} | "
-                     f"{err} | {c['scipy_us']:.0f} | {c['speedup']:.0f}x |")
-    lines += ["", "Gravity during the contact (always integrated): its effect on e and its cost, rtol 1e-6",
-              "| case | g theta / v | e with gravity | e without | change of e | us with | us without |",
-              "|---|---|---|---|---|---|---|"]
+        lines.append(
+            f"| {c['case']} | {c['ours_us']:.1f} | {c['ours_error']:.1e} | {c['scipy_rtol']:.0e} | "
+            f"{err} | {c['scipy_us']:.0f} | {c['speedup']:.0f}x |"
+        )
+    lines += [
+        "",
+        "Gravity during the contact (always integrated): its effect on e and its cost, rtol 1e-6",
+        "| case | g theta / v | e with gravity | e without | change of e | us with | us without |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for g in result["gravity"]:
-        lines.append(f"| {g['case']} | {g['g_theta_over_v']:.2e} | {g['e_with']:.6f} | {g['e_without']:.6f} | "
-                     f"{g['change']:.1e} | {g['us_with']:.1f} | {g['us_without']:.1f} |")
+        lines.append(
+            f"| {g['case']} | {g['g_theta_over_v']:.2e} | {g['e_with']:.6f} | {g['e_without']:.6f} | "
+            f"{g['change']:.1e} | {g['us_with']:.1f} | {g['us_without']:.1f} |"
+        )
     s = result["summary"]
     t = s["targets"]
     ok = {True: "met", False: "NOT met"}
-    lines += ["", f"Targets at rtol {s['rtol']:.0e}:",
-              f"- restitution error, worst case: {s['max_err_restitution']:.1e} (target <= {t['err_restitution']:.0e}): "
-              f"{ok[s['met']['err_restitution']]}",
-              f"- time per impact, median over the cases: {s['median_us_per_impact']:.1f} us "
-              f"(target <= {t['us_per_impact']:.0f} us; slowest case {s['max_us_per_impact']:.1f} us): "
-              f"{ok[s['met']['us_per_impact']]}",
-              f"- speed-up over solve_ivp (DOP853) at matched error, smallest: {s['min_speedup']:.0f}x "
-              f"(target >= {t['speedup']:.0f}x): {ok[s['met']['speedup']]}"]
+    lines += [
+        "",
+        f"Targets at rtol {s['rtol']:.0e}:",
+        f"- restitution error, worst case: {s['max_err_restitution']:.1e} (target <= {t['err_restitution']:.0e}): "
+        f"{ok[s['met']['err_restitution']]}",
+        f"- time per impact, median over the cases: {s['median_us_per_impact']:.1f} us "
+        f"(target <= {t['us_per_impact']:.0f} us; slowest case {s['max_us_per_impact']:.1f} us): "
+        f"{ok[s['met']['us_per_impact']]}",
+        f"- speed-up over solve_ivp (DOP853) at matched error, smallest: {s['min_speedup']:.0f}x "
+        f"(target >= {t['speedup']:.0f}x): {ok[s['met']['speedup']]}",
+    ]
     return "\n".join(lines)
 
 
@@ -303,9 +381,17 @@ def render_scenes() -> list:
     sheet = Plate("steel", 0.0005, 0.8, 0.6, "simply-supported")
     return [
         ("default preset (10 mm steel on 18 mm MDF, microphone)", load_preset("default"), {}),
-        ("steel sheet 0.5 mm, 0.8 x 0.6 m, 1 mm steel ball, accelerometer, 5 s of tail",
-         Scene(Ball("steel", 0.001), sheet, drop_height=0.2, position=(0.336, 0.258),
-               listener=Accelerometer((0.24, 0.36))), {"max_tail": 5.0}),
+        (
+            "steel sheet 0.5 mm, 0.8 x 0.6 m, 1 mm steel ball, accelerometer, 5 s of tail",
+            Scene(
+                Ball("steel", 0.001),
+                sheet,
+                drop_height=0.2,
+                position=(0.336, 0.258),
+                listener=Accelerometer((0.24, 0.36)),
+            ),
+            {"max_tail": 5.0},
+        ),
         ("small-click-on-acrylic (fast small bounces)", load_preset("small-click-on-acrylic"), {}),
     ]
 
@@ -329,8 +415,9 @@ RENDER_TARGETS = dict(error_db=-60.0, realtime=100.0, ns_per_mode_sample=1.0)
 REFERENCE = dict(floor_db=-200.0, rtol=1e-10, pulse_points=1025)
 
 
-def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), samplerate=48000,
-               repeat: int = 5) -> dict:
+def run_render(
+    floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), samplerate=48000, repeat: int = 5
+) -> dict:
     """Error of the audio against a reference render against render time, the modal
     bank's cost per mode-sample and the real-time factor, on one thread.
 
@@ -372,17 +459,28 @@ def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), sa
     try:
         for name, scene, opts in render_scenes():
             ref_scene = dataclasses.replace(
-                scene, contact=dataclasses.replace(scene.contact, rtol=REFERENCE["rtol"]))
-            ref = render(ref_scene, samplerate=samplerate, normalize="none", fade=0.0,
-                         floor_db=REFERENCE["floor_db"], pulse_points=REFERENCE["pulse_points"],
-                         **opts)
+                scene, contact=dataclasses.replace(scene.contact, rtol=REFERENCE["rtol"])
+            )
+            ref = render(
+                ref_scene,
+                samplerate=samplerate,
+                normalize="none",
+                fade=0.0,
+                floor_db=REFERENCE["floor_db"],
+                pulse_points=REFERENCE["pulse_points"],
+                **opts,
+            )
             ref_audio = ref.audio.astype(float)
             ref_norm = np.linalg.norm(ref_audio)
             for tol in tolerances:
-                sc = dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, rtol=tol))
+                sc = dataclasses.replace(
+                    scene, contact=dataclasses.replace(scene.contact, rtol=tol)
+                )
                 for floor in floors:
-                    kw = dict(samplerate=samplerate, normalize="none", floor_db=floor, fade=0.0, **opts)
-                    render(sc, **kw)   # warm-up
+                    kw = dict(
+                        samplerate=samplerate, normalize="none", floor_db=floor, fade=0.0, **opts
+                    )
+                    render(sc, **kw)  # warm-up
                     times, banks = [], []
                     for _ in range(repeat):
                         t0 = time.perf_counter()
@@ -396,15 +494,25 @@ def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), sa
                     err = np.linalg.norm(a - b) / ref_norm
                     t = float(np.median(times))
                     ms = r.settings["mode_samples"]
-                    rows.append(dict(scene=name, rtol=tol, floor_db=floor,
-                                     default=(floor == -80.0 and tol == 1e-9),
-                                     error_db=20 * math.log10(max(err, 1e-300)), error=err,
-                                     lsd_db=_lsd(a, b, samplerate), seconds=t,
-                                     realtime=r.duration / t, duration=r.duration,
-                                     modes=r.settings["n_modes"],
-                                     modes_rendered=r.settings["n_modes_rendered"],
-                                     mode_samples=ms, impacts=len(r.impacts),
-                                     ns_per_mode_sample=float(np.median(banks)) / max(ms, 1) * 1e9))
+                    rows.append(
+                        dict(
+                            scene=name,
+                            rtol=tol,
+                            floor_db=floor,
+                            default=(floor == -80.0 and tol == 1e-9),
+                            error_db=20 * math.log10(max(err, 1e-300)),
+                            error=err,
+                            lsd_db=_lsd(a, b, samplerate),
+                            seconds=t,
+                            realtime=r.duration / t,
+                            duration=r.duration,
+                            modes=r.settings["n_modes"],
+                            modes_rendered=r.settings["n_modes_rendered"],
+                            mode_samples=ms,
+                            impacts=len(r.impacts),
+                            ns_per_mode_sample=float(np.median(banks)) / max(ms, 1) * 1e9,
+                        )
+                    )
     finally:
         numba.set_num_threads(threads)
     defaults = [r for r in rows if r["default"]]
@@ -414,41 +522,51 @@ def run_render(floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), sa
         summary.update(
             worst_error_db=max(r["error_db"] for r in defaults),
             default_preset_realtime=first["realtime"],
-            worst_ns_per_mode_sample=max(r["ns_per_mode_sample"] for r in defaults))
+            worst_ns_per_mode_sample=max(r["ns_per_mode_sample"] for r in defaults),
+        )
         summary["met"] = dict(
             error_db=bool(summary["worst_error_db"] <= RENDER_TARGETS["error_db"]),
             realtime=bool(summary["default_preset_realtime"] >= RENDER_TARGETS["realtime"]),
-            ns_per_mode_sample=bool(summary["worst_ns_per_mode_sample"]
-                                    <= RENDER_TARGETS["ns_per_mode_sample"]))
+            ns_per_mode_sample=bool(
+                summary["worst_ns_per_mode_sample"] <= RENDER_TARGETS["ns_per_mode_sample"]
+            ),
+        )
     return dict(samplerate=samplerate, reference=REFERENCE, rows=rows, summary=summary)
 
 
 def format_render(result) -> str:
     """The render benchmark as a Markdown table, with the targets and whether they are met."""
     ref = result["reference"]
-    lines = [f"samplerate {result['samplerate']} Hz, one thread; reference: floor {ref['floor_db']:.0f} dB "
-             f"(no omission), contact rtol {ref['rtol']:.0e}, {ref['pulse_points']} points per pulse; "
-             "* = default settings",
-             "| scene | rtol | floor (dB) | error re reference (dB, rel. L2) | log-spectral distance (dB) | "
-             "render (ms) | real-time factor | modes rendered / below Nyquist | mode-samples | bank (ns per mode-sample) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"samplerate {result['samplerate']} Hz, one thread; reference: floor {ref['floor_db']:.0f} dB "
+        f"(no omission), contact rtol {ref['rtol']:.0e}, {ref['pulse_points']} points per pulse; "
+        "* = default settings",
+        "| scene | rtol | floor (dB) | error re reference (dB, rel. L2) | log-spectral distance (dB) | "
+        "render (ms) | real-time factor | modes rendered / below Nyquist | mode-samples | bank (ns per mode-sample) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in result["rows"]:
         mark = " *" if r["default"] else ""
-        lines.append(f"| {r['scene']} | {r['rtol']:.0e} | {r['floor_db']:.0f}{mark} | {r['error_db']:.1f} | "
-                     f"{r['lsd_db']:.3f} | {r['seconds'] * 1e3:.1f} | {r['realtime']:.0f}x | "
-                     f"{r['modes_rendered']} / {r['modes']} | {r['mode_samples']:.3g} | "
-                     f"{r['ns_per_mode_sample']:.2f} |")
+        lines.append(
+            f"| {r['scene']} | {r['rtol']:.0e} | {r['floor_db']:.0f}{mark} | {r['error_db']:.1f} | "
+            f"{r['lsd_db']:.3f} | {r['seconds'] * 1e3:.1f} | {r['realtime']:.0f}x | "
+            f"{r['modes_rendered']} / {r['modes']} | {r['mode_samples']:.3g} | "
+            f"{r['ns_per_mode_sample']:.2f} |"
+        )
     s = result["summary"]
     if "met" in s:
         t = s["targets"]
         ok = {True: "met", False: "NOT met"}
-        lines += ["", "Targets at the default settings:",
-                  f"- error against the reference, worst scene: {s['worst_error_db']:.1f} dB "
-                  f"(target <= {t['error_db']:.0f} dB): {ok[s['met']['error_db']]}",
-                  f"- default preset: {s['default_preset_realtime']:.0f}x faster than real time "
-                  f"(target >= {t['realtime']:.0f}x): {ok[s['met']['realtime']]}",
-                  f"- modal bank, worst scene: {s['worst_ns_per_mode_sample']:.2f} ns per mode-sample "
-                  f"(target <= {t['ns_per_mode_sample']:.0f} ns): {ok[s['met']['ns_per_mode_sample']]}"]
+        lines += [
+            "",
+            "Targets at the default settings:",
+            f"- error against the reference, worst scene: {s['worst_error_db']:.1f} dB "
+            f"(target <= {t['error_db']:.0f} dB): {ok[s['met']['error_db']]}",
+            f"- default preset: {s['default_preset_realtime']:.0f}x faster than real time "
+            f"(target >= {t['realtime']:.0f}x): {ok[s['met']['realtime']]}",
+            f"- modal bank, worst scene: {s['worst_ns_per_mode_sample']:.2f} ns per mode-sample "
+            f"(target <= {t['ns_per_mode_sample']:.0f} ns): {ok[s['met']['ns_per_mode_sample']]}",
+        ]
     return "\n".join(lines)
 
 
@@ -471,27 +589,31 @@ def _decay_time(x, fs, smooth=0.5e-3):
 def _edc_decay_time(x, fs, lo_db=-5.0, hi_db=-25.0):
     """Decay time (s, amplitude to 1/e, i.e. 8.69 dB) from the slope of the Schroeder
     energy decay curve fitted between ``lo_db`` and ``hi_db``."""
-    edc = np.cumsum((x ** 2)[::-1])[::-1]
+    edc = np.cumsum((x**2)[::-1])[::-1]
     edc_db = 10 * np.log10(edc / edc[0] + 1e-300)
     sel = (edc_db <= lo_db) & (edc_db >= hi_db)
     if sel.sum() < 10:
         return float("nan")
     t = np.nonzero(sel)[0] / fs
-    slope = np.polyfit(t, edc_db[sel], 1)[0]          # dB/s, negative
+    slope = np.polyfit(t, edc_db[sel], 1)[0]  # dB/s, negative
     return float(-20 * math.log10(math.e) / slope)
 
 
 #: The thesis' balls (Table 3.1): name, material, diameter (m), weighed mass (kg).
-THESIS_BALLS = {"steel 10.0 mm": ("steel", 10.00e-3, 4.17e-3),
-                "steel 14.3 mm": ("steel", 14.30e-3, 11.83e-3),
-                "steel 19.0 mm": ("steel", 19.00e-3, 28.07e-3),
-                "glass 12.55 mm": ("glass", 12.55e-3, 2.57e-3),
-                "glass 17.0 mm": ("glass", 17.00e-3, 6.39e-3)}
+THESIS_BALLS = {
+    "steel 10.0 mm": ("steel", 10.00e-3, 4.17e-3),
+    "steel 14.3 mm": ("steel", 14.30e-3, 11.83e-3),
+    "steel 19.0 mm": ("steel", 19.00e-3, 28.07e-3),
+    "glass 12.55 mm": ("glass", 12.55e-3, 2.57e-3),
+    "glass 17.0 mm": ("glass", 17.00e-3, 6.39e-3),
+}
 #: The thesis' MDF boards (Table 3.1): name, material, thickness, length, width (m), and the
 #: wave speed measured between two accelerometers 1 m apart (m/s, Chapter 3).
-THESIS_BOARDS = {"18 mm": ("mdf-18", 0.018, 1.227, 0.49, 357.0),
-                 "12 mm": ("mdf-12", 0.012, 1.226, 0.4885, 282.0),
-                 "6 mm": ("mdf-6", 0.00615, 1.200, 0.4895, 159.0)}
+THESIS_BOARDS = {
+    "18 mm": ("mdf-18", 0.018, 1.227, 0.49, 357.0),
+    "12 mm": ("mdf-12", 0.012, 1.226, 0.4885, 282.0),
+    "6 mm": ("mdf-6", 0.00615, 1.200, 0.4895, 159.0),
+}
 #: First impacts of Table 3.3 (drop 10 cm, middle of the board): (ball, board) -> measured
 #: contact time (s), the ratio measured / model contact time of Table 3.2, and the measured
 #: critical distance from a free edge inside which e falls (m, range).
@@ -512,8 +634,11 @@ THESIS_RESTITUTION = {"model": 0.87, "measured": 0.76}
 #: Driving-point impedance of the 18 mm board (Table 3.4, N s/m): the thesis' theory (the
 #: infinite plate; Eichler's 0.29 of it at an edge; no theory at a corner) and the impact
 #: hammer's measurement.
-THESIS_IMPEDANCE = {"middle": (1629.0, 1271.0), "edge": (0.29 * 1629.0, 389.0),
-                    "corner": (None, 168.0)}
+THESIS_IMPEDANCE = {
+    "middle": (1629.0, 1271.0),
+    "edge": (0.29 * 1629.0, 389.0),
+    "corner": (None, 168.0),
+}
 #: Decay time (envelope from its peak to 37 %) of ticks 1, 6 and 8 at the microphone 20 cm
 #: from the impact point, 10 mm steel ball, 18 mm board, 10 cm drop (Chapter 5, s).
 THESIS_TICK_DECAY = {1: 11.0e-3, 6: 12.3e-3, 8: 14.0e-3}
@@ -535,14 +660,20 @@ def _tick_decay_times(scene, seq, ticks, samplerate):
 
     out = {}
     for n in ticks:
-        alone = BounceSequence(seq.impacts[n - 1:n], "max-impacts", seq.drop_height, seq.gravity)
+        alone = BounceSequence(seq.impacts[n - 1 : n], "max-impacts", seq.drop_height, seq.gravity)
         r = render(scene, samplerate=samplerate, normalize="none", sequence=alone)
         out[n] = _decay_time(r.audio.astype(float), r.samplerate)
     return out
 
 
-def thesis_row(quantity: str, unit: str, engine: float, model: float | None,
-               measured: float | tuple[float, float] | None, note: str = "") -> dict:
+def thesis_row(
+    quantity: str,
+    unit: str,
+    engine: float,
+    model: float | None,
+    measured: float | tuple[float, float] | None,
+    note: str = "",
+) -> dict:
     """One row of the thesis comparison: the engine's value, the thesis' model value (None:
     the thesis has none), its measurement (a value, a (low, high) range or None) and the
     engine's gap to the measurement (engine minus the nearest end of a range; 0 inside)."""
@@ -554,9 +685,16 @@ def thesis_row(quantity: str, unit: str, engine: float, model: float | None,
     else:
         gap = engine - measured
     rel = None if gap is None or isinstance(measured, tuple) else gap / measured
-    return dict(quantity=quantity, unit=unit, engine=engine, model=model,
-                measured=list(measured) if isinstance(measured, tuple) else measured,
-                gap=gap, relative_gap=rel, note=note)
+    return dict(
+        quantity=quantity,
+        unit=unit,
+        engine=engine,
+        model=model,
+        measured=list(measured) if isinstance(measured, tuple) else measured,
+        gap=gap,
+        relative_gap=rel,
+        note=note,
+    )
 
 
 def thesis_comparison(samplerate: int = 48000) -> dict:
@@ -591,40 +729,76 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
     rows = []
     ball, plate = _thesis_pair("steel 10.0 mm", "18 mm")
     first = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
-    rows.append(thesis_row("restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)", "",
-                           first.restitution, THESIS_RESTITUTION["model"],
-                           THESIS_RESTITUTION["measured"]))
+    rows.append(
+        thesis_row(
+            "restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)",
+            "",
+            first.restitution,
+            THESIS_RESTITUTION["model"],
+            THESIS_RESTITUTION["measured"],
+        )
+    )
     impacts = {}
     for (ball_name, board_name), (tau_meas, ratio, _) in THESIS_IMPACTS.items():
         ball, plate = _thesis_pair(ball_name, board_name)
         r = solve_impact(ball, plate, math.sqrt(2.0 * GRAVITY * 0.1), rtol=1e-9)
         impacts[ball_name, board_name] = (plate, r.contact_time)
-        rows.append(thesis_row(f"contact time, {ball_name} on {board_name}", "s",
-                               r.contact_time, tau_meas / ratio, tau_meas,
-                               "model: Table 3.3 over Table 3.2's ratio"))
+        rows.append(
+            thesis_row(
+                f"contact time, {ball_name} on {board_name}",
+                "s",
+                r.contact_time,
+                tau_meas / ratio,
+                tau_meas,
+                "model: Table 3.3 over Table 3.2's ratio",
+            )
+        )
     for (ball_name, board_name), (tau_meas, _, dc_meas) in THESIS_IMPACTS.items():
         plate, tau = impacts[ball_name, board_name]
         wave_speed = THESIS_BOARDS[board_name][4]
-        rows.append(thesis_row(f"critical distance, {ball_name} on {board_name}", "m",
-                               impedance.critical_distance(plate, tau),
-                               0.5 * tau_meas * wave_speed, dc_meas,
-                               "model: the thesis' tau c / 2 from its measured tau and c"))
+        rows.append(
+            thesis_row(
+                f"critical distance, {ball_name} on {board_name}",
+                "m",
+                impedance.critical_distance(plate, tau),
+                0.5 * tau_meas * wave_speed,
+                dc_meas,
+                "model: the thesis' tau c / 2 from its measured tau and c",
+            )
+        )
     _, plate = _thesis_pair("steel 10.0 mm", "18 mm")
     z_inf = impedance.infinite_plate_impedance(plate)
-    engine_z = {"middle": z_inf, "edge": impedance.edge_impedance(plate),
-                "corner": impedance.corner_impedance(plate)}
+    engine_z = {
+        "middle": z_inf,
+        "edge": impedance.edge_impedance(plate),
+        "corner": impedance.corner_impedance(plate),
+    }
     for where, (model, measured) in THESIS_IMPEDANCE.items():
-        note = ("engine: Z_inf times the measured middle/corner ratio of the 18 and 12 mm "
-                "boards" if where == "corner" else "")
-        rows.append(thesis_row(f"impedance, 18 mm, {where}", "N s/m", engine_z[where], model,
-                         measured, note))
+        note = (
+            "engine: Z_inf times the measured middle/corner ratio of the 18 and 12 mm boards"
+            if where == "corner"
+            else ""
+        )
+        rows.append(
+            thesis_row(
+                f"impedance, 18 mm, {where}", "N s/m", engine_z[where], model, measured, note
+            )
+        )
 
     scene = load_preset("default")
     seq = simulate_scene(scene)
     decays = _tick_decay_times(scene, seq, sorted(THESIS_TICK_DECAY), samplerate)
     for n, measured in THESIS_TICK_DECAY.items():
-        rows.append(thesis_row(f"tick {n} decay at 20 cm, envelope peak to 37 %", "s",
-                               decays[n], None, measured, "the thesis has no model of the sound"))
+        rows.append(
+            thesis_row(
+                f"tick {n} decay at 20 cm, envelope peak to 37 %",
+                "s",
+                decays[n],
+                None,
+                measured,
+                "the thesis has no model of the sound",
+            )
+        )
 
     alone = BounceSequence(seq.impacts[:1], "max-impacts", seq.drop_height, seq.gravity)
     r = render(scene, samplerate=samplerate, normalize="none", sequence=alone)
@@ -633,19 +807,26 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
     spec = np.abs(np.fft.rfft(x)) ** 2
     f = np.fft.rfftfreq(x.size, 1 / fs)
     band = sosfiltfilt(butter(4, [2000, 3000], btype="band", fs=fs, output="sos"), x)
-    first_tick = dict(restitution=seq[0].result.restitution,
-                      contact_time=seq[0].result.contact_time,
-                      decay_time=_decay_time(x, fs), decay_time_2_3k=_decay_time(band, fs),
-                      edc_decay_time=_edc_decay_time(x, fs),
-                      edc_decay_time_2_3k=_edc_decay_time(band, fs),
-                      centroid=float(np.sum(f * spec) / np.sum(spec)),
-                      peak_pa=float(np.max(np.abs(x))))
+    first_tick = dict(
+        restitution=seq[0].result.restitution,
+        contact_time=seq[0].result.contact_time,
+        decay_time=_decay_time(x, fs),
+        decay_time_2_3k=_decay_time(band, fs),
+        edc_decay_time=_edc_decay_time(x, fs),
+        edc_decay_time_2_3k=_edc_decay_time(band, fs),
+        centroid=float(np.sum(f * spec) / np.sum(spec)),
+        peak_pa=float(np.max(np.abs(x))),
+    )
     return dict(samplerate=samplerate, rows=rows, first_tick=first_tick)
 
 
 #: Display scale and format of each unit in the thesis table.
-_THESIS_UNITS = {"": (1.0, "", "{:.3f}"), "s": (1e6, " (us)", "{:.0f}"),
-                 "m": (1e3, " (mm)", "{:.0f}"), "N s/m": (1.0, " (N s/m)", "{:.0f}")}
+_THESIS_UNITS = {
+    "": (1.0, "", "{:.3f}"),
+    "s": (1e6, " (us)", "{:.0f}"),
+    "m": (1e3, " (mm)", "{:.0f}"),
+    "N s/m": (1.0, " (N s/m)", "{:.0f}"),
+}
 
 
 def _shown(value, scale, fmt):
@@ -660,8 +841,10 @@ def _shown(value, scale, fmt):
 def format_thesis(c: dict) -> str:
     """The table of :func:`thesis_comparison` (Markdown): engine, thesis model, thesis
     measurement and the engine's gap to the measurement, per quantity."""
-    lines = ["| quantity | engine | thesis model | thesis measurement | engine - measurement |",
-             "|---|---|---|---|---|"]
+    lines = [
+        "| quantity | engine | thesis model | thesis measurement | engine - measurement |",
+        "|---|---|---|---|---|",
+    ]
     for row in c["rows"]:
         unit = row["unit"]
         scale, label, fmt = _THESIS_UNITS[unit]
@@ -678,16 +861,20 @@ def format_thesis(c: dict) -> str:
         values = [_shown(row[k], scale, fmt) for k in ("engine", "model", "measured")]
         lines.append(f"| {row['quantity']}{label} | {' | '.join(values)} | {gap_text} |")
     t = c["first_tick"]
-    lines += ["", "First tick at 20 cm, figures without a measured counterpart:", "",
-              "| quantity | engine |", "|---|---|",
-              f"| decay time, 2-3 kHz band, energy decay curve -5 to -25 dB, amplitude to 37 % "
-              f"(ms) | {t['edc_decay_time_2_3k'] * 1e3:.1f} |",
-              f"| decay time, 2-3 kHz band, envelope peak to 37 % (ms) | "
-              f"{t['decay_time_2_3k'] * 1e3:.2f} |",
-              f"| decay time, whole tick, energy decay curve (ms) | "
-              f"{t['edc_decay_time'] * 1e3:.1f} |",
-              f"| spectral centroid (Hz; the thesis: \"a few kHz\") | {t['centroid']:.0f} |",
-              f"| peak pressure (Pa) | {t['peak_pa']:.1f} |"]
+    lines += [
+        "",
+        "First tick at 20 cm, figures without a measured counterpart:",
+        "",
+        "| quantity | engine |",
+        "|---|---|",
+        f"| decay time, 2-3 kHz band, energy decay curve -5 to -25 dB, amplitude to 37 % "
+        f"(ms) | {t['edc_decay_time_2_3k'] * 1e3:.1f} |",
+        f"| decay time, 2-3 kHz band, envelope peak to 37 % (ms) | "
+        f"{t['decay_time_2_3k'] * 1e3:.2f} |",
+        f"| decay time, whole tick, energy decay curve (ms) | {t['edc_decay_time'] * 1e3:.1f} |",
+        f'| spectral centroid (Hz; the thesis: "a few kHz") | {t["centroid"]:.0f} |',
+        f"| peak pressure (Pa) | {t['peak_pa']:.1f} |",
+    ]
     return "\n".join(lines)
 
 
@@ -697,12 +884,24 @@ def format_thesis(c: dict) -> str:
 #: Modes of the benchmark's synthetic ticks: frequency (Hz), amplitude decay time (s),
 #: relative amplitude; each file draws its own frequencies (+-3 %), decay times (+-20 %)
 #: and phases.
-_BOUNCE_MODES = ((620.0, 0.040, 1.0), (1370.0, 0.025, 0.8), (2450.0, 0.015, 0.7),
-                 (4100.0, 0.008, 0.5), (6900.0, 0.004, 0.4))
+_BOUNCE_MODES = (
+    (620.0, 0.040, 1.0),
+    (1370.0, 0.025, 0.8),
+    (2450.0, 0.015, 0.7),
+    (4100.0, 0.008, 0.5),
+    (6900.0, 0.004, 0.4),
+)
 
 
-def synthetic_bounce(e: float, samplerate: int, *, t1: float = 0.15, n_ticks: int = 20,
-                     snr_db: float | None = None, seed: int = 0) -> tuple:
+def synthetic_bounce(
+    e: float,
+    samplerate: int,
+    *,
+    t1: float = 0.15,
+    n_ticks: int = 20,
+    snr_db: float | None = None,
+    seed: int = 0,
+) -> tuple:
     """A bouncing sound with a known geometric restitution, not made by the engine.
 
     Bounce times ``T_n = t1 e^(n-1)`` (s); each tick is five damped sinusoids (0.6-7 kHz,
@@ -746,23 +945,31 @@ def synthetic_bounce(e: float, samplerate: int, *, t1: float = 0.15, n_ticks: in
     decays = base[:, 1] * rng.uniform(0.8, 1.2, base.shape[0])
     amps = base[:, 2]
     phase = rng.uniform(0.0, 2.0 * np.pi, base.shape[0])
-    span = int(20 * decays.max() * fs)       # 20 decay times: < -170 dB, no audible cut
+    span = int(20 * decays.max() * fs)  # 20 decay times: < -170 dB, no audible cut
     for i, t0 in enumerate(onsets):
-        speed = e ** i
+        speed = e**i
         k0 = int(np.ceil(t0 * fs))
         tt = np.arange(k0, min(n, k0 + span)) / fs - t0
-        tick = np.sum(amps[:, None] * np.exp(-tt[None, :] / decays[:, None])
-                      * np.sin(2 * np.pi * freqs[:, None] * tt[None, :] + phase[:, None]), axis=0)
-        x[k0:k0 + tt.size] += speed * tick
+        tick = np.sum(
+            amps[:, None]
+            * np.exp(-tt[None, :] / decays[:, None])
+            * np.sin(2 * np.pi * freqs[:, None] * tt[None, :] + phase[:, None]),
+            axis=0,
+        )
+        x[k0 : k0 + tt.size] += speed * tick
     if snr_db is not None:
-        part = x[int(onsets[0] * fs): int((onsets[-1] + 0.05) * fs)]
-        p = np.mean(part ** 2)
+        part = x[int(onsets[0] * fs) : int((onsets[-1] + 0.05) * fs)]
+        p = np.mean(part**2)
         x = x + rng.standard_normal(n) * math.sqrt(p / 10 ** (snr_db / 10))
     return x, fs, onsets
 
 
-def run_analysis(snrs=(None, 40.0, 30.0, 20.0, 10.0), restitutions=(0.6, 0.8, 0.9), seeds=10,
-                 samplerate: int = 48000) -> dict:
+def run_analysis(
+    snrs=(None, 40.0, 30.0, 20.0, 10.0),
+    restitutions=(0.6, 0.8, 0.9),
+    seeds=10,
+    samplerate: int = 48000,
+) -> dict:
     """Accuracy of the recovered restitution (bounces 2-8) and onsets (ticks 1-8) against SNR.
 
     A true tick counts as found when a detected onset lies within 1 ms of it; the
@@ -780,7 +987,7 @@ def run_analysis(snrs=(None, 40.0, 30.0, 20.0, 10.0), restitutions=(0.6, 0.8, 0.
                 x, fs, onsets = synthetic_bounce(e, samplerate, snr_db=snr, seed=seed)
                 try:
                     a = analyze(x, fs)
-                except AnalysisError:       # no tick found at all: all missed
+                except AnalysisError:  # no tick found at all: all missed
                     missed += 8
                     continue
                 got = np.array([t.time for t in a.ticks])
@@ -795,29 +1002,41 @@ def run_analysis(snrs=(None, 40.0, 30.0, 20.0, 10.0), restitutions=(0.6, 0.8, 0.
                     if i >= 2 and tick.restitution is not None:
                         errs.append(abs(tick.restitution - e) / e)
         n_files = len(restitutions) * seeds
-        rows.append(dict(snr_db=snr, files=n_files, ticks_found=found, ticks_missed=missed,
-                         e_error_median=float(np.median(errs)) if errs else float("nan"),
-                         e_error_p95=float(np.percentile(errs, 95)) if errs else float("nan"),
-                         e_error_max=float(np.max(errs)) if errs else float("nan"),
-                         onset_error_rms_ms=float(np.sqrt(np.mean(np.square(onset_errs)))) * 1e3
-                         if onset_errs else float("nan"),
-                         seconds_per_file=(time.perf_counter() - t0) / n_files))
+        rows.append(
+            dict(
+                snr_db=snr,
+                files=n_files,
+                ticks_found=found,
+                ticks_missed=missed,
+                e_error_median=float(np.median(errs)) if errs else float("nan"),
+                e_error_p95=float(np.percentile(errs, 95)) if errs else float("nan"),
+                e_error_max=float(np.max(errs)) if errs else float("nan"),
+                onset_error_rms_ms=float(np.sqrt(np.mean(np.square(onset_errs)))) * 1e3
+                if onset_errs
+                else float("nan"),
+                seconds_per_file=(time.perf_counter() - t0) / n_files,
+            )
+        )
     return dict(samplerate=samplerate, restitutions=list(restitutions), rows=rows)
 
 
 def format_analysis(result) -> str:
     """The table of :func:`run_analysis` (Markdown)."""
-    lines = [f"synthetic bounces: e in {result['restitutions']}, {result['rows'][0]['files']} files "
-             f"per SNR, bounces 2-8 (e) and ticks 1-8 (onsets), {result['samplerate']} Hz; SNR: "
-             f"power of the bouncing part over the noise's; errors over the ticks found",
-             "| SNR (dB) | ticks found / missed | e error, median | e error, 95th percentile | "
-             "e error, max | onset error, RMS (ms) | analysis time per file (ms) |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"synthetic bounces: e in {result['restitutions']}, {result['rows'][0]['files']} files "
+        f"per SNR, bounces 2-8 (e) and ticks 1-8 (onsets), {result['samplerate']} Hz; SNR: "
+        f"power of the bouncing part over the noise's; errors over the ticks found",
+        "| SNR (dB) | ticks found / missed | e error, median | e error, 95th percentile | "
+        "e error, max | onset error, RMS (ms) | analysis time per file (ms) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in result["rows"]:
         snr = "no noise" if r["snr_db"] is None else f"{r['snr_db']:.0f}"
-        lines.append(f"| {snr} | {r['ticks_found']} / {r['ticks_missed']} | {r['e_error_median']:.2e} | "
-                     f"{r['e_error_p95']:.2e} | {r['e_error_max']:.2e} | {r['onset_error_rms_ms']:.3f} | "
-                     f"{r['seconds_per_file'] * 1e3:.0f} |")
+        lines.append(
+            f"| {snr} | {r['ticks_found']} / {r['ticks_missed']} | {r['e_error_median']:.2e} | "
+            f"{r['e_error_p95']:.2e} | {r['e_error_max']:.2e} | {r['onset_error_rms_ms']:.3f} | "
+            f"{r['seconds_per_file'] * 1e3:.0f} |"
+        )
     return "\n".join(lines)
 
 
@@ -830,11 +1049,13 @@ def markdown_block(command: str, table: str) -> str:
 
     import numba
 
-    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    now = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    head = (f"Printed by `{command}` on {now} (Python {platform.python_version()}, "
-            f"numba {numba.__version__}, {os.cpu_count()} CPUs, load average {load:.1f} "
-            "at the end of the run).")
+    head = (
+        f"Printed by `{command}` on {now} (Python {platform.python_version()}, "
+        f"numba {numba.__version__}, {os.cpu_count()} CPUs, load average {load:.1f} "
+        "at the end of the run)."
+    )
     return f"{head}\n\n{table}\n"
 
 
@@ -859,18 +1080,25 @@ def _scale_scene(material, thickness, length, width, boundary):
     side), microphone 0.4 m above the middle."""
     from synth.io import presets
 
-    scene, _, _ = presets.load_preset_with_options("glass-marble-on-glass-table", [
-        f"plate.material='{material}'", f"plate.thickness={thickness!r}",
-        f"plate.length={length!r}", f"plate.width={width!r}", f"plate.boundary='{boundary}'",
-        f"drop.position=[{0.4 * length!r}, {0.45 * width!r}]",
-        f"listener.position=[{0.5 * length!r}, {0.5 * width!r}, 0.4]"])
+    scene, _, _ = presets.load_preset_with_options(
+        "glass-marble-on-glass-table",
+        [
+            f"plate.material='{material}'",
+            f"plate.thickness={thickness!r}",
+            f"plate.length={length!r}",
+            f"plate.width={width!r}",
+            f"plate.boundary='{boundary}'",
+            f"drop.position=[{0.4 * length!r}, {0.45 * width!r}]",
+            f"listener.position=[{0.5 * length!r}, {0.5 * width!r}, 0.4]",
+        ],
+    )
     return scene
 
 
 def _peak_rss_mb() -> float:
     import resource
 
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: KiB
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
 
 
 def scale_child(spec: dict) -> dict:
@@ -882,8 +1110,9 @@ def scale_child(spec: dict) -> dict:
     from synth.sound import render as render_mod
     from synth.sound.radiation import plate_gains
 
-    scene = _scale_scene(spec["material"], spec["thickness"], spec["length"], spec["width"],
-                         spec["boundary"])
+    scene = _scale_scene(
+        spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
+    )
     fs = spec["samplerate"]
     out = {}
     t0 = time.perf_counter()
@@ -896,13 +1125,19 @@ def scale_child(spec: dict) -> dict:
     out["modes_mb"] = _peak_rss_mb()
     omega = np.asarray(modes.angular_frequencies)
     sigma = np.asarray(modes.decay_rates)
-    poles = -sigma + 1j * np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
-    k_max = (float(omega.max()) ** 2 * scene.plate.surface_density
-             / scene.plate.flexural_rigidity) ** 0.25
+    poles = -sigma + 1j * np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
+    k_max = (
+        float(omega.max()) ** 2 * scene.plate.surface_density / scene.plate.flexural_rigidity
+    ) ** 0.25
     t0 = time.perf_counter()
-    result = plate_gains(modes, scene.listener.position, -np.conj(poles), max_wavenumber=k_max,
-                         reference_distance=render_mod._nearest_distance(scene),
-                         full_output=True)
+    result = plate_gains(
+        modes,
+        scene.listener.position,
+        -np.conj(poles),
+        max_wavenumber=k_max,
+        reference_distance=render_mod._nearest_distance(scene),
+        full_output=True,
+    )
     out["gains_s"] = time.perf_counter() - t0
     out["gains_mb"] = _peak_rss_mb()
     out["rule"] = result.rule
@@ -921,12 +1156,20 @@ def _scale_run(spec, cache_dir, timeout):
     import sys
 
     env = dict(os.environ, SYNTH_CACHE_DIR=str(cache_dir))
-    code = ("import json, sys; from synth import bench; "
-            "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))")
+    code = (
+        "import json, sys; from synth import bench; "
+        "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))"
+    )
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-c", code, json.dumps(spec)], env=env,
-                              capture_output=True, text=True, timeout=timeout, check=False)
+        proc = subprocess.run(
+            [sys.executable, "-c", code, json.dumps(spec)],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=False,
+        )
     except subprocess.TimeoutExpired:
         return {"error": f"over {timeout:g} s"}
     wall = time.perf_counter() - t0
@@ -945,8 +1188,14 @@ def run_scale(ladder=SCALE_LADDER, timeout=600.0) -> list:
 
     rows = []
     for name, material, h, a, b, boundary, fs in ladder:
-        spec = {"material": material, "thickness": h, "length": a, "width": b,
-                "boundary": boundary, "samplerate": fs}
+        spec = {
+            "material": material,
+            "thickness": h,
+            "length": a,
+            "width": b,
+            "boundary": boundary,
+            "samplerate": fs,
+        }
         with tempfile.TemporaryDirectory(prefix="synth-scale-") as tmp:
             cold = _scale_run(spec, tmp, timeout)
             warm = _scale_run(spec, tmp, timeout) if "error" not in cold else cold
@@ -956,16 +1205,23 @@ def run_scale(ladder=SCALE_LADDER, timeout=600.0) -> list:
 
 def format_scale(rows) -> str:
     """The scale benchmark as a Markdown table (cold / warm)."""
-    lines = [("| plate | fs Hz | modes | modes s | gains s (rule) | render s | process s | "
-              "peak MB | audio s |"),
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        (
+            "| plate | fs Hz | modes | modes s | gains s (rule) | render s | process s | "
+            "peak MB | audio s |"
+        ),
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for row in rows:
-        plate = (f"{row['name']}: {row['material']} {row['length']:g} x {row['width']:g} x "
-                 f"{row['thickness'] * 1e3:g} mm {row['boundary']}")
+        plate = (
+            f"{row['name']}: {row['material']} {row['length']:g} x {row['width']:g} x "
+            f"{row['thickness'] * 1e3:g} mm {row['boundary']}"
+        )
         c, w = row["cold"], row["warm"]
         if "error" in c:
-            lines.append(f"| {plate} | {row['samplerate']} | refused or failed: {c['error']} "
-                         f"| | | | | | |")
+            lines.append(
+                f"| {plate} | {row['samplerate']} | refused or failed: {c['error']} | | | | | | |"
+            )
             continue
         lines.append(
             f"| {plate} | {row['samplerate']} | {c['n_modes']} | {c['modes_s']:.3g} / "
@@ -973,10 +1229,13 @@ def format_scale(rows) -> str:
             f"{w.get('gains_s', float('nan')):.3g} ({c['rule']}) | {c['render_s']:.3g} / "
             f"{w.get('render_s', float('nan')):.3g} | {c['process_s']:.3g} / "
             f"{w.get('process_s', float('nan')):.3g} | {c['render_mb']:.0f} / "
-            f"{w.get('render_mb', float('nan')):.0f} | {c['audio_s']:.2f} |")
+            f"{w.get('render_mb', float('nan')):.0f} | {c['audio_s']:.2f} |"
+        )
     lines.append("")
-    lines.append("Cold: a new process with an empty SYNTH_CACHE_DIR; warm: a second process "
-                 "with the first one's cache. 'render s' is the whole render after the modes "
-                 "and gains are in memory (contact, bounces, synthesis); 'process s' includes "
-                 "the interpreter, imports and numba's cache loading.")
+    lines.append(
+        "Cold: a new process with an empty SYNTH_CACHE_DIR; warm: a second process "
+        "with the first one's cache. 'render s' is the whole render after the modes "
+        "and gains are in memory (contact, bounces, synthesis); 'process s' includes "
+        "the interpreter, imports and numba's cache loading."
+    )
     return "\n".join(lines)

@@ -34,7 +34,8 @@ def real(name: str, value: object, unit: str = "", allowed: str = "") -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ParameterError(
             f"{name}={value!r} must be a real number{' ' + allowed if allowed else ''}"
-            f"{_unit(unit)}, not {type(value).__name__}")
+            f"{_unit(unit)}, not {type(value).__name__}"
+        )
     x = float(value)
     if not math.isfinite(x):
         raise ParameterError(_not_finite(name, value, unit, allowed))
@@ -69,8 +70,16 @@ def nonnegative(name: str, value: object, unit: str = "") -> float:
     return x
 
 
-def in_range(name: str, value: object, lo: float, hi: float, unit: str = "", *,
-             lo_open: bool = True, hi_open: bool = True) -> float:
+def in_range(
+    name: str,
+    value: object,
+    lo: float,
+    hi: float,
+    unit: str = "",
+    *,
+    lo_open: bool = True,
+    hi_open: bool = True,
+) -> float:
     """A finite float inside an interval; open or closed at either end."""
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
@@ -87,8 +96,7 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     """One of a fixed set of strings."""
     allowed = tuple(allowed)
     if value not in allowed:
-        raise ParameterError(
-            f"{name}={value!r} must be one of {', '.join(map(repr, allowed))}")
+        raise ParameterError(f"{name}={value!r} must be one of {', '.join(map(repr, allowed))}")
     return value
 
 
@@ -98,10 +106,12 @@ def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[fl
         items = tuple(value)
     except TypeError:
         raise ParameterError(
-            f"{name}={value!r} must be a sequence of {dims} numbers ({unit})") from None
+            f"{name}={value!r} must be a sequence of {dims} numbers ({unit})"
+        ) from None
     if len(items) != dims:
         raise ParameterError(
-            f"{name}={value!r} must have {dims} coordinates ({unit}), got {len(items)}")
+            f"{name}={value!r} must have {dims} coordinates ({unit}), got {len(items)}"
+        )
     axes = "xyz"
     return tuple(real(f"{name}.{axes[i]}", v, unit) for i, v in enumerate(items))
 
@@ -111,8 +121,9 @@ def audio_array(name: str, audio: object) -> np.ndarray:
     ``(frames, channels)`` (samples in full-scale or physical units); returned as an
     ndarray without copying where possible."""
     if audio is None or isinstance(audio, (str, bytes)):
-        raise ParameterError(f"{name}={audio!r} must be a float array (frames,) or "
-                             f"(frames, channels)")
+        raise ParameterError(
+            f"{name}={audio!r} must be a float array (frames,) or (frames, channels)"
+        )
     try:
         a = np.asarray(audio)
     except Exception:  # noqa: BLE001 - any conversion failure is bad input
@@ -120,17 +131,20 @@ def audio_array(name: str, audio: object) -> np.ndarray:
     if not np.issubdtype(a.dtype, np.floating):
         raise ParameterError(
             f"{name} has dtype {a.dtype}; it must be a float array (samples in units "
-            f"of full scale, or physical units before normalize)")
+            f"of full scale, or physical units before normalize)"
+        )
     if a.ndim not in (1, 2):
         raise ParameterError(
-            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)")
+            f"{name} has shape {a.shape}; it must be (frames,) or (frames, channels)"
+        )
     if a.size == 0:
         raise ParameterError(f"{name} has shape {a.shape}; it must not be empty")
     if not np.all(np.isfinite(a)):
         bad = np.flatnonzero(~np.isfinite(a.reshape(-1)))
         raise ParameterError(
             f"{name} has {bad.size} non-finite samples (first: flat index {bad[0]}, "
-            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite")
+            f"value {a.reshape(-1)[bad[0]]!r}); every sample must be finite"
+        )
     return a
 
 

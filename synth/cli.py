@@ -22,8 +22,14 @@ from synth.errors import SynthError
 
 def _add_preset_args(p):
     p.add_argument("preset", help="preset file (presets/NAME.toml) or preset name")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a preset key, e.g. --set ball.radius=0.007 (repeatable)")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a preset key, e.g. --set ball.radius=0.007 (repeatable)",
+    )
 
 
 def _cmd_info(args):
@@ -34,19 +40,31 @@ def _cmd_info(args):
     seq = simulate_scene(scene)
     rows = seq.table()
     if args.json:
-        json.dump(dict(preset=args.preset, description=data.get("description", ""),
-                       stop_reason=seq.stop_reason, duration=seq.duration, impacts=rows),
-                  sys.stdout, indent=1)
+        json.dump(
+            dict(
+                preset=args.preset,
+                description=data.get("description", ""),
+                stop_reason=seq.stop_reason,
+                duration=seq.duration,
+                impacts=rows,
+            ),
+            sys.stdout,
+            indent=1,
+        )
         print()
         return 0
     if data.get("description"):
         print(data["description"])
-    print(f"{'n':>4} {'time (s)':>10} {'speed (m/s)':>12} {'e':>8} {'tau (us)':>9} "
-          f"{'F_max (N)':>10} {'lambda':>8}")
+    print(
+        f"{'n':>4} {'time (s)':>10} {'speed (m/s)':>12} {'e':>8} {'tau (us)':>9} "
+        f"{'F_max (N)':>10} {'lambda':>8}"
+    )
     for r in rows:
         e = "settled" if r["settled"] else f"{r['restitution']:.4f}"
-        print(f"{r['n']:>4} {r['time']:>10.5f} {r['speed']:>12.5f} {e:>8} "
-              f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}")
+        print(
+            f"{r['n']:>4} {r['time']:>10.5f} {r['speed']:>12.5f} {e:>8} "
+            f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
+        )
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
     return 0
 
@@ -64,11 +82,19 @@ def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | N
 
 
 def _report(rendered, data, preset) -> dict:
-    return dict(preset=str(preset), description=data.get("description", ""),
-                samplerate=rendered.samplerate, duration=rendered.duration, units=rendered.units,
-                gain=rendered.gain, settings=rendered.settings,
-                impacts=[dict(row, onset=float(onset)) for row, onset in
-                         zip(rendered.impacts.table(), rendered.onsets)])
+    return dict(
+        preset=str(preset),
+        description=data.get("description", ""),
+        samplerate=rendered.samplerate,
+        duration=rendered.duration,
+        units=rendered.units,
+        gain=rendered.gain,
+        settings=rendered.settings,
+        impacts=[
+            dict(row, onset=float(onset))
+            for row, onset in zip(rendered.impacts.table(), rendered.onsets)
+        ],
+    )
 
 
 def _cmd_render(args):
@@ -87,21 +113,27 @@ def _cmd_render(args):
         else:
             timing = load_preset_with_options(args.timing_from)[0]
             opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
-    outputs = Outputs({"output": args.output, "report": args.report, "plot": args.plot},
-                      {"output": audio_io.FORMATS})
+    outputs = Outputs(
+        {"output": args.output, "report": args.report, "plot": args.plot},
+        {"output": audio_io.FORMATS},
+    )
     rendered = render(scene, **opts)
     with outputs:
-        audio_io.write_audio(outputs.staged("output"), rendered.audio, rendered.samplerate,
-                             subtype=subtype)
+        audio_io.write_audio(
+            outputs.staged("output"), rendered.audio, rendered.samplerate, subtype=subtype
+        )
         if args.report:
             _write_json(outputs.staged("report"), _report(rendered, data, args.preset))
         if args.plot:
             from synth.io.plot import plot_render
+
             plot_render(rendered, outputs.staged("plot"))
-    print(f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
-          f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
-          f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
-          f"normalize={rendered.settings['normalize']}")
+    print(
+        f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
+        f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
+        f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
+        f"normalize={rendered.settings['normalize']}"
+    )
     return 0
 
 
@@ -166,11 +198,17 @@ def _cmd_analyze(args):
     from synth import analysis
 
     if args.plot:
-        analysis.check_plot_path(args.plot)     # a bad image path fails before any output
+        analysis.check_plot_path(args.plot)  # a bad image path fails before any output
     audio, fs = _read_warned(analysis.read_recording, args.file)
-    result = analysis.analyze(audio, fs, gravity=args.gravity, channel=_channel(args.channel),
-                              min_separation=args.min_separation, window=args.window,
-                              deflate=not args.no_deflate)
+    result = analysis.analyze(
+        audio,
+        fs,
+        gravity=args.gravity,
+        channel=_channel(args.channel),
+        min_separation=args.min_separation,
+        window=args.window,
+        deflate=not args.no_deflate,
+    )
     for warning in result.warnings:
         print(f"synth: warning: {warning}", file=sys.stderr)
     if args.json:
@@ -203,7 +241,9 @@ def _channel(value):
     try:
         return int(value)
     except ValueError:
-        raise SynthError(f"channel={value!r} must be a channel number (0, 1, ...) or 'mix'") from None
+        raise SynthError(
+            f"channel={value!r} must be a channel number (0, 1, ...) or 'mix'"
+        ) from None
 
 
 def _cmd_alter(args):
@@ -214,34 +254,54 @@ def _cmd_alter(args):
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     audio, fs = _read_warned(audio_io.read_audio, args.file)
     channel = _channel(args.channel)
-    onsets = [t.time for t in analyze(audio, fs, gravity=args.gravity, channel=channel,
-                                      min_separation=args.min_separation).ticks]
-    out, t_new, e, e_new = alter_restitution(audio, fs, args.restitution_scale, onsets=onsets,
-                                             gravity=args.gravity,
-                                             scale_amplitude=not args.keep_amplitude,
-                                             min_bounce=args.min_bounce,
-                                             normalize=args.normalize)
+    onsets = [
+        t.time
+        for t in analyze(
+            audio, fs, gravity=args.gravity, channel=channel, min_separation=args.min_separation
+        ).ticks
+    ]
+    out, t_new, e, e_new = alter_restitution(
+        audio,
+        fs,
+        args.restitution_scale,
+        onsets=onsets,
+        gravity=args.gravity,
+        scale_amplitude=not args.keep_amplitude,
+        min_bounce=args.min_bounce,
+        normalize=args.normalize,
+    )
     peak = float(np.max(np.abs(out)))
     subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
     if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:
         raise SynthError(
             f"the altered audio peaks at {20 * np.log10(peak):+.2f} dBFS, above full scale, "
             f"and {args.output!r} would clip it (nothing written); use --normalize peak "
-            f"(or a .wav file with --subtype FLOAT)")
+            f"(or a .wav file with --subtype FLOAT)"
+        )
     audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
     dropped = len(onsets) - len(t_new)
     shortest = args.min_bounce if args.min_bounce is not None else float(np.min(np.diff(onsets)))
-    end = (f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
-           f"would be shorter than {shortest * 1e3:.3g} ms)" if dropped else "")
-    print(f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
-          f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
-          f"normalize={args.normalize}")
+    end = (
+        f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
+        f"would be shorter than {shortest * 1e3:.3g} ms)"
+        if dropped
+        else ""
+    )
+    print(
+        f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
+        f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
+        f"normalize={args.normalize}"
+    )
     return 0
 
 
 #: The presets of the reference gallery in renders/ (`synth gallery`).
-GALLERY = ("default", "thesis-steel10-mdf18-corner", "small-click-on-acrylic",
-           "ceramic-cup-on-stone")
+GALLERY = (
+    "default",
+    "thesis-steel10-mdf18-corner",
+    "small-click-on-acrylic",
+    "ceramic-cup-on-stone",
+)
 
 
 def _cmd_gallery(args):
@@ -261,12 +321,15 @@ def _cmd_gallery(args):
         opts, subtype = render_options(section, args, str(find(name)))
         rendered = render(scene, **opts)
         # the file synth render writes (same options, same subtype)
-        audio_io.write_audio(out / f"{name}.wav", rendered.audio, rendered.samplerate,
-                             subtype=subtype)
+        audio_io.write_audio(
+            out / f"{name}.wav", rendered.audio, rendered.samplerate, subtype=subtype
+        )
         plot_render(rendered, out / f"{name}.png")
         _write_json(out / f"{name}.json", _report(rendered, data, name))
-        print(f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
-              f"{len(rendered.impacts)} impacts")
+        print(
+            f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
+            f"{len(rendered.impacts)} impacts"
+        )
     return 0
 
 
@@ -286,8 +349,10 @@ def _cmd_materials(args):
     from synth.physics import materials
 
     for m in (materials.get(n) for n in materials.names()):
-        print(f"{m.name:<16} rho={m.density:>7g} kg/m^3  E={m.young / 1e9:>7.4g} GPa  "
-              f"nu={m.poisson:<5g} damping={m.damping}")
+        print(
+            f"{m.name:<16} rho={m.density:>7g} kg/m^3  E={m.young / 1e9:>7.4g} GPa  "
+            f"nu={m.poisson:<5g} damping={m.damping}"
+        )
     return 0
 
 
@@ -304,16 +369,26 @@ def _cmd_play(args):
 
     scene, render_section, _ = load_preset_with_options(args.preset, args.overrides)
     fs = args.samplerate or int(render_section.get("samplerate", 48000))
-    engine = Engine(samplerate=fs, blocksize=args.blocksize, device=args.device,
-                    latency=args.latency)
+    engine = Engine(
+        samplerate=fs, blocksize=args.blocksize, device=args.device, latency=args.latency
+    )
     body = engine.add(scene.plate, listener=scene.listener, gain=10.0 ** (args.gain_db / 20.0))
     engine.start()
     try:
         for n in range(args.repeat):
-            onsets = body.drop(scene.ball, scene.drop_height, position=scene.position,
-                               contact=scene.contact, gravity=scene.gravity)
-            print(f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
-                  if onsets else f"drop {n + 1}: no impact", flush=True)
+            onsets = body.drop(
+                scene.ball,
+                scene.drop_height,
+                position=scene.position,
+                contact=scene.contact,
+                gravity=scene.gravity,
+            )
+            print(
+                f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
+                if onsets
+                else f"drop {n + 1}: no impact",
+                flush=True,
+            )
             deadline = time.monotonic() + args.max_seconds
             while body.awake and time.monotonic() < deadline:
                 time.sleep(0.02)
@@ -323,8 +398,10 @@ def _cmd_play(args):
         return 130
     engine.stop()
     stats = engine.stats
-    print(f"{stats.impacts_played} impacts played, {stats.output_underflows} output underflows, "
-          f"callback mean {100 * stats.callback_mean:.1f} % of the block")
+    print(
+        f"{stats.impacts_played} impacts played, {stats.output_underflows} output underflows, "
+        f"callback mean {100 * stats.callback_mean:.1f} % of the block"
+    )
     return 0
 
 
@@ -333,17 +410,27 @@ def _cmd_bench(args):
     from synth.live import bench as live_bench
 
     runs = {
-        "contact": (lambda: bench.run_contact(
-            tolerances=tuple(args.tolerances) if args.tolerances else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
-            repeat=300 if args.repeat is None else args.repeat), bench.format_contact),
-        "render": (lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
-                   bench.format_render),
+        "contact": (
+            lambda: bench.run_contact(
+                tolerances=tuple(args.tolerances)
+                if args.tolerances
+                else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
+                repeat=300 if args.repeat is None else args.repeat,
+            ),
+            bench.format_contact,
+        ),
+        "render": (
+            lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
+            bench.format_render,
+        ),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
-        "bank": (lambda: _bank_bench().run_bank(count=args.count),
-                 lambda r: _bank_bench().format_bank(r)),
+        "bank": (
+            lambda: _bank_bench().run_bank(count=args.count),
+            lambda r: _bank_bench().format_bank(r),
+        ),
     }
     if args.what in runs:
         run, fmt = runs[args.what]
@@ -357,6 +444,7 @@ def _cmd_bench(args):
             block = bench.markdown_block(_bench_command(args), fmt(result))
             if args.update_docs:
                 from synth.docs import update_bench_docs
+
                 print(f"{update_bench_docs(args.what, block)}: block bench:{args.what} updated")
             else:
                 print(block, end="")
@@ -375,8 +463,14 @@ def _bank_bench():
 def _cmd_bank(args):
     from synth import bank
 
-    result = bank.run(args.spec, args.output, jobs=args.jobs, scheduler=args.scheduler,
-                      dry_run=args.dry_run, force=args.force)
+    result = bank.run(
+        args.spec,
+        args.output,
+        jobs=args.jobs,
+        scheduler=args.scheduler,
+        dry_run=args.dry_run,
+        force=args.force,
+    )
     print(result.summary(), file=sys.stderr)
     return 0 if result.ok else 1
 
@@ -389,8 +483,10 @@ def _cmd_cache(args):
         print(f"{cache.cache_dir()}: {n} files deleted, {freed / 1e6:.1f} MB freed")
         return 0
     info = cache.disk_info()
-    print(f"{info.directory}: {info.entries} entries, {info.bytes / 1e6:.1f} MB of at most "
-          f"{info.max_bytes / 1e6:.0f} MB (SYNTH_CACHE_MAX_BYTES; least recently used evicted)")
+    print(
+        f"{info.directory}: {info.entries} entries, {info.bytes / 1e6:.1f} MB of at most "
+        f"{info.max_bytes / 1e6:.0f} MB (SYNTH_CACHE_MAX_BYTES; least recently used evicted)"
+    )
     for kind, (n, size) in info.by_kind.items():
         print(f"  {kind:<32} {n:>5} entries {size / 1e6:>9.1f} MB")
     return 0
@@ -417,7 +513,9 @@ def _bench_command(args) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="synth", description="Physically based bouncing and impact sounds.")
+    parser = argparse.ArgumentParser(
+        prog="synth", description="Physically based bouncing and impact sounds."
+    )
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("info", help="print the impact table of a preset's scene")
@@ -430,64 +528,124 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
     p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
     p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
-    p.add_argument("--normalize", choices=["peak", "loudness", "physical", "none"],
-                   help="level: peak (-1 dBFS, default), loudness (LUFS), physical (1000 Pa or "
-                        "10 000 m/s^2 full scale), none (Pa or m/s^2; needs --subtype FLOAT)")
-    p.add_argument("--peak-db", type=float, metavar="DBFS", help="peak level for --normalize peak "
-                   "(default -1)")
-    p.add_argument("--loudness-lufs", type=float, metavar="LUFS",
-                   help="integrated loudness for --normalize loudness (default -23; a bouncing "
-                        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower)")
-    p.add_argument("--floor-db", type=float, metavar="DB",
-                   help="omission floor below the loudest tick's peak (default -80)")
+    p.add_argument(
+        "--normalize",
+        choices=["peak", "loudness", "physical", "none"],
+        help="level: peak (-1 dBFS, default), loudness (LUFS), physical (1000 Pa or "
+        "10 000 m/s^2 full scale), none (Pa or m/s^2; needs --subtype FLOAT)",
+    )
+    p.add_argument(
+        "--peak-db", type=float, metavar="DBFS", help="peak level for --normalize peak (default -1)"
+    )
+    p.add_argument(
+        "--loudness-lufs",
+        type=float,
+        metavar="LUFS",
+        help="integrated loudness for --normalize loudness (default -23; a bouncing "
+        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower)",
+    )
+    p.add_argument(
+        "--floor-db",
+        type=float,
+        metavar="DB",
+        help="omission floor below the loudest tick's peak (default -80)",
+    )
     p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
-    p.add_argument("--restitution-scale", type=float, metavar="K",
-                   help="perception stimulus: 1 - e' = K (1 - e) for every tick (thesis 5.2.2)")
-    p.add_argument("--timing-from", metavar="PRESET",
-                   help="perception stimulus: impact times and speeds of another preset, ticks of this one")
+    p.add_argument(
+        "--restitution-scale",
+        type=float,
+        metavar="K",
+        help="perception stimulus: 1 - e' = K (1 - e) for every tick (thesis 5.2.2)",
+    )
+    p.add_argument(
+        "--timing-from",
+        metavar="PRESET",
+        help="perception stimulus: impact times and speeds of another preset, ticks of this one",
+    )
     p.set_defaults(func=_cmd_render)
 
-    p = sub.add_parser("analyze", help="detect and measure the ticks of a recording (WAV, FLAC, ...)")
+    p = sub.add_parser(
+        "analyze", help="detect and measure the ticks of a recording (WAV, FLAC, ...)"
+    )
     p.add_argument("file")
     out = p.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true", help="machine-readable output")
     out.add_argument("--csv", action="store_true", help="one row per tick")
-    p.add_argument("--plot", metavar="OUT.png", help="ticks, bounce times, restitution, energy, centroid, decay")
+    p.add_argument(
+        "--plot",
+        metavar="OUT.png",
+        help="ticks, bounce times, restitution, energy, centroid, decay",
+    )
     p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
     p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2, for the impact speeds")
-    p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
-                   help="shortest time between two ticks, s (default 0.001): a burst closer "
-                        "than this to a tick is part of it (the end of a long contact); lower it "
-                        "(0.0002) for hard balls whose last bounces are shorter than 1 ms")
-    p.add_argument("--window", type=float, default=0.02, metavar="S",
-                   help="length of every tick's measurement window, s (default 0.02): energy, "
-                        "peak, centroid, spread and decay of the tick's own sound over it")
-    p.add_argument("--no-deflate", action="store_true",
-                   help="do not take the earlier ticks out when looking for the later ones")
+    p.add_argument(
+        "--min-separation",
+        type=float,
+        default=0.001,
+        metavar="S",
+        help="shortest time between two ticks, s (default 0.001): a burst closer "
+        "than this to a tick is part of it (the end of a long contact); lower it "
+        "(0.0002) for hard balls whose last bounces are shorter than 1 ms",
+    )
+    p.add_argument(
+        "--window",
+        type=float,
+        default=0.02,
+        metavar="S",
+        help="length of every tick's measurement window, s (default 0.02): energy, "
+        "peak, centroid, spread and decay of the tick's own sound over it",
+    )
+    p.add_argument(
+        "--no-deflate",
+        action="store_true",
+        help="do not take the earlier ticks out when looking for the later ones",
+    )
     p.set_defaults(func=_cmd_analyze)
 
     p = sub.add_parser("alter", help="change the restitution of a recording: 1 - e' = K (1 - e)")
     p.add_argument("file")
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
     p.add_argument("--restitution-scale", type=float, required=True, metavar="K")
-    p.add_argument("--keep-amplitude", action="store_true",
-                   help="do not scale each tick by its new impact speed over its old one")
+    p.add_argument(
+        "--keep-amplitude",
+        action="store_true",
+        help="do not scale each tick by its new impact speed over its old one",
+    )
     p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
     p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2")
-    p.add_argument("--min-separation", type=float, default=0.001, metavar="S",
-                   help="shortest time between two ticks, s (as for analyze)")
-    p.add_argument("--min-bounce", type=float, metavar="S",
-                   help="shortest new bounce time, s: the series ends before a shorter one "
-                        "(default: the shortest bounce of the recording)")
-    p.add_argument("--normalize", choices=["none", "peak"], default="none",
-                   help="level: none (the recording's, default) or peak (-1 dBFS)")
+    p.add_argument(
+        "--min-separation",
+        type=float,
+        default=0.001,
+        metavar="S",
+        help="shortest time between two ticks, s (as for analyze)",
+    )
+    p.add_argument(
+        "--min-bounce",
+        type=float,
+        metavar="S",
+        help="shortest new bounce time, s: the series ends before a shorter one "
+        "(default: the shortest bounce of the recording)",
+    )
+    p.add_argument(
+        "--normalize",
+        choices=["none", "peak"],
+        default="none",
+        help="level: none (the recording's, default) or peak (-1 dBFS)",
+    )
     p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
     p.set_defaults(func=_cmd_alter)
 
-    p = sub.add_parser("gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/")
-    p.add_argument("names", nargs="*", metavar="PRESET",
-                   help=f"presets to render (default: {', '.join(GALLERY)})")
+    p = sub.add_parser(
+        "gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/"
+    )
+    p.add_argument(
+        "names",
+        nargs="*",
+        metavar="PRESET",
+        help=f"presets to render (default: {', '.join(GALLERY)})",
+    )
     p.add_argument("--output-dir", default="renders", help="folder (default: renders)")
     p.set_defaults(func=_cmd_gallery)
 
@@ -497,62 +655,112 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("materials", help="list the built-in materials")
     p.set_defaults(func=_cmd_materials)
 
-    p = sub.add_parser("bank", help="render a sound bank: many variations of a preset, "
-                                    "resumable, with a manifest")
+    p = sub.add_parser(
+        "bank", help="render a sound bank: many variations of a preset, resumable, with a manifest"
+    )
     p.add_argument("spec", help="bank spec (TOML): preset, [vary] axes, count, name, format")
-    p.add_argument("-o", "--output", required=True, metavar="DIR",
-                   help="folder of the files, manifest.csv/.jsonl and the stored spec")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        metavar="DIR",
+        help="folder of the files, manifest.csv/.jsonl and the stored spec",
+    )
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: the cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run on a Dask cluster (tcp://host:8786) instead of local workers")
-    p.add_argument("--dry-run", action="store_true",
-                   help="write the plan (the manifest without audio) and estimate the time")
-    p.add_argument("--force", action="store_true",
-                   help="start over in a folder made by another spec (deletes its files)")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on a Dask cluster (tcp://host:8786) instead of local workers",
+    )
+    p.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="write the plan (the manifest without audio) and estimate the time",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="start over in a folder made by another spec (deletes its files)",
+    )
     p.set_defaults(func=_cmd_bank)
 
     p = sub.add_parser("cache", help="the disk cache of plate modes and radiation gains")
-    p.add_argument("action", choices=["info", "clear"],
-                   help="info: entries and size; clear: delete every entry")
+    p.add_argument(
+        "action",
+        choices=["info", "clear"],
+        help="info: entries and size; clear: delete every entry",
+    )
     p.set_defaults(func=_cmd_cache)
 
     p = sub.add_parser("play", help="play a preset's scene through the live engine (Ctrl-C stops)")
     _add_preset_args(p)
-    p.add_argument("--device", type=_device, help="output device: index or name (default: the "
-                   "system's; list them with `python -m sounddevice`)")
+    p.add_argument(
+        "--device",
+        type=_device,
+        help="output device: index or name (default: the "
+        "system's; list them with `python -m sounddevice`)",
+    )
     p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
     p.add_argument("--blocksize", type=int, default=256, help="frames per block (default 256)")
     p.add_argument("--latency", default="low", help="low (default), high, or seconds")
-    p.add_argument("--gain-db", type=float, default=0.0, metavar="DB",
-                   help="level above the physical calibration (1000 Pa or 10 000 m/s^2 full "
-                        "scale), dB (default 0)")
+    p.add_argument(
+        "--gain-db",
+        type=float,
+        default=0.0,
+        metavar="DB",
+        help="level above the physical calibration (1000 Pa or 10 000 m/s^2 full "
+        "scale), dB (default 0)",
+    )
     p.add_argument("--repeat", type=int, default=1, help="drops, one after the other (default 1)")
-    p.add_argument("--max-seconds", type=float, default=30.0, metavar="S",
-                   help="longest wait for a drop to ring out, s (default 30)")
+    p.add_argument(
+        "--max-seconds",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="longest wait for a drop to ring out, s (default 30)",
+    )
     p.set_defaults(func=_cmd_play)
 
     p = sub.add_parser("bench", help="error against run time")
-    p.add_argument("what", choices=["contact", "render", "thesis", "analysis", "live", "scale", "bank"],
-                   help="contact: solver error and time per impact against scipy; render: audio "
-                        "error against a reference and real-time factor; thesis: the engine "
-                        "beside the thesis' model and measurements; analysis: recovered "
-                        "restitution and onsets against noise; live: the live engine's "
-                        "callback, hit() and add() costs, and underflows through a JACK dummy "
-                        "server; scale: cold and warm cost of modes, radiation gains and "
-                        "synthesis for a ladder of plates; bank: sounds/s of a sound bank "
-                        "against one process per file")
+    p.add_argument(
+        "what",
+        choices=["contact", "render", "thesis", "analysis", "live", "scale", "bank"],
+        help="contact: solver error and time per impact against scipy; render: audio "
+        "error against a reference and real-time factor; thesis: the engine "
+        "beside the thesis' model and measurements; analysis: recovered "
+        "restitution and onsets against noise; live: the live engine's "
+        "callback, hit() and add() costs, and underflows through a JACK dummy "
+        "server; scale: cold and warm cost of modes, radiation gains and "
+        "synthesis for a ladder of plates; bank: sounds/s of a sound bank "
+        "against one process per file",
+    )
     p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--markdown", action="store_true",
-                   help="the block for docs/: the command, date and machine, then the tables")
-    p.add_argument("--update-docs", action="store_true",
-                   help="write that block between its markers in docs/ (a source checkout)")
-    p.add_argument("--repeat", type=_positive_int, help="timed calls per figure, median, >= 1 (default: "
-                   "contact 300, render 5; thesis and analysis time nothing)")
-    p.add_argument("--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)")
-    p.add_argument("--seconds", type=float, default=30.0,
-                   help="live: length of the JACK dummy server run, s (default 30)")
-    p.add_argument("--count", type=int, default=200,
-                   help="bank: sounds of the bank (default 200)")
+    p.add_argument(
+        "--markdown",
+        action="store_true",
+        help="the block for docs/: the command, date and machine, then the tables",
+    )
+    p.add_argument(
+        "--update-docs",
+        action="store_true",
+        help="write that block between its markers in docs/ (a source checkout)",
+    )
+    p.add_argument(
+        "--repeat",
+        type=_positive_int,
+        help="timed calls per figure, median, >= 1 (default: "
+        "contact 300, render 5; thesis and analysis time nothing)",
+    )
+    p.add_argument(
+        "--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)"
+    )
+    p.add_argument(
+        "--seconds",
+        type=float,
+        default=30.0,
+        help="live: length of the JACK dummy server run, s (default 30)",
+    )
+    p.add_argument("--count", type=int, default=200, help="bank: sounds of the bank (default 200)")
     p.set_defaults(func=_cmd_bench)
     return parser
 
@@ -582,9 +790,10 @@ def main(argv=None) -> int:
         return 2
     except BrokenPipeError:  # output piped into a program that stopped reading (head)
         import os
+
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except OSError as exc:     # the system refused: full disk, read-only folder, I/O error
+    except OSError as exc:  # the system refused: full disk, read-only folder, I/O error
         where = f" ({exc.filename})" if exc.filename else ""
         print(f"synth: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1

@@ -59,8 +59,8 @@ def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
     nfft = next_fast_len(block + order, real=True)
     r = np.zeros(order + 1)
     for s in range(0, x.size, block):
-        a = rfft(x[s: s + block], nfft)
-        b = rfft(x[s: s + block + order], nfft)
+        a = rfft(x[s : s + block], nfft)
+        b = rfft(x[s : s + block + order], nfft)
         r += irfft(np.conj(a) * b, nfft)[: order + 1]
     return levinson_predictor(white_noise_corrected(r))
 
@@ -79,9 +79,9 @@ def covariance_matrix(x: np.ndarray, order: int, blocks=None) -> np.ndarray:
     if blocks is None:
         blocks = [(p, x.size)]
     C = np.zeros((p + 1, p + 1))
-    C[0] = sum(_covariance_row(x[n1 - p: n2], p) for n1, n2 in blocks)
-    first = np.array([x[n1 - 1:: -1][:p] for n1, _ in blocks])
-    last = np.array([x[n2 - 1:: -1][:p] for _, n2 in blocks])
+    C[0] = sum(_covariance_row(x[n1 - p : n2], p) for n1, n2 in blocks)
+    first = np.array([x[n1 - 1 :: -1][:p] for n1, _ in blocks])
+    last = np.array([x[n2 - 1 :: -1][:p] for _, n2 in blocks])
     _shift_recursion(C, first, last)
     return C
 
@@ -94,7 +94,7 @@ def _covariance_row(seg: np.ndarray, p: int) -> np.ndarray:
     n = seg.size
     nfft = next_fast_len(n + p + 1, real=True)
     X = rfft(seg, nfft)
-    full = irfft(X * np.conj(X), nfft)[: p + 1]       # sum_t seg[t] seg[t+d]
+    full = irfft(X * np.conj(X), nfft)[: p + 1]  # sum_t seg[t] seg[t+d]
     head = np.array([np.dot(seg[d:p], seg[: p - d]) for d in range(p + 1)])
     return full - head
 
@@ -166,5 +166,5 @@ def noise_floor(x: np.ndarray, samplerate: float) -> float:
     fr = noise_frames(x, samplerate)
     if fr.shape[0] == 0:
         return float(np.sqrt(np.mean(x * x)))
-    ms = np.mean(fr ** 2, axis=1)
+    ms = np.mean(fr**2, axis=1)
     return float(np.sqrt(ms[quiet_frames(ms)].mean()))

@@ -35,7 +35,8 @@ def _source_dirs() -> list[Path]:
 
 def _user_cache_dir(environ) -> Path | None:
     base = environ.get("XDG_CACHE_HOME") or (
-        os.path.join(environ["HOME"], ".cache") if environ.get("HOME") else None)
+        os.path.join(environ["HOME"], ".cache") if environ.get("HOME") else None
+    )
     return Path(base) / "numba" if base else None
 
 
@@ -56,12 +57,18 @@ def configure(environ=None, source_dirs=None, stream=None) -> str | None:
     fallback = Path(tempfile.gettempdir()) / f"synth-numba-cache-{os.getuid()}"
     if _writable(fallback):
         environ["NUMBA_CACHE_DIR"] = str(fallback)
-        print(f"synth: note: no writable numba cache folder (the package's __pycache__, "
-              f"{user or '~/.cache/numba'}); caching compiled code in {fallback}", file=stream)
+        print(
+            f"synth: note: no writable numba cache folder (the package's __pycache__, "
+            f"{user or '~/.cache/numba'}); caching compiled code in {fallback}",
+            file=stream,
+        )
         return str(fallback)
     _disable_caching()
-    print("synth: note: no writable folder for numba's cache; compiled code is not cached "
-          "(every start compiles again, about a minute)", file=stream)
+    print(
+        "synth: note: no writable folder for numba's cache; compiled code is not cached "
+        "(every start compiles again, about a minute)",
+        file=stream,
+    )
     return None
 
 

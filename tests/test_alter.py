@@ -13,12 +13,12 @@ import soundfile
 from scipy.signal import resample_poly, welch
 
 import synth
-from synth.stimuli import alter
-from synth.stimuli.alter import alter_restitution, extend
 from synth.cli import main
 from synth.errors import ParameterError
-from synth.sound.render import render
 from synth.physics.bounces import BounceSequence, Impact
+from synth.sound.render import render
+from synth.stimuli import alter
+from synth.stimuli.alter import alter_restitution, extend
 
 FS = 48000
 
@@ -94,11 +94,12 @@ def worst_join(y, onsets, t_new, fs):
         if q - h - w < 0 or q + h + w >= d.size:
             continue
         if onset is None:
-            allowed = 2.0 * max(d[q - h - w:q - h].max(), d[q + h:q + h + w].max())
+            allowed = 2.0 * max(d[q - h - w : q - h].max(), d[q + h : q + h + w].max())
         else:
-            allowed = max(2.0 * d[q - h - w:q - h].max(),
-                          0.1 * d[onset:onset + int(0.0005 * fs)].max())
-        worst = max(worst, db(d[q - h:q + h].max() / allowed))
+            allowed = max(
+                2.0 * d[q - h - w : q - h].max(), 0.1 * d[onset : onset + int(0.0005 * fs)].max()
+            )
+        worst = max(worst, db(d[q - h : q + h].max() / allowed))
     return worst
 
 
@@ -139,7 +140,7 @@ def test_new_timing_follows_the_rule(short, k):
     assert np.allclose(e, T[1:] / T[:-1], rtol=1e-12)
     assert Tn == pytest.approx(expected_series(on, k), rel=1e-12)
     assert t_new.size == (10 if k < 1 else 5)
-    assert np.allclose(e_new, 1.0 - k * (1.0 - e[:t_new.size - 2]), rtol=1e-12)
+    assert np.allclose(e_new, 1.0 - k * (1.0 - e[: t_new.size - 2]), rtol=1e-12)
     assert Tn[0] == pytest.approx(T[0], rel=1e-12)
     assert np.allclose(Tn[1:] / Tn[:-1], e_new, rtol=1e-12)
 
@@ -205,8 +206,8 @@ def test_background_noise_is_kept_in_lengthened_bounces(recording):
             hi = int(round((t_new[j + 1] - 0.0005) * FS))
             if hi - lo >= FS // 100:
                 lows.append(db(frame_rms(y[lo:hi], FS // 100).min() / floor))
-                late.append(y[(lo + hi) // 2:hi])
-        assert len(lows) == 80                  # all but the first two bounces
+                late.append(y[(lo + hi) // 2 : hi])
+        assert len(lows) == 80  # all but the first two bounces
         assert min(lows) > -tol, (snr, kind, min(lows))
         f, p_out = welch(np.concatenate(late), FS, nperseg=1024)
         _, p_noise = welch(noise, FS, nperseg=1024)
@@ -237,14 +238,18 @@ def test_deader_ball_ends_its_series(recording, k, kept):
         assert np.diff(t_new) == pytest.approx(expected_series(on, k), rel=1e-12)
         assert worst_join(y, on, t_new, FS) <= 0.0
         obs = int(round((on[kept] - on[kept - 1]) * FS))
-        tail = y[int(round(t_new[-1] * FS)) + obs:y.size - int(alter.FADE * FS)]
+        tail = y[int(round(t_new[-1] * FS)) + obs : y.size - int(alter.FADE * FS)]
         env = db(frame_rms(tail, FS // 100))
         steps = np.diff(env)
         assert steps.max() < 1.0 and steps.min() > -7.0, (steps.max(), steps.min())
-        end_level = db(max(np.sqrt(np.mean(x[-FS // 100:] ** 2)),
-                           np.abs(x).max() * 10 ** (alter.END_FLOOR_DB / 20)))
+        end_level = db(
+            max(
+                np.sqrt(np.mean(x[-FS // 100 :] ** 2)),
+                np.abs(x).max() * 10 ** (alter.END_FLOOR_DB / 20),
+            )
+        )
         assert abs(env[-1] - end_level) < 6.0
-        assert y[-1] == pytest.approx(0.0, abs=1e-12)       # the final fade
+        assert y[-1] == pytest.approx(0.0, abs=1e-12)  # the final fade
 
 
 def test_deader_ball_against_the_rendered_relaying(scene):
@@ -258,20 +263,20 @@ def test_deader_ball_against_the_rendered_relaying(scene):
     full = synth.simulate_scene(scene)
     r = render(scene, samplerate=FS, sequence=full, normalize="none")
     x, on = r.audio.astype(float), r.onsets
-    release = full[0].time - on[0]              # impact times are from the release
+    release = full[0].time - on[0]  # impact times are from the release
     y, t_new, _, _ = alter_restitution(x, FS, 2.0, onsets=on)
-    gain = np.r_[1.0, np.diff(t_new) / np.diff(on)[:t_new.size - 1]]
+    gain = np.r_[1.0, np.diff(t_new) / np.diff(on)[: t_new.size - 1]]
     n = y.size + FS
     ideal, prev, impacts = np.zeros(n), np.zeros(n), []
     for j, tj in enumerate(t_new):
         imp = full[j]
-        impacts.append(Impact(imp.index, tj + release, imp.speed, imp.result,
-                              imp.restitution))
+        impacts.append(Impact(imp.index, tj + release, imp.speed, imp.result, imp.restitution))
         seq = BounceSequence(tuple(impacts), full.stop_reason, full.drop_height, full.gravity)
-        a = render(scene, samplerate=FS, sequence=seq, normalize="none", max_tail=2.0,
-                   fade=0.0).audio
+        a = render(
+            scene, samplerate=FS, sequence=seq, normalize="none", max_tail=2.0, fade=0.0
+        ).audio
         cur = np.zeros(n)
-        cur[:min(n, a.size)] = a[:n]
+        cur[: min(n, a.size)] = a[:n]
         ideal += gain[j] * (cur - prev)
         prev = cur
     bounds = np.r_[np.round(t_new * FS).astype(int), int(round((t_new[-1] + 0.1) * FS))]
@@ -307,10 +312,10 @@ def test_same_alteration_at_any_rate(scene):
             lags = np.arange(-int(0.0005 * fs), int(0.0005 * fs) + 1)
             for j in range(1, t_new.size):
                 s, sn = int(round(on[j] * fs)), int(round(t_new[j] * fs))
-                ref = xr[s - before:s + after]
-                score = [np.dot(ref, y[sn - before + lag:sn + after + lag]) for lag in lags]
+                ref = xr[s - before : s + after]
+                score = [np.dot(ref, y[sn - before + lag : sn + after + lag]) for lag in lags]
                 assert abs(lags[int(np.argmax(score))] / fs) <= 0.0001, (fs, k, j)
-            rms = frame_rms(y[int(t_new[0] * fs):y.size - int(alter.FADE * fs)], fs // 1000)
+            rms = frame_rms(y[int(t_new[0] * fs) : y.size - int(alter.FADE * fs)], fs // 1000)
             assert np.all(rms > 0.0) and db(np.min(rms[1:] / rms[:-1])) > -20.0
             back = resample_poly(y, down, up)
             levels.append(frame_rms(back, FS // 100))
@@ -351,8 +356,10 @@ def test_normalize_peak(louder_late, tmp_path, capsys):
     assert main(["alter", str(src), "-o", str(out), "--restitution-scale", "0"]) == 2
     err = capsys.readouterr().err
     assert "--normalize peak" in err and "dBFS" in err and not out.exists()
-    assert main(["alter", str(src), "-o", str(out), "--restitution-scale", "0",
-                 "--normalize", "peak"]) == 0
+    assert (
+        main(["alter", str(src), "-o", str(out), "--restitution-scale", "0", "--normalize", "peak"])
+        == 0
+    )
     assert "normalize=peak" in capsys.readouterr().out
     written, rate = soundfile.read(out)
     assert rate == FS and db(np.abs(written).max()) == pytest.approx(-1.0, abs=1e-4)
@@ -365,8 +372,18 @@ def test_normalize_rejects_bad_input(short, capsys, tmp_path):
     with pytest.raises(ParameterError, match="peak_db=1.0"):
         alter_restitution(x, FS, 0.5, onsets=on, normalize="peak", peak_db=1.0)
     with pytest.raises(SystemExit):
-        main(["alter", str(tmp_path / "x.wav"), "-o", str(tmp_path / "y.wav"),
-              "--restitution-scale", "0.5", "--normalize", "loud"])
+        main(
+            [
+                "alter",
+                str(tmp_path / "x.wav"),
+                "-o",
+                str(tmp_path / "y.wav"),
+                "--restitution-scale",
+                "0.5",
+                "--normalize",
+                "loud",
+            ]
+        )
     assert "invalid choice" in capsys.readouterr().err
 
 
@@ -392,8 +409,9 @@ def test_extend_continues_decaying_modes(scene):
     # Linear prediction continues a sum of decaying sinusoids exactly (1e-9), and a rendered
     # tick's tail 100 ms after its onset to 1e-3 (30 ms ahead).
     t = np.arange(4000) / FS
-    x = (np.exp(-30 * t) * np.sin(2 * np.pi * 440 * t)
-         + 0.5 * np.exp(-80 * t) * np.sin(2 * np.pi * 1234 * t + 1))
+    x = np.exp(-30 * t) * np.sin(2 * np.pi * 440 * t) + 0.5 * np.exp(-80 * t) * np.sin(
+        2 * np.pi * 1234 * t + 1
+    )
     ext = extend(x[:2000], 2000, FS)
     assert np.linalg.norm(ext - x[2000:]) / np.linalg.norm(x[2000:]) < 1e-9
     seq = synth.simulate_scene(scene, max_impacts=1)
@@ -401,8 +419,8 @@ def test_extend_continues_decaying_modes(scene):
     a = r.audio.astype(float)
     o = int(r.onsets[0] * FS)
     cut, n = o + int(0.1 * FS), int(0.03 * FS)
-    ext = extend(a[o + 96:cut], n, FS)
-    assert np.linalg.norm(ext - a[cut:cut + n]) / np.linalg.norm(a[cut:cut + n]) < 1e-3
+    ext = extend(a[o + 96 : cut], n, FS)
+    assert np.linalg.norm(ext - a[cut : cut + n]) / np.linalg.norm(a[cut : cut + n]) < 1e-3
 
 
 def test_extend_rejects_bad_input():
@@ -419,7 +437,7 @@ def test_alter_rejects_bad_input(short):
     with pytest.raises(ParameterError, match="restitution_scale"):
         alter_restitution(x, FS, -1.0, onsets=on)
     with pytest.raises(ParameterError, match="ends the series after 2 ticks"):
-        alter_restitution(x, FS, 50.0, onsets=on)       # e' <= 0 at the second impact
+        alter_restitution(x, FS, 50.0, onsets=on)  # e' <= 0 at the second impact
     with pytest.raises(ParameterError, match="onsets"):
         alter_restitution(x, FS, 0.5, onsets=[0.1, 0.05, 0.3])
     with pytest.raises(ParameterError, match="onsets"):

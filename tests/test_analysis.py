@@ -26,20 +26,34 @@ import numpy as np
 import pytest
 import soundfile
 
-from synth.analysis import (Analysis, AnalysisError, Tick, analyze, analyze_file,
-                            check_plot_path, format_table, plot_analysis, read_recording,
-                            to_csv, to_dict)
+from synth.analysis import (
+    Analysis,
+    AnalysisError,
+    Tick,
+    analyze,
+    analyze_file,
+    check_plot_path,
+    format_table,
+    plot_analysis,
+    read_recording,
+    to_csv,
+    to_dict,
+)
 from synth.errors import ParameterError, SynthError
 
 G = 9.81
-E = 0.85            # restitution of the synthetic ball
-V1 = 1.4            # first impact speed, m/s (a 10 cm drop)
-T0 = 0.05           # first onset, s
+E = 0.85  # restitution of the synthetic ball
+V1 = 1.4  # first impact speed, m/s (a 10 cm drop)
+T0 = 0.05  # first onset, s
 # (frequency Hz, amplitude decay time s, relative amplitude, phase): phase 0 starts
 # the mode with a step (cosine), -pi/2 smoothly (sine)
-MODES = ((620.0, 0.045, 1.0, 0.0), (1480.0, 0.025, 0.8, -np.pi / 2),
-         (2950.0, 0.014, 0.6, 0.0), (4700.0, 0.008, 0.5, -np.pi / 2),
-         (7600.0, 0.005, 0.4, 0.0))
+MODES = (
+    (620.0, 0.045, 1.0, 0.0),
+    (1480.0, 0.025, 0.8, -np.pi / 2),
+    (2950.0, 0.014, 0.6, 0.0),
+    (4700.0, 0.008, 0.5, -np.pi / 2),
+    (7600.0, 0.005, 0.4, 0.0),
+)
 
 
 def _sequence(e=E, v1=V1, t0=T0, last_gap=0.002):
@@ -81,12 +95,14 @@ def bouncing(fs, e=E, modes=MODES, tail=0.15, t0=T0, contact=None):
     onsets, speeds = _sequence(e, t0=t0)
     n = int((onsets[-1] + tail) * fs)
     x = np.zeros(n)
-    span = int(20 * max(m[1] for m in modes) * fs)      # 20 decay times: < -170 dB
+    span = int(20 * max(m[1] for m in modes) * fs)  # 20 decay times: < -170 dB
     for on, v in zip(onsets, speeds):
         i0 = max(0, int(math.floor(on * fs)) - 2)
         i1 = min(n, i0 + span)
         t = np.arange(i0, i1) / fs - on
-        x[i0:i1] += v * (_damped(t, modes) if contact is None else _contact(t, modes, tau_c=contact))
+        x[i0:i1] += v * (
+            _damped(t, modes) if contact is None else _contact(t, modes, tau_c=contact)
+        )
     return x, onsets, speeds
 
 
@@ -115,8 +131,15 @@ def add_noise(x, snr_db, onsets, fs, seed=0):
 #: Early reflections of a small room, image-source-like: (delay s, gain). The floor and
 #: the table under the plate first (2-4 ms, gains up to 0.7), then walls and ceiling; one
 #: off a surface that inverts the pressure.
-REFLECTIONS = ((0.0023, 0.7), (0.0041, 0.55), (0.0077, 0.45), (0.0112, -0.35),
-               (0.0159, 0.3), (0.0194, 0.25), (0.0246, 0.2))
+REFLECTIONS = (
+    (0.0023, 0.7),
+    (0.0041, 0.55),
+    (0.0077, 0.45),
+    (0.0112, -0.35),
+    (0.0159, 0.3),
+    (0.0194, 0.25),
+    (0.0246, 0.2),
+)
 
 
 def _delayed_impulse(n, delay, fs, half=16):
@@ -144,7 +167,7 @@ def room_ir(fs, reflections=REFLECTIONS, decay=None, drr_db=0.0, seed=1):
         rng = np.random.default_rng(seed)
         tail = rng.normal(size=n) * np.exp(-np.arange(n) / fs / decay)
         tail[: int(0.0025 * fs)] = 0.0
-        ir += tail * math.sqrt(10.0 ** (-drr_db / 10.0) / np.sum(tail ** 2))
+        ir += tail * math.sqrt(10.0 ** (-drr_db / 10.0) / np.sum(tail**2))
     return ir
 
 
@@ -174,7 +197,7 @@ def restitutions(an, idx, ticks=slice(2, 10)):
 # bound on e_n from the onset requirement: onsets within d = 0.2 ms make
 # e_n = t_n / t_(n-1) wrong by at most 2d/t_n + 2d/t_(n-1) <= 4d / t_9 = 1.2 %
 # (t_9 = 2 V1 E^9 / g = 66 ms, the shortest bounce time among the first ten ticks)
-E_BOUND = 4 * 0.2e-3 / (2 * V1 * E ** 9 / G)
+E_BOUND = 4 * 0.2e-3 / (2 * V1 * E**9 / G)
 
 
 @pytest.fixture(scope="module")
@@ -195,8 +218,15 @@ def clean44():
 #: 7.6 kHz mode above 0.45 fs): the whitened burst is a sampled sinc whose centre is
 #: taken from its two central samples (step 4); the Kaiser window of the filter makes it
 #: differ from an ideal sinc, measured -1.3 to +0.6 sample periods: within [-1.5, 1].
-RATES = {8000: (-1.5, 1.0), 11025: (-1.5, 1.0), 16000: (-1.5, 1.0), 22050: (-1.0, 0.1),
-         44100: (-1.0, 0.1), 48000: (-1.0, 0.1), 96000: (-1.0, 0.1)}
+RATES = {
+    8000: (-1.5, 1.0),
+    11025: (-1.5, 1.0),
+    16000: (-1.5, 1.0),
+    22050: (-1.0, 0.1),
+    44100: (-1.0, 0.1),
+    48000: (-1.0, 0.1),
+    96000: (-1.0, 0.1),
+}
 
 
 @pytest.mark.parametrize("fs", sorted(RATES))
@@ -261,19 +291,38 @@ def test_options():
     raw = analyze(x, fs, subtract_tails=False, window=0.01)
     k = int(math.floor(raw.ticks[3].time * fs)) - 2
     n = int(round(0.01 * fs))
-    assert raw.ticks[3].energy == pytest.approx(np.sum(x[k: k + n] ** 2) / fs, rel=1e-12)
+    assert raw.ticks[3].energy == pytest.approx(np.sum(x[k : k + n] ** 2) / fs, rel=1e-12)
 
 
 def test_options_reject_bad_values():
     x, _, _ = bouncing(44100)
-    bad = [("min_separation", 0.0), ("min_separation", 1e-6), ("hop", -1.0), ("hop", 1e-6),
-           ("threshold_db", 0.0), ("rise_db", -3.0), ("release", float("nan")),
-           ("dynamic_range_db", 0), ("max_drop_db", -20.0), ("background", 0.0),
-           ("onset_fraction", 0.0), ("onset_fraction", 1.5), ("lpc_order", 1),
-           ("lpc_order", 2.5), ("window", -0.02), ("window", 1e-6),
-           ("decay_smoothing", 1e-5), ("clip_samples", 1), ("clip_samples", 4.0),
-           ("on_clipping", "ignore"), ("subtract_tails", "yes"), ("deflate", 1),
-           ("deflate", None), ("gravity", 0.0), ("gravity", -9.81)]
+    bad = [
+        ("min_separation", 0.0),
+        ("min_separation", 1e-6),
+        ("hop", -1.0),
+        ("hop", 1e-6),
+        ("threshold_db", 0.0),
+        ("rise_db", -3.0),
+        ("release", float("nan")),
+        ("dynamic_range_db", 0),
+        ("max_drop_db", -20.0),
+        ("background", 0.0),
+        ("onset_fraction", 0.0),
+        ("onset_fraction", 1.5),
+        ("lpc_order", 1),
+        ("lpc_order", 2.5),
+        ("window", -0.02),
+        ("window", 1e-6),
+        ("decay_smoothing", 1e-5),
+        ("clip_samples", 1),
+        ("clip_samples", 4.0),
+        ("on_clipping", "ignore"),
+        ("subtract_tails", "yes"),
+        ("deflate", 1),
+        ("deflate", None),
+        ("gravity", 0.0),
+        ("gravity", -9.81),
+    ]
     for name, value in bad:
         with pytest.raises(ParameterError, match=name):
             analyze(x, 44100, **{name: value})
@@ -328,10 +377,10 @@ def test_energy_falls_by_e_squared(clean44):
     # measured over the same 20 ms of its own sound). Tolerance 2 %: the sampled energy
     # of the short 7.6 kHz mode (5.8 samples per period, 220 per decay time) depends on
     # where the onset falls between samples by up to ~1 %
-    assert np.max(np.abs(ratio / E ** 2 - 1.0)) < 0.02
+    assert np.max(np.abs(ratio / E**2 - 1.0)) < 0.02
     # the geometric trend over all ticks averages the sampling-phase scatter
     slope = np.polyfit(np.arange(energy.size), np.log(energy), 1)[0]
-    assert math.exp(slope) == pytest.approx(E ** 2, rel=0.002)
+    assert math.exp(slope) == pytest.approx(E**2, rel=0.002)
     assert all(t.window == pytest.approx(0.02, abs=0.5 / 44100) for t in an.ticks)
     # peak ~ speed: falls by e per bounce (same sampling-phase scatter, on amplitude)
     peak = np.array([an.ticks[i].peak for i in idx])
@@ -349,9 +398,14 @@ def test_audio():
 
 
 def test_audio_rejects_bad_arrays():
-    for bad, word in ((np.zeros((10, 2, 2)), "shape"), (np.zeros(0), "empty"),
-                      (np.array(["a", "b"] * 500), "dtype"), (np.ones(1000, complex), "dtype"),
-                      (np.ones(1000, bool), "dtype"), (np.ones(20), "too short")):
+    for bad, word in (
+        (np.zeros((10, 2, 2)), "shape"),
+        (np.zeros(0), "empty"),
+        (np.array(["a", "b"] * 500), "dtype"),
+        (np.ones(1000, complex), "dtype"),
+        (np.ones(1000, bool), "dtype"),
+        (np.ones(20), "too short"),
+    ):
         with pytest.raises(ParameterError, match=word):
             analyze(bad, 44100)
     for silent in (np.zeros(44100), np.zeros((44100, 2))):
@@ -376,7 +430,7 @@ def _sine_centroid(f0, tau, fs):
     |w0 / ((1/tau + i w)^2 + w0^2)|^2 (its Laplace transform on the imaginary axis)."""
     f = np.linspace(0.0, fs / 2, 400_001)
     w0, w = 2 * np.pi * f0, 2 * np.pi * f
-    p = np.abs(w0 / ((1.0 / tau + 1j * w) ** 2 + w0 ** 2)) ** 2
+    p = np.abs(w0 / ((1.0 / tau + 1j * w) ** 2 + w0**2)) ** 2
     return float(np.sum(f * p) / np.sum(p))
 
 
@@ -394,7 +448,7 @@ def test_centroid_and_decay_of_single_mode(f0, tau):
     # sine after 4 (800 Hz) to 5 decay times, its taper broadens the line: measured 0.4 %
     # at most, bound 1 %
     assert np.max(np.abs(c / _sine_centroid(f0, tau, fs) - 1.0)) < 0.01
-    if f0 * tau >= 20:    # a narrow line (20 periods per decay time): f0 itself within 2 %
+    if f0 * tau >= 20:  # a narrow line (20 periods per decay time): f0 itself within 2 %
         assert np.max(np.abs(c / f0 - 1.0)) < 0.02
     # an exponential envelope exp(-t / tau): smoothing by a Hann window keeps it
     # exponential away from the window's ends, so the log-linear fit returns tau; the
@@ -421,7 +475,7 @@ def test_same_ticks_measure_the_same():
     assert np.max(np.abs(c / c[0] - 1.0)) < 0.005
     assert np.max(np.abs(sp / sp[0] - 1.0)) < 0.005
     assert np.max(np.abs(d / d[0] - 1.0)) < 0.01
-    assert np.max(np.abs(en[1:] / en[:-1] / E ** 2 - 1.0)) < 0.01
+    assert np.max(np.abs(en[1:] / en[:-1] / E**2 - 1.0)) < 0.01
     # the abrupt starts: the sampled spectrum of a tick started between two samples
     # depends on where it starts (the step's skirt aliases differently), measured 1.4 %
     # between ticks: 2 %
@@ -453,8 +507,10 @@ def test_long_decay_rejects_short_smoothing():
 
 def test_spread_of_two_lines():
     fs = 44100
-    one = {f: analyze(bouncing(fs, modes=((f, 0.05, 1.0, -np.pi / 2),))[0], fs).ticks[0]
-           for f in (1000.0, 3000.0)}
+    one = {
+        f: analyze(bouncing(fs, modes=((f, 0.05, 1.0, -np.pi / 2),))[0], fs).ticks[0]
+        for f in (1000.0, 3000.0)
+    }
     x, _, _ = bouncing(fs, modes=((1000.0, 0.05, 1.0, -np.pi / 2), (3000.0, 0.05, 1.0, -np.pi / 2)))
     tick = analyze(x, fs).ticks[0]
     # where the power spectra of the two lines add, the moments are those of a
@@ -466,7 +522,7 @@ def test_spread_of_two_lines():
     a, b = one[1000.0], one[3000.0]
     w1, w3 = a.energy / (a.energy + b.energy), b.energy / (a.energy + b.energy)
     assert tick.centroid == pytest.approx(w1 * a.centroid + w3 * b.centroid, rel=0.01)
-    var = w1 * a.spread ** 2 + w3 * b.spread ** 2 + w1 * w3 * (b.centroid - a.centroid) ** 2
+    var = w1 * a.spread**2 + w3 * b.spread**2 + w1 * w3 * (b.centroid - a.centroid) ** 2
     assert tick.spread == pytest.approx(math.sqrt(var), rel=0.03)
     assert tick.energy == pytest.approx(a.energy + b.energy, rel=0.01)
     # the line spectrum alone has a spread of 1 kHz; each line's own width (1/(2 pi
@@ -494,8 +550,9 @@ def test_noise(clean44, snr_db):
     assert false_ticks(an, onsets) == 0
     # the noise floor estimate (quiet frames) against the noise added: the
     # quietest frames hold a little tail too: within 15 %
-    sigma = math.sqrt(np.mean(x[int(T0 * fs): int((onsets[-1] + 0.05) * fs)] ** 2)
-                      * 10.0 ** (-snr_db / 10.0))
+    sigma = math.sqrt(
+        np.mean(x[int(T0 * fs) : int((onsets[-1] + 0.05) * fs)] ** 2) * 10.0 ** (-snr_db / 10.0)
+    )
     assert an.noise_floor == pytest.approx(sigma, rel=0.15)
 
 
@@ -505,6 +562,7 @@ def test_noise_rejects_pure_noise():
         analyze(rng.normal(size=44100), 44100)
     # coloured (red) noise is whitened first: no tick either
     from scipy.signal import lfilter
+
     with pytest.raises(AnalysisError, match="no tick"):
         analyze(lfilter([1.0], [1.0, -0.99], rng.normal(size=44100)), 44100)
 
@@ -581,8 +639,7 @@ def ringing_plate(fs, onsets, only=None, dur=1.0, n_modes=300, seed=5):
     for m in range(n_modes):
         feed = np.zeros(n, dtype=complex)
         for k in ticks:
-            feed[first[k]] += (PLATE_E ** k * amp[m] * -1j
-                               * np.exp(p[m] * (first[k] / fs - onsets[k])))
+            feed[first[k]] += PLATE_E**k * amp[m] * -1j * np.exp(p[m] * (first[k] / fs - onsets[k]))
         x += lfilter([1.0], [1.0, -np.exp(p[m] / fs)], feed).real
     return x
 
@@ -608,7 +665,7 @@ def test_resonator_search_finds_masked_ticks(plate48):
     fs = 48000
     alone = ringing_plate(fs, onsets, only=10, dur=onsets[10] + 0.03)
     a = int(round(onsets[10] * fs))
-    b = a + int(0.02 * fs)                      # the last tick: its window, 20 ms
+    b = a + int(0.02 * fs)  # the last tick: its window, 20 ms
     tmr = 10.0 * np.log10(np.sum(alone[a:b] ** 2) / np.sum((x[a:b] - alone[a:b]) ** 2))
     assert tmr < -35.0
     first = analyze(x, fs, lpc_order=960)
@@ -682,18 +739,24 @@ def test_resonator_predictor():
     fs = 48000
     rng = np.random.default_rng(2)
     t = np.arange(4800) / fs
-    x = sum(a * np.exp(-t / tau) * np.sin(2 * np.pi * f * t + ph) for f, tau, a, ph in zip(
-        rng.uniform(300, 20000, 12), rng.uniform(0.05, 0.5, 12), rng.rayleigh(1.0, 12),
-        rng.uniform(0, 2 * np.pi, 12)))
+    x = sum(
+        a * np.exp(-t / tau) * np.sin(2 * np.pi * f * t + ph)
+        for f, tau, a, ph in zip(
+            rng.uniform(300, 20000, 12),
+            rng.uniform(0.05, 0.5, 12),
+            rng.rayleigh(1.0, 12),
+            rng.uniform(0, 2 * np.pi, 12),
+        )
+    )
     a = _resonator_predictor(x, fs, 64)
     assert a[0] == 1.0 and a.size - 1 >= 24 and _stable(a)
-    err = np.convolve(x, a)[a.size: x.size]
-    assert 10 * np.log10(np.sum(err ** 2) / np.sum(x[a.size:] ** 2)) < -100.0
-    sigma = math.sqrt(np.mean(x ** 2) * 1e-4)
+    err = np.convolve(x, a)[a.size : x.size]
+    assert 10 * np.log10(np.sum(err**2) / np.sum(x[a.size :] ** 2)) < -100.0
+    sigma = math.sqrt(np.mean(x**2) * 1e-4)
     y = x + rng.normal(0.0, sigma, x.size)
     b = _resonator_predictor(y, fs, 64)
-    err = np.convolve(y, b)[b.size: y.size]
-    assert _stable(b) and 10 * np.log10(np.mean(err ** 2) / sigma ** 2) == pytest.approx(0.0, abs=1.0)
+    err = np.convolve(y, b)[b.size : y.size]
+    assert _stable(b) and 10 * np.log10(np.mean(err**2) / sigma**2) == pytest.approx(0.0, abs=1.0)
 
 
 def test_resonator_predictor_rejects_short_stretch():
@@ -710,8 +773,12 @@ def test_covariance_normal_equations():
 
     x = np.random.default_rng(4).normal(size=200)
     p = 7
-    direct = np.array([[np.dot(x[p - i: x.size - i], x[p - j: x.size - j]) for j in range(p + 1)]
-                       for i in range(p + 1)])
+    direct = np.array(
+        [
+            [np.dot(x[p - i : x.size - i], x[p - j : x.size - j]) for j in range(p + 1)]
+            for i in range(p + 1)
+        ]
+    )
     assert np.allclose(_covariance(x, p), direct, rtol=0.0, atol=1e-10 * direct[0, 0])
 
 
@@ -734,7 +801,7 @@ def test_channels(clean44):
     assert mix.channel is None and len(mix.ticks) == len(mono.ticks)
     for a, b in zip(mix.ticks, mono.ticks):
         assert a.time == pytest.approx(b.time, abs=1e-9)
-        assert a.energy == pytest.approx(0.75 ** 2 * b.energy, rel=1e-6)
+        assert a.energy == pytest.approx(0.75**2 * b.energy, rel=1e-6)
         assert a.centroid == pytest.approx(b.centroid, rel=1e-6)
 
 
@@ -834,8 +901,7 @@ def test_analyze_file(tmp_path, clean44):
     assert np.max(np.abs(match(a, onsets8)[1][:10])) < 0.2e-3
     # a clipped 16-bit WAV: flagged
     clipped = tmp_path / "clipped.wav"
-    soundfile.write(clipped, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100,
-                    subtype="PCM_16")
+    soundfile.write(clipped, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100, subtype="PCM_16")
     assert analyze_file(clipped).clipped
 
 
@@ -868,8 +934,20 @@ def test_analyze_file_rejects_bad_files(tmp_path):
 # ---------------------------------------------------------------------------
 # presentation
 
-COLUMNS = ["n", "time (s)", "bounce (ms)", "e", "speed (m/s)", "energy (u^2 s)", "peak (u)",
-           "centroid (Hz)", "spread (Hz)", "decay (ms)", "strength (dB)", "flags"]
+COLUMNS = [
+    "n",
+    "time (s)",
+    "bounce (ms)",
+    "e",
+    "speed (m/s)",
+    "energy (u^2 s)",
+    "peak (u)",
+    "centroid (Hz)",
+    "spread (Hz)",
+    "decay (ms)",
+    "strength (dB)",
+    "flags",
+]
 
 
 def test_format_table(clean44):
@@ -935,8 +1013,12 @@ def test_to_csv_rejects_list_of_ticks(clean44):
         to_csv(list(an.ticks))
 
 
-PANELS = ["31 ticks detected", "bounce time and restitution", "energy per tick",
-          "centroid and decay time"]
+PANELS = [
+    "31 ticks detected",
+    "bounce time and restitution",
+    "energy per tick",
+    "centroid and decay time",
+]
 
 
 def test_plot_analysis(tmp_path, clean44):
@@ -947,9 +1029,9 @@ def test_plot_analysis(tmp_path, clean44):
     # four panels (two with a second y axis: restitution, decay time)
     titles = [a.get_title() for a in fig.axes if a.get_title()]
     assert titles == PANELS and len(fig.axes) == 6
-    assert len(fig.axes[0].lines) == 1 + len(an.ticks)      # the signal and one line a tick
+    assert len(fig.axes[0].lines) == 1 + len(an.ticks)  # the signal and one line a tick
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert os.listdir(tmp_path) == ["analysis.png"]         # the temp file was renamed
+    assert os.listdir(tmp_path) == ["analysis.png"]  # the temp file was renamed
 
 
 def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
@@ -965,8 +1047,12 @@ def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
     with pytest.raises(ParameterError, match="NaN"):
         plot_analysis(an, np.full(100, np.nan), 44100, tmp_path / "a.png")
     with monkeypatch.context() as m:
-        for name in ("matplotlib", "matplotlib.figure", "matplotlib.backends",
-                     "matplotlib.backends.backend_agg"):
+        for name in (
+            "matplotlib",
+            "matplotlib.figure",
+            "matplotlib.backends",
+            "matplotlib.backends.backend_agg",
+        ):
             m.setitem(sys.modules, name, None)
         with pytest.raises(SynthError, match="pip install matplotlib"):
             plot_analysis(an, x, 44100, tmp_path / "a.png")
@@ -976,7 +1062,7 @@ def test_plot_analysis_rejects_bad_input(tmp_path, clean44, monkeypatch):
         plot_analysis(an, x, 44100, tmp_path / "a.xyz")
     with pytest.raises(ParameterError, match="is a directory"):
         check_plot_path(tmp_path)
-    if os.geteuid() != 0:               # root writes anywhere
+    if os.geteuid() != 0:  # root writes anywhere
         ro = tmp_path / "ro"
         ro.mkdir()
         ro.chmod(0o500)
@@ -1039,8 +1125,9 @@ def test_analyze_command(capsys, three_channels, tmp_path):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     path, onsets = three_channels
     png = tmp_path / "a.png"
-    code, out, err = _run(capsys, "analyze", str(path), "--channel", "1", "--plot", str(png),
-                          "--window", "0.01")
+    code, out, err = _run(
+        capsys, "analyze", str(path), "--channel", "1", "--plot", str(png), "--window", "0.01"
+    )
     assert code == 0 and err == ""
     rows = [line.split() for line in out.splitlines() if re.match(r"^\s*\d+\s+\d", line)]
     assert [float(r[1]) for r in rows[:10]] == pytest.approx(onsets[:10], abs=2e-4)
@@ -1057,12 +1144,17 @@ def test_analyze_command_rejects_bad_input(capsys, three_channels, tmp_path):
         _run(capsys, "analyze", str(path), "--json", "--csv")
     assert info.value.code == 2 and "not allowed with" in capsys.readouterr().err
     # a bad image path or format is reported before any output
-    for bad, words in ((tmp_path / "none" / "a.png", "does not exist"),
-                       (tmp_path / "a.xyz", "image format")):
+    for bad, words in (
+        (tmp_path / "none" / "a.png", "does not exist"),
+        (tmp_path / "a.xyz", "image format"),
+    ):
         code, out, err = _run(capsys, "analyze", str(path), "--plot", str(bad))
         assert code == 2 and out == "" and words in err
-    for argv, words in ((["--channel", "3"], "channel"), (["--channel", "left"], "channel"),
-                        (["--window", "-1"], "window")):
+    for argv, words in (
+        (["--channel", "3"], "channel"),
+        (["--channel", "left"], "channel"),
+        (["--window", "-1"], "window"),
+    ):
         code, out, err = _run(capsys, "analyze", str(path), *argv)
         assert code == 2 and out == "" and words in err and len(err.splitlines()) == 1
 
@@ -1072,8 +1164,7 @@ def test_analyze_command_warns_on_clipping(capsys, tmp_path, fmt):
     # a clipped file: the warning goes to stderr whatever the output format
     x, _, _ = bouncing(44100)
     path = tmp_path / "clipped.wav"
-    soundfile.write(path, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100,
-                    subtype="PCM_16")
+    soundfile.write(path, np.clip(2.0 * x / np.abs(x).max(), -1.0, 1.0), 44100, subtype="PCM_16")
     code, out, err = _run(capsys, "analyze", str(path), *fmt)
     assert code == 0 and err.startswith("synth: warning: clipping") and "onsets" in err
     assert "warning" not in out or fmt == ["--json"]

@@ -8,11 +8,36 @@ import synth
 from synth import contact, materials
 
 # Names that UI, game and batch code rely on (README, Python API).
-PUBLIC = ["Material", "Ball", "Plate", "Scene", "Contact", "Accelerometer", "Microphone",
-          "Rayleigh", "LossFactor", "solve_impact", "solve_contact", "simulate_bounces",
-          "simulate_scene", "ImpactResult", "BounceSequence", "Impact", "render", "Render",
-          "load_preset", "write_audio", "read_audio", "play", "analyze", "analyze_file",
-          "Analysis", "Tick", "SynthError", "ParameterError"]
+PUBLIC = [
+    "Material",
+    "Ball",
+    "Plate",
+    "Scene",
+    "Contact",
+    "Accelerometer",
+    "Microphone",
+    "Rayleigh",
+    "LossFactor",
+    "solve_impact",
+    "solve_contact",
+    "simulate_bounces",
+    "simulate_scene",
+    "ImpactResult",
+    "BounceSequence",
+    "Impact",
+    "render",
+    "Render",
+    "load_preset",
+    "write_audio",
+    "read_audio",
+    "play",
+    "analyze",
+    "analyze_file",
+    "Analysis",
+    "Tick",
+    "SynthError",
+    "ParameterError",
+]
 
 
 @pytest.mark.parametrize("name", PUBLIC)
@@ -40,13 +65,28 @@ def test_error_tree():
         synth.solve_contact(mass=0.004, stiffness=1e9, admittance=1e-3, speed=-1.0)
 
 
-@pytest.mark.parametrize("func, keywords", [
-    (synth.solve_contact, ["mass", "stiffness", "admittance", "speed", "gravity", "exponent",
-                           "dissipation", "plate_velocity", "rtol"]),
-    (synth.solve_impact, ["position", "gravity", "contact", "rtol"]),
-    (synth.simulate_bounces, ["drop_height", "position", "gravity"]),
-    (synth.render, ["samplerate", "normalize"]),
-])
+@pytest.mark.parametrize(
+    "func, keywords",
+    [
+        (
+            synth.solve_contact,
+            [
+                "mass",
+                "stiffness",
+                "admittance",
+                "speed",
+                "gravity",
+                "exponent",
+                "dissipation",
+                "plate_velocity",
+                "rtol",
+            ],
+        ),
+        (synth.solve_impact, ["position", "gravity", "contact", "rtol"]),
+        (synth.simulate_bounces, ["drop_height", "position", "gravity"]),
+        (synth.render, ["samplerate", "normalize"]),
+    ],
+)
 def test_keyword_only_arguments(func, keywords):
     # The documented keyword arguments exist and are keyword-only (no positional drift).
     params = inspect.signature(func).parameters
@@ -56,11 +96,20 @@ def test_keyword_only_arguments(func, keywords):
 
 def test_defaults_of_the_documented_signatures():
     sig = inspect.signature(synth.solve_contact).parameters
-    assert (sig["gravity"].default, sig["exponent"].default, sig["dissipation"].default,
-            sig["plate_velocity"].default, sig["rtol"].default) == (9.81, 1.5, 0.0, 0.0, 1e-6)
+    assert (
+        sig["gravity"].default,
+        sig["exponent"].default,
+        sig["dissipation"].default,
+        sig["plate_velocity"].default,
+        sig["rtol"].default,
+    ) == (9.81, 1.5, 0.0, 0.0, 1e-6)
     sig = inspect.signature(synth.solve_impact).parameters
-    assert (sig["position"].default, sig["gravity"].default, sig["contact"].default,
-            sig["rtol"].default) == (None, 9.81, "hertz", 1e-6)
+    assert (
+        sig["position"].default,
+        sig["gravity"].default,
+        sig["contact"].default,
+        sig["rtol"].default,
+    ) == (None, 9.81, "hertz", 1e-6)
     sig = inspect.signature(synth.render).parameters
     assert (sig["samplerate"].default, sig["normalize"].default) == (48000, "peak")
 
@@ -71,8 +120,11 @@ def test_scene_takes_the_drop_by_keyword():
     assert [p for p in params][:2] == ["ball", "plate"]
     for k in ("drop_height", "position", "listener", "gravity"):
         assert params[k].kind is inspect.Parameter.KEYWORD_ONLY
-    assert (params["position"].default, params["listener"].default, params["gravity"].default) \
-        == (None, None, 9.81)
+    assert (params["position"].default, params["listener"].default, params["gravity"].default) == (
+        None,
+        None,
+        9.81,
+    )
     with pytest.raises(TypeError):
         synth.Scene(synth.Ball("steel", 0.005), synth.Plate("mdf-18", 0.018, 1.2, 0.5), 0.1)
 

@@ -19,14 +19,17 @@ NOT_OPTIONS = {"scene", "sequence"}
 
 
 def defaults(func, skip=()) -> dict:
-    return {name: p.default for name, p in inspect.signature(func).parameters.items()
-            if name not in skip}
+    return {
+        name: p.default
+        for name, p in inspect.signature(func).parameters.items()
+        if name not in skip
+    }
 
 
 def documented_section(name: str) -> dict:
     """The keys and values of ``[name]`` in the presets module's docstring (TOML)."""
     doc = presets.__doc__
-    block = doc[doc.index(f"    [{name}]"):].split("\n\n")[0]
+    block = doc[doc.index(f"    [{name}]") :].split("\n\n")[0]
     text = "\n".join(line[4:] for line in block.splitlines())
     return tomllib.loads(text)[name]
 
@@ -45,7 +48,7 @@ def test_documented_preset_render_keys_are_the_defaults():
     assert set(doc) == set(opts) | {"subtype"}
     assert doc.pop("subtype") == DEFAULT_SUBTYPE
     for key, value in doc.items():
-        if opts[key] is None:      # no default (e.g. max_frequency: the Nyquist frequency)
+        if opts[key] is None:  # no default (e.g. max_frequency: the Nyquist frequency)
             continue
         assert value == opts[key], key
 

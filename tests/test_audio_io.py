@@ -24,10 +24,12 @@ SR = 48000
 def ramp_and_noise(frames=4801, channels=None, seed=0):
     """Full-scale ramp (both ends of the range) plus random samples in [-1, 1]."""
     rng = np.random.default_rng(seed)
-    x = np.concatenate([np.linspace(-1.0, 1.0, frames // 2), rng.uniform(-1, 1, frames - frames // 2)])
+    x = np.concatenate(
+        [np.linspace(-1.0, 1.0, frames // 2), rng.uniform(-1, 1, frames - frames // 2)]
+    )
     if channels is None:
         return x
-    return np.stack([x * (0.9 ** c) for c in range(channels)], axis=1)
+    return np.stack([x * (0.9**c) for c in range(channels)], axis=1)
 
 
 def decaying_tone(duration=1.0, f=1000.0, decay=0.1, amplitude=0.2, sr=SR):
@@ -36,6 +38,7 @@ def decaying_tone(duration=1.0, f=1000.0, decay=0.1, amplitude=0.2, sr=SR):
 
 
 # --------------------------------------------------------------------------- write / read
+
 
 # libsndfile stores round(x * 2^(b-1)), clipped to 2^(b-1) - 1, and reads code / 2^(b-1):
 # the error is half a step everywhere and one step 2^-(b-1) at +1.0.
@@ -72,7 +75,7 @@ def test_write_audio_two_dimensional(tmp_path):
     write_audio(tmp_path / "x.flac", x, 44100)
     y, sr = read_audio(tmp_path / "x.flac")
     assert sr == 44100 and y.shape == (x.shape[0], 3)
-    assert np.max(np.abs(y - x)) <= 2.0 ** -23
+    assert np.max(np.abs(y - x)) <= 2.0**-23
 
 
 def test_write_audio_refuses_to_clip_pcm(tmp_path):
@@ -105,17 +108,28 @@ def test_write_audio_rejects_bad_samplerate(tmp_path, samplerate):
         write_audio(tmp_path / "x.wav", ramp_and_noise(), samplerate)
 
 
-@pytest.mark.parametrize("audio", [
-    np.array([0.0, np.nan, 0.1]), np.array([np.inf]), np.zeros(0), np.zeros((0, 2)),
-    np.zeros((4, 2, 2)), np.array([0, 1, -1], dtype=np.int16), None, "audio"])
+@pytest.mark.parametrize(
+    "audio",
+    [
+        np.array([0.0, np.nan, 0.1]),
+        np.array([np.inf]),
+        np.zeros(0),
+        np.zeros((0, 2)),
+        np.zeros((4, 2, 2)),
+        np.array([0, 1, -1], dtype=np.int16),
+        None,
+        "audio",
+    ],
+)
 def test_write_audio_rejects_bad_audio(tmp_path, audio):
     with pytest.raises(ParameterError, match="audio"):
         write_audio(tmp_path / "x.wav", audio, SR)
     assert os.listdir(tmp_path) == []
 
 
-@pytest.mark.parametrize("suffix,subtype", [(".flac", "FLOAT"), (".wav", "PCM_99"),
-                                            (".wav", 16), (".flac", "VORBIS")])
+@pytest.mark.parametrize(
+    "suffix,subtype", [(".flac", "FLOAT"), (".wav", "PCM_99"), (".wav", 16), (".flac", "VORBIS")]
+)
 def test_write_audio_rejects_bad_subtype(tmp_path, suffix, subtype):
     with pytest.raises(ParameterError, match="subtype"):
         write_audio(tmp_path / f"x{suffix}", ramp_and_noise(), SR, subtype=subtype)
@@ -123,11 +137,13 @@ def test_write_audio_rejects_bad_subtype(tmp_path, suffix, subtype):
 
 def _failing_write(real_write):
     """soundfile.write that writes part of the file, then fails."""
+
     def write(file, data, samplerate, **kw):
         real_write(file, data[:10], samplerate, **kw)
         with open(file, "ab") as fh:
             fh.write(b"partial")
         raise OSError("disk full")
+
     return write
 
 
@@ -199,13 +215,16 @@ def test_read_audio_rejects_missing_file(tmp_path):
 def test_read_audio_rejects_corrupt_file(tmp_path):
     bad = tmp_path / "x.wav"
     bad.write_bytes(b"RIFF\x00\x00garbage, not a wave header" * 10)
-    with pytest.raises(AudioFileError, match=r"cannot read .*x\.wav.*corrupt or unsupported.*not recognised"):
+    with pytest.raises(
+        AudioFileError, match=r"cannot read .*x\.wav.*corrupt or unsupported.*not recognised"
+    ):
         read_audio(bad)
     # AudioFileError belongs to the project's tree and is a ValueError.
     assert issubclass(AudioFileError, ParameterError) and issubclass(AudioFileError, ValueError)
 
 
 # --------------------------------------------------------------------------- levels
+
 
 def test_normalize_peak():
     x = decaying_tone(0.2)
@@ -260,8 +279,7 @@ def test_normalize_loudness_rejects_peak_above_full_scale():
     with pytest.raises(ParameterError, match=r"sample peak at .*dBFS.*lower loudness_lufs"):
         normalize(x, "loudness", samplerate=SR, units="Pa", loudness_lufs=-5.0)
     # With the limit lifted (for a float file), the result exceeds full scale, unclipped.
-    y, gain = normalize(x, "loudness", samplerate=SR, units="Pa", loudness_lufs=-5.0,
-                        max_peak=None)
+    y, gain = normalize(x, "loudness", samplerate=SR, units="Pa", loudness_lufs=-5.0, max_peak=None)
     assert np.max(np.abs(y)) > 1.0
     assert np.max(np.abs(y - x * gain)) <= 1e-12
 
@@ -280,16 +298,19 @@ def test_normalize_loudness_rejects_unmeasurable_audio():
     with pytest.raises(ParameterError, match="no measurable loudness"):
         normalize(0.5 * (1 - np.cos(2 * np.pi * t / 4.0)), "loudness", samplerate=SR, units="Pa")
     with pytest.raises(ParameterError, match="6 channels"):
-        normalize(np.ones((SR, 6)) * decaying_tone(1.0)[:, None], "loudness",
-                  samplerate=SR, units="Pa")
+        normalize(
+            np.ones((SR, 6)) * decaying_tone(1.0)[:, None], "loudness", samplerate=SR, units="Pa"
+        )
 
 
-@pytest.mark.parametrize("preset", ["thesis-glass17-mdf12", "thesis-steel10-mdf6",
-                                    "ceramic-cup-on-stone"])
+@pytest.mark.parametrize(
+    "preset", ["thesis-glass17-mdf12", "thesis-steel10-mdf6", "ceramic-cup-on-stone"]
+)
 def test_physical_level_fits_the_loudest_presets(preset, tmp_path):
     # The calibration leaves headroom for the engine's own loudest scenes (microphone and
     # accelerometer): their physical render writes to a 24-bit file without clipping.
     import synth
+
     r = synth.render_preset(preset, normalize="physical", max_frequency=12000.0)
     assert 0.0 < np.max(np.abs(r.audio)) < 10 ** (-6 / 20)
     synth.write_audio(tmp_path / "x.wav", r.audio, r.samplerate)
@@ -316,13 +337,22 @@ def test_normalize_none():
     assert gain == 1.0 and np.array_equal(y, x)
 
 
-@pytest.mark.parametrize("kw,field", [
-    (dict(mode="rms"), "mode"), (dict(peak_db=1.0), "peak_db"),
-    (dict(peak_db=float("nan")), "peak_db"), (dict(loudness_lufs=3.0), "loudness_lufs"),
-    (dict(loudness_lufs="loud"), "loudness_lufs"), (dict(units="dB"), "units"),
-    (dict(samplerate=0), "samplerate"), (dict(samplerate=48000.0), "samplerate"),
-    (dict(max_peak=0.0), "max_peak"), (dict(audio=np.array([1.0, np.nan])), "audio"),
-    (dict(audio=np.arange(4)), "audio")])
+@pytest.mark.parametrize(
+    "kw,field",
+    [
+        (dict(mode="rms"), "mode"),
+        (dict(peak_db=1.0), "peak_db"),
+        (dict(peak_db=float("nan")), "peak_db"),
+        (dict(loudness_lufs=3.0), "loudness_lufs"),
+        (dict(loudness_lufs="loud"), "loudness_lufs"),
+        (dict(units="dB"), "units"),
+        (dict(samplerate=0), "samplerate"),
+        (dict(samplerate=48000.0), "samplerate"),
+        (dict(max_peak=0.0), "max_peak"),
+        (dict(audio=np.array([1.0, np.nan])), "audio"),
+        (dict(audio=np.arange(4)), "audio"),
+    ],
+)
 def test_normalize_rejects_bad_input(kw, field):
     args = dict(audio=decaying_tone(0.1), mode="peak", samplerate=SR, units="Pa")
     args.update(kw)
@@ -331,6 +361,7 @@ def test_normalize_rejects_bad_input(kw, field):
 
 
 # --------------------------------------------------------------------------- fade
+
 
 def test_fade_out():
     x = np.ones((1000, 2))
@@ -346,10 +377,16 @@ def test_fade_out():
     assert np.array_equal(fade_out(x, 1000, 0.0), x)
 
 
-@pytest.mark.parametrize("kw,field", [
-    (dict(duration=-0.1), "duration"), (dict(duration=2.0), "duration"),
-    (dict(duration=float("inf")), "duration"), (dict(samplerate=0), "samplerate"),
-    (dict(audio=np.zeros(0)), "audio")])
+@pytest.mark.parametrize(
+    "kw,field",
+    [
+        (dict(duration=-0.1), "duration"),
+        (dict(duration=2.0), "duration"),
+        (dict(duration=float("inf")), "duration"),
+        (dict(samplerate=0), "samplerate"),
+        (dict(audio=np.zeros(0)), "audio"),
+    ],
+)
 def test_fade_out_rejects_bad_input(kw, field):
     args = dict(audio=np.ones(1000), samplerate=1000, duration=0.1)
     args.update(kw)

@@ -105,8 +105,11 @@ def serial(tmp_path_factory, cache_dir):
 
 
 def _audio_files(folder: Path) -> dict:
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())
-            if p.suffix in (".wav", ".flac", ".ogg")}
+    return {
+        p.name: p.read_bytes()
+        for p in sorted(folder.iterdir())
+        if p.suffix in (".wav", ".flac", ".ogg")
+    }
 
 
 def _check_complete(folder: Path, n: int) -> None:
@@ -167,8 +170,9 @@ def test_dask_local_cluster_equals_pool(serial, tmp_path):
     # same files as the local run.
     distributed = pytest.importorskip("dask.distributed")
     spec, ref = serial
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         result = bank.run(spec, tmp_path / "dask", scheduler=cluster.scheduler_address)
     assert result.ok and result.done == 12
     assert _audio_files(tmp_path / "dask") == _audio_files(ref)
@@ -187,21 +191,23 @@ def test_kill_9_at_random_moments_then_resume(tmp_path, cache_dir):
     rng = random.Random(13)
     rows_seen = []
     for _ in range(3):
-        proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
         target = (rows_seen[-1] if rows_seen else 0) + rng.randint(2, 8)
         deadline = time.monotonic() + 120
-        while len(mf.read_rows(out)) < target and proc.poll() is None \
-                and time.monotonic() < deadline:   # the workers are rendering
+        while (
+            len(mf.read_rows(out)) < target and proc.poll() is None and time.monotonic() < deadline
+        ):  # the workers are rendering
             time.sleep(0.002)
         time.sleep(rng.uniform(0.0, 0.02))
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
         rows = mf.read_rows(out)
         rows_seen.append(len(rows))
-        for r in rows:       # every recorded row has its whole file
+        for r in rows:  # every recorded row has its whole file
             assert mf.sha256_file(out / r["file"]) == r["sha256"]
-    assert rows_seen[-1] < 40           # the kills came before the end
+    assert rows_seen[-1] < 40  # the kills came before the end
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
     assert done.returncode == 0, done.stderr
     _check_complete(out, 40)
@@ -211,8 +217,11 @@ def _mount_tmpfs(path: Path, size: str) -> bool:
     if not sys.platform.startswith("linux") or os.geteuid() != 0:
         return False
     path.mkdir()
-    r = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                       capture_output=True, check=False)
+    r = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+        capture_output=True,
+        check=False,
+    )
     return r.returncode == 0
 
 
@@ -223,7 +232,7 @@ def test_disk_that_fills(serial, tmp_path, monkeypatch):
     disk = tmp_path / "disk"
     mounted = _mount_tmpfs(disk, "120k")
     try:
-        if not mounted:      # no tmpfs here: the writer fails with ENOSPC after 5 files
+        if not mounted:  # no tmpfs here: the writer fails with ENOSPC after 5 files
             disk.mkdir(exist_ok=True)
             real, calls = mf.write_atomic, []
 
@@ -261,8 +270,10 @@ def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys):
     # error; the other rows are rendered; the command exits with status 1.
     spec = tmp_path / "bank.toml"
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
-    spec.write_text('preset = "small.toml"\nname = "p{index}"\nformat = "ogg"\n[vary]\n'
-                    '"drop.position" = [[0.1, 0.1], [5.0, 5.0], [0.2, 0.1]]\n')
+    spec.write_text(
+        'preset = "small.toml"\nname = "p{index}"\nformat = "ogg"\n[vary]\n'
+        '"drop.position" = [[0.1, 0.1], [5.0, 5.0], [0.2, 0.1]]\n'
+    )
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 1
     assert "1 failed" in capsys.readouterr().err
     rows = mf.read_rows(tmp_path / "out")
@@ -286,8 +297,9 @@ def test_changed_spec_refused_naming_keys_then_force(tmp_path, cache_dir):
     spec = _write_spec(tmp_path / "spec", count=3)
     out = tmp_path / "out"
     assert bank.run(spec, out, jobs=1).ok
-    spec.write_text(spec.read_text().replace("seed = 3", "seed = 4").replace(
-        "[0.004, 0.005]", "[0.004, 0.006]"))
+    spec.write_text(
+        spec.read_text().replace("seed = 3", "seed = 4").replace("[0.004, 0.005]", "[0.004, 0.006]")
+    )
     with pytest.raises(BankSpecError, match=r"seed.*vary\.ball\.radius|vary\.ball\.radius.*seed"):
         bank.run(spec, out, jobs=1)
     result = bank.run(spec, out, jobs=1, force=True)
@@ -302,25 +314,30 @@ def _bad(tmp_path, text: str) -> str:
     out = tmp_path / "out"
     with pytest.raises(BankSpecError) as info:
         bank.run(path, out, jobs=1)
-    assert not out.exists()          # rejected before any work
+    assert not out.exists()  # rejected before any work
     return str(info.value)
 
 
 BASE = 'preset = "small.toml"\n'
 
 
-@pytest.mark.parametrize("text, key", [
-    (BASE + "colour = 3\n", "colour"),
-    (BASE + '[vary]\n"ball.radios" = [0.004]\n', "ball.radios"),
-    (BASE + '[vary]\n"drop.height" = []\n', "vary.drop.height"),
-    (BASE + '[vary]\n"drop.height" = { min = 0.3, max = 0.1 }\n', "vary.drop.height"),
-    (BASE + '[vary]\n"drop.position" = { min = [0.1, 0.2], max = [0.2, 0.1] }\n',
-     "vary.drop.position"),
-    (BASE + 'name = "{preset}-{ball_mass}"\n[vary]\n"drop.height" = [0.01, 0.02]\n', "name"),
-    (BASE + 'name = "{preset}"\n[vary]\n"drop.height" = [0.01, 0.02]\n', "name"),
-    (BASE + 'count = 0\n[vary]\n"drop.height" = [0.01, 0.02]\n', "count"),
-    (BASE + '[render]\nsamplerate = "fast"\n', "samplerate"),
-])
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        (BASE + "colour = 3\n", "colour"),
+        (BASE + '[vary]\n"ball.radios" = [0.004]\n', "ball.radios"),
+        (BASE + '[vary]\n"drop.height" = []\n', "vary.drop.height"),
+        (BASE + '[vary]\n"drop.height" = { min = 0.3, max = 0.1 }\n', "vary.drop.height"),
+        (
+            BASE + '[vary]\n"drop.position" = { min = [0.1, 0.2], max = [0.2, 0.1] }\n',
+            "vary.drop.position",
+        ),
+        (BASE + 'name = "{preset}-{ball_mass}"\n[vary]\n"drop.height" = [0.01, 0.02]\n', "name"),
+        (BASE + 'name = "{preset}"\n[vary]\n"drop.height" = [0.01, 0.02]\n', "name"),
+        (BASE + 'count = 0\n[vary]\n"drop.height" = [0.01, 0.02]\n', "count"),
+        (BASE + '[render]\nsamplerate = "fast"\n', "samplerate"),
+    ],
+)
 def test_bad_specs_rejected_naming_the_key(tmp_path, text, key):
     assert key in _bad(tmp_path, text)
 
@@ -354,14 +371,22 @@ def test_grid_template_and_log_range(tmp_path):
     from synth.bank import spec as S
 
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
-    s = S.from_dict({"preset": "small.toml", "name": "h{drop.height:.2f}-k{restitution_scale}"
-                     "-{plate_thickness:.4f}",
-                     "vary": {"drop.height": [0.01, 0.02], "restitution_scale": [0.5, 1.0, 1.5],
-                              "plate.thickness": {"min": 0.006, "max": 0.018, "log": True}}},
-                    base_dir=tmp_path)
+    s = S.from_dict(
+        {
+            "preset": "small.toml",
+            "name": "h{drop.height:.2f}-k{restitution_scale}-{plate_thickness:.4f}",
+            "vary": {
+                "drop.height": [0.01, 0.02],
+                "restitution_scale": [0.5, 1.0, 1.5],
+                "plate.thickness": {"min": 0.006, "max": 0.018, "log": True},
+            },
+        },
+        base_dir=tmp_path,
+    )
     items = S.plan(s)
-    assert [(i.values["drop.height"], i.values["restitution_scale"]) for i in items] == \
-        [(h, k) for h in (0.01, 0.02) for k in (0.5, 1.0, 1.5)]
+    assert [(i.values["drop.height"], i.values["restitution_scale"]) for i in items] == [
+        (h, k) for h in (0.01, 0.02) for k in (0.5, 1.0, 1.5)
+    ]
     assert all(0.006 <= i.values["plate.thickness"] <= 0.018 for i in items)
     assert items[0].file.startswith("h0.01-k0.5-0.0")
 
@@ -379,8 +404,12 @@ def test_restitution_scale_changes_the_ticks(tmp_path, cache_dir):
     # k = 0 makes every impact perfectly elastic (1 - e' = 0): the first restitution is 1;
     # k = 1 leaves the physical sequence (the same first restitution as a plain render).
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
-    spec = {"preset": str(tmp_path / "small.toml"), "name": "k{restitution_scale}",
-            "format": "wav", "vary": {"restitution_scale": [0.0, 1.0]}}
+    spec = {
+        "preset": str(tmp_path / "small.toml"),
+        "name": "k{restitution_scale}",
+        "format": "wav",
+        "vary": {"restitution_scale": [0.0, 1.0]},
+    }
     result = bank.run(spec, tmp_path / "out", jobs=1)
     assert result.ok
     rows = mf.read_rows(tmp_path / "out")

@@ -27,7 +27,7 @@ def test_thesis_comparison():
     e = rows["restitution, steel 10.0 mm on 18 mm, first impact (1.4 m/s)"]
     assert e["engine"] == pytest.approx(0.87, abs=0.01)
     assert e["measured"] == 0.76 and e["gap"] == pytest.approx(e["engine"] - 0.76, abs=1e-15)
-    for (ball, board) in bench.THESIS_IMPACTS:
+    for ball, board in bench.THESIS_IMPACTS:
         row = rows[f"contact time, {ball} on {board}"]
         if board == "18 mm":
             assert row["engine"] == pytest.approx(row["model"], rel=0.05), row
@@ -94,6 +94,7 @@ def test_committed_gallery_is_current(name):
     path = REPO / "renders" / f"{name}.wav"
     committed, fs = soundfile.read(path)
     import synth
+
     fresh = synth.render_preset(name)
     assert fs == fresh.samplerate
     n = max(committed.size, fresh.audio.size)

@@ -35,7 +35,7 @@ def _plate():
 
 
 def _modes_in_process(barrier, queue):
-    barrier.wait()       # both processes start the same solve at once
+    barrier.wait()  # both processes start the same solve at once
     m = P.modes(_plate(), max_frequency=3000.0)
     queue.put(np.asarray(m.frequencies).tolist())
 
@@ -56,8 +56,8 @@ def test_two_processes_fill_the_same_entry(tmp_path):
     entries = sorted((tmp_path / "cache").glob("plate-modes-free-*.npz"))
     assert len(entries) == 1
     assert not [p for p in (tmp_path / "cache").iterdir() if p.name.startswith(".")]
-    cache.load_npz(entries[0])       # the digest matches
-    here = P.modes(_plate(), max_frequency=3000.0)     # read from disk, not solved
+    cache.load_npz(entries[0])  # the digest matches
+    here = P.modes(_plate(), max_frequency=3000.0)  # read from disk, not solved
     assert P.cache_info()["disk_hits"] == 1 and P.cache_info()["solves"] == 0
     assert np.asarray(here.frequencies).tolist() == results[0]
 
@@ -105,7 +105,7 @@ def test_altered_entry_is_recomputed(tmp_path):
     again = np.asarray(P.modes(_plate(), max_frequency=3000.0).frequencies)
     assert P.cache_info()["solves"] == 1 and P.cache_info()["disk_hits"] == 0
     np.testing.assert_array_equal(again, first)
-    cache.load_npz(entry)            # rewritten whole
+    cache.load_npz(entry)  # rewritten whole
 
 
 def test_entry_without_digest_is_refused(tmp_path):
@@ -140,7 +140,7 @@ def test_size_bound_setting(monkeypatch):
     monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "-5")
     with pytest.raises(ParameterError, match="SYNTH_CACHE_MAX_BYTES"):
         cache.max_bytes()
-    monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "0")       # nothing kept on disk
+    monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "0")  # nothing kept on disk
     path = cache.cache_dir() / "kind-z.npz"
     assert cache.savez_atomic(path, {"a": np.zeros(10)}) and not path.exists()
     monkeypatch.delenv("SYNTH_CACHE_MAX_BYTES")

@@ -36,6 +36,7 @@ def data_rows(text):
 
 # --------------------------------------------------------------------------- info
 
+
 def test_info(capsys):
     # Thesis section 2.4.3: a 10 mm steel ball at 1.4 m/s (10 cm drop) mid-plate on 18 mm MDF,
     # with gravity, has e = 0.87; 0.01 is the thesis' two printed figures. The table ends with
@@ -101,13 +102,19 @@ def test_info_override(capsys):
     # form, 1e-12 relative).
     code, out, _ = run(capsys, "info", "default", "--json", "--set", "drop.height=0.05")
     assert code == 0
-    assert json.loads(out)["impacts"][0]["time"] == pytest.approx(math.sqrt(2 * 0.05 / 9.81),
-                                                                  rel=1e-12)
+    assert json.loads(out)["impacts"][0]["time"] == pytest.approx(
+        math.sqrt(2 * 0.05 / 9.81), rel=1e-12
+    )
 
 
-@pytest.mark.parametrize("item, part", [("ball.radius", "'ball.radius'"),
-                                        ("a.b.c=1", "a.b.c"),
-                                        ("plate.boundary=pinned", "plate.boundary='pinned'")])
+@pytest.mark.parametrize(
+    "item, part",
+    [
+        ("ball.radius", "'ball.radius'"),
+        ("a.b.c=1", "a.b.c"),
+        ("plate.boundary=pinned", "plate.boundary='pinned'"),
+    ],
+)
 def test_info_override_rejects_malformed(capsys, item, part):
     # Malformed or impossible --set items: status 2 and one line on stderr naming the item.
     code, out, err = run(capsys, "info", "default", "--set", item)
@@ -119,8 +126,14 @@ def test_info_module_entry_point():
     # `python -m synth info default` runs the same command in a fresh interpreter: status 0,
     # the preset's description first.
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.run([sys.executable, "-m", "synth", "info", "default"], cwd=REPO, env=env,
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "synth", "info", "default"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines()[0] == tomllib.loads(DEFAULT.read_text())["description"]
 
@@ -128,15 +141,21 @@ def test_info_module_entry_point():
 def test_info_module_entry_point_rejects_bad_override():
     # The exit status 2 of a bad --set reaches the shell through `python -m synth`.
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    proc = subprocess.run([sys.executable, "-m", "synth", "info", "default", "--set",
-                           "ball.radius=-1"], cwd=REPO, env=env, capture_output=True, text=True,
-                          timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "synth", "info", "default", "--set", "ball.radius=-1"],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
     assert proc.stdout == ""
     assert len(proc.stderr.splitlines()) == 1 and "ball.radius=-1" in proc.stderr
 
 
 # --------------------------------------------------------------------------- presets
+
 
 def test_presets(capsys):
     # `presets` lists "default" with the description in its file.
@@ -170,6 +189,7 @@ def test_presets_rejects_non_utf8_file(capsys, monkeypatch, tmp_path):
 
 # --------------------------------------------------------------------------- materials
 
+
 def test_materials(capsys):
     # `materials` lists the thesis' rows with their constants (thesis Table 3.1: steel
     # rho 7800 kg/m^3, E 216 GPa; 18 mm MDF rho 700 kg/m^3, E 5.689 GPa), as printed (4 figures).
@@ -193,15 +213,26 @@ def test_materials_rejects_arguments():
 
 # --------------------------------------------------------------------------- parser
 
+
 def test_parser_bench_accepts_contact():
     # The bench subcommand parses "contact" and its options (nothing is run here).
-    args = build_parser().parse_args(["bench", "contact", "--repeat", "3", "--tolerances", "1e-3",
-                                      "1e-6"])
+    args = build_parser().parse_args(
+        ["bench", "contact", "--repeat", "3", "--tolerances", "1e-3", "1e-6"]
+    )
     assert (args.what, args.repeat, args.tolerances) == ("contact", 3, [1e-3, 1e-6])
 
 
-@pytest.mark.parametrize("argv", [["bench", "plates"], ["bench"], [], ["render-all"],
-                                  ["info"], ["bench", "contact", "--repeat", "many"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["bench", "plates"],
+        ["bench"],
+        [],
+        ["render-all"],
+        ["info"],
+        ["bench", "contact", "--repeat", "many"],
+    ],
+)
 def test_parser_rejects_bad_arguments(argv, capsys):
     # Unknown benchmark, missing or unknown subcommand, missing preset, non-integer repeat:
     # argparse exits with status 2 before anything runs.
@@ -212,6 +243,7 @@ def test_parser_rejects_bad_arguments(argv, capsys):
 
 
 # --------------------------------------------------------------------------- analyze, alter
+
 
 @pytest.fixture(scope="module")
 def rendered(tmp_path_factory):
@@ -252,10 +284,13 @@ def test_analyze_command_rejects_bad_input(capsys, rendered, tmp_path):
     path, _ = rendered
     bad = tmp_path / "bad.wav"
     bad.write_bytes(b"RIFF0000WAVEjunk")
-    for argv, words in (([str(bad)], "cannot read"), ([str(tmp_path / "none.wav")], "no such file"),
-                        ([str(path), "--channel", "2"], "channel"),
-                        ([str(path), "--channel", "left"], "channel"),
-                        ([str(path), "--min-separation", "-1"], "min_separation")):
+    for argv, words in (
+        ([str(bad)], "cannot read"),
+        ([str(tmp_path / "none.wav")], "no such file"),
+        ([str(path), "--channel", "2"], "channel"),
+        ([str(path), "--channel", "left"], "channel"),
+        ([str(path), "--min-separation", "-1"], "min_separation"),
+    ):
         code, _, err = run(capsys, "analyze", *argv)
         assert code == 2 and words in err, (argv, err)
 
@@ -282,12 +317,20 @@ def test_alter_command(capsys, rendered, tmp_path):
 
 def test_alter_command_rejects_bad_input(capsys, rendered, tmp_path):
     path, _ = rendered
-    for argv, words in (([str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "-1"],
-                         "restitution_scale"),
-                        ([str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "50"],
-                         "restitution_scale"),
-                        ([str(path), "-o", str(tmp_path / "nodir" / "x.wav"),
-                          "--restitution-scale", "0.5"], "nodir")):
+    for argv, words in (
+        (
+            [str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "-1"],
+            "restitution_scale",
+        ),
+        (
+            [str(path), "-o", str(tmp_path / "x.wav"), "--restitution-scale", "50"],
+            "restitution_scale",
+        ),
+        (
+            [str(path), "-o", str(tmp_path / "nodir" / "x.wav"), "--restitution-scale", "0.5"],
+            "nodir",
+        ),
+    ):
         code, _, err = run(capsys, "alter", *argv)
         assert code == 2 and words in err, (argv, err)
         assert not (tmp_path / "x.wav").exists()
@@ -295,16 +338,39 @@ def test_alter_command_rejects_bad_input(capsys, rendered, tmp_path):
 
 # --------------------------------------------------------------------------- render
 
+
 def test_render_command_options(capsys, tmp_path):
     # Every option reaches the file: rate, subtype, level, overrides, plot and report.
     import soundfile
+
     out = tmp_path / "x.wav"
     rep = tmp_path / "x.json"
     png = tmp_path / "x.png"
-    code, text, err = run(capsys, "render", "default", "-o", str(out), "--samplerate", "22050",
-                          "--subtype", "PCM_16", "--normalize", "peak", "--peak-db", "-6",
-                          "--set", "drop.height=0.05", "--set", "render.max_tail=0.5",
-                          "--floor-db", "-60", "--plot", str(png), "--report", str(rep))
+    code, text, err = run(
+        capsys,
+        "render",
+        "default",
+        "-o",
+        str(out),
+        "--samplerate",
+        "22050",
+        "--subtype",
+        "PCM_16",
+        "--normalize",
+        "peak",
+        "--peak-db",
+        "-6",
+        "--set",
+        "drop.height=0.05",
+        "--set",
+        "render.max_tail=0.5",
+        "--floor-db",
+        "-60",
+        "--plot",
+        str(png),
+        "--report",
+        str(rep),
+    )
     assert code == 0, err
     info = soundfile.info(out)
     assert (info.samplerate, info.subtype, info.channels) == (22050, "PCM_16", 1)
@@ -321,18 +387,30 @@ def test_render_command_physical_and_none(capsys, tmp_path):
     # physical fits a 24-bit file; none (pascals) needs a float file, and a PCM file that
     # would clip is refused with a one-line message, leaving nothing behind.
     import soundfile
-    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "p.wav"),
-                       "--normalize", "physical")
+
+    code, _, err = run(
+        capsys, "render", "default", "-o", str(tmp_path / "p.wav"), "--normalize", "physical"
+    )
     assert code == 0, err
     x, _ = soundfile.read(tmp_path / "p.wav")
     assert 0.01 < np.max(np.abs(x)) < 1.0
-    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "n.wav"),
-                       "--normalize", "none", "--subtype", "FLOAT")
+    code, _, err = run(
+        capsys,
+        "render",
+        "default",
+        "-o",
+        str(tmp_path / "n.wav"),
+        "--normalize",
+        "none",
+        "--subtype",
+        "FLOAT",
+    )
     assert code == 0, err
     y, _ = soundfile.read(tmp_path / "n.wav")
-    assert np.max(np.abs(y)) > 10.0          # pascals: the tick peaks near 100 Pa
-    code, _, err = run(capsys, "render", "default", "-o", str(tmp_path / "c.wav"),
-                       "--normalize", "none")
+    assert np.max(np.abs(y)) > 10.0  # pascals: the tick peaks near 100 Pa
+    code, _, err = run(
+        capsys, "render", "default", "-o", str(tmp_path / "c.wav"), "--normalize", "none"
+    )
     assert code == 2 and "clip" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "c.wav").exists()
 
@@ -341,20 +419,37 @@ def test_render_command_loudness(capsys, tmp_path):
     # Integrated loudness (ITU-R BS.1770, pyloudnorm) to the asked target, within 0.1 LU.
     import pyloudnorm
     import soundfile
+
     out = tmp_path / "l.wav"
-    code, _, err = run(capsys, "render", "default", "-o", str(out), "--normalize", "loudness",
-                       "--loudness-lufs", "-45", "--subtype", "FLOAT")
+    code, _, err = run(
+        capsys,
+        "render",
+        "default",
+        "-o",
+        str(out),
+        "--normalize",
+        "loudness",
+        "--loudness-lufs",
+        "-45",
+        "--subtype",
+        "FLOAT",
+    )
     assert code == 0, err
     x, fs = soundfile.read(out)
-    assert pyloudnorm.Meter(fs, block_size=0.4).integrated_loudness(x) == pytest.approx(-45.0, abs=0.1)
+    assert pyloudnorm.Meter(fs, block_size=0.4).integrated_loudness(x) == pytest.approx(
+        -45.0, abs=0.1
+    )
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["--samplerate", "1000"], ["samplerate=1000"]),
-    (["--set", "render.max_frequency=40000"], ["render.max_frequency=40000", "Nyquist"]),
-    (["--set", "ball.radius=-1"], ["ball.radius=-1", "> 0"]),
-    (["--peak-db", "3"], ["peak_db=3.0", "<= 0"]),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--samplerate", "1000"], ["samplerate=1000"]),
+        (["--set", "render.max_frequency=40000"], ["render.max_frequency=40000", "Nyquist"]),
+        (["--set", "ball.radius=-1"], ["ball.radius=-1", "> 0"]),
+        (["--peak-db", "3"], ["peak_db=3.0", "<= 0"]),
+    ],
+)
 def test_render_command_rejects_bad_options(capsys, tmp_path, argv, words):
     out = tmp_path / "bad.wav"
     code, _, err = run(capsys, "render", "default", "-o", str(out), *argv)

@@ -12,13 +12,16 @@ from synth.physics import contact, impedance
 from synth.physics.materials import TABLE
 from synth.physics.scene import Ball, Plate
 
-STEEL10 = Ball("steel", 0.005)                   # rho 7800, E 216 GPa, nu 0.3 (thesis Fig. 2.8)
-MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)      # E 5.689 GPa, rho 700, nu 0.4
+STEEL10 = Ball("steel", 0.005)  # rho 7800, E 216 GPa, nu 0.3 (thesis Fig. 2.8)
+MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)  # E 5.689 GPa, rho 700, nu 0.4
 
 
 def lumped(ball=STEEL10, plate=MDF18):
-    return dict(mass=ball.mass, stiffness=contact.hertz_stiffness(ball, plate),
-                admittance=1.0 / impedance.infinite_plate_impedance(plate))
+    return dict(
+        mass=ball.mass,
+        stiffness=contact.hertz_stiffness(ball, plate),
+        admittance=1.0 / impedance.infinite_plate_impedance(plate),
+    )
 
 
 # --- published values (thesis) ---------------------------------------------------------
@@ -66,20 +69,25 @@ def test_rigid_plate_closed_forms(v):
     m = STEEL10.mass
     R = STEEL10.radius
     E = contact.effective_modulus(STEEL10, MDF18)
-    r = contact.solve_contact(mass=m, stiffness=contact.hertz_stiffness(STEEL10, MDF18),
-                              admittance=0.0, speed=v, gravity=0.0)
-    d_max = (15 * m * v ** 2 / (16 * E * math.sqrt(R))) ** 0.4
+    r = contact.solve_contact(
+        mass=m,
+        stiffness=contact.hertz_stiffness(STEEL10, MDF18),
+        admittance=0.0,
+        speed=v,
+        gravity=0.0,
+    )
+    d_max = (15 * m * v**2 / (16 * E * math.sqrt(R))) ** 0.4
     assert r.restitution == pytest.approx(1.0, abs=1e-6)
     assert r.max_penetration == pytest.approx(d_max, rel=1e-4)
     assert r.contact_time == pytest.approx(2.9433 * d_max / v, rel=1e-4)
-    assert r.peak_force == pytest.approx(1.2827 * E ** 0.4 * R ** 0.2 * m ** 0.6 * v ** 1.2, rel=1e-4)
+    assert r.peak_force == pytest.approx(1.2827 * E**0.4 * R**0.2 * m**0.6 * v**1.2, rel=1e-4)
 
 
 def test_inelasticity_is_zeners_lambda():
     # lambda = K^(2/5) m^(3/5) v^(1/5) / Z (thesis 2.42), exactly (1e-12).
     p = lumped()
     r = contact.solve_contact(speed=2.0, **p)
-    lam = p["stiffness"] ** 0.4 * p["mass"] ** 0.6 * 2.0 ** 0.2 * p["admittance"]
+    lam = p["stiffness"] ** 0.4 * p["mass"] ** 0.6 * 2.0**0.2 * p["admittance"]
     assert r.inelasticity == pytest.approx(lam, rel=1e-12)
 
 
@@ -89,7 +97,7 @@ def test_no_gravity_restitution_depends_on_lambda_only():
     # different m, K, beta, v but the same lambda have the same e (1e-7, 10x rtol).
     a = contact.solve_contact(mass=0.004, stiffness=1e9, admittance=1e-3, speed=1.0, gravity=0.0)
     m, K, v = 0.1, 3e10, 5.0
-    beta = a.inelasticity / (K ** 0.4 * m ** 0.6 * v ** 0.2)
+    beta = a.inelasticity / (K**0.4 * m**0.6 * v**0.2)
     b = contact.solve_contact(mass=m, stiffness=K, admittance=beta, speed=v, gravity=0.0)
     assert b.inelasticity == pytest.approx(a.inelasticity, rel=1e-12)
     assert b.restitution == pytest.approx(a.restitution, rel=1e-7)
@@ -108,8 +116,10 @@ def test_energy_balance_residual(speed, gravity):
 def test_restitution_rises_as_speed_falls_without_gravity():
     # lambda ~ v^(1/5) falls with v and e falls with lambda (thesis Fig. 2.9): strictly
     # monotone over four decades.
-    es = [contact.solve_impact(STEEL10, MDF18, v, gravity=0.0).restitution
-          for v in (30.0, 3.0, 0.3, 0.03, 0.003)]
+    es = [
+        contact.solve_impact(STEEL10, MDF18, v, gravity=0.0).restitution
+        for v in (30.0, 3.0, 0.3, 0.03, 0.003)
+    ]
     assert all(b > a for a, b in zip(es, es[1:]))
 
 
@@ -130,8 +140,9 @@ def test_momentum_balance_gives_impulse():
     m = STEEL10.mass
     t = np.linspace(0.0, r.contact_time, 20001)
     integral = np.trapezoid(r.force_at(t), t)
-    assert integral == pytest.approx(m * (1.4 + r.rebound_speed) + m * 9.81 * r.contact_time,
-                                     rel=1e-7)
+    assert integral == pytest.approx(
+        m * (1.4 + r.rebound_speed) + m * 9.81 * r.contact_time, rel=1e-7
+    )
     assert r.impulse == pytest.approx(integral, rel=1e-7)
 
 
@@ -183,10 +194,16 @@ def test_error_against_reference_honours_rtol(rtol, i):
     # Hunt-Crossley): the relative errors of e and tau are below the rtol asked for (for a
     # settled contact, e = 0 exactly, and tau is when settling is proven, not compared).
     case, e_ref, tau_ref = _reference(i)
-    r = contact.solve_contact(mass=case.mass, stiffness=case.stiffness,
-                              admittance=case.admittance, speed=case.speed,
-                              gravity=case.gravity, exponent=case.exponent,
-                              dissipation=case.dissipation, rtol=rtol)
+    r = contact.solve_contact(
+        mass=case.mass,
+        stiffness=case.stiffness,
+        admittance=case.admittance,
+        speed=case.speed,
+        gravity=case.gravity,
+        exponent=case.exponent,
+        dissipation=case.dissipation,
+        rtol=rtol,
+    )
     if e_ref == 0.0:
         assert r.settled and r.restitution == 0.0
         return
@@ -245,8 +262,16 @@ def test_sweep_extreme_cases():
         d = 10 ** rng.uniform(-4, -1)
         pos = [plate.centre, (0.0, 0.4), (0.0, 0.0), (d, 0.4), (1.2 - d, 0.8 - d)][i % 5]
         r = contact.solve_impact(ball, plate, v, position=pos)
-        scalars = [r.restitution, r.contact_time, r.max_penetration, r.peak_force, r.impulse,
-                   r.inelasticity, r.energy_residual, r.plate_energy]
+        scalars = [
+            r.restitution,
+            r.contact_time,
+            r.max_penetration,
+            r.peak_force,
+            r.impulse,
+            r.inelasticity,
+            r.energy_residual,
+            r.plate_energy,
+        ]
         assert r.success, (ball, plate, v, pos, r.message)
         assert all(math.isfinite(x) for x in scalars), (ball, plate, v, pos)
         assert np.all(np.isfinite(r.force)) and np.all(np.isfinite(r.time))
@@ -259,7 +284,7 @@ def test_sweep_extreme_cases():
 def _admittance_of(result, ball, plate, speed):
     """beta (m/(N s)) that ``result`` was solved with, from Zener's lambda = beta m / theta."""
     K = contact.hertz_stiffness(ball, plate)
-    theta = (ball.mass / (K * speed ** 0.5)) ** 0.4
+    theta = (ball.mass / (K * speed**0.5)) ** 0.4
     return result.inelasticity * theta / ball.mass
 
 
@@ -273,9 +298,15 @@ def test_edge_admittance_is_self_consistent_near_edges():
     names = sorted(TABLE)
     separated = 0
     for i in range(600):
-        ball = Ball(names[rng.integers(len(names))], 10 ** rng.uniform(np.log10(5e-4), np.log10(5e-2)))
-        plate = Plate(names[rng.integers(len(names))], 10 ** rng.uniform(np.log10(3e-4), np.log10(5e-2)),
-                      1.2, 0.8)
+        ball = Ball(
+            names[rng.integers(len(names))], 10 ** rng.uniform(np.log10(5e-4), np.log10(5e-2))
+        )
+        plate = Plate(
+            names[rng.integers(len(names))],
+            10 ** rng.uniform(np.log10(3e-4), np.log10(5e-2)),
+            1.2,
+            0.8,
+        )
         v = 10 ** rng.uniform(-3, np.log10(30.0))
         d = 10 ** rng.uniform(-4, -1.3)
         pos = [(d, 0.4), (d, d), (0.6, 0.8 - d)][i % 3]
@@ -286,7 +317,9 @@ def test_edge_admittance_is_self_consistent_near_edges():
         assert "no consistent value" not in r.message, (ball, plate, v, pos, r.message)
         separated += 1
         beta = _admittance_of(r, ball, plate, v)
-        assert impedance.point_admittance(plate, pos, r.contact_time) == pytest.approx(beta, rel=1e-6)
+        assert impedance.point_admittance(plate, pos, r.contact_time) == pytest.approx(
+            beta, rel=1e-6
+        )
     assert separated > 300
 
 
@@ -301,12 +334,26 @@ def test_solve_contact_rejects_bad_positive_fields(field, bad):
         contact.solve_contact(**{**GOOD, field: bad})
 
 
-@pytest.mark.parametrize("field, bad", [("admittance", -1e-3), ("admittance", float("nan")),
-                                        ("gravity", -9.81), ("gravity", float("inf")),
-                                        ("exponent", 1.0), ("exponent", 4.5),
-                                        ("dissipation", -0.1), ("plate_velocity", float("nan")),
-                                        ("rtol", 0.0), ("rtol", 1e-14), ("rtol", 0.5),
-                                        ("n_points", 8), ("n_points", 63), ("n_points", 64.0), ("method", "euler")])
+@pytest.mark.parametrize(
+    "field, bad",
+    [
+        ("admittance", -1e-3),
+        ("admittance", float("nan")),
+        ("gravity", -9.81),
+        ("gravity", float("inf")),
+        ("exponent", 1.0),
+        ("exponent", 4.5),
+        ("dissipation", -0.1),
+        ("plate_velocity", float("nan")),
+        ("rtol", 0.0),
+        ("rtol", 1e-14),
+        ("rtol", 0.5),
+        ("n_points", 8),
+        ("n_points", 63),
+        ("n_points", 64.0),
+        ("method", "euler"),
+    ],
+)
 def test_solve_contact_rejects_bad_fields(field, bad):
     with pytest.raises(ParameterError, match=field):
         contact.solve_contact(**{**GOOD, field: bad})
@@ -317,14 +364,17 @@ def test_solve_contact_rejects_plate_moving_away_faster_than_ball():
         contact.solve_contact(**{**GOOD, "plate_velocity": -2.0})
 
 
-@pytest.mark.parametrize("kw, word", [
-    (dict(contact="glue"), "contact"),
-    (dict(contact="hunt-crossley"), "dissipation"),
-    (dict(contact="hertz", dissipation=0.1), "dissipation"),
-    (dict(contact="power-law", exponent=1.5), "power-law"),
-    (dict(contact="elastic-foundation", layer_depth=-1.0), "layer_depth"),
-    (dict(position=(2.0, 0.1)), "position"),
-])
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(contact="glue"), "contact"),
+        (dict(contact="hunt-crossley"), "dissipation"),
+        (dict(contact="hertz", dissipation=0.1), "dissipation"),
+        (dict(contact="power-law", exponent=1.5), "power-law"),
+        (dict(contact="elastic-foundation", layer_depth=-1.0), "layer_depth"),
+        (dict(position=(2.0, 0.1)), "position"),
+    ],
+)
 def test_solve_impact_rejects_bad_options(kw, word):
     with pytest.raises(ParameterError, match=word):
         contact.solve_impact(STEEL10, MDF18, 1.0, **kw)
@@ -338,9 +388,22 @@ def test_solve_impact_rejects_non_objects():
 
 
 # --- the solver object (the seam the bounce scheduler calls) ---------------------------
-SAME_FIELDS = ("restitution", "contact_time", "max_penetration", "peak_force", "impulse",
-               "inelasticity", "settled", "rebound_speed", "plate_energy", "energy_residual",
-               "status", "message", "n_steps", "method")
+SAME_FIELDS = (
+    "restitution",
+    "contact_time",
+    "max_penetration",
+    "peak_force",
+    "impulse",
+    "inelasticity",
+    "settled",
+    "rebound_speed",
+    "plate_energy",
+    "energy_residual",
+    "status",
+    "message",
+    "n_steps",
+    "method",
+)
 
 
 def same(a, b):
@@ -353,20 +416,28 @@ def test_contact_solver_equals_the_functions():
     solver = contact.ContactSolver.for_pair(STEEL10, MDF18)
     assert same(solver.solve(1.4), contact.solve_impact(STEEL10, MDF18, 1.4))
     corner = (0.01, 0.02)
-    assert same(solver.solve(1.4, position=corner),
-                contact.solve_impact(STEEL10, MDF18, 1.4, position=corner))
+    assert same(
+        solver.solve(1.4, position=corner),
+        contact.solve_impact(STEEL10, MDF18, 1.4, position=corner),
+    )
     lump = lumped()
-    assert same(solver.solve(0.7, admittance=lump["admittance"], free_velocity=0.1),
-                contact.solve_contact(speed=0.7, plate_velocity=0.1, **lump))
-    np.testing.assert_array_equal(solver.solve(1.4).force,
-                                  contact.solve_impact(STEEL10, MDF18, 1.4).force)
+    assert same(
+        solver.solve(0.7, admittance=lump["admittance"], free_velocity=0.1),
+        contact.solve_contact(speed=0.7, plate_velocity=0.1, **lump),
+    )
+    np.testing.assert_array_equal(
+        solver.solve(1.4).force, contact.solve_impact(STEEL10, MDF18, 1.4).force
+    )
 
 
 def test_contact_solver_rejects_bad_input():
     solver = contact.ContactSolver.for_pair(STEEL10, MDF18)
-    for kw, field in ((dict(speed=-1.0), "speed"), (dict(speed=1.0, free_velocity=-2.0), "free"),
-                      (dict(speed=1.0, admittance=-1.0), "admittance"),
-                      (dict(speed=1.0, position=(5.0, 0.1)), "position")):
+    for kw, field in (
+        (dict(speed=-1.0), "speed"),
+        (dict(speed=1.0, free_velocity=-2.0), "free"),
+        (dict(speed=1.0, admittance=-1.0), "admittance"),
+        (dict(speed=1.0, position=(5.0, 0.1)), "position"),
+    ):
         with pytest.raises(ParameterError, match=field):
             solver.solve(**kw)
     with pytest.raises(ParameterError, match="admittance"):

@@ -43,4 +43,7 @@ def test_equals_scipy_where_importable():
     for name in ("A", "B", "C", "E3", "E5", "D"):
         assert np.array_equal(getattr(t, name), getattr(ref, name)), name
     assert (t.N_STAGES, t.N_STAGES_EXTENDED, t.INTERPOLATOR_POWER) == (
-        ref.N_STAGES, ref.N_STAGES_EXTENDED, ref.INTERPOLATOR_POWER)
+        ref.N_STAGES,
+        ref.N_STAGES_EXTENDED,
+        ref.INTERPOLATOR_POWER,
+    )

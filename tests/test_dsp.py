@@ -54,7 +54,7 @@ def test_autocorrelation_predictor_sums_blocks_exactly():
     rng = np.random.default_rng(3)
     x = np.convolve(rng.normal(size=70000), [1.0, 0.5, 0.25])[:70000]
     p = 6
-    full = np.correlate(x, x, mode="full")[x.size - 1: x.size + p]
+    full = np.correlate(x, x, mode="full")[x.size - 1 : x.size + p]
     want = dsp.levinson_predictor(dsp.white_noise_corrected(full))
     assert dsp.autocorrelation_predictor(x, p) == pytest.approx(want, abs=1e-10)
 
@@ -69,8 +69,9 @@ def test_noise_floor_is_the_noise_under_ticks():
     t = np.arange(fs // 10) / fs
     for start in (0.1, 0.4, 0.7):
         i = int(start * fs)
-        x[i: i + t.size] += np.exp(-t / 0.01) * np.sin(2 * np.pi * 900 * t)
+        x[i : i + t.size] += np.exp(-t / 0.01) * np.sin(2 * np.pi * 900 * t)
     assert dsp.noise_floor(x, fs) == pytest.approx(0.01, rel=0.05)
-    quiet = dsp.quiet_frames(np.array([1.0, 1.9, 2.1, 0.0, 50.0]), among=np.array(
-        [True, True, True, False, True]))
+    quiet = dsp.quiet_frames(
+        np.array([1.0, 1.9, 2.1, 0.0, 50.0]), among=np.array([True, True, True, False, True])
+    )
     assert list(quiet) == [True, True, False, False, False]

@@ -19,7 +19,7 @@ def test_infinite_plate_impedance_thesis_table_3_4():
 def test_infinite_plate_impedance_two_forms_agree():
     # 8 sqrt(D rho h) = 4 h^2 sqrt(E rho / (3 (1 - nu^2))) (algebraic identity, 1e-12).
     m = MDF18.material
-    alt = 4 * MDF18.thickness ** 2 * math.sqrt(m.young * m.density / (3 * (1 - m.poisson ** 2)))
+    alt = 4 * MDF18.thickness**2 * math.sqrt(m.young * m.density / (3 * (1 - m.poisson**2)))
     assert impedance.infinite_plate_impedance(MDF18) == pytest.approx(alt, rel=1e-12)
 
 
@@ -37,16 +37,22 @@ def test_point_admittance_regimes():
     dc = impedance.critical_distance(MDF18, tau)
     z = impedance.infinite_plate_impedance(MDF18)
     assert impedance.point_admittance(MDF18, MDF18.centre, tau) == pytest.approx(1 / z, rel=1e-12)
-    assert impedance.point_admittance(MDF18, (0.6, 0.0), tau) == pytest.approx(1 / (0.29 * z), rel=1e-12)
+    assert impedance.point_admittance(MDF18, (0.6, 0.0), tau) == pytest.approx(
+        1 / (0.29 * z), rel=1e-12
+    )
     assert impedance.point_admittance(MDF18, (0.0, 0.0), tau) == pytest.approx(7.5 / z, rel=1e-12)
-    assert impedance.point_admittance(MDF18, (0.6, dc * 1.0001), tau) == pytest.approx(1 / z, rel=1e-12)
+    assert impedance.point_admittance(MDF18, (0.6, dc * 1.0001), tau) == pytest.approx(
+        1 / z, rel=1e-12
+    )
 
 
 def test_point_admittance_decreases_away_from_edge():
     # The edge is felt less with distance: monotone between the edge and d_c.
     tau = 110e-6
     dc = impedance.critical_distance(MDF18, tau)
-    betas = [impedance.point_admittance(MDF18, (0.6, f * dc), tau) for f in (0, 0.25, 0.5, 0.75, 1.0)]
+    betas = [
+        impedance.point_admittance(MDF18, (0.6, f * dc), tau) for f in (0, 0.25, 0.5, 0.75, 1.0)
+    ]
     assert all(a > b for a, b in zip(betas, betas[1:]))
 
 
@@ -61,7 +67,8 @@ def test_point_admittance_non_free_boundary_is_infinite_plate():
     # Only free edges soften the plate in this model (documented); others: 1/Z_inf.
     p = Plate("mdf-18", 0.018, 1.227, 0.49, boundary="clamped")
     assert impedance.point_admittance(p, (0.0, 0.0), 1e-4) == pytest.approx(
-        1 / impedance.infinite_plate_impedance(p), rel=1e-12)
+        1 / impedance.infinite_plate_impedance(p), rel=1e-12
+    )
 
 
 @pytest.mark.parametrize("pos", [(-0.01, 0.1), (0.1, 0.5), (float("nan"), 0.1)])

@@ -18,8 +18,10 @@ def ruff() -> list[str]:
     return [exe]
 
 
-@pytest.mark.parametrize("args", [["check", "synth", "tests"],
-                                  ["format", "--check", "synth", "tests"]])
+@pytest.mark.parametrize(
+    "args",
+    [["check", "synth", "tests", "examples"], ["format", "--check", "synth", "tests", "examples"]],
+)
 def test_ruff(args):
     done = subprocess.run(ruff() + args, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr

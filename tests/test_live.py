@@ -14,8 +14,8 @@ from synth.physics.bounces import BounceSequence, Impact
 from synth.physics.contact import solve_impact
 
 FS = 48000
-PRE = 0.005          # s: the first tick's start, in the render (preroll) and live (at)
-EXACT_DB = -200.0    # an omission floor far below float32 resolution
+PRE = 0.005  # s: the first tick's start, in the render (preroll) and live (at)
+EXACT_DB = -200.0  # an omission floor far below float32 resolution
 
 
 @pytest.fixture(scope="module")
@@ -26,8 +26,13 @@ def scene():
 @pytest.fixture(scope="module")
 def accel_scene():
     s = synth.load_preset("default")
-    return synth.Scene(s.ball, s.plate, drop_height=s.drop_height, position=(0.4, 0.2),
-                       listener=synth.Accelerometer((0.9, 0.3)))
+    return synth.Scene(
+        s.ball,
+        s.plate,
+        drop_height=s.drop_height,
+        position=(0.4, 0.2),
+        listener=synth.Accelerometer((0.9, 0.3)),
+    )
 
 
 def float32_ulp_of_peak(x):
@@ -37,16 +42,31 @@ def float32_ulp_of_peak(x):
 
 def rendered(scene, sequence=None, **kw):
     """The scene's render in the engine's level (normalize="physical"), exact tails."""
-    return synth.render(scene, samplerate=FS, normalize="physical", floor_db=kw.pop("floor_db", EXACT_DB),
-                        fade=0.0, preroll=PRE, sequence=sequence, **kw)
+    return synth.render(
+        scene,
+        samplerate=FS,
+        normalize="physical",
+        floor_db=kw.pop("floor_db", EXACT_DB),
+        fade=0.0,
+        preroll=PRE,
+        sequence=sequence,
+        **kw,
+    )
 
 
 def hits_sequence(scene, times, speeds):
     """A BounceSequence of single hits at ``times`` (s) with ``speeds`` (m/s), solved as
     Body.hit solves them."""
-    impacts = tuple(Impact(i + 1, t, v, solve_impact(scene.ball, scene.plate, v, position=scene.position,
-                                                     rtol=HIT_RTOL), 0.5)
-                    for i, (t, v) in enumerate(zip(times, speeds)))
+    impacts = tuple(
+        Impact(
+            i + 1,
+            t,
+            v,
+            solve_impact(scene.ball, scene.plate, v, position=scene.position, rtol=HIT_RTOL),
+            0.5,
+        )
+        for i, (t, v) in enumerate(zip(times, speeds))
+    )
     return BounceSequence(impacts, "max-impacts", 1.0, 9.81)
 
 
@@ -80,13 +100,25 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
 
 def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
     # the drop takes a scene's contact model and gravity: Hunt-Crossley damping on the Moon
-    moon = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.2),
-                       gravity=1.62, contact=synth.Contact("hunt-crossley", dissipation=0.2))
+    moon = synth.Scene(
+        scene.ball,
+        scene.plate,
+        drop_height=0.05,
+        position=(0.3, 0.2),
+        gravity=1.62,
+        contact=synth.Contact("hunt-crossley", dissipation=0.2),
+    )
     r = rendered(moon)
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
     body = engine.add(moon.plate, listener=moon.listener)
-    onsets = body.drop(moon.ball, moon.drop_height, position=moon.position, at=PRE,
-                       contact=moon.contact, gravity=moon.gravity)
+    onsets = body.drop(
+        moon.ball,
+        moon.drop_height,
+        position=moon.position,
+        at=PRE,
+        contact=moon.contact,
+        gravity=moon.gravity,
+    )
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
@@ -99,12 +131,13 @@ def test_several_bodies_add_up(scene, accel_scene):
     b = rendered(accel_scene)
     n = max(a.audio.size, b.audio.size)
     want = np.zeros(n)
-    want[:a.audio.size] += a.audio
-    want[:b.audio.size] += b.audio
+    want[: a.audio.size] += a.audio
+    want[: b.audio.size] += b.audio
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
     for s in (scene, accel_scene):
-        engine.add(s.plate, listener=s.listener).drop(s.ball, s.drop_height, position=s.position,
-                                                      at=PRE)
+        engine.add(s.plate, listener=s.listener).drop(
+            s.ball, s.drop_height, position=s.position, at=PRE
+        )
     live = engine.process(n)[:, 0]
     tol = float32_ulp_of_peak(a.audio) + float32_ulp_of_peak(b.audio) + float32_ulp_of_peak(want)
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
@@ -115,8 +148,9 @@ def test_default_floor_keeps_within_its_budget(scene):
     # (modal_bank's budget; the reference is the loudest impact's, the first of a drop)
     r = synth.render(scene, samplerate=FS, normalize="physical", fade=0.0, preroll=PRE)
     engine = synth.Engine(samplerate=FS)
-    engine.add(scene.plate, listener=scene.listener).drop(scene.ball, scene.drop_height,
-                                                          position=scene.position, at=PRE)
+    engine.add(scene.plate, listener=scene.listener).drop(
+        scene.ball, scene.drop_height, position=scene.position, at=PRE
+    )
     live = engine.process(r.audio.size)[:, 0]
     budget = 10 ** (-80 / 20) * r.settings["reference_amplitude"] * r.gain
     assert np.max(np.abs(live - r.audio)) <= 2 * budget + float32_ulp_of_peak(r.audio)
@@ -144,7 +178,7 @@ def test_a_quiet_body_sleeps_and_silence_is_exact(scene):
     assert not np.any(engine.process(1024))
     body.hit(scene.ball, 1.0)
     assert body.awake and body.pending == 1
-    engine.process(FS * 4)              # the default plate's tail falls below -80 dB in ~1 s
+    engine.process(FS * 4)  # the default plate's tail falls below -80 dB in ~1 s
     assert not body.awake
     assert not np.any(engine.process(512))
 
@@ -169,7 +203,7 @@ def test_a_full_ring_refuses_and_counts(scene):
     assert engine.stats.impacts_refused == 1 and engine.stats.impacts_pending == 2
     engine.process(1024)
     assert engine.stats.impacts_played == 2
-    assert body.hit(scene.ball, 1.0) is not None   # room again once played
+    assert body.hit(scene.ball, 1.0) is not None  # room again once played
 
 
 def test_default_start_is_one_block_ahead(scene):
@@ -189,15 +223,27 @@ def test_channels_carry_the_mono_mix(scene):
     assert np.any(out) and np.array_equal(out[:, 0], out[:, 1])
 
 
-@pytest.mark.parametrize("kwargs, name", [
-    (dict(samplerate=1000), "samplerate"), (dict(samplerate=48000.0), "samplerate"),
-    (dict(blocksize=0), "blocksize"), (dict(blocksize=True), "blocksize"),
-    (dict(device=1.5), "device"), (dict(latency="fast"), "latency"), (dict(latency=-1.0), "latency"),
-    (dict(channels=0), "channels"), (dict(floor_db=0.0), "floor_db"),
-    (dict(max_pending=0), "max_pending"), (dict(fade=0.0), "fade"), (dict(handover=-1.0), "handover"),
-    (dict(record_seconds=-1.0), "record_seconds"), (dict(pulse_points=4), "pulse_points"), (dict(max_frequency=0.0), "max_frequency"),
-    (dict(max_frequency=30000.0), "max_frequency"),
-])
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(samplerate=1000), "samplerate"),
+        (dict(samplerate=48000.0), "samplerate"),
+        (dict(blocksize=0), "blocksize"),
+        (dict(blocksize=True), "blocksize"),
+        (dict(device=1.5), "device"),
+        (dict(latency="fast"), "latency"),
+        (dict(latency=-1.0), "latency"),
+        (dict(channels=0), "channels"),
+        (dict(floor_db=0.0), "floor_db"),
+        (dict(max_pending=0), "max_pending"),
+        (dict(fade=0.0), "fade"),
+        (dict(handover=-1.0), "handover"),
+        (dict(record_seconds=-1.0), "record_seconds"),
+        (dict(pulse_points=4), "pulse_points"),
+        (dict(max_frequency=0.0), "max_frequency"),
+        (dict(max_frequency=30000.0), "max_frequency"),
+    ],
+)
 def test_engine_rejects_bad_arguments(kwargs, name):
     with pytest.raises(ParameterError, match=name):
         synth.Engine(**kwargs)
@@ -238,7 +284,7 @@ def test_add_hit_drop_reject_bad_arguments(scene):
             call()
     engine.process(4800)
     with pytest.raises(ParameterError, match="at"):
-        body.hit(ball, 1.0, at=0.05)         # before the next frame to mix (0.1 s)
+        body.hit(ball, 1.0, at=0.05)  # before the next frame to mix (0.1 s)
     assert engine.stats.impacts_pending == 0
 
 
@@ -258,7 +304,7 @@ def test_start_without_portaudio_says_what_to_install(monkeypatch, scene):
     with pytest.raises(SynthError, match="libportaudio2"):
         engine.start()
     assert not engine.running
-    body.hit(scene.ball, 1.0, at=0.0)          # process() works all the same
+    body.hit(scene.ball, 1.0, at=0.0)  # process() works all the same
     assert np.any(engine.process(2048))
 
 
@@ -278,7 +324,9 @@ def test_synth_play_without_the_device_is_a_one_line_error(capsys):
     assert "no audio output device 9999" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("script, argv", [("ui_button.py", []), ("game_loop.py", ["--seconds", "2"])])
+@pytest.mark.parametrize(
+    "script, argv", [("ui_button.py", []), ("game_loop.py", ["--seconds", "2"])]
+)
 def test_examples_run_offline(script, argv, tmp_path, monkeypatch, capsys):
     # the examples' offline modes run the same engine on its own clock and write a file
     import runpy
@@ -297,9 +345,12 @@ def test_bench_live_figures_format():
     # asserted: wall-clock times depend on the machine)
     from synth.live import bench
 
-    result = dict(callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
-                  hit_us=bench.hit_cost(repeat=5),
-                  add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001), jack=None)
+    result = dict(
+        callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+        hit_us=bench.hit_cost(repeat=5),
+        add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001),
+        jack=None,
+    )
     assert [r["bodies"] for r in result["callback"]] == [1, 2]
     assert all(r["played"] >= 1 for r in result["callback"])
     text = bench.format_live(result)

@@ -11,8 +11,9 @@ import synth
 from synth.errors import SynthError
 from synth.live.jack import JackDummyServer, jackd_available
 
-pytestmark = pytest.mark.skipif(not jackd_available(),
-                                reason="jackd is not installed (Debian: apt-get install jackd2)")
+pytestmark = pytest.mark.skipif(
+    not jackd_available(), reason="jackd is not installed (Debian: apt-get install jackd2)"
+)
 
 FS = 48000
 BLOCK = 256
@@ -52,8 +53,9 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
     # A hit handed over after its block was mixed would be played late (and counted): the
     # hand-over allowance covers a trigger thread descheduled on a busy test machine
     seconds = 3.0
-    engine = synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device,
-                          record_seconds=seconds, handover=0.02)
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=seconds, handover=0.02
+    )
     plates = [(scene.plate, scene.listener), (scene.plate, synth.Accelerometer((0.3, 0.1)))]
     bodies = [engine.add(p, listener=li) for p, li in plates]
     played = []
@@ -78,7 +80,7 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
     stats = engine.stats
     engine.stop()
     assert not engine.running
-    assert jack.alive and client_ports(jack) == []       # the server is left as it was
+    assert jack.alive and client_ports(jack) == []  # the server is left as it was
     assert stats.impacts_played == len(played) == 40
     assert stats.impacts_refused == 0 and stats.impacts_late == 0
     assert stats.callbacks > 0 and stats.callback_max < 1.0
@@ -97,14 +99,15 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
 
 
 def test_add_while_running_and_stop_fades_out(jack, scene):
-    with synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=2.0,
-                      fade=0.01) as engine:
+    with synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=2.0, fade=0.01
+    ) as engine:
         time.sleep(0.1)
-        body = engine.add(scene.plate, listener=scene.listener)   # picked up at the next block
+        body = engine.add(scene.plate, listener=scene.listener)  # picked up at the next block
         onset = body.hit(scene.ball, 2.0)
         assert onset > engine.time - 1e-9
         assert wait_for(lambda: engine.stats.impacts_played == 1, 2.0)
-        time.sleep(0.05)                                           # stop while it rings
+        time.sleep(0.05)  # stop while it rings
     assert not engine.running and client_ports(jack) == []
     out = engine.recording[:, 0]
     end = engine._recorded
@@ -112,7 +115,7 @@ def test_add_while_running_and_stop_fades_out(jack, scene):
     # the fade: raised cosine over 10 ms from the block after stop(), then exact silence
     fade = int(0.01 * FS)
     assert np.any(out[:stopped_at])
-    tail = out[stopped_at + fade:end]
+    tail = out[stopped_at + fade : end]
     assert tail.size and not np.any(tail)
     # no click: the last ringing samples are faded, not cut (each step is below the
     # largest step of the free ringing before stop)

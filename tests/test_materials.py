@@ -17,15 +17,32 @@ NOT_NUMBERS = ["7800", None, True, [1.0], 1j]
 
 # Rows a user expects to find (docs/physics.md, "Materials" and common handbook materials).
 REQUIRED = [
-    "mdf-18", "mdf-12", "mdf-6", "steel", "stainless-steel", "aluminium", "brass", "glass",
-    "acrylic", "polycarbonate", "hardwood", "oak", "pine", "plywood", "concrete", "granite",
-    "rubber", "abs", "porcelain",
+    "mdf-18",
+    "mdf-12",
+    "mdf-6",
+    "steel",
+    "stainless-steel",
+    "aluminium",
+    "brass",
+    "glass",
+    "acrylic",
+    "polycarbonate",
+    "hardwood",
+    "oak",
+    "pine",
+    "plywood",
+    "concrete",
+    "granite",
+    "rubber",
+    "abs",
+    "porcelain",
 ]
 # Names a user may type for rows listed under another name.
 REQUIRED_ALIASES = {"ceramic": "porcelain", "pmma": "acrylic"}
 
 
 # --------------------------------------------------------------------------- the table
+
 
 @pytest.mark.parametrize("key", sorted(TABLE))
 def test_table_row_is_valid(key):
@@ -44,7 +61,7 @@ def test_table_row_is_valid(key):
     assert isinstance(m.source, str) and len(m.source.strip()) > 10
     # E' = E / (1 - nu^2) by definition (docs/physics.md, "Materials"); relative 1e-15 is float
     # rounding.
-    assert m.effective_modulus == pytest.approx(m.young / (1.0 - m.poisson ** 2), rel=1e-15)
+    assert m.effective_modulus == pytest.approx(m.young / (1.0 - m.poisson**2), rel=1e-15)
 
 
 @pytest.mark.parametrize("key", REQUIRED)
@@ -111,9 +128,9 @@ def test_hopkins_rows_reproduce_printed_plate_speed_and_critical_frequency():
     # 1 % (printed to three figures).
     for key, c_l, hfc in (("plywood", 3850.0, 16.8), ("plasterboard", 1490.0, 43.5)):
         m = TABLE[key]
-        speed = math.sqrt(m.young / (m.density * (1.0 - m.poisson ** 2)))
+        speed = math.sqrt(m.young / (m.density * (1.0 - m.poisson**2)))
         assert speed == pytest.approx(c_l, rel=1e-12)
-        assert 343.0 ** 2 * math.sqrt(12.0) / (2.0 * math.pi * speed) == pytest.approx(hfc, rel=0.01)
+        assert 343.0**2 * math.sqrt(12.0) / (2.0 * math.pi * speed) == pytest.approx(hfc, rel=0.01)
 
 
 def test_granite_reproduces_measured_wave_speeds():
@@ -145,14 +162,17 @@ def test_rubber_poisson_below_incompressible_limit():
 
 # --------------------------------------------------------------------------- get / resolve
 
+
 @pytest.mark.parametrize("spelling", ["steel", "STEEL", "Steel", "  steel ", "sTeEl\n"])
 def test_get_is_case_insensitive(spelling):
     # Lookup ignores case and surrounding white space and returns the table's own object.
     assert get(spelling) is TABLE["steel"]
 
 
-@pytest.mark.parametrize("bad, hint", [("stel", "steel"), ("alumnium", "aluminium"),
-                                       ("mdf18", "mdf-18"), ("plywod", "plywood")])
+@pytest.mark.parametrize(
+    "bad, hint",
+    [("stel", "steel"), ("alumnium", "aluminium"), ("mdf18", "mdf-18"), ("plywod", "plywood")],
+)
 def test_get_rejects_unknown_name_with_suggestion(bad, hint):
     # An unknown name raises and suggests the nearest names (difflib).
     with pytest.raises(ParameterError, match="did you mean") as info:
@@ -195,6 +215,7 @@ def test_resolve_rejects_unknown_name_naming_field():
 
 
 # --------------------------------------------------------------------------- Material
+
 
 def test_material_builds_and_is_frozen():
     # Values are stored exactly as floats; the dataclass is immutable.
@@ -244,6 +265,7 @@ def test_material_without_damping_is_for_contacts_only():
     # plate's modes does (they decay by it): the error names the missing law there.
     from synth.physics.scene import Ball, Plate
     from synth.sound.modes import modes
+
     m = Material("m", 1000.0, 1e9, 0.3)
     assert m.damping is None and Ball(m, 0.01).material is m
     plate = Plate(m, 0.002, 0.3, 0.2)
@@ -267,13 +289,14 @@ def test_material_rejects_bad_name(bad):
 
 # --------------------------------------------------------------------------- damping laws
 
+
 def test_rayleigh_decay_rate_closed_form():
     # sigma = alpha/2 + beta omega^2 / 2 (docs/physics.md, "Materials"); float rounding only.
     d = Rayleigh(35.0, 5e-7)
     omega = np.array([0.0, 1.0, 2.0 * math.pi * 100.0, 2.0 * math.pi * 1e4])
     sigma = d.decay_rate(omega)
     assert sigma.shape == omega.shape
-    np.testing.assert_allclose(sigma, 17.5 + 2.5e-7 * omega ** 2, rtol=1e-15, atol=0.0)
+    np.testing.assert_allclose(sigma, 17.5 + 2.5e-7 * omega**2, rtol=1e-15, atol=0.0)
     # At omega = 0 only the mass term is left: sigma = alpha / 2 = 17.5 1/s.
     assert float(d.decay_rate(0.0)) == 17.5
 
@@ -290,12 +313,19 @@ def test_loss_factor_decay_rate_closed_form():
     np.testing.assert_allclose(d.decay_rate(omegas), 5e-4 * omegas, rtol=1e-15, atol=0.0)
 
 
-@pytest.mark.parametrize("alpha, beta, field", [
-    (-1.0, 0.0, "damping.alpha"), (float("nan"), 0.0, "damping.alpha"),
-    (float("inf"), 0.0, "damping.alpha"), ("35", 0.0, "damping.alpha"),
-    (0.0, -1e-9, "damping.beta"), (0.0, float("nan"), "damping.beta"),
-    (0.0, float("inf"), "damping.beta"), (0.0, None, "damping.beta"),
-])
+@pytest.mark.parametrize(
+    "alpha, beta, field",
+    [
+        (-1.0, 0.0, "damping.alpha"),
+        (float("nan"), 0.0, "damping.alpha"),
+        (float("inf"), 0.0, "damping.alpha"),
+        ("35", 0.0, "damping.alpha"),
+        (0.0, -1e-9, "damping.beta"),
+        (0.0, float("nan"), "damping.beta"),
+        (0.0, float("inf"), "damping.beta"),
+        (0.0, None, "damping.beta"),
+    ],
+)
 def test_rayleigh_rejects_bad_coefficients(alpha, beta, field):
     # alpha (1/s) and beta (s) must be finite and >= 0; the message names the coefficient.
     with pytest.raises(ParameterError, match=re.escape(field)):
@@ -322,6 +352,7 @@ def test_loss_factor_accepts_range(eta):
 
 # --------------------------------------------------------------------------- table_markdown
 
+
 def test_table_markdown_lists_every_row():
     # One Markdown line per table row, in name order, whose numbers round-trip to the row.
     text = materials.table_markdown()
@@ -347,8 +378,15 @@ def test_table_markdown_rejects_pipe_breaking_rows():
         assert line.replace("\\|", "").count("|") == 7
 
 
-@pytest.mark.parametrize("alias, row", [("ceramic", "porcelain"), ("PMMA", "acrylic"),
-                                        ("aluminum", "aluminium"), ("stainless", "stainless-steel")])
+@pytest.mark.parametrize(
+    "alias, row",
+    [
+        ("ceramic", "porcelain"),
+        ("PMMA", "acrylic"),
+        ("aluminum", "aluminium"),
+        ("stainless", "stainless-steel"),
+    ],
+)
 def test_aliases_name_table_rows(alias, row):
     # an alias is the same row, not a copy
     assert materials.get(alias) is materials.get(row)

@@ -29,7 +29,7 @@ def _private_cache(tmp_path, monkeypatch):
 
 def _lam_scale(plate: Plate) -> float:
     """Leissa's frequency parameter per rad/s: lambda = omega a^2 sqrt(rho h / D)."""
-    return plate.length ** 2 * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+    return plate.length**2 * math.sqrt(plate.surface_density / plate.flexural_rigidity)
 
 
 def _modes_to_lambda(plate: Plate, lam_max: float, **kw):
@@ -52,13 +52,15 @@ def _gram(modes, n_nodes: int):
 # Simply supported: closed form
 # --------------------------------------------------------------------------------------
 
+
 def test_simply_supported_closed_form():
     plate = Plate(STEEL, 0.002, 0.53, 0.37, "simply-supported")
     fmax = 5000.0
     m = P.modes(plate, max_frequency=fmax)
     c = 0.5 * math.pi * math.sqrt(plate.flexural_rigidity / plate.surface_density)
-    ref = sorted(c * ((i / 0.53) ** 2 + (j / 0.37) ** 2)
-                 for i in range(1, 60) for j in range(1, 60))
+    ref = sorted(
+        c * ((i / 0.53) ** 2 + (j / 0.37) ** 2) for i in range(1, 60) for j in range(1, 60)
+    )
     ref = np.array([f for f in ref if f <= fmax])
     # Closed form (Leissa 1969 eq. 4.21); the only error is rounding: 1e-9 relative.
     assert len(m) == ref.size
@@ -70,9 +72,10 @@ def test_simply_supported_closed_form():
     pts = np.array([[0.1, 0.05], [0.3, 0.2], [0.53, 0.11], [0.0, 0.37], [0.27, 0.3]])
     phi = m.shapes(pts)
     for k in range(len(m)):
-        mm, nn = min(((i, j) for i in range(1, 60) for j in range(1, 60)),
-                     key=lambda ij: abs(c * ((ij[0] / 0.53) ** 2 + (ij[1] / 0.37) ** 2)
-                                        - m.frequencies[k]))
+        mm, nn = min(
+            ((i, j) for i in range(1, 60) for j in range(1, 60)),
+            key=lambda ij: abs(c * ((ij[0] / 0.53) ** 2 + (ij[1] / 0.37) ** 2) - m.frequencies[k]),
+        )
         expect = 2 * np.sin(mm * np.pi * pts[:, 0] / 0.53) * np.sin(nn * np.pi * pts[:, 1] / 0.37)
         np.testing.assert_allclose(phi[:, k], expect, rtol=0, atol=1e-12)
     # Mean square 1 and modal mass rho h a b (invariants of the normalisation).
@@ -89,6 +92,7 @@ def test_simply_supported_closed_form_rejects_bad_max_frequency(bad):
 # --------------------------------------------------------------------------------------
 # Free and clamped: published values
 # --------------------------------------------------------------------------------------
+
 
 def test_free_square_leissa():
     plate = Plate(STEEL, 0.001, 0.3, 0.3, "free")
@@ -128,8 +132,7 @@ def test_clamped_square_leissa_rejects_band_too_large():
 # a the side along x, for a / b = 0.4, 2/3, 1.5, 2.5: fundamental mode. His values are
 # 36-term beam-function Ritz results, i.e. upper bounds.
 CLAMPED_1973 = {0.4: 23.648, 2 / 3: 27.010, 1.5: 60.772, 2.5: 147.80}
-FREE_1973 = {0.4: [3.463, 5.288, 9.622, 11.44], 2 / 3: [8.946, 9.602], 1.5: [20.128],
-             2.5: [21.643]}
+FREE_1973 = {0.4: [3.463, 5.288, 9.622, 11.44], 2 / 3: [8.946, 9.602], 1.5: [20.128], 2.5: [21.643]}
 
 
 @pytest.mark.parametrize("ratio", sorted(CLAMPED_1973))
@@ -167,6 +170,7 @@ def test_free_rectangle_leissa_1973_rejects_bad_cache_flag():
 # Shapes: orthogonality, normalisation, evaluation paths
 # --------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("boundary", ["free", "clamped", "simply-supported"])
 def test_shapes_orthonormal(boundary):
     plate = Plate(STEEL, 0.001, 0.5, 0.4, boundary)
@@ -196,8 +200,8 @@ def test_shapes_grid_equals_pointwise():
     xs, ys = np.linspace(0, 0.5, 17), np.linspace(0, 0.4, 13)
     X, Y = np.meshgrid(xs, ys, indexing="ij")
     grid = np.column_stack([X.ravel(), Y.ravel()])
-    together = m.shapes(grid)                      # shared sums along x (grid path)
-    one_by_one = np.vstack([m.shapes(grid[i:i + 1]) for i in range(grid.shape[0])])
+    together = m.shapes(grid)  # shared sums along x (grid path)
+    one_by_one = np.vstack([m.shapes(grid[i : i + 1]) for i in range(grid.shape[0])])
     # Same sums in another order: equal to rounding (shapes are O(1), up to ~4).
     np.testing.assert_allclose(together, one_by_one, rtol=0, atol=1e-11)
     # Symmetry classes: each mode is even or odd under x -> a - x (invariant).
@@ -206,18 +210,32 @@ def test_shapes_grid_equals_pointwise():
     np.testing.assert_allclose(mirrored, together * parity, rtol=0, atol=1e-11)
 
 
-@pytest.mark.parametrize("points", [
-    [[-1e-9, 0.1]], [[0.2, 0.4000001]], [[0.5 + 1e-12, 0.0]], [[0.1, 0.1], [0.2, -0.3]],
-])
+@pytest.mark.parametrize(
+    "points",
+    [
+        [[-1e-9, 0.1]],
+        [[0.2, 0.4000001]],
+        [[0.5 + 1e-12, 0.0]],
+        [[0.1, 0.1], [0.2, -0.3]],
+    ],
+)
 def test_shapes_rejects_points_off_plate(points):
     m = P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "free"), max_frequency=500.0)
     with pytest.raises(ParameterError, match=r"points\[\d+\]=.*off the plate"):
         m.shapes(points)
 
 
-@pytest.mark.parametrize("points", [
-    [0.1, 0.1], [[0.1, 0.1, 0.0]], [[math.nan, 0.1]], [[0.1, math.inf]], "centre", [["a", "b"]],
-])
+@pytest.mark.parametrize(
+    "points",
+    [
+        [0.1, 0.1],
+        [[0.1, 0.1, 0.0]],
+        [[math.nan, 0.1]],
+        [[0.1, math.inf]],
+        "centre",
+        [["a", "b"]],
+    ],
+)
 def test_shapes_rejects_malformed_points(points):
     m = P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "free"), max_frequency=500.0)
     with pytest.raises(ParameterError, match="points"):
@@ -228,12 +246,15 @@ def test_shapes_rejects_malformed_points(points):
 # Convergence
 # --------------------------------------------------------------------------------------
 
+
 def test_ritz_values_decrease_monotonically_with_basis():
     # Nested bases (growing design band): Rayleigh-Ritz values are upper bounds that
     # can only decrease (Poincare / Courant-Fischer), up to rounding (1e-12 relative).
     omega_cut = 400.0
-    runs = [P._ritz_frequencies("free", 0.3, 1.25, ob, omega_cut)[:25]
-            for ob in (60.0, 120.0, 250.0, 500.0, 1000.0)]
+    runs = [
+        P._ritz_frequencies("free", 0.3, 1.25, ob, omega_cut)[:25]
+        for ob in (60.0, 120.0, 250.0, 500.0, 1000.0)
+    ]
     for coarse, fine in zip(runs, runs[1:]):
         assert np.all(fine <= coarse * (1 + 1e-12))
     # ... towards a limit: the last step changes nothing beyond 1e-6, the first a lot.
@@ -245,11 +266,11 @@ def test_returned_modes_are_converged():
     plate = Plate(STEEL, 0.001, 0.5, 0.4, "free")
     fmax = 3000.0
     m = P.modes(plate, max_frequency=fmax)
-    omega_req = 2 * math.pi * fmax * 0.5 ** 2 * math.sqrt(plate.surface_density
-                                                           / plate.flexural_rigidity)
-    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req,
-                              c0=P._C0 + 8)
-    scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / 0.5 ** 2
+    omega_req = (
+        2 * math.pi * fmax * 0.5**2 * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+    )
+    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=P._C0 + 8)
+    scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / 0.5**2
     ref_f = ref * scale / (2 * math.pi)
     ref_f = ref_f[ref_f <= fmax]
     # Every mode up to fmax, none above, each within the documented tolerance of a
@@ -277,8 +298,7 @@ def test_unconverged_basis_is_enlarged(monkeypatch):
     assert len(attempts) >= 2
     assert attempts[0]["worst_relative_change"] > P.TOLERANCE
     assert attempts[-1]["worst_relative_change"] <= P.TOLERANCE
-    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req,
-                              c0=10.0, c1=3.0)
+    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=10.0, c1=3.0)
     ref = ref[ref <= omega_req]
     assert sol.omega.size == ref.size
     np.testing.assert_allclose(sol.omega, ref, rtol=P.TOLERANCE)
@@ -311,13 +331,17 @@ def test_band_below_first_mode_is_empty():
 # Damping
 # --------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("damping", [Rayleigh(35.0, 5e-7), LossFactor(0.02)])
 def test_decay_rates_follow_damping_law(damping):
     mat = Material("damped", 700.0, 5.689e9, 0.4, damping)
     m = P.modes(Plate(mat, 0.018, 1.227, 0.49, "free"), max_frequency=3000.0)
     w = m.angular_frequencies
-    expect = (0.5 * damping.alpha + 0.5 * damping.beta * w ** 2 if isinstance(damping, Rayleigh)
-              else 0.5 * damping.eta * w)
+    expect = (
+        0.5 * damping.alpha + 0.5 * damping.beta * w**2
+        if isinstance(damping, Rayleigh)
+        else 0.5 * damping.eta * w
+    )
     # sigma = alpha/2 + beta omega^2/2 or eta omega/2 (docs/physics.md, "Plate modes"), to rounding.
     np.testing.assert_allclose(m.decay_rates, expect, rtol=1e-14)
 
@@ -343,6 +367,7 @@ def test_damping_does_not_change_eigen_solution():
 # --------------------------------------------------------------------------------------
 # Cache
 # --------------------------------------------------------------------------------------
+
 
 def _cache_files(tmp_path):
     return sorted((tmp_path / "cache").glob("plate-modes-*.npz"))
@@ -455,15 +480,18 @@ def test_shape_key_identifies_shapes():
     assert len(m4) == len(m3) and m4.shape_key == m3.shape_key
     np.testing.assert_array_equal(m4.shapes(pts), m3.shapes(pts))
     # Size, boundary, Poisson ratio, number of modes and the solution's band all count.
-    keys = {m1.shape_key, P.modes(Plate(STEEL, 0.001, 0.5, 0.41, "free"),
-                                  max_frequency=2000.0).shape_key,
-            P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "clamped"), max_frequency=2000.0).shape_key,
-            P.modes(Plate(Material("nu", 7800.0, 2.0e11, 0.25, LossFactor(1e-3)), 0.001, 0.5,
-                          0.4, "free"), max_frequency=2000.0).shape_key,
-            P.modes(plate, max_frequency=1500.0).shape_key,
-            P.modes(plate, max_frequency=1500.0, cache=False).shape_key,
-            P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "simply-supported"),
-                    max_frequency=2000.0).shape_key}
+    keys = {
+        m1.shape_key,
+        P.modes(Plate(STEEL, 0.001, 0.5, 0.41, "free"), max_frequency=2000.0).shape_key,
+        P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "clamped"), max_frequency=2000.0).shape_key,
+        P.modes(
+            Plate(Material("nu", 7800.0, 2.0e11, 0.25, LossFactor(1e-3)), 0.001, 0.5, 0.4, "free"),
+            max_frequency=2000.0,
+        ).shape_key,
+        P.modes(plate, max_frequency=1500.0).shape_key,
+        P.modes(plate, max_frequency=1500.0, cache=False).shape_key,
+        P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "simply-supported"), max_frequency=2000.0).shape_key,
+    }
     assert len(keys) == 7
 
 

@@ -13,8 +13,10 @@ from synth.io import playback
 
 def test_importing_synth_does_not_import_sounddevice():
     # The design rule: no sounddevice (nor matplotlib, pyloudnorm, dask) at import.
-    code = ("import sys, synth; bad = [m for m in ('sounddevice', 'matplotlib', 'pyloudnorm', 'dask') "
-            "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
+    code = (
+        "import sys, synth; bad = [m for m in ('sounddevice', 'matplotlib', 'pyloudnorm', 'dask') "
+        "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)"
+    )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
@@ -47,10 +49,15 @@ def test_play_calls_sounddevice(monkeypatch):
     assert calls == [(np.float32, (10,), 44100, False)]
 
 
-@pytest.mark.parametrize("audio, fs, word", [(np.zeros(10), None, "samplerate"),
-                                             (np.zeros(10), -1.0, "samplerate"),
-                                             (np.array([np.nan]), 48000, "audio"),
-                                             (np.zeros(0), 48000, "audio")])
+@pytest.mark.parametrize(
+    "audio, fs, word",
+    [
+        (np.zeros(10), None, "samplerate"),
+        (np.zeros(10), -1.0, "samplerate"),
+        (np.array([np.nan]), 48000, "audio"),
+        (np.zeros(0), 48000, "audio"),
+    ],
+)
 def test_play_rejects_bad_input(audio, fs, word):
     with pytest.raises(ParameterError, match=word):
         playback.play(audio, fs)

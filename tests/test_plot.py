@@ -31,22 +31,41 @@ def stand_in(impacts, sr=SR, channels=1, lead=0.01, tail=0.2, units="Pa"):
     for imp, onset in zip(impacts, onsets):
         start = int(np.ceil(onset * sr))
         dt = t[start:] - onset
-        signal[start:] += 0.05 * imp.speed * (np.sin(2 * np.pi * 820 * dt) * np.exp(-dt / 0.05)
-                                              + 0.5 * np.sin(2 * np.pi * 3100 * dt) * np.exp(-dt / 0.02))
+        signal[start:] += (
+            0.05
+            * imp.speed
+            * (
+                np.sin(2 * np.pi * 820 * dt) * np.exp(-dt / 0.05)
+                + 0.5 * np.sin(2 * np.pi * 3100 * dt) * np.exp(-dt / 0.02)
+            )
+        )
     gain = 0.9 / np.max(np.abs(signal))
     audio = (signal * gain).astype(np.float32)
     if channels > 1:
-        audio = np.stack([audio * 0.8 ** c for c in range(channels)], axis=1)
+        audio = np.stack([audio * 0.8**c for c in range(channels)], axis=1)
     return types.SimpleNamespace(
-        audio=audio, samplerate=sr, impacts=impacts, onsets=onsets, units=units, gain=float(gain),
-        settings={"samplerate": sr, "normalize": "peak",
-                  "listener": "Microphone(position=(0.6, 0.25, 0.2))"})
+        audio=audio,
+        samplerate=sr,
+        impacts=impacts,
+        onsets=onsets,
+        units=units,
+        gain=float(gain),
+        settings={
+            "samplerate": sr,
+            "normalize": "peak",
+            "listener": "Microphone(position=(0.6, 0.25, 0.2))",
+        },
+    )
 
 
 @pytest.fixture(scope="module")
 def render():
-    seq = simulate_bounces(Ball("steel", 0.005, mass=4.17e-3), Plate("mdf-18", 0.018, 1.227, 0.49),
-                           drop_height=0.1, max_impacts=10)
+    seq = simulate_bounces(
+        Ball("steel", 0.005, mass=4.17e-3),
+        Plate("mdf-18", 0.018, 1.227, 0.49),
+        drop_height=0.1,
+        max_impacts=10,
+    )
     return stand_in(seq)
 
 
@@ -66,6 +85,7 @@ def test_plot_render(render, tmp_path):
     assert os.listdir(tmp_path) == ["r.png"]  # no temporary file left behind
     # Something was drawn: the image is not one flat colour.
     import matplotlib.image
+
     img = matplotlib.image.imread(out)
     assert img[..., :3].std() > 0.05
 
@@ -88,9 +108,15 @@ def test_plot_render_rejects_bad_input(render, tmp_path):
         plot_render(render, tmp_path / "r.jpg")
     with pytest.raises(ParameterError, match="does not exist"):
         plot_render(render, tmp_path / "missing" / "r.png")
-    for field, value in (("gain", 0.0), ("units", "V"), ("samplerate", 0),
-                         ("audio", np.array([0.0, np.nan])), ("impacts", [object()]),
-                         ("onsets", "x"), ("onsets", [np.nan] * len(render.impacts))):
+    for field, value in (
+        ("gain", 0.0),
+        ("units", "V"),
+        ("samplerate", 0),
+        ("audio", np.array([0.0, np.nan])),
+        ("impacts", [object()]),
+        ("onsets", "x"),
+        ("onsets", [np.nan] * len(render.impacts)),
+    ):
         bad = types.SimpleNamespace(**{**vars(render), field: value})
         with pytest.raises(ParameterError, match=field):
             plot_render(bad, tmp_path / "r.png")

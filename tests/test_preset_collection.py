@@ -34,7 +34,9 @@ BOARDS = {
     "mdf12": ("mdf-12", 0.012, 1.226, 0.4885),
     "mdf6": ("mdf-6", 0.00615, 1.200, 0.4895),
 }
-THESIS_NAME = re.compile(r"^thesis-(?P<ball>[a-z]+\d+)-(?P<board>mdf\d+)(?:-(?P<where>edge|corner))?$")
+THESIS_NAME = re.compile(
+    r"^thesis-(?P<ball>[a-z]+\d+)-(?P<board>mdf\d+)(?:-(?P<where>edge|corner))?$"
+)
 
 
 def _thesis_parts(path):
@@ -48,10 +50,13 @@ def _thesis_parts(path):
 
 def _e1(name, *overrides):
     """First restitution of a preset's scene, optionally overridden."""
-    return simulate_scene(load_preset(REPO / "presets" / f"{name}.toml", overrides))[0].result.restitution
+    return simulate_scene(load_preset(REPO / "presets" / f"{name}.toml", overrides))[
+        0
+    ].result.restitution
 
 
 # --------------------------------------------------------------------------- the collection
+
 
 def test_collection_size():
     # The collection promises at least 12 scenes besides the default one.
@@ -68,6 +73,7 @@ def test_collection_size_rejects_unknown_name():
 
 
 # --------------------------------------------------------------------------- every preset
+
 
 @pytest.mark.parametrize("path", FILES, ids=NAMES)
 def test_preset_loads(path):
@@ -137,6 +143,7 @@ def test_preset_scene_computes_rejects_drop_off_plate(path):
 
 # --------------------------------------------------------------------------- thesis presets
 
+
 @pytest.mark.parametrize("path", THESIS_FILES, ids=[p.stem for p in THESIS_FILES])
 def test_thesis_masses(path):
     ball_key, board_key, where = _thesis_parts(path)
@@ -159,7 +166,9 @@ def test_thesis_masses(path):
     elif where == "edge":  # 20 mm from a long edge, mid-length
         assert (x, min(y, p.width - y)) == pytest.approx((p.length / 2, 0.020), abs=1e-12)
     else:  # 30 mm from both edges at a corner
-        assert (min(x, p.length - x), min(y, p.width - y)) == pytest.approx((0.030, 0.030), abs=1e-12)
+        assert (min(x, p.length - x), min(y, p.width - y)) == pytest.approx(
+            (0.030, 0.030), abs=1e-12
+        )
 
 
 @pytest.mark.parametrize("path", THESIS_FILES, ids=[p.stem for p in THESIS_FILES])

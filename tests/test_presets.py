@@ -30,16 +30,26 @@ DEFAULT = REPO / "presets" / "default.toml"
 THESIS = {
     "description": "thesis setup",
     "ball": {"material": "steel", "radius": 0.005, "mass": 4.17e-3},
-    "plate": {"material": "mdf-18", "thickness": 0.018, "length": 1.227, "width": 0.49,
-              "boundary": "free"},
+    "plate": {
+        "material": "mdf-18",
+        "thickness": 0.018,
+        "length": 1.227,
+        "width": 0.49,
+        "boundary": "free",
+    },
     "drop": {"height": 0.1, "position": [0.6135, 0.245]},
     "listener": {"type": "microphone", "position": [0.6135, 0.245, 0.2]},
     "contact": {"law": "hertz", "rtol": 1e-9},
 }
 
 # An inline material: a hard wood board (values of the table's "hardwood" row, Bies et al.).
-OAK = {"name": "oak-board", "density": 700.0, "young": 12e9, "poisson": 0.35,
-       "damping": {"eta": 0.01}}
+OAK = {
+    "name": "oak-board",
+    "density": 700.0,
+    "young": 12e9,
+    "poisson": 0.35,
+    "damping": {"eta": 0.01},
+}
 
 
 def _toml(value) -> str:
@@ -103,6 +113,7 @@ def assert_names(message, path, *parts):
 
 # --------------------------------------------------------------------------- the default preset
 
+
 def check_thesis_scene(scene):
     # Thesis Table 3.1 and section 3: 10 mm steel ball of 4.17 g (weighed), 18 mm MDF board of
     # 1227 x 490 mm on air cushions (free edges), 10 cm drop on the middle, microphone 20 cm
@@ -165,7 +176,7 @@ def test_load_defaults_when_optional_keys_are_left_out(tmp_path):
     # of the plate, a microphone 0.2 m above the impact point, Hertz at rtol 1e-9, g = 9.81.
     data = thesis(ball={"mass": None}, drop={"position": None}, listener=None, contact=None)
     scene = load_preset(write(tmp_path, data))
-    assert scene.ball.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005 ** 3 * 7800.0, rel=1e-12)
+    assert scene.ball.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005**3 * 7800.0, rel=1e-12)
     assert scene.position == pytest.approx((1.227 / 2, 0.49 / 2), rel=1e-15)
     assert scene.listener.position == pytest.approx((1.227 / 2, 0.49 / 2, 0.2), rel=1e-15)
     assert (scene.contact.law, scene.contact.rtol) == ("hertz", 1e-9)
@@ -188,14 +199,17 @@ def test_render_options_pass_through(tmp_path):
     assert scene.drop_height == 0.1
 
 
-@pytest.mark.parametrize("section, words", [
-    ({"level": "peak"}, ["render.level='peak'", "not a known key", "normalize"]),
-    ({"samplerate": "48k"}, ["render.samplerate='48k'", "integer number of Hz"]),
-    ({"floor_db": 3}, ["render.floor_db=3", "< 0 (dB)"]),
-    ({"normalize": "loud"}, ["render.normalize='loud'", "'loudness'"]),
-    ({"max_frequency": 30000.0}, ["render.max_frequency=30000.0", "Nyquist"]),
-    ({"subtype": "MP3_SUPER"}, ["render.subtype='MP3_SUPER'", "PCM_24"]),
-])
+@pytest.mark.parametrize(
+    "section, words",
+    [
+        ({"level": "peak"}, ["render.level='peak'", "not a known key", "normalize"]),
+        ({"samplerate": "48k"}, ["render.samplerate='48k'", "integer number of Hz"]),
+        ({"floor_db": 3}, ["render.floor_db=3", "< 0 (dB)"]),
+        ({"normalize": "loud"}, ["render.normalize='loud'", "'loudness'"]),
+        ({"max_frequency": 30000.0}, ["render.max_frequency=30000.0", "Nyquist"]),
+        ({"subtype": "MP3_SUPER"}, ["render.subtype='MP3_SUPER'", "PCM_24"]),
+    ],
+)
 def test_render_options_rejects_bad_keys_and_values(tmp_path, section, words):
     # A bad [render] option is found when the preset is read, by the API as by the CLI, and
     # the message names the file, the full key, the value and what is allowed.
@@ -216,6 +230,7 @@ def test_render_options_rejects_render_not_a_table(tmp_path):
 
 # --------------------------------------------------------------------------- overrides (--set)
 
+
 def test_override_number():
     # A TOML number replaces the file's value exactly; the explicit mass stays 4.17 g.
     scene = load_preset("default", overrides=["ball.radius=0.007"])
@@ -230,8 +245,15 @@ def test_override_number_rejects_bad_value():
     assert_names(str(info.value), find("default"), "ball.radius=-1")
 
 
-@pytest.mark.parametrize("item", ["plate.material=glass", 'plate.material="glass"',
-                                  "plate.material='glass'", "plate.material = glass "])
+@pytest.mark.parametrize(
+    "item",
+    [
+        "plate.material=glass",
+        'plate.material="glass"',
+        "plate.material='glass'",
+        "plate.material = glass ",
+    ],
+)
 def test_override_string(item):
     # A bare word is a string (material=glass); TOML basic and literal strings too; spaces
     # around key and value are ignored. The table row is used as it is.
@@ -240,7 +262,10 @@ def test_override_string(item):
 
 def test_override_string_bare_word_with_hyphen():
     # "mdf-12" is not a TOML value: it is taken as a bare word (the 12 mm board).
-    assert load_preset("default", overrides=["plate.material=mdf-12"]).plate.material is TABLE["mdf-12"]
+    assert (
+        load_preset("default", overrides=["plate.material=mdf-12"]).plate.material
+        is TABLE["mdf-12"]
+    )
 
 
 def test_override_string_rejects_number_with_unit():
@@ -274,8 +299,15 @@ def test_override_top_level_rejects_bad_gravity():
 def test_override_adds_section_and_later_wins(tmp_path):
     # Overrides apply in order (the last one wins) and may create a section the file lacks.
     path = write(tmp_path, thesis(contact=None))
-    scene = load_preset(path, overrides=["ball.radius=0.006", "ball.radius=0.0075",
-                                         "contact.law=hunt-crossley", "contact.dissipation=0.2"])
+    scene = load_preset(
+        path,
+        overrides=[
+            "ball.radius=0.006",
+            "ball.radius=0.0075",
+            "contact.law=hunt-crossley",
+            "contact.dissipation=0.2",
+        ],
+    )
     assert scene.ball.radius == 0.0075
     assert (scene.contact.law, scene.contact.dissipation) == ("hunt-crossley", 0.2)
 
@@ -288,11 +320,14 @@ def test_apply_overrides_leaves_input_unchanged():
     assert out["ball"]["radius"] == 0.007 and out["gravity"] == 1.62
 
 
-@pytest.mark.parametrize("item, part", [
-    ("ball.radius", "'ball.radius'"),             # no '='
-    ("ball.material.density=7800", "ball.material.density"),  # three-part key
-    ("description.x=1", "'description' is not a section"),   # a top-level value is no section
-])
+@pytest.mark.parametrize(
+    "item, part",
+    [
+        ("ball.radius", "'ball.radius'"),  # no '='
+        ("ball.material.density=7800", "ball.material.density"),  # three-part key
+        ("description.x=1", "'description' is not a section"),  # a top-level value is no section
+    ],
+)
 def test_apply_overrides_rejects_bad_items(item, part):
     # Malformed overrides are PresetErrors naming the offending item.
     with pytest.raises(PresetError) as info:
@@ -308,6 +343,7 @@ def test_load_preset_rejects_bad_overrides(item):
 
 
 # --------------------------------------------------------------------------- key errors
+
 
 def test_unknown_top_level_key(tmp_path):
     # An unknown top-level key names the file, the key and its value.
@@ -341,43 +377,57 @@ def test_missing_drop_height(tmp_path):
     assert_names(msg, path, "drop.height")
 
 
-@pytest.mark.parametrize("changes, parts", [
-    ({"ball": {"radius": "0.005"}}, ["ball.radius='0.005'", "number"]),
-    ({"ball": {"mass": "4.17 g"}}, ["ball.mass='4.17 g'"]),
-    ({"plate": {"thickness": [0.018]}}, ["plate.thickness=[0.018]", "number"]),
-    ({"drop": {"height": "0.1"}}, ["drop.height='0.1'"]),
-    ({"drop": {"position": "centre"}}, ["drop.position='centre'", "[x, y]"]),
-    ({"drop": {"position": [0.5, 0.2, 0.1]}}, ["drop.position=(0.5, 0.2, 0.1)", "2 coordinates"]),
-    ({"listener": {"position": "above"}}, ["listener.position='above'"]),
-    ({"listener": {"type": "ear"}}, ["listener.type='ear'"]),
-    ({"gravity": "9.81"}, ["gravity='9.81'"]),
-    ({"contact": {"rtol": "1e-6"}}, ["contact.rtol='1e-6'"]),
-])
+@pytest.mark.parametrize(
+    "changes, parts",
+    [
+        ({"ball": {"radius": "0.005"}}, ["ball.radius='0.005'", "number"]),
+        ({"ball": {"mass": "4.17 g"}}, ["ball.mass='4.17 g'"]),
+        ({"plate": {"thickness": [0.018]}}, ["plate.thickness=[0.018]", "number"]),
+        ({"drop": {"height": "0.1"}}, ["drop.height='0.1'"]),
+        ({"drop": {"position": "centre"}}, ["drop.position='centre'", "[x, y]"]),
+        (
+            {"drop": {"position": [0.5, 0.2, 0.1]}},
+            ["drop.position=(0.5, 0.2, 0.1)", "2 coordinates"],
+        ),
+        ({"listener": {"position": "above"}}, ["listener.position='above'"]),
+        ({"listener": {"type": "ear"}}, ["listener.type='ear'"]),
+        ({"gravity": "9.81"}, ["gravity='9.81'"]),
+        ({"contact": {"rtol": "1e-6"}}, ["contact.rtol='1e-6'"]),
+    ],
+)
 def test_wrong_types(tmp_path, changes, parts):
     # A value of the wrong type is an error naming the file, the key and the value.
     msg, path = error_of(tmp_path, thesis(**changes))
     assert_names(msg, path, *parts)
 
 
-@pytest.mark.parametrize("changes, parts", [
-    # impact point beyond the 1.227 m board
-    ({"drop": {"position": [1.5, 0.2]}}, ["drop.position=(1.5, 0.2)", "off the plate"]),
-    # a 0.6 m ball on a 0.49 m wide board
-    ({"ball": {"radius": 0.3}}, ["ball.radius=0.3", "too large"]),
-    # an accelerometer must sit on the plate
-    ({"listener": {"type": "accelerometer", "position": [0.6, 0.6]}},
-     ["listener.position=(0.6, 0.6)", "off the plate"]),
-    # a microphone must be above the plate (z > 0)
-    ({"listener": {"position": [0.6, 0.2, 0.0]}}, ["listener.position.z=0.0"]),
-    ({"plate": {"boundary": "pinned"}}, ["plate.boundary='pinned'", "'free'"]),
-    ({"contact": {"law": "coulomb"}}, ["contact.law='coulomb'", "'hertz'"]),
-    ({"contact": {"law": "hunt-crossley"}}, ["contact.law='hunt-crossley'", "contact.dissipation"]),
-    ({"contact": {"dissipation": 0.5}}, ["contact.dissipation=0.5", "'hertz'"]),
-    ({"contact": {"rtol": 0.5}}, ["contact.rtol=0.5"]),
-    ({"plate": {"thickness": 0.6}}, ["plate.thickness=0.6"]),
-    ({"ball": {"material": "unobtainium"}}, ["ball.material", "'unobtainium'"]),
-    ({"drop": {"height": 0.0}}, ["drop.height=0.0", "> 0"]),
-])
+@pytest.mark.parametrize(
+    "changes, parts",
+    [
+        # impact point beyond the 1.227 m board
+        ({"drop": {"position": [1.5, 0.2]}}, ["drop.position=(1.5, 0.2)", "off the plate"]),
+        # a 0.6 m ball on a 0.49 m wide board
+        ({"ball": {"radius": 0.3}}, ["ball.radius=0.3", "too large"]),
+        # an accelerometer must sit on the plate
+        (
+            {"listener": {"type": "accelerometer", "position": [0.6, 0.6]}},
+            ["listener.position=(0.6, 0.6)", "off the plate"],
+        ),
+        # a microphone must be above the plate (z > 0)
+        ({"listener": {"position": [0.6, 0.2, 0.0]}}, ["listener.position.z=0.0"]),
+        ({"plate": {"boundary": "pinned"}}, ["plate.boundary='pinned'", "'free'"]),
+        ({"contact": {"law": "coulomb"}}, ["contact.law='coulomb'", "'hertz'"]),
+        (
+            {"contact": {"law": "hunt-crossley"}},
+            ["contact.law='hunt-crossley'", "contact.dissipation"],
+        ),
+        ({"contact": {"dissipation": 0.5}}, ["contact.dissipation=0.5", "'hertz'"]),
+        ({"contact": {"rtol": 0.5}}, ["contact.rtol=0.5"]),
+        ({"plate": {"thickness": 0.6}}, ["plate.thickness=0.6"]),
+        ({"ball": {"material": "unobtainium"}}, ["ball.material", "'unobtainium'"]),
+        ({"drop": {"height": 0.0}}, ["drop.height=0.0", "> 0"]),
+    ],
+)
 def test_impossible_scenes(tmp_path, changes, parts):
     # A scene the physics cannot hold is a PresetError naming the file, the key and the value.
     msg, path = error_of(tmp_path, thesis(**changes))
@@ -392,6 +442,7 @@ def test_accelerometer_on_plate(tmp_path):
 
 
 # --------------------------------------------------------------------------- inline materials
+
 
 def test_inline_material_loss_factor(tmp_path):
     # An inline table builds a Material with exactly the given constants and a loss factor.
@@ -415,7 +466,7 @@ def test_inline_material_ball_mass_from_density(tmp_path):
     mat = {"density": 7960.0, "young": 216e9, "poisson": 0.3}
     scene = load_preset(write(tmp_path, thesis(ball={"material": mat, "mass": None})))
     assert scene.ball.material.name == "custom"
-    assert scene.ball.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005 ** 3 * 7960.0, rel=1e-12)
+    assert scene.ball.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005**3 * 7960.0, rel=1e-12)
 
 
 def test_inline_material_rejects_unknown_key(tmp_path):
@@ -424,8 +475,9 @@ def test_inline_material_rejects_unknown_key(tmp_path):
     assert_names(msg, path, "ball.material.colour", "'red'")
 
 
-@pytest.mark.parametrize("damping", [{"eta": 0.01, "alpha": 35.0}, {"alpha": 35.0}, {}, 0.01,
-                                     {"q": 100.0}])
+@pytest.mark.parametrize(
+    "damping", [{"eta": 0.01, "alpha": 35.0}, {"alpha": 35.0}, {}, 0.01, {"q": 100.0}]
+)
 def test_inline_material_rejects_bad_damping(tmp_path, damping):
     # damping must be exactly {eta} or {alpha, beta}; anything else names file and key.
     msg, path = error_of(tmp_path, thesis(plate={"material": dict(OAK, damping=damping)}))
@@ -447,8 +499,9 @@ def test_inline_material_rejects_bad_constant(tmp_path, key, value):
     assert_names(msg, path, "plate.material", f"{key}={value!r}")
 
 
-@pytest.mark.parametrize("damping, part", [({"eta": -0.01}, "-0.01"),
-                                            ({"alpha": 35.0, "beta": -1.0}, "-1.0")])
+@pytest.mark.parametrize(
+    "damping, part", [({"eta": -0.01}, "-0.01"), ({"alpha": 35.0, "beta": -1.0}, "-1.0")]
+)
 def test_inline_material_rejects_bad_damping_value(tmp_path, damping, part):
     # A negative loss factor or Rayleigh coefficient is rejected, naming the file and value.
     msg, path = error_of(tmp_path, thesis(plate={"material": dict(OAK, damping=damping)}))
@@ -456,6 +509,7 @@ def test_inline_material_rejects_bad_damping_value(tmp_path, damping, part):
 
 
 # --------------------------------------------------------------------------- files
+
 
 def test_read_returns_toml():
     # read() is tomllib on the file: the same dict as parsing the shipped file directly.
@@ -506,6 +560,7 @@ def test_read_rejects_unreadable(tmp_path):
 
 
 # --------------------------------------------------------------------------- find / available
+
 
 def test_find_by_name():
     # "default" is the repository's presets/default.toml.
@@ -560,6 +615,7 @@ def test_env_presets_rejects_broken_file(monkeypatch, tmp_path):
 def test_render_preset_uses_the_render_section(tmp_path):
     # The [render] section's options reach the renderer through the API too; keywords win.
     import synth
+
     path = write(tmp_path, thesis(render={"samplerate": 22050, "max_frequency": 5000.0}))
     r = synth.render_preset(path, overrides=["drop.height=0.02"])
     assert r.samplerate == 22050 and r.settings["max_frequency"] == 5000.0

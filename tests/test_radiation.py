@@ -16,8 +16,8 @@ from synth.errors import ParameterError
 from synth.sound import radiation
 from synth.sound.radiation import delay, distance, rayleigh_gains
 
-RHO = 1.204      # kg/m^3
-C = 343.0        # m/s
+RHO = 1.204  # kg/m^3
+C = 343.0  # m/s
 
 
 def piston(n_modes=1):
@@ -31,8 +31,12 @@ def simply_supported(modes, a, b):
     n = np.array([mn[1] for mn in modes], float)
 
     def shape(pts):
-        return 2.0 * np.sin(np.outer(pts[:, 0], m * np.pi / a)) * np.sin(
-            np.outer(pts[:, 1], n * np.pi / b))
+        return (
+            2.0
+            * np.sin(np.outer(pts[:, 0], m * np.pi / a))
+            * np.sin(np.outer(pts[:, 1], n * np.pi / b))
+        )
+
     return shape
 
 
@@ -58,8 +62,9 @@ def cubature_gains(shape, size, listener, s, rtol=1e-11):
         return np.concatenate([v.real, v.imag], axis=1)
 
     points = [[xl, yl]] if 0 < xl < a and 0 < yl < b else None
-    res = integrate.cubature(f, [0.0, 0.0], [a, b], rtol=rtol, atol=0.0, points=points,
-                             max_subdivisions=100000)
+    res = integrate.cubature(
+        f, [0.0, 0.0], [a, b], rtol=rtol, atol=0.0, points=points, max_subdivisions=100000
+    )
     assert res.status == "converged"
     n = q.size
     return RHO * np.asarray(s) / (2 * np.pi) * (res.estimate[:n] + 1j * res.estimate[n:])
@@ -95,11 +100,14 @@ def test_point_source_limit_rejects_listener_in_or_below_baffle(listener):
 # Rectangular piston far field
 
 
-@pytest.mark.parametrize("theta,phi,f,sigma", [
-    (40.0, 30.0, 4000.0, 0.0),       # beyond the first null along x
-    (70.0, 120.0, 2500.0, 0.0),
-    (25.0, 250.0, 6000.0, 300.0),    # a damped pole: the same formula, continued
-])
+@pytest.mark.parametrize(
+    "theta,phi,f,sigma",
+    [
+        (40.0, 30.0, 4000.0, 0.0),  # beyond the first null along x
+        (70.0, 120.0, 2500.0, 0.0),
+        (25.0, 250.0, 6000.0, 300.0),  # a damped pole: the same formula, continued
+    ],
+)
 def test_rectangular_piston_directivity(theta, phi, f, sigma):
     # Fraunhofer: H exp(s R/c) = rho s a b / (2 pi R) sinc(k a ux / 2) sinc(k b uy / 2)
     # with k = -i s / c, R from the centre. The neglected terms are of relative size
@@ -109,17 +117,17 @@ def test_rectangular_piston_directivity(theta, phi, f, sigma):
     u = direction(theta, phi)
     listener = np.array([a / 2, b / 2, 0.0]) + R * u
     s = np.array([-sigma + 2j * np.pi * f])
-    H = rayleigh_gains(piston(), (a, b), listener, s, max_wavenumber=0.0,
-                       reference_distance=R)
+    H = rayleigh_gains(piston(), (a, b), listener, s, max_wavenumber=0.0, reference_distance=R)
     k = -1j * s / C
     ref = RHO * s * a * b / (2 * np.pi * R) * sinc(k * a * u[0] / 2) * sinc(k * b * u[1] / 2)
     D = math.hypot(a, b)
-    bound = abs(k[0]) * D ** 2 / (2 * R) + D / (2 * R)
+    bound = abs(k[0]) * D**2 / (2 * R) + D / (2 * R)
     assert rel(H, ref)[0] < bound
 
 
-@pytest.mark.parametrize("size", [(0.0, 0.1), (-0.2, 0.1), (0.2, float("nan")), (0.2,),
-                                  (0.2, float("inf")), "ab"])
+@pytest.mark.parametrize(
+    "size", [(0.0, 0.1), (-0.2, 0.1), (0.2, float("nan")), (0.2,), (0.2, float("inf")), "ab"]
+)
 def test_rectangular_piston_directivity_rejects_bad_size(size):
     with pytest.raises(ParameterError, match="size"):
         rayleigh_gains(piston(), size, (0.1, 0.1, 1.0), np.array([1j]), max_wavenumber=0.0)
@@ -132,8 +140,12 @@ def test_rectangular_piston_directivity_rejects_bad_size(size):
 def _sine_transform(m, length, alpha):
     """Int_0^L sin(m pi x / L) exp(alpha (x - L/2)) dx (closed form)."""
     beta = m * np.pi / length
-    return (beta * (1 - (-1) ** m * np.exp(alpha * length)) / (alpha ** 2 + beta ** 2)
-            * np.exp(-alpha * length / 2))
+    return (
+        beta
+        * (1 - (-1) ** m * np.exp(alpha * length))
+        / (alpha**2 + beta**2)
+        * np.exp(-alpha * length / 2)
+    )
 
 
 def test_simply_supported_modes_far_field():
@@ -147,24 +159,37 @@ def test_simply_supported_modes_far_field():
     s = np.full(3, 2j * np.pi * 4000.0)
     listener = np.array([a / 2, b / 2, 0.0]) + R * u
     kb = math.hypot(3 * np.pi / a, 2 * np.pi / b)
-    H = rayleigh_gains(simply_supported(modes, a, b), (a, b), listener, s,
-                       max_wavenumber=kb, reference_distance=R)
+    H = rayleigh_gains(
+        simply_supported(modes, a, b), (a, b), listener, s, max_wavenumber=kb, reference_distance=R
+    )
     q = s / C
-    ref = np.array([RHO * sk / (2 * np.pi * R) * 2 * _sine_transform(m, a, qk * u[0])
-                    * _sine_transform(n, b, qk * u[1]) for (m, n), sk, qk in zip(modes, s, q)])
+    ref = np.array(
+        [
+            RHO
+            * sk
+            / (2 * np.pi * R)
+            * 2
+            * _sine_transform(m, a, qk * u[0])
+            * _sine_transform(n, b, qk * u[1])
+            for (m, n), sk, qk in zip(modes, s, q)
+        ]
+    )
     D = math.hypot(a, b)
-    bound = abs(q[0]) * D ** 2 / (2 * R) + D / (2 * R)
+    bound = abs(q[0]) * D**2 / (2 * R) + D / (2 * R)
     assert np.all(np.abs(H - ref) < bound * np.abs(ref))
 
 
-@pytest.mark.parametrize("bad,match", [
-    (lambda pts: np.ones((len(pts), 2)), "shape"),             # wrong number of modes
-    (lambda pts: np.ones(len(pts)), "shape"),                  # 1-D
-    (lambda pts: np.ones((len(pts), 1)) * 1j, "complex"),
-    (lambda pts: np.full((len(pts), 1), np.nan), "NaN"),
-    (lambda pts: np.full((len(pts), 1), np.inf), "NaN or infinite"),
-    (lambda pts: np.full((len(pts), 1), "x"), "real"),
-])
+@pytest.mark.parametrize(
+    "bad,match",
+    [
+        (lambda pts: np.ones((len(pts), 2)), "shape"),  # wrong number of modes
+        (lambda pts: np.ones(len(pts)), "shape"),  # 1-D
+        (lambda pts: np.ones((len(pts), 1)) * 1j, "complex"),
+        (lambda pts: np.full((len(pts), 1), np.nan), "NaN"),
+        (lambda pts: np.full((len(pts), 1), np.inf), "NaN or infinite"),
+        (lambda pts: np.full((len(pts), 1), "x"), "real"),
+    ],
+)
 def test_simply_supported_modes_far_field_rejects_bad_shape_values(bad, match):
     with pytest.raises(ParameterError, match=match):
         rayleigh_gains(bad, (0.2, 0.15), (0.1, 0.1, 1.0), np.array([1j]), max_wavenumber=0.0)
@@ -178,16 +203,22 @@ def _rectangle_potential(a, b, xl, yl, z):
     """Int over [0,a]x[0,b] of 1 / R dA, R to (xl, yl, z): closed form (a uniformly
     charged rectangle), F(x, y) = x asinh(y / sqrt(x^2 + z^2)) + y asinh(x / sqrt(y^2 + z^2))
     - z atan(x y / (z r)), evaluated at the corners relative to the projection."""
+
     def F(x, y):
         r = math.sqrt(x * x + y * y + z * z)
-        return (x * math.asinh(y / math.hypot(x, z)) + y * math.asinh(x / math.hypot(y, z))
-                - z * math.atan(x * y / (z * r)))
+        return (
+            x * math.asinh(y / math.hypot(x, z))
+            + y * math.asinh(x / math.hypot(y, z))
+            - z * math.atan(x * y / (z * r))
+        )
+
     x1, x2, y1, y2 = -xl, a - xl, -yl, b - yl
     return F(x2, y2) - F(x1, y2) - F(x2, y1) + F(x1, y1)
 
 
-@pytest.mark.parametrize("listener", [(0.17, 0.23, 0.05), (0.17, 0.23, 1e-3),
-                                      (0.5, 0.1, 2e-4), (-0.05, 0.45, 0.01)])
+@pytest.mark.parametrize(
+    "listener", [(0.17, 0.23, 0.05), (0.17, 0.23, 1e-3), (0.5, 0.1, 2e-4), (-0.05, 0.45, 0.01)]
+)
 def test_static_limit_near_field(listener):
     # For |s| R / c -> 0 the integral tends to the potential of a uniform rectangle
     # (closed form); with s = 1e-9 i rad/s the dynamic correction is ~ s R / c ~ 1e-12.
@@ -200,14 +231,17 @@ def test_static_limit_near_field(listener):
     assert rel(H, ref)[0] < 1e-8
 
 
-@pytest.mark.parametrize("field,kwargs", [
-    ("air_density", {"air_density": 0.0}),
-    ("air_density", {"air_density": float("nan")}),
-    ("sound_speed", {"sound_speed": -343.0}),
-    ("sound_speed", {"sound_speed": float("inf")}),
-    ("max_wavenumber", {"max_wavenumber": -1.0}),
-    ("max_wavenumber", {"max_wavenumber": float("nan")}),
-])
+@pytest.mark.parametrize(
+    "field,kwargs",
+    [
+        ("air_density", {"air_density": 0.0}),
+        ("air_density", {"air_density": float("nan")}),
+        ("sound_speed", {"sound_speed": -343.0}),
+        ("sound_speed", {"sound_speed": float("inf")}),
+        ("max_wavenumber", {"max_wavenumber": -1.0}),
+        ("max_wavenumber", {"max_wavenumber": float("nan")}),
+    ],
+)
 def test_static_limit_near_field_rejects_bad_constants(field, kwargs):
     args = {"max_wavenumber": 0.0, **kwargs}
     with pytest.raises(ParameterError, match=field):
@@ -236,8 +270,10 @@ def test_near_field_matches_cubature(tol, bound):
     assert np.all(rel(H, ref) < bound)
 
 
-@pytest.mark.parametrize("listener", [(float("nan"), 0.1, 0.05), (0.1, float("inf"), 0.05),
-                                      (0.1, 0.1, float("nan")), "xyz", None])
+@pytest.mark.parametrize(
+    "listener",
+    [(float("nan"), 0.1, 0.05), (0.1, float("inf"), 0.05), (0.1, 0.1, float("nan")), "xyz", None],
+)
 def test_near_field_matches_cubature_rejects_non_finite_listener(listener):
     with pytest.raises(ParameterError, match="listener_position"):
         rayleigh_gains(piston(), NEAR_SIZE, listener, np.array([1j]), max_wavenumber=0.0)
@@ -259,9 +295,18 @@ def test_damped_poles_match_cubature(sigma):
     assert np.all(rel(H, ref) < 1e-8)
 
 
-@pytest.mark.parametrize("s", [np.array([[1j]]), np.array([np.nan + 1j]),
-                               np.array([1j, np.inf]), np.array(["a"]), 1j, "s",
-                               np.array([True])])
+@pytest.mark.parametrize(
+    "s",
+    [
+        np.array([[1j]]),
+        np.array([np.nan + 1j]),
+        np.array([1j, np.inf]),
+        np.array(["a"]),
+        1j,
+        "s",
+        np.array([True]),
+    ],
+)
 def test_damped_poles_match_cubature_rejects_bad_poles(s):
     with pytest.raises(ParameterError, match=r"\bs\b"):
         rayleigh_gains(piston(), NEAR_SIZE, (0.1, 0.1, 0.1), s, max_wavenumber=0.0)
@@ -305,16 +350,21 @@ def test_reference_delay_factoring():
     s = -np.array([20.0, 100.0, 400.0, 900.0]) + 2j * np.pi * np.array([300, 1200, 3000, 6500])
     R0 = distance(listener, (0.12, 0.3))
     H = rayleigh_gains(shape, NEAR_SIZE, listener, s, max_wavenumber=NEAR_KB)
-    G = rayleigh_gains(shape, NEAR_SIZE, listener, s, max_wavenumber=NEAR_KB,
-                       reference_distance=R0)
+    G = rayleigh_gains(shape, NEAR_SIZE, listener, s, max_wavenumber=NEAR_KB, reference_distance=R0)
     assert np.all(np.abs(G * np.exp(-s * R0 / C) - H) <= 1e-12 * np.abs(H))
 
 
 @pytest.mark.parametrize("r0", [-0.1, float("nan"), "far"])
 def test_reference_delay_factoring_rejects_bad_reference_distance(r0):
     with pytest.raises(ParameterError, match="reference_distance"):
-        rayleigh_gains(piston(), NEAR_SIZE, (0.1, 0.1, 0.1), np.array([1j]),
-                       max_wavenumber=0.0, reference_distance=r0)
+        rayleigh_gains(
+            piston(),
+            NEAR_SIZE,
+            (0.1, 0.1, 0.1),
+            np.array([1j]),
+            max_wavenumber=0.0,
+            reference_distance=r0,
+        )
 
 
 def test_delay_and_distance():
@@ -322,15 +372,19 @@ def test_delay_and_distance():
     assert distance((0.3, 0.4, 1.2), (0.0, 0.0)) == pytest.approx(1.3, rel=1e-15)
     assert delay((0.3, 0.4, 1.2), (0.0, 0.0)) == pytest.approx(1.3 / C, rel=1e-15)
     assert delay((0.3, 0.4, 1.2), (0.0, 0.0), sound_speed=340.0) == pytest.approx(
-        1.3 / 340.0, rel=1e-15)
+        1.3 / 340.0, rel=1e-15
+    )
 
 
-@pytest.mark.parametrize("args,field", [
-    (((0.3, 0.4, -1.0), (0.0, 0.0)), "listener_position"),
-    (((0.3, 0.4, 1.0), (0.0,)), "reference_point"),
-    (((0.3, 0.4, 1.0), (0.0, float("nan"))), "reference_point"),
-    (((0.3, 0.4, 1.0), (0.0, 0.0), 0.0), "sound_speed"),
-])
+@pytest.mark.parametrize(
+    "args,field",
+    [
+        (((0.3, 0.4, -1.0), (0.0, 0.0)), "listener_position"),
+        (((0.3, 0.4, 1.0), (0.0,)), "reference_point"),
+        (((0.3, 0.4, 1.0), (0.0, float("nan"))), "reference_point"),
+        (((0.3, 0.4, 1.0), (0.0, 0.0), 0.0), "sound_speed"),
+    ],
+)
 def test_delay_and_distance_rejects_bad_points(args, field):
     with pytest.raises(ParameterError, match=field):
         delay(*args)
@@ -348,20 +402,27 @@ def test_tol_bounds_true_error(tol):
     shape = simply_supported(NEAR_MODES, *NEAR_SIZE)
     listener = (0.05, 0.35, 0.03)
     s = -80.0 + 2j * np.pi * np.array([400.0, 1800.0, 4000.0, 7500.0])
-    res = rayleigh_gains(shape, NEAR_SIZE, listener, s, max_wavenumber=NEAR_KB, tol=tol,
-                         full_output=True)
+    res = rayleigh_gains(
+        shape, NEAR_SIZE, listener, s, max_wavenumber=NEAR_KB, tol=tol, full_output=True
+    )
     assert res.success and res.status == 0
     ref = cubature_gains(shape, NEAR_SIZE, listener, s)
     allowed = tol * np.maximum(np.abs(ref), 1e-4 * res.coherent)
     assert np.all(np.abs(res.gains - ref) <= allowed)
-    assert np.all(res.coherent >= np.abs(res.gains))     # S_k bounds |H_k|
+    assert np.all(res.coherent >= np.abs(res.gains))  # S_k bounds |H_k|
 
 
-@pytest.mark.parametrize("kwargs,field", [
-    ({"tol": 0.0}, "tol"), ({"tol": 0.5}, "tol"), ({"tol": 1e-12}, "tol"),
-    ({"max_points": 0}, "max_points"), ({"max_points": 2.5}, "max_points"),
-    ({"max_points": 1000, "max_wavenumber": 1e4}, "max_points"),
-])
+@pytest.mark.parametrize(
+    "kwargs,field",
+    [
+        ({"tol": 0.0}, "tol"),
+        ({"tol": 0.5}, "tol"),
+        ({"tol": 1e-12}, "tol"),
+        ({"max_points": 0}, "max_points"),
+        ({"max_points": 2.5}, "max_points"),
+        ({"max_points": 1000, "max_wavenumber": 1e4}, "max_points"),
+    ],
+)
 def test_tol_bounds_true_error_rejects_bad_accuracy_settings(kwargs, field):
     args = {"max_wavenumber": 0.0, **kwargs}
     with pytest.raises(ParameterError, match=field):
@@ -378,10 +439,11 @@ def test_shapes_evaluated_in_bounded_chunks():
     def shape(pts):
         calls.append(len(pts))
         return np.ones((len(pts), n_modes))
+
     s = np.full(n_modes, 2j * np.pi * 200.0)
     H = rayleigh_gains(shape, (0.3, 0.2), (0.1, 0.1, 0.3), s, max_wavenumber=0.0)
     assert max(calls) * n_modes * 8 <= radiation._CHUNK_BYTES
-    assert len(calls) > 2                      # the points really were split
+    assert len(calls) > 2  # the points really were split
     assert np.all(np.abs(H - H[0]) <= 1e-14 * np.abs(H[0]))
 
 

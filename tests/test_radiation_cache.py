@@ -16,7 +16,7 @@ from synth.sound import modes as P
 from synth.sound import radiation as R
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
-LISTENER = (0.1, 0.05, 0.2)        # m, above a 0.3 m x 0.2 m plate
+LISTENER = (0.1, 0.05, 0.2)  # m, above a 0.3 m x 0.2 m plate
 
 
 @pytest.fixture(autouse=True)
@@ -38,8 +38,9 @@ def _args(modes):
     """Poles (rad/s) and the largest bending wavenumber (rad/m) of ``modes``."""
     plate = modes.plate
     s = -modes.decay_rates + 1j * modes.angular_frequencies
-    kb = (modes.angular_frequencies.max() ** 2 * plate.surface_density
-          / plate.flexural_rigidity) ** 0.25
+    kb = (
+        modes.angular_frequencies.max() ** 2 * plate.surface_density / plate.flexural_rigidity
+    ) ** 0.25
     return s, kb
 
 
@@ -59,28 +60,31 @@ def _files(tmp_path):
 def test_plate_gains_equal_rayleigh_gains():
     m = _modes()
     s, kb = _args(m)
-    direct = R.rayleigh_gains(m.shapes, (0.3, 0.2), LISTENER, s, max_wavenumber=kb,
-                              reference_distance=0.25)
+    direct = R.rayleigh_gains(
+        m.shapes, (0.3, 0.2), LISTENER, s, max_wavenumber=kb, reference_distance=0.25
+    )
     cached = R.plate_gains(m, LISTENER, s, max_wavenumber=kb, reference_distance=0.25)
     np.testing.assert_array_equal(cached, direct)
-    assert not cached.flags.writeable          # shared between callers
+    assert not cached.flags.writeable  # shared between callers
 
 
-@pytest.mark.parametrize("modes, s, kwargs, match", [
-    ("not modes", None, {}, "modes"),
-    (None, "one short", {}, "poles"),
-    (None, None, {"cache": 1}, "cache"),
-    (None, None, {"tol": 0.0}, "tol"),
-    (None, None, {"max_points": 0}, "max_points"),
-])
+@pytest.mark.parametrize(
+    "modes, s, kwargs, match",
+    [
+        ("not modes", None, {}, "modes"),
+        (None, "one short", {}, "poles"),
+        (None, None, {"cache": 1}, "cache"),
+        (None, None, {"tol": 0.0}, "tol"),
+        (None, None, {"max_points": 0}, "max_points"),
+    ],
+)
 def test_plate_gains_equal_rayleigh_gains_rejects_bad_input(modes, s, kwargs, match):
     m = _modes()
     poles, kb = _args(m)
     if s == "one short":
         poles = poles[:-1]
     with pytest.raises(ParameterError, match=match):
-        R.plate_gains(m if modes is None else modes, LISTENER, poles, max_wavenumber=kb,
-                      **kwargs)
+        R.plate_gains(m if modes is None else modes, LISTENER, poles, max_wavenumber=kb, **kwargs)
     assert R.cache_info()["computations"] == 0
 
 
@@ -92,8 +96,9 @@ def test_pipelined_sums_do_not_depend_on_workers(monkeypatch):
     results = []
     for workers in (1, 3):
         monkeypatch.setattr(R, "_workers", lambda: workers)
-        results.append(R.rayleigh_gains(m.shapes, (0.3, 0.2), LISTENER, s, max_wavenumber=kb,
-                                        full_output=True))
+        results.append(
+            R.rayleigh_gains(m.shapes, (0.3, 0.2), LISTENER, s, max_wavenumber=kb, full_output=True)
+        )
     one, three = results
     np.testing.assert_allclose(three.gains, one.gains, rtol=0, atol=1e-13 * one.coherent.max())
     np.testing.assert_allclose(three.coherent, one.coherent, rtol=1e-13)
@@ -109,9 +114,15 @@ def test_pipelined_sums_do_not_depend_on_workers_rejects_failing_shape_fn():
         if len(calls) == 3:
             raise ValueError("shape_fn failed")
         return np.ones((len(pts), 20000))
+
     with pytest.raises(ValueError, match="shape_fn failed"):
-        R.rayleigh_gains(shape, (0.3, 0.2), (0.1, 0.1, 0.3), np.full(20000, 2j * np.pi * 200.0),
-                         max_wavenumber=0.0)
+        R.rayleigh_gains(
+            shape,
+            (0.3, 0.2),
+            (0.1, 0.1, 0.3),
+            np.full(20000, 2j * np.pi * 200.0),
+            max_wavenumber=0.0,
+        )
 
 
 # ----------------------------------------------------------------------------------------
@@ -121,7 +132,7 @@ def test_pipelined_sums_do_not_depend_on_workers_rejects_failing_shape_fn():
 def test_cache_memory_hit():
     m = _modes()
     g1 = _gains(m)
-    g2 = _gains(_modes())                     # a new Modes of the same plate and band
+    g2 = _gains(_modes())  # a new Modes of the same plate and band
     info = R.cache_info()
     assert info["computations"] == 1 and info["memory_hits"] == 1 and info["entries"] == 1
     assert g2 is g1
@@ -144,15 +155,21 @@ def test_cache_disk_round_trip(tmp_path):
     assert len(_files(tmp_path)) == 1 and R.cache_info()["disk_writes"] == 1
     R.clear_memory_cache()
     P.clear_memory_cache()
-    r2 = _gains(_modes(), full_output=True)   # as in a new process: modes from disk too
+    r2 = _gains(_modes(), full_output=True)  # as in a new process: modes from disk too
     info = R.cache_info()
     assert info["disk_hits"] == 1 and info["computations"] == 0
     # Loaded, not recomputed: equal exactly, with the same diagnostics.
     np.testing.assert_array_equal(r2.gains, r1.gains)
     np.testing.assert_array_equal(r2.error, r1.error)
     np.testing.assert_array_equal(r2.coherent, r1.coherent)
-    assert (r2.n_points, r2.refinements, r2.panels, r2.success, r2.status, r2.message) == \
-        (r1.n_points, r1.refinements, r1.panels, r1.success, r1.status, r1.message)
+    assert (r2.n_points, r2.refinements, r2.panels, r2.success, r2.status, r2.message) == (
+        r1.n_points,
+        r1.refinements,
+        r1.panels,
+        r1.success,
+        r1.status,
+        r1.message,
+    )
     assert not r2.gains.flags.writeable
 
 
@@ -197,8 +214,13 @@ def test_cache_key_changes_with_listener_and_plate(tmp_path):
     assert R.cache_info()["computations"] == 4
     # Every accuracy setting and air constant is part of the key.
     s, kb = _args(m)
-    for kw in ({"tol": 1e-5}, {"air_density": 1.2}, {"sound_speed": 340.0},
-               {"reference_distance": 0.2}, {"max_points": 3_000_000}):
+    for kw in (
+        {"tol": 1e-5},
+        {"air_density": 1.2},
+        {"sound_speed": 340.0},
+        {"reference_distance": 0.2},
+        {"max_points": 3_000_000},
+    ):
         R.plate_gains(m, LISTENER, s, max_wavenumber=kb, **kw)
     R.plate_gains(m, LISTENER, s, max_wavenumber=1.01 * kb)
     assert R.cache_info()["computations"] == 10
@@ -229,8 +251,18 @@ def test_cache_repeats_convergence_warning(monkeypatch):
 
     def unconverged(*args, **kwargs):
         r = real(*args, **kwargs)
-        return R.RadiationResult(r.gains, r.error, r.coherent, r.n_points, r.refinements,
-                                 r.panels, False, 1, "stopped (test)")
+        return R.RadiationResult(
+            r.gains,
+            r.error,
+            r.coherent,
+            r.n_points,
+            r.refinements,
+            r.panels,
+            False,
+            1,
+            "stopped (test)",
+        )
+
     monkeypatch.setattr(R, "rayleigh_gains", unconverged)
     with pytest.warns(RuntimeWarning, match="plate_gains: stopped"):
         _gains(m)

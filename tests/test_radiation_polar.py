@@ -32,17 +32,22 @@ def _ss_modes(a=0.3, b=0.2, h=0.002, max_frequency=6000.0):
 
 def _poles(m):
     s = -m.decay_rates + 1j * m.angular_frequencies
-    kb = (m.angular_frequencies.max() ** 2 * m.plate.surface_density
-          / m.plate.flexural_rigidity) ** 0.25
+    kb = (
+        m.angular_frequencies.max() ** 2 * m.plate.surface_density / m.plate.flexural_rigidity
+    ) ** 0.25
     return s, kb
 
 
 # Microphone above the middle, above an edge's line, outside the plate, close to the
 # plate (the 1/R peak), and where a corner's distance equals an edge's (0.4, 0.3 from
 # the corner (0, 0): both 0.5 m on a 0.9 m plate).
-LISTENERS = [((0.3, 0.2), (0.1, 0.05, 0.2)), ((0.3, 0.2), (0.3, 0.0, 0.1)),
-             ((0.3, 0.2), (0.5, -0.2, 0.05)), ((0.3, 0.2), (0.12, 0.13, 0.01)),
-             ((0.9, 0.7), (0.4, 0.3, 0.3))]
+LISTENERS = [
+    ((0.3, 0.2), (0.1, 0.05, 0.2)),
+    ((0.3, 0.2), (0.3, 0.0, 0.1)),
+    ((0.3, 0.2), (0.5, -0.2, 0.05)),
+    ((0.3, 0.2), (0.12, 0.13, 0.01)),
+    ((0.9, 0.7), (0.4, 0.3, 0.3)),
+]
 
 
 @pytest.mark.parametrize("size, listener", LISTENERS)
@@ -64,14 +69,22 @@ def test_polar_rule_with_damping_and_reference_distance():
     """The mirror poles and a reference distance, as render() asks for them."""
     m = _ss_modes()
     s, kb = _poles(m)
-    mirror = -np.conj(s) * (1.0 + 0.05)           # strongly damped: sigma = 5 % omega
+    mirror = -np.conj(s) * (1.0 + 0.05)  # strongly damped: sigma = 5 % omega
     mirror = mirror.real * 50 + 1j * mirror.imag
     listener = (0.2, 0.1, 0.3)
     r0 = R.distance(listener, (0.2, 0.1))
-    rect = R.rayleigh_gains(m.shapes, (0.3, 0.2), listener, mirror, max_wavenumber=kb,
-                            reference_distance=r0, full_output=True)
-    polar = R.separable_gains(m.separable(), listener, mirror, max_wavenumber=kb,
-                              reference_distance=r0, full_output=True)
+    rect = R.rayleigh_gains(
+        m.shapes,
+        (0.3, 0.2),
+        listener,
+        mirror,
+        max_wavenumber=kb,
+        reference_distance=r0,
+        full_output=True,
+    )
+    polar = R.separable_gains(
+        m.separable(), listener, mirror, max_wavenumber=kb, reference_distance=r0, full_output=True
+    )
     scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
     assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6
 

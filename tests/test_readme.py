@@ -23,8 +23,12 @@ def test_readme_opens_with_exactly_two_commands():
 def test_ci_runs_the_readme_test_command():
     # .ci/run extracts the second command from the README rather than repeating it, and
     # runs it in a fresh copy of the repository (so the environment it creates is new).
-    out = subprocess.run(["bash", str(ROOT / ".ci" / "run"), "--print-command"],
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        ["bash", str(ROOT / ".ci" / "run"), "--print-command"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     assert out.strip() == _commands()[1].strip()
     ci = (ROOT / ".ci" / "run").read_text()
     assert "mktemp -d" in ci and "--exclude=./.venv" in ci

@@ -168,7 +168,7 @@ def test_truncated_wav_warns(tmp_path):
     soundfile.write(path, 0.5 * x / np.abs(x).max(), FS, subtype="PCM_16")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        read_audio(path)                        # whole: no warning
+        read_audio(path)  # whole: no warning
         assert analyze_file(path).warnings == ()
     data = path.read_bytes()
     path.write_bytes(data[: len(data) - FS * 2])

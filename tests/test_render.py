@@ -13,12 +13,18 @@ from synth.sound.modal_bank import pulse_transforms, synthesize
 from synth.sound.render import render
 
 DEFAULT = synth.load_preset("default")
-EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)   # no omission, no fade
+EXACT = dict(normalize="none", floor_db=-200.0, fade=0.0)  # no omission, no fade
 
 
 def accel_scene(**kw):
-    return Scene(DEFAULT.ball, DEFAULT.plate, drop_height=0.1, position=DEFAULT.position,
-                 listener=Accelerometer((0.5, 0.2)), **kw)
+    return Scene(
+        DEFAULT.ball,
+        DEFAULT.plate,
+        drop_height=0.1,
+        position=DEFAULT.position,
+        listener=Accelerometer((0.5, 0.2)),
+        **kw,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -78,14 +84,15 @@ def test_ringing_matches_the_continuous_response_at_subsample_onsets():
     res = seq[0].result
     modes = plate_modes.modes(DEFAULT.plate, max_frequency=5000.0)
     sig = np.asarray(modes.decay_rates)
-    wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig ** 2)
+    wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig**2)
     poles = -sig + 1j * wd
     b = modes.shapes(np.array([DEFAULT.position]))[0] / np.asarray(modes.modal_masses)
-    out_gain = modes.shapes(np.array([[0.3, 0.1]]))[0] * poles ** 2
+    out_gain = modes.shapes(np.array([[0.3, 0.1]]))[0] * poles**2
     fs = 48000.0
     t0 = (1000 + 0.37) / fs
-    audio, info = synthesize([res], np.array([t0]), poles, b, out_gain, fs, floor=1e-20,
-                             max_samples=4000)
+    audio, info = synthesize(
+        [res], np.array([t0]), poles, b, out_gain, fs, floor=1e-20, max_samples=4000
+    )
     L = pulse_transforms(res, poles)
     C = -1j * b / wd * out_gain * L
     s = np.arange(1010, 1400)
@@ -102,7 +109,7 @@ def test_modal_energy_equals_energy_sent_into_plate():
     res = synth.simulate_scene(DEFAULT, max_impacts=1)[0].result
     modes = plate_modes.modes(DEFAULT.plate, max_frequency=24000.0)
     sig = np.asarray(modes.decay_rates)
-    wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig ** 2)
+    wd = np.sqrt(np.asarray(modes.angular_frequencies) ** 2 - sig**2)
     poles = -sig + 1j * wd
     M = np.asarray(modes.modal_masses)
     b = modes.shapes(np.array([DEFAULT.position]))[0] / M
@@ -113,7 +120,9 @@ def test_modal_energy_equals_energy_sent_into_plate():
 
 
 @pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
-@pytest.mark.parametrize("preset", ["default", "small-click-on-acrylic", "rubber-ball-on-wooden-floor"])
+@pytest.mark.parametrize(
+    "preset", ["default", "small-click-on-acrylic", "rubber-ball-on-wooden-floor"]
+)
 def test_pulse_transforms_against_adaptive_quadrature(preset):
     # L_k = Int_0^tau F(u) exp(-p_k u) du by the renderer's rule against scipy's adaptive
     # quadrature (QUADPACK) of the same dense force output. The plain trapezoid rule errs
@@ -122,14 +131,24 @@ def test_pulse_transforms_against_adaptive_quadrature(preset):
     # 23 kHz and 1e-7 up to 1 kHz, for pulses of 25 us (acrylic), 0.1 ms (thesis) and
     # 1.6 ms (rubber).
     from scipy.integrate import quad
+
     res = synth.simulate_scene(synth.load_preset(preset), max_impacts=1)[0].result
     tau, J = res.contact_time, res.impulse
     freqs = np.array([100.0, 1000.0, 3000.0, 8000.0, 15000.0, 23000.0])
     poles = -30.0 + 2j * np.pi * freqs
     L = pulse_transforms(res, poles, omega_max=2 * np.pi * 24000.0)
     for p, f, got in zip(poles, freqs, L):
-        parts = [quad(lambda u, c=c: res.force_at(u) * np.exp(-p.real * u) * c(-p.imag * u), 0.0,
-                      tau, epsabs=1e-16 * J, epsrel=1e-12, limit=1000)[0] for c in (np.cos, np.sin)]
+        parts = [
+            quad(
+                lambda u, c=c: res.force_at(u) * np.exp(-p.real * u) * c(-p.imag * u),
+                0.0,
+                tau,
+                epsabs=1e-16 * J,
+                epsrel=1e-12,
+                limit=1000,
+            )[0]
+            for c in (np.cos, np.sin)
+        ]
         err = abs(got - complex(*parts)) / J
         assert err <= (1e-7 if f <= 1000.0 else 2e-6), (preset, f, err)
 
@@ -182,25 +201,37 @@ def test_tick_energy_falls_by_e_squared():
         energies.append(float(np.sum(r.audio.astype(float) ** 2)))
     for i in range(4):
         e = seq[i].result.restitution
-        assert energies[i + 1] / energies[i] == pytest.approx(e ** 2, rel=0.15)
+        assert energies[i + 1] / energies[i] == pytest.approx(e**2, rel=0.15)
 
 
 def test_settled_scene_renders():
     # A heavy ball that settles (lambda >> 1) still renders a finite, non-silent thud.
-    s = Scene(synth.Ball("steel", 0.02), synth.Plate("aluminium", 0.001, 0.6, 0.5),
-              drop_height=0.05, listener=Accelerometer((0.3, 0.25)))
+    s = Scene(
+        synth.Ball("steel", 0.02),
+        synth.Plate("aluminium", 0.001, 0.6, 0.5),
+        drop_height=0.05,
+        listener=Accelerometer((0.3, 0.25)),
+    )
     r = render(s, samplerate=48000, normalize="none", max_frequency=5000.0)
     assert r.impacts[0].result.settled
     assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0
 
 
-@pytest.mark.parametrize("kw, word", [
-    (dict(samplerate=0), "samplerate"), (dict(samplerate=44100.5), "samplerate"),
-    (dict(samplerate="48000"), "samplerate"), (dict(samplerate=1_000_000), "samplerate"),
-    (dict(normalize="loud"), "normalize"), (dict(floor_db=3.0), "floor_db"),
-    (dict(max_frequency=-1.0), "max_frequency"), (dict(preroll=-0.1), "preroll"),
-    (dict(fade=float("nan")), "fade"), (dict(sequence="x"), "sequence"),
-])
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(samplerate=0), "samplerate"),
+        (dict(samplerate=44100.5), "samplerate"),
+        (dict(samplerate="48000"), "samplerate"),
+        (dict(samplerate=1_000_000), "samplerate"),
+        (dict(normalize="loud"), "normalize"),
+        (dict(floor_db=3.0), "floor_db"),
+        (dict(max_frequency=-1.0), "max_frequency"),
+        (dict(preroll=-0.1), "preroll"),
+        (dict(fade=float("nan")), "fade"),
+        (dict(sequence="x"), "sequence"),
+    ],
+)
 def test_render_rejects_bad_input(kw, word):
     with pytest.raises(ParameterError, match=word):
         render(DEFAULT, **kw)
@@ -211,8 +242,9 @@ def test_render_rejects_non_scene():
         render("default", samplerate=48000)
 
 
-@pytest.mark.parametrize("preset, floor_db", [("default", -40.0), ("default", -60.0),
-                                              ("small-click-on-acrylic", -40.0)])
+@pytest.mark.parametrize(
+    "preset, floor_db", [("default", -40.0), ("default", -60.0), ("small-click-on-acrylic", -40.0)]
+)
 def test_omissions_stay_within_the_floor(preset, floor_db):
     # The omission budget (synth.sound.modal_bank): at every sample, the modes and tails left out
     # add up to at most floor * reference, for any number of impacts (the acrylic click
@@ -220,11 +252,12 @@ def test_omissions_stay_within_the_floor(preset, floor_db):
     scene = synth.load_preset(preset)
     seq = synth.simulate_scene(scene)
     full = render(scene, samplerate=48000, sequence=seq, **EXACT)
-    cut = render(scene, samplerate=48000, sequence=seq, normalize="none", floor_db=floor_db,
-                 fade=0.0)
+    cut = render(
+        scene, samplerate=48000, sequence=seq, normalize="none", floor_db=floor_db, fade=0.0
+    )
     ref = cut.settings["reference_amplitude"]
     a = np.pad(cut.audio.astype(float), (0, max(0, full.audio.size - cut.audio.size)))
-    diff = np.abs(a[:full.audio.size] - full.audio.astype(float))
+    diff = np.abs(a[: full.audio.size] - full.audio.astype(float))
     # float32 output: the audio's own rounding (6e-8 of its peak) is allowed on top
     assert np.max(diff) <= 10 ** (floor_db / 20) * ref + 1e-7 * np.max(np.abs(full.audio))
     assert cut.settings["mode_samples"] < full.settings["mode_samples"]
@@ -255,14 +288,16 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     # exp(sigma (R - R0) / c) ~ e^3, fits far worse.
     from synth.sound import radiation as R
     from synth.sound.render import AIR_DENSITY, SOUND_SPEED, _microphone_gains
+
     plate = synth.Plate("steel", 0.001, 0.12, 0.1, "simply-supported")
     modes = plate_modes.modes(plate, max_frequency=20000.0)
     k = 2
     om = np.asarray(modes.angular_frequencies)
     poles = -25000.0 + 1j * om
     listener = (0.2, 0.03, 0.03)
-    scene = Scene(synth.Ball("steel", 0.002), plate, drop_height=0.01,
-                  listener=Microphone(listener))
+    scene = Scene(
+        synth.Ball("steel", 0.002), plate, drop_height=0.01, listener=Microphone(listener)
+    )
     kmax = (om.max() ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
     G = _microphone_gains(modes, scene.plate, scene.listener, poles, kmax)[k]
     # time domain: elements on a 500 x 500 midpoint grid, pressure per unit modal velocity
@@ -275,7 +310,7 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     Rj = np.sqrt((pts[:, 0] - listener[0]) ** 2 + (pts[:, 1] - listener[1]) ** 2 + listener[2] ** 2)
     R0 = np.sqrt((listener[0] - 0.12) ** 2 + listener[2] ** 2)
     p = poles[k]
-    c = AIR_DENSITY * p / (2 * np.pi) * phi / Rj * (0.12 * 0.1 / n ** 2)
+    c = AIR_DENSITY * p / (2 * np.pi) * phi / Rj * (0.12 * 0.1 / n**2)
     tau = (Rj - R0) / SOUND_SPEED
     order = np.argsort(tau)
     t = np.linspace(0.0, tau.max() + 30.0 / 25000.0, 200001)
@@ -284,8 +319,9 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     basis = np.exp(p * t)
     fit = np.trapezoid(pressure * np.conj(basis), t) / np.trapezoid(np.abs(basis) ** 2, t)
     assert abs(G - fit) <= 1e-3 * abs(fit)
-    pole_gain = R.rayleigh_gains(modes.shapes, (0.12, 0.1), listener, poles,
-                                 max_wavenumber=kmax, reference_distance=R0)[k]
+    pole_gain = R.rayleigh_gains(
+        modes.shapes, (0.12, 0.1), listener, poles, max_wavenumber=kmax, reference_distance=R0
+    )[k]
 
     def misfit(g):
         return np.trapezoid(np.abs(pressure - g * basis) ** 2, t)

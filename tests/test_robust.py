@@ -38,6 +38,7 @@ def leftovers(folder: Path) -> list[str]:
 
 # --------------------------------------------------------------------------- heavy ball
 
+
 def test_long_contact_kernel_matches_the_short_one(monkeypatch):
     # the frame-of-the-current-time kernel computes the same transforms: forced on every
     # impact of the default scene it gives the same float32 audio to 1e-6 of the peak
@@ -61,23 +62,27 @@ def test_bowling_ball_renders():
 
 # --------------------------------------------------------------------------- ranges
 
-@pytest.mark.parametrize("override, words", [
-    ("plate.length=1e308", ["plate.length", "1e+308", "<= 100"]),
-    ("plate.thickness=1e308", ["plate.thickness", "<= 100"]),
-    ("drop.height=1e308", ["drop.height", "<= 1000"]),
-    ("drop.height=1e-300", ["drop.height", ">= 1e-06"]),
-    ("drop.height=1e6", ["drop.height", "<= 1000"]),
-    ("ball.mass=1e308", ["ball.mass", "<= 1000"]),
-    ("ball.radius=1e308", ["ball.radius", "<= 1"]),
-    ("gravity=1e308", ["gravity", "<= 1000"]),
-    ("render.preroll=1e6", ["render.preroll", "<= 10"]),
-    ("render.fade=1e4", ["render.fade", "<= 10"]),
-    ("render.max_tail=1e9", ["render.max_tail", "<= 600"]),
-    ("render.max_duration=1e9", ["render.max_duration", "<= 600"]),
-    ("render.pulse_points=10000000", ["render.pulse_points", "[5, 4097]"]),
-    ("render.peak_db=-10000", ["render.peak_db", "[-120, 0]"]),
-    ("render.loudness_lufs=-10000", ["render.loudness_lufs", "-120"]),
-])
+
+@pytest.mark.parametrize(
+    "override, words",
+    [
+        ("plate.length=1e308", ["plate.length", "1e+308", "<= 100"]),
+        ("plate.thickness=1e308", ["plate.thickness", "<= 100"]),
+        ("drop.height=1e308", ["drop.height", "<= 1000"]),
+        ("drop.height=1e-300", ["drop.height", ">= 1e-06"]),
+        ("drop.height=1e6", ["drop.height", "<= 1000"]),
+        ("ball.mass=1e308", ["ball.mass", "<= 1000"]),
+        ("ball.radius=1e308", ["ball.radius", "<= 1"]),
+        ("gravity=1e308", ["gravity", "<= 1000"]),
+        ("render.preroll=1e6", ["render.preroll", "<= 10"]),
+        ("render.fade=1e4", ["render.fade", "<= 10"]),
+        ("render.max_tail=1e9", ["render.max_tail", "<= 600"]),
+        ("render.max_duration=1e9", ["render.max_duration", "<= 600"]),
+        ("render.pulse_points=10000000", ["render.pulse_points", "[5, 4097]"]),
+        ("render.peak_db=-10000", ["render.peak_db", "[-120, 0]"]),
+        ("render.loudness_lufs=-10000", ["render.loudness_lufs", "-120"]),
+    ],
+)
 def test_extreme_numbers_are_refused_before_work(capsys, tmp_path, override, words):
     out = tmp_path / "x.wav"
     code, _, err = run(capsys, "render", "default", "-o", out, "--set", override)
@@ -101,11 +106,12 @@ def test_bench_repeat_must_be_positive(capsys):
 
 def test_write_audio_samplerate_range(tmp_path):
     with pytest.raises(ParameterError, match=r"samplerate=1099511627776 .*\[1, 768000\]"):
-        audio_io.write_audio(tmp_path / "x.wav", np.zeros(10), 2 ** 40)
+        audio_io.write_audio(tmp_path / "x.wav", np.zeros(10), 2**40)
     assert leftovers(tmp_path) == []
 
 
 # --------------------------------------------------------------------------- silent results
+
 
 def test_silent_render_is_refused():
     scene = load_preset("default")
@@ -143,7 +149,7 @@ def test_sequence_of_another_scene_is_refused_and_a_mismatch_accepted():
     other = load_preset("thesis-glass17-mdf12")
     with pytest.raises(ParameterError, match="another ball, plate or contact law"):
         render(scene, sequence=simulate_scene(other), samplerate=8000)
-    seq = mismatch_sequence(other, scene)     # the other's timing, this scene's contacts
+    seq = mismatch_sequence(other, scene)  # the other's timing, this scene's contacts
     r = render(scene, sequence=seq, samplerate=8000)
     assert len(r.impacts) == len(seq)
 
@@ -169,24 +175,30 @@ def test_energy_imbalance_is_not_a_success():
 
 # --------------------------------------------------------------------------- presets, --set
 
+
 def test_set_takes_one_value():
     with pytest.raises(PresetError, match="no line breaks"):
         apply_overrides({}, ["gravity=9.81\nfoo=1"])
     assert apply_overrides({}, ["gravity=9.81"]) == {"gravity": 9.81}
 
 
-BASE = {"ball": {"material": "steel", "radius": 0.005},
-        "plate": {"material": "mdf-18", "thickness": 0.018, "length": 1.0, "width": 0.5},
-        "drop": {"height": 0.1}}
+BASE = {
+    "ball": {"material": "steel", "radius": 0.005},
+    "plate": {"material": "mdf-18", "thickness": 0.018, "length": 1.0, "width": 0.5},
+    "drop": {"height": 0.1},
+}
 
 
-@pytest.mark.parametrize("section, key, words", [
-    ("ball", "radius", ["ball.radius is missing"]),
-    ("ball", "material", ["ball.material"]),
-    ("plate", "thickness", ["plate.thickness is missing"]),
-    ("plate", "width", ["plate.width is missing"]),
-    ("drop", "height", ["drop.height"]),
-])
+@pytest.mark.parametrize(
+    "section, key, words",
+    [
+        ("ball", "radius", ["ball.radius is missing"]),
+        ("ball", "material", ["ball.material"]),
+        ("plate", "thickness", ["plate.thickness is missing"]),
+        ("plate", "width", ["plate.width is missing"]),
+        ("drop", "height", ["drop.height"]),
+    ],
+)
 def test_missing_preset_keys_are_named(section, key, words):
     data = {k: dict(v) for k, v in BASE.items()}
     del data[section][key]
@@ -205,6 +217,7 @@ def test_inline_material_with_only_density_names_the_missing_key():
 
 # --------------------------------------------------------------------------- outputs
 
+
 def test_report_onto_a_directory_fails_before_anything_is_written(capsys, tmp_path):
     out = tmp_path / "x.wav"
     out.write_bytes(b"precious")
@@ -217,16 +230,18 @@ def test_report_onto_a_directory_fails_before_anything_is_written(capsys, tmp_pa
 def test_bad_plot_path_fails_before_the_audio_is_replaced(capsys, tmp_path):
     out = tmp_path / "x.wav"
     out.write_bytes(b"precious")
-    code, _, err = run(capsys, "render", "default", "-o", out, "--plot",
-                       tmp_path / "missing" / "p.png")
+    code, _, err = run(
+        capsys, "render", "default", "-o", out, "--plot", tmp_path / "missing" / "p.png"
+    )
     assert code == 2 and "plot=" in err and "does not exist" in err
     assert out.read_bytes() == b"precious"
 
 
 def test_unwritable_folder_is_a_clean_error(capsys, tmp_path):
     # /proc refuses new files even to root
-    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "x.wav", "--report",
-                       "/proc/report.json")
+    code, _, err = run(
+        capsys, "render", "default", "-o", tmp_path / "x.wav", "--report", "/proc/report.json"
+    )
     assert code == 2 and "report=" in err and "cannot create a file" in err
     assert leftovers(tmp_path) == [] and not (tmp_path / "x.wav").exists()
 
@@ -243,8 +258,17 @@ def test_all_outputs_or_none(capsys, tmp_path, monkeypatch):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
     monkeypatch.setattr(cli, "_write_json", full_disk)
-    code, _, err = run(capsys, "render", "default", "-o", out, "--report", tmp_path / "r.json",
-                       "--samplerate", 8000)
+    code, _, err = run(
+        capsys,
+        "render",
+        "default",
+        "-o",
+        out,
+        "--report",
+        tmp_path / "r.json",
+        "--samplerate",
+        8000,
+    )
     assert code == 1 and "No space left on device" in err and len(err.strip().splitlines()) == 1
     assert out.read_bytes() == b"precious" and leftovers(tmp_path) == []
     assert not (tmp_path / "r.json").exists()
@@ -256,7 +280,7 @@ def test_sigterm_during_the_write_unwinds_and_cleans(capsys, tmp_path, monkeypat
     real_write = soundfile.write
 
     def killed_mid_write(file, data, *a, **kw):
-        real_write(file, data[: len(data) // 2], *a, **kw)   # half the file is on disk
+        real_write(file, data[: len(data) // 2], *a, **kw)  # half the file is on disk
         os.kill(os.getpid(), signal.SIGTERM)
 
     monkeypatch.setattr(soundfile, "write", killed_mid_write)
@@ -268,8 +292,12 @@ def test_sigterm_during_the_write_unwinds_and_cleans(capsys, tmp_path, monkeypat
 
 
 def test_stale_temporaries_of_dead_writers_are_removed(tmp_path):
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True).stdout.strip()
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     stale = tmp_path / f".synth-{dead}-0123456789ab.part.wav"
     live = tmp_path / f".synth-{os.getpid()}-0123456789ab.part.wav"
     foreign = tmp_path / ".x.0123456789ab.part.wav"
@@ -288,6 +316,7 @@ def test_long_output_names(tmp_path, length):
 
 
 # --------------------------------------------------------------------------- messages
+
 
 def test_reading_a_directory_says_so(tmp_path):
     with pytest.raises(audio_io.AudioFileError, match="is a directory"):
@@ -311,12 +340,13 @@ def test_system_error_is_made_specific(tmp_path, monkeypatch):
     assert audio_io._system_reason(f, "System error.", reading=True) == "Permission denied"
     monkeypatch.setattr("builtins.open", real_open)
     usage = namedtuple("usage", "total used free")
-    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10 ** 9, 10 ** 9, 100))
-    assert "no space left" in audio_io._system_reason(f, "System error.", nbytes=10 ** 6)
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: usage(10**9, 10**9, 100))
+    assert "no space left" in audio_io._system_reason(f, "System error.", nbytes=10**6)
     assert audio_io._system_reason(f, "Format not recognised.") == "Format not recognised."
 
 
 # --------------------------------------------------------------------------- numba cache
+
 
 def test_jit_cache_falls_back_when_nothing_is_writable(tmp_path):
     # a file named __pycache__ cannot be made a folder (not even by root), and /dev/null
@@ -345,16 +375,25 @@ def test_help_without_a_writable_home(tmp_path):
     import shutil
 
     pkg = tmp_path / "site"
-    shutil.copytree(REPO / "synth", pkg / "synth",
-                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO / "synth", pkg / "synth", ignore=shutil.ignore_patterns("__pycache__"))
     for d in [pkg / "synth", *[p for p in (pkg / "synth").rglob("*") if p.is_dir()]]:
         (d / "__pycache__").write_text("")
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    env.update(HOME="/dev/null", XDG_CACHE_HOME="/dev/null/cache", PYTHONPATH=str(pkg),
-               PYTHONDONTWRITEBYTECODE="1")
-    proc = subprocess.run([sys.executable, "-c", "import synth.cli; synth.cli.main(['--help'])"],
-                          check=False, env=env, capture_output=True, text=True, timeout=600,
-                          cwd=tmp_path)
+    env.update(
+        HOME="/dev/null",
+        XDG_CACHE_HOME="/dev/null/cache",
+        PYTHONPATH=str(pkg),
+        PYTHONDONTWRITEBYTECODE="1",
+    )
+    proc = subprocess.run(
+        [sys.executable, "-c", "import synth.cli; synth.cli.main(['--help'])"],
+        check=False,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "usage: synth" in proc.stdout
     assert "note: no writable numba cache folder" in proc.stderr
@@ -377,9 +416,22 @@ def test_sigterm_at_any_moment_leaves_no_partial_file(tmp_path, delay):
     import soundfile
 
     out = tmp_path / "x.wav"
-    proc = subprocess.Popen([sys.executable, "-m", "synth", "render", "default", "-o", str(out),
-                             "--report", str(tmp_path / "x.json")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "synth",
+            "render",
+            "default",
+            "-o",
+            str(out),
+            "--report",
+            str(tmp_path / "x.json"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=REPO,
+    )
     time.sleep(delay)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=300)

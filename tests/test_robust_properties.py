@@ -15,18 +15,37 @@ from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset_with_options
 from synth.sound.render import check_options
 
-BOUNDED = settings(max_examples=150, deadline=None,
-                   suppress_health_check=[HealthCheck.function_scoped_fixture])
+BOUNDED = settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 
 NUMBERS = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
-    st.integers(min_value=-(2 ** 70), max_value=2 ** 70),
-    st.sampled_from([0, 1e-300, 1e-6, 1e308, -1.0, 0.5, 2 ** 63 - 1]),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.sampled_from([0, 1e-300, 1e-6, 1e308, -1.0, 0.5, 2**63 - 1]),
 )
-SCENE_KEYS = ["ball.radius", "ball.mass", "plate.thickness", "plate.length", "plate.width",
-              "drop.height", "gravity", "contact.rtol"]
-RENDER_KEYS = ["samplerate", "peak_db", "loudness_lufs", "floor_db", "max_frequency", "preroll",
-               "fade", "max_duration", "max_tail", "pulse_points"]
+SCENE_KEYS = [
+    "ball.radius",
+    "ball.mass",
+    "plate.thickness",
+    "plate.length",
+    "plate.width",
+    "drop.height",
+    "gravity",
+    "contact.rtol",
+]
+RENDER_KEYS = [
+    "samplerate",
+    "peak_db",
+    "loudness_lufs",
+    "floor_db",
+    "max_frequency",
+    "preroll",
+    "fade",
+    "max_duration",
+    "max_tail",
+    "pulse_points",
+]
 
 
 def toml_number(x) -> str:
@@ -73,10 +92,13 @@ def test_any_set_text_gives_a_dict_or_a_preset_error(text):
 
 
 @BOUNDED
-@given(samples=st.lists(st.floats(min_value=-1.0, max_value=1.0), min_size=1, max_size=64),
-       samplerate=st.one_of(st.integers(min_value=-10, max_value=2 ** 41),
-                            st.sampled_from([1, 8000, 768000, 768001])),
-       subtype=st.sampled_from(["PCM_16", "PCM_24", "FLOAT", "PCM_99"]))
+@given(
+    samples=st.lists(st.floats(min_value=-1.0, max_value=1.0), min_size=1, max_size=64),
+    samplerate=st.one_of(
+        st.integers(min_value=-10, max_value=2**41), st.sampled_from([1, 8000, 768000, 768001])
+    ),
+    subtype=st.sampled_from(["PCM_16", "PCM_24", "FLOAT", "PCM_99"]),
+)
 def test_write_audio_writes_whole_or_refuses(tmp_path, samples, samplerate, subtype):
     target = tmp_path / "x.wav"
     try:

@@ -46,7 +46,8 @@ ticks, and meet the requirements for the reasons checked below:
 
 The restitution from bounce times differs from the physical restitution of the impacts
 (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) / T_(n-1)`` (contact times over
-bounce times; docs/analysis.md, Restitution from bounce times): ``test_restitution_from_bounce_times``.
+bounce times; docs/analysis.md, Restitution from bounce times):
+``test_restitution_from_bounce_times``.
 """
 
 import functools
@@ -69,8 +70,7 @@ def _render(name):
     """The preset rendered as its file sets it (no normalisation): (scene, sequence, render)."""
     scene, options, _ = load_preset_with_options(name)
     seq = simulate_scene(scene)
-    r = render(scene, samplerate=options.get("samplerate", 48000), normalize="none",
-               sequence=seq)
+    r = render(scene, samplerate=options.get("samplerate", 48000), normalize="none", sequence=seq)
     return scene, seq, r
 
 
@@ -78,11 +78,16 @@ def _alone(scene, seq, r, i):
     """Tick ``i`` (0-based) of the render ``r`` (normalize='none') rendered alone, on the
     same timeline, its tail up to 50 ms."""
     imp = seq[i]
-    pre = r.onsets[i]         # the tick's onset in the audio, s
-    return render(scene, samplerate=r.samplerate, max_tail=0.05, normalize="none",
-                  preroll=pre, fade=0.0,
-                  sequence=BounceSequence((imp,), seq.stop_reason, seq.drop_height,
-                                          seq.gravity)).audio.astype(float)
+    pre = r.onsets[i]  # the tick's onset in the audio, s
+    return render(
+        scene,
+        samplerate=r.samplerate,
+        max_tail=0.05,
+        normalize="none",
+        preroll=pre,
+        fade=0.0,
+        sequence=BounceSequence((imp,), seq.stop_reason, seq.drop_height, seq.gravity),
+    ).audio.astype(float)
 
 
 def _tick_to_masker(scene, seq, r, i):
@@ -199,7 +204,7 @@ def test_roundtrip_board_late_ticks_over_the_noise_floor():
     for i in (0, 5, 6, 7, 8):
         alone = _alone(scene, seq, r, i)
         a0 = int(math.floor(truth[i] * fs)) - 2
-        w = oaconvolve(alone, A)[a0: a0 + int(0.02 * fs)]
+        w = oaconvolve(alone, A)[a0 : a0 + int(0.02 * fs)]
         level.append(frame_energies(w, 12, 12).max())
     first_level = level[0]
     level = 10.0 * np.log10(np.array(level) / first_level)
@@ -256,8 +261,7 @@ def test_restitution_from_bounce_times(name):
     g = scene.gravity
     v = np.array([imp.speed for imp in seq])
     # the bounce times of the engine: contact, then flight at the rebound speed
-    assert T[: n - 1] == pytest.approx(tau[: n - 1] + 2.0 * e[: n - 1] * v[: n - 1] / g,
-                                       rel=1e-6)
+    assert T[: n - 1] == pytest.approx(tau[: n - 1] + 2.0 * e[: n - 1] * v[: n - 1] / g, rel=1e-6)
     a = analyze(r.audio, r.samplerate, gravity=g)
     # onsets within d of the engine's make T_n / T_(n-1) wrong by at most
     # 2 d / T_(n-1) + 2 d / T_n (relative); d measured here (test above: under 0.2 ms)
@@ -275,8 +279,9 @@ def test_restitution_from_bounce_times(name):
     assert all(0 < gp < tau[i + 1] / (e[i + 1] * T[i]) for i, gp in enumerate(gaps))
 
 
-@pytest.mark.parametrize("name, gain", [("thesis-steel10-mdf18-corner", 2),
-                                        ("thesis-steel10-mdf18-edge", 3)])
+@pytest.mark.parametrize(
+    "name, gain", [("thesis-steel10-mdf18-corner", 2), ("thesis-steel10-mdf18-edge", 3)]
+)
 def test_deflation_finds_the_late_ticks(name, gain):
     # At the board's corner and edge the late ticks lie under the ringing of the earlier
     # ones. Taking the earlier ticks out (analysis step 5) finds more of them: 12 of the
@@ -290,7 +295,7 @@ def test_deflation_finds_the_late_ticks(name, gain):
     d = 1.0 / r.samplerate
     got = np.array([t.time for t in analyze(r.audio, r.samplerate).ticks])
     assert got.size <= truth.size
-    assert np.max(np.abs(got - truth[:got.size])) < d
+    assert np.max(np.abs(got - truth[: got.size])) < d
     plain = np.array([t.time for t in analyze(r.audio, r.samplerate, deflate=False).ticks])
     found = np.sum(np.min(np.abs(plain[:, None] - truth[None, :]), axis=1) < d)
     assert got.size >= found + gain, (got.size, found)

@@ -33,12 +33,18 @@ def _random_scene(rng):
     fs = int(RATES[rng.integers(len(RATES))])
     drop = rng.uniform(0.1, 0.9, 2) * (a, b)
     mic = (*(rng.uniform(-0.2, 1.2, 2) * (a, b)), float(rng.uniform(0.05, 1.0)))
-    scene, _, _ = presets.load_preset_with_options("glass-marble-on-glass-table", [
-        f"plate.material='{material}'", f"plate.thickness={thickness!r}",
-        f"plate.length={float(a)!r}", f"plate.width={float(b)!r}",
-        "plate.boundary='simply-supported'",
-        f"drop.position=[{float(drop[0])!r}, {float(drop[1])!r}]",
-        f"listener.position=[{float(mic[0])!r}, {float(mic[1])!r}, {mic[2]!r}]"])
+    scene, _, _ = presets.load_preset_with_options(
+        "glass-marble-on-glass-table",
+        [
+            f"plate.material='{material}'",
+            f"plate.thickness={thickness!r}",
+            f"plate.length={float(a)!r}",
+            f"plate.width={float(b)!r}",
+            "plate.boundary='simply-supported'",
+            f"drop.position=[{float(drop[0])!r}, {float(drop[1])!r}]",
+            f"listener.position=[{float(mic[0])!r}, {float(mic[1])!r}, {mic[2]!r}]",
+        ],
+    )
     return scene, fs
 
 

@@ -25,16 +25,23 @@ def ball10():
 
 # --------------------------------------------------------------------------- Ball
 
+
 def test_ball_mass_from_density():
     # Closed form m = 4/3 pi r^3 rho; 1e-12 relative is float rounding.
     b = Ball("steel", 0.005)
-    assert b.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005 ** 3 * 7800.0, rel=1e-12)
+    assert b.mass == pytest.approx(4.0 / 3.0 * math.pi * 0.005**3 * 7800.0, rel=1e-12)
 
 
-@pytest.mark.parametrize("rho, diameter, grams", [
-    (7960.0, 10.00e-3, 4.17), (7730.0, 14.30e-3, 11.83), (7820.0, 19.00e-3, 28.07),
-    (2480.0, 12.55e-3, 2.57), (2480.0, 17.00e-3, 6.39),
-])
+@pytest.mark.parametrize(
+    "rho, diameter, grams",
+    [
+        (7960.0, 10.00e-3, 4.17),
+        (7730.0, 14.30e-3, 11.83),
+        (7820.0, 19.00e-3, 28.07),
+        (2480.0, 12.55e-3, 2.57),
+        (2480.0, 17.00e-3, 6.39),
+    ],
+)
 def test_ball_mass_matches_thesis_balls(rho, diameter, grams):
     # Published: thesis Table 3.1 lists each ball's density, diameter and weighed mass; the
     # sphere formula must reproduce the mass within 0.5 % (masses printed to 3-4 figures).
@@ -76,10 +83,11 @@ def test_ball_is_frozen():
 
 # --------------------------------------------------------------------------- Plate
 
+
 def test_plate_flexural_rigidity_thesis_mdf18():
     # D = E h^3 / (12 (1 - nu^2)) = 5.689e9 * 0.018^3 / (12 * 0.84) = 3291.49 N m.
     p = mdf18()
-    assert p.flexural_rigidity == pytest.approx(5.689e9 * H ** 3 / (12.0 * (1.0 - 0.16)), rel=1e-12)
+    assert p.flexural_rigidity == pytest.approx(5.689e9 * H**3 / (12.0 * (1.0 - 0.16)), rel=1e-12)
     # Printed to six figures: 1.5e-6 relative covers the rounding of 3291.49.
     assert p.flexural_rigidity == pytest.approx(3291.49, rel=1.5e-6)
 
@@ -128,27 +136,45 @@ def test_plate_rejects_thickness_larger_than_side(h, a, b):
         Plate("steel", h, a, b)
 
 
-@pytest.mark.parametrize("xy", [(0.0, 0.0), (A, 0.0), (0.0, B), (A, B),      # corners
-                                (A / 2.0, 0.0), (0.0, B / 2.0), (A, 0.3), (0.7, B),  # edges
-                                (0.3, 0.2)])
+@pytest.mark.parametrize(
+    "xy",
+    [
+        (0.0, 0.0),
+        (A, 0.0),
+        (0.0, B),
+        (A, B),  # corners
+        (A / 2.0, 0.0),
+        (0.0, B / 2.0),
+        (A, 0.3),
+        (0.7, B),  # edges
+        (0.3, 0.2),
+    ],
+)
 def test_check_position_accepts_corners_edges_and_inside(xy):
     # The plate is closed: corners and edges are on it, returned as floats exactly.
     assert mdf18().check_position(xy) == (float(xy[0]), float(xy[1]))
 
 
-@pytest.mark.parametrize("xy", [(-1e-9, 0.0), (A + 1e-9, 0.0), (0.0, -1e-6), (0.1, B + 1e-6),
-                                (5.0, 5.0)])
+@pytest.mark.parametrize(
+    "xy", [(-1e-9, 0.0), (A + 1e-9, 0.0), (0.0, -1e-6), (0.1, B + 1e-6), (5.0, 5.0)]
+)
 def test_check_position_rejects_off_plate(xy):
     # 1 nm outside any edge is off the plate; the message starts with the field name.
     with pytest.raises(ParameterError, match=r"^position=.*off the plate"):
         mdf18().check_position(xy)
 
 
-@pytest.mark.parametrize("bad, match", [
-    ((float("nan"), 0.1), r"position\.x"), ((0.1, float("inf")), r"position\.y"),
-    ((0.1,), "2 coordinates"), ((0.1, 0.1, 0.1), "2 coordinates"), (0.1, "sequence"),
-    (("a", 0.1), r"position\.x"),
-])
+@pytest.mark.parametrize(
+    "bad, match",
+    [
+        ((float("nan"), 0.1), r"position\.x"),
+        ((0.1, float("inf")), r"position\.y"),
+        ((0.1,), "2 coordinates"),
+        ((0.1, 0.1, 0.1), "2 coordinates"),
+        (0.1, "sequence"),
+        (("a", 0.1), r"position\.x"),
+    ],
+)
 def test_check_position_rejects_malformed(bad, match):
     # Non-finite coordinates, wrong length, non-sequences and non-numbers are rejected.
     with pytest.raises(ParameterError, match=match):
@@ -162,6 +188,7 @@ def test_check_position_rejects_naming_given_field():
 
 
 # --------------------------------------------------------------------------- listeners
+
 
 def test_microphone_stores_position():
     # (x, y, z) in metres is stored exactly as a tuple of floats.
@@ -195,6 +222,7 @@ def test_accelerometer_rejects_malformed(bad):
 
 
 # --------------------------------------------------------------------------- Scene
+
 
 def test_scene_defaults():
     # Documented defaults (exact: halves of the sides, 0.2 m, 9.81 m/s^2).
@@ -252,10 +280,14 @@ def test_scene_rejects_accelerometer_off_plate():
         Scene(ball10(), mdf18(), drop_height=0.1, listener=Accelerometer((A + 0.1, 0.1)))
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(ball="steel"), r"^ball="), (dict(plate="mdf-18"), r"^plate="),
-    (dict(listener=(0.1, 0.1, 0.2)), r"^listener="),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(ball="steel"), r"^ball="),
+        (dict(plate="mdf-18"), r"^plate="),
+        (dict(listener=(0.1, 0.1, 0.2)), r"^listener="),
+    ],
+)
 def test_scene_rejects_wrong_object_types(kwargs, match):
     # ball, plate and listener must be the scene objects, not names or tuples.
     args = dict(ball=ball10(), plate=mdf18(), drop_height=0.1)
@@ -265,6 +297,7 @@ def test_scene_rejects_wrong_object_types(kwargs, match):
 
 
 # --------------------------------------------------------------------------- numeric fields
+
 
 def _ball(field, value):
     kwargs = dict(material="steel", radius=0.005, mass=None)
@@ -296,9 +329,12 @@ NUMERIC_FIELDS = [
 ]
 
 # Every field against every bad value, except mass=None, which means "from the density".
-BAD_CASES = [(make, field, label, bad)
-             for make, field, label, _ in NUMERIC_FIELDS for bad in BAD_POSITIVE
-             if not (field == "mass" and bad is None)]
+BAD_CASES = [
+    (make, field, label, bad)
+    for make, field, label, _ in NUMERIC_FIELDS
+    for bad in BAD_POSITIVE
+    if not (field == "mass" and bad is None)
+]
 
 
 @pytest.mark.parametrize("make, field, label, good", NUMERIC_FIELDS)

@@ -28,7 +28,9 @@ def test_flight_law(thesis):
     # rounding).
     for a, b in zip(thesis, thesis[1:]):
         r = a.result
-        assert b.time == pytest.approx(a.time + r.contact_time + 2 * r.rebound_speed / 9.81, rel=1e-12)
+        assert b.time == pytest.approx(
+            a.time + r.contact_time + 2 * r.rebound_speed / 9.81, rel=1e-12
+        )
         assert b.speed == pytest.approx(r.rebound_speed, rel=1e-12)
 
 
@@ -45,7 +47,7 @@ def test_thesis_series_first_restitution_and_physical_end(thesis):
 def test_energy_falls_by_e_squared_per_bounce(thesis):
     # Kinetic energy of impact n+1 over impact n is e_n^2 (by the flight law, 1e-12).
     for a, b in zip(thesis, thesis[1:]):
-        assert b.speed ** 2 / a.speed ** 2 == pytest.approx(a.result.restitution ** 2, rel=1e-12)
+        assert b.speed**2 / a.speed**2 == pytest.approx(a.result.restitution**2, rel=1e-12)
 
 
 def test_floor_stops_the_series():
@@ -57,14 +59,18 @@ def test_floor_stops_the_series():
 
 
 def test_max_impacts_and_duration():
-    assert simulate_bounces(BALL, MDF18, drop_height=0.1, max_impacts=3).stop_reason == "max-impacts"
+    assert (
+        simulate_bounces(BALL, MDF18, drop_height=0.1, max_impacts=3).stop_reason == "max-impacts"
+    )
     seq = simulate_bounces(BALL, MDF18, drop_height=0.1, max_duration=0.5)
     assert seq.stop_reason == "max-duration" and seq[-1].time <= 0.5
 
 
 def test_heavy_ball_on_thin_plate_settles():
     # lambda >> 1 (50 mm steel ball on 0.5 mm aluminium): the first impact does not separate.
-    seq = simulate_bounces(Ball("steel", 0.025), Plate("aluminium", 0.0005, 1.0, 0.8), drop_height=0.1)
+    seq = simulate_bounces(
+        Ball("steel", 0.025), Plate("aluminium", 0.0005, 1.0, 0.8), drop_height=0.1
+    )
     assert seq.stop_reason == "settled" and len(seq) == 1 and seq[0].result.restitution == 0.0
 
 
@@ -77,20 +83,26 @@ def test_corner_impact_loses_more():
 
 def test_simulate_scene_uses_scene_contact():
     from synth.physics.scene import Contact
+
     s = Scene(BALL, MDF18, drop_height=0.1, contact=Contact("hunt-crossley", dissipation=0.3))
     hc = simulate_scene(s, max_impacts=1)
     hz = simulate_scene(Scene(BALL, MDF18, drop_height=0.1), max_impacts=1)
     assert hc[0].result.restitution < hz[0].result.restitution
 
 
-@pytest.mark.parametrize("kw, word", [
-    (dict(drop_height=0.0), "drop_height"), (dict(drop_height=float("nan")), "drop_height"),
-    (dict(drop_height=0.1, gravity=0.0), "gravity"), (dict(drop_height=0.1, floor_db=3.0), "floor_db"),
-    (dict(drop_height=0.1, max_duration=-1.0), "max_duration"),
-    (dict(drop_height=0.1, max_impacts=0), "max_impacts"),
-    (dict(drop_height=0.1, position=(5.0, 0.1)), "position"),
-    (dict(drop_height=0.1, contact_law="glue"), "contact"),
-])
+@pytest.mark.parametrize(
+    "kw, word",
+    [
+        (dict(drop_height=0.0), "drop_height"),
+        (dict(drop_height=float("nan")), "drop_height"),
+        (dict(drop_height=0.1, gravity=0.0), "gravity"),
+        (dict(drop_height=0.1, floor_db=3.0), "floor_db"),
+        (dict(drop_height=0.1, max_duration=-1.0), "max_duration"),
+        (dict(drop_height=0.1, max_impacts=0), "max_impacts"),
+        (dict(drop_height=0.1, position=(5.0, 0.1)), "position"),
+        (dict(drop_height=0.1, contact_law="glue"), "contact"),
+    ],
+)
 def test_simulate_bounces_rejects_bad_input(kw, word):
     with pytest.raises(ParameterError, match=word):
         simulate_bounces(BALL, MDF18, **kw)
@@ -104,8 +116,9 @@ def test_simulate_scene_rejects_non_scene():
 def test_rebound_rule_replaces_the_restitution():
     # A rule e' = 0.5: every flight starts at half the impact speed (v_(n+1) = e' v_n, exact
     # arithmetic), each impact still solved physically; and a rule e' = 0 stops at once.
-    seq = simulate_bounces(BALL, MDF18, drop_height=0.1, max_impacts=5,
-                           rebound=lambda result, speed: 0.5)
+    seq = simulate_bounces(
+        BALL, MDF18, drop_height=0.1, max_impacts=5, rebound=lambda result, speed: 0.5
+    )
     for a, b in zip(seq, seq[1:]):
         assert b.speed == 0.5 * a.speed
         assert a.restitution == 0.5

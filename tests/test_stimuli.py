@@ -31,10 +31,13 @@ def test_scaled_restitution_follows_the_thesis_rule(k):
         e = a.result.restitution
         assert a.restitution == pytest.approx(1 - k * (1 - e), rel=1e-12)
         assert b.speed == pytest.approx(a.restitution * a.speed, rel=1e-12)
-        assert b.time == pytest.approx(a.time + a.result.contact_time + 2 * b.speed / 9.81, rel=1e-12)
+        assert b.time == pytest.approx(
+            a.time + a.result.contact_time + 2 * b.speed / 9.81, rel=1e-12
+        )
     c = DEFAULT.contact
-    ref = contact.solve_impact(DEFAULT.ball, DEFAULT.plate, seq[3].speed, position=DEFAULT.position,
-                               rtol=c.rtol)
+    ref = contact.solve_impact(
+        DEFAULT.ball, DEFAULT.plate, seq[3].speed, position=DEFAULT.position, rtol=c.rtol
+    )
     assert seq[3].result.restitution == pytest.approx(ref.restitution, rel=1e-12)
 
 
@@ -52,8 +55,13 @@ def test_mismatch_keeps_timing_and_swaps_ticks():
     ref = synth.simulate_scene(timing)
     assert [i.time for i in seq] == [i.time for i in ref]
     assert [i.speed for i in seq] == [i.speed for i in ref]
-    small = contact.solve_impact(DEFAULT.ball, DEFAULT.plate, ref[2].speed, position=DEFAULT.position,
-                                 rtol=DEFAULT.contact.rtol)
+    small = contact.solve_impact(
+        DEFAULT.ball,
+        DEFAULT.plate,
+        ref[2].speed,
+        position=DEFAULT.position,
+        rtol=DEFAULT.contact.rtol,
+    )
     assert seq[2].result.contact_time == pytest.approx(small.contact_time, rel=1e-12)
     assert seq[2].result.contact_time < ref[2].result.contact_time
 
@@ -62,14 +70,30 @@ def test_cli_render_stimuli(tmp_path, capsys):
     # The options reach the renderer: the report's first restitution follows the rule.
     out = tmp_path / "k.wav"
     rep = tmp_path / "k.json"
-    assert main(["render", "default", "-o", str(out), "--restitution-scale", "2",
-                 "--report", str(rep)]) == 0
+    assert (
+        main(
+            ["render", "default", "-o", str(out), "--restitution-scale", "2", "--report", str(rep)]
+        )
+        == 0
+    )
     import json
+
     data = json.loads(rep.read_text())
     e = data["impacts"][0]["restitution"]
     assert e == pytest.approx(1 - 2 * (1 - 0.8712), abs=1e-3)
-    assert main(["render", "default", "-o", str(tmp_path / "m.wav"), "--timing-from",
-                 "thesis-steel19-mdf18"]) == 0
+    assert (
+        main(
+            [
+                "render",
+                "default",
+                "-o",
+                str(tmp_path / "m.wav"),
+                "--timing-from",
+                "thesis-steel19-mdf18",
+            ]
+        )
+        == 0
+    )
 
 
 @pytest.mark.parametrize("bad", [-0.5, math.nan, math.inf])

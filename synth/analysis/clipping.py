@@ -15,7 +15,6 @@ import numpy as np
 
 from synth import dsp
 
-
 #: Fewest consecutive samples at a channel's extreme that make a flat top (clipping). Two
 #: equal samples at the very extreme of a band-limited waveform need its peak to fall within
 #: a quantisation step over a sample period: rare, and never many times at the one level.
@@ -59,11 +58,15 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
         return None
     c, count, peak = worst
     total = int(np.count_nonzero(mask))
-    return Clipping(mask, (
-        f"clipping: {total} samples sit at a channel's extreme ({count} in channel {c}, "
-        f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
-        f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
-        f"are unreliable, and their onsets and bounce times may be off too"))
+    return Clipping(
+        mask,
+        (
+            f"clipping: {total} samples sit at a channel's extreme ({count} in channel {c}, "
+            f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
+            f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
+            f"are unreliable, and their onsets and bounce times may be off too"
+        ),
+    )
 
 
 def flat_tops(at: np.ndarray) -> np.ndarray:
@@ -89,7 +92,7 @@ def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndar
     from scipy.signal import correlate, oaconvolve
 
     p = a.size - 1
-    ra = correlate(a, a, mode="full")[p:]           # autocorrelation of a, lags 0..p
+    ra = correlate(a, a, mode="full")[p:]  # autocorrelation of a, lags 0..p
     y = x.copy()
     level = x[missing]
     free = np.nonzero(missing)[0]
@@ -97,7 +100,7 @@ def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndar
         if free.size == 0:
             break
         y[free] = 0.0
-        e0 = oaconvolve(y, a)[: y.size + p]         # prediction error with the gaps at 0
+        e0 = oaconvolve(y, a)[: y.size + p]  # prediction error with the gaps at 0
         # b_i = -sum_k a_k e0[i + k]
         b = -correlate(e0, a, mode="valid")[free]
         v = _solve_banded_gram(free, ra, b)
@@ -147,7 +150,7 @@ def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray
         breaks = np.nonzero(np.diff(idx) > 1)[0]
         runs = np.diff(np.r_[-1, breaks, idx.size - 1])
         p = int(min(order, max(3 * int(runs.max()), order // 20, 8)))
-        tail = col[idx[-1] + 1:]
+        tail = col[idx[-1] + 1 :]
         a = dsp.autocorrelation_predictor(tail if tail.size >= 4 * order else col, p)
         out[:, c] = ar_interpolate(col, m, a)
     return out[:, 0] if out.shape[1] == 1 else out.mean(axis=1)

@@ -106,8 +106,15 @@ class Residual:
     the first tick's response ``T`` through an FIR filter of lags ``-pre .. post`` fitted by
     least squares; ``r - q`` is what was taken out, against which a candidate is weighed."""
 
-    def __init__(self, r: np.ndarray, template: np.ndarray, start: int, settings: Settings,
-                 floor: float, noise: float):
+    def __init__(
+        self,
+        r: np.ndarray,
+        template: np.ndarray,
+        start: int,
+        settings: Settings,
+        floor: float,
+        noise: float,
+    ):
         fs, hop = settings.samplerate, settings.hop
         self.r = r
         self.q = r.copy()
@@ -117,14 +124,14 @@ class Residual:
         self.bg = max(3, int(round(settings.background * fs / hop)))
         self.thr = 10.0 ** (settings.threshold_db / 10.0)
         self.rise = settings.rise_db / 10.0
-        self.fade = settings.release * 1000.0 * hop / fs / 10.0   # log10 units per frame
+        self.fade = settings.release * 1000.0 * hop / fs / 10.0  # log10 units per frame
         self.floor = floor
         self.kappa = 10.0 ** (DEFLATION_KAPPA_DB / 10.0)
-        self.noise = noise * noise * self.w     # energy per frame of the whitened noise floor
+        self.noise = noise * noise * self.w  # energy per frame of the whitened noise floor
         self.span = max(2, int(round(REMAINDER_SPAN * fs / hop)))
         self.pre = max(1, int(round(DEFLATION_PRE * fs)))
         self.post = max(1, int(round(DEFLATION_POST * fs)))
-        self.q[start: start + template.size] -= template
+        self.q[start : start + template.size] -= template
 
     @property
     def longest_lag(self) -> int:
@@ -133,11 +140,11 @@ class Residual:
 
     def snapshot(self, s: int, n: int) -> Snapshot:
         """``q[s:s+n]``, saved."""
-        return Snapshot(s, self.q[s: s + n].copy(), None)
+        return Snapshot(s, self.q[s : s + n].copy(), None)
 
     def restore(self, snap: Snapshot) -> None:
         """Put back what :meth:`snapshot` saved."""
-        self.q[snap.start: snap.start + snap.q.size] = snap.q
+        self.q[snap.start : snap.start + snap.q.size] = snap.q
 
     def taken_out(self, lo: int, hi: int) -> np.ndarray:
         """What a candidate's frames over ``[lo, hi)`` are weighed against (energy per frame):
@@ -164,28 +171,38 @@ class Residual:
                 return None
             chunk *= 2
 
-    def _first_clearing(self, d: np.ndarray, sub: np.ndarray, first: int,
-                        lo: int) -> Candidate | None:
+    def _first_clearing(
+        self, d: np.ndarray, sub: np.ndarray, first: int, lo: int
+    ) -> Candidate | None:
         """The first frame from ``first`` on of the detection function ``d`` (its frame 0 at
         sample ``lo``) that clears the rules, against ``sub`` taken out per frame."""
         k = np.arange(d.size)
         past_med = self._past_background(d, k)
-        threshold = np.maximum.reduce([
-            np.where(np.isfinite(past_med), past_med * self.thr, 0.0), self._memory(d, k),
-            np.full_like(d, self.floor), sub * self.kappa])
+        threshold = np.maximum.reduce(
+            [
+                np.where(np.isfinite(past_med), past_med * self.thr, 0.0),
+                self._memory(d, k),
+                np.full_like(d, self.floor),
+                sub * self.kappa,
+            ]
+        )
         span = np.ones(self.span)
-        d_near = np.convolve(d, span)[self.span - 2: self.span - 2 + d.size]
-        sub_near = np.convolve(sub, span)[self.span - 2: self.span - 2 + d.size]
+        d_near = np.convolve(d, span)[self.span - 2 : self.span - 2 + d.size]
+        sub_near = np.convolve(sub, span)[self.span - 2 : self.span - 2 + d.size]
         hit = np.nonzero((d >= threshold) & (d_near >= sub_near * self.kappa) & (k >= first))[0]
         if not hit.size:
             return None
         first_hit = m = int(hit[0])
         while m + 1 < d.size and d[m + 1] > d[m]:
-            m += 1                      # on to the frame's local maximum
+            m += 1  # on to the frame's local maximum
         noise = past_med[m] if np.isfinite(past_med[m]) else threshold[m] / self.thr
-        return Candidate(lo + m * self.hop, float(d[m]),
-                         float(max(threshold[first_hit], 1e-300)), float(noise),
-                         lo + first_hit * self.hop)
+        return Candidate(
+            lo + m * self.hop,
+            float(d[m]),
+            float(max(threshold[first_hit], 1e-300)),
+            float(noise),
+            lo + first_hit * self.hop,
+        )
 
     def _past_background(self, d: np.ndarray, k: np.ndarray) -> np.ndarray:
         """Local background of each frame: the median of frames ``k-2-bg .. k-3`` (the past,
@@ -228,11 +245,11 @@ class Residual:
         M = np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W]
         G = M.T @ M
         G[np.diag_indices(ntap)] += 1e-9 * np.trace(G) / ntap + 1e-300
-        h = np.linalg.solve(G, M.T @ q[s: s + W])
+        h = np.linalg.solve(G, M.T @ q[s : s + W])
         # contribution at s + t: sum_j h_j T[t - l_j]
         contrib = np.convolve(T, h[::-1])[pre:]
         n = min(contrib.size, q.size - s)
-        q[s: s + n] -= contrib[:n]
+        q[s : s + n] -= contrib[:n]
         return contrib
 
 
@@ -241,19 +258,30 @@ class DeflationSearch:
     strengths) are the sure ticks of step 3's bounce series, none of which is passed over;
     ``floor`` (energy per frame) the floor of the dynamic range."""
 
-    def __init__(self, r: np.ndarray, settings: Settings, first: FirstTick, anchors,
-                 floor: float | None, strongest: float, known=()):
+    def __init__(
+        self,
+        r: np.ndarray,
+        settings: Settings,
+        first: FirstTick,
+        anchors,
+        floor: float | None,
+        strongest: float,
+        known=(),
+    ):
         self.settings = settings
         self.r = r
         self.hop, self.w = settings.hop, settings.frame
         self.min_sep = settings.min_separation
         self.first = first
         self.s1 = max(int(math.floor(first.onset)) - WINDOW_GUARD, 0)
-        template = r[self.s1: max(first.end, self.s1 + 1)].copy()
+        template = r[self.s1 : max(first.end, self.s1 + 1)].copy()
         noise = dsp.noise_floor(r, settings.samplerate)
         e_t = frame_energies(template, self.hop, self.w)
-        self.ringing_left = (float(np.median(e_t[e_t.size // 2:]) / e_t.max())
-                             if e_t.size > 1 and e_t.max() > 0.0 else 0.0)
+        self.ringing_left = (
+            float(np.median(e_t[e_t.size // 2 :]) / e_t.max())
+            if e_t.size > 1 and e_t.max() > 0.0
+            else 0.0
+        )
         self.floor = self._initial_floor(floor, noise, strongest)
         # the template ends where it sinks into the noise (or under the floor): beyond, taking
         # it out of a later tick would only add its noise
@@ -314,8 +342,9 @@ class DeflationSearch:
         """The end of the tick's fit window, and whether a search uncovered it (step 7)."""
         return e, False
 
-    def _finish(self, s: int, new: NewTick, e: int, model: np.ndarray,
-                snap: Snapshot) -> np.ndarray:
+    def _finish(
+        self, s: int, new: NewTick, e: int, model: np.ndarray, snap: Snapshot
+    ) -> np.ndarray:
         """The tick's model once fitted (step 7 refits it)."""
         return model
 
@@ -343,11 +372,17 @@ class DeflationSearch:
             else:
                 new = self._candidate_tick(c)
                 if new is None:
-                    self.after = c.start + self.hop     # part of the previous tick's response
+                    self.after = c.start + self.hop  # part of the previous tick's response
                     continue
             self._add(new)
-        return SearchOutcome(np.array(self.onsets), np.array(self.strengths), self.residual.q,
-                             self.models, self.ringing_left, self._timed())
+        return SearchOutcome(
+            np.array(self.onsets),
+            np.array(self.strengths),
+            self.residual.q,
+            self.models,
+            self.ringing_left,
+            self._timed(),
+        )
 
     def _passed_anchor(self, c: Candidate | None) -> int | None:
         """The next sure tick of step 3's series when the search would pass over it."""
@@ -362,7 +397,7 @@ class DeflationSearch:
         samples."""
         i0 = int(math.floor(on))
         w, hop = self.w, self.hop
-        return frame_energies(self.residual.q[max(0, i0 - w + 1): i0 + w + 2 * hop], hop, w)
+        return frame_energies(self.residual.q[max(0, i0 - w + 1) : i0 + w + 2 * hop], hop, w)
 
     def _anchor_tick(self, a: int) -> NewTick:
         on, strength = float(self.anchor_on[a]), float(self.anchor_strength[a])
@@ -379,14 +414,22 @@ class DeflationSearch:
         lo = self._onset_walk_start(c)
         hi = min(self.r.size, c.start + self.w + 2 * self.hop)
         sigma = ONSET_NOISE_SIGMAS * math.sqrt(c.background / self.w)
-        on = lo + refine_onset(self.residual.q[lo:hi], max(0, c.start - self.hop - lo), hi - lo,
-                               s.onset_fraction, s.onset_gap, sigma, strict=self.strict_onsets)
+        on = lo + refine_onset(
+            self.residual.q[lo:hi],
+            max(0, c.start - self.hop - lo),
+            hi - lo,
+            s.onset_fraction,
+            s.onset_gap,
+            sigma,
+            strict=self.strict_onsets,
+        )
         burst = self._burst(on)
         energy = max(c.energy, float(burst.max())) if burst.size else c.energy
         near = np.abs(self.anchor_on - on) < self.min_sep
         if not near.any() and (
-                on - self.onsets[-1] < self._separation(self.onsets, self.strengths)
-                or too_strong(self.onsets, self.strengths, self.energies, on, energy)):
+            on - self.onsets[-1] < self._separation(self.onsets, self.strengths)
+            or too_strong(self.onsets, self.strengths, self.energies, on, energy)
+        ):
             return None
         strength = 10.0 * math.log10(energy / c.threshold)
         if near.any():
@@ -406,8 +449,9 @@ class DeflationSearch:
         self._lower_floor(new.energy)
         on = new.onset
         s = max(int(math.floor(on)) - WINDOW_GUARD, 0)
-        self.after = int(math.floor(on)) + self._separation(self.onsets + [on],
-                                                            self.strengths + [new.strength])
+        self.after = int(math.floor(on)) + self._separation(
+            self.onsets + [on], self.strengths + [new.strength]
+        )
         model = self._model(s, new)
         self.onsets.append(float(on))
         self.strengths.append(new.strength)

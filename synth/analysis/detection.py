@@ -59,11 +59,13 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
     d = frame_energies(r, hop, settings.frame)
     size = max(3, int(round(background * settings.samplerate / hop)) | 1)
     med = median_filter(d, size=size, mode="nearest")
-    threshold = np.maximum.reduce([
-        med * 10.0 ** (settings.threshold_db / 10.0),
-        _fading_memory(d, hop, settings) * 10.0 ** (settings.rise_db / 10.0),
-        np.full_like(d, d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)),
-    ])
+    threshold = np.maximum.reduce(
+        [
+            med * 10.0 ** (settings.threshold_db / 10.0),
+            _fading_memory(d, hop, settings) * 10.0 ** (settings.rise_db / 10.0),
+            np.full_like(d, d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)),
+        ]
+    )
     return Detection(_candidates(d, threshold, settings), d, threshold, med)
 
 
@@ -93,7 +95,7 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
     for k in candidates:
         if keep and (k - keep[-1]) * settings.hop < settings.min_separation:
             continue
-        energy = d[k: k + 2].max()
+        energy = d[k : k + 2].max()
         if keep and energy < energies[-1] * drop:
             continue
         keep.append(k)
@@ -101,8 +103,9 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
     return np.array(keep, dtype=int)
 
 
-def refine_onset(r: np.ndarray, lo: int, hi: int, fraction: float, gap: int,
-                 noise: float, strict: bool = False) -> float:
+def refine_onset(
+    r: np.ndarray, lo: int, hi: int, fraction: float, gap: int, noise: float, strict: bool = False
+) -> float:
     """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
     ``[lo, hi)`` (step 4): the crossing of the level (``fraction`` of the burst's largest
     ``|r|``, at least ``noise``) before the earliest sample reached by walking back over
@@ -214,8 +217,9 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
     found = detect(r, settings, background)
     peaks = found.peaks
     if peaks.size == 0:
-        raise AnalysisError("no tick detected: nothing rises above the background "
-                            "(is this a recording of impacts?)")
+        raise AnalysisError(
+            "no tick detected: nothing rises above the background (is this a recording of impacts?)"
+        )
     onsets = _candidate_onsets(r, found, settings)
     kept = _separate(onsets, settings.min_separation)
     peaks, onsets = peaks[kept], onsets[kept]
@@ -227,7 +231,7 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
         anchors, anchor_strength = onsets[series], strength[series]
         sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
         anchors, anchor_strength = anchors[sure], anchor_strength[sure]
-        keep = np.r_[0, series[1]:peaks.size]
+        keep = np.r_[0, series[1] : peaks.size]
         peaks, onsets, strength = peaks[keep], onsets[keep], strength[keep]
     return FirstTicks(peaks, onsets, strength, found.d, anchors, anchor_strength)
 
@@ -238,10 +242,19 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
     hop either side."""
     hop, w = settings.hop, settings.frame
     sigma = ONSET_NOISE_SIGMAS * np.sqrt(found.background[found.peaks] / w)
-    return np.array([
-        refine_onset(r, max(0, (k - 1) * hop), min(r.size, k * hop + w + hop),
-                     settings.onset_fraction, settings.onset_gap, s)
-        for k, s in zip(found.peaks, sigma)])
+    return np.array(
+        [
+            refine_onset(
+                r,
+                max(0, (k - 1) * hop),
+                min(r.size, k * hop + w + hop),
+                settings.onset_fraction,
+                settings.onset_gap,
+                s,
+            )
+            for k, s in zip(found.peaks, sigma)
+        ]
+    )
 
 
 def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
@@ -261,6 +274,7 @@ def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
         if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
             kept.append(i)
     if not kept:
-        raise AnalysisError("no tick detected: nothing rises above the background "
-                            "(is this a recording of impacts?)")
+        raise AnalysisError(
+            "no tick detected: nothing rises above the background (is this a recording of impacts?)"
+        )
     return kept

@@ -52,8 +52,13 @@ class FoundTick:
     detected: float
 
 
-def measure_ticks(x: np.ndarray, found: list[FoundTick], whitenings: list[Whitening],
-                  settings: Settings, noise: float) -> list[Tick]:
+def measure_ticks(
+    x: np.ndarray,
+    found: list[FoundTick],
+    whitenings: list[Whitening],
+    settings: Settings,
+    noise: float,
+) -> list[Tick]:
     """The :class:`Tick` of each tick found in the recording ``x`` (``noise``: its noise
     floor, signal units)."""
     fs = settings.samplerate
@@ -71,14 +76,22 @@ def measure_ticks(x: np.ndarray, found: list[FoundTick], whitenings: list[Whiten
         bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
         prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
         c, sp = spectral_moments(y, fs)
-        ticks.append(Tick(
-            index=i + 1, time=float(on / fs), bounce_time=bt,
-            restitution=None if prev is None else float(bt / prev),
-            speed=None if bt is None else float(settings.gravity * bt / 2.0),
-            energy=float(np.dot(y, y) / fs), peak=float(np.abs(y).max()),
-            centroid=c, spread=sp,
-            decay_time=decay_time(y, fs, settings.decay_smoothing, noise),
-            window=float(y.size / fs), strength=float(found[i].strength)))
+        ticks.append(
+            Tick(
+                index=i + 1,
+                time=float(on / fs),
+                bounce_time=bt,
+                restitution=None if prev is None else float(bt / prev),
+                speed=None if bt is None else float(settings.gravity * bt / 2.0),
+                energy=float(np.dot(y, y) / fs),
+                peak=float(np.abs(y).max()),
+                centroid=c,
+                spread=sp,
+                decay_time=decay_time(y, fs, settings.decay_smoothing, noise),
+                window=float(y.size / fs),
+                strength=float(found[i].strength),
+            )
+        )
     return ticks
 
 
@@ -108,7 +121,7 @@ def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
         return None
     w = np.hanning(n + 2)[1:-1]
     env = np.sqrt(np.convolve(y * y, w / w.sum(), mode="same"))
-    env = env[: env.size - n // 2]          # the last half-window feels the window's end
+    env = env[: env.size - n // 2]  # the last half-window feels the window's end
     k = int(np.argmax(env))
     seg = env[k:]
     low = np.nonzero(seg <= floor * 10.0 ** (DECAY_NOISE_MARGIN_DB / 20.0))[0]

@@ -52,11 +52,29 @@ CLIPPED_AT_MOST = 0.5
 CLEAN_GUARD = 0.002
 
 
-def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.001,
-            hop=0.00025, threshold_db=10.0, rise_db=6.0, release=5.0,
-            dynamic_range_db=None, max_drop_db=20.0, background=0.02, onset_fraction=0.1,
-            lpc_order=None, window=0.02, subtract_tails=True, deflate=True,
-            decay_smoothing=0.002, clip_samples=4, on_clipping="warn") -> Analysis:
+def analyze(
+    audio,
+    samplerate,
+    *,
+    gravity=9.81,
+    channel=None,
+    min_separation=0.001,
+    hop=0.00025,
+    threshold_db=10.0,
+    rise_db=6.0,
+    release=5.0,
+    dynamic_range_db=None,
+    max_drop_db=20.0,
+    background=0.02,
+    onset_fraction=0.1,
+    lpc_order=None,
+    window=0.02,
+    subtract_tails=True,
+    deflate=True,
+    decay_smoothing=0.002,
+    clip_samples=4,
+    on_clipping="warn",
+) -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method).
 
     Parameters
@@ -134,12 +152,27 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     """
     chans = audio_array(audio)
     settings = make_settings(
-        chans.shape[1], samplerate, gravity=gravity, channel=channel,
-        min_separation=min_separation, hop=hop, threshold_db=threshold_db, rise_db=rise_db,
-        release=release, dynamic_range_db=dynamic_range_db, max_drop_db=max_drop_db,
-        background=background, onset_fraction=onset_fraction, lpc_order=lpc_order,
-        window=window, subtract_tails=subtract_tails, deflate=deflate,
-        decay_smoothing=decay_smoothing, clip_samples=clip_samples, on_clipping=on_clipping)
+        chans.shape[1],
+        samplerate,
+        gravity=gravity,
+        channel=channel,
+        min_separation=min_separation,
+        hop=hop,
+        threshold_db=threshold_db,
+        rise_db=rise_db,
+        release=release,
+        dynamic_range_db=dynamic_range_db,
+        max_drop_db=max_drop_db,
+        background=background,
+        onset_fraction=onset_fraction,
+        lpc_order=lpc_order,
+        window=window,
+        subtract_tails=subtract_tails,
+        deflate=deflate,
+        decay_smoothing=decay_smoothing,
+        clip_samples=clip_samples,
+        on_clipping=on_clipping,
+    )
     used = chans if settings.channel is None else chans[:, [settings.channel]]
     clipping = _checked_signal(used, settings)
     x = _mix(used)
@@ -150,11 +183,17 @@ def analyze(audio, samplerate, *, gravity=9.81, channel=None, min_separation=0.0
     series = _series(x, settings, clipping is not None)
     check_impulsive([t for s in series for t in s.ticks])
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
-    return Analysis(ticks=[t for s in series for t in s.ticks],
-                    samplerate=settings.samplerate, duration=x.size / settings.samplerate,
-                    noise_floor=dsp.noise_floor(x, settings.samplerate),
-                    gravity=settings.gravity, channel=settings.channel,
-                    clipped=clipping is not None, warnings=warnings, series=series)
+    return Analysis(
+        ticks=[t for s in series for t in s.ticks],
+        samplerate=settings.samplerate,
+        duration=x.size / settings.samplerate,
+        noise_floor=dsp.noise_floor(x, settings.samplerate),
+        gravity=settings.gravity,
+        channel=settings.channel,
+        clipped=clipping is not None,
+        warnings=warnings,
+        series=series,
+    )
 
 
 def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
@@ -170,7 +209,7 @@ def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
     ticks = _ticks(x, settings, clipped)
     cut = new_series_at(ticks)
-    if cut is not None:                 # the first drop, too, on its own
+    if cut is not None:  # the first drop, too, on its own
         end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
         try:
             ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
@@ -187,14 +226,19 @@ def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
         start = max(0, int(math.floor(rest[0].time * fs)) - lead)
         after = new_series_at(rest)
         while True:
-            end = x.size if after is None else max(
-                start + 1, int(math.floor(rest[after].time * fs)) - lead)
+            end = (
+                x.size
+                if after is None
+                else max(start + 1, int(math.floor(rest[after].time * fs)) - lead)
+            )
             later = [] if after is None else rest[after:]
             try:
-                seg = [replace(t, time=t.time + start / fs)
-                       for t in _ticks(x[start:end], settings, clipped)]
+                seg = [
+                    replace(t, time=t.time + start / fs)
+                    for t in _ticks(x[start:end], settings, clipped)
+                ]
             except (AnalysisError, ParameterError):
-                seg = rest if after is None else rest[:after]   # as the longer search had it
+                seg = rest if after is None else rest[:after]  # as the longer search had it
             if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
                 break
             # the next drop's start as the longer search had it is no start with the ticks
@@ -226,13 +270,23 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``)."""
     A = dsp.autocorrelation_predictor(x, settings.whitening_order)
     first = _search(whiten(x, A), settings)
-    found = [FoundTick(first.onsets[i], first.strengths[i],
-                       None if first.models is None else first.models[i], 0, first.onsets[i])
-             for i in bounce_order(first.onsets, first.strengths, settings.e_min)]
+    found = [
+        FoundTick(
+            first.onsets[i],
+            first.strengths[i],
+            None if first.models is None else first.models[i],
+            0,
+            first.onsets[i],
+        )
+        for i in bounce_order(first.onsets, first.strengths, settings.e_min)
+    ]
     whitenings = [Whitening(A, first.whitened, first.residual)]
-    if (first.ringing_left is not None
-            and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
-            and not settings.fixed_order and not clipped):
+    if (
+        first.ringing_left is not None
+        and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
+        and not settings.fixed_order
+        and not clipped
+    ):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
     return measure_ticks(x, found, whitenings, settings, noise)
@@ -276,7 +330,8 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if used.shape[0] <= 2 * order:
         raise ParameterError(
             f"audio has {used.shape[0]} frames: too short for a whitening predictor of order "
-            f"{order} (needs more than {2 * order})")
+            f"{order} (needs more than {2 * order})"
+        )
     if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     clipping = find_clipping(used, settings.clip_samples)
@@ -284,7 +339,8 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
         raise AnalysisError(
             f"{np.count_nonzero(clipping.mask)} of {used.size} samples sit in flat tops at "
             f"the extremes: not a recording of impacts (a square wave, or one clipped "
-            f"throughout)")
+            f"throughout)"
+        )
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
@@ -312,16 +368,18 @@ class SearchResult:
     timed: np.ndarray | None
 
 
-def _search(r: np.ndarray, settings: Settings, order: int | None = None,
-            known=()) -> SearchResult:
+def _search(r: np.ndarray, settings: Settings, order: int | None = None, known=()) -> SearchResult:
     """Steps 2-5 on the whitened signal ``r``; with ``order`` (the resonator's predictor's),
     the rules of step 7: the local background of step 3 over :data:`BACKGROUND_SPAN` times
     the order (a tick's whitened response lasts about that), the first bounce ending where
     the second tick's burst begins, and no fixed floor unless ``dynamic_range_db`` was
     given. ``known``: the onsets of the first search (samples)."""
     fs, hop = settings.samplerate, settings.hop
-    background = (settings.background if order is None
-                  else max(settings.background, BACKGROUND_SPAN * order / fs))
+    background = (
+        settings.background
+        if order is None
+        else max(settings.background, BACKGROUND_SPAN * order / fs)
+    )
     ft = first_ticks(r, settings, background)
     if not settings.deflate:
         return SearchResult(r, ft.onsets, ft.strengths, None, None, None, ft.peaks, None)
@@ -329,22 +387,41 @@ def _search(r: np.ndarray, settings: Settings, order: int | None = None,
     end1 = (peaks[1] - 1) * hop if peaks.size > 1 else r.size
     if order is not None and peaks.size > 1:
         end1 = min(end1, max(int(math.floor(ft.onsets[1])) - WINDOW_GUARD, 1))
-    first = FirstTick(ft.onsets[0], ft.strengths[0], d[peaks[0]: peaks[0] + 2].max(), end1)
+    first = FirstTick(ft.onsets[0], ft.strengths[0], d[peaks[0] : peaks[0] + 2].max(), end1)
     anchors = (ft.anchors[1:], ft.anchor_strengths[1:])
     fixed_floor = d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)
     if order is None:
         search = DeflationSearch(r, settings, first, anchors, fixed_floor, float(d.max()), known)
     else:
-        search = ResonatorSearch(r, settings, first, anchors,
-                                 fixed_floor if settings.fixed_range else None,
-                                 float(d.max()), known)
+        search = ResonatorSearch(
+            r,
+            settings,
+            first,
+            anchors,
+            fixed_floor if settings.fixed_range else None,
+            float(d.max()),
+            known,
+        )
     out = search.run()
-    return SearchResult(r, out.onsets, out.strengths, out.residual, out.models,
-                        out.ringing_left if peaks.size > 1 else None, peaks, out.timed)
+    return SearchResult(
+        r,
+        out.onsets,
+        out.strengths,
+        out.residual,
+        out.models,
+        out.ringing_left if peaks.size > 1 else None,
+        peaks,
+        out.timed,
+    )
 
 
-def _resonator_stage(x: np.ndarray, settings: Settings, first: SearchResult,
-                     found: list[FoundTick], whitenings: list[Whitening]) -> list[FoundTick]:
+def _resonator_stage(
+    x: np.ndarray,
+    settings: Settings,
+    first: SearchResult,
+    found: list[FoundTick],
+    whitenings: list[Whitening],
+) -> list[FoundTick]:
     """Step 7: the first tick rings on above the floor up to the second under the whitening;
     the resonator's own predictor, from the free ringing of the first bounce, and the search
     again. Kept when it leaves :data:`RESONATOR_GAIN_DB` less of the first tick's ringing and
@@ -365,7 +442,8 @@ def _resonator_stage(x: np.ndarray, settings: Settings, first: SearchResult,
     except AnalysisError:
         return found
     if res.ringing_left is None or not (
-            res.ringing_left < first.ringing_left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)):
+        res.ringing_left < first.ringing_left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)
+    ):
         return found
     kept = bounce_order(res.onsets, res.strengths, settings.e_min)
     on2 = res.onsets[kept]
@@ -377,6 +455,7 @@ def _resonator_stage(x: np.ndarray, settings: Settings, first: SearchResult,
         return found
     whitenings.append(Whitening(a_res, res.whitened, res.residual))
     timed = res.timed
-    return ([replace(found[j], onset=timed[kept[j]]) for j in range(n)]
-            + [FoundTick(timed[kept[j]], res.strengths[kept[j]], res.models[kept[j]], 1, on2[j])
-               for j in range(n, on2.size)])
+    return [replace(found[j], onset=timed[kept[j]]) for j in range(n)] + [
+        FoundTick(timed[kept[j]], res.strengths[kept[j]], res.models[kept[j]], 1, on2[j])
+        for j in range(n, on2.size)
+    ]

@@ -45,7 +45,8 @@ def check_plot_path(path) -> str:
     formats = FigureCanvasAgg.get_supported_filetypes()
     if fmt not in formats:
         raise ParameterError(
-            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}")
+            f"path={path!r}: image format {fmt!r} is not one of {', '.join(sorted(formats))}"
+        )
     return fmt
 
 
@@ -109,22 +110,26 @@ def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
     fs = checks.positive("samplerate", samplerate, "Hz")
     if fs != an.samplerate:
         raise ParameterError(
-            f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz")
+            f"samplerate={samplerate!r} differs from the analysis' {an.samplerate:g} Hz"
+        )
     if an.channel is not None and an.channel >= chans.shape[1]:
         raise ParameterError(
             f"audio has {chans.shape[1]} channel(s) but the analysis used channel {an.channel}"
-            f" (pass the recording with all its channels)")
+            f" (pass the recording with all its channels)"
+        )
     if chans.shape[0] != int(round(an.duration * fs)):
         raise ParameterError(
             f"audio has {chans.shape[0]} frames but the analysis was of "
-            f"{int(round(an.duration * fs))}")
+            f"{int(round(an.duration * fs))}"
+        )
     return chans.mean(axis=1) if an.channel is None else chans[:, an.channel]
 
 
 def _column(an: Analysis, name: str, scale: float = 1.0) -> np.ndarray:
     """One field of every tick, NaN where undefined."""
-    return np.array([np.nan if getattr(tk, name) is None else getattr(tk, name) * scale
-                     for tk in an.ticks])
+    return np.array(
+        [np.nan if getattr(tk, name) is None else getattr(tk, name) * scale for tk in an.ticks]
+    )
 
 
 def _numbers(an: Analysis) -> np.ndarray:
@@ -153,8 +158,9 @@ def _energy_panel(ax, an: Analysis) -> None:
     ax.semilogy(n, energy, "o", color="tab:green", ms=4, label="tick energy")
     e = an.mean_restitution
     if e is not None and energy.size:
-        ax.semilogy(n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4",
-                    label=f"slope e^2, e = {e:.3f}")
+        ax.semilogy(
+            n, energy[0] * (e * e) ** (n - 1.0), "--", color="0.4", label=f"slope e^2, e = {e:.3f}"
+        )
     ax.set(xlabel="tick", ylabel="energy (signal units^2 s)", title="energy per tick")
     ax.legend(loc="upper right")
 

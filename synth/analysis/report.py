@@ -11,7 +11,6 @@ import numpy as np
 
 from synth.errors import ParameterError
 
-
 #: Flag of a tick whose bounce time is not shorter than the one before (``e_n >= 1``).
 GROWN_BOUNCE = "restitution>=1"
 #: Flag of a tick whose restitution divides by a bounce that had grown (a missed tick).
@@ -132,9 +131,11 @@ class Analysis:
     def mean_restitution(self) -> float | None:
         """Mean of the defined ``e_n`` that are not flagged (physically possible), over every
         series, dimensionless; ``None`` when there is none."""
-        e = [t.restitution for t in self.ticks
-             if t.restitution is not None
-             and not set(RESTITUTION_FLAGS) & set(t.flags)]
+        e = [
+            t.restitution
+            for t in self.ticks
+            if t.restitution is not None and not set(RESTITUTION_FLAGS) & set(t.flags)
+        ]
         return float(np.mean(e)) if e else None
 
 
@@ -142,8 +143,8 @@ def checked_analysis(name: str, value) -> Analysis:
     """``value`` when it is an :class:`Analysis`; else ParameterError naming ``name``."""
     if not isinstance(value, Analysis):
         raise ParameterError(
-            f"{name} must be an Analysis (from analyze or analyze_file), "
-            f"not {type(value).__name__}")
+            f"{name} must be an Analysis (from analyze or analyze_file), not {type(value).__name__}"
+        )
     return value
 
 
@@ -177,10 +178,12 @@ def format_table(analysis, *, warnings=True) -> str:
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")
     e = an.mean_restitution
-    summary = (f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
-               f"channel {'mix' if an.channel is None else an.channel}, "
-               f"noise floor {an.noise_floor:.3g}, mean e "
-               f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2")
+    summary = (
+        f"{len(an.ticks)} ticks in {an.duration:.3f} s at {an.samplerate:g} Hz, "
+        f"channel {'mix' if an.channel is None else an.channel}, "
+        f"noise floor {an.noise_floor:.3g}, mean e "
+        f"{'-' if e is None else format(e, '.4f')}, g {an.gravity:g} m/s^2"
+    )
     lines = [summary]
     if warnings:
         lines += [f"warning: {w}" for w in an.warnings]
@@ -194,8 +197,9 @@ def format_table(analysis, *, warnings=True) -> str:
                 v = ",".join(v) or None
             row.append("-" if v is None else format(v * scale if scale != 1.0 else v, fmt))
         rows.append(row)
-    widths = [max(len(h), *(len(r[j]) for r in rows)) if rows else len(h)
-              for j, h in enumerate(head)]
+    widths = [
+        max(len(h), *(len(r[j]) for r in rows)) if rows else len(h) for j, h in enumerate(head)
+    ]
     lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths)))
     lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in rows]
     return "\n".join(lines)
@@ -207,14 +211,32 @@ def to_dict(analysis) -> dict:
     out = {f.name: getattr(an, f.name) for f in fields(an) if f.name not in ("ticks", "series")}
     out["warnings"] = list(an.warnings)
     out["mean_restitution"] = an.mean_restitution
-    out["units"] = {"time": "s", "bounce_time": "s", "speed": "m/s",
-                    "energy": "signal units^2 s", "peak": "signal units", "centroid": "Hz",
-                    "spread": "Hz", "decay_time": "s", "window": "s", "strength": "dB",
-                    "samplerate": "Hz", "duration": "s", "noise_floor": "signal units",
-                    "gravity": "m/s^2"}
+    out["units"] = {
+        "time": "s",
+        "bounce_time": "s",
+        "speed": "m/s",
+        "energy": "signal units^2 s",
+        "peak": "signal units",
+        "centroid": "Hz",
+        "spread": "Hz",
+        "decay_time": "s",
+        "window": "s",
+        "strength": "dB",
+        "samplerate": "Hz",
+        "duration": "s",
+        "noise_floor": "signal units",
+        "gravity": "m/s^2",
+    }
     out["ticks"] = [asdict(t) | {"flags": list(t.flags)} for t in an.ticks]
-    out["series"] = [{"first": s.first, "last": s.last, "ticks": [t.index for t in s.ticks],
-                      "mean_restitution": s.mean_restitution} for s in an.series]
+    out["series"] = [
+        {
+            "first": s.first,
+            "last": s.last,
+            "ticks": [t.index for t in s.ticks],
+            "mean_restitution": s.mean_restitution,
+        }
+        for s in an.series
+    ]
     return out
 
 

@@ -74,8 +74,15 @@ class ResonatorResidual(Residual):
     (energy per sample), against which a candidate is weighed instead of all that was taken
     out."""
 
-    def __init__(self, r: np.ndarray, template: np.ndarray, start: int, settings: Settings,
-                 floor: float, noise: float):
+    def __init__(
+        self,
+        r: np.ndarray,
+        template: np.ndarray,
+        start: int,
+        settings: Settings,
+        floor: float,
+        noise: float,
+    ):
         super().__init__(r, template, start, settings, floor, noise)
         self.expect = np.zeros_like(r)
         self.post_long = max(self.post, int(round(RESONATOR_POST * settings.samplerate)))
@@ -85,12 +92,12 @@ class ResonatorResidual(Residual):
         return self.post_long
 
     def snapshot(self, s: int, n: int) -> Snapshot:
-        q = self.q[s: s + n].copy()
-        return Snapshot(s, q, self.expect[s: s + q.size].copy())
+        q = self.q[s : s + n].copy()
+        return Snapshot(s, q, self.expect[s : s + q.size].copy())
 
     def restore(self, snap: Snapshot) -> None:
-        self.q[snap.start: snap.start + snap.q.size] = snap.q
-        self.expect[snap.start: snap.start + snap.q.size] = snap.expect
+        self.q[snap.start : snap.start + snap.q.size] = snap.q
+        self.expect[snap.start : snap.start + snap.q.size] = snap.expect
 
     def taken_out(self, lo: int, hi: int) -> np.ndarray:
         return frame_energies(np.sqrt(self.expect[lo:hi]), self.hop, self.w)
@@ -106,17 +113,17 @@ class ResonatorResidual(Residual):
         W = min(end, q.size) - s
         if W <= 0:
             return np.zeros(0)
-        y = q[s: s + W].copy()
+        y = q[s : s + W].copy()
         fit = self.choose(y, [0] + [int(o) - s for o in joint])
         contrib = self._contribution(fit)
         n = min(contrib.size, q.size - s)
-        q[s: s + n] -= contrib[:n]
+        q[s : s + n] -= contrib[:n]
         model = y - fit.residual
         m = W if alone is None else max(1, min(W, int(alone) - s))
         rss = float(np.dot(fit.residual[:m], fit.residual[:m]))
         fitted = float(np.dot(model[:m], model[:m]))
         eps = min(1.0, 10.0 ** (REMAINDER_MARGIN_DB / 10.0) * rss / max(fitted, 1e-300))
-        self.expect[s: s + n] += eps * contrib[:n] ** 2
+        self.expect[s : s + n] += eps * contrib[:n] ** 2
         return contrib
 
     @staticmethod
@@ -125,7 +132,7 @@ class ResonatorResidual(Residual):
         ntap = fit.pre + fit.post + 1
         contrib = np.zeros(max(T.size for T in fit.templates) + fit.post)
         for i, T in enumerate(fit.templates):
-            c = np.convolve(T, fit.taps[i * ntap: (i + 1) * ntap][::-1])[fit.pre:]
+            c = np.convolve(T, fit.taps[i * ntap : (i + 1) * ntap][::-1])[fit.pre :]
             contrib[: c.size] += c
         return contrib
 
@@ -151,8 +158,9 @@ class ResonatorResidual(Residual):
         if best is None:
             n_t = max(1, min(len(self.T), W // (FIT_SAMPLES_PER_TAP * K)))
             h, res = self._fit(self.T[:n_t], y, 0, 0, offsets)
-            best = ModelChoice(W * math.log(_rss(res, y)) + K * n_t * math.log(W),
-                               self.T[:n_t], 0, 0, h, res)
+            best = ModelChoice(
+                W * math.log(_rss(res, y)) + K * n_t * math.log(W), self.T[:n_t], 0, 0, h, res
+            )
         return best
 
     @staticmethod
@@ -166,8 +174,13 @@ class ResonatorResidual(Residual):
         for o in offsets:
             for T in Ts:
                 # M[i, j] = T[i - o - l_j] with lags l_j = post - j
-                Tp = np.concatenate((np.zeros(post + o), T[: max(0, W - o + pre)],
-                                     np.zeros(pre + max(0, W - o - T.size))))
+                Tp = np.concatenate(
+                    (
+                        np.zeros(post + o),
+                        T[: max(0, W - o + pre)],
+                        np.zeros(pre + max(0, W - o - T.size)),
+                    )
+                )
                 cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
         M = np.concatenate(cols, axis=1)
         G = M.T @ M
@@ -179,8 +192,8 @@ class ResonatorResidual(Residual):
     def take(self, s: int, n: int) -> np.ndarray:
         """Take ``q[s:s+n]`` as a new template (a tick alone over its whole whitened
         response): out of ``q``, and returned."""
-        T = self.q[s: s + n].copy()
-        self.q[s: s + n] = 0.0
+        T = self.q[s : s + n].copy()
+        self.q[s : s + n] = 0.0
         self.T.append(T)
         return T
 
@@ -213,8 +226,10 @@ class ResonatorSearch(DeflationSearch):
     def _initial_floor(self, floor, noise, strongest):
         self.relative = floor is None
         if self.relative:
-            return max(10.0 ** (self.settings.threshold_db / 10.0) * noise * noise * self.w,
-                       PREDICTION_FLOOR * strongest)
+            return max(
+                10.0 ** (self.settings.threshold_db / 10.0) * noise * noise * self.w,
+                PREDICTION_FLOOR * strongest,
+            )
         return floor
 
     def _template_cut(self, noise):
@@ -250,8 +265,9 @@ class ResonatorSearch(DeflationSearch):
         if not np.any(model):
             return level_crossing
         res = self.residual
-        return (self.first.onset + (start - self.s1)
-                + delay(model, res.T[0], -res.pre, res.post_long))
+        return (
+            self.first.onset + (start - self.s1) + delay(model, res.T[0], -res.pre, res.post_long)
+        )
 
     def _uncover(self, s, new, e, snap):
         """While this tick is in ``q`` it may hide the next one, which the series puts between
@@ -291,9 +307,12 @@ class ResonatorSearch(DeflationSearch):
         under this one, is fitted again jointly with this tick's over this tick's window, and
         this tick's alone again with the previous one's new model out."""
         res = self.residual
-        if (len(res.T) < MAX_TEMPLATES and new.strength >= ANCHOR_DB
-                and self.L < self.first.end - self.s1
-                and self._clear_span(s, new.onset) >= self.L + self.w):
+        if (
+            len(res.T) < MAX_TEMPLATES
+            and new.strength >= ANCHOR_DB
+            and self.L < self.first.end - self.s1
+            and self._clear_span(s, new.onset) >= self.L + self.w
+        ):
             res.restore(snap)
             self.prev = None
             return res.take(s, self.L)
@@ -339,16 +358,16 @@ class ResonatorSearch(DeflationSearch):
         end = min(self.r.size, hi + WINDOW_GUARD + int(t_last))
         if end - hi < 2 or lo > hi:
             return None
-        y = np.concatenate((psaved, res.q[ps + psaved.size: end]))[: end - ps]
+        y = np.concatenate((psaved, res.q[ps + psaved.size : end]))[: end - ps]
         null = res.choose(y).length
         places = range(lo, hi + 1, HYPOTHESIS_STEP)
         # the energies of the frames starting at every sample: a place's burst is its frames
         # at 0, hop and 2 hop, as a candidate's
-        e_s = frame_energies(res.q[lo: hi + self.w + 2 * self.hop], 1, self.w)
+        e_s = frame_energies(res.q[lo : hi + self.w + 2 * self.hop], 1, self.w)
         best = None
         for p in places:
             k = p - lo
-            burst = e_s[k: k + 2 * self.hop + 1: self.hop]
+            burst = e_s[k : k + 2 * self.hop + 1 : self.hop]
             energy = float(burst.max()) if burst.size else 0.0
             if energy < res.floor:
                 continue
@@ -358,5 +377,6 @@ class ResonatorSearch(DeflationSearch):
         if best is None or best[0] >= null:
             return None
         crit, p, energy = best
-        return NewTick(float(p + WINDOW_GUARD), 10.0 / math.log(10.0) * (null - crit) / y.size,
-                       energy)
+        return NewTick(
+            float(p + WINDOW_GUARD), 10.0 / math.log(10.0) * (null - crit) / y.size, energy
+        )

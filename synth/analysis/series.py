@@ -66,8 +66,9 @@ def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
     return energy > energies[-1] * ratio * ratio * 10.0 ** (MAX_EXCESS_DB / 10.0)
 
 
-def bounce_series(onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH,
-                  horizon: int = SERIES_HORIZON) -> list[int]:
+def bounce_series(
+    onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH, horizon: int = SERIES_HORIZON
+) -> list[int]:
     """Indices in ``onsets`` of the longest bounce series that starts at the first tick
     (step 3).
 
@@ -126,8 +127,9 @@ def _in_order(on, kept, e_min, growth) -> bool:
     return e_min * before <= on[kept[-1]] - on[kept[-2]] <= growth * before
 
 
-def bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float,
-                 growth: float = BOUNCE_GROWTH) -> np.ndarray:
+def bounce_order(
+    onsets: np.ndarray, strengths: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH
+) -> np.ndarray:
     """Indices of the ticks that keep the order of a bounce series (step 6).
 
     Taken in time order after the first two: a tick too soon for a bounce is dropped
@@ -144,7 +146,7 @@ def bounce_order(onsets: np.ndarray, strengths: np.ndarray, e_min: float,
             _too_soon(on, strengths, kept, i, e_min, growth)
             continue
         if t > growth * t_last and not _split_bounce(on, strengths, kept, i, e_min, growth):
-            continue                    # a late remainder
+            continue  # a late remainder
         kept.append(i)
     _drop_splits(on, strengths, kept)
     return np.array(kept, dtype=int)
@@ -154,8 +156,11 @@ def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) ->
     """Tick ``i`` comes sooner than ``e_min`` times the last bounce: part of the last tick's
     response, unless the last tick is a doubtful remainder just before this stronger one,
     which then takes its place in ``kept``."""
-    if (strengths[kept[-1]] < DOUBTFUL_DB and strengths[i] > strengths[kept[-1]]
-            and _in_order(on, kept[:-1] + [i], e_min, growth)):
+    if (
+        strengths[kept[-1]] < DOUBTFUL_DB
+        and strengths[i] > strengths[kept[-1]]
+        and _in_order(on, kept[:-1] + [i], e_min, growth)
+    ):
         kept[-1] = i
 
 
@@ -166,10 +171,14 @@ def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float
     when that restores it. Returns whether tick ``i`` is kept: it is unless nothing was
     dropped and it is doubtful (a late remainder); a sure one is a missed tick or a second
     drop."""
-    options = [j for j in (len(kept) - 1, len(kept) - 2)
-               if j >= 2 and strengths[kept[j]] < strengths[i]
-               and _in_order(on, kept[:j] + kept[j + 1:] + [i], e_min, growth)
-               and _in_order(on, kept[:j] + kept[j + 1:], e_min, growth)]
+    options = [
+        j
+        for j in (len(kept) - 1, len(kept) - 2)
+        if j >= 2
+        and strengths[kept[j]] < strengths[i]
+        and _in_order(on, kept[:j] + kept[j + 1 :] + [i], e_min, growth)
+        and _in_order(on, kept[:j] + kept[j + 1 :], e_min, growth)
+    ]
     run = None
     for m in range(2, len(kept) - 1):
         if max(strengths[j] for j in kept[-m:]) >= min(strengths[i], ANCHOR_DB):
@@ -193,11 +202,13 @@ def _drop_splits(on, strengths, kept: list) -> None:
     impact speed: docs/physics.md)."""
     k = 3
     while k + 1 < len(kept):
-        t = on[kept[k - 3: k + 2]]
+        t = on[kept[k - 3 : k + 2]]
         if strengths[kept[k]] < ANCHOR_DB:
             e_before = (t[2] - t[1]) / (t[1] - t[0])
-            split = max(abs((t[3] - t[2]) / (t[2] - t[1]) / e_before - 1.0),
-                        abs((t[4] - t[3]) / (t[3] - t[2]) / e_before - 1.0))
+            split = max(
+                abs((t[3] - t[2]) / (t[2] - t[1]) / e_before - 1.0),
+                abs((t[4] - t[3]) / (t[3] - t[2]) / e_before - 1.0),
+            )
             merged = abs((t[4] - t[2]) / (t[2] - t[1]) / e_before - 1.0)
             if merged < RESTITUTION_STEP < split:
                 del kept[k]

@@ -42,25 +42,25 @@ class Settings:
     ``fixed_range`` says whether the caller gave it (then it holds in step 7 too).
     """
 
-    samplerate: float           # Hz
-    gravity: float              # m/s^2
+    samplerate: float  # Hz
+    gravity: float  # m/s^2
     channel: int | None
-    min_separation: int         # samples
-    hop: int                    # samples
+    min_separation: int  # samples
+    hop: int  # samples
     threshold_db: float
     rise_db: float
-    release: float              # dB/ms
+    release: float  # dB/ms
     dynamic_range_db: float
     fixed_range: bool
     max_drop_db: float
-    background: float           # s
+    background: float  # s
     onset_fraction: float
     whitening_order: int
-    fixed_order: bool           # lpc_order given: that order alone, no step 7
-    window: int                 # samples
+    fixed_order: bool  # lpc_order given: that order alone, no step 7
+    window: int  # samples
     subtract_tails: bool
     deflate: bool
-    decay_smoothing: int        # samples
+    decay_smoothing: int  # samples
     clip_samples: int
     on_clipping: str
 
@@ -80,10 +80,29 @@ class Settings:
         return max(2, int(round(ONSET_GAP * self.samplerate)))
 
 
-def make_settings(channels: int, samplerate, *, gravity, channel, min_separation, hop,
-                  threshold_db, rise_db, release, dynamic_range_db, max_drop_db, background,
-                  onset_fraction, lpc_order, window, subtract_tails, deflate, decay_smoothing,
-                  clip_samples, on_clipping) -> Settings:
+def make_settings(
+    channels: int,
+    samplerate,
+    *,
+    gravity,
+    channel,
+    min_separation,
+    hop,
+    threshold_db,
+    rise_db,
+    release,
+    dynamic_range_db,
+    max_drop_db,
+    background,
+    onset_fraction,
+    lpc_order,
+    window,
+    subtract_tails,
+    deflate,
+    decay_smoothing,
+    clip_samples,
+    on_clipping,
+) -> Settings:
     """Check the options of :func:`synth.analysis.analyze` for audio of ``channels`` channels.
 
     Raises
@@ -99,8 +118,11 @@ def make_settings(channels: int, samplerate, *, gravity, channel, min_separation
     thr = checks.positive("threshold_db", threshold_db, "dB")
     rise = checks.positive("rise_db", rise_db, "dB")
     rel = checks.positive("release", release, "dB/ms")
-    dyn = (DYNAMIC_RANGE_DB if dynamic_range_db is None
-           else checks.positive("dynamic_range_db", dynamic_range_db, "dB"))
+    dyn = (
+        DYNAMIC_RANGE_DB
+        if dynamic_range_db is None
+        else checks.positive("dynamic_range_db", dynamic_range_db, "dB")
+    )
     drop = checks.positive("max_drop_db", max_drop_db, "dB")
     bg = checks.positive("background", background, "s")
     frac = checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
@@ -111,23 +133,43 @@ def make_settings(channels: int, samplerate, *, gravity, channel, min_separation
     for name, flag in (("subtract_tails", subtract_tails), ("deflate", deflate)):
         if not isinstance(flag, (bool, np.bool_)):
             raise ParameterError(f"{name}={flag!r} must be True or False")
-    order = (max(8, int(round(WHITENING_SPAN * fs))) if lpc_order is None
-             else _integer("lpc_order", lpc_order, 2))
+    order = (
+        max(8, int(round(WHITENING_SPAN * fs)))
+        if lpc_order is None
+        else _integer("lpc_order", lpc_order, 2)
+    )
     settings = Settings(
-        samplerate=fs, gravity=g, channel=ch, min_separation=min_sep, hop=hop_n,
-        threshold_db=thr, rise_db=rise, release=rel, dynamic_range_db=dyn,
-        fixed_range=dynamic_range_db is not None, max_drop_db=drop, background=bg,
-        onset_fraction=frac, whitening_order=order, fixed_order=lpc_order is not None,
-        window=win_n, subtract_tails=bool(subtract_tails), deflate=bool(deflate),
-        decay_smoothing=dec_n, clip_samples=clip_n, on_clipping=on_clipping)
+        samplerate=fs,
+        gravity=g,
+        channel=ch,
+        min_separation=min_sep,
+        hop=hop_n,
+        threshold_db=thr,
+        rise_db=rise,
+        release=rel,
+        dynamic_range_db=dyn,
+        fixed_range=dynamic_range_db is not None,
+        max_drop_db=drop,
+        background=bg,
+        onset_fraction=frac,
+        whitening_order=order,
+        fixed_order=lpc_order is not None,
+        window=win_n,
+        subtract_tails=bool(subtract_tails),
+        deflate=bool(deflate),
+        decay_smoothing=dec_n,
+        clip_samples=clip_n,
+        on_clipping=on_clipping,
+    )
     return settings
 
 
 def audio_array(audio) -> np.ndarray:
     """``audio`` as float64 ``(frames, channels)``: real, finite, not empty."""
     a = audio if isinstance(audio, np.ndarray) else np.asarray(audio)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.floating)
-                               or np.issubdtype(a.dtype, np.integer)):
+    if a.dtype == bool or not (
+        np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)
+    ):
         raise ParameterError(f"audio must hold real samples (floats), not dtype {a.dtype}")
     if a.ndim not in (1, 2):
         raise ParameterError(f"audio must be (frames,) or (frames, channels), got shape {a.shape}")
@@ -138,7 +180,8 @@ def audio_array(audio) -> np.ndarray:
     if not finite.all():
         raise ParameterError(
             f"audio holds {a.size - int(np.count_nonzero(finite))} NaN or infinite samples; "
-            f"all must be finite")
+            f"all must be finite"
+        )
     return a if a.ndim == 2 else a[:, None]
 
 
@@ -150,7 +193,8 @@ def _channel(channel, n: int) -> int | None:
     if not 0 <= channel < n:
         raise ParameterError(
             f"channel={channel!r} is out of range: the audio has {n} channel(s), "
-            f"allowed 0..{n - 1} or None (mix)")
+            f"allowed 0..{n - 1} or None (mix)"
+        )
     return int(channel)
 
 
@@ -167,8 +211,7 @@ def _samples(name: str, value, fs: float, lo: int = 1) -> int:
     t = checks.positive(name, value, "s")
     n = int(round(t * fs))
     if n < lo:
-        raise ParameterError(
-            f"{name}={value!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)")
+        raise ParameterError(f"{name}={value!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)")
     return n
 
 

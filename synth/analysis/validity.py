@@ -17,13 +17,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, NO_DECAY, RESTITUTION_FLAGS, Tick
-from synth.analysis.settings import AnalysisError
 from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB
+from synth.analysis.settings import AnalysisError
 
 #: A bounce time more than this many times the previous one is a silence no missed ticks
 #: explain, whatever the tick's level: two missed ticks make at most ``e (1 + e + e^2) < 3``
 #: times the previous bounce.
 MISSED_GROWTH = 3.0
+
 
 @dataclass(frozen=True)
 class Series:
@@ -103,14 +104,19 @@ def check_impulsive(ticks: list[Tick]) -> None:
         raise AnalysisError(
             f"no impact found: none of the {len(ticks)} bursts found is followed by a "
             f"decaying ringing (is this a recording of impacts? a periodic wave's edges "
-            f"are not)")
+            f"are not)"
+        )
 
 
 def make_series(ticks: list[Tick]) -> Series:
     """The :class:`Series` of ``ticks`` (one series, flags set)."""
     e = [t.restitution for t in ticks if valid_restitution(t)]
-    return Series(ticks=ticks, first=ticks[0].time, last=ticks[-1].time,
-                  mean_restitution=float(np.mean(e)) if e else None)
+    return Series(
+        ticks=ticks,
+        first=ticks[0].time,
+        last=ticks[-1].time,
+        mean_restitution=float(np.mean(e)) if e else None,
+    )
 
 
 def flag_warnings(series: list[Series]) -> tuple[str, ...]:
@@ -123,13 +129,18 @@ def flag_warnings(series: list[Series]) -> tuple[str, ...]:
         out.append(
             f"physically impossible restitution at {len(grown)} tick(s): {listed}{more}; a "
             f"ball's bounce times shrink, so a tick was missed before each (its restitution "
-            f"and the next one's are flagged and left out of the means)")
+            f"and the next one's are flagged and left out of the means)"
+        )
     silent = [t for s in series for t in s.ticks if NO_DECAY in t.flags]
     if silent:
-        out.append(f"{len(silent)} tick(s) without a decaying response (first: tick "
-                   f"{silent[0].index} at {silent[0].time:.4f} s): doubtful impacts")
+        out.append(
+            f"{len(silent)} tick(s) without a decaying response (first: tick "
+            f"{silent[0].index} at {silent[0].time:.4f} s): doubtful impacts"
+        )
     if len(series) > 1:
         starts = ", ".join(f"{s.first:.3f} s" for s in series)
-        out.append(f"{len(series)} bounce series (drops) starting at {starts}: each is "
-                   f"measured on its own (Analysis.series)")
+        out.append(
+            f"{len(series)} bounce series (drops) starting at {starts}: each is "
+            f"measured on its own (Analysis.series)"
+        )
     return tuple(out)

@@ -107,8 +107,9 @@ def _predictor(Lc: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
     (back substitution of ``y``)."""
     from scipy.linalg import solve_triangular
 
-    return np.concatenate(([1.0], -solve_triangular(
-        Lc[:order, :order].T, y[:order], lower=False, check_finite=False)))
+    return np.concatenate(
+        ([1.0], -solve_triangular(Lc[:order, :order].T, y[:order], lower=False, check_finite=False))
+    )
 
 
 def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCriterion:
@@ -123,6 +124,6 @@ def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCr
     grid = np.unique(np.round(np.geomspace(1, p, ORDER_GRID)).astype(int))
     energy = np.empty(grid.size)
     for i, order in enumerate(grid):
-        err = oaconvolve(seg, _predictor(Lc, y, int(order)))[p: seg.size]
+        err = oaconvolve(seg, _predictor(Lc, y, int(order)))[p : seg.size]
         energy[i] = max(float(np.dot(err, err)), PREDICTION_FLOOR * C[0, 0])
     return _OrderCriterion(grid, energy, n * np.log(energy / n) + grid * math.log(n), y)

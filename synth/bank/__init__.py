@@ -12,5 +12,13 @@ manifest; a rerun resumes.
 from synth.bank.run import BankResult, BankRunError, run
 from synth.bank.spec import BankSpec, BankSpecError, PlanItem, load, plan
 
-__all__ = ["BankResult", "BankRunError", "BankSpec", "BankSpecError", "PlanItem", "load",
-           "plan", "run"]
+__all__ = [
+    "BankResult",
+    "BankRunError",
+    "BankSpec",
+    "BankSpecError",
+    "PlanItem",
+    "load",
+    "plan",
+    "run",
+]

@@ -49,8 +49,19 @@ TARGETS = {"jobs1_over_process": 30.0, "jobs2_over_jobs1": 1.8}
 
 
 def _render_command(item, out: Path) -> list[str]:
-    cmd = [sys.executable, "-m", "synth", "render", "default", "-o", str(out / item.file),
-           "--samplerate", "48000", "--normalize", "physical"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "synth",
+        "render",
+        "default",
+        "-o",
+        str(out / item.file),
+        "--samplerate",
+        "48000",
+        "--normalize",
+        "physical",
+    ]
     for key, value in item.values.items():
         cmd += ["--set", f"{key}={value}"]
     return cmd
@@ -92,14 +103,20 @@ def run_bank(count: int = 200, process_files: int = 5, dask: bool = True) -> dic
     out["ratios"] = {
         "jobs1_over_process": out["jobs1"]["rate"] / out["process_per_file"]["rate"],
         "jobs2_over_jobs1": out["jobs2"]["render_rate"] / out["jobs1"]["render_rate"],
-        "jobs2_over_jobs1_with_startup": out["jobs2"]["rate"] / out["jobs1"]["rate"]}
+        "jobs2_over_jobs1_with_startup": out["jobs2"]["rate"] / out["jobs1"]["rate"],
+    }
     out["targets"] = TARGETS
     return out
 
 
 def _figures(seconds: float, result, count: int) -> dict:
-    return {"seconds": seconds, "startup": result.startup, "rate": count / seconds,
-            "render_rate": result.render_rate, "peak_worker_rss": result.peak_worker_rss}
+    return {
+        "seconds": seconds,
+        "startup": result.startup,
+        "rate": count / seconds,
+        "render_rate": result.render_rate,
+        "peak_worker_rss": result.peak_worker_rss,
+    }
 
 
 def _dask(spec, folder: Path, count: int, pool: dict) -> dict:
@@ -108,8 +125,9 @@ def _dask(spec, folder: Path, count: int, pool: dict) -> dict:
     except ImportError:
         return {"skipped": "dask.distributed is not installed"}
     t0 = time.perf_counter()
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster:
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
         start = time.perf_counter() - t0
         seconds, result = _timed_run(spec, folder, scheduler=cluster.scheduler_address)
     assert result.ok, result.summary()
@@ -122,41 +140,59 @@ def _dask(spec, folder: Path, count: int, pool: dict) -> dict:
 def format_bank(r: dict) -> str:
     """The bank benchmark as a Markdown table, with the targets and whether they are met."""
     n = r["count"]
-    title = (f"{n}-sound bank of the default scene (issue example: height, impact point, "
-             f"ball radius; FLAC 48 kHz, physical level); wall time of each way, worker "
-             f"start-up included (`--jobs 1` renders in the benchmark's process, warmed "
-             f"before the clock as the caches are)")
-    header = ("| way | seconds | of which start-up (s) | sounds/s | sounds/s once warm | "
-              "peak memory per worker (MB) |")
+    title = (
+        f"{n}-sound bank of the default scene (issue example: height, impact point, "
+        f"ball radius; FLAC 48 kHz, physical level); wall time of each way, worker "
+        f"start-up included (`--jobs 1` renders in the benchmark's process, warmed "
+        f"before the clock as the caches are)"
+    )
+    header = (
+        "| way | seconds | of which start-up (s) | sounds/s | sounds/s once warm | "
+        "peak memory per worker (MB) |"
+    )
     lines = [title, header, "|---|---|---|---|---|---|"]
     p = r["process_per_file"]
-    lines.append(f"| one `synth render` process per file (timed on {r['process_files']} files, "
-                 f"extrapolated to {n}) | {p['seconds_per_sound'] * n:.1f} | - | "
-                 f"{p['rate']:.2f} | - | - |")
+    lines.append(
+        f"| one `synth render` process per file (timed on {r['process_files']} files, "
+        f"extrapolated to {n}) | {p['seconds_per_sound'] * n:.1f} | - | "
+        f"{p['rate']:.2f} | - | - |"
+    )
     rows = [(f"`synth bank --jobs {j}`", r[f"jobs{j}"]) for j in (1, 2)]
     d = r.get("dask")
     if d and "skipped" not in d:
-        way = (f"Dask LocalCluster, 2 worker processes (cluster started in "
-               f"{d['cluster_start']:.1f} s, not counted)")
+        way = (
+            f"Dask LocalCluster, 2 worker processes (cluster started in "
+            f"{d['cluster_start']:.1f} s, not counted)"
+        )
         rows.append((way, d))
     for way, f in rows:
-        lines.append(f"| {way} | {f['seconds']:.1f} | {f['startup']:.1f} | {f['rate']:.1f} | "
-                     f"{f['render_rate']:.1f} | {f['peak_worker_rss'] / 1e6:.0f} |")
+        lines.append(
+            f"| {way} | {f['seconds']:.1f} | {f['startup']:.1f} | {f['rate']:.1f} | "
+            f"{f['render_rate']:.1f} | {f['peak_worker_rss'] / 1e6:.0f} |"
+        )
     ratios, targets = r["ratios"], r["targets"]
 
     def verdict(name):
         return "met" if ratios[name] >= targets[name] else "NOT met"
 
-    lines += ["", (f"- `--jobs 1` / process per file: {ratios['jobs1_over_process']:.1f}x "
-                   f"(target >= {targets['jobs1_over_process']:.0f}x): "
-                   f"{verdict('jobs1_over_process')}"),
-              (f"- `--jobs 2` / `--jobs 1` once warm: {ratios['jobs2_over_jobs1']:.2f}x "
-               f"(target >= {targets['jobs2_over_jobs1']}x on two cores): "
-               f"{verdict('jobs2_over_jobs1')}; with the start-up: "
-               f"{ratios['jobs2_over_jobs1_with_startup']:.2f}x")]
+    lines += [
+        "",
+        (
+            f"- `--jobs 1` / process per file: {ratios['jobs1_over_process']:.1f}x "
+            f"(target >= {targets['jobs1_over_process']:.0f}x): "
+            f"{verdict('jobs1_over_process')}"
+        ),
+        (
+            f"- `--jobs 2` / `--jobs 1` once warm: {ratios['jobs2_over_jobs1']:.2f}x "
+            f"(target >= {targets['jobs2_over_jobs1']}x on two cores): "
+            f"{verdict('jobs2_over_jobs1')}; with the start-up: "
+            f"{ratios['jobs2_over_jobs1_with_startup']:.2f}x"
+        ),
+    ]
     if d and "skipped" not in d:
-        lines.append(f"- Dask overhead per sound against `--jobs 2`: "
-                     f"{d['overhead_per_sound'] * 1e3:+.1f} ms")
+        lines.append(
+            f"- Dask overhead per sound against `--jobs 2`: {d['overhead_per_sound'] * 1e3:+.1f} ms"
+        )
     elif d:
         lines.append(f"- Dask: {d['skipped']}")
     return "\n".join(lines)

@@ -32,8 +32,17 @@ SPEC = "bank.json"
 LOCK = ".bank.lock"
 
 #: Columns after the varied keys.
-RESULT_COLUMNS = ("seed", "status", "error", "duration", "ticks", "first_restitution",
-                  "peak_dbfs", "loudness_lufs", "sha256")
+RESULT_COLUMNS = (
+    "seed",
+    "status",
+    "error",
+    "duration",
+    "ticks",
+    "first_restitution",
+    "peak_dbfs",
+    "loudness_lufs",
+    "sha256",
+)
 
 #: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,
 #: then ``.part[.ext]`` (``.{name}.{hex}.part.wav``, ``.synth-{pid}-{hex}.part.wav``).
@@ -125,16 +134,19 @@ class Manifest:
         self.close()
         rows = sorted(rows, key=lambda r: r["index"])
         header = _csv_line({c: c for c in self.cols}, self.cols)
-        write_atomic(self.folder / CSV, (header + "".join(
-            _csv_line(r, self.cols) for r in rows)).encode())
+        write_atomic(
+            self.folder / CSV, (header + "".join(_csv_line(r, self.cols) for r in rows)).encode()
+        )
         write_atomic(self.folder / JSONL, "".join(_json_line(r, self.cols) for r in rows).encode())
 
     def append(self, row: dict) -> None:
         """Add one row to both files, each line written whole, flushed and fsynced."""
         if self._files is None:
             # held open for the run (closed by close()): one open per run, not per row
-            self._files = [open(self.folder / JSONL, "a", encoding="utf-8"),  # noqa: SIM115
-                           open(self.folder / CSV, "a", encoding="utf-8", newline="")]  # noqa: SIM115
+            self._files = [
+                open(self.folder / JSONL, "a", encoding="utf-8"),  # noqa: SIM115
+                open(self.folder / CSV, "a", encoding="utf-8", newline=""),
+            ]  # noqa: SIM115
         for fh, line in zip(self._files, (_json_line(row, self.cols), _csv_line(row, self.cols))):
             fh.write(line)
             fh.flush()

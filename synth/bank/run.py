@@ -36,8 +36,12 @@ from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
 from synth.errors import SynthError
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
-_WORKER_THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                   "NUMBA_NUM_THREADS": "1"}
+_WORKER_THREADS = {
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "NUMBA_NUM_THREADS": "1",
+}
 
 #: Renders timed by a dry run to estimate the bank's time.
 ESTIMATE_RENDERS = 3
@@ -99,11 +103,15 @@ class BankResult:
     def summary(self) -> str:
         """The summary printed at the end of ``synth bank``."""
         if self.estimate is not None:
-            return (f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
-                    f"already done); estimated {self.estimate:.1f} s to render the rest")
-        text = (f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
-                f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
-                f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)")
+            return (
+                f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
+                f"already done); estimated {self.estimate:.1f} s to render the rest"
+            )
+        text = (
+            f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
+            f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
+            f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
+        )
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
@@ -150,10 +158,12 @@ def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) ->
         raise BankSpecError(
             f"the audio peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, and "
             f"subtype {subtype!r} would clip it: use render.normalize = 'peak', or "
-            f"format = 'wav' with render.subtype = 'FLOAT'")
+            f"format = 'wav' with render.subtype = 'FLOAT'"
+        )
     buf = io.BytesIO()
-    soundfile.write(buf, audio, samplerate, subtype=subtype,
-                    format=bank_spec.FORMATS[spec.format][1])
+    soundfile.write(
+        buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[spec.format][1]
+    )
     return buf.getvalue()
 
 
@@ -163,20 +173,24 @@ def _render(spec: BankSpec, item: PlanItem):
     from synth.sound.render import render
     from synth.stimuli.sequences import scaled_sequence
 
-    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values),
-                                     f"row {item.index}")
+    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
     subtype = str(options.pop("subtype", spec.subtype)).upper()
     k = item.values.get(RESTITUTION_SCALE)
-    sequence = None if k is None else scaled_sequence(
-        scene, k, max_duration=options.get("max_duration", 30.0))
+    sequence = (
+        None
+        if k is None
+        else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
+    )
     rendered = render(scene, sequence=sequence, **options)
     data = _encode(rendered.audio, rendered.samplerate, spec, subtype)
     peak = float(np.max(np.abs(rendered.audio)))
-    figures = {"duration": rendered.duration, "ticks": len(rendered.impacts),
-               "first_restitution": (rendered.impacts[0].restitution
-                                     if len(rendered.impacts) else None),
-               "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
-               "loudness_lufs": _loudness(rendered.audio, rendered.samplerate)}
+    figures = {
+        "duration": rendered.duration,
+        "ticks": len(rendered.impacts),
+        "first_restitution": (rendered.impacts[0].restitution if len(rendered.impacts) else None),
+        "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
+        "loudness_lufs": _loudness(rendered.audio, rendered.samplerate),
+    }
     return rendered, data, figures
 
 
@@ -292,7 +306,7 @@ class _Pool:
                 if v is None:
                     os.environ.pop(k, None)
         _meet(ready)
-        ready.abort()    # a worker started later (after a crash) does not wait
+        ready.abort()  # a worker started later (after a crash) does not wait
 
     def results(self, items):
         yield from self.pool.imap_unordered(_pool_task, items, chunksize=1)
@@ -309,8 +323,10 @@ class _Dask:
         try:
             from dask.distributed import Client
         except ImportError:
-            raise BankRunError("scheduler= needs the optional package dask.distributed: "
-                               "pip install 'impact-synth[dask]'") from None
+            raise BankRunError(
+                "scheduler= needs the optional package dask.distributed: "
+                "pip install 'impact-synth[dask]'"
+            ) from None
         self.own = not isinstance(scheduler, Client)
         try:
             self.client = Client(scheduler) if self.own else scheduler
@@ -323,8 +339,9 @@ class _Dask:
         from dask.distributed import as_completed
 
         spec = self.client.scatter(self.spec, broadcast=True)
-        futures = [self.client.submit(render_item, spec, item, self.out_dir, pure=False)
-                   for item in items]
+        futures = [
+            self.client.submit(render_item, spec, item, self.out_dir, pure=False) for item in items
+        ]
         self._futures = futures
         for fut in as_completed(futures):
             yield fut.result()
@@ -375,7 +392,8 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
             raise BankSpecError(
                 f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
                 f"{', '.join(diff)}): use the same spec to resume, another folder, or "
-                f"--force to start over")
+                f"--force to start over"
+            )
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
             if f.parent == out_dir and f.is_file():
@@ -441,8 +459,15 @@ def _jobs(jobs) -> int:
     return jobs
 
 
-def run(spec, out_dir, *, jobs: int | None = None, scheduler=None, dry_run: bool = False,
-        force: bool = False) -> BankResult:
+def run(
+    spec,
+    out_dir,
+    *,
+    jobs: int | None = None,
+    scheduler=None,
+    dry_run: bool = False,
+    force: bool = False,
+) -> BankResult:
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
     folder ``out_dir`` (created if needed), resuming what an earlier run left.
 
@@ -478,8 +503,10 @@ def run(spec, out_dir, *, jobs: int | None = None, scheduler=None, dry_run: bool
             if lock is not None:
                 lock.close()
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
-        raise BankRunError(f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
-                           f"again once it can be written") from None
+        raise BankRunError(
+            f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
+            f"again once it can be written"
+        ) from None
 
 
 def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
@@ -505,7 +532,7 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
     result.startup = time.perf_counter() - t_start
     bar = _progress(len(todo))
     try:
-        for res in (executor.results(todo) if executor else ()):
+        for res in executor.results(todo) if executor else ():
             result.peak_worker_rss = max(result.peak_worker_rss, res.max_rss)
             if res.fatal is not None:
                 result.stopped = f"{res.fatal}; the finished rows are kept: run again to resume"
@@ -513,8 +540,10 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
             try:
                 book.append(res.row)
             except OSError as exc:
-                result.stopped = (f"cannot append to the manifest: {exc}; the finished rows "
-                                  f"are kept: run again to resume")
+                result.stopped = (
+                    f"cannot append to the manifest: {exc}; the finished rows "
+                    f"are kept: run again to resume"
+                )
                 break
             rows.append(res.row)
             if res.row["status"] == "ok":

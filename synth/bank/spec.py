@@ -61,8 +61,11 @@ from synth.io import presets
 TOP_LEVEL = ("preset", "description", "count", "seed", "name", "format", "vary", "render")
 
 #: File formats: suffix and soundfile format name, and the default subtype of each.
-FORMATS = {"wav": ("wav", "WAV", "PCM_24"), "flac": ("flac", "FLAC", "PCM_24"),
-           "ogg": ("ogg", "OGG", "VORBIS")}
+FORMATS = {
+    "wav": ("wav", "WAV", "PCM_24"),
+    "flac": ("flac", "FLAC", "PCM_24"),
+    "ogg": ("ogg", "OGG", "VORBIS"),
+}
 
 #: The axis key of the perception stimuli's restitution scaling.
 RESTITUTION_SCALE = "restitution_scale"
@@ -147,9 +150,17 @@ class BankSpec:
                 axes[a.key] = list(a.values)
             else:
                 axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
-        return {"preset": self.preset_name, "preset_data": self.base, "count": self.count,
-                "seed": self.seed, "name": self.name, "format": self.format,
-                "subtype": self.subtype, "render": self.render, "vary": axes}
+        return {
+            "preset": self.preset_name,
+            "preset_data": self.base,
+            "count": self.count,
+            "seed": self.seed,
+            "name": self.name,
+            "format": self.format,
+            "subtype": self.subtype,
+            "render": self.render,
+            "vary": axes,
+        }
 
 
 @dataclass(frozen=True)
@@ -221,8 +232,11 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     if not isinstance(render_section, dict):
         raise _error("render", render_section, "must be a table of render options")
     base = dict(base_raw)
-    base["render"] = {"normalize": DEFAULT_NORMALIZE, **base_raw.get("render", {}),
-                      **render_section}
+    base["render"] = {
+        "normalize": DEFAULT_NORMALIZE,
+        **base_raw.get("render", {}),
+        **render_section,
+    }
     try:
         _, options = presets.scene_from_dict(base, str(preset_path))
     except ParameterError as exc:
@@ -231,11 +245,22 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     _check_subtype(fmt, subtype)
     name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
     if not isinstance(name, str) or not name:
-        raise _error("name", name,
-                     "must be a non-empty format string such as '{preset}-{index:04d}'")
-    spec = BankSpec(preset=str(preset_path), preset_name=preset_name, base=base,
-                    description=description, count=count, seed=seed, name=name, format=fmt,
-                    subtype=subtype, render=options, axes=axes)
+        raise _error(
+            "name", name, "must be a non-empty format string such as '{preset}-{index:04d}'"
+        )
+    spec = BankSpec(
+        preset=str(preset_path),
+        preset_name=preset_name,
+        base=base,
+        description=description,
+        count=count,
+        seed=seed,
+        name=name,
+        format=fmt,
+        subtype=subtype,
+        render=options,
+        axes=axes,
+    )
     _check_template(spec)
     return spec
 
@@ -255,9 +280,12 @@ def _check_subtype(fmt: str, subtype: str) -> None:
     import soundfile
 
     if not soundfile.check_format(FORMATS[fmt][1], subtype):
-        raise _error("render.subtype", subtype,
-                     f"is not a subtype of format={fmt!r}; allowed: "
-                     f"{', '.join(soundfile.available_subtypes(FORMATS[fmt][1]))}")
+        raise _error(
+            "render.subtype",
+            subtype,
+            f"is not a subtype of format={fmt!r}; allowed: "
+            f"{', '.join(soundfile.available_subtypes(FORMATS[fmt][1]))}",
+        )
 
 
 def _allowed_keys() -> list[str]:
@@ -265,7 +293,7 @@ def _allowed_keys() -> list[str]:
 
     keys = [RESTITUTION_SCALE] + list(presets.TOP_LEVEL)
     for section, fields in presets.SECTIONS.items():
-        for f in (OPTIONS + ("subtype",) if fields is None else fields):
+        for f in OPTIONS + ("subtype",) if fields is None else fields:
             keys.append(f"{section}.{f}")
     return [k for k in keys if k != "description"]
 
@@ -276,17 +304,22 @@ def _axis(key: str, value, base_raw: dict):
     if key not in allowed:
         near = difflib.get_close_matches(key, allowed, n=1)
         hint = f" (did you mean {near[0]!r}?)" if near else ""
-        raise BankSpecError(f"{where}: {key!r} is not a preset key{hint}; keys are "
-                            f"'section.key' as in synth render --set (e.g. drop.height), or "
-                            f"{RESTITUTION_SCALE}")
+        raise BankSpecError(
+            f"{where}: {key!r} is not a preset key{hint}; keys are "
+            f"'section.key' as in synth render --set (e.g. drop.height), or "
+            f"{RESTITUTION_SCALE}"
+        )
     if isinstance(value, list):
         if not value:
             raise _error(where, value, "is an empty list: give at least one value")
         return ListAxis(key, tuple(value))
     if isinstance(value, dict):
         return _range_axis(where, key, value)
-    raise _error(where, value, "must be a list of values (a grid axis) or a range "
-                               "{ min = ..., max = ..., log = false }")
+    raise _error(
+        where,
+        value,
+        "must be a list of values (a grid axis) or a range { min = ..., max = ..., log = false }",
+    )
 
 
 def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
@@ -300,9 +333,11 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
         raise _error(f"{where}.log", log, "must be true or false")
     lo, hi = _bound(f"{where}.min", value["min"]), _bound(f"{where}.max", value["max"])
     if isinstance(lo, tuple) != isinstance(hi, tuple) or (
-            isinstance(lo, tuple) and len(lo) != len(hi)):
-        raise _error(where, value, "needs min and max of one shape (two numbers, or two "
-                                   "lists of one length)")
+        isinstance(lo, tuple) and len(lo) != len(hi)
+    ):
+        raise _error(
+            where, value, "needs min and max of one shape (two numbers, or two lists of one length)"
+        )
     for a, b in zip(np.atleast_1d(lo), np.atleast_1d(hi)):
         if a > b:
             raise _error(where, value, f"has min > max ({a!r} > {b!r})")
@@ -375,11 +410,19 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
     try:
         stem = spec.name.format_map(_mapping(spec, index, values))
     except (KeyError, AttributeError, IndexError, ValueError, TypeError) as exc:
-        raise _error("name", spec.name, f"cannot be filled ({type(exc).__name__}: {exc}); "
-                     f"fields: preset, index, {', '.join(_field_names(spec))}") from None
+        raise _error(
+            "name",
+            spec.name,
+            f"cannot be filled ({type(exc).__name__}: {exc}); "
+            f"fields: preset, index, {', '.join(_field_names(spec))}",
+        ) from None
     if not stem or "/" in stem or "\\" in stem or stem.startswith(".") or "\0" in stem:
-        raise _error("name", spec.name, f"makes the file name {stem!r}: a name must not be "
-                     f"empty, contain a path separator or start with '.'")
+        raise _error(
+            "name",
+            spec.name,
+            f"makes the file name {stem!r}: a name must not be "
+            f"empty, contain a path separator or start with '.'",
+        )
     return f"{stem}.{spec.suffix}"
 
 
@@ -393,8 +436,11 @@ def _field_names(spec: BankSpec) -> list[str]:
 
 
 def _check_template(spec: BankSpec) -> None:
-    allowed_roots = {"preset", "index"} | {k.replace(".", "_") for k in spec.keys} \
+    allowed_roots = (
+        {"preset", "index"}
+        | {k.replace(".", "_") for k in spec.keys}
         | {k.split(".", 1)[0] for k in spec.keys if "." in k}
+    )
     try:
         fields = [f for _, f, _, _ in string.Formatter().parse(spec.name) if f is not None]
     except ValueError as exc:
@@ -402,27 +448,43 @@ def _check_template(spec: BankSpec) -> None:
     for f in fields:
         root = f.split(".", 1)[0].split("[", 1)[0]
         if root not in allowed_roots:
-            raise _error("name", spec.name,
-                         f"names {{{f}}}, which is not an axis; fields: preset, index, "
-                         f"{', '.join(_field_names(spec)) or '(no axes)'}")
-        if root not in ("preset", "index") and f.startswith(root + ".") \
-                and f.split("[", 1)[0] not in spec.keys:
-            raise _error("name", spec.name, f"names {{{f}}}, which is not an axis; axes: "
-                                            f"{', '.join(spec.keys)}")
+            raise _error(
+                "name",
+                spec.name,
+                f"names {{{f}}}, which is not an axis; fields: preset, index, "
+                f"{', '.join(_field_names(spec)) or '(no axes)'}",
+            )
+        if (
+            root not in ("preset", "index")
+            and f.startswith(root + ".")
+            and f.split("[", 1)[0] not in spec.keys
+        ):
+            raise _error(
+                "name",
+                spec.name,
+                f"names {{{f}}}, which is not an axis; axes: {', '.join(spec.keys)}",
+            )
 
 
 def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
     """Every row of the bank, checked: the file names are distinct."""
     n = _rows(spec)
     if n > MAX_ROWS:
-        raise _error("count" if spec.count is not None else "vary", n,
-                     f"rows is more than the {MAX_ROWS} a bank may have")
+        raise _error(
+            "count" if spec.count is not None else "vary",
+            n,
+            f"rows is more than the {MAX_ROWS} a bank may have",
+        )
     items, seen = [], {}
     for index, values in enumerate(variations(spec)):
         f = file_name(spec, index, values)
         if f in seen:
-            raise _error("name", spec.name, f"makes two files the same name {f!r} (rows "
-                         f"{seen[f]} and {index}): use {{index}} or more axes in it")
+            raise _error(
+                "name",
+                spec.name,
+                f"makes two files the same name {f!r} (rows "
+                f"{seen[f]} and {index}): use {{index}} or more axes in it",
+            )
         seen[f] = index
         items.append(PlanItem(index, f, values))
     return tuple(items)

@@ -15,8 +15,13 @@ import secrets
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["remove_stale_temporaries", "temporary_name", "temporary_sibling", "write_atomically",
-           "write_json_atomically"]
+__all__ = [
+    "remove_stale_temporaries",
+    "temporary_name",
+    "temporary_sibling",
+    "write_atomically",
+    "write_json_atomically",
+]
 
 
 #: Prefix of the engine's temporary files: ``.synth-<pid>-<hex>.part<suffix>``. The name
@@ -51,7 +56,7 @@ def remove_stale_temporaries(folder) -> list[Path]:
     except OSError:
         return removed
     for tmp in entries:
-        pid_text = tmp.name[len(TEMPORARY_PREFIX):].split("-", 1)[0]
+        pid_text = tmp.name[len(TEMPORARY_PREFIX) :].split("-", 1)[0]
         if not pid_text.isdigit() or _process_alive(int(pid_text)):
             continue
         try:
@@ -93,8 +98,9 @@ def _fsync(path: Path) -> None:
         os.close(fd)
 
 
-def write_atomically(path: str | os.PathLike, write: Callable[[Path], None], *,
-                     error: type[Exception] = OSError) -> Path:
+def write_atomically(
+    path: str | os.PathLike, write: Callable[[Path], None], *, error: type[Exception] = OSError
+) -> Path:
     """Call ``write(tmp)`` on a temporary sibling of ``path``, then move it onto ``path``.
 
     ``write`` receives the temporary file's path (it exists, empty) and must write the
@@ -117,8 +123,9 @@ def write_atomically(path: str | os.PathLike, write: Callable[[Path], None], *,
     return path
 
 
-def write_json_atomically(path: str | os.PathLike, obj, *, error: type[Exception] = OSError,
-                          indent: int = 1) -> Path:
+def write_json_atomically(
+    path: str | os.PathLike, obj, *, error: type[Exception] = OSError, indent: int = 1
+) -> Path:
     """Write ``obj`` as JSON (numbers that are not JSON types as floats) plus a newline,
     atomically (see :func:`write_atomically`)."""
 

@@ -78,8 +78,13 @@ MAX_FILE_SAMPLERATE = 768_000
 
 
 #: Quantisation step of the integer subtypes, in units of full scale.
-PCM_STEP = {"PCM_S8": 2.0 ** -7, "PCM_U8": 2.0 ** -7, "PCM_16": 2.0 ** -15,
-            "PCM_24": 2.0 ** -23, "PCM_32": 2.0 ** -31}
+PCM_STEP = {
+    "PCM_S8": 2.0**-7,
+    "PCM_U8": 2.0**-7,
+    "PCM_16": 2.0**-15,
+    "PCM_24": 2.0**-23,
+    "PCM_32": 2.0**-31,
+}
 
 
 def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = False) -> str:
@@ -97,8 +102,7 @@ def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = Fal
         else:
             free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
             if free < nbytes + 65536:
-                return (f"no space left on the device ({free} bytes free, about {nbytes} "
-                        f"needed)")
+                return f"no space left on the device ({free} bytes free, about {nbytes} needed)"
     except OSError as exc:
         return exc.strerror or str(exc)
     return reason
@@ -126,12 +130,14 @@ def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
     if suffix not in kinds:
         raise ParameterError(
             f"path={str(p)!r}: suffix {p.suffix!r} is not a {what} format; use one of "
-            f"{', '.join(map(repr, kinds))}")
+            f"{', '.join(map(repr, kinds))}"
+        )
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise error(
             f"path={str(p)!r}: directory {str(parent)!r} does not exist (it is not "
-            f"created automatically)")
+            f"created automatically)"
+        )
     if p.is_dir():
         raise error(f"path={str(p)!r} is a directory, not a file")
     return p, kinds[suffix]
@@ -150,18 +156,23 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
     if p.is_dir():
         raise AudioFileError(f"{field}={str(p)!r} is a directory, not a file")
     if suffixes is not None and p.suffix.lower() not in suffixes:
-        raise ParameterError(f"{field}={str(p)!r}: suffix {p.suffix!r} is not one of "
-                             f"{', '.join(map(repr, suffixes))}")
+        raise ParameterError(
+            f"{field}={str(p)!r}: suffix {p.suffix!r} is not one of "
+            f"{', '.join(map(repr, suffixes))}"
+        )
     if not parent.is_dir():
-        raise AudioFileError(f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
-                             f"(it is not created automatically)")
+        raise AudioFileError(
+            f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
+            f"(it is not created automatically)"
+        )
     probe = parent / temporary_name(".probe")
     try:
         os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
         os.unlink(probe)
     except OSError as exc:
-        raise AudioFileError(f"{field}={str(p)!r}: cannot create a file in {str(parent)!r} "
-                             f"({exc.strerror})") from None
+        raise AudioFileError(
+            f"{field}={str(p)!r}: cannot create a file in {str(parent)!r} ({exc.strerror})"
+        ) from None
     remove_stale_temporaries(parent)
     return p
 
@@ -169,8 +180,9 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
 # --------------------------------------------------------------------------- files
 
 
-def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
-                subtype: str | None = None) -> Path:
+def write_audio(
+    path: str | os.PathLike, audio: np.ndarray, samplerate: int, subtype: str | None = None
+) -> Path:
     """Write audio to a WAV or FLAC file, chosen by the file suffix.
 
     The file is first written to a temporary file in the same directory and then
@@ -202,13 +214,15 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
     if sr > MAX_FILE_SAMPLERATE:
-        raise ParameterError(f"samplerate={samplerate!r} must be an integer in "
-                             f"[1, {MAX_FILE_SAMPLERATE}] (Hz)")
+        raise ParameterError(
+            f"samplerate={samplerate!r} must be an integer in [1, {MAX_FILE_SAMPLERATE}] (Hz)"
+        )
     st = DEFAULT_SUBTYPE if subtype is None else subtype
     if not isinstance(st, str) or not soundfile.check_format(fmt, st.upper()):
         raise ParameterError(
             f"subtype={subtype!r} is not supported by {fmt} ({str(p)!r}); use one of "
-            f"{', '.join(map(repr, soundfile.available_subtypes(fmt)))}")
+            f"{', '.join(map(repr, soundfile.available_subtypes(fmt)))}"
+        )
     st = st.upper()
     if st not in FLOAT_SUBTYPES:
         peak = _peak(a)
@@ -217,13 +231,15 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
             raise ParameterError(
                 f"audio peak {peak:.6g} ({20 * math.log10(peak):+.2f} dBFS) exceeds full "
                 f"scale 1.0 and subtype {st!r} of {str(p)!r} would clip it; scale it down "
-                f"(normalize='peak') {hint}")
+                f"(normalize='peak') {hint}"
+            )
         step = PCM_STEP.get(st)
         if step is not None and 0.0 < peak < 0.5 * step:
             raise ParameterError(
                 f"audio peak {peak:.6g} ({20 * math.log10(peak):+.1f} "
                 f"dBFS) is below half a step of subtype {st!r} ({0.5 * step:.3g}): "
-                f"{str(p)!r} would hold only silence; raise the level or use subtype='FLOAT'")
+                f"{str(p)!r} would hold only silence; raise the level or use subtype='FLOAT'"
+            )
     if a.dtype not in (np.float32, np.float64):
         a = a.astype(np.float64)
 
@@ -232,9 +248,11 @@ def write_audio(path: str | os.PathLike, audio: np.ndarray, samplerate: int,
             soundfile.write(tmp, a, sr, subtype=st, format=fmt)
         except (soundfile.SoundFileError, RuntimeError) as exc:
             reason = getattr(exc, "error_string", None) or str(exc)
-            raise AudioFileError(f"cannot write {str(p)!r} ({fmt} {st}, {sr} Hz, "
-                                 f"{1 if a.ndim == 1 else a.shape[1]} channels): "
-                                 f"{_system_reason(tmp, reason, a.nbytes)}") from exc
+            raise AudioFileError(
+                f"cannot write {str(p)!r} ({fmt} {st}, {sr} Hz, "
+                f"{1 if a.ndim == 1 else a.shape[1]} channels): "
+                f"{_system_reason(tmp, reason, a.nbytes)}"
+            ) from exc
 
     write_atomically(p, write, error=AudioFileError)
     return p
@@ -279,12 +297,15 @@ def wav_shortfall(path: str | os.PathLike) -> str | None:
         return None
     if n in (0, 0xFFFFFFFF) or held >= n or not align:
         return None
-    return (f"{os.fspath(path)!r} is truncated: its header declares {n // align} frames "
-            f"({n} bytes of data) but the file holds {held // align}; only those were read")
+    return (
+        f"{os.fspath(path)!r} is truncated: its header declares {n // align} frames "
+        f"({n} bytes of data) but the file holds {held // align}; only those were read"
+    )
 
 
-def read_audio(path: str | os.PathLike, *,
-               channel: int | str | None = None) -> tuple[np.ndarray, int]:
+def read_audio(
+    path: str | os.PathLike, *, channel: int | str | None = None
+) -> tuple[np.ndarray, int]:
     """Read an audio file (WAV, FLAC or any format soundfile reads).
 
     Parameters
@@ -318,10 +339,14 @@ def read_audio(path: str | os.PathLike, *,
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
-    if not (channel is None or (isinstance(channel, str) and channel == "mix")
-            or (isinstance(channel, numbers.Integral) and not isinstance(channel, bool))):
+    if not (
+        channel is None
+        or (isinstance(channel, str) and channel == "mix")
+        or (isinstance(channel, numbers.Integral) and not isinstance(channel, bool))
+    ):
         raise ParameterError(
-            f"channel={channel!r} must be None (all channels), 'mix' or a channel index")
+            f"channel={channel!r} must be None (all channels), 'mix' or a channel index"
+        )
     p = Path(path)
     if p.is_dir():
         raise AudioFileError(f"path={str(p)!r} is a directory, not a file")
@@ -332,12 +357,12 @@ def read_audio(path: str | os.PathLike, *,
     try:
         audio, sr = soundfile.read(p, dtype="float64", always_2d=True)
     except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
-        reason = _system_reason(p, getattr(exc, "error_string", None) or str(exc),
-                                reading=True)
+        reason = _system_reason(p, getattr(exc, "error_string", None) or str(exc), reading=True)
         if reason != (getattr(exc, "error_string", None) or str(exc)):
             raise AudioFileError(f"cannot read {str(p)!r}: {reason}") from exc
         raise AudioFileError(
-            f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}") from exc
+            f"cannot read {str(p)!r} as audio (corrupt or unsupported format): {reason}"
+        ) from exc
     short = wav_shortfall(p)
     if short is not None:
         warnings.warn(short, TruncatedAudioWarning, stacklevel=2)
@@ -350,7 +375,8 @@ def read_audio(path: str | os.PathLike, *,
         if not 0 <= channel < n_ch:
             raise ParameterError(
                 f"channel={channel!r} is out of range: {str(p)!r} has {n_ch} channel"
-                f"{'s' if n_ch != 1 else ''} (0 to {n_ch - 1})")
+                f"{'s' if n_ch != 1 else ''} (0 to {n_ch - 1})"
+            )
         out = audio[:, int(channel)]
     return np.ascontiguousarray(out), int(sr)
 
@@ -358,9 +384,16 @@ def read_audio(path: str | os.PathLike, *,
 # --------------------------------------------------------------------------- levels
 
 
-def normalize(audio: np.ndarray, mode: str, *, samplerate: int, units: str,
-              peak_db: float = -1.0, loudness_lufs: float = -23.0,
-              max_peak: float | None = 1.0) -> tuple[np.ndarray, float]:
+def normalize(
+    audio: np.ndarray,
+    mode: str,
+    *,
+    samplerate: int,
+    units: str,
+    peak_db: float = -1.0,
+    loudness_lufs: float = -23.0,
+    max_peak: float | None = 1.0,
+) -> tuple[np.ndarray, float]:
     """Scale a physical signal to digital full scale.
 
     Parameters
@@ -439,7 +472,8 @@ def normalize(audio: np.ndarray, mode: str, *, samplerate: int, units: str,
             f"({20 * math.log10(out_peak):+.2f} dBFS), above max_peak={limit!r}: "
             f"lower loudness_lufs to <= {math.floor(highest * 100) / 100:.2f} LUFS, use "
             f"mode 'peak', or pass max_peak=None and write a float subtype "
-            f"(subtype='FLOAT', WAV only); the audio is never clipped")
+            f"(subtype='FLOAT', WAV only); the audio is never clipped"
+        )
     return y.astype(dtype), gain
 
 
@@ -450,11 +484,13 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
     except ImportError:
         raise SynthError(
             "normalize='loudness' needs the optional package pyloudnorm: "
-            "pip install pyloudnorm (or pip install 'impact-synth[loudness]')") from None
+            "pip install pyloudnorm (or pip install 'impact-synth[loudness]')"
+        ) from None
     if x.ndim == 2 and x.shape[1] > LOUDNESS_MAX_CHANNELS:
         raise ParameterError(
             f"audio has {x.shape[1]} channels; BS.1770 loudness is defined for at most "
-            f"{LOUDNESS_MAX_CHANNELS} (L, R, C, Ls, Rs): use mode 'peak' or 'physical'")
+            f"{LOUDNESS_MAX_CHANNELS} (L, R, C, Ls, Rs): use mode 'peak' or 'physical'"
+        )
     meter = pyloudnorm.Meter(sr, block_size=LOUDNESS_BLOCK)
     need = int(math.ceil(LOUDNESS_BLOCK * sr))
     if x.shape[0] < need:
@@ -471,14 +507,16 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
             raise ParameterError(
                 f"audio has no measurable loudness ({lufs:.1f} LUFS at gain {gain:.3g}: every "
                 f"400 ms block is below the -70 LUFS absolute gate of BS.1770, e.g. only "
-                f"content below about 40 Hz, which K-weighting removes); use mode 'peak'")
+                f"content below about 40 Hz, which K-weighting removes); use mode 'peak'"
+            )
         step = target - lufs
         gain *= 10.0 ** (step / 20.0)
         if abs(step) < 1e-3:
             return gain
     raise SynthError(
         f"BS.1770 loudness did not settle at {target} LUFS (last step {step:.3g} LU): "
-        f"blocks keep crossing the gates; use mode 'peak'")
+        f"blocks keep crossing the gates; use mode 'peak'"
+    )
 
 
 def fade_out_window(frames: int) -> np.ndarray:
@@ -496,7 +534,7 @@ def apply_fade_out(audio: np.ndarray, frames: int) -> None:
     w = fade_out_window(frames)
     if audio.ndim == 2:
         w = w[:, None]
-    audio[audio.shape[0] - frames:] *= w
+    audio[audio.shape[0] - frames :] *= w
 
 
 def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
@@ -527,7 +565,8 @@ def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
     if n > frames:
         raise ParameterError(
             f"duration={duration!r} must be <= the audio's length {frames / sr:.6g} s "
-            f"({frames} frames at {sr} Hz)")
+            f"({frames} frames at {sr} Hz)"
+        )
     out = a.copy()
     apply_fade_out(out, n)
     return out

@@ -250,8 +250,13 @@ def disk_info() -> DiskInfo:
         kind = e.path.stem.rsplit("-", 1)[0]
         n, b = kinds.get(kind, (0, 0))
         kinds[kind] = (n + 1, b + e.size)
-    return DiskInfo(directory, len(entries), sum(e.size for e in entries), max_bytes(),
-                    dict(sorted(kinds.items())))
+    return DiskInfo(
+        directory,
+        len(entries),
+        sum(e.size for e in entries),
+        max_bytes(),
+        dict(sorted(kinds.items())),
+    )
 
 
 def clear_disk() -> tuple[int, int]:
@@ -288,8 +293,9 @@ class MemoryCache:
     ``disk_writes``, and ``entries`` (results held).
     """
 
-    def __init__(self, computed: str, *, max_entries: int | None = None,
-                 max_bytes: int | None = None):
+    def __init__(
+        self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None
+    ):
         self.max_entries = max_entries
         self.max_bytes = max_bytes
         self._items: OrderedDict = OrderedDict()

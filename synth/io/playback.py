@@ -12,9 +12,11 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError, SynthError
 
-PORTAUDIO_HELP = ("playback needs the PortAudio library: on Debian/Ubuntu `apt-get install "
-                  "libportaudio2`, on Fedora `dnf install portaudio`, on macOS `brew install "
-                  "portaudio` (Windows wheels of sounddevice include it)")
+PORTAUDIO_HELP = (
+    "playback needs the PortAudio library: on Debian/Ubuntu `apt-get install "
+    "libportaudio2`, on Fedora `dnf install portaudio`, on macOS `brew install "
+    "portaudio` (Windows wheels of sounddevice include it)"
+)
 
 
 def sounddevice_module():
@@ -22,10 +24,12 @@ def sounddevice_module():
     when it or the PortAudio library is missing."""
     try:
         import sounddevice
-    except OSError as exc:          # sounddevice is installed, PortAudio is not
+    except OSError as exc:  # sounddevice is installed, PortAudio is not
         raise SynthError(f"{PORTAUDIO_HELP} ({exc})") from None
     except ImportError as exc:
-        raise SynthError(f"playback needs the sounddevice package: pip install sounddevice ({exc})") from None
+        raise SynthError(
+            f"playback needs the sounddevice package: pip install sounddevice ({exc})"
+        ) from None
     return sounddevice
 
 

@@ -49,7 +49,8 @@ def _import_matplotlib():
     except ImportError:
         raise SynthError(
             "plotting needs the optional package matplotlib: pip install matplotlib "
-            "(or pip install 'impact-synth[plot]')") from None
+            "(or pip install 'impact-synth[plot]')"
+        ) from None
     return Figure, FigureCanvasAgg
 
 
@@ -59,7 +60,8 @@ def _attr(render, name):
     except AttributeError:
         raise ParameterError(
             f"render={type(render).__name__} has no attribute {name!r}; it needs audio, "
-            f"samplerate, impacts, onsets, settings, units and gain") from None
+            f"samplerate, impacts, onsets, settings, units and gain"
+        ) from None
 
 
 def _onsets(onsets, n_impacts: int) -> np.ndarray:
@@ -88,8 +90,10 @@ def _title(settings, samplerate, units, gain, n_impacts, frames, channels) -> st
         if key in settings:
             parts.append(f"{key}={settings[key]}")
     line1 = textwrap.fill(", ".join(parts), width=120)
-    line2 = (f"{_count(n_impacts, 'impact')}, {frames / samplerate:.4g} s, "
-             f"{_count(channels, 'channel')}, gain {gain:.4g} full scale per {units}")
+    line2 = (
+        f"{_count(n_impacts, 'impact')}, {frames / samplerate:.4g} s, "
+        f"{_count(channels, 'channel')}, gain {gain:.4g} full scale per {units}"
+    )
     return f"{line1}\n{line2}"
 
 
@@ -102,14 +106,12 @@ def _draw_waveform(ax, t, x, labels):
             lo = np.minimum.reduceat(x[:, c], edges[:-1])
             hi = np.maximum.reduceat(x[:, c], edges[:-1])
             tb = t[edges[:-1]]
-            ax.fill_between(tb, lo, hi, step="post", linewidth=0.3, alpha=0.8,
-                            label=labels[c])
+            ax.fill_between(tb, lo, hi, step="post", linewidth=0.3, alpha=0.8, label=labels[c])
         else:
             ax.plot(t, x[:, c], linewidth=0.6, label=labels[c])
 
 
-def plot_render(render: Render, path: str | os.PathLike, *,
-                max_pulses: int = MAX_PULSES) -> Path:
+def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MAX_PULSES) -> Path:
     """Draw a render into one PNG: waveform, spectrogram and the first force pulses.
 
     Panels: (a) the waveform in physical units (``audio / gain``, with the full
@@ -167,8 +169,7 @@ def plot_render(render: Render, path: str | os.PathLike, *,
     ax_s = fig.add_subplot(grid[1, 0])
     ax_f = fig.add_subplot(grid[2, 0])
     ax_bar = fig.add_subplot(grid[1, 1])
-    fig.suptitle(_title(settings, sr, units, gain, len(impacts), frames, channels),
-                 fontsize=10)
+    fig.suptitle(_title(settings, sr, units, gain, len(impacts), frames, channels), fontsize=10)
 
     # (a) waveform
     labels = [f"channel {c + 1}" for c in range(channels)]
@@ -178,10 +179,10 @@ def plot_render(render: Render, path: str | os.PathLike, *,
     ax_w.set_xlim(0.0, frames / sr)
     ax_w.set_xlabel("Time (s)")
     ax_w.set_ylabel(f"{quantity} ({unit_label})")
-    ax_w.set_title(f"(a) Waveform; red lines: {_count(len(times), 'impact')}", fontsize=10,
-                   loc="left")
-    fs_axis = ax_w.secondary_yaxis("right", functions=(lambda y: y * gain,
-                                                       lambda y: y / gain))
+    ax_w.set_title(
+        f"(a) Waveform; red lines: {_count(len(times), 'impact')}", fontsize=10, loc="left"
+    )
+    fs_axis = ax_w.secondary_yaxis("right", functions=(lambda y: y * gain, lambda y: y / gain))
     fs_axis.set_ylabel("Full scale")
     if channels > 1:
         ax_w.legend(loc="upper right", fontsize=8)
@@ -192,9 +193,15 @@ def plot_render(render: Render, path: str | os.PathLike, *,
     # (hop = nper / 4) when the audio is short; never longer than the audio.
     nper = 2 ** max(5, int(round(math.log2(SPECTROGRAM_FRAME * sr))))
     nper = min(nper, max(32, 2 ** int(math.floor(math.log2(max(frames // 4, 1))))), frames)
-    f, ts, sxx = signal.spectrogram(x[:, 0], fs=sr, window="hann", nperseg=nper,
-                                    noverlap=(3 * nper) // 4, scaling="density",
-                                    mode="psd")
+    f, ts, sxx = signal.spectrogram(
+        x[:, 0],
+        fs=sr,
+        window="hann",
+        nperseg=nper,
+        noverlap=(3 * nper) // 4,
+        scaling="density",
+        mode="psd",
+    )
     with np.errstate(divide="ignore"):
         db = 10.0 * np.log10(sxx)
     top = float(np.max(db[np.isfinite(db)])) if np.any(np.isfinite(db)) else 0.0
@@ -202,18 +209,36 @@ def plot_render(render: Render, path: str | os.PathLike, *,
     # Each column is centred on its frame and one hop wide; a single frame spans the audio.
     hop = (nper - (3 * nper) // 4) / sr
     t0, t1 = (ts[0] - hop / 2, ts[-1] + hop / 2) if ts.size > 1 else (0.0, frames / sr)
-    image = ax_s.imshow(db, origin="lower", aspect="auto", cmap="magma",
-                        extent=(t0, t1, 0.0, sr / 2000.0), interpolation="nearest",
-                        vmin=top - SPECTROGRAM_RANGE_DB, vmax=top)
+    image = ax_s.imshow(
+        db,
+        origin="lower",
+        aspect="auto",
+        cmap="magma",
+        extent=(t0, t1, 0.0, sr / 2000.0),
+        interpolation="nearest",
+        vmin=top - SPECTROGRAM_RANGE_DB,
+        vmax=top,
+    )
     ax_s.set_xlim(0.0, frames / sr)
     ax_s.set_ylim(0.0, sr / 2000.0)
-    ax_s.plot(times, np.ones_like(times), "v", color="tab:cyan", markersize=5,
-              transform=ax_s.get_xaxis_transform(), clip_on=False)
+    ax_s.plot(
+        times,
+        np.ones_like(times),
+        "v",
+        color="tab:cyan",
+        markersize=5,
+        transform=ax_s.get_xaxis_transform(),
+        clip_on=False,
+    )
     ax_s.set_xlabel("Time (s)")
     ax_s.set_ylabel("Frequency (kHz)")
-    ax_s.set_title(f"(b) Spectrogram{' of channel 1' if channels > 1 else ''} "
-                   f"(Hann, {nper} samples = {1000 * nper / sr:.3g} ms, 75 % overlap); "
-                   f"triangles: impacts", fontsize=10, loc="left")
+    ax_s.set_title(
+        f"(b) Spectrogram{' of channel 1' if channels > 1 else ''} "
+        f"(Hann, {nper} samples = {1000 * nper / sr:.3g} ms, 75 % overlap); "
+        f"triangles: impacts",
+        fontsize=10,
+        loc="left",
+    )
     bar = fig.colorbar(image, cax=ax_bar)
     bar.set_label(f"PSD (dB re 1 {unit_label}²/Hz)")
 
@@ -221,17 +246,26 @@ def plot_render(render: Render, path: str | os.PathLike, *,
     shown = impacts[:max_pulses]
     for imp in shown:
         r = imp.result
-        ax_f.plot(np.asarray(r.time) * 1e6, np.asarray(r.force), linewidth=1.2,
-                  label=(f"#{getattr(imp, 'index', '?')}: v = {imp.speed:.3g} m/s, "
-                         f"e = {r.restitution:.3f}, τ = {r.contact_time * 1e6:.4g} µs"))
+        ax_f.plot(
+            np.asarray(r.time) * 1e6,
+            np.asarray(r.force),
+            linewidth=1.2,
+            label=(
+                f"#{getattr(imp, 'index', '?')}: v = {imp.speed:.3g} m/s, "
+                f"e = {r.restitution:.3f}, τ = {r.contact_time * 1e6:.4g} µs"
+            ),
+        )
     if shown:
         ax_f.legend(fontsize=8, loc="upper right")
     else:
         ax_f.text(0.5, 0.5, "no impacts", transform=ax_f.transAxes, ha="center")
     ax_f.set_xlabel("Time from first touch (µs)")
     ax_f.set_ylabel("Contact force (N)")
-    ax_f.set_title(f"(c) Force pulses of the first {len(shown)} of "
-                   f"{_count(len(impacts), 'impact')}", fontsize=10, loc="left")
+    ax_f.set_title(
+        f"(c) Force pulses of the first {len(shown)} of {_count(len(impacts), 'impact')}",
+        fontsize=10,
+        loc="left",
+    )
     ax_f.grid(alpha=0.3)
 
     def write(tmp):

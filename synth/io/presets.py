@@ -110,6 +110,7 @@ def preset_dirs() -> list[Path]:
     dirs.append(Path(__file__).resolve().parents[2] / "presets")
     try:
         from importlib.resources import files
+
         dirs.append(Path(str(files("synth._presets"))))
     except (ModuleNotFoundError, TypeError):
         pass
@@ -142,8 +143,10 @@ def find(name_or_path) -> Path:
         return names[str(name_or_path)]
     near = difflib.get_close_matches(str(name_or_path), names, n=3, cutoff=0.4)
     hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
-    raise PresetError(f"preset={str(name_or_path)!r} is not a file or a known preset{hint} "
-                      f"(known: {', '.join(names) or 'none'})")
+    raise PresetError(
+        f"preset={str(name_or_path)!r} is not a file or a known preset{hint} "
+        f"(known: {', '.join(names) or 'none'})"
+    )
 
 
 def read(path) -> dict:
@@ -175,8 +178,9 @@ def apply_overrides(data: dict, overrides, source="--set") -> dict:
         except tomllib.TOMLDecodeError:
             parsed = {"v": text.strip()}  # a bare word is a string: material=glass
         if set(parsed) != {"v"}:
-            raise PresetError(f"{source} {item!r}: the value must be one TOML value, e.g. "
-                              f"ball.radius=0.007")
+            raise PresetError(
+                f"{source} {item!r}: the value must be one TOML value, e.g. ball.radius=0.007"
+            )
         value = parsed["v"]
         parts = key.split(".")
         if len(parts) == 1:
@@ -198,20 +202,26 @@ def _material(value, where):
         raise PresetError(f"{where}={value!r} must be a material name or an inline table")
     for k in value:
         if k not in _MATERIAL_KEYS:
-            raise PresetError(f"{where}.{k}={value[k]!r} is not a known key "
-                              f"(allowed: {', '.join(_MATERIAL_KEYS)})")
+            raise PresetError(
+                f"{where}.{k}={value[k]!r} is not a known key "
+                f"(allowed: {', '.join(_MATERIAL_KEYS)})"
+            )
     kw = dict(value)
     kw.setdefault("name", "custom")
     damping = kw.pop("damping", None)
     if damping is not None:
         if not isinstance(damping, dict):
-            raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
+            raise PresetError(
+                f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
+            )
         if set(damping) == {"eta"}:
             kw["damping"] = LossFactor(damping["eta"])
         elif set(damping) == {"alpha", "beta"}:
             kw["damping"] = Rayleigh(damping["alpha"], damping["beta"])
         else:
-            raise PresetError(f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}")
+            raise PresetError(
+                f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
+            )
     _require(kw, ("density", "young", "poisson"), where)
     try:
         return Material(**kw)
@@ -227,9 +237,13 @@ def _require(section: dict, keys, where: str) -> None:
 
 
 def _required_fields(cls) -> tuple[str, ...]:
-    return tuple(f.name for f in dataclasses.fields(cls)
-                 if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
-                 and f.kw_only is False)
+    return tuple(
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+        and f.kw_only is False
+    )
 
 
 def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
@@ -254,11 +268,15 @@ def _scene_from_dict(data, source):
                     if k not in allowed:
                         near = difflib.get_close_matches(k, allowed, n=1)
                         hint = f" (did you mean {near[0]!r}?)" if near else ""
-                        raise PresetError(f"{source}: {key}.{k}={value[k]!r} is not a known key{hint}; "
-                                          f"allowed: {', '.join(allowed)}")
+                        raise PresetError(
+                            f"{source}: {key}.{k}={value[k]!r} is not a known key{hint}; "
+                            f"allowed: {', '.join(allowed)}"
+                        )
         elif key not in TOP_LEVEL:
-            raise PresetError(f"{source}: {key}={value!r} is not a known key; sections: "
-                              f"{', '.join(SECTIONS)}; top-level keys: {', '.join(TOP_LEVEL)}")
+            raise PresetError(
+                f"{source}: {key}={value!r} is not a known key; sections: "
+                f"{', '.join(SECTIONS)}; top-level keys: {', '.join(TOP_LEVEL)}"
+            )
     for required in ("ball", "plate", "drop"):
         if required not in data:
             raise PresetError(f"{source}: the [{required}] section is missing")
@@ -289,20 +307,31 @@ def _scene_from_dict(data, source):
         lst = data["listener"]
         kind = lst.get("type", "microphone")
         if kind not in ("microphone", "accelerometer"):
-            raise PresetError(f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'")
+            raise PresetError(
+                f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'"
+            )
         if "position" not in lst:
             raise PresetError(f"{source}: listener.position is required")
         lp = lst["position"]
         if not isinstance(lp, list):
-            raise PresetError(f"{source}: listener.position={lp!r} must be a list of numbers (metres)")
+            raise PresetError(
+                f"{source}: listener.position={lp!r} must be a list of numbers (metres)"
+            )
         listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
     contact = Contact(**data["contact"]) if "contact" in data else None
     gravity = data.get("gravity", GRAVITY)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise PresetError(f"{source}: description={description!r} must be a string")
-    scene = Scene(ball, plate, drop_height=drop["height"], position=position,
-                  listener=listener, gravity=gravity, contact=contact)
+    scene = Scene(
+        ball,
+        plate,
+        drop_height=drop["height"],
+        position=position,
+        listener=listener,
+        gravity=gravity,
+        contact=contact,
+    )
     return scene, _render_section(data.get("render", {}), source)
 
 
@@ -317,8 +346,10 @@ def _render_section(section: dict, source: str) -> dict:
         if k not in allowed:
             near = difflib.get_close_matches(k, allowed, n=1)
             hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise PresetError(f"{source}: render.{k}={v!r} is not a known key{hint}; "
-                              f"allowed: {', '.join(allowed)}")
+            raise PresetError(
+                f"{source}: render.{k}={v!r} is not a known key{hint}; "
+                f"allowed: {', '.join(allowed)}"
+            )
     opts = {k: v for k, v in section.items() if k != "subtype"}
     try:
         check_options(**opts)
@@ -329,8 +360,10 @@ def _render_section(section: dict, source: str) -> dict:
 
         st = section["subtype"]
         if not isinstance(st, str) or st.upper() not in soundfile.available_subtypes():
-            raise PresetError(f"{source}: render.subtype={st!r} must be a soundfile subtype "
-                              f"such as 'PCM_16', 'PCM_24' or 'FLOAT'")
+            raise PresetError(
+                f"{source}: render.subtype={st!r} must be a soundfile subtype "
+                f"such as 'PCM_16', 'PCM_24' or 'FLOAT'"
+            )
     return dict(section)
 
 

@@ -71,8 +71,12 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
         for _ in range(n):
             body = engine.add(scene.plate, listener=scene.listener)
             for t in np.arange(0.0, seconds, 0.1) + rng.uniform(0.0, 0.1):
-                body.hit(scene.ball, float(rng.uniform(0.3, 2.0)), at=float(t),
-                         position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))))
+                body.hit(
+                    scene.ball,
+                    float(rng.uniform(0.3, 2.0)),
+                    at=float(t),
+                    position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))),
+                )
         out = np.zeros((blocksize, 1), dtype=np.float32)
         costs = []
         for _ in range(int(seconds * samplerate / blocksize)):
@@ -81,9 +85,16 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
             costs.append(time.perf_counter() - t)
         block = blocksize / samplerate
         costs = np.array(costs) / block
-        rows.append(dict(bodies=n, modes=engine.bodies[0].modes, mean=float(costs.mean()),
-                         p99=float(np.percentile(costs, 99)), max=float(costs.max()),
-                         played=engine.stats.impacts_played))
+        rows.append(
+            dict(
+                bodies=n,
+                modes=engine.bodies[0].modes,
+                mean=float(costs.mean()),
+                p99=float(np.percentile(costs, 99)),
+                max=float(costs.max()),
+                played=engine.stats.impacts_played,
+            )
+        )
     return rows
 
 
@@ -95,16 +106,24 @@ def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
 
     scene = _scene()
     rng = np.random.default_rng(seed)
-    engines = {pp: Engine(samplerate=samplerate, max_pending=4096, pulse_points=pp) for pp in (65, 5)}
+    engines = {
+        pp: Engine(samplerate=samplerate, max_pending=4096, pulse_points=pp) for pp in (65, 5)
+    }
     bodies = {pp: e.add(scene.plate, listener=scene.listener) for pp, e in engines.items()}
     out = {}
-    for name, new_point, pp in (("same_point", False, 65), ("new_point", True, 65),
-                                ("same_point_coarse_pulse", False, 5)):
+    for name, new_point, pp in (
+        ("same_point", False, 65),
+        ("new_point", True, 65),
+        ("same_point_coarse_pulse", False, 5),
+    ):
         body = bodies[pp]
         times = []
-        for i in range(repeat):
-            pos = ((float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))) if new_point
-                   else scene.position)
+        for _ in range(repeat):
+            pos = (
+                (float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44)))
+                if new_point
+                else scene.position
+            )
             v = float(rng.uniform(0.3, 2.0))
             t = time.perf_counter()
             body.hit(scene.ball, v, position=pos)
@@ -157,8 +176,11 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4,
             while not stop.is_set():
                 time.sleep(float(rng.exponential(1.0 / rate)))
                 b = handles[int(rng.integers(bodies))]
-                b.hit(scene.ball, float(rng.uniform(0.2, 2.0)),
-                      position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))))
+                b.hit(
+                    scene.ball,
+                    float(rng.uniform(0.2, 2.0)),
+                    position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))),
+                )
 
         stop = threading.Event()
         thread = threading.Thread(target=trigger, args=(stop,))
@@ -171,18 +193,29 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4,
         engine.stop()
         realtime = server.realtime
     block = blocksize / samplerate
-    return dict(realtime_server=realtime, block_s=block, latency_s=latency, nominal_latency_s=nominal,
-                handover_s=engine.handover,
-                hit_to_callback_ms=dict(median=float(np.median(to_callback)) * 1e3,
-                                        max=float(np.max(to_callback)) * 1e3) if to_callback else None,
-                hit_to_output_ms=(block + latency + engine.handover) * 1e3,
-                seconds=seconds, rate=rate, bodies=bodies,
-                callbacks=stats.callbacks - stats0.callbacks,
-                underflows=stats.output_underflows - stats0.output_underflows,
-                played=stats.impacts_played - stats0.impacts_played,
-                late=stats.impacts_late - stats0.impacts_late,
-                refused=stats.impacts_refused - stats0.impacts_refused,
-                callback_mean=stats.callback_mean, callback_max=stats.callback_max)
+    return dict(
+        realtime_server=realtime,
+        block_s=block,
+        latency_s=latency,
+        nominal_latency_s=nominal,
+        handover_s=engine.handover,
+        hit_to_callback_ms=dict(
+            median=float(np.median(to_callback)) * 1e3, max=float(np.max(to_callback)) * 1e3
+        )
+        if to_callback
+        else None,
+        hit_to_output_ms=(block + latency + engine.handover) * 1e3,
+        seconds=seconds,
+        rate=rate,
+        bodies=bodies,
+        callbacks=stats.callbacks - stats0.callbacks,
+        underflows=stats.output_underflows - stats0.output_underflows,
+        played=stats.impacts_played - stats0.impacts_played,
+        late=stats.impacts_late - stats0.impacts_late,
+        refused=stats.impacts_refused - stats0.impacts_refused,
+        callback_mean=stats.callback_mean,
+        callback_max=stats.callback_max,
+    )
 
 
 def run_live(seconds=30.0) -> dict:
@@ -202,46 +235,64 @@ def format_live(result) -> str:
     ok = {True: "met", False: "NOT met"}
     rows = result["callback"]
     by_n = {r["bodies"]: r for r in rows}
-    lines = ["Callback (mixing) cost per 256-frame block at 48 kHz, default plate "
-             f"({rows[0]['modes']} modes), every body ringing (hit 10 times a second):",
-             "| bodies | mean (% of block) | 99th percentile | max |", "|---|---|---|---|"]
+    lines = [
+        "Callback (mixing) cost per 256-frame block at 48 kHz, default plate "
+        f"({rows[0]['modes']} modes), every body ringing (hit 10 times a second):",
+        "| bodies | mean (% of block) | 99th percentile | max |",
+        "|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['bodies']} | {100 * r['mean']:.2f} | {100 * r['p99']:.2f} | "
-                     f"{100 * r['max']:.2f} |")
+        lines.append(
+            f"| {r['bodies']} | {100 * r['mean']:.2f} | {100 * r['p99']:.2f} | "
+            f"{100 * r['max']:.2f} |"
+        )
     h = result["hit_us"]
     a = result["add_s"]
-    lines += ["", f"- 1 body: {100 * by_n[1]['mean']:.2f} % of the block (target < "
-                  f"{100 * TARGETS['callback_1']:.0f} %): {ok[by_n[1]['mean'] < TARGETS['callback_1']]}"]
+    lines += [
+        "",
+        f"- 1 body: {100 * by_n[1]['mean']:.2f} % of the block (target < "
+        f"{100 * TARGETS['callback_1']:.0f} %): {ok[by_n[1]['mean'] < TARGETS['callback_1']]}",
+    ]
     if 16 in by_n:
-        lines.append(f"- 16 bodies: {100 * by_n[16]['mean']:.2f} % (target < "
-                     f"{100 * TARGETS['callback_16']:.0f} %): "
-                     f"{ok[by_n[16]['mean'] < TARGETS['callback_16']]}")
-    lines += [f"- hit() on the calling thread, same point: median {h['same_point']['median']:.0f} us, "
-              f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
-              f"median): {ok[h['same_point']['median'] < TARGETS['hit_us']]}; at a new point each "
-              f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "
-              f"median {h['same_point_coarse_pulse']['median']:.0f} us",
-              f"- Engine.add(default plate): cold cache {a['cold']:.2f} s, warm from disk "
-              f"{a['warm_disk'] * 1e3:.0f} ms, warm from memory {a['warm_memory'] * 1e3:.0f} ms"]
+        lines.append(
+            f"- 16 bodies: {100 * by_n[16]['mean']:.2f} % (target < "
+            f"{100 * TARGETS['callback_16']:.0f} %): "
+            f"{ok[by_n[16]['mean'] < TARGETS['callback_16']]}"
+        )
+    lines += [
+        f"- hit() on the calling thread, same point: median {h['same_point']['median']:.0f} us, "
+        f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
+        f"median): {ok[h['same_point']['median'] < TARGETS['hit_us']]}; at a new point each "
+        f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "
+        f"median {h['same_point_coarse_pulse']['median']:.0f} us",
+        f"- Engine.add(default plate): cold cache {a['cold']:.2f} s, warm from disk "
+        f"{a['warm_disk'] * 1e3:.0f} ms, warm from memory {a['warm_memory'] * 1e3:.0f} ms",
+    ]
     j = result["jack"]
     if j is None:
         lines.append("- JACK dummy server: jackd not installed, not measured")
         return "\n".join(lines)
-    lines += [f"- JACK dummy server ({'realtime' if j['realtime_server'] else 'not realtime'}), "
-              f"{j['block_s'] * 1e3:.2f} ms blocks, output latency {j['latency_s'] * 1e3:.2f} ms "
-              f"(PortAudio's nominal {j['nominal_latency_s'] * 1e3:.2f} ms), hand-over allowance "
-              f"{j['handover_s'] * 1e3:.1f} ms:"]
+    lines += [
+        f"- JACK dummy server ({'realtime' if j['realtime_server'] else 'not realtime'}), "
+        f"{j['block_s'] * 1e3:.2f} ms blocks, output latency {j['latency_s'] * 1e3:.2f} ms "
+        f"(PortAudio's nominal {j['nominal_latency_s'] * 1e3:.2f} ms), hand-over allowance "
+        f"{j['handover_s'] * 1e3:.1f} ms:"
+    ]
     if j["hit_to_callback_ms"]:
         target = (j["block_s"] + j["latency_s"]) * 1e3
-        lines.append(f"  - hit() to the end of the callback holding the tick's first sample: median "
-                     f"{j['hit_to_callback_ms']['median']:.2f} ms, max "
-                     f"{j['hit_to_callback_ms']['max']:.2f} ms (target <= one block + latency = "
-                     f"{target:.2f} ms): {ok[j['hit_to_callback_ms']['max'] <= target]}")
-    lines += [f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
-              f"(one block + output latency + hand-over allowance, the same for every hit)",
-              f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies: "
-              f"{j['callbacks']} callbacks, {j['underflows']} output underflows (target "
-              f"{TARGETS['underflows']}): {ok[j['underflows'] <= TARGETS['underflows']]}; "
-              f"{j['played']} impacts played, {j['late']} late, {j['refused']} refused; callback "
-              f"mean {100 * j['callback_mean']:.2f} %, max {100 * j['callback_max']:.1f} % of the block"]
+        lines.append(
+            f"  - hit() to the end of the callback holding the tick's first sample: median "
+            f"{j['hit_to_callback_ms']['median']:.2f} ms, max "
+            f"{j['hit_to_callback_ms']['max']:.2f} ms (target <= one block + latency = "
+            f"{target:.2f} ms): {ok[j['hit_to_callback_ms']['max'] <= target]}"
+        )
+    lines += [
+        f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
+        f"(one block + output latency + hand-over allowance, the same for every hit)",
+        f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies: "
+        f"{j['callbacks']} callbacks, {j['underflows']} output underflows (target "
+        f"{TARGETS['underflows']}): {ok[j['underflows'] <= TARGETS['underflows']]}; "
+        f"{j['played']} impacts played, {j['late']} late, {j['refused']} refused; callback "
+        f"mean {100 * j['callback_mean']:.2f} %, max {100 * j['callback_max']:.1f} % of the block",
+    ]
     return "\n".join(lines)

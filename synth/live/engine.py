@@ -43,8 +43,7 @@ from synth.live.queue import PendingRing
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import solve_impact
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
-from synth.sound.modal_bank import (PULSE_POINTS, bank_coefficients, impact_excitation,
-                                     power_table)
+from synth.sound.modal_bank import PULSE_POINTS, bank_coefficients, impact_excitation, power_table
 from synth.sound.render import modal_model
 
 #: Python's thread switch interval while a stream runs, s. The callback runs a little
@@ -101,8 +100,9 @@ class Body:
     """One plate in an :class:`Engine` (made by :meth:`Engine.add`): one modal state that
     every impact on it excites."""
 
-    def __init__(self, engine: "Engine", plate: Plate, listener, gain: float, model,
-                 max_pending: int):
+    def __init__(
+        self, engine: Engine, plate: Plate, listener, gain: float, model, max_pending: int
+    ):
         self._engine = engine
         self.plate = plate
         self.listener = listener
@@ -118,15 +118,40 @@ class Body:
         self._silence = False
         self._puts_seen = 0
         r = self._ring
-        self._state_arrays = (np.zeros(K), np.zeros(K), np.zeros(K, dtype=np.bool_), np.zeros(K),
-                              np.zeros(K, dtype=np.int64), np.zeros(K), np.zeros(K))
+        self._state_arrays = (
+            np.zeros(K),
+            np.zeros(K),
+            np.zeros(K, dtype=np.bool_),
+            np.zeros(K),
+            np.zeros(K, dtype=np.int64),
+            np.zeros(K),
+            np.zeros(K),
+        )
         zr, zi, active, debt, debt_at, thr, thr2 = self._state_arrays
         self._level = np.zeros(1)
         self._warm_up()
-        self._kernel_args = (power_table(poles, float(fs)), poles, float(fs), zr, zi, active, debt,
-                             debt_at, thr, thr2, self._level, engine.floor, r.state, r.inject,
-                             r.first, r.length, r.amplitudes, r.response, r.reference,
-                             self._counters)
+        self._kernel_args = (
+            power_table(poles, float(fs)),
+            poles,
+            float(fs),
+            zr,
+            zi,
+            active,
+            debt,
+            debt_at,
+            thr,
+            thr2,
+            self._level,
+            engine.floor,
+            r.state,
+            r.inject,
+            r.first,
+            r.length,
+            r.amplitudes,
+            r.response,
+            r.reference,
+            self._counters,
+        )
 
     def _warm_up(self):
         """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
@@ -136,8 +161,10 @@ class Body:
         impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
 
     def __repr__(self):
-        return (f"Body(plate={self.plate!r}, listener={self.listener!r}, gain={self.gain!r}, "
-                f"modes={self.modes})")
+        return (
+            f"Body(plate={self.plate!r}, listener={self.listener!r}, gain={self.gain!r}, "
+            f"modes={self.modes})"
+        )
 
     @property
     def modes(self) -> int:
@@ -165,8 +192,9 @@ class Body:
         if p is None:
             excitation = self._model.excitation(position)
             direct = self._model.direct(excitation)
-            coefficients = bank_coefficients(self._model.poles, excitation, self._model.output,
-                                             self._engine.samplerate)
+            coefficients = bank_coefficients(
+                self._model.poles, excitation, self._model.output, self._engine.samplerate
+            )
             p = _Prepared(coefficients, float(np.sum(direct.real)) if direct is not None else 0.0)
             if len(self._prepared) >= 64:
                 self._prepared.pop(next(iter(self._prepared)))
@@ -174,8 +202,9 @@ class Body:
         return p
 
     def _position(self, position) -> tuple[float, float]:
-        return self.plate.check_position(self.plate.centre if position is None else position,
-                                         "position")
+        return self.plate.check_position(
+            self.plate.centre if position is None else position, "position"
+        )
 
     def _check_ball(self, ball):
         if not isinstance(ball, Ball):
@@ -184,7 +213,8 @@ class Body:
             raise ParameterError(
                 f"ball.radius={ball.radius!r} is too large for the plate: the ball's diameter "
                 f"must not exceed the plate's smaller side "
-                f"{min(self.plate.length, self.plate.width)!r} (metres)")
+                f"{min(self.plate.length, self.plate.width)!r} (metres)"
+            )
         return ball
 
     @staticmethod
@@ -197,21 +227,35 @@ class Body:
 
     def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
         """Hand one contact over, its tick starting at ``onset`` s on the engine's clock."""
-        ex = impact_excitation(prepared.coefficients, result, onset, weight=weight,
-                               pulse_points=self._engine.pulse_points)
+        ex = impact_excitation(
+            prepared.coefficients,
+            result,
+            onset,
+            weight=weight,
+            pulse_points=self._engine.pulse_points,
+        )
         if ex.response.size > self._ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {result.contact_time:.4g} s, longer than the {MAX_CONTACT} s "
-                f"a live body takes (a softer contact than any material in the table)")
+                f"a live body takes (a softer contact than any material in the table)"
+            )
         g = self._scale * gain
         amplitudes = ex.amplitudes * g
         response = (ex.response + ex.forces * prepared.mass_line) * g
         reference = float(np.sum(np.abs(amplitudes)))
         return self._ring.put(ex.inject, ex.first, amplitudes, response, reference)
 
-    def hit(self, ball: Ball, speed: float, *, position=None, gain: float = 1.0,
-            at: float | None = None, contact: Contact | None = None,
-            gravity: float = 9.81) -> float | None:
+    def hit(
+        self,
+        ball: Ball,
+        speed: float,
+        *,
+        position=None,
+        gain: float = 1.0,
+        at: float | None = None,
+        contact: Contact | None = None,
+        gravity: float = 9.81,
+    ) -> float | None:
         """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
         plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
         thread: the contact is solved here and handed to the audio thread without blocking
@@ -231,16 +275,33 @@ class Body:
         law = self._check_contact(contact)
         g0 = checks.positive("gravity", gravity, "m/s^2")
         onset = self._engine._onset(at)
-        result = solve_impact(ball, self.plate, v, position=pos, rtol=HIT_RTOL, gravity=g0,
-                              contact=law.law, **law.options())
+        result = solve_impact(
+            ball,
+            self.plate,
+            v,
+            position=pos,
+            rtol=HIT_RTOL,
+            gravity=g0,
+            contact=law.law,
+            **law.options(),
+        )
         if not result.success:
-            raise SynthError(f"the contact of {ball!r} at speed={v!r} m/s did not converge: "
-                             f"{result.message}")
+            raise SynthError(
+                f"the contact of {ball!r} at speed={v!r} m/s did not converge: {result.message}"
+            )
         return onset if self._submit(result, onset, self._prepare(pos), g) else None
 
-    def drop(self, ball: Ball, height: float, *, position=None, gain: float = 1.0,
-             at: float | None = None, contact: Contact | None = None,
-             gravity: float = 9.81) -> tuple[float, ...]:
+    def drop(
+        self,
+        ball: Ball,
+        height: float,
+        *,
+        position=None,
+        gain: float = 1.0,
+        at: float | None = None,
+        contact: Contact | None = None,
+        gravity: float = 9.81,
+    ) -> tuple[float, ...]:
         """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
@@ -255,8 +316,16 @@ class Body:
         law = self._check_contact(contact)
         gravity = checks.positive("gravity", gravity, "m/s^2")
         onset0 = self._engine._onset(at)
-        sequence = simulate_bounces(ball, self.plate, drop_height=h, position=pos, gravity=gravity,
-                                    contact_law=law.law, rtol=law.rtol, **law.options())
+        sequence = simulate_bounces(
+            ball,
+            self.plate,
+            drop_height=h,
+            position=pos,
+            gravity=gravity,
+            contact_law=law.law,
+            rtol=law.rtol,
+            **law.options(),
+        )
         prepared = self._prepare(pos)
         t0 = sequence[0].time if len(sequence) else 0.0
         played = []
@@ -329,12 +398,22 @@ class Engine:
         The first seconds of the output are also kept in :attr:`recording`.
     """
 
-    def __init__(self, *, samplerate: int = 48000, blocksize: int = 256, device=None,
-                 latency="low", channels: int = 1, floor_db: float = -80.0,
-                 max_pending: int = 128, max_frequency: float | None = None,
-                 pulse_points: int = PULSE_POINTS,
-                 fade: float = 0.01, handover: float = 0.002,
-                 record_seconds: float = 0.0):
+    def __init__(
+        self,
+        *,
+        samplerate: int = 48000,
+        blocksize: int = 256,
+        device=None,
+        latency="low",
+        channels: int = 1,
+        floor_db: float = -80.0,
+        max_pending: int = 128,
+        max_frequency: float | None = None,
+        pulse_points: int = PULSE_POINTS,
+        fade: float = 0.01,
+        handover: float = 0.002,
+        record_seconds: float = 0.0,
+    ):
         self.samplerate = _check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = _check_int("blocksize", blocksize, 16, 8192, "frames")
         if device is not None and (isinstance(device, bool) or not isinstance(device, (int, str))):
@@ -359,22 +438,25 @@ class Engine:
         if max_frequency is not None:
             self.max_frequency = checks.positive("max_frequency", max_frequency, "Hz")
             if self.max_frequency > 0.5 * self.samplerate:
-                raise ParameterError(f"max_frequency={max_frequency!r} must be <= the Nyquist "
-                                     f"frequency {0.5 * self.samplerate:g} Hz")
+                raise ParameterError(
+                    f"max_frequency={max_frequency!r} must be <= the Nyquist "
+                    f"frequency {0.5 * self.samplerate:g} Hz"
+                )
         fade_s = checks.in_range("fade", fade, 0.001, 1.0, "s", lo_open=False, hi_open=False)
         self._fade_length = max(1, int(round(fade_s * self.samplerate)))
-        self.handover = checks.in_range("handover", handover, 0.0, 0.1, "s", lo_open=False,
-                                        hi_open=False)
+        self.handover = checks.in_range(
+            "handover", handover, 0.0, 0.1, "s", lo_open=False, hi_open=False
+        )
         rec = checks.nonnegative("record_seconds", record_seconds, "s")
         self.recording = np.zeros((int(round(rec * self.samplerate)), self.channels), np.float32)
         self._recorded = 0
         self._bodies: tuple[Body, ...] = ()
         self._mix = np.zeros(max(self.blocksize, 4096))
-        self._frame = 0                    # next frame to mix
-        self._fade_at = -1                 # position in the stop fade, -1: none
-        self.fade_frame = None             # where the last stop() fade began (frame)
+        self._frame = 0  # next frame to mix
+        self._fade_at = -1  # position in the stop fade, -1: none
+        self.fade_frame = None  # where the last stop() fade began (frame)
         self._stream = None
-        self._state = "idle"               # idle -> running -> stopped
+        self._state = "idle"  # idle -> running -> stopped
         # the clock of the last callback: its first frame, the perf_counter time at which
         # that frame reaches the output, the perf_counter time at its end, its last frame + 1
         self._anchor = np.zeros(4)
@@ -402,14 +484,16 @@ class Engine:
         elif isinstance(listener, Accelerometer):
             plate.check_position(listener.position, "listener.position")
         elif not isinstance(listener, Microphone):
-            raise ParameterError(f"listener={listener!r} must be None, an Accelerometer or a "
-                                 f"Microphone")
+            raise ParameterError(
+                f"listener={listener!r} must be None, an Accelerometer or a Microphone"
+            )
         g = checks.positive("gain", gain, "dimensionless")
         self._check_open("add a body")
-        model = modal_model(plate, listener, samplerate=self.samplerate,
-                            max_frequency=self.max_frequency)
+        model = modal_model(
+            plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
+        )
         body = Body(self, plate, listener, g, model, self.max_pending)
-        self._bodies = self._bodies + (body,)      # one assignment: the callback sees all or none
+        self._bodies = self._bodies + (body,)  # one assignment: the callback sees all or none
         return body
 
     @property
@@ -435,8 +519,9 @@ class Engine:
 
     def _check_open(self, what: str):
         if self._state == "stopped":
-            raise SynthError(f"cannot {what}: the engine is stopped (start() it again, or make "
-                             f"a new Engine)")
+            raise SynthError(
+                f"cannot {what}: the engine is stopped (start() it again, or make a new Engine)"
+            )
 
     def _now_frame(self) -> float:
         """Where the output stands now: the frame (fractional) leaving the device now, less
@@ -448,7 +533,7 @@ class Engine:
             f0, dac0 = self._anchor[0], self._anchor[1]
             if seq == self._anchor_seq and seq % 2 == 0:
                 break
-        if seq == 0:       # no callback yet: the stream starts with the next frame
+        if seq == 0:  # no callback yet: the stream starts with the next frame
             return float(self._frame) - self._lead * self.samplerate
         return f0 + (time.perf_counter() - dac0) * self.samplerate
 
@@ -459,13 +544,16 @@ class Engine:
         if at is None:
             if not self.running:
                 return (self._frame + self.blocksize) / self.samplerate
-            frame = self._now_frame() + self.blocksize + (self._lead + self.handover) * self.samplerate
+            frame = (
+                self._now_frame() + self.blocksize + (self._lead + self.handover) * self.samplerate
+            )
             return max(frame, float(self._frame)) / self.samplerate
         t = checks.real("at", at, "s")
         earliest = self._frame / self.samplerate
         if not self.running and t < earliest:
-            raise ParameterError(f"at={at!r} must be >= {earliest!r} s, the engine's next "
-                                 f"frame (Engine.time)")
+            raise ParameterError(
+                f"at={at!r} must be >= {earliest!r} s, the engine's next frame (Engine.time)"
+            )
         if t < 0.0:
             raise ParameterError(f"at={at!r} must be >= 0 s (the engine's clock)")
         return t
@@ -484,17 +572,18 @@ class Engine:
                     body._apply_silence()
                 puts = body._ring.puts
                 if puts == body._puts_seen and not body._counters[kernel.AWAKE]:
-                    continue              # quiet, nothing new: costs nothing
+                    continue  # quiet, nothing new: costs nothing
                 body._puts_seen = puts
                 kernel.mix_body(self._mix, t0, n, *body._kernel_args)
-            block = outdata[done:done + n]
+            block = outdata[done : done + n]
             if self._fade_at == 0:
                 self.fade_frame = t0
-            self._fade_at = kernel.write_output(self._mix, n, block, self._fade_at,
-                                                self._fade_length)
+            self._fade_at = kernel.write_output(
+                self._mix, n, block, self._fade_at, self._fade_length
+            )
             if self._recorded < self.recording.shape[0]:
                 m = min(n, self.recording.shape[0] - self._recorded)
-                self.recording[self._recorded:self._recorded + m] = block[:m]
+                self.recording[self._recorded : self._recorded + m] = block[:m]
                 self._recorded += m
             self._frame = t0 + n
             done += n
@@ -508,7 +597,7 @@ class Engine:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
         out = np.empty((n, self.channels), dtype=np.float32)
-        for a in range(0, n, self.blocksize):      # the callback's blocks
+        for a in range(0, n, self.blocksize):  # the callback's blocks
             b = min(n, a + self.blocksize)
             self._mix_into(out[a:b], b - a)
         return out
@@ -536,7 +625,7 @@ class Engine:
             self._cb_max = cost
 
     # -- stream ---------------------------------------------------------------------------
-    def start(self) -> "Engine":
+    def start(self) -> Engine:
         """Open the output stream and start mixing. Raises SynthError when PortAudio or the
         sounddevice package is missing, or when there is no output device."""
         if self.running:
@@ -550,14 +639,23 @@ class Engine:
             raise SynthError(
                 f"no audio output device{'' if self.device is None else f' {self.device!r}'} "
                 f"({exc}); list the devices with `python -m sounddevice`, or render offline "
-                f"with Engine.process()") from None
+                f"with Engine.process()"
+            ) from None
         try:
-            stream = sd.OutputStream(samplerate=self.samplerate, blocksize=self.blocksize,
-                                     device=self.device, channels=self.channels, dtype="float32",
-                                     latency=self.latency_setting, callback=self._callback)
+            stream = sd.OutputStream(
+                samplerate=self.samplerate,
+                blocksize=self.blocksize,
+                device=self.device,
+                channels=self.channels,
+                dtype="float32",
+                latency=self.latency_setting,
+                callback=self._callback,
+            )
         except sd.PortAudioError as exc:
-            raise SynthError(f"cannot open the output device {info['name']!r} at "
-                             f"{self.samplerate} Hz with {self.channels} channel(s): {exc}") from None
+            raise SynthError(
+                f"cannot open the output device {info['name']!r} at "
+                f"{self.samplerate} Hz with {self.channels} channel(s): {exc}"
+            ) from None
         self._latency = float(stream.latency)
         self._lead = self._latency
         self._switch_interval = sys.getswitchinterval()
@@ -577,8 +675,9 @@ class Engine:
         stream = self._stream
         self._fade_at = 0
         deadline = time.perf_counter() + timeout + self._fade_length / self.samplerate
-        while (self._fade_at < self._fade_length and stream.active
-               and time.perf_counter() < deadline):
+        while (
+            self._fade_at < self._fade_length and stream.active and time.perf_counter() < deadline
+        ):
             time.sleep(0.002)
         try:
             stream.stop()
@@ -592,7 +691,7 @@ class Engine:
             body._apply_silence()
         self._fade_at = -1
 
-    def __enter__(self) -> "Engine":
+    def __enter__(self) -> Engine:
         return self.start()
 
     def __exit__(self, *exc) -> None:
@@ -607,5 +706,13 @@ class Engine:
             refused += body._ring.refused
             pending += body.pending
         n = self._callbacks
-        return EngineStats(n, self._underflows, self._cb_sum / n if n else 0.0, self._cb_max,
-                           played, refused, late, pending)
+        return EngineStats(
+            n,
+            self._underflows,
+            self._cb_sum / n if n else 0.0,
+            self._cb_max,
+            played,
+            refused,
+            late,
+            pending,
+        )

@@ -66,7 +66,7 @@ class JackDummyServer:
         self._saved_env.setdefault(key, os.environ.get(key))
         os.environ[key] = value
 
-    def start(self) -> "JackDummyServer":
+    def start(self) -> JackDummyServer:
         """Start the server, with realtime scheduling when the system allows it (without
         it, on a busy machine, the server's period can come late and the clients' output
         runs dry), else without."""
@@ -75,9 +75,11 @@ class JackDummyServer:
         except SynthError:
             return self._start(realtime=False)
 
-    def _start(self, realtime: bool) -> "JackDummyServer":
+    def _start(self, realtime: bool) -> JackDummyServer:
         if not jackd_available():
-            raise SynthError("the JACK server is not installed (Debian/Ubuntu: apt-get install jackd2)")
+            raise SynthError(
+                "the JACK server is not installed (Debian/Ubuntu: apt-get install jackd2)"
+            )
         from synth.io.playback import sounddevice_module
 
         sd = sounddevice_module()
@@ -87,9 +89,22 @@ class JackDummyServer:
         self._set_env("JACK_NO_START_SERVER", "1")
         self._log = tempfile.TemporaryFile(mode="w+")
         self._process = subprocess.Popen(
-            ["jackd", "-n", self.name, "--realtime" if realtime else "--no-realtime", "-d",
-             "dummy", "-r", str(self.samplerate), "-p", str(self.period)],
-            stdout=self._log, stderr=subprocess.STDOUT, text=True)
+            [
+                "jackd",
+                "-n",
+                self.name,
+                "--realtime" if realtime else "--no-realtime",
+                "-d",
+                "dummy",
+                "-r",
+                str(self.samplerate),
+                "-p",
+                str(self.period),
+            ],
+            stdout=self._log,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
         deadline = time.monotonic() + STARTUP_TIMEOUT
         while time.monotonic() < deadline:
             status = self._process.poll()
@@ -98,8 +113,7 @@ class JackDummyServer:
                 err = self._log.read()
                 self._process = None
                 self.stop()
-                raise SynthError(f"jackd exited with status {status}: "
-                                 f"{err.strip()[-500:]}")
+                raise SynthError(f"jackd exited with status {status}: {err.strip()[-500:]}")
             _reinitialize(sd)
             self.device = jack_output_device(sd)
             if self.device is not None:
@@ -115,8 +129,13 @@ class JackDummyServer:
 
     def ports(self) -> list[str]:
         """The server's ports (``jack_lsp``), e.g. to check that a client has left."""
-        out = subprocess.run(["jack_lsp", "-s", self.name], capture_output=True, text=True,
-                             timeout=10, env=os.environ.copy())
+        out = subprocess.run(
+            ["jack_lsp", "-s", self.name],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            env=os.environ.copy(),
+        )
         return [line.strip() for line in out.stdout.splitlines() if line.strip()]
 
     def _restore_env(self):
@@ -151,7 +170,7 @@ class JackDummyServer:
         if sd is not None:
             sd._initialize()
 
-    def __enter__(self) -> "JackDummyServer":
+    def __enter__(self) -> JackDummyServer:
         return self.start()
 
     def __exit__(self, *exc) -> None:

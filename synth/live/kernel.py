@@ -61,9 +61,31 @@ def _next_due(state, inject, end):
 
 
 @numba.njit(cache=True, nogil=True)
-def mix_body(out, t0, n, table, poles, fs, zr, zi, active, debt, debt_at, thresholds, thr2,
-             level, floor, state, inject, first, length, amplitudes, response, reference,
-             counters):
+def mix_body(
+    out,
+    t0,
+    n,
+    table,
+    poles,
+    fs,
+    zr,
+    zi,
+    active,
+    debt,
+    debt_at,
+    thresholds,
+    thr2,
+    level,
+    floor,
+    state,
+    inject,
+    first,
+    length,
+    amplitudes,
+    response,
+    reference,
+    counters,
+):
     """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock).
 
     The bank's state (``table`` .. ``thr2``, see :func:`~synth.sound.modal_bank.ring_modes`);
@@ -86,16 +108,18 @@ def mix_body(out, t0, n, table, poles, fs, zr, zi, active, debt, debt_at, thresh
     while True:
         i = _next_due(state, inject, end)
         if i < 0:
-            ring_modes(out, t0, a, end, table, zr, zi, active, debt, debt_at, thresholds, thr2,
-                       poles, fs)
+            ring_modes(
+                out, t0, a, end, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
+            )
             break
         at = inject[i]
         if at < t0:
             counters[LATE] += 1
             at = t0
         if at > a:
-            ring_modes(out, t0, a, at, table, zr, zi, active, debt, debt_at, thresholds, thr2,
-                       poles, fs)
+            ring_modes(
+                out, t0, a, at, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
+            )
             a = at
         if reference[i] > level[0]:
             level[0] = reference[i]
@@ -163,12 +187,28 @@ def warm_up() -> None:
     K, R = 1, 1
     mix = np.zeros(8)
     out = np.zeros((8, 1), dtype=np.float32)
-    args = (power_table(poles, 48000.0), poles, 48000.0, np.zeros(K), np.zeros(K),
-            np.zeros(K, dtype=np.bool_), np.zeros(K), np.zeros(K, dtype=np.int64), np.zeros(K),
-            np.zeros(K), np.zeros(1), 1e-4, np.ones(R, dtype=np.int64), np.zeros(R, dtype=np.int64),
-            np.zeros(R, dtype=np.int64), np.ones(R, dtype=np.int64),
-            np.ones((R, K), dtype=complex), np.ones((R, 2)), np.ones(R),
-            np.zeros(N_COUNTERS, dtype=np.int64))
+    args = (
+        power_table(poles, 48000.0),
+        poles,
+        48000.0,
+        np.zeros(K),
+        np.zeros(K),
+        np.zeros(K, dtype=np.bool_),
+        np.zeros(K),
+        np.zeros(K, dtype=np.int64),
+        np.zeros(K),
+        np.zeros(K),
+        np.zeros(1),
+        1e-4,
+        np.ones(R, dtype=np.int64),
+        np.zeros(R, dtype=np.int64),
+        np.zeros(R, dtype=np.int64),
+        np.ones(R, dtype=np.int64),
+        np.ones((R, K), dtype=complex),
+        np.ones((R, 2)),
+        np.ones(R),
+        np.zeros(N_COUNTERS, dtype=np.int64),
+    )
     mix_body(mix, 0, 8, *args)
     silence(args[3], args[4], args[5], args[6], args[12])
     write_output(mix, 8, out, 0, 4)

@@ -33,8 +33,8 @@ class PendingRing:
         self.response = np.zeros((capacity, max_contact))
         self.reference = np.zeros(capacity)
         self.refused = 0
-        self.puts = 0                   # impacts handed over so far (written after READY)
-        self._lock = threading.Lock()   # between producers only
+        self.puts = 0  # impacts handed over so far (written after READY)
+        self._lock = threading.Lock()  # between producers only
 
     @property
     def capacity(self) -> int:
@@ -48,8 +48,14 @@ class PendingRing:
         """Impacts handed over and not yet played."""
         return int(np.count_nonzero(self.state == READY))
 
-    def put(self, inject: int, first: int, amplitudes: np.ndarray, response: np.ndarray,
-            reference: float) -> bool:
+    def put(
+        self,
+        inject: int,
+        first: int,
+        amplitudes: np.ndarray,
+        response: np.ndarray,
+        reference: float,
+    ) -> bool:
         """Hand one impact over; False (and counted in ``refused``) when the ring is full."""
         with self._lock:
             free = np.flatnonzero(self.state == FREE)
@@ -58,7 +64,7 @@ class PendingRing:
                 return False
             i = int(free[0])
             self.amplitudes[i] = amplitudes
-            self.response[i, :response.size] = response
+            self.response[i, : response.size] = response
             self.length[i] = response.size
             self.first[i] = first
             self.inject[i] = inject

@@ -38,8 +38,14 @@ from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.scene import Ball, Plate, Scene
 
-STOP_REASONS = ("settled", "flight-shorter-than-contact", "floor", "max-duration",
-                "max-impacts", "solver-failure")
+STOP_REASONS = (
+    "settled",
+    "flight-shorter-than-contact",
+    "floor",
+    "max-duration",
+    "max-impacts",
+    "solver-failure",
+)
 
 
 @dataclass(frozen=True)
@@ -115,11 +121,20 @@ class BounceSequence:
     def table(self) -> list[dict]:
         """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
         peak_force (N), inelasticity (lambda), settled."""
-        return [dict(n=i.index, time=i.time, speed=i.speed,
-                     restitution=i.restitution, contact_time=i.result.contact_time,
-                     peak_force=i.result.peak_force, max_penetration=i.result.max_penetration,
-                     inelasticity=i.result.inelasticity, settled=i.result.settled)
-                for i in self.impacts]
+        return [
+            dict(
+                n=i.index,
+                time=i.time,
+                speed=i.speed,
+                restitution=i.restitution,
+                contact_time=i.result.contact_time,
+                peak_force=i.result.peak_force,
+                max_penetration=i.result.max_penetration,
+                inelasticity=i.result.inelasticity,
+                settled=i.result.settled,
+            )
+            for i in self.impacts
+        ]
 
 
 #: A rebound rule: the restitution ``e'`` (dimensionless) that sets the flight after an
@@ -128,11 +143,22 @@ class BounceSequence:
 ReboundRule = Callable[[ImpactResult, float], float]
 
 
-def simulate_bounces(ball: Ball, plate: Plate, *, drop_height: float,
-                     position: tuple[float, float] | None = None, gravity: float = GRAVITY,
-                     contact_law: str = "hertz", rtol: float = 1e-6, floor_db: float = -60.0,
-                     max_duration: float = 60.0, max_impacts: int = 10_000, n_points: int = 128,
-                     rebound: ReboundRule | None = None, **contact_options) -> BounceSequence:
+def simulate_bounces(
+    ball: Ball,
+    plate: Plate,
+    *,
+    drop_height: float,
+    position: tuple[float, float] | None = None,
+    gravity: float = GRAVITY,
+    contact_law: str = "hertz",
+    rtol: float = 1e-6,
+    floor_db: float = -60.0,
+    max_duration: float = 60.0,
+    max_impacts: int = 10_000,
+    n_points: int = 128,
+    rebound: ReboundRule | None = None,
+    **contact_options,
+) -> BounceSequence:
     """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
 
     Parameters
@@ -182,11 +208,13 @@ def simulate_bounces(ball: Ball, plate: Plate, *, drop_height: float,
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError(f"max_impacts={max_impacts!r} must be an integer >= 1")
     if rebound is not None and not callable(rebound):
-        raise ParameterError(f"rebound={rebound!r} must be a callable (ImpactResult, speed) -> "
-                             f"restitution, or None")
+        raise ParameterError(
+            f"rebound={rebound!r} must be a callable (ImpactResult, speed) -> restitution, or None"
+        )
     pos = None if position is None else plate.check_position(position, "position")
-    solver = ContactSolver.for_pair(ball, plate, gravity=g, law=contact_law, rtol=rtol,
-                                    n_points=n_points, **contact_options)
+    solver = ContactSolver.for_pair(
+        ball, plate, gravity=g, law=contact_law, rtol=rtol, n_points=n_points, **contact_options
+    )
     energy_floor = 10.0 ** (floor / 10.0)
 
     t = math.sqrt(2.0 * h0 / g)
@@ -226,6 +254,14 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     c = scene.contact
-    return simulate_bounces(scene.ball, scene.plate, drop_height=scene.drop_height,
-                            position=scene.position, gravity=scene.gravity, contact_law=c.law,
-                            rtol=c.rtol, **c.options(), **options)
+    return simulate_bounces(
+        scene.ball,
+        scene.plate,
+        drop_height=scene.drop_height,
+        position=scene.position,
+        gravity=scene.gravity,
+        contact_law=c.law,
+        rtol=c.rtol,
+        **c.options(),
+        **options,
+    )

@@ -66,8 +66,10 @@ _MESSAGES = {
     _k.MAX_STEPS: "The step limit was reached before the contact ended.",
     _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
 }
-_TINY_REBOUND = ("The ball separated with a rebound speed below the solver's resolution; "
-                 "restitution reported as 0.")
+_TINY_REBOUND = (
+    "The ball separated with a rebound speed below the solver's resolution; "
+    "restitution reported as 0."
+)
 #: Status of a contact integrated to its end whose energy balance is not met.
 ENERGY_IMBALANCE = -3
 #: Largest energy residual (relative, see ``ImpactResult.energy_residual``) of a result
@@ -78,8 +80,10 @@ ENERGY_RESIDUAL_LIMIT = 0.01
 
 
 def _energy_message(residual: float) -> str:
-    return (f"The energy balance is not met: residual {residual:.3g} of the energy "
-            f"exchanged (at most {ENERGY_RESIDUAL_LIMIT:g}); the result is not physical.")
+    return (
+        f"The energy balance is not met: residual {residual:.3g} of the energy "
+        f"exchanged (at most {ENERGY_RESIDUAL_LIMIT:g}); the result is not physical."
+    )
 
 
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
@@ -190,8 +194,20 @@ class ImpactResult:
         d = self._dense
         times = np.empty(d.n_points)
         forces = np.empty(d.n_points)
-        _k.pulse(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact,
-                 self.status == _k.SEPARATED, d.theta, d.f_scale, times, forces)
+        _k.pulse(
+            d.hist,
+            d.radau,
+            d.lam,
+            d.G,
+            d.n,
+            d.c,
+            d.s_contact,
+            self.status == _k.SEPARATED,
+            d.theta,
+            d.f_scale,
+            times,
+            forces,
+        )
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
@@ -218,10 +234,20 @@ class ImpactResult:
         return out, slope
 
 
-def solve_contact(*, mass: float, stiffness: float, admittance: float, speed: float,
-                  gravity: float = GRAVITY, exponent: float = 1.5, dissipation: float = 0.0,
-                  plate_velocity: float = 0.0, rtol: float = 1e-6, n_points: int = 128,
-                  method: str = "auto") -> ImpactResult:
+def solve_contact(
+    *,
+    mass: float,
+    stiffness: float,
+    admittance: float,
+    speed: float,
+    gravity: float = GRAVITY,
+    exponent: float = 1.5,
+    dissipation: float = 0.0,
+    plate_velocity: float = 0.0,
+    rtol: float = 1e-6,
+    n_points: int = 128,
+    method: str = "auto",
+) -> ImpactResult:
     """Solve one impact from lumped parameters.
 
     Parameters
@@ -257,15 +283,30 @@ def solve_contact(*, mass: float, stiffness: float, admittance: float, speed: fl
     """
     # Plain floats inside their ranges (the usual call) pass at once; anything else goes
     # through the checks, which convert it or name the field, its value and the range.
-    if not (type(mass) is float and type(stiffness) is float and type(admittance) is float
-            and type(speed) is float and type(gravity) is float and type(exponent) is float
-            and type(dissipation) is float and type(plate_velocity) is float
-            and type(rtol) is float and type(n_points) is int
-            and 0.0 < mass < _INF and 0.0 < stiffness < _INF and 0.0 <= admittance < _INF
-            and 0.0 < speed < _INF and 0.0 <= gravity < _INF and 1.0 < exponent <= 4.0
-            and 0.0 <= dissipation < _INF and -_INF < plate_velocity < _INF
-            and 1e-12 <= rtol <= 0.1 and n_points >= MIN_POINTS and type(method) is str
-            and method in _METHODS):
+    if not (
+        type(mass) is float
+        and type(stiffness) is float
+        and type(admittance) is float
+        and type(speed) is float
+        and type(gravity) is float
+        and type(exponent) is float
+        and type(dissipation) is float
+        and type(plate_velocity) is float
+        and type(rtol) is float
+        and type(n_points) is int
+        and 0.0 < mass < _INF
+        and 0.0 < stiffness < _INF
+        and 0.0 <= admittance < _INF
+        and 0.0 < speed < _INF
+        and 0.0 <= gravity < _INF
+        and 1.0 < exponent <= 4.0
+        and 0.0 <= dissipation < _INF
+        and -_INF < plate_velocity < _INF
+        and 1e-12 <= rtol <= 0.1
+        and n_points >= MIN_POINTS
+        and type(method) is str
+        and method in _METHODS
+    ):
         mass = checks.positive("mass", mass, "kg")
         stiffness = checks.positive("stiffness", stiffness, "N/m^n")
         admittance = checks.nonnegative("admittance", admittance, "m/(N s)")
@@ -274,32 +315,63 @@ def solve_contact(*, mass: float, stiffness: float, admittance: float, speed: fl
         exponent = checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
         dissipation = checks.nonnegative("dissipation", dissipation, "s/m")
         plate_velocity = checks.real("plate_velocity", plate_velocity, "m/s")
-        rtol = checks.in_range("rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False,
-                                hi_open=False)
+        rtol = checks.in_range(
+            "rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
+        )
         n_points = _check_points(n_points)
         checks.choice("method", method, _METHODS)
     if not speed + plate_velocity > 0.0:
         raise ParameterError(
             f"speed={speed!r} with plate_velocity={plate_velocity!r}: the approach speed "
-            f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate")
-    return _solve(mass, stiffness, admittance, speed, gravity, exponent, dissipation,
-                  plate_velocity, rtol, n_points, method)
+            f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate"
+        )
+    return _solve(
+        mass,
+        stiffness,
+        admittance,
+        speed,
+        gravity,
+        exponent,
+        dissipation,
+        plate_velocity,
+        rtol,
+        n_points,
+        method,
+    )
 
 
 def _check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
-    if (isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer))
-            or n_points < MIN_POINTS):
-        raise ParameterError(f"n_points={n_points!r} must be an integer >= {MIN_POINTS} "
-                             f"(samples of the force pulse over the contact)")
+    if (
+        isinstance(n_points, bool)
+        or not isinstance(n_points, (int, np.integer))
+        or n_points < MIN_POINTS
+    ):
+        raise ParameterError(
+            f"n_points={n_points!r} must be an integer >= {MIN_POINTS} "
+            f"(samples of the force pulse over the contact)"
+        )
     return int(n_points)
 
 
 def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
     r, hist = _k.impact(
-        m, K, beta, v_in, g, n, mu, v_free, tol * TOLERANCE_SAFETY, ABSOLUTE_FACTOR,
-        STIFF_LAMBDA, _METHODS[method], EXPLICIT_STEP_LIMIT, IMPLICIT_STEP_LIMIT)
+        m,
+        K,
+        beta,
+        v_in,
+        g,
+        n,
+        mu,
+        v_free,
+        tol * TOLERANCE_SAFETY,
+        ABSOLUTE_FACTOR,
+        STIFF_LAMBDA,
+        _METHODS[method],
+        EXPLICIT_STEP_LIMIT,
+        IMPLICIT_STEP_LIMIT,
+    )
     status = int(r[_k.R_STATUS])
     stiff = bool(r[_k.R_STIFF])
     lam = float(r[_k.R_INELASTICITY])
@@ -310,28 +382,45 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
     obj = object.__new__(ImpactResult)
     # The solver's own values need no checks: fill the frozen instance directly (the
     # generated __init__ would take a good part of the time an impact takes).
-    object.__setattr__(obj, "__dict__", {
-        "restitution": float(r[_k.R_RESTITUTION]),
-        "contact_time": float(r[_k.R_CONTACT_TIME]),
-        "max_penetration": float(r[_k.R_MAX_PENETRATION]),
-        "peak_force": float(r[_k.R_PEAK_FORCE]),
-        "impulse": float(r[_k.R_IMPULSE]),
-        "inelasticity": lam,
-        "settled": status == _k.SETTLED,
-        "rebound_speed": float(r[_k.R_REBOUND_SPEED]),
-        "plate_energy": float(r[_k.R_PLATE_ENERGY]),
-        "energy_residual": float(r[_k.R_ENERGY_RESIDUAL]),
-        "success": status >= 0,
-        "status": status,
-        "message": (_energy_message(residual) if energy_failed else
-                    _TINY_REBOUND if r[_k.R_TINY_REBOUND]
-                    else _MESSAGES.get(status, "Unknown status.")),
-        "n_steps": int(r[_k.R_N_STEPS]),
-        "method": "Radau" if stiff else "DOP853",
-        "_dense": DenseOutput(hist, stiff, lam, float(r[_k.R_G]), n, float(r[_k.R_C]),
-                              float(r[_k.R_S_CONTACT]), float(r[_k.R_THETA]),
-                              float(r[_k.R_F_SCALE]), n_points),
-    })
+    object.__setattr__(
+        obj,
+        "__dict__",
+        {
+            "restitution": float(r[_k.R_RESTITUTION]),
+            "contact_time": float(r[_k.R_CONTACT_TIME]),
+            "max_penetration": float(r[_k.R_MAX_PENETRATION]),
+            "peak_force": float(r[_k.R_PEAK_FORCE]),
+            "impulse": float(r[_k.R_IMPULSE]),
+            "inelasticity": lam,
+            "settled": status == _k.SETTLED,
+            "rebound_speed": float(r[_k.R_REBOUND_SPEED]),
+            "plate_energy": float(r[_k.R_PLATE_ENERGY]),
+            "energy_residual": float(r[_k.R_ENERGY_RESIDUAL]),
+            "success": status >= 0,
+            "status": status,
+            "message": (
+                _energy_message(residual)
+                if energy_failed
+                else _TINY_REBOUND
+                if r[_k.R_TINY_REBOUND]
+                else _MESSAGES.get(status, "Unknown status.")
+            ),
+            "n_steps": int(r[_k.R_N_STEPS]),
+            "method": "Radau" if stiff else "DOP853",
+            "_dense": DenseOutput(
+                hist,
+                stiff,
+                lam,
+                float(r[_k.R_G]),
+                n,
+                float(r[_k.R_C]),
+                float(r[_k.R_S_CONTACT]),
+                float(r[_k.R_THETA]),
+                float(r[_k.R_F_SCALE]),
+                n_points,
+            ),
+        },
+    )
     return obj
 
 
@@ -369,10 +458,16 @@ def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> f
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
-def contact_law(ball: Ball, plate: Plate, contact: str = "hertz", *,
-                dissipation: float | None = None, exponent: float | None = None,
-                stiffness: float | None = None,
-                layer_depth: float | None = None) -> tuple[float, float, float]:
+def contact_law(
+    ball: Ball,
+    plate: Plate,
+    contact: str = "hertz",
+    *,
+    dissipation: float | None = None,
+    exponent: float | None = None,
+    stiffness: float | None = None,
+    layer_depth: float | None = None,
+) -> tuple[float, float, float]:
     """Contact parameters ``(K, n, mu)`` for a named law (docs/physics.md, "Hertz contact").
 
     Parameters
@@ -386,10 +481,18 @@ def contact_law(ball: Ball, plate: Plate, contact: str = "hertz", *,
         Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
     """
     checks.choice("contact", contact, CONTACT_LAWS)
-    given = {"dissipation": dissipation, "exponent": exponent, "stiffness": stiffness,
-             "layer_depth": layer_depth}
-    allowed = {"hertz": (), "hunt-crossley": ("dissipation",),
-               "elastic-foundation": ("layer_depth",), "power-law": ("exponent", "stiffness")}[contact]
+    given = {
+        "dissipation": dissipation,
+        "exponent": exponent,
+        "stiffness": stiffness,
+        "layer_depth": layer_depth,
+    }
+    allowed = {
+        "hertz": (),
+        "hunt-crossley": ("dissipation",),
+        "elastic-foundation": ("layer_depth",),
+        "power-law": ("exponent", "stiffness"),
+    }[contact]
     for key, value in given.items():
         if value is not None and key not in allowed:
             raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
@@ -403,16 +506,29 @@ def contact_law(ball: Ball, plate: Plate, contact: str = "hertz", *,
         return foundation_stiffness(ball, plate, layer_depth), 2.0, 0.0
     if exponent is None or stiffness is None:
         raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
-    return (checks.positive("stiffness", stiffness, "N/m^n"),
-            checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False), 0.0)
+    return (
+        checks.positive("stiffness", stiffness, "N/m^n"),
+        checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False),
+        0.0,
+    )
 
 
-def solve_impact(ball: Ball, plate: Plate, speed: float, *,
-                 position: tuple[float, float] | None = None, gravity: float = GRAVITY,
-                 contact: str = "hertz", rtol: float = 1e-6, dissipation: float | None = None,
-                 exponent: float | None = None, stiffness: float | None = None,
-                 layer_depth: float | None = None, plate_velocity: float = 0.0,
-                 n_points: int = 128) -> ImpactResult:
+def solve_impact(
+    ball: Ball,
+    plate: Plate,
+    speed: float,
+    *,
+    position: tuple[float, float] | None = None,
+    gravity: float = GRAVITY,
+    contact: str = "hertz",
+    rtol: float = 1e-6,
+    dissipation: float | None = None,
+    exponent: float | None = None,
+    stiffness: float | None = None,
+    layer_depth: float | None = None,
+    plate_velocity: float = 0.0,
+    n_points: int = 128,
+) -> ImpactResult:
     """Solve the impact of ``ball`` on ``plate`` at ``speed``.
 
     Parameters
@@ -445,17 +561,46 @@ def solve_impact(ball: Ball, plate: Plate, speed: float, *,
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
-    K, n, mu = contact_law(ball, plate, contact, dissipation=dissipation, exponent=exponent,
-                           stiffness=stiffness, layer_depth=layer_depth)
+    K, n, mu = contact_law(
+        ball,
+        plate,
+        contact,
+        dissipation=dissipation,
+        exponent=exponent,
+        stiffness=stiffness,
+        layer_depth=layer_depth,
+    )
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
-    kwargs = dict(mass=ball.mass, stiffness=K, speed=speed, gravity=gravity, exponent=n,
-                  dissipation=mu, plate_velocity=plate_velocity, rtol=rtol, n_points=n_points)
+    kwargs = dict(
+        mass=ball.mass,
+        stiffness=K,
+        speed=speed,
+        gravity=gravity,
+        exponent=n,
+        dissipation=mu,
+        plate_velocity=plate_velocity,
+        rtol=rtol,
+        n_points=n_points,
+    )
     result = solve_contact(admittance=beta, **kwargs)
     if position is None:
         return result
     x, y = plate.check_position(position, "position")
-    return _solve_at(plate, x, y, ball.mass, K, float(speed), float(gravity), n, mu,
-                     float(plate_velocity), float(rtol), int(n_points), first=result)
+    return _solve_at(
+        plate,
+        x,
+        y,
+        ball.mass,
+        K,
+        float(speed),
+        float(gravity),
+        n,
+        mu,
+        float(plate_velocity),
+        float(rtol),
+        int(n_points),
+        first=result,
+    )
 
 
 #: Most contact solutions spent on the admittance near an edge (fixed point and bisection).
@@ -479,12 +624,16 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
     bracket closes on the jump and the message says so.
     """
     beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
-    result = first if first is not None else _solve(m, K, beta_inf, v_in, g, n, mu, v_free, tol,
-                                                   n_points, "auto")
+    result = (
+        first
+        if first is not None
+        else _solve(m, K, beta_inf, v_in, g, n, mu, v_free, tol, n_points, "auto")
+    )
     if plate.boundary != "free" or not result.success:
         return result
     if impedance.critical_distance(plate, result.contact_time) <= min(
-            x, plate.length - x, y, plate.width - y):
+        x, plate.length - x, y, plate.width - y
+    ):
         return result
     lo = beta_inf
     hi = beta_inf / impedance.CORNER_RATIO
@@ -504,15 +653,21 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
             err, res_b, beta_b = best
             if settled_lo and settled_hi:
                 # e = 0 on both sides: only the landing transient depends on beta there
-                why = ("the ball settles on both sides, and the contact time of a settled "
-                       "contact (when settling was proven) does not fix the distance at "
-                       "which the edge is felt")
+                why = (
+                    "the ball settles on both sides, and the contact time of a settled "
+                    "contact (when settling was proven) does not fix the distance at "
+                    "which the edge is felt"
+                )
             else:
                 why = "the contact switches between settling and separating there"
-            return _with_message(res_b, (
-                f"{res_b.message} The edge admittance has no consistent value: "
-                f"A(tau(beta)) jumps across beta = {beta_b:.6g} m/(N s) ({why}); the "
-                f"solution there is reported (|A - beta| = {err:.3g} m/(N s))."))
+            return _with_message(
+                res_b,
+                (
+                    f"{res_b.message} The edge admittance has no consistent value: "
+                    f"A(tau(beta)) jumps across beta = {beta_b:.6g} m/(N s) ({why}); the "
+                    f"solution there is reported (|A - beta| = {err:.3g} m/(N s))."
+                ),
+            )
         # fixed-point step while it stays inside the bracket and contracts; else bisect
         beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
         result = _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, "auto")
@@ -522,9 +677,13 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
         if abs(target - beta) < best[0]:
             best = (abs(target - beta), result, beta)
     err, res_b, beta_b = best
-    return _with_message(res_b, (
-        f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
-        f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."))
+    return _with_message(
+        res_b,
+        (
+            f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
+            f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."
+        ),
+    )
 
 
 def _with_message(result, message):
@@ -582,26 +741,39 @@ class ContactSolver:
         checked = dict(
             mass=checks.positive("mass", self.mass, "kg"),
             stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
-            exponent=checks.in_range("exponent", self.exponent, 1.0, 4.0, "dimensionless",
-                                     hi_open=False),
+            exponent=checks.in_range(
+                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
+            ),
             dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
             gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
-            rtol=checks.in_range("rtol", self.rtol, 1e-12, 0.1, "dimensionless",
-                                 lo_open=False, hi_open=False),
+            rtol=checks.in_range(
+                "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
+            ),
             n_points=_check_points(self.n_points),
-            method=checks.choice("method", self.method, _METHODS))
+            method=checks.choice("method", self.method, _METHODS),
+        )
         if self.plate is not None and not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
         for key, value in checked.items():
             object.__setattr__(self, key, value)
-        beta_inf = (None if self.plate is None
-                    else 1.0 / impedance.infinite_plate_impedance(self.plate))
+        beta_inf = (
+            None if self.plate is None else 1.0 / impedance.infinite_plate_impedance(self.plate)
+        )
         object.__setattr__(self, "_beta_inf", beta_inf)
 
     @classmethod
-    def for_pair(cls, ball, plate, *, gravity: float = GRAVITY, law: str = "hertz",
-                 rtol: float = 1e-6, n_points: int = 128, method: str = "auto",
-                 **contact_options) -> ContactSolver:
+    def for_pair(
+        cls,
+        ball,
+        plate,
+        *,
+        gravity: float = GRAVITY,
+        law: str = "hertz",
+        rtol: float = 1e-6,
+        n_points: int = 128,
+        method: str = "auto",
+        **contact_options,
+    ) -> ContactSolver:
         """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
         ``contact_options``, see :func:`contact_law`); gravity in m/s^2."""
         if not isinstance(ball, Ball):
@@ -616,8 +788,14 @@ class ContactSolver:
         """``1 / Z_inf`` of the plate, m/(N s) (None without a plate)."""
         return self._beta_inf
 
-    def solve(self, speed: float, *, admittance: float | None = None, position=None,
-              free_velocity: float = 0.0) -> ImpactResult:
+    def solve(
+        self,
+        speed: float,
+        *,
+        admittance: float | None = None,
+        position=None,
+        free_velocity: float = 0.0,
+    ) -> ImpactResult:
         """The impact at ``speed`` (m/s, downward).
 
         The plate's admittance at the impact point is ``admittance`` (m/(N s)) if
@@ -627,27 +805,66 @@ class ContactSolver:
         ``free_velocity`` is the plate surface's velocity before the impact, m/s,
         positive upward.
         """
-        v = speed if type(speed) is float and 0.0 < speed < _INF else checks.positive(
-            "speed", speed, "m/s")
-        v_free = (free_velocity if type(free_velocity) is float
-                  and -_INF < free_velocity < _INF
-                  else checks.real("free_velocity", free_velocity, "m/s"))
+        v = (
+            speed
+            if type(speed) is float and 0.0 < speed < _INF
+            else checks.positive("speed", speed, "m/s")
+        )
+        v_free = (
+            free_velocity
+            if type(free_velocity) is float and -_INF < free_velocity < _INF
+            else checks.real("free_velocity", free_velocity, "m/s")
+        )
         if not v + v_free > 0.0:
             raise ParameterError(
                 f"speed={speed!r} with free_velocity={free_velocity!r}: the approach speed "
-                f"speed + free_velocity must be > 0 (m/s) for the ball to hit the plate")
+                f"speed + free_velocity must be > 0 (m/s) for the ball to hit the plate"
+            )
         if admittance is not None:
             if position is not None:
                 raise ParameterError("give admittance or position, not both")
             beta = checks.nonnegative("admittance", admittance, "m/(N s)")
-            return _solve(self.mass, self.stiffness, beta, v, self.gravity, self.exponent,
-                          self.dissipation, v_free, self.rtol, self.n_points, self.method)
+            return _solve(
+                self.mass,
+                self.stiffness,
+                beta,
+                v,
+                self.gravity,
+                self.exponent,
+                self.dissipation,
+                v_free,
+                self.rtol,
+                self.n_points,
+                self.method,
+            )
         if self.plate is None:
             raise ParameterError("a ContactSolver without a plate needs admittance (m/(N s))")
         if position is None:
-            return _solve(self.mass, self.stiffness, self._beta_inf, v, self.gravity,
-                          self.exponent, self.dissipation, v_free, self.rtol, self.n_points,
-                          self.method)
+            return _solve(
+                self.mass,
+                self.stiffness,
+                self._beta_inf,
+                v,
+                self.gravity,
+                self.exponent,
+                self.dissipation,
+                v_free,
+                self.rtol,
+                self.n_points,
+                self.method,
+            )
         x, y = self.plate.check_position(position, "position")
-        return _solve_at(self.plate, x, y, self.mass, self.stiffness, v, self.gravity,
-                         self.exponent, self.dissipation, v_free, self.rtol, self.n_points)
+        return _solve_at(
+            self.plate,
+            x,
+            y,
+            self.mass,
+            self.stiffness,
+            v,
+            self.gravity,
+            self.exponent,
+            self.dissipation,
+            v_free,
+            self.rtol,
+            self.n_points,
+        )

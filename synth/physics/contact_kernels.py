@@ -55,27 +55,36 @@ _C = np.ascontiguousarray(_dop.C[:_NS])
 _E3 = np.ascontiguousarray(_dop.E3)
 _E5 = np.ascontiguousarray(_dop.E5)
 _D = np.ascontiguousarray(_dop.D)
-_A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1:])
+_A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 # --- Radau IIA (order 5) constants, as in scipy.integrate.Radau ------------------------
-_S6 = 6.0 ** 0.5
+_S6 = 6.0**0.5
 _RC = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
 _RE = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0
 _MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)
 _MU_C_RE = 3.0 + 0.5 * (3.0 ** (1.0 / 3.0) - 3.0 ** (2.0 / 3.0))
 _MU_C_IM = -0.5 * (3.0 ** (5.0 / 6.0) + 3.0 ** (7.0 / 6.0))
-_RT = np.array([
-    [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
-    [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
-    [1.0, 1.0, 0.0]])
-_RTI = np.array([
-    [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
-    [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
-    [0.50287263494578682, -2.57192694985560522, 0.59603920482822492]])
-_RP = np.array([
-    [13.0 / 3.0 + 7.0 * _S6 / 3.0, -23.0 / 3.0 - 22.0 * _S6 / 3.0, 10.0 / 3.0 + 5.0 * _S6],
-    [13.0 / 3.0 - 7.0 * _S6 / 3.0, -23.0 / 3.0 + 22.0 * _S6 / 3.0, 10.0 / 3.0 - 5.0 * _S6],
-    [1.0 / 3.0, -8.0 / 3.0, 10.0 / 3.0]])
+_RT = np.array(
+    [
+        [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
+        [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
+        [1.0, 1.0, 0.0],
+    ]
+)
+_RTI = np.array(
+    [
+        [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
+        [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
+        [0.50287263494578682, -2.57192694985560522, 0.59603920482822492],
+    ]
+)
+_RP = np.array(
+    [
+        [13.0 / 3.0 + 7.0 * _S6 / 3.0, -23.0 / 3.0 - 22.0 * _S6 / 3.0, 10.0 / 3.0 + 5.0 * _S6],
+        [13.0 / 3.0 - 7.0 * _S6 / 3.0, -23.0 / 3.0 + 22.0 * _S6 / 3.0, 10.0 / 3.0 - 5.0 * _S6],
+        [1.0 / 3.0, -8.0 / 3.0, 10.0 / 3.0],
+    ]
+)
 # Quadrature weights of the Radau IIA collocation (last row of its A matrix).
 _RB = np.array([(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0])
 _NEWTON_MAXITER = 6
@@ -83,7 +92,7 @@ _NEWTON_MAXITER = 6
 # --- series start ----------------------------------------------------------------------
 #: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
 SERIES_DEGREE = 9.0
-_SN = int(SERIES_DEGREE) + 1          # coefficient arrays are (_SN, _SN): i, j <= degree
+_SN = int(SERIES_DEGREE) + 1  # coefficient arrays are (_SN, _SN): i, j <= degree
 #: The series is used at most up to this dimensionless time (the contact lasts ~3).
 SERIES_MAX_TIME = 1.0
 
@@ -96,7 +105,7 @@ NEWTON_FAILED = -3
 
 # Columns of the dense-output history, one row per accepted step (row 0: the series).
 _H_T0, _H_H, _H_X0, _H_W0 = 0, 1, 2, 3
-_H_COEF = 4           # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
+_H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
 _H_COLS = _H_COEF + 14
 
 
@@ -107,7 +116,7 @@ def _power(x, n):
         return x * math.sqrt(x)
     if n == 2.0:
         return x * x
-    return x ** n
+    return x**n
 
 
 @numba.njit(cache=True, inline="always")
@@ -169,7 +178,7 @@ def _hermite_dips(x0, x1, d0, d1):
     from negative to positive, at the interpolant's minimum (a root of its derivative)."""
     if not (d0 < 0.0 < d1):
         return False
-    a = 2.0 * x0 + d0 - 2.0 * x1 + d1       # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
+    a = 2.0 * x0 + d0 - 2.0 * x1 + d1  # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
     b = -3.0 * x0 - 2.0 * d0 + 3.0 * x1 - d1
     # x'(t) = 3 a t^2 + 2 b t + d0: its roots in (0, 1)
     qa = 3.0 * a
@@ -200,8 +209,12 @@ def _hermite_root(x0, x1, d0, d1):
         m = 0.5 * (a + b)
         t2 = m * m
         t3 = t2 * m
-        v = ((2.0 * t3 - 3.0 * t2 + 1.0) * x0 + (t3 - 2.0 * t2 + m) * d0
-             + (3.0 * t2 - 2.0 * t3) * x1 + (t3 - t2) * d1)
+        v = (
+            (2.0 * t3 - 3.0 * t2 + 1.0) * x0
+            + (t3 - 2.0 * t2 + m) * d0
+            + (3.0 * t2 - 2.0 * t3) * x1
+            + (t3 - t2) * d1
+        )
         if v > 0.0:
             a = m
         else:
@@ -274,7 +287,7 @@ def _grow(hist, k):
     if k < hist.shape[0]:
         return hist
     new = np.empty((2 * hist.shape[0], hist.shape[1]))
-    new[:hist.shape[0]] = hist
+    new[: hist.shape[0]] = hist
     return new
 
 
@@ -450,8 +463,11 @@ def _series_start(lam, G, n, c, rtol, S):
                 q = 0.0
                 for bb in range(j + 1):
                     for aa in range(i + 1):
-                        q += ((S[3, aa, bb] - S[2, aa, bb]) * (i - aa + (j - bb) * n + 1.0)
-                              * S[0, i - aa, j - bb])
+                        q += (
+                            (S[3, aa, bb] - S[2, aa, bb])
+                            * (i - aa + (j - bb) * n + 1.0)
+                            * S[0, i - aa, j - bb]
+                        )
                 loss += q * si / (d + n + 1.0)
             si *= s1
         bj *= b1
@@ -619,13 +635,13 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     nrej = 0
     settle = G > 0.0 and lam > 0.0
     wthr = 0.5 * (lam * G) ** 2
-    peaked = False   # past the first penetration peak (a settled pulse keeps its landing)
+    peaked = False  # past the first penetration peak (a settled pulse keeps its landing)
     rejected = False
     h_rej = 0.0
     err_rej = 0.0
     landing = False  # this step is meant to end just past the end of contact
     land_max = np.inf  # farthest a landing may start from, once one has failed
-    kappa = -1.0       # _landing_factor(n), when first needed
+    kappa = -1.0  # _landing_factor(n), when first needed
     # x is measured against its largest value so far: near the end of contact an error
     # dx moves the end by dx / x', and the contact time is of order one
     x_top = x
@@ -786,7 +802,7 @@ def _dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             # size (``_landing_factor``). If this step would reach the end, make it land
             # just past it, or, if the end is farther than a landing may start from,
             # stop short at a point from which it may.
-            sig = x / -K[0, 0]     # a first estimate, sharpened near the end
+            sig = x / -K[0, 0]  # a first estimate, sharpened near the end
             reach = land_max
             if h >= 0.5 * sig:
                 sig, v = _time_to_end(x, w, K[0, 0], lam, G, n, c)
@@ -813,7 +829,7 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     Z = np.zeros((3, 2))
     Wt = np.zeros((3, 2))
     F = np.zeros((3, 2))
-    fq = np.zeros((3, 2))       # f and (f - a) x' at the stages, for the quadratures
+    fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
     f0 = np.empty(4)
     f0[0], f0[1], f0[2], f0[3] = _rhs(y[0], y[1], lam, G, n, c)
     h_old = -1.0
@@ -824,7 +840,7 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     wthr = 0.5 * (lam * G) ** 2
     peaked = False
     have_dense = False
-    newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol ** 0.5))
+    newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
     j11, j12, j21, j22 = _jac2(y[0], y[1], lam, n, c)
     rejected = False
     while True:
@@ -873,20 +889,36 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             fr0 = _RTI[0, 0] * F[0, 0] + _RTI[0, 1] * F[1, 0] + _RTI[0, 2] * F[2, 0] - mr * Wt[0, 0]
             fr1 = _RTI[0, 0] * F[0, 1] + _RTI[0, 1] * F[1, 1] + _RTI[0, 2] * F[2, 1] - mr * Wt[0, 1]
             mcx = complex(mc_re, mc_im)
-            fc0 = (complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 0] + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 0]
-                   + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 0] - mcx * complex(Wt[1, 0], Wt[2, 0]))
-            fc1 = (complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 1] + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 1]
-                   + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 1] - mcx * complex(Wt[1, 1], Wt[2, 1]))
+            fc0 = (
+                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 0]
+                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 0]
+                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 0]
+                - mcx * complex(Wt[1, 0], Wt[2, 0])
+            )
+            fc1 = (
+                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 1]
+                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 1]
+                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 1]
+                - mcx * complex(Wt[1, 1], Wt[2, 1])
+            )
             d0 = (rd * fr0 - rb * fr1) / rdet
             d1 = (ra * fr1 - rc_ * fr0) / rdet
             z0 = (cd * fc0 - cb * fc1) / cdet
             z1 = (ca * fc1 - cc * fc0) / cdet
-            dn = ((d0 / sc0) ** 2 + (d1 / sc1) ** 2 + (z0.real / sc0) ** 2 + (z0.imag / sc0) ** 2
-                  + (z1.real / sc1) ** 2 + (z1.imag / sc1) ** 2)
+            dn = (
+                (d0 / sc0) ** 2
+                + (d1 / sc1) ** 2
+                + (z0.real / sc0) ** 2
+                + (z0.imag / sc0) ** 2
+                + (z1.real / sc1) ** 2
+                + (z1.imag / sc1) ** 2
+            )
             dn = math.sqrt(dn / 6.0)
             if dw_old >= 0.0:
                 rate = dn / dw_old if dw_old > 0.0 else 0.0
-            if rate >= 0.0 and (rate >= 1.0 or rate ** (_NEWTON_MAXITER - it) / (1.0 - rate) * dn > newton_tol):
+            if rate >= 0.0 and (
+                rate >= 1.0 or rate ** (_NEWTON_MAXITER - it) / (1.0 - rate) * dn > newton_tol
+            ):
                 break
             Wt[0, 0] += d0
             Wt[0, 1] += d1
@@ -932,7 +964,7 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
                 mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
             else:
                 mult = 1.0
-            fac = mult * err ** -0.25 if math.isfinite(err) and err > 0 else 0.2
+            fac = mult * err**-0.25 if math.isfinite(err) and err > 0 else 0.2
             h *= max(0.2, safety * fac)
             nrej += 1
             rejected = True
@@ -953,7 +985,9 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
         hist[nst, _H_W0] = y[1]
         for q in range(2):
             for r in range(3):
-                hist[nst, _H_COEF + 3 * q + r] = Z[0, q] * _RP[0, r] + Z[1, q] * _RP[1, r] + Z[2, q] * _RP[2, r]
+                hist[nst, _H_COEF + 3 * q + r] = (
+                    Z[0, q] * _RP[0, r] + Z[1, q] * _RP[1, r] + Z[2, q] * _RP[2, r]
+                )
         # quadratures by the collocation rule (exact for the collocation polynomial)
         for i in range(3):
             fi, ai = _force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c)
@@ -978,7 +1012,7 @@ def _radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
             mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
         else:
             mult = 1.0
-        fac = mult * err ** -0.25 if err > 0.0 else 10.0
+        fac = mult * err**-0.25 if err > 0.0 else 10.0
         fac = min(10.0, safety * fac)
         if rejected:
             fac = min(1.0, fac)
@@ -1054,12 +1088,14 @@ def _sample_pulse(hist, S, nh, radau, lam, n, c, s_contact, times, forces):
             t0 = hist[k, _H_T0]
             rh = 1.0 / hist[k, _H_H]
             x0 = hist[k, _H_X0]
-            c0, c1, c2, c3, c4, c5, c6 = hist[k, _H_COEF:_H_COEF + 7]
+            c0, c1, c2, c3, c4, c5, c6 = hist[k, _H_COEF : _H_COEF + 7]
             for j in range(i, i1):
                 th = (times[j] - t0) * rh
                 u = 1.0 - th
                 # scipy's Dop853DenseOutput, Horner form (as in _dense)
-                forces[j] = x0 + th * (c0 + u * (c1 + th * (c2 + u * (c3 + th * (c4 + u * (c5 + th * c6))))))
+                forces[j] = x0 + th * (
+                    c0 + u * (c1 + th * (c2 + u * (c3 + th * (c4 + u * (c5 + th * c6)))))
+                )
         i = i1
     _positive_power(forces, n)
 
@@ -1086,10 +1122,12 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
     # The series' validity ends at s1 like a step's: the next step is of the same length.
     if stiff:
         status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = _radau(
-            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1)
+            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        )
     else:
         status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = _dop853(
-            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1)
+            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        )
     radau = stiff
     s_contact = s_end
     if status == SEPARATED:
@@ -1142,30 +1180,44 @@ DOP853 = 1
 RADAU = 2
 
 # Fields of the result array of ``impact``: the one place that names their order.
-R_STATUS = 0             # SEPARATED, SETTLED or a failure code
-R_TINY_REBOUND = 1       # 1: separated with a rebound below the solver's resolution
-R_STIFF = 2              # 1: integrated by Radau IIA, 0: by DOP853
-R_RESTITUTION = 3        # v_out / v_in
-R_CONTACT_TIME = 4       # s
-R_MAX_PENETRATION = 5    # m
-R_PEAK_FORCE = 6         # N
-R_IMPULSE = 7            # N s
-R_INELASTICITY = 8       # Zener's lam = beta m / theta
-R_REBOUND_SPEED = 9      # m/s
-R_PLATE_ENERGY = 10      # J
-R_ENERGY_RESIDUAL = 11   # relative error of the energy balance
-R_N_STEPS = 12           # accepted steps
-R_G = 13                 # dimensionless gravity g theta / v0 (dense output)
-R_C = 14                 # dimensionless Hunt-Crossley loss mu v0 (dense output)
-R_S_CONTACT = 15         # dimensionless end of contact (dense output)
-R_THETA = 16             # Zener's time scale, s
-R_F_SCALE = 17           # force scale m v0 / theta, N
+R_STATUS = 0  # SEPARATED, SETTLED or a failure code
+R_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
+R_STIFF = 2  # 1: integrated by Radau IIA, 0: by DOP853
+R_RESTITUTION = 3  # v_out / v_in
+R_CONTACT_TIME = 4  # s
+R_MAX_PENETRATION = 5  # m
+R_PEAK_FORCE = 6  # N
+R_IMPULSE = 7  # N s
+R_INELASTICITY = 8  # Zener's lam = beta m / theta
+R_REBOUND_SPEED = 9  # m/s
+R_PLATE_ENERGY = 10  # J
+R_ENERGY_RESIDUAL = 11  # relative error of the energy balance
+R_N_STEPS = 12  # accepted steps
+R_G = 13  # dimensionless gravity g theta / v0 (dense output)
+R_C = 14  # dimensionless Hunt-Crossley loss mu v0 (dense output)
+R_S_CONTACT = 15  # dimensionless end of contact (dense output)
+R_THETA = 16  # Zener's time scale, s
+R_F_SCALE = 17  # force scale m v0 / theta, N
 N_RESULT = 18
 
 
 @numba.njit(cache=True)
-def impact(m, K, beta, v_in, g, n, mu, v_free, rtol, atol_factor, stiff_lambda, method,
-           max_explicit, max_implicit):
+def impact(
+    m,
+    K,
+    beta,
+    v_in,
+    g,
+    n,
+    mu,
+    v_free,
+    rtol,
+    atol_factor,
+    stiff_lambda,
+    method,
+    max_explicit,
+    max_implicit,
+):
     """One impact from lumped parameters (SI units, checked by the caller).
 
     Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
@@ -1199,7 +1251,7 @@ def impact(m, K, beta, v_in, g, n, mu, v_free, rtol, atol_factor, stiff_lambda, 
         # The contact ended with the ball still (barely) approaching: the rebound is
         # below the solver's absolute resolution (atol of v0).
         w_end = 0.0
-    i1 = 1.0 - w_end + G * s_end                      # from w' = G - f
+    i1 = 1.0 - w_end + G * s_end  # from w' = G - f
     # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
     elastic = x_end * _power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
     lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5

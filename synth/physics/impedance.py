@@ -80,8 +80,11 @@ def critical_distance(plate: Plate, contact_time: float) -> float:
     ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
     ``omega = pi / tau``.
     """
-    tau = (contact_time if type(contact_time) is float and 0.0 < contact_time < math.inf
-           else checks.positive("contact_time", contact_time, "s"))
+    tau = (
+        contact_time
+        if type(contact_time) is float and 0.0 < contact_time < math.inf
+        else checks.positive("contact_time", contact_time, "s")
+    )
     return _critical_distance(plate, tau)
 
 
@@ -97,8 +100,7 @@ def _taper(d, dc):
     return c * c
 
 
-def point_admittance(plate: Plate, position: tuple[float, float],
-                     contact_time: float) -> float:
+def point_admittance(plate: Plate, position: tuple[float, float], contact_time: float) -> float:
     """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
     duration ``contact_time`` (s).
 
@@ -112,8 +114,9 @@ def point_admittance(plate: Plate, position: tuple[float, float],
     return admittance_at(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
 
 
-def admittance_at(plate: Plate, x: float, y: float, contact_time: float,
-                  infinite_admittance: float) -> float:
+def admittance_at(
+    plate: Plate, x: float, y: float, contact_time: float, infinite_admittance: float
+) -> float:
     """:func:`point_admittance` at ``(x, y)`` (m, inside the plate) for a contact of
     ``contact_time`` (s, > 0), given the plate's ``infinite_admittance = 1 / Z_inf``
     (m/(N s)): the contact solver's inner loop, which has checked these values."""

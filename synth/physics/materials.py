@@ -104,8 +104,11 @@ class LossFactor:
     eta: float
 
     def __post_init__(self):
-        object.__setattr__(self, "eta", checks.in_range(
-            "damping.eta", self.eta, 0.0, 1.0, "dimensionless", lo_open=False))
+        object.__setattr__(
+            self,
+            "eta",
+            checks.in_range("damping.eta", self.eta, 0.0, 1.0, "dimensionless", lo_open=False),
+        )
 
     def decay_rate(self, omega) -> np.ndarray:
         """Amplitude decay rate sigma (1/s) at angular frequency ``omega`` (rad/s)."""
@@ -149,17 +152,21 @@ class Material:
         n = self.name
         object.__setattr__(self, "density", checks.positive(f"{n}.density", self.density, "kg/m^3"))
         object.__setattr__(self, "young", checks.positive(f"{n}.young", self.young, "Pa"))
-        object.__setattr__(self, "poisson", checks.in_range(
-            f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"))
+        object.__setattr__(
+            self,
+            "poisson",
+            checks.in_range(f"{n}.poisson", self.poisson, -1.0, 0.5, "dimensionless"),
+        )
         if self.damping is not None and not isinstance(self.damping, (Rayleigh, LossFactor)):
             raise ParameterError(
                 f"{n}.damping={self.damping!r} must be a Rayleigh(alpha, beta) or LossFactor(eta) "
-                f"(or None for a ball's material)")
+                f"(or None for a ball's material)"
+            )
 
     @property
     def effective_modulus(self) -> float:
         """Plane-strain modulus ``E' = E / (1 - nu^2)``, Pa."""
-        return self.young / (1.0 - self.poisson ** 2)
+        return self.young / (1.0 - self.poisson**2)
 
 
 # The built-in table. Every row cites its source (``source=``); the module
@@ -169,96 +176,224 @@ _BHH = "Bies, Hansen & Howard, Engineering Noise Control, 5th ed. (CRC Press 201
 _HOP = "Hopkins, Sound Insulation (Butterworth-Heinemann 2007), Table A2"
 _MEC = "Mechel (ed.), Formulas of Acoustics, 2nd ed. (Springer 2008), Table 3, pp. 529-530"
 _VIG = "Vigran, Building Acoustics (Taylor & Francis 2008), Table 3.1"
-_ASH = ("Ashby, Materials Selection in Mechanical Design, 4th ed. (Butterworth-Heinemann 2011), "
-        "Appendix C data tables and the loss coefficient-modulus chart (Fig. 4.9)")
-_NKT = "Norton & Karczub, Fundamentals of Noise and Vibration Analysis, 2nd ed. (CUP 2003), Table 6.1"
+_ASH = (
+    "Ashby, Materials Selection in Mechanical Design, 4th ed. (Butterworth-Heinemann 2011), "
+    "Appendix C data tables and the loss coefficient-modulus chart (Fig. 4.9)"
+)
+_NKT = (
+    "Norton & Karczub, Fundamentals of Noise and Vibration Analysis, 2nd ed. (CUP 2003), Table 6.1"
+)
 
 _ROWS: list[Material] = [
     # Thesis Table 3.1 (docs/physics.md, "Materials"): the three MDF boards, measured moduli.
     # Damping: Rayleigh fit to the thesis' MDF recordings (docs/physics.md, "Materials").
-    Material("mdf-18", 700.0, 5.689e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (18 mm board, measured modulus); damping: docs/physics.md, Materials"),
-    Material("mdf-12", 700.0, 5.058e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (12 mm board, measured modulus); damping: docs/physics.md, Materials"),
-    Material("mdf-6", 700.0, 3.385e9, 0.4, Rayleigh(35.0, 5e-7),
-             "thesis Table 3.1 (6.15 mm board, measured modulus); damping: docs/physics.md, Materials"),
-
+    Material(
+        "mdf-18",
+        700.0,
+        5.689e9,
+        0.4,
+        Rayleigh(35.0, 5e-7),
+        "thesis Table 3.1 (18 mm board, measured modulus); damping: docs/physics.md, Materials",
+    ),
+    Material(
+        "mdf-12",
+        700.0,
+        5.058e9,
+        0.4,
+        Rayleigh(35.0, 5e-7),
+        "thesis Table 3.1 (12 mm board, measured modulus); damping: docs/physics.md, Materials",
+    ),
+    Material(
+        "mdf-6",
+        700.0,
+        3.385e9,
+        0.4,
+        Rayleigh(35.0, 5e-7),
+        "thesis Table 3.1 (6.15 mm board, measured modulus); damping: docs/physics.md, Materials",
+    ),
     # Metals.
-    Material("steel", 7800.0, 216e9, 0.3, LossFactor(1e-4),
-             "elastic: thesis Table 3.1 (steel balls: E = 216 GPa, nu = 0.3, rho 7730-7960); "
-             f"damping: eta = 1e-4, {_BHH} (mild steel); {_CHP} gives 2e-5 to 3e-4 "
-             "for flexural waves"),
-    Material("stainless-steel", 7910.0, 200e9, 0.3, LossFactor(1e-4),
-             f"{_BHH}, row 'Stainless steel 302' (rho, E, nu, eta)"),
-    Material("aluminium", 2700.0, 72e9, 0.34, LossFactor(1e-4),
-             f"elastic: {_CHP} (aluminium); damping: eta = 1e-4, {_BHH} (aluminium sheet), "
-             "the top of the 3e-6 to 1e-4 flexural range of Cremer et al."),
-    Material("brass", 8500.0, 95e9, 0.33, LossFactor(1e-3),
-             f"elastic: {_CHP} (brass); damping: eta = 1e-3, {_BHH} and {_MEC}, "
-             "the top of the 2e-4 to 1e-3 flexural range of Cremer et al."),
-    Material("copper", 8900.0, 125e9, 0.35, LossFactor(2e-3),
-             f"{_CHP}, row 'Copper, polycrystal' (rho, E, nu, flexural eta = 2e-3)"),
-
+    Material(
+        "steel",
+        7800.0,
+        216e9,
+        0.3,
+        LossFactor(1e-4),
+        "elastic: thesis Table 3.1 (steel balls: E = 216 GPa, nu = 0.3, rho 7730-7960); "
+        f"damping: eta = 1e-4, {_BHH} (mild steel); {_CHP} gives 2e-5 to 3e-4 "
+        "for flexural waves",
+    ),
+    Material(
+        "stainless-steel",
+        7910.0,
+        200e9,
+        0.3,
+        LossFactor(1e-4),
+        f"{_BHH}, row 'Stainless steel 302' (rho, E, nu, eta)",
+    ),
+    Material(
+        "aluminium",
+        2700.0,
+        72e9,
+        0.34,
+        LossFactor(1e-4),
+        f"elastic: {_CHP} (aluminium); damping: eta = 1e-4, {_BHH} (aluminium sheet), "
+        "the top of the 3e-6 to 1e-4 flexural range of Cremer et al.",
+    ),
+    Material(
+        "brass",
+        8500.0,
+        95e9,
+        0.33,
+        LossFactor(1e-3),
+        f"elastic: {_CHP} (brass); damping: eta = 1e-3, {_BHH} and {_MEC}, "
+        "the top of the 2e-4 to 1e-3 flexural range of Cremer et al.",
+    ),
+    Material(
+        "copper",
+        8900.0,
+        125e9,
+        0.35,
+        LossFactor(2e-3),
+        f"{_CHP}, row 'Copper, polycrystal' (rho, E, nu, flexural eta = 2e-3)",
+    ),
     # Glass and stone.
-    Material("glass", 2480.0, 70e9, 0.2, LossFactor(1e-3),
-             "elastic: thesis Table 3.1 (glass balls: rho 2480, E 70 GPa, nu 0.2); "
-             f"damping: eta = 1e-3, {_NKT} and {_MEC}; {_VIG} gives 6e-4 to 2e-3"),
-    Material("granite", 2650.0, 43e9, 0.333, LossFactor(1.0 / 150.0),
-             "elastic: Leet & Ewing, 'Velocity of elastic waves in granite', Physics 2, 160 "
-             "(1932), Quincy granite (rho 2650, E 43 GPa, nu 0.333, from in-situ wave "
-             "speeds); damping: eta = 1/Q, Q = 150 at 140-4500 Hz, Birch & Bancroft, "
-             "'Elasticity and internal friction in a long column of granite', "
-             "Bull. Seismol. Soc. Am. 28, 243 (1938)"),
-    Material("concrete", 2300.0, 24e9, 0.2, LossFactor(5e-3),
-             f"{_BHH}, row 'Concrete, normal' (rho 2300, nu 0.2, eta 5e-3; E = 24 GPa is the "
-             f"middle of the printed 18-30 GPa); {_HOP} also gives eta = 5e-3 for cast concrete"),
-    Material("plasterboard", 860.0, 1490.0 ** 2 * 860.0 * (1.0 - 0.3 ** 2), 0.3,
-             LossFactor(0.0141),
-             f"{_HOP}, row 'Plasterboard, natural gypsum' (rho 860, c_L 1490 m/s, nu 0.3, "
-             "eta 0.0141); E = c_L^2 rho (1 - nu^2)"),
-
+    Material(
+        "glass",
+        2480.0,
+        70e9,
+        0.2,
+        LossFactor(1e-3),
+        "elastic: thesis Table 3.1 (glass balls: rho 2480, E 70 GPa, nu 0.2); "
+        f"damping: eta = 1e-3, {_NKT} and {_MEC}; {_VIG} gives 6e-4 to 2e-3",
+    ),
+    Material(
+        "granite",
+        2650.0,
+        43e9,
+        0.333,
+        LossFactor(1.0 / 150.0),
+        "elastic: Leet & Ewing, 'Velocity of elastic waves in granite', Physics 2, 160 "
+        "(1932), Quincy granite (rho 2650, E 43 GPa, nu 0.333, from in-situ wave "
+        "speeds); damping: eta = 1/Q, Q = 150 at 140-4500 Hz, Birch & Bancroft, "
+        "'Elasticity and internal friction in a long column of granite', "
+        "Bull. Seismol. Soc. Am. 28, 243 (1938)",
+    ),
+    Material(
+        "concrete",
+        2300.0,
+        24e9,
+        0.2,
+        LossFactor(5e-3),
+        f"{_BHH}, row 'Concrete, normal' (rho 2300, nu 0.2, eta 5e-3; E = 24 GPa is the "
+        f"middle of the printed 18-30 GPa); {_HOP} also gives eta = 5e-3 for cast concrete",
+    ),
+    Material(
+        "plasterboard",
+        860.0,
+        1490.0**2 * 860.0 * (1.0 - 0.3**2),
+        0.3,
+        LossFactor(0.0141),
+        f"{_HOP}, row 'Plasterboard, natural gypsum' (rho 860, c_L 1490 m/s, nu 0.3, "
+        "eta 0.0141); E = c_L^2 rho (1 - nu^2)",
+    ),
     # Plastics and rubber.
-    Material("acrylic", 1200.0, 5.6e9, 0.35, LossFactor(0.06),
-             f"PMMA; rho, E (dynamic) and eta = 0.06: {_MEC}, row 'Acryl glass'; nu: {_BHH} "
-             "(Plexiglass); Bies et al. and Beranek & Ver (1992) print eta = 0.002 for "
-             "Plexiglas, far below Mechel's value"),
-    Material("polycarbonate", 1200.0, 2.3e9, 0.35, LossFactor(3e-3),
-             f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta)"),
-    Material("abs", 1050.0, 2.2e9, 0.39, LossFactor(0.02),
-             f"{_ASH}, ABS (acrylonitrile-butadiene-styrene): rho 1010-1210 kg/m^3, E 1.1-2.9 GPa, "
-             "nu 0.38-0.42 (middles taken); eta from the loss-coefficient chart, where the "
-             "glassy thermoplastics lie at about 1e-2 ... 5e-2 at room temperature"),
-    Material("porcelain", 2400.0, 70e9, 0.22, LossFactor(1e-3),
-             "Kingery, Bowen & Uhlmann, Introduction to Ceramics, 2nd ed. (Wiley 1976), "
-             f"Table 15.5 (porcelain: E about 70 GPa); rho and nu: {_ASH}, technical ceramics "
-             "and glasses; eta from the same loss-coefficient chart, where glassy ceramics lie "
-             "at about 1e-4 ... 1e-3 (the glassy phase of porcelain puts it at the upper end)"),
-    Material("rubber", 1150.0, 55e6, 0.49, LossFactor(0.05),
-             f"{_BHH}, row 'Rubber-neoprene' (nu 0.49, eta 0.05; rho and E are the middles of "
-             "the printed 1100-1200 kg/m^3 and 10-100 MPa); nu = 0.49 as printed: the "
-             "incompressible limit 0.5 (infinite bulk modulus) is outside the allowed range"),
-
+    Material(
+        "acrylic",
+        1200.0,
+        5.6e9,
+        0.35,
+        LossFactor(0.06),
+        f"PMMA; rho, E (dynamic) and eta = 0.06: {_MEC}, row 'Acryl glass'; nu: {_BHH} "
+        "(Plexiglass); Bies et al. and Beranek & Ver (1992) print eta = 0.002 for "
+        "Plexiglas, far below Mechel's value",
+    ),
+    Material(
+        "polycarbonate",
+        1200.0,
+        2.3e9,
+        0.35,
+        LossFactor(3e-3),
+        f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta)",
+    ),
+    Material(
+        "abs",
+        1050.0,
+        2.2e9,
+        0.39,
+        LossFactor(0.02),
+        f"{_ASH}, ABS (acrylonitrile-butadiene-styrene): rho 1010-1210 kg/m^3, E 1.1-2.9 GPa, "
+        "nu 0.38-0.42 (middles taken); eta from the loss-coefficient chart, where the "
+        "glassy thermoplastics lie at about 1e-2 ... 5e-2 at room temperature",
+    ),
+    Material(
+        "porcelain",
+        2400.0,
+        70e9,
+        0.22,
+        LossFactor(1e-3),
+        "Kingery, Bowen & Uhlmann, Introduction to Ceramics, 2nd ed. (Wiley 1976), "
+        f"Table 15.5 (porcelain: E about 70 GPa); rho and nu: {_ASH}, technical ceramics "
+        "and glasses; eta from the same loss-coefficient chart, where glassy ceramics lie "
+        "at about 1e-4 ... 1e-3 (the glassy phase of porcelain puts it at the upper end)",
+    ),
+    Material(
+        "rubber",
+        1150.0,
+        55e6,
+        0.49,
+        LossFactor(0.05),
+        f"{_BHH}, row 'Rubber-neoprene' (nu 0.49, eta 0.05; rho and E are the middles of "
+        "the printed 1100-1200 kg/m^3 and 10-100 MPa); nu = 0.49 as printed: the "
+        "incompressible limit 0.5 (infinite bulk modulus) is outside the allowed range",
+    ),
     # Woods (modulus along the grain).
-    Material("oak", 630.0, 12e9, 0.35, LossFactor(0.01),
-             f"elastic: {_BHH}, row 'Oak' (rho 630, E 12 GPa along the grain, nu 0.35); "
-             f"damping: eta = 0.01, {_MEC} (oak wood); Bies et al. print 0.04"),
-    Material("hardwood", 630.0, 12e9, 0.35, LossFactor(0.01),
-             f"the 'oak' row: elastic {_BHH} (Oak), damping {_MEC} (oak wood, eta = 0.01)"),
-    Material("pine", 500.0, 10.1e9, 0.4, LossFactor(0.01),
-             f"rho, E (along the grain): {_BHH}, row 'Scots pine'; nu 0.4: {_VIG} (fir, "
-             f"spruce); damping: eta = 0.01, {_MEC} (pine wood); Vigran gives 0.008-0.01"),
-    Material("plywood", 710.0, 3850.0 ** 2 * 710.0 * (1.0 - 0.3 ** 2), 0.3,
-             LossFactor(0.016),
-             f"{_HOP}, row 'Plywood (Birch)' (rho 710, c_L 3850 m/s, nu 0.3, eta 0.016); "
-             f"E = c_L^2 rho (1 - nu^2); {_NKT} gives eta = 0.015"),
+    Material(
+        "oak",
+        630.0,
+        12e9,
+        0.35,
+        LossFactor(0.01),
+        f"elastic: {_BHH}, row 'Oak' (rho 630, E 12 GPa along the grain, nu 0.35); "
+        f"damping: eta = 0.01, {_MEC} (oak wood); Bies et al. print 0.04",
+    ),
+    Material(
+        "hardwood",
+        630.0,
+        12e9,
+        0.35,
+        LossFactor(0.01),
+        f"the 'oak' row: elastic {_BHH} (Oak), damping {_MEC} (oak wood, eta = 0.01)",
+    ),
+    Material(
+        "pine",
+        500.0,
+        10.1e9,
+        0.4,
+        LossFactor(0.01),
+        f"rho, E (along the grain): {_BHH}, row 'Scots pine'; nu 0.4: {_VIG} (fir, "
+        f"spruce); damping: eta = 0.01, {_MEC} (pine wood); Vigran gives 0.008-0.01",
+    ),
+    Material(
+        "plywood",
+        710.0,
+        3850.0**2 * 710.0 * (1.0 - 0.3**2),
+        0.3,
+        LossFactor(0.016),
+        f"{_HOP}, row 'Plywood (Birch)' (rho 710, c_L 3850 m/s, nu 0.3, eta 0.016); "
+        f"E = c_L^2 rho (1 - nu^2); {_NKT} gives eta = 0.015",
+    ),
 ]
 
 TABLE: dict[str, Material] = {m.name: m for m in _ROWS}
 
 
 #: Other names of table rows.
-ALIASES = {"ceramic": "porcelain", "pmma": "acrylic", "aluminum": "aluminium",
-           "stainless": "stainless-steel"}
+ALIASES = {
+    "ceramic": "porcelain",
+    "pmma": "acrylic",
+    "aluminum": "aluminium",
+    "stainless": "stainless-steel",
+}
 
 
 def names() -> list[str]:
@@ -284,8 +419,8 @@ def get(name: str) -> Material:
         near = difflib.get_close_matches(key, TABLE, n=3, cutoff=0.5)
         hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
         raise ParameterError(
-            f"material={name!r} is not in the table{hint} "
-            f"(known: {', '.join(names())})") from None
+            f"material={name!r} is not in the table{hint} (known: {', '.join(names())})"
+        ) from None
 
 
 def resolve(value, field_name: str = "material") -> Material:
@@ -327,5 +462,6 @@ def table_markdown() -> str:
         source = m.source.replace("|", "\\|")
         lines.append(
             f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
-            f"{_damping_text(m.damping)} | {source} |")
+            f"{_damping_text(m.damping)} | {source} |"
+        )
     return "\n".join(lines) + "\n"

@@ -55,10 +55,13 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(self, "radius", checks.positive_at_most(
-            "ball.radius", self.radius, MAX_BALL_RADIUS, "metres"))
+        object.__setattr__(
+            self,
+            "radius",
+            checks.positive_at_most("ball.radius", self.radius, MAX_BALL_RADIUS, "metres"),
+        )
         if self.mass is None:
-            m = self.material.density * 4.0 / 3.0 * math.pi * self.radius ** 3
+            m = self.material.density * 4.0 / 3.0 * math.pi * self.radius**3
         else:
             m = checks.positive_at_most("ball.mass", self.mass, MAX_BALL_MASS, "kg")
         object.__setattr__(self, "mass", m)
@@ -91,13 +94,17 @@ class Plate:
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "plate.material"))
         for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(self, name, checks.positive_at_most(
-                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit))
+            object.__setattr__(
+                self,
+                name,
+                checks.positive_at_most(f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit),
+            )
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
                 f"plate.thickness={self.thickness!r} must not exceed the plate's smaller side "
-                f"{min(self.length, self.width)!r} (metres): a thin-plate model needs h << a, b")
+                f"{min(self.length, self.width)!r} (metres): a thin-plate model needs h << a, b"
+            )
 
     def damping_law(self) -> Damping:
         """The material's damping law, for computing the plate's modes (their decay rates,
@@ -107,14 +114,15 @@ class Plate:
             raise ParameterError(
                 f"plate.material.damping=None ({self.material.name!r}): computing the plate's "
                 f"modes needs a damping law, Rayleigh(alpha, beta) or LossFactor(eta), for "
-                f"their decay (a contact computation alone needs none)")
+                f"their decay (a contact computation alone needs none)"
+            )
         return self.material.damping
 
     @property
     def flexural_rigidity(self) -> float:
         """Bending stiffness ``D = E h^3 / (12 (1 - nu^2))``, N m."""
         m = self.material
-        return m.young * self.thickness ** 3 / (12.0 * (1.0 - m.poisson ** 2))
+        return m.young * self.thickness**3 / (12.0 * (1.0 - m.poisson**2))
 
     @property
     def surface_density(self) -> float:
@@ -132,7 +140,8 @@ class Plate:
         if not (0.0 <= x <= self.length and 0.0 <= y <= self.width):
             raise ParameterError(
                 f"{name}=({x!r}, {y!r}) is off the plate: x must be in [0, {self.length!r}] "
-                f"and y in [0, {self.width!r}] (metres from a corner)")
+                f"and y in [0, {self.width!r}] (metres from a corner)"
+            )
         return (x, y)
 
     @property
@@ -174,7 +183,8 @@ class Microphone:
         pos = checks.point("listener.position", self.position, 3)
         if not pos[2] > 0.0:
             raise ParameterError(
-                f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)")
+                f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)"
+            )
         object.__setattr__(self, "position", pos)
 
 
@@ -218,17 +228,35 @@ class Contact:
 
     def __post_init__(self):
         checks.choice("contact.law", self.law, CONTACT_LAWS)
-        object.__setattr__(self, "rtol", checks.in_range(
-            "contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False))
-        for name, unit in (("dissipation", "s/m"), ("stiffness", "N/m^n"), ("layer_depth", "metres")):
+        object.__setattr__(
+            self,
+            "rtol",
+            checks.in_range(
+                "contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
+            ),
+        )
+        for name, unit in (
+            ("dissipation", "s/m"),
+            ("stiffness", "N/m^n"),
+            ("layer_depth", "metres"),
+        ):
             value = getattr(self, name)
             if value is not None:
                 object.__setattr__(self, name, checks.positive(f"contact.{name}", value, unit))
         if self.exponent is not None:
-            object.__setattr__(self, "exponent", checks.in_range(
-                "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False))
-        needs = {"hertz": (), "hunt-crossley": ("dissipation",), "elastic-foundation": (),
-                 "power-law": ("exponent", "stiffness")}[self.law]
+            object.__setattr__(
+                self,
+                "exponent",
+                checks.in_range(
+                    "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
+                ),
+            )
+        needs = {
+            "hertz": (),
+            "hunt-crossley": ("dissipation",),
+            "elastic-foundation": (),
+            "power-law": ("exponent", "stiffness"),
+        }[self.law]
         allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
         for name in ("dissipation", "exponent", "stiffness", "layer_depth"):
             value = getattr(self, name)
@@ -236,13 +264,17 @@ class Contact:
                 raise ParameterError(f"contact.law={self.law!r} needs contact.{name}")
             if value is not None and name not in allowed:
                 raise ParameterError(
-                    f"contact.{name}={value!r} does not apply to contact.law={self.law!r}")
+                    f"contact.{name}={value!r} does not apply to contact.law={self.law!r}"
+                )
 
     def options(self) -> dict:
         """The law's parameters as keyword arguments of
         :func:`synth.physics.contact.contact_law`."""
-        return {k: getattr(self, k) for k in ("dissipation", "exponent", "stiffness", "layer_depth")
-                if getattr(self, k) is not None}
+        return {
+            k: getattr(self, k)
+            for k in ("dissipation", "exponent", "stiffness", "layer_depth")
+            if getattr(self, k) is not None
+        }
 
 
 @dataclass(frozen=True)
@@ -281,11 +313,14 @@ class Scene:
             raise ParameterError(f"plate={self.plate!r} must be a Plate")
         h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
         if h < MIN_DROP_HEIGHT:
-            raise ParameterError(f"drop.height={self.drop_height!r} must be >= "
-                                 f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)")
+            raise ParameterError(
+                f"drop.height={self.drop_height!r} must be >= "
+                f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)"
+            )
         object.__setattr__(self, "drop_height", h)
-        object.__setattr__(self, "gravity", checks.positive_at_most(
-            "gravity", self.gravity, MAX_GRAVITY, "m/s^2"))
+        object.__setattr__(
+            self, "gravity", checks.positive_at_most("gravity", self.gravity, MAX_GRAVITY, "m/s^2")
+        )
         pos = self.plate.centre if self.position is None else self.position
         pos = self.plate.check_position(pos, "drop.position")
         object.__setattr__(self, "position", pos)
@@ -293,7 +328,8 @@ class Scene:
             raise ParameterError(
                 f"ball.radius={self.ball.radius!r} is too large for the plate: the ball's "
                 f"diameter must not exceed the plate's smaller side "
-                f"{min(self.plate.length, self.plate.width)!r} (metres)")
+                f"{min(self.plate.length, self.plate.width)!r} (metres)"
+            )
         if self.contact is None:
             object.__setattr__(self, "contact", Contact())
         elif not isinstance(self.contact, Contact):
@@ -304,4 +340,5 @@ class Scene:
             self.plate.check_position(self.listener.position, "listener.position")
         elif not isinstance(self.listener, Microphone):
             raise ParameterError(
-                f"listener={self.listener!r} must be an Accelerometer or a Microphone")
+                f"listener={self.listener!r} must be an Accelerometer or a Microphone"
+            )

@@ -83,8 +83,26 @@ _FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"}
 
 
 @numba.njit(cache=True, fastmath=_FAST)
-def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces,
-            offset_slopes, weight, tau, order, amps, resp):
+def _impact(
+    pr,
+    pi,
+    cr,
+    ci,
+    ur,
+    ui,
+    period,
+    h,
+    forces,
+    slopes,
+    d0,
+    offset_forces,
+    offset_slopes,
+    weight,
+    tau,
+    order,
+    amps,
+    resp,
+):
     """One impact's contribution (vectorised over the K modes).
 
     pr, pi: poles (real, imaginary parts), rad/s; cr, ci: listener response per unit
@@ -123,7 +141,7 @@ def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces
     si = np.empty(K)
     ar = np.zeros(K)
     ai = np.zeros(K)
-    br = np.zeros(K)      # the rule on every other point (step 2h), for the extrapolation
+    br = np.zeros(K)  # the rule on every other point (step 2h), for the extrapolation
     bi = np.zeros(K)
     # g = e^(p d), d the next in-contact sample (then the injection sample)
     gr = np.empty(K)
@@ -194,7 +212,7 @@ def _impact(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces
         # where the step-2h rule resolves the mode's oscillation (omega h <= 1/2: at least
         # 6 points a period); above it the expansion in h does not hold and the plain rule
         # is the better one
-        c = 2.0 ** order
+        c = 2.0**order
         for k in range(K):
             if abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
                 ar[k] = (c * ar[k] - br[k]) / (c - 1.0)
@@ -225,8 +243,26 @@ LONG_CONTACT_NEPERS = 300.0
 
 
 @numba.njit(cache=True, fastmath=_FAST)
-def _impact_long(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces,
-                 offset_slopes, weight, tau, order, amps, resp):
+def _impact_long(
+    pr,
+    pi,
+    cr,
+    ci,
+    ur,
+    ui,
+    period,
+    h,
+    forces,
+    slopes,
+    d0,
+    offset_forces,
+    offset_slopes,
+    weight,
+    tau,
+    order,
+    amps,
+    resp,
+):
     """:func:`_impact` (same arguments, same result) for contacts so long that the
     factors ``e^(-p u)`` over the contact leave float64.
 
@@ -287,7 +323,7 @@ def _impact_long(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_f
             acc = 0.0
             for k in range(K):
                 mag = math.exp(pr[k] * dd)
-                er = mag * math.cos(pi[k] * dd)     # e^(p dd)
+                er = mag * math.cos(pi[k] * dd)  # e^(p dd)
                 ei = mag * math.sin(pi[k] * dd)
                 a1 = sj - pr[k] * fj
                 b1 = -pi[k] * fj
@@ -303,7 +339,7 @@ def _impact_long(pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_f
             m += 1
         f_prev = fj
     if order > 0.0 and N % 2 == 1 and N >= 5:
-        c = 2.0 ** order
+        c = 2.0**order
         for k in range(K):
             if abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
                 ar[k] = (c * ar[k] - br[k]) / (c - 1.0)
@@ -372,7 +408,9 @@ def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps
 
 
 @numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
-def ring_modes(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs):
+def ring_modes(
+    out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
+):
     """Advance every ringing mode from sample ``a`` to ``b`` (no injection in between),
     adding ``Re[z_k r_k^j]`` into ``out[s - offset]`` for ``s`` in ``[a, b)``.
 
@@ -400,7 +438,7 @@ def ring_modes(out, offset, a, b, table, zr, zi, active, debt, debt_at, threshol
         s = a
         while s < b:
             n = min(SUB, b - s)
-            o = out[s - offset:s - offset + n]   # a view: unsigned indexing, the loop vectorises
+            o = out[s - offset : s - offset + n]  # a view: unsigned indexing, the loop vectorises
             for j in range(n):
                 o[j] += cr * pr[j] - ci * pi[j]
             er = pr[n]
@@ -475,7 +513,7 @@ def _bank(out, fs, poles, amps, inject, thresholds):
     zr = np.zeros(K)
     zi = np.zeros(K)
     active = np.zeros(K, dtype=np.bool_)
-    debt = np.zeros(K)             # bound of the omitted part, as of sample debt_at
+    debt = np.zeros(K)  # bound of the omitted part, as of sample debt_at
     debt_at = np.zeros(K, dtype=np.int64)
     thr2 = thresholds * thresholds
     work = 0
@@ -486,15 +524,17 @@ def _bank(out, fs, poles, amps, inject, thresholds):
         # inject the impacts that start at sample a
         while nxt < I and inject[nxt] <= a:
             if inject[nxt] == a:
-                inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs,
-                                  amps[nxt], a)
+                inject_amplitudes(
+                    zr, zi, active, debt, debt_at, thresholds, poles, fs, amps[nxt], a
+                )
             nxt += 1
         # this segment ends at the tile's end or at the next injection
         b = min(S, (a // TILE + 1) * TILE)
         if nxt < I and inject[nxt] < b:
             b = inject[nxt]
-        w, e = ring_modes(out, 0, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
-                          poles, fs)
+        w, e = ring_modes(
+            out, 0, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
+        )
         work += w
         if e > last:
             last = e
@@ -537,9 +577,26 @@ def pulse_transforms(result, poles, omega_max=None):
     out = np.empty(poles.size, dtype=complex)
     one = np.ones(poles.size)
     zero = np.zeros(poles.size)
-    _impact(np.ascontiguousarray(poles.real), np.ascontiguousarray(poles.imag), one, zero,
-            one, zero, 1.0, h, f, np.zeros(f.size), 0.0, np.zeros(0), np.zeros(0), 0.0,
-            result.contact_time, result.exponent + 1.0, out, np.zeros(0))
+    _impact(
+        np.ascontiguousarray(poles.real),
+        np.ascontiguousarray(poles.imag),
+        one,
+        zero,
+        one,
+        zero,
+        1.0,
+        h,
+        f,
+        np.zeros(f.size),
+        0.0,
+        np.zeros(0),
+        np.zeros(0),
+        0.0,
+        result.contact_time,
+        result.exponent + 1.0,
+        out,
+        np.zeros(0),
+    )
     return out
 
 
@@ -568,12 +625,19 @@ def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients
     fs = float(samplerate)
     poles = np.ascontiguousarray(poles, dtype=complex)
     omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
-    coef = -1j * excitation / poles.imag * output            # response per unit transform
-    step = np.exp(poles * (1.0 / fs))                         # one sample's ringing
-    return BankCoefficients(poles, fs, omega_max, np.ascontiguousarray(poles.real),
-                            np.ascontiguousarray(poles.imag), np.ascontiguousarray(coef.real),
-                            np.ascontiguousarray(coef.imag), np.ascontiguousarray(step.real),
-                            np.ascontiguousarray(step.imag))
+    coef = -1j * excitation / poles.imag * output  # response per unit transform
+    step = np.exp(poles * (1.0 / fs))  # one sample's ringing
+    return BankCoefficients(
+        poles,
+        fs,
+        omega_max,
+        np.ascontiguousarray(poles.real),
+        np.ascontiguousarray(poles.imag),
+        np.ascontiguousarray(coef.real),
+        np.ascontiguousarray(coef.imag),
+        np.ascontiguousarray(step.real),
+        np.ascontiguousarray(step.imag),
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -601,8 +665,15 @@ class ImpactExcitation:
     forces: np.ndarray
 
 
-def impact_excitation(coefficients: BankCoefficients, result, onset: float, *, weight=0.0,
-                      pulse_points=PULSE_POINTS, amplitudes=None) -> ImpactExcitation:
+def impact_excitation(
+    coefficients: BankCoefficients,
+    result,
+    onset: float,
+    *,
+    weight=0.0,
+    pulse_points=PULSE_POINTS,
+    amplitudes=None,
+) -> ImpactExcitation:
     """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
     touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
     sample after the contact and its exact response inside it (see ``_impact``).
@@ -631,14 +702,43 @@ def impact_excitation(coefficients: BankCoefficients, result, onset: float, *, w
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
     sigma_max = float(np.max(-c.pole_re)) if c.pole_re.size else 0.0
     kernel = _impact_long if sigma_max * tau > LONG_CONTACT_NEPERS else _impact
-    kernel(c.pole_re, c.pole_im, c.coef_re, c.coef_im, c.step_re, c.step_im, period, h,
-           forces[:n], slopes[:n], d0, forces[n:], slopes[n:], float(weight), tau,
-           result.exponent + 1.0, amps, resp)
+    kernel(
+        c.pole_re,
+        c.pole_im,
+        c.coef_re,
+        c.coef_im,
+        c.step_re,
+        c.step_im,
+        period,
+        h,
+        forces[:n],
+        slopes[:n],
+        d0,
+        forces[n:],
+        slopes[n:],
+        float(weight),
+        tau,
+        result.exponent + 1.0,
+        amps,
+        resp,
+    )
     return ImpactExcitation(amps, first + M, first, resp, forces[n:])
 
 
-def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor, settled_weight=None,
-               direct=None, max_samples=None, pulse_points=PULSE_POINTS):
+def synthesize(
+    impacts,
+    onsets,
+    poles,
+    excitation,
+    output,
+    samplerate,
+    *,
+    floor,
+    settled_weight=None,
+    direct=None,
+    max_samples=None,
+    pulse_points=PULSE_POINTS,
+):
     """Mix the ringing of every mode after every impact.
 
     Parameters
@@ -675,8 +775,10 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     fs = float(samplerate)
     onsets = np.asarray(onsets, dtype=float)
     if onsets.size and not np.min(onsets) >= 0.0:
-        raise ParameterError(f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
-                             f"(from the first sample of the audio)")
+        raise ParameterError(
+            f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
+            f"(from the first sample of the audio)"
+        )
     coefficients = bank_coefficients(poles, excitation, output, fs)
     poles = coefficients.poles
     K = poles.size
@@ -686,11 +788,18 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     contact_samples = []  # per impact: in-contact sample indices, responses there, forces there
     for i, (res, t0) in enumerate(zip(impacts, onsets)):
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
-        ex = impact_excitation(coefficients, res, float(t0), weight=weight,
-                               pulse_points=pulse_points, amplitudes=amps[i])
+        ex = impact_excitation(
+            coefficients,
+            res,
+            float(t0),
+            weight=weight,
+            pulse_points=pulse_points,
+            amplitudes=amps[i],
+        )
         inject[i] = ex.inject
-        contact_samples.append((ex.first + np.arange(ex.response.size, dtype=np.int64),
-                                ex.response, ex.forces))
+        contact_samples.append(
+            (ex.first + np.arange(ex.response.size, dtype=np.int64), ex.response, ex.forces)
+        )
     reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
     thr = floor * reference / max(K, 1)
     # a mode whose amplitudes add up to at most its share is left out whole
@@ -701,7 +810,9 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     # out before it can stop; trimmed below to what was written
     if I and keep.any():
         sig = -poles.real[keep]
-        t_tail = np.log(np.maximum(2.0 * total[keep] / max(thr, 1e-300), 1.0)) / np.maximum(sig, 1e-12)
+        t_tail = np.log(np.maximum(2.0 * total[keep] / max(thr, 1e-300), 1.0)) / np.maximum(
+            sig, 1e-12
+        )
         length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + TILE)
     else:
         length = int(inject[-1] + 1) if I else 1
@@ -709,11 +820,21 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
         length = min(length, int(max_samples))
     out = np.zeros(length)
     t_bank = time.perf_counter()
-    work, last, left = _bank(out, fs, poles[keep], np.ascontiguousarray(amps[:, keep]), inject,
-                             np.full(int(keep.sum()), thr)) if keep.any() else (0, 0, 0.0)
+    work, last, left = (
+        _bank(
+            out,
+            fs,
+            poles[keep],
+            np.ascontiguousarray(amps[:, keep]),
+            inject,
+            np.full(int(keep.sum()), thr),
+        )
+        if keep.any()
+        else (0, 0, 0.0)
+    )
     t_bank = time.perf_counter() - t_bank
     mass_line = float(np.sum(direct.real)) if direct is not None else 0.0
-    for (idx, resp, off_f) in contact_samples:
+    for idx, resp, off_f in contact_samples:
         ok = idx < length
         if not ok.any():
             continue
@@ -726,7 +847,14 @@ def synthesize(impacts, onsets, poles, excitation, output, samplerate, *, floor,
     # what is left out at the end of the audio: the kept modes' remainder there, and the
     # modes left out whole (each at most its share)
     left += float(np.sum(total[~keep]))
-    info = dict(n_modes=K, n_modes_rendered=int(keep.sum()), mode_samples=int(work),
-                reference=reference, threshold=thr, length=length, bank_seconds=t_bank,
-                left_at_end=left)
+    info = dict(
+        n_modes=K,
+        n_modes_rendered=int(keep.sum()),
+        mode_samples=int(work),
+        reference=reference,
+        threshold=thr,
+        length=length,
+        bank_seconds=t_bank,
+        left_at_end=left,
+    )
     return out, info

@@ -116,8 +116,16 @@ from synth.errors import ParameterError, SynthError
 from synth.io.cache import MemoryCache, cache_dir, cache_path, load_npz, savez_atomic
 from synth.physics.scene import Plate
 
-__all__ = ["Modes", "modes", "SeparableShapes", "TOLERANCE", "cache_info",
-           "clear_memory_cache", "cache_dir", "single_thread_product"]
+__all__ = [
+    "Modes",
+    "modes",
+    "SeparableShapes",
+    "TOLERANCE",
+    "cache_info",
+    "clear_memory_cache",
+    "cache_dir",
+    "single_thread_product",
+]
 
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
@@ -155,6 +163,7 @@ _VERSION = 1
 # One-dimensional basis
 # --------------------------------------------------------------------------------------
 
+
 def _alpha(boundary: str) -> int:
     """Jacobi weight exponent of the basis: 0 (free, Legendre), 4 (clamped)."""
     return 0 if boundary == "free" else 4
@@ -183,8 +192,9 @@ def _recurrence(x, a, p0, out):  # pragma: no cover
             out[0, i, m + 1] = (xi * out[0, i, m] - a[m] * prev) / a[m + 1]
             for d in range(1, nd):
                 prev = out[d, i, m - 1] if m > 0 else 0.0
-                out[d, i, m + 1] = (d * out[d - 1, i, m] + xi * out[d, i, m]
-                                    - a[m] * prev) / a[m + 1]
+                out[d, i, m + 1] = (d * out[d - 1, i, m] + xi * out[d, i, m] - a[m] * prev) / a[
+                    m + 1
+                ]
 
 
 def _basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
@@ -199,7 +209,9 @@ def _basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.nda
     """
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
-    mu0 = math.exp((2 * alpha + 1) * math.log(2.0) + 2 * gammaln(alpha + 1) - gammaln(2 * alpha + 2))
+    mu0 = math.exp(
+        (2 * alpha + 1) * math.log(2.0) + 2 * gammaln(alpha + 1) - gammaln(2 * alpha + 2)
+    )
     m = np.arange(n + 1, dtype=float)
     a = np.sqrt(m * (m + 2 * alpha) / ((2 * m + 2 * alpha + 1) * (2 * m + 2 * alpha - 1)))
     a[0] = 0.0
@@ -241,6 +253,7 @@ def _matrices_1d(alpha: int, n: int):
 # Basis size
 # --------------------------------------------------------------------------------------
 
+
 def _degree_wavenumber(i: np.ndarray, c0: float, c1: float) -> np.ndarray:
     """Inverse of ``g(kappa) = kappa + c1 kappa^(1/3) + c0``: the largest wavenumber
     (per unit of xi) that needs a degree ``i``; 0 for ``i <= c0``.
@@ -248,9 +261,9 @@ def _degree_wavenumber(i: np.ndarray, c0: float, c1: float) -> np.ndarray:
     With ``t = kappa^(1/3)``: ``t^3 + c1 t - (i - c0) = 0``, one real root (Cardano).
     """
     q = -(np.asarray(i, dtype=float) - c0)
-    r = np.sqrt(q * q / 4.0 + c1 ** 3 / 27.0)
+    r = np.sqrt(q * q / 4.0 + c1**3 / 27.0)
     t = np.cbrt(-q / 2.0 + r) + np.cbrt(-q / 2.0 - r)
-    return np.where(q < 0.0, t ** 3, 0.0)
+    return np.where(q < 0.0, t**3, 0.0)
 
 
 def _index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
@@ -271,6 +284,7 @@ def _index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 # Ritz solution of one symmetry class
 # --------------------------------------------------------------------------------------
 
+
 @numba.njit(cache=True)
 def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma: no cover
     """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle).
@@ -281,8 +295,8 @@ def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma:
     """
     n = I.size
     k = np.zeros((n, n))
-    cx = 16.0 * rx ** 4
-    cy = 16.0 * ry ** 4
+    cx = 16.0 * rx**4
+    cy = 16.0 * ry**4
     cn = 16.0 * nu * rx * rx * ry * ry
     ct = 32.0 * (1.0 - nu) * rx * rx * ry * ry
     for q in range(n):
@@ -291,7 +305,10 @@ def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma:
         for p in range(q + 1):
             i = I[p]
             j = J[p]
-            v = cn * (a20[i, kk] * b20[ll, j] + a20[kk, i] * b20[j, ll]) + ct * a11[i, kk] * b11[j, ll]
+            v = (
+                cn * (a20[i, kk] * b20[ll, j] + a20[kk, i] * b20[j, ll])
+                + ct * a11[i, kk] * b11[j, ll]
+            )
             if j == ll:
                 v += cx * a22[i, kk]
             if i == kk:
@@ -310,8 +327,16 @@ def _stiffness(mx, my, I, J, rx, ry, nu, shift=0.0):
     + 2 (1 - nu) rx^2 ry^2 w_xieta^2] dxi deta`` and the mass matrix is the identity.
     ``shift`` is added to the diagonal.
     """
-    return _assemble(np.ascontiguousarray(I, dtype=np.int64), np.ascontiguousarray(J, dtype=np.int64),
-                     *mx, *my, float(rx), float(ry), float(nu), float(shift))
+    return _assemble(
+        np.ascontiguousarray(I, dtype=np.int64),
+        np.ascontiguousarray(J, dtype=np.int64),
+        *mx,
+        *my,
+        float(rx),
+        float(ry),
+        float(nu),
+        float(shift),
+    )
 
 
 def _solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
@@ -332,11 +357,13 @@ def _solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
     # Divide and conquer (evd) on the whole spectrum is faster here than a subset
     # (evr or evx) with vectors.
     if vectors:
-        mu, vec = scipy.linalg.eigh(x, lower=False, driver="evd", overwrite_a=True,
-                                    check_finite=False)
+        mu, vec = scipy.linalg.eigh(
+            x, lower=False, driver="evd", overwrite_a=True, check_finite=False
+        )
     else:
-        mu = scipy.linalg.eigh(x, lower=False, driver="evd", eigvals_only=True,
-                               overwrite_a=True, check_finite=False)
+        mu = scipy.linalg.eigh(
+            x, lower=False, driver="evd", eigvals_only=True, overwrite_a=True, check_finite=False
+        )
         vec = None
     first = int(np.searchsorted(mu, mu_lo, side="left"))
     lam = 1.0 / mu[first:][::-1] - _SHIFT
@@ -348,6 +375,7 @@ def _solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
 # --------------------------------------------------------------------------------------
 # Dimensionless solutions (cached)
 # --------------------------------------------------------------------------------------
+
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE``
@@ -361,7 +389,9 @@ def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None
     cols = min(m, max(8, _PIECE // max(1, k * rows)))
     for r0 in range(0, n, rows):
         for c0 in range(0, m, cols):
-            np.matmul(a[r0:r0 + rows], b[:, c0:c0 + cols], out=out[r0:r0 + rows, c0:c0 + cols])
+            np.matmul(
+                a[r0 : r0 + rows], b[:, c0 : c0 + cols], out=out[r0 : r0 + rows, c0 : c0 + cols]
+            )
 
 
 @numba.njit(cache=True)
@@ -401,8 +431,10 @@ class _RitzSolution:
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
-        self.key = json.dumps({"solution": _key(boundary, nu, aspect),
-                               "omega_max": float(omega_max).hex()}, sort_keys=True)
+        self.key = json.dumps(
+            {"solution": _key(boundary, nu, aspect), "omega_max": float(omega_max).hex()},
+            sort_keys=True,
+        )
         # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the
         # latest few are kept (a grid is usually evaluated chunk by chunk).
         self._dense = {}
@@ -443,8 +475,16 @@ class _RitzSolution:
         start = np.concatenate(([0], np.cumsum(counts)))
         # A class's modes come in the order of its columns (ascending frequency):
         # class c's j-th mode is column start[c] + j of the block layout.
-        parts = [(c, slice(int(start[c]), int(start[c + 1])), self.coef[c][:, :counts[c]],
-                  *self.index[c]) for c in range(4) if counts[c]]
+        parts = [
+            (
+                c,
+                slice(int(start[c]), int(start[c + 1])),
+                self.coef[c][:, : counts[c]],
+                *self.index[c],
+            )
+            for c in range(4)
+            if counts[c]
+        ]
         # Group on the coordinate with fewer distinct values, if it has few.
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
@@ -491,18 +531,20 @@ class _RitzSolution:
             m = coef.shape[1]
             dense = self._dense_coefficients(c, m, axis)
             ni, nj = dense.shape[0], dense.shape[1] // m
-            ps_c = ps[:, int(S[0]) % 2::2][:, :ni]
-            pv_c = pv[:, int(T[0]) % 2::2][:, :nj]
+            ps_c = ps[:, int(S[0]) % 2 :: 2][:, :ni]
+            pv_c = pv[:, int(T[0]) % 2 :: 2][:, :nj]
             batch = max(1, _CHUNK_ELEMENTS // (nj * m))
             for g0 in range(0, u.size, batch):
-                s_batch = ps_c[g0:g0 + batch]
+                s_batch = ps_c[g0 : g0 + batch]
                 part = np.empty((s_batch.shape[0], nj * m))
                 single_thread_product(s_batch, dense, part)
                 part = part.reshape(-1, nj, m)
                 for g in range(part.shape[0]):
-                    pts = order[bounds[g0 + g]:bounds[g0 + g + 1]]
-                    if pts[-1] - pts[0] == pts.size - 1:      # consecutive rows
-                        single_thread_product(pv_c[inv_v[pts]], part[g], out[pts[0]:pts[-1] + 1, cols])
+                    pts = order[bounds[g0 + g] : bounds[g0 + g + 1]]
+                    if pts[-1] - pts[0] == pts.size - 1:  # consecutive rows
+                        single_thread_product(
+                            pv_c[inv_v[pts]], part[g], out[pts[0] : pts[-1] + 1, cols]
+                        )
                     else:
                         block = np.empty((pts.size, m))
                         single_thread_product(pv_c[inv_v[pts]], part[g], block)
@@ -518,7 +560,7 @@ class _SimplySupported:
         n_max = int(math.sqrt(omega_max) / (math.pi * ry)) + 1
         m, n = np.meshgrid(np.arange(1, m_max + 1), np.arange(1, n_max + 1), indexing="ij")
         m, n = m.ravel(), n.ravel()
-        om = math.pi ** 2 * ((m * rx) ** 2 + (n * ry) ** 2)
+        om = math.pi**2 * ((m * rx) ** 2 + (n * ry) ** 2)
         keep = om <= omega_max
         m, n, om = m[keep], n[keep], om[keep]
         order = np.lexsort((n, m, om))
@@ -526,9 +568,15 @@ class _SimplySupported:
         self.m = m[order]
         self.n = n[order]
         self.omega_max = omega_max
-        self.key = json.dumps({"version": _VERSION, "boundary": "simply-supported",
-                               "aspect": float(aspect).hex(),
-                               "omega_max": float(omega_max).hex()}, sort_keys=True)
+        self.key = json.dumps(
+            {
+                "version": _VERSION,
+                "boundary": "simply-supported",
+                "aspect": float(aspect).hex(),
+                "omega_max": float(omega_max).hex(),
+            },
+            sort_keys=True,
+        )
 
     def shapes(self, xi, eta, n_modes):
         out = np.empty((xi.size, n_modes))
@@ -589,8 +637,12 @@ def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _R
             if boundary == "free" and c != 3:
                 # The rigid-body motions (1, xi, eta) lie in classes 0, 1, 2: one zero
                 # eigenvalue each (numerically |lambda| ~ eps * s).
-                if not (lam.size and lam2.size and abs(lam[0]) < 1e-6 * _SHIFT
-                        and abs(lam2[0]) < 1e-6 * _SHIFT):
+                if not (
+                    lam.size
+                    and lam2.size
+                    and abs(lam[0]) < 1e-6 * _SHIFT
+                    and abs(lam2[0]) < 1e-6 * _SHIFT
+                ):
                     raise SynthError("free plate: rigid-body modes not found")  # pragma: no cover
                 lam, vec, lam2 = lam[1:], vec[:, 1:], lam2[1:]
             om = np.sqrt(np.maximum(lam, 0.0))
@@ -609,25 +661,48 @@ def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _R
             keep = int(np.searchsorted(om, omega_req, side="right"))
             lams.append(om[:keep])
             vecs.append(np.ascontiguousarray(vec[:, :keep]))
-        attempts.append({"grow": grow, "unknowns": [ij[0].size for ij in main],
-                         "check_unknowns": sizes, "worst_relative_change": worst})
+        attempts.append(
+            {
+                "grow": grow,
+                "unknowns": [ij[0].size for ij in main],
+                "check_unknowns": sizes,
+                "worst_relative_change": worst,
+            }
+        )
         if ok:
             break
         grow *= 1.15
     else:
         raise SynthError(  # pragma: no cover
-            f"plate modes did not converge to {TOLERANCE:g} after {len(attempts)} bases: "
-            f"{attempts}")
+            f"plate modes did not converge to {TOLERANCE:g} after {len(attempts)} bases: {attempts}"
+        )
     omega = np.concatenate(lams)
     cls = np.concatenate([np.full(v.size, c, dtype=np.int64) for c, v in enumerate(lams)])
     col = np.concatenate([np.arange(v.size, dtype=np.int64) for v in lams])
     order = np.lexsort((cls, omega))
-    return _RitzSolution(boundary, nu, aspect, omega_req, omega[order], cls[order], col[order],
-                         main, vecs, {"attempts": attempts})
+    return _RitzSolution(
+        boundary,
+        nu,
+        aspect,
+        omega_req,
+        omega[order],
+        cls[order],
+        col[order],
+        main,
+        vecs,
+        {"attempts": attempts},
+    )
 
 
-def _ritz_frequencies(boundary: str, nu: float, aspect: float, omega_basis: float,
-                      omega_cut: float, c0: float = _C0, c1: float = _C1) -> np.ndarray:
+def _ritz_frequencies(
+    boundary: str,
+    nu: float,
+    aspect: float,
+    omega_basis: float,
+    omega_cut: float,
+    c0: float = _C0,
+    c1: float = _C1,
+) -> np.ndarray:
     """Ritz frequencies (dimensionless, ascending, rigid-body motions removed) up to
     ``omega_cut`` with the basis the rule ``(c0, c1)`` builds for ``omega_basis``.
 
@@ -642,7 +717,7 @@ def _ritz_frequencies(boundary: str, nu: float, aspect: float, omega_basis: floa
     my = _matrices_1d(alpha, max(int(ij[1].max()) for ij in sets) + 1)
     out = []
     for c, (I, J) in enumerate(sets):
-        lam, _ = _solve_class(mx, my, I, J, rx, ry, nu, omega_cut ** 2, False)
+        lam, _ = _solve_class(mx, my, I, J, rx, ry, nu, omega_cut**2, False)
         if boundary == "free" and c != 3:
             lam = lam[1:]
         out.append(np.sqrt(np.maximum(lam, 0.0)))
@@ -683,11 +758,21 @@ def clear_memory_cache() -> None:
 
 def _key(boundary: str, nu: float, aspect: float) -> str:
     """Everything that determines a stored solution, as a canonical JSON string."""
-    return json.dumps({
-        "version": _VERSION, "boundary": boundary, "nu": float(nu).hex(),
-        "aspect": float(aspect).hex(), "c0": _C0, "c1": _C1, "d0": _D0, "d1": _D1,
-        "shift": _SHIFT, "tolerance": TOLERANCE,
-    }, sort_keys=True)
+    return json.dumps(
+        {
+            "version": _VERSION,
+            "boundary": boundary,
+            "nu": float(nu).hex(),
+            "aspect": float(aspect).hex(),
+            "c0": _C0,
+            "c1": _C1,
+            "d0": _D0,
+            "d1": _D1,
+            "shift": _SHIFT,
+            "tolerance": TOLERANCE,
+        },
+        sort_keys=True,
+    )
 
 
 def _path(key: str, boundary: str) -> Path:
@@ -696,8 +781,13 @@ def _path(key: str, boundary: str) -> Path:
 
 def _save(sol: _RitzSolution, key: str) -> None:
     """Write ``sol`` to the disk cache (atomically); skipped if impossible."""
-    arrays = {"key": np.array(key), "omega_max": np.array(sol.omega_max),
-              "omega": sol.omega, "cls": sol.cls, "col": sol.col}
+    arrays = {
+        "key": np.array(key),
+        "omega_max": np.array(sol.omega_max),
+        "omega": sol.omega,
+        "cls": sol.cls,
+        "col": sol.col,
+    }
     for c in range(4):
         arrays[f"I{c}"], arrays[f"J{c}"] = sol.index[c]
         arrays[f"coef{c}"] = sol.coef[c]
@@ -723,24 +813,41 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
             index = [(z[f"I{c}"], z[f"J{c}"]) for c in range(4)]
             coef = [z[f"coef{c}"] for c in range(4)]
         n = omega.size
-        ok = (omega.ndim == 1 and cls.shape == (n,) and col.shape == (n,)
-              and np.all(np.isfinite(omega)) and np.all(np.diff(omega) >= 0.0)
-              and math.isfinite(omega_max) and omega_max > 0.0
-              and (n == 0 or (omega[-1] <= omega_max and cls.min() >= 0 and cls.max() <= 3)))
+        ok = (
+            omega.ndim == 1
+            and cls.shape == (n,)
+            and col.shape == (n,)
+            and np.all(np.isfinite(omega))
+            and np.all(np.diff(omega) >= 0.0)
+            and math.isfinite(omega_max)
+            and omega_max > 0.0
+            and (n == 0 or (omega[-1] <= omega_max and cls.min() >= 0 and cls.max() <= 3))
+        )
         for c in range(4):
             I, J = index[c]
             counts = int(np.sum(cls == c))
-            ok = ok and (I.ndim == 1 and I.shape == J.shape and coef[c].ndim == 2
-                         and coef[c].shape == (I.size, counts)
-                         and np.all(np.isfinite(coef[c]))
-                         and np.array_equal(col[cls == c], np.arange(counts)))
+            ok = ok and (
+                I.ndim == 1
+                and I.shape == J.shape
+                and coef[c].ndim == 2
+                and coef[c].shape == (I.size, counts)
+                and np.all(np.isfinite(coef[c]))
+                and np.array_equal(col[cls == c], np.arange(counts))
+            )
         if not ok:
             return None
-        return _RitzSolution(boundary, nu, aspect, omega_max, omega, cls.astype(np.int64),
-                             col.astype(np.int64), [(I.astype(np.int64), J.astype(np.int64))
-                                                    for I, J in index],
-                             [np.ascontiguousarray(cf, dtype=float) for cf in coef],
-                             {"source": str(path)})
+        return _RitzSolution(
+            boundary,
+            nu,
+            aspect,
+            omega_max,
+            omega,
+            cls.astype(np.int64),
+            col.astype(np.int64),
+            [(I.astype(np.int64), J.astype(np.int64)) for I, J in index],
+            [np.ascontiguousarray(cf, dtype=float) for cf in coef],
+            {"source": str(path)},
+        )
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 
@@ -764,8 +871,9 @@ def _ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool
         _CACHE.put(key, sol, source="disk")
         return sol
     sol = _solve_ritz(boundary, nu, aspect, omega_req)
-    _CACHE.put(key, sol, source="computed",
-               better=lambda held, new: held.omega_max >= new.omega_max)
+    _CACHE.put(
+        key, sol, source="computed", better=lambda held, new: held.omega_max >= new.omega_max
+    )
     _save(sol, key)
     return sol
 
@@ -773,6 +881,7 @@ def _ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool
 # --------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class SeparableShapes:
@@ -889,17 +998,24 @@ class Modes:
         material's stiffness, density or damping, which do not change the shapes.
         """
         p = self.plate
-        return json.dumps({"solution": self._solution.key, "length": float(p.length).hex(),
-                           "width": float(p.width).hex(), "modes": len(self)},
-                          sort_keys=True)
+        return json.dumps(
+            {
+                "solution": self._solution.key,
+                "length": float(p.length).hex(),
+                "width": float(p.width).hex(),
+                "modes": len(self),
+            },
+            sort_keys=True,
+        )
 
     def __repr__(self) -> str:
         p = self.plate
-        band = (f"{self.frequencies[0]:.6g}..{self.frequencies[-1]:.6g} Hz"
-                if len(self) else "none")
-        return (f"Modes({len(self)} modes, {band}, max_frequency={self.max_frequency:g} Hz; "
-                f"{p.boundary} {p.material.name} plate {p.length:g} x {p.width:g} x "
-                f"{p.thickness:g} m)")
+        band = f"{self.frequencies[0]:.6g}..{self.frequencies[-1]:.6g} Hz" if len(self) else "none"
+        return (
+            f"Modes({len(self)} modes, {band}, max_frequency={self.max_frequency:g} Hz; "
+            f"{p.boundary} {p.material.name} plate {p.length:g} x {p.width:g} x "
+            f"{p.thickness:g} m)"
+        )
 
     def separable(self) -> SeparableShapes | None:
         """The shapes as products ``X_i(x) Y_j(y)`` (:class:`SeparableShapes`), or None
@@ -911,8 +1027,10 @@ class Modes:
         p = self.plate
         m_idx = np.asarray(sol.m[:n], dtype=np.int64) - 1
         n_idx = np.asarray(sol.n[:n], dtype=np.int64) - 1
-        k = math.pi * max((int(m_idx.max()) + 1) / p.length if n else 0.0,
-                          (int(n_idx.max()) + 1) / p.width if n else 0.0)
+        k = math.pi * max(
+            (int(m_idx.max()) + 1) / p.length if n else 0.0,
+            (int(n_idx.max()) + 1) / p.width if n else 0.0,
+        )
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points) -> np.ndarray:
@@ -947,11 +1065,13 @@ class Modes:
             pts = np.asarray(points, dtype=float)
         except (TypeError, ValueError):
             raise ParameterError(
-                f"points={points!r} must be an (n, 2) array of (x, y) positions (metres)") from None
+                f"points={points!r} must be an (n, 2) array of (x, y) positions (metres)"
+            ) from None
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise ParameterError(
                 f"points with shape {pts.shape} must be an (n, 2) array of (x, y) "
-                f"positions (metres)")
+                f"positions (metres)"
+            )
         bad = ~np.all(np.isfinite(pts), axis=1)
         p = self.plate
         a, b = p.length, p.width
@@ -960,7 +1080,8 @@ class Modes:
             i = int(np.argmax(bad))
             raise ParameterError(
                 f"points[{i}]=({pts[i, 0]!r}, {pts[i, 1]!r}) is off the plate: x must be in "
-                f"[0, {a!r}] and y in [0, {b!r}] (metres from a corner)")
+                f"[0, {a!r}] and y in [0, {b!r}] (metres from a corner)"
+            )
         xi = np.clip(2.0 * pts[:, 0] / a - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * pts[:, 1] / b - 1.0, -1.0, 1.0)
         return self._solution.shapes(xi, eta, len(self))
@@ -1009,7 +1130,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     length = max(a, b)
     aspect = a / b
     # omega = Omega * scale with Omega = omega L^2 sqrt(rho h / D) dimensionless.
-    scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / length ** 2
+    scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
     omega_req = 2.0 * math.pi * fmax / scale
     if plate.boundary == "simply-supported":
         sol = _SimplySupported(aspect, omega_req)
@@ -1021,7 +1142,8 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
             raise ParameterError(
                 f"max_frequency={max_frequency!r} is too high for this plate (Hz): the "
                 f"mode solver would need {exc.n} unknowns per symmetry class, more than "
-                f"{_MAX_UNKNOWNS}") from None
+                f"{_MAX_UNKNOWNS}"
+            ) from None
         tol = TOLERANCE
     omega = sol.omega * scale
     freq = omega / (2.0 * math.pi)
@@ -1032,5 +1154,13 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     mass = np.full(n, plate.mass)
     for arr in (omega, freq, sigma, mass):
         arr.setflags(write=False)
-    return Modes(plate=plate, max_frequency=fmax, frequencies=freq, angular_frequencies=omega,
-                 decay_rates=sigma, modal_masses=mass, tolerance=tol, _solution=sol)
+    return Modes(
+        plate=plate,
+        max_frequency=fmax,
+        frequencies=freq,
+        angular_frequencies=omega,
+        decay_rates=sigma,
+        modal_masses=mass,
+        tolerance=tol,
+        _solution=sol,
+    )

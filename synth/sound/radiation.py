@@ -114,18 +114,25 @@ from synth.errors import ParameterError
 from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.sound.modes import Modes, single_thread_product
 
-__all__ = ["RadiationResult", "rayleigh_gains", "separable_gains", "plate_gains", "delay",
-           "distance",
-           "cache_info", "clear_memory_cache"]
+__all__ = [
+    "RadiationResult",
+    "rayleigh_gains",
+    "separable_gains",
+    "plate_gains",
+    "delay",
+    "distance",
+    "cache_info",
+    "clear_memory_cache",
+]
 
 
-_MAX_ORDER = 24            # Gauss-Legendre points per axis of the longest panels, first rule
-_REFINE = 1.25             # ratio of points per axis between successive rules (1.56 in 2-D)
-_MAX_RULES = 7             # first rule and up to six refinements
-_GRADING = 2.0             # near-field panel length / max(z, d)
-_NEAR_RHO = 2.89           # Bernstein-ellipse parameter of the worst graded panel (see _min_order)
-_COHERENT_FLOOR = 1e-4                   # see the module docstring
-_CHUNK_BYTES = 32e6                      # one chunk of mode values, bytes
+_MAX_ORDER = 24  # Gauss-Legendre points per axis of the longest panels, first rule
+_REFINE = 1.25  # ratio of points per axis between successive rules (1.56 in 2-D)
+_MAX_RULES = 7  # first rule and up to six refinements
+_GRADING = 2.0  # near-field panel length / max(z, d)
+_NEAR_RHO = 2.89  # Bernstein-ellipse parameter of the worst graded panel (see _min_order)
+_COHERENT_FLOOR = 1e-4  # see the module docstring
+_CHUNK_BYTES = 32e6  # one chunk of mode values, bytes
 _TOL_RANGE = (1e-9, 0.1)
 
 
@@ -181,7 +188,8 @@ def _listener(listener_position) -> tuple[float, float, float]:
     x, y, z = checks.point("listener_position", listener_position, 3)
     if not z > 0.0:
         raise ParameterError(
-            f"listener_position.z={z!r} must be > 0 (metres above the plate, on the air side)")
+            f"listener_position.z={z!r} must be > 0 (metres above the plate, on the air side)"
+        )
     return x, y, z
 
 
@@ -192,8 +200,10 @@ def _size(size) -> tuple[float, float]:
         raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)") from None
     if len(items) != 2:
         raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
-    return (checks.positive("size.a", items[0], "metres"),
-            checks.positive("size.b", items[1], "metres"))
+    return (
+        checks.positive("size.a", items[0], "metres"),
+        checks.positive("size.b", items[1], "metres"),
+    )
 
 
 def _poles(s) -> np.ndarray:
@@ -204,7 +214,8 @@ def _poles(s) -> np.ndarray:
     if arr.ndim != 1 or not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
         raise ParameterError(
             f"s (shape {arr.shape}, dtype {arr.dtype}) must be a 1-D numeric array "
-            f"of complex poles (rad/s), one per mode")
+            f"of complex poles (rad/s), one per mode"
+        )
     arr = arr.astype(complex)
     bad = ~np.isfinite(arr)
     if bad.any():
@@ -230,7 +241,7 @@ def _half_phase(p: int, tol: float) -> float:
     """Largest ``w`` such that ``p``-point Gauss-Legendre integrates ``exp(i w' t)``
     on ``[-1, 1]`` with error ``<= tol`` times the interval length, for all ``w' <= w``."""
     t, wts = _gauss(p)
-    omega = np.arange(1, 4000) * (0.005 * p)          # up to 20 p, beyond any useful panel
+    omega = np.arange(1, 4000) * (0.005 * p)  # up to 20 p, beyond any useful panel
     quad = np.exp(1j * np.outer(omega, t)) @ wts
     err = np.abs(quad - 2.0 * np.sin(omega) / omega) / 2.0
     bad = np.flatnonzero(err > tol)
@@ -312,16 +323,16 @@ def _nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray
 # the loop over modes vectorises; the general kernel calls libm. Only fused multiply-add
 # contraction is allowed ('contract'), which keeps the error within a few ulp.
 
-_PIO2_1 = 1.57079632673412561417e+00      # first 33 bits of pi/2 (fdlibm)
-_PIO2_1T = 6.07710050650619224932e-11     # pi/2 - _PIO2_1
-_INVPIO2 = 6.36619772367581382433e-01     # 2/pi
+_PIO2_1 = 1.57079632673412561417e00  # first 33 bits of pi/2 (fdlibm)
+_PIO2_1T = 6.07710050650619224932e-11  # pi/2 - _PIO2_1
+_INVPIO2 = 6.36619772367581382433e-01  # 2/pi
 _S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
 _S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
 _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
-@numba.njit(cache=True, fastmath={'contract'})
+@numba.njit(cache=True, fastmath={"contract"})
 def _cis(theta):
     """(cos theta, sin theta) for |theta| < 2^19 pi, within a few ulp."""
     n = np.floor(theta * _INVPIO2 + 0.5)
@@ -329,8 +340,8 @@ def _cis(theta):
     z = r * r
     sn = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
     cs = 1.0 - 0.5 * z + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
-    q = n - 4.0 * np.floor(0.25 * n)       # quadrant 0, 1, 2 or 3 (kept in floats
-    swap = q == 1.0 or q == 3.0               # so that the loop vectorises without AVX-512)
+    q = n - 4.0 * np.floor(0.25 * n)  # quadrant 0, 1, 2 or 3 (kept in floats
+    swap = q == 1.0 or q == 3.0  # so that the loop vectorises without AVX-512)
     c0 = sn if swap else cs
     s0 = cs if swap else sn
     c_sign = -1.0 if (q == 1.0 or q == 2.0) else 1.0
@@ -338,7 +349,7 @@ def _cis(theta):
     return c0 * c_sign, s0 * s_sign
 
 
-@numba.njit(cache=True, fastmath={'contract'})
+@numba.njit(cache=True, fastmath={"contract"})
 def _exp_small(u):
     """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
     e = 1.0 / 6402373705728000.0
@@ -362,7 +373,7 @@ def _exp_small(u):
     return 1.0 + u * e
 
 
-@numba.njit(cache=True, fastmath={'contract'})
+@numba.njit(cache=True, fastmath={"contract"})
 def _damping(u, halvings):
     """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 and halvings in [0, 6]."""
     e = _exp_small(u)
@@ -371,7 +382,7 @@ def _damping(u, halvings):
     return e
 
 
-@numba.njit(cache=True, fastmath={'contract'})
+@numba.njit(cache=True, fastmath={"contract"})
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
 
@@ -453,7 +464,7 @@ def _halvings(q: np.ndarray, spread: float) -> int:
     beyond the Cody-Waite range."""
     u_max = float(np.max(np.abs(q.real))) * spread
     halvings = max(0, math.ceil(math.log2(u_max))) if u_max > 0 else 0
-    if halvings > 6 or float(np.max(np.abs(q.imag))) * spread >= 2.0 ** 18:
+    if halvings > 6 or float(np.max(np.abs(q.imag))) * spread >= 2.0**18:
         halvings = -1
     return halvings
 
@@ -481,7 +492,7 @@ def _apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
     ny = ys.size
     n_total = xs.size * ny
     workers = _workers()
-    acc = np.zeros((workers, 3, m))          # per worker: real, imaginary, magnitude
+    acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
     with ThreadPoolExecutor(max_workers=workers) as pool:
@@ -500,16 +511,29 @@ def _apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
             for job in running:
                 job.result()
             n = idx.size
-            running = [pool.submit(_accumulate, w * n // workers, (w + 1) * n // workers,
-                                   dist, wr, phi, qr, qi, halvings, *acc[w])
-                       for w in range(workers)]
+            running = [
+                pool.submit(
+                    _accumulate,
+                    w * n // workers,
+                    (w + 1) * n // workers,
+                    dist,
+                    wr,
+                    phi,
+                    qr,
+                    qi,
+                    halvings,
+                    *acc[w],
+                )
+                for w in range(workers)
+            ]
         for job in running:
             job.result()
     acc_re, acc_im, mag = acc.sum(axis=0)
-    if not np.isfinite(mag).all():      # NaN or inf anywhere in phi propagates here
+    if not np.isfinite(mag).all():  # NaN or inf anywhere in phi propagates here
         k = int(np.flatnonzero(~np.isfinite(mag))[0])
         raise ParameterError(
-            f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}")
+            f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}"
+        )
     return acc_re + 1j * acc_im, mag
 
 
@@ -521,7 +545,8 @@ def _check_shapes(phi, n, m):
     if arr.shape != (n, m):
         raise ParameterError(
             f"shape_fn returned shape {arr.shape} for {n} points; expected ({n}, {m}) "
-            f"(points, modes), one column per pole in s")
+            f"(points, modes), one column per pole in s"
+        )
     if np.iscomplexobj(arr):
         raise ParameterError("shape_fn must return real mode shape values, got complex")
     if not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
@@ -533,28 +558,42 @@ def _check_shapes(phi, n, m):
 # Public API
 
 
-def _check_settings(max_wavenumber, air_density, sound_speed, reference_distance, tol,
-                    max_points):
+def _check_settings(max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points):
     """The settings shared by :func:`rayleigh_gains` and :func:`plate_gains`, checked:
     ``(kb rad/m, rho kg/m^3, c m/s, R0 m or None, tol)``; ``max_points`` must be a positive
     integer."""
     kb = checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
     rho = checks.positive("air_density", air_density, "kg/m^3")
     c = checks.positive("sound_speed", sound_speed, "m/s")
-    r0 = None if reference_distance is None else checks.nonnegative(
-        "reference_distance", reference_distance, "metres")
-    tol = checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False,
-                           hi_open=False)
-    if isinstance(max_points, bool) or not isinstance(max_points, (int, np.integer)) \
-            or max_points <= 0:
+    r0 = (
+        None
+        if reference_distance is None
+        else checks.nonnegative("reference_distance", reference_distance, "metres")
+    )
+    tol = checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False, hi_open=False)
+    if (
+        isinstance(max_points, bool)
+        or not isinstance(max_points, (int, np.integer))
+        or max_points <= 0
+    ):
         raise ParameterError(f"max_points={max_points!r} must be a positive integer")
     return kb, rho, c, r0, tol
 
 
-def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
-                   air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                   reference_distance=None, tol=1e-6, max_points=4_000_000,
-                   full_output=False):
+def rayleigh_gains(
+    shape_fn,
+    size,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+):
     """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral).
 
     Parameters
@@ -624,13 +663,13 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
     a, b = _size(size)
     listener = _listener(listener_position)
     q_s = _poles(s)
-    kb, rho, c, r0, tol = _check_settings(max_wavenumber, air_density, sound_speed,
-                                          reference_distance, tol, max_points)
+    kb, rho, c, r0, tol = _check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
     m = q_s.size
     if m == 0:
         empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0,
-                              "no modes")
+        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
         return res if full_output else empty
 
     q = q_s / c
@@ -641,11 +680,12 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
     w_half = _half_phase(_MAX_ORDER, tol_panel)
     h = 2.0 * w_half / kappa if kappa > 0 else math.inf
     p_min = _min_order(tol_panel)
-    if (a / h) * (b / h) * p_min * p_min > max_points:     # before building the panels
+    if (a / h) * (b / h) * p_min * p_min > max_points:  # before building the panels
         raise ParameterError(
             f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m and "
             f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
-            f"{(a / h) * (b / h) * p_min * p_min:.3g} points")
+            f"{(a / h) * (b / h) * p_min * p_min:.3g} points"
+        )
     ex, ey, px0, py0 = _first_rule(a, b, listener, kappa, tol_panel)
     panels = (ex.size - 1, ey.size - 1)
 
@@ -662,7 +702,7 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
     chunk = max(1, int(_CHUNK_BYTES // (8 * m)))
 
     def orders(level):
-        f = _REFINE ** level
+        f = _REFINE**level
         return np.ceil(px0 * f).astype(np.int64), np.ceil(py0 * f).astype(np.int64)
 
     def npoints(level):
@@ -674,7 +714,8 @@ def rayleigh_gains(shape_fn, size, listener_position, s, *, max_wavenumber,
             f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m, "
             f"max|s|/c={kappa - kb:.6g} rad/m and z={zl!r} m the plate needs "
             f"{panels[0]} x {panels[1]} panels and {npoints(1)} points for the "
-            f"convergence check")
+            f"convergence check"
+        )
 
     def rule(level):
         ox, oy = orders(level)
@@ -722,22 +763,38 @@ def _refine(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationR
             status, message = 0, f"converged with {n_points} points (refinement {level})"
             break
         if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
-            status, message = 2, (f"stopped at {n_points} points: the next rule would "
-                                  f"exceed max_points={max_points}")
+            status, message = (
+                2,
+                (
+                    f"stopped at {n_points} points: the next rule would "
+                    f"exceed max_points={max_points}"
+                ),
+            )
             break
         coarse = fine
-    return RadiationResult(gains=h_fine, error=error, coherent=coherent,
-                           n_points=n_points, refinements=level, panels=panels,
-                           success=status == 0, status=status, message=message)
+    return RadiationResult(
+        gains=h_fine,
+        error=error,
+        coherent=coherent,
+        n_points=n_points,
+        refinements=level,
+        panels=panels,
+        success=status == 0,
+        status=status,
+        message=message,
+    )
 
 
 def _warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
     """RuntimeWarning naming the mode furthest from the convergence test."""
     allowed = tol * np.maximum(np.abs(result.gains), _COHERENT_FLOOR * result.coherent)
     worst = int(np.argmax(result.error / np.maximum(allowed, 1e-300)))
-    warnings.warn(f"{caller}: {result.message} (mode {worst}: estimated error "
-                  f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
-                  RuntimeWarning, stacklevel=3)
+    warnings.warn(
+        f"{caller}: {result.message} (mode {worst}: estimated error "
+        f"{result.error[worst]:.3g} Pa s/m, allowed {allowed[worst]:.3g})",
+        RuntimeWarning,
+        stacklevel=3,
+    )
 
 
 # ----------------------------------------------------------------------------------------
@@ -767,8 +824,9 @@ def _radial_segments(a: float, b: float, xl: float, yl: float):
     r_min = math.hypot(dx, dy)
     corners = [math.hypot(xl - cx, yl - cy) for cx in (0.0, a) for cy in (0.0, b)]
     r_max = max(corners)
-    singular = sorted({t for t in (abs(xl), abs(xl - a), abs(yl), abs(yl - b))
-                       if t > 0.0 and r_min <= t < r_max})
+    singular = sorted(
+        {t for t in (abs(xl), abs(xl - a), abs(yl), abs(yl - b)) if t > 0.0 and r_min <= t < r_max}
+    )
     kinks = sorted({t for t in corners if r_min < t < r_max})
     return r_min, r_max, singular, kinks
 
@@ -781,8 +839,11 @@ def _radial_panels(a, b, listener, h):
     xl, yl, zl = listener
     r_min, r_max, singular, kinks = _radial_segments(a, b, xl, yl)
     # breakpoints closer than 1e-12 r_max are one (rounding of equal distances)
-    points = sorted([(r_min, False), (r_max, False)] + [(t, True) for t in singular]
-                    + [(t, False) for t in kinks])
+    points = sorted(
+        [(r_min, False), (r_max, False)]
+        + [(t, True) for t in singular]
+        + [(t, False) for t in kinks]
+    )
     ends, sing = [], []
     for t, s in points:
         if ends and t - ends[-1] <= 1e-12 * r_max:
@@ -829,8 +890,13 @@ def _panel_phase(lo, hi, kind, tangents, kb, qa, z):
     panel (``kind != 0``) is taken as twice as long in radius (``dr/du <= 2 L``).
     """
     stretch = 1.0 if kind == 0 else 2.0
-    travel = max((math.sqrt(max(hi * hi - d * d, 0.0)) - math.sqrt(max(lo * lo - d * d, 0.0))
-                  for d in tangents), default=0.0)
+    travel = max(
+        (
+            math.sqrt(max(hi * hi - d * d, 0.0)) - math.sqrt(max(lo * lo - d * d, 0.0))
+            for d in tangents
+        ),
+        default=0.0,
+    )
     big = math.hypot(hi, z) - math.hypot(lo, z)
     return stretch * qa * big + kb * max(stretch * (hi - lo), travel)
 
@@ -879,7 +945,7 @@ def _radial_nodes(panels, orders):
             ws.append(0.5 * length * w)
         elif kind > 0:
             rs.append(lo + length * u * u)
-            ws.append(length * u * w)              # dr = 2 L u du, du = dt / 2
+            ws.append(length * u * w)  # dr = 2 L u du, du = dt / 2
         else:
             rs.append(hi - length * (1.0 - u) ** 2)
             ws.append(length * (1.0 - u) * w)
@@ -916,7 +982,7 @@ def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
     return arcs
 
 
-_ANGLE_MIN_ORDER = 4        # Gauss-Legendre points of the shortest angular panels
+_ANGLE_MIN_ORDER = 4  # Gauss-Legendre points of the shortest angular panels
 # Panel accuracy of the polar rule, relative to tol (as the rectangle rule's).
 _POLAR_PANEL_TOL = 0.1
 
@@ -960,8 +1026,9 @@ def _angular_rule(r, a, b, listener, kb, tol, refine):
     return np.concatenate(ts), np.concatenate(ws)
 
 
-def _apply_separable_rule(sep, size, listener, radii, wr, kb, tol, refine, q, r_mid,
-                          halvings, in_phase):
+def _apply_separable_rule(
+    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, in_phase
+):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and (if ``in_phase``, else
     zeros) ``Int |phi_k| / R dA`` of separable shapes, and the number of points, by the
     polar rule (radii ``radii`` with weights ``wr``)."""
@@ -976,7 +1043,7 @@ def _apply_separable_rule(sep, size, listener, radii, wr, kb, tol, refine, q, r_
     rows = max(1, int(_CHUNK_BYTES // (8 * m)))
     n_points = 0
     for start in range(0, radii.size, rows):
-        rr = radii[start:start + rows]
+        rr = radii[start : start + rows]
         phi = np.empty((rr.size, m))
         phi_abs = np.zeros((rr.size, m))
         for i, r in enumerate(rr):
@@ -994,11 +1061,12 @@ def _apply_separable_rule(sep, size, listener, radii, wr, kb, tol, refine, q, r_
             single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
             phi[i] = sums[xi, yi]
             if in_phase:
-                single_thread_product(np.ascontiguousarray((np.abs(fx) * w[:, None]).T),
-                                      np.abs(fy), sums)
+                single_thread_product(
+                    np.ascontiguousarray((np.abs(fx) * w[:, None]).T), np.abs(fy), sums
+                )
                 phi_abs[i] = sums[xi, yi]
         big_r = np.sqrt(rr * rr + zl * zl)
-        weight = wr[start:start + rows] * rr / big_r
+        weight = wr[start : start + rows] * rr / big_r
         dist = big_r - r_mid
         _accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
         mag += weight @ phi_abs
@@ -1008,10 +1076,19 @@ def _apply_separable_rule(sep, size, listener, radii, wr, kb, tol, refine, q, r_
     return acc_re + 1j * acc_im, mag, n_points
 
 
-def separable_gains(shapes, listener_position, s, *, max_wavenumber,
-                    air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                    reference_distance=None, tol=1e-6, max_points=4_000_000,
-                    full_output=False):
+def separable_gains(
+    shapes,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+):
     """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)``, in polar coordinates.
 
     Parameters
@@ -1019,9 +1096,11 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     shapes : synth.sound.modes.SeparableShapes
         The modes' shapes (see :meth:`synth.sound.modes.Modes.separable`) and the
         plate's size.
-    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points, full_output
+    listener_position, s, max_wavenumber, air_density, sound_speed
         As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
-        wavenumber, rad/m; ``max_points`` counts the points of one rule).
+        wavenumber, rad/m).
+    reference_distance, tol, max_points, full_output
+        As for :func:`rayleigh_gains` (``max_points`` counts the points of one rule).
 
     Returns
     -------
@@ -1052,14 +1131,15 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     if q_s.size != shapes.x_index.size:
         raise ParameterError(
             f"s has {q_s.size} poles for {shapes.x_index.size} modes: one complex "
-            f"frequency (rad/s) per mode is needed")
-    kb, rho, c, r0, tol = _check_settings(max_wavenumber, air_density, sound_speed,
-                                          reference_distance, tol, max_points)
+            f"frequency (rad/s) per mode is needed"
+        )
+    kb, rho, c, r0, tol = _check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
     m = q_s.size
     if m == 0:
         empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0,
-                              "no modes")
+        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
         return res if full_output else empty
     q = q_s / c
     kappa = kb + float(np.max(np.abs(q)))
@@ -1067,8 +1147,9 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     w_half = _half_phase(_MAX_ORDER, tol_panel)
     h = 2.0 * w_half / kappa if kappa > 0 else math.inf
     xl, yl, zl = listener
-    panels, orders0 = _radial_orders(_radial_panels(a, b, listener, h), (a, b), listener, kb,
-                                     kappa - kb, tol_panel)
+    panels, orders0 = _radial_orders(
+        _radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
+    )
     r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
     big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
     r_mid = 0.5 * (big_min + big_max)
@@ -1076,11 +1157,12 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     counts = {}
 
     def rule(level):
-        f = _REFINE ** level
+        f = _REFINE**level
         radii, wr = _radial_nodes(panels, np.ceil(orders0 * f).astype(np.int64))
         # _refine reads the in-phase integrals of the finer rules only
-        total, mag, n = _apply_separable_rule(shapes, (a, b), listener, radii, wr, kb,
-                                              tol_panel, f, q, r_mid, halvings, level > 0)
+        total, mag, n = _apply_separable_rule(
+            shapes, (a, b), listener, radii, wr, kb, tol_panel, f, q, r_mid, halvings, level > 0
+        )
         counts[level] = n
         return total, mag
 
@@ -1095,7 +1177,8 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
     result = dataclasses.replace(
-        _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0)), rule="polar")
+        _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0)), rule="polar"
+    )
     if full_output:
         return result
     if not result.success:
@@ -1107,8 +1190,8 @@ def separable_gains(shapes, listener_position, s, *, max_wavenumber,
 # Gains of a plate's modes, cached in memory and on disk
 
 
-_CACHE_VERSION = 1          # layout of the stored gains and the algorithm; part of the key
-_CACHE = MemoryCache("computations", max_entries=32)   # least recently used dropped
+_CACHE_VERSION = 1  # layout of the stored gains and the algorithm; part of the key
+_CACHE = MemoryCache("computations", max_entries=32)  # least recently used dropped
 
 
 def cache_info() -> dict:
@@ -1134,16 +1217,26 @@ def _gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False)
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
     (``polar``: computed by :func:`separable_gains`)."""
     extra = {"rule": "polar"} if polar else {}
-    return json.dumps({**extra,
-        "version": _CACHE_VERSION, "shapes": modes.shape_key,
-        "listener": [float(v).hex() for v in listener],
-        "poles": hashlib.sha256(np.ascontiguousarray(s, dtype=np.complex128).tobytes()).hexdigest(),
-        "n_poles": int(s.size), "max_wavenumber": float(kb).hex(),
-        "air_density": float(rho).hex(), "sound_speed": float(c).hex(),
-        "reference_distance": None if r0 is None else float(r0).hex(),
-        "tol": float(tol).hex(), "max_points": int(max_points),
-        "quadrature": [_MAX_ORDER, _REFINE, _MAX_RULES, _GRADING, _NEAR_RHO, _COHERENT_FLOOR],
-    }, sort_keys=True)
+    return json.dumps(
+        {
+            **extra,
+            "version": _CACHE_VERSION,
+            "shapes": modes.shape_key,
+            "listener": [float(v).hex() for v in listener],
+            "poles": hashlib.sha256(
+                np.ascontiguousarray(s, dtype=np.complex128).tobytes()
+            ).hexdigest(),
+            "n_poles": int(s.size),
+            "max_wavenumber": float(kb).hex(),
+            "air_density": float(rho).hex(),
+            "sound_speed": float(c).hex(),
+            "reference_distance": None if r0 is None else float(r0).hex(),
+            "tol": float(tol).hex(),
+            "max_points": int(max_points),
+            "quadrature": [_MAX_ORDER, _REFINE, _MAX_RULES, _GRADING, _NEAR_RHO, _COHERENT_FLOOR],
+        },
+        sort_keys=True,
+    )
 
 
 def _gains_path(key: str) -> Path:
@@ -1152,11 +1245,18 @@ def _gains_path(key: str) -> Path:
 
 def _save_gains(result: RadiationResult, key: str) -> None:
     """Write ``result`` to the disk cache (atomically); skipped if impossible."""
-    arrays = {"key": np.array(key), "gains": result.gains, "error": result.error,
-              "coherent": result.coherent, "n_points": np.array(result.n_points),
-              "refinements": np.array(result.refinements), "panels": np.array(result.panels),
-              "status": np.array(result.status), "message": np.array(result.message),
-              "rule": np.array(result.rule)}
+    arrays = {
+        "key": np.array(key),
+        "gains": result.gains,
+        "error": result.error,
+        "coherent": result.coherent,
+        "n_points": np.array(result.n_points),
+        "refinements": np.array(result.refinements),
+        "panels": np.array(result.panels),
+        "status": np.array(result.status),
+        "message": np.array(result.message),
+        "rule": np.array(result.rule),
+    }
     try:
         path = _gains_path(key)
     except RuntimeError:  # no home directory
@@ -1179,17 +1279,36 @@ def _load_gains(key: str, m: int):
             n_points, refinements = int(z["n_points"][()]), int(z["refinements"][()])
             panels, status, message = z["panels"], int(z["status"][()]), str(z["message"][()])
             rule = str(z["rule"][()]) if "rule" in z.files else "rectangle"
-        ok = (gains.dtype == np.complex128 and gains.shape == (m,)
-              and error.shape == (m,) and coherent.shape == (m,) and panels.shape == (2,)
-              and np.all(np.isfinite(gains)) and np.all(np.isfinite(error))
-              and np.all(np.isfinite(coherent)) and status in (0, 1, 2)
-              and n_points >= 0 and refinements >= 0 and rule in ("rectangle", "polar"))
+        ok = (
+            gains.dtype == np.complex128
+            and gains.shape == (m,)
+            and error.shape == (m,)
+            and coherent.shape == (m,)
+            and panels.shape == (2,)
+            and np.all(np.isfinite(gains))
+            and np.all(np.isfinite(error))
+            and np.all(np.isfinite(coherent))
+            and status in (0, 1, 2)
+            and n_points >= 0
+            and refinements >= 0
+            and rule in ("rectangle", "polar")
+        )
         if not ok:
             return None
-        return _frozen(RadiationResult(gains, error.astype(float), coherent.astype(float),
-                                       n_points, refinements,
-                                       (int(panels[0]), int(panels[1])), status == 0,
-                                       status, message, rule))
+        return _frozen(
+            RadiationResult(
+                gains,
+                error.astype(float),
+                coherent.astype(float),
+                n_points,
+                refinements,
+                (int(panels[0]), int(panels[1])),
+                status == 0,
+                status,
+                message,
+                rule,
+            )
+        )
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 
@@ -1223,9 +1342,20 @@ def _use_separable(modes, size, listener, q_s, kb, c, tol):
     return shapes if work > _POLAR_WORK else None
 
 
-def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_DENSITY,
-                sound_speed=SOUND_SPEED, reference_distance=None, tol=1e-6,
-                max_points=4_000_000, full_output=False, cache=True):
+def plate_gains(
+    modes,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+    cache=True,
+):
     """:func:`rayleigh_gains` of a plate's modes, cached in memory and on disk.
 
     Parameters
@@ -1273,30 +1403,52 @@ def plate_gains(modes, listener_position, s, *, max_wavenumber, air_density=AIR_
     if q_s.size != len(modes):
         raise ParameterError(
             f"s has {q_s.size} poles for {len(modes)} modes: one complex frequency (rad/s) "
-            f"per mode is needed")
-    kb, rho, c, r0, tol = _check_settings(max_wavenumber, air_density, sound_speed,
-                                          reference_distance, tol, max_points)
+            f"per mode is needed"
+        )
+    kb, rho, c, r0, tol = _check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
 
     size = (modes.plate.length, modes.plate.width)
     separable = _use_separable(modes, size, listener, q_s, kb, c, tol)
 
     def compute():
         if separable is not None:
-            result = separable_gains(separable, listener, q_s, max_wavenumber=kb,
-                                     air_density=rho, sound_speed=c, reference_distance=r0,
-                                     tol=tol, max_points=max_points, full_output=True)
+            result = separable_gains(
+                separable,
+                listener,
+                q_s,
+                max_wavenumber=kb,
+                air_density=rho,
+                sound_speed=c,
+                reference_distance=r0,
+                tol=tol,
+                max_points=max_points,
+                full_output=True,
+            )
         else:
-            result = rayleigh_gains(modes.shapes, size, listener, q_s, max_wavenumber=kb,
-                                    air_density=rho, sound_speed=c, reference_distance=r0,
-                                    tol=tol, max_points=max_points, full_output=True)
+            result = rayleigh_gains(
+                modes.shapes,
+                size,
+                listener,
+                q_s,
+                max_wavenumber=kb,
+                air_density=rho,
+                sound_speed=c,
+                reference_distance=r0,
+                tol=tol,
+                max_points=max_points,
+                full_output=True,
+            )
         return _frozen(result)
 
     if not cache:
         result = compute()
         _CACHE.count("computed")
     else:
-        key = _gains_key(modes, listener, q_s, kb, rho, c, r0, tol, max_points,
-                         separable is not None)
+        key = _gains_key(
+            modes, listener, q_s, kb, rho, c, r0, tol, max_points, separable is not None
+        )
         result = _CACHE.get(key)
         if result is None:
             result = _load_gains(key, q_s.size)

@@ -74,8 +74,14 @@ class Render:
 
 
 def _samplerate(value) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 8000 <= value <= 384000:
-        raise ParameterError(f"samplerate={value!r} must be an integer number of Hz in [8000, 384000]")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or not 8000 <= value <= 384000
+    ):
+        raise ParameterError(
+            f"samplerate={value!r} must be an integer number of Hz in [8000, 384000]"
+        )
     return int(value)
 
 
@@ -106,9 +112,15 @@ def _microphone_gains(modes, plate, microphone, poles, k_max):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
-    h = plate_gains(modes, microphone.position, mirror, max_wavenumber=k_max,
-                    air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                    reference_distance=_nearest_distance(plate, microphone))
+    h = plate_gains(
+        modes,
+        microphone.position,
+        mirror,
+        max_wavenumber=k_max,
+        air_density=AIR_DENSITY,
+        sound_speed=SOUND_SPEED,
+        reference_distance=_nearest_distance(plate, microphone),
+    )
     return np.asarray(h) * poles / mirror
 
 
@@ -140,7 +152,7 @@ class ListenerOutput:
 
 def _accelerometer_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
     phip = modes.shapes(np.array([listener.position]))[0][ok]
-    return ListenerOutput(phip * poles ** 2, phip, 0.0, "m/s^2")
+    return ListenerOutput(phip * poles**2, phip, 0.0, "m/s^2")
 
 
 def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
@@ -148,8 +160,12 @@ def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> L
     rho_h = plate.surface_density
     k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
     all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max)
-    return ListenerOutput(np.asarray(all_gains)[ok] * poles, None,
-                          _nearest_distance(plate, listener) / SOUND_SPEED, "Pa")
+    return ListenerOutput(
+        np.asarray(all_gains)[ok] * poles,
+        None,
+        _nearest_distance(plate, listener) / SOUND_SPEED,
+        "Pa",
+    )
 
 
 #: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
@@ -209,7 +225,9 @@ class ModalModel:
         return None if self.listener.shape is None else self.listener.shape * excitation
 
 
-def modal_model(plate, listener, *, samplerate: int, max_frequency: float | None = None) -> ModalModel:
+def modal_model(
+    plate, listener, *, samplerate: int, max_frequency: float | None = None
+) -> ModalModel:
     """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
     Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
     a mode at or above Nyquist is never rendered). Plate modes and microphone gains come
@@ -225,7 +243,7 @@ def modal_model(plate, listener, *, samplerate: int, max_frequency: float | None
     sigma = np.asarray(modes.decay_rates, dtype=float)
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     under = sigma < omega
-    wd = np.sqrt(np.maximum(omega ** 2 - sigma ** 2, 0.0))
+    wd = np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
     ok = under & (wd < math.pi * fs)
     poles = (-sigma + 1j * wd)[ok]
     gains = LISTENER_OUTPUTS[type(listener)](modes, plate, listener, poles, ok, sigma, omega, wd)
@@ -234,8 +252,19 @@ def modal_model(plate, listener, *, samplerate: int, max_frequency: float | None
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the
 #: output file's, see :func:`synth.io.audio.write_audio`).
-OPTIONS = ("samplerate", "normalize", "peak_db", "loudness_lufs", "floor_db", "max_frequency",
-           "preroll", "fade", "max_duration", "max_tail", "pulse_points")
+OPTIONS = (
+    "samplerate",
+    "normalize",
+    "peak_db",
+    "loudness_lufs",
+    "floor_db",
+    "max_frequency",
+    "preroll",
+    "fade",
+    "max_duration",
+    "max_tail",
+    "pulse_points",
+)
 
 
 #: Longest preroll and fade, s.
@@ -255,9 +284,20 @@ MAX_PULSE_POINTS = 4097
 SEQUENCE_RTOL = 1e-4
 
 
-def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
-                  floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005,
-                  max_duration=30.0, max_tail=60.0, pulse_points=65) -> dict:
+def check_options(
+    *,
+    samplerate=48000,
+    normalize="peak",
+    peak_db=-1.0,
+    loudness_lufs=-23.0,
+    floor_db=-80.0,
+    max_frequency=None,
+    preroll=0.005,
+    fade=0.005,
+    max_duration=30.0,
+    max_tail=60.0,
+    pulse_points=65,
+) -> dict:
     """Check the options of :func:`render` (units and ranges there) and return them
     converted (floats, an int rate); a bad one is a ``ParameterError`` naming it, its
     value and what is allowed. Used by :func:`render` itself and by presets."""
@@ -278,23 +318,35 @@ def check_options(*, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         if f_max > 0.5 * fs:
             raise ParameterError(
                 f"max_frequency={max_frequency!r} must be <= the Nyquist frequency "
-                f"{0.5 * fs:g} Hz at samplerate={fs} (Hz)")
-    if isinstance(pulse_points, bool) or not isinstance(pulse_points, (int, np.integer)) \
-            or not 5 <= pulse_points <= MAX_PULSE_POINTS:
-        raise ParameterError(f"pulse_points={pulse_points!r} must be an integer in "
-                             f"[5, {MAX_PULSE_POINTS}]")
+                f"{0.5 * fs:g} Hz at samplerate={fs} (Hz)"
+            )
+    if (
+        isinstance(pulse_points, bool)
+        or not isinstance(pulse_points, (int, np.integer))
+        or not 5 <= pulse_points <= MAX_PULSE_POINTS
+    ):
+        raise ParameterError(
+            f"pulse_points={pulse_points!r} must be an integer in [5, {MAX_PULSE_POINTS}]"
+        )
     if peak < MIN_LEVEL_DB:
         raise ParameterError(f"peak_db={peak_db!r} must be in [{MIN_LEVEL_DB:g}, 0] (dBFS)")
     if lufs < MIN_LEVEL_DB:
-        raise ParameterError(f"loudness_lufs={loudness_lufs!r} must be in [{MIN_LEVEL_DB:g}, 0) "
-                             f"(LUFS)")
-    return dict(samplerate=fs, normalize=normalize, peak_db=peak, loudness_lufs=lufs,
-                floor_db=floor, max_frequency=f_max,
-                preroll=_seconds("preroll", preroll, MAX_PREROLL, lo_open=False),
-                fade=_seconds("fade", fade, MAX_PREROLL, lo_open=False),
-                max_duration=_seconds("max_duration", max_duration, MAX_DURATION),
-                max_tail=_seconds("max_tail", max_tail, MAX_DURATION),
-                pulse_points=int(pulse_points))
+        raise ParameterError(
+            f"loudness_lufs={loudness_lufs!r} must be in [{MIN_LEVEL_DB:g}, 0) (LUFS)"
+        )
+    return dict(
+        samplerate=fs,
+        normalize=normalize,
+        peak_db=peak,
+        loudness_lufs=lufs,
+        floor_db=floor,
+        max_frequency=f_max,
+        preroll=_seconds("preroll", preroll, MAX_PREROLL, lo_open=False),
+        fade=_seconds("fade", fade, MAX_PREROLL, lo_open=False),
+        max_duration=_seconds("max_duration", max_duration, MAX_DURATION),
+        max_tail=_seconds("max_tail", max_tail, MAX_DURATION),
+        pulse_points=int(pulse_points),
+    )
 
 
 def _seconds(name, value, hi, lo_open=True) -> float:
@@ -320,21 +372,43 @@ def check_sequence(scene, sequence) -> BounceSequence:
         raise ParameterError("sequence has no impacts: there is nothing to render")
     first = sequence[0]
     c = scene.contact
-    own = contact.solve_impact(scene.ball, scene.plate, first.speed, position=scene.position,
-                               gravity=scene.gravity, contact=c.law, rtol=c.rtol, **c.options())
+    own = contact.solve_impact(
+        scene.ball,
+        scene.plate,
+        first.speed,
+        position=scene.position,
+        gravity=scene.gravity,
+        contact=c.law,
+        rtol=c.rtol,
+        **c.options(),
+    )
     for name in ("contact_time", "peak_force"):
         got, want = getattr(first.result, name), getattr(own, name)
         if not abs(got - want) <= SEQUENCE_RTOL * abs(want):
             raise ParameterError(
                 f"sequence: its first impact's {name} {got:.6g} is not this scene's "
                 f"({want:.6g} at {first.speed:.6g} m/s): the sequence belongs to another ball, "
-                f"plate or contact law; pass the scene it was computed for")
+                f"plate or contact law; pass the scene it was computed for"
+            )
     return sequence
 
 
-def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_lufs=-23.0,
-           floor_db=-80.0, max_frequency=None, preroll=0.005, fade=0.005, max_duration=30.0,
-           max_tail=60.0, sequence=None, pulse_points=65) -> Render:
+def render(
+    scene,
+    *,
+    samplerate=48000,
+    normalize="peak",
+    peak_db=-1.0,
+    loudness_lufs=-23.0,
+    floor_db=-80.0,
+    max_frequency=None,
+    preroll=0.005,
+    fade=0.005,
+    max_duration=30.0,
+    max_tail=60.0,
+    sequence=None,
+    pulse_points=65,
+) -> Render:
     """Render ``scene`` at ``samplerate``.
 
     Parameters
@@ -380,11 +454,20 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
-    scene.plate.damping_law()           # before the bounces: the modes will need it
-    o = check_options(samplerate=samplerate, normalize=normalize, peak_db=peak_db,
-                      loudness_lufs=loudness_lufs, floor_db=floor_db,
-                      max_frequency=max_frequency, preroll=preroll, fade=fade,
-                      max_duration=max_duration, max_tail=max_tail, pulse_points=pulse_points)
+    scene.plate.damping_law()  # before the bounces: the modes will need it
+    o = check_options(
+        samplerate=samplerate,
+        normalize=normalize,
+        peak_db=peak_db,
+        loudness_lufs=loudness_lufs,
+        floor_db=floor_db,
+        max_frequency=max_frequency,
+        preroll=preroll,
+        fade=fade,
+        max_duration=max_duration,
+        max_tail=max_tail,
+        pulse_points=pulse_points,
+    )
     fs = o["samplerate"]
     floor = 10.0 ** (o["floor_db"] / 20.0)
     f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
@@ -395,7 +478,8 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         if first_touch > max_duration:
             raise ParameterError(
                 f"drop.height={scene.drop_height!r} m: the first impact, {first_touch:.4g} s "
-                f"after release, is later than max_duration={max_duration!r} (s)")
+                f"after release, is later than max_duration={max_duration!r} (s)"
+            )
         sequence = simulate_scene(scene, max_duration=max_duration)
     else:
         check_sequence(scene, sequence)
@@ -403,7 +487,8 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         if not imp.result.success:
             raise SynthError(
                 f"impact {imp.index} (at {imp.speed:.4g} m/s) could not be solved: "
-                f"{imp.result.message} The scene is outside what the contact solver handles")
+                f"{imp.result.message} The scene is outside what the contact solver handles"
+            )
 
     model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
     poles = model.poles
@@ -415,7 +500,8 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     if not poles.size:
         raise ParameterError(
             f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
-            f"render would be silent; raise it (default: samplerate / 2)")
+            f"render would be silent; raise it (default: samplerate / 2)"
+        )
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])
@@ -423,12 +509,24 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
     onsets = times + delay - start
     weights = [scene.ball.mass * scene.gravity if imp.result.settled else 0.0 for imp in sequence]
     max_samples = int(math.ceil((sequence.duration + delay - start + tail) * fs))
-    audio, info = synthesize([imp.result for imp in sequence], onsets, poles, excitation, output, fs,
-                             floor=floor, settled_weight=weights, direct=direct,
-                             max_samples=max_samples, pulse_points=int(pulse_points))
+    audio, info = synthesize(
+        [imp.result for imp in sequence],
+        onsets,
+        poles,
+        excitation,
+        output,
+        fs,
+        floor=floor,
+        settled_weight=weights,
+        direct=direct,
+        max_samples=max_samples,
+        pulse_points=int(pulse_points),
+    )
     if fade_s > audio.size / fs:
-        raise ParameterError(f"fade={fade_s!r} s is longer than the audio "
-                             f"({audio.size / fs:.6g} s); it must be at most that")
+        raise ParameterError(
+            f"fade={fade_s!r} s is longer than the audio "
+            f"({audio.size / fs:.6g} s); it must be at most that"
+        )
     from synth.io import audio as audio_io
 
     if fade_s > 0 and audio.size:
@@ -436,18 +534,34 @@ def render(scene, *, samplerate=48000, normalize="peak", peak_db=-1.0, loudness_
         n = min(audio.size, int(round(fade_s * fs)))
         audio_io.apply_fade_out(audio, n - 1)
 
-    scaled, gain = audio_io.normalize(audio, normalize, samplerate=fs, units=units,
-                                      peak_db=peak_db, loudness_lufs=loudness_lufs)
-    settings = dict(samplerate=fs, normalize=normalize, peak_db=peak_db, loudness_lufs=loudness_lufs,
-                    floor_db=floor_db, max_frequency=f_max, preroll=pre, fade=fade_s, max_tail=tail,
-                    listener=type(listener).__name__.lower(), listener_position=list(listener.position),
-                    delay=delay, audio_start=start, n_impacts=len(sequence),
-                    stop_reason=sequence.stop_reason, n_modes=int(poles.size),
-                    n_modes_rendered=info["n_modes_rendered"], mode_samples=info["mode_samples"],
-                    n_modes_overdamped=model.n_overdamped,
-                    tail_cut=bool(info["length"] >= max_samples
-                                  and info["left_at_end"] > floor * info["reference"]),
-                    left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
-                    bank_seconds=info["bank_seconds"],
-                    reference_amplitude=info["reference"])
+    scaled, gain = audio_io.normalize(
+        audio, normalize, samplerate=fs, units=units, peak_db=peak_db, loudness_lufs=loudness_lufs
+    )
+    settings = dict(
+        samplerate=fs,
+        normalize=normalize,
+        peak_db=peak_db,
+        loudness_lufs=loudness_lufs,
+        floor_db=floor_db,
+        max_frequency=f_max,
+        preroll=pre,
+        fade=fade_s,
+        max_tail=tail,
+        listener=type(listener).__name__.lower(),
+        listener_position=list(listener.position),
+        delay=delay,
+        audio_start=start,
+        n_impacts=len(sequence),
+        stop_reason=sequence.stop_reason,
+        n_modes=int(poles.size),
+        n_modes_rendered=info["n_modes_rendered"],
+        mode_samples=info["mode_samples"],
+        n_modes_overdamped=model.n_overdamped,
+        tail_cut=bool(
+            info["length"] >= max_samples and info["left_at_end"] > floor * info["reference"]
+        ),
+        left_at_end=info["left_at_end"] / info["reference"] if info["reference"] else 0.0,
+        bank_seconds=info["bank_seconds"],
+        reference_amplitude=info["reference"],
+    )
     return Render(np.asarray(scaled, dtype=np.float32), fs, sequence, units, float(gain), settings)

@@ -233,11 +233,11 @@ def _stable_fit(phi, fs):
     lo, hi = 0.0, 1.0
     for _ in range(40):
         mid = 0.5 * (lo + hi)
-        if _inside(a * mid ** k, radius):
+        if _inside(a * mid**k, radius):
             lo = mid
         else:
             hi = mid
-    return a * lo ** k
+    return a * lo**k
 
 
 def _blocks(lo, end, p, excluded, spread):
@@ -348,7 +348,7 @@ class _Noise:
         q = max(1, min(int(round(NOISE_ORDER * fs)), n // 4))
         w = np.hanning(n + 2)[1:-1]
         spec = np.fft.rfft(fr[quiet] * w, 2 * n, axis=1)
-        r = np.fft.irfft(np.mean(np.abs(spec) ** 2, axis=0), 2 * n)[:q + 1]
+        r = np.fft.irfft(np.mean(np.abs(spec) ** 2, axis=0), 2 * n)[: q + 1]
         r = dsp.white_noise_corrected(r)
         a = dsp.levinson_predictor(r)
         self.level = math.sqrt(power)
@@ -370,7 +370,7 @@ def _wiener(own, noise_power, fs):
     if noise_power <= 0.0:
         return np.ones(own.size)
     m = max(2, int(round(SMOOTHING * fs)))
-    h = np.hanning(2 * m + 1)[m:]               # the falling half: the recent past weighs most
+    h = np.hanning(2 * m + 1)[m:]  # the falling half: the recent past weighs most
     power = lfilter(h / h.sum(), [1.0], own * own)
     weight = np.where(power > noise_power, 1.0 - noise_power / np.maximum(power, 1e-300), 0.0)
     top = int(np.argmax(power))
@@ -389,7 +389,7 @@ def _timing(t, k, min_bounce):
     T_new = [T[0]]
     for en in e_new:
         tn = en * T_new[-1]
-        if not tn >= min_bounce * (1.0 - 1e-9):       # to rounding: k = 1 keeps every tick
+        if not tn >= min_bounce * (1.0 - 1e-9):  # to rounding: k = 1 keeps every tick
             break
         T_new.append(tn)
     return T, e, e_new, np.array(T_new)
@@ -409,12 +409,24 @@ def _check_one_series(t: np.ndarray) -> None:
             f"({T[n + 1] * 1e3:.4g} ms) is not shorter than the one before it "
             f"({T[n] * 1e3:.4g} ms), e = {T[n + 1] / T[n]:.3g} >= 1, which no ball does (a "
             f"tick missed in between, or a new drop); pass the onsets of one series, every "
-            f"tick found (synth.analyze reports each series and flags such ticks)")
+            f"tick found (synth.analyze reports each series and flags such ticks)"
+        )
 
 
-def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, gravity=9.81,
-                      scale_amplitude=True, channel=None, min_bounce=None, normalize="none",
-                      peak_db=-1.0, seed=0):
+def alter_restitution(
+    audio,
+    samplerate,
+    restitution_scale,
+    *,
+    onsets=None,
+    gravity=9.81,
+    scale_amplitude=True,
+    channel=None,
+    min_bounce=None,
+    normalize="none",
+    peak_db=-1.0,
+    seed=0,
+):
     """Change the restitution of a recorded bouncing sound by ``1 - e' = k (1 - e)``
     (module docstring).
 
@@ -481,6 +493,7 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     X = x[:, None] if mono else x
     if onsets is None:
         from synth.analysis import analyze
+
         onsets = [t.time for t in analyze(x, fs, gravity=gravity, channel=channel).ticks]
     t = np.asarray(onsets, dtype=float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)):
@@ -488,15 +501,18 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     if np.any(np.diff(t) < 2.0 / fs) or t[0] < 0.0 or t[-1] * fs >= X.shape[0]:
         raise ParameterError(
             f"onsets must increase by at least 2 sample periods ({2e3 / fs:.4g} ms) and lie "
-            f"inside the audio (0 to {X.shape[0] / fs:.6g} s)")
+            f"inside the audio (0 to {X.shape[0] / fs:.6g} s)"
+        )
     _check_one_series(t)
     if min_bounce is None:
         min_b = float(np.min(np.diff(t)))
     else:
         min_b = checks.positive("min_bounce", min_bounce, "s")
         if min_b < 2.0 / fs:
-            raise ParameterError(f"min_bounce={min_bounce!r} must be at least 2 sample periods "
-                                 f"({2.0 / fs:.4g} s at {fs:g} Hz)")
+            raise ParameterError(
+                f"min_bounce={min_bounce!r} must be at least 2 sample periods "
+                f"({2.0 / fs:.4g} s at {fs:g} Hz)"
+            )
     T, e, e_new, T_new = _timing(t, k, min_b)
     M = T_new.size + 1
     if M < 3:
@@ -504,11 +520,12 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
             f"restitution_scale={k!r} ends the series after 2 ticks (e' = 1 - k (1 - e) = "
             f"{e_new[0]:.3g} at the second impact, a bounce of {T_new[0] * e_new[0] * 1e3:.3g} ms "
             f"against min_bounce = {min_b * 1e3:.3g} ms): no altered bounce is left; "
-            f"k must be < {(1.0 - min_b / T[0]) / (1.0 - e[0]):.4g} here")
-    t_new = np.r_[t[0], t[1] + np.r_[0.0, np.cumsum(T_new[1:])]]     # t'_1 = t_1 exactly
+            f"k must be < {(1.0 - min_b / T[0]) / (1.0 - e[0]):.4g} here"
+        )
+    t_new = np.r_[t[0], t[1] + np.r_[0.0, np.cumsum(T_new[1:])]]  # t'_1 = t_1 exactly
     gain = np.ones(M)
     if scale_amplitude:
-        gain[1:] = T_new / T[:M - 1]          # v'_n / v_n, for the tick after each bounce
+        gain[1:] = T_new / T[: M - 1]  # v'_n / v_n, for the tick after each bounce
     guard = min(GUARD, 0.5 * min_b, 0.5 * float(np.min(T)))
     lead = min(LEAD, guard)
     cut = np.maximum(np.round((t - guard) * fs).astype(int), 0)
@@ -519,15 +536,28 @@ def alter_restitution(audio, samplerate, restitution_scale, *, onsets=None, grav
     reach = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(on), np.inf])
     excluded = [(int(c), int(math.ceil(o + r))) for c, o, r in zip(cut, on, reach)]
     reach_new = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(on_new), np.inf])
-    excluded_new = [(int(c), int(math.ceil(o + r)))
-                    for c, o, r in zip(join_new, on_new, reach_new)]
-    speed = np.r_[1.0, T[:M - 1] / T[0]]      # v_j / v_1, for the template of a tail
-    parts = [_Channel(X[:, ch], fs, cut, join, join_new, gain, speed, excluded, excluded_new,
-                      lead, np.random.default_rng([int(seed), ch])) for ch in range(X.shape[1])]
+    excluded_new = [(int(c), int(math.ceil(o + r))) for c, o, r in zip(join_new, on_new, reach_new)]
+    speed = np.r_[1.0, T[: M - 1] / T[0]]  # v_j / v_1, for the template of a tail
+    parts = [
+        _Channel(
+            X[:, ch],
+            fs,
+            cut,
+            join,
+            join_new,
+            gain,
+            speed,
+            excluded,
+            excluded_new,
+            lead,
+            np.random.default_rng([int(seed), ch]),
+        )
+        for ch in range(X.shape[1])
+    ]
     if all(part.unchanged for part in parts):
-        Y = X.copy()                            # nothing changed (k = 1)
+        Y = X.copy()  # nothing changed (k = 1)
     else:
-        n_out = max(part.end for part in parts)    # the channels end together
+        n_out = max(part.end for part in parts)  # the channels end together
         Y = np.stack([part.finish(n_out) for part in parts], axis=1)
         nf = min(Y.shape[0], max(1, int(round(FADE * fs))))
         Y[-nf:] *= 0.5 * (1.0 + np.cos(np.pi * np.arange(1, nf + 1) / nf))[:, None]
@@ -552,7 +582,7 @@ class _Ringing:
             hist = past[::-1][:p]
             if hist.size < p:
                 hist = np.r_[hist, np.zeros(p - hist.size)]
-            self.zi = -np.correlate(a[1:], hist, "full")[p - 1:]
+            self.zi = -np.correlate(a[1:], hist, "full")[p - 1 :]
 
     def take(self, n):
         if self.a is None or n <= 0:
@@ -570,8 +600,7 @@ class _Channel:
     (in the recording); ``join`` and ``join_new``: where its own sound starts, LEAD before
     its onset (in the recording and in the output)."""
 
-    def __init__(self, z, fs, cut, join, join_new, gain, speed, excluded, excluded_new,
-                 lead, rng):
+    def __init__(self, z, fs, cut, join, join_new, gain, speed, excluded, excluded_new, lead, rng):
         self.z, self.fs = z, fs
         self.cut, self.join, self.join_new = cut, join, join_new
         self.gain, self.speed = gain, speed
@@ -584,21 +613,21 @@ class _Channel:
         if self.unchanged:
             return
         self.models = {}
-        self.npow = self.noise.level ** 2
-        r = max(1, int(round(lead * fs)))        # ramps: the lead
+        self.npow = self.noise.level**2
+        r = max(1, int(round(lead * fs)))  # ramps: the lead
         self.r = r
-        self.ramp = 0.5 * (1.0 - np.cos(np.pi * (np.arange(r) + 0.5) / r))   # 0 -> 1
-        self.lx = max(r, int(round(SMOOTHING * fs)))    # crossfade to a tick's continuation
-        self.stop = 0.01 * self.level   # contributions are followed 40 dB under the end
+        self.ramp = 0.5 * (1.0 - np.cos(np.pi * (np.arange(r) + 0.5) / r))  # 0 -> 1
+        self.lx = max(r, int(round(SMOOTHING * fs)))  # crossfade to a tick's continuation
+        self.stop = 0.01 * self.level  # contributions are followed 40 dB under the end
         self.longest = int(round(MAX_TAIL * fs))
         self.rng = rng
-        self.y, self.done, self.F = [z[:join[self.i0]].copy()], join[self.i0], np.zeros(0)
-        self.syn = []                   # (start, samples) of synthesised noise
+        self.y, self.done, self.F = [z[: join[self.i0]].copy()], join[self.i0], np.zeros(0)
+        self.syn = []  # (start, samples) of synthesised noise
         self.ref = self._reference(self.stop * min(1.0, float(np.min(speed[1:]))))
         for j in range(self.i0, self.M):
             latest, at = self._lay(j)
-        self.tail = join_new[self.M - 1] + latest   # deterministic after this, but for noise
-        self.gap = join_new[self.M - 1] + at        # synthesised noise from here on
+        self.tail = join_new[self.M - 1] + latest  # deterministic after this, but for noise
+        self.gap = join_new[self.M - 1] + at  # synthesised noise from here on
         self.end = self.done + self._end()
 
     def _first_changed(self):
@@ -606,8 +635,12 @@ class _Channel:
         recording itself."""
         join, join_new, gain, M = self.join, self.join_new, self.gain, self.M
         i0 = 1
-        while i0 < M and join_new[i0] == join[i0] and gain[i0] == 1.0 \
-                and (join_new[i0 + 1] == join[i0 + 1] if i0 + 1 < M else M == self.N):
+        while (
+            i0 < M
+            and join_new[i0] == join[i0]
+            and gain[i0] == 1.0
+            and (join_new[i0 + 1] == join[i0 + 1] if i0 + 1 < M else M == self.N)
+        ):
             i0 += 1
         return i0
 
@@ -636,11 +669,11 @@ class _Channel:
         # fitted over the starts of ticks (the closely spaced last ones) predicts a short way
         # only: from the join
         Pj = self._ringing(cut[j] if self._model(cut[j])[1] else jj, jj)
-        own = z[jj:jj + obs] - Pj.take(obs)
-        own[:r] *= self.ramp[:own.size]
+        own = z[jj : jj + obs] - Pj.take(obs)
+        own[:r] *= self.ramp[: own.size]
         # recorded and at least 10 dB above the noise: up to where it sinks below
         loud = _wiener(own, 10.0 * self.npow, fs) > 0.0
-        top = int(np.argmax(own ** 2)) if obs > 0 else 0
+        top = int(np.argmax(own**2)) if obs > 0 else 0
         sink = top + int(np.argmin(loud[top:])) if not np.all(loud[top:]) else obs
         q = jj + obs
         if sink == obs and q < z.size and self._model(q)[1]:
@@ -652,7 +685,7 @@ class _Channel:
         # the template (tick 1's own sound) at its impact speed
         st = max(min(sink, obs), r)
         k = min(self.lx, st - r)
-        return own, obs, st, k, self.speed[j] * self.ref[st - k:max(st, need)], st - k
+        return own, obs, st, k, self.speed[j] * self.ref[st - k : max(st, need)], st - k
 
     def _rebase(self, j):
         """No onset of the output within the reach of tick j's model: the output's ringing
@@ -678,17 +711,16 @@ class _Channel:
             # (the synthesised noise is not continued: it is not the output's ringing)
             yp = np.concatenate(self.y)
             for s0, nz in self.syn:
-                yp[s0:s0 + nz.size] -= nz
-            self.F = _follow(_Ringing(self._model(self.cut[j])[0], yp), None, self.stop, need,
-                             fs)
+                yp[s0 : s0 + nz.size] -= nz
+            self.F = _follow(_Ringing(self._model(self.cut[j])[0], yp), None, self.stop, need, fs)
         own, obs, st, k, d, d0 = self._own_sound(j, need)
-        ends = span is None or span > obs         # the record ends before the next tick
+        ends = span is None or span > obs  # the record ends before the next tick
         latest = obs if ends else span
         n = max(obs, d0 + d.size)
         rec = np.zeros(n)
         rec[:obs] = own
         det = np.zeros(n)
-        det[d0:d0 + d.size] = d
+        det[d0 : d0 + d.size] = d
         g = self.gain[j]
         # while tick j is the latest and recorded its recorded noise is kept (lam); handed
         # over to the next tick's (its fade-in) or to synthesised noise
@@ -696,13 +728,13 @@ class _Channel:
         at = max(0, latest - r) if ends else latest
         lam[:at] = 1.0
         m = min(r, max(0, n - at))
-        lam[at:at + m] = 1.0 - ramp[:m]
+        lam[at : at + m] = 1.0 - ramp[:m]
         w = np.ones(n)
         w[:obs] = _wiener(own, npow, fs)
         recorded = (lam * (1.0 + (g - 1.0) * w) + (1.0 - lam) * g * w) * rec
         continued = g * det + lam * (rec - det)
-        mu = np.zeros(n)                # from the recorded form to the continued one
-        mu[st - k:st] = 0.5 * (1.0 - np.cos(np.pi * (np.arange(k) + 0.5) / max(k, 1)))
+        mu = np.zeros(n)  # from the recorded form to the continued one
+        mu[st - k : st] = 0.5 * (1.0 - np.cos(np.pi * (np.arange(k) + 0.5) / max(k, 1)))
         mu[st:] = 1.0
         self._add(cn, (1.0 - mu) * recorded + mu * continued)
         if span is not None:
@@ -716,21 +748,22 @@ class _Channel:
         jj = join[1]
         obs = join[2] - jj
         P = self._ringing(cut[1], jj)
-        own = z[jj:jj + obs] - P.take(obs)
-        top = int(np.argmax(own ** 2))
+        own = z[jj : jj + obs] - P.take(obs)
+        top = int(np.argmax(own**2))
         clear = _wiener(own, 100.0 * self.npow, self.fs)[top:] > 0.0
         n = top + (int(np.argmin(clear)) if not np.all(clear) else clear.size)
         n = max(n, top + 1)
         P = self._ringing(cut[1], jj + n)
-        return np.r_[own[:n], _follow(self._ringing(jj + n, jj + n), P, stop, self.longest,
-                                      self.fs)]
+        return np.r_[
+            own[:n], _follow(self._ringing(jj + n, jj + n), P, stop, self.longest, self.fs)
+        ]
 
     def _add(self, start, a):
         """Add ``a`` from output sample ``start`` (>= done) to the future."""
         lo = start - self.done
         if lo + a.size > self.F.size:
             self.F = np.r_[self.F, np.zeros(lo + a.size - self.F.size)]
-        self.F[lo:lo + a.size] += a
+        self.F[lo : lo + a.size] += a
 
     def _final(self, upto, gap):
         """Make the output final up to ``upto``, with synthesised noise from ``gap`` on."""
@@ -740,7 +773,7 @@ class _Channel:
         seg = self.F[:n].copy()
         if gap is not None and gap < upto:
             nz = self._noise(upto - gap)
-            seg[gap - self.done:] += nz
+            seg[gap - self.done :] += nz
             self.syn.append((gap, nz))
         self.y.append(seg)
         self.F = self.F[n:]
@@ -758,7 +791,7 @@ class _Channel:
         n = max(1, int(round(NOISE_FRAME * self.fs)))
         pos = max(0, self.tail - self.done)
         while pos < self.F.size:
-            block = self.F[pos:pos + n]
+            block = self.F[pos : pos + n]
             pos += n
             if float(np.sqrt(np.mean(block * block))) <= self.level:
                 break
@@ -790,5 +823,3 @@ def _end_level(z, fs, noise_level):
     n = max(1, int(round(NOISE_FRAME * fs)))
     last = float(np.sqrt(np.mean(z[-n:] ** 2)))
     return max(noise_level, last, float(np.max(np.abs(z))) * 10.0 ** (END_FLOOR_DB / 20.0))
-
-

@@ -40,8 +40,9 @@ class RestitutionScaling:
     scale: float
 
     def __post_init__(self):
-        object.__setattr__(self, "scale", checks.nonnegative(
-            "restitution_scale", self.scale, "dimensionless"))
+        object.__setattr__(
+            self, "scale", checks.nonnegative("restitution_scale", self.scale, "dimensionless")
+        )
 
     def __call__(self, result: ImpactResult, speed: float) -> float:
         """``e'`` from the impact's physical restitution (``speed``, m/s, unused)."""
@@ -63,8 +64,9 @@ def scaled_sequence(scene: Scene, restitution_scale: float, **options) -> Bounce
     return simulate_scene(scene, rebound=_rebound_rule(restitution_scale), **options)
 
 
-def mismatch_sequence(timing_scene: Scene, spectrum_scene: Scene, *,
-                      restitution_scale: float = 1.0, **options) -> BounceSequence:
+def mismatch_sequence(
+    timing_scene: Scene, spectrum_scene: Scene, *, restitution_scale: float = 1.0, **options
+) -> BounceSequence:
     """Impact times and speeds of ``timing_scene``, contacts of ``spectrum_scene``.
 
     Each impact keeps its time (s from release) and speed (m/s) from ``timing_scene``
@@ -79,8 +81,13 @@ def mismatch_sequence(timing_scene: Scene, spectrum_scene: Scene, *,
     timing = simulate_scene(timing_scene, rebound=_rebound_rule(restitution_scale), **options)
     c = spectrum_scene.contact
     solver = contact.ContactSolver.for_pair(
-        spectrum_scene.ball, spectrum_scene.plate, gravity=spectrum_scene.gravity,
-        law=c.law, rtol=c.rtol, **c.options())
+        spectrum_scene.ball,
+        spectrum_scene.plate,
+        gravity=spectrum_scene.gravity,
+        law=c.law,
+        rtol=c.rtol,
+        **c.options(),
+    )
     impacts = []
     for imp in timing:
         res = solver.solve(imp.speed, position=spectrum_scene.position)

@@ -18,8 +18,12 @@ def main() -> None:
         r = synth.render_preset(name)
         digest = hashlib.sha256(np.ascontiguousarray(r.audio, dtype="<f4").tobytes()).hexdigest()
         ticks = synth.analyze(r.audio, samplerate=r.samplerate).ticks
-        out[name] = dict(sha256=digest, samples=int(r.audio.size), samplerate=r.samplerate,
-                         ticks=[round(float(t.time), 9) for t in ticks])
+        out[name] = dict(
+            sha256=digest,
+            samples=int(r.audio.size),
+            samplerate=r.samplerate,
+            ticks=[round(float(t.time), 9) for t in ticks],
+        )
         print(name, digest[:16], r.audio.size, len(ticks), flush=True)
     path = Path(__file__).with_name("preset_renders.json")
     path.write_text(json.dumps(out, indent=1) + "\n")

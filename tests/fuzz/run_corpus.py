@@ -44,25 +44,32 @@ def run_case(case: dict) -> Outcome:
         preset = folder / "preset.toml"
         if "preset" in case:
             preset.write_text(case["preset"])
-        argv = [a.replace("{out}", str(out)).replace("{dir}", str(folder))
-                 .replace("{preset}", str(preset)) for a in case["argv"]]
+        argv = [
+            a.replace("{out}", str(out))
+            .replace("{dir}", str(folder))
+            .replace("{preset}", str(preset))
+            for a in case["argv"]
+        ]
         before = {p.name for p in folder.iterdir()}
         err, std = io.StringIO(), io.StringIO()
         code, tb = None, False
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(std):
             try:
                 code = main(argv)
-            except SystemExit as exc:          # argparse's own usage errors
+            except SystemExit as exc:  # argparse's own usage errors
                 code = exc.code
-            except Exception:                  # noqa: BLE001 - a traceback is what we count
+            except Exception:  # noqa: BLE001 - a traceback is what we count
                 tb = True
                 traceback.print_exc(file=err)
         o = Outcome(case, code, err.getvalue(), traceback=tb)
         new = {p.name for p in folder.iterdir()} - before
         o.partial = any(n.startswith(".") for n in new)
         o.lost = out.read_bytes() != PRECIOUS and case["expect"] == "error"
-    lines = [x for x in o.stderr.strip().splitlines() if not x.startswith("usage:")
-             and not x.startswith("  ")]
+    lines = [
+        x
+        for x in o.stderr.strip().splitlines()
+        if not x.startswith("usage:") and not x.startswith("  ")
+    ]
     if tb:
         o.problems.append("traceback")
     elif case["expect"] == "ok":
@@ -99,10 +106,12 @@ def figures(outcomes: list[Outcome]) -> dict:
 
 def format_figures(f: dict) -> str:
     cats = ", ".join(f"{k} {v}" for k, v in f["by_category"].items())
-    return (f"{f['inputs']} inputs ({cats}): {f['clean_errors']} clean errors, "
-            f"{f['successes']} successes, {f['tracebacks']} tracebacks, "
-            f"{f['partial_files']} partial files, {f['data_loss']} data loss, "
-            f"{f['unexpected']} not as expected")
+    return (
+        f"{f['inputs']} inputs ({cats}): {f['clean_errors']} clean errors, "
+        f"{f['successes']} successes, {f['tracebacks']} tracebacks, "
+        f"{f['partial_files']} partial files, {f['data_loss']} data loss, "
+        f"{f['unexpected']} not as expected"
+    )
 
 
 if __name__ == "__main__":  # pragma: no cover
