@@ -1135,7 +1135,7 @@ def scale_child(spec: dict) -> dict:
         scene.listener.position,
         -np.conj(poles),
         max_wavenumber=k_max,
-        reference_distance=render_mod._nearest_distance(scene),
+        reference_distance=render_mod.nearest_distance(scene.plate, scene.listener),
         full_output=True,
     )
     out["gains_s"] = time.perf_counter() - t0

@@ -103,3 +103,22 @@ def test_committed_gallery_is_current(name):
     assert np.max(np.abs(a - b)) <= 1e-5, name
     assert abs(committed.size - fresh.audio.size) <= 1
     assert math.isfinite(float(np.max(np.abs(a))))
+
+
+def test_scale_child_measures_a_small_plate():
+    # One rung of `synth bench scale`, in this process: modes, gains and render each timed,
+    # no error (the benchmark reports a failing stage as a row, so only a test catches it).
+    from synth.bench import scale_child
+
+    out = scale_child(
+        {
+            "material": "glass",
+            "thickness": 0.01,
+            "length": 0.15,
+            "width": 0.1,
+            "boundary": "clamped",
+            "samplerate": 48000,
+        }
+    )
+    assert "error" not in out, out
+    assert out["n_modes"] > 0 and out["gains_s"] >= 0.0

@@ -138,7 +138,10 @@ def _significant(token):
 _NUMBER = r"(?<![\w.])-?(?:\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+)(?![\w.])"
 #: Headers of columns of run times, which vary from run to run (a coincidence with a number
 #: of the prose would not be a pasted figure): left out of the check.
-_TIMING = re.compile(r"\bus\b|us/|\(ms\)$|render \(ms\)|time per|factor|speed-up|ns per")
+_TIMING = re.compile(
+    r"\bus\b|us/|\(ms\)$|render \(ms\)|time per|factor|speed-up|ns per|\bs\b|seconds|sounds/s"
+    r"|\bMB\b|% of|percentile|^max$"
+)
 
 
 def _block_figures(body):

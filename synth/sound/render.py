@@ -119,12 +119,12 @@ def _microphone_gains(modes, plate, microphone, poles, k_max):
         max_wavenumber=k_max,
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
-        reference_distance=_nearest_distance(plate, microphone),
+        reference_distance=nearest_distance(plate, microphone),
     )
     return np.asarray(h) * poles / mirror
 
 
-def _nearest_distance(plate, microphone) -> float:
+def nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
     x, y, z = microphone.position
     p = plate
@@ -163,7 +163,7 @@ def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> L
     return ListenerOutput(
         np.asarray(all_gains)[ok] * poles,
         None,
-        _nearest_distance(plate, listener) / SOUND_SPEED,
+        nearest_distance(plate, listener) / SOUND_SPEED,
         "Pa",
     )
 
