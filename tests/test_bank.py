@@ -213,6 +213,46 @@ def test_kill_9_at_random_moments_then_resume(tmp_path, cache_dir):
     _check_complete(out, 40)
 
 
+def _children(pid: int) -> list[int]:
+    """Process ids whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_a_killed_worker_stops_the_bank_cleanly_and_resume_completes(tmp_path, cache_dir):
+    # SIGKILL to one worker (not the parent) mid-run: the bank must not wait forever for
+    # that worker's row; it stops with a one-line error (exit 2, as every error that stops a
+    # bank), keeps every finished row with its file, and the same command then completes it.
+    spec = _write_spec(tmp_path / "spec", count=40)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--jobs", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while len(mf.read_rows(out)) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    workers = _children(proc.pid)
+    assert workers, "no worker process found"
+    os.kill(workers[0], signal.SIGKILL)
+    _, err = proc.communicate(timeout=120)
+    rows = mf.read_rows(out)
+    if len(rows) < 40:  # the kill came before the end
+        assert proc.returncode == 2, err
+        assert "worker process died" in err and "Traceback" not in err, err
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    _check_complete(out, 40)
+
+
 def _mount_tmpfs(path: Path, size: str) -> bool:
     if not sys.platform.startswith("linux") or os.geteuid() != 0:
         return False

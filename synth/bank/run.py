@@ -235,26 +235,15 @@ _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
 
 
-def _pool_init(spec: BankSpec, out_dir: str, ready) -> None:
+def _pool_init(spec: BankSpec, out_dir: str) -> None:
     global _WORKER_SPEC, _WORKER_DIR
     _WORKER_SPEC, _WORKER_DIR = spec, out_dir
     warm(spec)
-    _meet(ready)
 
 
-def _meet(barrier) -> None:
-    """Wait at ``barrier`` (the pool's start-up); a broken or late one is let go: a
-    worker replaced after a crash must not hold the others."""
-    import threading
-
-    try:
-        barrier.wait(timeout=_STARTUP_TIMEOUT)
-    except threading.BrokenBarrierError:
-        pass
-
-
-#: Longest wait for the pool's workers to be warm, s (then rows are sent anyway).
-_STARTUP_TIMEOUT = 600.0
+def _pool_ready() -> int:
+    """A no-op task: its result tells that a worker has started and warmed the engine."""
+    return os.getpid()
 
 
 def _pool_task(item: PlanItem) -> RowResult:
@@ -287,33 +276,53 @@ def _start_method() -> str:
 
 class _Pool:
     """Long-lived worker processes, one thread of numerics each; returns once every
-    worker has warmed the engine."""
+    worker has warmed the engine. A worker that dies (killed, crashed) stops the run with
+    a :class:`BankRunError` instead of waiting for its row forever: the rows done are in
+    the manifest, and running the same bank again resumes."""
 
     def __init__(self, spec, out_dir, jobs):
         import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
         method = _start_method()
         if method == "fork":
             warm(spec)
         ctx = multiprocessing.get_context(method)
-        ready = ctx.Barrier(jobs + 1)
         saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
         os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
         try:
-            self.pool = ctx.Pool(jobs, initializer=_pool_init, initargs=(spec, out_dir, ready))
+            self.executor = ProcessPoolExecutor(
+                jobs, mp_context=ctx, initializer=_pool_init, initargs=(spec, out_dir)
+            )
+            # one no-op per worker: each submit starts a worker, each result is a warm one
+            for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
+                self._result(ready)
         finally:
             for k, v in saved.items():
                 if v is None:
                     os.environ.pop(k, None)
-        _meet(ready)
-        ready.abort()  # a worker started later (after a crash) does not wait
+
+    @staticmethod
+    def _result(future):
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            return future.result()
+        except BrokenProcessPool:
+            raise BankRunError(
+                "a worker process died (killed or crashed): the sounds finished are kept in "
+                "the manifest; run the same bank again to resume"
+            ) from None
 
     def results(self, items):
-        yield from self.pool.imap_unordered(_pool_task, items, chunksize=1)
+        from concurrent.futures import as_completed
+
+        futures = [self.executor.submit(_pool_task, item) for item in items]
+        for future in as_completed(futures):
+            yield self._result(future)
 
     def close(self):
-        self.pool.terminate()
-        self.pool.join()
+        self.executor.shutdown(wait=True, cancel_futures=True)
 
 
 class _Dask:
