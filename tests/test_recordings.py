@@ -233,3 +233,9 @@ def test_analyze_command_warns_on_a_truncated_file(tmp_path, capsys):
     out, err = capsys.readouterr()
     assert code == 0 and err.startswith("synth: warning: ") and "truncated" in err
     assert "TruncatedAudioWarning" not in err and out.startswith(f"{on[on < 1.0].size} ticks")
+
+
+def test_analyze_file_on_a_directory_says_so(tmp_path):
+    # A directory is not "no such file": the message names what it is.
+    with pytest.raises(ParameterError, match="is a directory"):
+        analyze_file(tmp_path)

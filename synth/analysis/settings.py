@@ -7,14 +7,12 @@ what is allowed; nothing is clamped.
 from __future__ import annotations
 
 import os
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.io.audio import TruncatedAudioWarning, wav_shortfall
 
 #: Fewest samples summed in a frame of the detection function: at low rates the frames
 #: overlap, so that a frame of noise is never a sum of only a few squares, whose scatter
@@ -244,17 +242,17 @@ def read_recording(path) -> tuple[np.ndarray, float]:
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    if os.path.isdir(path):
+        raise ParameterError(f"path={os.fspath(path)!r} is a directory, not an audio file")
     if not os.path.isfile(path):
         raise ParameterError(f"path={os.fspath(path)!r}: no such file")
-    import soundfile
+    from synth.io.audio import AudioFileError, read_audio
 
     try:
-        audio, samplerate = soundfile.read(path, dtype="float64", always_2d=True)
-    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
+        audio, samplerate = read_audio(path)  # the one reader: formats, truncation warning
+    except AudioFileError as exc:
         raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
+    audio = audio.reshape(audio.shape[0], -1)
     if audio.shape[0] == 0:
         raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
-    short = wav_shortfall(path)
-    if short is not None:
-        warnings.warn(short, TruncatedAudioWarning, stacklevel=2)
     return audio, float(samplerate)
