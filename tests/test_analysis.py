@@ -916,7 +916,7 @@ def test_analyze_file_rejects_bad_files(tmp_path):
         analyze_file(empty)
     with pytest.raises(ParameterError, match="no such file"):
         analyze_file(tmp_path / "missing.wav")
-    with pytest.raises(ParameterError, match="no such file"):
+    with pytest.raises(ParameterError, match="is a directory"):
         analyze_file(tmp_path)
     with pytest.raises(ParameterError, match="path"):
         analyze_file(42)
