@@ -13,8 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def ruff() -> list[str]:
     exe = shutil.which("ruff", path=str(Path(sys.executable).parent)) or shutil.which("ruff")
-    if exe is None:
-        pytest.skip("ruff is not installed (pip install 'impact-synth[test]')")
+    assert exe is not None, "ruff is part of the test extra: pip install '.[test]'"
     return [exe]
 
 

@@ -158,7 +158,7 @@ def test_load_default_rejects_unknown_name():
 
 
 def test_preset_error_is_a_parameter_error():
-    # One exception tree (DESIGN.md): PresetError < ParameterError < SynthError, ValueError.
+    # One exception tree: PresetError < ParameterError < SynthError, ValueError.
     assert issubclass(PresetError, ParameterError)
     assert issubclass(PresetError, SynthError)
     assert issubclass(PresetError, ValueError)

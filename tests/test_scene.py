@@ -76,7 +76,7 @@ def test_ball_rejects_material_of_wrong_type(bad):
 
 
 def test_ball_is_frozen():
-    # Scene objects are immutable (frozen dataclasses, DESIGN.md).
+    # Scene objects are immutable (frozen dataclasses).
     with pytest.raises(dataclasses.FrozenInstanceError):
         ball10().radius = 1.0
 
