@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
+from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
 from synth.live import kernel
@@ -94,6 +95,19 @@ class _Prepared:
 
     coefficients: object
     mass_line: float
+
+
+@dataclass(frozen=True)
+class _Trigger:
+    """What a hit or a drop is made of, checked: the ball, its impact point (m), its gain,
+    the contact law, gravity (m/s^2) and its start on the engine's clock (s)."""
+
+    ball: Ball
+    position: tuple[float, float]
+    gain: float
+    law: Contact
+    gravity: float
+    onset: float
 
 
 class Body:
@@ -245,6 +259,18 @@ class Body:
         reference = float(np.sum(np.abs(amplitudes)))
         return self._ring.put(ex.inject, ex.first, amplitudes, response, reference)
 
+    def _trigger(self, ball, position, gain, contact, gravity, at) -> _Trigger:
+        """The arguments :meth:`hit` and :meth:`drop` share, checked (a ParameterError
+        names the argument and its value)."""
+        return _Trigger(
+            ball=self._check_ball(ball),
+            position=self._position(position),
+            gain=checks.positive("gain", gain, "dimensionless"),
+            law=self._check_contact(contact),
+            gravity=checks.positive("gravity", gravity, "m/s^2"),
+            onset=self._engine._onset(at),
+        )
+
     def hit(
         self,
         ball: Ball,
@@ -254,7 +280,7 @@ class Body:
         gain: float = 1.0,
         at: float | None = None,
         contact: Contact | None = None,
-        gravity: float = 9.81,
+        gravity: float = GRAVITY,
     ) -> float | None:
         """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
         plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
@@ -268,28 +294,24 @@ class Body:
         Returns its start time in s, or None if the body's ring of pending impacts is full
         (the impact is refused and counted in :attr:`Engine.stats`).
         """
-        ball = self._check_ball(ball)
         v = checks.positive("speed", speed, "m/s")
-        pos = self._position(position)
-        g = checks.positive("gain", gain, "dimensionless")
-        law = self._check_contact(contact)
-        g0 = checks.positive("gravity", gravity, "m/s^2")
-        onset = self._engine._onset(at)
+        tr = self._trigger(ball, position, gain, contact, gravity, at)
         result = solve_impact(
-            ball,
+            tr.ball,
             self.plate,
             v,
-            position=pos,
+            position=tr.position,
             rtol=HIT_RTOL,
-            gravity=g0,
-            contact=law.law,
-            **law.options(),
+            gravity=tr.gravity,
+            contact=tr.law.law,
+            **tr.law.options(),
         )
         if not result.success:
             raise SynthError(
-                f"the contact of {ball!r} at speed={v!r} m/s did not converge: {result.message}"
+                f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        return onset if self._submit(result, onset, self._prepare(pos), g) else None
+        accepted = self._submit(result, tr.onset, self._prepare(tr.position), tr.gain)
+        return tr.onset if accepted else None
 
     def drop(
         self,
@@ -300,7 +322,7 @@ class Body:
         gain: float = 1.0,
         at: float | None = None,
         contact: Contact | None = None,
-        gravity: float = 9.81,
+        gravity: float = GRAVITY,
     ) -> tuple[float, ...]:
         """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
@@ -309,13 +331,16 @@ class Body:
         (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's. Returns the
         start times (s) of the ticks handed over; impacts refused by a full ring are
         counted in :attr:`Engine.stats`."""
-        ball = self._check_ball(ball)
         h = checks.positive("height", height, "m")
-        pos = self._position(position)
-        g = checks.positive("gain", gain, "dimensionless")
-        law = self._check_contact(contact)
-        gravity = checks.positive("gravity", gravity, "m/s^2")
-        onset0 = self._engine._onset(at)
+        tr = self._trigger(ball, position, gain, contact, gravity, at)
+        ball, pos, g, law, gravity, onset0 = (
+            tr.ball,
+            tr.position,
+            tr.gain,
+            tr.law,
+            tr.gravity,
+            tr.onset,
+        )
         sequence = simulate_bounces(
             ball,
             self.plate,
