@@ -206,6 +206,33 @@ def test_a_full_ring_refuses_and_counts(scene):
     assert body.hit(scene.ball, 1.0) is not None  # room again once played
 
 
+def test_a_slot_being_filled_is_neither_played_nor_dropped():
+    # a producer owns a reserved slot until it publishes it: the audio thread skips it
+    # and stop_all (which drops READY slots) leaves it alone, so no other producer can
+    # take it while it is written
+    from synth.live import kernel
+    from synth.live.queue import WRITING, PendingRing
+
+    ring = PendingRing(2, 3, 4)
+    i = ring.reserve()
+    assert ring.state[i] == WRITING and ring.pending() == 0
+    kernel.silence(np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state)
+    assert ring.state[i] == WRITING
+    j = ring.reserve()
+    assert j != i and ring.reserve() == -1 and ring.refused == 1
+    ring.publish(i, 10, 5, 2, 1.0)
+    ring.release(j)
+    assert ring.pending() == 1 and ring.free_slots() == 1
+
+
+def test_a_refused_hit_takes_no_slot(scene):
+    engine = synth.Engine(samplerate=FS, max_pending=1)
+    body = engine.add(scene.plate, listener=scene.listener)
+    with pytest.raises(ParameterError, match="speed"):
+        body.hit(scene.ball, -1.0)
+    assert body.hit(scene.ball, 1.0) is not None  # the only slot is still free
+
+
 def test_default_start_is_one_block_ahead(scene):
     # without a stream the clock is the next frame to mix; a hit starts one block later
     engine = synth.Engine(samplerate=FS, blocksize=256)

@@ -28,7 +28,6 @@ mixed, in seconds. A hit starts one block plus the stream's output latency after
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from dataclasses import dataclass
@@ -42,9 +41,15 @@ from synth.io.audio import PHYSICAL_FULL_SCALE
 from synth.live import kernel
 from synth.live.queue import PendingRing
 from synth.physics.bounces import simulate_bounces
-from synth.physics.contact import solve_impact
+from synth.physics.contact import ContactSolver
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
-from synth.sound.modal_bank import PULSE_POINTS, bank_coefficients, impact_excitation, power_table
+from synth.sound.modal_bank import (
+    PULSE_POINTS,
+    bank_coefficients,
+    impact_excitation,
+    power_table,
+    samples_in_contact,
+)
 from synth.sound.render import modal_model
 
 #: Python's thread switch interval while a stream runs, s. The callback runs a little
@@ -61,6 +66,10 @@ DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
 #: together.
 HIT_RTOL = 1e-6
+#: The contact law of a hit or a drop given none (Hertz).
+DEFAULT_CONTACT = Contact()
+#: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
+KEPT_POINTS = 64
 #: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
 WARM_UP_BALL_RADIUS = 0.005
 
@@ -127,7 +136,8 @@ class Body:
         K = poles.size
         self._scale = gain / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
-        self._ring = PendingRing(max_pending, K, int(math.ceil(MAX_CONTACT * fs)))
+        self._solvers: dict = {}
+        self._ring = PendingRing(max_pending, K, samples_in_contact(MAX_CONTACT, fs))
         self._counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
         self._silence = False
         self._puts_seen = 0
@@ -171,7 +181,8 @@ class Body:
         """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
         them at their first call), so that the first real hit takes microseconds."""
         ball = Ball(self.plate.material, WARM_UP_BALL_RADIUS)
-        result = solve_impact(ball, self.plate, 1.0, position=self.plate.centre, rtol=HIT_RTOL)
+        solver = ContactSolver.for_pair(ball, self.plate, rtol=HIT_RTOL)
+        result = solver.solve(1.0, position=self.plate.centre)
         impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
 
     def __repr__(self):
@@ -210,7 +221,7 @@ class Body:
                 self._model.poles, excitation, self._model.output, self._engine.samplerate
             )
             p = _Prepared(coefficients, float(np.sum(direct.real)) if direct is not None else 0.0)
-            if len(self._prepared) >= 64:
+            if len(self._prepared) >= KEPT_POINTS:
                 self._prepared.pop(next(iter(self._prepared)))
             self._prepared[position] = p
         return p
@@ -234,30 +245,62 @@ class Body:
     @staticmethod
     def _check_contact(contact) -> Contact:
         if contact is None:
-            return Contact()
+            return DEFAULT_CONTACT
         if not isinstance(contact, Contact):
             raise ParameterError(f"contact={contact!r} must be None or a Contact")
         return contact
 
     def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
-        """Hand one contact over, its tick starting at ``onset`` s on the engine's clock."""
-        ex = impact_excitation(
-            prepared.coefficients,
-            result,
-            onset,
-            weight=weight,
-            pulse_points=self._engine.pulse_points,
-        )
-        if ex.response.size > self._ring.max_contact:
+        """Hand one contact over, its tick starting at ``onset`` s on the engine's clock:
+        its excitation is written straight into a reserved slot of the body's ring."""
+        ring = self._ring
+        if samples_in_contact(result.contact_time, self._engine.samplerate) > ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {result.contact_time:.4g} s, longer than the {MAX_CONTACT} s "
                 f"a live body takes (a softer contact than any material in the table)"
             )
+        slot = ring.reserve()
+        if slot < 0:
+            return False
+        try:
+            ex = impact_excitation(
+                prepared.coefficients,
+                result,
+                onset,
+                weight=weight,
+                pulse_points=self._engine.pulse_points,
+                amplitudes=ring.amplitudes[slot],
+                response=ring.response[slot],
+            )
+        except BaseException:
+            ring.release(slot)
+            raise
         g = self._scale * gain
-        amplitudes = ex.amplitudes * g
-        response = (ex.response + ex.forces * prepared.mass_line) * g
-        reference = float(np.sum(np.abs(amplitudes)))
-        return self._ring.put(ex.inject, ex.first, amplitudes, response, reference)
+        amplitudes, response = ex.amplitudes, ex.response  # views of the slot
+        amplitudes *= g
+        if prepared.mass_line:
+            response += ex.forces * prepared.mass_line
+        response *= g
+        ring.publish(slot, ex.inject, ex.first, response.size, ex.magnitude * g)
+        return True
+
+    def _solver(self, tr: _Trigger) -> ContactSolver:
+        """The contact solver of a hit's ball, law and gravity (kept for the last few)."""
+        key = (tr.ball, tr.law, tr.gravity)
+        solver = self._solvers.get(key)
+        if solver is None:
+            solver = ContactSolver.for_pair(
+                tr.ball,
+                self.plate,
+                gravity=tr.gravity,
+                law=tr.law.law,
+                rtol=HIT_RTOL,
+                **tr.law.options(),
+            )
+            if len(self._solvers) >= KEPT_POINTS:
+                self._solvers.pop(next(iter(self._solvers)))
+            self._solvers[key] = solver
+        return solver
 
     def _trigger(self, ball, position, gain, contact, gravity, at) -> _Trigger:
         """The arguments :meth:`hit` and :meth:`drop` share, checked (a ParameterError
@@ -296,16 +339,7 @@ class Body:
         """
         v = checks.positive("speed", speed, "m/s")
         tr = self._trigger(ball, position, gain, contact, gravity, at)
-        result = solve_impact(
-            tr.ball,
-            self.plate,
-            v,
-            position=tr.position,
-            rtol=HIT_RTOL,
-            gravity=tr.gravity,
-            contact=tr.law.law,
-            **tr.law.options(),
-        )
+        result = self._solver(tr).solve(v, position=tr.position)
         if not result.success:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"

@@ -146,14 +146,16 @@ def mix_body(
 
 @numba.njit(cache=True, nogil=True)
 def silence(zr, zi, active, debt, state):
-    """Stop every mode and drop every pending impact of a body (its level is kept)."""
+    """Stop every mode and drop every pending impact of a body (its level is kept); a slot
+    that a producer is still filling stays its own."""
     for k in range(zr.shape[0]):
         zr[k] = 0.0
         zi[k] = 0.0
         active[k] = False
         debt[k] = 0.0
     for i in range(state.shape[0]):
-        state[i] = FREE
+        if state[i] == READY:
+            state[i] = FREE
 
 
 @numba.njit(cache=True, nogil=True)

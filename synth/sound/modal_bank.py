@@ -63,6 +63,7 @@ import numba
 import numpy as np
 
 from synth.errors import ParameterError
+from synth.vecmath import cis, exp_small, halvings_for
 
 #: Fewest points of the uniform grid on which a pulse's transforms are taken.
 PULSE_POINTS = 65
@@ -80,6 +81,72 @@ TILE = 2048
 
 # fast-math without approximate transcendental functions ("afn"): exp, cos, sin stay exact
 _FAST = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"}
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _magnitude_sum(amps):
+    """``sum_k |amps_k|`` of complex amplitudes (bounds the peak of what they ring)."""
+    total = 0.0
+    for k in range(amps.shape[0]):
+        total += math.sqrt(amps[k].real * amps[k].real + amps[k].imag * amps[k].imag)
+    return total
+
+
+@numba.njit(cache=True)
+def _sample_due(m, M, j, N, uj, h, d0, period):
+    """Whether in-contact sample ``m`` (of ``M``) falls in ``[u_j, u_j + h)`` (or at or
+    after ``u_j``, the last of ``N`` points)."""
+    return m < M and (j == N - 1 or d0 + m * period < uj + h)
+
+
+@numba.njit(cache=True, fastmath=_FAST)
+def _in_contact(
+    m, j, N, h, d0, period, forces, slopes, offset_forces, offset_slopes,
+    pr, pi, cr, ci, ur, ui, vr, vi, er, ei, qr, qi, gr, gi, tr, ti, resp,
+):  # fmt: skip
+    """The responses ``resp[m], ...`` of the in-contact samples that fall in ``[u_j,
+    u_j + h)`` (see :func:`_impact`): from ``E = e^(-p u_j)`` (er, ei) and the rule to
+    ``u_j`` (qr, qi), each the partial panel to the sample with its end corrections.
+    Advances ``e^(p d)`` (gr, gi) and ``e^(-p d)`` (tr, ti) past each; returns the next
+    ``m``."""
+    K = pr.shape[0]
+    M = offset_forces.shape[0]
+    uj = j * h
+    fj = forces[j]
+    sj = slopes[j]
+    while _sample_due(m, M, j, N, uj, h, d0, period):
+        dd = d0 + m * period - uj
+        if dd < 0.0:
+            dd = 0.0
+        fd = offset_forces[m]
+        sd = offset_slopes[m]
+        wj = (dd * dd - h * h) / 12.0
+        wd = dd * dd / 12.0
+        acc = 0.0
+        for k in range(K):
+            yr = qr[k] + 0.5 * dd * (fj * er[k] + fd * tr[k])
+            yi = qi[k] + 0.5 * dd * (fj * ei[k] + fd * ti[k])
+            # end corrections: g'(u) = (F'(u) - p F(u)) e^(-p u)
+            a1 = sj - pr[k] * fj
+            b1 = -pi[k] * fj
+            a2 = sd - pr[k] * fd
+            b2 = -pi[k] * fd
+            yr += wj * (a1 * er[k] - b1 * ei[k]) - wd * (a2 * tr[k] - b2 * ti[k])
+            yi += wj * (a1 * ei[k] + b1 * er[k]) - wd * (a2 * ti[k] + b2 * tr[k])
+            # Re[c y e^(p d)]
+            zr = yr * gr[k] - yi * gi[k]
+            zi = yr * gi[k] + yi * gr[k]
+            acc += cr[k] * zr - ci[k] * zi
+            # advance e^(p d) and e^(-p d) by one sample
+            nr = gr[k] * ur[k] - gi[k] * ui[k]
+            gi[k] = gr[k] * ui[k] + gi[k] * ur[k]
+            gr[k] = nr
+            nr = tr[k] * vr[k] - ti[k] * vi[k]
+            ti[k] = tr[k] * vi[k] + ti[k] * vr[k]
+            tr[k] = nr
+        resp[m] = acc
+        m += 1
+    return m
 
 
 @numba.njit(cache=True, fastmath=_FAST)
@@ -128,110 +195,138 @@ def _impact(
     whole transform is extrapolated from the rules on the grid and on every other point,
     ``(2^q T_h - T_2h) / (2^q - 1)`` (``len(forces)`` odd); 0 turns this off.
 
-    Two complex exponentials per mode: ``e^(-p h)`` (the transform's step) and
-    ``e^(p d0)``; the in-contact samples and the injection time follow from it by
-    powers of ``e^(p period)``.
+    Returns ``sum_k |amps_k|``.
+
+    Per mode, two complex exponentials (``e^(-p h)``, the transform's step, and
+    ``e^(p d0)``) by the polynomials of :mod:`synth.vecmath`, so that every loop over
+    the modes vectorises; everything else follows by products: ``e^(-p u_j)`` by powers
+    of the step, the in-contact samples and the injection time by powers of
+    ``e^(+-p period)``.
     """
     K = pr.shape[0]
     N = forces.shape[0]
     M = offset_forces.shape[0]
-    er = np.ones(K)
-    ei = np.zeros(K)
-    sr = np.empty(K)
-    si = np.empty(K)
-    ar = np.zeros(K)
-    ai = np.zeros(K)
-    br = np.zeros(K)  # the rule on every other point (step 2h), for the extrapolation
-    bi = np.zeros(K)
-    # g = e^(p d), d the next in-contact sample (then the injection sample)
-    gr = np.empty(K)
-    gi = np.empty(K)
+    # arguments of the real exponentials, scaled into [-1, 1] (vecmath.exp_squared)
+    sigma = 0.0
     for k in range(K):
-        mag = math.exp(-pr[k] * h)
-        sr[k] = mag * math.cos(pi[k] * h)
-        si[k] = -mag * math.sin(pi[k] * h)
-        mag = math.exp(pr[k] * d0)
-        gr[k] = mag * math.cos(pi[k] * d0)
-        gi[k] = mag * math.sin(pi[k] * d0)
+        sigma = max(sigma, abs(pr[k]))
+    halvings = halvings_for(sigma * max(h, d0))
+    scale = 0.5**halvings
+    # one allocation for the K-vectors below (rows of a workspace)
+    work = np.empty((20, K))
+    er, ei = work[0], work[1]  # e^(-p u_j)
+    sr, si = work[2], work[3]  # e^(-p h)
+    gr, gi = work[4], work[5]  # e^(p d), d the next in-contact sample (then the injection)
+    tr, ti = work[6], work[7]  # e^(-p d)
+    vr, vi = work[8], work[9]  # e^(-p period)
+    s2r, s2i = work[10], work[11]  # e^(-2 p h)
+    evr, evi = work[12], work[13]  # sums over the even and the odd points (see below)
+    odr, odi = work[14], work[15]
+    qr, qi = work[16], work[17]  # scratch for an in-contact sample: the rule to u_j
+    xr, xi = work[18], work[19]  # and E at an odd point
+    work[0] = 1.0
+    work[1] = 0.0
+    work[12:16] = 0.0
+    for k in range(K):  # |e^(-p h)|, |e^(p d0)| (loops kept apart so that each vectorises)
+        sr[k] = exp_small(-pr[k] * h * scale)
+        gr[k] = exp_small(pr[k] * d0 * scale)
+    for _ in range(halvings):
+        for k in range(K):
+            sr[k] *= sr[k]
+            gr[k] *= gr[k]
+    for k in range(K):
+        c, s = cis(pi[k] * h)
+        si[k] = -sr[k] * s
+        sr[k] *= c
+        c, s = cis(pi[k] * d0)
+        mag = gr[k]
+        gr[k] = mag * c
+        gi[k] = mag * s
+        inv = 1.0 / mag
+        tr[k] = c * inv
+        ti[k] = -s * inv
+        u2 = ur[k] * ur[k] + ui[k] * ui[k]
+        vr[k] = ur[k] / u2
+        vi[k] = -ui[k] / u2
+    # The grid's points are taken two at a time from an even one, u_j and u_(j+1):
+    #   ev += c_j E_j,   od += F_(j+1) E_j,   E_(j+2) = E_j s^2,
+    # with E_j = e^(-p u_j), s = e^(-p h), c_j = F_j (F_0 / 2 at the first point); the
+    # odd points' sum is s od. Then the trapezoid rule is h (ev + s od) (half weight at
+    # the last point) and the rule of step 2h is 2 h ev.
+    for k in range(K):
+        s2r[k] = sr[k] * sr[k] - si[k] * si[k]
+        s2i[k] = 2.0 * sr[k] * si[k]
     m = 0
-    half = 0.5 * h
-    f_prev = forces[0]
-    for j in range(N):
+    for j in range(0, N, 2):
         fj = forces[j]
-        if j > 0:
-            # acc += h/2 (F_(j-1) E_(j-1) + F_j E_j), E_j = E_(j-1) e^(-p h)
+        c_j = 0.5 * fj if (j == 0 or j == N - 1) else fj
+        if _sample_due(m, M, j, N, j * h, h, d0, period):
+            end = 0.5 * fj if j > 0 else 0.0  # u_j as the end of the rule (0 at u_0)
+            for k in range(K):
+                qr[k] = h * (evr[k] + odr[k] * sr[k] - odi[k] * si[k] + end * er[k])
+                qi[k] = h * (evi[k] + odr[k] * si[k] + odi[k] * sr[k] + end * ei[k])
+            m = _in_contact(
+                m, j, N, h, d0, period, forces, slopes, offset_forces, offset_slopes,
+                pr, pi, cr, ci, ur, ui, vr, vi, er, ei, qr, qi, gr, gi, tr, ti, resp,
+            )  # fmt: skip
+        if j == N - 1:
+            for k in range(K):
+                evr[k] += c_j * er[k]
+                evi[k] += c_j * ei[k]
+            break
+        fo = forces[j + 1]
+        c_o = 0.5 * fo if j + 1 == N - 1 else fo
+        if _sample_due(m, M, j + 1, N, (j + 1) * h, h, d0, period):
+            for k in range(K):
+                xr[k] = er[k] * sr[k] - ei[k] * si[k]
+                xi[k] = er[k] * si[k] + ei[k] * sr[k]
+                ar = evr[k] + c_j * er[k]
+                ai = evi[k] + c_j * ei[k]
+                qr[k] = h * (ar + odr[k] * sr[k] - odi[k] * si[k] + 0.5 * fo * xr[k])
+                qi[k] = h * (ai + odr[k] * si[k] + odi[k] * sr[k] + 0.5 * fo * xi[k])
+            m = _in_contact(
+                m, j + 1, N, h, d0, period, forces, slopes, offset_forces, offset_slopes,
+                pr, pi, cr, ci, ur, ui, vr, vi, xr, xi, qr, qi, gr, gi, tr, ti, resp,
+            )  # fmt: skip
+        last = j + 2 >= N
+        for k in range(K):
+            evr[k] += c_j * er[k]
+            evi[k] += c_j * ei[k]
+            odr[k] += c_o * er[k]
+            odi[k] += c_o * ei[k]
+        if not last:
+            for k in range(K):
+                nr = er[k] * s2r[k] - ei[k] * s2i[k]
+                ei[k] = er[k] * s2i[k] + ei[k] * s2r[k]
+                er[k] = nr
+        else:
+            # N even: E at the last (odd) point, for the settled weight below
             for k in range(K):
                 nr = er[k] * sr[k] - ei[k] * si[k]
-                ni = er[k] * si[k] + ei[k] * sr[k]
-                ar[k] += half * (f_prev * er[k] + fj * nr)
-                ai[k] += half * (f_prev * ei[k] + fj * ni)
+                ei[k] = er[k] * si[k] + ei[k] * sr[k]
                 er[k] = nr
-                ei[k] = ni
-        if order > 0.0 and j % 2 == 0:
-            w2 = fj * (h if (j == 0 or j == N - 1) else 2.0 * h)
-            for k in range(K):
-                br[k] += w2 * er[k]
-                bi[k] += w2 * ei[k]
-        uj = j * h
-        while m < M and (j == N - 1 or d0 + m * period < uj + h):
-            dd = d0 + m * period - uj
-            if dd < 0.0:
-                dd = 0.0
-            fd = offset_forces[m]
-            sd = offset_slopes[m]
-            sj = slopes[j]
-            wj = (dd * dd - h * h) / 12.0
-            wd = dd * dd / 12.0
-            acc = 0.0
-            for k in range(K):
-                # e^(-p d) = conj(e^(p d)) / |e^(p d)|^2
-                g2 = gr[k] * gr[k] + gi[k] * gi[k]
-                tr = gr[k] / g2
-                ti = -gi[k] / g2
-                qr = ar[k] + 0.5 * dd * (fj * er[k] + fd * tr)
-                qi = ai[k] + 0.5 * dd * (fj * ei[k] + fd * ti)
-                # end corrections: g'(u) = (F'(u) - p F(u)) e^(-p u)
-                a1 = sj - pr[k] * fj
-                b1 = -pi[k] * fj
-                a2 = sd - pr[k] * fd
-                b2 = -pi[k] * fd
-                qr += wj * (a1 * er[k] - b1 * ei[k]) - wd * (a2 * tr - b2 * ti)
-                qi += wj * (a1 * ei[k] + b1 * er[k]) - wd * (a2 * ti + b2 * tr)
-                # Re[c q e^(p d)]
-                xr = qr * gr[k] - qi * gi[k]
-                xi = qr * gi[k] + qi * gr[k]
-                acc += cr[k] * xr - ci[k] * xi
-                # advance e^(p d) by one sample
-                nr = gr[k] * ur[k] - gi[k] * ui[k]
-                gi[k] = gr[k] * ui[k] + gi[k] * ur[k]
-                gr[k] = nr
-            resp[m] = acc
-            m += 1
-        f_prev = fj
-    if order > 0.0 and N % 2 == 1 and N >= 5:
-        # where the step-2h rule resolves the mode's oscillation (omega h <= 1/2: at least
-        # 6 points a period); above it the expansion in h does not hold and the plain rule
-        # is the better one
-        c = 2.0**order
-        for k in range(K):
-            if abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
-                ar[k] = (c * ar[k] - br[k]) / (c - 1.0)
-                ai[k] = (c * ai[k] - bi[k]) / (c - 1.0)
+    extrapolate = order > 0.0 and N % 2 == 1 and N >= 5
+    c = 2.0**order
     for k in range(K):
-        zr = ar[k]
-        zi = ai[k]
+        zr = h * (evr[k] + odr[k] * sr[k] - odi[k] * si[k])
+        zi = h * (evi[k] + odr[k] * si[k] + odi[k] * sr[k])
+        # where the step-2h rule resolves the mode's oscillation (omega h <= 1/2: at
+        # least 6 points a period); above it the expansion in h does not hold and the
+        # plain rule is the better one
+        if extrapolate and abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
+            zr = (c * zr - 2.0 * h * evr[k]) / (c - 1.0)
+            zi = (c * zi - 2.0 * h * evi[k]) / (c - 1.0)
         if weight != 0.0:
-            # the weight left on the plate: + m g e^(-p tau) / p
-            mag = math.exp(-pr[k] * tau)
-            wr = mag * math.cos(pi[k] * tau)
-            wi = -mag * math.sin(pi[k] * tau)
+            # the weight left on the plate: + m g e^(-p tau) / p (e^(-p tau) = E at the
+            # last point)
             den = pr[k] * pr[k] + pi[k] * pi[k]
-            zr += weight * (wr * pr[k] + wi * pi[k]) / den
-            zi += weight * (wi * pr[k] - wr * pi[k]) / den
+            zr += weight * (er[k] * pr[k] + ei[k] * pi[k]) / den
+            zi += weight * (ei[k] * pr[k] - er[k] * pi[k]) / den
         # times c, times e^(p (d0 + M period)) (g, advanced past the last sample)
-        xr = zr * cr[k] - zi * ci[k]
-        xi = zr * ci[k] + zi * cr[k]
-        amps[k] = complex(xr * gr[k] - xi * gi[k], xr * gi[k] + xi * gr[k])
+        yr = zr * cr[k] - zi * ci[k]
+        yi = zr * ci[k] + zi * cr[k]
+        amps[k] = complex(yr * gr[k] - yi * gi[k], yr * gi[k] + yi * gr[k])
+    return _magnitude_sum(amps)
 
 
 #: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
@@ -360,6 +455,7 @@ def _impact_long(
         xr = zr * cr[k] - zi * ci[k]
         xi = zr * ci[k] + zi * cr[k]
         amps[k] = complex(xr * gr - xi * gi, xr * gi + xi * gr)
+    return _magnitude_sum(amps)
 
 
 @numba.njit(cache=True, fastmath=_FAST, nogil=True, inline="always")
@@ -605,11 +701,13 @@ class BankCoefficients:
     """What every impact on one plate, heard by one listener, shares (see :func:`synthesize`):
     the poles ``p_k`` (rad/s), the listener response per unit pulse transform
     ``-i b_k output_k / omega_dk`` and the ringing over one sample ``e^(p_k / fs)``, as
-    contiguous real and imaginary parts; ``samplerate`` in Hz."""
+    contiguous real and imaginary parts; ``samplerate`` in Hz; ``omega_max`` and
+    ``sigma_max`` the largest ``|Im p_k|`` and ``-Re p_k`` (rad/s, 1/s)."""
 
     poles: np.ndarray
     samplerate: float
     omega_max: float
+    sigma_max: float
     pole_re: np.ndarray
     pole_im: np.ndarray
     coef_re: np.ndarray
@@ -625,12 +723,14 @@ def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients
     fs = float(samplerate)
     poles = np.ascontiguousarray(poles, dtype=complex)
     omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
+    sigma_max = float(np.max(-poles.real)) if poles.size else 0.0
     coef = -1j * excitation / poles.imag * output  # response per unit transform
     step = np.exp(poles * (1.0 / fs))  # one sample's ringing
     return BankCoefficients(
         poles,
         fs,
         omega_max,
+        sigma_max,
         np.ascontiguousarray(poles.real),
         np.ascontiguousarray(poles.imag),
         np.ascontiguousarray(coef.real),
@@ -656,6 +756,8 @@ class ImpactExcitation:
         The exact listener response at the in-contact samples ``first .. first + M - 1``.
     forces : ndarray (M,)
         The contact force there, N (for an accelerometer's direct term).
+    magnitude : float
+        ``sum_k |amplitudes_k|`` (listener units): a bound of the tick's peak.
     """
 
     amplitudes: np.ndarray
@@ -663,6 +765,7 @@ class ImpactExcitation:
     first: int
     response: np.ndarray
     forces: np.ndarray
+    magnitude: float
 
 
 def impact_excitation(
@@ -673,6 +776,7 @@ def impact_excitation(
     weight=0.0,
     pulse_points=PULSE_POINTS,
     amplitudes=None,
+    response=None,
 ) -> ImpactExcitation:
     """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
     touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
@@ -680,7 +784,8 @@ def impact_excitation(
 
     weight: ``m g`` (N) left on the plate after a settled contact, else 0; pulse_points:
     fewest points of the pulse grid; amplitudes: an optional (K,) complex array to write
-    the amplitudes into.
+    the amplitudes into; response: an optional float array to write the in-contact
+    response into (at least :func:`samples_in_contact` long).
     """
     c = coefficients
     period = 1.0 / c.samplerate
@@ -698,11 +803,18 @@ def impact_excitation(
     times[:n] = np.arange(n) * h
     times[n:] = d0 + np.arange(M) * period
     forces, slopes = result.force_and_slope_at(times)
-    resp = np.empty(M)
+    if response is None:
+        resp = np.empty(M)
+    elif response.size < M:
+        raise ParameterError(
+            f"response has {response.size} samples; the contact of {tau!r} s at "
+            f"samplerate={fs!r} Hz needs {M}"
+        )
+    else:
+        resp = response[:M]
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
-    sigma_max = float(np.max(-c.pole_re)) if c.pole_re.size else 0.0
-    kernel = _impact_long if sigma_max * tau > LONG_CONTACT_NEPERS else _impact
-    kernel(
+    kernel = _impact_long if c.sigma_max * tau > LONG_CONTACT_NEPERS else _impact
+    magnitude = kernel(
         c.pole_re,
         c.pole_im,
         c.coef_re,
@@ -722,7 +834,13 @@ def impact_excitation(
         amps,
         resp,
     )
-    return ImpactExcitation(amps, first + M, first, resp, forces[n:])
+    return ImpactExcitation(amps, first + M, first, resp, forces[n:], magnitude)
+
+
+def samples_in_contact(contact_time: float, samplerate: float) -> int:
+    """Most audio samples (at ``samplerate`` Hz) that a contact of ``contact_time`` s
+    can span, wherever it starts (see :func:`impact_excitation`)."""
+    return int(math.ceil(contact_time * samplerate)) + 1
 
 
 def synthesize(
