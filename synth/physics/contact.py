@@ -221,6 +221,31 @@ class ImpactResult:
         out *= d.f_scale
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
+    def pulse_samples(
+        self, step: float, points: int, offset: float, period: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and its rate of change (N/s) on a uniform grid ``j step`` (s, ``j <
+        points``) and then at ``offset + m period`` (s, ``m < samples``), times from first
+        touch: :meth:`force_and_slope_at` of those times, in one call (the modal bank's
+        pulse grid and in-contact audio samples)."""
+        d = self._dense
+        return _k.pulse_samples(
+            d.hist,
+            d.radau,
+            d.lam,
+            d.G,
+            d.n,
+            d.c,
+            d.s_contact,
+            d.theta,
+            d.f_scale,
+            float(step),
+            int(points),
+            float(offset),
+            float(period),
+            int(samples),
+        )
+
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
         touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""

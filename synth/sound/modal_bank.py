@@ -307,6 +307,7 @@ def _impact(
                 er[k] = nr
     extrapolate = order > 0.0 and N % 2 == 1 and N >= 5
     c = 2.0**order
+    inv_c1 = 1.0 / (c - 1.0) if extrapolate else 0.0
     for k in range(K):
         zr = h * (evr[k] + odr[k] * sr[k] - odi[k] * si[k])
         zi = h * (evi[k] + odr[k] * si[k] + odi[k] * sr[k])
@@ -314,8 +315,8 @@ def _impact(
         # least 6 points a period); above it the expansion in h does not hold and the
         # plain rule is the better one
         if extrapolate and abs(pi[k]) * h <= RICHARDSON_MAX_PHASE:
-            zr = (c * zr - 2.0 * h * evr[k]) / (c - 1.0)
-            zi = (c * zi - 2.0 * h * evi[k]) / (c - 1.0)
+            zr = (c * zr - 2.0 * h * evr[k]) * inv_c1
+            zi = (c * zi - 2.0 * h * evi[k]) * inv_c1
         if weight != 0.0:
             # the weight left on the plate: + m g e^(-p tau) / p (e^(-p tau) = E at the
             # last point)
@@ -799,10 +800,7 @@ def impact_excitation(
     first = int(math.ceil(t0 * fs - 1e-9))
     M = max(0, int(math.ceil((t0 + tau) * fs - 1e-9)) - first)
     d0 = first * period - t0
-    times = np.empty(n + M)
-    times[:n] = np.arange(n) * h
-    times[n:] = d0 + np.arange(M) * period
-    forces, slopes = result.force_and_slope_at(times)
+    forces, slopes = result.pulse_samples(h, n, d0, period, M)
     if response is None:
         resp = np.empty(M)
     elif response.size < M:
