@@ -225,6 +225,21 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     assert ring.pending() == 1 and ring.free_slots() == 1
 
 
+def test_prepared_points_play_as_unprepared_ones(scene):
+    # prepare() only computes ahead what a hit at a new point computes itself
+    a = synth.Engine(samplerate=FS)
+    b = synth.Engine(samplerate=FS)
+    body_a = a.add(scene.plate, listener=scene.listener)
+    body_b = b.add(scene.plate, listener=scene.listener)
+    body_b.prepare((0.3, 0.2), (0.7, 0.4))
+    for body in (body_a, body_b):
+        body.hit(scene.ball, 1.2, position=(0.3, 0.2), at=0.001)
+        body.hit(scene.ball, 0.8, position=(0.7, 0.4), at=0.004)
+    np.testing.assert_array_equal(a.process(4096), b.process(4096))
+    with pytest.raises(ParameterError, match="position"):
+        body_b.prepare((5.0, 0.2))
+
+
 def test_a_refused_hit_takes_no_slot(scene):
     engine = synth.Engine(samplerate=FS, max_pending=1)
     body = engine.add(scene.plate, listener=scene.listener)
