@@ -94,11 +94,11 @@ _SEPARATED, _SETTLED = 0, 1
 def _phi12(z):  # pragma: no cover
     """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex z), by
     their Taylor series near 0 (no cancellation) and the closed forms elsewhere."""
-    if abs(z) < 0.5:
+    if abs(z) < 0.1:
         p1 = 0j
         p2 = 0j
         term = 1.0 + 0j  # z^k / k!
-        for k in range(20):
+        for k in range(11):
             p1 += term / (k + 1)
             p2 += term / ((k + 1) * (k + 2))
             term *= z / (k + 1)
@@ -156,7 +156,7 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
         d_new = d - step
         if d_new <= 0.0:
             d_new = 0.5 * d
-        if abs(d_new - d) <= 1e-15 * d:
+        if abs(d_new - d) <= 1e-14 * d:
             return d_new
         d = d_new
     return d
@@ -242,16 +242,31 @@ def _contact(
         A = wf - (u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m))
         if A <= 0.0:
             # the gap opens within this step: find h' with delta(h') = 0, force falling to 0
+            # Illinois' false position on [0, h]: gap(0) = delta > 0 >= gap(h) = A
             lo = 0.0
             hi = h
-            for _ in range(200):
-                mid = 0.5 * (lo + hi)
+            g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
+            g_hi = A
+            side = 0
+            for _ in range(100):
+                if g_lo - g_hi > 0.0:
+                    mid = lo + (hi - lo) * g_lo / (g_lo - g_hi)
+                else:
+                    mid = 0.5 * (lo + hi)
+                if not (lo < mid < hi):
+                    mid = 0.5 * (lo + hi)
                 gap = _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, mid)
                 if gap > 0.0:
-                    lo = mid
+                    lo, g_lo = mid, gap
+                    if side == 1:
+                        g_hi *= 0.5
+                    side = 1
                 else:
-                    hi = mid
-                if hi - lo <= 1e-15 * (t + h):
+                    hi, g_hi = mid, gap
+                    if side == -1:
+                        g_lo *= 0.5
+                    side = -1
+                if hi - lo <= 1e-13 * h or gap == 0.0:
                     break
             hh = hi
             Pe = np.empty((N, 4))
