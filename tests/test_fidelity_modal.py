@@ -70,3 +70,17 @@ def test_transverse_modulus_one_parameter_fit_predicts_thinner_boards():
     for r in fit["rows"]:
         assert r["restitution"] > r["restitution_in_plane"]
     assert "fitted on the 18 mm board's contact times only" in bench.format_transverse_fit(fit)
+
+
+def test_modal_contact_error_against_run_time(monkeypatch):
+    # `synth bench contact`'s modal part on a narrow ladder: one row for the impedance model
+    # and one per band and step count; the errors are against the band-extrapolated modal
+    # reference, and the finer step does not add error beyond the band's
+    monkeypatch.setattr(bench, "MODAL_BANDS", (1.0, 2.0))
+    monkeypatch.setattr(bench, "MODAL_STEPS", (64, 256))
+    rows = bench.run_modal_contact(repeat=1, points=["middle"])
+    assert [r["model"] for r in rows] == ["impedance"] + ["modal"] * 4
+    modal = {(r["band"], r["steps"]): r for r in rows[1:]}
+    assert modal[2.0, 256]["error"] < modal[1.0, 256]["error"]
+    assert all(r["us_per_impact"] > 0 for r in rows)
+    assert "| middle | impedance |" in bench.format_modal_contact(rows)
