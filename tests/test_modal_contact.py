@@ -151,3 +151,16 @@ def test_scene_opts_into_the_modal_plate():
         Contact(plate="rigid")
     with pytest.raises(ParameterError, match="max_frequency"):
         simulate_bounces(BALL, SMALL, drop_height=0.05, max_frequency=1e4)
+
+
+def test_bad_input_names_the_field():
+    with pytest.raises(ParameterError, match="steps_per_contact"):
+        mc.ModalContact.for_pair(BALL, SMALL, steps_per_contact=4)
+    with pytest.raises(ParameterError, match="law='hunt-crossley'"):
+        mc.ModalContact.for_pair(BALL, SMALL, law="hunt-crossley", dissipation=0.1)
+    with pytest.raises(ParameterError, match="position"):
+        mc.ModalContact.for_pair(BALL, SMALL, (0.5, 0.1))
+    with pytest.raises(ParameterError, match="speed"):
+        mc.ModalContact.for_pair(BALL, SMALL).solve(-1.0)
+    with pytest.raises(ParameterError, match="frequency"):
+        mc.modal_point(SMALL, (0.1, 0.1), max_frequency=1e4).admittance(-5.0)

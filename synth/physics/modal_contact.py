@@ -560,6 +560,25 @@ class ModalContact:
     gravity: float = GRAVITY
     steps_per_contact: int = STEPS_PER_CONTACT
 
+    def __post_init__(self):
+        if not isinstance(self.point, ModalPoint):
+            raise ParameterError(f"point={self.point!r} must be a ModalPoint")
+        checked = dict(
+            mass=checks.positive("mass", self.mass, "kg"),
+            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
+            exponent=checks.in_range(
+                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
+            ),
+            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+        )
+        steps = self.steps_per_contact
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
+            raise ParameterError(
+                f"steps_per_contact={steps!r} must be an integer >= 16 (steps per contact time)"
+            )
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+
     @classmethod
     def for_pair(
         cls,
@@ -588,18 +607,13 @@ class ModalContact:
                 f"law={law!r}: the modal contact takes elastic contact laws only "
                 f"(hertz, elastic-foundation, power-law)"
             )
-        g = checks.nonnegative("gravity", gravity, "m/s^2")
-        if isinstance(steps_per_contact, bool) or not isinstance(steps_per_contact, int):
-            raise ParameterError(f"steps_per_contact={steps_per_contact!r} must be an integer")
-        if steps_per_contact < 16:
-            raise ParameterError(f"steps_per_contact={steps_per_contact!r} must be >= 16")
         pos = plate.centre if position is None else position
         if max_frequency is None:
             v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
             tau = _impedance_contact(ball.mass, K, n, plate, v, 0.0).contact_time
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency)
-        return cls(point, ball.mass, K, n, g, steps_per_contact)
+        return cls(point, ball.mass, K, n, gravity, steps_per_contact)
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
