@@ -164,3 +164,14 @@ def test_bad_input_names_the_field():
         mc.ModalContact.for_pair(BALL, SMALL).solve(-1.0)
     with pytest.raises(ParameterError, match="frequency"):
         mc.modal_point(SMALL, (0.1, 0.1), max_frequency=1e4).admittance(-5.0)
+
+
+def test_live_engine_refuses_the_modal_plate():
+    # a live body solves its contacts with the impedance model: asking for the modal plate
+    # there is an error naming the field, not a silent substitution
+    import synth
+
+    engine = synth.Engine(samplerate=48000)
+    body = engine.add(SMALL)
+    with pytest.raises(ParameterError, match="contact.plate='modal'"):
+        body.hit(BALL, 1.0, contact=Contact(plate="modal"))
