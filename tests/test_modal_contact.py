@@ -175,3 +175,22 @@ def test_live_engine_refuses_the_modal_plate():
     body = engine.add(SMALL)
     with pytest.raises(ParameterError, match="contact.plate='modal'"):
         body.hit(BALL, 1.0, contact=Contact(plate="modal"))
+
+
+def test_pulse_is_the_contact_law_of_the_interpolated_penetration():
+    # At the solver's steps the pulse is the solver's force (to rounding); between them
+    # F = K delta^n of a C1 interpolant of delta: its integral is the impulse (trapezoid of
+    # the steps, second order: 1e-5) and its slope the derivative of the force (1e-3 of the
+    # largest slope by central differences on 4001 points)
+    c = mc.ModalContact.for_pair(BALL, SMALL, (0.05, 0.03), speed=1.0)
+    r = c.solve(1.0)
+    f_steps = r.force_at(r.step_times[1:-1])
+    assert np.allclose(f_steps, r.step_forces[1:-1], rtol=1e-12, atol=1e-12 * r.peak_force)
+    t = np.linspace(0.0, r.contact_time, 4001)
+    f, slope = r.force_and_slope_at(t)
+    assert np.trapezoid(f, t) == pytest.approx(r.impulse, rel=1e-5)
+    fd = np.gradient(f, t)
+    assert np.max(np.abs(fd[5:-5] - slope[5:-5])) < 1e-3 * np.max(np.abs(slope))
+    assert r.force_at(-1e-6) == 0.0 and r.force_at(2.0 * r.contact_time) == 0.0
+    forces, _ = r.pulse_samples(r.contact_time / 10, 11, 0.0, 1.0, 1)
+    assert forces[0] == 0.0 and forces.size == 12

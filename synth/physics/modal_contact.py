@@ -201,14 +201,44 @@ def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
 
 
 @numba.njit(cache=True)
+def _surface_velocity(v, vr, xdot):  # pragma: no cover
+    """Velocity of the plate surface under the ball (m/s, upward): bending modes, rigid body
+    and residual (whose displacement ``x_res`` is downward)."""
+    w = vr - xdot
+    for k in range(v.size):
+        w += v[k]
+    return w
+
+
+@numba.njit(cache=True)
 def _contact(
-    omega, sigma, c, rc, beta, a, q, v, x_res, m, K, n, g, v_in, h, max_steps, forces, times
+    omega,
+    sigma,
+    c,
+    rc,
+    beta,
+    a,
+    q,
+    v,
+    x_res,
+    m,
+    K,
+    n,
+    g,
+    v_in,
+    h,
+    max_steps,
+    forces,
+    times,
+    gaps,
+    rates,
 ):  # pragma: no cover
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``).
 
     ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
     one: the residual's displacement) are the plate's state at first touch and are advanced
-    in place to the end of contact. ``forces``/``times`` receive the force at every step."""
+    in place to the end of contact. ``forces``/``times`` receive the force at every step,
+    ``gaps``/``rates`` the penetration ``delta`` (m) and its rate (m/s)."""
     r = np.zeros(_R_COLS)
     N = q.size
     P = np.empty((N, 4))
@@ -235,6 +265,10 @@ def _contact(
     fmax = 0.0
     forces[0] = 0.0
     times[0] = 0.0
+    gaps[0] = 0.0
+    rates[0] = v_in
+    for k in range(N):
+        rates[0] += v[k]
     status = _SETTLED
     steps = 0
     for i in range(max_steps):
@@ -286,6 +320,8 @@ def _contact(
             t += hh
             forces[i + 1] = 0.0
             times[i + 1] = t
+            gaps[i + 1] = 0.0
+            rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
             status = _SEPARATED
             steps = i + 1
             break
@@ -305,6 +341,8 @@ def _contact(
         F0 = F1
         forces[i + 1] = F1
         times[i + 1] = t
+        gaps[i + 1] = d1
+        rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
         if d1 > dmax:
             dmax = d1
         if F1 > fmax:
@@ -489,16 +527,31 @@ class PlateRinging:
         return float(self.v.sum())
 
 
+class _Pulse:
+    """The solver's samples at its steps (trimmed to the contact): times (s), forces (N),
+    penetrations ``delta`` (m) and their rates (m/s)."""
+
+    def __init__(self, times, forces, gaps, rates, steps):
+        self.times = times[: steps + 1].copy()
+        self.forces = forces[: steps + 1].copy()
+        self.gaps = gaps[: steps + 1].copy()
+        self.rates = rates[: steps + 1].copy()
+
+
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
-    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact: the force is
-    linear between the solver's steps (the scheme's own assumption), so the pulse is the
-    samples ``step_times`` (s) and ``step_forces`` (N). ``ringing`` is the plate's state at
-    separation; ``restitution`` is the ball's upward speed at separation over its impact
-    speed (what bounce times measure)."""
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
+    the solver's steps (``step_times``, s) is ``F = K delta^n`` with ``delta`` the cubic
+    Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates``
+    (m/s): smooth, and rising like ``t^n`` after first touch as the contact law does.
+    ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
+    at separation over its impact speed (what bounce times measure)."""
 
     step_times: np.ndarray | None = field(default=None, repr=False)
     step_forces: np.ndarray | None = field(default=None, repr=False)
+    step_gaps: np.ndarray | None = field(default=None, repr=False)
+    step_rates: np.ndarray | None = field(default=None, repr=False)
+    law_stiffness: float = 0.0
     law_exponent: float = 1.5
     ringing: PlateRinging | None = field(default=None, repr=False)
     plate_modal_energy: float = 0.0
@@ -509,29 +562,46 @@ class ModalImpactResult(ImpactResult):
         return self.law_exponent
 
     def _sample_pulse(self):
-        n = self.n_points
-        times = np.linspace(0.0, self.contact_time, n)
-        forces = np.interp(times, self.step_times, self.step_forces)
+        times = np.linspace(0.0, self.contact_time, self.n_points)
+        forces = self.force_and_slope_at(times)[0]
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
     def force_at(self, t):
-        tt = np.asarray(t, dtype=float)
-        out = np.interp(tt, self.step_times, self.step_forces, left=0.0, right=0.0)
-        return out if np.ndim(t) else float(out)
+        """Contact force (N) at times ``t`` (s from first touch); 0 outside the contact."""
+        out = self.force_and_slope_at(np.atleast_1d(np.asarray(t, dtype=float)))[0]
+        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
-    def force_and_slope_at(self, t):
+    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first touch,
+        a 1-D array); both 0 outside the contact."""
         tt = np.asarray(t, dtype=float).ravel()
-        f = np.interp(tt, self.step_times, self.step_forces, left=0.0, right=0.0)
-        i = np.clip(
-            np.searchsorted(self.step_times, tt, side="right") - 1, 0, self.step_times.size - 2
-        )
-        dt = np.diff(self.step_times)
-        df = np.diff(self.step_forces)
-        slope = np.where(
-            (tt >= 0.0) & (tt <= self.contact_time), df[i] / np.where(dt[i] > 0, dt[i], 1.0), 0.0
-        )
-        return f, slope
+        ts = self.step_times
+        i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
+        h = ts[i + 1] - ts[i]
+        u = (tt - ts[i]) / h
+        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
+        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
+        u2, u3 = u * u, u * u * u
+        delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
+            u3 - u2
+        ) * r1
+        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+        rate += (3 * u2 - 2 * u) * r1 / h
+        inside = (tt >= 0.0) & (tt <= self.contact_time) & (delta > 0.0)
+        dpos = np.where(inside, delta, 1.0)
+        n, K = self.law_exponent, self.law_stiffness
+        force = np.where(inside, K * dpos**n, 0.0)
+        slope = np.where(inside, n * K * dpos ** (n - 1.0) * rate, 0.0)
+        return force, slope
+
+    def pulse_samples(
+        self, step: float, points: int, offset: float, period: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and its rate (N/s) at ``j step`` (``j < points``) and then at ``offset +
+        m period`` (``m < samples``), times in s from first touch."""
+        t = np.concatenate((np.arange(points) * step, offset + np.arange(samples) * period))
+        return self.force_and_slope_at(t)
 
 
 @dataclass(frozen=True, eq=False)
@@ -666,6 +736,8 @@ class ModalContact:
         x = np.array([state.x_res])
         forces = np.zeros(max_steps + 1)
         times = np.zeros(max_steps + 1)
+        gaps = np.zeros(max_steps + 1)
+        rates = np.zeros(max_steps + 1)
         e0 = self.energy(state)
         w0 = state.displacement
         r = _contact(
@@ -687,10 +759,13 @@ class ModalContact:
             max_steps,
             forces,
             times,
+            gaps,
+            rates,
         )
-        return self._result(r, q, v, float(x[0]), v_in, e0, w0, times, forces, ref, n_points)
+        pulse = _Pulse(times, forces, gaps, rates, int(r[_R_STEPS]))
+        return self._result(r, q, v, float(x[0]), v_in, e0, w0, pulse, ref, n_points)
 
-    def _result(self, r, q, v, x, v_in, e0, w0, times, forces, ref, n_points) -> ModalImpactResult:
+    def _result(self, r, q, v, x, v_in, e0, w0, pulse, ref, n_points) -> ModalImpactResult:
         p = self.point
         m = self.mass
         steps = int(r[_R_STEPS])
@@ -730,8 +805,11 @@ class ModalContact:
             ),
             n_steps=steps,
             method="modal",
-            step_times=times[: steps + 1].copy(),
-            step_forces=forces[: steps + 1].copy(),
+            step_times=pulse.times,
+            step_forces=pulse.forces,
+            step_gaps=pulse.gaps,
+            step_rates=pulse.rates,
+            law_stiffness=self.stiffness,
             law_exponent=self.exponent,
             ringing=ringing,
             plate_modal_energy=e_plate,
