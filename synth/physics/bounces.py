@@ -196,7 +196,8 @@ def simulate_bounces(
         The plate in the contact: "impedance" (the infinite plate's impedance, blended
         towards measured values near free edges) or "modal" (the finite plate's modes and a
         residual, :mod:`synth.physics.modal_contact`), whose ringing after each impact is
-        carried into the next one.
+        carried into the next one. ``rtol`` is the impedance model's; the modal plate's
+        accuracy is set by its band and steps (``synth bench contact`` gives its error).
     max_frequency : float, optional
         Band limit of the modes of the "modal" plate, Hz (default: see
         :data:`synth.physics.modal_contact.BAND_FACTOR`).

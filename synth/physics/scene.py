@@ -220,7 +220,8 @@ class Contact:
     plate : {"impedance", "modal"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
         measured values near free edges) or "modal" (the finite plate's modes in the contact,
-        their ringing carried from impact to impact: :mod:`synth.physics.modal_contact`).
+        their ringing carried from impact to impact: :mod:`synth.physics.modal_contact`; its
+        accuracy is set by its band and steps, not by ``rtol``).
     """
 
     law: str = "hertz"
