@@ -193,7 +193,13 @@ def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else x
 
 
-def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300, cases=None) -> dict:
+def run_contact(
+    tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
+    repeat: int = 300,
+    cases=None,
+    *,
+    modal: bool = False,
+) -> dict:
     """Error of e, tau and the pulse against the reference, and time per impact.
 
     Returns a dict with ``rows`` (one per case and tolerance; the default rtol 1e-6 is
@@ -201,6 +207,8 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300, c
     DOP853's time at matched error, ratio), ``gravity`` (for each case: the time with
     and without gravity and the change of e that gravity makes) and ``summary`` (the
     targets and the figures that meet them or not). Errors are None where undefined.
+    With ``modal``, ``modal`` holds :func:`run_modal_contact`'s rows (the plate's modes in
+    the contact against the impedance model).
     """
     tolerances = tuple(sorted(set(float(t) for t in tolerances) | {DEFAULT_RTOL}, reverse=True))
     cases = contact_cases() if cases is None else list(cases)
@@ -309,7 +317,10 @@ def run_contact(tolerances=(1e-3, 1e-4, 1e-6, 1e-8, 1e-10), repeat: int = 300, c
     )
     for c in comparisons:
         c["scipy_error"] = _finite_or_none(c["scipy_error"])
-    return dict(rows=rows, scipy=comparisons, gravity=gravity_rows, summary=summary)
+    out = dict(rows=rows, scipy=comparisons, gravity=gravity_rows, summary=summary)
+    if modal:
+        out["modal"] = run_modal_contact(repeat=max(3, repeat // 15))
+    return out
 
 
 def format_contact(result) -> str:
@@ -361,6 +372,110 @@ def format_contact(result) -> str:
         f"- speed-up over solve_ivp (DOP853) at matched error, smallest: {s['min_speedup']:.0f}x "
         f"(target >= {t['speedup']:.0f}x): {ok[s['met']['speedup']]}",
     ]
+    if "modal" in result:
+        lines += ["", format_modal_contact(result["modal"])]
+    return "\n".join(lines)
+
+
+#: The modal contact's cases: 10 mm steel on the 18 mm board at 1.4 m/s (thesis Table 3.3),
+#: at points from the middle to a corner (m from the board's corner).
+MODAL_CONTACT_POINTS = {
+    "middle": (0.6135, 0.245),
+    "20 mm from an edge": (0.6135, 0.02),
+    "edge": (0.6135, 0.0),
+    "corner": (0.0, 0.0),
+}
+#: Band limits (units of 1 / tau) and steps per contact of the modal contact's ladder.
+MODAL_BANDS = (2.0, 4.0, 8.0)
+MODAL_STEPS = (128, 512, 2048)
+
+
+def run_modal_contact(repeat: int = 20, points=None) -> list:
+    """Error against run time of the two plates in the contact, 10 mm steel on 18 mm MDF at
+    1.4 m/s: the impedance model (infinite plate, blended towards Eichler's edge and the
+    measured corner near free edges) and the modal plate (``MODAL_BANDS`` x ``MODAL_STEPS``).
+
+    The reference at each point is the modal plate at the widest band and 8192 steps, its
+    band error removed by Richardson extrapolation over the two widest bands (the residual's
+    error falls as ``Omega^-2``, tests/test_modal_contact.py). Times are medians of
+    ``repeat`` solves of a contact built once (the build, modes from the cache and shapes at
+    the point, is timed apart)."""
+    from synth.physics import modal_contact as mc
+    from synth.physics.contact import solve_impact
+
+    ball, plate = _thesis_pair("steel 10.0 mm", "18 mm")
+    v = math.sqrt(2.0 * GRAVITY * 0.1)
+    tau = solve_impact(ball, plate, v, rtol=1e-9).contact_time
+    chosen = (
+        MODAL_CONTACT_POINTS if points is None else {k: MODAL_CONTACT_POINTS[k] for k in points}
+    )
+    rows = []
+    for name, pos in chosen.items():
+
+        def modal(band, steps):
+            t0 = time.perf_counter()
+            c = mc.ModalContact.for_pair(
+                ball, plate, pos, max_frequency=band / tau, steps_per_contact=steps
+            )
+            build = time.perf_counter() - t0
+            return c, build
+
+        wide, narrow = MODAL_BANDS[-1], MODAL_BANDS[-2]
+        e_w = modal(wide, 8192)[0].solve(v).restitution
+        e_n = modal(narrow, 8192)[0].solve(v).restitution
+        ref = e_w + (e_w - e_n) / ((wide / narrow) ** 2 - 1.0)
+        imp = solve_impact(ball, plate, v, position=pos, rtol=1e-6)
+        t_imp = _median_time(lambda: solve_impact(ball, plate, v, position=pos), repeat)
+        rows.append(
+            dict(
+                point=name,
+                model="impedance",
+                band=None,
+                steps=None,
+                modes=0,
+                restitution=imp.restitution,
+                error=abs(imp.restitution - ref),
+                us_per_impact=t_imp * 1e6,
+                build_ms=0.0,
+            )
+        )
+        for band in MODAL_BANDS:
+            for steps in MODAL_STEPS:
+                c, build = modal(band, steps)
+                r = c.solve(v)
+                t = _median_time(lambda: c.solve(v), repeat)
+                rows.append(
+                    dict(
+                        point=name,
+                        model="modal",
+                        band=band,
+                        steps=steps,
+                        modes=int(c.point.omega.size),
+                        restitution=r.restitution,
+                        error=abs(r.restitution - ref),
+                        us_per_impact=t * 1e6,
+                        build_ms=build * 1e3,
+                    )
+                )
+    return rows
+
+
+def format_modal_contact(rows) -> str:
+    """The table of :func:`run_modal_contact` (Markdown)."""
+    lines = [
+        "Plate in the contact, 10 mm steel on 18 mm MDF at 1.4 m/s: error of e against the "
+        "converged modal plate, and time per impact",
+        "| point | plate | band (1/tau) | steps | modes | e | error of e | us/impact | build (ms) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        band = "-" if r["band"] is None else f"{r['band']:g}"
+        steps = "-" if r["steps"] is None else str(r["steps"])
+        lines.append(
+            f"| {r['point']} | {r['model']} | {band} | {steps} | {r['modes']} | "
+            f"{r['restitution']:.5f} | {r['error']:.1e} | {r['us_per_impact']:.0f} | "
+            f"{r['build_ms']:.0f} |"
+        )
     return "\n".join(lines)
 
 
@@ -697,7 +812,7 @@ def thesis_row(
     )
 
 
-def thesis_comparison(samplerate: int = 48000) -> dict:
+def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     """The engine against the thesis' model and the thesis' measurements (Chapters 3 and 5),
     for every quantity the thesis measured (docs/validation.md, "Against the thesis'
     recordings"):
@@ -714,6 +829,10 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
     * and, for the first tick, the spectral centroid, the 2-3 kHz decay time from the
       energy decay curve (the quantity the MDF damping law was fitted to) and the peak
       pressure, which have no measured counterpart.
+
+    With ``modal``, the rows of :func:`thesis_modal_rows` follow (the finite plate in the
+    contact; minutes on a cold cache of plate modes), and ``transverse`` holds
+    :func:`transverse_modulus_fit` (MDF's through-thickness modulus in the contact).
 
     Returns a dict: ``rows`` (quantity, unit, engine, model, measured, gap, relative_gap,
     note; SI units, None where a value does not exist) and ``first_tick`` (figures of the
@@ -817,7 +936,239 @@ def thesis_comparison(samplerate: int = 48000) -> dict:
         centroid=float(np.sum(f * spec) / np.sum(spec)),
         peak_pa=float(np.max(np.abs(x))),
     )
-    return dict(samplerate=samplerate, rows=rows, first_tick=first_tick)
+    out = dict(samplerate=samplerate, rows=rows, first_tick=first_tick)
+    if modal:
+        rows += thesis_modal_rows()
+        out["transverse"] = transverse_modulus_fit()
+    return out
+
+
+#: Band of the impedance read from the modal plate (Hz): the band of an impact hammer and of
+#: the contact pulses of Table 3.3 (their spectra fall off above about 1 / tau ~ 10 kHz).
+MODAL_IMPEDANCE_BAND = (0.0, 10e3)
+#: Restitution at the edge, 10 mm steel on 18 mm MDF, 1.4 m/s: the thesis' model (Eichler's
+#: edge impedance) and its measurement, "about 5 % lower" (Chapter 3).
+THESIS_EDGE_RESTITUTION = {"model": 0.63, "measured": 0.60}
+#: Impact-speed bins (m/s) of the restitution at the end of a series.
+LATE_SPEED_BINS = ((0.1, 0.2), (0.05, 0.1), (0.02, 0.05))
+
+
+def modal_critical_distance(ball, plate, speed: float, step: float = 1e-3) -> float:
+    """Critical distance (m) of the modal plate: walking along the short midline from a long
+    free edge, the distance at which the restitution stops rising, i.e. where, coming from the
+    middle, it starts to fall (the thesis' definition, Table 3.3). The first local maximum of
+    e on a grid of ``step`` (m), refined by a parabola through it and its neighbours."""
+    from synth.physics import modal_contact as mc
+
+    base = mc.ModalContact.for_pair(ball, plate, None, speed=speed)
+
+    def e_at(d):
+        point = mc.modal_point(
+            plate, (0.5 * plate.length, d), max_frequency=base.point.max_frequency
+        )
+        c = mc.ModalContact(point, base.mass, base.stiffness, base.exponent, base.gravity)
+        return c.solve(speed).restitution
+
+    e = [e_at(0.0), e_at(step)]
+    d = step
+    while d < 0.5 * plate.width - step:
+        d += step
+        e.append(e_at(d))
+        if e[-2] >= e[-1] and e[-2] > e[-3]:
+            y0, y1, y2 = e[-3], e[-2], e[-1]
+            shift = 0.5 * (y0 - y2) / (y0 - 2.0 * y1 + y2)
+            return d - step + shift * step
+    return float("nan")
+
+
+def _late_restitution(seq, lo, hi, spread=False):
+    """Mean restitution of the impacts of ``seq`` at speeds in ``[lo, hi)`` (m/s), or with
+    ``spread`` its standard deviation."""
+    e = [i.restitution for i in seq if lo <= i.speed < hi]
+    if not e:
+        return float("nan")
+    return float(np.std(e) if spread else np.mean(e))
+
+
+def thesis_modal_rows(pairs=None) -> list:
+    """The rows of the thesis comparison for the modal plate (the finite plate's modes in the
+    contact, :mod:`synth.physics.modal_contact`): restitution at the middle and at an edge,
+    critical distances of the ball/board ``pairs`` (default: all of Table 3.3), impedance of
+    the 18 mm board at the middle, an edge and a corner (band-averaged, Table 3.4), and the
+    restitution at the end of a series (10 mm steel, 18 mm, from 10 cm) against the
+    impedance model's."""
+    from synth.physics import modal_contact as mc
+    from synth.physics.bounces import simulate_bounces
+    from synth.physics.contact import solve_impact
+
+    v1 = math.sqrt(2.0 * GRAVITY * 0.1)
+    rows = []
+    ball, plate = _thesis_pair("steel 10.0 mm", "18 mm")
+    mid = mc.ModalContact.for_pair(ball, plate, None, speed=v1)
+    rows.append(
+        thesis_row(
+            "restitution, modal plate, steel 10.0 mm on 18 mm, first impact (1.4 m/s)",
+            "",
+            mid.solve(v1).restitution,
+            THESIS_RESTITUTION["model"],
+            THESIS_RESTITUTION["measured"],
+        )
+    )
+    edge = (0.5 * plate.length, 0.0)
+    e_edge = mc.ModalContact.for_pair(ball, plate, edge, speed=v1).solve(v1).restitution
+    rows.append(
+        thesis_row(
+            "restitution at a long edge, modal plate, steel 10.0 mm on 18 mm (1.4 m/s)",
+            "",
+            e_edge,
+            THESIS_EDGE_RESTITUTION["model"],
+            THESIS_EDGE_RESTITUTION["measured"],
+            "measured: about 5 % below the model's 0.63",
+        )
+    )
+    chosen = THESIS_IMPACTS if pairs is None else {k: THESIS_IMPACTS[k] for k in pairs}
+    # widest band first on each board: the modes' cache then serves the narrower ones
+    order = sorted(
+        chosen, key=lambda k: solve_impact(*_thesis_pair(*k), v1, rtol=1e-6).contact_time
+    )
+    dc = {k: modal_critical_distance(*_thesis_pair(*k), v1) for k in order}
+    for (ball_name, board_name), (tau_meas, _, dc_meas) in chosen.items():
+        wave_speed = THESIS_BOARDS[board_name][4]
+        rows.append(
+            thesis_row(
+                f"critical distance, modal plate, {ball_name} on {board_name}",
+                "m",
+                dc[ball_name, board_name],
+                0.5 * tau_meas * wave_speed,
+                dc_meas,
+                "engine: where e stops rising from the edge; model: the thesis' tau c / 2",
+            )
+        )
+    lo, hi = MODAL_IMPEDANCE_BAND
+    for where, pos in (
+        ("middle", plate.centre),
+        ("edge", edge),
+        ("corner", (0.0, 0.0)),
+    ):
+        z = mc.modal_point(plate, pos, max_frequency=mid.point.max_frequency).band_impedance(lo, hi)
+        model, measured = THESIS_IMPEDANCE[where]
+        rows.append(
+            thesis_row(
+                f"impedance, modal plate, 18 mm, {where}",
+                "N s/m",
+                z,
+                model,
+                measured,
+                f"engine: 1 / <Re Y> over {lo / 1e3:g}-{hi / 1e3:g} kHz",
+            )
+        )
+    modal = simulate_bounces(ball, plate, drop_height=0.1, plate_model="modal")
+    plain = simulate_bounces(ball, plate, drop_height=0.1, rtol=1e-9)
+    for lo_v, hi_v in LATE_SPEED_BINS:
+        rows.append(
+            thesis_row(
+                f"restitution at {lo_v:g}-{hi_v:g} m/s, end of a series, modal plate",
+                "",
+                _late_restitution(modal, lo_v, hi_v),
+                _late_restitution(plain, lo_v, hi_v),
+                None,
+                "model: the impedance model's; measured: e falls as the speed falls below 0.2 m/s",
+            )
+        )
+        rows.append(
+            thesis_row(
+                f"spread (standard deviation) of those restitutions at {lo_v:g}-{hi_v:g} m/s",
+                "",
+                _late_restitution(modal, lo_v, hi_v, spread=True),
+                _late_restitution(plain, lo_v, hi_v, spread=True),
+                None,
+                "the ringing of earlier bounces scatters e from bounce to bounce",
+            )
+        )
+    return rows
+
+
+def _contact_with_transverse_modulus(ball, plate, ratio, speed):
+    """The impact (impedance model, middle) with the plate's side of the Hertz contact
+    taken at the through-thickness modulus ``ratio * E`` (E the board's in-plane modulus,
+    Poisson's ratio kept): a power law of exponent 3/2 with that Hertz constant."""
+    from dataclasses import replace
+
+    from synth.physics.contact import hertz_stiffness, solve_impact
+    from synth.physics.materials import resolve
+
+    material = resolve(plate.material)
+    soft = replace(material, name=f"{material.name}-transverse", young=ratio * material.young)
+    K = hertz_stiffness(ball, replace(plate, material=soft))
+    return solve_impact(ball, plate, speed, contact="power-law", exponent=1.5, stiffness=K)
+
+
+def transverse_modulus_fit() -> dict:
+    """MDF's through-thickness modulus in the local contact: one parameter, the ratio
+    ``E_t / E`` of the through-thickness to the in-plane modulus, fitted to the five first
+    contact times measured on the 18 mm board (Table 3.3; least squares of log tau), then
+    used unchanged on the 12 and 6 mm boards (each with its own in-plane modulus). The plate's
+    side of the Hertz contact is taken isotropic with modulus ``E_t`` (a fibreboard is
+    transversely isotropic; its indentation stiffness is governed by the through-thickness
+    direction). Returns the ratio and one row per Table 3.3 pair: the measured and the fitted
+    or predicted contact time, and the restitution at 1.4 m/s with and without ``E_t``."""
+    from scipy.optimize import minimize_scalar
+
+    from synth.physics.contact import solve_impact
+
+    v = math.sqrt(2.0 * GRAVITY * 0.1)
+    fit_pairs = [k for k in THESIS_IMPACTS if k[1] == "18 mm"]
+
+    def cost(log_ratio):
+        ratio = math.exp(log_ratio)
+        return sum(
+            math.log(
+                _contact_with_transverse_modulus(*_thesis_pair(*k), ratio, v).contact_time
+                / THESIS_IMPACTS[k][0]
+            )
+            ** 2
+            for k in fit_pairs
+        )
+
+    best = minimize_scalar(cost, bounds=(math.log(1e-4), 0.0), method="bounded")
+    ratio = math.exp(best.x)
+    rows = []
+    for k, (tau_meas, _, _) in THESIS_IMPACTS.items():
+        ball, plate = _thesis_pair(*k)
+        soft = _contact_with_transverse_modulus(ball, plate, ratio, v)
+        hard = solve_impact(ball, plate, v)
+        rows.append(
+            dict(
+                ball=k[0],
+                board=k[1],
+                role="fit" if k in fit_pairs else "prediction",
+                measured=tau_meas,
+                contact_time=soft.contact_time,
+                error=soft.contact_time / tau_meas - 1.0,
+                restitution=soft.restitution,
+                restitution_in_plane=hard.restitution,
+            )
+        )
+    return dict(ratio=ratio, rows=rows)
+
+
+def format_transverse_fit(fit: dict) -> str:
+    """The table of :func:`transverse_modulus_fit` (Markdown)."""
+    lines = [
+        f"MDF's through-thickness modulus in the contact: E_t / E = {fit['ratio']:.4f}, fitted "
+        f"on the 18 mm board's contact times only; the 12 and 6 mm rows are predictions",
+        "",
+        "| ball on board | role | contact time measured (us) | with E_t (us) | error | "
+        "e at 1.4 m/s with E_t | e with the in-plane E |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in fit["rows"]:
+        lines.append(
+            f"| {r['ball']} on {r['board']} | {r['role']} | {r['measured'] * 1e6:.0f} | "
+            f"{r['contact_time'] * 1e6:.0f} | {100 * r['error']:+.0f} % | "
+            f"{r['restitution']:.3f} | {r['restitution_in_plane']:.3f} |"
+        )
+    return "\n".join(lines)
 
 
 #: Display scale and format of each unit in the thesis table.
@@ -875,6 +1226,8 @@ def format_thesis(c: dict) -> str:
         f'| spectral centroid (Hz; the thesis: "a few kHz") | {t["centroid"]:.0f} |',
         f"| peak pressure (Pa) | {t['peak_pa']:.1f} |",
     ]
+    if "transverse" in c:
+        lines += ["", format_transverse_fit(c["transverse"])]
     return "\n".join(lines)
 
 

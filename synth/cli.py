@@ -416,6 +416,7 @@ def _cmd_bench(args):
                 if args.tolerances
                 else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
                 repeat=300 if args.repeat is None else args.repeat,
+                modal=True,
             ),
             bench.format_contact,
         ),
@@ -423,7 +424,7 @@ def _cmd_bench(args):
             lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
             bench.format_render,
         ),
-        "thesis": (bench.thesis_comparison, bench.format_thesis),
+        "thesis": (lambda: bench.thesis_comparison(modal=True), bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),

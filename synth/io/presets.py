@@ -37,6 +37,7 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     exponent = 1.5                  # dimensionless n in (1, 4] (only with "power-law")
     stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
     layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")
+    plate = "impedance"             # or "modal": the finite plate's modes in the contact
 
     [render]                        # optional: options of synth.render
     samplerate = 48000              # Hz

@@ -257,6 +257,11 @@ class Body:
             return DEFAULT_CONTACT
         if not isinstance(contact, Contact):
             raise ParameterError(f"contact={contact!r} must be None or a Contact")
+        if contact.plate != "impedance":
+            raise ParameterError(
+                f"contact.plate={contact.plate!r}: a live body solves its contacts with the "
+                f"plate's impedance (contact.plate='impedance')"
+            )
         return contact
 
     def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:

@@ -157,6 +157,8 @@ def simulate_bounces(
     max_impacts: int = 10_000,
     n_points: int = 128,
     rebound: ReboundRule | None = None,
+    plate_model: str = "impedance",
+    max_frequency: float | None = None,
     **contact_options,
 ) -> BounceSequence:
     """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
@@ -190,6 +192,15 @@ def simulate_bounces(
         (the next impact speed is then ``e' v``) while every impact is still solved
         physically at its own speed; None: the physical rebound. The perception
         stimuli of :mod:`synth.stimuli.sequences` use it.
+    plate_model : {"impedance", "modal"}
+        The plate in the contact: "impedance" (the infinite plate's impedance, blended
+        towards measured values near free edges) or "modal" (the finite plate's modes and a
+        residual, :mod:`synth.physics.modal_contact`), whose ringing after each impact is
+        carried into the next one. ``rtol`` is the impedance model's; the modal plate's
+        accuracy is set by its band and steps (``synth bench contact`` gives its error).
+    max_frequency : float, optional
+        Band limit of the modes of the "modal" plate, Hz (default: see
+        :data:`synth.physics.modal_contact.BAND_FACTOR`).
 
     Returns
     -------
@@ -212,6 +223,28 @@ def simulate_bounces(
             f"rebound={rebound!r} must be a callable (ImpactResult, speed) -> restitution, or None"
         )
     pos = None if position is None else plate.check_position(position, "position")
+    checks.choice("plate_model", plate_model, PLATE_MODELS)
+    if plate_model == "modal":
+        if rebound is not None:
+            raise ParameterError("rebound rules apply to plate_model='impedance' only")
+        return _modal_bounces(
+            ball,
+            plate,
+            h0,
+            pos,
+            g,
+            contact_law,
+            floor,
+            t_max,
+            max_impacts,
+            n_points,
+            max_frequency,
+            contact_options,
+        )
+    if max_frequency is not None:
+        raise ParameterError(
+            f"max_frequency={max_frequency!r} applies to plate_model='modal' only (Hz)"
+        )
     solver = ContactSolver.for_pair(
         ball, plate, gravity=g, law=contact_law, rtol=rtol, n_points=n_points, **contact_options
     )
@@ -248,6 +281,53 @@ def simulate_bounces(
     return BounceSequence(tuple(impacts), reason, h0, g)
 
 
+#: The plate models of the contact (see :func:`simulate_bounces`).
+PLATE_MODELS = ("impedance", "modal")
+
+
+def _modal_bounces(
+    ball, plate, h0, pos, g, law, floor, t_max, max_impacts, n_points, max_frequency, options
+) -> BounceSequence:
+    """:func:`simulate_bounces` with the finite plate's modes in every contact
+    (:mod:`synth.physics.modal_contact`): the plate rings between impacts, and the ringing
+    at each landing (found on the moving surface) enters that impact. The rigid-body motion
+    of a free plate is left to its supports after each contact."""
+    from synth.physics import modal_contact
+
+    t = math.sqrt(2.0 * h0 / g)
+    v = math.sqrt(2.0 * g * h0)
+    v1 = v
+    contact = modal_contact.ModalContact.for_pair(
+        ball, plate, pos, gravity=g, law=law, max_frequency=max_frequency, speed=v, **options
+    )
+    state = contact.at_rest()
+    energy_floor = 10.0 ** (floor / 10.0)
+    impacts = []
+    reason = "max-impacts"
+    while len(impacts) < max_impacts:
+        res = contact.solve(v, state, n_points=n_points)
+        impacts.append(Impact(len(impacts) + 1, t, v, res))
+        if res.settled:
+            reason = "settled"
+            break
+        v_out = res.rebound_speed
+        if 2.0 * v_out / g < res.contact_time:
+            reason = "flight-shorter-than-contact"
+            break
+        if (v_out / v1) ** 2 < energy_floor:
+            reason = "floor"
+            break
+        flight, state = modal_contact.next_touch(
+            contact, res.ringing, res.ringing.displacement, v_out
+        )
+        t_next = t + res.contact_time + flight
+        if t_next > t_max:
+            reason = "max-duration"
+            break
+        t, v = t_next, g * flight - v_out
+    return BounceSequence(tuple(impacts), reason, h0, g)
+
+
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
     drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
@@ -262,6 +342,7 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
         gravity=scene.gravity,
         contact_law=c.law,
         rtol=c.rtol,
+        **({"plate_model": c.plate} if c.plate != "impedance" else {}),
         **c.options(),
         **options,
     )

@@ -217,6 +217,11 @@ class Contact:
         carries about ``rtol`` times the time elapsed), and they show as phase errors at
         high frequencies (``synth bench render``: 1e-6 gives -49 dB, 1e-9 gives -96 dB
         against a reference render, at the same cost).
+    plate : {"impedance", "modal"}
+        The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
+        measured values near free edges) or "modal" (the finite plate's modes in the contact,
+        their ringing carried from impact to impact: :mod:`synth.physics.modal_contact`; its
+        accuracy is set by its band and steps, not by ``rtol``).
     """
 
     law: str = "hertz"
@@ -225,9 +230,11 @@ class Contact:
     stiffness: float | None = None
     layer_depth: float | None = None
     rtol: float = 1e-9
+    plate: str = "impedance"
 
     def __post_init__(self):
         checks.choice("contact.law", self.law, CONTACT_LAWS)
+        checks.choice("contact.plate", self.plate, ("impedance", "modal"))
         object.__setattr__(
             self,
             "rtol",

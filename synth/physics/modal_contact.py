@@ -1,0 +1,880 @@
+"""The finite plate in the contact: the ball against the plate's modes (docs/physics.md,
+"Plate impedance" and "Plate modes").
+
+The impedance model (:mod:`synth.physics.contact`) gives the plate surface under the ball the
+velocity ``v_free - beta F`` of an infinite plate. Here the plate is the finite plate itself:
+its displacement under the ball is
+
+    w(t) = sum_k q_k(t) + q_rigid(t) - x_res(t)
+
+* ``q_k`` bending mode k (:func:`synth.sound.modes.modes`, frequencies ``omega_k``, decay rates
+  ``sigma_k``), seen at the contact point ``x0``: ``q_k'' + 2 sigma_k q_k' + omega_k^2 q_k =
+  -c_k F`` with the coupling ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
+* ``q_rigid`` the rigid-body motion of a free plate (translation and two rotations,
+  ``q_rigid'' = -c_rigid F``, ``c_rigid = (1 + 3 xi^2 + 3 eta^2) / M`` with ``xi, eta`` the
+  point's coordinates scaled to [-1, 1]); none for supported or clamped edges;
+* ``x_res`` the residual: the modes above the band limit ``Omega``. Taken as a continuum with
+  the infinite plate's modal density ``n`` (per rad/s), their admittance is
+  ``i omega (n / M) Int_Omega^inf dw / (w^2 - omega^2)``: the infinite-plate admittance
+  ``beta_inf = pi n / (2 M) = 1 / (8 sqrt(D rho h))`` above ``Omega`` and a spring of compliance
+  ``2 beta_inf / (pi Omega)`` well below it. The residual is the one-pole admittance with both
+  limits, ``beta_inf s / (s + a)``, ``a = pi Omega / 2`` (a dashpot ``1 / beta_inf`` in
+  parallel with a spring ``a / beta_inf``): ``x_res' = beta_inf F - a x_res``.
+
+So the onset of every contact sees the infinite plate's admittance, the modes add what the
+finite plate does within the band (reflections from edges and corners, the ringing left by an
+earlier impact), and as ``Omega`` grows the model tends to the finite thin plate. Far from the
+edges, before any reflection returns, it equals the impedance model.
+
+Ball (mass ``m``, height ``u`` of its lowest point, gravity ``g``): ``m u'' = F - m g``;
+contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact.contact_law`).
+
+Numerics. Fixed steps ``h``; over each step the force is taken linear in time (first-order
+hold), and every linear part (modes, rigid body, residual, the ball's free flight) is advanced
+exactly for that force: with ``z = p h`` for a pole ``p``, the responses to the force at the
+start and at the end of the step are ``h (phi_1(z) - phi_2(z))`` and ``h phi_2(z)``,
+``phi_1(z) = (e^z - 1) / z``, ``phi_2(z) = (e^z - 1 - z) / z^2`` (exponential integrators,
+Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286). The force at the end of the step is
+then the root of one scalar equation, ``delta + B K delta^n = A`` (monotone: one root), so the
+scheme is implicit in the contact and unconditionally stable for every mode; its error is
+second order in ``h``. The end of contact is the root of ``delta(h') = 0`` within the last step.
+Energy is book-kept (ball, modes, modal damping, rigid body, residual spring and dashpot) and its
+balance reported as ``energy_residual``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+from synth.physics import impedance
+from synth.physics.contact import ImpactResult, contact_law, solve_contact
+from synth.physics.scene import Ball, Plate
+
+__all__ = [
+    "BAND_FACTOR",
+    "STEPS_PER_CONTACT",
+    "ModalPoint",
+    "ModalContact",
+    "ModalImpactResult",
+    "PlateRinging",
+    "modal_point",
+    "next_touch",
+]
+
+#: Band limit of the modes in the contact, in units of ``1 / tau`` (``tau`` the impedance
+#: model's contact time): the force pulse's spectrum is below -60 dB of its peak beyond
+#: about ``3 / tau``; the residual stands for the modes above.
+BAND_FACTOR = 4.0
+#: Fixed steps over one contact of the impedance model's duration.
+STEPS_PER_CONTACT = 512
+#: A contact still going after this many impedance-model contact times is reported as
+#: settled (the ball rests on the plate).
+SETTLE_FACTOR = 40.0
+
+# Result columns of the kernel.
+_R_STATUS, _R_TIME, _R_V, _R_U, _R_DMAX, _R_FMAX, _R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
+_R_STEPS, _R_DAMPING_LOSS, _R_DASHPOT_LOSS, _R_RIGID_Q, _R_RIGID_V = 7, 8, 9, 10, 11
+_R_COLS = 12
+_SEPARATED, _SETTLED = 0, 1
+
+
+# --------------------------------------------------------------------------------------
+# Kernel
+# --------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def _phi12(z):  # pragma: no cover
+    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex z), by
+    their Taylor series near 0 (no cancellation) and the closed forms elsewhere."""
+    if abs(z) < 0.1:
+        p1 = 0j
+        p2 = 0j
+        term = 1.0 + 0j  # z^k / k!
+        for k in range(11):
+            p1 += term / (k + 1)
+            p2 += term / ((k + 1) * (k + 2))
+            term *= z / (k + 1)
+        return p1, p2
+    ez = np.exp(z)
+    return (ez - 1.0) / z, (ez - 1.0 - z) / (z * z)
+
+
+@numba.njit(cache=True)
+def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
+    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
+    ``P`` rows (P11, P12, P21, P22), ``G`` rows (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    for k in range(omega.size):
+        s = sigma[k]
+        w0 = omega[k]
+        wd = math.sqrt(w0 * w0 - s * s)
+        e = math.exp(-s * h)
+        c = math.cos(wd * h)
+        sn = math.sin(wd * h)
+        P[k, 0] = e * (c + s / wd * sn)
+        P[k, 1] = e * sn / wd
+        P[k, 2] = -e * w0 * w0 / wd * sn
+        P[k, 3] = e * (c - s / wd * sn)
+        p = complex(-s, wd)
+        p1, p2 = _phi12(p * h)
+        j0 = h * (p1 - p2)
+        j1 = h * p2
+        G[k, 0] = j0.imag / wd
+        G[k, 1] = j1.imag / wd
+        G[k, 2] = (p * j0).imag / wd
+        G[k, 3] = (p * j1).imag / wd
+
+
+@numba.njit(cache=True)
+def _real_coefficients(a, h):  # pragma: no cover
+    """Step ``h`` of ``x' = -a x + f`` with ``f`` linear: ``x(h) = E x(0) + g0 f(0) + g1 f(h)``."""
+    p1, p2 = _phi12(complex(-a * h, 0.0))
+    return math.exp(-a * h), h * (p1.real - p2.real), h * p2.real
+
+
+@numba.njit(cache=True)
+def _solve_delta(A, B, K, n):  # pragma: no cover
+    """The root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above
+    (the left side is convex and increasing)."""
+    d = A
+    # start from the smaller of the two one-term solutions: both bound the root from above
+    d2 = (A / (B * K)) ** (1.0 / n) if B > 0.0 else A
+    if d2 < d:
+        d = d2
+    for _ in range(100):
+        f = d + B * K * d**n - A
+        df = 1.0 + n * B * K * d ** (n - 1.0)
+        step = f / df
+        d_new = d - step
+        if d_new <= 0.0:
+            d_new = 0.5 * d
+        if abs(d_new - d) <= 1e-14 * d:
+            return d_new
+        d = d_new
+    return d
+
+
+@numba.njit(cache=True)
+def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: no cover
+    """Plate displacement under the ball after a step ``h`` with the force at its end left out:
+    modes, rigid body and residual from their states and the force ``F0`` at the start."""
+    w = 0.0
+    for k in range(q.size):
+        w += P[k, 0] * q[k] + P[k, 1] * v[k] - c[k] * G[k, 0] * F0
+    w += qr + vr * h - rc * h * h * F0 / 3.0
+    w -= Er * x + beta * r0 * F0
+    return w
+
+
+@numba.njit(cache=True)
+def _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, h):  # pragma: no cover
+    """``delta`` after a step ``h`` over which the force falls linearly from ``F0`` to 0."""
+    P = np.empty((q.size, 4))
+    G = np.empty((q.size, 4))
+    _mode_coefficients(omega, sigma, h, P, G)
+    Er, r0, _ = _real_coefficients(a, h)
+    w = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
+    ub = u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m)
+    return w - ub
+
+
+@numba.njit(cache=True)
+def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
+    """Advance the modes over one step with the force going linearly from F0 to F1; returns
+    the modal damping loss over the step (trapezoid rule), J."""
+    loss = 0.0
+    for k in range(q.size):
+        q0 = q[k]
+        v0 = v[k]
+        q[k] = P[k, 0] * q0 + P[k, 1] * v0 - c[k] * (G[k, 0] * F0 + G[k, 1] * F1)
+        v[k] = P[k, 2] * q0 + P[k, 3] * v0 - c[k] * (G[k, 2] * F0 + G[k, 3] * F1)
+        loss += sigma[k] / c[k] * (v0 * v0 + v[k] * v[k]) * h
+    return loss
+
+
+@numba.njit(cache=True)
+def _surface_velocity(v, vr, xdot):  # pragma: no cover
+    """Velocity of the plate surface under the ball (m/s, upward): bending modes, rigid body
+    and residual (whose displacement ``x_res`` is downward)."""
+    w = vr - xdot
+    for k in range(v.size):
+        w += v[k]
+    return w
+
+
+@numba.njit(cache=True)
+def _contact(
+    omega,
+    sigma,
+    c,
+    rc,
+    beta,
+    a,
+    q,
+    v,
+    x_res,
+    m,
+    K,
+    n,
+    g,
+    v_in,
+    h,
+    max_steps,
+    forces,
+    times,
+    gaps,
+    rates,
+):  # pragma: no cover
+    """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``).
+
+    ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
+    one: the residual's displacement) are the plate's state at first touch and are advanced
+    in place to the end of contact. ``forces``/``times`` receive the force at every step,
+    ``gaps``/``rates`` the penetration ``delta`` (m) and its rate (m/s)."""
+    r = np.zeros(_R_COLS)
+    N = q.size
+    P = np.empty((N, 4))
+    G = np.empty((N, 4))
+    _mode_coefficients(omega, sigma, h, P, G)
+    Er, r0, r1 = _real_coefficients(a, h)
+    B = h * h / (6.0 * m) + rc * h * h / 6.0 + beta * r1
+    for k in range(N):
+        B += c[k] * G[k, 1]
+    w = -x_res[0]
+    for k in range(N):
+        w += q[k]
+    u = w
+    vs = -v_in
+    qr = 0.0
+    vr = 0.0
+    x = x_res[0]
+    F0 = 0.0
+    t = 0.0
+    damping_loss = 0.0
+    dashpot_loss = 0.0
+    impulse = 0.0
+    dmax = 0.0
+    fmax = 0.0
+    forces[0] = 0.0
+    times[0] = 0.0
+    gaps[0] = 0.0
+    rates[0] = v_in
+    for k in range(N):
+        rates[0] += v[k]
+    status = _SETTLED
+    steps = 0
+    for i in range(max_steps):
+        wf = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
+        A = wf - (u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m))
+        if A <= 0.0:
+            # the gap opens within this step: find h' with delta(h') = 0, force falling to 0
+            # Illinois' false position on [0, h]: gap(0) = delta > 0 >= gap(h) = A
+            lo = 0.0
+            hi = h
+            g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
+            g_hi = A
+            side = 0
+            for _ in range(100):
+                if g_lo - g_hi > 0.0:
+                    mid = lo + (hi - lo) * g_lo / (g_lo - g_hi)
+                else:
+                    mid = 0.5 * (lo + hi)
+                if not (lo < mid < hi):
+                    mid = 0.5 * (lo + hi)
+                gap = _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, mid)
+                if gap > 0.0:
+                    lo, g_lo = mid, gap
+                    if side == 1:
+                        g_hi *= 0.5
+                    side = 1
+                else:
+                    hi, g_hi = mid, gap
+                    if side == -1:
+                        g_lo *= 0.5
+                    side = -1
+                if hi - lo <= 1e-13 * h or gap == 0.0:
+                    break
+            hh = hi
+            Pe = np.empty((N, 4))
+            Ge = np.empty((N, 4))
+            _mode_coefficients(omega, sigma, hh, Pe, Ge)
+            Ee, e0, _ = _real_coefficients(a, hh)
+            damping_loss += _advance(q, v, Pe, Ge, c, sigma, F0, 0.0, hh)
+            xdot0 = beta * F0 - a * x
+            x = Ee * x + beta * e0 * F0
+            xdot1 = -a * x
+            dashpot_loss += 0.5 * hh * (xdot0 * xdot0 + xdot1 * xdot1) / beta
+            qr += vr * hh - rc * hh * hh * F0 / 3.0
+            vr -= rc * hh * 0.5 * F0
+            u += vs * hh - 0.5 * g * hh * hh + hh * hh * F0 / (3.0 * m)
+            vs += -g * hh + hh * 0.5 * F0 / m
+            impulse += 0.5 * hh * F0
+            t += hh
+            forces[i + 1] = 0.0
+            times[i + 1] = t
+            gaps[i + 1] = 0.0
+            rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
+            status = _SEPARATED
+            steps = i + 1
+            break
+        d1 = _solve_delta(A, B, K, n)
+        F1 = K * d1**n
+        damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
+        xdot0 = beta * F0 - a * x
+        x = Er * x + beta * (r0 * F0 + r1 * F1)
+        xdot1 = beta * F1 - a * x
+        dashpot_loss += 0.5 * h * (xdot0 * xdot0 + xdot1 * xdot1) / beta
+        qr += vr * h - rc * h * h * (F0 / 3.0 + F1 / 6.0)
+        vr -= rc * h * 0.5 * (F0 + F1)
+        u += vs * h - 0.5 * g * h * h + h * h * (F0 / 3.0 + F1 / 6.0) / m
+        vs += -g * h + h * 0.5 * (F0 + F1) / m
+        impulse += 0.5 * h * (F0 + F1)
+        t += h
+        F0 = F1
+        forces[i + 1] = F1
+        times[i + 1] = t
+        gaps[i + 1] = d1
+        rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
+        if d1 > dmax:
+            dmax = d1
+        if F1 > fmax:
+            fmax = F1
+        steps = i + 1
+    x_res[0] = x
+    r[_R_STATUS] = status
+    r[_R_TIME] = t
+    r[_R_V] = vs
+    r[_R_U] = u
+    r[_R_DMAX] = dmax
+    r[_R_FMAX] = fmax
+    r[_R_IMPULSE] = impulse
+    r[_R_STEPS] = steps
+    r[_R_DAMPING_LOSS] = damping_loss
+    r[_R_DASHPOT_LOSS] = dashpot_loss
+    r[_R_RIGID_Q] = qr
+    r[_R_RIGID_V] = vr
+    return r
+
+
+@numba.njit(cache=True)
+def _ring(omega, sigma, q, v, duration):  # pragma: no cover
+    """Free ringing of the modes over ``duration`` (s), in place (the homogeneous part of
+    :func:`_mode_coefficients`)."""
+    for k in range(q.size):
+        s = sigma[k]
+        w0 = omega[k]
+        wd = math.sqrt(w0 * w0 - s * s)
+        e = math.exp(-s * duration)
+        c = math.cos(wd * duration)
+        sn = math.sin(wd * duration)
+        q0 = q[k]
+        v0 = v[k]
+        q[k] = e * ((c + s / wd * sn) * q0 + sn / wd * v0)
+        v[k] = e * (-w0 * w0 / wd * sn * q0 + (c - s / wd * sn) * v0)
+
+
+# --------------------------------------------------------------------------------------
+# The plate seen from one point
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class ModalPoint:
+    """The finite plate as the contact sees it at one point (see the module docstring).
+
+    Attributes
+    ----------
+    plate : Plate
+    position : (float, float)
+        The point, metres from a plate corner.
+    max_frequency : float
+        Band limit of the modes, Hz (``Omega = 2 pi max_frequency``).
+    omega : ndarray
+        Natural angular frequencies of the bending modes in the band, rad/s.
+    sigma : ndarray
+        Their amplitude decay rates, 1/s.
+    coupling : ndarray
+        ``c_k = phi_k(x0)^2 / M_k``, 1/kg.
+    rigid_coupling : float
+        ``c_rigid`` of the free plate's rigid-body motion at the point, 1/kg (0 for
+        supported and clamped plates).
+    residual_admittance : float
+        ``beta_inf = 1 / Z_inf``, m/(N s).
+    residual_rate : float
+        ``a = pi Omega / 2``, 1/s.
+    """
+
+    plate: Plate
+    position: tuple[float, float]
+    max_frequency: float
+    omega: np.ndarray = field(repr=False)
+    sigma: np.ndarray = field(repr=False)
+    coupling: np.ndarray = field(repr=False)
+    rigid_coupling: float
+    residual_admittance: float
+    residual_rate: float
+
+    def admittance(self, frequency) -> np.ndarray:
+        """Driving-point admittance ``Y = v / F`` (m/(N s), complex, ``e^(i omega t)``
+        convention, force and velocity both positive downward) at ``frequency`` (Hz, > 0)."""
+        f = np.atleast_1d(np.asarray(frequency, dtype=float))
+        if not np.all(np.isfinite(f) & (f > 0.0)):
+            raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
+        s = 2j * np.pi * f[:, None]
+        modal = (s * self.coupling / (s * s + 2.0 * self.sigma * s + self.omega**2)).sum(axis=1)
+        s1 = s[:, 0]
+        y = modal + self.rigid_coupling / s1
+        y += self.residual_admittance * s1 / (s1 + self.residual_rate)
+        return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
+
+    def band_impedance(self, low: float, high: float) -> float:
+        """Driving-point impedance ``1 / <Re Y>`` (N s/m), with ``Re Y`` averaged over the band
+        ``[low, high]`` (Hz): the quantity an impact hammer's band-averaged measurement
+        gives, and for the infinite plate ``Z_inf`` (each mode adds ``pi c_k / 2`` to the
+        integral of ``Re Y`` over angular frequency; the average is taken of the modes in
+        the band, plus the residual's share)."""
+        lo = checks.nonnegative("low", low, "Hz")
+        hi = checks.positive("high", high, "Hz")
+        if not hi > lo:
+            raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
+        if hi > self.max_frequency:
+            raise ParameterError(
+                f"high={high!r} must be <= the band limit {self.max_frequency!r} (Hz)"
+            )
+        w_lo, w_hi = 2.0 * np.pi * lo, 2.0 * np.pi * hi
+        inside = (self.omega >= w_lo) & (self.omega < w_hi)
+        modal = 0.5 * np.pi * float(self.coupling[inside].sum())
+        # residual: Int Re[beta s / (s + a)] d omega = beta (w - a atan(w / a))
+        b, a = self.residual_admittance, self.residual_rate
+        residual = b * ((w_hi - a * math.atan(w_hi / a)) - (w_lo - a * math.atan(w_lo / a)))
+        return (w_hi - w_lo) / (modal + residual)
+
+
+def modal_point(plate: Plate, position: tuple[float, float], *, max_frequency: float) -> ModalPoint:
+    """The plate at ``position`` (m from a corner) with its bending modes up to
+    ``max_frequency`` (Hz) and the residual above (see the module docstring)."""
+    from synth.sound.modes import modes as plate_modes
+
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    x, y = plate.check_position(position, "position")
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
+    m = plate_modes(plate, max_frequency=fmax)
+    phi = m.shapes(np.array([[x, y]]))[0]
+    omega = np.array(m.angular_frequencies, dtype=float)
+    sigma = np.array(m.decay_rates, dtype=float)
+    if np.any(sigma >= omega):
+        k = int(np.argmax(sigma >= omega))
+        raise ParameterError(
+            f"plate.material.damping gives the mode at {omega[k] / (2 * np.pi):.6g} Hz a decay "
+            f"rate {sigma[k]:.6g} 1/s at or above its angular frequency: the modal contact "
+            f"needs underdamped modes below max_frequency={fmax!r} Hz"
+        )
+    coupling = phi * phi / np.asarray(m.modal_masses, dtype=float)
+    # modes with a node at the point take no part in the contact
+    keep = coupling > 1e-12 * coupling.max(initial=0.0)
+    omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
+    if plate.boundary == "free":
+        xi = 2.0 * x / plate.length - 1.0
+        eta = 2.0 * y / plate.width - 1.0
+        rigid = (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass
+    else:
+        rigid = 0.0
+    return ModalPoint(
+        plate=plate,
+        position=(x, y),
+        max_frequency=fmax,
+        omega=omega,
+        sigma=sigma,
+        coupling=coupling,
+        rigid_coupling=rigid,
+        residual_admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        residual_rate=0.5 * math.pi * 2.0 * math.pi * fmax,
+    )
+
+
+# --------------------------------------------------------------------------------------
+# Impacts
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class PlateRinging:
+    """The plate's state under the ball: bending-mode displacements ``q`` (m) and velocities
+    ``v`` (m/s) at the contact point (one per mode of the :class:`ModalPoint`), and the
+    residual's displacement ``x_res`` (m, downward). A plate at rest is all zeros."""
+
+    q: np.ndarray
+    v: np.ndarray
+    x_res: float = 0.0
+
+    @property
+    def displacement(self) -> float:
+        """Displacement of the surface under the ball, m, positive upward."""
+        return float(self.q.sum()) - self.x_res
+
+    @property
+    def velocity(self) -> float:
+        """Bending velocity of the surface under the ball, m/s, positive upward."""
+        return float(self.v.sum())
+
+
+class _Pulse:
+    """The solver's samples at its steps (trimmed to the contact): times (s), forces (N),
+    penetrations ``delta`` (m) and their rates (m/s)."""
+
+    def __init__(self, times, forces, gaps, rates, steps):
+        self.times = times[: steps + 1].copy()
+        self.forces = forces[: steps + 1].copy()
+        self.gaps = gaps[: steps + 1].copy()
+        self.rates = rates[: steps + 1].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class ModalImpactResult(ImpactResult):
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
+    the solver's steps (``step_times``, s) is ``F = K delta^n`` with ``delta`` the cubic
+    Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates``
+    (m/s): smooth, and rising like ``t^n`` after first touch as the contact law does.
+    ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
+    at separation over its impact speed (what bounce times measure)."""
+
+    step_times: np.ndarray | None = field(default=None, repr=False)
+    step_forces: np.ndarray | None = field(default=None, repr=False)
+    step_gaps: np.ndarray | None = field(default=None, repr=False)
+    step_rates: np.ndarray | None = field(default=None, repr=False)
+    law_stiffness: float = 0.0
+    law_exponent: float = 1.5
+    ringing: PlateRinging | None = field(default=None, repr=False)
+    plate_modal_energy: float = 0.0
+    n_points: int = 128
+
+    @property
+    def exponent(self) -> float:
+        return self.law_exponent
+
+    def _sample_pulse(self):
+        times = np.linspace(0.0, self.contact_time, self.n_points)
+        forces = self.force_and_slope_at(times)[0]
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
+    def force_at(self, t):
+        """Contact force (N) at times ``t`` (s from first touch); 0 outside the contact."""
+        out = self.force_and_slope_at(np.atleast_1d(np.asarray(t, dtype=float)))[0]
+        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
+
+    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first touch,
+        a 1-D array); both 0 outside the contact."""
+        tt = np.asarray(t, dtype=float).ravel()
+        ts = self.step_times
+        i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
+        h = ts[i + 1] - ts[i]
+        u = (tt - ts[i]) / h
+        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
+        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
+        u2, u3 = u * u, u * u * u
+        delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
+            u3 - u2
+        ) * r1
+        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+        rate += (3 * u2 - 2 * u) * r1 / h
+        inside = (tt >= 0.0) & (tt <= self.contact_time) & (delta > 0.0)
+        dpos = np.where(inside, delta, 1.0)
+        n, K = self.law_exponent, self.law_stiffness
+        force = np.where(inside, K * dpos**n, 0.0)
+        slope = np.where(inside, n * K * dpos ** (n - 1.0) * rate, 0.0)
+        return force, slope
+
+    def pulse_samples(
+        self, step: float, points: int, offset: float, period: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and its rate (N/s) at ``j step`` (``j < points``) and then at ``offset +
+        m period`` (``m < samples``), times in s from first touch."""
+        t = np.concatenate((np.arange(points) * step, offset + np.arange(samples) * period))
+        return self.force_and_slope_at(t)
+
+
+@dataclass(frozen=True, eq=False)
+class ModalContact:
+    """Impacts of one ball on a finite plate at one point, the plate modelled by its modes
+    (:class:`ModalPoint`) in the contact.
+
+    Build with :meth:`for_pair`; :meth:`solve` gives one impact (from a plate at rest or
+    ringing), :meth:`ring` the plate's free ringing between impacts.
+
+    Attributes
+    ----------
+    point : ModalPoint
+    mass, stiffness, exponent : float
+        Ball mass ``m`` (kg), contact law ``F = K delta^n`` (``K`` in N/m^n, ``n``).
+    gravity : float
+        m/s^2.
+    steps_per_contact : int
+        Fixed steps over one impedance-model contact time.
+    """
+
+    point: ModalPoint
+    mass: float
+    stiffness: float
+    exponent: float
+    gravity: float = GRAVITY
+    steps_per_contact: int = STEPS_PER_CONTACT
+
+    def __post_init__(self):
+        if not isinstance(self.point, ModalPoint):
+            raise ParameterError(f"point={self.point!r} must be a ModalPoint")
+        checked = dict(
+            mass=checks.positive("mass", self.mass, "kg"),
+            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
+            exponent=checks.in_range(
+                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
+            ),
+            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+        )
+        steps = self.steps_per_contact
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
+            raise ParameterError(
+                f"steps_per_contact={steps!r} must be an integer >= 16 (steps per contact time)"
+            )
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+
+    @classmethod
+    def for_pair(
+        cls,
+        ball: Ball,
+        plate: Plate,
+        position: tuple[float, float] | None = None,
+        *,
+        gravity: float = GRAVITY,
+        law: str = "hertz",
+        max_frequency: float | None = None,
+        steps_per_contact: int = STEPS_PER_CONTACT,
+        speed: float | None = None,
+        **contact_options,
+    ) -> ModalContact:
+        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
+        under the contact ``law`` (Hunt-Crossley excluded). ``max_frequency`` (Hz) defaults
+        to :data:`BAND_FACTOR` over the impedance model's contact time at ``speed`` (m/s;
+        default 1 m/s)."""
+        if not isinstance(ball, Ball):
+            raise ParameterError(f"ball={ball!r} must be a Ball")
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate")
+        K, n, mu = contact_law(ball, plate, law, **contact_options)
+        if mu != 0.0:
+            raise ParameterError(
+                f"law={law!r}: the modal contact takes elastic contact laws only "
+                f"(hertz, elastic-foundation, power-law)"
+            )
+        pos = plate.centre if position is None else position
+        if max_frequency is None:
+            v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
+            tau = _impedance_contact(ball.mass, K, n, plate, v, 0.0).contact_time
+            max_frequency = BAND_FACTOR / tau
+        point = modal_point(plate, pos, max_frequency=max_frequency)
+        return cls(point, ball.mass, K, n, gravity, steps_per_contact)
+
+    def at_rest(self) -> PlateRinging:
+        """The plate at rest."""
+        z = np.zeros(self.point.omega.size)
+        return PlateRinging(z, z.copy(), 0.0)
+
+    def ring(self, state: PlateRinging, duration: float) -> PlateRinging:
+        """The plate's state after ringing freely for ``duration`` (s)."""
+        d = checks.nonnegative("duration", duration, "s")
+        q = np.array(state.q, dtype=float)
+        v = np.array(state.v, dtype=float)
+        if d > 0.0:
+            _ring(self.point.omega, self.point.sigma, q, v, d)
+        x = state.x_res * math.exp(-self.point.residual_rate * d)
+        return PlateRinging(q, v, x)
+
+    def energy(self, state: PlateRinging) -> float:
+        """Energy of the bending modes in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)``
+        summed, plus the residual spring's ``a x_res^2 / (2 beta_inf)``."""
+        p = self.point
+        modal = 0.5 * float(((state.v**2 + p.omega**2 * state.q**2) / p.coupling).sum())
+        return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
+
+    def solve(
+        self, speed: float, state: PlateRinging | None = None, *, n_points: int = 128
+    ) -> ModalImpactResult:
+        """The impact at ``speed`` (m/s, the ball's downward speed at first touch) on the plate
+        in ``state`` at that moment (None: at rest); ``n_points`` uniform samples of the
+        pulse in ``time`` and ``force``."""
+        v_in = checks.positive("speed", speed, "m/s")
+        if isinstance(n_points, bool) or not isinstance(n_points, int) or n_points < 64:
+            raise ParameterError(f"n_points={n_points!r} must be an integer >= 64")
+        p = self.point
+        state = self.at_rest() if state is None else state
+        if not (state.q.shape == p.omega.shape and state.v.shape == p.omega.shape):
+            raise ParameterError(
+                f"state has {state.q.size} modes; this contact has {p.omega.size} (one per mode)"
+            )
+        v_approach = v_in + state.velocity
+        if not v_approach > 0.0:
+            raise ParameterError(
+                f"speed={speed!r}: the plate surface moves down faster ({-state.velocity!r} m/s) "
+                f"than the ball; the ball cannot hit it"
+            )
+        ref = _impedance_contact(self.mass, self.stiffness, self.exponent, p.plate, v_approach, 0.0)
+        h = ref.contact_time / self.steps_per_contact
+        max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
+        q = np.array(state.q, dtype=float)
+        v = np.array(state.v, dtype=float)
+        x = np.array([state.x_res])
+        forces = np.zeros(max_steps + 1)
+        times = np.zeros(max_steps + 1)
+        gaps = np.zeros(max_steps + 1)
+        rates = np.zeros(max_steps + 1)
+        e0 = self.energy(state)
+        w0 = state.displacement
+        r = _contact(
+            p.omega,
+            p.sigma,
+            p.coupling,
+            p.rigid_coupling,
+            p.residual_admittance,
+            p.residual_rate,
+            q,
+            v,
+            x,
+            self.mass,
+            self.stiffness,
+            self.exponent,
+            self.gravity,
+            v_in,
+            h,
+            max_steps,
+            forces,
+            times,
+            gaps,
+            rates,
+        )
+        pulse = _Pulse(times, forces, gaps, rates, int(r[_R_STEPS]))
+        return self._result(r, q, v, float(x[0]), v_in, e0, w0, pulse, ref, n_points)
+
+    def _result(self, r, q, v, x, v_in, e0, w0, pulse, ref, n_points) -> ModalImpactResult:
+        p = self.point
+        m = self.mass
+        steps = int(r[_R_STEPS])
+        separated = int(r[_R_STATUS]) == _SEPARATED
+        ringing = PlateRinging(q, v, x)
+        e_plate = self.energy(ringing)
+        rigid = 0.5 * r[_R_RIGID_V] ** 2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
+        v_out = float(r[_R_V])
+        # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
+        # the ball from first touch included: m g times the height it lost)
+        ball_in = 0.5 * m * v_in**2
+        ball_out = 0.5 * m * v_out**2 + m * self.gravity * (float(r[_R_U]) - w0)
+        plate = e_plate - e0 + rigid + r[_R_DAMPING_LOSS] + r[_R_DASHPOT_LOSS]
+        scale = max(ball_in, e0, abs(plate), 1e-300)
+        residual = abs(ball_in - ball_out - plate) / scale
+        e = v_out / v_in if separated and v_out > 0.0 else 0.0
+        obj = ModalImpactResult(
+            restitution=e,
+            contact_time=float(r[_R_TIME]),
+            max_penetration=float(r[_R_DMAX]),
+            peak_force=float(r[_R_FMAX]),
+            impulse=float(r[_R_IMPULSE]),
+            inelasticity=ref.inelasticity,
+            settled=not separated,
+            rebound_speed=max(v_out, 0.0) if separated else 0.0,
+            plate_energy=float(plate),
+            energy_residual=float(residual),
+            success=True,
+            status=0 if separated else 1,
+            message=(
+                "The ball separated from the plate."
+                if separated
+                else (
+                    f"The ball did not separate within {SETTLE_FACTOR:g} contact times of the "
+                    f"impedance model: it rests on the plate."
+                )
+            ),
+            n_steps=steps,
+            method="modal",
+            step_times=pulse.times,
+            step_forces=pulse.forces,
+            step_gaps=pulse.gaps,
+            step_rates=pulse.rates,
+            law_stiffness=self.stiffness,
+            law_exponent=self.exponent,
+            ringing=ringing,
+            plate_modal_energy=e_plate,
+            n_points=n_points,
+        )
+        return obj
+
+
+def next_touch(
+    contact: ModalContact, state: PlateRinging, height: float, speed: float
+) -> tuple[float, PlateRinging]:
+    """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at
+    which the ball, now at ``height`` (m, above the plate's rest position) moving up at
+    ``speed`` (m/s), meets the plate surface (which rings from ``state``), and the plate's
+    state then.
+
+    The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)``: the
+    search runs over the part of the flight where the ball is within ``W`` of the rest
+    position, in steps of an eighth of the shortest mode period, and bisects the first sign
+    change of the gap to the time resolution of double precision."""
+    p = contact.point
+    g = contact.gravity
+    if not g > 0.0:
+        raise ParameterError("the ball lands again only with gravity > 0")
+    W = abs(state.x_res) + float(np.sqrt(state.q**2 + (state.v / p.omega) ** 2).sum())
+    v = speed
+
+    def ball(s):
+        return height + v * s - 0.5 * g * s * s
+
+    def gap(s):
+        return ball(s) - contact.ring(state, s).displacement
+
+    def when(level):  # the later time at which the ball passes ``level`` going down
+        disc = v * v + 2.0 * g * (height - level)
+        return (v + math.sqrt(max(disc, 0.0))) / g
+
+    dt = 1.0 / (8.0 * p.max_frequency)
+    s0 = when(W) if height + v * v / (2.0 * g) > W else dt
+    hi = when(-W)
+    while gap(s0) > 0.0 and s0 < hi:
+        s1 = min(s0 + dt, hi)
+        if gap(s1) <= 0.0:
+            a, b = s0, s1
+            for _ in range(200):
+                mid = 0.5 * (a + b)
+                if gap(mid) > 0.0:
+                    a = mid
+                else:
+                    b = mid
+                if b - a <= 4e-16 * b:
+                    break
+            return b, contact.ring(state, b)
+        s0 = s1
+    return s0, contact.ring(state, s0)
+
+
+def _impedance_contact(m, K, n, plate, v, v_free) -> ImpactResult:
+    """The impedance model's impact (the infinite plate), for the time scale of the modal one."""
+    return solve_contact(
+        mass=float(m),
+        stiffness=float(K),
+        admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        speed=float(v),
+        gravity=0.0,
+        exponent=float(n),
+        rtol=1e-6,
+    )

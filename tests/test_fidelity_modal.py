@@ -1,0 +1,86 @@
+"""The modal plate (the finite plate's modes in the contact) against the thesis' measurements
+(docs/validation.md, "Against the thesis' recordings"): the rows `synth bench thesis` prints."""
+
+import pytest
+
+from synth import bench
+
+PAIRS = [("steel 10.0 mm", "18 mm"), ("steel 19.0 mm", "18 mm")]
+
+
+@pytest.fixture(scope="module")
+def rows():
+    return {r["quantity"]: r for r in bench.thesis_modal_rows(pairs=PAIRS)}
+
+
+@pytest.mark.slow
+def test_modal_plate_first_impact_is_the_infinite_plates(rows):
+    # mid-plate the reflections return after the contact: the thesis model's 0.87 (two figures)
+    r = rows["restitution, modal plate, steel 10.0 mm on 18 mm, first impact (1.4 m/s)"]
+    assert r["engine"] == pytest.approx(0.87, abs=0.005)
+
+
+@pytest.mark.slow
+def test_modal_plate_edge_restitution(rows):
+    # thesis Chapter 3: at the edge e drops to about Eichler's value (0.63), measured "about
+    # 5 %" lower (0.60 +- 0.03 for the two-figure statement)
+    r = rows["restitution at a long edge, modal plate, steel 10.0 mm on 18 mm (1.4 m/s)"]
+    assert r["engine"] == pytest.approx(0.60, abs=0.03)
+
+
+@pytest.mark.slow
+def test_modal_plate_critical_distance_table_3_3(rows):
+    # issue 14's target: inside each measured range (Table 3.3) +- 5 mm, with no formula
+    for ball, board in PAIRS:
+        r = rows[f"critical distance, modal plate, {ball} on {board}"]
+        lo, hi = r["measured"]
+        assert lo - 5e-3 <= r["engine"] <= hi + 5e-3, r
+
+
+@pytest.mark.slow
+def test_modal_plate_impedance_table_3_4(rows):
+    # edge and corner within 10 % of the hammer's 389 and 168 N s/m; the middle is the thin
+    # plate's Z_inf (1629) within 1 %
+    for where, rel in (("middle", 0.01), ("edge", 0.10), ("corner", 0.10)):
+        r = rows[f"impedance, modal plate, 18 mm, {where}"]
+        target = 1629.0 if where == "middle" else r["measured"]
+        assert r["engine"] == pytest.approx(target, rel=rel), r
+
+
+@pytest.mark.slow
+def test_ringing_scatters_late_restitutions(rows):
+    # the mechanism the thesis names (3.5.1, item 6): the ringing of earlier bounces meets
+    # the ball; at 2-5 cm/s it scatters e from bounce to bounce well beyond the impedance
+    # model's smooth variation with speed
+    r = rows["spread (standard deviation) of those restitutions at 0.02-0.05 m/s"]
+    assert r["engine"] > 3.0 * r["model"]
+
+
+def test_transverse_modulus_one_parameter_fit_predicts_thinner_boards():
+    # One parameter (E_t / E) fitted on the 18 mm board's five contact times; the 12 and 6 mm
+    # boards' four contact times are predictions, each within issue 14's 15 %; the fitted
+    # through-thickness modulus is far below the in-plane one (a fibreboard), and a softer
+    # contact raises e (Zener's inelasticity falls with K): the losses are still missing.
+    fit = bench.transverse_modulus_fit()
+    assert 0.01 < fit["ratio"] < 0.5
+    predictions = [r for r in fit["rows"] if r["role"] == "prediction"]
+    assert {r["board"] for r in predictions} == {"12 mm", "6 mm"} and len(predictions) == 4
+    for r in predictions:
+        assert abs(r["error"]) < 0.15, r
+    for r in fit["rows"]:
+        assert r["restitution"] > r["restitution_in_plane"]
+    assert "fitted on the 18 mm board's contact times only" in bench.format_transverse_fit(fit)
+
+
+def test_modal_contact_error_against_run_time(monkeypatch):
+    # `synth bench contact`'s modal part on a narrow ladder: one row for the impedance model
+    # and one per band and step count; the errors are against the band-extrapolated modal
+    # reference, and the finer step does not add error beyond the band's
+    monkeypatch.setattr(bench, "MODAL_BANDS", (1.0, 2.0))
+    monkeypatch.setattr(bench, "MODAL_STEPS", (64, 256))
+    rows = bench.run_modal_contact(repeat=1, points=["middle"])
+    assert [r["model"] for r in rows] == ["impedance"] + ["modal"] * 4
+    modal = {(r["band"], r["steps"]): r for r in rows[1:]}
+    assert modal[2.0, 256]["error"] < modal[1.0, 256]["error"]
+    assert all(r["us_per_impact"] > 0 for r in rows)
+    assert "| middle | impedance |" in bench.format_modal_contact(rows)
