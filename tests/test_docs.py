@@ -236,6 +236,7 @@ def test_markdown_block_names_its_command():
     assert block.endswith("| a | b |\n|---|---|\n")
 
 
+@pytest.mark.slow
 def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     # `synth bench thesis --update-docs` replaces the block of a copy of docs/ and nothing
     # else of the page.
