@@ -1,7 +1,7 @@
 """Free and clamped plate modes by the dynamic edge effect method (docs/physics.md,
 "Plate modes", "Large free and clamped plates").
 
-Bolotin's method (Bolotin 1960; Elishakoff 1977; Vijayakumar 1973) writes a mode of a
+Bolotin's method (Bolotin 1960; Elishakoff 1976; Vijayakumar 1973) writes a mode of a
 rectangle ``[0, a] x [0, b]`` as a product ``w = X(x) Y(y)``. Along x, with the
 y-dependence of the interior solution ``Y'' = -s_y Y``, Kirchhoff's equation
 ``D lap^2 w = rho h omega^2 w`` becomes the beam-like equation
@@ -41,7 +41,7 @@ figures and which modes are excluded); the simply supported limit and the beam l
 References
 ----------
 V. V. Bolotin, "The edge effect in the oscillations of elastic shells", PMM 24 (1960)
-831-843; E. Elishakoff, "Bolotin's dynamic edge effect method", Shock Vib. Dig. 8 (1976);
+831-843; I. Elishakoff, "Bolotin's dynamic edge effect method", Shock Vib. Dig. 8 (1976);
 K. Vijayakumar, "A new method for analysis of flexural vibration of rectangular orthotropic
 plates", J. Aeronaut. Soc. India 25 (1973).
 """
@@ -260,6 +260,7 @@ class EdgeEffectSolution:
         for arr in (self.omega, self.nx, self.ny, self.sx, self.sy):
             arr.setflags(write=False)
         self.nbytes = sum(a.nbytes for a in (self.omega, self.nx, self.ny, self.sx, self.sy))
+        self._factor_constants = None
         self.key = json.dumps(
             {
                 "method": "edge-effect",
@@ -272,37 +273,55 @@ class EdgeEffectSolution:
             sort_keys=True,
         )
 
+    def _constants(self):
+        """Edge coefficients and normalising factors of every factor (computed once)."""
+        if self._factor_constants is None:
+            free = self.boundary == "free"
+            hx, hy = self.half
+            nu = float(self.nu)
+            self._factor_constants = (
+                _factor_constants(self.sx, self.sy, self.nx, hx, free, nu),
+                _factor_constants(self.sy, self.sx, self.ny, hy, free, nu),
+            )
+        return self._factor_constants
+
     def factors(self, xi: np.ndarray, eta: np.ndarray, n_modes: int):
         """The factors ``X_k(xi)`` and ``Y_k(eta)`` of the first ``n_modes`` modes at
         ``xi, eta`` in [-1, 1] (``x = a (xi + 1) / 2``): arrays ``(len(xi), n_modes)``
         and ``(len(eta), n_modes)``, each factor of mean square 1 on [-1, 1]."""
-        free = self.boundary == "free"
+        (cx, gx), (cy, gy) = self._constants()
         hx, hy = self.half
+        m = slice(0, n_modes)
         fx = _factor_table(
             np.ascontiguousarray(xi, dtype=float) * hx,
-            self.sx[:n_modes],
-            self.sy[:n_modes],
-            self.nx[:n_modes],
+            self.sx[m],
+            self.sy[m],
+            self.nx[m],
             hx,
-            free,
-            float(self.nu),
+            cx[m],
+            gx[m],
         )
         fy = _factor_table(
             np.ascontiguousarray(eta, dtype=float) * hy,
-            self.sy[:n_modes],
-            self.sx[:n_modes],
-            self.ny[:n_modes],
+            self.sy[m],
+            self.sx[m],
+            self.ny[m],
             hy,
-            free,
-            float(self.nu),
+            cy[m],
+            gy[m],
         )
         return fx, fy
 
     def shapes(self, xi, eta, n_modes):
         """Mode shapes ``X_k(xi) Y_k(eta)`` at the points ``(xi, eta)``:
-        ``(len(xi), n_modes)``."""
-        fx, fy = self.factors(xi, eta, n_modes)
-        return fx * fy
+        ``(len(xi), n_modes)``. The factors are evaluated once per distinct coordinate
+        (points of a grid share them)."""
+        ux, inv_x = np.unique(xi, return_inverse=True)
+        uy, inv_y = np.unique(eta, return_inverse=True)
+        fx, fy = self.factors(ux, uy, n_modes)
+        out = np.empty((xi.size, n_modes))
+        _gather_product(fx, fy, inv_x.ravel(), inv_y.ravel(), out)
+        return out
 
 
 @numba.njit(cache=True)
@@ -411,15 +430,35 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _factor_table(x, s, so, n, h, free, nu):  # pragma: no cover
+def _factor_constants(s, so, n, h, free, nu):  # pragma: no cover
+    """Edge coefficient and ``1 / rms`` of every factor (:func:`_coefficients`,
+    :func:`_norm`)."""
+    ce = np.empty(s.size)
+    scale = np.empty(s.size)
+    for k in range(s.size):
+        ce[k] = _coefficients(s[k], so[k], h, n[k], free, nu)
+        scale[k] = 1.0 / _norm(s[k], so[k], h, n[k], ce[k])
+    return ce, scale
+
+
+@numba.njit(cache=True)
+def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
     """``out[p, k]``: factor ``k`` (normalised) at ``x[p]`` in ``[-h, h]``."""
     out = np.empty((x.size, s.size))
-    for k in range(s.size):
-        ce = _coefficients(s[k], so[k], h, n[k], free, nu)
-        scale = 1.0 / _norm(s[k], so[k], h, n[k], ce)
-        for p in range(x.size):
-            out[p, k] = scale * _factor(x[p], s[k], so[k], h, n[k], ce)
+    for p in range(x.size):
+        for k in range(s.size):
+            out[p, k] = scale[k] * _factor(x[p], s[k], so[k], h, n[k], ce[k])
     return out
+
+
+@numba.njit(cache=True)
+def _gather_product(fx, fy, ix, iy, out):  # pragma: no cover
+    """``out[p, k] = fx[ix[p], k] * fy[iy[p], k]``."""
+    for p in range(ix.size):
+        a = ix[p]
+        b = iy[p]
+        for k in range(out.shape[1]):
+            out[p, k] = fx[a, k] * fy[b, k]
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:
