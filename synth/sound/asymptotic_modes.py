@@ -110,6 +110,32 @@ def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
 
 
 @numba.njit(cache=True)
+def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # pragma: no cover
+    """Root of the characteristic function in the bracket ``[lo, hi]`` (values ``flo``,
+    ``fhi`` of opposite signs) by the Illinois variant of regula falsi (superlinear,
+    never leaves the bracket). ``squared``: the variable is ``k`` and ``s = k^2``."""
+    side = 0
+    for _ in range(_BISECTIONS):
+        x = (lo * fhi - hi * flo) / (fhi - flo)
+        if not (lo < x < hi):
+            x = 0.5 * (lo + hi)
+        fx = _characteristic(x * x if squared else x, so, h, free, odd, nu)
+        if fx == 0.0 or hi - lo <= 4e-16 * max(abs(lo), abs(hi)):
+            return x
+        if (fx > 0.0) == (flo > 0.0):
+            lo, flo = x, fx
+            if side == -1:
+                fhi *= 0.5
+            side = -1
+        else:
+            hi, fhi = x, fx
+            if side == 1:
+                flo *= 0.5
+            side = 1
+    return 0.5 * (lo + hi)
+
+
+@numba.njit(cache=True)
 def _root(n, so, h, free, nu):  # pragma: no cover
     """``s`` of the ``n``-th root of the one-dimensional equation for ``s_y = so``.
 
@@ -131,16 +157,7 @@ def _root(n, so, h, free, nu):  # pragma: no cover
             return hi * hi
         if (flo > 0.0) == (fhi > 0.0):
             return math.nan
-        for _ in range(_BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
-                break
-            fm = _characteristic(mid * mid, so, h, free, odd, nu)
-            if (fm > 0.0) == (flo > 0.0):
-                lo, flo = mid, fm
-            else:
-                hi = mid
-        return (0.5 * (lo + hi)) ** 2
+        return _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, True) ** 2
     # free, n = 0 or 1: scan s downwards from the top of the bracket
     top = (math.pi / (2.0 * h)) ** 2 if odd else 0.0
     bottom = -2.0 * so if so > 0.0 else top - (math.pi / h) ** 2
@@ -153,17 +170,7 @@ def _root(n, so, h, free, nu):  # pragma: no cover
         s = top + (bottom - top) * (i / steps) * (1.0 - 1e-9)
         f = _characteristic(s, so, h, free, odd, nu)
         if (f > 0.0) != (prev_f > 0.0):
-            lo, hi, flo = s, prev_s, f
-            for _ in range(_BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                if mid <= lo or mid >= hi:
-                    break
-                fm = _characteristic(mid, so, h, free, odd, nu)
-                if (fm > 0.0) == (flo > 0.0):
-                    lo, flo = mid, fm
-                else:
-                    hi = mid
-            return 0.5 * (lo + hi)
+            return _illinois(s, prev_s, f, prev_f, so, h, free, odd, nu, False)
         prev_s, prev_f = s, f
     return math.nan
 
@@ -261,6 +268,7 @@ class EdgeEffectSolution:
             arr.setflags(write=False)
         self.nbytes = sum(a.nbytes for a in (self.omega, self.nx, self.ny, self.sx, self.sy))
         self._factor_constants = None
+        self._tables = {}
         self.key = json.dumps(
             {
                 "method": "edge-effect",
@@ -312,13 +320,34 @@ class EdgeEffectSolution:
         )
         return fx, fy
 
+    def _table(self, axis, u, n_modes):
+        """Factors along ``axis`` (0: x, 1: y) at the distinct coordinates ``u``; the
+        last few tables are kept (a grid is evaluated chunk by chunk, each chunk with
+        the same coordinates along one axis)."""
+        key = (axis, n_modes, u.size, hash(u.tobytes()))
+        held = self._tables.get(key)
+        if held is not None and np.array_equal(held[0], u):
+            return held[1]
+        (cx, gx), (cy, gy) = self._constants()
+        m = slice(0, n_modes)
+        if axis == 0:
+            h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
+        else:
+            h, s, so, n, c, g = self.half[1], self.sy[m], self.sx[m], self.ny[m], cy[m], gy[m]
+        table = _factor_table(u * h, s, so, n, h, c, g)
+        if len(self._tables) >= 4:
+            self._tables.clear()
+        self._tables[key] = (u.copy(), table)
+        return table
+
     def shapes(self, xi, eta, n_modes):
         """Mode shapes ``X_k(xi) Y_k(eta)`` at the points ``(xi, eta)``:
         ``(len(xi), n_modes)``. The factors are evaluated once per distinct coordinate
         (points of a grid share them)."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
-        fx, fy = self.factors(ux, uy, n_modes)
+        fx = self._table(0, ux, n_modes)
+        fy = self._table(1, uy, n_modes)
         out = np.empty((xi.size, n_modes))
         _gather_product(fx, fy, inv_x.ravel(), inv_y.ravel(), out)
         return out
