@@ -78,3 +78,41 @@ def test_random_big_free_and_clamped_scenes_render(index):
     out = render(scene, samplerate=spec["samplerate"], max_duration=1.0, max_tail=0.5)
     assert out.settings["n_modes"] == len(m)
     assert np.all(np.isfinite(out.audio)) and np.max(np.abs(out.audio)) > 0.0
+
+
+def test_random_scale_specs_are_valid_and_reproducible():
+    """The benchmark's random scenes: the issue's ranges (sides 0.1-2 m, 1-40 mm,
+    22.05-48 kHz), every boundary among the benchmark's eight, the same for a seed."""
+    from synth import bench
+
+    specs = bench.random_scale_specs(bench.SCALE_RANDOM)
+    assert specs == bench.random_scale_specs(bench.SCALE_RANDOM)
+    assert {s["boundary"] for s in specs} == {"free", "simply-supported", "clamped"}
+    for s in specs:
+        assert 0.1 <= s["length"] <= 2.0 and 0.1 <= s["width"] <= 2.0
+        assert 0.001 <= s["thickness"] <= 0.04
+        assert 22050 <= s["samplerate"] <= 48000
+
+
+def test_scale_table_summarises_random_scenes():
+    """The random scenes' line: median and largest cold process time, peak memory, how
+    many exceeded max(15 s, audio length) and how many were refused."""
+    from synth import bench
+
+    run = {
+        "n_modes": 10,
+        "modes_s": 0.1,
+        "gains_s": 0.1,
+        "rule": "rectangle",
+        "render_s": 0.1,
+        "render_mb": 300.0,
+        "audio_s": 2.0,
+    }
+    rows = [
+        {"name": f"random {i}", **spec, "cold": {**run, "process_s": t}, "warm": {}}
+        for i, (spec, t) in enumerate(zip(bench.random_scale_specs(3), (1.0, 2.0, 20.0)))
+    ]
+    rows.append({"name": "random 4", **rows[0], "cold": {"error": "refused"}, "warm": {}})
+    text = bench.format_scale(rows)
+    assert "median 2 s, max 20 s, peak memory max 300 MB" in text
+    assert "slower than max(15 s, audio length): 1; refused or failed: 1." in text

@@ -72,6 +72,12 @@ Free and clamped edges
     does not, the basis is enlarged and the solve repeated. Nothing above
     ``max_frequency`` is returned.
 
+Large free and clamped bands. A band whose Ritz problem would exceed
+``_CROSSOVER_UNKNOWNS`` per symmetry class takes the Ritz modes of a low band and, above
+it, the dynamic edge effect modes of :mod:`synth.sound.asymptotic_modes` (cost linear in
+the number of modes; frequencies within 0.5 % of the Ritz solver above that band, see
+docs/physics.md, "Large free and clamped plates").
+
 Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
 :meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
 over many points can be shared between modes (the polar rule of
@@ -1069,7 +1075,8 @@ class Modes:
         ``M_k = rho h Int phi_k^2 dA = rho h a b`` (the plate's mass), kg.
     tolerance : float
         Relative accuracy of every frequency (Rayleigh-Ritz convergence check;
-        the simply supported closed form is exact).
+        the simply supported closed form is exact; :data:`EDGE_EFFECT_TOLERANCE`
+        beyond the crossover).
 
     Normalisation: ``Int phi_k^2 dA = a b`` over the plate (mean square 1), so
     ``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k (h_k * F)(t)`` with these
@@ -1214,13 +1221,15 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     ------
     ParameterError
         If ``plate`` is not a Plate, ``max_frequency`` is not a finite number
-        > 0, or the band needs a larger eigenproblem than the solver accepts.
+        > 0, or the band holds more than two million modes.
 
     Notes
     -----
-    Cost grows as the cube of the number of modes: a 0.5 mm steel sheet
-    0.5 m x 0.4 m, free, to 20 kHz (about 2600 modes) takes of the order of
-    ten seconds on two cores once, then milliseconds from the cache.
+    The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
+    sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
+    milliseconds from the cache); beyond the crossover (module notes) a Ritz low
+    band and the dynamic edge effect modes above it, whose cost is linear in the
+    number of modes, are returned with ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
