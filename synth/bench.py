@@ -1428,6 +1428,36 @@ SCALE_LADDER = (
 )
 
 
+#: Random valid scenes of the scale benchmark (each cold in its own process) and the
+#: seed that draws them (:func:`random_scale_specs`).
+SCALE_RANDOM = 8
+SCALE_SEED = 16
+_RANDOM_MATERIALS = ("steel", "aluminium", "glass", "brass", "acrylic", "plywood")
+_RANDOM_RATES = (22050, 44100, 48000)
+_BOUNDARIES = ("free", "simply-supported", "clamped")
+
+
+def random_scale_specs(count: int, seed: int = SCALE_SEED) -> list:
+    """``count`` random valid plates as the issue's new user would pick them: sides
+    0.1-2 m, thickness 1-40 mm (log-uniform), any of six materials and the three
+    boundaries, 22.05-48 kHz; specs for :func:`scale_child`."""
+    rng = np.random.default_rng(seed)
+    specs = []
+    for _ in range(count):
+        a, b = rng.uniform(0.1, 2.0, 2)
+        specs.append(
+            {
+                "material": _RANDOM_MATERIALS[int(rng.integers(len(_RANDOM_MATERIALS)))],
+                "thickness": float(np.exp(rng.uniform(np.log(0.001), np.log(0.04)))),
+                "length": float(a),
+                "width": float(b),
+                "boundary": _BOUNDARIES[int(rng.integers(3))],
+                "samplerate": int(_RANDOM_RATES[int(rng.integers(len(_RANDOM_RATES)))]),
+            }
+        )
+    return specs
+
+
 def _scale_scene(material, thickness, length, width, boundary):
     """A 16 mm glass marble dropped 10 cm on a point off the middle (0.4, 0.45 of each
     side), microphone 0.4 m above the middle."""
@@ -1533,10 +1563,11 @@ def _scale_run(spec, cache_dir, timeout):
     return res
 
 
-def run_scale(ladder=SCALE_LADDER, timeout=600.0) -> list:
+def run_scale(ladder=SCALE_LADDER, timeout=600.0, random=SCALE_RANDOM) -> list:
     """Each plate of ``ladder`` rendered in a new process with an empty cache directory
     (cold), then in another process with that directory (warm: modes and gains from
-    disk). Seconds and peak memory of each stage; see :func:`scale_child`."""
+    disk), then ``random`` random valid plates (:func:`random_scale_specs`) cold only.
+    Seconds and peak memory of each stage; see :func:`scale_child`."""
     import tempfile
 
     rows = []
@@ -1553,6 +1584,10 @@ def run_scale(ladder=SCALE_LADDER, timeout=600.0) -> list:
             cold = _scale_run(spec, tmp, timeout)
             warm = _scale_run(spec, tmp, timeout) if "error" not in cold else cold
         rows.append({"name": name, **spec, "cold": cold, "warm": warm})
+    for i, spec in enumerate(random_scale_specs(random)):
+        with tempfile.TemporaryDirectory(prefix="synth-scale-") as tmp:
+            cold = _scale_run(spec, tmp, timeout)
+        rows.append({"name": f"random {i + 1}", **spec, "cold": cold, "warm": {}})
     return rows
 
 
@@ -1584,6 +1619,7 @@ def format_scale(rows) -> str:
             f"{w.get('process_s', float('nan')):.3g} | {c['render_mb']:.0f} / "
             f"{w.get('render_mb', float('nan')):.0f} | {c['audio_s']:.2f} |"
         )
+    lines += _random_summary(rows)
     lines.append("")
     lines.append(
         "Cold: a new process with an empty SYNTH_CACHE_DIR; warm: a second process "
@@ -1592,3 +1628,25 @@ def format_scale(rows) -> str:
         "the interpreter, imports and numba's cache loading."
     )
     return "\n".join(lines)
+
+
+def _random_summary(rows) -> list:
+    """Median and largest cold process time and peak memory of the random scenes, and
+    how many were refused or took longer than max(15 s, their audio's length)."""
+    runs = [r["cold"] for r in rows if r["name"].startswith("random")]
+    if not runs:
+        return []
+    done = [c for c in runs if "error" not in c]
+    lines = ["", f"Random valid scenes ({len(runs)}, seed {SCALE_SEED}), cold:"]
+    if done:
+        t = np.array([c["process_s"] for c in done])
+        mb = np.array([c["render_mb"] for c in done])
+        slow = sum(c["process_s"] > max(15.0, c["audio_s"]) for c in done)
+        lines.append(
+            f"median {np.median(t):.3g} s, max {t.max():.3g} s, peak memory max "
+            f"{mb.max():.0f} MB; slower than max(15 s, audio length): {slow}; "
+            f"refused or failed: {len(runs) - len(done)}."
+        )
+    else:
+        lines.append(f"refused or failed: {len(runs)}.")
+    return lines

@@ -57,3 +57,62 @@ def test_random_simply_supported_scene_renders(seed):
     out = render(scene, samplerate=fs, max_duration=1.0, max_tail=0.5)
     assert out.settings["n_modes"] > 0
     assert np.all(np.isfinite(out.audio)) and np.max(np.abs(out.audio)) > 0.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("index", [2, 3])
+def test_random_big_free_and_clamped_scenes_render(index):
+    """Random valid plates of the scale benchmark (synth.bench.random_scale_specs) whose
+    Ritz problem is past the crossover (a clamped 1.62 x 0.45 m and a free 1.92 x 1.97 m
+    plate) render with no refusal: Ritz low band plus dynamic edge effect modes; the
+    audio is finite and not silent (no timing asserted)."""
+    from synth import bench
+
+    spec = bench.random_scale_specs(index + 1)[index]
+    assert spec["boundary"] in ("free", "clamped")
+    scene = bench._scale_scene(
+        spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
+    )
+    m = P.modes(scene.plate, max_frequency=0.5 * spec["samplerate"] * (1.0 - 1e-9))
+    assert m.tolerance == P.EDGE_EFFECT_TOLERANCE
+    out = render(scene, samplerate=spec["samplerate"], max_duration=1.0, max_tail=0.5)
+    assert out.settings["n_modes"] == len(m)
+    assert np.all(np.isfinite(out.audio)) and np.max(np.abs(out.audio)) > 0.0
+
+
+def test_random_scale_specs_are_valid_and_reproducible():
+    """The benchmark's random scenes: the issue's ranges (sides 0.1-2 m, 1-40 mm,
+    22.05-48 kHz), every boundary among the benchmark's eight, the same for a seed."""
+    from synth import bench
+
+    specs = bench.random_scale_specs(bench.SCALE_RANDOM)
+    assert specs == bench.random_scale_specs(bench.SCALE_RANDOM)
+    assert {s["boundary"] for s in specs} == {"free", "simply-supported", "clamped"}
+    for s in specs:
+        assert 0.1 <= s["length"] <= 2.0 and 0.1 <= s["width"] <= 2.0
+        assert 0.001 <= s["thickness"] <= 0.04
+        assert 22050 <= s["samplerate"] <= 48000
+
+
+def test_scale_table_summarises_random_scenes():
+    """The random scenes' line: median and largest cold process time, peak memory, how
+    many exceeded max(15 s, audio length) and how many were refused."""
+    from synth import bench
+
+    run = {
+        "n_modes": 10,
+        "modes_s": 0.1,
+        "gains_s": 0.1,
+        "rule": "rectangle",
+        "render_s": 0.1,
+        "render_mb": 300.0,
+        "audio_s": 2.0,
+    }
+    rows = [
+        {"name": f"random {i}", **spec, "cold": {**run, "process_s": t}, "warm": {}}
+        for i, (spec, t) in enumerate(zip(bench.random_scale_specs(3), (1.0, 2.0, 20.0)))
+    ]
+    rows.append({"name": "random 4", **rows[0], "cold": {"error": "refused"}, "warm": {}})
+    text = bench.format_scale(rows)
+    assert "median 2 s, max 20 s, peak memory max 300 MB" in text
+    assert "slower than max(15 s, audio length): 1; refused or failed: 1." in text

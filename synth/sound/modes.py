@@ -72,6 +72,12 @@ Free and clamped edges
     does not, the basis is enlarged and the solve repeated. Nothing above
     ``max_frequency`` is returned.
 
+Large free and clamped bands. A band whose Ritz problem would exceed
+``_CROSSOVER_UNKNOWNS`` per symmetry class takes the Ritz modes of a low band and, above
+it, the dynamic edge effect modes of :mod:`synth.sound.asymptotic_modes` (cost linear in
+the number of modes; frequencies within 0.5 % of the Ritz solver above that band, see
+docs/physics.md, "Large free and clamped plates").
+
 Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
 :meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
 over many points can be shared between modes (the polar rule of
@@ -121,6 +127,7 @@ __all__ = [
     "modes",
     "SeparableShapes",
     "TOLERANCE",
+    "EDGE_EFFECT_TOLERANCE",
     "cache_info",
     "clear_memory_cache",
     "cache_dir",
@@ -129,6 +136,11 @@ __all__ = [
 
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
+#: Relative accuracy of the dynamic edge effect frequencies above the Ritz low band of
+#: a crossed-over plate, against the Ritz solver (tests/test_asymptotic_modes.py:
+#: 0.1 % clamped, 0.5 % free rectangles, 1 % free squares whose corners split
+#: degenerate pairs).
+EDGE_EFFECT_TOLERANCE = 0.01
 
 # Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees), and the extra
 # degrees of the check basis. Chosen from the measured Legendre convergence of
@@ -145,6 +157,19 @@ _SHIFT = 100.0
 # Largest symmetry-class matrix (unknowns) the dense solver accepts: 12000^2
 # doubles are 1.2 GB. Above it, max_frequency is refused.
 _MAX_UNKNOWNS = 12000
+# Crossover to the dynamic edge effect method (synth.sound.asymptotic_modes): a free or
+# clamped band whose Ritz problem would exceed this many unknowns per symmetry class
+# (the estimate of _ritz_unknowns) takes the Ritz modes of a low band only (up to
+# _LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every preset at 48 kHz needs
+# at most 1831 (ping-pong table, steel sheet): they keep the Ritz path; a Ritz class of
+# 2500 unknowns costs about 5 s cold, the cubic growth beyond is what the crossover avoids.
+_CROSSOVER_UNKNOWNS = 2500
+# Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
+# method's least accurate: corner and beam-like modes; the tests measure its accuracy
+# above a band of 200) exact, in a fraction of a second.
+_LOW_BAND_UNKNOWNS = 300
+# Most modes any band may hold (arrays of a few hundred MB per listener beyond).
+_MAX_MODES = 2_000_000
 # Temporary-array budget of shapes(): elements (8 bytes each).
 _CHUNK_ELEMENTS = 1 << 22
 # Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
@@ -601,6 +626,88 @@ def _ratios(aspect: float):
     return (1.0, aspect) if aspect >= 1.0 else (1.0 / aspect, 1.0)
 
 
+def _ritz_unknowns(aspect: float, omega: float) -> float:
+    """Estimated unknowns of the largest symmetry class of the Ritz check basis for the
+    band ``omega`` (dimensionless): the kept degree pairs fill about pi/4 of the
+    rectangle of the largest degrees, a quarter per class."""
+    rx, ry = _ratios(aspect)
+    k_l = math.sqrt(omega)
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
+    ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
+    return math.pi / 16.0 * nx_max * ny_max
+
+
+def _band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
+    """The band (dimensionless) whose Ritz problem has about ``unknowns`` per class
+    (bisection on the increasing :func:`_ritz_unknowns`), at most ``omega_hi``."""
+    lo, hi = 0.0, omega_hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if _ritz_unknowns(aspect, mid) > unknowns:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+def _seam(omega: np.ndarray, omega_low: float) -> float:
+    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the
+    middle of the widest relative gap between Ritz modes in the top third of the band
+    ``omega <= omega_low``, so that an edge effect mode's error (below the gap's
+    half-width) does not move it across the seam (no mode counted twice or lost)."""
+    band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
+    if band.size < 2:
+        return omega_low
+    gaps = np.diff(band) / band[1:]
+    i = int(np.argmax(gaps))
+    return float(0.5 * (band[i] + band[i + 1]))
+
+
+class _HybridSolution:
+    """Ritz modes up to ``omega_low`` followed by the dynamic edge effect modes above
+    it, up to ``omega_max`` (dimensionless, as :class:`_RitzSolution`)."""
+
+    def __init__(self, ritz: _RitzSolution, omega_low: float, edge, omega_max: float):
+        omega_low = _seam(ritz.omega, omega_low)
+        n_low = int(np.searchsorted(ritz.omega, omega_low, side="right"))
+        first = int(np.searchsorted(edge.omega, omega_low, side="right"))
+        self.ritz, self.edge = ritz, edge
+        self.n_low, self.first = n_low, first
+        self.omega = np.concatenate((ritz.omega[:n_low], edge.omega[first:]))
+        self.omega.setflags(write=False)
+        self.omega_max = omega_max
+        self.nbytes = ritz.nbytes + edge.nbytes
+        self.key = json.dumps(
+            {"ritz": ritz.key, "omega_low": float(omega_low).hex(), "edge": edge.key},
+            sort_keys=True,
+        )
+
+    def shapes(self, xi, eta, n_modes):
+        """Shapes of the first ``n_modes`` modes: Ritz columns, then edge effect ones."""
+        n_r = min(n_modes, self.n_low)
+        out = np.empty((xi.size, n_modes))
+        if n_r:
+            out[:, :n_r] = self.ritz.shapes(xi, eta, n_r)
+        if n_modes > n_r:
+            n_e = self.first + n_modes - n_r
+            out[:, n_r:] = self.edge.shapes(xi, eta, n_e)[:, self.first :]
+        return out
+
+
+def _crossed(boundary, nu, aspect, omega_req, cache):
+    """Hybrid solution of a band beyond the crossover (see ``_CROSSOVER_UNKNOWNS``)."""
+    from synth.sound import asymptotic_modes
+
+    count = asymptotic_modes.mode_count_estimate(aspect, omega_req)
+    if count > _MAX_MODES:
+        raise _TooLarge(int(count), "modes", _MAX_MODES)
+    omega_low = _band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+    ritz = _ritz(boundary, nu, aspect, omega_low, cache)
+    edge = asymptotic_modes.solve(boundary, nu, aspect, omega_req)
+    return _HybridSolution(ritz, omega_low, edge, omega_req)
+
+
 def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _RitzSolution:
     """All converged modes with dimensionless frequency <= ``omega_req``."""
     alpha = _alpha(boundary)
@@ -725,8 +832,10 @@ def _ritz_frequencies(
 
 
 class _TooLarge(Exception):
-    def __init__(self, n):
+    def __init__(self, n, what="unknowns per symmetry class", limit=_MAX_UNKNOWNS):
         self.n = n
+        self.what = what
+        self.limit = limit
 
 
 # --------------------------------------------------------------------------------------
@@ -967,7 +1076,8 @@ class Modes:
         ``M_k = rho h Int phi_k^2 dA = rho h a b`` (the plate's mass), kg.
     tolerance : float
         Relative accuracy of every frequency (Rayleigh-Ritz convergence check;
-        the simply supported closed form is exact).
+        the simply supported closed form is exact; :data:`EDGE_EFFECT_TOLERANCE`
+        beyond the crossover).
 
     Normalisation: ``Int phi_k^2 dA = a b`` over the plate (mean square 1), so
     ``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k (h_k * F)(t)`` with these
@@ -1112,13 +1222,15 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     ------
     ParameterError
         If ``plate`` is not a Plate, ``max_frequency`` is not a finite number
-        > 0, or the band needs a larger eigenproblem than the solver accepts.
+        > 0, or the band holds more than two million modes.
 
     Notes
     -----
-    Cost grows as the cube of the number of modes: a 0.5 mm steel sheet
-    0.5 m x 0.4 m, free, to 20 kHz (about 2600 modes) takes of the order of
-    ten seconds on two cores once, then milliseconds from the cache.
+    The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
+    sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
+    milliseconds from the cache); beyond the crossover (module notes) a Ritz low
+    band and the dynamic edge effect modes above it, whose cost is linear in the
+    number of modes, are returned with ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
@@ -1136,15 +1248,18 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
         sol = _SimplySupported(aspect, omega_req)
         tol = 0.0
     else:
+        nu = plate.material.poisson
         try:
-            sol = _ritz(plate.boundary, plate.material.poisson, aspect, omega_req, cache)
+            if _ritz_unknowns(aspect, omega_req) > _CROSSOVER_UNKNOWNS:
+                sol = _crossed(plate.boundary, nu, aspect, omega_req, cache)
+            else:
+                sol = _ritz(plate.boundary, nu, aspect, omega_req, cache)
         except _TooLarge as exc:
             raise ParameterError(
                 f"max_frequency={max_frequency!r} is too high for this plate (Hz): the "
-                f"mode solver would need {exc.n} unknowns per symmetry class, more than "
-                f"{_MAX_UNKNOWNS}"
+                f"mode solver would need {exc.n} {exc.what}, more than {exc.limit}"
             ) from None
-        tol = TOLERANCE
+        tol = EDGE_EFFECT_TOLERANCE if isinstance(sol, _HybridSolution) else TOLERANCE
     omega = sol.omega * scale
     freq = omega / (2.0 * math.pi)
     n = int(np.searchsorted(freq, fmax, side="right"))
