@@ -199,16 +199,22 @@ def _cmd_analyze(args):
 
     if args.plot:
         analysis.check_plot_path(args.plot)  # a bad image path fails before any output
-    audio, fs = _read_warned(analysis.read_recording, args.file)
-    result = analysis.analyze(
-        audio,
-        fs,
-        gravity=args.gravity,
-        channel=_channel(args.channel),
-        min_separation=args.min_separation,
-        window=args.window,
-        deflate=not args.no_deflate,
-    )
+    import warnings
+
+    from synth.io.audio import TruncatedAudioWarning
+
+    with warnings.catch_warnings():
+        # a truncated file is one of the result's warnings, printed below
+        warnings.simplefilter("ignore", TruncatedAudioWarning)
+        result = analysis.analyze_file(  # options checked first; a long file read in blocks
+            args.file,
+            gravity=args.gravity,
+            channel=_channel(args.channel),
+            min_separation=args.min_separation,
+            window=args.window,
+            deflate=not args.no_deflate,
+        )
+        audio, fs = analysis.read_recording(args.file) if args.plot else (None, None)
     for warning in result.warnings:
         print(f"synth: warning: {warning}", file=sys.stderr)
     if args.json:
