@@ -431,6 +431,7 @@ def _cmd_bench(args):
         ),
         "thesis": (bench.thesis_comparison, bench.format_thesis),
         "analysis": (bench.run_analysis, bench.format_analysis),
+        "long": (bench.run_long, bench.format_long),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
         "bank": (
@@ -730,7 +731,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="error against run time")
     p.add_argument(
         "what",
-        choices=["contact", "render", "thesis", "analysis", "live", "scale", "bank"],
+        choices=["contact", "render", "thesis", "analysis", "long", "live", "scale", "bank"],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
         "beside the thesis' model and measurements; analysis: recovered "

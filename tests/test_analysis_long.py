@@ -20,15 +20,17 @@ from synth.errors import ParameterError
 FS = 48000
 
 
-def _drops(duration: float, starts, seed: int = 0) -> tuple[np.ndarray, list[np.ndarray]]:
+def _drops(
+    duration: float, starts, n_ticks: int = 20, seed: int = 0
+) -> tuple[np.ndarray, list[np.ndarray]]:
     """``duration`` s of white noise 80 dB under full scale with a synthetic bounce (e = 0.8,
-    20 ticks, not made by the engine) starting at each of ``starts`` (s), and the true
-    onsets of each."""
+    ``n_ticks`` ticks, not made by the engine) starting at each of ``starts`` (s), and the
+    true onsets of each."""
     rng = np.random.default_rng(seed)
     y = rng.standard_normal(int(duration * FS)) * 1e-4
     truth = []
     for k, s0 in enumerate(starts):
-        x, _, on = synthetic_bounce(0.8, FS, seed=k)
+        x, _, on = synthetic_bounce(0.8, FS, n_ticks=n_ticks, seed=k)
         a = int(round(s0 * FS))
         m = min(x.size, y.size - a)
         y[a : a + m] += 0.5 * x[:m]
@@ -40,13 +42,15 @@ def _close(got: np.ndarray, want: np.ndarray, tol: float) -> bool:
     return got.size == want.size and bool(np.all(np.abs(got - want) <= tol))
 
 
-def test_drops_across_blocks_are_found_whole():
-    """Three drops in 26 s (blocks of 10 s): one that starts half a second before the first
-    block ends (its series spans two blocks) and one in the overlap of the next. Each is
-    found as one series, every onset within a sample period of the truth (the accuracy of
+@pytest.mark.slow
+def test_drops_across_blocks_are_found_whole(monkeypatch):
+    """Three drops in 26 s cut in blocks of 10 s: one that starts half a second before the
+    first block ends (its series spans two blocks) and one in the overlap of the next. Each
+    is found as one series, every onset within a sample period of the truth (the accuracy of
     docs/analysis.md, Accuracy, for a recording held whole)."""
+    monkeypatch.setattr(blocks, "BLOCK", 10.0)
     starts = (1.0, blocks.BLOCK - 0.5, 2 * blocks.BLOCK - 1.0 - blocks.OVERLAP / 2)
-    y, truth = _drops(26.0, starts)
+    y, truth = _drops(26.0, starts, n_ticks=10)
     a = analysis.analyze(y, FS)
     assert len(a.series) == 3
     for series, want in zip(a.series, truth):
@@ -75,10 +79,11 @@ def _peak_bytes(path) -> tuple[int, analysis.Analysis]:
         tracemalloc.stop()
 
 
-def test_memory_does_not_grow_with_the_file(tmp_path):
-    """A file is read in blocks, never whole: the peak of the memory allocated while a 90 s
-    file with one drop is analysed stays within 10 % of a 30 s file's (a whole read of the
-    90 s file alone, in float64, is 35 MB), and the drop is found in both."""
+def test_memory_does_not_grow_with_the_file(tmp_path, monkeypatch):
+    """A file is read in blocks (here of 10 s), never whole: the peak of the memory allocated
+    while a 90 s file with one drop is analysed stays within 10 % of a 30 s file's (a whole
+    read of the 90 s file alone, in float64, is 35 MB), and the drop is found in both."""
+    monkeypatch.setattr(blocks, "BLOCK", 10.0)
     peaks = []
     for duration in (30.0, 90.0):
         y, (want,) = _drops(duration, (duration - 3.0,))

@@ -6,7 +6,8 @@ response. A recording longer than :data:`BLOCK` is therefore analysed block by b
 over its blocks finds its extremes (clipping), whether it is silent and its noise floor; then
 each block is searched, the bounce series it holds in full are kept, and the next block starts
 where the last series of this one starts (its first tick less the background), so that no
-series is cut; after a block whose last series has ended, the next block overlaps it by
+series is cut and an ended one sets the floor of the dynamic range over its own ringing in
+the next block too; after a block without a series, the next block overlaps it by
 :data:`OVERLAP` (a drop that starts at a block's end is found whole in the next). Every
 sample is read about twice, whatever the recording's length and the number of drops in it,
 and no more than a block (twice one, for a series longer than a block) is in memory.
@@ -28,10 +29,11 @@ from synth.analysis.clipping import flat_tops
 from synth.analysis.settings import AnalysisError
 from synth.errors import ParameterError
 
-#: Length of a block, s: ten seconds hold a whole bounce series of any drop up to 1.2 m with a
-#: restitution up to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in all);
-#: a longer series doubles its block.
-BLOCK = 10.0
+#: Length of a block, s: a whole bounce series of any drop up to 1.2 m with a restitution up
+#: to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in all) with a minute of
+#: ringing after it (a steel sheet's or an aluminium plate's); a longer series doubles its
+#: block. At 48 kHz a block is 3.1 million samples.
+BLOCK = 64.0
 #: The next block starts this far before the end of one whose last series has ended, s: a drop
 #: that starts there is searched whole in the next block.
 OVERLAP = 2.0

@@ -1,6 +1,7 @@
 """The analysis of a recording, stage by stage: checked inputs, clipping, whitening (step 1),
 the first search (steps 2-6), the resonator's search where the first tick rings on (step 7),
-and the measurements of every tick (docs/analysis.md, Method)."""
+and the measurements of every tick (docs/analysis.md, Method); a long recording block by
+block (docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
@@ -87,7 +88,9 @@ def analyze(
     clip_samples=4,
     on_clipping="warn",
 ) -> Analysis:
-    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method).
+    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method); a
+    recording longer than a block (:data:`~synth.analysis.blocks.BLOCK`) block by block, in
+    time linear in its length (docs/analysis.md, Long recordings).
 
     Parameters
     ----------
@@ -295,8 +298,9 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
     ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`): each block's
     series as :func:`_drops` finds them, kept when whole (all but the last, and the last once
     the block goes on past where the series allows its next bounce); the next block starts at
-    the first series not kept, less the local background, or :data:`OVERLAP` before the end
-    of a block whose series are all kept. A series longer than a block doubles the block."""
+    the last series, less the local background (its ticks, if kept, are not taken again), or
+    :data:`OVERLAP` before the end of a block without a series (or whose one series starts
+    it). A series longer than a block doubles the block."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
@@ -327,12 +331,18 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
             done += found
             return done
         nxt = stop - overlap
-        if found and not _series_ended(found[-1], stop / fs, settings, lead / fs):
-            nxt = int(math.floor(found[-1][0].time * fs)) - lead
-            found = found[:-1]
-            if nxt <= pos:  # one series over the whole block: a longer block
-                size *= 2
-                continue
+        if found:
+            # the next block starts at the last series, less the local background: found
+            # again there (its ticks are kept from this block), its first tick sets the
+            # floor of the dynamic range over its ringing, as in the whole recording
+            start = int(math.floor(found[-1][0].time * fs)) - lead
+            if not _series_ended(found[-1], stop / fs, settings, lead / fs):
+                found = found[:-1]
+                if start <= pos:  # one series over the whole block: a longer block
+                    size *= 2
+                    continue
+            if start > pos:
+                nxt = start
         done += found
         if found:
             last = found[-1][-1].time
