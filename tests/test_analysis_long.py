@@ -142,3 +142,22 @@ def test_cli_window_out_of_range(tmp_path):
     assert proc.returncode != 0
     assert "window=1e+300 must be > 0 and <= 2" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_long_benchmark_recordings(tmp_path):
+    """``synth bench long`` writes its recordings in pieces: the length asked, a drop at 1 s
+    and, repeated, one every LONG_PERIOD s (20 ticks each: 3 drops in 25 s); its table has a
+    row per recording."""
+    from synth import bench
+
+    path = tmp_path / "long.wav"
+    assert bench.long_recording(path, 25.0, True) == 60
+    assert sf.info(path).frames == 25 * FS
+    assert bench.long_recording(path, 25.0, False) == 20
+    row = {"duration": 25.0, "repeated": True, "truth": 60, "ticks": 60, "series": 3}
+    row.update(seconds=3.0, per_minute=7.2, traced_mb=50.0, rss_mb=200.0)
+    table = bench.format_long(
+        [row, {"duration": 600.0, "repeated": False, "truth": 20, "error": "x"}]
+    )
+    assert "| 25 s, a drop every 10 s | 60 (60) | 3 | 3.00 | 7.20 | 50 | 200 |" in table
+    assert "failed: x" in table
