@@ -49,6 +49,7 @@ def test_drops_across_blocks_are_found_whole(monkeypatch):
     is found as one series, every onset within a sample period of the truth (the accuracy of
     docs/analysis.md, Accuracy, for a recording held whole)."""
     monkeypatch.setattr(blocks, "BLOCK", 10.0)
+    monkeypatch.setattr(blocks, "WHOLE", 10.0)
     starts = (1.0, blocks.BLOCK - 0.5, 2 * blocks.BLOCK - 1.0 - blocks.OVERLAP / 2)
     y, truth = _drops(26.0, starts, n_ticks=10)
     a = analysis.analyze(y, FS)
@@ -65,6 +66,7 @@ def test_one_block_is_the_whole_analysis(monkeypatch):
     y, (want,) = _drops(8.0, (1.0,))
     whole = np.array([t.time for t in analysis.analyze(y, FS).ticks])
     monkeypatch.setattr(blocks, "BLOCK", 3.0)
+    monkeypatch.setattr(blocks, "WHOLE", 3.0)
     monkeypatch.setattr(pipeline, "OVERLAP", 1.0)
     cut = np.array([t.time for t in analysis.analyze(y, FS).ticks])
     assert _close(whole, want, 1.0 / FS) and _close(cut, whole, 1.0 / FS)
@@ -84,6 +86,7 @@ def test_memory_does_not_grow_with_the_file(tmp_path, monkeypatch):
     while a 90 s file with one drop is analysed stays within 10 % of a 30 s file's (a whole
     read of the 90 s file alone, in float64, is 35 MB), and the drop is found in both."""
     monkeypatch.setattr(blocks, "BLOCK", 10.0)
+    monkeypatch.setattr(blocks, "WHOLE", 10.0)
     peaks = []
     for duration in (30.0, 90.0):
         y, (want,) = _drops(duration, (duration - 3.0,))

@@ -2,7 +2,8 @@
 
 The search of one bounce series (steps 1-7 of docs/analysis.md, Method) needs the samples of
 that series only, from a background's length before its first tick to its last tick's
-response. A recording longer than :data:`BLOCK` is therefore analysed block by block: a pass
+response. A recording longer than :data:`WHOLE` is therefore analysed in blocks of
+:data:`BLOCK`: a pass
 over its blocks finds its extremes (clipping), whether it is silent and its noise floor; then
 each block is searched, the bounce series it holds in full are kept, and the next block starts
 where the last series of this one starts (its first tick less the background), so that no
@@ -29,11 +30,13 @@ from synth.analysis.clipping import flat_tops
 from synth.analysis.settings import AnalysisError
 from synth.errors import ParameterError
 
-#: Length of a block, s: a whole bounce series of any drop up to 1.2 m with a restitution up
-#: to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in all) with a minute of
-#: ringing after it (a steel sheet's or an aluminium plate's); a longer series doubles its
-#: block. At 48 kHz a block is 3.1 million samples.
-BLOCK = 64.0
+#: Recordings up to this long are analysed whole, s: every preset's render (up to 61 s of a
+#: steel sheet's or an aluminium plate's ringing).
+WHOLE = 64.0
+#: Length of a block of a longer recording, s: a whole bounce series of any drop up to 1.2 m
+#: with a restitution up to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in
+#: all) and its ringing; a longer series doubles its block. At 48 kHz, 0.96 million samples.
+BLOCK = 20.0
 #: The next block starts this far before the end of one whose last series has ended, s: a drop
 #: that starts there is searched whole in the next block.
 OVERLAP = 2.0
@@ -173,3 +176,8 @@ def mix_of(used: np.ndarray) -> np.ndarray:
 def block_frames(samplerate: float) -> int:
     """Frames of a block at ``samplerate`` (Hz)."""
     return int(math.ceil(BLOCK * samplerate))
+
+
+def whole_frames(samplerate: float) -> int:
+    """Frames of the longest recording analysed whole at ``samplerate`` (Hz)."""
+    return int(math.ceil(WHOLE * samplerate))

@@ -21,6 +21,7 @@ from synth.analysis.blocks import (
     file_frames,
     mix_of,
     survey,
+    whole_frames,
 )
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.deflation import DeflationSearch, FirstTick
@@ -89,7 +90,7 @@ def analyze(
     on_clipping="warn",
 ) -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method); a
-    recording longer than a block (:data:`~synth.analysis.blocks.BLOCK`) block by block, in
+    recording longer than :data:`~synth.analysis.blocks.WHOLE` block by block, in
     time linear in its length (docs/analysis.md, Long recordings).
 
     Parameters
@@ -193,9 +194,9 @@ def analyze(
 
 
 def _analyze_source(source: Source, settings: Settings) -> Analysis:
-    """The analysis of ``source``: whole when it fits in a block, else block by block
-    (:mod:`synth.analysis.blocks`)."""
-    if source.frames <= block_frames(settings.samplerate):
+    """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else
+    block by block (:mod:`synth.analysis.blocks`)."""
+    if source.frames <= whole_frames(settings.samplerate):
         return _analyze_whole(source.read(0, source.frames), settings)
     return _analyze_blocks(source, settings)
 
@@ -455,7 +456,7 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
     """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a
-    file longer than a block (:data:`~synth.analysis.blocks.BLOCK`) is read block by block,
+    file longer than :data:`~synth.analysis.blocks.WHOLE` is read block by block,
     never whole (:mod:`synth.analysis.blocks`). The options are checked before any sample is
     read.
 
@@ -493,7 +494,7 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
             channel=channel,
             **_options(options),
         )
-    if source is None or frames <= block_frames(settings.samplerate):
+    if source is None or frames <= whole_frames(settings.samplerate):
         audio, samplerate = read_recording(path)
         result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
     else:
