@@ -1393,6 +1393,137 @@ def format_analysis(result) -> str:
     return "\n".join(lines)
 
 
+# ----------------------------------------------------------------------------------------
+# Long recordings: analysis time and memory against the length and the number of drops
+
+#: Lengths of the recordings of the long-recording benchmark, s.
+LONG_DURATIONS = (30.0, 120.0, 600.0)
+#: One drop every this many seconds in the recordings of repeated drops, s.
+LONG_PERIOD = 10.0
+
+
+def long_recording(path, duration: float, repeated: bool, samplerate: int = 48000) -> int:
+    """Write a recording of ``duration`` s (float32 WAV) to ``path``: white noise 80 dB under
+    full scale and a synthetic bounce (:func:`synthetic_bounce`, e = 0.8, 20 ticks; a new
+    seed per drop) starting at 1 s, and with ``repeated`` again every :data:`LONG_PERIOD` s.
+    Written in pieces of a drop's period (the file is never in memory whole). Returns the
+    number of true ticks."""
+    import soundfile
+
+    fs = samplerate
+    rng = np.random.default_rng(0)
+    total = int(round(duration * fs))
+    period = int(round(LONG_PERIOD * fs))
+    ticks = 0
+    with soundfile.SoundFile(
+        path, "w", samplerate=fs, channels=1, subtype="FLOAT", format="WAV"
+    ) as f:
+        for k, start in enumerate(range(0, total, period)):
+            n = min(period, total - start)
+            y = rng.standard_normal(n) * 1e-4
+            if k == 0 or repeated:
+                x, _, onsets = synthetic_bounce(0.8, fs, seed=k)
+                m = min(x.size, n - fs)
+                if m > 0:
+                    y[fs : fs + m] += 0.5 * x[:m]
+                    ticks += int(np.count_nonzero(onsets + 1.0 < n / fs))
+            f.write(y.astype(np.float32))
+    return ticks
+
+
+def long_child(path: str) -> dict:
+    """Analyse the file ``path`` in this process: seconds, the peak of the memory allocated
+    meanwhile (tracemalloc, MB), ticks and series found."""
+    import tracemalloc
+
+    from synth.analysis import analyze_file
+
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    a = analyze_file(path)
+    seconds = time.perf_counter() - t0
+    peak = tracemalloc.get_traced_memory()[1] / 1e6
+    tracemalloc.stop()
+    return {"seconds": seconds, "traced_mb": peak, "ticks": len(a.ticks), "series": len(a.series)}
+
+
+def run_long(durations=LONG_DURATIONS, timeout: float = 1800.0) -> list:
+    """Each recording of :func:`long_recording` (one drop, and repeated drops) analysed by
+    ``analyze_file`` in a new process (after a warm-up on a short file, which loads numba's
+    cache): seconds, traced peak MB, the process' peak resident MB (``ru_maxrss``: the
+    interpreter and libraries too), seconds per minute of audio, and ticks found against
+    the truth."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    code = (
+        "import json, resource, sys; from synth import bench; "
+        "bench.long_child(sys.argv[2]); r = bench.long_child(sys.argv[1]); "
+        "r['rss_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0; "
+        "print(json.dumps(r))"
+    )
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="synth-long-") as tmp:
+        warm = os.path.join(tmp, "warm.wav")
+        long_recording(warm, 3.0, False)
+        for repeated in (False, True):
+            for duration in durations:
+                path = os.path.join(tmp, "long.wav")
+                truth = long_recording(path, duration, repeated)
+                row = {"duration": duration, "repeated": repeated, "truth": truth}
+                try:
+                    proc = subprocess.run(
+                        [sys.executable, "-c", code, path, warm],
+                        capture_output=True,
+                        text=True,
+                        timeout=timeout,
+                        check=False,
+                    )
+                except subprocess.TimeoutExpired:
+                    row["error"] = f"over {timeout:g} s"
+                else:
+                    if proc.returncode != 0:
+                        lines = proc.stderr.strip().splitlines()
+                        row["error"] = lines[-1] if lines else "failed"
+                    else:
+                        row.update(json.loads(proc.stdout.strip().splitlines()[-1]))
+                        row["per_minute"] = row["seconds"] / (duration / 60.0)
+                rows.append(row)
+    return rows
+
+
+def format_long(rows) -> str:
+    """The long-recording benchmark as a Markdown table."""
+    lines = [
+        "| recording | ticks (truth) | series | analysis s | s per minute of audio | "
+        "traced peak MB | process peak MB |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        what = f"{r['duration']:g} s, " + (
+            f"a drop every {LONG_PERIOD:g} s" if r["repeated"] else "one drop"
+        )
+        if "error" in r:
+            lines.append(f"| {what} | ({r['truth']}) | failed: {r['error']} | | | | |")
+            continue
+        lines.append(
+            f"| {what} | {r['ticks']} ({r['truth']}) | {r['series']} | {r['seconds']:.2f} | "
+            f"{r['per_minute']:.2f} | {r['traced_mb']:.0f} | {r['rss_mb']:.0f} |"
+        )
+    lines.append("")
+    lines.append(
+        "Synthetic bounces (e = 0.8, 20 ticks each) in white noise 80 dB under full scale, "
+        "48 kHz float WAV, each analysed by `analyze_file` in a new process after a warm-up "
+        "on a 3 s file. 'traced peak': the largest memory allocated during the analysis "
+        "(tracemalloc); 'process peak': the process' largest resident set (ru_maxrss, with "
+        "the interpreter and libraries)."
+    )
+    return "\n".join(lines)
+
+
 def markdown_block(command: str, table: str) -> str:
     """A benchmark's output as a block for docs/: one line naming the command, the date and
     the machine (CPUs, load average), then the benchmark's Markdown tables."""

@@ -22,6 +22,7 @@ BENCH_PAGES = {
     "render": "benchmarks.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
+    "long": "benchmarks.md",
     "live": "benchmarks.md",
     "bank": "benchmarks.md",
     "scale": "benchmarks.md",

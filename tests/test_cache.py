@@ -168,3 +168,30 @@ def test_cli_cache_info_and_clear(capsys):
     assert main(["cache", "clear"]) == 0
     assert "2 files deleted" in capsys.readouterr().out
     assert cache.disk_info().entries == 0
+
+
+def test_leftovers_of_killed_writers_are_cleaned_on_the_next_run():
+    """A kill during a cache write leaves ``plate-modes-*.tmp`` (older versions' naming) or
+    ``.synth-<pid>-<hex>.part.npz`` (synth.io.atomic): the next run that writes an entry
+    removes the first once it is older than ``STALE_TEMPORARY_AGE`` (a writer may still be
+    at work on a younger one) and the second at once when its process is gone; a live
+    process's temporary and every other file stay."""
+    import subprocess
+    import sys
+
+    d = cache.cache_dir()
+    d.mkdir(parents=True)
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    old_tmp = d / "plate-modes-free-0123abcd.tmp"
+    killed_part = d / f".synth-{dead.pid}-0123456789ab.part.npz"
+    live_part = d / f".synth-{os.getpid()}-ba9876543210.part.npz"
+    other = d / "notes.txt"
+    for p in (old_tmp, killed_part, live_part, other):
+        p.write_bytes(b"half")
+    old = time.time() - 2 * cache.STALE_TEMPORARY_AGE
+    os.utime(old_tmp, (old, old))
+    P.modes(_plate(), max_frequency=3000.0)  # the next run: computes and stores an entry
+    assert not old_tmp.exists() and not killed_part.exists()
+    assert live_part.exists() and other.exists()
+    assert list(d.glob("plate-modes-*.npz"))

@@ -57,15 +57,17 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
     if worst is None:
         return None
     c, count, peak = worst
-    total = int(np.count_nonzero(mask))
-    return Clipping(
-        mask,
-        (
-            f"clipping: {total} samples sit at a channel's extreme ({count} in channel {c}, "
-            f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
-            f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
-            f"are unreliable, and their onsets and bounce times may be off too"
-        ),
+    return Clipping(mask, clipping_warning(int(np.count_nonzero(mask)), c, count, peak))
+
+
+def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
+    """The warning for ``total`` clipped samples, ``count`` of them in the worst channel
+    ``channel``, whose largest magnitude is ``peak`` (signal units)."""
+    return (
+        f"clipping: {total} samples sit at a channel's extreme ({count} in channel {channel}, "
+        f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
+        f"before the ticks were sought, but the loudest ticks' peaks, energies and spectra "
+        f"are unreliable, and their onsets and bounce times may be off too"
     )
 
 

@@ -1,6 +1,7 @@
 """The analysis of a recording, stage by stage: checked inputs, clipping, whitening (step 1),
 the first search (steps 2-6), the resonator's search where the first tick rings on (step 7),
-and the measurements of every tick (docs/analysis.md, Method)."""
+and the measurements of every tick (docs/analysis.md, Method); a long recording block by
+block (docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
@@ -10,17 +11,30 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from synth import dsp
-from synth.analysis.clipping import Clipping, declipped_mix, find_clipping
+from synth.analysis.blocks import (
+    OVERLAP,
+    ArraySource,
+    FileSource,
+    Source,
+    Survey,
+    block_frames,
+    file_frames,
+    mix_of,
+    survey,
+    whole_frames,
+)
+from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.deflation import DeflationSearch, FirstTick
 from synth.analysis.detection import first_ticks
 from synth.analysis.measures import WINDOW_GUARD, FoundTick, Whitening, measure_ticks
 from synth.analysis.report import Analysis
 from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
-from synth.analysis.series import bounce_order
+from synth.analysis.series import BOUNCE_GROWTH, bounce_order
 from synth.analysis.settings import (
     AnalysisError,
     Settings,
     audio_array,
+    check_recording_path,
     make_settings,
     read_recording,
 )
@@ -75,52 +89,54 @@ def analyze(
     clip_samples=4,
     on_clipping="warn",
 ) -> Analysis:
-    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method).
+    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method); a
+    recording longer than :data:`~synth.analysis.blocks.WHOLE` block by block, in
+    time linear in its length (docs/analysis.md, Long recordings).
 
     Parameters
     ----------
     audio : array of float, (frames,) or (frames, channels)
         The recording, in any signal units (energies and peaks are in them).
-    samplerate : float > 0
+    samplerate : float in (0, 768000]
         Sample rate, Hz.
-    gravity : float > 0
+    gravity : float in (0, 300]
         Gravity for the impact speeds ``v_n = g t_n / 2``, m/s^2.
     channel : int or None
         The channel to analyse (0-based); ``None`` mixes them (mean).
-    min_separation : float > 0
+    min_separation : float in (0, 1]
         Shortest time between two ticks, s: a burst closer than this to a tick is part
         of it (default 1 ms). Longer contacts are told apart by the bounce-series rules
         (steps 3, 5 and 6); lower it (0.2 ms) for hard balls whose last bounces are
         shorter than 1 ms.
-    hop : float > 0
+    hop : float in (0, 0.01]
         Spacing of the detection function's frames, s (at least one sample; each
         frame spans at least 12 samples).
-    threshold_db : float > 0
+    threshold_db : float in (0, 300]
         Margin above the local background, dB.
-    rise_db : float > 0
+    rise_db : float in (0, 300]
         Margin above the fading memory of the earlier frames, dB.
-    release : float > 0
+    release : float in (0, 1000]
         How fast that memory fades, dB per ms.
-    dynamic_range_db : float > 0, optional
+    dynamic_range_db : float in (0, 300], optional
         Ticks more than this below the strongest frame of the whitened signal are ignored,
         dB, in every step. Default: :data:`~synth.analysis.settings.DYNAMIC_RANGE_DB`
         (60 dB) in steps 1-6; in the resonator's search (step 7), which models every earlier
         tick and weighs a candidate against what those models are expected to leave, no
         fixed range: the floor there is the whitened noise floor raised by ``threshold_db``
         and ``max_drop_db`` under the last tick.
-    max_drop_db : float > 0
+    max_drop_db : float in (0, 300]
         A tick more than this below the previous tick is ignored, dB (20 dB: a
         restitution below 0.1); it also sets the shortest plausible bounce,
         ``10^(-max_drop_db / 20)`` times the previous one.
-    background : float > 0
+    background : float in (0, 1]
         Length of the running median giving the local background, s.
     onset_fraction : float in (0, 1)
         Level of the onset crossing, as a fraction of the burst's peak.
-    lpc_order : int >= 2, optional
+    lpc_order : int in 2..4096, optional
         Order of the whitening predictor. Default: 20 ms of samples, at least 8, and where
         the first tick rings on under it, the resonator's own predictor (step 7). Given,
         that order alone (no step 7).
-    window : float > 0
+    window : float in (0, 2]
         Length of every tick's measurement window, s (shorter only where the recording
         ends).
     subtract_tails : bool
@@ -129,7 +145,7 @@ def analyze(
     deflate : bool
         Find the ticks after the first one by one, each with the earlier ticks' whitened
         responses taken out (steps 5 and 7); False keeps the ticks of step 3.
-    decay_smoothing : float > 0
+    decay_smoothing : float in (0, 0.1]
         Length of the Hann window smoothing the envelope for the decay fit, s
         (at least 3 samples).
     clip_samples : int >= 2
@@ -145,7 +161,8 @@ def analyze(
     Raises
     ------
     ParameterError
-        Bad input; the message names the field and its value.
+        Bad input (each option's range is given above, checked before any work); the
+        message names the field, its value and what is allowed.
     AnalysisError
         A silent recording, one without a detectable tick, or a clipped one with
         ``on_clipping="raise"``.
@@ -173,14 +190,27 @@ def analyze(
         clip_samples=clip_samples,
         on_clipping=on_clipping,
     )
+    return _analyze_source(ArraySource(chans, settings.samplerate), settings)
+
+
+def _analyze_source(source: Source, settings: Settings) -> Analysis:
+    """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else
+    block by block (:mod:`synth.analysis.blocks`)."""
+    if source.frames <= whole_frames(settings.samplerate):
+        return _analyze_whole(source.read(0, source.frames), settings)
+    return _analyze_blocks(source, settings)
+
+
+def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
+    """The analysis of a recording held whole, ``(frames, channels)``."""
     used = chans if settings.channel is None else chans[:, [settings.channel]]
     clipping = _checked_signal(used, settings)
-    x = _mix(used)
+    x = mix_of(used)
     if not np.any(x):
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
-    series = _series(x, settings, clipping is not None)
+    series = _numbered(_drops(x, settings, clipping is not None))
     check_impulsive([t for s in series for t in s.ticks])
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
     return Analysis(
@@ -196,8 +226,140 @@ def analyze(
     )
 
 
-def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
-    """The bounce series of ``x``, each found and measured on its own.
+def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
+    """The analysis of a recording longer than a block, block by block: one pass for its
+    extremes (clipping), silence and noise floor, then the bounce series of each block
+    (:func:`_block_drops`)."""
+    sv = survey(source, settings.channel)
+    if not sv.any_sample:
+        raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
+    if not sv.any_mix:
+        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
+    levels = _clip_levels(sv, settings.clip_samples)
+    warning = None
+    if levels:
+        tops = sum(
+            int(sv.high_tops[c] if lv == sv.highs[c] else sv.low_tops[c]) for c, lv in levels
+        )
+        size = source.frames * sv.highs.size
+        if tops > CLIPPED_AT_MOST * size:
+            raise AnalysisError(
+                f"{tops} of {size} samples sit in flat tops at the extremes: not a recording "
+                f"of impacts (a square wave, or one clipped throughout)"
+            )
+        worst = max(levels, key=lambda cl: sv.high_tops[cl[0]] + sv.low_tops[cl[0]])[0]
+        warning = clipping_warning(
+            tops,
+            worst,
+            int(sv.high_tops[worst] + sv.low_tops[worst]),
+            float(max(abs(sv.highs[worst]), abs(sv.lows[worst]))),
+        )
+        if settings.on_clipping == "raise":
+            raise AnalysisError(warning)
+
+    def signal(start: int, stop: int) -> np.ndarray:
+        chans = source.read(start, stop)
+        used = chans if settings.channel is None else chans[:, [settings.channel]]
+        mask = np.zeros(used.shape, dtype=bool)
+        for c, level in levels:
+            mask[:, c] |= used[:, c] == level
+        if mask.any():
+            return declipped_mix(used, mask, settings.whitening_order)
+        return mix_of(used)
+
+    series = _numbered(_block_drops(source.frames, signal, settings, bool(levels)))
+    check_impulsive([t for s in series for t in s.ticks])
+    warnings = (() if warning is None else (warning,)) + flag_warnings(series)
+    return Analysis(
+        ticks=[t for s in series for t in s.ticks],
+        samplerate=settings.samplerate,
+        duration=source.frames / settings.samplerate,
+        noise_floor=sv.noise_floor,
+        gravity=settings.gravity,
+        channel=settings.channel,
+        clipped=bool(levels),
+        warnings=warnings,
+        series=series,
+    )
+
+
+def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
+    """The clipped extremes of the analysed channels, ``(channel, level)``: those held in flat
+    tops by ``min_count`` samples or more (as :func:`~synth.analysis.clipping.find_clipping`)."""
+    out = []
+    for c in range(sv.highs.size):
+        for level, tops in ((sv.highs[c], sv.high_tops[c]), (sv.lows[c], sv.low_tops[c])):
+            if level != 0.0 and tops >= min_count:
+                out.append((c, float(level)))
+    return out
+
+
+def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list[list]:
+    """The bounce series of a recording of ``frames`` frames whose analysed signal
+    ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`): each block's
+    series as :func:`_drops` finds them, kept when whole (all but the last, and the last once
+    the block goes on past where the series allows its next bounce); the next block starts at
+    the last series, less the local background (its ticks, if kept, are not taken again), or
+    :data:`OVERLAP` before the end of a block without a series (or whose one series starts
+    it). A series longer than a block doubles the block."""
+    fs = settings.samplerate
+    base = block_frames(fs)
+    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
+    overlap = int(round(OVERLAP * fs))
+    done: list[list] = []
+    last = -math.inf  # onset of the last tick kept, s
+    pos, size = 0, base
+    while True:
+        stop = min(frames, pos + size)
+        try:
+            found = _drops(signal(pos, stop), settings, clipped)
+        except (AnalysisError, ParameterError):  # silence, no tick, too short
+            found = []
+        shift = pos / fs
+        found = [
+            kept
+            for kept in (
+                [
+                    replace(t, time=t.time + shift)
+                    for t in ticks
+                    if t.time + shift > last + settings.min_separation / fs
+                ]
+                for ticks in found
+            )
+            if kept
+        ]
+        if stop >= frames:
+            done += found
+            return done
+        nxt = stop - overlap
+        if found:
+            # the next block starts at the last series, less the local background: found
+            # again there (its ticks are kept from this block), its first tick sets the
+            # floor of the dynamic range over its ringing, as in the whole recording
+            start = int(math.floor(found[-1][0].time * fs)) - lead
+            if not _series_ended(found[-1], stop / fs, settings, lead / fs):
+                found = found[:-1]
+                if start <= pos:  # one series over the whole block: a longer block
+                    size *= 2
+                    continue
+            if start > pos:
+                nxt = start
+        done += found
+        if found:
+            last = found[-1][-1].time
+        pos, size = nxt, base
+
+
+def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> bool:
+    """Whether a series can have no tick after ``end`` (s): the block goes on past its next
+    bounce, at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last one (and
+    :data:`OVERLAP` at least), and the local background before that tick."""
+    bounce = ticks[-1].bounce_time or 0.0
+    return end - ticks[-1].time >= max(OVERLAP, BOUNCE_GROWTH * bounce) + lead
+
+
+def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
+    """The ticks of each bounce series of ``x``, each series found and measured on its own.
 
     The ticks of the whole signal give the series up to where a new one starts
     (:func:`new_series_at`); the signal from the local background's length before that
@@ -246,7 +408,7 @@ def _series(x: np.ndarray, settings: Settings, clipped: bool) -> list[Series]:
             nxt = new_series_at(later)
             after = None if nxt is None else after + nxt
         ticks = seg + later
-    return _numbered(found)
+    return found
 
 
 def _numbered(found: list[list]) -> list[Series]:
@@ -293,13 +455,16 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
-    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it.
+    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a
+    file longer than :data:`~synth.analysis.blocks.WHOLE` is read block by block,
+    never whole (:mod:`synth.analysis.blocks`). The options are checked before any sample is
+    read.
 
     Parameters
     ----------
     path : str or path-like
         The file (WAV, FLAC, OGG, AIFF, ...).
-    gravity : float > 0
+    gravity : float in (0, 300]
         Gravity for the impact speeds, m/s^2.
     channel : int or None
         The channel to analyse (0-based); ``None`` mixes them (mean).
@@ -317,10 +482,44 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
         An unreadable file (corrupt header, unknown format) and the cases of
         :func:`analyze`.
     """
-    audio, samplerate = read_recording(path)
-    result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    check_recording_path(path)
+    frames = file_frames(path)
+    source = None
+    if frames is not None:
+        source = FileSource(path)
+        settings = make_settings(
+            source.channels,
+            source.samplerate,
+            gravity=gravity,
+            channel=channel,
+            **_options(options),
+        )
+    if source is None or frames <= whole_frames(settings.samplerate):
+        audio, samplerate = read_recording(path)
+        result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+    else:
+        result = _analyze_source(source, settings)
     short = wav_shortfall(path)
     return result if short is None else replace(result, warnings=result.warnings + (short,))
+
+
+def _options(options: dict) -> dict:
+    """The keyword arguments of :func:`make_settings` from :func:`analyze`'s ``options``, its
+    defaults for those not given; an unknown one is a ``ParameterError``."""
+    import inspect
+
+    params = inspect.signature(analyze).parameters
+    unknown = sorted(set(options) - set(params) - {"audio", "samplerate", "gravity", "channel"})
+    if unknown:
+        raise ParameterError(
+            f"unknown option(s) {', '.join(unknown)}; allowed: "
+            f"{', '.join(p for p in params if p not in ('audio', 'samplerate'))}"
+        )
+    return {
+        name: options.get(name, p.default)
+        for name, p in params.items()
+        if name not in ("audio", "samplerate", "gravity", "channel")
+    }
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
@@ -344,11 +543,6 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
-
-
-def _mix(used: np.ndarray) -> np.ndarray:
-    """The analysed signal: the one channel, or the mean of the channels."""
-    return used[:, 0] if used.shape[1] == 1 else used.mean(axis=1)
 
 
 @dataclass(frozen=True)

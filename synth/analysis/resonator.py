@@ -50,6 +50,9 @@ TEMPLATE_FLOOR_DB = 10.0
 #: clears the rules, samples: the span of the shortest filters' lags (-1 to +2 samples), so
 #: that an onset lies within those lags of one of the places.
 HYPOTHESIS_STEP = 4
+#: Rows of a fit's design matrix formed at once (1.4 s at 48 kHz; a longer window, across a
+#: silence, is summed in pieces of this many rows).
+FIT_ROWS = 1 << 16
 #: The local background of step 3 is the running median over this many times the
 #: predictor's order (the length of a tick's whitened response), at least ``background``.
 BACKGROUND_SPAN = 4
@@ -142,25 +145,36 @@ class ResonatorResidual(Residual):
         post`` or ``-1 .. 2`` samples) with at least :data:`FIT_SAMPLES_PER_TAP` samples per
         unknown, the one of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983,
         Ann. Stat. 11, 416); one tap per template, on as many as the window allows, when no
-        filter fits it."""
+        filter fits it. The choices' normal equations are blocks of one Gram matrix, that of
+        the most templates and the widest lags among them."""
         W = y.size
         K = len(offsets)
-        best = None
-        for n_t in range(len(self.T), 0, -1):
-            for pre, post in ((self.pre, self.post_long), (self.pre, self.post), (1, 2)):
-                P = K * n_t * (pre + post + 1)
-                if W < FIT_SAMPLES_PER_TAP * P:
-                    continue
-                h, res = self._fit(self.T[:n_t], y, pre, post, offsets)
-                crit = W * math.log(_rss(res, y)) + P * math.log(W)
-                if best is None or crit < best.length:
-                    best = ModelChoice(crit, self.T[:n_t], pre, post, h, res)
-        if best is None:
+        choices = [
+            (n_t, pre, post)
+            for n_t in range(len(self.T), 0, -1)
+            for pre, post in ((self.pre, self.post_long), (self.pre, self.post), (1, 2))
+            if W >= FIT_SAMPLES_PER_TAP * K * n_t * (pre + post + 1)
+        ]
+        if not choices:
             n_t = max(1, min(len(self.T), W // (FIT_SAMPLES_PER_TAP * K)))
             h, res = self._fit(self.T[:n_t], y, 0, 0, offsets)
-            best = ModelChoice(
+            return ModelChoice(
                 W * math.log(_rss(res, y)) + K * n_t * math.log(W), self.T[:n_t], 0, 0, h, res
             )
+        normal = _NormalEquations(
+            self.T[: max(c[0] for c in choices)],
+            y,
+            max(c[1] for c in choices),
+            max(c[2] for c in choices),
+            offsets,
+        )
+        best = None
+        for n_t, pre, post in choices:
+            P = K * n_t * (pre + post + 1)
+            h, res = normal.solve(n_t, pre, post)
+            crit = W * math.log(_rss(res, y)) + P * math.log(W)
+            if best is None or crit < best.length:
+                best = ModelChoice(crit, self.T[:n_t], pre, post, h, res)
         return best
 
     @staticmethod
@@ -168,26 +182,7 @@ class ResonatorResidual(Residual):
         """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts``, started at
         each of ``offsets`` (samples into ``y``), fitting ``y``: the taps (offset by offset,
         template by template) and the residual."""
-        W = y.size
-        ntap = pre + post + 1
-        cols = []
-        for o in offsets:
-            for T in Ts:
-                # M[i, j] = T[i - o - l_j] with lags l_j = post - j
-                Tp = np.concatenate(
-                    (
-                        np.zeros(post + o),
-                        T[: max(0, W - o + pre)],
-                        np.zeros(pre + max(0, W - o - T.size)),
-                    )
-                )
-                cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
-        M = np.concatenate(cols, axis=1)
-        G = M.T @ M
-        P = G.shape[0]
-        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
-        h = np.linalg.solve(G, M.T @ y)
-        return h, y - M @ h
+        return _NormalEquations(Ts, y, pre, post, offsets).solve(len(Ts), pre, post)
 
     def take(self, s: int, n: int) -> np.ndarray:
         """Take ``q[s:s+n]`` as a new template (a tick alone over its whole whitened
@@ -196,6 +191,69 @@ class ResonatorResidual(Residual):
         self.q[s : s + n] = 0.0
         self.T.append(T)
         return T
+
+
+class _NormalEquations:
+    """The least-squares fit of filters (lags ``-pre .. post``) of the templates ``Ts``,
+    started at each of ``offsets`` (samples into ``y``), to ``y``: the design matrix ``M``
+    (``M[i, j] = T[i - o - l_j]``; columns offset by offset, template by template, lags
+    ``l_j = post - j``), its Gram matrix and ``M^T y``, from which :meth:`solve` takes the
+    fit on the first templates and narrower lags. ``M`` is formed :data:`FIT_ROWS` rows at a
+    time: a window that spans a long silence (a tick after another drop's) stays in bounded
+    memory."""
+
+    def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
+        W = y.size
+        ntap = pre + post + 1
+        self.windows = []
+        for o in offsets:
+            for T in Ts:
+                Tp = np.concatenate(
+                    (
+                        np.zeros(post + o),
+                        T[: max(0, W - o + pre)],
+                        np.zeros(pre + max(0, W - o - T.size)),
+                    )
+                )
+                self.windows.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        self.y = y
+        self.n_templates, self.pre, self.post = len(Ts), pre, post
+        self.n_offsets = len(offsets)
+        self.G = None
+        self.b = None
+        for lo in range(0, W, FIT_ROWS):
+            M = self._rows(lo, min(W, lo + FIT_ROWS))
+            G, b = M.T @ M, M.T @ y[lo : lo + M.shape[0]]
+            self.G = G if self.G is None else self.G + G
+            self.b = b if self.b is None else self.b + b
+
+    def _rows(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo .. hi - 1`` of the design matrix."""
+        return np.concatenate([w[lo:hi] for w in self.windows], axis=1)
+
+    def solve(self, n_t: int, pre: int, post: int) -> tuple[np.ndarray, np.ndarray]:
+        """The taps and the residual of the fit on the first ``n_t`` templates, lags ``-pre ..
+        post`` (within those of the matrix)."""
+        ntap_all = self.pre + self.post + 1
+        lags = np.arange(self.post - post, self.post + pre + 1)
+        idx = np.concatenate(
+            [
+                (k * self.n_templates + t) * ntap_all + lags
+                for k in range(self.n_offsets)
+                for t in range(n_t)
+            ]
+        )
+        whole = idx.size == self.G.shape[0]
+        G = self.G.copy() if whole else self.G[np.ix_(idx, idx)]
+        P = G.shape[0]
+        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
+        h = np.linalg.solve(G, self.b if whole else self.b[idx])
+        res = np.empty_like(self.y)
+        for lo in range(0, self.y.size, FIT_ROWS):
+            hi = min(self.y.size, lo + FIT_ROWS)
+            M = self._rows(lo, hi)
+            res[lo:hi] = self.y[lo:hi] - (M if whole else M[:, idx]) @ h
+        return h, res
 
 
 def _rss(res: np.ndarray, y: np.ndarray) -> float:

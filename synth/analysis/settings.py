@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
+from synth.analysis.whitening import MAX_ORDER
 from synth.errors import ParameterError, SynthError
 
 #: Fewest samples summed in a frame of the detection function: at low rates the frames
@@ -26,6 +27,29 @@ ONSET_GAP = 0.00025
 DYNAMIC_RANGE_DB = 60.0
 #: Length of the default whitening predictor, s (at least 8 samples).
 WHITENING_SPAN = 0.02
+
+#: The upper ends of the options' ranges, checked before any work (each a bound past which
+#: the option has no use, so that an absurd value is named rather than run into an
+#: allocation or an overflow):
+#: the highest sample rate of audio converters, Hz;
+MAX_SAMPLERATE = 768000.0
+#: gravity, m/s^2: past the Sun's surface gravity (274 m/s^2);
+MAX_GRAVITY = 300.0
+#: margins and ranges in dB: float64 resolves 313 dB (2^-52) and no more;
+MAX_DB = 300.0
+#: the fading memory's release, dB per ms: past this it forgets within a sample at 1 MHz;
+MAX_RELEASE = 1000.0
+#: ``min_separation``, s: a bounce series' ticks come within a second of each other once
+#: the ball has bounced (a first bounce of 1 s is a drop from 1.2 m);
+MAX_SEPARATION = 1.0
+#: ``hop``, s: the frames must resolve ticks a few ms apart;
+MAX_HOP = 0.01
+#: ``background``, s: the local background of the detection (ticks are sparse over it);
+MAX_BACKGROUND = 1.0
+#: ``window``, s: a tick's measurement window (a lightly damped plate rings for seconds);
+MAX_WINDOW = 2.0
+#: ``decay_smoothing``, s: the envelope's smoothing, under the longest window;
+MAX_SMOOTHING = 0.1
 
 
 class AnalysisError(SynthError, ValueError):
@@ -108,24 +132,24 @@ def make_settings(
     ParameterError
         A bad option; the message names it, its value and what is allowed.
     """
-    fs = checks.positive("samplerate", samplerate, "Hz")
-    g = checks.positive("gravity", gravity, "m/s^2")
+    fs = checks.positive_at_most("samplerate", samplerate, MAX_SAMPLERATE, "Hz")
+    g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
     ch = _channel(channel, channels)
-    min_sep = _samples("min_separation", min_separation, fs)
-    hop_n = _samples("hop", hop, fs)
-    thr = checks.positive("threshold_db", threshold_db, "dB")
-    rise = checks.positive("rise_db", rise_db, "dB")
-    rel = checks.positive("release", release, "dB/ms")
+    min_sep = _samples("min_separation", min_separation, fs, hi=MAX_SEPARATION)
+    hop_n = _samples("hop", hop, fs, hi=MAX_HOP)
+    thr = checks.positive_at_most("threshold_db", threshold_db, MAX_DB, "dB")
+    rise = checks.positive_at_most("rise_db", rise_db, MAX_DB, "dB")
+    rel = checks.positive_at_most("release", release, MAX_RELEASE, "dB/ms")
     dyn = (
         DYNAMIC_RANGE_DB
         if dynamic_range_db is None
-        else checks.positive("dynamic_range_db", dynamic_range_db, "dB")
+        else checks.positive_at_most("dynamic_range_db", dynamic_range_db, MAX_DB, "dB")
     )
-    drop = checks.positive("max_drop_db", max_drop_db, "dB")
-    bg = checks.positive("background", background, "s")
+    drop = checks.positive_at_most("max_drop_db", max_drop_db, MAX_DB, "dB")
+    bg = checks.positive_at_most("background", background, MAX_BACKGROUND, "s")
     frac = checks.in_range("onset_fraction", onset_fraction, 0.0, 1.0)
-    win_n = _samples("window", window, fs)
-    dec_n = _samples("decay_smoothing", decay_smoothing, fs, lo=3)
+    win_n = _samples("window", window, fs, hi=MAX_WINDOW)
+    dec_n = _samples("decay_smoothing", decay_smoothing, fs, lo=3, hi=MAX_SMOOTHING)
     clip_n = _integer("clip_samples", clip_samples, 2)
     checks.choice("on_clipping", on_clipping, ("warn", "raise"))
     for name, flag in (("subtract_tails", subtract_tails), ("deflate", deflate)):
@@ -134,7 +158,7 @@ def make_settings(
     order = (
         max(8, int(round(WHITENING_SPAN * fs)))
         if lpc_order is None
-        else _integer("lpc_order", lpc_order, 2)
+        else _integer("lpc_order", lpc_order, 2, hi=MAX_ORDER)
     )
     settings = Settings(
         samplerate=fs,
@@ -196,21 +220,36 @@ def _channel(channel, n: int) -> int | None:
     return int(channel)
 
 
-def _integer(name: str, value, lo: int) -> int:
+def _integer(name: str, value, lo: int, hi: int | None = None) -> int:
+    allowed = f">= {lo}" if hi is None else f"in {lo}..{hi}"
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ParameterError(f"{name}={value!r} must be an integer >= {lo}")
-    if value < lo:
-        raise ParameterError(f"{name}={value!r} must be >= {lo}")
+        raise ParameterError(f"{name}={value!r} must be an integer {allowed}")
+    if value < lo or (hi is not None and value > hi):
+        raise ParameterError(f"{name}={value!r} must be {allowed}")
     return int(value)
 
 
-def _samples(name: str, value, fs: float, lo: int = 1) -> int:
-    """A duration in s, as a whole number of samples (at least ``lo``)."""
-    t = checks.positive(name, value, "s")
+def _samples(name: str, value, fs: float, lo: int = 1, hi: float | None = None) -> int:
+    """A duration in s (at most ``hi`` s), as a whole number of samples (at least ``lo``)."""
+    t = (
+        checks.positive(name, value, "s")
+        if hi is None
+        else checks.positive_at_most(name, value, hi, "s")
+    )
     n = int(round(t * fs))
     if n < lo:
         raise ParameterError(f"{name}={value!r} is shorter than {lo} sample(s) at {fs:g} Hz (s)")
     return n
+
+
+def check_recording_path(path) -> None:
+    """Raise ``ParameterError`` unless ``path`` names an existing file (not a directory)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
+    if os.path.isdir(path):
+        raise ParameterError(f"path={os.fspath(path)!r} is a directory, not an audio file")
+    if not os.path.isfile(path):
+        raise ParameterError(f"path={os.fspath(path)!r}: no such file")
 
 
 def read_recording(path) -> tuple[np.ndarray, float]:
@@ -240,12 +279,7 @@ def read_recording(path) -> tuple[np.ndarray, float]:
     AnalysisError
         An unreadable file (corrupt header, unknown format) or one without samples.
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
-    if os.path.isdir(path):
-        raise ParameterError(f"path={os.fspath(path)!r} is a directory, not an audio file")
-    if not os.path.isfile(path):
-        raise ParameterError(f"path={os.fspath(path)!r}: no such file")
+    check_recording_path(path)
     from synth.io.audio import AudioFileError, read_audio
 
     try:

@@ -1,0 +1,183 @@
+"""Long recordings in blocks: linear time and bounded memory (docs/analysis.md, Long recordings).
+
+The search of one bounce series (steps 1-7 of docs/analysis.md, Method) needs the samples of
+that series only, from a background's length before its first tick to its last tick's
+response. A recording longer than :data:`WHOLE` is therefore analysed in blocks of
+:data:`BLOCK`: a pass
+over its blocks finds its extremes (clipping), whether it is silent and its noise floor; then
+each block is searched, the bounce series it holds in full are kept, and the next block starts
+where the last series of this one starts (its first tick less the background), so that no
+series is cut and an ended one sets the floor of the dynamic range over its own ringing in
+the next block too; after a block without a series, the next block overlaps it by
+:data:`OVERLAP` (a drop that starts at a block's end is found whole in the next). Every
+sample is read about twice, whatever the recording's length and the number of drops in it,
+and no more than a block (twice one, for a series longer than a block) is in memory.
+
+A :class:`Source` is the recording: an array in memory (:class:`ArraySource`) or a file read
+in blocks through soundfile (:class:`FileSource`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import dsp
+from synth.analysis.clipping import flat_tops
+from synth.analysis.settings import AnalysisError
+from synth.errors import ParameterError
+
+#: Recordings up to this long are analysed whole, s: every preset's render (up to 61 s of a
+#: steel sheet's or an aluminium plate's ringing).
+WHOLE = 64.0
+#: Length of a block of a longer recording, s: a whole bounce series of any drop up to 1.2 m
+#: with a restitution up to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in
+#: all) and its ringing; a longer series doubles its block. At 48 kHz, 0.96 million samples.
+BLOCK = 20.0
+#: The next block starts this far before the end of one whose last series has ended, s: a drop
+#: that starts there is searched whole in the next block.
+OVERLAP = 2.0
+#: Frames read at once in a pass over a file (bounded memory), at most.
+READ_FRAMES = 1 << 20
+
+
+class Source:
+    """A recording, read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz) and
+    :meth:`read`."""
+
+    frames: int
+    channels: int
+    samplerate: float
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """Frames ``start .. stop - 1``, float64, shape ``(n, channels)``."""
+        raise NotImplementedError
+
+    def pieces(self):
+        """The whole recording in consecutive pieces of at most :data:`READ_FRAMES` frames:
+        ``(start, samples)``."""
+        for start in range(0, self.frames, READ_FRAMES):
+            yield start, self.read(start, min(self.frames, start + READ_FRAMES))
+
+
+@dataclass
+class ArraySource(Source):
+    """A recording in memory, ``(frames, channels)`` float64."""
+
+    chans: np.ndarray
+    samplerate: float
+
+    @property
+    def frames(self) -> int:
+        return self.chans.shape[0]
+
+    @property
+    def channels(self) -> int:
+        return self.chans.shape[1]
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        return self.chans[start:stop]
+
+
+class FileSource(Source):
+    """A sound file read in blocks through soundfile (seek and read: the file is never in
+    memory whole). Non-finite samples raise ``ParameterError`` as for an array."""
+
+    def __init__(self, path):
+        import soundfile
+
+        self.path = os.fspath(path)
+        try:
+            info = soundfile.info(self.path)
+        except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError) as exc:
+            raise AnalysisError(f"cannot read {self.path!r} as sound: {exc}") from None
+        self.frames = int(info.frames)
+        self.channels = int(info.channels)
+        self.samplerate = float(info.samplerate)
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        import soundfile
+
+        with soundfile.SoundFile(self.path) as f:
+            f.seek(start)
+            a = f.read(stop - start, dtype="float64", always_2d=True)
+        if a.shape[0] < stop - start:  # the file holds fewer frames than it declares
+            self.frames = start + a.shape[0]
+        if not np.isfinite(a).all():
+            raise ParameterError(
+                f"{self.path!r} holds NaN or infinite samples in frames {start}..{stop - 1}; "
+                f"all must be finite"
+            )
+        return a
+
+
+def file_frames(path) -> int | None:
+    """The frames a sound file declares, or None when soundfile cannot tell."""
+    import soundfile
+
+    try:
+        return int(soundfile.info(os.fspath(path)).frames)
+    except (soundfile.SoundFileError, RuntimeError, TypeError, ValueError):
+        return None
+
+
+@dataclass(frozen=True)
+class Survey:
+    """What one pass over a recording finds: the analysed channels' largest and smallest
+    values and the samples in flat tops at them (clipping), whether any analysed sample and
+    any sample of the mix is not 0, and the noise floor of the mix (signal units)."""
+
+    highs: np.ndarray
+    lows: np.ndarray
+    high_tops: np.ndarray
+    low_tops: np.ndarray
+    any_sample: bool
+    any_mix: bool
+    noise_floor: float
+
+
+def survey(source: Source, channel: int | None) -> Survey:
+    """One pass over ``source`` in pieces: its extremes, silence and noise floor
+    (:func:`synth.dsp.noise_floor` over the frames of every piece: pieces hold whole
+    :data:`synth.dsp.NOISE_FRAME` frames but for the last)."""
+    cols = slice(None) if channel is None else slice(channel, channel + 1)
+    n_ch = source.channels if channel is None else 1
+    highs, lows = np.full(n_ch, -np.inf), np.full(n_ch, np.inf)
+    any_sample = any_mix = False
+    powers = []
+    for _, piece in source.pieces():
+        used = piece[:, cols]
+        highs = np.maximum(highs, used.max(axis=0))
+        lows = np.minimum(lows, used.min(axis=0))
+        any_sample = any_sample or bool(np.any(used))
+        mix = mix_of(used)
+        any_mix = any_mix or bool(np.any(mix))
+        fr = dsp.noise_frames(mix, source.samplerate)
+        powers.append(np.mean(fr**2, axis=1))
+    high_tops, low_tops = np.zeros(n_ch, dtype=int), np.zeros(n_ch, dtype=int)
+    for _, piece in source.pieces():  # the flat tops at the extremes, now known
+        used = piece[:, cols]
+        for c in range(n_ch):
+            high_tops[c] += np.count_nonzero(flat_tops(used[:, c] == highs[c])) if highs[c] else 0
+            low_tops[c] += np.count_nonzero(flat_tops(used[:, c] == lows[c])) if lows[c] else 0
+    ms = np.concatenate(powers)
+    floor = float(np.sqrt(ms[dsp.quiet_frames(ms)].mean())) if ms.size else 0.0
+    return Survey(highs, lows, high_tops, low_tops, any_sample, any_mix, floor)
+
+
+def mix_of(used: np.ndarray) -> np.ndarray:
+    """The analysed signal: the one channel, or the mean of the channels."""
+    return used[:, 0] if used.shape[1] == 1 else used.mean(axis=1)
+
+
+def block_frames(samplerate: float) -> int:
+    """Frames of a block at ``samplerate`` (Hz)."""
+    return int(math.ceil(BLOCK * samplerate))
+
+
+def whole_frames(samplerate: float) -> int:
+    """Frames of the longest recording analysed whole at ``samplerate`` (Hz)."""
+    return int(math.ceil(WHOLE * samplerate))
