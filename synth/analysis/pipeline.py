@@ -32,6 +32,7 @@ from synth.analysis.validity import (
     flag_warnings,
     make_series,
     new_series_at,
+    without_spurious_end,
 )
 from synth.analysis.whitening import resonator_predictor, whiten
 from synth.errors import ParameterError
@@ -181,7 +182,7 @@ def analyze(
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
     series = _series(x, settings, clipping is not None)
-    check_impulsive([t for s in series for t in s.ticks])
+    check_impulsive([t for s in series for t in s.ticks], x, settings.samplerate)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -289,7 +290,9 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    return measure_ticks(x, found, whitenings, settings, noise)
+    ticks = measure_ticks(x, found, whitenings, settings, noise)
+    fs = settings.samplerate
+    return without_spurious_end(ticks, x.size / fs, settings.window / fs)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
