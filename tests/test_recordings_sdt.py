@@ -57,9 +57,10 @@ def standing_out(x: np.ndarray, fs: float, times) -> np.ndarray:
 @pytest.mark.slow
 @pytest.mark.xfail(
     strict=True,
-    reason="open (issue 15): on SDT's hard clicks the analysis finds 2 to 4 of the 11 to 16 "
-    "ticks that stand out 6 dB over the 3 ms before them (in the room and -40 dB noise), "
-    "and reports 1 or 2 bursts that are no strike (all four files)",
+    reason="open (issue 15): on SDT's hard clicks the analysis misses 6 to 13 of the 11 to "
+    "16 ticks that stand out 6 dB over the 3 ms before them in the three longer series (some "
+    "are SDT's last bounces, under 1 ms apart: below min_separation), and reports 1 or 2 "
+    "bursts that are no strike in three of the four files",
 )
 @pytest.mark.parametrize("name", NAMES)
 def test_sdt_recordings(name):
