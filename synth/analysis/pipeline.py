@@ -46,6 +46,7 @@ from synth.analysis.validity import (
     flag_warnings,
     make_series,
     new_series_at,
+    without_spurious_end,
 )
 from synth.analysis.whitening import resonator_predictor, whiten
 from synth.errors import ParameterError
@@ -211,7 +212,8 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
     series = _numbered(_drops(x, settings, clipping is not None))
-    check_impulsive([t for s in series for t in s.ticks])
+    ticks = [t for s in series for t in s.ticks]
+    check_impulsive(ticks, x[_first_sample(ticks, settings) :], settings.samplerate)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -268,7 +270,10 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         return mix_of(used)
 
     series = _numbered(_block_drops(source.frames, signal, settings, bool(levels)))
-    check_impulsive([t for s in series for t in s.ticks])
+    ticks = [t for s in series for t in s.ticks]
+    first = _first_sample(ticks, settings)
+    ringing = signal(first, min(source.frames, first + block_frames(settings.samplerate)))
+    check_impulsive(ticks, ringing, settings.samplerate)
     warnings = (() if warning is None else (warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -281,6 +286,11 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         warnings=warnings,
         series=series,
     )
+
+
+def _first_sample(ticks: list, settings: Settings) -> int:
+    """The sample of the first tick's onset (0 without ticks)."""
+    return int(ticks[0].time * settings.samplerate) if ticks else 0
 
 
 def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
@@ -451,7 +461,9 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    return measure_ticks(x, found, whitenings, settings, noise)
+    ticks = measure_ticks(x, found, whitenings, settings, noise)
+    fs = settings.samplerate
+    return without_spurious_end(ticks, x.size / fs, settings.window / fs)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:

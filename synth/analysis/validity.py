@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from synth.analysis.measures import decay_time
 from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, NO_DECAY, RESTITUTION_FLAGS, Tick
 from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB
 from synth.analysis.settings import AnalysisError
@@ -24,6 +25,10 @@ from synth.analysis.settings import AnalysisError
 #: explain, whatever the tick's level: two missed ticks make at most ``e (1 + e + e^2) < 3``
 #: times the previous bounce.
 MISSED_GROWTH = 3.0
+#: Smoothing of the envelope over which a whole recording's ringing is seen to decay, s: many
+#: periods of a plate's lowest modes and of a periodic wave down to 20 Hz, so that neither
+#: leaves a ripple the fit could take for a decay.
+RINGING_SMOOTHING = 0.05
 
 
 @dataclass(frozen=True)
@@ -96,16 +101,66 @@ def valid_restitution(tick: Tick) -> bool:
     return tick.restitution is not None and not set(tick.flags) & set(RESTITUTION_FLAGS)
 
 
-def check_impulsive(ticks: list[Tick]) -> None:
-    """Raise AnalysisError when no tick has a decaying response: the input holds no impact
-    (a square or sawtooth wave's edges whiten to bursts like ticks, but nothing rings
-    down after them)."""
-    if ticks and all(NO_DECAY in t.flags for t in ticks):
-        raise AnalysisError(
-            f"no impact found: none of the {len(ticks)} bursts found is followed by a "
-            f"decaying ringing (is this a recording of impacts? a periodic wave's edges "
-            f"are not)"
+def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
+    """Raise AnalysisError when nothing found is followed by a decaying response: the input
+    holds no impact (a square or sawtooth wave's edges whiten to bursts like ticks, but
+    nothing rings down after them).
+
+    A lightly damped plate (loss factor 1e-3 or less) hardly decays over a tick's
+    measurement window, so where no tick has a decay time of its own the recording from the
+    first tick on, ``ringing`` (sample rate ``fs``, Hz; a long file's first block), is fitted
+    instead, over an envelope smoothed by :data:`RINGING_SMOOTHING` and down to whatever
+    floor it reaches (the quietest frames of a clean recording of a ringing plate are
+    ringing, not noise): an impact's ringing decays there, a periodic wave's edges do not."""
+    if not ticks or not all(NO_DECAY in t.flags for t in ticks):
+        return
+    if decay_time(ringing, fs, max(3, int(round(RINGING_SMOOTHING * fs))), 0.0) is not None:
+        return
+    raise AnalysisError(
+        f"no impact found: none of the {len(ticks)} bursts found is followed by a "
+        f"decaying ringing (is this a recording of impacts? a periodic wave's edges "
+        f"are not)"
+    )
+
+
+def _continues_series(ticks: list[Tick]) -> bool:
+    """Whether the last of ``ticks`` may continue the bounce series: the second tick (no
+    bounce before it to compare with), or a later one whose bounce shrank (restitution
+    below 1)."""
+    e = ticks[-1].restitution
+    return len(ticks) == 2 or (e is not None and e < 1.0)
+
+
+def _after_rest(ticks: list[Tick]) -> bool:
+    """Whether the last of ``ticks`` came after a silence no missed ticks explain: its bounce
+    over :data:`MISSED_GROWTH` times the one before (the ball was at rest)."""
+    e = ticks[-1].restitution
+    return len(ticks) > 2 and (e is None or e > MISSED_GROWTH)
+
+
+def without_spurious_end(ticks: list[Tick], duration: float, window: float) -> list[Tick]:
+    """``ticks`` (one search, in time order) without the bursts after the last impact.
+
+    An impact excites a ringing that decays; once the ball is at rest the whitening still
+    leaves bursts in the plate's ringing, and a step where the recording is cut or faded out
+    while the plate rings (as it leaves one at the first sample: docs/analysis.md, step 4);
+    their own sound shows no decay. So trailing ticks whose sound shows no decay are dropped
+    (trailing only: the bounce times of the others stay as measured) where some tick's sound
+    decays and the burst came after a silence no missed ticks explain, or where its
+    measurement window (``window``, s) runs past the end (``duration``, s) and its bounce
+    did not shrink. The last tick of a series cut short by the end keeps its place."""
+    out = list(ticks)
+    decays = any(t.decay_time is not None for t in out)
+    while (
+        out
+        and out[-1].decay_time is None
+        and (
+            (decays and _after_rest(out))
+            or (out[-1].time + window > duration and not _continues_series(out))
         )
+    ):
+        out.pop()
+    return out
 
 
 def make_series(ticks: list[Tick]) -> Series:
