@@ -1309,6 +1309,8 @@ def _hires_run(samplerate, previous, timeout):
         except subprocess.TimeoutExpired:
             return {"error": f"over {timeout:g} s"}
         wall = time.perf_counter() - t0
+    if proc.returncode < 0:
+        return {"error": f"stopped by signal {-proc.returncode} after {wall:.0f} s"}
     if proc.returncode != 0:
         return {"error": proc.stderr.strip().splitlines()[-1] if proc.stderr else "failed"}
     res = json.loads(proc.stdout.strip().splitlines()[-1])

@@ -75,7 +75,9 @@ Free and clamped edges
 Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
 :meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
 over many points can be shared between modes (the polar rule of
-:func:`synth.sound.radiation.separable_gains`).
+:func:`synth.sound.radiation.separable_gains`). The free and clamped shapes are sums of
+such products, ``2 sum c_ij psi_i(xi) psi_j(eta)``; :meth:`Modes.summed` returns them as
+such (:class:`SummedShapes`, used by :func:`synth.sound.radiation.summed_gains`).
 
 Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
 1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are

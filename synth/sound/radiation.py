@@ -84,6 +84,19 @@ rules on plates where both run (agreement within ``2 tol``). :func:`plate_gains`
 the polar rule for separable shapes when the rectangle rule's work (modes times
 points) exceeds ``5e7``.
 
+Polar rule (sums of separable shapes)
+-------------------------------------
+The free and clamped plates' Ritz shapes are sums of such products,
+``phi_k = sum_ij C_kij X_i(x) Y_j(y)`` (:class:`synth.sound.modes.SummedShapes`).
+:func:`summed_gains` applies the same polar rule: at each radius the angular sums
+``A_ij = sum_theta w X_i Y_j`` are one small matrix product whatever the number of
+modes, and ``Phi_k = sum_ij C_kij A_ij`` one product of a block of radii's ``A`` with
+the coefficients; the exponentials are again one per mode and radius. The in-phase
+bounds ``S_k`` (``|phi_k|`` is not a sum of products) come from a rectangle rule that
+resolves the shapes but not the acoustic phase. :func:`plate_gains` takes this rule for
+free and clamped plates when the rectangle rule's work exceeds
+:data:`SUMMED_RULE_WORK` (``5e8``, above every preset's).
+
 Cache
 -----
 :func:`plate_gains` computes the gains of a :class:`synth.sound.modes.Modes` and keeps
