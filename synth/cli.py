@@ -435,6 +435,7 @@ def _cmd_bench(args):
         "long": (bench.run_long, bench.format_long),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
+        "hires": (bench.run_hires, bench.format_hires),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -732,14 +733,25 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="error against run time")
     p.add_argument(
         "what",
-        choices=["contact", "render", "thesis", "analysis", "long", "live", "scale", "bank"],
+        choices=[
+            "contact",
+            "render",
+            "thesis",
+            "analysis",
+            "long",
+            "live",
+            "scale",
+            "hires",
+            "bank",
+        ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
         "beside the thesis' model and measurements; analysis: recovered "
         "restitution and onsets against noise; live: the live engine's "
         "callback, hit() and add() costs, and underflows through a JACK dummy "
         "server; scale: cold and warm cost of modes, radiation gains and "
-        "synthesis for a ladder of plates; bank: sounds/s of a sound bank "
+        "synthesis for a ladder of plates; hires: cold renders at 96, 192 and 384 kHz, "
+        "and at 384 kHz with the previous paths; bank: sounds/s of a sound bank "
         "against one process per file",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")

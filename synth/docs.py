@@ -26,6 +26,7 @@ BENCH_PAGES = {
     "live": "benchmarks.md",
     "bank": "benchmarks.md",
     "scale": "benchmarks.md",
+    "hires": "benchmarks.md",
 }
 
 _BLOCK = re.compile(

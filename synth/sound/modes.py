@@ -81,7 +81,9 @@ docs/physics.md, "Large free and clamped plates").
 Separable shapes. The simply supported shapes are products ``X_m(x) Y_n(y)``;
 :meth:`Modes.separable` returns them as such (:class:`SeparableShapes`), so that sums
 over many points can be shared between modes (the polar rule of
-:func:`synth.sound.radiation.separable_gains`).
+:func:`synth.sound.radiation.separable_gains`). The free and clamped shapes are sums of
+such products, ``2 sum c_ij psi_i(xi) psi_j(eta)``; :meth:`Modes.summed` returns them as
+such (:class:`SummedShapes`, used by :func:`synth.sound.radiation.summed_gains`).
 
 Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
 1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
@@ -126,6 +128,7 @@ __all__ = [
     "Modes",
     "modes",
     "SeparableShapes",
+    "SummedShapes",
     "TOLERANCE",
     "EDGE_EFFECT_TOLERANCE",
     "cache_info",
@@ -180,6 +183,11 @@ _CHUNK_ELEMENTS = 1 << 22
 _PIECE = 1 << 18
 # Parity classes (x, y): 0 = even, 1 = odd.
 _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
+#: Symmetry classes with more unknowns than this (in the first basis tried) are solved on
+#: one BLAS thread (see _solve_classes); smaller ones, every preset's among them (at most
+#: 1732 unknowns at 48 kHz), with BLAS's own threads, whose partial sums, and so the last
+#: bits of the modes, depend on their number. ``math.inf``: never on one thread.
+ONE_THREAD_UNKNOWNS = 2500
 # Version of the stored solution layout and algorithm; part of the cache key.
 _VERSION = 1
 
@@ -310,7 +318,7 @@ def _index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 # --------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma: no cover
     """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle).
 
@@ -536,6 +544,24 @@ class _RitzSolution:
         _take_columns(out, index)
         return out
 
+    def summed(self, n_modes, length, width, wavenumber):
+        """The first ``n_modes`` shapes as a :class:`SummedShapes` of a plate
+        ``length`` x ``width`` (metres) whose largest bending wavenumber is
+        ``wavenumber`` (rad/m)."""
+        cls = self.cls[:n_modes]
+        n_x = max(int(I.max()) for I, _ in self.index) + 1
+        n_y = max(int(J.max()) for _, J in self.index) + 1
+        parts = []
+        for c in range(4):
+            cols = np.flatnonzero(cls == c)
+            if cols.size:
+                I, J = self.index[c]
+                coef = np.ascontiguousarray(2.0 * self.coef[c][:, : cols.size])
+                parts.append((cols, I * n_y + J, coef))
+        return SummedShapes(
+            length, width, wavenumber, n_x, n_y, n_modes, _alpha(self.boundary), tuple(parts), self
+        )
+
     def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
         """Shapes at points that share values of one coordinate, into column blocks.
 
@@ -708,6 +734,29 @@ def _crossed(boundary, nu, aspect, omega_req, cache):
     return _HybridSolution(ritz, omega_low, edge, omega_req)
 
 
+def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
+    """``(lam, vec, lam_check)`` of each symmetry class: eigenpairs of the basis
+    ``main[c]`` and eigenvalues of the larger ``check[c]`` (see :func:`_solve_class`).
+
+    ``one_thread``: LAPACK runs on one BLAS thread. A multithreaded LAPACK call whose
+    helper threads wait for cores that other work keeps busy stalls: measured with
+    dense eigen-solutions of 1400 unknowns on two shared cores, 16 times slower than
+    on one thread (see ``_PIECE``).
+    """
+
+    def solve(c):
+        lam, vec = _solve_class(mx, my, *main[c], rx, ry, nu, lam_cut, True)
+        lam2, _ = _solve_class(mx, my, *check[c], rx, ry, nu, lam_cut, False)
+        return lam, vec, lam2
+
+    if not one_thread:
+        return [solve(c) for c in range(4)]
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1, user_api="blas"):
+        return [solve(c) for c in range(4)]
+
+
 def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _RitzSolution:
     """All converged modes with dimensionless frequency <= ``omega_req``."""
     alpha = _alpha(boundary)
@@ -715,6 +764,7 @@ def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _R
     lam_cut = (omega_req * (1.0 + 10.0 * TOLERANCE)) ** 2
     grow = 1.0
     attempts = []
+    one_thread = None
     for _ in range(6):
         # Wavenumbers per unit of xi, eta: k L = sqrt(Omega), a = L / rx.
         k_l = math.sqrt(omega_req) * grow
@@ -734,13 +784,12 @@ def _solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> _R
         ny = max(int(ij[1].max()) for ij in check) + 1
         mx = _matrices_1d(alpha, nx)
         my = _matrices_1d(alpha, ny)
+        if one_thread is None:  # decided on the first basis, kept for the larger ones
+            one_thread = max(ij[0].size for ij in main) > ONE_THREAD_UNKNOWNS
+        solved = _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread)
         lams, vecs, ok = [], [], True
         worst = 0.0
-        for c in range(4):
-            I, J = main[c]
-            lam, vec = _solve_class(mx, my, I, J, rx, ry, nu, lam_cut, True)
-            I2, J2 = check[c]
-            lam2, _ = _solve_class(mx, my, I2, J2, rx, ry, nu, lam_cut, False)
+        for c, (lam, vec, lam2) in enumerate(solved):
             if boundary == "free" and c != 3:
                 # The rigid-body motions (1, xi, eta) lie in classes 0, 1, 2: one zero
                 # eigenvalue each (numerically |lambda| ~ eps * s).
@@ -1032,6 +1081,73 @@ class SeparableShapes:
         return _sine_table(np.ascontiguousarray(y, dtype=float) * (math.pi / self.width), n)
 
 
+@dataclass(frozen=True, eq=False)
+class SummedShapes:
+    """Mode shapes that are sums of products of one function of x and one of y.
+
+    ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the free and clamped plates' Ritz
+    shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a sum over
+    points of ``w phi_k`` is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix
+    for every mode (:meth:`combine`). Used by
+    :func:`synth.sound.radiation.summed_gains` (the polar rule of these shapes).
+
+    Attributes
+    ----------
+    length, width : float
+        ``a`` and ``b``, metres.
+    wavenumber : float
+        Largest bending wavenumber of the modes, rad/m.
+    n_x, n_y : int
+        Number of factors ``X_i`` (columns of :meth:`x_values`) and ``Y_j``.
+    n_modes : int
+        Number of modes (columns of :meth:`combine` and :meth:`values`).
+    """
+
+    length: float
+    width: float
+    wavenumber: float
+    n_x: int
+    n_y: int
+    n_modes: int
+    _alpha: int = field(repr=False)
+    # per symmetry class: (mode columns, flat factor index i * n_y + j, coefficients 2 C)
+    _parts: tuple = field(repr=False)
+    _solution: object = field(repr=False)
+
+    def values(self, points: np.ndarray) -> np.ndarray:
+        """``phi_k`` at ``points`` (``(n, 2)`` array of ``(x, y)``, metres, on the plate):
+        shape ``(n, n_modes)``, as :meth:`Modes.shapes`."""
+        pts = np.asarray(points, dtype=float)
+        xi = np.clip(2.0 * pts[:, 0] / self.length - 1.0, -1.0, 1.0)
+        eta = np.clip(2.0 * pts[:, 1] / self.width - 1.0, -1.0, 1.0)
+        return self._solution.shapes(xi, eta, self.n_modes)
+
+    def x_values(self, x: np.ndarray) -> np.ndarray:
+        """``X_i(x)`` for ``i < n_x``: shape ``(len(x), n_x)`` (``x`` in metres, on the plate)."""
+        xi = np.clip(2.0 * np.asarray(x, dtype=float) / self.length - 1.0, -1.0, 1.0)
+        return _basis_1d(self._alpha, self.n_x, xi)[0]
+
+    def y_values(self, y: np.ndarray) -> np.ndarray:
+        """``Y_j(y)`` for ``j < n_y``: shape ``(len(y), n_y)`` (``y`` in metres, on the plate)."""
+        eta = np.clip(2.0 * np.asarray(y, dtype=float) / self.width - 1.0, -1.0, 1.0)
+        return _basis_1d(self._alpha, self.n_y, eta)[0]
+
+    def combine(self, sums: np.ndarray) -> np.ndarray:
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode ``k``.
+
+        ``sums`` has shape ``(n, n_x, n_y)`` (for instance ``X^T diag(w) Y`` of ``n``
+        sets of points); returns ``(n, n_modes)`` in the order of the frequencies:
+        one matrix product per symmetry class.
+        """
+        flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
+        out = np.empty((flat.shape[0], self.n_modes))
+        for cols, pairs, coef in self._parts:
+            part = np.empty((flat.shape[0], cols.size))
+            single_thread_product(np.ascontiguousarray(flat[:, pairs]), coef, part)
+            out[:, cols] = part
+        return out
+
+
 @numba.njit(cache=True)
 def _sine_table(t, n):  # pragma: no cover
     """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
@@ -1195,6 +1311,18 @@ class Modes:
         xi = np.clip(2.0 * pts[:, 0] / a - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * pts[:, 1] / b - 1.0, -1.0, 1.0)
         return self._solution.shapes(xi, eta, len(self))
+
+    def summed(self) -> SummedShapes | None:
+        """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)``
+        (:class:`SummedShapes`: free and clamped plates), or None (simply supported
+        plates: see :meth:`separable`)."""
+        sol = self._solution
+        if not isinstance(sol, _RitzSolution):
+            return None
+        p = self.plate
+        omega = float(self.angular_frequencies[-1]) if len(self) else 0.0
+        k = (omega * omega * p.surface_density / p.flexural_rigidity) ** 0.25
+        return sol.summed(len(self), p.length, p.width, k)
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
