@@ -126,6 +126,7 @@ from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.sound.modes import Modes, single_thread_product
+from synth.vecmath import cis, exp_squared
 
 __all__ = [
     "RadiationResult",
@@ -332,68 +333,9 @@ def _nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray
 #     mag_k += w_j |phi_jk| / R_j,
 # with Rm the middle of the range of R over the plate (the factor exp(-q_k Rm) is
 # applied once per mode afterwards). exp(-q dR) = exp(-Re(q) dR) (cos - i sin)(Im(q) dR).
-# The fast kernel uses polynomial sin, cos (fdlibm's kernels after a Cody-Waite reduction
-# by pi/2) and a Taylor exp on |u| <= 1 squared up to 6 times (|Re(q) dR| <= 64), so that
-# the loop over modes vectorises; the general kernel calls libm. Only fused multiply-add
-# contraction is allowed ('contract'), which keeps the error within a few ulp.
-
-_PIO2_1 = 1.57079632673412561417e00  # first 33 bits of pi/2 (fdlibm)
-_PIO2_1T = 6.07710050650619224932e-11  # pi/2 - _PIO2_1
-_INVPIO2 = 6.36619772367581382433e-01  # 2/pi
-_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
-_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
-_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
-_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
-
-
-@numba.njit(cache=True, fastmath={"contract"})
-def _cis(theta):
-    """(cos theta, sin theta) for |theta| < 2^19 pi, within a few ulp."""
-    n = np.floor(theta * _INVPIO2 + 0.5)
-    r = (theta - n * _PIO2_1) - n * _PIO2_1T
-    z = r * r
-    sn = r + r * z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
-    cs = 1.0 - 0.5 * z + z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
-    q = n - 4.0 * np.floor(0.25 * n)  # quadrant 0, 1, 2 or 3 (kept in floats
-    swap = q == 1.0 or q == 3.0  # so that the loop vectorises without AVX-512)
-    c0 = sn if swap else cs
-    s0 = cs if swap else sn
-    c_sign = -1.0 if (q == 1.0 or q == 2.0) else 1.0
-    s_sign = -1.0 if q >= 2.0 else 1.0
-    return c0 * c_sign, s0 * s_sign
-
-
-@numba.njit(cache=True, fastmath={"contract"})
-def _exp_small(u):
-    """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
-    e = 1.0 / 6402373705728000.0
-    e = 1.0 / 355687428096000.0 + u * e
-    e = 1.0 / 20922789888000.0 + u * e
-    e = 1.0 / 1307674368000.0 + u * e
-    e = 1.0 / 87178291200.0 + u * e
-    e = 1.0 / 6227020800.0 + u * e
-    e = 1.0 / 479001600.0 + u * e
-    e = 1.0 / 39916800.0 + u * e
-    e = 1.0 / 3628800.0 + u * e
-    e = 1.0 / 362880.0 + u * e
-    e = 1.0 / 40320.0 + u * e
-    e = 1.0 / 5040.0 + u * e
-    e = 1.0 / 720.0 + u * e
-    e = 1.0 / 120.0 + u * e
-    e = 1.0 / 24.0 + u * e
-    e = 1.0 / 6.0 + u * e
-    e = 0.5 + u * e
-    e = 1.0 + u * e
-    return 1.0 + u * e
-
-
-@numba.njit(cache=True, fastmath={"contract"})
-def _damping(u, halvings):
-    """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 and halvings in [0, 6]."""
-    e = _exp_small(u)
-    for _ in range(halvings):
-        e = e * e
-    return e
+# The fast kernel uses the polynomial sin, cos and exp of synth.vecmath (the exp on
+# |u| <= 1 squared up to 6 times: |Re(q) dR| <= 64), so that the loop over modes
+# vectorises; the general kernel calls libm.
 
 
 @numba.njit(cache=True, fastmath={"contract"})
@@ -420,14 +362,14 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
             f1 = r1[k] * w1
             f2 = r2[k] * w2
             f3 = r3[k] * w3
-            a0 = f0 * _damping(-qr[k] * d0, halvings)
-            a1 = f1 * _damping(-qr[k] * d1, halvings)
-            a2 = f2 * _damping(-qr[k] * d2, halvings)
-            a3 = f3 * _damping(-qr[k] * d3, halvings)
-            c0, s0 = _cis(qi[k] * d0)
-            c1, s1 = _cis(qi[k] * d1)
-            c2, s2 = _cis(qi[k] * d2)
-            c3, s3 = _cis(qi[k] * d3)
+            a0 = f0 * exp_squared(-qr[k] * d0, halvings)
+            a1 = f1 * exp_squared(-qr[k] * d1, halvings)
+            a2 = f2 * exp_squared(-qr[k] * d2, halvings)
+            a3 = f3 * exp_squared(-qr[k] * d3, halvings)
+            c0, s0 = cis(qi[k] * d0)
+            c1, s1 = cis(qi[k] * d1)
+            c2, s2 = cis(qi[k] * d2)
+            c3, s3 = cis(qi[k] * d3)
             acc_re[k] = (((acc_re[k] + a0 * c0) + a1 * c1) + a2 * c2) + a3 * c3
             acc_im[k] = (((acc_im[k] - a0 * s0) - a1 * s1) - a2 * s2) - a3 * s3
             mag[k] = (((mag[k] + abs(f0)) + abs(f1)) + abs(f2)) + abs(f3)
@@ -438,8 +380,8 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
         row = phi[j]
         for k in range(m):
             f = row[k] * w
-            amp = f * _damping(-qr[k] * d, halvings)
-            c, sn = _cis(qi[k] * d)
+            amp = f * exp_squared(-qr[k] * d, halvings)
+            c, sn = cis(qi[k] * d)
             acc_re[k] += amp * c
             acc_im[k] -= amp * sn
             mag[k] += abs(f)
