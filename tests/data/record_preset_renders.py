@@ -1,21 +1,33 @@
 """Record what every preset renders to (tests/test_frozen_renders.py checks it).
 
-Run from the repository: ``python tests/data/record_preset_renders.py``.
+Run from the repository: ``python tests/data/record_preset_renders.py``. Each preset is
+rendered from empty caches (a private cache folder, empty memory caches), as the test does.
 """
 
 import hashlib
 import json
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 import synth
+from synth.sound import modes, radiation
+
+
+def render_from_empty_caches(name: str):
+    with tempfile.TemporaryDirectory(prefix="synth-record-") as tmp:
+        os.environ["SYNTH_CACHE_DIR"] = tmp
+        modes.clear_memory_cache()
+        radiation.clear_memory_cache()
+        return synth.render_preset(name)
 
 
 def main() -> None:
     out = {}
     for name in sorted(synth.io.presets.available()):
-        r = synth.render_preset(name)
+        r = render_from_empty_caches(name)
         digest = hashlib.sha256(np.ascontiguousarray(r.audio, dtype="<f4").tobytes()).hexdigest()
         ticks = synth.analyze(r.audio, samplerate=r.samplerate).ticks
         out[name] = dict(
