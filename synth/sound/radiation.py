@@ -1032,6 +1032,133 @@ def _apply_separable_rule(
     return acc_re + 1j * acc_im, mag, n_points
 
 
+@dataclass(frozen=True)
+class _PolarSetup:
+    """What a polar rule about the microphone needs (see :func:`separable_gains`): the
+    plate's size (m), the listener (m), the settings as :func:`_check_settings` returns
+    them, ``q = s / c`` (1/m), the panel tolerance, the radial panels and their first
+    orders, the middle distance ``r_mid`` (m) and the exponentials' halvings."""
+
+    size: tuple
+    listener: tuple
+    q_s: np.ndarray
+    kb: float
+    rho: float
+    c: float
+    r0: float | None
+    tol: float
+    max_points: int
+    q: np.ndarray
+    tol_panel: float
+    panels: list
+    orders: np.ndarray
+    r_mid: float
+    halvings: int
+
+
+def _polar_setup(
+    size,
+    n_modes,
+    listener_position,
+    s,
+    max_wavenumber,
+    air_density,
+    sound_speed,
+    reference_distance,
+    tol,
+    max_points,
+) -> _PolarSetup:
+    """The arguments of a polar rule checked (a ParameterError names the field), and its
+    radial panels about the listener (none without modes)."""
+    a, b = size
+    listener = _listener(listener_position)
+    q_s = _poles(s)
+    if q_s.size != n_modes:
+        raise ParameterError(
+            f"s has {q_s.size} poles for {n_modes} modes: one complex "
+            f"frequency (rad/s) per mode is needed"
+        )
+    kb, rho, c, r0, tol = _check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
+    q = q_s / c
+    tol_panel = _POLAR_PANEL_TOL * tol
+    if q.size == 0:
+        return _PolarSetup(
+            size, listener, q_s, kb, rho, c, r0, tol, max_points, q, tol_panel, [], None, 0.0, 0
+        )
+    kappa = kb + float(np.max(np.abs(q)))
+    h = 2.0 * _half_phase(_MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
+    xl, yl, zl = listener
+    panels, orders0 = _radial_orders(
+        _radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
+    )
+    r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
+    big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
+    r_mid = 0.5 * (big_min + big_max)
+    halvings = _halvings(q, 0.5 * (big_max - big_min))
+    return _PolarSetup(
+        size,
+        listener,
+        q_s,
+        kb,
+        rho,
+        c,
+        r0,
+        tol,
+        max_points,
+        q,
+        tol_panel,
+        panels,
+        orders0,
+        r_mid,
+        halvings,
+    )
+
+
+def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
+    """The gains of a polar rule, refined until converged (:func:`_refine`). ``rule(level)``
+    applies the rule refined ``level`` times and returns its integrals, their in-phase
+    bounds and its number of points."""
+    if setup.q.size == 0:
+        empty = np.zeros(0, complex)
+        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
+        return res if full_output else empty
+    counts = {}
+
+    def counted(level):
+        total, mag, counts[level] = rule(level)
+        return total, mag
+
+    def npoints(level):
+        if level in counts:
+            return counts[level]
+        known = max(counts)  # not yet applied: points grow as 1.25^2 per level
+        return int(counts[known] * _REFINE ** (2 * (level - known)))
+
+    q_s, q, rho = setup.q_s, setup.q, setup.rho
+    shift = setup.r_mid - (0.0 if setup.r0 is None else setup.r0)
+    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
+    scale = rho * np.abs(q_s) / (2.0 * math.pi)
+    result = dataclasses.replace(
+        _refine(
+            counted,
+            npoints,
+            factor,
+            scale,
+            setup.tol,
+            setup.max_points,
+            (len(setup.panels), 0),
+        ),
+        rule="polar",
+    )
+    if full_output:
+        return result
+    if not result.success:
+        _warn_unconverged(caller, result, setup.tol)
+    return result.gains
+
+
 def separable_gains(
     shapes,
     listener_position,
@@ -1081,65 +1208,39 @@ def separable_gains(
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.sound.modes.SeparableShapes")
-    a, b = shapes.length, shapes.width
-    listener = _listener(listener_position)
-    q_s = _poles(s)
-    if q_s.size != shapes.x_index.size:
-        raise ParameterError(
-            f"s has {q_s.size} poles for {shapes.x_index.size} modes: one complex "
-            f"frequency (rad/s) per mode is needed"
-        )
-    kb, rho, c, r0, tol = _check_settings(
-        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    setup = _polar_setup(
+        (shapes.length, shapes.width),
+        shapes.x_index.size,
+        listener_position,
+        s,
+        max_wavenumber,
+        air_density,
+        sound_speed,
+        reference_distance,
+        tol,
+        max_points,
     )
-    m = q_s.size
-    if m == 0:
-        empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
-        return res if full_output else empty
-    q = q_s / c
-    kappa = kb + float(np.max(np.abs(q)))
-    tol_panel = _POLAR_PANEL_TOL * tol
-    w_half = _half_phase(_MAX_ORDER, tol_panel)
-    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
-    xl, yl, zl = listener
-    panels, orders0 = _radial_orders(
-        _radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
-    )
-    r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
-    big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
-    r_mid = 0.5 * (big_min + big_max)
-    halvings = _halvings(q, 0.5 * (big_max - big_min))
-    counts = {}
 
     def rule(level):
         f = _REFINE**level
-        radii, wr = _radial_nodes(panels, np.ceil(orders0 * f).astype(np.int64))
+        radii, wr = _radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
         # _refine reads the in-phase integrals of the finer rules only
-        total, mag, n = _apply_separable_rule(
-            shapes, (a, b), listener, radii, wr, kb, tol_panel, f, q, r_mid, halvings, level > 0
+        return _apply_separable_rule(
+            shapes,
+            setup.size,
+            setup.listener,
+            radii,
+            wr,
+            setup.kb,
+            setup.tol_panel,
+            f,
+            setup.q,
+            setup.r_mid,
+            setup.halvings,
+            level > 0,
         )
-        counts[level] = n
-        return total, mag
 
-    def npoints(level):
-        if level in counts:
-            return counts[level]
-        # estimate of a rule not yet applied: points grow as 1.25^2 per level
-        known = max(counts)
-        return int(counts[known] * _REFINE ** (2 * (level - known)))
-
-    shift = r_mid - (0.0 if r0 is None else r0)
-    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
-    scale = rho * np.abs(q_s) / (2.0 * math.pi)
-    result = dataclasses.replace(
-        _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0)), rule="polar"
-    )
-    if full_output:
-        return result
-    if not result.success:
-        _warn_unconverged("separable_gains", result, tol)
-    return result.gains
+    return _polar_gains(setup, rule, "separable_gains", full_output)
 
 
 # ----------------------------------------------------------------------------------------
@@ -1251,61 +1352,43 @@ def summed_gains(
 
     if not isinstance(shapes, SummedShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.sound.modes.SummedShapes")
-    a, b = shapes.length, shapes.width
-    listener = _listener(listener_position)
-    q_s = _poles(s)
-    if q_s.size != shapes.n_modes:
-        raise ParameterError(
-            f"s has {q_s.size} poles for {shapes.n_modes} modes: one complex "
-            f"frequency (rad/s) per mode is needed"
-        )
-    kb, rho, c, r0, tol = _check_settings(
-        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    setup = _polar_setup(
+        (shapes.length, shapes.width),
+        shapes.n_modes,
+        listener_position,
+        s,
+        max_wavenumber,
+        air_density,
+        sound_speed,
+        reference_distance,
+        tol,
+        max_points,
     )
-    if q_s.size == 0:
-        empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
-        return res if full_output else empty
-    q = q_s / c
-    kappa = kb + float(np.max(np.abs(q)))
-    tol_panel = _POLAR_PANEL_TOL * tol
-    h = 2.0 * _half_phase(_MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
-    xl, yl, zl = listener
-    panels, orders0 = _radial_orders(
-        _radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
+    if setup.q.size == 0:
+        return _polar_gains(setup, None, "summed_gains", full_output)
+    in_phase = _summed_in_phase(
+        shapes, setup.size, setup.listener, setup.kb, setup.tol_panel, setup.r_mid
     )
-    r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
-    big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
-    r_mid = 0.5 * (big_min + big_max)
-    halvings = _halvings(q, 0.5 * (big_max - big_min))
-    in_phase = _summed_in_phase(shapes, (a, b), listener, kb, tol_panel, r_mid)
-    counts = {}
 
     def rule(level):
         f = _REFINE**level
-        radii, wr = _radial_nodes(panels, np.ceil(orders0 * f).astype(np.int64))
-        total, counts[level] = _apply_summed_rule(
-            shapes, (a, b), listener, radii, wr, kb, tol_panel, f, q, r_mid, halvings
+        radii, wr = _radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
+        total, n = _apply_summed_rule(
+            shapes,
+            setup.size,
+            setup.listener,
+            radii,
+            wr,
+            setup.kb,
+            setup.tol_panel,
+            f,
+            setup.q,
+            setup.r_mid,
+            setup.halvings,
         )
-        return total, in_phase
+        return total, in_phase, n
 
-    def npoints(level):
-        if level in counts:
-            return counts[level]
-        known = max(counts)  # not yet applied: points grow as 1.25^2 per level
-        return int(counts[known] * _REFINE ** (2 * (level - known)))
-
-    shift = r_mid - (0.0 if r0 is None else r0)
-    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
-    scale = rho * np.abs(q_s) / (2.0 * math.pi)
-    result = dataclasses.replace(
-        _refine(rule, npoints, factor, scale, tol, max_points, (len(panels), 0)), rule="polar"
-    )
-    if full_output:
-        return result
-    if not result.success:
-        _warn_unconverged("summed_gains", result, tol)
-    return result.gains
+    return _polar_gains(setup, rule, "summed_gains", full_output)
 
 
 # ----------------------------------------------------------------------------------------
