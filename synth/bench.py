@@ -1453,10 +1453,7 @@ def run_long(durations=LONG_DURATIONS, timeout: float = 1800.0) -> list:
     cache): seconds, traced peak MB, the process' peak resident MB (``ru_maxrss``: the
     interpreter and libraries too), seconds per minute of audio, and ticks found against
     the truth."""
-    import json
     import os
-    import subprocess
-    import sys
     import tempfile
 
     code = (
@@ -1474,23 +1471,9 @@ def run_long(durations=LONG_DURATIONS, timeout: float = 1800.0) -> list:
                 path = os.path.join(tmp, "long.wav")
                 truth = long_recording(path, duration, repeated)
                 row = {"duration": duration, "repeated": repeated, "truth": truth}
-                try:
-                    proc = subprocess.run(
-                        [sys.executable, "-c", code, path, warm],
-                        capture_output=True,
-                        text=True,
-                        timeout=timeout,
-                        check=False,
-                    )
-                except subprocess.TimeoutExpired:
-                    row["error"] = f"over {timeout:g} s"
-                else:
-                    if proc.returncode != 0:
-                        lines = proc.stderr.strip().splitlines()
-                        row["error"] = lines[-1] if lines else "failed"
-                    else:
-                        row.update(json.loads(proc.stdout.strip().splitlines()[-1]))
-                        row["per_minute"] = row["seconds"] / (duration / 60.0)
+                row.update(_child_json(code, [path, warm], timeout))
+                if "error" not in row:
+                    row["per_minute"] = row["seconds"] / (duration / 60.0)
                 rows.append(row)
     return rows
 
@@ -1663,21 +1646,23 @@ def scale_child(spec: dict) -> dict:
     return out
 
 
-def _scale_run(spec, cache_dir, timeout):
+def _child_json(code: str, argv: list, timeout: float, cache_dir=None) -> dict:
+    """Run ``python -c code *argv`` in a new process (with ``SYNTH_CACHE_DIR=cache_dir``
+    if given) and return the JSON object its last line of output prints, with
+    ``process_s`` its wall time (s); or ``{"error": ...}`` saying why there is none (a
+    timeout, a signal, or the last line of its error output)."""
     import json
     import os
     import subprocess
     import sys
 
-    env = dict(os.environ, SYNTH_CACHE_DIR=str(cache_dir))
-    code = (
-        "import json, sys; from synth import bench; "
-        "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))"
+    env = (
+        dict(os.environ) if cache_dir is None else dict(os.environ, SYNTH_CACHE_DIR=str(cache_dir))
     )
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(
-            [sys.executable, "-c", code, json.dumps(spec)],
+            [sys.executable, "-c", code, *argv],
             env=env,
             capture_output=True,
             text=True,
@@ -1687,11 +1672,24 @@ def _scale_run(spec, cache_dir, timeout):
     except subprocess.TimeoutExpired:
         return {"error": f"over {timeout:g} s"}
     wall = time.perf_counter() - t0
+    if proc.returncode < 0:
+        return {"error": f"stopped by signal {-proc.returncode} after {wall:.0f} s"}
     if proc.returncode != 0:
-        return {"error": proc.stderr.strip().splitlines()[-1] if proc.stderr else "failed"}
+        lines = proc.stderr.strip().splitlines()
+        return {"error": lines[-1] if lines else "failed"}
     res = json.loads(proc.stdout.strip().splitlines()[-1])
     res["process_s"] = wall
     return res
+
+
+def _scale_run(spec, cache_dir, timeout):
+    import json
+
+    code = (
+        "import json, sys; from synth import bench; "
+        "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))"
+    )
+    return _child_json(code, [json.dumps(spec)], timeout, cache_dir)
 
 
 def run_scale(ladder=SCALE_LADDER, timeout=600.0, random=SCALE_RANDOM) -> list:
@@ -1826,10 +1824,6 @@ def hires_child(samplerate: int, previous: bool = False) -> dict:
 
 
 def _hires_run(samplerate, previous, timeout):
-    import json
-    import os
-    import subprocess
-    import sys
     import tempfile
 
     code = (
@@ -1837,27 +1831,7 @@ def _hires_run(samplerate, previous, timeout):
         "print(json.dumps(bench.hires_child(int(sys.argv[1]), sys.argv[2] == '1')))"
     )
     with tempfile.TemporaryDirectory(prefix="synth-hires-") as tmp:
-        env = dict(os.environ, SYNTH_CACHE_DIR=tmp)
-        t0 = time.perf_counter()
-        try:
-            proc = subprocess.run(
-                [sys.executable, "-c", code, str(samplerate), "1" if previous else "0"],
-                env=env,
-                capture_output=True,
-                text=True,
-                timeout=timeout,
-                check=False,
-            )
-        except subprocess.TimeoutExpired:
-            return {"error": f"over {timeout:g} s"}
-        wall = time.perf_counter() - t0
-    if proc.returncode < 0:
-        return {"error": f"stopped by signal {-proc.returncode} after {wall:.0f} s"}
-    if proc.returncode != 0:
-        return {"error": proc.stderr.strip().splitlines()[-1] if proc.stderr else "failed"}
-    res = json.loads(proc.stdout.strip().splitlines()[-1])
-    res["process_s"] = wall
-    return res
+        return _child_json(code, [str(samplerate), "1" if previous else "0"], timeout, tmp)
 
 
 def run_hires(rates=HIRES_RATES, timeout=3600.0) -> dict:
