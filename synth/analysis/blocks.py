@@ -19,6 +19,7 @@ in blocks through soundfile (:class:`FileSource`).
 
 from __future__ import annotations
 
+import abc
 import math
 import os
 from dataclasses import dataclass
@@ -44,17 +45,17 @@ OVERLAP = 2.0
 READ_FRAMES = 1 << 20
 
 
-class Source:
+class Source(abc.ABC):
     """A recording, read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz) and
-    :meth:`read`."""
+    :meth:`read` (:class:`ArraySource`, :class:`FileSource`)."""
 
     frames: int
     channels: int
     samplerate: float
 
+    @abc.abstractmethod
     def read(self, start: int, stop: int) -> np.ndarray:
         """Frames ``start .. stop - 1``, float64, shape ``(n, channels)``."""
-        raise NotImplementedError
 
     def pieces(self):
         """The whole recording in consecutive pieces of at most :data:`READ_FRAMES` frames:
