@@ -253,6 +253,30 @@ def test_a_killed_worker_stops_the_bank_cleanly_and_resume_completes(tmp_path, c
     _check_complete(out, 40)
 
 
+def test_pool_workers_take_sigterm_by_default(tmp_path, cache_dir):
+    # The command line's SIGTERM handler raises to unwind; a forked worker must not inherit
+    # it: the pool stops its workers with SIGTERM when one dies, and a raise inside a
+    # library callback (soundfile's writer) is swallowed and printed as a traceback.
+    import importlib
+
+    from synth.bank import spec as bank_spec
+    from synth.cli import _on_sigterm
+
+    bank_run = importlib.import_module("synth.bank.run")  # synth.bank.run is also a function
+
+    spec = bank_spec.load(_write_spec(tmp_path / "spec", count=2))
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        pool = bank_run._Pool(spec, str(tmp_path / "out"), 2)
+        try:
+            futures = [pool.executor.submit(signal.getsignal, signal.SIGTERM) for _ in range(4)]
+            assert all(f.result(timeout=60) == signal.SIG_DFL for f in futures)
+        finally:
+            pool.close()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _mount_tmpfs(path: Path, size: str) -> bool:
     if not sys.platform.startswith("linux") or os.geteuid() != 0:
         return False

@@ -236,7 +236,15 @@ _WORKER_DIR: str | None = None
 
 
 def _pool_init(spec: BankSpec, out_dir: str) -> None:
+    """A worker's start: SIGTERM takes its default action (the pool stops its workers
+    with SIGTERM when one dies; a forked worker would otherwise inherit the command
+    line's handler, which raises inside whatever library callback is running, where it
+    is swallowed and printed). A temporary left by a stopped worker is removed by the
+    next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
+    import signal
+
     global _WORKER_SPEC, _WORKER_DIR
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _WORKER_SPEC, _WORKER_DIR = spec, out_dir
     warm(spec)
 
