@@ -769,6 +769,76 @@ class ImpactExcitation:
     magnitude: float
 
 
+@numba.njit(cache=True)
+def transform_pulse(
+    pr,
+    pi,
+    cr,
+    ci,
+    ur,
+    ui,
+    sigma_max,
+    period,
+    h,
+    forces,
+    slopes,
+    d0,
+    offset_forces,
+    offset_slopes,
+    weight,
+    tau,
+    order,
+    amps,
+    resp,
+):
+    """One impact's mode amplitudes and in-contact response: :func:`_impact` (its
+    arguments, its result), or :func:`_impact_long` when the contact of ``tau`` s lasts
+    more than ``LONG_CONTACT_NEPERS`` time constants of the fastest-decaying mode
+    (``sigma_max``, 1/s). Compiled, so that the live engine's audio thread calls it too."""
+    if sigma_max * tau > LONG_CONTACT_NEPERS:
+        return _impact_long(
+            pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
+            offset_forces, offset_slopes, weight, tau, order, amps, resp,
+        )  # fmt: skip
+    return _impact(
+        pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
+        offset_forces, offset_slopes, weight, tau, order, amps, resp,
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PulseLayout:
+    """Where one contact's pulse is sampled for its transforms (see :func:`_impact`):
+    ``points`` grid points ``j step`` (s) from first touch, and the ``samples`` audio
+    samples inside the contact, ``first .. first + samples - 1``, the first of them
+    ``offset`` s (in ``[0, 1 / samplerate)``) after first touch."""
+
+    points: int
+    step: float
+    first: int
+    samples: int
+    offset: float
+
+    @property
+    def inject(self) -> int:
+        """The first sample after the contact, where the mode amplitudes join the bank."""
+        return self.first + self.samples
+
+
+def pulse_layout(
+    contact_time: float, onset: float, omega_max: float, samplerate: float, pulse_points: int
+) -> PulseLayout:
+    """The :class:`PulseLayout` of a contact of ``contact_time`` s whose first touch is at
+    ``onset`` s from sample 0, for modes up to ``omega_max`` rad/s at ``samplerate`` Hz,
+    with at least ``pulse_points`` grid points (the kernel guards the rounding of a sample
+    that falls on the touch)."""
+    fs = samplerate
+    n = _grid_size(contact_time, omega_max, pulse_points)
+    first = int(math.ceil(onset * fs - 1e-9))
+    samples = max(0, int(math.ceil((onset + contact_time) * fs - 1e-9)) - first)
+    return PulseLayout(n, contact_time / (n - 1), first, samples, first * (1.0 / fs) - onset)
+
+
 def impact_excitation(
     coefficients: BankCoefficients,
     result,
@@ -789,18 +859,11 @@ def impact_excitation(
     response into (at least :func:`samples_in_contact` long).
     """
     c = coefficients
-    period = 1.0 / c.samplerate
     fs = c.samplerate
-    t0 = onset
     tau = result.contact_time
-    n = _grid_size(tau, c.omega_max, pulse_points)
-    h = tau / (n - 1)
-    # the audio samples inside the contact: first .. first + M - 1, from d0 after first
-    # touch (the kernel guards the rounding of a sample that falls on the touch)
-    first = int(math.ceil(t0 * fs - 1e-9))
-    M = max(0, int(math.ceil((t0 + tau) * fs - 1e-9)) - first)
-    d0 = first * period - t0
-    forces, slopes = result.pulse_samples(h, n, d0, period, M)
+    lay = pulse_layout(tau, onset, c.omega_max, fs, pulse_points)
+    n, M = lay.points, lay.samples
+    forces, slopes = result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M)
     if response is None:
         resp = np.empty(M)
     elif response.size < M:
@@ -811,19 +874,19 @@ def impact_excitation(
     else:
         resp = response[:M]
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
-    kernel = _impact_long if c.sigma_max * tau > LONG_CONTACT_NEPERS else _impact
-    magnitude = kernel(
+    magnitude = transform_pulse(
         c.pole_re,
         c.pole_im,
         c.coef_re,
         c.coef_im,
         c.step_re,
         c.step_im,
-        period,
-        h,
+        c.sigma_max,
+        1.0 / fs,
+        lay.step,
         forces[:n],
         slopes[:n],
-        d0,
+        lay.offset,
         forces[n:],
         slopes[n:],
         float(weight),
@@ -832,7 +895,7 @@ def impact_excitation(
         amps,
         resp,
     )
-    return ImpactExcitation(amps, first + M, first, resp, forces[n:], magnitude)
+    return ImpactExcitation(amps, lay.inject, lay.first, resp, forces[n:], magnitude)
 
 
 def samples_in_contact(contact_time: float, samplerate: float) -> int:
