@@ -102,6 +102,9 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
 
 def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:
     """A tuple of ``dims`` finite floats (a position)."""
+    if type(value) is tuple and len(value) == dims:
+        if all(type(v) is float and -math.inf < v < math.inf for v in value):
+            return value  # finite floats already: nothing to convert
     try:
         items = tuple(value)
     except TypeError:

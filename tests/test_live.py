@@ -213,16 +213,70 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     from synth.live import kernel
     from synth.live.queue import WRITING, PendingRing
 
-    ring = PendingRing(2, 3, 4)
+    ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
     assert ring.state[i] == WRITING and ring.pending() == 0
-    kernel.silence(np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state)
+    kernel.silence(
+        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
+    )
     assert ring.state[i] == WRITING
     j = ring.reserve()
     assert j != i and ring.reserve() == -1 and ring.refused == 1
     ring.publish(i, 10, 5, 2, 1.0)
     ring.release(j)
     assert ring.pending() == 1 and ring.free_slots() == 1
+
+
+def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
+    # the audio thread transforms the pulses handed over since its last block: at most
+    # max_new wait at a time (a bound on any block's work); a transform or stop_all's
+    # dropping of a pulse frees its place. Without a deadline (bounded=False) the ring
+    # alone bounds them.
+    from synth.live import kernel
+    from synth.live.queue import PendingRing
+
+    ring = PendingRing(8, 3, 4, 7, 3)
+    slots = [ring.reserve(pulse=True) for _ in range(4)]
+    assert slots[3] == -1 and ring.refused == 1
+    for i in slots[:3]:
+        ring.publish_pulse(i, 10, 5, 2, 5)
+    assert ring.pending() == 3
+    kernel.silence(
+        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
+    )
+    assert ring.pending() == 0 and ring.transformed[0] == 3
+    assert all(ring.reserve(pulse=True) >= 0 for _ in range(3))
+    assert ring.reserve(pulse=True) == -1
+    assert ring.reserve(pulse=True, bounded=False) >= 0
+
+
+def test_hits_without_a_stream_are_bounded_by_the_ring_alone(scene):
+    engine = synth.Engine(samplerate=FS, max_pending=8, max_hits_per_block=3)
+    body = engine.add(scene.plate, listener=scene.listener)
+    assert [body.hit(scene.ball, 1.0) is not None for _ in range(9)] == [True] * 8 + [False]
+    engine.process(FS // 10)
+    assert engine.stats.impacts_played == 8 and engine.stats.impacts_refused == 1
+    with pytest.raises(ParameterError, match="max_hits_per_block"):
+        synth.Engine(samplerate=FS, max_pending=8, max_hits_per_block=9)
+
+
+def test_contacts_too_long_for_a_slot_are_transformed_on_the_calling_thread(scene, monkeypatch):
+    # a contact whose pulse grid exceeds a slot's (a soft ball) takes the drop's path, the
+    # transform on the calling thread: the same transform, so the result is the render
+    from synth.live import engine as live_engine
+
+    monkeypatch.setattr(live_engine, "MAX_SLOT_GRID", 5)  # every contact is too long
+    monkeypatch.setattr(live_engine, "SLOT_CONTACT", 1e-6)
+    times = np.array([0.0, 0.0029, 0.0311])
+    speeds = [1.5, 0.8, 0.6]
+    r = rendered(scene, hits_sequence(scene, times, speeds))
+    engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    for t, v in zip(times, speeds):
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+    assert body._ring.pulses == 0 and body.pending == 3
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
 
 def test_prepared_points_play_as_unprepared_ones(scene):
@@ -389,6 +443,7 @@ def test_bench_live_figures_format():
 
     result = dict(
         callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+        transform=bench.transform_cost(repeat=2),
         hit_us=bench.hit_cost(repeat=5),
         add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001),
         jack=None,
@@ -397,3 +452,5 @@ def test_bench_live_figures_format():
     assert all(r["played"] >= 1 for r in result["callback"])
     text = bench.format_live(result)
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
+    assert "the audio thread's share of a hit" in text
+    assert result["transform"]["hits_per_block"] == synth.Engine().max_hits_per_block

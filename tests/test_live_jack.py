@@ -98,6 +98,21 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
     np.testing.assert_allclose(engine.recording, want, rtol=0, atol=tol)
 
 
+def test_a_burst_of_hits_is_bounded_per_block_while_the_stream_runs(jack, scene):
+    # while the stream runs, at most max_hits_per_block pulses wait for the audio thread
+    # (a bound on any block's transform work): a burst of hits faster than the blocks is
+    # partly refused and counted; every accepted hit is played
+    with synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device) as engine:
+        body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+        engine_limit = engine.max_hits_per_block
+        time.sleep(0.05)
+        accepted = sum(body.hit(scene.ball, 1.0) is not None for _ in range(20 * engine_limit))
+        assert wait_for(lambda: engine.stats.impacts_pending == 0, 2.0)
+        stats = engine.stats
+    assert stats.impacts_refused == 20 * engine_limit - accepted > 0
+    assert stats.impacts_played == accepted >= engine_limit
+
+
 def test_add_while_running_and_stop_fades_out(jack, scene):
     with synth.Engine(
         samplerate=FS, blocksize=BLOCK, device=jack.device, record_seconds=2.0, fade=0.01

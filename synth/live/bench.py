@@ -2,6 +2,8 @@
 
 * the callback's mixing cost per block for 1, 4 and 16 bodies of the default preset's plate
   (all ringing: each is hit ten times a second), as a fraction of the block's duration;
+* the audio thread's share of a hit (its pulse transformed into mode amplitudes), and the
+  cost of a block that takes the most hits a running stream allows;
 * ``Body.hit`` on the calling thread (median over many calls; at one impact point, and at a
   new point each time, which adds the mode shapes there);
 * ``Engine.add`` with a cold cache (an empty cache directory: plate modes and microphone
@@ -60,30 +62,37 @@ def add_times(samplerate=48000) -> dict:
 
 def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.0, seed=0) -> list:
     """Mixing cost of one block (the callback's work, :meth:`Engine._mix_into`) with ``n``
-    ringing bodies: mean and max over ``seconds`` of audio, as a fraction of the block."""
+    ringing bodies, each hit ten times a second as a live program would (each hit handed
+    over in the block before its start, so the block that takes it transforms its pulse):
+    mean and max over ``seconds`` of audio, as a fraction of the block."""
     from synth.live.engine import Engine
 
     scene = _scene()
     rng = np.random.default_rng(seed)
     rows = []
+    block = blocksize / samplerate
     for n in bodies:
         engine = Engine(samplerate=samplerate, blocksize=blocksize)
+        schedule = []
         for _ in range(n):
             body = engine.add(scene.plate, listener=scene.listener)
-            for t in np.arange(0.0, seconds, 0.1) + rng.uniform(0.0, 0.1):
-                body.hit(
-                    scene.ball,
-                    float(rng.uniform(0.3, 2.0)),
-                    at=float(t),
-                    position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))),
-                )
+            for t in np.arange(block, seconds, 0.1) + rng.uniform(0.0, 0.1):
+                v = float(rng.uniform(0.3, 2.0))
+                pos = (float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44)))
+                body.prepare(pos)
+                schedule.append((float(t), body, v, pos))
+        schedule.sort(key=lambda hit: hit[0])
         out = np.zeros((blocksize, 1), dtype=np.float32)
         costs = []
-        for _ in range(int(seconds * samplerate / blocksize)):
+        k = 0
+        for b in range(int(seconds * samplerate / blocksize)):
+            while k < len(schedule) and schedule[k][0] < (b + 2) * block:
+                t, body, v, pos = schedule[k]
+                body.hit(scene.ball, v, at=max(t, (b + 1) * block), position=pos)
+                k += 1
             t = time.perf_counter()
             engine._mix_into(out, blocksize)
             costs.append(time.perf_counter() - t)
-        block = blocksize / samplerate
         costs = np.array(costs) / block
         rows.append(
             dict(
@@ -98,17 +107,51 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
     return rows
 
 
+def transform_cost(samplerate=48000, blocksize=256, repeat=60) -> dict:
+    """The audio thread's share of a hit: the cost of a block that takes ``k`` new hits on
+    one default body (their pulses transformed into mode amplitudes), for ``k`` = 0, 1 and
+    the engine's ``max_hits_per_block``; medians, as a fraction of the block, and the
+    cost per hit in microseconds."""
+    from synth.live.engine import Engine
+
+    scene = _scene()
+    engine = Engine(samplerate=samplerate, blocksize=blocksize)
+    body = engine.add(scene.plate, listener=scene.listener)
+    out = np.zeros((blocksize, 1), dtype=np.float32)
+    block = blocksize / samplerate
+    full = engine.max_hits_per_block
+    medians = {}
+    for k in (0, 1, full):
+        costs = []
+        for _ in range(repeat):
+            for _ in range(k):
+                body.hit(scene.ball, 1.0, at=engine.time + 2 * block)
+            t = time.perf_counter()
+            engine._mix_into(out, blocksize)
+            costs.append(time.perf_counter() - t)
+            body.stop_all()
+            engine._mix_into(out, blocksize)
+        medians[k] = float(np.median(costs))
+    return dict(
+        hits_per_block=full,
+        modes=body.modes,
+        empty=medians[0] / block,
+        one=medians[1] / block,
+        full=medians[full] / block,
+        per_hit_us=(medians[full] - medians[0]) / full * 1e6,
+    )
+
+
 def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
     """``Body.hit`` on the calling thread, microseconds: median and 90th percentile at one
     point, at a new point each call, and at one point with the fewest pulse points the
-    grid rule allows (``pulse_points=5``)."""
+    grid rule allows (``pulse_points=5``). The pending impacts are dropped (untimed) as
+    soon as a block's worth wait, as the audio thread would take them."""
     from synth.live.engine import Engine
 
     scene = _scene()
     rng = np.random.default_rng(seed)
-    engines = {
-        pp: Engine(samplerate=samplerate, max_pending=4096, pulse_points=pp) for pp in (65, 5)
-    }
+    engines = {pp: Engine(samplerate=samplerate, pulse_points=pp) for pp in (65, 5)}
     bodies = {pp: e.add(scene.plate, listener=scene.listener) for pp, e in engines.items()}
     out = {}
     for name, new_point, pp in (
@@ -128,7 +171,7 @@ def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
             t = time.perf_counter()
             body.hit(scene.ball, v, position=pos)
             times.append(time.perf_counter() - t)
-            if body.pending > 4000:
+            if body.pending >= engines[pp].max_hits_per_block:
                 body.stop_all()
         body.stop_all()
         times = np.array(times) * 1e6
@@ -222,7 +265,9 @@ def run_live(seconds=30.0) -> dict:
     """Every figure of the live benchmark (``seconds``: the JACK run's length)."""
     from synth.live.jack import jackd_available
 
-    result = dict(add_s=add_times(), callback=callback_cost(), hit_us=hit_cost())
+    result = dict(
+        add_s=add_times(), callback=callback_cost(), transform=transform_cost(), hit_us=hit_cost()
+    )
     if jackd_available():
         result["jack"] = jack_run(seconds=seconds)
     else:
@@ -237,7 +282,8 @@ def format_live(result) -> str:
     by_n = {r["bodies"]: r for r in rows}
     lines = [
         "Callback (mixing) cost per 256-frame block at 48 kHz, default plate "
-        f"({rows[0]['modes']} modes), every body ringing (hit 10 times a second):",
+        f"({rows[0]['modes']} modes), every body ringing (hit 10 times a second; a block "
+        "that takes a hit also transforms its pulse):",
         "| bodies | mean (% of block) | 99th percentile | max |",
         "|---|---|---|---|",
     ]
@@ -259,8 +305,15 @@ def format_live(result) -> str:
             f"{100 * TARGETS['callback_16']:.0f} %): "
             f"{ok[by_n[16]['mean'] < TARGETS['callback_16']]}"
         )
+    x = result["transform"]
     lines += [
-        f"- hit() on the calling thread, same point: median {h['same_point']['median']:.0f} us, "
+        f"- the audio thread's share of a hit (its pulse turned into {x['modes']} mode "
+        f"amplitudes at the start of the block that takes it): {x['per_hit_us']:.0f} us; a "
+        f"block taking {x['hits_per_block']} hits (max_hits_per_block, the most a running "
+        f"stream takes between two blocks) costs {100 * x['full']:.1f} % of the block, one "
+        f"hit {100 * x['one']:.2f} %, none {100 * x['empty']:.2f} %",
+        f"- hit() on the calling thread (the contact solved, its pulse sampled and handed "
+        f"over), same point: median {h['same_point']['median']:.0f} us, "
         f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
         f"median): {ok[h['same_point']['median'] < TARGETS['hit_us']]}; at a new point each "
         f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "

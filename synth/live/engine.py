@@ -4,13 +4,15 @@
 ``Engine.process(frames)`` runs the very same mixing without a device. A body is one
 plate heard by one listener: one modal state (:class:`~synth.sound.render.ModalModel`,
 the offline renderer's), which every impact on it excites, so any number of balls on one
-table cost one modal bank. ``Body.hit`` solves the contact on the calling thread, turns it
-into the modes' amplitudes (:func:`~synth.sound.modal_bank.impact_excitation`, the
-renderer's) and hands them to the audio thread through a bounded ring
-(:mod:`synth.live.queue`); the callback calls one compiled kernel per body per block
-(:mod:`synth.live.kernel`), which advances the modes block by block from their state with
-the offline bank's own steps. So the hits played live are ``synth.render`` of the same
-impacts, to float32 rounding.
+table cost one modal bank. ``Body.hit`` solves the contact on the calling thread and hands
+its force pulse to the audio thread through a bounded ring (:mod:`synth.live.queue`); the
+callback calls one compiled kernel per body per block (:mod:`synth.live.kernel`), which
+first turns new pulses into the modes' amplitudes (the renderer's transform,
+:func:`~synth.sound.modal_bank.transform_pulse`; at most ``max_hits_per_block`` a block)
+and then advances the modes block by block from their state with the offline bank's own
+steps. ``Body.drop`` computes its impacts' amplitudes on the calling thread
+(:func:`~synth.sound.modal_bank.impact_excitation`) and hands those over. So the hits
+played live are ``synth.render`` of the same impacts, to float32 rounding.
 
 Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the fixed
 calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
@@ -48,6 +50,7 @@ from synth.sound.modal_bank import (
     bank_coefficients,
     impact_excitation,
     power_table,
+    pulse_layout,
     samples_in_contact,
 )
 from synth.sound.render import modal_model
@@ -60,6 +63,14 @@ SWITCH_INTERVAL = 0.0002
 LATENCIES = ("low", "high")
 #: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
 MAX_CONTACT = 0.02
+#: Longest contact whose pulse a hit hands to the audio thread as is, s; a longer one (a
+#: soft ball) is turned into mode amplitudes on the calling thread. Sets the size of a
+#: slot's pulse samples (a grid of at most ``MAX_SLOT_GRID`` points, and the in-contact
+#: samples).
+SLOT_CONTACT = 0.002
+MAX_SLOT_GRID = 4097
+#: Default bound on the hits a body takes between two blocks (``max_hits_per_block``).
+HITS_PER_BLOCK = 16
 #: Height (m) of the default microphone above the plate's centre (as a Scene's default).
 DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: Relative accuracy of a hit's contact solution (restitution and contact time); a drop
@@ -106,7 +117,7 @@ class _Prepared:
     mass_line: float
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class _Trigger:
     """What a hit or a drop is made of, checked: the ball, its impact point (m), its gain,
     the contact law, gravity (m/s^2) and its start on the engine's clock (s)."""
@@ -123,9 +134,7 @@ class Body:
     """One plate in an :class:`Engine` (made by :meth:`Engine.add`): one modal state that
     every impact on it excites."""
 
-    def __init__(
-        self, engine: Engine, plate: Plate, listener, gain: float, model, max_pending: int
-    ):
+    def __init__(self, engine: Engine, plate: Plate, listener, gain: float, model):
         self._engine = engine
         self.plate = plate
         self.listener = listener
@@ -137,43 +146,28 @@ class Body:
         self._scale = gain / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
         self._solvers: dict = {}
-        self._ring = PendingRing(max_pending, K, samples_in_contact(MAX_CONTACT, fs))
+        coefficients = self._prepare(plate.centre).coefficients
+        grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
+        self._ring = PendingRing(
+            engine.max_pending,
+            K,
+            samples_in_contact(MAX_CONTACT, fs),
+            min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
+            engine.max_hits_per_block,
+        )
         self._counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
         self._silence = False
         self._puts_seen = 0
-        r = self._ring
-        self._state_arrays = (
-            np.zeros(K),
-            np.zeros(K),
-            np.zeros(K, dtype=np.bool_),
-            np.zeros(K),
-            np.zeros(K, dtype=np.int64),
-            np.zeros(K),
-            np.zeros(K),
-        )
-        zr, zi, active, debt, debt_at, thr, thr2 = self._state_arrays
+        self._state_arrays = kernel.body_state(K)
         self._level = np.zeros(1)
         self._warm_up()
-        self._kernel_args = (
+        self._kernel_args = kernel.body_kernel_args(
+            coefficients,
             power_table(poles, float(fs)),
-            poles,
-            float(fs),
-            zr,
-            zi,
-            active,
-            debt,
-            debt_at,
-            thr,
-            thr2,
+            self._state_arrays,
             self._level,
             engine.floor,
-            r.state,
-            r.inject,
-            r.first,
-            r.length,
-            r.amplitudes,
-            r.response,
-            r.reference,
+            self._ring,
             self._counters,
         )
 
@@ -264,15 +258,18 @@ class Body:
             )
         return contact
 
-    def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
-        """Hand one contact over, its tick starting at ``onset`` s on the engine's clock:
-        its excitation is written straight into a reserved slot of the body's ring."""
-        ring = self._ring
-        if samples_in_contact(result.contact_time, self._engine.samplerate) > ring.max_contact:
+    def _check_length(self, contact_time: float) -> None:
+        if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
             raise ParameterError(
-                f"the contact lasts {result.contact_time:.4g} s, longer than the {MAX_CONTACT} s "
+                f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "
                 f"a live body takes (a softer contact than any material in the table)"
             )
+
+    def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
+        """Hand one contact over, its tick starting at ``onset`` s on the engine's clock:
+        its excitation is computed here, straight into a reserved slot of the body's ring."""
+        ring = self._ring
+        self._check_length(result.contact_time)
         slot = ring.reserve()
         if slot < 0:
             return False
@@ -296,6 +293,39 @@ class Body:
             response += ex.forces * prepared.mass_line
         response *= g
         ring.publish(slot, ex.inject, ex.first, response.size, ex.magnitude * g)
+        return True
+
+    def _hand_over(self, result, onset: float, prepared: _Prepared, gain: float) -> bool:
+        """Hand one contact over as its force pulse (the audio thread computes its
+        excitation at its next block, see :mod:`synth.live.kernel`); a contact too long for
+        a slot's pulse grid is computed here (:meth:`_submit`)."""
+        ring = self._ring
+        self._check_length(result.contact_time)
+        c = prepared.coefficients
+        fs = c.samplerate
+        lay = pulse_layout(result.contact_time, onset, c.omega_max, fs, self._engine.pulse_points)
+        n, M = lay.points, lay.samples
+        if n + M > ring.pulse_samples:
+            return self._submit(result, onset, prepared, gain)
+        slot = ring.reserve(pulse=True, bounded=self._engine.running)
+        if slot < 0:
+            return False
+        try:
+            result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M, out=ring.samples[slot])
+            ring.coefficients[slot, 0] = c.coef_re
+            ring.coefficients[slot, 1] = c.coef_im
+            p = ring.pulse[slot]
+            p[kernel.STEP] = lay.step
+            p[kernel.OFFSET] = lay.offset
+            p[kernel.WEIGHT] = 0.0
+            p[kernel.CONTACT_TIME] = result.contact_time
+            p[kernel.ORDER] = result.exponent + 1.0
+            p[kernel.GAIN] = self._scale * gain
+            p[kernel.MASS_LINE] = prepared.mass_line
+        except BaseException:
+            ring.release(slot, pulse=True)
+            raise
+        ring.publish_pulse(slot, lay.inject, lay.first, M, n)
         return True
 
     def _solver(self, tr: _Trigger) -> ContactSolver:
@@ -358,7 +388,7 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        accepted = self._submit(result, tr.onset, self._prepare(tr.position), tr.gain)
+        accepted = self._hand_over(result, tr.onset, self._prepare(tr.position), tr.gain)
         return tr.onset if accepted else None
 
     def drop(
@@ -417,7 +447,7 @@ class Body:
 
     def _apply_silence(self):
         zr, zi, active, debt = self._state_arrays[:4]
-        kernel.silence(zr, zi, active, debt, self._ring.state)
+        kernel.silence(zr, zi, active, debt, self._ring.state, self._ring.transformed)
         self._counters[kernel.AWAKE] = 0
         self._silence = False
 
@@ -449,7 +479,13 @@ class Engine:
         offline renderer's ``floor_db``).
     max_pending : int
         Impacts a body holds before they are played, in [1, 4096]; beyond it a hit is
-        refused and counted (a bound on the work of any block).
+        refused and counted.
+    max_hits_per_block : int, optional
+        Hits a body takes between two blocks, in [1, max_pending] (default
+        ``min(HITS_PER_BLOCK, max_pending)``): the audio thread turns
+        each into mode amplitudes at the start of the next block (about ``modes * points``
+        complex multiply-adds), so this bounds that work in any block; beyond it a hit is
+        refused and counted.
     max_frequency : float, optional
         Highest mode of every body, Hz, at most Nyquist (default Nyquist): fewer modes cost
         less per block and per hit.
@@ -481,6 +517,7 @@ class Engine:
         channels: int = 1,
         floor_db: float = -80.0,
         max_pending: int = 128,
+        max_hits_per_block: int | None = None,
         max_frequency: float | None = None,
         pulse_points: int = PULSE_POINTS,
         fade: float = 0.01,
@@ -506,6 +543,11 @@ class Engine:
             raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB)")
         self.floor = 10.0 ** (db / 20.0)
         self.max_pending = _check_int("max_pending", max_pending, 1, 4096, "impacts")
+        if max_hits_per_block is None:
+            max_hits_per_block = min(HITS_PER_BLOCK, self.max_pending)
+        self.max_hits_per_block = _check_int(
+            "max_hits_per_block", max_hits_per_block, 1, self.max_pending, "impacts"
+        )
         self.pulse_points = _check_int("pulse_points", pulse_points, 5, 100_000, "points")
         self.max_frequency = None
         if max_frequency is not None:
@@ -565,7 +607,7 @@ class Engine:
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
-        body = Body(self, plate, listener, g, model, self.max_pending)
+        body = Body(self, plate, listener, g, model)
         self._bodies = self._bodies + (body,)  # one assignment: the callback sees all or none
         return body
 

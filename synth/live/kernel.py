@@ -9,6 +9,10 @@ so a sequence of impacts played block by block is the offline render of the same
 up to the rounding of the state's advance (the segments end at block boundaries instead
 of the bank's tiles).
 
+Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
+into mode amplitudes first, at the start of the block, by the renderer's transform
+(:func:`~synth.sound.modal_bank.transform_pulse`).
+
 Compiled ``nogil=True``: while a block is mixed, trigger threads keep running (they solve
 contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
 """
@@ -19,11 +23,25 @@ import math
 
 import numba
 
-from synth.sound.modal_bank import inject_amplitudes, ring_modes
+from synth.sound.modal_bank import (
+    inject_amplitudes,
+    ring_modes,
+    transform_pulse,
+    transform_workspace,
+)
 
-#: Slot states of the pending ring (see :mod:`synth.live.queue`).
+#: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
+#: producers' own).
 FREE = 0
 READY = 1
+PULSE = 3
+
+#: The scalars of a slot in the PULSE form (columns of the ring's ``pulse``): the grid
+#: step (s), the first in-contact sample's time from first touch (s), the weight left on
+#: the plate (N), the contact time (s), the rule's error order, the hit's gain and the
+#: accelerometer's direct-term line (listener units per N; 0 for a microphone).
+STEP, OFFSET, WEIGHT, CONTACT_TIME, ORDER, GAIN, MASS_LINE = range(7)
+N_PULSE_FIELDS = 7
 
 #: Per-body counters (int64 array): impacts played, impacts that arrived after their
 #: start (played at the start of the block they were found in), blocks in which the body
@@ -61,6 +79,44 @@ def _next_due(state, inject, end):
 
 
 @numba.njit(cache=True, nogil=True)
+def _transform_pulses(
+    state, length, amplitudes, response, reference, transform, pulse_form, transformed
+):
+    """Turn every slot in the PULSE form into the READY form: the renderer's transform of
+    its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
+    decay rate in 1/s, the sample period in s and the audio thread's own workspace of
+    :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
+    accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
+    the producer's scaling would make it."""
+    pr, pi, ur, ui, sigma_max, period, work = transform
+    coefficients, samples, points, pulse = pulse_form
+    for i in range(state.shape[0]):
+        if state[i] != PULSE:
+            continue
+        n = points[i]
+        M = length[i]
+        p = pulse[i]
+        amps = amplitudes[i]
+        resp = response[i, :M]
+        forces = samples[i, 0]
+        slopes = samples[i, 1]
+        magnitude = transform_pulse(
+            pr, pi, coefficients[i, 0], coefficients[i, 1], ur, ui, sigma_max, period,
+            p[STEP], forces[:n], slopes[:n], p[OFFSET], forces[n : n + M], slopes[n : n + M],
+            p[WEIGHT], p[CONTACT_TIME], p[ORDER], amps, resp, work,
+        )  # fmt: skip
+        g = p[GAIN]
+        for k in range(amps.shape[0]):
+            amps[k] *= g
+        line = p[MASS_LINE]
+        for m in range(M):
+            resp[m] = (resp[m] + forces[n + m] * line) * g
+        reference[i] = magnitude * g
+        state[i] = READY
+        transformed[0] += 1
+
+
+@numba.njit(cache=True, nogil=True)
 def mix_body(
     out,
     t0,
@@ -85,6 +141,9 @@ def mix_body(
     response,
     reference,
     counters,
+    transform,
+    pulse_form,
+    transformed,
 ):
     """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock).
 
@@ -92,10 +151,15 @@ def mix_body(
     level[0]: the body's reference amplitude, the largest ``reference`` (sum of ``|amps|``)
     of the impacts played so far; floor: the omission floor, a fraction of it, shared by
     the ``K`` modes (each mode's threshold is ``floor * level / K``, as offline). The
-    pending ring: ``state`` (FREE/READY), ``inject`` (sample of the amplitudes),
+    pending ring: ``state`` (FREE/READY/PULSE), ``inject`` (sample of the amplitudes),
     ``first``/``length``/``response`` (in-contact samples), ``amplitudes`` (R, K),
-    ``reference`` (R,). A body with no ringing mode and nothing pending returns at once.
+    ``reference`` (R,); the PULSE form (``transform``, ``pulse_form``, ``transformed``:
+    see :func:`_transform_pulses`). A body with no ringing mode and nothing pending
+    returns at once.
     """
+    _transform_pulses(
+        state, length, amplitudes, response, reference, transform, pulse_form, transformed
+    )
     end = t0 + n
     due = _next_due(state, inject, end + (1 << 40))
     if counters[AWAKE] == 0 and due < 0:
@@ -145,16 +209,20 @@ def mix_body(
 
 
 @numba.njit(cache=True, nogil=True)
-def silence(zr, zi, active, debt, state):
+def silence(zr, zi, active, debt, state, transformed):
     """Stop every mode and drop every pending impact of a body (its level is kept); a slot
-    that a producer is still filling stays its own."""
+    that a producer is still filling stays its own. A dropped pulse counts as taken
+    (``transformed``), so that the ring's bound on waiting pulses stays exact."""
     for k in range(zr.shape[0]):
         zr[k] = 0.0
         zi[k] = 0.0
         active[k] = False
         debt[k] = 0.0
     for i in range(state.shape[0]):
-        if state[i] == READY:
+        if state[i] == PULSE:
+            transformed[0] += 1
+            state[i] = FREE
+        elif state[i] == READY:
             state[i] = FREE
 
 
@@ -180,19 +248,40 @@ def write_output(mix, n, outdata, fade_at, fade_length):
 
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel the audio thread calls, on a
-    one-mode body, so that the first callback does not compile."""
+    one-mode body with one pulse handed over, so that the first callback does not
+    compile."""
     import numpy as np
 
-    from synth.sound.modal_bank import power_table
+    from synth.live.queue import PendingRing
+    from synth.sound.modal_bank import bank_coefficients, power_table
 
     poles = np.array([-10.0 + 1000.0j])
-    K, R = 1, 1
+    ring = PendingRing(1, 1, 2, 7, 1)
+    slot = ring.reserve(pulse=True)
+    ring.pulse[slot, GAIN] = 1.0
+    ring.pulse[slot, STEP] = 1e-5
+    ring.pulse[slot, CONTACT_TIME] = 4e-5
+    ring.pulse[slot, ORDER] = 2.5
+    ring.publish_pulse(slot, 1, 0, 0, 5)
     mix = np.zeros(8)
     out = np.zeros((8, 1), dtype=np.float32)
-    args = (
-        power_table(poles, 48000.0),
-        poles,
-        48000.0,
+    coefficients = bank_coefficients(poles, np.ones(1), np.ones(1), 48000.0)
+    args = body_kernel_args(
+        coefficients, power_table(poles, 48000.0), body_state(1), np.zeros(1), 1e-4, ring,
+        np.zeros(N_COUNTERS, dtype=np.int64),
+    )  # fmt: skip
+    mix_body(mix, 0, 8, *args)
+    silence(*args[3:7], ring.state, ring.transformed)
+    write_output(mix, 8, out, 0, 4)
+
+
+def body_state(modes: int) -> tuple:
+    """A silent modal state of ``modes`` modes: amplitudes (re, im), ringing flags, omission
+    debts, the sample of each debt, thresholds and their squares."""
+    import numpy as np
+
+    K = modes
+    return (
         np.zeros(K),
         np.zeros(K),
         np.zeros(K, dtype=np.bool_),
@@ -200,17 +289,24 @@ def warm_up() -> None:
         np.zeros(K, dtype=np.int64),
         np.zeros(K),
         np.zeros(K),
-        np.zeros(1),
-        1e-4,
-        np.ones(R, dtype=np.int64),
-        np.zeros(R, dtype=np.int64),
-        np.zeros(R, dtype=np.int64),
-        np.ones(R, dtype=np.int64),
-        np.ones((R, K), dtype=complex),
-        np.ones((R, 2)),
-        np.ones(R),
-        np.zeros(N_COUNTERS, dtype=np.int64),
     )
-    mix_body(mix, 0, 8, *args)
-    silence(args[3], args[4], args[5], args[6], args[12])
-    write_output(mix, 8, out, 0, 4)
+
+
+def body_kernel_args(coefficients, table, state, level, floor, ring, counters) -> tuple:
+    """The arguments of :func:`mix_body` after ``(out, t0, n)`` for a body whose poles,
+    sample rate and one-sample steps are those of ``coefficients`` (a
+    :class:`~synth.sound.modal_bank.BankCoefficients`, at any point): its power ``table``,
+    modal ``state`` (:func:`body_state`), ``level`` (1,), omission ``floor``, pending
+    ``ring`` (:class:`synth.live.queue.PendingRing`) and ``counters``."""
+    c = coefficients
+    fs = c.samplerate
+    work = transform_workspace(c.poles.size)
+    transform = (c.pole_re, c.pole_im, c.step_re, c.step_im, c.sigma_max, 1.0 / fs, work)
+    pulse_form = (ring.coefficients, ring.samples, ring.points, ring.pulse)
+    return (
+        (table, c.poles, float(fs))
+        + tuple(state)
+        + (level, floor, ring.state, ring.inject, ring.first, ring.length)
+        + (ring.amplitudes, ring.response, ring.reference, counters)
+        + (transform, pulse_form, ring.transformed)
+    )

@@ -222,14 +222,24 @@ class ImpactResult:
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
     def pulse_samples(
-        self, step: float, points: int, offset: float, period: float, samples: int
+        self, step: float, points: int, offset: float, period: float, samples: int, out=None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Force (N) and its rate of change (N/s) on a uniform grid ``j step`` (s, ``j <
         points``) and then at ``offset + m period`` (s, ``m < samples``), times from first
         touch: :meth:`force_and_slope_at` of those times, in one call (the modal bank's
-        pulse grid and in-contact audio samples)."""
+        pulse grid and in-contact audio samples). ``out``: an optional (2, L) float array,
+        ``L >= points + samples``, whose rows take the forces and the slopes (the live
+        engine writes them straight into a slot); returns views of its rows then."""
         d = self._dense
-        return _k.pulse_samples(
+        total = int(points) + int(samples)
+        if out is None:
+            out = np.empty((2, total))
+        elif out.ndim != 2 or out.shape[0] != 2 or out.shape[1] < total:
+            raise ParameterError(
+                f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
+            )
+        forces, slopes = out[0], out[1]
+        _k.pulse_samples(
             d.hist,
             d.radau,
             d.lam,
@@ -244,7 +254,10 @@ class ImpactResult:
             float(offset),
             float(period),
             int(samples),
+            forces,
+            slopes,
         )
+        return forces[:total], slopes[:total]
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
@@ -397,10 +410,11 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         EXPLICIT_STEP_LIMIT,
         IMPLICIT_STEP_LIMIT,
     )
+    r = r.tolist()  # Python floats, read once each
     status = int(r[_k.R_STATUS])
     stiff = bool(r[_k.R_STIFF])
-    lam = float(r[_k.R_INELASTICITY])
-    residual = float(r[_k.R_ENERGY_RESIDUAL])
+    lam = r[_k.R_INELASTICITY]
+    residual = r[_k.R_ENERGY_RESIDUAL]
     energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
     if energy_failed:
         status = ENERGY_IMBALANCE
@@ -411,16 +425,16 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         obj,
         "__dict__",
         {
-            "restitution": float(r[_k.R_RESTITUTION]),
-            "contact_time": float(r[_k.R_CONTACT_TIME]),
-            "max_penetration": float(r[_k.R_MAX_PENETRATION]),
-            "peak_force": float(r[_k.R_PEAK_FORCE]),
-            "impulse": float(r[_k.R_IMPULSE]),
+            "restitution": r[_k.R_RESTITUTION],
+            "contact_time": r[_k.R_CONTACT_TIME],
+            "max_penetration": r[_k.R_MAX_PENETRATION],
+            "peak_force": r[_k.R_PEAK_FORCE],
+            "impulse": r[_k.R_IMPULSE],
             "inelasticity": lam,
             "settled": status == _k.SETTLED,
-            "rebound_speed": float(r[_k.R_REBOUND_SPEED]),
-            "plate_energy": float(r[_k.R_PLATE_ENERGY]),
-            "energy_residual": float(r[_k.R_ENERGY_RESIDUAL]),
+            "rebound_speed": r[_k.R_REBOUND_SPEED],
+            "plate_energy": r[_k.R_PLATE_ENERGY],
+            "energy_residual": r[_k.R_ENERGY_RESIDUAL],
             "success": status >= 0,
             "status": status,
             "message": (
@@ -436,12 +450,12 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
                 hist,
                 stiff,
                 lam,
-                float(r[_k.R_G]),
+                r[_k.R_G],
                 n,
-                float(r[_k.R_C]),
-                float(r[_k.R_S_CONTACT]),
-                float(r[_k.R_THETA]),
-                float(r[_k.R_F_SCALE]),
+                r[_k.R_C],
+                r[_k.R_S_CONTACT],
+                r[_k.R_THETA],
+                r[_k.R_F_SCALE],
                 n_points,
             ),
         },
@@ -632,7 +646,7 @@ def solve_impact(
 EDGE_ITERATIONS = 80
 
 
-def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=None):
+def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=None, beta_inf=None):
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
     :func:`synth.physics.impedance.point_admittance` (lumped values checked by the caller).
 
@@ -648,7 +662,8 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
     jump (a contact that switches between settling and separating): then the
     bracket closes on the jump and the message says so.
     """
-    beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
+    if beta_inf is None:
+        beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
     result = (
         first
         if first is not None
@@ -892,4 +907,5 @@ class ContactSolver:
             v_free,
             self.rtol,
             self.n_points,
+            beta_inf=self._beta_inf,
         )

@@ -1352,22 +1352,23 @@ def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
 
 @numba.njit(cache=True)
 def pulse_samples(
-    hist, radau, lam, G, n, c, s_contact, theta, f_scale, step, points, offset, period, samples
-):
+    hist, radau, lam, G, n, c, s_contact, theta, f_scale, step, points, offset, period, samples,
+    out, slope,
+):  # fmt: skip
     """The force (N) and its rate (N/s) at ``u_j = j step`` (``j < points``) and then at
     ``offset + m period`` (``m < samples``), times in s from first touch: ``force_slope_at``
-    on those times, scaled to SI units (``theta`` s, ``f_scale`` N). Returns (forces, slopes)."""
+    on those times, scaled to SI units (``theta`` s, ``f_scale`` N), written into
+    ``out[:points + samples]`` and ``slope[:points + samples]``."""
     total = points + samples
     s = np.empty(total)
     for j in range(points):
         s[j] = (j * step) / theta
     for m in range(samples):
         s[points + m] = (offset + m * period) / theta
-    out = np.empty(total)
-    slope = np.empty(total)
-    force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope)
+    f = out[:total]
+    r = slope[:total]
+    force_slope_at(hist, radau, lam, G, n, c, s_contact, s, f, r)
     rate = f_scale / theta
     for i in range(total):
-        out[i] *= f_scale
-        slope[i] *= rate
-    return out, slope
+        f[i] *= f_scale
+        r[i] *= rate

@@ -169,6 +169,7 @@ def _impact(
     order,
     amps,
     resp,
+    work,
 ):
     """One impact's contribution (vectorised over the K modes).
 
@@ -193,7 +194,9 @@ def _impact(
     order: the exponent ``q`` of the trapezoid rule's leading error ``C h^q`` (the pulse
     vanishes like ``u^n`` at both ends, so ``q = n + 1``; see the module docstring). The
     whole transform is extrapolated from the rules on the grid and on every other point,
-    ``(2^q T_h - T_2h) / (2^q - 1)`` (``len(forces)`` odd); 0 turns this off.
+    ``(2^q T_h - T_2h) / (2^q - 1)`` (``len(forces)`` odd); 0 turns this off. work: a
+    (``WORK_ROWS``, K) workspace (allocated by the caller, so that the live engine's
+    audio thread allocates nothing).
 
     Returns ``sum_k |amps_k|``.
 
@@ -212,8 +215,7 @@ def _impact(
         sigma = max(sigma, abs(pr[k]))
     halvings = halvings_for(sigma * max(h, d0))
     scale = 0.5**halvings
-    # one allocation for the K-vectors below (rows of a workspace)
-    work = np.empty((20, K))
+    # the K-vectors below are rows of the workspace
     er, ei = work[0], work[1]  # e^(-p u_j)
     sr, si = work[2], work[3]  # e^(-p h)
     gr, gi = work[4], work[5]  # e^(p d), d the next in-contact sample (then the injection)
@@ -330,6 +332,8 @@ def _impact(
     return _magnitude_sum(amps)
 
 
+#: Rows of the transforms' workspace (K-vectors of :func:`_impact`).
+WORK_ROWS = 20
 #: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
 #: for :func:`_impact`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and
 #: ``|e^(p d)|^2`` reaches ``e^(-2 sigma tau)``: both stay inside float64 (about
@@ -358,6 +362,7 @@ def _impact_long(
     order,
     amps,
     resp,
+    work,
 ):
     """:func:`_impact` (same arguments, same result) for contacts so long that the
     factors ``e^(-p u)`` over the contact leave float64.
@@ -371,11 +376,8 @@ def _impact_long(
     K = pr.size
     N = forces.size
     M = offset_forces.size
-    # e^(p h), e^(2 p h)
-    sr = np.empty(K)
-    si = np.empty(K)
-    s2r = np.empty(K)
-    s2i = np.empty(K)
+    # e^(p h), e^(2 p h); the K-vectors are rows of the workspace
+    sr, si, s2r, s2i = work[0], work[1], work[2], work[3]
     for k in range(K):
         mag = math.exp(pr[k] * h)
         sr[k] = mag * math.cos(pi[k] * h)
@@ -383,10 +385,8 @@ def _impact_long(
         mag = math.exp(2.0 * pr[k] * h)
         s2r[k] = mag * math.cos(2.0 * pi[k] * h)
         s2i[k] = mag * math.sin(2.0 * pi[k] * h)
-    ar = np.zeros(K)
-    ai = np.zeros(K)
-    br = np.zeros(K)
-    bi = np.zeros(K)
+    ar, ai, br, bi = work[4], work[5], work[6], work[7]
+    work[4:8] = 0.0
     m = 0
     half = 0.5 * h
     f_prev = forces[0]
@@ -693,6 +693,7 @@ def pulse_transforms(result, poles, omega_max=None):
         result.exponent + 1.0,
         out,
         np.zeros(0),
+        transform_workspace(poles.size),
     )
     return out
 
@@ -790,6 +791,7 @@ def transform_pulse(
     order,
     amps,
     resp,
+    work,
 ):
     """One impact's mode amplitudes and in-contact response: :func:`_impact` (its
     arguments, its result), or :func:`_impact_long` when the contact of ``tau`` s lasts
@@ -798,15 +800,20 @@ def transform_pulse(
     if sigma_max * tau > LONG_CONTACT_NEPERS:
         return _impact_long(
             pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
-            offset_forces, offset_slopes, weight, tau, order, amps, resp,
+            offset_forces, offset_slopes, weight, tau, order, amps, resp, work,
         )  # fmt: skip
     return _impact(
         pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
-        offset_forces, offset_slopes, weight, tau, order, amps, resp,
+        offset_forces, offset_slopes, weight, tau, order, amps, resp, work,
     )  # fmt: skip
 
 
-@dataclass(frozen=True)
+def transform_workspace(modes: int) -> np.ndarray:
+    """The workspace of :func:`transform_pulse` for ``modes`` modes."""
+    return np.empty((WORK_ROWS, modes))
+
+
+@dataclass(slots=True)
 class PulseLayout:
     """Where one contact's pulse is sampled for its transforms (see :func:`_impact`):
     ``points`` grid points ``j step`` (s) from first touch, and the ``samples`` audio
@@ -848,6 +855,7 @@ def impact_excitation(
     pulse_points=PULSE_POINTS,
     amplitudes=None,
     response=None,
+    work=None,
 ) -> ImpactExcitation:
     """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
     touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
@@ -856,7 +864,8 @@ def impact_excitation(
     weight: ``m g`` (N) left on the plate after a settled contact, else 0; pulse_points:
     fewest points of the pulse grid; amplitudes: an optional (K,) complex array to write
     the amplitudes into; response: an optional float array to write the in-contact
-    response into (at least :func:`samples_in_contact` long).
+    response into (at least :func:`samples_in_contact` long); work: an optional
+    :func:`transform_workspace` of the K modes.
     """
     c = coefficients
     fs = c.samplerate
@@ -894,6 +903,7 @@ def impact_excitation(
         result.exponent + 1.0,
         amps,
         resp,
+        transform_workspace(c.poles.size) if work is None else work,
     )
     return ImpactExcitation(amps, lay.inject, lay.first, resp, forces[n:], magnitude)
 
@@ -965,6 +975,7 @@ def synthesize(
     amps = np.zeros((I, K), dtype=complex)
     inject = np.zeros(I, dtype=np.int64)
     contact_samples = []  # per impact: in-contact sample indices, responses there, forces there
+    work = transform_workspace(K)
     for i, (res, t0) in enumerate(zip(impacts, onsets)):
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
         ex = impact_excitation(
@@ -974,6 +985,7 @@ def synthesize(
             weight=weight,
             pulse_points=pulse_points,
             amplitudes=amps[i],
+            work=work,
         )
         inject[i] = ex.inject
         contact_samples.append(
