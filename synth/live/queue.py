@@ -65,6 +65,7 @@ class PendingRing:
         self.refused = 0
         self.puts = 0  # impacts handed over so far (written after READY or PULSE)
         self._lock = threading.Lock()  # between producers only
+        self._next = 0  # the slot after the last one reserved
 
     @property
     def capacity(self) -> int:
@@ -88,13 +89,16 @@ class PendingRing:
         when the ring is full or, for a pulse and if ``bounded``, ``max_new`` pulses wait
         (the bound protects an audio thread's deadline; mixing without a device has none)."""
         with self._lock:
-            i = int(self.state.argmin())
+            i = self._next
+            if self.state[i] != FREE:  # slots mostly free in the order they were taken
+                i = int(self.state.argmin())
             if self.state[i] != FREE or (
                 pulse and bounded and self.pulses - int(self.transformed[0]) >= self.max_new
             ):
                 self.refused += 1
                 return -1
             self.state[i] = WRITING
+            self._next = i + 1 if i + 1 < self.state.shape[0] else 0
             if pulse:
                 self.pulses += 1
             return i
