@@ -101,24 +101,48 @@ def test_random_scale_specs_are_valid_and_reproducible():
 
 
 def test_scale_table_summarises_random_scenes():
-    """The random scenes' line: median and largest cold process time, peak memory, how
-    many exceeded max(15 s, audio length) and how many were refused."""
+    """The random scenes' lines: median and largest cold work (modes, gains, render) and
+    process time, peak memory, how many exceeded max(15 s, audio length) and how many were
+    refused, and the targets' verdicts; the ladder's named targets."""
     from synth import bench
 
     run = {
         "n_modes": 10,
         "modes_s": 0.1,
+        "modes_mb": 200.0,
         "gains_s": 0.1,
+        "gains_mb": 250.0,
         "rule": "rectangle",
         "render_s": 0.1,
         "render_mb": 300.0,
         "audio_s": 2.0,
     }
     rows = [
-        {"name": f"random {i}", **spec, "cold": {**run, "process_s": t}, "warm": {}}
+        {
+            "name": f"random {i}",
+            **spec,
+            "cold": {**run, "render_s": t, "process_s": t + 2.0},
+            "warm": {**run, "process_s": 1.5},
+        }
         for i, (spec, t) in enumerate(zip(bench.random_scale_specs(3), (1.0, 2.0, 20.0)))
     ]
     rows.append({"name": "random 4", **rows[0], "cold": {"error": "refused"}, "warm": {}})
+    bar = {"material": "steel", "thickness": 0.0037, "length": 1.84, "width": 0.1}
+    rows.append(
+        {
+            "name": "free bar",
+            **bar,
+            "boundary": "free",
+            "samplerate": 48000,
+            "cold": {**run, "modes_s": 4.0, "process_s": 6.0},
+            "warm": {},
+        }
+    )
     text = bench.format_scale(rows)
-    assert "median 2 s, max 20 s, peak memory max 300 MB" in text
+    assert "work median 2.2 s, max 20.2 s (process median 4 s, max 22 s)" in text
+    assert "peak memory max 300 MB" in text
     assert "slower than max(15 s, audio length): 1; refused or failed: 1." in text
+    assert "median under 2 s NOT met" in text and "peak under 2 GB met" in text
+    assert "cold modes 4 s: under 3 s NOT met" in text
+    assert "| 0.1 (200) / 0.1 (200) |" in text  # modes: cold / warm seconds (MB)
+    assert "| 4 (200) / - |" in text  # no warm run of the bar
