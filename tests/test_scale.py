@@ -86,6 +86,43 @@ def test_random_big_free_and_clamped_scenes_render(index):
     assert np.all(np.isfinite(out.audio)) and np.max(np.abs(out.audio)) > 0.0
 
 
+@pytest.mark.slow
+def test_random_big_clamped_scene_heard_by_a_microphone():
+    """The benchmark's random clamped 1.62 x 0.45 m acrylic plate at 22.05 kHz (past the
+    crossover: Ritz low band, edge effect modes and their Rayleigh-Ritz pairs, whose shapes
+    are sums of two products) heard by its microphone: the radiation gains converge to
+    their tolerance for every mode, none exceeds its in-phase bound (|H_k| <= S_k, the
+    whole plate radiating in phase), and the audio is finite and not silent."""
+    from synth import bench
+    from synth.sound.render import nearest_distance
+
+    spec = bench.random_scale_specs(3)[2]
+    assert spec["boundary"] == "clamped"
+    scene = bench._scale_scene(
+        spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
+    )
+    fs = spec["samplerate"]
+    m = P.modes(scene.plate, max_frequency=0.5 * fs * (1.0 - 1e-9))
+    assert m.tolerance == P.EDGE_EFFECT_TOLERANCE and m._solution.edge.n_paired > 0
+    omega = np.asarray(m.angular_frequencies)
+    sigma = np.asarray(m.decay_rates)
+    mirror = sigma + 1j * np.sqrt(omega**2 - sigma**2)
+    k_max = (omega[-1] ** 2 * scene.plate.surface_density / scene.plate.flexural_rigidity) ** 0.25
+    res = R.plate_gains(
+        m,
+        scene.listener.position,
+        mirror,
+        max_wavenumber=k_max,
+        reference_distance=nearest_distance(scene.plate, scene.listener),
+        full_output=True,
+    )
+    assert res.success
+    assert np.all(np.abs(res.gains) <= res.coherent * (1.0 + 1e-6))
+    out = render(scene, samplerate=fs, max_duration=1.0, max_tail=0.5)
+    assert out.settings["n_modes"] == len(m)
+    assert np.all(np.isfinite(out.audio)) and np.max(np.abs(out.audio)) > 0.0
+
+
 def test_random_scale_specs_are_valid_and_reproducible():
     """The benchmark's random scenes: the issue's ranges (sides 0.1-2 m, 1-40 mm,
     22.05-48 kHz), every boundary among the benchmark's eight, the same for a seed."""
