@@ -741,12 +741,23 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
 
 @numba.njit(cache=True)
 def _factor_constants(s, so, n, h, free, nu):  # pragma: no cover
-    """Edge coefficient and ``1 / rms`` of every factor (:func:`_coefficients`,
-    :func:`_norm`)."""
+    """Edge coefficient and ``1 / rms`` of every factor (:func:`_coefficients`; the mean
+    square in closed form, :func:`_exponentials` and :func:`_moments`, or by
+    :func:`_norm`'s quadrature for the measure-zero polynomial cases)."""
     ce = np.empty(s.size)
     scale = np.empty(s.size)
+    coef = np.zeros(4, dtype=np.complex128)
+    rate = np.zeros(4, dtype=np.complex128)
+    shift = np.zeros(4, dtype=np.complex128)
+    mom = np.zeros(5)
     for k in range(s.size):
         ce[k] = _coefficients(s[k], so[k], h, n[k], free, nu)
+        if _exponentials(s[k], so[k], h, n[k], ce[k], 1.0, coef, rate, shift) == 4:
+            _moments(coef, rate, shift, coef, rate, shift, h, mom)
+            mean_square = mom[0] / (2.0 * h)
+            if mean_square > 0.0 and math.isfinite(mean_square):
+                scale[k] = 1.0 / math.sqrt(mean_square)
+                continue
         scale[k] = 1.0 / _norm(s[k], so[k], h, n[k], ce[k])
     return ce, scale
 
