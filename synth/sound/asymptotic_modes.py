@@ -79,7 +79,7 @@ _BISECTIONS = 100
 #: Two modes of one symmetry class whose edge effect frequencies differ by less than this
 #: (relative) are a near-degenerate pair, solved together by the Rayleigh-Ritz step.
 _PAIR_GAP = 0.01
-_VERSION = 2
+_VERSION = 3
 
 
 @numba.njit(cache=True)
