@@ -61,8 +61,8 @@ def _hybrid(boundary, aspect, omega, low_unknowns=200):
 @pytest.mark.parametrize(
     ("boundary", "aspect", "worst"),
     [
-        ("clamped", 1.37, 1e-3),
-        ("clamped", 18.4, 1e-3),
+        ("clamped", 1.37, 5e-4),
+        ("clamped", 18.4, 5e-4),
         ("free", 1.37, 5e-3),
         ("free", 18.4, 5e-3),
     ],
@@ -70,9 +70,10 @@ def _hybrid(boundary, aspect, omega, low_unknowns=200):
 def test_edge_effect_frequencies_agree_with_ritz_in_their_overlap(boundary, aspect, worst):
     """Above a small Ritz low band (200 unknowns per class: the lowest 27 to 112 modes,
     where the method's corner and beam-like errors reach several per cent), every edge
-    effect frequency agrees with the converged Ritz solution of the same rank: measured
-    worst 0.10 % (clamped) and 0.46 % (free); asserted 0.1 % and 0.5 % (the issue's
-    figure). Counts agree exactly (no mode lost or doubled at the seam)."""
+    effect frequency (with the Rayleigh-Ritz step) agrees with the converged Ritz solution
+    of the same rank: measured worst 0.012 % (clamped, the Rayleigh quotients of shapes
+    that meet the clamped conditions) and 0.43 % (free); asserted 0.05 % and 0.5 % (the
+    issue's figure). Counts agree exactly (no mode lost or doubled at the seam)."""
     omega = 6000.0 if aspect < 2 else 40000.0
     hyb = _hybrid(boundary, aspect, omega)
     ref = P._ritz_frequencies(boundary, 0.3, aspect, omega * 1.05, omega)
@@ -83,20 +84,61 @@ def test_edge_effect_frequencies_agree_with_ritz_in_their_overlap(boundary, aspe
 
 
 @pytest.mark.slow
-def test_free_square_edge_effect_modes_within_a_percent_of_ritz():
-    """Square free plate: degenerate pairs ``(m, n)``, ``(n, m)`` that the corners split
-    are where the method is worst (measured 0.61 % against the nearest Ritz mode); the
-    count may differ by one such pair member. Asserted: 1 % nearest-mode error, median
-    0.1 %."""
-    hyb = _hybrid("free", 1.0, 6000.0)
-    ref = P._ritz_frequencies("free", 0.3, 1.0, 6300.0, 6000.0)
-    assert abs(hyb.omega.size - ref.size) <= 1
+@pytest.mark.parametrize("boundary", ["free", "clamped"])
+def test_square_pairs_split_by_the_rayleigh_ritz_step(boundary):
+    """Square plate: the corners split the degenerate pairs ``(m, n)``, ``(n, m)`` of one
+    symmetry class, which the edge effect method alone leaves equal (0.61 % from the
+    nearest Ritz mode, free). With the 2 x 2 Rayleigh-Ritz step, measured 0.28 % (free)
+    and 0.014 % (clamped); asserted 0.5 % (the issue's figure) and 0.05 %, median 0.1 %.
+    Counts may differ by the Ritz modes within 0.5 % of the band's top (a mode that close
+    may fall on either side of the cut)."""
+    hyb = _hybrid(boundary, 1.0, 6000.0)
+    ref = P._ritz_frequencies(boundary, 0.3, 1.0, 6300.0, 6300.0)
+    near_top = int(np.sum(np.abs(ref - 6000.0) <= 0.005 * 6000.0))
+    ref = ref[ref <= 6000.0]
+    assert abs(hyb.omega.size - ref.size) <= near_top
+    assert hyb.edge.n_paired > 0.4 * hyb.omega.size
     a = hyb.omega[hyb.n_low :]
     j = np.searchsorted(ref, a).clip(1, ref.size - 1)
     near = np.where(np.abs(ref[j] - a) < np.abs(ref[j - 1] - a), ref[j], ref[j - 1])
     err = np.abs(a - near) / near
-    assert np.max(err) < 1e-2
+    assert np.max(err) < (5e-3 if boundary == "free" else 5e-4)
     assert np.median(err) < 1e-3
+
+
+@pytest.mark.parametrize("boundary", ["free", "clamped"])
+def test_paired_shapes_are_orthonormal(boundary):
+    """The modes of the Rayleigh-Ritz step have mean square 1 and a pair's two modes are
+    orthogonal: Gram matrix on a fine Gauss-Legendre grid (exact to about 1e-12 for these
+    smooth shapes) within 1e-9 there, so the step's closed-form integrals agree with the
+    quadrature. Other modes are orthogonal only as far as the method is exact (measured
+    at most 0.44 %; asserted 1 %)."""
+    sol = AM.solve(boundary, 0.3, 1.0, 1500.0)
+    assert sol.n_paired > 0
+    t, w = leggauss(40)
+    edges = np.linspace(-1.0, 1.0, 17)
+    xs = np.concatenate([0.5 * (lo + hi) + 0.5 * (hi - lo) * t for lo, hi in zip(edges, edges[1:])])
+    ws = np.concatenate([0.5 * (hi - lo) * w for lo, hi in zip(edges, edges[1:])])
+    X, Y = np.meshgrid(xs, xs, indexing="ij")
+    weight = np.outer(ws, ws).ravel() / 4.0
+    n = sol.omega.size
+    phi = sol.shapes(X.ravel(), Y.ravel(), n)
+    gram = phi.T @ (phi * weight[:, None])
+    np.testing.assert_allclose(np.diag(gram), 1.0, atol=1e-9)
+    slot = {int(t): k for k, t in enumerate(sol.trial)}
+    pairs = [(k, slot[int(u)]) for k, u in enumerate(sol.partner) if u >= 0 and int(u) in slot]
+    assert pairs
+    assert max(abs(gram[k, j]) for k, j in pairs) < 1e-9
+    assert np.max(np.abs(gram - np.eye(n))) < 1e-2
+
+
+def test_pairs_are_nearest_neighbours_of_one_class():
+    """Pairing: ascending, each unpaired trial takes the next one of its class within the
+    gap; a class's lone trial and trials farther apart stay alone."""
+    omega = np.array([100.0, 100.5, 100.6, 101.0, 200.0, 200.1])
+    cls = np.array([0, 1, 0, 0, 2, 3])
+    partner = AM._pairs(omega, cls, 0.01)
+    np.testing.assert_array_equal(partner, [2, -1, 0, -1, -1, -1])
 
 
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
