@@ -5,13 +5,14 @@ that series only, from a background's length before its first tick to its last t
 response. A recording longer than :data:`WHOLE` is therefore analysed in blocks of
 :data:`BLOCK`: a pass
 over its blocks finds its extremes (clipping), whether it is silent and its noise floor; then
-each block is searched, the bounce series it holds in full are kept, and the next block starts
-where the last series of this one starts (its first tick less the background), so that no
-series is cut and an ended one sets the floor of the dynamic range over its own ringing in
-the next block too; after a block without a series, the next block overlaps it by
-:data:`OVERLAP` (a drop that starts at a block's end is found whole in the next). Every
-sample is read about twice, whatever the recording's length and the number of drops in it,
-and no more than a block (twice one, for a series longer than a block) is in memory.
+steps 1-6 over each block show where its series start, the block's first series is searched
+on its own up to the next drop (steps 1-7), and the next block starts at that drop, so that no
+series is cut; a block holding one series is searched whole and keeps it once it has ended
+(``_block_drops`` in :mod:`synth.analysis.pipeline`); after a block without a series, the next
+block overlaps it by :data:`OVERLAP` (a drop that starts at a block's end is found whole in
+the next). Every sample is read about twice and each drop searched whole once, whatever the
+recording's length and the number of drops in it, and no more than a block (twice one, for a
+series longer than a block) is in memory.
 
 A :class:`Source` is the recording: an array in memory (:class:`ArraySource`) or a file read
 in blocks through soundfile (:class:`FileSource`).

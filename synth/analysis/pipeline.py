@@ -48,7 +48,7 @@ from synth.analysis.validity import (
     new_series_at,
     without_spurious_end,
 )
-from synth.analysis.whitening import resonator_predictor, whiten
+from synth.analysis.whitening import one_blas_thread, resonator_predictor, whiten
 from synth.errors import ParameterError
 from synth.io.audio import wav_shortfall
 
@@ -306,12 +306,18 @@ def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
 
 def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list[list]:
     """The bounce series of a recording of ``frames`` frames whose analysed signal
-    ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`): each block's
-    series as :func:`_drops` finds them, kept when whole (all but the last, and the last once
-    the block goes on past where the series allows its next bounce); the next block starts at
-    the last series, less the local background (its ticks, if kept, are not taken again), or
-    :data:`OVERLAP` before the end of a block without a series (or whose one series starts
-    it). A series longer than a block doubles the block."""
+    ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`). Steps 1-6
+    over a block show where its series start (:func:`new_series_at`). When a new series
+    follows the block's first, the first is searched on its own (steps 1-7), from the block's
+    start to the local background's length before the next drop (as :func:`_drops` searches
+    each series), and the next block starts there: at the next drop, less the local
+    background. Else the block is searched whole (steps 1-7); its one series is kept once the
+    block goes on past where the series allows its next bounce, and the next block starts at
+    that series if it started later than the block (an ended series sets the floor of the
+    dynamic range over its own ringing, as in the whole recording), else :data:`OVERLAP`
+    before the block's end. A series longer than a block doubles the block. So each drop is
+    searched once by steps 1-6 with the block that holds it and once whole on its own,
+    whatever the number of drops."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
@@ -321,43 +327,65 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
     pos, size = 0, base
     while True:
         stop = min(frames, pos + size)
-        try:
-            found = _drops(signal(pos, stop), settings, clipped)
-        except (AnalysisError, ParameterError):  # silence, no tick, too short
-            found = []
+        x = signal(pos, stop)
         shift = pos / fs
-        found = [
-            kept
-            for kept in (
-                [
-                    replace(t, time=t.time + shift)
-                    for t in ticks
-                    if t.time + shift > last + settings.min_separation / fs
-                ]
-                for ticks in found
-            )
-            if kept
+        ticks = _block_ticks(x, settings, clipped, last - shift, lead)
+        ticks = [
+            replace(t, time=t.time + shift)
+            for t in ticks
+            if t.time + shift > last + settings.min_separation / fs
         ]
+        cut = new_series_at(ticks)
+        if cut is not None:
+            done.append(ticks[:cut])
+            last = ticks[cut - 1].time
+            nxt = int(math.floor(ticks[cut].time * fs)) - lead
+            pos = max(nxt, pos + int(math.floor((ticks[0].time - shift) * fs)) + 1)
+            size = base
+            continue
         if stop >= frames:
-            done += found
-            return done
+            return done + ([ticks] if ticks else [])
         nxt = stop - overlap
-        if found:
-            # the next block starts at the last series, less the local background: found
-            # again there (its ticks are kept from this block), its first tick sets the
-            # floor of the dynamic range over its ringing, as in the whole recording
-            start = int(math.floor(found[-1][0].time * fs)) - lead
-            if not _series_ended(found[-1], stop / fs, settings, lead / fs):
-                found = found[:-1]
+        if ticks:
+            start = int(math.floor(ticks[0].time * fs)) - lead
+            if not _series_ended(ticks, stop / fs, settings, lead / fs):
                 if start <= pos:  # one series over the whole block: a longer block
                     size *= 2
                     continue
+                pos, size = start, base
+                continue
+            done.append(ticks)
+            last = ticks[-1].time
             if start > pos:
                 nxt = start
-        done += found
-        if found:
-            last = found[-1][-1].time
         pos, size = nxt, base
+
+
+def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, lead: int):
+    """The ticks of the block ``x`` (times from its start) of which those after ``kept`` (s)
+    are new: its first series on its own (steps 1-7) followed by the ticks of steps 1-6 from
+    the next drop on, when steps 1-6 show a new series after a first one that is new; else
+    the whole block by steps 1-7 (none when steps 1-6 find no new tick)."""
+    fs = settings.samplerate
+    located = _searched(x, settings, clipped, resonator=False)
+    if not any(t.time > kept for t in located):
+        return []
+    cut = new_series_at(located)
+    if cut is not None and located[cut - 1].time > kept:
+        end = max(1, int(math.floor(located[cut].time * fs)) - lead)
+        ticks = (_searched(x[:end], settings, clipped) or located[:cut]) + located[cut:]
+        if new_series_at(ticks) is not None:
+            return ticks
+    return _searched(x, settings, clipped)
+
+
+def _searched(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True) -> list:
+    """The ticks of ``x`` (:func:`_ticks`), none where it has none (silence, no tick, too
+    short)."""
+    try:
+        return _ticks(x, settings, clipped, resonator)
+    except (AnalysisError, ParameterError):
+        return []
 
 
 def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> bool:
@@ -438,10 +466,13 @@ def _numbered(found: list[list]) -> list[Series]:
     return out
 
 
-def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
-    """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``)."""
+def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True) -> list:
+    """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
+    without ``resonator``, by steps 1-6 only (where a block's series start, see
+    :func:`_block_drops`)."""
     A = dsp.autocorrelation_predictor(x, settings.whitening_order)
-    first = _search(whiten(x, A), settings)
+    with one_blas_thread():
+        first = _search(whiten(x, A), settings)
     found = [
         FoundTick(
             first.onsets[i],
@@ -454,14 +485,16 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool) -> list:
     ]
     whitenings = [Whitening(A, first.whitened, first.residual)]
     if (
-        first.ringing_left is not None
+        resonator
+        and first.ringing_left is not None
         and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
         and not settings.fixed_order
         and not clipped
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    ticks = measure_ticks(x, found, whitenings, settings, noise)
+    with one_blas_thread():
+        ticks = measure_ticks(x, found, whitenings, settings, noise)
     fs = settings.samplerate
     return without_spurious_end(ticks, x.size / fs, settings.window / fs)
 
@@ -644,7 +677,8 @@ def _resonator_stage(
         return found
     known = np.array([f.onset for f in found])
     try:
-        res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
+        with one_blas_thread():
+            res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
     except AnalysisError:
         return found
     if res.ringing_left is None or not (

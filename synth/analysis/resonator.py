@@ -198,9 +198,11 @@ class _NormalEquations:
     started at each of ``offsets`` (samples into ``y``), to ``y``: the design matrix ``M``
     (``M[i, j] = T[i - o - l_j]``; columns offset by offset, template by template, lags
     ``l_j = post - j``), its Gram matrix and ``M^T y``, from which :meth:`solve` takes the
-    fit on the first templates and narrower lags. ``M`` is formed :data:`FIT_ROWS` rows at a
-    time: a window that spans a long silence (a tick after another drop's) stays in bounded
-    memory."""
+    fit on the first templates and narrower lags. Only the rows where a template can be
+    non-zero (``o - pre`` to ``o + post`` plus its length, for each offset ``o``) are formed,
+    :data:`FIT_ROWS` at a time: a window that spans a long silence (a tick after another
+    drop's) costs the templates' length, not its own, and the other rows of ``M`` are 0
+    (the residual there is ``y``)."""
 
     def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
         W = y.size
@@ -219,11 +221,13 @@ class _NormalEquations:
         self.y = y
         self.n_templates, self.pre, self.post = len(Ts), pre, post
         self.n_offsets = len(offsets)
+        longest = max(T.size for T in Ts)
+        self.chunks = _row_chunks([(o - pre, o + post + longest) for o in offsets], W)
         self.G = None
         self.b = None
-        for lo in range(0, W, FIT_ROWS):
-            M = self._rows(lo, min(W, lo + FIT_ROWS))
-            G, b = M.T @ M, M.T @ y[lo : lo + M.shape[0]]
+        for lo, hi in self.chunks:
+            M = self._rows(lo, hi)
+            G, b = M.T @ M, M.T @ y[lo:hi]
             self.G = G if self.G is None else self.G + G
             self.b = b if self.b is None else self.b + b
 
@@ -248,12 +252,25 @@ class _NormalEquations:
         P = G.shape[0]
         G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
         h = np.linalg.solve(G, self.b if whole else self.b[idx])
-        res = np.empty_like(self.y)
-        for lo in range(0, self.y.size, FIT_ROWS):
-            hi = min(self.y.size, lo + FIT_ROWS)
+        res = self.y.copy()
+        for lo, hi in self.chunks:
             M = self._rows(lo, hi)
             res[lo:hi] = self.y[lo:hi] - (M if whole else M[:, idx]) @ h
         return h, res
+
+
+def _row_chunks(spans, rows: int) -> list[tuple[int, int]]:
+    """The union of the half-open intervals ``spans`` within ``0 .. rows``, as disjoint
+    intervals in order of at most :data:`FIT_ROWS` rows each."""
+    merged: list[list[int]] = []
+    for lo, hi in sorted((max(0, lo), min(rows, hi)) for lo, hi in spans):
+        if lo >= hi:
+            continue
+        if merged and lo <= merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return [(a, min(hi, a + FIT_ROWS)) for lo, hi in merged for a in range(lo, hi, FIT_ROWS)]
 
 
 def _rss(res: np.ndarray, y: np.ndarray) -> float:

@@ -73,7 +73,8 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
         Lc = _loaded_cholesky(G, 1e-12 * np.trace(G) / p_max)
         if Lc is None:
             return None
-        crit = _order_criterion(seg, Lc, C)
+        with one_blas_thread():
+            crit = _order_criterion(seg, Lc, C)
         best = int(crit.grid[int(np.argmin(crit.length))])
         if best <= 0.75 * p_max or p_max >= cap:
             break
@@ -81,12 +82,27 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     Lc = _loaded_cholesky(G, max(float(crit.energy.min()), 1e-12 * np.trace(G) / p_max))
     if Lc is None:
         return None
-    crit = _order_criterion(seg, Lc, C)
-    for i in np.argsort(crit.length, kind="stable"):
-        a = _predictor(Lc, crit.y, int(crit.grid[i]))
-        if dsp.is_minimum_phase(a):
-            return a
+    with one_blas_thread():
+        crit = _order_criterion(seg, Lc, C)
+        for i in np.argsort(crit.length, kind="stable"):
+            a = _predictor(Lc, crit.y, int(crit.grid[i]))
+            if dsp.is_minimum_phase(a):
+                return a
     return None
+
+
+def one_blas_thread():
+    """A context in which BLAS and LAPACK run on one thread: for the analysis' small products
+    and solutions (a fit's Gram matrix has a few hundred unknowns, and thousands are solved
+    per recording; the triangular solutions of the resonator's predictor). The helper threads
+    of a multithreaded BLAS, waiting for cores that other work keeps busy, made them three to
+    ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
+    :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
+    resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
+    library's threads."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(1, user_api="blas")
 
 
 def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
