@@ -242,7 +242,8 @@ class Contact:
     model : {"thesis", "fitted"}, optional
         A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`): "thesis"
         is the thesis' model, "fitted" the finite plate with the fitted surface. Those three
-        keys may then be left out (or must agree with it).
+        keys default to the model's; any of them given explicitly takes precedence (e.g.
+        ``model="fitted", plate="impedance"``: the fitted surface on the impedance plate).
     """
 
     law: str | None = None
@@ -304,19 +305,10 @@ class Contact:
                 )
 
     def _resolve_model(self):
-        """``law``, ``plate`` and ``surface`` from ``model`` (or their defaults)."""
-        defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS["thesis"], strict=True))
-        if self.model is not None:
-            checks.choice("contact.model", self.model, CONTACT_MODELS)
-            named = dict(zip(defaults, CONTACT_MODELS[self.model], strict=True))
-            for key, value in named.items():
-                given = getattr(self, key)
-                if given is not None and given != value:
-                    raise ParameterError(
-                        f"contact.{key}={given!r} contradicts contact.model={self.model!r} "
-                        f"(which has {key}={value!r}); leave one of them out"
-                    )
-            defaults = named
+        """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "thesis")."""
+        model = "thesis" if self.model is None else self.model
+        checks.choice("contact.model", model, CONTACT_MODELS)
+        defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
         for key, value in defaults.items():
             if getattr(self, key) is None:
                 object.__setattr__(self, key, value)
