@@ -243,7 +243,8 @@ def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     copy = tmp_path / "docs"
     shutil.copytree(DOCS, copy)
     monkeypatch.setattr(docs, "docs_dir", lambda: copy)
-    monkeypatch.setattr(bench, "thesis_modal_rows", lambda pairs=None: [])
+    monkeypatch.setattr(bench, "thesis_modal_rows", lambda pairs=None, samplerate=48000: [])
+    monkeypatch.setattr(bench, "surface_fit", lambda rounds=4: None)
     before = (copy / "validation.md").read_text()
     assert main(["bench", "thesis", "--update-docs"]) == 0
     after = (copy / "validation.md").read_text()

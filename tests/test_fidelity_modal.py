@@ -56,20 +56,16 @@ def test_ringing_scatters_late_restitutions(rows):
     assert r["engine"] > 3.0 * r["model"]
 
 
-def test_transverse_modulus_one_parameter_fit_predicts_thinner_boards():
-    # One parameter (E_t / E) fitted on the 18 mm board's five contact times; the 12 and 6 mm
-    # boards' four contact times are predictions, each within issue 14's 15 %; the fitted
-    # through-thickness modulus is far below the in-plane one (a fibreboard), and a softer
-    # contact raises e (Zener's inelasticity falls with K): the losses are still missing.
-    fit = bench.transverse_modulus_fit()
-    assert 0.01 < fit["ratio"] < 0.5
-    predictions = [r for r in fit["rows"] if r["role"] == "prediction"]
-    assert {r["board"] for r in predictions} == {"12 mm", "6 mm"} and len(predictions) == 4
-    for r in predictions:
-        assert abs(r["error"]) < 0.15, r
-    for r in fit["rows"]:
-        assert r["restitution"] > r["restitution_in_plane"]
-    assert "fitted on the 18 mm board's contact times only" in bench.format_transverse_fit(fit)
+@pytest.mark.slow
+def test_fitted_model_first_impact_meets_the_measurement(rows):
+    # issue 14's target: e = 0.76 within 0.02 for the 10 mm steel ball on the 18 mm board
+    # (the Hunt-Crossley loss is fitted on it: this checks the stored fit in the thesis rows)
+    r = rows[
+        "restitution, fitted model (modal plate, MDF's fitted surface), steel 10.0 mm on "
+        "18 mm, first impact (1.4 m/s)"
+    ]
+    assert r["engine"] == pytest.approx(0.76, abs=0.02)
+    assert r["model"] == 0.87 and r["measured"] == 0.76
 
 
 def test_modal_contact_error_against_run_time(monkeypatch):

@@ -116,20 +116,28 @@ def test_preset_scene_computes(path):
     # form, docs/physics.md, "Bounces"), to rounding (1e-12 relative).
     assert seq[0].time == pytest.approx(math.sqrt(2.0 * h0 / g), rel=1e-12)
     assert seq[0].speed == pytest.approx(math.sqrt(2.0 * g * h0), rel=1e-12)
+    ringing = scene.contact.plate == "modal"
     for imp in seq:
         r = imp.result
         assert r.success
         # A plate at rest only takes energy from the ball: 0 <= e <= 1 (energy balance,
         # docs/physics.md, "Hertz contact"); a tolerance of 1e-9 covers the solver's rounding.
-        assert -1e-9 <= r.restitution <= 1.0 + 1e-9
+        # The modal plate rings after its first impact and may give energy back to the ball:
+        # there its energy books must close (1e-4: second-order steps).
+        if ringing and imp.index > 1:
+            assert r.energy_residual < 1e-4
+        else:
+            assert -1e-9 <= r.restitution <= 1.0 + 1e-9
         # Contact times lie between ~10 us (steel on steel) and ~1 ms (heavy ball on a thin
         # plate), docs/physics.md, "Hertz contact"; a soft rubber ball is allowed a decade more.
         assert 1e-6 < r.contact_time < 1e-2
     # Every scene of the collection bounces (no first-impact settling): e1 > 0.1.
     assert seq[0].result.restitution > 0.1
-    # Each impact speed is the previous rebound speed (free flight is lossless, thesis A.2).
+    # Each impact speed is the previous rebound speed (free flight is lossless, thesis A.2;
+    # on the ringing modal plate the ball lands on a moving surface instead).
     for a, b in zip(seq, seq[1:]):
-        assert b.speed == pytest.approx(a.result.restitution * a.speed, rel=1e-12)
+        if not ringing:
+            assert b.speed == pytest.approx(a.result.restitution * a.speed, rel=1e-12)
 
 
 @pytest.mark.parametrize("path", FILES, ids=NAMES)
@@ -179,10 +187,14 @@ def test_thesis_masses_rejects_negative_mass(path):
 
 
 def test_thesis_restitution_orders():
+    # The thesis' model (the thesis presets' contact.model="thesis", one key from their
+    # default "fitted"):
     # Zener's inelasticity lambda = K^(2/5) m^(3/5) v^(1/5) / Z grows as the board thins
     # (Z ~ h^2 sqrt(E)), so e falls from the 18 mm to the 12 mm to the 6.15 mm board
     # (docs/physics.md, "Hertz contact"); 0.05 separates them with margin (e: 0.87, 0.73, 0.30).
-    e18, e12, e6 = _e1("default"), _e1("thesis-steel10-mdf12"), _e1("thesis-steel10-mdf6")
+    model = "contact.model=thesis"
+    e18 = _e1("default")
+    e12, e6 = _e1("thesis-steel10-mdf12", model), _e1("thesis-steel10-mdf6", model)
     assert e18 - e12 > 0.05 and e12 - e6 > 0.05
     # Mid-plate 10 mm steel on 18 mm MDF: e = 0.87 at a 10 cm drop (thesis, docs/physics.md,
     # "Hertz contact"), to the figure's printed precision 0.005.
@@ -190,7 +202,8 @@ def test_thesis_restitution_orders():
     # The board is softer at a free edge (Z_edge = 0.29 Z_inf) and softer still at a corner
     # (Z_corner = Z_inf / 7.5), thesis Table 3.4, so e falls from middle to edge to corner
     # (e: 0.87, 0.66, 0.52).
-    e_edge, e_corner = _e1("thesis-steel10-mdf18-edge"), _e1("thesis-steel10-mdf18-corner")
+    e_edge = _e1("thesis-steel10-mdf18-edge", model)
+    e_corner = _e1("thesis-steel10-mdf18-corner", model)
     assert e18 - e_edge > 0.05 and e_edge - e_corner > 0.05
 
 

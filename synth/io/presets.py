@@ -38,6 +38,8 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
     layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")
     plate = "impedance"             # or "modal": the finite plate's modes in the contact
+    surface = "ideal"               # or "fitted" (with "hertz"): the material's fitted surface
+    model = "thesis"                # or "fitted": names law, plate and surface at once
 
     [render]                        # optional: options of synth.render
     samplerate = 48000              # Hz

@@ -466,7 +466,8 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from synth.physics.scene import CONTACT_LAWS, Ball, Plate  # noqa: E402  (one list of laws)
+from synth.physics.materials import contact_surface  # noqa: E402
+from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate  # noqa: E402
 
 
 def effective_modulus(ball: Ball, plate: Plate) -> float:
@@ -474,9 +475,13 @@ def effective_modulus(ball: Ball, plate: Plate) -> float:
     return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate.material.effective_modulus)
 
 
-def hertz_stiffness(ball: Ball, plate: Plate) -> float:
-    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5."""
-    return 4.0 / 3.0 * math.sqrt(ball.radius) * effective_modulus(ball, plate)
+def hertz_stiffness(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> float:
+    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5;
+    the plate's side taken at ``transverse_ratio`` (dimensionless) times its modulus (see
+    :class:`synth.physics.materials.ContactSurface`)."""
+    plate_modulus = transverse_ratio * plate.material.effective_modulus
+    e_star = 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate_modulus)
+    return 4.0 / 3.0 * math.sqrt(ball.radius) * e_star
 
 
 def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -> float:
@@ -506,12 +511,18 @@ def contact_law(
     exponent: float | None = None,
     stiffness: float | None = None,
     layer_depth: float | None = None,
+    surface: str = "ideal",
 ) -> tuple[float, float, float]:
     """Contact parameters ``(K, n, mu)`` for a named law (docs/physics.md, "Hertz contact").
 
     Parameters
     ----------
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+    surface : {"ideal", "fitted"}
+        "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
+        "hertz" only): the plate material's fitted surface
+        (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
+        modulus with its Hunt-Crossley loss.
     dissipation : float > 0
         Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
     exponent, stiffness : float
@@ -520,6 +531,23 @@ def contact_law(
         Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
     """
     checks.choice("contact", contact, CONTACT_LAWS)
+    checks.choice("surface", surface, SURFACE_MODELS)
+    if surface == "fitted":
+        if contact != "hertz":
+            raise ParameterError(
+                f"surface='fitted' applies to contact='hertz' only, not {contact!r} (the fit "
+                f"is of a Hertz contact with a Hunt-Crossley loss)"
+            )
+        for key, value in (
+            ("dissipation", dissipation),
+            ("exponent", exponent),
+            ("stiffness", stiffness),
+            ("layer_depth", layer_depth),
+        ):
+            if value is not None:
+                raise ParameterError(f"{key}={value!r} does not apply to surface='fitted'")
+        fit = contact_surface(plate.material)
+        return hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation
     given = {
         "dissipation": dissipation,
         "exponent": exponent,
@@ -565,6 +593,7 @@ def solve_impact(
     exponent: float | None = None,
     stiffness: float | None = None,
     layer_depth: float | None = None,
+    surface: str = "ideal",
     plate_velocity: float = 0.0,
     n_points: int = 128,
 ) -> ImpactResult:
@@ -585,6 +614,8 @@ def solve_impact(
         m/s^2.
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
         Contact law and its parameters (see :func:`contact_law`).
+    surface : {"ideal", "fitted"}
+        The plate's side of the contact (see :func:`contact_law`).
     rtol : float
         Relative accuracy of restitution and contact time.
     plate_velocity : float
@@ -608,6 +639,7 @@ def solve_impact(
         exponent=exponent,
         stiffness=stiffness,
         layer_depth=layer_depth,
+        surface=surface,
     )
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
     kwargs = dict(

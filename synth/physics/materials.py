@@ -465,3 +465,82 @@ def table_markdown() -> str:
             f"{_damping_text(m.damping)} | {source} |"
         )
     return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------------------
+# Contact surfaces fitted to measurements
+# ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ContactSurface:
+    """A plate material's side of the ball-plate contact, where an isotropic elastic
+    half-space (the thesis' Hertz model) is not what was measured.
+
+    Parameters
+    ----------
+    transverse_ratio : float in (0, 1]
+        ``E_t / E``: the modulus that resists the indentation (for a fibreboard the
+        through-thickness modulus, far below the in-plane one that bends the plate) over the
+        material's ``young``; dimensionless. The plate's side of the Hertz contact is taken
+        isotropic with modulus ``E_t`` and the material's Poisson's ratio.
+    dissipation : float >= 0
+        Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, s/m (Hunt &
+        Crossley, J. Appl. Mech. 42 (1975) 440-445): small-loss restitution ``e = 1 - 2/3 mu
+        v`` on a rigid support. With a ball much stiffer than the plate (steel, glass on
+        MDF) the indentation, and so the loss, is the plate's.
+    source : str
+        What the values were fitted on.
+    """
+
+    transverse_ratio: float
+    dissipation: float
+    source: str = ""
+
+    def __post_init__(self):
+        object.__setattr__(
+            self,
+            "transverse_ratio",
+            checks.in_range(
+                "transverse_ratio", self.transverse_ratio, 0.0, 1.0, "dimensionless", hi_open=False
+            ),
+        )
+        object.__setattr__(
+            self, "dissipation", checks.nonnegative("dissipation", self.dissipation, "s/m")
+        )
+
+
+#: MDF's contact surface: two parameters fitted on the thesis' 18 mm board only (docs/physics.md,
+#: "Contact losses"): ``E_t / E`` on its five first-impact contact times (Table 3.3, each ball
+#: carrying the accelerometer of those measurements, about 1 g) and ``mu`` on the restitution
+#: 0.76 of the 10 mm steel ball at 1.4 m/s (section 3.2), both with the
+#: finite plate in the contact (synth.physics.modal_contact) at the middle of the board. The
+#: 12 and 6 mm boards use them unchanged (``synth bench thesis`` prints fit and prediction
+#: errors).
+MDF_SURFACE = ContactSurface(
+    transverse_ratio=0.2088,
+    dissipation=0.2469,
+    source=(
+        "fitted on the thesis' 18 mm MDF board: contact times (Table 3.3, ball with its 1 g "
+        "accelerometer) and restitution "
+        "0.76 of the 10 mm steel ball (section 3.2), modal plate at the middle"
+    ),
+)
+
+#: Fitted contact surfaces by material name (:func:`contact_surface`).
+SURFACES: dict[str, ContactSurface] = {
+    "mdf-18": MDF_SURFACE,
+    "mdf-12": MDF_SURFACE,
+    "mdf-6": MDF_SURFACE,
+}
+
+
+def contact_surface(material: Material) -> ContactSurface:
+    """The fitted :class:`ContactSurface` of a table material (by its name), or
+    ``ParameterError`` naming the materials that have one."""
+    surface = SURFACES.get(getattr(material, "name", None))
+    if surface is None or TABLE.get(material.name) != material:
+        raise ParameterError(
+            f"plate.material={getattr(material, 'name', material)!r} has no fitted contact "
+            f"surface (contact.surface='fitted' needs one of {sorted(SURFACES)}, as in the "
+            f"built-in table)"
+        )
+    return surface

@@ -27,7 +27,9 @@ earlier impact), and as ``Omega`` grows the model tends to the finite thin plate
 edges, before any reflection returns, it equals the impedance model.
 
 Ball (mass ``m``, height ``u`` of its lowest point, gravity ``g``): ``m u'' = F - m g``;
-contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact.contact_law`).
+contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact.contact_law`),
+or with Hunt & Crossley's loss ``F = K delta^n (1 + mu delta')``, ``F >= 0`` (Hunt & Crossley,
+J. Appl. Mech. 42 (1975) 440-445).
 
 Numerics. Fixed steps ``h``; over each step the force is taken linear in time (first-order
 hold), and every linear part (modes, rigid body, residual, the ball's free flight) is advanced
@@ -35,10 +37,12 @@ exactly for that force: with ``z = p h`` for a pole ``p``, the responses to the 
 start and at the end of the step are ``h (phi_1(z) - phi_2(z))`` and ``h phi_2(z)``,
 ``phi_1(z) = (e^z - 1) / z``, ``phi_2(z) = (e^z - 1 - z) / z^2`` (exponential integrators,
 Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286). The force at the end of the step is
-then the root of one scalar equation, ``delta + B K delta^n = A`` (monotone: one root), so the
+then the root of one scalar equation, ``delta + B F(delta) = A`` (monotone: one root; with the
+loss, ``delta'`` at the end of the step is itself linear in that force), so the
 scheme is implicit in the contact and unconditionally stable for every mode; its error is
 second order in ``h``. The end of contact is the root of ``delta(h') = 0`` within the last step.
-Energy is book-kept (ball, modes, modal damping, rigid body, residual spring and dashpot) and its
+Energy is book-kept (ball, modes, modal damping, rigid body, residual spring and dashpot, the
+contact's loss ``Int (F - K delta^n) delta' dt`` by the trapezoid rule) and its
 balance reported as ``energy_residual``.
 """
 
@@ -81,7 +85,8 @@ SETTLE_FACTOR = 40.0
 # Result columns of the kernel.
 _R_STATUS, _R_TIME, _R_V, _R_U, _R_DMAX, _R_FMAX, _R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
 _R_STEPS, _R_DAMPING_LOSS, _R_DASHPOT_LOSS, _R_RIGID_Q, _R_RIGID_V = 7, 8, 9, 10, 11
-_R_COLS = 12
+_R_CONTACT_LOSS = 12
+_R_COLS = 13
 _SEPARATED, _SETTLED = 0, 1
 
 
@@ -163,6 +168,43 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 
 @numba.njit(cache=True)
+def _lossy_force(d, K, n, mu, Av, Bv):  # pragma: no cover
+    """Hunt-Crossley force ``K d^n (1 + mu d')`` (N, at least 0) at the end of a step whose
+    penetration rate is ``d' = Av - Bv F`` (the step's linear response to the force ``F``
+    at its end), solved for ``F``, and its derivative with respect to ``d`` (N/m)."""
+    s = K * d**n
+    num = 1.0 + mu * Av
+    if num <= 0.0 or d <= 0.0:
+        return 0.0, 0.0
+    den = 1.0 + mu * Bv * s
+    return s * num / den, n * s / d * num / (den * den)
+
+
+@numba.njit(cache=True)
+def _solve_lossy_delta(A, B, K, n, mu, Av, Bv):  # pragma: no cover
+    """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the Hunt-Crossley
+    force of :func:`_lossy_force` (increasing in ``delta``: one root in ``[0, A]``): Newton's
+    method kept inside a bracket, bisection where a step leaves it."""
+    lo = 0.0
+    hi = A
+    d = _solve_delta(A, B, K, n)  # start from the elastic root
+    for _ in range(200):
+        F, dF = _lossy_force(d, K, n, mu, Av, Bv)
+        f = d + B * F - A
+        if f > 0.0:
+            hi = d
+        else:
+            lo = d
+        d_new = d - f / (1.0 + B * dF)
+        if not (lo < d_new < hi):
+            d_new = 0.5 * (lo + hi)
+        if abs(d_new - d) <= 1e-14 * d or hi - lo <= 1e-15 * A:
+            return d_new
+        d = d_new
+    return d
+
+
+@numba.njit(cache=True)
 def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: no cover
     """Plate displacement under the ball after a step ``h`` with the force at its end left out:
     modes, rigid body and residual from their states and the force ``F0`` at the start."""
@@ -172,6 +214,17 @@ def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: n
     w += qr + vr * h - rc * h * h * F0 / 3.0
     w -= Er * x + beta * r0 * F0
     return w
+
+
+@numba.njit(cache=True)
+def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # pragma: no cover
+    """Penetration rate ``delta'`` (m/s) after a step ``h`` with the force at its end left out
+    (the part of the rate that does not depend on it): plate surface velocity (modes, rigid
+    body, residual) minus the ball's velocity."""
+    w = vr - 0.5 * rc * h * F0 + a * (Er * x + beta * r0 * F0)
+    for k in range(q.size):
+        w += P[k, 2] * q[k] + P[k, 3] * v[k] - c[k] * G[k, 2] * F0
+    return w - (vs - g * h + 0.5 * h * F0 / m)
 
 
 @numba.njit(cache=True)
@@ -224,6 +277,7 @@ def _contact(
     m,
     K,
     n,
+    mu,
     g,
     v_in,
     h,
@@ -233,7 +287,8 @@ def _contact(
     gaps,
     rates,
 ):  # pragma: no cover
-    """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``).
+    """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
+    the contact law ``F = K delta^n (1 + mu delta')`` (``mu = 0``: elastic).
 
     ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
     one: the residual's displacement) are the plate's state at first touch and are advanced
@@ -248,6 +303,12 @@ def _contact(
     B = h * h / (6.0 * m) + rc * h * h / 6.0 + beta * r1
     for k in range(N):
         B += c[k] * G[k, 1]
+    # the penetration rate at the end of a step is Av - Bv F1 (Hunt-Crossley only)
+    Bv = h / (2.0 * m) + 0.5 * rc * h + beta * (1.0 - a * r1)
+    for k in range(N):
+        Bv += c[k] * G[k, 3]
+    contact_loss = 0.0
+    Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
     w = -x_res[0]
     for k in range(N):
         w += q[k]
@@ -317,6 +378,7 @@ def _contact(
             u += vs * hh - 0.5 * g * hh * hh + hh * hh * F0 / (3.0 * m)
             vs += -g * hh + hh * 0.5 * F0 / m
             impulse += 0.5 * hh * F0
+            contact_loss += 0.5 * hh * Fd0 * rates[i]
             t += hh
             forces[i + 1] = 0.0
             times[i + 1] = t
@@ -325,8 +387,13 @@ def _contact(
             status = _SEPARATED
             steps = i + 1
             break
-        d1 = _solve_delta(A, B, K, n)
-        F1 = K * d1**n
+        if mu == 0.0:
+            d1 = _solve_delta(A, B, K, n)
+            F1 = K * d1**n
+        else:
+            Av = _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h)
+            d1 = _solve_lossy_delta(A, B, K, n, mu, Av, Bv)
+            F1 = _lossy_force(d1, K, n, mu, Av, Bv)[0]
         damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
         xdot0 = beta * F0 - a * x
         x = Er * x + beta * (r0 * F0 + r1 * F1)
@@ -343,6 +410,10 @@ def _contact(
         times[i + 1] = t
         gaps[i + 1] = d1
         rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
+        if mu != 0.0:
+            Fd1 = F1 - K * d1**n
+            contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
+            Fd0 = Fd1
         if d1 > dmax:
             dmax = d1
         if F1 > fmax:
@@ -361,6 +432,7 @@ def _contact(
     r[_R_DASHPOT_LOSS] = dashpot_loss
     r[_R_RIGID_Q] = qr
     r[_R_RIGID_V] = vr
+    r[_R_CONTACT_LOSS] = contact_loss
     return r
 
 
@@ -541,9 +613,10 @@ class _Pulse:
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
     """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
-    the solver's steps (``step_times``, s) is ``F = K delta^n`` with ``delta`` the cubic
-    Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates``
-    (m/s): smooth, and rising like ``t^n`` after first touch as the contact law does.
+    the solver's steps (``step_times``, s) is ``F = K delta^n (1 + mu delta')`` with ``delta``
+    the cubic Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates
+    ``step_rates`` (m/s): smooth, and rising like ``t^n`` after first touch as the contact law
+    does. ``contact_loss`` is the energy the Hunt-Crossley loss took, J.
     ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
     at separation over its impact speed (what bounce times measure)."""
 
@@ -553,6 +626,8 @@ class ModalImpactResult(ImpactResult):
     step_rates: np.ndarray | None = field(default=None, repr=False)
     law_stiffness: float = 0.0
     law_exponent: float = 1.5
+    law_dissipation: float = 0.0
+    contact_loss: float = 0.0
     ringing: PlateRinging | None = field(default=None, repr=False)
     plate_modal_energy: float = 0.0
     n_points: int = 128
@@ -590,9 +665,18 @@ class ModalImpactResult(ImpactResult):
         rate += (3 * u2 - 2 * u) * r1 / h
         inside = (tt >= 0.0) & (tt <= self.contact_time) & (delta > 0.0)
         dpos = np.where(inside, delta, 1.0)
-        n, K = self.law_exponent, self.law_stiffness
-        force = np.where(inside, K * dpos**n, 0.0)
-        slope = np.where(inside, n * K * dpos ** (n - 1.0) * rate, 0.0)
+        n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
+        elastic = K * dpos**n
+        elastic_slope = n * K * dpos ** (n - 1.0) * rate
+        if mu == 0.0:
+            return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
+        # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
+        accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
+            h * h
+        )
+        lossy = inside & (1.0 + mu * rate > 0.0)
+        force = np.where(lossy, elastic * (1.0 + mu * rate), 0.0)
+        slope = np.where(lossy, elastic_slope * (1.0 + mu * rate) + elastic * mu * accel, 0.0)
         return force, slope
 
     def pulse_samples(
@@ -621,6 +705,9 @@ class ModalContact:
         m/s^2.
     steps_per_contact : int
         Fixed steps over one impedance-model contact time.
+    dissipation : float
+        Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, ``F >= 0``, s/m
+        (0: elastic contact).
     """
 
     point: ModalPoint
@@ -629,6 +716,7 @@ class ModalContact:
     exponent: float
     gravity: float = GRAVITY
     steps_per_contact: int = STEPS_PER_CONTACT
+    dissipation: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.point, ModalPoint):
@@ -640,6 +728,7 @@ class ModalContact:
                 "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
             ),
             gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+            dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
         )
         steps = self.steps_per_contact
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
@@ -664,26 +753,21 @@ class ModalContact:
         **contact_options,
     ) -> ModalContact:
         """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
-        under the contact ``law`` (Hunt-Crossley excluded). ``max_frequency`` (Hz) defaults
-        to :data:`BAND_FACTOR` over the impedance model's contact time at ``speed`` (m/s;
-        default 1 m/s)."""
+        under the contact ``law`` and its options (:func:`synth.physics.contact.contact_law`).
+        ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's
+        contact time at ``speed`` (m/s; default 1 m/s)."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
             raise ParameterError(f"plate={plate!r} must be a Plate")
         K, n, mu = contact_law(ball, plate, law, **contact_options)
-        if mu != 0.0:
-            raise ParameterError(
-                f"law={law!r}: the modal contact takes elastic contact laws only "
-                f"(hertz, elastic-foundation, power-law)"
-            )
         pos = plate.centre if position is None else position
         if max_frequency is None:
             v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
-            tau = _impedance_contact(ball.mass, K, n, plate, v, 0.0).contact_time
+            tau = _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency)
-        return cls(point, ball.mass, K, n, gravity, steps_per_contact)
+        return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu)
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
@@ -728,7 +812,9 @@ class ModalContact:
                 f"speed={speed!r}: the plate surface moves down faster ({-state.velocity!r} m/s) "
                 f"than the ball; the ball cannot hit it"
             )
-        ref = _impedance_contact(self.mass, self.stiffness, self.exponent, p.plate, v_approach, 0.0)
+        ref = _impedance_contact(
+            self.mass, self.stiffness, self.exponent, p.plate, v_approach, self.dissipation
+        )
         h = ref.contact_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
         q = np.array(state.q, dtype=float)
@@ -753,6 +839,7 @@ class ModalContact:
             self.mass,
             self.stiffness,
             self.exponent,
+            self.dissipation,
             self.gravity,
             v_in,
             h,
@@ -779,6 +866,7 @@ class ModalContact:
         ball_in = 0.5 * m * v_in**2
         ball_out = 0.5 * m * v_out**2 + m * self.gravity * (float(r[_R_U]) - w0)
         plate = e_plate - e0 + rigid + r[_R_DAMPING_LOSS] + r[_R_DASHPOT_LOSS]
+        plate += r[_R_CONTACT_LOSS]
         scale = max(ball_in, e0, abs(plate), 1e-300)
         residual = abs(ball_in - ball_out - plate) / scale
         e = v_out / v_in if separated and v_out > 0.0 else 0.0
@@ -811,6 +899,8 @@ class ModalContact:
             step_rates=pulse.rates,
             law_stiffness=self.stiffness,
             law_exponent=self.exponent,
+            law_dissipation=self.dissipation,
+            contact_loss=float(r[_R_CONTACT_LOSS]),
             ringing=ringing,
             plate_modal_energy=e_plate,
             n_points=n_points,
@@ -867,8 +957,9 @@ def next_touch(
     return s0, contact.ring(state, s0)
 
 
-def _impedance_contact(m, K, n, plate, v, v_free) -> ImpactResult:
-    """The impedance model's impact (the infinite plate), for the time scale of the modal one."""
+def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
+    """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m), for
+    the time scale of the modal one."""
     return solve_contact(
         mass=float(m),
         stiffness=float(K),
@@ -876,5 +967,6 @@ def _impedance_contact(m, K, n, plate, v, v_free) -> ImpactResult:
         speed=float(v),
         gravity=0.0,
         exponent=float(n),
+        dissipation=float(mu),
         rtol=1e-6,
     )

@@ -191,6 +191,17 @@ class Microphone:
 Listener = Accelerometer | Microphone
 
 CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "power-law")
+#: The plate's side of the contact: an isotropic elastic half-space, or the material's
+#: surface fitted to measurements (:class:`synth.physics.materials.ContactSurface`).
+SURFACE_MODELS = ("ideal", "fitted")
+#: Named contact models: (law, plate, surface). "thesis": the thesis' model (Hertz on an
+#: isotropic half-space, the plate as its impedance); "fitted": the model closest to the
+#: thesis' measurements (the finite plate's modes in the contact, the material's fitted
+#: through-thickness modulus and Hunt-Crossley loss).
+CONTACT_MODELS = {
+    "thesis": ("hertz", "impedance", "ideal"),
+    "fitted": ("hertz", "modal", "fitted"),
+}
 
 
 @dataclass(frozen=True)
@@ -219,22 +230,41 @@ class Contact:
         against a reference render, at the same cost).
     plate : {"impedance", "modal"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
-        measured values near free edges) or "modal" (the finite plate's modes in the contact,
-        their ringing carried from impact to impact: :mod:`synth.physics.modal_contact`; its
-        accuracy is set by its band and steps, not by ``rtol``).
+        measured values near free edges; the default) or "modal" (the finite plate's modes in
+        the contact, their ringing carried from impact to impact:
+        :mod:`synth.physics.modal_contact`; its accuracy is set by its band and steps, not by
+        ``rtol``).
+    surface : {"ideal", "fitted"}
+        The plate's side of the contact: "ideal" (an isotropic elastic half-space, the
+        default) or "fitted" (law "hertz" only: the plate material's through-thickness
+        modulus and Hunt-Crossley loss fitted to measurements,
+        :class:`synth.physics.materials.ContactSurface`).
+    model : {"thesis", "fitted"}, optional
+        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`): "thesis"
+        is the thesis' model, "fitted" the finite plate with the fitted surface. Those three
+        keys default to the model's; any of them given explicitly takes precedence (e.g.
+        ``model="fitted", plate="impedance"``: the fitted surface on the impedance plate).
     """
 
-    law: str = "hertz"
+    law: str | None = None
     dissipation: float | None = None
     exponent: float | None = None
     stiffness: float | None = None
     layer_depth: float | None = None
     rtol: float = 1e-9
-    plate: str = "impedance"
+    plate: str | None = None
+    surface: str | None = None
+    model: str | None = None
 
     def __post_init__(self):
+        self._resolve_model()
         checks.choice("contact.law", self.law, CONTACT_LAWS)
         checks.choice("contact.plate", self.plate, ("impedance", "modal"))
+        checks.choice("contact.surface", self.surface, SURFACE_MODELS)
+        if self.surface == "fitted" and self.law != "hertz":
+            raise ParameterError(
+                f"contact.surface='fitted' applies to contact.law='hertz' only, not {self.law!r}"
+            )
         object.__setattr__(
             self,
             "rtol",
@@ -274,14 +304,26 @@ class Contact:
                     f"contact.{name}={value!r} does not apply to contact.law={self.law!r}"
                 )
 
+    def _resolve_model(self):
+        """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "thesis")."""
+        model = "thesis" if self.model is None else self.model
+        checks.choice("contact.model", model, CONTACT_MODELS)
+        defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
+        for key, value in defaults.items():
+            if getattr(self, key) is None:
+                object.__setattr__(self, key, value)
+
     def options(self) -> dict:
         """The law's parameters as keyword arguments of
         :func:`synth.physics.contact.contact_law`."""
-        return {
+        options = {
             k: getattr(self, k)
             for k in ("dissipation", "exponent", "stiffness", "layer_depth")
             if getattr(self, k) is not None
         }
+        if self.surface != "ideal":
+            options["surface"] = self.surface
+        return options
 
 
 @dataclass(frozen=True)

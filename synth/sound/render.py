@@ -363,7 +363,10 @@ def check_sequence(scene, sequence) -> BounceSequence:
     contacts are ``scene``'s (its first impact solved again with the scene's ball, plate,
     impact point and contact law at the same speed gives the same contact time and peak
     force to within ``SEQUENCE_RTOL``). The impacts' times and speeds may come from
-    another scene (:func:`synth.stimuli.sequences.mismatch_sequence`)."""
+    another scene (:func:`synth.stimuli.sequences.mismatch_sequence`). With the modal plate
+    in the contact an impact depends on the ringing left by the ones before, so there the
+    first impact's contact law (stiffness, exponent and loss of the scene's ball and plate)
+    is what is checked."""
     from synth.physics import contact
 
     if not isinstance(sequence, BounceSequence):
@@ -372,6 +375,8 @@ def check_sequence(scene, sequence) -> BounceSequence:
         raise ParameterError("sequence has no impacts: there is nothing to render")
     first = sequence[0]
     c = scene.contact
+    if c.plate == "modal":
+        return _check_modal_sequence(scene, sequence)
     own = contact.solve_impact(
         scene.ball,
         scene.plate,
@@ -390,6 +395,32 @@ def check_sequence(scene, sequence) -> BounceSequence:
                 f"({want:.6g} at {first.speed:.6g} m/s): the sequence belongs to another ball, "
                 f"plate or contact law; pass the scene it was computed for"
             )
+    return sequence
+
+
+def _check_modal_sequence(scene, sequence) -> BounceSequence:
+    """:func:`check_sequence` for a scene with the modal plate in the contact: the first
+    impact is one of the modal contact (:class:`~synth.physics.modal_contact.ModalImpactResult`)
+    under the scene's contact law (its constants equal to ``SEQUENCE_RTOL``)."""
+    from synth.physics.contact import contact_law
+    from synth.physics.modal_contact import ModalImpactResult
+
+    c = scene.contact
+    result = sequence[0].result
+    K, n, mu = contact_law(scene.ball, scene.plate, c.law, **c.options())
+    got = (
+        (result.law_stiffness, result.law_exponent, result.law_dissipation)
+        if isinstance(result, ModalImpactResult)
+        else None
+    )
+    if got is None or not all(
+        abs(a - b) <= SEQUENCE_RTOL * abs(b) for a, b in zip(got, (K, n, mu), strict=True)
+    ):
+        raise ParameterError(
+            "sequence: its first impact is not one of this scene's modal contact (contact law "
+            f"K, n, mu = {K:.6g}, {n:g}, {mu:g}): the sequence belongs to another ball, plate or "
+            "contact law; pass the scene it was computed for"
+        )
     return sequence
 
 

@@ -1,0 +1,141 @@
+"""Losses in the contact (Hunt & Crossley's viscoelastic law) on the impedance and the modal
+plate, and MDF's fitted contact surface (docs/physics.md, "Contact losses")."""
+
+import math
+
+import pytest
+
+from synth import bench
+from synth.errors import ParameterError
+from synth.physics import modal_contact as mc
+from synth.physics.contact import contact_law, hertz_stiffness, solve_contact, solve_impact
+from synth.physics.materials import MDF_SURFACE, contact_surface, get
+from synth.physics.scene import Ball, Contact, Plate
+
+STEEL = Ball("steel", 0.005, 4.17e-3)
+MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
+V1 = math.sqrt(2.0 * 9.81 * 0.1)
+
+
+@pytest.mark.parametrize("n", [1.5, 2.0])
+def test_hunt_crossley_small_loss_closed_form(n):
+    # Hunt & Crossley (1975): on a rigid support without gravity, to first order in the loss,
+    # e = 1 - 2/3 mu v for any exponent n (the loss 2/3 mu m v^3 over the elastic path).
+    # The next term is O((mu v)^2): the defect (1 - e) / (mu v) - 2/3 must shrink in
+    # proportion to mu v (a ratio near 2 for a halving, 1.6-2.4 allowed).
+    K, m, v = 1e9, 4.17e-3, 1.4
+    defects = []
+    for mu in (4e-3, 2e-3, 1e-3):
+        r = solve_contact(
+            mass=m,
+            stiffness=K,
+            admittance=0.0,
+            speed=v,
+            gravity=0.0,
+            exponent=n,
+            dissipation=mu,
+            rtol=1e-11,
+        )
+        assert r.energy_residual < 1e-8
+        defects.append((1.0 - r.restitution) / (mu * v) - 2.0 / 3.0)
+    assert abs(defects[-1]) < 2e-3
+    for a, b in zip(defects, defects[1:], strict=False):
+        assert 1.6 < a / b < 2.4, defects
+
+
+def test_modal_plate_hunt_crossley_energy_and_impedance_limit():
+    # Mid-plate the reflections return after the contact: the modal plate's impact equals the
+    # impedance model's with the same loss (restitution within 1e-3: the modal plate's step
+    # and band error at its default settings, `synth bench contact`), its energy books close
+    # (residual 1e-5: second-order steps) and the loss it books is the energy the ball lost
+    # beyond what the plate took.
+    for mu in (0.05, 0.25):
+        c = mc.ModalContact.for_pair(
+            STEEL, MDF18, None, speed=V1, law="hunt-crossley", dissipation=mu
+        )
+        modal = c.solve(V1)
+        ref = solve_impact(STEEL, MDF18, V1, contact="hunt-crossley", dissipation=mu, rtol=1e-9)
+        assert modal.restitution == pytest.approx(ref.restitution, abs=1e-3)
+        assert modal.contact_time == pytest.approx(ref.contact_time, rel=1e-3)
+        assert modal.energy_residual < 1e-5
+        assert modal.contact_loss > 0.0
+        # the pulse is the Hunt-Crossley force: larger than K delta^n while compressing
+        t = 0.25 * modal.contact_time
+        f, _ = modal.force_and_slope_at([t])
+        assert f[0] > 0.0
+
+
+def test_modal_plate_without_loss_is_unchanged():
+    # mu = 0 takes the elastic path of the kernel: no contact loss booked
+    c = mc.ModalContact.for_pair(STEEL, MDF18, None, speed=V1)
+    r = c.solve(V1)
+    assert r.contact_loss == 0.0 and r.law_dissipation == 0.0
+
+
+def test_fitted_surface_contact_law():
+    K, n, mu = contact_law(STEEL, MDF18, "hertz", surface="fitted")
+    assert n == 1.5 and mu == MDF_SURFACE.dissipation
+    assert K == pytest.approx(hertz_stiffness(STEEL, MDF18, MDF_SURFACE.transverse_ratio))
+    assert K < hertz_stiffness(STEEL, MDF18)
+    with pytest.raises(ParameterError, match="hertz"):
+        contact_law(STEEL, MDF18, "elastic-foundation", surface="fitted")
+    with pytest.raises(ParameterError, match="no fitted contact surface"):
+        contact_surface(get("aluminium"))
+
+
+def test_contact_model_names_law_plate_and_surface():
+    fitted = Contact(model="fitted")
+    assert (fitted.law, fitted.plate, fitted.surface) == ("hertz", "modal", "fitted")
+    assert fitted.options() == {"surface": "fitted"}
+    thesis = Contact(model="thesis")
+    assert (thesis.law, thesis.plate, thesis.surface) == ("hertz", "impedance", "ideal")
+    assert Contact() == Contact(law="hertz", plate="impedance", surface="ideal")
+    assert Contact().options() == {}
+    # a key given explicitly takes precedence over the model's
+    mixed = Contact(model="fitted", plate="impedance")
+    assert (mixed.plate, mixed.surface) == ("impedance", "fitted")
+    with pytest.raises(ParameterError, match="contact.model"):
+        Contact(model="best")
+    with pytest.raises(ParameterError, match="surface"):
+        Contact(law="elastic-foundation", surface="fitted")
+
+
+@pytest.mark.slow
+def test_surface_fit_on_18_mm_and_predictions():
+    # Two MDF parameters fitted on the 18 mm board only; the stored ones are the fit's
+    # (E_t / E within 1 %, mu within 2 %: two rounds of the alternating fit from the stored
+    # values, and their rounding to four figures), e at 1.4 m/s
+    # meets issue 14's target (0.76 within 0.02), and the four contact times of the 12 and
+    # 6 mm boards are predictions within issue 14's 15 %.
+    fit = bench.surface_fit(rounds=2)
+    assert fit["ratio"] == pytest.approx(MDF_SURFACE.transverse_ratio, rel=0.01)
+    assert fit["dissipation"] == pytest.approx(MDF_SURFACE.dissipation, rel=0.02)
+    assert fit["restitution"] == pytest.approx(0.76, abs=0.02)
+    predictions = [r for r in fit["rows"] if r["role"] == "prediction"]
+    assert {r["board"] for r in predictions} == {"12 mm", "6 mm"} and len(predictions) == 4
+    for r in predictions:
+        assert abs(r["error"]) < 0.15, r
+    # the fit's own rows too: issue 14's 15 % for all nine pairs (one modulus for five balls;
+    # each ball as Table 3.3 measured it, with its 1 g accelerometer)
+    for r in fit["rows"]:
+        assert abs(r["error"]) < 0.15, r
+        assert r["bare_contact_time"] < r["contact_time"]
+    text = bench.format_surface_fit(fit)
+    assert "fitted on the 18 mm board only" in text and "predictions" in text
+
+
+def test_render_takes_a_modal_sequence_of_its_scene_only():
+    # A tick rendered alone from a fitted scene's series (the plate rang before it): accepted
+    # for its own scene, refused for a scene with another ball (its contact law differs).
+    from synth.io.presets import load_preset
+    from synth.physics.bounces import BounceSequence, simulate_scene
+    from synth.sound.render import check_sequence
+
+    scene = load_preset("thesis-steel10-mdf6")
+    assert scene.contact.model == "fitted" and scene.contact.plate == "modal"
+    seq = simulate_scene(scene)
+    alone = BounceSequence(seq.impacts[2:3], "max-impacts", seq.drop_height, seq.gravity)
+    assert check_sequence(scene, alone) is alone
+    other = load_preset("thesis-steel10-mdf6", ["ball.radius=0.006"])
+    with pytest.raises(ParameterError, match="modal contact"):
+        check_sequence(other, alone)
