@@ -992,6 +992,20 @@ def modal_critical_distance(
     return float("nan")
 
 
+def _late_restitution_row(series, plain, lo_v: float, hi_v: float, label: str):
+    """The thesis row of the mean restitution of ``series`` (the engine's ``label`` model)
+    at speeds of ``lo_v``-``hi_v`` m/s late in the series, beside the impedance model's
+    (``plain``)."""
+    return thesis_row(
+        f"restitution at {lo_v:g}-{hi_v:g} m/s, end of a series, {label}",
+        "",
+        _late_restitution(series, lo_v, hi_v),
+        _late_restitution(plain, lo_v, hi_v),
+        None,
+        "model: the impedance model's; measured: e falls as the speed falls below 0.2 m/s",
+    )
+
+
 def _late_restitution(seq, lo, hi, spread=False):
     """Mean restitution of the impacts of ``seq`` at speeds in ``[lo, hi)`` (m/s), or with
     ``spread`` its standard deviation."""
@@ -1117,16 +1131,7 @@ def thesis_modal_rows(pairs=None, samplerate: int = 48000) -> list:
     modal = simulate_bounces(ball, plate, drop_height=0.1, plate_model="modal")
     plain = simulate_bounces(ball, plate, drop_height=0.1, rtol=1e-9)
     for lo_v, hi_v in LATE_SPEED_BINS:
-        rows.append(
-            thesis_row(
-                f"restitution at {lo_v:g}-{hi_v:g} m/s, end of a series, modal plate",
-                "",
-                _late_restitution(modal, lo_v, hi_v),
-                _late_restitution(plain, lo_v, hi_v),
-                None,
-                "model: the impedance model's; measured: e falls as the speed falls below 0.2 m/s",
-            )
-        )
+        rows.append(_late_restitution_row(modal, plain, lo_v, hi_v, "modal plate"))
         rows.append(
             thesis_row(
                 f"spread (standard deviation) of those restitutions at {lo_v:g}-{hi_v:g} m/s",
@@ -1141,16 +1146,7 @@ def thesis_modal_rows(pairs=None, samplerate: int = 48000) -> list:
         ball, plate, drop_height=0.1, plate_model="modal", surface="fitted"
     )
     for lo_v, hi_v in LATE_SPEED_BINS:
-        rows.append(
-            thesis_row(
-                f"restitution at {lo_v:g}-{hi_v:g} m/s, end of a series, fitted model",
-                "",
-                _late_restitution(fitted_series, lo_v, hi_v),
-                _late_restitution(plain, lo_v, hi_v),
-                None,
-                "model: the impedance model's; measured: e falls as the speed falls below 0.2 m/s",
-            )
-        )
+        rows.append(_late_restitution_row(fitted_series, plain, lo_v, hi_v, "fitted model"))
     from synth.io.presets import load_preset
     from synth.physics.bounces import simulate_scene
 
