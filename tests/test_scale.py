@@ -167,7 +167,7 @@ def test_scale_table_summarises_random_scenes():
     bar = {"material": "steel", "thickness": 0.0037, "length": 1.84, "width": 0.1}
     rows.append(
         {
-            "name": "free bar",
+            "name": "1.84 m bar",
             **bar,
             "boundary": "free",
             "samplerate": 48000,
