@@ -33,3 +33,17 @@ def _damage(path, how, array=None):
 def damage_cache_file():
     """A function ``damage(path, how, array=None)`` that damages a cache file."""
     return _damage
+
+
+@pytest.fixture
+def empty_caches(tmp_path, monkeypatch):
+    """A private, empty disk cache and empty memory caches of plate modes and radiation
+    gains (a render then starts from a fresh mode solve)."""
+    from synth.sound import modes, radiation
+
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()
+    yield
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()

@@ -87,18 +87,13 @@ def test_gallery_command_rejects_missing_folder(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("name", GALLERY)
-def test_committed_gallery_is_current(name, tmp_path, monkeypatch):
+def test_committed_gallery_is_current(name, empty_caches):
     # renders/ holds what `synth gallery` makes today: each committed WAV equals a fresh
     # render of its preset to 1e-5 of full scale (a few 24-bit steps: the plate's
     # eigen-solution may differ in its last digits between BLAS builds). From empty
     # caches, as tests/test_frozen_renders.py renders: modes solved before for a wider
     # band are reused for a narrower one (equal within the solver's tolerance, not to the
     # last bit), and the corner preset's bounces on the modal plate amplify that.
-    from synth.sound import modes, radiation
-
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-    modes.clear_memory_cache()
-    radiation.clear_memory_cache()
     path = REPO / "renders" / f"{name}.wav"
     committed, fs = soundfile.read(path)
     import synth

@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 
 import synth
-from synth.sound import modes, radiation
 
 RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())
 
@@ -28,17 +27,6 @@ RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").r
 def audio_sha256(audio: np.ndarray) -> str:
     """SHA-256 of the audio as little-endian float32."""
     return hashlib.sha256(np.ascontiguousarray(audio, dtype="<f4").tobytes()).hexdigest()
-
-
-@pytest.fixture
-def empty_caches(tmp_path, monkeypatch):
-    """A private, empty disk cache and empty memory caches of modes and radiation gains."""
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-    modes.clear_memory_cache()
-    radiation.clear_memory_cache()
-    yield
-    modes.clear_memory_cache()
-    radiation.clear_memory_cache()
 
 
 @pytest.mark.slow

@@ -19,15 +19,8 @@ STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 LISTENER = (0.1, 0.05, 0.2)  # m, above a 0.3 m x 0.2 m plate
 
 
-@pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    """Every test gets empty memory caches and its own disk cache directory."""
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-    P.clear_memory_cache()
-    R.clear_memory_cache()
-    yield
-    P.clear_memory_cache()
-    R.clear_memory_cache()
+#: every test gets empty memory caches and its own disk cache directory
+pytestmark = pytest.mark.usefixtures("empty_caches")
 
 
 def _modes(width=0.2, thickness=0.002, max_frequency=3000.0):

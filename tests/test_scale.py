@@ -16,14 +16,8 @@ MATERIALS = ("steel", "aluminium", "glass", "brass", "acrylic", "plywood")
 RATES = (22050, 44100, 48000, 96000)
 
 
-@pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-    P.clear_memory_cache()
-    R.clear_memory_cache()
-    yield
-    P.clear_memory_cache()
-    R.clear_memory_cache()
+#: every test gets empty memory caches and its own disk cache directory
+pytestmark = pytest.mark.usefixtures("empty_caches")
 
 
 def _random_scene(rng):
