@@ -69,7 +69,7 @@ def test_random_big_free_and_clamped_scenes_render(index):
 
     spec = bench.random_scale_specs(index + 1)[index]
     assert spec["boundary"] in ("free", "clamped")
-    scene = bench._scale_scene(
+    scene = bench.scale_scene(
         spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
     )
     scene = replace(scene, listener=Accelerometer((0.3 * spec["length"], 0.4 * spec["width"])))
@@ -92,7 +92,7 @@ def test_random_big_clamped_scene_heard_by_a_microphone():
 
     spec = bench.random_scale_specs(3)[2]
     assert spec["boundary"] == "clamped"
-    scene = bench._scale_scene(
+    scene = bench.scale_scene(
         spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
     )
     fs = spec["samplerate"]

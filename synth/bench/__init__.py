@@ -1,0 +1,91 @@
+"""Benchmarks: numerical error against run time (``synth bench ...``).
+
+One module per benchmark (contact, render, thesis, analysis, long, scale, hires; the live
+engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
+figure is measured in one run on this machine, after a warm-up. Nothing here is imported
+by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
+reaches every benchmark's public functions (the child processes of ``long``, ``scale`` and
+``hires`` call them that way).
+"""
+
+from synth.bench.analysis import format_analysis, run_analysis, synthetic_bounce
+from synth.bench.common import markdown_block
+from synth.bench.contact import (
+    ContactCase,
+    contact_cases,
+    format_contact,
+    format_modal_contact,
+    run_contact,
+    run_modal_contact,
+    scipy_contact,
+)
+from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
+from synth.bench.long import format_long, long_child, long_recording, run_long
+from synth.bench.render import format_render, render_scenes, run_render
+from synth.bench.scale import (
+    SCALE_LADDER,
+    SCALE_NAMED,
+    SCALE_RANDOM,
+    format_scale,
+    random_scale_specs,
+    run_scale,
+    scale_child,
+    scale_scene,
+)
+from synth.bench.thesis import (
+    THESIS_IMPACTS,
+    THESIS_IMPEDANCE,
+    THESIS_RESTITUTION,
+    THESIS_TICK_DECAY,
+    format_surface_fit,
+    format_thesis,
+    modal_critical_distance,
+    surface_fit,
+    thesis_comparison,
+    thesis_modal_rows,
+    thesis_row,
+)
+
+__all__ = [
+    "HIRES_RATES",
+    "SCALE_LADDER",
+    "SCALE_NAMED",
+    "SCALE_RANDOM",
+    "THESIS_IMPACTS",
+    "THESIS_IMPEDANCE",
+    "THESIS_RESTITUTION",
+    "THESIS_TICK_DECAY",
+    "ContactCase",
+    "contact_cases",
+    "format_analysis",
+    "format_contact",
+    "format_hires",
+    "format_long",
+    "format_modal_contact",
+    "format_render",
+    "format_scale",
+    "format_surface_fit",
+    "format_thesis",
+    "hires_child",
+    "long_child",
+    "long_recording",
+    "markdown_block",
+    "modal_critical_distance",
+    "random_scale_specs",
+    "render_scenes",
+    "run_analysis",
+    "run_contact",
+    "run_hires",
+    "run_long",
+    "run_modal_contact",
+    "run_render",
+    "run_scale",
+    "scale_child",
+    "scale_scene",
+    "scipy_contact",
+    "surface_fit",
+    "synthetic_bounce",
+    "thesis_comparison",
+    "thesis_modal_rows",
+    "thesis_row",
+]

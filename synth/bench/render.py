@@ -1,0 +1,208 @@
+"""``synth bench render``: a render's error (against a tight reference render) against its
+run time, per scene, floor and tolerance."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+
+def render_scenes() -> list:
+    """The render benchmark's scenes: ``(name, scene, render options)``: the default
+    preset; a thin steel sheet whose modal bank carries thousands of modes; a long series
+    of fast small bounces."""
+    from synth.io.presets import load_preset
+    from synth.physics.scene import Accelerometer, Ball, Plate, Scene
+
+    sheet = Plate("steel", 0.0005, 0.8, 0.6, "simply-supported")
+    return [
+        ("default preset (10 mm steel on 18 mm MDF, microphone)", load_preset("default"), {}),
+        (
+            "steel sheet 0.5 mm, 0.8 x 0.6 m, 1 mm steel ball, accelerometer, 5 s of tail",
+            Scene(
+                Ball("steel", 0.001),
+                sheet,
+                drop_height=0.2,
+                position=(0.336, 0.258),
+                listener=Accelerometer((0.24, 0.36)),
+            ),
+            {"max_tail": 5.0},
+        ),
+        ("small-click-on-acrylic (fast small bounces)", load_preset("small-click-on-acrylic"), {}),
+    ]
+
+
+def _lsd(a, b, fs):
+    """Log-spectral distance (dB) between two signals, Welch PSDs over the band where the
+    reference has energy (within 100 dB of its maximum)."""
+    from scipy.signal import welch
+
+    n = min(a.size, b.size)
+    f, pa = welch(a[:n], fs, nperseg=2048)
+    _, pb = welch(b[:n], fs, nperseg=2048)
+    band = pb > pb.max() * 1e-10
+    return float(np.sqrt(np.mean((10 * np.log10((pa[band] + 1e-300) / pb[band])) ** 2)))
+
+
+#: The renderer's targets at its default settings: error against the reference (dB, rel.
+#: L2), real-time factor of the default preset, and the modal bank's cost.
+RENDER_TARGETS = dict(error_db=-60.0, realtime=100.0, ns_per_mode_sample=1.0)
+#: The reference: no omission, a tight contact tolerance, a fine transform grid.
+REFERENCE = dict(floor_db=-200.0, rtol=1e-10, pulse_points=1025)
+
+
+def run_render(
+    floors=(-40.0, -60.0, -80.0, -100.0), tolerances=(1e-6, 1e-9), samplerate=48000, repeat: int = 5
+) -> dict:
+    """Error of the audio against a reference render against render time, the modal
+    bank's cost per mode-sample and the real-time factor, on one thread.
+
+    Parameters
+    ----------
+    floors : sequence of float < 0
+        Omission floors (``render(floor_db=...)``), dB.
+    tolerances : sequence of float
+        Contact tolerances (``Contact.rtol``), dimensionless.
+    samplerate : int
+        Hz.
+    repeat : int
+        Timed renders per figure (the median is reported), after one warm-up render.
+
+    Returns
+    -------
+    dict
+        ``rows``: per scene, tolerance and floor, the error (relative L2, and in dB),
+        the log-spectral distance (dB), the render time (s, median), the real-time
+        factor, the modes rendered and below Nyquist, the mode-samples and the bank's
+        ns per mode-sample; ``default`` marks the engine's default settings (floor
+        -80 dB, rtol 1e-9); ``summary``: the targets and whether they are met.
+
+    Notes
+    -----
+    The reference renders each scene with no omission (floor -200 dB), contact rtol
+    1e-10 and 1025 points per pulse for the transforms. The output stage's fade is off
+    in every render compared (it is not an omission). numba runs on one thread.
+    """
+    import dataclasses
+
+    import numba
+
+    from synth.sound.render import render
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    rows = []
+    try:
+        for name, scene, opts in render_scenes():
+            ref_scene = dataclasses.replace(
+                scene, contact=dataclasses.replace(scene.contact, rtol=REFERENCE["rtol"])
+            )
+            ref = render(
+                ref_scene,
+                samplerate=samplerate,
+                normalize="none",
+                fade=0.0,
+                floor_db=REFERENCE["floor_db"],
+                pulse_points=REFERENCE["pulse_points"],
+                **opts,
+            )
+            ref_audio = ref.audio.astype(float)
+            ref_norm = np.linalg.norm(ref_audio)
+            for tol in tolerances:
+                sc = dataclasses.replace(
+                    scene, contact=dataclasses.replace(scene.contact, rtol=tol)
+                )
+                for floor in floors:
+                    kw = dict(
+                        samplerate=samplerate, normalize="none", floor_db=floor, fade=0.0, **opts
+                    )
+                    render(sc, **kw)  # warm-up
+                    times, banks = [], []
+                    for _ in range(repeat):
+                        t0 = time.perf_counter()
+                        r = render(sc, **kw)
+                        times.append(time.perf_counter() - t0)
+                        banks.append(r.settings["bank_seconds"])
+                    a = r.audio.astype(float)
+                    n = max(a.size, ref_audio.size)
+                    a = np.pad(a, (0, n - a.size))
+                    b = np.pad(ref_audio, (0, n - ref_audio.size))
+                    err = np.linalg.norm(a - b) / ref_norm
+                    t = float(np.median(times))
+                    ms = r.settings["mode_samples"]
+                    rows.append(
+                        dict(
+                            scene=name,
+                            rtol=tol,
+                            floor_db=floor,
+                            default=(floor == -80.0 and tol == 1e-9),
+                            error_db=20 * math.log10(max(err, 1e-300)),
+                            error=err,
+                            lsd_db=_lsd(a, b, samplerate),
+                            seconds=t,
+                            realtime=r.duration / t,
+                            duration=r.duration,
+                            modes=r.settings["n_modes"],
+                            modes_rendered=r.settings["n_modes_rendered"],
+                            mode_samples=ms,
+                            impacts=len(r.impacts),
+                            ns_per_mode_sample=float(np.median(banks)) / max(ms, 1) * 1e9,
+                        )
+                    )
+    finally:
+        numba.set_num_threads(threads)
+    defaults = [r for r in rows if r["default"]]
+    first = defaults[0] if defaults else None
+    summary = dict(targets=RENDER_TARGETS)
+    if defaults:
+        summary.update(
+            worst_error_db=max(r["error_db"] for r in defaults),
+            default_preset_realtime=first["realtime"],
+            worst_ns_per_mode_sample=max(r["ns_per_mode_sample"] for r in defaults),
+        )
+        summary["met"] = dict(
+            error_db=bool(summary["worst_error_db"] <= RENDER_TARGETS["error_db"]),
+            realtime=bool(summary["default_preset_realtime"] >= RENDER_TARGETS["realtime"]),
+            ns_per_mode_sample=bool(
+                summary["worst_ns_per_mode_sample"] <= RENDER_TARGETS["ns_per_mode_sample"]
+            ),
+        )
+    return dict(samplerate=samplerate, reference=REFERENCE, rows=rows, summary=summary)
+
+
+def format_render(result) -> str:
+    """The render benchmark as a Markdown table, with the targets and whether they are met."""
+    ref = result["reference"]
+    lines = [
+        f"samplerate {result['samplerate']} Hz, one thread; reference: floor {ref['floor_db']:.0f} dB "
+        f"(no omission), contact rtol {ref['rtol']:.0e}, {ref['pulse_points']} points per pulse; "
+        "* = default settings",
+        "| scene | rtol | floor (dB) | error re reference (dB, rel. L2) | log-spectral distance (dB) | "
+        "render (ms) | real-time factor | modes rendered / below Nyquist | mode-samples | bank (ns per mode-sample) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in result["rows"]:
+        mark = " *" if r["default"] else ""
+        lines.append(
+            f"| {r['scene']} | {r['rtol']:.0e} | {r['floor_db']:.0f}{mark} | {r['error_db']:.1f} | "
+            f"{r['lsd_db']:.3f} | {r['seconds'] * 1e3:.1f} | {r['realtime']:.0f}x | "
+            f"{r['modes_rendered']} / {r['modes']} | {r['mode_samples']:.3g} | "
+            f"{r['ns_per_mode_sample']:.2f} |"
+        )
+    s = result["summary"]
+    if "met" in s:
+        t = s["targets"]
+        ok = {True: "met", False: "NOT met"}
+        lines += [
+            "",
+            "Targets at the default settings:",
+            f"- error against the reference, worst scene: {s['worst_error_db']:.1f} dB "
+            f"(target <= {t['error_db']:.0f} dB): {ok[s['met']['error_db']]}",
+            f"- default preset: {s['default_preset_realtime']:.0f}x faster than real time "
+            f"(target >= {t['realtime']:.0f}x): {ok[s['met']['realtime']]}",
+            f"- modal bank, worst scene: {s['worst_ns_per_mode_sample']:.2f} ns per mode-sample "
+            f"(target <= {t['ns_per_mode_sample']:.0f} ns): {ok[s['met']['ns_per_mode_sample']]}",
+        ]
+    return "\n".join(lines)
