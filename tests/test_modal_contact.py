@@ -194,3 +194,38 @@ def test_pulse_is_the_contact_law_of_the_interpolated_penetration():
     assert r.force_at(-1e-6) == 0.0 and r.force_at(2.0 * r.contact_time) == 0.0
     forces, _ = r.pulse_samples(r.contact_time / 10, 11, 0.0, 1.0, 1)
     assert forces[0] == 0.0 and forces.size == 12
+
+
+def _series_fingerprint(seq):
+    """Every impact's time, speed, restitution and force pulse: equal bit for bit or not."""
+    return [
+        (i.time, i.speed, i.restitution, i.result.contact_time, i.result.force.tobytes())
+        for i in seq.impacts
+    ]
+
+
+@pytest.mark.slow
+def test_corner_preset_series_is_independent_of_the_mode_cache(empty_caches, tmp_path):
+    # The modal contact's modes come from a solve of exactly its band: a wider band's
+    # solution in the mode cache (equal within the solver's tolerance, not bit-equal) must
+    # not change the bounces, which amplify any difference (to 1-3 % of full scale).
+    from synth.io.cache import cache_dir
+    from synth.io.presets import load_preset
+    from synth.sound import modes
+
+    scene = load_preset("thesis-steel10-mdf18-corner")
+    cold = _series_fingerprint(simulate_scene(scene))
+    speed = (2.0 * scene.gravity * scene.drop_height) ** 0.5
+    band = mc.ModalContact.for_pair(
+        scene.ball, scene.plate, scene.position, speed=speed, **scene.contact.options()
+    ).point.max_frequency
+    modes.modes(scene.plate, max_frequency=1.25 * band)  # a wider band, now in the mode cache
+    mc.clear_memory_cache()
+    disk = list(cache_dir().glob("contact-point-modes-*"))
+    assert disk, "the contact's modes at the point are stored on disk"
+    from_disk = _series_fingerprint(simulate_scene(scene))
+    for path in disk:
+        path.unlink()
+    warm = _series_fingerprint(simulate_scene(scene))
+    assert from_disk == cold
+    assert warm == cold

@@ -39,7 +39,10 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from synth import checks
+from synth.errors import ParameterError
 
 if TYPE_CHECKING:
     from synth.physics.scene import Plate
@@ -131,3 +134,99 @@ def admittance_at(
     re = 1.0 / EDGE_RATIO
     rc = 1.0 / CORNER_RATIO
     return beta_inf * (1.0 + (re - 1.0) * (sx + sy) + (rc - 2.0 * re + 1.0) * sx * sy)
+
+
+# --------------------------------------------------------------------------------------
+# Thick plates: Mindlin's shear deformation and rotary inertia
+# --------------------------------------------------------------------------------------
+
+#: Mindlin's shear coefficient ``kappa`` (Reissner's 5/6; Mindlin's own pi^2/12 = 0.822
+#: differs by 1.3 %).
+SHEAR_COEFFICIENT = 5.0 / 6.0
+
+
+def _mindlin_constants(plate: Plate) -> tuple[float, float, float, float, float]:
+    """``D`` (N m), ``rho h`` (kg/m^2), ``I = rho h^3 / 12`` (kg), ``rho / (kappa G)``
+    (s^2/m^2) and ``kappa G h`` (N/m) of an isotropic plate, ``G = E / (2 (1 + nu))``."""
+    m = plate.material
+    shear = m.young / (2.0 * (1.0 + m.poisson))
+    h = plate.thickness
+    return (
+        plate.flexural_rigidity,
+        plate.surface_density,
+        m.density * h**3 / 12.0,
+        m.density / (SHEAR_COEFFICIENT * shear),
+        SHEAR_COEFFICIENT * shear * h,
+    )
+
+
+def mindlin_wavenumbers(plate: Plate, omega):
+    """The two roots ``s1 > s2`` (rad^2/m^2) in ``s = k^2`` of Mindlin's dispersion relation
+    at angular frequency ``omega`` (rad/s, > 0):
+
+        P(s) = (s - omega^2 rho / (kappa G)) (D s - I omega^2) - rho h omega^2 = 0
+
+    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff, "Wave Motion in Elastic Solids",
+    section 8.3). ``s1`` is the propagating flexural wave; ``s2 < 0`` is evanescent below
+    the thickness-shear cut-off ``sqrt(kappa G h / I)``. As ``omega h / c -> 0`` they tend
+    to Kirchhoff's ``+-omega sqrt(rho h / D)``."""
+    w2 = np.asarray(omega, dtype=float) ** 2
+    D, rh, inertia, slow, _ = _mindlin_constants(plate)
+    b = w2 * (inertia + D * slow)
+    c = w2 * (inertia * slow * w2 - rh)
+    s1 = (b + np.sqrt(b * b - 4.0 * D * c)) / (2.0 * D)
+    return s1, c / (D * s1)
+
+
+def mindlin_point_admittance(plate: Plate, frequency):
+    """Real part of the driving-point admittance of the infinite Mindlin plate under a point
+    force, m/(N s), at ``frequency`` (Hz, > 0):
+
+        Re Y = omega N(s1) / (4 D (s1 - s2)),   N(s) = 1 + (D s - I omega^2) / (kappa G h)
+
+    the residue of the propagating pole in ``Y = i omega / (4 pi) Int_0^inf N(s) / P(s) ds``
+    (the wavenumber integral of the point force; ``N / P`` the plate's transfer function,
+    see :func:`mindlin_wavenumbers`). It tends to Kirchhoff's ``1 / (8 sqrt(D rho h))``
+    at low frequency and rises with ``k h``: shear makes the plate softer. (The imaginary
+    part diverges logarithmically under a true point force, the local shear deflection;
+    the contact's finite area bounds it, and the contact law carries it.)"""
+    f = np.asarray(frequency, dtype=float)
+    if not np.all(np.isfinite(f) & (f > 0.0)):
+        raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
+    w = 2.0 * math.pi * f
+    D, _, inertia, _, shear_stiffness = _mindlin_constants(plate)
+    s1, s2 = mindlin_wavenumbers(plate, w)
+    n1 = 1.0 + (D * s1 - inertia * w * w) / shear_stiffness
+    y = w * n1 / (4.0 * D * (s1 - s2))
+    return float(y) if np.ndim(y) == 0 else y
+
+
+def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
+    """The flexural (lower) Mindlin angular frequency, rad/s, of a wave of ``k^2`` =
+    ``wavenumber_squared`` (rad^2/m^2): the lower root in ``omega^2`` of ``P = 0``
+    (:func:`mindlin_wavenumbers`),
+
+        A omega^4 - B omega^2 + D s^2 = 0,  A = I rho / (kappa G),
+        B = D s rho / (kappa G) + I s + rho h.
+
+    For the simply supported plate's mode (m, n), ``s = (m pi / a)^2 + (n pi / b)^2``, this
+    is Mindlin's exact frequency (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23
+    (1956) 430-436)."""
+    s = np.asarray(wavenumber_squared, dtype=float)
+    D, rh, inertia, slow, _ = _mindlin_constants(plate)
+    a = inertia * slow
+    b = D * s * slow + inertia * s + rh
+    w2 = 2.0 * D * s * s / (b + np.sqrt(b * b - 4.0 * a * D * s * s))
+    return np.sqrt(w2)
+
+
+def mindlin_mass_factor(plate: Plate, wavenumber_squared, omega):
+    """A Mindlin mode's modal mass over Kirchhoff's ``rho h S``-normalised one, for the
+    mode of ``k^2 = wavenumber_squared`` (rad^2/m^2) at ``omega`` (rad/s): the rotations
+    ``psi = i k w / N(s)`` (from the moment equation) add the rotary kinetic energy,
+    ``1 + I s / (rho h N(s)^2)``."""
+    s = np.asarray(wavenumber_squared, dtype=float)
+    w = np.asarray(omega, dtype=float)
+    D, rh, inertia, _, shear_stiffness = _mindlin_constants(plate)
+    n = 1.0 + (D * s - inertia * w * w) / shear_stiffness
+    return 1.0 + inertia * s / (rh * n * n)

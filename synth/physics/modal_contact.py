@@ -48,6 +48,7 @@ balance reported as ``energy_residual``.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
@@ -57,17 +58,21 @@ import numpy as np
 from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
+from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.physics import impedance
 from synth.physics.contact import ImpactResult, contact_law, solve_contact
 from synth.physics.scene import Ball, Plate
 
 __all__ = [
     "BAND_FACTOR",
+    "PLATE_THEORIES",
     "STEPS_PER_CONTACT",
     "ModalPoint",
     "ModalContact",
     "ModalImpactResult",
     "PlateRinging",
+    "band_modes",
+    "clear_memory_cache",
     "modal_point",
     "next_touch",
 ]
@@ -482,6 +487,9 @@ class ModalPoint:
         ``beta_inf = 1 / Z_inf``, m/(N s).
     residual_rate : float
         ``a = pi Omega / 2``, 1/s.
+    theory : str
+        The plate theory of the modes and residual: "kirchhoff" (thin plate) or "mindlin"
+        (shear deformation and rotary inertia, :func:`modal_point`).
     """
 
     plate: Plate
@@ -493,6 +501,7 @@ class ModalPoint:
     rigid_coupling: float
     residual_admittance: float
     residual_rate: float
+    theory: str = "kirchhoff"
 
     def admittance(self, frequency) -> np.ndarray:
         """Driving-point admittance ``Y = v / F`` (m/(N s), complex, ``e^(i omega t)``
@@ -530,19 +539,59 @@ class ModalPoint:
         return (w_hi - w_lo) / (modal + residual)
 
 
-def modal_point(plate: Plate, position: tuple[float, float], *, max_frequency: float) -> ModalPoint:
-    """The plate at ``position`` (m from a corner) with its bending modes up to
-    ``max_frequency`` (Hz) and the residual above (see the module docstring)."""
-    from synth.sound.modes import modes as plate_modes
+#: Plate theories of the modal contact (:func:`modal_point`).
+PLATE_THEORIES = ("kirchhoff", "mindlin")
 
+
+def modal_point(
+    plate: Plate,
+    position: tuple[float, float],
+    *,
+    max_frequency: float,
+    theory: str = "kirchhoff",
+) -> ModalPoint:
+    """The plate at ``position`` (m from a corner) with its bending modes up to
+    ``max_frequency`` (Hz) and the residual above (see the module docstring).
+
+    ``theory``: "kirchhoff", the thin plate; or "mindlin", with shear deformation and
+    rotary inertia (docs/physics.md, "Thick plates"): each thin-plate mode keeps its shape
+    and its wavenumber ``k^2 = omega_K sqrt(rho h / D)`` and takes Mindlin's frequency at
+    that wavenumber (:func:`synth.physics.impedance.mindlin_angular_frequency`, exact for
+    the simply supported plate) and Mindlin's modal mass
+    (:func:`synth.physics.impedance.mindlin_mass_factor`); the band then needs the thin
+    modes up to the wavenumber of Mindlin's ``max_frequency``. The residual's admittance is
+    the infinite Mindlin plate's at the band limit
+    (:func:`synth.physics.impedance.mindlin_point_admittance`). With these couplings the
+    modes' band-averaged ``Re Y`` is the infinite Mindlin plate's (modal density times
+    ``pi c_k / 2``).
+
+    The modes are those of an eigen-solution for exactly this band
+    (:func:`band_modes`), never a wider band's held in the mode cache: a Ritz solution's
+    modes depend on its basis in their last digits, and a series of bounces on the modal
+    plate amplifies such differences, so the result must not depend on what was solved
+    before. Each point's modes are kept on disk (a later process then needs no solve)."""
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
     x, y = plate.check_position(position, "position")
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
-    m = plate_modes(plate, max_frequency=fmax)
-    phi = m.shapes(np.array([[x, y]]))[0]
-    omega = np.array(m.angular_frequencies, dtype=float)
-    sigma = np.array(m.decay_rates, dtype=float)
+    if theory not in PLATE_THEORIES:
+        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
+    omega_band = 2.0 * math.pi * fmax
+    if theory == "mindlin":
+        thin_band = _thin_frequency(plate, impedance.mindlin_wavenumbers(plate, omega_band)[0])
+        omega, coupling = _point_modes(plate, (x, y), thin_band / (2.0 * math.pi))
+        s = omega * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+        omega = impedance.mindlin_angular_frequency(plate, s)
+        coupling = coupling / impedance.mindlin_mass_factor(plate, s, omega)
+        inside = omega <= omega_band
+        omega, coupling = omega[inside], coupling[inside]
+        residual = impedance.mindlin_point_admittance(plate, fmax)
+    else:
+        omega, coupling = _point_modes(plate, (x, y), fmax)
+        residual = 1.0 / impedance.infinite_plate_impedance(plate)
+    sigma = np.broadcast_to(
+        np.asarray(plate.damping_law().decay_rate(omega), dtype=float), omega.shape
+    ).copy()
     if np.any(sigma >= omega):
         k = int(np.argmax(sigma >= omega))
         raise ParameterError(
@@ -550,7 +599,6 @@ def modal_point(plate: Plate, position: tuple[float, float], *, max_frequency: f
             f"rate {sigma[k]:.6g} 1/s at or above its angular frequency: the modal contact "
             f"needs underdamped modes below max_frequency={fmax!r} Hz"
         )
-    coupling = phi * phi / np.asarray(m.modal_masses, dtype=float)
     # modes with a node at the point take no part in the contact
     keep = coupling > 1e-12 * coupling.max(initial=0.0)
     omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
@@ -568,9 +616,111 @@ def modal_point(plate: Plate, position: tuple[float, float], *, max_frequency: f
         sigma=sigma,
         coupling=coupling,
         rigid_coupling=rigid,
-        residual_admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        residual_admittance=residual,
         residual_rate=0.5 * math.pi * 2.0 * math.pi * fmax,
+        theory=theory,
     )
+
+
+def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
+    """Kirchhoff's angular frequency (rad/s) of a wave of ``k^2`` (rad^2/m^2)."""
+    return wavenumber_squared * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+
+
+# Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
+# point's modes on disk. The disk key holds everything the modes depend on; its version
+# changes with the mode solver's algorithm.
+_BAND_MODES = MemoryCache("solves", max_entries=8)
+_POINT_VERSION = 1
+
+
+def clear_memory_cache() -> None:
+    """Forget the eigen-solutions held by :func:`band_modes` (the disk cache is untouched)."""
+    _BAND_MODES.clear()
+
+
+def _plate_key(plate: Plate, max_frequency: float) -> dict:
+    """What the bending modes of ``plate`` to ``max_frequency`` (Hz) depend on."""
+    m = plate.material
+    return {
+        "boundary": plate.boundary,
+        "young": float(m.young).hex(),
+        "density": float(m.density).hex(),
+        "poisson": float(m.poisson).hex(),
+        "thickness": float(plate.thickness).hex(),
+        "length": float(plate.length).hex(),
+        "width": float(plate.width).hex(),
+        "max_frequency": float(max_frequency).hex(),
+    }
+
+
+def band_modes(plate: Plate, max_frequency: float):
+    """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
+    exactly that band: the mode cache's if it holds that band, else a solve of the band
+    alone (:func:`synth.sound.modes.modes` with ``cache=False``) where the cache would serve
+    a wider band's. Held in memory for the next contact on the plate."""
+    from synth.sound.modes import modes as plate_modes
+
+    key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
+    held = _BAND_MODES.get(key)
+    if held is None:
+        held = plate_modes(plate, max_frequency=max_frequency)
+        if not held.solved_for_band:
+            held = plate_modes(plate, max_frequency=max_frequency, cache=False)
+        _BAND_MODES.put(key, held, source="computed")
+    return held
+
+
+def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
+    """Angular frequencies (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of the modes of
+    :func:`band_modes` at ``position``: from the disk cache, or computed and stored."""
+    from synth.sound.modes import TOLERANCE
+
+    key = json.dumps(
+        dict(
+            _plate_key(plate, max_frequency),
+            x=float(position[0]).hex(),
+            y=float(position[1]).hex(),
+            version=_POINT_VERSION,
+            tolerance=TOLERANCE,
+        ),
+        sort_keys=True,
+    )
+    try:
+        path = cache_path("contact-point-modes", key)
+    except RuntimeError:  # no home directory: no disk cache
+        path = None
+    stored = _load_point(path, key)
+    if stored is not None:
+        return stored
+    m = band_modes(plate, max_frequency)
+    phi = m.shapes(np.array([position], dtype=float))[0]
+    omega = np.array(m.angular_frequencies, dtype=float)
+    coupling = phi * phi / np.asarray(m.modal_masses, dtype=float)
+    if path is not None:
+        savez_atomic(path, {"key": np.array(key), "omega": omega, "coupling": coupling})
+    return omega, coupling
+
+
+def _load_point(path, key: str):
+    """The stored ``(omega, coupling)`` of ``key`` at ``path``, or None if absent or not
+    consistent (then recomputed)."""
+    if path is None or not path.is_file():
+        return None
+    try:
+        with load_npz(path) as z:
+            if str(z["key"][()]) != key:
+                return None
+            omega, coupling = z["omega"], z["coupling"]
+    except (OSError, ValueError, KeyError):
+        return None
+    ok = (
+        omega.ndim == 1
+        and coupling.shape == omega.shape
+        and bool(np.all(np.isfinite(omega)) and np.all(np.isfinite(coupling)))
+        and bool(np.all(omega > 0.0) and np.all(coupling >= 0.0))
+    )
+    return (omega, coupling) if ok else None
 
 
 # --------------------------------------------------------------------------------------

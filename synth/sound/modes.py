@@ -1243,6 +1243,20 @@ class Modes:
             f"{p.thickness:g} m)"
         )
 
+    @property
+    def solved_for_band(self) -> bool:
+        """True when the eigen-solution was solved for exactly ``max_frequency`` (the
+        simply supported closed form always is). A cached wider band's solution serves a
+        narrower request with modes equal within :data:`TOLERANCE` but not to the last bit;
+        a caller whose result must not depend on the cache's history (the modal contact,
+        whose bounces amplify such differences) checks this."""
+        sol = self._solution
+        if isinstance(sol, _SimplySupported):
+            return True
+        if isinstance(sol, _RitzSolution):
+            return sol.omega_max == _dimensionless_band(self.plate, self.max_frequency)
+        return False  # a hybrid's low Ritz band may itself be a wider band's
+
     def separable(self) -> SeparableShapes | None:
         """The shapes as products ``X_i(x) Y_j(y)`` (:class:`SeparableShapes`), or None
         when they are not (free and clamped plates: sums of such products)."""
@@ -1325,6 +1339,18 @@ class Modes:
         return sol.summed(len(self), p.length, p.width, k)
 
 
+def _frequency_scale(plate: Plate) -> float:
+    """``omega / Omega`` (rad/s): ``Omega = omega L^2 sqrt(rho h / D)`` is dimensionless,
+    ``L = max(a, b)``."""
+    length = max(plate.length, plate.width)
+    return math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
+
+
+def _dimensionless_band(plate: Plate, max_frequency: float) -> float:
+    """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
+    return 2.0 * math.pi * max_frequency / _frequency_scale(plate)
+
+
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     """Every bending mode of ``plate`` with frequency at or below ``max_frequency``.
 
@@ -1366,12 +1392,9 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
-    a, b = plate.length, plate.width
-    length = max(a, b)
-    aspect = a / b
-    # omega = Omega * scale with Omega = omega L^2 sqrt(rho h / D) dimensionless.
-    scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
-    omega_req = 2.0 * math.pi * fmax / scale
+    aspect = plate.length / plate.width
+    scale = _frequency_scale(plate)
+    omega_req = _dimensionless_band(plate, fmax)
     if plate.boundary == "simply-supported":
         sol = _SimplySupported(aspect, omega_req)
         tol = 0.0
