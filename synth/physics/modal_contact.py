@@ -900,12 +900,14 @@ class ModalContact:
         max_frequency: float | None = None,
         steps_per_contact: int = STEPS_PER_CONTACT,
         speed: float | None = None,
+        theory: str = "kirchhoff",
         **contact_options,
     ) -> ModalContact:
         """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
         under the contact ``law`` and its options (:func:`synth.physics.contact.contact_law`).
         ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's
-        contact time at ``speed`` (m/s; default 1 m/s)."""
+        contact time at ``speed`` (m/s; default 1 m/s); ``theory`` is the plate theory of
+        :func:`modal_point`."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -916,7 +918,7 @@ class ModalContact:
             v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
             tau = _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
             max_frequency = BAND_FACTOR / tau
-        point = modal_point(plate, pos, max_frequency=max_frequency)
+        point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
         return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu)
 
     def at_rest(self) -> PlateRinging:
