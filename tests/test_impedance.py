@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from synth.errors import ParameterError
@@ -81,3 +82,94 @@ def test_point_admittance_rejects_positions_off_the_plate(pos):
 def test_critical_distance_rejects_bad_contact_time(tau):
     with pytest.raises(ParameterError, match="contact_time"):
         impedance.critical_distance(MDF18, tau)
+
+
+# --------------------------------------------------------------------------------------
+# Mindlin (thick) plate
+# --------------------------------------------------------------------------------------
+
+
+def test_mindlin_admittance_tends_to_kirchhoff_at_low_frequency():
+    # k h -> 0: Mindlin's Re Y -> 1 / (8 sqrt(D rho h)); the correction grows as omega
+    # (shear, k^2 D / (kappa G h), with k^2 ~ omega): 4.2e-5 at 1 Hz, so 1e-6 at 0.02 Hz.
+    beta = 1.0 / impedance.infinite_plate_impedance(MDF18)
+    assert impedance.mindlin_point_admittance(MDF18, 0.02) == pytest.approx(beta, rel=1e-6)
+    f = np.array([1e2, 1e3, 1e4, 1e5])
+    y = impedance.mindlin_point_admittance(MDF18, f)
+    assert np.all(np.diff(y) > 0.0) and np.all(y > beta)  # shear softens the plate
+
+
+@pytest.mark.parametrize("frequency", [1e3, 4.5e3, 2e4])
+def test_mindlin_admittance_is_the_wavenumber_integral(frequency):
+    # The exact wavenumber integral of a point force, Re Y = Re[i omega / (4 pi) Int N / P ds],
+    # evaluated with a small loss (E, G -> (1 + i eta) E, G) that moves the pole off the axis,
+    # and extrapolated to eta -> 0 (error linear in eta: Richardson from eta and eta / 2).
+    from scipy.integrate import quad
+
+    w = 2.0 * np.pi * frequency
+    m = MDF18.material
+    h = MDF18.thickness
+    shear = impedance.SHEAR_COEFFICIENT * m.young / (2.0 * (1.0 + m.poisson))
+    inertia = m.density * h**3 / 12.0
+    s1 = impedance.mindlin_wavenumbers(MDF18, w)[0]
+
+    def re_y(eta):
+        D = MDF18.flexural_rigidity * (1.0 + 1j * eta)
+        g = shear * (1.0 + 1j * eta)
+
+        def integrand(s):
+            p = (s - w * w * m.density / g) * (D * s - inertia * w * w) - m.density * h * w * w
+            n = 1.0 + (D * s - inertia * w * w) / (g * h)
+            return (1j * w / (4.0 * np.pi) * n / p).real
+
+        pts = [s1 * (1.0 + d) for d in (-0.2, -0.05, -0.01, 0.0, 0.01, 0.05, 0.2)]
+        return quad(integrand, 0.0, 400.0 * s1, points=pts, limit=4000)[0]
+
+    extrapolated = 2.0 * re_y(0.005) - re_y(0.01)
+    closed = impedance.mindlin_point_admittance(MDF18, frequency)
+    assert extrapolated == pytest.approx(closed, rel=1e-3)
+
+
+def test_mindlin_simply_supported_square_published_frequency():
+    # Simply supported square, a / h = 10, nu = 0.3, kappa = 5/6: the fundamental's
+    # omega h sqrt(rho / G) = 0.0930 by Mindlin's theory (exact 3D elasticity 0.0932, thin
+    # plate with rotary inertia 0.0955; Srinivas, Joga Rao & Rao, J. Sound Vib. 12 (1970)
+    # 187-199; Reddy, "Theory and Analysis of Elastic Plates and Shells", 2nd ed., ch. 10).
+    from synth.physics.materials import Material
+
+    mat = Material("test", 1000.0, 1e9, 0.3)
+    plate = Plate(mat, 0.1, 1.0, 1.0, boundary="simply-supported")
+    w = impedance.mindlin_angular_frequency(plate, 2.0 * np.pi**2)
+    shear = mat.young / (2.0 * (1.0 + mat.poisson))
+    assert w * 0.1 * np.sqrt(mat.density / shear) == pytest.approx(0.0930, abs=6e-5)
+
+
+def test_mindlin_dispersion_roots_and_frequency_agree():
+    # mindlin_angular_frequency inverts the propagating root of mindlin_wavenumbers
+    # (both solve P = 0; 1e-12), and both tend to Kirchhoff's k^4 = omega^2 rho h / D.
+    w = 2.0 * np.pi * np.array([0.01, 1e3, 3e4])
+    s1, s2 = impedance.mindlin_wavenumbers(MDF18, w)
+    assert impedance.mindlin_angular_frequency(MDF18, s1) == pytest.approx(w, rel=1e-12)
+    thin = w[0] * math.sqrt(MDF18.surface_density / MDF18.flexural_rigidity)
+    assert s1[0] == pytest.approx(thin, rel=1e-5) and s2[0] == pytest.approx(-thin, rel=1e-5)
+
+
+def test_mindlin_modal_mass_makes_the_modes_sum_to_the_infinite_plate():
+    # pi c / 2 times the modal density n = S / (4 pi) ds1 / d omega is Re Y of the infinite
+    # plate (modes as a continuum), with c = 1 / (M mindlin_mass_factor): an identity of
+    # the dispersion relation, to the finite difference's 1e-7.
+    area = MDF18.length * MDF18.width
+    for f in (1e3, 4.5e3, 2e4):
+        w = 2.0 * np.pi * f
+        dw = 1e-5 * w
+        ds = impedance.mindlin_wavenumbers(MDF18, np.array([w - dw, w + dw]))[0]
+        density = area / (4.0 * np.pi) * (ds[1] - ds[0]) / (2.0 * dw)
+        s1 = impedance.mindlin_wavenumbers(MDF18, w)[0]
+        c = 1.0 / (MDF18.mass * impedance.mindlin_mass_factor(MDF18, s1, w))
+        y = impedance.mindlin_point_admittance(MDF18, f)
+        assert 0.5 * np.pi * density * c == pytest.approx(y, rel=1e-7)
+
+
+def test_mindlin_admittance_rejects_bad_frequency():
+    with pytest.raises(ParameterError, match="frequency"):
+        impedance.mindlin_point_admittance(MDF18, [1e3, -1.0])
