@@ -6,6 +6,7 @@ import pytest
 from synth import bench
 
 PAIRS = [("steel 10.0 mm", "18 mm"), ("steel 19.0 mm", "18 mm")]
+THREE = ("middle", "edge", "corner")
 
 
 @pytest.fixture(scope="module")
@@ -80,3 +81,33 @@ def test_modal_contact_error_against_run_time(monkeypatch):
     assert modal[2.0, 256]["error"] < modal[1.0, 256]["error"]
     assert all(r["us_per_impact"] > 0 for r in rows)
     assert "| middle | impedance |" in bench.format_modal_contact(rows)
+
+
+@pytest.mark.slow
+def test_mindlin_plate_impedance_table_3_4(rows):
+    # Shear and rotary inertia soften the 18 mm board by the infinite Mindlin plate's band
+    # average (1 / <Re Y> over 0-10 kHz: 1327 against Kirchhoff's 1629 N s/m): the middle
+    # meets issue 14's target, within 10 % of the hammer's 1271 N s/m; at the edge and the
+    # corner the same softening carries the free plate's modes below the hammer's values
+    # (the edge and corner ratios to the middle are the thin plate's within 3 %).
+    mindlin = {w: rows[f"impedance, Mindlin modal plate, 18 mm, {w}"] for w in THREE}
+    thin = {w: rows[f"impedance, modal plate, 18 mm, {w}"] for w in THREE}
+    assert mindlin["middle"]["engine"] == pytest.approx(1271.0, rel=0.10)
+    assert mindlin["middle"]["engine"] == pytest.approx(1327.0, rel=0.02)
+    for where in ("edge", "corner"):
+        ratio = mindlin[where]["engine"] / mindlin["middle"]["engine"]
+        assert ratio == pytest.approx(thin[where]["engine"] / thin["middle"]["engine"], rel=0.03)
+
+
+@pytest.mark.slow
+def test_mindlin_plate_keeps_the_fitted_contact(rows):
+    # The fitted model on the Mindlin plate, nothing refitted: the contact's own frequencies
+    # (a few kHz, k h < 1) see little of the shear: e at 1.4 m/s still within issue 14's
+    # 0.02 of the measured 0.76 and the contact times within its 15 % of Table 3.3.
+    r = rows[
+        "restitution at middle, fitted model on the Mindlin plate, steel 10.0 mm on 18 mm (1.4 m/s)"
+    ]
+    assert r["engine"] == pytest.approx(0.76, abs=0.02)
+    for ball, board in PAIRS:
+        r = rows[f"contact time, fitted model on the Mindlin plate, {ball} on {board}"]
+        assert r["engine"] == pytest.approx(r["measured"], rel=0.15), r

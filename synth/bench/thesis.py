@@ -283,14 +283,18 @@ def modal_critical_distance(
     free edge, the distance at which the restitution stops rising, i.e. where, coming from the
     middle, it starts to fall (the thesis' definition, Table 3.3). The first local maximum of
     e on a grid of ``step`` (m), refined by a parabola through it and its neighbours.
-    ``contact_options`` as in :func:`synth.physics.contact.contact_law`."""
+    ``contact_options`` as in :func:`synth.physics.contact.contact_law`, and ``theory`` (the
+    plate theory of :func:`synth.physics.modal_contact.modal_point`)."""
     from synth.physics import modal_contact as mc
 
     base = mc.ModalContact.for_pair(ball, plate, None, speed=speed, **contact_options)
 
     def e_at(d):
         point = mc.modal_point(
-            plate, (0.5 * plate.length, d), max_frequency=base.point.max_frequency
+            plate,
+            (0.5 * plate.length, d),
+            max_frequency=base.point.max_frequency,
+            theory=base.point.theory,
         )
         c = mc.ModalContact(
             point,
@@ -449,6 +453,7 @@ def thesis_modal_rows(pairs=None, samplerate: int = 48000) -> list:
                 f"engine: 1 / <Re Y> over {lo / 1e3:g}-{hi / 1e3:g} kHz",
             )
         )
+    rows += _mindlin_rows(chosen, order, v1, mid.point.max_frequency)
     modal = simulate_bounces(ball, plate, drop_height=0.1, plate_model="modal")
     plain = simulate_bounces(ball, plate, drop_height=0.1, rtol=1e-9)
     for lo_v, hi_v in LATE_SPEED_BINS:
@@ -482,6 +487,77 @@ def thesis_modal_rows(pairs=None, samplerate: int = 48000) -> list:
                 None,
                 measured,
                 "the thesis has no model of the sound",
+            )
+        )
+    return rows
+
+
+def _mindlin_rows(chosen: dict, order: list, v1: float, band: float) -> list:
+    """The thick-plate rows (the modal plate with Mindlin's shear deformation and rotary
+    inertia, ``theory="mindlin"`` of :func:`synth.physics.modal_contact.modal_point`, MDF's
+    isotropic shear modulus, nothing refitted): the 18 mm board's impedance at the middle,
+    an edge and a corner (Table 3.4, the Kirchhoff rows' ``band``, Hz), and with the fitted
+    model's surface the restitution at the middle and at an edge (``v1``, m/s), the contact
+    time (with the accelerometer) and critical distance of the ``chosen`` pairs."""
+    from synth.physics import modal_contact as mc
+
+    rows = []
+    ball, plate = thesis_pair("steel 10.0 mm", "18 mm")
+    edge = (0.5 * plate.length, 0.0)
+    lo, hi = MODAL_IMPEDANCE_BAND
+    for where, pos in (("middle", plate.centre), ("edge", edge), ("corner", (0.0, 0.0))):
+        point = mc.modal_point(plate, pos, max_frequency=band, theory="mindlin")
+        model, measured = THESIS_IMPEDANCE[where]
+        rows.append(
+            thesis_row(
+                f"impedance, Mindlin modal plate, 18 mm, {where}",
+                "N s/m",
+                point.band_impedance(lo, hi),
+                model,
+                measured,
+                f"engine: 1 / <Re Y> over {lo / 1e3:g}-{hi / 1e3:g} kHz",
+            )
+        )
+    thick = dict(surface="fitted", theory="mindlin")
+    for where, pos, reference in (
+        ("middle", None, THESIS_RESTITUTION),
+        ("a long edge", edge, THESIS_EDGE_RESTITUTION),
+    ):
+        e = mc.ModalContact.for_pair(ball, plate, pos, speed=v1, **thick).solve(v1).restitution
+        rows.append(
+            thesis_row(
+                f"restitution at {where}, fitted model on the Mindlin plate, steel 10.0 mm on "
+                "18 mm (1.4 m/s)",
+                "",
+                e,
+                reference["model"],
+                reference["measured"],
+            )
+        )
+    for k in chosen:
+        b, p = thesis_pair(*k)
+        contact = mc.ModalContact.for_pair(_with_accelerometer(b), p, None, speed=v1, **thick)
+        tau_meas, model_ratio, _ = THESIS_IMPACTS[k]
+        rows.append(
+            thesis_row(
+                f"contact time, fitted model on the Mindlin plate, {k[0]} on {k[1]}",
+                "s",
+                contact.solve(v1).contact_time,
+                tau_meas / model_ratio,
+                tau_meas,
+                "with the 1 g accelerometer of the measurement",
+            )
+        )
+    dc = {k: modal_critical_distance(*thesis_pair(*k), v1, **thick) for k in order}
+    for k, (tau_meas, _, dc_meas) in chosen.items():
+        rows.append(
+            thesis_row(
+                f"critical distance, fitted model on the Mindlin plate, {k[0]} on {k[1]}",
+                "m",
+                dc[k],
+                0.5 * tau_meas * THESIS_BOARDS[k[1]][4],
+                dc_meas,
+                "engine: where e stops rising from the edge",
             )
         )
     return rows
