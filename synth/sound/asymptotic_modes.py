@@ -323,7 +323,7 @@ class EdgeEffectSolution:
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(a.nbytes for a in arrays)
-        self._tables = {}
+        self._tables = ({}, {})  # factor tables along x and along y (see _table)
         self.key = json.dumps(
             {
                 "method": "edge-effect",
@@ -378,10 +378,12 @@ class EdgeEffectSolution:
 
     def _table(self, axis, u, n_trials):
         """Factors along ``axis`` (0: x, 1: y) at the distinct coordinates ``u``; the
-        last few tables are kept (a grid is evaluated chunk by chunk, each chunk with
-        the same coordinates along one axis)."""
-        key = (axis, n_trials, u.size, hash(u.tobytes()))
-        held = self._tables.get(key)
+        last two tables of each axis are kept (a grid is evaluated chunk by chunk, each
+        chunk with the same coordinates along one axis: that axis' table is computed
+        once whatever the other's)."""
+        tables = self._tables[axis]
+        key = (n_trials, u.size, hash(u.tobytes()))
+        held = tables.get(key)
         if held is not None and np.array_equal(held[0], u):
             return held[1]
         (cx, gx), (cy, gy) = self._constants()
@@ -391,22 +393,25 @@ class EdgeEffectSolution:
         else:
             h, s, so, n, c, g = self.half[1], self.sy[m], self.sx[m], self.ny[m], cy[m], gy[m]
         table = _factor_table(u * h, s, so, n, h, c, g)
-        if len(self._tables) >= 4:
-            self._tables.clear()
-        self._tables[key] = (u.copy(), table)
+        if len(tables) >= 2:
+            tables.clear()
+        tables[key] = (u.copy(), table)
         return table
 
-    def shapes(self, xi, eta, n_modes):
-        """Mode shapes at the points ``(xi, eta)``: ``(len(xi), n_modes)``. The factors
-        are evaluated once per distinct coordinate (points of a grid share them)."""
+    def shapes(self, xi, eta, n_modes, first=0, out=None, column=0):
+        """Shapes of modes ``first <= k < n_modes`` at the points ``(xi, eta)``: an array
+        ``(len(xi), n_modes - first)``, or written into ``out[:, column:column + n_modes
+        - first]`` (C-ordered) and ``out`` returned. The factors are evaluated once per
+        distinct coordinate (points of a grid share them)."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
-        trial = self.trial[:n_modes]
-        partner = self.partner[:n_modes]
+        trial = self.trial[first:n_modes]
+        partner = self.partner[first:n_modes]
         n_trials = 1 + int(max(trial.max(initial=-1), partner.max(initial=-1)))
         fx = self._table(0, ux, n_trials)
         fy = self._table(1, uy, n_trials)
-        out = np.empty((xi.size, n_modes))
+        if out is None:
+            out, column = np.empty((xi.size, trial.size)), 0
         _gather_modes(
             fx,
             fy,
@@ -414,9 +419,10 @@ class EdgeEffectSolution:
             inv_y.ravel(),
             trial,
             partner,
-            self.own[:n_modes],
-            self.other[:n_modes],
+            self.own[first:n_modes],
+            self.other[first:n_modes],
             out,
+            column,
         )
         return out
 
@@ -773,20 +779,20 @@ def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out):  # pragma: no cover
-    """``out[p, k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables ``fx``,
-    ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``, ``iy[p]``;
-    ``t = trial[k]``, ``u = partner[k]``, none if -1)."""
+def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
+    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
+    ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
+    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1)."""
     for p in range(ix.size):
         a = ix[p]
         b = iy[p]
-        for k in range(out.shape[1]):
+        for k in range(trial.size):
             t = trial[k]
             v = own[k] * fx[a, t] * fy[b, t]
             u = partner[k]
             if u >= 0:
                 v += other[k] * fx[a, u] * fy[b, u]
-            out[p, k] = v
+            out[p, column + k] = v
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:

@@ -717,7 +717,7 @@ class _HybridSolution:
             out[:, :n_r] = self.ritz.shapes(xi, eta, n_r)
         if n_modes > n_r:
             n_e = self.first + n_modes - n_r
-            out[:, n_r:] = self.edge.shapes(xi, eta, n_e)[:, self.first :]
+            self.edge.shapes(xi, eta, n_e, first=self.first, out=out, column=n_r)
         return out
 
 

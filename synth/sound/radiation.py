@@ -126,7 +126,7 @@ from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.sound.modes import Modes, single_thread_product
-from synth.vecmath import cis, exp_squared
+from synth.vecmath import cis, exp_small
 
 __all__ = [
     "RadiationResult",
@@ -338,6 +338,22 @@ def _nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray
 # vectorises; the general kernel calls libm.
 
 
+@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+def _exp_scaled(u, halvings):
+    """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
+    the squarings as selects rather than a loop: a loop of variable length inside the
+    loop over modes stops it from vectorising (the values are those of
+    :func:`synth.vecmath.exp_squared`, bit for bit)."""
+    e = exp_small(u)
+    e = e * e if halvings >= 1 else e
+    e = e * e if halvings >= 2 else e
+    e = e * e if halvings >= 3 else e
+    e = e * e if halvings >= 4 else e
+    e = e * e if halvings >= 5 else e
+    e = e * e if halvings >= 6 else e
+    return e
+
+
 @numba.njit(cache=True, fastmath={"contract"})
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
@@ -362,10 +378,10 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
             f1 = r1[k] * w1
             f2 = r2[k] * w2
             f3 = r3[k] * w3
-            a0 = f0 * exp_squared(-qr[k] * d0, halvings)
-            a1 = f1 * exp_squared(-qr[k] * d1, halvings)
-            a2 = f2 * exp_squared(-qr[k] * d2, halvings)
-            a3 = f3 * exp_squared(-qr[k] * d3, halvings)
+            a0 = f0 * _exp_scaled(-qr[k] * d0, halvings)
+            a1 = f1 * _exp_scaled(-qr[k] * d1, halvings)
+            a2 = f2 * _exp_scaled(-qr[k] * d2, halvings)
+            a3 = f3 * _exp_scaled(-qr[k] * d3, halvings)
             c0, s0 = cis(qi[k] * d0)
             c1, s1 = cis(qi[k] * d1)
             c2, s2 = cis(qi[k] * d2)
@@ -380,7 +396,7 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
         row = phi[j]
         for k in range(m):
             f = row[k] * w
-            amp = f * exp_squared(-qr[k] * d, halvings)
+            amp = f * _exp_scaled(-qr[k] * d, halvings)
             c, sn = cis(qi[k] * d)
             acc_re[k] += amp * c
             acc_im[k] -= amp * sn
