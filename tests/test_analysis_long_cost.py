@@ -102,3 +102,72 @@ def test_the_shorter_look_for_a_candidate_gives_the_longer_looks_answer(seed, mo
     monkeypatch.setattr(deflation, "SHORT_LOOK", 0)
     longer = [res.candidate(int(a)) for a in afters]
     assert shorter == longer
+
+
+@pytest.mark.slow
+def test_a_whole_recording_of_several_drops_is_searched_drop_by_drop(monkeypatch):
+    """Five drops 5 s apart in 27 s, a recording held whole (under ``WHOLE``): after the one
+    search of the whole that shows a new series, steps 1-7 run once per drop, each on no
+    more than a block (the drop's own stretch, never up to the recording's end), and steps
+    1-6 once per block; every onset within 1.5 sample periods of the truth (as
+    :func:`test_each_drop_is_searched_whole_once`)."""
+    monkeypatch.setattr(blocks, "BLOCK", 10.0)
+    searched = {True: [], False: []}
+    ticks = pipeline._ticks
+
+    def counted(x, settings, clipped, resonator=True):
+        searched[resonator].append(x.size)
+        return ticks(x, settings, clipped, resonator)
+
+    monkeypatch.setattr(pipeline, "_ticks", counted)
+    starts = [1.0 + 5.0 * k for k in range(5)]
+    y, truth = _drops(27.0, starts)
+    a = analysis.analyze(y, FS)
+    assert len(a.series) == len(starts)
+    for series, want in zip(a.series, truth):
+        got = np.array([t.time for t in series.ticks])
+        assert got.size == want.size and np.all(np.abs(got - want) <= 1.5 / FS), got
+    whole, *drops = searched[True]
+    assert whole == y.size and len(drops) == len(starts), searched
+    assert max(drops) <= blocks.block_frames(FS), searched
+    assert len(searched[False]) <= len(starts) + 2, searched
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_bounded_look_for_a_candidate_gives_the_full_looks_answer(seed):
+    """The end of a fit window needs the next candidate only where it starts by a given
+    sample: the bounded look (``within``) gives the full look's candidate when that one
+    starts by then, and None when it starts later or there is none, over whitened noise with
+    bursts anywhere."""
+    rng = np.random.default_rng(seed)
+    settings = make_settings(1, FS, gravity=9.81, channel=None, **pipeline._options({}))
+    r = rng.standard_normal(60000)
+    for at in rng.integers(500, 59000, 25):
+        r[at : at + 30] += rng.uniform(3.0, 30.0) * rng.standard_normal(30)
+    res = deflation.Residual(r, r[100:400].copy(), 100, settings, 10.0 * settings.frame, 1.0)
+    for after, reach in zip(rng.integers(1000, 58000, 40), rng.integers(0, 6000, 40)):
+        within = int(after + reach)
+        full = res.candidate(int(after))
+        bounded = res.candidate(int(after), within=within)
+        assert bounded == (full if full is not None and full.first <= within else None)
+
+
+def test_a_fit_in_one_piece_is_the_least_squares_fit():
+    """A fit whose rows make one piece keeps them for its residuals: taps and residual are
+    those of the whole design matrix (as across a silence, within the normal equations'
+    ridge of 1e-12), for the widest lags and for a narrower choice of fewer templates."""
+    rng = np.random.default_rng(4)
+    T = [rng.standard_normal(400) * np.exp(-np.arange(400) / 80.0) for _ in range(3)]
+    pre, post = 3, 24
+    y = rng.standard_normal(900) * 1e-3
+    y[:400] += T[0] + 0.3 * T[1]
+    ne = resonator._NormalEquations(T, y, pre, post)
+    assert len(ne.chunks) == 1
+    M = np.concatenate([w for w in ne.windows], axis=1)
+    for n_t, p, q in ((3, pre, post), (2, 1, 2)):
+        h, res = ne.solve(n_t, p, q)
+        lags = np.arange(post - q, post + p + 1)
+        cols = np.concatenate([t * (pre + post + 1) + lags for t in range(n_t)])
+        want, *_ = np.linalg.lstsq(M[:, cols], y, rcond=None)
+        np.testing.assert_allclose(h, want, rtol=1e-7, atol=1e-10)
+        np.testing.assert_allclose(res, y - M[:, cols] @ h, rtol=0, atol=1e-15)

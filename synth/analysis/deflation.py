@@ -155,14 +155,19 @@ class Residual:
         all that the earlier ticks' models took out there."""
         return frame_energies(self.r[lo:hi] - self.q[lo:hi], self.hop, self.w)
 
-    def candidate(self, after: int) -> Candidate | None:
+    def candidate(self, after: int, within: int | None = None) -> Candidate | None:
         """The first tick in ``q`` starting at or after sample ``after``, or None: the first
         frame over its threshold (the local background of the past, the fading memory of
         the earlier frames, the floor, and what was taken out there) that also carries more
-        energy than was taken out over :data:`REMAINDER_SPAN` around it."""
+        energy than was taken out over :data:`REMAINDER_SPAN` around it. With ``within``,
+        None also when that frame starts after sample ``within``: then only the frames that
+        decide whether one starts up to there are formed (the search for the end of a fit
+        window needs no tick beyond it), not the frames up to the next tick however far."""
         hop, bg = self.hop, self.bg
         lo = max(0, after - (4 * bg + 2) * hop)
         first = -(-(after - lo) // hop)
+        if within is not None and not self._clears_by(lo, first, within):
+            return None
         chunk = max(8 * bg * hop, 4096)
         # a shorter look first, whose answer is kept only where no frame beyond it decides it
         # (the same as the longer look's): most candidates lie within a bounce
@@ -185,14 +190,24 @@ class Residual:
                 return None
             chunk *= 2
 
-    def _first_clearing(
-        self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
-    ) -> Candidate | None:
-        """The first frame from ``first`` on of the detection function ``d`` (its frame 0 at
-        sample ``lo``) that clears the rules, against ``sub`` taken out per frame. With
-        ``settled``, None unless the frames after ``d``'s last could not change the answer
-        (the sums over :data:`REMAINDER_SPAN` from it and the climb to its local maximum end
-        within ``d``)."""
+    def _clears_by(self, lo: int, first: int, within: int) -> bool:
+        """Whether a frame from ``first`` on (frame 0 at sample ``lo``) clears the rules and
+        starts by sample ``within``: the frames up to there and the :data:`REMAINDER_SPAN`
+        after decide it (the background and the memory look back only), as in the longer
+        look of :meth:`candidate`."""
+        last = (within - lo) // self.hop
+        if last < first:
+            return False
+        hi = min(self.q.size, lo + (last + self.span) * self.hop + self.w)
+        d = frame_energies(self.q[lo:hi], self.hop, self.w)
+        hit = self._hits(d, self.taken_out(lo, hi), first)[0]
+        return bool(hit.size) and int(hit[0]) <= last
+
+    def _hits(
+        self, d: np.ndarray, sub: np.ndarray, first: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The frames from ``first`` on of the detection function ``d`` that clear the rules
+        against ``sub`` taken out per frame, their thresholds and local backgrounds."""
         k = np.arange(d.size)
         past_med = self._past_background(d, k, first)
         threshold = np.maximum.reduce(
@@ -207,6 +222,17 @@ class Residual:
         d_near = np.convolve(d, span)[self.span - 2 : self.span - 2 + d.size]
         sub_near = np.convolve(sub, span)[self.span - 2 : self.span - 2 + d.size]
         hit = np.nonzero((d >= threshold) & (d_near >= sub_near * self.kappa) & (k >= first))[0]
+        return hit, threshold, past_med
+
+    def _first_clearing(
+        self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
+    ) -> Candidate | None:
+        """The first frame from ``first`` on of the detection function ``d`` (its frame 0 at
+        sample ``lo``) that clears the rules, against ``sub`` taken out per frame. With
+        ``settled``, None unless the frames after ``d``'s last could not change the answer
+        (the sums over :data:`REMAINDER_SPAN` from it and the climb to its local maximum end
+        within ``d``)."""
+        hit, threshold, past_med = self._hits(d, sub, first)
         if not hit.size or (settled and hit[0] + self.span - 2 >= d.size):
             return None
         first_hit = m = int(hit[0])
@@ -462,7 +488,7 @@ class DeflationSearch:
     def _fit_end(self, s: int) -> int:
         """The end of a fit window from ``s``: where the next tick shows, at most the
         template's length."""
-        nxt = self.residual.candidate(self.after)
+        nxt = self.residual.candidate(self.after, within=s + self.L + self.hop)
         if nxt is None:
             return s + self.L
         return min(s + self.L, self._next_start(nxt) - self.hop)

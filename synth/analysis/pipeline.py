@@ -399,54 +399,16 @@ def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> b
 def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
     """The ticks of each bounce series of ``x``, each series found and measured on its own.
 
-    The ticks of the whole signal give the series up to where a new one starts
-    (:func:`new_series_at`); the signal from the local background's length before that
-    tick's onset (the detection's reference) up to the same length before the start of the
-    drop after it, as those ticks show it, is then searched on its own, and so on. So a later
-    drop is sought with no bounce rule of an earlier one in the way, and every sample is
-    searched about twice whatever the number of drops."""
-    fs = settings.samplerate
-    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
+    The ticks of the whole signal are its one series unless a new one starts among them
+    (:func:`new_series_at`); then ``x`` is searched as a long recording is, block by block
+    (:func:`_block_drops`): each drop by steps 1-7 on its own, from the local background's
+    length before its first tick to the same length before the next drop, so that a later
+    drop is sought with no bounce rule of an earlier one in the way and the time grows with
+    the number of drops, not with its square."""
     ticks = _ticks(x, settings, clipped)
-    cut = new_series_at(ticks)
-    if cut is not None:  # the first drop, too, on its own
-        end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
-        try:
-            ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
-        except (AnalysisError, ParameterError):
-            pass
-    found: list[list] = []
-    while True:
-        cut = new_series_at(ticks)
-        if cut is None:
-            found.append(ticks)
-            break
-        found.append(ticks[:cut])
-        rest = ticks[cut:]
-        start = max(0, int(math.floor(rest[0].time * fs)) - lead)
-        after = new_series_at(rest)
-        while True:
-            end = (
-                x.size
-                if after is None
-                else max(start + 1, int(math.floor(rest[after].time * fs)) - lead)
-            )
-            later = [] if after is None else rest[after:]
-            try:
-                seg = [
-                    replace(t, time=t.time + start / fs)
-                    for t in _ticks(x[start:end], settings, clipped)
-                ]
-            except (AnalysisError, ParameterError):
-                seg = rest if after is None else rest[:after]  # as the longer search had it
-            if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
-                break
-            # the next drop's start as the longer search had it is no start with the ticks
-            # found now (it followed a tick that search missed): search on to the next one
-            nxt = new_series_at(later)
-            after = None if nxt is None else after + nxt
-        ticks = seg + later
-    return found
+    if new_series_at(ticks) is None:
+        return [ticks]
+    return _block_drops(x.size, lambda start, stop: x[start:stop], settings, clipped)
 
 
 def _numbered(found: list[list]) -> list[Series]:

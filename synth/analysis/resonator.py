@@ -223,6 +223,9 @@ class _NormalEquations:
         self.n_offsets = len(offsets)
         longest = max(T.size for T in Ts)
         self.chunks = _row_chunks([(o - pre, o + post + longest) for o in offsets], W)
+        # the rows formed are kept for the residuals when they make one piece (a window
+        # across no silence: every fit but a joint one across two drops)
+        self.kept = None
         self.G = None
         self.b = None
         for lo, hi in self.chunks:
@@ -230,6 +233,8 @@ class _NormalEquations:
             G, b = M.T @ M, M.T @ y[lo:hi]
             self.G = G if self.G is None else self.G + G
             self.b = b if self.b is None else self.b + b
+            if len(self.chunks) == 1:
+                self.kept = M
 
     def _rows(self, lo: int, hi: int) -> np.ndarray:
         """Rows ``lo .. hi - 1`` of the design matrix."""
@@ -254,7 +259,7 @@ class _NormalEquations:
         h = np.linalg.solve(G, self.b if whole else self.b[idx])
         res = self.y.copy()
         for lo, hi in self.chunks:
-            M = self._rows(lo, hi)
+            M = self._rows(lo, hi) if self.kept is None else self.kept
             res[lo:hi] = self.y[lo:hi] - (M if whole else M[:, idx]) @ h
         return h, res
 
@@ -358,9 +363,9 @@ class ResonatorSearch(DeflationSearch):
         latest = min(e, s + int(BOUNCE_GROWTH * ratio * t_last) + self.hop)
         while end < latest:
             self.residual.remove(s, end, alone=self.after)
-            c = self.residual.candidate(self.after)
+            c = self.residual.candidate(self.after, within=end + 2 * self.hop)
             self.residual.restore(snap)
-            if c is not None and c.first <= end + 2 * self.hop:
+            if c is not None:
                 return max(c.first - self.hop, int(math.floor(on)) + 1), True
             end = max(end + self.hop, s + int(1.1 * (end - s)))
         return e, False
