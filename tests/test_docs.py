@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from synth import bench, docs
+from synth.bench import thesis as thesis_bench
 from synth.cli import build_parser, main
 from synth.errors import SynthError
 
@@ -243,8 +244,8 @@ def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     copy = tmp_path / "docs"
     shutil.copytree(DOCS, copy)
     monkeypatch.setattr(docs, "docs_dir", lambda: copy)
-    monkeypatch.setattr(bench, "thesis_modal_rows", lambda pairs=None, samplerate=48000: [])
-    monkeypatch.setattr(bench, "surface_fit", lambda rounds=4: None)
+    monkeypatch.setattr(thesis_bench, "thesis_modal_rows", lambda pairs=None, samplerate=48000: [])
+    monkeypatch.setattr(thesis_bench, "surface_fit", lambda rounds=4: None)
     before = (copy / "validation.md").read_text()
     assert main(["bench", "thesis", "--update-docs"]) == 0
     after = (copy / "validation.md").read_text()

@@ -4,6 +4,7 @@
 import pytest
 
 from synth import bench
+from synth.bench import contact as contact_bench
 
 PAIRS = [("steel 10.0 mm", "18 mm"), ("steel 19.0 mm", "18 mm")]
 THREE = ("middle", "edge", "corner")
@@ -73,8 +74,8 @@ def test_modal_contact_error_against_run_time(monkeypatch):
     # `synth bench contact`'s modal part on a narrow ladder: one row for the impedance model
     # and one per band and step count; the errors are against the band-extrapolated modal
     # reference, and the finer step does not add error beyond the band's
-    monkeypatch.setattr(bench, "MODAL_BANDS", (1.0, 2.0))
-    monkeypatch.setattr(bench, "MODAL_STEPS", (64, 256))
+    monkeypatch.setattr(contact_bench, "MODAL_BANDS", (1.0, 2.0))
+    monkeypatch.setattr(contact_bench, "MODAL_STEPS", (64, 256))
     rows = bench.run_modal_contact(repeat=1, points=["middle"])
     assert [r["model"] for r in rows] == ["impedance"] + ["modal"] * 4
     modal = {(r["band"], r["steps"]): r for r in rows[1:]}
