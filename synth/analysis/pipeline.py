@@ -321,9 +321,8 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
 
     Every block runs on one BLAS thread (:func:`one_blas_thread`), the Cholesky factor of
     each drop's resonator predictor too: its order starts at 20 ms of samples (960 at 48 kHz,
-    a fiftieth of a second on one core), and a second thread, spinning while it
-    waits for a core that other work keeps busy, made it several times as costly, once per
-    drop."""
+    a fiftieth of a second on one core), and a second thread, spinning while it waits for a
+    core that other work keeps busy, made it several times as costly, once per drop."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
