@@ -317,7 +317,12 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
     dynamic range over its own ringing, as in the whole recording), else :data:`OVERLAP`
     before the block's end. A series longer than a block doubles the block. So each drop is
     searched once by steps 1-6 with the block that holds it and once whole on its own,
-    whatever the number of drops."""
+    whatever the number of drops.
+
+    Every block runs on one BLAS thread (:func:`one_blas_thread`), the Cholesky factor of
+    each drop's resonator predictor too: its order starts at 20 ms of samples (960 at 48 kHz,
+    a fiftieth of a second on one core), and a second thread, spinning while it waits for a
+    core that other work keeps busy, made it several times as costly, once per drop."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
@@ -329,7 +334,8 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
         stop = min(frames, pos + size)
         x = signal(pos, stop)
         shift = pos / fs
-        ticks = _block_ticks(x, settings, clipped, last - shift, lead)
+        with one_blas_thread():  # the resonator's predictor of a drop too: see below
+            ticks = _block_ticks(x, settings, clipped, last - shift, lead)
         ticks = [
             replace(t, time=t.time + shift)
             for t in ticks
@@ -399,16 +405,67 @@ def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> b
 def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
     """The ticks of each bounce series of ``x``, each series found and measured on its own.
 
-    The ticks of the whole signal are its one series unless a new one starts among them
-    (:func:`new_series_at`); then ``x`` is searched as a long recording is, block by block
-    (:func:`_block_drops`): each drop by steps 1-7 on its own, from the local background's
-    length before its first tick to the same length before the next drop, so that a later
-    drop is sought with no bounce rule of an earlier one in the way and the time grows with
-    the number of drops, not with its square."""
+    The ticks of the whole signal give the series up to where a new one starts
+    (:func:`new_series_at`); the signal from the local background's length before that
+    tick's onset (the detection's reference) up to the same length before the start of the
+    drop after it, as those ticks show it, is then searched on its own, and so on. So a later
+    drop is sought with no bounce rule of an earlier one in the way. Where those ticks show
+    no later drop and more than a block of the recording is left, the rest is searched as a
+    long recording is (:func:`_block_drops`), not on to its end in one search: each drop's
+    search is bounded by the next drop, and the time grows with the number of drops, not with
+    its square."""
+    fs = settings.samplerate
+    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
     ticks = _ticks(x, settings, clipped)
-    if new_series_at(ticks) is None:
-        return [ticks]
-    return _block_drops(x.size, lambda start, stop: x[start:stop], settings, clipped)
+    cut = new_series_at(ticks)
+    if cut is not None:  # the first drop, too, on its own
+        end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
+        try:
+            ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
+        except (AnalysisError, ParameterError):
+            pass
+    found: list[list] = []
+    while True:
+        cut = new_series_at(ticks)
+        if cut is None:
+            found.append(ticks)
+            break
+        found.append(ticks[:cut])
+        rest = ticks[cut:]
+        start = max(0, int(math.floor(rest[0].time * fs)) - lead)
+        after = new_series_at(rest)
+        while True:
+            if after is None and x.size - start > block_frames(fs):
+                return found + _later_drops(x, start, settings, clipped)
+            end = (
+                x.size
+                if after is None
+                else max(start + 1, int(math.floor(rest[after].time * fs)) - lead)
+            )
+            later = [] if after is None else rest[after:]
+            try:
+                seg = [
+                    replace(t, time=t.time + start / fs)
+                    for t in _ticks(x[start:end], settings, clipped)
+                ]
+            except (AnalysisError, ParameterError):
+                seg = rest if after is None else rest[:after]  # as the longer search had it
+            if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
+                break
+            # the next drop's start as the longer search had it is no start with the ticks
+            # found now (it followed a tick that search missed): search on to the next one
+            nxt = new_series_at(later)
+            after = None if nxt is None else after + nxt
+        ticks = seg + later
+    return found
+
+
+def _later_drops(x: np.ndarray, start: int, settings: Settings, clipped: bool) -> list[list]:
+    """The bounce series of ``x`` from sample ``start`` on, block by block
+    (:func:`_block_drops`), their times from the start of ``x``."""
+    shift = start / settings.samplerate
+    found = _block_drops(x.size - start, lambda a, b: x[start + a : start + b], settings, clipped)
+    return [[replace(t, time=t.time + shift) for t in ticks] for ticks in found]
 
 
 def _numbered(found: list[list]) -> list[Series]:

@@ -99,7 +99,8 @@ def one_blas_thread():
     ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
     :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
     resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
-    library's threads."""
+    library's threads unless its caller runs on one (a recording searched block by block,
+    :mod:`synth.analysis.pipeline`)."""
     from threadpoolctl import threadpool_limits
 
     return threadpool_limits(1, user_api="blas")
