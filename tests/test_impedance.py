@@ -134,7 +134,8 @@ def test_mindlin_simply_supported_square_published_frequency():
     # Simply supported square, a / h = 10, nu = 0.3, kappa = 5/6: the fundamental's
     # omega h sqrt(rho / G) = 0.0930 by Mindlin's theory (exact 3D elasticity 0.0932, thin
     # plate with rotary inertia 0.0955; Srinivas, Joga Rao & Rao, J. Sound Vib. 12 (1970)
-    # 187-199; Reddy, "Theory and Analysis of Elastic Plates and Shells", 2nd ed., ch. 10).
+    # 187-199, tabulate the exact value beside Mindlin's; Reddy, "Theory and Analysis of
+    # Elastic Plates and Shells", 2nd ed.).
     from synth.physics.materials import Material
 
     mat = Material("test", 1000.0, 1e9, 0.3)

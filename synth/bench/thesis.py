@@ -587,18 +587,26 @@ def _with_accelerometer(ball):
 
 def _surface_contact(ball, plate, ratio: float, mu: float, speed: float):
     """The first impact at ``speed`` (m/s) at the middle of ``plate``, the finite plate in the
-    contact (:mod:`synth.physics.modal_contact`, band as its ``for_pair`` sets it) and the
+    contact (:mod:`synth.physics.modal_contact`, band 4 / tau of the stored surface) and the
     plate's side of the Hertz contact at ``ratio`` times its modulus with the Hunt-Crossley
     loss ``mu`` (s/m): a trial :class:`~synth.physics.materials.ContactSurface`."""
     from synth.physics import modal_contact as mc
     from synth.physics.contact import hertz_stiffness, solve_contact
+    from synth.physics.materials import MDF_SURFACE
 
-    K = hertz_stiffness(ball, plate, ratio)
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
-    ref = solve_contact(
-        mass=ball.mass, stiffness=K, admittance=beta, speed=speed, gravity=0.0, dissipation=mu
-    )
-    point = mc.modal_point(plate, plate.centre, max_frequency=mc.BAND_FACTOR / ref.contact_time)
+
+    def impedance_contact(r, m):
+        K = hertz_stiffness(ball, plate, r)
+        return solve_contact(
+            mass=ball.mass, stiffness=K, admittance=beta, speed=speed, gravity=0.0, dissipation=m
+        )
+
+    # one band per pair for every trial (the stored surface's): the modal contact solves the
+    # modes of exactly its band, so a band per trial would be a mode solve per trial
+    stored = impedance_contact(MDF_SURFACE.transverse_ratio, MDF_SURFACE.dissipation)
+    point = mc.modal_point(plate, plate.centre, max_frequency=mc.BAND_FACTOR / stored.contact_time)
+    K = hertz_stiffness(ball, plate, ratio)
     return mc.ModalContact(point, ball.mass, K, 1.5, GRAVITY, mc.STEPS_PER_CONTACT, mu).solve(speed)
 
 

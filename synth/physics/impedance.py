@@ -6,6 +6,12 @@
 
       Z_inf = 8 sqrt(D rho h) = 4 h^2 sqrt(E rho / (3 (1 - nu^2)))        N s/m
 
+* Infinite thick (Mindlin) plate, with shear deformation and rotary inertia
+  (docs/physics.md, "Thick plates (Mindlin)"): ``Re Y`` in closed form from the wavenumber
+  integral of a point force (:func:`mindlin_point_admittance`), frequency-dependent, equal to
+  ``1 / Z_inf`` as ``k h -> 0``; its dispersion relation, frequencies and modal mass serve the
+  modal contact's ``theory="mindlin"``.
+
 * At a free straight edge of a semi-infinite plate, for ka < 1 (Eichler 1964,
   J. Acoust. Soc. Am. 36, 344; thesis Table 3.4, measured Z_middle/Z_edge =
   3.3 ... 3.7): ``Z_edge = 0.29 Z_inf`` (:data:`EDGE_RATIO`).
@@ -166,8 +172,8 @@ def mindlin_wavenumbers(plate: Plate, omega):
 
         P(s) = (s - omega^2 rho / (kappa G)) (D s - I omega^2) - rho h omega^2 = 0
 
-    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff, "Wave Motion in Elastic Solids",
-    section 8.3). ``s1`` is the propagating flexural wave; ``s2 < 0`` is evanescent below
+    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff, "Wave Motion in Elastic Solids" (1975),
+    chapter 8). ``s1`` is the propagating flexural wave; ``s2 < 0`` is evanescent below
     the thickness-shear cut-off ``sqrt(kappa G h / I)``. As ``omega h / c -> 0`` they tend
     to Kirchhoff's ``+-omega sqrt(rho h / D)``."""
     w2 = np.asarray(omega, dtype=float) ** 2

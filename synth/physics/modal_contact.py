@@ -41,6 +41,9 @@ then the root of one scalar equation, ``delta + B F(delta) = A`` (monotone: one 
 loss, ``delta'`` at the end of the step is itself linear in that force), so the
 scheme is implicit in the contact and unconditionally stable for every mode; its error is
 second order in ``h``. The end of contact is the root of ``delta(h') = 0`` within the last step.
+The modes are those of an eigen-solution of exactly the band (:func:`band_modes`): a cached
+wider band's modes differ in their last digits, which a series of bounces amplifies to audible
+differences, so the result does not depend on what the process or the disk cache solved before.
 Energy is book-kept (ball, modes, modal damping, rigid body, residual spring and dashpot, the
 contact's loss ``Int (F - K delta^n) delta' dt`` by the trapezoid rule) and its
 balance reported as ``energy_residual``.
