@@ -79,7 +79,10 @@ breakpoints where the set of arcs changes (a circle touching an edge's line, whe
 ``Phi_k`` behaves as ``sqrt(r - d)``, removed by ``r = d + L u^2``; a corner, a kink),
 and sized for the phase of ``exp(-s R / c)`` plus that of the arcs' ends travelling
 along the edges. The tolerance, the error estimate (successive rules with 1.25 times
-the points per axis) and the convergence test are those above; tests compare the two
+the points per axis) and the convergence test are those above, except that a mode
+passing the test keeps that rule's gain and only the modes still failing are evaluated
+on the next rule (with the factors they use alone): each mode's test is its own. The
+in-phase bounds ``S_k`` are taken once, on the first refinement. Tests compare the two
 rules on plates where both run (agreement within ``2 tol``). :func:`plate_gains` takes
 the polar rule for separable shapes when the rectangle rule's work (modes times
 points) exceeds ``5e7``.
@@ -757,6 +760,55 @@ def _refine(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationR
     )
 
 
+def _refine_selective(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationResult:
+    """As :func:`_refine`, but a mode that passes the test keeps that rule's gain, error
+    and bound, and only the modes still failing are evaluated on the next rule:
+    ``rule(level, active)`` returns the integrals and in-phase integrals of the modes
+    ``active`` (indices). Each mode's test is its own, so the accepted gains meet the
+    same bound as with every mode refined together."""
+    m = factor.size
+    active = np.arange(m)
+    coarse, _ = rule(0, active)
+    gains = np.empty(m, complex)
+    error = np.empty(m)
+    coherent = np.empty(m)
+    status, message = 1, "stopped at the last refinement without meeting tol"
+    for level in range(1, _MAX_RULES):
+        fine, mag = rule(level, active)
+        f = factor[active]
+        gains[active] = f * fine
+        error[active] = np.abs(f * (fine - coarse))
+        coherent[active] = scale[active] * mag
+        allowed = tol * np.maximum(np.abs(gains[active]), _COHERENT_FLOOR * coherent[active])
+        failing = error[active] > allowed
+        n_points = npoints(level)
+        if not failing.any():
+            status, message = 0, f"converged with {n_points} points (refinement {level})"
+            break
+        if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
+            status, message = (
+                2,
+                (
+                    f"stopped at {n_points} points: the next rule would "
+                    f"exceed max_points={max_points}"
+                ),
+            )
+            break
+        active = active[failing]
+        coarse = fine[failing]
+    return RadiationResult(
+        gains=gains,
+        error=error,
+        coherent=coherent,
+        n_points=n_points,
+        refinements=level,
+        panels=panels,
+        success=status == 0,
+        status=status,
+        message=message,
+    )
+
+
 def _warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
     """RuntimeWarning naming the mode furthest from the convergence test."""
     allowed = tol * np.maximum(np.abs(result.gains), _COHERENT_FLOOR * result.coherent)
@@ -999,21 +1051,25 @@ def _angular_rule(r, a, b, listener, kb, tol, refine):
 
 
 def _apply_separable_rule(
-    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, in_phase
+    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active, in_phase
 ):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and (if ``in_phase``, else
-    zeros) ``Int |phi_k| / R dA`` of separable shapes, and the number of points, by the
-    polar rule (radii ``radii`` with weights ``wr``)."""
+    zeros) ``Int |phi_k| / R dA`` of the separable shapes ``k`` in ``active`` (indices),
+    and the number of points, by the polar rule (radii ``radii`` with weights ``wr``).
+    Only the factors those modes use enter the angular products."""
     a, b = size
     xl, yl, zl = listener
-    m = q.size
-    xi, yi = sep.x_index, sep.y_index
+    m = active.size
+    rows_x, xi = np.unique(sep.x_index[active], return_inverse=True)
+    rows_y, yi = np.unique(sep.y_index[active], return_inverse=True)
+    q = q[active]
     acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
     mag = np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
     rows = max(1, int(_CHUNK_BYTES // (8 * m)))
     n_points = 0
+    sums = np.empty((rows_x.size, rows_y.size))
     for start in range(0, radii.size, rows):
         rr = radii[start : start + rows]
         phi = np.empty((rr.size, m))
@@ -1027,9 +1083,8 @@ def _apply_separable_rule(
                 continue
             x = np.clip(xl + r * np.cos(theta), 0.0, a)
             y = np.clip(yl + r * np.sin(theta), 0.0, b)
-            fx = sep.x_values(x)
-            fy = sep.y_values(y)
-            sums = np.empty((fx.shape[1], fy.shape[1]))
+            fx = sep.x_values(x)[:, rows_x]
+            fy = np.ascontiguousarray(sep.y_values(y)[:, rows_y])
             single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
             phi[i] = sums[xi, yi]
             if in_phase:
@@ -1043,7 +1098,7 @@ def _apply_separable_rule(
         _accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
         mag += weight @ phi_abs
     if not np.isfinite(mag).all():
-        k = int(np.flatnonzero(~np.isfinite(mag))[0])
+        k = int(active[np.flatnonzero(~np.isfinite(mag))[0]])
         raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
     return acc_re + 1j * acc_im, mag, n_points
 
@@ -1132,18 +1187,20 @@ def _polar_setup(
     )
 
 
-def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
+def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool, selective=False):
     """The gains of a polar rule, refined until converged (:func:`_refine`). ``rule(level)``
     applies the rule refined ``level`` times and returns its integrals, their in-phase
-    bounds and its number of points."""
+    bounds and its number of points; with ``selective``, ``rule(level, active)`` does so
+    for the modes ``active`` alone (:func:`_refine_selective`)."""
     if setup.q.size == 0:
         empty = np.zeros(0, complex)
         res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
         return res if full_output else empty
     counts = {}
 
-    def counted(level):
-        total, mag, counts[level] = rule(level)
+    def counted(level, *active):
+        total, mag, points = rule(level, *active)
+        counts.setdefault(level, points)
         return total, mag
 
     def npoints(level):
@@ -1157,7 +1214,7 @@ def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
     result = dataclasses.replace(
-        _refine(
+        (_refine_selective if selective else _refine)(
             counted,
             npoints,
             factor,
@@ -1237,11 +1294,14 @@ def separable_gains(
         max_points,
     )
 
-    def rule(level):
+    in_phase = {}
+
+    def rule(level, active):
         f = _REFINE**level
         radii, wr = _radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        # _refine reads the in-phase integrals of the finer rules only
-        return _apply_separable_rule(
+        # the in-phase integrals, read from the first refinement on, are taken once, on
+        # the first refinement (for every mode); later rules reuse them
+        total, mag, n = _apply_separable_rule(
             shapes,
             setup.size,
             setup.listener,
@@ -1253,10 +1313,15 @@ def separable_gains(
             setup.q,
             setup.r_mid,
             setup.halvings,
-            level > 0,
+            active,
+            level == 1,
         )
+        if level == 1:
+            in_phase["all"] = np.zeros(shapes.x_index.size)
+            in_phase["all"][active] = mag
+        return total, in_phase["all"][active] if level >= 1 else mag, n
 
-    return _polar_gains(setup, rule, "separable_gains", full_output)
+    return _polar_gains(setup, rule, "separable_gains", full_output, selective=True)
 
 
 # ----------------------------------------------------------------------------------------
