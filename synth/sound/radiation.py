@@ -82,8 +82,10 @@ along the edges. The tolerance, the error estimate (successive rules with 1.25 t
 the points per axis) and the convergence test are those above, except that a mode
 passing the test keeps that rule's gain and only the modes still failing are evaluated
 on the next rule (with the factors they use alone): each mode's test is its own. The
-in-phase bounds ``S_k`` are taken once, on the first refinement. Tests compare the two
-rules on plates where both run (agreement within ``2 tol``). :func:`plate_gains` takes
+in-phase bounds ``S_k`` (``|phi_k| = |X_i| |Y_j|``) come from one matrix product on a
+rectangle rule that resolves the shapes but not the acoustic phase (as for the sums of
+separable shapes below). Tests compare the two rules on plates where both run
+(agreement within ``2 tol``, in-phase bounds within 5 %). :func:`plate_gains` takes
 the polar rule for separable shapes when the rectangle rule's work (modes times
 points) exceeds ``5e7``.
 
@@ -1051,12 +1053,12 @@ def _angular_rule(r, a, b, listener, kb, tol, refine):
 
 
 def _apply_separable_rule(
-    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active, in_phase
+    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
 ):
-    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and (if ``in_phase``, else
-    zeros) ``Int |phi_k| / R dA`` of the separable shapes ``k`` in ``active`` (indices),
-    and the number of points, by the polar rule (radii ``radii`` with weights ``wr``).
-    Only the factors those modes use enter the angular products."""
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
+    in ``active`` (indices), and the number of points, by the polar rule (radii
+    ``radii`` with weights ``wr``). Only the factors those modes use enter the angular
+    products."""
     a, b = size
     xl, yl, zl = listener
     m = active.size
@@ -1064,7 +1066,6 @@ def _apply_separable_rule(
     rows_y, yi = np.unique(sep.y_index[active], return_inverse=True)
     q = q[active]
     acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
-    mag = np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
     rows = max(1, int(_CHUNK_BYTES // (8 * m)))
@@ -1073,13 +1074,11 @@ def _apply_separable_rule(
     for start in range(0, radii.size, rows):
         rr = radii[start : start + rows]
         phi = np.empty((rr.size, m))
-        phi_abs = np.zeros((rr.size, m))
         for i, r in enumerate(rr):
             theta, w = _angular_rule(float(r), a, b, listener, kb, tol, refine)
             n_points += theta.size
             if theta.size == 0:
                 phi[i] = 0.0
-                phi_abs[i] = 0.0
                 continue
             x = np.clip(xl + r * np.cos(theta), 0.0, a)
             y = np.clip(yl + r * np.sin(theta), 0.0, b)
@@ -1087,20 +1086,41 @@ def _apply_separable_rule(
             fy = np.ascontiguousarray(sep.y_values(y)[:, rows_y])
             single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
             phi[i] = sums[xi, yi]
-            if in_phase:
-                single_thread_product(
-                    np.ascontiguousarray((np.abs(fx) * w[:, None]).T), np.abs(fy), sums
-                )
-                phi_abs[i] = sums[xi, yi]
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
         dist = big_r - r_mid
         _accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
-        mag += weight @ phi_abs
-    if not np.isfinite(mag).all():
-        k = int(active[np.flatnonzero(~np.isfinite(mag))[0]])
+    total = acc_re + 1j * acc_im
+    if not np.isfinite(total).all():
+        k = int(active[np.flatnonzero(~np.isfinite(total))[0]])
         raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
-    return acc_re + 1j * acc_im, mag, n_points
+    return total, n_points
+
+
+def _separable_in_phase(sep, size, listener, kb, tol):
+    """``Int |phi_k| / R dA`` of separable shapes on the refined rectangle rule of
+    wavenumber ``2 kb`` (as :func:`_summed_in_phase`): with ``|phi_k| = |X_i| |Y_j|``
+    one matrix product for every mode, ``|X|^T W |Y|``, ``W`` the grid's weights over
+    ``R``."""
+    a, b = size
+    xl, yl, zl = listener
+    ex, ey, px0, py0 = _first_rule(a, b, listener, 2.0 * kb, tol)
+    xs, wx = _nodes(ex, np.ceil(px0 * _REFINE).astype(np.int64))
+    ys, wy = _nodes(ey, np.ceil(py0 * _REFINE).astype(np.int64))
+    weights = (wx[:, None] * wy[None, :]) / np.sqrt(
+        (xs[:, None] - xl) ** 2 + (ys[None, :] - yl) ** 2 + zl * zl
+    )
+    abs_x = np.abs(sep.x_values(xs))
+    abs_y = np.abs(sep.y_values(ys))
+    inner = np.empty((xs.size, abs_y.shape[1]))
+    single_thread_product(weights, abs_y, inner)
+    sums = np.empty((abs_x.shape[1], abs_y.shape[1]))
+    single_thread_product(np.ascontiguousarray(abs_x.T), inner, sums)
+    mag = sums[sep.x_index, sep.y_index]
+    if not np.isfinite(mag).all():
+        k = int(np.flatnonzero(~np.isfinite(mag))[0])
+        raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
+    return mag
 
 
 @dataclass(frozen=True)
@@ -1294,14 +1314,14 @@ def separable_gains(
         max_points,
     )
 
-    in_phase = {}
+    if setup.q.size == 0:
+        return _polar_gains(setup, None, "separable_gains", full_output)
+    in_phase = _separable_in_phase(shapes, setup.size, setup.listener, setup.kb, setup.tol_panel)
 
     def rule(level, active):
         f = _REFINE**level
         radii, wr = _radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        # the in-phase integrals, read from the first refinement on, are taken once, on
-        # the first refinement (for every mode); later rules reuse them
-        total, mag, n = _apply_separable_rule(
+        total, n = _apply_separable_rule(
             shapes,
             setup.size,
             setup.listener,
@@ -1314,12 +1334,8 @@ def separable_gains(
             setup.r_mid,
             setup.halvings,
             active,
-            level == 1,
         )
-        if level == 1:
-            in_phase["all"] = np.zeros(shapes.x_index.size)
-            in_phase["all"][active] = mag
-        return total, in_phase["all"][active] if level >= 1 else mag, n
+        return total, in_phase[active], n
 
     return _polar_gains(setup, rule, "separable_gains", full_output, selective=True)
 
