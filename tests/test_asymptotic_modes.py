@@ -183,3 +183,26 @@ def test_crossover_rejects_absurd_band():
     plate = Plate(STEEL, 0.001, 2.0, 2.0, "free")
     with pytest.raises(ParameterError, match=r"modes, more than 2000000"):
         P.modes(plate, max_frequency=5e7)
+
+
+def test_every_preset_band_stays_below_the_crossover():
+    """The crossover only sets the cost (every crossed-over plate has its edge effect modes
+    above the same low band), and it lies above every free or clamped preset's band to the
+    Nyquist frequency at 48 kHz (or the preset's own rate if higher): their modes, and so
+    their recorded renders, are the Ritz ones."""
+    from synth.io import presets
+
+    for name, path in presets.available().items():
+        scene, options = presets.scene_from_dict(presets.read(path))
+        plate = scene.plate
+        if plate.boundary == "simply-supported":
+            continue
+        length = max(plate.length, plate.width)
+        omega = (
+            math.pi
+            * max(options.get("samplerate", 48000), 48000)
+            * length**2
+            * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+        )
+        unknowns = P._ritz_unknowns(plate.length / plate.width, omega)
+        assert unknowns <= P._CROSSOVER_UNKNOWNS, (name, unknowns)

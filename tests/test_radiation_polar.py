@@ -127,3 +127,45 @@ def test_separable_gains_bad_input():
         R.separable_gains(m.separable(), (0.1, 0.1, 0.1), s[:-1], max_wavenumber=kb)
     with pytest.raises(ParameterError, match="listener_position.z"):
         R.separable_gains(m.separable(), (0.1, 0.1, 0.0), s, max_wavenumber=kb)
+
+
+def test_selective_refinement_refines_only_the_failing_modes():
+    """_refine_selective on a rule whose integrals converge as ``1 + c_k 16^-level`` (mode
+    ``k`` with its own ``c_k``): every mode ends within tol of the limit 1 by its own
+    test, each rule after the first check is applied to the modes still failing alone,
+    and a mode that passed keeps the gain of the rule where it passed."""
+    c = np.array([0.0, 1e-9, 1e-7, 1e-5, 1e-3])
+    calls = []
+
+    def rule(level, active):
+        calls.append(active.copy())
+        return 1.0 + c[active] * 16.0**-level, np.ones(active.size)
+
+    tol = 1e-6
+    res = R._refine_selective(
+        rule, lambda level: 100 * level, np.ones(5), np.ones(5), tol, 10**9, (1, 0)
+    )
+    assert res.success and res.status == 0
+    assert np.all(np.abs(res.gains - 1.0) <= 2 * tol)  # the true error: within the test's
+    assert np.all(res.error <= tol * np.maximum(np.abs(res.gains), 1e-4))
+    # levels 0 and 1 take every mode; then only those whose change exceeded tol
+    assert [a.tolist() for a in calls[:2]] == [list(range(5))] * 2
+    # the change from level L - 1 to L is 15 c_k / 16^L: 1e-5 and 1e-3 fail at level 1,
+    # 1e-3 again at levels 2 and 3
+    assert [a.tolist() for a in calls[2:]] == [[3, 4], [4], [4]]
+    assert res.refinements == 4
+    assert res.gains[2] == 1.0 + c[2] / 16.0  # passed on the first check: that rule's gain
+
+
+def test_polar_rule_after_selective_refinement_equals_rectangle_rule():
+    """For this microphone the polar rule needs a second refinement (some modes fail the
+    first check); the modes refined alone still agree with the rectangle rule within
+    2 tol."""
+    size, listener = (0.3, 0.2), (0.2, 0.15, 0.4)
+    m = _ss_modes(*size, max_frequency=6000.0)
+    s, kb = _poles(m)
+    rect = R.rayleigh_gains(m.shapes, size, listener, s, max_wavenumber=kb, full_output=True)
+    polar = R.separable_gains(m.separable(), listener, s, max_wavenumber=kb, full_output=True)
+    assert rect.success and polar.success and polar.refinements >= 2
+    scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+    assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6

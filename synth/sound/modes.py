@@ -163,10 +163,13 @@ _MAX_UNKNOWNS = 12000
 # Crossover to the dynamic edge effect method (synth.sound.asymptotic_modes): a free or
 # clamped band whose Ritz problem would exceed this many unknowns per symmetry class
 # (the estimate of _ritz_unknowns) takes the Ritz modes of a low band only (up to
-# _LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every preset at 48 kHz needs
-# at most 1831 (ping-pong table, steel sheet): they keep the Ritz path; a Ritz class of
-# 2500 unknowns costs about 5 s cold, the cubic growth beyond is what the crossover avoids.
-_CROSSOVER_UNKNOWNS = 2500
+# _LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
+# edge effect modes above the same low band, so the crossover sets the cost alone, not
+# the accuracy: it lies just above every preset's band at 48 kHz (at most 1831 unknowns,
+# ping-pong table, steel sheet: their recorded renders keep the Ritz path). A Ritz
+# class costs about 3 s cold at 1400 unknowns and 12 s at 2400 (synth bench scale), the
+# cubic growth beyond is what the crossover avoids.
+_CROSSOVER_UNKNOWNS = 1850
 # Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
 # method's least accurate: corner and beam-like modes; the tests measure its accuracy
 # above a band of 200) exact, in a fraction of a second.
@@ -1068,17 +1071,29 @@ class SeparableShapes:
     y_index: np.ndarray = field(repr=False)
     wavenumber: float
 
-    def x_values(self, x: np.ndarray) -> np.ndarray:
+    def x_values(self, x: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """``X_i(x)`` for every index ``i`` in use: shape ``(len(x), max(x_index) + 1)``
-        (``x`` in metres)."""
-        n = int(self.x_index.max()) + 1 if self.x_index.size else 0
-        return _sine_table(np.ascontiguousarray(x, dtype=float) * (math.pi / self.length), n)
+        (``x`` in metres); or for the indices ``index`` alone, ``(len(x), len(index))``."""
+        return _sine_factors(x, math.pi / self.length, self.x_index, index)
 
-    def y_values(self, y: np.ndarray) -> np.ndarray:
+    def y_values(self, y: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
         """``Y_j(y)`` for every index ``j`` in use: shape ``(len(y), max(y_index) + 1)``
-        (``y`` in metres)."""
-        n = int(self.y_index.max()) + 1 if self.y_index.size else 0
-        return _sine_table(np.ascontiguousarray(y, dtype=float) * (math.pi / self.width), n)
+        (``y`` in metres); or for the indices ``index`` alone, ``(len(y), len(index))``."""
+        return _sine_factors(y, math.pi / self.width, self.y_index, index)
+
+
+def _sine_factors(u, rate, in_use, index):
+    """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (the table of
+    :func:`_sine_table`), or for ``i`` in ``index``: from the table, or (a few indices
+    of a long table) by libm's sine directly."""
+    t = np.ascontiguousarray(u, dtype=float) * rate
+    n = int(in_use.max()) + 1 if in_use.size else 0
+    if index is None:
+        return _sine_table(t, n)
+    index = np.asarray(index, dtype=np.int64)
+    if 4 * index.size < n:
+        return math.sqrt(2.0) * np.sin(t[:, None] * (index + 1.0)[None, :])
+    return _sine_table(t, n)[:, index]
 
 
 @dataclass(frozen=True, eq=False)

@@ -79,8 +79,13 @@ breakpoints where the set of arcs changes (a circle touching an edge's line, whe
 ``Phi_k`` behaves as ``sqrt(r - d)``, removed by ``r = d + L u^2``; a corner, a kink),
 and sized for the phase of ``exp(-s R / c)`` plus that of the arcs' ends travelling
 along the edges. The tolerance, the error estimate (successive rules with 1.25 times
-the points per axis) and the convergence test are those above; tests compare the two
-rules on plates where both run (agreement within ``2 tol``). :func:`plate_gains` takes
+the points per axis) and the convergence test are those above, except that a mode
+passing the test keeps that rule's gain and only the modes still failing are evaluated
+on the next rule (with the factors they use alone): each mode's test is its own. The
+in-phase bounds ``S_k`` (``|phi_k| = |X_i| |Y_j|``) come from one matrix product on a
+rectangle rule that resolves the shapes but not the acoustic phase (as for the sums of
+separable shapes below). Tests compare the two rules on plates where both run
+(agreement within ``2 tol``, in-phase bounds within 5 %). :func:`plate_gains` takes
 the polar rule for separable shapes when the rectangle rule's work (modes times
 points) exceeds ``5e7``.
 
@@ -757,6 +762,55 @@ def _refine(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationR
     )
 
 
+def _refine_selective(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationResult:
+    """As :func:`_refine`, but a mode that passes the test keeps that rule's gain, error
+    and bound, and only the modes still failing are evaluated on the next rule:
+    ``rule(level, active)`` returns the integrals and in-phase integrals of the modes
+    ``active`` (indices). Each mode's test is its own, so the accepted gains meet the
+    same bound as with every mode refined together."""
+    m = factor.size
+    active = np.arange(m)
+    coarse, _ = rule(0, active)
+    gains = np.empty(m, complex)
+    error = np.empty(m)
+    coherent = np.empty(m)
+    status, message = 1, "stopped at the last refinement without meeting tol"
+    for level in range(1, _MAX_RULES):
+        fine, mag = rule(level, active)
+        f = factor[active]
+        gains[active] = f * fine
+        error[active] = np.abs(f * (fine - coarse))
+        coherent[active] = scale[active] * mag
+        allowed = tol * np.maximum(np.abs(gains[active]), _COHERENT_FLOOR * coherent[active])
+        failing = error[active] > allowed
+        n_points = npoints(level)
+        if not failing.any():
+            status, message = 0, f"converged with {n_points} points (refinement {level})"
+            break
+        if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
+            status, message = (
+                2,
+                (
+                    f"stopped at {n_points} points: the next rule would "
+                    f"exceed max_points={max_points}"
+                ),
+            )
+            break
+        active = active[failing]
+        coarse = fine[failing]
+    return RadiationResult(
+        gains=gains,
+        error=error,
+        coherent=coherent,
+        n_points=n_points,
+        refinements=level,
+        panels=panels,
+        success=status == 0,
+        status=status,
+        message=message,
+    )
+
+
 def _warn_unconverged(caller: str, result: RadiationResult, tol: float) -> None:
     """RuntimeWarning naming the mode furthest from the convergence test."""
     allowed = tol * np.maximum(np.abs(result.gains), _COHERENT_FLOOR * result.coherent)
@@ -998,54 +1052,86 @@ def _angular_rule(r, a, b, listener, kb, tol, refine):
     return np.concatenate(ts), np.concatenate(ws)
 
 
+# Modes times this below the factor pairs of a separable rule: angular sums mode by mode
+# (gathered factors, about this many times slower per multiply-add than a matrix product).
+_DIRECT_RATIO = 10
+
+
 def _apply_separable_rule(
-    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, in_phase
+    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
 ):
-    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and (if ``in_phase``, else
-    zeros) ``Int |phi_k| / R dA`` of separable shapes, and the number of points, by the
-    polar rule (radii ``radii`` with weights ``wr``)."""
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
+    in ``active`` (indices), and the number of points, by the polar rule (radii
+    ``radii`` with weights ``wr``). Only the factors those modes use enter the angular
+    products."""
     a, b = size
     xl, yl, zl = listener
-    m = q.size
-    xi, yi = sep.x_index, sep.y_index
+    m = active.size
+    rows_x, xi = np.unique(sep.x_index[active], return_inverse=True)
+    rows_y, yi = np.unique(sep.y_index[active], return_inverse=True)
+    q = q[active]
     acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
-    mag = np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
     rows = max(1, int(_CHUNK_BYTES // (8 * m)))
     n_points = 0
+    sums = np.empty((rows_x.size, rows_y.size))
+    # few modes (a refinement of the failing ones): each mode's own angular sum costs
+    # less than the product of every pair of their factors
+    direct = _DIRECT_RATIO * m < rows_x.size * rows_y.size
     for start in range(0, radii.size, rows):
         rr = radii[start : start + rows]
         phi = np.empty((rr.size, m))
-        phi_abs = np.zeros((rr.size, m))
         for i, r in enumerate(rr):
             theta, w = _angular_rule(float(r), a, b, listener, kb, tol, refine)
             n_points += theta.size
             if theta.size == 0:
                 phi[i] = 0.0
-                phi_abs[i] = 0.0
                 continue
             x = np.clip(xl + r * np.cos(theta), 0.0, a)
             y = np.clip(yl + r * np.sin(theta), 0.0, b)
-            fx = sep.x_values(x)
-            fy = sep.y_values(y)
-            sums = np.empty((fx.shape[1], fy.shape[1]))
-            single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
-            phi[i] = sums[xi, yi]
-            if in_phase:
-                single_thread_product(
-                    np.ascontiguousarray((np.abs(fx) * w[:, None]).T), np.abs(fy), sums
-                )
-                phi_abs[i] = sums[xi, yi]
+            fx = sep.x_values(x, rows_x)
+            fy = np.ascontiguousarray(sep.y_values(y, rows_y))
+            if direct:
+                phi[i] = w @ (fx[:, xi] * fy[:, yi])
+            else:
+                single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
+                phi[i] = sums[xi, yi]
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
         dist = big_r - r_mid
         _accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
-        mag += weight @ phi_abs
+    total = acc_re + 1j * acc_im
+    if not np.isfinite(total).all():
+        k = int(active[np.flatnonzero(~np.isfinite(total))[0]])
+        raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
+    return total, n_points
+
+
+def _separable_in_phase(sep, size, listener, kb, tol):
+    """``Int |phi_k| / R dA`` of separable shapes on the refined rectangle rule of
+    wavenumber ``2 kb`` (as :func:`_summed_in_phase`): with ``|phi_k| = |X_i| |Y_j|``
+    one matrix product for every mode, ``|X|^T W |Y|``, ``W`` the grid's weights over
+    ``R``."""
+    a, b = size
+    xl, yl, zl = listener
+    ex, ey, px0, py0 = _first_rule(a, b, listener, 2.0 * kb, tol)
+    xs, wx = _nodes(ex, np.ceil(px0 * _REFINE).astype(np.int64))
+    ys, wy = _nodes(ey, np.ceil(py0 * _REFINE).astype(np.int64))
+    weights = (wx[:, None] * wy[None, :]) / np.sqrt(
+        (xs[:, None] - xl) ** 2 + (ys[None, :] - yl) ** 2 + zl * zl
+    )
+    abs_x = np.abs(sep.x_values(xs))
+    abs_y = np.abs(sep.y_values(ys))
+    inner = np.empty((xs.size, abs_y.shape[1]))
+    single_thread_product(weights, abs_y, inner)
+    sums = np.empty((abs_x.shape[1], abs_y.shape[1]))
+    single_thread_product(np.ascontiguousarray(abs_x.T), inner, sums)
+    mag = sums[sep.x_index, sep.y_index]
     if not np.isfinite(mag).all():
         k = int(np.flatnonzero(~np.isfinite(mag))[0])
         raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
-    return acc_re + 1j * acc_im, mag, n_points
+    return mag
 
 
 @dataclass(frozen=True)
@@ -1132,18 +1218,20 @@ def _polar_setup(
     )
 
 
-def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
+def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool, selective=False):
     """The gains of a polar rule, refined until converged (:func:`_refine`). ``rule(level)``
     applies the rule refined ``level`` times and returns its integrals, their in-phase
-    bounds and its number of points."""
+    bounds and its number of points; with ``selective``, ``rule(level, active)`` does so
+    for the modes ``active`` alone (:func:`_refine_selective`)."""
     if setup.q.size == 0:
         empty = np.zeros(0, complex)
         res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
         return res if full_output else empty
     counts = {}
 
-    def counted(level):
-        total, mag, counts[level] = rule(level)
+    def counted(level, *active):
+        total, mag, points = rule(level, *active)
+        counts.setdefault(level, points)
         return total, mag
 
     def npoints(level):
@@ -1157,7 +1245,7 @@ def _polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
     result = dataclasses.replace(
-        _refine(
+        (_refine_selective if selective else _refine)(
             counted,
             npoints,
             factor,
@@ -1237,11 +1325,14 @@ def separable_gains(
         max_points,
     )
 
-    def rule(level):
+    if setup.q.size == 0:
+        return _polar_gains(setup, None, "separable_gains", full_output)
+    in_phase = _separable_in_phase(shapes, setup.size, setup.listener, setup.kb, setup.tol_panel)
+
+    def rule(level, active):
         f = _REFINE**level
         radii, wr = _radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        # _refine reads the in-phase integrals of the finer rules only
-        return _apply_separable_rule(
+        total, n = _apply_separable_rule(
             shapes,
             setup.size,
             setup.listener,
@@ -1253,10 +1344,11 @@ def separable_gains(
             setup.q,
             setup.r_mid,
             setup.halvings,
-            level > 0,
+            active,
         )
+        return total, in_phase[active], n
 
-    return _polar_gains(setup, rule, "separable_gains", full_output)
+    return _polar_gains(setup, rule, "separable_gains", full_output, selective=True)
 
 
 # ----------------------------------------------------------------------------------------
