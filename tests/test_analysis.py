@@ -707,7 +707,8 @@ def test_delay_is_sub_sample_and_aligns_centres():
     # filter whose response keeps its sign over the band (a longer contact's force against
     # the first's, for half-sines below their first spectral zero, 1.5 / tau) the delay is
     # the filter's centre: 5 + 2 samples here (binomial, 4 (1 + cos w)^2 >= 0). One whose
-    # response changes sign (1, 3, 4, 3, 1: negative above fs / 3) is timed elsewhere.
+    # response changes sign (1, 3, 4, 3, 1: negative above fs / 3) is timed elsewhere. A
+    # delay beyond the lags searched gives None (no peak within them).
     from synth.analysis.detection import delay as _delay
 
     k = np.arange(200.0)
@@ -718,6 +719,10 @@ def test_delay_is_sub_sample_and_aligns_centres():
     T = pulse(40.0)
     for d in np.linspace(-2.9, 23.9, 31):
         assert _delay(pulse(40.0 + d), T, -3, 24) == pytest.approx(d, abs=1e-4)
+    # a delay just outside the lags searched (0.3 samples: on its main lobe) has no peak
+    # inside them: the correlation's largest value there is at the end nearest the delay,
+    # and none is given
+    assert _delay(pulse(64.3), T, -3, 24) is None and _delay(pulse(36.7), T, -3, 24) is None
     rng = np.random.default_rng(3)
     T = rng.standard_normal(300) * np.exp(-np.arange(300) / 50.0)
     h = np.r_[np.zeros(5), 1.0, 4.0, 6.0, 4.0, 1.0]

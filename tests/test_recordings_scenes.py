@@ -47,16 +47,14 @@ LATE = 0.00025
 #: the first touch) is this far over the peak of the 3 ms before it, dB.
 STANDS_OUT_DB = 6.0
 BEFORE = 0.003
-SCENES = 20
+#: Scenes drawn (seeds 0 to 29): about 75 s of work on a cold cache. Seeds up to 49 pass too
+#: (``python tests/test_recordings_scenes.py 0 50``).
+SCENES = 30
 #: The analysis' measurement window, s: a burst in the recording's last window that continues
 #: a shrinking series cannot be told from a tick cut short by the end (docs/analysis.md, "What
 #: a ball cannot do"); a render stopped at ``max_duration`` fades out there while the plate
 #: rings, so reported ticks in it are not checked.
 END_WINDOW = 0.02
-#: What the analysis still gets wrong on these scenes, kept here so that a change shows both
-#: ways (a problem fixed, a new one): one burst reported 0.54 s into the drop of a brass ball
-#: on a lightly damped glass plate where no impact is.
-KNOWN = ("seed 8: false tick at 0.54245 s",)
 
 
 def mode_count(plate: Plate, f_max: float) -> float:
@@ -211,7 +209,7 @@ def check_scene(seed: int) -> list[str]:
 def test_random_scenes():
     # every reported tick is a real impact, every impact that stands out is found
     problems = [p for seed in range(SCENES) for p in check_scene(seed)]
-    assert tuple(problems) == KNOWN, "\n".join(problems)
+    assert not problems, "\n".join(problems)
 
 
 if __name__ == "__main__":  # diagnostics: python tests/test_recordings_scenes.py FIRST COUNT

@@ -7,20 +7,29 @@ What the analysis should do on them: find every tick that clearly stands out (it
 the first millisecond at least :data:`STANDS_OUT_DB` over the peak of the :data:`BEFORE`
 before it; strikes closer than the analysis' ``min_separation`` to the previous one, the
 chatter of a ball coming to rest, are one burst, found as one tick), report no tick that is
-not one of SDT's strikes (from the strike, less
-:data:`EARLY`, to the end of its first contact plus :data:`LATE`) and give SDT's restitution.
-It does not yet (issue 15): ``python tests/test_recordings_sdt.py`` prints, per recording,
-the strikes missed, the ticks that are no strike and the restitutions, from
-:func:`strike_report`.
+not one of SDT's strikes (from the strike, less :data:`EARLY`, to the end of its first contact
+plus :data:`LATE`) and give SDT's restitution. What it still gets wrong is listed in
+:data:`KNOWN_FALSE` and :data:`KNOWN_MISSED` with the cause found, so that a change shows both
+ways; ``python tests/test_recordings_sdt.py`` prints, per recording, the strikes missed, the
+ticks that are no strike and the restitutions, from :func:`strike_report`.
+
+The truth is SDT's strikes (the velocity impulses of its ``Bouncing`` control), not every
+contact: between strikes SDT's hammer stays on the resonator's ringing surface, in contact for
+26 to 68 % of the samples after the first strike (its velocity changes there: the contact
+force is not zero), in runs of contact at every sample and of separate one-sample contacts, so
+its contact force changes where no strike is, and some strikes begin a contact that lasts
+rather than a blow.
 """
 
 from __future__ import annotations
 
+import functools
 import inspect
 import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from synth.analysis import analyze, analyze_file
 from synth.io.audio import read_audio
@@ -33,14 +42,54 @@ BEFORE = 0.003
 #: whitened burst, to within a few sample periods (docs/analysis.md, step 4), 0.1 ms at
 #: 44.1 kHz ...
 EARLY = 0.0001
-#: ... and this much after the end of the contact, s.
-LATE = 0.0001
+#: ... and this much after the end of the contact, s: weak ticks (``strength`` of a few dB)
+#: start late where what the whitening leaves of the earlier ringing hides the start of their
+#: burst (docs/analysis.md, Method), as in tests/test_recordings_scenes.py; the strikes
+#: that stand out are over 1 ms apart, so no other strike lies within this.
+LATE = 0.00025
 #: Strikes closer than this to the previous one are one burst (s): the analysis' default
 #: ``min_separation``, below which it does not split ticks.
 MIN_SEPARATION = inspect.signature(analyze).parameters["min_separation"].default
 #: Restitution from bounce times, relative: SDT's flights shrink by exactly ``e``, and the
 #: bounce time ``t_n`` is known to twice the onset tolerance over bounces of 40 ms or more.
 RESTITUTION_RTOL = 0.02
+
+
+#: Ticks reported where SDT has no strike, s (rounded to 0.1 ms), and why.
+KNOWN_FALSE = {
+    "glass-room": [],
+    # SDT's hammer, in contact at every sample since 0.5250 s (chatter at the Nyquist
+    # frequency), leaves the surface at 0.64856 s and strikes it again in separate one-sample
+    # contacts from there: a change of its contact force that no strike in the truth marks
+    "metal-noise30": [0.6486],
+    "wood-noise40": [],
+    # 0.0005 s: the file's cut. Vorbis' lowpass leaves the band near the Nyquist frequency
+    # empty, which the 20 ms whitening predictor lifts by up to 90 dB (its white-noise
+    # correction), so the step from the silence assumed before the first sample to the noise
+    # whitens to a burst there, 50 times the whitened noise, 20 samples in (its rising
+    # alternation taken for a filter's pre-ringing, its onset is no longer the first sample).
+    # 0.519 s: the loudest strike, 0.2 ms early (allowed 0.1 ms), found by the deflation
+    # (step 5) with the cut's burst as the first tick, whose whitened response is the template
+    # every later tick is modelled on; with the cut's burst taken out of the whitening (its
+    # first samples whitened with the past predicted backwards: tried), the strike is the
+    # first tick, 0.05 ms after its start (but the noise's remainders of its response 2.2 and
+    # 4.4 ms later then pass for the next ticks, and a clipped render loses its first tick)
+    "wood-room-ogg": [0.0005, 0.519],
+}
+#: Strikes that stand out but are not found, s, and why.
+KNOWN_MISSED = {
+    "glass-room": [],
+    "metal-noise30": [],
+    # 0.1749 s: SDT's first strike, 20 dB under its second, stands 8.3 dB over the noise's
+    # peaks but its whitened frame only 6 dB over the whitened noise (step 3 asks for
+    # threshold_db, 10 dB); 0.5911 s: the strike begins a contact that lasts (the force grows
+    # over a millisecond), so the whitened signal rises by under 6 dB a frame over three
+    # frames and stays there: a step of the excitation, no burst (rise_db, and the running
+    # median follows it)
+    "wood-noise40": [0.1749, 0.5911],
+    # 0.5193 s: found, 0.2 ms early (above)
+    "wood-room-ogg": [0.5193],
+}
 
 
 def load(name: str):
@@ -66,6 +115,7 @@ def burst_starts(strikes: np.ndarray) -> np.ndarray:
     return np.diff(strikes, prepend=-np.inf) >= MIN_SEPARATION
 
 
+@functools.cache
 def strike_report(name: str) -> dict:
     """Strikes that stand out but were not found, ticks that are no strike, and the
     unflagged restitutions, against SDT's truth (for ``python tests/test_recordings_sdt.py``)."""
@@ -89,6 +139,25 @@ def test_sdt_data_is_complete():
     assert len(NAMES) == 4 and all(
         (DATA / json.loads((DATA / f"{n}.json").read_text())["file"]).exists() for n in NAMES
     )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", NAMES)
+def test_sdt_ticks(name):
+    # every strike that stands out is found and every tick is a strike, but for the cases
+    # listed with their causes
+    report = strike_report(name)
+    assert (report["false"], report["missed"]) == (KNOWN_FALSE[name], KNOWN_MISSED[name])
+
+
+@pytest.mark.slow
+def test_sdt_restitution_over_double_bounces():
+    # glass-room: the ticks found are the strikes at 0.732, 1.030 and 1.198 s (every other
+    # bounce's strike lies 4.4 and 5.8 dB under the 3 ms before it and is not found), so the
+    # bounce times span two of SDT's flights each, which shrink by e at every bounce: their
+    # ratio is e^2, within twice the onset tolerance over bounces of 0.17 s and more
+    report = strike_report("glass-room")
+    assert report["restitution"] == pytest.approx([report["truth"] ** 2], rel=RESTITUTION_RTOL)
 
 
 if __name__ == "__main__":

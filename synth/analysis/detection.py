@@ -156,11 +156,14 @@ def _sinc_centre(r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float) -
     return None
 
 
-def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float:
+def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | None:
     """Sub-sample delay (samples, within ``[lo, hi]``) of ``y`` behind ``template``: the
     peak of their cross-correlation with the phase transform (each frequency's cross
     spectrum ``Y T*`` taken at unit magnitude; Knapp and Carter 1976, IEEE Trans. ASSP
-    24, 320), interpolated band-limited.
+    24, 320), interpolated band-limited. None when the correlation has no peak inside
+    ``(lo, hi)``: its largest value there at either end, rising beyond it, says the delay lies
+    outside the lags allowed (a weak, slow contact whose pulse spectrum changes sign within
+    the band against the template's), not where.
 
     For ``y = h * template`` it is the delay ``d`` whose linear phase best fits the phase of
     the filter ``h`` over the band, ``max sum_f cos(arg H(f) - 2 pi f d)``: every frequency
@@ -184,6 +187,8 @@ def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float:
     i1 = int(math.floor(hi * up))
     lags = np.arange(i0, i1 + 1)
     k = int(lags[np.argmax(c[lags % c.size])])
+    if k in (i0, i1) and i1 > i0:
+        return None
     a, b, d = c[(k - 1) % c.size], c[k % c.size], c[(k + 1) % c.size]
     den = a - 2.0 * b + d
     frac = 0.5 * (a - d) / den if den < 0.0 else 0.0

@@ -341,13 +341,16 @@ class ResonatorSearch(DeflationSearch):
     def _timing(self, start: int, model: np.ndarray, level_crossing: float) -> float:
         """The onset of a tick whose window starts at ``start``: its level crossing delayed by
         its model's delay behind the first tick's template (within the lags of its filters)
-        from the template's own onset; a model of nothing keeps the level crossing."""
+        from the template's own onset; a model of nothing, or one
+        whose correlation with the template has no peak within those lags, keeps the level
+        crossing (:func:`~synth.analysis.detection.delay`)."""
         if not np.any(model):
             return level_crossing
         res = self.residual
-        return (
-            self.first.onset + (start - self.s1) + delay(model, res.T[0], -res.pre, res.post_long)
-        )
+        lag = delay(model, res.T[0], -res.pre, res.post_long)
+        if lag is None:  # no peak within the filters' lags: timed by the level crossing
+            return level_crossing
+        return self.first.onset + (start - self.s1) + lag
 
     def _uncover(self, s, new, e, snap):
         """While this tick is in ``q`` it may hide the next one, which the series puts between
