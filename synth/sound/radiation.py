@@ -723,6 +723,15 @@ def _first_rule(a, b, listener, kappa, tol_panel):
     return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
 
 
+def _next_rule_too_large(npoints, level: int, max_points: int) -> bool:
+    """Whether a refinement after rule ``level`` exists and would exceed ``max_points``."""
+    return level + 1 < _MAX_RULES and npoints(level + 1) > max_points
+
+
+def _too_large_message(n_points: int, max_points: int) -> str:
+    return f"stopped at {n_points} points: the next rule would exceed max_points={max_points}"
+
+
 def _refine(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationResult:
     """Successive rules ``rule(level)`` (-> integrals, in-phase integrals) compared
     until every mode passes the convergence test of the module docstring; the gains
@@ -739,14 +748,8 @@ def _refine(rule, npoints, factor, scale, tol, max_points, panels) -> RadiationR
         if np.all(error <= allowed):
             status, message = 0, f"converged with {n_points} points (refinement {level})"
             break
-        if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
-            status, message = (
-                2,
-                (
-                    f"stopped at {n_points} points: the next rule would "
-                    f"exceed max_points={max_points}"
-                ),
-            )
+        if _next_rule_too_large(npoints, level, max_points):
+            status, message = 2, _too_large_message(n_points, max_points)
             break
         coarse = fine
     return RadiationResult(
@@ -787,14 +790,8 @@ def _refine_selective(rule, npoints, factor, scale, tol, max_points, panels) -> 
         if not failing.any():
             status, message = 0, f"converged with {n_points} points (refinement {level})"
             break
-        if level + 1 < _MAX_RULES and npoints(level + 1) > max_points:
-            status, message = (
-                2,
-                (
-                    f"stopped at {n_points} points: the next rule would "
-                    f"exceed max_points={max_points}"
-                ),
-            )
+        if _next_rule_too_large(npoints, level, max_points):
+            status, message = 2, _too_large_message(n_points, max_points)
             break
         active = active[failing]
         coarse = fine[failing]
