@@ -16,14 +16,7 @@ from synth.sound import radiation as R
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
 
-@pytest.fixture(autouse=True)
-def _private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
-    P.clear_memory_cache()
-    R.clear_memory_cache()
-    yield
-    P.clear_memory_cache()
-    R.clear_memory_cache()
+pytestmark = pytest.mark.usefixtures("empty_caches")  # tests/conftest.py
 
 
 def _ss_modes(a=0.3, b=0.2, h=0.002, max_frequency=6000.0):
