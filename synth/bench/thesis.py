@@ -1064,6 +1064,7 @@ def _tick_decay_definition_rows(scene, seq, x, fs: int, found) -> list:
                 "the earlier ticks' tails left out",
             )
         )
+    rows += _microphone_rows(scene, seq, fs)
     for n, measured in THESIS_TICK_DECAY.items():
         rows.append(
             thesis_row(
@@ -1075,4 +1076,63 @@ def _tick_decay_definition_rows(scene, seq, x, fs: int, found) -> list:
                 "log-linear fit from the peak, RMS envelope over 2 ms (docs/analysis.md)",
             )
         )
+    return rows
+
+
+#: Where the direct pulse stops ruling the envelope (s after its peak): the reflections
+#: from the board's long edges (24.5 cm away) are back by about 1 ms at the group velocity
+#: of 2-3 kHz, the short edges' by about 2 ms.
+DIRECT_PULSE_SPAN = 3e-3
+
+
+def _microphone_rows(scene, seq, fs: int) -> list:
+    """Tick 1 alone at the default microphone (20 cm above the impact) and at 20 cm from the
+    impact at 45 degrees along the board's length: the peak of the 0.5 ms envelope over
+    its level :data:`DIRECT_PULSE_SPAN` later (the direct pulse against the whole plate's
+    ringing), and at the second the decay, peak to 37 %, smoothed over 0.5 and 2 ms (the
+    first's are the rows of :func:`thesis_lowspeed_rows` and :func:`thesis_modal_rows`)."""
+    from dataclasses import replace
+
+    from scipy.signal import hilbert
+
+    from synth.physics.bounces import BounceSequence
+    from synth.physics.scene import Microphone
+    from synth.sound.render import render
+
+    x0, y0 = scene.position
+    h = 0.2 / math.sqrt(2.0)
+    first = BounceSequence(seq.impacts[:1], "max-impacts", seq.drop_height, seq.gravity)
+    rows = []
+    for where, mic in (
+        ("20 cm above the impact", scene.listener),
+        ("20 cm from the impact at 45 degrees", Microphone((x0 + h, y0, h))),
+    ):
+        y = render(replace(scene, listener=mic), samplerate=fs, normalize="none", sequence=first)
+        y = y.audio.astype(float)
+        n = max(1, int(0.5e-3 * fs))
+        env = np.convolve(np.abs(hilbert(y)), np.ones(n) / n, mode="same")
+        k = int(np.argmax(env))
+        rows.append(
+            thesis_row(
+                f"tick 1 at {where}: peak of the 0.5 ms envelope over its level "
+                f"{DIRECT_PULSE_SPAN * 1e3:g} ms later (dB), fitted model",
+                "-",
+                20.0 * math.log10(env[k] / env[k + int(DIRECT_PULSE_SPAN * fs)]),
+                None,
+                None,
+                "the direct pulse near the impact point against the whole plate's ringing",
+            )
+        )
+        for smooth in (0.5e-3, 2e-3) if mic is not scene.listener else ():
+            rows.append(
+                thesis_row(
+                    f"tick 1 decay at {where}, envelope peak to 37 % smoothed over "
+                    f"{smooth * 1e3:g} ms, fitted model",
+                    "s",
+                    _envelope_decay(y, fs, 0, y.size, smooth),
+                    None,
+                    THESIS_TICK_DECAY[1],
+                    "tick alone",
+                )
+            )
     return rows
