@@ -834,6 +834,8 @@ RENDER_PREROLL = 0.005
 #: Band of the plate's low modes (Hz): those still ringing 250 ms after an impact in the
 #: thesis' recordings (Chapter 5), the ones its section 3.5.1 (item 6) points at.
 LOW_MODE_BAND = 500.0
+#: The band above it that carries most of the ringing at touch late in a series (Hz).
+MID_MODE_BAND = (500.0, 2000.0)
 #: Smoothing windows (s) of the envelope for the tick decay "peak to 37 %": the thesis
 #: names no window; 0.5 ms is the rows above, the others the defensible choices up to
 #: the 10 ms of a sound level meter's fast-ish time weighting.
@@ -881,8 +883,8 @@ def thesis_lowspeed_rows(samplerate: int = 48000) -> list:
     times, both from the scheduler's onsets and from the ticks the analysis
     (:func:`synth.analysis.analyze`) finds in the render; the ringing left by earlier
     impacts (thesis 3.5.1, item 6): the plate's velocity under the ball at touch over the
-    impact speed (RMS), the same of the modes below :data:`LOW_MODE_BAND` alone, and the
-    mean change of e it makes (each impact solved again on a
+    impact speed (RMS), the same of the modes below :data:`LOW_MODE_BAND` alone and of
+    those in :data:`MID_MODE_BAND` alone, and the mean change of e it makes (each impact solved again on a
     plate at rest); and the losses of the air film and of adhesion (closed-form bounds,
     :func:`air_film_loss`, :func:`adhesion_loss`) at the bin's lower speed.
 
@@ -930,7 +932,9 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
         speed=seq[0].speed,
         **c.options(),
     )
-    low = contact.point.omega < 2.0 * math.pi * LOW_MODE_BAND
+    f = contact.point.omega / (2.0 * math.pi)
+    low = f < LOW_MODE_BAND
+    mid = (f >= MID_MODE_BAND[0]) & (f < MID_MODE_BAND[1])
     speeds = [i.speed for i in seq]
     e = [i.restitution for i in seq]
     timed = bounce_time_restitution(seq)
@@ -940,6 +944,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     heard_speeds = [t.speed for t in ticks[1:-1]]
     ring = [i.plate_velocity / i.speed for i in seq]
     ring_low = [float(i.plate_state.v[low].sum()) / i.speed for i in seq]
+    ring_mid = [float(i.plate_state.v[mid].sum()) / i.speed for i in seq]
     K = contact_law(scene.ball, scene.plate, c.law, **c.options())[0]
     modulus = 0.75 * K / math.sqrt(scene.ball.radius)
     note = "measured: e falls as the speed falls below 0.2 m/s (thesis 3.5)"
@@ -950,6 +955,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
         change = float(np.mean([e[k] - r for k, r in zip(inside, at_rest, strict=True)]))
         rms = math.sqrt(float(np.mean([ring[k] ** 2 for k in inside])))
         low_rms = math.sqrt(float(np.mean([ring_low[k] ** 2 for k in inside])))
+        mid_rms = math.sqrt(float(np.mean([ring_mid[k] ** 2 for k in inside])))
         span = f"{lo:g}-{hi:g} m/s"
         rows += [
             thesis_row(
@@ -985,6 +991,15 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
                 None,
                 None,
                 "the modes still ringing 250 ms after an impact in the thesis' recordings",
+            ),
+            thesis_row(
+                f"the same, modes of {MID_MODE_BAND[0]:g}-{MID_MODE_BAND[1]:g} Hz only, RMS, "
+                f"{span}",
+                "-",
+                mid_rms,
+                None,
+                None,
+                "the band that carries most of the ringing at touch late in a series",
             ),
             thesis_row(
                 f"mean change of e by the ringing (e minus e on a plate at rest), {span}",
