@@ -14,11 +14,20 @@ from synth.physics import impedance
 def _decay_time(x, fs, smooth=0.5e-3):
     """Time (s) for the amplitude envelope (Hilbert, smoothed over ``smooth`` s) to fall
     from its peak to 1/e (37 %) of it."""
+    return envelope_decay_time(x, fs, smooth)
+
+
+def envelope_decay_time(x, fs: float, smooth: float, start: int = 0, stop: int | None = None):
+    """The thesis' tick decay time (Chapter 5; s): from the peak of the amplitude envelope
+    of ``x`` (sampled at ``fs``, Hz) to where it first falls below 1/e (37 %) of it. The
+    envelope is the Hilbert envelope's moving average over ``smooth`` (s), computed on the
+    whole of ``x`` (earlier ticks' tails stay under a tick) and searched over the samples
+    ``[start, stop)``; nan if it does not fall that far there."""
     from scipy.signal import hilbert
 
     env = np.abs(hilbert(x))
     n = max(1, int(smooth * fs))
-    env = np.convolve(env, np.ones(n) / n, mode="same")
+    env = np.convolve(env, np.ones(n) / n, mode="same")[start:stop]
     i = int(np.argmax(env))
     below = np.nonzero(env[i:] < env[i] / math.e)[0]
     return float(below[0] / fs) if below.size else float("nan")
@@ -1029,19 +1038,6 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     return rows
 
 
-def _envelope_decay(x, fs: float, start: int, stop: int, smooth: float) -> float:
-    """:func:`_decay_time` of the samples ``[start, stop)`` of ``x`` with the envelope
-    computed on the whole of ``x`` (so the earlier ticks' tails stay under the tick)."""
-    from scipy.signal import hilbert
-
-    env = np.abs(hilbert(x))
-    n = max(1, int(smooth * fs))
-    env = np.convolve(env, np.ones(n) / n, mode="same")[start:stop]
-    i = int(np.argmax(env))
-    below = np.nonzero(env[i:] < env[i] / math.e)[0]
-    return float(below[0] / fs) if below.size else float("nan")
-
-
 def _tick_decay_definition_rows(scene, seq, x, fs: int, found) -> list:
     """The tick decay rows of :func:`thesis_lowspeed_rows`: ``x`` the render of ``seq``
     (Pa at ``fs``, Hz, the first touch :data:`RENDER_PREROLL` after its start), ``found``
@@ -1059,7 +1055,7 @@ def _tick_decay_definition_rows(scene, seq, x, fs: int, found) -> list:
                     f"tick {n} decay, envelope peak to 37 % smoothed over {smooth * 1e3:g} ms, "
                     "in the series, fitted model",
                     "s",
-                    _envelope_decay(x, fs, onsets[n - 1], onsets[n], smooth),
+                    envelope_decay_time(x, fs, smooth, onsets[n - 1], onsets[n]),
                     None,
                     measured,
                     "moving average of the Hilbert envelope",
@@ -1073,7 +1069,7 @@ def _tick_decay_definition_rows(scene, seq, x, fs: int, found) -> list:
                 f"tick {n} decay, envelope peak to 37 % smoothed over 5 ms, tick alone, "
                 "fitted model",
                 "s",
-                _envelope_decay(y, fs, 0, y.size, 5e-3),
+                envelope_decay_time(y, fs, 5e-3),
                 None,
                 measured,
                 "the earlier ticks' tails left out",
@@ -1144,7 +1140,7 @@ def _microphone_rows(scene, seq, fs: int) -> list:
                     f"tick 1 decay at {where}, envelope peak to 37 % smoothed over "
                     f"{smooth * 1e3:g} ms, fitted model",
                     "s",
-                    _envelope_decay(y, fs, 0, y.size, smooth),
+                    envelope_decay_time(y, fs, smooth),
                     None,
                     THESIS_TICK_DECAY[1],
                     "tick alone",
