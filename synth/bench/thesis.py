@@ -17,17 +17,22 @@ def _decay_time(x, fs, smooth=0.5e-3):
     return envelope_decay_time(x, fs, smooth)
 
 
+def smoothed_envelope(x, fs: float, smooth: float) -> np.ndarray:
+    """The amplitude envelope of ``x`` (sampled at ``fs``, Hz): the magnitude of its
+    analytic signal (Hilbert) averaged over a moving window of ``smooth`` (s), centred."""
+    from scipy.signal import hilbert
+
+    n = max(1, int(smooth * fs))
+    return np.convolve(np.abs(hilbert(x)), np.ones(n) / n, mode="same")
+
+
 def envelope_decay_time(x, fs: float, smooth: float, start: int = 0, stop: int | None = None):
     """The thesis' tick decay time (Chapter 5; s): from the peak of the amplitude envelope
     of ``x`` (sampled at ``fs``, Hz) to where it first falls below 1/e (37 %) of it. The
     envelope is the Hilbert envelope's moving average over ``smooth`` (s), computed on the
     whole of ``x`` (earlier ticks' tails stay under a tick) and searched over the samples
     ``[start, stop)``; nan if it does not fall that far there."""
-    from scipy.signal import hilbert
-
-    env = np.abs(hilbert(x))
-    n = max(1, int(smooth * fs))
-    env = np.convolve(env, np.ones(n) / n, mode="same")[start:stop]
+    env = smoothed_envelope(x, fs, smooth)[start:stop]
     i = int(np.argmax(env))
     below = np.nonzero(env[i:] < env[i] / math.e)[0]
     return float(below[0] / fs) if below.size else float("nan")
@@ -846,11 +851,12 @@ LOW_MODE_BAND = 500.0
 #: The band above it that carries most of the ringing at touch late in a series (Hz).
 MID_MODE_BAND = (500.0, 2000.0)
 #: Smoothing windows (s) of the envelope for the tick decay "peak to 37 %": the thesis
-#: names no window; 0.5 ms is the rows above, the others the defensible choices up to
-#: the 10 ms of a sound level meter's fast-ish time weighting.
+#: names no window; 0.5 ms is the rows above, the others run from about the time the
+#: edges' reflections take to come back (2 ms) to 10 ms.
 TICK_DECAY_SMOOTHING = (2e-3, 5e-3, 10e-3)
 #: Dynamic viscosity of air at 20 C (Pa s; Kaye & Laby) and the gap (m) at which the air
-#: film between ball and board stops: the board's surface roughness (a few um for MDF).
+#: film between ball and board stops (an upper bound of the loss: the roughness of an MDF
+#: surface is a few um).
 AIR_VISCOSITY = 1.81e-5
 AIR_FILM_CUTOFF = 1e-6
 #: Upper bound of the work of adhesion of two dry solids in air (J/m^2; van der Waals,
@@ -893,8 +899,8 @@ def thesis_lowspeed_rows(samplerate: int = 48000) -> list:
     (:func:`synth.analysis.analyze`) finds in the render; the ringing left by earlier
     impacts (thesis 3.5.1, item 6): the plate's velocity under the ball at touch over the
     impact speed (RMS), the same of the modes below :data:`LOW_MODE_BAND` alone and of
-    those in :data:`MID_MODE_BAND` alone, and the mean change of e it makes (each impact solved again on a
-    plate at rest); and the losses of the air film and of adhesion (closed-form bounds,
+    those in :data:`MID_MODE_BAND` alone, and the mean change of e it makes (each impact
+    solved again on a plate at rest); and the losses of the air film and of adhesion (closed-form bounds,
     :func:`air_film_loss`, :func:`adhesion_loss`) at the bin's lower speed.
 
     Tick decay (Chapter 5: 11, 12.3, 14 ms for ticks 1, 6, 8): envelope from its peak to
@@ -1104,8 +1110,6 @@ def _microphone_rows(scene, seq, fs: int) -> list:
     first's are the rows of :func:`thesis_lowspeed_rows` and :func:`thesis_modal_rows`)."""
     from dataclasses import replace
 
-    from scipy.signal import hilbert
-
     from synth.physics.bounces import BounceSequence
     from synth.physics.scene import Microphone
     from synth.sound.render import render
@@ -1120,8 +1124,7 @@ def _microphone_rows(scene, seq, fs: int) -> list:
     ):
         y = render(replace(scene, listener=mic), samplerate=fs, normalize="none", sequence=first)
         y = y.audio.astype(float)
-        n = max(1, int(0.5e-3 * fs))
-        env = np.convolve(np.abs(hilbert(y)), np.ones(n) / n, mode="same")
+        env = smoothed_envelope(y, fs, 0.5e-3)
         k = int(np.argmax(env))
         rows.append(
             thesis_row(
