@@ -37,11 +37,13 @@ from synth.bench.thesis import (
     THESIS_IMPEDANCE,
     THESIS_RESTITUTION,
     THESIS_TICK_DECAY,
+    envelope_decay_time,
     format_surface_fit,
     format_thesis,
     modal_critical_distance,
     surface_fit,
     thesis_comparison,
+    thesis_lowspeed_rows,
     thesis_modal_rows,
     thesis_row,
 )
@@ -85,7 +87,9 @@ __all__ = [
     "scipy_contact",
     "surface_fit",
     "synthetic_bounce",
+    "envelope_decay_time",
     "thesis_comparison",
+    "thesis_lowspeed_rows",
     "thesis_modal_rows",
     "thesis_row",
 ]
