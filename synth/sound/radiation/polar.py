@@ -255,6 +255,10 @@ def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
     return _circle_arcs(r, a, b, xl, yl)[0]
 
 
+#: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
+#: earlier revision is recomputed).
+POLAR_REVISION = 2
+
 _ANGLE_MIN_ORDER = 4  # Gauss-Legendre points of the shortest angular panels
 # Panel accuracy of the polar rule, relative to tol (as the rectangle rule's).
 _POLAR_PANEL_TOL = 0.1
