@@ -1180,7 +1180,7 @@ class SummedShapes:
         return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _sine_table(t, n):  # pragma: no cover
     """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
     ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every

@@ -27,7 +27,9 @@ edges. The tolerance, the error estimate and the convergence test are those of
 (:func:`~synth.sound.radiation.refinement.refine_selective`). The in-phase bounds ``S_k``
 (``|phi_k| = |X_i| |Y_j|``) come from one matrix product on a rectangle rule that resolves
 the shapes but not the acoustic phase. Tests compare the two rules on plates where both run
-(agreement within ``2 tol``, in-phase bounds within 5 %).
+(agreement within ``2 tol``, in-phase bounds within 5 %). Blocks of radii are shared
+between numba's threads (each with its own sums, added in a fixed order at the end; the
+products and kernels run without the GIL).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import dataclasses
 import fractions
 import functools
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numba
@@ -278,6 +281,72 @@ def _angular_band(x: float, tol: float) -> int:
     return int(n[small[0]]) if small.size else int(n[-1])
 
 
+def _arc_panels(r, kb, tol, refine, arcs) -> list:
+    """Gauss-Legendre panels of the angular rule at radius ``r`` on ``arcs`` (a list of
+    ``(theta0, theta1)``, rad): per arc ``(theta0, theta1, panels, points per panel)``,
+    for shapes made of plane waves of wavenumbers at most ``kb`` (:func:`_angular_band`),
+    orders times ``refine``."""
+    # kb r rounded up to an integer so that neighbouring radii share the computation
+    rate = float(_angular_band(float(math.ceil(kb * r)), tol))
+    w24 = half_phase(MAX_ORDER, tol)
+    h = 2.0 * w24 / rate if rate > 0 else math.inf
+    out = []
+    for lo, hi in arcs:
+        n = max(1, math.ceil((hi - lo) / h))
+        p = math.ceil(_fewest_points(0.5 * rate * (hi - lo) / n, tol, _ANGLE_MIN_ORDER) * refine)
+        out.append((lo, hi, n, p))
+    return out
+
+
+@functools.cache
+def _gauss_table(largest: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gauss-Legendre rules of 1 to ``largest`` points end to end: nodes, weights, and
+    where the ``p``-point rule starts (``start[p]``)."""
+    start = np.zeros(largest + 2, dtype=np.int64)
+    start[1:] = np.cumsum(np.arange(largest + 1))
+    t = np.concatenate([gauss(p)[0] for p in range(1, largest + 1)])
+    w = np.concatenate([gauss(p)[1] for p in range(1, largest + 1)])
+    return t, w, start
+
+
+@numba.njit(cache=True)
+def _panel_points(lo, hi, count, order, table_t, table_w, table_start):  # pragma: no cover
+    """Nodes and weights of ``count[a]`` equal panels of ``order[a]`` Gauss-Legendre points
+    on each interval ``[lo[a], hi[a]]`` (the rules of :func:`_gauss_table`), in order."""
+    total = 0
+    for a in range(lo.size):
+        total += count[a] * order[a]
+    nodes = np.empty(total)
+    weights = np.empty(total)
+    j = 0
+    for a in range(lo.size):
+        p = order[a]
+        first = table_start[p]
+        half = 0.5 * (hi[a] - lo[a]) / count[a]
+        for n in range(count[a]):
+            mid = lo[a] + (2 * n + 1) * half
+            for i in range(p):
+                nodes[j] = mid + half * table_t[first + i]
+                weights[j] = half * table_w[first + i]
+                j += 1
+    return nodes, weights
+
+
+def _panels_points(panels) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of the panels ``(lo, hi, count, order)`` (:func:`_arc_panels`)."""
+    if not panels:
+        return np.zeros(0), np.zeros(0)
+    lo, hi, count, order = (np.array(v) for v in zip(*panels))
+    largest = 1 << max(int(order.max()) - 1, 0).bit_length()  # few distinct tables
+    return _panel_points(
+        lo.astype(float),
+        hi.astype(float),
+        count.astype(np.int64),
+        order.astype(np.int64),
+        *_gauss_table(largest),
+    )
+
+
 def angular_rule(r, a, b, listener, kb, tol, refine, arcs=None):
     """Angles (rad) and weights of ``Int f(theta) dtheta`` over the arcs of radius ``r``
     on the plate (or over ``arcs``, a list of ``(theta0, theta1)``), for shapes made of
@@ -286,23 +355,7 @@ def angular_rule(r, a, b, listener, kb, tol, refine, arcs=None):
     xl, yl, _ = listener
     if arcs is None:
         arcs = _arcs(r, a, b, xl, yl)
-    # kb r rounded up to an integer so that neighbouring radii share the computation
-    rate = float(_angular_band(float(math.ceil(kb * r)), tol))
-    w24 = half_phase(MAX_ORDER, tol)
-    h = 2.0 * w24 / rate if rate > 0 else math.inf
-    ts, ws = [], []
-    for lo, hi in arcs:
-        n = max(1, math.ceil((hi - lo) / h))
-        ends = np.linspace(lo, hi, n + 1)
-        p = math.ceil(_fewest_points(0.5 * rate * (hi - lo) / n, tol, _ANGLE_MIN_ORDER) * refine)
-        t, w = gauss(p)
-        half = 0.5 * (ends[1:] - ends[:-1])
-        mid = 0.5 * (ends[1:] + ends[:-1])
-        ts.append((mid[:, None] + half[:, None] * t[None, :]).ravel())
-        ws.append((half[:, None] * w[None, :]).ravel())
-    if not ts:
-        return np.zeros(0), np.zeros(0)
-    return np.concatenate(ts), np.concatenate(ws)
+    return _panels_points(_arc_panels(r, kb, tol, refine, arcs))
 
 
 # ----------------------------------------------------------------------------------------
@@ -466,7 +519,7 @@ def bessel_j0(x):  # pragma: no cover
     return out
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@numba.njit(cache=True, fastmath={"contract"}, nogil=True)
 def _add_circle_sums(radii, signs, wavenumbers, amplitudes, out):  # pragma: no cover
     """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows
     with ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m).
@@ -522,6 +575,30 @@ def _factor_subset(rows, in_use):
     return None if rows.size == int(in_use.max()) + 1 else rows
 
 
+def _circle_points(radii, size, listener, kb, tol, refine):
+    """Angular points of the separable rule at each of ``radii`` (m): ``(whole, theta,
+    weights, ends)``. At radius ``i`` the points ``ends[i] : ends[i + 1]`` of ``theta``
+    (rad) and ``weights`` lie on the arcs on the plate (``whole[i] = 0``) or, when those
+    off the plate are shorter, on the arcs off it (``whole[i] = 1``: the whole circle in
+    closed form minus these)."""
+    a, b = size
+    xl, yl, _ = listener
+    whole = np.zeros(radii.size)
+    panels, counts = [], np.zeros(radii.size, dtype=np.int64)
+    for i, r in enumerate(radii):
+        on, off = _circle_arcs(float(r), a, b, xl, yl)
+        if sum(hi - lo for lo, hi in off) < sum(hi - lo for lo, hi in on):
+            whole[i], arcs = 1.0, off
+        else:
+            arcs = on
+        these = _arc_panels(float(r), kb, tol, refine, arcs)
+        counts[i] = sum(n * p for _, _, n, p in these)
+        panels += these
+    theta, weights = _panels_points(panels)
+    ends = np.concatenate(([0], np.cumsum(counts)))
+    return whole, theta, weights, ends
+
+
 def _apply_separable_rule(
     sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
 ):
@@ -549,47 +626,59 @@ def _apply_separable_rule(
         )
     )
     q = q[active]
-    acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
-    rows = max(1, int(CHUNK_BYTES // (8 * m)))
-    n_points = 0
-    sums = np.empty((rows_x.size, rows_y.size))
+    # blocks of radii (one block of shape values at most CHUNK_BYTES), at least two per
+    # worker; worker w takes blocks w, w + workers, ... into its own accumulators, so that
+    # the result does not depend on the timing
+    workers = max(1, numba.get_num_threads())
+    rows = max(1, min(int(CHUNK_BYTES // (8 * m)), -(-radii.size // (2 * workers))))
+    blocks = list(range(0, radii.size, rows))
+    workers = min(workers, len(blocks))
+    acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, unused
     # few modes (a refinement of the failing ones): each mode's own angular sum costs
     # less than the product of every pair of their factors
     direct = _DIRECT_RATIO * m < rows_x.size * rows_y.size
-    for start in range(0, radii.size, rows):
+
+    def block_sums(start, sums, acc_w):
+        """Add the radii ``start : start + rows`` to ``acc_w``; their points."""
         rr = radii[start : start + rows]
         phi = np.zeros((rr.size, m))
-        whole = np.zeros(rr.size)  # 1: the whole circle minus the arcs off the plate
-        for i, r in enumerate(rr):
-            on, off = _circle_arcs(float(r), a, b, xl, yl)
-            if sum(hi - lo for lo, hi in off) < sum(hi - lo for lo, hi in on):
-                whole[i], arcs = 1.0, off
-            else:
-                arcs = on
-            theta, w = angular_rule(float(r), a, b, listener, kb, tol, refine, arcs)
-            n_points += theta.size
-            if theta.size == 0:
-                continue
-            x = xl + r * np.cos(theta)
-            y = yl + r * np.sin(theta)
-            if whole[i]:
-                w = -w
-            else:  # on the plate up to rounding
-                x, y = np.clip(x, 0.0, a), np.clip(y, 0.0, b)
-            fx = sep.x_values(x, take_x)
-            fy = np.ascontiguousarray(sep.y_values(y, take_y))
+        whole, theta, w, ends = _circle_points(rr, size, listener, kb, tol, refine)
+        # points on the plate up to rounding; those of a whole circle's arcs off it count
+        # negatively
+        on = np.repeat(whole == 0.0, np.diff(ends))
+        r_point = np.repeat(rr, np.diff(ends))
+        x = xl + r_point * np.cos(theta)
+        y = yl + r_point * np.sin(theta)
+        x[on] = np.clip(x[on], 0.0, a)
+        y[on] = np.clip(y[on], 0.0, b)
+        w[~on] *= -1.0
+        for i in np.flatnonzero(ends[1:] > ends[:-1]):
+            pts = slice(ends[i], ends[i + 1])
+            fx = sep.x_values(x[pts], take_x)
+            fy = np.ascontiguousarray(sep.y_values(y[pts], take_y))
             if direct:
-                phi[i] = w @ (fx[:, xi] * fy[:, yi])
+                phi[i] = w[pts] @ (fx[:, xi] * fy[:, yi])
             else:
-                single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
+                single_thread_product(np.ascontiguousarray((fx * w[pts, None]).T), fy, sums)
                 phi[i] = sums[xi, yi]
         _add_circle_sums(rr, whole, wavenumbers, centre, phi)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        dist = big_r - r_mid
-        accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
+        accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
+        return theta.size
+
+    def worker(w):
+        sums = np.empty((rows_x.size, rows_y.size))
+        return sum(block_sums(start, sums, acc[w]) for start in blocks[w::workers])
+
+    if workers == 1:
+        n_points = worker(0)
+    else:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            n_points = sum(pool.map(worker, range(workers)))
+    acc_re, acc_im, _ = acc.sum(axis=0)
     total = acc_re + 1j * acc_im
     if not np.isfinite(total).all():
         k = int(active[np.flatnonzero(~np.isfinite(total))[0]])
