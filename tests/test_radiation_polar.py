@@ -163,3 +163,55 @@ def test_polar_rule_after_selective_refinement_equals_rectangle_rule():
     assert rect.success and polar.success and polar.refinements >= 2
     scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
     assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6
+
+
+def test_bessel_j0_equals_scipy():
+    """The kernel's J_0 (Hankel's expansion from 25 up, Cephes below) against
+    scipy.special.j0 (Cephes throughout): both within a few ulp, so within 1e-15."""
+    from scipy.special import j0
+
+    x = np.concatenate(
+        (
+            np.linspace(0.0, 60.0, 60001),
+            np.random.default_rng(2).uniform(0.0, 3000.0, 20000),
+            [5.0, np.nextafter(5.0, 6.0), 25.0, np.nextafter(25.0, 0.0), 1e-12],
+        )
+    )
+    assert np.max(np.abs(R.polar.bessel_j0(x) - j0(x))) <= 1e-15
+    rows = np.zeros((3, x.size))
+    radii, signs = np.array([1.0, 0.5, 2.0]), np.array([1.0, 0.0, -1.0])
+    R.polar._add_circle_sums(radii, signs, x, 0.5 * np.ones(x.size), rows)
+    assert np.max(np.abs(rows[0] - 0.5 * j0(x))) <= 1e-15
+    assert np.all(rows[1] == 0.0)
+    assert np.max(np.abs(rows[2] + 0.5 * j0(2.0 * x))) <= 1e-15
+
+
+@pytest.mark.parametrize("radius", [0.04, 0.085, 0.13, 0.19])
+def test_whole_circle_in_closed_form(radius):
+    """Simply supported shapes solve the Helmholtz equation in the whole plane: their
+    integral over a whole circle is 2 pi phi(centre) J_0(k r) (the mean value theorem),
+    and over the arcs on the plate that minus the integral over the arcs off it. Both
+    angular sums (Gauss-Legendre at the rule's tolerance 1e-7) agree within 1e-9 of
+    2 pi max|phi|."""
+    from scipy.special import j0
+
+    m = _ss_modes()
+    sep = m.separable()
+    listener = (0.12, 0.09, 0.2)
+    kb = sep.wavenumber * np.sqrt(2.0)
+    a, b = 0.3, 0.2
+    on, off = R.polar._circle_arcs(radius, a, b, listener[0], listener[1])
+    assert abs(sum(h - lo for lo, h in on + off) - 2.0 * np.pi) < 1e-12
+
+    def arc_sums(arcs):
+        theta, w = R.polar.angular_rule(radius, a, b, listener, kb, 1e-7, 1.0, arcs)
+        x, y = listener[0] + radius * np.cos(theta), listener[1] + radius * np.sin(theta)
+        prod = sep.x_values(x)[:, sep.x_index] * sep.y_values(y)[:, sep.y_index]
+        return w @ prod
+
+    centre = sep.x_values(np.array([listener[0]]))[0, sep.x_index]
+    centre = centre * sep.y_values(np.array([listener[1]]))[0, sep.y_index]
+    whole = 2.0 * np.pi * centre * j0(sep.mode_wavenumbers() * radius)
+    assert np.max(np.abs(arc_sums(on) - (whole - arc_sums(off)))) <= 1e-9 * 2.0 * np.pi * 2.0
+    if not off:  # the circle lies on the plate
+        assert np.max(np.abs(arc_sums(on) - whole)) <= 1e-9 * 2.0 * np.pi * 2.0

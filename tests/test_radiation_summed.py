@@ -123,3 +123,40 @@ def test_one_thread_ritz_solve_equals_threaded(monkeypatch):
     a, b = one.shapes(pts), ref.shapes(pts)
     sign = np.sign(np.sum(a * b, axis=0))
     assert np.max(np.abs(a * sign - b)) <= 1e-9 * np.abs(b).max()
+
+
+def test_combine_of_some_modes_equals_their_columns():
+    """combine(sums, modes) gives the columns ``modes`` of combine(sums) (the same dot
+    products, up to the rounding of BLAS's blocking: 1e-13 of the largest value)."""
+    sh = _modes("free").summed()
+    sums = np.random.default_rng(3).normal(size=(7, sh.n_x, sh.n_y))
+    every = sh.combine(sums)
+    some = np.array([0, 3, 4, 17, sh.n_modes - 1])
+    assert np.allclose(
+        sh.combine(sums, some), every[:, some], rtol=0, atol=1e-13 * np.abs(every).max()
+    )
+
+
+def test_summed_rule_refines_only_the_failing_modes(monkeypatch):
+    """For this microphone the summed rule needs a second refinement: the rules after the
+    first check take only the modes still failing, and the gains still agree with the
+    rectangle rule within 2 tol (tol = 1e-6)."""
+    from synth.sound.radiation import summed
+
+    m = _modes("free")
+    s, kb = _poles(m)
+    listener = (0.2, 0.15, 0.4)
+    sizes = []
+    apply = summed._apply_summed_rule
+
+    def recorded(*args):
+        sizes.append(args[-1].size)
+        return apply(*args)
+
+    monkeypatch.setattr(summed, "_apply_summed_rule", recorded)
+    polar = R.summed_gains(m.summed(), listener, s, max_wavenumber=kb, full_output=True)
+    assert polar.success and polar.refinements >= 2
+    assert sizes[:2] == [len(m), len(m)] and 0 < sizes[2] < len(m)
+    rect = R.rayleigh_gains(m.shapes, (0.3, 0.2), listener, s, max_wavenumber=kb, full_output=True)
+    scale = np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+    assert np.max(np.abs(polar.gains - rect.gains) / scale) <= 2e-6

@@ -103,6 +103,14 @@ class SeparableShapes:
         (``y`` in metres); or for the indices ``index`` alone, ``(len(y), len(index))``."""
         return _sine_factors(y, math.pi / self.width, self.y_index, index)
 
+    def mode_wavenumbers(self) -> np.ndarray:
+        """``k_k = pi sqrt((i_k + 1)^2 / a^2 + (j_k + 1)^2 / b^2)`` of every mode, rad/m:
+        each product of sines solves the Helmholtz equation ``(lap + k_k^2) phi_k = 0`` in
+        the whole plane (the sines continued beyond the plate)."""
+        kx = math.pi * (self.x_index + 1.0) / self.length
+        ky = math.pi * (self.y_index + 1.0) / self.width
+        return np.sqrt(kx * kx + ky * ky)
+
 
 def _sine_factors(u, rate, in_use, index):
     """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (the table of
@@ -118,7 +126,7 @@ def _sine_factors(u, rate, in_use, index):
     return _sine_table(t, n)[:, index]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _sine_table(t, n):  # pragma: no cover
     """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
     ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every

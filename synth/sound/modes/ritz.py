@@ -479,16 +479,25 @@ class SummedShapes:
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / self.width - 1.0, -1.0, 1.0)
         return basis_1d(self._alpha, self.n_y, eta)[0]
 
-    def combine(self, sums: np.ndarray) -> np.ndarray:
-        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode ``k``.
+    def combine(self, sums: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode ``k``, or for the
+        modes ``modes`` alone (increasing indices).
 
         ``sums`` has shape ``(n, n_x, n_y)`` (for instance ``X^T diag(w) Y`` of ``n``
-        sets of points); returns ``(n, n_modes)`` in the order of the frequencies:
-        one matrix product per symmetry class.
+        sets of points); returns ``(n, n_modes)`` in the order of the frequencies
+        (``(n, len(modes))`` in the order of ``modes``): one matrix product per
+        symmetry class.
         """
         flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
-        out = np.empty((flat.shape[0], self.n_modes))
+        width = self.n_modes if modes is None else len(modes)
+        out = np.empty((flat.shape[0], width))
         for cols, pairs, coef in self._parts:
+            if modes is not None:
+                taken = np.isin(cols, modes)
+                if not taken.any():
+                    continue
+                coef = np.ascontiguousarray(coef[:, taken])
+                cols = np.searchsorted(modes, cols[taken])
             part = np.empty((flat.shape[0], cols.size))
             single_thread_product(np.ascontiguousarray(flat[:, pairs]), coef, part)
             out[:, cols] = part

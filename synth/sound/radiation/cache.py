@@ -24,6 +24,7 @@ from synth.sound.radiation.common import (
     REFINE,
     RadiationResult,
 )
+from synth.sound.radiation.polar import POLAR_REVISION
 
 _CACHE_VERSION = 1  # layout of the stored gains and the algorithm; part of the key
 CACHE = MemoryCache("computations", max_entries=32)  # least recently used dropped
@@ -51,7 +52,7 @@ def clear_memory_cache() -> None:
 def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
     (``polar``: computed by :func:`separable_gains`)."""
-    extra = {"rule": "polar"} if polar else {}
+    extra = {"rule": "polar", "polar_revision": POLAR_REVISION} if polar else {}
     return json.dumps(
         {
             **extra,

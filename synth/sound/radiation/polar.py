@@ -12,7 +12,11 @@ microphone's projection, where ``R = sqrt(r^2 + z^2)`` does not depend on ``thet
 
 ``Phi_k`` does not depend on ``s``: at each radius the angular sums of every mode are one
 matrix product of the ``X`` and ``Y`` values at the arc's points, and the radial sums take
-one exponential per mode and radius. Angular points: Gauss-Legendre panels for a
+one exponential per mode and radius. A whole circle needs no points: each product of sines
+solves the Helmholtz equation, whose mean value theorem gives ``Int_0^2pi phi_k dtheta = 2
+pi phi_k(xl, yl) J_0(k_k r)``; at each radius the rule sums the arcs on the plate, or, when
+those off the plate are shorter, that closed form minus the arcs off the plate (one ``J_0``
+per mode and radius, as the exponentials). Angular points: Gauss-Legendre panels for a
 trigonometric polynomial of the degree beyond which ``|J_n(k_b r)| <= tol`` (a plane wave
 on a circle, Jacobi-Anger). Radial panels: as along x and y in the rectangle rule, with
 breakpoints where the set of arcs changes (a circle touching an edge's line, where
@@ -22,17 +26,22 @@ edges. The tolerance, the error estimate and the convergence test are those of
 :mod:`synth.sound.radiation.refinement`, each mode refined alone
 (:func:`~synth.sound.radiation.refinement.refine_selective`). The in-phase bounds ``S_k``
 (``|phi_k| = |X_i| |Y_j|``) come from one matrix product on a rectangle rule that resolves
-the shapes but not the acoustic phase. Tests compare the two rules on plates where both
-run (agreement within ``2 tol``, in-phase bounds within 5 %).
+the shapes but not the acoustic phase. Tests compare the two rules on plates where both run
+(agreement within ``2 tol``, in-phase bounds within 5 %). Blocks of radii are shared
+between numba's threads (each with its own sums, added in a fixed order at the end; the
+products and kernels run without the GIL).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import fractions
 import functools
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.special
 
@@ -56,6 +65,7 @@ from synth.sound.radiation.common import (
 )
 from synth.sound.radiation.rectangle import first_rule, panel_nodes
 from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
+from synth.vecmath import cis
 
 # ----------------------------------------------------------------------------------------
 # Separable shapes: the integral in polar coordinates about the microphone
@@ -212,9 +222,9 @@ def radial_nodes(panels, orders):
     return np.concatenate(rs), np.concatenate(ws)
 
 
-def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
+def _circle_arcs(r: float, a: float, b: float, xl: float, yl: float) -> tuple[list, list]:
     """Angular intervals ``(theta0, theta1)`` of the circle of radius ``r`` about
-    ``(xl, yl)`` that lie on the plate ``[0, a] x [0, b]``."""
+    ``(xl, yl)`` that lie on the plate ``[0, a] x [0, b]``, and those that lie off it."""
     two_pi = 2.0 * math.pi
     cuts = [0.0, two_pi]
     for c in (-xl, a - xl):
@@ -228,19 +238,29 @@ def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
             t = math.asin(sin_t)
             cuts += [t % two_pi, (math.pi - t) % two_pi]
     cuts.sort()
-    arcs = []
+    on, off = [], []
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         if hi - lo <= 1e-15:
             continue
         mid = 0.5 * (lo + hi)
         x, y = xl + r * math.cos(mid), yl + r * math.sin(mid)
-        if 0.0 <= x <= a and 0.0 <= y <= b:
-            if arcs and arcs[-1][1] == lo:
-                arcs[-1] = (arcs[-1][0], hi)
-            else:
-                arcs.append((lo, hi))
-    return arcs
+        arcs = on if (0.0 <= x <= a and 0.0 <= y <= b) else off
+        if arcs and arcs[-1][1] == lo:
+            arcs[-1] = (arcs[-1][0], hi)
+        else:
+            arcs.append((lo, hi))
+    return on, off
 
+
+def _arcs(r: float, a: float, b: float, xl: float, yl: float) -> list:
+    """Angular intervals ``(theta0, theta1)`` of the circle of radius ``r`` about
+    ``(xl, yl)`` that lie on the plate ``[0, a] x [0, b]``."""
+    return _circle_arcs(r, a, b, xl, yl)[0]
+
+
+#: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
+#: earlier revision is recomputed).
+POLAR_REVISION = 2
 
 _ANGLE_MIN_ORDER = 4  # Gauss-Legendre points of the shortest angular panels
 # Panel accuracy of the polar rule, relative to tol (as the rectangle rule's).
@@ -261,29 +281,287 @@ def _angular_band(x: float, tol: float) -> int:
     return int(n[small[0]]) if small.size else int(n[-1])
 
 
-def angular_rule(r, a, b, listener, kb, tol, refine):
-    """Angles (rad) and weights of ``Int f(theta) dtheta`` over the arcs of radius ``r``
-    on the plate, for shapes made of plane waves of wavenumbers at most ``kb``
-    (:func:`_angular_band`); orders times ``refine``."""
-    xl, yl, _ = listener
-    arcs = _arcs(r, a, b, xl, yl)
+def _arc_panels(r, kb, tol, refine, arcs) -> list:
+    """Gauss-Legendre panels of the angular rule at radius ``r`` on ``arcs`` (a list of
+    ``(theta0, theta1)``, rad): per arc ``(theta0, theta1, panels, points per panel)``,
+    for shapes made of plane waves of wavenumbers at most ``kb`` (:func:`_angular_band`),
+    orders times ``refine``."""
     # kb r rounded up to an integer so that neighbouring radii share the computation
     rate = float(_angular_band(float(math.ceil(kb * r)), tol))
     w24 = half_phase(MAX_ORDER, tol)
     h = 2.0 * w24 / rate if rate > 0 else math.inf
-    ts, ws = [], []
+    out = []
     for lo, hi in arcs:
         n = max(1, math.ceil((hi - lo) / h))
-        ends = np.linspace(lo, hi, n + 1)
         p = math.ceil(_fewest_points(0.5 * rate * (hi - lo) / n, tol, _ANGLE_MIN_ORDER) * refine)
-        t, w = gauss(p)
-        half = 0.5 * (ends[1:] - ends[:-1])
-        mid = 0.5 * (ends[1:] + ends[:-1])
-        ts.append((mid[:, None] + half[:, None] * t[None, :]).ravel())
-        ws.append((half[:, None] * w[None, :]).ravel())
-    if not ts:
+        out.append((lo, hi, n, p))
+    return out
+
+
+@functools.cache
+def _gauss_table(largest: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Gauss-Legendre rules of 1 to ``largest`` points end to end: nodes, weights, and
+    where the ``p``-point rule starts (``start[p]``)."""
+    start = np.zeros(largest + 2, dtype=np.int64)
+    start[1:] = np.cumsum(np.arange(largest + 1))
+    t = np.concatenate([gauss(p)[0] for p in range(1, largest + 1)])
+    w = np.concatenate([gauss(p)[1] for p in range(1, largest + 1)])
+    return t, w, start
+
+
+@numba.njit(cache=True)
+def _panel_points(lo, hi, count, order, table_t, table_w, table_start):  # pragma: no cover
+    """Nodes and weights of ``count[a]`` equal panels of ``order[a]`` Gauss-Legendre points
+    on each interval ``[lo[a], hi[a]]`` (the rules of :func:`_gauss_table`), in order."""
+    total = 0
+    for a in range(lo.size):
+        total += count[a] * order[a]
+    nodes = np.empty(total)
+    weights = np.empty(total)
+    j = 0
+    for a in range(lo.size):
+        p = order[a]
+        first = table_start[p]
+        half = 0.5 * (hi[a] - lo[a]) / count[a]
+        for n in range(count[a]):
+            mid = lo[a] + (2 * n + 1) * half
+            for i in range(p):
+                nodes[j] = mid + half * table_t[first + i]
+                weights[j] = half * table_w[first + i]
+                j += 1
+    return nodes, weights
+
+
+def _panels_points(panels) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of the panels ``(lo, hi, count, order)`` (:func:`_arc_panels`)."""
+    if not panels:
         return np.zeros(0), np.zeros(0)
-    return np.concatenate(ts), np.concatenate(ws)
+    lo, hi, count, order = (np.array(v) for v in zip(*panels))
+    largest = 1 << max(int(order.max()) - 1, 0).bit_length()  # few distinct tables
+    return _panel_points(
+        lo.astype(float),
+        hi.astype(float),
+        count.astype(np.int64),
+        order.astype(np.int64),
+        *_gauss_table(largest),
+    )
+
+
+def angular_rule(r, a, b, listener, kb, tol, refine, arcs=None):
+    """Angles (rad) and weights of ``Int f(theta) dtheta`` over the arcs of radius ``r``
+    on the plate (or over ``arcs``, a list of ``(theta0, theta1)``), for shapes made of
+    plane waves of wavenumbers at most ``kb`` (:func:`_angular_band`); orders times
+    ``refine``."""
+    xl, yl, _ = listener
+    if arcs is None:
+        arcs = _arcs(r, a, b, xl, yl)
+    return _panels_points(_arc_panels(r, kb, tol, refine, arcs))
+
+
+# ----------------------------------------------------------------------------------------
+# Whole circles in closed form (separable shapes)
+#
+# A simply supported shape phi_k = X_i(x) Y_j(y) = 2 sin(kx x) sin(ky y) solves the
+# Helmholtz equation (lap + k_k^2) phi_k = 0, k_k^2 = kx^2 + ky^2, in the whole plane (the
+# sines continued beyond the plate), and the mean value theorem of that equation (Weber's;
+# Courant and Hilbert, Methods of Mathematical Physics vol. II, ch. IV, sec. 3) gives its
+# integral over a whole circle of radius r about (xl, yl) exactly:
+#     Int_0^2pi phi_k(xl + r cos t, yl + r sin t) dt = 2 pi phi_k(xl, yl) J_0(k_k r).
+# The integral over the arcs on the plate is this minus the integral over the arcs off it;
+# at each radius the polar rule sums whichever set of arcs is shorter (none while the
+# circle lies on the plate), so that the angular points cover at most half of each circle.
+#
+# J_0 is evaluated for every mode and radius (as the exponentials), in a loop that
+# vectorises: for x >= 25 Hankel's asymptotic expansion
+#     J_0(x) = sqrt(2 / (pi x)) (P(x) cos(x - pi/4) - Q(x) sin(x - pi/4))
+# (Abramowitz and Stegun 9.2.5, 9.2.9, 9.2.10) with ten terms of P and of Q: for real x
+# the remainder is at most the first omitted term, a_20 / x^20 <= 4e-18 at x = 25; below
+# 25 the rational approximations of Cephes (S. L. Moshier), as scipy.special.j0 evaluates
+# them. Tests compare the kernel with scipy.special.j0 (within 2e-16 absolute) and the
+# closed form with the angular rule on whole circles.
+
+_HANKEL_FROM = 25.0  # J_0 by its asymptotic expansion from this argument up
+_HANKEL_TERMS = 10  # terms of P and of Q
+
+
+def _hankel_coefficients(n: int) -> tuple[tuple, tuple]:
+    """Coefficients of ``P(x) = sum_k p_k x^(-2k)`` and ``Q(x) = sum_k q_k x^(-2k-1)``
+    (``k < n``) of J_0's asymptotic expansion: ``p_k = (-1)^k a_2k``,
+    ``q_k = (-1)^k a_(2k+1)``, ``a_m = prod_(l <= m) (-(2l - 1)^2 / (8 l))`` (exact
+    fractions, then rounded)."""
+    a = [fractions.Fraction(1)]
+    for m in range(1, 2 * n):
+        a.append(a[-1] * fractions.Fraction(-((2 * m - 1) ** 2), 8 * m))
+    p = tuple(float((-1) ** k * a[2 * k]) for k in range(n))
+    q = tuple(float((-1) ** k * a[2 * k + 1]) for k in range(n))
+    return p, q
+
+
+_HANKEL_P, _HANKEL_Q = _hankel_coefficients(_HANKEL_TERMS)
+_QUARTER_PI = 0.25 * math.pi
+_SQRT_2_OVER_PI = math.sqrt(2.0 / math.pi)
+# Cephes j0.c: J_0(x) = (x^2 - DR1)(x^2 - DR2) RP(x^2) / RQ(x^2) for x <= 5, and the
+# modulus-phase form with PP/PQ and QP/QQ (rational in 25 / x^2) above.
+_J0_DR1 = 5.78318596294678452118e0
+_J0_DR2 = 3.04712623436620863991e1
+_J0_RP = (
+    -4.79443220978201773821e9,
+    1.95617491946556577543e12,
+    -2.49248344360967716204e14,
+    9.70862251047306323952e15,
+)
+_J0_RQ = (
+    4.99563147152651017219e2,
+    1.73785401676374683123e5,
+    4.84409658339962045305e7,
+    1.11855537045356834862e10,
+    2.11277520115489217587e12,
+    3.10518229857422583814e14,
+    3.18121955943204943306e16,
+    1.71086294081043136091e18,
+)
+_J0_PP = (
+    7.96936729297347051624e-4,
+    8.28352392107440799803e-2,
+    1.23953371646414299388e0,
+    5.44725003058768775090e0,
+    8.74716500199817011941e0,
+    5.30324038235394892183e0,
+    9.99999999999999997821e-1,
+)
+_J0_PQ = (
+    9.24408810558863637013e-4,
+    8.56288474354474431428e-2,
+    1.25352743901058953537e0,
+    5.47097740330417105182e0,
+    8.76190883237069594232e0,
+    5.30605288235394617618e0,
+    1.00000000000000000218e0,
+)
+_J0_QP = (
+    -1.13663838898469149931e-2,
+    -1.28252718670509318512e0,
+    -1.95539544257735972385e1,
+    -9.32060152123768231369e1,
+    -1.77681167980488050595e2,
+    -1.47077505154951170175e2,
+    -5.14105326766599330220e1,
+    -6.05014350600728481186e0,
+)
+_J0_QQ = (
+    6.43178256118178023184e1,
+    8.56430025976980587198e2,
+    3.88240183605401609683e3,
+    7.24046774195652478189e3,
+    5.93072701187316984827e3,
+    2.06209331660327847417e3,
+    2.42005740240291393179e2,
+)
+
+
+@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+def _horner(coef, z):
+    """``coef[0] z^(n-1) + ... + coef[n-1]``."""
+    v = coef[0]
+    for c in coef[1:]:
+        v = v * z + c
+    return v
+
+
+@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+def _horner_monic(coef, z):
+    """``z^n + coef[0] z^(n-1) + ... + coef[n-1]``."""
+    v = z + coef[0]
+    for c in coef[1:]:
+        v = v * z + c
+    return v
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def _j0_cephes(x):
+    """J_0(x), ``x >= 0``, by Cephes' rational approximations."""
+    if x <= 5.0:
+        z = x * x
+        return (z - _J0_DR1) * (z - _J0_DR2) * _horner(_J0_RP, z) / _horner_monic(_J0_RQ, z)
+    w = 5.0 / x
+    z = w * w
+    p = _horner(_J0_PP, z) / _horner(_J0_PQ, z)
+    q = _horner(_J0_QP, z) / _horner_monic(_J0_QQ, z)
+    xn = x - _QUARTER_PI
+    cs, sn = cis(xn)
+    return (p * cs - w * q * sn) * _SQRT_2_OVER_PI / math.sqrt(x)
+
+
+@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+def _j0_hankel(inv_x, sqrt_inv_x, x):
+    """J_0(x) for ``x >= 25`` by its asymptotic expansion, from ``1 / x`` and
+    ``sqrt(1 / x)`` (products only, so that a loop over modes vectorises)."""
+    z = inv_x * inv_x
+    p = _HANKEL_P[_HANKEL_TERMS - 1]
+    q = _HANKEL_Q[_HANKEL_TERMS - 1]
+    for k in range(_HANKEL_TERMS - 2, -1, -1):
+        p = p * z + _HANKEL_P[k]
+        q = q * z + _HANKEL_Q[k]
+    cs, sn = cis(x - _QUARTER_PI)
+    return (p * cs - inv_x * q * sn) * _SQRT_2_OVER_PI * sqrt_inv_x
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def bessel_j0(x):  # pragma: no cover
+    """J_0 of every entry of the 1-D array ``x`` (each ``>= 0``), as
+    :func:`_add_circle_sums` evaluates it (tests compare it with scipy.special.j0)."""
+    out = np.empty(x.size)
+    for k in range(x.size):
+        if x[k] >= _HANKEL_FROM:
+            out[k] = _j0_hankel(1.0 / x[k], math.sqrt(1.0 / x[k]), x[k])
+        else:
+            out[k] = _j0_cephes(x[k])
+    return out
+
+
+@numba.njit(cache=True, fastmath={"contract"}, nogil=True)
+def _add_circle_sums(radii, signs, wavenumbers, amplitudes, out):  # pragma: no cover
+    """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows
+    with ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m).
+
+    The Hankel expansion for every mode at ``max(k r, 25)`` (a loop that vectorises:
+    ``1 / (k r)`` and ``sqrt(1 / (k r))`` from per-mode and per-radius factors), then
+    Cephes for the modes below 25 (the smallest wavenumbers: taken in increasing order).
+    """
+    m = wavenumbers.size
+    order = np.argsort(wavenumbers)
+    inv_k = np.empty(m)
+    sqrt_inv_k = np.empty(m)
+    for k in range(m):
+        inv_k[k] = 1.0 / max(wavenumbers[k], 1e-300)
+        sqrt_inv_k[k] = math.sqrt(inv_k[k])
+    row = np.empty(m)
+    cap = 1.0 / _HANKEL_FROM
+    sqrt_cap = math.sqrt(cap)
+    for i in range(radii.size):
+        if signs[i] == 0.0:
+            continue
+        r = radii[i]
+        inv_r = 1.0 / r
+        sqrt_inv_r = math.sqrt(inv_r)
+        for k in range(m):
+            x = wavenumbers[k] * r
+            big = x >= _HANKEL_FROM
+            row[k] = _j0_hankel(
+                inv_k[k] * inv_r if big else cap,
+                sqrt_inv_k[k] * sqrt_inv_r if big else sqrt_cap,
+                x if big else _HANKEL_FROM,
+            )
+        for j in range(m):
+            k = order[j]
+            x = wavenumbers[k] * r
+            if x >= _HANKEL_FROM:
+                break
+            row[k] = _j0_cephes(x)
+        s = signs[i]
+        dest = out[i]
+        for k in range(m):
+            dest[k] += s * amplitudes[k] * row[k]
 
 
 # Modes times this below the factor pairs of a separable rule: angular sums mode by mode
@@ -291,50 +569,116 @@ def angular_rule(r, a, b, listener, kb, tol, refine):
 _DIRECT_RATIO = 10
 
 
+def _factor_subset(rows, in_use):
+    """``rows`` (sorted factor indices) for ``x_values`` / ``y_values``, or None when they
+    are every factor of the table (``0 .. max(in_use)``: the whole table, no copy)."""
+    return None if rows.size == int(in_use.max()) + 1 else rows
+
+
+def _circle_points(radii, size, listener, kb, tol, refine):
+    """Angular points of the separable rule at each of ``radii`` (m): ``(whole, theta,
+    weights, ends)``. At radius ``i`` the points ``ends[i] : ends[i + 1]`` of ``theta``
+    (rad) and ``weights`` lie on the arcs on the plate (``whole[i] = 0``) or, when those
+    off the plate are shorter, on the arcs off it (``whole[i] = 1``: the whole circle in
+    closed form minus these)."""
+    a, b = size
+    xl, yl, _ = listener
+    whole = np.zeros(radii.size)
+    panels, counts = [], np.zeros(radii.size, dtype=np.int64)
+    for i, r in enumerate(radii):
+        on, off = _circle_arcs(float(r), a, b, xl, yl)
+        if sum(hi - lo for lo, hi in off) < sum(hi - lo for lo, hi in on):
+            whole[i], arcs = 1.0, off
+        else:
+            arcs = on
+        these = _arc_panels(float(r), kb, tol, refine, arcs)
+        counts[i] = sum(n * p for _, _, n, p in these)
+        panels += these
+    theta, weights = _panels_points(panels)
+    ends = np.concatenate(([0], np.cumsum(counts)))
+    return whole, theta, weights, ends
+
+
 def _apply_separable_rule(
     sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
 ):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
     in ``active`` (indices), and the number of points, by the polar rule (radii
-    ``radii`` with weights ``wr``). Only the factors those modes use enter the angular
-    products."""
+    ``radii`` with weights ``wr``). At each radius the angular sums are over the arcs on
+    the plate, or, when those off the plate are shorter, the whole circle in closed form
+    minus the arcs off the plate (see the comment above :data:`_HANKEL_FROM`). Only the
+    factors those modes use enter the angular products."""
     a, b = size
     xl, yl, zl = listener
     m = active.size
     rows_x, xi = np.unique(sep.x_index[active], return_inverse=True)
     rows_y, yi = np.unique(sep.y_index[active], return_inverse=True)
+    take_x = _factor_subset(rows_x, sep.x_index)
+    take_y = _factor_subset(rows_y, sep.y_index)
+    wavenumbers = np.ascontiguousarray(sep.mode_wavenumbers()[active])
+    # 2 pi phi_k(xl, yl): the whole circle's integral over J_0(k r)
+    centre = (
+        2.0
+        * math.pi
+        * (
+            sep.x_values(np.array([xl]), take_x)[0, xi]
+            * sep.y_values(np.array([yl]), take_y)[0, yi]
+        )
+    )
     q = q[active]
-    acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
-    rows = max(1, int(CHUNK_BYTES // (8 * m)))
-    n_points = 0
-    sums = np.empty((rows_x.size, rows_y.size))
+    # blocks of radii (one block of shape values at most CHUNK_BYTES), at least two per
+    # worker; worker w takes blocks w, w + workers, ... into its own accumulators, so that
+    # the result does not depend on the timing
+    workers = max(1, numba.get_num_threads())
+    rows = max(1, min(int(CHUNK_BYTES // (8 * m)), -(-radii.size // (2 * workers))))
+    blocks = list(range(0, radii.size, rows))
+    workers = min(workers, len(blocks))
+    acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, unused
     # few modes (a refinement of the failing ones): each mode's own angular sum costs
     # less than the product of every pair of their factors
     direct = _DIRECT_RATIO * m < rows_x.size * rows_y.size
-    for start in range(0, radii.size, rows):
+
+    def block_sums(start, sums, acc_w):
+        """Add the radii ``start : start + rows`` to ``acc_w``; their points."""
         rr = radii[start : start + rows]
-        phi = np.empty((rr.size, m))
-        for i, r in enumerate(rr):
-            theta, w = angular_rule(float(r), a, b, listener, kb, tol, refine)
-            n_points += theta.size
-            if theta.size == 0:
-                phi[i] = 0.0
-                continue
-            x = np.clip(xl + r * np.cos(theta), 0.0, a)
-            y = np.clip(yl + r * np.sin(theta), 0.0, b)
-            fx = sep.x_values(x, rows_x)
-            fy = np.ascontiguousarray(sep.y_values(y, rows_y))
+        phi = np.zeros((rr.size, m))
+        whole, theta, w, ends = _circle_points(rr, size, listener, kb, tol, refine)
+        # points on the plate up to rounding; those of a whole circle's arcs off it count
+        # negatively
+        on = np.repeat(whole == 0.0, np.diff(ends))
+        r_point = np.repeat(rr, np.diff(ends))
+        x = xl + r_point * np.cos(theta)
+        y = yl + r_point * np.sin(theta)
+        x[on] = np.clip(x[on], 0.0, a)
+        y[on] = np.clip(y[on], 0.0, b)
+        w[~on] *= -1.0
+        for i in np.flatnonzero(ends[1:] > ends[:-1]):
+            pts = slice(ends[i], ends[i + 1])
+            fx = sep.x_values(x[pts], take_x)
+            fy = np.ascontiguousarray(sep.y_values(y[pts], take_y))
             if direct:
-                phi[i] = w @ (fx[:, xi] * fy[:, yi])
+                phi[i] = w[pts] @ (fx[:, xi] * fy[:, yi])
             else:
-                single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums)
+                single_thread_product(np.ascontiguousarray((fx * w[pts, None]).T), fy, sums)
                 phi[i] = sums[xi, yi]
+        _add_circle_sums(rr, whole, wavenumbers, centre, phi)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        dist = big_r - r_mid
-        accumulate(0, rr.size, dist, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
+        accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
+        return theta.size
+
+    def worker(w):
+        sums = np.empty((rows_x.size, rows_y.size))
+        return sum(block_sums(start, sums, acc[w]) for start in blocks[w::workers])
+
+    if workers == 1:
+        n_points = worker(0)
+    else:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            n_points = sum(pool.map(worker, range(workers)))
+    acc_re, acc_im, _ = acc.sum(axis=0)
     total = acc_re + 1j * acc_im
     if not np.isfinite(total).all():
         k = int(active[np.flatnonzero(~np.isfinite(total))[0]])
@@ -535,12 +879,14 @@ def separable_gains(
     times the points per axis, the error estimate their difference) as
     :func:`rayleigh_gains`; only the rule differs: polar coordinates about the
     microphone (see the comment above :func:`_radial_segments`). The angular sums
-    of all modes at one radius are one matrix product of ``X`` and ``Y`` values,
-    and the radial sums cost one exponential per mode and radius: about
-    ``N_theta I J + N_r n_modes`` operations per rule (``N_theta`` the points,
-    ``N_r`` the radii, ``I, J`` the numbers of factors) instead of
-    ``N n_modes`` exponentials. Measured on a simply supported 1.86 m square
-    plate to 22 kHz (34 161 modes): see ``synth bench scale``.
+    of all modes at one radius are one matrix product of ``X`` and ``Y`` values on
+    the shorter of the arcs on and off the plate (the whole circle in closed form,
+    see the comment above :data:`_HANKEL_FROM`), and the radial sums cost one
+    exponential and at most one ``J_0`` per mode and radius: about
+    ``N_theta I J + N_r n_modes`` operations per rule (``N_theta`` the points, at
+    most half of each circle, ``N_r`` the radii, ``I, J`` the numbers of factors)
+    instead of ``N n_modes`` exponentials. Measured on a simply supported 1.86 m
+    square plate to 22 kHz (39 797 modes): see ``synth bench scale``.
     """
     from synth.sound.modes import SeparableShapes
 

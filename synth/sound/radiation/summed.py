@@ -5,7 +5,9 @@ Such shapes are ``phi_k = sum_ij C_kij X_i(x) Y_j(y)`` (:class:`synth.sound.mode
 :func:`summed_gains` applies the polar rule of :mod:`synth.sound.radiation.polar`: at each
 radius the angular sums ``A_ij = sum_theta w X_i Y_j`` are one small matrix product whatever
 the number of modes, and ``Phi_k = sum_ij C_kij A_ij`` one product of a block of radii's
-``A`` with the coefficients; the exponentials are again one per mode and radius. The
+``A`` with the coefficients; the exponentials are again one per mode and radius. Each mode
+is refined alone (:func:`~synth.sound.radiation.refinement.refine_selective`): a rule after
+the first check combines and exponentiates only the modes still failing. The
 in-phase bounds ``S_k`` (``|phi_k|`` is not a sum of products) come from a rectangle rule
 that resolves the shapes but not the acoustic phase.
 """
@@ -37,12 +39,18 @@ from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 # 8 times finer; tests compare it with the full rectangle rule).
 
 
-def _apply_summed_rule(shapes, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings):
-    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of summed shapes by the polar
-    rule (radii ``radii`` with weights ``wr``), and the number of points."""
+def _apply_summed_rule(
+    shapes, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
+):
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the summed shapes ``k`` in
+    ``active`` (increasing indices) by the polar rule (radii ``radii`` with weights
+    ``wr``), and the number of points. The angular sums ``A`` serve every mode; only the
+    modes ``active`` are combined from them and take exponentials."""
     a, b = size
     xl, yl, zl = listener
-    m = q.size
+    m = active.size
+    q = q[active]
+    every = m == shapes.n_modes
     acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
@@ -58,7 +66,7 @@ def _apply_summed_rule(shapes, size, listener, radii, wr, kb, tol, refine, q, r_
                 fx = shapes.x_values(np.clip(xl + r * np.cos(theta), 0.0, a))
                 fy = shapes.y_values(np.clip(yl + r * np.sin(theta), 0.0, b))
                 single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums[i])
-        phi = shapes.combine(sums)
+        phi = shapes.combine(sums, None if every else active)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
         accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
@@ -115,8 +123,10 @@ def summed_gains(
 
     Notes
     -----
-    The rule, tolerance and convergence test of :func:`separable_gains`; only the
-    angular sums differ (see the comment above :func:`_apply_summed_rule`): about
+    The rule, tolerance and convergence test of :func:`separable_gains` (each mode
+    refined alone: a mode that passes keeps that rule's gain, and the next rule combines
+    and exponentiates only the modes still failing); only the angular sums differ (see
+    the comment above :func:`_apply_summed_rule`): about
     ``N_theta n_x n_y + N_r n_basis n_modes / 4`` multiply-adds per rule (matrix
     products; ``N_r`` radii, ``N_theta`` points, ``n_basis`` the Ritz unknowns)
     and ``N_r n_modes`` exponentials, against ``N n_modes`` exponentials and shape
@@ -146,7 +156,7 @@ def summed_gains(
         shapes, setup.size, setup.listener, setup.kb, setup.tol_panel, setup.r_mid
     )
 
-    def rule(level):
+    def rule(level, active):
         f = REFINE**level
         radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
         total, n = _apply_summed_rule(
@@ -161,7 +171,8 @@ def summed_gains(
             setup.q,
             setup.r_mid,
             setup.halvings,
+            active,
         )
-        return total, in_phase, n
+        return total, in_phase[active], n
 
-    return polar_gains(setup, rule, "summed_gains", full_output)
+    return polar_gains(setup, rule, "summed_gains", full_output, selective=True)
