@@ -34,6 +34,7 @@ H_COLS = H_COEF + 14
 
 @numba.njit(cache=True)
 def grow_history(hist, k):
+    """The history with room for row ``k``: itself, or a copy of twice its rows."""
     if k < hist.shape[0]:
         return hist
     new = np.empty((2 * hist.shape[0], hist.shape[1]))
@@ -133,6 +134,8 @@ def dense_state(hist, S, k, s, radau, n):
 
 @numba.njit(cache=True)
 def find_step(hist, nst, s):
+    """The step (row of the first ``nst`` of the history) whose span holds time s: the
+    last one starting at or before s (bisection)."""
     lo = 0
     hi = nst - 1
     while lo < hi:
@@ -146,6 +149,7 @@ def find_step(hist, nst, s):
 
 @numba.njit(cache=True)
 def penetration_and_force(hist, S, nst, s, radau, lam, n, c):
+    """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
     k = find_step(hist, nst, s)
     x, w = dense_state(hist, S, k, s, radau, n)
     f, a = force(x, w, lam, n, c)

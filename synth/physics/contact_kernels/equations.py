@@ -111,5 +111,6 @@ def settling_energy(x, w, lam, G, n):
 
 @numba.njit(cache=True, inline="always")
 def penetration_rate(x, w, lam, n, c):
+    """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     f, _ = force(x, w, lam, n, c)
     return w - lam * f
