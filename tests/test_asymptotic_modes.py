@@ -14,6 +14,7 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import asymptotic_modes as AM
 from synth.sound import modes as P
+from synth.sound.modes import crossover, ritz
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
@@ -51,10 +52,10 @@ def test_one_dimensional_root_rejects_nothing_for_the_free_low_family():
 
 
 def _hybrid(boundary, aspect, omega, low_unknowns=200):
-    low = P._band_of_unknowns(aspect, low_unknowns, omega)
-    ritz = P._solve_ritz(boundary, 0.3, aspect, low)
+    low = crossover.band_of_unknowns(aspect, low_unknowns, omega)
+    low_band = ritz.solve_ritz(boundary, 0.3, aspect, low)
     edge = AM.solve(boundary, 0.3, aspect, omega)
-    return P._HybridSolution(ritz, low, edge, omega)
+    return crossover.HybridSolution(low_band, low, edge, omega)
 
 
 @pytest.mark.slow
@@ -76,7 +77,7 @@ def test_edge_effect_frequencies_agree_with_ritz_in_their_overlap(boundary, aspe
     issue's figure). Counts agree exactly (no mode lost or doubled at the seam)."""
     omega = 6000.0 if aspect < 2 else 40000.0
     hyb = _hybrid(boundary, aspect, omega)
-    ref = P._ritz_frequencies(boundary, 0.3, aspect, omega * 1.05, omega)
+    ref = ritz.ritz_frequencies(boundary, 0.3, aspect, omega * 1.05, omega)
     assert hyb.omega.size == ref.size
     err = np.abs(hyb.omega - ref) / ref
     assert np.all(err[: hyb.n_low] < 1e-4)  # the Ritz band itself
@@ -93,7 +94,7 @@ def test_square_pairs_split_by_the_rayleigh_ritz_step(boundary):
     Counts may differ by the Ritz modes within 0.5 % of the band's top (a mode that close
     may fall on either side of the cut)."""
     hyb = _hybrid(boundary, 1.0, 6000.0)
-    ref = P._ritz_frequencies(boundary, 0.3, 1.0, 6300.0, 6300.0)
+    ref = ritz.ritz_frequencies(boundary, 0.3, 1.0, 6300.0, 6300.0)
     near_top = int(np.sum(np.abs(ref - 6000.0) <= 0.005 * 6000.0))
     ref = ref[ref <= 6000.0]
     assert abs(hyb.omega.size - ref.size) <= near_top
@@ -204,5 +205,5 @@ def test_every_preset_band_stays_below_the_crossover():
             * length**2
             * math.sqrt(plate.surface_density / plate.flexural_rigidity)
         )
-        unknowns = P._ritz_unknowns(plate.length / plate.width, omega)
-        assert unknowns <= P._CROSSOVER_UNKNOWNS, (name, unknowns)
+        unknowns = ritz.ritz_unknowns(plate.length / plate.width, omega)
+        assert unknowns <= crossover.CROSSOVER_UNKNOWNS, (name, unknowns)

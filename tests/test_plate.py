@@ -13,6 +13,8 @@ from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, Material, Rayleigh
 from synth.physics.scene import Plate
 from synth.sound import modes as P
+from synth.sound.modes import cache as modes_cache
+from synth.sound.modes import ritz
 
 # A steel-like material with nu = 0.3, the Poisson ratio of the published tables.
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -252,7 +254,7 @@ def test_ritz_values_decrease_monotonically_with_basis():
     # can only decrease (Poincare / Courant-Fischer), up to rounding (1e-12 relative).
     omega_cut = 400.0
     runs = [
-        P._ritz_frequencies("free", 0.3, 1.25, ob, omega_cut)[:25]
+        ritz.ritz_frequencies("free", 0.3, 1.25, ob, omega_cut)[:25]
         for ob in (60.0, 120.0, 250.0, 500.0, 1000.0)
     ]
     for coarse, fine in zip(runs, runs[1:]):
@@ -269,7 +271,9 @@ def test_returned_modes_are_converged():
     omega_req = (
         2 * math.pi * fmax * 0.5**2 * math.sqrt(plate.surface_density / plate.flexural_rigidity)
     )
-    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=P._C0 + 8)
+    ref = ritz.ritz_frequencies(
+        "free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=ritz._C0 + 8
+    )
     scale = math.sqrt(plate.flexural_rigidity / plate.surface_density) / 0.5**2
     ref_f = ref * scale / (2 * math.pi)
     ref_f = ref_f[ref_f <= fmax]
@@ -290,15 +294,17 @@ def test_returned_modes_are_converged_rejects_bad_max_frequency_type():
 def test_unconverged_basis_is_enlarged(monkeypatch):
     # Starve the basis rule: the convergence check must notice, enlarge the basis
     # and still deliver every mode within the tolerance of a much larger basis.
-    monkeypatch.setattr(P, "_C0", 0.0)
-    monkeypatch.setattr(P, "_C1", 0.5)
+    monkeypatch.setattr(ritz, "_C0", 0.0)
+    monkeypatch.setattr(ritz, "_C1", 0.5)
     omega_req = 3000.0
-    sol = P._solve_ritz("free", 0.3, 1.25, omega_req)
+    sol = ritz.solve_ritz("free", 0.3, 1.25, omega_req)
     attempts = sol.info["attempts"]
     assert len(attempts) >= 2
     assert attempts[0]["worst_relative_change"] > P.TOLERANCE
     assert attempts[-1]["worst_relative_change"] <= P.TOLERANCE
-    ref = P._ritz_frequencies("free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=10.0, c1=3.0)
+    ref = ritz.ritz_frequencies(
+        "free", 0.3, 1.25, 1.5 * omega_req, 1.01 * omega_req, c0=10.0, c1=3.0
+    )
     ref = ref[ref <= omega_req]
     assert sol.omega.size == ref.size
     np.testing.assert_allclose(sol.omega, ref, rtol=P.TOLERANCE)
@@ -417,7 +423,7 @@ def test_cache_disk_round_trip(tmp_path):
 
 def test_cache_memory_is_bounded(monkeypatch):
     # Least recently used solutions are dropped beyond the memory budget.
-    monkeypatch.setattr(P._CACHE, "max_bytes", 1)
+    monkeypatch.setattr(modes_cache.CACHE, "max_bytes", 1)
     P.modes(Plate(STEEL, 0.001, 0.5, 0.4, "free"), max_frequency=500.0)
     P.modes(Plate(STEEL, 0.001, 0.5, 0.3, "free"), max_frequency=500.0)
     assert P.cache_info()["entries"] == 1

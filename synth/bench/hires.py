@@ -18,15 +18,16 @@ def hires_child(samplerate: int, previous: bool = False) -> dict:
     memory (MB). ``previous``: with the engine's former paths, the rectangle rule for
     every plate (:data:`synth.sound.radiation.SUMMED_RULE_WORK` infinite) and the Ritz
     solve on BLAS's threads at every size
-    (:data:`synth.sound.modes.ONE_THREAD_UNKNOWNS` infinite)."""
+    (:data:`synth.sound.modes.ritz.ONE_THREAD_UNKNOWNS` infinite)."""
     from synth.io.presets import load_preset
     from synth.sound import modes as plate_modes
     from synth.sound import radiation
+    from synth.sound.modes import ritz
     from synth.sound.render import render
 
     if previous:
         radiation.SUMMED_RULE_WORK = math.inf
-        plate_modes.ONE_THREAD_UNKNOWNS = math.inf
+        ritz.ONE_THREAD_UNKNOWNS = math.inf
     scene = load_preset("default")
     t0 = time.perf_counter()
     modes = plate_modes.modes(scene.plate, max_frequency=0.5 * samplerate * (1.0 - 1e-9))

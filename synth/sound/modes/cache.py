@@ -1,0 +1,144 @@
+"""The cache of the free and clamped plates' Ritz solutions: in memory and on disk.
+
+The eigen-solution depends only on the boundary, ``nu``, the aspect ratio
+``a / b`` and the dimensionless band ``omega L^2 sqrt(rho h / D)``,
+``L = max(a, b)``; E, rho, h and the size only scale its frequencies, and the
+damping law is applied afterwards. Free and clamped solutions are kept in memory
+and on disk (``.npz`` in ``$SYNTH_CACHE_DIR`` if set, else the platform's user
+cache directory + ``synth``), keyed by those numbers and the basis settings. A
+request for a lower band reuses a stored higher one. The simply supported closed
+form needs no cache.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
+from synth.sound.modes.ritz import RitzSolution, solution_key, solve_ritz
+
+# Solutions held in memory: least recently used ones are dropped beyond 1 GiB (the
+# newest is always kept).
+CACHE = MemoryCache("solves", max_bytes=1 << 30)
+
+
+def cache_info() -> dict:
+    """Counters of the mode cache since start-up (or :func:`clear_memory_cache`).
+
+    Returns
+    -------
+    dict
+        ``solves`` (eigen-solutions computed), ``memory_hits``, ``disk_hits``
+        (solutions read from disk), ``disk_writes``, and ``entries`` (solutions
+        held in memory).
+    """
+    return CACHE.info()
+
+
+def clear_memory_cache() -> None:
+    """Forget the solutions held in memory and reset the counters (disk untouched)."""
+    CACHE.clear()
+
+
+def _path(key: str, boundary: str) -> Path:
+    return cache_path(f"plate-modes-{boundary}", key)
+
+
+def _save(sol: RitzSolution, key: str) -> None:
+    """Write ``sol`` to the disk cache (atomically); skipped if impossible."""
+    arrays = {
+        "key": np.array(key),
+        "omega_max": np.array(sol.omega_max),
+        "omega": sol.omega,
+        "cls": sol.cls,
+        "col": sol.col,
+    }
+    for c in range(4):
+        arrays[f"I{c}"], arrays[f"J{c}"] = sol.index[c]
+        arrays[f"coef{c}"] = sol.coef[c]
+    try:
+        path = _path(key, sol.boundary)
+    except RuntimeError:  # no home directory
+        return
+    if savez_atomic(path, arrays):
+        CACHE.count("disk_writes")
+
+
+def _load(key: str, boundary: str, nu: float, aspect: float):
+    """The stored solution for ``key``, or None if absent, unreadable or inconsistent."""
+    try:
+        path = _path(key, boundary)
+        if not path.is_file():
+            return None
+        with load_npz(path) as z:
+            if str(z["key"][()]) != key:
+                return None
+            omega_max = float(z["omega_max"][()])
+            omega, cls, col = z["omega"], z["cls"], z["col"]
+            index = [(z[f"I{c}"], z[f"J{c}"]) for c in range(4)]
+            coef = [z[f"coef{c}"] for c in range(4)]
+        n = omega.size
+        ok = (
+            omega.ndim == 1
+            and cls.shape == (n,)
+            and col.shape == (n,)
+            and np.all(np.isfinite(omega))
+            and np.all(np.diff(omega) >= 0.0)
+            and math.isfinite(omega_max)
+            and omega_max > 0.0
+            and (n == 0 or (omega[-1] <= omega_max and cls.min() >= 0 and cls.max() <= 3))
+        )
+        for c in range(4):
+            I, J = index[c]
+            counts = int(np.sum(cls == c))
+            ok = ok and (
+                I.ndim == 1
+                and I.shape == J.shape
+                and coef[c].ndim == 2
+                and coef[c].shape == (I.size, counts)
+                and np.all(np.isfinite(coef[c]))
+                and np.array_equal(col[cls == c], np.arange(counts))
+            )
+        if not ok:
+            return None
+        return RitzSolution(
+            boundary,
+            nu,
+            aspect,
+            omega_max,
+            omega,
+            cls.astype(np.int64),
+            col.astype(np.int64),
+            [(I.astype(np.int64), J.astype(np.int64)) for I, J in index],
+            [np.ascontiguousarray(cf, dtype=float) for cf in coef],
+            {"source": str(path)},
+        )
+    except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
+        return None
+
+
+def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
+    """A converged solution covering ``omega_req``: from memory, disk, or solved."""
+    if not cache:
+        sol = solve_ritz(boundary, nu, aspect, omega_req)
+        CACHE.count("computed")
+        return sol
+    key = solution_key(boundary, nu, aspect)
+
+    def covers(held):
+        return held.omega_max >= omega_req
+
+    sol = CACHE.get(key, covers)
+    if sol is not None:
+        return sol
+    sol = _load(key, boundary, nu, aspect)
+    if sol is not None and covers(sol):
+        CACHE.put(key, sol, source="disk")
+        return sol
+    sol = solve_ritz(boundary, nu, aspect, omega_req)
+    CACHE.put(key, sol, source="computed", better=lambda held, new: held.omega_max >= new.omega_max)
+    _save(sol, key)
+    return sol

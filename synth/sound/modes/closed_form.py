@@ -1,0 +1,140 @@
+"""Simply supported plates: the closed form (docs/physics.md, "Plate modes").
+
+Closed form (Leissa 1969, chapter 4): ``omega_mn = pi^2 sqrt(D / (rho h))
+((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi y / b)``.
+
+The shapes are products ``X_m(x) Y_n(y)``; :meth:`synth.sound.modes.Modes.separable`
+returns them as such (:class:`SeparableShapes`), so that sums over many points can be
+shared between modes (the polar rule of :func:`synth.sound.radiation.separable_gains`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from synth.sound.modes.common import CHUNK_ELEMENTS, VERSION, ratios
+
+
+class SimplySupported:
+    """Closed-form modes of a simply supported rectangle (dimensionless frequencies
+    ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``)."""
+
+    def __init__(self, aspect, omega_max):
+        rx, ry = ratios(aspect)
+        m_max = int(math.sqrt(omega_max) / (math.pi * rx)) + 1
+        n_max = int(math.sqrt(omega_max) / (math.pi * ry)) + 1
+        m, n = np.meshgrid(np.arange(1, m_max + 1), np.arange(1, n_max + 1), indexing="ij")
+        m, n = m.ravel(), n.ravel()
+        om = math.pi**2 * ((m * rx) ** 2 + (n * ry) ** 2)
+        keep = om <= omega_max
+        m, n, om = m[keep], n[keep], om[keep]
+        order = np.lexsort((n, m, om))
+        self.omega = om[order]
+        self.m = m[order]
+        self.n = n[order]
+        self.omega_max = omega_max
+        self.key = json.dumps(
+            {
+                "version": VERSION,
+                "boundary": "simply-supported",
+                "aspect": float(aspect).hex(),
+                "omega_max": float(omega_max).hex(),
+            },
+            sort_keys=True,
+        )
+
+    def shapes(self, xi, eta, n_modes):
+        out = np.empty((xi.size, n_modes))
+        m = self.m[:n_modes]
+        n = self.n[:n_modes]
+        if n_modes == 0:
+            return out
+        mm = np.arange(1, int(m.max()) + 1)
+        nn = np.arange(1, int(n.max()) + 1)
+        chunk = max(1, CHUNK_ELEMENTS // max(n_modes, mm.size, nn.size))
+        for start in range(0, xi.size, chunk):
+            sl = slice(start, start + chunk)
+            # x / a = (xi + 1) / 2
+            sx = np.sin(0.5 * math.pi * (xi[sl, None] + 1.0) * mm[None, :])
+            sy = np.sin(0.5 * math.pi * (eta[sl, None] + 1.0) * nn[None, :])
+            out[sl] = 2.0 * sx[:, m - 1] * sy[:, n - 1]
+        return out
+
+
+@dataclass(frozen=True)
+class SeparableShapes:
+    """Mode shapes that are products of one function of x and one of y.
+
+    ``phi_k(x, y) = X_(i_k)(x) Y_(j_k)(y)``: :meth:`x_values` and :meth:`y_values`
+    give the factors of every index at once, so that sums over points of a grid
+    or a curve can be shared between the modes (matrix products). Used by
+    :func:`synth.sound.radiation.plate_gains` for the simply supported plate,
+    ``X_m(x) = sqrt(2) sin(m pi x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``.
+
+    Attributes
+    ----------
+    length, width : float
+        ``a`` and ``b``, metres.
+    x_index, y_index : ndarray of int, shape (n_modes,)
+        ``i_k`` and ``j_k``: mode ``k`` takes column ``x_index[k]`` of
+        :meth:`x_values` and column ``y_index[k]`` of :meth:`y_values`.
+    wavenumber : float
+        Largest rate of oscillation of any factor along its axis, rad/m.
+    """
+
+    length: float
+    width: float
+    x_index: np.ndarray = field(repr=False)
+    y_index: np.ndarray = field(repr=False)
+    wavenumber: float
+
+    def x_values(self, x: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """``X_i(x)`` for every index ``i`` in use: shape ``(len(x), max(x_index) + 1)``
+        (``x`` in metres); or for the indices ``index`` alone, ``(len(x), len(index))``."""
+        return _sine_factors(x, math.pi / self.length, self.x_index, index)
+
+    def y_values(self, y: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
+        """``Y_j(y)`` for every index ``j`` in use: shape ``(len(y), max(y_index) + 1)``
+        (``y`` in metres); or for the indices ``index`` alone, ``(len(y), len(index))``."""
+        return _sine_factors(y, math.pi / self.width, self.y_index, index)
+
+
+def _sine_factors(u, rate, in_use, index):
+    """``sqrt(2) sin((i + 1) rate u)`` for ``i <= max(in_use)`` (the table of
+    :func:`_sine_table`), or for ``i`` in ``index``: from the table, or (a few indices
+    of a long table) by libm's sine directly."""
+    t = np.ascontiguousarray(u, dtype=float) * rate
+    n = int(in_use.max()) + 1 if in_use.size else 0
+    if index is None:
+        return _sine_table(t, n)
+    index = np.asarray(index, dtype=np.int64)
+    if 4 * index.size < n:
+        return math.sqrt(2.0) * np.sin(t[:, None] * (index + 1.0)[None, :])
+    return _sine_table(t, n)[:, index]
+
+
+@numba.njit(cache=True)
+def _sine_table(t, n):  # pragma: no cover
+    """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
+    ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every
+    32 orders (rounding grows by about one ulp per order: a few 1e-15)."""
+    out = np.empty((t.size, n))
+    root2 = math.sqrt(2.0)
+    for j in range(t.size):
+        c1 = math.cos(t[j])
+        s1 = math.sin(t[j])
+        c = 1.0
+        s = 0.0
+        for m in range(n):
+            if m % 32 == 31:
+                c = math.cos((m + 1) * t[j])
+                s = math.sin((m + 1) * t[j])
+            else:
+                c, s = c * c1 - s * s1, s * c1 + c * s1
+            out[j, m] = root2 * s
+    return out

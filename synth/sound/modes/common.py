@@ -1,0 +1,43 @@
+"""What the plate-mode solutions share: the cache layout's version, the temporary-array
+budget of their shapes, the plate's aspect ratios, and a matrix product kept on the
+calling thread (:func:`single_thread_product`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Temporary-array budget of shapes(): elements (8 bytes each).
+CHUNK_ELEMENTS = 1 << 22
+# Largest matrix product shapes() hands to BLAS in one call, multiply-adds. OpenBLAS
+# runs products up to 4 * 65536 multiply-adds on one thread (its default
+# GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
+# Rayleigh sums of synth.sound.radiation); a multithreaded product whose helper thread
+# waits for a busy core stalls (measured: 5 to 10 times slower than on one thread).
+_PIECE = 1 << 18
+# Version of the stored solution layout and algorithm; part of the cache key.
+VERSION = 1
+
+
+def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE``
+    multiply-adds each, which OpenBLAS runs on the calling thread: square-ish blocks
+    of ``out`` (so that BLAS copies each operand into its packed layout a few times
+    only), every entry one whole dot product. On a machine whose cores are busy, a
+    multithreaded product waits for them (see ``_PIECE``)."""
+    n, k = a.shape
+    m = b.shape[1]
+    rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))
+    cols = min(m, max(8, _PIECE // max(1, k * rows)))
+    for r0 in range(0, n, rows):
+        for c0 in range(0, m, cols):
+            np.matmul(
+                a[r0 : r0 + rows], b[:, c0 : c0 + cols], out=out[r0 : r0 + rows, c0 : c0 + cols]
+            )
+
+
+def ratios(aspect: float):
+    """``(L/a, L/b)`` for ``aspect = a/b`` and ``L = max(a, b)``."""
+    return (1.0, aspect) if aspect >= 1.0 else (1.0 / aspect, 1.0)

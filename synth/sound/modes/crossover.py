@@ -1,0 +1,109 @@
+"""Large free and clamped plates: Ritz modes of a low band, dynamic edge effect modes above.
+
+A band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS` per symmetry class takes
+the Ritz modes of a low band and, above it, the dynamic edge effect modes of
+:mod:`synth.sound.asymptotic_modes` (cost linear in the number of modes; frequencies within
+0.5 % of the Ritz solver above that band, see docs/physics.md, "Large free and clamped
+plates").
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from synth.sound.modes.cache import cached_ritz
+from synth.sound.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
+
+#: Relative accuracy of the dynamic edge effect frequencies (with their Rayleigh-Ritz
+#: step) above the Ritz low band of a crossed-over plate, against the Ritz solver
+#: (tests/test_asymptotic_modes.py: measured 0.015 % clamped, 0.43 % free rectangles,
+#: 0.28 % free squares).
+EDGE_EFFECT_TOLERANCE = 0.005
+# Crossover to the dynamic edge effect method (synth.sound.asymptotic_modes): a free or
+# clamped band whose Ritz problem would exceed this many unknowns per symmetry class
+# (the estimate of ritz_unknowns) takes the Ritz modes of a low band only (up to
+# _LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
+# edge effect modes above the same low band, so the crossover sets the cost alone, not
+# the accuracy: it lies just above every preset's band at 48 kHz (at most 1831 unknowns,
+# ping-pong table, steel sheet: their recorded renders keep the Ritz path). A Ritz
+# class costs about 3 s cold at 1400 unknowns and 12 s at 2400 (synth bench scale), the
+# cubic growth beyond is what the crossover avoids.
+CROSSOVER_UNKNOWNS = 1850
+# Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
+# method's least accurate: corner and beam-like modes; the tests measure its accuracy
+# above a band of 200) exact, in a fraction of a second.
+_LOW_BAND_UNKNOWNS = 300
+# Most modes any band may hold (arrays of a few hundred MB per listener beyond).
+_MAX_MODES = 2_000_000
+
+
+def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
+    """The band (dimensionless) whose Ritz problem has about ``unknowns`` per class
+    (bisection on the increasing :func:`ritz_unknowns`), at most ``omega_hi``."""
+    lo, hi = 0.0, omega_hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if ritz_unknowns(aspect, mid) > unknowns:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+def _seam(omega: np.ndarray, omega_low: float) -> float:
+    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the
+    middle of the widest relative gap between Ritz modes in the top third of the band
+    ``omega <= omega_low``, so that an edge effect mode's error (below the gap's
+    half-width) does not move it across the seam (no mode counted twice or lost)."""
+    band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
+    if band.size < 2:
+        return omega_low
+    gaps = np.diff(band) / band[1:]
+    i = int(np.argmax(gaps))
+    return float(0.5 * (band[i] + band[i + 1]))
+
+
+class HybridSolution:
+    """Ritz modes up to ``omega_low`` followed by the dynamic edge effect modes above
+    it, up to ``omega_max`` (dimensionless, as :class:`RitzSolution`)."""
+
+    def __init__(self, ritz: RitzSolution, omega_low: float, edge, omega_max: float):
+        omega_low = _seam(ritz.omega, omega_low)
+        n_low = int(np.searchsorted(ritz.omega, omega_low, side="right"))
+        first = int(np.searchsorted(edge.omega, omega_low, side="right"))
+        self.ritz, self.edge = ritz, edge
+        self.n_low, self.first = n_low, first
+        self.omega = np.concatenate((ritz.omega[:n_low], edge.omega[first:]))
+        self.omega.setflags(write=False)
+        self.omega_max = omega_max
+        self.nbytes = ritz.nbytes + edge.nbytes
+        self.key = json.dumps(
+            {"ritz": ritz.key, "omega_low": float(omega_low).hex(), "edge": edge.key},
+            sort_keys=True,
+        )
+
+    def shapes(self, xi, eta, n_modes):
+        """Shapes of the first ``n_modes`` modes: Ritz columns, then edge effect ones."""
+        n_r = min(n_modes, self.n_low)
+        out = np.empty((xi.size, n_modes))
+        if n_r:
+            out[:, :n_r] = self.ritz.shapes(xi, eta, n_r)
+        if n_modes > n_r:
+            n_e = self.first + n_modes - n_r
+            self.edge.shapes(xi, eta, n_e, first=self.first, out=out, column=n_r)
+        return out
+
+
+def crossed(boundary, nu, aspect, omega_req, cache):
+    """Hybrid solution of a band beyond the crossover (see ``CROSSOVER_UNKNOWNS``)."""
+    from synth.sound import asymptotic_modes
+
+    count = asymptotic_modes.mode_count_estimate(aspect, omega_req)
+    if count > _MAX_MODES:
+        raise TooLarge(int(count), "modes", _MAX_MODES)
+    omega_low = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+    ritz = cached_ritz(boundary, nu, aspect, omega_low, cache)
+    edge = asymptotic_modes.solve(boundary, nu, aspect, omega_req)
+    return HybridSolution(ritz, omega_low, edge, omega_req)

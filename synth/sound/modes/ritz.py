@@ -1,0 +1,495 @@
+"""Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
+
+The basis, its size and the eigen-solution of one symmetry class are those of
+:mod:`synth.sound.modes.basis`; this module solves the four classes, checks convergence
+and evaluates the shapes.
+
+Convergence check. Each class is solved again (eigenvalues only) with a
+larger nested basis (``c1 + d1``, ``c0 + d0``). Ritz values of nested spaces
+decrease monotonically towards the exact eigenvalues, so the k-th values of
+the two solves bound the k-th mode's error from below and, with spectral
+convergence, estimate it. Every returned mode agrees to :data:`TOLERANCE`
+(relative, frequency) with the larger basis; if one below ``max_frequency``
+does not, the basis is enlarged and the solve repeated. Nothing above
+``max_frequency`` is returned.
+
+The shapes are sums of products ``2 sum c_ij psi_i(xi) psi_j(eta)``;
+:meth:`RitzSolution.summed` returns them as such (:class:`SummedShapes`, used by
+:func:`synth.sound.radiation.summed_gains`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from synth.errors import SynthError
+from synth.sound.modes.basis import (
+    SHIFT,
+    basis_1d,
+    basis_alpha,
+    index_set,
+    matrices_1d,
+    solve_class,
+)
+from synth.sound.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_thread_product
+
+#: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
+TOLERANCE = 1e-4
+
+# Basis-size rule g(kappa) = kappa + C1 kappa^(1/3) + C0 (degrees), and the extra
+# degrees of the check basis. Chosen from the measured Legendre convergence of
+# free and clamped plates (tests/test_plate.py checks the result against a much
+# larger basis).
+_C0 = 2.0
+_C1 = 3.0
+_D0 = 2.0
+_D1 = 1.0
+# Largest symmetry-class matrix (unknowns) the dense solver accepts: 12000^2
+# doubles are 1.2 GB. Above it, max_frequency is refused.
+_MAX_UNKNOWNS = 12000
+# Parity classes (x, y): 0 = even, 1 = odd.
+_CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
+#: Symmetry classes with more unknowns than this (in the first basis tried) are solved on
+#: one BLAS thread (see _solve_classes); smaller ones, every preset's among them (at most
+#: 1732 unknowns at 48 kHz), with BLAS's own threads, whose partial sums, and so the last
+#: bits of the modes, depend on their number. ``math.inf``: never on one thread.
+ONE_THREAD_UNKNOWNS = 2500
+
+
+@numba.njit(cache=True)
+def _take_columns(a, index):  # pragma: no cover
+    """Reorder the columns of ``a`` in place, row by row: ``a[p, k] = a_old[p, index[k]]``
+    (``index`` a permutation of ``range(a.shape[1])``)."""
+    n, m = a.shape
+    row = np.empty(m)
+    for p in range(n):
+        for k in range(m):
+            row[k] = a[p, index[k]]
+        for k in range(m):
+            a[p, k] = row[k]
+
+
+class RitzSolution:
+    """Free or clamped modes of a plate of aspect ``a/b``, Poisson ``nu``, up to
+    ``omega_max`` (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``).
+
+    ``omega`` ascending; mode ``k`` is column ``col[k]`` of ``coef[cls[k]]``, the
+    coefficients on ``psi_I(xi) psi_J(eta)`` with ``I, J = index[cls[k]]`` (unit
+    norm: the shape is ``2 sum c_ij psi_i(xi) psi_j(eta)``).
+    """
+
+    def __init__(self, boundary, nu, aspect, omega_max, omega, cls, col, index, coef, info):
+        self.boundary = boundary
+        self.nu = nu
+        self.aspect = aspect
+        self.omega_max = omega_max
+        self.omega = omega
+        self.cls = cls
+        self.col = col
+        self.index = index
+        self.coef = coef
+        self.info = info
+        arrays = (omega, cls, col, *[a for ij in index for a in ij], *coef)
+        for arr in arrays:
+            arr.setflags(write=False)
+        self.nbytes = sum(arr.nbytes for arr in arrays)
+        self.key = json.dumps(
+            {"solution": solution_key(boundary, nu, aspect), "omega_max": float(omega_max).hex()},
+            sort_keys=True,
+        )
+        # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the
+        # latest few are kept (a grid is usually evaluated chunk by chunk).
+        self._dense = {}
+
+    def _dense_coefficients(self, c, m, axis):
+        """Coefficients of class ``c``'s first ``m`` modes as a dense
+        ``(n_s, n_t * m)`` matrix, ``s`` the degrees along ``axis`` (0: xi, 1: eta)
+        and ``t`` along the other, one parity each (degree ``d`` at ``d // 2``);
+        zero where the basis has no such degree pair. Read-only, cached."""
+        key = (c, m, axis)
+        dense = self._dense.get(key)
+        if dense is None:
+            S, T = self.index[c] if axis == 0 else self.index[c][::-1]
+            dense = np.zeros((int(S.max()) // 2 + 1, int(T.max()) // 2 + 1, m))
+            dense[S // 2, T // 2] = self.coef[c][:, :m]
+            dense = dense.reshape(dense.shape[0], -1)
+            dense.setflags(write=False)
+            if len(self._dense) >= 8:
+                self._dense.clear()
+            self._dense[key] = dense
+        return dense
+
+    def shapes(self, xi, eta, n_modes):
+        """Mode shapes ``phi_k`` of the first ``n_modes`` modes at ``(xi, eta)``.
+
+        Returns ``(len(xi), n_modes)``. Each symmetry class is evaluated as one
+        block of columns by matrix products (its coefficients form one matrix);
+        the columns are put in frequency order at the end (:func:`_take_columns`).
+        Points sharing a coordinate (a grid) share the partial sum over that
+        direction. Temporaries stay below ``CHUNK_ELEMENTS`` doubles.
+        """
+        out = np.empty((xi.size, n_modes))
+        if n_modes == 0 or xi.size == 0:
+            return out
+        alpha = basis_alpha(self.boundary)
+        cls = self.cls[:n_modes]
+        counts = np.bincount(cls, minlength=4)
+        start = np.concatenate(([0], np.cumsum(counts)))
+        # A class's modes come in the order of its columns (ascending frequency):
+        # class c's j-th mode is column start[c] + j of the block layout.
+        parts = [
+            (
+                c,
+                slice(int(start[c]), int(start[c + 1])),
+                self.coef[c][:, : counts[c]],
+                *self.index[c],
+            )
+            for c in range(4)
+            if counts[c]
+        ]
+        # Group on the coordinate with fewer distinct values, if it has few.
+        ux, inv_x = np.unique(xi, return_inverse=True)
+        uy, inv_y = np.unique(eta, return_inverse=True)
+        if min(ux.size, uy.size) * 8 <= xi.size:
+            if uy.size < ux.size:
+                self._grouped(out, parts, 1, uy, inv_y, ux, inv_x, alpha)
+            else:
+                self._grouped(out, parts, 0, ux, inv_x, uy, inv_y, alpha)
+        else:
+            # Scattered points: phi[p, k] = 2 sum_b psi_I[b](xi_p) psi_J[b](eta_p) coef[b, k].
+            nx = max(int(I.max()) for *_, I, _ in parts) + 1
+            ny = max(int(J.max()) for *_, J in parts) + 1
+            nb = max(I.size for *_, I, _ in parts)
+            chunk = max(1, CHUNK_ELEMENTS // max(nb, n_modes, nx, ny))
+            for first in range(0, xi.size, chunk):
+                rows = slice(first, first + chunk)
+                px = basis_1d(alpha, nx, xi[rows])[0]
+                py = basis_1d(alpha, ny, eta[rows])[0]
+                for _, cols, coef, I, J in parts:
+                    single_thread_product(2.0 * (px[:, I] * py[:, J]), coef, out[rows, cols])
+        index = np.empty(n_modes, dtype=np.int64)
+        for c in range(4):
+            index[cls == c] = np.arange(start[c], start[c + 1])
+        _take_columns(out, index)
+        return out
+
+    def summed(self, n_modes, length, width, wavenumber):
+        """The first ``n_modes`` shapes as a :class:`SummedShapes` of a plate
+        ``length`` x ``width`` (metres) whose largest bending wavenumber is
+        ``wavenumber`` (rad/m)."""
+        cls = self.cls[:n_modes]
+        n_x = max(int(I.max()) for I, _ in self.index) + 1
+        n_y = max(int(J.max()) for _, J in self.index) + 1
+        parts = []
+        for c in range(4):
+            cols = np.flatnonzero(cls == c)
+            if cols.size:
+                I, J = self.index[c]
+                coef = np.ascontiguousarray(2.0 * self.coef[c][:, : cols.size])
+                parts.append((cols, I * n_y + J, coef))
+        return SummedShapes(
+            length,
+            width,
+            wavenumber,
+            n_x,
+            n_y,
+            n_modes,
+            basis_alpha(self.boundary),
+            tuple(parts),
+            self,
+        )
+
+    def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
+        """Shapes at points that share values of one coordinate, into column blocks.
+
+        ``axis`` is the grouped coordinate (0: xi, 1: eta); point ``p`` lies at
+        ``u[inv[p]]`` along it and at ``v[inv_v[p]]`` along the other. ``parts``
+        holds, per class, ``(c, cols, coef, I, J)``: the class, its block of
+        ``out``, its coefficients and degrees. The sum over the grouped
+        coordinate's degrees is done once per distinct ``u`` (matrix products for
+        a batch of them), then the points of each ``u`` take the sum over the
+        other's (matrix products per ``u``; see :func:`_product`).
+        """
+        deg = [(I, J) if axis == 0 else (J, I) for *_, I, J in parts]
+        ps = 2.0 * basis_1d(alpha, max(int(S.max()) for S, _ in deg) + 1, u)[0]
+        pv = basis_1d(alpha, max(int(T.max()) for _, T in deg) + 1, v)[0]
+        order = np.argsort(inv, kind="stable")
+        bounds = np.searchsorted(inv[order], np.arange(u.size + 1))
+        for (c, cols, coef, *_), (S, T) in zip(parts, deg):
+            m = coef.shape[1]
+            dense = self._dense_coefficients(c, m, axis)
+            ni, nj = dense.shape[0], dense.shape[1] // m
+            ps_c = ps[:, int(S[0]) % 2 :: 2][:, :ni]
+            pv_c = pv[:, int(T[0]) % 2 :: 2][:, :nj]
+            batch = max(1, CHUNK_ELEMENTS // (nj * m))
+            for g0 in range(0, u.size, batch):
+                s_batch = ps_c[g0 : g0 + batch]
+                part = np.empty((s_batch.shape[0], nj * m))
+                single_thread_product(s_batch, dense, part)
+                part = part.reshape(-1, nj, m)
+                for g in range(part.shape[0]):
+                    pts = order[bounds[g0 + g] : bounds[g0 + g + 1]]
+                    if pts[-1] - pts[0] == pts.size - 1:  # consecutive rows
+                        single_thread_product(
+                            pv_c[inv_v[pts]], part[g], out[pts[0] : pts[-1] + 1, cols]
+                        )
+                    else:
+                        block = np.empty((pts.size, m))
+                        single_thread_product(pv_c[inv_v[pts]], part[g], block)
+                        out[pts, cols] = block
+
+
+def ritz_unknowns(aspect: float, omega: float) -> float:
+    """Estimated unknowns of the largest symmetry class of the Ritz check basis for the
+    band ``omega`` (dimensionless): the kept degree pairs fill about pi/4 of the
+    rectangle of the largest degrees, a quarter per class."""
+    rx, ry = ratios(aspect)
+    k_l = math.sqrt(omega)
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
+    ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
+    return math.pi / 16.0 * nx_max * ny_max
+
+
+def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
+    """``(lam, vec, lam_check)`` of each symmetry class: eigenpairs of the basis
+    ``main[c]`` and eigenvalues of the larger ``check[c]`` (see :func:`solve_class`).
+
+    ``one_thread``: LAPACK runs on one BLAS thread. A multithreaded LAPACK call whose
+    helper threads wait for cores that other work keeps busy stalls: measured with
+    dense eigen-solutions of 1400 unknowns on two shared cores, 16 times slower than
+    on one thread (see :func:`synth.sound.modes.common.single_thread_product`).
+    """
+
+    def solve(c):
+        lam, vec = solve_class(mx, my, *main[c], rx, ry, nu, lam_cut, True)
+        lam2, _ = solve_class(mx, my, *check[c], rx, ry, nu, lam_cut, False)
+        return lam, vec, lam2
+
+    if not one_thread:
+        return [solve(c) for c in range(4)]
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1, user_api="blas"):
+        return [solve(c) for c in range(4)]
+
+
+def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> RitzSolution:
+    """All converged modes with dimensionless frequency <= ``omega_req``."""
+    alpha = basis_alpha(boundary)
+    rx, ry = ratios(aspect)
+    lam_cut = (omega_req * (1.0 + 10.0 * TOLERANCE)) ** 2
+    grow = 1.0
+    attempts = []
+    one_thread = None
+    for _ in range(6):
+        # Wavenumbers per unit of xi, eta: k L = sqrt(Omega), a = L / rx.
+        k_l = math.sqrt(omega_req) * grow
+        kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+        # The kept degree pairs fill more than pi/4 of the rectangle of the largest
+        # degrees: refuse hopeless sizes before building any index set.
+        nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
+        ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
+        if math.pi / 16.0 * nx_max * ny_max > _MAX_UNKNOWNS:
+            raise TooLarge(int(math.pi / 16.0 * nx_max * ny_max))
+        main = [index_set(px, py, kx, ky, _C0, _C1) for px, py in _CLASSES]
+        check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1) for px, py in _CLASSES]
+        sizes = [ij[0].size for ij in check]
+        if max(sizes) > _MAX_UNKNOWNS:
+            raise TooLarge(max(sizes))
+        nx = max(int(ij[0].max()) for ij in check) + 1
+        ny = max(int(ij[1].max()) for ij in check) + 1
+        mx = matrices_1d(alpha, nx)
+        my = matrices_1d(alpha, ny)
+        if one_thread is None:  # decided on the first basis, kept for the larger ones
+            one_thread = max(ij[0].size for ij in main) > ONE_THREAD_UNKNOWNS
+        solved = _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread)
+        lams, vecs, ok = [], [], True
+        worst = 0.0
+        for c, (lam, vec, lam2) in enumerate(solved):
+            if boundary == "free" and c != 3:
+                # The rigid-body motions (1, xi, eta) lie in classes 0, 1, 2: one zero
+                # eigenvalue each (numerically |lambda| ~ eps * s).
+                if not (
+                    lam.size
+                    and lam2.size
+                    and abs(lam[0]) < 1e-6 * SHIFT
+                    and abs(lam2[0]) < 1e-6 * SHIFT
+                ):
+                    raise SynthError("free plate: rigid-body modes not found")  # pragma: no cover
+                lam, vec, lam2 = lam[1:], vec[:, 1:], lam2[1:]
+            om = np.sqrt(np.maximum(lam, 0.0))
+            om2 = np.sqrt(np.maximum(lam2, 0.0))
+            # Every check mode at or below omega_req needs a converged main partner.
+            need = int(np.searchsorted(om2, omega_req, side="right"))
+            if need > om.size:
+                ok = False
+                worst = math.inf
+            else:
+                err = (om[:need] - om2[:need]) / om[:need] if need else np.zeros(0)
+                if err.size:
+                    worst = max(worst, float(np.max(np.abs(err))))
+                    if np.any(np.abs(err) > TOLERANCE):
+                        ok = False
+            keep = int(np.searchsorted(om, omega_req, side="right"))
+            lams.append(om[:keep])
+            vecs.append(np.ascontiguousarray(vec[:, :keep]))
+        attempts.append(
+            {
+                "grow": grow,
+                "unknowns": [ij[0].size for ij in main],
+                "check_unknowns": sizes,
+                "worst_relative_change": worst,
+            }
+        )
+        if ok:
+            break
+        grow *= 1.15
+    else:
+        raise SynthError(  # pragma: no cover
+            f"plate modes did not converge to {TOLERANCE:g} after {len(attempts)} bases: {attempts}"
+        )
+    omega = np.concatenate(lams)
+    cls = np.concatenate([np.full(v.size, c, dtype=np.int64) for c, v in enumerate(lams)])
+    col = np.concatenate([np.arange(v.size, dtype=np.int64) for v in lams])
+    order = np.lexsort((cls, omega))
+    return RitzSolution(
+        boundary,
+        nu,
+        aspect,
+        omega_req,
+        omega[order],
+        cls[order],
+        col[order],
+        main,
+        vecs,
+        {"attempts": attempts},
+    )
+
+
+def ritz_frequencies(
+    boundary: str,
+    nu: float,
+    aspect: float,
+    omega_basis: float,
+    omega_cut: float,
+    c0: float = _C0,
+    c1: float = _C1,
+) -> np.ndarray:
+    """Ritz frequencies (dimensionless, ascending, rigid-body motions removed) up to
+    ``omega_cut`` with the basis the rule ``(c0, c1)`` builds for ``omega_basis``.
+
+    A diagnostic of the basis-size rule: bases grow (nested) with ``omega_basis``,
+    ``c0`` and ``c1``, so each Ritz value can only decrease as they grow.
+    """
+    alpha = basis_alpha(boundary)
+    rx, ry = ratios(aspect)
+    k_l = math.sqrt(omega_basis)
+    sets = [index_set(px, py, 0.5 * k_l / rx, 0.5 * k_l / ry, c0, c1) for px, py in _CLASSES]
+    mx = matrices_1d(alpha, max(int(ij[0].max()) for ij in sets) + 1)
+    my = matrices_1d(alpha, max(int(ij[1].max()) for ij in sets) + 1)
+    out = []
+    for c, (I, J) in enumerate(sets):
+        lam, _ = solve_class(mx, my, I, J, rx, ry, nu, omega_cut**2, False)
+        if boundary == "free" and c != 3:
+            lam = lam[1:]
+        out.append(np.sqrt(np.maximum(lam, 0.0)))
+    return np.sort(np.concatenate(out))
+
+
+def solution_key(boundary: str, nu: float, aspect: float) -> str:
+    """Everything that determines a stored solution, as a canonical JSON string."""
+    return json.dumps(
+        {
+            "version": VERSION,
+            "boundary": boundary,
+            "nu": float(nu).hex(),
+            "aspect": float(aspect).hex(),
+            "c0": _C0,
+            "c1": _C1,
+            "d0": _D0,
+            "d1": _D1,
+            "shift": SHIFT,
+            "tolerance": TOLERANCE,
+        },
+        sort_keys=True,
+    )
+
+
+class TooLarge(Exception):
+    def __init__(self, n, what="unknowns per symmetry class", limit=_MAX_UNKNOWNS):
+        self.n = n
+        self.what = what
+        self.limit = limit
+
+
+@dataclass(frozen=True, eq=False)
+class SummedShapes:
+    """Mode shapes that are sums of products of one function of x and one of y.
+
+    ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the free and clamped plates' Ritz
+    shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a sum over
+    points of ``w phi_k`` is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix
+    for every mode (:meth:`combine`). Used by
+    :func:`synth.sound.radiation.summed_gains` (the polar rule of these shapes).
+
+    Attributes
+    ----------
+    length, width : float
+        ``a`` and ``b``, metres.
+    wavenumber : float
+        Largest bending wavenumber of the modes, rad/m.
+    n_x, n_y : int
+        Number of factors ``X_i`` (columns of :meth:`x_values`) and ``Y_j``.
+    n_modes : int
+        Number of modes (columns of :meth:`combine` and :meth:`values`).
+    """
+
+    length: float
+    width: float
+    wavenumber: float
+    n_x: int
+    n_y: int
+    n_modes: int
+    _alpha: int = field(repr=False)
+    # per symmetry class: (mode columns, flat factor index i * n_y + j, coefficients 2 C)
+    _parts: tuple = field(repr=False)
+    _solution: object = field(repr=False)
+
+    def values(self, points: np.ndarray) -> np.ndarray:
+        """``phi_k`` at ``points`` (``(n, 2)`` array of ``(x, y)``, metres, on the plate):
+        shape ``(n, n_modes)``, as :meth:`Modes.shapes`."""
+        pts = np.asarray(points, dtype=float)
+        xi = np.clip(2.0 * pts[:, 0] / self.length - 1.0, -1.0, 1.0)
+        eta = np.clip(2.0 * pts[:, 1] / self.width - 1.0, -1.0, 1.0)
+        return self._solution.shapes(xi, eta, self.n_modes)
+
+    def x_values(self, x: np.ndarray) -> np.ndarray:
+        """``X_i(x)`` for ``i < n_x``: shape ``(len(x), n_x)`` (``x`` in metres, on the plate)."""
+        xi = np.clip(2.0 * np.asarray(x, dtype=float) / self.length - 1.0, -1.0, 1.0)
+        return basis_1d(self._alpha, self.n_x, xi)[0]
+
+    def y_values(self, y: np.ndarray) -> np.ndarray:
+        """``Y_j(y)`` for ``j < n_y``: shape ``(len(y), n_y)`` (``y`` in metres, on the plate)."""
+        eta = np.clip(2.0 * np.asarray(y, dtype=float) / self.width - 1.0, -1.0, 1.0)
+        return basis_1d(self._alpha, self.n_y, eta)[0]
+
+    def combine(self, sums: np.ndarray) -> np.ndarray:
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode ``k``.
+
+        ``sums`` has shape ``(n, n_x, n_y)`` (for instance ``X^T diag(w) Y`` of ``n``
+        sets of points); returns ``(n, n_modes)`` in the order of the frequencies:
+        one matrix product per symmetry class.
+        """
+        flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
+        out = np.empty((flat.shape[0], self.n_modes))
+        for cols, pairs, coef in self._parts:
+            part = np.empty((flat.shape[0], cols.size))
+            single_thread_product(np.ascontiguousarray(flat[:, pairs]), coef, part)
+            out[:, cols] = part
+        return out
