@@ -13,7 +13,7 @@ a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate`. 
 :class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
 and ``message``; only bad input raises (``ParameterError``).
 
-Numerics (see ``synth/_contact_kernels.py``): the equations are scaled by
+Numerics (see ``synth/physics/contact_kernels/``): the equations are scaled by
 Zener's time ``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0``, so
 every state variable is of order one and one relative tolerance means the same
 for every ball and plate; they are integrated by DOP853 where the contact is not

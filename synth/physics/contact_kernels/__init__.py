@@ -1,0 +1,366 @@
+"""numba kernels of the contact solver (private to synth.physics.contact), by stage.
+
+They integrate the dimensionless contact equations of docs/physics.md, "Hertz contact"
+for one impact, from first touch to separation or settling:
+
+- ``equations.py``: the equations, the force, right-hand side and Jacobian, the settling
+  test, the status codes;
+- ``series.py``: the start of contact as a series in s and s^n (x^n is not smooth at
+  x = 0), up to where the integrators take over;
+- ``dop853.py``: the explicit stepper (DOP853, Hairer, Norsett & Wanner, "Solving ODEs
+  I", II.10) for the non-stiff range;
+- ``radau.py``: the implicit stepper (Radau IIA of order 5, Hairer & Wanner, "Solving
+  ODEs II", IV.8) for the stiff range (lam >> 1);
+- ``dense.py``: the history of the steps with their dense output (row 0: the series),
+  on which the end of contact, the peak penetration and force are located and the
+  pulse is sampled;
+- here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
+  parameters, through ``solve``), ``pulse``, ``force_at``, ``force_slope_at`` and
+  ``pulse_samples`` (the force from the dense output).
+
+numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
+these modules, clear the ``__pycache__`` folders so that the kernels calling it compile
+again.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from synth.physics.contact_kernels.dense import (
+    H_COLS,
+    H_H,
+    H_T0,
+    H_W0,
+    H_X0,
+    dense_state,
+    event_root,
+    find_step,
+    golden_max,
+    sample_pulse,
+)
+from synth.physics.contact_kernels.dop853 import integrate_dop853
+from synth.physics.contact_kernels.equations import (
+    MAX_STEPS,
+    NEWTON_FAILED,
+    SEPARATED,
+    SETTLED,
+    STEP_TOO_SMALL,
+    force,
+    penetration_rate,
+    power,
+)
+from synth.physics.contact_kernels.radau import integrate_radau
+from synth.physics.contact_kernels.series import SERIES_SIZE, series_coefficients, series_start
+
+__all__ = [
+    "AUTO",
+    "DOP853",
+    "MAX_STEPS",
+    "NEWTON_FAILED",
+    "N_RESULT",
+    "RADAU",
+    "R_C",
+    "R_CONTACT_TIME",
+    "R_ENERGY_RESIDUAL",
+    "R_F_SCALE",
+    "R_G",
+    "R_IMPULSE",
+    "R_INELASTICITY",
+    "R_MAX_PENETRATION",
+    "R_N_STEPS",
+    "R_PEAK_FORCE",
+    "R_PLATE_ENERGY",
+    "R_REBOUND_SPEED",
+    "R_RESTITUTION",
+    "R_STATUS",
+    "R_STIFF",
+    "R_S_CONTACT",
+    "R_THETA",
+    "R_TINY_REBOUND",
+    "SEPARATED",
+    "SETTLED",
+    "STEP_TOO_SMALL",
+    "force_at",
+    "force_slope_at",
+    "impact",
+    "pulse",
+    "pulse_samples",
+    "solve",
+]
+
+# Integrator choice of ``impact``.
+AUTO = 0
+DOP853 = 1
+RADAU = 2
+
+# Fields of the result array of ``impact``: the one place that names their order.
+R_STATUS = 0  # SEPARATED, SETTLED or a failure code
+R_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
+R_STIFF = 2  # 1: integrated by Radau IIA, 0: by DOP853
+R_RESTITUTION = 3  # v_out / v_in
+R_CONTACT_TIME = 4  # s
+R_MAX_PENETRATION = 5  # m
+R_PEAK_FORCE = 6  # N
+R_IMPULSE = 7  # N s
+R_INELASTICITY = 8  # Zener's lam = beta m / theta
+R_REBOUND_SPEED = 9  # m/s
+R_PLATE_ENERGY = 10  # J
+R_ENERGY_RESIDUAL = 11  # relative error of the energy balance
+R_N_STEPS = 12  # accepted steps
+R_G = 13  # dimensionless gravity g theta / v0 (dense output)
+R_C = 14  # dimensionless Hunt-Crossley loss mu v0 (dense output)
+R_S_CONTACT = 15  # dimensionless end of contact (dense output)
+R_THETA = 16  # Zener's time scale, s
+R_F_SCALE = 17  # force scale m v0 / theta, N
+N_RESULT = 18
+
+
+@numba.njit(cache=True)
+def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
+    """Integrate one contact and find its peak.
+
+    Returns (status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, n_steps,
+    n_rejected, hist), all dimensionless: ``s_contact`` is the contact's duration (to
+    separation, or to the moment the ball was proven unable to separate), ``s_end,
+    w_end, x_end, I2, loss`` the state where the energy balance is taken, ``n_steps``
+    the integrator's accepted steps after the series start, and ``hist`` the dense
+    output (row 0: the series, whose coefficients ``pulse`` and ``force_at``
+    recompute).
+    """
+    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
+    s1, x1, w1, i2, loss = series_start(lam, G, n, c, rtol, S)
+    hist = np.empty((32, H_COLS))
+    hist[0, H_T0] = 0.0
+    hist[0, H_H] = s1
+    hist[0, H_X0] = 0.0
+    hist[0, H_W0] = 1.0
+    # The series' validity ends at s1 like a step's: the next step is of the same length.
+    if stiff:
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
+            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        )
+    else:
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
+            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        )
+    radau = stiff
+    s_contact = s_end
+    if status == SEPARATED:
+        # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
+        s_end = event_root(hist, S, nh - 1, radau, 0, lam, G, n, c, 0.0)
+        x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n)
+        x_end = 0.0
+        s_contact = s_end
+    elif status == SETTLED:
+        s_contact = event_root(hist, S, nh - 1, radau, 2, lam, G, n, c, 0.5 * (lam * G) ** 2)
+    # peak penetration and force: bracket by step ends, refine on the dense output
+    ibest = 0
+    vbest = -1.0
+    for k in range(nh):
+        if hist[k, H_X0] > vbest:
+            vbest = hist[k, H_X0]
+            ibest = k
+    # the maximum is where x' = w - lam f changes sign: in the step before or after
+    # the largest step start
+    x_max = vbest
+    for k in (ibest - 1, ibest):
+        if k < 0 or k >= nh:
+            continue
+        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c)
+        xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n)
+        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c) <= 0.0:
+            xr, _ = dense_state(
+                hist, S, k, event_root(hist, S, k, radau, 1, lam, G, n, c, 0.0), radau, n
+            )
+            x_max = max(x_max, xr)
+    if c == 0.0:
+        f_max = power(x_max, n) if x_max > 0.0 else 0.0
+    else:
+        ibest = 0
+        vbest = -1.0
+        for k in range(nh):
+            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c)
+            if fk > vbest:
+                vbest = fk
+                ibest = k
+        lo = hist[max(ibest - 1, 0), H_T0]
+        hi = min(hist[ibest, H_T0] + hist[ibest, H_H], s_contact)
+        if ibest + 1 < nh:
+            hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
+        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, 1), vbest)
+    return (status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej, hist[:nh])
+
+
+@numba.njit(cache=True)
+def impact(
+    m,
+    K,
+    beta,
+    v_in,
+    g,
+    n,
+    mu,
+    v_free,
+    rtol,
+    atol_factor,
+    stiff_lambda,
+    method,
+    max_explicit,
+    max_implicit,
+):
+    """One impact from lumped parameters (SI units, checked by the caller).
+
+    Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
+    length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
+    integrates them by ``solve`` (``method``: AUTO picks Radau IIA above
+    ``stiff_lambda`` and falls back to it when DOP853 reaches ``max_explicit`` steps),
+    and takes the energy balance (docs/physics.md, "Hertz contact"; Hunt-Crossley loss included).
+    ``rtol`` is the integrators' local tolerance, ``atol_factor`` the absolute one
+    relative to it.
+
+    Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
+    fields are named by the ``R_*`` indices above (flags and counts stored as
+    floats), ``hist`` the dense output that ``pulse`` and ``force_at`` read.
+    """
+    v0 = v_in + v_free
+    theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
+    lam = beta * m / theta
+    G = g * theta / v0
+    c = mu * v0
+    atol = rtol * atol_factor
+    stiff = (lam > stiff_lambda) if method == AUTO else (method == RADAU)
+    f_scale = m * v0 / theta
+    out = solve(lam, G, n, c, rtol, atol, max_implicit if stiff else max_explicit, stiff)
+    if out[0] == MAX_STEPS and not stiff and method == AUTO:
+        stiff = True
+        out = solve(lam, G, n, c, rtol, atol, max_implicit, True)
+    status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
+    separated = status == SEPARATED
+    tiny_rebound = separated and w_end > 0.0
+    if tiny_rebound:
+        # The contact ended with the ball still (barely) approaching: the rebound is
+        # below the solver's absolute resolution (atol of v0).
+        w_end = 0.0
+    i1 = 1.0 - w_end + G * s_end  # from w' = G - f
+    # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
+    elastic = x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
+    lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
+    rhs = G * lam * i1 - lam * i2 - loss
+    # relative to the energy exchanged: the arrival energy, or the work of gravity and the
+    # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
+    scale = max(0.5, abs(G * lam * i1), lam * i2, abs(loss), abs(G * x_end))
+    v_out = -w_end * v0 if separated else 0.0
+    r = np.empty(N_RESULT)
+    r[R_STATUS] = status
+    r[R_TINY_REBOUND] = 1.0 if tiny_rebound else 0.0
+    r[R_STIFF] = 1.0 if stiff else 0.0
+    r[R_RESTITUTION] = v_out / v_in
+    r[R_CONTACT_TIME] = s_contact * theta
+    r[R_MAX_PENETRATION] = x_max * theta * v0
+    r[R_PEAK_FORCE] = f_max * f_scale
+    r[R_IMPULSE] = i1 * m * v0
+    r[R_INELASTICITY] = lam
+    r[R_REBOUND_SPEED] = v_out
+    r[R_PLATE_ENERGY] = lam * i2 * m * v0 * v0
+    r[R_ENERGY_RESIDUAL] = abs(lhs - rhs) / scale
+    r[R_N_STEPS] = nst
+    r[R_G] = G
+    r[R_C] = c
+    r[R_S_CONTACT] = s_contact
+    r[R_THETA] = theta
+    r[R_F_SCALE] = f_scale
+    return r, hist
+
+
+@numba.njit(cache=True)
+def pulse(hist, radau, lam, G, n, c, s_contact, separated, t_scale, f_scale, times, forces):
+    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c) at
+    ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
+    ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
+    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
+    series_coefficients(lam, G, n, c, S)
+    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, s_contact, times, forces)
+    times *= t_scale
+    forces *= f_scale
+    if separated:
+        forces[0] = 0.0
+        forces[-1] = 0.0
+
+
+@numba.njit(cache=True)
+def force_at(hist, radau, lam, G, n, c, s_contact, s, out):
+    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
+    output ``hist`` of ``solve`` (same lam, G, n, c); 0 outside ``[0, s_contact]``.
+    Written into ``out``."""
+    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
+    series_coefficients(lam, G, n, c, S)
+    nh = hist.shape[0]
+    for i in range(s.shape[0]):
+        si = s[i]
+        if si <= 0.0 or si >= s_contact:
+            out[i] = 0.0
+            continue
+        k = find_step(hist, nh, si)
+        x, w = dense_state(hist, S, k, si, radau, n)
+        f, _ = force(x, w, lam, n, c)
+        out[i] = f
+
+
+@numba.njit(cache=True)
+def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
+    """As ``force_at``, with the force's rate of change ``df/ds`` into ``slope``.
+
+    ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
+    ``a' = n x^(n-1) x'``. Hertz and power laws: ``f' = a'``. Hunt-Crossley:
+    ``f = a (1 + c w) / D``, ``D = 1 + c lam a``, so
+    ``f' = (a' (1 + c w) + a c w') / D - f c lam a' / D`` (0 where f is clipped at 0).
+    """
+    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
+    series_coefficients(lam, G, n, c, S)
+    nh = hist.shape[0]
+    for i in range(s.shape[0]):
+        si = s[i]
+        if si <= 0.0 or si >= s_contact:
+            out[i] = 0.0
+            slope[i] = 0.0
+            continue
+        k = find_step(hist, nh, si)
+        x, w = dense_state(hist, S, k, si, radau, n)
+        f, a = force(x, w, lam, n, c)
+        out[i] = f
+        if x <= 0.0 or f <= 0.0:
+            slope[i] = 0.0
+            continue
+        dx = w - lam * f
+        da = n * power(x, n - 1.0) * dx
+        if c == 0.0:
+            slope[i] = da
+        else:
+            D = 1.0 + c * lam * a
+            slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D - f * c * lam * da / D
+
+
+@numba.njit(cache=True)
+def pulse_samples(
+    hist, radau, lam, G, n, c, s_contact, theta, f_scale, step, points, offset, period, samples,
+    out, slope,
+):  # fmt: skip
+    """The force (N) and its rate (N/s) at ``u_j = j step`` (``j < points``) and then at
+    ``offset + m period`` (``m < samples``), times in s from first touch: ``force_slope_at``
+    on those times, scaled to SI units (``theta`` s, ``f_scale`` N), written into
+    ``out[:points + samples]`` and ``slope[:points + samples]``."""
+    total = points + samples
+    s = np.empty(total)
+    for j in range(points):
+        s[j] = (j * step) / theta
+    for m in range(samples):
+        s[points + m] = (offset + m * period) / theta
+    f = out[:total]
+    r = slope[:total]
+    force_slope_at(hist, radau, lam, G, n, c, s_contact, s, f, r)
+    rate = f_scale / theta
+    for i in range(total):
+        f[i] *= f_scale
+        r[i] *= rate

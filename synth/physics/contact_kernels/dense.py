@@ -1,0 +1,280 @@
+"""The history of a contact's steps, its dense output and the events located on it (numba).
+
+Both integrators keep a dense output of every accepted step, one row of the history
+each (row 0: the series start, ``series.py``): DOP853's continuous extension of order 7
+(Hairer, Norsett & Wanner, "Solving ODEs I", II.6; the form of scipy's
+Dop853DenseOutput) and Radau IIA's collocation polynomial (Hairer & Wanner, "Solving
+ODEs II", IV.8; as scipy's RadauDenseOutput). On it the end of contact, the peak
+penetration and the settling time are located (``event_root``: the Illinois method,
+Dowell & Jarratt, BIT 11, 1971), the peak force is found (``golden_max``) and the pulse
+is sampled (``sample_pulse``). Also the cubic Hermite tests the steppers use to see the
+end of contact inside a step (``hermite_dips``, ``hermite_root``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from synth.physics.contact_kernels.equations import (
+    force,
+    penetration_rate,
+    positive_power,
+    settling_energy,
+)
+from synth.physics.contact_kernels.series import series_eval, series_x
+
+# Columns of the dense-output history, one row per accepted step (row 0: the series).
+H_T0, H_H, H_X0, H_W0 = 0, 1, 2, 3
+H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
+H_COLS = H_COEF + 14
+
+
+@numba.njit(cache=True)
+def grow_history(hist, k):
+    """The history with room for row ``k``: itself, or a copy of twice its rows."""
+    if k < hist.shape[0]:
+        return hist
+    new = np.empty((2 * hist.shape[0], hist.shape[1]))
+    new[: hist.shape[0]] = hist
+    return new
+
+
+@numba.njit(cache=True)
+def hermite_dips(x0, x1, d0, d1):
+    """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1
+    the derivatives times the step) reaches 0 inside it: the ball left the plate and came
+    back within one step (a flight of length 2 |w| / G, short where gravity dominates).
+    Such a step hides the end of contact from a test on its end points. A flight is a
+    parabola, which the cubic reproduces exactly; the test looks only where x' turns
+    from negative to positive, at the interpolant's minimum (a root of its derivative)."""
+    if not (d0 < 0.0 < d1):
+        return False
+    a = 2.0 * x0 + d0 - 2.0 * x1 + d1  # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
+    b = -3.0 * x0 - 2.0 * d0 + 3.0 * x1 - d1
+    # x'(t) = 3 a t^2 + 2 b t + d0: its roots in (0, 1)
+    qa = 3.0 * a
+    qb = 2.0 * b
+    lowest = min(x0, x1)
+    if qa == 0.0:
+        roots = (-d0 / qb if qb != 0.0 else -1.0, -1.0)
+    else:
+        disc = qb * qb - 4.0 * qa * d0
+        if disc < 0.0:
+            return False
+        r = math.sqrt(disc)
+        roots = ((-qb - r) / (2.0 * qa), (-qb + r) / (2.0 * qa))
+    for t in roots:
+        if 0.0 < t < 1.0:
+            lowest = min(lowest, ((a * t + b) * t + d0) * t + x0)
+    return lowest <= 0.0
+
+
+@numba.njit(cache=True)
+def hermite_root(x0, x1, d0, d1):
+    """Fraction of a step at which the cubic Hermite interpolant of x (values x0 > 0,
+    x1 <= 0; d0, d1 the derivatives times the step) crosses zero, by bisection to 1e-6
+    (it only places the step that is redone to end just past the root)."""
+    a = 0.0
+    b = 1.0
+    for _ in range(20):
+        m = 0.5 * (a + b)
+        t2 = m * m
+        t3 = t2 * m
+        v = (
+            (2.0 * t3 - 3.0 * t2 + 1.0) * x0
+            + (t3 - 2.0 * t2 + m) * d0
+            + (3.0 * t2 - 2.0 * t3) * x1
+            + (t3 - t2) * d1
+        )
+        if v > 0.0:
+            a = m
+        else:
+            b = m
+    return b
+
+
+@numba.njit(cache=True)
+def radau_dense(hist, k, s):
+    """(x, w) at time s inside Radau step k: its collocation polynomial."""
+    p1 = (s - hist[k, H_T0]) / hist[k, H_H]
+    p2 = p1 * p1
+    p3 = p2 * p1
+    c = H_COEF
+    x = hist[k, H_X0] + hist[k, c] * p1 + hist[k, c + 1] * p2 + hist[k, c + 2] * p3
+    w = hist[k, H_W0] + hist[k, c + 3] * p1 + hist[k, c + 4] * p2 + hist[k, c + 5] * p3
+    return x, w
+
+
+@numba.njit(cache=True)
+def dense_state(hist, S, k, s, radau, n):
+    """(x, w) at dimensionless time s inside step k of the history (step 0: the series)."""
+    if k == 0:
+        return series_eval(S, s, n)
+    if radau:
+        return radau_dense(hist, k, s)
+    # DOP853 continuous extension (scipy's Dop853DenseOutput, Horner form)
+    th = (s - hist[k, H_T0]) / hist[k, H_H]
+    x = 0.0
+    w = 0.0
+    for i in range(7):
+        j = 6 - i
+        x += hist[k, H_COEF + j]
+        w += hist[k, H_COEF + 7 + j]
+        if i % 2 == 0:
+            x *= th
+            w *= th
+        else:
+            x *= 1.0 - th
+            w *= 1.0 - th
+    return x + hist[k, H_X0], w + hist[k, H_W0]
+
+
+@numba.njit(cache=True)
+def find_step(hist, nst, s):
+    """The step (row of the first ``nst`` of the history) whose span holds time s: the
+    last one starting at or before s (bisection)."""
+    lo = 0
+    hi = nst - 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if hist[mid, H_T0] <= s:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+@numba.njit(cache=True)
+def penetration_and_force(hist, S, nst, s, radau, lam, n, c):
+    """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
+    k = find_step(hist, nst, s)
+    x, w = dense_state(hist, S, k, s, radau, n)
+    f, a = force(x, w, lam, n, c)
+    return x, f
+
+
+@numba.njit(cache=True)
+def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, which):
+    """Maximum of x (which=0) or f (which=1) over [lo, hi] by golden-section search."""
+    g = 0.6180339887498949
+    a = lo
+    b = hi
+    x1 = b - g * (b - a)
+    x2 = a + g * (b - a)
+    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c)
+    v1 = p[which]
+    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c)
+    v2 = p[which]
+    # The peak is quadratic: locating it to 1e-8 of its bracket gives the value to ~1e-16.
+    for _ in range(80):
+        if b - a <= 1e-8 * (hi - lo):
+            break
+        if v1 < v2:
+            a = x1
+            x1 = x2
+            v1 = v2
+            x2 = a + g * (b - a)
+            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c)
+            v2 = p[which]
+        else:
+            b = x2
+            x2 = x1
+            v2 = v1
+            x1 = b - g * (b - a)
+            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c)
+            v1 = p[which]
+    return max(v1, v2)
+
+
+@numba.njit(cache=True)
+def event(which, x, w, lam, G, n, c, thr):
+    """The functions whose roots end or mark a contact: 0, the penetration x (end of
+    contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
+    docstring)."""
+    if which == 0:
+        return x
+    if which == 1:
+        return penetration_rate(x, w, lam, n, c)
+    return settling_energy(x, w, lam, G, n) - thr
+
+
+@numba.njit(cache=True)
+def event_root(hist, S, k, radau, which, lam, G, n, c, thr):
+    """Where the event function ``which`` falls through 0 inside step k (positive at the
+    step's start, not positive at its end): Illinois (modified regula falsi) on the dense
+    output, to machine precision. If it is not positive at the start, the step's end."""
+    a = hist[k, H_T0]
+    b = a + hist[k, H_H]
+    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, thr)
+    xb, wb = dense_state(hist, S, k, b, radau, n)
+    fb = event(which, xb, wb, lam, G, n, c, thr)
+    if fa <= 0.0 or fb >= 0.0:
+        return b
+    side = 0
+    for _ in range(200):
+        m = (a * fb - b * fa) / (fb - fa)
+        if not (a < m < b):
+            m = 0.5 * (a + b)
+        xm, wm = dense_state(hist, S, k, m, radau, n)
+        fm = event(which, xm, wm, lam, G, n, c, thr)
+        if fm > 0.0:
+            a, fa = m, fm
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        elif fm < 0.0:
+            b, fb = m, fm
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            return m
+        # the peak (which 1) is quadratic: 1e-10 of the step places it to ~1e-20 in value
+        if b - a <= (1e-10 * hist[k, H_H] if which == 1 else 4e-16 * b):
+            break
+    return b if -fb < fa else a
+
+
+@numba.njit(cache=True)
+def sample_pulse(hist, S, nh, radau, lam, n, c, s_contact, times, forces):
+    """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
+    and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
+    evaluated step by step, in loops that the compiler vectorises, then raised to n."""
+    n_points = times.shape[0]
+    ds = s_contact / (n_points - 1)
+    for i in range(n_points):
+        times[i] = i * ds
+    if radau or c != 0.0:
+        k = 0
+        for i in range(n_points):
+            while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
+                k += 1
+            x, w = dense_state(hist, S, k, times[i], radau, n)
+            forces[i], _ = force(x, w, lam, n, c)
+        return
+    i = 0
+    for k in range(nh):
+        i1 = n_points
+        if k + 1 < nh:
+            i1 = i
+            while i1 < n_points and times[i1] < hist[k + 1, H_T0]:
+                i1 += 1
+        if k == 0:
+            series_x(S, n, times[i:i1], forces[i:i1])
+        else:
+            t0 = hist[k, H_T0]
+            rh = 1.0 / hist[k, H_H]
+            x0 = hist[k, H_X0]
+            c0, c1, c2, c3, c4, c5, c6 = hist[k, H_COEF : H_COEF + 7]
+            for j in range(i, i1):
+                th = (times[j] - t0) * rh
+                u = 1.0 - th
+                # scipy's Dop853DenseOutput, Horner form (as in dense_state)
+                forces[j] = x0 + th * (
+                    c0 + u * (c1 + th * (c2 + u * (c3 + th * (c4 + u * (c5 + th * c6)))))
+                )
+        i = i1
+    positive_power(forces, n)

@@ -1,0 +1,305 @@
+"""The explicit stepper of the contact: DOP853 with its landing on the end of contact (numba).
+
+DOP853 (Hairer, Norsett & Wanner, "Solving ODEs I", II.10; the coefficients of their
+dop853.f, in ``synth/physics/dop853_tableau.py``; the error norm of scipy's DOP853)
+integrates the non-stiff range from the end of the series start. The end of contact
+is a singularity of the equations (the force ~ (tau - s)^n switches off): steps are
+made to land just past it (``_time_to_end``, ``_landing_factor``), so that no step
+integrates across the kink.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from synth.physics import dop853_tableau as _dop
+from synth.physics.contact_kernels.dense import (
+    H_COEF,
+    H_H,
+    H_T0,
+    H_W0,
+    H_X0,
+    grow_history,
+    hermite_dips,
+    hermite_root,
+)
+from synth.physics.contact_kernels.equations import (
+    MAX_STEPS,
+    SEPARATED,
+    SETTLED,
+    STEP_TOO_SMALL,
+    power,
+    rhs,
+    settling_energy,
+)
+
+# --- DOP853 tableau (Hairer's coefficients, synth/physics/dop853_tableau.py) ------------
+_NS = _dop.N_STAGES  # 12
+_A = np.ascontiguousarray(_dop.A[:_NS, :_NS])
+_B = np.ascontiguousarray(_dop.B)
+_C = np.ascontiguousarray(_dop.C[:_NS])
+_E3 = np.ascontiguousarray(_dop.E3)
+_E5 = np.ascontiguousarray(_dop.E5)
+_D = np.ascontiguousarray(_dop.D)
+_A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
+
+
+@numba.njit(cache=True)
+def _time_to_end(x, w, dx, lam, G, n, c):
+    """Time left until the end of contact, predicted after a step that ends with x > 0
+    moving apart (x' = dx < 0), and the separation speed v it implies; (inf, 0) if the
+    ball still moves down.
+
+    Near the end the force is f = phi x^n, phi = 1 + c w (Hertz: 1), and x ~ v sigma
+    with sigma the time left. Integrating u' = f - G (u = -w) and x' = -(u + lam f)
+    back from the end with f = phi (v sigma)^n gives, to leading order in the force,
+
+        x = u sigma - G sigma^2 / 2 + phi v^n (lam sigma^(n+1) / (n+1) + sigma^(n+2) / (n+2)),
+        v = u - G sigma + phi v^n sigma^(n+1) / (n+1),
+
+    solved for sigma by Newton's method from sigma = x / (-x'). The neglected terms
+    are of relative order sigma^(n+1): the prediction is sharp where it matters, close
+    to the end.
+    """
+    u = -w
+    if u <= 0.0:
+        return np.inf, 0.0
+    phi = max(0.0, 1.0 + c * w)
+    un = phi * power(u, n)
+    sig = x / -dx
+    for _ in range(6):
+        sn = power(sig, n)
+        v = u - G * sig + un * sn * sig / (n + 1.0)
+        vn = phi * power(max(v, 0.0), n)
+        g = u * sig - 0.5 * G * sig * sig + vn * sn * sig * (lam / (n + 1.0) + sig / (n + 2.0)) - x
+        dg = u - G * sig + vn * sn * (lam + sig)
+        if not dg > 0.0:
+            break
+        step = g / dg
+        sig -= step
+        if not sig > 0.0:
+            return x / -dx, u
+        if abs(step) <= 1e-12 * sig:
+            break
+    return sig, u - G * sig + un * power(sig, n) * sig / (n + 1.0)
+
+
+@numba.njit(cache=True)
+def _landing_factor(n):
+    """kappa(n) of the error of a DOP853 step that ends where the force switches off.
+
+    There f ~ (v (tau - s))^n, and w' = G - f gives the step's stages the derivatives
+    -v^n h^n (1 - C_i)^n: scipy's error norm of that singular part alone (the rest of
+    the solution is smooth) is kappa v^(n-1) h^(n+1) / rtol, relative to |w| = v.
+    0 for an integer n (a polynomial, integrated exactly).
+    """
+    e5 = 0.0
+    e3 = 0.0
+    for i in range(_NS + 1):
+        g = power(1.0 - _C[i], n) if i < _NS else 0.0
+        e5 += _E5[i] * g
+        e3 += _E3[i] * g
+    if e5 == 0.0:
+        return 0.0
+    return e5 * e5 / math.sqrt(3.0 * (e5 * e5 + 0.01 * e3 * e3))
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+    """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
+    of the history ``hist`` (the series) filled in. Returns (status, s_end, x, w, I2, L,
+    n_rows, n_rejected, hist), ``n_rows`` the rows of the history in use."""
+    K = np.empty((16, 4))
+    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c)
+    nst = 1
+    nrej = 0
+    settle = G > 0.0 and lam > 0.0
+    wthr = 0.5 * (lam * G) ** 2
+    peaked = False  # past the first penetration peak (a settled pulse keeps its landing)
+    rejected = False
+    h_rej = 0.0
+    err_rej = 0.0
+    landing = False  # this step is meant to end just past the end of contact
+    land_max = np.inf  # farthest a landing may start from, once one has failed
+    kappa = -1.0  # _landing_factor(n), when first needed
+    # x is measured against its largest value so far: near the end of contact an error
+    # dx moves the end by dx / x', and the contact time is of order one
+    x_top = x
+    while True:
+        if nst > max_steps:
+            return MAX_STEPS, s, x, w, q2, q3, nst, nrej, hist
+        if not (h >= 1e-14 * s and h >= 1e-300):
+            return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
+        # one DOP853 step; the solution (B) and error (E5, E3) sums gather each stage as it
+        # comes, in the shadow of the next stage's evaluation
+        b0 = _B[0] * K[0, 0]
+        b1 = _B[0] * K[0, 1]
+        b2 = _B[0] * K[0, 2]
+        b3 = _B[0] * K[0, 3]
+        e5x = _E5[0] * K[0, 0]
+        e5w = _E5[0] * K[0, 1]
+        e5q = _E5[0] * K[0, 2]
+        e3x = _E3[0] * K[0, 0]
+        e3w = _E3[0] * K[0, 1]
+        e3q = _E3[0] * K[0, 2]
+        for i in range(1, _NS):
+            # only x and w enter the right-hand side; I2 and the loss are quadratures
+            a0 = 0.0
+            a1 = 0.0
+            for j in range(i):
+                a0 += _A[i, j] * K[j, 0]
+                a1 += _A[i, j] * K[j, 1]
+            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c)
+            K[i, 0] = k0
+            K[i, 1] = k1
+            K[i, 2] = k2
+            K[i, 3] = k3
+            b0 += _B[i] * k0
+            b1 += _B[i] * k1
+            b2 += _B[i] * k2
+            b3 += _B[i] * k3
+            e5x += _E5[i] * k0
+            e5w += _E5[i] * k1
+            e5q += _E5[i] * k2
+            e3x += _E3[i] * k0
+            e3w += _E3[i] * k1
+            e3q += _E3[i] * k2
+        xn = x + h * b0
+        wn = w + h * b1
+        q2n = q2 + h * b2
+        q3n = q3 + h * b3
+        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c)
+        K[_NS, 0] = k0
+        K[_NS, 1] = k1
+        K[_NS, 2] = k2
+        K[_NS, 3] = k3
+        # error estimate (scipy's DOP853 norm) on x, w and I2
+        e5x += _E5[_NS] * k0
+        e5w += _E5[_NS] * k1
+        e5q += _E5[_NS] * k2
+        e3x += _E3[_NS] * k0
+        e3w += _E3[_NS] * k1
+        e3q += _E3[_NS] * k2
+        scx = atol + rtol * max(x_top, abs(xn))
+        scw = atol + rtol * max(abs(w), abs(wn))
+        scq = atol + rtol * max(abs(q2), abs(q2n))
+        e5 = (e5x / scx) ** 2 + (e5w / scw) ** 2 + (e5q / scq) ** 2
+        e3 = (e3x / scx) ** 2 + (e3w / scw) ** 2 + (e3q / scq) ** 2
+        if e5 == 0.0 and e3 == 0.0:
+            err = 0.0
+        else:
+            err = h * e5 / math.sqrt((e5 + 0.01 * e3) * 3.0)
+        if err >= 1.0 or not math.isfinite(err):
+            nrej += 1
+            if landing and math.isfinite(err):
+                # The landing failed (its error ~ h^(n+1)): step to where one should pass.
+                land_max = 0.9 * h * err ** (-1.0 / (n + 1.0))
+                h = max(h - 0.9 * land_max, 0.5 * h)
+                landing = False
+                rejected = True
+                continue
+            # Near the end of the contact the local error falls more slowly than h^8.
+            # After a second rejection at the same point, shrink by the order observed
+            # between the two trials instead of the nominal one.
+            p = 8.0
+            if rejected and h_rej > h and err_rej > err and math.isfinite(err):
+                p = min(8.0, max(1.0, math.log(err_rej / err) / math.log(h_rej / h)))
+            fac = 0.9 * err ** (-1.0 / p) if math.isfinite(err) else 0.2
+            h_rej = h
+            err_rej = err
+            h *= max(0.1, fac)
+            landing = False
+            rejected = True
+            continue
+        if xn > 0.0 and hermite_dips(x, xn, h * K[0, 0], h * K[_NS, 0]):
+            # The ball separated and landed again inside the step: redo it shorter, so
+            # that the end of contact is seen (and located) by the test below.
+            h *= 0.5
+            nrej += 1
+            landing = False
+            rejected = True
+            continue
+        if xn < 0.0:
+            # The step crosses the end of contact, where the force switches off: its
+            # error estimate and dense output assume a smooth right-hand side and are
+            # not to be trusted across that kink. Redo it to land just past the root
+            # (cubic Hermite estimate), so that its stages see a smooth problem.
+            th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
+            if th < 0.999:
+                h *= th * 1.0001 + 1e-9
+                nrej += 1
+                continue
+        # accepted: dense output coefficients for x and w
+        hist = grow_history(hist, nst)
+        for i in range(_NS + 1, 16):
+            ii = i - _NS - 1
+            a0 = 0.0
+            a1 = 0.0
+            for j in range(i):
+                a0 += _A_EXTRA[ii, j] * K[j, 0]
+                a1 += _A_EXTRA[ii, j] * K[j, 1]
+            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c)
+        hist[nst, H_T0] = s
+        hist[nst, H_H] = h
+        hist[nst, H_X0] = x
+        hist[nst, H_W0] = w
+        for q in range(2):
+            base = H_COEF + 7 * q
+            dy = xn - x if q == 0 else wn - w
+            hist[nst, base] = dy
+            hist[nst, base + 1] = h * K[0, q] - dy
+            hist[nst, base + 2] = 2.0 * dy - h * (K[_NS, q] + K[0, q])
+            for r in range(4):
+                acc = 0.0
+                for j in range(16):
+                    acc += _D[r, j] * K[j, q]
+                hist[nst, base + 3 + r] = h * acc
+        nst += 1
+        s += h
+        x = xn
+        w = wn
+        q2 = q2n
+        q3 = q3n
+        x_top = max(x_top, x)
+        for q in range(4):
+            K[0, q] = K[_NS, q]
+        if x <= 0.0:
+            return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
+        if K[0, 0] <= 0.0:
+            peaked = True
+        if settle and peaked and settling_energy(x, w, lam, G, n) < wthr:
+            return SETTLED, s, x, w, q2, q3, nst, nrej, hist
+        fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
+        if rejected:
+            fac = min(1.0, fac)
+            rejected = False
+        h_done = h
+        h *= fac
+        landing = False
+        if K[0, 0] < 0.0:
+            # Moving apart. The end of contact is a singularity (the force ~ (tau - s)^n
+            # switches off), and a step ending there has an error ~ h^(n+1) of known
+            # size (``_landing_factor``). If this step would reach the end, make it land
+            # just past it, or, if the end is farther than a landing may start from,
+            # stop short at a point from which it may.
+            sig = x / -K[0, 0]  # a first estimate, sharpened near the end
+            reach = land_max
+            if h >= 0.5 * sig:
+                sig, v = _time_to_end(x, w, K[0, 0], lam, G, n, c)
+                if kappa < 0.0:
+                    kappa = _landing_factor(n)
+                size = kappa * max(0.0, 1.0 - c * v) * power(v, n - 1.0) * (1.0 + lam * v / x_top)
+                if size > 0.0:
+                    reach = min(reach, (0.8 * rtol / size) ** (1.0 / (n + 1.0)))
+                if sig <= min(h, reach):
+                    h = sig * 1.0001
+                    landing = True
+            if not landing and sig < np.inf:
+                # the error constant grows as the end nears: keep the step's ratio to
+                # the time left, rather than its length
+                h *= sig / (sig + h_done)
+                if h >= sig:
+                    h = max(sig - 0.9 * reach, 0.5 * sig)

@@ -1,0 +1,116 @@
+"""The dimensionless contact equations, their force, Jacobian and settling test (numba).
+
+The equations of docs/physics.md, "Hertz contact" (the thesis, docs/physics.md, References,
+eq. 2.42 generalised to a power law, gravity, Hunt-Crossley loss):
+
+    x' = w - lam * f(x, w)          x = delta / (theta v0)   (penetration)
+    w' = -f(x, w) + G               w = -v_rel / v0          (ball's downward speed)
+    f  = x^n                        (Hertz n = 3/2, power law, elastic foundation n = 2)
+    f  = max(0, x^n (1 + c w) / (1 + c lam x^n))     (Hunt-Crossley, c = mu v0)
+
+with x(0) = 0, w(0) = 1, time s = t / theta, theta = (m / (K v0^(n-1)))^(1/(n+1)),
+lam = beta m / theta (Zener's inelasticity) and G = g theta / v0. Two more
+components carry the quadratures of the energy balance:
+
+    I2' = f^2                       (energy radiated into the plate: lam I2)
+    L'  = (f - x^n) x'              (Hunt-Crossley loss)
+
+Settling (gravity): with u = lam G - w, the function
+    W = u^2 / 2 + x^(n+1) / (n+1) - G x
+never increases (dW/ds = -lam (f - G)^2 - loss) and a separation needs
+W >= (lam G)^2 / 2 (x = 0 while moving apart). Once W falls below that value
+the ball can never leave the plate: it has settled. This test is exact.
+
+Also the status codes with which an integration ends (shared with synth.physics.contact).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+# Status codes shared with synth.physics.contact.
+SEPARATED = 0
+SETTLED = 1
+MAX_STEPS = -1
+STEP_TOO_SMALL = -2
+NEWTON_FAILED = -3
+
+
+@numba.njit(cache=True, inline="always")
+def power(x, n):
+    """x^n for x > 0, with fast paths for the usual exponents."""
+    if n == 1.5:
+        return x * math.sqrt(x)
+    if n == 2.0:
+        return x * x
+    return x**n
+
+
+@numba.njit(cache=True)
+def positive_power(a, n):
+    """a <- max(a, 0)^n in place, the exponent tested once (so that the loop vectorises)."""
+    if n == 1.5:
+        for i in range(a.shape[0]):
+            v = max(a[i], 0.0)
+            a[i] = v * math.sqrt(v)
+    else:
+        for i in range(a.shape[0]):
+            a[i] = max(a[i], 0.0) ** n
+
+
+@numba.njit(cache=True, inline="always")
+def force(x, w, lam, n, c):
+    """Dimensionless contact force f and its elastic part x^n (both 0 out of contact)."""
+    if x <= 0.0:
+        return 0.0, 0.0
+    a = power(x, n)
+    if c == 0.0:
+        return a, a
+    f = a * (1.0 + c * w) / (1.0 + c * lam * a)
+    if f < 0.0:
+        f = 0.0
+    return f, a
+
+
+@numba.njit(cache=True, inline="always")
+def rhs(x, w, lam, G, n, c):
+    """Right-hand side (x', w', I2', L') of the module docstring."""
+    f, a = force(x, w, lam, n, c)
+    dx = w - lam * f
+    return dx, G - f, f * f, (f - a) * dx
+
+
+@numba.njit(cache=True)
+def jacobian(x, w, lam, n, c):
+    """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22."""
+    if x <= 0.0:
+        return 0.0, 1.0, 0.0, 0.0
+    a = power(x, n)
+    da = n * a / x
+    if c == 0.0:
+        fx, fw = da, 0.0
+    else:
+        num = 1.0 + c * w
+        den = 1.0 + c * lam * a
+        if a * num / den <= 0.0:
+            fx, fw = 0.0, 0.0
+        else:
+            fx = da * num / (den * den)
+            fw = a * c / den
+    return -lam * fx, 1.0 - lam * fw, -fx, -fw
+
+
+@numba.njit(cache=True)
+def settling_energy(x, w, lam, G, n):
+    """Settling function W of the module docstring."""
+    u = lam * G - w
+    return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
+
+
+@numba.njit(cache=True, inline="always")
+def penetration_rate(x, w, lam, n, c):
+    """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
+    f, _ = force(x, w, lam, n, c)
+    return w - lam * f

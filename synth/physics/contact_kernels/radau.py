@@ -1,0 +1,273 @@
+"""The implicit stepper of the contact: the 3-stage Radau IIA method of order 5 (numba).
+
+Radau IIA (Hairer & Wanner, "Solving ODEs II", IV.8, following scipy's implementation,
+scipy.integrate.Radau) integrates the stiff range (lam >> 1, where the penetration
+relaxes much faster than the ball slows down). Its Newton iteration solves the
+transformed real and complex 2x2 systems in closed form; I2 and the loss are
+integrated by its collocation quadrature.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from synth.physics.contact_kernels.dense import (
+    H_COEF,
+    H_H,
+    H_T0,
+    H_W0,
+    H_X0,
+    grow_history,
+    hermite_dips,
+    radau_dense,
+)
+from synth.physics.contact_kernels.equations import (
+    MAX_STEPS,
+    SEPARATED,
+    SETTLED,
+    STEP_TOO_SMALL,
+    force,
+    jacobian,
+    rhs,
+    settling_energy,
+)
+
+# --- Radau IIA (order 5) constants, as in scipy.integrate.Radau ------------------------
+_S6 = 6.0**0.5
+_RC = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
+_RE = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0
+_MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)
+_MU_C_RE = 3.0 + 0.5 * (3.0 ** (1.0 / 3.0) - 3.0 ** (2.0 / 3.0))
+_MU_C_IM = -0.5 * (3.0 ** (5.0 / 6.0) + 3.0 ** (7.0 / 6.0))
+_RT = np.array(
+    [
+        [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
+        [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
+        [1.0, 1.0, 0.0],
+    ]
+)
+_RTI = np.array(
+    [
+        [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
+        [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
+        [0.50287263494578682, -2.57192694985560522, 0.59603920482822492],
+    ]
+)
+_RP = np.array(
+    [
+        [13.0 / 3.0 + 7.0 * _S6 / 3.0, -23.0 / 3.0 - 22.0 * _S6 / 3.0, 10.0 / 3.0 + 5.0 * _S6],
+        [13.0 / 3.0 - 7.0 * _S6 / 3.0, -23.0 / 3.0 + 22.0 * _S6 / 3.0, 10.0 / 3.0 - 5.0 * _S6],
+        [1.0 / 3.0, -8.0 / 3.0, 10.0 / 3.0],
+    ]
+)
+# Quadrature weights of the Radau IIA collocation (last row of its A matrix).
+_RB = np.array([(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0])
+_NEWTON_MAXITER = 6
+
+
+@numba.njit(cache=True)
+def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+    """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
+
+    Arguments and result as ``integrate_dop853``'s.
+    """
+    y = np.array([x, w, q2, q3])
+    Z = np.zeros((3, 2))
+    Wt = np.zeros((3, 2))
+    F = np.zeros((3, 2))
+    fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
+    f0 = np.empty(4)
+    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c)
+    h_old = -1.0
+    err_old = -1.0
+    nst = 1
+    nrej = 0
+    settle = G > 0.0 and lam > 0.0
+    wthr = 0.5 * (lam * G) ** 2
+    peaked = False
+    have_dense = False
+    newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
+    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+    rejected = False
+    while True:
+        if nst > max_steps:
+            return MAX_STEPS, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+        if not (h >= 1e-14 * s and h >= 1e-300):
+            return STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+        sc0 = atol + rtol * abs(y[0])
+        sc1 = atol + rtol * abs(y[1])
+        # initial guess from the previous step's collocation polynomial
+        for i in range(3):
+            if have_dense:
+                xg, wg = radau_dense(hist, nst - 1, s + h * _RC[i])
+                Z[i, 0] = xg - y[0]
+                Z[i, 1] = wg - y[1]
+            else:
+                Z[i, 0] = 0.0
+                Z[i, 1] = 0.0
+        mr = _MU_REAL / h
+        mc_re = _MU_C_RE / h
+        mc_im = _MU_C_IM / h
+        # real system (mr I - J), complex system (mc I - J): 2x2, solved in closed form
+        ra, rb, rc_, rd = mr - j11, -j12, -j21, mr - j22
+        rdet = ra * rd - rb * rc_
+        ca = complex(mc_re, mc_im) - j11
+        cd = complex(mc_re, mc_im) - j22
+        cb = complex(-j12, 0.0)
+        cc = complex(-j21, 0.0)
+        cdet = ca * cd - cb * cc
+        for i in range(3):
+            for q in range(2):
+                Wt[i, q] = _RTI[i, 0] * Z[0, q] + _RTI[i, 1] * Z[1, q] + _RTI[i, 2] * Z[2, q]
+        converged = False
+        rate = -1.0
+        dw_old = -1.0
+        n_iter = 0
+        for it in range(_NEWTON_MAXITER):
+            n_iter = it + 1
+            ok = True
+            for i in range(3):
+                F[i, 0], F[i, 1], _, _ = rhs(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c)
+                if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
+                    ok = False
+            if not ok:
+                break
+            fr0 = _RTI[0, 0] * F[0, 0] + _RTI[0, 1] * F[1, 0] + _RTI[0, 2] * F[2, 0] - mr * Wt[0, 0]
+            fr1 = _RTI[0, 0] * F[0, 1] + _RTI[0, 1] * F[1, 1] + _RTI[0, 2] * F[2, 1] - mr * Wt[0, 1]
+            mcx = complex(mc_re, mc_im)
+            fc0 = (
+                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 0]
+                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 0]
+                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 0]
+                - mcx * complex(Wt[1, 0], Wt[2, 0])
+            )
+            fc1 = (
+                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 1]
+                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 1]
+                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 1]
+                - mcx * complex(Wt[1, 1], Wt[2, 1])
+            )
+            d0 = (rd * fr0 - rb * fr1) / rdet
+            d1 = (ra * fr1 - rc_ * fr0) / rdet
+            z0 = (cd * fc0 - cb * fc1) / cdet
+            z1 = (ca * fc1 - cc * fc0) / cdet
+            dn = (
+                (d0 / sc0) ** 2
+                + (d1 / sc1) ** 2
+                + (z0.real / sc0) ** 2
+                + (z0.imag / sc0) ** 2
+                + (z1.real / sc1) ** 2
+                + (z1.imag / sc1) ** 2
+            )
+            dn = math.sqrt(dn / 6.0)
+            if dw_old >= 0.0:
+                rate = dn / dw_old if dw_old > 0.0 else 0.0
+            if rate >= 0.0 and (
+                rate >= 1.0 or rate ** (_NEWTON_MAXITER - it) / (1.0 - rate) * dn > newton_tol
+            ):
+                break
+            Wt[0, 0] += d0
+            Wt[0, 1] += d1
+            Wt[1, 0] += z0.real
+            Wt[1, 1] += z1.real
+            Wt[2, 0] += z0.imag
+            Wt[2, 1] += z1.imag
+            for i in range(3):
+                for q in range(2):
+                    Z[i, q] = _RT[i, 0] * Wt[0, q] + _RT[i, 1] * Wt[1, q] + _RT[i, 2] * Wt[2, q]
+            if dn == 0.0 or (rate >= 0.0 and rate / (1.0 - rate) * dn < newton_tol):
+                converged = True
+                break
+            dw_old = dn
+        if not converged:
+            # refresh the Jacobian at the step start and halve the step
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            h *= 0.5
+            nrej += 1
+            rejected = True
+            continue
+        xn = y[0] + Z[2, 0]
+        wn = y[1] + Z[2, 1]
+        ze0 = (_RE[0] * Z[0, 0] + _RE[1] * Z[1, 0] + _RE[2] * Z[2, 0]) / h
+        ze1 = (_RE[0] * Z[0, 1] + _RE[1] * Z[1, 1] + _RE[2] * Z[2, 1]) / h
+        b0 = f0[0] + ze0
+        b1 = f0[1] + ze1
+        e0 = (rd * b0 - rb * b1) / rdet
+        e1 = (ra * b1 - rc_ * b0) / rdet
+        s0 = atol + rtol * max(abs(y[0]), abs(xn))
+        s1 = atol + rtol * max(abs(y[1]), abs(wn))
+        err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
+        if rejected and err > 1.0:
+            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c)
+            b0 = r0 + ze0
+            b1 = r1 + ze1
+            e0 = (rd * b0 - rb * b1) / rdet
+            e1 = (ra * b1 - rc_ * b0) / rdet
+            err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
+        safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
+        if err > 1.0 or not math.isfinite(err):
+            if h_old > 0.0 and err_old > 0.0 and math.isfinite(err):
+                mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
+            else:
+                mult = 1.0
+            fac = mult * err**-0.25 if math.isfinite(err) and err > 0 else 0.2
+            h *= max(0.2, safety * fac)
+            nrej += 1
+            rejected = True
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            continue
+        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c)[0]):
+            # separated and landed again inside the step (see ``integrate_dop853``)
+            h *= 0.5
+            nrej += 1
+            rejected = True
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            continue
+        # accepted
+        hist = grow_history(hist, nst)
+        hist[nst, H_T0] = s
+        hist[nst, H_H] = h
+        hist[nst, H_X0] = y[0]
+        hist[nst, H_W0] = y[1]
+        for q in range(2):
+            for r in range(3):
+                hist[nst, H_COEF + 3 * q + r] = (
+                    Z[0, q] * _RP[0, r] + Z[1, q] * _RP[1, r] + Z[2, q] * _RP[2, r]
+                )
+        # quadratures by the collocation rule (exact for the collocation polynomial)
+        for i in range(3):
+            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c)
+            dxi = y[1] + Z[i, 1] - lam * fi
+            fq[i, 0] = fi * fi
+            fq[i, 1] = (fi - ai) * dxi
+        y[2] += h * (_RB[0] * fq[0, 0] + _RB[1] * fq[1, 0] + _RB[2] * fq[2, 0])
+        y[3] += h * (_RB[0] * fq[0, 1] + _RB[1] * fq[1, 1] + _RB[2] * fq[2, 1])
+        y[0] = xn
+        y[1] = wn
+        nst += 1
+        s += h
+        have_dense = True
+        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c)
+        if y[0] <= 0.0:
+            return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+        if f0[0] <= 0.0:
+            peaked = True
+        if settle and peaked and settling_energy(y[0], y[1], lam, G, n) < wthr:
+            return SETTLED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
+        if h_old > 0.0 and err_old > 0.0 and err > 0.0:
+            mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
+        else:
+            mult = 1.0
+        fac = mult * err**-0.25 if err > 0.0 else 10.0
+        fac = min(10.0, safety * fac)
+        if rejected:
+            fac = min(1.0, fac)
+            rejected = False
+        h_old = h
+        err_old = max(err, 1e-10)
+        # the analytic 2x2 Jacobian is cheap: refresh it at every step
+        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+        h *= fac

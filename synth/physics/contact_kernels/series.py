@@ -1,0 +1,227 @@
+"""The series start of a contact: the solution near first touch as a series (numba).
+
+x^n is not smooth at x = 0, so a Runge-Kutta method would have to start with tiny
+steps. Instead the solution of the equations (``equations.py``) is expanded in powers
+s^(i + j n) (a series in s and s^n, see ``series_coefficients``; powers of series by
+J.C.P. Miller's recurrence, Knuth, TAOCP 2, 4.7) and taken from that series up to the
+point ``s1`` where its truncation error is below the local tolerance
+(``series_start``); the integrators take over from there.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from synth.physics.contact_kernels.equations import positive_power, power
+
+#: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
+SERIES_DEGREE = 9.0
+#: Coefficient arrays are (SERIES_SIZE, SERIES_SIZE): i, j <= degree.
+SERIES_SIZE = int(SERIES_DEGREE) + 1
+#: The series is used at most up to this dimensionless time (the contact lasts ~3).
+SERIES_MAX_TIME = 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def series_rows(n):
+    """Highest j of the start series' terms s^(i + j n) (i, j >= 0, i + j n <= degree)."""
+    return int(SERIES_DEGREE / n + 1e-9)
+
+
+@numba.njit(cache=True, inline="always")
+def series_len(j, n):
+    """Highest i of row j of the start series."""
+    return int(SERIES_DEGREE - j * n + 1e-9)
+
+
+@numba.njit(cache=True)
+def series_coefficients(lam, G, n, c, S):
+    """Coefficients of the solution at first touch as a series in s and s^n.
+
+    Near s = 0 the solution is a power series in the two variables s and b = s^n:
+
+        x = s X,  w = W,  x^n = b A,  f = b F,   with  X = sum_ij X[i, j] s^i b^j, ...
+
+    Integrating w' = G - f and x' = w - lam f term by term (``d`` = i + j n):
+
+        W[i, j] = [i = j = 0] + G [i = 1, j = 0] - F[i-1, j-1] / d
+        X[i, j] = (W[i, j] - lam F[i, j-1]) / (d + 1)
+
+    and A = X^n by J.C.P. Miller's recurrence for powers of series (Knuth, TAOCP 2,
+    4.7, eq. 4.7-(6)), here with the degree operator s d/ds, which maps s^i b^j to
+    d s^i b^j (from X (s d/ds) A = n A (s d/ds) X):
+
+        A[i, j] = 1/d sum_{(a,b) != 0} X[a, b] A[i-a, j-b] ((n+1) (a + b n) - d).
+
+    Hertz and power laws: F = A. Hunt-Crossley: F = A (1 + c W) R with
+    R = 1 / (1 + c lam b A). Each coefficient needs only coefficients of lower
+    degree, so one pass in order of j, then i, gives them all, exactly: X and W up
+    to ``SERIES_DEGREE``, A and F up to ``SERIES_DEGREE - n`` (all X and W need).
+
+    Fills ``S`` (7, SERIES_SIZE, SERIES_SIZE): X, W, A, F, then X (n+1) (i + j n), and for
+    Hunt-Crossley R and A (1 + c W).
+    """
+    S[:] = 0.0
+    X = S[0]
+    W = S[1]
+    A = S[2]
+    F = S[3]
+    XD = S[4]
+    R = S[5]
+    T = S[6]
+    X[0, 0] = W[0, 0] = A[0, 0] = R[0, 0] = 1.0
+    T[0, 0] = F[0, 0] = 1.0 + c
+    for j in range(series_rows(n) + 1):
+        for i in range(1 if j == 0 else 0, series_len(j, n) + 1):
+            d = i + j * n
+            if j == 0:
+                W[i, 0] = G if i == 1 else 0.0
+                X[i, 0] = W[i, 0] / (d + 1.0)
+            else:
+                if i > 0:
+                    W[i, j] = -F[i - 1, j - 1] / d
+                X[i, j] = (W[i, j] - lam * F[i, j - 1]) / (d + 1.0)
+            XD[i, j] = (n + 1.0) * d * X[i, j]
+            if d > SERIES_DEGREE - n + 1e-9:
+                continue
+            p = 0.0
+            q = 0.0
+            for bb in range(j + 1):
+                for aa in range(1 if bb == 0 else 0, i + 1):
+                    p += XD[aa, bb] * A[i - aa, j - bb]
+                    q += X[aa, bb] * A[i - aa, j - bb]
+            A[i, j] = p / d - q
+            if c == 0.0:
+                F[i, j] = A[i, j]
+                continue
+            r = 0.0
+            t = 0.0
+            for bb in range(j + 1):
+                for aa in range(i + 1):
+                    t += A[aa, bb] * W[i - aa, j - bb]
+                    if bb > 0:
+                        r += A[aa, bb - 1] * R[i - aa, j - bb]
+            R[i, j] = -c * lam * r
+            T[i, j] = A[i, j] + c * t
+            f = 0.0
+            for bb in range(j + 1):
+                for aa in range(i + 1):
+                    f += T[aa, bb] * R[i - aa, j - bb]
+            F[i, j] = f
+
+
+@numba.njit(cache=True)
+def series_eval(S, s, n):
+    """(x, w) at time s from the start series (nested Horner in s, then in s^n)."""
+    b = power(s, n) if s > 0.0 else 0.0
+    X = 0.0
+    W = 0.0
+    jm = series_rows(n)
+    for jj in range(jm + 1):
+        j = jm - jj
+        im = series_len(j, n)
+        px = 0.0
+        pw = 0.0
+        for ii in range(im + 1):
+            px = px * s + S[0, im - ii, j]
+            pw = pw * s + S[1, im - ii, j]
+        X = X * b + px
+        W = W * b + pw
+    return s * X, W
+
+
+@numba.njit(cache=True)
+def series_start(lam, G, n, c, rtol, S):
+    """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over.
+
+    The truncation error is estimated by the terms of the last ``n + 1`` degrees
+    kept (each integration of the equations raises the degree by at most n + 1, so
+    that band holds the leading terms of every chain, even when lam or G is 0):
+
+        e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)
+
+    (x / s and w are of order one there). The series is used up to the time ``s1``
+    where e = ``rtol``, at most up to ``SERIES_MAX_TIME``: e is convex in log s, so
+    Newton's method in log s from above reaches s1 without overshooting.
+
+    Returns (s1, x, w, I2, L) at s1; the quadratures are integrated term by term.
+    """
+    series_coefficients(lam, G, n, c, S)
+    band = SERIES_DEGREE - n - 1.0
+    s1 = SERIES_MAX_TIME
+    for _ in range(30):
+        b1 = power(s1, n)
+        e = 0.0
+        de = 0.0
+        bj = 1.0
+        for j in range(series_rows(n) + 1):
+            si = bj
+            for i in range(series_len(j, n) + 1):
+                d = i + j * n
+                if d > band:
+                    term = (abs(S[0, i, j]) + abs(S[1, i, j])) * si
+                    e += term
+                    de += d * term
+                si *= s1
+            bj *= b1
+        if e <= 1.01 * rtol:
+            break
+        s1 *= math.exp(-math.log(e / rtol) * e / de)
+    x1, w1 = series_eval(S, s1, n)
+    # I2 = int f^2 = sum (F F)[i, j] s^(d + 2n + 1) / (d + 2n + 1) and
+    # L = int b (F - A) x' = sum ((F - A) X')[i, j] s^(d + n + 1) / (d + n + 1),
+    # with their terms up to the degree of those of x (SERIES_DEGREE + 1)
+    b1 = power(s1, n)
+    i2 = 0.0
+    loss = 0.0
+    bj = b1 * s1
+    for j in range(series_rows(n) + 1):
+        si = bj
+        for i in range(series_len(j, n) + 1):
+            d = i + j * n
+            if d > SERIES_DEGREE - n + 1e-9:
+                break
+            if d <= SERIES_DEGREE - 2.0 * n + 1e-9:
+                p = 0.0
+                for bb in range(j + 1):
+                    for aa in range(i + 1):
+                        p += S[3, aa, bb] * S[3, i - aa, j - bb]
+                i2 += p * si * b1 / (d + 2.0 * n + 1.0)
+            if c != 0.0:
+                q = 0.0
+                for bb in range(j + 1):
+                    for aa in range(i + 1):
+                        q += (
+                            (S[3, aa, bb] - S[2, aa, bb])
+                            * (i - aa + (j - bb) * n + 1.0)
+                            * S[0, i - aa, j - bb]
+                        )
+                loss += q * si / (d + n + 1.0)
+            si *= s1
+        bj *= b1
+    return s1, x1, w1, i2, loss
+
+
+@numba.njit(cache=True)
+def series_x(S, n, s, out):
+    """x from the start series at the times ``s`` (into ``out``), all times at once."""
+    b = s.copy()
+    positive_power(b, n)
+    p = np.empty(s.shape[0])
+    out[:] = 0.0
+    jm = series_rows(n)
+    for jj in range(jm + 1):
+        j = jm - jj
+        im = series_len(j, n)
+        p[:] = 0.0
+        for ii in range(im + 1):
+            coef = S[0, im - ii, j]
+            for q in range(s.shape[0]):
+                p[q] = p[q] * s[q] + coef
+        for q in range(s.shape[0]):
+            out[q] = out[q] * b[q] + p[q]
+    for q in range(s.shape[0]):
+        out[q] *= s[q]
