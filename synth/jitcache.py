@@ -28,9 +28,10 @@ def _writable(folder: Path) -> bool:
 
 
 def _source_dirs() -> list[Path]:
-    """The package's folders that hold numba kernels' sources."""
+    """The package's folders (``synth`` and every subpackage): numba caches each kernel
+    in the ``__pycache__`` beside its own source."""
     root = Path(__file__).resolve().parent
-    return [root / "physics", root / "sound"]
+    return [root] + sorted(p.parent for p in root.rglob("*/__init__.py"))
 
 
 def _user_cache_dir(environ) -> Path | None:

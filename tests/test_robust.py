@@ -368,6 +368,14 @@ def test_jit_cache_falls_back_when_nothing_is_writable(tmp_path):
     assert jitcache.configure({"HOME": "/dev/null"}, [tmp_path], Stream()) is None
 
 
+def test_jit_cache_checks_every_folder_that_holds_a_kernel():
+    # numba caches each kernel beside its own source: a subpackage left out of the check
+    # would fail to compile on an installed package whose folders are read-only
+    root = Path(jitcache.__file__).resolve().parent
+    kernels = {p.parent for p in root.rglob("*.py") if "numba.njit" in p.read_text()}
+    assert kernels and kernels <= set(jitcache._source_dirs())
+
+
 @pytest.mark.slow
 def test_help_without_a_writable_home(tmp_path):
     # an installed copy (its __pycache__ folders unusable) and a home that cannot be
