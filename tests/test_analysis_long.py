@@ -14,6 +14,7 @@ import soundfile as sf
 
 from synth import analysis
 from synth.analysis import blocks, pipeline
+from synth.analysis.series import bounce_series
 from synth.bench import synthetic_bounce
 from synth.errors import ParameterError
 
@@ -70,6 +71,61 @@ def test_one_block_is_the_whole_analysis(monkeypatch):
     monkeypatch.setattr(pipeline, "OVERLAP", 1.0)
     cut = np.array([t.time for t in analysis.analyze(y, FS).ticks])
     assert _close(whole, want, 1.0 / FS) and _close(cut, whole, 1.0 / FS)
+
+
+#: A tick is the true one when its onset lies from this much before the truth ...
+EARLY = 0.0001
+#: ... to this much after it, s: the allowance of tests/test_recordings_scenes.py (a level
+#: crossing interpolated between samples of a whitened burst, late where the earlier
+#: ringing hides a weak tick's start). A drop of these alone in the same noise comes up to
+#: two sample periods late (0.04 ms at 48 kHz).
+LATE = 0.00025
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "duration, period, n_ticks",
+    [(27.0, 5.0, 10), (40.0, 2.5, 10), (70.0, 3.0, 10)],
+)
+def test_each_drop_is_one_series(duration, period, n_ticks):
+    """Drops every ``period`` s (a new seed, so new modes, per drop) in recordings under and
+    over ``WHOLE``: as many series as drops, each with every true tick, and no other tick.
+    A search over several drops finds a series from the first tick that hops to a later
+    drop (a first bounce seconds long, then that drop's ticks) longer than the first drop's
+    own; three sure ticks in bounce order bound the first tick's own response
+    (synth.analysis.series.last_second), and a recording held whole whose search shows a
+    new series is searched drop by drop as a long one is."""
+    starts = list(np.arange(1.0, duration - 1.0, period))
+    y, truth = _drops(duration, starts, n_ticks=n_ticks, seed=1)
+    a = analysis.analyze(y, FS)
+    assert len(a.series) == len(starts)
+    for series, want in zip(a.series, truth):
+        got = np.array([t.time for t in series.ticks])
+        assert got.size == want.size, (want[0], got)
+        assert np.all((got - want >= -EARLY) & (got - want <= LATE)), (got - want) * FS
+
+
+def _series_onsets(starts, n_ticks: int = 10, e: float = 0.8, t1: float = 0.15) -> np.ndarray:
+    """Onsets (s) of a geometric bounce series (bounce ``t1 e^(n-1)``) from each of
+    ``starts``."""
+    one = np.r_[0.0, np.cumsum(t1 * e ** np.arange(n_ticks - 1))]
+    return np.concatenate([s0 + one for s0 in starts])
+
+
+def test_no_series_passes_over_a_sure_bounce():
+    """Three drops 3 s apart, every candidate sure: the longest series from the first tick
+    hops to the second drop (a first bounce of 3.4 s, 0.78 times that to the third drop,
+    then its ticks: 11 ticks against the first drop's 10); a sure candidate that the next
+    sure one follows in bounce order ends the first tick's own response, so the series is
+    the first drop's. A sure contact end 3 ms after the first tick, followed by no sure
+    candidate within its bounce's range, is still passed over."""
+    on = _series_onsets((0.0, 3.0, 6.0))
+    sure = np.ones(on.size, dtype=bool)
+    assert len(bounce_series(on, 0.1)) > 10
+    assert bounce_series(on, 0.1, sure=sure) == list(range(10))
+    on = np.r_[0.0, 0.003, _series_onsets((0.0,))[1:]]
+    got = bounce_series(on, 0.1, sure=np.ones(on.size, dtype=bool))
+    assert got == [0] + list(range(2, on.size))
 
 
 def _peak_bytes(path) -> tuple[int, analysis.Analysis]:

@@ -107,10 +107,10 @@ def test_the_shorter_look_for_a_candidate_gives_the_longer_looks_answer(seed, mo
 @pytest.mark.slow
 def test_a_whole_recording_of_several_drops_is_searched_drop_by_drop(monkeypatch):
     """Four drops 10 s apart in 42 s (as ``synth bench long`` lays them), a recording held
-    whole (under ``WHOLE``), whose search of the whole loses the series within the second
-    drop: the rest, longer than a block, is searched block by block, so steps 1-7 run once
-    on the whole and then once per drop, each on no more than a block (never on to the
-    recording's end: the time grows with the drops, not with their square); every onset
+    whole (under ``WHOLE``), whose search of the whole shows a new series: it is then
+    searched block by block, so steps 1-7 run once on the whole and then once per drop,
+    each on no more than a block (never on to the recording's end: the time grows with the
+    drops, not with their square); every onset
     within 1.5 sample periods of the truth (as :func:`test_each_drop_is_searched_whole_once`)."""
     searched = {True: [], False: []}
     ticks = pipeline._ticks

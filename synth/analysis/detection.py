@@ -232,7 +232,7 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
     anchors, anchor_strength = onsets[:1], strength[:1]
     if peaks.size > 1:
         # the candidates before the second tick are the first tick's own response
-        series = bounce_series(onsets, settings.e_min)
+        series = bounce_series(onsets, settings.e_min, sure=strength >= ANCHOR_DB)
         anchors, anchor_strength = onsets[series], strength[series]
         sure = np.r_[True, anchor_strength[1:] >= ANCHOR_DB]
         anchors, anchor_strength = anchors[sure], anchor_strength[sure]

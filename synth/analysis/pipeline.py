@@ -309,8 +309,8 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
     ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`). Steps 1-6
     over a block show where its series start (:func:`new_series_at`). When a new series
     follows the block's first, the first is searched on its own (steps 1-7), from the block's
-    start to the local background's length before the next drop (as :func:`_drops` searches
-    each series), and the next block starts there: at the next drop, less the local
+    start to the local background's length before the next drop, and the next block starts
+    there: at the next drop, less the local
     background. Else the block is searched whole (steps 1-7); its one series is kept once the
     block goes on past where the series allows its next bounce, and the next block starts at
     that series if it started later than the block (an ended series sets the floor of the
@@ -405,67 +405,18 @@ def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> b
 def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
     """The ticks of each bounce series of ``x``, each series found and measured on its own.
 
-    The ticks of the whole signal give the series up to where a new one starts
-    (:func:`new_series_at`); the signal from the local background's length before that
-    tick's onset (the detection's reference) up to the same length before the start of the
-    drop after it, as those ticks show it, is then searched on its own, and so on. So a later
-    drop is sought with no bounce rule of an earlier one in the way. Where those ticks show
-    no later drop and more than a block of the recording is left, the rest is searched as a
-    long recording is (:func:`_block_drops`), not on to its end in one search: each drop's
-    search is bounded by the next drop, and the time grows with the number of drops, not with
-    its square."""
-    fs = settings.samplerate
-    lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
+    Steps 1-7 over the whole signal give its ticks when they make one series. When they show
+    a new series, the recording holds several drops, and that search's ticks after the
+    first drop are no guide: its first tick's model and resonator do not fit a later drop's
+    ringing, and what they leave of it whitens to bursts taken for ticks (hundreds over a
+    few drops), whose bounce times then show drop starts where there are none. So the
+    recording is then searched as a long one is (:func:`_block_drops`): steps 1-6 over a
+    block show where its series start, and each drop is searched on its own up to the
+    next, whatever the whole search found after its first series."""
     ticks = _ticks(x, settings, clipped)
-    cut = new_series_at(ticks)
-    if cut is not None:  # the first drop, too, on its own
-        end = max(1, int(math.floor(ticks[cut].time * fs)) - lead)
-        try:
-            ticks = _ticks(x[:end], settings, clipped) + ticks[cut:]
-        except (AnalysisError, ParameterError):
-            pass
-    found: list[list] = []
-    while True:
-        cut = new_series_at(ticks)
-        if cut is None:
-            found.append(ticks)
-            break
-        found.append(ticks[:cut])
-        rest = ticks[cut:]
-        start = max(0, int(math.floor(rest[0].time * fs)) - lead)
-        after = new_series_at(rest)
-        while True:
-            if after is None and x.size - start > block_frames(fs):
-                return found + _later_drops(x, start, settings, clipped)
-            end = (
-                x.size
-                if after is None
-                else max(start + 1, int(math.floor(rest[after].time * fs)) - lead)
-            )
-            later = [] if after is None else rest[after:]
-            try:
-                seg = [
-                    replace(t, time=t.time + start / fs)
-                    for t in _ticks(x[start:end], settings, clipped)
-                ]
-            except (AnalysisError, ParameterError):
-                seg = rest if after is None else rest[:after]  # as the longer search had it
-            if after is None or (new_series_at(seg + later) or len(seg) + 1) <= len(seg):
-                break
-            # the next drop's start as the longer search had it is no start with the ticks
-            # found now (it followed a tick that search missed): search on to the next one
-            nxt = new_series_at(later)
-            after = None if nxt is None else after + nxt
-        ticks = seg + later
-    return found
-
-
-def _later_drops(x: np.ndarray, start: int, settings: Settings, clipped: bool) -> list[list]:
-    """The bounce series of ``x`` from sample ``start`` on, block by block
-    (:func:`_block_drops`), their times from the start of ``x``."""
-    shift = start / settings.samplerate
-    found = _block_drops(x.size - start, lambda a, b: x[start + a : start + b], settings, clipped)
-    return [[replace(t, time=t.time + shift) for t in ticks] for ticks in found]
+    if new_series_at(ticks) is None:
+        return [ticks]
+    return _block_drops(x.size, lambda a, b: x[a:b], settings, clipped)
 
 
 def _numbered(found: list[list]) -> list[Series]:

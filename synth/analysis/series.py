@@ -67,7 +67,11 @@ def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
 
 
 def bounce_series(
-    onsets: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH, horizon: int = SERIES_HORIZON
+    onsets: np.ndarray,
+    e_min: float,
+    growth: float = BOUNCE_GROWTH,
+    horizon: int = SERIES_HORIZON,
+    sure: np.ndarray | None = None,
 ) -> list[int]:
     """Indices in ``onsets`` of the longest bounce series that starts at the first tick
     (step 3).
@@ -75,18 +79,22 @@ def bounce_series(
     A series is a subsequence of the candidates whose every bounce time lies between
     ``e_min`` and ``growth`` times the one before; the longest is found by dynamic
     programming over the first ``horizon`` candidates (of equally long ones, the one whose
-    second tick comes first).
+    second tick comes first). The candidates it passes over before its second tick are
+    taken for the first tick's own response; ``sure`` (a mask of the candidates) bounds
+    that: its second tick comes no later than the first bounce that a sure candidate makes
+    with the first tick and that the next sure candidate continues (:func:`last_second`).
     """
     t = np.asarray(onsets[:horizon], dtype=float)
     n = t.size
     if n < 3:
         return list(range(n))
+    latest = n - 1 if sure is None else last_second(t, np.asarray(sure[:horizon]), e_min, growth)
     # best[i, j]: most ticks in a series from tick 0 ending ..., t_i, t_j; second[i, j]:
     # its second tick; back[i, j]: the tick before t_i
     best = np.zeros((n, n), dtype=int)
     second = np.zeros((n, n), dtype=int)
     back = np.full((n, n), -1, dtype=int)
-    best[0, 1:] = 2
+    best[0, 1 : latest + 1] = 2
     second[0, 1:] = np.arange(1, n)
     for i in range(1, n - 1):
         col, sec = best[:i, i], second[:i, i]
@@ -116,6 +124,27 @@ def bounce_series(
     if chain[-1] != 0:
         chain.append(0)
     return chain[::-1]
+
+
+def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) -> int:
+    """The latest candidate that can be the second tick of the series from the first of the
+    onsets ``t``: the first sure candidate (``sure``, a mask) after the first tick that the
+    next sure one follows within ``e_min`` to ``growth`` times their bounce from the first
+    tick (the last candidate when none does).
+
+    The candidates before the second tick are the first tick's own response: the end of a
+    long contact (as strong as the tick, and sure) and its reflections (weaker, not sure).
+    Three sure ticks in bounce order are a bounce series, not a tick and its response; a
+    series passing over them (a recording of several drops, where a first bounce seconds
+    long, into a later drop, starts a longer series than the first drop's own) would take
+    a whole series for one tick's response."""
+    idx = np.nonzero(sure)[0]
+    idx = idx[idx > 0]
+    for c, d in zip(idx[:-1], idx[1:]):
+        bounce = t[c] - t[0]
+        if e_min * bounce <= t[d] - t[c] <= growth * bounce:
+            return int(c)
+    return t.size - 1
 
 
 def _in_order(on, kept, e_min, growth) -> bool:

@@ -24,6 +24,9 @@ MAX_ORDER = 4096
 PREDICTION_FLOOR = 1e-12
 #: Orders on the geometric grid over which the resonator's order criterion is evaluated.
 ORDER_GRID = 96
+#: Predictors whose prediction errors are formed at once by the order criterion (memory:
+#: this many transforms of the stretch).
+ERROR_BATCH = 16
 
 
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
@@ -133,14 +136,31 @@ def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCr
     """The description length of the predictors on a geometric grid of orders up to the
     factor's, each one's error counted over the same samples (those the largest predicts)."""
     from scipy.linalg import solve_triangular
-    from scipy.signal import oaconvolve
 
     p = Lc.shape[0]
     y = solve_triangular(Lc, C[1:, 0], lower=True, check_finite=False)
     n = seg.size - p
     grid = np.unique(np.round(np.geomspace(1, p, ORDER_GRID)).astype(int))
-    energy = np.empty(grid.size)
-    for i, order in enumerate(grid):
-        err = oaconvolve(seg, _predictor(Lc, y, int(order)))[p : seg.size]
-        energy[i] = max(float(np.dot(err, err)), PREDICTION_FLOOR * C[0, 0])
+    predictors = [_predictor(Lc, y, int(order)) for order in grid]
+    energy = np.maximum(_error_energies(seg, predictors, p), PREDICTION_FLOOR * C[0, 0])
     return _OrderCriterion(grid, energy, n * np.log(energy / n) + grid * math.log(n), y)
+
+
+def _error_energies(seg: np.ndarray, predictors: list, p: int) -> np.ndarray:
+    """The energy of the prediction error of ``seg`` under each of ``predictors`` (at most
+    ``p + 1`` taps) over the samples ``p .. seg.size - 1``: the convolutions by one transform
+    of ``seg`` and one of each predictor, :data:`ERROR_BATCH` predictors at a time (a
+    transform as long as ``seg`` and the longest predictor: no wrap-around)."""
+    from scipy import fft
+
+    nfft = fft.next_fast_len(seg.size + p, real=True)
+    spectrum = fft.rfft(seg, nfft)
+    out = np.empty(len(predictors))
+    for lo in range(0, len(predictors), ERROR_BATCH):
+        batch = predictors[lo : lo + ERROR_BATCH]
+        taps = np.zeros((len(batch), p + 1))
+        for i, a in enumerate(batch):
+            taps[i, : a.size] = a
+        err = fft.irfft(fft.rfft(taps, nfft, axis=1) * spectrum, nfft, axis=1)[:, p : seg.size]
+        out[lo : lo + len(batch)] = np.einsum("ij,ij->i", err, err)
+    return out
