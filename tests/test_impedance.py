@@ -274,3 +274,16 @@ def test_fitted_transverse_shear_is_tied_to_the_through_thickness_modulus():
     assert m.transverse_shear == pytest.approx(MDF_SURFACE.transverse_ratio * _G_ISO, rel=1e-15)
     with pytest.raises(ParameterError, match="fitted contact"):
         with_transverse_shear(get("steel"))
+
+
+def test_mindlin_band_impedance():
+    # 1 / <Re Y>: over 0-1 Hz the thin plate's Z_inf (the shear correction 4e-5 at 1 Hz);
+    # over a narrow band 1 / Re Y at its middle (the band's curvature, 1e-6); over 0-10 kHz
+    # of the isotropic 18 mm board 1327 N s/m (docs/physics.md, Thick plates; rounding).
+    z_inf = impedance.infinite_plate_impedance(MDF18)
+    assert impedance.mindlin_band_impedance(MDF18, 0.0, 1.0) == pytest.approx(z_inf, rel=1e-4)
+    narrow = impedance.mindlin_band_impedance(SOFT18, 4999.0, 5001.0)
+    assert narrow == pytest.approx(1.0 / impedance.mindlin_point_admittance(SOFT18, 5e3), rel=1e-6)
+    assert impedance.mindlin_band_impedance(MDF18, 0.0, 1e4) == pytest.approx(1327.0, abs=0.5)
+    with pytest.raises(ParameterError, match="high"):
+        impedance.mindlin_band_impedance(MDF18, 2e3, 1e3)

@@ -44,6 +44,8 @@ from synth.bench.thesis import (
     thesis_comparison,
     thesis_modal_rows,
     thesis_row,
+    thesis_transverse_shear_rows,
+    transverse_shear_sensitivity,
 )
 
 __all__ = [
@@ -88,4 +90,6 @@ __all__ = [
     "thesis_comparison",
     "thesis_modal_rows",
     "thesis_row",
+    "thesis_transverse_shear_rows",
+    "transverse_shear_sensitivity",
 ]

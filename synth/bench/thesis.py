@@ -262,7 +262,9 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     out = dict(samplerate=samplerate, rows=rows, first_tick=first_tick)
     if modal:
         rows += thesis_modal_rows(samplerate=samplerate)
+        rows += thesis_transverse_shear_rows()
         out["surface"] = surface_fit()
+        out["transverse_shear"] = transverse_shear_sensitivity()
     return out
 
 
@@ -703,6 +705,97 @@ def thesis_transverse_shear_rows(pairs=None) -> list:
     return rows
 
 
+def _shear_plate(board_name: str, ratio: float):
+    """The thesis' board with its transverse shear modulus ``ratio`` times the isotropic
+    ``E / (2 (1 + nu))``."""
+    from dataclasses import replace
+
+    _, plate = thesis_pair("steel 10.0 mm", board_name)
+    m = plate.material
+    return replace(plate, material=replace(m, transverse_shear=ratio * m.shear_modulus))
+
+
+def transverse_shear_sensitivity() -> list:
+    """What MDF's transverse shear modulus does on the 18 mm board, and what each
+    measurement alone would ask of it: for ``G_t / G`` of 1 (isotropic), the value tied to
+    the fitted ``E_t / E`` (:func:`synth.physics.materials.with_transverse_shear`), and the
+    values that the group speed 571 m/s at 2.5 kHz and the middle's impedance 1271 N s/m
+    (Table 3.4; the infinite plate's band average, :data:`MODAL_IMPEDANCE_BAND`) would each
+    fit alone: the group speed at 2.5 kHz, that impedance, and with MDF's fitted surface the
+    10 mm steel ball's contact time (with the accelerometer) and critical distance."""
+    from scipy.optimize import brentq
+
+    from synth.physics import modal_contact as mc
+    from synth.physics.materials import MDF_SURFACE
+
+    v1 = math.sqrt(2.0 * GRAVITY * 0.1)
+    lo, hi = MODAL_IMPEDANCE_BAND
+    freq, _, speed = THESIS_WAVE_SPEEDS["18 mm", "above 2.5 kHz"]
+    z_meas = THESIS_IMPEDANCE["middle"][1]
+    by_speed = brentq(
+        lambda r: impedance.mindlin_wave_speeds(_shear_plate("18 mm", r), freq).group - speed,
+        1e-3,
+        1.0,
+        xtol=1e-6,
+    )
+    by_impedance = brentq(
+        lambda r: impedance.mindlin_band_impedance(_shear_plate("18 mm", r), lo, hi) - z_meas,
+        0.05,
+        1.0,
+        xtol=1e-6,
+    )
+    choices = (
+        (1.0, "isotropic"),
+        (MDF_SURFACE.transverse_ratio, "tied to the fitted E_t (the model)"),
+        (by_impedance, f"fitted alone on the middle's {z_meas:.0f} N s/m"),
+        (by_speed, f"fitted alone on {speed:.0f} m/s at {freq / 1e3:g} kHz"),
+    )
+    ball, _ = thesis_pair("steel 10.0 mm", "18 mm")
+    out = []
+    for ratio, label in sorted(choices, reverse=True):
+        plate = _shear_plate("18 mm", ratio)
+        tau = mc.impedance_contact_time(ball, plate, v1, surface="fitted")
+        opts = dict(TRANSVERSE_SHEAR_MODEL, max_frequency=mc.BAND_FACTOR / tau)
+        contact = mc.ModalContact.for_pair(_with_accelerometer(ball), plate, None, **opts)
+        out.append(
+            dict(
+                ratio=ratio,
+                label=label,
+                shear=plate.material.transverse_shear,
+                group_speed=impedance.mindlin_wave_speeds(plate, freq).group,
+                impedance=impedance.mindlin_band_impedance(plate, lo, hi),
+                contact_time=contact.solve(v1).contact_time,
+                critical_distance=modal_critical_distance(ball, plate, v1, **opts),
+            )
+        )
+    return out
+
+
+def format_transverse_shear_sensitivity(rows: list) -> str:
+    """The table of :func:`transverse_shear_sensitivity` (Markdown)."""
+    tau, _, dc = THESIS_IMPACTS["steel 10.0 mm", "18 mm"]
+    freq, _, speed = THESIS_WAVE_SPEEDS["18 mm", "above 2.5 kHz"]
+    lines = [
+        "MDF's transverse shear modulus on the 18 mm board (Mindlin plate, MDF's fitted "
+        "surface, 10 mm steel ball at 1.4 m/s): what each choice of `G_t / G` gives, and what "
+        "each measurement alone would ask of it.",
+        "",
+        f"| G_t / G | G_t (MPa) | choice | group speed at {freq / 1e3:g} kHz (m/s; measured "
+        f"{speed:.0f}) | middle impedance, infinite plate (N s/m; measured "
+        f"{THESIS_IMPEDANCE['middle'][1]:.0f}) | contact time with the accelerometer (us; "
+        f"measured {tau * 1e6:.0f}) | critical distance (mm; measured "
+        f"{dc[0] * 1e3:.0f}-{dc[1] * 1e3:.0f}) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['ratio']:.3f} | {r['shear'] / 1e6:.0f} | {r['label']} | "
+            f"{r['group_speed']:.0f} | {r['impedance']:.0f} | {r['contact_time'] * 1e6:.0f} | "
+            f"{r['critical_distance'] * 1e3:.0f} |"
+        )
+    return "\n".join(lines)
+
+
 #: Restitution gaps of the thesis' measurements to its model (section 3.2; measured / model - 1):
 #: (ball, board, impact speed in m/s) -> the measured gap, a value or a (low, high) range.
 THESIS_RESTITUTION_GAPS = {
@@ -965,4 +1058,6 @@ def format_thesis(c: dict) -> str:
     ]
     if c.get("surface") is not None:
         lines += ["", format_surface_fit(c["surface"])]
+    if c.get("transverse_shear") is not None:
+        lines += ["", format_transverse_shear_sensitivity(c["transverse_shear"])]
     return "\n".join(lines)

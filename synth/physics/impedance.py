@@ -210,6 +210,22 @@ def mindlin_point_admittance(plate: Plate, frequency):
     return float(y) if np.ndim(y) == 0 else y
 
 
+def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
+    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate, ``Re Y``
+    (:func:`mindlin_point_admittance`) averaged over ``[low, high]`` (Hz) by adaptive
+    quadrature: what an impact hammer's band-averaged measurement gives at the middle of a
+    large plate (``ModalPoint.band_impedance`` of :mod:`synth.physics.modal_contact`)."""
+    from scipy.integrate import quad
+
+    lo = checks.nonnegative("low", low, "Hz")
+    hi = checks.positive("high", high, "Hz")
+    if not hi > lo:
+        raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
+    # Re Y is continuous down to 0 Hz (Kirchhoff's constant); start just above it
+    mean = quad(lambda f: mindlin_point_admittance(plate, f), max(lo, 1e-6 * hi), hi, limit=200)[0]
+    return (hi - lo) / mean
+
+
 def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
     """The flexural (lower) Mindlin angular frequency, rad/s, of a wave of ``k^2`` =
     ``wavenumber_squared`` (rad^2/m^2): the lower root in ``omega^2`` of ``P = 0``
