@@ -97,3 +97,46 @@ def test_critical_distances_table_3_3(rows):
     assert lo - 5e-3 <= r["engine"] <= hi + 5e-3, r
     r = rows["critical distance, transverse-shear model, steel 10.0 mm on 12 mm"]
     assert r["engine"] > r["measured"][1] + 5e-3, r
+
+
+@pytest.mark.slow
+def test_restitution_gaps_section_3_2(rows):
+    # issue 14's target for the gaps to the thesis' model: the sign right and the size within
+    # half. Met by the 12 mm board's prediction (measured 5-10 % below); on the 18 mm board
+    # at 1 m/s the sign is right but the size short of the measured -18 % (a Hunt-Crossley
+    # loss falls with the speed: docs/validation.md).
+    r = rows[
+        "restitution gap to the thesis' model (engine / model - 1), transverse-shear model, "
+        "steel 10.0 mm on 12 mm (1.4 m/s)"
+    ]
+    assert r["measured"] == [-0.10, -0.05]
+    assert -0.10 - 0.025 <= r["engine"] <= -0.05 + 0.025, r
+    r = rows[
+        "restitution gap to the thesis' model (engine / model - 1), transverse-shear model, "
+        "steel 10.0 mm on 18 mm (1 m/s)"
+    ]
+    assert -0.18 < r["engine"] < 0.0, r
+
+
+@pytest.mark.slow
+def test_what_each_measurement_alone_asks_of_g_t():
+    # The sensitivity table: the G_t fitted alone on a measurement reproduces it (the root
+    # finder's 1e-6 in G_t / G, 1e-3 in the figure); the tied value is E_t / E. A lower G_t
+    # slows the 2.5 kHz group and softens the middle monotonically (the dispersion relation),
+    # and shortens the 10 mm steel ball's critical distance (the edge's waves return later).
+    from synth.physics.materials import MDF_SURFACE
+
+    table = bench.transverse_shear_sensitivity()
+    by_label = {r["label"].split(" (")[0].split(" on ")[0]: r for r in table}
+    assert by_label["tied to the fitted E_t"]["ratio"] == MDF_SURFACE.transverse_ratio
+    assert by_label["isotropic"]["ratio"] == 1.0
+    speed = next(r for r in table if "m/s" in r["label"])
+    assert speed["group_speed"] == pytest.approx(571.0, rel=1e-3)
+    middle = next(r for r in table if "N s/m" in r["label"])
+    assert middle["impedance"] == pytest.approx(1271.0, rel=1e-3)
+    ratios = [r["ratio"] for r in table]
+    assert ratios == sorted(ratios, reverse=True)
+    for key in ("group_speed", "impedance"):
+        values = [r[key] for r in table]
+        assert values == sorted(values, reverse=True)
+    assert table[-1]["critical_distance"] < table[0]["critical_distance"] - 5e-3
