@@ -561,7 +561,12 @@ def contact_surface(material: Material) -> ContactSurface:
     """The fitted :class:`ContactSurface` of a table material (by its name), or
     ``ParameterError`` naming the materials that have one."""
     surface = SURFACES.get(getattr(material, "name", None))
-    if surface is None or TABLE.get(material.name) != replace(material, transverse_shear=None):
+    # a table row, whatever its transverse shear modulus (the contact does not read it)
+    if (
+        surface is None
+        or not isinstance(material, Material)
+        or TABLE.get(material.name) != replace(material, transverse_shear=None)
+    ):
         raise ParameterError(
             f"plate.material={getattr(material, 'name', material)!r} has no fitted contact "
             f"surface (contact.surface='fitted' needs one of {sorted(SURFACES)}, as in the "
