@@ -14,6 +14,8 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
+from synth.sound.radiation import cache as radiation_cache
+from synth.sound.radiation import rectangle
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 LISTENER = (0.1, 0.05, 0.2)  # m, above a 0.3 m x 0.2 m plate
@@ -88,7 +90,7 @@ def test_pipelined_sums_do_not_depend_on_workers(monkeypatch):
     s, kb = _args(m)
     results = []
     for workers in (1, 3):
-        monkeypatch.setattr(R, "_workers", lambda: workers)
+        monkeypatch.setattr(rectangle, "_workers", lambda: workers)
         results.append(
             R.rayleigh_gains(m.shapes, (0.3, 0.2), LISTENER, s, max_wavenumber=kb, full_output=True)
         )
@@ -230,7 +232,7 @@ def test_cache_key_changes_with_listener_and_plate_rejects_bad_listener():
 
 
 def test_cache_memory_is_bounded(monkeypatch):
-    monkeypatch.setattr(R._CACHE, "max_entries", 2)
+    monkeypatch.setattr(radiation_cache.CACHE, "max_entries", 2)
     m = _modes()
     for z in (0.2, 0.21, 0.22):
         _gains(m, listener=(0.1, 0.05, z))

@@ -65,6 +65,10 @@ class Impact:
     restitution : float
         The restitution that set the next flight: the physical ``result.restitution``,
         unless a rebound rule of :func:`simulate_bounces` replaced it.
+    plate_state : PlateRinging or None
+        The modal plate's state under the ball at first touch (the ringing left by the
+        earlier impacts, :class:`synth.physics.modal_contact.PlateRinging`); None for the
+        impedance model, whose plate is at rest at every touch.
     """
 
     index: int
@@ -72,6 +76,13 @@ class Impact:
     speed: float
     result: ImpactResult
     restitution: float | None = None
+    plate_state: object | None = None
+
+    @property
+    def plate_velocity(self) -> float:
+        """Velocity of the plate surface under the ball at first touch, m/s, positive
+        upward (0 for a plate at rest)."""
+        return 0.0 if self.plate_state is None else self.plate_state.velocity
 
     def __post_init__(self):
         if self.restitution is None:
@@ -281,6 +292,21 @@ def simulate_bounces(
     return BounceSequence(tuple(impacts), reason, h0, g)
 
 
+def bounce_time_restitution(seq: BounceSequence) -> list[float]:
+    """The restitution as the thesis measures it, from bounce times (section 3.1; thesis
+    see docs/physics.md, References): ``e_n = t_n / t_(n-1)`` with ``t_n`` the time from the
+    onset of impact n to the onset of impact n + 1 (the contact and the flight), one value
+    for each impact that has one before and one after it (impacts 2 to N - 1 of ``seq``,
+    dimensionless). With the flight alone ``e_n`` would be the physical restitution of a
+    plate at rest; the contact times held in ``t_n`` raise it by about
+    ``(tau_n / e - tau_(n-1)) / t_(n-1)`` (docs/analysis.md), and a surface that moves
+    between touch-down and take-off shifts the flight."""
+    if not isinstance(seq, BounceSequence):
+        raise ParameterError(f"seq={seq!r} must be a BounceSequence")
+    t = [i.time for i in seq]
+    return [(t[k + 1] - t[k]) / (t[k] - t[k - 1]) for k in range(1, len(t) - 1)]
+
+
 #: The plate models of the contact (see :func:`simulate_bounces`).
 PLATE_MODELS = ("impedance", "modal")
 
@@ -306,7 +332,7 @@ def _modal_bounces(
     reason = "max-impacts"
     while len(impacts) < max_impacts:
         res = contact.solve(v, state, n_points=n_points)
-        impacts.append(Impact(len(impacts) + 1, t, v, res))
+        impacts.append(Impact(len(impacts) + 1, t, v, res, plate_state=state))
         if res.settled:
             reason = "settled"
             break

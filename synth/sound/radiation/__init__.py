@@ -1,0 +1,311 @@
+"""Sound radiated by plate modes to a microphone: the Rayleigh integral.
+
+The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid
+baffle, air on the side ``z > 0``. When its normal surface velocity is one mode,
+``v(xs, t) = phi_k(xs) u(t)`` with ``u(t) = exp(s t)``, the pressure at the
+listener ``xL = (x, y, z)`` is ``p(xL, t) = H_k(s) exp(s t)`` with the exact
+transfer function of the Rayleigh integral (docs/physics.md, "Radiation")::
+
+    H_k(s) = (rho s / (2 pi)) Int_plate phi_k(xs) exp(-s R / c) / R dA,   R = |xL - xs|
+
+(``rho s u`` is the surface acceleration; the integral is linear and
+time-invariant, so an exponential input returns the same exponential times
+``H_k(s)``, the propagation delay included). ``s`` may be any complex number: a
+damped mode ringing as ``exp(p_k t)``, ``p_k = -sigma_k + i omega_dk``, takes
+``s = p_k`` (the analytic continuation of the same formula). Units: ``H`` is in
+pascals per metre-per-second of the modal velocity ``u`` (Pa s/m).
+
+For synthesis with one pure delay per listener, the gain can be returned with a
+reference delay factored out, ``H_k(s) exp(+s R0 / c)``, where ``R0`` is the
+distance from the listener to a reference point (for instance the impact point,
+:func:`distance`); the pressure is then that gain applied ``R0 / c`` seconds
+(:func:`delay`) later.
+Rules (one module each)
+-----------------------
+- :mod:`~synth.sound.radiation.rectangle`: :func:`rayleigh_gains`, tensor Gauss-Legendre
+  panels along x and y, for any shapes;
+- :mod:`~synth.sound.radiation.polar`: :func:`separable_gains`, polar coordinates about
+  the microphone, for shapes ``X_i(x) Y_j(y)`` (the simply supported plate);
+- :mod:`~synth.sound.radiation.summed`: :func:`summed_gains`, the same for sums of such
+  products (the free and clamped plates);
+- :mod:`~synth.sound.radiation.refinement`: the convergence test of every rule;
+  :mod:`~synth.sound.radiation.common`: their result, checks and numba kernel;
+  :mod:`~synth.sound.radiation.cache`: the gains kept in memory and on disk.
+
+:func:`plate_gains` computes the gains of a :class:`synth.sound.modes.Modes`, cached: by
+the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for separable
+shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
+for free and clamped plates (then the summed polar rule).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from synth import checks
+from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.errors import ParameterError
+from synth.sound.modes import Modes
+from synth.sound.radiation.cache import (
+    CACHE,
+    cache_info,
+    clear_memory_cache,
+    frozen,
+    gains_key,
+    load_gains,
+    save_gains,
+)
+from synth.sound.radiation.common import (
+    MAX_ORDER,
+    RadiationResult,
+    check_listener,
+    check_poles,
+    check_settings,
+    half_phase,
+)
+from synth.sound.radiation.polar import separable_gains
+from synth.sound.radiation.rectangle import rayleigh_gains
+from synth.sound.radiation.refinement import warn_unconverged
+from synth.sound.radiation.summed import summed_gains
+
+__all__ = [
+    "RadiationResult",
+    "rayleigh_gains",
+    "separable_gains",
+    "summed_gains",
+    "plate_gains",
+    "delay",
+    "distance",
+    "cache_info",
+    "clear_memory_cache",
+]
+
+# Work of the rectangle rule (modes times points of its first rule, estimated from its
+# longest panels) above which a plate
+# with separable shapes takes the polar rule of separable_gains. Below it the rectangle
+# rule takes at most a few seconds and is kept: its gains (the polar rule's agree to
+# tol, not to the last bit) are those the presets' recorded renders were made with
+# (the largest simply supported preset, 550 modes at 48 kHz, is 3.6e7).
+_POLAR_WORK = 5e7
+
+
+def _use_separable(modes, size, listener, q_s, kb, c, tol):
+    """The modes' :class:`~synth.sound.modes.SeparableShapes` if :func:`plate_gains`
+    should use :func:`separable_gains`, else None."""
+    shapes = modes.separable()
+    if shapes is None or q_s.size == 0:
+        return None
+    return shapes if _rectangle_work(size, q_s, kb, c, tol) > _POLAR_WORK else None
+
+
+#: Rectangle-rule work (modes times points, as for ``_POLAR_WORK``) above which a free or
+#: clamped plate takes the polar rule of :func:`summed_gains`. Above every preset's (at
+#: most 3.4e8, a free wooden table at 48 kHz: their recorded renders were made with the
+#: rectangle rule), below the default board's at 192 kHz (7e8). ``math.inf``: never.
+SUMMED_RULE_WORK = 5e8
+
+
+def _rectangle_work(size, q_s, kb, c, tol) -> float:
+    """Modes times points of the rectangle rule's first rule, estimated from its
+    longest panels (24 points each, ``2 w24 / kappa`` long)."""
+    kappa = kb + float(np.max(np.abs(q_s))) / c
+    per_metre = MAX_ORDER * kappa / (2.0 * half_phase(MAX_ORDER, 0.1 * tol))
+    return float(q_s.size) * (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
+
+
+def _use_summed(modes, size, q_s, kb, c, tol):
+    """The modes' :class:`~synth.sound.modes.SummedShapes` if :func:`plate_gains`
+    should use :func:`summed_gains`, else None."""
+    if q_s.size == 0 or _rectangle_work(size, q_s, kb, c, tol) <= SUMMED_RULE_WORK:
+        return None
+    return modes.summed()
+
+
+def plate_gains(
+    modes,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+    cache=True,
+):
+    """:func:`rayleigh_gains` of a plate's modes, cached in memory and on disk.
+
+    Parameters
+    ----------
+    modes : synth.sound.modes.Modes
+        The plate's modes; their :meth:`~synth.sound.modes.Modes.shapes` are the
+        normal-velocity shapes and the plate's length and width the size.
+    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol,
+    max_points, full_output
+        As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
+    cache : bool
+        Reuse and store the result (memory and disk). ``False`` computes afresh
+        and stores nothing.
+
+    Returns
+    -------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)``, Pa per (m/s) of modal velocity (read-only); or a
+        :class:`RadiationResult` if ``full_output``.
+
+    Raises
+    ------
+    ParameterError
+        If ``modes`` is not a :class:`~synth.sound.modes.Modes`, ``s`` does not have one
+        entry per mode, ``cache`` is not a bool, or as :func:`rayleigh_gains`.
+
+    Notes
+    -----
+    The result is stored under a key made of everything that determines it:
+    :attr:`~synth.sound.modes.Modes.shape_key` (the plate's size and eigen-solution),
+    the listener position, the poles ``s`` (exact bytes), the maximum wavenumber,
+    the air constants, the reference distance, ``tol``, ``max_points`` and the
+    quadrature's settings. Files ``radiation-gains-*.npz`` sit beside the mode
+    cache (:func:`synth.sound.modes.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
+    atomically; an unreadable or inconsistent file is ignored and rewritten. A
+    result loaded from disk equals the computed one exactly (the
+    convergence warning, if any, is repeated).
+    """
+    if not isinstance(modes, Modes):
+        raise ParameterError(f"modes={modes!r} must be a synth.sound.modes.Modes")
+    if not isinstance(cache, bool):
+        raise ParameterError(f"cache={cache!r} must be True or False")
+    listener = check_listener(listener_position)
+    q_s = check_poles(s)
+    if q_s.size != len(modes):
+        raise ParameterError(
+            f"s has {q_s.size} poles for {len(modes)} modes: one complex frequency (rad/s) "
+            f"per mode is needed"
+        )
+    kb, rho, c, r0, tol = check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
+
+    size = (modes.plate.length, modes.plate.width)
+    separable = _use_separable(modes, size, listener, q_s, kb, c, tol)
+    summed = None if separable is not None else _use_summed(modes, size, q_s, kb, c, tol)
+
+    def compute():
+        if summed is not None:
+            result = summed_gains(
+                summed,
+                listener,
+                q_s,
+                max_wavenumber=kb,
+                air_density=rho,
+                sound_speed=c,
+                reference_distance=r0,
+                tol=tol,
+                max_points=max_points,
+                full_output=True,
+            )
+        elif separable is not None:
+            result = separable_gains(
+                separable,
+                listener,
+                q_s,
+                max_wavenumber=kb,
+                air_density=rho,
+                sound_speed=c,
+                reference_distance=r0,
+                tol=tol,
+                max_points=max_points,
+                full_output=True,
+            )
+        else:
+            result = rayleigh_gains(
+                modes.shapes,
+                size,
+                listener,
+                q_s,
+                max_wavenumber=kb,
+                air_density=rho,
+                sound_speed=c,
+                reference_distance=r0,
+                tol=tol,
+                max_points=max_points,
+                full_output=True,
+            )
+        return frozen(result)
+
+    if not cache:
+        result = compute()
+        CACHE.count("computed")
+    else:
+        key = gains_key(
+            modes,
+            listener,
+            q_s,
+            kb,
+            rho,
+            c,
+            r0,
+            tol,
+            max_points,
+            separable is not None or summed is not None,
+        )
+        result = CACHE.get(key)
+        if result is None:
+            result = load_gains(key, q_s.size)
+            if result is not None:
+                CACHE.put(key, result, source="disk")
+            else:
+                result = compute()
+                CACHE.put(key, result, source="computed")
+                save_gains(result, key)
+    if full_output:
+        return result
+    if not result.success:
+        warn_unconverged("plate_gains", result, tol)
+    return result.gains
+
+
+def distance(listener_position, reference_point) -> float:
+    """Distance from the microphone to a point of the plate, metres.
+
+    Parameters
+    ----------
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
+    reference_point : (float, float)
+        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
+
+    Returns
+    -------
+    float
+        ``|xL - xr|``, metres (the ``reference_distance`` of :func:`rayleigh_gains`).
+    """
+    xl, yl, zl = check_listener(listener_position)
+    xr, yr = checks.point("reference_point", reference_point, 2)
+    return math.sqrt((xl - xr) ** 2 + (yl - yr) ** 2 + zl * zl)
+
+
+def delay(listener_position, reference_point, sound_speed=SOUND_SPEED) -> float:
+    """Propagation delay from a point of the plate to the microphone, seconds.
+
+    Parameters
+    ----------
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
+    reference_point : (float, float)
+        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
+    sound_speed : float > 0
+        Speed of sound in air, m/s.
+
+    Returns
+    -------
+    float
+        ``|xL - xr| / c``, seconds: the delay to apply to gains computed with
+        ``reference_distance = distance(listener_position, reference_point)``.
+    """
+    c = checks.positive("sound_speed", sound_speed, "m/s")
+    return distance(listener_position, reference_point) / c

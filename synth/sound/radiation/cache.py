@@ -1,0 +1,155 @@
+"""The cache of :func:`synth.sound.radiation.plate_gains`: gains in memory and on disk.
+
+The gains of a :class:`synth.sound.modes.Modes` are kept in memory and on disk
+(``radiation-gains-*.npz`` beside the plate-mode cache, ``$SYNTH_CACHE_DIR`` if set), keyed
+by everything that determines them, so that a scene rendered again (in this process or
+another) does not repeat the integral.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
+from synth.sound.radiation.common import (
+    COHERENT_FLOOR,
+    GRADING,
+    MAX_ORDER,
+    MAX_RULES,
+    NEAR_RHO,
+    REFINE,
+    RadiationResult,
+)
+
+_CACHE_VERSION = 1  # layout of the stored gains and the algorithm; part of the key
+CACHE = MemoryCache("computations", max_entries=32)  # least recently used dropped
+
+
+def cache_info() -> dict:
+    """Counters of the gain cache of :func:`plate_gains` since start-up (or
+    :func:`clear_memory_cache`).
+
+    Returns
+    -------
+    dict
+        ``computations`` (Rayleigh integrals evaluated), ``memory_hits``,
+        ``disk_hits`` (results read from disk), ``disk_writes``, and ``entries``
+        (results held in memory).
+    """
+    return CACHE.info()
+
+
+def clear_memory_cache() -> None:
+    """Forget the gains held in memory and reset the counters (disk untouched)."""
+    CACHE.clear()
+
+
+def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False) -> str:
+    """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
+    (``polar``: computed by :func:`separable_gains`)."""
+    extra = {"rule": "polar"} if polar else {}
+    return json.dumps(
+        {
+            **extra,
+            "version": _CACHE_VERSION,
+            "shapes": modes.shape_key,
+            "listener": [float(v).hex() for v in listener],
+            "poles": hashlib.sha256(
+                np.ascontiguousarray(s, dtype=np.complex128).tobytes()
+            ).hexdigest(),
+            "n_poles": int(s.size),
+            "max_wavenumber": float(kb).hex(),
+            "air_density": float(rho).hex(),
+            "sound_speed": float(c).hex(),
+            "reference_distance": None if r0 is None else float(r0).hex(),
+            "tol": float(tol).hex(),
+            "max_points": int(max_points),
+            "quadrature": [MAX_ORDER, REFINE, MAX_RULES, GRADING, NEAR_RHO, COHERENT_FLOOR],
+        },
+        sort_keys=True,
+    )
+
+
+def _gains_path(key: str) -> Path:
+    return cache_path("radiation-gains", key)
+
+
+def save_gains(result: RadiationResult, key: str) -> None:
+    """Write ``result`` to the disk cache (atomically); skipped if impossible."""
+    arrays = {
+        "key": np.array(key),
+        "gains": result.gains,
+        "error": result.error,
+        "coherent": result.coherent,
+        "n_points": np.array(result.n_points),
+        "refinements": np.array(result.refinements),
+        "panels": np.array(result.panels),
+        "status": np.array(result.status),
+        "message": np.array(result.message),
+        "rule": np.array(result.rule),
+    }
+    try:
+        path = _gains_path(key)
+    except RuntimeError:  # no home directory
+        return
+    if savez_atomic(path, arrays):
+        CACHE.count("disk_writes")
+
+
+def load_gains(key: str, m: int):
+    """The stored result for ``key`` (``m`` modes), or None if absent, unreadable or
+    inconsistent."""
+    try:
+        path = _gains_path(key)
+        if not path.is_file():
+            return None
+        with load_npz(path) as z:
+            if str(z["key"][()]) != key:
+                return None
+            gains, error, coherent = z["gains"], z["error"], z["coherent"]
+            n_points, refinements = int(z["n_points"][()]), int(z["refinements"][()])
+            panels, status, message = z["panels"], int(z["status"][()]), str(z["message"][()])
+            rule = str(z["rule"][()]) if "rule" in z.files else "rectangle"
+        ok = (
+            gains.dtype == np.complex128
+            and gains.shape == (m,)
+            and error.shape == (m,)
+            and coherent.shape == (m,)
+            and panels.shape == (2,)
+            and np.all(np.isfinite(gains))
+            and np.all(np.isfinite(error))
+            and np.all(np.isfinite(coherent))
+            and status in (0, 1, 2)
+            and n_points >= 0
+            and refinements >= 0
+            and rule in ("rectangle", "polar")
+        )
+        if not ok:
+            return None
+        return frozen(
+            RadiationResult(
+                gains,
+                error.astype(float),
+                coherent.astype(float),
+                n_points,
+                refinements,
+                (int(panels[0]), int(panels[1])),
+                status == 0,
+                status,
+                message,
+                rule,
+            )
+        )
+    except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
+        return None
+
+
+def frozen(result: RadiationResult) -> RadiationResult:
+    """``result`` with read-only arrays (it is shared between callers)."""
+    for arr in (result.gains, result.error, result.coherent):
+        arr.setflags(write=False)
+    return result

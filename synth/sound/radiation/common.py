@@ -1,0 +1,292 @@
+"""What the rules of the Rayleigh integral (:mod:`synth.sound.radiation`) share: their
+result, the argument checks, Gauss-Legendre rules and the numba kernel of the sums.
+
+The kernel adds, for a chunk of quadrature points and every mode, the terms of
+``Int phi_k exp(-s_k (R - Rm) / c) / R dA`` (one exponential per mode and point) and of the
+in-phase integral ``Int |phi_k| / R dA``; it runs without the GIL, so that the rules can
+share the sums between worker threads.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError
+from synth.vecmath import cis, exp_small
+
+MAX_ORDER = 24  # Gauss-Legendre points per axis of the longest panels, first rule
+REFINE = 1.25  # ratio of points per axis between successive rules (1.56 in 2-D)
+MAX_RULES = 7  # first rule and up to six refinements
+GRADING = 2.0  # near-field panel length / max(z, d)
+NEAR_RHO = 2.89  # Bernstein-ellipse parameter of the worst graded panel (see min_order)
+COHERENT_FLOOR = 1e-4  # see synth.sound.radiation.refinement
+CHUNK_BYTES = 32e6  # one chunk of mode values, bytes
+_TOL_RANGE = (1e-9, 0.1)
+
+
+@dataclass(frozen=True)
+class RadiationResult:
+    """Gains of the Rayleigh integral and how they were obtained.
+
+    Attributes
+    ----------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` if a reference distance was
+        given), Pa per (m/s) of modal velocity.
+    error : ndarray of float, shape (n_modes,)
+        Estimated absolute error of each gain, ``|H_fine - H_coarse|``, Pa s/m.
+    coherent : ndarray of float, shape (n_modes,)
+        ``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA``, an upper bound of
+        ``|H_k|``, Pa s/m.
+    n_points : int
+        Number of quadrature points of the returned (finer) rule.
+    refinements : int
+        How many times the first rule was refined (by 1.25 in points per axis) to
+        give the returned rule (1 when the first check passed).
+    panels : (int, int)
+        Number of panels along x and along y.
+    success : bool
+        Whether the convergence test passed for every mode.
+    status : int
+        0 converged; 1 stopped after the last refinement; 2 stopped at ``max_points``.
+    message : str
+        A sentence saying which.
+    rule : str
+        "rectangle" (:func:`rayleigh_gains`: panels along x and y) or "polar"
+        (:func:`separable_gains`: radial panels about the microphone, and 0).
+    """
+
+    gains: np.ndarray
+    error: np.ndarray
+    coherent: np.ndarray
+    n_points: int
+    refinements: int
+    panels: tuple[int, int]
+    success: bool
+    status: int
+    message: str
+    rule: str = "rectangle"
+
+
+# ----------------------------------------------------------------------------------------
+# Validation helpers
+
+
+def check_listener(listener_position) -> tuple[float, float, float]:
+    x, y, z = checks.point("listener_position", listener_position, 3)
+    if not z > 0.0:
+        raise ParameterError(
+            f"listener_position.z={z!r} must be > 0 (metres above the plate, on the air side)"
+        )
+    return x, y, z
+
+
+def check_size(size) -> tuple[float, float]:
+    try:
+        items = tuple(size)
+    except TypeError:
+        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)") from None
+    if len(items) != 2:
+        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
+    return (
+        checks.positive("size.a", items[0], "metres"),
+        checks.positive("size.b", items[1], "metres"),
+    )
+
+
+def check_poles(s) -> np.ndarray:
+    try:
+        arr = np.asarray(s)
+    except Exception:  # noqa: BLE001 - anything numpy cannot read is bad input
+        raise ParameterError(f"s={s!r} must be a 1-D array of complex poles (rad/s)") from None
+    if arr.ndim != 1 or not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
+        raise ParameterError(
+            f"s (shape {arr.shape}, dtype {arr.dtype}) must be a 1-D numeric array "
+            f"of complex poles (rad/s), one per mode"
+        )
+    arr = arr.astype(complex)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ParameterError(f"s[{i}]={arr[i]!r} must be finite (rad/s)")
+    return arr
+
+
+# ----------------------------------------------------------------------------------------
+# Gauss-Legendre rules and panels
+
+
+@functools.cache
+def gauss(p: int) -> tuple[np.ndarray, np.ndarray]:
+    t, w = np.polynomial.legendre.leggauss(p)
+    t.setflags(write=False)
+    w.setflags(write=False)
+    return t, w
+
+
+@functools.lru_cache(maxsize=256)
+def half_phase(p: int, tol: float) -> float:
+    """Largest ``w`` such that ``p``-point Gauss-Legendre integrates ``exp(i w' t)``
+    on ``[-1, 1]`` with error ``<= tol`` times the interval length, for all ``w' <= w``."""
+    t, wts = gauss(p)
+    omega = np.arange(1, 4000) * (0.005 * p)  # up to 20 p, beyond any useful panel
+    quad = np.exp(1j * np.outer(omega, t)) @ wts
+    err = np.abs(quad - 2.0 * np.sin(omega) / omega) / 2.0
+    bad = np.flatnonzero(err > tol)
+    return float(omega[bad[0] - 1]) if bad.size and bad[0] > 0 else float(omega[0])
+
+
+def min_order(tol: float) -> int:
+    """Points per axis that resolve the 1/R peak on a graded panel to ``tol``.
+
+    The worst graded panel, ``[0, 2 z]`` from the projection, has the complex
+    singularity of ``1/R`` at ``-1 +- i`` in its own coordinate ``t in [-1, 1]``:
+    the Bernstein ellipse through it has ``rho = 2.89``, and Gauss-Legendre's error
+    decays as ``rho^(-2 p)``.
+    """
+    p = math.ceil(math.log(1.0 / tol) / (2.0 * math.log(NEAR_RHO)))
+    return min(max(p, 6), MAX_ORDER)
+
+
+# ----------------------------------------------------------------------------------------
+# Kernels
+#
+# Each accumulates, for a chunk of quadrature points j and every mode k,
+#     acc_k += w_j phi_jk exp(-q_k (R_j - Rm)) / R_j,   q_k = s_k / c,
+#     mag_k += w_j |phi_jk| / R_j,
+# with Rm the middle of the range of R over the plate (the factor exp(-q_k Rm) is
+# applied once per mode afterwards). exp(-q dR) = exp(-Re(q) dR) (cos - i sin)(Im(q) dR).
+# The fast kernel uses the polynomial sin, cos and exp of synth.vecmath (the exp on
+# |u| <= 1 squared up to 6 times: |Re(q) dR| <= 64), so that the loop over modes
+# vectorises; the general kernel calls libm.
+
+
+@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+def _exp_scaled(u, halvings):
+    """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
+    the squarings as selects rather than a loop: a loop of variable length inside the
+    loop over modes stops it from vectorising (the values are those of
+    :func:`synth.vecmath.exp_squared`, bit for bit)."""
+    e = exp_small(u)
+    e = e * e if halvings >= 1 else e
+    e = e * e if halvings >= 2 else e
+    e = e * e if halvings >= 3 else e
+    e = e * e if halvings >= 4 else e
+    e = e * e if halvings >= 5 else e
+    e = e * e if halvings >= 6 else e
+    return e
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+    """Rayleigh sums over points ``j0 <= j < j1``.
+
+    dist : (n,) R_j - Rm, metres; wr : (n,) w_j / R_j, metres; phi : (n, m) shapes;
+    qr : (m,) Re(s_k / c) / 2^halvings, 1/m; qi : (m,) Im(s_k / c), 1/m; halvings : int
+    in [0, 6]; acc_re, acc_im, mag : (m,) accumulators. Requires |qr_k dist_j| <= 1 and
+    |qi_k dist_j| < 2^19 pi. exp(u) = exp(u / 2^J)^(2^J) (relative error <= 2^J ulp-ish).
+
+    Points are taken four at a time (four independent evaluations per mode keep
+    the vector units busy), their terms added to each accumulator in point order:
+    the same sums, term by term, as one point at a time.
+    """
+    m = phi.shape[1]
+    j = j0
+    while j + 4 <= j1:
+        d0, d1, d2, d3 = dist[j], dist[j + 1], dist[j + 2], dist[j + 3]
+        w0, w1, w2, w3 = wr[j], wr[j + 1], wr[j + 2], wr[j + 3]
+        r0, r1, r2, r3 = phi[j], phi[j + 1], phi[j + 2], phi[j + 3]
+        for k in range(m):
+            f0 = r0[k] * w0
+            f1 = r1[k] * w1
+            f2 = r2[k] * w2
+            f3 = r3[k] * w3
+            a0 = f0 * _exp_scaled(-qr[k] * d0, halvings)
+            a1 = f1 * _exp_scaled(-qr[k] * d1, halvings)
+            a2 = f2 * _exp_scaled(-qr[k] * d2, halvings)
+            a3 = f3 * _exp_scaled(-qr[k] * d3, halvings)
+            c0, s0 = cis(qi[k] * d0)
+            c1, s1 = cis(qi[k] * d1)
+            c2, s2 = cis(qi[k] * d2)
+            c3, s3 = cis(qi[k] * d3)
+            acc_re[k] = (((acc_re[k] + a0 * c0) + a1 * c1) + a2 * c2) + a3 * c3
+            acc_im[k] = (((acc_im[k] - a0 * s0) - a1 * s1) - a2 * s2) - a3 * s3
+            mag[k] = (((mag[k] + abs(f0)) + abs(f1)) + abs(f2)) + abs(f3)
+        j += 4
+    for j in range(j, j1):
+        d = dist[j]
+        w = wr[j]
+        row = phi[j]
+        for k in range(m):
+            f = row[k] * w
+            amp = f * _exp_scaled(-qr[k] * d, halvings)
+            c, sn = cis(qi[k] * d)
+            acc_re[k] += amp * c
+            acc_im[k] -= amp * sn
+            mag[k] += abs(f)
+
+
+@numba.njit(cache=True)
+def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
+    """As :func:`_rows_fast` with ``halvings = 0``, with libm exp, cos and sin (any arguments)."""
+    m = phi.shape[1]
+    for j in range(j0, j1):
+        d = dist[j]
+        w = wr[j]
+        row = phi[j]
+        for k in range(m):
+            f = row[k] * w
+            amp = f * math.exp(-qr[k] * d)
+            th = qi[k] * d
+            acc_re[k] += amp * math.cos(th)
+            acc_im[k] -= amp * math.sin(th)
+            mag[k] += abs(f)
+
+
+@numba.njit(cache=True, nogil=True)
+def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+    """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
+    _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""
+    if halvings >= 0:
+        _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
+    else:
+        _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)
+
+
+def exp_halvings(q: np.ndarray, spread: float) -> int:
+    """Squarings of the fast kernel's exp for ``|Re(q) dR| <= |Re(q)| spread`` (Taylor on
+    ``[-1, 1]``, then ``2^halvings``); -1 (the libm kernel) beyond 2^6 or for phases
+    beyond the Cody-Waite range."""
+    u_max = float(np.max(np.abs(q.real))) * spread
+    halvings = max(0, math.ceil(math.log2(u_max))) if u_max > 0 else 0
+    if halvings > 6 or float(np.max(np.abs(q.imag))) * spread >= 2.0**18:
+        halvings = -1
+    return halvings
+
+
+def check_settings(max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points):
+    """The settings shared by :func:`rayleigh_gains` and :func:`plate_gains`, checked:
+    ``(kb rad/m, rho kg/m^3, c m/s, R0 m or None, tol)``; ``max_points`` must be a positive
+    integer."""
+    kb = checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
+    rho = checks.positive("air_density", air_density, "kg/m^3")
+    c = checks.positive("sound_speed", sound_speed, "m/s")
+    r0 = (
+        None
+        if reference_distance is None
+        else checks.nonnegative("reference_distance", reference_distance, "metres")
+    )
+    tol = checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False, hi_open=False)
+    if (
+        isinstance(max_points, bool)
+        or not isinstance(max_points, (int, np.integer))
+        or max_points <= 0
+    ):
+        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    return kb, rho, c, r0, tol

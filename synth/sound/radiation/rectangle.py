@@ -1,0 +1,351 @@
+"""The rectangle rule of the Rayleigh integral (:func:`rayleigh_gains`): tensor
+Gauss-Legendre panels along x and y, for any shapes.
+
+The integrand oscillates along the plate at most at ``kappa = max_wavenumber + max|s| / c``
+rad/m (the mode's bending wavenumber plus the acoustic one: the phase of ``exp(-s R / c)``
+changes along the plate at most at ``|s| / c``). Along each axis the panels are at most
+``h = 2 w24 / kappa`` long, ``w24`` the largest half-panel phase that 24-point
+Gauss-Legendre integrates (``exp(i w t)`` on ``[-1, 1]``) to ``tol / 10``; each panel then
+gets the fewest points that do so for its own length. Towards the microphone's projection
+``(x, y)`` the panels are graded: a panel whose near end is a distance ``d`` (along the
+axis) from the projection is at most ``2 max(z, d)`` long, so that the near-singular
+``1 / R`` peak (its complex singularities lie at a distance ``>= sqrt(d^2 + z^2)``) is
+resolved for any height ``z > 0``; such a panel gets at least ``ln(1/tol) / (2 ln 2.89)``
+points (its Bernstein-ellipse parameter is ``>= 2.89``). Successive rules are compared as
+in :mod:`synth.sound.radiation.refinement`.
+
+Shapes are evaluated in chunks of points so that one chunk of mode values takes at most
+about 32 MB (``n_modes * chunk * 8`` bytes) whatever the number of modes and points. The
+sums over a chunk run in worker threads without the GIL while the calling thread
+evaluates the next chunk's shapes (two chunks are held at a time); each worker always
+takes the same share of every chunk, so the result does not depend on the timing.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numba
+import numpy as np
+
+from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.errors import ParameterError
+from synth.sound.radiation.common import (
+    CHUNK_BYTES,
+    GRADING,
+    MAX_ORDER,
+    REFINE,
+    RadiationResult,
+    accumulate,
+    check_listener,
+    check_poles,
+    check_settings,
+    check_size,
+    exp_halvings,
+    gauss,
+    half_phase,
+    min_order,
+)
+from synth.sound.radiation.refinement import refine, warn_unconverged
+
+
+def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
+    """Panel ends on ``[0, length]``: at most ``h`` long, and at most ``2 max(height, d)``
+    long where ``d`` is the distance from ``centre`` (the microphone's projection on this
+    axis) to the panel's near end."""
+    c = min(max(centre, 0.0), length)
+    right = [c]
+    t = c
+    while t < length:
+        d = abs(t - centre)
+        t = min(t + min(h, GRADING * max(height, d)), length)
+        right.append(t)
+    left = []
+    t = c
+    while t > 0.0:
+        d = abs(centre - t)
+        t = max(t - min(h, GRADING * max(height, d)), 0.0)
+        left.append(t)
+    ends = np.array(left[::-1] + right)
+    # a panel shorter than 1e-12 of the plate is a rounding artefact of the stepping
+    keep = np.concatenate(([True], np.diff(ends) > 1e-12 * length))
+    ends = ends[keep]
+    ends[-1] = length
+    ends[0] = 0.0
+    return ends
+
+
+def _panel_orders(ends: np.ndarray, kappa: float, tol: float) -> np.ndarray:
+    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``."""
+    lengths = np.diff(ends)
+    p_min = min_order(tol)
+    orders = np.full(lengths.size, p_min, dtype=np.int64)
+    for i, length in enumerate(lengths):
+        w = 0.5 * kappa * length
+        p = p_min
+        while p < MAX_ORDER and half_phase(p, tol) < w:
+            p += 1
+        orders[i] = p
+    return orders
+
+
+def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    xs, ws = [], []
+    for lo, hi, p in zip(ends[:-1], ends[1:], orders):
+        t, w = gauss(int(p))
+        half = 0.5 * (hi - lo)
+        xs.append(0.5 * (lo + hi) + half * t)
+        ws.append(half * w)
+    return np.concatenate(xs), np.concatenate(ws)
+
+
+# ----------------------------------------------------------------------------------------
+# One rule
+
+
+def _workers() -> int:
+    """Threads that run the Rayleigh sums: one less than numba's thread count (at
+    least one); the calling thread meanwhile evaluates the next chunk's shapes."""
+    return max(1, numba.get_num_threads() - 1)
+
+
+def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA``.
+
+    Pipelined: while the worker threads add up one chunk of points (GIL released),
+    the calling thread evaluates ``shape_fn`` on the next. Each worker owns its
+    accumulators and always takes the same share of every chunk, so the result does
+    not depend on the timing.
+    """
+    xl, yl, zl = listener
+    m = q.size
+    ny = ys.size
+    n_total = xs.size * ny
+    workers = _workers()
+    acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
+    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+    qi = np.ascontiguousarray(q.imag)
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        running = []
+        for start in range(0, n_total, chunk):
+            idx = np.arange(start, min(start + chunk, n_total))
+            ix, iy = np.divmod(idx, ny)
+            pts = np.empty((idx.size, 2))
+            pts[:, 0] = xs[ix]
+            pts[:, 1] = ys[iy]
+            phi = shape_fn(pts)
+            phi = _check_shapes(phi, idx.size, m)
+            r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
+            wr = wx[ix] * wy[iy] / r
+            dist = r - r_mid
+            for job in running:
+                job.result()
+            n = idx.size
+            running = [
+                pool.submit(
+                    accumulate,
+                    w * n // workers,
+                    (w + 1) * n // workers,
+                    dist,
+                    wr,
+                    phi,
+                    qr,
+                    qi,
+                    halvings,
+                    *acc[w],
+                )
+                for w in range(workers)
+            ]
+        for job in running:
+            job.result()
+    acc_re, acc_im, mag = acc.sum(axis=0)
+    if not np.isfinite(mag).all():  # NaN or inf anywhere in phi propagates here
+        k = int(np.flatnonzero(~np.isfinite(mag))[0])
+        raise ParameterError(
+            f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}"
+        )
+    return acc_re + 1j * acc_im, mag
+
+
+def _check_shapes(phi, n, m):
+    try:
+        arr = np.asarray(phi)
+    except Exception:  # noqa: BLE001
+        raise ParameterError("shape_fn must return an array of mode shape values") from None
+    if arr.shape != (n, m):
+        raise ParameterError(
+            f"shape_fn returned shape {arr.shape} for {n} points; expected ({n}, {m}) "
+            f"(points, modes), one column per pole in s"
+        )
+    if np.iscomplexobj(arr):
+        raise ParameterError("shape_fn must return real mode shape values, got complex")
+    if not (np.issubdtype(arr.dtype, np.number) and arr.dtype != bool):
+        raise ParameterError(f"shape_fn must return real numbers, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def rayleigh_gains(
+    shape_fn,
+    size,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+):
+    """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral).
+
+    Parameters
+    ----------
+    shape_fn : callable
+        ``shape_fn(points) -> values``: ``points`` an ``(n, 2)`` float array of
+        plate positions ``(x, y)``, metres from the corner; ``values`` an
+        ``(n, n_modes)`` real array of the modes' normal-velocity shapes
+        ``phi_k`` there (dimensionless: the surface velocity is ``phi_k u``).
+        It is called on chunks of points (at most about 32 MB of values each);
+        the returned array is read while the next chunk is evaluated, so it
+        must not be reused for the next call's values.
+    size : (float > 0, float > 0)
+        ``(a, b)``: the plate's extent along x and y, metres.
+    listener_position : (float, float, float)
+        ``(x, y, z)`` of the microphone, metres; any ``x, y``; ``z > 0`` the
+        height above the plate's plane (the air side of the baffle).
+    s : array of complex, shape (n_modes,)
+        The complex frequency of each mode, rad/s: ``i omega`` for a steady
+        sinusoid, the pole ``-sigma_k + i omega_dk`` for a mode ringing freely.
+    max_wavenumber : float >= 0
+        Largest bending wavenumber of the modes, ``k_b = (omega^2 rho h / D)^(1/4)``,
+        rad/m (0 for a rigid piston); sets the panel size with ``max|s| / c``.
+    air_density : float > 0
+        Density of air, kg/m^3.
+    sound_speed : float > 0
+        Speed of sound in air, m/s.
+    reference_distance : float >= 0 or None
+        ``R0``, metres. If given, the gains are ``H_k(s_k) exp(+s_k R0 / c)``: the
+        transfer function with a pure delay ``R0 / c`` taken out (see :func:`distance`
+        and :func:`delay`). None: ``H_k(s_k)`` itself.
+    tol : float in [1e-9, 0.1]
+        Relative accuracy of each gain (dimensionless), in the sense of
+        :mod:`synth.sound.radiation.refinement`: ``|error| <= tol * max(|H_k|, 1e-4 S_k)``.
+    max_points : int > 0
+        Most quadrature points one rule may use; refinement stops there.
+    full_output : bool
+        If True return a :class:`RadiationResult` (gains, error estimates,
+        success flag); if False return the gains alone, and warn
+        (``RuntimeWarning``) if the convergence test failed.
+
+    Returns
+    -------
+    gains : ndarray of complex, shape (n_modes,)
+        ``H_k(s_k)``, Pa per (m/s) of modal velocity ``u``; or a
+        :class:`RadiationResult` if ``full_output``.
+
+    Raises
+    ------
+    ParameterError
+        For any input outside the ranges above (the message names the field),
+        NaN or infinite shape values, or a plate needing more than ``max_points``
+        points for the first two rules.
+
+    Notes
+    -----
+    Cost: about ``1.6 N n_modes`` evaluations of ``phi exp(-s R / c) / R`` plus
+    ``1.6 N`` points of ``shape_fn`` for the two rules, ``N`` the returned rule's
+    points (``RadiationResult.n_points``; a few 10^4 for ``kappa ~ 800`` rad/m on
+    a 0.5 x 0.4 m plate). A ``shape_fn`` returning a C-ordered (row per point)
+    float64 array is used without a copy. For a damped pole the gain grows as
+    ``exp(sigma R / c)``; with a distant microphone give ``reference_distance``
+    so that only ``exp(sigma (R - R0) / c)`` remains.
+    """
+    if not callable(shape_fn):
+        raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
+    a, b = check_size(size)
+    listener = check_listener(listener_position)
+    q_s = check_poles(s)
+    kb, rho, c, r0, tol = check_settings(
+        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
+    )
+    m = q_s.size
+    if m == 0:
+        empty = np.zeros(0, complex)
+        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
+        return res if full_output else empty
+
+    q = q_s / c
+    kappa = kb + float(np.max(np.abs(q)))
+    xl, yl, zl = listener
+    # Panels: oscillation (kappa) and the near-field peak under the microphone.
+    tol_panel = 0.1 * tol
+    w_half = half_phase(MAX_ORDER, tol_panel)
+    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
+    p_min = min_order(tol_panel)
+    if (a / h) * (b / h) * p_min * p_min > max_points:  # before building the panels
+        raise ParameterError(
+            f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m and "
+            f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
+            f"{(a / h) * (b / h) * p_min * p_min:.3g} points"
+        )
+    ex, ey, px0, py0 = first_rule(a, b, listener, kappa, tol_panel)
+    panels = (ex.size - 1, ey.size - 1)
+
+    # Range of R over the plate: the middle is factored out of the exponentials.
+    dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
+    dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
+    r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
+    r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+    r_mid = 0.5 * (r_max + r_min)
+    spread = 0.5 * (r_max - r_min)
+    # exp(-Re(q) dR) with |Re(q) dR| <= u_max by Taylor on [-1, 1] and `halvings`
+    # squarings; libm beyond 2^6 (or for phases beyond the Cody-Waite range).
+    halvings = exp_halvings(q, spread)
+    chunk = max(1, int(CHUNK_BYTES // (8 * m)))
+
+    def orders(level):
+        f = REFINE**level
+        return np.ceil(px0 * f).astype(np.int64), np.ceil(py0 * f).astype(np.int64)
+
+    def npoints(level):
+        ox, oy = orders(level)
+        return int(ox.sum()) * int(oy.sum())
+
+    if npoints(1) > max_points:
+        raise ParameterError(
+            f"max_points={max_points!r} is too small: with max_wavenumber={kb!r} rad/m, "
+            f"max|s|/c={kappa - kb:.6g} rad/m and z={zl!r} m the plate needs "
+            f"{panels[0]} x {panels[1]} panels and {npoints(1)} points for the "
+            f"convergence check"
+        )
+
+    def rule(level):
+        ox, oy = orders(level)
+        xs, wx = panel_nodes(ex, ox)
+        ys, wy = panel_nodes(ey, oy)
+        return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
+
+    # Per-mode factor rho s / (2 pi) exp(-s (Rm - R0) / c).
+    shift = r_mid - (0.0 if r0 is None else r0)
+    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
+    scale = rho * np.abs(q_s) / (2.0 * math.pi)
+
+    result = refine(rule, npoints, factor, scale, tol, max_points, panels)
+    if full_output:
+        return result
+    if not result.success:
+        warn_unconverged("rayleigh_gains", result, tol)
+    return result.gains
+
+
+def first_rule(a, b, listener, kappa, tol_panel):
+    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`."""
+    xl, yl, zl = listener
+    w_half = half_phase(MAX_ORDER, tol_panel)
+    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
+    ex = _breakpoints(a, xl, zl, h)
+    ey = _breakpoints(b, yl, zl, h)
+    return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
