@@ -263,3 +263,23 @@ def test_mindlin_modes_soften_the_plate_as_the_infinite_mindlin_plate():
     assert point.omega.max() <= 2.0 * np.pi * 2e4
     with pytest.raises(ParameterError, match="theory"):
         mc.modal_point(plate, (0.4, 0.2), max_frequency=2e4, theory="reissner")
+
+
+def test_impedance_contact_time_is_the_bands_time_scale():
+    # The impedance model's contact (infinite plate, no gravity) that sets the modal band:
+    # the same solve with the law's constants spelt out (rounding); the fitted surface's
+    # softer Hertz contact lasts longer; a bad speed is refused.
+    plate = Plate("mdf-18", 0.018, 1.227, 0.49)
+    tau = mc.impedance_contact_time(BALL, plate, 1.4)
+    ref = solve_contact(
+        mass=BALL.mass,
+        stiffness=hertz_stiffness(BALL, plate),
+        admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        speed=1.4,
+        gravity=0.0,
+        rtol=1e-6,
+    )
+    assert tau == pytest.approx(ref.contact_time, rel=1e-12)
+    assert mc.impedance_contact_time(BALL, plate, 1.4, surface="fitted") > 1.5 * tau
+    with pytest.raises(ParameterError, match="speed"):
+        mc.impedance_contact_time(BALL, plate, 0.0)

@@ -46,6 +46,8 @@ from synth.bench.thesis import (
     thesis_lowspeed_rows,
     thesis_modal_rows,
     thesis_row,
+    thesis_transverse_shear_rows,
+    transverse_shear_sensitivity,
 )
 
 __all__ = [
@@ -92,4 +94,6 @@ __all__ = [
     "thesis_lowspeed_rows",
     "thesis_modal_rows",
     "thesis_row",
+    "thesis_transverse_shear_rows",
+    "transverse_shear_sensitivity",
 ]

@@ -43,6 +43,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -153,9 +154,11 @@ SHEAR_COEFFICIENT = 5.0 / 6.0
 
 def _mindlin_constants(plate: Plate) -> tuple[float, float, float, float, float]:
     """``D`` (N m), ``rho h`` (kg/m^2), ``I = rho h^3 / 12`` (kg), ``rho / (kappa G)``
-    (s^2/m^2) and ``kappa G h`` (N/m) of an isotropic plate, ``G = E / (2 (1 + nu))``."""
+    (s^2/m^2) and ``kappa G h`` (N/m) of the plate, ``G`` its material's transverse shear
+    modulus (:attr:`synth.physics.materials.Material.transverse_shear_modulus`; isotropic
+    ``E / (2 (1 + nu))`` unless the material gives one)."""
     m = plate.material
-    shear = m.young / (2.0 * (1.0 + m.poisson))
+    shear = m.transverse_shear_modulus
     h = plate.thickness
     return (
         plate.flexural_rigidity,
@@ -207,6 +210,22 @@ def mindlin_point_admittance(plate: Plate, frequency):
     return float(y) if np.ndim(y) == 0 else y
 
 
+def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
+    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate, ``Re Y``
+    (:func:`mindlin_point_admittance`) averaged over ``[low, high]`` (Hz) by adaptive
+    quadrature: what an impact hammer's band-averaged measurement gives at the middle of a
+    large plate (``ModalPoint.band_impedance`` of :mod:`synth.physics.modal_contact`)."""
+    from scipy.integrate import quad
+
+    lo = checks.nonnegative("low", low, "Hz")
+    hi = checks.positive("high", high, "Hz")
+    if not hi > lo:
+        raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
+    # Re Y is continuous down to 0 Hz (Kirchhoff's constant); start just above it
+    mean = quad(lambda f: mindlin_point_admittance(plate, f), max(lo, 1e-6 * hi), hi, limit=200)[0]
+    return (hi - lo) / mean
+
+
 def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
     """The flexural (lower) Mindlin angular frequency, rad/s, of a wave of ``k^2`` =
     ``wavenumber_squared`` (rad^2/m^2): the lower root in ``omega^2`` of ``P = 0``
@@ -236,3 +255,47 @@ def mindlin_mass_factor(plate: Plate, wavenumber_squared, omega):
     D, rh, inertia, _, shear_stiffness = _mindlin_constants(plate)
     n = 1.0 + (D * s - inertia * w * w) / shear_stiffness
     return 1.0 + inertia * s / (rh * n * n)
+
+
+@dataclass(frozen=True)
+class WaveSpeeds:
+    """Bending-wave speeds at one frequency, m/s: ``phase = omega / k`` and ``group =
+    d omega / d k`` (the speed of a wave packet's energy)."""
+
+    phase: float
+    group: float
+
+
+def kirchhoff_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
+    """The thin plate's bending-wave speeds at ``frequency`` (Hz, > 0): ``c = sqrt(omega)
+    (D / (rho h))^(1/4)`` and ``c_g = 2 c`` (Cremer, Heckl & Petersson, section 3.7)."""
+    f = checks.positive("frequency", frequency, "Hz")
+    c = math.sqrt(2.0 * math.pi * f) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
+    return WaveSpeeds(c, 2.0 * c)
+
+
+def mindlin_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
+    """The Mindlin plate's flexural-wave speeds at ``frequency`` (Hz, > 0), with the
+    material's transverse shear modulus (:func:`mindlin_wavenumbers`): ``c = omega / k`` at
+    the propagating root ``k^2 = s1``, and the group speed by implicit differentiation of
+    ``P(k^2, omega^2) = 0``,
+
+        c_g = -(k / omega) (dP/ds) / (dP/d omega^2),
+        dP/ds = (D s - I omega^2) + D (s - omega^2 rho / (kappa G)),
+        dP/d omega^2 = -(rho / (kappa G)) (D s - I omega^2) - I (s - omega^2 rho / (kappa G))
+                       - rho h.
+
+    Below the thin plate's at every frequency; as ``k h -> 0`` they tend to Kirchhoff's
+    (:func:`kirchhoff_wave_speeds`), and at high frequency both tend to the slower of the
+    shear speed ``sqrt(kappa G / rho)`` and the plate speed ``sqrt(D / I)``."""
+    f = checks.positive("frequency", frequency, "Hz")
+    w = 2.0 * math.pi * f
+    w2 = w * w
+    D, rh, inertia, slow, _ = _mindlin_constants(plate)
+    s = float(mindlin_wavenumbers(plate, w)[0])
+    k = math.sqrt(s)
+    bend = D * s - inertia * w2
+    shear = s - w2 * slow
+    dp_ds = bend + D * shear
+    dp_dw2 = -slow * bend - inertia * shear - rh
+    return WaveSpeeds(w / k, -(k / w) * dp_ds / dp_dw2)

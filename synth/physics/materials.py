@@ -58,7 +58,7 @@ value), which overstates the stiffness of a board bent across the grain.
 from __future__ import annotations
 
 import difflib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -120,7 +120,8 @@ Damping = Rayleigh | LossFactor
 
 @dataclass(frozen=True)
 class Material:
-    """An isotropic elastic material.
+    """An elastic material: isotropic, or transversely isotropic with its own transverse
+    shear modulus (a board whose through-thickness direction is softer than its plane).
 
     Parameters
     ----------
@@ -137,6 +138,11 @@ class Material:
         (its modes decay by it); a ball's material may leave it out (None).
     source : str
         Where the values come from (citation), for table rows.
+    transverse_shear : float > 0 or None
+        Transverse shear modulus ``G_t`` (Pa): the shear of planes across the thickness that
+        a thick (Mindlin) plate's bending strains (docs/physics.md, "Thick plates (Mindlin)").
+        None: isotropic, ``G = E / (2 (1 + nu))``. Only the Mindlin plate reads it; the thin
+        plate, the modes and the contact do not.
     """
 
     name: str
@@ -145,6 +151,7 @@ class Material:
     poisson: float
     damping: Damping | None = None
     source: str = ""
+    transverse_shear: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -162,11 +169,28 @@ class Material:
                 f"{n}.damping={self.damping!r} must be a Rayleigh(alpha, beta) or LossFactor(eta) "
                 f"(or None for a ball's material)"
             )
+        if self.transverse_shear is not None:
+            object.__setattr__(
+                self,
+                "transverse_shear",
+                checks.positive(f"{n}.transverse_shear", self.transverse_shear, "Pa"),
+            )
 
     @property
     def effective_modulus(self) -> float:
         """Plane-strain modulus ``E' = E / (1 - nu^2)``, Pa."""
         return self.young / (1.0 - self.poisson**2)
+
+    @property
+    def shear_modulus(self) -> float:
+        """Isotropic shear modulus ``G = E / (2 (1 + nu))``, Pa."""
+        return self.young / (2.0 * (1.0 + self.poisson))
+
+    @property
+    def transverse_shear_modulus(self) -> float:
+        """Transverse shear modulus ``G_t``, Pa: :attr:`transverse_shear`, or the isotropic
+        :attr:`shear_modulus` where that is None."""
+        return self.shear_modulus if self.transverse_shear is None else self.transverse_shear
 
 
 # The built-in table. Every row cites its source (``source=``); the module
@@ -537,10 +561,30 @@ def contact_surface(material: Material) -> ContactSurface:
     """The fitted :class:`ContactSurface` of a table material (by its name), or
     ``ParameterError`` naming the materials that have one."""
     surface = SURFACES.get(getattr(material, "name", None))
-    if surface is None or TABLE.get(material.name) != material:
+    # a table row, whatever its transverse shear modulus (the contact does not read it)
+    if (
+        surface is None
+        or not isinstance(material, Material)
+        or TABLE.get(material.name) != replace(material, transverse_shear=None)
+    ):
         raise ParameterError(
             f"plate.material={getattr(material, 'name', material)!r} has no fitted contact "
             f"surface (contact.surface='fitted' needs one of {sorted(SURFACES)}, as in the "
             f"built-in table)"
         )
     return surface
+
+
+def with_transverse_shear(material: Material) -> Material:
+    """``material`` with the transverse shear modulus its fitted contact surface implies
+    (:func:`contact_surface`), for the thick (Mindlin) plate:
+
+        G_t = E_t / (2 (1 + nu)),   E_t = transverse_ratio * E
+
+    The assumption: the board is transversely isotropic, and a plane across its thickness
+    is isotropic with the through-thickness modulus ``E_t`` and Poisson's ratio ``nu``
+    (docs/physics.md, "Thick plates (Mindlin)"); so ``G_t / G = E_t / E`` and no parameter
+    is added to the fitted two. ``ParameterError`` for a material without a fitted surface."""
+    surface = contact_surface(material)
+    through_thickness = surface.transverse_ratio * material.young
+    return replace(material, transverse_shear=through_thickness / (2.0 * (1.0 + material.poisson)))

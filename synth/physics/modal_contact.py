@@ -1125,3 +1125,14 @@ def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
         dissipation=float(mu),
         rtol=1e-6,
     )
+
+
+def impedance_contact_time(
+    ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
+) -> float:
+    """The impedance model's contact time (s) of ``ball`` on ``plate`` at ``speed`` (m/s),
+    without gravity, under the contact ``law`` and its options: the time scale from which
+    :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``)."""
+    K, n, mu = contact_law(ball, plate, law, **contact_options)
+    v = checks.positive("speed", speed, "m/s")
+    return _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
