@@ -632,10 +632,16 @@ def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_pane
         # the interior x interior part oscillates (no decay limit); the others decay
         # at k and sqrt(3) k
         kmax = float(k_trial[rows].max())
-        grids = [
-            _Grid(size, listener, float(rate[rows].max()), kappa, tol_panel, refine)
-            for kappa in (0.0, kmax, math.sqrt(3.0) * kmax)
-        ]
+        k_osc = float(rate[rows].max())
+        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
+        made = {}
+        grids = []
+        for kappa in (0.0, kmax, math.sqrt(3.0) * kmax):
+            if kappa * h_osc <= _DECAY_PANEL:  # the decay limit does not bind
+                kappa = 0.0
+            if kappa not in made:
+                made[kappa] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
+            grids.append(made[kappa])
         nodes = max(nodes, max(g.rho.size for g in grids))
         vals = _entry_integrals(
             grids, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big
