@@ -38,8 +38,9 @@ Rules (one module each)
 the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for separable
 shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
 for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
-modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) takes the boundary rule
-for those and the rectangle rule for its Ritz modes.
+modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
+exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
+its Ritz modes.
 """
 
 from __future__ import annotations
@@ -111,6 +112,15 @@ def _use_separable(modes, size, listener, q_s, kb, c, tol):
 #: most 3.4e8, a free wooden table at 48 kHz: their recorded renders were made with the
 #: rectangle rule), below the default board's at 192 kHz (7e8). ``math.inf``: never.
 SUMMED_RULE_WORK = 5e8
+
+
+#: Rectangle-rule work (as for ``_POLAR_WORK``) above which a plate with dynamic edge effect
+#: modes takes the boundary rule for them. Its cost grows with the plate's diameter times
+#: the wavenumber rather than the area times its square, but with a larger constant: measured
+#: (one thread) 9.0 s against the rectangle rule's 1.5 s for a free acrylic plate of
+#: 1.18 x 0.92 m at 22.05 kHz (work 6.7e7, 2578 modes), 31 s against over 300 s for the
+#: default board at 384 kHz (work above 5e9, 3703 modes).
+BOUNDARY_RULE_WORK = 1e9
 
 
 def _rectangle_work(size, q_s, kb, c, tol) -> float:
@@ -241,6 +251,8 @@ def plate_gains(
 
     size = (modes.plate.length, modes.plate.width)
     edge = modes.edge_effect()
+    if edge is not None and _rectangle_work(size, q_s, kb, c, tol) <= BOUNDARY_RULE_WORK:
+        edge = None
     separable = None if edge is not None else _use_separable(modes, size, listener, q_s, kb, c, tol)
     summed = None
     if edge is None and separable is None:
