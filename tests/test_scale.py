@@ -60,8 +60,7 @@ def test_random_big_free_and_clamped_scenes_render(index):
     Ritz problem is past the crossover (a clamped 1.62 x 0.45 m and a free 1.92 x 1.97 m
     plate) render with no refusal: Ritz low band plus dynamic edge effect modes; the
     audio is finite and not silent (no timing asserted). Heard by an accelerometer: a
-    microphone's gains for thousands of such modes still take the rectangle rule
-    (minutes), which the scale benchmark times."""
+    microphone's gains are timed by the scale benchmark."""
     from dataclasses import replace
 
     from synth import bench

@@ -291,7 +291,7 @@ class EdgeEffectSolution:
         self.sx = np.ascontiguousarray(sx[ok][order])
         self.sy = np.ascontiguousarray(sy[ok][order])
         self._factor_constants = None
-        (cx, gx), (cy, gy) = self._constants()
+        (cx, gx), (cy, gy) = self.factor_constants()
         partner = _pairs(trial_omega, self.nx % 2 * 2 + self.ny % 2, _PAIR_GAP)
         omega, own, other = _rayleigh_ritz(
             self.sx,
@@ -337,8 +337,10 @@ class EdgeEffectSolution:
             sort_keys=True,
         )
 
-    def _constants(self):
-        """Edge coefficients and normalising factors of every trial factor (computed once)."""
+    def factor_constants(self):
+        """``((ce_x, scale_x), (ce_y, scale_y))``: edge coefficient and normalising factor of
+        every trial's two factors (computed once; a factor is ``scale (u + ce e)``, see
+        :func:`_factor`)."""
         if self._factor_constants is None:
             free = self.boundary == "free"
             hx, hy = self.half
@@ -353,7 +355,7 @@ class EdgeEffectSolution:
         """The factors ``X_t(xi)`` and ``Y_t(eta)`` of the first ``n_trials`` trial shapes
         at ``xi, eta`` in [-1, 1] (``x = a (xi + 1) / 2``): arrays ``(len(xi), n_trials)``
         and ``(len(eta), n_trials)``, each factor of mean square 1 on [-1, 1]."""
-        (cx, gx), (cy, gy) = self._constants()
+        (cx, gx), (cy, gy) = self.factor_constants()
         hx, hy = self.half
         m = slice(0, n_trials)
         fx = _factor_table(
@@ -386,7 +388,7 @@ class EdgeEffectSolution:
         held = tables.get(key)
         if held is not None and np.array_equal(held[0], u):
             return held[1]
-        (cx, gx), (cy, gy) = self._constants()
+        (cx, gx), (cy, gy) = self.factor_constants()
         m = slice(0, n_trials)
         if axis == 0:
             h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
@@ -398,15 +400,17 @@ class EdgeEffectSolution:
         tables[key] = (u.copy(), table)
         return table
 
-    def shapes(self, xi, eta, n_modes, first=0, out=None, column=0):
-        """Shapes of modes ``first <= k < n_modes`` at the points ``(xi, eta)``: an array
-        ``(len(xi), n_modes - first)``, or written into ``out[:, column:column + n_modes
-        - first]`` (C-ordered) and ``out`` returned. The factors are evaluated once per
-        distinct coordinate (points of a grid share them)."""
+    def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
+        """Shapes of modes ``first <= k < n_modes`` (or of the modes ``index``, ascending
+        integers, if given) at the points ``(xi, eta)``: an array ``(len(xi), n)``, ``n``
+        the number of modes, or written into ``out[:, column:column + n]`` (C-ordered)
+        and ``out`` returned. The factors are evaluated once per distinct coordinate
+        (points of a grid share them)."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
-        trial = self.trial[first:n_modes]
-        partner = self.partner[first:n_modes]
+        pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
+        trial = self.trial[pick]
+        partner = self.partner[pick]
         n_trials = 1 + int(max(trial.max(initial=-1), partner.max(initial=-1)))
         fx = self._table(0, ux, n_trials)
         fy = self._table(1, uy, n_trials)
@@ -419,8 +423,8 @@ class EdgeEffectSolution:
             inv_y.ravel(),
             trial,
             partner,
-            self.own[first:n_modes],
-            self.other[first:n_modes],
+            self.own[pick],
+            self.other[pick],
             out,
             column,
         )

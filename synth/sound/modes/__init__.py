@@ -63,6 +63,7 @@ from synth.sound.modes.ritz import TOLERANCE, RitzSolution, SummedShapes, TooLar
 
 __all__ = [
     "Modes",
+    "EdgeEffectPart",
     "modes",
     "SeparableShapes",
     "SummedShapes",
@@ -73,6 +74,18 @@ __all__ = [
     "cache_dir",
     "single_thread_product",
 ]
+
+
+@dataclass(frozen=True)
+class EdgeEffectPart:
+    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes
+    ``offset, offset + 1, ...`` of ``solution``
+    (:class:`synth.sound.asymptotic_modes.EdgeEffectSolution`; lengths in units of the
+    plate's longer side); the modes before ``first_mode`` are Rayleigh-Ritz modes."""
+
+    first_mode: int
+    solution: object
+    offset: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,7 +191,7 @@ class Modes:
         )
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
-    def shapes(self, points) -> np.ndarray:
+    def shapes(self, points, index=None) -> np.ndarray:
         """Mode shapes ``phi_k`` at points on the plate.
 
         Parameters
@@ -186,12 +199,15 @@ class Modes:
         points : array_like, shape (n, 2)
             ``(x, y)`` positions, metres from the plate's corner: ``0 <= x <= a``
             (length), ``0 <= y <= b`` (width).
+        index : array of int, optional
+            Modes to evaluate (ascending, distinct); every mode if None. Edge effect
+            modes are evaluated alone; others as columns of the first modes' shapes.
 
         Returns
         -------
         ndarray, shape (n, n_modes)
             ``phi_k`` (dimensionless, mean square 1 over the plate), one column per
-            mode in the order of :attr:`frequencies`.
+            mode in the order of :attr:`frequencies` (of ``index`` if given).
 
         Notes
         -----
@@ -203,9 +219,20 @@ class Modes:
         Raises
         ------
         ParameterError
-            If ``points`` is not an ``(n, 2)`` array of finite numbers or a point is
-            off the plate.
+            If ``points`` is not an ``(n, 2)`` array of finite numbers, a point is
+            off the plate, or ``index`` is not ascending distinct mode numbers.
         """
+        if index is not None:
+            index = np.asarray(index)
+            if (
+                index.ndim != 1
+                or not np.issubdtype(index.dtype, np.integer)
+                or (index.size and (index[0] < 0 or index[-1] >= len(self)))
+                or np.any(np.diff(index) <= 0)
+            ):
+                raise ParameterError(
+                    f"index={index!r} must be ascending distinct mode numbers in [0, {len(self)})"
+                )
         try:
             pts = np.asarray(points, dtype=float)
         except (TypeError, ValueError):
@@ -229,7 +256,19 @@ class Modes:
             )
         xi = np.clip(2.0 * pts[:, 0] / a - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * pts[:, 1] / b - 1.0, -1.0, 1.0)
-        return self._solution.shapes(xi, eta, len(self))
+        if index is None:
+            return self._solution.shapes(xi, eta, len(self))
+        if isinstance(self._solution, HybridSolution):
+            return self._solution.shapes_of(xi, eta, index)
+        return self._solution.shapes(xi, eta, int(index[-1]) + 1 if index.size else 0)[:, index]
+
+    def edge_effect(self) -> EdgeEffectPart | None:
+        """The modes that come from the dynamic edge effect method (a free or clamped
+        plate beyond the Ritz crossover, see :func:`modes`), or None if there are none."""
+        sol = self._solution
+        if not isinstance(sol, HybridSolution) or sol.n_low >= len(self):
+            return None
+        return EdgeEffectPart(sol.n_low, sol.edge, sol.first)
 
     def summed(self) -> SummedShapes | None:
         """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)``

@@ -95,6 +95,18 @@ class HybridSolution:
             self.edge.shapes(xi, eta, n_e, first=self.first, out=out, column=n_r)
         return out
 
+    def shapes_of(self, xi, eta, index):
+        """Shapes of the modes ``index`` (ascending): the Ritz ones as columns of the
+        first modes' shapes, the edge effect ones alone."""
+        n_r = int(np.searchsorted(index, self.n_low))
+        out = np.empty((xi.size, index.size))
+        if n_r:
+            out[:, :n_r] = self.ritz.shapes(xi, eta, int(index[n_r - 1]) + 1)[:, index[:n_r]]
+        if index.size > n_r:
+            edge = self.first + index[n_r:] - self.n_low
+            self.edge.shapes(xi, eta, 0, out=out, column=n_r, index=edge)
+        return out
+
 
 def crossed(boundary, nu, aspect, omega_req, cache):
     """Hybrid solution of a band beyond the crossover (see ``CROSSOVER_UNKNOWNS``)."""

@@ -28,6 +28,8 @@ Rules (one module each)
   the microphone, for shapes ``X_i(x) Y_j(y)`` (the simply supported plate);
 - :mod:`~synth.sound.radiation.summed`: :func:`summed_gains`, the same for sums of such
   products (the free and clamped plates);
+- :mod:`~synth.sound.radiation.boundary`: the dynamic edge effect modes of large free and
+  clamped plates as integrals over the plate's boundary (Green's second identity);
 - :mod:`~synth.sound.radiation.refinement`: the convergence test of every rule;
   :mod:`~synth.sound.radiation.common`: their result, checks and numba kernel;
   :mod:`~synth.sound.radiation.cache`: the gains kept in memory and on disk.
@@ -35,11 +37,15 @@ Rules (one module each)
 :func:`plate_gains` computes the gains of a :class:`synth.sound.modes.Modes`, cached: by
 the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for separable
 shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
-for free and clamped plates (then the summed polar rule).
+for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
+modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
+exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
+its Ritz modes.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -48,6 +54,7 @@ from synth import checks
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import Modes
+from synth.sound.radiation.boundary import boundary_rule
 from synth.sound.radiation.cache import (
     CACHE,
     cache_info,
@@ -107,6 +114,15 @@ def _use_separable(modes, size, listener, q_s, kb, c, tol):
 SUMMED_RULE_WORK = 5e8
 
 
+#: Rectangle-rule work (as for ``_POLAR_WORK``) above which a plate with dynamic edge effect
+#: modes takes the boundary rule for them. Its cost grows with the plate's diameter times
+#: the wavenumber rather than the area times its square, but with a larger constant: measured
+#: (one thread) 9.0 s against the rectangle rule's 1.5 s for a free acrylic plate of
+#: 1.18 x 0.92 m at 22.05 kHz (work 6.7e7, 2578 modes), 31 s against over 300 s for the
+#: default board at 384 kHz (work above 5e9, 3703 modes).
+BOUNDARY_RULE_WORK = 1e9
+
+
 def _rectangle_work(size, q_s, kb, c, tol) -> float:
     """Modes times points of the rectangle rule's first rule, estimated from its
     longest panels (24 points each, ``2 w24 / kappa`` long)."""
@@ -121,6 +137,49 @@ def _use_summed(modes, size, q_s, kb, c, tol):
     if q_s.size == 0 or _rectangle_work(size, q_s, kb, c, tol) <= SUMMED_RULE_WORK:
         return None
     return modes.summed()
+
+
+def _hybrid_gains(modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points):
+    """Gains of a plate with Rayleigh-Ritz modes below ``edge.first_mode`` (the rectangle
+    rule, for their own largest wavenumber) and dynamic edge effect modes above (the
+    boundary rule of :func:`~synth.sound.radiation.boundary.boundary_rule`), as one
+    :class:`RadiationResult` (``rule`` "boundary"; ``n_points``, ``panels`` those of the
+    rectangle rule)."""
+    n_low = edge.first_mode
+    settings = dict(air_density=rho, sound_speed=c, reference_distance=r0, tol=tol)
+    high = boundary_rule(
+        edge, len(modes), size, listener, q_s[n_low:], max_points=max_points, **settings
+    )
+    if n_low == 0:
+        return dataclasses.replace(high, rule="boundary")
+    omega = modes.angular_frequencies
+    low_index = np.arange(n_low)
+    low = rayleigh_gains(
+        lambda points: modes.shapes(points, index=low_index),
+        size,
+        listener,
+        q_s[:n_low],
+        max_wavenumber=kb * math.sqrt(omega[n_low - 1] / omega[-1]),
+        max_points=max_points,
+        full_output=True,
+        **settings,
+    )
+    status = max(low.status, high.status)
+    return RadiationResult(
+        gains=np.concatenate((low.gains, high.gains)),
+        error=np.concatenate((low.error, high.error)),
+        coherent=np.concatenate((low.coherent, high.coherent)),
+        n_points=low.n_points,
+        refinements=max(low.refinements, high.refinements),
+        panels=low.panels,
+        success=status == 0,
+        status=status,
+        message=(
+            f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
+            f"{len(modes) - 1} (boundary rule): {high.message}"
+        ),
+        rule="boundary",
+    )
 
 
 def plate_gains(
@@ -191,11 +250,20 @@ def plate_gains(
     )
 
     size = (modes.plate.length, modes.plate.width)
-    separable = _use_separable(modes, size, listener, q_s, kb, c, tol)
-    summed = None if separable is not None else _use_summed(modes, size, q_s, kb, c, tol)
+    edge = modes.edge_effect()
+    if edge is not None and _rectangle_work(size, q_s, kb, c, tol) <= BOUNDARY_RULE_WORK:
+        edge = None
+    separable = None if edge is not None else _use_separable(modes, size, listener, q_s, kb, c, tol)
+    summed = None
+    if edge is None and separable is None:
+        summed = _use_summed(modes, size, q_s, kb, c, tol)
 
     def compute():
-        if summed is not None:
+        if edge is not None:
+            result = _hybrid_gains(
+                modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points
+            )
+        elif summed is not None:
             result = summed_gains(
                 summed,
                 listener,
@@ -252,6 +320,7 @@ def plate_gains(
             tol,
             max_points,
             separable is not None or summed is not None,
+            rule="boundary" if edge is not None else None,
         )
         result = CACHE.get(key)
         if result is None:

@@ -49,10 +49,12 @@ def clear_memory_cache() -> None:
     CACHE.clear()
 
 
-def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False) -> str:
+def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False, rule=None) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
-    (``polar``: computed by :func:`separable_gains`)."""
+    (``polar``: computed by :func:`separable_gains`; ``rule``: another rule's name)."""
     extra = {"rule": "polar", "polar_revision": POLAR_REVISION} if polar else {}
+    if rule is not None:
+        extra = {"rule": rule}
     return json.dumps(
         {
             **extra,
@@ -127,7 +129,7 @@ def load_gains(key: str, m: int):
             and status in (0, 1, 2)
             and n_points >= 0
             and refinements >= 0
-            and rule in ("rectangle", "polar")
+            and rule in ("rectangle", "polar", "boundary")
         )
         if not ok:
             return None

@@ -58,8 +58,11 @@ class RadiationResult:
     message : str
         A sentence saying which.
     rule : str
-        "rectangle" (:func:`rayleigh_gains`: panels along x and y) or "polar"
-        (:func:`separable_gains`: radial panels about the microphone, and 0).
+        "rectangle" (:func:`rayleigh_gains`: panels along x and y), "polar"
+        (:func:`separable_gains`: radial panels about the microphone, and 0) or
+        "boundary" (:func:`synth.sound.radiation.plate_gains` of a plate with dynamic
+        edge effect modes: those by the boundary rule of
+        :mod:`synth.sound.radiation.boundary`, the others by the rectangle rule).
     """
 
     gains: np.ndarray

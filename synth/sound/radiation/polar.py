@@ -101,7 +101,7 @@ def _radial_segments(a: float, b: float, xl: float, yl: float):
     return r_min, r_max, singular, kinks
 
 
-def _radial_panels(a, b, listener, h):
+def radial_panels(a, b, listener, h):
     """Radial panels ``(lo, hi, kind)``: ``kind`` 0 plain, +1 (-1) with the
     ``sqrt`` behaviour at ``lo`` (``hi``) removed by a quadratic substitution.
     At most ``h`` long and, from the microphone's projection, at most
@@ -171,7 +171,7 @@ def _panel_phase(lo, hi, kind, tangents, kb, qa, z):
     return stretch * qa * big + kb * max(stretch * (hi - lo), travel)
 
 
-def _radial_orders(panels, size, listener, kb, qa, tol):
+def radial_orders(panels, size, listener, kb, qa, tol):
     """Panels split until each one's phase (:func:`_panel_phase`) is integrated to
     ``tol`` by at most ``MAX_ORDER`` points, and their first-rule orders."""
     a, b = size
@@ -770,8 +770,8 @@ def polar_setup(
     kappa = kb + float(np.max(np.abs(q)))
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
     xl, yl, zl = listener
-    panels, orders0 = _radial_orders(
-        _radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
+    panels, orders0 = radial_orders(
+        radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
     )
     r_min, r_max, _, _ = _radial_segments(a, b, xl, yl)
     big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)

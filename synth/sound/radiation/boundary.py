@@ -1,0 +1,752 @@
+"""Rayleigh gains of the dynamic edge effect modes as integrals over the plate's boundary.
+
+Each edge effect shape is a sum of products ``f(x) g(y)`` with ``f'' = alpha_x f`` and
+``g'' = alpha_y g`` (:mod:`synth.sound.asymptotic_modes`: interior ``cos``/``sin`` terms,
+``alpha = -s``, and edge ``cosh``/``sinh`` terms, ``alpha = s + 2 s_o``), so every product
+``psi`` solves the Helmholtz equation ``(lap + q^2) psi = 0`` with ``q^2 = -(alpha_x +
+alpha_y)``: ``+k^2`` (interior x interior), ``-k^2`` (interior x edge) or ``-3 k^2``
+(edge x edge, the corner term), ``k`` the trial's wavenumber. With ``F`` a radial solution
+(about the microphone's projection ``o``, ``rho = |x - o|``) of ``(lap + q^2) F = G``,
+``G = exp(-sigma R) / R``, ``R = sqrt(rho^2 + z^2)``, ``sigma = s / c``, Green's second
+identity gives exactly::
+
+    Int_P psi G dA = Oint (psi dF/dn - F dpsi/dn) ds,    dF/dn = F'(rho) d_e / rho
+
+(``d_e`` the distance from ``o`` to the edge's line, signed positive on the plate's
+side). ``F`` regular at ``rho = 0`` by variation of parameters::
+
+    q^2 = k^2 > 0:   F = (pi/2) [Y0(k rho) Int_0^rho J0(k t) G t dt
+                                - J0(k rho) Int_0^rho Y0(k t) G t dt]
+    q^2 = -kappa^2:  F = -[I0(kappa rho) Int_rho^R1 K0(kappa t) G t dt
+                           + K0(kappa rho) Int_0^rho I0(kappa t) G t dt]
+
+(the second with the growing solution removed, in exponentially scaled Bessel functions).
+Both radial integrals and the boundary integral are taken on one set of radial
+Gauss-Legendre panels (those of the polar rule, :mod:`synth.sound.radiation`: break
+points where a circle touches an edge's line, with the ``sqrt`` behaviour removed, and
+at the corners' distances), a boundary node sitting where its circle crosses the edge;
+the cumulative integrals inside a panel by Gauss-Legendre spectral integration. The
+cost per mode is a few Bessel functions per radial node plus the boundary nodes: it
+grows with the plate's diameter times the wavenumber, not its area.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numba
+import numpy as np
+import scipy.special as sp
+
+from synth.sound.radiation.common import (
+    GRADING,
+    MAX_ORDER,
+    REFINE,
+    RadiationResult,
+    gauss,
+    half_phase,
+)
+from synth.sound.radiation.polar import radial_nodes, radial_orders, radial_panels
+from synth.sound.radiation.refinement import refine_selective
+
+#: Longest radial panel for the decaying tables, times ``1 / kappa``: the cumulative
+#: integrals carry ``exp(kappa (t - lo))`` across a panel (error growth ``e^2``).
+_DECAY_PANEL = 2.0
+#: Dyadic panels towards the centre (``t log t`` terms: the innermost panel's share of
+#: the integral is about ``4^-levels``).
+_CENTRE_LEVELS = 12
+#: Length of a panel beyond a foot's radius over its distance from it.
+_GRADING_FEET = 2.0
+#: Modes per block of the vectorised evaluation.
+_BLOCK = 64
+
+
+@functools.cache
+def _spectral(p: int) -> np.ndarray:
+    """``S[i, j] = Int_{-1}^{t_i} l_j(t) dt``: cumulative integrals at the ``p``
+    Gauss-Legendre nodes ``t_i`` of the interpolant through them."""
+    t, w = gauss(p)
+    n = np.arange(p)
+    leg = np.polynomial.legendre.legvander(t, p)  # P_0..P_p at the nodes, (p, p + 1)
+    # l_j = sum_n c_nj P_n, c_nj = (2n + 1)/2 w_j P_n(t_j)
+    c = (2 * n[:, None] + 1) / 2.0 * w[None, :] * leg[:, :p].T
+    # Int_{-1}^t P_0 = t + 1; Int_{-1}^t P_n = (P_{n+1} - P_{n-1}) / (2n + 1)
+    integ = np.empty((p, p))
+    integ[:, 0] = t + 1.0
+    for k in range(1, p):
+        integ[:, k] = (leg[:, k + 1] - leg[:, k - 1]) / (2 * k + 1)
+    s = integ @ c
+    s.setflags(write=False)
+    return s
+
+
+def _graded_from_feet(panels, feet):
+    """Panels beyond the radii ``feet`` where a circle touches an edge's line, graded
+    from them: an edge point's distance from the foot, ``sqrt(rho^2 - d^2)``, has its
+    branch points at ``rho = +-d``, so a substituted panel (``kind`` +1, starting at
+    ``d``) is at most ``d`` long and a plain panel at most ``_GRADING_FEET`` times its
+    distance from the nearest foot below it."""
+    feet = np.sort(np.asarray([d for d in feet if d > 0.0]))
+    out = []
+    for lo, hi, kind in panels:
+        if kind == 1 and hi - lo > lo:
+            out.append((lo, 2.0 * lo, 1))
+            lo, kind = 2.0 * lo, 0
+        if kind != 0:
+            out.append((lo, hi, kind))
+            continue
+        below = feet[feet <= lo * (1.0 + 1e-12)]
+        if below.size == 0:
+            out.append((lo, hi, kind))
+            continue
+        d = float(below[-1])
+        t = lo
+        while t < hi:
+            step = _GRADING_FEET * (t - d) if t > d * (1.0 + 1e-12) else hi - t
+            nxt = min(t + step, hi)
+            if hi - nxt < 0.5 * (nxt - t):
+                nxt = hi
+            out.append((t, nxt, 0))
+            t = nxt
+    return out
+
+
+def _feet(size, listener):
+    """Radii where a circle about the microphone's projection touches an edge's line
+    with the foot of the perpendicular on the edge."""
+    a, b = size
+    xl, yl, _ = listener
+    out = []
+    if 0.0 < yl < b:
+        out += [abs(xl), abs(a - xl)]
+    if 0.0 < xl < a:
+        out += [abs(yl), abs(b - yl)]
+    return out
+
+
+class _Grid:
+    """Radial panels about the microphone's projection, their nodes, and the boundary
+    nodes (where the nodes' circles cross the edges)."""
+
+    def __init__(self, size, listener, k_osc, kappa_max, tol_panel, refine):
+        a, b = size
+        xl, yl, zl = listener
+        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
+        h = min(h_osc, _DECAY_PANEL / kappa_max) if kappa_max > 0 else h_osc
+        panels = radial_panels(a, b, listener, h)
+        r_min = panels[0][0]
+        if r_min > 0.0:
+            cuts = [0.0]
+            while cuts[-1] < r_min:
+                t = cuts[-1]
+                cuts.append(min(t + min(h, GRADING * max(zl, t)), r_min))
+            panels = [(lo, hi, 0) for lo, hi in zip(cuts[:-1], cuts[1:])] + panels
+        panels = _graded_from_feet(panels, _feet(size, listener))
+        lo0, hi0, kind0 = panels[0]
+        if lo0 == 0.0 and kind0 <= 0:
+            # Y0(k t) t and K0(k t) t behave as t log t at the centre: dyadic panels
+            cuts = hi0 * 0.5 ** np.arange(_CENTRE_LEVELS, -1, -1)
+            inner = [(0.0, float(cuts[0]), 0)]
+            inner += [(float(u), float(v), 0) for u, v in zip(cuts[:-1], cuts[1:])]
+            inner[-1] = (inner[-1][0], inner[-1][1], kind0)
+            panels = inner + panels[1:]
+        panels, orders = radial_orders(panels, size, listener, k_osc, 0.0, tol_panel)
+        orders = np.ceil(orders * refine).astype(np.int64)
+        self.panels = panels
+        self.orders = orders
+        self.rho, self.w = radial_nodes(panels, orders)
+        self.jac = np.concatenate(
+            [w / gauss(int(p))[1] for w, p in zip(np.split(self.w, np.cumsum(orders)[:-1]), orders)]
+        )
+        self.starts = np.concatenate(([0], np.cumsum(orders))).astype(np.int64)
+        self.lo = np.array([p[0] for p in panels])
+        self.hi = np.array([p[1] for p in panels])
+        self.r_big = np.sqrt(self.rho**2 + zl * zl)
+        self.edges = self._edges(size, listener)
+        self.gw = np.concatenate([gauss(int(p))[1] for p in orders])
+        mats = [_spectral(int(p)).ravel() for p in orders]
+        self.sflat = np.concatenate(mats)
+        self.soff = np.concatenate(([0], np.cumsum([m.size for m in mats])[:-1])).astype(np.int64)
+        self.edge_arrays = (
+            np.array([e[0] for e in self.edges], dtype=np.int64),
+            np.array([e[1] for e in self.edges], dtype=np.bool_),
+            np.array([e[2] for e in self.edges], dtype=float),
+            np.concatenate(([0], np.cumsum([e[3].size for e in self.edges]))).astype(np.int64),
+            np.concatenate([e[3] for e in self.edges]).astype(np.int64),
+            np.concatenate([e[4] for e in self.edges]),
+            np.concatenate([e[5] for e in self.edges]),
+        )
+
+    def _edges(self, size, listener):
+        """Per edge: (axis, at_high, d, node index, coordinate along the edge (m),
+        weight ds)."""
+        a, b = size
+        xl, yl, _ = listener
+        out = []
+        specs = [
+            (0, False, xl, yl, b),  # x = 0: along y, foot at yl
+            (0, True, a - xl, yl, b),  # x = a
+            (1, False, yl, xl, a),  # y = 0: along x
+            (1, True, b - yl, xl, a),
+        ]
+        for axis, high, d, foot, length in specs:
+            pieces = []
+            s0, s1 = -foot, length - foot
+            if s0 < 0.0 < s1:
+                pieces = [(s0, 0.0, -1.0), (0.0, s1, 1.0)]
+            elif s1 <= 0.0:
+                pieces = [(s0, s1, -1.0)]
+            else:
+                pieces = [(s0, s1, 1.0)]
+            idx_all, pos_all, w_all = [], [], []
+            for p0, p1, sign in pieces:
+                r0 = math.hypot(d, min(abs(p0), abs(p1)) if p0 * p1 > 0 else 0.0)
+                r1 = math.hypot(d, max(abs(p0), abs(p1)))
+                tol_r = 1e-9 * max(r1, 1e-300)
+                sel = np.flatnonzero((self.lo >= r0 - tol_r) & (self.hi <= r1 + tol_r))
+                if sel.size == 0:
+                    continue
+                idx = np.concatenate([np.arange(self.starts[i], self.starts[i + 1]) for i in sel])
+                rho = self.rho[idx]
+                s = np.sqrt(np.maximum(rho * rho - d * d, 0.0))
+                idx_all.append(idx)
+                pos_all.append(foot + sign * s)
+                w_all.append(self.w[idx] * rho / np.maximum(s, 1e-300))
+            out.append(
+                (
+                    axis,
+                    high,
+                    d,
+                    np.concatenate(idx_all),
+                    np.concatenate(pos_all),
+                    np.concatenate(w_all),
+                )
+            )
+        return out
+
+
+#: Arguments above which the Bessel functions are summed from their Hankel expansions
+#: (summed until a term is below 1e-17: the expansions' smallest term is about exp(-2 x); A & S
+#: 9.2.5-9.2.10, 9.7.1-9.7.2).
+_ASYMPTOTIC_X = 20.0
+_TERMS = 40
+
+
+def _hankel_coefficients(nu: int) -> np.ndarray:
+    """``a_k(nu) = prod_{j=1..k} (4 nu^2 - (2j - 1)^2) / (k! 8^k)``, ``k < _TERMS``."""
+    a = np.ones(_TERMS)
+    for k in range(1, _TERMS):
+        a[k] = a[k - 1] * (4.0 * nu * nu - (2 * k - 1) ** 2) / (8.0 * k)
+    return a
+
+
+_A0 = _hankel_coefficients(0)
+_A1 = _hankel_coefficients(1)
+
+
+@numba.njit(cache=True)
+def _hankel_pq(x, a):  # pragma: no cover
+    """``(P, Q)`` of the Hankel expansion with coefficients ``a`` at ``x``, and the
+    sum ``sum_k a_k / x^k`` (K) and ``sum_k (-1)^k a_k / x^k`` (I)."""
+    p = 0.0
+    q = 0.0
+    sk = 0.0
+    si = 0.0
+    inv = 1.0 / x
+    t = 1.0
+    for k in range(a.size):
+        term = a[k] * t
+        sk += term
+        si += term if k % 2 == 0 else -term
+        if k % 4 == 0:
+            p += term
+        elif k % 4 == 1:
+            q += term
+        elif k % 4 == 2:
+            p -= term
+        else:
+            q -= term
+        t *= inv
+        if abs(term) < 1e-17:
+            break
+    return p, q, sk, si
+
+
+@numba.njit(cache=True, parallel=True)
+def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
+    """Bessel values where ``x >= xmin`` (others untouched): ``osc`` True:
+    ``J0, Y0, J1, Y1`` into ``b0, c0, b1, c1``... see :func:`_bessel`."""
+    m, n = x.shape
+    for r in numba.prange(m):
+        for j in range(n):
+            v = x[r, j]
+            if v < xmin:
+                continue
+            p0, q0, k0, i0 = _hankel_pq(v, a0)
+            p1, q1, k1, i1 = _hankel_pq(v, a1)
+            if osc[r]:
+                amp = math.sqrt(2.0 / (math.pi * v))
+                w0 = v - 0.25 * math.pi
+                w1 = v - 0.75 * math.pi
+                cw0, sw0 = math.cos(w0), math.sin(w0)
+                cw1, sw1 = math.cos(w1), math.sin(w1)
+                b0[r, j] = amp * (p0 * cw0 - q0 * sw0)
+                c0[r, j] = amp * (p0 * sw0 + q0 * cw0)
+                b1[r, j] = amp * (p1 * cw1 - q1 * sw1)
+                c1[r, j] = amp * (p1 * sw1 + q1 * cw1)
+            else:
+                b0[r, j] = i0 / math.sqrt(2.0 * math.pi * v)
+                c0[r, j] = k0 * math.sqrt(0.5 * math.pi / v)
+                b1[r, j] = i1 / math.sqrt(2.0 * math.pi * v)
+                c1[r, j] = k1 * math.sqrt(0.5 * math.pi / v)
+
+
+def _bessel(x, osc):
+    """``(f0, g0, f1, g1)`` at ``x`` (rows): ``J0, Y0, J1, Y1`` for rows ``osc``,
+    exponentially scaled ``I0, K0, I1, K1`` for the others."""
+    f0 = np.empty_like(x)
+    g0 = np.empty_like(x)
+    f1 = np.empty_like(x)
+    g1 = np.empty_like(x)
+    _bessel_large(x, osc, _A0, _A1, f0, f1, g0, g1, _ASYMPTOTIC_X)
+    small = x < _ASYMPTOTIC_X
+    so = small & osc[:, None]
+    if so.any():
+        v = x[so]
+        f0[so], g0[so], f1[so], g1[so] = sp.j0(v), sp.y0(v), sp.j1(v), sp.y1(v)
+    sd = small & ~osc[:, None]
+    if sd.any():
+        v = x[sd]
+        f0[sd], g0[sd], f1[sd], g1[sd] = sp.i0e(v), sp.k0e(v), sp.i1e(v), sp.k1e(v)
+    return f0, g0, f1, g1
+
+
+@numba.njit(cache=True)
+def _cumulate(sflat, off, vals, out):  # pragma: no cover
+    """``out[a] = sum_b S[a, b] vals[b]``: cumulative integrals inside one panel."""
+    p = vals.size
+    for a in range(p):
+        acc = 0.0j
+        row = off + a * p
+        for b in range(p):
+            acc += sflat[row + b] * vals[b]
+        out[a] = acc
+
+
+@numba.njit(cache=True, parallel=True)
+def _tables(
+    rho, rbig, jac, gw, starts, lo, hi, sflat, soff, q2, sigma, r0, f0, g0, f1, g1, f, df
+):  # pragma: no cover
+    """``F`` and ``F'`` at the nodes (module notes) for rows ``(q2 1/m^2, sigma 1/m)``,
+    from the Bessel values ``f0, g0, f1, g1`` of :func:`_bessel`."""
+    m, n = f0.shape
+    n_panels = lo.size
+    p_max = 0
+    for i in range(n_panels):
+        p_max = max(p_max, starts[i + 1] - starts[i])
+    for r in numba.prange(m):
+        g = np.empty(n, dtype=np.complex128)
+        ca = np.empty(n, dtype=np.complex128)
+        cb = np.empty(n, dtype=np.complex128)
+        va = np.empty(p_max, dtype=np.complex128)
+        vb = np.empty(p_max, dtype=np.complex128)
+        oa = np.empty(p_max, dtype=np.complex128)
+        ob = np.empty(p_max, dtype=np.complex128)
+        for j in range(n):
+            g[j] = np.exp(-sigma[r] * (rbig[j] - r0)) / rbig[j] * rho[j] * jac[j]
+        osc = q2[r] > 0.0
+        kap = math.sqrt(abs(q2[r]))
+        # forward: J0 G t (osc) or exp(-kap (rho - t)) i0e G t; backward (decaying):
+        # exp(-kap (t - rho)) k0e G t
+        base_a = 0.0j
+        base_b = 0.0j
+        for i in range(n_panels):
+            s0, s1 = starts[i], starts[i + 1]
+            p = s1 - s0
+            tot_a = 0.0j
+            tot_b = 0.0j
+            for a in range(p):
+                j = s0 + a
+                if osc:
+                    va[a] = f0[r, j] * g[j]
+                    vb[a] = g0[r, j] * g[j]
+                else:
+                    va[a] = f0[r, j] * g[j] * math.exp(kap * (rho[j] - lo[i]))
+                tot_a += gw[j] * va[a]
+                tot_b += gw[j] * vb[a]
+            _cumulate(sflat, soff[i], va[:p], oa)
+            if osc:
+                _cumulate(sflat, soff[i], vb[:p], ob)
+                for a in range(p):
+                    ca[s0 + a] = base_a + oa[a]
+                    cb[s0 + a] = base_b + ob[a]
+                base_a += tot_a
+                base_b += tot_b
+            else:
+                for a in range(p):
+                    j = s0 + a
+                    ca[j] = (base_a + oa[a]) * math.exp(-kap * (rho[j] - lo[i]))
+                base_a = (base_a + tot_a) * math.exp(-kap * (hi[i] - lo[i]))
+        if not osc:
+            base_b = 0.0j
+            for i in range(n_panels - 1, -1, -1):
+                s0, s1 = starts[i], starts[i + 1]
+                p = s1 - s0
+                tot_b = 0.0j
+                for a in range(p):
+                    j = s0 + a
+                    vb[a] = g0[r, j] * g[j] * math.exp(kap * (hi[i] - rho[j]))
+                    tot_b += gw[j] * vb[a]
+                _cumulate(sflat, soff[i], vb[:p], ob)
+                for a in range(p):
+                    j = s0 + a
+                    cb[j] = (base_b + tot_b - ob[a]) * math.exp(-kap * (hi[i] - rho[j]))
+                base_b = (base_b + tot_b) * math.exp(-kap * (hi[i] - lo[i]))
+        for j in range(n):
+            if osc:
+                f[r, j] = 0.5 * math.pi * (g0[r, j] * ca[j] - f0[r, j] * cb[j])
+                df[r, j] = 0.5 * math.pi * kap * (-g1[r, j] * ca[j] + f1[r, j] * cb[j])
+            else:
+                f[r, j] = -(f0[r, j] * cb[j] + g0[r, j] * ca[j])
+                df[r, j] = -kap * (f1[r, j] * cb[j] - g1[r, j] * ca[j])
+
+
+@numba.njit(cache=True)
+def _parts(x, s, so, h, n, ce, scale):  # pragma: no cover
+    """Interior and edge parts ``(u, e)`` of a trial factor (normalised, see
+    :func:`synth.sound.asymptotic_modes` ``_factor``) at ``x`` in ``[-h, h]``."""
+    odd = n % 2 == 1
+    m2 = s + 2.0 * so
+    if s > 0.0:
+        k = math.sqrt(s)
+        u = math.sin(k * x) / k if odd else math.cos(k * x)
+    elif s < 0.0:
+        k = math.sqrt(-s)
+        u = math.sinh(k * x) / k if odd else math.cosh(k * x)
+    else:
+        u = x if odd else 1.0
+    if m2 > 0.0:
+        mu = math.sqrt(m2)
+        d1 = math.exp(-mu * (h - x))
+        d2 = math.exp(-mu * (h + x))
+        den = 1.0 + math.exp(-2.0 * mu * h) * (-1.0 if odd else 1.0)
+        if odd:
+            e = (d1 - d2) / den if den > 0.0 else x / h
+        else:
+            e = (d1 + d2) / den
+    elif m2 < 0.0:
+        mu = math.sqrt(-m2)
+        e = math.sin(mu * x) / math.sin(mu * h) if odd else math.cos(mu * x) / math.cos(mu * h)
+    else:
+        e = x / h if odd else 1.0
+    return scale * u, scale * ce * e
+
+
+@numba.njit(cache=True)
+def _slopes(x, s, so, h, n, ce, scale):  # pragma: no cover
+    """Derivatives ``(u', e')`` (per unit of ``x``) of the parts of :func:`_parts`."""
+    odd = n % 2 == 1
+    m2 = s + 2.0 * so
+    if s > 0.0:
+        k = math.sqrt(s)
+        du = math.cos(k * x) if odd else -k * math.sin(k * x)
+    elif s < 0.0:
+        k = math.sqrt(-s)
+        du = math.cosh(k * x) if odd else k * math.sinh(k * x)
+    else:
+        du = 1.0 if odd else 0.0
+    if m2 > 0.0:
+        mu = math.sqrt(m2)
+        d1 = math.exp(-mu * (h - x))
+        d2 = math.exp(-mu * (h + x))
+        den = 1.0 + math.exp(-2.0 * mu * h) * (-1.0 if odd else 1.0)
+        if odd:
+            de = mu * (d1 + d2) / den if den > 0.0 else 1.0 / h
+        else:
+            de = mu * (d1 - d2) / den
+    elif m2 < 0.0:
+        mu = math.sqrt(-m2)
+        if odd:
+            de = mu * math.cos(mu * x) / math.sin(mu * h)
+        else:
+            de = -mu * math.sin(mu * x) / math.cos(mu * h)
+    else:
+        de = 1.0 / h if odd else 0.0
+    return scale * du, scale * ce * de
+
+
+@numba.njit(cache=True, parallel=True)
+def _edge_sums(
+    table,
+    f,
+    df,
+    rho,
+    edge_axis,
+    edge_high,
+    edge_d,
+    edge_start,
+    edge_idx,
+    edge_pos,
+    edge_w,
+    sx,
+    sy,
+    nx,
+    ny,
+    hx,
+    hy,
+    cx,
+    gx,
+    cy,
+    gy,
+    big,
+    a,
+    b,
+    out,
+):  # pragma: no cover
+    """``out[r] += Oint (psi dF/dn - F dpsi/dn) ds`` of one Helmholtz part of each row's
+    trial product (``table`` 0: interior x interior, 1: interior x edge and edge x
+    interior, 2: edge x edge) with its table ``f``, ``df`` at the grid's nodes."""
+    m = out.size
+    for r in numba.prange(m):
+        acc = 0.0j
+        for e in range(edge_axis.size):
+            sign = 1.0 if edge_high[e] else -1.0
+            d = edge_d[e]
+            if edge_axis[e] == 0:  # x = const, along y
+                xe = ((a if edge_high[e] else 0.0) - 0.5 * a) / big
+                au, ae = _parts(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
+                du, de = _slopes(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
+            else:
+                xe = ((b if edge_high[e] else 0.0) - 0.5 * b) / big
+                au, ae = _parts(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
+                du, de = _slopes(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
+            du *= sign / big
+            de *= sign / big
+            for jj in range(edge_start[e], edge_start[e + 1]):
+                j = edge_idx[jj]
+                if edge_axis[e] == 0:
+                    t = (edge_pos[jj] - 0.5 * b) / big
+                    vu, ve = _parts(t, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
+                else:
+                    t = (edge_pos[jj] - 0.5 * a) / big
+                    vu, ve = _parts(t, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
+                geo = d / rho[j]
+                if table == 0:
+                    av = au * vu
+                    bv = du * vu
+                elif table == 1:
+                    av = au * ve + ae * vu
+                    bv = du * ve + de * vu
+                else:
+                    av = ae * ve
+                    bv = de * ve
+                val = av * df[r, j] * geo - bv * f[r, j]
+                acc += edge_w[jj] * val
+        out[r] += acc
+
+
+def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
+    """``Int X_t Y_t exp(-sigma (R - r0)) / R dA`` for rows ``(trial t, sigma)``: the
+    three Helmholtz parts (interior x interior, mixed, edge x edge) each on its grid."""
+    a, b = size
+    hx, hy = sol.half
+    (cx, gx), (cy, gy) = sol.factor_constants()
+    sx, sy = sol.sx[trials], sol.sy[trials]
+    omega = (sx + sy) / (big * big)
+    out = np.zeros(trials.size, dtype=complex)
+    for table, (grid, q2) in enumerate(zip(grids, (omega, -omega, -3.0 * omega))):
+        m, n = trials.size, grid.rho.size
+        f = np.empty((m, n), dtype=complex)
+        df = np.empty((m, n), dtype=complex)
+        k = np.sqrt(np.abs(q2))
+        f0, g0, f1, g1 = _bessel(k[:, None] * grid.rho[None, :], q2 > 0.0)
+        _tables(
+            grid.rho,
+            grid.r_big,
+            grid.jac,
+            grid.gw,
+            grid.starts,
+            grid.lo,
+            grid.hi,
+            grid.sflat,
+            grid.soff,
+            q2,
+            sigma,
+            r0,
+            f0,
+            g0,
+            f1,
+            g1,
+            f,
+            df,
+        )
+        _edge_sums(
+            table,
+            f,
+            df,
+            grid.rho,
+            *grid.edge_arrays,
+            sx,
+            sy,
+            sol.nx[trials],
+            sol.ny[trials],
+            hx,
+            hy,
+            cx[trials],
+            gx[trials],
+            cy[trials],
+            gy[trials],
+            big,
+            a,
+            b,
+            out,
+        )
+    return out
+
+
+def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_panel):
+    """``Int phi_k exp(-q_k (R - r0)) / R dA`` of the edge effect modes ``modes_index``
+    (indices into ``sol``'s modes), ``q = s / c`` per mode (1/m), on the plate ``size``
+    (metres) with the microphone at ``listener``; and the number of radial nodes.
+
+    The terms (one per mode and trial, two for a pair) are taken in blocks of similar
+    radial rate ``k + |q|``, each block on radial panels sized for its own largest."""
+    a, b = size
+    big = max(a, b)
+    trial = sol.trial[modes_index]
+    partner = sol.partner[modes_index]
+    own = sol.own[modes_index]
+    other = sol.other[modes_index]
+    paired = np.flatnonzero(partner >= 0)
+    rows_mode = np.concatenate([np.arange(trial.size), paired])
+    rows_trial = np.concatenate([trial, partner[paired]])
+    rows_weight = np.concatenate([own, other[paired]])
+    k_trial = np.sqrt(np.abs(sol.sx[rows_trial] + sol.sy[rows_trial])) / big
+    rate = k_trial + np.abs(q[rows_mode])
+    order = np.argsort(rate, kind="stable")
+    out = np.zeros(trial.size, dtype=complex)
+    nodes = 0
+    for start in range(0, order.size, _BLOCK):
+        rows = order[start : start + _BLOCK]
+        # the interior x interior part oscillates (no decay limit); the others decay
+        # at k and sqrt(3) k
+        kmax = float(k_trial[rows].max())
+        k_osc = float(rate[rows].max())
+        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
+        made = {}
+        grids = []
+        for kappa in (0.0, kmax, math.sqrt(3.0) * kmax):
+            if kappa * h_osc <= _DECAY_PANEL:  # the decay limit does not bind
+                kappa = 0.0
+            if kappa not in made:
+                made[kappa] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
+            grids.append(made[kappa])
+        nodes = max(nodes, max(g.rho.size for g in grids))
+        vals = _entry_integrals(
+            grids, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big
+        )
+        np.add.at(out, rows_mode[rows], rows_weight[rows] * vals)
+    return out, nodes
+
+
+def _inverse_distance_integral(size, listener) -> float:
+    """``Int_plate 1 / R dA`` (metres) in closed form: ``x ln(y + R) + y ln(x + R) -
+    z atan(x y / (z R))`` is an antiderivative in ``x`` and ``y`` (from the projection)."""
+    a, b = size
+    xl, yl, z = listener
+
+    def f(x, y):
+        r = math.sqrt(x * x + y * y + z * z)
+        return x * math.log(y + r) + y * math.log(x + r) - z * math.atan(x * y / (z * r))
+
+    x0, x1, y0, y1 = -xl, a - xl, -yl, b - yl
+    return f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+
+
+def _factor_bounds(s, so, n, h, ce, scale):
+    """Upper bounds of ``|X|`` on ``[-h, h]`` for trial factors (interior part ``cos``,
+    ``sin / k``, ``cosh``, ``sinh / k``; edge part at most 1, or ``1 / |cos|``,
+    ``1 / |sin|`` of the edge value for an oscillating edge part)."""
+    odd = n % 2 == 1
+    k = np.sqrt(np.abs(s))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u_osc = np.where(odd, np.minimum(h, 1.0 / k), 1.0)
+        u_grow = np.where(odd, np.sinh(k * h) / k, np.cosh(k * h))
+        u = np.where(s > 0.0, u_osc, np.where(s < 0.0, u_grow, np.where(odd, h, 1.0)))
+        m2 = s + 2.0 * so
+        mu = np.sqrt(np.abs(m2))
+        e_osc = 1.0 / np.abs(np.where(odd, np.sin(mu * h), np.cos(mu * h)))
+        e = np.where(m2 < 0.0, e_osc, 1.0)
+    return np.abs(scale) * (u + np.abs(ce) * e)
+
+
+def in_phase_bounds(sol, modes_index, size, listener) -> np.ndarray:
+    """``max|phi_k| Int 1 / R dA`` (metres) of edge effect modes: upper bounds of
+    ``Int |phi_k| / R dA`` (``S_k`` of :mod:`synth.sound.radiation.refinement` over
+    ``rho |s_k| / (2 pi)``), ``|phi_k| <= |own| |X_t| |Y_t| + |other| |X_u| |Y_u|``."""
+    (cx, gx), (cy, gy) = sol.factor_constants()
+    hx, hy = sol.half
+    bx = _factor_bounds(sol.sx, sol.sy, sol.nx, hx, cx, gx)
+    by = _factor_bounds(sol.sy, sol.sx, sol.ny, hy, cy, gy)
+    trial = sol.trial[modes_index]
+    partner = sol.partner[modes_index]
+    peak = np.abs(sol.own[modes_index]) * bx[trial] * by[trial]
+    paired = partner >= 0
+    peak[paired] += np.abs(sol.other[modes_index][paired]) * (
+        bx[partner[paired]] * by[partner[paired]]
+    )
+    return peak * _inverse_distance_integral(size, listener)
+
+
+def nearest_distance(size, listener) -> float:
+    """Distance (m) from the microphone to the nearest point of the plate."""
+    a, b = size
+    xl, yl, z = listener
+    dx = max(0.0, -xl, xl - a)
+    dy = max(0.0, -yl, yl - b)
+    return math.sqrt(dx * dx + dy * dy + z * z)
+
+
+def boundary_rule(
+    part,
+    n_modes,
+    size,
+    listener,
+    s,
+    *,
+    air_density,
+    sound_speed,
+    reference_distance,
+    tol,
+    max_points,
+) -> RadiationResult:
+    """Gains ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` if ``reference_distance`` ``R0`` is
+    given) of the edge effect modes ``part.first_mode <= k < n_modes`` by the boundary
+    rule (module notes), with the tolerance, error estimate and convergence test of
+    :mod:`synth.sound.radiation.refinement` (successive rules with 1.25 times the radial
+    points, a passing mode keeping its gain). ``S_k`` is the bound of
+    :func:`in_phase_bounds`. ``s`` one pole per edge effect mode (rad/s)."""
+    sol = part.solution
+    index = part.offset + np.arange(n_modes - part.first_mode)
+    rho, c = air_density, sound_speed
+    q = s / c
+    r_ref = nearest_distance(size, listener)
+    shift = r_ref - (0.0 if reference_distance is None else reference_distance)
+    factor = rho * s / (2.0 * math.pi) * np.exp(-q * shift)
+    scale = rho * np.abs(s) / (2.0 * math.pi)
+    bounds = in_phase_bounds(sol, index, size, listener)
+    tol_panel = 0.1 * tol
+    nodes = {}
+
+    def rule(level, active):
+        integrals, n = boundary_integrals(
+            sol, index[active], size, listener, q[active], r_ref, REFINE**level, tol_panel
+        )
+        nodes[level] = n
+        return integrals, bounds[active]
+
+    def npoints(level):
+        return nodes.get(level, 0)
+
+    return refine_selective(rule, npoints, factor, scale, tol, max_points, (0, 0))

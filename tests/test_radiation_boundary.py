@@ -1,0 +1,163 @@
+"""Tests of synth.sound.radiation.boundary: the Rayleigh gains of dynamic edge effect modes
+as integrals over the plate's boundary (Green's second identity with a radial particular
+solution about the microphone), checked against the rectangle rule of rayleigh_gains; the
+Bessel functions it uses; plate_gains of a plate past the Ritz crossover."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.special as sp
+from scipy import integrate
+
+from synth.physics.materials import LossFactor, Material
+from synth.physics.scene import Plate
+from synth.sound import asymptotic_modes as AM
+from synth.sound import modes as P
+from synth.sound import radiation as R
+from synth.sound.modes import EdgeEffectPart, crossover
+from synth.sound.radiation import boundary as B
+
+STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
+RHO, C = 1.204, 343.0
+
+#: every test gets empty memory caches and its own disk cache directory
+pytestmark = pytest.mark.usefixtures("empty_caches")
+
+# Microphone off the middle, 1 cm inside an edge (the feet of two edges at 1 cm and a
+# corner's distance just beyond one), above an edge's line, outside the plate, close to
+# the plate (the 1/R peak).
+CASES = [
+    ("free", (0.13, 0.11, 0.05)),
+    ("clamped", (0.05, 0.29, 0.1)),
+    ("free", (0.4, 0.1, 0.2)),
+    ("clamped", (-0.1, 0.5, 0.3)),
+    ("free", (0.2, 0.15, 0.005)),
+]
+
+
+def _edge_modes(boundary, omega_max=2000.0, a=0.4, b=0.3):
+    """Edge effect modes of an ``a`` x ``b`` plate (dimensionless band ``omega_max``) with
+    poles whose top frequency is 15 kHz (damped: sigma 5 + 1e-4 omega)."""
+    sol = AM.solve(boundary, 0.3, a / b, omega_max)
+    omega = sol.omega * (2.0 * math.pi * 15000.0 / omega_max)
+    s = (5.0 + 1e-4 * omega) + 1j * omega
+    kb = math.sqrt(omega_max) / max(a, b)
+    return sol, s, kb
+
+
+@pytest.mark.parametrize("boundary, listener", CASES)
+def test_boundary_rule_agrees_with_rectangle_rule(boundary, listener):
+    """Both rules' gains of every mode agree within 2 tol (each is within tol of the
+    integral: the rules' stated bound), with and without a reference distance; every
+    gain is within its in-phase bound S_k."""
+    a, b = 0.4, 0.3
+    sol, s, kb = _edge_modes(boundary)
+    n = sol.omega.size
+    part = EdgeEffectPart(0, sol, 0)
+    tol = 1e-7
+    for r0 in (None, 0.3):
+
+        def shape_fn(points):
+            return sol.shapes(2.0 * points[:, 0] / a - 1.0, 2.0 * points[:, 1] / b - 1.0, n)
+
+        rect = R.rayleigh_gains(
+            shape_fn,
+            (a, b),
+            listener,
+            s,
+            max_wavenumber=kb,
+            reference_distance=r0,
+            tol=tol,
+            full_output=True,
+        )
+        bnd = B.boundary_rule(
+            part,
+            n,
+            (a, b),
+            listener,
+            s,
+            air_density=RHO,
+            sound_speed=C,
+            reference_distance=r0,
+            tol=tol,
+            max_points=4_000_000,
+        )
+        assert rect.success and bnd.success, bnd.message
+        allowed = 2.0 * tol * np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+        assert np.all(np.abs(bnd.gains - rect.gains) <= allowed)
+        # S_k: the rectangle rule's in-phase integral is below the boundary rule's bound
+        assert np.all(rect.coherent <= bnd.coherent * (1.0 + 1e-9))
+
+
+def test_bessel_functions_equal_scipy_across_the_asymptotic_threshold():
+    """J0, Y0, J1, Y1 and the scaled I0, K0, I1, K1 (Hankel expansions above 20, scipy
+    below) within 2e-15 of scipy's, relative to their envelope 1 / sqrt(x)."""
+    x = np.concatenate((np.linspace(0.01, 40.0, 4001), np.geomspace(40.0, 1e5, 2000)))[None, :]
+    for osc, ref in (
+        (True, (sp.j0, sp.y0, sp.j1, sp.y1)),
+        (False, (sp.i0e, sp.k0e, sp.i1e, sp.k1e)),
+    ):
+        got = B._bessel(x, np.array([osc]))
+        for g, f in zip(got, ref):
+            assert np.max(np.abs(g - f(x)) * np.sqrt(x)) < 2e-15 * 10
+
+
+def test_inverse_distance_integral_closed_form():
+    """Int 1/R dA over the plate in closed form equals scipy's quadrature, the projection
+    inside and outside the plate."""
+    for listener in ((0.1, 0.2, 0.05), (-0.3, 0.5, 0.2)):
+        z = listener[2]
+        ref = integrate.dblquad(
+            lambda y, x: 1.0 / math.sqrt((x - listener[0]) ** 2 + (y - listener[1]) ** 2 + z * z),
+            0.0,
+            0.4,
+            0.0,
+            0.3,
+            epsabs=1e-12,
+        )[0]
+        assert B._inverse_distance_integral((0.4, 0.3), listener) == pytest.approx(ref, rel=1e-9)
+
+
+def _hybrid_modes(monkeypatch, boundary):
+    """A small plate's modes past a lowered Ritz crossover: a few Ritz modes, then edge
+    effect modes (the solution for large plates, at a size a test can check against the
+    rectangle rule)."""
+    monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
+    monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
+    monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
+    m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
+    part = m.edge_effect()
+    assert part is not None and 0 < part.first_mode < len(m) - 50
+    return m, part
+
+
+@pytest.mark.parametrize("boundary", ["free", "clamped"])
+def test_plate_gains_past_the_crossover_take_the_boundary_rule(monkeypatch, boundary):
+    """plate_gains of a plate with edge effect modes (the boundary rule's work threshold
+    lowered to 0): rule "boundary", converged, within
+    2 tol of the rectangle rule over every mode (Ritz and edge effect); shapes of a subset
+    of modes are those columns of all the shapes."""
+    m, part = _hybrid_modes(monkeypatch, boundary)
+    s = -m.decay_rates + 1j * m.angular_frequencies
+    kb = (
+        m.angular_frequencies.max() ** 2 * m.plate.surface_density / m.plate.flexural_rigidity
+    ) ** 0.25
+    listener = (0.11, 0.08, 0.1)
+    res = R.plate_gains(m, listener, s, max_wavenumber=kb, tol=1e-6, full_output=True)
+    assert res.rule == "boundary" and res.success, res.message
+    rect = R.rayleigh_gains(
+        m.shapes, (0.3, 0.2), listener, s, max_wavenumber=kb, tol=1e-6, full_output=True
+    )
+    allowed = 2e-6 * np.maximum(np.abs(rect.gains), 1e-4 * rect.coherent)
+    assert np.all(np.abs(res.gains - rect.gains) <= allowed)
+    pts = np.random.default_rng(2).uniform([0, 0], [0.3, 0.2], (30, 2))
+    index = np.unique([0, part.first_mode - 1, part.first_mode, part.first_mode + 5, len(m) - 1])
+    assert np.array_equal(m.shapes(pts, index=index), m.shapes(pts)[:, index])
+    # cached on disk under the boundary rule's key: a second call reads it back
+    R.clear_memory_cache()
+    again = R.plate_gains(m, listener, s, max_wavenumber=kb, tol=1e-6, full_output=True)
+    assert R.cache_info()["disk_hits"] == 1 and np.array_equal(again.gains, res.gains)
+    assert again.rule == "boundary"
