@@ -1063,7 +1063,8 @@ def _shown(value, scale, fmt):
     if value is None:
         return "-"
     if isinstance(value, list | tuple):
-        return "-".join(fmt.format(v * scale) for v in value)
+        joint = " to " if min(value) < 0 else "-"  # "-0.10 to -0.05", not "-0.10--0.05"
+        return joint.join(fmt.format(v * scale) for v in value)
     return fmt.format(value * scale)
 
 
