@@ -263,46 +263,22 @@ def plate_gains(
             result = _hybrid_gains(
                 modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points
             )
-        elif summed is not None:
-            result = summed_gains(
-                summed,
-                listener,
-                q_s,
-                max_wavenumber=kb,
-                air_density=rho,
-                sound_speed=c,
-                reference_distance=r0,
-                tol=tol,
-                max_points=max_points,
-                full_output=True,
-            )
+            return frozen(result)
+        settings = dict(
+            max_wavenumber=kb,
+            air_density=rho,
+            sound_speed=c,
+            reference_distance=r0,
+            tol=tol,
+            max_points=max_points,
+            full_output=True,
+        )
+        if summed is not None:
+            result = summed_gains(summed, listener, q_s, **settings)
         elif separable is not None:
-            result = separable_gains(
-                separable,
-                listener,
-                q_s,
-                max_wavenumber=kb,
-                air_density=rho,
-                sound_speed=c,
-                reference_distance=r0,
-                tol=tol,
-                max_points=max_points,
-                full_output=True,
-            )
+            result = separable_gains(separable, listener, q_s, **settings)
         else:
-            result = rayleigh_gains(
-                modes.shapes,
-                size,
-                listener,
-                q_s,
-                max_wavenumber=kb,
-                air_density=rho,
-                sound_speed=c,
-                reference_distance=r0,
-                tol=tol,
-                max_points=max_points,
-                full_output=True,
-            )
+            result = rayleigh_gains(modes.shapes, size, listener, q_s, **settings)
         return frozen(result)
 
     if not cache:
