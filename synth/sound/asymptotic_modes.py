@@ -679,8 +679,10 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _factor(x, s, so, h, n, ce):  # pragma: no cover
-    """One factor's value at ``x`` in ``[-h, h]`` (unnormalised)."""
+def factor_parts(x, s, so, h, n):  # pragma: no cover
+    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
+    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
+    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     if s > 0.0:
@@ -706,6 +708,13 @@ def _factor(x, s, so, h, n, ce):  # pragma: no cover
         e = math.sin(m * x) / math.sin(m * h) if odd else math.cos(m * x) / math.cos(m * h)
     else:
         e = x / h if odd else 1.0
+    return u, e
+
+
+@numba.njit(cache=True)
+def _factor(x, s, so, h, n, ce):  # pragma: no cover
+    """One factor's value at ``x`` in ``[-h, h]`` (unnormalised)."""
+    u, e = factor_parts(x, s, so, h, n)
     return u + ce * e
 
 

@@ -39,6 +39,7 @@ import numba
 import numpy as np
 import scipy.special as sp
 
+from synth.sound.asymptotic_modes import factor_parts
 from synth.sound.radiation.common import (
     GRADING,
     MAX_ORDER,
@@ -415,31 +416,8 @@ def _tables(
 @numba.njit(cache=True)
 def _parts(x, s, so, h, n, ce, scale):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of a trial factor (normalised, see
-    :func:`synth.sound.asymptotic_modes` ``_factor``) at ``x`` in ``[-h, h]``."""
-    odd = n % 2 == 1
-    m2 = s + 2.0 * so
-    if s > 0.0:
-        k = math.sqrt(s)
-        u = math.sin(k * x) / k if odd else math.cos(k * x)
-    elif s < 0.0:
-        k = math.sqrt(-s)
-        u = math.sinh(k * x) / k if odd else math.cosh(k * x)
-    else:
-        u = x if odd else 1.0
-    if m2 > 0.0:
-        mu = math.sqrt(m2)
-        d1 = math.exp(-mu * (h - x))
-        d2 = math.exp(-mu * (h + x))
-        den = 1.0 + math.exp(-2.0 * mu * h) * (-1.0 if odd else 1.0)
-        if odd:
-            e = (d1 - d2) / den if den > 0.0 else x / h
-        else:
-            e = (d1 + d2) / den
-    elif m2 < 0.0:
-        mu = math.sqrt(-m2)
-        e = math.sin(mu * x) / math.sin(mu * h) if odd else math.cos(mu * x) / math.cos(mu * h)
-    else:
-        e = x / h if odd else 1.0
+    :func:`synth.sound.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``."""
+    u, e = factor_parts(x, s, so, h, n)
     return scale * u, scale * ce * e
 
 
