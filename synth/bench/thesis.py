@@ -10,11 +10,8 @@ import numpy as np
 from synth.constants import GRAVITY
 from synth.physics import impedance
 
-
-def _decay_time(x, fs, smooth=0.5e-3):
-    """Time (s) for the amplitude envelope (Hilbert, smoothed over ``smooth`` s) to fall
-    from its peak to 1/e (37 %) of it."""
-    return envelope_decay_time(x, fs, smooth)
+#: Smoothing of the tick decay rows' envelope (s): short enough to keep the direct pulse.
+DECAY_SMOOTHING = 0.5e-3
 
 
 def smoothed_envelope(x, fs: float, smooth: float) -> np.ndarray:
@@ -114,7 +111,7 @@ def _tick_decay_times(scene, seq, ticks, samplerate):
     for n in ticks:
         alone = BounceSequence(seq.impacts[n - 1 : n], "max-impacts", seq.drop_height, seq.gravity)
         r = render(scene, samplerate=samplerate, normalize="none", sequence=alone)
-        out[n] = _decay_time(r.audio.astype(float), r.samplerate)
+        out[n] = envelope_decay_time(r.audio.astype(float), r.samplerate, DECAY_SMOOTHING)
     return out
 
 
@@ -266,8 +263,8 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     first_tick = dict(
         restitution=seq[0].result.restitution,
         contact_time=seq[0].result.contact_time,
-        decay_time=_decay_time(x, fs),
-        decay_time_2_3k=_decay_time(band, fs),
+        decay_time=envelope_decay_time(x, fs, DECAY_SMOOTHING),
+        decay_time_2_3k=envelope_decay_time(band, fs, DECAY_SMOOTHING),
         edc_decay_time=_edc_decay_time(x, fs),
         edc_decay_time_2_3k=_edc_decay_time(band, fs),
         centroid=float(np.sum(f * spec) / np.sum(spec)),
@@ -1393,7 +1390,7 @@ def _microphone_rows(scene, seq, fs: int) -> list:
     ):
         y = render(replace(scene, listener=mic), samplerate=fs, normalize="none", sequence=first)
         y = y.audio.astype(float)
-        env = smoothed_envelope(y, fs, 0.5e-3)
+        env = smoothed_envelope(y, fs, DECAY_SMOOTHING)
         k = int(np.argmax(env))
         rows.append(
             thesis_row(
@@ -1406,7 +1403,7 @@ def _microphone_rows(scene, seq, fs: int) -> list:
                 "the direct pulse near the impact point against the whole plate's ringing",
             )
         )
-        for smooth in (0.5e-3, 2e-3) if mic is not scene.listener else ():
+        for smooth in (DECAY_SMOOTHING, 2e-3) if mic is not scene.listener else ():
             rows.append(
                 thesis_row(
                     f"tick 1 decay at {where}, envelope peak to 37 % smoothed over "
