@@ -4,9 +4,11 @@ libm's ``exp``, ``cos`` and ``sin`` are calls that stop a loop from vectorising;
 plain polynomials (no call, no table), so a loop over thousands of modes runs in the
 vector units. Accuracy: :func:`cis` within a few ulp for ``|theta| < 2^19 pi`` (fdlibm's
 kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an ulp or two
-on ``|u| <= 1`` (Taylor series to ``u^18``); :func:`exp_squared` within about
-``2^halvings`` ulp. Only fused multiply-add contraction is allowed (``contract``), so the
-compiler keeps the order of every sum.
+on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
+``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
+ulp (the kernels square in loops of their own, so that each vectorises). Only fused
+multiply-add contraction is allowed (``contract``), so the compiler keeps the order of
+every sum.
 """
 
 from __future__ import annotations
@@ -74,19 +76,11 @@ def exp_small(u):
     return 1.0 + u * e
 
 
-@numba.njit(cache=True, fastmath={"contract"})
-def exp_squared(u, halvings):
-    """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 (about 2^halvings ulp)."""
-    e = exp_small(u)
-    for _ in range(halvings):
-        e = e * e
-    return e
-
-
 @numba.njit(cache=True)
 def halvings_for(largest):
     """Fewest halvings ``J`` with ``largest / 2^J <= 1`` (``largest >= 0``): the argument
-    scaling :func:`exp_squared` needs for exponents up to ``largest`` in magnitude."""
+    scaling ``exp(u) = exp_small(u / 2^J)^(2^J)`` needs for exponents up to ``largest`` in
+    magnitude."""
     if not largest > 1.0:
         return 0
     return int(math.ceil(math.log2(largest)))

@@ -43,7 +43,6 @@ from synth.physics.contact_kernels.dense import (
 from synth.physics.contact_kernels.dop853 import integrate_dop853
 from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
-    NEWTON_FAILED,
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
@@ -58,7 +57,6 @@ __all__ = [
     "AUTO",
     "DOP853",
     "MAX_STEPS",
-    "NEWTON_FAILED",
     "N_RESULT",
     "RADAU",
     "R_C",
