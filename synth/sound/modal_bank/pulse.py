@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from synth.errors import ParameterError
-from synth.sound.modal_bank.coefficients import BankCoefficients
+from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
 from synth.sound.modal_bank.transform_kernels import (
     WORK_ROWS,
     impact_transform,
@@ -64,7 +64,7 @@ def pulse_transforms(result, poles, omega_max=None):
     ``|Im p_k|``). A settled contact's remaining weight is not included."""
     poles = np.ascontiguousarray(poles, dtype=complex)
     if omega_max is None:
-        omega_max = float(np.max(np.abs(poles.imag))) if poles.size else 0.0
+        omega_max = highest_frequency(poles)
     h, f = pulse_grid(result, omega_max)
     out = np.empty(poles.size, dtype=complex)
     one = np.ones(poles.size)
