@@ -14,9 +14,11 @@ import numpy as np
 import pytest
 import soundfile
 
+from synth import dsp
 from synth.analysis import AnalysisError, analyze, analyze_file, read_recording
 from synth.analysis.report import Tick
 from synth.analysis.validity import AFTER_GROWN, GROWN_BOUNCE, MISSED_BOUNCE, missed_bounces
+from synth.analysis.whitening import lead_in_noise, whitening_predictor
 from synth.errors import ParameterError
 from synth.io.audio import TruncatedAudioWarning, read_audio
 from synth.stimuli.alter import alter_restitution
@@ -301,3 +303,41 @@ def test_analyze_file_on_a_directory_says_so(tmp_path):
     # A directory is not "no such file": the message names what it is.
     with pytest.raises(ParameterError, match="is a directory"):
         analyze_file(tmp_path)
+
+
+# ---------------------------------------------------------------------------
+# a band the recording does not hold
+
+
+def _lifted_band_db(a: np.ndarray, lo: float, hi: float, top: float) -> float:
+    """Mean power gain of the prediction-error filter ``a`` over ``top`` to the Nyquist
+    frequency over its mean gain from ``lo`` to ``hi`` (fractions of the Nyquist), dB."""
+    H = np.abs(np.fft.rfft(a, 1 << 16)) ** 2
+    f = np.linspace(0.0, 1.0, H.size)
+    return float(10.0 * np.log10(H[f > top].mean() / H[(f > lo) & (f < hi)].mean()))
+
+
+def test_band_the_recording_lacks_is_not_lifted():
+    # a series in white noise 60 dB under its first tick, then lowpassed at 0.8 times the
+    # Nyquist frequency as a lossy encoder does: the band above holds nothing. The
+    # autocorrelation method alone lifts it 46 dB over the noise band below (up to 90 dB,
+    # its white-noise correction), where the step from the silence assumed before the first
+    # sample, or any small error, then whitens to a burst; held at the noise the recording
+    # starts in, it is lifted as the noise is, within 6 dB (the noise floor, from the frames
+    # within 3 dB of the quietest, under the noise's mean power; the noise in 80 % of the
+    # band, 1 dB)
+    on, amps = drop(0.2, 0.7, 0.25)
+    x = ticks(on, amps, 1.5, noise=1e-3)
+    spectrum = np.fft.rfft(x)
+    spectrum[np.linspace(0.0, 1.0, spectrum.size) > 0.8] = 0.0
+    y = np.fft.irfft(spectrum, x.size)
+    order = int(round(0.02 * FS))
+    assert _lifted_band_db(dsp.autocorrelation_predictor(y, order), 0.6, 0.75, 0.85) > 40.0
+    assert abs(_lifted_band_db(whitening_predictor(y, order, FS), 0.6, 0.75, 0.85)) < 6.0
+    # a recording that starts with its first sound (a render, no noise before it) is
+    # whitened as by the autocorrelation method alone, to the bit
+    clean = ticks(on - on[0], amps, 1.5, noise=0.0)
+    assert lead_in_noise(clean, FS) == 0.0
+    assert np.array_equal(
+        whitening_predictor(clean, order, FS), dsp.autocorrelation_predictor(clean, order)
+    )
