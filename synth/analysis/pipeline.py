@@ -48,7 +48,12 @@ from synth.analysis.validity import (
     new_series_at,
     without_spurious_end,
 )
-from synth.analysis.whitening import one_blas_thread, resonator_predictor, whiten
+from synth.analysis.whitening import (
+    one_blas_thread,
+    resonator_predictor,
+    whiten,
+    whitening_predictor,
+)
 from synth.errors import ParameterError
 from synth.io.audio import wav_shortfall
 
@@ -440,7 +445,7 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = T
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
     without ``resonator``, by steps 1-6 only (where a block's series start, see
     :func:`_block_drops`)."""
-    A = dsp.autocorrelation_predictor(x, settings.whitening_order)
+    A = whitening_predictor(x, settings.whitening_order, settings.samplerate)
     with one_blas_thread():
         first = _search(whiten(x, A), settings)
     found = [

@@ -29,6 +29,71 @@ ORDER_GRID = 96
 ERROR_BATCH = 16
 
 
+def whitening_predictor(x: np.ndarray, order: int, samplerate: float) -> np.ndarray:
+    """Step 1's prediction-error filter ``[1, a1, ..., ap]`` of ``x`` (sample rate
+    ``samplerate``, Hz): the autocorrelation method (:func:`synth.dsp.autocorrelation`, with
+    its white-noise correction), the recording's noise floor taken as the least power
+    spectral density it holds (:func:`noise_floor_loading`).
+
+    A predictor lifts each band by about the inverse of its power. A band the recording does
+    not hold (above a lossy encoder's lowpass, under an anti-aliasing filter) would be lifted
+    by up to the white-noise correction, 90 dB, far over the noise: a step at the recording's
+    cut, or any small error there, then whitens to a burst taken for a tick. No band of a
+    recording is known to better than its noise floor, so none is lifted beyond it
+    (:func:`lead_in_noise`); a band that holds noise or sound is left as it is, and a
+    recording without noise before its first sound (a render) is whitened as without the
+    floor."""
+    r = dsp.white_noise_corrected(dsp.autocorrelation(x, order))
+    return dsp.levinson_predictor(r + noise_floor_loading(r, lead_in_noise(x, samplerate), x.size))
+
+
+def lead_in_noise(x: np.ndarray, samplerate: float) -> float:
+    """The noise floor of ``x`` (sample rate ``samplerate``, Hz; :func:`synth.dsp.noise_floor`,
+    signal units) where ``x`` starts in it: its first frame among the quietest, noise before
+    the first sound; else 0. The quietest frames of a recording that starts with its first
+    sound (a render after a preroll of a few milliseconds) are the end of the ringing, no
+    noise: a floor there would lift the bands between the modes, which the whitening must
+    lift to leave each contact a short burst."""
+    fr = dsp.noise_frames(x, samplerate)
+    if fr.shape[0] < 2:
+        return 0.0
+    power = np.mean(fr**2, axis=1)
+    quiet = dsp.quiet_frames(power)
+    return float(np.sqrt(power[quiet].mean())) if quiet[0] else 0.0
+
+
+def noise_floor_loading(r: np.ndarray, noise: float, n: int) -> np.ndarray:
+    """What to add to the autocorrelation ``r`` (lags ``0..p``, summed over ``n`` samples) so
+    that its power spectral density is nowhere under ``noise^2`` (``noise``: an RMS in signal
+    units): the autocorrelation, summed over ``n`` samples, of white noise of that RMS
+    filtered to the bands where the spectrum of ``r`` lies under it; zero where none does.
+
+    The spectrum is the Blackman-Tukey estimate of ``r`` under a Parzen lag window (its
+    transform is non-negative, so the estimate of a biased autocorrelation is too, and its
+    leakage falls as the fourth power of the distance from a mode), per sample: white
+    noise of variance ``s^2`` gives ``s^2`` at every frequency."""
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    p = r.size - 1
+    floor = float(noise) ** 2
+    if p < 1 or n < 1 or not floor > 0.0:
+        return np.zeros_like(r)
+    nfft = next_fast_len(8 * (p + 1), real=True)
+    lags = np.zeros(nfft)
+    lags[: p + 1] = r * _parzen(p)
+    lags[nfft - p :] = lags[p:0:-1]
+    deficit = np.maximum(floor - rfft(lags).real / n, 0.0)
+    if not np.any(deficit):
+        return np.zeros_like(r)
+    return n * irfft(deficit, nfft)[: p + 1]
+
+
+def _parzen(p: int) -> np.ndarray:
+    """The one-sided Parzen lag window over lags ``0..p`` (zero beyond ``p``)."""
+    u = np.arange(p + 1) / (p + 1)
+    return np.where(u <= 0.5, 1.0 - 6.0 * u**2 + 6.0 * u**3, 2.0 * (1.0 - u) ** 3)
+
+
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
     """The prediction error of ``x`` under ``predictor`` (``[1, a1, ..., ap]``), the signal
     taken as silent before its first sample; as long as ``x``."""
