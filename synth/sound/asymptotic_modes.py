@@ -795,17 +795,40 @@ def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
     """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
     ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
-    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1)."""
+    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1).
+
+    The factors are first laid out in the modes' order, ``own[k] X_t`` and
+    ``other[k] X_u`` per distinct x and ``Y_t``, ``Y_u`` per distinct y (0 without a
+    partner), so that each point's row is two products and a sum over contiguous arrays
+    (the same operations, in the same order, as term by term)."""
+    m = trial.size
+    gx = np.zeros((fx.shape[0], m))
+    hx = np.zeros((fx.shape[0], m))
+    gy = np.zeros((fy.shape[0], m))
+    hy = np.zeros((fy.shape[0], m))
+    paired = False
+    for k in range(m):
+        paired = paired or partner[k] >= 0
+    for a in range(fx.shape[0]):
+        for k in range(m):
+            gx[a, k] = own[k] * fx[a, trial[k]]
+            if partner[k] >= 0:
+                hx[a, k] = other[k] * fx[a, partner[k]]
+    for b in range(fy.shape[0]):
+        for k in range(m):
+            gy[b, k] = fy[b, trial[k]]
+            if partner[k] >= 0:
+                hy[b, k] = fy[b, partner[k]]
     for p in range(ix.size):
-        a = ix[p]
-        b = iy[p]
-        for k in range(trial.size):
-            t = trial[k]
-            v = own[k] * fx[a, t] * fy[b, t]
-            u = partner[k]
-            if u >= 0:
-                v += other[k] * fx[a, u] * fy[b, u]
-            out[p, column + k] = v
+        ga, ha = gx[ix[p]], hx[ix[p]]
+        gb, hb = gy[iy[p]], hy[iy[p]]
+        row = out[p, column : column + m]
+        if paired:
+            for k in range(m):
+                row[k] = ga[k] * gb[k] + ha[k] * hb[k]
+        else:
+            for k in range(m):
+                row[k] = ga[k] * gb[k]
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:
