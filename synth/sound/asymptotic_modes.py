@@ -378,18 +378,18 @@ class EdgeEffectSolution:
         )
         return fx, fy
 
-    def _table(self, axis, u, n_trials):
-        """Factors along ``axis`` (0: x, 1: y) at the distinct coordinates ``u``; the
-        last two tables of each axis are kept (a grid is evaluated chunk by chunk, each
-        chunk with the same coordinates along one axis: that axis' table is computed
-        once whatever the other's)."""
+    def _table(self, axis, u, trials):
+        """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` (ascending indices)
+        at the distinct coordinates ``u``; the last two tables of each axis are kept (a
+        grid is evaluated chunk by chunk, each chunk with the same coordinates along one
+        axis: that axis' table is computed once whatever the other's)."""
         tables = self._tables[axis]
-        key = (n_trials, u.size, hash(u.tobytes()))
+        key = (trials.size, u.size, hash(u.tobytes()), hash(trials.tobytes()))
         held = tables.get(key)
-        if held is not None and np.array_equal(held[0], u):
-            return held[1]
+        if held is not None and np.array_equal(held[0], u) and np.array_equal(held[1], trials):
+            return held[2]
         (cx, gx), (cy, gy) = self.factor_constants()
-        m = slice(0, n_trials)
+        m = trials
         if axis == 0:
             h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
         else:
@@ -397,23 +397,23 @@ class EdgeEffectSolution:
         table = _factor_table(u * h, s, so, n, h, c, g)
         if len(tables) >= 2:
             tables.clear()
-        tables[key] = (u.copy(), table)
+        tables[key] = (u.copy(), trials.copy(), table)
         return table
 
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
         """Shapes of modes ``first <= k < n_modes`` (or of the modes ``index``, ascending
         integers, if given) at the points ``(xi, eta)``: an array ``(len(xi), n)``, ``n``
         the number of modes, or written into ``out[:, column:column + n]`` (C-ordered)
-        and ``out`` returned. The factors are evaluated once per distinct coordinate
-        (points of a grid share them)."""
+        and ``out`` returned. The factors of the trials these modes use are evaluated once
+        per distinct coordinate (points of a grid share them)."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
         trial = self.trial[pick]
         partner = self.partner[pick]
-        n_trials = 1 + int(max(trial.max(initial=-1), partner.max(initial=-1)))
-        fx = self._table(0, ux, n_trials)
-        fy = self._table(1, uy, n_trials)
+        used = np.unique(np.concatenate((trial, partner[partner >= 0])))
+        fx = self._table(0, ux, used)
+        fy = self._table(1, uy, used)
         if out is None:
             out, column = np.empty((xi.size, trial.size)), 0
         _gather_modes(
@@ -421,8 +421,8 @@ class EdgeEffectSolution:
             fy,
             inv_x.ravel(),
             inv_y.ravel(),
-            trial,
-            partner,
+            np.searchsorted(used, trial),
+            np.where(partner >= 0, np.searchsorted(used, partner), -1),
             self.own[pick],
             self.other[pick],
             out,
@@ -795,17 +795,40 @@ def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
     """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
     ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
-    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1)."""
+    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1).
+
+    The factors are first laid out in the modes' order, ``own[k] X_t`` and
+    ``other[k] X_u`` per distinct x and ``Y_t``, ``Y_u`` per distinct y (0 without a
+    partner), so that each point's row is two products and a sum over contiguous arrays
+    (the same operations, in the same order, as term by term)."""
+    m = trial.size
+    gx = np.zeros((fx.shape[0], m))
+    hx = np.zeros((fx.shape[0], m))
+    gy = np.zeros((fy.shape[0], m))
+    hy = np.zeros((fy.shape[0], m))
+    paired = False
+    for k in range(m):
+        paired = paired or partner[k] >= 0
+    for a in range(fx.shape[0]):
+        for k in range(m):
+            gx[a, k] = own[k] * fx[a, trial[k]]
+            if partner[k] >= 0:
+                hx[a, k] = other[k] * fx[a, partner[k]]
+    for b in range(fy.shape[0]):
+        for k in range(m):
+            gy[b, k] = fy[b, trial[k]]
+            if partner[k] >= 0:
+                hy[b, k] = fy[b, partner[k]]
     for p in range(ix.size):
-        a = ix[p]
-        b = iy[p]
-        for k in range(trial.size):
-            t = trial[k]
-            v = own[k] * fx[a, t] * fy[b, t]
-            u = partner[k]
-            if u >= 0:
-                v += other[k] * fx[a, u] * fy[b, u]
-            out[p, column + k] = v
+        ga, ha = gx[ix[p]], hx[ix[p]]
+        gb, hb = gy[iy[p]], hy[iy[p]]
+        row = out[p, column : column + m]
+        if paired:
+            for k in range(m):
+                row[k] = ga[k] * gb[k] + ha[k] * hb[k]
+        else:
+            for k in range(m):
+                row[k] = ga[k] * gb[k]
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:
