@@ -59,8 +59,9 @@ _DECAY_PANEL = 2.0
 _CENTRE_LEVELS = 12
 #: Length of a panel beyond a foot's radius over its distance from it.
 _GRADING_FEET = 2.0
-#: Modes per block of the vectorised evaluation.
-_BLOCK = 64
+#: Ratio between the radial rates that the groups of terms share (their panels are sized
+#: for the top of their step: at most this much finer than a term needs).
+_RATE_LADDER = 2.0 ** (1.0 / 32.0)
 
 
 @functools.cache
@@ -182,6 +183,7 @@ class _Grid:
         on_node = np.zeros(self.rho.size, dtype=np.bool_)
         on_node[self.edge_arrays[4]] = True
         self.on_edge = np.logical_or.reduceat(on_node, self.starts[:-1])
+        self.on_node = np.repeat(self.on_edge, np.diff(self.starts))
 
     def _edges(self, size, listener):
         """Per edge: (axis, at_high, d, node index, coordinate along the edge (m),
@@ -635,12 +637,21 @@ def _part_integrals(
         out[r] += acc
 
 
-def _small_bessel(k, rho, osc):
+def _small_bessel(k, rho, osc, on_node):
     """Bessel values (rows ``f0, g0, f1, g1`` of :func:`_bessel`) at the arguments
-    ``k[r] rho[j] < _ASYMPTOTIC_X`` (:func:`_small_arguments`) and where each row's
-    start."""
+    ``k[r] rho[j] < _ASYMPTOTIC_X`` (:func:`_small_arguments`; ``f1, g1`` only at the
+    nodes ``on_node``, the others 0) and where each row's start."""
     x, starts = _small_arguments(k, rho, _ASYMPTOTIC_X)
-    return starts, np.array(_bessel_small(x, osc)).reshape(4, x.size)
+    out = np.zeros((4, x.size))
+    if osc:
+        out[0], out[1] = sp.j0(x), sp.y0(x)
+    else:
+        out[0], out[1] = sp.i0e(x), sp.k0e(x)
+    node = np.arange(x.size) - np.repeat(starts[:-1], np.diff(starts))
+    sel = on_node[node]
+    if sel.any():
+        out[2][sel], out[3][sel] = _bessel_small(x[sel], osc)[2:]
+    return starts, out
 
 
 def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
@@ -653,7 +664,7 @@ def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
     omega = (sx + sy) / (big * big)
     out = np.zeros(trials.size, dtype=complex)
     for table, (grid, q2) in enumerate(zip(grids, (omega, -omega, -3.0 * omega))):
-        small_starts, small = _small_bessel(np.sqrt(np.abs(q2)), grid.rho, table == 0)
+        small_starts, small = _small_bessel(np.sqrt(np.abs(q2)), grid.rho, table == 0, grid.on_node)
         _part_integrals(
             table,
             grid.rho,
@@ -693,13 +704,26 @@ def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
     return out
 
 
+def _rate_steps(rate: np.ndarray) -> np.ndarray:
+    """Step of each radial rate (1/m) on the ladder ``_RATE_LADDER ** step``: the
+    smallest step at or above it (up to rounding)."""
+    return np.ceil(np.log(rate) / math.log(_RATE_LADDER)).astype(np.int64)
+
+
+def _on_ladder(rate: float) -> float:
+    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps`."""
+    return max(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0]), rate)
+
+
 def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_panel):
     """``Int phi_k exp(-q_k (R - r0)) / R dA`` of the edge effect modes ``modes_index``
     (indices into ``sol``'s modes), ``q = s / c`` per mode (1/m), on the plate ``size``
     (metres) with the microphone at ``listener``; and the number of radial nodes.
 
-    The terms (one per mode and trial, two for a pair) are taken in blocks of similar
-    radial rate ``k + |q|``, each block on radial panels sized for its own largest."""
+    The terms (one per mode and trial, two for a pair) are taken in groups of similar
+    radial rate ``k + |q|`` (:func:`_rate_steps`), each group on radial panels sized for
+    the top of its step (and its largest ``k`` rounded up to the ladder), so that
+    neighbouring groups share panels."""
     a, b = size
     big = max(a, b)
     trial = sol.trial[modes_index]
@@ -712,24 +736,26 @@ def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_pane
     rows_weight = np.concatenate([own, other[paired]])
     k_trial = np.sqrt(np.abs(sol.sx[rows_trial] + sol.sy[rows_trial])) / big
     rate = k_trial + np.abs(q[rows_mode])
-    order = np.argsort(rate, kind="stable")
     out = np.zeros(trial.size, dtype=complex)
     nodes = 0
-    for start in range(0, order.size, _BLOCK):
-        rows = order[start : start + _BLOCK]
+    w_max = half_phase(MAX_ORDER, tol_panel)
+    grids_made = {}
+    step = _rate_steps(rate)
+    for level in np.unique(step):
+        rows = np.flatnonzero(step == level)
         # the interior x interior part oscillates (no decay limit); the others decay
         # at k and sqrt(3) k
-        kmax = float(k_trial[rows].max())
-        k_osc = float(rate[rows].max())
-        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
-        made = {}
+        k_osc = max(_RATE_LADDER ** float(level), float(rate[rows].max()))
+        kmax = _on_ladder(float(k_trial[rows].max()))
+        h_osc = 2.0 * w_max / k_osc
         grids = []
         for kappa in (0.0, kmax, math.sqrt(3.0) * kmax):
             if kappa * h_osc <= _DECAY_PANEL:  # the decay limit does not bind
                 kappa = 0.0
-            if kappa not in made:
-                made[kappa] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
-            grids.append(made[kappa])
+            key = (k_osc, kappa)
+            if key not in grids_made:
+                grids_made[key] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
+            grids.append(grids_made[key])
         nodes = max(nodes, max(g.rho.size for g in grids))
         vals = _entry_integrals(
             grids, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big
