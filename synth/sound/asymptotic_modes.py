@@ -679,20 +679,26 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def factor_parts(x, s, so, h, n):  # pragma: no cover
-    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
-    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
-    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
+def interior_part(x, s, h, n):  # pragma: no cover
+    """Interior part ``u`` of one factor at ``x`` in ``[-h, h]`` (unnormalised, see
+    :func:`factor_parts`): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
     odd = n % 2 == 1
-    m2 = s + 2.0 * so
     if s > 0.0:
         k = math.sqrt(s)
-        u = math.sin(k * x) / k if odd else math.cos(k * x)
-    elif s < 0.0:
+        return math.sin(k * x) / k if odd else math.cos(k * x)
+    if s < 0.0:
         k = math.sqrt(-s)
-        u = math.sinh(k * x) / k if odd else math.cosh(k * x)
-    else:
-        u = x if odd else 1.0
+        return math.sinh(k * x) / k if odd else math.cosh(k * x)
+    return x if odd else 1.0
+
+
+@numba.njit(cache=True)
+def edge_part(x, s, so, h, n):  # pragma: no cover
+    """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (see :func:`factor_parts`):
+    ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``, ``mu^2 = s + 2 so``
+    (``cos``, ``sin`` for ``mu^2 < 0``), 1 at the edge ``x = h``."""
+    odd = n % 2 == 1
+    m2 = s + 2.0 * so
     if m2 > 0.0:
         m = math.sqrt(m2)
         # cosh(m x) / cosh(m h) and sinh(m x) / sinh(m h) without overflow
@@ -700,15 +706,20 @@ def factor_parts(x, s, so, h, n):  # pragma: no cover
         d2 = math.exp(-m * (h + x))
         den = 1.0 + math.exp(-2.0 * m * h) * (-1.0 if odd else 1.0)
         if odd:
-            e = (d1 - d2) / den if den > 0.0 else x / h
-        else:
-            e = (d1 + d2) / den
-    elif m2 < 0.0:
+            return (d1 - d2) / den if den > 0.0 else x / h
+        return (d1 + d2) / den
+    if m2 < 0.0:
         m = math.sqrt(-m2)
-        e = math.sin(m * x) / math.sin(m * h) if odd else math.cos(m * x) / math.cos(m * h)
-    else:
-        e = x / h if odd else 1.0
-    return u, e
+        return math.sin(m * x) / math.sin(m * h) if odd else math.cos(m * x) / math.cos(m * h)
+    return x / h if odd else 1.0
+
+
+@numba.njit(cache=True)
+def factor_parts(x, s, so, h, n):  # pragma: no cover
+    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
+    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
+    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
+    return interior_part(x, s, h, n), edge_part(x, s, so, h, n)
 
 
 @numba.njit(cache=True)
