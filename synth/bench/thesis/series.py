@@ -118,6 +118,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
         gravity=scene.gravity,
         law=c.law,
         speed=seq[0].speed,
+        theory=c.theory,
         **c.options(),
     )
     f = contact.point.omega / (2.0 * math.pi)
