@@ -245,11 +245,13 @@ def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     copy = tmp_path / "docs"
     shutil.copytree(DOCS, copy)
     monkeypatch.setattr(docs, "docs_dir", lambda: copy)
-    monkeypatch.setattr(thesis_bench, "thesis_modal_rows", lambda pairs=None, samplerate=48000: [])
-    monkeypatch.setattr(thesis_bench, "surface_fit", lambda rounds=4: None)
-    monkeypatch.setattr(thesis_bench, "thesis_lowspeed_rows", lambda samplerate=48000: [])
-    monkeypatch.setattr(thesis_bench, "thesis_transverse_shear_rows", lambda pairs=None: [])
-    monkeypatch.setattr(thesis_bench, "transverse_shear_sensitivity", lambda: None)
+    monkeypatch.setattr(
+        thesis_bench.modal, "thesis_modal_rows", lambda pairs=None, samplerate=48000: []
+    )
+    monkeypatch.setattr(thesis_bench.surface, "surface_fit", lambda rounds=4: None)
+    monkeypatch.setattr(thesis_bench.series, "thesis_lowspeed_rows", lambda samplerate=48000: [])
+    monkeypatch.setattr(thesis_bench.shear, "thesis_transverse_shear_rows", lambda pairs=None: [])
+    monkeypatch.setattr(thesis_bench.shear, "transverse_shear_sensitivity", lambda: None)
     before = (copy / "validation.md").read_text()
     assert main(["bench", "thesis", "--update-docs"]) == 0
     after = (copy / "validation.md").read_text()

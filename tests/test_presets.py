@@ -621,3 +621,49 @@ def test_render_preset_uses_the_render_section(tmp_path):
     assert r.samplerate == 22050 and r.settings["max_frequency"] == 5000.0
     r = synth.render_preset(path, samplerate=16000, overrides=["drop.height=0.02"])
     assert r.samplerate == 16000
+
+
+# --------------------------------------------------------------------------- plate theory
+
+
+def test_transverse_shear_and_plate_theory_keys(tmp_path):
+    # A built-in material named in an inline table with none of density, young, poisson is
+    # that material with the given keys changed: transverse_shear in Pa, or "tied" to the
+    # fitted through-thickness modulus, G_t = E_t / (2 (1 + nu)) (materials.with_transverse_
+    # shear: the same value to the last bit); contact.theory reaches the modal plate.
+    from synth.physics.materials import get, with_transverse_shear
+
+    tied = {"name": "mdf-18", "transverse_shear": "tied"}
+    contact = {"model": "fitted", "theory": "mindlin"}
+    scene = load_preset(write(tmp_path, thesis(plate={"material": tied}, contact=contact)))
+    assert scene.plate.material == with_transverse_shear(get("mdf-18"))
+    assert scene.contact.theory == "mindlin" and scene.contact.plate == "modal"
+    given = {"name": "mdf-18", "transverse_shear": 3e8}
+    m = load_preset(write(tmp_path, thesis(plate={"material": given}))).plate.material
+    assert m.transverse_shear == 3e8 and m.damping == get("mdf-18").damping
+    assert load_preset(write(tmp_path, thesis())).contact.theory == "kirchhoff"
+
+
+@pytest.mark.parametrize(
+    "changes, parts",
+    [
+        ({"contact": {"model": "fitted", "theory": "reissner"}}, ["contact.theory", "reissner"]),
+        ({"contact": {"theory": "mindlin"}}, ["contact.theory", "'modal'"]),
+        (
+            {"plate": {"material": {"name": "mdf-18", "transverse_shear": "soft"}}},
+            ["plate.material.transverse_shear", "'soft'", "'tied'"],
+        ),
+        (
+            {"plate": {"material": {"name": "mdf-18", "transverse_shear": -1.0}}},
+            ["transverse_shear=-1.0", "> 0"],
+        ),
+        (
+            {"plate": {"material": dict(OAK, transverse_shear="tied")}},
+            ["plate.material", "fitted contact surface"],
+        ),
+    ],
+)
+def test_transverse_shear_and_plate_theory_reject_bad_values(tmp_path, changes, parts):
+    # Each bad value names the file, the key, the value and what is allowed.
+    msg, path = error_of(tmp_path, thesis(**changes))
+    assert_names(msg, path, *parts)

@@ -40,6 +40,7 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     plate = "impedance"             # or "modal": the finite plate's modes in the contact
     surface = "ideal"               # or "fitted" (with "hertz"): the material's fitted surface
     model = "thesis"                # or "fitted": names law, plate and surface at once
+    theory = "kirchhoff"            # or "mindlin": the modal plate's theory (plate "modal")
 
     [render]                        # optional: options of synth.render
     samplerate = 48000              # Hz
@@ -59,7 +60,12 @@ An inline material is ``{ name = "oak-board", density = 700.0, young = 12e9,
 poisson = 0.35, damping = { eta = 0.01 }, source = "..." }`` (density in
 kg/m^3, young in Pa, poisson dimensionless; ``damping`` is ``{ eta = ... }``, a
 dimensionless loss factor, or ``{ alpha = ..., beta = ... }``, Rayleigh's 1/s
-and s; a ball's material may leave it out, a plate's may not). An unknown key,
+and s; a ball's material may leave it out, a plate's may not) and ``transverse_shear``
+is the plate's transverse shear modulus for ``contact.theory = "mindlin"`` (Pa, or
+``"tied"``: ``E_t / (2 (1 + nu))`` from the material's fitted through-thickness modulus
+``E_t``). An inline table that names a built-in material and gives none of density, young
+and poisson is that material with the keys it gives changed:
+``{ name = "mdf-18", transverse_shear = "tied" }``. An unknown key,
 a wrong type or an impossible scene is a :class:`PresetError` naming the file,
 key and value.
 """
@@ -75,6 +81,7 @@ from typing import TYPE_CHECKING
 
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
+from synth.physics import materials
 from synth.physics.materials import LossFactor, Material, Rayleigh
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
 
@@ -100,7 +107,10 @@ SECTIONS = {
     "render": None,  # the options of synth.render (synth.sound.render.OPTIONS) and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
-_MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source")
+_MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source", "transverse_shear")
+#: The value of ``transverse_shear`` that ties it to the material's fitted through-thickness
+#: modulus (:func:`synth.physics.materials.with_transverse_shear`).
+TIED_SHEAR = "tied"
 
 
 def preset_dirs() -> list[Path]:
@@ -211,8 +221,21 @@ def _material(value, where):
             )
     kw = dict(value)
     kw.setdefault("name", "custom")
+    shear = kw.pop("transverse_shear", None)
+    if isinstance(shear, str) and shear != TIED_SHEAR:
+        raise PresetError(
+            f"{where}.transverse_shear={shear!r} must be a modulus in Pa (> 0) or "
+            f"{TIED_SHEAR!r} (G_t = E_t / (2 (1 + nu)) from the fitted surface)"
+        )
+    if not {"density", "young", "poisson"} & set(kw) and kw["name"] in materials.names():
+        base = materials.get(kw["name"])  # a built-in material with some keys changed
+        kw = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)} | kw
+        built_in = kw.pop("transverse_shear")
+        shear = built_in if shear is None else shear
     damping = kw.pop("damping", None)
-    if damping is not None:
+    if isinstance(damping, LossFactor | Rayleigh):  # the built-in material's
+        kw["damping"] = damping
+    elif damping is not None:
         if not isinstance(damping, dict):
             raise PresetError(
                 f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
@@ -227,7 +250,9 @@ def _material(value, where):
             )
     _require(kw, ("density", "young", "poisson"), where)
     try:
-        return Material(**kw)
+        if shear == TIED_SHEAR:
+            return materials.with_transverse_shear(Material(**kw))
+        return Material(**kw, **({} if shear is None else {"transverse_shear": shear}))
     except ParameterError as exc:
         raise PresetError(f"{where}: {exc}") from None
 

@@ -369,6 +369,7 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
         contact_law=c.law,
         rtol=c.rtol,
         **({"plate_model": c.plate} if c.plate != "impedance" else {}),
+        **({"theory": c.theory} if c.theory != "kirchhoff" else {}),
         **c.options(),
         **options,
     )

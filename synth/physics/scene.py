@@ -244,6 +244,11 @@ class Contact:
         is the thesis' model, "fitted" the finite plate with the fitted surface. Those three
         keys default to the model's; any of them given explicitly takes precedence (e.g.
         ``model="fitted", plate="impedance"``: the fitted surface on the impedance plate).
+    theory : {"kirchhoff", "mindlin"}, optional
+        The plate theory of the modal plate (``plate="modal"`` only;
+        :func:`synth.physics.modal_contact.modal_point`): "kirchhoff" (thin plate, the
+        default) or "mindlin" (shear deformation and rotary inertia, with the plate
+        material's transverse shear modulus).
     """
 
     law: str | None = None
@@ -255,9 +260,18 @@ class Contact:
     plate: str | None = None
     surface: str | None = None
     model: str | None = None
+    theory: str | None = None
 
     def __post_init__(self):
         self._resolve_model()
+        theory = "kirchhoff" if self.theory is None else self.theory
+        checks.choice("contact.theory", theory, ("kirchhoff", "mindlin"))
+        if theory != "kirchhoff" and self.plate != "modal":
+            raise ParameterError(
+                f"contact.theory={theory!r} applies to contact.plate='modal' only, not "
+                f"{self.plate!r}"
+            )
+        object.__setattr__(self, "theory", theory)
         checks.choice("contact.law", self.law, CONTACT_LAWS)
         checks.choice("contact.plate", self.plate, ("impedance", "modal"))
         checks.choice("contact.surface", self.surface, SURFACE_MODELS)

@@ -1,0 +1,105 @@
+"""``synth bench thesis``: the engine against the thesis' model and the thesis' measurements
+(restitution, contact times, impedances, critical distances, tick decay, the MDF surface fit).
+
+One module per part: ``rows`` (the measured values, one row, the first rows and the table),
+``modal`` (the finite plate in the contact: impedances, critical distances, the end of a
+series), ``surface`` (MDF's contact surface fit), ``series`` (the end of a series and the
+tick decay's definition) and ``shear`` (the transverse shear modulus)."""
+
+from synth.bench.thesis.modal import (
+    LATE_SPEED_BINS,
+    MODAL_IMPEDANCE_BAND,
+    THESIS_EDGE_RESTITUTION,
+    modal_critical_distance,
+    thesis_modal_rows,
+)
+from synth.bench.thesis.rows import (
+    DECAY_SMOOTHING,
+    THESIS_ACCELEROMETER_MASS,
+    THESIS_BALLS,
+    THESIS_BOARDS,
+    THESIS_IMPACTS,
+    THESIS_IMPEDANCE,
+    THESIS_RESTITUTION,
+    THESIS_RESTITUTION_GAPS,
+    THESIS_TICK_DECAY,
+    envelope_decay_time,
+    format_thesis,
+    smoothed_envelope,
+    thesis_comparison,
+    thesis_pair,
+    thesis_row,
+    tick_decay_times,
+    with_accelerometer,
+)
+from synth.bench.thesis.series import (
+    AIR_FILM_CUTOFF,
+    AIR_VISCOSITY,
+    DIRECT_PULSE_SPAN,
+    LOW_MODE_BAND,
+    MID_MODE_BAND,
+    RENDER_PREROLL,
+    TICK_DECAY_SMOOTHING,
+    WORK_OF_ADHESION,
+    adhesion_loss,
+    air_film_loss,
+    thesis_lowspeed_rows,
+)
+from synth.bench.thesis.shear import (
+    THESIS_WAVE_SPEEDS,
+    TRANSVERSE_SHEAR_MODEL,
+    format_transverse_shear_sensitivity,
+    thesis_transverse_shear_rows,
+    transverse_shear_band,
+    transverse_shear_pair,
+    transverse_shear_sensitivity,
+)
+from synth.bench.thesis.surface import (
+    format_surface_fit,
+    surface_fit,
+)
+
+__all__ = [
+    "AIR_FILM_CUTOFF",
+    "AIR_VISCOSITY",
+    "DECAY_SMOOTHING",
+    "DIRECT_PULSE_SPAN",
+    "LATE_SPEED_BINS",
+    "LOW_MODE_BAND",
+    "MID_MODE_BAND",
+    "MODAL_IMPEDANCE_BAND",
+    "RENDER_PREROLL",
+    "THESIS_ACCELEROMETER_MASS",
+    "THESIS_BALLS",
+    "THESIS_BOARDS",
+    "THESIS_EDGE_RESTITUTION",
+    "THESIS_IMPACTS",
+    "THESIS_IMPEDANCE",
+    "THESIS_RESTITUTION",
+    "THESIS_RESTITUTION_GAPS",
+    "THESIS_TICK_DECAY",
+    "THESIS_WAVE_SPEEDS",
+    "TICK_DECAY_SMOOTHING",
+    "TRANSVERSE_SHEAR_MODEL",
+    "WORK_OF_ADHESION",
+    "adhesion_loss",
+    "air_film_loss",
+    "envelope_decay_time",
+    "format_surface_fit",
+    "format_thesis",
+    "format_transverse_shear_sensitivity",
+    "modal_critical_distance",
+    "smoothed_envelope",
+    "surface_fit",
+    "thesis_comparison",
+    "thesis_lowspeed_rows",
+    "thesis_modal_rows",
+    "thesis_pair",
+    "thesis_row",
+    "thesis_transverse_shear_rows",
+    "tick_decay_times",
+    "transverse_shear_band",
+    "transverse_shear_pair",
+    "transverse_shear_sensitivity",
+    "with_accelerometer",
+]
