@@ -117,10 +117,10 @@ SUMMED_RULE_WORK = 5e8
 
 #: Rectangle-rule work (as for ``_POLAR_WORK``) above which a plate with dynamic edge effect
 #: modes takes the boundary rule for them. Its cost grows with the plate's diameter times
-#: the wavenumber rather than the area times its square, but with a larger constant: measured
-#: (one thread) 9.0 s against the rectangle rule's 1.5 s for a free acrylic plate of
-#: 1.18 x 0.92 m at 22.05 kHz (work 6.7e7, 2578 modes), 31 s against over 300 s for the
-#: default board at 384 kHz (work above 5e9, 3703 modes).
+#: the wavenumber rather than the area times its square, but with a larger constant: below
+#: this work the banded rectangle rules are cheaper (a free acrylic plate of 1.18 x 0.92 m at
+#: 22.05 kHz, work 6.7e7), above it the boundary rule (the default board at 384 kHz, work
+#: above 5e9; ``synth bench scale`` and ``synth bench hires`` print both).
 BOUNDARY_RULE_WORK = 1e9
 
 
