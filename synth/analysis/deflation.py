@@ -22,6 +22,7 @@ from synth.analysis.detection import ONSET_NOISE_SIGMAS, frame_energies, refine_
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import separation, too_strong
 from synth.analysis.settings import Settings
+from synth.analysis.validity import MISSED_GROWTH
 
 #: Lags of the FIR filter that shapes the first tick's whitened response into a later
 #: tick's, s: before (onset error) and after (a longer contact than the first).
@@ -42,6 +43,12 @@ DEFLATION_REFITS = 3
 #: samples) past its start, then, if that decides nothing, eight (doubled until one does);
 #: 0: the longer look only. Both give the same answer; the shorter costs half as much.
 SHORT_LOOK = 2
+#: A search that only locates where a new bounce series starts (a long recording's blocks,
+#: docs/analysis.md, Long recordings) stops this many ticks after a bounce over
+#: :data:`~synth.analysis.validity.MISSED_GROWTH` times the one before (a silence that starts
+#: a new series whatever the levels): enough for the bounce-order rules (step 6) and the
+#: measurements of the ticks up to the new series' second, which see at most two ticks on.
+LOCATE_TICKS = 6
 
 
 @dataclass(frozen=True)
@@ -95,7 +102,8 @@ class SearchOutcome:
     (the whitened signal with every tick's model taken out), each tick's whitened model from
     its window's start, what the whitening leaves of the first tick's ringing in the second
     half of the first bounce (its median frame energy over its largest: a power ratio), and
-    in step 7 the onsets timed against the first tick's template (samples; else None)."""
+    in step 7 the onsets timed against the first tick's template (samples; else None), and
+    whether a locating search stopped before the signal's end."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -103,6 +111,7 @@ class SearchOutcome:
     models: list
     ringing_left: float
     timed: np.ndarray | None
+    stopped: bool = False
 
 
 class Residual:
@@ -406,9 +415,13 @@ class DeflationSearch:
 
     # -- the search
 
-    def run(self) -> SearchOutcome:
-        """Find the ticks after the first, in time order."""
+    def run(self, locate: bool = False) -> SearchOutcome:
+        """Find the ticks after the first, in time order; with ``locate``, stop
+        :data:`LOCATE_TICKS` ticks after a silence that starts a new series (the ticks found
+        up to there are those of the whole search)."""
         self._lower_floor(self.energies[-1])
+        silence = None  # index of the first tick after such a silence
+        stopped = False
         while True:
             c = self.residual.candidate(self.after)
             anchor = self._passed_anchor(c)
@@ -424,6 +437,11 @@ class DeflationSearch:
                     self.after = c.start + self.hop  # part of the previous tick's response
                     continue
             self._add(new)
+            if locate and silence is None and self._after_silence():
+                silence = len(self.onsets) - 1
+            if silence is not None and len(self.onsets) > silence + LOCATE_TICKS:
+                stopped = True
+                break
         return SearchOutcome(
             np.array(self.onsets),
             np.array(self.strengths),
@@ -431,7 +449,13 @@ class DeflationSearch:
             self.models,
             self.ringing_left,
             self._timed(),
+            stopped,
         )
+
+    def _after_silence(self) -> bool:
+        """Whether the last tick's bounce is over :data:`MISSED_GROWTH` times the one before."""
+        on = self.onsets
+        return len(on) >= 3 and on[-1] - on[-2] > MISSED_GROWTH * (on[-2] - on[-3])
 
     def _passed_anchor(self, c: Candidate | None) -> int | None:
         """The next sure tick of step 3's series when the search would pass over it."""

@@ -112,10 +112,39 @@ def refine_onset(
     samples at or above it, bridging ``gap``; or, after a linear-phase anti-aliasing
     filter's pre-ringing, the centre of the burst's sampled sinc. With ``strict`` the
     pre-ringing's samples must stand above ``noise``."""
+    # the walk looks back from the burst only: |r| over a stretch before it, longer only
+    # where the walk comes near the stretch's start (the same onset as over the whole of r)
+    span = max(64, 8 * gap)
+    while True:
+        a = max(0, lo - span)
+        onset = _refined(
+            r[a : min(r.size, hi + 1)], lo - a, hi - a, fraction, gap, noise, strict, a
+        )
+        if onset is not None:
+            return a + onset
+        span *= 4
+
+
+def _refined(
+    r: np.ndarray,
+    lo: int,
+    hi: int,
+    fraction: float,
+    gap: int,
+    noise: float,
+    strict: bool,
+    offset: int,
+) -> float | None:
+    """:func:`refine_onset` over the stretch ``r`` (``lo``, ``hi`` into it) that starts at
+    sample ``offset`` of the whole; None when the walk back comes within ``gap`` (or
+    :data:`PRE_RINGING_RUN`) samples of the stretch's start and ``offset`` is not 0 (the
+    walk, or the pre-ringing's run, may go on before it)."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(fraction * mag[k], min(noise, mag[k]))
     i = _walk_back(mag, k, level, gap)
+    if offset > 0 and i <= max(gap, PRE_RINGING_RUN):
+        return None
     centre = _sinc_centre(r, mag, i, k, min(noise, mag[k]) if strict else 0.0)
     if centre is not None:
         return centre
