@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from synth import dsp
@@ -112,6 +113,52 @@ class SearchOutcome:
     ringing_left: float
     timed: np.ndarray | None
     stopped: bool = False
+
+
+def running_median(d: np.ndarray, size: int) -> np.ndarray:
+    """The median of ``d`` over windows of ``size`` values, each ``d[i - size // 2 : i - size
+    // 2 + size]`` with the ends extended by their first and last value, the value of rank
+    ``size // 2`` (as ``scipy.ndimage.median_filter(d, size, mode="nearest")``, the same
+    values): a sorted window updated by one value each step, for the few hundred frames of a
+    candidate search, thousands of times per recording."""
+    if d.size == 0:
+        return np.zeros(0)
+    return _running_median(np.ascontiguousarray(d, dtype=np.float64), int(size))
+
+
+@numba.njit(cache=True, nogil=True)
+def _running_median(d, size):  # pragma: no cover - compiled
+    n = d.size
+    half = size // 2
+    out = np.empty(n)
+    win = np.empty(size)
+    for j in range(size):
+        win[j] = d[min(max(j - half, 0), n - 1)]
+    win.sort()
+    out[0] = win[half]
+    for i in range(1, n):
+        gone = d[min(max(i - 1 - half, 0), n - 1)]
+        new = d[min(max(i - half + size - 1, 0), n - 1)]
+        if new != gone:
+            lo, hi = 0, size - 1  # the place of a value equal to the one leaving
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if win[mid] < gone:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo
+            if new > gone:  # the values between move down over it
+                while j + 1 < size and win[j + 1] < new:
+                    win[j] = win[j + 1]
+                    j += 1
+            else:
+                while j > 0 and win[j - 1] > new:
+                    win[j] = win[j - 1]
+                    j -= 1
+            win[j] = new
+        out[i] = win[half]
+    return out
 
 
 class Residual:
@@ -265,12 +312,10 @@ class Residual:
         ``q`` is exactly 0); inf where the past is too short, and before ``first``. The running
         median is taken over the frames those medians span only (each window lies inside
         them)."""
-        from scipy.ndimage import median_filter
-
         bg = self.bg
         a = max(0, first - bg - 3)
         med = np.full_like(d, np.nan)
-        med[a:] = median_filter(d[a:], size=bg, mode="nearest")
+        med[a:] = running_median(d[a:], bg)
         past_med = np.full_like(d, np.inf)
         j = k - 2 - bg // 2 - 1
         ok = (j >= bg // 2) & (k >= first)
