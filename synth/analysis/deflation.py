@@ -47,8 +47,9 @@ SHORT_LOOK = 2
 #: A search that only locates where a new bounce series starts (a long recording's blocks,
 #: docs/analysis.md, Long recordings) stops this many ticks after a bounce over
 #: :data:`~synth.analysis.validity.MISSED_GROWTH` times the one before (a silence that starts
-#: a new series whatever the levels): enough for the bounce-order rules (step 6) and the
-#: measurements of the ticks up to the new series' second, which see at most two ticks on.
+#: a new series whatever the levels): enough for the measurements of the ticks up to the new
+#: series' second (one tick on) and the bounce-order rules (step 6: two ticks on, but for a run
+#: of weak ticks that a later, stronger one drops).
 LOCATE_TICKS = 6
 
 
