@@ -78,8 +78,10 @@ def new_series_at(ticks: list[Tick]) -> int | None:
     times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
         ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
-        louder = ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
-        if ratio > BOUNCE_GROWTH and (louder or ratio > MISSED_GROWTH):
+        if ratio > BOUNCE_GROWTH and (
+            ratio > MISSED_GROWTH
+            or ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
+        ):  # the energies only where the bounce grew (a tick may be measured on demand)
             return i
     return None
 
