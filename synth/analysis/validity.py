@@ -239,24 +239,26 @@ def make_series(ticks: list[Tick]) -> Series:
     )
 
 
+def _listed(ticks: list, shown: int = 5) -> str:
+    """The first ``shown`` flagged ticks with their restitution, and how many more."""
+    listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in ticks[:shown])
+    return listed + (f" and {len(ticks) - shown} more" if len(ticks) > shown else "")
+
+
 def flag_warnings(series: list[Series]) -> tuple[str, ...]:
     """The summary of the flags and of the series, one warning each, in words."""
     out = []
     missed = [t for s in series for t in s.ticks if MISSED_BOUNCE in t.flags]
     if missed:
-        listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in missed[:5])
-        more = f" and {len(missed) - 5} more" if len(missed) > 5 else ""
         out.append(
-            f"restitution over a missed bounce at {len(missed)} tick(s): {listed}{more}; "
+            f"restitution over a missed bounce at {len(missed)} tick(s): {_listed(missed)}; "
             f"its bounce times or energy do not follow one ball's series (flagged and left out "
             f"of the means)"
         )
     grown = [t for s in series for t in s.ticks if GROWN_BOUNCE in t.flags]
     if grown:
-        listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in grown[:5])
-        more = f" and {len(grown) - 5} more" if len(grown) > 5 else ""
         out.append(
-            f"physically impossible restitution at {len(grown)} tick(s): {listed}{more}; a "
+            f"physically impossible restitution at {len(grown)} tick(s): {_listed(grown)}; a "
             f"ball's bounce times shrink, so a tick was missed before each (its restitution "
             f"and the next one's are flagged and left out of the means)"
         )
