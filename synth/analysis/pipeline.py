@@ -5,7 +5,6 @@ block (docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass, replace
 
@@ -200,26 +199,6 @@ def analyze(
     return _analyze_source(ArraySource(chans, settings.samplerate), settings)
 
 
-#: How many :func:`_one_thread` contexts are open (the BLAS limit is the process').
-_ONE_THREAD_DEPTH = [0]
-
-
-@contextlib.contextmanager
-def _one_thread():
-    """:func:`~synth.analysis.whitening.one_blas_thread`, entered only by the outermost of
-    nested uses: each entry scans the process' loaded libraries (milliseconds, several times
-    per drop of a long recording), and an inner one would change nothing."""
-    _ONE_THREAD_DEPTH[0] += 1
-    try:
-        if _ONE_THREAD_DEPTH[0] > 1:
-            yield
-        else:
-            with one_blas_thread():
-                yield
-    finally:
-        _ONE_THREAD_DEPTH[0] -= 1
-
-
 def _analyze_source(source: Source, settings: Settings) -> Analysis:
     """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else
     block by block (:mod:`synth.analysis.blocks`)."""
@@ -360,7 +339,7 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
         stop = min(frames, pos + size)
         x = signal(pos, stop)
         shift = pos / fs
-        with _one_thread():  # the resonator's predictor of a drop too: see below
+        with one_blas_thread():  # the resonator's predictor of a drop too: see below
             ticks = _block_ticks(x, settings, clipped, last - shift, lead)
         ticks = [
             replace(t, time=t.time + shift)
@@ -515,7 +494,7 @@ def _first_search(x: np.ndarray, settings: Settings, locate: bool = False) -> Fi
     """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past the start of a new
     series (:meth:`~synth.analysis.deflation.DeflationSearch.run`)."""
     A = whitening_predictor(x, settings.whitening_order, settings.samplerate)
-    with _one_thread():
+    with one_blas_thread():
         return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
 
 
@@ -525,7 +504,7 @@ def _measured(
     """The ticks of ``x`` from steps 1-5 (``search``): their bounce order (step 6), the
     resonator's search (step 7, with ``resonator``) and the measurements."""
     meter = _meter(x, search, settings, clipped, resonator)
-    with _one_thread():
+    with one_blas_thread():
         ticks = [meter.tick(i) for i in range(len(meter.found))]
     fs = settings.samplerate
     return without_spurious_end(ticks, x.size / fs, settings.window / fs)
@@ -769,7 +748,7 @@ def _resonator_stage(
         return found
     known = np.array([f.onset for f in found])
     try:
-        with _one_thread():
+        with one_blas_thread():
             res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
     except AnalysisError:
         return found

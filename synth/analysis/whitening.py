@@ -10,6 +10,7 @@ contact.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -159,6 +160,11 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     return None
 
 
+#: How many :func:`one_blas_thread` contexts are open (the BLAS limit is the process').
+_BLAS_DEPTH = [0]
+
+
+@contextlib.contextmanager
 def one_blas_thread():
     """A context in which BLAS and LAPACK run on one thread: for the analysis' small products
     and solutions (a fit's Gram matrix has a few hundred unknowns, and thousands are solved
@@ -168,10 +174,20 @@ def one_blas_thread():
     :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
     resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
     library's threads unless its caller runs on one (a recording searched block by block,
-    :mod:`synth.analysis.pipeline`)."""
+    :mod:`synth.analysis.pipeline`). Only the outermost of nested contexts sets the limit:
+    each entry scans the process' loaded libraries (milliseconds, several times per drop of
+    a long recording), and an inner one would change nothing."""
     from threadpoolctl import threadpool_limits
 
-    return threadpool_limits(1, user_api="blas")
+    _BLAS_DEPTH[0] += 1
+    try:
+        if _BLAS_DEPTH[0] > 1:
+            yield
+        else:
+            with threadpool_limits(1, user_api="blas"):
+                yield
+    finally:
+        _BLAS_DEPTH[0] -= 1
 
 
 def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
