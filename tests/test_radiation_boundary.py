@@ -227,3 +227,13 @@ def test_plate_gains_past_the_crossover_take_the_boundary_rule(monkeypatch, boun
     again = R.plate_gains(m, listener, s, max_wavenumber=kb, tol=1e-6, full_output=True)
     assert R.cache_info()["disk_hits"] == 1 and np.array_equal(again.gains, res.gains)
     assert again.rule == "boundary"
+
+
+def test_ladder_rounding_brackets_each_rate():
+    """A rate rounded up (down) to the ladder is at or above (below) it by less than the
+    ladder's ratio; 0 stays 0 (no decay: no tail, no limit on substituted panels)."""
+    for rate in np.geomspace(1e-3, 1e5, 97):
+        up, down = B._on_ladder(float(rate)), B._below_ladder(float(rate))
+        assert rate <= up < rate * B._RATE_LADDER * (1.0 + 1e-12)
+        assert rate / B._RATE_LADDER * (1.0 - 1e-12) < down <= rate
+    assert B._on_ladder(0.0) == 0.0 and B._below_ladder(0.0) == 0.0

@@ -864,12 +864,16 @@ def _rate_steps(rate: np.ndarray) -> np.ndarray:
 
 
 def _on_ladder(rate: float) -> float:
-    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps`."""
+    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps` (0 stays 0)."""
+    if rate <= 0.0:
+        return 0.0
     return max(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0]), rate)
 
 
 def _below_ladder(rate: float) -> float:
-    """``rate`` (1/m) rounded down to the ladder of :func:`_rate_steps`."""
+    """``rate`` (1/m) rounded down to the ladder of :func:`_rate_steps` (0 stays 0)."""
+    if rate <= 0.0:
+        return 0.0
     return min(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0] - 1), rate)
 
 
