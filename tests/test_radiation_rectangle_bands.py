@@ -60,3 +60,37 @@ def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     allowed = 2 * tol * np.maximum(np.abs(full.gains), 1e-4 * full.coherent)
     assert np.all(np.abs(res.gains - full.gains) <= allowed)
     np.testing.assert_allclose(res.coherent, full.coherent, rtol=0.1)
+
+
+@pytest.mark.parametrize("paired", [False, True])
+def test_product_rule_equals_the_rectangle_rule_of_the_same_shapes(paired):
+    """product_gains forms the shapes from factor tables inside the sums: on the same panels,
+    rules and test as rayleigh_gains it gives the same gains, in-phase bounds and points
+    (to rounding: the sums are the same terms, taken in another order)."""
+    from synth.sound.radiation.rectangle import ProductFactors, product_gains
+
+    a, b = 0.3, 0.2
+    kx = np.array([1.0, 3.0, 4.0, 7.0]) * np.pi / a
+    ky = np.array([2.0, 1.0, 5.0, 3.0]) * np.pi / b
+    weight = 0.5 if paired else 0.0
+
+    def shape_fn(points):
+        x, y = points[:, :1], points[:, 1:]
+        return np.sin(kx * x) * np.sin(ky * y) + weight * np.cos(ky * x) * np.cos(kx * y)
+
+    def factor_fn(x, y):
+        own = (np.sin(np.outer(x, kx)), np.sin(np.outer(y, ky)))
+        if not paired:
+            return ProductFactors(*own)
+        return ProductFactors(*own, weight * np.cos(np.outer(x, ky)), np.cos(np.outer(y, kx)))
+
+    s = -5.0 + 1j * 2.0 * np.pi * np.array([900.0, 2100.0, 3000.0, 5200.0])
+    settings = dict(max_wavenumber=float(np.hypot(kx, ky).max()), reference_distance=0.1)
+    listener = (0.12, 0.07, 0.05)
+    want = R.rayleigh_gains(shape_fn, (a, b), listener, s, full_output=True, **settings)
+    got = product_gains(factor_fn, (a, b), listener, s, **settings)
+    assert got.success and got.n_points == want.n_points
+    np.testing.assert_allclose(
+        got.gains, want.gains, rtol=1e-12, atol=1e-14 * np.abs(want.gains).max()
+    )
+    np.testing.assert_allclose(got.coherent, want.coherent, rtol=1e-12)

@@ -41,7 +41,9 @@ for free and clamped plates (then the summed polar rule). A plate with dynamic e
 modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
 exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
 its Ritz modes; below it, the rectangle rule band by band of wavenumber (:data:`BAND_RATIO`:
-each band's grid follows its own fastest mode's wavelength, the Ritz modes one band).
+each band's grid follows its own fastest mode's wavelength, the Ritz modes one band), the
+edge effect modes' shapes formed from their factor tables inside the sums
+(:func:`~synth.sound.radiation.rectangle.product_gains`).
 """
 
 from __future__ import annotations
@@ -74,7 +76,7 @@ from synth.sound.radiation.common import (
     half_phase,
 )
 from synth.sound.radiation.polar import separable_gains
-from synth.sound.radiation.rectangle import rayleigh_gains
+from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
 from synth.sound.radiation.refinement import warn_unconverged
 from synth.sound.radiation.summed import summed_gains
 
@@ -184,15 +186,33 @@ def _combined(parts, rule: str, message: str) -> RadiationResult:
 def _band_rectangle(modes, start, stop, size, listener, q_s, kb, max_points, settings):
     """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
     wavenumber among them (``kb`` scaled by the square root of their highest frequency's
-    ratio to the highest mode's, as for a plate's bending waves)."""
+    ratio to the highest mode's, as for a plate's bending waves). Edge effect modes (all
+    of them at or past ``modes.edge_effect().first_mode``) take it with their factor
+    tables (:func:`~synth.sound.radiation.rectangle.product_gains`)."""
     omega = modes.angular_frequencies
     index = np.arange(start, stop)
+    wavenumber = kb * math.sqrt(omega[stop - 1] / omega[-1])
+    edge = modes.edge_effect()
+    if edge is not None and start >= edge.first_mode:
+
+        def factors(x, y):
+            return ProductFactors(*edge.product_factors(x, y, size[0], size[1], index))
+
+        return product_gains(
+            factors,
+            size,
+            listener,
+            q_s[start:stop],
+            max_wavenumber=wavenumber,
+            max_points=max_points,
+            **settings,
+        )
     return rayleigh_gains(
         lambda points: modes.shapes(points, index=index),
         size,
         listener,
         q_s[start:stop],
-        max_wavenumber=kb * math.sqrt(omega[stop - 1] / omega[-1]),
+        max_wavenumber=wavenumber,
         max_points=max_points,
         full_output=True,
         **settings,
