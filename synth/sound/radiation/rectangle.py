@@ -48,7 +48,7 @@ from synth.sound.radiation.common import (
     half_phase,
     min_order,
 )
-from synth.sound.radiation.refinement import refine, warn_unconverged
+from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
 
 
 def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
@@ -77,13 +77,15 @@ def _breakpoints(length: float, centre: float, height: float, h: float) -> np.nd
     return ends
 
 
-def _panel_orders(ends: np.ndarray, kappa: float, tol: float) -> np.ndarray:
-    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``."""
+def _panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
+    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``
+    (``kappa`` rad/m, one for every panel or one per panel)."""
     lengths = np.diff(ends)
+    kappas = np.broadcast_to(np.asarray(kappa, dtype=float), lengths.shape)
     p_min = min_order(tol)
     orders = np.full(lengths.size, p_min, dtype=np.int64)
     for i, length in enumerate(lengths):
-        w = 0.5 * kappa * length
+        w = 0.5 * kappas[i] * length
         p = p_min
         while p < MAX_ORDER and half_phase(p, tol) < w:
             p += 1
@@ -180,6 +182,16 @@ class ProductFactors:
     y_own: np.ndarray
     x_other: np.ndarray | None = None
     y_other: np.ndarray | None = None
+
+    def columns(self, modes: np.ndarray) -> ProductFactors:
+        """The factors of the modes ``modes`` (column indices) alone."""
+        paired = self.x_other is not None
+        return ProductFactors(
+            self.x_own[:, modes],
+            self.y_own[:, modes],
+            self.x_other[:, modes] if paired else None,
+            self.y_other[:, modes] if paired else None,
+        )
 
 
 # Grid points whose shape values one call of the sums kernel holds (a few hundred kB for
@@ -366,7 +378,7 @@ def rayleigh_gains(
     if not callable(shape_fn):
         raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
 
-    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings):
+    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
         chunk = max(1, int(CHUNK_BYTES // (8 * q.size)))
         return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
 
@@ -403,9 +415,15 @@ def product_gains(
     max_points=4_000_000,
 ) -> RadiationResult:
     """:func:`rayleigh_gains` (``full_output``) of shapes that are at most two products of
-    one factor per axis, such as the dynamic edge effect modes: the same panels, rules and
+    one factor per axis, such as the dynamic edge effect modes: the same panels and
     convergence test, the shape values formed from the factor tables inside the sums
-    (:func:`apply_product_rule`) instead of evaluated point by point.
+    (:func:`apply_product_rule`) instead of evaluated point by point, and each panel's
+    orders for its own bound of the acoustic phase's rate (``acoustic`` of
+    :func:`first_rule`: fewer points where the microphone is high above the panel), each
+    mode refined alone (:func:`~synth.sound.radiation.refinement.refine_selective`: a mode
+    that passes keeps that rule's gain, the next rule sums only the modes still failing).
+    (:func:`rayleigh_gains` keeps one bound for every panel: its gains are those the
+    presets' recorded renders were made with.)
 
     ``factor_fn(x, y) -> ProductFactors``: the modes' factors at the nodes ``x`` and ``y``
     (metres from the corner, on the plate) of one rule's grid; the other arguments as for
@@ -414,8 +432,12 @@ def product_gains(
     if not callable(factor_fn):
         raise ParameterError(f"factor_fn={factor_fn!r} must be callable (x, y -> factors)")
 
-    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings):
-        return apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings)
+    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
+        def factors(x, y):
+            f = factor_fn(x, y)
+            return f if active is None else f.columns(active)
+
+        return apply_product_rule(factors, xs, wx, ys, wy, listener, q, r_mid, halvings)
 
     return _rule_result(
         evaluate,
@@ -428,6 +450,7 @@ def product_gains(
         reference_distance,
         tol,
         max_points,
+        local_phase=True,
     )
 
 
@@ -442,11 +465,15 @@ def _rule_result(
     reference_distance,
     tol,
     max_points,
+    local_phase=False,
 ):
     """The :class:`RadiationResult` of the rectangle rule of :func:`rayleigh_gains`
     (arguments checked here) whose sums ``evaluate(xs, wx, ys, wy, listener, q, r_mid,
     halvings)`` computes, as :func:`apply_rule` does, on the tensor grid of nodes ``xs`` x
-    ``ys`` (weights ``wx``, ``wy``)."""
+    ``ys`` (weights ``wx``, ``wy``; ``active`` the modes to sum, increasing indices, or
+    None for every mode). ``local_phase``: each panel's orders for its own bound of the
+    acoustic phase's rate (:func:`first_rule`), and each mode refined alone
+    (:func:`~synth.sound.radiation.refinement.refine_selective`)."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
@@ -472,7 +499,9 @@ def _rule_result(
             f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
             f"{(a / h) * (b / h) * p_min * p_min:.3g} points"
         )
-    ex, ey, px0, py0 = first_rule(a, b, listener, kappa, tol_panel)
+    ex, ey, px0, py0 = first_rule(
+        a, b, listener, kappa, tol_panel, kappa - kb if local_phase else None
+    )
     panels = (ex.size - 1, ey.size - 1)
 
     # Range of R over the plate: the middle is factored out of the exponentials.
@@ -502,25 +531,49 @@ def _rule_result(
             f"convergence check"
         )
 
-    def rule(level):
+    def rule(level, active=None):
         ox, oy = orders(level)
         xs, wx = panel_nodes(ex, ox)
         ys, wy = panel_nodes(ey, oy)
-        return evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings)
+        q_active = q if active is None else q[active]
+        return evaluate(xs, wx, ys, wy, listener, q_active, r_mid, halvings, active)
 
     # Per-mode factor rho s / (2 pi) exp(-s (Rm - R0) / c).
     shift = r_mid - (0.0 if r0 is None else r0)
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
 
-    return refine(rule, npoints, factor, scale, tol, max_points, panels)
+    how = refine_selective if local_phase else refine
+    return how(rule, npoints, factor, scale, tol, max_points, panels)
 
 
-def first_rule(a, b, listener, kappa, tol_panel):
-    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`."""
+def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
+    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`.
+
+    ``acoustic``: the part ``max|s| / c`` of ``kappa`` (rad/m), or None. If given, each
+    panel's orders are for its own bound of the phase's rate along the axis,
+    ``kappa - acoustic (1 - slope)``: along x the acoustic phase ``Im(s) R / c`` changes
+    at ``|s| / c |dR/dx|``, and ``|dR/dx| = |x - xl| / R <= slope = d / sqrt(d^2 + z^2)``,
+    ``d`` the distance from the microphone's projection to the panel's far end (the same
+    along y). The panels themselves are those of ``kappa``."""
     xl, yl, zl = listener
     w_half = half_phase(MAX_ORDER, tol_panel)
     h = 2.0 * w_half / kappa if kappa > 0 else math.inf
     ex = _breakpoints(a, xl, zl, h)
     ey = _breakpoints(b, yl, zl, h)
-    return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
+    if acoustic is None:
+        return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
+    return (
+        ex,
+        ey,
+        _panel_orders(ex, _local_kappa(ex, xl, zl, kappa, acoustic), tol_panel),
+        _panel_orders(ey, _local_kappa(ey, yl, zl, kappa, acoustic), tol_panel),
+    )
+
+
+def _local_kappa(ends, centre, height, kappa, acoustic):
+    """Per panel of ``ends``: ``kappa`` with its acoustic part ``acoustic`` (rad/m) scaled by
+    the largest ``|dR/dt| = d / sqrt(d^2 + height^2)`` on the panel (see :func:`first_rule`)."""
+    far = np.maximum(np.abs(ends[:-1] - centre), np.abs(ends[1:] - centre))
+    slope = far / np.sqrt(far * far + height * height)
+    return kappa - acoustic * (1.0 - slope)
