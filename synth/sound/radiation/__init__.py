@@ -148,8 +148,9 @@ def _use_summed(modes, size, q_s, kb, c, tol):
 #: rule for every mode evaluates the slowest ones on the fastest one's grid; bands 1.1 apart
 #: put each mode on a grid at most 1.21 times the points its own wavenumber needs, while each
 #: band adds its own panels, factor tables and threads (ratios of 1.25, 1.1 and 1.06 took
-#: 100, 93 and 91 % of the evaluations of 1.25 for the random scenes of ``synth bench scale``
-#: with such modes, and closer bands no less time). ``math.inf``: one band.
+#: about 100, 91 and 88 % of the evaluations of 1.25 for the random scenes of
+#: ``synth bench scale`` with such modes; 1.03 and closer no less time). ``math.inf``: one
+#: band.
 BAND_RATIO = 1.1
 
 
