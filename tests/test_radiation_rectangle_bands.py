@@ -124,3 +124,23 @@ def test_product_rule_agrees_with_the_rectangle_rule(paired):
     assert np.all(np.abs(got.gains - want.gains) <= allowed)
     np.testing.assert_allclose(got.coherent, want.coherent, rtol=0.05)
     assert got.n_points < want.n_points
+
+
+def test_boundary_rule_only_beyond_both_work_and_size():
+    """Edge effect modes take the boundary rule when the rectangle rule's work exceeds
+    BOUNDARY_RULE_WORK on a plate of more than BOUNDARY_RULE_SIZE wavelengths
+    (kappa a b / (a + b)), or when its check rule would exceed max_points."""
+    q_s = 1j * 2.0 * np.pi * np.linspace(1000.0, 20000.0, 20000)
+    c, tol = 343.0, 1e-6
+    kappa = 400.0 + float(np.abs(q_s).max()) / c
+
+    def wavelengths(size):
+        return kappa * size[0] * size[1] / (size[0] + size[1])
+
+    small, large = (1.0, 1.0), (4.0, 4.0)
+    assert wavelengths(small) < R.BOUNDARY_RULE_SIZE < wavelengths(large)
+    assert R._rectangle_work(small, q_s, 400.0, c, tol) > R.BOUNDARY_RULE_WORK
+    assert not R._use_boundary(small, q_s, 400.0, c, tol, 10**9)
+    assert R._use_boundary(large, q_s, 400.0, c, tol, 10**9)
+    assert R._use_boundary(small, q_s, 400.0, c, tol, 1000)  # the rectangle rule too large
+    assert not R._use_boundary(small, q_s[:10], 1.0, c, tol, 10**9)  # little work

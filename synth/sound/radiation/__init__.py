@@ -39,8 +39,10 @@ the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for sep
 shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
 for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
 modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
-exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
-its Ritz modes; below it, the rectangle rule band by band of wavenumber (:data:`BAND_RATIO`:
+exceeds :data:`BOUNDARY_RULE_WORK` on a plate of more than :data:`BOUNDARY_RULE_SIZE`
+wavelengths (or whose rectangle rule would exceed ``max_points``) takes the boundary rule for
+those and the rectangle rule for its Ritz modes; otherwise the rectangle rule band by band of
+wavenumber (:data:`BAND_RATIO`:
 each band's grid follows its own fastest mode's wavelength, the Ritz modes one band), the
 edge effect modes' shapes formed from their factor tables inside the sums
 (:func:`~synth.sound.radiation.rectangle.product_gains`).
@@ -69,6 +71,7 @@ from synth.sound.radiation.cache import (
 )
 from synth.sound.radiation.common import (
     MAX_ORDER,
+    REFINE,
     RadiationResult,
     check_listener,
     check_poles,
@@ -124,6 +127,34 @@ SUMMED_RULE_WORK = 5e8
 #: 22.05 kHz, work 6.7e7), above it the boundary rule (the default board at 384 kHz, work
 #: above 5e9; ``synth bench scale`` and ``synth bench hires`` print both).
 BOUNDARY_RULE_WORK = 1e9
+
+#: Size of a plate in wavelengths of the rectangle rule, ``kappa a b / (a + b)``
+#: (``kappa = k_b + max|s| / c``, rad/m; ``a b / (a + b)`` half the area over the
+#: perimeter), below which edge effect modes keep the banded rectangle rule whatever its
+#: work. The rectangle rule's evaluations grow as ``n_modes (kappa a) (kappa b)``, the
+#: boundary rule's as ``n_modes kappa (a + b)`` with a larger constant: their ratio grows
+#: with this size. Measured (CPU seconds, both rules converged, the gains within 0.005 tol
+#: of each other): the random free acrylic plate 1.38 x 1.62 m at 48 kHz of
+#: ``synth bench scale`` (size 597, work 5.8e9) 44 rectangle against 143 boundary; the
+#: default board at 384 kHz (size 1327, work 5.5e9) 72 against 27; the crossover, log-linear
+#: between the two, near 900. ``0``: the work alone decides.
+BOUNDARY_RULE_SIZE = 900.0
+
+
+def _use_boundary(size, q_s, kb, c, tol, max_points) -> bool:
+    """Whether edge effect modes take the boundary rule: their rectangle rule's work exceeds
+    :data:`BOUNDARY_RULE_WORK` and the plate :data:`BOUNDARY_RULE_SIZE` wavelengths, or its
+    check rule (``REFINE^2`` times the first one's points) would exceed ``max_points``."""
+    if q_s.size == 0:
+        return False
+    work = _rectangle_work(size, q_s, kb, c, tol)
+    if work / q_s.size * REFINE**2 > max_points:
+        return True
+    if work <= BOUNDARY_RULE_WORK:
+        return False
+    a, b = size
+    kappa = kb + float(np.max(np.abs(q_s))) / c
+    return kappa * a * b / (a + b) > BOUNDARY_RULE_SIZE
 
 
 def _rectangle_work(size, q_s, kb, c, tol) -> float:
@@ -338,7 +369,7 @@ def plate_gains(
 
     size = (modes.plate.length, modes.plate.width)
     edge = modes.edge_effect()
-    boundary = edge is not None and _rectangle_work(size, q_s, kb, c, tol) > BOUNDARY_RULE_WORK
+    boundary = edge is not None and _use_boundary(size, q_s, kb, c, tol, max_points)
     separable = None if edge is not None else _use_separable(modes, size, listener, q_s, kb, c, tol)
     summed = None
     if edge is None and separable is None:
