@@ -194,6 +194,7 @@ def _hybrid_modes(monkeypatch, boundary):
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
+    monkeypatch.setattr(R, "BOUNDARY_RULE_SIZE", 0.0)
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()
     assert part is not None and 0 < part.first_mode < len(m) - 50
