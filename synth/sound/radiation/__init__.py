@@ -135,10 +135,10 @@ BOUNDARY_RULE_WORK = 1e9
 #: boundary rule's as ``n_modes kappa (a + b)`` with a larger constant: their ratio grows
 #: with this size. Measured (CPU seconds, both rules converged, the gains within 0.005 tol
 #: of each other): the random free acrylic plate 1.38 x 1.62 m at 48 kHz of
-#: ``synth bench scale`` (size 597, work 5.8e9) 44 rectangle against 143 boundary; the
-#: default board at 384 kHz (size 1327, work 5.5e9) 72 against 27; the crossover, log-linear
-#: between the two, near 900. ``0``: the work alone decides.
-BOUNDARY_RULE_SIZE = 900.0
+#: ``synth bench scale`` (size 597, work 5.8e9) 40 rectangle against 53 boundary; the
+#: default board at 384 kHz (size 1327, work 5.5e9) 85 against 22; the crossover, log-linear
+#: between the two, near 700. ``0``: the work alone decides.
+BOUNDARY_RULE_SIZE = 700.0
 
 
 def _use_boundary(size, q_s, kb, c, tol, max_points) -> bool:
