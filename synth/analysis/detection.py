@@ -443,9 +443,9 @@ def standing_out(
         found = _local_onset(x, lo * hop, span, before, settings)
         if found is None:
             continue
-        on, e = found
+        on = found.onset
         rx = _rise_at(x, int(on), span, before)
-        re = _rise_at(e, int(on), span, before)
+        re = _rise_at(found.error, int(on) - found.start, span, before)
         near = np.abs(known - on) < settings.min_separation
         if rx < need_x or re < need_e or near.any():
             continue
@@ -480,16 +480,26 @@ def _noise_rise(m: int, n: int) -> float:
     return float(fisher.isf(STANDS_OUT_FALSE_ALARM, m, n))
 
 
+@dataclass(frozen=True)
+class LocalOnset:
+    """A candidate's onset (sample of the recording) and the prediction error it was found in,
+    from sample ``start`` of the recording."""
+
+    onset: float
+    error: np.ndarray
+    start: int
+
+
 def _local_onset(
     x: np.ndarray, first: int, span: int, before: int, settings: Settings
-) -> tuple[float, np.ndarray] | None:
-    """Onset (sample) of a tick whose rise shows from sample ``first`` on, and the prediction
-    error it was found in (indexed as ``x``, zero outside the stretch it covers): the error of
+) -> LocalOnset | None:
+    """Onset of a tick whose rise shows from sample ``first`` on, in the prediction error of
     the predictor of the recording's last :data:`~synth.analysis.settings.WHITENING_SPAN`
     before the rise (its noise and ringing, fitted by
-    :func:`~synth.analysis.whitening.resonator_predictor`), what the past does not predict.
-    The onset is where that error's variance steps (:func:`_change_point`), if the error over
-    the :data:`STANDS_OUT_BEFORE` before it is the past's noise, by the F test of
+    :func:`~synth.analysis.whitening.resonator_predictor`): what the past does not predict.
+    The onset is where that error's variance steps (:func:`_cusum_start`, refined by
+    :func:`_change_point` within :data:`STANDS_OUT_SPAN` of it), if the error over the
+    :data:`STANDS_OUT_BEFORE` before it is the past's noise, by the F test of
     :func:`standing_out` (else the tick began earlier, more slowly than it stands out: a
     ramp, whose start no step marks). None where there is too little past or no onset."""
     from scipy.signal import lfilter
@@ -504,28 +514,25 @@ def _local_onset(
     if a is None:
         return None
     stop = min(x.size, first + 2 * span)
-    e = np.zeros_like(x)
-    e[start:stop] = lfilter(a, [1.0], x[start:stop])
-    fitted = e[start + a.size : end]
+    e = lfilter(a, [1.0], x[start:stop])  # sample i of e is sample start + i of x
+    fitted = e[a.size : end - start]
     variance = float(np.dot(fitted, fitted)) / max(1, fitted.size)
-    lo = max(start + a.size, first - before)
-    if not variance > 0.0:
-        return None
-    ref = e[lo : max(lo + 1, first - span)]
+    lo = max(a.size, first - before - start)
+    ref = e[lo : max(lo + 1, end - start)]
     ref_variance = float(np.dot(ref, ref)) / ref.size
-    if not ref_variance > 0.0:
+    if not (variance > 0.0 and ref_variance > 0.0):
         return None
-    rise = lo + _cusum_start(e[lo : first + span], ref_variance)
+    rise = lo + _cusum_start(e[lo : first + span - start], ref_variance)
     a0 = max(lo, rise - span)
-    if min(stop, rise + span) - a0 < 4:
+    if min(e.size, rise + span) - a0 < 4:
         return None
-    on = a0 + _change_point(e[a0 : min(stop, rise + span)])
+    on = a0 + _change_point(e[a0 : rise + span])
     past = e[max(lo, on - before) : on]
     if float(np.dot(past, past)) / max(1, past.size) > variance * _noise_rise(
         past.size, fitted.size
     ):
         return None
-    return float(on), e
+    return LocalOnset(float(start + on), e, start)
 
 
 def _cusum_start(z: np.ndarray, variance: float) -> int:
