@@ -26,7 +26,13 @@ from synth.analysis.blocks import (
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.deflation import DeflationSearch, FirstTick
 from synth.analysis.detection import first_ticks
-from synth.analysis.measures import WINDOW_GUARD, FoundTick, TickMeter, Whitening
+from synth.analysis.measures import (
+    WINDOW_GUARD,
+    FoundTick,
+    TickMeter,
+    Whitening,
+    with_standing_out,
+)
 from synth.analysis.report import Analysis
 from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.series import BOUNCE_GROWTH, bounce_order
@@ -514,7 +520,8 @@ def _meter(
     x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
 ) -> TickMeter:
     """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
-    with ``resonator``, the resonator's search (step 7), ready to be measured."""
+    with ``resonator``, the resonator's search (step 7), with those that stand out (step 8),
+    ready to be measured."""
     first = search.result
     found = [
         FoundTick(
@@ -535,6 +542,7 @@ def _meter(
         and not clipped
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
+    found = with_standing_out(x, found, whitenings[0], settings)
     noise = dsp.noise_floor(x, settings.samplerate)
     return TickMeter(x, found, whitenings, settings, noise)
 
