@@ -12,12 +12,13 @@ length, timing against the first tick's template).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot
+from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot, solve_general
 from synth.analysis.detection import delay, frame_energies
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import (
@@ -243,25 +244,35 @@ class _NormalEquations:
     def solve(self, n_t: int, pre: int, post: int) -> tuple[np.ndarray, np.ndarray]:
         """The taps and the residual of the fit on the first ``n_t`` templates, lags ``-pre ..
         post`` (within those of the matrix)."""
-        ntap_all = self.pre + self.post + 1
-        lags = np.arange(self.post - post, self.post + pre + 1)
-        idx = np.concatenate(
-            [
-                (k * self.n_templates + t) * ntap_all + lags
-                for k in range(self.n_offsets)
-                for t in range(n_t)
-            ]
-        )
-        whole = idx.size == self.G.shape[0]
-        G = self.G.copy() if whole else self.G[np.ix_(idx, idx)]
+        idx = _columns(self.n_offsets, self.n_templates, self.pre, self.post, n_t, pre, post)
+        whole = idx is None
+        G = self.G.copy() if whole else self.G.take(idx, axis=0).take(idx, axis=1)
         P = G.shape[0]
-        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
-        h = np.linalg.solve(G, self.b if whole else self.b[idx])
+        G.flat[:: P + 1] += 1e-12 * np.trace(G) / P + 1e-300
+        h = solve_general(G, self.b if whole else self.b[idx])
         res = self.y.copy()
         for lo, hi in self.chunks:
             M = self._rows(lo, hi) if self.kept is None else self.kept
-            res[lo:hi] = self.y[lo:hi] - (M if whole else M[:, idx]) @ h
+            res[lo:hi] = self.y[lo:hi] - (M if whole else M.take(idx, axis=1)) @ h
         return h, res
+
+
+@functools.lru_cache(maxsize=256)
+def _columns(
+    n_offsets: int, n_templates: int, pre_all: int, post_all: int, n_t: int, pre: int, post: int
+) -> np.ndarray | None:
+    """The columns of the fit on the first ``n_t`` templates, lags ``-pre .. post``, in a
+    design matrix of ``n_offsets`` offsets of ``n_templates`` templates, lags ``-pre_all ..
+    post_all``; None when that is every column."""
+    ntap_all = pre_all + post_all + 1
+    lags = np.arange(post_all - post, post_all + pre + 1)
+    idx = np.concatenate(
+        [(k * n_templates + t) * ntap_all + lags for k in range(n_offsets) for t in range(n_t)]
+    )
+    if idx.size == n_offsets * n_templates * ntap_all:
+        return None
+    idx.flags.writeable = False
+    return idx
 
 
 def _row_chunks(spans, rows: int) -> list[tuple[int, int]]:
