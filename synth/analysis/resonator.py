@@ -16,6 +16,7 @@ import functools
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot, solve_general
@@ -207,22 +208,15 @@ class _NormalEquations:
 
     def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
         W = y.size
-        ntap = pre + post + 1
-        self.windows = []
-        for o in offsets:
-            for T in Ts:
-                Tp = np.concatenate(
-                    (
-                        np.zeros(post + o),
-                        T[: max(0, W - o + pre)],
-                        np.zeros(pre + max(0, W - o - T.size)),
-                    )
-                )
-                self.windows.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        longest = max(T.size for T in Ts)
+        self.templates = np.zeros((len(Ts), longest))
+        for t, T in enumerate(Ts):
+            self.templates[t, : T.size] = T
+        self.lengths = np.array([T.size for T in Ts], dtype=np.int64)
+        self.offsets = np.array(offsets, dtype=np.int64)
         self.y = y
         self.n_templates, self.pre, self.post = len(Ts), pre, post
         self.n_offsets = len(offsets)
-        longest = max(T.size for T in Ts)
         self.chunks = _row_chunks([(o - pre, o + post + longest) for o in offsets], W)
         # the rows formed are kept for the residuals when they make one piece (a window
         # across no silence: every fit but a joint one across two drops)
@@ -239,7 +233,7 @@ class _NormalEquations:
 
     def _rows(self, lo: int, hi: int) -> np.ndarray:
         """Rows ``lo .. hi - 1`` of the design matrix."""
-        return np.concatenate([w[lo:hi] for w in self.windows], axis=1)
+        return _design_rows(self.templates, self.lengths, self.offsets, self.pre, self.post, lo, hi)
 
     def solve(self, n_t: int, pre: int, post: int) -> tuple[np.ndarray, np.ndarray]:
         """The taps and the residual of the fit on the first ``n_t`` templates, lags ``-pre ..
@@ -255,6 +249,25 @@ class _NormalEquations:
             M = self._rows(lo, hi) if self.kept is None else self.kept
             res[lo:hi] = self.y[lo:hi] - (M if whole else M.take(idx, axis=1)) @ h
         return h, res
+
+
+@numba.njit(cache=True, nogil=True)
+def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no cover - compiled
+    """Rows ``lo .. hi - 1`` of the design matrix of :class:`_NormalEquations`: ``M[i, c] =
+    T_t[i - o_k - post + j]`` (0 outside ``T_t``) in column ``c = (k n_t + t) ntap + j``, for
+    the templates ``templates[t, :lengths[t]]`` and offsets ``o_k``."""
+    ntap = pre + post + 1
+    n_t = templates.shape[0]
+    M = np.zeros((hi - lo, offsets.size * n_t * ntap))
+    for k in range(offsets.size):
+        for t in range(n_t):
+            base = (k * n_t + t) * ntap
+            n = lengths[t]
+            for r in range(hi - lo):
+                first = lo + r - offsets[k] - post
+                for j in range(max(0, -first), min(ntap, n - first)):
+                    M[r, base + j] = templates[t, first + j]
+    return M
 
 
 @functools.lru_cache(maxsize=256)
