@@ -44,16 +44,16 @@ def test_each_drop_is_searched_whole_once(monkeypatch):
     calls = {True: 0, False: 0}
     ticks = pipeline._ticks
 
-    def counted(x, settings, clipped, resonator=True):
+    def counted(x, settings, clipped, resonator=True, parts=None):
         calls[resonator] += 1
-        return ticks(x, settings, clipped, resonator)
+        return ticks(x, settings, clipped, resonator, parts)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
     located = pipeline._located
 
-    def counted_blocks(x, settings, clipped, locate):
+    def counted_blocks(x, settings, clipped, locate, parts=None):
         calls[False] += 1  # a block's steps 1-6, which show where its series start
-        return located(x, settings, clipped, locate)
+        return located(x, settings, clipped, locate, parts)
 
     monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 5.0 * k for k in range(6)]
@@ -122,16 +122,16 @@ def test_a_whole_recording_of_several_drops_is_searched_drop_by_drop(monkeypatch
     searched = {True: [], False: []}
     ticks = pipeline._ticks
 
-    def counted(x, settings, clipped, resonator=True):
+    def counted(x, settings, clipped, resonator=True, parts=None):
         searched[resonator].append(x.size)
-        return ticks(x, settings, clipped, resonator)
+        return ticks(x, settings, clipped, resonator, parts)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
     located = pipeline._located
 
-    def counted_blocks(x, settings, clipped, locate):
+    def counted_blocks(x, settings, clipped, locate, parts=None):
         searched[False].append(x.size)  # a block's steps 1-6, which show where series start
-        return located(x, settings, clipped, locate)
+        return located(x, settings, clipped, locate, parts)
 
     monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 10.0 * k for k in range(4)]
