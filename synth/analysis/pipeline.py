@@ -534,7 +534,8 @@ def _meter(
 ) -> TickMeter:
     """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
     with ``resonator``, the resonator's search (step 7), with those that stand out (step 8),
-    ready to be measured."""
+    ready to be measured: step 8 with step 7 only, since the searches that locate where series
+    start (steps 1-6, :func:`_located`) do not need the weak ticks it adds."""
     first = search.result
     found = [
         FoundTick(
@@ -555,7 +556,8 @@ def _meter(
         and not clipped
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
-    found = with_standing_out(x, found, whitenings[0], settings)
+    if resonator:  # a search's own ticks; where series start (steps 1-6) needs none of them
+        found = with_standing_out(x, found, whitenings[0], settings)
     noise = dsp.noise_floor(x, settings.samplerate)
     return TickMeter(x, found, whitenings, settings, noise)
 
