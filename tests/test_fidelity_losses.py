@@ -150,13 +150,14 @@ def test_modal_series_ends_settled_when_the_ringing_plate_meets_the_rising_ball(
     from synth.io.presets import load_preset
     from synth.physics.bounces import simulate_scene
 
+    scene = load_preset("thesis-steel10-mdf6")
     real = mc.next_touch
 
     def early(contact, ringing, displacement, v_out):
         flight, state = real(contact, ringing, displacement, v_out)
-        return 0.5 * v_out / 9.81, state
+        return 0.5 * v_out / scene.gravity, state
 
     monkeypatch.setattr(mc, "next_touch", early)
-    seq = simulate_scene(load_preset("thesis-steel10-mdf6"))
+    seq = simulate_scene(scene)
     assert seq.stop_reason == "settled" and len(seq) == 1
     assert seq.impacts[0].speed > 0.0
