@@ -83,7 +83,9 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
     assert jack.alive and client_ports(jack) == []  # the server is left as it was
     assert stats.impacts_played == len(played) == 40
     assert stats.impacts_refused == 0 and stats.impacts_late == 0
-    assert stats.callbacks > 0 and stats.callback_max < 1.0
+    # the callback's run time (stats.callback_max) is wall-clock: `synth bench live` reports
+    # it; a test on a shared machine can only ask that the stream ran
+    assert stats.callbacks > 0
     with pytest.raises(SynthError, match="stopped"):
         bodies[0].hit(scene.ball, 1.0)
 
