@@ -136,6 +136,26 @@ def test_size_bound_evicts_least_recently_used(monkeypatch):
     assert cache.disk_info().bytes <= 350_000
 
 
+def test_a_write_scans_the_directory_only_when_its_count_passes_the_bound(monkeypatch):
+    # the process counts what it writes: ten entries under the bound cost one scan of the
+    # directory (the first write's), whatever the directory holds; the write that passes
+    # the bound scans and evicts; with RESCAN_SECONDS = 0 every write scans (other
+    # processes' writes are seen at the next scan)
+    scans = []
+    real = cache._entries
+    monkeypatch.setattr(cache, "_entries", lambda d: scans.append(d) or real(d))
+    monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "1050000")
+    paths = [_entry(f"kind-{i}") for i in range(10)]  # ~100 kB each
+    assert len(scans) == 1 and all(p.exists() for p in paths)
+    _entry("kind-10")
+    assert len(scans) == 2
+    assert cache.disk_info().bytes <= 1_050_000  # (itself a scan)
+    monkeypatch.setattr(cache, "RESCAN_SECONDS", 0.0)
+    _entry("kind-11")
+    _entry("kind-12")
+    assert len(scans) == 5
+
+
 def test_size_bound_setting(monkeypatch):
     monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "-5")
     with pytest.raises(ParameterError, match="SYNTH_CACHE_MAX_BYTES"):

@@ -16,8 +16,12 @@ The disk cache is shared by every process of the machine (a sound bank's workers
   :func:`load_npz` returns the arrays only when it matches, so an altered or damaged file
   is recomputed (the callers also check the stored key and the arrays' consistency);
 * the total size is bounded (:func:`max_bytes`, ``$SYNTH_CACHE_MAX_BYTES``, default
-  :data:`DEFAULT_MAX_BYTES`): after each write the least recently used entries are
-  evicted, "used" being the file's modification time, which :func:`load_npz` refreshes.
+  :data:`DEFAULT_MAX_BYTES`): the least recently used entries are evicted, "used" being
+  the file's modification time, which :func:`load_npz` refreshes. A process counts what it
+  writes and scans the directory (a cost that grows with the number of entries) only when
+  its count passes the bound or is older than :data:`RESCAN_SECONDS`, so a write costs the
+  same in a cache of ten entries or of ten thousand; other processes' writes are seen at
+  the next scan.
 
 :func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and ``synth cache clear``.
 """
@@ -25,6 +29,7 @@ The disk cache is shared by every process of the machine (a sound bank's workers
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import sys
 import threading
@@ -47,6 +52,10 @@ DIGEST_ARRAY = "__sha256__"
 
 #: A temporary file older than this (s) was left by a process that died mid-write.
 STALE_TEMPORARY_AGE = 3600.0
+
+#: How long a process trusts its own count of the disk cache's total size (s) before it
+#: scans the directory again (to see other processes' writes and remove stale temporaries).
+RESCAN_SECONDS = 30.0
 
 
 def cache_dir() -> Path:
@@ -113,8 +122,38 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
         write_atomically(path, lambda tmp: np.savez(tmp, **arrays, **{DIGEST_ARRAY: digest}))
     except (OSError, RuntimeError, ParameterError):  # unwritable, no home, bad bound: no disk cache
         return False
-    evict(limit, keep=path)
+    _SIZE_COUNT.after_write(path, limit)
     return True
+
+
+class _SizeCount:
+    """This process's count of the disk cache's total size (bytes): the total found by the
+    last scan of the directory plus the sizes written since. A write within the bound and
+    within :data:`RESCAN_SECONDS` of the scan only adds to it; otherwise the directory is
+    scanned and evicted (:func:`evict`) and the count restarts from what is left."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._directory: Path | None = None
+        self._total = 0
+        self._scanned = -math.inf
+
+    def after_write(self, path: Path, limit: int) -> None:
+        try:
+            size = path.stat().st_size
+        except OSError:  # evicted meanwhile by another process
+            size = 0
+        with self._lock:
+            recent = time.monotonic() - self._scanned < RESCAN_SECONDS
+            if self._directory == path.parent and recent and self._total + size <= limit:
+                self._total += size
+                return
+        remaining = _evict(limit, keep=path).remaining
+        with self._lock:
+            self._directory, self._total, self._scanned = path.parent, remaining, time.monotonic()
+
+
+_SIZE_COUNT = _SizeCount()
 
 
 class CacheEntryError(ValueError):
@@ -201,15 +240,27 @@ def evict(limit: int, *, keep: Path | None = None) -> int:
     size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
     temporary files left by dead writers. Safe against other processes doing the same.
     Returns the number of entries deleted."""
+    return _evict(limit, keep=keep).deleted
+
+
+@dataclass(frozen=True)
+class Eviction:
+    """What one :func:`evict` did: entries ``deleted`` and the bytes ``remaining``."""
+
+    deleted: int
+    remaining: int
+
+
+def _evict(limit: int, *, keep: Path | None = None) -> Eviction:
     try:
         directory = cache_dir()
         if not directory.is_dir():
-            return 0
+            return Eviction(0, 0)
         for p in _stale_temporaries(directory, time.time()):
             _unlink(p)
         entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
     except (OSError, RuntimeError):
-        return 0
+        return Eviction(0, 0)
     total = sum(e.size for e in entries)
     deleted = 0
     for e in entries:
@@ -218,7 +269,7 @@ def evict(limit: int, *, keep: Path | None = None) -> int:
         if _unlink(e.path):
             deleted += 1
         total -= e.size
-    return deleted
+    return Eviction(deleted, total)
 
 
 def _unlink(p: Path) -> bool:

@@ -2,10 +2,22 @@
 (restitution, contact times, impedances, critical distances, tick decay, the MDF surface fit).
 
 One module per part: ``rows`` (the measured values, one row, the first rows and the table),
-``modal`` (the finite plate in the contact: impedances, critical distances, the end of a
+``edge`` (the critical distance as the measurement resolves it), ``modal`` (the finite plate in the contact: impedances, critical distances, the end of a
 series), ``surface`` (MDF's contact surface fit), ``series`` (the end of a series and the
 tick decay's definition) and ``shear`` (the transverse shear modulus)."""
 
+from synth.bench.thesis.edge import (
+    CRITICAL_DISTANCE_ALLOWANCE,
+    EDGE_MODELS,
+    EDGE_RESOLUTIONS,
+    THESIS_RESTITUTION_REPEATABILITY,
+    EdgeReading,
+    MidlineWalk,
+    edge_study,
+    edge_study_json,
+    format_edge_study,
+    thesis_edge_rows,
+)
 from synth.bench.thesis.modal import (
     LATE_SPEED_BINS,
     MODAL_IMPEDANCE_BAND,
@@ -89,6 +101,16 @@ __all__ = [
     "format_thesis",
     "format_transverse_shear_sensitivity",
     "modal_critical_distance",
+    "CRITICAL_DISTANCE_ALLOWANCE",
+    "EDGE_MODELS",
+    "EDGE_RESOLUTIONS",
+    "THESIS_RESTITUTION_REPEATABILITY",
+    "EdgeReading",
+    "MidlineWalk",
+    "edge_study",
+    "edge_study_json",
+    "format_edge_study",
+    "thesis_edge_rows",
     "smoothed_envelope",
     "surface_fit",
     "thesis_comparison",

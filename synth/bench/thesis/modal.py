@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from synth.bench.thesis.edge import MidlineWalk
 from synth.bench.thesis.rows import (
     THESIS_BOARDS,
     THESIS_IMPACTS,
@@ -39,28 +40,8 @@ def modal_critical_distance(
     e on a grid of ``step`` (m), refined by a parabola through it and its neighbours.
     ``contact_options`` as in :func:`synth.physics.contact.contact_law`, and ``theory`` (the
     plate theory of :func:`synth.physics.modal_contact.modal_point`)."""
-    from synth.physics import modal_contact as mc
-
-    base = mc.ModalContact.for_pair(ball, plate, None, speed=speed, **contact_options)
-
-    def e_at(d):
-        point = mc.modal_point(
-            plate,
-            (0.5 * plate.length, d),
-            max_frequency=base.point.max_frequency,
-            theory=base.point.theory,
-        )
-        c = mc.ModalContact(
-            point,
-            base.mass,
-            base.stiffness,
-            base.exponent,
-            base.gravity,
-            base.steps_per_contact,
-            base.dissipation,
-        )
-        return c.solve(speed).restitution
-
+    walk = MidlineWalk(ball, plate, speed, **contact_options)
+    e_at = walk.restitution
     e = [e_at(0.0), e_at(step)]
     d = step
     while d < 0.5 * plate.width - step:

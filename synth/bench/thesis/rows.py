@@ -174,6 +174,7 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     """
     from scipy.signal import butter, sosfiltfilt
 
+    from synth.bench.thesis.edge import edge_study, edge_study_json, thesis_edge_rows
     from synth.bench.thesis.modal import thesis_modal_rows
     from synth.bench.thesis.series import thesis_lowspeed_rows
     from synth.bench.thesis.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
@@ -279,6 +280,9 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
         rows += thesis_modal_rows(samplerate=samplerate)
         rows += thesis_lowspeed_rows(samplerate)
         rows += thesis_transverse_shear_rows()
+        readings = edge_study()
+        rows += thesis_edge_rows(readings)
+        out["edge_resolution"] = edge_study_json(readings)
         out["surface"] = surface_fit()
         out["transverse_shear"] = transverse_shear_sensitivity()
     return out
@@ -330,6 +334,7 @@ def _shown(value, scale, fmt):
 def format_thesis(c: dict) -> str:
     """The table of :func:`thesis_comparison` (Markdown): engine, thesis model, thesis
     measurement and the engine's gap to the measurement, per quantity."""
+    from synth.bench.thesis.edge import format_edge_study
     from synth.bench.thesis.shear import format_transverse_shear_sensitivity
     from synth.bench.thesis.surface import format_surface_fit
 
@@ -371,4 +376,6 @@ def format_thesis(c: dict) -> str:
         lines += ["", format_surface_fit(c["surface"])]
     if c.get("transverse_shear") is not None:
         lines += ["", format_transverse_shear_sensitivity(c["transverse_shear"])]
+    if c.get("edge_resolution") is not None:
+        lines += ["", format_edge_study(c["edge_resolution"])]
     return "\n".join(lines)
