@@ -159,7 +159,7 @@ class Outputs:
 
     def staged(self, field: str):
         """The temporary path to write ``field``'s file to (same folder and suffix)."""
-        from synth.io.audio import temporary_name
+        from synth.io.atomic import temporary_name
 
         target = self.paths[field]
         tmp = target.with_name(temporary_name(target.suffix))

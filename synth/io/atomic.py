@@ -12,7 +12,8 @@ from __future__ import annotations
 import json
 import os
 import secrets
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = [
@@ -67,27 +68,51 @@ def remove_stale_temporaries(folder) -> list[Path]:
     return removed
 
 
-def temporary_sibling(path: Path, error: type[Exception] = OSError) -> Path:
-    """Create (exclusively) an empty hidden file beside ``path`` and return its path.
+@contextmanager
+def temporary_sibling(
+    path: str | os.PathLike,
+    error: type[Exception] = OSError,
+    field: str = "path",
+    suffix: str | None = None,
+) -> Iterator[Path]:
+    """Create (exclusively) an empty hidden file beside ``path`` and yield its path; on
+    leaving, remove it unless it was renamed away meanwhile.
 
-    Its name keeps ``path``'s suffix (:func:`temporary_name`) so that writers that
-    choose the format by suffix still work; stale temporaries of killed writers there
-    are removed first. ``error`` is the exception class raised, naming ``path``, when
-    no file can be created there.
+    The removal covers every way out, also an exception raised between the file's creation
+    and the ``with`` block (a signal handler's, at any bytecode): the name is chosen first
+    and removed by name, which is safe because it carries this process's id and a random
+    part (:func:`temporary_name`). Its name keeps ``path``'s suffix (or ends in ``suffix``)
+    so that writers that choose the format by suffix still work; stale temporaries of
+    killed writers there are removed first. ``error`` is the exception class raised,
+    naming ``field`` and ``path``, when no file can be created there.
     """
     path = Path(path)
-    remove_stale_temporaries(path.parent if str(path.parent) else Path("."))
-    for _ in range(100):
-        tmp = path.with_name(temporary_name(path.suffix))
-        try:
-            fd = os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise error(f"path={str(path)!r}: cannot create a file there ({exc.strerror})") from exc
-        os.close(fd)
-        return tmp
-    raise error(f"path={str(path)!r}: no free temporary name beside it")
+    folder = path.parent if str(path.parent) else Path(".")
+    remove_stale_temporaries(folder)
+    tmp = None
+    try:
+        for _ in range(100):
+            tmp = folder / temporary_name(path.suffix if suffix is None else suffix)
+            try:
+                os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+                break
+            except FileExistsError:
+                tmp = None
+            except OSError as exc:
+                tmp = None
+                raise error(
+                    f"{field}={str(path)!r}: cannot create a file in {str(folder)!r} "
+                    f"({exc.strerror})"
+                ) from None
+        else:
+            raise error(f"{field}={str(path)!r}: no free temporary name beside it")
+        yield tmp
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:  # renamed onto its target, or never created
+                pass
 
 
 def _fsync(path: Path) -> None:
@@ -104,22 +129,16 @@ def write_atomically(
     """Call ``write(tmp)`` on a temporary sibling of ``path``, then move it onto ``path``.
 
     ``write`` receives the temporary file's path (it exists, empty) and must write the
-    whole content there. On any failure the temporary file is removed and the
-    exception re-raised. ``error`` is the exception class for a temporary file that
-    cannot be created. Returns ``path`` as a :class:`~pathlib.Path`.
+    whole content there. On any failure (an exception, or a signal's at any point) the
+    temporary file is removed and the exception re-raised. ``error`` is the exception
+    class for a temporary file that cannot be created. Returns ``path`` as a
+    :class:`~pathlib.Path`.
     """
     path = Path(path)
-    tmp = temporary_sibling(path, error)
-    try:
+    with temporary_sibling(path, error) as tmp:
         write(tmp)
         _fsync(tmp)
         os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
     return path
 
 

@@ -33,7 +33,7 @@ import soundfile
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.io.atomic import remove_stale_temporaries, temporary_name, write_atomically
+from synth.io.atomic import temporary_sibling, write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa
@@ -165,15 +165,8 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
             f"{field}={str(p)!r}: directory {str(parent)!r} does not exist "
             f"(it is not created automatically)"
         )
-    probe = parent / temporary_name(".probe")
-    try:
-        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
-        os.unlink(probe)
-    except OSError as exc:
-        raise AudioFileError(
-            f"{field}={str(p)!r}: cannot create a file in {str(parent)!r} ({exc.strerror})"
-        ) from None
-    remove_stale_temporaries(parent)
+    with temporary_sibling(p, AudioFileError, field, suffix=".probe"):
+        pass  # a file can be created there (and is removed, whatever interrupts)
     return p
 
 
