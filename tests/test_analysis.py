@@ -1193,13 +1193,13 @@ def test_bench_analysis():
     d, T = 1.0 / 48000, 0.15 * 0.8 ** np.arange(8)
     for r in rows:
         assert r["files"] == 2 and r["ticks_found"] + r["ticks_missed"] == 16
-        assert r["ticks_found"] == 16
+        assert r["ticks_found"] == 16 and r["e_flagged"] == 0
         assert r["e_error_max"] < 2 * d / T[7] + 2 * d / T[6]
         assert r["onset_error_rms_ms"] < d * 1e3
     table = bench.format_analysis(result).splitlines()
     assert "over the ticks found" in table[0]
-    assert table[1].count("|") == 8 and len(table) == 3 + len(rows)
-    assert table[3].startswith("| no noise | 8 / 0 |".replace("8", "16"))
+    assert table[1].count("|") == 9 and len(table) == 3 + len(rows)
+    assert table[3].startswith("| no noise | 16 / 0 | 0 |")
     # the seeds draw different files
     a, _, _ = bench.synthetic_bounce(0.8, 48000, seed=0)
     b, _, _ = bench.synthetic_bounce(0.8, 48000, seed=1)
