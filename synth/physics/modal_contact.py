@@ -5,7 +5,7 @@ The impedance model (:mod:`synth.physics.contact`) gives the plate surface under
 velocity ``v_free - beta F`` of an infinite plate. Here the plate is the finite plate itself:
 its displacement under the ball is
 
-    w(t) = sum_k q_k(t) + q_rigid(t) - x_res(t)
+    w(t) = sum_k q_k(t) + q_rigid(t) + sum_j q_j(t) - x_res(t)
 
 * ``q_k`` bending mode k (:func:`synth.sound.modes.modes`, frequencies ``omega_k``, decay rates
   ``sigma_k``), seen at the contact point ``x0``: ``q_k'' + 2 sigma_k q_k' + omega_k^2 q_k =
@@ -13,13 +13,29 @@ its displacement under the ball is
 * ``q_rigid`` the rigid-body motion of a free plate (translation and two rotations,
   ``q_rigid'' = -c_rigid F``, ``c_rigid = (1 + 3 xi^2 + 3 eta^2) / M`` with ``xi, eta`` the
   point's coordinates scaled to [-1, 1]); none for supported or clamped edges;
-* ``x_res`` the residual: the modes above the band limit ``Omega``. Taken as a continuum with
-  the infinite plate's modal density ``n`` (per rad/s), their admittance is
-  ``i omega (n / M) Int_Omega^inf dw / (w^2 - omega^2)``: the infinite-plate admittance
-  ``beta_inf = pi n / (2 M) = 1 / (8 sqrt(D rho h))`` above ``Omega`` and a spring of compliance
-  ``2 beta_inf / (pi Omega)`` well below it. The residual is the one-pole admittance with both
-  limits, ``beta_inf s / (s + a)``, ``a = pi Omega / 2`` (a dashpot ``1 / beta_inf`` in
-  parallel with a spring ``a / beta_inf``): ``x_res' = beta_inf F - a x_res``.
+* the residual: the modes above the band limit ``Omega``, taken as the infinite plate's
+  continuum of modes (wavenumber ``s = k^2``, ``S / (4 pi)`` modes per unit ``s`` on a plate
+  of area ``S``, each of coupling ``1 / (rho h S m_f(s))``, ``m_f`` Mindlin's modal mass
+  factor, 1 for Kirchhoff). Their admittance is ``Y_res(s) = s Int dmu(w) / (w^2 + s^2)``
+  over ``w > Omega`` with ``dmu = ds / (4 pi rho h m_f)``: the infinite plate's admittance
+  minus the band's modes (:func:`residual_admittance_exact`). Below the band it is reactive
+  (but for the modes' damping) and varies with frequency (for Kirchhoff
+  ``i (beta_inf / pi) ln((Omega + omega) / (Omega - omega))``, nearly a spring; for a
+  Mindlin plate of soft shear not). It is
+  realised by :data:`RESIDUAL_BINS` lumped modes, one per geometric bin of
+  :data:`RESIDUAL_RATIO` in frequency above ``Omega``, each with its bin's coupling
+  ``c_j = Int dmu`` and its bin's compliance ``c_j / w_j^2 = Int dmu / w^2`` and the plate's
+  loss ``sigma / omega`` at the band limit (they are the plate's own modes above the band,
+  lumped; the damping law is not extrapolated beyond the band); and above the
+  last bin, ``W``, the one-pole tail ``beta_W s / (s + a)``, ``beta_W`` the infinite plate's
+  ``Re Y`` at ``W`` and ``a = pi W / 2`` (a dashpot ``1 / beta_W`` in parallel with a spring
+  ``a / beta_W``: the continuum of constant density above ``W``): ``x_res' = beta_W F -
+  a x_res``. For Kirchhoff this is exact above ``W`` and the bins hold the residual to
+  2e-3 of ``beta_inf`` below ``Omega / 2`` (0.04 at ``0.9 Omega``, the logarithm at the
+  band edge); for Mindlin the wavenumber integral of a point force diverges
+  logarithmically (the local shear deflection), and the tail's constant density above
+  ``W`` bounds it there: what lies above is the local deformation that the contact law
+  carries.
 
 So the onset of every contact sees the infinite plate's admittance, the modes add what the
 finite plate does within the band (reflections from edges and corners, the ringing left by an
@@ -51,6 +67,7 @@ balance reported as ``energy_residual``.
 
 from __future__ import annotations
 
+import cmath
 import json
 import math
 from dataclasses import dataclass, field
@@ -69,6 +86,8 @@ from synth.physics.scene import Ball, Plate
 __all__ = [
     "BAND_FACTOR",
     "PLATE_THEORIES",
+    "RESIDUAL_BINS",
+    "RESIDUAL_RATIO",
     "STEPS_PER_CONTACT",
     "ModalPoint",
     "ModalContact",
@@ -78,12 +97,17 @@ __all__ = [
     "clear_memory_cache",
     "modal_point",
     "next_touch",
+    "residual_admittance_exact",
 ]
 
 #: Band limit of the modes in the contact, in units of ``1 / tau`` (``tau`` the impedance
 #: model's contact time): the force pulse's spectrum is below -60 dB of its peak beyond
 #: about ``3 / tau``; the residual stands for the modes above.
 BAND_FACTOR = 4.0
+#: The residual's lumped modes above the band limit: this many geometric bins, each this
+#: ratio wide in frequency (three per octave, four octaves: the tail starts at 16 Omega).
+RESIDUAL_BINS = 12
+RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 #: Fixed steps over one contact of the impedance model's duration.
 STEPS_PER_CONTACT = 512
 #: A contact still going after this many impedance-model contact times is reported as
@@ -487,12 +511,16 @@ class ModalPoint:
         ``c_rigid`` of the free plate's rigid-body motion at the point, 1/kg (0 for
         supported and clamped plates).
     residual_admittance : float
-        ``beta_inf = 1 / Z_inf``, m/(N s).
+        The residual's tail ``beta_W``: the infinite plate's ``Re Y`` at the top ``W`` of
+        the lumped modes, m/(N s).
     residual_rate : float
-        ``a = pi Omega / 2``, 1/s.
+        The tail's ``a = pi W / 2``, 1/s.
     theory : str
         The plate theory of the modes and residual: "kirchhoff" (thin plate) or "mindlin"
         (shear deformation and rotary inertia, :func:`modal_point`).
+    residual_omega, residual_sigma, residual_coupling : ndarray
+        The residual's lumped modes above the band: angular frequencies (rad/s), decay
+        rates (1/s) and couplings (1/kg) (empty: the tail alone).
     """
 
     plate: Plate
@@ -505,6 +533,28 @@ class ModalPoint:
     residual_admittance: float
     residual_rate: float
     theory: str = "kirchhoff"
+    residual_omega: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    residual_sigma: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    residual_coupling: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    @property
+    def contact_modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Angular frequencies (rad/s), decay rates (1/s) and couplings (1/kg) of every
+        oscillator the contact drives: the band's modes, then the residual's lumped ones."""
+        return (
+            np.concatenate((self.omega, self.residual_omega)),
+            np.concatenate((self.sigma, self.residual_sigma)),
+            np.concatenate((self.coupling, self.residual_coupling)),
+        )
+
+    def residual(self, frequency) -> np.ndarray:
+        """The residual's admittance (m/(N s), complex, as :meth:`admittance`) at
+        ``frequency`` (Hz, > 0): the lumped modes above the band and the tail."""
+        s = 2j * np.pi * np.asarray(frequency, dtype=float)[..., None]
+        w, sg, c = self.residual_omega, self.residual_sigma, self.residual_coupling
+        lumped = (s * c / (s * s + 2.0 * sg * s + w**2)).sum(axis=-1)
+        s1 = s[..., 0]
+        return lumped + self.residual_admittance * s1 / (s1 + self.residual_rate)
 
     def admittance(self, frequency) -> np.ndarray:
         """Driving-point admittance ``Y = v / F`` (m/(N s), complex, ``e^(i omega t)``
@@ -514,9 +564,7 @@ class ModalPoint:
             raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
         s = 2j * np.pi * f[:, None]
         modal = (s * self.coupling / (s * s + 2.0 * self.sigma * s + self.omega**2)).sum(axis=1)
-        s1 = s[:, 0]
-        y = modal + self.rigid_coupling / s1
-        y += self.residual_admittance * s1 / (s1 + self.residual_rate)
+        y = modal + self.rigid_coupling / s[:, 0] + self.residual(f)
         return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
 
     def band_impedance(self, low: float, high: float) -> float:
@@ -536,10 +584,29 @@ class ModalPoint:
         w_lo, w_hi = 2.0 * np.pi * lo, 2.0 * np.pi * hi
         inside = (self.omega >= w_lo) & (self.omega < w_hi)
         modal = 0.5 * np.pi * float(self.coupling[inside].sum())
-        # residual: Int Re[beta s / (s + a)] d omega = beta (w - a atan(w / a))
+        # residual's tail: Int Re[beta s / (s + a)] d omega = beta (w - a atan(w / a))
         b, a = self.residual_admittance, self.residual_rate
         residual = b * ((w_hi - a * math.atan(w_hi / a)) - (w_lo - a * math.atan(w_lo / a)))
+        residual += _lumped_real_integral(
+            self.residual_omega, self.residual_sigma, self.residual_coupling, w_lo, w_hi
+        )
         return (w_hi - w_lo) / (modal + residual)
+
+
+def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
+    """``Int Re Y d omega`` (m/(N s) rad/s) over ``[w_lo, w_hi]`` (rad/s) of the damped
+    oscillators ``Y = c s / (s^2 + 2 sigma s + omega^2)`` (``sigma > 0``): by partial
+    fractions ``Y = r / (s - p) + conj(r) / (s - conj(p))``, ``r = c p / (p - conj(p))``,
+    and ``Int r / (i w - p) d w = -i r log(i w - p)`` (``Re(i w - p) = sigma > 0``: no
+    branch cut is crossed)."""
+    total = 0.0
+    for w0, sg, c in zip(omega, sigma, coupling, strict=True):
+        p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
+        r = c * p / (p - p.conjugate())
+        for pole, res in ((p, r), (p.conjugate(), r.conjugate())):
+            step = cmath.log(1j * w_hi - pole) - cmath.log(1j * w_lo - pole)
+            total += (-1j * res * step).real
+    return total
 
 
 #: Plate theories of the modal contact (:func:`modal_point`).
@@ -588,20 +655,11 @@ def modal_point(
         coupling = coupling / impedance.mindlin_mass_factor(plate, s, omega)
         inside = omega <= omega_band
         omega, coupling = omega[inside], coupling[inside]
-        residual = impedance.mindlin_point_admittance(plate, fmax)
     else:
         omega, coupling = _point_modes(plate, (x, y), fmax)
-        residual = 1.0 / impedance.infinite_plate_impedance(plate)
-    sigma = np.broadcast_to(
-        np.asarray(plate.damping_law().decay_rate(omega), dtype=float), omega.shape
-    ).copy()
-    if np.any(sigma >= omega):
-        k = int(np.argmax(sigma >= omega))
-        raise ParameterError(
-            f"plate.material.damping gives the mode at {omega[k] / (2 * np.pi):.6g} Hz a decay "
-            f"rate {sigma[k]:.6g} 1/s at or above its angular frequency: the modal contact "
-            f"needs underdamped modes below max_frequency={fmax!r} Hz"
-        )
+    lumped = _lumped_residual(plate, omega_band, theory)
+    sigma = _decay_rates(plate, omega, fmax)
+    lumped_sigma = lumped.omega * _band_edge_loss(plate, omega_band, fmax)
     # modes with a node at the point take no part in the contact
     keep = coupling > 1e-12 * coupling.max(initial=0.0)
     omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
@@ -619,10 +677,141 @@ def modal_point(
         sigma=sigma,
         coupling=coupling,
         rigid_coupling=rigid,
-        residual_admittance=residual,
-        residual_rate=0.5 * math.pi * 2.0 * math.pi * fmax,
+        residual_admittance=lumped.tail_admittance,
+        residual_rate=lumped.tail_rate,
         theory=theory,
+        residual_omega=lumped.omega,
+        residual_sigma=lumped_sigma,
+        residual_coupling=lumped.coupling,
     )
+
+
+def _band_edge_loss(plate: Plate, omega_band: float, fmax: float) -> float:
+    """``sigma / omega`` (dimensionless) of the plate's damping law at the band limit
+    ``omega_band`` (rad/s): the residual's lumped modes keep it above the band (a damping
+    law fitted in the audio band is not extrapolated to the residual's frequencies)."""
+    return float(_decay_rates(plate, np.array([omega_band]), fmax)[0]) / omega_band
+
+
+def _decay_rates(plate: Plate, omega: np.ndarray, fmax: float) -> np.ndarray:
+    """The plate's damping law's decay rates (1/s) at ``omega`` (rad/s), checked
+    underdamped (the modal contact's oscillators must be)."""
+    sigma = np.broadcast_to(
+        np.asarray(plate.damping_law().decay_rate(omega), dtype=float), omega.shape
+    ).copy()
+    if np.any(sigma >= omega):
+        k = int(np.argmax(sigma >= omega))
+        raise ParameterError(
+            f"plate.material.damping gives the mode at {omega[k] / (2 * np.pi):.6g} Hz a decay "
+            f"rate {sigma[k]:.6g} 1/s at or above its angular frequency: the modal contact "
+            f"needs underdamped modes up to max_frequency={fmax!r} Hz"
+        )
+    return sigma
+
+
+# --------------------------------------------------------------------------------------
+# The residual: the infinite plate's modes above the band
+# --------------------------------------------------------------------------------------
+
+
+def _mode_frequency(plate: Plate, s, theory: str):
+    """Angular frequency (rad/s) of the plate's bending wave of ``k^2 = s`` (rad^2/m^2)."""
+    if theory == "mindlin":
+        return impedance.mindlin_angular_frequency(plate, s)
+    return np.asarray(s, dtype=float) * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+
+
+def _coupling_density(plate: Plate, s, theory: str):
+    """``dmu / ds`` (1/kg per rad^2/m^2): the couplings of the infinite plate's modes per
+    unit ``s = k^2``, ``1 / (4 pi rho h m_f(s))`` (``S / (4 pi)`` modes per unit ``s``, each
+    of coupling ``1 / (rho h S m_f)``, ``m_f`` :func:`impedance.mindlin_mass_factor`)."""
+    base = 1.0 / (4.0 * math.pi * plate.surface_density)
+    if theory != "mindlin":
+        return base * np.ones_like(np.asarray(s, dtype=float))
+    return base / impedance.mindlin_mass_factor(plate, s, _mode_frequency(plate, s, theory))
+
+
+def _wavenumber_at(plate: Plate, omega: float, theory: str) -> float:
+    """``s = k^2`` (rad^2/m^2) of the propagating bending wave at ``omega`` (rad/s)."""
+    if theory == "mindlin":
+        return float(impedance.mindlin_wavenumbers(plate, omega)[0])
+    return omega * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+
+
+@dataclass(frozen=True)
+class _LumpedResidual:
+    """The residual's lumped modes (rad/s, 1/kg) and its tail (m/(N s), 1/s)."""
+
+    omega: np.ndarray
+    coupling: np.ndarray
+    tail_admittance: float
+    tail_rate: float
+
+
+def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedResidual:
+    """The residual above ``omega_band`` (rad/s) as :data:`RESIDUAL_BINS` lumped modes and a
+    tail (module docstring): bin ``j`` spans ``[Omega r^j, Omega r^(j+1)]``; its coupling
+    ``c_j = Int dmu`` and frequency ``w_j`` with ``c_j / w_j^2 = Int dmu / w^2`` keep the
+    bin's stiffness (its response below the band) and its mass (above it)."""
+    from scipy.integrate import quad
+
+    edges = omega_band * RESIDUAL_RATIO ** np.arange(RESIDUAL_BINS + 1)
+    s = [_wavenumber_at(plate, float(w), theory) for w in edges]
+    omega, coupling = [], []
+    for lo, hi in zip(s[:-1], s[1:], strict=True):
+        c = quad(lambda x: float(_coupling_density(plate, x, theory)), lo, hi)[0]
+        k = quad(
+            lambda x: float(
+                _coupling_density(plate, x, theory) / _mode_frequency(plate, x, theory) ** 2
+            ),
+            lo,
+            hi,
+        )[0]
+        omega.append(math.sqrt(c / k))
+        coupling.append(c)
+    top = float(edges[-1])
+    if theory == "mindlin":
+        tail = float(impedance.mindlin_point_admittance(plate, top / (2.0 * math.pi)))
+    else:
+        tail = 1.0 / impedance.infinite_plate_impedance(plate)
+    return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
+
+
+def residual_admittance_exact(
+    plate: Plate, max_frequency: float, frequency, *, theory: str = "kirchhoff"
+) -> np.ndarray:
+    """The residual's admittance (m/(N s), complex, ``e^(i omega t)``) at ``frequency`` (Hz,
+    below ``max_frequency``) from the wavenumber integral it lumps: ``i omega Int dmu /
+    (w(s)^2 - omega^2 + 2 i sigma(w) omega)`` over the bins' span ``[Omega, W]`` (module
+    docstring; ``sigma`` the plate's damping law) by adaptive quadrature, plus the tail
+    above ``W``. The reference of :meth:`ModalPoint.residual`."""
+    from scipy.integrate import quad
+
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
+    if theory not in PLATE_THEORIES:
+        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
+    f = np.atleast_1d(np.asarray(frequency, dtype=float))
+    if not np.all((f > 0.0) & (f < fmax)):
+        raise ParameterError(f"frequency={frequency!r} must be in (0, max_frequency) (Hz)")
+    omega_band = 2.0 * math.pi * fmax
+    top = omega_band * RESIDUAL_RATIO**RESIDUAL_BINS
+    lo, hi = _wavenumber_at(plate, omega_band, theory), _wavenumber_at(plate, top, theory)
+    tail = _lumped_residual(plate, omega_band, theory)
+    loss = _band_edge_loss(plate, omega_band, fmax)
+
+    def term(x, w):
+        wk = float(_mode_frequency(plate, x, theory))
+        sigma = loss * wk
+        return complex(_coupling_density(plate, x, theory)) / (wk * wk - w * w + 2j * sigma * w)
+
+    out = []
+    for w in 2.0 * math.pi * f:
+        re = quad(lambda x, w=w: term(x, w).real, lo, hi, limit=200)[0]
+        im = quad(lambda x, w=w: term(x, w).imag, lo, hi, limit=200)[0]
+        s = 1j * w
+        out.append(s * complex(re, im) + tail.tail_admittance * s / (s + tail.tail_rate))
+    y = np.array(out)
+    return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
 
 
 def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
@@ -734,22 +923,27 @@ def _load_point(path, key: str):
 @dataclass(frozen=True, eq=False)
 class PlateRinging:
     """The plate's state under the ball: bending-mode displacements ``q`` (m) and velocities
-    ``v`` (m/s) at the contact point (one per mode of the :class:`ModalPoint`), and the
-    residual's displacement ``x_res`` (m, downward). A plate at rest is all zeros."""
+    ``v`` (m/s) at the contact point (one per mode of the :class:`ModalPoint`), the
+    residual's tail displacement ``x_res`` (m, downward), and its lumped modes'
+    displacements ``q_res`` (m) and velocities ``v_res`` (m/s) (one per lumped mode). A
+    plate at rest is all zeros."""
 
     q: np.ndarray
     v: np.ndarray
     x_res: float = 0.0
+    q_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    v_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def displacement(self) -> float:
         """Displacement of the surface under the ball, m, positive upward."""
-        return float(self.q.sum()) - self.x_res
+        return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
 
     @property
     def velocity(self) -> float:
-        """Bending velocity of the surface under the ball, m/s, positive upward."""
-        return float(self.v.sum())
+        """Bending velocity of the surface under the ball (the band's and the residual's
+        lumped modes), m/s, positive upward."""
+        return float(self.v.sum()) + float(self.v_res.sum())
 
 
 class _Pulse:
@@ -927,23 +1121,29 @@ class ModalContact:
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
         z = np.zeros(self.point.omega.size)
-        return PlateRinging(z, z.copy(), 0.0)
+        zr = np.zeros(self.point.residual_omega.size)
+        return PlateRinging(z, z.copy(), 0.0, zr, zr.copy())
 
     def ring(self, state: PlateRinging, duration: float) -> PlateRinging:
         """The plate's state after ringing freely for ``duration`` (s)."""
         d = checks.nonnegative("duration", duration, "s")
-        q = np.array(state.q, dtype=float)
-        v = np.array(state.v, dtype=float)
+        p = self.point
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
         if d > 0.0:
-            _ring(self.point.omega, self.point.sigma, q, v, d)
-        x = state.x_res * math.exp(-self.point.residual_rate * d)
-        return PlateRinging(q, v, x)
+            omega, sigma, _ = p.contact_modes
+            _ring(omega, sigma, q, v, d)
+        x = state.x_res * math.exp(-p.residual_rate * d)
+        n = p.omega.size
+        return PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
 
     def energy(self, state: PlateRinging) -> float:
-        """Energy of the bending modes in ``state`` (J): ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)``
-        summed, plus the residual spring's ``a x_res^2 / (2 beta_inf)``."""
+        """Energy of the bending modes and the residual's lumped modes in ``state`` (J):
+        ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed, plus the residual's tail spring's
+        ``a x_res^2 / (2 beta_W)``."""
         p = self.point
-        modal = 0.5 * float(((state.v**2 + p.omega**2 * state.q**2) / p.coupling).sum())
+        omega, _, coupling = p.contact_modes
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
         return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
 
     def solve(
@@ -957,9 +1157,11 @@ class ModalContact:
             raise ParameterError(f"n_points={n_points!r} must be an integer >= 64")
         p = self.point
         state = self.at_rest() if state is None else state
-        if not (state.q.shape == p.omega.shape and state.v.shape == p.omega.shape):
+        shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)
+        if shapes != (p.omega.shape,) * 2 + (p.residual_omega.shape,) * 2:
             raise ParameterError(
-                f"state has {state.q.size} modes; this contact has {p.omega.size} (one per mode)"
+                f"state has {state.q.size} modes and {state.q_res.size} lumped residual modes; "
+                f"this contact has {p.omega.size} and {p.residual_omega.size} (one per mode)"
             )
         v_approach = v_in + state.velocity
         if not v_approach > 0.0:
@@ -972,9 +1174,9 @@ class ModalContact:
         )
         h = ref.contact_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
-        q = np.array(state.q, dtype=float)
-        v = np.array(state.v, dtype=float)
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
         x = np.array([state.x_res])
+        omega, sigma, coupling = p.contact_modes
         forces = np.zeros(max_steps + 1)
         times = np.zeros(max_steps + 1)
         gaps = np.zeros(max_steps + 1)
@@ -982,9 +1184,9 @@ class ModalContact:
         e0 = self.energy(state)
         w0 = state.displacement
         r = _contact(
-            p.omega,
-            p.sigma,
-            p.coupling,
+            omega,
+            sigma,
+            coupling,
             p.rigid_coupling,
             p.residual_admittance,
             p.residual_rate,
@@ -1012,7 +1214,8 @@ class ModalContact:
         m = self.mass
         steps = int(r[_R_STEPS])
         separated = int(r[_R_STATUS]) == _SEPARATED
-        ringing = PlateRinging(q, v, x)
+        n = p.omega.size
+        ringing = PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
         e_plate = self.energy(ringing)
         rigid = 0.5 * r[_R_RIGID_V] ** 2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
         v_out = float(r[_R_V])
@@ -1071,7 +1274,8 @@ def next_touch(
     ``speed`` (m/s), meets the plate surface (which rings from ``state``), and the plate's
     state then.
 
-    The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)``: the
+    The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)`` (the
+    band's and the residual's lumped modes): the
     search runs over the part of the flight where the ball is within ``W`` of the rest
     position, in steps of an eighth of the shortest mode period, and bisects the first sign
     change of the gap to the time resolution of double precision."""
@@ -1079,7 +1283,9 @@ def next_touch(
     g = contact.gravity
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
-    W = abs(state.x_res) + float(np.sqrt(state.q**2 + (state.v / p.omega) ** 2).sum())
+    omega = p.contact_modes[0]
+    qs, vs = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+    W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
     v = speed
 
     def ball(s):
@@ -1110,6 +1316,11 @@ def next_touch(
             return b, contact.ring(state, b)
         s0 = s1
     return s0, contact.ring(state, s0)
+
+
+def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
+    """A fresh float array of the band's modes' values followed by the lumped modes'."""
+    return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
 
 
 def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
