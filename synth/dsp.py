@@ -47,12 +47,10 @@ def levinson_predictor(r: np.ndarray) -> np.ndarray:
     return np.concatenate(([1.0], solve_toeplitz(r[:order], -r[1:])))
 
 
-def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
-    """Prediction-error filter ``[1, a1, ..., ap]`` of ``x`` by the autocorrelation method.
-
-    The autocorrelation up to lag ``order`` is summed over blocks by FFT (exact: each block
-    is correlated with itself extended by ``order`` samples).
-    """
+def autocorrelation(x: np.ndarray, order: int) -> np.ndarray:
+    """``r[d] = sum_n x[n] x[n + d]`` for ``d = 0..order`` (the signal taken as zero outside
+    its samples), summed over blocks by FFT (exact: each block is correlated with itself
+    extended by ``order`` samples)."""
     from scipy.fft import irfft, next_fast_len, rfft
 
     block = max(4 * order, 1 << 16)
@@ -62,7 +60,13 @@ def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
         a = rfft(x[s : s + block], nfft)
         b = rfft(x[s : s + block + order], nfft)
         r += irfft(np.conj(a) * b, nfft)[: order + 1]
-    return levinson_predictor(white_noise_corrected(r))
+    return r
+
+
+def autocorrelation_predictor(x: np.ndarray, order: int) -> np.ndarray:
+    """Prediction-error filter ``[1, a1, ..., ap]`` of ``x`` by the autocorrelation method
+    (:func:`autocorrelation`, with the :data:`WHITE_NOISE_CORRECTION`)."""
+    return levinson_predictor(white_noise_corrected(autocorrelation(x, order)))
 
 
 def covariance_matrix(x: np.ndarray, order: int, blocks=None) -> np.ndarray:

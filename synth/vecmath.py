@@ -4,9 +4,11 @@ libm's ``exp``, ``cos`` and ``sin`` are calls that stop a loop from vectorising;
 plain polynomials (no call, no table), so a loop over thousands of modes runs in the
 vector units. Accuracy: :func:`cis` within a few ulp for ``|theta| < 2^19 pi`` (fdlibm's
 kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an ulp or two
-on ``|u| <= 1`` (Taylor series to ``u^18``); :func:`exp_squared` within about
-``2^halvings`` ulp. Only fused multiply-add contraction is allowed (``contract``), so the
-compiler keeps the order of every sum.
+on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
+``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
+ulp (the kernels square in loops of their own, so that each vectorises). Only fused
+multiply-add contraction is allowed (``contract``), so the compiler keeps the order of
+every sum.
 """
 
 from __future__ import annotations
@@ -23,6 +25,11 @@ _S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.9841
 _S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
 _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+
+#: numba's fast-math flags without approximate transcendental functions ("afn"): the
+#: compiler may reorder and contract sums, but ``exp``, ``cos`` and ``sin`` stay exact
+#: (the modal bank's kernels).
+FASTMATH_EXACT_FUNCTIONS = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"}
 
 #: Largest ``|theta|`` (rad) :func:`cis` takes within a few ulp.
 CIS_MAX = 2.0**19 * math.pi
@@ -69,19 +76,11 @@ def exp_small(u):
     return 1.0 + u * e
 
 
-@numba.njit(cache=True, fastmath={"contract"})
-def exp_squared(u, halvings):
-    """exp(u 2^halvings) as exp(u)^(2^halvings), for |u| <= 1 (about 2^halvings ulp)."""
-    e = exp_small(u)
-    for _ in range(halvings):
-        e = e * e
-    return e
-
-
 @numba.njit(cache=True)
 def halvings_for(largest):
     """Fewest halvings ``J`` with ``largest / 2^J <= 1`` (``largest >= 0``): the argument
-    scaling :func:`exp_squared` needs for exponents up to ``largest`` in magnitude."""
+    scaling ``exp(u) = exp_small(u / 2^J)^(2^J)`` needs for exponents up to ``largest`` in
+    magnitude."""
     if not largest > 1.0:
         return 0
     return int(math.ceil(math.log2(largest)))

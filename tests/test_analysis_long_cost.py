@@ -49,6 +49,13 @@ def test_each_drop_is_searched_whole_once(monkeypatch):
         return ticks(x, settings, clipped, resonator)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
+    located = pipeline._located
+
+    def counted_blocks(x, settings, clipped, locate):
+        calls[False] += 1  # a block's steps 1-6, which show where its series start
+        return located(x, settings, clipped, locate)
+
+    monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 5.0 * k for k in range(6)]
     y, truth = _drops(32.0, starts)
     a = analysis.analyze(y, FS)
@@ -120,6 +127,13 @@ def test_a_whole_recording_of_several_drops_is_searched_drop_by_drop(monkeypatch
         return ticks(x, settings, clipped, resonator)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
+    located = pipeline._located
+
+    def counted_blocks(x, settings, clipped, locate):
+        searched[False].append(x.size)  # a block's steps 1-6, which show where series start
+        return located(x, settings, clipped, locate)
+
+    monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 10.0 * k for k in range(4)]
     y, truth = _drops(42.0, starts, n_ticks=20)
     a = analysis.analyze(y, FS)

@@ -194,16 +194,7 @@ def test_error_against_reference_honours_rtol(rtol, i):
     # Hunt-Crossley): the relative errors of e and tau are below the rtol asked for (for a
     # settled contact, e = 0 exactly, and tau is when settling is proven, not compared).
     case, e_ref, tau_ref = _reference(i)
-    r = contact.solve_contact(
-        mass=case.mass,
-        stiffness=case.stiffness,
-        admittance=case.admittance,
-        speed=case.speed,
-        gravity=case.gravity,
-        exponent=case.exponent,
-        dissipation=case.dissipation,
-        rtol=rtol,
-    )
+    r = contact.solve_contact(rtol=rtol, **case.solver_arguments())
     if e_ref == 0.0:
         assert r.settled and r.restitution == 0.0
         return

@@ -105,6 +105,26 @@ def test_bessel_functions_equal_scipy_across_the_asymptotic_threshold():
             assert np.max(np.abs(g - f(x)) * np.sqrt(x)) < 2e-15 * 10
 
 
+def test_small_arguments_are_each_rows_first_run():
+    """The arguments below the Hankel threshold are, row by row, the first nodes' k rho
+    (rho ascending), and nothing else."""
+    rho = np.sort(np.random.default_rng(3).uniform(0.0, 0.5, 200))
+    k = np.array([10.0, 100.0, 1000.0, 1e5])
+    x, starts = B._small_arguments(k, rho, B._ASYMPTOTIC_X)
+    for r in range(k.size):
+        want = k[r] * rho[k[r] * rho < B._ASYMPTOTIC_X]
+        np.testing.assert_array_equal(x[starts[r] : starts[r + 1]], want)
+
+
+def test_rate_steps_bracket_each_rate():
+    """Each radial rate lies on or below its step's top and above the step below (the
+    panels sized for the top are at most the ladder's ratio finer than the rate needs)."""
+    rate = np.geomspace(0.3, 3e4, 5001)
+    top = B._RATE_LADDER ** B._rate_steps(rate).astype(float)
+    assert np.all(rate <= top * (1.0 + 1e-12))
+    assert np.all(rate > top / B._RATE_LADDER * (1.0 - 1e-12))
+
+
 def test_inverse_distance_integral_closed_form():
     """Int 1/R dA over the plate in closed form equals scipy's quadrature, the projection
     inside and outside the plate."""

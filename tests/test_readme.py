@@ -1,5 +1,6 @@
 """The README's two opening commands and the CI script stay in step."""
 
+import re
 import subprocess
 from pathlib import Path
 
@@ -61,11 +62,36 @@ def test_readme_api_example_runs(tmp_path, monkeypatch):
     assert (tmp_path / "tick.wav").is_file()
 
 
+def _layout_entries(layout: str) -> list[list[str]]:
+    """The words of each entry of the layout map: an entry starts at the line's start and
+    goes on over the indented lines below it."""
+    entries: list[list[str]] = []
+    for line in layout.splitlines():
+        if not line.strip():
+            continue
+        if line[0].isspace() and entries:
+            entries[-1] += line.split()
+        else:
+            entries.append(line.split())
+    return entries
+
+
+def _listed_modules(entry: list[str]) -> set[str]:
+    """A module's own entry names it; a package's (``synth/.../``) names its modules, each
+    ``name.py`` in its text."""
+    head = entry[0]
+    if not (head.startswith("synth/") and head.endswith("/")):
+        return {head}
+    names = (word.strip(",;:()") for word in entry[1:])
+    return {head + name for name in names if re.fullmatch(r"\w+\.py", name)}
+
+
 def test_readme_layout_lists_every_module():
-    # The layout map names every module of the package, one line each.
+    # The layout map names every module of the package: a line each, or a package's line
+    # naming its modules.
     text = (ROOT / "README.md").read_text()
     layout = text.split("## Layout", 1)[1].split("```")[1]
-    listed = {line.split()[0] for line in layout.splitlines() if line.strip()}
+    listed = set().union(*(_listed_modules(e) for e in _layout_entries(layout)))
     files = {p.relative_to(ROOT).as_posix() for p in (ROOT / "synth").rglob("*.py")}
     required = {f for f in files if not f.endswith(("/__init__.py", "/__main__.py"))}
     assert required - listed == set()

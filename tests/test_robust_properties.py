@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from synth.errors import ParameterError
 from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset_with_options
-from synth.sound.render import check_options
+from synth.sound.render import OPTIONS, check_options
 
 BOUNDED = settings(
     max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
@@ -34,18 +34,8 @@ SCENE_KEYS = [
     "gravity",
     "contact.rtol",
 ]
-RENDER_KEYS = [
-    "samplerate",
-    "peak_db",
-    "loudness_lufs",
-    "floor_db",
-    "max_frequency",
-    "preroll",
-    "fade",
-    "max_duration",
-    "max_tail",
-    "pulse_points",
-]
+# the numeric render options (normalize is a choice of words)
+RENDER_KEYS = [key for key in OPTIONS if key != "normalize"]
 
 
 def toml_number(x) -> str:

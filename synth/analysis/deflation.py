@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from synth import dsp
@@ -22,6 +23,7 @@ from synth.analysis.detection import ONSET_NOISE_SIGMAS, frame_energies, refine_
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import separation, too_strong
 from synth.analysis.settings import Settings
+from synth.analysis.validity import MISSED_GROWTH
 
 #: Lags of the FIR filter that shapes the first tick's whitened response into a later
 #: tick's, s: before (onset error) and after (a longer contact than the first).
@@ -42,6 +44,13 @@ DEFLATION_REFITS = 3
 #: samples) past its start, then, if that decides nothing, eight (doubled until one does);
 #: 0: the longer look only. Both give the same answer; the shorter costs half as much.
 SHORT_LOOK = 2
+#: A search that only locates where a new bounce series starts (a long recording's blocks,
+#: docs/analysis.md, Long recordings) stops this many ticks after a bounce over
+#: :data:`~synth.analysis.validity.MISSED_GROWTH` times the one before (a silence that starts
+#: a new series whatever the levels): enough for the measurements of the ticks up to the new
+#: series' second (one tick on) and the bounce-order rules (step 6: two ticks on, but for a run
+#: of weak ticks that a later, stronger one drops).
+LOCATE_TICKS = 6
 
 
 @dataclass(frozen=True)
@@ -95,7 +104,8 @@ class SearchOutcome:
     (the whitened signal with every tick's model taken out), each tick's whitened model from
     its window's start, what the whitening leaves of the first tick's ringing in the second
     half of the first bounce (its median frame energy over its largest: a power ratio), and
-    in step 7 the onsets timed against the first tick's template (samples; else None)."""
+    in step 7 the onsets timed against the first tick's template (samples; else None), and
+    whether a locating search stopped before the signal's end."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -103,6 +113,53 @@ class SearchOutcome:
     models: list
     ringing_left: float
     timed: np.ndarray | None
+    stopped: bool = False
+
+
+def running_median(d: np.ndarray, size: int) -> np.ndarray:
+    """The median of ``d`` over windows of ``size`` values, each ``d[i - size // 2 : i - size
+    // 2 + size]`` with the ends extended by their first and last value, the value of rank
+    ``size // 2`` (as ``scipy.ndimage.median_filter(d, size, mode="nearest")``, the same
+    values): a sorted window updated by one value each step, for the few hundred frames of a
+    candidate search, thousands of times per recording."""
+    if d.size == 0:
+        return np.zeros(0)
+    return _running_median(np.ascontiguousarray(d, dtype=np.float64), int(size))
+
+
+@numba.njit(cache=True, nogil=True)
+def _running_median(d, size):  # pragma: no cover - compiled
+    n = d.size
+    half = size // 2
+    out = np.empty(n)
+    win = np.empty(size)
+    for j in range(size):
+        win[j] = d[min(max(j - half, 0), n - 1)]
+    win.sort()
+    out[0] = win[half]
+    for i in range(1, n):
+        gone = d[min(max(i - 1 - half, 0), n - 1)]
+        new = d[min(max(i - half + size - 1, 0), n - 1)]
+        if new != gone:
+            lo, hi = 0, size - 1  # the place of a value equal to the one leaving
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if win[mid] < gone:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo
+            if new > gone:  # the values between move down over it
+                while j + 1 < size and win[j + 1] < new:
+                    win[j] = win[j + 1]
+                    j += 1
+            else:
+                while j > 0 and win[j - 1] > new:
+                    win[j] = win[j - 1]
+                    j -= 1
+            win[j] = new
+        out[i] = win[half]
+    return out
 
 
 class Residual:
@@ -256,12 +313,10 @@ class Residual:
         ``q`` is exactly 0); inf where the past is too short, and before ``first``. The running
         median is taken over the frames those medians span only (each window lies inside
         them)."""
-        from scipy.ndimage import median_filter
-
         bg = self.bg
         a = max(0, first - bg - 3)
         med = np.full_like(d, np.nan)
-        med[a:] = median_filter(d[a:], size=bg, mode="nearest")
+        med[a:] = running_median(d[a:], bg)
         past_med = np.full_like(d, np.inf)
         j = k - 2 - bg // 2 - 1
         ok = (j >= bg // 2) & (k >= first)
@@ -406,9 +461,13 @@ class DeflationSearch:
 
     # -- the search
 
-    def run(self) -> SearchOutcome:
-        """Find the ticks after the first, in time order."""
+    def run(self, locate: bool = False) -> SearchOutcome:
+        """Find the ticks after the first, in time order; with ``locate``, stop
+        :data:`LOCATE_TICKS` ticks after a silence that starts a new series (the ticks found
+        up to there are those of the whole search)."""
         self._lower_floor(self.energies[-1])
+        silence = None  # index of the first tick after such a silence
+        stopped = False
         while True:
             c = self.residual.candidate(self.after)
             anchor = self._passed_anchor(c)
@@ -424,6 +483,11 @@ class DeflationSearch:
                     self.after = c.start + self.hop  # part of the previous tick's response
                     continue
             self._add(new)
+            if locate and silence is None and self._after_silence():
+                silence = len(self.onsets) - 1
+            if silence is not None and len(self.onsets) > silence + LOCATE_TICKS:
+                stopped = True
+                break
         return SearchOutcome(
             np.array(self.onsets),
             np.array(self.strengths),
@@ -431,7 +495,13 @@ class DeflationSearch:
             self.models,
             self.ringing_left,
             self._timed(),
+            stopped,
         )
+
+    def _after_silence(self) -> bool:
+        """Whether the last tick's bounce is over :data:`MISSED_GROWTH` times the one before."""
+        on = self.onsets
+        return len(on) >= 3 and on[-1] - on[-2] > MISSED_GROWTH * (on[-2] - on[-3])
 
     def _passed_anchor(self, c: Candidate | None) -> int | None:
         """The next sure tick of step 3's series when the search would pass over it."""

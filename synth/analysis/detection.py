@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from synth.analysis.series import ANCHOR_DB, bounce_series
@@ -31,10 +32,60 @@ DELAY_UPSAMPLING = 16
 
 
 def frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
-    """Energy of ``z`` over frames ``[k hop, k hop + w)`` (the detection function)."""
+    """Energy of ``z`` over frames ``[k hop, k hop + w)`` (the detection function): each the
+    sum of its squares in the order of numpy's pairwise summation, so the same to the last
+    bit as ``sum`` over each frame (the search calls this thousands of times per recording,
+    on a few hundred frames each)."""
     if z.size < w:
         return np.zeros(0)
-    return np.lib.stride_tricks.sliding_window_view(z * z, w)[::hop].sum(axis=1)
+    return _frame_energies(np.ascontiguousarray(z, dtype=np.float64), int(hop), int(w))
+
+
+@numba.njit(cache=True, nogil=True)
+def _frame_energies(z, hop, w):  # pragma: no cover - compiled
+    n = (z.size - w) // hop + 1
+    out = np.empty(n)
+    for k in range(n):
+        out[k] = _pairwise_squares(z, k * hop, w)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
+    """``sum(z[start:start+n]**2)`` as numpy's pairwise summation adds it: a plain sum under
+    8 terms, eight running sums combined pairwise up to 128, halves (multiples of 8) beyond."""
+    if n < 8:
+        res = 0.0
+        for i in range(start, start + n):
+            res += z[i] ** 2
+        return res
+    if n <= 128:
+        s0, s1, s2, s3 = z[start] ** 2, z[start + 1] ** 2, z[start + 2] ** 2, z[start + 3] ** 2
+        s4, s5, s6, s7 = z[start + 4] ** 2, z[start + 5] ** 2, z[start + 6] ** 2, z[start + 7] ** 2
+        i = start + 8
+        top = start + n - n % 8
+        while i < top:
+            s0, s1, s2, s3 = (
+                s0 + z[i] ** 2,
+                s1 + z[i + 1] ** 2,
+                s2 + z[i + 2] ** 2,
+                s3 + z[i + 3] ** 2,
+            )
+            s4, s5, s6, s7 = (
+                s4 + z[i + 4] ** 2,
+                s5 + z[i + 5] ** 2,
+                s6 + z[i + 6] ** 2,
+                s7 + z[i + 7] ** 2,
+            )
+            i += 8
+        res = ((s0 + s1) + (s2 + s3)) + ((s4 + s5) + (s6 + s7))
+        while i < start + n:
+            res += z[i] ** 2
+            i += 1
+        return res
+    half = n // 2
+    half -= half % 8
+    return _pairwise_squares(z, start, half) + _pairwise_squares(z, start + half, n - half)
 
 
 @dataclass(frozen=True)
@@ -112,16 +163,48 @@ def refine_onset(
     samples at or above it, bridging ``gap``; or, after a linear-phase anti-aliasing
     filter's pre-ringing, the centre of the burst's sampled sinc. With ``strict`` the
     pre-ringing's samples must stand above ``noise``."""
+    # the walk looks back from the burst only: |r| over a stretch before it, longer only
+    # where the walk comes near the stretch's start (the same onset as over the whole of r)
+    span = max(64, 8 * gap)
+    while True:
+        a = max(0, lo - span)
+        onset = _refined(
+            r[a : min(r.size, hi + 1)], lo - a, hi - a, fraction, gap, noise, strict, a
+        )
+        if onset is not None:
+            sample, fraction_past = onset
+            return (a + sample) + fraction_past
+        span *= 4
+
+
+def _refined(
+    r: np.ndarray,
+    lo: int,
+    hi: int,
+    fraction: float,
+    gap: int,
+    noise: float,
+    strict: bool,
+    offset: int,
+) -> tuple[int, float] | None:
+    """:func:`refine_onset` over the stretch ``r`` (``lo``, ``hi`` into it) that starts at
+    sample ``offset`` of the whole, as a sample of the stretch and the fraction of a sample
+    past it (added to the sample of the whole: the onset to the last bit); None when the
+    walk back comes within ``gap`` (or :data:`PRE_RINGING_RUN`) samples of the stretch's
+    start and ``offset`` is not 0 (the walk, or the pre-ringing's run, may go on before
+    it)."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(fraction * mag[k], min(noise, mag[k]))
     i = _walk_back(mag, k, level, gap)
+    if offset > 0 and i <= max(gap, PRE_RINGING_RUN):
+        return None
     centre = _sinc_centre(r, mag, i, k, min(noise, mag[k]) if strict else 0.0)
     if centre is not None:
         return centre
     if i == 0:
-        return 0.0
-    return (i - 1) + (level - mag[i - 1]) / (mag[i] - mag[i - 1])
+        return 0, 0.0
+    return i - 1, (level - mag[i - 1]) / (mag[i] - mag[i - 1])
 
 
 def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
@@ -136,13 +219,15 @@ def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
         i = j0 + int(above[0])
 
 
-def _sinc_centre(r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float) -> float | None:
+def _sinc_centre(
+    r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float
+) -> tuple[int, float] | None:
     """The centre of a burst recorded through a linear-phase anti-aliasing filter, or None.
 
     A run of at least :data:`PRE_RINGING_RUN` samples alternating in sign and growing
     towards the burst (each at least ``floor``) is the filter's pre-ringing: the burst is a
     sampled sinc ``A sinc(t - m - f)``, whose two central samples give
-    ``r[m+1] / r[m] = f / (1 - f)``.
+    ``r[m+1] / r[m] = f / (1 - f)``: ``(m, f)``.
     """
     m = i
     while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
@@ -152,7 +237,7 @@ def _sinc_centre(r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float) -
         j -= 1
     if m - j >= PRE_RINGING_RUN and mag[m] >= 0.25 * mag[k]:
         rho = mag[m + 1] / mag[m] if m + 1 < r.size and r[m] * r[m + 1] > 0.0 else 0.0
-        return m + rho / (1.0 + rho)
+        return m, rho / (1.0 + rho)
     return None
 
 

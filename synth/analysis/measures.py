@@ -61,38 +61,69 @@ def measure_ticks(
 ) -> list[Tick]:
     """The :class:`Tick` of each tick found in the recording ``x`` (``noise``: its noise
     floor, signal units)."""
-    fs = settings.samplerate
-    onsets = np.array([f.onset for f in found])
-    starts = np.maximum(np.floor([f.detected for f in found]).astype(int) - WINDOW_GUARD, 0)
-    ticks = []
-    for i, on in enumerate(onsets):
+    meter = TickMeter(x, found, whitenings, settings, noise)
+    return [meter.tick(i) for i in range(len(found))]
+
+
+class TickMeter:
+    """The measurements of the ticks ``found`` in the recording ``x``, one tick at a time
+    (:meth:`tick`): each depends on its own model and window, the next tick's window start
+    and the onsets before it only, so a tick can be measured without the others."""
+
+    def __init__(
+        self,
+        x: np.ndarray,
+        found: list[FoundTick],
+        whitenings: list[Whitening],
+        settings: Settings,
+        noise: float,
+    ):
+        self.x, self.found, self.whitenings = x, found, whitenings
+        self.settings, self.noise = settings, noise
+        self.onsets = np.array([f.onset for f in found])
+        self.starts = np.maximum(
+            np.floor([f.detected for f in found]).astype(int) - WINDOW_GUARD, 0
+        )
+
+    def time(self, i: int) -> float:
+        """Onset of tick ``i``, s (as :meth:`tick` gives it)."""
+        return float(self.onsets[i] / self.settings.samplerate)
+
+    def tick(self, i: int) -> Tick:
+        """The :class:`Tick` of the ``i``-th tick found."""
+        x, settings, found, onsets, starts = (
+            self.x,
+            self.settings,
+            self.found,
+            self.onsets,
+            self.starts,
+        )
+        fs = settings.samplerate
+        on = onsets[i]
         s = starts[i]
         e = min(x.size, s + settings.window)
         if not settings.subtract_tails:
             y = x[s:e].copy()
         else:
             stop = min(e, starts[i + 1]) if i + 1 < starts.size else e
-            y = own_sound(found[i], whitenings[found[i].whitening], s, e, stop)
+            y = own_sound(found[i], self.whitenings[found[i].whitening], s, e, stop)
         bt = None if i == 0 else float((on - onsets[i - 1]) / fs)
         prev = None if i < 2 else (onsets[i - 1] - onsets[i - 2]) / fs
         c, sp = spectral_moments(y, fs)
-        ticks.append(
-            Tick(
-                index=i + 1,
-                time=float(on / fs),
-                bounce_time=bt,
-                restitution=None if prev is None else float(bt / prev),
-                speed=None if bt is None else float(settings.gravity * bt / 2.0),
-                energy=float(np.dot(y, y) / fs),
-                peak=float(np.abs(y).max()),
-                centroid=c,
-                spread=sp,
-                decay_time=decay_time(y, fs, settings.decay_smoothing, noise),
-                window=float(y.size / fs),
-                strength=float(found[i].strength),
-            )
+        return Tick(
+            index=i + 1,
+            time=float(on / fs),
+            bounce_time=bt,
+            restitution=None if prev is None else float(bt / prev),
+            speed=None if bt is None else float(settings.gravity * bt / 2.0),
+            energy=float(np.dot(y, y) / fs),
+            peak=float(np.abs(y).max()),
+            centroid=c,
+            spread=sp,
+            decay_time=decay_time(y, fs, settings.decay_smoothing, self.noise),
+            window=float(y.size / fs),
+            strength=float(found[i].strength),
         )
-    return ticks
 
 
 def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) -> np.ndarray:
@@ -108,7 +139,8 @@ def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) 
         exc[: stop - s] += whitening.residual[s:stop]
     else:
         exc[: stop - s] = whitening.whitened[s:stop]
-    return lfilter([1.0], whitening.predictor, exc)
+    # a coefficient of lag >= e - s meets only the zero state before s: leaving it out is exact
+    return lfilter([1.0], whitening.predictor[: max(1, e - s)], exc)
 
 
 def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:

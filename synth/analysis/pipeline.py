@@ -26,7 +26,7 @@ from synth.analysis.blocks import (
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.deflation import DeflationSearch, FirstTick
 from synth.analysis.detection import first_ticks
-from synth.analysis.measures import WINDOW_GUARD, FoundTick, Whitening, measure_ticks
+from synth.analysis.measures import WINDOW_GUARD, FoundTick, TickMeter, Whitening
 from synth.analysis.report import Analysis
 from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.series import BOUNCE_GROWTH, bounce_order
@@ -48,7 +48,12 @@ from synth.analysis.validity import (
     new_series_at,
     without_spurious_end,
 )
-from synth.analysis.whitening import one_blas_thread, resonator_predictor, whiten
+from synth.analysis.whitening import (
+    one_blas_thread,
+    resonator_predictor,
+    whiten,
+    whitening_predictor,
+)
 from synth.errors import ParameterError
 from synth.io.audio import wav_shortfall
 
@@ -371,18 +376,60 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
     """The ticks of the block ``x`` (times from its start) of which those after ``kept`` (s)
     are new: its first series on its own (steps 1-7) followed by the ticks of steps 1-6 from
     the next drop on, when steps 1-6 show a new series after a first one that is new; else
-    the whole block by steps 1-7 (none when steps 1-6 find no new tick)."""
+    the whole block by steps 1-7 (none when steps 1-6 find no new tick). Steps 1-6 stop a few
+    ticks into the next drop (:data:`~synth.analysis.deflation.LOCATE_TICKS`), and are
+    carried on over the whole block only where that shows no new series."""
     fs = settings.samplerate
-    located = _searched(x, settings, clipped, resonator=False)
+    loc = _located(x, settings, clipped, locate=True)
+    cut = None if loc is None else new_series_at(loc.ticks)
+    if loc is not None and loc.stopped and (cut is None or cut + 3 > len(loc.ticks)):
+        loc = _located(x, settings, clipped, locate=False)
+        cut = None if loc is None else new_series_at(loc.ticks)
+    located = [] if loc is None else loc.ticks
+    del loc
     if not any(t.time > kept for t in located):
         return []
-    cut = new_series_at(located)
     if cut is not None and located[cut - 1].time > kept:
         end = max(1, int(math.floor(located[cut].time * fs)) - lead)
-        ticks = (_searched(x[:end], settings, clipped) or located[:cut]) + located[cut:]
-        if new_series_at(ticks) is not None:
-            return ticks
+        rest = [t.measured for t in located[cut:]]
+        own = _searched(x[:end], settings, clipped) or [t.measured for t in located[:cut]]
+        if new_series_at(own + rest) is not None:
+            return own + rest
+    del located  # its whitening and residual: not held through the search of the block
     return _searched(x, settings, clipped)
+
+
+@dataclass(frozen=True)
+class FirstSearch:
+    """Steps 1-5 over a signal: the whitening predictor and the search's result."""
+
+    predictor: np.ndarray
+    result: SearchResult
+
+
+@dataclass(frozen=True)
+class Located:
+    """The ticks of steps 1-6 over a block (:class:`_LazyTick`), and whether the search
+    stopped a few ticks past the start of a new series."""
+
+    ticks: list
+    stopped: bool
+
+
+def _located(x: np.ndarray, settings: Settings, clipped: bool, locate: bool) -> Located | None:
+    """Steps 1-6 over the block ``x`` (with ``locate``, stopped a few ticks past the start of
+    a new series), each tick measured when asked (:class:`_LazyTick`), or None where it has
+    no tick (silence, no tick, too short)."""
+    try:
+        first = _first_search(x, settings, locate)
+        meter = _meter(x, first, settings, clipped, resonator=False)
+    except (AnalysisError, ParameterError):
+        return None
+    fs = settings.samplerate
+    ticks = [_LazyTick(meter, i) for i in range(len(meter.found))]
+    return Located(
+        without_spurious_end(ticks, x.size / fs, settings.window / fs), first.result.stopped
+    )
 
 
 def _searched(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True) -> list:
@@ -440,9 +487,35 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = T
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
     without ``resonator``, by steps 1-6 only (where a block's series start, see
     :func:`_block_drops`)."""
-    A = dsp.autocorrelation_predictor(x, settings.whitening_order)
+    return _measured(x, _first_search(x, settings), settings, clipped, resonator)
+
+
+def _first_search(x: np.ndarray, settings: Settings, locate: bool = False) -> FirstSearch:
+    """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past the start of a new
+    series (:meth:`~synth.analysis.deflation.DeflationSearch.run`)."""
+    A = whitening_predictor(x, settings.whitening_order, settings.samplerate)
     with one_blas_thread():
-        first = _search(whiten(x, A), settings)
+        return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
+
+
+def _measured(
+    x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
+) -> list:
+    """The ticks of ``x`` from steps 1-5 (``search``): their bounce order (step 6), the
+    resonator's search (step 7, with ``resonator``) and the measurements."""
+    meter = _meter(x, search, settings, clipped, resonator)
+    with one_blas_thread():
+        ticks = [meter.tick(i) for i in range(len(meter.found))]
+    fs = settings.samplerate
+    return without_spurious_end(ticks, x.size / fs, settings.window / fs)
+
+
+def _meter(
+    x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
+) -> TickMeter:
+    """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
+    with ``resonator``, the resonator's search (step 7), ready to be measured."""
+    first = search.result
     found = [
         FoundTick(
             first.onsets[i],
@@ -453,7 +526,7 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = T
         )
         for i in bounce_order(first.onsets, first.strengths, settings.e_min)
     ]
-    whitenings = [Whitening(A, first.whitened, first.residual)]
+    whitenings = [Whitening(search.predictor, first.whitened, first.residual)]
     if (
         resonator
         and first.ringing_left is not None
@@ -463,10 +536,34 @@ def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = T
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
     noise = dsp.noise_floor(x, settings.samplerate)
-    with one_blas_thread():
-        ticks = measure_ticks(x, found, whitenings, settings, noise)
-    fs = settings.samplerate
-    return without_spurious_end(ticks, x.size / fs, settings.window / fs)
+    return TickMeter(x, found, whitenings, settings, noise)
+
+
+class _LazyTick:
+    """A tick of steps 1-6 over a block (:func:`_located`), measured only when a
+    measurement other than its time is asked for: where a block's series start needs the
+    energies of the ticks around a long bounce and the decay of a few only
+    (:func:`~synth.analysis.validity.new_series_at`,
+    :func:`~synth.analysis.validity.without_spurious_end`)."""
+
+    def __init__(self, meter: TickMeter, i: int):
+        self._meter, self._i, self._tick = meter, i, None
+
+    @property
+    def time(self) -> float:
+        return self._meter.time(self._i)
+
+    @property
+    def measured(self):
+        """The tick's :class:`~synth.analysis.report.Tick`."""
+        if self._tick is None:
+            self._tick = self._meter.tick(self._i)
+        return self._tick
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self.measured, name)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
@@ -575,9 +672,12 @@ class SearchResult:
     ringing_left: float | None
     peaks: np.ndarray
     timed: np.ndarray | None
+    stopped: bool = False
 
 
-def _search(r: np.ndarray, settings: Settings, order: int | None = None, known=()) -> SearchResult:
+def _search(
+    r: np.ndarray, settings: Settings, order: int | None = None, known=(), locate: bool = False
+) -> SearchResult:
     """Steps 2-5 on the whitened signal ``r``; with ``order`` (the resonator's predictor's),
     the rules of step 7: the local background of step 3 over :data:`BACKGROUND_SPAN` times
     the order (a tick's whitened response lasts about that), the first bounce ending where
@@ -611,7 +711,7 @@ def _search(r: np.ndarray, settings: Settings, order: int | None = None, known=(
             float(d.max()),
             known,
         )
-    out = search.run()
+    out = search.run(locate)
     return SearchResult(
         r,
         out.onsets,
@@ -621,6 +721,7 @@ def _search(r: np.ndarray, settings: Settings, order: int | None = None, known=(
         out.ringing_left if peaks.size > 1 else None,
         peaks,
         out.timed,
+        out.stopped,
     )
 
 

@@ -18,8 +18,14 @@ AFTER_GROWN = "after-restitution>=1"
 #: Flag of a tick whose own sound does not decay over its window: not the response of a
 #: resonator to an impact (a step, an edge of a periodic wave).
 NO_DECAY = "no-decay"
-#: The flags that make a tick's restitution impossible (left out of every mean).
-RESTITUTION_FLAGS = (GROWN_BOUNCE, AFTER_GROWN)
+#: Flag of a tick whose restitution the bounce times show to span a missed bounce: it departs
+#: from the series' restitution on either side more than a ball's restitution changes from one
+#: bounce to the next, or the series stops where its restitution says the ball bounces on,
+#: loud enough to be found.
+MISSED_BOUNCE = "missed-bounce"
+#: The flags that make a tick's restitution impossible or unsupported (left out of every
+#: mean).
+RESTITUTION_FLAGS = (GROWN_BOUNCE, AFTER_GROWN, MISSED_BOUNCE)
 
 
 @dataclass(frozen=True)
@@ -69,9 +75,12 @@ class Tick:
         Why the tick's measurements are physically impossible or doubtful (empty when
         none): ``"restitution>=1"``, its bounce time did not shrink (a tick was missed
         before it); ``"after-restitution>=1"``, its restitution is measured against such a
-        bounce; ``"no-decay"``, its own sound does not ring down as an impact's does
-        (:mod:`~synth.analysis.validity`). The restitutions of the first two are left out
-        of every mean.
+        bounce; ``"missed-bounce"``, its bounce times show a bounce missed in its
+        restitution (it departs from the series' on either side by more than a ball's
+        restitution changes from one bounce to the next, or the series stops where that
+        restitution says the ball bounces on, loud enough to be found); ``"no-decay"``, its
+        own sound does not ring down as an impact's does (:mod:`~synth.analysis.validity`).
+        The restitutions of the first three are left out of every mean.
     """
 
     index: int

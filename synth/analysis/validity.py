@@ -12,19 +12,31 @@ the one before after a grown bounce, or as a silence longer than missed ticks ex
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from synth.analysis.measures import decay_time
-from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, NO_DECAY, RESTITUTION_FLAGS, Tick
-from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB
+from synth.analysis.report import (
+    AFTER_GROWN,
+    GROWN_BOUNCE,
+    MISSED_BOUNCE,
+    NO_DECAY,
+    RESTITUTION_FLAGS,
+    Tick,
+)
+from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB, RESTITUTION_STEP
 from synth.analysis.settings import AnalysisError
 
 #: A bounce time more than this many times the previous one is a silence no missed ticks
 #: explain, whatever the tick's level: two missed ticks make at most ``e (1 + e + e^2) < 3``
 #: times the previous bounce.
 MISSED_GROWTH = 3.0
+#: Least shortfall of a tick's energy under ``e_n^2`` times the tick before's that a missed
+#: tick makes, dB: ``(1 + e)^2 / e^2 >= 4`` for any restitution ``e <= 1``
+#: (:func:`missed_bounces`).
+MISSED_ENERGY_DB = 10.0 * math.log10(4.0)
 #: Smoothing of the envelope over which a whole recording's ringing is seen to decay, s: many
 #: periods of a plate's lowest modes and of a periodic wave down to 20 Hz, so that neither
 #: leaves a ripple the fit could take for a decay.
@@ -66,8 +78,10 @@ def new_series_at(ticks: list[Tick]) -> int | None:
     times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
         ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
-        louder = ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
-        if ratio > BOUNCE_GROWTH and (louder or ratio > MISSED_GROWTH):
+        if ratio > BOUNCE_GROWTH and (
+            ratio > MISSED_GROWTH
+            or ticks[i].energy > ticks[i - 1].energy * 10.0 ** (MAX_EXCESS_DB / 10.0)
+        ):  # the energies only where the bounce grew (a tick may be measured on demand)
             return i
     return None
 
@@ -80,7 +94,9 @@ def as_series_start(tick: Tick) -> Tick:
 def flag_series(ticks: list[Tick]) -> list[Tick]:
     """The ticks of one series with the impossible restitutions flagged: :data:`GROWN_BOUNCE`
     where ``e_n >= 1``, :data:`AFTER_GROWN` on the tick after one (its restitution is
-    measured against the grown bounce, so it is too low by as much), and :data:`NO_DECAY`
+    measured against the grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE`
+    where a restitution below 1 spans a missed bounce (:func:`missed_bounces`), and
+    :data:`NO_DECAY`
     where the tick's own sound has no decay time (an impact excites a ringing that
     decays)."""
     out = []
@@ -93,7 +109,56 @@ def flag_series(ticks: list[Tick]) -> list[Tick]:
         if t.decay_time is None:
             flags.append(NO_DECAY)
         out.append(replace(t, flags=tuple(flags)))
+    return _with_missed_bounces(out)
+
+
+def _with_missed_bounces(ticks: list[Tick]) -> list[Tick]:
+    """``ticks`` with :data:`MISSED_BOUNCE` added to the flags of :func:`missed_bounces`."""
+    missed = missed_bounces(ticks)
+    return [
+        replace(t, flags=t.flags + (MISSED_BOUNCE,)) if i in missed else t
+        for i, t in enumerate(ticks)
+    ]
+
+
+def missed_bounces(ticks: list[Tick]) -> set[int]:
+    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce.
+
+    A missed tick merges two bounces, ``t_n + t_(n+1) = (1 + e) t_n``, and the next tick
+    found comes after the shorter flight ``e t_n``. Its bounce times show it two ways:
+
+    * A ball's restitution changes slowly along a series, with its impact speed: by at most
+      :data:`~synth.analysis.series.RESTITUTION_STEP` from one bounce to the next. The
+      merged bounce gives the pair ``e (1 + e)`` (impossible from ``e = 0.618`` on, flagged
+      then as a grown bounce) and ``e^2 / (1 + e)``, each departing from the series'
+      restitution on both sides: a tick whose restitution differs by more than that from
+      both its neighbours' is flagged (one without a neighbour's restitution on either side
+      is not: a single step is a change of the series).
+    * A tick's energy goes as its impact speed squared, and the impact speed as the flight
+      before it (the thesis, section 3.1, see docs/physics.md, References): from one tick
+      to the next the energy goes as ``e_n^2``. Over a missed tick the bounce time says
+      ``e (1 + e)`` while the speed fell by ``e^2``: the energy comes out ``(1 + e)^2 /
+      e^2``, at least 4 (:data:`MISSED_ENERGY_DB`, 6 dB), under what the restitution
+      allows, and more over more missed ticks. A tick that much weaker than ``e_n^2``
+      times the tick before is flagged: its restitution is no ratio of two flights.
+
+    A series that misses every other tick from its start is a geometric series of
+    restitution ``e^2`` in its bounce times and energies alike, and is not told from a ball
+    of that restitution."""
+    rest = {i: t.restitution for i, t in enumerate(ticks) if _restitution_below_one(t)}
+    out = set()
+    for i, e in rest.items():
+        near = [rest[j] for j in (i - 1, i + 1) if j in rest]
+        if len(near) == 2 and all(abs(e / other - 1.0) > RESTITUTION_STEP for other in near):
+            out.add(i)
+        if ticks[i].energy < e * e * ticks[i - 1].energy * 10.0 ** (-MISSED_ENERGY_DB / 10.0):
+            out.add(i)
     return out
+
+
+def _restitution_below_one(tick: Tick) -> bool:
+    """Whether ``tick`` has a restitution that is not flagged impossible and below 1."""
+    return valid_restitution(tick) and tick.restitution < 1.0
 
 
 def valid_restitution(tick: Tick) -> bool:
@@ -174,15 +239,26 @@ def make_series(ticks: list[Tick]) -> Series:
     )
 
 
+def _listed(ticks: list, shown: int = 5) -> str:
+    """The first ``shown`` flagged ticks with their restitution, and how many more."""
+    listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in ticks[:shown])
+    return listed + (f" and {len(ticks) - shown} more" if len(ticks) > shown else "")
+
+
 def flag_warnings(series: list[Series]) -> tuple[str, ...]:
     """The summary of the flags and of the series, one warning each, in words."""
     out = []
+    missed = [t for s in series for t in s.ticks if MISSED_BOUNCE in t.flags]
+    if missed:
+        out.append(
+            f"restitution over a missed bounce at {len(missed)} tick(s): {_listed(missed)}; "
+            f"its bounce times or energy do not follow one ball's series (flagged and left out "
+            f"of the means)"
+        )
     grown = [t for s in series for t in s.ticks if GROWN_BOUNCE in t.flags]
     if grown:
-        listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in grown[:5])
-        more = f" and {len(grown) - 5} more" if len(grown) > 5 else ""
         out.append(
-            f"physically impossible restitution at {len(grown)} tick(s): {listed}{more}; a "
+            f"physically impossible restitution at {len(grown)} tick(s): {_listed(grown)}; a "
             f"ball's bounce times shrink, so a tick was missed before each (its restitution "
             f"and the next one's are flagged and left out of the means)"
         )

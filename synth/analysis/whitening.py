@@ -10,6 +10,7 @@ contact.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -27,6 +28,71 @@ ORDER_GRID = 96
 #: Predictors whose prediction errors are formed at once by the order criterion (memory:
 #: this many transforms of the stretch).
 ERROR_BATCH = 16
+
+
+def whitening_predictor(x: np.ndarray, order: int, samplerate: float) -> np.ndarray:
+    """Step 1's prediction-error filter ``[1, a1, ..., ap]`` of ``x`` (sample rate
+    ``samplerate``, Hz): the autocorrelation method (:func:`synth.dsp.autocorrelation`, with
+    its white-noise correction), the recording's noise floor taken as the least power
+    spectral density it holds (:func:`noise_floor_loading`).
+
+    A predictor lifts each band by about the inverse of its power. A band the recording does
+    not hold (above a lossy encoder's lowpass, under an anti-aliasing filter) would be lifted
+    by up to the white-noise correction, 90 dB, far over the noise: a step at the recording's
+    cut, or any small error there, then whitens to a burst taken for a tick. No band of a
+    recording is known to better than its noise floor, so none is lifted beyond it
+    (:func:`lead_in_noise`); a band that holds noise or sound is left as it is, and a
+    recording without noise before its first sound (a render) is whitened as without the
+    floor."""
+    r = dsp.white_noise_corrected(dsp.autocorrelation(x, order))
+    return dsp.levinson_predictor(r + noise_floor_loading(r, lead_in_noise(x, samplerate), x.size))
+
+
+def lead_in_noise(x: np.ndarray, samplerate: float) -> float:
+    """The noise floor of ``x`` (sample rate ``samplerate``, Hz; :func:`synth.dsp.noise_floor`,
+    signal units) where ``x`` starts in it: its first frame among the quietest, noise before
+    the first sound; else 0. The quietest frames of a recording that starts with its first
+    sound (a render after a preroll of a few milliseconds) are the end of the ringing, no
+    noise: a floor there would lift the bands between the modes, which the whitening must
+    lift to leave each contact a short burst."""
+    fr = dsp.noise_frames(x, samplerate)
+    if fr.shape[0] < 2:
+        return 0.0
+    power = np.mean(fr**2, axis=1)
+    quiet = dsp.quiet_frames(power)
+    return float(np.sqrt(power[quiet].mean())) if quiet[0] else 0.0
+
+
+def noise_floor_loading(r: np.ndarray, noise: float, n: int) -> np.ndarray:
+    """What to add to the autocorrelation ``r`` (lags ``0..p``, summed over ``n`` samples) so
+    that its power spectral density is nowhere under ``noise^2`` (``noise``: an RMS in signal
+    units): the autocorrelation, summed over ``n`` samples, of white noise of that RMS
+    filtered to the bands where the spectrum of ``r`` lies under it; zero where none does.
+
+    The spectrum is the Blackman-Tukey estimate of ``r`` under a Parzen lag window (its
+    transform is non-negative, so the estimate of a biased autocorrelation is too, and its
+    leakage falls as the fourth power of the distance from a mode), per sample: white
+    noise of variance ``s^2`` gives ``s^2`` at every frequency."""
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    p = r.size - 1
+    floor = float(noise) ** 2
+    if p < 1 or n < 1 or not floor > 0.0:
+        return np.zeros_like(r)
+    nfft = next_fast_len(8 * (p + 1), real=True)
+    lags = np.zeros(nfft)
+    lags[: p + 1] = r * _parzen(p)
+    lags[nfft - p :] = lags[p:0:-1]
+    deficit = np.maximum(floor - rfft(lags).real / n, 0.0)
+    if not np.any(deficit):
+        return np.zeros_like(r)
+    return n * irfft(deficit, nfft)[: p + 1]
+
+
+def _parzen(p: int) -> np.ndarray:
+    """The one-sided Parzen lag window over lags ``0..p`` (zero beyond ``p``)."""
+    u = np.arange(p + 1) / (p + 1)
+    return np.where(u <= 0.5, 1.0 - 6.0 * u**2 + 6.0 * u**3, 2.0 * (1.0 - u) ** 3)
 
 
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
@@ -94,6 +160,11 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     return None
 
 
+#: How many :func:`one_blas_thread` contexts are open (the BLAS limit is the process').
+_BLAS_DEPTH = [0]
+
+
+@contextlib.contextmanager
 def one_blas_thread():
     """A context in which BLAS and LAPACK run on one thread: for the analysis' small products
     and solutions (a fit's Gram matrix has a few hundred unknowns, and thousands are solved
@@ -103,10 +174,20 @@ def one_blas_thread():
     :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
     resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
     library's threads unless its caller runs on one (a recording searched block by block,
-    :mod:`synth.analysis.pipeline`)."""
+    :mod:`synth.analysis.pipeline`). Only the outermost of nested contexts sets the limit:
+    each entry scans the process' loaded libraries (milliseconds, several times per drop of
+    a long recording), and an inner one would change nothing."""
     from threadpoolctl import threadpool_limits
 
-    return threadpool_limits(1, user_api="blas")
+    _BLAS_DEPTH[0] += 1
+    try:
+        if _BLAS_DEPTH[0] > 1:
+            yield
+        else:
+            with threadpool_limits(1, user_api="blas"):
+                yield
+    finally:
+        _BLAS_DEPTH[0] -= 1
 
 
 def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from synth.bank import run as run_bank_spec
 from synth.bank import spec as bank_spec
+from synth.bench.common import target_verdict
 
 #: The issue's example spec, with the count left to the benchmark.
 SPEC = """\
@@ -173,7 +174,7 @@ def format_bank(r: dict) -> str:
     ratios, targets = r["ratios"], r["targets"]
 
     def verdict(name):
-        return "met" if ratios[name] >= targets[name] else "NOT met"
+        return target_verdict(ratios[name] >= targets[name])
 
     lines += [
         "",

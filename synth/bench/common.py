@@ -7,6 +7,11 @@ import time
 import numpy as np
 
 
+def target_verdict(met: bool) -> str:
+    """The word a benchmark's summary gives a target: met or not."""
+    return "met" if met else "NOT met"
+
+
 def median_time(fn, repeat):
     ts = np.empty(repeat)
     for i in range(repeat):

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.bench.common import median_time
+from synth.bench.common import median_time, target_verdict
 from synth.bench.thesis import thesis_pair
 from synth.constants import GRAVITY
 from synth.physics import contact, impedance
@@ -28,6 +28,18 @@ class ContactCase:
     gravity: float  # m/s^2
     exponent: float = 1.5
     dissipation: float = 0.0  # s/m
+
+    def solver_arguments(self) -> dict:
+        """The case as keyword arguments of :func:`synth.physics.contact.solve_contact`."""
+        return dict(
+            mass=self.mass,
+            stiffness=self.stiffness,
+            admittance=self.admittance,
+            speed=self.speed,
+            gravity=self.gravity,
+            exponent=self.exponent,
+            dissipation=self.dissipation,
+        )
 
 
 def _case(name, ball, plate, speed, gravity=GRAVITY, contact_law="hertz", **kw):
@@ -210,15 +222,7 @@ def run_contact(
         contact.solve_contact(mass=1e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=meth)
     for case in cases:
         e_ref, tau_ref, sol, theta = scipy_contact(case)
-        kw = dict(
-            mass=case.mass,
-            stiffness=case.stiffness,
-            admittance=case.admittance,
-            speed=case.speed,
-            gravity=case.gravity,
-            exponent=case.exponent,
-            dissipation=case.dissipation,
-        )
+        kw = case.solver_arguments()
         ours_default = None
         for tol in tolerances:
             res = contact.solve_contact(rtol=tol, **kw)
@@ -350,17 +354,16 @@ def format_contact(result) -> str:
         )
     s = result["summary"]
     t = s["targets"]
-    ok = {True: "met", False: "NOT met"}
     lines += [
         "",
         f"Targets at rtol {s['rtol']:.0e}:",
         f"- restitution error, worst case: {s['max_err_restitution']:.1e} (target <= {t['err_restitution']:.0e}): "
-        f"{ok[s['met']['err_restitution']]}",
+        f"{target_verdict(s['met']['err_restitution'])}",
         f"- time per impact, median over the cases: {s['median_us_per_impact']:.1f} us "
         f"(target <= {t['us_per_impact']:.0f} us; slowest case {s['max_us_per_impact']:.1f} us): "
-        f"{ok[s['met']['us_per_impact']]}",
+        f"{target_verdict(s['met']['us_per_impact'])}",
         f"- speed-up over solve_ivp (DOP853) at matched error, smallest: {s['min_speedup']:.0f}x "
-        f"(target >= {t['speedup']:.0f}x): {ok[s['met']['speedup']]}",
+        f"(target >= {t['speedup']:.0f}x): {target_verdict(s['met']['speedup'])}",
     ]
     if "modal" in result:
         lines += ["", format_modal_contact(result["modal"])]

@@ -8,6 +8,8 @@ import time
 
 import numpy as np
 
+from synth.bench.common import target_verdict
+
 
 def render_scenes() -> list:
     """The render benchmark's scenes: ``(name, scene, render options)``: the default
@@ -194,15 +196,14 @@ def format_render(result) -> str:
     s = result["summary"]
     if "met" in s:
         t = s["targets"]
-        ok = {True: "met", False: "NOT met"}
         lines += [
             "",
             "Targets at the default settings:",
             f"- error against the reference, worst scene: {s['worst_error_db']:.1f} dB "
-            f"(target <= {t['error_db']:.0f} dB): {ok[s['met']['error_db']]}",
+            f"(target <= {t['error_db']:.0f} dB): {target_verdict(s['met']['error_db'])}",
             f"- default preset: {s['default_preset_realtime']:.0f}x faster than real time "
-            f"(target >= {t['realtime']:.0f}x): {ok[s['met']['realtime']]}",
+            f"(target >= {t['realtime']:.0f}x): {target_verdict(s['met']['realtime'])}",
             f"- modal bank, worst scene: {s['worst_ns_per_mode_sample']:.2f} ns per mode-sample "
-            f"(target <= {t['ns_per_mode_sample']:.0f} ns): {ok[s['met']['ns_per_mode_sample']]}",
+            f"(target <= {t['ns_per_mode_sample']:.0f} ns): {target_verdict(s['met']['ns_per_mode_sample'])}",
         ]
     return "\n".join(lines)

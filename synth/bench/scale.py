@@ -83,7 +83,8 @@ def scale_child(spec: dict) -> dict:
     """One plate of the ladder in this process: seconds and peak resident memory (MB)
     after the modes, the microphone's gains and the whole render (whose modes and
     gains then come from the memory cache: the rest is contact, scheduler and
-    synthesis)."""
+    synthesis), and the CPU seconds of the three (``work_cpu_s``: every thread of the
+    process; on a busy machine the wall time also counts the waits for a core)."""
     from synth.sound import modes as plate_modes
     from synth.sound import render as render_mod
     from synth.sound.radiation import plate_gains
@@ -93,6 +94,7 @@ def scale_child(spec: dict) -> dict:
     )
     fs = spec["samplerate"]
     out = {}
+    cpu0 = time.process_time()
     t0 = time.perf_counter()
     try:
         modes = plate_modes.modes(scene.plate, max_frequency=0.5 * fs * (1.0 - 1e-9))
@@ -123,6 +125,7 @@ def scale_child(spec: dict) -> dict:
     r = render_mod.render(scene, samplerate=fs)
     out["render_s"] = time.perf_counter() - t0
     out["render_mb"] = peak_rss_mb()
+    out["work_cpu_s"] = time.process_time() - cpu0
     out["audio_s"] = r.duration
     return out
 
@@ -203,9 +206,9 @@ def format_scale(rows) -> str:
     lines = [
         (
             "| plate | fs Hz | modes | modes s (MB) | gains s (MB), rule | render s (MB) | "
-            "work s | process s | audio s |"
+            "work s | process s | audio s | work CPU s |"
         ),
-        "|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         plate = (
@@ -215,7 +218,7 @@ def format_scale(rows) -> str:
         c, w = row["cold"], row["warm"]
         if "error" in c:
             lines.append(
-                f"| {plate} | {row['samplerate']} | refused or failed: {c['error']} | | | | | | |"
+                f"| {plate} | {row['samplerate']} | refused or failed: {c['error']} | | | | | | | |"
             )
             continue
         lines.append(
@@ -225,7 +228,7 @@ def format_scale(rows) -> str:
             f"{_cold_warm(lambda r: _stage(r, 'render'), c, w)} | "
             f"{_cold_warm(lambda r: format(_work_s(r), '.3g'), c, w)} | "
             f"{_cold_warm(lambda r: format(r['process_s'], '.3g'), c, w)} | "
-            f"{c['audio_s']:.2f} |"
+            f"{c['audio_s']:.2f} | {_cpu(c)} |"
         )
     lines += _random_summary(rows)
     lines += _ladder_targets(rows)
@@ -235,9 +238,15 @@ def format_scale(rows) -> str:
         "with the first one's cache. Each stage: seconds and, in brackets, the process' "
         "peak resident memory after it (MB). 'render s' is the whole render after the "
         "modes and gains are in memory (contact, bounces, synthesis); 'work s' the three "
-        "stages; 'process s' adds the interpreter, imports and numba's cache loading."
+        "stages; 'process s' adds the interpreter, imports and numba's cache loading; "
+        "'work CPU s' is the cold work's CPU time, every thread of the process."
     )
     return "\n".join(lines)
+
+
+def _cpu(run: dict) -> str:
+    """A run's CPU seconds of work (see :func:`scale_child`), a dash if not recorded."""
+    return format(run["work_cpu_s"], ".3g") if "work_cpu_s" in run else "-"
 
 
 def _verdict(met: bool) -> str:
@@ -266,6 +275,9 @@ def _random_summary(rows) -> list:
         f"{np.median(proc):.3g} s, max {proc.max():.3g} s), peak memory max {mb.max():.0f} MB; "
         f"slower than max(15 s, audio length): {slow}; refused or failed: {failed}."
     )
+    cpu = [c["work_cpu_s"] for c in done if "work_cpu_s" in c]
+    if len(cpu) == len(done):
+        lines[-1] += f" Work CPU time median {np.median(cpu):.3g} s."
     lines.append(
         f"Targets: median under {t['median_s']:g} s {_verdict(np.median(work) < t['median_s'])}; "
         f"none slower than max({t['slowest_s']:g} s, audio length) "

@@ -535,38 +535,3 @@ def apply_fade_out(audio: np.ndarray, frames: int) -> None:
     if audio.ndim == 2:
         w = w[:, None]
     audio[audio.shape[0] - frames :] *= w
-
-
-def fade_out(audio: np.ndarray, samplerate: int, duration: float) -> np.ndarray:
-    """A raised-cosine fade over the last ``duration`` seconds (on a copy).
-
-    The last ``n = round(duration * samplerate)`` frames are multiplied by
-    :func:`fade_out_window` (``n``).
-
-    Parameters
-    ----------
-    audio : ndarray of float, shape (frames,) or (frames, channels)
-        Finite, not empty.
-    samplerate : int > 0
-        Sample rate, Hz.
-    duration : float >= 0
-        Length of the fade, s; at most the length of the audio. 0: no fade.
-
-    Returns
-    -------
-    ndarray
-        A faded copy of ``audio`` (same shape and dtype).
-    """
-    a = checks.audio_array("audio", audio)
-    sr = checks.samplerate(samplerate)
-    d = checks.nonnegative("duration", duration, "s")
-    frames = a.shape[0]
-    n = int(round(d * sr))
-    if n > frames:
-        raise ParameterError(
-            f"duration={duration!r} must be <= the audio's length {frames / sr:.6g} s "
-            f"({frames} frames at {sr} Hz)"
-        )
-    out = a.copy()
-    apply_fade_out(out, n)
-    return out

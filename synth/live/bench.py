@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+from synth.bench.common import target_verdict
+
 #: Targets of the issue (fractions of a block, microseconds, counts).
 TARGETS = dict(callback_1=0.05, callback_16=0.5, hit_us=50.0, underflows=0)
 
@@ -277,7 +279,6 @@ def run_live(seconds=30.0) -> dict:
 
 def format_live(result) -> str:
     """The live benchmark as Markdown, with the targets and whether they are met."""
-    ok = {True: "met", False: "NOT met"}
     rows = result["callback"]
     by_n = {r["bodies"]: r for r in rows}
     lines = [
@@ -297,13 +298,14 @@ def format_live(result) -> str:
     lines += [
         "",
         f"- 1 body: {100 * by_n[1]['mean']:.2f} % of the block (target < "
-        f"{100 * TARGETS['callback_1']:.0f} %): {ok[by_n[1]['mean'] < TARGETS['callback_1']]}",
+        f"{100 * TARGETS['callback_1']:.0f} %): "
+        f"{target_verdict(by_n[1]['mean'] < TARGETS['callback_1'])}",
     ]
     if 16 in by_n:
         lines.append(
             f"- 16 bodies: {100 * by_n[16]['mean']:.2f} % (target < "
             f"{100 * TARGETS['callback_16']:.0f} %): "
-            f"{ok[by_n[16]['mean'] < TARGETS['callback_16']]}"
+            f"{target_verdict(by_n[16]['mean'] < TARGETS['callback_16'])}"
         )
     x = result["transform"]
     lines += [
@@ -315,7 +317,8 @@ def format_live(result) -> str:
         f"- hit() on the calling thread (the contact solved, its pulse sampled and handed "
         f"over), same point: median {h['same_point']['median']:.0f} us, "
         f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
-        f"median): {ok[h['same_point']['median'] < TARGETS['hit_us']]}; at a new point each "
+        f"median): {target_verdict(h['same_point']['median'] < TARGETS['hit_us'])}; "
+        f"at a new point each "
         f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "
         f"median {h['same_point_coarse_pulse']['median']:.0f} us",
         f"- Engine.add(default plate): cold cache {a['cold']:.2f} s, warm from disk "
@@ -337,14 +340,14 @@ def format_live(result) -> str:
             f"  - hit() to the end of the callback holding the tick's first sample: median "
             f"{j['hit_to_callback_ms']['median']:.2f} ms, max "
             f"{j['hit_to_callback_ms']['max']:.2f} ms (target <= one block + latency = "
-            f"{target:.2f} ms): {ok[j['hit_to_callback_ms']['max'] <= target]}"
+            f"{target:.2f} ms): {target_verdict(j['hit_to_callback_ms']['max'] <= target)}"
         )
     lines += [
         f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
         f"(one block + output latency + hand-over allowance, the same for every hit)",
         f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies: "
         f"{j['callbacks']} callbacks, {j['underflows']} output underflows (target "
-        f"{TARGETS['underflows']}): {ok[j['underflows'] <= TARGETS['underflows']]}; "
+        f"{TARGETS['underflows']}): {target_verdict(j['underflows'] <= TARGETS['underflows'])}; "
         f"{j['played']} impacts played, {j['late']} late, {j['refused']} refused; callback "
         f"mean {100 * j['callback_mean']:.2f} %, max {100 * j['callback_max']:.1f} % of the block",
     ]

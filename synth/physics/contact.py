@@ -214,11 +214,7 @@ class ImpactResult:
     def force_at(self, t) -> float | np.ndarray:
         """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
         solver's dense output (its accuracy is the solver's); 0 outside the contact."""
-        d = self._dense
-        s = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)) / d.theta)
-        out = np.empty_like(s)
-        _k.force_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact, s, out)
-        out *= d.f_scale
+        out, _ = self.force_and_slope_at(np.atleast_1d(t))
         return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
 
     def pulse_samples(

@@ -378,18 +378,18 @@ class EdgeEffectSolution:
         )
         return fx, fy
 
-    def _table(self, axis, u, n_trials):
-        """Factors along ``axis`` (0: x, 1: y) at the distinct coordinates ``u``; the
-        last two tables of each axis are kept (a grid is evaluated chunk by chunk, each
-        chunk with the same coordinates along one axis: that axis' table is computed
-        once whatever the other's)."""
+    def _table(self, axis, u, trials):
+        """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` (ascending indices)
+        at the distinct coordinates ``u``; the last two tables of each axis are kept (a
+        grid is evaluated chunk by chunk, each chunk with the same coordinates along one
+        axis: that axis' table is computed once whatever the other's)."""
         tables = self._tables[axis]
-        key = (n_trials, u.size, hash(u.tobytes()))
+        key = (trials.size, u.size, hash(u.tobytes()), hash(trials.tobytes()))
         held = tables.get(key)
-        if held is not None and np.array_equal(held[0], u):
-            return held[1]
+        if held is not None and np.array_equal(held[0], u) and np.array_equal(held[1], trials):
+            return held[2]
         (cx, gx), (cy, gy) = self.factor_constants()
-        m = slice(0, n_trials)
+        m = trials
         if axis == 0:
             h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
         else:
@@ -397,23 +397,23 @@ class EdgeEffectSolution:
         table = _factor_table(u * h, s, so, n, h, c, g)
         if len(tables) >= 2:
             tables.clear()
-        tables[key] = (u.copy(), table)
+        tables[key] = (u.copy(), trials.copy(), table)
         return table
 
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
         """Shapes of modes ``first <= k < n_modes`` (or of the modes ``index``, ascending
         integers, if given) at the points ``(xi, eta)``: an array ``(len(xi), n)``, ``n``
         the number of modes, or written into ``out[:, column:column + n]`` (C-ordered)
-        and ``out`` returned. The factors are evaluated once per distinct coordinate
-        (points of a grid share them)."""
+        and ``out`` returned. The factors of the trials these modes use are evaluated once
+        per distinct coordinate (points of a grid share them)."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
         trial = self.trial[pick]
         partner = self.partner[pick]
-        n_trials = 1 + int(max(trial.max(initial=-1), partner.max(initial=-1)))
-        fx = self._table(0, ux, n_trials)
-        fy = self._table(1, uy, n_trials)
+        used = np.unique(np.concatenate((trial, partner[partner >= 0])))
+        fx = self._table(0, ux, used)
+        fy = self._table(1, uy, used)
         if out is None:
             out, column = np.empty((xi.size, trial.size)), 0
         _gather_modes(
@@ -421,8 +421,8 @@ class EdgeEffectSolution:
             fy,
             inv_x.ravel(),
             inv_y.ravel(),
-            trial,
-            partner,
+            np.searchsorted(used, trial),
+            np.where(partner >= 0, np.searchsorted(used, partner), -1),
             self.own[pick],
             self.other[pick],
             out,
@@ -679,20 +679,26 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def factor_parts(x, s, so, h, n):  # pragma: no cover
-    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
-    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
-    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
+def interior_part(x, s, h, n):  # pragma: no cover
+    """Interior part ``u`` of one factor at ``x`` in ``[-h, h]`` (unnormalised, see
+    :func:`factor_parts`): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
     odd = n % 2 == 1
-    m2 = s + 2.0 * so
     if s > 0.0:
         k = math.sqrt(s)
-        u = math.sin(k * x) / k if odd else math.cos(k * x)
-    elif s < 0.0:
+        return math.sin(k * x) / k if odd else math.cos(k * x)
+    if s < 0.0:
         k = math.sqrt(-s)
-        u = math.sinh(k * x) / k if odd else math.cosh(k * x)
-    else:
-        u = x if odd else 1.0
+        return math.sinh(k * x) / k if odd else math.cosh(k * x)
+    return x if odd else 1.0
+
+
+@numba.njit(cache=True)
+def edge_part(x, s, so, h, n):  # pragma: no cover
+    """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (see :func:`factor_parts`):
+    ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``, ``mu^2 = s + 2 so``
+    (``cos``, ``sin`` for ``mu^2 < 0``), 1 at the edge ``x = h``."""
+    odd = n % 2 == 1
+    m2 = s + 2.0 * so
     if m2 > 0.0:
         m = math.sqrt(m2)
         # cosh(m x) / cosh(m h) and sinh(m x) / sinh(m h) without overflow
@@ -700,15 +706,20 @@ def factor_parts(x, s, so, h, n):  # pragma: no cover
         d2 = math.exp(-m * (h + x))
         den = 1.0 + math.exp(-2.0 * m * h) * (-1.0 if odd else 1.0)
         if odd:
-            e = (d1 - d2) / den if den > 0.0 else x / h
-        else:
-            e = (d1 + d2) / den
-    elif m2 < 0.0:
+            return (d1 - d2) / den if den > 0.0 else x / h
+        return (d1 + d2) / den
+    if m2 < 0.0:
         m = math.sqrt(-m2)
-        e = math.sin(m * x) / math.sin(m * h) if odd else math.cos(m * x) / math.cos(m * h)
-    else:
-        e = x / h if odd else 1.0
-    return u, e
+        return math.sin(m * x) / math.sin(m * h) if odd else math.cos(m * x) / math.cos(m * h)
+    return x / h if odd else 1.0
+
+
+@numba.njit(cache=True)
+def factor_parts(x, s, so, h, n):  # pragma: no cover
+    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
+    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
+    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
+    return interior_part(x, s, h, n), edge_part(x, s, so, h, n)
 
 
 @numba.njit(cache=True)
@@ -795,17 +806,40 @@ def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
     """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
     ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
-    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1)."""
+    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1).
+
+    The factors are first laid out in the modes' order, ``own[k] X_t`` and
+    ``other[k] X_u`` per distinct x and ``Y_t``, ``Y_u`` per distinct y (0 without a
+    partner), so that each point's row is two products and a sum over contiguous arrays
+    (the same operations, in the same order, as term by term)."""
+    m = trial.size
+    gx = np.zeros((fx.shape[0], m))
+    hx = np.zeros((fx.shape[0], m))
+    gy = np.zeros((fy.shape[0], m))
+    hy = np.zeros((fy.shape[0], m))
+    paired = False
+    for k in range(m):
+        paired = paired or partner[k] >= 0
+    for a in range(fx.shape[0]):
+        for k in range(m):
+            gx[a, k] = own[k] * fx[a, trial[k]]
+            if partner[k] >= 0:
+                hx[a, k] = other[k] * fx[a, partner[k]]
+    for b in range(fy.shape[0]):
+        for k in range(m):
+            gy[b, k] = fy[b, trial[k]]
+            if partner[k] >= 0:
+                hy[b, k] = fy[b, partner[k]]
     for p in range(ix.size):
-        a = ix[p]
-        b = iy[p]
-        for k in range(trial.size):
-            t = trial[k]
-            v = own[k] * fx[a, t] * fy[b, t]
-            u = partner[k]
-            if u >= 0:
-                v += other[k] * fx[a, u] * fy[b, u]
-            out[p, column + k] = v
+        ga, ha = gx[ix[p]], hx[ix[p]]
+        gb, hb = gy[iy[p]], hy[iy[p]]
+        row = out[p, column : column + m]
+        if paired:
+            for k in range(m):
+                row[k] = ga[k] * gb[k] + ha[k] * hb[k]
+        else:
+            for k in range(m):
+                row[k] = ga[k] * gb[k]
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:

@@ -21,7 +21,7 @@ from synth.errors import ParameterError, SynthError
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
-from synth.sound.modal_bank import synthesize
+from synth.sound.modal_bank import PULSE_POINTS, synthesize
 
 NORMALIZE = ("peak", "loudness", "physical", "none")
 
@@ -296,7 +296,7 @@ def check_options(
     fade=0.005,
     max_duration=30.0,
     max_tail=60.0,
-    pulse_points=65,
+    pulse_points=PULSE_POINTS,
 ) -> dict:
     """Check the options of :func:`render` (units and ranges there) and return them
     converted (floats, an int rate); a bad one is a ``ParameterError`` naming it, its
@@ -438,7 +438,7 @@ def render(
     max_duration=30.0,
     max_tail=60.0,
     sequence=None,
-    pulse_points=65,
+    pulse_points=PULSE_POINTS,
 ) -> Render:
     """Render ``scene`` at ``samplerate``.
 

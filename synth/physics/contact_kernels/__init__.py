@@ -15,7 +15,7 @@ for one impact, from first touch to separation or settling:
   on which the end of contact, the peak penetration and force are located and the
   pulse is sampled;
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, through ``solve``), ``pulse``, ``force_at``, ``force_slope_at`` and
+  parameters, through ``solve``), ``pulse``, ``force_slope_at`` and
   ``pulse_samples`` (the force from the dense output).
 
 numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
@@ -43,7 +43,6 @@ from synth.physics.contact_kernels.dense import (
 from synth.physics.contact_kernels.dop853 import integrate_dop853
 from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
-    NEWTON_FAILED,
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
@@ -58,7 +57,6 @@ __all__ = [
     "AUTO",
     "DOP853",
     "MAX_STEPS",
-    "NEWTON_FAILED",
     "N_RESULT",
     "RADAU",
     "R_C",
@@ -82,7 +80,6 @@ __all__ = [
     "SEPARATED",
     "SETTLED",
     "STEP_TOO_SMALL",
-    "force_at",
     "force_slope_at",
     "impact",
     "pulse",
@@ -126,7 +123,7 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
     separation, or to the moment the ball was proven unable to separate), ``s_end,
     w_end, x_end, I2, loss`` the state where the energy balance is taken, ``n_steps``
     the integrator's accepted steps after the series start, and ``hist`` the dense
-    output (row 0: the series, whose coefficients ``pulse`` and ``force_at``
+    output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
     recompute).
     """
     S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
@@ -222,7 +219,7 @@ def impact(
 
     Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
     fields are named by the ``R_*`` indices above (flags and counts stored as
-    floats), ``hist`` the dense output that ``pulse`` and ``force_at`` read.
+    floats), ``hist`` the dense output that ``pulse`` and ``force_slope_at`` read.
     """
     v0 = v_in + v_free
     theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
@@ -290,27 +287,10 @@ def pulse(hist, radau, lam, G, n, c, s_contact, separated, t_scale, f_scale, tim
 
 
 @numba.njit(cache=True)
-def force_at(hist, radau, lam, G, n, c, s_contact, s, out):
-    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of ``solve`` (same lam, G, n, c); 0 outside ``[0, s_contact]``.
-    Written into ``out``."""
-    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
-    series_coefficients(lam, G, n, c, S)
-    nh = hist.shape[0]
-    for i in range(s.shape[0]):
-        si = s[i]
-        if si <= 0.0 or si >= s_contact:
-            out[i] = 0.0
-            continue
-        k = find_step(hist, nh, si)
-        x, w = dense_state(hist, S, k, si, radau, n)
-        f, _ = force(x, w, lam, n, c)
-        out[i] = f
-
-
-@numba.njit(cache=True)
 def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
-    """As ``force_at``, with the force's rate of change ``df/ds`` into ``slope``.
+    """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
+    output ``hist`` of ``solve`` (same lam, G, n, c), 0 outside ``[0, s_contact]``, into
+    ``out``; its rate of change ``df/ds`` into ``slope``.
 
     ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
     ``a' = n x^(n-1) x'``. Hertz and power laws: ``f' = a'``. Hunt-Crossley:

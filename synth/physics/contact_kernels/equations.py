@@ -35,7 +35,6 @@ SEPARATED = 0
 SETTLED = 1
 MAX_STEPS = -1
 STEP_TOO_SMALL = -2
-NEWTON_FAILED = -3
 
 
 @numba.njit(cache=True, inline="always")

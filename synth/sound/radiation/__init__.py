@@ -40,7 +40,8 @@ shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every p
 for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
 modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
 exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
-its Ritz modes.
+its Ritz modes; below it, the rectangle rule band by band of wavenumber (:data:`BAND_RATIO`:
+each band's grid follows its own fastest mode's wavelength, the Ritz modes one band).
 """
 
 from __future__ import annotations
@@ -116,10 +117,10 @@ SUMMED_RULE_WORK = 5e8
 
 #: Rectangle-rule work (as for ``_POLAR_WORK``) above which a plate with dynamic edge effect
 #: modes takes the boundary rule for them. Its cost grows with the plate's diameter times
-#: the wavenumber rather than the area times its square, but with a larger constant: measured
-#: (one thread) 9.0 s against the rectangle rule's 1.5 s for a free acrylic plate of
-#: 1.18 x 0.92 m at 22.05 kHz (work 6.7e7, 2578 modes), 31 s against over 300 s for the
-#: default board at 384 kHz (work above 5e9, 3703 modes).
+#: the wavenumber rather than the area times its square, but with a larger constant: below
+#: this work the banded rectangle rules are cheaper (a free acrylic plate of 1.18 x 0.92 m at
+#: 22.05 kHz, work 6.7e7), above it the boundary rule (the default board at 384 kHz, work
+#: above 5e9; ``synth bench scale`` and ``synth bench hires`` print both).
 BOUNDARY_RULE_WORK = 1e9
 
 
@@ -139,47 +140,110 @@ def _use_summed(modes, size, q_s, kb, c, tol):
     return modes.summed()
 
 
-def _hybrid_gains(modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points):
-    """Gains of a plate with Rayleigh-Ritz modes below ``edge.first_mode`` (the rectangle
-    rule, for their own largest wavenumber) and dynamic edge effect modes above (the
-    boundary rule of :func:`~synth.sound.radiation.boundary.boundary_rule`), as one
-    :class:`RadiationResult` (``rule`` "boundary"; ``n_points``, ``panels`` those of the
-    rectangle rule)."""
-    n_low = edge.first_mode
-    settings = dict(air_density=rho, sound_speed=c, reference_distance=r0, tol=tol)
-    high = boundary_rule(
-        edge, len(modes), size, listener, q_s[n_low:], max_points=max_points, **settings
+#: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic, see
+#: :mod:`~synth.sound.radiation.rectangle`) of the fastest and the slowest edge effect mode of
+#: one band of :func:`_banded_rectangle`. The rectangle rule's points grow as ``kappa^2``: one
+#: rule for every mode evaluates the slowest ones on the fastest one's grid; bands 1.25 apart
+#: put each mode on a grid at most 1.56 times the points its own wavenumber needs.
+#: ``math.inf``: one band.
+BAND_RATIO = 1.25
+
+
+def _wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
+    """Consecutive bands ``(start, stop)`` of modes (indices of ``kappa``, the modes in
+    frequency order): a band starts at the first mode past the previous one and holds the
+    following modes while their ``kappa`` stays within ``ratio`` times its first one's."""
+    bands, start = [], 0
+    while start < kappa.size:
+        limit = kappa[start] * ratio
+        stop = start + 1 + int(np.argmax(np.append(kappa[start + 1 :] > limit, True)))
+        bands.append((start, stop))
+        start = stop
+    return bands
+
+
+def _combined(parts, rule: str, message: str) -> RadiationResult:
+    """One :class:`RadiationResult` of consecutive blocks of modes ``parts`` (``n_points``,
+    ``panels`` those of the block with the most points)."""
+    status = max(p.status for p in parts)
+    largest = max(parts, key=lambda p: p.n_points)
+    return RadiationResult(
+        gains=np.concatenate([p.gains for p in parts]),
+        error=np.concatenate([p.error for p in parts]),
+        coherent=np.concatenate([p.coherent for p in parts]),
+        n_points=largest.n_points,
+        refinements=max(p.refinements for p in parts),
+        panels=largest.panels,
+        success=status == 0,
+        status=status,
+        message=message,
+        rule=rule,
     )
-    if n_low == 0:
-        return dataclasses.replace(high, rule="boundary")
+
+
+def _band_rectangle(modes, start, stop, size, listener, q_s, kb, max_points, settings):
+    """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
+    wavenumber among them (``kb`` scaled by the square root of their highest frequency's
+    ratio to the highest mode's, as for a plate's bending waves)."""
     omega = modes.angular_frequencies
-    low_index = np.arange(n_low)
-    low = rayleigh_gains(
-        lambda points: modes.shapes(points, index=low_index),
+    index = np.arange(start, stop)
+    return rayleigh_gains(
+        lambda points: modes.shapes(points, index=index),
         size,
         listener,
-        q_s[:n_low],
-        max_wavenumber=kb * math.sqrt(omega[n_low - 1] / omega[-1]),
+        q_s[start:stop],
+        max_wavenumber=kb * math.sqrt(omega[stop - 1] / omega[-1]),
         max_points=max_points,
         full_output=True,
         **settings,
     )
-    status = max(low.status, high.status)
-    return RadiationResult(
-        gains=np.concatenate((low.gains, high.gains)),
-        error=np.concatenate((low.error, high.error)),
-        coherent=np.concatenate((low.coherent, high.coherent)),
-        n_points=low.n_points,
-        refinements=max(low.refinements, high.refinements),
-        panels=low.panels,
-        success=status == 0,
-        status=status,
-        message=(
-            f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
-            f"{len(modes) - 1} (boundary rule): {high.message}"
-        ),
-        rule="boundary",
+
+
+def _banded_rectangle(modes, n_low, size, listener, q_s, kb, c, max_points, settings):
+    """The rectangle rule of the edge effect modes ``n_low`` onwards, band by band of
+    wavenumber (:data:`BAND_RATIO`): each band's rule follows its own fastest mode's
+    wavelength. Each mode passes the same convergence test as on one rule for every mode."""
+    omega = modes.angular_frequencies[n_low:]
+    kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(q_s[n_low:]) / c
+    parts = [
+        _band_rectangle(
+            modes, n_low + lo, n_low + hi, size, listener, q_s, kb, max_points, settings
+        )
+        for lo, hi in _wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
+    ]
+    largest = max(parts, key=lambda p: p.n_points)
+    failed = sum(not p.success for p in parts)
+    message = (
+        f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
+        f"{largest.message}"
     )
+    return _combined(parts, "rectangle", message)
+
+
+def _hybrid_gains(modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points, boundary):
+    """Gains of a plate with Rayleigh-Ritz modes below ``edge.first_mode`` (the rectangle
+    rule, for their own largest wavenumber) and dynamic edge effect modes above: the
+    boundary rule of :func:`~synth.sound.radiation.boundary.boundary_rule` if ``boundary``
+    (``rule`` "boundary"), else rectangle rules band by band of wavenumber
+    (:func:`_banded_rectangle`, ``rule`` "rectangle"); one :class:`RadiationResult`."""
+    n_low = edge.first_mode
+    settings = dict(air_density=rho, sound_speed=c, reference_distance=r0, tol=tol)
+    if boundary:
+        high = boundary_rule(
+            edge, len(modes), size, listener, q_s[n_low:], max_points=max_points, **settings
+        )
+        how, rule = "boundary rule", "boundary"
+    else:
+        high = _banded_rectangle(modes, n_low, size, listener, q_s, kb, c, max_points, settings)
+        how, rule = "rectangle rule", "rectangle"
+    if n_low == 0:
+        return dataclasses.replace(high, rule=rule)
+    low = _band_rectangle(modes, 0, n_low, size, listener, q_s, kb, max_points, settings)
+    message = (
+        f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
+        f"{len(modes) - 1} ({how}): {high.message}"
+    )
+    return _combined((low, high), rule, message)
 
 
 def plate_gains(
@@ -251,8 +315,7 @@ def plate_gains(
 
     size = (modes.plate.length, modes.plate.width)
     edge = modes.edge_effect()
-    if edge is not None and _rectangle_work(size, q_s, kb, c, tol) <= BOUNDARY_RULE_WORK:
-        edge = None
+    boundary = edge is not None and _rectangle_work(size, q_s, kb, c, tol) > BOUNDARY_RULE_WORK
     separable = None if edge is not None else _use_separable(modes, size, listener, q_s, kb, c, tol)
     summed = None
     if edge is None and separable is None:
@@ -261,7 +324,7 @@ def plate_gains(
     def compute():
         if edge is not None:
             result = _hybrid_gains(
-                modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points
+                modes, edge, size, listener, q_s, kb, rho, c, r0, tol, max_points, boundary
             )
             return frozen(result)
         settings = dict(
@@ -296,7 +359,7 @@ def plate_gains(
             tol,
             max_points,
             separable is not None or summed is not None,
-            rule="boundary" if edge is not None else None,
+            rule=None if edge is None else "boundary" if boundary else "banded",
         )
         result = CACHE.get(key)
         if result is None:

@@ -39,7 +39,7 @@ import numba
 import numpy as np
 import scipy.special as sp
 
-from synth.sound.asymptotic_modes import factor_parts
+from synth.sound.asymptotic_modes import edge_part, interior_part
 from synth.sound.radiation.common import (
     GRADING,
     MAX_ORDER,
@@ -59,8 +59,9 @@ _DECAY_PANEL = 2.0
 _CENTRE_LEVELS = 12
 #: Length of a panel beyond a foot's radius over its distance from it.
 _GRADING_FEET = 2.0
-#: Modes per block of the vectorised evaluation.
-_BLOCK = 64
+#: Ratio between the radial rates that the groups of terms share (their panels are sized
+#: for the top of their step: at most this much finer than a term needs).
+_RATE_LADDER = 2.0 ** (1.0 / 32.0)
 
 
 @functools.cache
@@ -178,6 +179,11 @@ class _Grid:
             np.concatenate([e[4] for e in self.edges]),
             np.concatenate([e[5] for e in self.edges]),
         )
+        # panels with boundary nodes: only there are F's values needed
+        on_node = np.zeros(self.rho.size, dtype=np.bool_)
+        on_node[self.edge_arrays[4]] = True
+        self.on_edge = np.logical_or.reduceat(on_node, self.starts[:-1])
+        self.on_node = np.repeat(self.on_edge, np.diff(self.starts))
 
     def _edges(self, size, listener):
         """Per edge: (axis, at_high, d, node index, coordinate along the edge (m),
@@ -274,6 +280,20 @@ def _hankel_pq(x, a):  # pragma: no cover
     return p, q, sk, si
 
 
+@numba.njit(cache=True)
+def _bessel_at(v, osc, a, shift):  # pragma: no cover
+    """``(J_nu, Y_nu)`` (``osc``) or exponentially scaled ``(I_nu, K_nu)`` at ``v >=
+    _ASYMPTOTIC_X`` from the Hankel expansion with coefficients ``a`` of order ``nu``
+    (``shift = (2 nu + 1) pi / 4``)."""
+    p, q, sk, si = _hankel_pq(v, a)
+    if osc:
+        amp = math.sqrt(2.0 / (math.pi * v))
+        w = v - shift
+        cw, sw = math.cos(w), math.sin(w)
+        return amp * (p * cw - q * sw), amp * (p * sw + q * cw)
+    return si / math.sqrt(2.0 * math.pi * v), sk * math.sqrt(0.5 * math.pi / v)
+
+
 @numba.njit(cache=True, parallel=True)
 def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
     """Bessel values where ``x >= xmin`` (others untouched): ``osc`` True:
@@ -284,23 +304,15 @@ def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
             v = x[r, j]
             if v < xmin:
                 continue
-            p0, q0, k0, i0 = _hankel_pq(v, a0)
-            p1, q1, k1, i1 = _hankel_pq(v, a1)
-            if osc[r]:
-                amp = math.sqrt(2.0 / (math.pi * v))
-                w0 = v - 0.25 * math.pi
-                w1 = v - 0.75 * math.pi
-                cw0, sw0 = math.cos(w0), math.sin(w0)
-                cw1, sw1 = math.cos(w1), math.sin(w1)
-                b0[r, j] = amp * (p0 * cw0 - q0 * sw0)
-                c0[r, j] = amp * (p0 * sw0 + q0 * cw0)
-                b1[r, j] = amp * (p1 * cw1 - q1 * sw1)
-                c1[r, j] = amp * (p1 * sw1 + q1 * cw1)
-            else:
-                b0[r, j] = i0 / math.sqrt(2.0 * math.pi * v)
-                c0[r, j] = k0 * math.sqrt(0.5 * math.pi / v)
-                b1[r, j] = i1 / math.sqrt(2.0 * math.pi * v)
-                c1[r, j] = k1 * math.sqrt(0.5 * math.pi / v)
+            b0[r, j], c0[r, j] = _bessel_at(v, osc[r], a0, 0.25 * math.pi)
+            b1[r, j], c1[r, j] = _bessel_at(v, osc[r], a1, 0.75 * math.pi)
+
+
+def _bessel_small(x, osc):
+    """``(f0, g0, f1, g1)`` of :func:`_bessel` by scipy (for ``x < _ASYMPTOTIC_X``)."""
+    if osc:
+        return sp.j0(x), sp.y0(x), sp.j1(x), sp.y1(x)
+    return sp.i0e(x), sp.k0e(x), sp.i1e(x), sp.k1e(x)
 
 
 def _bessel(x, osc):
@@ -312,15 +324,29 @@ def _bessel(x, osc):
     g1 = np.empty_like(x)
     _bessel_large(x, osc, _A0, _A1, f0, f1, g0, g1, _ASYMPTOTIC_X)
     small = x < _ASYMPTOTIC_X
-    so = small & osc[:, None]
-    if so.any():
-        v = x[so]
-        f0[so], g0[so], f1[so], g1[so] = sp.j0(v), sp.y0(v), sp.j1(v), sp.y1(v)
-    sd = small & ~osc[:, None]
-    if sd.any():
-        v = x[sd]
-        f0[sd], g0[sd], f1[sd], g1[sd] = sp.i0e(v), sp.k0e(v), sp.i1e(v), sp.k1e(v)
+    for kind in (True, False):
+        sel = small & (osc[:, None] == kind)
+        if sel.any():
+            f0[sel], g0[sel], f1[sel], g1[sel] = _bessel_small(x[sel], kind)
     return f0, g0, f1, g1
+
+
+@numba.njit(cache=True)
+def _small_arguments(k, rho, xmin):  # pragma: no cover
+    """The arguments ``k[r] rho[j] < xmin`` (``rho`` ascending: a first run of nodes per
+    row), row after row, and where each row's run starts (``starts[r] : starts[r + 1]``)."""
+    m = k.size
+    starts = np.zeros(m + 1, dtype=np.int64)
+    for r in range(m):
+        c = 0
+        while c < rho.size and k[r] * rho[c] < xmin:
+            c += 1
+        starts[r + 1] = starts[r] + c
+    x = np.empty(starts[m])
+    for r in range(m):
+        for c in range(starts[r + 1] - starts[r]):
+            x[starts[r] + c] = k[r] * rho[c]
+    return x, starts
 
 
 @numba.njit(cache=True)
@@ -335,90 +361,14 @@ def _cumulate(sflat, off, vals, out):  # pragma: no cover
         out[a] = acc
 
 
-@numba.njit(cache=True, parallel=True)
-def _tables(
-    rho, rbig, jac, gw, starts, lo, hi, sflat, soff, q2, sigma, r0, f0, g0, f1, g1, f, df
-):  # pragma: no cover
-    """``F`` and ``F'`` at the nodes (module notes) for rows ``(q2 1/m^2, sigma 1/m)``,
-    from the Bessel values ``f0, g0, f1, g1`` of :func:`_bessel`."""
-    m, n = f0.shape
-    n_panels = lo.size
-    p_max = 0
-    for i in range(n_panels):
-        p_max = max(p_max, starts[i + 1] - starts[i])
-    for r in numba.prange(m):
-        g = np.empty(n, dtype=np.complex128)
-        ca = np.empty(n, dtype=np.complex128)
-        cb = np.empty(n, dtype=np.complex128)
-        va = np.empty(p_max, dtype=np.complex128)
-        vb = np.empty(p_max, dtype=np.complex128)
-        oa = np.empty(p_max, dtype=np.complex128)
-        ob = np.empty(p_max, dtype=np.complex128)
-        for j in range(n):
-            g[j] = np.exp(-sigma[r] * (rbig[j] - r0)) / rbig[j] * rho[j] * jac[j]
-        osc = q2[r] > 0.0
-        kap = math.sqrt(abs(q2[r]))
-        # forward: J0 G t (osc) or exp(-kap (rho - t)) i0e G t; backward (decaying):
-        # exp(-kap (t - rho)) k0e G t
-        base_a = 0.0j
-        base_b = 0.0j
-        for i in range(n_panels):
-            s0, s1 = starts[i], starts[i + 1]
-            p = s1 - s0
-            tot_a = 0.0j
-            tot_b = 0.0j
-            for a in range(p):
-                j = s0 + a
-                if osc:
-                    va[a] = f0[r, j] * g[j]
-                    vb[a] = g0[r, j] * g[j]
-                else:
-                    va[a] = f0[r, j] * g[j] * math.exp(kap * (rho[j] - lo[i]))
-                tot_a += gw[j] * va[a]
-                tot_b += gw[j] * vb[a]
-            _cumulate(sflat, soff[i], va[:p], oa)
-            if osc:
-                _cumulate(sflat, soff[i], vb[:p], ob)
-                for a in range(p):
-                    ca[s0 + a] = base_a + oa[a]
-                    cb[s0 + a] = base_b + ob[a]
-                base_a += tot_a
-                base_b += tot_b
-            else:
-                for a in range(p):
-                    j = s0 + a
-                    ca[j] = (base_a + oa[a]) * math.exp(-kap * (rho[j] - lo[i]))
-                base_a = (base_a + tot_a) * math.exp(-kap * (hi[i] - lo[i]))
-        if not osc:
-            base_b = 0.0j
-            for i in range(n_panels - 1, -1, -1):
-                s0, s1 = starts[i], starts[i + 1]
-                p = s1 - s0
-                tot_b = 0.0j
-                for a in range(p):
-                    j = s0 + a
-                    vb[a] = g0[r, j] * g[j] * math.exp(kap * (hi[i] - rho[j]))
-                    tot_b += gw[j] * vb[a]
-                _cumulate(sflat, soff[i], vb[:p], ob)
-                for a in range(p):
-                    j = s0 + a
-                    cb[j] = (base_b + tot_b - ob[a]) * math.exp(-kap * (hi[i] - rho[j]))
-                base_b = (base_b + tot_b) * math.exp(-kap * (hi[i] - lo[i]))
-        for j in range(n):
-            if osc:
-                f[r, j] = 0.5 * math.pi * (g0[r, j] * ca[j] - f0[r, j] * cb[j])
-                df[r, j] = 0.5 * math.pi * kap * (-g1[r, j] * ca[j] + f1[r, j] * cb[j])
-            else:
-                f[r, j] = -(f0[r, j] * cb[j] + g0[r, j] * ca[j])
-                df[r, j] = -kap * (f1[r, j] * cb[j] - g1[r, j] * ca[j])
-
-
 @numba.njit(cache=True)
-def _parts(x, s, so, h, n, ce, scale):  # pragma: no cover
+def _parts(x, s, so, h, n, ce, scale, interior, edge):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of a trial factor (normalised, see
-    :func:`synth.sound.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``."""
-    u, e = factor_parts(x, s, so, h, n)
-    return scale * u, scale * ce * e
+    :func:`synth.sound.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``; a part
+    not asked for (``interior``, ``edge`` False) is 0."""
+    u = scale * interior_part(x, s, h, n) if interior else 0.0
+    e = scale * ce * edge_part(x, s, so, h, n) if edge else 0.0
+    return u, e
 
 
 @numba.njit(cache=True)
@@ -454,12 +404,147 @@ def _slopes(x, s, so, h, n, ce, scale):  # pragma: no cover
     return scale * du, scale * ce * de
 
 
-@numba.njit(cache=True, parallel=True)
-def _edge_sums(
-    table,
+@numba.njit(cache=True)
+def _row_tables(
+    r,
+    rho,
+    rbig,
+    jac,
+    gw,
+    starts,
+    lo,
+    hi,
+    on_edge,
+    sflat,
+    soff,
+    q2,
+    sigma,
+    r0,
+    small_x,
+    small_at,
+    small,
+    a0,
+    a1,
     f,
     df,
+):  # pragma: no cover
+    """``F`` and ``F'`` (module notes) of row ``r`` ``(q2 1/m^2, sigma 1/m)`` into ``f``,
+    ``df`` at the nodes of the panels ``on_edge`` (the others are left untouched: only
+    their totals enter). Bessel values from the Hankel expansions, below ``small_x`` from
+    ``small`` (rows ``f0, g0, f1, g1``, this row's from ``small_at``)."""
+    n = rho.size
+    n_panels = lo.size
+    p_max = 0
+    for i in range(n_panels):
+        p_max = max(p_max, starts[i + 1] - starts[i])
+    g = np.empty(n, dtype=np.complex128)
+    f0 = np.empty(n)
+    g0 = np.empty(n)
+    ca = np.empty(n, dtype=np.complex128)
+    cb = np.empty(n, dtype=np.complex128)
+    va = np.empty(p_max, dtype=np.complex128)
+    vb = np.empty(p_max, dtype=np.complex128)
+    oa = np.empty(p_max, dtype=np.complex128)
+    ob = np.empty(p_max, dtype=np.complex128)
+    osc = q2 > 0.0
+    kap = math.sqrt(abs(q2))
+    for j in range(n):
+        g[j] = np.exp(-sigma * (rbig[j] - r0)) / rbig[j] * rho[j] * jac[j]
+        x = kap * rho[j]
+        if x < small_x:
+            f0[j] = small[0, small_at + j]
+            g0[j] = small[1, small_at + j]
+        else:
+            f0[j], g0[j] = _bessel_at(x, osc, a0, 0.25 * math.pi)
+    # forward: J0 G t (osc) or exp(-kap (rho - t)) i0e G t; backward (decaying):
+    # exp(-kap (t - rho)) k0e G t
+    base_a = 0.0j
+    base_b = 0.0j
+    for i in range(n_panels):
+        s0, s1 = starts[i], starts[i + 1]
+        p = s1 - s0
+        tot_a = 0.0j
+        tot_b = 0.0j
+        for a in range(p):
+            j = s0 + a
+            if osc:
+                va[a] = f0[j] * g[j]
+                vb[a] = g0[j] * g[j]
+            else:
+                va[a] = f0[j] * g[j] * math.exp(kap * (rho[j] - lo[i]))
+            tot_a += gw[j] * va[a]
+            tot_b += gw[j] * vb[a]
+        if on_edge[i]:
+            _cumulate(sflat, soff[i], va[:p], oa)
+        if osc:
+            if on_edge[i]:
+                _cumulate(sflat, soff[i], vb[:p], ob)
+                for a in range(p):
+                    ca[s0 + a] = base_a + oa[a]
+                    cb[s0 + a] = base_b + ob[a]
+            base_a += tot_a
+            base_b += tot_b
+        else:
+            if on_edge[i]:
+                for a in range(p):
+                    j = s0 + a
+                    ca[j] = (base_a + oa[a]) * math.exp(-kap * (rho[j] - lo[i]))
+            base_a = (base_a + tot_a) * math.exp(-kap * (hi[i] - lo[i]))
+    if not osc:
+        base_b = 0.0j
+        for i in range(n_panels - 1, -1, -1):
+            s0, s1 = starts[i], starts[i + 1]
+            p = s1 - s0
+            tot_b = 0.0j
+            for a in range(p):
+                j = s0 + a
+                vb[a] = g0[j] * g[j] * math.exp(kap * (hi[i] - rho[j]))
+                tot_b += gw[j] * vb[a]
+            if on_edge[i]:
+                _cumulate(sflat, soff[i], vb[:p], ob)
+                for a in range(p):
+                    j = s0 + a
+                    cb[j] = (base_b + tot_b - ob[a]) * math.exp(-kap * (hi[i] - rho[j]))
+            base_b = (base_b + tot_b) * math.exp(-kap * (hi[i] - lo[i]))
+    for i in range(n_panels):
+        if not on_edge[i]:
+            continue
+        for j in range(starts[i], starts[i + 1]):
+            x = kap * rho[j]
+            if x < small_x:
+                f1 = small[2, small_at + j]
+                g1 = small[3, small_at + j]
+            else:
+                f1, g1 = _bessel_at(x, osc, a1, 0.75 * math.pi)
+            if osc:
+                f[j] = 0.5 * math.pi * (g0[j] * ca[j] - f0[j] * cb[j])
+                df[j] = 0.5 * math.pi * kap * (-g1 * ca[j] + f1 * cb[j])
+            else:
+                f[j] = -(f0[j] * cb[j] + g0[j] * ca[j])
+                df[j] = -kap * (f1 * cb[j] - g1 * ca[j])
+
+
+@numba.njit(cache=True, parallel=True)
+def _part_integrals(
+    table,
     rho,
+    rbig,
+    jac,
+    gw,
+    starts,
+    lo,
+    hi,
+    on_edge,
+    sflat,
+    soff,
+    q2,
+    sigma,
+    r0,
+    small_x,
+    small_starts,
+    small,
+    a0,
+    a1,
     edge_axis,
     edge_high,
     edge_d,
@@ -484,20 +569,48 @@ def _edge_sums(
 ):  # pragma: no cover
     """``out[r] += Oint (psi dF/dn - F dpsi/dn) ds`` of one Helmholtz part of each row's
     trial product (``table`` 0: interior x interior, 1: interior x edge and edge x
-    interior, 2: edge x edge) with its table ``f``, ``df`` at the grid's nodes."""
+    interior, 2: edge x edge), its ``F`` (:func:`_row_tables`) at the boundary nodes."""
     m = out.size
+    n = rho.size
+    interior = table < 2
+    edge = table > 0
     for r in numba.prange(m):
+        f = np.empty(n, dtype=np.complex128)
+        df = np.empty(n, dtype=np.complex128)
+        _row_tables(
+            r,
+            rho,
+            rbig,
+            jac,
+            gw,
+            starts,
+            lo,
+            hi,
+            on_edge,
+            sflat,
+            soff,
+            q2[r],
+            sigma[r],
+            r0,
+            small_x,
+            small_starts[r],
+            small,
+            a0,
+            a1,
+            f,
+            df,
+        )
         acc = 0.0j
         for e in range(edge_axis.size):
             sign = 1.0 if edge_high[e] else -1.0
             d = edge_d[e]
             if edge_axis[e] == 0:  # x = const, along y
                 xe = ((a if edge_high[e] else 0.0) - 0.5 * a) / big
-                au, ae = _parts(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
+                au, ae = _parts(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r], interior, edge)
                 du, de = _slopes(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
             else:
                 xe = ((b if edge_high[e] else 0.0) - 0.5 * b) / big
-                au, ae = _parts(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
+                au, ae = _parts(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r], interior, edge)
                 du, de = _slopes(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
             du *= sign / big
             de *= sign / big
@@ -505,10 +618,10 @@ def _edge_sums(
                 j = edge_idx[jj]
                 if edge_axis[e] == 0:
                     t = (edge_pos[jj] - 0.5 * b) / big
-                    vu, ve = _parts(t, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
+                    vu, ve = _parts(t, sy[r], sx[r], hy, ny[r], cy[r], gy[r], interior, edge)
                 else:
                     t = (edge_pos[jj] - 0.5 * a) / big
-                    vu, ve = _parts(t, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
+                    vu, ve = _parts(t, sx[r], sy[r], hx, nx[r], cx[r], gx[r], interior, edge)
                 geo = d / rho[j]
                 if table == 0:
                     av = au * vu
@@ -519,9 +632,26 @@ def _edge_sums(
                 else:
                     av = ae * ve
                     bv = de * ve
-                val = av * df[r, j] * geo - bv * f[r, j]
+                val = av * df[j] * geo - bv * f[j]
                 acc += edge_w[jj] * val
         out[r] += acc
+
+
+def _small_bessel(k, rho, osc, on_node):
+    """Bessel values (rows ``f0, g0, f1, g1`` of :func:`_bessel`) at the arguments
+    ``k[r] rho[j] < _ASYMPTOTIC_X`` (:func:`_small_arguments`; ``f1, g1`` only at the
+    nodes ``on_node``, the others 0) and where each row's start."""
+    x, starts = _small_arguments(k, rho, _ASYMPTOTIC_X)
+    out = np.zeros((4, x.size))
+    if osc:
+        out[0], out[1] = sp.j0(x), sp.y0(x)
+    else:
+        out[0], out[1] = sp.i0e(x), sp.k0e(x)
+    node = np.arange(x.size) - np.repeat(starts[:-1], np.diff(starts))
+    sel = on_node[node]
+    if sel.any():
+        out[2][sel], out[3][sel] = _bessel_small(x[sel], osc)[2:]
+    return starts, out
 
 
 def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
@@ -534,12 +664,9 @@ def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
     omega = (sx + sy) / (big * big)
     out = np.zeros(trials.size, dtype=complex)
     for table, (grid, q2) in enumerate(zip(grids, (omega, -omega, -3.0 * omega))):
-        m, n = trials.size, grid.rho.size
-        f = np.empty((m, n), dtype=complex)
-        df = np.empty((m, n), dtype=complex)
-        k = np.sqrt(np.abs(q2))
-        f0, g0, f1, g1 = _bessel(k[:, None] * grid.rho[None, :], q2 > 0.0)
-        _tables(
+        small_starts, small = _small_bessel(np.sqrt(np.abs(q2)), grid.rho, table == 0, grid.on_node)
+        _part_integrals(
+            table,
             grid.rho,
             grid.r_big,
             grid.jac,
@@ -547,23 +674,17 @@ def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
             grid.starts,
             grid.lo,
             grid.hi,
+            grid.on_edge,
             grid.sflat,
             grid.soff,
             q2,
             sigma,
             r0,
-            f0,
-            g0,
-            f1,
-            g1,
-            f,
-            df,
-        )
-        _edge_sums(
-            table,
-            f,
-            df,
-            grid.rho,
+            _ASYMPTOTIC_X,
+            small_starts,
+            small,
+            _A0,
+            _A1,
             *grid.edge_arrays,
             sx,
             sy,
@@ -583,13 +704,26 @@ def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
     return out
 
 
+def _rate_steps(rate: np.ndarray) -> np.ndarray:
+    """Step of each radial rate (1/m) on the ladder ``_RATE_LADDER ** step``: the
+    smallest step at or above it (up to rounding)."""
+    return np.ceil(np.log(rate) / math.log(_RATE_LADDER)).astype(np.int64)
+
+
+def _on_ladder(rate: float) -> float:
+    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps`."""
+    return max(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0]), rate)
+
+
 def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_panel):
     """``Int phi_k exp(-q_k (R - r0)) / R dA`` of the edge effect modes ``modes_index``
     (indices into ``sol``'s modes), ``q = s / c`` per mode (1/m), on the plate ``size``
     (metres) with the microphone at ``listener``; and the number of radial nodes.
 
-    The terms (one per mode and trial, two for a pair) are taken in blocks of similar
-    radial rate ``k + |q|``, each block on radial panels sized for its own largest."""
+    The terms (one per mode and trial, two for a pair) are taken in groups of similar
+    radial rate ``k + |q|`` (:func:`_rate_steps`), each group on radial panels sized for
+    the top of its step (and its largest ``k`` rounded up to the ladder), so that
+    neighbouring groups share panels."""
     a, b = size
     big = max(a, b)
     trial = sol.trial[modes_index]
@@ -602,24 +736,26 @@ def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_pane
     rows_weight = np.concatenate([own, other[paired]])
     k_trial = np.sqrt(np.abs(sol.sx[rows_trial] + sol.sy[rows_trial])) / big
     rate = k_trial + np.abs(q[rows_mode])
-    order = np.argsort(rate, kind="stable")
     out = np.zeros(trial.size, dtype=complex)
     nodes = 0
-    for start in range(0, order.size, _BLOCK):
-        rows = order[start : start + _BLOCK]
+    w_max = half_phase(MAX_ORDER, tol_panel)
+    grids_made = {}
+    step = _rate_steps(rate)
+    for level in np.unique(step):
+        rows = np.flatnonzero(step == level)
         # the interior x interior part oscillates (no decay limit); the others decay
         # at k and sqrt(3) k
-        kmax = float(k_trial[rows].max())
-        k_osc = float(rate[rows].max())
-        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
-        made = {}
+        k_osc = max(_RATE_LADDER ** float(level), float(rate[rows].max()))
+        kmax = _on_ladder(float(k_trial[rows].max()))
+        h_osc = 2.0 * w_max / k_osc
         grids = []
         for kappa in (0.0, kmax, math.sqrt(3.0) * kmax):
             if kappa * h_osc <= _DECAY_PANEL:  # the decay limit does not bind
                 kappa = 0.0
-            if kappa not in made:
-                made[kappa] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
-            grids.append(made[kappa])
+            key = (k_osc, kappa)
+            if key not in grids_made:
+                grids_made[key] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
+            grids.append(grids_made[key])
         nodes = max(nodes, max(g.rho.size for g in grids))
         vals = _entry_integrals(
             grids, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big

@@ -180,8 +180,8 @@ def min_order(tol: float) -> int:
 def _exp_scaled(u, halvings):
     """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
     the squarings as selects rather than a loop: a loop of variable length inside the
-    loop over modes stops it from vectorising (the values are those of
-    :func:`synth.vecmath.exp_squared`, bit for bit)."""
+    loop over modes stops it from vectorising (``halvings`` squarings of
+    :func:`synth.vecmath.exp_small`)."""
     e = exp_small(u)
     e = e * e if halvings >= 1 else e
     e = e * e if halvings >= 2 else e

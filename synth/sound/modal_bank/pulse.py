@@ -1,0 +1,265 @@
+"""One contact's pulse as the modal bank takes it (see :mod:`synth.sound.modal_bank`).
+
+Its uniform grid (:func:`pulse_grid`, :func:`pulse_layout`), the transforms at the poles
+(:func:`transform_pulse`, compiled, which the live engine's audio thread calls too;
+:func:`pulse_transforms` for its checks) and the modes' excitation by one impact
+(:func:`impact_excitation`): amplitudes at the first sample after the contact and the
+exact response inside it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
+from synth.sound.modal_bank.transform_kernels import (
+    WORK_ROWS,
+    impact_transform,
+    long_impact_transform,
+)
+
+#: Fewest points of the uniform grid on which a pulse's transforms are taken.
+PULSE_POINTS = 65
+
+#: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
+#: for :func:`impact_transform`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and
+#: ``|e^(p d)|^2`` reaches ``e^(-2 sigma tau)``: both stay inside float64 (about
+#: ``e^(+-708)``) with a margin. Longer contacts (a heavy ball resting on a damped
+#: plate) go to :func:`long_impact_transform`.
+LONG_CONTACT_NEPERS = 300.0
+
+
+def _grid_size(tau, omega_max, min_points=PULSE_POINTS):
+    """Points of the uniform pulse grid over a contact of ``tau`` s: an odd number (for
+    the extrapolation), at least ``min_points``, with a step ``h`` such that
+    ``omega_max h <= pi / 4`` (8 points a period of the highest mode)."""
+    n = max(min_points, int(math.ceil(4.0 * omega_max * tau / math.pi)) + 1)
+    return n + 1 - n % 2
+
+
+def pulse_grid(result, omega_max, min_points=PULSE_POINTS):
+    """Uniform grid of a pulse fine enough for the transform: ``(h, forces)``.
+
+    ``omega_max`` (rad/s) is the highest mode's angular frequency; the grid has at least
+    ``min_points`` points and a step ``h`` (s) with ``omega_max h <= pi / 4``; ``forces``
+    in N.
+    """
+    tau = result.contact_time
+    n = _grid_size(tau, omega_max, min_points)
+    h = tau / (n - 1)
+    u = np.arange(n) * h
+    f = result.force_at(u)
+    return h, np.ascontiguousarray(f)
+
+
+def pulse_transforms(result, poles, omega_max=None):
+    """Laplace transforms ``L_k = Int_0^tau F(u) exp(-p_k u) du`` of an impact's force
+    pulse at the poles ``p_k`` (rad/s), N s, by the rule the renderer uses (trapezoid
+    rule on :func:`pulse_grid`'s grid for ``omega_max``, rad/s; default the highest
+    ``|Im p_k|``). A settled contact's remaining weight is not included."""
+    poles = np.ascontiguousarray(poles, dtype=complex)
+    if omega_max is None:
+        omega_max = highest_frequency(poles)
+    h, f = pulse_grid(result, omega_max)
+    out = np.empty(poles.size, dtype=complex)
+    one = np.ones(poles.size)
+    zero = np.zeros(poles.size)
+    impact_transform(
+        np.ascontiguousarray(poles.real),
+        np.ascontiguousarray(poles.imag),
+        one,
+        zero,
+        one,
+        zero,
+        1.0,
+        h,
+        f,
+        np.zeros(f.size),
+        0.0,
+        np.zeros(0),
+        np.zeros(0),
+        0.0,
+        result.contact_time,
+        result.exponent + 1.0,
+        out,
+        np.zeros(0),
+        transform_workspace(poles.size),
+    )
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactExcitation:
+    """One impact as the modal bank takes it.
+
+    Attributes
+    ----------
+    amplitudes : complex ndarray (K,)
+        The modes' ringing, referred to sample ``inject`` (listener units).
+    inject : int
+        The first sample after the contact, where the amplitudes join the bank's state.
+    first : int
+        The first sample inside the contact.
+    response : ndarray (M,)
+        The exact listener response at the in-contact samples ``first .. first + M - 1``.
+    forces : ndarray (M,)
+        The contact force there, N (for an accelerometer's direct term).
+    magnitude : float
+        ``sum_k |amplitudes_k|`` (listener units): a bound of the tick's peak.
+    """
+
+    amplitudes: np.ndarray
+    inject: int
+    first: int
+    response: np.ndarray
+    forces: np.ndarray
+    magnitude: float
+
+
+@numba.njit(cache=True)
+def transform_pulse(
+    pr,
+    pi,
+    cr,
+    ci,
+    ur,
+    ui,
+    sigma_max,
+    period,
+    h,
+    forces,
+    slopes,
+    d0,
+    offset_forces,
+    offset_slopes,
+    weight,
+    tau,
+    order,
+    amps,
+    resp,
+    work,
+):
+    """One impact's mode amplitudes and in-contact response: :func:`impact_transform` (its
+    arguments, its result), or :func:`long_impact_transform` when the contact of ``tau`` s lasts
+    more than ``LONG_CONTACT_NEPERS`` time constants of the fastest-decaying mode
+    (``sigma_max``, 1/s). Compiled, so that the live engine's audio thread calls it too."""
+    if sigma_max * tau > LONG_CONTACT_NEPERS:
+        return long_impact_transform(
+            pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
+            offset_forces, offset_slopes, weight, tau, order, amps, resp, work,
+        )  # fmt: skip
+    return impact_transform(
+        pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
+        offset_forces, offset_slopes, weight, tau, order, amps, resp, work,
+    )  # fmt: skip
+
+
+def transform_workspace(modes: int) -> np.ndarray:
+    """The workspace of :func:`transform_pulse` for ``modes`` modes."""
+    return np.empty((WORK_ROWS, modes))
+
+
+@dataclass(slots=True)
+class PulseLayout:
+    """Where one contact's pulse is sampled for its transforms (see :func:`impact_transform`):
+    ``points`` grid points ``j step`` (s) from first touch, and the ``samples`` audio
+    samples inside the contact, ``first .. first + samples - 1``, the first of them
+    ``offset`` s (in ``[0, 1 / samplerate)``) after first touch."""
+
+    points: int
+    step: float
+    first: int
+    samples: int
+    offset: float
+
+    @property
+    def inject(self) -> int:
+        """The first sample after the contact, where the mode amplitudes join the bank."""
+        return self.first + self.samples
+
+
+def pulse_layout(
+    contact_time: float, onset: float, omega_max: float, samplerate: float, pulse_points: int
+) -> PulseLayout:
+    """The :class:`PulseLayout` of a contact of ``contact_time`` s whose first touch is at
+    ``onset`` s from sample 0, for modes up to ``omega_max`` rad/s at ``samplerate`` Hz,
+    with at least ``pulse_points`` grid points (the kernel guards the rounding of a sample
+    that falls on the touch)."""
+    fs = samplerate
+    n = _grid_size(contact_time, omega_max, pulse_points)
+    first = int(math.ceil(onset * fs - 1e-9))
+    samples = max(0, int(math.ceil((onset + contact_time) * fs - 1e-9)) - first)
+    return PulseLayout(n, contact_time / (n - 1), first, samples, first * (1.0 / fs) - onset)
+
+
+def impact_excitation(
+    coefficients: BankCoefficients,
+    result,
+    onset: float,
+    *,
+    weight=0.0,
+    pulse_points=PULSE_POINTS,
+    amplitudes=None,
+    response=None,
+    work=None,
+) -> ImpactExcitation:
+    """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
+    touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
+    sample after the contact and its exact response inside it (see ``impact_transform``).
+
+    weight: ``m g`` (N) left on the plate after a settled contact, else 0; pulse_points:
+    fewest points of the pulse grid; amplitudes: an optional (K,) complex array to write
+    the amplitudes into; response: an optional float array to write the in-contact
+    response into (at least :func:`samples_in_contact` long); work: an optional
+    :func:`transform_workspace` of the K modes.
+    """
+    c = coefficients
+    fs = c.samplerate
+    tau = result.contact_time
+    lay = pulse_layout(tau, onset, c.omega_max, fs, pulse_points)
+    n, M = lay.points, lay.samples
+    forces, slopes = result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M)
+    if response is None:
+        resp = np.empty(M)
+    elif response.size < M:
+        raise ParameterError(
+            f"response has {response.size} samples; the contact of {tau!r} s at "
+            f"samplerate={fs!r} Hz needs {M}"
+        )
+    else:
+        resp = response[:M]
+    amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
+    magnitude = transform_pulse(
+        c.pole_re,
+        c.pole_im,
+        c.coef_re,
+        c.coef_im,
+        c.step_re,
+        c.step_im,
+        c.sigma_max,
+        1.0 / fs,
+        lay.step,
+        forces[:n],
+        slopes[:n],
+        lay.offset,
+        forces[n:],
+        slopes[n:],
+        float(weight),
+        tau,
+        result.exponent + 1.0,
+        amps,
+        resp,
+        transform_workspace(c.poles.size) if work is None else work,
+    )
+    return ImpactExcitation(amps, lay.inject, lay.first, resp, forces[n:], magnitude)
+
+
+def samples_in_contact(contact_time: float, samplerate: float) -> int:
+    """Most audio samples (at ``samplerate`` Hz) that a contact of ``contact_time`` s
+    can span, wherever it starts (see :func:`impact_excitation`)."""
+    return int(math.ceil(contact_time * samplerate)) + 1

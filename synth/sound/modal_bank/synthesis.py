@@ -1,0 +1,151 @@
+"""The modal bank over a bounce sequence: :func:`synthesize` (see
+:mod:`synth.sound.modal_bank`)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.sound.modal_bank.bank_kernels import TILE, ring_bank
+from synth.sound.modal_bank.coefficients import bank_coefficients
+from synth.sound.modal_bank.pulse import PULSE_POINTS, impact_excitation, transform_workspace
+
+
+def synthesize(
+    impacts,
+    onsets,
+    poles,
+    excitation,
+    output,
+    samplerate,
+    *,
+    floor,
+    settled_weight=None,
+    direct=None,
+    max_samples=None,
+    pulse_points=PULSE_POINTS,
+):
+    """Mix the ringing of every mode after every impact.
+
+    Parameters
+    ----------
+    impacts : sequence of ImpactResult
+        The contacts, in time order.
+    onsets : ndarray (I,)
+        Each contact's start on the audio timeline, s (float, sub-sample).
+    poles : complex ndarray (K,)
+        ``p_k = -sigma_k + i omega_dk``, rad/s (all below Nyquist).
+    excitation : ndarray (K,)
+        ``b_k = phi_k(x0) / M_k``, 1/kg.
+    output : complex ndarray (K,)
+        Listener gain per unit modal displacement ``q_k`` at the pole: ``phi_k(xp) p_k^2``
+        for acceleration, ``G_k p_k`` for a microphone.
+    samplerate : float
+        Hz.
+    floor : float
+        Omission floor, a fraction of the reference amplitude (see :mod:`synth.sound.modal_bank`).
+    settled_weight : sequence of float or None
+        For a settled impact, the weight ``m g`` (N) that stays on the plate after its
+        contact time (its step adds ``m g exp(-p tau) / p`` to the transform); else None.
+    direct : ndarray (K,) or None
+        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts.
+    max_samples : int
+        Length cap of the output.
+    pulse_points : int >= 5
+        Fewest points of each pulse's grid for the transforms (an odd number is used).
+
+    Returns
+    -------
+    (audio float64 (S,), info dict: n_modes_rendered, mode_samples, reference, length)
+    """
+    fs = float(samplerate)
+    onsets = np.asarray(onsets, dtype=float)
+    if onsets.size and not np.min(onsets) >= 0.0:
+        raise ParameterError(
+            f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
+            f"(from the first sample of the audio)"
+        )
+    coefficients = bank_coefficients(poles, excitation, output, fs)
+    poles = coefficients.poles
+    K = poles.size
+    I = len(impacts)
+    amps = np.zeros((I, K), dtype=complex)
+    inject = np.zeros(I, dtype=np.int64)
+    contact_samples = []  # per impact: in-contact sample indices, responses there, forces there
+    work = transform_workspace(K)
+    for i, (res, t0) in enumerate(zip(impacts, onsets)):
+        weight = float(settled_weight[i]) if settled_weight is not None else 0.0
+        ex = impact_excitation(
+            coefficients,
+            res,
+            float(t0),
+            weight=weight,
+            pulse_points=pulse_points,
+            amplitudes=amps[i],
+            work=work,
+        )
+        inject[i] = ex.inject
+        contact_samples.append(
+            (ex.first + np.arange(ex.response.size, dtype=np.int64), ex.response, ex.forces)
+        )
+    reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
+    thr = floor * reference / max(K, 1)
+    # a mode whose amplitudes add up to at most its share is left out whole
+    total = np.sum(np.abs(amps), axis=0) if I else np.zeros(K)
+    keep = total > thr
+    # buffer: until every kept mode's state is below half its share (the sum of its
+    # amplitudes bounds its state after the last impact), so that with what it has left
+    # out before it can stop; trimmed below to what was written
+    if I and keep.any():
+        sig = -poles.real[keep]
+        t_tail = np.log(np.maximum(2.0 * total[keep] / max(thr, 1e-300), 1.0)) / np.maximum(
+            sig, 1e-12
+        )
+        length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + TILE)
+    else:
+        length = int(inject[-1] + 1) if I else 1
+    if max_samples is not None:
+        length = min(length, int(max_samples))
+    out = np.zeros(length)
+    t_bank = time.perf_counter()
+    work, last, left = (
+        ring_bank(
+            out,
+            fs,
+            poles[keep],
+            np.ascontiguousarray(amps[:, keep]),
+            inject,
+            np.full(int(keep.sum()), thr),
+        )
+        if keep.any()
+        else (0, 0, 0.0)
+    )
+    t_bank = time.perf_counter() - t_bank
+    mass_line = float(np.sum(direct.real)) if direct is not None else 0.0
+    for idx, resp, off_f in contact_samples:
+        ok = idx < length
+        if not ok.any():
+            continue
+        out[idx[ok]] += resp[ok]
+        if direct is not None:
+            out[idx[ok]] += off_f[ok] * mass_line
+        last = max(last, int(idx[ok][-1]) + 1)
+    length = max(1, min(length, last))
+    out = out[:length]
+    # what is left out at the end of the audio: the kept modes' remainder there, and the
+    # modes left out whole (each at most its share)
+    left += float(np.sum(total[~keep]))
+    info = dict(
+        n_modes=K,
+        n_modes_rendered=int(keep.sum()),
+        mode_samples=int(work),
+        reference=reference,
+        threshold=thr,
+        length=length,
+        bank_seconds=t_bank,
+        left_at_end=left,
+    )
+    return out, info
