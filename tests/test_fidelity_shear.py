@@ -3,7 +3,6 @@
 thesis` prints. ``G_t = E_t / (2 (1 + nu))`` is tied to the fitted through-thickness modulus
 (no parameter is added); the 12 mm board is a prediction."""
 
-import numpy as np
 import pytest
 
 from synth import bench
@@ -46,8 +45,8 @@ def test_impedance_table_3_4(rows):
     # The modes of the free board's middle sum to the infinite plate with the same G_t (2 %,
     # as for the isotropic Mindlin plate); the row adds the residual's share below the band
     # (the infinite plate's modes above the band, reactive below it but for their damping:
-    # the row lies within 12 % below the modes' sum). The tied G_t softens the 18 mm board far below
-    # the hammer's 1271 / 389 / 168 N s/m (issue 14's 10 % is missed at all three:
+    # the row lies within 12 % below the modes' sum). The tied G_t softens the 18 mm board
+    # far below the hammer's 1271 / 389 / 168 N s/m (issue 14's 10 % is missed at all three:
     # docs/validation.md gives the G_t each measurement alone would need).
     import math
 
@@ -72,14 +71,15 @@ def test_impedance_table_3_4(rows):
 @pytest.mark.slow
 def test_restitution_middle_and_edge(rows):
     # issue 14's target, e = 0.76 within 0.02 (mu fitted on the thin plate, not refitted):
-    # missed by 4e-4 (0.780) since the residual no longer takes energy below the band (its
-    # one-pole's real part did: 0.755), asserted at its measured value within 0.025;
-    # at the edge "about 5 %" below Eichler's 0.63 (0.60 +- 0.03, its two figures): missed
-    # by 3e-3 for the same reason (0.633), asserted between the measurement and 0.65
+    # missed by 1e-4 (measured 0.7801); at the edge "about 5 %" below Eichler's 0.63 (0.60 +-
+    # 0.03, its two figures): missed by 3e-3 (measured 0.6330). On this soft shear the
+    # residual (the infinite plate's modes above the band) is reactive below the band and
+    # takes no energy from the contact (docs/validation.md). Each miss is asserted as one,
+    # under 1e-3 and 5e-3.
     r = rows["restitution at middle, transverse-shear model, steel 10.0 mm on 18 mm (1.4 m/s)"]
-    assert r["engine"] == pytest.approx(0.76, abs=0.025)
+    assert 0.0 < r["engine"] - (0.76 + 0.02) < 1e-3, r
     r = rows["restitution at a long edge, transverse-shear model, steel 10.0 mm on 18 mm (1.4 m/s)"]
-    assert 0.60 < r["engine"] < 0.65
+    assert 0.0 < r["engine"] - (0.60 + 0.03) < 5e-3, r
 
 
 @pytest.mark.slow
@@ -93,14 +93,14 @@ def test_contact_times_table_3_3(rows):
 
 @pytest.mark.slow
 def test_critical_distances_table_3_3(rows):
-    # issue 14's target, inside the measured range +- 5 mm: met on the 18 mm board (the fit
-    # board); on the 12 mm board (a prediction) the distance stays beyond it (the fitted
+    # issue 14's target, inside the measured range +- 5 mm: on the 18 mm board (the fit board)
+    # missed by 0.7 mm (measured 50.7 mm against 35-45 mm; asserted as a miss under 1 mm: the
+    # contact is lengthened by the soft shear's local compliance, which the residual carries);
+    # on the 12 mm board (a prediction) the distance stays beyond it (the fitted
     # contact is long and the shear slows its waves too little there: docs/validation.md)
-    # On the 18 mm board missed by 0.7 mm (50.7 mm) since the residual stopped taking energy
-    # below the band; asserted within 1 mm of the target's upper end
     r = rows["critical distance, transverse-shear model, steel 10.0 mm on 18 mm"]
     lo, hi = r["measured"]
-    assert lo - 5e-3 <= r["engine"] <= hi + 6e-3, r
+    assert 0.0 < r["engine"] - (hi + 5e-3) < 1e-3, r
     r = rows["critical distance, transverse-shear model, steel 10.0 mm on 12 mm"]
     assert r["engine"] > r["measured"][1] + 5e-3, r
 
@@ -108,16 +108,16 @@ def test_critical_distances_table_3_3(rows):
 @pytest.mark.slow
 def test_restitution_gaps_section_3_2(rows):
     # issue 14's target for the gaps to the thesis' model: the sign right and the size within
-    # half. The 12 mm board's prediction (measured 5-10 % below) has the sign right but the
-    # size short (-0.5 %) since the residual stopped taking energy below the band; on the
-    # 18 mm board at 1 m/s the sign is right but the size short of the measured -18 % (a
+    # half. Missed by the 12 mm board's prediction (measured 5-10 % below): the sign is right
+    # but the size short, -0.5 % (asserted as that miss: below zero, above half of -5 %); on
+    # the 18 mm board at 1 m/s the sign is right but the size short of the measured -18 % (a
     # Hunt-Crossley loss falls with the speed: docs/validation.md).
     r = rows[
         "restitution gap to the thesis' model (engine / model - 1), transverse-shear model, "
         "steel 10.0 mm on 12 mm (1.4 m/s)"
     ]
     assert r["measured"] == [-0.10, -0.05]
-    assert -0.10 - 0.025 <= r["engine"] < 0.0, r
+    assert -0.05 / 2.0 < r["engine"] < 0.0, r
     r = rows[
         "restitution gap to the thesis' model (engine / model - 1), transverse-shear model, "
         "steel 10.0 mm on 18 mm (1 m/s)"
@@ -130,9 +130,10 @@ def test_what_each_measurement_alone_asks_of_g_t():
     # The sensitivity table: the G_t fitted alone on a measurement reproduces it (the root
     # finder's 1e-6 in G_t / G, 1e-3 in the figure); the tied value is E_t / E. A lower G_t
     # slows the 2.5 kHz group and softens the middle monotonically (the dispersion relation).
-    # The critical distance is not monotonic: at G_t / G ~ 0.12 the residual's local shear
-    # compliance (the infinite plate's modes above the band) lengthens the contact so much
-    # that it exceeds the isotropic plate's; it is asserted found (finite) only.
+    # The tied G_t shortens the 10 mm steel ball's critical distance (the edge's waves return
+    # later: measured 50.7 against 55.5 mm isotropic); the G_t fitted alone on 571 m/s does
+    # not: measured 119 mm, its contact the longest (246 us: the soft shear's local
+    # compliance, which the residual carries). Asserted as that reversal (docs/validation.md).
     from synth.physics.materials import MDF_SURFACE
 
     table = bench.transverse_shear_sensitivity()
@@ -148,4 +149,6 @@ def test_what_each_measurement_alone_asks_of_g_t():
     for key in ("group_speed", "impedance"):
         values = [r[key] for r in table]
         assert values == sorted(values, reverse=True)
-    assert all(np.isfinite(r["critical_distance"]) for r in table)
+    isotropic, tied, fast = (table[0], by_label["tied to the fitted E_t"], table[-1])
+    assert tied["critical_distance"] < isotropic["critical_distance"] - 4e-3
+    assert fast["critical_distance"] > isotropic["critical_distance"] + 5e-3

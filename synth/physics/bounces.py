@@ -11,7 +11,8 @@ Each impact is solved from first principles at its own speed (restitution
 depends on speed). The series would go on forever (Zeno); it ends by the first
 of these rules, named in :attr:`BounceSequence.stop_reason`:
 
-* ``"settled"``: the ball did not separate (physical: it rests on the plate);
+* ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
+  before the top of its flight (physical: it rests on the plate);
 * ``"flight-shorter-than-contact"``: the next flight ``2 v_out / g`` is shorter
   than the contact itself, so the ball no longer leaves the plate in any audible
   sense (physical: it rolls into rest);
@@ -346,11 +347,17 @@ def _modal_bounces(
         flight, state = modal_contact.next_touch(
             contact, res.ringing, res.ringing.displacement, v_out
         )
+        v_next = g * flight - v_out
+        if not v_next > 0.0:
+            # the ringing plate meets the ball before the top of its flight: the ball no
+            # longer flies free of the plate's motion, it rides it (rests on the plate)
+            reason = "settled"
+            break
         t_next = t + res.contact_time + flight
         if t_next > t_max:
             reason = "max-duration"
             break
-        t, v = t_next, g * flight - v_out
+        t, v = t_next, v_next
     return BounceSequence(tuple(impacts), reason, h0, g)
 
 
