@@ -374,7 +374,7 @@ def _cmd_play(args):
     from synth.live import Engine
 
     scene, render_section, _ = load_preset_with_options(args.preset, args.overrides)
-    fs = args.samplerate or int(render_section.get("samplerate", 48000))
+    fs = args.samplerate or int(render_section["samplerate"])
     engine = Engine(
         samplerate=fs, blocksize=args.blocksize, device=args.device, latency=args.latency
     )

@@ -47,19 +47,30 @@ def levinson_predictor(r: np.ndarray) -> np.ndarray:
     return np.concatenate(([1.0], solve_toeplitz(r[:order], -r[1:])))
 
 
-def autocorrelation(x: np.ndarray, order: int) -> np.ndarray:
+def autocorrelation(x: np.ndarray, order: int, parts: dict | None = None) -> np.ndarray:
     """``r[d] = sum_n x[n] x[n + d]`` for ``d = 0..order`` (the signal taken as zero outside
     its samples), summed over blocks by FFT (exact: each block is correlated with itself
-    extended by ``order`` samples)."""
+    extended by ``order`` samples).
+
+    ``parts``: the blocks' terms of an earlier call on a signal of which ``x`` is the start
+    (the same samples from the same first one), keyed by ``(order, block start)``; the terms
+    of the blocks that lie with their extension inside ``x`` are taken from it (the same
+    values, summed in the same order), and those computed here are added to it."""
     from scipy.fft import irfft, next_fast_len, rfft
 
     block = max(4 * order, 1 << 16)
     nfft = next_fast_len(block + order, real=True)
     r = np.zeros(order + 1)
     for s in range(0, x.size, block):
-        a = rfft(x[s : s + block], nfft)
-        b = rfft(x[s : s + block + order], nfft)
-        r += irfft(np.conj(a) * b, nfft)[: order + 1]
+        whole = s + block + order <= x.size
+        term = parts.get((order, s)) if parts is not None and whole else None
+        if term is None:
+            a = rfft(x[s : s + block], nfft)
+            b = rfft(x[s : s + block + order], nfft)
+            term = irfft(np.conj(a) * b, nfft)[: order + 1].copy()
+            if parts is not None and whole:
+                parts[(order, s)] = term
+        r += term
     return r
 
 

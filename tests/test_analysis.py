@@ -855,7 +855,7 @@ def test_clipping_of_a_render(name):
     import synth
     from synth.sound.render import render
 
-    r = render(synth.load_preset(name), normalize="none")
+    r = render(synth.load_preset(name), samplerate=48000, normalize="none")
     x = np.asarray(r.audio, dtype=float)
     c = 0.1 * np.abs(x).max()
     a = analyze(np.clip(x, -c, c), r.samplerate)

@@ -214,16 +214,12 @@ def test_long_benchmark_recordings(tmp_path):
     assert sf.info(path).frames == 25 * FS
     assert bench.long_recording(path, 25.0, False) == 20
     row = {"duration": 25.0, "repeated": True, "truth": 60, "ticks": 60, "series": 3}
-    row.update(
-        seconds=3.0, cpu_s=2.5, per_minute=7.2, cpu_per_minute=6.0, traced_mb=50.0, rss_mb=200.0
-    )
+    row.update(seconds=3.0, cpu_s=2.5, per_minute=7.2, cpu_per_minute=6.0, rss_mb=200.0)
     ten = dict(row, duration=600.0, seconds=29.0, cpu_s=25.0, rss_mb=510.0)
     table = bench.format_long(
         [row, ten, {"duration": 600.0, "repeated": False, "truth": 20, "error": "x"}]
     )
-    assert "| 25 s, a drop every 10 s | 60 (60) | 3 | 3.00 (2.50) | 7.20 (6.00) | 50 | 200 |" in (
-        table
-    )
+    assert "| 25 s, a drop every 10 s | 60 (60) | 3 | 3.00 (2.50) | 7.20 (6.00) | 200 |" in (table)
     assert "failed: x" in table
     assert "600 s, a drop every 10 s: 29.0 s (25.0 s CPU), process peak 510 MB" in table
     assert "not met" in table
@@ -317,3 +313,129 @@ def test_lazy_block_ticks_are_the_measured_ones():
     want = pipeline._ticks(y, settings, False, resonator=False)
     assert [t.time for t in loc.ticks] == [t.time for t in want]
     assert [t.measured for t in loc.ticks] == want
+
+
+def test_candidate_rules_are_the_array_formulation():
+    """The compiled candidate rules give the values of their array formulation: the running
+    median of the past, the fading memory, the floors, and the sums over the remainder span
+    (``numpy.convolve``), to the last bit for the thresholds and backgrounds."""
+    from synth.analysis.deflation import _rules, running_median
+
+    def arrays(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):
+        k = np.arange(d.size)
+        a = max(0, first - bg - 3)
+        med = np.full_like(d, np.nan)
+        med[a:] = running_median(d[a:], bg)
+        past_med = np.full_like(d, np.inf)
+        j = k - 2 - bg // 2 - 1
+        ok = (j >= bg // 2) & (k >= first)
+        past_med[ok] = np.maximum(med[j[ok]], noise)
+        with np.errstate(divide="ignore"):
+            memory = np.maximum.accumulate(np.log10(d) + k * fade)
+        past = np.zeros_like(d)
+        past[2:] = 10.0 ** (memory[:-2] - k[2:] * fade + rise)
+        threshold = np.maximum.reduce(
+            [
+                np.where(np.isfinite(past_med), past_med * thr, 0.0),
+                past,
+                np.full_like(d, floor),
+                sub * kappa,
+            ]
+        )
+        ones = np.ones(span)
+        d_near = np.convolve(d, ones)[span - 2 : span - 2 + d.size]
+        sub_near = np.convolve(sub, ones)[span - 2 : span - 2 + d.size]
+        hit = np.nonzero((d >= threshold) & (d_near >= sub_near * kappa) & (k >= first))[0]
+        return hit, threshold, past_med
+
+    rng = np.random.default_rng(11)
+    for trial in range(200):
+        n = int(rng.integers(1, 900))
+        d = rng.exponential(size=n) * 10.0 ** rng.uniform(-12, 0, n)
+        d[rng.random(n) < 0.05] = 0.0
+        sub = np.where(rng.random(n) < 0.5, 0.0, d * rng.uniform(0.0, 2.0, n))
+        args = (
+            int(rng.integers(0, max(1, n))),
+            int(rng.integers(3, 100)),
+            float(10.0 ** rng.uniform(-14, -6)),
+            10.0,
+            float(rng.uniform(0.001, 0.1)),
+            0.6,
+            float(10.0 ** rng.uniform(-12, -2)),
+            1.0,
+            int(rng.integers(2, 6)),
+        )
+        got, want = _rules(d, sub, *args), arrays(d, sub, *args)
+        assert np.array_equal(got[1], want[1]) and np.array_equal(got[2], want[2]), trial
+        assert np.array_equal(got[0], want[0]), trial
+
+
+def test_design_rows_are_the_sliding_windows():
+    """The rows of a fit's design matrix are those of the zero-padded templates' sliding
+    windows, ``M[i, j] = T[i - o - l_j]``, for several templates and offsets and rows that
+    start before, within and after the templates."""
+    from synth.analysis.resonator import _NormalEquations
+
+    rng = np.random.default_rng(12)
+    for _ in range(40):
+        Ts = [rng.standard_normal(int(rng.integers(5, 60))) for _ in range(int(rng.integers(1, 4)))]
+        W = int(rng.integers(20, 200))
+        pre, post = int(rng.integers(0, 4)), int(rng.integers(0, 8))
+        offsets = (0,) + tuple(int(o) for o in rng.integers(1, W, int(rng.integers(0, 2))))
+        ne = _NormalEquations(Ts, rng.standard_normal(W), pre, post, offsets)
+        ntap = pre + post + 1
+        cols = []
+        for o in offsets:
+            for T in Ts:
+                Tp = np.concatenate(
+                    (np.zeros(post + o), T[: max(0, W - o + pre)], np.zeros(pre + W))
+                )
+                cols.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        want = np.concatenate(cols, axis=1)
+        lo, hi = sorted(int(v) for v in rng.integers(0, W + 1, 2))
+        assert np.array_equal(ne._rows(lo, hi), want[lo:hi])
+
+
+def test_bounce_series_tables_are_the_loop():
+    """The bounce series' dynamic programme (step 3) gives the series of its loop over the
+    candidates: ``searchsorted`` bounds, the longest series, ties to the earliest second
+    tick, for onsets of bounce series, of noise and with equal times."""
+    from synth.analysis.series import BOUNCE_GROWTH, _series_tables
+
+    def loop(t, latest, e_min, growth):
+        n = t.size
+        best = np.zeros((n, n), dtype=int)
+        second = np.zeros((n, n), dtype=int)
+        back = np.full((n, n), -1, dtype=int)
+        best[0, 1 : latest + 1] = 2
+        second[0, 1:] = np.arange(1, n)
+        for i in range(1, n - 1):
+            col, sec = best[:i, i], second[:i, i]
+            for j in range(i + 1, n):
+                bounce = t[j] - t[i]
+                lo = np.searchsorted(t[:i], t[i] - bounce / e_min, side="left")
+                hi = np.searchsorted(t[:i], t[i] - bounce / growth, side="right")
+                if hi <= lo:
+                    continue
+                c = col[lo:hi]
+                m = int(c.max())
+                if m == 0:
+                    continue
+                pick = np.nonzero(c == m)[0]
+                k = lo + int(pick[np.argmin(sec[lo:hi][pick])])
+                best[i, j], second[i, j], back[i, j] = m + 1, second[k, i], k
+        return best, second, back
+
+    rng = np.random.default_rng(13)
+    for trial in range(150):
+        n = int(rng.integers(3, 50))
+        if trial % 2:
+            t = np.sort(rng.uniform(0.0, 5.0, n))
+        else:
+            t = np.cumsum(0.5 * 0.8 ** np.arange(n) * rng.uniform(0.9, 1.1, n))
+        if trial % 5 == 0:
+            t = np.round(t, 2)
+        latest = int(rng.integers(1, n))
+        got = _series_tables(t, latest, 0.1, BOUNCE_GROWTH)
+        want = loop(t, latest, 0.1, BOUNCE_GROWTH)
+        assert all(np.array_equal(g, w) for g, w in zip(got, want)), trial

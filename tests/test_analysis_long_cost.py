@@ -44,16 +44,16 @@ def test_each_drop_is_searched_whole_once(monkeypatch):
     calls = {True: 0, False: 0}
     ticks = pipeline._ticks
 
-    def counted(x, settings, clipped, resonator=True):
+    def counted(x, settings, clipped, resonator=True, parts=None):
         calls[resonator] += 1
-        return ticks(x, settings, clipped, resonator)
+        return ticks(x, settings, clipped, resonator, parts)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
     located = pipeline._located
 
-    def counted_blocks(x, settings, clipped, locate):
+    def counted_blocks(x, settings, clipped, locate, parts=None):
         calls[False] += 1  # a block's steps 1-6, which show where its series start
-        return located(x, settings, clipped, locate)
+        return located(x, settings, clipped, locate, parts)
 
     monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 5.0 * k for k in range(6)]
@@ -83,7 +83,7 @@ def test_fit_across_a_silence_forms_only_the_templates_rows():
     rows = sum(hi - lo for lo, hi in ne.chunks)
     assert rows <= 2 * (300 + pre + post)
     h, res = ne.solve(len(T), pre, post)
-    M = np.concatenate([w for w in ne.windows], axis=1)
+    M = ne._rows(0, y.size)  # the whole design matrix (its rows: test_analysis_long.py)
     want, *_ = np.linalg.lstsq(M, y, rcond=None)
     np.testing.assert_allclose(h, want, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(res, y - M @ h, rtol=0, atol=1e-15)
@@ -122,16 +122,16 @@ def test_a_whole_recording_of_several_drops_is_searched_drop_by_drop(monkeypatch
     searched = {True: [], False: []}
     ticks = pipeline._ticks
 
-    def counted(x, settings, clipped, resonator=True):
+    def counted(x, settings, clipped, resonator=True, parts=None):
         searched[resonator].append(x.size)
-        return ticks(x, settings, clipped, resonator)
+        return ticks(x, settings, clipped, resonator, parts)
 
     monkeypatch.setattr(pipeline, "_ticks", counted)
     located = pipeline._located
 
-    def counted_blocks(x, settings, clipped, locate):
+    def counted_blocks(x, settings, clipped, locate, parts=None):
         searched[False].append(x.size)  # a block's steps 1-6, which show where series start
-        return located(x, settings, clipped, locate)
+        return located(x, settings, clipped, locate, parts)
 
     monkeypatch.setattr(pipeline, "_located", counted_blocks)
     starts = [1.0 + 10.0 * k for k in range(4)]
@@ -177,7 +177,7 @@ def test_a_fit_in_one_piece_is_the_least_squares_fit():
     y[:400] += T[0] + 0.3 * T[1]
     ne = resonator._NormalEquations(T, y, pre, post)
     assert len(ne.chunks) == 1
-    M = np.concatenate([w for w in ne.windows], axis=1)
+    M = ne._rows(0, y.size)  # the whole design matrix (its rows: test_analysis_long.py)
     for n_t, p, q in ((3, pre, post), (2, 1, 2)):
         h, res = ne.solve(n_t, p, q)
         lags = np.arange(post - q, post + p + 1)

@@ -111,7 +111,12 @@ def test_defaults_of_the_documented_signatures():
         sig["rtol"].default,
     ) == (None, 9.81, "hertz", 1e-6)
     sig = inspect.signature(synth.render).parameters
-    assert (sig["samplerate"].default, sig["normalize"].default) == (48000, "peak")
+    # no default rate: the caller names it
+    assert (sig["samplerate"].default, sig["normalize"].default) == (
+        inspect.Parameter.empty,
+        "peak",
+    )
+    assert sig["samplerate"].kind is inspect.Parameter.KEYWORD_ONLY
 
 
 def test_scene_takes_the_drop_by_keyword():

@@ -47,6 +47,8 @@ def test_documented_preset_render_keys_are_the_defaults():
     opts = defaults(render_module.check_options)
     assert set(doc) == set(opts) | {"subtype"}
     assert doc.pop("subtype") == DEFAULT_SUBTYPE
+    assert opts["samplerate"] is inspect.Parameter.empty  # required of every caller
+    assert doc.pop("samplerate") == presets.PRESET_SAMPLERATE  # a preset's when it names none
     for key, value in doc.items():
         if opts[key] is None:  # no default (e.g. max_frequency: the Nyquist frequency)
             continue

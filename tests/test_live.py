@@ -342,7 +342,7 @@ def test_channels_carry_the_mono_mix(scene):
 )
 def test_engine_rejects_bad_arguments(kwargs, name):
     with pytest.raises(ParameterError, match=name):
-        synth.Engine(**kwargs)
+        synth.Engine(**{"samplerate": FS, **kwargs})
 
 
 def test_add_hit_drop_reject_bad_arguments(scene):
@@ -453,4 +453,4 @@ def test_bench_live_figures_format():
     text = bench.format_live(result)
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
     assert "the audio thread's share of a hit" in text
-    assert result["transform"]["hits_per_block"] == synth.Engine().max_hits_per_block
+    assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block

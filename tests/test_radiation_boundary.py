@@ -105,6 +105,52 @@ def test_bessel_functions_equal_scipy_across_the_asymptotic_threshold():
             assert np.max(np.abs(g - f(x)) * np.sqrt(x)) < 2e-15 * 10
 
 
+def _exp_poly_cos(n, kappa, k, lo, x):
+    """``Int_lo^x exp(-kappa (x - t)) t^n cos(k t) dt`` in closed form: with ``a = kappa +
+    i k``, ``Int t^n e^(a t) dt = e^(a t) sum_m (-1)^m n! / (n - m)! t^(n - m) / a^(m + 1)``
+    (the factor ``exp(-kappa x)`` taken into each end's exponential: no overflow)."""
+    a = kappa + 1j * k
+
+    def primitive(t, shift):
+        terms = sum(
+            (-1) ** m * math.factorial(n) / math.factorial(n - m) * t ** (n - m) / a ** (m + 1)
+            for m in range(n + 1)
+        )
+        return np.exp(a * t - kappa * shift) * terms
+
+    return (primitive(x, x) - primitive(lo, x)).real
+
+
+@pytest.mark.parametrize("c", [0.0, 1e-9, 1e-3, 0.25, 1.0, 10.0, 60.0, 400.0, 1e5])
+def test_decay_weights_integrate_exponential_times_panel_functions(c):
+    """The product weights of the decaying tables on a panel [lo, hi] (c = kappa h / 2
+    from 0 to 1e5, the small and large kappa h limits included) give Int_lo^t_a
+    exp(-kappa (t_a - t)) t^n cos(k t) dt at every node t_a and at hi within 1e-13 of
+    the closed form (relative to Int_lo^t_a t^n dt, the scale of the integrand): the
+    interpolant of t^n cos(k t) on 24 nodes is within 1e-15 of it (k h = 3)."""
+    p, lo, hi, k = 24, 0.7, 1.3, 5.0
+    h = hi - lo
+    kappa = 2.0 * c / h
+    t, _ = np.polynomial.legendre.leggauss(p)
+    nodes = lo + 0.5 * h * (t + 1.0)
+    ends = np.concatenate((nodes, [hi]))
+    weights = B.decay_weights(p, c)
+    for n in (0, 1, 3):
+        got = 0.5 * h * weights @ (nodes**n * np.cos(k * nodes))
+        want = np.array([_exp_poly_cos(n, kappa, k, lo, x) for x in ends])
+        scale = (ends ** (n + 1) - lo ** (n + 1)) / (n + 1)
+        assert np.all(np.abs(got - want) <= 1e-12 * scale)
+
+
+def test_decay_weights_at_zero_rate_are_spectral_integration():
+    """At c = 0 the product weights are the spectral integration matrix (rows at the
+    nodes) and the Gauss-Legendre weights (last row), to round-off."""
+    for p in (6, 13, 24, 37):
+        weights = B.decay_weights(p, 0.0)
+        np.testing.assert_allclose(weights[:p], B._spectral(p), atol=1e-15)
+        np.testing.assert_allclose(weights[p], np.polynomial.legendre.leggauss(p)[1], atol=1e-15)
+
+
 def test_small_arguments_are_each_rows_first_run():
     """The arguments below the Hankel threshold are, row by row, the first nodes' k rho
     (rho ascending), and nothing else."""
@@ -148,6 +194,7 @@ def _hybrid_modes(monkeypatch, boundary):
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
+    monkeypatch.setattr(R, "BOUNDARY_RULE_SIZE", 0.0)
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()
     assert part is not None and 0 < part.first_mode < len(m) - 50
@@ -181,3 +228,13 @@ def test_plate_gains_past_the_crossover_take_the_boundary_rule(monkeypatch, boun
     again = R.plate_gains(m, listener, s, max_wavenumber=kb, tol=1e-6, full_output=True)
     assert R.cache_info()["disk_hits"] == 1 and np.array_equal(again.gains, res.gains)
     assert again.rule == "boundary"
+
+
+def test_ladder_rounding_brackets_each_rate():
+    """A rate rounded up (down) to the ladder is at or above (below) it by less than the
+    ladder's ratio; 0 stays 0 (no decay: no tail, no limit on substituted panels)."""
+    for rate in np.geomspace(1e-3, 1e5, 97):
+        up, down = B._on_ladder(float(rate)), B._below_ladder(float(rate))
+        assert rate <= up < rate * B._RATE_LADDER * (1.0 + 1e-12)
+        assert rate / B._RATE_LADDER * (1.0 - 1e-12) < down <= rate
+    assert B._on_ladder(0.0) == 0.0 and B._below_ladder(0.0) == 0.0

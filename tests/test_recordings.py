@@ -127,9 +127,10 @@ def _series_ticks(bounces, energies_db):
 
 def test_tick_too_weak_for_its_bounce():
     # e = 0.96 over bounces of 0.29 and 0.28 s, the third tick 12.3 dB under the second
-    # (wood-noise40 of tests/test_recordings_sdt.py, whose last bounce spans 15 missed
-    # strikes): e^2 allows 0.36 dB, and a missed bounce lowers the energy by (1 + e)^2 / e^2
-    # >= 4 (6 dB) more; flagged. At e^2 (-0.36 dB) and 5.5 dB under it: not flagged
+    # (wood-noise40 of tests/test_recordings_sdt.py without its first and third strikes,
+    # whose last bounce spans 15 missed strikes): e^2 allows 0.36 dB, and a missed bounce
+    # lowers the energy by (1 + e)^2 / e^2 >= 4 (6 dB) more; flagged. At e^2 (-0.36 dB) and
+    # 5.5 dB under it: not flagged
     bounces = [0.2913, 0.2794]
     assert missed_bounces(_series_ticks(bounces, [0.0, 1.1, 1.1 - 12.3])) == {2}
     assert missed_bounces(_series_ticks(bounces, [0.0, 1.1, 1.1 - 0.36])) == set()

@@ -234,7 +234,7 @@ def test_settled_scene_renders():
 )
 def test_render_rejects_bad_input(kw, word):
     with pytest.raises(ParameterError, match=word):
-        render(DEFAULT, **kw)
+        render(DEFAULT, **{"samplerate": 48000, **kw})
 
 
 def test_render_rejects_non_scene():

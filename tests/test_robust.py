@@ -138,7 +138,7 @@ def test_write_audio_samplerate_range(tmp_path):
 def test_silent_render_is_refused():
     scene = load_preset("default")
     with pytest.raises(ParameterError, match="max_frequency=1.0 .*silent"):
-        render(scene, max_frequency=1.0)
+        render(scene, samplerate=48000, max_frequency=1.0)
 
 
 def test_pcm_file_that_would_hold_only_silence_is_refused(tmp_path):
@@ -161,7 +161,7 @@ def test_first_impact_after_max_duration_is_refused():
     # a 100 m drop first touches sqrt(2 h / g) = 4.5 s after release
     scene = load_preset("default", ["drop.height=100"])
     with pytest.raises(ParameterError, match="drop.height=100.0 .*4.515 s.*max_duration=1"):
-        render(scene, max_duration=1.0)
+        render(scene, samplerate=48000, max_duration=1.0)
 
 
 def test_sequence_of_another_scene_is_refused_and_a_mismatch_accepted():
@@ -182,7 +182,7 @@ def test_empty_sequence_is_refused():
     scene = load_preset("default")
     empty = BounceSequence((), "settled", scene.drop_height, scene.gravity)
     with pytest.raises(ParameterError, match="sequence has no impacts"):
-        render(scene, sequence=empty)
+        render(scene, samplerate=48000, sequence=empty)
 
 
 def test_energy_imbalance_is_not_a_success():

@@ -61,7 +61,7 @@ def test_any_scene_number_is_accepted_or_named(key, value):
 @given(key=st.sampled_from(RENDER_KEYS), value=NUMBERS)
 def test_any_render_option_is_accepted_or_named(key, value):
     try:
-        opts = check_options(**{key: value})
+        opts = check_options(**{"samplerate": 48000, key: value})
     except ParameterError as exc:
         assert key in str(exc), str(exc)
     else:

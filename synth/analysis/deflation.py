@@ -162,6 +162,72 @@ def _running_median(d, size):  # pragma: no cover - compiled
     return out
 
 
+def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``G^-1 b`` by LU with partial pivoting (LAPACK ``dgesv``, as ``numpy.linalg.solve``,
+    without its checks' cost: thousands of systems of a few dozen unknowns per recording);
+    ``G`` is overwritten. Raises ``numpy.linalg.LinAlgError`` when ``G`` is singular."""
+    from scipy.linalg import lapack
+
+    _, _, h, info = lapack.dgesv(G, b, overwrite_a=True, overwrite_b=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular normal equations (dgesv info={info})")
+    return h
+
+
+@numba.njit(cache=True, nogil=True)
+def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pragma: no cover
+    """The rules a frame ``k >= first`` of the detection function ``d`` must clear (one pass,
+    for the thousands of candidate searches of a recording): its threshold, the largest of
+
+    * the local background of the past, the median of frames ``k-2-bg .. k-3`` (frame
+      ``k-1`` may hold the start of this burst; the running median is taken over the frames
+      those medians span only), never under the noise floor ``noise``, times ``thr``; none
+      (and an infinite background) where the past is too short and before ``first``;
+    * the fading memory of the frames ``j <= k - 2`` raised by ``rise`` (as in step 3:
+      ``max_j (log10 d_j + fade j) - fade k + rise``, in log10 units);
+    * the floor ``floor``, and ``kappa`` times ``sub``, what was taken out of the frame;
+
+    and, summed over the frames ``k-1 .. k+span-2``, more energy than ``kappa`` times what was
+    taken out there. Returns the frames that clear them, the thresholds and the
+    backgrounds."""
+    n = d.size
+    a = max(0, first - bg - 3)
+    med = _running_median(d[a:], bg) if a < n else np.zeros(0)
+    past_med = np.full(n, np.inf)
+    threshold = np.empty(n)
+    memory = np.empty(n)
+    m = -np.inf
+    for k in range(n):
+        v = np.log10(d[k]) + k * fade
+        if v > m:
+            m = v
+        memory[k] = m
+    half = bg // 2
+    for k in range(n):
+        j = k - 2 - half - 1
+        if j >= half and k >= first:
+            past_med[k] = max(med[j - a], noise)
+        t = past_med[k] * thr if np.isfinite(past_med[k]) else 0.0
+        past = 10.0 ** (memory[k - 2] - k * fade + rise) if k >= 2 else 0.0
+        t = max(t, past)
+        t = max(t, floor)
+        threshold[k] = max(t, sub[k] * kappa)
+    hits = np.empty(n, dtype=np.int64)
+    count = 0
+    for k in range(max(first, 0), n):
+        if not d[k] >= threshold[k]:
+            continue
+        near = 0.0
+        taken = 0.0
+        for i in range(max(0, k - 1), min(n, k + span - 1)):
+            near += d[i]
+            taken += sub[i]
+        if near >= taken * kappa:
+            hits[count] = k
+            count += 1
+    return hits[:count], threshold, past_med
+
+
 class Residual:
     """The whitened signal ``r`` less the whitened responses of the ticks found so far, each
     the first tick's response ``T`` through an FIR filter of lags ``-pre .. post`` fitted by
@@ -264,22 +330,21 @@ class Residual:
         self, d: np.ndarray, sub: np.ndarray, first: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The frames from ``first`` on of the detection function ``d`` that clear the rules
-        against ``sub`` taken out per frame, their thresholds and local backgrounds."""
-        k = np.arange(d.size)
-        past_med = self._past_background(d, k, first)
-        threshold = np.maximum.reduce(
-            [
-                np.where(np.isfinite(past_med), past_med * self.thr, 0.0),
-                self._memory(d, k),
-                np.full_like(d, self.floor),
-                sub * self.kappa,
-            ]
+        against ``sub`` taken out per frame, their thresholds and local backgrounds
+        (:func:`_rules`)."""
+        return _rules(
+            np.ascontiguousarray(d, dtype=np.float64),
+            np.ascontiguousarray(sub, dtype=np.float64),
+            int(first),
+            self.bg,
+            float(self.noise),
+            float(self.thr),
+            float(self.fade),
+            float(self.rise),
+            float(self.floor),
+            float(self.kappa),
+            self.span,
         )
-        span = np.ones(self.span)
-        d_near = np.convolve(d, span)[self.span - 2 : self.span - 2 + d.size]
-        sub_near = np.convolve(sub, span)[self.span - 2 : self.span - 2 + d.size]
-        hit = np.nonzero((d >= threshold) & (d_near >= sub_near * self.kappa) & (k >= first))[0]
-        return hit, threshold, past_med
 
     def _first_clearing(
         self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
@@ -306,31 +371,6 @@ class Residual:
             lo + first_hit * self.hop,
         )
 
-    def _past_background(self, d: np.ndarray, k: np.ndarray, first: int = 0) -> np.ndarray:
-        """Local background of each frame from ``first`` on: the median of frames
-        ``k-2-bg .. k-3`` (the past, with the earlier ticks taken out; frame ``k-1`` may hold
-        the start of this burst), never below the noise floor (the first tick's stretch of
-        ``q`` is exactly 0); inf where the past is too short, and before ``first``. The running
-        median is taken over the frames those medians span only (each window lies inside
-        them)."""
-        bg = self.bg
-        a = max(0, first - bg - 3)
-        med = np.full_like(d, np.nan)
-        med[a:] = running_median(d[a:], bg)
-        past_med = np.full_like(d, np.inf)
-        j = k - 2 - bg // 2 - 1
-        ok = (j >= bg // 2) & (k >= first)
-        past_med[ok] = np.maximum(med[j[ok]], self.noise)
-        return past_med
-
-    def _memory(self, d: np.ndarray, k: np.ndarray) -> np.ndarray:
-        """Fading memory of the frames ``j <= k - 2`` raised by ``rise_db`` (as in step 3)."""
-        with np.errstate(divide="ignore"):
-            memory = np.maximum.accumulate(np.log10(d) + k * self.fade)
-        past = np.zeros_like(d)
-        past[2:] = 10.0 ** (memory[:-2] - k[2:] * self.fade + self.rise)
-        return past
-
     def remove(self, s: int, end: int, alone: int | None = None) -> np.ndarray:
         """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap if the window is shorter
         than two per lag), take the fit out of ``q`` from ``s`` on and return it (from ``s``
@@ -349,7 +389,7 @@ class Residual:
         M = np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W]
         G = M.T @ M
         G[np.diag_indices(ntap)] += 1e-9 * np.trace(G) / ntap + 1e-300
-        h = np.linalg.solve(G, M.T @ q[s : s + W])
+        h = solve_general(G, M.T @ q[s : s + W])
         # contribution at s + t: sum_j h_j T[t - l_j]
         contrib = np.convolve(T, h[::-1])[pre:]
         n = min(contrib.size, q.size - s)

@@ -29,6 +29,22 @@ PRE_RINGING_RUN = 3
 #: through its peak (off by well under 1e-3 sample periods at that spacing for a main lobe
 #: about a sample period wide).
 DELAY_UPSAMPLING = 16
+#: A tick clearly stands out of a recording when its energy over its first
+#: :data:`STANDS_OUT_SPAN` is this much over the mean over the :data:`STANDS_OUT_BEFORE`
+#: before it (per unit time), dB: the criterion a listener's "clearly audible tick" is
+#: checked by (docs/analysis.md, step 8).
+STANDS_OUT_DB = 6.0
+#: The tick's first stretch, s ...
+STANDS_OUT_SPAN = 0.001
+#: ... and the stretch before it, s.
+STANDS_OUT_BEFORE = 0.003
+#: Probability that white Gaussian noise alone passes the whitened test of step 8 at one
+#: position: that of a sample beyond :data:`ONSET_NOISE_SIGMAS` standard deviations (6e-5),
+#: the level below which the onset walk of step 4 takes a sample for noise.
+STANDS_OUT_FALSE_ALARM = math.erfc(ONSET_NOISE_SIGMAS / math.sqrt(2.0))
+#: The predictor of what precedes a tick of step 8 is sought from this order up (doubled
+#: while a higher one describes the stretch better).
+LOCAL_ORDER = 16
 
 
 def frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
@@ -368,3 +384,216 @@ def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
             "no tick detected: nothing rises above the background (is this a recording of impacts?)"
         )
     return kept
+
+
+@dataclass(frozen=True)
+class StandingOut:
+    """Ticks of step 8: their onsets (samples) and strengths (dB: the smaller of the margins
+    by which they clear the test on the recording and the test on the prediction error)."""
+
+    onsets: np.ndarray
+    strengths: np.ndarray
+
+
+def standing_out(
+    x: np.ndarray, r: np.ndarray, known: np.ndarray, settings: Settings
+) -> StandingOut:
+    """The ticks that clearly stand out of the recording ``x`` but are not among the onsets
+    ``known`` (samples; none closer than ``min_separation`` to one), from its whitened signal
+    ``r`` (step 8, docs/analysis.md).
+
+    A tick stands out at its onset when the recording's energy over the next
+    :data:`STANDS_OUT_SPAN` is at least :data:`STANDS_OUT_DB` over its mean over the
+    :data:`STANDS_OUT_BEFORE` before (per unit time): the issue's criterion. The recording
+    alone does not tell a tick from the beating of a few strong modes, which the whitening
+    predicts; so the whitened signal must rise too, by more than white noise's scatter allows
+    (the ratio of the mean squares of ``L`` and ``B`` samples of white Gaussian noise follows
+    Fisher's F distribution with ``(L, B)`` degrees of freedom: its quantile of
+    :data:`STANDS_OUT_FALSE_ALARM`), and lie within ``dynamic_range_db`` of its strongest
+    stretch (the floor of steps 1-6, under which the whitening's remainders of the ringing
+    lie). Each run of positions (frames of ``hop``) where all three hold, away from the ticks
+    ``known``, is a candidate, timed in what the recording's past does not predict
+    (:func:`_local_onset`), and kept when, at that onset, the recording's criterion holds and
+    that prediction error rises by the F quantile (the recording's noise, whatever its level
+    and spectrum, judged by its own statistics), and its whitened energy lies within
+    ``max_drop_db`` of the tick before it (:func:`_dropped`).
+    """
+    hop, fs = settings.hop, settings.samplerate
+    span = max(1, int(round(STANDS_OUT_SPAN * fs)))
+    blocks = max(1, int(round(STANDS_OUT_BEFORE * fs / hop)))
+    before = blocks * hop
+    need_x = 10.0 ** (STANDS_OUT_DB / 10.0)
+    need_e = _noise_rise(span, before)
+    energy = frame_energies(r, hop, span)
+    if energy.size == 0:
+        return StandingOut(np.zeros(0), np.zeros(0))
+    passing = (
+        (_rise(x, hop, span, blocks) >= need_x)
+        & (_rise(r, hop, span, blocks) >= need_e)
+        & (energy >= energy.max() * 10.0 ** (-settings.dynamic_range_db / 10.0))
+    )
+    onsets, strengths = [], []
+    known = np.sort(np.asarray(known, dtype=float))
+    for lo, hi in _runs(passing):
+        if np.any(np.abs(known - lo * hop) < settings.min_separation + span):
+            continue
+        peak = lo + int(np.argmax(energy[lo:hi]))
+        if _dropped(r, peak * hop, np.r_[known[known < lo * hop], onsets], span, settings):
+            continue  # the run's strongest millisecond already too weak (below)
+        found = _local_onset(x, lo * hop, span, before, settings)
+        if found is None:
+            continue
+        on = found.onset
+        rx = _rise_at(x, int(on), span, before)
+        re = _rise_at(found.error, int(on) - found.start, span, before)
+        near = np.abs(known - on) < settings.min_separation
+        if rx < need_x or re < need_e or near.any():
+            continue
+        if onsets and on - onsets[-1] < settings.min_separation:
+            continue
+        if _dropped(r, on, np.r_[known[known < on], onsets], span, settings):
+            continue
+        onsets.append(on)
+        strengths.append(10.0 * math.log10(min(rx / need_x, re / need_e)))
+    return StandingOut(np.array(onsets), np.array(strengths))
+
+
+def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings: Settings) -> bool:
+    """Whether the whitened energy of ``r`` over ``span`` samples from ``on`` lies more than
+    ``max_drop_db`` under that of the latest tick ``earlier`` (onsets, samples) before it: no
+    bounce (as in step 3: a tick's energy goes as its impact speed squared), but what the
+    whitening leaves of the ringing."""
+    if earlier.size == 0:
+        return False
+    prev = int(earlier.max())
+    k = int(on)
+    return float(np.dot(r[k : k + span], r[k : k + span])) < float(
+        np.dot(r[prev : prev + span], r[prev : prev + span])
+    ) * 10.0 ** (-settings.max_drop_db / 10.0)
+
+
+def _noise_rise(m: int, n: int) -> float:
+    """The ratio of the mean squares of ``m`` and ``n`` samples of white Gaussian noise
+    exceeded with probability :data:`STANDS_OUT_FALSE_ALARM` (Fisher's F distribution)."""
+    from scipy.stats import f as fisher
+
+    return float(fisher.isf(STANDS_OUT_FALSE_ALARM, m, n))
+
+
+@dataclass(frozen=True)
+class LocalOnset:
+    """A candidate's onset (sample of the recording) and the prediction error it was found in,
+    from sample ``start`` of the recording."""
+
+    onset: float
+    error: np.ndarray
+    start: int
+
+
+def _local_onset(
+    x: np.ndarray, first: int, span: int, before: int, settings: Settings
+) -> LocalOnset | None:
+    """Onset of a tick whose rise shows from sample ``first`` on, in the prediction error of
+    the predictor of the recording's last :data:`~synth.analysis.settings.WHITENING_SPAN`
+    before the rise (its noise and ringing, fitted by
+    :func:`~synth.analysis.whitening.resonator_predictor`): what the past does not predict.
+    The onset is where that error's variance steps (:func:`_cusum_start`, refined by
+    :func:`_change_point` within :data:`STANDS_OUT_SPAN` of it), if the error over the
+    :data:`STANDS_OUT_BEFORE` before it is the past's noise, by the F test of
+    :func:`standing_out` (else the tick began earlier, more slowly than it stands out: a
+    ramp, whose start no step marks). None where there is too little past or no onset."""
+    from scipy.signal import lfilter
+
+    from synth.analysis.whitening import resonator_predictor
+
+    end = first - span
+    start = max(0, end - settings.whitening_order)
+    if end - start < before:
+        return None
+    a = resonator_predictor(x[start:end], settings.samplerate, LOCAL_ORDER)
+    if a is None:
+        return None
+    stop = min(x.size, first + 2 * span)
+    e = lfilter(a, [1.0], x[start:stop])  # sample i of e is sample start + i of x
+    fitted = e[a.size : end - start]
+    variance = float(np.dot(fitted, fitted)) / max(1, fitted.size)
+    lo = max(a.size, first - before - start)
+    ref = e[lo : max(lo + 1, end - start)]
+    ref_variance = float(np.dot(ref, ref)) / ref.size
+    if not (variance > 0.0 and ref_variance > 0.0):
+        return None
+    rise = lo + _cusum_start(e[lo : first + span - start], ref_variance)
+    a0 = max(lo, rise - span)
+    if min(e.size, rise + span) - a0 < 4:
+        return None
+    on = a0 + _change_point(e[a0 : rise + span])
+    past = e[max(lo, on - before) : on]
+    if float(np.dot(past, past)) / max(1, past.size) > variance * _noise_rise(
+        past.size, fitted.size
+    ):
+        return None
+    return LocalOnset(float(start + on), e, start)
+
+
+def _cusum_start(z: np.ndarray, variance: float) -> int:
+    """Where the variance of ``z`` steps from ``variance`` to :data:`STANDS_OUT_DB` over it:
+    the last sample at which Page's CUSUM of the log-likelihood ratio of the two (Gaussian,
+    zero mean) is zero before its largest value (Page 1954, Biometrika 41, 100; Basseville and
+    Nikiforov 1993, "Detection of abrupt changes", section 2.2)."""
+    g = 10.0 ** (STANDS_OUT_DB / 10.0)
+    step = 0.5 * z * z / variance * (1.0 - 1.0 / g) - 0.5 * math.log(g)
+    c = np.empty(z.size)
+    acc = 0.0
+    for i, v in enumerate(step):
+        acc = max(0.0, acc + v)
+        c[i] = acc
+    top = int(np.argmax(c))
+    zeros = np.nonzero(c[: top + 1] == 0.0)[0]
+    return int(zeros[-1]) + 1 if zeros.size else 0
+
+
+def _change_point(z: np.ndarray) -> int:
+    """Where the variance of ``z`` steps: the maximum-likelihood split into two stretches of
+    zero-mean Gaussian noise of different variances (Hinkley 1971, Biometrika 58, 509)."""
+    n = z.size
+    c = np.cumsum(z * z)
+    tau = np.arange(2, n - 1)
+    v1 = c[tau - 1] / tau
+    v2 = (c[-1] - c[tau - 1]) / (n - tau)
+    ll = -tau * np.log(np.maximum(v1, 1e-300)) - (n - tau) * np.log(np.maximum(v2, 1e-300))
+    return int(tau[np.argmax(ll)])
+
+
+def _rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
+    """The mean square of ``z`` over ``[k, k + span)`` over that of ``[k - before, k)``."""
+    a = z[k : k + span]
+    b = z[max(0, k - before) : k]
+    mb = float(np.dot(b, b)) / max(1, b.size)
+    ma = float(np.dot(a, a)) / max(1, a.size)
+    return math.inf if mb == 0.0 and ma > 0.0 else (ma / mb if mb > 0.0 else 0.0)
+
+
+def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
+    """At each position ``k hop`` (from ``blocks hop`` on; 0 before), the mean square of ``z``
+    over the next ``span`` samples over that of the ``blocks hop`` samples before (sums of
+    positive terms only, so exact to rounding however quiet a stretch after a loud one);
+    infinite after silence."""
+    e_hop = frame_energies(z, hop, hop)
+    after = frame_energies(z, hop, span)
+    n = min(after.size, e_hop.size + 1)
+    out = np.zeros(after.size)
+    if n <= blocks:
+        return out
+    window = np.lib.stride_tricks.sliding_window_view(e_hop, blocks).sum(axis=1)
+    k = np.arange(blocks, n)
+    mean_before = window[k - blocks] / (blocks * hop)
+    mean_after = after[k] / span
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[k] = np.where(mean_after > 0.0, mean_after / mean_before, 0.0)
+    return out
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``[lo, hi)`` of each run of true values of ``mask``."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]))

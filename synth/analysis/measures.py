@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.analysis.detection import standing_out
 from synth.analysis.report import Tick
 from synth.analysis.settings import Settings
 
@@ -50,6 +51,20 @@ class FoundTick:
     model: np.ndarray | None
     whitening: int
     detected: float
+
+
+def with_standing_out(
+    x: np.ndarray, found: list[FoundTick], whitening: Whitening, settings: Settings
+) -> list[FoundTick]:
+    """``found`` with the ticks of the recording ``x`` that clearly stand out but were not
+    found (step 8, :func:`~synth.analysis.detection.standing_out`), in time order, each
+    measured from the whitened signal of ``whitening`` (the first search's), which no model
+    of step 5 holds it in."""
+    extra = standing_out(x, whitening.whitened, np.array([f.onset for f in found]), settings)
+    if extra.onsets.size == 0:
+        return found
+    added = [FoundTick(on, st, None, 0, on) for on, st in zip(extra.onsets, extra.strengths)]
+    return sorted(found + added, key=lambda f: f.onset)
 
 
 def measure_ticks(

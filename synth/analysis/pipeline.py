@@ -26,7 +26,13 @@ from synth.analysis.blocks import (
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.deflation import DeflationSearch, FirstTick
 from synth.analysis.detection import first_ticks
-from synth.analysis.measures import WINDOW_GUARD, FoundTick, TickMeter, Whitening
+from synth.analysis.measures import (
+    WINDOW_GUARD,
+    FoundTick,
+    TickMeter,
+    Whitening,
+    with_standing_out,
+)
 from synth.analysis.report import Analysis
 from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.series import BOUNCE_GROWTH, bounce_order
@@ -380,10 +386,11 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
     ticks into the next drop (:data:`~synth.analysis.deflation.LOCATE_TICKS`), and are
     carried on over the whole block only where that shows no new series."""
     fs = settings.samplerate
-    loc = _located(x, settings, clipped, locate=True)
+    parts: dict = {}  # the whitening predictors' autocorrelation terms, x's and its start's
+    loc = _located(x, settings, clipped, locate=True, parts=parts)
     cut = None if loc is None else new_series_at(loc.ticks)
     if loc is not None and loc.stopped and (cut is None or cut + 3 > len(loc.ticks)):
-        loc = _located(x, settings, clipped, locate=False)
+        loc = _located(x, settings, clipped, locate=False, parts=parts)
         cut = None if loc is None else new_series_at(loc.ticks)
     located = [] if loc is None else loc.ticks
     del loc
@@ -392,11 +399,13 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
     if cut is not None and located[cut - 1].time > kept:
         end = max(1, int(math.floor(located[cut].time * fs)) - lead)
         rest = [t.measured for t in located[cut:]]
-        own = _searched(x[:end], settings, clipped) or [t.measured for t in located[:cut]]
+        own = _searched(x[:end], settings, clipped, parts=parts) or [
+            t.measured for t in located[:cut]
+        ]
         if new_series_at(own + rest) is not None:
             return own + rest
     del located  # its whitening and residual: not held through the search of the block
-    return _searched(x, settings, clipped)
+    return _searched(x, settings, clipped, parts=parts)
 
 
 @dataclass(frozen=True)
@@ -416,12 +425,14 @@ class Located:
     stopped: bool
 
 
-def _located(x: np.ndarray, settings: Settings, clipped: bool, locate: bool) -> Located | None:
+def _located(
+    x: np.ndarray, settings: Settings, clipped: bool, locate: bool, parts=None
+) -> Located | None:
     """Steps 1-6 over the block ``x`` (with ``locate``, stopped a few ticks past the start of
     a new series), each tick measured when asked (:class:`_LazyTick`), or None where it has
-    no tick (silence, no tick, too short)."""
+    no tick (silence, no tick, too short). ``parts``: as for :func:`_first_search`."""
     try:
-        first = _first_search(x, settings, locate)
+        first = _first_search(x, settings, locate, parts)
         meter = _meter(x, first, settings, clipped, resonator=False)
     except (AnalysisError, ParameterError):
         return None
@@ -432,11 +443,13 @@ def _located(x: np.ndarray, settings: Settings, clipped: bool, locate: bool) -> 
     )
 
 
-def _searched(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True) -> list:
+def _searched(
+    x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
+) -> list:
     """The ticks of ``x`` (:func:`_ticks`), none where it has none (silence, no tick, too
-    short)."""
+    short). ``parts``: as for :func:`_first_search`."""
     try:
-        return _ticks(x, settings, clipped, resonator)
+        return _ticks(x, settings, clipped, resonator, parts)
     except (AnalysisError, ParameterError):
         return []
 
@@ -483,17 +496,23 @@ def _numbered(found: list[list]) -> list[Series]:
     return out
 
 
-def _ticks(x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True) -> list:
+def _ticks(
+    x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
+) -> list:
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
     without ``resonator``, by steps 1-6 only (where a block's series start, see
-    :func:`_block_drops`)."""
-    return _measured(x, _first_search(x, settings), settings, clipped, resonator)
+    :func:`_block_drops`). ``parts``: as for :func:`_first_search`."""
+    return _measured(x, _first_search(x, settings, parts=parts), settings, clipped, resonator)
 
 
-def _first_search(x: np.ndarray, settings: Settings, locate: bool = False) -> FirstSearch:
+def _first_search(
+    x: np.ndarray, settings: Settings, locate: bool = False, parts: dict | None = None
+) -> FirstSearch:
     """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past the start of a new
-    series (:meth:`~synth.analysis.deflation.DeflationSearch.run`)."""
-    A = whitening_predictor(x, settings.whitening_order, settings.samplerate)
+    series (:meth:`~synth.analysis.deflation.DeflationSearch.run`). ``parts``: the
+    autocorrelation's terms shared with the searches of a signal that ``x`` starts or of its
+    start (:func:`~synth.analysis.whitening.whitening_predictor`)."""
+    A = whitening_predictor(x, settings.whitening_order, settings.samplerate, parts)
     with one_blas_thread():
         return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
 
@@ -514,7 +533,9 @@ def _meter(
     x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
 ) -> TickMeter:
     """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
-    with ``resonator``, the resonator's search (step 7), ready to be measured."""
+    with ``resonator``, the resonator's search (step 7), with those that stand out (step 8),
+    ready to be measured: step 8 with step 7 only, since the searches that locate where series
+    start (steps 1-6, :func:`_located`) do not need the weak ticks it adds."""
     first = search.result
     found = [
         FoundTick(
@@ -535,6 +556,8 @@ def _meter(
         and not clipped
     ):
         found = _resonator_stage(x, settings, first, found, whitenings)
+    if resonator:  # a search's own ticks; where series start (steps 1-6) needs none of them
+        found = with_standing_out(x, found, whitenings[0], settings)
     noise = dsp.noise_floor(x, settings.samplerate)
     return TickMeter(x, found, whitenings, settings, noise)
 

@@ -12,12 +12,14 @@ length, timing against the first tick's template).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
-from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot
+from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot, solve_general
 from synth.analysis.detection import delay, frame_energies
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import (
@@ -168,6 +170,21 @@ class ResonatorResidual(Residual):
             max(c[2] for c in choices),
             offsets,
         )
+        if normal.kept is not None:
+            k, crit, h, res = _least_description(
+                normal.G,
+                normal.b,
+                y,
+                normal.kept,
+                normal.chunks[0][0],
+                np.array(choices, dtype=np.int64),
+                K,
+                normal.n_templates,
+                normal.pre,
+                normal.post,
+            )
+            n_t, pre, post = choices[k]
+            return ModelChoice(crit, self.T[:n_t], pre, post, h, res)
         best = None
         for n_t, pre, post in choices:
             P = K * n_t * (pre + post + 1)
@@ -206,22 +223,15 @@ class _NormalEquations:
 
     def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
         W = y.size
-        ntap = pre + post + 1
-        self.windows = []
-        for o in offsets:
-            for T in Ts:
-                Tp = np.concatenate(
-                    (
-                        np.zeros(post + o),
-                        T[: max(0, W - o + pre)],
-                        np.zeros(pre + max(0, W - o - T.size)),
-                    )
-                )
-                self.windows.append(np.lib.stride_tricks.sliding_window_view(Tp, ntap)[:W])
+        longest = max(T.size for T in Ts)
+        self.templates = np.zeros((len(Ts), longest))
+        for t, T in enumerate(Ts):
+            self.templates[t, : T.size] = T
+        self.lengths = np.array([T.size for T in Ts], dtype=np.int64)
+        self.offsets = np.array(offsets, dtype=np.int64)
         self.y = y
         self.n_templates, self.pre, self.post = len(Ts), pre, post
         self.n_offsets = len(offsets)
-        longest = max(T.size for T in Ts)
         self.chunks = _row_chunks([(o - pre, o + post + longest) for o in offsets], W)
         # the rows formed are kept for the residuals when they make one piece (a window
         # across no silence: every fit but a joint one across two drops)
@@ -238,30 +248,171 @@ class _NormalEquations:
 
     def _rows(self, lo: int, hi: int) -> np.ndarray:
         """Rows ``lo .. hi - 1`` of the design matrix."""
-        return np.concatenate([w[lo:hi] for w in self.windows], axis=1)
+        return _design_rows(self.templates, self.lengths, self.offsets, self.pre, self.post, lo, hi)
 
     def solve(self, n_t: int, pre: int, post: int) -> tuple[np.ndarray, np.ndarray]:
         """The taps and the residual of the fit on the first ``n_t`` templates, lags ``-pre ..
         post`` (within those of the matrix)."""
-        ntap_all = self.pre + self.post + 1
-        lags = np.arange(self.post - post, self.post + pre + 1)
-        idx = np.concatenate(
-            [
-                (k * self.n_templates + t) * ntap_all + lags
-                for k in range(self.n_offsets)
-                for t in range(n_t)
-            ]
-        )
-        whole = idx.size == self.G.shape[0]
-        G = self.G.copy() if whole else self.G[np.ix_(idx, idx)]
+        idx = _columns(self.n_offsets, self.n_templates, self.pre, self.post, n_t, pre, post)
+        whole = idx is None
+        G = self.G.copy() if whole else self.G.take(idx, axis=0).take(idx, axis=1)
         P = G.shape[0]
-        G[np.diag_indices(P)] += 1e-12 * np.trace(G) / P + 1e-300
-        h = np.linalg.solve(G, self.b if whole else self.b[idx])
+        G.flat[:: P + 1] += 1e-12 * np.trace(G) / P + 1e-300
+        h = solve_general(G, self.b if whole else self.b[idx])
         res = self.y.copy()
         for lo, hi in self.chunks:
             M = self._rows(lo, hi) if self.kept is None else self.kept
-            res[lo:hi] = self.y[lo:hi] - (M if whole else M[:, idx]) @ h
+            res[lo:hi] = self.y[lo:hi] - (M if whole else M.take(idx, axis=1)) @ h
         return h, res
+
+
+@numba.njit(cache=True)
+def _least_description(
+    G, b, y, M, lo, choices, n_offsets, n_templates, pre_all, post_all
+):  # pragma: no cover - compiled
+    """:meth:`ResonatorResidual.choose` over the rows ``M`` (from row ``lo``) of the design
+    matrix, its Gram matrix ``G`` and ``b = M^T y``, in one pass: for each of ``choices``
+    (``n_t, pre, post``, in order) the fit of :meth:`_NormalEquations.solve` (the same
+    columns, ridge, LAPACK solution and BLAS products) and its description length
+    ``W ln(RSS) + P ln W``; returns the first of the least: its index, length, taps and
+    residual."""
+    W = y.size
+    ntap_all = pre_all + post_all + 1
+    floor = 1e-300 * np.dot(y, y) + 1e-300
+    best, best_length = -1, 0.0
+    best_h, best_res = np.zeros(0), np.zeros(0)
+    for c in range(choices.shape[0]):
+        n_t, pre, post = choices[c, 0], choices[c, 1], choices[c, 2]
+        P = n_offsets * n_t * (pre + post + 1)
+        idx = np.empty(P, dtype=np.int64)
+        i = 0
+        for k in range(n_offsets):
+            for t in range(n_t):
+                for lag in range(post_all - post, post_all + pre + 1):
+                    idx[i] = (k * n_templates + t) * ntap_all + lag
+                    i += 1
+        Gs = np.empty((P, P))
+        diag = np.empty(P)
+        for r in range(P):
+            for q in range(P):
+                Gs[r, q] = G[idx[r], idx[q]]
+            diag[r] = Gs[r, r]
+        load = 1e-12 * _pairwise_sum(diag, 0, P) / P + 1e-300
+        for r in range(P):
+            Gs[r, r] += load
+        h = np.linalg.solve(Gs, b[idx])
+        Ms = np.empty((M.shape[0], P))
+        for r in range(M.shape[0]):
+            for q in range(P):
+                Ms[r, q] = M[r, idx[q]]
+        fit = np.dot(Ms, h)
+        res = y.copy()
+        for r in range(M.shape[0]):
+            res[lo + r] = y[lo + r] - fit[r]
+        crit = W * math.log(max(np.dot(res, res), floor)) + P * math.log(W)
+        if best < 0 or crit < best_length:
+            best, best_length, best_h, best_res = c, crit, h, res
+    return best, best_length, best_h, best_res
+
+
+@numba.njit(cache=True, nogil=True)
+def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
+    """``sum(a[start:start+n])`` as numpy's pairwise summation adds it (``numpy.trace`` too):
+    a plain sum under 8 terms, eight running sums combined pairwise up to 128, halves
+    (multiples of 8) beyond, the left half first; walked with a stack of its own (a cached
+    kernel that recurses fails to load from numba's cache when another calls it)."""
+    starts = np.empty(64, dtype=np.int64)
+    sizes = np.empty(64, dtype=np.int64)
+    phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
+    left = np.empty(64)
+    top = 0
+    starts[0], sizes[0] = start, n
+    result = 0.0
+    while top >= 0:
+        s, m = starts[top], sizes[top]
+        if m > 128:
+            half = m // 2
+            half -= half % 8
+            phase[top] = 1
+            top += 1
+            starts[top], sizes[top], phase[top] = s, half, 0
+            continue
+        result = _pairwise_leaf(a, s, m)
+        top -= 1
+        while top >= 0:
+            if phase[top] == 1:
+                left[top] = result
+                phase[top] = 2
+                half = sizes[top] // 2
+                half -= half % 8
+                starts[top + 1] = starts[top] + half
+                sizes[top + 1] = sizes[top] - half
+                phase[top + 1] = 0
+                top += 1
+                break
+            result = left[top] + result
+            top -= 1
+    return result
+
+
+@numba.njit(cache=True, nogil=True)
+def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
+    """numpy's pairwise sum of ``a[start:start+n]``, ``n <= 128``."""
+    if n < 8:
+        res = 0.0
+        for i in range(start, start + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[start], a[start + 1], a[start + 2], a[start + 3]
+    r4, r5, r6, r7 = a[start + 4], a[start + 5], a[start + 6], a[start + 7]
+    i = start + 8
+    top = start + n - n % 8
+    while i < top:
+        r0, r1, r2, r3 = r0 + a[i], r1 + a[i + 1], r2 + a[i + 2], r3 + a[i + 3]
+        r4, r5, r6, r7 = r4 + a[i + 4], r5 + a[i + 5], r6 + a[i + 6], r7 + a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < start + n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True, nogil=True)
+def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no cover - compiled
+    """Rows ``lo .. hi - 1`` of the design matrix of :class:`_NormalEquations`: ``M[i, c] =
+    T_t[i - o_k - post + j]`` (0 outside ``T_t``) in column ``c = (k n_t + t) ntap + j``, for
+    the templates ``templates[t, :lengths[t]]`` and offsets ``o_k``."""
+    ntap = pre + post + 1
+    n_t = templates.shape[0]
+    M = np.zeros((hi - lo, offsets.size * n_t * ntap))
+    for k in range(offsets.size):
+        for t in range(n_t):
+            base = (k * n_t + t) * ntap
+            n = lengths[t]
+            for r in range(hi - lo):
+                first = lo + r - offsets[k] - post
+                for j in range(max(0, -first), min(ntap, n - first)):
+                    M[r, base + j] = templates[t, first + j]
+    return M
+
+
+@functools.lru_cache(maxsize=256)
+def _columns(
+    n_offsets: int, n_templates: int, pre_all: int, post_all: int, n_t: int, pre: int, post: int
+) -> np.ndarray | None:
+    """The columns of the fit on the first ``n_t`` templates, lags ``-pre .. post``, in a
+    design matrix of ``n_offsets`` offsets of ``n_templates`` templates, lags ``-pre_all ..
+    post_all``; None when that is every column."""
+    ntap_all = pre_all + post_all + 1
+    lags = np.arange(post_all - post, post_all + pre + 1)
+    idx = np.concatenate(
+        [(k * n_templates + t) * ntap_all + lags for k in range(n_offsets) for t in range(n_t)]
+    )
+    if idx.size == n_offsets * n_templates * ntap_all:
+        return None
+    idx.flags.writeable = False
+    return idx
 
 
 def _row_chunks(spans, rows: int) -> list[tuple[int, int]]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 #: A bounce time more than this many times the previous one breaks a bounce series (a
@@ -91,29 +92,7 @@ def bounce_series(
     latest = n - 1 if sure is None else last_second(t, np.asarray(sure[:horizon]), e_min, growth)
     # best[i, j]: most ticks in a series from tick 0 ending ..., t_i, t_j; second[i, j]:
     # its second tick; back[i, j]: the tick before t_i
-    best = np.zeros((n, n), dtype=int)
-    second = np.zeros((n, n), dtype=int)
-    back = np.full((n, n), -1, dtype=int)
-    best[0, 1 : latest + 1] = 2
-    second[0, 1:] = np.arange(1, n)
-    for i in range(1, n - 1):
-        col, sec = best[:i, i], second[:i, i]
-        for j in range(i + 1, n):
-            bounce = t[j] - t[i]
-            # the bounce before, t_i - t_k, must lie in [bounce / growth, bounce / e_min]
-            lo = np.searchsorted(t[:i], t[i] - bounce / e_min, side="left")
-            hi = np.searchsorted(t[:i], t[i] - bounce / growth, side="right")
-            if hi <= lo:
-                continue
-            c = col[lo:hi]
-            m = int(c.max())
-            if m == 0:
-                continue
-            pick = np.nonzero(c == m)[0]
-            k = lo + int(pick[np.argmin(sec[lo:hi][pick])])
-            best[i, j] = m + 1
-            second[i, j] = second[k, i]
-            back[i, j] = k
+    best, second, back = _series_tables(t, latest, e_min, growth)
     top = best.max()
     ends = np.argwhere(best == top)
     i, j = min(ends, key=lambda ij: (second[ij[0], ij[1]], ij[1]))
@@ -124,6 +103,39 @@ def bounce_series(
     if chain[-1] != 0:
         chain.append(0)
     return chain[::-1]
+
+
+@numba.njit(cache=True, nogil=True)
+def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
+    """The tables of :func:`bounce_series`' dynamic programme over the onsets ``t``:
+    ``best[i, j]``, most ticks in a series from tick 0 ending ..., t_i, t_j; ``second[i,
+    j]``, its second tick; ``back[i, j]``, the tick before t_i (-1: none)."""
+    n = t.size
+    best = np.zeros((n, n), dtype=np.int64)
+    second = np.zeros((n, n), dtype=np.int64)
+    back = np.full((n, n), -1, dtype=np.int64)
+    for j in range(1, latest + 1):
+        best[0, j] = 2
+    for j in range(1, n):
+        second[0, j] = j
+    for i in range(1, n - 1):
+        for j in range(i + 1, n):
+            bounce = t[j] - t[i]
+            # the bounce before, t_i - t_k, must lie in [bounce / growth, bounce / e_min]
+            lo = np.searchsorted(t[:i], t[i] - bounce / e_min, side="left")
+            hi = np.searchsorted(t[:i], t[i] - bounce / growth, side="right")
+            m = 0
+            k = -1
+            for c in range(lo, hi):
+                if best[c, i] > m or (best[c, i] == m and m > 0 and second[c, i] < second[k, i]):
+                    m = best[c, i]
+                    k = c
+            if m == 0:
+                continue
+            best[i, j] = m + 1
+            second[i, j] = second[k, i]
+            back[i, j] = k
+    return best, second, back
 
 
 def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) -> int:

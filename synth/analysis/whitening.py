@@ -30,7 +30,9 @@ ORDER_GRID = 96
 ERROR_BATCH = 16
 
 
-def whitening_predictor(x: np.ndarray, order: int, samplerate: float) -> np.ndarray:
+def whitening_predictor(
+    x: np.ndarray, order: int, samplerate: float, parts: dict | None = None
+) -> np.ndarray:
     """Step 1's prediction-error filter ``[1, a1, ..., ap]`` of ``x`` (sample rate
     ``samplerate``, Hz): the autocorrelation method (:func:`synth.dsp.autocorrelation`, with
     its white-noise correction), the recording's noise floor taken as the least power
@@ -43,8 +45,9 @@ def whitening_predictor(x: np.ndarray, order: int, samplerate: float) -> np.ndar
     recording is known to better than its noise floor, so none is lifted beyond it
     (:func:`lead_in_noise`); a band that holds noise or sound is left as it is, and a
     recording without noise before its first sound (a render) is whitened as without the
-    floor."""
-    r = dsp.white_noise_corrected(dsp.autocorrelation(x, order))
+    floor. ``parts``: the autocorrelation's terms of a signal that ``x`` starts (see
+    :func:`synth.dsp.autocorrelation`), shared by the searches of a block and of its start."""
+    r = dsp.white_noise_corrected(dsp.autocorrelation(x, order, parts))
     return dsp.levinson_predictor(r + noise_floor_loading(r, lead_in_noise(x, samplerate), x.size))
 
 

@@ -51,31 +51,21 @@ def long_recording(path, duration: float, repeated: bool, samplerate: int = 4800
 
 def long_child(path: str) -> dict:
     """Analyse the file ``path`` in this process: wall seconds, CPU seconds (the process'
-    threads), the peak of the memory allocated meanwhile (tracemalloc, MB), ticks and series
-    found."""
-    import tracemalloc
-
+    threads), ticks and series found. Untraced: tracing allocations (tracemalloc) would slow
+    the analysis' Python code by up to half again; memory is the process' peak resident set,
+    read by the caller."""
     from synth.analysis import analyze_file
 
-    tracemalloc.start()
     t0, c0 = time.perf_counter(), time.process_time()
     a = analyze_file(path)
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
-    peak = tracemalloc.get_traced_memory()[1] / 1e6
-    tracemalloc.stop()
-    return {
-        "seconds": seconds,
-        "cpu_s": cpu,
-        "traced_mb": peak,
-        "ticks": len(a.ticks),
-        "series": len(a.series),
-    }
+    return {"seconds": seconds, "cpu_s": cpu, "ticks": len(a.ticks), "series": len(a.series)}
 
 
 def run_long(durations=LONG_DURATIONS, timeout: float = 1800.0) -> list:
     """Each recording of :func:`long_recording` (one drop, and repeated drops) analysed by
     ``analyze_file`` in a new process (after a warm-up on a short file, which loads numba's
-    cache): wall and CPU seconds, traced peak MB, the process' peak resident MB
+    cache): wall and CPU seconds, the process' peak resident MB
     (``ru_maxrss``: the interpreter and libraries too), wall and CPU seconds per minute of
     audio, and ticks found against the truth."""
     import os
@@ -109,25 +99,24 @@ def format_long(rows) -> str:
     the target (:data:`LONG_TARGET_S`, :data:`LONG_TARGET_MB`)."""
     lines = [
         "| recording | ticks (truth) | series | analysis s (CPU s) | s per minute of audio "
-        "(CPU) | traced peak MB | process peak MB |",
-        "|---|---|---|---|---|---|---|",
+        "(CPU) | process peak MB |",
+        "|---|---|---|---|---|---|",
     ]
     for r in rows:
         what = _long_name(r)
         if "error" in r:
-            lines.append(f"| {what} | ({r['truth']}) | failed: {r['error']} | | | | |")
+            lines.append(f"| {what} | ({r['truth']}) | failed: {r['error']} | | | |")
             continue
         lines.append(
             f"| {what} | {r['ticks']} ({r['truth']}) | {r['series']} | {r['seconds']:.2f} "
             f"({r['cpu_s']:.2f}) | {r['per_minute']:.2f} ({r['cpu_per_minute']:.2f}) | "
-            f"{r['traced_mb']:.0f} | {r['rss_mb']:.0f} |"
+            f"{r['rss_mb']:.0f} |"
         )
     lines.append("")
     lines.append(
         "Synthetic bounces (e = 0.8, 20 ticks each) in white noise 80 dB under full scale, "
         "48 kHz float WAV, each analysed by `analyze_file` in a new process after a warm-up "
         "on a 3 s file. CPU: the process' threads (a multithreaded BLAS's helpers too). "
-        "'traced peak': the largest memory allocated during the analysis (tracemalloc); "
         "'process peak': the process' largest resident set (ru_maxrss, with the interpreter "
         "and libraries)."
     )

@@ -43,7 +43,7 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     theory = "kirchhoff"            # or "mindlin": the modal plate's theory (plate "modal")
 
     [render]                        # optional: options of synth.render
-    samplerate = 48000              # Hz
+    samplerate = 48000              # Hz (48000 when left out: PRESET_SAMPLERATE)
     normalize = "peak"              # "peak", "loudness", "physical" or "none"
     peak_db = -1.0                  # dBFS, for "peak"
     loudness_lufs = -23.0           # LUFS, for "loudness"
@@ -107,6 +107,9 @@ SECTIONS = {
     "render": None,  # the options of synth.render (synth.sound.render.OPTIONS) and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
+# Hz: the rate of a preset whose [render] section names none (the render section
+# returned by the loader always holds a rate, since synth.render requires one).
+PRESET_SAMPLERATE = 48000
 _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source", "transverse_shear")
 #: The value of ``transverse_shear`` that ties it to the material's fitted through-thickness
 #: modulus (:func:`synth.physics.materials.with_transverse_shear`).
@@ -378,6 +381,7 @@ def _render_section(section: dict, source: str) -> dict:
                 f"{source}: render.{k}={v!r} is not a known key{hint}; "
                 f"allowed: {', '.join(allowed)}"
             )
+    section = {"samplerate": PRESET_SAMPLERATE, **section}
     opts = {k: v for k, v in section.items() if k != "subtype"}
     try:
         check_options(**opts)

@@ -464,7 +464,7 @@ class Engine:
     Parameters
     ----------
     samplerate : int
-        Hz, in [8000, 384000].
+        Hz, in [8000, 384000]; required (the device is opened at this rate).
     blocksize : int
         Frames per callback, in [16, 8192] (PortAudio's buffer size; also the step of
         :meth:`process`).
@@ -510,7 +510,7 @@ class Engine:
     def __init__(
         self,
         *,
-        samplerate: int = 48000,
+        samplerate: int,
         blocksize: int = 256,
         device=None,
         latency="low",

@@ -430,6 +430,26 @@ class EdgeEffectSolution:
         )
         return out
 
+    def product_factors(self, xi, eta, index):
+        """The modes ``index`` (ascending integers) as tables of their factors at the
+        distinct coordinates ``xi`` and ``eta`` (in [-1, 1]): ``(x_own, y_own, x_other,
+        y_other)``, shapes ``(len(xi), n)`` and ``(len(eta), n)``, with mode ``index[k]`` at
+        ``(xi[a], eta[b])`` equal to ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``
+        (the second product zero for a trial alone; the values of :meth:`shapes`)."""
+        index = np.asarray(index, dtype=np.int64)
+        trial = self.trial[index]
+        partner = self.partner[index]
+        paired = partner >= 0
+        used = np.unique(np.concatenate((trial, partner[paired])))
+        fx = self._table(0, np.asarray(xi, dtype=float), used)
+        fy = self._table(1, np.asarray(eta, dtype=float), used)
+        own = np.searchsorted(used, trial)
+        other = np.searchsorted(used, np.where(paired, partner, trial))
+        x_own = self.own[index] * fx[:, own]
+        x_other = np.where(paired, self.other[index] * fx[:, other], 0.0)
+        y_other = np.where(paired, fy[:, other], 0.0)
+        return x_own, np.ascontiguousarray(fy[:, own]), x_other, y_other
+
 
 def _pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
     """``partner[t]``: the trial paired with trial ``t`` (-1 if none). In ascending order

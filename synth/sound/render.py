@@ -286,7 +286,7 @@ SEQUENCE_RTOL = 1e-4
 
 def check_options(
     *,
-    samplerate=48000,
+    samplerate,
     normalize="peak",
     peak_db=-1.0,
     loudness_lufs=-23.0,
@@ -427,7 +427,7 @@ def _check_modal_sequence(scene, sequence) -> BounceSequence:
 def render(
     scene,
     *,
-    samplerate=48000,
+    samplerate,
     normalize="peak",
     peak_db=-1.0,
     loudness_lufs=-23.0,
@@ -446,7 +446,7 @@ def render(
     ----------
     scene : Scene
     samplerate : int
-        Hz, in [8000, 384000]. Explicit: there is no global rate.
+        Hz, in [8000, 384000]. Required: there is no default or global rate.
     normalize : {"peak", "loudness", "physical", "none"}
         Level stage: peak to ``peak_db`` dBFS; integrated loudness to ``loudness_lufs``
         LUFS (needs pyloudnorm); a fixed physical calibration (see

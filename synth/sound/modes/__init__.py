@@ -87,6 +87,18 @@ class EdgeEffectPart:
     solution: object
     offset: int
 
+    def product_factors(self, x, y, length: float, width: float, index):
+        """Modes ``index`` (ascending, numbered as in :class:`Modes`, each ``>= first_mode``)
+        of a plate ``length`` x ``width`` (metres) as tables of their factors at the distinct
+        coordinates ``x`` and ``y`` (metres, on the plate): ``(x_own, y_own, x_other,
+        y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] +
+        x_other[a, k] y_other[b, k]`` (see
+        :meth:`synth.sound.asymptotic_modes.EdgeEffectSolution.product_factors`)."""
+        xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
+        eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
+        own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
+        return self.solution.product_factors(xi, eta, own)
+
 
 @dataclass(frozen=True, eq=False)
 class Modes:

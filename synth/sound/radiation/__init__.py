@@ -39,9 +39,13 @@ the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for sep
 shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
 for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
 modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
-exceeds :data:`BOUNDARY_RULE_WORK` takes the boundary rule for those and the rectangle rule for
-its Ritz modes; below it, the rectangle rule band by band of wavenumber (:data:`BAND_RATIO`:
-each band's grid follows its own fastest mode's wavelength, the Ritz modes one band).
+exceeds :data:`BOUNDARY_RULE_WORK` on a plate of more than :data:`BOUNDARY_RULE_SIZE`
+wavelengths (or whose rectangle rule would exceed ``max_points``) takes the boundary rule for
+those and the rectangle rule for its Ritz modes; otherwise the rectangle rule band by band of
+wavenumber (:data:`BAND_RATIO`:
+each band's grid follows its own fastest mode's wavelength, the Ritz modes one band), the
+edge effect modes' shapes formed from their factor tables inside the sums
+(:func:`~synth.sound.radiation.rectangle.product_gains`).
 """
 
 from __future__ import annotations
@@ -67,6 +71,7 @@ from synth.sound.radiation.cache import (
 )
 from synth.sound.radiation.common import (
     MAX_ORDER,
+    REFINE,
     RadiationResult,
     check_listener,
     check_poles,
@@ -74,7 +79,7 @@ from synth.sound.radiation.common import (
     half_phase,
 )
 from synth.sound.radiation.polar import separable_gains
-from synth.sound.radiation.rectangle import rayleigh_gains
+from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
 from synth.sound.radiation.refinement import warn_unconverged
 from synth.sound.radiation.summed import summed_gains
 
@@ -123,6 +128,34 @@ SUMMED_RULE_WORK = 5e8
 #: above 5e9; ``synth bench scale`` and ``synth bench hires`` print both).
 BOUNDARY_RULE_WORK = 1e9
 
+#: Size of a plate in wavelengths of the rectangle rule, ``kappa a b / (a + b)``
+#: (``kappa = k_b + max|s| / c``, rad/m; ``a b / (a + b)`` half the area over the
+#: perimeter), below which edge effect modes keep the banded rectangle rule whatever its
+#: work. The rectangle rule's evaluations grow as ``n_modes (kappa a) (kappa b)``, the
+#: boundary rule's as ``n_modes kappa (a + b)`` with a larger constant: their ratio grows
+#: with this size. Measured (CPU seconds, both rules converged, the gains within 0.005 tol
+#: of each other): the random free acrylic plate 1.38 x 1.62 m at 48 kHz of
+#: ``synth bench scale`` (size 597, work 5.8e9) 40 rectangle against 53 boundary; the
+#: default board at 384 kHz (size 1327, work 5.5e9) 85 against 22; the crossover, log-linear
+#: between the two, near 700. ``0``: the work alone decides.
+BOUNDARY_RULE_SIZE = 700.0
+
+
+def _use_boundary(size, q_s, kb, c, tol, max_points) -> bool:
+    """Whether edge effect modes take the boundary rule: their rectangle rule's work exceeds
+    :data:`BOUNDARY_RULE_WORK` and the plate :data:`BOUNDARY_RULE_SIZE` wavelengths, or its
+    check rule (``REFINE^2`` times the first one's points) would exceed ``max_points``."""
+    if q_s.size == 0:
+        return False
+    work = _rectangle_work(size, q_s, kb, c, tol)
+    if work / q_s.size * REFINE**2 > max_points:
+        return True
+    if work <= BOUNDARY_RULE_WORK:
+        return False
+    a, b = size
+    kappa = kb + float(np.max(np.abs(q_s))) / c
+    return kappa * a * b / (a + b) > BOUNDARY_RULE_SIZE
+
 
 def _rectangle_work(size, q_s, kb, c, tol) -> float:
     """Modes times points of the rectangle rule's first rule, estimated from its
@@ -143,10 +176,13 @@ def _use_summed(modes, size, q_s, kb, c, tol):
 #: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic, see
 #: :mod:`~synth.sound.radiation.rectangle`) of the fastest and the slowest edge effect mode of
 #: one band of :func:`_banded_rectangle`. The rectangle rule's points grow as ``kappa^2``: one
-#: rule for every mode evaluates the slowest ones on the fastest one's grid; bands 1.25 apart
-#: put each mode on a grid at most 1.56 times the points its own wavenumber needs.
-#: ``math.inf``: one band.
-BAND_RATIO = 1.25
+#: rule for every mode evaluates the slowest ones on the fastest one's grid; bands 1.1 apart
+#: put each mode on a grid at most 1.21 times the points its own wavenumber needs, while each
+#: band adds its own panels, factor tables and threads (ratios of 1.25, 1.1 and 1.06 took
+#: about 100, 91 and 88 % of the evaluations of 1.25 for the random scenes of
+#: ``synth bench scale`` with such modes; 1.03 and closer no less time). ``math.inf``: one
+#: band.
+BAND_RATIO = 1.1
 
 
 def _wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
@@ -184,15 +220,33 @@ def _combined(parts, rule: str, message: str) -> RadiationResult:
 def _band_rectangle(modes, start, stop, size, listener, q_s, kb, max_points, settings):
     """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
     wavenumber among them (``kb`` scaled by the square root of their highest frequency's
-    ratio to the highest mode's, as for a plate's bending waves)."""
+    ratio to the highest mode's, as for a plate's bending waves). Edge effect modes (all
+    of them at or past ``modes.edge_effect().first_mode``) take it with their factor
+    tables (:func:`~synth.sound.radiation.rectangle.product_gains`)."""
     omega = modes.angular_frequencies
     index = np.arange(start, stop)
+    wavenumber = kb * math.sqrt(omega[stop - 1] / omega[-1])
+    edge = modes.edge_effect()
+    if edge is not None and start >= edge.first_mode:
+
+        def factors(x, y):
+            return ProductFactors(*edge.product_factors(x, y, size[0], size[1], index))
+
+        return product_gains(
+            factors,
+            size,
+            listener,
+            q_s[start:stop],
+            max_wavenumber=wavenumber,
+            max_points=max_points,
+            **settings,
+        )
     return rayleigh_gains(
         lambda points: modes.shapes(points, index=index),
         size,
         listener,
         q_s[start:stop],
-        max_wavenumber=kb * math.sqrt(omega[stop - 1] / omega[-1]),
+        max_wavenumber=wavenumber,
         max_points=max_points,
         full_output=True,
         **settings,
@@ -315,7 +369,7 @@ def plate_gains(
 
     size = (modes.plate.length, modes.plate.width)
     edge = modes.edge_effect()
-    boundary = edge is not None and _rectangle_work(size, q_s, kb, c, tol) > BOUNDARY_RULE_WORK
+    boundary = edge is not None and _use_boundary(size, q_s, kb, c, tol, max_points)
     separable = None if edge is not None else _use_separable(modes, size, listener, q_s, kb, c, tol)
     summed = None
     if edge is None and separable is None:

@@ -25,9 +25,15 @@ Both radial integrals and the boundary integral are taken on one set of radial
 Gauss-Legendre panels (those of the polar rule, :mod:`synth.sound.radiation`: break
 points where a circle touches an edge's line, with the ``sqrt`` behaviour removed, and
 at the corners' distances), a boundary node sitting where its circle crosses the edge;
-the cumulative integrals inside a panel by Gauss-Legendre spectral integration. The
-cost per mode is a few Bessel functions per radial node plus the boundary nodes: it
-grows with the plate's diameter times the wavenumber, not its area.
+the cumulative integrals inside a panel by Gauss-Legendre spectral integration. In the
+decaying parts the factors ``exp(-kappa |rho - t|)`` of the scaled Bessel functions are
+taken exactly: on a plain panel by product weights for the weight function
+``exp(-kappa (t_a - t))`` (:func:`decay_weights`), so the panels need only resolve
+``G`` and the scaled Bessel functions, as in the oscillating part; and ``R1`` lies
+``40 / kappa`` beyond the farthest corner (``F`` has no boundary layer on the plate). The
+three parts share one grid and each boundary node's trial values. The cost per mode is
+a few Bessel functions per radial node plus the boundary nodes: it grows with the
+plate's diameter times the wavenumber, not its area.
 """
 
 from __future__ import annotations
@@ -51,9 +57,23 @@ from synth.sound.radiation.common import (
 from synth.sound.radiation.polar import radial_nodes, radial_orders, radial_panels
 from synth.sound.radiation.refinement import refine_selective
 
-#: Longest radial panel for the decaying tables, times ``1 / kappa``: the cumulative
-#: integrals carry ``exp(kappa (t - lo))`` across a panel (error growth ``e^2``).
-_DECAY_PANEL = 2.0
+#: Longest substituted radial panel (``r = lo + L u^2``) of the decaying tables, times
+#: ``1 / kappa``: there the cumulative integrals carry ``exp(kappa (t - lo))`` across the
+#: panel (error growth ``e``); plain panels take the exponential exactly
+#: (:func:`decay_weights`).
+_DECAY_SUBSTITUTED = 1.0
+#: Ladder of the exponents ``c = kappa h / 2`` of the exact weights: a panel takes the
+#: weights of the step at or below its ``c`` and carries the rest, ``exp((c - c0) (x +
+#: 1))``, in its values (growth at most ``exp(2 c (1 - 1 / ladder))``, 75 at ``c = 50``).
+_DECAY_LADDER = 2.0 ** (1.0 / 16.0)
+#: Below this ``c`` a plain panel carries the whole exponential (growth at most ``e^0.5``).
+_DECAY_MIN_C = 0.25
+#: Lowest step of that ladder (``c0 = _DECAY_LADDER ** step``, about 1e-3), for its keys.
+_SENTINEL = -160
+#: The decaying tables' backward integrals run this many decay lengths ``1 / kappa``
+#: beyond the plate's farthest radius: the neglected rest is below ``exp(-40)`` (4e-18) of
+#: the integrand's scale, and ``F`` has no boundary layer at the farthest corner.
+_DECAY_TAIL = 40.0
 #: Dyadic panels towards the centre (``t log t`` terms: the innermost panel's share of
 #: the integral is about ``4^-levels``).
 _CENTRE_LEVELS = 12
@@ -81,6 +101,51 @@ def _spectral(p: int) -> np.ndarray:
     s = integ @ c
     s.setflags(write=False)
     return s
+
+
+@functools.cache
+def _step_rules(p: int, m: int):
+    """The steps of :func:`decay_weights` between the ``p`` Gauss-Legendre nodes and the
+    ends of ``[-1, 1]`` (``p + 1`` steps): their ends, ``m``-point Gauss-Legendre nodes
+    in each (``(p + 1, m)``) and weights, and the Lagrange polynomials there
+    (``(p + 1, m, p)``)."""
+    t, w = gauss(p)
+    ends = np.concatenate(([-1.0], t, [1.0]))
+    step = np.diff(ends)
+    u, v = gauss(m)
+    pts = 0.5 * (ends[:-1] + ends[1:])[:, None] + 0.5 * step[:, None] * u[None, :]
+    n = np.arange(p)
+    coef = (2 * n[:, None] + 1) / 2.0 * w[None, :] * np.polynomial.legendre.legvander(t, p - 1).T
+    lag = np.polynomial.legendre.legvander(pts, p - 1) @ coef
+    return ends, pts, v, lag
+
+
+@functools.cache
+def decay_weights(p: int, c: float) -> np.ndarray:
+    """Product weights of ``p``-point Gauss-Legendre panels for the weight function
+    ``exp(-c (x_a - x))``: ``E[a, j] = Int_{-1}^{x_a} exp(-c (x_a - x)) l_j(x) dx`` at the
+    nodes ``x_a`` (rows ``0 .. p-1``) and at ``x_p = 1`` (row ``p``), ``l_j`` the Lagrange
+    polynomials through the nodes: exact for ``exp(-c (x_a - x))`` times any polynomial of
+    degree below ``p``. Read only.
+
+    Built from node to node (each step's exponential at most 1: no cancellation for
+    small ``c``, underflow to 0 for large ``c``), each step by Gauss-Legendre with enough
+    points for the polynomial and the exponential (phase ``c`` times the step); at
+    ``c = 0`` the spectral integration matrix and the Gauss weights."""
+    step = np.diff(np.concatenate(([-1.0], gauss(p)[0], [1.0])))
+    m = p // 2 + 1
+    while half_phase(m, 1e-15) < 0.5 * c * step.max() and m < 4 * p + 200:
+        m += 4
+    ends, pts, v, lag = _step_rules(p, m + 4)
+    kern = 0.5 * step[:, None] * v[None, :] * np.exp(-c * (ends[1:, None] - pts))
+    local = np.einsum("im,imj->ij", kern, lag)
+    out = np.empty((p + 1, p))
+    acc = np.zeros(p)
+    for i in range(p + 1):
+        acc = math.exp(-c * step[i]) * acc + local[i]
+        out[i] = acc
+    out.setflags(write=False)
+    return out
 
 
 def _graded_from_feet(panels, feet):
@@ -114,6 +179,13 @@ def _graded_from_feet(panels, feet):
     return out
 
 
+def _tail_panels(start, h, length):
+    """Plain panels at most ``h`` long from ``start`` over ``length`` (m) beyond it."""
+    count = max(1, math.ceil(length / h))
+    cuts = start + length * np.arange(count + 1) / count
+    return [(float(u), float(v), 0) for u, v in zip(cuts[:-1], cuts[1:])]
+
+
 def _feet(size, listener):
     """Radii where a circle about the microphone's projection touches an edge's line
     with the foot of the perpendicular on the edge."""
@@ -131,12 +203,12 @@ class _Grid:
     """Radial panels about the microphone's projection, their nodes, and the boundary
     nodes (where the nodes' circles cross the edges)."""
 
-    def __init__(self, size, listener, k_osc, kappa_max, tol_panel, refine):
+    def __init__(self, size, listener, k_osc, kappa_max, kappa_min, tol_panel, refine):
         a, b = size
         xl, yl, zl = listener
-        h_osc = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
-        h = min(h_osc, _DECAY_PANEL / kappa_max) if kappa_max > 0 else h_osc
-        panels = radial_panels(a, b, listener, h)
+        h = 2.0 * half_phase(MAX_ORDER, tol_panel) / k_osc
+        h_sub = _DECAY_SUBSTITUTED / kappa_max if kappa_max > 0 else None
+        panels = radial_panels(a, b, listener, h, h_sub)
         r_min = panels[0][0]
         if r_min > 0.0:
             cuts = [0.0]
@@ -145,6 +217,8 @@ class _Grid:
                 cuts.append(min(t + min(h, GRADING * max(zl, t)), r_min))
             panels = [(lo, hi, 0) for lo, hi in zip(cuts[:-1], cuts[1:])] + panels
         panels = _graded_from_feet(panels, _feet(size, listener))
+        if kappa_min > 0.0:
+            panels += _tail_panels(panels[-1][1], h, _DECAY_TAIL / kappa_min)
         lo0, hi0, kind0 = panels[0]
         if lo0 == 0.0 and kind0 <= 0:
             # Y0(k t) t and K0(k t) t behave as t log t at the centre: dyadic panels
@@ -157,6 +231,7 @@ class _Grid:
         orders = np.ceil(orders * refine).astype(np.int64)
         self.panels = panels
         self.orders = orders
+        self.kinds = np.array([p[2] for p in panels], dtype=np.int64)
         self.rho, self.w = radial_nodes(panels, orders)
         self.jac = np.concatenate(
             [w / gauss(int(p))[1] for w, p in zip(np.split(self.w, np.cumsum(orders)[:-1]), orders)]
@@ -405,11 +480,69 @@ def _slopes(x, s, so, h, n, ce, scale):  # pragma: no cover
 
 
 @numba.njit(cache=True)
+def _decaying_tables(
+    kap, f0, g0, g, rho, starts, lo, hi, on_edge, etab, eoff, ekap, va, vb, oa, ob, ca, cb
+):  # pragma: no cover
+    """The radial integrals of a decaying row (``q^2 = -kap^2``) at the nodes of the
+    panels ``on_edge``: ``ca = Int_0^rho exp(-kap (rho - t)) i0e(kap t) G t dt`` and
+    ``cb = Int_rho^R1 exp(-kap (t - rho)) k0e(kap t) G t dt`` (``f0 = i0e``, ``g0 = k0e``,
+    ``g = G t`` times the Jacobian). Panel ``i`` takes the product weights ``etab[eoff[i]
+    :]`` (:func:`decay_weights`, ``(p + 1) x p``) of the rate ``ekap[i] <= kap`` (1/m)
+    and carries ``exp((kap - ekap[i]) (t - lo))`` in its values (``ekap[i] = 0``: the
+    whole exponential, on a short or substituted panel)."""
+    n_panels = lo.size
+    last = -1
+    for i in range(n_panels):
+        if on_edge[i]:
+            last = i
+    # forward, to the last panel with boundary nodes
+    base = 0.0j
+    for i in range(last + 1):
+        s0 = starts[i]
+        p = starts[i + 1] - s0
+        rest = kap - ekap[i]
+        off = eoff[i]
+        for a in range(p):
+            j = s0 + a
+            va[a] = f0[j] * g[j] * math.exp(rest * (rho[j] - lo[i]))
+        tot = 0.0j
+        row = off + p * p
+        for b in range(p):
+            tot += etab[row + b] * va[b]
+        if on_edge[i]:
+            _cumulate(etab, off, va[:p], oa)
+            for a in range(p):
+                j = s0 + a
+                ca[j] = base * math.exp(-kap * (rho[j] - lo[i]))
+                ca[j] += oa[a] * math.exp(-rest * (rho[j] - lo[i]))
+        base = base * math.exp(-kap * (hi[i] - lo[i])) + tot * math.exp(-rest * (hi[i] - lo[i]))
+    # backward from the tail's end: mirrored weights (the nodes are symmetric)
+    base = 0.0j
+    for i in range(n_panels - 1, -1, -1):
+        s0 = starts[i]
+        p = starts[i + 1] - s0
+        rest = kap - ekap[i]
+        off = eoff[i]
+        for a in range(p):
+            j = s0 + p - 1 - a  # mirrored order
+            vb[a] = g0[j] * g[j] * math.exp(rest * (hi[i] - rho[j]))
+        tot = 0.0j
+        row = off + p * p
+        for b in range(p):
+            tot += etab[row + b] * vb[b]
+        if on_edge[i]:
+            _cumulate(etab, off, vb[:p], ob)
+            for a in range(p):
+                j = s0 + p - 1 - a
+                cb[j] = base * math.exp(-kap * (hi[i] - rho[j]))
+                cb[j] += ob[a] * math.exp(-rest * (hi[i] - rho[j]))
+        base = base * math.exp(-kap * (hi[i] - lo[i])) + tot * math.exp(-rest * (hi[i] - lo[i]))
+
+
+@numba.njit(cache=True)
 def _row_tables(
-    r,
+    g,
     rho,
-    rbig,
-    jac,
     gw,
     starts,
     lo,
@@ -417,9 +550,10 @@ def _row_tables(
     on_edge,
     sflat,
     soff,
+    etab,
+    eoff,
+    ekap,
     q2,
-    sigma,
-    r0,
     small_x,
     small_at,
     small,
@@ -428,16 +562,20 @@ def _row_tables(
     f,
     df,
 ):  # pragma: no cover
-    """``F`` and ``F'`` (module notes) of row ``r`` ``(q2 1/m^2, sigma 1/m)`` into ``f``,
-    ``df`` at the nodes of the panels ``on_edge`` (the others are left untouched: only
-    their totals enter). Bessel values from the Hankel expansions, below ``small_x`` from
-    ``small`` (rows ``f0, g0, f1, g1``, this row's from ``small_at``)."""
+    """``F`` and ``F'`` (module notes) of one row's Helmholtz part ``q2`` (1/m^2) into
+    ``f``, ``df`` at the nodes of the panels ``on_edge`` (the others are left untouched:
+    only their totals enter); ``g = G t`` times the Jacobian at the nodes. Bessel values
+    from the Hankel expansions, below ``small_x`` from ``small`` (rows ``f0, g0, f1,
+    g1``, this row's from ``small_at``); for a decaying part the product weights of each
+    panel (:func:`_decaying_tables`)."""
     n = rho.size
     n_panels = lo.size
     p_max = 0
+    last = -1
     for i in range(n_panels):
         p_max = max(p_max, starts[i + 1] - starts[i])
-    g = np.empty(n, dtype=np.complex128)
+        if on_edge[i]:
+            last = i
     f0 = np.empty(n)
     g0 = np.empty(n)
     ca = np.empty(n, dtype=np.complex128)
@@ -448,65 +586,43 @@ def _row_tables(
     ob = np.empty(p_max, dtype=np.complex128)
     osc = q2 > 0.0
     kap = math.sqrt(abs(q2))
-    for j in range(n):
-        g[j] = np.exp(-sigma * (rbig[j] - r0)) / rbig[j] * rho[j] * jac[j]
+    # an oscillating part's integrals run forward only: to the last boundary node
+    n_used = starts[last + 1] if osc else n
+    for j in range(n_used):
         x = kap * rho[j]
         if x < small_x:
             f0[j] = small[0, small_at + j]
             g0[j] = small[1, small_at + j]
         else:
             f0[j], g0[j] = _bessel_at(x, osc, a0, 0.25 * math.pi)
-    # forward: J0 G t (osc) or exp(-kap (rho - t)) i0e G t; backward (decaying):
-    # exp(-kap (t - rho)) k0e G t
-    base_a = 0.0j
-    base_b = 0.0j
-    for i in range(n_panels):
-        s0, s1 = starts[i], starts[i + 1]
-        p = s1 - s0
-        tot_a = 0.0j
-        tot_b = 0.0j
-        for a in range(p):
-            j = s0 + a
-            if osc:
+    if osc:
+        # (pi / 2) [Y0 Int_0^rho J0 G t dt - J0 Int_0^rho Y0 G t dt]
+        base_a = 0.0j
+        base_b = 0.0j
+        for i in range(last + 1):
+            s0, s1 = starts[i], starts[i + 1]
+            p = s1 - s0
+            tot_a = 0.0j
+            tot_b = 0.0j
+            for a in range(p):
+                j = s0 + a
                 va[a] = f0[j] * g[j]
                 vb[a] = g0[j] * g[j]
-            else:
-                va[a] = f0[j] * g[j] * math.exp(kap * (rho[j] - lo[i]))
-            tot_a += gw[j] * va[a]
-            tot_b += gw[j] * vb[a]
-        if on_edge[i]:
-            _cumulate(sflat, soff[i], va[:p], oa)
-        if osc:
+                tot_a += gw[j] * va[a]
+                tot_b += gw[j] * vb[a]
             if on_edge[i]:
+                _cumulate(sflat, soff[i], va[:p], oa)
                 _cumulate(sflat, soff[i], vb[:p], ob)
                 for a in range(p):
                     ca[s0 + a] = base_a + oa[a]
                     cb[s0 + a] = base_b + ob[a]
             base_a += tot_a
             base_b += tot_b
-        else:
-            if on_edge[i]:
-                for a in range(p):
-                    j = s0 + a
-                    ca[j] = (base_a + oa[a]) * math.exp(-kap * (rho[j] - lo[i]))
-            base_a = (base_a + tot_a) * math.exp(-kap * (hi[i] - lo[i]))
-    if not osc:
-        base_b = 0.0j
-        for i in range(n_panels - 1, -1, -1):
-            s0, s1 = starts[i], starts[i + 1]
-            p = s1 - s0
-            tot_b = 0.0j
-            for a in range(p):
-                j = s0 + a
-                vb[a] = g0[j] * g[j] * math.exp(kap * (hi[i] - rho[j]))
-                tot_b += gw[j] * vb[a]
-            if on_edge[i]:
-                _cumulate(sflat, soff[i], vb[:p], ob)
-                for a in range(p):
-                    j = s0 + a
-                    cb[j] = (base_b + tot_b - ob[a]) * math.exp(-kap * (hi[i] - rho[j]))
-            base_b = (base_b + tot_b) * math.exp(-kap * (hi[i] - lo[i]))
-    for i in range(n_panels):
+    else:
+        _decaying_tables(
+            kap, f0, g0, g, rho, starts, lo, hi, on_edge, etab, eoff, ekap, va, vb, oa, ob, ca, cb
+        )
+    for i in range(last + 1):
         if not on_edge[i]:
             continue
         for j in range(starts[i], starts[i + 1]):
@@ -525,8 +641,7 @@ def _row_tables(
 
 
 @numba.njit(cache=True, parallel=True)
-def _part_integrals(
-    table,
+def _row_integrals(
     rho,
     rbig,
     jac,
@@ -537,6 +652,9 @@ def _part_integrals(
     on_edge,
     sflat,
     soff,
+    etab,
+    eoff,
+    ekap,
     q2,
     sigma,
     r0,
@@ -567,50 +685,54 @@ def _part_integrals(
     b,
     out,
 ):  # pragma: no cover
-    """``out[r] += Oint (psi dF/dn - F dpsi/dn) ds`` of one Helmholtz part of each row's
-    trial product (``table`` 0: interior x interior, 1: interior x edge and edge x
-    interior, 2: edge x edge), its ``F`` (:func:`_row_tables`) at the boundary nodes."""
+    """``out[r] = Oint (psi dF/dn - F dpsi/dn) ds`` summed over the three Helmholtz parts
+    of each row's trial product (``part`` 0: interior x interior, 1: interior x edge and
+    edge x interior, 2: edge x edge; ``q2[part, r]``), their ``F`` (:func:`_row_tables`)
+    at the boundary nodes; the trial's parts at a boundary node evaluated once for the
+    three. ``etab``, ``eoff[part]``, ``ekap[part]``, ``small_starts[part]``,
+    ``small[part]``: each part's product weights and small-argument Bessel values."""
     m = out.size
     n = rho.size
-    interior = table < 2
-    edge = table > 0
     for r in numba.prange(m):
-        f = np.empty(n, dtype=np.complex128)
-        df = np.empty(n, dtype=np.complex128)
-        _row_tables(
-            r,
-            rho,
-            rbig,
-            jac,
-            gw,
-            starts,
-            lo,
-            hi,
-            on_edge,
-            sflat,
-            soff,
-            q2[r],
-            sigma[r],
-            r0,
-            small_x,
-            small_starts[r],
-            small,
-            a0,
-            a1,
-            f,
-            df,
-        )
+        g = np.empty(n, dtype=np.complex128)
+        for j in range(n):
+            g[j] = np.exp(-sigma[r] * (rbig[j] - r0)) / rbig[j] * rho[j] * jac[j]
+        f = np.empty((3, n), dtype=np.complex128)
+        df = np.empty((3, n), dtype=np.complex128)
+        for part in range(3):
+            _row_tables(
+                g,
+                rho,
+                gw,
+                starts,
+                lo,
+                hi,
+                on_edge,
+                sflat,
+                soff,
+                etab,
+                eoff[part, r],
+                ekap[part, r],
+                q2[part, r],
+                small_x,
+                small_starts[part, r],
+                small[part],
+                a0,
+                a1,
+                f[part],
+                df[part],
+            )
         acc = 0.0j
         for e in range(edge_axis.size):
             sign = 1.0 if edge_high[e] else -1.0
             d = edge_d[e]
             if edge_axis[e] == 0:  # x = const, along y
                 xe = ((a if edge_high[e] else 0.0) - 0.5 * a) / big
-                au, ae = _parts(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r], interior, edge)
+                au, ae = _parts(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r], True, True)
                 du, de = _slopes(xe, sx[r], sy[r], hx, nx[r], cx[r], gx[r])
             else:
                 xe = ((b if edge_high[e] else 0.0) - 0.5 * b) / big
-                au, ae = _parts(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r], interior, edge)
+                au, ae = _parts(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r], True, True)
                 du, de = _slopes(xe, sy[r], sx[r], hy, ny[r], cy[r], gy[r])
             du *= sign / big
             de *= sign / big
@@ -618,21 +740,14 @@ def _part_integrals(
                 j = edge_idx[jj]
                 if edge_axis[e] == 0:
                     t = (edge_pos[jj] - 0.5 * b) / big
-                    vu, ve = _parts(t, sy[r], sx[r], hy, ny[r], cy[r], gy[r], interior, edge)
+                    vu, ve = _parts(t, sy[r], sx[r], hy, ny[r], cy[r], gy[r], True, True)
                 else:
                     t = (edge_pos[jj] - 0.5 * a) / big
-                    vu, ve = _parts(t, sx[r], sy[r], hx, nx[r], cx[r], gx[r], interior, edge)
+                    vu, ve = _parts(t, sx[r], sy[r], hx, nx[r], cx[r], gx[r], True, True)
                 geo = d / rho[j]
-                if table == 0:
-                    av = au * vu
-                    bv = du * vu
-                elif table == 1:
-                    av = au * ve + ae * vu
-                    bv = du * ve + de * vu
-                else:
-                    av = ae * ve
-                    bv = de * ve
-                val = av * df[j] * geo - bv * f[j]
+                val = au * vu * df[0, j] * geo - du * vu * f[0, j]
+                val += (au * ve + ae * vu) * df[1, j] * geo - (du * ve + de * vu) * f[1, j]
+                val += ae * ve * df[2, j] * geo - de * ve * f[2, j]
                 acc += edge_w[jj] * val
         out[r] += acc
 
@@ -654,53 +769,91 @@ def _small_bessel(k, rho, osc, on_node):
     return starts, out
 
 
-def _entry_integrals(grids, sol, trials, sigma, r0, size, big):
+def _decay_tables(grid, kappa):
+    """Product weights of each decay rate ``kappa`` (1/m, any shape; 0 for an oscillating
+    row) on each panel of ``grid`` (:func:`_decaying_tables`): the weights of the
+    exponent ``c0`` on the ladder ``_DECAY_LADDER`` at or below the panel's ``c = kappa h
+    / 2`` (``c0 = 0`` below ``_DECAY_MIN_C`` and on substituted panels), flattened; the
+    offsets into them and the rates ``2 c0 / h`` (shape of ``kappa`` x panels)."""
+    h = grid.hi - grid.lo
+    c = 0.5 * kappa[..., None] * h
+    exact = (c >= _DECAY_MIN_C) & (grid.kinds == 0)[None, :]
+    with np.errstate(divide="ignore"):
+        step = np.where(exact, np.floor(np.log(c) / math.log(_DECAY_LADDER)), 0.0).astype(np.int64)
+    step -= exact & (_DECAY_LADDER ** step.astype(float) > c)  # rounding: c0 <= c
+    c0 = np.where(exact, _DECAY_LADDER ** step.astype(float), 0.0)
+    step = np.where(exact, step + 1 - _SENTINEL, 0)  # 0: c0 = 0, else step + 1 - sentinel
+    key = step * (4 * MAX_ORDER * MAX_ORDER) + grid.orders  # orders below 4 MAX_ORDER^2
+    keys, inverse = np.unique(key.ravel(), return_inverse=True)
+    blocks, offsets, at = [], [], 0
+    for k in keys:
+        p, n = k % (4 * MAX_ORDER * MAX_ORDER), k // (4 * MAX_ORDER * MAX_ORDER)
+        rung = _DECAY_LADDER ** float(n - 1 + _SENTINEL) if n > 0 else 0.0
+        blocks.append(decay_weights(int(p), rung).ravel())
+        offsets.append(at)
+        at += blocks[-1].size
+    eoff = np.asarray(offsets, dtype=np.int64)[inverse.ravel()].reshape(c.shape)
+    return np.concatenate(blocks), eoff, 2.0 * c0 / h
+
+
+def _entry_integrals(grid, sol, trials, sigma, r0, size, big):
     """``Int X_t Y_t exp(-sigma (R - r0)) / R dA`` for rows ``(trial t, sigma)``: the
-    three Helmholtz parts (interior x interior, mixed, edge x edge) each on its grid."""
+    three Helmholtz parts (interior x interior, mixed, edge x edge) on one grid."""
     a, b = size
     hx, hy = sol.half
     (cx, gx), (cy, gy) = sol.factor_constants()
     sx, sy = sol.sx[trials], sol.sy[trials]
     omega = (sx + sy) / (big * big)
+    q2 = np.stack((omega, -omega, -3.0 * omega))
+    small = [
+        _small_bessel(np.sqrt(np.abs(q2[part])), grid.rho, part == 0, grid.on_node)
+        for part in range(3)
+    ]
+    width = max(t[1].shape[1] for t in small)
+    small_values = np.zeros((3, 4, width))
+    for part, (_, values) in enumerate(small):
+        small_values[part, :, : values.shape[1]] = values
+    small_starts = np.stack([t[0][:-1] for t in small])
+    etab, eoff, ekap = _decay_tables(grid, np.sqrt(np.maximum(-q2, 0.0)))
     out = np.zeros(trials.size, dtype=complex)
-    for table, (grid, q2) in enumerate(zip(grids, (omega, -omega, -3.0 * omega))):
-        small_starts, small = _small_bessel(np.sqrt(np.abs(q2)), grid.rho, table == 0, grid.on_node)
-        _part_integrals(
-            table,
-            grid.rho,
-            grid.r_big,
-            grid.jac,
-            grid.gw,
-            grid.starts,
-            grid.lo,
-            grid.hi,
-            grid.on_edge,
-            grid.sflat,
-            grid.soff,
-            q2,
-            sigma,
-            r0,
-            _ASYMPTOTIC_X,
-            small_starts,
-            small,
-            _A0,
-            _A1,
-            *grid.edge_arrays,
-            sx,
-            sy,
-            sol.nx[trials],
-            sol.ny[trials],
-            hx,
-            hy,
-            cx[trials],
-            gx[trials],
-            cy[trials],
-            gy[trials],
-            big,
-            a,
-            b,
-            out,
-        )
+    _row_integrals(
+        grid.rho,
+        grid.r_big,
+        grid.jac,
+        grid.gw,
+        grid.starts,
+        grid.lo,
+        grid.hi,
+        grid.on_edge,
+        grid.sflat,
+        grid.soff,
+        etab,
+        eoff,
+        ekap,
+        q2,
+        sigma,
+        r0,
+        _ASYMPTOTIC_X,
+        small_starts,
+        small_values,
+        _A0,
+        _A1,
+        *grid.edge_arrays,
+        sx,
+        sy,
+        sol.nx[trials],
+        sol.ny[trials],
+        hx,
+        hy,
+        cx[trials],
+        gx[trials],
+        cy[trials],
+        gy[trials],
+        big,
+        a,
+        b,
+        out,
+    )
     return out
 
 
@@ -711,8 +864,24 @@ def _rate_steps(rate: np.ndarray) -> np.ndarray:
 
 
 def _on_ladder(rate: float) -> float:
-    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps`."""
+    """``rate`` (1/m) rounded up to the ladder of :func:`_rate_steps` (0 stays 0)."""
+    if rate <= 0.0:
+        return 0.0
     return max(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0]), rate)
+
+
+def _below_ladder(rate: float) -> float:
+    """``rate`` (1/m) rounded down to the ladder of :func:`_rate_steps` (0 stays 0)."""
+    if rate <= 0.0:
+        return 0.0
+    return min(_RATE_LADDER ** float(_rate_steps(np.array([rate]))[0] - 1), rate)
+
+
+def _edge_rate(sol, trials, big) -> float:
+    """Largest decay rate (1/m) along an edge of the trials' edge parts,
+    ``sqrt(|s + 2 s_o|) / big`` of either factor."""
+    sx, sy = sol.sx[trials], sol.sy[trials]
+    return float(np.sqrt(np.maximum(np.abs(sx + 2.0 * sy), np.abs(sy + 2.0 * sx)).max()) / big)
 
 
 def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_panel):
@@ -722,8 +891,9 @@ def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_pane
 
     The terms (one per mode and trial, two for a pair) are taken in groups of similar
     radial rate ``k + |q|`` (:func:`_rate_steps`), each group on radial panels sized for
-    the top of its step (and its largest ``k`` rounded up to the ladder), so that
-    neighbouring groups share panels."""
+    the top of its step (or for its edge parts' decay along an edge if faster), with its
+    substituted panels at most ``1 / (sqrt(3) k)`` long and the decaying parts' tail,
+    each rate rounded to the ladder so that neighbouring groups share panels."""
     a, b = size
     big = max(a, b)
     trial = sol.trial[modes_index]
@@ -743,22 +913,22 @@ def boundary_integrals(sol, modes_index, size, listener, q, r0, refine, tol_pane
     step = _rate_steps(rate)
     for level in np.unique(step):
         rows = np.flatnonzero(step == level)
-        # the interior x interior part oscillates (no decay limit); the others decay
-        # at k and sqrt(3) k
+        # the interior x interior part oscillates; the others decay at k and sqrt(3) k
+        # (exactly on plain panels) and their edge parts at up to mu along the edges
         k_osc = max(_RATE_LADDER ** float(level), float(rate[rows].max()))
-        kmax = _on_ladder(float(k_trial[rows].max()))
-        h_osc = 2.0 * w_max / k_osc
-        grids = []
-        for kappa in (0.0, kmax, math.sqrt(3.0) * kmax):
-            if kappa * h_osc <= _DECAY_PANEL:  # the decay limit does not bind
-                kappa = 0.0
-            key = (k_osc, kappa)
-            if key not in grids_made:
-                grids_made[key] = _Grid(size, listener, k_osc, kappa, tol_panel, refine)
-            grids.append(grids_made[key])
-        nodes = max(nodes, max(g.rho.size for g in grids))
+        trials = rows_trial[rows]
+        k_dec = max(k_osc, _on_ladder(_edge_rate(sol, trials, big)))
+        kappa_max = _on_ladder(math.sqrt(3.0) * float(k_trial[rows].max()))
+        kappa_min = _below_ladder(float(k_trial[rows].min()))
+        if kappa_min * 2.0 * w_max / k_dec <= 2.0:  # F's layer at the far corner resolved
+            kappa_min = 0.0
+        key = (k_dec, kappa_max, kappa_min)
+        if key not in grids_made:
+            grids_made[key] = _Grid(size, listener, *key, tol_panel, refine)
+        grid = grids_made[key]
+        nodes = max(nodes, grid.rho.size)
         vals = _entry_integrals(
-            grids, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big
+            grid, sol, rows_trial[rows], np.ascontiguousarray(q[rows_mode[rows]]), r0, size, big
         )
         np.add.at(out, rows_mode[rows], rows_weight[rows] * vals)
     return out, nodes

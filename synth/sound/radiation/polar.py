@@ -101,12 +101,14 @@ def _radial_segments(a: float, b: float, xl: float, yl: float):
     return r_min, r_max, singular, kinks
 
 
-def radial_panels(a, b, listener, h):
+def radial_panels(a, b, listener, h, h_substituted=None):
     """Radial panels ``(lo, hi, kind)``: ``kind`` 0 plain, +1 (-1) with the
     ``sqrt`` behaviour at ``lo`` (``hi``) removed by a quadratic substitution.
     At most ``h`` long and, from the microphone's projection, at most
-    ``2 max(z, r)`` long (as along x and y in :mod:`synth.sound.radiation.rectangle`)."""
+    ``2 max(z, r)`` long (as along x and y in :mod:`synth.sound.radiation.rectangle`);
+    a substituted panel at most ``h_substituted`` long (m, default ``h / 2``)."""
     xl, yl, zl = listener
+    sub = 0.5 * h if h_substituted is None else min(0.5 * h, h_substituted)
     r_min, r_max, singular, kinks = _radial_segments(a, b, xl, yl)
     # breakpoints closer than 1e-12 r_max are one (rounding of equal distances)
     points = sorted(
@@ -135,10 +137,10 @@ def radial_panels(a, b, listener, h):
                 t = min(t + min(h, GRADING * max(zl, t)), p1)
                 cuts.append(t)
             # a substituted panel doubles the phase per unit of its variable: h / 2 long
-            if s0 and cuts[1] - p0 > 0.5 * h:
-                cuts.insert(1, p0 + 0.5 * h)
-            if s1 and p1 - cuts[-2] > 0.5 * h:
-                cuts.insert(len(cuts) - 1, p1 - 0.5 * h)
+            if s0 and cuts[1] - p0 > sub:
+                cuts.insert(1, p0 + sub)
+            if s1 and p1 - cuts[-2] > sub:
+                cuts.insert(len(cuts) - 1, p1 - sub)
             cuts = np.array(cuts)
             keep = np.concatenate(([True], np.diff(cuts) > 1e-12 * r_max))
             cuts = cuts[keep]

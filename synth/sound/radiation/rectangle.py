@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -47,7 +48,7 @@ from synth.sound.radiation.common import (
     half_phase,
     min_order,
 )
-from synth.sound.radiation.refinement import refine, warn_unconverged
+from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
 
 
 def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
@@ -76,13 +77,15 @@ def _breakpoints(length: float, centre: float, height: float, h: float) -> np.nd
     return ends
 
 
-def _panel_orders(ends: np.ndarray, kappa: float, tol: float) -> np.ndarray:
-    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``."""
+def _panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
+    """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``
+    (``kappa`` rad/m, one for every panel or one per panel)."""
     lengths = np.diff(ends)
+    kappas = np.broadcast_to(np.asarray(kappa, dtype=float), lengths.shape)
     p_min = min_order(tol)
     orders = np.full(lengths.size, p_min, dtype=np.int64)
     for i, length in enumerate(lengths):
-        w = 0.5 * kappa * length
+        w = 0.5 * kappas[i] * length
         p = p_min
         while p < MAX_ORDER and half_phase(p, tol) < w:
             p += 1
@@ -166,6 +169,115 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
             f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}"
         )
     return acc_re + 1j * acc_im, mag
+
+
+@dataclass(frozen=True)
+class ProductFactors:
+    """Mode shapes on a tensor grid as at most two products of one factor per axis:
+    ``phi_k(x_a, y_b) = x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``
+    (dimensionless; ``x_other`` and ``y_other`` None: the first product alone), as the
+    dynamic edge effect modes are (:mod:`synth.sound.asymptotic_modes`)."""
+
+    x_own: np.ndarray
+    y_own: np.ndarray
+    x_other: np.ndarray | None = None
+    y_other: np.ndarray | None = None
+
+    def columns(self, modes: np.ndarray) -> ProductFactors:
+        """The factors of the modes ``modes`` (column indices) alone."""
+        paired = self.x_other is not None
+        return ProductFactors(
+            self.x_own[:, modes],
+            self.y_own[:, modes],
+            self.x_other[:, modes] if paired else None,
+            self.y_other[:, modes] if paired else None,
+        )
+
+
+# Grid points whose shape values one call of the sums kernel holds (a few hundred kB for
+# a few hundred modes: they stay in the processor's cache between their evaluation and
+# their use).
+_PRODUCT_BLOCK = 64
+
+
+@numba.njit(cache=True, nogil=True)
+def _product_sums(
+    i0, i1, xs, wx, ys, wy, listener, r_mid, fx, fy, gx, gy, paired, qr, qi, halvings, acc
+):  # pragma: no cover
+    """The sums of :func:`apply_rule` over the grid rows ``i0 <= i < i1`` (nodes ``xs[i]``
+    times every ``ys``), the shapes ``fx[i] fy[j] (+ gx[i] gy[j] if paired)`` formed block
+    by block of points and added by the shared kernel (:func:`accumulate`) into ``acc``
+    (real, imaginary, magnitude)."""
+    xl, yl, zl = listener[0], listener[1], listener[2]
+    m = qr.size
+    ny = ys.size
+    phi = np.empty((_PRODUCT_BLOCK, m))
+    dist = np.empty(_PRODUCT_BLOCK)
+    wr = np.empty(_PRODUCT_BLOCK)
+    for i in range(i0, i1):
+        across = (xs[i] - xl) ** 2 + zl * zl
+        ax, bx = fx[i], gx[i]
+        for j0 in range(0, ny, _PRODUCT_BLOCK):
+            n = min(_PRODUCT_BLOCK, ny - j0)
+            for t in range(n):
+                j = j0 + t
+                r = math.sqrt(across + (ys[j] - yl) ** 2)
+                dist[t] = r - r_mid
+                wr[t] = wx[i] * wy[j] / r
+                ay = fy[j]
+                row = phi[t]
+                if paired:
+                    by = gy[j]
+                    for k in range(m):
+                        row[k] = ax[k] * ay[k] + bx[k] * by[k]
+                else:
+                    for k in range(m):
+                        row[k] = ax[k] * ay[k]
+            accumulate(0, n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
+
+
+def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
+    """As :func:`apply_rule` for shapes given as factor tables: ``factor_fn(xs, ys)`` returns
+    the :class:`ProductFactors` of every mode on the grid, whose shape values are formed
+    in the sums kernel a block of points at a time (never all at once). The grid's rows
+    are split into one fixed share per numba thread, each with its own accumulators, so
+    the result does not depend on the timing."""
+    f = factor_fn(xs, ys)
+    m = q.size
+    fx = _factor_table(f.x_own, xs.size, m)
+    fy = _factor_table(f.y_own, ys.size, m)
+    paired = f.x_other is not None
+    gx = _factor_table(f.x_other, xs.size, m) if paired else fx
+    gy = _factor_table(f.y_other, ys.size, m) if paired else fy
+    workers = max(1, min(numba.get_num_threads(), xs.size))
+    acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
+    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+    qi = np.ascontiguousarray(q.imag)
+    args = (xs, wx, ys, wy, np.asarray(listener, dtype=float), r_mid, fx, fy, gx, gy, paired)
+    bounds = [w * xs.size // workers for w in range(workers + 1)]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        jobs = [
+            pool.submit(_product_sums, lo, hi, *args, qr, qi, halvings, acc[w])
+            for w, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:]))
+        ]
+        for job in jobs:
+            job.result()
+    acc_re, acc_im, mag = acc.sum(axis=0)
+    if not np.isfinite(mag).all():
+        k = int(np.flatnonzero(~np.isfinite(mag))[0])
+        raise ParameterError(f"factor_fn returned NaN or infinite values for mode {k}")
+    return acc_re + 1j * acc_im, mag
+
+
+def _factor_table(table, n, m):
+    """A factor table of :class:`ProductFactors` as a C-ordered float array ``(n, m)``."""
+    arr = np.asarray(table)
+    if arr.shape != (n, m) or np.iscomplexobj(arr):
+        raise ParameterError(
+            f"factor_fn returned a factor table of shape {arr.shape} and dtype {arr.dtype}; "
+            f"expected real values of shape ({n}, {m}) (nodes, modes)"
+        )
+    return np.ascontiguousarray(arr, dtype=np.float64)
 
 
 def _check_shapes(phi, n, m):
@@ -265,6 +377,103 @@ def rayleigh_gains(
     """
     if not callable(shape_fn):
         raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
+
+    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
+        chunk = max(1, int(CHUNK_BYTES // (8 * q.size)))
+        return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
+
+    result = _rule_result(
+        evaluate,
+        size,
+        listener_position,
+        s,
+        max_wavenumber,
+        air_density,
+        sound_speed,
+        reference_distance,
+        tol,
+        max_points,
+    )
+    if full_output:
+        return result
+    if not result.success:
+        warn_unconverged("rayleigh_gains", result, tol)
+    return result.gains
+
+
+def product_gains(
+    factor_fn,
+    size,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+) -> RadiationResult:
+    """:func:`rayleigh_gains` (``full_output``) of shapes that are at most two products of
+    one factor per axis, such as the dynamic edge effect modes: the same panels and
+    convergence test, the shape values formed from the factor tables inside the sums
+    (:func:`apply_product_rule`) instead of evaluated point by point, and each panel's
+    orders for its own bound of the acoustic phase's rate (``acoustic`` of
+    :func:`first_rule`: fewer points where the microphone is high above the panel), each
+    mode refined alone (:func:`~synth.sound.radiation.refinement.refine_selective`: a mode
+    that passes keeps that rule's gain, the next rule sums only the modes still failing).
+    (:func:`rayleigh_gains` keeps one bound for every panel: its gains are those the
+    presets' recorded renders were made with.)
+
+    ``factor_fn(x, y) -> ProductFactors``: the modes' factors at the nodes ``x`` and ``y``
+    (metres from the corner, on the plate) of one rule's grid; the other arguments as for
+    :func:`rayleigh_gains`.
+    """
+    if not callable(factor_fn):
+        raise ParameterError(f"factor_fn={factor_fn!r} must be callable (x, y -> factors)")
+
+    def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
+        def factors(x, y):
+            f = factor_fn(x, y)
+            return f if active is None else f.columns(active)
+
+        return apply_product_rule(factors, xs, wx, ys, wy, listener, q, r_mid, halvings)
+
+    return _rule_result(
+        evaluate,
+        size,
+        listener_position,
+        s,
+        max_wavenumber,
+        air_density,
+        sound_speed,
+        reference_distance,
+        tol,
+        max_points,
+        local_phase=True,
+    )
+
+
+def _rule_result(
+    evaluate,
+    size,
+    listener_position,
+    s,
+    max_wavenumber,
+    air_density,
+    sound_speed,
+    reference_distance,
+    tol,
+    max_points,
+    local_phase=False,
+):
+    """The :class:`RadiationResult` of the rectangle rule of :func:`rayleigh_gains`
+    (arguments checked here) whose sums ``evaluate(xs, wx, ys, wy, listener, q, r_mid,
+    halvings)`` computes, as :func:`apply_rule` does, on the tensor grid of nodes ``xs`` x
+    ``ys`` (weights ``wx``, ``wy``; ``active`` the modes to sum, increasing indices, or
+    None for every mode). ``local_phase``: each panel's orders for its own bound of the
+    acoustic phase's rate (:func:`first_rule`), and each mode refined alone
+    (:func:`~synth.sound.radiation.refinement.refine_selective`)."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
@@ -274,8 +483,7 @@ def rayleigh_gains(
     m = q_s.size
     if m == 0:
         empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
-        return res if full_output else empty
+        return RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
 
     q = q_s / c
     kappa = kb + float(np.max(np.abs(q)))
@@ -291,7 +499,9 @@ def rayleigh_gains(
             f"max|s|/c={kappa - kb:.6g} rad/m the plate needs more than "
             f"{(a / h) * (b / h) * p_min * p_min:.3g} points"
         )
-    ex, ey, px0, py0 = first_rule(a, b, listener, kappa, tol_panel)
+    ex, ey, px0, py0 = first_rule(
+        a, b, listener, kappa, tol_panel, kappa - kb if local_phase else None
+    )
     panels = (ex.size - 1, ey.size - 1)
 
     # Range of R over the plate: the middle is factored out of the exponentials.
@@ -304,7 +514,6 @@ def rayleigh_gains(
     # exp(-Re(q) dR) with |Re(q) dR| <= u_max by Taylor on [-1, 1] and `halvings`
     # squarings; libm beyond 2^6 (or for phases beyond the Cody-Waite range).
     halvings = exp_halvings(q, spread)
-    chunk = max(1, int(CHUNK_BYTES // (8 * m)))
 
     def orders(level):
         f = REFINE**level
@@ -322,30 +531,49 @@ def rayleigh_gains(
             f"convergence check"
         )
 
-    def rule(level):
+    def rule(level, active=None):
         ox, oy = orders(level)
         xs, wx = panel_nodes(ex, ox)
         ys, wy = panel_nodes(ey, oy)
-        return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
+        q_active = q if active is None else q[active]
+        return evaluate(xs, wx, ys, wy, listener, q_active, r_mid, halvings, active)
 
     # Per-mode factor rho s / (2 pi) exp(-s (Rm - R0) / c).
     shift = r_mid - (0.0 if r0 is None else r0)
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
 
-    result = refine(rule, npoints, factor, scale, tol, max_points, panels)
-    if full_output:
-        return result
-    if not result.success:
-        warn_unconverged("rayleigh_gains", result, tol)
-    return result.gains
+    how = refine_selective if local_phase else refine
+    return how(rule, npoints, factor, scale, tol, max_points, panels)
 
 
-def first_rule(a, b, listener, kappa, tol_panel):
-    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`."""
+def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
+    """Panel ends and first-rule orders along x and y of :func:`rayleigh_gains`.
+
+    ``acoustic``: the part ``max|s| / c`` of ``kappa`` (rad/m), or None. If given, each
+    panel's orders are for its own bound of the phase's rate along the axis,
+    ``kappa - acoustic (1 - slope)``: along x the acoustic phase ``Im(s) R / c`` changes
+    at ``|s| / c |dR/dx|``, and ``|dR/dx| = |x - xl| / R <= slope = d / sqrt(d^2 + z^2)``,
+    ``d`` the distance from the microphone's projection to the panel's far end (the same
+    along y). The panels themselves are those of ``kappa``."""
     xl, yl, zl = listener
     w_half = half_phase(MAX_ORDER, tol_panel)
     h = 2.0 * w_half / kappa if kappa > 0 else math.inf
     ex = _breakpoints(a, xl, zl, h)
     ey = _breakpoints(b, yl, zl, h)
-    return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
+    if acoustic is None:
+        return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
+    return (
+        ex,
+        ey,
+        _panel_orders(ex, _local_kappa(ex, xl, zl, kappa, acoustic), tol_panel),
+        _panel_orders(ey, _local_kappa(ey, yl, zl, kappa, acoustic), tol_panel),
+    )
+
+
+def _local_kappa(ends, centre, height, kappa, acoustic):
+    """Per panel of ``ends``: ``kappa`` with its acoustic part ``acoustic`` (rad/m) scaled by
+    the largest ``|dR/dt| = d / sqrt(d^2 + height^2)`` on the panel (see :func:`first_rule`)."""
+    far = np.maximum(np.abs(ends[:-1] - centre), np.abs(ends[1:] - centre))
+    slope = far / np.sqrt(far * far + height * height)
+    return kappa - acoustic * (1.0 - slope)
