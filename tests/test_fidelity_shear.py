@@ -131,9 +131,11 @@ def test_what_each_measurement_alone_asks_of_g_t():
     # finder's 1e-6 in G_t / G, 1e-3 in the figure); the tied value is E_t / E. A lower G_t
     # slows the 2.5 kHz group and softens the middle monotonically (the dispersion relation).
     # The tied G_t shortens the 10 mm steel ball's critical distance (the edge's waves return
-    # later: measured 50.7 against 55.5 mm isotropic); the G_t fitted alone on 571 m/s does
-    # not: measured 119 mm, its contact the longest (246 us: the soft shear's local
-    # compliance, which the residual carries). Asserted as that reversal (docs/validation.md).
+    # later: measured 50.7 against 55.5 mm isotropic; past each maximum e falls by 4e-4 and
+    # 1.6e-3 before it rises again). With the G_t fitted alone on 571 m/s e has no such bump:
+    # it rises steadily from the edge (to within 5e-3 of its far value at 45 mm) and creeps
+    # on, flat to 1e-5 from about 110 mm, where the first local maximum on the 1 mm grid is
+    # a wiggle of 6e-6 at 119 mm: the definition's, asserted as such (docs/validation.md).
     from synth.physics.materials import MDF_SURFACE
 
     table = bench.transverse_shear_sensitivity()
