@@ -279,6 +279,44 @@ def test_onset_is_start_of_contact(tau_c):
     assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 0.01
 
 
+def test_weak_slow_contact_onset_is_its_start_transient():
+    # Whitened, a contact of many sample periods is the transients at its two ends; in a weak
+    # burst, whose onset walk's level is the noise's (4 sigma of the background, over a tenth
+    # of its peak), the body between them lies under that level. The walk from the burst's
+    # peak (the later, stronger end) must bridge the body to reach the start: a gap up to the
+    # longest contact (WEAK_ONSET_GAP, 0.5 ms: 24 samples at 48 kHz), not the 12 samples
+    # (ONSET_GAP) that bridge a strong burst's zero crossings. Synthetic: white noise of unit
+    # variance, a start transient of 6 sigma in the first sample after the onset, a body of
+    # +-2 sigma and the end's transients of 5 to 8 sigma 18 to 25 samples later (the shape of
+    # the 6 mm board's tenth tick in steps 1-6, 0.54 ms long). The onset: within one sample
+    # period of the start for each of 40 noise draws (the level crossing before the start
+    # transient); with the strong burst's gap only, 17 samples late or more (at the end).
+    # A strong burst (the same, 100 times louder: its level a tenth of its peak) is walked
+    # with ONSET_GAP alone, the weak gap given or not.
+    from synth.analysis import detection
+    from synth.analysis.settings import ONSET_GAP, WEAK_ONSET_GAP
+
+    gap, weak = round(ONSET_GAP * 48000), round(WEAK_ONSET_GAP * 48000)
+    assert (gap, weak) == (12, 24)
+    onset = 200.4
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        r = rng.standard_normal(400)
+        r[201] = 6.0
+        r[202:219] = rng.uniform(-2.0, 2.0, 17)
+        r[219:226] = rng.choice([-1.0, 1.0], 7) * rng.uniform(5.0, 8.0, 7)
+        lo, hi = 214, 232  # the candidate frame's: the end's transients
+        got = detection.refine_onset(r, lo, hi, 0.1, gap, 4.0, weak_gap=weak)
+        assert abs(got - onset) < 1.0, (seed, got)
+        late = detection.refine_onset(r, lo, hi, 0.1, gap, 4.0)
+        assert late - onset > 17.0, (seed, late)
+        loud = r.copy()
+        loud[201:226] *= 100.0
+        assert detection.refine_onset(loud, lo, hi, 0.1, gap, 4.0, weak_gap=weak) == (
+            detection.refine_onset(loud, lo, hi, 0.1, gap, 4.0)
+        )
+
+
 def test_options():
     # The options are honoured: every window is `window` long; without the deflation the
     # same ticks are found; with subtract_tails=False a tick's energy is that of the

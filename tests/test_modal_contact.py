@@ -2,6 +2,8 @@
 impedance model's closed-form limit, its agreement with the infinite plate far from the edges,
 its energy balance, and the boundary's effect on the restitution."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from synth.physics import impedance
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_bounces, simulate_scene
 from synth.physics.contact import hertz_stiffness, solve_contact, solve_impact
+from synth.physics.materials import LossFactor, with_transverse_shear
 from synth.physics.scene import Ball, Contact, Plate, Scene
 
 BALL = Ball("steel", 0.005)
@@ -100,20 +103,75 @@ def test_free_edge_lowers_and_clamped_edge_raises_restitution():
 
 
 @pytest.mark.slow
-def test_thesis_board_middle_equals_impedance_model_and_converges_with_the_band():
-    # Far from the edges the finite plate is the infinite one until reflections return: at
-    # the default band (4 / tau) e agrees with the impedance model within 1e-3 and tau within
-    # 1e-3 relative; the band's error falls as Omega^-2 (the residual's one-pole fit): halving
-    # the band multiplies it by about four.
+def test_thesis_board_middle_equals_impedance_model_at_every_band():
+    # Far from the edges the finite plate is the infinite one until reflections return: the
+    # residual is the infinite plate's modes above the band, so e agrees with the impedance
+    # model within 2e-4 and tau within 1e-3 relative at the default band (4 / tau; measured
+    # 1.2e-4, the lumped modes' damping) and within 5e-4 already at 1.5 / tau (measured
+    # 3.4e-4).
     plate = Plate("mdf-18", 0.018, 1.227, 0.49)
     ref = solve_impact(BALL, plate, 1.4, rtol=1e-10)
     r4 = mc.ModalContact.for_pair(BALL, plate, None, speed=1.4).solve(1.4)
-    assert r4.restitution == pytest.approx(ref.restitution, abs=1e-3)
+    assert r4.restitution == pytest.approx(ref.restitution, abs=2e-4)
     assert r4.contact_time == pytest.approx(ref.contact_time, rel=1e-3)
     tau = ref.contact_time
-    r2 = mc.ModalContact.for_pair(BALL, plate, None, max_frequency=2.0 / tau).solve(1.4)
-    ratio = (ref.restitution - r2.restitution) / (ref.restitution - r4.restitution)
-    assert 3.0 < ratio < 5.0
+    r15 = mc.ModalContact.for_pair(BALL, plate, None, max_frequency=1.5 / tau).solve(1.4)
+    assert r15.restitution == pytest.approx(ref.restitution, abs=5e-4)
+    assert r15.contact_time == pytest.approx(ref.contact_time, rel=1e-3)
+
+
+#: The thesis' 18 mm board, simply supported (closed-form modes: the residual depends on the
+#: material and thickness only), and the same with MDF's soft transverse shear modulus.
+_SS = Plate("mdf-18", 0.018, 1.227, 0.49, boundary="simply-supported")
+_SOFT = replace(_SS, material=with_transverse_shear(_SS.material))
+
+
+def _infinite_re_y(plate, theory, f):
+    """Re Y of the infinite plate (m/(N s)) at ``f`` (Hz): Kirchhoff's 1 / Z_inf or
+    Mindlin's closed form."""
+    if theory == "mindlin":
+        return impedance.mindlin_point_admittance(plate, f)
+    return np.full_like(f, 1.0 / impedance.infinite_plate_impedance(plate))
+
+
+@pytest.mark.parametrize(
+    "plate, theory", [(_SS, "kirchhoff"), (_SS, "mindlin"), (_SOFT, "mindlin")]
+)
+def test_residual_is_the_infinite_plates_modes_above_the_band(plate, theory):
+    # The residual is the wavenumber integral of the infinite plate's modes above the band
+    # (mc.residual_admittance_exact, with the plate's loss at the band limit); its lumped
+    # modes hold it within 3e-3 of the infinite plate's Re Y up to half the band and 1.5e-2
+    # up to 0.75 of it (three bins per octave). Below the band it is reactive but for the
+    # modes' damping: its real part stays under 5e-2 of Re Y up to half the band (MDF's
+    # loss; a one-pole residual taken at the band limit had 9 % for Kirchhoff). Undamped,
+    # for Kirchhoff, the integral is the closed form
+    # i (beta / pi) [ln((O + w) / (O - w)) - ln((W + w) / (W - w))] plus the tail.
+    fmax = 20e3
+    point = mc.modal_point(plate, (0.6, 0.2), max_frequency=fmax, theory=theory)
+    f = np.linspace(100.0, 0.75 * fmax, 60)
+    exact = mc.residual_admittance_exact(plate, fmax, f, theory=theory)
+    scale = _infinite_re_y(plate, theory, f)
+    err = np.abs(point.residual(f) - exact) / scale
+    low = f <= 0.5 * fmax
+    assert err[low].max() < 3e-3 and err.max() < 1.5e-2
+    assert np.all(np.abs(point.residual(f[low]).real) < 5e-2 * scale[low])
+    if theory == "kirchhoff":
+        plate = replace(plate, material=replace(plate.material, damping=LossFactor(1e-12)))
+        point = mc.modal_point(plate, (0.6, 0.2), max_frequency=fmax, theory=theory)
+        exact = mc.residual_admittance_exact(plate, fmax, f, theory=theory)
+        beta = 1.0 / impedance.infinite_plate_impedance(plate)
+        w, o = 2 * np.pi * f, 2 * np.pi * fmax
+        top = o * mc.RESIDUAL_RATIO**mc.RESIDUAL_BINS
+        s = 1j * w
+        closed = 1j * beta / np.pi * (np.log((o + w) / (o - w)) - np.log((top + w) / (top - w)))
+        closed += beta * s / (s + point.residual_rate)
+        assert np.allclose(exact, closed, rtol=1e-5, atol=0.0)  # quadrature near the band
+        # with the band's own modes as a continuum (real part beta, reactive part
+        # -i (beta / pi) ln((O + w) / (O - w))) the plate is the infinite one, Y = beta
+        band = beta - 1j * beta / np.pi * np.log((o + w) / (o - w))
+        total = band + point.residual(f)
+        assert np.abs(total[low] - beta).max() < 2e-3 * beta
+        assert np.abs(total - beta).max() < 1.5e-2 * beta
 
 
 @pytest.mark.slow
@@ -259,7 +317,8 @@ def test_mindlin_modes_soften_the_plate_as_the_infinite_mindlin_plate():
     assert mean_y("mindlin") / mean_y("kirchhoff") == pytest.approx(ratio_inf, rel=0.02)
     point = mc.modal_point(plate, (0.4, 0.2), max_frequency=2e4, theory="mindlin")
     assert point.theory == "mindlin"
-    assert point.residual_admittance == impedance.mindlin_point_admittance(plate, 2e4)
+    top = 2e4 * mc.RESIDUAL_RATIO**mc.RESIDUAL_BINS
+    assert point.residual_admittance == impedance.mindlin_point_admittance(plate, top)
     assert point.omega.max() <= 2.0 * np.pi * 2e4
     with pytest.raises(ParameterError, match="theory"):
         mc.modal_point(plate, (0.4, 0.2), max_frequency=2e4, theory="reissner")

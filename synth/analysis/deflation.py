@@ -21,7 +21,7 @@ import numpy as np
 from synth import dsp
 from synth.analysis.detection import ONSET_NOISE_SIGMAS, frame_energies, refine_onset
 from synth.analysis.measures import WINDOW_GUARD
-from synth.analysis.series import separation, too_strong
+from synth.analysis.series import DOUBTFUL_DB, separation, too_strong
 from synth.analysis.settings import Settings
 from synth.analysis.validity import MISSED_GROWTH
 
@@ -573,6 +573,9 @@ class DeflationSearch:
         lo = self._onset_walk_start(c)
         hi = min(self.r.size, c.start + self.w + 2 * self.hop)
         sigma = ONSET_NOISE_SIGMAS * math.sqrt(c.background / self.w)
+        # a doubtful candidate (its frame under DOUBTFUL_DB over its threshold) may be a slow
+        # contact whose start transient the noise's level parts from its end's
+        doubtful = 10.0 * math.log10(c.energy / c.threshold) < DOUBTFUL_DB
         on = lo + refine_onset(
             self.residual.q[lo:hi],
             max(0, c.start - self.hop - lo),
@@ -581,6 +584,7 @@ class DeflationSearch:
             s.onset_gap,
             sigma,
             strict=self.strict_onsets,
+            weak_gap=s.weak_onset_gap if doubtful else None,
         )
         burst = self._burst(on)
         energy = max(c.energy, float(burst.max())) if burst.size else c.energy

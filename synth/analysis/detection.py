@@ -171,26 +171,50 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
 
 
 def refine_onset(
-    r: np.ndarray, lo: int, hi: int, fraction: float, gap: int, noise: float, strict: bool = False
+    r: np.ndarray,
+    lo: int,
+    hi: int,
+    fraction: float,
+    gap: int,
+    noise: float,
+    strict: bool = False,
+    weak_gap: int | None = None,
 ) -> float:
     """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
     ``[lo, hi)`` (step 4): the crossing of the level (``fraction`` of the burst's largest
     ``|r|``, at least ``noise``) before the earliest sample reached by walking back over
     samples at or above it, bridging ``gap``; or, after a linear-phase anti-aliasing
     filter's pre-ringing, the centre of the burst's sampled sinc. With ``strict`` the
-    pre-ringing's samples must stand above ``noise``."""
+    pre-ringing's samples must stand above ``noise``. Given ``weak_gap`` (a doubtful
+    candidate of the deflation, steps 5 and 7), a weak burst, whose level is the noise's
+    (over ``fraction`` of its largest), is walked bridging ``weak_gap`` (at least ``gap``):
+    under that level a slow contact's whitened burst shows only the transients at its two
+    ends (:func:`onset_walk_gap`)."""
     # the walk looks back from the burst only: |r| over a stretch before it, longer only
     # where the walk comes near the stretch's start (the same onset as over the whole of r)
-    span = max(64, 8 * gap)
+    span = max(64, 8 * max(gap, weak_gap or 0))
     while True:
         a = max(0, lo - span)
         onset = _refined(
-            r[a : min(r.size, hi + 1)], lo - a, hi - a, fraction, gap, noise, strict, a
+            r[a : min(r.size, hi + 1)], lo - a, hi - a, fraction, gap, noise, strict, a, weak_gap
         )
         if onset is not None:
             sample, fraction_past = onset
             return (a + sample) + fraction_past
         span *= 4
+
+
+def onset_walk_gap(peak: float, fraction: float, noise: float, gap: int, weak_gap: int | None):
+    """The longest gap (samples) the onset walk bridges in a burst whose largest ``|r|`` is
+    ``peak``: ``gap`` (the zero crossings of a burst), or ``weak_gap`` where the noise sets
+    the walk's level (``fraction`` of the peak under ``noise``). Whitened, a contact of many
+    sample periods is the transients at its two ends (above its force spectrum's first
+    zero the whitening lifts the high frequencies those carry); in a weak burst its body
+    between them lies under the noise's level, and its start is the earlier transient, up to
+    a contact length before the later, stronger one."""
+    if weak_gap is not None and min(noise, peak) > fraction * peak:
+        return max(gap, weak_gap)
+    return gap
 
 
 def _refined(
@@ -202,16 +226,18 @@ def _refined(
     noise: float,
     strict: bool,
     offset: int,
+    weak_gap: int | None = None,
 ) -> tuple[int, float] | None:
     """:func:`refine_onset` over the stretch ``r`` (``lo``, ``hi`` into it) that starts at
     sample ``offset`` of the whole, as a sample of the stretch and the fraction of a sample
     past it (added to the sample of the whole: the onset to the last bit); None when the
-    walk back comes within ``gap`` (or :data:`PRE_RINGING_RUN`) samples of the stretch's
-    start and ``offset`` is not 0 (the walk, or the pre-ringing's run, may go on before
-    it)."""
+    walk back comes within the gap it bridges (or :data:`PRE_RINGING_RUN`) samples of the
+    stretch's start and ``offset`` is not 0 (the walk, or the pre-ringing's run, may go on
+    before it)."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(fraction * mag[k], min(noise, mag[k]))
+    gap = onset_walk_gap(float(mag[k]), fraction, noise, gap, weak_gap)
     i = _walk_back(mag, k, level, gap)
     if offset > 0 and i <= max(gap, PRE_RINGING_RUN):
         return None

@@ -21,6 +21,11 @@ from synth.errors import ParameterError, SynthError
 MIN_FRAME = 12
 #: Longest gap bridged by the onset walk inside one burst (the zero crossings of a burst), s.
 ONSET_GAP = 0.00025
+#: Longest gap bridged by the onset walk inside the weak burst of a doubtful candidate of the
+#: deflation (its walk level the noise's), s: the longest contact of a bounce series' ticks,
+#: whose whitened burst is the transients at its two ends (a slow ball's on a soft board: 0.54
+#: ms on the thesis' 6 mm board's tenth bounce, its end's transients 0.37 ms after its start's).
+WEAK_ONSET_GAP = 0.0005
 #: Default floor of the detection, dB under the strongest frame of the whitened signal, in
 #: steps 1-6 (a guard against what the 20 ms predictor leaves of the earlier ticks, which
 #: those steps do not model over their whole response) and for the test that calls step 7.
@@ -100,6 +105,11 @@ class Settings:
     def onset_gap(self) -> int:
         """Longest gap bridged by the onset walk, samples."""
         return max(2, int(round(ONSET_GAP * self.samplerate)))
+
+    @property
+    def weak_onset_gap(self) -> int:
+        """Longest gap bridged by the onset walk in a weak burst, samples."""
+        return max(self.onset_gap, int(round(WEAK_ONSET_GAP * self.samplerate)))
 
 
 def make_settings(

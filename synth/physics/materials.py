@@ -540,8 +540,8 @@ class ContactSurface:
 #: 12 and 6 mm boards use them unchanged (``synth bench thesis`` prints fit and prediction
 #: errors).
 MDF_SURFACE = ContactSurface(
-    transverse_ratio=0.2088,
-    dissipation=0.2469,
+    transverse_ratio=0.2087,
+    dissipation=0.2475,
     source=(
         "fitted on the thesis' 18 mm MDF board: contact times (Table 3.3, ball with its 1 g "
         "accelerometer) and restitution "

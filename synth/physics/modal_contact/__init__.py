@@ -1,0 +1,111 @@
+"""The finite plate in the contact: the ball against the plate's modes (docs/physics.md,
+"Plate impedance" and "Plate modes").
+
+The impedance model (:mod:`synth.physics.contact`) gives the plate surface under the ball the
+velocity ``v_free - beta F`` of an infinite plate. Here the plate is the finite plate itself:
+its displacement under the ball is
+
+    w(t) = sum_k q_k(t) + q_rigid(t) + sum_j q_j(t) - x_res(t)
+
+* ``q_k`` bending mode k (:func:`synth.sound.modes.modes`, frequencies ``omega_k``, decay rates
+  ``sigma_k``), seen at the contact point ``x0``: ``q_k'' + 2 sigma_k q_k' + omega_k^2 q_k =
+  -c_k F`` with the coupling ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
+* ``q_rigid`` the rigid-body motion of a free plate (translation and two rotations,
+  ``q_rigid'' = -c_rigid F``, ``c_rigid = (1 + 3 xi^2 + 3 eta^2) / M`` with ``xi, eta`` the
+  point's coordinates scaled to [-1, 1]); none for supported or clamped edges;
+* the residual: the modes above the band limit ``Omega``, taken as the infinite plate's
+  continuum of modes (wavenumber ``s = k^2``, ``S / (4 pi)`` modes per unit ``s`` on a plate
+  of area ``S``, each of coupling ``1 / (rho h S m_f(s))``, ``m_f`` Mindlin's modal mass
+  factor, 1 for Kirchhoff). Their admittance is ``Y_res(s) = s Int dmu(w) / (w^2 + s^2)``
+  over ``w > Omega`` with ``dmu = ds / (4 pi rho h m_f)``: the infinite plate's admittance
+  minus the band's modes (:func:`residual_admittance_exact`). Below the band it is reactive
+  (but for the modes' damping) and varies with frequency (for Kirchhoff
+  ``i (beta_inf / pi) ln((Omega + omega) / (Omega - omega))``, nearly a spring; for a
+  Mindlin plate of soft shear not). It is
+  realised by :data:`RESIDUAL_BINS` lumped modes, one per geometric bin of
+  :data:`RESIDUAL_RATIO` in frequency above ``Omega``, each with its bin's coupling
+  ``c_j = Int dmu`` and its bin's compliance ``c_j / w_j^2 = Int dmu / w^2`` and the plate's
+  loss ``sigma / omega`` at the band limit (they are the plate's own modes above the band,
+  lumped; the damping law is not extrapolated beyond the band); and above the
+  last bin, ``W``, the one-pole tail ``beta_W s / (s + a)``, ``beta_W`` the infinite plate's
+  ``Re Y`` at ``W`` and ``a = pi W / 2`` (a dashpot ``1 / beta_W`` in parallel with a spring
+  ``a / beta_W``: the continuum of constant density above ``W``): ``x_res' = beta_W F -
+  a x_res``. For Kirchhoff this is exact above ``W`` and the bins hold the residual to
+  2e-3 of ``beta_inf`` below ``Omega / 2`` (0.04 at ``0.9 Omega``, the logarithm at the
+  band edge); for Mindlin the wavenumber integral of a point force diverges
+  logarithmically (the local shear deflection), and the tail's constant density above
+  ``W`` bounds it there: what lies above is the local deformation that the contact law
+  carries.
+
+So the onset of every contact sees the infinite plate's admittance, the modes add what the
+finite plate does within the band (reflections from edges and corners, the ringing left by an
+earlier impact), and as ``Omega`` grows the model tends to the finite thin plate. Far from the
+edges, before any reflection returns, it equals the impedance model.
+
+Ball (mass ``m``, height ``u`` of its lowest point, gravity ``g``): ``m u'' = F - m g``;
+contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact.contact_law`),
+or with Hunt & Crossley's loss ``F = K delta^n (1 + mu delta')``, ``F >= 0`` (Hunt & Crossley,
+J. Appl. Mech. 42 (1975) 440-445).
+
+Numerics. Fixed steps ``h``; over each step the force is taken linear in time (first-order
+hold), and every linear part (modes, rigid body, residual, the ball's free flight) is advanced
+exactly for that force: with ``z = p h`` for a pole ``p``, the responses to the force at the
+start and at the end of the step are ``h (phi_1(z) - phi_2(z))`` and ``h phi_2(z)``,
+``phi_1(z) = (e^z - 1) / z``, ``phi_2(z) = (e^z - 1 - z) / z^2`` (exponential integrators,
+Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286). The force at the end of the step is
+then the root of one scalar equation, ``delta + B F(delta) = A`` (monotone: one root; with the
+loss, ``delta'`` at the end of the step is itself linear in that force), so the
+scheme is implicit in the contact and unconditionally stable for every mode; its error is
+second order in ``h``. The end of contact is the root of ``delta(h') = 0`` within the last step.
+The modes are those of an eigen-solution of exactly the band (:func:`band_modes`): a cached
+wider band's modes differ in their last digits, which a series of bounces amplifies to audible
+differences, so the result does not depend on what the process or the disk cache solved before.
+Energy is book-kept (ball, modes, modal damping, rigid body, residual spring and dashpot, the
+contact's loss ``Int (F - K delta^n) delta' dt`` by the trapezoid rule) and its
+balance reported as ``energy_residual``.
+
+The package's modules: :mod:`~synth.physics.modal_contact.kernels` (the numba kernels),
+:mod:`~synth.physics.modal_contact.point` (the plate seen from one point, its modes' cache and
+the residual) and :mod:`~synth.physics.modal_contact.contact` (the impact, the plate's state,
+the next landing); every public name is importable from the package.
+"""
+
+from synth.physics.modal_contact.contact import (
+    BAND_FACTOR,
+    SETTLE_FACTOR,
+    STEPS_PER_CONTACT,
+    ModalContact,
+    ModalImpactResult,
+    PlateRinging,
+    impedance_contact_time,
+    next_touch,
+)
+from synth.physics.modal_contact.point import (
+    PLATE_THEORIES,
+    RESIDUAL_BINS,
+    RESIDUAL_RATIO,
+    ModalPoint,
+    band_modes,
+    clear_memory_cache,
+    modal_point,
+    residual_admittance_exact,
+)
+
+__all__ = [
+    "BAND_FACTOR",
+    "PLATE_THEORIES",
+    "RESIDUAL_BINS",
+    "RESIDUAL_RATIO",
+    "SETTLE_FACTOR",
+    "STEPS_PER_CONTACT",
+    "ModalPoint",
+    "ModalContact",
+    "ModalImpactResult",
+    "PlateRinging",
+    "band_modes",
+    "clear_memory_cache",
+    "impedance_contact_time",
+    "modal_point",
+    "next_touch",
+    "residual_admittance_exact",
+]

@@ -1,0 +1,480 @@
+"""The ball against the plate's modes (:mod:`synth.physics.modal_contact`): the plate's
+state under the ball between impacts (:class:`PlateRinging`), one impact
+(:class:`ModalContact`, :class:`ModalImpactResult`) and the next landing on the ringing
+plate (:func:`next_touch`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+from synth.physics import impedance
+from synth.physics.contact import ImpactResult, contact_law, solve_contact
+from synth.physics.modal_contact.kernels import (
+    R_CONTACT_LOSS,
+    R_DAMPING_LOSS,
+    R_DASHPOT_LOSS,
+    R_DMAX,
+    R_FMAX,
+    R_IMPULSE,
+    R_RIGID_V,
+    R_STATUS,
+    R_STEPS,
+    R_TIME,
+    R_U,
+    R_V,
+    SEPARATED,
+    contact_kernel,
+    ring_free,
+)
+from synth.physics.modal_contact.point import ModalPoint, modal_point
+from synth.physics.scene import Ball, Plate
+
+#: Band limit of the modes in the contact, in units of ``1 / tau`` (``tau`` the impedance
+#: model's contact time): the force pulse's spectrum is below -60 dB of its peak beyond
+#: about ``3 / tau``; the residual stands for the modes above.
+BAND_FACTOR = 4.0
+#: Fixed steps over one contact of the impedance model's duration.
+STEPS_PER_CONTACT = 512
+#: A contact still going after this many impedance-model contact times is reported as
+#: settled (the ball rests on the plate).
+SETTLE_FACTOR = 40.0
+
+
+# --------------------------------------------------------------------------------------
+# Impacts
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class PlateRinging:
+    """The plate's state under the ball: bending-mode displacements ``q`` (m) and velocities
+    ``v`` (m/s) at the contact point (one per mode of the :class:`ModalPoint`), the
+    residual's tail displacement ``x_res`` (m, downward), and its lumped modes'
+    displacements ``q_res`` (m) and velocities ``v_res`` (m/s) (one per lumped mode). A
+    plate at rest is all zeros."""
+
+    q: np.ndarray
+    v: np.ndarray
+    x_res: float = 0.0
+    q_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    v_res: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def displacement(self) -> float:
+        """Displacement of the surface under the ball, m, positive upward."""
+        return float(self.q.sum()) + float(self.q_res.sum()) - self.x_res
+
+    @property
+    def velocity(self) -> float:
+        """Bending velocity of the surface under the ball (the band's and the residual's
+        lumped modes), m/s, positive upward."""
+        return float(self.v.sum()) + float(self.v_res.sum())
+
+
+class _Pulse:
+    """The solver's samples at its steps (trimmed to the contact): times (s), forces (N),
+    penetrations ``delta`` (m) and their rates (m/s)."""
+
+    def __init__(self, times, forces, gaps, rates, steps):
+        self.times = times[: steps + 1].copy()
+        self.forces = forces[: steps + 1].copy()
+        self.gaps = gaps[: steps + 1].copy()
+        self.rates = rates[: steps + 1].copy()
+
+
+@dataclass(frozen=True, eq=False)
+class ModalImpactResult(ImpactResult):
+    """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
+    the solver's steps (``step_times``, s) is ``F = K delta^n (1 + mu delta')`` with ``delta``
+    the cubic Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates
+    ``step_rates`` (m/s): smooth, and rising like ``t^n`` after first touch as the contact law
+    does. ``contact_loss`` is the energy the Hunt-Crossley loss took, J.
+    ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
+    at separation over its impact speed (what bounce times measure)."""
+
+    step_times: np.ndarray | None = field(default=None, repr=False)
+    step_forces: np.ndarray | None = field(default=None, repr=False)
+    step_gaps: np.ndarray | None = field(default=None, repr=False)
+    step_rates: np.ndarray | None = field(default=None, repr=False)
+    law_stiffness: float = 0.0
+    law_exponent: float = 1.5
+    law_dissipation: float = 0.0
+    contact_loss: float = 0.0
+    ringing: PlateRinging | None = field(default=None, repr=False)
+    plate_modal_energy: float = 0.0
+    n_points: int = 128
+
+    @property
+    def exponent(self) -> float:
+        return self.law_exponent
+
+    def _sample_pulse(self):
+        times = np.linspace(0.0, self.contact_time, self.n_points)
+        forces = self.force_and_slope_at(times)[0]
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
+    def force_at(self, t):
+        """Contact force (N) at times ``t`` (s from first touch); 0 outside the contact."""
+        out = self.force_and_slope_at(np.atleast_1d(np.asarray(t, dtype=float)))[0]
+        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
+
+    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first touch,
+        a 1-D array); both 0 outside the contact."""
+        tt = np.asarray(t, dtype=float).ravel()
+        ts = self.step_times
+        i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
+        h = ts[i + 1] - ts[i]
+        u = (tt - ts[i]) / h
+        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
+        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
+        u2, u3 = u * u, u * u * u
+        delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
+            u3 - u2
+        ) * r1
+        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+        rate += (3 * u2 - 2 * u) * r1 / h
+        inside = (tt >= 0.0) & (tt <= self.contact_time) & (delta > 0.0)
+        dpos = np.where(inside, delta, 1.0)
+        n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
+        elastic = K * dpos**n
+        elastic_slope = n * K * dpos ** (n - 1.0) * rate
+        if mu == 0.0:
+            return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
+        # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
+        accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
+            h * h
+        )
+        lossy = inside & (1.0 + mu * rate > 0.0)
+        force = np.where(lossy, elastic * (1.0 + mu * rate), 0.0)
+        slope = np.where(lossy, elastic_slope * (1.0 + mu * rate) + elastic * mu * accel, 0.0)
+        return force, slope
+
+    def pulse_samples(
+        self, step: float, points: int, offset: float, period: float, samples: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and its rate (N/s) at ``j step`` (``j < points``) and then at ``offset +
+        m period`` (``m < samples``), times in s from first touch."""
+        t = np.concatenate((np.arange(points) * step, offset + np.arange(samples) * period))
+        return self.force_and_slope_at(t)
+
+
+@dataclass(frozen=True, eq=False)
+class ModalContact:
+    """Impacts of one ball on a finite plate at one point, the plate modelled by its modes
+    (:class:`ModalPoint`) in the contact.
+
+    Build with :meth:`for_pair`; :meth:`solve` gives one impact (from a plate at rest or
+    ringing), :meth:`ring` the plate's free ringing between impacts.
+
+    Attributes
+    ----------
+    point : ModalPoint
+    mass, stiffness, exponent : float
+        Ball mass ``m`` (kg), contact law ``F = K delta^n`` (``K`` in N/m^n, ``n``).
+    gravity : float
+        m/s^2.
+    steps_per_contact : int
+        Fixed steps over one impedance-model contact time.
+    dissipation : float
+        Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, ``F >= 0``, s/m
+        (0: elastic contact).
+    """
+
+    point: ModalPoint
+    mass: float
+    stiffness: float
+    exponent: float
+    gravity: float = GRAVITY
+    steps_per_contact: int = STEPS_PER_CONTACT
+    dissipation: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.point, ModalPoint):
+            raise ParameterError(f"point={self.point!r} must be a ModalPoint")
+        checked = dict(
+            mass=checks.positive("mass", self.mass, "kg"),
+            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
+            exponent=checks.in_range(
+                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
+            ),
+            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+            dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
+        )
+        steps = self.steps_per_contact
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
+            raise ParameterError(
+                f"steps_per_contact={steps!r} must be an integer >= 16 (steps per contact time)"
+            )
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+
+    @classmethod
+    def for_pair(
+        cls,
+        ball: Ball,
+        plate: Plate,
+        position: tuple[float, float] | None = None,
+        *,
+        gravity: float = GRAVITY,
+        law: str = "hertz",
+        max_frequency: float | None = None,
+        steps_per_contact: int = STEPS_PER_CONTACT,
+        speed: float | None = None,
+        theory: str = "kirchhoff",
+        **contact_options,
+    ) -> ModalContact:
+        """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
+        under the contact ``law`` and its options (:func:`synth.physics.contact.contact_law`).
+        ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's
+        contact time at ``speed`` (m/s; default 1 m/s); ``theory`` is the plate theory of
+        :func:`modal_point`."""
+        if not isinstance(ball, Ball):
+            raise ParameterError(f"ball={ball!r} must be a Ball")
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate")
+        K, n, mu = contact_law(ball, plate, law, **contact_options)
+        pos = plate.centre if position is None else position
+        if max_frequency is None:
+            v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
+            tau = _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
+            max_frequency = BAND_FACTOR / tau
+        point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
+        return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu)
+
+    def at_rest(self) -> PlateRinging:
+        """The plate at rest."""
+        z = np.zeros(self.point.omega.size)
+        zr = np.zeros(self.point.residual_omega.size)
+        return PlateRinging(z, z.copy(), 0.0, zr, zr.copy())
+
+    def ring(self, state: PlateRinging, duration: float) -> PlateRinging:
+        """The plate's state after ringing freely for ``duration`` (s)."""
+        d = checks.nonnegative("duration", duration, "s")
+        p = self.point
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        if d > 0.0:
+            omega, sigma, _ = p.contact_modes
+            ring_free(omega, sigma, q, v, d)
+        x = state.x_res * math.exp(-p.residual_rate * d)
+        n = p.omega.size
+        return PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
+
+    def energy(self, state: PlateRinging) -> float:
+        """Energy of the bending modes and the residual's lumped modes in ``state`` (J):
+        ``(v_k^2 + omega_k^2 q_k^2) / (2 c_k)`` summed, plus the residual's tail spring's
+        ``a x_res^2 / (2 beta_W)``."""
+        p = self.point
+        omega, _, coupling = p.contact_modes
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        modal = 0.5 * float(((v**2 + omega**2 * q**2) / coupling).sum())
+        return modal + 0.5 * p.residual_rate / p.residual_admittance * state.x_res**2
+
+    def solve(
+        self, speed: float, state: PlateRinging | None = None, *, n_points: int = 128
+    ) -> ModalImpactResult:
+        """The impact at ``speed`` (m/s, the ball's downward speed at first touch) on the plate
+        in ``state`` at that moment (None: at rest); ``n_points`` uniform samples of the
+        pulse in ``time`` and ``force``."""
+        v_in = checks.positive("speed", speed, "m/s")
+        if isinstance(n_points, bool) or not isinstance(n_points, int) or n_points < 64:
+            raise ParameterError(f"n_points={n_points!r} must be an integer >= 64")
+        p = self.point
+        state = self.at_rest() if state is None else state
+        shapes = (state.q.shape, state.v.shape, state.q_res.shape, state.v_res.shape)
+        if shapes != (p.omega.shape,) * 2 + (p.residual_omega.shape,) * 2:
+            raise ParameterError(
+                f"state has {state.q.size} modes and {state.q_res.size} lumped residual modes; "
+                f"this contact has {p.omega.size} and {p.residual_omega.size} (one per mode)"
+            )
+        v_approach = v_in + state.velocity
+        if not v_approach > 0.0:
+            raise ParameterError(
+                f"speed={speed!r}: the plate surface moves down faster ({-state.velocity!r} m/s) "
+                f"than the ball; the ball cannot hit it"
+            )
+        ref = _impedance_contact(
+            self.mass, self.stiffness, self.exponent, p.plate, v_approach, self.dissipation
+        )
+        h = ref.contact_time / self.steps_per_contact
+        max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
+        q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+        x = np.array([state.x_res])
+        omega, sigma, coupling = p.contact_modes
+        forces = np.zeros(max_steps + 1)
+        times = np.zeros(max_steps + 1)
+        gaps = np.zeros(max_steps + 1)
+        rates = np.zeros(max_steps + 1)
+        e0 = self.energy(state)
+        w0 = state.displacement
+        r = contact_kernel(
+            omega,
+            sigma,
+            coupling,
+            p.rigid_coupling,
+            p.residual_admittance,
+            p.residual_rate,
+            q,
+            v,
+            x,
+            self.mass,
+            self.stiffness,
+            self.exponent,
+            self.dissipation,
+            self.gravity,
+            v_in,
+            h,
+            max_steps,
+            forces,
+            times,
+            gaps,
+            rates,
+        )
+        pulse = _Pulse(times, forces, gaps, rates, int(r[R_STEPS]))
+        return self._result(r, q, v, float(x[0]), v_in, e0, w0, pulse, ref, n_points)
+
+    def _result(self, r, q, v, x, v_in, e0, w0, pulse, ref, n_points) -> ModalImpactResult:
+        p = self.point
+        m = self.mass
+        steps = int(r[R_STEPS])
+        separated = int(r[R_STATUS]) == SEPARATED
+        n = p.omega.size
+        ringing = PlateRinging(q[:n], v[:n], x, q[n:], v[n:])
+        e_plate = self.energy(ringing)
+        rigid = 0.5 * r[R_RIGID_V] ** 2 / p.rigid_coupling if p.rigid_coupling > 0.0 else 0.0
+        v_out = float(r[R_V])
+        # ball energy in = ball energy out + plate energy gained + losses (gravity's work on
+        # the ball from first touch included: m g times the height it lost)
+        ball_in = 0.5 * m * v_in**2
+        ball_out = 0.5 * m * v_out**2 + m * self.gravity * (float(r[R_U]) - w0)
+        plate = e_plate - e0 + rigid + r[R_DAMPING_LOSS] + r[R_DASHPOT_LOSS]
+        plate += r[R_CONTACT_LOSS]
+        scale = max(ball_in, e0, abs(plate), 1e-300)
+        residual = abs(ball_in - ball_out - plate) / scale
+        e = v_out / v_in if separated and v_out > 0.0 else 0.0
+        obj = ModalImpactResult(
+            restitution=e,
+            contact_time=float(r[R_TIME]),
+            max_penetration=float(r[R_DMAX]),
+            peak_force=float(r[R_FMAX]),
+            impulse=float(r[R_IMPULSE]),
+            inelasticity=ref.inelasticity,
+            settled=not separated,
+            rebound_speed=max(v_out, 0.0) if separated else 0.0,
+            plate_energy=float(plate),
+            energy_residual=float(residual),
+            success=True,
+            status=0 if separated else 1,
+            message=(
+                "The ball separated from the plate."
+                if separated
+                else (
+                    f"The ball did not separate within {SETTLE_FACTOR:g} contact times of the "
+                    f"impedance model: it rests on the plate."
+                )
+            ),
+            n_steps=steps,
+            method="modal",
+            step_times=pulse.times,
+            step_forces=pulse.forces,
+            step_gaps=pulse.gaps,
+            step_rates=pulse.rates,
+            law_stiffness=self.stiffness,
+            law_exponent=self.exponent,
+            law_dissipation=self.dissipation,
+            contact_loss=float(r[R_CONTACT_LOSS]),
+            ringing=ringing,
+            plate_modal_energy=e_plate,
+            n_points=n_points,
+        )
+        return obj
+
+
+def next_touch(
+    contact: ModalContact, state: PlateRinging, height: float, speed: float
+) -> tuple[float, PlateRinging]:
+    """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at
+    which the ball, now at ``height`` (m, above the plate's rest position) moving up at
+    ``speed`` (m/s), meets the plate surface (which rings from ``state``), and the plate's
+    state then.
+
+    The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)`` (the
+    band's and the residual's lumped modes): the
+    search runs over the part of the flight where the ball is within ``W`` of the rest
+    position, in steps of an eighth of the shortest mode period, and bisects the first sign
+    change of the gap to the time resolution of double precision."""
+    p = contact.point
+    g = contact.gravity
+    if not g > 0.0:
+        raise ParameterError("the ball lands again only with gravity > 0")
+    omega = p.contact_modes[0]
+    qs, vs = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
+    W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
+    v = speed
+
+    def ball(s):
+        return height + v * s - 0.5 * g * s * s
+
+    def gap(s):
+        return ball(s) - contact.ring(state, s).displacement
+
+    def when(level):  # the later time at which the ball passes ``level`` going down
+        disc = v * v + 2.0 * g * (height - level)
+        return (v + math.sqrt(max(disc, 0.0))) / g
+
+    dt = 1.0 / (8.0 * p.max_frequency)
+    s0 = when(W) if height + v * v / (2.0 * g) > W else dt
+    hi = when(-W)
+    while gap(s0) > 0.0 and s0 < hi:
+        s1 = min(s0 + dt, hi)
+        if gap(s1) <= 0.0:
+            a, b = s0, s1
+            for _ in range(200):
+                mid = 0.5 * (a + b)
+                if gap(mid) > 0.0:
+                    a = mid
+                else:
+                    b = mid
+                if b - a <= 4e-16 * b:
+                    break
+            return b, contact.ring(state, b)
+        s0 = s1
+    return s0, contact.ring(state, s0)
+
+
+def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
+    """A fresh float array of the band's modes' values followed by the lumped modes'."""
+    return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
+
+
+def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
+    """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m), for
+    the time scale of the modal one."""
+    return solve_contact(
+        mass=float(m),
+        stiffness=float(K),
+        admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        speed=float(v),
+        gravity=0.0,
+        exponent=float(n),
+        dissipation=float(mu),
+        rtol=1e-6,
+    )
+
+
+def impedance_contact_time(
+    ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
+) -> float:
+    """The impedance model's contact time (s) of ``ball`` on ``plate`` at ``speed`` (m/s),
+    without gravity, under the contact ``law`` and its options: the time scale from which
+    :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``)."""
+    K, n, mu = contact_law(ball, plate, law, **contact_options)
+    v = checks.positive("speed", speed, "m/s")
+    return _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time

@@ -1,0 +1,381 @@
+"""Numba kernels of the modal contact (:mod:`synth.physics.modal_contact`): one contact
+integrated in fixed steps (exponential integrators for every linear part, the contact force
+implicit) and the free ringing of damped modes. The numerics are described in the package's
+docstring."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+# Result columns of the kernel.
+R_STATUS, R_TIME, R_V, R_U, R_DMAX, R_FMAX, R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
+R_STEPS, R_DAMPING_LOSS, R_DASHPOT_LOSS, R_RIGID_Q, R_RIGID_V = 7, 8, 9, 10, 11
+R_CONTACT_LOSS = 12
+R_COLS = 13
+SEPARATED, SETTLED = 0, 1
+
+
+# --------------------------------------------------------------------------------------
+# Kernel
+# --------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def _phi12(z):  # pragma: no cover
+    """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex z), by
+    their Taylor series near 0 (no cancellation) and the closed forms elsewhere."""
+    if abs(z) < 0.1:
+        p1 = 0j
+        p2 = 0j
+        term = 1.0 + 0j  # z^k / k!
+        for k in range(11):
+            p1 += term / (k + 1)
+            p2 += term / ((k + 1) * (k + 2))
+            term *= z / (k + 1)
+        return p1, p2
+    ez = np.exp(z)
+    return (ez - 1.0) / z, (ez - 1.0 - z) / (z * z)
+
+
+@numba.njit(cache=True)
+def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
+    """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
+    linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
+    ``P`` rows (P11, P12, P21, P22), ``G`` rows (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    for k in range(omega.size):
+        s = sigma[k]
+        w0 = omega[k]
+        wd = math.sqrt(w0 * w0 - s * s)
+        e = math.exp(-s * h)
+        c = math.cos(wd * h)
+        sn = math.sin(wd * h)
+        P[k, 0] = e * (c + s / wd * sn)
+        P[k, 1] = e * sn / wd
+        P[k, 2] = -e * w0 * w0 / wd * sn
+        P[k, 3] = e * (c - s / wd * sn)
+        p = complex(-s, wd)
+        p1, p2 = _phi12(p * h)
+        j0 = h * (p1 - p2)
+        j1 = h * p2
+        G[k, 0] = j0.imag / wd
+        G[k, 1] = j1.imag / wd
+        G[k, 2] = (p * j0).imag / wd
+        G[k, 3] = (p * j1).imag / wd
+
+
+@numba.njit(cache=True)
+def _real_coefficients(a, h):  # pragma: no cover
+    """Step ``h`` of ``x' = -a x + f`` with ``f`` linear: ``x(h) = E x(0) + g0 f(0) + g1 f(h)``."""
+    p1, p2 = _phi12(complex(-a * h, 0.0))
+    return math.exp(-a * h), h * (p1.real - p2.real), h * p2.real
+
+
+@numba.njit(cache=True)
+def _solve_delta(A, B, K, n):  # pragma: no cover
+    """The root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above
+    (the left side is convex and increasing)."""
+    d = A
+    # start from the smaller of the two one-term solutions: both bound the root from above
+    d2 = (A / (B * K)) ** (1.0 / n) if B > 0.0 else A
+    if d2 < d:
+        d = d2
+    for _ in range(100):
+        f = d + B * K * d**n - A
+        df = 1.0 + n * B * K * d ** (n - 1.0)
+        step = f / df
+        d_new = d - step
+        if d_new <= 0.0:
+            d_new = 0.5 * d
+        if abs(d_new - d) <= 1e-14 * d:
+            return d_new
+        d = d_new
+    return d
+
+
+@numba.njit(cache=True)
+def _lossy_force(d, K, n, mu, Av, Bv):  # pragma: no cover
+    """Hunt-Crossley force ``K d^n (1 + mu d')`` (N, at least 0) at the end of a step whose
+    penetration rate is ``d' = Av - Bv F`` (the step's linear response to the force ``F``
+    at its end), solved for ``F``, and its derivative with respect to ``d`` (N/m)."""
+    s = K * d**n
+    num = 1.0 + mu * Av
+    if num <= 0.0 or d <= 0.0:
+        return 0.0, 0.0
+    den = 1.0 + mu * Bv * s
+    return s * num / den, n * s / d * num / (den * den)
+
+
+@numba.njit(cache=True)
+def _solve_lossy_delta(A, B, K, n, mu, Av, Bv):  # pragma: no cover
+    """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the Hunt-Crossley
+    force of :func:`_lossy_force` (increasing in ``delta``: one root in ``[0, A]``): Newton's
+    method kept inside a bracket, bisection where a step leaves it."""
+    lo = 0.0
+    hi = A
+    d = _solve_delta(A, B, K, n)  # start from the elastic root
+    for _ in range(200):
+        F, dF = _lossy_force(d, K, n, mu, Av, Bv)
+        f = d + B * F - A
+        if f > 0.0:
+            hi = d
+        else:
+            lo = d
+        d_new = d - f / (1.0 + B * dF)
+        if not (lo < d_new < hi):
+            d_new = 0.5 * (lo + hi)
+        if abs(d_new - d) <= 1e-14 * d or hi - lo <= 1e-15 * A:
+            return d_new
+        d = d_new
+    return d
+
+
+@numba.njit(cache=True)
+def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: no cover
+    """Plate displacement under the ball after a step ``h`` with the force at its end left out:
+    modes, rigid body and residual from their states and the force ``F0`` at the start."""
+    w = 0.0
+    for k in range(q.size):
+        w += P[k, 0] * q[k] + P[k, 1] * v[k] - c[k] * G[k, 0] * F0
+    w += qr + vr * h - rc * h * h * F0 / 3.0
+    w -= Er * x + beta * r0 * F0
+    return w
+
+
+@numba.njit(cache=True)
+def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # pragma: no cover
+    """Penetration rate ``delta'`` (m/s) after a step ``h`` with the force at its end left out
+    (the part of the rate that does not depend on it): plate surface velocity (modes, rigid
+    body, residual) minus the ball's velocity."""
+    w = vr - 0.5 * rc * h * F0 + a * (Er * x + beta * r0 * F0)
+    for k in range(q.size):
+        w += P[k, 2] * q[k] + P[k, 3] * v[k] - c[k] * G[k, 2] * F0
+    return w - (vs - g * h + 0.5 * h * F0 / m)
+
+
+@numba.njit(cache=True)
+def _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, h):  # pragma: no cover
+    """``delta`` after a step ``h`` over which the force falls linearly from ``F0`` to 0."""
+    P = np.empty((q.size, 4))
+    G = np.empty((q.size, 4))
+    _mode_coefficients(omega, sigma, h, P, G)
+    Er, r0, _ = _real_coefficients(a, h)
+    w = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
+    ub = u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m)
+    return w - ub
+
+
+@numba.njit(cache=True)
+def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
+    """Advance the modes over one step with the force going linearly from F0 to F1; returns
+    the modal damping loss over the step (trapezoid rule), J."""
+    loss = 0.0
+    for k in range(q.size):
+        q0 = q[k]
+        v0 = v[k]
+        q[k] = P[k, 0] * q0 + P[k, 1] * v0 - c[k] * (G[k, 0] * F0 + G[k, 1] * F1)
+        v[k] = P[k, 2] * q0 + P[k, 3] * v0 - c[k] * (G[k, 2] * F0 + G[k, 3] * F1)
+        loss += sigma[k] / c[k] * (v0 * v0 + v[k] * v[k]) * h
+    return loss
+
+
+@numba.njit(cache=True)
+def _surface_velocity(v, vr, xdot):  # pragma: no cover
+    """Velocity of the plate surface under the ball (m/s, upward): bending modes, rigid body
+    and residual (whose displacement ``x_res`` is downward)."""
+    w = vr - xdot
+    for k in range(v.size):
+        w += v[k]
+    return w
+
+
+@numba.njit(cache=True)
+def contact_kernel(
+    omega,
+    sigma,
+    c,
+    rc,
+    beta,
+    a,
+    q,
+    v,
+    x_res,
+    m,
+    K,
+    n,
+    mu,
+    g,
+    v_in,
+    h,
+    max_steps,
+    forces,
+    times,
+    gaps,
+    rates,
+):  # pragma: no cover
+    """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
+    the contact law ``F = K delta^n (1 + mu delta')`` (``mu = 0``: elastic).
+
+    ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
+    one: the residual's displacement) are the plate's state at first touch and are advanced
+    in place to the end of contact. ``forces``/``times`` receive the force at every step,
+    ``gaps``/``rates`` the penetration ``delta`` (m) and its rate (m/s)."""
+    r = np.zeros(R_COLS)
+    N = q.size
+    P = np.empty((N, 4))
+    G = np.empty((N, 4))
+    _mode_coefficients(omega, sigma, h, P, G)
+    Er, r0, r1 = _real_coefficients(a, h)
+    B = h * h / (6.0 * m) + rc * h * h / 6.0 + beta * r1
+    for k in range(N):
+        B += c[k] * G[k, 1]
+    # the penetration rate at the end of a step is Av - Bv F1 (Hunt-Crossley only)
+    Bv = h / (2.0 * m) + 0.5 * rc * h + beta * (1.0 - a * r1)
+    for k in range(N):
+        Bv += c[k] * G[k, 3]
+    contact_loss = 0.0
+    Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
+    w = -x_res[0]
+    for k in range(N):
+        w += q[k]
+    u = w
+    vs = -v_in
+    qr = 0.0
+    vr = 0.0
+    x = x_res[0]
+    F0 = 0.0
+    t = 0.0
+    damping_loss = 0.0
+    dashpot_loss = 0.0
+    impulse = 0.0
+    dmax = 0.0
+    fmax = 0.0
+    forces[0] = 0.0
+    times[0] = 0.0
+    gaps[0] = 0.0
+    rates[0] = v_in
+    for k in range(N):
+        rates[0] += v[k]
+    status = SETTLED
+    steps = 0
+    for i in range(max_steps):
+        wf = _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h)
+        A = wf - (u + vs * h - 0.5 * g * h * h + h * h * F0 / (3.0 * m))
+        if A <= 0.0:
+            # the gap opens within this step: find h' with delta(h') = 0, force falling to 0
+            # Illinois' false position on [0, h]: gap(0) = delta > 0 >= gap(h) = A
+            lo = 0.0
+            hi = h
+            g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
+            g_hi = A
+            side = 0
+            for _ in range(100):
+                if g_lo - g_hi > 0.0:
+                    mid = lo + (hi - lo) * g_lo / (g_lo - g_hi)
+                else:
+                    mid = 0.5 * (lo + hi)
+                if not (lo < mid < hi):
+                    mid = 0.5 * (lo + hi)
+                gap = _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, mid)
+                if gap > 0.0:
+                    lo, g_lo = mid, gap
+                    if side == 1:
+                        g_hi *= 0.5
+                    side = 1
+                else:
+                    hi, g_hi = mid, gap
+                    if side == -1:
+                        g_lo *= 0.5
+                    side = -1
+                if hi - lo <= 1e-13 * h or gap == 0.0:
+                    break
+            hh = hi
+            Pe = np.empty((N, 4))
+            Ge = np.empty((N, 4))
+            _mode_coefficients(omega, sigma, hh, Pe, Ge)
+            Ee, e0, _ = _real_coefficients(a, hh)
+            damping_loss += _advance(q, v, Pe, Ge, c, sigma, F0, 0.0, hh)
+            xdot0 = beta * F0 - a * x
+            x = Ee * x + beta * e0 * F0
+            xdot1 = -a * x
+            dashpot_loss += 0.5 * hh * (xdot0 * xdot0 + xdot1 * xdot1) / beta
+            qr += vr * hh - rc * hh * hh * F0 / 3.0
+            vr -= rc * hh * 0.5 * F0
+            u += vs * hh - 0.5 * g * hh * hh + hh * hh * F0 / (3.0 * m)
+            vs += -g * hh + hh * 0.5 * F0 / m
+            impulse += 0.5 * hh * F0
+            contact_loss += 0.5 * hh * Fd0 * rates[i]
+            t += hh
+            forces[i + 1] = 0.0
+            times[i + 1] = t
+            gaps[i + 1] = 0.0
+            rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
+            status = SEPARATED
+            steps = i + 1
+            break
+        if mu == 0.0:
+            d1 = _solve_delta(A, B, K, n)
+            F1 = K * d1**n
+        else:
+            Av = _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h)
+            d1 = _solve_lossy_delta(A, B, K, n, mu, Av, Bv)
+            F1 = _lossy_force(d1, K, n, mu, Av, Bv)[0]
+        damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
+        xdot0 = beta * F0 - a * x
+        x = Er * x + beta * (r0 * F0 + r1 * F1)
+        xdot1 = beta * F1 - a * x
+        dashpot_loss += 0.5 * h * (xdot0 * xdot0 + xdot1 * xdot1) / beta
+        qr += vr * h - rc * h * h * (F0 / 3.0 + F1 / 6.0)
+        vr -= rc * h * 0.5 * (F0 + F1)
+        u += vs * h - 0.5 * g * h * h + h * h * (F0 / 3.0 + F1 / 6.0) / m
+        vs += -g * h + h * 0.5 * (F0 + F1) / m
+        impulse += 0.5 * h * (F0 + F1)
+        t += h
+        F0 = F1
+        forces[i + 1] = F1
+        times[i + 1] = t
+        gaps[i + 1] = d1
+        rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
+        if mu != 0.0:
+            Fd1 = F1 - K * d1**n
+            contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
+            Fd0 = Fd1
+        if d1 > dmax:
+            dmax = d1
+        if F1 > fmax:
+            fmax = F1
+        steps = i + 1
+    x_res[0] = x
+    r[R_STATUS] = status
+    r[R_TIME] = t
+    r[R_V] = vs
+    r[R_U] = u
+    r[R_DMAX] = dmax
+    r[R_FMAX] = fmax
+    r[R_IMPULSE] = impulse
+    r[R_STEPS] = steps
+    r[R_DAMPING_LOSS] = damping_loss
+    r[R_DASHPOT_LOSS] = dashpot_loss
+    r[R_RIGID_Q] = qr
+    r[R_RIGID_V] = vr
+    r[R_CONTACT_LOSS] = contact_loss
+    return r
+
+
+@numba.njit(cache=True)
+def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
+    """Free ringing of the modes over ``duration`` (s), in place (the homogeneous part of
+    :func:`_mode_coefficients`)."""
+    for k in range(q.size):
+        s = sigma[k]
+        w0 = omega[k]
+        wd = math.sqrt(w0 * w0 - s * s)
+        e = math.exp(-s * duration)
+        c = math.cos(wd * duration)
+        sn = math.sin(wd * duration)
+        q0 = q[k]
+        v0 = v[k]
+        q[k] = e * ((c + s / wd * sn) * q0 + sn / wd * v0)
+        v[k] = e * (-w0 * w0 / wd * sn * q0 + (c - s / wd * sn) * v0)

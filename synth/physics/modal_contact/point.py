@@ -1,0 +1,456 @@
+"""The plate as the modal contact sees it at one point (:mod:`synth.physics.modal_contact`):
+the band's modes and their couplings (cached on disk per point), the free plate's rigid-body
+coupling, and the residual (the infinite plate's modes above the band, lumped; its exact
+wavenumber integral)."""
+
+from __future__ import annotations
+
+import cmath
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError
+from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
+from synth.physics import impedance
+from synth.physics.scene import Plate
+
+#: The residual's lumped modes above the band limit: this many geometric bins, each this
+#: ratio wide in frequency (three per octave, four octaves: the tail starts at 16 Omega).
+RESIDUAL_BINS = 12
+RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
+
+
+# --------------------------------------------------------------------------------------
+# The plate seen from one point
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class ModalPoint:
+    """The finite plate as the contact sees it at one point (see the docstring of
+    :mod:`synth.physics.modal_contact`).
+
+    Attributes
+    ----------
+    plate : Plate
+    position : (float, float)
+        The point, metres from a plate corner.
+    max_frequency : float
+        Band limit of the modes, Hz (``Omega = 2 pi max_frequency``).
+    omega : ndarray
+        Natural angular frequencies of the bending modes in the band, rad/s.
+    sigma : ndarray
+        Their amplitude decay rates, 1/s.
+    coupling : ndarray
+        ``c_k = phi_k(x0)^2 / M_k``, 1/kg.
+    rigid_coupling : float
+        ``c_rigid`` of the free plate's rigid-body motion at the point, 1/kg (0 for
+        supported and clamped plates).
+    residual_admittance : float
+        The residual's tail ``beta_W``: the infinite plate's ``Re Y`` at the top ``W`` of
+        the lumped modes, m/(N s).
+    residual_rate : float
+        The tail's ``a = pi W / 2``, 1/s.
+    theory : str
+        The plate theory of the modes and residual: "kirchhoff" (thin plate) or "mindlin"
+        (shear deformation and rotary inertia, :func:`modal_point`).
+    residual_omega, residual_sigma, residual_coupling : ndarray
+        The residual's lumped modes above the band: angular frequencies (rad/s), decay
+        rates (1/s) and couplings (1/kg) (empty: the tail alone).
+    """
+
+    plate: Plate
+    position: tuple[float, float]
+    max_frequency: float
+    omega: np.ndarray = field(repr=False)
+    sigma: np.ndarray = field(repr=False)
+    coupling: np.ndarray = field(repr=False)
+    rigid_coupling: float
+    residual_admittance: float
+    residual_rate: float
+    theory: str = "kirchhoff"
+    residual_omega: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    residual_sigma: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    residual_coupling: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    @property
+    def contact_modes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Angular frequencies (rad/s), decay rates (1/s) and couplings (1/kg) of every
+        oscillator the contact drives: the band's modes, then the residual's lumped ones."""
+        return (
+            np.concatenate((self.omega, self.residual_omega)),
+            np.concatenate((self.sigma, self.residual_sigma)),
+            np.concatenate((self.coupling, self.residual_coupling)),
+        )
+
+    def residual(self, frequency) -> np.ndarray:
+        """The residual's admittance (m/(N s), complex, as :meth:`admittance`) at
+        ``frequency`` (Hz, > 0): the lumped modes above the band and the tail."""
+        s = 2j * np.pi * np.asarray(frequency, dtype=float)[..., None]
+        w, sg, c = self.residual_omega, self.residual_sigma, self.residual_coupling
+        lumped = (s * c / (s * s + 2.0 * sg * s + w**2)).sum(axis=-1)
+        s1 = s[..., 0]
+        return lumped + self.residual_admittance * s1 / (s1 + self.residual_rate)
+
+    def admittance(self, frequency) -> np.ndarray:
+        """Driving-point admittance ``Y = v / F`` (m/(N s), complex, ``e^(i omega t)``
+        convention, force and velocity both positive downward) at ``frequency`` (Hz, > 0)."""
+        f = np.atleast_1d(np.asarray(frequency, dtype=float))
+        if not np.all(np.isfinite(f) & (f > 0.0)):
+            raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
+        s = 2j * np.pi * f[:, None]
+        modal = (s * self.coupling / (s * s + 2.0 * self.sigma * s + self.omega**2)).sum(axis=1)
+        y = modal + self.rigid_coupling / s[:, 0] + self.residual(f)
+        return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
+
+    def band_impedance(self, low: float, high: float) -> float:
+        """Driving-point impedance ``1 / <Re Y>`` (N s/m), with ``Re Y`` averaged over the band
+        ``[low, high]`` (Hz): the quantity an impact hammer's band-averaged measurement
+        gives, and for the infinite plate ``Z_inf`` (each mode adds ``pi c_k / 2`` to the
+        integral of ``Re Y`` over angular frequency; the average is taken of the modes in
+        the band, plus the residual's share)."""
+        lo = checks.nonnegative("low", low, "Hz")
+        hi = checks.positive("high", high, "Hz")
+        if not hi > lo:
+            raise ParameterError(f"high={high!r} must be > low={low!r} (Hz)")
+        if hi > self.max_frequency:
+            raise ParameterError(
+                f"high={high!r} must be <= the band limit {self.max_frequency!r} (Hz)"
+            )
+        w_lo, w_hi = 2.0 * np.pi * lo, 2.0 * np.pi * hi
+        inside = (self.omega >= w_lo) & (self.omega < w_hi)
+        modal = 0.5 * np.pi * float(self.coupling[inside].sum())
+        # residual's tail: Int Re[beta s / (s + a)] d omega = beta (w - a atan(w / a))
+        b, a = self.residual_admittance, self.residual_rate
+        residual = b * ((w_hi - a * math.atan(w_hi / a)) - (w_lo - a * math.atan(w_lo / a)))
+        residual += _lumped_real_integral(
+            self.residual_omega, self.residual_sigma, self.residual_coupling, w_lo, w_hi
+        )
+        return (w_hi - w_lo) / (modal + residual)
+
+
+def _lumped_real_integral(omega, sigma, coupling, w_lo: float, w_hi: float) -> float:
+    """``Int Re Y d omega`` (m/(N s) rad/s) over ``[w_lo, w_hi]`` (rad/s) of the damped
+    oscillators ``Y = c s / (s^2 + 2 sigma s + omega^2)`` (``sigma > 0``): by partial
+    fractions ``Y = r / (s - p) + conj(r) / (s - conj(p))``, ``r = c p / (p - conj(p))``,
+    and ``Int r / (i w - p) d w = -i r log(i w - p)`` (``Re(i w - p) = sigma > 0``: no
+    branch cut is crossed)."""
+    total = 0.0
+    for w0, sg, c in zip(omega, sigma, coupling, strict=True):
+        p = complex(-sg, math.sqrt(w0 * w0 - sg * sg))
+        r = c * p / (p - p.conjugate())
+        for pole, res in ((p, r), (p.conjugate(), r.conjugate())):
+            step = cmath.log(1j * w_hi - pole) - cmath.log(1j * w_lo - pole)
+            total += (-1j * res * step).real
+    return total
+
+
+#: Plate theories of the modal contact (:func:`modal_point`).
+PLATE_THEORIES = ("kirchhoff", "mindlin")
+
+
+def modal_point(
+    plate: Plate,
+    position: tuple[float, float],
+    *,
+    max_frequency: float,
+    theory: str = "kirchhoff",
+) -> ModalPoint:
+    """The plate at ``position`` (m from a corner) with its bending modes up to
+    ``max_frequency`` (Hz) and the residual above (see the docstring of
+    :mod:`synth.physics.modal_contact`).
+
+    ``theory``: "kirchhoff", the thin plate; or "mindlin", with shear deformation and
+    rotary inertia (docs/physics.md, "Thick plates"): each thin-plate mode keeps its shape
+    and its wavenumber ``k^2 = omega_K sqrt(rho h / D)`` and takes Mindlin's frequency at
+    that wavenumber (:func:`synth.physics.impedance.mindlin_angular_frequency`, exact for
+    the simply supported plate) and Mindlin's modal mass
+    (:func:`synth.physics.impedance.mindlin_mass_factor`); the band then needs the thin
+    modes up to the wavenumber of Mindlin's ``max_frequency``. The residual's admittance is
+    the infinite Mindlin plate's at the band limit
+    (:func:`synth.physics.impedance.mindlin_point_admittance`). With these couplings the
+    modes' band-averaged ``Re Y`` is the infinite Mindlin plate's (modal density times
+    ``pi c_k / 2``).
+
+    The modes are those of an eigen-solution for exactly this band
+    (:func:`band_modes`), never a wider band's held in the mode cache: a Ritz solution's
+    modes depend on its basis in their last digits, and a series of bounces on the modal
+    plate amplifies such differences, so the result must not depend on what was solved
+    before. Each point's modes are kept on disk (a later process then needs no solve)."""
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    x, y = plate.check_position(position, "position")
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
+    if theory not in PLATE_THEORIES:
+        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
+    omega_band = 2.0 * math.pi * fmax
+    if theory == "mindlin":
+        thin_band = _thin_frequency(plate, impedance.mindlin_wavenumbers(plate, omega_band)[0])
+        omega, coupling = _point_modes(plate, (x, y), thin_band / (2.0 * math.pi))
+        s = omega * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+        omega = impedance.mindlin_angular_frequency(plate, s)
+        coupling = coupling / impedance.mindlin_mass_factor(plate, s, omega)
+        inside = omega <= omega_band
+        omega, coupling = omega[inside], coupling[inside]
+    else:
+        omega, coupling = _point_modes(plate, (x, y), fmax)
+    lumped = _lumped_residual(plate, omega_band, theory)
+    sigma = _decay_rates(plate, omega, fmax)
+    lumped_sigma = lumped.omega * _band_edge_loss(plate, omega_band, fmax)
+    # modes with a node at the point take no part in the contact
+    keep = coupling > 1e-12 * coupling.max(initial=0.0)
+    omega, sigma, coupling = omega[keep], sigma[keep], coupling[keep]
+    if plate.boundary == "free":
+        xi = 2.0 * x / plate.length - 1.0
+        eta = 2.0 * y / plate.width - 1.0
+        rigid = (1.0 + 3.0 * xi * xi + 3.0 * eta * eta) / plate.mass
+    else:
+        rigid = 0.0
+    return ModalPoint(
+        plate=plate,
+        position=(x, y),
+        max_frequency=fmax,
+        omega=omega,
+        sigma=sigma,
+        coupling=coupling,
+        rigid_coupling=rigid,
+        residual_admittance=lumped.tail_admittance,
+        residual_rate=lumped.tail_rate,
+        theory=theory,
+        residual_omega=lumped.omega,
+        residual_sigma=lumped_sigma,
+        residual_coupling=lumped.coupling,
+    )
+
+
+def _band_edge_loss(plate: Plate, omega_band: float, fmax: float) -> float:
+    """``sigma / omega`` (dimensionless) of the plate's damping law at the band limit
+    ``omega_band`` (rad/s): the residual's lumped modes keep it above the band (a damping
+    law fitted in the audio band is not extrapolated to the residual's frequencies)."""
+    return float(_decay_rates(plate, np.array([omega_band]), fmax)[0]) / omega_band
+
+
+def _decay_rates(plate: Plate, omega: np.ndarray, fmax: float) -> np.ndarray:
+    """The plate's damping law's decay rates (1/s) at ``omega`` (rad/s), checked
+    underdamped (the modal contact's oscillators must be)."""
+    sigma = np.broadcast_to(
+        np.asarray(plate.damping_law().decay_rate(omega), dtype=float), omega.shape
+    ).copy()
+    if np.any(sigma >= omega):
+        k = int(np.argmax(sigma >= omega))
+        raise ParameterError(
+            f"plate.material.damping gives the mode at {omega[k] / (2 * np.pi):.6g} Hz a decay "
+            f"rate {sigma[k]:.6g} 1/s at or above its angular frequency: the modal contact "
+            f"needs underdamped modes up to max_frequency={fmax!r} Hz"
+        )
+    return sigma
+
+
+# --------------------------------------------------------------------------------------
+# The residual: the infinite plate's modes above the band
+# --------------------------------------------------------------------------------------
+
+
+def _mode_frequency(plate: Plate, s, theory: str):
+    """Angular frequency (rad/s) of the plate's bending wave of ``k^2 = s`` (rad^2/m^2)."""
+    if theory == "mindlin":
+        return impedance.mindlin_angular_frequency(plate, s)
+    return np.asarray(s, dtype=float) * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+
+
+def _coupling_density(plate: Plate, s, theory: str):
+    """``dmu / ds`` (1/kg per rad^2/m^2): the couplings of the infinite plate's modes per
+    unit ``s = k^2``, ``1 / (4 pi rho h m_f(s))`` (``S / (4 pi)`` modes per unit ``s``, each
+    of coupling ``1 / (rho h S m_f)``, ``m_f`` :func:`impedance.mindlin_mass_factor`)."""
+    base = 1.0 / (4.0 * math.pi * plate.surface_density)
+    if theory != "mindlin":
+        return base * np.ones_like(np.asarray(s, dtype=float))
+    return base / impedance.mindlin_mass_factor(plate, s, _mode_frequency(plate, s, theory))
+
+
+def _wavenumber_at(plate: Plate, omega: float, theory: str) -> float:
+    """``s = k^2`` (rad^2/m^2) of the propagating bending wave at ``omega`` (rad/s)."""
+    if theory == "mindlin":
+        return float(impedance.mindlin_wavenumbers(plate, omega)[0])
+    return omega * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+
+
+@dataclass(frozen=True)
+class _LumpedResidual:
+    """The residual's lumped modes (rad/s, 1/kg) and its tail (m/(N s), 1/s)."""
+
+    omega: np.ndarray
+    coupling: np.ndarray
+    tail_admittance: float
+    tail_rate: float
+
+
+def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedResidual:
+    """The residual above ``omega_band`` (rad/s) as :data:`RESIDUAL_BINS` lumped modes and a
+    tail (the package's docstring): bin ``j`` spans ``[Omega r^j, Omega r^(j+1)]``; its coupling
+    ``c_j = Int dmu`` and frequency ``w_j`` with ``c_j / w_j^2 = Int dmu / w^2`` keep the
+    bin's stiffness (its response below the band) and its mass (above it)."""
+    from scipy.integrate import quad
+
+    edges = omega_band * RESIDUAL_RATIO ** np.arange(RESIDUAL_BINS + 1)
+    s = [_wavenumber_at(plate, float(w), theory) for w in edges]
+    omega, coupling = [], []
+    for lo, hi in zip(s[:-1], s[1:], strict=True):
+        c = quad(lambda x: float(_coupling_density(plate, x, theory)), lo, hi)[0]
+        k = quad(
+            lambda x: float(
+                _coupling_density(plate, x, theory) / _mode_frequency(plate, x, theory) ** 2
+            ),
+            lo,
+            hi,
+        )[0]
+        omega.append(math.sqrt(c / k))
+        coupling.append(c)
+    top = float(edges[-1])
+    if theory == "mindlin":
+        tail = float(impedance.mindlin_point_admittance(plate, top / (2.0 * math.pi)))
+    else:
+        tail = 1.0 / impedance.infinite_plate_impedance(plate)
+    return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
+
+
+def residual_admittance_exact(
+    plate: Plate, max_frequency: float, frequency, *, theory: str = "kirchhoff"
+) -> np.ndarray:
+    """The residual's admittance (m/(N s), complex, ``e^(i omega t)``) at ``frequency`` (Hz,
+    below ``max_frequency``) from the wavenumber integral it lumps: ``i omega Int dmu /
+    (w(s)^2 - omega^2 + 2 i sigma(w) omega)`` over the bins' span ``[Omega, W]`` (module
+    docstring; ``sigma`` the plate's damping law) by adaptive quadrature, plus the tail
+    above ``W``. The reference of :meth:`ModalPoint.residual`."""
+    from scipy.integrate import quad
+
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
+    if theory not in PLATE_THEORIES:
+        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
+    f = np.atleast_1d(np.asarray(frequency, dtype=float))
+    if not np.all((f > 0.0) & (f < fmax)):
+        raise ParameterError(f"frequency={frequency!r} must be in (0, max_frequency) (Hz)")
+    omega_band = 2.0 * math.pi * fmax
+    top = omega_band * RESIDUAL_RATIO**RESIDUAL_BINS
+    lo, hi = _wavenumber_at(plate, omega_band, theory), _wavenumber_at(plate, top, theory)
+    tail = _lumped_residual(plate, omega_band, theory)
+    loss = _band_edge_loss(plate, omega_band, fmax)
+
+    def term(x, w):
+        wk = float(_mode_frequency(plate, x, theory))
+        sigma = loss * wk
+        return complex(_coupling_density(plate, x, theory)) / (wk * wk - w * w + 2j * sigma * w)
+
+    out = []
+    for w in 2.0 * math.pi * f:
+        re = quad(lambda x, w=w: term(x, w).real, lo, hi, limit=200)[0]
+        im = quad(lambda x, w=w: term(x, w).imag, lo, hi, limit=200)[0]
+        s = 1j * w
+        out.append(s * complex(re, im) + tail.tail_admittance * s / (s + tail.tail_rate))
+    y = np.array(out)
+    return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
+
+
+def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
+    """Kirchhoff's angular frequency (rad/s) of a wave of ``k^2`` (rad^2/m^2)."""
+    return wavenumber_squared * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+
+
+# Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
+# point's modes on disk. The disk key holds everything the modes depend on; its version
+# changes with the mode solver's algorithm.
+_BAND_MODES = MemoryCache("solves", max_entries=8)
+_POINT_VERSION = 1
+
+
+def clear_memory_cache() -> None:
+    """Forget the eigen-solutions held by :func:`band_modes` (the disk cache is untouched)."""
+    _BAND_MODES.clear()
+
+
+def _plate_key(plate: Plate, max_frequency: float) -> dict:
+    """What the bending modes of ``plate`` to ``max_frequency`` (Hz) depend on."""
+    m = plate.material
+    return {
+        "boundary": plate.boundary,
+        "young": float(m.young).hex(),
+        "density": float(m.density).hex(),
+        "poisson": float(m.poisson).hex(),
+        "thickness": float(plate.thickness).hex(),
+        "length": float(plate.length).hex(),
+        "width": float(plate.width).hex(),
+        "max_frequency": float(max_frequency).hex(),
+    }
+
+
+def band_modes(plate: Plate, max_frequency: float):
+    """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
+    exactly that band: the mode cache's if it holds that band, else a solve of the band
+    alone (:func:`synth.sound.modes.modes` with ``cache=False``) where the cache would serve
+    a wider band's. Held in memory for the next contact on the plate."""
+    from synth.sound.modes import modes as plate_modes
+
+    key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
+    held = _BAND_MODES.get(key)
+    if held is None:
+        held = plate_modes(plate, max_frequency=max_frequency)
+        if not held.solved_for_band:
+            held = plate_modes(plate, max_frequency=max_frequency, cache=False)
+        _BAND_MODES.put(key, held, source="computed")
+    return held
+
+
+def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
+    """Angular frequencies (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of the modes of
+    :func:`band_modes` at ``position``: from the disk cache, or computed and stored."""
+    from synth.sound.modes import TOLERANCE
+
+    key = json.dumps(
+        dict(
+            _plate_key(plate, max_frequency),
+            x=float(position[0]).hex(),
+            y=float(position[1]).hex(),
+            version=_POINT_VERSION,
+            tolerance=TOLERANCE,
+        ),
+        sort_keys=True,
+    )
+    try:
+        path = cache_path("contact-point-modes", key)
+    except RuntimeError:  # no home directory: no disk cache
+        path = None
+    stored = _load_point(path, key)
+    if stored is not None:
+        return stored
+    m = band_modes(plate, max_frequency)
+    phi = m.shapes(np.array([position], dtype=float))[0]
+    omega = np.array(m.angular_frequencies, dtype=float)
+    coupling = phi * phi / np.asarray(m.modal_masses, dtype=float)
+    if path is not None:
+        savez_atomic(path, {"key": np.array(key), "omega": omega, "coupling": coupling})
+    return omega, coupling
+
+
+def _load_point(path, key: str):
+    """The stored ``(omega, coupling)`` of ``key`` at ``path``, or None if absent or not
+    consistent (then recomputed)."""
+    if path is None or not path.is_file():
+        return None
+    try:
+        with load_npz(path) as z:
+            if str(z["key"][()]) != key:
+                return None
+            omega, coupling = z["omega"], z["coupling"]
+    except (OSError, ValueError, KeyError):
+        return None
+    ok = (
+        omega.ndim == 1
+        and coupling.shape == omega.shape
+        and bool(np.all(np.isfinite(omega)) and np.all(np.isfinite(coupling)))
+        and bool(np.all(omega > 0.0) and np.all(coupling >= 0.0))
+    )
+    return (omega, coupling) if ok else None
