@@ -168,11 +168,9 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
         e5x = _E5[0] * K[0, 0]
         e5w = _E5[0] * K[0, 1]
         e5q = _E5[0] * K[0, 2]
-        e5l = _E5[0] * K[0, 3]
         e3x = _E3[0] * K[0, 0]
         e3w = _E3[0] * K[0, 1]
         e3q = _E3[0] * K[0, 2]
-        e3l = _E3[0] * K[0, 3]
         for i in range(1, _NS):
             # only x and w enter the right-hand side; I2 and the loss are quadratures
             a0 = 0.0
@@ -192,11 +190,9 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             e5x += _E5[i] * k0
             e5w += _E5[i] * k1
             e5q += _E5[i] * k2
-            e5l += _E5[i] * k3
             e3x += _E3[i] * k0
             e3w += _E3[i] * k1
             e3q += _E3[i] * k2
-            e3l += _E3[i] * k3
         xn = x + h * b0
         wn = w + h * b1
         q2n = q2 + h * b2
@@ -210,11 +206,9 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
         e5x += _E5[_NS] * k0
         e5w += _E5[_NS] * k1
         e5q += _E5[_NS] * k2
-        e5l += _E5[_NS] * k3
         e3x += _E3[_NS] * k0
         e3w += _E3[_NS] * k1
         e3q += _E3[_NS] * k2
-        e3l += _E3[_NS] * k3
         scx = atol + rtol * max(x_top, abs(xn))
         scw = atol + rtol * max(abs(w), abs(wn))
         scq = atol + rtol * max(abs(q2), abs(q2n))
@@ -225,6 +219,11 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             # The viscoelastic force falls to 0 before the end of contact, but the loss
             # there, L' = -x^n x', ends like (tau - s)^n: its quadrature's error joins the
             # norm, so that the landing steps are sized for it too.
+            e5l = 0.0
+            e3l = 0.0
+            for i in range(_NS + 1):
+                e5l += _E5[i] * K[i, 3]
+                e3l += _E3[i] * K[i, 3]
             scl = atol + rtol * max(abs(q3), abs(q3n))
             e5 += (e5l / scl) ** 2
             e3 += (e3l / scl) ** 2
