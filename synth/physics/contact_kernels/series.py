@@ -21,7 +21,7 @@ from synth.physics.contact_kernels.equations import positive_power, power
 
 #: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
 SERIES_DEGREE = 9.0
-#: Coefficient arrays are (SERIES_SIZE, SERIES_SIZE): i, j <= degree.
+#: Coefficients [i, j] of the start series: i, j < SERIES_SIZE (i, j <= degree).
 SERIES_SIZE = int(SERIES_DEGREE) + 1
 #: The series is used at most up to this dimensionless time (the contact lasts ~3).
 SERIES_MAX_TIME = 1.0
@@ -29,9 +29,9 @@ SERIES_MAX_TIME = 1.0
 HALF_SERIES_DEGREE = 19
 #: Columns of the coefficient arrays, room for either series.
 SERIES_COLS = max(SERIES_SIZE, HALF_SERIES_DEGREE + 1)
-#: The truncation error of the series in s^(1/2) is estimated from its last terms: each
-#: link of the recurrences raises the degree by at most 3, so this band holds the leading
-#: term of every chain.
+#: The truncation error of the series in s^(1/2) is estimated from its terms of this many
+#: last degrees: each link of the recurrences raises the degree by at most 3, so the band
+#: holds the leading term of every chain, with a margin.
 HALF_SERIES_BAND = 5
 
 
