@@ -28,6 +28,7 @@ class ContactCase:
     gravity: float  # m/s^2
     exponent: float = 1.5
     dissipation: float = 0.0  # s/m
+    viscous_time: float = 0.0  # s
 
     def solver_arguments(self) -> dict:
         """The case as keyword arguments of :func:`synth.physics.contact.solve_contact`."""
@@ -39,6 +40,7 @@ class ContactCase:
             gravity=self.gravity,
             exponent=self.exponent,
             dissipation=self.dissipation,
+            viscous_time=self.viscous_time,
         )
 
 
@@ -81,12 +83,23 @@ def contact_cases() -> list[ContactCase]:
 
 
 def _scaled(case):
+    """(theta, lam, G, c, b): the scales and constants of the dimensionless equations."""
     v0 = case.speed
     n = case.exponent
     theta = (case.mass / (case.stiffness * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
     lam = case.admittance * case.mass / theta
     G = case.gravity * theta / v0
-    return theta, lam, G, case.dissipation * v0
+    return theta, lam, G, case.dissipation * v0, 1.5 * case.viscous_time / theta
+
+
+def _reference_force(x, w, lam, n, c, b):
+    """The dimensionless force of the equations (synth/physics/contact_kernels/equations.py),
+    written again with numpy for the reference: ``max(0, x^n + (c x^n + b x^(1/2)) x')``
+    solved for f (x' = w - lam f); x and w arrays."""
+    x = np.maximum(x, 0.0)
+    a = x**n
+    d = c * a + b * np.sqrt(x)
+    return np.maximum(0.0, (a + d * w) / (1.0 + lam * d))
 
 
 def scipy_contact(
@@ -99,16 +112,16 @@ def scipy_contact(
     """
     from scipy.integrate import solve_ivp
 
-    theta, lam, G, c = _scaled(case)
+    theta, lam, G, c, b = _scaled(case)
     n = case.exponent
 
     def force(x, w):
         if x <= 0.0:
             return 0.0
         a = x**n
-        if c == 0.0:
+        if c == 0.0 and b == 0.0:
             return a
-        return max(0.0, a * (1.0 + c * w) / (1.0 + c * lam * a))
+        return float(_reference_force(x, w, lam, n, c, b))
 
     def rhs(s, y):
         f = force(y[0], y[1])
@@ -120,11 +133,15 @@ def scipy_contact(
             return [[0.0, 1.0], [0.0, 0.0]]
         a = x**n
         da = n * a / x
-        if c == 0.0:
-            fx, fw = da, 0.0
+        r = math.sqrt(x)
+        d = c * a + b * r  # damping, and its derivative in x
+        dd = c * da + 0.5 * b / r
+        den = 1.0 + lam * d
+        f = (a + d * w) / den
+        if f > 0.0:
+            fx, fw = (da + dd * w - f * lam * dd) / den, d / den
         else:
-            num, den = 1.0 + c * w, 1.0 + c * lam * a
-            fx, fw = (da * num / den**2, a * c / den) if num > 0 else (0.0, 0.0)
+            fx, fw = 0.0, 0.0
         return [[-lam * fx, 1.0 - lam * fw], [-fx, -fw]]
 
     def end(s, y):
@@ -142,12 +159,14 @@ def scipy_contact(
     settle.terminal = True
     settle.direction = -1
 
-    events = [end, settle] if (G > 0 and lam > 0) else [end]
+    events = [end, settle] if (G > 0 and (lam > 0 or c > 0 or b > 0)) else [end]
     kw = dict(jac=jac) if method in ("Radau", "BDF", "LSODA") else {}
     # start a hair after first touch so that the x = 0 event does not fire at s = 0
-    # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s)
+    # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s;
+    # the viscoelastic force b s^(1/2) adds - 2/3 b s^(3/2) to w and - 2/3 lam b s^(3/2) to x)
     s0 = 1e-10
-    y0 = [s0 + 0.5 * G * s0 * s0, 1.0 + G * s0]
+    v = 2.0 / 3.0 * b * s0**1.5
+    y0 = [s0 + 0.5 * G * s0 * s0 - lam * v, 1.0 + G * s0 - v]
     sol = solve_ivp(
         rhs,
         (s0, 1e9),
@@ -171,16 +190,11 @@ def scipy_contact(
 
 def _pulse_error(res, sol, theta, case):
     """Relative L2 error of the force pulse against the reference's dense output."""
-    _, lam, G, c = _scaled(case)
+    _, lam, G, c, b = _scaled(case)
     n = case.exponent
     s = res.time / theta
     y = sol.sol(np.clip(s, sol.t[0], sol.t[-1]))
-    x = np.maximum(y[0], 0.0)
-    a = x**n
-    if c == 0.0:
-        f = a
-    else:
-        f = np.maximum(0.0, a * (1.0 + c * y[1]) / (1.0 + c * lam * a))
+    f = _reference_force(y[0], y[1], lam, n, c, b)
     f_ref = f * case.mass * case.speed / theta
     return float(np.linalg.norm(res.force - f_ref) / np.linalg.norm(f_ref))
 
@@ -283,7 +297,7 @@ def run_contact(
         res0 = contact.solve_contact(rtol=DEFAULT_RTOL, **kw0)
         t0 = median_time(lambda: contact.solve_contact(rtol=DEFAULT_RTOL, **kw0), repeat)
         t1 = median_time(lambda: contact.solve_contact(rtol=DEFAULT_RTOL, **kw), repeat)
-        _, lam, G, _ = _scaled(case)
+        _, lam, G, _, _ = _scaled(case)
         gravity_rows.append(
             dict(
                 case=case.name,

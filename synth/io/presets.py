@@ -31,9 +31,11 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     position = [0.6135, 0.245, 0.2] # m: x, y on the plate; z above it (microphone only)
 
     [contact]                       # optional
-    law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley", "power-law"
+    law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley",
+                                    # "viscoelastic" (plate "impedance"), "power-law"
     rtol = 1e-9                     # relative accuracy of e and tau, dimensionless
     dissipation = 0.2               # s/m, Hunt-Crossley mu (only with "hunt-crossley")
+    viscous_time = 1e-6             # s, viscoelastic A (only with "viscoelastic")
     exponent = 1.5                  # dimensionless n in (1, 4] (only with "power-law")
     stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
     layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")

@@ -319,7 +319,7 @@ class Body:
             p[kernel.OFFSET] = lay.offset
             p[kernel.WEIGHT] = 0.0
             p[kernel.CONTACT_TIME] = result.contact_time
-            p[kernel.ORDER] = result.exponent + 1.0
+            p[kernel.ORDER] = result.pulse_order
             p[kernel.GAIN] = self._scale * gain
             p[kernel.MASS_LINE] = prepared.mass_line
         except BaseException:

@@ -7,9 +7,12 @@ eqs. 2.9-2.11, 2.34, 2.42):
     d(v_s)/dt   = F / m - g
     F = K delta^n                   (Hertz: n = 3/2, K = 4/3 sqrt(R) E*)
     F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
+    F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt),  F >= 0     (viscoelastic Hertz)
 
 ``solve_contact`` takes the lumped parameters; ``solve_impact`` derives them from
-a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate`. Both return an
+a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate` and a named law
+(:func:`contact_parameters`; the viscoelastic one: Kuwabara & Kono 1987, Brilliantov et al.
+1996, docs/physics.md, "Contact losses"). Both return an
 :class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
 and ``message``; only bad input raises (``ParameterError``).
 
@@ -93,7 +96,8 @@ _INF = math.inf
 class DenseOutput(NamedTuple):
     """The solver's dense output of one contact, for sampling the pulse afterwards:
     the step history of the kernels, the integrator (``radau``), the dimensionless
-    parameters (``lam``, ``G``, ``n``, ``c``, end of contact ``s_contact``) and the
+    parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
+    ``s_contact``) and the
     scales back to SI units (``theta``, s; ``f_scale``, N)."""
 
     hist: np.ndarray
@@ -102,6 +106,7 @@ class DenseOutput(NamedTuple):
     G: float
     n: float
     c: float
+    b: float
     s_contact: float
     theta: float
     f_scale: float
@@ -140,7 +145,7 @@ class ImpactResult:
         Contact force at those times, N.
     energy_residual : float
         Error of the energy balance (docs/physics.md, "Hertz contact"; with the
-        Hunt-Crossley loss), relative to the energy exchanged: the impact's kinetic energy, or
+        contact's loss), relative to the energy exchanged: the impact's kinetic energy, or
         the work of gravity or the energy carried into the plate where larger.
     success : bool
         True if the contact was integrated to its end.
@@ -188,6 +193,17 @@ class ImpactResult:
         separation."""
         return self._dense.n
 
+    @property
+    def pulse_order(self) -> float:
+        """Exponent ``q`` of the trapezoid rule's leading error ``C h^q`` on the force pulse
+        (dimensionless; the modal bank extrapolates with it): ``n + 1`` for a pulse that rises
+        like ``t^n`` and falls like ``(tau - t)^n``; ``3/2`` with the viscoelastic loss, whose
+        force rises like ``t^(1/2)`` (and switches off with a kink before separation: ``h^2``)."""
+        d = self._dense
+        if d is not None and d.b != 0.0:
+            return 1.5
+        return self.exponent + 1.0
+
     def _sample_pulse(self):
         # Both arrays at once, cached beside each other (most uses of an impact, such as
         # rendering, need only force_at).
@@ -201,6 +217,7 @@ class ImpactResult:
             d.G,
             d.n,
             d.c,
+            d.b,
             d.s_contact,
             self.status == _k.SEPARATED,
             d.theta,
@@ -242,6 +259,7 @@ class ImpactResult:
             d.G,
             d.n,
             d.c,
+            d.b,
             d.s_contact,
             d.theta,
             d.f_scale,
@@ -262,7 +280,7 @@ class ImpactResult:
         s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / d.theta)
         out = np.empty_like(s)
         slope = np.empty_like(s)
-        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.s_contact, s, out, slope)
+        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
         return out, slope
@@ -277,6 +295,7 @@ def solve_contact(
     gravity: float = GRAVITY,
     exponent: float = 1.5,
     dissipation: float = 0.0,
+    viscous_time: float = 0.0,
     plate_velocity: float = 0.0,
     rtol: float = 1e-6,
     n_points: int = 128,
@@ -301,6 +320,9 @@ def solve_contact(
         Contact law exponent ``n`` (Hertz 1.5, elastic foundation 2).
     dissipation : float >= 0
         Hunt-Crossley damping ``mu``, s/m (0: purely elastic contact).
+    viscous_time : float >= 0
+        The viscoelastic Hertz contact's dissipative time ``A``, s (Hertz exponent 1.5 only;
+        0: no viscoelastic loss).
     plate_velocity : float
         Velocity of the plate surface at the impact point before the impact,
         ``v_free``, m/s, positive upward; constant over the contact.
@@ -325,6 +347,7 @@ def solve_contact(
         and type(gravity) is float
         and type(exponent) is float
         and type(dissipation) is float
+        and type(viscous_time) is float
         and type(plate_velocity) is float
         and type(rtol) is float
         and type(n_points) is int
@@ -335,6 +358,8 @@ def solve_contact(
         and 0.0 <= gravity < _INF
         and 1.0 < exponent <= 4.0
         and 0.0 <= dissipation < _INF
+        and 0.0 <= viscous_time < _INF
+        and (viscous_time == 0.0 or exponent == 1.5)
         and -_INF < plate_velocity < _INF
         and 1e-12 <= rtol <= 0.1
         and n_points >= MIN_POINTS
@@ -348,6 +373,7 @@ def solve_contact(
         gravity = checks.nonnegative("gravity", gravity, "m/s^2")
         exponent = checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
         dissipation = checks.nonnegative("dissipation", dissipation, "s/m")
+        viscous_time = _check_viscous_time(viscous_time, exponent)
         plate_velocity = checks.real("plate_velocity", plate_velocity, "m/s")
         rtol = checks.in_range(
             "rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
@@ -367,11 +393,24 @@ def solve_contact(
         gravity,
         exponent,
         dissipation,
+        viscous_time,
         plate_velocity,
         rtol,
         n_points,
         method,
     )
+
+
+def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_time") -> float:
+    """``viscous_time`` (s) as a float >= 0 that applies to ``exponent``, or
+    ``ParameterError``: the viscoelastic loss is that of the Hertz law (n = 1.5)."""
+    A = checks.nonnegative(field, viscous_time, "s")
+    if A > 0.0 and exponent != 1.5:
+        raise ParameterError(
+            f"{field}={viscous_time!r} with exponent={exponent!r}: the viscoelastic loss "
+            f"applies to the Hertz exponent 1.5 only"
+        )
+    return A
 
 
 def _check_points(n_points) -> int:
@@ -388,7 +427,7 @@ def _check_points(n_points) -> int:
     return int(n_points)
 
 
-def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
+def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
     r, hist = _k.impact(
         m,
@@ -398,6 +437,7 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
         g,
         n,
         mu,
+        A,
         v_free,
         tol * TOLERANCE_SAFETY,
         ABSOLUTE_FACTOR,
@@ -449,6 +489,7 @@ def _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, method):
                 r[_k.R_G],
                 n,
                 r[_k.R_C],
+                r[_k.R_B],
                 r[_k.R_S_CONTACT],
                 r[_k.R_THETA],
                 r[_k.R_F_SCALE],
@@ -498,22 +539,45 @@ def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> f
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
-def contact_law(
+@dataclass(frozen=True)
+class ContactLaw:
+    """The constants of a contact law (docs/physics.md, "Hertz contact" and "Contact losses").
+
+    Attributes
+    ----------
+    stiffness : float
+        ``K`` of ``F = K delta^n``, N/m^n.
+    exponent : float
+        ``n``, dimensionless.
+    dissipation : float
+        Hunt-Crossley ``mu``, s/m (0: none).
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none).
+    """
+
+    stiffness: float
+    exponent: float
+    dissipation: float = 0.0
+    viscous_time: float = 0.0
+
+
+def contact_parameters(
     ball: Ball,
     plate: Plate,
     contact: str = "hertz",
     *,
     dissipation: float | None = None,
+    viscous_time: float | None = None,
     exponent: float | None = None,
     stiffness: float | None = None,
     layer_depth: float | None = None,
     surface: str = "ideal",
-) -> tuple[float, float, float]:
-    """Contact parameters ``(K, n, mu)`` for a named law (docs/physics.md, "Hertz contact").
+) -> ContactLaw:
+    """The constants of a named contact law (docs/physics.md, "Hertz contact").
 
     Parameters
     ----------
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
     surface : {"ideal", "fitted"}
         "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
         "hertz" only): the plate material's fitted surface
@@ -521,6 +585,10 @@ def contact_law(
         modulus with its Hunt-Crossley loss.
     dissipation : float > 0
         Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
+    viscous_time : float > 0
+        The dissipative time ``A`` (s) of the viscoelastic Hertz contact
+        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara &
+        Kono 1987; Brilliantov et al. 1996): required for "viscoelastic", refused otherwise.
     exponent, stiffness : float
         ``n`` (dimensionless, in (1, 4]) and ``K_n`` (N/m^n): required for "power-law".
     layer_depth : float > 0
@@ -528,31 +596,28 @@ def contact_law(
     """
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
+    given = {
+        "dissipation": dissipation,
+        "viscous_time": viscous_time,
+        "exponent": exponent,
+        "stiffness": stiffness,
+        "layer_depth": layer_depth,
+    }
     if surface == "fitted":
         if contact != "hertz":
             raise ParameterError(
                 f"surface='fitted' applies to contact='hertz' only, not {contact!r} (the fit "
                 f"is of a Hertz contact with a Hunt-Crossley loss)"
             )
-        for key, value in (
-            ("dissipation", dissipation),
-            ("exponent", exponent),
-            ("stiffness", stiffness),
-            ("layer_depth", layer_depth),
-        ):
+        for key, value in given.items():
             if value is not None:
                 raise ParameterError(f"{key}={value!r} does not apply to surface='fitted'")
         fit = contact_surface(plate.material)
-        return hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation
-    given = {
-        "dissipation": dissipation,
-        "exponent": exponent,
-        "stiffness": stiffness,
-        "layer_depth": layer_depth,
-    }
+        return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation)
     allowed = {
         "hertz": (),
         "hunt-crossley": ("dissipation",),
+        "viscoelastic": ("viscous_time",),
         "elastic-foundation": ("layer_depth",),
         "power-law": ("exponent", "stiffness"),
     }[contact]
@@ -560,20 +625,42 @@ def contact_law(
         if value is not None and key not in allowed:
             raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
     if contact == "hertz":
-        return hertz_stiffness(ball, plate), 1.5, 0.0
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5)
     if contact == "hunt-crossley":
         if dissipation is None:
             raise ParameterError("contact='hunt-crossley' needs dissipation (mu, s/m, > 0)")
-        return hertz_stiffness(ball, plate), 1.5, checks.positive("dissipation", dissipation, "s/m")
+        mu = checks.positive("dissipation", dissipation, "s/m")
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5, mu)
+    if contact == "viscoelastic":
+        if viscous_time is None:
+            raise ParameterError("contact='viscoelastic' needs viscous_time (A, s, > 0)")
+        A = checks.positive("viscous_time", viscous_time, "s")
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5, viscous_time=A)
     if contact == "elastic-foundation":
-        return foundation_stiffness(ball, plate, layer_depth), 2.0, 0.0
+        return ContactLaw(foundation_stiffness(ball, plate, layer_depth), 2.0)
     if exponent is None or stiffness is None:
         raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
-    return (
+    return ContactLaw(
         checks.positive("stiffness", stiffness, "N/m^n"),
         checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False),
-        0.0,
     )
+
+
+def contact_law(
+    ball: Ball, plate: Plate, contact: str = "hertz", **options
+) -> tuple[float, float, float]:
+    """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law: the
+    :func:`contact_parameters` of the laws those three constants describe (all but
+    "viscoelastic", whose viscous time has no place among them: ``ParameterError``; the
+    finite plate's contact, :mod:`synth.physics.modal_contact`, takes these laws only)."""
+    law = contact_parameters(ball, plate, contact, **options)
+    if law.viscous_time != 0.0:
+        raise ParameterError(
+            f"contact={contact!r}: the viscoelastic law's viscous_time is not one of (K, n, mu); "
+            f"it is solved on the impedance plate only (contact_parameters, solve_impact, "
+            f"ContactSolver), not on the modal plate"
+        )
+    return law.stiffness, law.exponent, law.dissipation
 
 
 def solve_impact(
@@ -586,6 +673,7 @@ def solve_impact(
     contact: str = "hertz",
     rtol: float = 1e-6,
     dissipation: float | None = None,
+    viscous_time: float | None = None,
     exponent: float | None = None,
     stiffness: float | None = None,
     layer_depth: float | None = None,
@@ -608,10 +696,11 @@ def solve_impact(
         time, so the two are solved together by fixed-point iteration.
     gravity : float >= 0
         m/s^2.
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
-        Contact law and its parameters (see :func:`contact_law`).
+    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
+        Contact law and its parameters (``dissipation``, ``viscous_time``, ``exponent``,
+        ``stiffness``, ``layer_depth``; see :func:`contact_parameters`).
     surface : {"ideal", "fitted"}
-        The plate's side of the contact (see :func:`contact_law`).
+        The plate's side of the contact (see :func:`contact_parameters`).
     rtol : float
         Relative accuracy of restitution and contact time.
     plate_velocity : float
@@ -627,16 +716,18 @@ def solve_impact(
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
-    K, n, mu = contact_law(
+    law = contact_parameters(
         ball,
         plate,
         contact,
         dissipation=dissipation,
+        viscous_time=viscous_time,
         exponent=exponent,
         stiffness=stiffness,
         layer_depth=layer_depth,
         surface=surface,
     )
+    K, n, mu, A = law.stiffness, law.exponent, law.dissipation, law.viscous_time
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
     kwargs = dict(
         mass=ball.mass,
@@ -645,6 +736,7 @@ def solve_impact(
         gravity=gravity,
         exponent=n,
         dissipation=mu,
+        viscous_time=A,
         plate_velocity=plate_velocity,
         rtol=rtol,
         n_points=n_points,
@@ -663,6 +755,7 @@ def solve_impact(
         float(gravity),
         n,
         mu,
+        A,
         float(plate_velocity),
         float(rtol),
         int(n_points),
@@ -674,7 +767,9 @@ def solve_impact(
 EDGE_ITERATIONS = 80
 
 
-def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=None, beta_inf=None):
+def _solve_at(
+    plate, x, y, m, K, v_in, g, n, mu, A, v_free, tol, n_points, first=None, beta_inf=None
+):
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
     :func:`synth.physics.impedance.point_admittance` (lumped values checked by the caller).
 
@@ -695,7 +790,7 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
     result = (
         first
         if first is not None
-        else _solve(m, K, beta_inf, v_in, g, n, mu, v_free, tol, n_points, "auto")
+        else _solve(m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto")
     )
     if plate.boundary != "free" or not result.success:
         return result
@@ -738,7 +833,7 @@ def _solve_at(plate, x, y, m, K, v_in, g, n, mu, v_free, tol, n_points, first=No
             )
         # fixed-point step while it stays inside the bracket and contracts; else bisect
         beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
-        result = _solve(m, K, beta, v_in, g, n, mu, v_free, tol, n_points, "auto")
+        result = _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto")
         if not result.success:
             return result
         target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
@@ -793,6 +888,9 @@ class ContactSolver:
         edges; None for a solver of lumped parameters (give ``admittance``).
     method : {"auto", "DOP853", "Radau"}
         Integrator.
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; exponent 1.5
+        only).
     """
 
     mass: float
@@ -804,6 +902,7 @@ class ContactSolver:
     n_points: int = 128
     plate: Plate | None = None
     method: str = "auto"
+    viscous_time: float = 0.0
 
     def __post_init__(self):
         checked = dict(
@@ -820,6 +919,7 @@ class ContactSolver:
             n_points=_check_points(self.n_points),
             method=checks.choice("method", self.method, _METHODS),
         )
+        checked["viscous_time"] = _check_viscous_time(self.viscous_time, checked["exponent"])
         if self.plate is not None and not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
         for key, value in checked.items():
@@ -843,13 +943,24 @@ class ContactSolver:
         **contact_options,
     ) -> ContactSolver:
         """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
-        ``contact_options``, see :func:`contact_law`); gravity in m/s^2."""
+        ``contact_options``, see :func:`contact_parameters`); gravity in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
             raise ParameterError(f"plate={plate!r} must be a Plate")
-        K, n, mu = contact_law(ball, plate, law, **contact_options)
-        return cls(ball.mass, K, n, mu, gravity, rtol, n_points, plate, method)
+        c = contact_parameters(ball, plate, law, **contact_options)
+        return cls(
+            ball.mass,
+            c.stiffness,
+            c.exponent,
+            c.dissipation,
+            gravity,
+            rtol,
+            n_points,
+            plate,
+            method,
+            c.viscous_time,
+        )
 
     @property
     def infinite_admittance(self) -> float | None:
@@ -900,6 +1011,7 @@ class ContactSolver:
                 self.gravity,
                 self.exponent,
                 self.dissipation,
+                self.viscous_time,
                 v_free,
                 self.rtol,
                 self.n_points,
@@ -916,6 +1028,7 @@ class ContactSolver:
                 self.gravity,
                 self.exponent,
                 self.dissipation,
+                self.viscous_time,
                 v_free,
                 self.rtol,
                 self.n_points,
@@ -932,6 +1045,7 @@ class ContactSolver:
             self.gravity,
             self.exponent,
             self.dissipation,
+            self.viscous_time,
             v_free,
             self.rtol,
             self.n_points,

@@ -190,7 +190,9 @@ class Microphone:
 
 Listener = Accelerometer | Microphone
 
-CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "power-law")
+CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law")
+#: The contact laws' parameters (fields of :class:`Contact`).
+LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
 #: The plate's side of the contact: an isotropic elastic half-space, or the material's
 #: surface fitted to measurements (:class:`synth.physics.materials.ContactSurface`).
 SURFACE_MODELS = ("ideal", "fitted")
@@ -210,10 +212,13 @@ class Contact:
 
     Parameters
     ----------
-    law : {"hertz", "elastic-foundation", "hunt-crossley", "power-law"}
+    law : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
         Contact force law.
     dissipation : float > 0, optional
         Hunt-Crossley damping ``mu``, s/m (only with "hunt-crossley").
+    viscous_time : float > 0, optional
+        Dissipative time ``A`` of the viscoelastic Hertz contact, s (only with
+        "viscoelastic", which the impedance plate solves, not the modal one).
     exponent : float in (1, 4], optional
         Power-law exponent ``n`` (only with "power-law").
     stiffness : float > 0, optional
@@ -261,6 +266,7 @@ class Contact:
     surface: str | None = None
     model: str | None = None
     theory: str | None = None
+    viscous_time: float | None = None
 
     def __post_init__(self):
         self._resolve_model()
@@ -279,6 +285,12 @@ class Contact:
             raise ParameterError(
                 f"contact.surface='fitted' applies to contact.law='hertz' only, not {self.law!r}"
             )
+        if self.law == "viscoelastic" and self.plate != "impedance":
+            raise ParameterError(
+                f"contact.law='viscoelastic' applies to contact.plate='impedance' only, not "
+                f"{self.plate!r} (the modal plate's contact takes the Hertz, power-law and "
+                f"Hunt-Crossley laws)"
+            )
         object.__setattr__(
             self,
             "rtol",
@@ -288,6 +300,7 @@ class Contact:
         )
         for name, unit in (
             ("dissipation", "s/m"),
+            ("viscous_time", "s"),
             ("stiffness", "N/m^n"),
             ("layer_depth", "metres"),
         ):
@@ -305,11 +318,12 @@ class Contact:
         needs = {
             "hertz": (),
             "hunt-crossley": ("dissipation",),
+            "viscoelastic": ("viscous_time",),
             "elastic-foundation": (),
             "power-law": ("exponent", "stiffness"),
         }[self.law]
         allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
-        for name in ("dissipation", "exponent", "stiffness", "layer_depth"):
+        for name in LAW_OPTIONS:
             value = getattr(self, name)
             if value is None and name in needs:
                 raise ParameterError(f"contact.law={self.law!r} needs contact.{name}")
@@ -329,12 +343,8 @@ class Contact:
 
     def options(self) -> dict:
         """The law's parameters as keyword arguments of
-        :func:`synth.physics.contact.contact_law`."""
-        options = {
-            k: getattr(self, k)
-            for k in ("dissipation", "exponent", "stiffness", "layer_depth")
-            if getattr(self, k) is not None
-        }
+        :func:`synth.physics.contact.contact_parameters`."""
+        options = {k: getattr(self, k) for k in LAW_OPTIONS if getattr(self, k) is not None}
         if self.surface != "ideal":
             options["surface"] = self.surface
         return options

@@ -6,7 +6,7 @@ for one impact, from first touch to separation or settling:
 - ``equations.py``: the equations, the force, right-hand side and Jacobian, the settling
   test, the status codes;
 - ``series.py``: the start of contact as a series in s and s^n (x^n is not smooth at
-  x = 0), up to where the integrators take over;
+  x = 0; in s^(1/2) for the viscoelastic loss), up to where the integrators take over;
 - ``dop853.py``: the explicit stepper (DOP853, Hairer, Norsett & Wanner, "Solving ODEs
   I", II.10) for the non-stiff range;
 - ``radau.py``: the implicit stepper (Radau IIA of order 5, Hairer & Wanner, "Solving
@@ -24,6 +24,8 @@ again.
 """
 
 from __future__ import annotations
+
+import math
 
 import numba
 import numpy as np
@@ -51,7 +53,7 @@ from synth.physics.contact_kernels.equations import (
     power,
 )
 from synth.physics.contact_kernels.radau import integrate_radau
-from synth.physics.contact_kernels.series import SERIES_SIZE, series_coefficients, series_start
+from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
 __all__ = [
     "AUTO",
@@ -59,6 +61,7 @@ __all__ = [
     "MAX_STEPS",
     "N_RESULT",
     "RADAU",
+    "R_B",
     "R_C",
     "R_CONTACT_TIME",
     "R_ENERGY_RESIDUAL",
@@ -111,11 +114,12 @@ R_C = 14  # dimensionless Hunt-Crossley loss mu v0 (dense output)
 R_S_CONTACT = 15  # dimensionless end of contact (dense output)
 R_THETA = 16  # Zener's time scale, s
 R_F_SCALE = 17  # force scale m v0 / theta, N
-N_RESULT = 18
+R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output)
+N_RESULT = 19
 
 
 @numba.njit(cache=True)
-def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
+def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     """Integrate one contact and find its peak.
 
     Returns (status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, n_steps,
@@ -126,8 +130,8 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
     output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
     recompute).
     """
-    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
-    s1, x1, w1, i2, loss = series_start(lam, G, n, c, rtol, S)
+    S = new_series()
+    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
     hist = np.empty((32, H_COLS))
     hist[0, H_T0] = 0.0
     hist[0, H_H] = s1
@@ -136,22 +140,22 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
     # The series' validity ends at s1 like a step's: the next step is of the same length.
     if stiff:
         status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
-            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+            lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
         )
     else:
         status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
-            lam, G, n, c, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+            lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
         )
     radau = stiff
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = event_root(hist, S, nh - 1, radau, 0, lam, G, n, c, 0.0)
-        x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n)
+        s_end = event_root(hist, S, nh - 1, radau, 0, lam, G, n, c, b, 0.0)
+        x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n, b)
         x_end = 0.0
         s_contact = s_end
     elif status == SETTLED:
-        s_contact = event_root(hist, S, nh - 1, radau, 2, lam, G, n, c, 0.5 * (lam * G) ** 2)
+        s_contact = event_root(hist, S, nh - 1, radau, 2, lam, G, n, c, b, 0.5 * (lam * G) ** 2)
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
     vbest = -1.0
@@ -165,20 +169,20 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
     for k in (ibest - 1, ibest):
         if k < 0 or k >= nh:
             continue
-        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c)
-        xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n)
-        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c) <= 0.0:
+        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
+        xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n, b)
+        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b) <= 0.0:
             xr, _ = dense_state(
-                hist, S, k, event_root(hist, S, k, radau, 1, lam, G, n, c, 0.0), radau, n
+                hist, S, k, event_root(hist, S, k, radau, 1, lam, G, n, c, b, 0.0), radau, n, b
             )
             x_max = max(x_max, xr)
-    if c == 0.0:
+    if c == 0.0 and b == 0.0:
         f_max = power(x_max, n) if x_max > 0.0 else 0.0
     else:
         ibest = 0
         vbest = -1.0
         for k in range(nh):
-            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c)
+            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
             if fk > vbest:
                 vbest = fk
                 ibest = k
@@ -186,7 +190,7 @@ def solve(lam, G, n, c, rtol, atol, max_steps, stiff):
         hi = min(hist[ibest, H_T0] + hist[ibest, H_H], s_contact)
         if ibest + 1 < nh:
             hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
-        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, 1), vbest)
+        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, b, 1), vbest)
     return (status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej, hist[:nh])
 
 
@@ -199,6 +203,7 @@ def impact(
     g,
     n,
     mu,
+    A,
     v_free,
     rtol,
     atol_factor,
@@ -213,7 +218,7 @@ def impact(
     length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
     integrates them by ``solve`` (``method``: AUTO picks Radau IIA above
     ``stiff_lambda`` and falls back to it when DOP853 reaches ``max_explicit`` steps),
-    and takes the energy balance (docs/physics.md, "Hertz contact"; Hunt-Crossley loss included).
+    and takes the energy balance (docs/physics.md, "Hertz contact"; the contact's loss included).
     ``rtol`` is the integrators' local tolerance, ``atol_factor`` the absolute one
     relative to it.
 
@@ -226,13 +231,14 @@ def impact(
     lam = beta * m / theta
     G = g * theta / v0
     c = mu * v0
+    b = 1.5 * A / theta
     atol = rtol * atol_factor
     stiff = (lam > stiff_lambda) if method == AUTO else (method == RADAU)
     f_scale = m * v0 / theta
-    out = solve(lam, G, n, c, rtol, atol, max_implicit if stiff else max_explicit, stiff)
+    out = solve(lam, G, n, c, b, rtol, atol, max_implicit if stiff else max_explicit, stiff)
     if out[0] == MAX_STEPS and not stiff and method == AUTO:
         stiff = True
-        out = solve(lam, G, n, c, rtol, atol, max_implicit, True)
+        out = solve(lam, G, n, c, b, rtol, atol, max_implicit, True)
     status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0
@@ -268,17 +274,18 @@ def impact(
     r[R_S_CONTACT] = s_contact
     r[R_THETA] = theta
     r[R_F_SCALE] = f_scale
+    r[R_B] = b
     return r, hist
 
 
 @numba.njit(cache=True)
-def pulse(hist, radau, lam, G, n, c, s_contact, separated, t_scale, f_scale, times, forces):
-    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c) at
+def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, times, forces):
+    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
-    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
-    series_coefficients(lam, G, n, c, S)
-    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, s_contact, times, forces)
+    S = new_series()
+    series_coefficients(lam, G, n, c, b, S)
+    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, s_contact, times, forces)
     times *= t_scale
     forces *= f_scale
     if separated:
@@ -287,18 +294,19 @@ def pulse(hist, radau, lam, G, n, c, s_contact, separated, t_scale, f_scale, tim
 
 
 @numba.njit(cache=True)
-def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
+def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of ``solve`` (same lam, G, n, c), 0 outside ``[0, s_contact]``, into
+    output ``hist`` of ``solve`` (same lam, G, n, c, b), 0 outside ``[0, s_contact]``, into
     ``out``; its rate of change ``df/ds`` into ``slope``.
 
     ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
-    ``a' = n x^(n-1) x'``. Hertz and power laws: ``f' = a'``. Hunt-Crossley:
-    ``f = a (1 + c w) / D``, ``D = 1 + c lam a``, so
-    ``f' = (a' (1 + c w) + a c w') / D - f c lam a' / D`` (0 where f is clipped at 0).
+    ``a' = n x^(n-1) x'``, ``r = x^(1/2)``, ``r' = x' / (2 r)``. Hertz and power laws:
+    ``f' = a'``. With a loss: ``f = N / D``, ``N = a (1 + c w) + b r w``, ``D = 1 + c lam a
+    + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
+    b r') / D`` (0 where f is clipped at 0).
     """
-    S = np.empty((7, SERIES_SIZE, SERIES_SIZE))
-    series_coefficients(lam, G, n, c, S)
+    S = new_series()
+    series_coefficients(lam, G, n, c, b, S)
     nh = hist.shape[0]
     for i in range(s.shape[0]):
         si = s[i]
@@ -307,25 +315,31 @@ def force_slope_at(hist, radau, lam, G, n, c, s_contact, s, out, slope):
             slope[i] = 0.0
             continue
         k = find_step(hist, nh, si)
-        x, w = dense_state(hist, S, k, si, radau, n)
-        f, a = force(x, w, lam, n, c)
+        x, w = dense_state(hist, S, k, si, radau, n, b)
+        f, a = force(x, w, lam, n, c, b)
         out[i] = f
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
         dx = w - lam * f
         da = n * power(x, n - 1.0) * dx
-        if c == 0.0:
+        if c == 0.0 and b == 0.0:
             slope[i] = da
-        else:
+        elif b == 0.0:
             D = 1.0 + c * lam * a
             slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D - f * c * lam * da / D
+        else:
+            r = math.sqrt(x)
+            dr = 0.5 * dx / r
+            D = 1.0 + c * lam * a + b * lam * r
+            N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
+            slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D
 
 
 @numba.njit(cache=True)
 def pulse_samples(
-    hist, radau, lam, G, n, c, s_contact, theta, f_scale, step, points, offset, period, samples,
-    out, slope,
+    hist, radau, lam, G, n, c, b, s_contact, theta, f_scale, step, points, offset, period,
+    samples, out, slope,
 ):  # fmt: skip
     """The force (N) and its rate (N/s) at ``u_j = j step`` (``j < points``) and then at
     ``offset + m period`` (``m < samples``), times in s from first touch: ``force_slope_at``
@@ -339,7 +353,7 @@ def pulse_samples(
         s[points + m] = (offset + m * period) / theta
     f = out[:total]
     r = slope[:total]
-    force_slope_at(hist, radau, lam, G, n, c, s_contact, s, f, r)
+    force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, f, r)
     rate = f_scale / theta
     for i in range(total):
         f[i] *= f_scale

@@ -109,10 +109,10 @@ def radau_dense(hist, k, s):
 
 
 @numba.njit(cache=True)
-def dense_state(hist, S, k, s, radau, n):
+def dense_state(hist, S, k, s, radau, n, b):
     """(x, w) at dimensionless time s inside step k of the history (step 0: the series)."""
     if k == 0:
-        return series_eval(S, s, n)
+        return series_eval(S, s, n, b)
     if radau:
         return radau_dense(hist, k, s)
     # DOP853 continuous extension (scipy's Dop853DenseOutput, Horner form)
@@ -148,98 +148,98 @@ def find_step(hist, nst, s):
 
 
 @numba.njit(cache=True)
-def penetration_and_force(hist, S, nst, s, radau, lam, n, c):
+def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b):
     """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
     k = find_step(hist, nst, s)
-    x, w = dense_state(hist, S, k, s, radau, n)
-    f, a = force(x, w, lam, n, c)
+    x, w = dense_state(hist, S, k, s, radau, n, b)
+    f, a = force(x, w, lam, n, c, b)
     return x, f
 
 
 @numba.njit(cache=True)
-def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, which):
+def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
     """Maximum of x (which=0) or f (which=1) over [lo, hi] by golden-section search."""
     g = 0.6180339887498949
-    a = lo
-    b = hi
-    x1 = b - g * (b - a)
-    x2 = a + g * (b - a)
-    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c)
+    ta = lo
+    tb = hi
+    x1 = tb - g * (tb - ta)
+    x2 = ta + g * (tb - ta)
+    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b)
     v1 = p[which]
-    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c)
+    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b)
     v2 = p[which]
     # The peak is quadratic: locating it to 1e-8 of its bracket gives the value to ~1e-16.
     for _ in range(80):
-        if b - a <= 1e-8 * (hi - lo):
+        if tb - ta <= 1e-8 * (hi - lo):
             break
         if v1 < v2:
-            a = x1
+            ta = x1
             x1 = x2
             v1 = v2
-            x2 = a + g * (b - a)
-            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c)
+            x2 = ta + g * (tb - ta)
+            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b)
             v2 = p[which]
         else:
-            b = x2
+            tb = x2
             x2 = x1
             v2 = v1
-            x1 = b - g * (b - a)
-            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c)
+            x1 = tb - g * (tb - ta)
+            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b)
             v1 = p[which]
     return max(v1, v2)
 
 
 @numba.njit(cache=True)
-def event(which, x, w, lam, G, n, c, thr):
+def event(which, x, w, lam, G, n, c, b, thr):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
     contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
     docstring)."""
     if which == 0:
         return x
     if which == 1:
-        return penetration_rate(x, w, lam, n, c)
+        return penetration_rate(x, w, lam, n, c, b)
     return settling_energy(x, w, lam, G, n) - thr
 
 
 @numba.njit(cache=True)
-def event_root(hist, S, k, radau, which, lam, G, n, c, thr):
+def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
     """Where the event function ``which`` falls through 0 inside step k (positive at the
     step's start, not positive at its end): Illinois (modified regula falsi) on the dense
     output, to machine precision. If it is not positive at the start, the step's end."""
-    a = hist[k, H_T0]
-    b = a + hist[k, H_H]
-    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, thr)
-    xb, wb = dense_state(hist, S, k, b, radau, n)
-    fb = event(which, xb, wb, lam, G, n, c, thr)
+    ta = hist[k, H_T0]
+    tb = ta + hist[k, H_H]
+    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, b, thr)
+    xb, wb = dense_state(hist, S, k, tb, radau, n, b)
+    fb = event(which, xb, wb, lam, G, n, c, b, thr)
     if fa <= 0.0 or fb >= 0.0:
-        return b
+        return tb
     side = 0
     for _ in range(200):
-        m = (a * fb - b * fa) / (fb - fa)
-        if not (a < m < b):
-            m = 0.5 * (a + b)
-        xm, wm = dense_state(hist, S, k, m, radau, n)
-        fm = event(which, xm, wm, lam, G, n, c, thr)
+        m = (ta * fb - tb * fa) / (fb - fa)
+        if not (ta < m < tb):
+            m = 0.5 * (ta + tb)
+        xm, wm = dense_state(hist, S, k, m, radau, n, b)
+        fm = event(which, xm, wm, lam, G, n, c, b, thr)
         if fm > 0.0:
-            a, fa = m, fm
+            ta, fa = m, fm
             if side == 1:
                 fb *= 0.5
             side = 1
         elif fm < 0.0:
-            b, fb = m, fm
+            tb, fb = m, fm
             if side == -1:
                 fa *= 0.5
             side = -1
         else:
             return m
         # the peak (which 1) is quadratic: 1e-10 of the step places it to ~1e-20 in value
-        if b - a <= (1e-10 * hist[k, H_H] if which == 1 else 4e-16 * b):
+        if tb - ta <= (1e-10 * hist[k, H_H] if which == 1 else 4e-16 * tb):
             break
-    return b if -fb < fa else a
+    return tb if -fb < fa else ta
 
 
 @numba.njit(cache=True)
-def sample_pulse(hist, S, nh, radau, lam, n, c, s_contact, times, forces):
+def sample_pulse(hist, S, nh, radau, lam, n, c, b, s_contact, times, forces):
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
     and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
     evaluated step by step, in loops that the compiler vectorises, then raised to n."""
@@ -247,13 +247,13 @@ def sample_pulse(hist, S, nh, radau, lam, n, c, s_contact, times, forces):
     ds = s_contact / (n_points - 1)
     for i in range(n_points):
         times[i] = i * ds
-    if radau or c != 0.0:
+    if radau or c != 0.0 or b != 0.0:
         k = 0
         for i in range(n_points):
             while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
                 k += 1
-            x, w = dense_state(hist, S, k, times[i], radau, n)
-            forces[i], _ = force(x, w, lam, n, c)
+            x, w = dense_state(hist, S, k, times[i], radau, n, b)
+            forces[i], _ = force(x, w, lam, n, c, b)
         return
     i = 0
     for k in range(nh):

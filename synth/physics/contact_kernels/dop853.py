@@ -47,13 +47,23 @@ _D = np.ascontiguousarray(_dop.D)
 _A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 
+@numba.njit(cache=True, inline="always")
+def end_force_factor(w, c, b):
+    """phi of the force phi x^n with which a contact ends at the speed -w (w < 0): 1 + c w
+    for Hunt-Crossley (1 for Hertz), clipped at 0; 0 with the viscoelastic loss, whose force
+    x^(1/2) (x + b x') falls to 0 where x = -b x', before the end: its end is a free flight."""
+    if b != 0.0:
+        return 0.0
+    return max(0.0, 1.0 + c * w)
+
+
 @numba.njit(cache=True)
-def _time_to_end(x, w, dx, lam, G, n, c):
+def _time_to_end(x, w, dx, lam, G, n, c, b):
     """Time left until the end of contact, predicted after a step that ends with x > 0
     moving apart (x' = dx < 0), and the separation speed v it implies; (inf, 0) if the
     ball still moves down.
 
-    Near the end the force is f = phi x^n, phi = 1 + c w (Hertz: 1), and x ~ v sigma
+    Near the end the force is f = phi x^n, phi = end_force_factor (Hertz: 1), and x ~ v sigma
     with sigma the time left. Integrating u' = f - G (u = -w) and x' = -(u + lam f)
     back from the end with f = phi (v sigma)^n gives, to leading order in the force,
 
@@ -67,7 +77,7 @@ def _time_to_end(x, w, dx, lam, G, n, c):
     u = -w
     if u <= 0.0:
         return np.inf, 0.0
-    phi = max(0.0, 1.0 + c * w)
+    phi = end_force_factor(w, c, b)
     un = phi * power(u, n)
     sig = x / -dx
     for _ in range(6):
@@ -85,6 +95,22 @@ def _time_to_end(x, w, dx, lam, G, n, c):
         if abs(step) <= 1e-12 * sig:
             break
     return sig, u - G * sig + un * power(sig, n) * sig / (n + 1.0)
+
+
+@numba.njit(cache=True)
+def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
+    """Fraction of a step (from (x0, w0) to (x1, w1), rates dx, dw at its ends, length h) at
+    which the viscoelastic force switches off or on: where q = x (1 + c w) + b w changes
+    sign (cubic Hermite estimate); 1 if it does not."""
+    q0 = x0 * (1.0 + c * w0) + b * w0
+    q1 = x1 * (1.0 + c * w1) + b * w1
+    if (q0 > 0.0) == (q1 > 0.0):
+        return 1.0
+    dq0 = h * (dx0 * (1.0 + c * w0) + (x0 * c + b) * dw0)
+    dq1 = h * (dx1 * (1.0 + c * w1) + (x1 * c + b) * dw1)
+    if q0 > 0.0:
+        return hermite_root(q0, q1, dq0, dq1)
+    return hermite_root(-q0, -q1, -dq0, -dq1)
 
 
 @numba.njit(cache=True)
@@ -108,15 +134,15 @@ def _landing_factor(n):
 
 
 @numba.njit(cache=True, fastmath={"contract"})
-def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
     of the history ``hist`` (the series) filled in. Returns (status, s_end, x, w, I2, L,
     n_rows, n_rejected, hist), ``n_rows`` the rows of the history in use."""
     K = np.empty((16, 4))
-    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c)
+    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c, b)
     nst = 1
     nrej = 0
-    settle = G > 0.0 and lam > 0.0
+    settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
     peaked = False  # past the first penetration peak (a settled pulse keeps its landing)
     rejected = False
@@ -152,7 +178,7 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
             for j in range(i):
                 a0 += _A[i, j] * K[j, 0]
                 a1 += _A[i, j] * K[j, 1]
-            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c)
+            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c, b)
             K[i, 0] = k0
             K[i, 1] = k1
             K[i, 2] = k2
@@ -171,12 +197,12 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
         wn = w + h * b1
         q2n = q2 + h * b2
         q3n = q3 + h * b3
-        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c)
+        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c, b)
         K[_NS, 0] = k0
         K[_NS, 1] = k1
         K[_NS, 2] = k2
         K[_NS, 3] = k3
-        # error estimate (scipy's DOP853 norm) on x, w and I2
+        # error estimate (scipy's DOP853 norm) on x, w and I2 (and the loss, see below)
         e5x += _E5[_NS] * k0
         e5w += _E5[_NS] * k1
         e5q += _E5[_NS] * k2
@@ -188,10 +214,24 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
         scq = atol + rtol * max(abs(q2), abs(q2n))
         e5 = (e5x / scx) ** 2 + (e5w / scw) ** 2 + (e5q / scq) ** 2
         e3 = (e3x / scx) ** 2 + (e3w / scw) ** 2 + (e3q / scq) ** 2
+        components = 3.0
+        if b != 0.0:
+            # The viscoelastic force falls to 0 before the end of contact, but the loss
+            # there, L' = -x^n x', ends like (tau - s)^n: its quadrature's error joins the
+            # norm, so that the landing steps are sized for it too.
+            e5l = 0.0
+            e3l = 0.0
+            for i in range(_NS + 1):
+                e5l += _E5[i] * K[i, 3]
+                e3l += _E3[i] * K[i, 3]
+            scl = atol + rtol * max(abs(q3), abs(q3n))
+            e5 += (e5l / scl) ** 2
+            e3 += (e3l / scl) ** 2
+            components = 4.0
         if e5 == 0.0 and e3 == 0.0:
             err = 0.0
         else:
-            err = h * e5 / math.sqrt((e5 + 0.01 * e3) * 3.0)
+            err = h * e5 / math.sqrt((e5 + 0.01 * e3) * components)
         if err >= 1.0 or not math.isfinite(err):
             nrej += 1
             if landing and math.isfinite(err):
@@ -222,16 +262,24 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
             landing = False
             rejected = True
             continue
+        th = 1.0
         if xn < 0.0:
             # The step crosses the end of contact, where the force switches off: its
             # error estimate and dense output assume a smooth right-hand side and are
             # not to be trusted across that kink. Redo it to land just past the root
             # (cubic Hermite estimate), so that its stages see a smooth problem.
             th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
-            if th < 0.999:
-                h *= th * 1.0001 + 1e-9
-                nrej += 1
-                continue
+        if b != 0.0:
+            # The viscoelastic force x^(1/2) (x (1 + c w) + b w) / D switches off (or on)
+            # where its second factor changes sign, inside the contact: a kink of the same
+            # kind, on which the step is made to land as well (the earlier of the two).
+            th = min(
+                th, _switch_fraction(x, w, xn, wn, K[0, 0], K[0, 1], K[_NS, 0], K[_NS, 1], h, c, b)
+            )
+        if th < 0.999:
+            h *= th * 1.0001 + 1e-9
+            nrej += 1
+            continue
         # accepted: dense output coefficients for x and w
         hist = grow_history(hist, nst)
         for i in range(_NS + 1, 16):
@@ -241,7 +289,7 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
             for j in range(i):
                 a0 += _A_EXTRA[ii, j] * K[j, 0]
                 a1 += _A_EXTRA[ii, j] * K[j, 1]
-            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c)
+            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c, b)
         hist[nst, H_T0] = s
         hist[nst, H_H] = h
         hist[nst, H_X0] = x
@@ -288,10 +336,12 @@ def integrate_dop853(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3,
             sig = x / -K[0, 0]  # a first estimate, sharpened near the end
             reach = land_max
             if h >= 0.5 * sig:
-                sig, v = _time_to_end(x, w, K[0, 0], lam, G, n, c)
+                sig, v = _time_to_end(x, w, K[0, 0], lam, G, n, c, b)
                 if kappa < 0.0:
                     kappa = _landing_factor(n)
-                size = kappa * max(0.0, 1.0 - c * v) * power(v, n - 1.0) * (1.0 + lam * v / x_top)
+                size = (
+                    kappa * end_force_factor(-v, c, b) * power(v, n - 1.0) * (1.0 + lam * v / x_top)
+                )
                 if size > 0.0:
                     reach = min(reach, (0.8 * rtol / size) ** (1.0 / (n + 1.0)))
                 if sig <= min(h, reach):

@@ -1,19 +1,23 @@
 """The dimensionless contact equations, their force, Jacobian and settling test (numba).
 
 The equations of docs/physics.md, "Hertz contact" (the thesis, docs/physics.md, References,
-eq. 2.42 generalised to a power law, gravity, Hunt-Crossley loss):
+eq. 2.42 generalised to a power law, gravity, contact losses):
 
     x' = w - lam * f(x, w)          x = delta / (theta v0)   (penetration)
     w' = -f(x, w) + G               w = -v_rel / v0          (ball's downward speed)
     f  = x^n                        (Hertz n = 3/2, power law, elastic foundation n = 2)
-    f  = max(0, x^n (1 + c w) / (1 + c lam x^n))     (Hunt-Crossley, c = mu v0)
+    f  = max(0, x^n + d(x) x')      (with a loss; d(x) = c x^n + b x^(1/2))
+       = max(0, (x^n (1 + c w) + b x^(1/2) w) / (1 + c lam x^n + b lam x^(1/2)))
 
-with x(0) = 0, w(0) = 1, time s = t / theta, theta = (m / (K v0^(n-1)))^(1/(n+1)),
+The damping d(x) holds both losses: Hunt-Crossley (c = mu v0, b = 0) and the viscoelastic
+Hertz contact (Kuwabara & Kono 1987; Brilliantov et al. 1996; n = 3/2, c = 0, b = (3/2) A /
+theta with the material's dissipative time A); the second form solves for f, which x'
+itself contains. With x(0) = 0, w(0) = 1, time s = t / theta, theta = (m / (K v0^(n-1)))^(1/(n+1)),
 lam = beta m / theta (Zener's inelasticity) and G = g theta / v0. Two more
 components carry the quadratures of the energy balance:
 
     I2' = f^2                       (energy radiated into the plate: lam I2)
-    L'  = (f - x^n) x'              (Hunt-Crossley loss)
+    L'  = (f - x^n) x'              (the contact's loss, >= 0)
 
 Settling (gravity): with u = lam G - w, the function
     W = u^2 / 2 + x^(n+1) / (n+1) - G x
@@ -60,37 +64,48 @@ def positive_power(a, n):
 
 
 @numba.njit(cache=True, inline="always")
-def force(x, w, lam, n, c):
-    """Dimensionless contact force f and its elastic part x^n (both 0 out of contact)."""
+def force(x, w, lam, n, c, b):
+    """Dimensionless contact force f and its elastic part x^n (both 0 out of contact):
+    ``f = x^n + d(x) x'`` with the damping ``d = c x^n + b x^(1/2)`` (module docstring)."""
     if x <= 0.0:
         return 0.0, 0.0
     a = power(x, n)
-    if c == 0.0:
+    if c == 0.0 and b == 0.0:
         return a, a
-    f = a * (1.0 + c * w) / (1.0 + c * lam * a)
+    num = a * (1.0 + c * w)
+    den = 1.0 + c * lam * a
+    if b != 0.0:
+        r = math.sqrt(x)
+        num += b * r * w
+        den += b * lam * r
+    f = num / den
     if f < 0.0:
         f = 0.0
     return f, a
 
 
 @numba.njit(cache=True, inline="always")
-def rhs(x, w, lam, G, n, c):
+def rhs(x, w, lam, G, n, c, b):
     """Right-hand side (x', w', I2', L') of the module docstring."""
-    f, a = force(x, w, lam, n, c)
+    f, a = force(x, w, lam, n, c, b)
     dx = w - lam * f
     return dx, G - f, f * f, (f - a) * dx
 
 
 @numba.njit(cache=True)
-def jacobian(x, w, lam, n, c):
-    """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22."""
+def jacobian(x, w, lam, n, c, b):
+    """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
+
+    With ``f = N / D`` (``N = x^n (1 + c w) + b x^(1/2) w``, ``D = 1 + lam (c x^n + b
+    x^(1/2))``): ``f_x = (N_x - f D_x) / D``, ``f_w = (c x^n + b x^(1/2)) / D``; 0 where f
+    is clipped at 0."""
     if x <= 0.0:
         return 0.0, 1.0, 0.0, 0.0
     a = power(x, n)
     da = n * a / x
-    if c == 0.0:
+    if c == 0.0 and b == 0.0:
         fx, fw = da, 0.0
-    else:
+    elif b == 0.0:
         num = 1.0 + c * w
         den = 1.0 + c * lam * a
         if a * num / den <= 0.0:
@@ -98,6 +113,16 @@ def jacobian(x, w, lam, n, c):
         else:
             fx = da * num / (den * den)
             fw = a * c / den
+    else:
+        r = math.sqrt(x)
+        dr = 0.5 / r
+        den = 1.0 + lam * (c * a + b * r)
+        f = (a * (1.0 + c * w) + b * r * w) / den
+        if f <= 0.0:
+            fx, fw = 0.0, 0.0
+        else:
+            fx = (da * (1.0 + c * w) + b * dr * w - f * lam * (c * da + b * dr)) / den
+            fw = (c * a + b * r) / den
     return -lam * fx, 1.0 - lam * fw, -fx, -fw
 
 
@@ -109,7 +134,7 @@ def settling_energy(x, w, lam, G, n):
 
 
 @numba.njit(cache=True, inline="always")
-def penetration_rate(x, w, lam, n, c):
+def penetration_rate(x, w, lam, n, c, b):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
-    f, _ = force(x, w, lam, n, c)
+    f, _ = force(x, w, lam, n, c, b)
     return w - lam * f

@@ -69,7 +69,7 @@ _NEWTON_MAXITER = 6
 
 
 @numba.njit(cache=True)
-def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
 
     Arguments and result as ``integrate_dop853``'s.
@@ -80,17 +80,17 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
     F = np.zeros((3, 2))
     fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
     f0 = np.empty(4)
-    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c)
+    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
     h_old = -1.0
     err_old = -1.0
     nst = 1
     nrej = 0
-    settle = G > 0.0 and lam > 0.0
+    settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
     peaked = False
     have_dense = False
     newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
-    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
     rejected = False
     while True:
         if nst > max_steps:
@@ -130,7 +130,7 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
             n_iter = it + 1
             ok = True
             for i in range(3):
-                F[i, 0], F[i, 1], _, _ = rhs(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c)
+                F[i, 0], F[i, 1], _, _ = rhs(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b)
                 if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
                     ok = False
             if not ok:
@@ -184,7 +184,7 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
             dw_old = dn
         if not converged:
             # refresh the Jacobian at the step start and halve the step
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
             h *= 0.5
             nrej += 1
             rejected = True
@@ -201,7 +201,7 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
         s1 = atol + rtol * max(abs(y[1]), abs(wn))
         err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         if rejected and err > 1.0:
-            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c)
+            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c, b)
             b0 = r0 + ze0
             b1 = r1 + ze1
             e0 = (rd * b0 - rb * b1) / rdet
@@ -217,14 +217,14 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
             h *= max(0.2, safety * fac)
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
             continue
-        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c)[0]):
+        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b)[0]):
             # separated and landed again inside the step (see ``integrate_dop853``)
             h *= 0.5
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
             continue
         # accepted
         hist = grow_history(hist, nst)
@@ -239,7 +239,7 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
                 )
         # quadratures by the collocation rule (exact for the collocation polynomial)
         for i in range(3):
-            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c)
+            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c, b)
             dxi = y[1] + Z[i, 1] - lam * fi
             fq[i, 0] = fi * fi
             fq[i, 1] = (fi - ai) * dxi
@@ -250,7 +250,7 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
         nst += 1
         s += h
         have_dense = True
-        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c)
+        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
         if y[0] <= 0.0:
             return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if f0[0] <= 0.0:
@@ -269,5 +269,5 @@ def integrate_radau(lam, G, n, c, rtol, atol, max_steps, hist, s, x, w, q2, q3, 
         h_old = h
         err_old = max(err, 1e-10)
         # the analytic 2x2 Jacobian is cheap: refresh it at every step
-        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c)
+        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
         h *= fac

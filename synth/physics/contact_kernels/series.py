@@ -5,7 +5,9 @@ steps. Instead the solution of the equations (``equations.py``) is expanded in p
 s^(i + j n) (a series in s and s^n, see ``series_coefficients``; powers of series by
 J.C.P. Miller's recurrence, Knuth, TAOCP 2, 4.7) and taken from that series up to the
 point ``s1`` where its truncation error is below the local tolerance
-(``series_start``); the integrators take over from there.
+(``series_start``); the integrators take over from there. The viscoelastic loss
+(b > 0, n = 3/2) starts as b x^(1/2) w ~ s^(1/2), below every power of that series: its
+solution is a series in s^(1/2) (``half_series_coefficients``).
 """
 
 from __future__ import annotations
@@ -19,10 +21,24 @@ from synth.physics.contact_kernels.equations import positive_power, power
 
 #: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
 SERIES_DEGREE = 9.0
-#: Coefficient arrays are (SERIES_SIZE, SERIES_SIZE): i, j <= degree.
+#: Coefficients [i, j] of the start series: i, j < SERIES_SIZE (i, j <= degree).
 SERIES_SIZE = int(SERIES_DEGREE) + 1
 #: The series is used at most up to this dimensionless time (the contact lasts ~3).
 SERIES_MAX_TIME = 1.0
+#: Terms s^(k/2), k <= this degree, of the viscoelastic start series (of x / s and w).
+HALF_SERIES_DEGREE = 19
+#: Columns of the coefficient arrays, room for either series.
+SERIES_COLS = max(SERIES_SIZE, HALF_SERIES_DEGREE + 1)
+#: The truncation error of the series in s^(1/2) is estimated from its terms of this many
+#: last degrees: each link of the recurrences raises the degree by at most 3, so the band
+#: holds the leading term of every chain, with a margin.
+HALF_SERIES_BAND = 5
+
+
+@numba.njit(cache=True)
+def new_series():
+    """An array for the coefficients of either start series."""
+    return np.empty((7, SERIES_SIZE, SERIES_COLS))
 
 
 @numba.njit(cache=True, inline="always")
@@ -38,8 +54,125 @@ def series_len(j, n):
 
 
 @numba.njit(cache=True)
-def series_coefficients(lam, G, n, c, S):
-    """Coefficients of the solution at first touch as a series in s and s^n.
+def half_series_coefficients(lam, G, c, b, S):
+    """Coefficients of the solution at first touch as a series in sigma = s^(1/2), for the
+    viscoelastic loss (n = 3/2, b > 0; any Hunt-Crossley c as well).
+
+    With x = sigma^2 Y, x^(1/2) = sigma R (R^2 = Y), x^(3/2) = sigma^3 A (A = R Y), x' = P
+    and w = W, all series in sigma, the force f = x^(3/2) (1 + c x') + b x^(1/2) x' is
+
+        F[k] = T[k-3] + b Q[k-1],   T = A (1 + c P),  Q = R P,
+
+    so F[0] = 0 and F[1] = b: the force starts like b s^(1/2). Since d/ds = d/dsigma /
+    (2 sigma), x' = w - lam f and w' = G - f give term by term
+
+        W[k] = 2 (G [k = 2] - F[k-2]) / k  (W[0] = 1, W[1] = 0),   P[k] = W[k] - lam F[k],
+        Y[k] = 2 P[k] / (k + 2),   R[k] = (Y[k] - sum_{0<i<k} R[i] R[k-i]) / 2  (R[0] = 1),
+
+    each from coefficients of lower degree (F[k] needs degree k - 1 and below), so one pass
+    in k gives them all, exactly, up to ``HALF_SERIES_DEGREE``.
+
+    Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
+    """
+    S[:] = 0.0
+    Y = S[0, 0]
+    W = S[1, 0]
+    A = S[2, 0]
+    F = S[3, 0]
+    P = S[4, 0]
+    R = S[5, 0]
+    Q = S[6, 0]
+    for k in range(HALF_SERIES_DEGREE + 1):
+        f = b * Q[k - 1] if k >= 1 else 0.0
+        if k >= 3:
+            j = k - 3
+            t = 0.0
+            for i in range(j + 1):
+                t += A[i] * P[j - i]
+            f += A[j] + c * t
+        F[k] = f
+        if k == 0:
+            W[0] = 1.0
+        elif k >= 2:
+            W[k] = 2.0 * ((G if k == 2 else 0.0) - F[k - 2]) / k
+        P[k] = W[k] - lam * F[k]
+        Y[k] = 2.0 * P[k] / (k + 2.0)
+        if k == 0:
+            R[0] = 1.0
+        else:
+            r = Y[k]
+            for i in range(1, k):
+                r -= R[i] * R[k - i]
+            R[k] = 0.5 * r
+        a = 0.0
+        q = 0.0
+        for i in range(k + 1):
+            a += R[i] * Y[k - i]
+            q += R[i] * P[k - i]
+        A[k] = a
+        Q[k] = q
+
+
+@numba.njit(cache=True)
+def half_series_eval(S, s):
+    """(x, w) at time s from the series in s^(1/2) (Horner)."""
+    sg = math.sqrt(s) if s > 0.0 else 0.0
+    y = 0.0
+    w = 0.0
+    for kk in range(HALF_SERIES_DEGREE + 1):
+        k = HALF_SERIES_DEGREE - kk
+        y = y * sg + S[0, 0, k]
+        w = w * sg + S[1, 0, k]
+    return s * y, w
+
+
+@numba.njit(cache=True)
+def half_series_start(rtol, S):
+    """``series_start`` for the series in s^(1/2) (coefficients in ``S``): the error
+    estimate from the terms of its last ``HALF_SERIES_BAND`` degrees, and I2 = sum (F F)[k]
+    2 s^((k+2)/2) / (k + 2) and L = sum ((F - s^(3/2) A) P)[k] 2 s^((k+2)/2) / (k + 2)
+    (ds = 2 sigma dsigma), with the terms up to the degree of those of x."""
+    Y = S[0, 0]
+    W = S[1, 0]
+    A = S[2, 0]
+    F = S[3, 0]
+    P = S[4, 0]
+    s1 = SERIES_MAX_TIME
+    for _ in range(30):
+        sg = math.sqrt(s1)
+        e = 0.0
+        de = 0.0
+        term_power = sg ** (HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1)
+        for k in range(HALF_SERIES_DEGREE - HALF_SERIES_BAND + 1, HALF_SERIES_DEGREE + 1):
+            term = (abs(Y[k]) + abs(W[k])) * term_power
+            e += term
+            de += 0.5 * k * term
+            term_power *= sg
+        if e <= 1.01 * rtol:
+            break
+        s1 *= math.exp(-math.log(e / rtol) * e / de)
+    x1, w1 = half_series_eval(S, s1)
+    sg = math.sqrt(s1)
+    i2 = 0.0
+    loss = 0.0
+    sk = sg * sg
+    for k in range(HALF_SERIES_DEGREE + 1):
+        p = 0.0
+        q = 0.0
+        for i in range(k + 1):
+            p += F[i] * F[k - i]
+            d = F[i] - (A[i - 3] if i >= 3 else 0.0)
+            q += d * P[k - i]
+        i2 += 2.0 * p * sk / (k + 2.0)
+        loss += 2.0 * q * sk / (k + 2.0)
+        sk *= sg
+    return s1, x1, w1, i2, loss
+
+
+@numba.njit(cache=True)
+def series_coefficients(lam, G, n, c, b, S):
+    """Coefficients of the solution at first touch as a series in s and s^n; with the
+    viscoelastic loss (b > 0), in s^(1/2) (``half_series_coefficients``).
 
     Near s = 0 the solution is a power series in the two variables s and b = s^n:
 
@@ -61,9 +194,12 @@ def series_coefficients(lam, G, n, c, S):
     degree, so one pass in order of j, then i, gives them all, exactly: X and W up
     to ``SERIES_DEGREE``, A and F up to ``SERIES_DEGREE - n`` (all X and W need).
 
-    Fills ``S`` (7, SERIES_SIZE, SERIES_SIZE): X, W, A, F, then X (n+1) (i + j n), and for
+    Fills ``S`` (7, SERIES_SIZE, SERIES_COLS): X, W, A, F, then X (n+1) (i + j n), and for
     Hunt-Crossley R and A (1 + c W).
     """
+    if b != 0.0:
+        half_series_coefficients(lam, G, c, b, S)
+        return
     S[:] = 0.0
     X = S[0]
     W = S[1]
@@ -114,9 +250,12 @@ def series_coefficients(lam, G, n, c, S):
 
 
 @numba.njit(cache=True)
-def series_eval(S, s, n):
-    """(x, w) at time s from the start series (nested Horner in s, then in s^n)."""
-    b = power(s, n) if s > 0.0 else 0.0
+def series_eval(S, s, n, b):
+    """(x, w) at time s from the start series (nested Horner in s, then in s^n; with the
+    viscoelastic loss, b > 0, ``half_series_eval``)."""
+    if b != 0.0:
+        return half_series_eval(S, s)
+    sn = power(s, n) if s > 0.0 else 0.0
     X = 0.0
     W = 0.0
     jm = series_rows(n)
@@ -128,13 +267,13 @@ def series_eval(S, s, n):
         for ii in range(im + 1):
             px = px * s + S[0, im - ii, j]
             pw = pw * s + S[1, im - ii, j]
-        X = X * b + px
-        W = W * b + pw
+        X = X * sn + px
+        W = W * sn + pw
     return s * X, W
 
 
 @numba.njit(cache=True)
-def series_start(lam, G, n, c, rtol, S):
+def series_start(lam, G, n, c, b, rtol, S):
     """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over.
 
     The truncation error is estimated by the terms of the last ``n + 1`` degrees
@@ -147,9 +286,12 @@ def series_start(lam, G, n, c, rtol, S):
     where e = ``rtol``, at most up to ``SERIES_MAX_TIME``: e is convex in log s, so
     Newton's method in log s from above reaches s1 without overshooting.
 
-    Returns (s1, x, w, I2, L) at s1; the quadratures are integrated term by term.
+    Returns (s1, x, w, I2, L) at s1; the quadratures are integrated term by term. With the
+    viscoelastic loss (b > 0): ``half_series_start``.
     """
-    series_coefficients(lam, G, n, c, S)
+    series_coefficients(lam, G, n, c, b, S)
+    if b != 0.0:
+        return half_series_start(rtol, S)
     band = SERIES_DEGREE - n - 1.0
     s1 = SERIES_MAX_TIME
     for _ in range(30):
@@ -170,7 +312,7 @@ def series_start(lam, G, n, c, rtol, S):
         if e <= 1.01 * rtol:
             break
         s1 *= math.exp(-math.log(e / rtol) * e / de)
-    x1, w1 = series_eval(S, s1, n)
+    x1, w1 = series_eval(S, s1, n, 0.0)
     # I2 = int f^2 = sum (F F)[i, j] s^(d + 2n + 1) / (d + 2n + 1) and
     # L = int b (F - A) x' = sum ((F - A) X')[i, j] s^(d + n + 1) / (d + n + 1),
     # with their terms up to the degree of those of x (SERIES_DEGREE + 1)
