@@ -57,5 +57,5 @@ def test_edge_study_table_and_json():
     data = json.loads(json.dumps(edge.edge_study_json([reading])))
     assert edge.EdgeReading.from_json(data[0]) == reading
     table = edge.format_edge_study(data)
-    assert "| fitted model | steel 10.0 mm on 18 mm | 35-45 | 35.3 | 25.0 |" in table
-    assert "| fitted model | within the range +- 5 mm | | 1 / 1 | 0 / 1 |" in table
+    assert "| steel 10.0 mm on 18 mm | fitted model | 35-45 | 35.3 | 25.0 |" in table
+    assert "| pairs within the range +- 5 mm | fitted model | | 1 / 1 | 0 / 1 |" in table

@@ -6,6 +6,7 @@ import math
 import pytest
 
 from synth import bench
+from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
 from synth.physics.contact import contact_law, hertz_stiffness, solve_contact, solve_impact
@@ -122,6 +123,32 @@ def test_surface_fit_on_18_mm_and_predictions():
         assert r["bare_contact_time"] < r["contact_time"]
     text = bench.format_surface_fit(fit)
     assert "fitted on the 18 mm board only" in text and "predictions" in text
+
+
+def test_viscoelastic_loss_follows_the_measured_speed_dependence():
+    # issue 14's restitution-gap targets (section 3.2: the measured gap's sign, its size
+    # within half) with each law's one loss fitted on e = 0.76 at 1.4 m/s (18 mm), on the
+    # impedance plate: the viscoelastic Hertz loss (1 - e ~ v^(1/5)) meets all four, the
+    # 12 and 6 mm boards as predictions; Hunt-Crossley (1 - e ~ v) misses the 18 mm board's
+    # speed dependence (at 0.2 m/s its gap even takes the wrong sign). Both fits reproduce
+    # the 0.76 they were fitted on to the solver's tolerance.
+    from synth.bench.thesis import losses, thesis_pair
+
+    study = losses.loss_law_study()
+    ball, plate = thesis_pair("steel 10.0 mm", "18 mm")
+    v1 = math.sqrt(2.0 * GRAVITY * 0.1)
+    for law, keyword in losses.LOSS_LAWS.items():
+        e = losses.impedance_plate_restitution(ball, plate, v1, **{keyword: study["losses"][law]})
+        assert e == pytest.approx(0.76, abs=1e-6)
+    met = {
+        law: [losses.gap_met(r["gaps"][law], r["measured"]) for r in study["rows"]]
+        for law in losses.LOSS_LAWS
+    }
+    assert met["viscoelastic Hertz"] == [True] * 4
+    assert met["Hunt-Crossley"][:2] == [False, False]
+    slow = next(r for r in study["rows"] if r["speed"] == 0.2)
+    assert slow["gaps"]["Hunt-Crossley"] > 0.0 > slow["measured"]
+    assert "viscoelastic Hertz A =" in losses.format_loss_law_study(study)
 
 
 def test_render_takes_a_modal_sequence_of_its_scene_only():

@@ -2,8 +2,9 @@
 (restitution, contact times, impedances, critical distances, tick decay, the MDF surface fit).
 
 One module per part: ``rows`` (the measured values, one row, the first rows and the table),
-``edge`` (the critical distance as the measurement resolves it), ``modal`` (the finite plate in the contact: impedances, critical distances, the end of a
-series), ``surface`` (MDF's contact surface fit), ``series`` (the end of a series and the
+``edge`` (the critical distance as the measurement resolves it), ``losses`` (which contact
+loss law follows the measured speed dependence), ``modal`` (the finite plate in the
+contact: impedances, critical distances, the end of a series), ``surface`` (MDF's contact surface fit), ``series`` (the end of a series and the
 tick decay's definition) and ``shear`` (the transverse shear modulus)."""
 
 from synth.bench.thesis.edge import (
@@ -17,6 +18,14 @@ from synth.bench.thesis.edge import (
     edge_study_json,
     format_edge_study,
     thesis_edge_rows,
+)
+from synth.bench.thesis.losses import (
+    LOSS_LAWS,
+    LossLawGap,
+    fitted_losses,
+    format_loss_law_study,
+    gap_met,
+    loss_law_study,
 )
 from synth.bench.thesis.modal import (
     LATE_SPEED_BINS,
@@ -111,6 +120,12 @@ __all__ = [
     "edge_study_json",
     "format_edge_study",
     "thesis_edge_rows",
+    "LOSS_LAWS",
+    "LossLawGap",
+    "fitted_losses",
+    "format_loss_law_study",
+    "gap_met",
+    "loss_law_study",
     "smoothed_envelope",
     "surface_fit",
     "thesis_comparison",

@@ -209,14 +209,14 @@ def format_edge_study(data: list) -> str:
         f"of the middle's; the thesis' repeatability is {100 * THESIS_RESTITUTION_REPEATABILITY:g}"
         " %.",
         "",
-        f"| model | ball on board | measured (mm) | {head} |",
+        f"| ball on board | model | measured (mm) | {head} |",
         "|---|---|---|" + "---|" * len(resolutions),
     ]
     for reading in readings:
         lo, hi = reading.measured
         cells = " | ".join(f"{1e3 * reading.distances[r]:.1f}" for r in resolutions)
         lines.append(
-            f"| {reading.model} | {reading.ball} on {reading.board} | "
+            f"| {reading.ball} on {reading.board} | {reading.model} | "
             f"{1e3 * lo:.0f}-{1e3 * hi:.0f} | {cells} |"
         )
     for model in dict.fromkeys(r.model for r in readings):
@@ -225,6 +225,7 @@ def format_edge_study(data: list) -> str:
             f"{sum(r.within_allowance(res) for r in mine)} / {len(mine)}" for res in resolutions
         )
         lines.append(
-            f"| {model} | within the range +- {1e3 * CRITICAL_DISTANCE_ALLOWANCE:g} mm | | {counts} |"
+            f"| pairs within the range +- {1e3 * CRITICAL_DISTANCE_ALLOWANCE:g} mm | {model} | | "
+            f"{counts} |"
         )
     return "\n".join(lines)

@@ -175,6 +175,7 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     from scipy.signal import butter, sosfiltfilt
 
     from synth.bench.thesis.edge import edge_study, edge_study_json, thesis_edge_rows
+    from synth.bench.thesis.losses import loss_law_study
     from synth.bench.thesis.modal import thesis_modal_rows
     from synth.bench.thesis.series import thesis_lowspeed_rows
     from synth.bench.thesis.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
@@ -283,6 +284,7 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
         readings = edge_study()
         rows += thesis_edge_rows(readings)
         out["edge_resolution"] = edge_study_json(readings)
+        out["loss_laws"] = loss_law_study()
         out["surface"] = surface_fit()
         out["transverse_shear"] = transverse_shear_sensitivity()
     return out
@@ -335,6 +337,7 @@ def format_thesis(c: dict) -> str:
     """The table of :func:`thesis_comparison` (Markdown): engine, thesis model, thesis
     measurement and the engine's gap to the measurement, per quantity."""
     from synth.bench.thesis.edge import format_edge_study
+    from synth.bench.thesis.losses import format_loss_law_study
     from synth.bench.thesis.shear import format_transverse_shear_sensitivity
     from synth.bench.thesis.surface import format_surface_fit
 
@@ -378,4 +381,6 @@ def format_thesis(c: dict) -> str:
         lines += ["", format_transverse_shear_sensitivity(c["transverse_shear"])]
     if c.get("edge_resolution") is not None:
         lines += ["", format_edge_study(c["edge_resolution"])]
+    if c.get("loss_laws") is not None:
+        lines += ["", format_loss_law_study(c["loss_laws"])]
     return "\n".join(lines)

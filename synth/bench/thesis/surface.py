@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from synth.bench.thesis.losses import gap_met
 from synth.bench.thesis.rows import (
     THESIS_ACCELEROMETER_MASS,
     THESIS_IMPACTS,
@@ -145,15 +146,6 @@ def surface_fit(rounds: int = 4) -> dict:
     )
 
 
-def _gap_met(gap: float, measured) -> bool:
-    """The issue's target for a restitution gap: the sign right and the size within half of
-    the measured one (a range: within half of its nearer end outside it)."""
-    lo, hi = measured if isinstance(measured, tuple) else (measured, measured)
-    return (gap * lo > 0.0) and (
-        0.5 * min(abs(lo), abs(hi)) <= abs(gap) <= 1.5 * max(abs(lo), abs(hi))
-    )
-
-
 def format_surface_fit(fit: dict) -> str:
     """The tables of :func:`surface_fit` (Markdown)."""
     lines = [
@@ -194,6 +186,6 @@ def format_surface_fit(fit: dict) -> str:
         lines.append(
             f"| {g['ball']} on {g['board']}, {g['speed']:g} m/s | {g['role']} | "
             f"{g['engine']:.3f} | {g['model']:.3f} | {100 * g['gap']:+.1f} % | {shown} | "
-            f"{'yes' if _gap_met(g['gap'], m) else 'no'} |"
+            f"{'yes' if gap_met(g['gap'], m) else 'no'} |"
         )
     return "\n".join(lines)
