@@ -240,8 +240,9 @@ def test_markdown_block_names_its_command():
 def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     # `synth bench thesis --update-docs` replaces the block of a copy of docs/ and nothing
     # else of the page. The modal plate's rows (minutes of plate modes on a cold cache) are
-    # left out here: tests/test_fidelity_modal.py, tests/test_fidelity_lowspeed.py and
-    # tests/test_fidelity_shear.py check them.
+    # left out here: tests/test_fidelity_modal.py, tests/test_fidelity_lowspeed.py,
+    # tests/test_fidelity_shear.py, tests/test_fidelity_edge.py and
+    # tests/test_fidelity_losses.py check them.
     copy = tmp_path / "docs"
     shutil.copytree(DOCS, copy)
     monkeypatch.setattr(docs, "docs_dir", lambda: copy)
@@ -252,6 +253,8 @@ def test_bench_update_docs_writes_the_block(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(thesis_bench.series, "thesis_lowspeed_rows", lambda samplerate=48000: [])
     monkeypatch.setattr(thesis_bench.shear, "thesis_transverse_shear_rows", lambda pairs=None: [])
     monkeypatch.setattr(thesis_bench.shear, "transverse_shear_sensitivity", lambda: None)
+    monkeypatch.setattr(thesis_bench.edge, "edge_study", lambda: [])
+    monkeypatch.setattr(thesis_bench.losses, "loss_law_study", lambda: None)
     before = (copy / "validation.md").read_text()
     assert main(["bench", "thesis", "--update-docs"]) == 0
     after = (copy / "validation.md").read_text()

@@ -379,7 +379,7 @@ def format_thesis(c: dict) -> str:
         lines += ["", format_surface_fit(c["surface"])]
     if c.get("transverse_shear") is not None:
         lines += ["", format_transverse_shear_sensitivity(c["transverse_shear"])]
-    if c.get("edge_resolution") is not None:
+    if c.get("edge_resolution"):
         lines += ["", format_edge_study(c["edge_resolution"])]
     if c.get("loss_laws") is not None:
         lines += ["", format_loss_law_study(c["loss_laws"])]
