@@ -298,6 +298,8 @@ def test_weak_slow_contact_onset_is_its_start_transient():
 
     gap, weak = round(ONSET_GAP * 48000), round(WEAK_ONSET_GAP * 48000)
     assert (gap, weak) == (12, 24)
+    walk = detection.OnsetWalk(0.1, gap, 4.0)
+    weak_walk = detection.OnsetWalk(0.1, gap, 4.0, weak_gap=weak)
     onset = 200.4
     for seed in range(40):
         rng = np.random.default_rng(seed)
@@ -306,14 +308,14 @@ def test_weak_slow_contact_onset_is_its_start_transient():
         r[202:219] = rng.uniform(-2.0, 2.0, 17)
         r[219:226] = rng.choice([-1.0, 1.0], 7) * rng.uniform(5.0, 8.0, 7)
         lo, hi = 214, 232  # the candidate frame's: the end's transients
-        got = detection.refine_onset(r, lo, hi, 0.1, gap, 4.0, weak_gap=weak)
+        got = detection.refine_onset(r, lo, hi, weak_walk)
         assert abs(got - onset) < 1.0, (seed, got)
-        late = detection.refine_onset(r, lo, hi, 0.1, gap, 4.0)
+        late = detection.refine_onset(r, lo, hi, walk)
         assert late - onset > 17.0, (seed, late)
         loud = r.copy()
         loud[201:226] *= 100.0
-        assert detection.refine_onset(loud, lo, hi, 0.1, gap, 4.0, weak_gap=weak) == (
-            detection.refine_onset(loud, lo, hi, 0.1, gap, 4.0)
+        assert detection.refine_onset(loud, lo, hi, weak_walk) == (
+            detection.refine_onset(loud, lo, hi, walk)
         )
 
 

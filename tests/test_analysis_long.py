@@ -298,7 +298,7 @@ def test_onset_walk_near_the_burst_is_the_whole_walk():
             r[at - 7 : at] = (-1.0) ** k / k * 3.0
         lo, hi = max(0, at - 12), min(r.size, at + 36)
         for gap, strict in ((12, False), (2, True), (1, False)):
-            got = detection.refine_onset(r, lo, hi, 0.1, gap, 0.04, strict)
+            got = detection.refine_onset(r, lo, hi, detection.OnsetWalk(0.1, gap, 0.04, strict))
             assert got == whole(r, lo, hi, 0.1, gap, 0.04, strict), (trial, gap)
 
 

@@ -19,7 +19,12 @@ import numba
 import numpy as np
 
 from synth import dsp
-from synth.analysis.detection import ONSET_NOISE_SIGMAS, frame_energies, refine_onset
+from synth.analysis.detection import (
+    ONSET_NOISE_SIGMAS,
+    OnsetWalk,
+    frame_energies,
+    refine_onset,
+)
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import DOUBTFUL_DB, separation, too_strong
 from synth.analysis.settings import Settings
@@ -580,11 +585,13 @@ class DeflationSearch:
             self.residual.q[lo:hi],
             max(0, c.start - self.hop - lo),
             hi - lo,
-            s.onset_fraction,
-            s.onset_gap,
-            sigma,
-            strict=self.strict_onsets,
-            weak_gap=s.weak_onset_gap if doubtful else None,
+            OnsetWalk(
+                s.onset_fraction,
+                s.onset_gap,
+                sigma,
+                strict=self.strict_onsets,
+                weak_gap=s.weak_onset_gap if doubtful else None,
+            ),
         )
         burst = self._burst(on)
         energy = max(c.energy, float(burst.max())) if burst.size else c.energy

@@ -170,63 +170,68 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
     return np.array(keep, dtype=int)
 
 
-def refine_onset(
-    r: np.ndarray,
-    lo: int,
-    hi: int,
-    fraction: float,
-    gap: int,
-    noise: float,
-    strict: bool = False,
-    weak_gap: int | None = None,
-) -> float:
+@dataclass(frozen=True)
+class OnsetWalk:
+    """How step 4 walks back from a burst's largest ``|r|`` to its onset.
+
+    Attributes
+    ----------
+    fraction : float
+        The walk's level over the burst's largest ``|r|`` (dimensionless).
+    gap : int
+        The longest run under the level the walk bridges (samples).
+    noise : float
+        The noise's level in ``|r|``: the walk's level is at least this (or the peak).
+    strict : bool
+        An anti-aliasing filter's pre-ringing counts only where its samples stand above
+        ``noise``.
+    weak_gap : int or None
+        For a doubtful candidate of the deflation (steps 5 and 7): the gap bridged in a weak
+        burst, whose level is the noise's (:meth:`walk_gap`).
+    """
+
+    fraction: float
+    gap: int
+    noise: float
+    strict: bool = False
+    weak_gap: int | None = None
+
+    def walk_gap(self, peak: float) -> int:
+        """The longest gap (samples) bridged in a burst whose largest ``|r|`` is ``peak``:
+        ``gap`` (the zero crossings of a burst), or ``weak_gap`` where the noise sets the
+        walk's level (``fraction`` of the peak under ``noise``). Whitened, a contact of many
+        sample periods is the transients at its two ends (above its force spectrum's first
+        zero the whitening lifts the high frequencies those carry); in a weak burst its body
+        between them lies under the noise's level, and its start is the earlier transient, up
+        to a contact length before the later, stronger one."""
+        if self.weak_gap is not None and min(self.noise, peak) > self.fraction * peak:
+            return max(self.gap, self.weak_gap)
+        return self.gap
+
+
+def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
     """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
-    ``[lo, hi)`` (step 4): the crossing of the level (``fraction`` of the burst's largest
-    ``|r|``, at least ``noise``) before the earliest sample reached by walking back over
-    samples at or above it, bridging ``gap``; or, after a linear-phase anti-aliasing
-    filter's pre-ringing, the centre of the burst's sampled sinc. With ``strict`` the
-    pre-ringing's samples must stand above ``noise``. Given ``weak_gap`` (a doubtful
-    candidate of the deflation, steps 5 and 7), a weak burst, whose level is the noise's
-    (over ``fraction`` of its largest), is walked bridging ``weak_gap`` (at least ``gap``):
-    under that level a slow contact's whitened burst shows only the transients at its two
-    ends (:func:`onset_walk_gap`)."""
+    ``[lo, hi)`` (step 4): the crossing of the level (``walk.fraction`` of the burst's largest
+    ``|r|``, at least ``walk.noise``) before the earliest sample reached by walking back over
+    samples at or above it, bridging :meth:`OnsetWalk.walk_gap`; or, after a linear-phase
+    anti-aliasing filter's pre-ringing, the centre of the burst's sampled sinc. With
+    ``walk.strict`` the pre-ringing's samples must stand above the noise. A weak burst (a
+    doubtful candidate given ``walk.weak_gap``) shows only the transients at a slow contact's
+    two ends under the noise's level (:meth:`OnsetWalk.walk_gap`)."""
     # the walk looks back from the burst only: |r| over a stretch before it, longer only
     # where the walk comes near the stretch's start (the same onset as over the whole of r)
-    span = max(64, 8 * max(gap, weak_gap or 0))
+    span = max(64, 8 * max(walk.gap, walk.weak_gap or 0))
     while True:
         a = max(0, lo - span)
-        onset = _refined(
-            r[a : min(r.size, hi + 1)], lo - a, hi - a, fraction, gap, noise, strict, a, weak_gap
-        )
+        onset = _refined(r[a : min(r.size, hi + 1)], lo - a, hi - a, walk, a)
         if onset is not None:
             sample, fraction_past = onset
             return (a + sample) + fraction_past
         span *= 4
 
 
-def onset_walk_gap(peak: float, fraction: float, noise: float, gap: int, weak_gap: int | None):
-    """The longest gap (samples) the onset walk bridges in a burst whose largest ``|r|`` is
-    ``peak``: ``gap`` (the zero crossings of a burst), or ``weak_gap`` where the noise sets
-    the walk's level (``fraction`` of the peak under ``noise``). Whitened, a contact of many
-    sample periods is the transients at its two ends (above its force spectrum's first
-    zero the whitening lifts the high frequencies those carry); in a weak burst its body
-    between them lies under the noise's level, and its start is the earlier transient, up to
-    a contact length before the later, stronger one."""
-    if weak_gap is not None and min(noise, peak) > fraction * peak:
-        return max(gap, weak_gap)
-    return gap
-
-
 def _refined(
-    r: np.ndarray,
-    lo: int,
-    hi: int,
-    fraction: float,
-    gap: int,
-    noise: float,
-    strict: bool,
-    offset: int,
-    weak_gap: int | None = None,
+    r: np.ndarray, lo: int, hi: int, walk: OnsetWalk, offset: int
 ) -> tuple[int, float] | None:
     """:func:`refine_onset` over the stretch ``r`` (``lo``, ``hi`` into it) that starts at
     sample ``offset`` of the whole, as a sample of the stretch and the fraction of a sample
@@ -236,12 +241,12 @@ def _refined(
     before it)."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
-    level = max(fraction * mag[k], min(noise, mag[k]))
-    gap = onset_walk_gap(float(mag[k]), fraction, noise, gap, weak_gap)
+    level = max(walk.fraction * mag[k], min(walk.noise, mag[k]))
+    gap = walk.walk_gap(float(mag[k]))
     i = _walk_back(mag, k, level, gap)
     if offset > 0 and i <= max(gap, PRE_RINGING_RUN):
         return None
-    centre = _sinc_centre(r, mag, i, k, min(noise, mag[k]) if strict else 0.0)
+    centre = _sinc_centre(r, mag, i, k, min(walk.noise, mag[k]) if walk.strict else 0.0)
     if centre is not None:
         return centre
     if i == 0:
@@ -380,9 +385,7 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
                 r,
                 max(0, (k - 1) * hop),
                 min(r.size, k * hop + w + hop),
-                settings.onset_fraction,
-                settings.onset_gap,
-                s,
+                OnsetWalk(settings.onset_fraction, settings.onset_gap, s),
             )
             for k, s in zip(found.peaks, sigma)
         ]
