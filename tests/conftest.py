@@ -1,5 +1,7 @@
 """Shared test helpers."""
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -47,3 +49,35 @@ def empty_caches(tmp_path, monkeypatch):
     yield
     modes.clear_memory_cache()
     radiation.clear_memory_cache()
+
+
+@functools.cache
+def _scipy_reference(case):
+    """scipy's Radau at rtol 1e-12 for a :class:`synth.bench.contact.ContactCase`: (e, tau)."""
+    from synth.bench.contact import scipy_contact
+
+    e, tau, _, _ = scipy_contact(case)
+    return e, tau
+
+
+def _assert_honours_rtol(case, rtol):
+    from synth.physics.contact import solve_contact
+
+    r = solve_contact(rtol=rtol, **case.solver_arguments())
+    assert r.success, r.message
+    e_ref, tau_ref = _scipy_reference(case)
+    if e_ref == 0.0:
+        assert r.settled and r.restitution == 0.0
+        return
+    assert abs(r.restitution - e_ref) / e_ref < rtol
+    assert abs(r.contact_time - tau_ref) / tau_ref < rtol
+
+
+@pytest.fixture
+def assert_honours_rtol():
+    """A function ``check(case, rtol)``: the engine's contact solver at ``rtol`` against
+    scipy's Radau at rtol 1e-12 (an independent implementation of the same equations) on a
+    :class:`synth.bench.contact.ContactCase`: the relative errors of e and tau are below
+    ``rtol``; a settled contact has e = 0 exactly (its tau is when settling is proven, not
+    compared)."""
+    return _assert_honours_rtol
