@@ -9,7 +9,7 @@ from synth import bench
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
-from synth.physics.contact import contact_law, hertz_stiffness, solve_contact, solve_impact
+from synth.physics.contact import contact_parameters, hertz_stiffness, solve_contact, solve_impact
 from synth.physics.materials import MDF_SURFACE, contact_surface, get
 from synth.physics.scene import Ball, Contact, Plate
 
@@ -74,12 +74,16 @@ def test_modal_plate_without_loss_is_unchanged():
 
 
 def test_fitted_surface_contact_law():
-    K, n, mu = contact_law(STEEL, MDF18, "hertz", surface="fitted")
-    assert n == 1.5 and mu == MDF_SURFACE.dissipation
+    # MDF's fitted surface: Hertz at its through-thickness modulus with its one loss, the
+    # viscoelastic one (no Hunt-Crossley term beside it)
+    law = contact_parameters(STEEL, MDF18, "hertz", surface="fitted")
+    assert law.exponent == 1.5 and law.viscous_time == MDF_SURFACE.viscous_time > 0.0
+    assert law.dissipation == MDF_SURFACE.dissipation == 0.0
+    K = law.stiffness
     assert K == pytest.approx(hertz_stiffness(STEEL, MDF18, MDF_SURFACE.transverse_ratio))
     assert K < hertz_stiffness(STEEL, MDF18)
     with pytest.raises(ParameterError, match="hertz"):
-        contact_law(STEEL, MDF18, "elastic-foundation", surface="fitted")
+        contact_parameters(STEEL, MDF18, "elastic-foundation", surface="fitted")
     with pytest.raises(ParameterError, match="no fitted contact surface"):
         contact_surface(get("aluminium"))
 

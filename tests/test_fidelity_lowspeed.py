@@ -12,7 +12,7 @@ from synth.bench.thesis import adhesion_loss, air_film_loss
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import bounce_time_restitution, simulate_bounces
-from synth.physics.contact import contact_law, solve_impact
+from synth.physics.contact import contact_parameters, solve_impact
 from synth.physics.scene import Ball, Plate
 
 STEEL = Ball("steel", 0.005, 4.17e-3)
@@ -66,7 +66,7 @@ def test_air_film_and_adhesion_losses_grow_as_the_speed_falls_but_stay_small():
     # fixed energy over m v^2, ~ 1 / v^2. Both have the measured trend's sign, but at
     # 0.02 m/s they are below 1 % (the air film) and 0.01 % (adhesion): neither gives a
     # fall of e of several per cent.
-    K = contact_law(STEEL, MDF18, "hertz", surface="fitted")[0]
+    K = contact_parameters(STEEL, MDF18, "hertz", surface="fitted").stiffness
     modulus = 0.75 * K / math.sqrt(STEEL.radius)
     assert air_film_loss(STEEL, 0.02) == pytest.approx(10.0 * air_film_loss(STEEL, 0.2))
     ratio = adhesion_loss(STEEL, 0.02, modulus) / adhesion_loss(STEEL, 0.2, modulus)
