@@ -49,8 +49,8 @@ def test_bounce_time_restitution_refuses_other_input():
 
 
 def test_fitted_surface_restitution_rises_as_the_speed_falls():
-    # The fitted model's losses both fall with the speed: the Hunt-Crossley loss
-    # (1 - e ~ 2/3 mu v on a rigid support) and the plate's, through Zener's inelasticity
+    # The fitted model's losses both fall with the speed, if slowly: the viscoelastic loss
+    # (1 - e ~ A v^(1/5) on a rigid support) and the plate's, through Zener's inelasticity
     # lambda ~ v^(1/5). So e rises from 0.2 to 0.03 m/s, where the thesis measured a fall;
     # gravity turns it down only below about 0.02 m/s (thesis 2.4.3).
     e = [
@@ -91,7 +91,7 @@ def test_ringing_scatters_late_restitutions_without_lowering_them():
         return [i for i in seq if lo <= i.speed < hi]
 
     fast, slow = late(0.1, 0.2), late(0.02, 0.05)
-    assert len(fast) >= 5 and len(slow) >= 10
+    assert len(fast) >= 4 and len(slow) >= 7
 
     def rms_ringing(impacts):
         return math.sqrt(np.mean([(i.plate_velocity / i.speed) ** 2 for i in impacts]))
