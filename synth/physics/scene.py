@@ -199,7 +199,7 @@ SURFACE_MODELS = ("ideal", "fitted")
 #: Named contact models: (law, plate, surface). "thesis": the thesis' model (Hertz on an
 #: isotropic half-space, the plate as its impedance); "fitted": the model closest to the
 #: thesis' measurements (the finite plate's modes in the contact, the material's fitted
-#: through-thickness modulus and Hunt-Crossley loss).
+#: through-thickness modulus and contact loss).
 CONTACT_MODELS = {
     "thesis": ("hertz", "impedance", "ideal"),
     "fitted": ("hertz", "modal", "fitted"),
