@@ -78,15 +78,16 @@ def test_dashpot_limit_is_the_impedance_models_viscoelastic_impact(speed):
 
 
 def test_step_convergence_order_is_three_halves():
-    # Error in e against a 16 times finer step (8192 steps per contact) at 64, 128 and 256
+    # Error in e against a 16 times finer step (8192 steps per contact) at 128, 256 and 512
     # steps: the t^(1/2) onset of the viscoelastic force limits the first-order hold to
-    # order 3/2 (a halving divides the error by 2^(3/2) = 2.83; measured 2.8-3.2 at 1.4 m/s),
-    # where the elastic and Hunt-Crossley laws (onset t^(3/2)) keep order 2.
+    # order 3/2 (a halving divides the error by 2^(3/2) = 2.83; measured orders 1.52 and
+    # 1.60 at 1.4 m/s, 1.8 from 64 steps, where the error is not yet asymptotic), where the
+    # elastic and Hunt-Crossley laws (onset t^(3/2)) keep order 2.
     fine = _dashpot_contact(8192).solve(1.4).restitution
-    errors = [abs(_dashpot_contact(n).solve(1.4).restitution - fine) for n in (64, 128, 256)]
+    errors = [abs(_dashpot_contact(n).solve(1.4).restitution - fine) for n in (128, 256, 512)]
     orders = [math.log2(a / b) for a, b in zip(errors, errors[1:], strict=False)]
     for p in orders:
-        assert 1.3 < p < 1.8, orders
+        assert 1.3 < p < 1.75, orders
 
 
 def test_energy_balance_with_a_ringing_plate():
