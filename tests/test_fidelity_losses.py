@@ -6,10 +6,11 @@ import math
 import pytest
 
 from synth import bench
+from synth.bench.thesis.losses import gap_met
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
-from synth.physics.contact import contact_law, hertz_stiffness, solve_contact, solve_impact
+from synth.physics.contact import contact_parameters, hertz_stiffness, solve_contact, solve_impact
 from synth.physics.materials import MDF_SURFACE, contact_surface, get
 from synth.physics.scene import Ball, Contact, Plate
 
@@ -74,14 +75,34 @@ def test_modal_plate_without_loss_is_unchanged():
 
 
 def test_fitted_surface_contact_law():
-    K, n, mu = contact_law(STEEL, MDF18, "hertz", surface="fitted")
-    assert n == 1.5 and mu == MDF_SURFACE.dissipation
+    # MDF's fitted surface: Hertz at its through-thickness modulus with its one loss, the
+    # viscoelastic one (no Hunt-Crossley term beside it)
+    law = contact_parameters(STEEL, MDF18, "hertz", surface="fitted")
+    assert law.exponent == 1.5 and law.viscous_time == MDF_SURFACE.viscous_time > 0.0
+    assert law.dissipation == MDF_SURFACE.dissipation == 0.0
+    K = law.stiffness
     assert K == pytest.approx(hertz_stiffness(STEEL, MDF18, MDF_SURFACE.transverse_ratio))
     assert K < hertz_stiffness(STEEL, MDF18)
     with pytest.raises(ParameterError, match="hertz"):
-        contact_law(STEEL, MDF18, "elastic-foundation", surface="fitted")
+        contact_parameters(STEEL, MDF18, "elastic-foundation", surface="fitted")
     with pytest.raises(ParameterError, match="no fitted contact surface"):
         contact_surface(get("aluminium"))
+
+
+def test_contact_surface_has_exactly_one_loss():
+    # A surface carries one contact loss: Hunt-Crossley mu (s/m) or the viscoelastic A (s);
+    # both or neither is a ParameterError naming the two fields, as is a negative one.
+    from synth.physics.materials import ContactSurface
+
+    assert ContactSurface(0.2, 0.25).viscous_time == 0.0
+    assert ContactSurface(0.2, viscous_time=7e-6).dissipation == 0.0
+    for kwargs in (dict(), dict(dissipation=0.25, viscous_time=7e-6)):
+        with pytest.raises(ParameterError, match="exactly one"):
+            ContactSurface(0.2, **kwargs)
+    with pytest.raises(ParameterError, match="viscous_time"):
+        ContactSurface(0.2, viscous_time=-1e-6)
+    with pytest.raises(ParameterError, match="dissipation"):
+        ContactSurface(0.2, dissipation=float("nan"))
 
 
 def test_contact_model_names_law_plate_and_surface():
@@ -104,13 +125,13 @@ def test_contact_model_names_law_plate_and_surface():
 @pytest.mark.slow
 def test_surface_fit_on_18_mm_and_predictions():
     # Two MDF parameters fitted on the 18 mm board only; the stored ones are the fit's
-    # (E_t / E within 1 %, mu within 2 %: two rounds of the alternating fit from the stored
-    # values, and their rounding to four figures), e at 1.4 m/s
+    # (E_t / E within 1 %, the viscoelastic A within 2 %: two rounds of the alternating fit
+    # from the stored values, and their rounding to four figures), e at 1.4 m/s
     # meets issue 14's target (0.76 within 0.02), and the four contact times of the 12 and
     # 6 mm boards are predictions within issue 14's 15 %.
     fit = bench.surface_fit(rounds=2)
     assert fit["ratio"] == pytest.approx(MDF_SURFACE.transverse_ratio, rel=0.01)
-    assert fit["dissipation"] == pytest.approx(MDF_SURFACE.dissipation, rel=0.02)
+    assert fit["viscous_time"] == pytest.approx(MDF_SURFACE.viscous_time, rel=0.02)
     assert fit["restitution"] == pytest.approx(0.76, abs=0.02)
     predictions = [r for r in fit["rows"] if r["role"] == "prediction"]
     assert {r["board"] for r in predictions} == {"12 mm", "6 mm"} and len(predictions) == 4
@@ -121,6 +142,13 @@ def test_surface_fit_on_18_mm_and_predictions():
     for r in fit["rows"]:
         assert abs(r["error"]) < 0.15, r
         assert r["bare_contact_time"] < r["contact_time"]
+    # the fitted model's restitution gaps (issue 14's targets, the 12 and 6 mm boards
+    # predictions): the viscoelastic loss meets the 18 mm board's speed dependence (-12 % at
+    # 1 m/s against -18 %, -9 % at 0.2 m/s against -8 %) and the 12 mm board; the 6 mm
+    # board's +53 % lies just beyond the +35 % x 1.5 edge (asserted as that miss, under 1 %)
+    met = [gap_met(g["gap"], g["measured"]) for g in fit["gaps"]]
+    assert met == [True, True, True, False]
+    assert 0.0 < fit["gaps"][3]["gap"] - 1.5 * 0.35 < 0.01
     text = bench.format_surface_fit(fit)
     assert "fitted on the 18 mm board only" in text and "predictions" in text
 
@@ -128,9 +156,12 @@ def test_surface_fit_on_18_mm_and_predictions():
 def test_viscoelastic_loss_follows_the_measured_speed_dependence():
     # issue 14's restitution-gap targets (section 3.2: the measured gap's sign, its size
     # within half) with each law's one loss fitted on e = 0.76 at 1.4 m/s (18 mm), on the
-    # impedance plate: the viscoelastic Hertz loss (1 - e ~ v^(1/5)) meets all four, the
-    # 12 and 6 mm boards as predictions; Hunt-Crossley (1 - e ~ v) misses the 18 mm board's
-    # speed dependence (at 0.2 m/s its gap even takes the wrong sign). Both fits reproduce
+    # impedance plate: the viscoelastic Hertz loss (1 - e ~ v^(1/5)) meets the 18 mm board's
+    # speed dependence and the 12 mm board's prediction; Hunt-Crossley (1 - e ~ v) misses
+    # the 18 mm board's (at 0.2 m/s its gap even takes the wrong sign). The 6 mm board's
+    # prediction sits at the target's edge (+35 % x 1.5): with the stored E_t / E (fitted
+    # with the viscoelastic loss on the modal plate) both laws lie just beyond it, asserted as
+    # that miss, under half a per cent (measured +52.9 % viscoelastic). Both fits reproduce
     # the 0.76 they were fitted on to the solver's tolerance.
     from synth.bench.thesis import losses, thesis_pair
 
@@ -144,8 +175,11 @@ def test_viscoelastic_loss_follows_the_measured_speed_dependence():
         law: [losses.gap_met(r["gaps"][law], r["measured"]) for r in study["rows"]]
         for law in losses.LOSS_LAWS
     }
-    assert met["viscoelastic Hertz"] == [True] * 4
+    assert met["viscoelastic Hertz"] == [True, True, True, False]
     assert met["Hunt-Crossley"][:2] == [False, False]
+    thin = study["rows"][3]
+    assert thin["board"] == "6 mm" and thin["measured"] == (0.10, 0.35)
+    assert 0.0 < thin["gaps"]["viscoelastic Hertz"] - 1.5 * 0.35 < 5e-3
     slow = next(r for r in study["rows"] if r["speed"] == 0.2)
     assert slow["gaps"]["Hunt-Crossley"] > 0.0 > slow["measured"]
     assert "viscoelastic Hertz A =" in losses.format_loss_law_study(study)
@@ -161,10 +195,10 @@ def test_render_takes_a_modal_sequence_of_its_scene_only():
     scene = load_preset("thesis-steel10-mdf6")
     assert scene.contact.model == "fitted" and scene.contact.plate == "modal"
     seq = simulate_scene(scene)
-    # after the 11th impact the ringing board meets the ball before the top of its flight
-    # (the ball rides the plate's motion): the series ends there, settled, every impact a
-    # downward one
-    assert seq.stop_reason == "settled" and len(seq) == 11
+    # the series ends when a flight is shorter than the contact (after 14 impacts, at below
+    # 1 cm/s), every impact a downward one (the end where the ringing board meets the rising
+    # ball: the next test)
+    assert seq.stop_reason == "flight-shorter-than-contact" and len(seq) == 14
     assert all(i.speed > 0.0 for i in seq.impacts)
     alone = BounceSequence(seq.impacts[2:3], "max-impacts", seq.drop_height, seq.gravity)
     assert check_sequence(scene, alone) is alone

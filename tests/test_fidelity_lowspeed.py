@@ -12,7 +12,7 @@ from synth.bench.thesis import adhesion_loss, air_film_loss
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import bounce_time_restitution, simulate_bounces
-from synth.physics.contact import contact_law, solve_impact
+from synth.physics.contact import contact_parameters, solve_impact
 from synth.physics.scene import Ball, Plate
 
 STEEL = Ball("steel", 0.005, 4.17e-3)
@@ -49,8 +49,8 @@ def test_bounce_time_restitution_refuses_other_input():
 
 
 def test_fitted_surface_restitution_rises_as_the_speed_falls():
-    # The fitted model's losses both fall with the speed: the Hunt-Crossley loss
-    # (1 - e ~ 2/3 mu v on a rigid support) and the plate's, through Zener's inelasticity
+    # The fitted model's losses both fall with the speed, if slowly: the viscoelastic loss
+    # (1 - e ~ A v^(1/5) on a rigid support) and the plate's, through Zener's inelasticity
     # lambda ~ v^(1/5). So e rises from 0.2 to 0.03 m/s, where the thesis measured a fall;
     # gravity turns it down only below about 0.02 m/s (thesis 2.4.3).
     e = [
@@ -66,7 +66,7 @@ def test_air_film_and_adhesion_losses_grow_as_the_speed_falls_but_stay_small():
     # fixed energy over m v^2, ~ 1 / v^2. Both have the measured trend's sign, but at
     # 0.02 m/s they are below 1 % (the air film) and 0.01 % (adhesion): neither gives a
     # fall of e of several per cent.
-    K = contact_law(STEEL, MDF18, "hertz", surface="fitted")[0]
+    K = contact_parameters(STEEL, MDF18, "hertz", surface="fitted").stiffness
     modulus = 0.75 * K / math.sqrt(STEEL.radius)
     assert air_film_loss(STEEL, 0.02) == pytest.approx(10.0 * air_film_loss(STEEL, 0.2))
     ratio = adhesion_loss(STEEL, 0.02, modulus) / adhesion_loss(STEEL, 0.2, modulus)
@@ -91,7 +91,7 @@ def test_ringing_scatters_late_restitutions_without_lowering_them():
         return [i for i in seq if lo <= i.speed < hi]
 
     fast, slow = late(0.1, 0.2), late(0.02, 0.05)
-    assert len(fast) >= 5 and len(slow) >= 10
+    assert len(fast) >= 4 and len(slow) >= 7
 
     def rms_ringing(impacts):
         return math.sqrt(np.mean([(i.plate_velocity / i.speed) ** 2 for i in impacts]))

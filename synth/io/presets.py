@@ -32,7 +32,7 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
 
     [contact]                       # optional
     law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley",
-                                    # "viscoelastic" (plate "impedance"), "power-law"
+                                    # "viscoelastic", "power-law"
     rtol = 1e-9                     # relative accuracy of e and tau, dimensionless
     dissipation = 0.2               # s/m, Hunt-Crossley mu (only with "hunt-crossley")
     viscous_time = 1e-6             # s, viscoelastic A (only with "viscoelastic")

@@ -186,8 +186,8 @@ def simulate_bounces(
     gravity : float > 0
         m/s^2.
     contact_law : str
-        "hertz" (default), "elastic-foundation", "hunt-crossley", "viscoelastic" (impedance
-        plate only) or "power-law"; its parameters go in ``contact_options`` (see
+        "hertz" (default), "elastic-foundation", "hunt-crossley", "viscoelastic" or
+        "power-law"; its parameters go in ``contact_options`` (see
         :func:`synth.physics.contact.contact_parameters`).
     rtol : float
         Relative accuracy of each impact's restitution and contact time.
@@ -240,11 +240,6 @@ def simulate_bounces(
     if plate_model == "modal":
         if rebound is not None:
             raise ParameterError("rebound rules apply to plate_model='impedance' only")
-        if contact_law == "viscoelastic":
-            raise ParameterError(
-                "contact_law='viscoelastic' applies to plate_model='impedance' only (the modal "
-                "plate's contact takes the Hertz, power-law and Hunt-Crossley laws)"
-            )
         return _modal_bounces(
             ball,
             plate,

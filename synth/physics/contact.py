@@ -582,7 +582,7 @@ def contact_parameters(
         "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
         "hertz" only): the plate material's fitted surface
         (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
-        modulus with its Hunt-Crossley loss.
+        modulus with its loss (Hunt-Crossley or viscoelastic).
     dissipation : float > 0
         Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
     viscous_time : float > 0
@@ -607,13 +607,18 @@ def contact_parameters(
         if contact != "hertz":
             raise ParameterError(
                 f"surface='fitted' applies to contact='hertz' only, not {contact!r} (the fit "
-                f"is of a Hertz contact with a Hunt-Crossley loss)"
+                f"is of a Hertz contact with its own loss)"
             )
         for key, value in given.items():
             if value is not None:
                 raise ParameterError(f"{key}={value!r} does not apply to surface='fitted'")
         fit = contact_surface(plate.material)
-        return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation)
+        return ContactLaw(
+            hertz_stiffness(ball, plate, fit.transverse_ratio),
+            1.5,
+            fit.dissipation,
+            fit.viscous_time,
+        )
     allowed = {
         "hertz": (),
         "hunt-crossley": ("dissipation",),
@@ -652,13 +657,13 @@ def contact_law(
     """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law: the
     :func:`contact_parameters` of the laws those three constants describe (all but
     "viscoelastic", whose viscous time has no place among them: ``ParameterError``; the
-    finite plate's contact, :mod:`synth.physics.modal_contact`, takes these laws only)."""
+    finite plate's contact, :mod:`synth.physics.modal_contact`, reads all of
+    :func:`contact_parameters`)."""
     law = contact_parameters(ball, plate, contact, **options)
     if law.viscous_time != 0.0:
         raise ParameterError(
             f"contact={contact!r}: the viscoelastic law's viscous_time is not one of (K, n, mu); "
-            f"it is solved on the impedance plate only (contact_parameters, solve_impact, "
-            f"ContactSolver), not on the modal plate"
+            f"contact_parameters gives all of the law's constants"
         )
     return law.stiffness, law.exponent, law.dissipation
 

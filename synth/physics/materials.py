@@ -509,14 +509,21 @@ class ContactSurface:
     dissipation : float >= 0
         Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, s/m (Hunt &
         Crossley, J. Appl. Mech. 42 (1975) 440-445): small-loss restitution ``e = 1 - 2/3 mu
-        v`` on a rigid support. With a ball much stiffer than the plate (steel, glass on
-        MDF) the indentation, and so the loss, is the plate's.
+        v`` on a rigid support, its loss ``1 - e`` growing like ``v``.
+    viscous_time : float >= 0
+        The viscoelastic Hertz contact's dissipative time ``A`` of
+        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')``, s (Kuwabara & Kono 1987;
+        Brilliantov et al. 1996): its loss ``1 - e`` grows like ``v^(1/5)``.
+        Exactly one of ``dissipation`` and ``viscous_time`` is nonzero: the surface's one
+        loss. With a ball much stiffer than the plate (steel, glass on MDF) the indentation,
+        and so the loss, is the plate's.
     source : str
         What the values were fitted on.
     """
 
     transverse_ratio: float
-    dissipation: float
+    dissipation: float = 0.0
+    viscous_time: float = 0.0
     source: str = ""
 
     def __post_init__(self):
@@ -530,22 +537,31 @@ class ContactSurface:
         object.__setattr__(
             self, "dissipation", checks.nonnegative("dissipation", self.dissipation, "s/m")
         )
+        object.__setattr__(
+            self, "viscous_time", checks.nonnegative("viscous_time", self.viscous_time, "s")
+        )
+        if (self.dissipation == 0.0) == (self.viscous_time == 0.0):
+            raise ParameterError(
+                f"dissipation={self.dissipation!r} (s/m) and viscous_time={self.viscous_time!r} "
+                f"(s): exactly one of them must be nonzero (the surface's one contact loss, "
+                f"Hunt-Crossley or viscoelastic)"
+            )
 
 
 #: MDF's contact surface: two parameters fitted on the thesis' 18 mm board only (docs/physics.md,
 #: "Contact losses"): ``E_t / E`` on its five first-impact contact times (Table 3.3, each ball
-#: carrying the accelerometer of those measurements, about 1 g) and ``mu`` on the restitution
-#: 0.76 of the 10 mm steel ball at 1.4 m/s (section 3.2), both with the
-#: finite plate in the contact (synth.physics.modal_contact) at the middle of the board. The
-#: 12 and 6 mm boards use them unchanged (``synth bench thesis`` prints fit and prediction
-#: errors).
+#: carrying the accelerometer of those measurements, about 1 g) and the viscoelastic loss's
+#: dissipative time ``A`` on the restitution 0.76 of the 10 mm steel ball at 1.4 m/s (section
+#: 3.2), both with the finite plate in the contact (synth.physics.modal_contact) at the middle
+#: of the board (synth.bench.thesis.surface_fit). The 12 and 6 mm boards use them unchanged
+#: (``synth bench thesis`` prints fit and prediction errors).
 MDF_SURFACE = ContactSurface(
-    transverse_ratio=0.2087,
-    dissipation=0.2475,
+    transverse_ratio=0.2051,
+    viscous_time=7.211e-6,
     source=(
-        "fitted on the thesis' 18 mm MDF board: contact times (Table 3.3, ball with its 1 g "
-        "accelerometer) and restitution "
-        "0.76 of the 10 mm steel ball (section 3.2), modal plate at the middle"
+        "fitted on the thesis' 18 mm MDF board: E_t / E on its contact times (Table 3.3, ball "
+        "with its 1 g accelerometer) and the viscoelastic A on the restitution 0.76 of the "
+        "10 mm steel ball at 1.4 m/s (section 3.2), modal plate at the middle"
     ),
 )
 

@@ -199,7 +199,7 @@ SURFACE_MODELS = ("ideal", "fitted")
 #: Named contact models: (law, plate, surface). "thesis": the thesis' model (Hertz on an
 #: isotropic half-space, the plate as its impedance); "fitted": the model closest to the
 #: thesis' measurements (the finite plate's modes in the contact, the material's fitted
-#: through-thickness modulus and Hunt-Crossley loss).
+#: through-thickness modulus and contact loss).
 CONTACT_MODELS = {
     "thesis": ("hertz", "impedance", "ideal"),
     "fitted": ("hertz", "modal", "fitted"),
@@ -218,7 +218,7 @@ class Contact:
         Hunt-Crossley damping ``mu``, s/m (only with "hunt-crossley").
     viscous_time : float > 0, optional
         Dissipative time ``A`` of the viscoelastic Hertz contact, s (only with
-        "viscoelastic", which the impedance plate solves, not the modal one).
+        "viscoelastic"; on either plate).
     exponent : float in (1, 4], optional
         Power-law exponent ``n`` (only with "power-law").
     stiffness : float > 0, optional
@@ -242,7 +242,7 @@ class Contact:
     surface : {"ideal", "fitted"}
         The plate's side of the contact: "ideal" (an isotropic elastic half-space, the
         default) or "fitted" (law "hertz" only: the plate material's through-thickness
-        modulus and Hunt-Crossley loss fitted to measurements,
+        modulus and contact loss fitted to measurements,
         :class:`synth.physics.materials.ContactSurface`).
     model : {"thesis", "fitted"}, optional
         A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`): "thesis"
@@ -284,12 +284,6 @@ class Contact:
         if self.surface == "fitted" and self.law != "hertz":
             raise ParameterError(
                 f"contact.surface='fitted' applies to contact.law='hertz' only, not {self.law!r}"
-            )
-        if self.law == "viscoelastic" and self.plate != "impedance":
-            raise ParameterError(
-                f"contact.law='viscoelastic' applies to contact.plate='impedance' only, not "
-                f"{self.plate!r} (the modal plate's contact takes the Hertz, power-law and "
-                f"Hunt-Crossley laws)"
             )
         object.__setattr__(
             self,

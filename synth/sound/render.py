@@ -402,24 +402,31 @@ def _check_modal_sequence(scene, sequence) -> BounceSequence:
     """:func:`check_sequence` for a scene with the modal plate in the contact: the first
     impact is one of the modal contact (:class:`~synth.physics.modal_contact.ModalImpactResult`)
     under the scene's contact law (its constants equal to ``SEQUENCE_RTOL``)."""
-    from synth.physics.contact import contact_law
+    from synth.physics.contact import contact_parameters
     from synth.physics.modal_contact import ModalImpactResult
 
     c = scene.contact
     result = sequence[0].result
-    K, n, mu = contact_law(scene.ball, scene.plate, c.law, **c.options())
+    law = contact_parameters(scene.ball, scene.plate, c.law, **c.options())
+    want = (law.stiffness, law.exponent, law.dissipation, law.viscous_time)
     got = (
-        (result.law_stiffness, result.law_exponent, result.law_dissipation)
+        (
+            result.law_stiffness,
+            result.law_exponent,
+            result.law_dissipation,
+            result.law_viscous_time,
+        )
         if isinstance(result, ModalImpactResult)
         else None
     )
     if got is None or not all(
-        abs(a - b) <= SEQUENCE_RTOL * abs(b) for a, b in zip(got, (K, n, mu), strict=True)
+        abs(a - b) <= SEQUENCE_RTOL * abs(b) for a, b in zip(got, want, strict=True)
     ):
+        K, n, mu, A = want
         raise ParameterError(
             "sequence: its first impact is not one of this scene's modal contact (contact law "
-            f"K, n, mu = {K:.6g}, {n:g}, {mu:g}): the sequence belongs to another ball, plate or "
-            "contact law; pass the scene it was computed for"
+            f"K, n, mu, A = {K:.6g}, {n:g}, {mu:g}, {A:g}): the sequence belongs to another "
+            "ball, plate or contact law; pass the scene it was computed for"
         )
     return sequence
 

@@ -69,6 +69,7 @@ class MidlineWalk:
                 base.gravity,
                 base.steps_per_contact,
                 base.dissipation,
+                base.viscous_time,
             )
             self._solved[distance] = contact.solve(self.speed).restitution
         return self._solved[distance]

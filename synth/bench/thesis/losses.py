@@ -8,9 +8,9 @@ Brilliantov et al. 1996; docs/physics.md, "Contact losses") far more slowly. Eac
 parameter is fitted on the restitution 0.76 of the 10 mm steel ball at 1.4 m/s on the 18 mm
 board, with MDF's fitted through-thickness modulus (the stored ``E_t / E``); the other speeds on
 that board and the 12 and 6 mm boards are predictions. The plate is the impedance model (the
-infinite plate under the middle of the board, gravity included): the viscoelastic law is not
-in the modal plate that the fitted model uses, so this is a study beside it, not the thesis
-scenes' model."""
+infinite plate under the middle of the board, gravity included): the study that chose the law
+of MDF's fitted surface, which the fitted model solves on the modal plate
+(:func:`synth.bench.thesis.surface_fit`)."""
 
 from __future__ import annotations
 
@@ -123,9 +123,9 @@ def format_loss_law_study(study: dict) -> str:
         "Contact loss law against the measured speed dependence (impedance plate, middle; "
         "MDF's fitted E_t; each law's one loss fitted on e = 0.76 of the 10 mm steel ball at "
         f"1.4 m/s on 18 mm: Hunt-Crossley mu = {mu:.4f} s/m, viscoelastic Hertz A = "
-        f"{A * 1e6:.3f} us; a study beside the fitted model, which keeps Hunt-Crossley on the "
-        "modal plate). Gap = engine / thesis model - 1; target: the measured gap's sign, and "
-        "its size within half.",
+        f"{A * 1e6:.3f} us; the study that chose the fitted model's law, which that model solves "
+        "on the modal plate). Gap = engine / thesis model - 1; target: the measured gap's sign, "
+        "and its size within half.",
         "",
         "| ball on board, speed | role | measured gap | "
         + " | ".join(f"{law} gap | met" for law in LOSS_LAWS)

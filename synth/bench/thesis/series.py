@@ -108,7 +108,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     series of ``scene``, ``found`` the analysis of its render."""
     from synth.physics import modal_contact as mc
     from synth.physics.bounces import bounce_time_restitution
-    from synth.physics.contact import contact_law
+    from synth.physics.contact import contact_parameters
 
     c = scene.contact
     contact = mc.ModalContact.for_pair(
@@ -134,7 +134,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     ring = [i.plate_velocity / i.speed for i in seq]
     ring_low = [float(i.plate_state.v[low].sum()) / i.speed for i in seq]
     ring_mid = [float(i.plate_state.v[mid].sum()) / i.speed for i in seq]
-    K = contact_law(scene.ball, scene.plate, c.law, **c.options())[0]
+    K = contact_parameters(scene.ball, scene.plate, c.law, **c.options()).stiffness
     modulus = 0.75 * K / math.sqrt(scene.ball.radius)
     note = "measured: e falls as the speed falls below 0.2 m/s (thesis 3.5)"
     rows = []

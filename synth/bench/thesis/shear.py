@@ -126,7 +126,7 @@ def thesis_transverse_shear_rows(pairs=None) -> list:
                 e,
                 reference["model"],
                 reference["measured"],
-                "mu not refitted",
+                "the loss not refitted",
             )
         )
     rows += _transverse_shear_gap_rows(band)

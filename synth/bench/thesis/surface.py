@@ -18,29 +18,34 @@ from synth.constants import GRAVITY
 from synth.physics import impedance
 
 
-def _surface_contact(ball, plate, ratio: float, mu: float, speed: float):
+def _surface_contact(ball, plate, ratio: float, viscous_time: float, speed: float):
     """The first impact at ``speed`` (m/s) at the middle of ``plate``, the finite plate in the
     contact (:mod:`synth.physics.modal_contact`, band 4 / tau of the stored surface) and the
-    plate's side of the Hertz contact at ``ratio`` times its modulus with the Hunt-Crossley
-    loss ``mu`` (s/m): a trial :class:`~synth.physics.materials.ContactSurface`."""
+    plate's side of the Hertz contact at ``ratio`` times its modulus with the viscoelastic
+    loss of dissipative time ``viscous_time`` (s): a trial
+    :class:`~synth.physics.materials.ContactSurface`."""
     from synth.physics import modal_contact as mc
     from synth.physics.contact import hertz_stiffness, solve_contact
     from synth.physics.materials import MDF_SURFACE
 
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
-
-    def impedance_contact(r, m):
-        K = hertz_stiffness(ball, plate, r)
-        return solve_contact(
-            mass=ball.mass, stiffness=K, admittance=beta, speed=speed, gravity=0.0, dissipation=m
-        )
-
+    stored = MDF_SURFACE
     # one band per pair for every trial (the stored surface's): the modal contact solves the
     # modes of exactly its band, so a band per trial would be a mode solve per trial
-    stored = impedance_contact(MDF_SURFACE.transverse_ratio, MDF_SURFACE.dissipation)
-    point = mc.modal_point(plate, plate.centre, max_frequency=mc.BAND_FACTOR / stored.contact_time)
+    tau = solve_contact(
+        mass=ball.mass,
+        stiffness=hertz_stiffness(ball, plate, stored.transverse_ratio),
+        admittance=beta,
+        speed=speed,
+        gravity=0.0,
+        dissipation=stored.dissipation,
+        viscous_time=stored.viscous_time,
+    ).contact_time
+    point = mc.modal_point(plate, plate.centre, max_frequency=mc.BAND_FACTOR / tau)
     K = hertz_stiffness(ball, plate, ratio)
-    return mc.ModalContact(point, ball.mass, K, 1.5, GRAVITY, mc.STEPS_PER_CONTACT, mu).solve(speed)
+    return mc.ModalContact(
+        point, ball.mass, K, 1.5, GRAVITY, mc.STEPS_PER_CONTACT, viscous_time=viscous_time
+    ).solve(speed)
 
 
 def surface_fit(rounds: int = 4) -> dict:
@@ -50,16 +55,17 @@ def surface_fit(rounds: int = 4) -> dict:
     * ``E_t / E`` on the five first-impact contact times of Table 3.3 (least squares of
       log tau), each ball with the accelerometer those measurements had on it
       (:data:`THESIS_ACCELEROMETER_MASS`);
-    * the Hunt-Crossley loss ``mu`` on the restitution 0.76 of the 10 mm steel ball at 1.4 m/s
-      (section 3.2).
+    * the viscoelastic loss's dissipative time ``A`` (s) on the restitution 0.76 of the 10 mm
+      steel ball at 1.4 m/s (section 3.2).
 
     The two are coupled (the loss lengthens the contact a little, the softer contact changes
-    e): ``rounds`` alternations of the two one-dimensional fits. Returns the two parameters,
-    the stored ones (:data:`synth.physics.materials.MDF_SURFACE`) and one row per Table 3.3
-    pair with the role (fit or prediction), the measured, thesis-model and engine contact
-    times (the engine's with and without the accelerometer) and the bare ball's restitution;
-    and the restitution rows of :data:`THESIS_RESTITUTION_GAPS` (engine with the
-    stored surface, the thesis' model, the gap between them against the measured gap)."""
+    e): ``rounds`` alternations of the two one-dimensional fits, from the stored values.
+    Returns the two parameters, the stored ones (:data:`synth.physics.materials.MDF_SURFACE`)
+    and one row per Table 3.3 pair with the role (fit or prediction), the measured,
+    thesis-model and engine contact times (the engine's with and without the accelerometer)
+    and the bare ball's restitution; and the restitution rows of
+    :data:`THESIS_RESTITUTION_GAPS` (engine with the stored surface, the thesis' model, the
+    gap between them against the measured gap)."""
     from scipy.optimize import brentq, minimize_scalar
 
     from synth.physics.contact import solve_impact
@@ -71,34 +77,35 @@ def surface_fit(rounds: int = 4) -> dict:
     steel = pairs["steel 10.0 mm", "18 mm"]
     e_meas = THESIS_RESTITUTION["measured"]
 
-    def measured_contact(k, r, mu):
+    def measured_contact(k, r, A):
         ball, plate = pairs[k]
-        return _surface_contact(with_accelerometer(ball), plate, r, mu, v)
+        return _surface_contact(with_accelerometer(ball), plate, r, A, v)
 
-    def tau_cost(log_ratio, mu):
+    def tau_cost(log_ratio, A):
         r = math.exp(log_ratio)
         return sum(
-            math.log(measured_contact(k, r, mu).contact_time / THESIS_IMPACTS[k][0]) ** 2
+            math.log(measured_contact(k, r, A).contact_time / THESIS_IMPACTS[k][0]) ** 2
             for k in fit_pairs
         )
 
-    ratio, mu = MDF_SURFACE.transverse_ratio, MDF_SURFACE.dissipation
+    ratio, A = MDF_SURFACE.transverse_ratio, MDF_SURFACE.viscous_time
     for _ in range(rounds):
-        mu = brentq(
-            lambda m: _surface_contact(*steel, ratio, m, v).restitution - e_meas,
-            0.0,
-            2.0,
-            xtol=1e-6,
+        A = brentq(
+            lambda a: _surface_contact(*steel, ratio, a, v).restitution - e_meas,
+            1e-8,
+            1e-4,
+            xtol=1e-12,
+            rtol=1e-8,
         )
         best = minimize_scalar(
             tau_cost,
             bounds=(math.log(0.02), 0.0),
-            args=(mu,),
+            args=(A,),
             method="bounded",
             options=dict(xatol=1e-5),
         )
         ratio = math.exp(best.x)
-    stored = (MDF_SURFACE.transverse_ratio, MDF_SURFACE.dissipation)
+    stored = (MDF_SURFACE.transverse_ratio, MDF_SURFACE.viscous_time)
     rows = []
     for k, (tau_meas, model_ratio, _) in THESIS_IMPACTS.items():
         r = measured_contact(k, *stored)
@@ -137,9 +144,9 @@ def surface_fit(rounds: int = 4) -> dict:
     e_fit = _surface_contact(*steel, *stored, v).restitution
     return dict(
         ratio=ratio,
-        dissipation=mu,
+        viscous_time=A,
         stored_ratio=stored[0],
-        stored_dissipation=stored[1],
+        stored_viscous_time=stored[1],
         restitution=e_fit,
         rows=rows,
         gaps=gaps,
@@ -150,8 +157,9 @@ def format_surface_fit(fit: dict) -> str:
     """The tables of :func:`surface_fit` (Markdown)."""
     lines = [
         f"MDF's contact surface, fitted on the 18 mm board only (modal plate, middle): "
-        f"E_t / E = {fit['ratio']:.4f} (stored {fit['stored_ratio']:.4f}), Hunt-Crossley "
-        f"mu = {fit['dissipation']:.4f} s/m (stored {fit['stored_dissipation']:.4f}); "
+        f"E_t / E = {fit['ratio']:.4f} (stored {fit['stored_ratio']:.4f}), viscoelastic "
+        f"A = {fit['viscous_time'] * 1e6:.4f} us (stored {fit['stored_viscous_time'] * 1e6:.4f} "
+        f"us); "
         f"e at 1.4 m/s with the stored values {fit['restitution']:.3f} (measured "
         f"{THESIS_RESTITUTION['measured']:.2f}). The 12 and 6 mm rows are predictions. "
         f"Contact times as Table 3.3 measured them: the ball carrying the "

@@ -44,8 +44,11 @@ edges, before any reflection returns, it equals the impedance model.
 
 Ball (mass ``m``, height ``u`` of its lowest point, gravity ``g``): ``m u'' = F - m g``;
 contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact.contact_law`),
-or with Hunt & Crossley's loss ``F = K delta^n (1 + mu delta')``, ``F >= 0`` (Hunt & Crossley,
-J. Appl. Mech. 42 (1975) 440-445).
+or with a loss ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``: Hunt &
+Crossley's ``K delta^n (1 + mu delta')`` for ``b = 0`` (J. Appl. Mech. 42 (1975) 440-445) and
+the viscoelastic Hertz contact ``K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` for ``mu = 0``,
+``b = (3/2) A`` (Kuwabara & Kono 1987; Brilliantov et al. 1996; docs/physics.md, "Contact
+losses").
 
 Numerics. Fixed steps ``h``; over each step the force is taken linear in time (first-order
 hold), and every linear part (modes, rigid body, residual, the ball's free flight) is advanced
@@ -56,7 +59,8 @@ Hochbruck & Ostermann, Acta Numerica 19 (2010) 209-286). The force at the end of
 then the root of one scalar equation, ``delta + B F(delta) = A`` (monotone: one root; with the
 loss, ``delta'`` at the end of the step is itself linear in that force), so the
 scheme is implicit in the contact and unconditionally stable for every mode; its error is
-second order in ``h``. The end of contact is the root of ``delta(h') = 0`` within the last step.
+second order in ``h`` (of order 3/2 with the viscoelastic loss, whose force starts like
+``t^(1/2)``). The end of contact is the root of ``delta(h') = 0`` within the last step.
 The modes are those of an eigen-solution of exactly the band (:func:`band_modes`): a cached
 wider band's modes differ in their last digits, which a series of bounces amplifies to audible
 differences, so the result does not depend on what the process or the disk cache solved before.

@@ -14,7 +14,7 @@ from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.contact import ImpactResult, contact_law, solve_contact
+from synth.physics.contact import ImpactResult, contact_parameters, solve_contact
 from synth.physics.modal_contact.kernels import (
     R_CONTACT_LOSS,
     R_DAMPING_LOSS,
@@ -91,10 +91,12 @@ class _Pulse:
 @dataclass(frozen=True, eq=False)
 class ModalImpactResult(ImpactResult):
     """An :class:`~synth.physics.contact.ImpactResult` of the modal contact. The pulse between
-    the solver's steps (``step_times``, s) is ``F = K delta^n (1 + mu delta')`` with ``delta``
-    the cubic Hermite interpolant of the penetrations ``step_gaps`` (m) and their rates
-    ``step_rates`` (m/s): smooth, and rising like ``t^n`` after first touch as the contact law
-    does. ``contact_loss`` is the energy the Hunt-Crossley loss took, J.
+    the solver's steps (``step_times``, s) is the contact law ``F = K delta^(n-1) (delta +
+    (mu delta + b) delta')``, ``b = 3/2 A``, ``F >= 0``, with ``delta`` the cubic Hermite
+    interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates`` (m/s):
+    smooth, and rising after first touch as the contact law does (like ``t^n``, or like
+    ``t^(1/2)`` with the viscoelastic loss). ``contact_loss`` is the energy the contact's loss
+    (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) took, J.
     ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
     at separation over its impact speed (what bounce times measure)."""
 
@@ -105,6 +107,7 @@ class ModalImpactResult(ImpactResult):
     law_stiffness: float = 0.0
     law_exponent: float = 1.5
     law_dissipation: float = 0.0
+    law_viscous_time: float = 0.0
     contact_loss: float = 0.0
     ringing: PlateRinging | None = field(default=None, repr=False)
     plate_modal_energy: float = 0.0
@@ -113,6 +116,12 @@ class ModalImpactResult(ImpactResult):
     @property
     def exponent(self) -> float:
         return self.law_exponent
+
+    @property
+    def pulse_order(self) -> float:
+        """As :attr:`ImpactResult.pulse_order`: ``n + 1``, or ``3/2`` with the viscoelastic
+        loss (the force rises like ``t^(1/2)``)."""
+        return 1.5 if self.law_viscous_time != 0.0 else self.law_exponent + 1.0
 
     def _sample_pulse(self):
         times = np.linspace(0.0, self.contact_time, self.n_points)
@@ -146,16 +155,26 @@ class ModalImpactResult(ImpactResult):
         n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
         elastic = K * dpos**n
         elastic_slope = n * K * dpos ** (n - 1.0) * rate
-        if mu == 0.0:
+        b = 1.5 * self.law_viscous_time
+        if mu == 0.0 and b == 0.0:
             return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
-        # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
         accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
             h * h
         )
-        lossy = inside & (1.0 + mu * rate > 0.0)
-        force = np.where(lossy, elastic * (1.0 + mu * rate), 0.0)
-        slope = np.where(lossy, elastic_slope * (1.0 + mu * rate) + elastic * mu * accel, 0.0)
-        return force, slope
+        if b == 0.0:
+            # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
+            lossy = inside & (1.0 + mu * rate > 0.0)
+            force = np.where(lossy, elastic * (1.0 + mu * rate), 0.0)
+            slope = np.where(lossy, elastic_slope * (1.0 + mu * rate) + elastic * mu * accel, 0.0)
+            return force, slope
+        # F = K delta^(n-1) (delta + c delta'), c = mu delta + b, F >= 0
+        root = K * dpos ** (n - 1.0)
+        c = mu * dpos + b
+        lossy = inside & (dpos + c * rate > 0.0)
+        force = np.where(lossy, root * (dpos + c * rate), 0.0)
+        root_slope = (n - 1.0) * root / dpos * rate
+        slope = root_slope * (dpos + c * rate) + root * (rate + mu * rate * rate + c * accel)
+        return force, np.where(lossy, slope, 0.0)
 
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int
@@ -185,7 +204,12 @@ class ModalContact:
         Fixed steps over one impedance-model contact time.
     dissipation : float
         Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, ``F >= 0``, s/m
-        (0: elastic contact).
+        (0: none).
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A`` of
+        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')``, ``F >= 0``, s (0: none;
+        exponent 1.5 only). With both losses the force is
+        ``K delta^(n-1) (delta + (mu delta + 3/2 A) delta')``.
     """
 
     point: ModalPoint
@@ -195,6 +219,7 @@ class ModalContact:
     gravity: float = GRAVITY
     steps_per_contact: int = STEPS_PER_CONTACT
     dissipation: float = 0.0
+    viscous_time: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.point, ModalPoint):
@@ -207,7 +232,13 @@ class ModalContact:
             ),
             gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
             dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
+            viscous_time=checks.nonnegative("viscous_time", self.viscous_time, "s"),
         )
+        if checked["viscous_time"] != 0.0 and checked["exponent"] != 1.5:
+            raise ParameterError(
+                f"viscous_time={self.viscous_time!r} with exponent={self.exponent!r}: the "
+                f"viscoelastic loss is that of the Hertz law (exponent 1.5)"
+            )
         steps = self.steps_per_contact
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
             raise ParameterError(
@@ -240,14 +271,15 @@ class ModalContact:
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
             raise ParameterError(f"plate={plate!r} must be a Plate")
-        K, n, mu = contact_law(ball, plate, law, **contact_options)
+        law_ = contact_parameters(ball, plate, law, **contact_options)
+        K, n, mu, A = law_.stiffness, law_.exponent, law_.dissipation, law_.viscous_time
         pos = plate.centre if position is None else position
         if max_frequency is None:
             v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
-            tau = _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
+            tau = _impedance_contact(ball.mass, K, n, plate, v, mu, A).contact_time
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
-        return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu)
+        return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu, A)
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
@@ -301,7 +333,13 @@ class ModalContact:
                 f"than the ball; the ball cannot hit it"
             )
         ref = _impedance_contact(
-            self.mass, self.stiffness, self.exponent, p.plate, v_approach, self.dissipation
+            self.mass,
+            self.stiffness,
+            self.exponent,
+            p.plate,
+            v_approach,
+            self.dissipation,
+            self.viscous_time,
         )
         h = ref.contact_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
@@ -328,6 +366,7 @@ class ModalContact:
             self.stiffness,
             self.exponent,
             self.dissipation,
+            1.5 * self.viscous_time,
             self.gravity,
             v_in,
             h,
@@ -389,6 +428,7 @@ class ModalContact:
             law_stiffness=self.stiffness,
             law_exponent=self.exponent,
             law_dissipation=self.dissipation,
+            law_viscous_time=self.viscous_time,
             contact_loss=float(r[R_CONTACT_LOSS]),
             ringing=ringing,
             plate_modal_energy=e_plate,
@@ -454,9 +494,9 @@ def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
     return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
 
 
-def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
-    """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m), for
-    the time scale of the modal one."""
+def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
+    """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m, and
+    viscoelastic ``A``, s), for the time scale of the modal one."""
     return solve_contact(
         mass=float(m),
         stiffness=float(K),
@@ -465,6 +505,7 @@ def _impedance_contact(m, K, n, plate, v, mu) -> ImpactResult:
         gravity=0.0,
         exponent=float(n),
         dissipation=float(mu),
+        viscous_time=float(A),
         rtol=1e-6,
     )
 
@@ -475,6 +516,8 @@ def impedance_contact_time(
     """The impedance model's contact time (s) of ``ball`` on ``plate`` at ``speed`` (m/s),
     without gravity, under the contact ``law`` and its options: the time scale from which
     :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``)."""
-    K, n, mu = contact_law(ball, plate, law, **contact_options)
+    c = contact_parameters(ball, plate, law, **contact_options)
     v = checks.positive("speed", speed, "m/s")
-    return _impedance_contact(ball.mass, K, n, plate, v, mu).contact_time
+    return _impedance_contact(
+        ball.mass, c.stiffness, c.exponent, plate, v, c.dissipation, c.viscous_time
+    ).contact_time

@@ -41,17 +41,26 @@ def _phi12(z):  # pragma: no cover
 
 
 @numba.njit(cache=True)
+def _transition(omega, sigma, h):  # pragma: no cover
+    """The free oscillation of ``q'' + 2 sigma q' + omega^2 q = 0`` (underdamped) over a step
+    ``h`` (s): the damped frequency ``omega_d = sqrt(omega^2 - sigma^2)`` (rad/s), the decay
+    ``e^(-sigma h)`` and ``cos``, ``sin(omega_d h)``, from which the transition matrix is
+    ``e^(-sigma h) [[c + sigma/omega_d s, s/omega_d], [-omega^2/omega_d s,
+    c - sigma/omega_d s]]``."""
+    wd = math.sqrt(omega * omega - sigma * sigma)
+    return wd, math.exp(-sigma * h), math.cos(wd * h), math.sin(wd * h)
+
+
+@numba.njit(cache=True)
 def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
     """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
     linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
-    ``P`` rows (P11, P12, P21, P22), ``G`` rows (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
+    ``P`` rows (P11, P12, P21, P22) the transition matrix of :func:`_transition`, ``G`` rows
+    (f0 -> q, f1 -> q, f0 -> v, f1 -> v)."""
     for k in range(omega.size):
         s = sigma[k]
         w0 = omega[k]
-        wd = math.sqrt(w0 * w0 - s * s)
-        e = math.exp(-s * h)
-        c = math.cos(wd * h)
-        sn = math.sin(wd * h)
+        wd, e, c, sn = _transition(w0, s, h)
         P[k, 0] = e * (c + s / wd * sn)
         P[k, 1] = e * sn / wd
         P[k, 2] = -e * w0 * w0 / wd * sn
@@ -96,28 +105,45 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _lossy_force(d, K, n, mu, Av, Bv):  # pragma: no cover
-    """Hunt-Crossley force ``K d^n (1 + mu d')`` (N, at least 0) at the end of a step whose
-    penetration rate is ``d' = Av - Bv F`` (the step's linear response to the force ``F``
-    at its end), solved for ``F``, and its derivative with respect to ``d`` (N/m)."""
-    s = K * d**n
-    num = 1.0 + mu * Av
-    if num <= 0.0 or d <= 0.0:
+def _lossy_force(d, K, n, mu, b, Av, Bv):  # pragma: no cover
+    """The lossy contact force ``F = K d^(n-1) (d + c(d) d')``, ``c(d) = mu d + b`` (N, at
+    least 0): Hunt-Crossley ``K d^n (1 + mu d')`` for ``b = 0``, the viscoelastic Hertz
+    contact ``K (d^(3/2) + b d^(1/2) d')`` (``b = 3/2 A``) for ``mu = 0``; at the end of a
+    step whose penetration rate is ``d' = Av - Bv F`` (the step's linear response to the
+    force ``F`` at its end), solved for ``F``:
+    ``F = K d^(n-1) (d + c Av) / (1 + c Bv K d^(n-1))``; and its derivative with respect to
+    ``d`` (N/m)."""
+    if d <= 0.0:
         return 0.0, 0.0
-    den = 1.0 + mu * Bv * s
-    return s * num / den, n * s / d * num / (den * den)
+    if b == 0.0:
+        s = K * d**n
+        num = 1.0 + mu * Av
+        if num <= 0.0:
+            return 0.0, 0.0
+        den = 1.0 + mu * Bv * s
+        return s * num / den, n * s / d * num / (den * den)
+    r = K * d ** (n - 1.0)
+    c = mu * d + b
+    num = d + c * Av
+    if num <= 0.0:
+        return 0.0, 0.0
+    den = 1.0 + c * Bv * r
+    dr = (n - 1.0) * r / d
+    dden = Bv * (mu * r + c * dr)
+    F = r * num / den
+    return F, (dr * num + r * (1.0 + mu * Av)) / den - F * dden / den
 
 
 @numba.njit(cache=True)
-def _solve_lossy_delta(A, B, K, n, mu, Av, Bv):  # pragma: no cover
-    """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the Hunt-Crossley
-    force of :func:`_lossy_force` (increasing in ``delta``: one root in ``[0, A]``): Newton's
-    method kept inside a bracket, bisection where a step leaves it."""
+def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv):  # pragma: no cover
+    """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the lossy force of
+    :func:`_lossy_force` (increasing in ``delta`` where positive: one root in ``[0, A]``):
+    Newton's method kept inside a bracket, bisection where a step leaves it."""
     lo = 0.0
     hi = A
     d = _solve_delta(A, B, K, n)  # start from the elastic root
     for _ in range(200):
-        F, dF = _lossy_force(d, K, n, mu, Av, Bv)
+        F, dF = _lossy_force(d, K, n, mu, b, Av, Bv)
         f = d + B * F - A
         if f > 0.0:
             hi = d
@@ -206,6 +232,7 @@ def contact_kernel(
     K,
     n,
     mu,
+    b,
     g,
     v_in,
     h,
@@ -216,7 +243,8 @@ def contact_kernel(
     rates,
 ):  # pragma: no cover
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
-    the contact law ``F = K delta^n (1 + mu delta')`` (``mu = 0``: elastic).
+    the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
+    (:func:`_lossy_force`; ``mu = b = 0``: elastic).
 
     ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
     one: the residual's displacement) are the plate's state at first touch and are advanced
@@ -231,10 +259,11 @@ def contact_kernel(
     B = h * h / (6.0 * m) + rc * h * h / 6.0 + beta * r1
     for k in range(N):
         B += c[k] * G[k, 1]
-    # the penetration rate at the end of a step is Av - Bv F1 (Hunt-Crossley only)
+    # the penetration rate at the end of a step is Av - Bv F1 (the lossy laws only)
     Bv = h / (2.0 * m) + 0.5 * rc * h + beta * (1.0 - a * r1)
     for k in range(N):
         Bv += c[k] * G[k, 3]
+    lossy = mu != 0.0 or b != 0.0
     contact_loss = 0.0
     Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
     w = -x_res[0]
@@ -315,13 +344,13 @@ def contact_kernel(
             status = SEPARATED
             steps = i + 1
             break
-        if mu == 0.0:
+        if not lossy:
             d1 = _solve_delta(A, B, K, n)
             F1 = K * d1**n
         else:
             Av = _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h)
-            d1 = _solve_lossy_delta(A, B, K, n, mu, Av, Bv)
-            F1 = _lossy_force(d1, K, n, mu, Av, Bv)[0]
+            d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv)
+            F1 = _lossy_force(d1, K, n, mu, b, Av, Bv)[0]
         damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
         xdot0 = beta * F0 - a * x
         x = Er * x + beta * (r0 * F0 + r1 * F1)
@@ -338,7 +367,7 @@ def contact_kernel(
         times[i + 1] = t
         gaps[i + 1] = d1
         rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
-        if mu != 0.0:
+        if lossy:
             Fd1 = F1 - K * d1**n
             contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
             Fd0 = Fd1
@@ -366,15 +395,13 @@ def contact_kernel(
 
 @numba.njit(cache=True)
 def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
-    """Free ringing of the modes over ``duration`` (s), in place (the homogeneous part of
-    :func:`_mode_coefficients`)."""
+    """Free ringing of the modes over ``duration`` (s), in place: the transition matrix of
+    :func:`_transition` (the homogeneous part of :func:`_mode_coefficients`) applied to each
+    mode's state."""
     for k in range(q.size):
         s = sigma[k]
         w0 = omega[k]
-        wd = math.sqrt(w0 * w0 - s * s)
-        e = math.exp(-s * duration)
-        c = math.cos(wd * duration)
-        sn = math.sin(wd * duration)
+        wd, e, c, sn = _transition(w0, s, duration)
         q0 = q[k]
         v0 = v[k]
         q[k] = e * ((c + s / wd * sn) * q0 + sn / wd * v0)
