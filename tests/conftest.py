@@ -1,6 +1,9 @@
 """Shared test helpers."""
 
 import functools
+import os
+import tempfile
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
@@ -81,3 +84,49 @@ def assert_honours_rtol():
     ``rtol``; a settled contact has e = 0 exactly (its tau is when settling is proven, not
     compared)."""
     return _assert_honours_rtol
+
+
+@dataclass(frozen=True)
+class PresetRun:
+    """A preset rendered and analysed once per session (:func:`preset_run_from_empty_caches`)."""
+
+    scene: object  # synth.physics.scene.Scene
+    render: object  # synth.sound.render.Render
+    analysis: object  # synth.analysis.Analysis
+
+
+@functools.cache
+def preset_run_from_empty_caches(name: str) -> PresetRun:
+    """The preset ``name`` rendered as its file sets it but without normalisation
+    (``normalize="none"``: its physical units), from empty caches (a private cache folder and
+    empty memory caches, so a fresh mode solve: a plate's modes reused from a wider band differ
+    in the last bits), and analysed with the analysis' defaults at the scene's gravity.
+    Computed once per session: the frozen renders (tests/test_frozen_renders.py, which
+    tests/data/record_preset_renders.py records) and the round trip (tests/test_roundtrip.py)
+    read the same run."""
+    import synth
+    from synth.sound import modes, radiation
+
+    old = os.environ.get("SYNTH_CACHE_DIR")
+    try:
+        with tempfile.TemporaryDirectory(prefix="synth-preset-") as tmp:
+            os.environ["SYNTH_CACHE_DIR"] = tmp
+            modes.clear_memory_cache()
+            radiation.clear_memory_cache()
+            render = synth.render_preset(name, normalize="none")
+    finally:
+        if old is None:
+            os.environ.pop("SYNTH_CACHE_DIR", None)
+        else:
+            os.environ["SYNTH_CACHE_DIR"] = old
+        modes.clear_memory_cache()
+        radiation.clear_memory_cache()
+    scene = synth.load_preset(name)
+    analysis = synth.analyze(render.audio, render.samplerate, gravity=scene.gravity)
+    return PresetRun(scene, render, analysis)
+
+
+@pytest.fixture(scope="session")
+def preset_run():
+    """A function ``name -> PresetRun``: :func:`preset_run_from_empty_caches`."""
+    return preset_run_from_empty_caches

@@ -1,15 +1,17 @@
 """Every preset renders to the very samples recorded in tests/data/preset_renders.json, and the
 analysis finds the same ticks in it.
 
-The file was written by rendering each preset with its own [render] options before the package
-was reorganised; a refactoring must not change a single sample (SHA-256 of the float32 audio,
-little-endian) nor a tick time (to 1 ns, the precision recorded). A change that is meant to alter
-the sound records new values with ``python tests/data/record_preset_renders.py`` and says why in
-its commit.
+Each preset is rendered with its own [render] options but without normalisation (its physical
+units: the physics and the synthesis, not a final scaling that tests/test_audio_io.py checks);
+a refactoring must not change a single sample (SHA-256 of the float32 audio, little-endian) nor
+a tick time (to 1 ns, the precision recorded). A change that is meant to alter the sound records
+new values with ``python tests/data/record_preset_renders.py`` and says why in its commit.
 
 Each render starts from empty caches: a plate's modes solved before for a wider band are reused
 for a narrower one (a prefix of a larger Ritz basis, equal within the solver's tolerance of 1e-4
-but not to the last bit), so the samples are recorded for a fresh solve.
+but not to the last bit), so the samples are recorded for a fresh solve. The render and its
+analysis are the session's shared run of the preset (tests/conftest.py), which the round trip
+reads too.
 """
 
 import hashlib
@@ -31,13 +33,14 @@ def audio_sha256(audio: np.ndarray) -> str:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(RECORDED))
-def test_preset_renders_the_recorded_samples(name, empty_caches):
+def test_preset_renders_the_recorded_samples(name, preset_run):
     want = RECORDED[name]
-    r = synth.render_preset(name)
+    run = preset_run(name)
+    r = run.render
     assert r.samplerate == want["samplerate"]
     assert r.audio.size == want["samples"]
     assert audio_sha256(r.audio) == want["sha256"]
-    ticks = synth.analyze(r.audio, samplerate=r.samplerate).ticks
+    ticks = run.analysis.ticks
     np.testing.assert_allclose([t.time for t in ticks], want["ticks"], rtol=0, atol=1e-9)
 
 

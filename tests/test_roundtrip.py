@@ -113,11 +113,11 @@ def _tick_to_masker(scene, seq, r, i):
 
 
 @pytest.mark.parametrize("name", PRESETS)
-def test_roundtrip_recovers_onsets_and_restitution(name):
-    scene, seq, r = _render(name)
+def test_roundtrip_recovers_onsets_and_restitution(name, preset_run):
+    run = preset_run(name)
+    r, a = run.render, run.analysis
     truth = r.onsets
     n = min(10, truth.size)
-    a = analyze(r.audio, r.samplerate, gravity=scene.gravity)
     got = np.array([t.time for t in a.ticks[:n]])
     assert got.size == n, (name, got.size, n)
     assert np.max(np.abs(got - truth[:n])) < ONSET_TOL, (name, got - truth[:n])
@@ -129,7 +129,7 @@ def test_roundtrip_recovers_onsets_and_restitution(name):
         assert MISSED_BOUNCE not in a.ticks[i].flags, (name, i)
 
 
-def test_roundtrip_steel_sheet_masked_ticks():
+def test_roundtrip_steel_sheet_masked_ticks(preset_run):
     # The first ten ticks of the steel sheet, 14.8 to 35.2 dB under the ringing of the
     # earlier ones (TMR checked for ticks 4 and 10): steps 1-6 alone (an explicit whitening
     # order) find the first three within the requirement and no more; with step 7 all ten
@@ -145,8 +145,8 @@ def test_roundtrip_steel_sheet_masked_ticks():
     # -9.0 to +13.3 us): over the shortest bounce, 0.97 ms, 0.54 %, within the 1 % that e_n
     # needs. The tenth e_n, which the level crossings put 1.46 % off: measured 0.07 %, under
     # 0.5 % (half the requirement, for the bounce times' errors above).
-    name = "steel-ball-on-steel-sheet"
-    scene, seq, r = _render(name)
+    run = preset_run("steel-ball-on-steel-sheet")
+    scene, seq, r = run.scene, run.render.impacts, run.render
     truth = r.onsets
     assert _tick_to_masker(scene, seq, r, 3) < -14.5
     assert _tick_to_masker(scene, seq, r, 9) < -35.0
@@ -155,7 +155,7 @@ def test_roundtrip_steel_sheet_masked_ticks():
     got = np.array([t.time for t in first.ticks])
     ok = np.abs(got[:, None] - truth[None, :10]).min(axis=0) < ONSET_TOL
     assert ok.sum() == 3 and ok[:3].all()
-    a = analyze(r.audio, fs, gravity=scene.gravity)
+    a = run.analysis
     got = np.array([t.time for t in a.ticks[:10]])
     err = got - truth[:10]
     assert np.max(np.abs(err)) < 1.0 / fs

@@ -1,35 +1,29 @@
 """Record what every preset renders to (tests/test_frozen_renders.py checks it).
 
 Run from the repository: ``python tests/data/record_preset_renders.py``. Each preset is
-rendered from empty caches (a private cache folder, empty memory caches), as the test does.
+rendered and analysed as the test does (tests/conftest.py, ``preset_run_from_empty_caches``).
 """
 
 import hashlib
 import json
-import os
-import tempfile
+import sys
 from pathlib import Path
 
 import numpy as np
 
 import synth
-from synth.sound import modes, radiation
 
-
-def render_from_empty_caches(name: str):
-    with tempfile.TemporaryDirectory(prefix="synth-record-") as tmp:
-        os.environ["SYNTH_CACHE_DIR"] = tmp
-        modes.clear_memory_cache()
-        radiation.clear_memory_cache()
-        return synth.render_preset(name)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from conftest import preset_run_from_empty_caches  # noqa: E402  (tests/conftest.py)
 
 
 def main() -> None:
     out = {}
     for name in sorted(synth.io.presets.available()):
-        r = render_from_empty_caches(name)
+        run = preset_run_from_empty_caches(name)
+        r = run.render
         digest = hashlib.sha256(np.ascontiguousarray(r.audio, dtype="<f4").tobytes()).hexdigest()
-        ticks = synth.analyze(r.audio, samplerate=r.samplerate).ticks
+        ticks = run.analysis.ticks
         out[name] = dict(
             sha256=digest,
             samples=int(r.audio.size),
