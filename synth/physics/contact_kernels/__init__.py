@@ -130,7 +130,7 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
     recompute).
     """
-    S = new_series()
+    S = new_series(b)
     s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
     hist = np.empty((32, H_COLS))
     hist[0, H_T0] = 0.0
@@ -283,7 +283,7 @@ def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, 
     """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
-    S = new_series()
+    S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
     sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, s_contact, times, forces)
     times *= t_scale
@@ -305,7 +305,7 @@ def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
     + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
     b r') / D`` (0 where f is clipped at 0).
     """
-    S = new_series()
+    S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
     nh = hist.shape[0]
     for i in range(s.shape[0]):
