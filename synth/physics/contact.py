@@ -47,21 +47,17 @@ from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
 
-#: Zener's inelasticity above which the contact is integrated by the implicit
-#: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
-STIFF_LAMBDA = 20.0
+#: Zener's inelasticity above which the contact is integrated by the implicit Radau IIA
+#: method; the absolute tolerance relative to the local one; the step limits of DOP853
+#: and of the implicit method (constants of the compiled kernel, see contact_kernels).
+STIFF_LAMBDA = _k.STIFF_LAMBDA
+ABSOLUTE_FACTOR = _k.ABSOLUTE_FACTOR
+EXPLICIT_STEP_LIMIT = _k.EXPLICIT_STEP_LIMIT
+IMPLICIT_STEP_LIMIT = _k.IMPLICIT_STEP_LIMIT
 #: Local tolerance of the integrators relative to the requested ``rtol``.
 TOLERANCE_SAFETY = 0.2
-#: Absolute tolerance of the dimensionless state relative to the local tolerance: the
-#: state starts at order one, so this keeps the control relative down to 1e-6 of that
-#: scale (small restitutions, the long tails of very inelastic contacts).
-ABSOLUTE_FACTOR = 1e-6
 #: Fewest samples of a force pulse over the contact.
 MIN_POINTS = 64
-#: Steps before DOP853 gives up and the implicit method takes over.
-EXPLICIT_STEP_LIMIT = 20_000
-#: Steps before the implicit method reports failure.
-IMPLICIT_STEP_LIMIT = 200_000
 
 _MESSAGES = {
     _k.SEPARATED: "The ball separated from the plate.",
@@ -440,11 +436,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
         A,
         v_free,
         tol * TOLERANCE_SAFETY,
-        ABSOLUTE_FACTOR,
-        STIFF_LAMBDA,
         _METHODS[method],
-        EXPLICIT_STEP_LIMIT,
-        IMPLICIT_STEP_LIMIT,
     )
     r = r.tolist()  # Python floats, read once each
     status = int(r[_k.R_STATUS])

@@ -56,8 +56,11 @@ from synth.physics.contact_kernels.radau import integrate_radau
 from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
 __all__ = [
+    "ABSOLUTE_FACTOR",
     "AUTO",
     "DOP853",
+    "EXPLICIT_STEP_LIMIT",
+    "IMPLICIT_STEP_LIMIT",
     "MAX_STEPS",
     "N_RESULT",
     "RADAU",
@@ -83,12 +86,27 @@ __all__ = [
     "SEPARATED",
     "SETTLED",
     "STEP_TOO_SMALL",
+    "STIFF_LAMBDA",
     "force_slope_at",
     "impact",
     "pulse",
     "pulse_samples",
     "solve",
 ]
+
+# The solver's settings, constants of the compiled ``impact`` rather than arguments: each
+# argument of a numba function costs its dispatch ~0.05 us per call (of ~15 us an impact).
+#: Zener's inelasticity above which the contact is integrated by the implicit
+#: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
+STIFF_LAMBDA = 20.0
+#: Absolute tolerance of the dimensionless state relative to the local tolerance: the
+#: state starts at order one, so this keeps the control relative down to 1e-6 of that
+#: scale (small restitutions, the long tails of very inelastic contacts).
+ABSOLUTE_FACTOR = 1e-6
+#: Steps before DOP853 gives up and the implicit method takes over.
+EXPLICIT_STEP_LIMIT = 20_000
+#: Steps before the implicit method reports failure.
+IMPLICIT_STEP_LIMIT = 200_000
 
 # Integrator choice of ``impact``.
 AUTO = 0
@@ -130,7 +148,7 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
     recompute).
     """
-    S = new_series()
+    S = new_series(b)
     s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
     hist = np.empty((32, H_COLS))
     hist[0, H_T0] = 0.0
@@ -206,21 +224,17 @@ def impact(
     A,
     v_free,
     rtol,
-    atol_factor,
-    stiff_lambda,
     method,
-    max_explicit,
-    max_implicit,
 ):
     """One impact from lumped parameters (SI units, checked by the caller).
 
     Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
     length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
     integrates them by ``solve`` (``method``: AUTO picks Radau IIA above
-    ``stiff_lambda`` and falls back to it when DOP853 reaches ``max_explicit`` steps),
-    and takes the energy balance (docs/physics.md, "Hertz contact"; the contact's loss included).
-    ``rtol`` is the integrators' local tolerance, ``atol_factor`` the absolute one
-    relative to it.
+    ``STIFF_LAMBDA`` and falls back to it when DOP853 reaches ``EXPLICIT_STEP_LIMIT``
+    steps), and takes the energy balance (docs/physics.md, "Hertz contact"; the contact's
+    loss included). ``rtol`` is the integrators' local tolerance, ``ABSOLUTE_FACTOR`` times
+    it the absolute one.
 
     Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
     fields are named by the ``R_*`` indices above (flags and counts stored as
@@ -232,13 +246,15 @@ def impact(
     G = g * theta / v0
     c = mu * v0
     b = 1.5 * A / theta
-    atol = rtol * atol_factor
-    stiff = (lam > stiff_lambda) if method == AUTO else (method == RADAU)
+    atol = rtol * ABSOLUTE_FACTOR
+    stiff = (lam > STIFF_LAMBDA) if method == AUTO else (method == RADAU)
     f_scale = m * v0 / theta
-    out = solve(lam, G, n, c, b, rtol, atol, max_implicit if stiff else max_explicit, stiff)
+    out = solve(
+        lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT, stiff
+    )
     if out[0] == MAX_STEPS and not stiff and method == AUTO:
         stiff = True
-        out = solve(lam, G, n, c, b, rtol, atol, max_implicit, True)
+        out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, True)
     status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0
@@ -283,7 +299,7 @@ def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, 
     """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
-    S = new_series()
+    S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
     sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, s_contact, times, forces)
     times *= t_scale
@@ -305,7 +321,7 @@ def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
     + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
     b r') / D`` (0 where f is clipped at 0).
     """
-    S = new_series()
+    S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
     nh = hist.shape[0]
     for i in range(s.shape[0]):

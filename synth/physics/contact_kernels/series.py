@@ -36,9 +36,12 @@ HALF_SERIES_BAND = 5
 
 
 @numba.njit(cache=True)
-def new_series():
-    """An array for the coefficients of either start series."""
-    return np.empty((7, SERIES_SIZE, SERIES_COLS))
+def new_series(b):
+    """An array for the coefficients of the start series that the viscoelastic loss ``b``
+    chooses: (7, SERIES_SIZE, SERIES_SIZE) for the series in s and s^n (b = 0), with
+    ``SERIES_COLS`` columns for the series in s^(1/2) (b > 0). The smaller array for b = 0
+    halves what ``series_coefficients`` zeroes on every impact (Hertz, Hunt-Crossley)."""
+    return np.empty((7, SERIES_SIZE, SERIES_COLS if b != 0.0 else SERIES_SIZE))
 
 
 @numba.njit(cache=True, inline="always")
@@ -194,7 +197,7 @@ def series_coefficients(lam, G, n, c, b, S):
     degree, so one pass in order of j, then i, gives them all, exactly: X and W up
     to ``SERIES_DEGREE``, A and F up to ``SERIES_DEGREE - n`` (all X and W need).
 
-    Fills ``S`` (7, SERIES_SIZE, SERIES_COLS): X, W, A, F, then X (n+1) (i + j n), and for
+    Fills ``S`` (``new_series(b)``): X, W, A, F, then X (n+1) (i + j n), and for
     Hunt-Crossley R and A (1 + c W).
     """
     if b != 0.0:
