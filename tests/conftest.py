@@ -130,3 +130,29 @@ def preset_run_from_empty_caches(name: str) -> PresetRun:
 def preset_run():
     """A function ``name -> PresetRun``: :func:`preset_run_from_empty_caches`."""
     return preset_run_from_empty_caches
+
+
+def _dashpot_point(plate, position=None):
+    from synth.physics import impedance
+    from synth.physics import modal_contact as mc
+
+    empty = np.zeros(0)
+    return mc.ModalPoint(
+        plate=plate,
+        position=plate.centre if position is None else position,
+        max_frequency=1.0,
+        omega=empty,
+        sigma=empty,
+        coupling=empty,
+        rigid_coupling=0.0,
+        residual_admittance=1.0 / impedance.infinite_plate_impedance(plate),
+        residual_rate=0.0,
+    )
+
+
+@pytest.fixture
+def dashpot_point():
+    """A function ``(plate, position=None) -> ModalPoint`` with no modes, no rigid body and a
+    residual of rate 0: a pure dashpot of admittance ``1 / Z_inf`` (s/kg), i.e. the modal
+    contact reduced exactly to the impedance model (at the plate's centre by default)."""
+    return _dashpot_point

@@ -20,31 +20,14 @@ BALL = Ball("steel", 0.005)
 SMALL = Plate("mdf-18", 0.018, 0.3, 0.2)
 
 
-def _dashpot_only(plate, position):
-    """A ModalPoint with no modes, no rigid body and a residual of rate 0: a pure dashpot of
-    admittance 1 / Z_inf, i.e. exactly the impedance model."""
-    empty = np.zeros(0)
-    return mc.ModalPoint(
-        plate=plate,
-        position=position,
-        max_frequency=1.0,
-        omega=empty,
-        sigma=empty,
-        coupling=empty,
-        rigid_coupling=0.0,
-        residual_admittance=1.0 / impedance.infinite_plate_impedance(plate),
-        residual_rate=0.0,
-    )
-
-
 @pytest.mark.parametrize("speed", [1.4, 0.05])
-def test_integrator_reproduces_the_impedance_model_in_its_limit(speed):
+def test_integrator_reproduces_the_impedance_model_in_its_limit(speed, dashpot_point):
     # With the plate reduced to the dashpot 1/Z_inf the modal contact is the impedance model;
     # the scheme is second order in the step: 512 steps give e and tau to 1e-5 (measured
     # 3e-6 at 256 steps on the thesis' board), against the impedance solver at rtol 1e-10.
     plate = Plate("mdf-18", 0.018, 1.227, 0.49)
     K = hertz_stiffness(BALL, plate)
-    contact = mc.ModalContact(_dashpot_only(plate, plate.centre), BALL.mass, K, 1.5, 9.81)
+    contact = mc.ModalContact(dashpot_point(plate), BALL.mass, K, 1.5, 9.81)
     r = contact.solve(speed)
     ref = solve_contact(
         mass=BALL.mass,
@@ -66,9 +49,9 @@ def test_integrator_reproduces_the_impedance_model_in_its_limit(speed):
     assert 3.0 < ratio < 5.0
 
 
-def test_band_impedance_of_the_dashpot_is_z_inf():
+def test_band_impedance_of_the_dashpot_is_z_inf(dashpot_point):
     plate = Plate("mdf-18", 0.018, 1.227, 0.49)
-    p = _dashpot_only(plate, plate.centre)
+    p = dashpot_point(plate)
     y = p.admittance(np.array([10.0, 1e3, 1e5]))
     assert np.allclose(y, 1.0 / impedance.infinite_plate_impedance(plate))
 
