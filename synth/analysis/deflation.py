@@ -465,6 +465,11 @@ class DeflationSearch:
         """Shortest plausible bounce after the last of ``onsets``."""
         return separation(onsets, strengths, self.min_sep, self.settings.e_min)
 
+    def _confirmed(self, on: float) -> bool:
+        """Whether a tick at ``on`` is confirmed by an earlier search, so that no bounce too
+        soon for the series refuses it (step 7 only)."""
+        return False
+
     def _lower_floor(self, energy: float) -> None:
         """Set the floor after a tick of whitened energy ``energy`` (step 7 only)."""
 
@@ -596,8 +601,9 @@ class DeflationSearch:
         burst = self._burst(on)
         energy = max(c.energy, float(burst.max())) if burst.size else c.energy
         near = np.abs(self.anchor_on - on) < self.min_sep
+        too_soon = on - self.onsets[-1] < self._separation(self.onsets, self.strengths)
         if not near.any() and (
-            on - self.onsets[-1] < self._separation(self.onsets, self.strengths)
+            (too_soon and not self._confirmed(on))
             or too_strong(self.onsets, self.strengths, self.energies, on, energy)
         ):
             return None

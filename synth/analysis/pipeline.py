@@ -34,7 +34,7 @@ from synth.analysis.measures import (
     with_standing_out,
 )
 from synth.analysis.report import Analysis
-from synth.analysis.resonator import BACKGROUND_SPAN, ResonatorSearch
+from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
 from synth.analysis.series import BOUNCE_GROWTH, bounce_order
 from synth.analysis.settings import (
     AnalysisError,
@@ -66,9 +66,6 @@ from synth.io.audio import wav_shortfall
 #: The resonator's search (step 7) is kept when its predictor leaves at least this much
 #: less of the first tick's ringing than the first search's, dB.
 RESONATOR_GAIN_DB = 20.0
-#: The resonator's search must find the first search's ticks within this, s (two sample
-#: periods at 48 kHz), to continue their series.
-AGREEMENT = 0.00004
 #: Largest fraction of the samples in flat tops (clipping) of a recording of impacts: its
 #: ticks' peaks are short and their ringing decays below the clip level within each bounce,
 #: so a signal held at its extremes for half its length is no such recording.

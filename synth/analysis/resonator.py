@@ -32,6 +32,10 @@ from synth.analysis.series import (
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import PREDICTION_FLOOR
 
+#: The resonator's search must find the first search's ticks within this, s (two sample
+#: periods at 48 kHz), to continue their series; a candidate within it of a tick of the first
+#: search is no remainder of the previous tick (:meth:`ResonatorSearch._confirmed`).
+AGREEMENT = 0.00004
 #: The longest lag after of a tick's filter, s: a contact up to 0.5 ms longer than the first
 #: tick's (a slow ball's on a soft board).
 RESONATOR_POST = 0.0005
@@ -442,7 +446,8 @@ class ResonatorSearch(DeflationSearch):
     the first tick's template. ``floor`` None: no fixed floor under the strongest frame (the
     whitened noise raised by ``threshold_db`` and ``e_min^2`` times the last tick's energy,
     never under :data:`PREDICTION_FLOOR` of ``strongest``). ``known``: the onsets of the
-    first search, which decide whether the second tick is a template."""
+    first search, which decide whether the second tick is a template and confirm a tick
+    sooner than the series allows."""
 
     strict_onsets = True
 
@@ -471,6 +476,18 @@ class ResonatorSearch(DeflationSearch):
 
     def _separation(self, onsets, strengths):
         return soonest(onsets, strengths, self.min_sep)
+
+    def _confirmed(self, on):
+        """Whether the first search (steps 2-6, on the 20 ms predictor's whitening) found a
+        tick within :data:`AGREEMENT` of ``on``. The soonest bounce the series allows keeps
+        the remainders of the previous tick's own response out; a burst found at the same
+        place, to two sample periods, on another whitening, whose remainders lie elsewhere,
+        is a tick, not one of them, and the restitution may change faster than
+        :data:`RESTITUTION_STEP` there (a slow ball on a ringing board: the surface's velocity
+        at the touch, not small against the ball's, changes its rebound)."""
+        if self.known.size == 0:
+            return False
+        return bool(np.abs(self.known - on).min() <= AGREEMENT * self.settings.samplerate)
 
     def _lower_floor(self, energy):
         """``e_min^2`` times the last tick's energy: ``max_drop_db`` under it."""
