@@ -21,7 +21,7 @@ from synth.errors import SynthError
 
 
 def _add_preset_args(p):
-    p.add_argument("preset", help="preset file (presets/NAME.toml) or preset name")
+    p.add_argument("preset", help="preset file (NAME.toml) or preset name")
     p.add_argument(
         "--set",
         dest="overrides",

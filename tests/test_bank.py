@@ -455,12 +455,12 @@ def test_grid_template_and_log_range(tmp_path):
     assert items[0].file.startswith("h0.01-k0.5-0.0")
 
 
-BANK_SPECS = sorted(p.name for p in (ROOT / "presets" / "banks").glob("*.toml"))
+BANK_SPECS = sorted(p.name for p in (ROOT / "synth" / "presets" / "banks").glob("*.toml"))
 
 
 @pytest.mark.parametrize("name", BANK_SPECS)
 def test_example_specs_plan(name):
-    s = bank.load(ROOT / "presets" / "banks" / name)
+    s = bank.load(ROOT / "synth" / "presets" / "banks" / name)
     assert len(bank.plan(s)) >= 10
 
 

@@ -18,7 +18,7 @@ from synth.io.presets import load_preset
 from synth.physics.bounces import STOP_REASONS, simulate_scene
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT = REPO / "presets" / "default.toml"
+DEFAULT = REPO / "synth" / "presets" / "default.toml"
 ROW_KEYS = {"n", "time", "speed", "restitution", "contact_time", "peak_force", "inelasticity"}
 
 

@@ -116,7 +116,7 @@ def test_no_reference_outside_the_repository():
     for folder, pattern in (
         ("synth", "*.py"),
         ("tests", "*.py"),
-        ("presets", "*.toml"),
+        ("synth/presets", "*.toml"),
         ("examples", "*.py"),
     ):
         paths += sorted((ROOT / folder).rglob(pattern))

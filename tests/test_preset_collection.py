@@ -15,7 +15,7 @@ from synth.physics.materials import TABLE
 from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
-FILES = sorted((REPO / "presets").glob("*.toml"))
+FILES = sorted((REPO / "synth" / "presets").glob("*.toml"))
 NAMES = [p.stem for p in FILES]
 THESIS_FILES = [p for p in FILES if p.stem.startswith("thesis-") or p.stem == "default"]
 
@@ -50,7 +50,7 @@ def _thesis_parts(path):
 
 def _e1(name, *overrides):
     """First restitution of a preset's scene, optionally overridden."""
-    return simulate_scene(load_preset(REPO / "presets" / f"{name}.toml", overrides))[
+    return simulate_scene(load_preset(REPO / "synth" / "presets" / f"{name}.toml", overrides))[
         0
     ].result.restitution
 

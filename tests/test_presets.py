@@ -23,7 +23,7 @@ from synth.physics.materials import TABLE, LossFactor, Rayleigh
 from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT = REPO / "presets" / "default.toml"
+DEFAULT = REPO / "synth" / "presets" / "default.toml"
 
 # The thesis setup (docs/physics.md, "Materials" and "Hertz contact"; thesis Table 3.1) written as
 # a preset dict.
@@ -146,7 +146,7 @@ def test_load_default_by_path_is_thesis_setup(monkeypatch):
     # The same file by relative path (from the repository root) and absolute path gives the
     # same scene as by name (frozen dataclasses compare field by field).
     monkeypatch.chdir(REPO)
-    by_rel = load_preset("presets/default.toml")
+    by_rel = load_preset("synth/presets/default.toml")
     check_thesis_scene(by_rel)
     assert by_rel == load_preset(DEFAULT) == load_preset("default")
 

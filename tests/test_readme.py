@@ -35,10 +35,12 @@ def test_ci_runs_the_readme_test_command():
     assert "mktemp -d" in ci and "--exclude=./.venv" in ci
 
 
-def test_main_job_renders_a_preset_of_the_repository():
-    # The first command renders a preset file of the repository to a WAV in renders/.
+def test_main_job_renders_a_shipped_preset():
+    # The first command renders a preset installed with the package to a WAV in renders/.
+    from synth.io.presets import find
+
     words = _commands()[0].split("synth render ")[1].split()
-    assert (ROOT / words[0]).is_file()
+    assert find(words[0]).is_file()
     assert words[1] == "-o" and words[2].startswith("renders/") and words[2].endswith(".wav")
 
 

@@ -116,22 +116,18 @@ _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source", "t
 #: The value of ``transverse_shear`` that ties it to the material's fitted through-thickness
 #: modulus (:func:`synth.physics.materials.with_transverse_shear`).
 TIED_SHEAR = "tied"
+#: The presets installed with the package.
+PACKAGE_PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
 
 def preset_dirs() -> list[Path]:
     """Folders searched for a preset given by name, in order: ``$SYNTH_PRESETS``,
-    ``./presets``, the source tree's ``presets/`` and the installed copy."""
+    ``./presets`` and the presets installed with the package (``synth/presets``)."""
     dirs = []
     if os.environ.get("SYNTH_PRESETS"):
         dirs.append(Path(os.environ["SYNTH_PRESETS"]))
     dirs.append(Path.cwd() / "presets")
-    dirs.append(Path(__file__).resolve().parents[2] / "presets")
-    try:
-        from importlib.resources import files
-
-        dirs.append(Path(str(files("synth._presets"))))
-    except (ModuleNotFoundError, TypeError):
-        pass
+    dirs.append(PACKAGE_PRESETS)
     seen, out = set(), []
     for d in dirs:
         if d not in seen and d.is_dir():
