@@ -1,12 +1,45 @@
-"""Shared test helpers."""
+"""Shared test helpers, and the check that the suite tests the installed package."""
 
 import functools
+import json
 import os
 import tempfile
 from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 import pytest
+
+#: The repository (or the fresh copy CI runs in) that holds these tests.
+REPOSITORY = Path(__file__).resolve().parents[1]
+
+
+def _editable_install_of(folder: Path) -> bool:
+    """True if an installed distribution of the project is an editable install of ``folder``
+    (pip records it in ``direct_url.json``, PEP 610)."""
+    for dist in metadata.distributions(name="impact-synth"):
+        record = json.loads(dist.read_text("direct_url.json") or "{}")
+        url = Path(record.get("url", "").removeprefix("file://"))
+        if record.get("dir_info", {}).get("editable", False) and url == folder:
+            return True
+    return False
+
+
+def pytest_configure(config):
+    """Refuse to run against this checkout's source tree unless it is what is installed (an
+    editable install of it): the suite tests what a user installs, so ``import synth`` must
+    resolve to the installed package (``pip install .`` then ``pytest``; ``python -m pytest``
+    would put the checkout first on ``sys.path``)."""
+    import synth
+
+    where = Path(synth.__file__).resolve()
+    if REPOSITORY in where.parents and not _editable_install_of(REPOSITORY):
+        raise pytest.UsageError(
+            f"the tests import synth from the source tree ({where}), not from the installed "
+            "package: run `pip install .` (or `pip install -e .` to develop) and then `pytest`, "
+            "not `python -m pytest`"
+        )
 
 
 def _damage(path, how, array=None):

@@ -56,7 +56,7 @@ def test_preset_with_undamped_inline_plate_material(tmp_path, capsys):
     # `synth render` stops with the missing damping law named (exit status 2).
     from synth.cli import main
 
-    text = (Path(__file__).resolve().parent.parent / "synth" / "presets" / "default.toml").read_text()
+    text = (Path(__file__).resolve().parents[1] / "synth" / "presets" / "default.toml").read_text()
     inline = 'material = { name = "mdf-undamped", density = 700.0, young = 5.689e9, poisson = 0.4 }'
     assert 'material = "mdf-18"' in text
     path = tmp_path / "undamped.toml"
