@@ -148,6 +148,7 @@ def test_new_timing_follows_the_rule(short, k):
 # --------------------------------------------------------------------------- no gap, no click
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scale", [True, False], ids=["scaled", "kept"])
 @pytest.mark.parametrize("snr", [None, 30.0], ids=["clean", "30dB"])
 @pytest.mark.parametrize("k", [0.3, 0.5, 2.0])
@@ -179,6 +180,7 @@ def test_no_gap_and_no_click(recording, k, snr, scale):
     assert worst_join(y, on, t_new, FS) <= 0.0
 
 
+@pytest.mark.slow
 def test_background_noise_is_kept_in_lengthened_bounces(recording):
     # k = 0.3 lengthens every bounce (the last ones from 1 ms to 50 ms); where the recording
     # has no sample the output's ringing is continued and the noise floor synthesised.
@@ -219,6 +221,7 @@ def test_background_noise_is_kept_in_lengthened_bounces(recording):
 # --------------------------------------------------------------------------- a deader ball
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k, kept", [(2.0, 27), (4.0, 11)])
 def test_deader_ball_ends_its_series(recording, k, kept):
     # k > 1 shortens every bounce; the series ends at the first new bounce shorter than the
@@ -289,6 +292,7 @@ def test_deader_ball_against_the_rendered_relaying(scene):
 # --------------------------------------------------------------------------- sample rates
 
 
+@pytest.mark.slow
 def test_same_alteration_at_any_rate(scene):
     # The first 12 ticks of the default scene, the same signal at 22.05, 44.1 and 96 kHz
     # (resampled from 48 kHz: the attacks carry the resampling filter's pre-echo, as a
@@ -339,6 +343,7 @@ def louder_late(short):
     return x * 10 ** (-0.8 / 20) / np.abs(x).max(), on
 
 
+@pytest.mark.slow
 def test_normalize_peak(louder_late, tmp_path, capsys):
     # The API: normalize="none" keeps the recording's level (+5.9 dBFS here); "peak" puts
     # the largest sample at peak_db (1e-12). The CLI: without --normalize the write refuses
@@ -387,6 +392,7 @@ def test_normalize_rejects_bad_input(short, capsys, tmp_path):
     assert "invalid choice" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_channels_are_altered_together(short):
     # Every channel is altered on the same onsets and ends at the same sample; the output
     # is reproducible (seed) and the seed changes only the synthesised noise (here the

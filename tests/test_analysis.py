@@ -623,6 +623,7 @@ def test_early_reflections(fs):
     assert np.max(np.abs(restitutions(an, idx) / E - 1.0)) < 1e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("snr_db", [None, 20])
 def test_room(snr_db):
     # The early reflections above and a diffuse tail (RT60 0.69 s) carrying as much
@@ -721,6 +722,7 @@ def test_resonator_search_finds_masked_ticks(plate48):
         assert an.ticks[i].restitution / PLATE_E - 1.0 == pytest.approx(0.0, abs=bound), i
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("snr_db, found", [(60, 11), (40, 8)])
 def test_resonator_search_in_noise(plate48, snr_db, found):
     # White noise under the ticks' mean power. The resonator's predictor stops its order
@@ -885,6 +887,7 @@ def test_clipping(clean44):
     assert np.max(np.abs(restitutions(a, idx) / E - 1.0)) < 1e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["ceramic-cup-on-stone", "glass-marble-on-glass-table"])
 def test_clipping_of_a_render(name):
     # Rendered bounces clipped at a tenth of their peak (20 dB). Each clipped run is a
@@ -914,6 +917,7 @@ def test_clipping_rejects_bad_policy():
         analyze(x, 44100, on_clipping="clamp")
 
 
+@pytest.mark.slow
 def test_analyze_file(tmp_path, clean44):
     x, onsets, _, an = clean44
     other, _, _ = bouncing(44100, e=0.7)
@@ -1066,6 +1070,7 @@ PANELS = [
 ]
 
 
+@pytest.mark.slow
 def test_plot_analysis(tmp_path, clean44):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     x, _, _, an = clean44
@@ -1166,6 +1171,7 @@ def three_channels(tmp_path_factory):
     return path, onsets[onsets < n / fs - 0.01]
 
 
+@pytest.mark.slow
 def test_analyze_command(capsys, three_channels, tmp_path):
     pytest.importorskip("matplotlib", reason="optional dependency: pip install matplotlib")
     path, onsets = three_channels
@@ -1219,6 +1225,7 @@ def test_analyze_command_warns_on_clipping(capsys, tmp_path, fmt):
 # benchmark
 
 
+@pytest.mark.slow
 def test_bench_analysis():
     # `synth bench analysis` with one restitution and two seeds: the table's rows and
     # columns, every tick found without noise and at 40 dB SNR, and the restitution

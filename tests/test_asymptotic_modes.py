@@ -33,6 +33,7 @@ def _private_cache(tmp_path, monkeypatch):
 BEAM = [4.730040745, 7.853204624, 10.99560784, 14.13716549, 17.27875966]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("free", [True, False])
 def test_one_dimensional_roots_are_the_beam_roots_without_transverse_wavenumber(free):
     """With ``s_y = 0`` the one-dimensional equations are the beam's: its roots k L to
@@ -107,6 +108,7 @@ def test_square_pairs_split_by_the_rayleigh_ritz_step(boundary):
     assert np.median(err) < 1e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_paired_shapes_are_orthonormal(boundary):
     """The modes of the Rayleigh-Ritz step have mean square 1 and a pair's two modes are

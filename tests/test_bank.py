@@ -165,6 +165,7 @@ def test_damaged_file_is_redone(serial, tmp_path):
     assert _audio_files(out) == _audio_files(ref)
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_equals_pool(serial, tmp_path):
     # The same task function on a real distributed cluster (2 worker processes) writes the
     # same files as the local run.
@@ -226,6 +227,7 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_a_killed_worker_stops_the_bank_cleanly_and_resume_completes(tmp_path, cache_dir):
     # SIGKILL to one worker (not the parent) mid-run: the bank must not wait forever for
@@ -253,6 +255,7 @@ def test_a_killed_worker_stops_the_bank_cleanly_and_resume_completes(tmp_path, c
     _check_complete(out, 40)
 
 
+@pytest.mark.slow
 def test_pool_workers_take_sigterm_by_default(tmp_path, cache_dir):
     # The command line's SIGTERM handler raises to unwind; a forked worker must not inherit
     # it: the pool stops its workers with SIGTERM when one dies, and a raise inside a

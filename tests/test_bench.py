@@ -86,6 +86,7 @@ def test_gallery_command_rejects_missing_folder(tmp_path, capsys):
     assert "output_dir" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", GALLERY)
 def test_committed_gallery_is_current(name, empty_caches):
     # renders/ holds what `synth gallery` makes today: each committed WAV equals a fresh

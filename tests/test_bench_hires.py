@@ -13,6 +13,7 @@ def _private_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
 
 
+@pytest.mark.slow
 def test_hires_child_times_each_stage():
     # the default preset at 8 kHz in this process: modes, first and warm render timed
     out = bench.hires_child(8000)

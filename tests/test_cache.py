@@ -67,6 +67,7 @@ def _hammer(path, value, n):
         cache.savez_atomic(path, {"a": np.full(50_000, value, dtype=np.float64)})
 
 
+@pytest.mark.slow
 def test_concurrent_writers_never_show_a_mixed_entry(tmp_path):
     # Two processes rewrite one entry 20 times each with different contents while this
     # one reads it: every read is one writer's whole entry (the rename is atomic).

@@ -295,6 +295,7 @@ def test_analyze_command_rejects_bad_input(capsys, rendered, tmp_path):
         assert code == 2 and words in err, (argv, err)
 
 
+@pytest.mark.slow
 def test_alter_command(capsys, rendered, tmp_path):
     # K = 0.5 halves 1 - e for every bounce: the altered file, analysed, has the new
     # restitution (mean within 1 %) and the same first onset.

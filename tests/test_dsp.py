@@ -48,6 +48,7 @@ def test_levinson_recovers_an_autoregressive_process():
     assert a == pytest.approx([1.0, -a1, -a2, 0.0, 0.0], abs=1e-6)
 
 
+@pytest.mark.slow
 def test_autocorrelation_predictor_sums_blocks_exactly():
     # Over more than one FFT block (65536 samples) the autocorrelation is exact: the same
     # predictor as from np.correlate's direct lags (to rounding).

@@ -125,6 +125,7 @@ def _extreme_scene(rng, kind, i):
     return ball, plate, v, pos
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind, count", [("slow", 4000), ("broad", 800), ("stiff", 200)])
 def test_default_tolerance_agrees_with_a_tight_one(kind, count):
     # Every impact solved at the default rtol (1e-6) agrees with the same impact at rtol

@@ -54,6 +54,7 @@ def test_hunt_crossley_small_loss_closed_form(n):
         ("viscoelastic", {"viscous_time": 2.65e-6}),
     ],
 )
+@pytest.mark.slow
 def test_modal_plate_lossy_contact_energy_and_impedance_limit(law, loss):
     # Mid-plate the reflections return after the contact: the modal plate's impact equals the
     # impedance model's with the same loss (restitution within 1e-3: the modal plate's step
@@ -73,6 +74,7 @@ def test_modal_plate_lossy_contact_energy_and_impedance_limit(law, loss):
     assert f[0] > 0.0
 
 
+@pytest.mark.slow
 def test_modal_plate_without_loss_is_unchanged():
     # mu = 0 takes the elastic path of the kernel: no contact loss booked
     c = mc.ModalContact.for_pair(STEEL, MDF18, None, speed=V1)

@@ -70,6 +70,7 @@ def test_fitted_model_first_impact_meets_the_measurement(rows):
     assert r["model"] == 0.87 and r["measured"] == 0.76
 
 
+@pytest.mark.slow
 def test_modal_contact_error_against_run_time(monkeypatch):
     # `synth bench contact`'s modal part on a narrow ladder: one row for the impedance model
     # and one per band and step count; the errors are against the modal plate at the

@@ -70,6 +70,7 @@ def hits_sequence(scene, times, speeds):
     return BounceSequence(impacts, "max-impacts", 1.0, 9.81)
 
 
+@pytest.mark.slow
 def test_a_drop_played_live_is_the_render(scene):
     # both are the exact modal sum (the floor far below float32's resolution); the live
     # bank advances its state from block boundaries instead of tiles, which changes only

@@ -48,6 +48,7 @@ def _edge_modes(boundary, omega_max=2000.0, a=0.4, b=0.3):
     return sol, s, kb
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("boundary, listener", CASES)
 def test_boundary_rule_agrees_with_rectangle_rule(boundary, listener):
     """Both rules' gains of every mode agree within 2 tol (each is within tol of the
@@ -121,6 +122,7 @@ def _exp_poly_cos(n, kappa, k, lo, x):
     return (primitive(x, x) - primitive(lo, x)).real
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c", [0.0, 1e-9, 1e-3, 0.25, 1.0, 10.0, 60.0, 400.0, 1e5])
 def test_decay_weights_integrate_exponential_times_panel_functions(c):
     """The product weights of the decaying tables on a panel [lo, hi] (c = kappa h / 2

@@ -44,6 +44,7 @@ LISTENERS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size, listener", LISTENERS)
 def test_polar_rule_equals_rectangle_rule(size, listener):
     """Both rules estimate the same integral to tol (relative to max(|H|, 1e-4 S)): they

@@ -31,6 +31,7 @@ def test_wavenumber_bands_cover_the_modes_within_the_ratio():
     assert R._wavenumber_bands(np.zeros(0), 1.25) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     """A small plate past a lowered Ritz crossover (a few Ritz modes, then edge effect

@@ -59,6 +59,7 @@ LISTENERS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("boundary, listener", LISTENERS)
 def test_summed_rule_equals_rectangle_rule(boundary, listener):
     """Both rules estimate the same integral to tol (relative to max(|H|, 1e-4 S)): they

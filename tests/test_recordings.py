@@ -268,6 +268,7 @@ def test_sawtooth_has_no_ticks():
         analyze(0.5 * ((45.0 * t) % 1.0 - 0.5), FS)
 
 
+@pytest.mark.slow
 def test_twelve_drops_in_thirty_seconds():
     # the same drop (e = 0.8) every 2.5 s: twelve series of 21 ticks each, every tick found,
     # each series' restitution 0.8 to 0.1 %, nothing flagged (the search of each drop is

@@ -268,6 +268,7 @@ def test_render_rejects_max_frequency_above_nyquist():
         render(DEFAULT, samplerate=48000, max_frequency=30000.0)
 
 
+@pytest.mark.slow
 def test_tail_cut_is_reported():
     # A steel plate (loss factor 1e-4) rings for tens of seconds: a 0.2 s max_tail cuts it,
     # and the render says so, with the bound of what rings on after the end.

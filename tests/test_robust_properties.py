@@ -71,6 +71,7 @@ def test_any_render_option_is_accepted_or_named(key, value):
         assert 5 <= opts["pulse_points"] <= 4097 and -120 <= opts["peak_db"] <= 0
 
 
+@pytest.mark.slow
 @BOUNDED
 @given(text=st.text(max_size=40))
 def test_any_set_text_gives_a_dict_or_a_preset_error(text):

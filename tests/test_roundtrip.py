@@ -114,6 +114,7 @@ def _tick_to_masker(scene, seq, r, i):
     return 10.0 * np.log10(own / other)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", PRESETS)
 def test_roundtrip_recovers_onsets_and_restitution(name, preset_run):
     run = preset_run(name)
@@ -169,6 +170,7 @@ def test_roundtrip_steel_sheet_masked_ticks(preset_run):
     assert a.ticks[9].restitution / (T[8] / T[7]) - 1.0 == pytest.approx(0.0, abs=0.005)
 
 
+@pytest.mark.slow
 def test_roundtrip_board_late_ticks_over_the_noise_floor():
     # On the 6 mm board the late contacts lengthen (0.37 to 0.55 ms for ticks 7-9) and take
     # the high frequencies out of their ticks: through the resonator's predictor of step 7
