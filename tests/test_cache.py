@@ -40,6 +40,7 @@ def _modes_in_process(barrier, queue):
     queue.put(np.asarray(m.frequencies).tolist())
 
 
+@pytest.mark.slow
 def test_two_processes_fill_the_same_entry(tmp_path):
     # Both solve the free plate at once and write its entry: both succeed with the same
     # modes, one valid entry is left, and no temporary file.
