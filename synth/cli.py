@@ -102,6 +102,10 @@ def _cmd_render(args):
     from synth.io.presets import find, load_preset_with_options
     from synth.sound.render import render
 
+    outputs = Outputs(  # every output path checked before any work
+        {"output": args.output, "report": args.report, "plot": args.plot},
+        {"output": audio_io.FORMATS},
+    )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
     if args.timing_from is not None or args.restitution_scale is not None:
@@ -113,10 +117,6 @@ def _cmd_render(args):
         else:
             timing = load_preset_with_options(args.timing_from)[0]
             opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
-    outputs = Outputs(
-        {"output": args.output, "report": args.report, "plot": args.plot},
-        {"output": audio_io.FORMATS},
-    )
     rendered = render(scene, **opts)
     with outputs:
         audio_io.write_audio(
@@ -153,6 +153,7 @@ class Outputs:
         from synth.io.audio import check_output_path
 
         self.paths = {k: Path(v) for k, v in paths.items() if v}
+        _refuse_shared_paths(self.paths)
         for field, path in self.paths.items():
             check_output_path(path, field, (suffixes or {}).get(field))
         self.temporaries: dict = {}
@@ -181,6 +182,22 @@ class Outputs:
                 if tmp.exists():
                     tmp.unlink()
         return False
+
+
+def _refuse_shared_paths(paths: dict) -> None:
+    """Two outputs of one command on one file would leave only the last one written (the
+    audio replaced by the report, say): refused before any work. Paths are compared
+    resolved (``./a.wav``, ``a.wav`` and a symbolic link to it are one file)."""
+    seen: dict = {}
+    for field, path in paths.items():
+        key = path.resolve()
+        if key in seen:
+            other = seen[key]
+            raise SynthError(
+                f"{other}={str(paths[other])!r} and {field}={str(path)!r} are the same file; "
+                f"give each output its own path (nothing was written)"
+            )
+        seen[key] = field
 
 
 def _write_json(path, obj):

@@ -114,13 +114,14 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
     unique name in the same directory, then an atomic rename, so that a reader never
     sees a partial file and concurrent writers of one entry all succeed. Then evict the
     least recently used entries beyond :func:`max_bytes`. Returns False, having written
-    nothing, if the file cannot be written (a cache is then skipped)."""
+    nothing, if the file cannot be written (a cache is then skipped); raises
+    ``ParameterError`` for a bad ``$SYNTH_CACHE_MAX_BYTES``, as ``synth cache info`` does."""
     digest = np.array(arrays_digest(arrays))
+    limit = max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES is the user's error, never a silent "off"
     try:
-        limit = max_bytes()
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomically(path, lambda tmp: np.savez(tmp, **arrays, **{DIGEST_ARRAY: digest}))
-    except (OSError, RuntimeError, ParameterError):  # unwritable, no home, bad bound: no disk cache
+    except (OSError, RuntimeError):  # unwritable, no home: no disk cache
         return False
     _SIZE_COUNT.after_write(path, limit)
     return True

@@ -18,6 +18,7 @@ import numpy as np
 from synth import checks
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
+from synth.io import cache as disk_cache
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
@@ -493,6 +494,7 @@ def render(
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()  # before the bounces: the modes will need it
+    disk_cache.max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES refused before any work
     o = check_options(
         samplerate=samplerate,
         normalize=normalize,
