@@ -3,11 +3,15 @@ case here failed before its fix; a hang is run in a subprocess whose timeout is 
 time limit (the bound is the subprocess timeout, never an assertion on a measured time)."""
 
 
+from pathlib import Path
+
 import pytest
 
 from synth.cli import main
 from synth.errors import ParameterError
 from synth.io import cache
+
+REPO_PRESETS = Path(__file__).resolve().parent.parent / "synth" / "presets"
 
 
 def run(capsys, *argv):
@@ -49,3 +53,57 @@ def test_a_bad_cache_bound_is_one_error_for_render_and_cache_info(
     assert not out.exists()
     with pytest.raises(ParameterError, match="SYNTH_CACHE_MAX_BYTES"):
         cache.savez_atomic(tmp_path / "cache" / "x.npz", {})
+
+
+# --------------------------------------------------------------------------- tracebacks
+
+
+def test_a_film_thin_plate_is_refused_on_the_command_line_and_in_a_file(capsys, tmp_path):
+    # h = 1e-300 m made the bending stiffness E h^3 underflow to 0: ZeroDivisionError in
+    # the contact's plate compliance 1 / Z_inf
+    code, _, err = run(capsys, "info", "default", "--set", "plate.thickness=1e-300")
+    assert code == 2 and "plate.thickness=1e-300" in err and "[1e-06, 100]" in err
+    text = (REPO_PRESETS / "default.toml").read_text()
+    preset = tmp_path / "thin.toml"
+    preset.write_text(text.replace("thickness = 0.018", "thickness = 1e-300"))
+    code, _, err = run(capsys, "info", preset)
+    assert code == 2 and "plate.thickness=1e-300" in err
+
+
+def test_a_recording_without_frames_is_a_clean_error(capsys, tmp_path):
+    import numpy as np
+    import soundfile as sf
+
+    path = tmp_path / "empty.wav"
+    sf.write(path, np.zeros((0, 1)), 48000)
+    code, _, err = run(capsys, "analyze", path)
+    assert code == 2 and "holds no samples" in err and str(path) in err
+
+
+@pytest.mark.parametrize(
+    "args, kwargs, words",
+    [
+        ((None,), {}, ["preset=None", "NoneType"]),
+        ((42,), {}, ["preset=42", "int"]),
+        (("default",), {"overrides": [1, 2]}, ["overrides[0]=1", "int"]),
+        (("default",), {"overrides": "ball.radius=0.007"}, ["overrides='ball.radius", "list"]),
+        (("default",), {"overrides": 7}, ["overrides=7", "list"]),
+        (("/dev/null",), {}, ["/dev/null", "not a regular file"]),
+    ],
+)
+def test_load_preset_names_the_bad_argument(args, kwargs, words):
+    import synth
+
+    with pytest.raises(ParameterError) as info:
+        synth.load_preset(*args, **kwargs)
+    assert all(w in str(info.value) for w in words), str(info.value)
+
+
+def test_a_folder_as_preset_says_it_is_a_folder(tmp_path):
+    import synth
+
+    folder = tmp_path / "presets.toml"
+    folder.mkdir()
+    for p in (tmp_path, folder):
+        with pytest.raises(ParameterError, match="is a directory"):
+            synth.load_preset(p)

@@ -27,6 +27,10 @@ MAX_BALL_RADIUS = 1.0
 MAX_BALL_MASS = 1000.0
 #: Largest plate side or thickness, m.
 MAX_PLATE_SIZE = 100.0
+#: Thinnest plate, m: a household aluminium foil is 16 um thick; a thinner sheet is a
+#: film (its bending stiffness ``E h^3``, which the contact, the modes and the impedance
+#: all divide by, vanishes as h^3 and underflows to 0 at h = 1e-103 m).
+MIN_PLATE_THICKNESS = 1e-6
 #: Drop heights, m: from 1 um (an impact speed of 4.4 mm/s) to 1 km (140 m/s; the
 #: contact stays elastic far below it for every material of the table).
 MIN_DROP_HEIGHT = 1e-6
@@ -75,7 +79,7 @@ class Plate:
     ----------
     material : Material or str
         The plate's material (a :class:`Material` or a table name).
-    thickness : float in (0, 100]
+    thickness : float in [1e-6, 100]
         Thickness ``h``, metres (at most the smaller side).
     length : float in (0, 100]
         Side ``a`` along x, metres.
@@ -93,12 +97,16 @@ class Plate:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "plate.material"))
-        for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(
-                self,
-                name,
-                checks.positive_at_most(f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit),
+        for name in ("length", "width"):
+            size = checks.positive_at_most(
+                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, "metres"
             )
+            object.__setattr__(self, name, size)
+        h = checks.in_range(
+            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "thickness", h)
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
