@@ -3,6 +3,8 @@ case here failed before its fix; a hang is run in a subprocess whose timeout is 
 time limit (the bound is the subprocess timeout, never an assertion on a measured time)."""
 
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -107,3 +109,52 @@ def test_a_folder_as_preset_says_it_is_a_folder(tmp_path):
     for p in (tmp_path, folder):
         with pytest.raises(ParameterError, match="is a directory"):
             synth.load_preset(p)
+
+
+# --------------------------------------------------------------------------- hangs
+
+
+def run_bounded(code: str, timeout: float) -> str:
+    """``python -c code`` in a subprocess killed after ``timeout`` s (a hang fails the test
+    with TimeoutExpired); its stdout."""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+@pytest.mark.parametrize("height", [1e-300, 1e-20, 0.0])
+def test_panel_breakpoints_end_for_a_microphone_on_the_plate(height):
+    # the near-field grading stepped by 2 * height from the microphone's projection: below
+    # the float spacing at 0.6 m (1.1e-16 m) the step left t unchanged, forever
+    out = run_bounded(
+        "import numpy as np\n"
+        "from synth.sound.radiation.rectangle import _breakpoints\n"
+        f"e = _breakpoints(1.227, 0.6, {height!r}, 0.05)\n"
+        "print(e.size, e[0], e[-1], bool(np.all(np.diff(e) > 0)), float(np.diff(e).max()))\n",
+        timeout=60,
+    )
+    size, first, last, increasing, longest = out.split()
+    assert (float(first), float(last), increasing) == (0.0, 1.227, "True")
+    # panels at most h = 0.05 m long (to rounding); ~30 graded ones a side + 1.227 / 0.05
+    assert float(longest) <= 0.05 * (1 + 1e-12) and int(size) < 1000
+
+
+@pytest.mark.slow
+def test_microphone_on_the_surface_is_the_limit_of_one_above_it():
+    # the Rayleigh integral is continuous at the plate's surface (its 1/R kernel is
+    # integrable in 2-D): the gains at z = 1e-300 m agree with z = 1e-12 m to far better
+    # than 1e-9 of the largest (the difference is O(kappa z) ~ 1e-10 here); before the fix
+    # z = 1e-300 never returned
+    out = run_bounded(
+        "import numpy as np, synth\n"
+        "from synth.physics.scene import Microphone\n"
+        "from synth.sound.render import modal_model\n"
+        "s = synth.load_preset('default')\n"
+        "g = [np.asarray(modal_model(s.plate, Microphone((0.6, 0.2, z)), samplerate=48000)"
+        ".output) for z in (1e-300, 1e-12)]\n"
+        "print(np.max(np.abs(g[0] - g[1])) / np.max(np.abs(g[0])))\n",
+        timeout=300,
+    )
+    assert float(out) < 1e-9
