@@ -36,7 +36,9 @@ def _cmd_info(args):
     from synth.io.presets import load_preset_with_options
     from synth.physics.bounces import simulate_scene
 
-    scene, _, data = load_preset_with_options(args.preset, args.overrides)
+    scene, section, data = load_preset_with_options(args.preset, args.overrides)
+    if args.cost:
+        return _print_cost(scene, section, args.json)
     seq = simulate_scene(scene)
     rows = seq.table()
     if args.json:
@@ -66,6 +68,39 @@ def _cmd_info(args):
             f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
         )
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    return 0
+
+
+def _print_cost(scene, section: dict, as_json: bool) -> int:
+    """``synth info --cost``: the render's :func:`synth.cost.estimate` with the preset's
+    render options, and what a render would refuse (nothing is solved but the first
+    contact)."""
+    from dataclasses import asdict
+
+    from synth import cost
+
+    keys = ("samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points")
+    options = {k: section[k] for k in keys if section.get(k) is not None}
+    options.setdefault("samplerate", 48000)
+    estimate = cost.estimate(scene, **options)
+    budget = cost.Budget.from_environment()
+    too_big = estimate.excess(budget)
+    if as_json:
+        json.dump(
+            dict(asdict(estimate), budget=asdict(budget), refused=too_big), sys.stdout, indent=1
+        )
+        print()
+        return 0
+    for name, value in estimate.rows():
+        print(f"{name:<28} {value}")
+    print(
+        f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
+        f"{budget.max_memory_bytes / 2**20:.0f} MiB"
+    )
+    for reason in too_big:
+        print(f"a render would be refused: {reason}")
+    if not too_big:
+        print("a render fits the budget")
     return 0
 
 
@@ -547,6 +582,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="print the impact table of a preset's scene")
     _add_preset_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument(
+        "--cost",
+        action="store_true",
+        help="the render's cost estimate (modes, longest contact, pulse grid, audio, memory) "
+        "against the budget, before any work",
+    )
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")

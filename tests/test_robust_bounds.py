@@ -2,7 +2,6 @@
 case here failed before its fix; a hang is run in a subprocess whose timeout is the test's
 time limit (the bound is the subprocess timeout, never an assertion on a measured time)."""
 
-
 import subprocess
 import sys
 from pathlib import Path
@@ -158,3 +157,89 @@ def test_microphone_on_the_surface_is_the_limit_of_one_above_it():
         timeout=300,
     )
     assert float(out) < 1e-9
+
+
+# --------------------------------------------------------------------------- cost estimate
+
+HEAVY = {
+    # a 1000 kg ball resting on the default MDF board: a 107 s contact, a pulse grid of
+    # 2e7 points (73 s and 789 MB before the estimate refused it)
+    "1000 kg on MDF": ["default", "--set", "ball.mass=1000"],
+    # 840 kg on the 6 mm board under the thesis' model: an 878 s contact, 1.7e8 points
+    "840 kg on 6 mm": [
+        "thesis-steel10-mdf6", "--set", "ball.mass=840", "--set", "contact.model=thesis",
+    ],
+    # a 1 mm x 5 m x 5 m steel sheet: 188 000 modes below 24 kHz
+    "5 x 5 m sheet": [
+        "steel-ball-on-steel-sheet", "--set", "plate.length=5", "--set", "plate.width=5",
+        "--set", "ball.radius=0.005", "--set", "drop.position=[2.5, 2.5]",
+        "--set", "listener.position=[2.5, 2.5, 0.3]",
+    ],
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", HEAVY)
+def test_heavy_scenes_are_refused_before_work(tmp_path, name):
+    # each ran for minutes (or past any patience) before; now a one-line refusal naming
+    # what is too big; the subprocess timeout is the hang's bound
+    out = tmp_path / "out.wav"
+    done = subprocess.run(
+        [sys.executable, "-m", "synth", "render", *HEAVY[name], "-o", str(out)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.stderr.startswith("synth: error: refused before any work") and not out.exists()
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_modal_count_is_cremers_density_within_the_edge_correction():
+    # the asymptotic count S omega / (4 pi) sqrt(rho h / D) against the modes module's
+    # exact count for the default board below 24 kHz: the free edges add modes (the
+    # edge term of the Weyl-type expansion), so the estimate is low by some per cent, and
+    # within 15 % of it
+    import synth
+    from synth import cost
+    from synth.sound import modes as plate_modes
+
+    plate = synth.load_preset("default").plate
+    exact = plate_modes.modes(plate, max_frequency=24000.0).angular_frequencies.size
+    estimate = cost.modal_count(plate, 24000.0)
+    assert 0.85 * exact <= estimate <= exact
+
+
+def test_hertz_contact_time_is_the_closed_form_on_a_rigid_plate():
+    # the estimate's Hertz time against the contact solver on a rigid plate (admittance 0,
+    # no gravity): the closed form 2.9433 delta_max / v (thesis) to the solver's accuracy
+    import synth
+    from synth import cost
+    from synth.physics.contact import hertz_stiffness, solve_contact
+
+    scene = synth.load_preset("default")
+    ball, plate = scene.ball, scene.plate
+    solved = solve_contact(
+        mass=ball.mass, stiffness=hertz_stiffness(ball, plate), admittance=0.0, speed=1.0,
+        gravity=0.0, rtol=1e-10,
+    )  # fmt: skip
+    assert cost.hertz_contact_time(ball, plate, 1.0) == pytest.approx(solved.contact_time, 1e-4)
+
+
+def test_info_cost_prints_the_estimate_and_the_refusal(capsys):
+    code, out, _ = run(capsys, "info", *HEAVY["1000 kg on MDF"], "--cost")
+    assert code == 0
+    assert "longest contact" in out and "(the ball comes to rest)" in out
+    assert "a render would be refused" in out and "max_duration=30" in out
+    code, out, _ = run(capsys, "info", "default", "--cost")
+    assert code == 0 and "a render fits the budget" in out
+
+
+def test_the_budget_is_adjustable_and_its_variables_parsed_once(capsys, tmp_path, monkeypatch):
+    from synth import cost
+
+    monkeypatch.setenv("SYNTH_MAX_MODES", "100")  # the default board has ~450 modes
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "o.wav")
+    assert code == 2 and "SYNTH_MAX_MODES" in err and "lower max_frequency to" in err
+    monkeypatch.setenv("SYNTH_MAX_MODES", "lots")
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "o.wav")
+    assert code == 2 and "SYNTH_MAX_MODES='lots' must be an integer >= 1" in err
+    with pytest.raises(ParameterError, match="budget.max_modes=0"):
+        cost.Budget(max_modes=0)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth import checks
+from synth import checks, cost
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
 from synth.io import cache as disk_cache
@@ -447,6 +447,7 @@ def render(
     max_tail=60.0,
     sequence=None,
     pulse_points=PULSE_POINTS,
+    budget=None,
 ) -> Render:
     """Render ``scene`` at ``samplerate``.
 
@@ -490,6 +491,11 @@ def render(
         Fewest points of the uniform grid on which each force pulse's Laplace
         transforms are taken (see :mod:`synth.sound.modal_bank`; the default keeps their error
         below 2e-6 of the impulse; a reference render may ask for more).
+    budget : synth.cost.Budget, optional
+        The most work the render may take on (default: ``Budget.from_environment()``):
+        the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
+        ``max_duration``, is refused before any work with a ``ParameterError`` naming
+        what is too big and what to change.
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
@@ -513,6 +519,14 @@ def render(
     f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
     pre, tail, fade_s = o["preroll"], o["max_tail"], o["fade"]
     max_duration = o["max_duration"]
+    if budget is None:
+        budget = cost.Budget.from_environment()
+    elif not isinstance(budget, cost.Budget):
+        raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
+    cost.estimate(
+        scene, samplerate=fs, max_frequency=f_max, preroll=pre, max_duration=max_duration,
+        max_tail=tail, pulse_points=int(pulse_points),
+    ).check(budget)  # fmt: skip
     if sequence is None:
         first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
         if first_touch > max_duration:

@@ -1,0 +1,282 @@
+"""What a render will cost, known before the work starts, and the budget it must fit.
+
+Every size the engine's work follows from is estimated from the scene and the render
+options, before the plate's modes, the radiation gains or the bounce series are computed:
+
+* **modes**: the plate's modes below the highest rendered frequency, from its asymptotic
+  modal density ``N(omega) = S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson,
+  *Structure-Borne Sound*, 3rd ed., eq. 5.118; ``S`` the area, ``rho h`` the surface
+  density, ``D`` the bending stiffness). The edges add a few per cent (the exact count is
+  the modes module's).
+* **the longest contact**: the first impact's contact, solved alone by the impedance model
+  (the ball on the infinite plate, the plate's modes not needed: milliseconds), and the
+  longest a later bounce can have by Hertz' ``tau ~ v^(-1/5)`` law down to the speed where
+  the flight ``2 v / g`` is as short as the contact (where the series ends). A ball that
+  comes to rest (it does not separate) has a contact as long as its settling: the
+  impedance model's own, or for the modal plate up to
+  ``SETTLE_FACTOR`` times the impedance model's contact time without gravity.
+* **the pulse grid**: the points of the longest force pulse's uniform grid, 8 a period of
+  the highest mode (see :mod:`synth.sound.modal_bank.pulse`).
+* **the audio**: at most ``preroll + max_duration + max_tail`` seconds at the sample rate.
+* **memory**: the arrays whose size the above sets (the float64 audio and its float32
+  copy, the pulse grid and its forces, the modes' per-mode rows of the transform
+  workspace), bytes: a floor of what the render holds, not a measurement.
+
+:class:`Budget` bounds them (``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
+``$SYNTH_MAX_MEMORY_BYTES``, or the keywords of :func:`synth.render`): work beyond it is
+refused before it starts, with a message naming what is too big and what to change. A
+contact longer than ``max_duration`` is refused whatever the budget (the render could not
+hold the pulse). ``synth info --cost`` prints the estimate.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from synth.errors import ParameterError
+
+#: Default budget: modes of the plate below the highest rendered frequency (a 1 mm steel
+#: sheet of 1.5 x 1.5 m has about 17 000 below 24 kHz; each mode costs its shapes, its
+#: radiation gain and its share of every impact's transform).
+DEFAULT_MAX_MODES = 100_000
+#: Default budget: points of the longest force pulse's grid (a 10 mm ball's 110 us
+#: contact needs 65 at 48 kHz; a ball resting 1 s on the plate, 64 000).
+DEFAULT_MAX_PULSE_POINTS = 2_000_000
+#: Default budget: memory of the arrays the estimate sizes, bytes.
+DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
+
+#: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
+#: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
+TAU_HERTZ = 2.9433
+
+#: The environment variables of :meth:`Budget.from_environment`, with their defaults.
+ENVIRONMENT = {
+    "SYNTH_MAX_MODES": DEFAULT_MAX_MODES,
+    "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
+    "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
+}
+
+
+def environment_integer(name: str, default: int, least: int = 0) -> int:
+    """The integer environment variable ``name`` (``>= least``), or ``default`` when it is
+    unset or empty: the one parser of the engine's numeric environment variables, raising
+    ``ParameterError`` naming the variable, its text and what is allowed."""
+    text = os.environ.get(name)
+    if text is None or not text.strip():
+        return default
+    try:
+        value = int(text.strip())
+    except ValueError:
+        value = None
+    if value is None or value < least:
+        raise ParameterError(f"{name}={text!r} must be an integer >= {least}")
+    return value
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The most work a render may take on: ``max_modes`` (plate modes),
+    ``max_pulse_points`` (points of one force pulse's grid) and ``max_memory_bytes``
+    (bytes of the arrays :class:`CostEstimate` sizes)."""
+
+    max_modes: int = DEFAULT_MAX_MODES
+    max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
+    max_memory_bytes: int = DEFAULT_MAX_MEMORY_BYTES
+
+    def __post_init__(self):
+        for name in ("max_modes", "max_pulse_points", "max_memory_bytes"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
+
+    @classmethod
+    def from_environment(cls) -> Budget:
+        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS`` and
+        ``$SYNTH_MAX_MEMORY_BYTES`` (each defaulting to this module's constant)."""
+        values = [environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()]
+        return cls(*values)
+
+
+@dataclass(frozen=True)
+class CostEstimate:
+    """The sizes of one render's work (see the module docstring for each estimate).
+
+    Attributes
+    ----------
+    max_frequency : float
+        Highest rendered frequency, Hz.
+    modes : int
+        Plate modes below it (asymptotic modal density).
+    impact_speed : float
+        First impact's speed, m/s.
+    hertz_contact : float
+        Hertz' contact time of the first impact on a rigid plate, s.
+    longest_contact : float
+        Longest contact the series can have, s.
+    settles : bool
+        The first impact does not separate (the ball comes to rest on the plate).
+    pulse_points : int
+        Points of the longest force pulse's grid.
+    audio_seconds : float
+        Longest audio, s.
+    audio_samples : int
+        Its samples.
+    memory_bytes : int
+        Bytes of the arrays sized by the above.
+    """
+
+    max_frequency: float
+    modes: int
+    impact_speed: float
+    hertz_contact: float
+    longest_contact: float
+    settles: bool
+    pulse_points: int
+    audio_seconds: float
+    audio_samples: int
+    memory_bytes: int
+    max_duration: float
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget`` or for the render itself, each with what to
+        change (empty: the render fits)."""
+        out = []
+        if self.longest_contact > self.max_duration:
+            out.append(
+                f"the ball {'comes to rest on' if self.settles else 'stays on'} the plate: "
+                f"its contact lasts about {self.longest_contact:.4g} s, longer than "
+                f"max_duration={self.max_duration:g} s (the render could not hold its force "
+                f"pulse); lower ball.mass or use a stiffer or heavier plate"
+            )
+        if self.modes > budget.max_modes:
+            f_fit = self.max_frequency * budget.max_modes / self.modes
+            out.append(
+                f"the plate has about {self.modes} modes below {self.max_frequency:.6g} Hz, "
+                f"more than the budget of {budget.max_modes} (SYNTH_MAX_MODES); lower "
+                f"max_frequency to {f_fit:.4g} Hz or the samplerate, or use a smaller or "
+                f"thicker plate"
+            )
+        if self.pulse_points > budget.max_pulse_points:
+            out.append(
+                f"the longest force pulse ({self.longest_contact:.4g} s) needs "
+                f"{self.pulse_points} grid points up to {self.max_frequency:.6g} Hz, more than "
+                f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
+                f"max_frequency or ball.mass"
+            )
+        if self.memory_bytes > budget.max_memory_bytes:
+            out.append(
+                f"the render needs at least {self.memory_bytes / 2**20:.0f} MiB, more than "
+                f"the budget of {budget.max_memory_bytes / 2**20:.0f} MiB "
+                f"(SYNTH_MAX_MEMORY_BYTES); lower max_tail, max_duration or the samplerate"
+            )
+        return out
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
+
+    def rows(self) -> list[tuple[str, str]]:
+        """(name, value with unit) rows, for ``synth info --cost``."""
+        return [
+            ("highest frequency", f"{self.max_frequency:.6g} Hz"),
+            ("plate modes", f"{self.modes}"),
+            ("first impact speed", f"{self.impact_speed:.4g} m/s"),
+            ("Hertz contact (rigid plate)", f"{self.hertz_contact:.4g} s"),
+            ("longest contact", f"{self.longest_contact:.4g} s" + (REST if self.settles else "")),
+            ("pulse grid", f"{self.pulse_points} points"),
+            ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
+            ("memory (sized arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
+        ]
+
+
+REST = " (the ball comes to rest)"
+
+
+def modal_count(plate, max_frequency: float) -> int:
+    """Modes of ``plate`` below ``max_frequency`` (Hz) by the asymptotic modal density
+    ``S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson, eq. 5.118)."""
+    omega = 2.0 * math.pi * max_frequency
+    area = plate.length * plate.width
+    return int(
+        area * omega / (4.0 * math.pi) * math.sqrt(plate.surface_density / plate.flexural_rigidity)
+    )
+
+
+def hertz_contact_time(ball, plate, speed: float) -> float:
+    """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
+    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``."""
+    from synth.physics.contact import effective_modulus
+
+    e_star = effective_modulus(ball, plate)
+    depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4
+    return TAU_HERTZ * depth / speed
+
+
+def _series_longest(first_contact: float, speed: float, gravity: float) -> float:
+    """The longest contact of a bouncing series whose first contact at ``speed`` (m/s)
+    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the speed where the
+    flight ``2 v / g`` equals the contact, the series' end (s)."""
+    slowest = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
+    return first_contact * max(1.0, (speed / slowest) ** 0.2)
+
+
+def _first_contact(scene) -> tuple[float, bool]:
+    """(contact time in s, settled) of the first impact by the impedance model."""
+    from synth.physics.contact import ContactSolver
+    from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
+
+    c = scene.contact
+    options = c.options()
+    solver = ContactSolver.for_pair(
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol,
+        **options,
+    )  # fmt: skip
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first = solver.solve(speed, position=scene.position)
+    if c.plate == "impedance" or not first.settled:
+        return first.contact_time, bool(first.settled)
+    tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
+    return SETTLE_FACTOR * tau, True
+
+
+def estimate(
+    scene,
+    *,
+    samplerate: int,
+    max_frequency: float | None = None,
+    preroll: float = 0.005,
+    max_duration: float = 30.0,
+    max_tail: float = 60.0,
+    pulse_points: int = 65,
+) -> CostEstimate:
+    """The :class:`CostEstimate` of rendering ``scene`` with these options of
+    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s)."""
+    from synth.sound.modal_bank.pulse import _grid_size
+    from synth.sound.modal_bank.transform_kernels import WORK_ROWS
+
+    f_max = 0.5 * samplerate if max_frequency is None else min(max_frequency, 0.5 * samplerate)
+    modes = modal_count(scene.plate, f_max)
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first, settles = _first_contact(scene)
+    longest = first if settles else _series_longest(first, speed, scene.gravity)
+    points = _grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
+    seconds = preroll + max_duration + max_tail
+    samples = int(math.ceil(seconds * samplerate))
+    memory = 8 * samples + 4 * samples + 16 * points + 16 * WORK_ROWS * modes
+    return CostEstimate(
+        max_frequency=f_max,
+        modes=modes,
+        impact_speed=speed,
+        hertz_contact=hertz_contact_time(scene.ball, scene.plate, speed),
+        longest_contact=longest,
+        settles=settles,
+        pulse_points=points,
+        audio_seconds=seconds,
+        audio_samples=samples,
+        memory_bytes=memory,
+        max_duration=max_duration,
+    )
