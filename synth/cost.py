@@ -17,6 +17,12 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   ``SETTLE_FACTOR`` times the impedance model's contact time without gravity.
 * **the pulse grid**: the points of the longest force pulse's uniform grid, 8 a period of
   the highest mode (see :mod:`synth.sound.modal_bank.pulse`).
+* **the mode solver**: the unknowns of its Rayleigh-Ritz problems (the solver's own index
+  sets, :func:`synth.sound.modes.solver_sizes`) and their floating-point operations by
+  LAPACK's counts (Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3: Cholesky
+  ``n^3 / 3``, its inverse ``2 n^3 / 3``, the symmetric eigen-solution ``4 n^3 / 3``
+  for the values and ``9 n^3`` with the vectors); a cold solve only (the modes are
+  cached on disk).
 * **the audio**: at most ``preroll + max_duration + max_tail`` seconds at the sample rate.
 * **memory**: the arrays whose size the above sets (the float64 audio and its float32
   copy, the pulse grid and its forces, the modes' per-mode rows of the transform
@@ -125,6 +131,12 @@ class CostEstimate:
         Its samples.
     memory_bytes : int
         Bytes of the arrays sized by the above.
+    max_duration : float
+        The render's longest bounce series, s.
+    solver_unknowns : int
+        Unknowns of the mode solver's largest problem (0: closed-form modes).
+    solver_flops : float
+        Floating-point operations of a cold mode solve.
     """
 
     max_frequency: float
@@ -138,6 +150,8 @@ class CostEstimate:
     audio_samples: int
     memory_bytes: int
     max_duration: float
+    solver_unknowns: int = 0
+    solver_flops: float = 0.0
 
     def excess(self, budget: Budget) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
@@ -188,6 +202,10 @@ class CostEstimate:
             ("Hertz contact (rigid plate)", f"{self.hertz_contact:.4g} s"),
             ("longest contact", f"{self.longest_contact:.4g} s" + (REST if self.settles else "")),
             ("pulse grid", f"{self.pulse_points} points"),
+            (
+                "mode solver (cold)",
+                f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
+            ),
             ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
             ("memory (sized arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
         ]
@@ -255,6 +273,7 @@ def estimate(
 ) -> CostEstimate:
     """The :class:`CostEstimate` of rendering ``scene`` with these options of
     :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s)."""
+    from synth.sound import modes as plate_modes
     from synth.sound.modal_bank.pulse import _grid_size
     from synth.sound.modal_bank.transform_kernels import WORK_ROWS
 
@@ -266,7 +285,12 @@ def estimate(
     points = _grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
     seconds = preroll + max_duration + max_tail
     samples = int(math.ceil(seconds * samplerate))
+    main, check = plate_modes.solver_sizes(scene.plate, f_max)
+    flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
+    flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
+    largest = max(main + check, default=0)
     memory = 8 * samples + 4 * samples + 16 * points + 16 * WORK_ROWS * modes
+    memory += 2 * 8 * largest**2  # the solver's matrix and its eigenvectors
     return CostEstimate(
         max_frequency=f_max,
         modes=modes,
@@ -279,4 +303,6 @@ def estimate(
         audio_samples=samples,
         memory_bytes=memory,
         max_duration=max_duration,
+        solver_unknowns=largest,
+        solver_flops=float(flops),
     )
