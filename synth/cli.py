@@ -139,7 +139,7 @@ def _cmd_render(args):
 
     outputs = Outputs(  # every output path checked before any work
         {"output": args.output, "report": args.report, "plot": args.plot},
-        {"output": audio_io.FORMATS},
+        {"output": audio_io.FORMATS, "plot": (".png",)},
     )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
@@ -212,11 +212,27 @@ class Outputs:
             if kind is None:
                 for field, tmp in self.temporaries.items():
                     os.replace(tmp, self.paths[field])
+            elif exc is not None:
+                self._name_the_targets(exc)
         finally:
             for tmp in self.temporaries.values():
                 if tmp.exists():
                     tmp.unlink()
         return False
+
+
+    def _name_the_targets(self, exc: BaseException) -> None:
+        """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
+        a full disk): the temporary is removed on the way out and means nothing to the
+        user."""
+        for field, tmp in self.temporaries.items():
+            target = str(self.paths[field])
+            if isinstance(exc, OSError) and exc.filename is not None:
+                if str(exc.filename) == str(tmp):
+                    exc.filename = target
+            exc.args = tuple(
+                a.replace(str(tmp), target) if isinstance(a, str) else a for a in exc.args
+            )
 
 
 def _refuse_shared_paths(paths: dict) -> None:
@@ -852,9 +868,16 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning as one line of the command's own (``synth: warning: ...``), never a
+    Python source line: a user cannot act on the engine's file and line number."""
+    print(f"synth: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv=None) -> int:
     import signal
     import threading
+    import warnings
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -862,7 +885,9 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.func(args)
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
         return 2

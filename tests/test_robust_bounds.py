@@ -243,3 +243,65 @@ def test_the_budget_is_adjustable_and_its_variables_parsed_once(capsys, tmp_path
     assert code == 2 and "SYNTH_MAX_MODES='lots' must be an integer >= 1" in err
     with pytest.raises(ParameterError, match="budget.max_modes=0"):
         cost.Budget(max_modes=0)
+
+
+# --------------------------------------------------------------------------- messages
+
+
+@pytest.mark.parametrize(
+    "override, words",
+    [
+        ("ball.mass=1e-300", ["ball.mass=1e-300", "[1e-15, 1000]"]),
+        ("ball.radius=1e-300", ["ball.radius=1e-300", "[1e-06, 1]"]),
+        (
+            'plate.material={name="x", density=700, young=1e308, poisson=0.3, damping={eta=0.01}}',
+            ["Nyquist", "raise the samplerate"],
+        ),
+        ("plate.material={name={}}", ["plate.material.name={}", "non-empty string"]),
+    ],
+)
+def test_messages_name_the_real_cause(capsys, tmp_path, override, words):
+    # ball.mass=1e-300 said "fade=0.005 s is longer than the audio"; young=1e308 said
+    # "raise max_frequency" (already the Nyquist frequency); name={} said "density is
+    # missing"; ball.radius=1e-300 said the contact solver's step fell below its axis
+    out = tmp_path / "o.wav"
+    code, _, err = run(capsys, "render", "default", "-o", out, "--set", override)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert all(w in err for w in words), err
+    assert not out.exists()
+
+
+def test_errors_name_the_users_path_not_the_temporary(capsys, tmp_path):
+    out = tmp_path / "loud.wav"
+    code, _, err = run(capsys, "render", "default", "-o", out, "--normalize", "none")
+    assert code == 2 and str(out) in err and ".synth-" not in err, err
+    code, _, err = run(capsys, "render", "default", "-o", out, "--plot", tmp_path / "p.txt")
+    assert code == 2 and "plot=" in err and "p.txt" in err and ".synth-" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_is_named(tmp_path):
+    # libsndfile's "System error." under `ulimit -f`: the limit is named
+    import resource
+
+    out = tmp_path / "o.wav"
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, resource.RLIM_INFINITY))
+
+    done = subprocess.run(
+        [sys.executable, "-m", "synth", "render", "default", "-o", str(out)],
+        capture_output=True, text=True, timeout=300, preexec_fn=limit,
+    )  # fmt: skip
+    assert done.returncode in (1, 2) and "ulimit -f" in done.stderr, done.stderr
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_warnings_reach_the_terminal_as_one_line_without_source(capsys, tmp_path):
+    # alter --restitution-scale 1e308 printed numpy's RuntimeWarning and its source line
+    rec = tmp_path / "rec.wav"
+    assert run(capsys, "render", "default", "-o", rec)[0] == 0
+    out = tmp_path / "alt.wav"
+    code, _, err = run(capsys, "alter", rec, "-o", out, "--restitution-scale", "1e308")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "RuntimeWarning" not in err and "would not rebound" in err

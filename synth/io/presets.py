@@ -253,6 +253,11 @@ def _material(value, where):
             )
     kw = dict(value)
     kw.setdefault("name", "custom")
+    if not isinstance(kw["name"], str) or not kw["name"].strip():
+        raise PresetError(
+            f"{where}.name={kw['name']!r} must be a non-empty string (a built-in material "
+            f"such as 'steel', whose keys the others change, or the inline material's label)"
+        )
     shear = kw.pop("transverse_shear", None)
     if isinstance(shear, str) and shear != TIED_SHEAR:
         raise PresetError(

@@ -23,8 +23,15 @@ BOUNDARIES = ("free", "simply-supported", "clamped")
 # contact time, mode count, audio length) finite and within memory:
 #: Largest ball radius, m (a bowling ball is 0.109 m).
 MAX_BALL_RADIUS = 1.0
+#: Smallest ball radius, m: a grain of fine sand; smaller is a particle outside the
+#: continuum (Hertz) contact, whose contact time falls below the solver's time axis.
+MIN_BALL_RADIUS = 1e-6
 #: Largest ball mass, kg (a bowling ball is 7 kg).
 MAX_BALL_MASS = 1000.0
+#: Smallest ball mass, kg: a steel sphere of MIN_BALL_RADIUS weighs 3e-14 kg. A lighter
+#: ball's impact force (~ m^(3/5)) and sound take float64 towards its underflow, where
+#: the tails' floor (1e-4 of the loudest tick) is no longer a number.
+MIN_BALL_MASS = 1e-15
 #: Largest plate side or thickness, m.
 MAX_PLATE_SIZE = 100.0
 #: Thinnest plate, m: a household aluminium foil is 16 um thick; a thinner sheet is a
@@ -47,9 +54,9 @@ class Ball:
     ----------
     material : Material or str
         The ball's material (a :class:`Material` or a table name).
-    radius : float in (0, 1]
+    radius : float in [1e-6, 1]
         Radius, metres.
-    mass : float in (0, 1000], optional
+    mass : float in [1e-15, 1000], optional
         Mass, kg. Default: ``density * 4/3 pi radius^3``.
     """
 
@@ -59,15 +66,24 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(
-            self,
-            "radius",
-            checks.positive_at_most("ball.radius", self.radius, MAX_BALL_RADIUS, "metres"),
-        )
+        r = checks.in_range(
+            "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "radius", r)
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius**3
+            if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
+                raise ParameterError(
+                    f"ball.mass={m:.4g} kg (from ball.radius={r!r} m and the density "
+                    f"{self.material.density:g} kg/m^3) must be in [{MIN_BALL_MASS:g}, "
+                    f"{MAX_BALL_MASS:g}] (kg); give ball.mass or change the radius"
+                )
         else:
-            m = checks.positive_at_most("ball.mass", self.mass, MAX_BALL_MASS, "kg")
+            m = checks.in_range(
+                "ball.mass", self.mass, MIN_BALL_MASS, MAX_BALL_MASS, "kg",
+                lo_open=False, hi_open=False,
+            )  # fmt: skip
         object.__setattr__(self, "mass", m)
 
 

@@ -74,14 +74,19 @@ class Render:
         return times + self.settings["delay"] - self.settings["audio_start"]
 
 
+#: Range of the sample rate, Hz.
+MIN_SAMPLERATE, MAX_SAMPLERATE = 8000, 384000
+
+
 def _samplerate(value) -> int:
     if (
         isinstance(value, bool)
         or not isinstance(value, (int, np.integer))
-        or not 8000 <= value <= 384000
+        or not MIN_SAMPLERATE <= value <= MAX_SAMPLERATE
     ):
         raise ParameterError(
-            f"samplerate={value!r} must be an integer number of Hz in [8000, 384000]"
+            f"samplerate={value!r} must be an integer number of Hz in "
+            f"[{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]"
         )
     return int(value)
 
@@ -359,6 +364,21 @@ def _seconds(name, value, hi, lo_open=True) -> float:
     return x
 
 
+def _silent_plate_message(f_max: float, samplerate: int) -> str:
+    """Why a plate without a mode below ``f_max`` (Hz) is refused, and what can change:
+    ``max_frequency`` only while it is below the Nyquist frequency."""
+    if f_max < 0.5 * samplerate:
+        return (
+            f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
+            f"render would be silent; raise it (at most samplerate / 2 = {samplerate / 2:g} Hz)"
+        )
+    return (
+        f"no mode of the plate rings below the Nyquist frequency samplerate / 2 = "
+        f"{samplerate / 2:g} Hz, so the render would be silent; raise the samplerate (at "
+        f"most {MAX_SAMPLERATE}) or use a larger, thinner or less stiff plate"
+    )
+
+
 def check_sequence(scene, sequence) -> BounceSequence:
     """``sequence`` as the impacts of ``scene``: a non-empty :class:`BounceSequence` whose
     contacts are ``scene``'s (its first impact solved again with the scene's ball, plate,
@@ -552,10 +572,7 @@ def render(
     delay = model.delay
     units = model.units
     if not poles.size:
-        raise ParameterError(
-            f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
-            f"render would be silent; raise it (default: samplerate / 2)"
-        )
+        raise ParameterError(_silent_plate_message(f_max, fs))
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])
