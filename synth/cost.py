@@ -236,9 +236,14 @@ def hertz_contact_time(ball, plate, speed: float) -> float:
 
 def _series_longest(first_contact: float, speed: float, gravity: float) -> float:
     """The longest contact of a bouncing series whose first contact at ``speed`` (m/s)
-    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the speed where the
-    flight ``2 v / g`` equals the contact, the series' end (s)."""
-    slowest = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
+    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact,
+    where the series ends: the flight ``2 v / g`` as short as the contact, or the kinetic
+    energy ``floor_db`` below the first impact's (:func:`simulate_bounces`' rules), s."""
+    from synth.physics.bounces import DEFAULT_FLOOR_DB
+
+    by_flight = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
+    by_energy = speed * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
+    slowest = max(by_flight, by_energy)
     return first_contact * max(1.0, (speed / slowest) ** 0.2)
 
 

@@ -305,3 +305,18 @@ def test_warnings_reach_the_terminal_as_one_line_without_source(capsys, tmp_path
     code, _, err = run(capsys, "alter", rec, "-o", out, "--restitution-scale", "1e308")
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert "RuntimeWarning" not in err and "would not rebound" in err
+
+
+@pytest.mark.parametrize(
+    "override, words",
+    [
+        ("listener.position=[1e308, 0.2, 0.2]", ["listener.position.x=1e+308", "1000"]),
+        ("listener.position=[0.6, 0.2, 1e308]", ["listener.position.z=1e+308", "1000"]),
+        ("gravity=1e-300", ["drop.height=0.1", "first impact", "max_duration"]),
+    ],
+)
+def test_far_listeners_and_feeble_gravity_are_named(capsys, tmp_path, override, words):
+    # a microphone 1e308 m away said "reference_distance=inf"; gravity=1e-300 gave the
+    # cost estimate's "contact of 5.6e46 s" before the first impact's own refusal
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "o.wav", "--set", override)
+    assert code == 2 and all(w in err for w in words), err

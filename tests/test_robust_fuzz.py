@@ -26,5 +26,6 @@ def test_closing_figures(capsys):
     f = run_corpus.figures(outcomes)
     with capsys.disabled():
         print("\nfuzz corpus:", run_corpus.format_figures(f))
-    assert f["tracebacks"] == 0 and f["partial_files"] == 0 and f["data_loss"] == 0
+    assert f["tracebacks"] == 0 and f["leftovers"] == 0 and f["data_loss"] == 0
+    assert f["hangs"] == 0
     assert f["inputs"] == len(CASES) and f["unexpected"] == 0

@@ -42,6 +42,9 @@ MIN_PLATE_THICKNESS = 1e-6
 #: contact stays elastic far below it for every material of the table).
 MIN_DROP_HEIGHT = 1e-6
 MAX_DROP_HEIGHT = 1000.0
+#: Farthest microphone coordinate from the plate's corner, m: the sound's travel time
+#: (2.9 s at 343 m/s) stays a small part of the render, and every distance finite.
+MAX_LISTENER_DISTANCE = 1000.0
 #: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
 MAX_GRAVITY = 1000.0
 
@@ -197,8 +200,8 @@ class Microphone:
     Parameters
     ----------
     position : (float, float, float)
-        ``(x, y, z)``: x, y in metres from a plate corner, z > 0 the height above
-        the plate, metres.
+        ``(x, y, z)``: x, y in metres from a plate corner, each in [-1000, 1000]; z in
+        (0, 1000] the height above the plate, metres.
     """
 
     position: tuple[float, float, float]
@@ -209,6 +212,12 @@ class Microphone:
             raise ParameterError(
                 f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)"
             )
+        for axis, value in zip("xyz", pos):
+            if abs(value) > MAX_LISTENER_DISTANCE:
+                raise ParameterError(
+                    f"listener.position.{axis}={value!r} must be within "
+                    f"{MAX_LISTENER_DISTANCE:g} of the plate's corner (metres)"
+                )
         object.__setattr__(self, "position", pos)
 
 

@@ -539,6 +539,13 @@ def render(
     f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
     pre, tail, fade_s = o["preroll"], o["max_tail"], o["fade"]
     max_duration = o["max_duration"]
+    if sequence is None:
+        first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
+        if first_touch > max_duration:
+            raise ParameterError(
+                f"drop.height={scene.drop_height!r} m: the first impact, {first_touch:.4g} s "
+                f"after release, is later than max_duration={max_duration!r} (s)"
+            )
     if budget is None:
         budget = cost.Budget.from_environment()
     elif not isinstance(budget, cost.Budget):
@@ -548,12 +555,6 @@ def render(
         max_tail=tail, pulse_points=int(pulse_points),
     ).check(budget)  # fmt: skip
     if sequence is None:
-        first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
-        if first_touch > max_duration:
-            raise ParameterError(
-                f"drop.height={scene.drop_height!r} m: the first impact, {first_touch:.4g} s "
-                f"after release, is later than max_duration={max_duration!r} (s)"
-            )
         sequence = simulate_scene(scene, max_duration=max_duration)
     else:
         check_sequence(scene, sequence)
