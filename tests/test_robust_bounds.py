@@ -320,3 +320,23 @@ def test_far_listeners_and_feeble_gravity_are_named(capsys, tmp_path, override, 
     # cost estimate's "contact of 5.6e46 s" before the first impact's own refusal
     code, _, err = run(capsys, "render", "default", "-o", tmp_path / "o.wav", "--set", override)
     assert code == 2 and all(w in err for w in words), err
+
+
+def test_the_cli_page_states_the_budget_defaults():
+    # docs/cli.md's table of the budget holds the constants of synth.cost
+    from synth import cost
+
+    page = (Path(__file__).resolve().parent.parent / "docs" / "cli.md").read_text()
+    for name, default in cost.ENVIRONMENT.items():
+        assert f"| `{name}` |" in page and f"| {default} |" in page, name
+
+
+def test_info_cost_json(capsys):
+    import json
+
+    from synth import cost
+
+    code, out, _ = run(capsys, "info", "default", "--cost", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["refused"] == [] and data["modes"] > 0
+    assert data["budget"]["max_modes"] == cost.DEFAULT_MAX_MODES
