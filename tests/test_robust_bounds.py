@@ -340,3 +340,15 @@ def test_info_cost_json(capsys):
     data = json.loads(out)
     assert code == 0 and data["refused"] == [] and data["modes"] > 0
     assert data["budget"]["max_modes"] == cost.DEFAULT_MAX_MODES
+
+
+def test_the_warning_of_many_drops_stays_one_short_line():
+    # a 30-minute recording of repeated drops printed every series' start: a 10 kB line
+    from types import SimpleNamespace
+
+    from synth.analysis.validity import flag_warnings
+
+    series = [SimpleNamespace(ticks=[], first=2.0 * i) for i in range(3000)]
+    (warning,) = flag_warnings(series)
+    assert warning.startswith("3000 bounce series") and "and 2995 more" in warning
+    assert len(warning) < 300
