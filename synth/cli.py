@@ -220,7 +220,6 @@ class Outputs:
                     tmp.unlink()
         return False
 
-
     def _name_the_targets(self, exc: BaseException) -> None:
         """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
         a full disk): the temporary is removed on the way out and means nothing to the
