@@ -3,11 +3,11 @@
 Every size the engine's work follows from is estimated from the scene and the render
 options, before the plate's modes, the radiation gains or the bounce series are computed:
 
-* **modes**: the plate's modes below the highest rendered frequency, from its asymptotic
-  modal density ``N(omega) = S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson,
+* **modes**: the plate's modes below the highest rendered frequency, from the lattice of
+  its wavenumbers (:func:`modal_count`), whose area term is the asymptotic modal density
+  ``N(omega) = S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson,
   *Structure-Borne Sound*, 3rd ed., eq. 5.118; ``S`` the area, ``rho h`` the surface
-  density, ``D`` the bending stiffness). The edges add a few per cent (the exact count is
-  the modes module's).
+  density, ``D`` the bending stiffness) and whose edge term counts a strip's beam modes.
 * **the longest contact**: the first impact's contact, solved alone by the impedance model
   (the ball on the infinite plate, the plate's modes not needed: milliseconds), and the
   longest a later bounce can have by Hertz' ``tau ~ v^(-1/5)`` law down to the speed where
@@ -215,13 +215,24 @@ REST = " (the ball comes to rest)"
 
 
 def modal_count(plate, max_frequency: float) -> int:
-    """Modes of ``plate`` below ``max_frequency`` (Hz) by the asymptotic modal density
-    ``S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson, eq. 5.118)."""
+    """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice of the
+    rectangle, ``(m pi / a)^2 + (n pi / b)^2 <= k^2`` with ``k^4 = omega^2 rho h / D``,
+    counted exactly (``m, n >= 1`` for simply supported edges, where it is the exact count;
+    ``m, n >= 0`` for free edges, whose beam functions include the edges' uniform ones).
+    Its area term is the asymptotic modal density ``S omega / (4 pi) sqrt(rho h / D)``
+    (Cremer, Heckl & Petersson, eq. 5.118); the lattice adds the edges' share, which
+    dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
+    Clamped edges are counted as simply supported (their wavenumbers lie half a step
+    higher)."""
+    import numpy as np
+
     omega = 2.0 * math.pi * max_frequency
-    area = plate.length * plate.width
-    return int(
-        area * omega / (4.0 * math.pi) * math.sqrt(plate.surface_density / plate.flexural_rigidity)
-    )
+    k = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))  # rad/m
+    first = 0 if plate.boundary == "free" else 1
+    kx, ky = k * plate.length / math.pi, k * plate.width / math.pi  # lattice radii
+    n = np.arange(first, int(math.floor(ky)) + 1, dtype=float)
+    rows = np.floor(kx * np.sqrt(np.maximum(1.0 - (n / ky) ** 2, 0.0))) - first + 1
+    return int(np.sum(np.maximum(rows, 0.0)))
 
 
 def hertz_contact_time(ball, plate, speed: float) -> float:

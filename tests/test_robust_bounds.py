@@ -192,19 +192,38 @@ def test_heavy_scenes_are_refused_before_work(tmp_path, name):
     assert len(done.stderr.strip().splitlines()) == 1
 
 
-def test_modal_count_is_cremers_density_within_the_edge_correction():
-    # the asymptotic count S omega / (4 pi) sqrt(rho h / D) against the modes module's
-    # exact count for the default board below 24 kHz: the free edges add modes (the
-    # edge term of the Weyl-type expansion), so the estimate is low by some per cent, and
-    # within 15 % of it
+def test_modal_count_is_the_wavenumber_lattice():
+    # simply supported: the modes are the lattice (m pi / a, n pi / b), so the count is
+    # exact; free: the lattice with the edges' uniform functions (m, n >= 0) against the
+    # Rayleigh-Ritz count of the default board below 24 kHz, within 10 % (the free beam
+    # functions' wavenumbers sit between the lattice's points: (m - 1/2) pi / a)
+    import dataclasses
+
     import synth
     from synth import cost
     from synth.sound import modes as plate_modes
 
-    plate = synth.load_preset("default").plate
-    exact = plate_modes.modes(plate, max_frequency=24000.0).angular_frequencies.size
-    estimate = cost.modal_count(plate, 24000.0)
-    assert 0.85 * exact <= estimate <= exact
+    free = synth.load_preset("default").plate
+    supported = dataclasses.replace(free, boundary="simply-supported")
+    for plate, tolerance in ((supported, 0.0), (free, 0.10)):
+        exact = plate_modes.modes(plate, max_frequency=24000.0).angular_frequencies.size
+        assert abs(cost.modal_count(plate, 24000.0) - exact) <= tolerance * exact
+
+
+def test_a_strips_modes_are_a_beams():
+    # a 5 m x 1 mm strip: no mode varies across its width below 24 kHz (the first needs
+    # k = pi / b = 3142 rad/m), so its modes are the beam's k a / pi + 1 (the area term
+    # alone counted 75)
+    import math
+
+    from synth import cost
+    from synth.physics.scene import Plate
+
+    strip = Plate("steel", 0.0005, 5.0, 0.001)
+    k = math.sqrt(
+        2 * math.pi * 24000.0 * math.sqrt(strip.surface_density / strip.flexural_rigidity)
+    )
+    assert cost.modal_count(strip, 24000.0) == math.floor(k * 5.0 / math.pi) + 1
 
 
 def test_hertz_contact_time_is_the_closed_form_on_a_rigid_plate():
