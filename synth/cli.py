@@ -79,7 +79,10 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
 
     from synth import cost
 
-    keys = ("samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points")
+    keys = (
+        "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
+        "floor_db",
+    )  # fmt: skip
     options = {k: section[k] for k in keys if section.get(k) is not None}
     options.setdefault("samplerate", 48000)
     estimate = cost.estimate(scene, **options)

@@ -23,7 +23,10 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   ``n^3 / 3``, its inverse ``2 n^3 / 3``, the symmetric eigen-solution ``4 n^3 / 3``
   for the values and ``9 n^3`` with the vectors); a cold solve only (the modes are
   cached on disk).
-* **the audio**: at most ``preroll + max_duration + max_tail`` seconds at the sample rate.
+* **the audio**: the preroll, the bounce series (the fall, the flights of the first
+  impact's restitution summed as a geometric series, at most ``max_duration``) and the
+  slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
+  ``max_tail``), at the sample rate.
 * **memory**: the arrays whose size the above sets (the float64 audio and its float32
   copy, the pulse grid and its forces, the modes' per-mode rows of the transform
   workspace), bytes: a floor of what the render holds, not a measurement.
@@ -126,7 +129,7 @@ class CostEstimate:
     pulse_points : int
         Points of the longest force pulse's grid.
     audio_seconds : float
-        Longest audio, s.
+        Audio length, s (estimated: see the module docstring).
     audio_samples : int
         Its samples.
     memory_bytes : int
@@ -258,23 +261,58 @@ def _series_longest(first_contact: float, speed: float, gravity: float) -> float
     return first_contact * max(1.0, (speed / slowest) ** 0.2)
 
 
-def _first_contact(scene) -> tuple[float, bool]:
-    """(contact time in s, settled) of the first impact by the impedance model."""
+@dataclass(frozen=True)
+class FirstContact:
+    """The first impact by the impedance model: ``contact_time`` (s), ``settled`` (the
+    ball comes to rest), ``restitution``."""
+
+    contact_time: float
+    settled: bool
+    restitution: float
+
+
+def _first_contact(scene) -> FirstContact:
+    """The first impact by the impedance model; for the modal plate, a ball that comes to
+    rest gets the modal contact's longest (``SETTLE_FACTOR`` impedance contact times)."""
     from synth.physics.contact import ContactSolver
     from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
 
     c = scene.contact
     options = c.options()
     solver = ContactSolver.for_pair(
-        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol,
-        **options,
-    )  # fmt: skip
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol, **options
+    )
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
     first = solver.solve(speed, position=scene.position)
+    e = 0.0 if first.settled else float(first.restitution)
     if c.plate == "impedance" or not first.settled:
-        return first.contact_time, bool(first.settled)
+        return FirstContact(first.contact_time, bool(first.settled), e)
     tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
-    return SETTLE_FACTOR * tau, True
+    return FirstContact(SETTLE_FACTOR * tau, True, e)
+
+
+def _series_seconds(scene, first: FirstContact, longest: float, max_duration: float) -> float:
+    """Length of the bounce series from release, s: the fall, then the flights
+    ``2 v e^n / g`` of a constant restitution ``e`` (the first impact's) summed,
+    ``2 v e / (g (1 - e))``, and the longest contact; at most ``max_duration``."""
+    g = scene.gravity
+    fall = math.sqrt(2.0 * scene.drop_height / g)
+    speed = g * fall
+    e = first.restitution
+    flights = math.inf if e >= 1.0 else 2.0 * speed * e / (g * (1.0 - e))
+    return min(max_duration, fall + flights + longest)
+
+
+def _tail_seconds(plate, floor_db: float, max_tail: float) -> float:
+    """How long the slowest-decaying mode rings before falling ``floor_db`` (dB, < 0)
+    below its start, s, at most ``max_tail``: every damping law's decay rate grows with
+    frequency, so the slowest is the lowest mode, at the lattice's first wavenumber
+    ``k = pi / max(a, b)`` (rad/m)."""
+    k = math.pi / max(plate.length, plate.width)
+    omega = k * k * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+    sigma = float(plate.damping_law().decay_rate(omega))
+    nepers = -floor_db / 20.0 * math.log(10.0)
+    return min(max_tail, nepers / sigma) if sigma > 0.0 else max_tail
 
 
 def estimate(
@@ -286,6 +324,7 @@ def estimate(
     max_duration: float = 30.0,
     max_tail: float = 60.0,
     pulse_points: int = 65,
+    floor_db: float = -80.0,
 ) -> CostEstimate:
     """The :class:`CostEstimate` of rendering ``scene`` with these options of
     :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s)."""
@@ -296,10 +335,14 @@ def estimate(
     f_max = 0.5 * samplerate if max_frequency is None else min(max_frequency, 0.5 * samplerate)
     modes = modal_count(scene.plate, f_max)
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
-    first, settles = _first_contact(scene)
-    longest = first if settles else _series_longest(first, speed, scene.gravity)
+    first = _first_contact(scene)
+    settles = first.settled
+    longest = (
+        first.contact_time if settles else _series_longest(first.contact_time, speed, scene.gravity)
+    )
     points = _grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
-    seconds = preroll + max_duration + max_tail
+    series = _series_seconds(scene, first, longest, max_duration)
+    seconds = preroll + series + _tail_seconds(scene.plate, floor_db, max_tail)
     samples = int(math.ceil(seconds * samplerate))
     main, check = plate_modes.solver_sizes(scene.plate, f_max)
     flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)

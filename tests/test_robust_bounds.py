@@ -371,3 +371,16 @@ def test_the_warning_of_many_drops_stays_one_short_line():
     (warning,) = flag_warnings(series)
     assert warning.startswith("3000 bounce series") and "and 2995 more" in warning
     assert len(warning) < 300
+
+
+def test_the_audio_estimate_follows_the_render():
+    # the default board: the series' flights summed with the first impact's restitution
+    # (which rises a little at the slower impacts) and the lowest mode's ring-down to the
+    # floor: the estimate within 15 % of the rendered length
+    import synth
+    from synth import cost
+
+    scene = synth.load_preset("default")
+    rendered = synth.render(scene, samplerate=48000)
+    estimate = cost.estimate(scene, samplerate=48000)
+    assert estimate.audio_seconds == pytest.approx(rendered.duration, rel=0.15)

@@ -552,7 +552,7 @@ def render(
         raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
     cost.estimate(
         scene, samplerate=fs, max_frequency=f_max, preroll=pre, max_duration=max_duration,
-        max_tail=tail, pulse_points=int(pulse_points),
+        max_tail=tail, pulse_points=int(pulse_points), floor_db=o["floor_db"],
     ).check(budget)  # fmt: skip
     if sequence is None:
         sequence = simulate_scene(scene, max_duration=max_duration)
