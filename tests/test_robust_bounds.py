@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from synth.cli import main
@@ -384,3 +385,34 @@ def test_the_audio_estimate_follows_the_render():
     rendered = synth.render(scene, samplerate=48000)
     estimate = cost.estimate(scene, samplerate=48000)
     assert estimate.audio_seconds == pytest.approx(rendered.duration, rel=0.15)
+
+
+RENDER_OPTIONS = (
+    "peak_db", "loudness_lufs", "floor_db", "max_frequency", "preroll", "fade",
+    "max_duration", "max_tail", "pulse_points", "samplerate",
+)  # fmt: skip
+
+
+def _extreme_cases():
+    for name in RENDER_OPTIONS:
+        for value in (1e-300, 1e308, -1e-300, -1e308):
+            slow = name == "floor_db" and value == -1e308  # every tail rung to max_tail
+            yield pytest.param(name, value, marks=[pytest.mark.slow] if slow else [])
+
+
+@pytest.mark.parametrize("name, value", list(_extreme_cases()))
+def test_every_render_option_at_the_extremes_renders_or_is_named(name, value):
+    # 1e-300 and 1e308 of either sign: a render, or a ParameterError naming the option
+    # (max_duration=1e-300 names the first impact it cannot hold); never another error
+    import synth
+
+    scene = synth.load_preset("default")
+    options = {"samplerate": 48000, name: value}
+    if name == "loudness_lufs":
+        options["normalize"] = "loudness"
+    try:
+        rendered = synth.render(scene, **options)
+    except ParameterError as exc:
+        assert f"{name}={value!r}" in str(exc) or f"max_duration={value!r}" in str(exc)
+    else:
+        assert rendered.duration > 0 and np.all(np.isfinite(rendered.audio))
