@@ -41,17 +41,16 @@ hold the pulse). ``synth info --cost`` prints the estimate.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
+from synth import checks
 from synth.errors import ParameterError
 
-#: Default budget: modes of the plate below the highest rendered frequency (a 1 mm steel
-#: sheet of 1.5 x 1.5 m has about 17 000 below 24 kHz; each mode costs its shapes, its
-#: radiation gain and its share of every impact's transform).
+#: Default budget: modes of the plate below the highest rendered frequency (each costs
+#: its shape, its radiation gain and its share of every impact's transform).
 DEFAULT_MAX_MODES = 100_000
-#: Default budget: points of the longest force pulse's grid (a 10 mm ball's 110 us
-#: contact needs 65 at 48 kHz; a ball resting 1 s on the plate, 64 000).
+#: Default budget: points of the longest force pulse's grid (``4 omega_max tau / pi``:
+#: about 10 s of contact at 24 kHz).
 DEFAULT_MAX_PULSE_POINTS = 2_000_000
 #: Default budget: memory of the arrays the estimate sizes, bytes.
 DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
@@ -66,22 +65,6 @@ ENVIRONMENT = {
     "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
     "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
 }
-
-
-def environment_integer(name: str, default: int, least: int = 0) -> int:
-    """The integer environment variable ``name`` (``>= least``), or ``default`` when it is
-    unset or empty: the one parser of the engine's numeric environment variables, raising
-    ``ParameterError`` naming the variable, its text and what is allowed."""
-    text = os.environ.get(name)
-    if text is None or not text.strip():
-        return default
-    try:
-        value = int(text.strip())
-    except ValueError:
-        value = None
-    if value is None or value < least:
-        raise ParameterError(f"{name}={text!r} must be an integer >= {least}")
-    return value
 
 
 @dataclass(frozen=True)
@@ -104,7 +87,9 @@ class Budget:
     def from_environment(cls) -> Budget:
         """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS`` and
         ``$SYNTH_MAX_MEMORY_BYTES`` (each defaulting to this module's constant)."""
-        values = [environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()]
+        values = [
+            checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
+        ]
         return cls(*values)
 
 
@@ -117,7 +102,7 @@ class CostEstimate:
     max_frequency : float
         Highest rendered frequency, Hz.
     modes : int
-        Plate modes below it (asymptotic modal density).
+        Plate modes below it (the wavenumber lattice, :func:`modal_count`).
     impact_speed : float
         First impact's speed, m/s.
     hertz_contact : float

@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.errors import ParameterError
+from synth import checks
 from synth.io.atomic import write_atomically
 
 #: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
@@ -78,16 +78,7 @@ def cache_dir() -> Path:
 def max_bytes() -> int:
     """Bound of the disk cache's total size, bytes: ``$SYNTH_CACHE_MAX_BYTES`` (an
     integer >= 0; 0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
-    text = os.environ.get("SYNTH_CACHE_MAX_BYTES")
-    if text is None or not text.strip():
-        return DEFAULT_MAX_BYTES
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise ParameterError(f"SYNTH_CACHE_MAX_BYTES={text!r} must be an integer >= 0 (bytes)")
-    return value
+    return checks.environment_integer("SYNTH_CACHE_MAX_BYTES", DEFAULT_MAX_BYTES, 0, "bytes")
 
 
 def cache_path(prefix: str, key: str) -> Path:
