@@ -83,8 +83,7 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
         "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
         "floor_db",
     )  # fmt: skip
-    options = {k: section[k] for k in keys if section.get(k) is not None}
-    options.setdefault("samplerate", 48000)
+    options = {k: section[k] for k in keys if section.get(k) is not None}  # samplerate set
     estimate = cost.estimate(scene, **options)
     budget = cost.Budget.from_environment()
     too_big = estimate.excess(budget)
