@@ -416,3 +416,15 @@ def test_every_render_option_at_the_extremes_renders_or_is_named(name, value):
         assert f"{name}={value!r}" in str(exc) or f"max_duration={value!r}" in str(exc)
     else:
         assert rendered.duration > 0 and np.all(np.isfinite(rendered.audio))
+
+
+def test_no_shipped_preset_is_refused_by_the_default_budget():
+    # the budget bounds only work far beyond what the presets ask for
+    from synth import cost
+    from synth.io.presets import available, load_preset_with_options
+
+    for name in available():
+        scene, section, _ = load_preset_with_options(name)
+        keys = ("samplerate", "max_frequency", "max_duration", "max_tail", "floor_db")
+        options = {k: section[k] for k in keys if section.get(k) is not None}
+        assert cost.estimate(scene, **options).excess(cost.Budget()) == [], name
