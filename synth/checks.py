@@ -156,3 +156,21 @@ def samplerate(value: object, name: str = "samplerate") -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value <= 0:
         raise ParameterError(f"{name}={value!r} must be an integer > 0 (Hz)")
     return int(value)
+
+
+def environment_integer(name: str, default: int, least: int = 0, unit: str = "") -> int:
+    """The integer environment variable ``name`` (``>= least``), or ``default`` when it is
+    unset or empty: the one parser of the engine's numeric environment variables, raising
+    ``ParameterError`` naming the variable, its text and what is allowed."""
+    import os
+
+    text = os.environ.get(name)
+    if text is None or not text.strip():
+        return default
+    try:
+        value = int(text.strip())
+    except ValueError:
+        value = None
+    if value is None or value < least:
+        raise ParameterError(f"{name}={text!r} must be an integer >= {least}{_unit(unit)}")
+    return value

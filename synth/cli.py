@@ -36,7 +36,9 @@ def _cmd_info(args):
     from synth.io.presets import load_preset_with_options
     from synth.physics.bounces import simulate_scene
 
-    scene, _, data = load_preset_with_options(args.preset, args.overrides)
+    scene, section, data = load_preset_with_options(args.preset, args.overrides)
+    if args.cost:
+        return _print_cost(scene, section, args.json)
     seq = simulate_scene(scene)
     rows = seq.table()
     if args.json:
@@ -66,6 +68,41 @@ def _cmd_info(args):
             f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
         )
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    return 0
+
+
+def _print_cost(scene, section: dict, as_json: bool) -> int:
+    """``synth info --cost``: the render's :func:`synth.cost.estimate` with the preset's
+    render options, and what a render would refuse (nothing is solved but the first
+    contact)."""
+    from dataclasses import asdict
+
+    from synth import cost
+
+    keys = (
+        "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
+        "floor_db",
+    )  # fmt: skip
+    options = {k: section[k] for k in keys if section.get(k) is not None}  # samplerate set
+    estimate = cost.estimate(scene, **options)
+    budget = cost.Budget.from_environment()
+    too_big = estimate.excess(budget)
+    if as_json:
+        json.dump(
+            dict(asdict(estimate), budget=asdict(budget), refused=too_big), sys.stdout, indent=1
+        )
+        print()
+        return 0
+    for name, value in estimate.rows():
+        print(f"{name:<28} {value}")
+    print(
+        f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
+        f"{budget.max_memory_bytes / 2**20:.0f} MiB"
+    )
+    for reason in too_big:
+        print(f"a render would be refused: {reason}")
+    if not too_big:
+        print("a render fits the budget")
     return 0
 
 
@@ -102,6 +139,10 @@ def _cmd_render(args):
     from synth.io.presets import find, load_preset_with_options
     from synth.sound.render import render
 
+    outputs = Outputs(  # every output path checked before any work
+        {"output": args.output, "report": args.report, "plot": args.plot},
+        {"output": audio_io.FORMATS, "plot": (".png",)},
+    )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
     if args.timing_from is not None or args.restitution_scale is not None:
@@ -113,10 +154,6 @@ def _cmd_render(args):
         else:
             timing = load_preset_with_options(args.timing_from)[0]
             opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
-    outputs = Outputs(
-        {"output": args.output, "report": args.report, "plot": args.plot},
-        {"output": audio_io.FORMATS},
-    )
     rendered = render(scene, **opts)
     with outputs:
         audio_io.write_audio(
@@ -153,6 +190,7 @@ class Outputs:
         from synth.io.audio import check_output_path
 
         self.paths = {k: Path(v) for k, v in paths.items() if v}
+        _refuse_shared_paths(self.paths)
         for field, path in self.paths.items():
             check_output_path(path, field, (suffixes or {}).get(field))
         self.temporaries: dict = {}
@@ -176,11 +214,42 @@ class Outputs:
             if kind is None:
                 for field, tmp in self.temporaries.items():
                     os.replace(tmp, self.paths[field])
+            elif exc is not None:
+                self._name_the_targets(exc)
         finally:
             for tmp in self.temporaries.values():
                 if tmp.exists():
                     tmp.unlink()
         return False
+
+    def _name_the_targets(self, exc: BaseException) -> None:
+        """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
+        a full disk): the temporary is removed on the way out and means nothing to the
+        user."""
+        for field, tmp in self.temporaries.items():
+            target = str(self.paths[field])
+            if isinstance(exc, OSError) and exc.filename is not None:
+                if str(exc.filename) == str(tmp):
+                    exc.filename = target
+            exc.args = tuple(
+                a.replace(str(tmp), target) if isinstance(a, str) else a for a in exc.args
+            )
+
+
+def _refuse_shared_paths(paths: dict) -> None:
+    """Two outputs of one command on one file would leave only the last one written (the
+    audio replaced by the report, say): refused before any work. Paths are compared
+    resolved (``./a.wav``, ``a.wav`` and a symbolic link to it are one file)."""
+    seen: dict = {}
+    for field, path in paths.items():
+        key = path.resolve()
+        if key in seen:
+            other = seen[key]
+            raise SynthError(
+                f"{other}={str(paths[other])!r} and {field}={str(path)!r} are the same file; "
+                f"give each output its own path (nothing was written)"
+            )
+        seen[key] = field
 
 
 def _write_json(path, obj):
@@ -530,6 +599,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("info", help="print the impact table of a preset's scene")
     _add_preset_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument(
+        "--cost",
+        action="store_true",
+        help="the render's cost estimate (modes, longest contact, pulse grid, audio, memory) "
+        "against the budget, before any work",
+    )
     p.set_defaults(func=_cmd_info)
 
     p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
@@ -794,9 +869,16 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning as one line of the command's own (``synth: warning: ...``), never a
+    Python source line: a user cannot act on the engine's file and line number."""
+    print(f"synth: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv=None) -> int:
     import signal
     import threading
+    import warnings
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -804,7 +886,9 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.func(args)
     except SynthError as exc:
         print(f"synth: error: {exc}", file=sys.stderr)
         return 2

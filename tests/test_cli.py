@@ -447,7 +447,7 @@ def test_render_command_loudness(capsys, tmp_path):
     [
         (["--samplerate", "1000"], ["samplerate=1000"]),
         (["--set", "render.max_frequency=40000"], ["render.max_frequency=40000", "Nyquist"]),
-        (["--set", "ball.radius=-1"], ["ball.radius=-1", "> 0"]),
+        (["--set", "ball.radius=-1"], ["ball.radius=-1", "[1e-06, 1]"]),
         (["--peak-db", "3"], ["peak_db=3.0", "<= 0"]),
     ],
 )

@@ -296,7 +296,7 @@ def read_recording(path) -> tuple[np.ndarray, float]:
         audio, samplerate = read_audio(path)  # the one reader: formats, truncation warning
     except AudioFileError as exc:
         raise AnalysisError(f"cannot read {os.fspath(path)!r} as sound: {exc}") from None
-    audio = audio.reshape(audio.shape[0], -1)
-    if audio.shape[0] == 0:
+    if audio.shape[0] == 0:  # before the reshape: (0,) has no channel count to infer
         raise AnalysisError(f"{os.fspath(path)!r} holds no samples")
+    audio = audio.reshape(audio.shape[0], -1)
     return audio, float(samplerate)

@@ -269,7 +269,10 @@ def flag_warnings(series: list[Series]) -> tuple[str, ...]:
             f"{silent[0].index} at {silent[0].time:.4f} s): doubtful impacts"
         )
     if len(series) > 1:
-        starts = ", ".join(f"{s.first:.3f} s" for s in series)
+        shown = 5  # a long recording of many drops would make the line kilobytes long
+        starts = ", ".join(f"{s.first:.3f} s" for s in series[:shown])
+        if len(series) > shown:
+            starts += f" and {len(series) - shown} more"
         out.append(
             f"{len(series)} bounce series (drops) starting at {starts}: each is "
             f"measured on its own (Analysis.series)"

@@ -103,9 +103,25 @@ def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = Fal
             free = shutil.disk_usage(path.parent if str(path.parent) else ".").free
             if free < nbytes + 65536:
                 return f"no space left on the device ({free} bytes free, about {nbytes} needed)"
+            limit = _file_size_limit()
+            if limit is not None and nbytes > limit:
+                return (
+                    f"the file, about {nbytes} bytes, is larger than this process may write "
+                    f"(file size limit {limit} bytes: ulimit -f)"
+                )
     except OSError as exc:
         return exc.strerror or str(exc)
     return reason
+
+
+def _file_size_limit() -> int | None:
+    """The largest file this process may write (``RLIMIT_FSIZE``, bytes), or None."""
+    try:
+        import resource
+    except ImportError:  # not on Windows
+        return None
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
 def _check_units(units) -> str:

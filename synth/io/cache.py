@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.errors import ParameterError
+from synth import checks
 from synth.io.atomic import write_atomically
 
 #: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
@@ -78,16 +78,7 @@ def cache_dir() -> Path:
 def max_bytes() -> int:
     """Bound of the disk cache's total size, bytes: ``$SYNTH_CACHE_MAX_BYTES`` (an
     integer >= 0; 0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
-    text = os.environ.get("SYNTH_CACHE_MAX_BYTES")
-    if text is None or not text.strip():
-        return DEFAULT_MAX_BYTES
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise ParameterError(f"SYNTH_CACHE_MAX_BYTES={text!r} must be an integer >= 0 (bytes)")
-    return value
+    return checks.environment_integer("SYNTH_CACHE_MAX_BYTES", DEFAULT_MAX_BYTES, 0, "bytes")
 
 
 def cache_path(prefix: str, key: str) -> Path:
@@ -114,13 +105,14 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
     unique name in the same directory, then an atomic rename, so that a reader never
     sees a partial file and concurrent writers of one entry all succeed. Then evict the
     least recently used entries beyond :func:`max_bytes`. Returns False, having written
-    nothing, if the file cannot be written (a cache is then skipped)."""
+    nothing, if the file cannot be written (a cache is then skipped); raises
+    ``ParameterError`` for a bad ``$SYNTH_CACHE_MAX_BYTES``, as ``synth cache info`` does."""
     digest = np.array(arrays_digest(arrays))
+    limit = max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES is the user's error, never a silent "off"
     try:
-        limit = max_bytes()
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomically(path, lambda tmp: np.savez(tmp, **arrays, **{DIGEST_ARRAY: digest}))
-    except (OSError, RuntimeError, ParameterError):  # unwritable, no home, bad bound: no disk cache
+    except (OSError, RuntimeError):  # unwritable, no home: no disk cache
         return False
     _SIZE_COUNT.after_write(path, limit)
     return True

@@ -147,8 +147,20 @@ def available() -> dict[str, Path]:
 
 def find(name_or_path) -> Path:
     """The file of a preset given as a path or a name."""
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise PresetError(
+            f"preset={name_or_path!r} must be a preset name or a file path (str or "
+            f"os.PathLike), not {type(name_or_path).__name__}"
+        )
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
+        if p.is_dir():
+            raise PresetError(f"preset file {str(p)!r} is a directory, not a preset file")
+        if p.exists() and not p.is_file():
+            raise PresetError(
+                f"preset file {str(p)!r} is not a regular file (a device or a pipe); "
+                f"give a .toml preset file"
+            )
         if not p.is_file():
             raise PresetError(f"preset file {str(p)!r} does not exist")
         return p
@@ -177,10 +189,29 @@ def read(path) -> dict:
         raise PresetError(f"{path}: cannot be read: {exc.strerror}") from None
 
 
+def _override_list(overrides) -> list[str]:
+    """``overrides`` checked to be a list (or tuple) of ``key=value`` strings: a single
+    string would otherwise be read character by character."""
+    if overrides is None:
+        return []
+    if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (list, tuple)):
+        raise PresetError(
+            f"overrides={overrides!r} must be a list of 'section.key=value' strings "
+            f"(e.g. ['ball.radius=0.007']), not {type(overrides).__name__}"
+        )
+    for i, item in enumerate(overrides):
+        if not isinstance(item, str):
+            raise PresetError(
+                f"overrides[{i}]={item!r} must be a 'section.key=value' string, "
+                f"not {type(item).__name__}"
+            )
+    return list(overrides)
+
+
 def apply_overrides(data: dict, overrides, source="--set") -> dict:
     """Apply ``key=value`` overrides (dotted keys, TOML values) to a preset dict."""
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
-    for item in overrides or ():
+    for item in _override_list(overrides):
         if "=" not in item:
             raise PresetError(f"{source} {item!r}: expected key=value, e.g. ball.radius=0.007")
         key, text = item.split("=", 1)
@@ -222,6 +253,11 @@ def _material(value, where):
             )
     kw = dict(value)
     kw.setdefault("name", "custom")
+    if not isinstance(kw["name"], str) or not kw["name"].strip():
+        raise PresetError(
+            f"{where}.name={kw['name']!r} must be a non-empty string (a built-in material "
+            f"such as 'steel', whose keys the others change, or the inline material's label)"
+        )
     shear = kw.pop("transverse_shear", None)
     if isinstance(shear, str) and shear != TIED_SHEAR:
         raise PresetError(

@@ -39,6 +39,10 @@ from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.scene import Ball, Plate, Scene
 
+#: The ``"floor"`` rule's default: the series ends when an impact's kinetic energy is this
+#: far below the first's, dB.
+DEFAULT_FLOOR_DB = -60.0
+
 STOP_REASONS = (
     "settled",
     "flight-shorter-than-contact",
@@ -164,7 +168,7 @@ def simulate_bounces(
     gravity: float = GRAVITY,
     contact_law: str = "hertz",
     rtol: float = 1e-6,
-    floor_db: float = -60.0,
+    floor_db: float = DEFAULT_FLOOR_DB,
     max_duration: float = 60.0,
     max_impacts: int = 10_000,
     n_points: int = 128,

@@ -23,14 +23,28 @@ BOUNDARIES = ("free", "simply-supported", "clamped")
 # contact time, mode count, audio length) finite and within memory:
 #: Largest ball radius, m (a bowling ball is 0.109 m).
 MAX_BALL_RADIUS = 1.0
+#: Smallest ball radius, m: a grain of fine sand; smaller is a particle outside the
+#: continuum (Hertz) contact, whose contact time falls below the solver's time axis.
+MIN_BALL_RADIUS = 1e-6
 #: Largest ball mass, kg (a bowling ball is 7 kg).
 MAX_BALL_MASS = 1000.0
+#: Smallest ball mass, kg: a steel sphere of MIN_BALL_RADIUS weighs 3e-14 kg. A lighter
+#: ball's impact force (~ m^(3/5)) and sound take float64 towards its underflow, where
+#: the tails' floor (1e-4 of the loudest tick) is no longer a number.
+MIN_BALL_MASS = 1e-15
 #: Largest plate side or thickness, m.
 MAX_PLATE_SIZE = 100.0
+#: Thinnest plate, m: a household aluminium foil is 16 um thick; a thinner sheet is a
+#: film (its bending stiffness ``E h^3``, which the contact, the modes and the impedance
+#: all divide by, vanishes as h^3 and underflows to 0 at h = 1e-103 m).
+MIN_PLATE_THICKNESS = 1e-6
 #: Drop heights, m: from 1 um (an impact speed of 4.4 mm/s) to 1 km (140 m/s; the
 #: contact stays elastic far below it for every material of the table).
 MIN_DROP_HEIGHT = 1e-6
 MAX_DROP_HEIGHT = 1000.0
+#: Farthest microphone coordinate from the plate's corner, m: the sound's travel time
+#: (2.9 s at 343 m/s) stays a small part of the render, and every distance finite.
+MAX_LISTENER_DISTANCE = 1000.0
 #: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
 MAX_GRAVITY = 1000.0
 
@@ -43,9 +57,9 @@ class Ball:
     ----------
     material : Material or str
         The ball's material (a :class:`Material` or a table name).
-    radius : float in (0, 1]
+    radius : float in [1e-6, 1]
         Radius, metres.
-    mass : float in (0, 1000], optional
+    mass : float in [1e-15, 1000], optional
         Mass, kg. Default: ``density * 4/3 pi radius^3``.
     """
 
@@ -55,15 +69,24 @@ class Ball:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        object.__setattr__(
-            self,
-            "radius",
-            checks.positive_at_most("ball.radius", self.radius, MAX_BALL_RADIUS, "metres"),
-        )
+        r = checks.in_range(
+            "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "radius", r)
         if self.mass is None:
             m = self.material.density * 4.0 / 3.0 * math.pi * self.radius**3
+            if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
+                raise ParameterError(
+                    f"ball.mass={m:.4g} kg (from ball.radius={r!r} m and the density "
+                    f"{self.material.density:g} kg/m^3) must be in [{MIN_BALL_MASS:g}, "
+                    f"{MAX_BALL_MASS:g}] (kg); give ball.mass or change the radius"
+                )
         else:
-            m = checks.positive_at_most("ball.mass", self.mass, MAX_BALL_MASS, "kg")
+            m = checks.in_range(
+                "ball.mass", self.mass, MIN_BALL_MASS, MAX_BALL_MASS, "kg",
+                lo_open=False, hi_open=False,
+            )  # fmt: skip
         object.__setattr__(self, "mass", m)
 
 
@@ -75,7 +98,7 @@ class Plate:
     ----------
     material : Material or str
         The plate's material (a :class:`Material` or a table name).
-    thickness : float in (0, 100]
+    thickness : float in [1e-6, 100]
         Thickness ``h``, metres (at most the smaller side).
     length : float in (0, 100]
         Side ``a`` along x, metres.
@@ -93,12 +116,16 @@ class Plate:
 
     def __post_init__(self):
         object.__setattr__(self, "material", resolve(self.material, "plate.material"))
-        for name, unit in (("thickness", "metres"), ("length", "metres"), ("width", "metres")):
-            object.__setattr__(
-                self,
-                name,
-                checks.positive_at_most(f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, unit),
+        for name in ("length", "width"):
+            size = checks.positive_at_most(
+                f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, "metres"
             )
+            object.__setattr__(self, name, size)
+        h = checks.in_range(
+            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "thickness", h)
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -173,8 +200,8 @@ class Microphone:
     Parameters
     ----------
     position : (float, float, float)
-        ``(x, y, z)``: x, y in metres from a plate corner, z > 0 the height above
-        the plate, metres.
+        ``(x, y, z)``: x, y in metres from a plate corner, each in [-1000, 1000]; z in
+        (0, 1000] the height above the plate, metres.
     """
 
     position: tuple[float, float, float]
@@ -185,6 +212,12 @@ class Microphone:
             raise ParameterError(
                 f"listener.position.z={pos[2]!r} must be > 0 (metres above the plate)"
             )
+        for axis, value in zip("xyz", pos):
+            if abs(value) > MAX_LISTENER_DISTANCE:
+                raise ParameterError(
+                    f"listener.position.{axis}={value!r} must be within "
+                    f"{MAX_LISTENER_DISTANCE:g} of the plate's corner (metres)"
+                )
         object.__setattr__(self, "position", pos)
 
 

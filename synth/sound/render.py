@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synth import checks
+from synth import checks, cost
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
+from synth.io import cache as disk_cache
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
@@ -73,14 +74,19 @@ class Render:
         return times + self.settings["delay"] - self.settings["audio_start"]
 
 
+#: Range of the sample rate, Hz.
+MIN_SAMPLERATE, MAX_SAMPLERATE = 8000, 384000
+
+
 def _samplerate(value) -> int:
     if (
         isinstance(value, bool)
         or not isinstance(value, (int, np.integer))
-        or not 8000 <= value <= 384000
+        or not MIN_SAMPLERATE <= value <= MAX_SAMPLERATE
     ):
         raise ParameterError(
-            f"samplerate={value!r} must be an integer number of Hz in [8000, 384000]"
+            f"samplerate={value!r} must be an integer number of Hz in "
+            f"[{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]"
         )
     return int(value)
 
@@ -358,6 +364,21 @@ def _seconds(name, value, hi, lo_open=True) -> float:
     return x
 
 
+def _silent_plate_message(f_max: float, samplerate: int) -> str:
+    """Why a plate without a mode below ``f_max`` (Hz) is refused, and what can change:
+    ``max_frequency`` only while it is below the Nyquist frequency."""
+    if f_max < 0.5 * samplerate:
+        return (
+            f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
+            f"render would be silent; raise it (at most samplerate / 2 = {samplerate / 2:g} Hz)"
+        )
+    return (
+        f"no mode of the plate rings below the Nyquist frequency samplerate / 2 = "
+        f"{samplerate / 2:g} Hz, so the render would be silent; raise the samplerate (at "
+        f"most {MAX_SAMPLERATE}) or use a larger, thinner or less stiff plate"
+    )
+
+
 def check_sequence(scene, sequence) -> BounceSequence:
     """``sequence`` as the impacts of ``scene``: a non-empty :class:`BounceSequence` whose
     contacts are ``scene``'s (its first impact solved again with the scene's ball, plate,
@@ -446,6 +467,7 @@ def render(
     max_tail=60.0,
     sequence=None,
     pulse_points=PULSE_POINTS,
+    budget=None,
 ) -> Render:
     """Render ``scene`` at ``samplerate``.
 
@@ -489,10 +511,16 @@ def render(
         Fewest points of the uniform grid on which each force pulse's Laplace
         transforms are taken (see :mod:`synth.sound.modal_bank`; the default keeps their error
         below 2e-6 of the impulse; a reference render may ask for more).
+    budget : synth.cost.Budget, optional
+        The most work the render may take on (default: ``Budget.from_environment()``):
+        the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
+        ``max_duration``, is refused before any work with a ``ParameterError`` naming
+        what is too big and what to change.
     """
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()  # before the bounces: the modes will need it
+    disk_cache.max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES refused before any work
     o = check_options(
         samplerate=samplerate,
         normalize=normalize,
@@ -518,6 +546,15 @@ def render(
                 f"drop.height={scene.drop_height!r} m: the first impact, {first_touch:.4g} s "
                 f"after release, is later than max_duration={max_duration!r} (s)"
             )
+    if budget is None:
+        budget = cost.Budget.from_environment()
+    elif not isinstance(budget, cost.Budget):
+        raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
+    cost.estimate(
+        scene, samplerate=fs, max_frequency=f_max, preroll=pre, max_duration=max_duration,
+        max_tail=tail, pulse_points=int(pulse_points), floor_db=o["floor_db"],
+    ).check(budget)  # fmt: skip
+    if sequence is None:
         sequence = simulate_scene(scene, max_duration=max_duration)
     else:
         check_sequence(scene, sequence)
@@ -536,10 +573,7 @@ def render(
     delay = model.delay
     units = model.units
     if not poles.size:
-        raise ParameterError(
-            f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
-            f"render would be silent; raise it (default: samplerate / 2)"
-        )
+        raise ParameterError(_silent_plate_message(f_max, fs))
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])

@@ -516,10 +516,14 @@ def alter_restitution(
     T, e, e_new, T_new = _timing(t, k, min_b)
     M = T_new.size + 1
     if M < 3:
+        if e_new[0] <= 0.0:  # no rebound at all (a bounce time would be meaningless)
+            why = "<= 0: the ball would not rebound"
+        else:
+            why = f"a bounce of {T_new[0] * e_new[0] * 1e3:.3g} ms against min_bounce = "
+            why += f"{min_b * 1e3:.3g} ms"
         raise ParameterError(
             f"restitution_scale={k!r} ends the series after 2 ticks (e' = 1 - k (1 - e) = "
-            f"{e_new[0]:.3g} at the second impact, a bounce of {T_new[0] * e_new[0] * 1e3:.3g} ms "
-            f"against min_bounce = {min_b * 1e3:.3g} ms): no altered bounce is left; "
+            f"{e_new[0]:.3g} at the second impact, {why}): no altered bounce is left; "
             f"k must be < {(1.0 - min_b / T[0]) / (1.0 - e[0]):.4g} here"
         )
     t_new = np.r_[t[0], t[1] + np.r_[0.0, np.cumsum(T_new[1:])]]  # t'_1 = t_1 exactly

@@ -472,8 +472,15 @@ def next_touch(
     dt = 1.0 / (8.0 * p.max_frequency)
     s0 = when(W) if height + v * v / (2.0 * g) > W else dt
     hi = when(-W)
-    while gap(s0) > 0.0 and s0 < hi:
+    # at most one step of dt per dt of the window (and one more for rounding); a step
+    # below the float spacing at s0 goes to the window's end instead of nowhere
+    steps = int(math.ceil((hi - s0) / dt)) + 1 if hi > s0 else 0
+    for _ in range(steps):
+        if not (gap(s0) > 0.0 and s0 < hi):
+            break
         s1 = min(s0 + dt, hi)
+        if not s1 > s0:
+            s1 = hi
         if gap(s1) <= 0.0:
             a, b = s0, s1
             for _ in range(200):

@@ -59,7 +59,14 @@ from synth.sound.modes.crossover import (
     HybridSolution,
     crossed,
 )
-from synth.sound.modes.ritz import TOLERANCE, RitzSolution, SummedShapes, TooLarge, ritz_unknowns
+from synth.sound.modes.ritz import (
+    TOLERANCE,
+    RitzSolution,
+    SummedShapes,
+    TooLarge,
+    first_basis_sizes,
+    ritz_unknowns,
+)
 
 __all__ = [
     "Modes",
@@ -305,6 +312,22 @@ def _frequency_scale(plate: Plate) -> float:
 def _dimensionless_band(plate: Plate, max_frequency: float) -> float:
     """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
     return 2.0 * math.pi * max_frequency / _frequency_scale(plate)
+
+
+def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
+    """Unknowns of the Rayleigh-Ritz problems :func:`modes` solves for ``plate`` up to
+    ``max_frequency`` (Hz): each symmetry class's main and check bases of the first
+    basis tried (of the low band, beyond the crossover); none for a simply supported
+    plate (closed form). A larger basis is tried only when the first does not converge."""
+    if plate.boundary == "simply-supported":
+        return [], []
+    aspect = plate.length / plate.width
+    omega_req = _dimensionless_band(plate, max_frequency)
+    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+        from synth.sound.modes.crossover import _LOW_BAND_UNKNOWNS, band_of_unknowns
+
+        omega_req = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+    return first_basis_sizes(aspect, omega_req)
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:

@@ -256,6 +256,18 @@ def ritz_unknowns(aspect: float, omega: float) -> float:
     return math.pi / 16.0 * nx_max * ny_max
 
 
+def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]]:
+    """Unknowns of each symmetry class's main and check bases in the first basis
+    :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the index sets it
+    builds, without any matrix (for :mod:`synth.cost`)."""
+    rx, ry = ratios(aspect)
+    k_l = math.sqrt(omega)
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    main = [index_set(px, py, kx, ky, _C0, _C1)[0].size for px, py in _CLASSES]
+    check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1)[0].size for px, py in _CLASSES]
+    return main, check
+
+
 def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
     """``(lam, vec, lam_check)`` of each symmetry class: eigenpairs of the basis
     ``main[c]`` and eigenvalues of the larger ``check[c]`` (see :func:`solve_class`).

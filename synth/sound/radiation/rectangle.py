@@ -50,27 +50,34 @@ from synth.sound.radiation.common import (
 )
 from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
 
+#: Shortest panel, relative to the plate's side: a shorter one is a rounding artefact of
+#: the stepping (dropped), and the near-field grading never steps by less, so that a
+#: microphone closer to the plate than this (1e-300 m) still gets a finite set of panels
+#: (a step below the float spacing at ``t`` would leave ``t`` where it is, forever).
+PANEL_RESOLUTION = 1e-12
+
 
 def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
     """Panel ends on ``[0, length]``: at most ``h`` long, and at most ``2 max(height, d)``
     long where ``d`` is the distance from ``centre`` (the microphone's projection on this
-    axis) to the panel's near end."""
+    axis) to the panel's near end, but never shorter than ``PANEL_RESOLUTION * length``
+    (the steps then grow geometrically from there: about 30 panels to reach ``length``)."""
     c = min(max(centre, 0.0), length)
+    shortest = PANEL_RESOLUTION * length
     right = [c]
     t = c
     while t < length:
         d = abs(t - centre)
-        t = min(t + min(h, GRADING * max(height, d)), length)
+        t = min(t + min(h, GRADING * max(height, d, shortest)), length)
         right.append(t)
     left = []
     t = c
     while t > 0.0:
         d = abs(centre - t)
-        t = max(t - min(h, GRADING * max(height, d)), 0.0)
+        t = max(t - min(h, GRADING * max(height, d, shortest)), 0.0)
         left.append(t)
     ends = np.array(left[::-1] + right)
-    # a panel shorter than 1e-12 of the plate is a rounding artefact of the stepping
-    keep = np.concatenate(([True], np.diff(ends) > 1e-12 * length))
+    keep = np.concatenate(([True], np.diff(ends) > shortest))
     ends = ends[keep]
     ends[-1] = length
     ends[0] = 0.0

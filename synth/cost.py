@@ -1,0 +1,352 @@
+"""What a render will cost, known before the work starts, and the budget it must fit.
+
+Every size the engine's work follows from is estimated from the scene and the render
+options, before the plate's modes, the radiation gains or the bounce series are computed:
+
+* **modes**: the plate's modes below the highest rendered frequency, from the lattice of
+  its wavenumbers (:func:`modal_count`), whose area term is the asymptotic modal density
+  ``N(omega) = S omega / (4 pi) sqrt(rho h / D)`` (Cremer, Heckl & Petersson,
+  *Structure-Borne Sound*, 3rd ed., eq. 5.118; ``S`` the area, ``rho h`` the surface
+  density, ``D`` the bending stiffness) and whose edge term counts a strip's beam modes.
+* **the longest contact**: the first impact's contact, solved alone by the impedance model
+  (the ball on the infinite plate, the plate's modes not needed: milliseconds), and the
+  longest a later bounce can have by Hertz' ``tau ~ v^(-1/5)`` law down to the speed where
+  the flight ``2 v / g`` is as short as the contact (where the series ends). A ball that
+  comes to rest (it does not separate) has a contact as long as its settling: the
+  impedance model's own, or for the modal plate up to
+  ``SETTLE_FACTOR`` times the impedance model's contact time without gravity.
+* **the pulse grid**: the points of the longest force pulse's uniform grid, 8 a period of
+  the highest mode (see :mod:`synth.sound.modal_bank.pulse`).
+* **the mode solver**: the unknowns of its Rayleigh-Ritz problems (the solver's own index
+  sets, :func:`synth.sound.modes.solver_sizes`) and their floating-point operations by
+  LAPACK's counts (Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3: Cholesky
+  ``n^3 / 3``, its inverse ``2 n^3 / 3``, the symmetric eigen-solution ``4 n^3 / 3``
+  for the values and ``9 n^3`` with the vectors); a cold solve only (the modes are
+  cached on disk).
+* **the audio**: the preroll, the bounce series (the fall, the flights of the first
+  impact's restitution summed as a geometric series, at most ``max_duration``) and the
+  slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
+  ``max_tail``), at the sample rate.
+* **memory**: the arrays whose size the above sets (the float64 audio and its float32
+  copy, the pulse grid and its forces, the modes' per-mode rows of the transform
+  workspace), bytes: a floor of what the render holds, not a measurement.
+
+:class:`Budget` bounds them (``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
+``$SYNTH_MAX_MEMORY_BYTES``, or the keywords of :func:`synth.render`): work beyond it is
+refused before it starts, with a message naming what is too big and what to change. A
+contact longer than ``max_duration`` is refused whatever the budget (the render could not
+hold the pulse). ``synth info --cost`` prints the estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from synth import checks
+from synth.errors import ParameterError
+
+#: Default budget: modes of the plate below the highest rendered frequency (each costs
+#: its shape, its radiation gain and its share of every impact's transform).
+DEFAULT_MAX_MODES = 100_000
+#: Default budget: points of the longest force pulse's grid (``4 omega_max tau / pi``:
+#: about 10 s of contact at 24 kHz).
+DEFAULT_MAX_PULSE_POINTS = 2_000_000
+#: Default budget: memory of the arrays the estimate sizes, bytes.
+DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
+
+#: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
+#: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
+TAU_HERTZ = 2.9433
+
+#: The environment variables of :meth:`Budget.from_environment`, with their defaults.
+ENVIRONMENT = {
+    "SYNTH_MAX_MODES": DEFAULT_MAX_MODES,
+    "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
+    "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
+}
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The most work a render may take on: ``max_modes`` (plate modes),
+    ``max_pulse_points`` (points of one force pulse's grid) and ``max_memory_bytes``
+    (bytes of the arrays :class:`CostEstimate` sizes)."""
+
+    max_modes: int = DEFAULT_MAX_MODES
+    max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
+    max_memory_bytes: int = DEFAULT_MAX_MEMORY_BYTES
+
+    def __post_init__(self):
+        for name in ("max_modes", "max_pulse_points", "max_memory_bytes"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
+
+    @classmethod
+    def from_environment(cls) -> Budget:
+        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS`` and
+        ``$SYNTH_MAX_MEMORY_BYTES`` (each defaulting to this module's constant)."""
+        values = [
+            checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
+        ]
+        return cls(*values)
+
+
+@dataclass(frozen=True)
+class CostEstimate:
+    """The sizes of one render's work (see the module docstring for each estimate).
+
+    Attributes
+    ----------
+    max_frequency : float
+        Highest rendered frequency, Hz.
+    modes : int
+        Plate modes below it (the wavenumber lattice, :func:`modal_count`).
+    impact_speed : float
+        First impact's speed, m/s.
+    hertz_contact : float
+        Hertz' contact time of the first impact on a rigid plate, s.
+    longest_contact : float
+        Longest contact the series can have, s.
+    settles : bool
+        The first impact does not separate (the ball comes to rest on the plate).
+    pulse_points : int
+        Points of the longest force pulse's grid.
+    audio_seconds : float
+        Audio length, s (estimated: see the module docstring).
+    audio_samples : int
+        Its samples.
+    memory_bytes : int
+        Bytes of the arrays sized by the above.
+    max_duration : float
+        The render's longest bounce series, s.
+    solver_unknowns : int
+        Unknowns of the mode solver's largest problem (0: closed-form modes).
+    solver_flops : float
+        Floating-point operations of a cold mode solve.
+    """
+
+    max_frequency: float
+    modes: int
+    impact_speed: float
+    hertz_contact: float
+    longest_contact: float
+    settles: bool
+    pulse_points: int
+    audio_seconds: float
+    audio_samples: int
+    memory_bytes: int
+    max_duration: float
+    solver_unknowns: int = 0
+    solver_flops: float = 0.0
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget`` or for the render itself, each with what to
+        change (empty: the render fits)."""
+        out = []
+        if self.longest_contact > self.max_duration:
+            out.append(
+                f"the ball {'comes to rest on' if self.settles else 'stays on'} the plate: "
+                f"its contact lasts about {self.longest_contact:.4g} s, longer than "
+                f"max_duration={self.max_duration:g} s (the render could not hold its force "
+                f"pulse); lower ball.mass or use a stiffer or heavier plate"
+            )
+        if self.modes > budget.max_modes:
+            f_fit = self.max_frequency * budget.max_modes / self.modes
+            out.append(
+                f"the plate has about {self.modes} modes below {self.max_frequency:.6g} Hz, "
+                f"more than the budget of {budget.max_modes} (SYNTH_MAX_MODES); lower "
+                f"max_frequency to {f_fit:.4g} Hz or the samplerate, or use a smaller or "
+                f"thicker plate"
+            )
+        if self.pulse_points > budget.max_pulse_points:
+            out.append(
+                f"the longest force pulse ({self.longest_contact:.4g} s) needs "
+                f"{self.pulse_points} grid points up to {self.max_frequency:.6g} Hz, more than "
+                f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
+                f"max_frequency or ball.mass"
+            )
+        if self.memory_bytes > budget.max_memory_bytes:
+            out.append(
+                f"the render needs at least {self.memory_bytes / 2**20:.0f} MiB, more than "
+                f"the budget of {budget.max_memory_bytes / 2**20:.0f} MiB "
+                f"(SYNTH_MAX_MEMORY_BYTES); lower max_tail, max_duration or the samplerate"
+            )
+        return out
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
+
+    def rows(self) -> list[tuple[str, str]]:
+        """(name, value with unit) rows, for ``synth info --cost``."""
+        return [
+            ("highest frequency", f"{self.max_frequency:.6g} Hz"),
+            ("plate modes", f"{self.modes}"),
+            ("first impact speed", f"{self.impact_speed:.4g} m/s"),
+            ("Hertz contact (rigid plate)", f"{self.hertz_contact:.4g} s"),
+            ("longest contact", f"{self.longest_contact:.4g} s" + (REST if self.settles else "")),
+            ("pulse grid", f"{self.pulse_points} points"),
+            (
+                "mode solver (cold)",
+                f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
+            ),
+            ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
+            ("memory (sized arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
+        ]
+
+
+REST = " (the ball comes to rest)"
+
+
+def modal_count(plate, max_frequency: float) -> int:
+    """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice of the
+    rectangle, ``(m pi / a)^2 + (n pi / b)^2 <= k^2`` with ``k^4 = omega^2 rho h / D``,
+    counted exactly (``m, n >= 1`` for simply supported edges, where it is the exact count;
+    ``m, n >= 0`` for free edges, whose beam functions include the edges' uniform ones).
+    Its area term is the asymptotic modal density ``S omega / (4 pi) sqrt(rho h / D)``
+    (Cremer, Heckl & Petersson, eq. 5.118); the lattice adds the edges' share, which
+    dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
+    Clamped edges are counted as simply supported (their wavenumbers lie half a step
+    higher)."""
+    import numpy as np
+
+    omega = 2.0 * math.pi * max_frequency
+    k = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))  # rad/m
+    first = 0 if plate.boundary == "free" else 1
+    kx, ky = k * plate.length / math.pi, k * plate.width / math.pi  # lattice radii
+    n = np.arange(first, int(math.floor(ky)) + 1, dtype=float)
+    rows = np.floor(kx * np.sqrt(np.maximum(1.0 - (n / ky) ** 2, 0.0))) - first + 1
+    return int(np.sum(np.maximum(rows, 0.0)))
+
+
+def hertz_contact_time(ball, plate, speed: float) -> float:
+    """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
+    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``."""
+    from synth.physics.contact import effective_modulus
+
+    e_star = effective_modulus(ball, plate)
+    depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4
+    return TAU_HERTZ * depth / speed
+
+
+def _series_longest(first_contact: float, speed: float, gravity: float) -> float:
+    """The longest contact of a bouncing series whose first contact at ``speed`` (m/s)
+    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact,
+    where the series ends: the flight ``2 v / g`` as short as the contact, or the kinetic
+    energy ``floor_db`` below the first impact's (:func:`simulate_bounces`' rules), s."""
+    from synth.physics.bounces import DEFAULT_FLOOR_DB
+
+    by_flight = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
+    by_energy = speed * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
+    slowest = max(by_flight, by_energy)
+    return first_contact * max(1.0, (speed / slowest) ** 0.2)
+
+
+@dataclass(frozen=True)
+class FirstContact:
+    """The first impact by the impedance model: ``contact_time`` (s), ``settled`` (the
+    ball comes to rest), ``restitution``."""
+
+    contact_time: float
+    settled: bool
+    restitution: float
+
+
+def _first_contact(scene) -> FirstContact:
+    """The first impact by the impedance model; for the modal plate, a ball that comes to
+    rest gets the modal contact's longest (``SETTLE_FACTOR`` impedance contact times)."""
+    from synth.physics.contact import ContactSolver
+    from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
+
+    c = scene.contact
+    options = c.options()
+    solver = ContactSolver.for_pair(
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol, **options
+    )
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first = solver.solve(speed, position=scene.position)
+    e = 0.0 if first.settled else float(first.restitution)
+    if c.plate == "impedance" or not first.settled:
+        return FirstContact(first.contact_time, bool(first.settled), e)
+    tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
+    return FirstContact(SETTLE_FACTOR * tau, True, e)
+
+
+def _series_seconds(scene, first: FirstContact, longest: float, max_duration: float) -> float:
+    """Length of the bounce series from release, s: the fall, then the flights
+    ``2 v e^n / g`` of a constant restitution ``e`` (the first impact's) summed,
+    ``2 v e / (g (1 - e))``, and the longest contact; at most ``max_duration``."""
+    g = scene.gravity
+    fall = math.sqrt(2.0 * scene.drop_height / g)
+    speed = g * fall
+    e = first.restitution
+    flights = math.inf if e >= 1.0 else 2.0 * speed * e / (g * (1.0 - e))
+    return min(max_duration, fall + flights + longest)
+
+
+def _tail_seconds(plate, floor_db: float, max_tail: float) -> float:
+    """How long the slowest-decaying mode rings before falling ``floor_db`` (dB, < 0)
+    below its start, s, at most ``max_tail``: every damping law's decay rate grows with
+    frequency, so the slowest is the lowest mode, at the lattice's first wavenumber
+    ``k = pi / max(a, b)`` (rad/m)."""
+    k = math.pi / max(plate.length, plate.width)
+    omega = k * k * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+    sigma = float(plate.damping_law().decay_rate(omega))
+    nepers = -floor_db / 20.0 * math.log(10.0)
+    return min(max_tail, nepers / sigma) if sigma > 0.0 else max_tail
+
+
+def estimate(
+    scene,
+    *,
+    samplerate: int,
+    max_frequency: float | None = None,
+    preroll: float = 0.005,
+    max_duration: float = 30.0,
+    max_tail: float = 60.0,
+    pulse_points: int = 65,
+    floor_db: float = -80.0,
+) -> CostEstimate:
+    """The :class:`CostEstimate` of rendering ``scene`` with these options of
+    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s)."""
+    from synth.sound import modes as plate_modes
+    from synth.sound.modal_bank.pulse import _grid_size
+    from synth.sound.modal_bank.transform_kernels import WORK_ROWS
+
+    f_max = 0.5 * samplerate if max_frequency is None else min(max_frequency, 0.5 * samplerate)
+    modes = modal_count(scene.plate, f_max)
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first = _first_contact(scene)
+    settles = first.settled
+    longest = (
+        first.contact_time if settles else _series_longest(first.contact_time, speed, scene.gravity)
+    )
+    points = _grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
+    series = _series_seconds(scene, first, longest, max_duration)
+    seconds = preroll + series + _tail_seconds(scene.plate, floor_db, max_tail)
+    samples = int(math.ceil(seconds * samplerate))
+    main, check = plate_modes.solver_sizes(scene.plate, f_max)
+    flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
+    flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
+    largest = max(main + check, default=0)
+    memory = 8 * samples + 4 * samples + 16 * points + 16 * WORK_ROWS * modes
+    memory += 2 * 8 * largest**2  # the solver's matrix and its eigenvectors
+    return CostEstimate(
+        max_frequency=f_max,
+        modes=modes,
+        impact_speed=speed,
+        hertz_contact=hertz_contact_time(scene.ball, scene.plate, speed),
+        longest_contact=longest,
+        settles=settles,
+        pulse_points=points,
+        audio_seconds=seconds,
+        audio_samples=samples,
+        memory_bytes=memory,
+        max_duration=max_duration,
+        solver_unknowns=largest,
+        solver_flops=float(flops),
+    )
