@@ -19,15 +19,12 @@ contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
 
 from __future__ import annotations
 
-import math
-
 import numba
 
 from synth.sound.modal_bank import (
     inject_amplitudes,
     ring_modes,
     transform_pulse,
-    transform_workspace,
 )
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
@@ -45,12 +42,18 @@ N_PULSE_FIELDS = 7
 
 #: Per-body counters (int64 array): impacts played, impacts that arrived after their
 #: start (played at the start of the block they were found in), blocks in which the body
-#: rang, 1 while the body has ringing modes or pending impacts.
+#: rang, 1 while the body has ringing modes or pending impacts, 1 while a ``stop_all``
+#: waits for the audio thread.
 PLAYED = 0
 LATE = 1
 BUSY_BLOCKS = 2
 AWAKE = 3
-N_COUNTERS = 4
+SILENCE = 4
+N_COUNTERS = 5
+
+#: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
+#: scale); above it a tanh knee approaches full scale (see :func:`synth.live.native.soft_clip`).
+KNEE = 10.0 ** (-1.0 / 20.0)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -226,55 +229,6 @@ def silence(zr, zi, active, debt, state, transformed):
             state[i] = FREE
 
 
-@numba.njit(cache=True, nogil=True)
-def write_output(mix, n, outdata, fade_at, fade_length):
-    """Copy the mono ``mix[0:n]`` (float64) to every channel of ``outdata`` (n, channels)
-    float32 and clear ``mix``. ``fade_at`` >= 0: the block's first sample is that far into
-    a raised-cosine fade of ``fade_length`` samples (after it, silence); -1: no fade.
-    Returns the fade position after the block (-1 without a fade)."""
-    channels = outdata.shape[1]
-    pos = fade_at
-    for s in range(n):
-        g = 1.0
-        if pos >= 0:
-            g = 0.5 * (1.0 + math.cos(math.pi * pos / fade_length)) if pos < fade_length else 0.0
-            pos += 1
-        v = mix[s] * g
-        for c in range(channels):
-            outdata[s, c] = v
-        mix[s] = 0.0
-    return pos
-
-
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel the audio thread calls, on a
-    one-mode body with one pulse handed over, so that the first callback does not
-    compile."""
-    import numpy as np
-
-    from synth.live.queue import PendingRing
-    from synth.sound.modal_bank import bank_coefficients, power_table
-
-    poles = np.array([-10.0 + 1000.0j])
-    ring = PendingRing(1, 1, 2, 7, 1)
-    slot = ring.reserve(pulse=True)
-    ring.pulse[slot, GAIN] = 1.0
-    ring.pulse[slot, STEP] = 1e-5
-    ring.pulse[slot, CONTACT_TIME] = 4e-5
-    ring.pulse[slot, ORDER] = 2.5
-    ring.publish_pulse(slot, 1, 0, 0, 5)
-    mix = np.zeros(8)
-    out = np.zeros((8, 1), dtype=np.float32)
-    coefficients = bank_coefficients(poles, np.ones(1), np.ones(1), 48000.0)
-    args = body_kernel_args(
-        coefficients, power_table(poles, 48000.0), body_state(1), np.zeros(1), 1e-4, ring,
-        np.zeros(N_COUNTERS, dtype=np.int64),
-    )  # fmt: skip
-    mix_body(mix, 0, 8, *args)
-    silence(*args[3:7], ring.state, ring.transformed)
-    write_output(mix, 8, out, 0, 4)
-
-
 def body_state(modes: int) -> tuple:
     """A silent modal state of ``modes`` modes: amplitudes (re, im), ringing flags, omission
     debts, the sample of each debt, thresholds and their squares."""
@@ -289,24 +243,4 @@ def body_state(modes: int) -> tuple:
         np.zeros(K, dtype=np.int64),
         np.zeros(K),
         np.zeros(K),
-    )
-
-
-def body_kernel_args(coefficients, table, state, level, floor, ring, counters) -> tuple:
-    """The arguments of :func:`mix_body` after ``(out, t0, n)`` for a body whose poles,
-    sample rate and one-sample steps are those of ``coefficients`` (a
-    :class:`~synth.sound.modal_bank.BankCoefficients`, at any point): its power ``table``,
-    modal ``state`` (:func:`body_state`), ``level`` (1,), omission ``floor``, pending
-    ``ring`` (:class:`synth.live.queue.PendingRing`) and ``counters``."""
-    c = coefficients
-    fs = c.samplerate
-    work = transform_workspace(c.poles.size)
-    transform = (c.pole_re, c.pole_im, c.step_re, c.step_im, c.sigma_max, 1.0 / fs, work)
-    pulse_form = (ring.coefficients, ring.samples, ring.points, ring.pulse)
-    return (
-        (table, c.poles, float(fs))
-        + tuple(state)
-        + (level, floor, ring.state, ring.inject, ring.first, ring.length)
-        + (ring.amplitudes, ring.response, ring.reference, counters)
-        + (transform, pulse_form, ring.transformed)
     )

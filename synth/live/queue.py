@@ -103,6 +103,18 @@ class PendingRing:
                 self.pulses += 1
             return i
 
+    def reserve_many(self, n: int) -> list[int] | None:
+        """``n`` FREE slots at once, marked WRITING (each to be published), or None (and
+        ``n`` counted in ``refused``) when fewer are free: all or nothing."""
+        with self._lock:
+            free = np.flatnonzero(self.state == FREE)
+            if free.size < n:
+                self.refused += n
+                return None
+            slots = [int(i) for i in free[:n]]
+            self.state[slots] = WRITING
+            return slots
+
     def publish(self, slot: int, inject: int, first: int, length: int, reference: float):
         """Hand the filled ``slot`` over: its amplitudes (``amplitudes[slot]``) join the
         modes at sample ``inject``, its ``length`` in-contact samples (``response[slot]``)
