@@ -14,6 +14,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import time
 import uuid
 
@@ -21,6 +22,14 @@ from synth.errors import SynthError
 
 #: Seconds to wait for the server to come up (or to go away).
 STARTUP_TIMEOUT = 15.0
+
+
+def _bounded(call, timeout: float) -> bool:
+    """Run ``call()`` on a helper thread; whether it returned within ``timeout`` s."""
+    worker = threading.Thread(target=call, daemon=True)
+    worker.start()
+    worker.join(timeout)
+    return not worker.is_alive()
 
 
 def jackd_available() -> bool:
@@ -152,9 +161,10 @@ class JackDummyServer:
             from synth.io.playback import sounddevice_module
 
             sd = sounddevice_module()
-            sd._terminate()
         except SynthError:
             sd = None
+        if sd is not None and not _bounded(sd._terminate, STARTUP_TIMEOUT):
+            sd = None  # PortAudio waits on a stream it cannot close: leave it be
         if self._process is not None and self._process.poll() is None:
             self._process.terminate()
             try:
