@@ -454,3 +454,99 @@ def test_bench_live_figures_format():
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
     assert "the audio thread's share of a hit" in text
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
+
+
+def test_a_scene_added_sounds_as_it_renders(scene):
+    # a Scene's default listener is above its impact point; engine.add(scene) hears the
+    # scene's plate through the scene's own listener, so a drop off the centre is the render
+    off_centre = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.15))
+    r = rendered(off_centre)
+    engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
+    body = engine.add(off_centre)
+    assert body.listener == off_centre.listener
+    body.drop(off_centre.ball, off_centre.drop_height, position=off_centre.position, at=PRE)
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
+def test_body_gain_set_after_add_is_ramped_over_one_block(scene):
+    # the body's gain multiplies its mix; a change ramps linearly over the next block
+    # (from the old gain to the new one at its last sample), then holds
+    n = 256
+    a = synth.Engine(samplerate=FS, blocksize=n)
+    b = synth.Engine(samplerate=FS, blocksize=n)
+    bodies = [e.add(scene.plate, listener=scene.listener) for e in (a, b)]
+    for body in bodies:
+        body.hit(scene.ball, 1.0, at=0.0)
+    ref = a.process(8 * n)[:, 0].astype(float)
+    first = b.process(2 * n)[:, 0].astype(float)
+    bodies[1].gain = 0.25
+    assert bodies[1].gain == 0.25
+    rest = b.process(6 * n)[:, 0].astype(float)
+    np.testing.assert_array_equal(first, ref[: 2 * n])
+    ramp = 1.0 + (0.25 - 1.0) * np.arange(1, n + 1) / n
+    tol = 2 * float32_ulp_of_peak(ref)
+    np.testing.assert_allclose(rest[:n], ref[2 * n : 3 * n] * ramp, rtol=0, atol=tol)
+    np.testing.assert_allclose(rest[n:], ref[3 * n :] * 0.25, rtol=0, atol=tol)
+    with pytest.raises(ParameterError, match="gain"):
+        bodies[1].gain = 0.0
+
+
+def test_a_drop_that_does_not_fit_is_refused_whole_and_counted(scene):
+    probe = synth.Engine(samplerate=FS)
+    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height))
+    assert n > 2
+    engine = synth.Engine(samplerate=FS, max_pending=n + n // 2)
+    body = engine.add(scene.plate)
+    assert len(body.drop(scene.ball, scene.drop_height)) == n
+    assert body.drop(scene.ball, scene.drop_height) == ()  # only n // 2 slots free
+    stats = engine.stats
+    assert stats.impacts_pending == n
+    assert stats.impacts_refused == n and stats.drops_refused == 1
+    small = synth.Engine(samplerate=FS, max_pending=n - 1)
+    with pytest.raises(ParameterError, match="max_pending"):
+        small.add(scene.plate).drop(scene.ball, scene.drop_height)
+
+
+def test_absurd_inputs_are_parameter_errors_naming_the_bound(scene):
+    # each of these once overflowed, exhausted memory, held a slot for ever or played
+    # samples of 6e7: now a ParameterError names the field, its value and the range
+    for kwargs, name in [
+        (dict(record_seconds=1e308), "record_seconds"),
+        (dict(record_seconds=1e6), "record_seconds"),
+        (dict(master_gain_db=1e308), "master_gain_db"),
+        (dict(callback="C"), "callback"),
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            synth.Engine(samplerate=FS, **kwargs)
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    ball = scene.ball
+    for call, name in [
+        (lambda: engine.process(2**40), "frames"),
+        (lambda: body.hit(ball, 1.0, at=1e308), "at"),
+        (lambda: body.hit(ball, 1.0, at=1e9), "at"),
+        (lambda: body.hit(ball, 1e5), "speed"),
+        (lambda: body.hit(ball, 1.0, gain=1e308), "gain"),
+        (lambda: body.hit(ball, 1.0, gain=1e9), "gain"),
+        (lambda: body.drop(ball, 1e-300), "height"),
+        (lambda: body.drop(ball, 1e308), "height"),
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            call()
+    assert engine.stats.impacts_pending == 0
+
+
+def test_the_master_bus_never_sends_full_scale(scene):
+    # a hit far louder than full scale: the soft clipper keeps every sample below 0 dBFS
+    # (identity up to -1 dBFS), the meter reports the bus' true peak and the clipped count
+    engine = synth.Engine(samplerate=FS, master_gain_db=40.0)
+    engine.add(scene.plate, gain=1e4).hit(scene.ball, 2.0, at=0.0)
+    out = engine.process(FS // 10)
+    stats = engine.stats
+    assert stats.peak > 1.0 and stats.clipped > 0
+    assert np.max(np.abs(out)) < 1.0
+    assert stats.output_peak == float(np.max(np.abs(out)))
+    quiet = synth.Engine(samplerate=FS, clip=False)
+    quiet.add(scene.plate, gain=1e4).hit(scene.ball, 2.0, at=0.0)
+    assert np.max(np.abs(quiet.process(FS // 10))) > 1.0  # as asked: nothing done

@@ -60,6 +60,7 @@ from synth.physics.scene import (
     Contact,
     Microphone,
     Plate,
+    Scene,
 )
 from synth.sound.modal_bank import (
     PULSE_POINTS,
@@ -703,15 +704,23 @@ class Engine:
         self._drops_refused = 0
 
     # -- bodies ---------------------------------------------------------------------------
-    def add(self, plate: Plate, *, listener=None, gain: float = 1.0) -> Body:
+    def add(self, plate: Plate | Scene, *, listener=None, gain: float = 1.0) -> Body:
         """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
         return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
         a microphone 0.2 m above the plate's centre, a :class:`synth.Scene`'s default for
-        impacts at the centre; pass a scene's ``listener`` to hear it as the scene does);
-        ``gain`` in (0, MAX_GAIN] scales everything it plays. Allowed while the stream runs
-        (the callback picks the body up at its next block)."""
+        impacts at the centre). Given a :class:`synth.Scene`, the body is its plate heard
+        by its listener (the scene's default one, above its impact point, when it was given
+        none), so that the scene sounds live as it renders offline. ``gain`` in
+        (0, MAX_GAIN] scales everything it plays. Allowed while the stream runs (the
+        callback picks the body up at its next block)."""
+        if isinstance(plate, Scene):
+            if listener is not None:
+                raise ParameterError(
+                    "listener must be None when adding a Scene (the scene's listener is used)"
+                )
+            plate, listener = plate.plate, plate.listener
         if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate")
+            raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
         if listener is None:
             cx, cy = plate.centre
             listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))

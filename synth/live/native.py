@@ -111,6 +111,9 @@ PA_OUTPUT_UNDERFLOW = 0x4
 PA_OUTPUT_OVERFLOW = 0x8
 PA_CONTINUE = 0
 
+#: The soft clipper's largest output: the largest float32 below full scale.
+CEILING = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
+
 #: The clock the callback reads (and the trigger threads, in Python).
 CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
 
@@ -263,12 +266,13 @@ def _mix_one_body(record, scratch, mix, t0, n):
 def soft_clip(v):
     """The master bus' soft clipper: the identity up to ``KNEE`` of full scale, then a
     tanh knee that approaches full scale without reaching it (continuous with its first
-    derivative), so no sample at or above 0 dBFS reaches the device."""
+    derivative), capped at ``CEILING`` (the largest float32 below 1, where the tanh rounds
+    to 1 in float32), so no sample at or above 0 dBFS reaches the device."""
     a = abs(v)
     if a <= kernel.KNEE:
         return v
     room = 1.0 - kernel.KNEE
-    y = kernel.KNEE + room * math.tanh((a - kernel.KNEE) / room)
+    y = min(kernel.KNEE + room * math.tanh((a - kernel.KNEE) / room), CEILING)
     return y if v > 0.0 else -y
 
 
