@@ -295,3 +295,35 @@ def test_stop_is_bounded_when_the_server_dies():
     assert lines[1] == "running False failed True"
     assert lines[2].startswith("refused:") and "failed" in lines[2]
     assert lines[3].startswith("refused:") and "failed" in lines[3]
+
+
+def _python_blocks(path):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / path).read_text()
+    return [part.split("```", 1)[0] for part in text.split("```python")[1:]]
+
+
+@pytest.mark.parametrize(
+    "path, index", [("README.md", 1), ("docs/live.md", 0)], ids=["readme", "live.md"]
+)
+def test_the_live_examples_run_as_printed(jack, path, index, monkeypatch, capsys):
+    # the examples use the default output device: here the JACK server's. They play a hit
+    # before the stop fade (it is not cut), then go on without a device
+    import sounddevice
+
+    monkeypatch.setattr(sounddevice.default, "device", [None, jack.device])
+    code = _python_blocks(path)[index]
+    assert "synth.Engine(" in code and "process(" in code
+    namespace = {}
+    exec(compile(code, path, "exec"), namespace)
+    engine, audio = namespace["engine"], namespace["audio"]
+    assert "EngineStats(" in capsys.readouterr().out
+    stats = engine.stats
+    assert stats.callbacks > 0 and stats.failed is None
+    assert stats.impacts_played >= 2 and stats.impacts_refused == 0
+    # the hit of the stream rang before the fade: its peak is in the meter, and the hit
+    # played without a stream is in process()'s output
+    assert stats.peak > 0.0
+    assert audio.dtype == np.float32 and np.max(np.abs(audio)) > 0.0
+    assert client_ports(jack) == []
