@@ -550,3 +550,37 @@ def test_the_master_bus_never_sends_full_scale(scene):
     quiet = synth.Engine(samplerate=FS, clip=False)
     quiet.add(scene.plate, gain=1e4).hit(scene.ball, 2.0, at=0.0)
     assert np.max(np.abs(quiet.process(FS // 10))) > 1.0  # as asked: nothing done
+
+
+INSPECT_CALLBACK = """
+from synth.live import native
+native.warm_up()
+ir = native.stream_callback.inspect_llvm()
+for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate"):
+    print(symbol, symbol in ir)
+print("clock_gettime", "clock_gettime" in ir)
+print("run_block", "run_block" in ir)
+"""
+
+
+@pytest.mark.slow
+def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
+    # the audio thread's code as compiled (fresh, in a child with an empty numba cache, as
+    # cached code cannot be inspected), callees included: no call into Python's C API (no
+    # GIL) and none into numba's allocator (its arrays are views made from addresses)
+    import os
+    import subprocess
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run(
+        [sys.executable, "-c", INSPECT_CALLBACK],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
+    assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
+    assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
+    assert set(found.values()) == {"False"}, found

@@ -327,3 +327,21 @@ def test_the_live_examples_run_as_printed(jack, path, index, monkeypatch, capsys
     assert stats.peak > 0.0
     assert audio.dtype == np.float32 and np.max(np.abs(audio)) > 0.0
     assert client_ports(jack) == []
+
+
+def test_the_python_fallback_plays_through_the_same_block(jack, scene):
+    # callback="python": a Python function runs the same compiled block (it needs the GIL
+    # each block); what it plays is what process() plays
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, callback="python", record_seconds=1.0
+    )
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        onset = body.hit(scene.ball, 1.0, at=0.1)
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
+    assert engine.stats.impacts_played == 1 and onset == 0.1
+    offline = synth.Engine(samplerate=FS, blocksize=BLOCK)
+    offline.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.1)
+    want = offline.process(FS)
+    tol = float(np.spacing(np.float32(np.max(np.abs(want))))) * 4
+    np.testing.assert_allclose(engine.recording, want, rtol=0, atol=tol)
