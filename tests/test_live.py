@@ -584,3 +584,37 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
     assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
     assert set(found.values()) == {"False"}, found
+
+
+def test_a_host_mixes_into_its_own_buffers(scene):
+    # mix_into fills a host's buffer of any size with the same mixing as process(); with
+    # the exact modal sum (no omission, whose checks fall on the pieces' boundaries) the
+    # pieces change only float64 rounding of the modes' advance
+    times = [0.0011, 0.0173, 0.0402]
+    engines = [synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB) for _ in range(2)]
+    for e in engines:
+        body = e.add(scene.plate, listener=scene.listener)
+        for i, t in enumerate(times):
+            body.hit(scene.ball, 0.5 + i, at=t)
+    want = engines[0].process(FS // 10)
+    host = engines[1]
+    buffer = np.empty((100, 1), dtype=np.float32)
+    got = np.concatenate([host.mix_into(buffer).copy() for _ in range(FS // 1000)])
+    np.testing.assert_allclose(got, want, rtol=0, atol=2 * float32_ulp_of_peak(want))
+    assert host.render_block(7).shape == (7, 1)
+    assert host.stats.impacts_played == len(times)
+    for bad in (
+        np.empty((10, 2), np.float32),
+        np.empty((10, 1)),
+        np.empty((10, 2), np.float32)[:, :1],
+    ):
+        with pytest.raises(ParameterError, match="out="):
+            host.mix_into(bad)
+
+
+def test_a_body_reports_its_memory(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    ring = body._ring
+    # at least the pending ring's amplitudes and pulse samples, which dominate
+    assert body.memory >= ring.amplitudes.nbytes + ring.samples.nbytes + ring.coefficients.nbytes

@@ -101,6 +101,7 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
                 bodies=n,
                 modes=engine.bodies[0].modes,
                 mean=float(costs.mean()),
+                memory=engine.bodies[0].memory,
                 p99=float(np.percentile(costs, 99)),
                 max=float(costs.max()),
                 played=engine.stats.impacts_played,
@@ -356,7 +357,9 @@ def format_live(result) -> str:
     lines.append(
         f"- per body ({widest['bodies']} ringing): {100 * per_body:.3f} % of a block, i.e. "
         f"{0.8 / per_body:.0f} bodies per core at 80 % of a block (mean cost; a block taking "
-        f"hits costs more, see below)"
+        f"hits costs more, see below); memory per body "
+        f"{widest.get('memory', 0) / 2**20:.2f} MiB (Body.memory: modal state, pending ring "
+        f"of {_max_pending()} impacts, workspace)"
     )
     x = result["transform"]
     lines += [
@@ -416,6 +419,14 @@ def format_live(result) -> str:
         f"{j['clipped']} samples reached full scale"
     )
     return "\n".join(lines)
+
+
+def _max_pending() -> int:
+    import inspect
+
+    from synth.live.engine import Engine
+
+    return inspect.signature(Engine).parameters["max_pending"].default
 
 
 def _dbfs(x: float) -> str:

@@ -210,6 +210,7 @@ class Body:
         )
         self._counters = arrays["counters"]
         self._scalars = arrays["scalars"]
+        self._index = len(engine._native.records)
         self._record = engine._native.add_body(arrays)
 
     def _warm_up(self):
@@ -242,6 +243,13 @@ class Body:
     def modes(self) -> int:
         """Number of modes in the body's bank (below Nyquist)."""
         return int(self._model.poles.size)
+
+    @property
+    def memory(self) -> int:
+        """Bytes of the arrays the body holds for the audio thread (modal state, power
+        table, pending ring, workspace)."""
+        _, arrays = self._engine._native.records[self._index]
+        return int(sum(a.nbytes for a in arrays.values() if isinstance(a, np.ndarray)))
 
     @property
     def units(self) -> str:
@@ -865,6 +873,39 @@ class Engine:
             b = min(n, a + self.blocksize)
             native.mix_engine(self._native.ctl, out[a:b])
         return out
+
+    def mix_into(self, out: np.ndarray) -> np.ndarray:
+        """Mix the next ``out.shape[0]`` frames into ``out``, a caller's float32 C-contiguous
+        (frames, channels) buffer, overwriting it: for hosts that own the audio callback
+        (pygame's mixer, pyo, a game engine's stream, a plugin host) and call this once per
+        block. The same compiled mixing as the stream's callback; not while the engine's own
+        stream runs. Returns ``out``."""
+        if (
+            not isinstance(out, np.ndarray)
+            or out.dtype != np.float32
+            or out.ndim != 2
+            or out.shape[1] != self.channels
+            or not out.flags.c_contiguous
+            or not out.flags.writeable
+        ):
+            raise ParameterError(
+                f"out={type(out).__name__} {getattr(out, 'dtype', '')} "
+                f"{getattr(out, 'shape', '')} must be a writeable C-contiguous float32 array "
+                f"of shape (frames, {self.channels})"
+            )
+        _check_int("frames", out.shape[0], 0, int(MAX_SECONDS * self.samplerate), "frames")
+        if self.running:
+            raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
+        self._check_open("mix")
+        native.mix_engine(self._native.ctl, out)
+        return out
+
+    def render_block(self, frames: int) -> np.ndarray:
+        """The next ``frames`` frames as one block, a new float32 (frames, channels) array
+        (:meth:`mix_into` of a fresh buffer)."""
+        limit = int(MAX_SECONDS * self.samplerate)
+        n = _check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
+        return self.mix_into(np.empty((n, self.channels), dtype=np.float32))
 
     # -- stream ---------------------------------------------------------------------------
     def _open_stream(self, sd):
