@@ -392,7 +392,7 @@ def _cmd_play(args):
             print(
                 f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
                 if onsets
-                else f"drop {n + 1}: no impact",
+                else f"drop {n + 1}: refused (the body's ring of pending impacts is full)",
                 flush=True,
             )
             deadline = time.monotonic() + args.max_seconds

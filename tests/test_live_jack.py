@@ -258,6 +258,13 @@ while engine.stats.callbacks < 10:
     time.sleep(0.01)
 server._process.kill()
 server._process.wait()
+time.sleep(1.0)
+print("silent", engine.stats.silent_for > 0.5, flush=True)
+try:
+    body.hit(scene.ball, 1.0)
+    print("accepted", flush=True)
+except SynthError as exc:
+    print("refused:", exc, flush=True)
 done = threading.Event()
 threading.Thread(target=lambda: (engine.stop(timeout=1.0), done.set()), daemon=True).start()
 print("stop returned", done.wait(60.0), flush=True)
@@ -275,7 +282,8 @@ os._exit(0)
 
 def test_stop_is_bounded_when_the_server_dies():
     # PortAudio's stop waits for the JACK server for ever once it is gone: stop(timeout=)
-    # abandons the stream, marks the engine failed, and hits are then refused clearly.
+    # abandons the stream, marks the engine failed, and hits are then refused clearly; before
+    # stop(), the lost server is seen in the stats (silent_for) and hits are refused.
     # In a child process, which waits for stop() on a thread (a hang is a failure, not a
     # slow pass)
     import os
@@ -291,6 +299,10 @@ def test_stop_is_bounded_when_the_server_dies():
     )
     assert out.returncode == 0, out.stderr[-2000:]
     lines = out.stdout.splitlines()
+    # while it runs, a stream that stopped calling back is reported, and hits refused
+    assert lines.pop(0) == "silent True"
+    line = lines.pop(0)
+    assert line.startswith("refused:") and "has not called back" in line
     assert lines[0] == "stop returned True"
     assert lines[1] == "running False failed True"
     assert lines[2].startswith("refused:") and "failed" in lines[2]

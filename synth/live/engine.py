@@ -87,6 +87,9 @@ MAX_AHEAD = 60.0
 #: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s (the
 #: arrays are allocated whole: 600 s of mono float32 at 48 kHz is 115 MB).
 MAX_SECONDS = 600.0
+#: A running stream whose callback has not returned for this long (s, or 10 blocks if
+#: longer) has lost its device or server: hits are refused, ``stats.silent_for`` says so.
+DEVICE_LOST = 0.5
 #: Default room in the body directory the audio thread reads.
 MAX_BODIES = 256
 #: Latency settings PortAudio takes by name (else a positive number of seconds).
@@ -133,7 +136,8 @@ class EngineStats:
     the clipper, full scale 1; output_peak: the largest |sample| sent to the device;
     clipped: master-bus samples that reached full scale (soft-clipped, or clipped by
     the float-to-integer conversion with ``clip=False``); failed: why the stream
-    failed, or None.
+    failed, or None; silent_for: seconds since the last callback returned while the
+    stream runs (0 without a stream): beyond ``DEVICE_LOST`` the device is taken as lost.
     """
 
     callbacks: int
@@ -151,6 +155,7 @@ class EngineStats:
     output_peak: float
     clipped: int
     failed: str | None
+    silent_for: float
 
 
 @dataclass(frozen=True)
@@ -820,6 +825,22 @@ class Engine:
         if self._state == "failed":
             raise SynthError(f"cannot {what}: the engine's audio stream failed ({self._failure})")
 
+    def _silent_for(self) -> float:
+        """Seconds since the stream's last callback returned (since start() before the
+        first); 0 without a stream."""
+        if not self.running:
+            return 0.0
+        return max(0.0, native.monotonic() - float(self._native.times[native.END_TIME]))
+
+    def _check_alive(self) -> None:
+        silent = self._silent_for()
+        limit = max(DEVICE_LOST, 10 * self.blocksize / self.samplerate)
+        if silent > limit:
+            raise SynthError(
+                f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
+                f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
+            )
+
     def _now_frame(self) -> float:
         """The frame (fractional) leaving the device now; without a stream, the next frame
         to be mixed."""
@@ -835,6 +856,7 @@ class Engine:
         ``MAX_AHEAD`` s after it), or one block plus the output latency plus the hand-over
         allowance from now (no stream: from the next frame)."""
         self._check_open("play an impact")
+        self._check_alive()
         if at is None:
             if not self.running:
                 return (self._frame + self.blocksize) / self.samplerate
@@ -974,6 +996,7 @@ class Engine:
             ) from None
         times = self._native.times
         times[native.NOMINAL_LATENCY] = times[native.LEAD] = float(stream.latency)
+        times[native.END_TIME] = native.monotonic()
         ctl = self._native.ctl
         ctl[native.FADE_AT] = -1
         ctl[native.SEQ] = 0
@@ -1050,6 +1073,7 @@ class Engine:
             output_peak=float(t[native.OUT_PEAK]),
             clipped=int(c[native.CLIPPED]),
             failed=self._failure,
+            silent_for=self._silent_for(),
         )
 
 
