@@ -618,3 +618,34 @@ def test_a_body_reports_its_memory(scene):
     ring = body._ring
     # at least the pending ring's amplitudes and pulse samples, which dominate
     assert body.memory >= ring.amplitudes.nbytes + ring.samples.nbytes + ring.coefficients.nbytes
+
+
+def test_stereo_bodies_are_heard_at_each_ear(scene):
+    # a body added with one listener per channel: each channel is exactly the mono engine
+    # of that ear's listener (its own Rayleigh gains); a mono body in the same engine is on
+    # both channels
+    left, right = synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 1.0))
+    assert left.position[0] < right.position[0]  # facing +y, the left ear is towards -x
+    assert np.isclose(right.position[0] - left.position[0], 0.18)
+    stereo = synth.Engine(samplerate=FS, channels=2)
+    body = stereo.add(scene.plate, listener=(left, right))
+    mono_body = stereo.add(scene.plate, listener=scene.listener, gain=0.5)
+    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001) == 0.001
+    mono_body.hit(scene.ball, 0.7, at=0.05)
+    body.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
+    out = stereo.process(FS // 5)
+    for c, ear in enumerate((left, right)):
+        mono = synth.Engine(samplerate=FS)
+        b = mono.add(scene.plate, listener=ear)
+        b.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+        b.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
+        m = mono.add(scene.plate, listener=scene.listener, gain=0.5)
+        m.hit(scene.ball, 0.7, at=0.05)
+        want = mono.process(FS // 5)[:, 0]
+        np.testing.assert_allclose(out[:, c], want, rtol=0, atol=float32_ulp_of_peak(want))
+    assert not np.allclose(out[:, 0], out[:, 1])
+    assert stereo.stats.impacts_played == mono.stats.impacts_played
+    with pytest.raises(ParameterError, match="listener"):
+        synth.Engine(samplerate=FS).add(scene.plate, listener=(left, right))
+    with pytest.raises(ParameterError, match="facing"):
+        synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 0.0))

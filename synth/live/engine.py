@@ -184,8 +184,12 @@ class Body:
     """One plate in an :class:`Engine` (made by :meth:`Engine.add`): one modal state that
     every impact on it excites."""
 
-    def __init__(self, engine: Engine, plate: Plate, listener, gain: float, model):
+    def __init__(
+        self, engine: Engine, plate: Plate, listener, gain: float, model, channel: int = -1
+    ):
         self._engine = engine
+        self._channel = channel
+        self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
         self.plate = plate
         self.listener = listener
         self._model = model
@@ -212,6 +216,7 @@ class Body:
             self._ring,
             engine.floor,
             gain,
+            channel,
         )
         self._counters = arrays["counters"]
         self._scalars = arrays["scalars"]
@@ -240,9 +245,9 @@ class Body:
 
     @gain.setter
     def gain(self, value: float) -> None:
-        self._scalars[native.S_GAIN] = checks.positive_at_most(
-            "gain", value, MAX_GAIN, "dimensionless"
-        )
+        g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
+        for ear in self._ears:
+            ear._scalars[native.S_GAIN] = g
 
     @property
     def modes(self) -> int:
@@ -253,8 +258,13 @@ class Body:
     def memory(self) -> int:
         """Bytes of the arrays the body holds for the audio thread (modal state, power
         table, pending ring, workspace)."""
-        _, arrays = self._engine._native.records[self._index]
-        return int(sum(a.nbytes for a in arrays.values() if isinstance(a, np.ndarray)))
+        records = self._engine._native.records
+        return sum(
+            int(a.nbytes)
+            for ear in self._ears
+            for a in records[ear._index][1].values()
+            if isinstance(a, np.ndarray)
+        )
 
     @property
     def units(self) -> str:
@@ -269,12 +279,12 @@ class Body:
     @property
     def awake(self) -> bool:
         """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
-        return bool(self._counters[kernel.AWAKE]) or self.pending > 0
+        return self.ringing or any(ear._ring.pending() for ear in self._ears)
 
     @property
     def ringing(self) -> bool:
         """Whether the body's modes ring (as of the last block mixed)."""
-        return bool(self._counters[kernel.AWAKE])
+        return any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
 
     def _prepare(self, position) -> _Prepared:
         """The bank coefficients for impacts at ``position`` (checked; kept for the last
@@ -463,8 +473,11 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        accepted = self._hand_over(result, tr.onset, self._prepare(tr.position), tr.gain)
-        return tr.onset if accepted else None
+        accepted = [
+            ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain)
+            for ear in self._ears
+        ]
+        return tr.onset if all(accepted) else None
 
     def drop(
         self,
@@ -508,7 +521,6 @@ class Body:
             rtol=law.rtol,
             **law.options(),
         )
-        prepared = self._prepare(pos)
         if len(sequence) > self._ring.capacity:
             raise ParameterError(
                 f"the drop from height={height!r} m has {len(sequence)} impacts, more than "
@@ -517,37 +529,69 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.contact_time)
-        slots = self._ring.reserve_many(len(sequence))
-        if slots is None:
-            self._engine._drops_refused += 1
-            return ()
+        reserved = []
+        for ear in self._ears:
+            slots = ear._ring.reserve_many(len(sequence))
+            if slots is None:
+                _release(reserved)
+                self._engine._drops_refused += 1
+                return ()
+            reserved.append((ear, list(slots)))
         t0 = sequence[0].time if len(sequence) else 0.0
-        played = []
-        for k, (imp, slot) in enumerate(zip(sequence, slots)):
-            onset = onset0 + (imp.time - t0)
-            weight = ball.mass * gravity if imp.result.settled else 0.0
-            try:
-                self._submit(imp.result, onset, prepared, g, weight, slot=slot)
-            except BaseException:
-                for rest in slots[k + 1 :]:
-                    self._ring.release(rest)
-                raise
-            played.append(onset)
-        return tuple(played)
+        onsets = tuple(onset0 + (imp.time - t0) for imp in sequence)
+        try:
+            for ear, slots in reserved:
+                prepared = ear._prepare(pos)
+                while slots:
+                    k = len(sequence) - len(slots)
+                    imp = sequence[k]
+                    weight = ball.mass * gravity if imp.result.settled else 0.0
+                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots.pop(0))
+        except BaseException:
+            _release(reserved)
+            raise
+        return onsets
 
     def stop_all(self) -> None:
         """Silence the body at the next block: every mode stops, pending impacts are dropped
         (at once when no stream runs)."""
         if self._engine.running:
-            self._counters[kernel.SILENCE] = 1  # the audio thread applies it
+            for ear in self._ears:
+                ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
         else:
             self._apply_silence()
 
     def _apply_silence(self):
-        zr, zi, active, debt = self._state_arrays[:4]
-        kernel.silence(zr, zi, active, debt, self._ring.state, self._ring.transformed)
-        self._counters[kernel.AWAKE] = 0
-        self._counters[kernel.SILENCE] = 0
+        for ear in self._ears:
+            zr, zi, active, debt = ear._state_arrays[:4]
+            kernel.silence(zr, zi, active, debt, ear._ring.state, ear._ring.transformed)
+            ear._counters[kernel.AWAKE] = 0
+            ear._counters[kernel.SILENCE] = 0
+
+
+def _release(reserved) -> None:
+    """Give back the slots a drop reserved and did not fill (``(body, slots)`` pairs)."""
+    for ear, slots in reserved:
+        for slot in slots:
+            ear._ring.release(slot)
+
+
+def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:
+    """A listener's two ears as microphones, (left, right), for ``Engine(channels=2)``:
+    the head at ``position`` ((x, y, z), m, z > 0 above the plate), facing the direction
+    ``facing`` ((x, y) in the plate's plane, any length > 0), the ears ``spacing`` m apart
+    (in (0, 1]; 0.18 m, an adult head's width) on the line across it, the left one on the
+    left of the facing direction (z up). Each ear hears each mode with its own Rayleigh
+    gain (:mod:`synth.sound.radiation`): level, delay-free directivity and the balance
+    between the ears come from the plate's radiation, not from a pan law."""
+    x, y, z = checks.point("position", position, 3)
+    fx, fy = checks.point("facing", facing, 2, "dimensionless")
+    norm = float(np.hypot(fx, fy))
+    if not norm > 0.0:
+        raise ParameterError(f"facing={facing!r} must be a direction of length > 0")
+    d = checks.in_range("spacing", spacing, 0.0, 1.0, "m", hi_open=False)
+    lx, ly = -fy / norm * d / 2, fx / norm * d / 2  # the facing direction turned left
+    return Microphone((x + lx, y + ly, z)), Microphone((x - lx, y - ly, z))
 
 
 def _check_height(height) -> float:
@@ -726,6 +770,8 @@ class Engine:
         none), so that the scene sounds live as it renders offline. ``gain`` in
         (0, MAX_GAIN] scales everything it plays. Allowed while the stream runs (the
         callback picks the body up at its next block)."""
+        if isinstance(listener, (tuple, list)):
+            return self._add_ears(plate, listener, gain)
         if isinstance(plate, Scene):
             if listener is not None:
                 raise ParameterError(
@@ -745,7 +791,7 @@ class Engine:
             )
         g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
-        if len(self._bodies) >= self._native.directory.shape[0]:
+        if len(self._native.records) >= self._native.directory.shape[0]:
             raise ParameterError(
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
             )
@@ -753,6 +799,43 @@ class Engine:
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
         body = Body(self, plate, listener, g, model)
+        self._bodies = self._bodies + (body,)
+        return body
+
+    def _add_ears(self, plate, listeners, gain) -> Body:
+        """A body heard by one listener per output channel (see :meth:`add`)."""
+        if self.channels < 2 or len(listeners) != self.channels:
+            raise ParameterError(
+                f"listener: a sequence of {len(listeners)} listeners needs an Engine with as "
+                f"many channels (one listener per channel, at least 2); channels={self.channels}"
+            )
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
+        for i, li in enumerate(listeners):
+            if isinstance(li, Accelerometer):
+                plate.check_position(li.position, f"listener[{i}].position")
+            elif not isinstance(li, Microphone):
+                raise ParameterError(
+                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
+                )
+        g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
+        self._check_open("add a body")
+        if len(self._native.records) + len(listeners) > self._native.directory.shape[0]:
+            raise ParameterError(
+                f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
+                f"(one per listener): no room for {len(listeners)} more"
+            )
+        models = [
+            modal_model(plate, li, samplerate=self.samplerate, max_frequency=self.max_frequency)
+            for li in listeners
+        ]
+        ears_ = [
+            Body(self, plate, li, g, m, channel=c)
+            for c, (li, m) in enumerate(zip(listeners, models))
+        ]
+        body = ears_[0]
+        body.listener = tuple(listeners)
+        body._ears = ears_
         self._bodies = self._bodies + (body,)
         return body
 
@@ -986,7 +1069,8 @@ class Engine:
                 f"{info['default_samplerate']:g} Hz: make the Engine at a rate it offers"
             ) from None
         for body in self._bodies:  # hits queued without a stream: not bounded per block
-            native.transform_pending(body._record)
+            for ear in body._ears:
+                native.transform_pending(ear._record)
         try:
             stream = self._open_stream(sd)
         except sd.PortAudioError as exc:
@@ -1049,7 +1133,7 @@ class Engine:
     @property
     def stats(self) -> EngineStats:
         played = late = refused = pending = ringing = 0
-        for body in self._bodies:
+        for body in self._bodies:  # a body heard by several listeners counts its first's
             played += int(body._counters[kernel.PLAYED])
             late += int(body._counters[kernel.LATE])
             refused += body._ring.refused

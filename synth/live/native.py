@@ -58,7 +58,8 @@ from synth.live import kernel
     RECORDED,  # frames recorded so far
     TIMES,  # address of ``times``
     DIRECTORY,  # address of the body directory
-    MIX,  # address of the master mix (float64, MIX_CAP)
+    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
+    # bus, then each channel's own)
     SCRATCH,  # address of one body's mix (float64, MIX_CAP)
     RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
     CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
@@ -90,14 +91,14 @@ BODY_FIELDS = (
     "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
     "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
     "samples", "points", "pulse", "transformed", "scalars",
-    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols",
+    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
 )  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
     B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
     B_COUNTERS, B_POLE_RE, B_POLE_IM, B_STEP_RE, B_STEP_IM, B_WORK, B_COEFFICIENTS,
     B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
-    B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS,
+    B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
 ) = range(len(BODY_FIELDS))  # fmt: skip
 N_BODY = len(BODY_FIELDS)
 
@@ -279,8 +280,9 @@ def soft_clip(v):
 @numba.njit(cache=True, nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames: the stop fade, the master gain (ramped over the
-    block), the meter and the optional soft clipper; ``mix`` to every channel of
-    ``out[row:row + n]`` (float32), cleared after; the recording."""
+    block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
+    (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
+    the recording."""
     channels = out.shape[1]
     pos = ctl[FADE_AT]
     length = ctl[FADE_LENGTH]
@@ -301,20 +303,22 @@ def _write_block(ctl, times, mix, out, row, n):
             else:
                 g = 0.0
             pos += 1
-        v = mix[s] * g
-        mix[s] = 0.0
-        a = abs(v)
-        if a > peak:
-            peak = a
-        if a >= 1.0:
-            clipped += 1
-        if clip:
-            v = soft_clip(v)
-        w = np.float32(v)
-        a = abs(w)
-        if a > out_peak:
-            out_peak = a
+        common = mix[0, s]
+        mix[0, s] = 0.0
         for c in range(channels):
+            v = (common + mix[c + 1, s]) * g
+            mix[c + 1, s] = 0.0
+            a = abs(v)
+            if a > peak:
+                peak = a
+            if a >= 1.0:
+                clipped += 1
+            if clip:
+                v = soft_clip(v)
+            w = np.float32(v)
+            a = abs(w)
+            if a > out_peak:
+                out_peak = a
             out[row + s, c] = w
     ctl[FADE_AT] = pos
     times[MASTER_NOW] = g1
@@ -340,7 +344,7 @@ def mix_engine(ctl, out):
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
     times = _f64(ctl[TIMES], N_TIMES)
-    mix = _f64(ctl[MIX], cap)
+    mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
     scratch = _f64(ctl[SCRATCH], cap)
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
     done = 0
@@ -350,7 +354,8 @@ def mix_engine(ctl, out):
         bodies = ctl[N_BODIES]
         _fence()  # the records of the bodies counted are complete
         for b in range(bodies):
-            _mix_one_body(_i64(directory[b], N_BODY), scratch, mix, t0, n)
+            record = _i64(directory[b], N_BODY)
+            _mix_one_body(record, scratch, mix[record[B_CHANNEL] + 1], t0, n)
         _write_block(ctl, times, mix, out, done, n)
         ctl[FRAME] = t0 + n
         done += n
@@ -471,7 +476,7 @@ class EngineState:
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
         self.directory = np.zeros(max_bodies, dtype=np.int64)
-        self.mix = np.zeros(mix_frames)
+        self.mix = np.zeros((channels + 1, mix_frames))
         self.scratch = np.zeros(mix_frames)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
         self.records: list = []  # the bodies' records and arrays, kept alive here
@@ -558,12 +563,15 @@ def warm_up() -> None:
     stream_callback.address  # noqa: B018 (compiles the cfunc, or loads it)
 
 
-def body_arrays(coefficients, table, modal_state, ring, floor: float, gain: float) -> dict:
+def body_arrays(
+    coefficients, table, modal_state, ring, floor: float, gain: float, channel: int = -1
+) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
     :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, modal
     state (:func:`synth.live.kernel.body_state`), pending ``ring``
-    (:class:`synth.live.queue.PendingRing`), omission ``floor`` and ``gain``."""
+    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain`` and output
+    ``channel`` (-1: every channel)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
@@ -590,4 +598,5 @@ def body_arrays(coefficients, table, modal_state, ring, floor: float, gain: floa
         pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
         modes=K, slots=ring.capacity, contact=ring.max_contact,
         pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
+        channel=channel,
     )  # fmt: skip
