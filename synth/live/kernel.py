@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numba
 
+from synth.live.atomics import fence
 from synth.sound.modal_bank import (
     inject_amplitudes,
     ring_modes,
@@ -63,6 +64,7 @@ def _contact_samples(out, t0, n, state, first, length, response):
     for i in range(state.shape[0]):
         if state[i] != READY:
             continue
+        fence()  # the slot's data after its state word
         lo = max(first[i], t0)
         hi = min(first[i] + length[i], end)
         for s in range(lo, hi):
@@ -75,9 +77,11 @@ def _next_due(state, inject, end):
     best = -1
     when = end
     for i in range(state.shape[0]):
-        if state[i] == READY and inject[i] < when:
-            when = inject[i]
-            best = i
+        if state[i] == READY:
+            fence()  # the slot's data after its state word
+            if inject[i] < when:
+                when = inject[i]
+                best = i
     return best
 
 
@@ -96,6 +100,7 @@ def _transform_pulses(
     for i in range(state.shape[0]):
         if state[i] != PULSE:
             continue
+        fence()  # the slot's data after its state word
         n = points[i]
         M = length[i]
         p = pulse[i]
@@ -195,6 +200,7 @@ def mix_body(
                 thresholds[k] = share
                 thr2[k] = share * share
         inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amplitudes[i], a)
+        fence()  # done reading the slot before a producer may take it
         state[i] = FREE
         counters[PLAYED] += 1
     counters[BUSY_BLOCKS] += 1

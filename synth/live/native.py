@@ -23,7 +23,7 @@ callback and :meth:`synth.live.Engine.process` call the very same compiled code.
 Ordering between threads: a producer writes a slot's data, then its state word (see
 :mod:`synth.live.queue`); a body's record is complete before ``ctl[N_BODIES]`` counts it;
 the callback brackets its anchor writes with a sequence number and full fences
-(:func:`_fence`), so a reader sees a consistent anchor or retries.
+(:func:`synth.live.atomics.fence`), so a reader sees a consistent anchor or retries.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from synth.live import kernel
+from synth.live.atomics import fence as _fence
 
 #: ``ctl`` fields (int64).
 (
@@ -136,19 +137,6 @@ def _pointer(typingctx, address):
 
     def codegen(context, builder, signature, args):
         return builder.inttoptr(args[0], cgutils.voidptr_t)
-
-    return sig, codegen
-
-
-@intrinsic
-def _fence(typingctx):
-    """A sequentially consistent fence: no load or store moves across it (compiler and
-    processor)."""
-    sig = types.none()
-
-    def codegen(context, builder, signature, args):
-        builder.fence("seq_cst")
-        return context.get_dummy_value()
 
     return sig, codegen
 
