@@ -302,6 +302,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         threads8=threads8,
         callback_mean=stats.callback_mean,
         callback_max=stats.callback_max,
+        callback_gap_max=stats.callback_gap_max,
         peak=stats.peak,
         output_peak=stats.output_peak,
         clipped=stats.clipped,
@@ -414,7 +415,9 @@ def format_live(result) -> str:
         )
     lines.append(
         f"  - callback from its entry (all phases): mean {100 * j['callback_mean']:.2f} %, max "
-        f"{100 * j['callback_max']:.1f} % of the block; master bus peak "
+        f"{100 * j['callback_max']:.1f} % of the block; longest time between two callbacks "
+        f"{j.get('callback_gap_max', 0.0):.2f} blocks (the system's scheduling); master bus "
+        f"peak "
         f"{_dbfs(j['peak'])} before the soft clipper, {_dbfs(j['output_peak'])} at the device, "
         f"{j['clipped']} samples reached full scale"
     )

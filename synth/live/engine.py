@@ -126,7 +126,10 @@ class EngineStats:
     PortAudio flagged ``output_underflow`` (the device ran dry before);
     callback_mean, callback_max, callback_last: the callback's run time from its entry to
     its return (read from the monotonic clock by the compiled callback itself), as a
-    fraction of its block's duration; impacts_played: impacts injected into a body's
+    fraction of its block's duration; callback_gap_max: the longest time between two
+    callbacks' entries, in blocks (about 1 when the system runs the audio thread on
+    time; an underflow with a large gap and a small callback_max was the system's
+    scheduling, not the callback's work); impacts_played: impacts injected into a body's
     modes; impacts_refused: impacts refused (a body's ring full, too many pulses waiting
     for one block, or a whole drop that did not fit); drops_refused: drops refused whole;
     impacts_late: impacts found after their start time (played at the start of the block
@@ -145,6 +148,7 @@ class EngineStats:
     callback_mean: float
     callback_max: float
     callback_last: float
+    callback_gap_max: float
     impacts_played: int
     impacts_refused: int
     drops_refused: int
@@ -1081,6 +1085,7 @@ class Engine:
         times = self._native.times
         times[native.NOMINAL_LATENCY] = times[native.LEAD] = float(stream.latency)
         times[native.END_TIME] = native.monotonic()
+        times[native.LAST_ENTRY] = 0.0  # the time stopped is not a gap
         ctl = self._native.ctl
         ctl[native.FADE_AT] = -1
         ctl[native.SEQ] = 0
@@ -1147,6 +1152,7 @@ class Engine:
             callback_mean=float(t[native.COST_SUM]) / n if n else 0.0,
             callback_max=float(t[native.COST_MAX]),
             callback_last=float(t[native.COST_LAST]),
+            callback_gap_max=float(t[native.GAP_MAX]),
             impacts_played=played,
             impacts_refused=refused,
             drops_refused=self._drops_refused,

@@ -83,8 +83,10 @@ from synth.live.atomics import fence as _fence
     MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
     PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
     OUT_PEAK,  # largest |sample| sent to the device since the last reset
+    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
+    GAP_MAX,  # longest time between two callbacks' entries, in blocks
     N_TIMES,
-) = range(15)
+) = range(17)
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -351,10 +353,12 @@ def mix_engine(ctl, out):
 
 @numba.njit(cache=True, nogil=True)
 def run_block(ctl, out, flags, current, dac, entry_ns):
-    """One callback's work: count PortAudio's status ``flags``, anchor the clock (the
-    block's first frame leaves the device ``dac - current`` s after ``entry_ns``, the
-    callback's entry on the monotonic clock), mix, and account the callback's run time
-    from its entry as a fraction of the block."""
+    """One callback's work: count PortAudio's status ``flags``, note the time since the
+    last callback's entry (a gap of more than a block means the system ran the audio
+    thread late, whatever the callback's own cost), anchor the clock (the block's first
+    frame leaves the device ``dac - current`` s after ``entry_ns``, the callback's entry on
+    the monotonic clock), mix, and account the callback's run time from its entry as a
+    fraction of the block."""
     times = _f64(ctl[TIMES], N_TIMES)
     frames = out.shape[0]
     if flags & PA_OUTPUT_UNDERFLOW:
@@ -366,6 +370,12 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     else:
         lead = times[NOMINAL_LATENCY]
     times[LEAD] = lead
+    now = entry_ns * 1e-9
+    if times[LAST_ENTRY] > 0.0:
+        gap = (now - times[LAST_ENTRY]) * times[SAMPLERATE] / max(frames, 1)
+        if gap > times[GAP_MAX]:
+            times[GAP_MAX] = gap
+    times[LAST_ENTRY] = now
     ctl[SEQ] += 1
     _fence()
     times[ANCHOR_FRAME] = ctl[FRAME]
