@@ -251,8 +251,9 @@ def _phase(engine, targets, seconds) -> dict:
 
 def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=16, seed=2) -> dict:
     """Through the JACK dummy server: end-to-end latency of single hits, then ``seconds``
-    of ``rate`` hits/s on ``bodies`` bodies from one thread while a pure-Python thread
-    spins, then ``seconds`` of the same rate spread over 8 hitting threads."""
+    of ``rate`` hits/s on ``bodies`` bodies from one thread alone (the machine's baseline),
+    the same while a pure-Python thread spins, then the same rate spread over 8 hitting
+    threads."""
     from synth.live import native
     from synth.live.engine import Engine
     from synth.live.jack import JackDummyServer
@@ -276,6 +277,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
                 to_callback.append(end - t)
         latency, nominal = engine.latency, float(engine._native.times[native.NOMINAL_LATENCY])
         engine.reset_meter()
+        alone = _phase(engine, [_hitter(handles, scene.ball, rate, seed)], seconds)
         busy = _phase(engine, [_busy_python, _hitter(handles, scene.ball, rate, seed)], seconds)
         hitters = [_hitter(handles, scene.ball, rate / 8, seed + 1 + k) for k in range(8)]
         threads8 = _phase(engine, hitters, seconds)
@@ -298,6 +300,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         seconds=seconds,
         rate=rate,
         bodies=bodies,
+        alone=alone,
         busy=busy,
         threads8=threads8,
         callback_mean=stats.callback_mean,
@@ -403,10 +406,13 @@ def format_live(result) -> str:
         f"(one block + output latency + hand-over allowance, the same for every hit)"
     )
     for key, what in (
+        ("alone", "one thread hitting and nothing else (the machine's baseline)"),
         ("busy", "one thread hitting while a pure-Python thread spins"),
         ("threads8", "8 threads hitting"),
     ):
-        p = j[key]
+        p = j.get(key)
+        if p is None:
+            continue
         lines.append(
             f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies, "
             f"{what}: {p['callbacks']} callbacks, {p['underflows']} output underflows (target "
