@@ -347,7 +347,8 @@ class Body:
         if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "
-                f"a live body takes (a softer contact than any material in the table)"
+                f"a live body takes (a heavy ball on a light plate, or a soft contact): "
+                f"render it offline with synth.render"
             )
 
     def _submit(
