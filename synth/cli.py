@@ -778,7 +778,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--seconds",
         type=float,
         default=30.0,
-        help="live: length of the JACK dummy server run, s (default 30)",
+        help="live: length of each JACK dummy server phase, s (default 30)",
     )
     p.add_argument("--count", type=int, default=200, help="bank: sounds of the bank (default 200)")
     p.set_defaults(func=_cmd_bench)
