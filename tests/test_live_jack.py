@@ -362,3 +362,24 @@ def test_the_python_fallback_plays_through_the_same_block(jack, scene):
     want = offline.process(FS)
     tol = float(np.spacing(np.float32(np.max(np.abs(want))))) * 4
     np.testing.assert_allclose(engine.recording, want, rtol=0, atol=tol)
+
+
+def test_hits_queued_before_start_do_not_burden_the_first_callback(jack, scene):
+    # hits queued without a stream are not bounded per block (process() has no deadline);
+    # the first callback used to transform them all (55 % of a block). start() now
+    # transforms them on the calling thread: no block of the stream transforms more than
+    # max_hits_per_block pulses (counted by the audio thread)
+    engine = synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device)
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.05)
+    queued = 3 * engine.max_hits_per_block
+    for k in range(queued):
+        assert body.hit(scene.ball, 1.0, at=0.05 + 0.001 * k) is not None
+    with engine:
+        assert wait_for(lambda: engine.stats.impacts_played == queued, 5.0)
+        for _ in range(engine.max_hits_per_block):  # the stream's own bound still holds
+            body.hit(scene.ball, 1.0)
+        assert wait_for(lambda: engine.stats.impacts_pending == 0, 5.0)
+    from synth.live import kernel
+
+    assert 1 <= body._counters[kernel.MOST_PULSES] <= engine.max_hits_per_block
+    assert engine.stats.impacts_refused == 0

@@ -44,13 +44,14 @@ N_PULSE_FIELDS = 7
 #: Per-body counters (int64 array): impacts played, impacts that arrived after their
 #: start (played at the start of the block they were found in), blocks in which the body
 #: rang, 1 while the body has ringing modes or pending impacts, 1 while a ``stop_all``
-#: waits for the audio thread.
+#: waits for the audio thread, the most pulses one block has transformed.
 PLAYED = 0
 LATE = 1
 BUSY_BLOCKS = 2
 AWAKE = 3
 SILENCE = 4
-N_COUNTERS = 5
+MOST_PULSES = 5
+N_COUNTERS = 6
 
 #: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
 #: scale); above it a tanh knee approaches full scale (see :func:`synth.live.native.soft_clip`).
@@ -94,9 +95,10 @@ def _transform_pulses(
     decay rate in 1/s, the sample period in s and the audio thread's own workspace of
     :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
     accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
-    the producer's scaling would make it."""
+    the producer's scaling would make it. Returns the number of pulses transformed."""
     pr, pi, ur, ui, sigma_max, period, work = transform
     coefficients, samples, points, pulse = pulse_form
+    count = 0
     for i in range(state.shape[0]):
         if state[i] != PULSE:
             continue
@@ -122,6 +124,8 @@ def _transform_pulses(
         reference[i] = magnitude * g
         state[i] = READY
         transformed[0] += 1
+        count += 1
+    return count
 
 
 @numba.njit(cache=True, nogil=True)
@@ -165,9 +169,11 @@ def mix_body(
     see :func:`_transform_pulses`). A body with no ringing mode and nothing pending
     returns at once.
     """
-    _transform_pulses(
+    pulses = _transform_pulses(
         state, length, amplitudes, response, reference, transform, pulse_form, transformed
     )
+    if pulses > counters[MOST_PULSES]:
+        counters[MOST_PULSES] = pulses
     end = t0 + n
     due = _next_due(state, inject, end + (1 << 40))
     if counters[AWAKE] == 0 and due < 0:

@@ -20,6 +20,10 @@ with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONI
 which the trigger threads compare). :func:`run_block` is its body: the Python fallback
 callback and :meth:`synth.live.Engine.process` call the very same compiled code.
 
+numba caches these functions keyed on this file alone (its time stamp and size): after a
+change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
+delete their cache (``synth/live/__pycache__/native.*``) so that they are compiled anew.
+
 Ordering between threads: a producer writes a slot's data, then its state word (see
 :mod:`synth.live.queue`); a body's record is complete before ``ctl[N_BODIES]`` counts it;
 the callback brackets its anchor writes with a sequence number and full fences
