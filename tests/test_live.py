@@ -663,3 +663,18 @@ def test_a_heavy_ball_on_a_light_panel_is_refused_alike_by_hit_and_drop():
         with pytest.raises(ParameterError, match="contact lasts .* synth.render"):
             call()
     assert body.pending == 0
+
+
+def test_hits_at_one_point_closer_than_min_interval_are_refused_and_counted(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    body.min_interval = 0.05
+    p, q = (0.3, 0.2), (0.3004, 0.2)  # the same point to 1 mm
+    assert body.hit(scene.ball, 1.0, position=p, at=0.10) == 0.10
+    assert body.hit(scene.ball, 1.0, position=q, at=0.12) is None  # 20 ms later: refused
+    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12) == 0.12  # another point
+    assert body.hit(scene.ball, 1.0, position=p, at=0.16) == 0.16  # 60 ms later
+    stats = engine.stats
+    assert stats.impacts_too_close == 1 and stats.impacts_pending == 3
+    with pytest.raises(ParameterError, match="min_interval"):
+        body.min_interval = 2.0

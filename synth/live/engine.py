@@ -132,6 +132,7 @@ class EngineStats:
     scheduling, not the callback's work); impacts_played: impacts injected into a body's
     modes; impacts_refused: impacts refused (a body's ring full, too many pulses waiting
     for one block, or a whole drop that did not fit); drops_refused: drops refused whole;
+    impacts_too_close: hits refused by a body's ``min_interval``;
     impacts_late: impacts found after their start time (played at the start of the block
     they were found in); impacts_pending: handed over and not yet played; bodies_ringing:
     bodies whose modes ring (the voices in use: a body is one modal bank whatever the
@@ -152,6 +153,7 @@ class EngineStats:
     impacts_played: int
     impacts_refused: int
     drops_refused: int
+    impacts_too_close: int
     impacts_late: int
     impacts_pending: int
     bodies_ringing: int
@@ -193,6 +195,8 @@ class Body:
     ):
         self._engine = engine
         self._channel = channel
+        self._min_interval = 0.0
+        self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
         self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
         self.plate = plate
         self.listener = listener
@@ -252,6 +256,36 @@ class Body:
         g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
         for ear in self._ears:
             ear._scalars[native.S_GAIN] = g
+
+    @property
+    def min_interval(self) -> float:
+        """Shortest time between two hits at one point of the body, s, in [0, 1] (default
+        0: no limit): a hit sooner than this after the last one played at the same point
+        (to 1 mm) is refused (returns None) and counted in ``stats.impacts_too_close``, so
+        that a game's jittering contact does not drone."""
+        return self._min_interval
+
+    @min_interval.setter
+    def min_interval(self, value: float) -> None:
+        self._min_interval = checks.in_range(
+            "min_interval", value, 0.0, 1.0, "s", lo_open=False, hi_open=False
+        )
+
+    def _too_close(self, position, onset: float) -> bool:
+        """Whether a hit at ``position`` starting at ``onset`` s comes within
+        ``min_interval`` of the last one there; if not, it becomes the last one."""
+        if self._min_interval <= 0.0:
+            return False
+        key = (round(position[0], 3), round(position[1], 3))
+        last = self._last_onsets.get(key)
+        if last is not None and abs(onset - last) < self._min_interval:
+            self._engine._too_close += 1
+            return True
+        self._last_onsets.pop(key, None)
+        if len(self._last_onsets) >= KEPT_POINTS:
+            self._last_onsets.pop(next(iter(self._last_onsets)))
+        self._last_onsets[key] = onset
+        return False
 
     @property
     def modes(self) -> int:
@@ -469,10 +503,13 @@ class Body:
         ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
         is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
         Returns its start time in s, or None if the body's ring of pending impacts is full
-        (the impact is refused and counted in :attr:`Engine.stats`).
+        or the hit comes within :attr:`min_interval` of the last one at its point (the
+        impact is refused and counted in :attr:`Engine.stats`).
         """
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         tr = self._trigger(ball, position, gain, contact, gravity, at)
+        if self._too_close(tr.position, tr.onset):
+            return None
         result = self._solver(tr).solve(v, position=tr.position)
         if not result.success:
             raise SynthError(
@@ -764,6 +801,7 @@ class Engine:
         self._state = "idle"  # idle <-> running; failed for good
         self._failure: str | None = None
         self._drops_refused = 0
+        self._too_close = 0
 
     # -- bodies ---------------------------------------------------------------------------
     def add(self, plate: Plate | Scene, *, listener=None, gain: float = 1.0) -> Body:
@@ -1157,6 +1195,7 @@ class Engine:
             impacts_played=played,
             impacts_refused=refused,
             drops_refused=self._drops_refused,
+            impacts_too_close=self._too_close,
             impacts_late=late,
             impacts_pending=pending,
             bodies_ringing=ringing,
