@@ -4,7 +4,10 @@ sounds as the physics says.
 The game owns the motion (free fall, a bounce that keeps half the speed); the engine owns the
 sound: on each landing the loop calls ``body.hit(ball, speed, position=...)`` from the game
 thread, and the impact sounds one audio block (plus the output latency) later. All balls land
-on the same table, so they share one modal bank. Run it with a sound device:
+on the same table, so they share one modal bank per ear: the player's head sits above the
+table's near edge, facing along it, and each ear hears the table through its own Rayleigh
+gains (stereo from the physics). The game's own loop runs in Python; the audio thread does
+not, so the loop cannot starve it. Run it with a sound device:
 
     python examples/game_loop.py --seconds 10
 
@@ -66,8 +69,9 @@ def main():
     parser.add_argument("--offline", metavar="OUT.wav", help="no device: write the session")
     args = parser.parse_args()
     rng = np.random.default_rng(7)
-    engine = synth.Engine(samplerate=48000, blocksize=256)
-    body = engine.add(TABLE, listener=synth.Microphone((0.6, 0.3, 0.5)), gain=10.0)
+    engine = synth.Engine(samplerate=48000, blocksize=256, channels=2)
+    head = synth.live.ears((0.6, -0.2, 0.4), facing=(0.0, 1.0))  # above the near edge
+    body = engine.add(TABLE, listener=head, gain=10.0)
     balls: list[Falling] = []
     frames = int(args.seconds * FPS)
     if args.offline:

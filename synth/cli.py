@@ -461,7 +461,7 @@ def _cmd_play(args):
             print(
                 f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
                 if onsets
-                else f"drop {n + 1}: no impact",
+                else f"drop {n + 1}: refused (the body's ring of pending impacts is full)",
                 flush=True,
             )
             deadline = time.monotonic() + args.max_seconds
@@ -853,7 +853,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--seconds",
         type=float,
         default=30.0,
-        help="live: length of the JACK dummy server run, s (default 30)",
+        help="live: length of each JACK dummy server phase, s (default 30)",
     )
     p.add_argument("--count", type=int, default=200, help="bank: sounds of the bank (default 200)")
     p.set_defaults(func=_cmd_bench)

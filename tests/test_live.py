@@ -455,3 +455,227 @@ def test_bench_live_figures_format():
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
     assert "the audio thread's share of a hit" in text
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
+
+
+def test_a_scene_added_sounds_as_it_renders(scene):
+    # a Scene's default listener is above its impact point; engine.add(scene) hears the
+    # scene's plate through the scene's own listener, so a drop off the centre is the render
+    off_centre = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.15))
+    r = rendered(off_centre)
+    engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
+    body = engine.add(off_centre)
+    assert body.listener == off_centre.listener
+    body.drop(off_centre.ball, off_centre.drop_height, position=off_centre.position, at=PRE)
+    live = engine.process(r.audio.size)[:, 0]
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
+def test_body_gain_set_after_add_is_ramped_over_one_block(scene):
+    # the body's gain multiplies its mix; a change ramps linearly over the next block
+    # (from the old gain to the new one at its last sample), then holds
+    n = 256
+    a = synth.Engine(samplerate=FS, blocksize=n)
+    b = synth.Engine(samplerate=FS, blocksize=n)
+    bodies = [e.add(scene.plate, listener=scene.listener) for e in (a, b)]
+    for body in bodies:
+        body.hit(scene.ball, 1.0, at=0.0)
+    ref = a.process(8 * n)[:, 0].astype(float)
+    first = b.process(2 * n)[:, 0].astype(float)
+    bodies[1].gain = 0.25
+    assert bodies[1].gain == 0.25
+    rest = b.process(6 * n)[:, 0].astype(float)
+    np.testing.assert_array_equal(first, ref[: 2 * n])
+    ramp = 1.0 + (0.25 - 1.0) * np.arange(1, n + 1) / n
+    tol = 2 * float32_ulp_of_peak(ref)
+    np.testing.assert_allclose(rest[:n], ref[2 * n : 3 * n] * ramp, rtol=0, atol=tol)
+    np.testing.assert_allclose(rest[n:], ref[3 * n :] * 0.25, rtol=0, atol=tol)
+    with pytest.raises(ParameterError, match="gain"):
+        bodies[1].gain = 0.0
+
+
+def test_a_drop_that_does_not_fit_is_refused_whole_and_counted(scene):
+    probe = synth.Engine(samplerate=FS)
+    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height))
+    assert n > 2
+    engine = synth.Engine(samplerate=FS, max_pending=n + n // 2)
+    body = engine.add(scene.plate)
+    assert len(body.drop(scene.ball, scene.drop_height)) == n
+    assert body.drop(scene.ball, scene.drop_height) == ()  # only n // 2 slots free
+    stats = engine.stats
+    assert stats.impacts_pending == n
+    assert stats.impacts_refused == n and stats.drops_refused == 1
+    small = synth.Engine(samplerate=FS, max_pending=n - 1)
+    with pytest.raises(ParameterError, match="max_pending"):
+        small.add(scene.plate).drop(scene.ball, scene.drop_height)
+
+
+def test_absurd_inputs_are_parameter_errors_naming_the_bound(scene):
+    # each of these once overflowed, exhausted memory, held a slot for ever or played
+    # samples of 6e7: now a ParameterError names the field, its value and the range
+    for kwargs, name in [
+        (dict(record_seconds=1e308), "record_seconds"),
+        (dict(record_seconds=1e6), "record_seconds"),
+        (dict(master_gain_db=1e308), "master_gain_db"),
+        (dict(callback="C"), "callback"),
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            synth.Engine(samplerate=FS, **kwargs)
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    ball = scene.ball
+    for call, name in [
+        (lambda: engine.process(2**40), "frames"),
+        (lambda: body.hit(ball, 1.0, at=1e308), "at"),
+        (lambda: body.hit(ball, 1.0, at=1e9), "at"),
+        (lambda: body.hit(ball, 1e5), "speed"),
+        (lambda: body.hit(ball, 1.0, gain=1e308), "gain"),
+        (lambda: body.hit(ball, 1.0, gain=1e9), "gain"),
+        (lambda: body.drop(ball, 1e-300), "height"),
+        (lambda: body.drop(ball, 1e308), "height"),
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            call()
+    assert engine.stats.impacts_pending == 0
+
+
+def test_the_master_bus_never_sends_full_scale(scene):
+    # a hit far louder than full scale: the soft clipper keeps every sample below 0 dBFS
+    # (identity up to -1 dBFS), the meter reports the bus' true peak and the clipped count
+    engine = synth.Engine(samplerate=FS, master_gain_db=40.0)
+    engine.add(scene.plate, gain=1e4).hit(scene.ball, 2.0, at=0.0)
+    out = engine.process(FS // 10)
+    stats = engine.stats
+    assert stats.peak > 1.0 and stats.clipped > 0
+    assert np.max(np.abs(out)) < 1.0
+    assert stats.output_peak == float(np.max(np.abs(out)))
+    quiet = synth.Engine(samplerate=FS, clip=False)
+    quiet.add(scene.plate, gain=1e4).hit(scene.ball, 2.0, at=0.0)
+    assert np.max(np.abs(quiet.process(FS // 10))) > 1.0  # as asked: nothing done
+
+
+INSPECT_CALLBACK = """
+from synth.live import native
+native.warm_up()
+ir = native.stream_callback.inspect_llvm()
+for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate"):
+    print(symbol, symbol in ir)
+print("clock_gettime", "clock_gettime" in ir)
+print("run_block", "run_block" in ir)
+"""
+
+
+@pytest.mark.slow
+def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
+    # the audio thread's code as compiled (fresh, in a child with an empty numba cache, as
+    # cached code cannot be inspected), callees included: no call into Python's C API (no
+    # GIL) and none into numba's allocator (its arrays are views made from addresses)
+    import os
+    import subprocess
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    out = subprocess.run(
+        [sys.executable, "-c", INSPECT_CALLBACK],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env=env,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
+    assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
+    assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
+    assert set(found.values()) == {"False"}, found
+
+
+def test_a_host_mixes_into_its_own_buffers(scene):
+    # mix_into fills a host's buffer of any size with the same mixing as process(); with
+    # the exact modal sum (no omission, whose checks fall on the pieces' boundaries) the
+    # pieces change only float64 rounding of the modes' advance
+    times = [0.0011, 0.0173, 0.0402]
+    engines = [synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB) for _ in range(2)]
+    for e in engines:
+        body = e.add(scene.plate, listener=scene.listener)
+        for i, t in enumerate(times):
+            body.hit(scene.ball, 0.5 + i, at=t)
+    want = engines[0].process(FS // 10)
+    host = engines[1]
+    buffer = np.empty((100, 1), dtype=np.float32)
+    got = np.concatenate([host.mix_into(buffer).copy() for _ in range(FS // 1000)])
+    np.testing.assert_allclose(got, want, rtol=0, atol=2 * float32_ulp_of_peak(want))
+    assert host.render_block(7).shape == (7, 1)
+    assert host.stats.impacts_played == len(times)
+    for bad in (
+        np.empty((10, 2), np.float32),
+        np.empty((10, 1)),
+        np.empty((10, 2), np.float32)[:, :1],
+    ):
+        with pytest.raises(ParameterError, match="out="):
+            host.mix_into(bad)
+
+
+def test_a_body_reports_its_memory(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    ring = body._ring
+    # at least the pending ring's amplitudes and pulse samples, which dominate
+    assert body.memory >= ring.amplitudes.nbytes + ring.samples.nbytes + ring.coefficients.nbytes
+
+
+def test_stereo_bodies_are_heard_at_each_ear(scene):
+    # a body added with one listener per channel: each channel is exactly the mono engine
+    # of that ear's listener (its own Rayleigh gains); a mono body in the same engine is on
+    # both channels
+    left, right = synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 1.0))
+    assert left.position[0] < right.position[0]  # facing +y, the left ear is towards -x
+    assert np.isclose(right.position[0] - left.position[0], 0.18)
+    stereo = synth.Engine(samplerate=FS, channels=2)
+    body = stereo.add(scene.plate, listener=(left, right))
+    mono_body = stereo.add(scene.plate, listener=scene.listener, gain=0.5)
+    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001) == 0.001
+    mono_body.hit(scene.ball, 0.7, at=0.05)
+    body.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
+    out = stereo.process(FS // 5)
+    for c, ear in enumerate((left, right)):
+        mono = synth.Engine(samplerate=FS)
+        b = mono.add(scene.plate, listener=ear)
+        b.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+        b.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
+        m = mono.add(scene.plate, listener=scene.listener, gain=0.5)
+        m.hit(scene.ball, 0.7, at=0.05)
+        want = mono.process(FS // 5)[:, 0]
+        np.testing.assert_allclose(out[:, c], want, rtol=0, atol=float32_ulp_of_peak(want))
+    assert not np.allclose(out[:, 0], out[:, 1])
+    assert stereo.stats.impacts_played == mono.stats.impacts_played
+    with pytest.raises(ParameterError, match="listener"):
+        synth.Engine(samplerate=FS).add(scene.plate, listener=(left, right))
+    with pytest.raises(ParameterError, match="facing"):
+        synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 0.0))
+
+
+def test_a_heavy_ball_on_a_light_panel_is_refused_alike_by_hit_and_drop():
+    # a 0.88 kg ball on a 26 g panel touches it for longer than a live body's slots take:
+    # hit() refused it while drop() cut nothing and played it; both now refuse it, naming
+    # the contact time and the way out (render offline)
+    ball = synth.Ball("steel", radius=0.03)
+    panel = synth.Plate("mdf-18", thickness=0.002, length=0.15, width=0.12)
+    assert 0.85 < ball.mass < 0.9 and 0.02 < panel.mass < 0.03
+    body = synth.Engine(samplerate=FS).add(panel)
+    for call in (lambda: body.hit(ball, 1.0), lambda: body.drop(ball, 0.05)):
+        with pytest.raises(ParameterError, match="contact lasts .* synth.render"):
+            call()
+    assert body.pending == 0
+
+
+def test_hits_at_one_point_closer_than_min_interval_are_refused_and_counted(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    body.min_interval = 0.05
+    p, q = (0.3, 0.2), (0.3004, 0.2)  # the same point to 1 mm
+    assert body.hit(scene.ball, 1.0, position=p, at=0.10) == 0.10
+    assert body.hit(scene.ball, 1.0, position=q, at=0.12) is None  # 20 ms later: refused
+    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12) == 0.12  # another point
+    assert body.hit(scene.ball, 1.0, position=p, at=0.16) == 0.16  # 60 ms later
+    stats = engine.stats
+    assert stats.impacts_too_close == 1 and stats.impacts_pending == 3
+    with pytest.raises(ParameterError, match="min_interval"):
+        body.min_interval = 2.0

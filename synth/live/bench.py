@@ -101,6 +101,7 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
                 bodies=n,
                 modes=engine.bodies[0].modes,
                 mean=float(costs.mean()),
+                memory=engine.bodies[0].memory,
                 p99=float(np.percentile(costs, 99)),
                 max=float(costs.max()),
                 played=engine.stats.impacts_played,
@@ -177,25 +178,83 @@ def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
                 body.stop_all()
         body.stop_all()
         times = np.array(times) * 1e6
-        out[name] = dict(median=float(np.median(times)), p90=float(np.percentile(times, 90)))
+        out[name] = dict(
+            median=float(np.median(times)),
+            p90=float(np.percentile(times, 90)),
+            p99=float(np.percentile(times, 99)),
+        )
     return out
 
 
 def _wait_mixed(engine, frame, timeout=1.0):
-    """Wait until a callback has mixed ``frame``; the perf_counter time at that callback's
+    """Wait until a callback has mixed ``frame``; the monotonic time (s) at that callback's
     end, or None."""
-    deadline = time.perf_counter() + timeout
-    while time.perf_counter() < deadline:
-        end, mixed = engine._anchor[2], engine._anchor[3]
+    from synth.live import native
+
+    times = engine._native.times
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        end, mixed = times[native.END_TIME], times[native.END_FRAME]
         if mixed > frame:
-            return end
+            return float(end)
         time.sleep(0.0002)
     return None
 
 
-def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4, seed=2) -> dict:
+def _busy_python(stop):
+    """A game's own loop: pure Python that never sleeps."""
+    x = 0
+    while not stop.is_set():
+        for i in range(1000):
+            x += i * i
+
+
+def _hitter(handles, ball, rate, seed):
+    """A thread's loop of hits at ``rate`` hits/s (exponential gaps) on random bodies."""
+
+    def run(stop):
+        rng = np.random.default_rng(seed)
+        while not stop.is_set():
+            time.sleep(float(rng.exponential(1.0 / rate)))
+            b = handles[int(rng.integers(len(handles)))]
+            b.hit(
+                ball,
+                float(rng.uniform(0.2, 2.0)),
+                position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))),
+            )
+
+    return run
+
+
+def _phase(engine, targets, seconds) -> dict:
+    """Run ``targets`` (each ``f(stop)``) on threads for ``seconds``; the engine's counters
+    over that time."""
+    s0 = engine.stats
+    stop = threading.Event()
+    threads = [threading.Thread(target=t, args=(stop,)) for t in targets]
+    for t in threads:
+        t.start()
+    time.sleep(seconds)
+    stop.set()
+    for t in threads:
+        t.join()
+    time.sleep(0.1)
+    s1 = engine.stats
+    return dict(
+        callbacks=s1.callbacks - s0.callbacks,
+        underflows=s1.output_underflows - s0.output_underflows,
+        played=s1.impacts_played - s0.impacts_played,
+        late=s1.impacts_late - s0.impacts_late,
+        refused=s1.impacts_refused - s0.impacts_refused,
+    )
+
+
+def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=16, seed=2) -> dict:
     """Through the JACK dummy server: end-to-end latency of single hits, then ``seconds``
-    of ``rate`` hits/s on ``bodies`` bodies from another thread."""
+    of ``rate`` hits/s on ``bodies`` bodies from one thread alone (the machine's baseline),
+    the same while a pure-Python thread spins, then the same rate spread over 8 hitting
+    threads."""
+    from synth.live import native
     from synth.live.engine import Engine
     from synth.live.jack import JackDummyServer
 
@@ -203,37 +262,25 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4,
     rng = np.random.default_rng(seed)
     with JackDummyServer(samplerate=samplerate, period=blocksize) as server:
         engine = Engine(samplerate=samplerate, blocksize=blocksize, device=server.device)
-        handles = [engine.add(scene.plate, listener=scene.listener) for _ in range(bodies)]
+        handles = [
+            engine.add(scene.plate, listener=scene.listener, gain=0.1) for _ in range(bodies)
+        ]
         engine.start()
         time.sleep(0.2)
         to_callback = []
         for _ in range(40):
             time.sleep(float(rng.uniform(0.005, 0.03)))
-            t = time.perf_counter()
+            t = native.monotonic()
             onset = handles[0].hit(scene.ball, 1.0)
             end = _wait_mixed(engine, int(np.ceil(onset * samplerate)))
             if end is not None:
                 to_callback.append(end - t)
-        latency, nominal = engine.latency, engine._latency
-        stats0 = engine.stats
-
-        def trigger(stop):
-            while not stop.is_set():
-                time.sleep(float(rng.exponential(1.0 / rate)))
-                b = handles[int(rng.integers(bodies))]
-                b.hit(
-                    scene.ball,
-                    float(rng.uniform(0.2, 2.0)),
-                    position=(float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44))),
-                )
-
-        stop = threading.Event()
-        thread = threading.Thread(target=trigger, args=(stop,))
-        thread.start()
-        time.sleep(seconds)
-        stop.set()
-        thread.join()
-        time.sleep(0.1)
+        latency, nominal = engine.latency, float(engine._native.times[native.NOMINAL_LATENCY])
+        engine.reset_meter()
+        alone = _phase(engine, [_hitter(handles, scene.ball, rate, seed)], seconds)
+        busy = _phase(engine, [_busy_python, _hitter(handles, scene.ball, rate, seed)], seconds)
+        hitters = [_hitter(handles, scene.ball, rate / 8, seed + 1 + k) for k in range(8)]
+        threads8 = _phase(engine, hitters, seconds)
         stats = engine.stats
         engine.stop()
         realtime = server.realtime
@@ -253,13 +300,15 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=20.0, bodies=4,
         seconds=seconds,
         rate=rate,
         bodies=bodies,
-        callbacks=stats.callbacks - stats0.callbacks,
-        underflows=stats.output_underflows - stats0.output_underflows,
-        played=stats.impacts_played - stats0.impacts_played,
-        late=stats.impacts_late - stats0.impacts_late,
-        refused=stats.impacts_refused - stats0.impacts_refused,
+        alone=alone,
+        busy=busy,
+        threads8=threads8,
         callback_mean=stats.callback_mean,
         callback_max=stats.callback_max,
+        callback_gap_max=stats.callback_gap_max,
+        peak=stats.peak,
+        output_peak=stats.output_peak,
+        clipped=stats.clipped,
     )
 
 
@@ -307,6 +356,15 @@ def format_live(result) -> str:
             f"{100 * TARGETS['callback_16']:.0f} %): "
             f"{target_verdict(by_n[16]['mean'] < TARGETS['callback_16'])}"
         )
+    widest = rows[-1]
+    per_body = widest["mean"] / widest["bodies"]
+    lines.append(
+        f"- per body ({widest['bodies']} ringing): {100 * per_body:.3f} % of a block, i.e. "
+        f"{0.8 / per_body:.0f} bodies per core at 80 % of a block (mean cost; a block taking "
+        f"hits costs more, see below); memory per body "
+        f"{widest.get('memory', 0) / 2**20:.2f} MiB (Body.memory: modal state, pending ring "
+        f"of {_max_pending()} impacts, workspace)"
+    )
     x = result["transform"]
     lines += [
         f"- the audio thread's share of a hit (its pulse turned into {x['modes']} mode "
@@ -316,7 +374,8 @@ def format_live(result) -> str:
         f"hit {100 * x['one']:.2f} %, none {100 * x['empty']:.2f} %",
         f"- hit() on the calling thread (the contact solved, its pulse sampled and handed "
         f"over), same point: median {h['same_point']['median']:.0f} us, "
-        f"90th percentile {h['same_point']['p90']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
+        f"90th percentile {h['same_point']['p90']:.0f} us, 99th "
+        f"{h['same_point']['p99']:.0f} us (target < {TARGETS['hit_us']:.0f} us "
         f"median): {target_verdict(h['same_point']['median'] < TARGETS['hit_us'])}; "
         f"at a new point each "
         f"time: median {h['new_point']['median']:.0f} us; with pulse_points=5 (same point): "
@@ -342,13 +401,42 @@ def format_live(result) -> str:
             f"{j['hit_to_callback_ms']['max']:.2f} ms (target <= one block + latency = "
             f"{target:.2f} ms): {target_verdict(j['hit_to_callback_ms']['max'] <= target)}"
         )
-    lines += [
+    lines.append(
         f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
-        f"(one block + output latency + hand-over allowance, the same for every hit)",
-        f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies: "
-        f"{j['callbacks']} callbacks, {j['underflows']} output underflows (target "
-        f"{TARGETS['underflows']}): {target_verdict(j['underflows'] <= TARGETS['underflows'])}; "
-        f"{j['played']} impacts played, {j['late']} late, {j['refused']} refused; callback "
-        f"mean {100 * j['callback_mean']:.2f} %, max {100 * j['callback_max']:.1f} % of the block",
-    ]
+        f"(one block + output latency + hand-over allowance, the same for every hit)"
+    )
+    for key, what in (
+        ("alone", "one thread hitting and nothing else (the machine's baseline)"),
+        ("busy", "one thread hitting while a pure-Python thread spins"),
+        ("threads8", "8 threads hitting"),
+    ):
+        p = j.get(key)
+        if p is None:
+            continue
+        lines.append(
+            f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies, "
+            f"{what}: {p['callbacks']} callbacks, {p['underflows']} output underflows (target "
+            f"{TARGETS['underflows']}): {target_verdict(p['underflows'] <= TARGETS['underflows'])}"
+            f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused"
+        )
+    lines.append(
+        f"  - callback from its entry (all phases): mean {100 * j['callback_mean']:.2f} %, max "
+        f"{100 * j['callback_max']:.1f} % of the block; longest time between two callbacks "
+        f"{j.get('callback_gap_max', 0.0):.2f} blocks (the system's scheduling); master bus "
+        f"peak "
+        f"{_dbfs(j['peak'])} before the soft clipper, {_dbfs(j['output_peak'])} at the device, "
+        f"{j['clipped']} samples reached full scale"
+    )
     return "\n".join(lines)
+
+
+def _max_pending() -> int:
+    import inspect
+
+    from synth.live.engine import Engine
+
+    return inspect.signature(Engine).parameters["max_pending"].default
+
+
+def _dbfs(x: float) -> str:
+    return f"{20 * np.log10(x):.1f} dBFS" if x > 0 else "silence"

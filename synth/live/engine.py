@@ -1,7 +1,8 @@
 """A live engine: an always open output stream that plays physical impacts as they happen.
 
-``Engine`` owns one ``sounddevice.OutputStream`` whose callback mixes every body;
-``Engine.process(frames)`` runs the very same mixing without a device. A body is one
+``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python
+in it (:mod:`synth.live.native`), mixes every body; ``Engine.process(frames)`` runs the
+very same compiled mixing without a device. A body is one
 plate heard by one listener: one modal state (:class:`~synth.sound.render.ModalModel`,
 the offline renderer's), which every impact on it excites, so any number of balls on one
 table cost one modal bank. ``Body.hit`` solves the contact on the calling thread and hands
@@ -16,12 +17,18 @@ played live are ``synth.render`` of the same impacts, to float32 rounding.
 
 Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the fixed
 calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
-times each body's and each hit's gain, so bodies and hits keep their true level relation.
+times each hit's gain, each body's gain (settable at run time, ramped over a block) and the
+master gain, so bodies and hits keep their true level relation. The master bus ends in a
+stated soft clipper (identity up to -1 dBFS, a tanh knee above; ``clip=False`` turns it
+off), so no sample above full scale reaches the device; its peak and the samples that
+reached full scale before it are in :attr:`Engine.stats`.
 
-The callback allocates no array (it mixes into a preallocated buffer and writes the
-stream's), touches no file and takes no lock: a trigger thread never holds anything the
-audio thread waits for, except, briefly, Python's GIL (hence a short switch interval while
-the stream runs). A body with no ringing mode and nothing new handed over is skipped.
+The callback allocates nothing, touches no Python object, file or lock: PortAudio calls a
+numba ``cfunc`` with the address of the engine's arrays (:mod:`synth.live.native`), so a
+busy Python thread cannot delay it. ``Engine(callback="python")`` is the explicit fallback
+for hosts where a C callback cannot be installed: a Python function that needs the GIL
+each block (it calls the same compiled mixing). A body with no ringing mode and nothing
+handed over costs nothing.
 
 The engine's clock counts output frames from 0; ``Engine.time`` is the next frame to be
 mixed, in seconds. A hit starts one block plus the stream's output latency after the call
@@ -30,8 +37,9 @@ mixed, in seconds. A hit starts one block plus the stream's output latency after
 
 from __future__ import annotations
 
-import sys
+import threading
 import time
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,11 +48,20 @@ from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
-from synth.live import kernel
+from synth.live import kernel, native
 from synth.live.queue import PendingRing
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
-from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
+from synth.physics.scene import (
+    MAX_DROP_HEIGHT,
+    MIN_DROP_HEIGHT,
+    Accelerometer,
+    Ball,
+    Contact,
+    Microphone,
+    Plate,
+    Scene,
+)
 from synth.sound.modal_bank import (
     PULSE_POINTS,
     bank_coefficients,
@@ -55,10 +72,26 @@ from synth.sound.modal_bank import (
 )
 from synth.sound.render import modal_model
 
-#: Python's thread switch interval while a stream runs, s. The callback runs a little
-#: Python around its kernels and needs the GIL: with the default 5 ms interval a trigger
-#: thread running Python code can keep it waiting for about a block.
-SWITCH_INTERVAL = 0.0002
+#: The stream callbacks: compiled code that PortAudio calls without Python ("native"), or
+#: the fallback, a Python function (needs the GIL each block).
+CALLBACKS = ("native", "python")
+#: Largest speed of a hit, m/s: far beyond the elastic range of every material in the table
+#: (metal balls dent above a few m/s), a bound against nonsense, not a physical limit.
+MAX_SPEED = 100.0
+#: Largest gain of a hit or a body (linear; +80 dB: the physical calibration is set for
+#: loud sources, a small panel heard from afar needs some +70 dB).
+MAX_GAIN = 1e4
+#: Longest time ahead of the engine's clock a hit or a drop may be scheduled, s (a slot of
+#: the pending ring is held until then).
+MAX_AHEAD = 60.0
+#: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s (the
+#: arrays are allocated whole: 600 s of mono float32 at 48 kHz is 115 MB).
+MAX_SECONDS = 600.0
+#: A running stream whose callback has not returned for this long (s, or 10 blocks if
+#: longer) has lost its device or server: hits are refused, ``stats.silent_for`` says so.
+DEVICE_LOST = 0.5
+#: Default room in the body directory the audio thread reads.
+MAX_BODIES = 256
 #: Latency settings PortAudio takes by name (else a positive number of seconds).
 LATENCIES = ("low", "high")
 #: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
@@ -89,23 +122,46 @@ WARM_UP_BALL_RADIUS = 0.005
 class EngineStats:
     """Counters of an engine since it was made.
 
-    callbacks: blocks mixed by the stream's callback; output_underflows: callbacks that
-    PortAudio flagged ``output_underflow`` (the device ran dry before); callback_mean,
-    callback_max: the callback's run time as a fraction of its block's duration;
-    impacts_played: impacts injected into a body's modes; impacts_refused: impacts refused
-    because a body's ring of pending impacts was full; impacts_late: impacts found after
-    their start time (played at the start of the block they were found in);
-    impacts_pending: handed over and not yet played.
+    callbacks: blocks mixed by a stream's callback; output_underflows: callbacks that
+    PortAudio flagged ``output_underflow`` (the device ran dry before);
+    callback_mean, callback_max, callback_last: the callback's run time from its entry to
+    its return (read from the monotonic clock by the compiled callback itself), as a
+    fraction of its block's duration; callback_gap_max: the longest time between two
+    callbacks' entries, in blocks (about 1 when the system runs the audio thread on
+    time; an underflow with a large gap and a small callback_max was the system's
+    scheduling, not the callback's work); impacts_played: impacts injected into a body's
+    modes; impacts_refused: impacts refused (a body's ring full, too many pulses waiting
+    for one block, or a whole drop that did not fit); drops_refused: drops refused whole;
+    impacts_too_close: hits refused by a body's ``min_interval``;
+    impacts_late: impacts found after their start time (played at the start of the block
+    they were found in); impacts_pending: handed over and not yet played; bodies_ringing:
+    bodies whose modes ring (the voices in use: a body is one modal bank whatever the
+    number of impacts exciting it); peak: the largest |sample| of the master bus before
+    the clipper, full scale 1; output_peak: the largest |sample| sent to the device;
+    clipped: master-bus samples that reached full scale (soft-clipped, or clipped by
+    the float-to-integer conversion with ``clip=False``); failed: why the stream
+    failed, or None; silent_for: seconds since the last callback returned while the
+    stream runs (0 without a stream): beyond ``DEVICE_LOST`` the device is taken as lost.
     """
 
     callbacks: int
     output_underflows: int
     callback_mean: float
     callback_max: float
+    callback_last: float
+    callback_gap_max: float
     impacts_played: int
     impacts_refused: int
+    drops_refused: int
+    impacts_too_close: int
     impacts_late: int
     impacts_pending: int
+    bodies_ringing: int
+    peak: float
+    output_peak: float
+    clipped: int
+    failed: str | None
+    silent_for: float
 
 
 @dataclass(frozen=True)
@@ -134,42 +190,46 @@ class Body:
     """One plate in an :class:`Engine` (made by :meth:`Engine.add`): one modal state that
     every impact on it excites."""
 
-    def __init__(self, engine: Engine, plate: Plate, listener, gain: float, model):
+    def __init__(
+        self, engine: Engine, plate: Plate, listener, gain: float, model, channel: int = -1
+    ):
         self._engine = engine
+        self._channel = channel
+        self._min_interval = 0.0
+        self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
+        self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
         self.plate = plate
         self.listener = listener
-        self.gain = gain
         self._model = model
         fs = engine.samplerate
         poles = np.ascontiguousarray(model.poles)
-        K = poles.size
-        self._scale = gain / PHYSICAL_FULL_SCALE[model.units]
+        self._scale = 1.0 / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
         self._solvers: dict = {}
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
             engine.max_pending,
-            K,
+            poles.size,
             samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
             engine.max_hits_per_block,
         )
-        self._counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
-        self._silence = False
-        self._puts_seen = 0
-        self._state_arrays = kernel.body_state(K)
-        self._level = np.zeros(1)
+        self._state_arrays = kernel.body_state(poles.size)
         self._warm_up()
-        self._kernel_args = kernel.body_kernel_args(
+        arrays = native.body_arrays(
             coefficients,
             power_table(poles, float(fs)),
             self._state_arrays,
-            self._level,
-            engine.floor,
             self._ring,
-            self._counters,
+            engine.floor,
+            gain,
+            channel,
         )
+        self._counters = arrays["counters"]
+        self._scalars = arrays["scalars"]
+        self._index = len(engine._native.records)
+        self._record = engine._native.add_body(arrays)
 
     def _warm_up(self):
         """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
@@ -186,9 +246,63 @@ class Body:
         )
 
     @property
+    def gain(self) -> float:
+        """The body's gain (linear, in (0, MAX_GAIN]); settable while it plays: the change
+        is ramped linearly over the next block (no click)."""
+        return float(self._scalars[native.S_GAIN])
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
+        for ear in self._ears:
+            ear._scalars[native.S_GAIN] = g
+
+    @property
+    def min_interval(self) -> float:
+        """Shortest time between two hits at one point of the body, s, in [0, 1] (default
+        0: no limit): a hit sooner than this after the last one played at the same point
+        (to 1 mm) is refused (returns None) and counted in ``stats.impacts_too_close``, so
+        that a game's jittering contact does not drone."""
+        return self._min_interval
+
+    @min_interval.setter
+    def min_interval(self, value: float) -> None:
+        self._min_interval = checks.in_range(
+            "min_interval", value, 0.0, 1.0, "s", lo_open=False, hi_open=False
+        )
+
+    def _too_close(self, position, onset: float) -> bool:
+        """Whether a hit at ``position`` starting at ``onset`` s comes within
+        ``min_interval`` of the last one there; if not, it becomes the last one."""
+        if self._min_interval <= 0.0:
+            return False
+        key = (round(position[0], 3), round(position[1], 3))
+        last = self._last_onsets.get(key)
+        if last is not None and abs(onset - last) < self._min_interval:
+            self._engine._too_close += 1
+            return True
+        self._last_onsets.pop(key, None)
+        if len(self._last_onsets) >= KEPT_POINTS:
+            self._last_onsets.pop(next(iter(self._last_onsets)))
+        self._last_onsets[key] = onset
+        return False
+
+    @property
     def modes(self) -> int:
         """Number of modes in the body's bank (below Nyquist)."""
         return int(self._model.poles.size)
+
+    @property
+    def memory(self) -> int:
+        """Bytes of the arrays the body holds for the audio thread (modal state, power
+        table, pending ring, workspace)."""
+        records = self._engine._native.records
+        return sum(
+            int(a.nbytes)
+            for ear in self._ears
+            for a in records[ear._index][1].values()
+            if isinstance(a, np.ndarray)
+        )
 
     @property
     def units(self) -> str:
@@ -203,7 +317,12 @@ class Body:
     @property
     def awake(self) -> bool:
         """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
-        return bool(self._counters[kernel.AWAKE]) or self.pending > 0
+        return self.ringing or any(ear._ring.pending() for ear in self._ears)
+
+    @property
+    def ringing(self) -> bool:
+        """Whether the body's modes ring (as of the last block mixed)."""
+        return any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
 
     def _prepare(self, position) -> _Prepared:
         """The bank coefficients for impacts at ``position`` (checked; kept for the last
@@ -262,15 +381,20 @@ class Body:
         if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
             raise ParameterError(
                 f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "
-                f"a live body takes (a softer contact than any material in the table)"
+                f"a live body takes (a heavy ball on a light plate, or a soft contact): "
+                f"render it offline with synth.render"
             )
 
-    def _submit(self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0) -> bool:
+    def _submit(
+        self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0, slot=None
+    ) -> bool:
         """Hand one contact over, its tick starting at ``onset`` s on the engine's clock:
-        its excitation is computed here, straight into a reserved slot of the body's ring."""
+        its excitation is computed here, straight into a slot of the body's ring (``slot``,
+        reserved by the caller, or one reserved here)."""
         ring = self._ring
         self._check_length(result.contact_time)
-        slot = ring.reserve()
+        if slot is None:
+            slot = ring.reserve()
         if slot < 0:
             return False
         try:
@@ -352,7 +476,7 @@ class Body:
         return _Trigger(
             ball=self._check_ball(ball),
             position=self._position(position),
-            gain=checks.positive("gain", gain, "dimensionless"),
+            gain=checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless"),
             law=self._check_contact(contact),
             gravity=checks.positive("gravity", gravity, "m/s^2"),
             onset=self._engine._onset(at),
@@ -379,17 +503,23 @@ class Body:
         ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
         is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
         Returns its start time in s, or None if the body's ring of pending impacts is full
-        (the impact is refused and counted in :attr:`Engine.stats`).
+        or the hit comes within :attr:`min_interval` of the last one at its point (the
+        impact is refused and counted in :attr:`Engine.stats`).
         """
-        v = checks.positive("speed", speed, "m/s")
+        v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         tr = self._trigger(ball, position, gain, contact, gravity, at)
+        if self._too_close(tr.position, tr.onset):
+            return None
         result = self._solver(tr).solve(v, position=tr.position)
         if not result.success:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        accepted = self._hand_over(result, tr.onset, self._prepare(tr.position), tr.gain)
-        return tr.onset if accepted else None
+        accepted = [
+            ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain)
+            for ear in self._ears
+        ]
+        return tr.onset if all(accepted) else None
 
     def drop(
         self,
@@ -406,10 +536,14 @@ class Body:
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
         engine's clock from ``at`` (as :meth:`hit`: the first tick's start); ``contact``
-        (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's. Returns the
-        start times (s) of the ticks handed over; impacts refused by a full ring are
-        counted in :attr:`Engine.stats`."""
-        h = checks.positive("height", height, "m")
+        (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height``
+        in [1e-6, 1000] m as a Scene's. Returns the start times (s) of its ticks.
+
+        A drop is handed over whole or not at all: when the body's ring has fewer free slots
+        than the drop has impacts, it is refused (returns an empty tuple) and its impacts are
+        counted in ``impacts_refused`` (and the drop in ``drops_refused``); a drop with more
+        impacts than ``max_pending`` can never fit and raises ParameterError."""
+        h = _check_height(height)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
         ball, pos, g, law, gravity, onset0 = (
             tr.ball,
@@ -429,27 +563,86 @@ class Body:
             rtol=law.rtol,
             **law.options(),
         )
-        prepared = self._prepare(pos)
-        t0 = sequence[0].time if len(sequence) else 0.0
-        played = []
+        if len(sequence) > self._ring.capacity:
+            raise ParameterError(
+                f"the drop from height={height!r} m has {len(sequence)} impacts, more than "
+                f"max_pending={self._ring.capacity} (the impacts a body holds): raise "
+                f"max_pending, or drop from lower"
+            )
         for imp in sequence:
-            onset = onset0 + (imp.time - t0)
-            weight = ball.mass * gravity if imp.result.settled else 0.0
-            if self._submit(imp.result, onset, prepared, g, weight):
-                played.append(onset)
-        return tuple(played)
+            self._check_length(imp.result.contact_time)
+        reserved = []
+        for ear in self._ears:
+            slots = ear._ring.reserve_many(len(sequence))
+            if slots is None:
+                _release(reserved)
+                self._engine._drops_refused += 1
+                return ()
+            reserved.append((ear, list(slots)))
+        t0 = sequence[0].time if len(sequence) else 0.0
+        onsets = tuple(onset0 + (imp.time - t0) for imp in sequence)
+        try:
+            for ear, slots in reserved:
+                prepared = ear._prepare(pos)
+                while slots:
+                    k = len(sequence) - len(slots)
+                    imp = sequence[k]
+                    weight = ball.mass * gravity if imp.result.settled else 0.0
+                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots.pop(0))
+        except BaseException:
+            _release(reserved)
+            raise
+        return onsets
 
     def stop_all(self) -> None:
-        """Silence the body at the next block: every mode stops, pending impacts are dropped."""
-        self._silence = True
-        if not self._engine.running:
+        """Silence the body at the next block: every mode stops, pending impacts are dropped
+        (at once when no stream runs)."""
+        if self._engine.running:
+            for ear in self._ears:
+                ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
+        else:
             self._apply_silence()
 
     def _apply_silence(self):
-        zr, zi, active, debt = self._state_arrays[:4]
-        kernel.silence(zr, zi, active, debt, self._ring.state, self._ring.transformed)
-        self._counters[kernel.AWAKE] = 0
-        self._silence = False
+        for ear in self._ears:
+            zr, zi, active, debt = ear._state_arrays[:4]
+            kernel.silence(zr, zi, active, debt, ear._ring.state, ear._ring.transformed)
+            ear._counters[kernel.AWAKE] = 0
+            ear._counters[kernel.SILENCE] = 0
+
+
+def _release(reserved) -> None:
+    """Give back the slots a drop reserved and did not fill (``(body, slots)`` pairs)."""
+    for ear, slots in reserved:
+        for slot in slots:
+            ear._ring.release(slot)
+
+
+def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:
+    """A listener's two ears as microphones, (left, right), for ``Engine(channels=2)``:
+    the head at ``position`` ((x, y, z), m, z > 0 above the plate), facing the direction
+    ``facing`` ((x, y) in the plate's plane, any length > 0), the ears ``spacing`` m apart
+    (in (0, 1]; 0.18 m, an adult head's width) on the line across it, the left one on the
+    left of the facing direction (z up). Each ear hears each mode with its own Rayleigh
+    gain (:mod:`synth.sound.radiation`): level, delay-free directivity and the balance
+    between the ears come from the plate's radiation, not from a pan law."""
+    x, y, z = checks.point("position", position, 3)
+    fx, fy = checks.point("facing", facing, 2, "dimensionless")
+    norm = float(np.hypot(fx, fy))
+    if not norm > 0.0:
+        raise ParameterError(f"facing={facing!r} must be a direction of length > 0")
+    d = checks.in_range("spacing", spacing, 0.0, 1.0, "m", hi_open=False)
+    lx, ly = -fy / norm * d / 2, fx / norm * d / 2  # the facing direction turned left
+    return Microphone((x + lx, y + ly, z)), Microphone((x - lx, y - ly, z))
+
+
+def _check_height(height) -> float:
+    h = checks.positive_at_most("height", height, MAX_DROP_HEIGHT, "m")
+    if h < MIN_DROP_HEIGHT:
+        raise ParameterError(
+            f"height={height!r} must be >= {MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (m)"
+        )
+    return h
 
 
 def _check_int(name, value, lo, hi, unit):
@@ -464,7 +657,8 @@ class Engine:
     Parameters
     ----------
     samplerate : int
-        Hz, in [8000, 384000]; required (the device is opened at this rate).
+        Hz, in [8000, 384000]; required (the device is opened at this rate; a device that
+        does not offer it makes :meth:`start` raise a SynthError saying so).
     blocksize : int
         Frames per callback, in [16, 8192] (PortAudio's buffer size; also the step of
         :meth:`process`).
@@ -503,8 +697,21 @@ class Engine:
         s, in [0, 0.1]: the default start of a tick is the call's time plus one block plus
         the output latency plus this (an impact handed over after its block was mixed is
         played at the start of the next block and counted as late).
-    record_seconds : float >= 0
-        The first seconds of the output are also kept in :attr:`recording`.
+    record_seconds : float
+        The first seconds of the output are also kept in :attr:`recording`, s, in
+        [0, MAX_SECONDS] (600 s).
+    master_gain_db : float
+        Gain of the master bus, dB, in [-120, 40]; settable (:attr:`master_gain_db`,
+        ramped over a block).
+    clip : bool
+        Soft-clip the master bus (identity up to -1 dBFS, a tanh knee above it that stays
+        below full scale); False passes it as is (PortAudio's conversion then clips).
+    callback : "native" or "python"
+        The stream's callback: compiled code that PortAudio calls without Python (default;
+        needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
+        for each block (a busy Python thread then delays it).
+    max_bodies : int
+        Bodies the engine can hold, in [1, 65536] (the audio thread's directory).
     """
 
     def __init__(
@@ -523,6 +730,10 @@ class Engine:
         fade: float = 0.01,
         handover: float = 0.002,
         record_seconds: float = 0.0,
+        master_gain_db: float = 0.0,
+        clip: bool = True,
+        callback: str = "native",
+        max_bodies: int = MAX_BODIES,
     ):
         self.samplerate = _check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = _check_int("blocksize", blocksize, 16, 8192, "frames")
@@ -558,41 +769,60 @@ class Engine:
                     f"frequency {0.5 * self.samplerate:g} Hz"
                 )
         fade_s = checks.in_range("fade", fade, 0.001, 1.0, "s", lo_open=False, hi_open=False)
-        self._fade_length = max(1, int(round(fade_s * self.samplerate)))
         self.handover = checks.in_range(
             "handover", handover, 0.0, 0.1, "s", lo_open=False, hi_open=False
         )
-        rec = checks.nonnegative("record_seconds", record_seconds, "s")
-        self.recording = np.zeros((int(round(rec * self.samplerate)), self.channels), np.float32)
-        self._recorded = 0
+        rec = checks.in_range(
+            "record_seconds", record_seconds, 0.0, MAX_SECONDS, "s", lo_open=False, hi_open=False
+        )
+        if not isinstance(clip, bool):
+            raise ParameterError(f"clip={clip!r} must be True or False")
+        self.callback = checks.choice("callback", callback, CALLBACKS)
+        if self.callback == "native" and not native.native_available():
+            raise ParameterError(
+                "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
+                "use callback='python'"
+            )
+        max_bodies = _check_int("max_bodies", max_bodies, 1, 65536, "bodies")
+        native.warm_up()
+        self._native = native.EngineState(
+            samplerate=self.samplerate,
+            channels=self.channels,
+            max_bodies=max_bodies,
+            mix_frames=max(self.blocksize, 4096),
+            record_frames=int(round(rec * self.samplerate)),
+            fade_frames=max(1, int(round(fade_s * self.samplerate))),
+            clip=clip,
+        )
+        self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()
-        self._mix = np.zeros(max(self.blocksize, 4096))
-        self._frame = 0  # next frame to mix
-        self._fade_at = -1  # position in the stop fade, -1: none
-        self.fade_frame = None  # where the last stop() fade began (frame)
         self._stream = None
-        self._state = "idle"  # idle -> running -> stopped
-        # the clock of the last callback: its first frame, the perf_counter time at which
-        # that frame reaches the output, the perf_counter time at its end, its last frame + 1
-        self._anchor = np.zeros(4)
-        self._anchor_seq = 0
-        self._latency = 0.0
-        self._callbacks = 0
-        self._underflows = 0
-        self._cb_sum = 0.0
-        self._cb_max = 0.0
-        self._lead = 0.0
-        kernel.warm_up()
+        self._closer = None
+        self._state = "idle"  # idle <-> running; failed for good
+        self._failure: str | None = None
+        self._drops_refused = 0
+        self._too_close = 0
 
     # -- bodies ---------------------------------------------------------------------------
-    def add(self, plate: Plate, *, listener=None, gain: float = 1.0) -> Body:
+    def add(self, plate: Plate | Scene, *, listener=None, gain: float = 1.0) -> Body:
         """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
         return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
-        a microphone 0.2 m above the plate's centre); ``gain`` > 0 scales everything it
-        plays. Allowed while the stream runs (the callback picks the body up at its next
-        block)."""
+        a microphone 0.2 m above the plate's centre, a :class:`synth.Scene`'s default for
+        impacts at the centre). Given a :class:`synth.Scene`, the body is its plate heard
+        by its listener (the scene's default one, above its impact point, when it was given
+        none), so that the scene sounds live as it renders offline. ``gain`` in
+        (0, MAX_GAIN] scales everything it plays. Allowed while the stream runs (the
+        callback picks the body up at its next block)."""
+        if isinstance(listener, (tuple, list)):
+            return self._add_ears(plate, listener, gain)
+        if isinstance(plate, Scene):
+            if listener is not None:
+                raise ParameterError(
+                    "listener must be None when adding a Scene (the scene's listener is used)"
+                )
+            plate, listener = plate.plate, plate.listener
         if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate")
+            raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
         if listener is None:
             cx, cy = plate.centre
             listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
@@ -602,18 +832,77 @@ class Engine:
             raise ParameterError(
                 f"listener={listener!r} must be None, an Accelerometer or a Microphone"
             )
-        g = checks.positive("gain", gain, "dimensionless")
+        g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
+        if len(self._native.records) >= self._native.directory.shape[0]:
+            raise ParameterError(
+                f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
+            )
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
         body = Body(self, plate, listener, g, model)
-        self._bodies = self._bodies + (body,)  # one assignment: the callback sees all or none
+        self._bodies = self._bodies + (body,)
+        return body
+
+    def _add_ears(self, plate, listeners, gain) -> Body:
+        """A body heard by one listener per output channel (see :meth:`add`)."""
+        if self.channels < 2 or len(listeners) != self.channels:
+            raise ParameterError(
+                f"listener: a sequence of {len(listeners)} listeners needs an Engine with as "
+                f"many channels (one listener per channel, at least 2); channels={self.channels}"
+            )
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
+        for i, li in enumerate(listeners):
+            if isinstance(li, Accelerometer):
+                plate.check_position(li.position, f"listener[{i}].position")
+            elif not isinstance(li, Microphone):
+                raise ParameterError(
+                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
+                )
+        g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
+        self._check_open("add a body")
+        if len(self._native.records) + len(listeners) > self._native.directory.shape[0]:
+            raise ParameterError(
+                f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
+                f"(one per listener): no room for {len(listeners)} more"
+            )
+        models = [
+            modal_model(plate, li, samplerate=self.samplerate, max_frequency=self.max_frequency)
+            for li in listeners
+        ]
+        ears_ = [
+            Body(self, plate, li, g, m, channel=c)
+            for c, (li, m) in enumerate(zip(listeners, models))
+        ]
+        body = ears_[0]
+        body.listener = tuple(listeners)
+        body._ears = ears_
+        self._bodies = self._bodies + (body,)
         return body
 
     @property
     def bodies(self) -> tuple[Body, ...]:
         return self._bodies
+
+    # -- master bus -----------------------------------------------------------------------
+    @property
+    def master_gain_db(self) -> float:
+        """The master bus' gain, dB in [-120, 40]; a change is ramped over the next block."""
+        return 20.0 * float(np.log10(self._native.times[native.MASTER_GAIN]))
+
+    @master_gain_db.setter
+    def master_gain_db(self, value: float) -> None:
+        db = checks.in_range(
+            "master_gain_db", value, -120.0, 40.0, "dB", lo_open=False, hi_open=False
+        )
+        self._native.times[native.MASTER_GAIN] = 10.0 ** (db / 20.0)
+
+    def reset_meter(self) -> None:
+        """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
+        self._native.times[native.PEAK] = 0.0
+        self._native.times[native.OUT_PEAK] = 0.0
 
     # -- clock ----------------------------------------------------------------------------
     @property
@@ -621,130 +910,183 @@ class Engine:
         return self._state == "running"
 
     @property
+    def failed(self) -> str | None:
+        """Why the engine's stream failed (it then refuses everything), or None."""
+        return self._failure
+
+    @property
+    def _frame(self) -> int:
+        return int(self._native.ctl[native.FRAME])
+
+    @property
     def time(self) -> float:
         """The next frame to be mixed, s on the engine's clock."""
         return self._frame / self.samplerate
+
+    @property
+    def recording(self) -> np.ndarray:
+        """The first ``record_seconds`` of the output, float32 (frames, channels); frames
+        not yet played are zero (``recorded`` counts those played)."""
+        return self._native.recording
+
+    @property
+    def recorded(self) -> int:
+        """Frames of :attr:`recording` written so far."""
+        return int(self._native.ctl[native.RECORDED])
+
+    @property
+    def fade_frame(self) -> int | None:
+        """The frame where the last :meth:`stop` fade began, or None."""
+        f = int(self._native.ctl[native.FADE_FRAME])
+        return None if f < 0 else f
 
     @property
     def latency(self) -> float:
         """The stream's output latency, s: from the start of a callback to the time its first
         sample is heard (PortAudio's ``outputBufferDacTime - currentTime``, measured at
         each callback; the stream's nominal latency before the first; 0 without a stream)."""
-        return self._lead if self.running else 0.0
+        return float(self._native.times[native.LEAD]) if self.running else 0.0
 
     def _check_open(self, what: str):
-        if self._state == "stopped":
+        if self._state == "failed":
+            raise SynthError(f"cannot {what}: the engine's audio stream failed ({self._failure})")
+
+    def _silent_for(self) -> float:
+        """Seconds since the stream's last callback returned (since start() before the
+        first); 0 without a stream."""
+        if not self.running:
+            return 0.0
+        return max(0.0, native.monotonic() - float(self._native.times[native.END_TIME]))
+
+    def _check_alive(self) -> None:
+        silent = self._silent_for()
+        limit = max(DEVICE_LOST, 10 * self.blocksize / self.samplerate)
+        if silent > limit:
             raise SynthError(
-                f"cannot {what}: the engine is stopped (start() it again, or make a new Engine)"
+                f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
+                f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
             )
 
     def _now_frame(self) -> float:
-        """Where the output stands now: the frame (fractional) leaving the device now, less
-        nothing when there is no stream (then the next frame to be mixed)."""
+        """The frame (fractional) leaving the device now; without a stream, the next frame
+        to be mixed."""
         if not self.running:
             return float(self._frame)
-        while True:
-            seq = self._anchor_seq
-            f0, dac0 = self._anchor[0], self._anchor[1]
-            if seq == self._anchor_seq and seq % 2 == 0:
-                break
-        if seq == 0:  # no callback yet: the stream starts with the next frame
-            return float(self._frame) - self._lead * self.samplerate
-        return f0 + (time.perf_counter() - dac0) * self.samplerate
+        frame, dac, callbacks = self._native.anchor()
+        if callbacks == 0:  # no callback yet: the stream starts with the next frame
+            return float(self._frame) - self._native.times[native.LEAD] * self.samplerate
+        return frame + (native.monotonic() - dac) * self.samplerate
 
     def _onset(self, at) -> float:
-        """A tick's start, s on the engine's clock: ``at``, or one block plus the output
-        latency plus the hand-over allowance from now (no stream: from the next frame)."""
+        """A tick's start, s on the engine's clock: ``at`` (from the next frame to at most
+        ``MAX_AHEAD`` s after it), or one block plus the output latency plus the hand-over
+        allowance from now (no stream: from the next frame)."""
         self._check_open("play an impact")
+        self._check_alive()
         if at is None:
             if not self.running:
                 return (self._frame + self.blocksize) / self.samplerate
-            frame = (
-                self._now_frame() + self.blocksize + (self._lead + self.handover) * self.samplerate
-            )
+            lead = self._native.times[native.LEAD]
+            frame = self._now_frame() + self.blocksize + (lead + self.handover) * self.samplerate
             return max(frame, float(self._frame)) / self.samplerate
         t = checks.real("at", at, "s")
         earliest = self._frame / self.samplerate
-        if not self.running and t < earliest:
+        latest = earliest + MAX_AHEAD
+        if (not self.running and t < earliest) or t < 0.0 or t > latest:
+            lo = earliest if not self.running else 0.0
             raise ParameterError(
-                f"at={at!r} must be >= {earliest!r} s, the engine's next frame (Engine.time)"
+                f"at={at!r} must be in [{lo!r}, {latest!r}] s (the engine's clock: from "
+                f"{'its next frame' if not self.running else '0'} to {MAX_AHEAD:g} s after "
+                f"Engine.time)"
             )
-        if t < 0.0:
-            raise ParameterError(f"at={at!r} must be >= 0 s (the engine's clock)")
         return t
 
     # -- mixing ---------------------------------------------------------------------------
     def _mix_into(self, outdata, frames: int):
-        """Mix ``frames`` frames into ``outdata`` (frames, channels) float32: the one mixing
-        code of the callback and of :meth:`process`."""
-        done = 0
-        cap = self._mix.shape[0]
-        while done < frames:
-            n = min(cap, frames - done)
-            t0 = self._frame
-            for body in self._bodies:
-                if body._silence:
-                    body._apply_silence()
-                puts = body._ring.puts
-                if puts == body._puts_seen and not body._counters[kernel.AWAKE]:
-                    continue  # quiet, nothing new: costs nothing
-                body._puts_seen = puts
-                kernel.mix_body(self._mix, t0, n, *body._kernel_args)
-            block = outdata[done : done + n]
-            if self._fade_at == 0:
-                self.fade_frame = t0
-            self._fade_at = kernel.write_output(
-                self._mix, n, block, self._fade_at, self._fade_length
-            )
-            if self._recorded < self.recording.shape[0]:
-                m = min(n, self.recording.shape[0] - self._recorded)
-                self.recording[self._recorded : self._recorded + m] = block[:m]
-                self._recorded += m
-            self._frame = t0 + n
-            done += n
+        """Mix ``frames`` frames into ``outdata`` (frames, channels) float32 with the
+        callback's compiled code (:func:`synth.live.native.mix_engine`)."""
+        native.mix_engine(self._native.ctl, outdata[:frames])
 
     def process(self, frames: int) -> np.ndarray:
-        """Mix the next ``frames`` frames without a device, in blocks of ``blocksize``:
-        float32 (frames, channels), the very samples the stream's callback would emit.
-        Not while the stream runs."""
-        n = _check_int("frames", frames, 0, 1 << 40, "frames")
+        """Mix the next ``frames`` frames (in [0, MAX_SECONDS * samplerate]) without a
+        device, in blocks of ``blocksize``: float32 (frames, channels), the very samples the
+        stream's callback would emit. Not while the stream runs."""
+        limit = int(MAX_SECONDS * self.samplerate)
+        n = _check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
         if self.running:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
         out = np.empty((n, self.channels), dtype=np.float32)
         for a in range(0, n, self.blocksize):  # the callback's blocks
             b = min(n, a + self.blocksize)
-            self._mix_into(out[a:b], b - a)
+            native.mix_engine(self._native.ctl, out[a:b])
         return out
 
-    def _callback(self, outdata, frames, time_info, status):
-        start = time.perf_counter()
-        if status.output_underflow:
-            self._underflows += 1
-        dac = time_info.outputBufferDacTime
-        now = time_info.currentTime
-        lead = (dac - now) if (dac > 0.0 and now > 0.0 and dac >= now) else self._latency
-        self._lead = lead
-        self._anchor_seq += 1
-        self._anchor[0] = self._frame
-        self._anchor[1] = start + lead
-        self._anchor_seq += 1
-        self._mix_into(outdata, frames)
-        end = time.perf_counter()
-        self._anchor[2] = end
-        self._anchor[3] = self._frame
-        cost = (end - start) * self.samplerate / max(frames, 1)
-        self._callbacks += 1
-        self._cb_sum += cost
-        if cost > self._cb_max:
-            self._cb_max = cost
+    def mix_into(self, out: np.ndarray) -> np.ndarray:
+        """Mix the next ``out.shape[0]`` frames into ``out``, a caller's float32 C-contiguous
+        (frames, channels) buffer, overwriting it: for hosts that own the audio callback
+        (pygame's mixer, pyo, a game engine's stream, a plugin host) and call this once per
+        block. The same compiled mixing as the stream's callback; not while the engine's own
+        stream runs. Returns ``out``."""
+        if (
+            not isinstance(out, np.ndarray)
+            or out.dtype != np.float32
+            or out.ndim != 2
+            or out.shape[1] != self.channels
+            or not out.flags.c_contiguous
+            or not out.flags.writeable
+        ):
+            raise ParameterError(
+                f"out={type(out).__name__} {getattr(out, 'dtype', '')} "
+                f"{getattr(out, 'shape', '')} must be a writeable C-contiguous float32 array "
+                f"of shape (frames, {self.channels})"
+            )
+        _check_int("frames", out.shape[0], 0, int(MAX_SECONDS * self.samplerate), "frames")
+        if self.running:
+            raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
+        self._check_open("mix")
+        native.mix_engine(self._native.ctl, out)
+        return out
+
+    def render_block(self, frames: int) -> np.ndarray:
+        """The next ``frames`` frames as one block, a new float32 (frames, channels) array
+        (:meth:`mix_into` of a fresh buffer)."""
+        limit = int(MAX_SECONDS * self.samplerate)
+        n = _check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
+        return self.mix_into(np.empty((n, self.channels), dtype=np.float32))
 
     # -- stream ---------------------------------------------------------------------------
+    def _open_stream(self, sd):
+        """The PortAudio output stream with the engine's callback."""
+        common = dict(
+            samplerate=self.samplerate,
+            blocksize=self.blocksize,
+            device=self.device,
+            channels=self.channels,
+            dtype="float32",
+            latency=self.latency_setting,
+        )
+        if self.callback == "python":
+            return sd.OutputStream(callback=_python_callback(self._native.ctl), **common)
+        import cffi
+
+        ffi = cffi.FFI()
+        return sd._StreamBase(
+            kind="output",
+            wrap_callback=None,
+            callback=ffi.cast("void *", native.stream_callback.address),
+            userdata=ffi.cast("void *", self._native.address),
+            **common,
+        )
+
     def start(self) -> Engine:
-        """Open the output stream and start mixing. Raises SynthError when PortAudio or the
-        sounddevice package is missing, or when there is no output device."""
+        """Open the output stream and start mixing, from the engine's clock where it stands
+        (an engine stopped before starts again). Raises SynthError when PortAudio or the
+        sounddevice package is missing, when there is no output device or it does not take
+        the engine's rate, or when the engine failed."""
         if self.running:
             raise SynthError("the engine is already running")
+        self._check_open("start")
         from synth.io.playback import sounddevice_module
 
         sd = sounddevice_module()
@@ -757,54 +1099,74 @@ class Engine:
                 f"with Engine.process()"
             ) from None
         try:
-            stream = sd.OutputStream(
-                samplerate=self.samplerate,
-                blocksize=self.blocksize,
+            sd.check_output_settings(
                 device=self.device,
                 channels=self.channels,
                 dtype="float32",
-                latency=self.latency_setting,
-                callback=self._callback,
+                samplerate=self.samplerate,
             )
+        except (ValueError, sd.PortAudioError) as exc:
+            raise SynthError(
+                f"the output device {info['name']!r} does not take {self.samplerate} Hz with "
+                f"{self.channels} channel(s) ({exc}); its default rate is "
+                f"{info['default_samplerate']:g} Hz: make the Engine at a rate it offers"
+            ) from None
+        for body in self._bodies:  # hits queued without a stream: not bounded per block
+            for ear in body._ears:
+                native.transform_pending(ear._record)
+        try:
+            stream = self._open_stream(sd)
         except sd.PortAudioError as exc:
             raise SynthError(
                 f"cannot open the output device {info['name']!r} at "
                 f"{self.samplerate} Hz with {self.channels} channel(s): {exc}"
             ) from None
-        self._latency = float(stream.latency)
-        self._lead = self._latency
-        self._switch_interval = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL))
-        self._anchor_seq = 0
-        self._fade_at = -1
+        times = self._native.times
+        times[native.NOMINAL_LATENCY] = times[native.LEAD] = float(stream.latency)
+        times[native.END_TIME] = native.monotonic()
+        times[native.LAST_ENTRY] = 0.0  # the time stopped is not a gap
+        ctl = self._native.ctl
+        ctl[native.FADE_AT] = -1
+        ctl[native.SEQ] = 0
         self._stream = stream
+        # closes the stream if the engine is collected while it runs (the stream holds
+        # nothing of the engine, only the addresses of the arrays the closer keeps)
+        self._closer = weakref.finalize(self, _close_stream, stream, self._native, CLOSE_TIMEOUT)
         self._state = "running"
         stream.start()
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out (``fade`` s), then close the stream. Pending impacts and ringing modes
-        are dropped; the engine can be started again."""
+        """Fade out (``fade`` s), then close the stream, within ``timeout`` s (>= 0) plus
+        the fade. Pending impacts and ringing modes are dropped; :meth:`start` starts
+        again. When the audio server does not answer in time (it died), the stream is
+        abandoned, the engine marked failed (:attr:`failed`) and every later call refused
+        with a SynthError saying so."""
+        t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return
-        stream = self._stream
-        self._fade_at = 0
-        deadline = time.perf_counter() + timeout + self._fade_length / self.samplerate
-        while (
-            self._fade_at < self._fade_length and stream.active and time.perf_counter() < deadline
-        ):
+        ctl = self._native.ctl
+        length = int(ctl[native.FADE_LENGTH])
+        deadline = time.monotonic() + t + length / self.samplerate
+        ctl[native.FADE_AT] = 0
+        while ctl[native.FADE_AT] < length and time.monotonic() < deadline:
             time.sleep(0.002)
-        try:
-            stream.stop()
-        finally:
-            stream.close()
-            self._stream = None
-            self._state = "stopped"
-            self._latency = 0.0
-            sys.setswitchinterval(self._switch_interval)
+        self._closer.detach()
+        closed = _close_stream(
+            self._stream, self._native, max(0.0, deadline - time.monotonic()), abort=False
+        )
+        self._stream = None
+        if not closed:
+            self._state = "failed"
+            self._failure = (
+                f"the audio server did not answer within timeout={timeout!r} s; the stream "
+                f"was abandoned (make a new Engine)"
+            )
+            return
+        self._state = "idle"
+        ctl[native.FADE_AT] = -1
         for body in self._bodies:
             body._apply_silence()
-        self._fade_at = -1
 
     def __enter__(self) -> Engine:
         return self.start()
@@ -814,20 +1176,79 @@ class Engine:
 
     @property
     def stats(self) -> EngineStats:
-        played = late = refused = pending = 0
-        for body in self._bodies:
+        played = late = refused = pending = ringing = 0
+        for body in self._bodies:  # a body heard by several listeners counts its first's
             played += int(body._counters[kernel.PLAYED])
             late += int(body._counters[kernel.LATE])
             refused += body._ring.refused
             pending += body.pending
-        n = self._callbacks
+            ringing += body.ringing
+        c, t = self._native.ctl, self._native.times
+        n = int(c[native.CALLBACKS])
         return EngineStats(
-            n,
-            self._underflows,
-            self._cb_sum / n if n else 0.0,
-            self._cb_max,
-            played,
-            refused,
-            late,
-            pending,
+            callbacks=n,
+            output_underflows=int(c[native.UNDERFLOWS]),
+            callback_mean=float(t[native.COST_SUM]) / n if n else 0.0,
+            callback_max=float(t[native.COST_MAX]),
+            callback_last=float(t[native.COST_LAST]),
+            callback_gap_max=float(t[native.GAP_MAX]),
+            impacts_played=played,
+            impacts_refused=refused,
+            drops_refused=self._drops_refused,
+            impacts_too_close=self._too_close,
+            impacts_late=late,
+            impacts_pending=pending,
+            bodies_ringing=ringing,
+            peak=float(t[native.PEAK]),
+            output_peak=float(t[native.OUT_PEAK]),
+            clipped=int(c[native.CLIPPED]),
+            failed=self._failure,
+            silent_for=self._silent_for(),
         )
+
+
+#: Seconds the finaliser of a collected running engine waits for its stream to close.
+CLOSE_TIMEOUT = 2.0
+#: Streams whose server did not answer, with the arrays their callback may still read:
+#: kept for the life of the process (freeing them could crash the audio thread).
+_ABANDONED: list = []
+
+
+def _close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
+    """Stop (or abort) and close ``stream`` on a helper thread, waiting at most
+    ``timeout`` s (PortAudio's calls can hang when the server is gone). True if it closed;
+    if not, the stream and its ``state`` are kept for the life of the process."""
+
+    def close():
+        try:
+            stream.abort() if abort else stream.stop()
+        finally:
+            stream.close()
+
+    worker = threading.Thread(target=close, name="synth-close-stream", daemon=True)
+    worker.start()
+    worker.join(timeout)
+    if worker.is_alive():
+        _ABANDONED.append((stream, state))
+        return False
+    return True
+
+
+def _python_callback(ctl):
+    """The fallback stream callback: a Python function (it needs the GIL each block) that
+    runs the compiled block (:func:`synth.live.native.run_block`); it holds the engine's
+    arrays, not the engine."""
+    clock = native.CLOCK
+
+    def callback(outdata, frames, time_info, status):
+        entry = time.clock_gettime_ns(clock) if clock >= 0 else native.monotonic_ns()
+        native.run_block(
+            ctl,
+            outdata,
+            status._flags,
+            time_info.currentTime,
+            time_info.outputBufferDacTime,
+            entry,
+        )
+
+    return callback

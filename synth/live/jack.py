@@ -14,13 +14,40 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 import time
-import uuid
 
 from synth.errors import SynthError
 
+#: JACK's registry holds this many servers (JACK_MAX_SERVERS in JACK2's shm.c).
+MAX_SERVERS = 8
+#: The names the servers take, tried in turn: JACK reclaims the registry entry of a
+#: server that died without unregistering (killed) only when a server of the same name
+#: starts, so a fixed set of names keeps such entries from filling the registry.
+SERVER_NAMES = tuple(f"synth-dummy-{i}" for i in range(MAX_SERVERS))
+
 #: Seconds to wait for the server to come up (or to go away).
 STARTUP_TIMEOUT = 15.0
+
+
+def _bounded(call, timeout: float) -> bool:
+    """Run ``call()`` on a helper thread; whether it returned within ``timeout`` s."""
+    worker = threading.Thread(target=call, daemon=True)
+    worker.start()
+    worker.join(timeout)
+    return not worker.is_alive()
+
+
+def _server_answers(name: str) -> bool:
+    """Whether a live JACK server runs under ``name`` (``jack_lsp`` connects to it)."""
+    env = dict(os.environ, JACK_NO_START_SERVER="1")
+    try:
+        out = subprocess.run(
+            ["jack_lsp", "-s", name], capture_output=True, timeout=10, env=env, check=False
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return out.returncode == 0
 
 
 def jackd_available() -> bool:
@@ -46,16 +73,17 @@ def jack_output_device(sd) -> int | None:
 class JackDummyServer:
     """A private ``jackd`` on the dummy backend at ``samplerate`` Hz and ``period`` frames.
 
-    Use as a context manager: it starts the server under a name of its own (so that it
-    never meets another JACK server on the machine), points PortAudio's JACK client at it
-    (``JACK_DEFAULT_SERVER``), and yields itself with ``device``, the PortAudio output
-    device index. On exit it stops the server and lets PortAudio rescan.
+    Use as a context manager: it starts the server under the first free name of
+    :data:`SERVER_NAMES` (so that it never meets another JACK server on the machine),
+    points PortAudio's JACK client at it (``JACK_DEFAULT_SERVER``), and yields itself with
+    ``device``, the PortAudio output device index. On exit it stops the server and lets
+    PortAudio rescan.
     """
 
     def __init__(self, samplerate: int = 48000, period: int = 256):
         self.samplerate = int(samplerate)
         self.period = int(period)
-        self.name = f"synth-{uuid.uuid4().hex[:8]}"
+        self.name = SERVER_NAMES[0]
         self.device: int | None = None
         self._process: subprocess.Popen | None = None
         self._log = None
@@ -70,10 +98,17 @@ class JackDummyServer:
         """Start the server, with realtime scheduling when the system allows it (without
         it, on a busy machine, the server's period can come late and the clients' output
         runs dry), else without."""
-        try:
-            return self._start(realtime=True)
-        except SynthError:
-            return self._start(realtime=False)
+        errors = []
+        for name in SERVER_NAMES:
+            if _server_answers(name):  # in use by a live server: the next name
+                continue
+            self.name = name
+            for realtime in (True, False):
+                try:
+                    return self._start(realtime=realtime)
+                except SynthError as exc:
+                    errors.append(str(exc))
+        raise SynthError(f"no JACK dummy server could start: {errors[-1]}")
 
     def _start(self, realtime: bool) -> JackDummyServer:
         if not jackd_available():
@@ -152,9 +187,10 @@ class JackDummyServer:
             from synth.io.playback import sounddevice_module
 
             sd = sounddevice_module()
-            sd._terminate()
         except SynthError:
             sd = None
+        if sd is not None and not _bounded(sd._terminate, STARTUP_TIMEOUT):
+            sd = None  # PortAudio waits on a stream it cannot close: leave it be
         if self._process is not None and self._process.poll() is None:
             self._process.terminate()
             try:

@@ -19,15 +19,13 @@ contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
 
 from __future__ import annotations
 
-import math
-
 import numba
 
+from synth.live.atomics import fence
 from synth.sound.modal_bank import (
     inject_amplitudes,
     ring_modes,
     transform_pulse,
-    transform_workspace,
 )
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
@@ -45,12 +43,19 @@ N_PULSE_FIELDS = 7
 
 #: Per-body counters (int64 array): impacts played, impacts that arrived after their
 #: start (played at the start of the block they were found in), blocks in which the body
-#: rang, 1 while the body has ringing modes or pending impacts.
+#: rang, 1 while the body has ringing modes or pending impacts, 1 while a ``stop_all``
+#: waits for the audio thread, the most pulses one block has transformed.
 PLAYED = 0
 LATE = 1
 BUSY_BLOCKS = 2
 AWAKE = 3
-N_COUNTERS = 4
+SILENCE = 4
+MOST_PULSES = 5
+N_COUNTERS = 6
+
+#: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
+#: scale); above it a tanh knee approaches full scale (see :func:`synth.live.native.soft_clip`).
+KNEE = 10.0 ** (-1.0 / 20.0)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -60,6 +65,7 @@ def _contact_samples(out, t0, n, state, first, length, response):
     for i in range(state.shape[0]):
         if state[i] != READY:
             continue
+        fence()  # the slot's data after its state word
         lo = max(first[i], t0)
         hi = min(first[i] + length[i], end)
         for s in range(lo, hi):
@@ -72,9 +78,11 @@ def _next_due(state, inject, end):
     best = -1
     when = end
     for i in range(state.shape[0]):
-        if state[i] == READY and inject[i] < when:
-            when = inject[i]
-            best = i
+        if state[i] == READY:
+            fence()  # the slot's data after its state word
+            if inject[i] < when:
+                when = inject[i]
+                best = i
     return best
 
 
@@ -87,12 +95,14 @@ def _transform_pulses(
     decay rate in 1/s, the sample period in s and the audio thread's own workspace of
     :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
     accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
-    the producer's scaling would make it."""
+    the producer's scaling would make it. Returns the number of pulses transformed."""
     pr, pi, ur, ui, sigma_max, period, work = transform
     coefficients, samples, points, pulse = pulse_form
+    count = 0
     for i in range(state.shape[0]):
         if state[i] != PULSE:
             continue
+        fence()  # the slot's data after its state word
         n = points[i]
         M = length[i]
         p = pulse[i]
@@ -114,6 +124,8 @@ def _transform_pulses(
         reference[i] = magnitude * g
         state[i] = READY
         transformed[0] += 1
+        count += 1
+    return count
 
 
 @numba.njit(cache=True, nogil=True)
@@ -157,9 +169,11 @@ def mix_body(
     see :func:`_transform_pulses`). A body with no ringing mode and nothing pending
     returns at once.
     """
-    _transform_pulses(
+    pulses = _transform_pulses(
         state, length, amplitudes, response, reference, transform, pulse_form, transformed
     )
+    if pulses > counters[MOST_PULSES]:
+        counters[MOST_PULSES] = pulses
     end = t0 + n
     due = _next_due(state, inject, end + (1 << 40))
     if counters[AWAKE] == 0 and due < 0:
@@ -192,6 +206,7 @@ def mix_body(
                 thresholds[k] = share
                 thr2[k] = share * share
         inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amplitudes[i], a)
+        fence()  # done reading the slot before a producer may take it
         state[i] = FREE
         counters[PLAYED] += 1
     counters[BUSY_BLOCKS] += 1
@@ -226,55 +241,6 @@ def silence(zr, zi, active, debt, state, transformed):
             state[i] = FREE
 
 
-@numba.njit(cache=True, nogil=True)
-def write_output(mix, n, outdata, fade_at, fade_length):
-    """Copy the mono ``mix[0:n]`` (float64) to every channel of ``outdata`` (n, channels)
-    float32 and clear ``mix``. ``fade_at`` >= 0: the block's first sample is that far into
-    a raised-cosine fade of ``fade_length`` samples (after it, silence); -1: no fade.
-    Returns the fade position after the block (-1 without a fade)."""
-    channels = outdata.shape[1]
-    pos = fade_at
-    for s in range(n):
-        g = 1.0
-        if pos >= 0:
-            g = 0.5 * (1.0 + math.cos(math.pi * pos / fade_length)) if pos < fade_length else 0.0
-            pos += 1
-        v = mix[s] * g
-        for c in range(channels):
-            outdata[s, c] = v
-        mix[s] = 0.0
-    return pos
-
-
-def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel the audio thread calls, on a
-    one-mode body with one pulse handed over, so that the first callback does not
-    compile."""
-    import numpy as np
-
-    from synth.live.queue import PendingRing
-    from synth.sound.modal_bank import bank_coefficients, power_table
-
-    poles = np.array([-10.0 + 1000.0j])
-    ring = PendingRing(1, 1, 2, 7, 1)
-    slot = ring.reserve(pulse=True)
-    ring.pulse[slot, GAIN] = 1.0
-    ring.pulse[slot, STEP] = 1e-5
-    ring.pulse[slot, CONTACT_TIME] = 4e-5
-    ring.pulse[slot, ORDER] = 2.5
-    ring.publish_pulse(slot, 1, 0, 0, 5)
-    mix = np.zeros(8)
-    out = np.zeros((8, 1), dtype=np.float32)
-    coefficients = bank_coefficients(poles, np.ones(1), np.ones(1), 48000.0)
-    args = body_kernel_args(
-        coefficients, power_table(poles, 48000.0), body_state(1), np.zeros(1), 1e-4, ring,
-        np.zeros(N_COUNTERS, dtype=np.int64),
-    )  # fmt: skip
-    mix_body(mix, 0, 8, *args)
-    silence(*args[3:7], ring.state, ring.transformed)
-    write_output(mix, 8, out, 0, 4)
-
-
 def body_state(modes: int) -> tuple:
     """A silent modal state of ``modes`` modes: amplitudes (re, im), ringing flags, omission
     debts, the sample of each debt, thresholds and their squares."""
@@ -289,24 +255,4 @@ def body_state(modes: int) -> tuple:
         np.zeros(K, dtype=np.int64),
         np.zeros(K),
         np.zeros(K),
-    )
-
-
-def body_kernel_args(coefficients, table, state, level, floor, ring, counters) -> tuple:
-    """The arguments of :func:`mix_body` after ``(out, t0, n)`` for a body whose poles,
-    sample rate and one-sample steps are those of ``coefficients`` (a
-    :class:`~synth.sound.modal_bank.BankCoefficients`, at any point): its power ``table``,
-    modal ``state`` (:func:`body_state`), ``level`` (1,), omission ``floor``, pending
-    ``ring`` (:class:`synth.live.queue.PendingRing`) and ``counters``."""
-    c = coefficients
-    fs = c.samplerate
-    work = transform_workspace(c.poles.size)
-    transform = (c.pole_re, c.pole_im, c.step_re, c.step_im, c.sigma_max, 1.0 / fs, work)
-    pulse_form = (ring.coefficients, ring.samples, ring.points, ring.pulse)
-    return (
-        (table, c.poles, float(fs))
-        + tuple(state)
-        + (level, floor, ring.state, ring.inject, ring.first, ring.length)
-        + (ring.amplitudes, ring.response, ring.reference, counters)
-        + (transform, pulse_form, ring.transformed)
     )

@@ -17,8 +17,8 @@ slot (marked WRITING), fills it in place and marks it READY or PULSE last; the a
 thread plays READY slots whose time has come and marks them FREE. The audio thread never
 waits: a slot is only ever written by its owner of the moment (the producer while FREE or
 WRITING, the consumer while READY or PULSE), and the state word is written after the data
-(x86 and ARM64 keep the order of the separate stores numpy makes here, which the GIL
-already serialises between them). When every slot is taken, or ``max_new`` pulses wait,
+with a fence between them (:mod:`synth.live.atomics`; the audio thread fences between the
+state word it reads and the slot's data). When every slot is taken, or ``max_new`` pulses wait,
 the impact is refused and counted, never queued without bound.
 """
 
@@ -28,6 +28,7 @@ import threading
 
 import numpy as np
 
+from synth.live.atomics import publish
 from synth.live.kernel import FREE, N_PULSE_FIELDS, PULSE, READY
 
 #: Slot state while a producer fills it (the audio thread plays READY slots only). The
@@ -103,6 +104,18 @@ class PendingRing:
                 self.pulses += 1
             return i
 
+    def reserve_many(self, n: int) -> list[int] | None:
+        """``n`` FREE slots at once, marked WRITING (each to be published), or None (and
+        ``n`` counted in ``refused``) when fewer are free: all or nothing."""
+        with self._lock:
+            free = np.flatnonzero(self.state == FREE)
+            if free.size < n:
+                self.refused += n
+                return None
+            slots = [int(i) for i in free[:n]]
+            self.state[slots] = WRITING
+            return slots
+
     def publish(self, slot: int, inject: int, first: int, length: int, reference: float):
         """Hand the filled ``slot`` over: its amplitudes (``amplitudes[slot]``) join the
         modes at sample ``inject``, its ``length`` in-contact samples (``response[slot]``)
@@ -125,7 +138,7 @@ class PendingRing:
         self._hand_over(slot, PULSE)
 
     def _hand_over(self, slot: int, state: int) -> None:
-        self.state[slot] = state  # last: the audio thread reads the slot from now on
+        publish(self.state, slot, state)  # last: the audio thread reads the slot from now on
         with self._lock:
             self.puts += 1
 

@@ -1,0 +1,604 @@
+"""The audio thread without Python: PortAudio calls compiled code directly.
+
+The engine's whole state lives in preallocated numpy arrays that the audio thread reaches
+through their addresses, so that its callback touches no Python object:
+
+* ``ctl`` (int64, :data:`N_CTL`): the engine's integers (the clock, the stop fade, the
+  number of bodies, the callback's counters) and the addresses of the other arrays;
+* ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
+  when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
+  master bus' gain and meter;
+* a directory of body records (int64, one address per body; a record holds the addresses
+  and sizes of the body's modal state, pending ring and counters, see :data:`BODY_FIELDS`).
+
+:func:`stream_callback` is a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
+signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
+address as ``userData`` (as python-rtmixer does with its C callback). PortAudio's thread
+then runs it without Python's GIL: a busy Python thread cannot delay it. It allocates
+nothing (every array is a view made from an address), takes no lock, and reads the time
+with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
+which the trigger threads compare). :func:`run_block` is its body: the Python fallback
+callback and :meth:`synth.live.Engine.process` call the very same compiled code.
+
+numba caches these functions keyed on this file alone (its time stamp and size): after a
+change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
+delete their cache (``synth/live/__pycache__/native.*``) so that they are compiled anew.
+
+Ordering between threads: a producer writes a slot's data, then its state word (see
+:mod:`synth.live.queue`); a body's record is complete before ``ctl[N_BODIES]`` counts it;
+the callback brackets its anchor writes with a sequence number and full fences
+(:func:`synth.live.atomics.fence`), so a reader sees a consistent anchor or retries.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numba
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from synth.live import kernel
+from synth.live.atomics import fence as _fence
+
+#: ``ctl`` fields (int64).
+(
+    FRAME,  # next frame to mix, on the engine's clock
+    FADE_AT,  # position in the stop fade, -1 without one
+    FADE_LENGTH,  # frames
+    FADE_FRAME,  # frame where the last stop fade began, -1 before
+    N_BODIES,  # bodies the callback mixes (published after their record)
+    MAX_BODIES,  # the directory's length
+    CHANNELS,
+    MIX_CAP,  # frames of the mixing scratch buffers
+    CALLBACKS,  # blocks mixed by a stream's callback
+    UNDERFLOWS,  # callbacks PortAudio flagged output underflow
+    OVERFLOWS,  # callbacks flagged output overflow (PortAudio's paOutputOverflow)
+    CLIPPED,  # output samples that reached full scale (before the clipper)
+    SEQ,  # the anchor's sequence number: odd while the callback writes it
+    RECORD_FRAMES,  # frames of the recording buffer
+    RECORDED,  # frames recorded so far
+    TIMES,  # address of ``times``
+    DIRECTORY,  # address of the body directory
+    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
+    # bus, then each channel's own)
+    SCRATCH,  # address of one body's mix (float64, MIX_CAP)
+    RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
+    CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
+    N_CTL,
+) = range(22)
+
+#: ``times`` fields (float64).
+(
+    SAMPLERATE,  # Hz
+    NOMINAL_LATENCY,  # the stream's output latency as PortAudio opened it, s
+    LEAD,  # the last callback's outputBufferDacTime - currentTime, s
+    ANCHOR_FRAME,  # the last callback's first frame
+    ANCHOR_DAC,  # the monotonic time (s) at which that frame leaves the device
+    END_TIME,  # monotonic time (s) at the end of the last callback
+    END_FRAME,  # the frame after the last callback's block
+    COST_SUM,  # sum over callbacks of (run time / block duration)
+    COST_MAX,
+    COST_LAST,
+    MASTER_GAIN,  # the master bus' target gain (linear)
+    MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
+    PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
+    OUT_PEAK,  # largest |sample| sent to the device since the last reset
+    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
+    GAP_MAX,  # longest time between two callbacks' entries, in blocks
+    N_TIMES,
+) = range(17)
+
+#: A body record (int64): addresses, then sizes.
+BODY_FIELDS = (
+    "table", "poles", "zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2",
+    "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
+    "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
+    "samples", "points", "pulse", "transformed", "scalars",
+    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
+)  # fmt: skip
+(
+    B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
+    B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
+    B_COUNTERS, B_POLE_RE, B_POLE_IM, B_STEP_RE, B_STEP_IM, B_WORK, B_COEFFICIENTS,
+    B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
+    B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
+) = range(len(BODY_FIELDS))  # fmt: skip
+N_BODY = len(BODY_FIELDS)
+
+#: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
+#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear).
+S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW = range(6)
+N_SCALARS = 6
+
+#: PortAudio's stream callback flags (portaudio.h) and its paContinue.
+PA_OUTPUT_UNDERFLOW = 0x4
+PA_OUTPUT_OVERFLOW = 0x8
+PA_CONTINUE = 0
+
+#: The soft clipper's largest output: the largest float32 below full scale.
+CEILING = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
+
+#: The clock the callback reads (and the trigger threads, in Python).
+CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
+
+
+def native_available() -> bool:
+    """Whether this platform has the POSIX clock the compiled callback reads."""
+    return CLOCK >= 0
+
+
+def monotonic() -> float:
+    """The callback's clock, s (POSIX ``CLOCK_MONOTONIC``)."""
+    return time.clock_gettime_ns(CLOCK) * 1e-9
+
+
+@intrinsic
+def _pointer(typingctx, address):
+    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
+    sig = types.voidptr(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return sig, codegen
+
+
+@intrinsic
+def _monotonic_ns(typingctx):
+    """``clock_gettime(CLOCK)`` in ns: the C library's call, no Python."""
+    sig = types.int64()
+
+    def codegen(context, builder, signature, args):
+        i64 = cgutils.ir.IntType(64)
+        i32 = cgutils.ir.IntType(32)
+        spec = cgutils.ir.LiteralStructType([i64, i64])
+        fnty = cgutils.ir.FunctionType(i32, [i32, spec.as_pointer()])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "clock_gettime")
+        ts = cgutils.alloca_once(builder, spec)
+        builder.call(fn, [i32(max(CLOCK, 0)), ts])
+        sec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 0))
+        nsec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 1))
+        return builder.add(builder.mul(sec, i64(1_000_000_000)), nsec)
+
+    return sig, codegen
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _f64(address, n):
+    return numba.carray(_pointer(address), n, np.float64)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _i64(address, n):
+    return numba.carray(_pointer(address), n, np.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _mix_one_body(record, scratch, mix, t0, n):
+    """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
+    (ramped linearly over the block from its value at the last block to its target);
+    applies a pending ``stop_all`` first."""
+    K = record[B_MODES]
+    R = record[B_SLOTS]
+    C = record[B_CONTACT]
+    P = record[B_PULSE_SAMPLES]
+    table = numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64)
+    poles = numba.carray(_pointer(record[B_POLES]), K, np.complex128)
+    zr = _f64(record[B_ZR], K)
+    zi = _f64(record[B_ZI], K)
+    active = numba.carray(_pointer(record[B_ACTIVE]), K, np.bool_)
+    debt = _f64(record[B_DEBT], K)
+    debt_at = _i64(record[B_DEBT_AT], K)
+    thresholds = _f64(record[B_THRESHOLDS], K)
+    thr2 = _f64(record[B_THR2], K)
+    level = _f64(record[B_LEVEL], 1)
+    state = _i64(record[B_STATE], R)
+    inject = _i64(record[B_INJECT], R)
+    first = _i64(record[B_FIRST], R)
+    length = _i64(record[B_LENGTH], R)
+    amplitudes = numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128)
+    response = numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64)
+    reference = _f64(record[B_REFERENCE], R)
+    counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
+    transformed = _i64(record[B_TRANSFORMED], 1)
+    scalars = _f64(record[B_SCALARS], N_SCALARS)
+    if counters[kernel.SILENCE] != 0:
+        kernel.silence(zr, zi, active, debt, state, transformed)
+        counters[kernel.AWAKE] = 0
+        counters[kernel.SILENCE] = 0
+    g0 = scalars[S_GAIN_NOW]
+    g1 = scalars[S_GAIN]
+    busy = counters[kernel.BUSY_BLOCKS]
+    if counters[kernel.AWAKE] == 0:
+        # asleep: nothing to mix unless something was handed over
+        waiting = False
+        for i in range(R):
+            if state[i] == kernel.READY or state[i] == kernel.PULSE:
+                waiting = True
+                break
+        if not waiting:
+            scalars[S_GAIN_NOW] = g1
+            return
+    work = numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64)
+    transform = (
+        _f64(record[B_POLE_RE], K),
+        _f64(record[B_POLE_IM], K),
+        _f64(record[B_STEP_RE], K),
+        _f64(record[B_STEP_IM], K),
+        scalars[S_SIGMA_MAX],
+        scalars[S_PERIOD],
+        work,
+    )
+    pulse_form = (
+        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
+        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
+        _i64(record[B_POINTS], R),
+        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
+    )
+    for s in range(n):
+        scratch[s] = 0.0
+    kernel.mix_body(
+        scratch, t0, n, table, poles, scalars[S_FS], zr, zi, active, debt, debt_at,
+        thresholds, thr2, level, scalars[S_FLOOR], state, inject, first, length, amplitudes,
+        response, reference, counters, transform, pulse_form, transformed,
+    )  # fmt: skip
+    if counters[kernel.BUSY_BLOCKS] != busy:
+        if g0 == g1:
+            for s in range(n):
+                mix[s] += g1 * scratch[s]
+        else:
+            step = (g1 - g0) / n
+            for s in range(n):
+                mix[s] += (g0 + step * (s + 1)) * scratch[s]
+    scalars[S_GAIN_NOW] = g1
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def soft_clip(v):
+    """The master bus' soft clipper: the identity up to ``KNEE`` of full scale, then a
+    tanh knee that approaches full scale without reaching it (continuous with its first
+    derivative), capped at ``CEILING`` (the largest float32 below 1, where the tanh rounds
+    to 1 in float32), so no sample at or above 0 dBFS reaches the device."""
+    a = abs(v)
+    if a <= kernel.KNEE:
+        return v
+    room = 1.0 - kernel.KNEE
+    y = min(kernel.KNEE + room * math.tanh((a - kernel.KNEE) / room), CEILING)
+    return y if v > 0.0 else -y
+
+
+@numba.njit(cache=True, nogil=True)
+def _write_block(ctl, times, mix, out, row, n):
+    """The master bus over ``n`` frames: the stop fade, the master gain (ramped over the
+    block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
+    (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
+    the recording."""
+    channels = out.shape[1]
+    pos = ctl[FADE_AT]
+    length = ctl[FADE_LENGTH]
+    if pos == 0:
+        ctl[FADE_FRAME] = ctl[FRAME]
+    g0 = times[MASTER_NOW]
+    g1 = times[MASTER_GAIN]
+    step = (g1 - g0) / n
+    peak = times[PEAK]
+    out_peak = times[OUT_PEAK]
+    clipped = 0
+    clip = ctl[CLIP] != 0
+    for s in range(n):
+        g = g0 + step * (s + 1)
+        if pos >= 0:
+            if pos < length:
+                g *= 0.5 * (1.0 + math.cos(math.pi * pos / length))
+            else:
+                g = 0.0
+            pos += 1
+        common = mix[0, s]
+        mix[0, s] = 0.0
+        for c in range(channels):
+            v = (common + mix[c + 1, s]) * g
+            mix[c + 1, s] = 0.0
+            a = abs(v)
+            if a > peak:
+                peak = a
+            if a >= 1.0:
+                clipped += 1
+            if clip:
+                v = soft_clip(v)
+            w = np.float32(v)
+            a = abs(w)
+            if a > out_peak:
+                out_peak = a
+            out[row + s, c] = w
+    ctl[FADE_AT] = pos
+    times[MASTER_NOW] = g1
+    times[PEAK] = peak
+    times[OUT_PEAK] = out_peak
+    ctl[CLIPPED] += clipped
+    cap = ctl[RECORD_FRAMES]
+    done = ctl[RECORDED]
+    if done < cap:
+        m = min(n, cap - done)
+        rec = numba.carray(_pointer(ctl[RECORD]), (cap, channels), np.float32)
+        for s in range(m):
+            for c in range(channels):
+                rec[done + s, c] = out[row + s, c]
+        ctl[RECORDED] = done + m
+
+
+@numba.njit(cache=True, nogil=True)
+def mix_engine(ctl, out):
+    """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
+    float32, in pieces of at most ``MIX_CAP`` frames: the one mixing code of the stream's
+    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`."""
+    frames = out.shape[0]
+    cap = ctl[MIX_CAP]
+    times = _f64(ctl[TIMES], N_TIMES)
+    mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
+    scratch = _f64(ctl[SCRATCH], cap)
+    directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
+    done = 0
+    while done < frames:
+        n = min(cap, frames - done)
+        t0 = ctl[FRAME]
+        bodies = ctl[N_BODIES]
+        _fence()  # the records of the bodies counted are complete
+        for b in range(bodies):
+            record = _i64(directory[b], N_BODY)
+            _mix_one_body(record, scratch, mix[record[B_CHANNEL] + 1], t0, n)
+        _write_block(ctl, times, mix, out, done, n)
+        ctl[FRAME] = t0 + n
+        done += n
+
+
+@numba.njit(cache=True, nogil=True)
+def run_block(ctl, out, flags, current, dac, entry_ns):
+    """One callback's work: count PortAudio's status ``flags``, note the time since the
+    last callback's entry (a gap of more than a block means the system ran the audio
+    thread late, whatever the callback's own cost), anchor the clock (the block's first
+    frame leaves the device ``dac - current`` s after ``entry_ns``, the callback's entry on
+    the monotonic clock), mix, and account the callback's run time from its entry as a
+    fraction of the block."""
+    times = _f64(ctl[TIMES], N_TIMES)
+    frames = out.shape[0]
+    if flags & PA_OUTPUT_UNDERFLOW:
+        ctl[UNDERFLOWS] += 1
+    if flags & PA_OUTPUT_OVERFLOW:
+        ctl[OVERFLOWS] += 1
+    if dac > 0.0 and current > 0.0 and dac >= current:
+        lead = dac - current
+    else:
+        lead = times[NOMINAL_LATENCY]
+    times[LEAD] = lead
+    now = entry_ns * 1e-9
+    if times[LAST_ENTRY] > 0.0:
+        gap = (now - times[LAST_ENTRY]) * times[SAMPLERATE] / max(frames, 1)
+        if gap > times[GAP_MAX]:
+            times[GAP_MAX] = gap
+    times[LAST_ENTRY] = now
+    ctl[SEQ] += 1
+    _fence()
+    times[ANCHOR_FRAME] = ctl[FRAME]
+    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead
+    _fence()
+    ctl[SEQ] += 1
+    mix_engine(ctl, out)
+    end = _monotonic_ns()
+    times[END_TIME] = end * 1e-9
+    times[END_FRAME] = ctl[FRAME]
+    cost = (end - entry_ns) * 1e-9 * times[SAMPLERATE] / max(frames, 1)
+    times[COST_LAST] = cost
+    times[COST_SUM] += cost
+    if cost > times[COST_MAX]:
+        times[COST_MAX] = cost
+    ctl[CALLBACKS] += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def monotonic_ns():
+    """The callback's clock in ns, read from compiled code (for the Python fallback)."""
+    return _monotonic_ns()
+
+
+CALLBACK_SIGNATURE = types.intc(
+    types.voidptr, types.voidptr, types.uint64, types.voidptr, types.uint64, types.voidptr
+)
+
+
+@numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True)
+def stream_callback(input, output, frames, time_info, flags, userdata):
+    """PortAudio's ``PaStreamCallback``: ``int (const void *input, void *output,
+    unsigned long frameCount, const PaStreamCallbackTimeInfo *timeInfo,
+    PaStreamCallbackFlags statusFlags, void *userData)``, with ``userData`` the address of
+    the engine's ``ctl``; float32 interleaved output. Returns paContinue."""
+    entry = _monotonic_ns()
+    ctl = numba.carray(userdata, N_CTL, np.int64)
+    out = numba.carray(output, (np.int64(frames), ctl[CHANNELS]), np.float32)
+    info = numba.carray(time_info, 3, np.float64)  # adc time, current time, dac time
+    run_block(ctl, out, flags, info[1], info[2], entry)
+    return PA_CONTINUE
+
+
+@numba.njit(cache=True, nogil=True)
+def transform_pending(record):
+    """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
+    a stream starts: hits queued without a stream are not bounded per block)."""
+    K = record[B_MODES]
+    R = record[B_SLOTS]
+    C = record[B_CONTACT]
+    P = record[B_PULSE_SAMPLES]
+    scalars = _f64(record[B_SCALARS], N_SCALARS)
+    transform = (
+        _f64(record[B_POLE_RE], K),
+        _f64(record[B_POLE_IM], K),
+        _f64(record[B_STEP_RE], K),
+        _f64(record[B_STEP_IM], K),
+        scalars[S_SIGMA_MAX],
+        scalars[S_PERIOD],
+        numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
+    )
+    pulse_form = (
+        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
+        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
+        _i64(record[B_POINTS], R),
+        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
+    )
+    kernel._transform_pulses(
+        _i64(record[B_STATE], R),
+        _i64(record[B_LENGTH], R),
+        numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128),
+        numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64),
+        _f64(record[B_REFERENCE], R),
+        transform,
+        pulse_form,
+        _i64(record[B_TRANSFORMED], 1),
+    )
+
+
+class EngineState:
+    """The arrays the audio thread works on (see the module's docstring), allocated once:
+    ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
+    ``mix_frames`` frames, a recording of ``record_frames`` frames."""
+
+    def __init__(
+        self,
+        *,
+        samplerate: int,
+        channels: int,
+        max_bodies: int,
+        mix_frames: int,
+        record_frames: int,
+        fade_frames: int,
+        clip: bool,
+    ):
+        self.ctl = np.zeros(N_CTL, dtype=np.int64)
+        self.times = np.zeros(N_TIMES)
+        self.directory = np.zeros(max_bodies, dtype=np.int64)
+        self.mix = np.zeros((channels + 1, mix_frames))
+        self.scratch = np.zeros(mix_frames)
+        self.recording = np.zeros((record_frames, channels), dtype=np.float32)
+        self.records: list = []  # the bodies' records and arrays, kept alive here
+        c, t = self.ctl, self.times
+        c[FADE_AT] = -1
+        c[FADE_LENGTH] = fade_frames
+        c[FADE_FRAME] = -1
+        c[MAX_BODIES] = max_bodies
+        c[CHANNELS] = channels
+        c[MIX_CAP] = mix_frames
+        c[RECORD_FRAMES] = record_frames
+        c[TIMES] = t.ctypes.data
+        c[DIRECTORY] = self.directory.ctypes.data
+        c[MIX] = self.mix.ctypes.data
+        c[SCRATCH] = self.scratch.ctypes.data
+        c[RECORD] = self.recording.ctypes.data
+        c[CLIP] = int(bool(clip))
+        t[SAMPLERATE] = samplerate
+        t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
+
+    @property
+    def address(self) -> int:
+        """The address of ``ctl``: the callback's ``userData``."""
+        return self.ctl.ctypes.data
+
+    def add_body(self, arrays: dict) -> np.ndarray:
+        """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
+        audio thread: its record is written, then counted. Returns the record."""
+        n = int(self.ctl[N_BODIES])
+        if n >= self.directory.shape[0]:
+            raise IndexError(n)
+        record = np.zeros(N_BODY, dtype=np.int64)
+        for i, name in enumerate(BODY_FIELDS):
+            value = arrays[name]
+            if isinstance(value, np.ndarray):
+                if not value.flags.c_contiguous:
+                    raise ValueError(f"{name} must be C-contiguous")
+                record[i] = value.ctypes.data
+            else:
+                record[i] = int(value)
+        self.records.append((record, arrays))
+        self.directory[n] = record.ctypes.data
+        self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
+        return record
+
+    def anchor(self) -> tuple[int, float, float]:
+        """The last callback's first frame, the monotonic time (s) at which it leaves the
+        device and the callbacks so far (0: none yet): a consistent reading (the callback
+        writes them between two increments of a sequence number)."""
+        c, t = self.ctl, self.times
+        while True:
+            seq = int(c[SEQ])
+            frame, dac = float(t[ANCHOR_FRAME]), float(t[ANCHOR_DAC])
+            if seq % 2 == 0 and int(c[SEQ]) == seq:
+                return frame, dac, seq // 2
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) everything the audio thread runs, on a one-mode
+    body with one pulse handed over, so that no callback compiles."""
+    from synth.live.queue import PendingRing
+    from synth.sound.modal_bank import bank_coefficients, power_table
+
+    fs = 48000
+    poles = np.array([-10.0 + 1000.0j])
+    ring = PendingRing(1, 1, 2, 7, 1)
+    slot = ring.reserve(pulse=True)
+    ring.pulse[slot, kernel.GAIN] = 1.0
+    ring.pulse[slot, kernel.STEP] = 1e-5
+    ring.pulse[slot, kernel.CONTACT_TIME] = 4e-5
+    ring.pulse[slot, kernel.ORDER] = 2.5
+    ring.publish_pulse(slot, 1, 0, 0, 5)
+    state = EngineState(
+        samplerate=fs, channels=1, max_bodies=1, mix_frames=8, record_frames=4,
+        fade_frames=4, clip=True,
+    )  # fmt: skip
+    c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
+    arrays = body_arrays(c, power_table(poles, float(fs)), kernel.body_state(1), ring, 1e-4, 1.0)
+    record = state.add_body(arrays)
+    transform_pending(record)
+    out = np.zeros((8, 1), dtype=np.float32)
+    run_block(state.ctl, out, 0, 0.0, 0.0, monotonic_ns())
+    mix_engine(state.ctl, out)
+    stream_callback.address  # noqa: B018 (compiles the cfunc, or loads it)
+
+
+def body_arrays(
+    coefficients, table, modal_state, ring, floor: float, gain: float, channel: int = -1
+) -> dict:
+    """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
+    its poles and one-sample steps (``coefficients``, a
+    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, modal
+    state (:func:`synth.live.kernel.body_state`), pending ``ring``
+    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain`` and output
+    ``channel`` (-1: every channel)."""
+    from synth.sound.modal_bank import transform_workspace
+
+    c = coefficients
+    fs = float(c.samplerate)
+    K = c.poles.size
+    zr, zi, active, debt, debt_at, thresholds, thr2 = modal_state
+    scalars = np.zeros(N_SCALARS)
+    scalars[S_FS] = fs
+    scalars[S_FLOOR] = floor
+    scalars[S_SIGMA_MAX] = c.sigma_max
+    scalars[S_PERIOD] = 1.0 / fs
+    scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
+    work = transform_workspace(K)
+    return dict(
+        table=np.ascontiguousarray(table),
+        poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
+        zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
+        thr2=thr2, level=np.zeros(1), state=ring.state, inject=ring.inject, first=ring.first,
+        length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
+        reference=ring.reference, counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
+        pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
+        step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
+        work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
+        pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
+        modes=K, slots=ring.capacity, contact=ring.max_contact,
+        pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
+        channel=channel,
+    )  # fmt: skip
