@@ -527,3 +527,60 @@ def test_unwritable_folder_is_a_clean_error(tmp_path, monkeypatch):
     monkeypatch.setattr(mf, "write_spec", full)
     with pytest.raises(bank.BankRunError, match="No space left"):
         bank.run(spec, tmp_path / "out", jobs=1)
+
+
+def _file_identity(path: Path):
+    st = path.stat()
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SIGKILL of a worker process")
+def test_dask_worker_killed_mid_run_leaves_an_exact_manifest(tmp_path, cache_dir):
+    # A real distributed cluster on loopback (two worker processes under nannies); one
+    # worker is SIGKILLed once a few rows are recorded. Every row recorded in the
+    # manifest keeps the very file it was recorded with (same inode, mtime and size: a
+    # finished file is never rewritten by a recomputed task), and at the end every
+    # manifest hash matches its file; a rerun completes the bank.
+    import threading
+
+    distributed = pytest.importorskip("dask.distributed")
+    spec = _write_spec(tmp_path / "spec", count=40)
+    out = tmp_path / "out"
+    seen: dict = {}
+    outcome: dict = {}
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster, distributed.Client(cluster) as client:
+        pids = client.run(os.getpid)
+
+        def render():
+            try:
+                outcome["result"] = bank.run(spec, out, scheduler=client)
+            except Exception as exc:  # noqa: BLE001 - reported by the assertion below
+                outcome["error"] = exc
+
+        thread = threading.Thread(target=render)
+        thread.start()
+        deadline = time.monotonic() + 180
+        killed = 0
+        while thread.is_alive() and time.monotonic() < deadline:
+            for r in mf.read_rows(out) if (out / mf.JSONL).exists() else []:
+                if r["index"] not in seen and r.get("status") == "ok":
+                    seen[r["index"]] = _file_identity(out / r["file"])
+            if not killed and len(seen) >= 12:
+                os.kill(next(iter(pids.values())), signal.SIGKILL)
+                killed = len(seen)
+            time.sleep(0.002)
+        thread.join(timeout=300)
+    assert killed and "error" not in outcome, outcome
+    assert killed < 40  # the kill came before the end
+    rows = mf.read_rows(out)
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"], r["index"]
+    for index, identity in seen.items():
+        f = out / bank.plan(bank.load(spec))[index].file
+        assert _file_identity(f) == identity, f"row {index}'s file was rewritten"
+    again = bank.run(spec, out, jobs=1)
+    assert again.ok
+    _check_complete(out, 40)

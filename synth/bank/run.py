@@ -202,7 +202,9 @@ def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
 
 
 def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
-    """Render row ``item`` of ``spec`` and write its file into ``out_dir`` atomically:
+    """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
+    (:func:`synth.bank.manifest.write_once`: atomically, never over a file already
+    there; the run removes the stale files of the rows it renders before it starts):
     the task function of every worker (pool or Dask). A scene that fails gives a
     ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
     try:
@@ -211,12 +213,17 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
         row = _base_row(spec, item, "failed")
         row["error"] = f"{type(exc).__name__}: {exc}"
         return RowResult(row, max_rss=_max_rss())
+    target = Path(out_dir) / item.file
     try:
-        mf.write_atomic(Path(out_dir) / item.file, data)
+        written = mf.write_once(target, data)
+        # A file already there was published by another attempt of this row in this run
+        # (a Dask task recomputed after its worker was lost): it is kept, never rewritten,
+        # and the row records its bytes.
+        sha256 = hashlib.sha256(data).hexdigest() if written else mf.sha256_file(target)
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(figures, sha256=hashlib.sha256(data).hexdigest())
+    row.update(figures, sha256=sha256)
     return RowResult(row, max_rss=_max_rss())
 
 
@@ -353,6 +360,9 @@ class _Dask:
         self.client.run(warm, spec)
 
     def results(self, items):
+        """Each row's result as it finishes. A result read is released at once: the
+        scheduler then has no reason to recompute a finished task when the worker that
+        holds it is lost (only the rows still running or queued there are redone)."""
         from dask.distributed import as_completed
 
         spec = self.client.scatter(self.spec, broadcast=True)
@@ -361,7 +371,15 @@ class _Dask:
         ]
         self._futures = futures
         for fut in as_completed(futures):
-            yield fut.result()
+            try:
+                res = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a task the cluster lost (KilledWorker ...)
+                res = RowResult(
+                    None,
+                    fatal=f"the Dask cluster lost a row ({type(exc).__name__}: {exc})",
+                )
+            fut.release()
+            yield res
 
     def close(self):
         for fut in getattr(self, "_futures", ()):
@@ -432,6 +450,37 @@ def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
         if path.is_file() and mf.sha256_file(path) == row.get("sha256"):
             out.append(row)
     return out
+
+
+def _remove_stale_files(out_dir: Path, todo) -> None:
+    """Delete the files of the rows about to be rendered (left by a run that was killed
+    before recording them, or damaged since): a row's file is then published once, by
+    the first attempt that finishes (:func:`render_item`)."""
+    for item in todo:
+        (out_dir / item.file).unlink(missing_ok=True)
+
+
+def _final_check(out_dir: Path, rows: list[dict], result: BankResult) -> list[dict]:
+    """The rows whose record holds: every ``ok`` row's file hashed again against its
+    recorded SHA-256. A row that does not match is dropped from the manifest (the next
+    run redoes it) and the bank is not reported complete."""
+    kept, bad = [], []
+    for row in rows:
+        path = out_dir / str(row.get("file", ""))
+        if row.get("status") == "ok" and not (
+            path.is_file() and mf.sha256_file(path) == row.get("sha256")
+        ):
+            bad.append(row["index"])
+            continue
+        kept.append(row)
+    if bad:
+        result.done -= len(bad)
+        result.stopped = result.stopped or (
+            f"{len(bad)} file(s) do not match their recorded SHA-256 (rows "
+            f"{', '.join(map(str, bad[:10]))}{' ...' if len(bad) > 10 else ''}): they are left "
+            f"out of the manifest; run again to redo them"
+        )
+    return kept
 
 
 def _estimate(spec: BankSpec, items, jobs: int) -> float:
@@ -543,7 +592,9 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
         result.elapsed = time.perf_counter() - t0
         return result
     book.rewrite(kept)
+    _remove_stale_files(out, todo)
     rows = list(kept)
+    recorded = set()
     t_start = time.perf_counter()
     executor = _executor(spec, out, n_jobs, scheduler) if todo else None
     result.startup = time.perf_counter() - t_start
@@ -554,6 +605,9 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
             if res.fatal is not None:
                 result.stopped = f"{res.fatal}; the finished rows are kept: run again to resume"
                 break
+            if res.row["index"] in recorded:  # a second attempt of a row (a lost worker's)
+                continue
+            recorded.add(res.row["index"])
             try:
                 book.append(res.row)
             except OSError as exc:
@@ -577,6 +631,7 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
             bar.close()
         book.close()
     result.elapsed = time.perf_counter() - t_start
+    rows = _final_check(out, rows, result)
     try:
         book.rewrite(rows)
     except OSError as exc:  # the appended rows stay; the next run rewrites them
