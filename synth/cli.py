@@ -480,6 +480,11 @@ def _cmd_bank(args):
         dry_run=args.dry_run,
         force=args.force,
     )
+    if args.dry_run:
+        import json
+
+        for row in result.planned_rows:
+            print(json.dumps(row))
     print(result.summary(), file=sys.stderr)
     return 0 if result.ok else 1
 
@@ -684,7 +689,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--dry-run",
         action="store_true",
-        help="write the plan (the manifest without audio) and estimate the time",
+        help="change nothing: print the rows to render (JSON lines) and estimate the time",
     )
     p.add_argument(
         "--force",

@@ -123,6 +123,7 @@ def _check_complete(folder: Path, n: int) -> None:
     csv_lines = (folder / mf.CSV).read_text().splitlines()
     assert len(csv_lines) == n + 1
     assert not [p for p in folder.iterdir() if mf.TEMPORARY.match(p.name)]
+    assert not (folder / mf.LOCK).exists()  # removed when the run finished
     assert set(_audio_files(folder)) == {r["file"] for r in rows}
 
 
@@ -346,15 +347,39 @@ def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys):
     assert sorted(_audio_files(tmp_path / "out")) == ["p0.ogg", "p2.ogg"]
 
 
-def test_dry_run_writes_the_plan(tmp_path, cache_dir):
-    # The plan without audio, and an estimate of the time from a few renders.
+def _tree(folder: Path) -> dict:
+    """Every path under ``folder`` with its modification time and bytes (None: a folder)."""
+    return {
+        str(p.relative_to(folder)): (p.stat().st_mtime_ns, p.read_bytes() if p.is_file() else None)
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def test_dry_run_changes_nothing(tmp_path, cache_dir):
+    # The rows to render and an estimate of the time from a few renders; no folder made.
     spec = _write_spec(tmp_path / "spec")
     result = bank.run(spec, tmp_path / "out", jobs=2, dry_run=True)
     assert result.estimate is not None and result.estimate > 0
-    rows = mf.read_rows(tmp_path / "out")
-    assert [r["status"] for r in rows] == ["planned"] * 12
-    assert not _audio_files(tmp_path / "out")
+    assert [r["status"] for r in result.planned_rows] == ["planned"] * 12
+    assert not (tmp_path / "out").exists()
     assert "estimated" in result.summary()
+
+
+def test_force_dry_run_on_a_finished_bank_writes_and_deletes_nothing(tmp_path, cache_dir):
+    # A finished bank, then --force --dry-run with a changed spec, and a plain --dry-run:
+    # the folder's tree (names, mtimes, bytes) is the same before and after each.
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = _tree(out)
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run"]) == 0
+    assert _tree(out) == before
+    spec.write_text(spec.read_text().replace("seed = 3", "seed = 4"))
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run", "--force"]) == 0
+    assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1, dry_run=True, force=True)
+    assert len(result.planned_rows) == 3 and result.skipped == 0
+    assert _tree(out) == before
 
 
 def test_changed_spec_refused_naming_keys_then_force(tmp_path, cache_dir):
@@ -506,11 +531,12 @@ def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     spec = tmp_path / "bank.toml"
     spec.write_text(ISSUE_SPEC)
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "2"]) == 0
-    assert "estimated" in capsys.readouterr().err
-    rows = mf.read_rows(tmp_path / "out")
+    captured = capsys.readouterr()
+    assert "estimated" in captured.err
+    rows = [json.loads(line) for line in captured.out.splitlines()]
     assert len(rows) == 200 and rows[5]["file"] == "default-0005.flac"
-    assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "sha256"}
-    assert not _audio_files(tmp_path / "out")
+    assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "status"}
+    assert not (tmp_path / "out").exists()
     spec.write_text(ISSUE_SPEC.replace("count = 200", "count = 0"))
     assert main(["bank", str(spec), "-o", str(tmp_path / "out2")]) == 2
     assert "count=0" in capsys.readouterr().err

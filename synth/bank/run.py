@@ -70,7 +70,7 @@ class BankResult:
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
     ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
     largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
-    bank would take, s.
+    bank would take, s, and ``planned_rows`` the manifest rows it would render.
     """
 
     out_dir: Path
@@ -84,6 +84,7 @@ class BankResult:
     startup: float = 0.0
     peak_worker_rss: int = 0
     estimate: float | None = None
+    planned_rows: list = field(default_factory=list)
 
     @property
     def rate(self) -> float:
@@ -104,8 +105,9 @@ class BankResult:
         """The summary printed at the end of ``synth bank``."""
         if self.estimate is not None:
             return (
-                f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
-                f"already done); estimated {self.estimate:.1f} s to render the rest"
+                f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
+                f"{self.planned} sounds to render ({self.skipped} already done); estimated "
+                f"{self.estimate:.1f} s to render them"
             )
         text = (
             f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
@@ -392,18 +394,43 @@ class _Dask:
 
 
 def _lock(out_dir: Path):
-    """Hold the folder's lock file for the run (another run into it is refused)."""
+    """Hold the folder's lock file for the run (another run into it is refused). The
+    lock is the ``flock`` on the open file, so a run that was killed holds nothing; the
+    file is removed by :func:`_unlock`. A lock taken on a file that was removed meanwhile
+    (by the run that held it) is taken again on the new file."""
     try:
         import fcntl
     except ImportError:  # no advisory locks on this platform
         return None
-    fh = open(out_dir / mf.LOCK, "a")  # noqa: SIM115 - held for the run, closed by run()
-    try:
-        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
+    path = out_dir / mf.LOCK
+    for _ in range(100):
+        fh = open(path, "a")  # noqa: SIM115 - held for the run, closed by _unlock()
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.close()
+            raise BankRunError(
+                f"out_dir={str(out_dir)!r} is in use by another synth bank"
+            ) from None
+        try:
+            if os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino:
+                return fh
+        except FileNotFoundError:
+            pass
         fh.close()
-        raise BankRunError(f"out_dir={str(out_dir)!r} is in use by another synth bank") from None
-    return fh
+    raise BankRunError(f"out_dir={str(out_dir)!r}: its lock file {mf.LOCK} keeps changing")
+
+
+def _unlock(out_dir: Path, fh) -> None:
+    """Remove the lock file (still holding its lock, so no other run holds it) and
+    release it: a finished bank's folder holds only its files and manifests."""
+    if fh is None:
+        return
+    try:
+        (out_dir / mf.LOCK).unlink(missing_ok=True)
+    except OSError:
+        pass
+    fh.close()
 
 
 def _as_spec(spec) -> BankSpec:
@@ -416,19 +443,23 @@ def _as_spec(spec) -> BankSpec:
     raise BankSpecError(f"spec={spec!r} must be a spec file, a dict or a BankSpec")
 
 
+def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
+    diff = bank_spec.differences(stored, new)
+    raise BankSpecError(
+        f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
+        f"{', '.join(diff)}): use the same spec to resume, another folder, or "
+        f"--force to start over"
+    )
+
+
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     """Refuse a folder made by another spec (naming the keys that differ), or with
     ``force`` delete its files and manifest to start over."""
     stored = mf.read_spec(out_dir)
     new = spec.as_dict()
     if stored is not None and stored != new:
-        diff = bank_spec.differences(stored, new)
         if not force:
-            raise BankSpecError(
-                f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
-                f"{', '.join(diff)}): use the same spec to resume, another folder, or "
-                f"--force to start over"
-            )
+            _refuse_other_spec(out_dir, stored, new)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
             if f.parent == out_dir and f.is_file():
@@ -545,8 +576,9 @@ def run(
         A Dask scheduler's address (``"tcp://host:8786"``) or a client: the rows run on
         that cluster instead of the pool.
     dry_run : bool
-        Write the plan (the manifest, rows ``planned``) without audio, and estimate the
-        time from a few renders.
+        Change nothing (no folder, file, manifest or lock written or deleted, also with
+        ``force``): the rows that would be rendered (``result.planned_rows``) and an
+        estimate of the time from a few renders.
     force : bool
         Start over in a folder made by another spec (its files and manifest deleted).
 
@@ -557,6 +589,8 @@ def run(
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
     out = Path(out_dir)
+    if dry_run:
+        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -564,10 +598,9 @@ def run(
     try:
         lock = _lock(out)
         try:
-            return _run(spec, items, out, n_jobs, scheduler, dry_run, force)
+            return _run(spec, items, out, n_jobs, scheduler, force)
         finally:
-            if lock is not None:
-                lock.close()
+            _unlock(out, lock)
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
         raise BankRunError(
             f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
@@ -575,8 +608,28 @@ def run(
         ) from None
 
 
-def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
+def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
+    """What a run would do, without writing or deleting anything: the rows it would
+    render (``result.planned_rows``, status ``planned``), the rows already complete, and
+    an estimate of the time from a few renders done here. A folder of another spec is
+    refused as a run refuses it; with ``force`` every row counts as to be rendered."""
     t0 = time.perf_counter()
+    plan = {item.index: item for item in items}
+    stored = mf.read_spec(out) if out.is_dir() else None
+    other = stored is not None and stored != spec.as_dict()
+    if other and not force:
+        _refuse_other_spec(out, stored, spec.as_dict())
+    kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
+    done_ids = {r["index"] for r in kept}
+    todo = [item for item in items if item.index not in done_ids]
+    result = BankResult(out, len(items), skipped=len(kept))
+    result.planned_rows = [_base_row(spec, item, "planned") for item in todo]
+    result.estimate = _estimate(spec, todo, jobs)
+    result.elapsed = time.perf_counter() - t0
+    return result
+
+
+def _run(spec, items, out, n_jobs, scheduler, force) -> BankResult:
     _check_stored(out, spec, force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
@@ -585,12 +638,6 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
     result = BankResult(out, len(items), skipped=len(kept))
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]
-    if dry_run:
-        planned = [_base_row(spec, item, "planned") for item in todo]
-        book.rewrite(kept + planned)
-        result.estimate = _estimate(spec, todo, n_jobs if scheduler is None else 1)
-        result.elapsed = time.perf_counter() - t0
-        return result
     book.rewrite(kept)
     _remove_stale_files(out, todo)
     rows = list(kept)
