@@ -610,3 +610,42 @@ def test_dask_worker_killed_mid_run_leaves_an_exact_manifest(tmp_path, cache_dir
     again = bank.run(spec, out, jobs=1)
     assert again.ok
     _check_complete(out, 40)
+
+
+def _alive(pid: int) -> bool:
+    """A process that exists and is not a zombie (Linux /proc)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_workers_die_with_a_killed_parent_and_the_next_run_resumes(tmp_path, cache_dir):
+    # SIGKILL to the bank's parent process alone: its pool workers end within a few
+    # seconds (they would otherwise render on, holding the folder's lock), and the same
+    # command then resumes and completes the bank.
+    spec = _write_spec(tmp_path / "spec", count=400)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--jobs", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while len(mf.read_rows(out)) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    workers = _children(proc.pid)
+    assert len(workers) >= 2, "no worker processes found"
+    proc.kill()
+    proc.wait()
+    deadline = time.monotonic() + 5.0  # PR_SET_PDEATHSIG: at once; the watch: 0.5 s
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    orphans = [w for w in workers if _alive(w)]
+    for w in orphans:  # leave no process of this test behind, whatever the outcome
+        os.kill(w, signal.SIGKILL)
+    assert not orphans, "workers outlived their parent"
+    assert len(mf.read_rows(out)) < 400  # the kill came before the end
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    _check_complete(out, 400)

@@ -244,15 +244,56 @@ _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
 
 
-def _pool_init(spec: BankSpec, out_dir: str) -> None:
-    """A worker's start: SIGTERM takes its default action (the pool stops its workers
-    with SIGTERM when one dies; a forked worker would otherwise inherit the command
-    line's handler, which raises inside whatever library callback is running, where it
-    is swallowed and printed). A temporary left by a stopped worker is removed by the
-    next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
+#: The bank folder's lock file held by this process (see :func:`_lock`); a forked worker
+#: closes its copy so that only the parent holds the lock.
+_HELD_LOCK = None
+
+#: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG).
+PARENT_WATCH_PERIOD = 0.5
+
+
+def _die_with_parent(parent: int) -> None:
+    """Make this worker end when the process ``parent`` does (killed with -9 too), so a
+    killed bank leaves no worker behind (nor its hold on the folder's lock): on Linux the
+    kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``, prctl(2));
+    everywhere a daemon thread checks every :data:`PARENT_WATCH_PERIOD` s that the
+    parent is still this process's parent, and kills this process otherwise."""
+    import signal
+    import threading
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            pr_set_pdeathsig = 1
+            libc.prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # no prctl: the watch below does it
+            pass
+    if os.getppid() != parent:  # the parent died before the signal was armed
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(PARENT_WATCH_PERIOD)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch, name="synth-bank-parent-watch", daemon=True).start()
+
+
+def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
+    """A worker's start: it dies with its parent (:func:`_die_with_parent`), drops its
+    copy of the folder's lock, and SIGTERM takes its default action (the pool stops its
+    workers with SIGTERM when one dies; a forked worker would otherwise inherit the
+    command line's handler, which raises inside whatever library callback is running,
+    where it is swallowed and printed). A temporary left by a stopped worker is removed
+    by the next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
     import signal
 
     global _WORKER_SPEC, _WORKER_DIR
+    _die_with_parent(parent)
+    if _HELD_LOCK is not None:  # forked: closing the copy leaves the parent's lock held
+        _HELD_LOCK.close()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _WORKER_SPEC, _WORKER_DIR = spec, out_dir
     warm(spec)
@@ -309,7 +350,10 @@ class _Pool:
         os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
         try:
             self.executor = ProcessPoolExecutor(
-                jobs, mp_context=ctx, initializer=_pool_init, initargs=(spec, out_dir)
+                jobs,
+                mp_context=ctx,
+                initializer=_pool_init,
+                initargs=(spec, out_dir, os.getpid()),
             )
             # one no-op per worker: each submit starts a worker, each result is a warm one
             for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
@@ -585,6 +629,7 @@ def run(
     Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
     raises :class:`~synth.bank.spec.BankSpecError` before any work.
     """
+    global _HELD_LOCK
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
@@ -597,9 +642,11 @@ def run(
         raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
     try:
         lock = _lock(out)
+        _HELD_LOCK = lock
         try:
             return _run(spec, items, out, n_jobs, scheduler, force)
         finally:
+            _HELD_LOCK = None
             _unlock(out, lock)
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
         raise BankRunError(
