@@ -11,7 +11,10 @@ cut by a crash or a full disk is dropped and the sound redone.
 Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
 ``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
 ``duration`` (s), ``ticks``, ``first_restitution``, ``peak_dbfs`` (dBFS), ``loudness_lufs``
-(LUFS, ITU-R BS.1770, when pyloudnorm is installed) and ``sha256`` of the file.
+(LUFS, ITU-R BS.1770, when pyloudnorm is installed; None below its -70 LUFS absolute
+gate), ``sha256`` of the file and ``audio_sha256`` of its decoded samples
+(:func:`synth.io.reproducible.decoded_sha256`). Every file's bytes are a function of the
+spec and its row (:mod:`synth.io.reproducible`), OGG's included.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ RESULT_COLUMNS = (
     "peak_dbfs",
     "loudness_lufs",
     "sha256",
+    "audio_sha256",
 )
 
 #: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,

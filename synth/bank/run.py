@@ -34,6 +34,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
 from synth.errors import SynthError
+from synth.io.reproducible import decoded_sha256, reproducible
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
 _WORKER_THREADS = {
@@ -149,8 +150,12 @@ def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
     return round(value, 6) if math.isfinite(value) else None
 
 
-def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) -> bytes:
-    """The file's bytes in the spec's format and ``subtype``; PCM never clips."""
+def _encode(
+    audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str, identity: str
+) -> bytes:
+    """The file's bytes in the spec's format and ``subtype``, a function of the samples
+    and ``identity`` (the row's file name) alone (:func:`synth.io.reproducible.reproducible`:
+    an Ogg stream's serial, a float WAV's PEAK timestamp); PCM never clips."""
     import soundfile
 
     from synth.io.audio import FLOAT_SUBTYPES
@@ -166,7 +171,7 @@ def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) ->
     soundfile.write(
         buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[spec.format][1]
     )
-    return buf.getvalue()
+    return reproducible(buf.getvalue(), spec.format, identity)
 
 
 def _render(spec: BankSpec, item: PlanItem):
@@ -184,7 +189,7 @@ def _render(spec: BankSpec, item: PlanItem):
         else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
     )
     rendered = render(scene, sequence=sequence, **options)
-    data = _encode(rendered.audio, rendered.samplerate, spec, subtype)
+    data = _encode(rendered.audio, rendered.samplerate, spec, subtype, item.file)
     peak = float(np.max(np.abs(rendered.audio)))
     figures = {
         "duration": rendered.duration,
@@ -217,15 +222,17 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
         return RowResult(row, max_rss=_max_rss())
     target = Path(out_dir) / item.file
     try:
-        written = mf.write_once(target, data)
-        # A file already there was published by another attempt of this row in this run
-        # (a Dask task recomputed after its worker was lost): it is kept, never rewritten,
-        # and the row records its bytes.
-        sha256 = hashlib.sha256(data).hexdigest() if written else mf.sha256_file(target)
+        if not mf.write_once(target, data):
+            # A file already there was published by another attempt of this row in this
+            # run (a Dask task recomputed after its worker was lost): it is kept, never
+            # rewritten, and the row records its bytes.
+            data = target.read_bytes()
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(figures, sha256=sha256)
+    row.update(
+        figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data)
+    )
     return RowResult(row, max_rss=_max_rss())
 
 
