@@ -7,9 +7,9 @@ a refactoring must not change a single sample (SHA-256 of the float32 audio, lit
 a tick time (to 1 ns, the precision recorded). A change that is meant to alter the sound records
 new values with ``python tests/data/record_preset_renders.py`` and says why in its commit.
 
-Each render starts from empty caches: a plate's modes solved before for a wider band are reused
-for a narrower one (a prefix of a larger Ritz basis, equal within the solver's tolerance of 1e-4
-but not to the last bit), so the samples are recorded for a fresh solve. The render and its
+Each render starts from empty caches (a private cache folder, empty memory caches), so that it
+solves the plate's modes itself: the cache serves only a solution of the very band asked for
+and the solver runs on one BLAS thread, so a warm cache gives the same samples. The render and its
 analysis are the session's shared run of the preset (tests/conftest.py), which the round trip
 reads too.
 """
