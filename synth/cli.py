@@ -672,7 +672,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "bank", help="render a sound bank: many variations of a preset, resumable, with a manifest"
     )
-    p.add_argument("spec", help="bank spec (TOML): preset, [vary] axes, count, name, format")
+    p.add_argument(
+        "spec",
+        help="bank spec (TOML: preset, [vary] axes, count, name, format) or the name of an "
+        "installed example spec",
+    )
     p.add_argument(
         "-o",
         "--output",

@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from synth import bank
@@ -59,6 +60,14 @@ format = "wav"
 "drop.position" = {{ min = [0.05, 0.05], max = [0.25, 0.15] }}
 "ball.radius" = [0.004, 0.005]
 """
+
+
+def _file_identity(path: Path):
+    st = path.stat()
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+BANK_SPECS_BY_NAME = ["marble-on-glass-table-game", "restitution-stimuli"]
 
 ISSUE_SPEC = """\
 preset = "default"                  # a name or a file
@@ -330,20 +339,31 @@ def test_disk_that_fills(serial, tmp_path, monkeypatch):
             subprocess.run(["umount", str(disk)], check=False)
 
 
-def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys):
-    # A scene that cannot be built (an impact point off the plate) is recorded with its
-    # error; the other rows are rendered; the command exits with status 1.
+def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys, monkeypatch):
+    # A row whose render fails (here a solver error injected into row 1) is recorded with
+    # its error; the other rows are rendered; the command exits with status 1.
+    import importlib
+
+    bank_run = importlib.import_module("synth.bank.run")
+    render = bank_run._render
+
+    def failing(spec, item):
+        if item.index == 1:
+            raise FloatingPointError("the contact solver diverged")
+        return render(spec, item)
+
+    monkeypatch.setattr(bank_run, "_render", failing)
     spec = tmp_path / "bank.toml"
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
     spec.write_text(
         'preset = "small.toml"\nname = "p{index}"\nformat = "ogg"\n[vary]\n'
-        '"drop.position" = [[0.1, 0.1], [5.0, 5.0], [0.2, 0.1]]\n'
+        '"drop.position" = [[0.1, 0.1], [0.15, 0.1], [0.2, 0.1]]\n'
     )
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 1
     assert "1 failed" in capsys.readouterr().err
     rows = mf.read_rows(tmp_path / "out")
     assert [r["status"] for r in rows] == ["ok", "failed", "ok"]
-    assert "position" in rows[1]["error"] and rows[1]["sha256"] is None
+    assert "diverged" in rows[1]["error"] and rows[1]["sha256"] is None
     assert sorted(_audio_files(tmp_path / "out")) == ["p0.ogg", "p2.ogg"]
 
 
@@ -429,6 +449,78 @@ BASE = 'preset = "small.toml"\n'
 )
 def test_bad_specs_rejected_naming_the_key(tmp_path, text, key):
     assert key in _bad(tmp_path, text)
+
+
+@pytest.mark.parametrize(
+    "axis, row, says",
+    [
+        ('"ball.material" = ["steel", "unobtainium"]', 1, "unobtainium"),
+        ('"ball.radius" = [0.005, -0.004]', 1, "-0.004"),
+        ('"drop.height" = { min = -0.05, max = 0.05 }', 2, "must be > 0"),
+        ('"drop.position" = [[0.1, 0.1], [5.0, 5.0]]', 1, "off the plate"),
+        ('"ball.radius" = ["5mm", 0.004]', 0, "'5mm'"),
+        ("restitution_scale = [1.0, -1.0]", 1, ">= 0"),
+        ('"render.max_frequency" = [4000.0, 9000.0]', 1, "Nyquist"),
+    ],
+)
+def test_bad_row_values_refused_at_plan_time(tmp_path, axis, row, says):
+    # Every row's scene is built and checked before anything is written (nothing solved):
+    # the message names the rows, their values and what is wrong.
+    text = _bad(tmp_path, BASE + f"count = 4\n[vary]\n{axis}\n")
+    assert f"row {row} (" in text and says in text, text
+
+
+def test_file_name_over_255_bytes_refused(tmp_path):
+    text = _bad(
+        tmp_path, BASE + 'name = "' + "x" * 260 + '{index}"\n[vary]\n"drop.height" = [0.01]\n'
+    )
+    assert "255 bytes" in text
+
+
+def test_absurd_count_refused_before_anything(tmp_path):
+    text = _bad(tmp_path, BASE + 'count = 2_000_000\n[vary]\n"drop.height" = [0.01, 0.02]\n')
+    assert "count=2000000" in text and "100000" in text
+
+
+def test_unreachable_scheduler_fails_leaving_nothing(tmp_path):
+    pytest.importorskip("dask.distributed")
+    spec = _write_spec(tmp_path / "spec", count=2)
+    with pytest.raises(bank.BankRunError, match="cannot connect"):
+        bank.run(spec, tmp_path / "out", scheduler="tcp://127.0.0.1:1")
+    assert not (tmp_path / "out").exists()
+
+
+def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
+    # With count, a list of n values gives each value once in every n consecutive rows.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    radii = [0.003, 0.004, 0.005, 0.006]
+    s = S.from_dict(
+        {"preset": "small.toml", "count": 10, "vary": {"ball.radius": radii}}, base_dir=tmp_path
+    )
+    drawn = [item.values["ball.radius"] for item in S.plan(s)]
+    assert sorted(drawn[:4]) == radii and sorted(drawn[4:8]) == radii
+    assert set(drawn[8:]) <= set(radii) and len(set(drawn[8:])) == 2
+
+
+def test_raising_count_adds_rows_keeping_the_first(tmp_path, cache_dir):
+    # Rows are drawn per index: count 3 -> 5 keeps the three files (same inode, bytes)
+    # and renders two more.
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    spec.write_text(spec.read_text().replace("count = 3", "count = 5"))
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (2, 3)
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav") if p.name in before} == before
+    _check_complete(out, 5)
+
+
+@pytest.mark.parametrize("name", BANK_SPECS_BY_NAME)
+def test_example_specs_by_name(name):
+    assert len(bank.plan(bank.load(name))) >= 10
 
 
 def test_issue_spec_as_written():
@@ -555,11 +647,6 @@ def test_unwritable_folder_is_a_clean_error(tmp_path, monkeypatch):
         bank.run(spec, tmp_path / "out", jobs=1)
 
 
-def _file_identity(path: Path):
-    st = path.stat()
-    return st.st_ino, st.st_mtime_ns, st.st_size
-
-
 @pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SIGKILL of a worker process")
 def test_dask_worker_killed_mid_run_leaves_an_exact_manifest(tmp_path, cache_dir):
@@ -575,9 +662,12 @@ def test_dask_worker_killed_mid_run_leaves_an_exact_manifest(tmp_path, cache_dir
     out = tmp_path / "out"
     seen: dict = {}
     outcome: dict = {}
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-    ) as cluster, distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         pids = client.run(os.getpid)
 
         def render():
@@ -649,3 +739,150 @@ def test_workers_die_with_a_killed_parent_and_the_next_run_resumes(tmp_path, cac
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr
     _check_complete(out, 400)
+
+
+HISTORY_SPEC = """
+preset = "free.toml"
+count = 8
+seed = 5
+name = "{{preset}}-{{index:02d}}"
+format = "{fmt}"
+[vary]
+"render.max_frequency" = [2500.0, 4000.0]
+"drop.height" = {{ min = 0.01, max = 0.04 }}
+[render]
+subtype = "{subtype}"
+"""
+
+#: Formats of the history test: WAV of 32-bit floats shows a change in the last bit of
+#: a sample; FLAC's 24 bits and OGG's decoded audio are what banks ship.
+HISTORY_FORMATS = {"wav": "FLOAT", "flac": "PCM_24", "ogg": "VORBIS"}
+
+
+def _clear_memory_caches() -> None:
+    from synth.physics.modal_contact import point
+    from synth.sound import modes, radiation
+
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()
+    point.clear_memory_cache()
+
+
+def test_plate_modes_depend_only_on_the_plate_and_band(tmp_path, monkeypatch):
+    # The modes of a band, asked for after a wider band of the same plate was solved and
+    # cached in a process of as many BLAS threads as cores, are the very arrays of a solve
+    # of that band alone on one BLAS thread (a bank's pool worker): a wider band's larger
+    # basis, or another thread count, moves their last bits.
+    import tomllib
+
+    from threadpoolctl import threadpool_limits
+
+    from synth.io.presets import scene_from_dict
+    from synth.sound import modes
+
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
+    _clear_memory_caches()
+    free = tomllib.loads(SMALL_PRESET.replace('"simply-supported"', '"free"'))
+    plate = scene_from_dict(free, "free plate")[0].plate
+    modes.modes(plate, max_frequency=4000.0)
+    after_wider = modes.modes(plate, max_frequency=2500.0)
+    with threadpool_limits(1, user_api="blas"):
+        alone = modes.modes(plate, max_frequency=2500.0, cache=False)
+    points = [[0.05, 0.05], [0.2, 0.13]]
+    assert np.array_equal(after_wider.frequencies, alone.frequencies)
+    assert np.array_equal(after_wider.shapes(points), alone.shapes(points))
+    _clear_memory_caches()
+
+
+def _decoded(folder: Path) -> dict:
+    import soundfile
+
+    return {name: soundfile.read(folder / name)[0] for name in _audio_files(folder)}
+
+
+def _assert_same_bank(folder: Path, ref: Path, fmt: str) -> None:
+    """The same bytes (WAV, FLAC; and OGG once its stream serial is the row's) and the
+    same decoded samples as the reference folder."""
+    got, want = _decoded(folder), _decoded(ref)
+    assert sorted(got) == sorted(want)
+    for name in want:
+        assert np.array_equal(got[name], want[name]), name
+    assert _audio_files(folder) == _audio_files(ref)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", sorted(HISTORY_FORMATS))
+def test_bytes_depend_only_on_the_spec(tmp_path, monkeypatch, fmt):
+    # A free plate (its modes from the Ritz solver and its cache), rows of two bands in
+    # one bank: rendered from a cold cache with 1 worker, then in reversed row order in
+    # one warm process, with 2 forked workers warm, with 2 spawned workers from another
+    # cold cache, and on a Dask cluster from a third: every file the same (WAV, FLAC:
+    # bytes; OGG: bytes and decoded samples).
+    import importlib
+
+    bank_run = importlib.import_module("synth.bank.run")
+    distributed = pytest.importorskip("dask.distributed")
+    folder = tmp_path / "spec"
+    folder.mkdir()
+    (folder / "free.toml").write_text(
+        SMALL_PRESET.replace('boundary = "simply-supported"', 'boundary = "free"')
+    )
+    spec_path = folder / "bank.toml"
+    spec_path.write_text(HISTORY_SPEC.format(fmt=fmt, subtype=HISTORY_FORMATS[fmt]))
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache1"))
+    _clear_memory_caches()
+    ref = tmp_path / "cold1"
+    assert bank.run(spec_path, ref, jobs=1).ok
+
+    spec = bank.load(spec_path)
+    reversed_dir = tmp_path / "reversed"
+    reversed_dir.mkdir()
+    for item in reversed(bank.plan(spec)):  # this process is warm with every band now
+        assert bank_run.render_item(spec, item, str(reversed_dir)).row["status"] == "ok"
+    _assert_same_bank(reversed_dir, ref, fmt)
+
+    assert bank.run(spec_path, tmp_path / "warm2", jobs=2).ok
+    _assert_same_bank(tmp_path / "warm2", ref, fmt)
+
+    # spawned workers (one BLAS thread each, this process one per core) from another
+    # cold cache: they solve the plate's modes themselves
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache2"))
+    monkeypatch.setattr(bank_run, "_start_method", lambda: "spawn")
+    _clear_memory_caches()
+    assert bank.run(spec_path, tmp_path / "cold2", jobs=2).ok
+    _assert_same_bank(tmp_path / "cold2", ref, fmt)
+
+    # Dask's workers start with one BLAS thread (this process has one per core), from
+    # another cold cache: they solve the plate's modes themselves
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache3"))
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        assert bank.run(spec_path, tmp_path / "dask", scheduler=cluster.scheduler_address).ok
+    _assert_same_bank(tmp_path / "dask", ref, fmt)
+
+
+@pytest.mark.parametrize("fmt, subtype", [("ogg", "VORBIS"), ("wav", "FLOAT")])
+def test_two_runs_write_the_same_bytes(tmp_path, cache_dir, fmt, subtype):
+    # An Ogg stream's serial number is drawn at random by the encoder, a float WAV's PEAK
+    # chunk carries the time of writing: both are set from the row, so two runs of one
+    # spec write the same bytes; the manifest records the hash of the decoded samples too.
+    import struct
+
+    from synth.io.reproducible import decoded_sha256, ogg_serial_for
+
+    spec = _write_spec(
+        tmp_path / "spec",
+        count=2,
+        extra=f'[render]\nsubtype = "{subtype}"\n',
+    )
+    spec.write_text(spec.read_text().replace('format = "wav"', f'format = "{fmt}"'))
+    for out in ("a", "b"):
+        assert bank.run(spec, tmp_path / out, jobs=1).ok
+        time.sleep(1.1)  # a timestamp in seconds would differ
+    assert _audio_files(tmp_path / "a") == _audio_files(tmp_path / "b")
+    for row in mf.read_rows(tmp_path / "a"):
+        data = (tmp_path / "a" / row["file"]).read_bytes()
+        assert row["audio_sha256"] == decoded_sha256(data)
+        if fmt == "ogg":
+            assert struct.unpack_from("<I", data, 14)[0] == ogg_serial_for(row["file"])

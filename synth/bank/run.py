@@ -230,9 +230,7 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(
-        figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data)
-    )
+    row.update(figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data))
     return RowResult(row, max_rss=_max_rss())
 
 
@@ -393,22 +391,48 @@ class _Pool:
         self.executor.shutdown(wait=True, cancel_futures=True)
 
 
-class _Dask:
-    """The same task function on a Dask cluster (``scheduler``: an address or a Client)."""
+#: Time to reach a Dask scheduler before the bank is refused, s.
+CONNECT_TIMEOUT = 5.0
 
-    def __init__(self, spec, out_dir, scheduler):
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise BankRunError(
-                "scheduler= needs the optional package dask.distributed: "
-                "pip install 'impact-synth[dask]'"
-            ) from None
-        self.own = not isinstance(scheduler, Client)
-        try:
-            self.client = Client(scheduler) if self.own else scheduler
-        except (OSError, ValueError, TimeoutError) as exc:
-            raise BankRunError(f"scheduler={scheduler!r}: cannot connect ({exc})") from None
+
+@dataclass
+class _Connection:
+    """A Dask client for the run, and whether the run made it (and so closes it)."""
+
+    client: object
+    own: bool
+
+    def close(self) -> None:
+        if self.own:
+            self.client.close()
+
+
+def _connect(scheduler) -> _Connection:
+    """A client of the Dask scheduler ``scheduler`` (an address or a Client), reached
+    within :data:`CONNECT_TIMEOUT` s, before the bank's folder is touched."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise BankRunError(
+            "scheduler= needs the optional package dask.distributed: "
+            "pip install 'impact-synth[dask]'"
+        ) from None
+    if isinstance(scheduler, Client):
+        return _Connection(scheduler, own=False)
+    try:
+        return _Connection(Client(scheduler, timeout=CONNECT_TIMEOUT), own=True)
+    except (OSError, ValueError, TypeError, TimeoutError) as exc:
+        raise BankRunError(
+            f"scheduler={scheduler!r}: cannot connect within {CONNECT_TIMEOUT:g} s ({exc}); "
+            f"nothing was written"
+        ) from None
+
+
+class _Dask:
+    """The same task function on a Dask cluster, through ``client``."""
+
+    def __init__(self, spec, out_dir, client):
+        self.client = client
         self.spec, self.out_dir = spec, out_dir
         self.client.run(warm, spec)
 
@@ -437,8 +461,6 @@ class _Dask:
     def close(self):
         for fut in getattr(self, "_futures", ()):
             fut.cancel()
-        if self.own:
-            self.client.close()
 
 
 # ------------------------------------------------------------------------ the run
@@ -494,6 +516,19 @@ def _as_spec(spec) -> BankSpec:
     raise BankSpecError(f"spec={spec!r} must be a spec file, a dict or a BankSpec")
 
 
+def _grows(stored: dict, new: dict) -> bool:
+    """True if ``new`` is the stored spec with a larger ``count``: rows are drawn per
+    index (:func:`synth.bank.spec.variations`), so the rows done stay and the new ones
+    are added."""
+    old_count, new_count = stored.get("count"), new.get("count")
+    return (
+        isinstance(old_count, int)
+        and isinstance(new_count, int)
+        and new_count > old_count
+        and bank_spec.differences(stored, new) == ["count"]
+    )
+
+
 def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
     diff = bank_spec.differences(stored, new)
     raise BankSpecError(
@@ -508,7 +543,7 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     ``force`` delete its files and manifest to start over."""
     stored = mf.read_spec(out_dir)
     new = spec.as_dict()
-    if stored is not None and stored != new:
+    if stored is not None and stored != new and not _grows(stored, new):
         if not force:
             _refuse_other_spec(out_dir, stored, new)
         for row in mf.read_rows(out_dir):
@@ -591,9 +626,9 @@ def _progress(total: int):
     return tqdm(total=total, file=sys.stderr, unit="sound")
 
 
-def _executor(spec, out_dir: Path, jobs: int, scheduler):
-    if scheduler is not None:
-        return _Dask(spec, str(out_dir), scheduler)
+def _executor(spec, out_dir: Path, jobs: int, connection):
+    if connection is not None:
+        return _Dask(spec, str(out_dir), connection.client)
     if jobs == 1:
         return _Serial(spec, str(out_dir))
     return _Pool(spec, str(out_dir), jobs)
@@ -634,15 +669,27 @@ def run(
         Start over in a folder made by another spec (its files and manifest deleted).
 
     Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
-    raises :class:`~synth.bank.spec.BankSpecError` before any work.
+    raises :class:`~synth.bank.spec.BankSpecError` before any work (every row's scene is
+    checked), a scheduler that cannot be reached a :class:`BankRunError` within
+    :data:`CONNECT_TIMEOUT` s; neither writes anything.
     """
-    global _HELD_LOCK
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
     out = Path(out_dir)
     if dry_run:
         return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force)
+    connection = _connect(scheduler) if scheduler is not None else None
+    try:
+        return _run_in(spec, items, out, n_jobs, connection, force)
+    finally:
+        if connection is not None:
+            connection.close()
+
+
+def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool) -> BankResult:
+    """:func:`run` once the plan is checked and the cluster (if any) reached."""
+    global _HELD_LOCK
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -651,7 +698,7 @@ def run(
         lock = _lock(out)
         _HELD_LOCK = lock
         try:
-            return _run(spec, items, out, n_jobs, scheduler, force)
+            return _run(spec, items, out, n_jobs, connection, force)
         finally:
             _HELD_LOCK = None
             _unlock(out, lock)
@@ -670,7 +717,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
     t0 = time.perf_counter()
     plan = {item.index: item for item in items}
     stored = mf.read_spec(out) if out.is_dir() else None
-    other = stored is not None and stored != spec.as_dict()
+    other = stored is not None and stored != spec.as_dict() and not _grows(stored, spec.as_dict())
     if other and not force:
         _refuse_other_spec(out, stored, spec.as_dict())
     kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
@@ -683,7 +730,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
     return result
 
 
-def _run(spec, items, out, n_jobs, scheduler, force) -> BankResult:
+def _run(spec, items, out, n_jobs, connection, force) -> BankResult:
     _check_stored(out, spec, force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
@@ -697,7 +744,7 @@ def _run(spec, items, out, n_jobs, scheduler, force) -> BankResult:
     rows = list(kept)
     recorded = set()
     t_start = time.perf_counter()
-    executor = _executor(spec, out, n_jobs, scheduler) if todo else None
+    executor = _executor(spec, out, n_jobs, connection) if todo else None
     result.startup = time.perf_counter() - t_start
     bar = _progress(len(todo))
     try:

@@ -73,8 +73,20 @@ RESTITUTION_SCALE = "restitution_scale"
 #: The bank's level default: one calibration for every file (see synth.io.audio).
 DEFAULT_NORMALIZE = "physical"
 
-#: Largest plan accepted (rows), a guard against a mistyped count or grid.
-MAX_ROWS = 10_000_000
+#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
+#: scene is built and checked before the bank starts, and a bank of this many sounds of
+#: about 0.1 s of rendering each is already a day of one core's work.
+MAX_ROWS = 100_000
+
+#: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
+#: is another bank): 2 draws list axes without replacement, block by block.
+PLAN_VERSION = 2
+
+#: Longest file name most file systems take, bytes (NAME_MAX of ext4, APFS, NTFS).
+MAX_NAME_BYTES = 255
+
+#: Where the example specs installed with the package are (usable by name).
+PACKAGE_BANKS = Path(__file__).resolve().parents[1] / "presets" / "banks"
 
 
 class BankSpecError(ParameterError):
@@ -160,6 +172,7 @@ class BankSpec:
             "subtype": self.subtype,
             "render": self.render,
             "vary": axes,
+            "plan": PLAN_VERSION,
         }
 
 
@@ -181,9 +194,31 @@ def _error(key: str, value, allowed: str) -> BankSpecError:
     return BankSpecError(f"{key}={value!r} {allowed}")
 
 
+def available() -> dict[str, Path]:
+    """The example specs installed with the package, by name (the file's stem)."""
+    return {p.stem: p for p in sorted(PACKAGE_BANKS.glob("*.toml"))}
+
+
+def find(path_or_name) -> Path:
+    """The spec file ``path_or_name``: a file, or the name of an installed example."""
+    p = Path(path_or_name)
+    if p.exists() or p.suffix == ".toml":
+        return p
+    known = available()
+    if str(path_or_name) in known:
+        return known[str(path_or_name)]
+    near = difflib.get_close_matches(str(path_or_name), known, n=2, cutoff=0.4)
+    hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+    raise BankSpecError(
+        f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
+        f"{', '.join(known) or 'none'}"
+    )
+
+
 def load(path) -> BankSpec:
-    """Read and check the spec file ``path`` (TOML)."""
-    p = Path(path)
+    """Read and check the spec file ``path`` (TOML), or the installed example of that
+    name (:func:`available`)."""
+    p = find(path)
     try:
         with open(p, "rb") as fh:
             data = tomllib.load(fh)
@@ -362,14 +397,25 @@ def _bound(where: str, v):
 # ----------------------------------------------------------------------------- the plan
 
 
+def _list_value(spec: BankSpec, number: int, axis: ListAxis, index: int):
+    """Row ``index``'s value of list axis ``number`` with ``count``: drawn without
+    replacement block by block, rows ``k n .. k n + n - 1`` (``n`` values) taking a
+    permutation of the list drawn from ``default_rng([seed, number, k, 1])``; so every
+    value comes up once per block and a row depends on its index alone."""
+    n = len(axis.values)
+    block, position = divmod(index, n)
+    order = np.random.default_rng([spec.seed, number, block, 1]).permutation(n)
+    return axis.values[int(order[position])]
+
+
 def _draw(spec: BankSpec, index: int, grid_point: dict | None) -> dict:
     rng = np.random.default_rng([spec.seed, index])
     values = {}
-    for axis in spec.axes:
+    for number, axis in enumerate(spec.axes):
         if grid_point is not None and axis.key in grid_point:
             values[axis.key] = grid_point[axis.key]
         elif isinstance(axis, ListAxis):
-            values[axis.key] = axis.values[int(rng.integers(len(axis.values)))]
+            values[axis.key] = _list_value(spec, number, axis, index)
         else:
             values[axis.key] = axis.draw(rng)
     return values
@@ -423,7 +469,15 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
             f"makes the file name {stem!r}: a name must not be "
             f"empty, contain a path separator or start with '.'",
         )
-    return f"{stem}.{spec.suffix}"
+    name = f"{stem}.{spec.suffix}"
+    if len(name.encode("utf-8")) > MAX_NAME_BYTES:
+        raise _error(
+            "name",
+            spec.name,
+            f"makes the file name {name!r} of {len(name.encode('utf-8'))} bytes for row "
+            f"{index}: a file name may have at most {MAX_NAME_BYTES} bytes",
+        )
+    return name
 
 
 def _field_names(spec: BankSpec) -> list[str]:
@@ -466,14 +520,17 @@ def _check_template(spec: BankSpec) -> None:
             )
 
 
-def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
-    """Every row of the bank, checked: the file names are distinct."""
+def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
+    """Every row of the bank, checked: the file names are distinct and short enough,
+    and (``check_scenes``) every row's scene and render options are valid
+    (:func:`check_rows`), so that a bank either starts clean or is refused."""
     n = _rows(spec)
     if n > MAX_ROWS:
         raise _error(
             "count" if spec.count is not None else "vary",
-            n,
-            f"rows is more than the {MAX_ROWS} a bank may have",
+            n if spec.count is not None else f"a grid of {n} rows",
+            f"is more than the {MAX_ROWS} rows a bank may have: split it into several "
+            f"banks (seeds or folders)",
         )
     items, seen = [], {}
     for index, values in enumerate(variations(spec)):
@@ -487,7 +544,51 @@ def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
             )
         seen[f] = index
         items.append(PlanItem(index, f, values))
+    if check_scenes:
+        check_rows(spec, items)
     return tuple(items)
+
+
+#: Rows named in the message of a plan refused for its rows' values.
+ROWS_NAMED = 5
+
+
+def row_problem(spec: BankSpec, item: PlanItem) -> str | None:
+    """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
+    render options are built and checked as a render checks them, without solving
+    anything (no modes, no contact)."""
+    k = item.values.get(RESTITUTION_SCALE)
+    if k is not None and (
+        isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
+    ):
+        return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
+    try:
+        presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
+    except ParameterError as exc:
+        return str(exc).removeprefix(f"row {item.index}: ")
+    except (TypeError, ValueError) as exc:  # a value of the wrong type deep in a section
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+def check_rows(spec: BankSpec, items) -> None:
+    """Refuse the plan if a row's scene cannot be rendered (:func:`row_problem`), naming
+    the rows, their varied values and what is wrong."""
+    bad = []
+    for item in items:
+        problem = row_problem(spec, item)
+        if problem is not None:
+            bad.append((item, problem))
+    if not bad:
+        return
+    lines = [
+        f"row {item.index} ({', '.join(f'{k}={v!r}' for k, v in item.values.items())}): {why}"
+        for item, why in bad[:ROWS_NAMED]
+    ]
+    more = f"\n  ... and {len(bad) - ROWS_NAMED} more rows" if len(bad) > ROWS_NAMED else ""
+    raise BankSpecError(
+        f"vary: {len(bad)} of {len(items)} rows cannot be rendered:\n  " + "\n  ".join(lines) + more
+    )
 
 
 def scene_data(spec: BankSpec, values: dict) -> dict:
