@@ -479,6 +479,7 @@ def _cmd_bank(args):
         scheduler=args.scheduler,
         dry_run=args.dry_run,
         force=args.force,
+        redo=args.redo,
     )
     if args.dry_run:
         import json
@@ -699,6 +700,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--force",
         action="store_true",
         help="start over in a folder made by another spec (deletes its files)",
+    )
+    p.add_argument(
+        "--redo",
+        metavar="ROWS",
+        help="render these rows again although complete (e.g. 17,40-45)",
     )
     p.set_defaults(func=_cmd_bank)
 

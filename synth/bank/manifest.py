@@ -10,10 +10,15 @@ cut by a crash or a full disk is dropped and the sound redone.
 
 Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
 ``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
-``duration`` (s), ``ticks``, ``first_restitution``, ``peak_dbfs`` (dBFS), ``loudness_lufs``
+``duration`` (s), ``ticks`` (impacts), ``first_restitution``, ``first_speed`` (m/s, the
+first impact's), ``first_contact_time`` (s), ``first_peak_force`` (N), ``peak_dbfs``
+(dBFS), ``true_peak_dbtp`` (dBTP, 4x oversampled), ``spectral_centroid`` (Hz),
+``loudness_lufs``
 (LUFS, ITU-R BS.1770, when pyloudnorm is installed; None below its -70 LUFS absolute
 gate), ``sha256`` of the file and ``audio_sha256`` of its decoded samples
-(:func:`synth.io.reproducible.decoded_sha256`). Every file's bytes are a function of the
+(:func:`synth.io.reproducible.decoded_sha256`) and ``scene``, the row's whole preset
+(the base preset with the row's values set: a row renders again from the manifest
+alone, with its ``restitution_scale`` if varied). Every file's bytes are a function of the
 spec and its row (:mod:`synth.io.reproducible`), OGG's included.
 """
 
@@ -43,10 +48,16 @@ RESULT_COLUMNS = (
     "duration",
     "ticks",
     "first_restitution",
+    "first_speed",
+    "first_contact_time",
+    "first_peak_force",
     "peak_dbfs",
+    "true_peak_dbtp",
     "loudness_lufs",
+    "spectral_centroid",
     "sha256",
     "audio_sha256",
+    "scene",
 )
 
 #: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,

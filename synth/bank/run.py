@@ -191,14 +191,53 @@ def _render(spec: BankSpec, item: PlanItem):
     rendered = render(scene, sequence=sequence, **options)
     data = _encode(rendered.audio, rendered.samplerate, spec, subtype, item.file)
     peak = float(np.max(np.abs(rendered.audio)))
+    first = rendered.impacts[0] if len(rendered.impacts) else None
     figures = {
         "duration": rendered.duration,
         "ticks": len(rendered.impacts),
-        "first_restitution": (rendered.impacts[0].restitution if len(rendered.impacts) else None),
+        "first_restitution": first.restitution if first is not None else None,
+        "first_speed": first.speed if first is not None else None,
+        "first_contact_time": first.result.contact_time if first is not None else None,
+        "first_peak_force": first.result.peak_force if first is not None else None,
         "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
+        "true_peak_dbtp": _true_peak_db(rendered.audio),
         "loudness_lufs": _loudness(rendered.audio, rendered.samplerate),
+        "spectral_centroid": _spectral_centroid(rendered.audio, rendered.samplerate),
+        "scene": bank_spec.scene_data(spec, item.values),
     }
     return rendered, data, figures
+
+
+#: Oversampling of the true-peak estimate (ITU-R BS.1770-4, Annex 2: 4 at 48 kHz).
+TRUE_PEAK_OVERSAMPLING = 4
+
+
+def _true_peak_db(audio: np.ndarray) -> float | None:
+    """True peak, dBTP: the largest magnitude of ``audio`` upsampled
+    :data:`TRUE_PEAK_OVERSAMPLING` times (polyphase windowed-sinc interpolation,
+    scipy.signal.resample_poly), as ITU-R BS.1770-4 Annex 2 estimates it."""
+    from scipy.signal import resample_poly
+
+    x = np.asarray(audio, dtype=np.float64)
+    if not x.size:
+        return None
+    peak = float(np.max(np.abs(resample_poly(x, TRUE_PEAK_OVERSAMPLING, 1, axis=0))))
+    peak = max(peak, float(np.max(np.abs(x))))
+    return round(20 * math.log10(peak), 6) if peak > 0 else None
+
+
+def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
+    """Spectral centroid of the whole sound, Hz: the mean frequency of its power
+    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed)."""
+    x = np.asarray(audio, dtype=np.float64)
+    if x.ndim > 1:
+        x = x.sum(axis=1)
+    power = np.abs(np.fft.rfft(x)) ** 2
+    total = float(power.sum())
+    if not total > 0:
+        return None
+    f = np.fft.rfftfreq(x.size, 1.0 / samplerate)
+    return round(float(np.dot(f, power) / total), 6)
 
 
 def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
@@ -650,6 +689,7 @@ def run(
     scheduler=None,
     dry_run: bool = False,
     force: bool = False,
+    redo=None,
 ) -> BankResult:
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
     folder ``out_dir`` (created if needed), resuming what an earlier run left.
@@ -667,6 +707,9 @@ def run(
         estimate of the time from a few renders.
     force : bool
         Start over in a folder made by another spec (its files and manifest deleted).
+    redo : str or set of int, optional
+        Rows to render again although complete (``"17,40-45"``): their files are
+        replaced.
 
     Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
     raises :class:`~synth.bank.spec.BankSpecError` before any work (every row's scene is
@@ -676,18 +719,19 @@ def run(
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
+    again = frozenset() if redo is None else bank_spec.parse_rows(redo, len(items))
     out = Path(out_dir)
     if dry_run:
-        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force)
+        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again)
     connection = _connect(scheduler) if scheduler is not None else None
     try:
-        return _run_in(spec, items, out, n_jobs, connection, force)
+        return _run_in(spec, items, out, n_jobs, connection, force, again)
     finally:
         if connection is not None:
             connection.close()
 
 
-def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool) -> BankResult:
+def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool, again) -> BankResult:
     """:func:`run` once the plan is checked and the cluster (if any) reached."""
     global _HELD_LOCK
     try:
@@ -698,7 +742,7 @@ def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool) -> Ban
         lock = _lock(out)
         _HELD_LOCK = lock
         try:
-            return _run(spec, items, out, n_jobs, connection, force)
+            return _run(spec, items, out, n_jobs, connection, force, again)
         finally:
             _HELD_LOCK = None
             _unlock(out, lock)
@@ -709,7 +753,7 @@ def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool) -> Ban
         ) from None
 
 
-def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
+def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) -> BankResult:
     """What a run would do, without writing or deleting anything: the rows it would
     render (``result.planned_rows``, status ``planned``), the rows already complete, and
     an estimate of the time from a few renders done here. A folder of another spec is
@@ -721,6 +765,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
     if other and not force:
         _refuse_other_spec(out, stored, spec.as_dict())
     kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
+    kept = [r for r in kept if r["index"] not in again]
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]
     result = BankResult(out, len(items), skipped=len(kept))
@@ -730,12 +775,12 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool) -> BankResult:
     return result
 
 
-def _run(spec, items, out, n_jobs, connection, force) -> BankResult:
+def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> BankResult:
     _check_stored(out, spec, force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
     book = mf.Manifest(out, mf.columns(spec.keys))
-    kept = _verified(out, mf.read_rows(out), plan)
+    kept = [r for r in _verified(out, mf.read_rows(out), plan) if r["index"] not in again]
     result = BankResult(out, len(items), skipped=len(kept))
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]

@@ -618,3 +618,28 @@ def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
         elif a != b:
             out.append(key)
     return out
+
+
+def parse_rows(text, planned: int) -> frozenset[int]:
+    """The row indices of ``text`` (``"17,40-45"``: indices and inclusive ranges, as
+    ``--redo`` takes them), each in ``0 .. planned - 1``."""
+    if isinstance(text, (set, frozenset, list, tuple)):
+        parts = [str(v) for v in text]
+    elif isinstance(text, str):
+        parts = [p.strip() for p in text.split(",")]
+    else:
+        raise _error("redo", text, "must be row indices such as '17,40-45'")
+    rows = set()
+    for part in parts:
+        lo, sep, hi = part.partition("-")
+        try:
+            first = int(lo)
+            last = int(hi) if sep else first
+        except ValueError:
+            raise _error("redo", text, f"has {part!r}, not an index or a range a-b") from None
+        if first < 0 or last < first or last >= planned:
+            raise _error(
+                "redo", text, f"has {part!r}: rows are 0 to {planned - 1}, ranges ascending"
+            )
+        rows.update(range(first, last + 1))
+    return frozenset(rows)
