@@ -490,6 +490,14 @@ def _cmd_bank(args):
     return 0 if result.ok else 1
 
 
+def _cmd_bank_gain(args):
+    from synth.bank.gain import apply_gain
+
+    result = apply_gain(args.bank, args.output, target=args.target, level=args.level)
+    print(result.summary(), file=sys.stderr)
+    return 0
+
+
 def _cmd_cache(args):
     from synth.io import cache
 
@@ -707,6 +715,27 @@ def build_parser() -> argparse.ArgumentParser:
         help="render these rows again although complete (e.g. 17,40-45)",
     )
     p.set_defaults(func=_cmd_bank)
+
+    p = sub.add_parser(
+        "bank-gain",
+        help="scale a finished bank by one gain (its loudest true peak or median loudness "
+        "to a target) into another folder, resumable",
+    )
+    p.add_argument("bank", help="folder of a finished bank (synth bank ... -o DIR)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder of the result")
+    p.add_argument(
+        "--target",
+        choices=["true_peak", "loudness"],
+        default="true_peak",
+        help="the loudest true peak (default) or the median loudness to --level",
+    )
+    p.add_argument(
+        "--level",
+        type=float,
+        metavar="DB",
+        help="the target: dBTP for true_peak (default -1), LUFS for loudness (default -23)",
+    )
+    p.set_defaults(func=_cmd_bank_gain)
 
     p = sub.add_parser("cache", help="the disk cache of plate modes and radiation gains")
     p.add_argument(

@@ -934,3 +934,34 @@ def test_redo_renders_chosen_rows_again(serial, tmp_path):
     assert _audio_files(out) == _audio_files(ref)
     with pytest.raises(BankSpecError, match="redo"):
         bank.run(spec, out, jobs=1, redo="10-20")
+
+
+def test_bank_gain_keeps_relative_levels(serial, tmp_path):
+    # One gain for the bank: the loudest true peak to -1 dBTP. Every file is the source
+    # scaled by that gain (decoded samples within one 24-bit step of the exact product:
+    # half a step of rounding, and at most half a step at full scale from libsndfile's
+    # scaling, x (2^23 - 1) when writing, / 2^23 when reading), the relative levels
+    # kept; a rerun skips every file; the source is untouched.
+    import soundfile
+
+    from synth.bank.gain import apply_gain
+
+    _, ref = serial
+    before = _tree(ref)
+    out = tmp_path / "gained"
+    assert main(["bank-gain", str(ref), "-o", str(out)]) == 0
+    rows = mf.read_rows(out)
+    src_rows = mf.read_rows(ref)
+    gain = rows[0]["gain_db"]
+    assert gain == pytest.approx(-1.0 - max(r["true_peak_dbtp"] for r in src_rows), abs=1e-6)
+    assert max(r["true_peak_dbtp"] for r in rows) == pytest.approx(-1.0, abs=1e-6)
+    step = 1.0 / 2**23
+    for row, src in zip(rows, src_rows):
+        assert row["gain_db"] == gain and row["file"] == src["file"]
+        scaled, _ = soundfile.read(out / row["file"])
+        source, _ = soundfile.read(ref / src["file"])
+        assert np.max(np.abs(scaled - source * 10 ** (gain / 20))) <= step
+        assert mf.sha256_file(out / row["file"]) == row["sha256"]
+    again = apply_gain(ref, out)
+    assert (again.done, again.skipped) == (0, len(rows))
+    assert _tree(ref) == before
