@@ -965,3 +965,29 @@ def test_bank_gain_keeps_relative_levels(serial, tmp_path):
     again = apply_gain(ref, out)
     assert (again.done, again.skipped) == (0, len(rows))
     assert _tree(ref) == before
+
+
+def test_trim_cuts_the_tail_with_a_fade(serial, tmp_path, cache_dir):
+    # [trim] below_db = -40: each file is the untrimmed one up to 40 dB below its peak at
+    # the end, the last 10 ms faded to 0 (raised cosine), and the manifest says so; the
+    # stop reason of the bounces is recorded whatever the trim.
+    import soundfile
+
+    spec, ref = serial
+    trimmed_spec = _write_spec(tmp_path / "spec", extra="[trim]\nbelow_db = -40.0\nfade = 0.01\n")
+    out = tmp_path / "out"
+    assert bank.run(trimmed_spec, out, jobs=1).ok
+    fs = 16000
+    fade = round(0.01 * fs)
+    for row, whole in zip(mf.read_rows(out), mf.read_rows(ref)):
+        assert row["length_reason"] == "tail-cut" and whole["length_reason"] == "whole"
+        assert row["stop_reason"] == whole["stop_reason"] and row["stop_reason"]
+        cut, _ = soundfile.read(out / row["file"])
+        full, _ = soundfile.read(ref / whole["file"])
+        n = cut.size
+        assert n < full.size and row["duration"] == pytest.approx(n / fs)
+        assert np.array_equal(cut[: n - fade], full[: n - fade]) and cut[-1] == 0.0
+        # the cut is where the untrimmed sound stays 40 dB below its peak (decided on the
+        # samples before their 24-bit quantization: within one step here)
+        level, step = np.max(np.abs(full)) * 10 ** (-40 / 20), 2.0**-23
+        assert np.max(np.abs(full[n:])) < level + step and abs(full[n - 1]) > level - step

@@ -10,7 +10,11 @@ cut by a crash or a full disk is dropped and the sound redone.
 
 Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
 ``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
-``duration`` (s), ``ticks`` (impacts), ``first_restitution``, ``first_speed`` (m/s, the
+``duration`` (s, of the file), ``audible_duration`` (s, to the last sample within 60 dB
+of the peak), ``stop_reason`` (why the bounces ended: ``settled``, ``floor``,
+``max-duration``, ``max-impacts`` ..., see :mod:`synth.physics.bounces`),
+``length_reason`` (``whole``, or with ``[trim]`` ``tail-cut`` or ``max-length``),
+``ticks`` (impacts), ``first_restitution``, ``first_speed`` (m/s, the
 first impact's), ``first_contact_time`` (s), ``first_peak_force`` (N), ``peak_dbfs``
 (dBFS), ``true_peak_dbtp`` (dBTP, 4x oversampled), ``spectral_centroid`` (Hz),
 ``loudness_lufs``
@@ -46,6 +50,9 @@ RESULT_COLUMNS = (
     "status",
     "error",
     "duration",
+    "audible_duration",
+    "stop_reason",
+    "length_reason",
     "ticks",
     "first_restitution",
     "first_speed",

@@ -189,23 +189,69 @@ def _render(spec: BankSpec, item: PlanItem):
         else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
     )
     rendered = render(scene, sequence=sequence, **options)
-    data = _encode(rendered.audio, rendered.samplerate, spec, subtype, item.file)
-    peak = float(np.max(np.abs(rendered.audio)))
+    audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
+    data = _encode(audio, rendered.samplerate, spec, subtype, item.file)
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     first = rendered.impacts[0] if len(rendered.impacts) else None
     figures = {
-        "duration": rendered.duration,
+        "duration": audio.shape[0] / rendered.samplerate,
+        "stop_reason": rendered.impacts.stop_reason,
+        "length_reason": length_reason,
+        "audible_duration": _audible_duration(audio, rendered.samplerate),
         "ticks": len(rendered.impacts),
         "first_restitution": first.restitution if first is not None else None,
         "first_speed": first.speed if first is not None else None,
         "first_contact_time": first.result.contact_time if first is not None else None,
         "first_peak_force": first.result.peak_force if first is not None else None,
         "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
-        "true_peak_dbtp": _true_peak_db(rendered.audio),
-        "loudness_lufs": _loudness(rendered.audio, rendered.samplerate),
-        "spectral_centroid": _spectral_centroid(rendered.audio, rendered.samplerate),
+        "true_peak_dbtp": _true_peak_db(audio),
+        "loudness_lufs": _loudness(audio, rendered.samplerate),
+        "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
         "scene": bank_spec.scene_data(spec, item.values),
     }
     return rendered, data, figures
+
+
+#: Level below the peak that ends the audible part of a sound (the manifest's
+#: ``audible_duration``), dB.
+AUDIBLE_BELOW_DB = -60.0
+
+
+def _last_above(audio: np.ndarray, below_db: float) -> int:
+    """Index after the last sample whose magnitude reaches ``below_db`` dB re the peak
+    (0 for silence)."""
+    mag = np.abs(audio) if audio.ndim == 1 else np.max(np.abs(audio), axis=1)
+    peak = float(mag.max()) if mag.size else 0.0
+    if not peak > 0:
+        return 0
+    above = np.flatnonzero(mag >= peak * 10.0 ** (below_db / 20.0))
+    return int(above[-1]) + 1
+
+
+def _audible_duration(audio: np.ndarray, samplerate: int) -> float:
+    """Time to the last sample within :data:`AUDIBLE_BELOW_DB` of the peak, s."""
+    return _last_above(audio, AUDIBLE_BELOW_DB) / samplerate
+
+
+def trim_tail(audio: np.ndarray, samplerate: int, trim: dict | None):
+    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak
+    (and at ``trim["max_length"]`` s), its last ``trim["fade"]`` s faded out with a
+    raised cosine; with the reason: "tail-cut", "max-length", or "whole" (nothing cut,
+    also without ``trim``)."""
+    if trim is None:
+        return audio, "whole"
+    n = audio.shape[0]
+    end, reason = min(n, _last_above(audio, trim["below_db"])), "tail-cut"
+    if trim["max_length"] is not None and end > round(trim["max_length"] * samplerate):
+        end, reason = round(trim["max_length"] * samplerate), "max-length"
+    if end >= n:
+        return audio, "whole"
+    out = np.array(audio[:end], dtype=np.float64)
+    k = min(end, round(trim["fade"] * samplerate))
+    if k > 0:
+        ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(1, k + 1) / k)))
+        out[end - k :] *= ramp if out.ndim == 1 else ramp[:, None]
+    return out, reason
 
 
 #: Oversampling of the true-peak estimate (ITU-R BS.1770-4, Annex 2: 4 at 48 kHz).

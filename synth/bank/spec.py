@@ -58,7 +58,22 @@ from synth.errors import ParameterError
 from synth.io import presets
 
 #: Top-level keys of a spec.
-TOP_LEVEL = ("preset", "description", "count", "seed", "name", "format", "vary", "render")
+TOP_LEVEL = (
+    "preset",
+    "description",
+    "count",
+    "seed",
+    "name",
+    "format",
+    "vary",
+    "render",
+    "trim",
+)
+
+#: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
+#: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
+#: there, and at ``max_length`` s at most (None: no bound).
+TRIM_DEFAULTS = {"below_db": -60.0, "fade": 0.01, "max_length": None}
 
 #: File formats: suffix and soundfile format name, and the default subtype of each.
 FORMATS = {
@@ -143,6 +158,7 @@ class BankSpec:
     subtype: str
     render: dict
     axes: tuple
+    trim: dict | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -173,6 +189,7 @@ class BankSpec:
             "render": self.render,
             "vary": axes,
             "plan": PLAN_VERSION,
+            "trim": self.trim,
         }
 
 
@@ -295,9 +312,42 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         subtype=subtype,
         render=options,
         axes=axes,
+        trim=_trim(data.get("trim")),
     )
     _check_template(spec)
     return spec
+
+
+def _trim(value) -> dict | None:
+    """The checked ``[trim]`` table (see :data:`TRIM_DEFAULTS`), or None."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise _error("trim", value, "must be a table: { below_db = -60, fade = 0.01 }")
+    for k in value:
+        if k not in TRIM_DEFAULTS:
+            raise _error(
+                f"trim.{k}", value[k], f"is not a key; allowed: {', '.join(TRIM_DEFAULTS)}"
+            )
+    out = dict(TRIM_DEFAULTS, **value)
+
+    def number(key):
+        v = out[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise _error(f"trim.{key}", v, "must be a finite number")
+        return float(v)
+
+    out["below_db"] = number("below_db")
+    if not out["below_db"] < 0.0:
+        raise _error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
+    out["fade"] = number("fade")
+    if not 0.0 <= out["fade"] <= 1.0:
+        raise _error("trim.fade", out["fade"], "must be in [0, 1] (s)")
+    if out["max_length"] is not None:
+        out["max_length"] = number("max_length")
+        if not out["max_length"] > out["fade"]:
+            raise _error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
+    return out
 
 
 def _preset(value, base_dir: Path) -> tuple[Path, str]:
