@@ -469,9 +469,32 @@ def _bank_bench():
     return bench
 
 
-def _cmd_bank(args):
-    from synth import bank
+def _audition(args, folder) -> None:
+    from synth.bank import audition
 
+    if args.preview:
+        print(f"preview: {audition.preview(folder, args.preview)}", file=sys.stderr)
+    if args.sheet:
+        print(f"contact sheet: {audition.sheet(folder, args.sheet)}", file=sys.stderr)
+
+
+def _cmd_bank(args):
+    from pathlib import Path
+
+    from synth import bank
+    from synth.bank import manifest
+
+    folder = Path(args.spec)
+    if args.output is None and folder.is_dir() and (folder / manifest.SPEC).is_file():
+        if not (args.sheet or args.preview):
+            raise bank.BankSpecError(
+                f"{args.spec!r} is a bank's folder: give --sheet PNG and/or --preview FILE, "
+                f"or a spec and -o DIR to render"
+            )
+        _audition(args, folder)
+        return 0
+    if args.output is None:
+        raise bank.BankSpecError("-o DIR is required to render a bank (the folder of its files)")
     result = bank.run(
         args.spec,
         args.output,
@@ -487,6 +510,8 @@ def _cmd_bank(args):
         for row in result.planned_rows:
             print(json.dumps(row))
     print(result.summary(), file=sys.stderr)
+    if result.ok and not args.dry_run and (args.sheet or args.preview):
+        _audition(args, args.output)
     return 0 if result.ok else 1
 
 
@@ -689,9 +714,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "-o",
         "--output",
-        required=True,
         metavar="DIR",
-        help="folder of the files, manifest.csv/.jsonl and the stored spec",
+        help="folder of the files, manifest.csv/.jsonl and the stored spec (required to render)",
     )
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: the cores)")
     p.add_argument(
@@ -713,6 +737,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--redo",
         metavar="ROWS",
         help="render these rows again although complete (e.g. 17,40-45)",
+    )
+    p.add_argument(
+        "--sheet",
+        metavar="PNG",
+        help="a contact sheet of the finished sounds (waveform, spectrogram, values)",
+    )
+    p.add_argument(
+        "--preview",
+        metavar="FILE",
+        help="every finished sound in one WAV/FLAC file, with short gaps",
     )
     p.set_defaults(func=_cmd_bank)
 

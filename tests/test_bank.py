@@ -991,3 +991,29 @@ def test_trim_cuts_the_tail_with_a_fade(serial, tmp_path, cache_dir):
         # samples before their 24-bit quantization: within one step here)
         level, step = np.max(np.abs(full)) * 10 ** (-40 / 20), 2.0**-23
         assert np.max(np.abs(full[n:])) < level + step and abs(full[n - 1]) > level - step
+
+
+def test_preview_and_contact_sheet_of_a_finished_bank(serial, tmp_path):
+    # The preview is every file in index order with 0.25 s of silence between two (the
+    # samples themselves, 32-bit float WAV); the sheet is a PNG of 3 rows of 4 sounds.
+    import soundfile
+
+    pytest.importorskip("matplotlib")
+    _, ref = serial
+    before = _tree(ref)
+    wav, png = tmp_path / "preview.wav", tmp_path / "sheet.png"
+    assert main(["bank", str(ref), "--preview", str(wav), "--sheet", str(png)]) == 0
+    joined, fs = soundfile.read(wav)
+    gap = round(0.25 * fs)
+    at = 0
+    for i, row in enumerate(mf.read_rows(ref)):
+        audio, _ = soundfile.read(ref / row["file"])
+        if i:
+            assert not joined[at : at + gap].any()
+            at += gap
+        assert np.array_equal(joined[at : at + audio.size], audio)
+        at += audio.size
+    assert at == joined.size
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert _tree(ref) == before
+    assert main(["bank", str(ref)]) == 2  # a bank's folder without --sheet or --preview
