@@ -1017,3 +1017,42 @@ def test_preview_and_contact_sheet_of_a_finished_bank(serial, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert _tree(ref) == before
     assert main(["bank", str(ref)]) == 2  # a bank's folder without --sheet or --preview
+
+
+def test_sampling_lhs_and_grid(tmp_path):
+    # lhs: in each block of LHS_BLOCK rows every range component has one row in each of
+    # LHS_BLOCK equal strata (log strata for a log range); a row depends on its index
+    # alone. grid: `steps` values per range, ends included (geometric with log).
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    vary = {
+        "drop.height": {"min": 0.01, "max": 0.04, "log": True},
+        "drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]},
+    }
+    n = 2 * S.LHS_BLOCK + 5
+    lhs = S.from_dict(
+        {"preset": "small.toml", "count": n, "sampling": "lhs", "vary": vary}, base_dir=tmp_path
+    )
+    items = S.plan(lhs)
+    for block in range(2):
+        rows = items[block * S.LHS_BLOCK : (block + 1) * S.LHS_BLOCK]
+        h = np.array([r.values["drop.height"] for r in rows])
+        strata = np.floor(np.log(h / 0.01) / np.log(4.0) * S.LHS_BLOCK)
+        assert sorted(strata) == list(range(S.LHS_BLOCK))
+        for c, (lo, hi) in enumerate([(0.05, 0.25), (0.05, 0.15)]):
+            x = np.array([r.values["drop.position"][c] for r in rows])
+            assert sorted(np.floor((x - lo) / (hi - lo) * S.LHS_BLOCK)) == list(range(S.LHS_BLOCK))
+    shorter = S.from_dict(
+        {"preset": "small.toml", "count": 40, "sampling": "lhs", "vary": vary}, base_dir=tmp_path
+    )
+    assert S.plan(shorter) == items[:40]
+    grid_vary = {k: dict(v, steps=3) for k, v in vary.items()}
+    grid = S.from_dict(
+        {"preset": "small.toml", "sampling": "grid", "vary": grid_vary}, base_dir=tmp_path
+    )
+    items = S.plan(grid)
+    assert len(items) == 9
+    assert sorted({i.values["drop.height"] for i in items}) == pytest.approx([0.01, 0.02, 0.04])
+    with pytest.raises(BankSpecError, match="steps"):
+        S.from_dict({"preset": "small.toml", "sampling": "grid", "vary": vary}, base_dir=tmp_path)

@@ -8,6 +8,7 @@ A spec (every key; only ``preset`` is required)::
     seed = 7                        # integer >= 0 for the draws (default 0)
     name = "{preset}-{index:04d}"   # file name template, without the suffix
     format = "flac"                 # "wav", "flac" (default) or "ogg" (Vorbis)
+    sampling = "random"             # ranges: "random", "lhs" (Latin hypercube) or "grid"
 
     [vary]                          # axes: any preset key, dotted as in `synth render --set`
     "drop.height" = { min = 0.05, max = 0.3 }              # a range, drawn uniformly
@@ -16,14 +17,19 @@ A spec (every key; only ``preset`` is required)::
     "plate.thickness" = { min = 0.006, max = 0.018, log = true }  # log-uniform
     restitution_scale = [0.5, 1.0, 1.5]   # perception stimuli: 1 - e' = k (1 - e)
 
+    [trim]                          # optional: cut the tails (see TRIM_DEFAULTS)
+    below_db = -60.0
+
     [render]                        # overrides the preset's [render] (synth.render options)
     samplerate = 48000              # Hz
     normalize = "physical"          # "physical" (default for banks), "peak", "loudness", "none"
     subtype = "PCM_24"              # the files' sample format (soundfile subtype)
 
-With ``count``, variation ``i`` draws every axis from its own generator
-``numpy.random.default_rng([seed, i])`` (a list uniformly, a range uniformly or
-log-uniformly), so a variation does not depend on the count or on the other rows.
+With ``count``, variation ``i`` draws its ranges from its own generator
+``numpy.random.default_rng([seed, i])`` (uniformly or log-uniformly; with
+``sampling = "lhs"`` within strata dealt block by block, :func:`_lhs_fraction`) and its
+lists without replacement block by block (:func:`_list_value`), so a variation does not
+depend on the count or on the rows after it: raising ``count`` adds rows.
 Without ``count``, the plan is the grid of the list axes (the first axis varies
 slowest) and the ranges are drawn per grid point the same way.
 
@@ -68,7 +74,17 @@ TOP_LEVEL = (
     "vary",
     "render",
     "trim",
+    "sampling",
 )
+
+#: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
+#: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
+#: geometrically).
+SAMPLINGS = ("random", "lhs", "grid")
+
+#: Rows of one Latin-hypercube block (``sampling = "lhs"``): within each block of this
+#: many consecutive rows every range axis has one row in each of as many equal strata.
+LHS_BLOCK = 32
 
 #: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
 #: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
@@ -125,18 +141,22 @@ class RangeAxis:
     low: float | tuple
     high: float | tuple
     log: bool = False
+    steps: int | None = None
 
-    def draw(self, rng: np.random.Generator):
-        """One value, drawn with ``rng``."""
+    def position(self, u: np.ndarray):
+        """The value at fractions ``u`` (one per component, in [0, 1]) of the range."""
         lo = np.atleast_1d(np.asarray(self.low, dtype=float))
         hi = np.atleast_1d(np.asarray(self.high, dtype=float))
-        u = rng.random(lo.size)
         if self.log:
             v = np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
         else:
             v = lo + u * (hi - lo)
         v = np.clip(v, lo, hi)  # rounding of lo + u (hi - lo) may cross hi by an ulp
         return [float(x) for x in v] if isinstance(self.low, tuple) else float(v[0])
+
+    def draw(self, rng: np.random.Generator):
+        """One value, drawn uniformly (log: log-uniformly) with ``rng``."""
+        return self.position(rng.random(np.atleast_1d(np.asarray(self.low)).size))
 
 
 @dataclass(frozen=True)
@@ -159,6 +179,7 @@ class BankSpec:
     render: dict
     axes: tuple
     trim: dict | None = None
+    sampling: str = "random"
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -178,6 +199,8 @@ class BankSpec:
                 axes[a.key] = list(a.values)
             else:
                 axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
+                if a.steps is not None:
+                    axes[a.key]["steps"] = a.steps
         return {
             "preset": self.preset_name,
             "preset_data": self.base,
@@ -190,6 +213,7 @@ class BankSpec:
             "vary": axes,
             "plan": PLAN_VERSION,
             "trim": self.trim,
+            "sampling": self.sampling,
         }
 
 
@@ -279,7 +303,16 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     if not isinstance(vary, dict):
         raise _error("vary", vary, "must be a table of axes")
     base_raw = presets.read(preset_path)
+    sampling = data.get("sampling", "random")
+    if sampling not in SAMPLINGS:
+        raise _error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
     axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    if sampling == "grid":
+        if count is not None:
+            raise _error("count", count, "must be left out with sampling = 'grid'")
+        axes = tuple(_grid_axis(a) for a in axes)
+    elif any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
+        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
     render_section = data.get("render", {})
     if not isinstance(render_section, dict):
         raise _error("render", render_section, "must be a table of render options")
@@ -313,6 +346,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         render=options,
         axes=axes,
         trim=_trim(data.get("trim")),
+        sampling=sampling,
     )
     _check_template(spec)
     return spec
@@ -409,8 +443,11 @@ def _axis(key: str, value, base_raw: dict):
 
 def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
     for k, v in value.items():
-        if k not in ("min", "max", "log"):
-            raise _error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log")
+        if k not in ("min", "max", "log", "steps"):
+            raise _error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log, steps")
+    steps = value.get("steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 2):
+        raise _error(f"{where}.steps", steps, "must be an integer >= 2 (values of the grid)")
     if "min" not in value or "max" not in value:
         raise _error(where, value, "needs both min and max")
     log = value.get("log", False)
@@ -428,7 +465,7 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
             raise _error(where, value, f"has min > max ({a!r} > {b!r})")
         if log and a <= 0.0:
             raise _error(where, value, "with log = true needs min > 0")
-    return RangeAxis(key, lo, hi, log)
+    return RangeAxis(key, lo, hi, log, steps)
 
 
 def _bound(where: str, v):
@@ -445,6 +482,30 @@ def _bound(where: str, v):
 
 
 # ----------------------------------------------------------------------------- the plan
+
+
+def _grid_axis(axis):
+    """With ``sampling = "grid"``: a range as the list of its ``steps`` values (both
+    ends included, evenly or, with log, geometrically spaced, per component)."""
+    if isinstance(axis, ListAxis):
+        return axis
+    if axis.steps is None:
+        raise _error(f"vary.{axis.key}.steps", None, "is needed by sampling = 'grid'")
+    n = np.atleast_1d(np.asarray(axis.low, dtype=float)).size
+    fractions = np.linspace(0.0, 1.0, axis.steps)
+    return ListAxis(axis.key, tuple(axis.position(np.full(n, f)) for f in fractions))
+
+
+def _lhs_fraction(spec: BankSpec, number: int, size: int, index: int, rng) -> np.ndarray:
+    """Row ``index``'s fractions (one per component) of range axis ``number`` with
+    ``sampling = "lhs"``: in each block of :data:`LHS_BLOCK` rows, each component's
+    strata ``[j, j + 1) / LHS_BLOCK`` are dealt to the rows by a permutation drawn from
+    ``default_rng([seed, number, block, 2])`` (one per component), and the row's point in
+    its stratum by ``rng``; a row depends on its index alone."""
+    block, position = divmod(index, LHS_BLOCK)
+    perms = np.random.default_rng([spec.seed, number, block, 2])
+    strata = np.array([perms.permutation(LHS_BLOCK)[position] for _ in range(size)])
+    return (strata + rng.random(size)) / LHS_BLOCK
 
 
 def _list_value(spec: BankSpec, number: int, axis: ListAxis, index: int):
@@ -466,6 +527,9 @@ def _draw(spec: BankSpec, index: int, grid_point: dict | None) -> dict:
             values[axis.key] = grid_point[axis.key]
         elif isinstance(axis, ListAxis):
             values[axis.key] = _list_value(spec, number, axis, index)
+        elif spec.sampling == "lhs":
+            size = np.atleast_1d(np.asarray(axis.low)).size
+            values[axis.key] = axis.position(_lhs_fraction(spec, number, size, index, rng))
         else:
             values[axis.key] = axis.draw(rng)
     return values
