@@ -1056,3 +1056,28 @@ def test_sampling_lhs_and_grid(tmp_path):
     assert sorted({i.values["drop.height"] for i in items}) == pytest.approx([0.01, 0.02, 0.04])
     with pytest.raises(BankSpecError, match="steps"):
         S.from_dict({"preset": "small.toml", "sampling": "grid", "vary": vary}, base_dir=tmp_path)
+
+
+def test_subfolders_in_the_name_template(tmp_path, cache_dir):
+    # "/" in the template makes subfolders (created as the files are written); a name
+    # with "..", a hidden part or an absolute path is refused before any work.
+    spec = _write_spec(tmp_path / "spec", count=4)
+    spec.write_text(
+        spec.read_text().replace(
+            'name = "{preset}-{index:03d}"', 'name = "r{ball.radius:.3f}/{preset}-{index:03d}"'
+        )
+    )
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    rows = mf.read_rows(out)
+    assert all(r["file"].startswith(("r0.004/", "r0.005/")) for r in rows)
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"]
+    assert bank.run(spec, out, jobs=1).skipped == 4
+    for n, bad in enumerate(("../{index}", "/abs/{index}", "a/.hidden{index}", "a//{index}")):
+        (tmp_path / f"bad{n}").mkdir()
+        text = _bad(
+            tmp_path / f"bad{n}",
+            BASE + f'name = "{bad}"\n[vary]\n"drop.height" = [0.01, 0.02]\n',
+        )
+        assert "name=" in text

@@ -195,6 +195,7 @@ def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> G
             if row["index"] in done_rows:
                 continue
             target_file = out / row["file"]
+            target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
             target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
             data = _scale_file(src / row["file"], spec, gain_db, row["file"])
             if not mf.write_once(target_file, data):

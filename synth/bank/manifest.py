@@ -92,10 +92,10 @@ def write_once(target: Path, data: bytes) -> bool:
 
 
 def clean_temporaries(folder: Path) -> int:
-    """Delete the temporary files of this package's naming in ``folder`` (left by a
-    run that was killed). Returns how many."""
+    """Delete the temporary files of this package's naming in ``folder`` and its
+    subfolders (left by a run that was killed). Returns how many."""
     n = 0
-    for p in folder.iterdir():
+    for p in folder.rglob(".*"):
         if TEMPORARY.match(p.name) and p.is_file():
             try:
                 p.unlink()

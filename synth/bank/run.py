@@ -307,6 +307,7 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
         return RowResult(row, max_rss=_max_rss())
     target = Path(out_dir) / item.file
     try:
+        target.parent.mkdir(parents=True, exist_ok=True)  # a subfolder of the template
         if not mf.write_once(target, data):
             # A file already there was published by another attempt of this row in this
             # run (a Dask task recomputed after its worker was lost): it is kept, never
@@ -633,7 +634,7 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
             _refuse_other_spec(out_dir, stored, new)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
-            if f.parent == out_dir and f.is_file():
+            if _inside(out_dir, f) and f.is_file():
                 f.unlink()
         for name in (mf.JSONL, mf.CSV):
             (out_dir / name).unlink(missing_ok=True)
@@ -652,6 +653,17 @@ def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
         if path.is_file() and mf.sha256_file(path) == row.get("sha256"):
             out.append(row)
     return out
+
+
+def _inside(folder: Path, path: Path) -> bool:
+    """True if ``path`` lies in ``folder`` or one of its subfolders (a manifest's file
+    name is trusted no further than that)."""
+    try:
+        return (
+            path.resolve().is_relative_to(folder.resolve()) and path.resolve() != folder.resolve()
+        )
+    except OSError:
+        return False
 
 
 def _remove_stale_files(out_dir: Path, todo) -> None:

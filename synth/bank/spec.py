@@ -34,8 +34,10 @@ Without ``count``, the plan is the grid of the list axes (the first axis varies
 slowest) and the ranges are drawn per grid point the same way.
 
 The name template is a Python format string over ``preset`` (the preset's name),
-``index`` and the axes: a dotted key is both ``{drop.height}`` and ``{drop_height}``
-(``{drop.position[0]:.2f}`` for a vector's component). The suffix comes from ``format``.
+``index`` and the axes; ``/`` makes subfolders (``"h{drop.height:.2f}/{index:04d}"``; no
+empty, hidden or ``..`` part, no absolute path). A dotted key is both ``{drop.height}``
+and ``{drop_height}`` (``{drop.position[0]:.2f}`` for a vector's component). The suffix
+comes from ``format``.
 
 ``restitution_scale`` (dimensionless ``k >= 0``) is the bank's one key that is not a preset
 key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene, as
@@ -576,20 +578,22 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
             f"cannot be filled ({type(exc).__name__}: {exc}); "
             f"fields: preset, index, {', '.join(_field_names(spec))}",
         ) from None
-    if not stem or "/" in stem or "\\" in stem or stem.startswith(".") or "\0" in stem:
+    parts = stem.split("/")
+    if "\\" in stem or "\0" in stem or any(not part or part.startswith(".") for part in parts):
         raise _error(
             "name",
             spec.name,
-            f"makes the file name {stem!r}: a name must not be "
-            f"empty, contain a path separator or start with '.'",
+            f"makes the file name {stem!r}: a name's folders and file must not be empty or "
+            f"start with '.' (no '..', no absolute path), and '/' is the only separator",
         )
     name = f"{stem}.{spec.suffix}"
-    if len(name.encode("utf-8")) > MAX_NAME_BYTES:
+    longest = max((p for p in name.split("/")), key=lambda p: len(p.encode("utf-8")))
+    if len(longest.encode("utf-8")) > MAX_NAME_BYTES:
         raise _error(
             "name",
             spec.name,
-            f"makes the file name {name!r} of {len(name.encode('utf-8'))} bytes for row "
-            f"{index}: a file name may have at most {MAX_NAME_BYTES} bytes",
+            f"makes the name {longest!r} of {len(longest.encode('utf-8'))} bytes for row "
+            f"{index}: a file or folder name may have at most {MAX_NAME_BYTES} bytes",
         )
     return name
 
