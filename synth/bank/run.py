@@ -44,8 +44,8 @@ _WORKER_THREADS = {
     "NUMBA_NUM_THREADS": "1",
 }
 
-#: Renders timed by a dry run to estimate the bank's time.
-ESTIMATE_RENDERS = 3
+#: Renders timed by a dry run to estimate the bank's time (rows spread over the plan).
+ESTIMATE_RENDERS = 5
 
 
 class BankRunError(SynthError):
@@ -702,7 +702,9 @@ def _estimate(spec: BankSpec, items, jobs: int) -> float:
     if not items:
         return 0.0
     warm(spec)
-    sample = items[:ESTIMATE_RENDERS]
+    # rows spread over the plan (its first rows may all be alike: one grid corner)
+    picks = np.unique(np.linspace(0, len(items) - 1, min(ESTIMATE_RENDERS, len(items))).round())
+    sample = [items[int(i)] for i in picks]
     t0 = time.perf_counter()
     for item in sample:
         try:
