@@ -1081,3 +1081,22 @@ def test_subfolders_in_the_name_template(tmp_path, cache_dir):
             BASE + f'name = "{bad}"\n[vary]\n"drop.height" = [0.01, 0.02]\n',
         )
         assert "name=" in text
+
+
+def test_value_labels_in_names(tmp_path):
+    # {ball.radius:label} takes the label of the row's value from [labels]; a value
+    # without a label is refused at plan time naming it.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {
+        "preset": "small.toml",
+        "name": "{ball.radius:label}-h{drop.height:.2f}",
+        "vary": {"ball.radius": [0.004, 0.005], "drop.height": [0.01, 0.02]},
+        "labels": {"ball.radius": {"0.004": "small", "0.005": "large"}},
+    }
+    names = [i.file for i in S.plan(S.from_dict(data, base_dir=tmp_path))]
+    assert names == ["small-h0.01.flac", "small-h0.02.flac", "large-h0.01.flac", "large-h0.02.flac"]
+    data["labels"] = {"ball.radius": {"0.004": "small"}}
+    with pytest.raises(BankSpecError, match=r"labels\.ball\.radius.*0\.005"):
+        S.plan(S.from_dict(data, base_dir=tmp_path))

@@ -77,6 +77,7 @@ TOP_LEVEL = (
     "render",
     "trim",
     "sampling",
+    "labels",
 )
 
 #: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
@@ -182,6 +183,7 @@ class BankSpec:
     axes: tuple
     trim: dict | None = None
     sampling: str = "random"
+    labels: dict = dataclasses.field(default_factory=dict)
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -216,6 +218,7 @@ class BankSpec:
             "plan": PLAN_VERSION,
             "trim": self.trim,
             "sampling": self.sampling,
+            "labels": self.labels,
         }
 
 
@@ -349,6 +352,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         axes=axes,
         trim=_trim(data.get("trim")),
         sampling=sampling,
+        labels=_labels(data.get("labels", {}), axes),
     )
     _check_template(spec)
     return spec
@@ -554,10 +558,60 @@ def variations(spec: BankSpec):
         yield _draw(spec, i, {a.key: v for a, v in zip(lists, combo)})
 
 
+class _Labelled:
+    """A row's value in the name template: formatted as the value itself, or with the
+    format spec ``label`` as its label from the spec's ``[labels]`` table."""
+
+    def __init__(self, key: str, value, table: dict | None):
+        self.key, self.value, self.table = key, value, table
+
+    def __getitem__(self, i):
+        return self.value[i]
+
+    def __format__(self, fmt: str) -> str:
+        if fmt != "label":
+            return format(self.value, fmt)
+        label = _label_of(self.table or {}, self.value)
+        if label is None:
+            raise ValueError(
+                f"labels.{self.key} has no label for {self.value!r} "
+                f"(labels: {', '.join(self.table or {}) or 'none'})"
+            )
+        return label
+
+
+def _label_of(table: dict, value):
+    """The label of ``value`` in a ``[labels]`` table keyed by the values as text."""
+    for text, label in table.items():
+        if text == str(value):
+            return label
+        try:
+            if float(text) == float(value):
+                return label
+        except (TypeError, ValueError):
+            continue
+    return None
+
+
+def _labels(value, axes) -> dict:
+    """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
+    and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
+    if not isinstance(value, dict):
+        raise _error("labels", value, "must be a table of varied keys")
+    keys = {a.key for a in axes}
+    for key, table in value.items():
+        if key not in keys:
+            raise _error(f"labels.{key}", table, f"is not a varied key; varied: {sorted(keys)}")
+        if not isinstance(table, dict) or not all(isinstance(v, str) and v for v in table.values()):
+            raise _error(f"labels.{key}", table, 'must be a table of value = "label"')
+    return {k: dict(v) for k, v in value.items()}
+
+
 def _mapping(spec: BankSpec, index: int, values: dict) -> dict:
     m = {"preset": spec.preset_name, "index": index}
     sections: dict = {}
     for key, v in values.items():
+        v = _Labelled(key, v, spec.labels.get(key))
         m[key.replace(".", "_")] = v
         if "." in key:
             section, field = key.split(".", 1)
