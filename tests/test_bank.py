@@ -1100,3 +1100,28 @@ def test_value_labels_in_names(tmp_path):
     data["labels"] = {"ball.radius": {"0.004": "small"}}
     with pytest.raises(BankSpecError, match=r"labels\.ball\.radius.*0\.005"):
         S.plan(S.from_dict(data, base_dir=tmp_path))
+
+
+def test_min_distance_between_rows(tmp_path):
+    # Every two rows are at least min_distance apart in the unit cube of the ranges (log
+    # ranges in log); a shorter bank is a prefix; a distance leaving no room is refused.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {
+        "preset": "small.toml",
+        "count": 40,
+        "min_distance": 0.1,
+        "vary": {
+            "drop.height": {"min": 0.01, "max": 0.04, "log": True},
+            "drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]},
+        },
+    }
+    items = S.plan(S.from_dict(data, base_dir=tmp_path))
+    s = S.from_dict(data, base_dir=tmp_path)
+    pts = np.array([S._unit_point(s, i.values) for i in items])
+    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    assert d[~np.eye(len(pts), dtype=bool)].min() >= 0.1
+    assert S.plan(S.from_dict(dict(data, count=20), base_dir=tmp_path)) == items[:20]
+    with pytest.raises(BankSpecError, match="min_distance"):
+        S.plan(S.from_dict(dict(data, min_distance=0.9), base_dir=tmp_path))

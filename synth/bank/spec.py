@@ -78,7 +78,14 @@ TOP_LEVEL = (
     "trim",
     "sampling",
     "labels",
+    "min_distance",
 )
+
+#: Draws tried for a row before a ``min_distance`` is declared too large.
+MIN_DISTANCE_ATTEMPTS = 1000
+
+#: Largest ``count`` with ``min_distance`` (each row is compared with every earlier one).
+MIN_DISTANCE_MAX_ROWS = 20_000
 
 #: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
 #: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
@@ -184,6 +191,7 @@ class BankSpec:
     trim: dict | None = None
     sampling: str = "random"
     labels: dict = dataclasses.field(default_factory=dict)
+    min_distance: float | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -219,6 +227,7 @@ class BankSpec:
             "trim": self.trim,
             "sampling": self.sampling,
             "labels": self.labels,
+            "min_distance": self.min_distance,
         }
 
 
@@ -353,6 +362,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         trim=_trim(data.get("trim")),
         sampling=sampling,
         labels=_labels(data.get("labels", {}), axes),
+        min_distance=_min_distance(data.get("min_distance"), count, sampling, axes),
     )
     _check_template(spec)
     return spec
@@ -525,8 +535,66 @@ def _list_value(spec: BankSpec, number: int, axis: ListAxis, index: int):
     return axis.values[int(order[position])]
 
 
-def _draw(spec: BankSpec, index: int, grid_point: dict | None) -> dict:
-    rng = np.random.default_rng([spec.seed, index])
+def _min_distance(value, count, sampling, axes) -> float | None:
+    """The checked ``min_distance``: the least distance between two rows' range values,
+    each component scaled to [0, 1] over its range (log ranges in log), with ``count``
+    and random sampling."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise _error("min_distance", value, "must be a number > 0 (in the unit cube of the ranges)")
+    if count is None or sampling != "random":
+        raise _error("min_distance", value, "needs count and sampling = 'random'")
+    if count > MIN_DISTANCE_MAX_ROWS:
+        raise _error("count", count, f"must be <= {MIN_DISTANCE_MAX_ROWS} with min_distance")
+    if not any(isinstance(a, RangeAxis) for a in axes):
+        raise _error("min_distance", value, "needs a range axis in [vary]")
+    return float(value)
+
+
+def _unit_point(spec: BankSpec, values: dict) -> np.ndarray:
+    """A row's range values as a point of the unit cube (log ranges in log)."""
+    out = []
+    for axis in spec.axes:
+        if not isinstance(axis, RangeAxis):
+            continue
+        v = np.atleast_1d(np.asarray(values[axis.key], dtype=float))
+        lo = np.atleast_1d(np.asarray(axis.low, dtype=float))
+        hi = np.atleast_1d(np.asarray(axis.high, dtype=float))
+        if axis.log:
+            v, lo, hi = np.log(v), np.log(lo), np.log(hi)
+        span = np.where(hi > lo, hi - lo, 1.0)
+        out.extend((v - lo) / span)
+    return np.array(out)
+
+
+def _spaced_variations(spec: BankSpec):
+    """Rows with ``min_distance``: row ``i`` draws from ``default_rng([seed, i])`` until
+    its point is at least ``min_distance`` from every earlier row's (so it depends on
+    its index and the rows before it, not on the count)."""
+    points = []
+    for i in range(spec.count):
+        rng = np.random.default_rng([spec.seed, i])
+        for _ in range(MIN_DISTANCE_ATTEMPTS):
+            values = _draw(spec, i, None, rng)
+            p = _unit_point(spec, values)
+            if not points or np.min(np.linalg.norm(np.array(points) - p, axis=1)) >= (
+                spec.min_distance
+            ):
+                break
+        else:
+            raise _error(
+                "min_distance",
+                spec.min_distance,
+                f"leaves no room for row {i} after {MIN_DISTANCE_ATTEMPTS} draws: lower it "
+                f"or the count",
+            )
+        points.append(p)
+        yield values
+
+
+def _draw(spec: BankSpec, index: int, grid_point: dict | None, rng=None) -> dict:
+    rng = np.random.default_rng([spec.seed, index]) if rng is None else rng
     values = {}
     for number, axis in enumerate(spec.axes):
         if grid_point is not None and axis.key in grid_point:
@@ -549,6 +617,9 @@ def _rows(spec: BankSpec) -> int:
 
 def variations(spec: BankSpec):
     """The varied values of every row, in index order (a generator of dicts)."""
+    if spec.count is not None and spec.min_distance is not None:
+        yield from _spaced_variations(spec)
+        return
     if spec.count is not None:
         for i in range(spec.count):
             yield _draw(spec, i, None)
