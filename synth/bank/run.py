@@ -274,15 +274,20 @@ def _true_peak_db(audio: np.ndarray) -> float | None:
 
 def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
     """Spectral centroid of the whole sound, Hz: the mean frequency of its power
-    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed)."""
+    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed; the sound zero-padded to
+    a length the FFT factors well, scipy.fft.next_fast_len, which samples the same
+    spectrum more finely)."""
+    from scipy import fft
+
     x = np.asarray(audio, dtype=np.float64)
     if x.ndim > 1:
         x = x.sum(axis=1)
-    power = np.abs(np.fft.rfft(x)) ** 2
+    n = fft.next_fast_len(max(x.size, 1), real=True)
+    power = np.abs(fft.rfft(x, n)) ** 2
     total = float(power.sum())
     if not total > 0:
         return None
-    f = np.fft.rfftfreq(x.size, 1.0 / samplerate)
+    f = fft.rfftfreq(n, 1.0 / samplerate)
     return round(float(np.dot(f, power) / total), 6)
 
 
