@@ -1125,3 +1125,26 @@ def test_min_distance_between_rows(tmp_path):
     assert S.plan(S.from_dict(dict(data, count=20), base_dir=tmp_path)) == items[:20]
     with pytest.raises(BankSpecError, match="min_distance"):
         S.plan(S.from_dict(dict(data, min_distance=0.9), base_dir=tmp_path))
+
+
+def test_final_check_drops_a_row_whose_file_changed(tmp_path, cache_dir, monkeypatch):
+    # A file altered after its row was recorded (by anything: another writer, a disk)
+    # is found by the end-of-run check: left out of the manifest, the bank not reported
+    # complete, and the next run redoes it.
+    spec = _write_spec(tmp_path / "spec", count=4)
+    out = tmp_path / "out"
+    append = mf.Manifest.append
+
+    def append_then_alter(self, row):
+        append(self, row)
+        if row["index"] == 2:
+            (out / row["file"]).write_bytes(b"altered")
+
+    monkeypatch.setattr(mf.Manifest, "append", append_then_alter)
+    result = bank.run(spec, out, jobs=1)
+    assert not result.ok and "SHA-256" in result.stopped and result.done == 3
+    assert [r["index"] for r in mf.read_rows(out)] == [0, 1, 3]
+    monkeypatch.setattr(mf.Manifest, "append", append)
+    again = bank.run(spec, out, jobs=1)
+    assert again.ok and (again.done, again.skipped) == (1, 3)
+    _check_complete(out, 4)

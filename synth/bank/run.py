@@ -679,7 +679,7 @@ def _remove_stale_files(out_dir: Path, todo) -> None:
         (out_dir / item.file).unlink(missing_ok=True)
 
 
-def _final_check(out_dir: Path, rows: list[dict], result: BankResult) -> list[dict]:
+def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
     """The rows whose record holds: every ``ok`` row's file hashed again against its
     recorded SHA-256. A row that does not match is dropped from the manifest (the next
     run redoes it) and the bank is not reported complete."""
@@ -693,7 +693,9 @@ def _final_check(out_dir: Path, rows: list[dict], result: BankResult) -> list[di
             continue
         kept.append(row)
     if bad:
-        result.done -= len(bad)
+        now = sum(1 for i in bad if i in recorded)  # rendered in this run, else skipped
+        result.done -= now
+        result.skipped -= len(bad) - now
         result.stopped = result.stopped or (
             f"{len(bad)} file(s) do not match their recorded SHA-256 (rows "
             f"{', '.join(map(str, bad[:10]))}{' ...' if len(bad) > 10 else ''}): they are left "
@@ -889,7 +891,7 @@ def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> Bank
             bar.close()
         book.close()
     result.elapsed = time.perf_counter() - t_start
-    rows = _final_check(out, rows, result)
+    rows = _final_check(out, rows, result, recorded)
     try:
         book.rewrite(rows)
     except OSError as exc:  # the appended rows stay; the next run rewrites them
