@@ -132,8 +132,8 @@ class PresetRun:
 def preset_run_from_empty_caches(name: str) -> PresetRun:
     """The preset ``name`` rendered as its file sets it but without normalisation
     (``normalize="none"``: its physical units), from empty caches (a private cache folder and
-    empty memory caches, so a fresh mode solve: a plate's modes reused from a wider band differ
-    in the last bits), and analysed with the analysis' defaults at the scene's gravity.
+    empty memory caches, so a fresh mode solve, as on a machine that never rendered it), and
+    analysed with the analysis' defaults at the scene's gravity.
     Computed once per session: the frozen renders (tests/test_frozen_renders.py, which
     tests/data/record_preset_renders.py records) and the round trip (tests/test_roundtrip.py)
     read the same run."""

@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from synth import bank
@@ -59,6 +60,14 @@ format = "wav"
 "drop.position" = {{ min = [0.05, 0.05], max = [0.25, 0.15] }}
 "ball.radius" = [0.004, 0.005]
 """
+
+
+def _file_identity(path: Path):
+    st = path.stat()
+    return st.st_ino, st.st_mtime_ns, st.st_size
+
+
+BANK_SPECS_BY_NAME = ["marble-on-glass-table-game", "restitution-stimuli"]
 
 ISSUE_SPEC = """\
 preset = "default"                  # a name or a file
@@ -123,6 +132,7 @@ def _check_complete(folder: Path, n: int) -> None:
     csv_lines = (folder / mf.CSV).read_text().splitlines()
     assert len(csv_lines) == n + 1
     assert not [p for p in folder.iterdir() if mf.TEMPORARY.match(p.name)]
+    assert not (folder / mf.LOCK).exists()  # removed when the run finished
     assert set(_audio_files(folder)) == {r["file"] for r in rows}
 
 
@@ -332,32 +342,67 @@ def test_disk_that_fills(serial, tmp_path, monkeypatch):
             subprocess.run(["umount", str(disk)], check=False)
 
 
-def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys):
-    # A scene that cannot be built (an impact point off the plate) is recorded with its
-    # error; the other rows are rendered; the command exits with status 1.
+def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys, monkeypatch):
+    # A row whose render fails (here a solver error injected into row 1) is recorded with
+    # its error; the other rows are rendered; the command exits with status 1.
+    import importlib
+
+    bank_run = importlib.import_module("synth.bank.run")
+    render = bank_run._render
+
+    def failing(spec, item):
+        if item.index == 1:
+            raise FloatingPointError("the contact solver diverged")
+        return render(spec, item)
+
+    monkeypatch.setattr(bank_run, "_render", failing)
     spec = tmp_path / "bank.toml"
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
     spec.write_text(
         'preset = "small.toml"\nname = "p{index}"\nformat = "ogg"\n[vary]\n'
-        '"drop.position" = [[0.1, 0.1], [5.0, 5.0], [0.2, 0.1]]\n'
+        '"drop.position" = [[0.1, 0.1], [0.15, 0.1], [0.2, 0.1]]\n'
     )
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 1
     assert "1 failed" in capsys.readouterr().err
     rows = mf.read_rows(tmp_path / "out")
     assert [r["status"] for r in rows] == ["ok", "failed", "ok"]
-    assert "position" in rows[1]["error"] and rows[1]["sha256"] is None
+    assert "diverged" in rows[1]["error"] and rows[1]["sha256"] is None
     assert sorted(_audio_files(tmp_path / "out")) == ["p0.ogg", "p2.ogg"]
 
 
-def test_dry_run_writes_the_plan(tmp_path, cache_dir):
-    # The plan without audio, and an estimate of the time from a few renders.
+def _tree(folder: Path) -> dict:
+    """Every path under ``folder`` with its modification time and bytes (None: a folder)."""
+    return {
+        str(p.relative_to(folder)): (p.stat().st_mtime_ns, p.read_bytes() if p.is_file() else None)
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def test_dry_run_changes_nothing(tmp_path, cache_dir):
+    # The rows to render and an estimate of the time from a few renders; no folder made.
     spec = _write_spec(tmp_path / "spec")
     result = bank.run(spec, tmp_path / "out", jobs=2, dry_run=True)
     assert result.estimate is not None and result.estimate > 0
-    rows = mf.read_rows(tmp_path / "out")
-    assert [r["status"] for r in rows] == ["planned"] * 12
-    assert not _audio_files(tmp_path / "out")
+    assert [r["status"] for r in result.planned_rows] == ["planned"] * 12
+    assert not (tmp_path / "out").exists()
     assert "estimated" in result.summary()
+
+
+def test_force_dry_run_on_a_finished_bank_writes_and_deletes_nothing(tmp_path, cache_dir):
+    # A finished bank, then --force --dry-run with a changed spec, and a plain --dry-run:
+    # the folder's tree (names, mtimes, bytes) is the same before and after each.
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = _tree(out)
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run"]) == 0
+    assert _tree(out) == before
+    spec.write_text(spec.read_text().replace("seed = 3", "seed = 4"))
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run", "--force"]) == 0
+    assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1, dry_run=True, force=True)
+    assert len(result.planned_rows) == 3 and result.skipped == 0
+    assert _tree(out) == before
 
 
 def test_changed_spec_refused_naming_keys_then_force(tmp_path, cache_dir):
@@ -407,6 +452,78 @@ BASE = 'preset = "small.toml"\n'
 )
 def test_bad_specs_rejected_naming_the_key(tmp_path, text, key):
     assert key in _bad(tmp_path, text)
+
+
+@pytest.mark.parametrize(
+    "axis, row, says",
+    [
+        ('"ball.material" = ["steel", "unobtainium"]', 1, "unobtainium"),
+        ('"ball.radius" = [0.005, -0.004]', 1, "-0.004"),
+        ('"drop.height" = { min = -0.05, max = 0.05 }', 2, "must be > 0"),
+        ('"drop.position" = [[0.1, 0.1], [5.0, 5.0]]', 1, "off the plate"),
+        ('"ball.radius" = ["5mm", 0.004]', 0, "'5mm'"),
+        ("restitution_scale = [1.0, -1.0]", 1, ">= 0"),
+        ('"render.max_frequency" = [4000.0, 9000.0]', 1, "Nyquist"),
+    ],
+)
+def test_bad_row_values_refused_at_plan_time(tmp_path, axis, row, says):
+    # Every row's scene is built and checked before anything is written (nothing solved):
+    # the message names the rows, their values and what is wrong.
+    text = _bad(tmp_path, BASE + f"count = 4\n[vary]\n{axis}\n")
+    assert f"row {row} (" in text and says in text, text
+
+
+def test_file_name_over_255_bytes_refused(tmp_path):
+    text = _bad(
+        tmp_path, BASE + 'name = "' + "x" * 260 + '{index}"\n[vary]\n"drop.height" = [0.01]\n'
+    )
+    assert "255 bytes" in text
+
+
+def test_absurd_count_refused_before_anything(tmp_path):
+    text = _bad(tmp_path, BASE + 'count = 2_000_000\n[vary]\n"drop.height" = [0.01, 0.02]\n')
+    assert "count=2000000" in text and "100000" in text
+
+
+def test_unreachable_scheduler_fails_leaving_nothing(tmp_path):
+    pytest.importorskip("dask.distributed")
+    spec = _write_spec(tmp_path / "spec", count=2)
+    with pytest.raises(bank.BankRunError, match="cannot connect"):
+        bank.run(spec, tmp_path / "out", scheduler="tcp://127.0.0.1:1")
+    assert not (tmp_path / "out").exists()
+
+
+def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
+    # With count, a list of n values gives each value once in every n consecutive rows.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    radii = [0.003, 0.004, 0.005, 0.006]
+    s = S.from_dict(
+        {"preset": "small.toml", "count": 10, "vary": {"ball.radius": radii}}, base_dir=tmp_path
+    )
+    drawn = [item.values["ball.radius"] for item in S.plan(s)]
+    assert sorted(drawn[:4]) == radii and sorted(drawn[4:8]) == radii
+    assert set(drawn[8:]) <= set(radii) and len(set(drawn[8:])) == 2
+
+
+def test_raising_count_adds_rows_keeping_the_first(tmp_path, cache_dir):
+    # Rows are drawn per index: count 3 -> 5 keeps the three files (same inode, bytes)
+    # and renders two more.
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    spec.write_text(spec.read_text().replace("count = 3", "count = 5"))
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (2, 3)
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav") if p.name in before} == before
+    _check_complete(out, 5)
+
+
+@pytest.mark.parametrize("name", BANK_SPECS_BY_NAME)
+def test_example_specs_by_name(name):
+    assert len(bank.plan(bank.load(name))) >= 10
 
 
 def test_issue_spec_as_written():
@@ -509,11 +626,12 @@ def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     spec = tmp_path / "bank.toml"
     spec.write_text(ISSUE_SPEC)
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "2"]) == 0
-    assert "estimated" in capsys.readouterr().err
-    rows = mf.read_rows(tmp_path / "out")
+    captured = capsys.readouterr()
+    assert "estimated" in captured.err
+    rows = [json.loads(line) for line in captured.out.splitlines()]
     assert len(rows) == 200 and rows[5]["file"] == "default-0005.flac"
-    assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "sha256"}
-    assert not _audio_files(tmp_path / "out")
+    assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "status"}
+    assert not (tmp_path / "out").exists()
     spec.write_text(ISSUE_SPEC.replace("count = 200", "count = 0"))
     assert main(["bank", str(spec), "-o", str(tmp_path / "out2")]) == 2
     assert "count=0" in capsys.readouterr().err
@@ -530,3 +648,506 @@ def test_unwritable_folder_is_a_clean_error(tmp_path, monkeypatch):
     monkeypatch.setattr(mf, "write_spec", full)
     with pytest.raises(bank.BankRunError, match="No space left"):
         bank.run(spec, tmp_path / "out", jobs=1)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SIGKILL of a worker process")
+def test_dask_worker_killed_mid_run_leaves_an_exact_manifest(tmp_path, cache_dir):
+    # A real distributed cluster on loopback (two worker processes under nannies); one
+    # worker is SIGKILLed once a few rows are recorded. Every row recorded in the
+    # manifest keeps the very file it was recorded with (same inode, mtime and size: a
+    # finished file is never rewritten by a recomputed task), and at the end every
+    # manifest hash matches its file; a rerun completes the bank.
+    import threading
+
+    distributed = pytest.importorskip("dask.distributed")
+    spec = _write_spec(tmp_path / "spec", count=40)
+    out = tmp_path / "out"
+    seen: dict = {}
+    outcome: dict = {}
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        pids = client.run(os.getpid)
+
+        def render():
+            try:
+                outcome["result"] = bank.run(spec, out, scheduler=client)
+            except Exception as exc:  # noqa: BLE001 - reported by the assertion below
+                outcome["error"] = exc
+
+        thread = threading.Thread(target=render)
+        thread.start()
+        deadline = time.monotonic() + 180
+        killed = 0
+        while thread.is_alive() and time.monotonic() < deadline:
+            for r in mf.read_rows(out) if (out / mf.JSONL).exists() else []:
+                if r["index"] not in seen and r.get("status") == "ok":
+                    seen[r["index"]] = _file_identity(out / r["file"])
+            if not killed and len(seen) >= 12:
+                os.kill(next(iter(pids.values())), signal.SIGKILL)
+                killed = len(seen)
+            time.sleep(0.002)
+        thread.join(timeout=300)
+    assert killed and "error" not in outcome, outcome
+    assert killed < 40  # the kill came before the end
+    rows = mf.read_rows(out)
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"], r["index"]
+    for index, identity in seen.items():
+        f = out / bank.plan(bank.load(spec))[index].file
+        assert _file_identity(f) == identity, f"row {index}'s file was rewritten"
+    again = bank.run(spec, out, jobs=1)
+    assert again.ok
+    _check_complete(out, 40)
+
+
+def _alive(pid: int) -> bool:
+    """A process that exists and is not a zombie (Linux /proc)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_workers_die_with_a_killed_parent_and_the_next_run_resumes(tmp_path, cache_dir):
+    # SIGKILL to the bank's parent process alone: its pool workers end within a few
+    # seconds (they would otherwise render on, holding the folder's lock), and the same
+    # command then resumes and completes the bank.
+    spec = _write_spec(tmp_path / "spec", count=400)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--jobs", "2"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while len(mf.read_rows(out)) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    workers = _children(proc.pid)
+    assert len(workers) >= 2, "no worker processes found"
+    proc.kill()
+    proc.wait()
+    deadline = time.monotonic() + 5.0  # PR_SET_PDEATHSIG: at once; the watch: 0.5 s
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    orphans = [w for w in workers if _alive(w)]
+    for w in orphans:  # leave no process of this test behind, whatever the outcome
+        os.kill(w, signal.SIGKILL)
+    assert not orphans, "workers outlived their parent"
+    assert len(mf.read_rows(out)) < 400  # the kill came before the end
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr
+    _check_complete(out, 400)
+
+
+HISTORY_SPEC = """
+preset = "free.toml"
+count = 8
+seed = 5
+name = "{{preset}}-{{index:02d}}"
+format = "{fmt}"
+[vary]
+"render.max_frequency" = [2500.0, 4000.0]
+"drop.height" = {{ min = 0.01, max = 0.04 }}
+[render]
+subtype = "{subtype}"
+"""
+
+#: Formats of the history test: WAV of 32-bit floats shows a change in the last bit of
+#: a sample; FLAC's 24 bits and OGG's decoded audio are what banks ship.
+HISTORY_FORMATS = {"wav": "FLOAT", "flac": "PCM_24", "ogg": "VORBIS"}
+
+
+def _clear_memory_caches() -> None:
+    from synth.physics.modal_contact import point
+    from synth.sound import modes, radiation
+
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()
+    point.clear_memory_cache()
+
+
+def test_plate_modes_depend_only_on_the_plate_and_band(tmp_path, monkeypatch):
+    # The modes of a band, asked for after a wider band of the same plate was solved and
+    # cached in a process of as many BLAS threads as cores, are the very arrays of a solve
+    # of that band alone on one BLAS thread (a bank's pool worker): a wider band's larger
+    # basis, or another thread count, moves their last bits.
+    import tomllib
+
+    from threadpoolctl import threadpool_limits
+
+    from synth.io.presets import scene_from_dict
+    from synth.sound import modes
+
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
+    _clear_memory_caches()
+    free = tomllib.loads(SMALL_PRESET.replace('"simply-supported"', '"free"'))
+    plate = scene_from_dict(free, "free plate")[0].plate
+    modes.modes(plate, max_frequency=4000.0)
+    after_wider = modes.modes(plate, max_frequency=2500.0)
+    with threadpool_limits(1, user_api="blas"):
+        alone = modes.modes(plate, max_frequency=2500.0, cache=False)
+    points = [[0.05, 0.05], [0.2, 0.13]]
+    assert np.array_equal(after_wider.frequencies, alone.frequencies)
+    assert np.array_equal(after_wider.shapes(points), alone.shapes(points))
+    _clear_memory_caches()
+
+
+def _decoded(folder: Path) -> dict:
+    import soundfile
+
+    return {name: soundfile.read(folder / name)[0] for name in _audio_files(folder)}
+
+
+def _assert_same_bank(folder: Path, ref: Path, fmt: str) -> None:
+    """The same bytes (WAV, FLAC; and OGG once its stream serial is the row's) and the
+    same decoded samples as the reference folder."""
+    got, want = _decoded(folder), _decoded(ref)
+    assert sorted(got) == sorted(want)
+    for name in want:
+        assert np.array_equal(got[name], want[name]), name
+    assert _audio_files(folder) == _audio_files(ref)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmt", sorted(HISTORY_FORMATS))
+def test_bytes_depend_only_on_the_spec(tmp_path, monkeypatch, fmt):
+    # A free plate (its modes from the Ritz solver and its cache), rows of two bands in
+    # one bank: rendered from a cold cache with 1 worker, then in reversed row order in
+    # one warm process, with 2 forked workers warm, with 2 spawned workers from another
+    # cold cache, and on a Dask cluster from a third: every file the same (WAV, FLAC:
+    # bytes; OGG: bytes and decoded samples).
+    import importlib
+
+    bank_run = importlib.import_module("synth.bank.run")
+    distributed = pytest.importorskip("dask.distributed")
+    folder = tmp_path / "spec"
+    folder.mkdir()
+    (folder / "free.toml").write_text(
+        SMALL_PRESET.replace('boundary = "simply-supported"', 'boundary = "free"')
+    )
+    spec_path = folder / "bank.toml"
+    spec_path.write_text(HISTORY_SPEC.format(fmt=fmt, subtype=HISTORY_FORMATS[fmt]))
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache1"))
+    _clear_memory_caches()
+    ref = tmp_path / "cold1"
+    assert bank.run(spec_path, ref, jobs=1).ok
+
+    spec = bank.load(spec_path)
+    reversed_dir = tmp_path / "reversed"
+    reversed_dir.mkdir()
+    for item in reversed(bank.plan(spec)):  # this process is warm with every band now
+        assert bank_run.render_item(spec, item, str(reversed_dir)).row["status"] == "ok"
+    _assert_same_bank(reversed_dir, ref, fmt)
+
+    assert bank.run(spec_path, tmp_path / "warm2", jobs=2).ok
+    _assert_same_bank(tmp_path / "warm2", ref, fmt)
+
+    # spawned workers (one BLAS thread each, this process one per core) from another
+    # cold cache: they solve the plate's modes themselves
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache2"))
+    monkeypatch.setattr(bank_run, "_start_method", lambda: "spawn")
+    _clear_memory_caches()
+    assert bank.run(spec_path, tmp_path / "cold2", jobs=2).ok
+    _assert_same_bank(tmp_path / "cold2", ref, fmt)
+
+    # Dask's workers start with one BLAS thread (this process has one per core), from
+    # another cold cache: they solve the plate's modes themselves
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache3"))
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        assert bank.run(spec_path, tmp_path / "dask", scheduler=cluster.scheduler_address).ok
+    _assert_same_bank(tmp_path / "dask", ref, fmt)
+
+
+@pytest.mark.parametrize("fmt, subtype", [("ogg", "VORBIS"), ("wav", "FLOAT")])
+def test_two_runs_write_the_same_bytes(tmp_path, cache_dir, fmt, subtype):
+    # An Ogg stream's serial number is drawn at random by the encoder, a float WAV's PEAK
+    # chunk carries the time of writing: both are set from the row, so two runs of one
+    # spec write the same bytes; the manifest records the hash of the decoded samples too.
+    import struct
+
+    from synth.io.reproducible import decoded_sha256, ogg_serial_for
+
+    spec = _write_spec(
+        tmp_path / "spec",
+        count=2,
+        extra=f'[render]\nsubtype = "{subtype}"\n',
+    )
+    spec.write_text(spec.read_text().replace('format = "wav"', f'format = "{fmt}"'))
+    for out in ("a", "b"):
+        assert bank.run(spec, tmp_path / out, jobs=1).ok
+        time.sleep(1.1)  # a timestamp in seconds would differ
+    assert _audio_files(tmp_path / "a") == _audio_files(tmp_path / "b")
+    for row in mf.read_rows(tmp_path / "a"):
+        data = (tmp_path / "a" / row["file"]).read_bytes()
+        assert row["audio_sha256"] == decoded_sha256(data)
+        if fmt == "ogg":
+            assert struct.unpack_from("<I", data, 14)[0] == ogg_serial_for(row["file"])
+
+
+def test_manifest_columns_and_a_row_rendered_again_from_its_scene(serial):
+    # The first impact's speed is the free fall's sqrt(2 g h) (closed form); the true peak
+    # is at least the sample peak (interpolation only adds points); the centroid lies in
+    # (0, fs/2); and the row's `scene` column renders the very samples of its file.
+    import io
+
+    import soundfile
+
+    from synth.io.presets import scene_from_dict
+    from synth.io.reproducible import decoded_sha256
+    from synth.sound.render import render
+
+    _, ref = serial
+    rows = mf.read_rows(ref)
+    for row in rows:
+        scene, options = scene_from_dict(row["scene"], f"row {row['index']}")
+        h = row["drop.height"]
+        assert row["first_speed"] == pytest.approx((2 * scene.gravity * h) ** 0.5, rel=1e-9)
+        assert row["true_peak_dbtp"] >= row["peak_dbfs"]
+        assert 0 < row["spectral_centroid"] < 8000.0
+        assert row["first_contact_time"] > 0 and row["first_peak_force"] > 0
+    row = rows[5]
+    scene, options = scene_from_dict(row["scene"], "row 5")
+    subtype = options.pop("subtype", "PCM_24")
+    rendered = render(scene, **options)
+    buf = io.BytesIO()
+    soundfile.write(buf, rendered.audio, rendered.samplerate, subtype=subtype, format="WAV")
+    assert decoded_sha256(buf.getvalue()) == row["audio_sha256"]
+
+
+def test_redo_renders_chosen_rows_again(serial, tmp_path):
+    # --redo 2,5-6: those three files are replaced (new inodes, same bytes: a row's bytes
+    # depend on its inputs only), the other nine untouched; a bad range is refused.
+    spec, ref = serial
+    out = tmp_path / "copy"
+    out.mkdir()
+    for p in ref.iterdir():
+        (out / p.name).write_bytes(p.read_bytes())
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    assert main(["bank", str(spec), "-o", str(out), "--jobs", "1", "--redo", "2,5-6"]) == 0
+    after = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    changed = sorted(name for name in before if after[name] != before[name])
+    assert changed == ["small-002.wav", "small-005.wav", "small-006.wav"]
+    assert _audio_files(out) == _audio_files(ref)
+    with pytest.raises(BankSpecError, match="redo"):
+        bank.run(spec, out, jobs=1, redo="10-20")
+
+
+def test_bank_gain_keeps_relative_levels(serial, tmp_path):
+    # One gain for the bank: the loudest true peak to -1 dBTP. Every file is the source
+    # scaled by that gain (decoded samples within one 24-bit step of the exact product:
+    # half a step of rounding, and at most half a step at full scale from libsndfile's
+    # scaling, x (2^23 - 1) when writing, / 2^23 when reading), the relative levels
+    # kept; a rerun skips every file; the source is untouched.
+    import soundfile
+
+    from synth.bank.gain import apply_gain
+
+    _, ref = serial
+    before = _tree(ref)
+    out = tmp_path / "gained"
+    assert main(["bank-gain", str(ref), "-o", str(out)]) == 0
+    rows = mf.read_rows(out)
+    src_rows = mf.read_rows(ref)
+    gain = rows[0]["gain_db"]
+    assert gain == pytest.approx(-1.0 - max(r["true_peak_dbtp"] for r in src_rows), abs=1e-6)
+    assert max(r["true_peak_dbtp"] for r in rows) == pytest.approx(-1.0, abs=1e-6)
+    step = 1.0 / 2**23
+    for row, src in zip(rows, src_rows):
+        assert row["gain_db"] == gain and row["file"] == src["file"]
+        scaled, _ = soundfile.read(out / row["file"])
+        source, _ = soundfile.read(ref / src["file"])
+        assert np.max(np.abs(scaled - source * 10 ** (gain / 20))) <= step
+        assert mf.sha256_file(out / row["file"]) == row["sha256"]
+    again = apply_gain(ref, out)
+    assert (again.done, again.skipped) == (0, len(rows))
+    assert _tree(ref) == before
+
+
+def test_trim_cuts_the_tail_with_a_fade(serial, tmp_path, cache_dir):
+    # [trim] below_db = -40: each file is the untrimmed one up to 40 dB below its peak at
+    # the end, the last 10 ms faded to 0 (raised cosine), and the manifest says so; the
+    # stop reason of the bounces is recorded whatever the trim.
+    import soundfile
+
+    spec, ref = serial
+    trimmed_spec = _write_spec(tmp_path / "spec", extra="[trim]\nbelow_db = -40.0\nfade = 0.01\n")
+    out = tmp_path / "out"
+    assert bank.run(trimmed_spec, out, jobs=1).ok
+    fs = 16000
+    fade = round(0.01 * fs)
+    for row, whole in zip(mf.read_rows(out), mf.read_rows(ref)):
+        assert row["length_reason"] == "tail-cut" and whole["length_reason"] == "whole"
+        assert row["stop_reason"] == whole["stop_reason"] and row["stop_reason"]
+        cut, _ = soundfile.read(out / row["file"])
+        full, _ = soundfile.read(ref / whole["file"])
+        n = cut.size
+        assert n < full.size and row["duration"] == pytest.approx(n / fs)
+        assert np.array_equal(cut[: n - fade], full[: n - fade]) and cut[-1] == 0.0
+        # the cut is where the untrimmed sound stays 40 dB below its peak (decided on the
+        # samples before their 24-bit quantization: within one step here)
+        level, step = np.max(np.abs(full)) * 10 ** (-40 / 20), 2.0**-23
+        assert np.max(np.abs(full[n:])) < level + step and abs(full[n - 1]) > level - step
+
+
+def test_preview_and_contact_sheet_of_a_finished_bank(serial, tmp_path):
+    # The preview is every file in index order with 0.25 s of silence between two (the
+    # samples themselves, 32-bit float WAV); the sheet is a PNG of 3 rows of 4 sounds.
+    import soundfile
+
+    pytest.importorskip("matplotlib")
+    _, ref = serial
+    before = _tree(ref)
+    wav, png = tmp_path / "preview.wav", tmp_path / "sheet.png"
+    assert main(["bank", str(ref), "--preview", str(wav), "--sheet", str(png)]) == 0
+    joined, fs = soundfile.read(wav)
+    gap = round(0.25 * fs)
+    at = 0
+    for i, row in enumerate(mf.read_rows(ref)):
+        audio, _ = soundfile.read(ref / row["file"])
+        if i:
+            assert not joined[at : at + gap].any()
+            at += gap
+        assert np.array_equal(joined[at : at + audio.size], audio)
+        at += audio.size
+    assert at == joined.size
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert _tree(ref) == before
+    assert main(["bank", str(ref)]) == 2  # a bank's folder without --sheet or --preview
+
+
+def test_sampling_lhs_and_grid(tmp_path):
+    # lhs: in each block of LHS_BLOCK rows every range component has one row in each of
+    # LHS_BLOCK equal strata (log strata for a log range); a row depends on its index
+    # alone. grid: `steps` values per range, ends included (geometric with log).
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    vary = {
+        "drop.height": {"min": 0.01, "max": 0.04, "log": True},
+        "drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]},
+    }
+    n = 2 * S.LHS_BLOCK + 5
+    lhs = S.from_dict(
+        {"preset": "small.toml", "count": n, "sampling": "lhs", "vary": vary}, base_dir=tmp_path
+    )
+    items = S.plan(lhs)
+    for block in range(2):
+        rows = items[block * S.LHS_BLOCK : (block + 1) * S.LHS_BLOCK]
+        h = np.array([r.values["drop.height"] for r in rows])
+        strata = np.floor(np.log(h / 0.01) / np.log(4.0) * S.LHS_BLOCK)
+        assert sorted(strata) == list(range(S.LHS_BLOCK))
+        for c, (lo, hi) in enumerate([(0.05, 0.25), (0.05, 0.15)]):
+            x = np.array([r.values["drop.position"][c] for r in rows])
+            assert sorted(np.floor((x - lo) / (hi - lo) * S.LHS_BLOCK)) == list(range(S.LHS_BLOCK))
+    shorter = S.from_dict(
+        {"preset": "small.toml", "count": 40, "sampling": "lhs", "vary": vary}, base_dir=tmp_path
+    )
+    assert S.plan(shorter) == items[:40]
+    grid_vary = {k: dict(v, steps=3) for k, v in vary.items()}
+    grid = S.from_dict(
+        {"preset": "small.toml", "sampling": "grid", "vary": grid_vary}, base_dir=tmp_path
+    )
+    items = S.plan(grid)
+    assert len(items) == 9
+    assert sorted({i.values["drop.height"] for i in items}) == pytest.approx([0.01, 0.02, 0.04])
+    with pytest.raises(BankSpecError, match="steps"):
+        S.from_dict({"preset": "small.toml", "sampling": "grid", "vary": vary}, base_dir=tmp_path)
+
+
+def test_subfolders_in_the_name_template(tmp_path, cache_dir):
+    # "/" in the template makes subfolders (created as the files are written); a name
+    # with "..", a hidden part or an absolute path is refused before any work.
+    spec = _write_spec(tmp_path / "spec", count=4)
+    spec.write_text(
+        spec.read_text().replace(
+            'name = "{preset}-{index:03d}"', 'name = "r{ball.radius:.3f}/{preset}-{index:03d}"'
+        )
+    )
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    rows = mf.read_rows(out)
+    assert all(r["file"].startswith(("r0.004/", "r0.005/")) for r in rows)
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"]
+    assert bank.run(spec, out, jobs=1).skipped == 4
+    for n, bad in enumerate(("../{index}", "/abs/{index}", "a/.hidden{index}", "a//{index}")):
+        (tmp_path / f"bad{n}").mkdir()
+        text = _bad(
+            tmp_path / f"bad{n}",
+            BASE + f'name = "{bad}"\n[vary]\n"drop.height" = [0.01, 0.02]\n',
+        )
+        assert "name=" in text
+
+
+def test_value_labels_in_names(tmp_path):
+    # {ball.radius:label} takes the label of the row's value from [labels]; a value
+    # without a label is refused at plan time naming it.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {
+        "preset": "small.toml",
+        "name": "{ball.radius:label}-h{drop.height:.2f}",
+        "vary": {"ball.radius": [0.004, 0.005], "drop.height": [0.01, 0.02]},
+        "labels": {"ball.radius": {"0.004": "small", "0.005": "large"}},
+    }
+    names = [i.file for i in S.plan(S.from_dict(data, base_dir=tmp_path))]
+    assert names == ["small-h0.01.flac", "small-h0.02.flac", "large-h0.01.flac", "large-h0.02.flac"]
+    data["labels"] = {"ball.radius": {"0.004": "small"}}
+    with pytest.raises(BankSpecError, match=r"labels\.ball\.radius.*0\.005"):
+        S.plan(S.from_dict(data, base_dir=tmp_path))
+
+
+def test_min_distance_between_rows(tmp_path):
+    # Every two rows are at least min_distance apart in the unit cube of the ranges (log
+    # ranges in log); a shorter bank is a prefix; a distance leaving no room is refused.
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {
+        "preset": "small.toml",
+        "count": 40,
+        "min_distance": 0.1,
+        "vary": {
+            "drop.height": {"min": 0.01, "max": 0.04, "log": True},
+            "drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]},
+        },
+    }
+    items = S.plan(S.from_dict(data, base_dir=tmp_path))
+    s = S.from_dict(data, base_dir=tmp_path)
+    pts = np.array([S._unit_point(s, i.values) for i in items])
+    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    assert d[~np.eye(len(pts), dtype=bool)].min() >= 0.1
+    assert S.plan(S.from_dict(dict(data, count=20), base_dir=tmp_path)) == items[:20]
+    with pytest.raises(BankSpecError, match="min_distance"):
+        S.plan(S.from_dict(dict(data, min_distance=0.9), base_dir=tmp_path))
+
+
+def test_final_check_drops_a_row_whose_file_changed(tmp_path, cache_dir, monkeypatch):
+    # A file altered after its row was recorded (by anything: another writer, a disk)
+    # is found by the end-of-run check: left out of the manifest, the bank not reported
+    # complete, and the next run redoes it.
+    spec = _write_spec(tmp_path / "spec", count=4)
+    out = tmp_path / "out"
+    append = mf.Manifest.append
+
+    def append_then_alter(self, row):
+        append(self, row)
+        if row["index"] == 2:
+            (out / row["file"]).write_bytes(b"altered")
+
+    monkeypatch.setattr(mf.Manifest, "append", append_then_alter)
+    result = bank.run(spec, out, jobs=1)
+    assert not result.ok and "SHA-256" in result.stopped and result.done == 3
+    assert [r["index"] for r in mf.read_rows(out)] == [0, 1, 3]
+    monkeypatch.setattr(mf.Manifest, "append", append)
+    again = bank.run(spec, out, jobs=1)
+    assert again.ok and (again.done, again.skipped) == (1, 3)
+    _check_complete(out, 4)

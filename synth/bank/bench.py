@@ -12,7 +12,9 @@ rendered
 * on a Dask ``LocalCluster`` of two worker processes (started before the clock), whose
   overhead per sound is its time per sound less that of ``jobs=2``, both once warm;
 
-and the peak resident memory of a worker. The disk caches are warmed first, as they are
+and the peak resident memory of a worker; then the bank-gain pass
+(:func:`synth.bank.gain.apply_gain`, the loudest true peak to -1 dBTP) over the
+``jobs=2`` bank, in files per second. The disk caches are warmed first, as they are
 after a bank's first sound.
 """
 
@@ -27,6 +29,7 @@ from pathlib import Path
 
 from synth.bank import run as run_bank_spec
 from synth.bank import spec as bank_spec
+from synth.bank.gain import apply_gain
 from synth.bench.common import target_verdict
 
 #: The issue's example spec, with the count left to the benchmark.
@@ -99,6 +102,8 @@ def run_bank(count: int = 200, process_files: int = 5, dask: bool = True) -> dic
             seconds, result = _timed_run(spec, tmp / f"jobs{jobs}", jobs=jobs)
             assert result.ok, result.summary()
             out[f"jobs{jobs}"] = _figures(seconds, result, count)
+        gained = apply_gain(tmp / "jobs2", tmp / "gain")
+        out["gain"] = {"seconds": gained.elapsed, "rate": gained.rate, "gain_db": gained.gain_db}
         if dask:
             out["dask"] = _dask(spec, tmp / "dask", count, out["jobs2"])
     out["ratios"] = {
@@ -170,6 +175,13 @@ def format_bank(r: dict) -> str:
         lines.append(
             f"| {way} | {f['seconds']:.1f} | {f['startup']:.1f} | {f['rate']:.1f} | "
             f"{f['render_rate']:.1f} | {f['peak_worker_rss'] / 1e6:.0f} |"
+        )
+    g = r.get("gain")
+    if g:
+        lines.append(
+            f"| `synth bank-gain` of the `--jobs 2` bank (one process; gain "
+            f"{g['gain_db']:+.1f} dB to -1 dBTP) | {g['seconds']:.1f} | - | {g['rate']:.1f} | "
+            f"- | - |"
         )
     ratios, targets = r["ratios"], r["targets"]
 

@@ -10,8 +10,20 @@ cut by a crash or a full disk is dropped and the sound redone.
 
 Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
 ``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
-``duration`` (s), ``ticks``, ``first_restitution``, ``peak_dbfs`` (dBFS), ``loudness_lufs``
-(LUFS, ITU-R BS.1770, when pyloudnorm is installed) and ``sha256`` of the file.
+``duration`` (s, of the file), ``audible_duration`` (s, to the last sample within 60 dB
+of the peak), ``stop_reason`` (why the bounces ended: ``settled``, ``floor``,
+``max-duration``, ``max-impacts`` ..., see :mod:`synth.physics.bounces`),
+``length_reason`` (``whole``, or with ``[trim]`` ``tail-cut`` or ``max-length``),
+``ticks`` (impacts), ``first_restitution``, ``first_speed`` (m/s, the
+first impact's), ``first_contact_time`` (s), ``first_peak_force`` (N), ``peak_dbfs``
+(dBFS), ``true_peak_dbtp`` (dBTP, 4x oversampled), ``spectral_centroid`` (Hz),
+``loudness_lufs``
+(LUFS, ITU-R BS.1770, when pyloudnorm is installed; None below its -70 LUFS absolute
+gate), ``sha256`` of the file and ``audio_sha256`` of its decoded samples
+(:func:`synth.io.reproducible.decoded_sha256`) and ``scene``, the row's whole preset
+(the base preset with the row's values set: a row renders again from the manifest
+alone, with its ``restitution_scale`` if varied). Every file's bytes are a function of the
+spec and its row (:mod:`synth.io.reproducible`), OGG's included.
 """
 
 from __future__ import annotations
@@ -25,6 +37,7 @@ import re
 from pathlib import Path
 
 from synth.io.atomic import write_atomically
+from synth.io.atomic import write_once as _write_once
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -37,11 +50,21 @@ RESULT_COLUMNS = (
     "status",
     "error",
     "duration",
+    "audible_duration",
+    "stop_reason",
+    "length_reason",
     "ticks",
     "first_restitution",
+    "first_speed",
+    "first_contact_time",
+    "first_peak_force",
     "peak_dbfs",
+    "true_peak_dbtp",
     "loudness_lufs",
+    "spectral_centroid",
     "sha256",
+    "audio_sha256",
+    "scene",
 )
 
 #: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,
@@ -62,11 +85,17 @@ def write_atomic(target: Path, data: bytes) -> None:
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
 
 
+def write_once(target: Path, data: bytes) -> bool:
+    """Publish ``data`` as ``target`` unless a file is there
+    (:func:`synth.io.atomic.write_once`); True if this call wrote it."""
+    return _write_once(target, data)
+
+
 def clean_temporaries(folder: Path) -> int:
-    """Delete the temporary files of this package's naming in ``folder`` (left by a
-    run that was killed). Returns how many."""
+    """Delete the temporary files of this package's naming in ``folder`` and its
+    subfolders (left by a run that was killed). Returns how many."""
     n = 0
-    for p in folder.iterdir():
+    for p in folder.rglob(".*"):
         if TEMPORARY.match(p.name) and p.is_file():
             try:
                 p.unlink()

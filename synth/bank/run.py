@@ -34,6 +34,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
 from synth.errors import SynthError
+from synth.io.reproducible import decoded_sha256, reproducible
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
 _WORKER_THREADS = {
@@ -43,8 +44,8 @@ _WORKER_THREADS = {
     "NUMBA_NUM_THREADS": "1",
 }
 
-#: Renders timed by a dry run to estimate the bank's time.
-ESTIMATE_RENDERS = 3
+#: Renders timed by a dry run to estimate the bank's time (rows spread over the plan).
+ESTIMATE_RENDERS = 5
 
 
 class BankRunError(SynthError):
@@ -70,7 +71,7 @@ class BankResult:
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
     ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
     largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
-    bank would take, s.
+    bank would take, s, and ``planned_rows`` the manifest rows it would render.
     """
 
     out_dir: Path
@@ -84,6 +85,7 @@ class BankResult:
     startup: float = 0.0
     peak_worker_rss: int = 0
     estimate: float | None = None
+    planned_rows: list = field(default_factory=list)
 
     @property
     def rate(self) -> float:
@@ -104,8 +106,9 @@ class BankResult:
         """The summary printed at the end of ``synth bank``."""
         if self.estimate is not None:
             return (
-                f"{self.out_dir}: plan of {self.planned} sounds written ({self.skipped} "
-                f"already done); estimated {self.estimate:.1f} s to render the rest"
+                f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
+                f"{self.planned} sounds to render ({self.skipped} already done); estimated "
+                f"{self.estimate:.1f} s to render them"
             )
         text = (
             f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
@@ -147,8 +150,12 @@ def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
     return round(value, 6) if math.isfinite(value) else None
 
 
-def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) -> bytes:
-    """The file's bytes in the spec's format and ``subtype``; PCM never clips."""
+def _encode(
+    audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str, identity: str
+) -> bytes:
+    """The file's bytes in the spec's format and ``subtype``, a function of the samples
+    and ``identity`` (the row's file name) alone (:func:`synth.io.reproducible.reproducible`:
+    an Ogg stream's serial, a float WAV's PEAK timestamp); PCM never clips."""
     import soundfile
 
     from synth.io.audio import FLOAT_SUBTYPES
@@ -164,7 +171,7 @@ def _encode(audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str) ->
     soundfile.write(
         buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[spec.format][1]
     )
-    return buf.getvalue()
+    return reproducible(buf.getvalue(), spec.format, identity)
 
 
 def _render(spec: BankSpec, item: PlanItem):
@@ -182,16 +189,106 @@ def _render(spec: BankSpec, item: PlanItem):
         else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
     )
     rendered = render(scene, sequence=sequence, **options)
-    data = _encode(rendered.audio, rendered.samplerate, spec, subtype)
-    peak = float(np.max(np.abs(rendered.audio)))
+    audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
+    data = _encode(audio, rendered.samplerate, spec, subtype, item.file)
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
+    first = rendered.impacts[0] if len(rendered.impacts) else None
     figures = {
-        "duration": rendered.duration,
+        "duration": audio.shape[0] / rendered.samplerate,
+        "stop_reason": rendered.impacts.stop_reason,
+        "length_reason": length_reason,
+        "audible_duration": _audible_duration(audio, rendered.samplerate),
         "ticks": len(rendered.impacts),
-        "first_restitution": (rendered.impacts[0].restitution if len(rendered.impacts) else None),
+        "first_restitution": first.restitution if first is not None else None,
+        "first_speed": first.speed if first is not None else None,
+        "first_contact_time": first.result.contact_time if first is not None else None,
+        "first_peak_force": first.result.peak_force if first is not None else None,
         "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
-        "loudness_lufs": _loudness(rendered.audio, rendered.samplerate),
+        "true_peak_dbtp": _true_peak_db(audio),
+        "loudness_lufs": _loudness(audio, rendered.samplerate),
+        "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
+        "scene": bank_spec.scene_data(spec, item.values),
     }
     return rendered, data, figures
+
+
+#: Level below the peak that ends the audible part of a sound (the manifest's
+#: ``audible_duration``), dB.
+AUDIBLE_BELOW_DB = -60.0
+
+
+def _last_above(audio: np.ndarray, below_db: float) -> int:
+    """Index after the last sample whose magnitude reaches ``below_db`` dB re the peak
+    (0 for silence)."""
+    mag = np.abs(audio) if audio.ndim == 1 else np.max(np.abs(audio), axis=1)
+    peak = float(mag.max()) if mag.size else 0.0
+    if not peak > 0:
+        return 0
+    above = np.flatnonzero(mag >= peak * 10.0 ** (below_db / 20.0))
+    return int(above[-1]) + 1
+
+
+def _audible_duration(audio: np.ndarray, samplerate: int) -> float:
+    """Time to the last sample within :data:`AUDIBLE_BELOW_DB` of the peak, s."""
+    return _last_above(audio, AUDIBLE_BELOW_DB) / samplerate
+
+
+def trim_tail(audio: np.ndarray, samplerate: int, trim: dict | None):
+    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak
+    (and at ``trim["max_length"]`` s), its last ``trim["fade"]`` s faded out with a
+    raised cosine; with the reason: "tail-cut", "max-length", or "whole" (nothing cut,
+    also without ``trim``)."""
+    if trim is None:
+        return audio, "whole"
+    n = audio.shape[0]
+    end, reason = min(n, _last_above(audio, trim["below_db"])), "tail-cut"
+    if trim["max_length"] is not None and end > round(trim["max_length"] * samplerate):
+        end, reason = round(trim["max_length"] * samplerate), "max-length"
+    if end >= n:
+        return audio, "whole"
+    out = np.array(audio[:end], dtype=np.float64)
+    k = min(end, round(trim["fade"] * samplerate))
+    if k > 0:
+        ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(1, k + 1) / k)))
+        out[end - k :] *= ramp if out.ndim == 1 else ramp[:, None]
+    return out, reason
+
+
+#: Oversampling of the true-peak estimate (ITU-R BS.1770-4, Annex 2: 4 at 48 kHz).
+TRUE_PEAK_OVERSAMPLING = 4
+
+
+def _true_peak_db(audio: np.ndarray) -> float | None:
+    """True peak, dBTP: the largest magnitude of ``audio`` upsampled
+    :data:`TRUE_PEAK_OVERSAMPLING` times (polyphase windowed-sinc interpolation,
+    scipy.signal.resample_poly), as ITU-R BS.1770-4 Annex 2 estimates it."""
+    from scipy.signal import resample_poly
+
+    x = np.asarray(audio, dtype=np.float64)
+    if not x.size:
+        return None
+    peak = float(np.max(np.abs(resample_poly(x, TRUE_PEAK_OVERSAMPLING, 1, axis=0))))
+    peak = max(peak, float(np.max(np.abs(x))))
+    return round(20 * math.log10(peak), 6) if peak > 0 else None
+
+
+def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
+    """Spectral centroid of the whole sound, Hz: the mean frequency of its power
+    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed; the sound zero-padded to
+    a length the FFT factors well, scipy.fft.next_fast_len, which samples the same
+    spectrum more finely)."""
+    from scipy import fft
+
+    x = np.asarray(audio, dtype=np.float64)
+    if x.ndim > 1:
+        x = x.sum(axis=1)
+    n = fft.next_fast_len(max(x.size, 1), real=True)
+    power = np.abs(fft.rfft(x, n)) ** 2
+    total = float(power.sum())
+    if not total > 0:
+        return None
+    f = fft.rfftfreq(n, 1.0 / samplerate)
+    return round(float(np.dot(f, power) / total), 6)
 
 
 def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
@@ -202,7 +299,9 @@ def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
 
 
 def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
-    """Render row ``item`` of ``spec`` and write its file into ``out_dir`` atomically:
+    """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
+    (:func:`synth.bank.manifest.write_once`: atomically, never over a file already
+    there; the run removes the stale files of the rows it renders before it starts):
     the task function of every worker (pool or Dask). A scene that fails gives a
     ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
     try:
@@ -211,12 +310,18 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
         row = _base_row(spec, item, "failed")
         row["error"] = f"{type(exc).__name__}: {exc}"
         return RowResult(row, max_rss=_max_rss())
+    target = Path(out_dir) / item.file
     try:
-        mf.write_atomic(Path(out_dir) / item.file, data)
+        target.parent.mkdir(parents=True, exist_ok=True)  # a subfolder of the template
+        if not mf.write_once(target, data):
+            # A file already there was published by another attempt of this row in this
+            # run (a Dask task recomputed after its worker was lost): it is kept, never
+            # rewritten, and the row records its bytes.
+            data = target.read_bytes()
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(figures, sha256=hashlib.sha256(data).hexdigest())
+    row.update(figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data))
     return RowResult(row, max_rss=_max_rss())
 
 
@@ -235,15 +340,56 @@ _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
 
 
-def _pool_init(spec: BankSpec, out_dir: str) -> None:
-    """A worker's start: SIGTERM takes its default action (the pool stops its workers
-    with SIGTERM when one dies; a forked worker would otherwise inherit the command
-    line's handler, which raises inside whatever library callback is running, where it
-    is swallowed and printed). A temporary left by a stopped worker is removed by the
-    next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
+#: The bank folder's lock file held by this process (see :func:`_lock`); a forked worker
+#: closes its copy so that only the parent holds the lock.
+_HELD_LOCK = None
+
+#: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG).
+PARENT_WATCH_PERIOD = 0.5
+
+
+def _die_with_parent(parent: int) -> None:
+    """Make this worker end when the process ``parent`` does (killed with -9 too), so a
+    killed bank leaves no worker behind (nor its hold on the folder's lock): on Linux the
+    kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``, prctl(2));
+    everywhere a daemon thread checks every :data:`PARENT_WATCH_PERIOD` s that the
+    parent is still this process's parent, and kills this process otherwise."""
+    import signal
+    import threading
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            pr_set_pdeathsig = 1
+            libc.prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # no prctl: the watch below does it
+            pass
+    if os.getppid() != parent:  # the parent died before the signal was armed
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(PARENT_WATCH_PERIOD)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch, name="synth-bank-parent-watch", daemon=True).start()
+
+
+def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
+    """A worker's start: it dies with its parent (:func:`_die_with_parent`), drops its
+    copy of the folder's lock, and SIGTERM takes its default action (the pool stops its
+    workers with SIGTERM when one dies; a forked worker would otherwise inherit the
+    command line's handler, which raises inside whatever library callback is running,
+    where it is swallowed and printed). A temporary left by a stopped worker is removed
+    by the next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
     import signal
 
     global _WORKER_SPEC, _WORKER_DIR
+    _die_with_parent(parent)
+    if _HELD_LOCK is not None:  # forked: closing the copy leaves the parent's lock held
+        _HELD_LOCK.close()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _WORKER_SPEC, _WORKER_DIR = spec, out_dir
     warm(spec)
@@ -300,7 +446,10 @@ class _Pool:
         os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
         try:
             self.executor = ProcessPoolExecutor(
-                jobs, mp_context=ctx, initializer=_pool_init, initargs=(spec, out_dir)
+                jobs,
+                mp_context=ctx,
+                initializer=_pool_init,
+                initargs=(spec, out_dir, os.getpid()),
             )
             # one no-op per worker: each submit starts a worker, each result is a warm one
             for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
@@ -333,26 +482,55 @@ class _Pool:
         self.executor.shutdown(wait=True, cancel_futures=True)
 
 
-class _Dask:
-    """The same task function on a Dask cluster (``scheduler``: an address or a Client)."""
+#: Time to reach a Dask scheduler before the bank is refused, s.
+CONNECT_TIMEOUT = 5.0
 
-    def __init__(self, spec, out_dir, scheduler):
-        try:
-            from dask.distributed import Client
-        except ImportError:
-            raise BankRunError(
-                "scheduler= needs the optional package dask.distributed: "
-                "pip install 'impact-synth[dask]'"
-            ) from None
-        self.own = not isinstance(scheduler, Client)
-        try:
-            self.client = Client(scheduler) if self.own else scheduler
-        except (OSError, ValueError, TimeoutError) as exc:
-            raise BankRunError(f"scheduler={scheduler!r}: cannot connect ({exc})") from None
+
+@dataclass
+class _Connection:
+    """A Dask client for the run, and whether the run made it (and so closes it)."""
+
+    client: object
+    own: bool
+
+    def close(self) -> None:
+        if self.own:
+            self.client.close()
+
+
+def _connect(scheduler) -> _Connection:
+    """A client of the Dask scheduler ``scheduler`` (an address or a Client), reached
+    within :data:`CONNECT_TIMEOUT` s, before the bank's folder is touched."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise BankRunError(
+            "scheduler= needs the optional package dask.distributed: "
+            "pip install 'impact-synth[dask]'"
+        ) from None
+    if isinstance(scheduler, Client):
+        return _Connection(scheduler, own=False)
+    try:
+        return _Connection(Client(scheduler, timeout=CONNECT_TIMEOUT), own=True)
+    except (OSError, ValueError, TypeError, TimeoutError) as exc:
+        raise BankRunError(
+            f"scheduler={scheduler!r}: cannot connect within {CONNECT_TIMEOUT:g} s ({exc}); "
+            f"nothing was written"
+        ) from None
+
+
+class _Dask:
+    """The same task function on a Dask cluster, through ``client``."""
+
+    def __init__(self, spec, out_dir, client):
+        self.client = client
         self.spec, self.out_dir = spec, out_dir
         self.client.run(warm, spec)
 
     def results(self, items):
+        """Each row's result as it finishes. A result read is released at once: the
+        scheduler then has no reason to recompute a finished task when the worker that
+        holds it is lost (only the rows still running or queued there are redone)."""
         from dask.distributed import as_completed
 
         spec = self.client.scatter(self.spec, broadcast=True)
@@ -361,31 +539,62 @@ class _Dask:
         ]
         self._futures = futures
         for fut in as_completed(futures):
-            yield fut.result()
+            try:
+                res = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a task the cluster lost (KilledWorker ...)
+                res = RowResult(
+                    None,
+                    fatal=f"the Dask cluster lost a row ({type(exc).__name__}: {exc})",
+                )
+            fut.release()
+            yield res
 
     def close(self):
         for fut in getattr(self, "_futures", ()):
             fut.cancel()
-        if self.own:
-            self.client.close()
 
 
 # ------------------------------------------------------------------------ the run
 
 
 def _lock(out_dir: Path):
-    """Hold the folder's lock file for the run (another run into it is refused)."""
+    """Hold the folder's lock file for the run (another run into it is refused). The
+    lock is the ``flock`` on the open file, so a run that was killed holds nothing; the
+    file is removed by :func:`_unlock`. A lock taken on a file that was removed meanwhile
+    (by the run that held it) is taken again on the new file."""
     try:
         import fcntl
     except ImportError:  # no advisory locks on this platform
         return None
-    fh = open(out_dir / mf.LOCK, "a")  # noqa: SIM115 - held for the run, closed by run()
-    try:
-        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
+    path = out_dir / mf.LOCK
+    for _ in range(100):
+        fh = open(path, "a")  # noqa: SIM115 - held for the run, closed by _unlock()
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.close()
+            raise BankRunError(
+                f"out_dir={str(out_dir)!r} is in use by another synth bank"
+            ) from None
+        try:
+            if os.stat(path).st_ino == os.fstat(fh.fileno()).st_ino:
+                return fh
+        except FileNotFoundError:
+            pass
         fh.close()
-        raise BankRunError(f"out_dir={str(out_dir)!r} is in use by another synth bank") from None
-    return fh
+    raise BankRunError(f"out_dir={str(out_dir)!r}: its lock file {mf.LOCK} keeps changing")
+
+
+def _unlock(out_dir: Path, fh) -> None:
+    """Remove the lock file (still holding its lock, so no other run holds it) and
+    release it: a finished bank's folder holds only its files and manifests."""
+    if fh is None:
+        return
+    try:
+        (out_dir / mf.LOCK).unlink(missing_ok=True)
+    except OSError:
+        pass
+    fh.close()
 
 
 def _as_spec(spec) -> BankSpec:
@@ -398,22 +607,39 @@ def _as_spec(spec) -> BankSpec:
     raise BankSpecError(f"spec={spec!r} must be a spec file, a dict or a BankSpec")
 
 
+def _grows(stored: dict, new: dict) -> bool:
+    """True if ``new`` is the stored spec with a larger ``count``: rows are drawn per
+    index (:func:`synth.bank.spec.variations`), so the rows done stay and the new ones
+    are added."""
+    old_count, new_count = stored.get("count"), new.get("count")
+    return (
+        isinstance(old_count, int)
+        and isinstance(new_count, int)
+        and new_count > old_count
+        and bank_spec.differences(stored, new) == ["count"]
+    )
+
+
+def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
+    diff = bank_spec.differences(stored, new)
+    raise BankSpecError(
+        f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
+        f"{', '.join(diff)}): use the same spec to resume, another folder, or "
+        f"--force to start over"
+    )
+
+
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     """Refuse a folder made by another spec (naming the keys that differ), or with
     ``force`` delete its files and manifest to start over."""
     stored = mf.read_spec(out_dir)
     new = spec.as_dict()
-    if stored is not None and stored != new:
-        diff = bank_spec.differences(stored, new)
+    if stored is not None and stored != new and not _grows(stored, new):
         if not force:
-            raise BankSpecError(
-                f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
-                f"{', '.join(diff)}): use the same spec to resume, another folder, or "
-                f"--force to start over"
-            )
+            _refuse_other_spec(out_dir, stored, new)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
-            if f.parent == out_dir and f.is_file():
+            if _inside(out_dir, f) and f.is_file():
                 f.unlink()
         for name in (mf.JSONL, mf.CSV):
             (out_dir / name).unlink(missing_ok=True)
@@ -434,12 +660,58 @@ def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
     return out
 
 
+def _inside(folder: Path, path: Path) -> bool:
+    """True if ``path`` lies in ``folder`` or one of its subfolders (a manifest's file
+    name is trusted no further than that)."""
+    try:
+        return (
+            path.resolve().is_relative_to(folder.resolve()) and path.resolve() != folder.resolve()
+        )
+    except OSError:
+        return False
+
+
+def _remove_stale_files(out_dir: Path, todo) -> None:
+    """Delete the files of the rows about to be rendered (left by a run that was killed
+    before recording them, or damaged since): a row's file is then published once, by
+    the first attempt that finishes (:func:`render_item`)."""
+    for item in todo:
+        (out_dir / item.file).unlink(missing_ok=True)
+
+
+def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
+    """The rows whose record holds: every ``ok`` row's file hashed again against its
+    recorded SHA-256. A row that does not match is dropped from the manifest (the next
+    run redoes it) and the bank is not reported complete."""
+    kept, bad = [], []
+    for row in rows:
+        path = out_dir / str(row.get("file", ""))
+        if row.get("status") == "ok" and not (
+            path.is_file() and mf.sha256_file(path) == row.get("sha256")
+        ):
+            bad.append(row["index"])
+            continue
+        kept.append(row)
+    if bad:
+        now = sum(1 for i in bad if i in recorded)  # rendered in this run, else skipped
+        result.done -= now
+        result.skipped -= len(bad) - now
+        result.stopped = result.stopped or (
+            f"{len(bad)} file(s) do not match their recorded SHA-256 (rows "
+            f"{', '.join(map(str, bad[:10]))}{' ...' if len(bad) > 10 else ''}): they are left "
+            f"out of the manifest; run again to redo them"
+        )
+    return kept
+
+
 def _estimate(spec: BankSpec, items, jobs: int) -> float:
     """Time to render ``items`` on ``jobs`` workers, from a few renders timed here."""
     if not items:
         return 0.0
     warm(spec)
-    sample = items[:ESTIMATE_RENDERS]
+    # rows spread over the plan (its first rows may all be alike: one grid corner)
+    picks = np.unique(np.linspace(0, len(items) - 1, min(ESTIMATE_RENDERS, len(items))).round())
+    sample = [items[int(i)] for i in picks]
     t0 = time.perf_counter()
     for item in sample:
         try:
@@ -460,9 +732,9 @@ def _progress(total: int):
     return tqdm(total=total, file=sys.stderr, unit="sound")
 
 
-def _executor(spec, out_dir: Path, jobs: int, scheduler):
-    if scheduler is not None:
-        return _Dask(spec, str(out_dir), scheduler)
+def _executor(spec, out_dir: Path, jobs: int, connection):
+    if connection is not None:
+        return _Dask(spec, str(out_dir), connection.client)
     if jobs == 1:
         return _Serial(spec, str(out_dir))
     return _Pool(spec, str(out_dir), jobs)
@@ -484,6 +756,7 @@ def run(
     scheduler=None,
     dry_run: bool = False,
     force: bool = False,
+    redo=None,
 ) -> BankResult:
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
     folder ``out_dir`` (created if needed), resuming what an earlier run left.
@@ -496,29 +769,50 @@ def run(
         A Dask scheduler's address (``"tcp://host:8786"``) or a client: the rows run on
         that cluster instead of the pool.
     dry_run : bool
-        Write the plan (the manifest, rows ``planned``) without audio, and estimate the
-        time from a few renders.
+        Change nothing (no folder, file, manifest or lock written or deleted, also with
+        ``force``): the rows that would be rendered (``result.planned_rows``) and an
+        estimate of the time from a few renders.
     force : bool
         Start over in a folder made by another spec (its files and manifest deleted).
+    redo : str or set of int, optional
+        Rows to render again although complete (``"17,40-45"``): their files are
+        replaced.
 
     Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
-    raises :class:`~synth.bank.spec.BankSpecError` before any work.
+    raises :class:`~synth.bank.spec.BankSpecError` before any work (every row's scene is
+    checked), a scheduler that cannot be reached a :class:`BankRunError` within
+    :data:`CONNECT_TIMEOUT` s; neither writes anything.
     """
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
+    again = frozenset() if redo is None else bank_spec.parse_rows(redo, len(items))
     out = Path(out_dir)
+    if dry_run:
+        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again)
+    connection = _connect(scheduler) if scheduler is not None else None
+    try:
+        return _run_in(spec, items, out, n_jobs, connection, force, again)
+    finally:
+        if connection is not None:
+            connection.close()
+
+
+def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool, again) -> BankResult:
+    """:func:`run` once the plan is checked and the cluster (if any) reached."""
+    global _HELD_LOCK
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
     try:
         lock = _lock(out)
+        _HELD_LOCK = lock
         try:
-            return _run(spec, items, out, n_jobs, scheduler, dry_run, force)
+            return _run(spec, items, out, n_jobs, connection, force, again)
         finally:
-            if lock is not None:
-                lock.close()
+            _HELD_LOCK = None
+            _unlock(out, lock)
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
         raise BankRunError(
             f"out_dir={str(out)!r}: {exc}; nothing finished was lost: run "
@@ -526,26 +820,43 @@ def run(
         ) from None
 
 
-def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
+def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) -> BankResult:
+    """What a run would do, without writing or deleting anything: the rows it would
+    render (``result.planned_rows``, status ``planned``), the rows already complete, and
+    an estimate of the time from a few renders done here. A folder of another spec is
+    refused as a run refuses it; with ``force`` every row counts as to be rendered."""
     t0 = time.perf_counter()
+    plan = {item.index: item for item in items}
+    stored = mf.read_spec(out) if out.is_dir() else None
+    other = stored is not None and stored != spec.as_dict() and not _grows(stored, spec.as_dict())
+    if other and not force:
+        _refuse_other_spec(out, stored, spec.as_dict())
+    kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
+    kept = [r for r in kept if r["index"] not in again]
+    done_ids = {r["index"] for r in kept}
+    todo = [item for item in items if item.index not in done_ids]
+    result = BankResult(out, len(items), skipped=len(kept))
+    result.planned_rows = [_base_row(spec, item, "planned") for item in todo]
+    result.estimate = _estimate(spec, todo, jobs)
+    result.elapsed = time.perf_counter() - t0
+    return result
+
+
+def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> BankResult:
     _check_stored(out, spec, force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
     book = mf.Manifest(out, mf.columns(spec.keys))
-    kept = _verified(out, mf.read_rows(out), plan)
+    kept = [r for r in _verified(out, mf.read_rows(out), plan) if r["index"] not in again]
     result = BankResult(out, len(items), skipped=len(kept))
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]
-    if dry_run:
-        planned = [_base_row(spec, item, "planned") for item in todo]
-        book.rewrite(kept + planned)
-        result.estimate = _estimate(spec, todo, n_jobs if scheduler is None else 1)
-        result.elapsed = time.perf_counter() - t0
-        return result
     book.rewrite(kept)
+    _remove_stale_files(out, todo)
     rows = list(kept)
+    recorded = set()
     t_start = time.perf_counter()
-    executor = _executor(spec, out, n_jobs, scheduler) if todo else None
+    executor = _executor(spec, out, n_jobs, connection) if todo else None
     result.startup = time.perf_counter() - t_start
     bar = _progress(len(todo))
     try:
@@ -554,6 +865,9 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
             if res.fatal is not None:
                 result.stopped = f"{res.fatal}; the finished rows are kept: run again to resume"
                 break
+            if res.row["index"] in recorded:  # a second attempt of a row (a lost worker's)
+                continue
+            recorded.add(res.row["index"])
             try:
                 book.append(res.row)
             except OSError as exc:
@@ -577,6 +891,7 @@ def _run(spec, items, out, n_jobs, scheduler, dry_run, force) -> BankResult:
             bar.close()
         book.close()
     result.elapsed = time.perf_counter() - t_start
+    rows = _final_check(out, rows, result, recorded)
     try:
         book.rewrite(rows)
     except OSError as exc:  # the appended rows stay; the next run rewrites them

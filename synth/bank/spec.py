@@ -8,6 +8,7 @@ A spec (every key; only ``preset`` is required)::
     seed = 7                        # integer >= 0 for the draws (default 0)
     name = "{preset}-{index:04d}"   # file name template, without the suffix
     format = "flac"                 # "wav", "flac" (default) or "ogg" (Vorbis)
+    sampling = "random"             # ranges: "random", "lhs" (Latin hypercube) or "grid"
 
     [vary]                          # axes: any preset key, dotted as in `synth render --set`
     "drop.height" = { min = 0.05, max = 0.3 }              # a range, drawn uniformly
@@ -16,20 +17,27 @@ A spec (every key; only ``preset`` is required)::
     "plate.thickness" = { min = 0.006, max = 0.018, log = true }  # log-uniform
     restitution_scale = [0.5, 1.0, 1.5]   # perception stimuli: 1 - e' = k (1 - e)
 
+    [trim]                          # optional: cut the tails (see TRIM_DEFAULTS)
+    below_db = -60.0
+
     [render]                        # overrides the preset's [render] (synth.render options)
     samplerate = 48000              # Hz
     normalize = "physical"          # "physical" (default for banks), "peak", "loudness", "none"
     subtype = "PCM_24"              # the files' sample format (soundfile subtype)
 
-With ``count``, variation ``i`` draws every axis from its own generator
-``numpy.random.default_rng([seed, i])`` (a list uniformly, a range uniformly or
-log-uniformly), so a variation does not depend on the count or on the other rows.
+With ``count``, variation ``i`` draws its ranges from its own generator
+``numpy.random.default_rng([seed, i])`` (uniformly or log-uniformly; with
+``sampling = "lhs"`` within strata dealt block by block, :func:`_lhs_fraction`) and its
+lists without replacement block by block (:func:`_list_value`), so a variation does not
+depend on the count or on the rows after it: raising ``count`` adds rows.
 Without ``count``, the plan is the grid of the list axes (the first axis varies
 slowest) and the ranges are drawn per grid point the same way.
 
 The name template is a Python format string over ``preset`` (the preset's name),
-``index`` and the axes: a dotted key is both ``{drop.height}`` and ``{drop_height}``
-(``{drop.position[0]:.2f}`` for a vector's component). The suffix comes from ``format``.
+``index`` and the axes; ``/`` makes subfolders (``"h{drop.height:.2f}/{index:04d}"``; no
+empty, hidden or ``..`` part, no absolute path). A dotted key is both ``{drop.height}``
+and ``{drop_height}`` (``{drop.position[0]:.2f}`` for a vector's component). The suffix
+comes from ``format``.
 
 ``restitution_scale`` (dimensionless ``k >= 0``) is the bank's one key that is not a preset
 key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene, as
@@ -58,7 +66,40 @@ from synth.errors import ParameterError
 from synth.io import presets
 
 #: Top-level keys of a spec.
-TOP_LEVEL = ("preset", "description", "count", "seed", "name", "format", "vary", "render")
+TOP_LEVEL = (
+    "preset",
+    "description",
+    "count",
+    "seed",
+    "name",
+    "format",
+    "vary",
+    "render",
+    "trim",
+    "sampling",
+    "labels",
+    "min_distance",
+)
+
+#: Draws tried for a row before a ``min_distance`` is declared too large.
+MIN_DISTANCE_ATTEMPTS = 1000
+
+#: Largest ``count`` with ``min_distance`` (each row is compared with every earlier one).
+MIN_DISTANCE_MAX_ROWS = 20_000
+
+#: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
+#: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
+#: geometrically).
+SAMPLINGS = ("random", "lhs", "grid")
+
+#: Rows of one Latin-hypercube block (``sampling = "lhs"``): within each block of this
+#: many consecutive rows every range axis has one row in each of as many equal strata.
+LHS_BLOCK = 32
+
+#: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
+#: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
+#: there, and at ``max_length`` s at most (None: no bound).
+TRIM_DEFAULTS = {"below_db": -60.0, "fade": 0.01, "max_length": None}
 
 #: File formats: suffix and soundfile format name, and the default subtype of each.
 FORMATS = {
@@ -73,8 +114,20 @@ RESTITUTION_SCALE = "restitution_scale"
 #: The bank's level default: one calibration for every file (see synth.io.audio).
 DEFAULT_NORMALIZE = "physical"
 
-#: Largest plan accepted (rows), a guard against a mistyped count or grid.
-MAX_ROWS = 10_000_000
+#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
+#: scene is built and checked before the bank starts, and a bank of this many sounds of
+#: about 0.1 s of rendering each is already a day of one core's work.
+MAX_ROWS = 100_000
+
+#: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
+#: is another bank): 2 draws list axes without replacement, block by block.
+PLAN_VERSION = 2
+
+#: Longest file name most file systems take, bytes (NAME_MAX of ext4, APFS, NTFS).
+MAX_NAME_BYTES = 255
+
+#: Where the example specs installed with the package are (usable by name).
+PACKAGE_BANKS = Path(__file__).resolve().parents[1] / "presets" / "banks"
 
 
 class BankSpecError(ParameterError):
@@ -98,18 +151,22 @@ class RangeAxis:
     low: float | tuple
     high: float | tuple
     log: bool = False
+    steps: int | None = None
 
-    def draw(self, rng: np.random.Generator):
-        """One value, drawn with ``rng``."""
+    def position(self, u: np.ndarray):
+        """The value at fractions ``u`` (one per component, in [0, 1]) of the range."""
         lo = np.atleast_1d(np.asarray(self.low, dtype=float))
         hi = np.atleast_1d(np.asarray(self.high, dtype=float))
-        u = rng.random(lo.size)
         if self.log:
             v = np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
         else:
             v = lo + u * (hi - lo)
         v = np.clip(v, lo, hi)  # rounding of lo + u (hi - lo) may cross hi by an ulp
         return [float(x) for x in v] if isinstance(self.low, tuple) else float(v[0])
+
+    def draw(self, rng: np.random.Generator):
+        """One value, drawn uniformly (log: log-uniformly) with ``rng``."""
+        return self.position(rng.random(np.atleast_1d(np.asarray(self.low)).size))
 
 
 @dataclass(frozen=True)
@@ -131,6 +188,10 @@ class BankSpec:
     subtype: str
     render: dict
     axes: tuple
+    trim: dict | None = None
+    sampling: str = "random"
+    labels: dict = dataclasses.field(default_factory=dict)
+    min_distance: float | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -150,6 +211,8 @@ class BankSpec:
                 axes[a.key] = list(a.values)
             else:
                 axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
+                if a.steps is not None:
+                    axes[a.key]["steps"] = a.steps
         return {
             "preset": self.preset_name,
             "preset_data": self.base,
@@ -160,6 +223,11 @@ class BankSpec:
             "subtype": self.subtype,
             "render": self.render,
             "vary": axes,
+            "plan": PLAN_VERSION,
+            "trim": self.trim,
+            "sampling": self.sampling,
+            "labels": self.labels,
+            "min_distance": self.min_distance,
         }
 
 
@@ -181,9 +249,31 @@ def _error(key: str, value, allowed: str) -> BankSpecError:
     return BankSpecError(f"{key}={value!r} {allowed}")
 
 
+def available() -> dict[str, Path]:
+    """The example specs installed with the package, by name (the file's stem)."""
+    return {p.stem: p for p in sorted(PACKAGE_BANKS.glob("*.toml"))}
+
+
+def find(path_or_name) -> Path:
+    """The spec file ``path_or_name``: a file, or the name of an installed example."""
+    p = Path(path_or_name)
+    if p.exists() or p.suffix == ".toml":
+        return p
+    known = available()
+    if str(path_or_name) in known:
+        return known[str(path_or_name)]
+    near = difflib.get_close_matches(str(path_or_name), known, n=2, cutoff=0.4)
+    hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+    raise BankSpecError(
+        f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
+        f"{', '.join(known) or 'none'}"
+    )
+
+
 def load(path) -> BankSpec:
-    """Read and check the spec file ``path`` (TOML)."""
-    p = Path(path)
+    """Read and check the spec file ``path`` (TOML), or the installed example of that
+    name (:func:`available`)."""
+    p = find(path)
     try:
         with open(p, "rb") as fh:
             data = tomllib.load(fh)
@@ -227,7 +317,16 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     if not isinstance(vary, dict):
         raise _error("vary", vary, "must be a table of axes")
     base_raw = presets.read(preset_path)
+    sampling = data.get("sampling", "random")
+    if sampling not in SAMPLINGS:
+        raise _error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
     axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    if sampling == "grid":
+        if count is not None:
+            raise _error("count", count, "must be left out with sampling = 'grid'")
+        axes = tuple(_grid_axis(a) for a in axes)
+    elif any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
+        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
     render_section = data.get("render", {})
     if not isinstance(render_section, dict):
         raise _error("render", render_section, "must be a table of render options")
@@ -260,9 +359,45 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         subtype=subtype,
         render=options,
         axes=axes,
+        trim=_trim(data.get("trim")),
+        sampling=sampling,
+        labels=_labels(data.get("labels", {}), axes),
+        min_distance=_min_distance(data.get("min_distance"), count, sampling, axes),
     )
     _check_template(spec)
     return spec
+
+
+def _trim(value) -> dict | None:
+    """The checked ``[trim]`` table (see :data:`TRIM_DEFAULTS`), or None."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise _error("trim", value, "must be a table: { below_db = -60, fade = 0.01 }")
+    for k in value:
+        if k not in TRIM_DEFAULTS:
+            raise _error(
+                f"trim.{k}", value[k], f"is not a key; allowed: {', '.join(TRIM_DEFAULTS)}"
+            )
+    out = dict(TRIM_DEFAULTS, **value)
+
+    def number(key):
+        v = out[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise _error(f"trim.{key}", v, "must be a finite number")
+        return float(v)
+
+    out["below_db"] = number("below_db")
+    if not out["below_db"] < 0.0:
+        raise _error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
+    out["fade"] = number("fade")
+    if not 0.0 <= out["fade"] <= 1.0:
+        raise _error("trim.fade", out["fade"], "must be in [0, 1] (s)")
+    if out["max_length"] is not None:
+        out["max_length"] = number("max_length")
+        if not out["max_length"] > out["fade"]:
+            raise _error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
+    return out
 
 
 def _preset(value, base_dir: Path) -> tuple[Path, str]:
@@ -324,8 +459,11 @@ def _axis(key: str, value, base_raw: dict):
 
 def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
     for k, v in value.items():
-        if k not in ("min", "max", "log"):
-            raise _error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log")
+        if k not in ("min", "max", "log", "steps"):
+            raise _error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log, steps")
+    steps = value.get("steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 2):
+        raise _error(f"{where}.steps", steps, "must be an integer >= 2 (values of the grid)")
     if "min" not in value or "max" not in value:
         raise _error(where, value, "needs both min and max")
     log = value.get("log", False)
@@ -343,7 +481,7 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
             raise _error(where, value, f"has min > max ({a!r} > {b!r})")
         if log and a <= 0.0:
             raise _error(where, value, "with log = true needs min > 0")
-    return RangeAxis(key, lo, hi, log)
+    return RangeAxis(key, lo, hi, log, steps)
 
 
 def _bound(where: str, v):
@@ -362,14 +500,110 @@ def _bound(where: str, v):
 # ----------------------------------------------------------------------------- the plan
 
 
-def _draw(spec: BankSpec, index: int, grid_point: dict | None) -> dict:
-    rng = np.random.default_rng([spec.seed, index])
-    values = {}
+def _grid_axis(axis):
+    """With ``sampling = "grid"``: a range as the list of its ``steps`` values (both
+    ends included, evenly or, with log, geometrically spaced, per component)."""
+    if isinstance(axis, ListAxis):
+        return axis
+    if axis.steps is None:
+        raise _error(f"vary.{axis.key}.steps", None, "is needed by sampling = 'grid'")
+    n = np.atleast_1d(np.asarray(axis.low, dtype=float)).size
+    fractions = np.linspace(0.0, 1.0, axis.steps)
+    return ListAxis(axis.key, tuple(axis.position(np.full(n, f)) for f in fractions))
+
+
+def _lhs_fraction(spec: BankSpec, number: int, size: int, index: int, rng) -> np.ndarray:
+    """Row ``index``'s fractions (one per component) of range axis ``number`` with
+    ``sampling = "lhs"``: in each block of :data:`LHS_BLOCK` rows, each component's
+    strata ``[j, j + 1) / LHS_BLOCK`` are dealt to the rows by a permutation drawn from
+    ``default_rng([seed, number, block, 2])`` (one per component), and the row's point in
+    its stratum by ``rng``; a row depends on its index alone."""
+    block, position = divmod(index, LHS_BLOCK)
+    perms = np.random.default_rng([spec.seed, number, block, 2])
+    strata = np.array([perms.permutation(LHS_BLOCK)[position] for _ in range(size)])
+    return (strata + rng.random(size)) / LHS_BLOCK
+
+
+def _list_value(spec: BankSpec, number: int, axis: ListAxis, index: int):
+    """Row ``index``'s value of list axis ``number`` with ``count``: drawn without
+    replacement block by block, rows ``k n .. k n + n - 1`` (``n`` values) taking a
+    permutation of the list drawn from ``default_rng([seed, number, k, 1])``; so every
+    value comes up once per block and a row depends on its index alone."""
+    n = len(axis.values)
+    block, position = divmod(index, n)
+    order = np.random.default_rng([spec.seed, number, block, 1]).permutation(n)
+    return axis.values[int(order[position])]
+
+
+def _min_distance(value, count, sampling, axes) -> float | None:
+    """The checked ``min_distance``: the least distance between two rows' range values,
+    each component scaled to [0, 1] over its range (log ranges in log), with ``count``
+    and random sampling."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise _error("min_distance", value, "must be a number > 0 (in the unit cube of the ranges)")
+    if count is None or sampling != "random":
+        raise _error("min_distance", value, "needs count and sampling = 'random'")
+    if count > MIN_DISTANCE_MAX_ROWS:
+        raise _error("count", count, f"must be <= {MIN_DISTANCE_MAX_ROWS} with min_distance")
+    if not any(isinstance(a, RangeAxis) for a in axes):
+        raise _error("min_distance", value, "needs a range axis in [vary]")
+    return float(value)
+
+
+def _unit_point(spec: BankSpec, values: dict) -> np.ndarray:
+    """A row's range values as a point of the unit cube (log ranges in log)."""
+    out = []
     for axis in spec.axes:
+        if not isinstance(axis, RangeAxis):
+            continue
+        v = np.atleast_1d(np.asarray(values[axis.key], dtype=float))
+        lo = np.atleast_1d(np.asarray(axis.low, dtype=float))
+        hi = np.atleast_1d(np.asarray(axis.high, dtype=float))
+        if axis.log:
+            v, lo, hi = np.log(v), np.log(lo), np.log(hi)
+        span = np.where(hi > lo, hi - lo, 1.0)
+        out.extend((v - lo) / span)
+    return np.array(out)
+
+
+def _spaced_variations(spec: BankSpec):
+    """Rows with ``min_distance``: row ``i`` draws from ``default_rng([seed, i])`` until
+    its point is at least ``min_distance`` from every earlier row's (so it depends on
+    its index and the rows before it, not on the count)."""
+    points = []
+    for i in range(spec.count):
+        rng = np.random.default_rng([spec.seed, i])
+        for _ in range(MIN_DISTANCE_ATTEMPTS):
+            values = _draw(spec, i, None, rng)
+            p = _unit_point(spec, values)
+            if not points or np.min(np.linalg.norm(np.array(points) - p, axis=1)) >= (
+                spec.min_distance
+            ):
+                break
+        else:
+            raise _error(
+                "min_distance",
+                spec.min_distance,
+                f"leaves no room for row {i} after {MIN_DISTANCE_ATTEMPTS} draws: lower it "
+                f"or the count",
+            )
+        points.append(p)
+        yield values
+
+
+def _draw(spec: BankSpec, index: int, grid_point: dict | None, rng=None) -> dict:
+    rng = np.random.default_rng([spec.seed, index]) if rng is None else rng
+    values = {}
+    for number, axis in enumerate(spec.axes):
         if grid_point is not None and axis.key in grid_point:
             values[axis.key] = grid_point[axis.key]
         elif isinstance(axis, ListAxis):
-            values[axis.key] = axis.values[int(rng.integers(len(axis.values)))]
+            values[axis.key] = _list_value(spec, number, axis, index)
+        elif spec.sampling == "lhs":
+            size = np.atleast_1d(np.asarray(axis.low)).size
+            values[axis.key] = axis.position(_lhs_fraction(spec, number, size, index, rng))
         else:
             values[axis.key] = axis.draw(rng)
     return values
@@ -383,6 +617,9 @@ def _rows(spec: BankSpec) -> int:
 
 def variations(spec: BankSpec):
     """The varied values of every row, in index order (a generator of dicts)."""
+    if spec.count is not None and spec.min_distance is not None:
+        yield from _spaced_variations(spec)
+        return
     if spec.count is not None:
         for i in range(spec.count):
             yield _draw(spec, i, None)
@@ -392,10 +629,60 @@ def variations(spec: BankSpec):
         yield _draw(spec, i, {a.key: v for a, v in zip(lists, combo)})
 
 
+class _Labelled:
+    """A row's value in the name template: formatted as the value itself, or with the
+    format spec ``label`` as its label from the spec's ``[labels]`` table."""
+
+    def __init__(self, key: str, value, table: dict | None):
+        self.key, self.value, self.table = key, value, table
+
+    def __getitem__(self, i):
+        return self.value[i]
+
+    def __format__(self, fmt: str) -> str:
+        if fmt != "label":
+            return format(self.value, fmt)
+        label = _label_of(self.table or {}, self.value)
+        if label is None:
+            raise ValueError(
+                f"labels.{self.key} has no label for {self.value!r} "
+                f"(labels: {', '.join(self.table or {}) or 'none'})"
+            )
+        return label
+
+
+def _label_of(table: dict, value):
+    """The label of ``value`` in a ``[labels]`` table keyed by the values as text."""
+    for text, label in table.items():
+        if text == str(value):
+            return label
+        try:
+            if float(text) == float(value):
+                return label
+        except (TypeError, ValueError):
+            continue
+    return None
+
+
+def _labels(value, axes) -> dict:
+    """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
+    and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
+    if not isinstance(value, dict):
+        raise _error("labels", value, "must be a table of varied keys")
+    keys = {a.key for a in axes}
+    for key, table in value.items():
+        if key not in keys:
+            raise _error(f"labels.{key}", table, f"is not a varied key; varied: {sorted(keys)}")
+        if not isinstance(table, dict) or not all(isinstance(v, str) and v for v in table.values()):
+            raise _error(f"labels.{key}", table, 'must be a table of value = "label"')
+    return {k: dict(v) for k, v in value.items()}
+
+
 def _mapping(spec: BankSpec, index: int, values: dict) -> dict:
     m = {"preset": spec.preset_name, "index": index}
     sections: dict = {}
     for key, v in values.items():
+        v = _Labelled(key, v, spec.labels.get(key))
         m[key.replace(".", "_")] = v
         if "." in key:
             section, field = key.split(".", 1)
@@ -416,14 +703,24 @@ def file_name(spec: BankSpec, index: int, values: dict) -> str:
             f"cannot be filled ({type(exc).__name__}: {exc}); "
             f"fields: preset, index, {', '.join(_field_names(spec))}",
         ) from None
-    if not stem or "/" in stem or "\\" in stem or stem.startswith(".") or "\0" in stem:
+    parts = stem.split("/")
+    if "\\" in stem or "\0" in stem or any(not part or part.startswith(".") for part in parts):
         raise _error(
             "name",
             spec.name,
-            f"makes the file name {stem!r}: a name must not be "
-            f"empty, contain a path separator or start with '.'",
+            f"makes the file name {stem!r}: a name's folders and file must not be empty or "
+            f"start with '.' (no '..', no absolute path), and '/' is the only separator",
         )
-    return f"{stem}.{spec.suffix}"
+    name = f"{stem}.{spec.suffix}"
+    longest = max((p for p in name.split("/")), key=lambda p: len(p.encode("utf-8")))
+    if len(longest.encode("utf-8")) > MAX_NAME_BYTES:
+        raise _error(
+            "name",
+            spec.name,
+            f"makes the name {longest!r} of {len(longest.encode('utf-8'))} bytes for row "
+            f"{index}: a file or folder name may have at most {MAX_NAME_BYTES} bytes",
+        )
+    return name
 
 
 def _field_names(spec: BankSpec) -> list[str]:
@@ -466,14 +763,17 @@ def _check_template(spec: BankSpec) -> None:
             )
 
 
-def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
-    """Every row of the bank, checked: the file names are distinct."""
+def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
+    """Every row of the bank, checked: the file names are distinct and short enough,
+    and (``check_scenes``) every row's scene and render options are valid
+    (:func:`check_rows`), so that a bank either starts clean or is refused."""
     n = _rows(spec)
     if n > MAX_ROWS:
         raise _error(
             "count" if spec.count is not None else "vary",
-            n,
-            f"rows is more than the {MAX_ROWS} a bank may have",
+            n if spec.count is not None else f"a grid of {n} rows",
+            f"is more than the {MAX_ROWS} rows a bank may have: split it into several "
+            f"banks (seeds or folders)",
         )
     items, seen = [], {}
     for index, values in enumerate(variations(spec)):
@@ -487,7 +787,51 @@ def plan(spec: BankSpec) -> tuple[PlanItem, ...]:
             )
         seen[f] = index
         items.append(PlanItem(index, f, values))
+    if check_scenes:
+        check_rows(spec, items)
     return tuple(items)
+
+
+#: Rows named in the message of a plan refused for its rows' values.
+ROWS_NAMED = 5
+
+
+def row_problem(spec: BankSpec, item: PlanItem) -> str | None:
+    """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
+    render options are built and checked as a render checks them, without solving
+    anything (no modes, no contact)."""
+    k = item.values.get(RESTITUTION_SCALE)
+    if k is not None and (
+        isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
+    ):
+        return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
+    try:
+        presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
+    except ParameterError as exc:
+        return str(exc).removeprefix(f"row {item.index}: ")
+    except (TypeError, ValueError) as exc:  # a value of the wrong type deep in a section
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+def check_rows(spec: BankSpec, items) -> None:
+    """Refuse the plan if a row's scene cannot be rendered (:func:`row_problem`), naming
+    the rows, their varied values and what is wrong."""
+    bad = []
+    for item in items:
+        problem = row_problem(spec, item)
+        if problem is not None:
+            bad.append((item, problem))
+    if not bad:
+        return
+    lines = [
+        f"row {item.index} ({', '.join(f'{k}={v!r}' for k, v in item.values.items())}): {why}"
+        for item, why in bad[:ROWS_NAMED]
+    ]
+    more = f"\n  ... and {len(bad) - ROWS_NAMED} more rows" if len(bad) > ROWS_NAMED else ""
+    raise BankSpecError(
+        f"vary: {len(bad)} of {len(items)} rows cannot be rendered:\n  " + "\n  ".join(lines) + more
+    )
 
 
 def scene_data(spec: BankSpec, values: dict) -> dict:
@@ -517,3 +861,28 @@ def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
         elif a != b:
             out.append(key)
     return out
+
+
+def parse_rows(text, planned: int) -> frozenset[int]:
+    """The row indices of ``text`` (``"17,40-45"``: indices and inclusive ranges, as
+    ``--redo`` takes them), each in ``0 .. planned - 1``."""
+    if isinstance(text, (set, frozenset, list, tuple)):
+        parts = [str(v) for v in text]
+    elif isinstance(text, str):
+        parts = [p.strip() for p in text.split(",")]
+    else:
+        raise _error("redo", text, "must be row indices such as '17,40-45'")
+    rows = set()
+    for part in parts:
+        lo, sep, hi = part.partition("-")
+        try:
+            first = int(lo)
+            last = int(hi) if sep else first
+        except ValueError:
+            raise _error("redo", text, f"has {part!r}, not an index or a range a-b") from None
+        if first < 0 or last < first or last >= planned:
+            raise _error(
+                "redo", text, f"has {part!r}: rows are 0 to {planned - 1}, ranges ascending"
+            )
+        rows.update(range(first, last + 1))
+    return frozenset(rows)

@@ -22,6 +22,7 @@ __all__ = [
     "temporary_sibling",
     "write_atomically",
     "write_json_atomically",
+    "write_once",
 ]
 
 
@@ -140,6 +141,28 @@ def write_atomically(
         _fsync(tmp)
         os.replace(tmp, path)
     return path
+
+
+def write_once(path: str | os.PathLike, data: bytes, *, error: type[Exception] = OSError) -> bool:
+    """Publish ``data`` as ``path`` unless ``path`` exists: written whole to a temporary
+    sibling, fsynced, then hard-linked onto ``path`` (``os.link`` fails when the target
+    exists, atomically, so of several writers racing for one name exactly one wins and
+    the file is never rewritten). Returns True if this call wrote the file, False if it
+    was there already. Where hard links are not supported, ``os.replace`` is used when no
+    file is there (a check and a rename: atomic for the reader, racy between writers)."""
+    path = Path(path)
+    with temporary_sibling(path, error) as tmp:
+        tmp.write_bytes(data)
+        _fsync(tmp)
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            return False
+        except OSError:  # no hard links on this file system
+            if path.exists():
+                return False
+            os.replace(tmp, path)
+    return True
 
 
 def write_json_atomically(

@@ -5,13 +5,17 @@ The eigen-solution depends only on the boundary, ``nu``, the aspect ratio
 ``L = max(a, b)``; E, rho, h and the size only scale its frequencies, and the
 damping law is applied afterwards. Free and clamped solutions are kept in memory
 and on disk (``.npz`` in ``$SYNTH_CACHE_DIR`` if set, else the platform's user
-cache directory + ``synth``), keyed by those numbers and the basis settings. A
-request for a lower band reuses a stored higher one. The simply supported closed
-form needs no cache.
+cache directory + ``synth``), keyed by those numbers, the basis settings and the
+band itself. Only a solution of exactly the requested band is reused: a wider band's
+solution has the same modes within the solver's tolerance but not to the last bit
+(its basis is larger), so serving a narrower request from it would make a result
+depend on what was solved before (the order of a bank's rows, the cache's state). The
+simply supported closed form needs no cache.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -121,24 +125,33 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
 
 
 def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache: bool):
-    """A converged solution covering ``omega_req``: from memory, disk, or solved."""
+    """The converged solution of the band ``omega_req`` (dimensionless): from memory,
+    disk, or solved; the same arrays whichever (see the module docstring)."""
     if not cache:
         sol = solve_ritz(boundary, nu, aspect, omega_req)
         CACHE.count("computed")
         return sol
-    key = solution_key(boundary, nu, aspect)
+    key = band_key(boundary, nu, aspect, omega_req)
 
-    def covers(held):
-        return held.omega_max >= omega_req
+    def solved_for(held):
+        return held.omega_max == omega_req
 
-    sol = CACHE.get(key, covers)
+    sol = CACHE.get(key, solved_for)
     if sol is not None:
         return sol
     sol = _load(key, boundary, nu, aspect)
-    if sol is not None and covers(sol):
+    if sol is not None and solved_for(sol):
         CACHE.put(key, sol, source="disk")
         return sol
     sol = solve_ritz(boundary, nu, aspect, omega_req)
-    CACHE.put(key, sol, source="computed", better=lambda held, new: held.omega_max >= new.omega_max)
+    CACHE.put(key, sol, source="computed")
     _save(sol, key)
     return sol
+
+
+def band_key(boundary: str, nu: float, aspect: float, omega_req: float) -> str:
+    """The cache key of the solution of exactly the band ``omega_req`` (dimensionless)."""
+    return json.dumps(
+        {"solution": solution_key(boundary, nu, aspect), "band": float(omega_req).hex()},
+        sort_keys=True,
+    )

@@ -55,10 +55,11 @@ _MAX_UNKNOWNS = 12000
 # Parity classes (x, y): 0 = even, 1 = odd.
 _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
 #: Symmetry classes with more unknowns than this (in the first basis tried) are solved on
-#: one BLAS thread (see _solve_classes); smaller ones, every preset's among them (at most
-#: 1732 unknowns at 48 kHz), with BLAS's own threads, whose partial sums, and so the last
-#: bits of the modes, depend on their number. ``math.inf``: never on one thread.
-ONE_THREAD_UNKNOWNS = 2500
+#: one BLAS thread (see _solve_classes). Every size is: BLAS's own threads split its sums
+#: by their number, so the last bits of the modes would depend on the process's thread
+#: count (a bank's workers run one thread, a command as many as the cores) and a result's
+#: bytes on where it was computed. ``math.inf``: never on one thread.
+ONE_THREAD_UNKNOWNS = 0
 
 
 @numba.njit(cache=True)

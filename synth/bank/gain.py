@@ -1,0 +1,211 @@
+"""One gain for a whole bank: a finished bank scaled into another folder.
+
+A bank rendered at the physical level (``normalize = "physical"``, one calibration for
+every file) keeps the sounds' relative levels; a bank to ship wants them at a usable
+level too. :func:`apply_gain` computes one gain from the finished bank's manifest
+
+* ``true_peak``: the loudest true peak of the bank to a target (default -1 dBTP), or
+* ``loudness``: the median integrated loudness of the bank to a target (LUFS; rows
+  below the -70 LUFS gate, with no loudness, are left out of the median),
+
+then decodes each file, scales it by that gain and encodes it again in the bank's
+format and subtype into ``out_dir`` (the same names; bytes a function of the samples,
+:mod:`synth.io.reproducible`). The source bank is not touched. The pass is resumable as
+the bank is: each file is published once and its row appended to ``out_dir``'s manifest
+after it; a rerun skips the rows whose file has the recorded hash. The manifest of
+``out_dir`` is the source's with ``gain_db`` and the level columns and hashes of the
+scaled files; the gain and its target are stored in ``out_dir/gain.json``.
+
+PCM files are decoded to 64-bit floats, scaled and quantized again (one more rounding,
+at most half a step of the subtype); an OGG file is decoded and encoded again (a second
+lossy generation): render a bank to be shipped as OGG in WAV or FLAC, and make the OGG
+files in this pass by ``format``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+import statistics
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from synth.bank import manifest as mf
+from synth.bank import spec as bank_spec
+from synth.bank.run import BankRunError
+from synth.bank.spec import BankSpecError
+from synth.io.reproducible import decoded_sha256, reproducible
+
+#: Targets of the gain and their defaults (dBTP, LUFS).
+TARGETS = {"true_peak": -1.0, "loudness": -23.0}
+
+#: File stored beside the scaled bank's manifest: the gain, its target and the source.
+GAIN_FILE = "gain.json"
+
+
+@dataclass
+class GainResult:
+    """The outcome of :func:`apply_gain`: the gain (dB), ``done`` files scaled now,
+    ``skipped`` found complete, and the pass' ``elapsed`` time (s)."""
+
+    out_dir: Path
+    gain_db: float
+    target: str
+    level: float
+    done: int = 0
+    skipped: int = 0
+    elapsed: float = 0.0
+
+    @property
+    def rate(self) -> float:
+        """Files scaled per second of the pass."""
+        return self.done / self.elapsed if self.elapsed > 0 else 0.0
+
+    def summary(self) -> str:
+        return (
+            f"{self.out_dir}: gain {self.gain_db:+.3f} dB ({self.target} to {self.level:g}); "
+            f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
+        )
+
+
+def bank_gain(rows: list[dict], target: str, level: float) -> float:
+    """The bank's gain, dB, from its manifest rows: ``level`` less the loudest true
+    peak (``target = "true_peak"``) or less the median loudness (``"loudness"``)."""
+    if target == "true_peak":
+        peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
+        if not peaks:
+            raise BankSpecError("target='true_peak': no row has a true peak (silent bank)")
+        return level - max(peaks)
+    values = [r["loudness_lufs"] for r in rows if r.get("loudness_lufs") is not None]
+    if not values:
+        raise BankSpecError(
+            "target='loudness': no row has a loudness (pyloudnorm missing: pip install "
+            "'impact-synth[loudness]', or every row below the -70 LUFS gate)"
+        )
+    return level - statistics.median(values)
+
+
+def _check_target(target: str, level) -> float:
+    if target not in TARGETS:
+        raise BankSpecError(f"target={target!r} must be one of {', '.join(map(repr, TARGETS))}")
+    level = TARGETS[target] if level is None else level
+    if isinstance(level, bool) or not isinstance(level, (int, float)) or not math.isfinite(level):
+        raise BankSpecError(f"level={level!r} must be a finite number (dBTP or LUFS)")
+    if target == "true_peak" and level > 0.0:
+        raise BankSpecError(f"level={level!r} must be <= 0 dBTP for target='true_peak'")
+    if target == "loudness" and not level < 0.0:
+        raise BankSpecError(f"level={level!r} must be < 0 LUFS for target='loudness'")
+    return float(level)
+
+
+def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
+    """The stored spec and the rows of a complete bank (every planned row ok, its file
+    with the recorded hash), else a BankRunError saying what is missing."""
+    spec = mf.read_spec(bank_dir)
+    if spec is None:
+        raise BankRunError(f"bank_dir={str(bank_dir)!r} holds no bank ({mf.SPEC} missing)")
+    rows = mf.read_rows(bank_dir)
+    bad = [
+        r["index"]
+        for r in rows
+        if r.get("status") != "ok"
+        or not (bank_dir / r["file"]).is_file()
+        or mf.sha256_file(bank_dir / r["file"]) != r.get("sha256")
+    ]
+    if bad or not rows:
+        raise BankRunError(
+            f"bank_dir={str(bank_dir)!r} is not a finished bank ({len(bad)} rows not ok or "
+            f"changed since: {bad[:10]}): run the bank to the end first"
+        )
+    return spec, rows
+
+
+def _scaled_row(row: dict, data: bytes, gain_db: float) -> dict:
+    new = dict(row)
+    new["gain_db"] = gain_db
+    for key in ("peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
+        if new.get(key) is not None:
+            new[key] = round(new[key] + gain_db, 6)
+    new["sha256"] = hashlib.sha256(data).hexdigest()
+    new["audio_sha256"] = decoded_sha256(data)
+    return new
+
+
+def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
+    """The file ``source`` decoded, scaled by ``gain_db`` and encoded again as the
+    bank's format and subtype; PCM that would clip is refused."""
+    import soundfile
+
+    from synth.io.audio import FLOAT_SUBTYPES
+
+    audio, samplerate = soundfile.read(source, dtype="float64")
+    audio = audio * 10.0 ** (gain_db / 20.0)
+    subtype = spec["subtype"]
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
+    if subtype not in FLOAT_SUBTYPES and peak > 1.0:
+        raise BankSpecError(
+            f"gain {gain_db:+.2f} dB makes {name!r} peak at {20 * math.log10(peak):+.2f} "
+            f"dBFS, above full scale, and subtype {subtype!r} would clip it: choose a lower "
+            f"level"
+        )
+    buf = io.BytesIO()
+    fmt = spec["format"]
+    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
+    return reproducible(buf.getvalue(), fmt, name)
+
+
+def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> GainResult:
+    """Scale the finished bank in ``bank_dir`` by one gain into ``out_dir`` (see the
+    module docstring). ``target``: "true_peak" (``level`` dBTP, default -1) or
+    "loudness" (``level`` LUFS, default -23)."""
+    level = _check_target(target, level)
+    src, out = Path(bank_dir), Path(out_dir)
+    if src.resolve() == out.resolve():
+        raise BankSpecError(f"out_dir={str(out)!r} must be another folder than the bank's")
+    spec, rows = _finished_rows(src)
+    gain_db = round(bank_gain(rows, target, level), 9)
+    record = {"source": str(src.resolve()), "spec": spec, "target": target, "level": level}
+    record["gain_db"] = gain_db
+    t0 = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    stored = out / GAIN_FILE
+    if stored.is_file() and json.loads(stored.read_text()) != record:
+        raise BankSpecError(
+            f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
+            f"use another folder"
+        )
+    mf.write_atomic(stored, (json.dumps(record, indent=1, sort_keys=True) + "\n").encode())
+    cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
+    book = mf.Manifest(out, cols)
+    done_rows = {
+        r["index"]: r
+        for r in mf.read_rows(out)
+        if (out / r["file"]).is_file() and mf.sha256_file(out / r["file"]) == r.get("sha256")
+    }
+    result = GainResult(out, gain_db, target, level, skipped=len(done_rows))
+    kept = list(done_rows.values())
+    book.rewrite(kept)
+    try:
+        for row in rows:
+            if row["index"] in done_rows:
+                continue
+            target_file = out / row["file"]
+            target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
+            target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
+            data = _scale_file(src / row["file"], spec, gain_db, row["file"])
+            if not mf.write_once(target_file, data):
+                data = target_file.read_bytes()
+            new = _scaled_row(row, data, gain_db)
+            book.append(new)
+            kept.append(new)
+            result.done += 1
+    finally:
+        book.close()
+        book.rewrite(kept)
+    result.elapsed = time.perf_counter() - t0
+    return result
