@@ -249,12 +249,15 @@ def impact(
     atol = rtol * ABSOLUTE_FACTOR
     stiff = (lam > STIFF_LAMBDA) if method == AUTO else (method == RADAU)
     f_scale = m * v0 / theta
-    out = solve(
-        lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT, stiff
-    )
-    if out[0] == MAX_STEPS and not stiff and method == AUTO:
+    # One call site of ``solve`` (the fallback is the loop's second pass): numba compiles
+    # a separate copy of ``solve`` and both integrators for a call with constant
+    # arguments (typed as literals), which doubled the first run's compile time.
+    for _ in range(2):
+        max_steps = IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT
+        out = solve(lam, G, n, c, b, rtol, atol, max_steps, stiff)
+        if not (out[0] == MAX_STEPS and not stiff and method == AUTO):
+            break
         stiff = True
-        out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, True)
     status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0

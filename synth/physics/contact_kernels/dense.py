@@ -38,7 +38,11 @@ def grow_history(hist, k):
     if k < hist.shape[0]:
         return hist
     new = np.empty((2 * hist.shape[0], hist.shape[1]))
-    new[: hist.shape[0]] = hist
+    # element by element: a slice assignment compiles numba's shape-mismatch error
+    # path (string formatting), seconds of the first run's compile time
+    for i in range(hist.shape[0]):
+        for j in range(hist.shape[1]):
+            new[i, j] = hist[i, j]
     return new
 
 

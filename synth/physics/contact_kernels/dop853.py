@@ -47,7 +47,7 @@ _D = np.ascontiguousarray(_dop.D)
 _A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def end_force_factor(w, c, b):
     """phi of the force phi x^n with which a contact ends at the speed -w (w < 0): 1 + c w
     for Hunt-Crossley (1 for Hertz), clipped at 0; 0 with the viscoelastic loss, whose force
