@@ -193,6 +193,13 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
     return max(v1, v2)
 
 
+#: The event functions of :func:`event`. numpy integers, not Python ints: numba types a
+#: constant int argument as a literal and compiles ``event_root`` once for each value.
+END_OF_CONTACT = np.int64(0)
+PEAK_PENETRATION = np.int64(1)
+SETTLING = np.int64(2)
+
+
 @numba.njit(cache=True)
 def event(which, x, w, lam, G, n, c, b, thr):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
