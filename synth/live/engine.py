@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
+from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
@@ -582,6 +583,7 @@ class Engine:
         self._cb_sum = 0.0
         self._cb_max = 0.0
         self._lead = 0.0
+        announce("live")
         kernel.warm_up()
 
     # -- bodies ---------------------------------------------------------------------------

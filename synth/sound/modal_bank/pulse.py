@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from synth.compilation import announce
 from synth.errors import ParameterError
 from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
 from synth.sound.modal_bank.transform_kernels import (
@@ -234,6 +235,7 @@ def impact_excitation(
     else:
         resp = response[:M]
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
+    announce("modal-bank")
     magnitude = transform_pulse(
         c.pole_re,
         c.pole_im,
