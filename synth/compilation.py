@@ -47,7 +47,7 @@ GROUPS = {
         KernelGroup(
             "contact",
             "the contact kernels",
-            ("synth.physics.contact_kernels", "impact"),
+            ("synth.physics.contact_kernels", "impact_explicit"),
             ("synth.physics.contact_kernels",),
         ),
         KernelGroup(
