@@ -59,7 +59,7 @@ GROUPS = {
         KernelGroup(
             "modal-bank",
             "the modal-bank kernels",
-            ("synth.sound.modal_bank.pulse", "transform_pulse"),
+            ("synth.sound.modal_bank.transform_kernels", "impact_transform"),
             ("synth.sound.modal_bank", "synth.vecmath"),
         ),
         KernelGroup(
