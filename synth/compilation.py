@@ -32,8 +32,9 @@ class KernelGroup:
 
     ``title`` names them in the note; ``probe`` is ``(module, kernel)``, the kernel whose
     disk cache tells whether the group has been compiled: the outermost one, compiled
-    last, so that its presence means the whole group is there. ``modules`` are the
-    modules whose compiles belong to the group (prefixes of the kernels' modules)."""
+    last, so that its presence means the whole group is there. ``modules`` are prefixes
+    of the ``module.qualname`` of the kernels that start the group's compiles (the
+    longest matching prefix wins)."""
 
     name: str
     title: str
@@ -49,6 +50,12 @@ GROUPS = {
             "the contact kernels",
             ("synth.physics.contact_kernels", "impact_explicit"),
             ("synth.physics.contact_kernels",),
+        ),
+        KernelGroup(
+            "stiff-contact",
+            "the stiff contact kernels (Radau IIA)",
+            ("synth.physics.contact_kernels", "impact_implicit"),
+            ("synth.physics.contact_kernels.impact_implicit",),
         ),
         KernelGroup(
             "modal-contact",
@@ -122,13 +129,15 @@ def recorded_seconds() -> dict[str, float]:
         return {}
 
 
-def group_of(kernel: str, outer: str = "other") -> str:
-    """The :data:`GROUPS` name of the kernel ``module.qualname``; for a kernel outside
-    them (numba's helpers), ``outer``, the group of the compile that needed it."""
+def group_of(kernel: str) -> str:
+    """The :data:`GROUPS` name of the kernel ``module.qualname`` (the group naming the
+    longest prefix of it), or "other"."""
+    best, length = "other", 0
     for g in GROUPS.values():
-        if kernel.startswith(g.modules):
-            return g.name
-    return outer
+        for prefix in g.modules:
+            if kernel.startswith(prefix) and len(prefix) > length:
+                best, length = g.name, len(prefix)
+    return best
 
 
 @dataclass
@@ -148,8 +157,9 @@ class Compile:
 @dataclass
 class CompileLog:
     """The compiles numba makes while :meth:`recording` (CPU time: ``time.process_time``;
-    numba compiles under a global lock, one at a time). A compile of numba's own helpers
-    counts in the group of the package's kernel that needed it."""
+    numba compiles under a global lock, one at a time). A compile counts in the group of
+    the outermost compile it was part of (the kernel called from Python): the time a
+    group takes to compile includes the kernels and numba's helpers it needed."""
 
     compiles: list[Compile] = field(default_factory=list)
     _open: list[list] = field(default_factory=list)
@@ -164,8 +174,8 @@ class CompileLog:
             def on_start(self, ev):
                 func = ev.data["dispatcher"].py_func
                 name = f"{func.__module__}.{func.__qualname__}"
-                outer = log._open[-1][3] if log._open else "other"
-                log._open.append([time.process_time(), 0.0, name, group_of(name, outer)])
+                group = log._open[0][3] if log._open else group_of(name)
+                log._open.append([time.process_time(), 0.0, name, group])
 
             def on_end(self, ev):
                 start, nested, name, group = log._open.pop()

@@ -22,12 +22,28 @@ from dataclasses import asdict, dataclass
 #: Cold-start targets, CPU seconds (user + system) of the whole child process.
 TARGETS = {"import": 0.5, "render": 15.0, "live": 15.0}
 
-#: What each case runs: arguments of ``python``.
+#: What each case runs: Python code, after :data:`PEAK_REPORT` (``{tmp}``: a scratch folder).
 CASES = {
-    "import": ["-c", "import synth"],
-    "render": ["-m", "synth", "render", "default", "-o", "{tmp}/default.wav"],
-    "live": ["-c", "from synth.warmup import live_example; live_example()"],
+    "import": "import synth",
+    "render": (
+        "from synth.cli import main\n"
+        "raise SystemExit(main(['render', 'default', '-o', '{tmp}/default.wav']))"
+    ),
+    "live": "from synth.warmup import live_example\nlive_example()",
 }
+
+#: The child's own peak resident memory, printed on stderr at exit: the kernel's
+#: high-water mark of its address space (``VmHWM``), which starts at ``exec``, whereas
+#: ``ru_maxrss`` keeps the forking parent's.
+PEAK_REPORT = (
+    "import atexit, sys\n"
+    "def _peak():\n"
+    "    for line in open('/proc/self/status'):\n"
+    "        if line.startswith('VmHWM:'):\n"
+    "            print('" + "{marker}" + "', line.split()[1], file=sys.stderr)\n"
+    "atexit.register(_peak)\n"
+)
+PEAK_MARKER = "synth-bench-cold-peak-kB"
 
 #: What each case is called in the table.
 TITLES = {
@@ -55,13 +71,17 @@ class Run:
     status: int
 
 
-def run_child(args: list[str], env: dict, timeout: float = 900.0) -> tuple:
-    """Run ``python *args`` and return (CPU s, wall s, peak MB, stderr, exit status) of
-    that child alone (``os.wait4``)."""
+def run_child(code: str, env: dict, timeout: float = 900.0) -> tuple:
+    """Run ``python -c code`` and return (CPU s, wall s, peak MB, stderr, exit status) of
+    that child alone (``os.wait4``; the peak from :data:`PEAK_REPORT` where the child
+    printed it, else ``ru_maxrss``)."""
     t0 = time.perf_counter()
     with tempfile.TemporaryFile() as err:
         proc = subprocess.Popen(
-            [sys.executable, *args], env=env, stdout=subprocess.DEVNULL, stderr=err
+            [sys.executable, "-c", PEAK_REPORT.replace("{marker}", PEAK_MARKER) + code],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
         )
         deadline = t0 + timeout
         while True:
@@ -78,7 +98,11 @@ def run_child(args: list[str], env: dict, timeout: float = 900.0) -> tuple:
         err.seek(0)
         stderr = err.read().decode(errors="replace")
     cpu = usage.ru_utime + usage.ru_stime
-    return cpu, wall, usage.ru_maxrss / 1024.0, stderr, proc.returncode  # Linux: KiB
+    peak_kb = usage.ru_maxrss  # Linux: KiB
+    for line in stderr.splitlines():
+        if line.startswith(PEAK_MARKER):
+            peak_kb = int(line.split()[1])
+    return cpu, wall, peak_kb / 1024.0, stderr, proc.returncode
 
 
 def run_cold(cases: tuple[str, ...] = tuple(CASES)) -> list[dict]:
@@ -92,9 +116,9 @@ def run_cold(cases: tuple[str, ...] = tuple(CASES)) -> list[dict]:
                 NUMBA_CACHE_DIR=os.path.join(tmp, "numba"),
                 SYNTH_CACHE_DIR=os.path.join(tmp, "synth"),
             )
-            args = [a.format(tmp=tmp) for a in CASES[case]]
+            code = CASES[case].replace("{tmp}", tmp)
             for cold in (True, False):
-                cpu, wall, peak, stderr, status = run_child(args, env)
+                cpu, wall, peak, stderr, status = run_child(code, env)
                 if status != 0:
                     lines = stderr.strip().splitlines()
                     raise RuntimeError(f"{case}: {lines[-1] if lines else 'failed'}")

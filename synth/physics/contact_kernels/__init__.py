@@ -30,7 +30,9 @@ import math
 import numba
 import numpy as np
 
+from synth.compilation import announce
 from synth.physics.contact_kernels.dense import (
+    DOP853_STEPS,
     END_OF_CONTACT,
     H_COLS,
     H_H,
@@ -38,6 +40,7 @@ from synth.physics.contact_kernels.dense import (
     H_W0,
     H_X0,
     PEAK_PENETRATION,
+    RADAU_STEPS,
     SETTLING,
     dense_state,
     event_root,
@@ -165,7 +168,9 @@ def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
     status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
         lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
-    return finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, False, lam, G, n, c, b)
+    return finish(
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b
+    )
 
 
 @numba.njit(cache=True)
@@ -175,7 +180,9 @@ def solve_implicit(lam, G, n, c, b, rtol, atol, max_steps):
     status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
         lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
-    return finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, True, lam, G, n, c, b)
+    return finish(
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b
+    )
 
 
 def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
@@ -271,9 +278,11 @@ def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     ``impact_implicit``), chosen here, so that a scene compiles only the one it uses.
     """
     if method != RADAU:
+        announce("contact")
         r, hist = impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method == AUTO)
         if r[R_STATUS] != IMPLICIT_NEEDED:
             return r, hist
+    announce("stiff-contact")
     return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
 
 
@@ -301,7 +310,7 @@ def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
     out = solve_explicit(lam, G, n, c, b, rtol, atol, EXPLICIT_STEP_LIMIT)
     if auto and out[0] == MAX_STEPS:
         return implicit_needed()
-    return result(out, False, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
+    return result(out, DOP853_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
 
 
 @numba.njit(cache=True)
@@ -310,7 +319,7 @@ def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
     atol = rtol * ABSOLUTE_FACTOR
     out = solve_implicit(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT)
-    return result(out, True, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
+    return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
 
 
 @numba.njit(cache=True)

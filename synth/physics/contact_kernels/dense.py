@@ -193,6 +193,12 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
     return max(v1, v2)
 
 
+#: Whether a history holds Radau IIA's steps (else DOP853's). numpy booleans, not Python
+#: ones: numba would compile every function of the history once for a literal True, once
+#: for a literal False and once for a run-time flag.
+DOP853_STEPS = np.bool_(False)
+RADAU_STEPS = np.bool_(True)
+
 #: The event functions of :func:`event`. numpy integers, not Python ints: numba types a
 #: constant int argument as a literal and compiles ``event_root`` once for each value.
 END_OF_CONTACT = np.int64(0)
