@@ -762,8 +762,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--record",
         action="store_true",
-        help="keep each kernel group's compile time for the first-use note (run on an "
-        "empty cache)",
+        help="keep each kernel group's compile time for the first-use note (run on an empty cache)",
     )
     p.set_defaults(func=_cmd_warmup)
 
