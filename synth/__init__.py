@@ -5,24 +5,55 @@ sizes (Hertz contact against the plate's mechanical impedance, with gravity),
 strung together by a bounce scheduler, and heard through a modal model of the
 finite plate. SI units throughout.
 
-Heavy optional parts (plotting, playback, loudness, distributed batches) are
-imported only where used.
+Every public name is imported on first use (PEP 562 module ``__getattr__``): ``import
+synth`` loads no numerical library, and a render loads neither the analysis, the live
+engine nor the sound banks.
 """
 
 from synth import jitcache  # noqa: F401  (first: picks numba's cache folder before numba loads)
-from synth.analysis import Analysis, Tick, analyze, analyze_file
 from synth.errors import ParameterError, SynthError
-from synth.io.audio import read_audio, write_audio
-from synth.io.playback import play
-from synth.io.presets import load_preset, render_preset
-from synth.live import Body, Engine, EngineStats
-from synth.physics import contact, materials
-from synth.physics.bounces import BounceSequence, Impact, simulate_bounces, simulate_scene
-from synth.physics.contact import ImpactResult, solve_contact, solve_impact
-from synth.physics.materials import LossFactor, Material, Rayleigh
-from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
-from synth.sound import modes as plate  # the plate's modes (kept under its public name)
-from synth.sound.render import Render, render
+
+#: Where each public name lives: imported from there on first use.
+_LAZY = {
+    "Analysis": "synth.analysis",
+    "Tick": "synth.analysis",
+    "analyze": "synth.analysis",
+    "analyze_file": "synth.analysis",
+    "read_audio": "synth.io.audio",
+    "write_audio": "synth.io.audio",
+    "play": "synth.io.playback",
+    "load_preset": "synth.io.presets",
+    "render_preset": "synth.io.presets",
+    "Body": "synth.live",
+    "Engine": "synth.live",
+    "EngineStats": "synth.live",
+    "BounceSequence": "synth.physics.bounces",
+    "Impact": "synth.physics.bounces",
+    "simulate_bounces": "synth.physics.bounces",
+    "simulate_scene": "synth.physics.bounces",
+    "ImpactResult": "synth.physics.contact",
+    "solve_contact": "synth.physics.contact",
+    "solve_impact": "synth.physics.contact",
+    "LossFactor": "synth.physics.materials",
+    "Material": "synth.physics.materials",
+    "Rayleigh": "synth.physics.materials",
+    "Accelerometer": "synth.physics.scene",
+    "Ball": "synth.physics.scene",
+    "Contact": "synth.physics.scene",
+    "Microphone": "synth.physics.scene",
+    "Plate": "synth.physics.scene",
+    "Scene": "synth.physics.scene",
+    "Render": "synth.sound.render",
+    "render": "synth.sound.render",
+}
+#: Public submodules, imported on first use; ``plate`` is the plate's modes under its
+#: public name.
+_SUBMODULES = {
+    "contact": "synth.physics.contact",
+    "materials": "synth.physics.materials",
+    "plate": "synth.sound.modes",
+    "bank": "synth.bank",
+}
 
 __all__ = [
     "Accelerometer",
@@ -65,9 +96,18 @@ __version__ = "0.2.0"
 
 
 def __getattr__(name):
-    # synth.bank (sound banks) is imported on first use: it is not needed to render.
-    if name == "bank":
-        import importlib
+    """The public name ``name``, imported from its module on first use (PEP 562)."""
+    import importlib
 
-        return importlib.import_module("synth.bank")
-    raise AttributeError(f"module 'synth' has no attribute {name!r}")
+    if name in _SUBMODULES:
+        value = importlib.import_module(_SUBMODULES[name])
+    elif name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+    else:
+        raise AttributeError(f"module 'synth' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__) | set(_SUBMODULES))

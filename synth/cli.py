@@ -505,6 +505,7 @@ def _cmd_bench(args):
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
         "hires": (bench.run_hires, bench.format_hires),
+        "cold": (bench.run_cold, bench.format_cold),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -530,6 +531,19 @@ def _cmd_bench(args):
             print(fmt(result))
         return 0
     raise SystemExit(f"unknown benchmark {args.what!r}")
+
+
+def _cmd_warmup(args):
+    from synth import warmup
+
+    chosen = warmup.steps()
+    if args.steps:
+        chosen = [chosen[i - 1] for i in args.steps]
+    done = warmup.run(chosen)
+    print(warmup.format_steps(done))
+    if args.record:
+        print(f"{warmup.record(done)}: compile times recorded")
+    return 0
 
 
 def _bank_bench():
@@ -883,6 +897,28 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=_cmd_play)
 
+    p = sub.add_parser(
+        "warmup",
+        help="compile every kernel ahead of time (images, installers); print what "
+        "compiled and how long each took",
+    )
+    p.add_argument(
+        "--step",
+        dest="steps",
+        type=int,
+        action="append",
+        choices=range(1, 5),
+        metavar="N",
+        help="run only step N (repeatable): 1 the presets' renders, 2 a stiff contact, "
+        "3 the live example, 4 the analysis",
+    )
+    p.add_argument(
+        "--record",
+        action="store_true",
+        help="keep each kernel group's compile time for the first-use note (run on an empty cache)",
+    )
+    p.set_defaults(func=_cmd_warmup)
+
     p = sub.add_parser("bench", help="error against run time")
     p.add_argument(
         "what",
@@ -896,6 +932,7 @@ def build_parser() -> argparse.ArgumentParser:
             "scale",
             "hires",
             "bank",
+            "cold",
         ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
@@ -905,7 +942,9 @@ def build_parser() -> argparse.ArgumentParser:
         "server; scale: cold and warm cost of modes, radiation gains and "
         "synthesis for a ladder of plates; hires: cold renders at 96, 192 and 384 kHz, "
         "and at 384 kHz with the previous paths; bank: sounds/s of a sound bank "
-        "against one process per file",
+        "against one process per file; cold: CPU and wall time and peak memory of the "
+        "first import synth, synth render default and live example on empty numba and "
+        "plate-mode caches, and the same warm",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument(

@@ -27,6 +27,7 @@ BENCH_PAGES = {
     "bank": "benchmarks.md",
     "scale": "benchmarks.md",
     "hires": "benchmarks.md",
+    "cold": "benchmarks.md",
 }
 
 _BLOCK = re.compile(

@@ -1,6 +1,6 @@
 """Benchmarks: numerical error against run time (``synth bench ...``).
 
-One module per benchmark (contact, render, thesis, analysis, long, scale, hires; the live
+One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold; the live
 engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
 figure is measured in one run on this machine, after a warm-up. Nothing here is imported
 by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
@@ -9,6 +9,7 @@ reaches every benchmark's public functions (the child processes of ``long``, ``s
 """
 
 from synth.bench.analysis import format_analysis, run_analysis, synthetic_bounce
+from synth.bench.cold import format_cold, run_cold
 from synth.bench.common import markdown_block
 from synth.bench.contact import (
     ContactCase,
@@ -61,7 +62,9 @@ __all__ = [
     "THESIS_TICK_DECAY",
     "ContactCase",
     "contact_cases",
+    "envelope_decay_time",
     "format_analysis",
+    "format_cold",
     "format_contact",
     "format_hires",
     "format_long",
@@ -78,6 +81,7 @@ __all__ = [
     "random_scale_specs",
     "render_scenes",
     "run_analysis",
+    "run_cold",
     "run_contact",
     "run_hires",
     "run_long",
@@ -89,7 +93,6 @@ __all__ = [
     "scipy_contact",
     "surface_fit",
     "synthetic_bounce",
-    "envelope_decay_time",
     "thesis_comparison",
     "thesis_lowspeed_rows",
     "thesis_modal_rows",

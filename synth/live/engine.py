@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
+from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
@@ -784,6 +785,7 @@ class Engine:
                 "use callback='python'"
             )
         max_bodies = _check_int("max_bodies", max_bodies, 1, 65536, "bodies")
+        announce("live")
         native.warm_up()
         self._native = native.EngineState(
             samplerate=self.samplerate,

@@ -38,7 +38,11 @@ def grow_history(hist, k):
     if k < hist.shape[0]:
         return hist
     new = np.empty((2 * hist.shape[0], hist.shape[1]))
-    new[: hist.shape[0]] = hist
+    # element by element: a slice assignment compiles numba's shape-mismatch error
+    # path (string formatting), seconds of the first run's compile time
+    for i in range(hist.shape[0]):
+        for j in range(hist.shape[1]):
+            new[i, j] = hist[i, j]
     return new
 
 
@@ -187,6 +191,19 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
             p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b)
             v1 = p[which]
     return max(v1, v2)
+
+
+#: Whether a history holds Radau IIA's steps (else DOP853's). numpy booleans, not Python
+#: ones: numba would compile every function of the history once for a literal True, once
+#: for a literal False and once for a run-time flag.
+DOP853_STEPS = np.bool_(False)
+RADAU_STEPS = np.bool_(True)
+
+#: The event functions of :func:`event`. numpy integers, not Python ints: numba types a
+#: constant int argument as a literal and compiles ``event_root`` once for each value.
+END_OF_CONTACT = np.int64(0)
+PEAK_PENETRATION = np.int64(1)
+SETTLING = np.int64(2)
 
 
 @numba.njit(cache=True)

@@ -47,7 +47,7 @@ _D = np.ascontiguousarray(_dop.D)
 _A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def end_force_factor(w, c, b):
     """phi of the force phi x^n with which a contact ends at the speed -w (w < 0): 1 + c w
     for Hunt-Crossley (1 for Hertz), clipped at 0; 0 with the viscoelastic loss, whose force
@@ -140,7 +140,7 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
     n_rows, n_rejected, hist), ``n_rows`` the rows of the history in use."""
     K = np.empty((16, 4))
     K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c, b)
-    nst = 1
+    nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2

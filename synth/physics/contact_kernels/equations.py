@@ -41,7 +41,7 @@ MAX_STEPS = -1
 STEP_TOO_SMALL = -2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def power(x, n):
     """x^n for x > 0, with fast paths for the usual exponents."""
     if n == 1.5:
@@ -63,7 +63,7 @@ def positive_power(a, n):
             a[i] = max(a[i], 0.0) ** n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def force(x, w, lam, n, c, b):
     """Dimensionless contact force f and its elastic part x^n (both 0 out of contact):
     ``f = x^n + d(x) x'`` with the damping ``d = c x^n + b x^(1/2)`` (module docstring)."""
@@ -84,7 +84,7 @@ def force(x, w, lam, n, c, b):
     return f, a
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def rhs(x, w, lam, G, n, c, b):
     """Right-hand side (x', w', I2', L') of the module docstring."""
     f, a = force(x, w, lam, n, c, b)
@@ -133,7 +133,7 @@ def settling_energy(x, w, lam, G, n):
     return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def penetration_rate(x, w, lam, n, c, b):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     f, _ = force(x, w, lam, n, c, b)

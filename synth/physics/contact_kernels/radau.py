@@ -83,7 +83,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
     f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
     h_old = -1.0
     err_old = -1.0
-    nst = 1
+    nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2

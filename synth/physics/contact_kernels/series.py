@@ -44,13 +44,13 @@ def new_series(b):
     return np.empty((7, SERIES_SIZE, SERIES_COLS if b != 0.0 else SERIES_SIZE))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def series_rows(n):
     """Highest j of the start series' terms s^(i + j n) (i, j >= 0, i + j n <= degree)."""
     return int(SERIES_DEGREE / n + 1e-9)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def series_len(j, n):
     """Highest i of row j of the start series."""
     return int(SERIES_DEGREE - j * n + 1e-9)

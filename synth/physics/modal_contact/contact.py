@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synth import checks
+from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
@@ -352,6 +353,7 @@ class ModalContact:
         rates = np.zeros(max_steps + 1)
         e0 = self.energy(state)
         w0 = state.displacement
+        announce("modal-contact")
         r = contact_kernel(
             omega,
             sigma,

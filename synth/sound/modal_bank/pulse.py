@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from synth.compilation import announce
 from synth.errors import ParameterError
 from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
 from synth.sound.modal_bank.transform_kernels import (
@@ -122,6 +123,14 @@ class ImpactExcitation:
 
 
 @numba.njit(cache=True)
+def long_contact(sigma_max, tau):
+    """True if the contact of ``tau`` s lasts more than ``LONG_CONTACT_NEPERS`` time
+    constants of the fastest-decaying mode (``sigma_max``, 1/s): the transforms of
+    :func:`long_impact_transform` rather than :func:`impact_transform`."""
+    return sigma_max * tau > LONG_CONTACT_NEPERS
+
+
+@numba.njit(cache=True)
 def transform_pulse(
     pr,
     pi,
@@ -148,7 +157,7 @@ def transform_pulse(
     arguments, its result), or :func:`long_impact_transform` when the contact of ``tau`` s lasts
     more than ``LONG_CONTACT_NEPERS`` time constants of the fastest-decaying mode
     (``sigma_max``, 1/s). Compiled, so that the live engine's audio thread calls it too."""
-    if sigma_max * tau > LONG_CONTACT_NEPERS:
+    if long_contact(sigma_max, tau):
         return long_impact_transform(
             pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
             offset_forces, offset_slopes, weight, tau, order, amps, resp, work,
@@ -234,14 +243,16 @@ def impact_excitation(
     else:
         resp = response[:M]
     amps = np.zeros(c.poles.size, dtype=complex) if amplitudes is None else amplitudes
-    magnitude = transform_pulse(
+    announce("modal-bank")
+    # transform_pulse's choice, made here: a render compiles only the transform it uses
+    transform = long_impact_transform if long_contact(c.sigma_max, tau) else impact_transform
+    magnitude = transform(
         c.pole_re,
         c.pole_im,
         c.coef_re,
         c.coef_im,
         c.step_re,
         c.step_im,
-        c.sigma_max,
         1.0 / fs,
         lay.step,
         forces[:n],

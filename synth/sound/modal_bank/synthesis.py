@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from synth.compilation import announce
 from synth.errors import ParameterError
 from synth.sound.modal_bank.bank_kernels import TILE, ring_bank
 from synth.sound.modal_bank.coefficients import bank_coefficients
@@ -110,6 +111,7 @@ def synthesize(
     if max_samples is not None:
         length = min(length, int(max_samples))
     out = np.zeros(length)
+    announce("modal-bank")
     t_bank = time.perf_counter()
     work, last, left = (
         ring_bank(

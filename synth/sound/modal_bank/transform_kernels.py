@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from synth.vecmath import FASTMATH_EXACT_FUNCTIONS, cis, exp_small, halvings_for
 
@@ -198,7 +199,7 @@ def impact_transform(
     for k in range(K):
         s2r[k] = sr[k] * sr[k] - si[k] * si[k]
         s2i[k] = 2.0 * sr[k] * si[k]
-    m = 0
+    m = np.int64(0)  # not the literal 0: numba would compile _in_contact for it too
     for j in range(0, N, 2):
         fj = forces[j]
         c_j = 0.5 * fj if (j == 0 or j == N - 1) else fj
@@ -317,7 +318,7 @@ def long_impact_transform(
         s2i[k] = mag * math.sin(2.0 * pi[k] * h)
     ar, ai, br, bi = work[4], work[5], work[6], work[7]
     work[4:8] = 0.0
-    m = 0
+    m = np.int64(0)  # not the literal 0: numba would compile _in_contact for it too
     half = 0.5 * h
     f_prev = forces[0]
     for j in range(N):

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from synth.compilation import announce
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.radiation.common import (
@@ -136,6 +137,7 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
+    announce("radiation")
     with ThreadPoolExecutor(max_workers=workers) as pool:
         running = []
         for start in range(0, n_total, chunk):
@@ -240,6 +242,7 @@ def _product_sums(
                 else:
                     for k in range(m):
                         row[k] = ax[k] * ay[k]
+            announce("radiation")
             accumulate(0, n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
 
 

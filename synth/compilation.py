@@ -1,0 +1,213 @@
+"""First use of the compiled kernels: what compiles, how long it takes, and a note first.
+
+numba compiles a kernel on its first call and keeps the machine code in its disk cache
+(``cache=True``, folder chosen by :mod:`synth.jitcache`); later processes load it at once.
+On an empty cache a render spends most of its time compiling. This module
+
+- records every compile numba makes (``numba:compile`` events of ``numba.core.event``),
+  with the CPU time it took itself and with the kernels it compiled on the way
+  (:class:`CompileLog`), for ``synth warmup`` and ``synth bench cold``;
+- names the kernel groups whose compile takes seconds (:data:`GROUPS`) and tells, once per
+  process and only when the group is really missing from the disk cache, that it is
+  about to compile (:func:`announce`), with the CPU time its compile took when measured
+  (the figures ``synth warmup --record`` keeps beside this module).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+#: The measured compile time (CPU s) of each group, written by ``synth warmup --record``.
+COMPILE_TIMES = Path(__file__).with_name("compile_times.json")
+
+
+@dataclass(frozen=True)
+class KernelGroup:
+    """Kernels compiled together on their first use.
+
+    ``title`` names them in the note; ``probe`` is ``(module, kernel)``, the kernel whose
+    disk cache tells whether the group has been compiled: the outermost one, compiled
+    last, so that its presence means the whole group is there. ``modules`` are prefixes
+    of the ``module.qualname`` of the kernels that start the group's compiles (the
+    longest matching prefix wins)."""
+
+    name: str
+    title: str
+    probe: tuple[str, str]
+    modules: tuple[str, ...]
+
+
+GROUPS = {
+    g.name: g
+    for g in (
+        KernelGroup(
+            "contact",
+            "the contact kernels",
+            ("synth.physics.contact_kernels", "impact_explicit"),
+            ("synth.physics.contact_kernels",),
+        ),
+        KernelGroup(
+            "stiff-contact",
+            "the stiff contact kernels (Radau IIA)",
+            ("synth.physics.contact_kernels", "impact_implicit"),
+            ("synth.physics.contact_kernels.impact_implicit",),
+        ),
+        KernelGroup(
+            "modal-contact",
+            "the plate-coupled contact kernels",
+            ("synth.physics.modal_contact.kernels", "contact_kernel"),
+            ("synth.physics.modal_contact",),
+        ),
+        KernelGroup(
+            "modal-bank",
+            "the modal-bank kernels",
+            ("synth.sound.modal_bank.transform_kernels", "impact_transform"),
+            ("synth.sound.modal_bank", "synth.vecmath"),
+        ),
+        KernelGroup(
+            "radiation",
+            "the radiation kernels",
+            ("synth.sound.radiation.common", "accumulate"),
+            ("synth.sound.radiation",),
+        ),
+        KernelGroup(
+            "live",
+            "the live engine's kernels",
+            ("synth.live.kernel", "mix_body"),
+            ("synth.live",),
+        ),
+    )
+}
+
+_announced: set[str] = set()
+
+
+def announce(name: str, stream=None) -> None:
+    """Before the first use of the kernel group ``name`` in this process: one line on
+    ``stream`` (stderr) if the group is not in numba's disk cache, so that a first run
+    does not compile in silence. Nothing on a warm cache; nothing the second time."""
+    if name in _announced:
+        return
+    _announced.add(name)
+    group = GROUPS[name]
+    if is_cached(group):
+        return
+    seconds = recorded_seconds().get(name)
+    about = f" (about {seconds:.0f} s of CPU)" if seconds else ""
+    print(
+        f"synth: compiling {group.title} for first use{about}; later runs start at once",
+        file=sys.stderr if stream is None else stream,
+        flush=True,
+    )
+
+
+def is_cached(group: KernelGroup) -> bool:
+    """True if the group's probe kernel is compiled in this process or has an entry in
+    numba's disk cache for this source (numba drops an index whose source changed).
+    Where numba's cache cannot be read (caching off, another numba), True: no note is
+    better than a wrong one."""
+    module, kernel = group.probe
+    dispatcher = getattr(importlib.import_module(module), kernel)
+    if dispatcher.overloads:
+        return True
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:
+        return True
+
+
+def recorded_seconds() -> dict[str, float]:
+    """The compile time (CPU s) of each group from the last ``synth warmup --record``."""
+    try:
+        return {k: float(v) for k, v in json.loads(COMPILE_TIMES.read_text()).items()}
+    except (OSError, ValueError, AttributeError):
+        return {}
+
+
+def group_of(kernel: str) -> str:
+    """The :data:`GROUPS` name of the kernel ``module.qualname`` (the group naming the
+    longest prefix of it), or "other"."""
+    best, length = "other", 0
+    for g in GROUPS.values():
+        for prefix in g.modules:
+            if kernel.startswith(prefix) and len(prefix) > length:
+                best, length = g.name, len(prefix)
+    return best
+
+
+@dataclass
+class Compile:
+    """One compile by numba: the kernel (``module.qualname``), its argument types, the CPU
+    time (s) of the compile itself and with the kernels it compiled on the way, and how
+    deep it was nested in another compile (0: called from Python), and its group."""
+
+    kernel: str
+    signature: str
+    own_seconds: float
+    total_seconds: float
+    depth: int
+    group: str
+
+
+@dataclass
+class CompileLog:
+    """The compiles numba makes while :meth:`recording` (CPU time: ``time.process_time``;
+    numba compiles under a global lock, one at a time). A compile counts in the group of
+    the outermost compile it was part of (the kernel called from Python): the time a
+    group takes to compile includes the kernels and numba's helpers it needed."""
+
+    compiles: list[Compile] = field(default_factory=list)
+    _open: list[list] = field(default_factory=list)
+
+    def recording(self):
+        """Context manager: listen to numba's compile events while inside."""
+        from numba.core import event
+
+        log = self
+
+        class _Listener(event.Listener):
+            def on_start(self, ev):
+                func = ev.data["dispatcher"].py_func
+                name = f"{func.__module__}.{func.__qualname__}"
+                group = log._open[0][3] if log._open else group_of(name)
+                log._open.append([time.process_time(), 0.0, name, group])
+
+            def on_end(self, ev):
+                start, nested, name, group = log._open.pop()
+                took = time.process_time() - start
+                if log._open:
+                    log._open[-1][1] += took
+                signature = ", ".join(str(a) for a in ev.data["args"])
+                log.compiles.append(
+                    Compile(name, signature, took - nested, took, len(log._open), group)
+                )
+
+        return event.install_listener("numba:compile", _Listener())
+
+    @property
+    def seconds(self) -> float:
+        """CPU time of all the compiles (s)."""
+        return sum(c.own_seconds for c in self.compiles)
+
+    def by_group(self) -> dict[str, float]:
+        """CPU time of the compiles (s) by kernel group."""
+        out: dict[str, float] = {}
+        for c in self.compiles:
+            out[c.group] = out.get(c.group, 0.0) + c.own_seconds
+        return out
+
+    def by_kernel(self) -> list[tuple[str, int, float]]:
+        """``(kernel, compiles, CPU s)`` for each kernel of the package (numba's own
+        helpers summed under their module), the longest first."""
+        rows: dict[str, list] = {}
+        for c in self.compiles:
+            key = c.kernel if c.kernel.startswith("synth.") else c.kernel.split(".<locals>")[0]
+            row = rows.setdefault(key, [0, 0.0])
+            row[0] += 1
+            row[1] += c.own_seconds
+        return sorted(((k, n, s) for k, (n, s) in rows.items()), key=lambda r: -r[2])

@@ -1,0 +1,125 @@
+"""``synth warmup``: compile every kernel ahead of time (for images and installers).
+
+numba compiles a kernel for the argument types of its first call, so the kernels are
+compiled by running what calls them, on real inputs: the renders of the presets (the
+contact, plate-coupled contact, modal-bank, radiation and mode kernels), the live
+engine's first block (the README's live example, offline), the analysis of a render and
+the change of its restitution. Each step's compiles are recorded (:mod:`synth.compilation`)
+and printed, kernel by kernel, with the CPU time each took; on a warm cache nothing
+compiles and every step says so.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from synth.compilation import COMPILE_TIMES, CompileLog
+
+#: Sample rate of the warm-up's renders (Hz): the presets' own rate, which sets no type.
+SAMPLERATE = 48000
+
+
+@dataclass
+class Step:
+    """One warm-up step: its name, what it runs, and (after :func:`run`) the compiles it
+    caused and its CPU time (s)."""
+
+    name: str
+    action: Callable[[], object]
+    log: CompileLog = field(default_factory=CompileLog)
+    seconds: float = 0.0
+
+
+def _render_presets():
+    from synth.io.presets import available, render_preset
+
+    return [render_preset(name) for name in available()]
+
+
+def _stiff_contact():
+    """A contact integrated by Radau IIA (the method named: the automatic choice takes
+    it above Zener's lam = 20), which the presets may not reach."""
+    from synth.physics.contact import solve_contact
+
+    return solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method="Radau")
+
+
+def live_example(samplerate: float = SAMPLERATE):
+    """The README's live example ("Live, from UI and game code"), offline: the engine's
+    own mixing without an audio device. Returns the first 4800 samples."""
+    import synth
+
+    engine = synth.Engine(samplerate=samplerate, blocksize=256)
+    table = engine.add(synth.Plate("mdf-18", thickness=0.018, length=1.2, width=0.6))
+    table.hit(synth.Ball("steel", radius=0.005), 1.5, position=(0.3, 0.2))
+    return engine.process(4800)
+
+
+def _analysis():
+    from synth.analysis import analyze
+    from synth.io.presets import render_preset
+    from synth.stimuli.alter import alter_restitution
+
+    rendered = render_preset("default")
+    analyze(rendered.audio, rendered.samplerate)
+    return alter_restitution(rendered.audio, rendered.samplerate, 0.5)
+
+
+def steps() -> list[Step]:
+    """The warm-up's steps, in order."""
+    return [
+        Step("render every preset", _render_presets),
+        Step("stiff contact (Radau IIA)", _stiff_contact),
+        Step("live example (offline)", live_example),
+        Step("analysis and restitution change", _analysis),
+    ]
+
+
+def run(selected: list[Step] | None = None) -> list[Step]:
+    """Run the steps (default: all), recording what each compiles."""
+    done = steps() if selected is None else selected
+    for step in done:
+        start = time.process_time()
+        with step.log.recording():
+            step.action()
+        step.seconds = time.process_time() - start
+    return done
+
+
+def format_steps(done: list[Step]) -> str:
+    """What each step compiled (kernel, number of specialisations, CPU s), the longest
+    first, and the totals."""
+    lines = []
+    total = CompileLog()
+    for step in done:
+        total.compiles.extend(step.log.compiles)
+        rows = step.log.by_kernel()
+        lines.append(
+            f"{step.name}: {len(step.log.compiles)} compiles, "
+            f"{step.log.seconds:.1f} s of {step.seconds:.1f} s CPU"
+            + ("" if rows else " (all kernels already compiled)")
+        )
+        for kernel, count, seconds in rows:
+            lines.append(f"  {seconds:7.2f} s  {kernel}" + (f" (x{count})" if count > 1 else ""))
+    groups = ", ".join(f"{g} {s:.1f} s" for g, s in sorted(total.by_group().items()))
+    lines.append(
+        f"total: {len(total.compiles)} compiles, {total.seconds:.1f} s CPU"
+        + (f" ({groups})" if groups else "")
+    )
+    return "\n".join(lines)
+
+
+def record(done: list[Step]) -> str:
+    """Write the compile time of each kernel group (CPU s) to the file that the
+    first-use note reads (:data:`synth.compilation.COMPILE_TIMES`); returns its path.
+    Only from a warm-up that compiled everything (an empty cache)."""
+    import json
+
+    total = CompileLog()
+    for step in done:
+        total.compiles.extend(step.log.compiles)
+    times = {g: round(s, 1) for g, s in sorted(total.by_group().items()) if g != "other"}
+    COMPILE_TIMES.write_text(json.dumps(times, indent=1) + "\n")
+    return str(COMPILE_TIMES)

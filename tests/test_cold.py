@@ -1,0 +1,165 @@
+"""First use: a light `import synth`, one compile per kernel, the note before a cold compile,
+`synth warmup` and `synth bench cold`.
+
+The cold cases run in subprocesses with their own empty NUMBA_CACHE_DIR (numba's disk
+cache) so that the developer's warm cache is neither used nor touched.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numba
+import pytest
+
+NOTE = "synth: compiling "
+
+
+def _python(code: str, env: dict | None = None, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, **(env or {})),
+        cwd=cwd,
+        check=False,
+        timeout=900,
+    )
+
+
+def test_import_synth_loads_no_numerical_library_and_every_name_resolves():
+    code = (
+        "import sys, synth\n"
+        "heavy = sorted(m for m in ('numpy', 'numba', 'scipy', 'synth.analysis', 'synth.live')"
+        " if m in sys.modules)\n"
+        "print(heavy)\n"
+        "names = [n for n in synth.__all__ if getattr(synth, n, None) is None]\n"
+        "print(names, set(synth.__all__) <= set(dir(synth)))\n"
+        "print(synth.plate.__name__, synth.contact.__name__, synth.materials.__name__)\n"
+    )
+    proc = _python(code)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0] == "[]"
+    assert lines[1] == "[] True"
+    assert lines[2] == "synth.sound.modes synth.physics.contact synth.physics.materials"
+
+
+def test_unknown_attribute_is_an_attribute_error():
+    import synth
+
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        synth.nonexistent  # noqa: B018
+
+
+def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks(tmp_path):
+    code = (
+        "import sys\n"
+        "from synth.cli import main\n"
+        f"main(['render', 'default', '-o', {str(tmp_path / 'x.wav')!r}])\n"
+        "print(sorted(m for m in ('synth.analysis', 'synth.live', 'synth.bank', 'sounddevice',"
+        " 'matplotlib') if m in sys.modules))\n"
+    )
+    proc = _python(code)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.splitlines()[-1] == "[]"
+
+
+@pytest.mark.slow
+def test_every_kernel_of_a_render_and_a_contact_compiles_once(tmp_path):
+    # A constant argument (or a counter started at a constant) reaches a compiled callee
+    # typed as a literal, and numba compiles the callee once more for it: event_root was
+    # compiled three times per integrator, solve and both integrators twice, _in_contact
+    # twice. On an empty cache, every kernel of the package compiles one specialisation.
+    code = (
+        "import json\n"
+        "from synth.compilation import CompileLog\n"
+        "from synth.io.presets import render_preset\n"
+        "from synth.physics.contact import solve_contact\n"
+        "log = CompileLog()\n"
+        "with log.recording():\n"
+        "    render_preset('default')\n"
+        "    for method in ('auto', 'Radau'):\n"
+        "        solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0,"
+        " method=method)\n"
+        "    solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0,"
+        " viscous_time=1e-7)\n"
+        "print(json.dumps([[k, n] for k, n, _ in log.by_kernel() if k.startswith('synth.')]))\n"
+    )
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba"), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
+    proc = _python(code, env)
+    assert proc.returncode == 0, proc.stderr
+    counts = dict(json.loads(proc.stdout.splitlines()[-1]))
+    assert counts["synth.physics.contact_kernels.dense.event_root"] >= 1
+    assert counts["synth.sound.modal_bank.transform_kernels._in_contact"] >= 1
+    assert counts["synth.physics.contact_kernels.radau.integrate_radau"] >= 1
+    assert {k: n for k, n in counts.items() if n != 1} == {}
+
+
+def test_compile_log_records_a_compile_with_its_own_and_total_time():
+    from synth.compilation import CompileLog
+
+    @numba.njit
+    def inner(x):
+        return x + 1.0
+
+    @numba.njit
+    def outer(x):
+        return inner(x) * 2.0
+
+    log = CompileLog()
+    with log.recording():
+        assert outer(1.0) == 4.0
+    names = [c.kernel.rsplit(".", 1)[-1] for c in log.compiles]
+    assert names[-1] == "outer" and "inner" in names
+    top = log.compiles[-1]
+    assert top.depth == 0 and top.signature == "float64"
+    # the outer compile's total holds the inner's; its own time does not
+    nested = sum(c.own_seconds for c in log.compiles[:-1])
+    assert top.total_seconds == pytest.approx(top.own_seconds + nested, rel=1e-9, abs=1e-12)
+    assert log.seconds == pytest.approx(top.total_seconds, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.slow
+def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path):
+    # Step 2 (a contact by Radau IIA) on an empty numba cache: the note on stderr once,
+    # before compiling, and the kernels listed with their times; the same again on the
+    # cache it filled: no note, nothing compiled.
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba"), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
+    code = "from synth.cli import main; raise SystemExit(main(['warmup', '--step', '2']))"
+    cold = _python(code, env)
+    assert cold.returncode == 0, cold.stderr
+    notes = [line for line in cold.stderr.splitlines() if line.startswith(NOTE)]
+    assert len(notes) == 1
+    assert notes[0].startswith(
+        "synth: compiling the stiff contact kernels (Radau IIA) for first use"
+    )
+    assert notes[0].endswith("; later runs start at once")
+    assert "synth.physics.contact_kernels.radau.integrate_radau" in cold.stdout
+    assert "synth.physics.contact_kernels.dop853" not in cold.stdout  # not used, not compiled
+    warm = _python(code, env)
+    assert warm.returncode == 0, warm.stderr
+    assert NOTE not in warm.stderr
+    assert "0 compiles" in warm.stdout and "(all kernels already compiled)" in warm.stdout
+    assert "total: 0 compiles" in warm.stdout
+
+
+def test_bench_cold_measures_the_import_in_child_processes():
+    from synth.bench import cold
+
+    rows = cold.run_cold(("import",))
+    assert [(r["case"], r["cold"], r["status"], r["noted"]) for r in rows] == [
+        ("import", True, 0, False),
+        ("import", False, 0, False),
+    ]
+    for r in rows:
+        assert r["cpu_s"] > 0.0 and r["wall_s"] > 0.0
+        # the child's own high-water mark, not the forking parent's (this process holds
+        # numba and numpy, far more than a bare import synth)
+        assert 0.0 < r["peak_mb"] < 60.0
+    text = cold.format_cold(rows)
+    assert "| `import synth` | empty |" in text and "| `import synth` | warm |" in text
+    assert "- `import synth`, empty caches:" in text and "target under 0.5 s" in text
