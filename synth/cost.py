@@ -152,14 +152,9 @@ class CostEstimate:
                 f"max_duration={self.max_duration:g} s (the render could not hold its force "
                 f"pulse); lower ball.mass or use a stiffer or heavier plate"
             )
-        if self.modes > budget.max_modes:
-            f_fit = self.max_frequency * budget.max_modes / self.modes
-            out.append(
-                f"the plate has about {self.modes} modes below {self.max_frequency:.6g} Hz, "
-                f"more than the budget of {budget.max_modes} (SYNTH_MAX_MODES); lower "
-                f"max_frequency to {f_fit:.4g} Hz or the samplerate, or use a smaller or "
-                f"thicker plate"
-            )
+        too_many = modes_excess(self.modes, self.max_frequency, budget)
+        if too_many:
+            out.append(too_many)
         if self.pulse_points > budget.max_pulse_points:
             out.append(
                 f"the longest force pulse ({self.longest_contact:.4g} s) needs "
@@ -200,6 +195,32 @@ class CostEstimate:
 
 
 REST = " (the ball comes to rest)"
+
+
+def modes_excess(modes: int, max_frequency: float, budget: Budget) -> str | None:
+    """Why ``modes`` plate modes below ``max_frequency`` (Hz) are beyond ``budget`` and what
+    to change, or None if they fit."""
+    if modes <= budget.max_modes:
+        return None
+    f_fit = max_frequency * budget.max_modes / modes
+    return (
+        f"the plate has about {modes} modes below {max_frequency:.6g} Hz, more than the "
+        f"budget of {budget.max_modes} (SYNTH_MAX_MODES); lower max_frequency to "
+        f"{f_fit:.4g} Hz or the samplerate, or use a smaller or thicker plate"
+    )
+
+
+def check_modes(plate, max_frequency: float, budget: Budget | None = None) -> int:
+    """The modes of ``plate`` below ``max_frequency`` (Hz, :func:`modal_count`), counted
+    before any is solved; ``ParameterError`` if they are beyond ``budget`` (default: the
+    environment's, :meth:`Budget.from_environment`). The live engine's bodies and a bank's
+    rows are checked with it, as :func:`estimate` checks a render."""
+    budget = Budget.from_environment() if budget is None else budget
+    modes = modal_count(plate, max_frequency)
+    too_many = modes_excess(modes, max_frequency, budget)
+    if too_many:
+        raise ParameterError("refused before any work: " + too_many)
+    return modes
 
 
 def modal_count(plate, max_frequency: float) -> int:

@@ -473,6 +473,15 @@ def test_bad_row_values_refused_at_plan_time(tmp_path, axis, row, says):
     assert f"row {row} (" in text and says in text, text
 
 
+def test_row_beyond_the_mode_budget_refused_at_plan_time(tmp_path, monkeypatch):
+    # The rows' plates are held to the render's mode budget (synth.cost.check_modes) when the
+    # bank is planned, so a bank never starts a row that its renders would refuse: the 1 mm
+    # board has about 130 modes below 4 kHz, over a budget of 100; the 18 mm one about 7.
+    monkeypatch.setenv("SYNTH_MAX_MODES", "100")
+    text = _bad(tmp_path, BASE + 'count = 2\n[vary]\n"plate.thickness" = [0.018, 0.001]\n')
+    assert "row 1 (" in text and "SYNTH_MAX_MODES" in text and "row 0 (" not in text, text
+
+
 def test_file_name_over_255_bytes_refused(tmp_path):
     text = _bad(
         tmp_path, BASE + 'name = "' + "x" * 260 + '{index}"\n[vary]\n"drop.height" = [0.01]\n'

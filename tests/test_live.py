@@ -2,7 +2,9 @@
 impacts, its limits, and its checks of every argument."""
 
 import builtins
+import os
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -383,6 +385,19 @@ def test_add_hit_drop_reject_bad_arguments(scene):
     with pytest.raises(ParameterError, match="at"):
         body.hit(ball, 1.0, at=0.05)  # before the next frame to mix (0.1 s)
     assert engine.stats.impacts_pending == 0
+
+
+def test_a_body_beyond_the_mode_budget_is_refused_before_any_work(empty_caches, monkeypatch):
+    # Engine.add holds a plate to the render's mode budget (synth.cost.check_modes) before its
+    # modes are solved: the 18 mm board of 1.2 x 0.6 m has about 500 modes below 24 kHz, over
+    # a budget of 100, and nothing reaches the plate-mode cache.
+    monkeypatch.setenv("SYNTH_MAX_MODES", "100")
+    engine = synth.Engine(samplerate=48000)
+    plate = synth.Plate("mdf-18", thickness=0.018, length=1.2, width=0.6)
+    with pytest.raises(synth.ParameterError, match="SYNTH_MAX_MODES"):
+        engine.add(plate)
+    cache = Path(os.environ["SYNTH_CACHE_DIR"])
+    assert not cache.exists() or not any(p.is_file() for p in cache.rglob("*"))
 
 
 def test_start_without_portaudio_says_what_to_install(monkeypatch, scene):

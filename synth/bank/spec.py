@@ -62,6 +62,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from synth import cost
 from synth.errors import ParameterError
 from synth.io import presets
 
@@ -798,15 +799,18 @@ ROWS_NAMED = 5
 
 def row_problem(spec: BankSpec, item: PlanItem) -> str | None:
     """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
-    render options are built and checked as a render checks them, without solving
-    anything (no modes, no contact)."""
+    render options are built and checked as a render checks them, and its plate's modes
+    counted against the budget (:func:`synth.cost.check_modes`), without solving anything
+    (no modes, no contact)."""
     k = item.values.get(RESTITUTION_SCALE)
     if k is not None and (
         isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
     ):
         return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
     try:
-        presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
+        scene, options = presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
+        nyquist = 0.5 * options["samplerate"]
+        cost.check_modes(scene.plate, min(options.get("max_frequency") or nyquist, nyquist))
     except ParameterError as exc:
         return str(exc).removeprefix(f"row {item.index}: ")
     except (TypeError, ValueError) as exc:  # a value of the wrong type deep in a section

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth import checks
+from synth import checks, cost
 from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
@@ -806,6 +806,10 @@ class Engine:
         self._too_close = 0
 
     # -- bodies ---------------------------------------------------------------------------
+    def _highest_frequency(self) -> float:
+        """Hz: the highest mode frequency the bodies render (``max_frequency`` or Nyquist)."""
+        return 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
+
     def add(self, plate: Plate | Scene, *, listener=None, gain: float = 1.0) -> Body:
         """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
         return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
@@ -840,6 +844,7 @@ class Engine:
             raise ParameterError(
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
             )
+        cost.check_modes(plate, self._highest_frequency())
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
@@ -870,6 +875,7 @@ class Engine:
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
                 f"(one per listener): no room for {len(listeners)} more"
             )
+        cost.check_modes(plate, self._highest_frequency())
         models = [
             modal_model(plate, li, samplerate=self.samplerate, max_frequency=self.max_frequency)
             for li in listeners
