@@ -54,6 +54,10 @@ DEFAULT_MAX_MODES = 100_000
 DEFAULT_MAX_PULSE_POINTS = 2_000_000
 #: Default budget: memory of the arrays the estimate sizes, bytes.
 DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
+#: Default budget: floating-point operations of a cold mode solve (the budget of time in
+#: machine-independent units: a dense symmetric eigensolver runs at a few GFLOP/s on one
+#: core, so minutes; about four times the costliest shipped preset's solve).
+DEFAULT_MAX_SOLVER_FLOPS = 10**12
 
 #: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
 #: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
@@ -64,29 +68,34 @@ ENVIRONMENT = {
     "SYNTH_MAX_MODES": DEFAULT_MAX_MODES,
     "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
     "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
+    "SYNTH_MAX_SOLVER_FLOPS": DEFAULT_MAX_SOLVER_FLOPS,
 }
 
 
 @dataclass(frozen=True)
 class Budget:
     """The most work a render may take on: ``max_modes`` (plate modes),
-    ``max_pulse_points`` (points of one force pulse's grid) and ``max_memory_bytes``
-    (bytes of the arrays :class:`CostEstimate` sizes)."""
+    ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
+    of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
+    operations of a cold mode solve: its time, in units that do not depend on the
+    machine)."""
 
     max_modes: int = DEFAULT_MAX_MODES
     max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
     max_memory_bytes: int = DEFAULT_MAX_MEMORY_BYTES
+    max_solver_flops: int = DEFAULT_MAX_SOLVER_FLOPS
 
     def __post_init__(self):
-        for name in ("max_modes", "max_pulse_points", "max_memory_bytes"):
+        for name in ("max_modes", "max_pulse_points", "max_memory_bytes", "max_solver_flops"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
 
     @classmethod
     def from_environment(cls) -> Budget:
-        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS`` and
-        ``$SYNTH_MAX_MEMORY_BYTES`` (each defaulting to this module's constant)."""
+        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
+        ``$SYNTH_MAX_MEMORY_BYTES`` and ``$SYNTH_MAX_SOLVER_FLOPS`` (each defaulting to this
+        module's constant)."""
         values = [
             checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
         ]
@@ -161,6 +170,14 @@ class CostEstimate:
                 f"{self.pulse_points} grid points up to {self.max_frequency:.6g} Hz, more than "
                 f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
                 f"max_frequency or ball.mass"
+            )
+        if self.solver_flops > budget.max_solver_flops:
+            out.append(
+                f"a cold solve of the plate's modes takes about {self.solver_flops:.3g} "
+                f"floating-point operations ({self.solver_unknowns} unknowns), more than the "
+                f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
+                f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
+                f"modes)"
             )
         if self.memory_bytes > budget.max_memory_bytes:
             out.append(

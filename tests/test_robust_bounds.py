@@ -265,6 +265,26 @@ def test_the_budget_is_adjustable_and_its_variables_parsed_once(capsys, tmp_path
         cost.Budget(max_modes=0)
 
 
+def test_a_cold_mode_solve_beyond_the_operations_budget_is_refused(capsys, tmp_path, monkeypatch):
+    # The budget of time, in operations: the default board's free-edge Ritz solve takes about
+    # 1e10 (701 unknowns), over a budget of 1e9; a simply supported plate's closed-form modes
+    # take none.
+    monkeypatch.setenv("SYNTH_MAX_SOLVER_FLOPS", "1000000000")
+    code, _, err = run(capsys, "render", "default", "-o", tmp_path / "o.wav")
+    assert code == 2 and "SYNTH_MAX_SOLVER_FLOPS" in err and "701 unknowns" in err
+    assert not (tmp_path / "o.wav").exists()
+    code, _, err = run(
+        capsys,
+        "render",
+        "default",
+        "-o",
+        tmp_path / "s.wav",
+        "--set",
+        "plate.boundary=simply-supported",
+    )
+    assert code == 0, err
+
+
 # --------------------------------------------------------------------------- messages
 
 
