@@ -14,8 +14,9 @@ from synth.io.audio import DEFAULT_SUBTYPE
 from synth.physics.scene import Scene
 from synth.sound import render as render_module
 
-#: Parameters of render() that are not options (the scene, and a precomputed sequence).
-NOT_OPTIONS = {"scene", "sequence"}
+#: Parameters of render() that are not options (the scene, a precomputed sequence, and the
+#: budget of work, which is not a property of the sound).
+NOT_OPTIONS = {"scene", "sequence", "budget"}
 
 
 def defaults(func, skip=()) -> dict:
