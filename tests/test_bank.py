@@ -1086,6 +1086,24 @@ def test_bank_gain_keeps_relative_levels(serial, tmp_path):
     assert _tree(ref) == before
 
 
+def test_bank_gain_resumes_over_a_bank_stored_by_an_earlier_version(tmp_path, cache_dir):
+    # A bank whose bank.json holds the spec as written (earlier versions), scaled into a
+    # folder; the bank resumed (its bank.json now canonical), then scaled again into the
+    # same folder: the same bank and gain, so every file is skipped.
+    from synth.bank import spec as bank_spec
+    from synth.bank.gain import apply_gain
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    src, out = tmp_path / "bank", tmp_path / "gained"
+    assert bank.run(spec, src, jobs=1).ok
+    mf.write_spec(src, bank_spec.load(spec).as_dict())
+    assert apply_gain(src, out).done == 2
+    assert bank.run(spec, src, jobs=1).skipped == 2
+    assert mf.read_spec(src) == bank_spec.load(spec).stored_form()
+    again = apply_gain(src, out)
+    assert (again.done, again.skipped) == (0, 2)
+
+
 def test_trim_cuts_the_tail_with_a_fade(serial, tmp_path, cache_dir):
     # [trim] below_db = -40: each file is the untrimmed one up to 40 dB below its peak at
     # the end, the last 10 ms faded to 0 (raised cosine), and the manifest says so; the
