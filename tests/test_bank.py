@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -530,6 +531,121 @@ def test_raising_count_adds_rows_keeping_the_first(tmp_path, cache_dir):
     _check_complete(out, 5)
 
 
+def _with_default_keys(spec: Path) -> None:
+    """Spell out, in the spec and its preset, keys at the values they take by default
+    (the render options, sampling, gravity, the contact model, its law, plate, surface,
+    theory and accuracy), change the
+    preset's description, and set the preset's radius, which the spec varies (every row
+    sets it): the files stay the same."""
+    spec.write_text(
+        spec.read_text().replace('format = "wav"\n', 'format = "wav"\nsampling = "random"\n')
+        + '[render]\nnormalize = "physical"\npeak_db = -1.0\nfade = 0.005\npulse_points = 65\n'
+        + 'subtype = "pcm_24"\n'
+    )
+    preset = spec.parent / "small.toml"
+    preset.write_text(
+        "gravity = 9.81\n"
+        + preset.read_text()
+        .replace("cheap to render", "described otherwise")
+        .replace("radius = 0.005", "radius = 0.006")
+        + '[contact]\nmodel = "thesis"\nlaw = "hertz"\nplate = "impedance"\n'
+        + 'surface = "ideal"\ntheory = "kirchhoff"\nrtol = 1e-9\n'
+    )
+
+
+def test_default_valued_keys_resume_the_bank(tmp_path, cache_dir, capsys):
+    # A bank, resumed first from the spec as the previous version stored it (as written),
+    # then with keys spelled out at their default values: nothing is rendered, every
+    # file keeps its inode and bytes, and the dry run agrees.
+    from synth.bank import spec as bank_spec
+
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = {p.name: (_file_identity(p), p.read_bytes()) for p in out.glob("*.wav")}
+    mf.write_spec(out, bank_spec.load(spec).as_dict())  # the earlier versions' bank.json
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 3)
+    _with_default_keys(spec)
+    dry = bank.run(spec, out, jobs=1, dry_run=True)
+    assert (len(dry.planned_rows), dry.skipped) == (0, 3)
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run"]) == 0
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 3)
+    assert {p.name: (_file_identity(p), p.read_bytes()) for p in out.glob("*.wav")} == before
+    _check_complete(out, 3)
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        (lambda spec: spec.write_text(spec.read_text() + "[render]\nmax_duration = 0.25\n"),
+         "render.max_duration"),
+        (lambda spec: (spec.parent / "small.toml").write_text(
+            "gravity = 9.0\n" + (spec.parent / "small.toml").read_text()),
+         "preset_data.gravity"),
+        (lambda spec: (spec.parent / "small.toml").write_text(
+            (spec.parent / "small.toml").read_text() + '[contact]\nmodel = "fitted"\n'),
+         "preset_data.contact.model"),
+    ],
+    ids=["render.max_duration", "gravity", "contact.model"],
+)  # fmt: skip
+def test_a_changed_value_is_still_refused_naming_its_key(tmp_path, cache_dir, capsys, change, key):
+    # A value other than the default changes the files: the run and the dry run refuse
+    # the folder naming the key, and the folder is left as it was.
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = _tree(out)
+    change(spec)
+    with pytest.raises(BankSpecError, match=rf"another spec \(differing keys: .*{key}"):
+        bank.run(spec, out, jobs=1)
+    with pytest.raises(BankSpecError, match=rf"another spec \(differing keys: .*{key}"):
+        bank.run(spec, out, jobs=1, dry_run=True)
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run"]) != 0
+    assert key in capsys.readouterr().err
+    assert _tree(out) == before
+
+
+def test_a_default_derived_from_a_varied_key_is_not_filled(tmp_path):
+    # With contact.model varied, a law, plate and surface spelled out in the preset pin
+    # them for every row (an explicit key wins over the model's), so the spec makes other
+    # files than the preset without them: the stored forms differ there. Without the
+    # axis they are the thesis model's own and the stored forms are equal.
+    from synth.bank import spec as bank_spec
+
+    pinned = SMALL_PRESET + '[contact]\nlaw = "hertz"\nplate = "impedance"\nsurface = "ideal"\n'
+    for folder, preset in (("plain", SMALL_PRESET), ("pinned", pinned)):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "small.toml").write_text(preset)
+
+    def stored(folder: str, vary: str) -> dict:
+        text = f'preset = "small.toml"\nname = "{{index}}"\n[vary]\n{vary}\n'
+        return bank_spec.from_dict(tomllib.loads(text), base_dir=tmp_path / folder).stored_form()
+
+    models = '"contact.model" = ["thesis", "fitted"]'
+    heights = '"drop.height" = [0.01, 0.02]'
+    assert bank_spec.differences(stored("plain", models), stored("pinned", models)) == [
+        "preset_data.contact.law",
+        "preset_data.contact.plate",
+        "preset_data.contact.surface",
+    ]
+    assert stored("plain", heights) == stored("pinned", heights)
+
+
+def test_raising_count_with_a_default_valued_key_grows_the_bank(tmp_path, cache_dir):
+    spec = _write_spec(tmp_path / "spec", count=3)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    _with_default_keys(spec)
+    spec.write_text(spec.read_text().replace("count = 3", "count = 5"))
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (2, 3)
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav") if p.name in before} == before
+    _check_complete(out, 5)
+
+
 @pytest.mark.parametrize("name", BANK_SPECS_BY_NAME)
 def test_example_specs_by_name(name):
     assert len(bank.plan(bank.load(name))) >= 10
@@ -977,6 +1093,24 @@ def test_bank_gain_keeps_relative_levels(serial, tmp_path):
     again = apply_gain(ref, out)
     assert (again.done, again.skipped) == (0, len(rows))
     assert _tree(ref) == before
+
+
+def test_bank_gain_resumes_over_a_bank_stored_by_an_earlier_version(tmp_path, cache_dir):
+    # A bank whose bank.json holds the spec as written (earlier versions), scaled into a
+    # folder; the bank resumed (its bank.json now canonical), then scaled again into the
+    # same folder: the same bank and gain, so every file is skipped.
+    from synth.bank import spec as bank_spec
+    from synth.bank.gain import apply_gain
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    src, out = tmp_path / "bank", tmp_path / "gained"
+    assert bank.run(spec, src, jobs=1).ok
+    mf.write_spec(src, bank_spec.load(spec).as_dict())
+    assert apply_gain(src, out).done == 2
+    assert bank.run(spec, src, jobs=1).skipped == 2
+    assert mf.read_spec(src) == bank_spec.load(spec).stored_form()
+    again = apply_gain(src, out)
+    assert (again.done, again.skipped) == (0, 2)
 
 
 def test_trim_cuts_the_tail_with_a_fade(serial, tmp_path, cache_dir):

@@ -159,6 +159,15 @@ def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
     return reproducible(buf.getvalue(), fmt, name)
 
 
+def _stored_record(path: Path) -> dict:
+    """The record of ``gain.json`` with its bank's spec in the canonical form
+    (:func:`synth.bank.spec.canonical`; earlier versions stored the spec as written)."""
+    record = json.loads(path.read_text())
+    if isinstance(record.get("spec"), dict):
+        record["spec"] = bank_spec.canonical(record["spec"])
+    return record
+
+
 def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> GainResult:
     """Scale the finished bank in ``bank_dir`` by one gain into ``out_dir`` (see the
     module docstring). ``target``: "true_peak" (``level`` dBTP, default -1) or
@@ -168,13 +177,14 @@ def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> G
     if src.resolve() == out.resolve():
         raise BankSpecError(f"out_dir={str(out)!r} must be another folder than the bank's")
     spec, rows = _finished_rows(src)
+    spec = bank_spec.canonical(spec)  # as a run stores it, whichever version stored it
     gain_db = round(bank_gain(rows, target, level), 9)
     record = {"source": str(src.resolve()), "spec": spec, "target": target, "level": level}
     record["gain_db"] = gain_db
     t0 = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     stored = out / GAIN_FILE
-    if stored.is_file() and json.loads(stored.read_text()) != record:
+    if stored.is_file() and _stored_record(stored) != record:
         raise BankSpecError(
             f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
             f"use another folder"

@@ -608,7 +608,8 @@ def _as_spec(spec) -> BankSpec:
 
 
 def _grows(stored: dict, new: dict) -> bool:
-    """True if ``new`` is the stored spec with a larger ``count``: rows are drawn per
+    """True if ``new`` is the stored spec with a larger ``count`` (both canonical,
+    :func:`synth.bank.spec.canonical`): rows are drawn per
     index (:func:`synth.bank.spec.variations`), so the rows done stay and the new ones
     are added."""
     old_count, new_count = stored.get("count"), new.get("count")
@@ -629,12 +630,25 @@ def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
     )
 
 
+def _stored(out_dir: Path) -> dict | None:
+    """The spec stored in the folder (None if none), in its canonical form
+    (:func:`synth.bank.spec.canonical`: a folder of an earlier version, which stored the
+    spec as written, compares as the same spec)."""
+    stored = mf.read_spec(out_dir) if out_dir.is_dir() else None
+    return None if stored is None else bank_spec.canonical(stored)
+
+
+def _of_another_spec(stored: dict | None, new: dict) -> bool:
+    """True if the folder's stored spec makes other files than ``new`` (both canonical)
+    and ``new`` does not just grow it."""
+    return stored is not None and stored != new and not _grows(stored, new)
+
+
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     """Refuse a folder made by another spec (naming the keys that differ), or with
     ``force`` delete its files and manifest to start over."""
-    stored = mf.read_spec(out_dir)
-    new = spec.as_dict()
-    if stored is not None and stored != new and not _grows(stored, new):
+    stored, new = _stored(out_dir), spec.stored_form()
+    if _of_another_spec(stored, new):
         if not force:
             _refuse_other_spec(out_dir, stored, new)
         for row in mf.read_rows(out_dir):
@@ -827,10 +841,10 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     refused as a run refuses it; with ``force`` every row counts as to be rendered."""
     t0 = time.perf_counter()
     plan = {item.index: item for item in items}
-    stored = mf.read_spec(out) if out.is_dir() else None
-    other = stored is not None and stored != spec.as_dict() and not _grows(stored, spec.as_dict())
+    stored, new = _stored(out), spec.stored_form()
+    other = _of_another_spec(stored, new)
     if other and not force:
-        _refuse_other_spec(out, stored, spec.as_dict())
+        _refuse_other_spec(out, stored, new)
     kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
     kept = [r for r in kept if r["index"] not in again]
     done_ids = {r["index"] for r in kept}

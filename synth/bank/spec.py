@@ -53,6 +53,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import itertools
+import json
 import math
 import string
 import tomllib
@@ -230,6 +231,35 @@ class BankSpec:
             "labels": self.labels,
             "min_distance": self.min_distance,
         }
+
+    def stored_form(self) -> dict:
+        """:meth:`as_dict` in its canonical form (:func:`canonical`): what is stored with
+        the bank and compared with the spec of a later run."""
+        return canonical(self.as_dict())
+
+
+def canonical(data: dict) -> dict:
+    """The canonical form of a stored spec ``data`` (:meth:`BankSpec.as_dict`, or this
+    form itself: the function is idempotent), in which two specs that make the same
+    files are equal: the base preset with every fixed default spelled out
+    (:func:`synth.io.presets.with_defaults`: render options, gravity, plate boundary,
+    contact model ...; not those derived from a varied key), its ``render.subtype`` the
+    files' subtype, and without what cannot change a file (the preset's description, and
+    the base values of the varied keys, which every row sets). A value that changes the
+    files still differs, under its dotted key (:func:`differences`). A ``data`` that is
+    no valid spec is returned as it is (it then differs from any valid one)."""
+    try:
+        base = presets.with_defaults(data["preset_data"], varied=tuple(data["vary"]))
+    except (ParameterError, KeyError, TypeError, ValueError, AttributeError):
+        return data
+    base.pop("description", None)
+    base["render"]["subtype"] = data["subtype"]
+    for key in data["vary"]:
+        section, _, field = key.rpartition(".")
+        (base.get(section, {}) if section else base).pop(field, None)
+    out = dict(data, preset_data=base)
+    out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
+    return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
 
 
 @dataclass(frozen=True)
@@ -855,7 +885,7 @@ def scene_data(spec: BankSpec, values: dict) -> dict:
 
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
-    """The dotted keys whose values differ between two spec dicts (:meth:`BankSpec.as_dict`)."""
+    """The dotted keys whose values differ between two spec dicts (:func:`canonical`)."""
     out = []
     for k in sorted(set(old) | set(new), key=str):
         a, b = old.get(k, dataclasses.MISSING), new.get(k, dataclasses.MISSING)

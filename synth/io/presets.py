@@ -85,7 +85,17 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.materials import LossFactor, Material, Rayleigh
-from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate, Scene
+from synth.physics.scene import (
+    CONTACT_MODELS,
+    DEFAULT_CONTACT_MODEL,
+    DEFAULT_PLATE_THEORY,
+    Accelerometer,
+    Ball,
+    Contact,
+    Microphone,
+    Plate,
+    Scene,
+)
 
 if TYPE_CHECKING:
     from synth.sound.render import Render
@@ -116,6 +126,8 @@ _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source", "t
 #: The value of ``transverse_shear`` that ties it to the material's fitted through-thickness
 #: modulus (:func:`synth.physics.materials.with_transverse_shear`).
 TIED_SHEAR = "tied"
+#: The listener of a ``[listener]`` section that names no ``type``.
+DEFAULT_LISTENER = "microphone"
 #: The presets installed with the package.
 PACKAGE_PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
@@ -370,7 +382,7 @@ def _scene_from_dict(data, source):
     listener = None
     if "listener" in data:
         lst = data["listener"]
-        kind = lst.get("type", "microphone")
+        kind = lst.get("type", DEFAULT_LISTENER)
         if kind not in ("microphone", "accelerometer"):
             raise PresetError(
                 f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'"
@@ -431,6 +443,49 @@ def _render_section(section: dict, source: str) -> dict:
                 f"such as 'PCM_16', 'PCM_24' or 'FLOAT'"
             )
     return dict(section)
+
+
+def _fixed_defaults(cls) -> dict:
+    """The fields of the dataclass ``cls`` whose default is a fixed value (not None: a
+    None default is derived from other keys, as a ball's mass from its radius)."""
+    return {
+        f.name: f.default
+        for f in dataclasses.fields(cls)
+        if f.default is not dataclasses.MISSING and f.default is not None
+    }
+
+
+def with_defaults(data: dict, *, varied=()) -> dict:
+    """The preset dict ``data`` with every key whose default is a fixed value given that
+    value, so two dicts that describe one scene with the same render options compare
+    equal whichever defaults they spell out: ``gravity``, the fixed defaults of
+    ``[ball]``, ``[plate]`` and ``[contact]`` (the section itself, its ``model`` and
+    ``theory``, and the model's ``law``, ``plate`` and ``surface``), ``listener.type``,
+    and every option of ``[render]`` but ``subtype`` (checked and converted by
+    :func:`synth.sound.render.check_options`).
+
+    Defaults derived from other keys (a ball's mass, the impact point, the microphone
+    over it, ``max_frequency``) are left out, and so are those derived from a key of
+    ``varied`` (dotted keys set later, as a bank's axes: with ``contact.model`` varied,
+    its law, plate and surface), so setting those keys later still moves them. ``data``
+    must be a valid preset (:func:`scene_from_dict`)."""
+    from synth.sound.render import check_options
+
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
+    for section, cls in (("ball", Ball), ("plate", Plate), ("contact", Contact)):
+        out[section] = {**_fixed_defaults(cls), **out.get(section, {})}
+    contact = {"model": DEFAULT_CONTACT_MODEL, "theory": DEFAULT_PLATE_THEORY, **out["contact"]}
+    if "contact.model" not in varied:
+        named = zip(("law", "plate", "surface"), CONTACT_MODELS[contact["model"]], strict=True)
+        contact = {**dict(named), **contact}
+    out["contact"] = contact
+    if "listener" in out:
+        out["listener"] = {"type": DEFAULT_LISTENER, **out["listener"]}
+    section = {"samplerate": PRESET_SAMPLERATE, **out.get("render", {})}
+    options = check_options(**{k: v for k, v in section.items() if k != "subtype"})
+    out["render"] = {**options, **({"subtype": section["subtype"]} if "subtype" in section else {})}
+    return out
 
 
 def load_preset_with_options(name_or_path, overrides=()) -> tuple[Scene, dict, dict]:

@@ -233,6 +233,11 @@ SURFACE_MODELS = ("ideal", "fitted")
 #: isotropic half-space, the plate as its impedance); "fitted": the model closest to the
 #: thesis' measurements (the finite plate's modes in the contact, the material's fitted
 #: through-thickness modulus and contact loss).
+#: The contact model of a :class:`Contact` that names none.
+DEFAULT_CONTACT_MODEL = "thesis"
+#: The modal plate's theory of a :class:`Contact` that names none.
+DEFAULT_PLATE_THEORY = "kirchhoff"
+
 CONTACT_MODELS = {
     "thesis": ("hertz", "impedance", "ideal"),
     "fitted": ("hertz", "modal", "fitted"),
@@ -303,7 +308,7 @@ class Contact:
 
     def __post_init__(self):
         self._resolve_model()
-        theory = "kirchhoff" if self.theory is None else self.theory
+        theory = DEFAULT_PLATE_THEORY if self.theory is None else self.theory
         checks.choice("contact.theory", theory, ("kirchhoff", "mindlin"))
         if theory != "kirchhoff" and self.plate != "modal":
             raise ParameterError(
@@ -361,7 +366,7 @@ class Contact:
 
     def _resolve_model(self):
         """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "thesis")."""
-        model = "thesis" if self.model is None else self.model
+        model = DEFAULT_CONTACT_MODEL if self.model is None else self.model
         checks.choice("contact.model", model, CONTACT_MODELS)
         defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
         for key, value in defaults.items():
