@@ -34,7 +34,7 @@ def pytest_configure(config):
     import synth
 
     where = Path(synth.__file__).resolve()
-    if REPOSITORY in where.parents and not _editable_install_of(REPOSITORY):
+    if where.parent == REPOSITORY / "synth" and not _editable_install_of(REPOSITORY):
         raise pytest.UsageError(
             f"the tests import synth from the source tree ({where}), not from the installed "
             "package: run `pip install .` (or `pip install -e .` to develop) and then `pytest`, "
