@@ -10,6 +10,7 @@ import pytest
 
 from synth.errors import ParameterError, SynthError
 from synth.io.presets import (
+    PACKAGE_PRESETS,
     PresetError,
     apply_overrides,
     available,
@@ -23,7 +24,7 @@ from synth.physics.materials import TABLE, LossFactor, Rayleigh
 from synth.physics.scene import Accelerometer, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
-DEFAULT = REPO / "synth" / "presets" / "default.toml"
+DEFAULT = PACKAGE_PRESETS / "default.toml"  # the installed preset
 
 # The thesis setup (docs/physics.md, "Materials" and "Hertz contact"; thesis Table 3.1) written as
 # a preset dict.

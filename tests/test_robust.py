@@ -47,11 +47,8 @@ def test_long_contact_kernel_matches_the_short_one(monkeypatch):
     # omission) agrees with the short kernel's to 1e-12 of its peak (the same quadrature,
     # libm's exponentials instead of vecmath's polynomials: they differ by rounding, 1e-15
     # of the peak here), and not bit for bit (so the long kernel did run; float32
-    # audio would round the difference away). The choice between the kernels is compiled
-    # (LONG_CONTACT_NEPERS is a constant there), so the test replaces the dispatcher that
-    # impact_excitation calls.
-    def long_only(pr, pi, cr, ci, ur, ui, sigma_max, *args):
-        return modal_bank.long_impact_transform(pr, pi, cr, ci, ur, ui, *args)
+    # audio would round the difference away). impact_excitation chooses the kernel by
+    # pulse.long_contact, which the test makes choose the long one.
 
     scene = load_preset("default")
     sequence = simulate_scene(scene, max_duration=1.0)
@@ -68,7 +65,7 @@ def test_long_contact_kernel_matches_the_short_one(monkeypatch):
         return audio
 
     a = bank_audio()
-    monkeypatch.setattr(pulse, "transform_pulse", long_only)
+    monkeypatch.setattr(pulse, "long_contact", lambda sigma_max, tau: True)
     b = bank_audio()
     assert a.size == b.size and not np.array_equal(a, b)
     assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))

@@ -31,11 +31,14 @@ import numba
 import numpy as np
 
 from synth.physics.contact_kernels.dense import (
+    END_OF_CONTACT,
     H_COLS,
     H_H,
     H_T0,
     H_W0,
     H_X0,
+    PEAK_PENETRATION,
+    SETTLING,
     dense_state,
     event_root,
     find_step,
@@ -168,12 +171,14 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = event_root(hist, S, nh - 1, radau, 0, lam, G, n, c, b, 0.0)
+        s_end = event_root(hist, S, nh - 1, radau, END_OF_CONTACT, lam, G, n, c, b, 0.0)
         x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n, b)
         x_end = 0.0
         s_contact = s_end
     elif status == SETTLED:
-        s_contact = event_root(hist, S, nh - 1, radau, 2, lam, G, n, c, b, 0.5 * (lam * G) ** 2)
+        s_contact = event_root(
+            hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, 0.5 * (lam * G) ** 2
+        )
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
     vbest = -1.0
@@ -191,7 +196,13 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
         xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n, b)
         if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b) <= 0.0:
             xr, _ = dense_state(
-                hist, S, k, event_root(hist, S, k, radau, 1, lam, G, n, c, b, 0.0), radau, n, b
+                hist,
+                S,
+                k,
+                event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, 0.0),
+                radau,
+                n,
+                b,
             )
             x_max = max(x_max, xr)
     if c == 0.0 and b == 0.0:
@@ -254,7 +265,7 @@ def impact(
     )
     if out[0] == MAX_STEPS and not stiff and method == AUTO:
         stiff = True
-        out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, True)
+        out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, stiff)  # not a literal
     status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0

@@ -242,7 +242,6 @@ def _product_sums(
                 else:
                     for k in range(m):
                         row[k] = ax[k] * ay[k]
-            announce("radiation")
             accumulate(0, n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
 
 
@@ -265,6 +264,7 @@ def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
     qi = np.ascontiguousarray(q.imag)
     args = (xs, wx, ys, wy, np.asarray(listener, dtype=float), r_mid, fx, fy, gx, gy, paired)
     bounds = [w * xs.size // workers for w in range(workers + 1)]
+    announce("radiation")
     with ThreadPoolExecutor(max_workers=workers) as pool:
         jobs = [
             pool.submit(_product_sums, lo, hi, *args, qr, qi, halvings, acc[w])
