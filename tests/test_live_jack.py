@@ -1,6 +1,7 @@
 """The live engine on a real audio server: JACK's dummy backend, a clocked server without
 hardware (`.ci/run` installs jackd2 and libportaudio2)."""
 
+import ctypes
 import threading
 import time
 
@@ -170,12 +171,37 @@ def run_threads(targets, seconds):
         t.join()
 
 
-def test_busy_python_threads_do_not_stall_the_audio(jack, scene):
-    # the callback is compiled code that PortAudio calls without Python's GIL: neither a
-    # pure-Python busy loop nor 8 threads calling hit() in loops make the device run dry
-    # (counted by PortAudio's output_underflow flag, not timed)
-    # (4 pulses a block on each of 2 bodies: the audio thread's work stays a small part of
-    # a block, so that the test asks about Python, not about the machine's spare CPU)
+def hold_the_gil(seconds):
+    """Sleep in C while holding Python's GIL: ctypes' PyDLL calls keep the GIL, so no other
+    Python thread runs (and no callback that needs the GIL could) for ``seconds`` s."""
+    ctypes.PyDLL(None).usleep(int(seconds * 1e6))
+
+
+def test_the_audio_runs_while_another_thread_holds_the_gil(jack, scene):
+    # the callback is compiled code that PortAudio calls without Python's GIL: while a
+    # thread holds the GIL for 3 s (sleeping, so the CPU stays free and only the GIL is
+    # asked about) the stream keeps its clock and never runs dry. A callback that needed the
+    # GIL would run no block in that time and be flagged late on every one (counted by
+    # PortAudio's output_underflow flag, not timed)
+    engine = synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device)
+    engine.add(scene.plate, listener=scene.listener, gain=0.05)
+    seconds = 3.0
+    with engine:
+        time.sleep(0.2)
+        before = engine.stats
+        hold_the_gil(seconds)
+        after = engine.stats
+    blocks = seconds * FS / BLOCK
+    assert after.callbacks - before.callbacks > blocks / 2  # the clock ran throughout
+    assert after.output_underflows - before.output_underflows == 0
+
+
+def test_busy_python_threads_leave_the_stream_running_and_hits_played(jack, scene):
+    # a pure-Python busy loop, then 8 threads calling hit() in loops: the stream keeps
+    # running and plays the hits (4 pulses a block on each of 2 bodies bound the audio
+    # thread's work). Whether a machine's spare CPU keeps every block in time under this
+    # load (a non-realtime audio thread competes with the busy ones) is measured, not
+    # asserted: `synth bench live` prints the underflows of both loads
     engine = synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device, max_hits_per_block=4)
     bodies = [engine.add(scene.plate, listener=scene.listener, gain=0.05) for _ in range(2)]
     rng = np.random.default_rng(3)
@@ -196,12 +222,13 @@ def test_busy_python_threads_do_not_stall_the_audio(jack, scene):
         run_threads([busy_python], 3.0)
         busy = engine.stats
         run_threads([hitter(k) for k in range(8)], 3.0)
+        assert wait_for(lambda: engine.stats.impacts_pending == 0, 2.0)
         after = engine.stats
-    assert busy.callbacks - before.callbacks > 100  # the stream ran throughout
-    assert busy.output_underflows - before.output_underflows == 0
-    assert after.callbacks - busy.callbacks > 100
-    assert after.output_underflows - busy.output_underflows == 0
+    blocks = 3.0 * FS / BLOCK
+    assert busy.callbacks - before.callbacks > blocks / 2  # the stream ran throughout
+    assert after.callbacks - busy.callbacks > blocks / 2
     assert after.impacts_played - busy.impacts_played > 100
+    assert after.failed is None
 
 
 def test_a_stopped_engine_starts_again_and_plays(jack, scene):
