@@ -9,6 +9,8 @@ A spec (every key; only ``preset`` is required)::
     name = "{preset}-{index:04d}"   # file name template, without the suffix
     format = "flac"                 # "wav", "flac" (default) or "ogg" (Vorbis)
     sampling = "random"             # ranges: "random", "lhs" (Latin hypercube) or "grid"
+    tags = ["impact", "glass"]      # free tags for every row: keywords, or a table of
+                                    # name = text/number/boolean ({ category = "impact" })
 
     [vary]                          # axes: any preset key, dotted as in `synth render --set`
     "drop.height" = { min = 0.05, max = 0.3 }              # a range, drawn uniformly
@@ -38,6 +40,11 @@ The name template is a Python format string over ``preset`` (the preset's name),
 empty, hidden or ``..`` part, no absolute path). A dotted key is both ``{drop.height}``
 and ``{drop_height}`` (``{drop.position[0]:.2f}`` for a vector's component). The suffix
 comes from ``format``.
+
+Every manifest row carries the spec's ``tags`` and its values' labels from ``[labels]``
+(:func:`row_labels`). Neither they, the preset's name nor the name template change a
+sound: a bank resumes across a change of them (:func:`compared_form`), its files taking
+their new names.
 
 ``restitution_scale`` (dimensionless ``k >= 0``) is the bank's one key that is not a preset
 key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene, as
@@ -81,7 +88,12 @@ TOP_LEVEL = (
     "sampling",
     "labels",
     "min_distance",
+    "tags",
 )
+
+#: Keys of a stored spec that do not change any sound (they name the files or describe
+#: them): left out when a spec is compared with the one a bank was made by.
+NOT_AUDIO = ("preset", "name", "labels", "tags")
 
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
@@ -194,6 +206,7 @@ class BankSpec:
     sampling: str = "random"
     labels: dict = dataclasses.field(default_factory=dict)
     min_distance: float | None = None
+    tags: list | dict | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -230,6 +243,7 @@ class BankSpec:
             "sampling": self.sampling,
             "labels": self.labels,
             "min_distance": self.min_distance,
+            "tags": self.tags,
         }
 
     def stored_form(self) -> dict:
@@ -260,6 +274,13 @@ def canonical(data: dict) -> dict:
     out = dict(data, preset_data=base)
     out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
     return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
+
+
+def compared_form(data: dict) -> dict:
+    """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
+    form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
+    and the tags), so that a bank resumes across a change of them."""
+    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO}
 
 
 @dataclass(frozen=True)
@@ -394,6 +415,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         sampling=sampling,
         labels=_labels(data.get("labels", {}), axes),
         min_distance=_min_distance(data.get("min_distance"), count, sampling, axes),
+        tags=_tags(data.get("tags")),
     )
     _check_template(spec)
     return spec
@@ -429,6 +451,33 @@ def _trim(value) -> dict | None:
         if not out["max_length"] > out["fade"]:
             raise _error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
     return out
+
+
+def _tag_value(where: str, value) -> None:
+    if isinstance(value, str) and value:
+        return
+    if isinstance(value, bool) or (isinstance(value, (int, float)) and math.isfinite(value)):
+        return
+    raise _error(where, value, "must be a non-empty text, a finite number or a boolean")
+
+
+def _tags(value) -> list | dict | None:
+    """The checked ``tags``: a list of keywords (non-empty texts) or a table of
+    name = text, number or boolean; None if left out."""
+    if value is None:
+        return None
+    if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
+        return list(value)
+    if isinstance(value, dict):
+        for name, v in value.items():
+            _tag_value(f"tags.{name}", v)
+        return dict(value)
+    raise _error(
+        "tags",
+        value,
+        'must be a list of keywords (["impact", "glass"]) or a table of name = text, '
+        'number or boolean ({ category = "impact" })',
+    )
 
 
 def _preset(value, base_dir: Path) -> tuple[Path, str]:
@@ -693,6 +742,19 @@ def _label_of(table: dict, value):
         except (TypeError, ValueError):
             continue
     return None
+
+
+def row_labels(spec: BankSpec, values: dict) -> dict | None:
+    """The labels of a row's values (varied key: label) from the spec's ``[labels]``,
+    for the keys whose table labels the row's value; None if the spec has none."""
+    if not spec.labels:
+        return None
+    out = {}
+    for key, table in spec.labels.items():
+        label = _label_of(table, values.get(key))
+        if label is not None:
+            out[key] = label
+    return out
 
 
 def _labels(value, axes) -> dict:
