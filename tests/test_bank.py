@@ -1384,3 +1384,21 @@ def test_renamed_preset_and_edited_label_resume_without_rendering(tmp_path, cach
     assert "little" in "".join(_audio_files(out))
     for name in (mf.JSONL, mf.CSV, mf.SPEC):
         assert (out / name).read_bytes() == (fresh / name).read_bytes()
+
+
+def test_bank_gain_that_would_clip_is_refused_naming_the_file(serial, tmp_path):
+    # The gain pass encodes through the render's encoder (synth.bank.run.encode): a
+    # gain that takes a PCM file above full scale is refused naming the file, its peak
+    # and what to change, before that file is written.
+    from synth.bank.gain import apply_gain
+    from synth.bank.run import CLIP_ADVICE, encode
+
+    _, ref = serial
+    with pytest.raises(BankSpecError, match=r"'small-\d{3}\.wav' peaks at \+[\d.]+ dBFS.*lower"):
+        apply_gain(ref, tmp_path / "loud", target="loudness", level=-1.0)
+    assert not list((tmp_path / "loud").glob("*.wav"))
+    over = np.array([0.5, -1.25, 0.0])
+    with pytest.raises(BankSpecError, match=r"'x\.flac' peaks at \+1\.94 dBFS.*normalize"):
+        encode(over, 16000, "flac", "PCM_24", "x.flac", CLIP_ADVICE)
+    data = encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)  # floats hold it
+    assert data == encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)

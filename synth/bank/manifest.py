@@ -118,6 +118,14 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
+def file_hashes(data: bytes) -> dict:
+    """The hash columns of a row whose file holds ``data``: ``sha256`` of the bytes and
+    ``audio_sha256`` of the decoded samples (:func:`synth.io.reproducible.decoded_sha256`)."""
+    from synth.io.reproducible import decoded_sha256
+
+    return {"sha256": hashlib.sha256(data).hexdigest(), "audio_sha256": decoded_sha256(data)}
+
+
 def _csv_value(v):
     """A CSV cell: lists and tables (vectors, tags, the scene) as JSON text."""
     if v is None:

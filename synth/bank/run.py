@@ -18,7 +18,6 @@ and running the bank again completes it.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import math
 import os
@@ -34,7 +33,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
 from synth.errors import SynthError
-from synth.io.reproducible import decoded_sha256, reproducible
+from synth.io.reproducible import reproducible
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
 _WORKER_THREADS = {
@@ -155,12 +154,20 @@ def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
     return round(value, 6) if math.isfinite(value) else None
 
 
-def _encode(
-    audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str, identity: str
+#: What to change when a row's PCM audio would clip.
+CLIP_ADVICE = "use render.normalize = 'peak', or format = 'wav' with render.subtype = 'FLOAT'"
+
+
+def encode(
+    audio: np.ndarray, samplerate: int, fmt: str, subtype: str, identity: str, advice: str
 ) -> bytes:
-    """The file's bytes in the spec's format and ``subtype``, a function of the samples
-    and ``identity`` (the row's file name) alone (:func:`synth.io.reproducible.reproducible`:
-    an Ogg stream's serial, a float WAV's PEAK timestamp); PCM never clips."""
+    """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
+    of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
+    ``identity`` (the file's name in the bank) alone
+    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
+    PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
+    and ``advice`` (what to change); the files of a render and of the bank-gain pass
+    are made here alike."""
     import soundfile
 
     from synth.io.audio import FLOAT_SUBTYPES
@@ -168,15 +175,12 @@ def _encode(
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     if subtype not in FLOAT_SUBTYPES and peak > 1.0:
         raise BankSpecError(
-            f"the audio peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, and "
-            f"subtype {subtype!r} would clip it: use render.normalize = 'peak', or "
-            f"format = 'wav' with render.subtype = 'FLOAT'"
+            f"{identity!r} peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, "
+            f"and subtype {subtype!r} would clip it: {advice}"
         )
     buf = io.BytesIO()
-    soundfile.write(
-        buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[spec.format][1]
-    )
-    return reproducible(buf.getvalue(), spec.format, identity)
+    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
+    return reproducible(buf.getvalue(), fmt, identity)
 
 
 def _render(spec: BankSpec, item: PlanItem):
@@ -195,7 +199,7 @@ def _render(spec: BankSpec, item: PlanItem):
     )
     rendered = render(scene, sequence=sequence, **options)
     audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
-    data = _encode(audio, rendered.samplerate, spec, subtype, item.file)
+    data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     first = rendered.impacts[0] if len(rendered.impacts) else None
     figures = {
@@ -332,7 +336,7 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data))
+    row.update(figures, **mf.file_hashes(data))
     return RowResult(row, max_rss=_max_rss())
 
 
@@ -714,7 +718,7 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
             target.parent.mkdir(parents=True, exist_ok=True)
             mf.write_atomic(target, data)
             aside[row["index"]].unlink()
-            row = dict(row, file=item.file, sha256=hashlib.sha256(data).hexdigest())
+            row = dict(row, file=item.file, **mf.file_hashes(data))
         out.append(_described(spec, item, row))
     return out
 

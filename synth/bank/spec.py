@@ -256,21 +256,17 @@ def canonical(data: dict) -> dict:
     """The canonical form of a stored spec ``data`` (:meth:`BankSpec.as_dict`, or this
     form itself: the function is idempotent), in which two specs that make the same
     files are equal: the base preset with every fixed default spelled out
-    (:func:`synth.io.presets.with_defaults`: render options, gravity, plate boundary,
-    contact model ...; not those derived from a varied key), its ``render.subtype`` the
-    files' subtype, and without what cannot change a file (the preset's description, and
-    the base values of the varied keys, which every row sets). A value that changes the
+    (:func:`synth.io.presets.canonical`: render options, gravity, plate boundary,
+    contact model ...; not those derived from a varied key; without the preset's
+    description and the base values of the varied keys, which every row sets), its
+    ``render.subtype`` the files' subtype. A value that changes the
     files still differs, under its dotted key (:func:`differences`). A ``data`` that is
     no valid spec is returned as it is (it then differs from any valid one)."""
     try:
-        base = presets.with_defaults(data["preset_data"], varied=tuple(data["vary"]))
+        base = presets.canonical(data["preset_data"], varied=tuple(data["vary"]))
     except (ParameterError, KeyError, TypeError, ValueError, AttributeError):
         return data
-    base.pop("description", None)
     base["render"]["subtype"] = data["subtype"]
-    for key in data["vary"]:
-        section, _, field = key.rpartition(".")
-        (base.get(section, {}) if section else base).pop(field, None)
     out = dict(data, preset_data=base)
     out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
     return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
@@ -936,13 +932,8 @@ def scene_data(spec: BankSpec, values: dict) -> dict:
     and is left out)."""
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in spec.base.items()}
     for key, value in values.items():
-        if key == RESTITUTION_SCALE:
-            continue
-        if "." in key:
-            section, field = key.split(".", 1)
-            data.setdefault(section, {})[field] = list(value) if isinstance(value, tuple) else value
-        else:
-            data[key] = value
+        if key != RESTITUTION_SCALE:
+            presets.set_key(data, key, value, f"vary.{key}")
     return data
 
 
