@@ -27,9 +27,18 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   impact's restitution summed as a geometric series, at most ``max_duration``) and the
   slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
   ``max_tail``), at the sample rate.
-* **memory**: the arrays whose size the above sets (the float64 audio and its float32
-  copy, the pulse grid and its forces, the modes' per-mode rows of the transform
-  workspace), bytes: a floor of what the render holds, not a measurement.
+* **memory**: the largest arrays the render holds at once, sized by the same quantities
+  the code allocates them by (:class:`MemoryParts`): the audio (its float64 buffer, the
+  level's scaled copy and the float32 result), the impacts' modal amplitudes (impacts of
+  a constant-restitution series times modes, complex), the transform's workspace
+  (:data:`~synth.sound.modal_bank.transform_kernels.WORK_ROWS` complex rows per mode) and
+  the model's per-mode vectors (:data:`MODE_VALUES`),
+  the pulse grid, the cold mode solver's dense matrices (:data:`SOLVER_SQUARES`) and its
+  eigenvectors kept as the modes' shapes, and for a microphone the chunks of shape
+  values the Rayleigh sums hold (:data:`RADIATION_CHUNKS` chunks of at most
+  ``CHUNK_BYTES``, of the rectangle rule's points, :func:`synth.sound.radiation.rectangle_points`).
+  An upper estimate of the traced peak (tests/test_cost.py bounds it within a factor),
+  without the interpreter's fixed overhead.
 
 :class:`Budget` bounds them (``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
 ``$SYNTH_MAX_MEMORY_BYTES``, or the keywords of :func:`synth.render`): work beyond it is
@@ -102,6 +111,61 @@ class Budget:
         return cls(*values)
 
 
+#: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
+#: the level makes (:func:`synth.io.audio.normalize`) and the float32 :class:`Render`.
+AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
+
+#: Complex values per mode that the modal model and the synthesis hold besides the
+#: transform's workspace: the poles, their one-sample step and the response
+#: coefficients (:func:`synth.sound.modal_bank.coefficients.bank_coefficients`, each also
+#: as real and imaginary parts), the excitation and output gains, the modes'
+#: frequencies, decay rates and masses, the ring bank's state and masks.
+MODE_VALUES = 20
+
+#: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
+#: (:func:`synth.sound.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
+#: copy LAPACK's dpotrf/dpotri factor and invert in place, the eigenvectors, and dsyevd's
+#: workspace of ``1 + 6 n + 2 n^2`` doubles (LAPACK Users' Guide, 3rd ed., DSYEVD).
+SOLVER_SQUARES = 5
+#: The same for the check basis, eigenvalues only: the matrix and its copy (the
+#: workspace is ``1 + 2 n``).
+CHECK_SQUARES = 2
+
+#: Chunks of shape values (points x modes, float64, at most ``CHUNK_BYTES`` each, see
+#: :mod:`synth.sound.radiation.common`) alive at once while a microphone's gains are
+#: summed: the chunk the worker threads add up and the next one being evaluated
+#: (the pipeline of :func:`synth.sound.radiation.rectangle.apply_rule`), and the shape
+#: evaluation's temporaries of the same size (the two factor tables taken at the modes'
+#: indices and their product, :mod:`synth.sound.modes.closed_form`).
+RADIATION_CHUNKS = 5
+
+#: Tolerance of the microphone's gains (:func:`synth.sound.radiation.plate_gains`'
+#: default, which a render uses).
+RADIATION_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class MemoryParts:
+    """The bytes of the largest arrays a render holds (see the module docstring):
+    ``audio``, ``impacts`` (modal amplitudes and the transform's workspace), ``pulse``,
+    ``solver`` (the cold mode solve's matrices), ``shapes`` (its eigenvectors kept),
+    ``radiation`` (the Rayleigh sums' chunks; 0 for an accelerometer)."""
+
+    audio: int
+    impacts: int
+    pulse: int
+    solver: int
+    shapes: int
+    radiation: int
+
+    @property
+    def total(self) -> int:
+        """Bytes: the stages that run one after the other (the solve, the radiation
+        sums, the synthesis) counted at their largest, plus what stays held."""
+        stages = max(self.solver, self.radiation, self.audio + self.impacts + self.pulse)
+        return stages + self.shapes
+
+
 @dataclass(frozen=True)
 class CostEstimate:
     """The sizes of one render's work (see the module docstring for each estimate).
@@ -127,7 +191,7 @@ class CostEstimate:
     audio_samples : int
         Its samples.
     memory_bytes : int
-        Bytes of the arrays sized by the above.
+        Bytes of the largest arrays held at once (:attr:`MemoryParts.total`).
     max_duration : float
         The render's longest bounce series, s.
     solver_unknowns : int
@@ -149,6 +213,8 @@ class CostEstimate:
     max_duration: float
     solver_unknowns: int = 0
     solver_flops: float = 0.0
+    impacts: int = 1
+    memory: MemoryParts | None = None
 
     def excess(self, budget: Budget) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
@@ -181,11 +247,20 @@ class CostEstimate:
             )
         if self.memory_bytes > budget.max_memory_bytes:
             out.append(
-                f"the render needs at least {self.memory_bytes / 2**20:.0f} MiB, more than "
-                f"the budget of {budget.max_memory_bytes / 2**20:.0f} MiB "
-                f"(SYNTH_MAX_MEMORY_BYTES); lower max_tail, max_duration or the samplerate"
+                f"the render's largest arrays take about {self.memory_bytes / 2**20:.0f} MiB"
+                f"{self._largest_part()}, more than the budget of "
+                f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); lower "
+                f"max_tail, max_duration, max_frequency or the samplerate"
             )
         return out
+
+    def _largest_part(self) -> str:
+        """`` (most of it the <part>: N MiB)`` for the largest part of the memory."""
+        if self.memory is None:
+            return ""
+        parts = vars(self.memory)
+        name = max(parts, key=parts.get)
+        return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
 
     def check(self, budget: Budget) -> None:
         """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
@@ -207,8 +282,12 @@ class CostEstimate:
                 f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
             ),
             ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
-            ("memory (sized arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
-        ]
+            ("impacts (estimated)", f"{self.impacts}"),
+            ("memory (largest arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
+        ] + ([] if self.memory is None else [
+            (f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB")
+            for name in ("audio", "impacts", "pulse", "solver", "shapes", "radiation")
+        ])  # fmt: skip
 
 
 REST = " (the ball comes to rest)"
@@ -276,12 +355,34 @@ def _series_longest(first_contact: float, speed: float, gravity: float) -> float
     lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact,
     where the series ends: the flight ``2 v / g`` as short as the contact, or the kinetic
     energy ``floor_db`` below the first impact's (:func:`simulate_bounces`' rules), s."""
+
+    slowest = _slowest_speed(first_contact, speed, gravity)
+    return first_contact * max(1.0, (speed / slowest) ** 0.2)
+
+
+def _slowest_speed(first_contact: float, speed: float, gravity: float) -> float:
+    """The slowest impact of the series of :func:`_series_longest`, m/s."""
     from synth.physics.bounces import DEFAULT_FLOOR_DB
 
     by_flight = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
     by_energy = speed * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
-    slowest = max(by_flight, by_energy)
-    return first_contact * max(1.0, (speed / slowest) ** 0.2)
+    return max(by_flight, by_energy)
+
+
+def _impact_count(first: FirstContact, speed: float, gravity: float, max_duration: float) -> int:
+    """Impacts of the series: speeds ``v e^n`` of the first impact's restitution ``e``
+    down to the slowest (:func:`_slowest_speed`), or, for ``e`` near 1, as many as the
+    flights ``2 v / g`` fit in ``max_duration``; at most the bounce simulation's
+    ``max_impacts``."""
+    from synth.physics.bounces import DEFAULT_MAX_IMPACTS as most
+
+    if first.settled:
+        return 1
+    e = first.restitution
+    slowest = _slowest_speed(first.contact_time, speed, gravity)
+    by_speed = math.log(slowest / speed) / math.log(e) if 0.0 < e < 1.0 else math.inf
+    by_time = max_duration * gravity / (2.0 * speed * max(e, 1e-300))
+    return int(min(most, 1 + math.ceil(min(by_speed, max(by_time, 1.0)))))
 
 
 @dataclass(frozen=True)
@@ -371,8 +472,16 @@ def estimate(
     flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
     flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
     largest = max(main + check, default=0)
-    memory = 8 * samples + 4 * samples + 16 * points + 16 * WORK_ROWS * modes
-    memory += 2 * 8 * largest**2  # the solver's matrix and its eigenvectors
+    impacts = _impact_count(first, speed, scene.gravity, max_duration)
+    memory = MemoryParts(
+        audio=AUDIO_BYTES_PER_SAMPLE * samples,
+        impacts=16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
+        pulse=16 * points,
+        solver=8 * max(SOLVER_SQUARES * max(main, default=0) ** 2,
+                       CHECK_SQUARES * max(check, default=0) ** 2),
+        shapes=8 * max(main, default=0) * modes,
+        radiation=_radiation_bytes(scene, modes, f_max),
+    )  # fmt: skip
     return CostEstimate(
         max_frequency=f_max,
         modes=modes,
@@ -383,8 +492,31 @@ def estimate(
         pulse_points=points,
         audio_seconds=seconds,
         audio_samples=samples,
-        memory_bytes=memory,
+        memory_bytes=memory.total,
         max_duration=max_duration,
         solver_unknowns=largest,
         solver_flops=float(flops),
+        impacts=impacts,
+        memory=memory,
     )
+
+
+def _radiation_bytes(scene, modes: int, f_max: float) -> int:
+    """Bytes of the chunks of shape values a microphone's Rayleigh sums hold
+    (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule (the
+    first rule refined once, ``REFINE^2`` its points, :func:`rectangle_points` at the
+    bending plus acoustic wavenumber of ``f_max``), at most ``CHUNK_BYTES``."""
+    from synth.constants import SOUND_SPEED
+    from synth.physics.scene import Microphone
+    from synth.sound.radiation import rectangle_points
+    from synth.sound.radiation.common import CHUNK_BYTES, REFINE
+
+    if not isinstance(scene.listener, Microphone) or modes == 0:
+        return 0
+    plate = scene.plate
+    omega = 2.0 * math.pi * f_max
+    bending = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
+    kappa = bending + omega / SOUND_SPEED
+    points = rectangle_points((plate.length, plate.width), kappa, RADIATION_TOL) * REFINE**2
+    chunk = min(float(CHUNK_BYTES), 8.0 * modes * points)
+    return int(RADIATION_CHUNKS * chunk)

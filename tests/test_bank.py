@@ -1294,3 +1294,111 @@ def test_final_check_drops_a_row_whose_file_changed(tmp_path, cache_dir, monkeyp
     again = bank.run(spec, out, jobs=1)
     assert again.ok and (again.done, again.skipped) == (1, 3)
     _check_complete(out, 4)
+
+
+LABELLED_SPEC = """
+preset = "{preset}"
+count = 3
+seed = 3
+name = "{{preset}}-{{ball.radius:label}}-{{index:02d}}"
+format = "{fmt}"
+{tags}[vary]
+"drop.height" = {{ min = 0.01, max = 0.05 }}
+"ball.radius" = [0.004, 0.005]
+[labels]
+"ball.radius" = {{ "0.004" = "{small}", "0.005" = "large" }}
+"""
+
+
+def _labelled_spec(folder: Path, *, preset="small.toml", small="small", tags=None, fmt="ogg"):
+    """The small bank with a labelled axis, its name from the preset and the labels."""
+    folder.mkdir(parents=True, exist_ok=True)
+    tags = "" if tags is None else f"tags = {tags}\n"
+    (folder / preset).write_text(SMALL_PRESET)
+    path = folder / "bank.toml"
+    path.write_text(LABELLED_SPEC.format(preset=preset, small=small, tags=tags, fmt=fmt))
+    return path
+
+
+def test_free_tags_and_value_labels_in_every_manifest_row(tmp_path, cache_dir):
+    # The spec's free tags (a list of keywords or a table of name = value) and each row's
+    # value labels are columns of every row, in the JSON Lines and the CSV manifest;
+    # editing a tag resumes the bank without rendering and rewrites the rows' tags.
+    import csv
+
+    spec = _labelled_spec(tmp_path / "spec", tags='{ category = "impact", take = 2 }', fmt="wav")
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    rows = mf.read_rows(out)
+    assert [r["tags"] for r in rows] == [{"category": "impact", "take": 2}] * 3
+    assert [r["labels"] for r in rows] == [
+        {"ball.radius": "small" if r["ball.radius"] == 0.004 else "large"} for r in rows
+    ]
+    with open(out / mf.CSV, newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert [json.loads(r["tags"]) for r in table] == [r["tags"] for r in rows]
+    assert [json.loads(r["labels"]) for r in table] == [r["labels"] for r in rows]
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    spec.write_text(
+        spec.read_text().replace(
+            'tags = { category = "impact", take = 2 }', 'tags = ["impact", "glass"]'
+        )
+    )
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 3)
+    assert [r["tags"] for r in mf.read_rows(out)] == [["impact", "glass"]] * 3
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav")} == before
+    _check_complete(out, 3)
+
+
+@pytest.mark.parametrize(
+    "bad, says",
+    [("[1, 2]", "tags"), ("{ a = [1] }", "tags.a"), ('[""]', "tags"), ('"x"', "tags")],
+)
+def test_bad_tags_refused_naming_the_key(tmp_path, bad, says):
+    from synth.bank import spec as S
+
+    spec = _labelled_spec(tmp_path, tags=bad)
+    with pytest.raises(BankSpecError, match=rf"{says}="):
+        S.load(spec)
+
+
+def test_renamed_preset_and_edited_label_resume_without_rendering(tmp_path, cache_dir):
+    # Neither the preset's name nor a value's label changes a sound: the bank resumes
+    # (nothing rendered), the files take their new names, and every file's bytes (OGG's
+    # serial follows the name) equal those of the new spec rendered afresh.
+    spec = _labelled_spec(tmp_path / "spec")
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    assert sorted(p.name for p in out.glob("*.ogg"))[0].startswith("small-large-")
+    spec = _labelled_spec(tmp_path / "spec2", preset="tiny.toml", small="little")
+    dry = bank.run(spec, out, jobs=1, dry_run=True)
+    assert (len(dry.planned_rows), dry.skipped) == (0, 3)
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped, result.renamed) == (0, 3, 3)
+    _check_complete(out, 3)
+    fresh = tmp_path / "fresh"
+    assert bank.run(spec, fresh, jobs=1).ok
+    assert _audio_files(out) == _audio_files(fresh)
+    assert all(name.startswith("tiny-") for name in _audio_files(out))
+    assert "little" in "".join(_audio_files(out))
+    for name in (mf.JSONL, mf.CSV, mf.SPEC):
+        assert (out / name).read_bytes() == (fresh / name).read_bytes()
+
+
+def test_bank_gain_that_would_clip_is_refused_naming_the_file(serial, tmp_path):
+    # The gain pass encodes through the render's encoder (synth.bank.run.encode): a
+    # gain that takes a PCM file above full scale is refused naming the file, its peak
+    # and what to change, before that file is written.
+    from synth.bank.gain import apply_gain
+    from synth.bank.run import CLIP_ADVICE, encode
+
+    _, ref = serial
+    with pytest.raises(BankSpecError, match=r"'small-\d{3}\.wav' peaks at \+[\d.]+ dBFS.*lower"):
+        apply_gain(ref, tmp_path / "loud", target="loudness", level=-1.0)
+    assert not list((tmp_path / "loud").glob("*.wav"))
+    over = np.array([0.5, -1.25, 0.0])
+    with pytest.raises(BankSpecError, match=r"'x\.flac' peaks at \+1\.94 dBFS.*normalize"):
+        encode(over, 16000, "flac", "PCM_24", "x.flac", CLIP_ADVICE)
+    data = encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)  # floats hold it
+    assert data == encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)

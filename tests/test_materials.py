@@ -395,3 +395,32 @@ def test_aliases_name_table_rows(alias, row):
 def test_aliases_rejects_unknown_alias():
     with pytest.raises(ParameterError, match="ceramik"):
         materials.get("ceramik")
+
+
+@pytest.mark.parametrize(
+    "field, inside, outside, reason",
+    [
+        ("young", (100.0, 1.21e12), (99.0, 1.3e12, 1e308, 1e-300), "elastomers to diamond"),
+        ("density", (0.16, 22_590.0), (0.1, 22_600.0, 1e308, 1e-300), "aerogel to osmium"),
+    ],
+)
+def test_material_constants_lie_in_the_range_of_real_solids(field, inside, outside, reason):
+    # Young's modulus from the softest elastomers (about 100 Pa) to diamond (1.21 TPa),
+    # density from graphene aerogel (0.16 kg/m^3) to osmium (22 590 kg/m^3): the ends are
+    # accepted as given, a value beyond is refused naming the field, the value, the
+    # interval and why (the table's materials all lie inside).
+    from synth.physics.materials import DENSITY_RANGE, YOUNG_RANGE
+
+    bounds = {"young": YOUNG_RANGE, "density": DENSITY_RANGE}[field]
+    assert bounds == inside
+    kwargs = dict(name="m", density=1000.0, young=1e9, poisson=0.3)
+    for value in inside:
+        assert getattr(Material(**{**kwargs, field: value}), field) == value
+    for value in outside:
+        with pytest.raises(ParameterError) as info:
+            Material(**{**kwargs, field: value})
+        text = str(info.value)
+        assert f"m.{field}={value!r}" in text and f"[{inside[0]:g}, {inside[1]:g}]" in text
+        assert reason in text
+    for name in names():
+        assert bounds[0] <= getattr(get(name), field) <= bounds[1]

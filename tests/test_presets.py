@@ -668,3 +668,39 @@ def test_transverse_shear_and_plate_theory_reject_bad_values(tmp_path, changes, 
     # Each bad value names the file, the key, the value and what is allowed.
     msg, path = error_of(tmp_path, thesis(**changes))
     assert_names(msg, path, *parts)
+
+
+def test_canonical_preset_fills_defaults_and_drops_what_rows_set():
+    # One home for the canonical preset (synth.io.presets.canonical, which the bank's
+    # stored spec uses): a preset that spells out defaults and a description equals the
+    # bare one, and the values of varied keys (set by every row) are left out.
+    from synth.io.presets import canonical, read
+
+    bare = read(find("default"))
+    spelled = copy.deepcopy(bare)
+    spelled["description"] = "said otherwise"
+    spelled["gravity"] = 9.81
+    spelled.setdefault("render", {})["normalize"] = "peak"
+    spelled.setdefault("contact", {})["model"] = "thesis"
+    bare.setdefault("render", {})["normalize"] = "peak"
+    assert canonical(spelled) == canonical(bare)
+    varied = canonical(spelled, varied=("ball.radius", "gravity"))
+    assert "radius" not in varied["ball"] and "gravity" not in varied
+    assert "description" not in varied
+    assert varied["render"]["samplerate"] > 0  # a default filled in
+
+
+def test_set_key_sets_dotted_keys_without_touching_a_shared_section():
+    from synth.io.presets import set_key
+
+    shared = {"radius": 0.005}
+    data = {"ball": shared}
+    set_key(data, "ball.radius", 0.007)
+    set_key(data, "drop.position", (0.1, 0.2))
+    set_key(data, "gravity", 9.0)
+    assert data == {"ball": {"radius": 0.007}, "drop": {"position": [0.1, 0.2]}, "gravity": 9.0}
+    assert shared == {"radius": 0.005}
+    with pytest.raises(ParameterError, match="a.b.c"):
+        set_key(data, "a.b.c", 1)
+    with pytest.raises(ParameterError, match="'gravity' is not a section"):
+        set_key(data, "gravity.x", 1)

@@ -294,8 +294,13 @@ def test_a_cold_mode_solve_beyond_the_operations_budget_is_refused(capsys, tmp_p
         ("ball.mass=1e-300", ["ball.mass=1e-300", "[1e-15, 1000]"]),
         ("ball.radius=1e-300", ["ball.radius=1e-300", "[1e-06, 1]"]),
         (
-            'plate.material={name="x", density=700, young=1e308, poisson=0.3, damping={eta=0.01}}',
+            'plate.material={name="x", density=0.16, young=1.21e12, poisson=0.3, '
+            "damping={eta=0.01}}",
             ["Nyquist", "raise the samplerate"],
+        ),
+        (
+            'plate.material={name="x", density=700, young=1e308, poisson=0.3, damping={eta=0.01}}',
+            ["young=1e+308", "[100, 1.21e+12] Pa", "diamond"],
         ),
         ("plate.material={name={}}", ["plate.material.name={}", "non-empty string"]),
     ],

@@ -24,8 +24,6 @@ files in this pass by ``format``.
 
 from __future__ import annotations
 
-import hashlib
-import io
 import json
 import math
 import statistics
@@ -33,13 +31,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.run import BankRunError
+from synth.bank.run import BankRunError, encode
 from synth.bank.spec import BankSpecError
-from synth.io.reproducible import decoded_sha256, reproducible
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
 TARGETS = {"true_peak": -1.0, "loudness": -23.0}
@@ -131,32 +126,20 @@ def _scaled_row(row: dict, data: bytes, gain_db: float) -> dict:
     for key in ("peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
         if new.get(key) is not None:
             new[key] = round(new[key] + gain_db, 6)
-    new["sha256"] = hashlib.sha256(data).hexdigest()
-    new["audio_sha256"] = decoded_sha256(data)
+    new.update(mf.file_hashes(data))
     return new
 
 
 def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
     """The file ``source`` decoded, scaled by ``gain_db`` and encoded again as the
-    bank's format and subtype; PCM that would clip is refused."""
+    bank's format and subtype (:func:`synth.bank.run.encode`); PCM that would clip is
+    refused."""
     import soundfile
-
-    from synth.io.audio import FLOAT_SUBTYPES
 
     audio, samplerate = soundfile.read(source, dtype="float64")
     audio = audio * 10.0 ** (gain_db / 20.0)
-    subtype = spec["subtype"]
-    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
-    if subtype not in FLOAT_SUBTYPES and peak > 1.0:
-        raise BankSpecError(
-            f"gain {gain_db:+.2f} dB makes {name!r} peak at {20 * math.log10(peak):+.2f} "
-            f"dBFS, above full scale, and subtype {subtype!r} would clip it: choose a lower "
-            f"level"
-        )
-    buf = io.BytesIO()
-    fmt = spec["format"]
-    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
-    return reproducible(buf.getvalue(), fmt, name)
+    advice = f"the gain of {gain_db:+.2f} dB is too high: choose a lower level"
+    return encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
 
 
 def _stored_record(path: Path) -> dict:

@@ -8,7 +8,9 @@ CSV carries the same rows for spreadsheets. At the start and the end of a run bo
 rewritten atomically from the rows that still hold (one per index, by index), so a line
 cut by a crash or a full disk is dropped and the sound redone.
 
-Columns: ``index``, ``file`` (relative to the folder), every varied key, ``seed``,
+Columns: ``index``, ``file`` (relative to the folder), every varied key, ``labels``
+(the labels of the row's values from the spec's ``[labels]``: varied key: label),
+``tags`` (the spec's free tags: a list of keywords or a table), ``seed``,
 ``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
 ``duration`` (s, of the file), ``audible_duration`` (s, to the last sample within 60 dB
 of the peak), ``stop_reason`` (why the bounces ended: ``settled``, ``floor``,
@@ -46,6 +48,8 @@ LOCK = ".bank.lock"
 
 #: Columns after the varied keys.
 RESULT_COLUMNS = (
+    "labels",
+    "tags",
     "seed",
     "status",
     "error",
@@ -114,7 +118,16 @@ def sha256_file(path: Path) -> str:
     return h.hexdigest()
 
 
+def file_hashes(data: bytes) -> dict:
+    """The hash columns of a row whose file holds ``data``: ``sha256`` of the bytes and
+    ``audio_sha256`` of the decoded samples (:func:`synth.io.reproducible.decoded_sha256`)."""
+    from synth.io.reproducible import decoded_sha256
+
+    return {"sha256": hashlib.sha256(data).hexdigest(), "audio_sha256": decoded_sha256(data)}
+
+
 def _csv_value(v):
+    """A CSV cell: lists and tables (vectors, tags, the scene) as JSON text."""
     if v is None:
         return ""
     if isinstance(v, (list, tuple, dict)):

@@ -18,7 +18,6 @@ and running the bank again completes it.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import math
 import os
@@ -34,7 +33,7 @@ from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
 from synth.errors import SynthError
-from synth.io.reproducible import decoded_sha256, reproducible
+from synth.io.reproducible import reproducible
 
 #: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
 _WORKER_THREADS = {
@@ -67,7 +66,9 @@ class BankResult:
     """The outcome of :func:`run`.
 
     ``planned`` rows in the plan; ``done`` rendered now (ok), ``skipped`` found complete,
-    ``failed`` recorded with their error (``failures``: index and error), ``stopped`` the
+    ``failed`` recorded with their error (``failures``: index and error), ``renamed``
+    of the complete rows moved to a new name (the preset renamed, a label or the name
+    template edited), ``stopped`` the
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
     ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
     largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
@@ -80,6 +81,7 @@ class BankResult:
     skipped: int = 0
     failed: int = 0
     failures: list = field(default_factory=list)
+    renamed: int = 0
     stopped: str | None = None
     elapsed: float = 0.0
     startup: float = 0.0
@@ -115,6 +117,8 @@ class BankResult:
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
             f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
         )
+        if self.renamed:
+            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
@@ -150,12 +154,20 @@ def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
     return round(value, 6) if math.isfinite(value) else None
 
 
-def _encode(
-    audio: np.ndarray, samplerate: int, spec: BankSpec, subtype: str, identity: str
+#: What to change when a row's PCM audio would clip.
+CLIP_ADVICE = "use render.normalize = 'peak', or format = 'wav' with render.subtype = 'FLOAT'"
+
+
+def encode(
+    audio: np.ndarray, samplerate: int, fmt: str, subtype: str, identity: str, advice: str
 ) -> bytes:
-    """The file's bytes in the spec's format and ``subtype``, a function of the samples
-    and ``identity`` (the row's file name) alone (:func:`synth.io.reproducible.reproducible`:
-    an Ogg stream's serial, a float WAV's PEAK timestamp); PCM never clips."""
+    """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
+    of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
+    ``identity`` (the file's name in the bank) alone
+    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
+    PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
+    and ``advice`` (what to change); the files of a render and of the bank-gain pass
+    are made here alike."""
     import soundfile
 
     from synth.io.audio import FLOAT_SUBTYPES
@@ -163,15 +175,12 @@ def _encode(
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     if subtype not in FLOAT_SUBTYPES and peak > 1.0:
         raise BankSpecError(
-            f"the audio peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, and "
-            f"subtype {subtype!r} would clip it: use render.normalize = 'peak', or "
-            f"format = 'wav' with render.subtype = 'FLOAT'"
+            f"{identity!r} peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, "
+            f"and subtype {subtype!r} would clip it: {advice}"
         )
     buf = io.BytesIO()
-    soundfile.write(
-        buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[spec.format][1]
-    )
-    return reproducible(buf.getvalue(), spec.format, identity)
+    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
+    return reproducible(buf.getvalue(), fmt, identity)
 
 
 def _render(spec: BankSpec, item: PlanItem):
@@ -190,7 +199,7 @@ def _render(spec: BankSpec, item: PlanItem):
     )
     rendered = render(scene, sequence=sequence, **options)
     audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
-    data = _encode(audio, rendered.samplerate, spec, subtype, item.file)
+    data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     first = rendered.impacts[0] if len(rendered.impacts) else None
     figures = {
@@ -295,7 +304,13 @@ def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
     row = {"index": item.index, "file": item.file, "seed": spec.seed, "status": status}
     for k, v in item.values.items():
         row[k] = list(v) if isinstance(v, tuple) else v
-    return row
+    return _described(spec, item, row)
+
+
+def _described(spec: BankSpec, item: PlanItem, row: dict) -> dict:
+    """``row`` with the columns that describe its sound without changing it, as the
+    spec gives them now: its values' labels and the spec's tags."""
+    return dict(row, labels=bank_spec.row_labels(spec, item.values), tags=spec.tags)
 
 
 def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
@@ -321,7 +336,7 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
     row = _base_row(spec, item, "ok")
-    row.update(figures, sha256=hashlib.sha256(data).hexdigest(), audio_sha256=decoded_sha256(data))
+    row.update(figures, **mf.file_hashes(data))
     return RowResult(row, max_rss=_max_rss())
 
 
@@ -608,8 +623,8 @@ def _as_spec(spec) -> BankSpec:
 
 
 def _grows(stored: dict, new: dict) -> bool:
-    """True if ``new`` is the stored spec with a larger ``count`` (both canonical,
-    :func:`synth.bank.spec.canonical`): rows are drawn per
+    """True if ``new`` is the stored spec with a larger ``count`` (both in the compared
+    form, :func:`synth.bank.spec.compared_form`): rows are drawn per
     index (:func:`synth.bank.spec.variations`), so the rows done stay and the new ones
     are added."""
     old_count, new_count = stored.get("count"), new.get("count")
@@ -631,23 +646,24 @@ def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
 
 
 def _stored(out_dir: Path) -> dict | None:
-    """The spec stored in the folder (None if none), in its canonical form
-    (:func:`synth.bank.spec.canonical`: a folder of an earlier version, which stored the
-    spec as written, compares as the same spec)."""
+    """The part of the spec stored in the folder that makes its sounds (None if none):
+    :func:`synth.bank.spec.compared_form`, in which a folder of an earlier version (which
+    stored the spec as written) compares as the same spec, and a renamed preset, an
+    edited label, name template or tag do not count."""
     stored = mf.read_spec(out_dir) if out_dir.is_dir() else None
-    return None if stored is None else bank_spec.canonical(stored)
+    return None if stored is None else bank_spec.compared_form(stored)
 
 
 def _of_another_spec(stored: dict | None, new: dict) -> bool:
-    """True if the folder's stored spec makes other files than ``new`` (both canonical)
-    and ``new`` does not just grow it."""
+    """True if the folder's stored spec makes other sounds than ``new`` (both in the
+    compared form) and ``new`` does not just grow it."""
     return stored is not None and stored != new and not _grows(stored, new)
 
 
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
     """Refuse a folder made by another spec (naming the keys that differ), or with
     ``force`` delete its files and manifest to start over."""
-    stored, new = _stored(out_dir), spec.stored_form()
+    stored, new = _stored(out_dir), bank_spec.compared_form(spec.stored_form())
     if _of_another_spec(stored, new):
         if not force:
             _refuse_other_spec(out_dir, stored, new)
@@ -657,21 +673,65 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
                 f.unlink()
         for name in (mf.JSONL, mf.CSV):
             (out_dir / name).unlink(missing_ok=True)
-    mf.write_spec(out_dir, new)
+    mf.write_spec(out_dir, spec.stored_form())
 
 
 def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
-    """The rows that are complete: ``ok``, in the plan, and their file present with the
-    recorded SHA-256. ``failed`` and ``planned`` rows are redone."""
+    """The rows that are complete: ``ok``, in the plan, and their file (in the folder,
+    under the name recorded, which :func:`_renamed` moves to the plan's) present with
+    the recorded SHA-256; their labels and tags as the spec gives them now
+    (:func:`_described`). ``failed`` and ``planned`` rows are redone."""
     out = []
     for row in rows:
         item = plan.get(row.get("index"))
-        if item is None or row.get("status") != "ok" or row.get("file") != item.file:
+        if item is None or row.get("status") != "ok" or not isinstance(row.get("file"), str):
             continue
-        path = out_dir / item.file
-        if path.is_file() and mf.sha256_file(path) == row.get("sha256"):
+        path = out_dir / row["file"]
+        if _inside(out_dir, path) and path.is_file() and mf.sha256_file(path) == row.get("sha256"):
             out.append(row)
     return out
+
+
+def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
+    """``rows`` (complete, :func:`_verified`) with their files moved to the plan's names
+    where these changed (a renamed preset, an edited label or name template: the sounds
+    are the same), and their labels and tags as the spec gives them now. The files are
+    first moved aside to temporaries (a new name may be another row's old one), then
+    published under their new names as the bytes a render would give there
+    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial follows the name).
+    A run killed meanwhile leaves rows whose recorded file is missing: they are redone."""
+    from synth.io.atomic import temporary_name
+
+    moving = {r["index"]: r for r in rows if r["file"] != plan[r["index"]].file}
+    aside = {}
+    for index, row in moving.items():
+        old = out_dir / row["file"]
+        aside[index] = out_dir / temporary_name(old.suffix)  # cleaned up if killed here
+        os.replace(old, aside[index])
+        _remove_empty_folders(out_dir, old.parent)
+    out = []
+    for row in rows:
+        item = plan[row["index"]]
+        if row["index"] in aside:
+            data = reproducible(aside[row["index"]].read_bytes(), spec.format, item.file)
+            target = out_dir / item.file
+            target.parent.mkdir(parents=True, exist_ok=True)
+            mf.write_atomic(target, data)
+            aside[row["index"]].unlink()
+            row = dict(row, file=item.file, **mf.file_hashes(data))
+        out.append(_described(spec, item, row))
+    return out
+
+
+def _remove_empty_folders(out_dir: Path, folder: Path) -> None:
+    """Remove ``folder`` and its parents up to ``out_dir`` (excluded) while empty (a
+    subfolder of an earlier name template)."""
+    while _inside(out_dir, folder):
+        try:
+            folder.rmdir()
+        except OSError:  # not empty
+            return
+        folder = folder.parent
 
 
 def _inside(folder: Path, path: Path) -> bool:
@@ -841,7 +901,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     refused as a run refuses it; with ``force`` every row counts as to be rendered."""
     t0 = time.perf_counter()
     plan = {item.index: item for item in items}
-    stored, new = _stored(out), spec.stored_form()
+    stored, new = _stored(out), bank_spec.compared_form(spec.stored_form())
     other = _of_another_spec(stored, new)
     if other and not force:
         _refuse_other_spec(out, stored, new)
@@ -861,8 +921,10 @@ def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> Bank
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
     book = mf.Manifest(out, mf.columns(spec.keys))
-    kept = [r for r in _verified(out, mf.read_rows(out), plan) if r["index"] not in again]
+    verified = _verified(out, mf.read_rows(out), plan)
+    kept = [r for r in _renamed(out, spec, verified, plan) if r["index"] not in again]
     result = BankResult(out, len(items), skipped=len(kept))
+    result.renamed = sum(1 for r in verified if r["file"] != plan[r["index"]].file)
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]
     book.rewrite(kept)

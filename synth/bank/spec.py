@@ -9,6 +9,8 @@ A spec (every key; only ``preset`` is required)::
     name = "{preset}-{index:04d}"   # file name template, without the suffix
     format = "flac"                 # "wav", "flac" (default) or "ogg" (Vorbis)
     sampling = "random"             # ranges: "random", "lhs" (Latin hypercube) or "grid"
+    tags = ["impact", "glass"]      # free tags for every row: keywords, or a table of
+                                    # name = text/number/boolean ({ category = "impact" })
 
     [vary]                          # axes: any preset key, dotted as in `synth render --set`
     "drop.height" = { min = 0.05, max = 0.3 }              # a range, drawn uniformly
@@ -38,6 +40,11 @@ The name template is a Python format string over ``preset`` (the preset's name),
 empty, hidden or ``..`` part, no absolute path). A dotted key is both ``{drop.height}``
 and ``{drop_height}`` (``{drop.position[0]:.2f}`` for a vector's component). The suffix
 comes from ``format``.
+
+Every manifest row carries the spec's ``tags`` and its values' labels from ``[labels]``
+(:func:`row_labels`). Neither they, the preset's name nor the name template change a
+sound: a bank resumes across a change of them (:func:`compared_form`), its files taking
+their new names.
 
 ``restitution_scale`` (dimensionless ``k >= 0``) is the bank's one key that is not a preset
 key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene, as
@@ -81,7 +88,12 @@ TOP_LEVEL = (
     "sampling",
     "labels",
     "min_distance",
+    "tags",
 )
+
+#: Keys of a stored spec that do not change any sound (they name the files or describe
+#: them): left out when a spec is compared with the one a bank was made by.
+NOT_AUDIO = ("preset", "name", "labels", "tags")
 
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
@@ -194,6 +206,7 @@ class BankSpec:
     sampling: str = "random"
     labels: dict = dataclasses.field(default_factory=dict)
     min_distance: float | None = None
+    tags: list | dict | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -230,6 +243,7 @@ class BankSpec:
             "sampling": self.sampling,
             "labels": self.labels,
             "min_distance": self.min_distance,
+            "tags": self.tags,
         }
 
     def stored_form(self) -> dict:
@@ -242,24 +256,27 @@ def canonical(data: dict) -> dict:
     """The canonical form of a stored spec ``data`` (:meth:`BankSpec.as_dict`, or this
     form itself: the function is idempotent), in which two specs that make the same
     files are equal: the base preset with every fixed default spelled out
-    (:func:`synth.io.presets.with_defaults`: render options, gravity, plate boundary,
-    contact model ...; not those derived from a varied key), its ``render.subtype`` the
-    files' subtype, and without what cannot change a file (the preset's description, and
-    the base values of the varied keys, which every row sets). A value that changes the
+    (:func:`synth.io.presets.canonical`: render options, gravity, plate boundary,
+    contact model ...; not those derived from a varied key; without the preset's
+    description and the base values of the varied keys, which every row sets), its
+    ``render.subtype`` the files' subtype. A value that changes the
     files still differs, under its dotted key (:func:`differences`). A ``data`` that is
     no valid spec is returned as it is (it then differs from any valid one)."""
     try:
-        base = presets.with_defaults(data["preset_data"], varied=tuple(data["vary"]))
+        base = presets.canonical(data["preset_data"], varied=tuple(data["vary"]))
     except (ParameterError, KeyError, TypeError, ValueError, AttributeError):
         return data
-    base.pop("description", None)
     base["render"]["subtype"] = data["subtype"]
-    for key in data["vary"]:
-        section, _, field = key.rpartition(".")
-        (base.get(section, {}) if section else base).pop(field, None)
     out = dict(data, preset_data=base)
     out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
     return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
+
+
+def compared_form(data: dict) -> dict:
+    """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
+    form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
+    and the tags), so that a bank resumes across a change of them."""
+    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO}
 
 
 @dataclass(frozen=True)
@@ -394,6 +411,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         sampling=sampling,
         labels=_labels(data.get("labels", {}), axes),
         min_distance=_min_distance(data.get("min_distance"), count, sampling, axes),
+        tags=_tags(data.get("tags")),
     )
     _check_template(spec)
     return spec
@@ -429,6 +447,33 @@ def _trim(value) -> dict | None:
         if not out["max_length"] > out["fade"]:
             raise _error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
     return out
+
+
+def _tag_value(where: str, value) -> None:
+    if isinstance(value, str) and value:
+        return
+    if isinstance(value, bool) or (isinstance(value, (int, float)) and math.isfinite(value)):
+        return
+    raise _error(where, value, "must be a non-empty text, a finite number or a boolean")
+
+
+def _tags(value) -> list | dict | None:
+    """The checked ``tags``: a list of keywords (non-empty texts) or a table of
+    name = text, number or boolean; None if left out."""
+    if value is None:
+        return None
+    if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
+        return list(value)
+    if isinstance(value, dict):
+        for name, v in value.items():
+            _tag_value(f"tags.{name}", v)
+        return dict(value)
+    raise _error(
+        "tags",
+        value,
+        'must be a list of keywords (["impact", "glass"]) or a table of name = text, '
+        'number or boolean ({ category = "impact" })',
+    )
 
 
 def _preset(value, base_dir: Path) -> tuple[Path, str]:
@@ -695,6 +740,19 @@ def _label_of(table: dict, value):
     return None
 
 
+def row_labels(spec: BankSpec, values: dict) -> dict | None:
+    """The labels of a row's values (varied key: label) from the spec's ``[labels]``,
+    for the keys whose table labels the row's value; None if the spec has none."""
+    if not spec.labels:
+        return None
+    out = {}
+    for key, table in spec.labels.items():
+        label = _label_of(table, values.get(key))
+        if label is not None:
+            out[key] = label
+    return out
+
+
 def _labels(value, axes) -> dict:
     """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
     and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
@@ -874,13 +932,8 @@ def scene_data(spec: BankSpec, values: dict) -> dict:
     and is left out)."""
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in spec.base.items()}
     for key, value in values.items():
-        if key == RESTITUTION_SCALE:
-            continue
-        if "." in key:
-            section, field = key.split(".", 1)
-            data.setdefault(section, {})[field] = list(value) if isinstance(value, tuple) else value
-        else:
-            data[key] = value
+        if key != RESTITUTION_SCALE:
+            presets.set_key(data, key, value, f"vary.{key}")
     return data
 
 

@@ -238,18 +238,26 @@ def apply_overrides(data: dict, overrides, source="--set") -> dict:
             raise PresetError(
                 f"{source} {item!r}: the value must be one TOML value, e.g. ball.radius=0.007"
             )
-        value = parsed["v"]
-        parts = key.split(".")
-        if len(parts) == 1:
-            data[key] = value
-        elif len(parts) == 2:
-            section = data.setdefault(parts[0], {})
-            if not isinstance(section, dict):
-                raise PresetError(f"{source} {key}: {parts[0]!r} is not a section")
-            section[parts[1]] = value
-        else:
-            raise PresetError(f"{source} {key}: keys are 'key' or 'section.key'")
+        set_key(data, key, parsed["v"], source)
     return data
+
+
+def set_key(data: dict, key: str, value, source="--set") -> None:
+    """Set the dotted ``key`` (``"gravity"`` or ``"section.key"``) of the preset dict
+    ``data`` to ``value`` in place (a tuple as a list, as TOML gives vectors), as
+    ``--set`` and a bank's axes set it; the section's table is copied first, so a dict
+    that shares it with another is not changed through it."""
+    value = list(value) if isinstance(value, tuple) else value
+    parts = key.split(".")
+    if len(parts) == 1:
+        data[key] = value
+    elif len(parts) == 2:
+        section = data.get(parts[0], {})
+        if not isinstance(section, dict):
+            raise PresetError(f"{source} {key}: {parts[0]!r} is not a section")
+        data[parts[0]] = {**section, parts[1]: value}
+    else:
+        raise PresetError(f"{source} {key}: keys are 'key' or 'section.key'")
 
 
 def _material(value, where):
@@ -416,7 +424,7 @@ def _render_section(section: dict, source: str) -> dict:
     """The ``[render]`` section, checked: its keys are options of :func:`synth.render`
     (checked by :func:`synth.sound.render.check_options`) and ``subtype`` (a soundfile
     subtype name such as "PCM_24" or "FLOAT")."""
-    from synth.sound.render import OPTIONS, check_options
+    from synth.sound.render import OPTIONS
 
     allowed = OPTIONS + ("subtype",)
     for k, v in section.items():
@@ -428,9 +436,8 @@ def _render_section(section: dict, source: str) -> dict:
                 f"allowed: {', '.join(allowed)}"
             )
     section = {"samplerate": PRESET_SAMPLERATE, **section}
-    opts = {k: v for k, v in section.items() if k != "subtype"}
     try:
-        check_options(**opts)
+        _render_options(section)
     except ParameterError as exc:
         raise PresetError(f"{source}: render.{exc}") from None
     if "subtype" in section:
@@ -443,6 +450,16 @@ def _render_section(section: dict, source: str) -> dict:
                 f"such as 'PCM_16', 'PCM_24' or 'FLOAT'"
             )
     return dict(section)
+
+
+def _render_options(section: dict) -> dict:
+    """The render options of a ``[render]`` section, checked and with every default
+    (:func:`synth.sound.render.check_options`; the rate :data:`PRESET_SAMPLERATE` if
+    the section names none); its ``subtype`` is the file's, not a render option."""
+    from synth.sound.render import check_options
+
+    section = {"samplerate": PRESET_SAMPLERATE, **section}
+    return check_options(**{k: v for k, v in section.items() if k != "subtype"})
 
 
 def _fixed_defaults(cls) -> dict:
@@ -469,8 +486,6 @@ def with_defaults(data: dict, *, varied=()) -> dict:
     ``varied`` (dotted keys set later, as a bank's axes: with ``contact.model`` varied,
     its law, plate and surface), so setting those keys later still moves them. ``data``
     must be a valid preset (:func:`scene_from_dict`)."""
-    from synth.sound.render import check_options
-
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
     for section, cls in (("ball", Ball), ("plate", Plate), ("contact", Contact)):
@@ -482,9 +497,22 @@ def with_defaults(data: dict, *, varied=()) -> dict:
     out["contact"] = contact
     if "listener" in out:
         out["listener"] = {"type": DEFAULT_LISTENER, **out["listener"]}
-    section = {"samplerate": PRESET_SAMPLERATE, **out.get("render", {})}
-    options = check_options(**{k: v for k, v in section.items() if k != "subtype"})
-    out["render"] = {**options, **({"subtype": section["subtype"]} if "subtype" in section else {})}
+    section = out.get("render", {})
+    subtype = {"subtype": section["subtype"]} if "subtype" in section else {}
+    out["render"] = {**_render_options(section), **subtype}
+    return out
+
+
+def canonical(data: dict, *, varied=()) -> dict:
+    """The canonical form of the preset dict ``data`` whose dotted keys ``varied`` are
+    set later (a bank's axes), in which two presets that give the same sounds are
+    equal: :func:`with_defaults`, without the description and without the values of
+    the ``varied`` keys (replaced by each row's). ``data`` must be a valid preset."""
+    out = with_defaults(data, varied=varied)
+    out.pop("description", None)
+    for key in varied:
+        section, _, field = key.rpartition(".")
+        (out.get(section, {}) if section else out).pop(field, None)
     return out
 
 

@@ -42,6 +42,9 @@ from synth.physics.scene import Ball, Plate, Scene
 #: The ``"floor"`` rule's default: the series ends when an impact's kinetic energy is this
 #: far below the first's, dB.
 DEFAULT_FLOOR_DB = -60.0
+#: Most impacts a series computes by default (``max_impacts``: a guard for a ball that
+#: keeps bouncing).
+DEFAULT_MAX_IMPACTS = 10_000
 
 STOP_REASONS = (
     "settled",
@@ -170,7 +173,7 @@ def simulate_bounces(
     rtol: float = 1e-6,
     floor_db: float = DEFAULT_FLOOR_DB,
     max_duration: float = 60.0,
-    max_impacts: int = 10_000,
+    max_impacts: int = DEFAULT_MAX_IMPACTS,
     n_points: int = 128,
     rebound: ReboundRule | None = None,
     plate_model: str = "impedance",

@@ -65,6 +65,33 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError
 
+#: Young's modulus a material may have, Pa (closed interval): from the softest solid
+#: elastomers, solvent-free bottlebrush networks of a modulus of order 100 Pa (Daniel et
+#: al., "Solvent-free, supersoft and superelastic bottlebrush melts and networks",
+#: Nature Materials 15, 183 (2016)), to diamond, the stiffest bulk solid, 1.05 to
+#: 1.21 TPa along its crystal axes (Klein & Cardinale, "Young's modulus and Poisson's
+#: ratio of CVD diamond", Diamond and Related Materials 2, 918 (1993)). Outside it a
+#: value is a typing error (a unit: GPa for Pa), not a solid.
+YOUNG_RANGE = (100.0, 1.21e12)
+
+#: Density a material may have, kg/m^3 (closed interval): from the lightest solids,
+#: graphene aerogels of 0.16 kg/m^3 (Sun, Xu & Gao, "Multifunctional, ultra-flyweight,
+#: synergistically assembled carbon aerogels", Advanced Materials 25, 2554 (2013)), to
+#: osmium, the densest element, 22 590 kg/m^3 at room temperature (CRC Handbook of
+#: Chemistry and Physics, "Density of the elements"; Arblaster, Platinum Metals Rev. 33,
+#: 14 (1989): 22 587).
+DENSITY_RANGE = (0.16, 22_590.0)
+
+
+def _solid_value(name: str, value, bounds: tuple[float, float], unit: str, what: str) -> float:
+    """``value`` checked to lie in ``bounds`` (closed), else a ParameterError naming
+    ``name``, the value, the interval and ``what`` bounds it."""
+    lo, hi = bounds
+    x = checks.real(name, value, unit, f"in [{lo:g}, {hi:g}]")
+    if not lo <= x <= hi:
+        raise ParameterError(f"{name}={value!r} must be in [{lo:g}, {hi:g}] {unit} ({what})")
+    return x
+
 
 @dataclass(frozen=True)
 class Rayleigh:
@@ -127,10 +154,10 @@ class Material:
     ----------
     name : str
         Name used in messages and presets.
-    density : float > 0
-        Mass density, kg/m^3.
-    young : float > 0
-        Young's modulus, Pa.
+    density : float in DENSITY_RANGE
+        Mass density, kg/m^3 (:data:`DENSITY_RANGE`: aerogel to osmium).
+    young : float in YOUNG_RANGE
+        Young's modulus, Pa (:data:`YOUNG_RANGE`: the softest elastomers to diamond).
     poisson : float in (-1, 0.5)
         Poisson's ratio, dimensionless.
     damping : Rayleigh or LossFactor or None
@@ -157,8 +184,14 @@ class Material:
         if not isinstance(self.name, str) or not self.name:
             raise ParameterError(f"material.name={self.name!r} must be a non-empty string")
         n = self.name
-        object.__setattr__(self, "density", checks.positive(f"{n}.density", self.density, "kg/m^3"))
-        object.__setattr__(self, "young", checks.positive(f"{n}.young", self.young, "Pa"))
+        density = _solid_value(
+            f"{n}.density", self.density, DENSITY_RANGE, "kg/m^3", "graphene aerogel to osmium"
+        )
+        young = _solid_value(
+            f"{n}.young", self.young, YOUNG_RANGE, "Pa", "the softest elastomers to diamond"
+        )
+        object.__setattr__(self, "density", density)
+        object.__setattr__(self, "young", young)
         object.__setattr__(
             self,
             "poisson",

@@ -158,11 +158,18 @@ def _use_boundary(size, q_s, kb, c, tol, max_points) -> bool:
 
 
 def _rectangle_work(size, q_s, kb, c, tol) -> float:
-    """Modes times points of the rectangle rule's first rule, estimated from its
-    longest panels (24 points each, ``2 w24 / kappa`` long)."""
+    """Modes times points of the rectangle rule's first rule (:func:`rectangle_points`)."""
     kappa = kb + float(np.max(np.abs(q_s))) / c
+    return float(q_s.size) * rectangle_points(size, kappa, tol)
+
+
+def rectangle_points(size, kappa: float, tol: float = 1e-6) -> float:
+    """Points of the rectangle rule's first rule on a plate of ``size`` (a, b), metres,
+    for the wavenumber ``kappa`` (bending plus acoustic, rad/m) and tolerance ``tol``,
+    estimated from its longest panels (24 points each, ``2 w24 / kappa`` long); known
+    before any mode is solved (:func:`synth.cost.estimate` sizes the sums' chunks by it)."""
     per_metre = MAX_ORDER * kappa / (2.0 * half_phase(MAX_ORDER, 0.1 * tol))
-    return float(q_s.size) * (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
+    return (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
 
 
 def _use_summed(modes, size, q_s, kb, c, tol):
