@@ -1,0 +1,390 @@
+"""A ball rolling at a constant horizontal speed over a plate's rough surface.
+
+The model (docs/rolling.md): the ball's centre moves along a straight path on the plate at
+the horizontal speed ``v``; vertically it is a free body under gravity pressed by the
+impacts' contact law (:func:`synth.physics.contact.contact_parameters`: Hertz, with the
+material's loss where the law has one) against the plate's surface, which is the
+profile's envelope under the ball (:func:`synth.physics.surface.contact_envelope`) on a
+rigid plate or on the plate's point impedance (its admittance ``beta``, as the impacts'
+contact, docs/physics.md "Hertz contact"). Contact is lost wherever the surface falls away
+faster than gravity lets the ball follow, and the landings that follow are impacts of the
+same equations: micro-bounces are not a separate model. The equations and the integrator
+are those of :mod:`synth.physics.rolling_kernels`.
+
+:func:`roll` returns a :class:`RollingContact`: the contact force averaged over every
+sample period (its sum is the impulse delivered, exactly), the contact point on the plate,
+the smallest penetration per sample, the energy balance, and the solver's status.
+
+Left out (docs/rolling.md, "Limits"): rolling resistance (the horizontal speed is imposed,
+not solved; :attr:`RollingContact.mean_drag` is the mean horizontal force the contact
+opposes to it, whose work the drive supplies); the tilt of the contact normal (forces and
+penetrations are vertical: errors of the order of the profile's slope squared); the local
+curvature of the profile in the Hertz constant (the sphere-on-flat constant is used); the
+ball's rotation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+from synth.physics import impedance
+from synth.physics import rolling_kernels as _k
+from synth.physics.contact import ContactLaw, contact_parameters
+from synth.physics.scene import MAX_GRAVITY, Ball, Plate
+from synth.physics.surface import ContactEnvelope, envelope_at
+
+#: Most integration steps per sample period before the solver gives up (a contact
+#: resolved at the tolerance asks for a few per period).
+MAX_STEPS_PER_SAMPLE = 2000
+#: Longest rolling solved in one call, s.
+MAX_DURATION = 3600.0
+
+_MESSAGES = {
+    _k.OK: "The rolling was integrated to its end.",
+    _k.MAX_STEPS: "The step limit was reached before the end.",
+    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
+}
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    """The energy of the ball and its contact at the start and the end (J), and where the
+    difference went.
+
+    ``final - initial + loss_work + plate_energy - drive_work`` is zero for the exact
+    solution: the mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` changes
+    by the work of the horizontal drive (the force's horizontal part ``-F e'(s)`` against the
+    imposed speed) less what the contact's loss and the plate's impedance take.
+
+    Attributes
+    ----------
+    initial, final : float
+        Mechanical energy, J (potential energy from the plate's nominal plane).
+    loss_work : float
+        Work of the contact's loss, ``Int (F - K delta^n) d(delta)/dt dt``, J (>= 0).
+    plate_energy : float
+        Energy carried into the plate, ``Int beta F^2 dt``, J.
+    drive_work : float
+        Work of the horizontal drive, ``Int F e'(s) v dt``, J.
+    gross_drive_work : float
+        ``Int |F e'(s) v| dt``, J: the energy exchanged with the drive.
+    residual : float
+        ``|final - initial + loss_work + plate_energy - drive_work|`` relative to the
+        largest of ``gross_drive_work``, ``loss_work + plate_energy`` and ``|final -
+        initial|``.
+    """
+
+    initial: float
+    final: float
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    gross_drive_work: float
+    residual: float
+
+
+@dataclass(frozen=True, eq=False)
+class RollingContact:
+    """A rolling ball's contact with the plate, sampled at the audio rate (SI units).
+
+    Attributes
+    ----------
+    samplerate : int
+        Hz; sample ``j`` covers ``[j, j + 1) / samplerate`` s from the start.
+    force : ndarray (N,)
+        Mean contact force on the plate over each sample period, N (downward on the plate).
+    path_position : ndarray (N,)
+        Position of the ball's centre along the path at each sample's start, m.
+    contact_coordinate : ndarray (N,)
+        Position of the touching point along the path at each sample's start, m (the
+        centre's position plus the envelope's contact offset).
+    contact_point : ndarray (N, 2)
+        That point on the plate, ``(x, y)`` m from the plate's corner.
+    min_penetration : ndarray (N,)
+        Smallest penetration at the solver's steps' ends within each sample, m (<= 0:
+        the ball was off the plate).
+    flights : int
+        Losses of contact seen at the steps' ends.
+    energy : EnergyBalance
+    law : ContactLaw
+        The contact law's constants.
+    admittance : float
+        The plate's admittance ``beta``, m/(N s) (0: rigid).
+    speed : float
+        Horizontal speed, m/s.
+    origin : (float, float)
+        Where the path's coordinate 0 lies on the plate, m from its corner.
+    direction : (float, float)
+        The path's unit direction on the plate.
+    mass : float
+        Ball mass, kg.
+    static_penetration : float
+        ``(m g / K)^(1/n)``, m: the scale of the error control.
+    success : bool
+    status : int
+        0 integrated to its end; negative: failure (see ``message``).
+    message : str
+    n_steps, n_rejected : int
+        Integration steps taken and rejected.
+    """
+
+    samplerate: int
+    force: np.ndarray
+    path_position: np.ndarray
+    contact_coordinate: np.ndarray
+    contact_point: np.ndarray
+    min_penetration: np.ndarray
+    flights: int
+    energy: EnergyBalance
+    law: ContactLaw
+    admittance: float
+    speed: float
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    mass: float
+    static_penetration: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    n_rejected: int
+
+    @property
+    def contact_lost(self) -> np.ndarray:
+        """Samples in which the ball was seen off the plate (bool, (N,))."""
+        return self.min_penetration <= 0.0
+
+    @property
+    def mean_drag(self) -> float:
+        """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
+        work per metre of path."""
+        distance = self.speed * self.force.size / self.samplerate
+        return self.energy.drive_work / distance
+
+
+def _direction(direction) -> tuple[float, float]:
+    dx, dy = checks.point("direction", direction, 2, "dimensionless")
+    norm = math.hypot(dx, dy)
+    if not norm > 0.0:
+        raise ParameterError(f"direction={direction!r} must be a nonzero (x, y) vector")
+    return dx / norm, dy / norm
+
+
+def roll(
+    ball: Ball,
+    plate: Plate,
+    envelope: ContactEnvelope,
+    *,
+    speed: float,
+    duration: float,
+    samplerate: int,
+    origin,
+    direction=(1.0, 0.0),
+    start: float = 0.0,
+    contact: str = "hertz",
+    admittance: float | None = None,
+    gravity: float = GRAVITY,
+    rtol: float = 1e-6,
+    **contact_options,
+) -> RollingContact:
+    """Roll ``ball`` over ``plate`` along the path of ``envelope`` at ``speed`` for
+    ``duration``.
+
+    Parameters
+    ----------
+    ball : Ball
+    plate : Plate
+    envelope : ContactEnvelope
+        The path's surface as this ball rides it (made with ``ball.radius``).
+    speed : float > 0
+        Horizontal speed of the ball's centre, m/s.
+    duration : float > 0
+        s (at most :data:`MAX_DURATION`).
+    samplerate : int > 0
+        Hz.
+    origin : (float, float)
+        Where the path's coordinate 0 lies on the plate, m from its corner.
+    direction : (float, float)
+        The path's direction on the plate (normalised here).
+    start : float >= 0
+        The centre's path coordinate at time 0, m; the centre travels to ``start + speed *
+        duration``, which must lie within the envelope's length.
+    contact : str
+        The contact law and its ``contact_options`` (see
+        :func:`synth.physics.contact.contact_parameters`).
+    admittance : float >= 0, optional
+        The plate's admittance at the contact, m/(N s): 0 for a rigid plate; default the
+        infinite plate's ``1 / Z_inf`` (:func:`synth.physics.impedance.infinite_plate_impedance`).
+    gravity : float > 0
+        m/s^2.
+    rtol : float in [1e-12, 1e-2]
+        Local relative tolerance of the integrator (on the penetration, relative to the
+        static penetration, and on the vertical speed).
+
+    Start: the ball is in contact as a ball rolled there slowly would be: the contact
+    force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's centripetal force), the
+    penetration it needs under the law's elastic part, the vertical speed that keeps the
+    penetration steady; if that force is negative the ball starts just touching, moving
+    with the surface.
+    """
+    if not isinstance(ball, Ball):
+        raise ParameterError(f"ball={ball!r} must be a Ball")
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    if not isinstance(envelope, ContactEnvelope):
+        raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+    if envelope.radius != ball.radius:
+        raise ParameterError(
+            f"envelope.radius={envelope.radius!r} must be the ball's radius "
+            f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+        )
+    v = checks.positive("speed", speed, "m/s")
+    T = checks.positive_at_most("duration", duration, MAX_DURATION, "s")
+    fs = checks.samplerate(samplerate)
+    g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
+    tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
+    s0 = checks.nonnegative("start", start, "metres")
+    ox, oy = checks.point("origin", origin, 2)
+    ux, uy = _direction(direction)
+    n_samples = int(round(T * fs))
+    if n_samples < 1:
+        raise ParameterError(f"duration={duration!r} must cover at least one sample (s)")
+    end = s0 + v * n_samples / fs
+    if end > envelope.length:
+        raise ParameterError(
+            f"start={start!r} + speed={speed!r} * duration={duration!r} reaches {end!r} m, "
+            f"beyond the envelope's length {envelope.length!r} m"
+        )
+    law = contact_parameters(ball, plate, contact, **contact_options)
+    beta = (
+        1.0 / impedance.infinite_plate_impedance(plate)
+        if admittance is None
+        else checks.nonnegative("admittance", admittance, "m/(N s)")
+    )
+    path = s0 + v * np.arange(n_samples) / fs
+    coordinate = path + np.interp(
+        path, np.arange(envelope.heights.size) * envelope.spacing, envelope.contact_offsets
+    )
+    points = np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
+    _check_on_plate(plate, points, origin, direction)
+    return _solve(
+        ball, envelope, law, beta, v, n_samples, fs, g, tol, s0, path, coordinate, points,
+        (ox, oy), (ux, uy),
+    )  # fmt: skip
+
+
+def _check_on_plate(plate, points, origin, direction):
+    a, b = plate.length, plate.width
+    off = (points[:, 0] < 0.0) | (points[:, 0] > a) | (points[:, 1] < 0.0) | (points[:, 1] > b)
+    if np.any(off):
+        i = int(np.argmax(off))
+        raise ParameterError(
+            f"origin={origin!r} with direction={direction!r}: the contact point "
+            f"({points[i, 0]:.6g}, {points[i, 1]:.6g}) m leaves the plate (x in [0, {a!r}], "
+            f"y in [0, {b!r}] metres)"
+        )
+
+
+def _initial_state(m, K, n, beta, g, v, e, ep, epp) -> tuple[np.ndarray, float]:
+    """The state of :func:`roll`'s start and the static penetration ``(m g / K)^(1/n)``."""
+    delta_ref = (m * g / K) ** (1.0 / n)
+    F0 = m * (g + v * v * epp)
+    y = np.zeros(_k.N_STATE)
+    if F0 > 0.0:
+        delta0 = (F0 / K) ** (1.0 / n)
+        y[_k.Z] = e - delta0
+        y[_k.VY] = ep * v - beta * F0
+    else:
+        y[_k.Z] = e
+        y[_k.VY] = ep * v
+    return y, delta_ref
+
+
+def _mechanical_energy(y, m, K, n, g, delta) -> float:
+    elastic = K * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
+    return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
+
+
+def _solve(
+    ball, envelope, law, beta, v, n_samples, fs, g, tol, s0, path, coordinate, points, origin,
+    direction,
+):  # fmt: skip
+    m = ball.mass
+    K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
+    env = envelope.heights
+    dx = envelope.spacing
+    e, ep, _ = envelope_at(env, dx, s0)
+    # the centre path's curvature from the centred second difference at the nearest node
+    # inside the profile (the interpolant's curvature is one-sided at its ends)
+    i = min(max(int(round(s0 / dx)), 1), env.size - 2)
+    epp = (env[i + 1] - 2.0 * env[i] + env[i - 1]) / (dx * dx)
+    y, delta_ref = _initial_state(m, K, n, beta, g, v, e, ep, epp)
+    E0 = _mechanical_energy(y, m, K, n, g, e - y[_k.Z])
+    # NaN where a failed integration did not reach
+    forces = np.full(n_samples, np.nan)
+    min_pen = np.full(n_samples, np.nan)
+    h0 = 0.1 * math.sqrt(delta_ref / g)
+    status, steps, rejected, flights = _k.roll(
+        y,
+        env,
+        dx,
+        s0,
+        v,
+        m,
+        K,
+        n,
+        mu,
+        b,
+        beta,
+        g,
+        float(fs),
+        tol,
+        delta_ref,
+        min(h0, 1.0 / fs),
+        MAX_STEPS_PER_SAMPLE * n_samples,
+        forces,
+        min_pen,
+    )
+    e1, _, _ = envelope_at(env, dx, s0 + v * n_samples / fs)
+    E1 = _mechanical_energy(y, m, K, n, g, e1 - y[_k.Z])
+    loss, plate_e, drive, gross = y[_k.LOSS], y[_k.PLATE], y[_k.DRIVE], y[_k.GROSS]
+    scale = max(gross, loss + plate_e, abs(E1 - E0), 1e-300)
+    balance = EnergyBalance(
+        E0,
+        E1,
+        loss,
+        plate_e,
+        drive,
+        gross,
+        abs(E1 - E0 + loss + plate_e - drive) / scale,
+    )
+    for a in (forces, path, coordinate, points, min_pen):
+        a.setflags(write=False)
+    return RollingContact(
+        fs,
+        forces,
+        path,
+        coordinate,
+        points,
+        min_pen,
+        int(flights),
+        balance,
+        law,
+        beta,
+        v,
+        origin,
+        direction,
+        m,
+        delta_ref,
+        status == _k.OK,
+        int(status),
+        _MESSAGES.get(int(status), "Unknown status."),
+        int(steps),
+        int(rejected),
+    )
