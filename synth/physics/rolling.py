@@ -317,13 +317,9 @@ def _solve(
 ):  # fmt: skip
     m = ball.mass
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    env = envelope.heights
+    env = envelope.coefficients
     dx = envelope.spacing
-    e, ep, _ = envelope_at(env, dx, s0)
-    # the centre path's curvature from the centred second difference at the nearest node
-    # inside the profile (the interpolant's curvature is one-sided at its ends)
-    i = min(max(int(round(s0 / dx)), 1), env.size - 2)
-    epp = (env[i + 1] - 2.0 * env[i] + env[i - 1]) / (dx * dx)
+    e, ep, epp = envelope_at(env, dx, s0)
     y, delta_ref = _initial_state(m, K, n, beta, g, v, e, ep, epp)
     E0 = _mechanical_energy(y, m, K, n, g, e - y[_k.Z])
     # NaN where a failed integration did not reach

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from synth import checks
 from synth.errors import ParameterError
@@ -43,6 +44,9 @@ MAX_PROFILE_SAMPLES = 10_000_000
 #: domain: the Matern correlation at ``8 xi`` is below 1e-3 for every ``H <= 1``, so the
 #: wrap-around of the periodic synthesis does not correlate the profile's two ends.
 PADDING_CORRELATION_LENGTHS = 8.0
+#: Newton iterations locating a summit's contact point between samples (quadratic
+#: convergence from within a sample of it: machine precision in about four).
+NEWTON_ITERATIONS = 6
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -240,6 +244,10 @@ class ContactEnvelope:
         The sphere's radius ``R``, metres.
     description : str
         The profile's description.
+    coefficients : ndarray (N - 1, 4)
+        The cubic spline through ``heights`` ("not-a-knot" ends, C2: its curvature's error
+        is O(spacing^2), so the ball's centripetal acceleration is resolved), interval ``i``
+        being ``sum_m c[i, m] (s - s_i)^(3 - m)`` (:func:`envelope_at` evaluates it).
     """
 
     heights: np.ndarray
@@ -247,6 +255,7 @@ class ContactEnvelope:
     spacing: float
     radius: float
     description: str
+    coefficients: np.ndarray
 
     @property
     def length(self) -> float:
@@ -257,11 +266,12 @@ class ContactEnvelope:
 def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
     """The envelope ``e(s)`` that a sphere of ``radius`` (m) rides on ``profile``.
 
-    At every sample ``s_i``, the largest ``g_j = h_j - (R - sqrt(R^2 - (x_j - s_i)^2))``
-    over the samples within reach (where the cap's depth is at most the profile's range),
-    refined by the vertex of the parabola through ``g`` at that sample and its two
-    neighbours (exact where the profile is locally quadratic on the grid's scale; it keeps
-    the grid's step out of the envelope's curvature over a smooth summit).
+    The profile between its samples is the cubic spline through them ("not-a-knot" ends).
+    At every sample ``s_i``: the largest ``g_j = h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` over
+    the samples within reach (where the cap's depth is at most the profile's range), then
+    the maximum of ``g`` on the spline between that sample's neighbours by Newton's
+    iteration (so the grid's step does not show in the envelope's curvature over a smooth
+    summit). Between samples, the envelope is the cubic spline through its samples.
     """
     if not isinstance(profile, Profile):
         raise ParameterError(f"profile={profile!r} must be a Profile")
@@ -274,16 +284,29 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
     window = min(int(math.ceil(reach / dx)) + 1, h.size - 1)
     e = np.empty(h.size)
     off = np.empty(h.size)
-    _dilate(np.ascontiguousarray(h), dx, R, window, e, off)
+    x = np.arange(h.size) * dx
+    _dilate(np.ascontiguousarray(h), _spline(x, h), dx, R, window, e, off)
     return ContactEnvelope(
-        _read_only(e), _read_only(off), dx, R, f"{profile.description}; ball radius={R:g} m"
+        _read_only(e),
+        _read_only(off),
+        dx,
+        R,
+        f"{profile.description}; ball radius={R:g} m",
+        _read_only(_spline(x, e)),
     )
 
 
+def _spline(x, y) -> np.ndarray:
+    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``."""
+    return np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T)
+
+
 @numba.njit(cache=True)
-def _dilate(h, dx, R, window, e, off):  # pragma: no cover - compiled
-    """``e_i = max_j (h_j - cap(x_j - s_i))`` with the parabolic refinement of
-    :func:`contact_envelope`; ``off_i`` the maximiser's offset, m."""
+def _dilate(h, coefficients, dx, R, window, e, off):  # pragma: no cover - compiled
+    """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's cubic spline (``coefficients``
+    as :attr:`ContactEnvelope.coefficients`): the best sample, then Newton's iteration on
+    ``g'(x) = h'(x) - (x - s_i) / sqrt(R^2 - (x - s_i)^2) = 0`` within its two neighbours;
+    ``off_i`` the maximiser's offset, m."""
     n = h.shape[0]
     R2 = R * R
     for i in range(n):
@@ -299,51 +322,52 @@ def _dilate(h, dx, R, window, e, off):  # pragma: no cover - compiled
             if g > best:
                 best = g
                 jb = j
-        shift = 0.0
-        if lo < jb < hi:
-            dm = (jb - 1 - i) * dx
-            dp = (jb + 1 - i) * dx
-            if dm * dm < R2 and dp * dp < R2:
-                gm = h[jb - 1] - (R - math.sqrt(R2 - dm * dm))
-                gp = h[jb + 1] - (R - math.sqrt(R2 - dp * dp))
-                curv = gm - 2.0 * best + gp
-                if curv < 0.0:
-                    t = 0.5 * (gm - gp) / curv
-                    if -0.5 <= t <= 0.5:
-                        best = best - 0.25 * (gm - gp) * t
-                        shift = t
+        x_best = jb * dx
+        a = max(jb - 1, 0) * dx
+        b = min(jb + 1, n - 1) * dx
+        s = i * dx
+        x = x_best
+        for _ in range(NEWTON_ITERATIONS):
+            d = x - s
+            q = R2 - d * d
+            if q <= 0.0:
+                break
+            _, h1, h2 = envelope_at(coefficients, dx, x)
+            root = math.sqrt(q)
+            g1 = h1 - d / root
+            g2 = h2 - R2 / (q * root)
+            if g2 >= 0.0:
+                break
+            x_new = x - g1 / g2
+            if not a <= x_new <= b:
+                break
+            x = x_new
+        d = x - s
+        if d * d < R2:
+            hx, _, _ = envelope_at(coefficients, dx, x)
+            g = hx - (R - math.sqrt(R2 - d * d))
+            if g > best:
+                best = g
+                x_best = x
         e[i] = best
-        off[i] = (jb - i + shift) * dx
+        off[i] = x_best - s
 
 
 @numba.njit(cache=True)
-def envelope_at(e, dx, s):  # pragma: no cover - compiled
-    """``(e(s), e'(s), e''(s))`` (m, dimensionless, 1/m) of the envelope samples ``e`` at
-    ``s`` (m, inside ``[0, (N-1) dx]``) by cubic Hermite interpolation with centred
-    slopes (Catmull-Rom; one-sided at the ends): C1, error O(dx^3)."""
-    n = e.shape[0]
-    u = s / dx
-    i = int(math.floor(u))
+def envelope_at(coefficients, dx, s):  # pragma: no cover - compiled
+    """``(e(s), e'(s), e''(s))`` (m, dimensionless, 1/m) of the envelope's cubic spline
+    (:attr:`ContactEnvelope.coefficients`) at ``s`` (m, inside ``[0, (N-1) dx]``)."""
+    n = coefficients.shape[0]
+    i = int(math.floor(s / dx))
     if i < 0:
         i = 0
-    if i > n - 2:
-        i = n - 2
-    t = u - i
-    p0 = e[i]
-    p1 = e[i + 1]
-    m0 = 0.5 * (e[i + 1] - e[i - 1]) if i > 0 else e[1] - e[0]
-    m1 = 0.5 * (e[i + 2] - e[i]) if i < n - 2 else e[n - 1] - e[n - 2]
-    t2 = t * t
-    t3 = t2 * t
-    h00 = 2.0 * t3 - 3.0 * t2 + 1.0
-    h10 = t3 - 2.0 * t2 + t
-    h01 = -2.0 * t3 + 3.0 * t2
-    h11 = t3 - t2
-    value = h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1
-    d00 = 6.0 * t2 - 6.0 * t
-    d10 = 3.0 * t2 - 4.0 * t + 1.0
-    d11 = 3.0 * t2 - 2.0 * t
-    slope = (d00 * (p0 - p1) + d10 * m0 + d11 * m1) / dx
-    c00 = 12.0 * t - 6.0
-    curvature = (c00 * (p0 - p1) + (6.0 * t - 4.0) * m0 + (6.0 * t - 2.0) * m1) / (dx * dx)
+    if i > n - 1:
+        i = n - 1
+    t = s - i * dx
+    c0 = coefficients[i, 0]
+    c1 = coefficients[i, 1]
+    c2 = coefficients[i, 2]
+    value = ((c0 * t + c1) * t + c2) * t + coefficients[i, 3]
+    slope = (3.0 * c0 * t + 2.0 * c1) * t + c2
+    curvature = 6.0 * c0 * t + 2.0 * c1
     return value, slope, curvature

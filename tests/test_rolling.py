@@ -1,0 +1,212 @@
+"""Rolling contact: the speed at which contact is lost, the energy balance, reproducibility
+(synth.physics.rolling; docs/rolling.md)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from synth import ParameterError
+from synth.physics import rolling, surface
+from synth.physics.scene import Ball, Plate
+
+G = 9.81
+AMPLITUDE = 2e-5  # m
+WAVELENGTH = 5e-3  # m
+SAMPLERATE = 48000
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return Ball("steel", 0.01), Plate("glass", 0.006, 1.0, 0.6)
+
+
+def sinusoid_envelope(radius, length=0.1):
+    # troughs at x = 0, wavelength, ...: h = -A cos(k x)
+    profile = surface.sinusoidal_profile(
+        amplitude=AMPLITUDE,
+        wavelength=WAVELENGTH,
+        length=length,
+        spacing=WAVELENGTH / 200,
+        phase=-math.pi / 2,
+    )
+    return surface.contact_envelope(profile, radius)
+
+
+def closed_form_loss_speed(radius):
+    """Rigid contact: the centre rides the envelope, whose radius of curvature over a crest
+    of the sinusoid is rho + R (rho = 1 / (A k^2)); it stays down while its centripetal
+    acceleration v^2 / (rho + R) is at most g: v_c = sqrt(g (rho + R))."""
+    k = 2.0 * math.pi / WAVELENGTH
+    return math.sqrt(G * (1.0 / (AMPLITUDE * k * k) + radius))
+
+
+def loses_contact(ball, plate, env, speed):
+    # from a trough (where the start is quasi-static), over three crests
+    r = rolling.roll(
+        ball,
+        plate,
+        env,
+        speed=speed,
+        duration=3.5 * WAVELENGTH / speed,
+        samplerate=SAMPLERATE,
+        origin=(0.1, 0.3),
+        start=WAVELENGTH,
+        admittance=0.0,
+    )
+    assert r.success, r.message
+    return bool(np.any(r.contact_lost))
+
+
+@pytest.mark.parametrize("radius", [0.01, 0.002])
+def test_contact_loss_speed_matches_closed_form(pair, radius):
+    """The speed at which a ball starts to lose contact on a sinusoid: within 1 % of
+    sqrt(g (rho + R)). The Hertz compliance lowers it by a dynamic correction of order
+    (k v / omega_c)^2 (omega_c the contact's natural angular frequency at rest, 1.1e4
+    rad/s for the 10 mm ball; k v = 800 rad/s): 5e-3; bisection to 1e-3."""
+    ball = Ball("steel", radius)
+    plate = pair[1]
+    env = sinusoid_envelope(radius)
+    vc = closed_form_loss_speed(radius)
+    lo, hi = 0.9 * vc, 1.05 * vc
+    assert not loses_contact(ball, plate, env, lo)
+    assert loses_contact(ball, plate, env, hi)
+    while hi - lo > 1e-3 * vc:
+        mid = 0.5 * (lo + hi)
+        if loses_contact(ball, plate, env, mid):
+            hi = mid
+        else:
+            lo = mid
+    found = 0.5 * (lo + hi)
+    assert abs(found / vc - 1.0) < 0.01
+    # the point-contact estimate sqrt(g rho) ignores the ball's size: 13 % off for R = 10 mm
+    k = 2.0 * math.pi / WAVELENGTH
+    point = math.sqrt(G / (AMPLITUDE * k * k))
+    if radius == 0.01:
+        assert abs(found / point - 1.0) > 0.1
+
+
+def test_envelope_curvature_over_crest_and_trough():
+    """The envelope's curvature: -1/(rho + R) over a crest, 1/(rho - R) in a trough
+    (offset curves of the sinusoid's osculating circles), to the grid's O(dx^2) (1e-3)."""
+    R = 0.01
+    env = sinusoid_envelope(R)
+    dx = env.spacing
+    rho = 1.0 / (AMPLITUDE * (2.0 * math.pi / WAVELENGTH) ** 2)
+    crest = int(round(1.5 * WAVELENGTH / dx))
+    trough = int(round(2.0 * WAVELENGTH / dx))
+    for i, expected in ((crest, -1.0 / (rho + R)), (trough, 1.0 / (rho - R))):
+        curvature = surface.envelope_at(env.coefficients, dx, i * dx)[2]
+        assert curvature == pytest.approx(expected, rel=1e-3)
+
+
+def test_envelope_bridges_a_dip_narrower_than_the_ball():
+    """A ball wider than the trough's curvature allows (R > rho) rests on the two crests'
+    flanks: its lowest point stays above the trough's bottom, where the closed form of a
+    sphere between two circles puts it; a ball that fits touches the bottom."""
+    profile = surface.sinusoidal_profile(
+        amplitude=AMPLITUDE, wavelength=WAVELENGTH, length=0.02, spacing=WAVELENGTH / 400,
+        phase=-math.pi / 2,
+    )  # fmt: skip
+    rho = 1.0 / (AMPLITUDE * (2.0 * math.pi / WAVELENGTH) ** 2)
+    i = int(round(2 * WAVELENGTH / profile.spacing))
+    small = surface.contact_envelope(profile, 0.5 * rho)
+    assert small.heights[i] == pytest.approx(-AMPLITUDE, abs=1e-12)
+    assert small.contact_offsets[i] == pytest.approx(0.0, abs=1e-9)
+    big = surface.contact_envelope(profile, 5.0 * rho)
+    assert big.heights[i] > -AMPLITUDE + 1e-7
+    assert abs(big.contact_offsets[i]) > 10 * profile.spacing
+
+
+def roll_sinusoid(pair, speed, **kw):
+    ball, plate = pair
+    env = sinusoid_envelope(ball.radius)
+    kw.setdefault("duration", 4.0 * WAVELENGTH / speed)
+    return rolling.roll(
+        ball, plate, env, speed=speed, samplerate=SAMPLERATE, origin=(0.1, 0.3),
+        start=WAVELENGTH, **kw,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "speed_ratio, options",
+    [
+        (0.5, dict(admittance=0.0)),
+        (1.3, dict(admittance=0.0)),
+        (0.5, dict(contact="hunt-crossley", dissipation=0.5)),
+        (1.3, dict(contact="hunt-crossley", dissipation=0.5)),
+        (1.3, dict(contact="viscoelastic", viscous_time=1e-6)),
+    ],
+)
+def test_energy_balance(pair, speed_ratio, options):
+    """Mechanical energy, the drive's work, the contact's loss and the plate's share
+    balance to 1e-5 of the energy exchanged at rtol 1e-8 (the quadratures ride the same
+    Runge-Kutta stages as the state; micro-bounces above v_c included); with a loss or
+    an impedance, each takes a positive share."""
+    v = speed_ratio * closed_form_loss_speed(pair[0].radius)
+    r = roll_sinusoid(pair, v, rtol=1e-8, **options)
+    assert r.success, r.message
+    assert r.energy.residual < 1e-5
+    if speed_ratio > 1.0:
+        assert r.flights > 0
+    else:
+        assert r.flights == 0
+    if "contact" in options:
+        assert r.energy.loss_work > 0.0
+        assert r.energy.plate_energy > 0.0
+    else:
+        assert r.energy.loss_work == 0.0 and r.energy.plate_energy == 0.0
+
+
+def test_force_averages_to_the_weight(pair):
+    """Over whole periods of a steady roll below v_c the mean force is the weight (the
+    ball's mean vertical momentum does not change), to the integrator's tolerance and the
+    start's small transient (1e-4)."""
+    ball = pair[0]
+    v = 0.5 * closed_form_loss_speed(ball.radius)
+    periods = 4
+    r = roll_sinusoid(pair, v, duration=periods * WAVELENGTH / v, admittance=0.0)
+    n = int(round(periods * WAVELENGTH / v * SAMPLERATE))
+    assert np.mean(r.force[:n]) == pytest.approx(ball.mass * G, rel=1e-3)
+
+
+def test_rolling_is_reproducible(pair):
+    """The same inputs give the same bytes."""
+    ball, plate = pair
+    spec = surface.RoughnessSpectrum(rms_height=2e-6, correlation_length=2e-4, hurst=0.8)
+    runs = []
+    for _ in range(2):
+        profile = surface.rough_profile(spec, length=0.05, spacing=5e-6, seed=7)
+        env = surface.contact_envelope(profile, ball.radius)
+        r = rolling.roll(
+            ball, plate, env, speed=0.3, duration=0.05, samplerate=SAMPLERATE,
+            origin=(0.2, 0.3), start=0.01,
+        )  # fmt: skip
+        assert r.success, r.message
+        runs.append(r)
+    assert runs[0].force.tobytes() == runs[1].force.tobytes()
+    assert runs[0].contact_point.tobytes() == runs[1].contact_point.tobytes()
+
+
+def test_roll_rejects_bad_input(pair):
+    ball, plate = pair
+    env = sinusoid_envelope(ball.radius)
+    ok = dict(speed=0.3, duration=0.01, samplerate=SAMPLERATE, origin=(0.1, 0.3))
+    cases = [
+        (dict(speed=-1.0), "speed"),
+        (dict(duration=0.0), "duration"),
+        (dict(samplerate=44100.5), "samplerate"),
+        (dict(duration=1.0), "beyond the envelope"),
+        (dict(origin=(0.999, 0.3)), "leaves the plate"),
+        (dict(direction=(0.0, 0.0)), "direction"),
+        (dict(admittance=-1.0), "admittance"),
+        (dict(rtol=0.5), "rtol"),
+        (dict(contact="hunt-crossley"), "dissipation"),
+    ]
+    for change, words in cases:
+        with pytest.raises(ParameterError, match=words):
+            rolling.roll(ball, plate, env, **{**ok, **change})
+    with pytest.raises(ParameterError, match="radius"):
+        rolling.roll(Ball("steel", 0.005), plate, env, **ok)
