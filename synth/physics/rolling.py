@@ -44,6 +44,8 @@ from synth.physics.surface import ContactEnvelope, envelope_at
 MAX_STEPS_PER_SAMPLE = 2000
 #: Longest rolling solved in one call, s.
 MAX_DURATION = 3600.0
+#: Most samples of one call (its arrays take about 50 bytes a sample: 1.5 GB).
+MAX_SAMPLES = 30_000_000
 
 _MESSAGES = {
     _k.OK: "The rolling was integrated to its end.",
@@ -100,9 +102,10 @@ class RollingContact:
     force : ndarray (N,)
         Mean contact force on the plate over each sample period, N (downward on the plate).
     path_position : ndarray (N,)
-        Position of the ball's centre along the path at each sample's start, m.
+        Position of the ball's centre along the path in the middle of each sample period,
+        m (where the period's mean force acts).
     contact_coordinate : ndarray (N,)
-        Position of the touching point along the path at each sample's start, m (the
+        Position of the touching point along the path there, m (the
         centre's position plus the envelope's contact offset).
     contact_point : ndarray (N, 2)
         That point on the plate, ``(x, y)`` m from the plate's corner.
@@ -253,8 +256,11 @@ def roll(
     ox, oy = checks.point("origin", origin, 2)
     ux, uy = _direction(direction)
     n_samples = int(round(T * fs))
-    if n_samples < 1:
-        raise ParameterError(f"duration={duration!r} must cover at least one sample (s)")
+    if not 1 <= n_samples <= MAX_SAMPLES:
+        raise ParameterError(
+            f"duration={duration!r} at samplerate={samplerate!r} gives {n_samples} samples; "
+            f"a rolling call covers 1 to {MAX_SAMPLES} samples"
+        )
     end = s0 + v * n_samples / fs
     if end > envelope.length:
         raise ParameterError(
@@ -267,7 +273,7 @@ def roll(
         if admittance is None
         else checks.nonnegative("admittance", admittance, "m/(N s)")
     )
-    path = s0 + v * np.arange(n_samples) / fs
+    path = s0 + v * (np.arange(n_samples) + 0.5) / fs
     coordinate = path + np.interp(
         path, np.arange(envelope.heights.size) * envelope.spacing, envelope.contact_offsets
     )
