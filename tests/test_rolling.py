@@ -43,23 +43,6 @@ def closed_form_loss_speed(radius):
     return math.sqrt(G * (1.0 / (AMPLITUDE * k * k) + radius))
 
 
-def loses_contact(ball, plate, env, speed):
-    # from a trough (where the start is quasi-static), over three crests
-    r = rolling.roll(
-        ball,
-        plate,
-        env,
-        speed=speed,
-        duration=3.5 * WAVELENGTH / speed,
-        samplerate=SAMPLERATE,
-        origin=(0.1, 0.3),
-        start=WAVELENGTH,
-        admittance=0.0,
-    )
-    assert r.success, r.message
-    return bool(np.any(r.contact_lost))
-
-
 @pytest.mark.parametrize("radius", [0.01, 0.002])
 def test_contact_loss_speed_matches_closed_form(pair, radius):
     """The speed at which a ball starts to lose contact on a sinusoid: within 1 % of
@@ -67,25 +50,38 @@ def test_contact_loss_speed_matches_closed_form(pair, radius):
     (k v / omega_c)^2 (omega_c the contact's natural angular frequency at rest, 1.1e4
     rad/s for the 10 mm ball; k v = 800 rad/s): 5e-3; bisection to 1e-3."""
     ball = Ball("steel", radius)
-    plate = pair[1]
     env = sinusoid_envelope(radius)
     vc = closed_form_loss_speed(radius)
-    lo, hi = 0.9 * vc, 1.05 * vc
-    assert not loses_contact(ball, plate, env, lo)
-    assert loses_contact(ball, plate, env, hi)
-    while hi - lo > 1e-3 * vc:
-        mid = 0.5 * (lo + hi)
-        if loses_contact(ball, plate, env, mid):
-            hi = mid
-        else:
-            lo = mid
-    found = 0.5 * (lo + hi)
-    assert abs(found / vc - 1.0) < 0.01
+    # from a trough (where the start is quasi-static), over three crests
+    found = rolling.loss_of_contact_speed(
+        ball, pair[1], env, start=WAVELENGTH, stop=4.5 * WAVELENGTH, low=0.9 * vc,
+        high=1.05 * vc, samplerate=SAMPLERATE, origin=(0.1, 0.3), admittance=0.0,
+    )  # fmt: skip
+    assert found.success, found.message
+    assert found.high - found.low <= 1e-3 * found.high
+    assert abs(found.speed / vc - 1.0) < 0.01
     # the point-contact estimate sqrt(g rho) ignores the ball's size: 13 % off for R = 10 mm
     k = 2.0 * math.pi / WAVELENGTH
     point = math.sqrt(G / (AMPLITUDE * k * k))
     if radius == 0.01:
-        assert abs(found / point - 1.0) > 0.1
+        assert abs(found.speed / point - 1.0) > 0.1
+
+
+def test_loss_of_contact_speed_reports_a_bad_bracket(pair):
+    ball, plate = pair
+    env = sinusoid_envelope(ball.radius)
+    vc = closed_form_loss_speed(ball.radius)
+    kw = dict(start=WAVELENGTH, stop=3 * WAVELENGTH, samplerate=SAMPLERATE, origin=(0.1, 0.3))
+    low_too_high = rolling.loss_of_contact_speed(
+        ball, plate, env, low=1.2 * vc, high=1.5 * vc, **kw
+    )
+    assert not low_too_high.success and "already leaves" in low_too_high.message
+    high_too_low = rolling.loss_of_contact_speed(
+        ball, plate, env, low=0.5 * vc, high=0.6 * vc, **kw
+    )
+    assert not high_too_low.success and "stays on" in high_too_low.message
+    with pytest.raises(ParameterError, match="high"):
+        rolling.loss_of_contact_speed(ball, plate, env, low=1.0, high=0.5, **kw)
 
 
 def test_envelope_curvature_over_crest_and_trough():

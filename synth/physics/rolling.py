@@ -390,3 +390,99 @@ def _solve(
         int(steps),
         int(rejected),
     )
+
+
+@dataclass(frozen=True)
+class LossOfContactSpeed:
+    """The speed at which a rolling ball starts to leave the surface (m/s), bracketed.
+
+    Attributes
+    ----------
+    speed : float
+        The bracket's middle, m/s.
+    low, high : float
+        Speeds at which the ball stayed on the surface and left it, m/s.
+    rolls : int
+        Rollings solved.
+    success : bool
+        True if the bracket was found and narrowed to the tolerance.
+    message : str
+    """
+
+    speed: float
+    low: float
+    high: float
+    rolls: int
+    success: bool
+    message: str
+
+
+def loss_of_contact_speed(
+    ball: Ball,
+    plate: Plate,
+    envelope: ContactEnvelope,
+    *,
+    start: float,
+    stop: float,
+    low: float,
+    high: float,
+    samplerate: int,
+    origin,
+    direction=(1.0, 0.0),
+    tolerance: float = 1e-3,
+    **options,
+) -> LossOfContactSpeed:
+    """The lowest speed (m/s) at which ``ball`` rolling from ``start`` to ``stop`` (path
+    coordinates, m) leaves the surface, by bisection between ``low`` (stays on) and
+    ``high`` (leaves), to ``tolerance`` (relative, in (0, 0.1]): the thesis' question
+    (section 6.2) for a given surface. Each candidate speed is a :func:`roll` over the
+    stretch (``options`` as there: the contact law, ``admittance``, ``gravity``, ``rtol``);
+    "leaves" means a step's end off the surface. Bisection assumes a single change from
+    staying on to leaving between ``low`` and ``high``: on a random surface the dynamics
+    can make it change more than once, and the bracket then holds one of the changes.
+    """
+    v_lo = checks.positive("low", low, "m/s")
+    v_hi = checks.positive("high", high, "m/s")
+    if not v_hi > v_lo:
+        raise ParameterError(f"high={high!r} must be > low={low!r} (m/s)")
+    tol = checks.in_range("tolerance", tolerance, 0.0, 0.1, "dimensionless", hi_open=False)
+    s0 = checks.nonnegative("start", start, "metres")
+    s1 = checks.real("stop", stop, "metres")
+    if not s1 > s0:
+        raise ParameterError(f"stop={stop!r} must be > start={start!r} (metres)")
+    rolls = 0
+
+    def leaves(v):
+        nonlocal rolls
+        rolls += 1
+        # the last sample ends at or before ``stop``
+        duration = math.floor((s1 - s0) / v * samplerate) / samplerate
+        r = roll(
+            ball, plate, envelope, speed=v, duration=duration, samplerate=samplerate,
+            origin=origin, direction=direction, start=s0, **options,
+        )  # fmt: skip
+        if not r.success:
+            raise _RollFailed(f"at speed {v!r} m/s: {r.message}")
+        return bool(np.any(r.contact_lost))
+
+    def result(success, message):
+        return LossOfContactSpeed(0.5 * (v_lo + v_hi), v_lo, v_hi, rolls, success, message)
+
+    try:
+        if leaves(v_lo):
+            return result(False, f"The ball already leaves the surface at low={low!r} m/s.")
+        if not leaves(v_hi):
+            return result(False, f"The ball stays on the surface at high={high!r} m/s.")
+        while v_hi - v_lo > tol * v_hi:
+            mid = 0.5 * (v_lo + v_hi)
+            if leaves(mid):
+                v_hi = mid
+            else:
+                v_lo = mid
+    except _RollFailed as err:
+        return result(False, f"A rolling failed {err}")
+    return result(True, "Bracketed to the tolerance.")
+
+
+class _RollFailed(Exception):
+    """A rolling of the bisection did not reach its end (reported in the result)."""
