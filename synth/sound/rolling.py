@@ -37,6 +37,8 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
+from synth.sound.modal_bank import bank_coefficients
+from synth.vecmath import FASTMATH_EXACT_FUNCTIONS
 
 #: Points of the mode-shape table per bending wavelength of the highest mode.
 POINTS_PER_WAVELENGTH = 32
@@ -155,9 +157,10 @@ def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplera
             f"force must be finite and coordinate within the path's table [{path.start!r}, "
             f"{last!r}] m"
         )
-    step = np.exp(p / fs)
-    hold = (step - 1.0) / p if K else step
-    listen = -1j * out_gain / p.imag if K else out_gain
+    # the ringing over one sample and the listener's response per unit state, as the
+    # modal bank has them (unit excitation: b_k moves with the contact point here)
+    coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
+    hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
     direct = path.direct if path.direct is not None else np.zeros((2, K))
     _drive(
@@ -165,23 +168,30 @@ def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplera
         c,
         float(path.start),
         float(path.step),
-        path.excitation,
+        np.ascontiguousarray(path.excitation),
         np.ascontiguousarray(direct),
         path.direct is not None,
-        step,
-        hold,
-        listen,
+        coefficients.step_re,
+        coefficients.step_im,
+        coefficients.coef_re,
+        coefficients.coef_im,
+        np.ascontiguousarray(hold.real),
+        np.ascontiguousarray(hold.imag),
         audio,
     )
     return audio
 
 
-@numba.njit(cache=True)
-def _drive(force, coordinate, start, step, table, direct, has_direct, E, hold, listen, out):
-    """The recursion of the module docstring, ``b_k`` interpolated linearly in ``table``."""
-    K = E.shape[0]
+@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
+def _drive(force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, out):
+    """The recursion of the module docstring, ``b_k`` interpolated linearly in ``table``:
+    one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
+    li``, the hold's gain ``hr + i hi``; the modes' states as real and imaginary arrays, so
+    the loop over the modes vectorises."""
+    K = er.shape[0]
     rows = table.shape[0]
-    zeta = np.zeros(K, dtype=np.complex128)
+    zr = np.zeros(K)
+    zi = np.zeros(K)
     for j in range(force.shape[0]):
         u = (coordinate[j] - start) / step
         i = int(math.floor(u))
@@ -191,14 +201,22 @@ def _drive(force, coordinate, start, step, table, direct, has_direct, E, hold, l
             i = rows - 2
         t = u - i
         F = force[j]
+        wa = (1.0 - t) * F
+        wb = t * F
+        row_a = table[i]
+        row_b = table[i + 1]
         acc = 0.0
         for k in range(K):
-            z = zeta[k]
-            acc += (listen[k] * z).real
-            b = (1.0 - t) * table[i, k] + t * table[i + 1, k]
-            if has_direct:
-                acc += F * ((1.0 - t) * direct[i, k] + t * direct[i + 1, k])
-            zeta[k] = E[k] * z + hold[k] * (b * F)
+            acc += lr[k] * zr[k] - li[k] * zi[k]
+            bf = wa * row_a[k] + wb * row_b[k]
+            r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
+            zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
+            zr[k] = r
+        if has_direct:
+            da = direct[i]
+            db = direct[i + 1]
+            for k in range(K):
+                acc += wa * da[k] + wb * db[k]
         out[j] = acc
 
 
