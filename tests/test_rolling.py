@@ -206,3 +206,83 @@ def test_roll_rejects_bad_input(pair):
             rolling.roll(ball, plate, env, **{**ok, **change})
     with pytest.raises(ParameterError, match="radius"):
         rolling.roll(Ball("steel", 0.005), plate, env, **ok)
+
+
+@pytest.mark.parametrize("admittance", [0.0, None])
+def test_flat_surface_carries_the_weight(pair, admittance):
+    """On a flat surface the ball rests: the force is its weight in every sample (to
+    rounding, 1e-9), no flight; on the plate's impedance (a dashpot) it sinks at
+    beta m g, and the plate takes beta (m g)^2 per second."""
+    ball, plate = pair
+    profile = surface.Profile(np.zeros(2001), 1e-4, "flat")
+    env = surface.contact_envelope(profile, ball.radius)
+    T = 0.05
+    r = rolling.roll(
+        ball, plate, env, speed=0.5, duration=T, samplerate=SAMPLERATE, origin=(0.1, 0.3),
+        start=0.01, admittance=admittance,
+    )  # fmt: skip
+    assert r.success, r.message
+    weight = ball.mass * G
+    assert np.max(np.abs(r.force / weight - 1.0)) < 1e-9
+    assert r.flights == 0 and not np.any(r.contact_lost)
+    assert r.energy.plate_energy == pytest.approx(r.admittance * weight**2 * T, rel=1e-9)
+    assert r.energy.residual < 1e-9
+
+
+def test_rolling_in_pieces_equals_one_call(pair):
+    """A rolling cut into calls at sample boundaries, each continuing from the last one's
+    final_state with its own speeds, gives the bits of one call over the same speeds."""
+    ball, plate = pair
+    spec = surface.RoughnessSpectrum(rms_height=1e-6, correlation_length=1e-4, hurst=0.8)
+    env = surface.contact_envelope(
+        surface.rough_profile(spec, length=0.05, spacing=5e-6, seed=2), ball.radius
+    )
+    speeds = np.concatenate([np.full(800, 0.2), np.linspace(0.2, 0.6, 1600), np.full(800, 0.6)])
+    kw = dict(samplerate=SAMPLERATE, origin=(0.1, 0.3))
+    whole = rolling.roll(ball, plate, env, speed=speeds, start=0.01, **kw)
+    assert whole.success, whole.message
+    pieces, state = [], None
+    for a, b in ((0, 768), (768, 1536), (1536, 3200)):
+        part = rolling.roll(
+            ball, plate, env, speed=speeds[a:b], state=state, start=None if state else 0.01,
+            **kw,
+        )  # fmt: skip
+        pieces.append(part)
+        state = part.final_state
+    assert np.concatenate([p.force for p in pieces]).tobytes() == whole.force.tobytes()
+    assert state.vector.tobytes() == whole.final_state.vector.tobytes()
+    assert state.path_position == pytest.approx(0.01 + np.sum(speeds) / SAMPLERATE, rel=1e-12)
+
+
+def test_energy_balance_with_a_changing_speed(pair):
+    """The balance holds while the drive accelerates the ball (speed per sample), to 1e-5
+    of the energy exchanged at rtol 1e-8 (as with a constant speed)."""
+    ball, plate = pair
+    v_c = closed_form_loss_speed(ball.radius)
+    speeds = np.linspace(0.3 * v_c, 1.3 * v_c, 4000)
+    env = sinusoid_envelope(ball.radius)
+    r = rolling.roll(
+        ball, plate, env, speed=speeds, samplerate=SAMPLERATE, origin=(0.1, 0.3),
+        start=WAVELENGTH, rtol=1e-8, contact="hunt-crossley", dissipation=0.5,
+    )  # fmt: skip
+    assert r.success, r.message
+    assert r.energy.residual < 1e-5
+    assert r.flights > 0  # it passed v_c
+
+
+def test_roll_rejects_bad_speeds_and_states(pair):
+    ball, plate = pair
+    env = sinusoid_envelope(ball.radius)
+    kw = dict(samplerate=SAMPLERATE, origin=(0.1, 0.3))
+    with pytest.raises(ParameterError, match="duration"):
+        rolling.roll(ball, plate, env, speed=np.full(10, 0.1), duration=0.01, **kw)
+    with pytest.raises(ParameterError, match="duration"):
+        rolling.roll(ball, plate, env, speed=0.1, **kw)
+    with pytest.raises(ParameterError, match=r"speed\[3\]"):
+        rolling.roll(ball, plate, env, speed=np.array([0.1, 0.1, 0.1, -0.1]), **kw)
+    done = rolling.roll(ball, plate, env, speed=0.1, duration=0.001, **kw)
+    with pytest.raises(ParameterError, match="start or state"):
+        rolling.roll(ball, plate, env, speed=0.1, duration=0.001, start=0.0,
+                     state=done.final_state, **kw)  # fmt: skip
+    with pytest.raises(ParameterError, match="state"):
+        rolling.roll(ball, plate, env, speed=0.1, duration=0.001, state="here", **kw)

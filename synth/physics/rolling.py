@@ -1,19 +1,23 @@
-"""A ball rolling at a constant horizontal speed over a plate's rough surface.
+"""A ball rolling at an imposed horizontal speed over a plate's rough surface.
 
 The model (docs/rolling.md): the ball's centre moves along a straight path on the plate at
-the horizontal speed ``v``; vertically it is a free body under gravity pressed by the
-impacts' contact law (:func:`synth.physics.contact.contact_parameters`: Hertz, with the
-material's loss where the law has one) against the plate's surface, which is the
-profile's envelope under the ball (:func:`synth.physics.surface.contact_envelope`) on a
-rigid plate or on the plate's point impedance (its admittance ``beta``, as the impacts'
-contact, docs/physics.md "Hertz contact"). Contact is lost wherever the surface falls away
-faster than gravity lets the ball follow, and the landings that follow are impacts of the
-same equations: micro-bounces are not a separate model. The equations and the integrator
-are those of :mod:`synth.physics.rolling_kernels`.
+the horizontal speed ``v`` (the caller's, one per call or one per sample period);
+vertically it is a free body under gravity pressed by the impacts' contact law
+(:func:`synth.physics.contact.contact_parameters`: Hertz, with the material's loss where the
+law has one) against the plate's surface, which is the profile's envelope under the ball
+(:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's point
+impedance (its admittance ``beta``, as the impacts' contact, docs/physics.md "Hertz
+contact"). Contact is lost wherever the surface falls away faster than gravity lets the
+ball follow, and the landings that follow are impacts of the same equations: micro-bounces
+are not a separate model. The equations and the integrator are those of
+:mod:`synth.physics.rolling_kernels`.
 
 :func:`roll` returns a :class:`RollingContact`: the contact force averaged over every
 sample period (its sum is the impulse delivered, exactly), the contact point on the plate,
-the smallest penetration per sample, the energy balance, and the solver's status.
+the smallest penetration per sample, the energy balance, the solver's status, and the state
+to continue from (:class:`RollingState`: a rolling cut into calls, each with its own speeds,
+gives the bits of one call; the seam for a voice whose speed a game updates every frame).
+:func:`loss_of_contact_speed` answers the thesis' question (section 6.2) for a surface.
 
 Left out (docs/rolling.md, "Limits"): rolling resistance (the horizontal speed is imposed,
 not solved; :attr:`RollingContact.mean_drag` is the mean horizontal force the contact
@@ -92,6 +96,29 @@ class EnergyBalance:
 
 
 @dataclass(frozen=True, eq=False)
+class RollingState:
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``).
+
+    Attributes
+    ----------
+    vector : ndarray
+        The integrator's state (read-only): the ball's height relative to the plate's
+        surface (m), its vertical speed (m/s), the plate surface's displacement (m), the
+        quadratures of the energy balance (J) and the centre's path coordinate (m).
+    step : float
+        The integrator's next step size, s.
+    """
+
+    vector: np.ndarray
+    step: float
+
+    @property
+    def path_position(self) -> float:
+        """The ball's centre on the path, m."""
+        return float(self.vector[_k.S])
+
+
+@dataclass(frozen=True, eq=False)
 class RollingContact:
     """A rolling ball's contact with the plate, sampled at the audio rate (SI units).
 
@@ -119,8 +146,8 @@ class RollingContact:
         The contact law's constants.
     admittance : float
         The plate's admittance ``beta``, m/(N s) (0: rigid).
-    speed : float
-        Horizontal speed, m/s.
+    speed : ndarray (N,)
+        Horizontal speed in each sample period, m/s.
     origin : (float, float)
         Where the path's coordinate 0 lies on the plate, m from its corner.
     direction : (float, float)
@@ -135,6 +162,8 @@ class RollingContact:
     message : str
     n_steps, n_rejected : int
         Integration steps taken and rejected.
+    final_state : RollingState
+        Where the rolling ended, for a call that continues it.
     """
 
     samplerate: int
@@ -147,7 +176,7 @@ class RollingContact:
     energy: EnergyBalance
     law: ContactLaw
     admittance: float
-    speed: float
+    speed: np.ndarray
     origin: tuple[float, float]
     direction: tuple[float, float]
     mass: float
@@ -157,6 +186,7 @@ class RollingContact:
     message: str
     n_steps: int
     n_rejected: int
+    final_state: RollingState
 
     @property
     def contact_lost(self) -> np.ndarray:
@@ -166,9 +196,9 @@ class RollingContact:
     @property
     def mean_drag(self) -> float:
         """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
-        work per metre of path."""
-        distance = self.speed * self.force.size / self.samplerate
-        return self.energy.drive_work / distance
+        work per metre of path (NaN if the ball did not move)."""
+        distance = float(np.sum(self.speed)) / self.samplerate
+        return self.energy.drive_work / distance if distance > 0.0 else math.nan
 
 
 def _direction(direction) -> tuple[float, float]:
@@ -184,20 +214,20 @@ def roll(
     plate: Plate,
     envelope: ContactEnvelope,
     *,
-    speed: float,
-    duration: float,
+    speed,
     samplerate: int,
     origin,
     direction=(1.0, 0.0),
-    start: float = 0.0,
+    duration: float | None = None,
+    start: float | None = None,
+    state: RollingState | None = None,
     contact: str = "hertz",
     admittance: float | None = None,
     gravity: float = GRAVITY,
     rtol: float = 1e-6,
     **contact_options,
 ) -> RollingContact:
-    """Roll ``ball`` over ``plate`` along the path of ``envelope`` at ``speed`` for
-    ``duration``.
+    """Roll ``ball`` over ``plate`` along the path of ``envelope``.
 
     Parameters
     ----------
@@ -205,19 +235,23 @@ def roll(
     plate : Plate
     envelope : ContactEnvelope
         The path's surface as this ball rides it (made with ``ball.radius``).
-    speed : float > 0
-        Horizontal speed of the ball's centre, m/s.
-    duration : float > 0
-        s (at most :data:`MAX_DURATION`).
+    speed : float >= 0, or ndarray (N,) of them
+        Horizontal speed of the ball's centre, m/s: one for the whole ``duration``, or one
+        per sample period (then ``duration`` is ``N / samplerate`` and is not given).
     samplerate : int > 0
         Hz.
     origin : (float, float)
         Where the path's coordinate 0 lies on the plate, m from its corner.
     direction : (float, float)
         The path's direction on the plate (normalised here).
-    start : float >= 0
-        The centre's path coordinate at time 0, m; the centre travels to ``start + speed *
-        duration``, which must lie within the envelope's length.
+    duration : float > 0
+        s (at most :data:`MAX_DURATION`), with a single ``speed``.
+    start : float >= 0, optional
+        The centre's path coordinate at time 0, m (default 0); the centre's path must stay
+        within the envelope's length.
+    state : RollingState, optional
+        Continue where an earlier rolling ended (its ``final_state``), instead of starting
+        at ``start``: consecutive calls give the bits of one call over the same speeds.
     contact : str
         The contact law and its ``contact_options`` (see
         :func:`synth.physics.contact.contact_parameters`).
@@ -230,11 +264,11 @@ def roll(
         Local relative tolerance of the integrator (on the penetration, relative to the
         static penetration, and on the vertical speed).
 
-    Start: the ball is in contact as a ball rolled there slowly would be: the contact
-    force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's centripetal force), the
-    penetration it needs under the law's elastic part, the vertical speed that keeps the
-    penetration steady; if that force is negative the ball starts just touching, moving
-    with the surface.
+    Start (without ``state``): the ball is in contact as a ball rolled there slowly would
+    be: the contact force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's
+    centripetal force), the penetration it needs under the law's elastic part, the vertical
+    speed that keeps the penetration steady; if that force is negative the ball starts just
+    touching, moving with the surface.
     """
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
@@ -247,24 +281,24 @@ def roll(
             f"envelope.radius={envelope.radius!r} must be the ball's radius "
             f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
         )
-    v = checks.positive("speed", speed, "m/s")
-    T = checks.positive_at_most("duration", duration, MAX_DURATION, "s")
     fs = checks.samplerate(samplerate)
+    speeds = _speeds(speed, duration, fs)
     g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
     tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
-    s0 = checks.nonnegative("start", start, "metres")
+    if state is not None:
+        if start is not None:
+            raise ParameterError("give start or state, not both")
+        if not isinstance(state, RollingState):
+            raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
+        s0 = float(state.vector[_k.S])
+    else:
+        s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
     ox, oy = checks.point("origin", origin, 2)
     ux, uy = _direction(direction)
-    n_samples = int(round(T * fs))
-    if not 1 <= n_samples <= MAX_SAMPLES:
+    planned = s0 + np.concatenate(([0.0], np.cumsum(speeds) / fs))
+    if not 0.0 <= planned[-1] <= envelope.length:
         raise ParameterError(
-            f"duration={duration!r} at samplerate={samplerate!r} gives {n_samples} samples; "
-            f"a rolling call covers 1 to {MAX_SAMPLES} samples"
-        )
-    end = s0 + v * n_samples / fs
-    if end > envelope.length:
-        raise ParameterError(
-            f"start={start!r} + speed={speed!r} * duration={duration!r} reaches {end!r} m, "
+            f"speed={speed!r} from the path coordinate {s0!r} m reaches {planned[-1]!r} m, "
             f"beyond the envelope's length {envelope.length!r} m"
         )
     law = contact_parameters(ball, plate, contact, **contact_options)
@@ -273,19 +307,71 @@ def roll(
         if admittance is None
         else checks.nonnegative("admittance", admittance, "m/(N s)")
     )
-    path = s0 + v * (np.arange(n_samples) + 0.5) / fs
-    coordinate = path + np.interp(
-        path, np.arange(envelope.heights.size) * envelope.spacing, envelope.contact_offsets
+    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy))
+    # the contact points of the planned path must lie on the plate
+    _contact_points(setup, planned[:-1] + 0.5 * speeds / fs, plate, origin, direction)
+    return _solve(setup, plate, speeds, s0, state, origin, direction)
+
+
+def _speeds(speed, duration, fs) -> np.ndarray:
+    """The speed of every sample period (m/s), from a single speed and a duration (s) or
+    an array of speeds."""
+    if np.ndim(speed) == 0:
+        v = checks.nonnegative("speed", speed, "m/s")
+        if duration is None:
+            raise ParameterError("a single speed needs duration (s)")
+        T = checks.positive_at_most("duration", duration, MAX_DURATION, "s")
+        n = int(round(T * fs))
+        if not 1 <= n <= MAX_SAMPLES:
+            raise ParameterError(
+                f"duration={duration!r} at samplerate={fs!r} gives {n} samples; a rolling "
+                f"call covers 1 to {MAX_SAMPLES} samples"
+            )
+        return np.full(n, v)
+    if duration is not None:
+        raise ParameterError("speeds per sample set the duration: give no duration")
+    try:
+        speeds = np.array(speed, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"speed={speed!r} must be a number or 1-D array (m/s)") from None
+    if speeds.ndim != 1 or not 1 <= speeds.size <= MAX_SAMPLES:
+        raise ParameterError(
+            f"speed with shape {speeds.shape} must be 1-D with 1 to {MAX_SAMPLES} samples"
+        )
+    bad = ~(np.isfinite(speeds) & (speeds >= 0.0))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ParameterError(f"speed[{i}]={speeds[i]!r} must be finite and >= 0 (m/s)")
+    return speeds
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The checked constants of one :func:`roll` call."""
+
+    mass: float
+    law: ContactLaw
+    admittance: float
+    gravity: float
+    rtol: float
+    samplerate: int
+    envelope: ContactEnvelope
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+
+
+def _contact_points(setup, centre, plate, origin, direction, check=True):
+    """Path coordinates (m) and plate points (m) of the touching points of the centre at
+    the path coordinates ``centre``; with ``check``, ``ParameterError`` if one leaves the
+    plate."""
+    env = setup.envelope
+    coordinate = centre + np.interp(
+        centre, np.arange(env.heights.size) * env.spacing, env.contact_offsets
     )
+    (ox, oy), (ux, uy) = setup.origin, setup.direction
     points = np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
-    _check_on_plate(plate, points, origin, direction)
-    return _solve(
-        ball, envelope, law, beta, v, n_samples, fs, g, tol, s0, path, coordinate, points,
-        (ox, oy), (ux, uy),
-    )  # fmt: skip
-
-
-def _check_on_plate(plate, points, origin, direction):
+    if not check:
+        return coordinate, points
     a, b = plate.length, plate.width
     off = (points[:, 0] < 0.0) | (points[:, 0] > a) | (points[:, 1] < 0.0) | (points[:, 1] > b)
     if np.any(off):
@@ -295,13 +381,14 @@ def _check_on_plate(plate, points, origin, direction):
             f"({points[i, 0]:.6g}, {points[i, 1]:.6g}) m leaves the plate (x in [0, {a!r}], "
             f"y in [0, {b!r}] metres)"
         )
+    return coordinate, points
 
 
-def _initial_state(m, K, n, beta, g, v, e, ep, epp) -> tuple[np.ndarray, float]:
-    """The state of :func:`roll`'s start and the static penetration ``(m g / K)^(1/n)``."""
-    delta_ref = (m * g / K) ** (1.0 / n)
+def _initial_state(m, K, n, beta, g, v, s0, e, ep, epp) -> np.ndarray:
+    """The state of :func:`roll`'s start without a ``state``."""
     F0 = m * (g + v * v * epp)
     y = np.zeros(_k.N_STATE)
+    y[_k.S] = s0
     if F0 > 0.0:
         delta0 = (F0 / K) ** (1.0 / n)
         y[_k.Z] = e - delta0
@@ -309,35 +396,45 @@ def _initial_state(m, K, n, beta, g, v, e, ep, epp) -> tuple[np.ndarray, float]:
     else:
         y[_k.Z] = e
         y[_k.VY] = ep * v
-    return y, delta_ref
+    return y
 
 
-def _mechanical_energy(y, m, K, n, g, delta) -> float:
-    elastic = K * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
+def _mechanical_energy(y, setup) -> float:
+    """``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` (J) of the state ``y``."""
+    m, g, law = setup.mass, setup.gravity, setup.law
+    e, _, _ = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, y[_k.S])
+    delta = e - y[_k.Z]
+    n = law.exponent
+    elastic = law.stiffness * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
     return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
 
 
-def _solve(
-    ball, envelope, law, beta, v, n_samples, fs, g, tol, s0, path, coordinate, points, origin,
-    direction,
-):  # fmt: skip
-    m = ball.mass
+def _solve(setup, plate, speeds, s0, state, origin, direction):
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    env = envelope.coefficients
-    dx = envelope.spacing
-    e, ep, epp = envelope_at(env, dx, s0)
-    y, delta_ref = _initial_state(m, K, n, beta, g, v, e, ep, epp)
-    E0 = _mechanical_energy(y, m, K, n, g, e - y[_k.Z])
+    env = setup.envelope.coefficients
+    dx = setup.envelope.spacing
+    delta_ref = (m * g / K) ** (1.0 / n)
+    if state is None:
+        e, ep, epp = envelope_at(env, dx, s0)
+        y = _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp)
+        h = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
+    else:
+        y = np.array(state.vector)
+        h = state.step
+    y0 = y.copy()
+    N = speeds.size
     # NaN where a failed integration did not reach
-    forces = np.full(n_samples, np.nan)
-    min_pen = np.full(n_samples, np.nan)
-    h0 = 0.1 * math.sqrt(delta_ref / g)
-    status, steps, rejected, flights = _k.roll(
+    forces = np.full(N, np.nan)
+    min_pen = np.full(N, np.nan)
+    path = np.full(N, np.nan)
+    status, steps, rejected, flights, h = _k.roll(
         y,
+        h,
         env,
         dx,
-        s0,
-        v,
+        speeds,
         m,
         K,
         n,
@@ -346,27 +443,29 @@ def _solve(
         beta,
         g,
         float(fs),
-        tol,
+        setup.rtol,
         delta_ref,
-        min(h0, 1.0 / fs),
-        MAX_STEPS_PER_SAMPLE * n_samples,
+        MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
+        path,
     )
-    e1, _, _ = envelope_at(env, dx, s0 + v * n_samples / fs)
-    E1 = _mechanical_energy(y, m, K, n, g, e1 - y[_k.Z])
-    loss, plate_e, drive, gross = y[_k.LOSS], y[_k.PLATE], y[_k.DRIVE], y[_k.GROSS]
+    E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
+    loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
     scale = max(gross, loss + plate_e, abs(E1 - E0), 1e-300)
     balance = EnergyBalance(
-        E0,
-        E1,
-        loss,
-        plate_e,
-        drive,
-        gross,
-        abs(E1 - E0 + loss + plate_e - drive) / scale,
+        E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
     )
-    for a in (forces, path, coordinate, points, min_pen):
+    path += 0.5 * speeds / fs  # the middle of each period
+    reached = np.isfinite(path)
+    coordinate = np.full(N, np.nan)
+    points = np.full((N, 2), np.nan)
+    # the integrated path is the planned one (checked on the plate) within rounding
+    coordinate[reached], points[reached] = _contact_points(
+        setup, path[reached], plate, origin, direction, check=False
+    )
+    final = RollingState(_read_only(y.copy()), float(h))
+    for a in (forces, path, coordinate, points, min_pen, speeds):
         a.setflags(write=False)
     return RollingContact(
         fs,
@@ -379,9 +478,9 @@ def _solve(
         balance,
         law,
         beta,
-        v,
-        origin,
-        direction,
+        speeds,
+        setup.origin,
+        setup.direction,
         m,
         delta_ref,
         status == _k.OK,
@@ -389,7 +488,13 @@ def _solve(
         _MESSAGES.get(int(status), "Unknown status."),
         int(steps),
         int(rejected),
+        final,
     )
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 @dataclass(frozen=True)

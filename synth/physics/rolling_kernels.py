@@ -1,7 +1,8 @@
 """numba kernel of the rolling contact (private to :mod:`synth.physics.rolling`).
 
 The equations (docs/rolling.md, "Rolling contact"): the ball's centre moves along the
-path at the constant horizontal speed ``v``, ``s(t) = s0 + v t``; its lowest point is at
+path at the horizontal speed ``v`` (constant over each sample period), ``s' = v``; its
+lowest point is at
 height ``y`` and the plate's surface under it at ``u`` (the impedance's displacement, 0 for
 a rigid plate); ``z = y - u``. With the envelope ``e(s)``
 (:func:`synth.physics.surface.contact_envelope`):
@@ -24,7 +25,8 @@ of the horizontal drive ``Int F e'(s) v dt`` and its gross value ``Int |F e'(s) 
 Integrator: Dormand & Prince's embedded Runge-Kutta 5(4) pair (Dormand & Prince 1980,
 J. Comput. Appl. Math. 6, 19; Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with local
 error control on ``delta`` and ``v_y`` (absolute ``rtol * delta_ref`` and ``rtol *
-sqrt(g delta_ref)`` plus ``rtol`` times the values), steps ending on every sample boundary.
+sqrt(g delta_ref)`` plus ``rtol`` times the values), steps ending on every sample boundary
+(where the speed changes, the first stage is evaluated afresh with the new speed).
 """
 
 from __future__ import annotations
@@ -43,8 +45,8 @@ MAX_STEPS = -1
 STEP_TOO_SMALL = -2
 
 # Components of the state.
-Z, VY, U, IMPULSE, LOSS, PLATE, DRIVE, GROSS = range(8)
-N_STATE = 8
+Z, VY, U, IMPULSE, LOSS, PLATE, DRIVE, GROSS, S = range(9)
+N_STATE = 9
 
 # Dormand-Prince 5(4) tableau.
 C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
@@ -71,9 +73,9 @@ E1, E3, E4, E5, E6, E7 = (
 
 
 @numba.njit(cache=True)
-def rhs(t, y, out, env, dx, s0, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
-    """The right-hand side of the module docstring at time ``t`` (s) into ``out``."""
-    e, ep, _ = envelope_at(env, dx, s0 + v * t)
+def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
+    """The right-hand side of the module docstring at the state ``y`` into ``out``."""
+    e, ep, _ = envelope_at(env, dx, y[S])
     delta = e - y[Z]
     w = ep * v - y[VY]
     f, a = force(delta, w, beta * K, n, mu, b)
@@ -87,22 +89,23 @@ def rhs(t, y, out, env, dx, s0, v, m, K, n, mu, b, beta, g):  # pragma: no cover
     out[PLATE] = beta * F * F
     out[DRIVE] = drive
     out[GROSS] = abs(drive)
+    out[S] = v
 
 
 @numba.njit(cache=True)
-def penetration(t, y, env, dx, s0, v):  # pragma: no cover - compiled
+def penetration(y, env, dx):  # pragma: no cover - compiled
     """``delta = e(s) - z``, m."""
-    e, _, _ = envelope_at(env, dx, s0 + v * t)
+    e, _, _ = envelope_at(env, dx, y[S])
     return e - y[Z]
 
 
 @numba.njit(cache=True)
 def roll(
     y,
+    h,
     env,
     dx,
-    s0,
-    v,
+    speeds,
     m,
     K,
     n,
@@ -113,19 +116,24 @@ def roll(
     samplerate,
     rtol,
     delta_ref,
-    h0,
     max_steps,
     force_out,
     min_penetration,
+    path_out,
 ):  # pragma: no cover - compiled
-    """Integrate from the state ``y`` (updated in place) over ``force_out.size`` sample
-    periods of ``1 / samplerate`` s; write each period's mean contact force (N) and the
-    smallest penetration at its steps' ends (m). Returns ``(status, steps, rejected,
-    flights)``: ``flights`` counts the losses of contact seen at steps' ends."""
+    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s) over
+    ``speeds.size`` sample periods of ``1 / samplerate`` s, the horizontal speed ``speeds[j]``
+    (m/s) in period ``j``; write each period's mean contact force (N), the smallest
+    penetration at its steps' ends (m) and the path coordinate at its start (m).
+
+    Every period is integrated from its own time 0 (the state and the step size carry
+    over), so a rolling cut into consecutive calls at sample boundaries gives the bits of
+    one call. Returns ``(status, steps, rejected, flights, h)``: ``flights`` counts the
+    losses of contact seen at steps' ends; ``h`` is the next step size."""
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate
     atol_z = rtol * delta_ref
-    atol_v = rtol * math.sqrt(g * delta_ref) if g > 0.0 else rtol * delta_ref * samplerate
+    atol_v = rtol * math.sqrt(g * delta_ref)
     k1 = np.empty(N_STATE)
     k2 = np.empty(N_STATE)
     k3 = np.empty(N_STATE)
@@ -135,59 +143,61 @@ def roll(
     k7 = np.empty(N_STATE)
     tmp = np.empty(N_STATE)
     y5 = np.empty(N_STATE)
-    t = 0.0
-    h = h0
     steps = 0
     rejected = 0
     flights = 0
-    rhs(t, y, k1, env, dx, s0, v, m, K, n, mu, b, beta, g)
-    d_prev = penetration(t, y, env, dx, s0, v)
+    d_prev = penetration(y, env, dx)
+    v = 0.0
     for j in range(n_samples):
-        t_end = (j + 1) * period
+        # the first stage: that of the last step's end (the same bits) unless the speed changed
+        if j == 0 or speeds[j] != v:
+            v = speeds[j]
+            rhs(y, k1, env, dx, v, m, K, n, mu, b, beta, g)
+        path_out[j] = y[S]
         y[IMPULSE] = 0.0
         d_min = d_prev
-        while t < t_end:
-            remaining = t_end - t
+        t = 0.0
+        while t < period:
+            remaining = period - t
             last = h >= remaining
             hh = remaining if last else h
             if hh <= 1e-12 * period:
-                return STEP_TOO_SMALL, steps, rejected, flights
+                return STEP_TOO_SMALL, steps, rejected, flights, h
             for i in range(N_STATE):
                 tmp[i] = y[i] + hh * A21 * k1[i]
-            rhs(t + C2 * hh, tmp, k2, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(tmp, k2, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 tmp[i] = y[i] + hh * (A31 * k1[i] + A32 * k2[i])
-            rhs(t + C3 * hh, tmp, k3, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(tmp, k3, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 tmp[i] = y[i] + hh * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i])
-            rhs(t + C4 * hh, tmp, k4, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(tmp, k4, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 tmp[i] = y[i] + hh * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-            rhs(t + C5 * hh, tmp, k5, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(tmp, k5, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 tmp[i] = y[i] + hh * (
                     A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]
                 )
-            rhs(t + hh, tmp, k6, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(tmp, k6, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 y5[i] = y[i] + hh * (B1 * k1[i] + B3 * k3[i] + B4 * k4[i] + B5 * k5[i] + B6 * k6[i])
-            t_new = t_end if last else t + hh
-            rhs(t_new, y5, k7, env, dx, s0, v, m, K, n, mu, b, beta, g)
+            rhs(y5, k7, env, dx, v, m, K, n, mu, b, beta, g)
             err_z = hh * (
                 E1 * k1[Z] + E3 * k3[Z] + E4 * k4[Z] + E5 * k5[Z] + E6 * k6[Z] + E7 * k7[Z]
             )
             err_v = hh * (
                 E1 * k1[VY] + E3 * k3[VY] + E4 * k4[VY] + E5 * k5[VY] + E6 * k6[VY] + E7 * k7[VY]
             )
-            d_new = penetration(t_new, y5, env, dx, s0, v)
+            d_new = penetration(y5, env, dx)
             sc_z = atol_z + rtol * max(abs(d_prev), abs(d_new))
             sc_v = atol_v + rtol * max(abs(y[VY]), abs(y5[VY]))
             err = max(abs(err_z) / sc_z, abs(err_v) / sc_v)
             steps += 1
             if steps > max_steps:
-                return MAX_STEPS, steps, rejected, flights
+                return MAX_STEPS, steps, rejected, flights, h
             if err <= 1.0:
-                t = t_new
+                t = period if last else t + hh
                 for i in range(N_STATE):
                     y[i] = y5[i]
                     k1[i] = k7[i]
@@ -205,4 +215,4 @@ def roll(
                 h = hh * max(0.2, 0.9 * err**-0.2)
         force_out[j] = y[IMPULSE] * samplerate
         min_penetration[j] = d_min
-    return OK, steps, rejected, flights
+    return OK, steps, rejected, flights, h
