@@ -43,7 +43,8 @@ def main():
     print(f"profile + envelope, 0.9 m at 5 um: {t_env:.3f} s (first run, with compiling)")
     model = modal_model(plate, Accelerometer((0.3, 0.2)), samplerate=FS, max_frequency=5000.0)
     for speed in (0.1, 0.3, 0.8):
-        def solve():
+
+        def solve(speed=speed):
             return rolling.roll(
                 ball, plate, env, speed=speed, duration=DURATION, samplerate=FS,
                 origin=(0.05, 0.3), start=0.01,
@@ -51,7 +52,7 @@ def main():
 
         solve()  # warm-up
         t_roll, r = best_of(solve)
-        t_modes, _ = best_of(lambda: sound.rolling_sound(r, model))
+        t_modes, _ = best_of(lambda r=r: sound.rolling_sound(r, model))
         print(
             f"v = {speed:.1f} m/s: contact {t_roll / DURATION * 1e3:.1f} ms per s of audio "
             f"({r.n_steps / r.force.size:.2f} steps/sample, {r.flights} flights); "
