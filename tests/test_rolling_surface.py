@@ -78,3 +78,9 @@ def test_surface_rejects_bad_input():
                                          spacing=1e-5)  # fmt: skip
     with pytest.raises(ParameterError, match="radius"):
         surface.contact_envelope(profile, 0.0)
+    with pytest.raises(ParameterError, match=r"heights\[2\]"):
+        surface.Profile(np.array([0.0, 0.0, np.nan, 0.0]), 1e-5, "measured")
+    with pytest.raises(ParameterError, match="heights"):
+        surface.Profile(np.zeros((3, 3)), 1e-5, "measured")
+    with pytest.raises(ParameterError, match="spacing"):
+        surface.Profile(np.zeros(10), 0.0, "measured")

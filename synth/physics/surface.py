@@ -62,7 +62,7 @@ class Profile:
     ----------
     heights : ndarray (N,)
         ``h(x_i)``, metres above the plate's nominal plane, at ``x_i = i * spacing``
-        (read-only).
+        (4 to :data:`MAX_PROFILE_SAMPLES` finite values; kept as a read-only copy).
     spacing : float > 0
         Distance between samples, metres.
     description : str
@@ -72,6 +72,24 @@ class Profile:
     heights: np.ndarray
     spacing: float
     description: str
+
+    def __post_init__(self):
+        try:
+            h = np.array(self.heights, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"heights={self.heights!r} must be a 1-D array of heights (metres)"
+            ) from None
+        if h.ndim != 1 or not 4 <= h.size <= MAX_PROFILE_SAMPLES:
+            raise ParameterError(
+                f"heights with shape {h.shape} must be 1-D with 4 to {MAX_PROFILE_SAMPLES} "
+                f"samples (metres)"
+            )
+        if not np.all(np.isfinite(h)):
+            i = int(np.argmax(~np.isfinite(h)))
+            raise ParameterError(f"heights[{i}]={h[i]!r} must be finite (metres)")
+        object.__setattr__(self, "heights", _read_only(h))
+        object.__setattr__(self, "spacing", checks.positive("spacing", self.spacing, "metres"))
 
     @property
     def length(self) -> float:
