@@ -48,6 +48,30 @@ def test_stationary_sinusoidal_force_excites_a_mode_as_the_closed_form():
     assert abs(sinc**2 - 1.0) > 2e-4
 
 
+def test_accelerometer_hears_the_direct_term():
+    """An accelerometer (output p^2, direct term b) under F0 sin(W t) at a fixed point: the
+    mode's acceleration -W^2 q_ss under the held force (sinc^2), less that force's
+    fundamental b F0 sinc^2 sin(W t), plus the direct term of the mean of the two held
+    values at each sample, b F0 sinc cos(W / 2 fs) sin(W t): to 1e-5 of the amplitude (the
+    images' share is (omega / 2 pi fs)^2 of the direct term, 1e-4 of it, and the direct
+    term is a fifth of the amplitude). A direct term taken on one side of the step would be
+    half a sample off: 5e-3 of the amplitude."""
+    poles, omega, sigma = one_mode()
+    b, F0, W = 0.5, 2.0, 2.0 * math.pi * 400.0
+    n = FS * 6 // 5
+    force = mean_sinusoid(F0, W, n)
+    path = sound.PathExcitation(0.0, 1.0, np.array([[b], [b]]), np.array([[b], [b]]))
+    a = sound.drive_modes(force, np.zeros(n), path, poles, poles**2, FS)
+    x = W / (2 * FS)
+    sinc = math.sin(x) / x
+    t = np.arange(n) / FS
+    q_ss = (b * F0 * sinc**2 * np.exp(1j * W * t) / (omega**2 - W**2 + 2j * sigma * W)).imag
+    expected = -(W**2) * q_ss + b * F0 * (sinc * math.cos(x) - sinc**2) * np.sin(W * t)
+    tail = t > 1.0
+    amplitude = np.max(np.abs(expected[tail]))
+    assert np.max(np.abs(a[tail] - expected[tail])) < 1e-5 * amplitude
+
+
 def test_force_moving_across_a_sinusoidal_shape():
     """A constant force F0 moving at speed v across b(s) = b0 sin(kappa s) drives the mode
     like the stationary force F0 b0 sin(W t), W = kappa v, sampled in the middle of each

@@ -18,7 +18,9 @@ The force is the rolling contact's mean over each sample period
 is exact. Against the true force, a sinusoid of angular frequency ``w`` reaches every mode
 scaled by ``sinc(w / (2 fs))^2`` (the period's mean, then the hold; ``1 - (w / fs)^2 / 12``
 for ``w << fs``), with no delay, plus images at ``2 pi m fs +- w`` which a mode below
-Nyquist hears only off resonance.
+Nyquist hears only off resonance. An accelerometer's direct term at ``t_j``, where the held
+force steps from ``F_(j-1)`` to ``F_j``, takes the mean of the two (no force before the
+first period): a sinusoid reaches it scaled by ``sinc(w / (2 fs)) cos(w / (2 fs))``.
 
 ``b_k`` along the path: the mode shapes are evaluated on the path every ``step`` metres
 (:func:`path_excitation`; by default :data:`POINTS_PER_WAVELENGTH` points per bending
@@ -192,6 +194,7 @@ def _drive(force, coordinate, start, step, table, direct, has_direct, er, ei, lr
     rows = table.shape[0]
     zr = np.zeros(K)
     zi = np.zeros(K)
+    previous = 0.0  # no force before the first period
     for j in range(force.shape[0]):
         u = (coordinate[j] - start) / step
         i = int(math.floor(u))
@@ -213,10 +216,13 @@ def _drive(force, coordinate, start, step, table, direct, has_direct, er, ei, lr
             zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
             zr[k] = r
         if has_direct:
+            # the held force jumps at t_j: its value there is the mean of both sides
+            Fj = 0.5 * (F + previous)
             da = direct[i]
             db = direct[i + 1]
             for k in range(K):
-                acc += wa * da[k] + wb * db[k]
+                acc += Fj * ((1.0 - t) * da[k] + t * db[k])
+        previous = F
         out[j] = acc
 
 
