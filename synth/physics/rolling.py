@@ -308,9 +308,8 @@ def roll(
         else checks.nonnegative("admittance", admittance, "m/(N s)")
     )
     setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy))
-    # the contact points of the planned path must lie on the plate
-    _contact_points(setup, planned[:-1] + 0.5 * speeds / fs, plate, origin, direction)
-    return _solve(setup, plate, speeds, s0, state, origin, direction)
+    _check_reach(setup, planned[0], planned[-1], plate, origin, direction)
+    return _solve(setup, speeds, s0, state)
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
@@ -360,18 +359,31 @@ class _Setup:
     direction: tuple[float, float]
 
 
-def _contact_points(setup, centre, plate, origin, direction, check=True):
+def _contact_points(setup, centre):
     """Path coordinates (m) and plate points (m) of the touching points of the centre at
-    the path coordinates ``centre``; with ``check``, ``ParameterError`` if one leaves the
-    plate."""
+    the path coordinates ``centre`` (m)."""
     env = setup.envelope
     coordinate = centre + np.interp(
         centre, np.arange(env.heights.size) * env.spacing, env.contact_offsets
     )
     (ox, oy), (ux, uy) = setup.origin, setup.direction
-    points = np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
-    if not check:
-        return coordinate, points
+    return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
+
+
+def _check_reach(setup, first, last, plate, origin, direction):
+    """``ParameterError`` unless every touching point of the centre between the path
+    coordinates ``first <= last`` (m) lies on the plate: the touching point's coordinate
+    is piecewise linear in the centre's, so its extremes are at the two ends or at the
+    envelope's samples between them, and the plate is convex."""
+    env = setup.envelope
+    i0 = int(math.ceil(first / env.spacing))
+    i1 = int(math.floor(last / env.spacing))
+    nodes = np.arange(i0, i1 + 1) * env.spacing + env.contact_offsets[i0 : i1 + 1]
+    ends, _ = _contact_points(setup, np.array([first, last]))
+    reach = np.concatenate((ends, nodes))
+    (ox, oy), (ux, uy) = setup.origin, setup.direction
+    extremes = np.array([np.min(reach), np.max(reach)])
+    points = np.column_stack((ox + ux * extremes, oy + uy * extremes))
     a, b = plate.length, plate.width
     off = (points[:, 0] < 0.0) | (points[:, 0] > a) | (points[:, 1] < 0.0) | (points[:, 1] > b)
     if np.any(off):
@@ -381,7 +393,6 @@ def _contact_points(setup, centre, plate, origin, direction, check=True):
             f"({points[i, 0]:.6g}, {points[i, 1]:.6g}) m leaves the plate (x in [0, {a!r}], "
             f"y in [0, {b!r}] metres)"
         )
-    return coordinate, points
 
 
 def _initial_state(m, K, n, beta, g, v, s0, e, ep, epp) -> np.ndarray:
@@ -409,7 +420,7 @@ def _mechanical_energy(y, setup) -> float:
     return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
 
 
-def _solve(setup, plate, speeds, s0, state, origin, direction):
+def _solve(setup, speeds, s0, state):
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
@@ -461,9 +472,7 @@ def _solve(setup, plate, speeds, s0, state, origin, direction):
     coordinate = np.full(N, np.nan)
     points = np.full((N, 2), np.nan)
     # the integrated path is the planned one (checked on the plate) within rounding
-    coordinate[reached], points[reached] = _contact_points(
-        setup, path[reached], plate, origin, direction, check=False
-    )
+    coordinate[reached], points[reached] = _contact_points(setup, path[reached])
     final = RollingState(_read_only(y.copy()), float(h))
     for a in (forces, path, coordinate, points, min_pen, speeds):
         a.setflags(write=False)
