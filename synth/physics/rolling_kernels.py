@@ -74,7 +74,8 @@ E1, E3, E4, E5, E6, E7 = (
 
 @numba.njit(cache=True)
 def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
-    """The right-hand side of the module docstring at the state ``y`` into ``out``."""
+    """The right-hand side of the module docstring at the state ``y`` into ``out``; returns
+    the penetration ``delta`` (m)."""
     e, ep, _ = envelope_at(env, dx, y[S])
     delta = e - y[Z]
     w = ep * v - y[VY]
@@ -90,6 +91,7 @@ def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - comp
     out[DRIVE] = drive
     out[GROSS] = abs(drive)
     out[S] = v
+    return delta
 
 
 @numba.njit(cache=True)
@@ -182,14 +184,13 @@ def roll(
             rhs(tmp, k6, env, dx, v, m, K, n, mu, b, beta, g)
             for i in range(N_STATE):
                 y5[i] = y[i] + hh * (B1 * k1[i] + B3 * k3[i] + B4 * k4[i] + B5 * k5[i] + B6 * k6[i])
-            rhs(y5, k7, env, dx, v, m, K, n, mu, b, beta, g)
+            d_new = rhs(y5, k7, env, dx, v, m, K, n, mu, b, beta, g)
             err_z = hh * (
                 E1 * k1[Z] + E3 * k3[Z] + E4 * k4[Z] + E5 * k5[Z] + E6 * k6[Z] + E7 * k7[Z]
             )
             err_v = hh * (
                 E1 * k1[VY] + E3 * k3[VY] + E4 * k4[VY] + E5 * k5[VY] + E6 * k6[VY] + E7 * k7[VY]
             )
-            d_new = penetration(y5, env, dx)
             sc_z = atol_z + rtol * max(abs(d_prev), abs(d_new))
             sc_v = atol_v + rtol * max(abs(y[VY]), abs(y5[VY]))
             err = max(abs(err_z) / sc_z, abs(err_v) / sc_v)
