@@ -72,6 +72,24 @@ def test_accelerometer_hears_the_direct_term():
     assert np.max(np.abs(a[tail] - expected[tail])) < 1e-5 * amplitude
 
 
+def test_preloaded_plate_stays_in_its_static_deflection():
+    """A constant force on a plate preloaded with it: the mode stays at its static
+    deflection b F / omega^2 (displacement listener) and an accelerometer hears nothing
+    (to rounding); without the preload the step rings."""
+    poles, omega, _ = one_mode()
+    b, F0, n = 0.5, 3.0, 4800
+    table = np.array([[b], [b]])
+    displacement = sound.PathExcitation(0.0, 1.0, table, None)
+    acceleration = sound.PathExcitation(0.0, 1.0, table, table)  # with the direct term
+    force, where = np.full(n, F0), np.full(n, 0.25)
+    q = sound.drive_modes(force, where, displacement, poles, np.ones(1), FS, preload=F0)
+    assert np.max(np.abs(q / (b * F0 / omega**2) - 1.0)) < 1e-12
+    a = sound.drive_modes(force, where, acceleration, poles, poles**2, FS, preload=F0)
+    assert np.max(np.abs(a)) < 1e-12 * b * F0
+    ringing = sound.drive_modes(force, where, acceleration, poles, poles**2, FS)
+    assert np.max(np.abs(ringing)) > 0.5 * b * F0
+
+
 def test_force_moving_across_a_sinusoidal_shape():
     """A constant force F0 moving at speed v across b(s) = b0 sin(kappa s) drives the mode
     like the stationary force F0 b0 sin(W t), W = kappa v, sampled in the middle of each

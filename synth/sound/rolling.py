@@ -19,8 +19,8 @@ is exact. Against the true force, a sinusoid of angular frequency ``w`` reaches 
 scaled by ``sinc(w / (2 fs))^2`` (the period's mean, then the hold; ``1 - (w / fs)^2 / 12``
 for ``w << fs``), with no delay, plus images at ``2 pi m fs +- w`` which a mode below
 Nyquist hears only off resonance. An accelerometer's direct term at ``t_j``, where the held
-force steps from ``F_(j-1)`` to ``F_j``, takes the mean of the two (no force before the
-first period): a sinusoid reaches it scaled by ``sinc(w / (2 fs)) cos(w / (2 fs))``.
+force steps from ``F_(j-1)`` to ``F_j``, takes the mean of the two (before the first
+period: the ``preload``): a sinusoid reaches it scaled by ``sinc(w / (2 fs)) cos(w / (2 fs))``.
 
 ``b_k`` along the path: the mode shapes are evaluated on the path every ``step`` metres
 (:func:`path_excitation`; by default :data:`POINTS_PER_WAVELENGTH` points per bending
@@ -108,7 +108,9 @@ def path_excitation(
     return PathExcitation(s0, ds, b, direct)
 
 
-def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplerate) -> np.ndarray:
+def drive_modes(
+    force, coordinate, path: PathExcitation, poles, output, samplerate, *, preload: float = 0.0
+) -> np.ndarray:
     """What a listener hears of the modes driven by ``force`` at ``coordinate``.
 
     Parameters
@@ -126,6 +128,10 @@ def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplera
         :func:`synth.sound.modal_bank.synthesize`).
     samplerate : int
         Hz.
+    preload : float
+        The force already on the plate at the first coordinate before the first period,
+        N: the modes start in their static deflection under it, ``zeta_k = -b_k F / p_k``
+        (0: the plate at rest, unloaded).
 
     Returns
     -------
@@ -159,12 +165,16 @@ def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplera
             f"force must be finite and coordinate within the path's table [{path.start!r}, "
             f"{last!r}] m"
         )
+    F_pre = checks.real("preload", preload, "N")
     # the ringing over one sample and the listener's response per unit state, as the
     # modal bank has them (unit excitation: b_k moves with the contact point here)
     coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
     hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
     direct = path.direct if path.direct is not None else np.zeros((2, K))
+    zeta = np.zeros(K, dtype=complex)
+    if F_pre != 0.0 and F.size:
+        zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
     _drive(
         F,
         c,
@@ -179,22 +189,34 @@ def drive_modes(force, coordinate, path: PathExcitation, poles, output, samplera
         coefficients.coef_im,
         np.ascontiguousarray(hold.real),
         np.ascontiguousarray(hold.imag),
+        np.ascontiguousarray(zeta.real),
+        np.ascontiguousarray(zeta.imag),
+        F_pre,
         audio,
     )
     return audio
 
 
+def _row_at(table, start, step, coordinate) -> np.ndarray:
+    """The table's row at ``coordinate`` (m), interpolated linearly as :func:`_drive` does."""
+    u = (coordinate - start) / step
+    i = min(max(int(math.floor(u)), 0), table.shape[0] - 2)
+    t = u - i
+    return (1.0 - t) * table[i] + t * table[i + 1]
+
+
 @numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
-def _drive(force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, out):
+def _drive(
+    force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
+    previous, out,
+):  # fmt: skip
     """The recursion of the module docstring, ``b_k`` interpolated linearly in ``table``:
     one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
-    li``, the hold's gain ``hr + i hi``; the modes' states as real and imaginary arrays, so
-    the loop over the modes vectorises."""
+    li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
+    as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
+    force before the first period, N."""
     K = er.shape[0]
     rows = table.shape[0]
-    zr = np.zeros(K)
-    zi = np.zeros(K)
-    previous = 0.0  # no force before the first period
     for j in range(force.shape[0]):
         u = (coordinate[j] - start) / step
         i = int(math.floor(u))
@@ -230,7 +252,9 @@ def rolling_sound(rolling, model) -> np.ndarray:
     """What ``model``'s listener (a :class:`synth.sound.render.ModalModel`, at the rolling's
     samplerate) hears of a :class:`synth.physics.rolling.RollingContact`: its force driving
     the plate's modes at its moving contact point (without the listener's propagation
-    delay; ``model.delay`` s gives it)."""
+    delay; ``model.delay`` s gives it). The rolling starts as a ball already rolling there
+    (:func:`synth.physics.rolling.roll`), so the plate starts loaded with its first
+    period's force (``preload``): no step at the start."""
     if int(model.samplerate) != int(rolling.samplerate):
         raise ParameterError(
             f"model.samplerate={model.samplerate!r} must equal the rolling's samplerate "
@@ -244,4 +268,7 @@ def rolling_sound(rolling, model) -> np.ndarray:
         start=float(np.min(c)),
         stop=float(np.max(c)),
     )
-    return drive_modes(rolling.force, c, path, model.poles, model.output, rolling.samplerate)
+    return drive_modes(
+        rolling.force, c, path, model.poles, model.output, rolling.samplerate,
+        preload=float(rolling.force[0]),
+    )  # fmt: skip
