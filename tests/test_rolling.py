@@ -270,6 +270,16 @@ def test_energy_balance_with_a_changing_speed(pair):
     assert r.flights > 0  # it passed v_c
 
 
+def test_rolling_state_rejects_bad_input(pair):
+    env = sinusoid_envelope(pair[0].radius)
+    with pytest.raises(ParameterError, match="path_position"):
+        rolling.RollingState.at(env, path_position=-0.1, height=0.0, vertical_velocity=0.0)
+    with pytest.raises(ParameterError, match="height"):
+        rolling.RollingState.at(env, path_position=0.01, height=math.nan, vertical_velocity=0.0)
+    with pytest.raises(ParameterError, match="envelope"):
+        rolling.RollingState.at("flat", path_position=0.01, height=0.0, vertical_velocity=0.0)
+
+
 def test_roll_rejects_bad_speeds_and_states(pair):
     ball, plate = pair
     env = sinusoid_envelope(ball.radius)
@@ -286,3 +296,36 @@ def test_roll_rejects_bad_speeds_and_states(pair):
                      state=done.final_state, **kw)  # fmt: skip
     with pytest.raises(ParameterError, match="state"):
         rolling.roll(ball, plate, env, speed=0.1, duration=0.001, state="here", **kw)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [dict(admittance=0.0), dict(contact="hunt-crossley", dissipation=0.5), dict()],
+    ids=["rigid-elastic", "impedance-hunt-crossley", "impedance-elastic"],
+)
+def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, options):
+    """A ball landing on a flat surface is an impact of the same equations: the rolling
+    solver's impulse and rebound speed equal those of the impact solver (solve_contact,
+    its own integrators, the same law and admittance) to 1e-5 (both meet rtol 1e-8)."""
+    from synth.physics.contact import solve_contact
+
+    ball, plate = pair
+    v_in = 0.05
+    env = surface.contact_envelope(surface.Profile(np.zeros(1001), 1e-4, "flat"), ball.radius)
+    landing = rolling.RollingState.at(env, path_position=0.02, height=0.0, vertical_velocity=-v_in)
+    T = 0.002  # the contact lasts about 0.2 ms; the ball is in flight at the end
+    r = rolling.roll(
+        ball, plate, env, speed=0.1, duration=T, samplerate=SAMPLERATE, origin=(0.1, 0.3),
+        state=landing, rtol=1e-8, **options,
+    )  # fmt: skip
+    assert r.success, r.message
+    impact = solve_contact(
+        mass=ball.mass, stiffness=r.law.stiffness, admittance=r.admittance, speed=v_in,
+        dissipation=r.law.dissipation, rtol=1e-8,
+    )  # fmt: skip
+    assert impact.success and impact.contact_time < 0.5 * T
+    assert r.flights == 1
+    impulse = np.sum(r.force) / SAMPLERATE
+    assert impulse == pytest.approx(impact.impulse, rel=1e-5)
+    rebound = r.final_state.vertical_velocity + G * (T - impact.contact_time)
+    assert rebound == pytest.approx(impact.rebound_speed, rel=1e-5)

@@ -97,7 +97,8 @@ class EnergyBalance:
 
 @dataclass(frozen=True, eq=False)
 class RollingState:
-    """Where a rolling ended, to continue from (:func:`roll`'s ``state``).
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``); or, made by
+    :meth:`at`, a ball above (or on) the surface to start from.
 
     Attributes
     ----------
@@ -105,17 +106,48 @@ class RollingState:
         The integrator's state (read-only): the ball's height relative to the plate's
         surface (m), its vertical speed (m/s), the plate surface's displacement (m), the
         quadratures of the energy balance (J) and the centre's path coordinate (m).
-    step : float
-        The integrator's next step size, s.
+    step : float or None
+        The integrator's next step size, s (None: :func:`roll` chooses the first one).
     """
 
     vector: np.ndarray
-    step: float
+    step: float | None
+
+    @classmethod
+    def at(
+        cls,
+        envelope: ContactEnvelope,
+        *,
+        path_position: float,
+        height: float,
+        vertical_velocity: float,
+    ) -> RollingState:
+        """The ball with its centre above ``path_position`` (m, on the envelope's path), its
+        lowest point ``height`` (m) above the envelope there (negative: pressed into it by
+        that much), moving up at ``vertical_velocity`` (m/s; negative: down), the plate at
+        rest: a landing ball is ``height=0, vertical_velocity=-v_in``."""
+        if not isinstance(envelope, ContactEnvelope):
+            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        s = checks.in_range(
+            "path_position", path_position, 0.0, envelope.length, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        y = np.zeros(_k.N_STATE)
+        e, _, _ = envelope_at(envelope.coefficients, envelope.spacing, s)
+        y[_k.Z] = e + checks.real("height", height, "metres")
+        y[_k.VY] = checks.real("vertical_velocity", vertical_velocity, "m/s")
+        y[_k.S] = s
+        return cls(_read_only(y), None)
 
     @property
     def path_position(self) -> float:
         """The ball's centre on the path, m."""
         return float(self.vector[_k.S])
+
+    @property
+    def vertical_velocity(self) -> float:
+        """The ball's vertical velocity, m/s (upward)."""
+        return float(self.vector[_k.VY])
 
 
 @dataclass(frozen=True, eq=False)
@@ -251,7 +283,8 @@ def roll(
         within the envelope's length.
     state : RollingState, optional
         Continue where an earlier rolling ended (its ``final_state``), instead of starting
-        at ``start``: consecutive calls give the bits of one call over the same speeds.
+        at ``start``: consecutive calls give the bits of one call over the same speeds. Or
+        start from a ball above the surface (:meth:`RollingState.at`), such as one landing.
     contact : str
         The contact law and its ``contact_options`` (see
         :func:`synth.physics.contact.contact_parameters`).
@@ -433,7 +466,7 @@ def _solve(setup, speeds, s0, state):
         h = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
     else:
         y = np.array(state.vector)
-        h = state.step
+        h = state.step if state.step is not None else min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
     y0 = y.copy()
     N = speeds.size
     # NaN where a failed integration did not reach
