@@ -300,8 +300,13 @@ def test_roll_rejects_bad_speeds_and_states(pair):
 
 @pytest.mark.parametrize(
     "options",
-    [dict(admittance=0.0), dict(contact="hunt-crossley", dissipation=0.5), dict()],
-    ids=["rigid-elastic", "impedance-hunt-crossley", "impedance-elastic"],
+    [
+        dict(admittance=0.0),
+        dict(contact="hunt-crossley", dissipation=0.5),
+        dict(contact="viscoelastic", viscous_time=1e-6),
+        dict(),
+    ],
+    ids=["rigid-elastic", "impedance-hunt-crossley", "impedance-viscoelastic", "impedance-elastic"],
 )
 def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, options):
     """A ball landing on a flat surface is an impact of the same equations: the rolling
@@ -321,7 +326,7 @@ def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, options):
     assert r.success, r.message
     impact = solve_contact(
         mass=ball.mass, stiffness=r.law.stiffness, admittance=r.admittance, speed=v_in,
-        dissipation=r.law.dissipation, rtol=1e-8,
+        dissipation=r.law.dissipation, viscous_time=r.law.viscous_time, rtol=1e-8,
     )  # fmt: skip
     assert impact.success and impact.contact_time < 0.5 * T
     assert r.flights == 1
