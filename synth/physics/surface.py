@@ -41,10 +41,10 @@ from synth.errors import ParameterError
 
 #: Most samples of a profile (a 10 m path at 1 um spacing), to keep its arrays in memory.
 MAX_PROFILE_SAMPLES = 10_000_000
-#: Correlation lengths of padding on each side of a rough profile's periodic synthesis
-#: domain: the Matern correlation at ``8 xi`` is below 1e-3 for every ``H <= 1``, so the
-#: wrap-around of the periodic synthesis does not correlate the profile's two ends.
-PADDING_CORRELATION_LENGTHS = 8.0
+#: Correlation lengths of padding between a rough profile's end and, around its periodic
+#: synthesis domain, its start: the Matern correlation at that lag is below 1e-6 for every
+#: ``H <= 1``, so the periodic synthesis does not correlate the profile's two ends.
+PADDING_CORRELATION_LENGTHS = 16.0
 #: Newton iterations locating a summit's contact point between samples (quadratic
 #: convergence from within a sample of it: machine precision in about four).
 NEWTON_ITERATIONS = 6
@@ -203,7 +203,7 @@ def rough_profile(
 
 def _synthesis_size(length: float, spacing: float, correlation_length: float) -> int:
     """Samples ``M`` (even) of the periodic synthesis domain of :func:`rough_profile`."""
-    span = length + 2.0 * PADDING_CORRELATION_LENGTHS * correlation_length
+    span = length + PADDING_CORRELATION_LENGTHS * correlation_length
     m = int(math.ceil(span / spacing)) + 1
     if m > 4 * MAX_PROFILE_SAMPLES:
         raise ParameterError(
