@@ -82,8 +82,8 @@ class EnergyBalance:
         ``Int |F e'(s) v| dt``, J: the energy exchanged with the drive.
     residual : float
         ``|final - initial + loss_work + plate_energy - drive_work|`` relative to the
-        largest of ``gross_drive_work``, ``loss_work + plate_energy`` and ``|final -
-        initial|``.
+        largest of ``gross_drive_work``, ``loss_work + plate_energy``, ``|final -
+        initial|`` and the resting contact's energy scale ``m g delta_static``.
     """
 
     initial: float
@@ -257,6 +257,7 @@ def roll(
     admittance: float | None = None,
     gravity: float = GRAVITY,
     rtol: float = 1e-6,
+    landing_speed: float = 1.0,
     **contact_options,
 ) -> RollingContact:
     """Roll ``ball`` over ``plate`` along the path of ``envelope``.
@@ -296,6 +297,12 @@ def roll(
     rtol : float in [1e-12, 1e-2]
         Local relative tolerance of the integrator (on the penetration, relative to the
         static penetration, and on the vertical speed).
+    landing_speed : float > 0
+        The fastest landing (m/s, relative to the surface) whose contact the steps across a
+        flight cannot miss: a step is at most a quarter of the elastic Hertz contact's
+        shortest possible duration at that speed, ``2 delta_max / u`` with ``delta_max =
+        ((n + 1) m u^2 / (2 K))^(1/(n+1))`` (the relative speed never exceeds ``u``), and at
+        most a sample period.
 
     Start (without ``state``): the ball is in contact as a ball rolled there slowly would
     be: the contact force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's
@@ -318,6 +325,7 @@ def roll(
     speeds = _speeds(speed, duration, fs)
     g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
     tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
+    u_land = checks.positive("landing_speed", landing_speed, "m/s")
     if state is not None:
         if start is not None:
             raise ParameterError("give start or state, not both")
@@ -340,7 +348,7 @@ def roll(
         if admittance is None
         else checks.nonnegative("admittance", admittance, "m/(N s)")
     )
-    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy))
+    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
     _check_reach(setup, planned[0], planned[-1], plate, origin, direction)
     return _solve(setup, speeds, s0, state)
 
@@ -390,6 +398,14 @@ class _Setup:
     envelope: ContactEnvelope
     origin: tuple[float, float]
     direction: tuple[float, float]
+    landing_speed: float
+
+    @property
+    def max_step(self) -> float:
+        """The largest step, s (see :func:`roll`'s ``landing_speed``)."""
+        K, n, u = self.law.stiffness, self.law.exponent, self.landing_speed
+        delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
+        return min(0.25 * 2.0 * delta_max / u, 1.0 / self.samplerate)
 
 
 def _contact_points(setup, centre):
@@ -489,6 +505,7 @@ def _solve(setup, speeds, s0, state):
         float(fs),
         setup.rtol,
         delta_ref,
+        setup.max_step,
         MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
@@ -496,7 +513,7 @@ def _solve(setup, speeds, s0, state):
     )
     E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
     loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
-    scale = max(gross, loss + plate_e, abs(E1 - E0), 1e-300)
+    scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)
     balance = EnergyBalance(
         E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
     )

@@ -118,12 +118,14 @@ def roll(
     samplerate,
     rtol,
     delta_ref,
+    h_max,
     max_steps,
     force_out,
     min_penetration,
     path_out,
 ):  # pragma: no cover - compiled
-    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s) over
+    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s), steps
+    of at most ``h_max`` (s), over
     ``speeds.size`` sample periods of ``1 / samplerate`` s, the horizontal speed ``speeds[j]``
     (m/s) in period ``j``; write each period's mean contact force (N), the smallest
     penetration at its steps' ends (m) and the path coordinate at its start (m).
@@ -161,6 +163,8 @@ def roll(
         t = 0.0
         while t < period:
             remaining = period - t
+            if h > h_max:
+                h = h_max
             last = h >= remaining
             hh = remaining if last else h
             if hh <= 1e-12 * period:
