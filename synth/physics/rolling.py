@@ -299,8 +299,8 @@ def roll(
         static penetration, and on the vertical speed).
     landing_speed : float > 0
         The fastest landing (m/s, relative to the surface) whose contact the steps across a
-        flight cannot miss: a step is at most a quarter of the elastic Hertz contact's
-        shortest possible duration at that speed, ``2 delta_max / u`` with ``delta_max =
+        flight cannot miss: a step is at most half the elastic Hertz contact's shortest
+        possible duration at that speed, ``2 delta_max / u`` with ``delta_max =
         ((n + 1) m u^2 / (2 K))^(1/(n+1))`` (the relative speed never exceeds ``u``), and at
         most a sample period.
 
@@ -405,7 +405,7 @@ class _Setup:
         """The largest step, s (see :func:`roll`'s ``landing_speed``)."""
         K, n, u = self.law.stiffness, self.law.exponent, self.landing_speed
         delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
-        return min(0.25 * 2.0 * delta_max / u, 1.0 / self.samplerate)
+        return min(delta_max / u, 1.0 / self.samplerate)
 
 
 def _contact_points(setup, centre):
