@@ -299,26 +299,34 @@ def test_roll_rejects_bad_speeds_and_states(pair):
 
 
 @pytest.mark.parametrize(
-    "options",
+    "radius, v_in, options",
     [
-        dict(admittance=0.0),
-        dict(contact="hunt-crossley", dissipation=0.5),
-        dict(contact="viscoelastic", viscous_time=1e-6),
-        dict(),
+        (0.01, 0.05, dict(admittance=0.0)),
+        (0.01, 0.05, dict(contact="hunt-crossley", dissipation=0.5)),
+        (0.01, 0.05, dict(contact="viscoelastic", viscous_time=1e-6)),
+        (0.01, 0.05, dict()),
+        # a contact of a few microseconds, shorter than a sample period
+        (0.0005, 1.0, dict(admittance=0.0)),
     ],
-    ids=["rigid-elastic", "impedance-hunt-crossley", "impedance-viscoelastic", "impedance-elastic"],
+    ids=[
+        "rigid-elastic",
+        "impedance-hunt-crossley",
+        "impedance-viscoelastic",
+        "impedance-elastic",
+        "small-fast-rigid",
+    ],
 )
-def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, options):
+def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, radius, v_in, options):
     """A ball landing on a flat surface is an impact of the same equations: the rolling
     solver's impulse and rebound speed equal those of the impact solver (solve_contact,
-    its own integrators, the same law and admittance) to 1e-5 (both meet rtol 1e-8)."""
+    its own integrators, the same law and admittance) to 1e-5 (both meet rtol 1e-8), also
+    for a contact shorter than a sample period."""
     from synth.physics.contact import solve_contact
 
-    ball, plate = pair
-    v_in = 0.05
+    ball, plate = Ball("steel", radius), pair[1]
     env = surface.contact_envelope(surface.Profile(np.zeros(1001), 1e-4, "flat"), ball.radius)
     landing = rolling.RollingState.at(env, path_position=0.02, height=0.0, vertical_velocity=-v_in)
-    T = 0.002  # the contact lasts about 0.2 ms; the ball is in flight at the end
+    T = 0.002  # the contacts last 0.2 ms at most; the ball is in flight at the end
     r = rolling.roll(
         ball, plate, env, speed=0.1, duration=T, samplerate=SAMPLERATE, origin=(0.1, 0.3),
         state=landing, rtol=1e-8, **options,
