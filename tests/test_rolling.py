@@ -152,6 +152,8 @@ def test_energy_balance(pair, speed_ratio, options):
     if "contact" in options:
         assert r.energy.loss_work > 0.0
         assert r.energy.plate_energy > 0.0
+        # what the loss and the plate take, the drive supplies: a positive drag
+        assert r.mean_drag > 0.0
     else:
         assert r.energy.loss_work == 0.0 and r.energy.plate_energy == 0.0
 
