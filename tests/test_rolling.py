@@ -300,6 +300,8 @@ def test_roll_rejects_bad_speeds_and_states(pair):
         rolling.roll(ball, plate, env, speed=0.1, duration=0.001, state="here", **kw)
 
 
+# the impact solver's kernels compile in about 30 s on a cold cache
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "radius, v_in, options",
     [
