@@ -2,9 +2,8 @@
 
 The equations (docs/rolling.md, "Rolling contact"): the ball's centre moves along the
 path at the horizontal speed ``v`` (constant over each sample period), ``s' = v``; its
-lowest point is at
-height ``y`` and the plate's surface under it at ``u`` (the impedance's displacement, 0 for
-a rigid plate); ``z = y - u``. With the envelope ``e(s)``
+lowest point is at height ``y`` and the plate's surface under it at ``u`` (the impedance's
+displacement, 0 for a rigid plate); ``z = y - u``. With the envelope ``e(s)``
 (:func:`synth.physics.surface.contact_envelope`):
 
     delta = e(s) - z                     penetration, m
@@ -27,6 +26,10 @@ J. Comput. Appl. Math. 6, 19; Hairer, Norsett & Wanner, "Solving ODEs I", II.5) 
 error control on ``delta`` and ``v_y`` (absolute ``rtol * delta_ref`` and ``rtol *
 sqrt(g delta_ref)`` plus ``rtol`` times the values), steps ending on every sample boundary
 (where the speed changes, the first stage is evaluated afresh with the new speed).
+
+numba's cache (``cache=True``) keys these kernels on this file only: after editing
+``contact_kernels/equations.py`` (the law) or ``surface.py`` (the envelope's spline),
+clear ``synth/physics/__pycache__`` so that they compile again with the change.
 """
 
 from __future__ import annotations
