@@ -36,9 +36,12 @@ def test_rough_profile_mean_square_matches_its_expectation():
 
 
 def test_rough_profile_spectrum_matches_the_model():
-    """The averaged periodogram of 32 profiles against S(k) over the wavenumbers between
-    the roll-off and a tenth of Nyquist: the mean ratio within 5 % (32 x 20 bins averaged:
-    a standard error of 1 %), and the power-law slope -(2H + 1) within 0.1."""
+    """The averaged periodogram of 32 profiles (Hann window) against S(k) over the 165
+    wavenumbers between the roll-off and a tenth of Nyquist: the mean ratio within 5 %
+    (32 x 165 chi-square ratios of two degrees of freedom: a standard error below 1 %; the
+    window's leakage from the steeper low wavenumbers biases it by a few per cent at
+    most), and the fitted log-log slope within 0.05 of the model's over the same band
+    (which is within 10 % of the power law's -(2H + 1): (k xi)^2 / (1 + (k xi)^2) > 0.9)."""
     n, dx = 4096, 2e-6
     acc = np.zeros(n // 2 + 1)
     for s in range(32):
@@ -51,7 +54,10 @@ def test_rough_profile_spectrum_matches_the_model():
     ratio = psd[band] / SPEC.density(k[band])
     assert np.mean(ratio) == pytest.approx(1.0, abs=0.05)
     slope = np.polyfit(np.log(k[band]), np.log(psd[band]), 1)[0]
-    assert slope == pytest.approx(-(2 * SPEC.hurst + 1), abs=0.1)
+    model = np.polyfit(np.log(k[band]), np.log(SPEC.density(k[band])), 1)[0]
+    assert slope == pytest.approx(model, abs=0.05)
+    # the model's own slope there tends to the power law's -(2H + 1) from above
+    assert -(2 * SPEC.hurst + 1) < model < -0.9 * (2 * SPEC.hurst + 1)
 
 
 def test_rough_profile_is_reproducible_from_its_seed():
