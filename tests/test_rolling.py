@@ -346,3 +346,40 @@ def test_landing_on_a_flat_surface_is_the_impact_solvers_impact(pair, radius, v_
     assert impulse == pytest.approx(impact.impulse, rel=1e-5)
     rebound = r.final_state.vertical_velocity + G * (T - impact.contact_time)
     assert rebound == pytest.approx(impact.rebound_speed, rel=1e-5)
+
+
+def test_rolling_force_on_a_sinusoid_is_the_closed_form(pair):
+    """Slow rolling on a shallow sinusoid (A k^2 R << 1): the force's fundamental is the
+    centre path's, m w^2 |E_1| (|E_1| the envelope's fundamental amplitude), amplified by
+    the linearised Hertz spring, 1 / (1 - (w / omega_c)^2) with omega_c^2 = (3/2) g /
+    delta_static, and scaled by the sample mean's sinc(w / 2 fs): to 1e-5 (the next
+    terms: (w / omega_c)^4 = 1.4e-6, and the spring's nonlinearity, (w / omega_c)^2 times
+    the force's relative swing, 3e-2: 4e-5 of the correction, 4e-8 of the force), while the
+    Hertz correction itself is 1.2e-3."""
+    ball, plate = pair
+    A, periods = 2e-6, 6
+    profile = surface.sinusoidal_profile(
+        amplitude=A, wavelength=WAVELENGTH, length=0.1, spacing=WAVELENGTH / 200,
+        phase=-math.pi / 2,
+    )  # fmt: skip
+    env = surface.contact_envelope(profile, ball.radius)
+    k = 2.0 * math.pi / WAVELENGTH
+    i0, i1 = (int(round(p * WAVELENGTH / env.spacing)) for p in (2, 10))
+    x = np.arange(i0, i1) * env.spacing
+    E1 = abs(2.0 * np.mean(env.heights[i0:i1] * np.exp(-1j * k * x)))
+    per_period = 800  # samples: v = 0.3 m/s
+    v = WAVELENGTH * SAMPLERATE / per_period
+    n = periods * per_period
+    r = rolling.roll(
+        ball, plate, env, speed=v, duration=n / SAMPLERATE, samplerate=SAMPLERATE,
+        origin=(0.1, 0.3), start=2 * WAVELENGTH, admittance=0.0, rtol=1e-9,
+    )  # fmt: skip
+    assert r.success, r.message
+    w = k * v
+    t = (np.arange(n) + 0.5) / SAMPLERATE
+    F1 = abs(2.0 * np.mean(r.force * np.exp(-1j * w * t)))
+    correction = w * w * r.static_penetration / (1.5 * G)
+    half = w / (2 * SAMPLERATE)
+    expected = ball.mass * w * w * E1 / (1.0 - correction) * math.sin(half) / half
+    assert F1 == pytest.approx(expected, rel=1e-5)
+    assert correction > 1e-3

@@ -118,6 +118,45 @@ def test_force_moving_across_a_sinusoidal_shape():
     assert abs(interpolated - 1.0) > 3e-3
 
 
+def test_rolling_on_a_sinusoid_excites_a_mode_as_the_closed_form():
+    """End to end: a steel ball rolling slowly over a shallow sinusoid on glass, at a fixed
+    point of one mode: the mode's response at the rolling frequency w = k v is
+    b F_1 sinc(w / 2 fs)^2 / (omega^2 - w^2 + 2 i sigma w), with F_1 = m w^2 |E_1| /
+    (1 - (w / omega_c)^2) the closed form of the rolling force's fundamental
+    (tests/test_rolling.py): to 1e-5 of it, over the last half second (the mode's start
+    transient decayed by exp(-15))."""
+    ball, plate = Ball("steel", 0.01), Plate("glass", 0.006, 1.0, 0.6)
+    A, lam = 2e-6, 5e-3
+    profile = surface.sinusoidal_profile(
+        amplitude=A, wavelength=lam, length=0.35, spacing=lam / 200, phase=-math.pi / 2
+    )
+    env = surface.contact_envelope(profile, ball.radius)
+    k = 2.0 * math.pi / lam
+    i0, i1 = (int(round(p * lam / env.spacing)) for p in (2, 10))
+    x = np.arange(i0, i1) * env.spacing
+    E1 = abs(2.0 * np.mean(env.heights[i0:i1] * np.exp(-1j * k * x)))
+    per_period = 800  # samples: v = 0.3 m/s, w = 2 pi 60 Hz
+    v = lam * FS / per_period
+    n = 60 * per_period
+    r = rolling.roll(
+        ball, plate, env, speed=v, duration=n / FS, samplerate=FS, origin=(0.1, 0.3),
+        start=2 * lam, admittance=0.0, rtol=1e-9,
+    )  # fmt: skip
+    assert r.success, r.message
+    poles, omega, sigma = one_mode(frequency=70.0, sigma=30.0)
+    b = 0.5
+    path = sound.PathExcitation(0.0, 1.0, np.array([[b], [b]]), None)
+    q = sound.drive_modes(r.force, np.zeros(n), path, poles, np.ones(1), FS, preload=r.force[0])
+    w = k * v
+    half = w / (2 * FS)
+    F1 = ball.mass * w * w * E1 / (1.0 - w * w * r.static_penetration / (1.5 * 9.81))
+    expected = b * F1 * (math.sin(half) / half) ** 2 / abs(omega**2 - w**2 + 2j * sigma * w)
+    tail = slice(n - 30 * per_period, n)
+    t = np.arange(n)[tail] / FS
+    measured = abs(2.0 * np.mean(q[tail] * np.exp(-1j * w * t)))
+    assert measured == pytest.approx(expected, rel=1e-5)
+
+
 def test_rolling_sound_on_a_plate():
     """A steel ball rolling over a rough glass plate is heard by an accelerometer: finite,
     not silent, the same bytes twice."""
