@@ -1,0 +1,652 @@
+"""A ball rolling at an imposed horizontal speed over a plate's rough surface.
+
+The model (docs/rolling.md): the ball's centre moves along a straight path on the plate at
+the horizontal speed ``v`` (the caller's, one per call or one per sample period);
+vertically it is a free body under gravity pressed by the impacts' contact law
+(:func:`synth.physics.contact.contact_parameters`: Hertz, with the material's loss where the
+law has one) against the plate's surface, which is the profile's envelope under the ball
+(:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's point
+impedance (its admittance ``beta``, as the impacts' contact, docs/physics.md "Hertz
+contact"). Contact is lost wherever the surface falls away faster than gravity lets the
+ball follow, and the landings that follow are impacts of the same equations: micro-bounces
+are not a separate model. The equations and the integrator are those of
+:mod:`synth.physics.rolling_kernels`.
+
+:func:`roll` returns a :class:`RollingContact`: the contact force averaged over every
+sample period (its sum is the impulse delivered, exactly), the contact point on the plate,
+the smallest penetration per sample, the energy balance, the solver's status, and the state
+to continue from (:class:`RollingState`: a rolling cut into calls, each with its own speeds,
+gives the bits of one call; the seam for a voice whose speed a game updates every frame).
+:func:`loss_of_contact_speed` answers the thesis' question (section 6.2) for a surface.
+
+Left out (docs/rolling.md, "Limits"): rolling resistance (the horizontal speed is imposed,
+not solved; :attr:`RollingContact.mean_drag` is the mean horizontal force the contact
+opposes to it, whose work the drive supplies); the tilt of the contact normal (forces and
+penetrations are vertical: errors of the order of the profile's slope squared); the local
+curvature of the profile in the Hertz constant (the sphere-on-flat constant is used); the
+ball's rotation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+from synth.physics import impedance
+from synth.physics import rolling_kernels as _k
+from synth.physics.contact import ContactLaw, contact_parameters
+from synth.physics.scene import MAX_GRAVITY, Ball, Plate
+from synth.physics.surface import ContactEnvelope, envelope_at
+
+#: Most integration steps per sample period before the solver gives up (a contact
+#: resolved at the tolerance asks for a few per period).
+MAX_STEPS_PER_SAMPLE = 2000
+#: Longest rolling solved in one call, s.
+MAX_DURATION = 3600.0
+#: Most samples of one call (its arrays take about 50 bytes a sample: 1.5 GB).
+MAX_SAMPLES = 30_000_000
+
+_MESSAGES = {
+    _k.OK: "The rolling was integrated to its end.",
+    _k.MAX_STEPS: "The step limit was reached before the end.",
+    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
+}
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    """The energy of the ball and its contact at the start and the end (J), and where the
+    difference went.
+
+    ``final - initial + loss_work + plate_energy - drive_work`` is zero for the exact
+    solution: the mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` changes
+    by the work of the horizontal drive (the force's horizontal part ``-F e'(s)`` against the
+    imposed speed) less what the contact's loss and the plate's impedance take.
+
+    Attributes
+    ----------
+    initial, final : float
+        Mechanical energy, J (potential energy from the plate's nominal plane).
+    loss_work : float
+        Work of the contact's loss, ``Int (F - K delta^n) d(delta)/dt dt``, J (>= 0).
+    plate_energy : float
+        Energy carried into the plate, ``Int beta F^2 dt``, J.
+    drive_work : float
+        Work of the horizontal drive, ``Int F e'(s) v dt``, J.
+    gross_drive_work : float
+        ``Int |F e'(s) v| dt``, J: the energy exchanged with the drive.
+    residual : float
+        ``|final - initial + loss_work + plate_energy - drive_work|`` relative to the
+        largest of ``gross_drive_work``, ``loss_work + plate_energy``, ``|final -
+        initial|`` and the resting contact's energy scale ``m g delta_static``.
+    """
+
+    initial: float
+    final: float
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    gross_drive_work: float
+    residual: float
+
+
+@dataclass(frozen=True, eq=False)
+class RollingState:
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``); or, made by
+    :meth:`at`, a ball above (or on) the surface to start from.
+
+    Attributes
+    ----------
+    vector : ndarray
+        The integrator's state (read-only): the ball's height relative to the plate's
+        surface (m), its vertical speed (m/s), the plate surface's displacement (m), the
+        quadratures of the energy balance (J) and the centre's path coordinate (m).
+    step : float or None
+        The integrator's next step size, s (None: :func:`roll` chooses the first one).
+    """
+
+    vector: np.ndarray
+    step: float | None
+
+    @classmethod
+    def at(
+        cls,
+        envelope: ContactEnvelope,
+        *,
+        path_position: float,
+        height: float,
+        vertical_velocity: float,
+    ) -> RollingState:
+        """The ball with its centre above ``path_position`` (m, on the envelope's path), its
+        lowest point ``height`` (m) above the envelope there (negative: pressed into it by
+        that much), moving up at ``vertical_velocity`` (m/s; negative: down), the plate at
+        rest: a landing ball is ``height=0, vertical_velocity=-v_in``."""
+        if not isinstance(envelope, ContactEnvelope):
+            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        s = checks.in_range(
+            "path_position", path_position, 0.0, envelope.length, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        y = np.zeros(_k.N_STATE)
+        e, _, _ = envelope_at(envelope.coefficients, envelope.spacing, s)
+        y[_k.Z] = e + checks.real("height", height, "metres")
+        y[_k.VY] = checks.real("vertical_velocity", vertical_velocity, "m/s")
+        y[_k.S] = s
+        return cls(_read_only(y), None)
+
+    @property
+    def path_position(self) -> float:
+        """The ball's centre on the path, m."""
+        return float(self.vector[_k.S])
+
+    @property
+    def vertical_velocity(self) -> float:
+        """The ball's vertical velocity, m/s (upward)."""
+        return float(self.vector[_k.VY])
+
+
+@dataclass(frozen=True, eq=False)
+class RollingContact:
+    """A rolling ball's contact with the plate, sampled at the audio rate (SI units).
+
+    Attributes
+    ----------
+    samplerate : int
+        Hz; sample ``j`` covers ``[j, j + 1) / samplerate`` s from the start.
+    force : ndarray (N,)
+        Mean contact force on the plate over each sample period, N (downward on the plate).
+    path_position : ndarray (N,)
+        Position of the ball's centre along the path in the middle of each sample period,
+        m (where the period's mean force acts).
+    contact_coordinate : ndarray (N,)
+        Position of the touching point along the path there, m (the
+        centre's position plus the envelope's contact offset).
+    contact_point : ndarray (N, 2)
+        That point on the plate, ``(x, y)`` m from the plate's corner.
+    min_penetration : ndarray (N,)
+        Smallest penetration at the solver's steps' ends within each sample, m (<= 0:
+        the ball was off the plate).
+    flights : int
+        Losses of contact seen at the steps' ends.
+    energy : EnergyBalance
+    law : ContactLaw
+        The contact law's constants.
+    admittance : float
+        The plate's admittance ``beta``, m/(N s) (0: rigid).
+    speed : ndarray (N,)
+        Horizontal speed in each sample period, m/s.
+    origin : (float, float)
+        Where the path's coordinate 0 lies on the plate, m from its corner.
+    direction : (float, float)
+        The path's unit direction on the plate.
+    mass : float
+        Ball mass, kg.
+    static_penetration : float
+        ``(m g / K)^(1/n)``, m: the scale of the error control.
+    success : bool
+    status : int
+        0 integrated to its end; negative: failure (see ``message``).
+    message : str
+    n_steps, n_rejected : int
+        Integration steps taken and rejected.
+    final_state : RollingState
+        Where the rolling ended, for a call that continues it.
+    """
+
+    samplerate: int
+    force: np.ndarray
+    path_position: np.ndarray
+    contact_coordinate: np.ndarray
+    contact_point: np.ndarray
+    min_penetration: np.ndarray
+    flights: int
+    energy: EnergyBalance
+    law: ContactLaw
+    admittance: float
+    speed: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    mass: float
+    static_penetration: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    n_rejected: int
+    final_state: RollingState
+
+    @property
+    def contact_lost(self) -> np.ndarray:
+        """Samples in which the ball was seen off the plate (bool, (N,))."""
+        return self.min_penetration <= 0.0
+
+    @property
+    def mean_drag(self) -> float:
+        """Mean horizontal force the contact opposes to the ball's motion, N: the drive's
+        work per metre of path (NaN if the ball did not move)."""
+        distance = float(np.sum(self.speed)) / self.samplerate
+        return self.energy.drive_work / distance if distance > 0.0 else math.nan
+
+
+def _direction(direction) -> tuple[float, float]:
+    dx, dy = checks.point("direction", direction, 2, "dimensionless")
+    norm = math.hypot(dx, dy)
+    if not norm > 0.0:
+        raise ParameterError(f"direction={direction!r} must be a nonzero (x, y) vector")
+    return dx / norm, dy / norm
+
+
+def roll(
+    ball: Ball,
+    plate: Plate,
+    envelope: ContactEnvelope,
+    *,
+    speed,
+    samplerate: int,
+    origin,
+    direction=(1.0, 0.0),
+    duration: float | None = None,
+    start: float | None = None,
+    state: RollingState | None = None,
+    contact: str = "hertz",
+    admittance: float | None = None,
+    gravity: float = GRAVITY,
+    rtol: float = 1e-6,
+    landing_speed: float = 1.0,
+    **contact_options,
+) -> RollingContact:
+    """Roll ``ball`` over ``plate`` along the path of ``envelope``.
+
+    Parameters
+    ----------
+    ball : Ball
+    plate : Plate
+    envelope : ContactEnvelope
+        The path's surface as this ball rides it (made with ``ball.radius``).
+    speed : float >= 0, or ndarray (N,) of them
+        Horizontal speed of the ball's centre, m/s: one for the whole ``duration``, or one
+        per sample period (then ``duration`` is ``N / samplerate`` and is not given).
+    samplerate : int > 0
+        Hz.
+    origin : (float, float)
+        Where the path's coordinate 0 lies on the plate, m from its corner.
+    direction : (float, float)
+        The path's direction on the plate (normalised here).
+    duration : float > 0
+        s (at most :data:`MAX_DURATION`), with a single ``speed``.
+    start : float >= 0, optional
+        The centre's path coordinate at time 0, m (default 0); the centre's path must stay
+        within the envelope's length.
+    state : RollingState, optional
+        Continue where an earlier rolling ended (its ``final_state``), instead of starting
+        at ``start``: consecutive calls give the bits of one call over the same speeds. Or
+        start from a ball above the surface (:meth:`RollingState.at`), such as one landing.
+    contact : str
+        The contact law and its ``contact_options`` (see
+        :func:`synth.physics.contact.contact_parameters`).
+    admittance : float >= 0, optional
+        The plate's admittance at the contact, m/(N s): 0 for a rigid plate; default the
+        infinite plate's ``1 / Z_inf`` (:func:`synth.physics.impedance.infinite_plate_impedance`).
+    gravity : float > 0
+        m/s^2.
+    rtol : float in [1e-12, 1e-2]
+        Local relative tolerance of the integrator (on the penetration, relative to the
+        static penetration, and on the vertical speed).
+    landing_speed : float > 0
+        The fastest landing (m/s, relative to the surface) whose contact the steps across a
+        flight cannot miss: a step is at most half the elastic Hertz contact's shortest
+        possible duration at that speed, ``2 delta_max / u`` with ``delta_max =
+        ((n + 1) m u^2 / (2 K))^(1/(n+1))`` (the relative speed never exceeds ``u``), and at
+        most a sample period.
+
+    Start (without ``state``): the ball is in contact as a ball rolled there slowly would
+    be: the contact force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's
+    centripetal force), the penetration it needs under the law's elastic part, the vertical
+    speed that keeps the penetration steady; if that force is negative the ball starts just
+    touching, moving with the surface.
+    """
+    if not isinstance(ball, Ball):
+        raise ParameterError(f"ball={ball!r} must be a Ball")
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    if not isinstance(envelope, ContactEnvelope):
+        raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+    if envelope.radius != ball.radius:
+        raise ParameterError(
+            f"envelope.radius={envelope.radius!r} must be the ball's radius "
+            f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+        )
+    fs = checks.samplerate(samplerate)
+    speeds = _speeds(speed, duration, fs)
+    g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
+    tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
+    u_land = checks.positive("landing_speed", landing_speed, "m/s")
+    if state is not None:
+        if start is not None:
+            raise ParameterError("give start or state, not both")
+        if not isinstance(state, RollingState):
+            raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
+        s0 = float(state.vector[_k.S])
+    else:
+        s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
+    ox, oy = checks.point("origin", origin, 2)
+    ux, uy = _direction(direction)
+    planned = s0 + np.concatenate(([0.0], np.cumsum(speeds) / fs))
+    if not 0.0 <= planned[-1] <= envelope.length:
+        raise ParameterError(
+            f"speed={speed!r} from the path coordinate {s0!r} m reaches {planned[-1]!r} m, "
+            f"beyond the envelope's length {envelope.length!r} m"
+        )
+    law = contact_parameters(ball, plate, contact, **contact_options)
+    beta = (
+        1.0 / impedance.infinite_plate_impedance(plate)
+        if admittance is None
+        else checks.nonnegative("admittance", admittance, "m/(N s)")
+    )
+    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
+    _check_reach(setup, planned[0], planned[-1], plate, origin, direction)
+    return _solve(setup, speeds, s0, state)
+
+
+def _speeds(speed, duration, fs) -> np.ndarray:
+    """The speed of every sample period (m/s), from a single speed and a duration (s) or
+    an array of speeds."""
+    if np.ndim(speed) == 0:
+        v = checks.nonnegative("speed", speed, "m/s")
+        if duration is None:
+            raise ParameterError("a single speed needs duration (s)")
+        T = checks.positive_at_most("duration", duration, MAX_DURATION, "s")
+        n = int(round(T * fs))
+        if not 1 <= n <= MAX_SAMPLES:
+            raise ParameterError(
+                f"duration={duration!r} at samplerate={fs!r} gives {n} samples; a rolling "
+                f"call covers 1 to {MAX_SAMPLES} samples"
+            )
+        return np.full(n, v)
+    if duration is not None:
+        raise ParameterError("speeds per sample set the duration: give no duration")
+    try:
+        speeds = np.array(speed, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"speed={speed!r} must be a number or 1-D array (m/s)") from None
+    if speeds.ndim != 1 or not 1 <= speeds.size <= MAX_SAMPLES:
+        raise ParameterError(
+            f"speed with shape {speeds.shape} must be 1-D with 1 to {MAX_SAMPLES} samples"
+        )
+    bad = ~(np.isfinite(speeds) & (speeds >= 0.0))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ParameterError(f"speed[{i}]={speeds[i]!r} must be finite and >= 0 (m/s)")
+    return speeds
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """The checked constants of one :func:`roll` call."""
+
+    mass: float
+    law: ContactLaw
+    admittance: float
+    gravity: float
+    rtol: float
+    samplerate: int
+    envelope: ContactEnvelope
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    landing_speed: float
+
+    @property
+    def max_step(self) -> float:
+        """The largest step, s (see :func:`roll`'s ``landing_speed``)."""
+        K, n, u = self.law.stiffness, self.law.exponent, self.landing_speed
+        delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
+        return min(delta_max / u, 1.0 / self.samplerate)
+
+
+def _contact_points(setup, centre):
+    """Path coordinates (m) and plate points (m) of the touching points of the centre at
+    the path coordinates ``centre`` (m)."""
+    env = setup.envelope
+    coordinate = centre + np.interp(
+        centre, np.arange(env.heights.size) * env.spacing, env.contact_offsets
+    )
+    (ox, oy), (ux, uy) = setup.origin, setup.direction
+    return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
+
+
+def _check_reach(setup, first, last, plate, origin, direction):
+    """``ParameterError`` unless every touching point of the centre between the path
+    coordinates ``first <= last`` (m) lies on the plate: the touching point's coordinate
+    is piecewise linear in the centre's, so its extremes are at the two ends or at the
+    envelope's samples between them, and the plate is convex."""
+    env = setup.envelope
+    i0 = int(math.ceil(first / env.spacing))
+    i1 = int(math.floor(last / env.spacing))
+    nodes = np.arange(i0, i1 + 1) * env.spacing + env.contact_offsets[i0 : i1 + 1]
+    ends, _ = _contact_points(setup, np.array([first, last]))
+    reach = np.concatenate((ends, nodes))
+    (ox, oy), (ux, uy) = setup.origin, setup.direction
+    extremes = np.array([np.min(reach), np.max(reach)])
+    points = np.column_stack((ox + ux * extremes, oy + uy * extremes))
+    a, b = plate.length, plate.width
+    off = (points[:, 0] < 0.0) | (points[:, 0] > a) | (points[:, 1] < 0.0) | (points[:, 1] > b)
+    if np.any(off):
+        i = int(np.argmax(off))
+        raise ParameterError(
+            f"origin={origin!r} with direction={direction!r}: the contact point "
+            f"({points[i, 0]:.6g}, {points[i, 1]:.6g}) m leaves the plate (x in [0, {a!r}], "
+            f"y in [0, {b!r}] metres)"
+        )
+
+
+def _initial_state(m, K, n, beta, g, v, s0, e, ep, epp) -> np.ndarray:
+    """The state of :func:`roll`'s start without a ``state``."""
+    F0 = m * (g + v * v * epp)
+    y = np.zeros(_k.N_STATE)
+    y[_k.S] = s0
+    if F0 > 0.0:
+        delta0 = (F0 / K) ** (1.0 / n)
+        y[_k.Z] = e - delta0
+        y[_k.VY] = ep * v - beta * F0
+    else:
+        y[_k.Z] = e
+        y[_k.VY] = ep * v
+    return y
+
+
+def _mechanical_energy(y, setup) -> float:
+    """``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` (J) of the state ``y``."""
+    m, g, law = setup.mass, setup.gravity, setup.law
+    e, _, _ = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, y[_k.S])
+    delta = e - y[_k.Z]
+    n = law.exponent
+    elastic = law.stiffness * delta ** (n + 1.0) / (n + 1.0) if delta > 0.0 else 0.0
+    return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
+
+
+def _solve(setup, speeds, s0, state):
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
+    env = setup.envelope.coefficients
+    dx = setup.envelope.spacing
+    delta_ref = (m * g / K) ** (1.0 / n)
+    if state is None:
+        e, ep, epp = envelope_at(env, dx, s0)
+        y = _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp)
+        h = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
+    else:
+        y = np.array(state.vector)
+        h = state.step if state.step is not None else min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
+    y0 = y.copy()
+    N = speeds.size
+    # NaN where a failed integration did not reach
+    forces = np.full(N, np.nan)
+    min_pen = np.full(N, np.nan)
+    path = np.full(N, np.nan)
+    status, steps, rejected, flights, h = _k.roll(
+        y,
+        h,
+        env,
+        dx,
+        speeds,
+        m,
+        K,
+        n,
+        mu,
+        b,
+        beta,
+        g,
+        float(fs),
+        setup.rtol,
+        delta_ref,
+        setup.max_step,
+        MAX_STEPS_PER_SAMPLE * N,
+        forces,
+        min_pen,
+        path,
+    )
+    E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
+    loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
+    scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)
+    balance = EnergyBalance(
+        E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
+    )
+    path += 0.5 * speeds / fs  # the middle of each period
+    reached = np.isfinite(path)
+    coordinate = np.full(N, np.nan)
+    points = np.full((N, 2), np.nan)
+    # the integrated path is the planned one (checked on the plate) within rounding
+    coordinate[reached], points[reached] = _contact_points(setup, path[reached])
+    final = RollingState(_read_only(y.copy()), float(h))
+    for a in (forces, path, coordinate, points, min_pen, speeds):
+        a.setflags(write=False)
+    return RollingContact(
+        fs,
+        forces,
+        path,
+        coordinate,
+        points,
+        min_pen,
+        int(flights),
+        balance,
+        law,
+        beta,
+        speeds,
+        setup.origin,
+        setup.direction,
+        m,
+        delta_ref,
+        status == _k.OK,
+        int(status),
+        _MESSAGES.get(int(status), "Unknown status."),
+        int(steps),
+        int(rejected),
+        final,
+    )
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class LossOfContactSpeed:
+    """The speed at which a rolling ball starts to leave the surface (m/s), bracketed.
+
+    Attributes
+    ----------
+    speed : float
+        The bracket's middle, m/s.
+    low, high : float
+        Speeds at which the ball stayed on the surface and left it, m/s.
+    rolls : int
+        Rollings solved.
+    success : bool
+        True if the bracket was found and narrowed to the tolerance.
+    message : str
+    """
+
+    speed: float
+    low: float
+    high: float
+    rolls: int
+    success: bool
+    message: str
+
+
+def loss_of_contact_speed(
+    ball: Ball,
+    plate: Plate,
+    envelope: ContactEnvelope,
+    *,
+    start: float,
+    stop: float,
+    low: float,
+    high: float,
+    samplerate: int,
+    origin,
+    direction=(1.0, 0.0),
+    tolerance: float = 1e-3,
+    **options,
+) -> LossOfContactSpeed:
+    """The lowest speed (m/s) at which ``ball`` rolling from ``start`` to ``stop`` (path
+    coordinates, m) leaves the surface, by bisection between ``low`` (stays on) and
+    ``high`` (leaves), to ``tolerance`` (relative, in (0, 0.1]): the thesis' question
+    (section 6.2) for a given surface. Each candidate speed is a :func:`roll` over the
+    stretch (``options`` as there: the contact law, ``admittance``, ``gravity``, ``rtol``);
+    "leaves" means a step's end off the surface. Bisection assumes a single change from
+    staying on to leaving between ``low`` and ``high``: on a random surface the dynamics
+    can make it change more than once, and the bracket then holds one of the changes.
+    """
+    v_lo = checks.positive("low", low, "m/s")
+    v_hi = checks.positive("high", high, "m/s")
+    if not v_hi > v_lo:
+        raise ParameterError(f"high={high!r} must be > low={low!r} (m/s)")
+    tol = checks.in_range("tolerance", tolerance, 0.0, 0.1, "dimensionless", hi_open=False)
+    s0 = checks.nonnegative("start", start, "metres")
+    s1 = checks.real("stop", stop, "metres")
+    if not s1 > s0:
+        raise ParameterError(f"stop={stop!r} must be > start={start!r} (metres)")
+    rolls = 0
+
+    def leaves(v):
+        nonlocal rolls
+        rolls += 1
+        # the last sample ends at or before ``stop``
+        duration = math.floor((s1 - s0) / v * samplerate) / samplerate
+        r = roll(
+            ball, plate, envelope, speed=v, duration=duration, samplerate=samplerate,
+            origin=origin, direction=direction, start=s0, **options,
+        )  # fmt: skip
+        if not r.success:
+            raise _RollFailed(f"at speed {v!r} m/s: {r.message}")
+        return bool(np.any(r.contact_lost))
+
+    def result(success, message):
+        return LossOfContactSpeed(0.5 * (v_lo + v_hi), v_lo, v_hi, rolls, success, message)
+
+    try:
+        if leaves(v_lo):
+            return result(False, f"The ball already leaves the surface at low={low!r} m/s.")
+        if not leaves(v_hi):
+            return result(False, f"The ball stays on the surface at high={high!r} m/s.")
+        while v_hi - v_lo > tol * v_hi:
+            mid = 0.5 * (v_lo + v_hi)
+            if leaves(mid):
+                v_hi = mid
+            else:
+                v_lo = mid
+    except _RollFailed as err:
+        return result(False, f"A rolling failed {err}")
+    return result(True, "Bracketed to the tolerance.")
+
+
+class _RollFailed(Exception):
+    """A rolling of the bisection did not reach its end (reported in the result)."""

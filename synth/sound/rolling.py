@@ -1,0 +1,274 @@
+"""The plate's modes driven by a rolling contact's force at a moving point.
+
+A force ``F(t)`` at the moving point ``x(t)`` drives each mode ``k`` (pole ``p_k = -sigma_k
++ i omega_dk``, shape ``phi_k``, modal mass ``M_k``; docs/physics.md, "Modal synthesis"):
+
+    q_k'' + 2 sigma_k q_k' + omega_k^2 q_k = b_k(t) F(t),     b_k(t) = phi_k(x(t)) / M_k
+
+With ``zeta_k' = p_k zeta_k + b_k F`` the mode is ``q_k = Im(zeta_k) / omega_dk``, and a
+listener hears ``sum_k Re[output_k (-i zeta_k / omega_dk)]`` (``output_k`` as in
+:func:`synth.sound.modal_bank.synthesize`: ``G_k p_k`` for a microphone, ``phi_k(xp)
+p_k^2`` for an accelerometer, which also hears the direct term ``phi_k(xp) b_k F``).
+
+The force is the rolling contact's mean over each sample period
+(:class:`synth.physics.rolling.RollingContact`), held over that period: then
+
+    zeta_k(t_(j+1)) = e^(p_k / fs) zeta_k(t_j) + b_k F_j (e^(p_k / fs) - 1) / p_k
+
+is exact. Against the true force, a sinusoid of angular frequency ``w`` reaches every mode
+scaled by ``sinc(w / (2 fs))^2`` (the period's mean, then the hold; ``1 - (w / fs)^2 / 12``
+for ``w << fs``), with no delay, plus images at ``2 pi m fs +- w`` which a mode below
+Nyquist hears only off resonance. An accelerometer's direct term at ``t_j``, where the held
+force steps from ``F_(j-1)`` to ``F_j``, takes the mean of the two (before the first
+period: the ``preload``): a sinusoid reaches it scaled by ``sinc(w / (2 fs)) cos(w / (2 fs))``.
+
+``b_k`` along the path: the mode shapes are evaluated on the path every ``step`` metres
+(:func:`path_excitation`; by default :data:`POINTS_PER_WAVELENGTH` points per bending
+wavelength of the highest mode) and interpolated linearly: relative error at most
+``(k_b step)^2 / 8`` of a mode's largest value (``k_b`` its bending wavenumber; 5e-3 at 32
+points per wavelength).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError
+from synth.sound.modal_bank import bank_coefficients
+from synth.vecmath import FASTMATH_EXACT_FUNCTIONS
+
+#: Points of the mode-shape table per bending wavelength of the highest mode.
+POINTS_PER_WAVELENGTH = 32
+
+
+@dataclass(frozen=True, eq=False)
+class PathExcitation:
+    """The modes' excitation along a straight path on the plate.
+
+    Attributes
+    ----------
+    start, step : float
+        Path coordinate of the first row and the distance between rows, m.
+    excitation : ndarray (P, K)
+        ``b_k = phi_k / M_k`` (1/kg) at the path coordinates ``start + i step``.
+    direct : ndarray (P, K) or None
+        An accelerometer's direct term ``phi_k(xp) b_k`` (m/s^2 per N) there; None for a
+        microphone.
+    """
+
+    start: float
+    step: float
+    excitation: np.ndarray
+    direct: np.ndarray | None
+
+
+def bending_wavenumber(plate, angular_frequency: float) -> float:
+    """``k_b = (omega^2 rho h / D)^(1/4)`` (rad/m) of a thin plate at ``angular_frequency``
+    (rad/s)."""
+    w = checks.nonnegative("angular_frequency", angular_frequency, "rad/s")
+    return (w * w * plate.surface_density / plate.flexural_rigidity) ** 0.25
+
+
+def path_excitation(
+    model, *, origin, direction, start: float, stop: float, step: float | None = None
+) -> PathExcitation:
+    """:class:`PathExcitation` of a :class:`synth.sound.render.ModalModel` along the path
+    ``origin + s * direction`` (m; ``direction`` a unit vector) for ``start <= s <= stop``
+    (m), rows every ``step`` m (default: :data:`POINTS_PER_WAVELENGTH` per bending
+    wavelength of the highest rendered mode)."""
+    ox, oy = checks.point("origin", origin, 2)
+    ux, uy = checks.point("direction", direction, 2, "dimensionless")
+    if not abs(math.hypot(ux, uy) - 1.0) <= 1e-12:
+        raise ParameterError(f"direction={direction!r} must be a unit vector")
+    s0 = checks.real("start", start, "metres")
+    s1 = checks.real("stop", stop, "metres")
+    if not s1 >= s0:
+        raise ParameterError(f"stop={stop!r} must be >= start={start!r} (metres)")
+    plate = model.modes.plate
+    if step is None:
+        w_max = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
+        k_b = bending_wavenumber(plate, w_max)
+        ds = 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else s1 - s0
+    else:
+        ds = checks.positive("step", step, "metres")
+    rows = max(2, int(math.ceil((s1 - s0) / ds)) + 1) if ds > 0.0 else 2
+    ds = (s1 - s0) / (rows - 1) if s1 > s0 else 1.0
+    s = s0 + ds * np.arange(rows)
+    s[-1] = max(s1, s0)  # the table ends exactly at the path's last point
+    points = np.column_stack((ox + ux * s, oy + uy * s))
+    masses = np.asarray(model.modes.modal_masses, dtype=float)[model.rendered]
+    b = np.ascontiguousarray(model.modes.shapes(points)[:, model.rendered] / masses)
+    shape = model.listener.shape
+    direct = None if shape is None else np.ascontiguousarray(b * np.asarray(shape).real)
+    return PathExcitation(s0, ds, b, direct)
+
+
+def drive_modes(
+    force, coordinate, path: PathExcitation, poles, output, samplerate, *, preload: float = 0.0
+) -> np.ndarray:
+    """What a listener hears of the modes driven by ``force`` at ``coordinate``.
+
+    Parameters
+    ----------
+    force : ndarray (N,)
+        Mean force over each sample period, N (module docstring).
+    coordinate : ndarray (N,)
+        The force's path coordinate in each period, m (within the path's table).
+    path : PathExcitation
+        ``b_k`` along the path (K modes).
+    poles : complex ndarray (K,)
+        ``p_k``, rad/s, below Nyquist.
+    output : complex ndarray (K,)
+        The listener's gain per unit modal displacement at the pole (as
+        :func:`synth.sound.modal_bank.synthesize`).
+    samplerate : int
+        Hz.
+    preload : float
+        The force already on the plate at the first coordinate before the first period,
+        N: the modes start in their static deflection under it, ``zeta_k = -b_k F / p_k``
+        (0: the plate at rest, unloaded).
+
+    Returns
+    -------
+    ndarray (N,)
+        The listener's signal at the sample times ``j / samplerate`` (Pa or m/s^2).
+    """
+    fs = checks.samplerate(samplerate)
+    F = np.ascontiguousarray(force, dtype=float)
+    c = np.ascontiguousarray(coordinate, dtype=float)
+    if F.ndim != 1 or c.shape != F.shape:
+        raise ParameterError(
+            f"force {F.shape} and coordinate {c.shape} must be 1-D arrays of one length"
+        )
+    p = np.ascontiguousarray(poles, dtype=complex)
+    out_gain = np.ascontiguousarray(output, dtype=complex)
+    K = p.size
+    if path.excitation.shape[1] != K or out_gain.shape != (K,):
+        raise ParameterError(
+            f"path has {path.excitation.shape[1]} modes, poles {K}, output "
+            f"{out_gain.shape}: they must agree"
+        )
+    if K and not np.all(np.abs(p.imag) < math.pi * fs):
+        raise ParameterError(f"poles: every |Im p| must be below Nyquist, pi * {fs} rad/s")
+    last = path.start + path.step * (path.excitation.shape[0] - 1)
+    if F.size and not (
+        np.all(np.isfinite(F))
+        and np.min(c) >= path.start - 1e-9 * path.step
+        and np.max(c) <= last + 1e-9 * path.step
+    ):
+        raise ParameterError(
+            f"force must be finite and coordinate within the path's table [{path.start!r}, "
+            f"{last!r}] m"
+        )
+    F_pre = checks.real("preload", preload, "N")
+    # the ringing over one sample and the listener's response per unit state, as the
+    # modal bank has them (unit excitation: b_k moves with the contact point here)
+    coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
+    hold = (np.exp(p / fs) - 1.0) / p
+    audio = np.zeros(F.size)
+    direct = path.direct if path.direct is not None else np.zeros((2, K))
+    zeta = np.zeros(K, dtype=complex)
+    if F_pre != 0.0 and F.size:
+        zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
+    _drive(
+        F,
+        c,
+        float(path.start),
+        float(path.step),
+        np.ascontiguousarray(path.excitation),
+        np.ascontiguousarray(direct),
+        path.direct is not None,
+        coefficients.step_re,
+        coefficients.step_im,
+        coefficients.coef_re,
+        coefficients.coef_im,
+        np.ascontiguousarray(hold.real),
+        np.ascontiguousarray(hold.imag),
+        np.ascontiguousarray(zeta.real),
+        np.ascontiguousarray(zeta.imag),
+        F_pre,
+        audio,
+    )
+    return audio
+
+
+def _row_at(table, start, step, coordinate) -> np.ndarray:
+    """The table's row at ``coordinate`` (m), interpolated linearly as :func:`_drive` does."""
+    u = (coordinate - start) / step
+    i = min(max(int(math.floor(u)), 0), table.shape[0] - 2)
+    t = u - i
+    return (1.0 - t) * table[i] + t * table[i + 1]
+
+
+@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
+def _drive(
+    force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
+    previous, out,
+):  # fmt: skip
+    """The recursion of the module docstring, ``b_k`` interpolated linearly in ``table``:
+    one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
+    li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
+    as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
+    force before the first period, N."""
+    K = er.shape[0]
+    rows = table.shape[0]
+    for j in range(force.shape[0]):
+        u = (coordinate[j] - start) / step
+        i = int(math.floor(u))
+        if i < 0:
+            i = 0
+        if i > rows - 2:
+            i = rows - 2
+        t = u - i
+        F = force[j]
+        wa = (1.0 - t) * F
+        wb = t * F
+        row_a = table[i]
+        row_b = table[i + 1]
+        acc = 0.0
+        for k in range(K):
+            acc += lr[k] * zr[k] - li[k] * zi[k]
+            bf = wa * row_a[k] + wb * row_b[k]
+            r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
+            zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
+            zr[k] = r
+        if has_direct:
+            # the held force jumps at t_j: its value there is the mean of both sides
+            Fj = 0.5 * (F + previous)
+            da = direct[i]
+            db = direct[i + 1]
+            for k in range(K):
+                acc += Fj * ((1.0 - t) * da[k] + t * db[k])
+        previous = F
+        out[j] = acc
+
+
+def rolling_sound(rolling, model) -> np.ndarray:
+    """What ``model``'s listener (a :class:`synth.sound.render.ModalModel`, at the rolling's
+    samplerate) hears of a :class:`synth.physics.rolling.RollingContact`: its force driving
+    the plate's modes at its moving contact point (without the listener's propagation
+    delay; ``model.delay`` s gives it). The rolling starts as a ball already rolling there
+    (:func:`synth.physics.rolling.roll`), so the plate starts loaded with its first
+    period's force (``preload``): no step at the start."""
+    if int(model.samplerate) != int(rolling.samplerate):
+        raise ParameterError(
+            f"model.samplerate={model.samplerate!r} must equal the rolling's samplerate "
+            f"{rolling.samplerate!r} (Hz)"
+        )
+    c = rolling.contact_coordinate
+    path = path_excitation(
+        model,
+        origin=rolling.origin,
+        direction=rolling.direction,
+        start=float(np.min(c)),
+        stop=float(np.max(c)),
+    )
+    return drive_modes(
+        rolling.force, c, path, model.poles, model.output, rolling.samplerate,
+        preload=float(rolling.force[0]),
+    )  # fmt: skip
