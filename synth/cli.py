@@ -506,6 +506,10 @@ def _cmd_bench(args):
         "scale": (bench.run_scale, bench.format_scale),
         "hires": (bench.run_hires, bench.format_hires),
         "cold": (bench.run_cold, bench.format_cold),
+        "rolling": (
+            lambda: bench.run_rolling(repeat=3 if args.repeat is None else args.repeat),
+            bench.format_rolling,
+        ),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -933,6 +937,7 @@ def build_parser() -> argparse.ArgumentParser:
             "hires",
             "bank",
             "cold",
+            "rolling",
         ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
@@ -944,7 +949,8 @@ def build_parser() -> argparse.ArgumentParser:
         "and at 384 kHz with the previous paths; bank: sounds/s of a sound bank "
         "against one process per file; cold: CPU and wall time and peak memory of the "
         "first import synth, synth render default and live example on empty numba and "
-        "plate-mode caches, and the same warm",
+        "plate-mode caches, and the same warm; rolling: the rolling contact's and its modal "
+        "drive's time per second of audio",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument(
@@ -961,7 +967,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--repeat",
         type=_positive_int,
         help="timed calls per figure, median, >= 1 (default: "
-        "contact 300, render 5; thesis and analysis time nothing)",
+        "contact 300, render 5, rolling 3; thesis and analysis time nothing)",
     )
     p.add_argument(
         "--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)"

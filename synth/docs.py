@@ -20,6 +20,7 @@ from synth.errors import SynthError
 BENCH_PAGES = {
     "contact": "benchmarks.md",
     "render": "benchmarks.md",
+    "rolling": "rolling.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
     "long": "benchmarks.md",

@@ -15,7 +15,15 @@ from synth.errors import SynthError
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
-PAGES = ("physics.md", "analysis.md", "validation.md", "benchmarks.md", "cli.md", "materials.md")
+PAGES = (
+    "physics.md",
+    "analysis.md",
+    "validation.md",
+    "benchmarks.md",
+    "cli.md",
+    "materials.md",
+    "rolling.md",
+)
 
 #: The sections of docs/physics.md that code and other pages link to.
 PHYSICS_SECTIONS = [

@@ -1,6 +1,7 @@
 """Benchmarks: numerical error against run time (``synth bench ...``).
 
-One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold; the live
+One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold,
+rolling; the live
 engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
 figure is measured in one run on this machine, after a warm-up. Nothing here is imported
 by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
@@ -23,6 +24,7 @@ from synth.bench.contact import (
 from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
 from synth.bench.long import format_long, long_child, long_recording, run_long
 from synth.bench.render import format_render, render_scenes, run_render
+from synth.bench.rolling import format_rolling, run_rolling
 from synth.bench.scale import (
     SCALE_LADDER,
     SCALE_NAMED,
@@ -70,6 +72,7 @@ __all__ = [
     "format_long",
     "format_modal_contact",
     "format_render",
+    "format_rolling",
     "format_scale",
     "format_surface_fit",
     "format_thesis",
@@ -87,6 +90,7 @@ __all__ = [
     "run_long",
     "run_modal_contact",
     "run_render",
+    "run_rolling",
     "run_scale",
     "scale_child",
     "scale_scene",
