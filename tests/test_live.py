@@ -80,7 +80,7 @@ def test_a_drop_played_live_is_the_render(scene):
     r = rendered(scene)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
-    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE)
+    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     assert engine.stats.impacts_played == len(onsets)
@@ -96,7 +96,7 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t) == PRE + t
+        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t).onset == PRE + t
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -121,7 +121,7 @@ def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
         at=PRE,
         contact=moon.contact,
         gravity=moon.gravity,
-    )
+    ).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
@@ -209,19 +209,44 @@ def test_a_full_ring_refuses_and_counts(scene):
     assert body.hit(scene.ball, 1.0) is not None  # room again once played
 
 
+def silence(ring):
+    """kernel.silence of a body of 3 modes and one voice slot whose pending ring is ``ring``."""
+    from synth.live import kernel, native
+
+    arrays = native.body_arrays(
+        synth.sound.modal_bank.bank_coefficients(
+            np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
+        ),
+        np.zeros((3, 2, 33)),
+        kernel.body_state(3, 1),
+        ring,
+        1e-4,
+        1.0,
+        steal_frames=4,
+    )
+    a = arrays
+    modal = tuple(a[k] for k in ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2"))
+    ring_form = tuple(
+        a[k] for k in ("state", "inject", "first", "length", "amplitudes", "response", "reference")
+    ) + (a["voice"],)
+    voice_form = tuple(a[k] for k in ("voices", "voice_gain", "voice_slots", "slot_gain", "tail"))
+    events = np.zeros(kernel.N_EVENT_HEADER + 8, dtype=np.int64)
+    kernel.silence(
+        modal + (a["level"],), ring_form, a["transformed"], voice_form, a["counters"], events
+    )
+    return events
+
+
 def test_a_slot_being_filled_is_neither_played_nor_dropped():
     # a producer owns a reserved slot until it publishes it: the audio thread skips it
     # and stop_all (which drops READY slots) leaves it alone, so no other producer can
     # take it while it is written
-    from synth.live import kernel
     from synth.live.queue import WRITING, PendingRing
 
     ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
     assert ring.state[i] == WRITING and ring.pending() == 0
-    kernel.silence(
-        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
-    )
+    silence(ring)
     assert ring.state[i] == WRITING
     j = ring.reserve()
     assert j != i and ring.reserve() == -1 and ring.refused == 1
@@ -235,7 +260,6 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     # max_new wait at a time (a bound on any block's work); a transform or stop_all's
     # dropping of a pulse frees its place. Without a deadline (bounded=False) the ring
     # alone bounds them.
-    from synth.live import kernel
     from synth.live.queue import PendingRing
 
     ring = PendingRing(8, 3, 4, 7, 3)
@@ -244,9 +268,7 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     for i in slots[:3]:
         ring.publish_pulse(i, 10, 5, 2, 5)
     assert ring.pending() == 3
-    kernel.silence(
-        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
-    )
+    silence(ring)
     assert ring.pending() == 0 and ring.transformed[0] == 3
     assert all(ring.reserve(pulse=True) >= 0 for _ in range(3))
     assert ring.reserve(pulse=True) == -1
@@ -310,7 +332,7 @@ def test_default_start_is_one_block_ahead(scene):
     engine = synth.Engine(samplerate=FS, blocksize=256)
     body = engine.add(scene.plate)
     engine.process(1000)
-    assert body.hit(scene.ball, 1.0) == (1000 + 256) / FS
+    assert body.hit(scene.ball, 1.0).onset == (1000 + 256) / FS
     assert engine.time == 1000 / FS
 
 
@@ -510,12 +532,12 @@ def test_body_gain_set_after_add_is_ramped_over_one_block(scene):
 
 def test_a_drop_that_does_not_fit_is_refused_whole_and_counted(scene):
     probe = synth.Engine(samplerate=FS)
-    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height))
+    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height).onsets)
     assert n > 2
     engine = synth.Engine(samplerate=FS, max_pending=n + n // 2)
     body = engine.add(scene.plate)
-    assert len(body.drop(scene.ball, scene.drop_height)) == n
-    assert body.drop(scene.ball, scene.drop_height) == ()  # only n // 2 slots free
+    assert len(body.drop(scene.ball, scene.drop_height).onsets) == n
+    assert body.drop(scene.ball, scene.drop_height) is None  # only n // 2 slots free
     stats = engine.stats
     assert stats.impacts_pending == n
     assert stats.impacts_refused == n and stats.drops_refused == 1
@@ -646,7 +668,7 @@ def test_stereo_bodies_are_heard_at_each_ear(scene):
     stereo = synth.Engine(samplerate=FS, channels=2)
     body = stereo.add(scene.plate, listener=(left, right))
     mono_body = stereo.add(scene.plate, listener=scene.listener, gain=0.5)
-    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001) == 0.001
+    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001).onset == 0.001
     mono_body.hit(scene.ball, 0.7, at=0.05)
     body.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
     out = stereo.process(FS // 5)
@@ -686,10 +708,10 @@ def test_hits_at_one_point_closer_than_min_interval_are_refused_and_counted(scen
     body = engine.add(scene.plate)
     body.min_interval = 0.05
     p, q = (0.3, 0.2), (0.3004, 0.2)  # the same point to 1 mm
-    assert body.hit(scene.ball, 1.0, position=p, at=0.10) == 0.10
+    assert body.hit(scene.ball, 1.0, position=p, at=0.10).onset == 0.10
     assert body.hit(scene.ball, 1.0, position=q, at=0.12) is None  # 20 ms later: refused
-    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12) == 0.12  # another point
-    assert body.hit(scene.ball, 1.0, position=p, at=0.16) == 0.16  # 60 ms later
+    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12).onset == 0.12  # elsewhere
+    assert body.hit(scene.ball, 1.0, position=p, at=0.16).onset == 0.16  # 60 ms later
     stats = engine.stats
     assert stats.impacts_too_close == 1 and stats.impacts_pending == 3
     with pytest.raises(ParameterError, match="min_interval"):

@@ -69,8 +69,8 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
             v = float(rng.uniform(0.1, 2.0))
             pos = (float(rng.uniform(0.05, 1.15)), float(rng.uniform(0.05, 0.44)))
             gain = float(rng.uniform(0.2, 1.0))
-            onset = bodies[i].hit(scene.ball, v, position=pos, gain=gain)
-            played.append((i, v, pos, gain, onset))
+            voice = bodies[i].hit(scene.ball, v, position=pos, gain=gain)
+            played.append((i, v, pos, gain, voice.onset if voice is not None else None))
 
     engine.start()
     assert engine.running and client_ports(jack)
@@ -123,7 +123,7 @@ def test_add_while_running_and_stop_fades_out(jack, scene):
         # (the clock read before the call: after it, a thread descheduled on a busy machine
         # may read a clock that has passed the onset)
         before = engine.time
-        onset = body.hit(scene.ball, 2.0)
+        onset = body.hit(scene.ball, 2.0).onset
         assert onset > before
         assert wait_for(lambda: engine.stats.impacts_played == 1, 2.0)
         time.sleep(0.05)  # stop while it rings
@@ -381,7 +381,7 @@ def test_the_python_fallback_plays_through_the_same_block(jack, scene):
     )
     body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
     with engine:
-        onset = body.hit(scene.ball, 1.0, at=0.1)
+        onset = body.hit(scene.ball, 1.0, at=0.1).onset
         assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
     assert engine.stats.impacts_played == 1 and onset == 0.1
     offline = synth.Engine(samplerate=FS, blocksize=BLOCK)

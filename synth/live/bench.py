@@ -271,7 +271,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         for _ in range(40):
             time.sleep(float(rng.uniform(0.005, 0.03)))
             t = native.monotonic()
-            onset = handles[0].hit(scene.ball, 1.0)
+            onset = handles[0].hit(scene.ball, 1.0).onset
             end = _wait_mixed(engine, int(np.ceil(onset * samplerate)))
             if end is not None:
                 to_callback.append(end - t)

@@ -37,6 +37,7 @@ mixed, in seconds. A hit starts one block plus the stream's output latency after
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 import weakref
@@ -50,6 +51,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
 from synth.live import kernel, native
+from synth.live.atomics import fence
 from synth.live.queue import PendingRing
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
@@ -117,6 +119,17 @@ DEFAULT_CONTACT = Contact()
 KEPT_POINTS = 64
 #: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
 WARM_UP_BALL_RADIUS = 0.005
+#: Default voices a body rings at once (``max_voices``): each is a modal state of its own,
+#: so a body costs up to this many banks per block.
+MAX_VOICES = 8
+#: Length of the raised-cosine fade of a stolen voice, s: short, so the new voice is not
+#: masked for long, and smooth (zero slope at both ends), so it does not click.
+STEAL_FADE = 0.005
+#: Bounds of a :meth:`Voice.stop` fade, s.
+MIN_STOP_FADE = 0.001
+MAX_STOP_FADE = 10.0
+#: Voice-ended events the engine holds for :meth:`Engine.ended` (more are counted lost).
+EVENT_CAPACITY = 4096
 
 
 @dataclass(frozen=True)
@@ -136,8 +149,12 @@ class EngineStats:
     impacts_too_close: hits refused by a body's ``min_interval``;
     impacts_late: impacts found after their start time (played at the start of the block
     they were found in); impacts_pending: handed over and not yet played; bodies_ringing:
-    bodies whose modes ring (the voices in use: a body is one modal bank whatever the
-    number of impacts exciting it); peak: the largest |sample| of the master bus before
+    bodies with a voice ringing; voices_playing: voice slots ringing (as of the last
+    block mixed; a body of several ears counts its first's); voices_stolen: voices ended
+    by a new one when all of their body's slots rang (see :class:`Voice`);
+    impacts_dropped: impacts not played because their voice was stopped or stolen (or
+    the body silenced) first; events_lost: voice-ended events that found
+    :meth:`Engine.ended`'s ring full; peak: the largest |sample| of the master bus before
     the clipper, full scale 1; output_peak: the largest |sample| sent to the device;
     clipped: master-bus samples that reached full scale (soft-clipped, or clipped by
     the float-to-integer conversion with ``clip=False``); failed: why the stream
@@ -158,6 +175,10 @@ class EngineStats:
     impacts_late: int
     impacts_pending: int
     bodies_ringing: int
+    voices_playing: int
+    voices_stolen: int
+    impacts_dropped: int
+    events_lost: int
     peak: float
     output_peak: float
     clipped: int
@@ -188,11 +209,18 @@ class _Trigger:
 
 
 class Body:
-    """One plate in an :class:`Engine` (made by :meth:`Engine.add`): one modal state that
-    every impact on it excites."""
+    """One plate in an :class:`Engine` (made by :meth:`Engine.add`): ``max_voices`` voice
+    slots, each a modal state that one :class:`Voice` (a hit or a drop) excites."""
 
     def __init__(
-        self, engine: Engine, plate: Plate, listener, gain: float, model, channel: int = -1
+        self,
+        engine: Engine,
+        plate: Plate,
+        listener,
+        gain: float,
+        model,
+        channel: int = -1,
+        ears: int = 1,
     ):
         self._engine = engine
         self._channel = channel
@@ -215,8 +243,9 @@ class Body:
             samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
             engine.max_hits_per_block,
+            voices=engine.max_pending + engine.max_voices,
         )
-        self._state_arrays = kernel.body_state(poles.size)
+        self._state_arrays = kernel.body_state(poles.size, engine.max_voices)
         self._warm_up()
         arrays = native.body_arrays(
             coefficients,
@@ -226,8 +255,12 @@ class Body:
             engine.floor,
             gain,
             channel,
+            steal_frames=engine._steal_frames,
+            mix_frames=engine._native.mix.shape[1],
+            ears=ears,
         )
         self._counters = arrays["counters"]
+        self._slots = arrays["voice_slots"]
         self._scalars = arrays["scalars"]
         self._index = len(engine._native.records)
         self._record = engine._native.add_body(arrays)
@@ -322,8 +355,13 @@ class Body:
 
     @property
     def ringing(self) -> bool:
-        """Whether the body's modes ring (as of the last block mixed)."""
+        """Whether a voice of the body rings (as of the last block mixed)."""
         return any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
+
+    @property
+    def voices_playing(self) -> int:
+        """Voice slots of the body ringing (as of the last block mixed; of its first ear)."""
+        return int(np.count_nonzero(self._slots[:, kernel.SL_OWNER] >= 0))
 
     def _prepare(self, position) -> _Prepared:
         """The bank coefficients for impacts at ``position`` (checked; kept for the last
@@ -387,15 +425,23 @@ class Body:
             )
 
     def _submit(
-        self, result, onset: float, prepared: _Prepared, gain: float, weight=0.0, slot=None
+        self,
+        result,
+        onset: float,
+        prepared: _Prepared,
+        gain: float,
+        weight=0.0,
+        slot=None,
+        voice: int = 0,
     ) -> bool:
-        """Hand one contact over, its tick starting at ``onset`` s on the engine's clock:
-        its excitation is computed here, straight into a slot of the body's ring (``slot``,
-        reserved by the caller, or one reserved here)."""
+        """Hand one contact of voice record ``voice`` over, its tick starting at ``onset``
+        s on the engine's clock: its excitation is computed here, straight into a slot of
+        the body's ring (``slot``, reserved by the caller, or one reserved here)."""
         ring = self._ring
         self._check_length(result.contact_time)
-        if slot is None:
-            slot = ring.reserve()
+        own = slot is None  # else the caller gives it back on failure
+        if own:
+            slot = ring.reserve(voice=voice)
         if slot < 0:
             return False
         try:
@@ -409,7 +455,8 @@ class Body:
                 response=ring.response[slot],
             )
         except BaseException:
-            ring.release(slot)
+            if own:
+                ring.release(slot)
             raise
         g = self._scale * gain
         amplitudes, response = ex.amplitudes, ex.response  # views of the slot
@@ -420,10 +467,12 @@ class Body:
         ring.publish(slot, ex.inject, ex.first, response.size, ex.magnitude * g)
         return True
 
-    def _hand_over(self, result, onset: float, prepared: _Prepared, gain: float) -> bool:
-        """Hand one contact over as its force pulse (the audio thread computes its
-        excitation at its next block, see :mod:`synth.live.kernel`); a contact too long for
-        a slot's pulse grid is computed here (:meth:`_submit`)."""
+    def _hand_over(
+        self, result, onset: float, prepared: _Prepared, gain: float, voice: int
+    ) -> bool:
+        """Hand one contact of voice record ``voice`` over as its force pulse (the audio
+        thread computes its excitation at its next block, see :mod:`synth.live.kernel`); a
+        contact too long for a slot's pulse grid is computed here (:meth:`_submit`)."""
         ring = self._ring
         self._check_length(result.contact_time)
         c = prepared.coefficients
@@ -431,8 +480,8 @@ class Body:
         lay = pulse_layout(result.contact_time, onset, c.omega_max, fs, self._engine.pulse_points)
         n, M = lay.points, lay.samples
         if n + M > ring.pulse_samples:
-            return self._submit(result, onset, prepared, gain)
-        slot = ring.reserve(pulse=True, bounded=self._engine.running)
+            return self._submit(result, onset, prepared, gain, voice=voice)
+        slot = ring.reserve(pulse=True, bounded=self._engine.running, voice=voice)
         if slot < 0:
             return False
         try:
@@ -493,7 +542,7 @@ class Body:
         at: float | None = None,
         contact: Contact | None = None,
         gravity: float = GRAVITY,
-    ) -> float | None:
+    ) -> Voice | None:
         """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
         plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
         thread: the contact is solved here and handed to the audio thread without blocking
@@ -503,9 +552,10 @@ class Body:
         or, by default, one block plus the stream's output latency after the call.
         ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
         is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
-        Returns its start time in s, or None if the body's ring of pending impacts is full
-        or the hit comes within :attr:`min_interval` of the last one at its point (the
-        impact is refused and counted in :attr:`Engine.stats`).
+        Returns its :class:`Voice` (its start time is ``voice.onset``), or None if the
+        hit is refused: the body's ring of pending impacts is full, too many hits wait
+        for the next block, or the hit comes within :attr:`min_interval` of the last one
+        at its point (each counted in :attr:`Engine.stats`). A refused hit plays nothing.
         """
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -516,11 +566,27 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
-        accepted = [
-            ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain)
-            for ear in self._ears
-        ]
-        return tr.onset if all(accepted) else None
+        vid = self._engine._next_voice_id()
+        records = []
+        for ear in self._ears:
+            r = ear._ring.open_voice(vid, 1)
+            if r < 0:  # every voice record taken: as a full ring
+                ear._ring.refused += 1
+                break
+            try:
+                accepted = ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain, r)
+            except BaseException:
+                ear._ring.close_voice(r, 1)
+                _stop_records(self._ears, records, vid)
+                raise
+            if not accepted:
+                ear._ring.close_voice(r, 1)
+                break
+            records.append(r)
+        if len(records) < len(self._ears):  # refused at one ear: at every ear
+            _stop_records(self._ears, records, vid)
+            return None
+        return Voice(self, vid, records, (tr.onset,))
 
     def drop(
         self,
@@ -532,16 +598,17 @@ class Body:
         at: float | None = None,
         contact: Contact | None = None,
         gravity: float = GRAVITY,
-    ) -> tuple[float, ...]:
+    ) -> Voice | None:
         """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
         engine's clock from ``at`` (as :meth:`hit`: the first tick's start); ``contact``
         (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height``
-        in [1e-6, 1000] m as a Scene's. Returns the start times (s) of its ticks.
+        in [1e-6, 1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
+        sequence (``voice.onsets``: the start times of its ticks, s).
 
         A drop is handed over whole or not at all: when the body's ring has fewer free slots
-        than the drop has impacts, it is refused (returns an empty tuple) and its impacts are
+        than the drop has impacts, it is refused (returns None) and its impacts are
         counted in ``impacts_refused`` (and the drop in ``drops_refused``); a drop with more
         impacts than ``max_pending`` can never fit and raises ParameterError."""
         h = _check_height(height)
@@ -572,28 +639,36 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.contact_time)
-        reserved = []
+        n = len(sequence)
+        vid = self._engine._next_voice_id()
+        reserved = []  # (ear, voice record, slots not yet handed over)
         for ear in self._ears:
-            slots = ear._ring.reserve_many(len(sequence))
+            r = ear._ring.open_voice(vid, n)
+            slots = ear._ring.reserve_many(n, voice=r) if r >= 0 else None
             if slots is None:
+                if r >= 0:
+                    ear._ring.close_voice(r, n)
+                else:
+                    ear._ring.refused += n
                 _release(reserved)
                 self._engine._drops_refused += 1
-                return ()
-            reserved.append((ear, list(slots)))
-        t0 = sequence[0].time if len(sequence) else 0.0
+                return None
+            reserved.append((ear, r, list(slots)))
+        t0 = sequence[0].time if n else 0.0
         onsets = tuple(onset0 + (imp.time - t0) for imp in sequence)
         try:
-            for ear, slots in reserved:
+            for ear, r, slots in reserved:
                 prepared = ear._prepare(pos)
                 while slots:
-                    k = len(sequence) - len(slots)
+                    k = n - len(slots)
                     imp = sequence[k]
                     weight = ball.mass * gravity if imp.result.settled else 0.0
-                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots.pop(0))
+                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots[0], voice=r)
+                    slots.pop(0)
         except BaseException:
             _release(reserved)
             raise
-        return onsets
+        return Voice(self, vid, [r for _, r, _ in reserved], onsets)
 
     def stop_all(self) -> None:
         """Silence the body at the next block: every mode stops, pending impacts are dropped
@@ -606,17 +681,93 @@ class Body:
 
     def _apply_silence(self):
         for ear in self._ears:
-            zr, zi, active, debt = ear._state_arrays[:4]
-            kernel.silence(zr, zi, active, debt, ear._ring.state, ear._ring.transformed)
-            ear._counters[kernel.AWAKE] = 0
-            ear._counters[kernel.SILENCE] = 0
+            native.silence_body(self._engine._native.ctl, ear._record)
+
+
+class Voice:
+    """A handle on one sound of a body: a hit, or a whole drop (returned by
+    :meth:`Body.hit` and :meth:`Body.drop`).
+
+    ``id``: unique in its engine (the ids :meth:`Engine.ended` reports); ``onset``: the
+    stream time its first tick starts, s (``onsets``: every tick's, for a drop).
+
+    A voice takes one of its body's ``max_voices`` voice slots (a modal state of its own)
+    when its first impact joins; when all are ringing it steals the oldest one (the slot
+    taken earliest), whose voice fades out over ``STEAL_FADE`` (a raised cosine) and ends.
+    A voice ends when every one of its modes has fallen below its share of the engine's
+    omission floor (``floor_db``) relative to the voice's peak (what it still holds is
+    then at most ``floor_db`` below its loudest impact's sum of mode amplitudes), or when
+    its stop fade ends; then it frees its slot and, once nothing of it waits to be played,
+    is reported by :meth:`Engine.ended`. Every method may be called from any thread.
+    """
+
+    __slots__ = ("body", "id", "onsets", "_records", "_gain")
+
+    def __init__(self, body: Body, vid: int, records, onsets: tuple):
+        self.body = body
+        self.id = vid
+        self.onsets = tuple(onsets)
+        self._records = tuple(records)  # the voice's record at each of the body's ears
+        self._gain = 1.0
+
+    def __repr__(self):
+        return f"Voice(id={self.id}, onset={self.onset!r}, playing={self.playing})"
+
+    @property
+    def onset(self) -> float:
+        """The start of its first tick, s on the engine's clock."""
+        return self.onsets[0]
+
+    @property
+    def playing(self) -> bool:
+        """Whether the voice is pending or ringing: read from the audio thread's state
+        without a lock (True from the call that made it until it has ended)."""
+        return any(
+            ear._ring.voice_alive(r, self.id) for ear, r in zip(self.body._ears, self._records)
+        )
+
+    @property
+    def gain(self) -> float:
+        """The voice's gain (linear, in [0, MAX_GAIN], default 1), on top of the hit's and
+        the body's; settable while it plays: the change is ramped linearly over the next
+        block (no click). Setting it on an ended voice does nothing."""
+        return self._gain
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
+                            hi_open=False)  # fmt: skip
+        self._gain = g
+        for ear, r in zip(self.body._ears, self._records):
+            ear._ring.control_voice(r, self.id, gain=g)
+
+    def stop(self, fade: float | None = None) -> None:
+        """Fade the voice out from the next block: a raised cosine over ``fade`` s (in
+        [0.001, 10]; default the engine's ``fade``), then it ends; impacts of it not yet
+        played are dropped. Does nothing on an ended voice; a second stop keeps the first
+        fade."""
+        f = self.body._engine._fade if fade is None else fade
+        f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
+                            hi_open=False)  # fmt: skip
+        frames = max(1, int(round(f * self.body._engine.samplerate)))
+        for ear, r in zip(self.body._ears, self._records):
+            ear._ring.control_voice(r, self.id, stop=frames)
 
 
 def _release(reserved) -> None:
-    """Give back the slots a drop reserved and did not fill (``(body, slots)`` pairs)."""
-    for ear, slots in reserved:
+    """Give back the slots a drop reserved and did not fill, and take them off their
+    voice records (``(body, voice record, slots)``)."""
+    for ear, r, slots in reserved:
         for slot in slots:
             ear._ring.release(slot)
+        ear._ring.close_voice(r, len(slots))
+
+
+def _stop_records(ears, records, vid) -> None:
+    """Drop voice ``vid`` at the ears that took it (``records``: their voice records) before
+    it plays: a hit refused at one ear is refused at every ear."""
+    for ear, r in zip(ears, records):
+        ear._ring.control_voice(r, vid, stop=0)
 
 
 def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:
@@ -713,6 +864,12 @@ class Engine:
         for each block (a busy Python thread then delays it).
     max_bodies : int
         Bodies the engine can hold, in [1, 65536] (the audio thread's directory).
+    max_voices : int
+        Voices each body rings at once, in [1, 256] (default ``MAX_VOICES``, 8): each
+        :meth:`Body.hit` or :meth:`Body.drop` is a :class:`Voice` with a modal state of
+        its own, preallocated at :meth:`add`; a new voice when all ring steals the
+        oldest (a ``STEAL_FADE`` fade, counted in ``stats.voices_stolen``). A body costs
+        up to this many modal banks per block.
     """
 
     def __init__(
@@ -735,6 +892,7 @@ class Engine:
         clip: bool = True,
         callback: str = "native",
         max_bodies: int = MAX_BODIES,
+        max_voices: int = MAX_VOICES,
     ):
         self.samplerate = _check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = _check_int("blocksize", blocksize, 16, 8192, "frames")
@@ -785,6 +943,9 @@ class Engine:
                 "use callback='python'"
             )
         max_bodies = _check_int("max_bodies", max_bodies, 1, 65536, "bodies")
+        self.max_voices = _check_int("max_voices", max_voices, 1, 256, "voices")
+        self._fade = fade_s
+        self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
         announce("live")
         native.warm_up()
         self._native = native.EngineState(
@@ -795,6 +956,7 @@ class Engine:
             record_frames=int(round(rec * self.samplerate)),
             fade_frames=max(1, int(round(fade_s * self.samplerate))),
             clip=clip,
+            events=EVENT_CAPACITY,
         )
         self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()
@@ -804,6 +966,33 @@ class Engine:
         self._failure: str | None = None
         self._drops_refused = 0
         self._too_close = 0
+        self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
+        self._events_lock = threading.Lock()  # between readers of ended()
+        self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
+
+    def ended(self) -> list[int]:
+        """The ids of the voices that ended since the last call (at every ear of their
+        body), oldest first; never blocks the audio thread (a lock-free ring it writes,
+        read here; ``EVENT_CAPACITY`` events wait at most, more are counted in
+        ``stats.events_lost``). Call it from the game's loop."""
+        with self._events_lock:
+            ev = self._native.events
+            written = int(ev[kernel.E_WRITTEN])
+            fence()  # the events before their count
+            read = int(ev[kernel.E_READ])
+            cap = ev.shape[0] - kernel.N_EVENT_HEADER
+            ids = []
+            for k in range(read, written):
+                vid, ears = divmod(int(ev[kernel.N_EVENT_HEADER + k % cap]), kernel.EVENT_EARS)
+                if ears > 1:
+                    seen = self._partial_events.pop(vid, 0) + 1
+                    if seen < ears:
+                        self._partial_events[vid] = seen
+                        continue
+                ids.append(vid)
+            fence()  # done reading before the writer may reuse the room
+            ev[kernel.E_READ] = written
+            return ids
 
     # -- bodies ---------------------------------------------------------------------------
     def _highest_frequency(self) -> float:
@@ -881,7 +1070,7 @@ class Engine:
             for li in listeners
         ]
         ears_ = [
-            Body(self, plate, li, g, m, channel=c)
+            Body(self, plate, li, g, m, channel=c, ears=len(listeners))
             for c, (li, m) in enumerate(zip(listeners, models))
         ]
         body = ears_[0]
@@ -1184,13 +1373,16 @@ class Engine:
 
     @property
     def stats(self) -> EngineStats:
-        played = late = refused = pending = ringing = 0
+        played = late = refused = pending = ringing = voices = stolen = dropped = 0
         for body in self._bodies:  # a body heard by several listeners counts its first's
             played += int(body._counters[kernel.PLAYED])
             late += int(body._counters[kernel.LATE])
+            stolen += int(body._counters[kernel.STOLEN])
+            dropped += int(body._counters[kernel.DROPPED])
             refused += body._ring.refused
             pending += body.pending
             ringing += body.ringing
+            voices += body.voices_playing
         c, t = self._native.ctl, self._native.times
         n = int(c[native.CALLBACKS])
         return EngineStats(
@@ -1207,6 +1399,10 @@ class Engine:
             impacts_late=late,
             impacts_pending=pending,
             bodies_ringing=ringing,
+            voices_playing=voices,
+            voices_stolen=stolen,
+            impacts_dropped=dropped,
+            events_lost=int(self._native.events[kernel.E_LOST]),
             peak=float(t[native.PEAK]),
             output_peak=float(t[native.OUT_PEAK]),
             clipped=int(c[native.CLIPPED]),
