@@ -410,3 +410,44 @@ def test_hits_queued_before_start_do_not_burden_the_first_callback(jack, scene):
 
     assert 1 <= body._counters[kernel.MOST_PULSES] <= engine.max_hits_per_block
     assert engine.stats.impacts_refused == 0
+
+
+def test_voices_stop_and_stealing_play_live_as_process_plays_them(jack, scene):
+    # two voice slots: hits scheduled ahead steal the oldest voice; a voice stopped while
+    # it rings fades out from the block after the call. The stream plays what process()
+    # plays for the same hits with the stop taken at that block (the block found as the
+    # first one where the recording leaves the render without the stop)
+    seconds = 1.5
+    kw = dict(samplerate=FS, blocksize=BLOCK, max_voices=2)
+    engine = synth.Engine(device=jack.device, record_seconds=seconds, **kw)
+    hits = [(1.5, 0.30, (0.3, 0.2)), (0.4, 0.31, (0.6, 0.3)), (1.0, 0.35, (0.9, 0.2))]
+    hits.append((0.8, 0.5, (0.5, 0.25)))
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        voices = [body.hit(scene.ball, v, position=p, at=at) for v, at, p in hits]
+        assert wait_for(lambda: engine.time > 0.6, 10.0)
+        assert voices[2].playing
+        voices[2].stop(fade=0.01)
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], seconds + 10)
+        stats = engine.stats
+    assert stats.voices_stolen == 2 and stats.impacts_played == 4 and stats.impacts_late == 0
+    # stolen at the third and fourth hits, stopped, silenced by stop()
+    assert engine.ended() == [voices[k].id for k in (0, 1, 2, 3)]
+    live = engine.recording[:, 0].astype(float)
+
+    def offline(stop_frame=None):
+        e = synth.Engine(**kw)
+        b = e.add(scene.plate, listener=scene.listener, gain=0.1)
+        vs = [b.hit(scene.ball, v, position=p, at=at) for v, at, p in hits]
+        if stop_frame is None:
+            return e.process(live.size)[:, 0].astype(float)
+        head = e.process(stop_frame)
+        vs[2].stop(fade=0.01)
+        return np.concatenate([head, e.process(live.size - stop_frame)])[:, 0].astype(float)
+
+    unstopped = offline()
+    tol = float(np.spacing(np.float32(np.max(np.abs(unstopped))))) * 4
+    differs = np.flatnonzero(np.abs(live - unstopped) > tol)
+    assert differs.size and differs[0] > 0.6 * FS
+    want = offline(stop_frame=int(differs[0]) // BLOCK * BLOCK)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)
