@@ -914,3 +914,39 @@ def test_voice_ended_events_beyond_the_ring_are_counted_lost(scene, monkeypatch)
         v.stop(fade=0.001)
     engine.process(FS // 10)
     assert engine.ended() == [v.id for v in voices]  # room again once read
+
+
+def pause_gain(levels):
+    """The master bus' pause gain at pause levels in [0, 1] (a raised cosine)."""
+    return 0.5 * (1.0 - np.cos(np.pi * np.asarray(levels)))
+
+
+def test_pause_fades_out_holds_the_clock_and_every_voice_then_resumes(scene):
+    # pause: the bus fades out over `fade` from the next block (its level falls by
+    # 1/fade_frames a sample, heard through a raised cosine); at the end of the block where
+    # it reaches 0 the clock and every voice hold and the output is silence; resume fades
+    # back in and the voices go on from where they were held. A hit made while paused
+    # starts on the held clock.
+    n, L = 256, round(0.01 * FS)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    first = body.hit(scene.ball, 1.0, at=0.0)
+    a = engine.process(4 * n)[:, 0]
+    engine.pause()
+    assert engine.paused
+    b = engine.process(4 * n)[:, 0]
+    held = -(-(4 * n + L) // n) * n  # the end of the block where the fade ends
+    assert engine.time == held / FS
+    second = body.hit(scene.ball, 0.5)
+    assert second.onset == (held + n) / FS and first.playing and second.playing
+    assert not np.any(engine.process(3 * n)) and engine.time == held / FS
+    engine.resume()
+    assert not engine.paused
+    d = engine.process(10 * n)[:, 0]
+    ref1, ref2 = alone(scene, [(1.0, 0.0), (0.5, second.onset)], held + 10 * n, blocksize=n)
+    down = pause_gain(np.clip(1.0 - np.arange(1, held - 4 * n + 1) / L, 0.0, 1.0))
+    up = pause_gain(np.clip(np.arange(1, 10 * n + 1) / L, 0.0, 1.0))
+    want = np.concatenate([ref1[: 4 * n], ref1[4 * n : held] * down, (ref1 + ref2)[held:] * up])
+    got = np.concatenate([a, b[: held - 4 * n], d])
+    assert not np.any(b[held - 4 * n :])
+    np.testing.assert_allclose(got, want, rtol=0, atol=4 * float32_ulp_of_peak(want))

@@ -451,3 +451,48 @@ def test_voices_stop_and_stealing_play_live_as_process_plays_them(jack, scene):
     assert differs.size and differs[0] > 0.6 * FS
     want = offline(stop_frame=int(differs[0]) // BLOCK * BLOCK)
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_pause_holds_the_voices_live_as_process_holds_them(jack, scene):
+    # pause while a voice rings, resume a while later: the stream ran on (callbacks
+    # counted, silence written), and what it recorded on the engine's clock (held while
+    # paused) is process() with the pause taken at the block where the recording first
+    # leaves the unpaused render
+    from synth.live import native
+
+    kw = dict(samplerate=FS, blocksize=BLOCK)
+    engine = synth.Engine(device=jack.device, record_seconds=1.0, **kw)
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        voice = body.hit(scene.ball, 1.0, at=0.2)
+        assert wait_for(lambda: engine.time > 0.4, 10.0)
+        engine.pause()
+        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+        callbacks, held = engine.stats.callbacks, engine.time
+        time.sleep(0.2)
+        assert engine.stats.callbacks > callbacks and engine.time == held and voice.playing
+        engine.resume()
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
+        engine.pause()  # stop() while paused: the output is silent already
+        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+    assert not engine.running and not engine.paused and client_ports(jack) == []
+    live = engine.recording[:, 0].astype(float)
+
+    def offline(pause_frame=None):
+        e = synth.Engine(**kw)
+        e.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.2)
+        if pause_frame is None:
+            return e.process(live.size)[:, 0].astype(float)
+        head = e.process(pause_frame)
+        e.pause()
+        fading = e.process(4 * BLOCK)[: int(round(e.time * FS)) - pause_frame]
+        e.resume()
+        rest = e.process(live.size - int(round(e.time * FS)))
+        return np.concatenate([head, fading, rest])[:, 0].astype(float)
+
+    unpaused = offline()
+    tol = float(np.spacing(np.float32(np.max(np.abs(unpaused))))) * 4
+    differs = np.flatnonzero(np.abs(live - unpaused) > tol)
+    assert differs.size and differs[0] > 0.4 * FS
+    want = offline(pause_frame=int(differs[0]) // BLOCK * BLOCK)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)

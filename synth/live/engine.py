@@ -1106,6 +1106,25 @@ class Engine:
     def running(self) -> bool:
         return self._state == "running"
 
+    def pause(self) -> None:
+        """Pause every sound, as a game's pause menu does: the output fades out (a raised
+        cosine over ``fade`` s, from the next block), then the engine's clock and every
+        voice hold where they are and the output is silence; the stream keeps running, so
+        :meth:`resume` is immediate and the device stays the engine's. Hits made while
+        paused are taken on the held clock and start after :meth:`resume`. Works alike
+        without a stream (:meth:`process` then returns silence and holds the clock)."""
+        self._native.ctl[native.PAUSE] = 1
+
+    def resume(self) -> None:
+        """Play on from where :meth:`pause` held the clock, fading in over ``fade`` s from
+        the next block (a pause not yet faded out turns back from where it stands)."""
+        self._native.ctl[native.PAUSE] = 0
+
+    @property
+    def paused(self) -> bool:
+        """Whether :meth:`pause` was called (and :meth:`resume` not since)."""
+        return bool(self._native.ctl[native.PAUSE])
+
     @property
     def failed(self) -> str | None:
         """Why the engine's stream failed (it then refuses everything), or None."""
@@ -1334,11 +1353,12 @@ class Engine:
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out (``fade`` s), then close the stream, within ``timeout`` s (>= 0) plus
-        the fade. Pending impacts and ringing modes are dropped; :meth:`start` starts
-        again. When the audio server does not answer in time (it died), the stream is
-        abandoned, the engine marked failed (:attr:`failed`) and every later call refused
-        with a SynthError saying so."""
+        """Fade out (``fade`` s; at once when paused), then close the stream, within
+        ``timeout`` s (>= 0) plus the fade. Pending impacts and ringing voices are dropped
+        (their voices end) and a pause ends; :meth:`start` starts again. When the audio
+        server does not answer in time (it died), the stream is abandoned, the engine
+        marked failed (:attr:`failed`) and every later call refused with a SynthError
+        saying so."""
         t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return
@@ -1346,7 +1366,8 @@ class Engine:
         length = int(ctl[native.FADE_LENGTH])
         deadline = time.monotonic() + t + length / self.samplerate
         ctl[native.FADE_AT] = 0
-        while ctl[native.FADE_AT] < length and time.monotonic() < deadline:
+        silent = self.paused and self._native.times[native.PAUSE_LEVEL] <= 0.0
+        while not silent and ctl[native.FADE_AT] < length and time.monotonic() < deadline:
             time.sleep(0.002)
         self._closer.detach()
         closed = _close_stream(
@@ -1362,6 +1383,8 @@ class Engine:
             return
         self._state = "idle"
         ctl[native.FADE_AT] = -1
+        ctl[native.PAUSE] = 0  # a pause ends with the stream
+        self._native.times[native.PAUSE_LEVEL] = 1.0
         for body in self._bodies:
             body._apply_silence()
 

@@ -70,8 +70,9 @@ from synth.live.atomics import fence as _fence
     CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
     EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
     N_EVENTS,  # its length (header included)
+    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
     N_CTL,
-) = range(24)
+) = range(25)
 
 #: ``times`` fields (float64).
 (
@@ -91,8 +92,9 @@ from synth.live.atomics import fence as _fence
     OUT_PEAK,  # largest |sample| sent to the device since the last reset
     LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
     GAP_MAX,  # longest time between two callbacks' entries, in blocks
+    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
     N_TIMES,
-) = range(17)
+) = range(18)
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -311,13 +313,16 @@ def soft_clip(v):
 
 @numba.njit(cache=True, nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
-    """The master bus over ``n`` frames: the stop fade, the master gain (ramped over the
-    block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
+    """The master bus over ``n`` frames: the pause and stop fades, the master gain (ramped
+    over the block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
     (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
     the recording."""
     channels = out.shape[1]
     pos = ctl[FADE_AT]
     length = ctl[FADE_LENGTH]
+    level = times[PAUSE_LEVEL]
+    target = 0.0 if ctl[PAUSE] != 0 else 1.0
+    level_step = 1.0 / length
     if pos == 0:
         ctl[FADE_FRAME] = ctl[FRAME]
     g0 = times[MASTER_NOW]
@@ -329,6 +334,10 @@ def _write_block(ctl, times, mix, out, row, n):
     clip = ctl[CLIP] != 0
     for s in range(n):
         g = g0 + step * (s + 1)
+        if level != target:
+            level = min(level + level_step, 1.0) if target > level else max(level - level_step, 0.0)
+        if level < 1.0:
+            g *= 0.5 * (1.0 - math.cos(math.pi * level))
         if pos >= 0:
             if pos < length:
                 g *= 0.5 * (1.0 + math.cos(math.pi * pos / length))
@@ -353,6 +362,7 @@ def _write_block(ctl, times, mix, out, row, n):
                 out_peak = a
             out[row + s, c] = w
     ctl[FADE_AT] = pos
+    times[PAUSE_LEVEL] = level
     times[MASTER_NOW] = g1
     times[PEAK] = peak
     times[OUT_PEAK] = out_peak
@@ -372,7 +382,8 @@ def _write_block(ctl, times, mix, out, row, n):
 def mix_engine(ctl, out):
     """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
     float32, in pieces of at most ``MIX_CAP`` frames: the one mixing code of the stream's
-    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`."""
+    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`.
+    Paused (its fade done), it writes silence and holds the clock and every voice."""
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
     times = _f64(ctl[TIMES], N_TIMES)
@@ -381,6 +392,11 @@ def mix_engine(ctl, out):
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
     done = 0
     while done < frames:
+        if ctl[PAUSE] != 0 and times[PAUSE_LEVEL] <= 0.0:
+            for s in range(done, frames):
+                for c in range(out.shape[1]):
+                    out[s, c] = 0.0
+            return
         n = min(cap, frames - done)
         t0 = ctl[FRAME]
         bodies = ctl[N_BODIES]
@@ -524,6 +540,7 @@ class EngineState:
         c[N_EVENTS] = self.events.shape[0]
         t[SAMPLERATE] = samplerate
         t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
+        t[PAUSE_LEVEL] = 1.0
 
     @property
     def address(self) -> int:
