@@ -246,6 +246,7 @@ def _phase(engine, targets, seconds) -> dict:
         played=s1.impacts_played - s0.impacts_played,
         late=s1.impacts_late - s0.impacts_late,
         refused=s1.impacts_refused - s0.impacts_refused,
+        stolen=s1.voices_stolen - s0.voices_stolen,
     )
 
 
@@ -328,6 +329,8 @@ def run_live(seconds=30.0) -> dict:
 
 def format_live(result) -> str:
     """The live benchmark as Markdown, with the targets and whether they are met."""
+    from synth.live.engine import MAX_VOICES
+
     rows = result["callback"]
     by_n = {r["bodies"]: r for r in rows}
     lines = [
@@ -417,7 +420,8 @@ def format_live(result) -> str:
             f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies, "
             f"{what}: {p['callbacks']} callbacks, {p['underflows']} output underflows (target "
             f"{TARGETS['underflows']}): {target_verdict(p['underflows'] <= TARGETS['underflows'])}"
-            f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused"
+            f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused, "
+            f"{p.get('stolen', 0)} voices stolen (max_voices={MAX_VOICES} a body)"
         )
     lines.append(
         f"  - callback from its entry (all phases): mean {100 * j['callback_mean']:.2f} %, max "
