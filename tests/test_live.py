@@ -11,7 +11,7 @@ import pytest
 
 import synth
 from synth.errors import ParameterError, SynthError
-from synth.live.engine import HIT_RTOL
+from synth.live.hits import HIT_RTOL
 from synth.physics.bounces import BounceSequence, Impact
 from synth.physics.contact import solve_impact
 
@@ -288,10 +288,10 @@ def test_hits_without_a_stream_are_bounded_by_the_ring_alone(scene):
 def test_contacts_too_long_for_a_slot_are_transformed_on_the_calling_thread(scene, monkeypatch):
     # a contact whose pulse grid exceeds a slot's (a soft ball) takes the drop's path, the
     # transform on the calling thread: the same transform, so the result is the render
-    from synth.live import engine as live_engine
+    from synth.live import body as live_body
 
-    monkeypatch.setattr(live_engine, "MAX_SLOT_GRID", 5)  # every contact is too long
-    monkeypatch.setattr(live_engine, "SLOT_CONTACT", 1e-6)
+    monkeypatch.setattr(live_body, "MAX_SLOT_GRID", 5)  # every contact is too long
+    monkeypatch.setattr(live_body, "SLOT_CONTACT", 1e-6)
     times = np.array([0.0, 0.0029, 0.0311])
     speeds = [1.5, 0.8, 0.6]
     r = rendered(scene, hits_sequence(scene, times, speeds))
@@ -863,7 +863,7 @@ def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
     # two voice slots, three hits: the third steals the first (the oldest, though the
     # second is quieter), which fades out over STEAL_FADE from the third's injection
     # sample (the first sample after its contact), the others untouched
-    from synth.live.engine import STEAL_FADE
+    from synth.live.voice import STEAL_FADE
 
     n = 256
     hits = [(1.5, 0.001), (0.1, 0.004), (1.0, 0.0123)]
