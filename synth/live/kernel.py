@@ -362,8 +362,8 @@ def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into ``out`` and the
     body's ``tail`` ring buffer (mixed in by the next blocks), and is ended (its pending
     impacts are dropped). The oldest, not the quietest: a free decay makes the oldest of
-    like impacts the quietest, and the choice is the same at every ear of a body. Returns
-    the slot."""
+    like impacts the quietest, and a voice's age is the same at every ear of a body, where
+    its level is not. Returns the slot."""
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     s = 0
     for j in range(1, slots.shape[0]):

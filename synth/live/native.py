@@ -7,9 +7,11 @@ through their addresses, so that its callback touches no Python object:
   number of bodies, the callback's counters) and the addresses of the other arrays;
 * ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
   when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
-  master bus' gain and meter;
+  master bus' gain, pause level and meter;
 * a directory of body records (int64, one address per body; a record holds the addresses
-  and sizes of the body's modal state, pending ring and counters, see :data:`BODY_FIELDS`).
+  and sizes of the body's voice slots' modal states, pending ring, voice records and
+  counters, see :data:`BODY_FIELDS`; :func:`_body_form` makes the views the kernel takes);
+* the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
 
 :func:`stream_callback` is a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
 signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
