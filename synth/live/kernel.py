@@ -81,10 +81,11 @@ V_LIVE = 1
 
 #: A voice slot (int64 columns of a body's ``slots``: one modal state each): the voice
 #: record it rings (-1: free), the sample where it was taken (the oldest is stolen first),
-#: where its stop fade starts (-1 none) and its length (samples), and the sample its state
-#: stands at within the block being mixed.
-SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS = range(5)
-N_SLOT_FIELDS = 5
+#: where its stop fade starts (-1 none) and its length (samples), the sample its state
+#: stands at within the block being mixed, and the length of its steal fade (samples, 0
+#: unless it is being stolen; the fade starts at its SL_POS, see :func:`_steal`).
+SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL = range(6)
+N_SLOT_FIELDS = 6
 #: A voice slot's gain (float64 columns of ``slot_gain``): at the start of the block and
 #: the target read from its record at that start (ramped linearly over the block).
 G_NOW, G_NEXT = range(2)
@@ -97,83 +98,13 @@ EVENT_EARS = 128
 KNEE = 10.0 ** (-1.0 / 20.0)
 
 
-@numba.njit(cache=True, nogil=True)
-def _contact_samples(out, t0, n, state, first, length, response):
-    """Add the in-contact samples of every pending impact that fall in ``[t0, t0 + n)``."""
-    end = t0 + n
-    for i in range(state.shape[0]):
-        if state[i] != READY:
-            continue
-        fence()  # the slot's data after its state word
-        lo = max(first[i], t0)
-        hi = min(first[i] + length[i], end)
-        for s in range(lo, hi):
-            out[s - t0] += response[i, s - first[i]]
-
-
-@numba.njit(cache=True, nogil=True)
-def _next_due(state, inject, end):
-    """The pending slot with the earliest injection before ``end``, or -1."""
-    best = -1
-    when = end
-    for i in range(state.shape[0]):
-        if state[i] == READY:
-            fence()  # the slot's data after its state word
-            if inject[i] < when:
-                when = inject[i]
-                best = i
-    return best
-
-
-@numba.njit(cache=True, nogil=True)
-def _transform_pulses(
-    state, length, amplitudes, response, reference, transform, pulse_form, transformed
-):
-    """Turn every slot in the PULSE form into the READY form: the renderer's transform of
-    its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
-    decay rate in 1/s, the sample period in s and the audio thread's own workspace of
-    :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
-    accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
-    the producer's scaling would make it. Returns the number of pulses transformed."""
-    pr, pi, ur, ui, sigma_max, period, work = transform
-    coefficients, samples, points, pulse = pulse_form
-    count = 0
-    for i in range(state.shape[0]):
-        if state[i] != PULSE:
-            continue
-        fence()  # the slot's data after its state word
-        n = points[i]
-        M = length[i]
-        p = pulse[i]
-        amps = amplitudes[i]
-        resp = response[i, :M]
-        forces = samples[i, 0]
-        slopes = samples[i, 1]
-        magnitude = transform_pulse(
-            pr, pi, coefficients[i, 0], coefficients[i, 1], ur, ui, sigma_max, period,
-            p[STEP], forces[:n], slopes[:n], p[OFFSET], forces[n : n + M], slopes[n : n + M],
-            p[WEIGHT], p[CONTACT_TIME], p[ORDER], amps, resp, work,
-        )  # fmt: skip
-        g = p[GAIN]
-        for k in range(amps.shape[0]):
-            amps[k] *= g
-        line = p[MASS_LINE]
-        for m in range(M):
-            resp[m] = (resp[m] + forces[n + m] * line) * g
-        reference[i] = magnitude * g
-        state[i] = READY
-        transformed[0] += 1
-        count += 1
-    return count
-
-
 #: The engine's event ring (int64): events written (the audio thread's), events read (the
 #: reader's), events lost to a full ring (the audio thread's), then the ring.
 E_WRITTEN, E_READ, E_LOST = range(3)
 N_EVENT_HEADER = 3
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _voice_ended(records, r, events, ears):
     """Free voice record ``r`` and post its id to the engine's event ring: a lock-free ring
     with one writer (the thread that mixes: the audio thread, or the caller of
@@ -199,12 +130,12 @@ def _settle(records, r, events, ears):
         _voice_ended(records, r, events, ears)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _stopped(records, r):
     return records[r, V_STOP] >= 0 or records[r, V_DEAD] != 0
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _drop(state, i, records, r, counters):
     """Drop pending impact ``i`` of voice ``r`` (stopped or stolen before it played)."""
     fence()  # done reading the slot before a producer may take it
@@ -318,14 +249,16 @@ def _fade(x, at, frames):
 
 
 @numba.njit(cache=True, nogil=True)
-def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, steal_at, steal_frames, tail):
+def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
     """Add ``vs[a - offset : b - offset]`` (samples ``a .. b - 1`` of a voice slot) into the
     body's ``out`` (samples ``t0 .. t0 + n - 1``; later ones into the ring buffer ``tail``)
-    at the slot's gain (ramped linearly over the block), its stop fade and, when
-    ``steal_frames`` > 0, the steal fade from ``steal_at``."""
+    at the slot's gain (ramped linearly over the block), its stop fade and its steal fade
+    if it is being stolen."""
     g0 = gains[G_NOW]
     g1 = gains[G_NEXT]
     fade_at = slot[SL_FADE_AT]
+    steal_at = slot[SL_POS]
+    steal_frames = slot[SL_STEAL]
     plain = g0 == g1 and fade_at < 0 and steal_frames == 0
     L = tail.shape[0]
     for x in range(a, b):
@@ -352,11 +285,11 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
     a = slots[s, SL_POS]
     if b > a:
         _ring_slot(vs, t0, a, b, s, bank, modal)
-        _add_slot(out, t0, n, vs, t0, a, b, slots[s], slot_gain[s], 0, 0, tail)
+        _add_slot(out, t0, n, vs, t0, a, b, slots[s], slot_gain[s], tail)
         slots[s, SL_POS] = b
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     """Free the oldest voice slot at sample ``at`` (all taken): its voice rings on through
     a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into ``out`` and the
@@ -365,7 +298,7 @@ def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     like impacts the quietest, and a voice's age is the same at every ear of a body, where
     its level is not. Returns the slot."""
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
-    s = 0
+    s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
     for j in range(1, slots.shape[0]):
         if slots[j, SL_START] < slots[s, SL_START] or (
             slots[j, SL_START] == slots[s, SL_START]
@@ -375,7 +308,8 @@ def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
     F = counters[STEAL_FRAMES]
     _ring_slot(vs, at, at, at + F, s, bank, modal)
-    _add_slot(out, t0, n, vs, at, at, at + F, slots[s], voice_form[3][s], at, F, tail)
+    slots[s, SL_STEAL] = F  # from SL_POS = at
+    _add_slot(out, t0, n, vs, at, at, at + F, slots[s], voice_form[3][s], tail)
     counters[TAIL_END] = max(counters[TAIL_END], at + F)
     q = slots[s, SL_OWNER]
     records[q, V_DEAD] = 1
@@ -386,7 +320,7 @@ def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     return s
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
     """A voice slot for voice ``r``, whose first impact joins at sample ``at``: a free one,
     else the oldest one stolen (:func:`_steal`); its modal state silent."""
@@ -412,12 +346,13 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
     slots[s, SL_FADE_AT] = -1
     slots[s, SL_FADE_LEN] = 0
     slots[s, SL_POS] = at
+    slots[s, SL_STEAL] = 0
     slot_gain[s, G_NOW] = slot_gain[s, G_NEXT] = vgain[r]
     records[r, V_SLOT] = s
     return s
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _inject(s, i, at, ring, bank, modal, floor):
     """Add pending impact ``i``'s amplitudes to voice slot ``s`` at sample ``at``; the
     voice's peak (the largest sum of ``|amplitudes|`` of its impacts) sets its modes'
@@ -437,7 +372,7 @@ def _inject(s, i, at, ring, bank, modal, floor):
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _begin_voices(t0, voice_form):
     """At a block's start: each ringing slot takes its voice's gain as the block's target
     and starts the stop fade its voice asked for."""
@@ -454,7 +389,7 @@ def _begin_voices(t0, voice_form):
             slots[s, SL_FADE_LEN] = max(stop, 1)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
     """At a block's end: ring every slot to it, free the slots whose modes all stopped
     (the voice's level fell below the floor relative to its peak) or whose stop fade
@@ -486,7 +421,7 @@ def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
     return ringing
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _take_tail(out, t0, n, tail, counters):
     """Add the stolen voices' fades that fall in ``[t0, t0 + n)`` (and clear them)."""
     L = tail.shape[0]
