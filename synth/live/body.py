@@ -390,11 +390,18 @@ class Body:
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
         vid = self._engine._next_voice_id()
-        records = []
+        records = self._hand_over_voice(result, tr, vid)
+        if records is None:
+            return None
+        return Voice(self, vid, records, (tr.onset,))
+
+    def _hand_over_voice(self, result, tr: Trigger, vid: int) -> list[int] | None:
+        """Hand a solved hit over at every ear of the body as voice ``vid``: the voice
+        records it took (one an ear), or None if an ear refused it (then no ear plays it)."""
+        records: list[int] = []
         for ear in self._ears:
             r = ear._ring.open_voice(vid, 1)
-            if r < 0:  # every voice record taken: as a full ring
-                ear._ring.refused += 1
+            if r < 0:
                 break
             try:
                 accepted = ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain, r)
@@ -409,7 +416,7 @@ class Body:
         if len(records) < len(self._ears):  # refused at one ear: at every ear
             stop_records(self._ears, records, vid)
             return None
-        return Voice(self, vid, records, (tr.onset,))
+        return records
 
     def drop(
         self,
@@ -471,8 +478,6 @@ class Body:
             if slots is None:
                 if r >= 0:
                     ear._ring.close_voice(r, n)
-                else:
-                    ear._ring.refused += n
                 _release(reserved)
                 self._engine._drops_refused += 1
                 return None

@@ -119,10 +119,11 @@ class PendingRing:
 
     def open_voice(self, vid: int, impacts: int) -> int:
         """A free voice record for voice ``vid`` (> 0) that will hand over ``impacts``
-        impacts, or -1 when every record is taken."""
+        impacts, or -1 (the impacts counted in ``refused``) when every record is taken."""
         with self._lock:
             r = int(self.voices[:, V_STATE].argmin())
             if self.voices[r, V_STATE] != V_FREE:
+                self.refused += impacts
                 return -1
             v = self.voices[r]
             v[V_ID] = vid
