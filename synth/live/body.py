@@ -182,8 +182,9 @@ class Body:
 
     @property
     def memory(self) -> int:
-        """Bytes of the arrays the body holds for the audio thread (modal state, power
-        table, pending ring, workspace)."""
+        """Bytes of the arrays the body holds for the audio thread (its voice slots' modal
+        states, power table, pending ring and voice records, the stolen voices' fade
+        buffer, workspace)."""
         records = self._engine._native.records
         return sum(
             int(a.nbytes)
@@ -499,8 +500,8 @@ class Body:
         return Voice(self, vid, [r for _, r, _ in reserved], onsets)
 
     def stop_all(self) -> None:
-        """Silence the body at the next block: every mode stops, pending impacts are dropped
-        (at once when no stream runs)."""
+        """Silence the body at the next block: every voice stops (and is reported ended),
+        pending impacts are dropped (at once when no stream runs)."""
         if self._engine.running:
             for ear in self._ears:
                 ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
