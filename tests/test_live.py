@@ -363,6 +363,8 @@ def test_channels_carry_the_mono_mix(scene):
         (dict(pulse_points=4), "pulse_points"),
         (dict(max_frequency=0.0), "max_frequency"),
         (dict(max_frequency=30000.0), "max_frequency"),
+        (dict(max_voices=0), "max_voices"),
+        (dict(max_voices=257), "max_voices"),
     ],
 )
 def test_engine_rejects_bad_arguments(kwargs, name):
@@ -1014,3 +1016,17 @@ def test_voices_made_stopped_and_ended_across_threads_are_each_reported_once(sce
     assert stats.impacts_pending == 0 and stats.voices_playing == 0
     assert stats.voices_stolen > 0  # three slots: stealing ran among the rest
     assert not np.any(body._ring.voices[:, kernel.V_STATE] != kernel.V_FREE)
+
+
+def test_a_body_may_ring_fewer_voices_than_the_engine(scene):
+    engine = synth.Engine(samplerate=FS)
+    one = engine.add(scene.plate, listener=scene.listener, max_voices=1)
+    many = engine.add(scene.plate, listener=scene.listener)
+    assert one.max_voices == 1 and many.max_voices == engine.max_voices == 8
+    assert one.memory < many.memory
+    first = one.hit(scene.ball, 1.0, at=0.001)
+    second = one.hit(scene.ball, 1.0, at=0.01)
+    engine.process(FS // 10)
+    assert engine.stats.voices_stolen == 1 and engine.ended() == [first.id] and second.playing
+    with pytest.raises(ParameterError, match="max_voices"):
+        engine.add(scene.plate, max_voices=0)

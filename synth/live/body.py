@@ -75,8 +75,10 @@ class Body:
         model,
         channel: int = -1,
         ears: int = 1,
+        voices: int = 1,
     ):
         self._engine = engine
+        self.max_voices = voices
         self._channel = channel
         self._min_interval = 0.0
         self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
@@ -97,9 +99,9 @@ class Body:
             samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
             engine.max_hits_per_block,
-            voices=engine.max_pending + engine.max_voices,
+            voices=engine.max_pending + voices,
         )
-        self._state_arrays = kernel.body_state(poles.size, engine.max_voices)
+        self._state_arrays = kernel.body_state(poles.size, voices)
         self._warm_up()
         arrays = native.body_arrays(
             coefficients,

@@ -281,17 +281,23 @@ class Engine:
         """Hz: the highest mode frequency the bodies render (``max_frequency`` or Nyquist)."""
         return 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
 
-    def add(self, plate: Plate | Scene, *, listener=None, gain: float = 1.0) -> Body:
+    def add(
+        self, plate: Plate | Scene, *, listener=None, gain: float = 1.0, max_voices=None
+    ) -> Body:
         """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
         return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
         a microphone 0.2 m above the plate's centre, a :class:`synth.Scene`'s default for
         impacts at the centre). Given a :class:`synth.Scene`, the body is its plate heard
         by its listener (the scene's default one, above its impact point, when it was given
         none), so that the scene sounds live as it renders offline. ``gain`` in
-        (0, MAX_GAIN] scales everything it plays. Allowed while the stream runs (the
+        (0, MAX_GAIN] scales everything it plays. ``max_voices``: the voices the body rings
+        at once, in [1, 256] (default the engine's ``max_voices``; a body hit seldom needs
+        fewer, and each costs its modal state's memory). Allowed while the stream runs (the
         callback picks the body up at its next block)."""
+        voices = self.max_voices if max_voices is None else max_voices
+        voices = check_int("max_voices", voices, 1, 256, "voices")
         if isinstance(listener, (tuple, list)):
-            return self._add_ears(plate, listener, gain)
+            return self._add_ears(plate, listener, gain, voices)
         if isinstance(plate, Scene):
             if listener is not None:
                 raise ParameterError(
@@ -319,11 +325,11 @@ class Engine:
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
-        body = Body(self, plate, listener, g, model)
+        body = Body(self, plate, listener, g, model, voices=voices)
         self._bodies = self._bodies + (body,)
         return body
 
-    def _add_ears(self, plate, listeners, gain) -> Body:
+    def _add_ears(self, plate, listeners, gain, voices: int) -> Body:
         """A body heard by one listener per output channel (see :meth:`add`)."""
         if self.channels < 2 or len(listeners) != self.channels:
             raise ParameterError(
@@ -352,7 +358,7 @@ class Engine:
             for li in listeners
         ]
         ears_ = [
-            Body(self, plate, li, g, m, channel=c, ears=len(listeners))
+            Body(self, plate, li, g, m, channel=c, ears=len(listeners), voices=voices)
             for c, (li, m) in enumerate(zip(listeners, models))
         ]
         body = ears_[0]
