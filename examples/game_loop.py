@@ -3,11 +3,12 @@ sounds as the physics says.
 
 The game owns the motion (free fall, a bounce that keeps half the speed); the engine owns the
 sound: on each landing the loop calls ``body.hit(ball, speed, position=...)`` from the game
-thread, and the impact sounds one audio block (plus the output latency) later. All balls land
-on the same table, so they share one modal bank per ear: the player's head sits above the
-table's near edge, facing along it, and each ear hears the table through its own Rayleigh
-gains (stereo from the physics). The game's own loop runs in Python; the audio thread does
-not, so the loop cannot starve it. Run it with a sound device:
+thread, and the impact sounds one audio block (plus the output latency) later. Each landing
+is a voice of the table (a ``synth.Voice``: a modal state of its own); when more than the
+engine's ``max_voices`` ring at once, a new landing steals the oldest, which fades out. The
+player's head sits above the table's near edge, facing along it, and each ear hears the
+table through its own Rayleigh gains (stereo from the physics). The game's own loop runs in
+Python; the audio thread does not, so the loop cannot starve it. Run it with a sound device:
 
     python examples/game_loop.py --seconds 10
 
@@ -81,7 +82,11 @@ def main():
             chunks.append(engine.process(48000 // FPS))
         audio = np.concatenate(chunks)
         synth.write_audio(args.offline, audio, 48000)
-        print(f"{args.offline}: {engine.stats.impacts_played} impacts, peak {abs(audio).max():.3f}")
+        stats = engine.stats
+        print(
+            f"{args.offline}: {stats.impacts_played} impacts, {stats.voices_stolen} voices "
+            f"stolen, {len(engine.ended())} ended, peak {abs(audio).max():.3f}"
+        )
         return
     with engine:
         next_frame = time.perf_counter()

@@ -451,13 +451,14 @@ def _cmd_play(args):
     engine.start()
     try:
         for n in range(args.repeat):
-            onsets = body.drop(
+            voice = body.drop(
                 scene.ball,
                 scene.drop_height,
                 position=scene.position,
                 contact=scene.contact,
                 gravity=scene.gravity,
             )
+            onsets = voice.onsets if voice is not None else ()
             print(
                 f"drop {n + 1}: {len(onsets)} impacts over {onsets[-1] - onsets[0]:.3f} s"
                 if onsets

@@ -11,7 +11,7 @@ import pytest
 
 import synth
 from synth.errors import ParameterError, SynthError
-from synth.live.engine import HIT_RTOL
+from synth.live.hits import HIT_RTOL
 from synth.physics.bounces import BounceSequence, Impact
 from synth.physics.contact import solve_impact
 
@@ -80,7 +80,7 @@ def test_a_drop_played_live_is_the_render(scene):
     r = rendered(scene)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
-    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE)
+    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     assert engine.stats.impacts_played == len(onsets)
@@ -96,7 +96,7 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t) == PRE + t
+        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t).onset == PRE + t
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -121,7 +121,7 @@ def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
         at=PRE,
         contact=moon.contact,
         gravity=moon.gravity,
-    )
+    ).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
@@ -209,19 +209,44 @@ def test_a_full_ring_refuses_and_counts(scene):
     assert body.hit(scene.ball, 1.0) is not None  # room again once played
 
 
+def silence(ring):
+    """kernel.silence of a body of 3 modes and one voice slot whose pending ring is ``ring``."""
+    from synth.live import kernel, native
+
+    arrays = native.body_arrays(
+        synth.sound.modal_bank.bank_coefficients(
+            np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
+        ),
+        np.zeros((3, 2, 33)),
+        kernel.body_state(3, 1),
+        ring,
+        1e-4,
+        1.0,
+        steal_frames=4,
+    )
+    a = arrays
+    modal = tuple(a[k] for k in ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2"))
+    ring_form = tuple(
+        a[k] for k in ("state", "inject", "first", "length", "amplitudes", "response", "reference")
+    ) + (a["voice"],)
+    voice_form = tuple(a[k] for k in ("voices", "voice_gain", "voice_slots", "slot_gain", "tail"))
+    events = np.zeros(kernel.N_EVENT_HEADER + 8, dtype=np.int64)
+    kernel.silence(
+        modal + (a["level"],), ring_form, a["transformed"], voice_form, a["counters"], events
+    )
+    return events
+
+
 def test_a_slot_being_filled_is_neither_played_nor_dropped():
     # a producer owns a reserved slot until it publishes it: the audio thread skips it
     # and stop_all (which drops READY slots) leaves it alone, so no other producer can
     # take it while it is written
-    from synth.live import kernel
     from synth.live.queue import WRITING, PendingRing
 
     ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
     assert ring.state[i] == WRITING and ring.pending() == 0
-    kernel.silence(
-        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
-    )
+    silence(ring)
     assert ring.state[i] == WRITING
     j = ring.reserve()
     assert j != i and ring.reserve() == -1 and ring.refused == 1
@@ -235,7 +260,6 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     # max_new wait at a time (a bound on any block's work); a transform or stop_all's
     # dropping of a pulse frees its place. Without a deadline (bounded=False) the ring
     # alone bounds them.
-    from synth.live import kernel
     from synth.live.queue import PendingRing
 
     ring = PendingRing(8, 3, 4, 7, 3)
@@ -244,9 +268,7 @@ def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():
     for i in slots[:3]:
         ring.publish_pulse(i, 10, 5, 2, 5)
     assert ring.pending() == 3
-    kernel.silence(
-        np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool), np.zeros(3), ring.state, ring.transformed
-    )
+    silence(ring)
     assert ring.pending() == 0 and ring.transformed[0] == 3
     assert all(ring.reserve(pulse=True) >= 0 for _ in range(3))
     assert ring.reserve(pulse=True) == -1
@@ -266,10 +288,10 @@ def test_hits_without_a_stream_are_bounded_by_the_ring_alone(scene):
 def test_contacts_too_long_for_a_slot_are_transformed_on_the_calling_thread(scene, monkeypatch):
     # a contact whose pulse grid exceeds a slot's (a soft ball) takes the drop's path, the
     # transform on the calling thread: the same transform, so the result is the render
-    from synth.live import engine as live_engine
+    from synth.live import body as live_body
 
-    monkeypatch.setattr(live_engine, "MAX_SLOT_GRID", 5)  # every contact is too long
-    monkeypatch.setattr(live_engine, "SLOT_CONTACT", 1e-6)
+    monkeypatch.setattr(live_body, "MAX_SLOT_GRID", 5)  # every contact is too long
+    monkeypatch.setattr(live_body, "SLOT_CONTACT", 1e-6)
     times = np.array([0.0, 0.0029, 0.0311])
     speeds = [1.5, 0.8, 0.6]
     r = rendered(scene, hits_sequence(scene, times, speeds))
@@ -310,7 +332,7 @@ def test_default_start_is_one_block_ahead(scene):
     engine = synth.Engine(samplerate=FS, blocksize=256)
     body = engine.add(scene.plate)
     engine.process(1000)
-    assert body.hit(scene.ball, 1.0) == (1000 + 256) / FS
+    assert body.hit(scene.ball, 1.0).onset == (1000 + 256) / FS
     assert engine.time == 1000 / FS
 
 
@@ -341,6 +363,8 @@ def test_channels_carry_the_mono_mix(scene):
         (dict(pulse_points=4), "pulse_points"),
         (dict(max_frequency=0.0), "max_frequency"),
         (dict(max_frequency=30000.0), "max_frequency"),
+        (dict(max_voices=0), "max_voices"),
+        (dict(max_voices=257), "max_voices"),
     ],
 )
 def test_engine_rejects_bad_arguments(kwargs, name):
@@ -510,12 +534,12 @@ def test_body_gain_set_after_add_is_ramped_over_one_block(scene):
 
 def test_a_drop_that_does_not_fit_is_refused_whole_and_counted(scene):
     probe = synth.Engine(samplerate=FS)
-    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height))
+    n = len(probe.add(scene.plate).drop(scene.ball, scene.drop_height).onsets)
     assert n > 2
     engine = synth.Engine(samplerate=FS, max_pending=n + n // 2)
     body = engine.add(scene.plate)
-    assert len(body.drop(scene.ball, scene.drop_height)) == n
-    assert body.drop(scene.ball, scene.drop_height) == ()  # only n // 2 slots free
+    assert len(body.drop(scene.ball, scene.drop_height).onsets) == n
+    assert body.drop(scene.ball, scene.drop_height) is None  # only n // 2 slots free
     stats = engine.stats
     assert stats.impacts_pending == n
     assert stats.impacts_refused == n and stats.drops_refused == 1
@@ -576,6 +600,8 @@ for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc",
     print(symbol, symbol in ir)
 print("clock_gettime", "clock_gettime" in ir)
 print("run_block", "run_block" in ir)
+for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+    print(callee, callee in ir)
 """
 
 
@@ -598,6 +624,10 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
     found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
     assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
+    # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
+    # that take and steal slots are inlined into mix_body)
+    for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+        assert found.pop(callee) == "True", callee
     assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
     assert set(found.values()) == {"False"}, found
 
@@ -646,7 +676,7 @@ def test_stereo_bodies_are_heard_at_each_ear(scene):
     stereo = synth.Engine(samplerate=FS, channels=2)
     body = stereo.add(scene.plate, listener=(left, right))
     mono_body = stereo.add(scene.plate, listener=scene.listener, gain=0.5)
-    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001) == 0.001
+    assert body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001).onset == 0.001
     mono_body.hit(scene.ball, 0.7, at=0.05)
     body.drop(scene.ball, 0.02, position=(0.9, 0.2), at=0.02)
     out = stereo.process(FS // 5)
@@ -686,11 +716,317 @@ def test_hits_at_one_point_closer_than_min_interval_are_refused_and_counted(scen
     body = engine.add(scene.plate)
     body.min_interval = 0.05
     p, q = (0.3, 0.2), (0.3004, 0.2)  # the same point to 1 mm
-    assert body.hit(scene.ball, 1.0, position=p, at=0.10) == 0.10
+    assert body.hit(scene.ball, 1.0, position=p, at=0.10).onset == 0.10
     assert body.hit(scene.ball, 1.0, position=q, at=0.12) is None  # 20 ms later: refused
-    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12) == 0.12  # another point
-    assert body.hit(scene.ball, 1.0, position=p, at=0.16) == 0.16  # 60 ms later
+    assert body.hit(scene.ball, 1.0, position=(0.5, 0.2), at=0.12).onset == 0.12  # elsewhere
+    assert body.hit(scene.ball, 1.0, position=p, at=0.16).onset == 0.16  # 60 ms later
     stats = engine.stats
     assert stats.impacts_too_close == 1 and stats.impacts_pending == 3
     with pytest.raises(ParameterError, match="min_interval"):
         body.min_interval = 2.0
+
+
+def alone(scene, hits, frames, **kw):
+    """What each of ``hits`` ((speed, at) pairs) plays on its own engine: float64 (frames,)."""
+    out = []
+    for v, at in hits:
+        e = synth.Engine(samplerate=FS, floor_db=EXACT_DB, **kw)
+        e.add(scene.plate, listener=scene.listener).hit(scene.ball, v, at=at)
+        out.append(e.process(frames)[:, 0].astype(float))
+    return out
+
+
+def raised_cosine(frames, start, length):
+    """1 before ``start``, a raised cosine to 0 over ``length`` samples, 0 after."""
+    p = np.arange(frames) - start
+    w = 0.5 * (1.0 + np.cos(np.pi * np.clip(p, 0, length) / length))
+    return np.where(p <= 0, 1.0, np.where(p >= length, 0.0, w))
+
+
+def test_a_hit_is_a_voice_that_ends_and_is_reported_once(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    a = body.hit(scene.ball, 1.0, at=0.001)
+    b = body.hit(scene.ball, 0.5, at=0.002)
+    assert isinstance(a, synth.Voice) and a.onset == 0.001 and a.onsets == (0.001,)
+    assert a.id != b.id and a.playing and b.playing and a.gain == 1.0
+    assert engine.ended() == []
+    engine.process(FS // 10)
+    assert a.playing and engine.stats.voices_playing == 2
+    engine.process(FS * 4)  # the default plate's tail falls below -80 dB in ~1 s
+    assert not a.playing and not b.playing and not body.awake
+    assert sorted(engine.ended()) == [a.id, b.id]
+    assert engine.ended() == []  # each reported once
+    stats = engine.stats
+    assert stats.voices_playing == 0 and stats.voices_stolen == 0 and stats.events_lost == 0
+
+
+def test_a_voice_ends_when_its_level_falls_below_the_floor_relative_to_its_peak(scene):
+    # each voice's modes stop at the floor relative to its own peak: a quiet hit rings as
+    # long beside a loud one (44 dB louder: Hertz force ~ v^1.2) as alone, to the block,
+    # where a floor relative to the body's loudest impact would cut it short
+    def blocks_until_quiet_ends(with_loud):
+        e = synth.Engine(samplerate=FS, blocksize=256)
+        body = e.add(scene.plate, listener=scene.listener)
+        if with_loud:
+            body.hit(scene.ball, 2.0, at=0.0)
+        quiet = body.hit(scene.ball, 0.02, at=0.01)
+        blocks = 0
+        while quiet.playing:
+            e.process(256)
+            blocks += 1
+        return blocks
+
+    alone_, beside = blocks_until_quiet_ends(False), blocks_until_quiet_ends(True)
+    assert alone_ == beside and alone_ > FS // 256 // 4  # rings for more than 0.25 s
+
+
+def test_a_refused_hit_returns_none_and_posts_no_event(scene):
+    engine = synth.Engine(samplerate=FS, max_pending=1)
+    body = engine.add(scene.plate, listener=scene.listener)
+    assert body.hit(scene.ball, 1.0) is not None
+    assert body.hit(scene.ball, 1.0) is None
+    engine.process(FS * 4)
+    assert len(engine.ended()) == 1 and engine.stats.impacts_refused == 1
+
+
+def test_a_voice_gain_is_ramped_over_one_block_and_leaves_the_others(scene):
+    n = 256
+    hits = [(1.0, 0.0), (0.6, 0.001)]
+    ref_a, ref_b = alone(scene, hits, 8 * n, blocksize=n)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    a, b = (body.hit(scene.ball, v, at=at) for v, at in hits)
+    first = engine.process(2 * n)[:, 0]
+    a.gain = 0.25
+    assert a.gain == 0.25 and b.gain == 1.0
+    rest = engine.process(6 * n)[:, 0]
+    w = np.ones(8 * n)
+    w[2 * n : 3 * n] = 1.0 + (0.25 - 1.0) * np.arange(1, n + 1) / n
+    w[3 * n :] = 0.25
+    want = ref_a * w + ref_b
+    tol = 4 * float32_ulp_of_peak(want)
+    np.testing.assert_allclose(np.concatenate([first, rest]), want, rtol=0, atol=tol)
+    for bad in (-0.1, 1e9, float("nan")):
+        with pytest.raises(ParameterError, match="gain"):
+            a.gain = bad
+
+
+def test_stop_fades_a_voice_out_and_ends_it(scene):
+    # stop(fade) from the next block: a raised cosine over the fade, then silence; the
+    # other voice plays on; the stopped voice is reported ended
+    n, fade = 256, 0.004
+    hits = [(1.0, 0.0), (0.6, 0.001)]
+    ref_a, ref_b = alone(scene, hits, 12 * n, blocksize=n)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    a, b = (body.hit(scene.ball, v, at=at) for v, at in hits)
+    first = engine.process(3 * n)[:, 0]
+    a.stop(fade=fade)
+    rest = engine.process(9 * n)[:, 0]
+    want = ref_a * raised_cosine(12 * n, 3 * n, round(fade * FS)) + ref_b
+    tol = 4 * float32_ulp_of_peak(want)
+    np.testing.assert_allclose(np.concatenate([first, rest]), want, rtol=0, atol=tol)
+    assert not a.playing and b.playing and engine.ended() == [a.id]
+    a.stop()  # an ended voice: nothing to do
+    a.gain = 0.5
+    for bad in (0.0, 20.0):
+        with pytest.raises(ParameterError, match="fade"):
+            b.stop(fade=bad)
+
+
+def test_a_voice_stopped_before_it_starts_plays_nothing(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voice = body.hit(scene.ball, 1.0, at=0.05)
+    voice.stop()
+    assert not np.any(engine.process(FS // 5))
+    stats = engine.stats
+    assert stats.impacts_played == 0 and stats.impacts_dropped == 1
+    assert engine.ended() == [voice.id] and not voice.playing
+
+
+def test_a_drop_is_one_voice_and_stop_drops_its_later_bounces(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voice = body.drop(scene.ball, scene.drop_height, at=0.0)
+    n = len(voice.onsets)
+    assert n > 10 and voice.onset == voice.onsets[0] == 0.0
+    assert voice.onsets[5] - voice.onsets[4] > 0.01
+    cut = int((voice.onsets[4] + 0.001) * FS)  # after the fifth tick's contact
+    engine.process(cut)
+    voice.stop(fade=0.002)
+    engine.process(FS * 2)
+    stats = engine.stats
+    assert 5 <= stats.impacts_played < n
+    assert stats.impacts_played + stats.impacts_dropped == n
+    assert engine.ended() == [voice.id]
+
+
+def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
+    # two voice slots, three hits: the third steals the first (the oldest, though the
+    # second is quieter), which fades out over STEAL_FADE from the third's injection
+    # sample (the first sample after its contact), the others untouched
+    from synth.live.voice import STEAL_FADE
+
+    n = 256
+    hits = [(1.5, 0.001), (0.1, 0.004), (1.0, 0.0123)]
+    refs = alone(scene, hits, 16 * n, blocksize=n)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB, max_voices=2)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voices = [body.hit(scene.ball, v, at=at) for v, at in hits]
+    live = engine.process(16 * n)[:, 0]
+    ct = solve_impact(
+        scene.ball, scene.plate, hits[2][0], position=scene.plate.centre, rtol=HIT_RTOL
+    )
+    inject = int(np.ceil((hits[2][1] + ct.contact_time) * FS - 1e-9))  # modal_bank.pulse_layout
+    want = refs[0] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[1] + refs[2]
+    tol = 4 * float32_ulp_of_peak(want)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+    assert engine.stats.voices_stolen == 1 and engine.ended() == [voices[0].id]
+    assert not voices[0].playing and voices[1].playing and voices[2].playing
+
+
+def test_a_stereo_body_reports_a_voice_once_both_ears_ended(scene):
+    engine = synth.Engine(samplerate=FS, channels=2)
+    body = engine.add(scene.plate, listener=synth.live.ears((0.3, 0.2, 0.3)))
+    voice = body.hit(scene.ball, 1.0, position=(0.9, 0.3), at=0.0)
+    seen = []
+    for _ in range(200):
+        engine.process(FS // 20)
+        seen += engine.ended()
+        if not voice.playing:
+            break
+    seen += engine.ended()
+    assert seen == [voice.id]
+
+
+def test_voice_ended_events_beyond_the_ring_are_counted_lost(scene, monkeypatch):
+    from synth.live import engine as live_engine
+
+    monkeypatch.setattr(live_engine, "EVENT_CAPACITY", 2)
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voices = [body.hit(scene.ball, 1.0, at=0.001 * k) for k in range(3)]
+    for v in voices:
+        v.stop(fade=0.001)
+    engine.process(FS // 10)
+    assert engine.stats.events_lost == 1
+    assert engine.ended() == [voices[0].id, voices[1].id]
+    voices = [body.hit(scene.ball, 1.0, at=engine.time + 0.001) for _ in range(2)]
+    for v in voices:
+        v.stop(fade=0.001)
+    engine.process(FS // 10)
+    assert engine.ended() == [v.id for v in voices]  # room again once read
+
+
+def pause_gain(levels):
+    """The master bus' pause gain at pause levels in [0, 1] (a raised cosine)."""
+    return 0.5 * (1.0 - np.cos(np.pi * np.asarray(levels)))
+
+
+def test_pause_fades_out_holds_the_clock_and_every_voice_then_resumes(scene):
+    # pause: the bus fades out over `fade` from the next block (its level falls by
+    # 1/fade_frames a sample, heard through a raised cosine); at the end of the block where
+    # it reaches 0 the clock and every voice hold and the output is silence; resume fades
+    # back in and the voices go on from where they were held. A hit made while paused
+    # starts on the held clock.
+    n, L = 256, round(0.01 * FS)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    first = body.hit(scene.ball, 1.0, at=0.0)
+    a = engine.process(4 * n)[:, 0]
+    engine.pause()
+    assert engine.paused
+    b = engine.process(4 * n)[:, 0]
+    held = -(-(4 * n + L) // n) * n  # the end of the block where the fade ends
+    assert engine.time == held / FS
+    second = body.hit(scene.ball, 0.5)
+    assert second.onset == (held + n) / FS and first.playing and second.playing
+    assert not np.any(engine.process(3 * n)) and engine.time == held / FS
+    engine.resume()
+    assert not engine.paused
+    d = engine.process(10 * n)[:, 0]
+    ref1, ref2 = alone(scene, [(1.0, 0.0), (0.5, second.onset)], held + 10 * n, blocksize=n)
+    down = pause_gain(np.clip(1.0 - np.arange(1, held - 4 * n + 1) / L, 0.0, 1.0))
+    up = pause_gain(np.clip(np.arange(1, 10 * n + 1) / L, 0.0, 1.0))
+    want = np.concatenate([ref1[: 4 * n], ref1[4 * n : held] * down, (ref1 + ref2)[held:] * up])
+    got = np.concatenate([a, b[: held - 4 * n], d])
+    assert not np.any(b[held - 4 * n :])
+    np.testing.assert_allclose(got, want, rtol=0, atol=4 * float32_ulp_of_peak(want))
+
+
+def test_stop_all_ends_every_voice(scene):
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate, listener=scene.listener)
+    ringing = body.hit(scene.ball, 1.0, at=0.0)
+    engine.process(1024)
+    pending = body.hit(scene.ball, 1.0)
+    body.stop_all()
+    assert not ringing.playing and not pending.playing
+    assert sorted(engine.ended()) == [ringing.id, pending.id]
+    assert engine.stats.impacts_dropped == 1
+
+
+def test_voices_made_stopped_and_ended_across_threads_are_each_reported_once(scene):
+    # four threads hit (and stop or re-gain some of their voices) while this thread mixes,
+    # as the audio thread would: every voice made is reported ended exactly once, every
+    # impact handed over is played or dropped, and no voice record is left taken
+    import threading
+    import time
+
+    from synth.live import kernel
+
+    engine = synth.Engine(samplerate=FS, blocksize=128, max_voices=3, max_pending=16)
+    body = engine.add(scene.plate, listener=scene.listener)
+    made, lock = [], threading.Lock()
+
+    def game(seed):
+        rng = np.random.default_rng(seed)
+        for _ in range(40):
+            v = body.hit(scene.ball, float(rng.uniform(0.2, 2.0)))
+            if v is None:
+                continue
+            with lock:
+                made.append(v)
+            if rng.random() < 0.3:
+                v.stop(fade=0.002)
+            elif rng.random() < 0.3:
+                v.gain = float(rng.uniform(0.0, 2.0))
+            now = engine.time
+            while engine.time == now:  # the next hit after a block was mixed
+                time.sleep(0.0002)
+
+    threads = [threading.Thread(target=game, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    ended = []
+    while any(t.is_alive() for t in threads):
+        engine.process(128)
+        ended += engine.ended()
+    for t in threads:
+        t.join()
+    while any(v.playing for v in made):
+        engine.process(FS // 10)
+    ended += engine.ended()
+    assert len(made) > 100  # of 160: a few refused by a full ring
+    assert sorted(ended) == sorted(v.id for v in made)
+    stats = engine.stats
+    assert stats.impacts_played + stats.impacts_dropped == len(made)
+    assert stats.impacts_pending == 0 and stats.voices_playing == 0
+    assert stats.voices_stolen > 0  # three slots: stealing ran among the rest
+    assert not np.any(body._ring.voices[:, kernel.V_STATE] != kernel.V_FREE)
+
+
+def test_a_body_may_ring_fewer_voices_than_the_engine(scene):
+    engine = synth.Engine(samplerate=FS)
+    one = engine.add(scene.plate, listener=scene.listener, max_voices=1)
+    many = engine.add(scene.plate, listener=scene.listener)
+    assert one.max_voices == 1 and many.max_voices == engine.max_voices == 8
+    assert one.memory < many.memory
+    first = one.hit(scene.ball, 1.0, at=0.001)
+    second = one.hit(scene.ball, 1.0, at=0.01)
+    engine.process(FS // 10)
+    assert engine.stats.voices_stolen == 1 and engine.ended() == [first.id] and second.playing
+    with pytest.raises(ParameterError, match="max_voices"):
+        engine.add(scene.plate, max_voices=0)

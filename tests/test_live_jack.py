@@ -69,8 +69,8 @@ def test_hits_from_another_thread_are_all_played_as_process_plays_them(jack, sce
             v = float(rng.uniform(0.1, 2.0))
             pos = (float(rng.uniform(0.05, 1.15)), float(rng.uniform(0.05, 0.44)))
             gain = float(rng.uniform(0.2, 1.0))
-            onset = bodies[i].hit(scene.ball, v, position=pos, gain=gain)
-            played.append((i, v, pos, gain, onset))
+            voice = bodies[i].hit(scene.ball, v, position=pos, gain=gain)
+            played.append((i, v, pos, gain, voice.onset if voice is not None else None))
 
     engine.start()
     assert engine.running and client_ports(jack)
@@ -123,7 +123,7 @@ def test_add_while_running_and_stop_fades_out(jack, scene):
         # (the clock read before the call: after it, a thread descheduled on a busy machine
         # may read a clock that has passed the onset)
         before = engine.time
-        onset = body.hit(scene.ball, 2.0)
+        onset = body.hit(scene.ball, 2.0).onset
         assert onset > before
         assert wait_for(lambda: engine.stats.impacts_played == 1, 2.0)
         time.sleep(0.05)  # stop while it rings
@@ -381,7 +381,7 @@ def test_the_python_fallback_plays_through_the_same_block(jack, scene):
     )
     body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
     with engine:
-        onset = body.hit(scene.ball, 1.0, at=0.1)
+        onset = body.hit(scene.ball, 1.0, at=0.1).onset
         assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
     assert engine.stats.impacts_played == 1 and onset == 0.1
     offline = synth.Engine(samplerate=FS, blocksize=BLOCK)
@@ -410,3 +410,89 @@ def test_hits_queued_before_start_do_not_burden_the_first_callback(jack, scene):
 
     assert 1 <= body._counters[kernel.MOST_PULSES] <= engine.max_hits_per_block
     assert engine.stats.impacts_refused == 0
+
+
+def test_voices_stop_and_stealing_play_live_as_process_plays_them(jack, scene):
+    # two voice slots: hits scheduled ahead steal the oldest voice; a voice stopped while
+    # it rings fades out from the block after the call. The stream plays what process()
+    # plays for the same hits with the stop taken at that block (the block found as the
+    # first one where the recording leaves the render without the stop)
+    seconds = 1.5
+    kw = dict(samplerate=FS, blocksize=BLOCK, max_voices=2)
+    engine = synth.Engine(device=jack.device, record_seconds=seconds, **kw)
+    hits = [(1.5, 0.30, (0.3, 0.2)), (0.4, 0.31, (0.6, 0.3)), (1.0, 0.35, (0.9, 0.2))]
+    hits.append((0.8, 0.5, (0.5, 0.25)))
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        voices = [body.hit(scene.ball, v, position=p, at=at) for v, at, p in hits]
+        assert wait_for(lambda: engine.time > 0.6, 10.0)
+        assert voices[2].playing
+        voices[2].stop(fade=0.01)
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], seconds + 10)
+        stats = engine.stats
+    assert stats.voices_stolen == 2 and stats.impacts_played == 4 and stats.impacts_late == 0
+    # stolen at the third and fourth hits, stopped, silenced by stop()
+    assert engine.ended() == [voices[k].id for k in (0, 1, 2, 3)]
+    live = engine.recording[:, 0].astype(float)
+
+    def offline(stop_frame=None):
+        e = synth.Engine(**kw)
+        b = e.add(scene.plate, listener=scene.listener, gain=0.1)
+        vs = [b.hit(scene.ball, v, position=p, at=at) for v, at, p in hits]
+        if stop_frame is None:
+            return e.process(live.size)[:, 0].astype(float)
+        head = e.process(stop_frame)
+        vs[2].stop(fade=0.01)
+        return np.concatenate([head, e.process(live.size - stop_frame)])[:, 0].astype(float)
+
+    unstopped = offline()
+    tol = float(np.spacing(np.float32(np.max(np.abs(unstopped))))) * 4
+    differs = np.flatnonzero(np.abs(live - unstopped) > tol)
+    assert differs.size and differs[0] > 0.6 * FS
+    want = offline(stop_frame=int(differs[0]) // BLOCK * BLOCK)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_pause_holds_the_voices_live_as_process_holds_them(jack, scene):
+    # pause while a voice rings, resume a while later: the stream ran on (callbacks
+    # counted, silence written), and what it recorded on the engine's clock (held while
+    # paused) is process() with the pause taken at the block where the recording first
+    # leaves the unpaused render
+    from synth.live import native
+
+    kw = dict(samplerate=FS, blocksize=BLOCK)
+    engine = synth.Engine(device=jack.device, record_seconds=1.0, **kw)
+    body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        voice = body.hit(scene.ball, 1.0, at=0.2)
+        assert wait_for(lambda: engine.time > 0.4, 10.0)
+        engine.pause()
+        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+        callbacks, held = engine.stats.callbacks, engine.time
+        time.sleep(0.2)
+        assert engine.stats.callbacks > callbacks and engine.time == held and voice.playing
+        engine.resume()
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
+        engine.pause()  # stop() while paused: the output is silent already
+        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+    assert not engine.running and not engine.paused and client_ports(jack) == []
+    live = engine.recording[:, 0].astype(float)
+
+    def offline(pause_frame=None):
+        e = synth.Engine(**kw)
+        e.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.2)
+        if pause_frame is None:
+            return e.process(live.size)[:, 0].astype(float)
+        head = e.process(pause_frame)
+        e.pause()
+        fading = e.process(4 * BLOCK)[: int(round(e.time * FS)) - pause_frame]
+        e.resume()
+        rest = e.process(live.size - int(round(e.time * FS)))
+        return np.concatenate([head, fading, rest])[:, 0].astype(float)
+
+    unpaused = offline()
+    tol = float(np.spacing(np.float32(np.max(np.abs(unpaused))))) * 4
+    differs = np.flatnonzero(np.abs(live - unpaused) > tol)
+    assert differs.size and differs[0] > 0.4 * FS
+    want = offline(pause_frame=int(differs[0]) // BLOCK * BLOCK)
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)

@@ -246,6 +246,7 @@ def _phase(engine, targets, seconds) -> dict:
         played=s1.impacts_played - s0.impacts_played,
         late=s1.impacts_late - s0.impacts_late,
         refused=s1.impacts_refused - s0.impacts_refused,
+        stolen=s1.voices_stolen - s0.voices_stolen,
     )
 
 
@@ -271,7 +272,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         for _ in range(40):
             time.sleep(float(rng.uniform(0.005, 0.03)))
             t = native.monotonic()
-            onset = handles[0].hit(scene.ball, 1.0)
+            onset = handles[0].hit(scene.ball, 1.0).onset
             end = _wait_mixed(engine, int(np.ceil(onset * samplerate)))
             if end is not None:
                 to_callback.append(end - t)
@@ -328,6 +329,8 @@ def run_live(seconds=30.0) -> dict:
 
 def format_live(result) -> str:
     """The live benchmark as Markdown, with the targets and whether they are met."""
+    from synth.live.engine import MAX_VOICES
+
     rows = result["callback"]
     by_n = {r["bodies"]: r for r in rows}
     lines = [
@@ -417,7 +420,8 @@ def format_live(result) -> str:
             f"  - {j['seconds']:.0f} s of {j['rate']:.0f} hits/s on {j['bodies']} bodies, "
             f"{what}: {p['callbacks']} callbacks, {p['underflows']} output underflows (target "
             f"{TARGETS['underflows']}): {target_verdict(p['underflows'] <= TARGETS['underflows'])}"
-            f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused"
+            f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused, "
+            f"{p.get('stolen', 0)} voices stolen (max_voices={MAX_VOICES} a body)"
         )
     lines.append(
         f"  - callback from its entry (all phases): mean {100 * j['callback_mean']:.2f} %, max "

@@ -1,13 +1,17 @@
 """The audio thread's work: one compiled call per body per block, one to write the output.
 
-A body's modal state is the offline modal bank's (:mod:`synth.sound.modal_bank`): its
-modes' complex amplitudes, which of them ring, their omission debts and thresholds.
-:func:`mix_body` advances it over one block with the bank's own steps
+A body has a fixed number of voice slots, each a modal state as the offline modal bank's
+(:mod:`synth.sound.modal_bank`): its modes' complex amplitudes, which of them ring, their
+omission debts and thresholds. A voice (a hit, or a whole drop: one handle) takes a free
+slot when its first impact joins, or steals the oldest (:func:`_steal`), and frees it when
+every mode has fallen below its share of the omission floor relative to the voice's peak,
+or when its stop fade ends; then, with nothing of it pending, it posts a voice-ended event.
+:func:`mix_body` advances each slot over one block with the bank's own steps
 (:func:`~synth.sound.modal_bank.ring_modes` between injections,
 :func:`~synth.sound.modal_bank.inject_amplitudes` at each impact that falls in the block),
-so a sequence of impacts played block by block is the offline render of the same impacts,
+so a voice's impacts played block by block are the offline render of the same impacts,
 up to the rounding of the state's advance (the segments end at block boundaries instead
-of the bank's tiles).
+of the bank's tiles), times the voice's gain (ramped over a block) and fades.
 
 Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
 into mode amplitudes first, at the start of the block, by the renderer's transform
@@ -18,6 +22,8 @@ contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
 """
 
 from __future__ import annotations
+
+import math
 
 import numba
 
@@ -43,33 +49,122 @@ N_PULSE_FIELDS = 7
 
 #: Per-body counters (int64 array): impacts played, impacts that arrived after their
 #: start (played at the start of the block they were found in), blocks in which the body
-#: rang, 1 while the body has ringing modes or pending impacts, 1 while a ``stop_all``
-#: waits for the audio thread, the most pulses one block has transformed.
+#: rang, 1 while the body has ringing voices, pending impacts or a stolen voice's fade,
+#: 1 while a ``stop_all`` waits for the audio thread, the most pulses one block has
+#: transformed, voices stolen, impacts dropped (their voice stopped or stolen before
+#: they played), the sample after the last one of the stolen voices' fades (see
+#: :func:`_steal`); then two settings: the body's ears (listeners heard as one body,
+#: written into its voice-ended events) and the steal fade's length (samples).
 PLAYED = 0
 LATE = 1
 BUSY_BLOCKS = 2
 AWAKE = 3
 SILENCE = 4
 MOST_PULSES = 5
-N_COUNTERS = 6
+STOLEN = 6
+DROPPED = 7
+TAIL_END = 8
+EARS = 9
+STEAL_FRAMES = 10
+N_COUNTERS = 11
+
+#: A voice record (int64 columns of a body's ``voices``: one per handle, see
+#: :mod:`synth.live.queue`): its id, its state (V_FREE, V_LIVE; the producers' own
+#: WRITING = 2), the impacts its producer hands over, those played or dropped so far (the
+#: audio thread's), the stop fade asked by :meth:`synth.live.Voice.stop` (samples, -1
+#: none; the producer's), 1 once stolen (the audio thread's), and the voice slot whose
+#: modal state it rings (-1 none; the audio thread's).
+V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT = range(7)
+N_VOICE_FIELDS = 7
+V_FREE = 0
+V_LIVE = 1
+
+#: A voice slot (int64 columns of a body's ``slots``: one modal state each): the voice
+#: record it rings (-1: free), the sample where it was taken (the oldest is stolen first),
+#: where its stop fade starts (-1 none) and its length (samples), the sample its state
+#: stands at within the block being mixed, and the length of its steal fade (samples, 0
+#: unless it is being stolen; the fade starts at its SL_POS, see :func:`_steal`).
+SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL = range(6)
+N_SLOT_FIELDS = 6
+#: A voice slot's gain (float64 columns of ``slot_gain``): at the start of the block and
+#: the target read from its record at that start (ramped linearly over the block).
+G_NOW, G_NEXT = range(2)
+
+#: A voice-ended event (int64, in the engine's event ring): ``id * EVENT_EARS + ears``.
+EVENT_EARS = 128
 
 #: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
 #: scale); above it a tanh knee approaches full scale (see :func:`synth.live.native.soft_clip`).
 KNEE = 10.0 ** (-1.0 / 20.0)
 
 
+#: The engine's event ring (int64): events written (the audio thread's), events read (the
+#: reader's), events lost to a full ring (the audio thread's), then the ring.
+E_WRITTEN, E_READ, E_LOST = range(3)
+N_EVENT_HEADER = 3
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _voice_ended(records, r, events, ears):
+    """Free voice record ``r`` and post its id to the engine's event ring: a lock-free ring
+    with one writer (the thread that mixes: the audio thread, or the caller of
+    :meth:`synth.live.Engine.process`) and one reader (:meth:`synth.live.Engine.ended`);
+    an event that finds the ring full is counted lost."""
+    vid = records[r, V_ID]
+    fence()  # done with the record before a producer may take it
+    records[r, V_STATE] = V_FREE
+    cap = events.shape[0] - N_EVENT_HEADER
+    written = events[E_WRITTEN]
+    if written - events[E_READ] >= cap:
+        events[E_LOST] += 1
+        return
+    events[N_EVENT_HEADER + written % cap] = vid * EVENT_EARS + ears
+    fence()  # the event before its count
+    events[E_WRITTEN] = written + 1
+
+
 @numba.njit(cache=True, nogil=True)
-def _contact_samples(out, t0, n, state, first, length, response):
-    """Add the in-contact samples of every pending impact that fall in ``[t0, t0 + n)``."""
+def _settle(records, r, events, ears):
+    """End voice ``r`` if it rings in no slot and has nothing left to play."""
+    if records[r, V_SLOT] < 0 and records[r, V_PLAYED] == records[r, V_PUT]:
+        _voice_ended(records, r, events, ears)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _stopped(records, r):
+    return records[r, V_STOP] >= 0 or records[r, V_DEAD] != 0
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _drop(state, i, records, r, counters):
+    """Drop pending impact ``i`` of voice ``r`` (stopped or stolen before it played)."""
+    fence()  # done reading the slot before a producer may take it
+    state[i] = FREE
+    records[r, V_PLAYED] += 1
+    counters[DROPPED] += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _contact_samples(out, t0, n, ring, voice_form, counters, events):
+    """Drop every pending impact of a stopped or stolen voice; add the in-contact samples
+    of the others that fall in ``[t0, t0 + n)``, at their voice's gain."""
+    state, first, length, response, voice = ring[0], ring[2], ring[3], ring[5], ring[7]
+    records, vgain = voice_form[0], voice_form[1]
     end = t0 + n
     for i in range(state.shape[0]):
         if state[i] != READY:
             continue
         fence()  # the slot's data after its state word
+        r = voice[i]
+        if _stopped(records, r):
+            _drop(state, i, records, r, counters)
+            _settle(records, r, events, counters[EARS])
+            continue
+        g = vgain[r]
         lo = max(first[i], t0)
         hi = min(first[i] + length[i], end)
         for s in range(lo, hi):
-            out[s - t0] += response[i, s - first[i]]
+            out[s - t0] += g * response[i, s - first[i]]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -87,15 +182,14 @@ def _next_due(state, inject, end):
 
 
 @numba.njit(cache=True, nogil=True)
-def _transform_pulses(
-    state, length, amplitudes, response, reference, transform, pulse_form, transformed
-):
+def _transform_pulses(ring, transform, pulse_form, transformed):
     """Turn every slot in the PULSE form into the READY form: the renderer's transform of
     its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
     decay rate in 1/s, the sample period in s and the audio thread's own workspace of
     :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
     accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
     the producer's scaling would make it. Returns the number of pulses transformed."""
+    state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work = transform
     coefficients, samples, points, pulse = pulse_form
     count = 0
@@ -129,49 +223,235 @@ def _transform_pulses(
 
 
 @numba.njit(cache=True, nogil=True)
-def mix_body(
-    out,
-    t0,
-    n,
-    table,
-    poles,
-    fs,
-    zr,
-    zi,
-    active,
-    debt,
-    debt_at,
-    thresholds,
-    thr2,
-    level,
-    floor,
-    state,
-    inject,
-    first,
-    length,
-    amplitudes,
-    response,
-    reference,
-    counters,
-    transform,
-    pulse_form,
-    transformed,
-):
-    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock).
+def _ring_slot(vs, offset, a, b, s, bank, modal):
+    """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
+    (cleared first): the bank's own step (:func:`~synth.sound.modal_bank.ring_modes`)."""
+    table, poles, fs = bank
+    zr, zi, active, debt, debt_at, thresholds, thr2 = modal[:7]
+    for j in range(a - offset, b - offset):
+        vs[j] = 0.0
+    ring_modes(
+        vs, offset, a, b, table, zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s],
+        thr2[s], poles, fs,
+    )  # fmt: skip
 
-    The bank's state (``table`` .. ``thr2``, see :func:`~synth.sound.modal_bank.ring_modes`);
-    level[0]: the body's reference amplitude, the largest ``reference`` (sum of ``|amps|``)
-    of the impacts played so far; floor: the omission floor, a fraction of it, shared by
-    the ``K`` modes (each mode's threshold is ``floor * level / K``, as offline). The
-    pending ring: ``state`` (FREE/READY/PULSE), ``inject`` (sample of the amplitudes),
-    ``first``/``length``/``response`` (in-contact samples), ``amplitudes`` (R, K),
-    ``reference`` (R,); the PULSE form (``transform``, ``pulse_form``, ``transformed``:
-    see :func:`_transform_pulses`). A body with no ringing mode and nothing pending
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _fade(x, at, frames):
+    """A raised-cosine fade from 1 at sample ``at`` to 0 at ``at + frames`` (1 before, 0
+    after): continuous, with zero slope at both ends, so it never clicks."""
+    p = x - at
+    if p <= 0:
+        return 1.0
+    if p >= frames:
+        return 0.0
+    return 0.5 * (1.0 + math.cos(math.pi * p / frames))
+
+
+@numba.njit(cache=True, nogil=True)
+def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
+    """Add ``vs[a - offset : b - offset]`` (samples ``a .. b - 1`` of a voice slot) into the
+    body's ``out`` (samples ``t0 .. t0 + n - 1``; later ones into the ring buffer ``tail``)
+    at the slot's gain (ramped linearly over the block), its stop fade and its steal fade
+    if it is being stolen."""
+    g0 = gains[G_NOW]
+    g1 = gains[G_NEXT]
+    fade_at = slot[SL_FADE_AT]
+    steal_at = slot[SL_POS]
+    steal_frames = slot[SL_STEAL]
+    plain = g0 == g1 and fade_at < 0 and steal_frames == 0
+    L = tail.shape[0]
+    for x in range(a, b):
+        v = vs[x - offset]
+        if plain:
+            v *= g1
+        else:
+            u = min(1.0, (x - t0 + 1) / n)
+            v *= g0 + (g1 - g0) * u
+            if fade_at >= 0:
+                v *= _fade(x, fade_at, slot[SL_FADE_LEN])
+            if steal_frames > 0:
+                v *= _fade(x, steal_at, steal_frames)
+        if x < t0 + n:
+            out[x - t0] += v
+        else:
+            tail[x % L] += v
+
+
+@numba.njit(cache=True, nogil=True)
+def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
+    """Ring voice slot ``s`` from where it stands to sample ``b`` into ``out``."""
+    slots, slot_gain, tail = voice_form[2], voice_form[3], voice_form[4]
+    a = slots[s, SL_POS]
+    if b > a:
+        _ring_slot(vs, t0, a, b, s, bank, modal)
+        _add_slot(out, t0, n, vs, t0, a, b, slots[s], slot_gain[s], tail)
+        slots[s, SL_POS] = b
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
+    """Free the oldest voice slot at sample ``at`` (all taken): its voice rings on through
+    a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into ``out`` and the
+    body's ``tail`` ring buffer (mixed in by the next blocks), and is ended (its pending
+    impacts are dropped). The oldest, not the quietest: a free decay makes the oldest of
+    like impacts the quietest, and a voice's age is the same at every ear of a body, where
+    its level is not. Returns the slot."""
+    records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
+    s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
+    for j in range(1, slots.shape[0]):
+        if slots[j, SL_START] < slots[s, SL_START] or (
+            slots[j, SL_START] == slots[s, SL_START]
+            and records[slots[j, SL_OWNER], V_ID] < records[slots[s, SL_OWNER], V_ID]
+        ):
+            s = j
+    _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
+    F = counters[STEAL_FRAMES]
+    _ring_slot(vs, at, at, at + F, s, bank, modal)
+    slots[s, SL_STEAL] = F  # from SL_POS = at
+    _add_slot(out, t0, n, vs, at, at, at + F, slots[s], voice_form[3][s], tail)
+    counters[TAIL_END] = max(counters[TAIL_END], at + F)
+    q = slots[s, SL_OWNER]
+    records[q, V_DEAD] = 1
+    records[q, V_SLOT] = -1
+    slots[s, SL_OWNER] = -1
+    counters[STOLEN] += 1
+    _settle(records, q, events, counters[EARS])
+    return s
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
+    """A voice slot for voice ``r``, whose first impact joins at sample ``at``: a free one,
+    else the oldest one stolen (:func:`_steal`); its modal state silent."""
+    records, vgain, slots, slot_gain = voice_form[:4]
+    s = -1
+    for j in range(slots.shape[0]):
+        if slots[j, SL_OWNER] < 0:
+            s = j
+            break
+    if s < 0:
+        s = _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events)
+    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal
+    for k in range(zr.shape[1]):
+        zr[s, k] = 0.0
+        zi[s, k] = 0.0
+        active[s, k] = False
+        debt[s, k] = 0.0
+        thresholds[s, k] = 0.0
+        thr2[s, k] = 0.0
+    level[s] = 0.0
+    slots[s, SL_OWNER] = r
+    slots[s, SL_START] = at
+    slots[s, SL_FADE_AT] = -1
+    slots[s, SL_FADE_LEN] = 0
+    slots[s, SL_POS] = at
+    slots[s, SL_STEAL] = 0
+    slot_gain[s, G_NOW] = slot_gain[s, G_NEXT] = vgain[r]
+    records[r, V_SLOT] = s
+    return s
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _inject(s, i, at, ring, bank, modal, floor):
+    """Add pending impact ``i``'s amplitudes to voice slot ``s`` at sample ``at``; the
+    voice's peak (the largest sum of ``|amplitudes|`` of its impacts) sets its modes'
+    omission thresholds: ``floor * peak / K`` each, as the offline bank's."""
+    amplitudes, reference = ring[4], ring[6]
+    table, poles, fs = bank
+    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal
+    K = zr.shape[1]
+    if reference[i] > level[s]:
+        level[s] = reference[i]
+        share = floor * level[s] / max(K, 1)
+        for k in range(K):
+            thresholds[s, k] = share
+            thr2[s, k] = share * share
+    inject_amplitudes(
+        zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i], at
+    )
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _begin_voices(t0, voice_form):
+    """At a block's start: each ringing slot takes its voice's gain as the block's target
+    and starts the stop fade its voice asked for."""
+    records, vgain, slots, slot_gain = voice_form[:4]
+    for s in range(slots.shape[0]):
+        r = slots[s, SL_OWNER]
+        if r < 0:
+            continue
+        slots[s, SL_POS] = t0
+        slot_gain[s, G_NEXT] = vgain[r]
+        stop = records[r, V_STOP]
+        if stop >= 0 and slots[s, SL_FADE_AT] < 0:
+            slots[s, SL_FADE_AT] = t0
+            slots[s, SL_FADE_LEN] = max(stop, 1)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
+    """At a block's end: ring every slot to it, free the slots whose modes all stopped
+    (the voice's level fell below the floor relative to its peak) or whose stop fade
+    ended, and end their voices if nothing of them is pending. Returns the slots still
+    ringing."""
+    records, slots, slot_gain = voice_form[0], voice_form[2], voice_form[3]
+    active = modal[2]
+    end = t0 + n
+    ringing = 0
+    for s in range(slots.shape[0]):
+        r = slots[s, SL_OWNER]
+        if r < 0:
+            continue
+        _advance(out, t0, n, vs, s, end, bank, modal, voice_form)
+        slot_gain[s, G_NOW] = slot_gain[s, G_NEXT]
+        done = slots[s, SL_FADE_AT] >= 0 and end >= slots[s, SL_FADE_AT] + slots[s, SL_FADE_LEN]
+        if not done:
+            done = True
+            for k in range(active.shape[1]):
+                if active[s, k]:
+                    done = False
+                    break
+        if done:
+            slots[s, SL_OWNER] = -1
+            records[r, V_SLOT] = -1
+            _settle(records, r, events, counters[EARS])
+        else:
+            ringing += 1
+    return ringing
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _take_tail(out, t0, n, tail, counters):
+    """Add the stolen voices' fades that fall in ``[t0, t0 + n)`` (and clear them)."""
+    L = tail.shape[0]
+    for x in range(t0, min(t0 + n, counters[TAIL_END])):
+        out[x - t0] += tail[x % L]
+        tail[x % L] = 0.0
+
+
+@numba.njit(cache=True, nogil=True)
+def mix_body(
+    out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
+    voice_form, events,
+):  # fmt: skip
+    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock),
+    voice by voice (``vs``: a scratch of at least ``n`` and the steal fade's samples).
+
+    bank: the power table, poles and sample rate; modal: the voice slots' modal states,
+    (V, K) each (see :func:`~synth.sound.modal_bank.ring_modes`), and their peaks (V,);
+    floor: the omission floor, a fraction of a voice's peak. ring: the pending ring
+    (``state``, ``inject``, ``first``, ``length``, ``amplitudes``, ``response``,
+    ``reference``, ``voice``; see :mod:`synth.live.queue`); the PULSE form (``transform``,
+    ``pulse_form``, ``transformed``: see :func:`_transform_pulses`). voice_form: the voice
+    records and their gains, the slots and their gains, the stolen voices' ``tail``;
+    events: the engine's event ring. A pending impact whose voice has no slot takes one
+    when it joins (:func:`_take_slot`). A body with no ringing voice and nothing pending
     returns at once.
     """
-    pulses = _transform_pulses(
-        state, length, amplitudes, response, reference, transform, pulse_form, transformed
-    )
+    state, inject = ring[0], ring[1]
+    records = voice_form[0]
+    pulses = _transform_pulses(ring, transform, pulse_form, transformed)
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
@@ -179,80 +459,91 @@ def mix_body(
     if counters[AWAKE] == 0 and due < 0:
         return
     counters[AWAKE] = 1
+    if counters[TAIL_END] > t0:
+        _take_tail(out, t0, n, voice_form[4], counters)
     if due >= 0:
-        _contact_samples(out, t0, n, state, first, length, response)
-    K = zr.shape[0]
-    a = t0
+        _contact_samples(out, t0, n, ring, voice_form, counters, events)
+    _begin_voices(t0, voice_form)
     while True:
         i = _next_due(state, inject, end)
         if i < 0:
-            ring_modes(
-                out, t0, a, end, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
-            )
             break
         at = inject[i]
         if at < t0:
             counters[LATE] += 1
             at = t0
-        if at > a:
-            ring_modes(
-                out, t0, a, at, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
-            )
-            a = at
-        if reference[i] > level[0]:
-            level[0] = reference[i]
-            share = floor * level[0] / max(K, 1)
-            for k in range(K):
-                thresholds[k] = share
-                thr2[k] = share * share
-        inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amplitudes[i], a)
+        r = ring[7][i]
+        if _stopped(records, r):
+            _drop(state, i, records, r, counters)
+            _settle(records, r, events, counters[EARS])
+            continue
+        s = records[r, V_SLOT]
+        if s < 0:
+            s = _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
+        else:
+            _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
+        _inject(s, i, at, ring, bank, modal, floor)
         fence()  # done reading the slot before a producer may take it
         state[i] = FREE
+        records[r, V_PLAYED] += 1
         counters[PLAYED] += 1
+    ringing = _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events)
     counters[BUSY_BLOCKS] += 1
-    awake = 0
-    for k in range(K):
-        if active[k]:
-            awake = 1
-            break
+    awake = 1 if ringing > 0 or counters[TAIL_END] > end else 0
     if awake == 0:
         for i in range(state.shape[0]):
-            if state[i] == READY:
+            if state[i] == READY or state[i] == PULSE:
                 awake = 1
                 break
     counters[AWAKE] = awake
 
 
 @numba.njit(cache=True, nogil=True)
-def silence(zr, zi, active, debt, state, transformed):
-    """Stop every mode and drop every pending impact of a body (its level is kept); a slot
+def silence(modal, ring, transformed, voice_form, counters, events):
+    """Stop every voice and drop every pending impact of a body (their voices end); a slot
     that a producer is still filling stays its own. A dropped pulse counts as taken
     (``transformed``), so that the ring's bound on waiting pulses stays exact."""
-    for k in range(zr.shape[0]):
-        zr[k] = 0.0
-        zi[k] = 0.0
-        active[k] = False
-        debt[k] = 0.0
+    state, voice = ring[0], ring[7]
+    records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
+    ears = counters[EARS]
+    for s in range(slots.shape[0]):
+        r = slots[s, SL_OWNER]
+        if r >= 0:
+            slots[s, SL_OWNER] = -1
+            records[r, V_SLOT] = -1
+            records[r, V_DEAD] = 1
     for i in range(state.shape[0]):
-        if state[i] == PULSE:
-            transformed[0] += 1
-            state[i] = FREE
-        elif state[i] == READY:
-            state[i] = FREE
+        if state[i] == PULSE or state[i] == READY:
+            if state[i] == PULSE:
+                transformed[0] += 1
+            fence()
+            r = voice[i]
+            records[r, V_DEAD] = 1
+            _drop(state, i, records, r, counters)
+    for r in range(records.shape[0]):
+        if records[r, V_STATE] == V_LIVE and records[r, V_DEAD] != 0:
+            _settle(records, r, events, ears)
+    for j in range(tail.shape[0]):
+        tail[j] = 0.0
+    counters[TAIL_END] = 0
+    counters[AWAKE] = 0
+    counters[SILENCE] = 0
 
 
-def body_state(modes: int) -> tuple:
-    """A silent modal state of ``modes`` modes: amplitudes (re, im), ringing flags, omission
-    debts, the sample of each debt, thresholds and their squares."""
+def body_state(modes: int, voices: int) -> tuple:
+    """The silent modal states of ``voices`` voice slots of ``modes`` modes, (voices, modes)
+    each: amplitudes (re, im), ringing flags, omission debts, the sample of each debt,
+    thresholds and their squares; then each slot's peak (voices,)."""
     import numpy as np
 
-    K = modes
+    shape = (voices, modes)
     return (
-        np.zeros(K),
-        np.zeros(K),
-        np.zeros(K, dtype=np.bool_),
-        np.zeros(K),
-        np.zeros(K, dtype=np.int64),
-        np.zeros(K),
-        np.zeros(K),
+        np.zeros(shape),
+        np.zeros(shape),
+        np.zeros(shape, dtype=np.bool_),
+        np.zeros(shape),
+        np.zeros(shape, dtype=np.int64),
+        np.zeros(shape),
+        np.zeros(shape),
+        np.zeros(voices),
     )

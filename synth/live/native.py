@@ -7,9 +7,11 @@ through their addresses, so that its callback touches no Python object:
   number of bodies, the callback's counters) and the addresses of the other arrays;
 * ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
   when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
-  master bus' gain and meter;
+  master bus' gain, pause level and meter;
 * a directory of body records (int64, one address per body; a record holds the addresses
-  and sizes of the body's modal state, pending ring and counters, see :data:`BODY_FIELDS`).
+  and sizes of the body's voice slots' modal states, pending ring, voice records and
+  counters, see :data:`BODY_FIELDS`; :func:`_body_form` makes the views the kernel takes);
+* the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
 
 :func:`stream_callback` is a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
 signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
@@ -65,11 +67,14 @@ from synth.live.atomics import fence as _fence
     DIRECTORY,  # address of the body directory
     MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
     # bus, then each channel's own)
-    SCRATCH,  # address of one body's mix (float64, MIX_CAP)
+    SCRATCH,  # address of one body's mix and one voice's (float64, 2 x MIX_CAP)
     RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
     CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
+    EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
+    N_EVENTS,  # its length (header included)
+    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
     N_CTL,
-) = range(22)
+) = range(25)
 
 #: ``times`` fields (float64).
 (
@@ -89,8 +94,9 @@ from synth.live.atomics import fence as _fence
     OUT_PEAK,  # largest |sample| sent to the device since the last reset
     LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
     GAP_MAX,  # longest time between two callbacks' entries, in blocks
+    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
     N_TIMES,
-) = range(17)
+) = range(18)
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -98,14 +104,18 @@ BODY_FIELDS = (
     "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
     "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
     "samples", "points", "pulse", "transformed", "scalars",
+    "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
     "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
+    "n_records", "n_voice_slots", "tail_frames",
 )  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
     B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
     B_COUNTERS, B_POLE_RE, B_POLE_IM, B_STEP_RE, B_STEP_IM, B_WORK, B_COEFFICIENTS,
     B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
+    B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
+    B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
 ) = range(len(BODY_FIELDS))  # fmt: skip
 N_BODY = len(BODY_FIELDS)
 
@@ -178,38 +188,85 @@ def _i64(address, n):
 
 
 @numba.njit(cache=True, nogil=True)
-def _mix_one_body(record, scratch, mix, t0, n):
-    """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
-    (ramped linearly over the block from its value at the last block to its target);
-    applies a pending ``stop_all`` first."""
+def _body_form(record):
+    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
+    takes them: the bank (power table, poles, sample rate), the voice slots' modal states,
+    the pending ring, the PULSE form's transform and pulses, the voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
     P = record[B_PULSE_SAMPLES]
-    table = numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64)
-    poles = numba.carray(_pointer(record[B_POLES]), K, np.complex128)
-    zr = _f64(record[B_ZR], K)
-    zi = _f64(record[B_ZI], K)
-    active = numba.carray(_pointer(record[B_ACTIVE]), K, np.bool_)
-    debt = _f64(record[B_DEBT], K)
-    debt_at = _i64(record[B_DEBT_AT], K)
-    thresholds = _f64(record[B_THRESHOLDS], K)
-    thr2 = _f64(record[B_THR2], K)
-    level = _f64(record[B_LEVEL], 1)
-    state = _i64(record[B_STATE], R)
-    inject = _i64(record[B_INJECT], R)
-    first = _i64(record[B_FIRST], R)
-    length = _i64(record[B_LENGTH], R)
-    amplitudes = numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128)
-    response = numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64)
-    reference = _f64(record[B_REFERENCE], R)
+    V = record[B_VOICE_SLOT_COUNT]
+    scalars = _f64(record[B_SCALARS], N_SCALARS)
+    bank = (
+        numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
+        numba.carray(_pointer(record[B_POLES]), K, np.complex128),
+        scalars[S_FS],
+    )
+    modal = (
+        numba.carray(_pointer(record[B_ZR]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_ZI]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_ACTIVE]), (V, K), np.bool_),
+        numba.carray(_pointer(record[B_DEBT]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_DEBT_AT]), (V, K), np.int64),
+        numba.carray(_pointer(record[B_THRESHOLDS]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_THR2]), (V, K), np.float64),
+        _f64(record[B_LEVEL], V),
+    )
+    ring = (
+        _i64(record[B_STATE], R),
+        _i64(record[B_INJECT], R),
+        _i64(record[B_FIRST], R),
+        _i64(record[B_LENGTH], R),
+        numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128),
+        numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64),
+        _f64(record[B_REFERENCE], R),
+        _i64(record[B_VOICE], R),
+    )
+    transform = (
+        _f64(record[B_POLE_RE], K),
+        _f64(record[B_POLE_IM], K),
+        _f64(record[B_STEP_RE], K),
+        _f64(record[B_STEP_IM], K),
+        scalars[S_SIGMA_MAX],
+        scalars[S_PERIOD],
+        numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
+    )
+    pulse_form = (
+        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
+        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
+        _i64(record[B_POINTS], R),
+        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
+    )
+    N = record[B_RECORDS]
+    voice_form = (
+        numba.carray(_pointer(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
+        _f64(record[B_VOICE_GAIN], N),
+        numba.carray(_pointer(record[B_VOICE_SLOTS]), (V, kernel.N_SLOT_FIELDS), np.int64),
+        numba.carray(_pointer(record[B_SLOT_GAIN]), (V, 2), np.float64),
+        _f64(record[B_TAIL], record[B_TAIL_FRAMES]),
+    )
+    return bank, modal, ring, transform, pulse_form, voice_form
+
+
+@numba.njit(cache=True, nogil=True)
+def _events(ctl):
+    return _i64(ctl[EVENTS], ctl[N_EVENTS])
+
+
+@numba.njit(cache=True, nogil=True)
+def _mix_one_body(ctl, record, scratch, mix, t0, n):
+    """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
+    (ramped linearly over the block from its value at the last block to its target);
+    applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's."""
     counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
     transformed = _i64(record[B_TRANSFORMED], 1)
     scalars = _f64(record[B_SCALARS], N_SCALARS)
+    R = record[B_SLOTS]
+    state = _i64(record[B_STATE], R)
     if counters[kernel.SILENCE] != 0:
-        kernel.silence(zr, zi, active, debt, state, transformed)
-        counters[kernel.AWAKE] = 0
-        counters[kernel.SILENCE] = 0
+        bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
+        kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
     g0 = scalars[S_GAIN_NOW]
     g1 = scalars[S_GAIN]
     busy = counters[kernel.BUSY_BLOCKS]
@@ -223,37 +280,22 @@ def _mix_one_body(record, scratch, mix, t0, n):
         if not waiting:
             scalars[S_GAIN_NOW] = g1
             return
-    work = numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64)
-    transform = (
-        _f64(record[B_POLE_RE], K),
-        _f64(record[B_POLE_IM], K),
-        _f64(record[B_STEP_RE], K),
-        _f64(record[B_STEP_IM], K),
-        scalars[S_SIGMA_MAX],
-        scalars[S_PERIOD],
-        work,
-    )
-    pulse_form = (
-        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
-        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
-        _i64(record[B_POINTS], R),
-        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
-    )
+    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
+    out = scratch[0]
     for s in range(n):
-        scratch[s] = 0.0
+        out[s] = 0.0
     kernel.mix_body(
-        scratch, t0, n, table, poles, scalars[S_FS], zr, zi, active, debt, debt_at,
-        thresholds, thr2, level, scalars[S_FLOOR], state, inject, first, length, amplitudes,
-        response, reference, counters, transform, pulse_form, transformed,
+        out, scratch[1], t0, n, bank, modal, scalars[S_FLOOR], ring, counters, transform,
+        pulse_form, transformed, voice_form, _events(ctl),
     )  # fmt: skip
     if counters[kernel.BUSY_BLOCKS] != busy:
         if g0 == g1:
             for s in range(n):
-                mix[s] += g1 * scratch[s]
+                mix[s] += g1 * out[s]
         else:
             step = (g1 - g0) / n
             for s in range(n):
-                mix[s] += (g0 + step * (s + 1)) * scratch[s]
+                mix[s] += (g0 + step * (s + 1)) * out[s]
     scalars[S_GAIN_NOW] = g1
 
 
@@ -273,13 +315,16 @@ def soft_clip(v):
 
 @numba.njit(cache=True, nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
-    """The master bus over ``n`` frames: the stop fade, the master gain (ramped over the
-    block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
+    """The master bus over ``n`` frames: the pause and stop fades, the master gain (ramped
+    over the block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
     (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
     the recording."""
     channels = out.shape[1]
     pos = ctl[FADE_AT]
     length = ctl[FADE_LENGTH]
+    level = times[PAUSE_LEVEL]
+    target = 0.0 if ctl[PAUSE] != 0 else 1.0
+    level_step = 1.0 / length
     if pos == 0:
         ctl[FADE_FRAME] = ctl[FRAME]
     g0 = times[MASTER_NOW]
@@ -291,6 +336,10 @@ def _write_block(ctl, times, mix, out, row, n):
     clip = ctl[CLIP] != 0
     for s in range(n):
         g = g0 + step * (s + 1)
+        if level != target:
+            level = min(level + level_step, 1.0) if target > level else max(level - level_step, 0.0)
+        if level < 1.0:
+            g *= 0.5 * (1.0 - math.cos(math.pi * level))
         if pos >= 0:
             if pos < length:
                 g *= 0.5 * (1.0 + math.cos(math.pi * pos / length))
@@ -315,6 +364,7 @@ def _write_block(ctl, times, mix, out, row, n):
                 out_peak = a
             out[row + s, c] = w
     ctl[FADE_AT] = pos
+    times[PAUSE_LEVEL] = level
     times[MASTER_NOW] = g1
     times[PEAK] = peak
     times[OUT_PEAK] = out_peak
@@ -334,22 +384,28 @@ def _write_block(ctl, times, mix, out, row, n):
 def mix_engine(ctl, out):
     """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
     float32, in pieces of at most ``MIX_CAP`` frames: the one mixing code of the stream's
-    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`."""
+    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`.
+    Paused (its fade done), it writes silence and holds the clock and every voice."""
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
     times = _f64(ctl[TIMES], N_TIMES)
     mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
-    scratch = _f64(ctl[SCRATCH], cap)
+    scratch = numba.carray(_pointer(ctl[SCRATCH]), (2, cap), np.float64)
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
     done = 0
     while done < frames:
+        if ctl[PAUSE] != 0 and times[PAUSE_LEVEL] <= 0.0:
+            for s in range(done, frames):
+                for c in range(out.shape[1]):
+                    out[s, c] = 0.0
+            return
         n = min(cap, frames - done)
         t0 = ctl[FRAME]
         bodies = ctl[N_BODIES]
         _fence()  # the records of the bodies counted are complete
         for b in range(bodies):
             record = _i64(directory[b], N_BODY)
-            _mix_one_body(record, scratch, mix[record[B_CHANNEL] + 1], t0, n)
+            _mix_one_body(ctl, record, scratch, mix[record[B_CHANNEL] + 1], t0, n)
         _write_block(ctl, times, mix, out, done, n)
         ctl[FRAME] = t0 + n
         done += n
@@ -427,42 +483,25 @@ def stream_callback(input, output, frames, time_info, flags, userdata):
 def transform_pending(record):
     """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
     a stream starts: hits queued without a stream are not bounded per block)."""
-    K = record[B_MODES]
-    R = record[B_SLOTS]
-    C = record[B_CONTACT]
-    P = record[B_PULSE_SAMPLES]
-    scalars = _f64(record[B_SCALARS], N_SCALARS)
-    transform = (
-        _f64(record[B_POLE_RE], K),
-        _f64(record[B_POLE_IM], K),
-        _f64(record[B_STEP_RE], K),
-        _f64(record[B_STEP_IM], K),
-        scalars[S_SIGMA_MAX],
-        scalars[S_PERIOD],
-        numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
-    )
-    pulse_form = (
-        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
-        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
-        _i64(record[B_POINTS], R),
-        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
-    )
-    kernel._transform_pulses(
-        _i64(record[B_STATE], R),
-        _i64(record[B_LENGTH], R),
-        numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128),
-        numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64),
-        _f64(record[B_REFERENCE], R),
-        transform,
-        pulse_form,
-        _i64(record[B_TRANSFORMED], 1),
-    )
+    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
+    kernel._transform_pulses(ring, transform, pulse_form, _i64(record[B_TRANSFORMED], 1))
+
+
+@numba.njit(cache=True, nogil=True)
+def silence_body(ctl, record):
+    """Stop every voice of a body and drop its pending impacts now, on the calling thread
+    (no stream runs; see :func:`synth.live.kernel.silence`)."""
+    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
+    counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
+    transformed = _i64(record[B_TRANSFORMED], 1)
+    kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
 
 
 class EngineState:
     """The arrays the audio thread works on (see the module's docstring), allocated once:
     ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
-    ``mix_frames`` frames, a recording of ``record_frames`` frames."""
+    ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
+    voice-ended events."""
 
     def __init__(
         self,
@@ -474,12 +513,15 @@ class EngineState:
         record_frames: int,
         fade_frames: int,
         clip: bool,
+        events: int = 4096,
     ):
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
         self.directory = np.zeros(max_bodies, dtype=np.int64)
         self.mix = np.zeros((channels + 1, mix_frames))
-        self.scratch = np.zeros(mix_frames)
+        self.scratch = np.zeros((2, mix_frames))
+        # the voice-ended events: the kernel's header, then a ring of ``events``
+        self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
         self.records: list = []  # the bodies' records and arrays, kept alive here
         c, t = self.ctl, self.times
@@ -496,8 +538,11 @@ class EngineState:
         c[SCRATCH] = self.scratch.ctypes.data
         c[RECORD] = self.recording.ctypes.data
         c[CLIP] = int(bool(clip))
+        c[EVENTS] = self.events.ctypes.data
+        c[N_EVENTS] = self.events.shape[0]
         t[SAMPLERATE] = samplerate
         t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
+        t[PAUSE_LEVEL] = 1.0
 
     @property
     def address(self) -> int:
@@ -544,8 +589,9 @@ def warm_up() -> None:
 
     fs = 48000
     poles = np.array([-10.0 + 1000.0j])
-    ring = PendingRing(1, 1, 2, 7, 1)
-    slot = ring.reserve(pulse=True)
+    ring = PendingRing(1, 1, 2, 7, 1, voices=2)
+    voice = ring.open_voice(1, 1)
+    slot = ring.reserve(pulse=True, voice=voice)
     ring.pulse[slot, kernel.GAIN] = 1.0
     ring.pulse[slot, kernel.STEP] = 1e-5
     ring.pulse[slot, kernel.CONTACT_TIME] = 4e-5
@@ -556,30 +602,51 @@ def warm_up() -> None:
         fade_frames=4, clip=True,
     )  # fmt: skip
     c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
-    arrays = body_arrays(c, power_table(poles, float(fs)), kernel.body_state(1), ring, 1e-4, 1.0)
+    table = power_table(poles, float(fs))
+    arrays = body_arrays(c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4)
     record = state.add_body(arrays)
     transform_pending(record)
     out = np.zeros((8, 1), dtype=np.float32)
     run_block(state.ctl, out, 0, 0.0, 0.0, monotonic_ns())
     mix_engine(state.ctl, out)
+    silence_body(state.ctl, record)
     stream_callback.address  # noqa: B018 (compiles the cfunc, or loads it)
 
 
 def body_arrays(
-    coefficients, table, modal_state, ring, floor: float, gain: float, channel: int = -1
+    coefficients,
+    table,
+    modal_state,
+    ring,
+    floor: float,
+    gain: float,
+    channel: int = -1,
+    *,
+    steal_frames: int,
+    mix_frames: int = 4096,
+    ears: int = 1,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
-    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, modal
-    state (:func:`synth.live.kernel.body_state`), pending ``ring``
-    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain`` and output
-    ``channel`` (-1: every channel)."""
+    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, its
+    voice slots' modal states (:func:`synth.live.kernel.body_state`), pending ``ring`` with
+    its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
+    output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
+    most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
+    both) and the ``ears`` of the body it belongs to."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
     fs = float(c.samplerate)
     K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2 = modal_state
+    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal_state
+    V = zr.shape[0]
+    voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
+    voice_slots[:, kernel.SL_OWNER] = -1
+    counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
+    counters[kernel.EARS] = ears
+    counters[kernel.STEAL_FRAMES] = steal_frames
+    tail = np.zeros(mix_frames + steal_frames)
     scalars = np.zeros(N_SCALARS)
     scalars[S_FS] = fs
     scalars[S_FLOOR] = floor
@@ -591,14 +658,16 @@ def body_arrays(
         table=np.ascontiguousarray(table),
         poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
         zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
-        thr2=thr2, level=np.zeros(1), state=ring.state, inject=ring.inject, first=ring.first,
+        thr2=thr2, level=level, state=ring.state, inject=ring.inject, first=ring.first,
         length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
-        reference=ring.reference, counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
+        reference=ring.reference, counters=counters,
         pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
         step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
         work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
         pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
         modes=K, slots=ring.capacity, contact=ring.max_contact,
         pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
-        channel=channel,
+        channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
+        voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
+        n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
     )  # fmt: skip

@@ -20,6 +20,13 @@ WRITING, the consumer while READY or PULSE), and the state word is written after
 with a fence between them (:mod:`synth.live.atomics`; the audio thread fences between the
 state word it reads and the slot's data). When every slot is taken, or ``max_new`` pulses wait,
 the impact is refused and counted, never queued without bound.
+
+Each impact belongs to a voice (a hit, or a whole drop: what a :class:`synth.live.Voice`
+handle controls): a voice record (``voices``, see :data:`synth.live.kernel.V_ID`) that a
+producer opens under the same lock with the number of impacts it will hand over, and that
+the audio thread frees once the voice has ended. A record's gain and stop request are
+written by producers (under the lock, after checking the voice's id) and read by the audio
+thread at the start of each block.
 """
 
 from __future__ import annotations
@@ -29,7 +36,22 @@ import threading
 import numpy as np
 
 from synth.live.atomics import publish
-from synth.live.kernel import FREE, N_PULSE_FIELDS, PULSE, READY
+from synth.live.kernel import (
+    FREE,
+    N_PULSE_FIELDS,
+    N_VOICE_FIELDS,
+    PULSE,
+    READY,
+    V_DEAD,
+    V_FREE,
+    V_ID,
+    V_LIVE,
+    V_PLAYED,
+    V_PUT,
+    V_SLOT,
+    V_STATE,
+    V_STOP,
+)
 
 #: Slot state while a producer fills it (the audio thread plays READY slots only). The
 #: largest state, so that the first FREE slot is the first minimum of ``state``.
@@ -39,11 +61,22 @@ WRITING = 2
 class PendingRing:
     """``capacity`` slots of pending impacts for a body of ``modes`` modes, each with up to
     ``max_contact`` in-contact samples and up to ``pulse_samples`` samples of its pulse (the
-    grid, then the in-contact samples); at most ``max_new`` slots wait in the PULSE form."""
+    grid, then the in-contact samples); at most ``max_new`` slots wait in the PULSE form;
+    ``voices`` voice records."""
 
     def __init__(
-        self, capacity: int, modes: int, max_contact: int, pulse_samples: int, max_new: int
+        self,
+        capacity: int,
+        modes: int,
+        max_contact: int,
+        pulse_samples: int,
+        max_new: int,
+        voices: int = 1,
     ):
+        self.voice = np.zeros(capacity, dtype=np.int64)  # each slot's voice record
+        self.voices = np.zeros((voices, N_VOICE_FIELDS), dtype=np.int64)
+        self.voices[:, V_SLOT] = -1
+        self.voice_gain = np.ones(voices)
         self.state = np.zeros(capacity, dtype=np.int64)
         self.inject = np.zeros(capacity, dtype=np.int64)
         self.first = np.zeros(capacity, dtype=np.int64)
@@ -84,11 +117,58 @@ class PendingRing:
         """Impacts handed over and not yet played."""
         return int(np.count_nonzero((self.state == READY) | (self.state == PULSE)))
 
-    def reserve(self, pulse: bool = False, bounded: bool = True) -> int:
-        """A FREE slot, now marked WRITING for the caller to fill (see :meth:`publish` and
-        :meth:`publish_pulse`, which ``pulse`` announces); -1 (and counted in ``refused``)
-        when the ring is full or, for a pulse and if ``bounded``, ``max_new`` pulses wait
-        (the bound protects an audio thread's deadline; mixing without a device has none)."""
+    def open_voice(self, vid: int, impacts: int) -> int:
+        """A free voice record for voice ``vid`` (> 0) that will hand over ``impacts``
+        impacts, or -1 (the impacts counted in ``refused``) when every record is taken."""
+        with self._lock:
+            r = int(self.voices[:, V_STATE].argmin())
+            if self.voices[r, V_STATE] != V_FREE:
+                self.refused += impacts
+                return -1
+            v = self.voices[r]
+            v[V_ID] = vid
+            v[V_PUT] = impacts
+            v[V_PLAYED] = 0
+            v[V_STOP] = -1
+            v[V_DEAD] = 0
+            v[V_SLOT] = -1
+            self.voice_gain[r] = 1.0
+            v[V_STATE] = V_LIVE
+            return r
+
+    def close_voice(self, r: int, unsent: int) -> None:
+        """Take back ``unsent`` of the impacts voice record ``r`` announced (refused or
+        failed before they were handed over); a record with nothing handed over is freed."""
+        with self._lock:
+            v = self.voices[r]
+            v[V_PUT] -= unsent
+            if v[V_PUT] == 0:
+                v[V_STATE] = V_FREE
+            else:
+                v[V_STOP] = max(int(v[V_STOP]), 0)  # what was handed over is dropped
+
+    def voice_alive(self, r: int, vid: int) -> bool:
+        """Whether voice record ``r`` still holds voice ``vid`` (lock-free: the audio
+        thread frees a record by its state word; a record taken again has a new id)."""
+        return int(self.voices[r, V_STATE]) == V_LIVE and int(self.voices[r, V_ID]) == vid
+
+    def control_voice(self, r: int, vid: int, gain=None, stop=None) -> None:
+        """Set voice ``vid``'s gain target or ask for its stop fade (samples; the first
+        asked is kept), if record ``r`` still holds it."""
+        with self._lock:
+            if not self.voice_alive(r, vid):
+                return
+            if gain is not None:
+                self.voice_gain[r] = gain
+            if stop is not None and self.voices[r, V_STOP] < 0:
+                self.voices[r, V_STOP] = stop
+
+    def reserve(self, pulse: bool = False, bounded: bool = True, voice: int = 0) -> int:
+        """A FREE slot for an impact of voice record ``voice``, now marked WRITING for the
+        caller to fill (see :meth:`publish` and :meth:`publish_pulse`, which ``pulse``
+        announces); -1 (and counted in ``refused``) when the ring is full or, for a pulse
+        and if ``bounded``, ``max_new`` pulses wait (the bound protects an audio thread's
+        deadline; mixing without a device has none)."""
         with self._lock:
             i = self._next
             if self.state[i] != FREE:  # slots mostly free in the order they were taken
@@ -99,14 +179,16 @@ class PendingRing:
                 self.refused += 1
                 return -1
             self.state[i] = WRITING
+            self.voice[i] = voice
             self._next = i + 1 if i + 1 < self.state.shape[0] else 0
             if pulse:
                 self.pulses += 1
             return i
 
-    def reserve_many(self, n: int) -> list[int] | None:
-        """``n`` FREE slots at once, marked WRITING (each to be published), or None (and
-        ``n`` counted in ``refused``) when fewer are free: all or nothing."""
+    def reserve_many(self, n: int, voice: int = 0) -> list[int] | None:
+        """``n`` FREE slots at once for impacts of voice record ``voice``, marked WRITING
+        (each to be published), or None (and ``n`` counted in ``refused``) when fewer are
+        free: all or nothing."""
         with self._lock:
             free = np.flatnonzero(self.state == FREE)
             if free.size < n:
@@ -114,6 +196,7 @@ class PendingRing:
                 return None
             slots = [int(i) for i in free[:n]]
             self.state[slots] = WRITING
+            self.voice[slots] = voice
             return slots
 
     def publish(self, slot: int, inject: int, first: int, length: int, reference: float):

@@ -1,0 +1,542 @@
+"""A plate in a live engine (:class:`Body`): its voice slots, its ring of pending impacts,
+and the hit and the drop that fill them on the calling thread."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError, SynthError
+from synth.io.audio import PHYSICAL_FULL_SCALE
+from synth.live import kernel, native
+from synth.live.hits import (
+    HIT_RTOL,
+    MAX_GAIN,
+    MAX_SPEED,
+    Trigger,
+    check_height,
+    trigger,
+)
+from synth.live.queue import PendingRing
+from synth.live.voice import Voice, stop_records
+from synth.physics.bounces import simulate_bounces
+from synth.physics.contact import ContactSolver
+from synth.physics.scene import Ball, Contact, Microphone, Plate
+from synth.sound.modal_bank import (
+    bank_coefficients,
+    impact_excitation,
+    power_table,
+    pulse_layout,
+    samples_in_contact,
+)
+
+if TYPE_CHECKING:
+    from synth.live.engine import Engine
+
+#: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
+MAX_CONTACT = 0.02
+#: Longest contact whose pulse a hit hands to the audio thread as is, s; a longer one (a
+#: soft ball) is turned into mode amplitudes on the calling thread. Sets the size of a
+#: slot's pulse samples (a grid of at most ``MAX_SLOT_GRID`` points, and the in-contact
+#: samples).
+SLOT_CONTACT = 0.002
+MAX_SLOT_GRID = 4097
+#: Height (m) of the default microphone above the plate's centre (as a Scene's default).
+DEFAULT_MICROPHONE_HEIGHT = 0.2
+#: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
+KEPT_POINTS = 64
+#: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
+WARM_UP_BALL_RADIUS = 0.005
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """A body's excitation at one impact point: the bank coefficients and the
+    accelerometer's direct-term line (0 for a microphone)."""
+
+    coefficients: object
+    mass_line: float
+
+
+class Body:
+    """One plate in an :class:`Engine` (made by :meth:`Engine.add`): ``max_voices`` voice
+    slots, each a modal state that one :class:`Voice` (a hit or a drop) excites."""
+
+    def __init__(
+        self,
+        engine: Engine,
+        plate: Plate,
+        listener,
+        gain: float,
+        model,
+        channel: int = -1,
+        ears: int = 1,
+        voices: int = 1,
+    ):
+        self._engine = engine
+        self.max_voices = voices
+        self._channel = channel
+        self._min_interval = 0.0
+        self._last_onsets: dict = {}  # onset (s) of the last hit at each point (1 mm grid)
+        self._ears = [self]  # the bodies a hit plays on: this one, and the other ears
+        self.plate = plate
+        self.listener = listener
+        self._model = model
+        fs = engine.samplerate
+        poles = np.ascontiguousarray(model.poles)
+        self._scale = 1.0 / PHYSICAL_FULL_SCALE[model.units]
+        self._prepared: dict = {}
+        self._solvers: dict = {}
+        coefficients = self._prepare(plate.centre).coefficients
+        grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
+        self._ring = PendingRing(
+            engine.max_pending,
+            poles.size,
+            samples_in_contact(MAX_CONTACT, fs),
+            min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
+            engine.max_hits_per_block,
+            voices=engine.max_pending + voices,
+        )
+        self._state_arrays = kernel.body_state(poles.size, voices)
+        self._warm_up()
+        arrays = native.body_arrays(
+            coefficients,
+            power_table(poles, float(fs)),
+            self._state_arrays,
+            self._ring,
+            engine.floor,
+            gain,
+            channel,
+            steal_frames=engine._steal_frames,
+            mix_frames=engine._native.mix.shape[1],
+            ears=ears,
+        )
+        self._counters = arrays["counters"]
+        self._slots = arrays["voice_slots"]
+        self._scalars = arrays["scalars"]
+        self._index = len(engine._native.records)
+        self._record = engine._native.add_body(arrays)
+
+    def _warm_up(self):
+        """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
+        them at their first call), so that the first real hit takes microseconds."""
+        ball = Ball(self.plate.material, WARM_UP_BALL_RADIUS)
+        solver = ContactSolver.for_pair(ball, self.plate, rtol=HIT_RTOL)
+        result = solver.solve(1.0, position=self.plate.centre)
+        impact_excitation(self._prepare(self.plate.centre).coefficients, result, 0.0)
+
+    def __repr__(self):
+        return (
+            f"Body(plate={self.plate!r}, listener={self.listener!r}, gain={self.gain!r}, "
+            f"modes={self.modes})"
+        )
+
+    @property
+    def gain(self) -> float:
+        """The body's gain (linear, in (0, MAX_GAIN]); settable while it plays: the change
+        is ramped linearly over the next block (no click)."""
+        return float(self._scalars[native.S_GAIN])
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
+        for ear in self._ears:
+            ear._scalars[native.S_GAIN] = g
+
+    @property
+    def min_interval(self) -> float:
+        """Shortest time between two hits at one point of the body, s, in [0, 1] (default
+        0: no limit): a hit sooner than this after the last one played at the same point
+        (to 1 mm) is refused (returns None) and counted in ``stats.impacts_too_close``, so
+        that a game's jittering contact does not drone."""
+        return self._min_interval
+
+    @min_interval.setter
+    def min_interval(self, value: float) -> None:
+        self._min_interval = checks.in_range(
+            "min_interval", value, 0.0, 1.0, "s", lo_open=False, hi_open=False
+        )
+
+    def _too_close(self, position, onset: float) -> bool:
+        """Whether a hit at ``position`` starting at ``onset`` s comes within
+        ``min_interval`` of the last one there; if not, it becomes the last one."""
+        if self._min_interval <= 0.0:
+            return False
+        key = (round(position[0], 3), round(position[1], 3))
+        last = self._last_onsets.get(key)
+        if last is not None and abs(onset - last) < self._min_interval:
+            self._engine._too_close += 1
+            return True
+        self._last_onsets.pop(key, None)
+        if len(self._last_onsets) >= KEPT_POINTS:
+            self._last_onsets.pop(next(iter(self._last_onsets)))
+        self._last_onsets[key] = onset
+        return False
+
+    @property
+    def modes(self) -> int:
+        """Number of modes in the body's bank (below Nyquist)."""
+        return int(self._model.poles.size)
+
+    @property
+    def memory(self) -> int:
+        """Bytes of the arrays the body holds for the audio thread (its voice slots' modal
+        states, power table, pending ring and voice records, the stolen voices' fade
+        buffer, workspace)."""
+        records = self._engine._native.records
+        return sum(
+            int(a.nbytes)
+            for ear in self._ears
+            for a in records[ear._index][1].values()
+            if isinstance(a, np.ndarray)
+        )
+
+    @property
+    def units(self) -> str:
+        """Physical units of the listener: "Pa" or "m/s^2"."""
+        return self._model.units
+
+    @property
+    def pending(self) -> int:
+        """Impacts handed over and not yet played."""
+        return self._ring.pending()
+
+    @property
+    def awake(self) -> bool:
+        """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
+        return self.ringing or any(ear._ring.pending() for ear in self._ears)
+
+    @property
+    def ringing(self) -> bool:
+        """Whether a voice of the body rings (as of the last block mixed)."""
+        return any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
+
+    @property
+    def voices_playing(self) -> int:
+        """Voice slots of the body ringing (as of the last block mixed; of its first ear)."""
+        return int(np.count_nonzero(self._slots[:, kernel.SL_OWNER] >= 0))
+
+    def _prepare(self, position) -> _Prepared:
+        """The bank coefficients for impacts at ``position`` (checked; kept for the last
+        ``KEPT_POINTS`` points)."""
+        p = self._prepared.get(position)
+        if p is None:
+            excitation = self._model.excitation(position)
+            direct = self._model.direct(excitation)
+            coefficients = bank_coefficients(
+                self._model.poles, excitation, self._model.output, self._engine.samplerate
+            )
+            p = _Prepared(coefficients, float(np.sum(direct.real)) if direct is not None else 0.0)
+            if len(self._prepared) >= KEPT_POINTS:
+                self._prepared.pop(next(iter(self._prepared)))
+            self._prepared[position] = p
+        return p
+
+    def prepare(self, *positions) -> None:
+        """Prepare impact points ahead of hits there (``(x, y)``, m from a plate corner):
+        a hit at a point the body has not prepared evaluates every mode's shape there
+        first (a fraction of a millisecond for a few hundred modes). The body keeps the
+        last ``KEPT_POINTS`` points."""
+        for position in positions:
+            self._prepare(self._position(position))
+
+    def _position(self, position) -> tuple[float, float]:
+        return self.plate.check_position(
+            self.plate.centre if position is None else position, "position"
+        )
+
+    def _check_length(self, contact_time: float) -> None:
+        if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
+            raise ParameterError(
+                f"the contact lasts {contact_time:.4g} s, longer than the {MAX_CONTACT} s "
+                f"a live body takes (a heavy ball on a light plate, or a soft contact): "
+                f"render it offline with synth.render"
+            )
+
+    def _submit(
+        self,
+        result,
+        onset: float,
+        prepared: _Prepared,
+        gain: float,
+        weight=0.0,
+        slot=None,
+        voice: int = 0,
+    ) -> bool:
+        """Hand one contact of voice record ``voice`` over, its tick starting at ``onset``
+        s on the engine's clock: its excitation is computed here, straight into a slot of
+        the body's ring (``slot``, reserved by the caller, or one reserved here)."""
+        ring = self._ring
+        self._check_length(result.contact_time)
+        own = slot is None  # else the caller gives it back on failure
+        if own:
+            slot = ring.reserve(voice=voice)
+        if slot < 0:
+            return False
+        try:
+            ex = impact_excitation(
+                prepared.coefficients,
+                result,
+                onset,
+                weight=weight,
+                pulse_points=self._engine.pulse_points,
+                amplitudes=ring.amplitudes[slot],
+                response=ring.response[slot],
+            )
+        except BaseException:
+            if own:
+                ring.release(slot)
+            raise
+        g = self._scale * gain
+        amplitudes, response = ex.amplitudes, ex.response  # views of the slot
+        amplitudes *= g
+        if prepared.mass_line:
+            response += ex.forces * prepared.mass_line
+        response *= g
+        ring.publish(slot, ex.inject, ex.first, response.size, ex.magnitude * g)
+        return True
+
+    def _hand_over(
+        self, result, onset: float, prepared: _Prepared, gain: float, voice: int
+    ) -> bool:
+        """Hand one contact of voice record ``voice`` over as its force pulse (the audio
+        thread computes its excitation at its next block, see :mod:`synth.live.kernel`); a
+        contact too long for a slot's pulse grid is computed here (:meth:`_submit`)."""
+        ring = self._ring
+        self._check_length(result.contact_time)
+        c = prepared.coefficients
+        fs = c.samplerate
+        lay = pulse_layout(result.contact_time, onset, c.omega_max, fs, self._engine.pulse_points)
+        n, M = lay.points, lay.samples
+        if n + M > ring.pulse_samples:
+            return self._submit(result, onset, prepared, gain, voice=voice)
+        slot = ring.reserve(pulse=True, bounded=self._engine.running, voice=voice)
+        if slot < 0:
+            return False
+        try:
+            result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M, out=ring.samples[slot])
+            ring.coefficients[slot, 0] = c.coef_re
+            ring.coefficients[slot, 1] = c.coef_im
+            p = ring.pulse[slot]
+            p[kernel.STEP] = lay.step
+            p[kernel.OFFSET] = lay.offset
+            p[kernel.WEIGHT] = 0.0
+            p[kernel.CONTACT_TIME] = result.contact_time
+            p[kernel.ORDER] = result.pulse_order
+            p[kernel.GAIN] = self._scale * gain
+            p[kernel.MASS_LINE] = prepared.mass_line
+        except BaseException:
+            ring.release(slot, pulse=True)
+            raise
+        ring.publish_pulse(slot, lay.inject, lay.first, M, n)
+        return True
+
+    def _solver(self, tr: Trigger) -> ContactSolver:
+        """The contact solver of a hit's ball, law and gravity (kept for the last few)."""
+        key = (tr.ball, tr.law, tr.gravity)
+        solver = self._solvers.get(key)
+        if solver is None:
+            solver = ContactSolver.for_pair(
+                tr.ball,
+                self.plate,
+                gravity=tr.gravity,
+                law=tr.law.law,
+                rtol=HIT_RTOL,
+                **tr.law.options(),
+            )
+            if len(self._solvers) >= KEPT_POINTS:
+                self._solvers.pop(next(iter(self._solvers)))
+            self._solvers[key] = solver
+        return solver
+
+    def _trigger(self, ball, position, gain, contact, gravity, at) -> Trigger:
+        """The arguments :meth:`hit` and :meth:`drop` share, checked (a ParameterError
+        names the argument and its value)."""
+        return trigger(self.plate, ball, position, gain, contact, gravity, self._engine._onset(at))
+
+    def hit(
+        self,
+        ball: Ball,
+        speed: float,
+        *,
+        position=None,
+        gain: float = 1.0,
+        at: float | None = None,
+        contact: Contact | None = None,
+        gravity: float = GRAVITY,
+    ) -> Voice | None:
+        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
+        plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
+        thread: the contact is solved here and handed to the audio thread without blocking
+        it.
+
+        The tick starts at ``at`` (s on the engine's clock, not before :attr:`Engine.time`)
+        or, by default, one block plus the stream's output latency after the call.
+        ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
+        is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
+        Returns its :class:`Voice` (its start time is ``voice.onset``), or None if the
+        hit is refused: the body's ring of pending impacts is full, too many hits wait
+        for the next block, or the hit comes within :attr:`min_interval` of the last one
+        at its point (each counted in :attr:`Engine.stats`). A refused hit plays nothing.
+        """
+        v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
+        tr = self._trigger(ball, position, gain, contact, gravity, at)
+        if self._too_close(tr.position, tr.onset):
+            return None
+        result = self._solver(tr).solve(v, position=tr.position)
+        if not result.success:
+            raise SynthError(
+                f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
+            )
+        vid = self._engine._next_voice_id()
+        records = self._hand_over_voice(result, tr, vid)
+        if records is None:
+            return None
+        return Voice(self, vid, records, (tr.onset,))
+
+    def _hand_over_voice(self, result, tr: Trigger, vid: int) -> list[int] | None:
+        """Hand a solved hit over at every ear of the body as voice ``vid``: the voice
+        records it took (one an ear), or None if an ear refused it (then no ear plays it)."""
+        records: list[int] = []
+        for ear in self._ears:
+            r = ear._ring.open_voice(vid, 1)
+            if r < 0:
+                break
+            try:
+                accepted = ear._hand_over(result, tr.onset, ear._prepare(tr.position), tr.gain, r)
+            except BaseException:
+                ear._ring.close_voice(r, 1)
+                stop_records(self._ears, records, vid)
+                raise
+            if not accepted:
+                ear._ring.close_voice(r, 1)
+                break
+            records.append(r)
+        if len(records) < len(self._ears):  # refused at one ear: at every ear
+            stop_records(self._ears, records, vid)
+            return None
+        return records
+
+    def drop(
+        self,
+        ball: Ball,
+        height: float,
+        *,
+        position=None,
+        gain: float = 1.0,
+        at: float | None = None,
+        contact: Contact | None = None,
+        gravity: float = GRAVITY,
+    ) -> Voice | None:
+        """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
+        ``position`` (default the centre): the whole bouncing sequence
+        (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
+        engine's clock from ``at`` (as :meth:`hit`: the first tick's start); ``contact``
+        (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height``
+        in [1e-6, 1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
+        sequence (``voice.onsets``: the start times of its ticks, s).
+
+        A drop is handed over whole or not at all: when the body's ring has fewer free slots
+        than the drop has impacts, it is refused (returns None) and its impacts are
+        counted in ``impacts_refused`` (and the drop in ``drops_refused``); a drop with more
+        impacts than ``max_pending`` can never fit and raises ParameterError."""
+        h = check_height(height)
+        tr = self._trigger(ball, position, gain, contact, gravity, at)
+        ball, pos, g, law, gravity, onset0 = (
+            tr.ball,
+            tr.position,
+            tr.gain,
+            tr.law,
+            tr.gravity,
+            tr.onset,
+        )
+        sequence = simulate_bounces(
+            ball,
+            self.plate,
+            drop_height=h,
+            position=pos,
+            gravity=gravity,
+            contact_law=law.law,
+            rtol=law.rtol,
+            **law.options(),
+        )
+        if len(sequence) > self._ring.capacity:
+            raise ParameterError(
+                f"the drop from height={height!r} m has {len(sequence)} impacts, more than "
+                f"max_pending={self._ring.capacity} (the impacts a body holds): raise "
+                f"max_pending, or drop from lower"
+            )
+        for imp in sequence:
+            self._check_length(imp.result.contact_time)
+        n = len(sequence)
+        vid = self._engine._next_voice_id()
+        reserved = []  # (ear, voice record, slots not yet handed over)
+        for ear in self._ears:
+            r = ear._ring.open_voice(vid, n)
+            slots = ear._ring.reserve_many(n, voice=r) if r >= 0 else None
+            if slots is None:
+                if r >= 0:
+                    ear._ring.close_voice(r, n)
+                _release(reserved)
+                self._engine._drops_refused += 1
+                return None
+            reserved.append((ear, r, list(slots)))
+        t0 = sequence[0].time if n else 0.0
+        onsets = tuple(onset0 + (imp.time - t0) for imp in sequence)
+        try:
+            for ear, r, slots in reserved:
+                prepared = ear._prepare(pos)
+                while slots:
+                    k = n - len(slots)
+                    imp = sequence[k]
+                    weight = ball.mass * gravity if imp.result.settled else 0.0
+                    ear._submit(imp.result, onsets[k], prepared, g, weight, slot=slots[0], voice=r)
+                    slots.pop(0)
+        except BaseException:
+            _release(reserved)
+            raise
+        return Voice(self, vid, [r for _, r, _ in reserved], onsets)
+
+    def stop_all(self) -> None:
+        """Silence the body at the next block: every voice stops (and is reported ended),
+        pending impacts are dropped (at once when no stream runs)."""
+        if self._engine.running:
+            for ear in self._ears:
+                ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
+        else:
+            self._apply_silence()
+
+    def _apply_silence(self):
+        for ear in self._ears:
+            native.silence_body(self._engine._native.ctl, ear._record)
+
+
+def _release(reserved) -> None:
+    """Give back the slots a drop reserved and did not fill, and take them off their
+    voice records (``(body, voice record, slots)``)."""
+    for ear, r, slots in reserved:
+        for slot in slots:
+            ear._ring.release(slot)
+        ear._ring.close_voice(r, len(slots))
+
+
+def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:
+    """A listener's two ears as microphones, (left, right), for ``Engine(channels=2)``:
+    the head at ``position`` ((x, y, z), m, z > 0 above the plate), facing the direction
+    ``facing`` ((x, y) in the plate's plane, any length > 0), the ears ``spacing`` m apart
+    (in (0, 1]; 0.18 m, an adult head's width) on the line across it, the left one on the
+    left of the facing direction (z up). Each ear hears each mode with its own Rayleigh
+    gain (:mod:`synth.sound.radiation`): level, delay-free directivity and the balance
+    between the ears come from the plate's radiation, not from a pan law."""
+    x, y, z = checks.point("position", position, 3)
+    fx, fy = checks.point("facing", facing, 2, "dimensionless")
+    norm = float(np.hypot(fx, fy))
+    if not norm > 0.0:
+        raise ParameterError(f"facing={facing!r} must be a direction of length > 0")
+    d = checks.in_range("spacing", spacing, 0.0, 1.0, "m", hi_open=False)
+    lx, ly = -fy / norm * d / 2, fx / norm * d / 2  # the facing direction turned left
+    return Microphone((x + lx, y + ly, z)), Microphone((x - lx, y - ly, z))

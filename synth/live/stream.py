@@ -1,0 +1,103 @@
+"""The PortAudio output stream of a live engine: opening it with the compiled callback (or
+the Python fallback), and closing it within a bounded time even when the audio server is
+gone."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from synth.errors import SynthError
+from synth.live import native
+
+
+def check_device(sd, device, channels: int, samplerate: int) -> dict:
+    """PortAudio's description of the output ``device`` (None: the default one), checked
+    to take ``channels`` float32 channels at ``samplerate`` Hz; a SynthError says which
+    device is missing or which rate it offers instead."""
+    try:
+        info = sd.query_devices(device, kind="output")
+    except (ValueError, sd.PortAudioError) as exc:
+        raise SynthError(
+            f"no audio output device{'' if device is None else f' {device!r}'} "
+            f"({exc}); list the devices with `python -m sounddevice`, or render offline "
+            f"with Engine.process()"
+        ) from None
+    try:
+        sd.check_output_settings(
+            device=device, channels=channels, dtype="float32", samplerate=samplerate
+        )
+    except (ValueError, sd.PortAudioError) as exc:
+        raise SynthError(
+            f"the output device {info['name']!r} does not take {samplerate} Hz with "
+            f"{channels} channel(s) ({exc}); its default rate is "
+            f"{info['default_samplerate']:g} Hz: make the Engine at a rate it offers"
+        ) from None
+    return info
+
+
+def open_stream(sd, state: native.EngineState, callback: str, **settings):
+    """A PortAudio float32 output stream (``settings``: samplerate, blocksize, device,
+    channels, latency) whose callback mixes the engine of ``state``: the compiled
+    :func:`synth.live.native.stream_callback` with ``state``'s address as its user data
+    (``callback="native"``), or the Python fallback (``"python"``, :func:`python_callback`)."""
+    if callback == "python":
+        return sd.OutputStream(callback=python_callback(state.ctl), dtype="float32", **settings)
+    import cffi
+
+    ffi = cffi.FFI()
+    return sd._StreamBase(
+        kind="output",
+        wrap_callback=None,
+        callback=ffi.cast("void *", native.stream_callback.address),
+        userdata=ffi.cast("void *", state.address),
+        dtype="float32",
+        **settings,
+    )
+
+
+#: Seconds the finaliser of a collected running engine waits for its stream to close.
+CLOSE_TIMEOUT = 2.0
+#: Streams whose server did not answer, with the arrays their callback may still read:
+#: kept for the life of the process (freeing them could crash the audio thread).
+ABANDONED: list = []
+
+
+def close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
+    """Stop (or abort) and close ``stream`` on a helper thread, waiting at most
+    ``timeout`` s (PortAudio's calls can hang when the server is gone). True if it closed;
+    if not, the stream and its ``state`` are kept for the life of the process."""
+
+    def close():
+        try:
+            stream.abort() if abort else stream.stop()
+        finally:
+            stream.close()
+
+    worker = threading.Thread(target=close, name="synth-close-stream", daemon=True)
+    worker.start()
+    worker.join(timeout)
+    if worker.is_alive():
+        ABANDONED.append((stream, state))
+        return False
+    return True
+
+
+def python_callback(ctl):
+    """The fallback stream callback: a Python function (it needs the GIL each block) that
+    runs the compiled block (:func:`synth.live.native.run_block`); it holds the engine's
+    arrays, not the engine."""
+    clock = native.CLOCK
+
+    def callback(outdata, frames, time_info, status):
+        entry = time.clock_gettime_ns(clock) if clock >= 0 else native.monotonic_ns()
+        native.run_block(
+            ctl,
+            outdata,
+            status._flags,
+            time_info.currentTime,
+            time_info.outputBufferDacTime,
+            entry,
+        )
+
+    return callback

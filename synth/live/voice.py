@@ -1,0 +1,98 @@
+"""A handle on one sound of a live body: a hit, or a whole drop (see :class:`Voice`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from synth import checks
+from synth.live.hits import MAX_GAIN
+
+if TYPE_CHECKING:
+    from synth.live.body import Body
+
+#: Default voices a body rings at once (``max_voices``): each is a modal state of its own,
+#: so a body costs up to this many banks per block.
+MAX_VOICES = 8
+#: Length of the raised-cosine fade of a stolen voice, s: short, so the new voice is not
+#: masked for long, and smooth (zero slope at both ends), so it does not click.
+STEAL_FADE = 0.005
+#: Bounds of a :meth:`Voice.stop` fade, s.
+MIN_STOP_FADE = 0.001
+MAX_STOP_FADE = 10.0
+
+
+class Voice:
+    """A handle on one sound of a body: a hit, or a whole drop (returned by
+    :meth:`Body.hit` and :meth:`Body.drop`).
+
+    ``id``: unique in its engine (the ids :meth:`Engine.ended` reports); ``onset``: the
+    stream time its first tick starts, s (``onsets``: every tick's, for a drop).
+
+    A voice takes one of its body's ``max_voices`` voice slots (a modal state of its own)
+    when its first impact joins; when all are ringing it steals the oldest one (the slot
+    taken earliest), whose voice fades out over ``STEAL_FADE`` (a raised cosine) and ends.
+    A voice ends when every one of its modes has fallen below its share of the engine's
+    omission floor (``floor_db``) relative to the voice's peak (what it still holds is
+    then at most ``floor_db`` below its loudest impact's sum of mode amplitudes), or when
+    its stop fade ends; then it frees its slot and, once nothing of it waits to be played,
+    is reported by :meth:`Engine.ended`. Every method may be called from any thread.
+    """
+
+    __slots__ = ("body", "id", "onsets", "_records", "_gain")
+
+    def __init__(self, body: Body, vid: int, records, onsets: tuple):
+        self.body = body
+        self.id = vid
+        self.onsets = tuple(onsets)
+        self._records = tuple(records)  # the voice's record at each of the body's ears
+        self._gain = 1.0
+
+    def __repr__(self):
+        return f"Voice(id={self.id}, onset={self.onset!r}, playing={self.playing})"
+
+    @property
+    def onset(self) -> float:
+        """The start of its first tick, s on the engine's clock."""
+        return self.onsets[0]
+
+    @property
+    def playing(self) -> bool:
+        """Whether the voice is pending or ringing: read from the audio thread's state
+        without a lock (True from the call that made it until it has ended)."""
+        return any(
+            ear._ring.voice_alive(r, self.id) for ear, r in zip(self.body._ears, self._records)
+        )
+
+    @property
+    def gain(self) -> float:
+        """The voice's gain (linear, in [0, MAX_GAIN], default 1), on top of the hit's and
+        the body's; settable while it plays: the change is ramped linearly over the next
+        block (no click). Setting it on an ended voice does nothing."""
+        return self._gain
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
+                            hi_open=False)  # fmt: skip
+        self._gain = g
+        for ear, r in zip(self.body._ears, self._records):
+            ear._ring.control_voice(r, self.id, gain=g)
+
+    def stop(self, fade: float | None = None) -> None:
+        """Fade the voice out from the next block: a raised cosine over ``fade`` s (in
+        [0.001, 10]; default the engine's ``fade``), then it ends; impacts of it not yet
+        played are dropped. Does nothing on an ended voice; a second stop keeps the first
+        fade."""
+        f = self.body._engine._fade if fade is None else fade
+        f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
+                            hi_open=False)  # fmt: skip
+        frames = max(1, int(round(f * self.body._engine.samplerate)))
+        for ear, r in zip(self.body._ears, self._records):
+            ear._ring.control_voice(r, self.id, stop=frames)
+
+
+def stop_records(ears, records, vid) -> None:
+    """Drop voice ``vid`` at the ears that took it (``records``: their voice records) before
+    it plays: a hit refused at one ear is refused at every ear."""
+    for ear, r in zip(ears, records):
+        ear._ring.control_voice(r, vid, stop=0)
