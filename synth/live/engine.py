@@ -393,7 +393,7 @@ class Body:
         its excitation is computed here, straight into a slot of the body's ring (``slot``,
         reserved by the caller, or one reserved here)."""
         ring = self._ring
-        self._check_length(result.contact_time)
+        self._check_length(result.separation_time)
         if slot is None:
             slot = ring.reserve()
         if slot < 0:
@@ -425,10 +425,12 @@ class Body:
         excitation at its next block, see :mod:`synth.live.kernel`); a contact too long for
         a slot's pulse grid is computed here (:meth:`_submit`)."""
         ring = self._ring
-        self._check_length(result.contact_time)
+        self._check_length(result.separation_time)
         c = prepared.coefficients
         fs = c.samplerate
-        lay = pulse_layout(result.contact_time, onset, c.omega_max, fs, self._engine.pulse_points)
+        lay = pulse_layout(
+            result.separation_time, onset, c.omega_max, fs, self._engine.pulse_points
+        )
         n, M = lay.points, lay.samples
         if n + M > ring.pulse_samples:
             return self._submit(result, onset, prepared, gain)
@@ -443,7 +445,7 @@ class Body:
             p[kernel.STEP] = lay.step
             p[kernel.OFFSET] = lay.offset
             p[kernel.WEIGHT] = 0.0
-            p[kernel.CONTACT_TIME] = result.contact_time
+            p[kernel.CONTACT_TIME] = result.separation_time
             p[kernel.ORDER] = result.pulse_order
             p[kernel.GAIN] = self._scale * gain
             p[kernel.MASS_LINE] = prepared.mass_line
@@ -571,7 +573,7 @@ class Body:
                 f"max_pending, or drop from lower"
             )
         for imp in sequence:
-            self._check_length(imp.result.contact_time)
+            self._check_length(imp.result.separation_time)
         reserved = []
         for ear in self._ears:
             slots = ear._ring.reserve_many(len(sequence))

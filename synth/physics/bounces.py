@@ -128,11 +128,11 @@ class BounceSequence:
 
     @property
     def duration(self) -> float:
-        """End of the last contact, s from release."""
+        """End of the last contact (its separation), s from release."""
         if not self.impacts:
             return 0.0
         last = self.impacts[-1]
-        return last.time + last.result.contact_time
+        return last.time + last.result.separation_time
 
     def table(self) -> list[dict]:
         """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
@@ -284,13 +284,13 @@ def simulate_bounces(
             break
         v_out = res.rebound_speed if rebound is None else e * v
         flight = 2.0 * v_out / g
-        if flight < res.contact_time:
+        if flight < res.separation_time:
             reason = "flight-shorter-than-contact"
             break
         if (v_out / v1) ** 2 < energy_floor:
             reason = "floor"
             break
-        t_next = t + res.contact_time + flight
+        t_next = t + res.separation_time + flight
         if t_next > t_max:
             reason = "max-duration"
             break
@@ -343,7 +343,7 @@ def _modal_bounces(
             reason = "settled"
             break
         v_out = res.rebound_speed
-        if 2.0 * v_out / g < res.contact_time:
+        if 2.0 * v_out / g < res.separation_time:
             reason = "flight-shorter-than-contact"
             break
         if (v_out / v1) ** 2 < energy_floor:
@@ -358,7 +358,7 @@ def _modal_bounces(
             # longer flies free of the plate's motion, it rides it (rests on the plate)
             reason = "settled"
             break
-        t_next = t + res.contact_time + flight
+        t_next = t + res.separation_time + flight
         if t_next > t_max:
             reason = "max-duration"
             break

@@ -119,8 +119,16 @@ class ImpactResult:
     restitution : float
         ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
     contact_time : float
-        Duration of the contact ``tau``, s. For a settled ball: the time at which
-        the ball was proven unable to separate.
+        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), the
+        quantity a force transducer measures and the thesis reports (docs/validation.md).
+        For a settled ball: the time at which the ball was proven unable to separate.
+    separation_time : float
+        Time from first touch to separation, s: the penetration's return to 0, where the
+        ball's free flight starts (the bounce scheduler's clock). Equal to ``contact_time``
+        for an elastic law; with a loss the force falls to 0 first, while the ball still
+        moves apart from the indented surface (about ``(3/2) A`` later with the
+        viscoelastic loss, docs/physics.md, "Contact losses"). For a settled ball: as
+        ``contact_time``.
     max_penetration : float
         Largest local deformation ``delta_max``, m.
     peak_force : float
@@ -136,8 +144,8 @@ class ImpactResult:
     plate_energy : float
         Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
     time : ndarray
-        Times of the pulse samples from first touch, s (uniform, ``n_points``);
-        sampled from the dense output on first access, like ``force``.
+        Times of the pulse samples from first touch to separation, s (uniform,
+        ``n_points``); sampled from the dense output on first access, like ``force``.
     force : ndarray
         Contact force at those times, N.
     energy_residual : float
@@ -159,6 +167,7 @@ class ImpactResult:
 
     restitution: float
     contact_time: float
+    separation_time: float
     max_penetration: float
     peak_force: float
     impulse: float
@@ -457,6 +466,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
         {
             "restitution": r[_k.R_RESTITUTION],
             "contact_time": r[_k.R_CONTACT_TIME],
+            "separation_time": r[_k.R_SEPARATION_TIME],
             "max_penetration": r[_k.R_MAX_PENETRATION],
             "peak_force": r[_k.R_PEAK_FORCE],
             "impulse": r[_k.R_IMPULSE],
