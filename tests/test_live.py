@@ -22,12 +22,13 @@ EXACT_DB = -200.0  # an omission floor far below float32 resolution
 
 @pytest.fixture(scope="module")
 def scene():
-    return synth.load_preset("default")
+    # the thesis' model, a live body's default contact (Contact()): hits and renders compared
+    return synth.load_preset("default", ["contact.model=thesis"])
 
 
 @pytest.fixture(scope="module")
 def accel_scene():
-    s = synth.load_preset("default")
+    s = synth.load_preset("default", ["contact.model=thesis"])
     return synth.Scene(
         s.ball,
         s.plate,

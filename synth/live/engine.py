@@ -111,7 +111,7 @@ DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
 #: together.
 HIT_RTOL = 1e-6
-#: The contact law of a hit or a drop given none (Hertz).
+#: The contact law of a hit or a drop given none (a scene's default: Hertz).
 DEFAULT_CONTACT = Contact()
 #: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
 KEPT_POINTS = 64
@@ -371,10 +371,11 @@ class Body:
             return DEFAULT_CONTACT
         if not isinstance(contact, Contact):
             raise ParameterError(f"contact={contact!r} must be None or a Contact")
-        if contact.plate != "impedance":
+        if contact.plate == "modal":
             raise ParameterError(
                 f"contact.plate={contact.plate!r}: a live body solves its contacts with the "
-                f"plate's impedance (contact.plate='impedance')"
+                f"plate's impedance (contact.plate='impedance', or 'auto', which a live body "
+                f"solves on the impedance plate: it carries no modes in the contact)"
             )
         return contact
 

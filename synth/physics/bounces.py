@@ -368,10 +368,15 @@ def _modal_bounces(
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
-    drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
+    drop, gravity and contact model; ``contact.plate = "auto"`` chosen by
+    :func:`synth.physics.plate_choice.scene_plate`); ``options`` as in
+    :func:`simulate_bounces`."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
+    from synth.physics.plate_choice import scene_plate
+
     c = scene.contact
+    plate = scene_plate(scene).plate  # contact.plate, or the choice of "auto"
     return simulate_bounces(
         scene.ball,
         scene.plate,
@@ -380,8 +385,8 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
         gravity=scene.gravity,
         contact_law=c.law,
         rtol=c.rtol,
-        **({"plate_model": c.plate} if c.plate != "impedance" else {}),
-        **({"theory": c.theory} if c.theory != "kirchhoff" else {}),
+        **({"plate_model": plate} if plate != "impedance" else {}),
+        **({"theory": c.theory} if c.theory != "kirchhoff" and plate == "modal" else {}),
         **c.options(),
         **options,
     )

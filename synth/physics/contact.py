@@ -507,7 +507,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from synth.physics.materials import contact_surface  # noqa: E402
+from synth.physics.materials import contact_surface, has_contact_surface  # noqa: E402
 from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate  # noqa: E402
 
 
@@ -565,6 +565,16 @@ class ContactLaw:
     viscous_time: float = 0.0
 
 
+def resolved_surface(plate: Plate, law: str, surface: str) -> str:
+    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
+    "auto" is "fitted" for the Hertz law on a material with a fitted surface
+    (:func:`synth.physics.materials.contact_surface`, fitted to measurements), else "ideal"
+    (no measurement to fit); "ideal" and "fitted" name themselves."""
+    if surface != "auto":
+        return surface
+    return "fitted" if law == "hertz" and has_contact_surface(plate.material) else "ideal"
+
+
 def contact_parameters(
     ball: Ball,
     plate: Plate,
@@ -582,11 +592,12 @@ def contact_parameters(
     Parameters
     ----------
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
-    surface : {"ideal", "fitted"}
+    surface : {"ideal", "fitted", "auto"}
         "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
         "hertz" only): the plate material's fitted surface
         (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
-        modulus with its loss (Hunt-Crossley or viscoelastic).
+        modulus with its loss (Hunt-Crossley or viscoelastic). "auto": the model closest to
+        measurement, :func:`resolved_surface`.
     dissipation : float > 0
         Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
     viscous_time : float > 0
@@ -600,6 +611,7 @@ def contact_parameters(
     """
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
+    surface = resolved_surface(plate, contact, surface)
     given = {
         "dissipation": dissipation,
         "viscous_time": viscous_time,
@@ -708,8 +720,9 @@ def solve_impact(
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
         Contact law and its parameters (``dissipation``, ``viscous_time``, ``exponent``,
         ``stiffness``, ``layer_depth``; see :func:`contact_parameters`).
-    surface : {"ideal", "fitted"}
-        The plate's side of the contact (see :func:`contact_parameters`).
+    surface : {"ideal", "fitted", "auto"}
+        The plate's side of the contact (see :func:`contact_parameters`; "auto": the fitted
+        surface where the material has one, the measured model).
     rtol : float
         Relative accuracy of restitution and contact time.
     plate_velocity : float

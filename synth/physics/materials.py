@@ -592,6 +592,15 @@ def contact_surface(material: Material) -> ContactSurface:
     return surface
 
 
+def has_contact_surface(material: Material) -> bool:
+    """True if ``material`` has a fitted :class:`ContactSurface` (:func:`contact_surface`)."""
+    try:
+        contact_surface(material)
+    except ParameterError:
+        return False
+    return True
+
+
 def with_transverse_shear(material: Material) -> Material:
     """``material`` with the transverse shear modulus its fitted contact surface implies
     (:func:`contact_surface`), for the thick (Mindlin) plate:
