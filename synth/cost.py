@@ -387,8 +387,8 @@ def _impact_count(first: FirstContact, speed: float, gravity: float, max_duratio
 
 @dataclass(frozen=True)
 class FirstContact:
-    """The first impact by the impedance model: ``contact_time`` (s), ``settled`` (the
-    ball comes to rest), ``restitution``."""
+    """The first impact by the impedance model: ``contact_time`` (s, to separation: the
+    span the renderer integrates), ``settled`` (the ball comes to rest), ``restitution``."""
 
     contact_time: float
     settled: bool
@@ -410,7 +410,7 @@ def _first_contact(scene) -> FirstContact:
     first = solver.solve(speed, position=scene.position)
     e = 0.0 if first.settled else float(first.restitution)
     if c.plate == "impedance" or not first.settled:
-        return FirstContact(first.contact_time, bool(first.settled), e)
+        return FirstContact(first.separation_time, bool(first.settled), e)
     tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
     return FirstContact(SETTLE_FACTOR * tau, True, e)
 

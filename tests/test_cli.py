@@ -38,9 +38,9 @@ def data_rows(text):
 
 
 def test_info(capsys):
-    # Thesis section 2.4.3: a 10 mm steel ball at 1.4 m/s (10 cm drop) mid-plate on 18 mm MDF,
-    # with gravity, has e = 0.87; 0.01 is the thesis' two printed figures. The table ends with
-    # the scheduler's stop reason and counts the rows it printed.
+    # The default preset, the measured model: a 10 mm steel ball at 1.4 m/s (10 cm drop)
+    # mid-plate on 18 mm MDF rebounds at the measured e = 0.76 (thesis section 3.2; issue 29's
+    # 0.02). The table ends with the scheduler's stop reason and counts the rows it printed.
     code, out, err = run(capsys, "info", "default")
     assert code == 0 and err == ""
     lines = out.splitlines()
@@ -48,7 +48,7 @@ def test_info(capsys):
     rows = data_rows(out)
     first = rows[0]
     assert first[0] == "1"
-    assert float(first[3]) == pytest.approx(0.87, abs=0.01)
+    assert float(first[3]) == pytest.approx(0.76, abs=0.02)
     # Free fall from 0.1 m: t1 = sqrt(2 h / g), v1 = sqrt(2 g h), printed to 5 decimals.
     assert float(first[1]) == pytest.approx(math.sqrt(2 * 0.1 / 9.81), abs=5e-6)
     assert float(first[2]) == pytest.approx(math.sqrt(2 * 9.81 * 0.1), abs=5e-6)
@@ -82,7 +82,7 @@ def test_info_json(capsys):
     assert [r["n"] for r in rows] == list(range(1, len(rows) + 1))
     assert rows[0]["time"] == pytest.approx(math.sqrt(2 * 0.1 / 9.81), rel=1e-12)
     assert rows[0]["speed"] == pytest.approx(math.sqrt(2 * 9.81 * 0.1), rel=1e-12)
-    assert rows[0]["restitution"] == pytest.approx(0.87, abs=0.01)
+    assert rows[0]["restitution"] == pytest.approx(0.76, abs=0.02)  # measured, section 3.2
     times = [r["time"] for r in rows]
     assert all(b > a for a, b in zip(times, times[1:]))
     assert all(0.0 <= r["restitution"] <= 1.0 for r in rows)

@@ -104,7 +104,7 @@ def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
     assert r.pulse_order == 1.5 and r.law_viscous_time == A_MDF
     f_steps = r.force_at(r.step_times[1:-1])
     assert np.allclose(f_steps, r.step_forces[1:-1], rtol=1e-12, atol=1e-12 * r.peak_force)
-    t = np.linspace(0.0, r.contact_time, 4001)
+    t = np.linspace(0.0, r.separation_time, 4001)
     f, slope = r.force_and_slope_at(t)
     assert np.trapezoid(f, t) == pytest.approx(r.impulse, rel=1e-4)
     fd = np.gradient(f, t)
@@ -112,8 +112,12 @@ def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
     inner = on & np.roll(on, 3) & np.roll(on, -3)
     inner[:40] = False
     assert np.max(np.abs(fd[inner] - slope[inner])) < 1e-3 * np.max(np.abs(slope[inner]))
-    # the force switches off where delta + (3/2) A delta' = 0, before delta itself is 0
+    # the force switches off where delta + (3/2) A delta' = 0, before delta itself is 0: there
+    # the contact time (the force pulse's) ends, before the separation time (delta's)
     assert f[-2] == 0.0
+    assert r.contact_time < r.separation_time
+    before, after = r.force_at([r.contact_time * (1 - 1e-9), r.contact_time * (1 + 1e-9)])
+    assert before > 0.0 and after == 0.0
 
 
 def test_the_law_on_the_modal_plate_through_scene_and_scheduler():

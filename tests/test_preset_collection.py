@@ -116,7 +116,9 @@ def test_preset_scene_computes(path):
     # form, docs/physics.md, "Bounces"), to rounding (1e-12 relative).
     assert seq[0].time == pytest.approx(math.sqrt(2.0 * h0 / g), rel=1e-12)
     assert seq[0].speed == pytest.approx(math.sqrt(2.0 * g * h0), rel=1e-12)
-    ringing = scene.contact.plate == "modal"
+    from synth.physics.plate_choice import scene_plate
+
+    ringing = scene_plate(scene).plate == "modal"  # contact.plate, or what "auto" chose
     for imp in seq:
         r = imp.result
         assert r.success
@@ -129,8 +131,10 @@ def test_preset_scene_computes(path):
         else:
             assert -1e-9 <= r.restitution <= 1.0 + 1e-9
         # Contact times lie between ~10 us (steel on steel) and ~1 ms (heavy ball on a thin
-        # plate), docs/physics.md, "Hertz contact"; a soft rubber ball is allowed a decade more.
-        assert 1e-6 < r.contact_time < 1e-2
+        # plate), docs/physics.md, "Hertz contact"; a soft rubber ball is allowed a decade more
+        # on a plate at rest. On a ringing plate a slow ball may ride the surface's motion
+        # longer (the rubber ball's last bounces on its floor: 16 ms at a few cm/s).
+        assert 1e-6 < r.contact_time < (0.1 if ringing and imp.index > 1 else 1e-2)
     # Every scene of the collection bounces (no first-impact settling): e1 > 0.1.
     assert seq[0].result.restitution > 0.1
     # Each impact speed is the previous rebound speed (free flight is lossless, thesis A.2;
@@ -187,13 +191,13 @@ def test_thesis_masses_rejects_negative_mass(path):
 
 
 def test_thesis_restitution_orders():
-    # The thesis' model (the thesis presets' contact.model="thesis", one key from their
-    # default "fitted"):
+    # The thesis' model (contact.model="thesis", one key from the presets' "measured" and
+    # "fitted"):
     # Zener's inelasticity lambda = K^(2/5) m^(3/5) v^(1/5) / Z grows as the board thins
     # (Z ~ h^2 sqrt(E)), so e falls from the 18 mm to the 12 mm to the 6.15 mm board
     # (docs/physics.md, "Hertz contact"); 0.05 separates them with margin (e: 0.87, 0.73, 0.30).
     model = "contact.model=thesis"
-    e18 = _e1("default")
+    e18 = _e1("default", model)
     e12, e6 = _e1("thesis-steel10-mdf12", model), _e1("thesis-steel10-mdf6", model)
     assert e18 - e12 > 0.05 and e12 - e6 > 0.05
     # Mid-plate 10 mm steel on 18 mm MDF: e = 0.87 at a 10 cm drop (thesis, docs/physics.md,
@@ -211,3 +215,41 @@ def test_thesis_restitution_orders_rejects_bad_gravity():
     # A non-positive gravity given to a thesis preset is an error naming gravity.
     with pytest.raises(ParameterError, match="gravity"):
         _e1("default", "gravity=0")
+
+
+def _contact_comments(path) -> str:
+    """The comments of a preset file's ``[contact]`` section, joined."""
+    section = re.search(r"^\[contact\]\n(.*?)(?=^\[|\Z)", path.read_text(), re.S | re.M)
+    if section is None:
+        return ""
+    return " ".join(line.split("#", 1)[1] for line in section[1].splitlines() if "#" in line)
+
+
+@pytest.mark.parametrize("path", FILES, ids=NAMES)
+def test_contact_comments_name_the_loss_the_model_solves(path):
+    # issue 29: a preset's [contact] comments name the contact loss its model solves, and no
+    # other: the fitted surface's (MDF's is the viscoelastic Hertz loss, not Hunt-Crossley) or
+    # the law's own; an elastic contact names neither.
+    from synth.physics.contact import resolved_surface
+    from synth.physics.materials import contact_surface
+
+    scene = load_preset(path)
+    c = scene.contact
+    if resolved_surface(scene.plate, c.law, c.surface) == "fitted":
+        surface = contact_surface(scene.plate.material)
+        losses = {"viscoelastic" if surface.viscous_time > 0.0 else "hunt-crossley"}
+    else:
+        losses = {c.law} & {"viscoelastic", "hunt-crossley"}
+    comments = _contact_comments(path).lower()
+    for loss in ("viscoelastic", "hunt-crossley"):
+        assert (loss in comments) == (loss in losses), (path.name, loss, comments)
+
+
+def test_ping_pong_restitution_quoted_in_the_docs():
+    # docs/physics.md, "Known limitations", quotes the ping-pong preset's first restitution as
+    # e = 0.96 (a solid ABS sphere without loss), against about 0.88 derived from the ITTF's
+    # table rule (Laws of Table Tennis 2.1.3: about 23 cm from a 30 cm drop, sqrt(23 / 30));
+    # the quoted figure is this preset's, to its two figures.
+    assert _e1("ping-pong-on-wooden-table") == pytest.approx(0.96, abs=0.005)
+    text = (REPO / "docs" / "physics.md").read_text()
+    assert "e = 0.96" in text and "sqrt(23 / 30)" in text

@@ -40,7 +40,7 @@ THESIS = {
     },
     "drop": {"height": 0.1, "position": [0.6135, 0.245]},
     "listener": {"type": "microphone", "position": [0.6135, 0.245, 0.2]},
-    "contact": {"law": "hertz", "rtol": 1e-9},
+    "contact": {"model": "measured", "law": "hertz", "rtol": 1e-9},
 }
 
 # An inline material: a hard wood board (values of the table's "hardwood" row, Bies et al.).
@@ -649,7 +649,7 @@ def test_transverse_shear_and_plate_theory_keys(tmp_path):
     "changes, parts",
     [
         ({"contact": {"model": "fitted", "theory": "reissner"}}, ["contact.theory", "reissner"]),
-        ({"contact": {"theory": "mindlin"}}, ["contact.theory", "'modal'"]),
+        ({"contact": {"plate": "impedance", "theory": "mindlin"}}, ["contact.theory", "'modal'"]),
         (
             {"plate": {"material": {"name": "mdf-18", "transverse_shear": "soft"}}},
             ["plate.material.transverse_shear", "'soft'", "'tied'"],

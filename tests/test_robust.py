@@ -74,7 +74,9 @@ def test_long_contact_kernel_matches_the_short_one(monkeypatch):
 def test_bowling_ball_renders():
     # a 7 kg ball of 0.109 m radius dropped 1 m on the default board settles in one
     # impact whose contact (sigma_max tau >> 700 Np) overflowed e^(sigma tau) before
-    scene = load_preset("default", ["ball.radius=0.109", "ball.mass=7", "drop.height=1"])
+    scene = load_preset(
+        "default", ["ball.radius=0.109", "ball.mass=7", "drop.height=1", "contact.model=thesis"]
+    )
     r = render(scene, samplerate=16000)
     assert len(r.impacts) == 1 and r.impacts.stop_reason == "settled"
     assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0.5

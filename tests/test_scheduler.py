@@ -25,11 +25,12 @@ def test_first_impact_is_free_fall(thesis):
 
 def test_flight_law(thesis):
     # t_(n+1) = t_n + tau_n + 2 v_out,n / g and v_(n+1) = v_out,n (docs/physics.md, "Bounces",
-    # rounding).
+    # rounding), tau_n the time to separation (the contact time of this elastic law).
     for a, b in zip(thesis, thesis[1:]):
         r = a.result
+        assert r.separation_time == r.contact_time
         assert b.time == pytest.approx(
-            a.time + r.contact_time + 2 * r.rebound_speed / 9.81, rel=1e-12
+            a.time + r.separation_time + 2 * r.rebound_speed / 9.81, rel=1e-12
         )
         assert b.speed == pytest.approx(r.rebound_speed, rel=1e-12)
 
@@ -126,3 +127,16 @@ def test_rebound_rule_replaces_the_restitution():
     assert len(stop) == 1 and stop.stop_reason == "settled"
     with pytest.raises(ParameterError, match="rebound"):
         simulate_bounces(BALL, MDF18, drop_height=0.1, rebound=0.5)
+
+
+def test_flight_starts_at_separation_with_a_lossy_contact():
+    # With MDF's viscoelastic surface the force ends before the penetration returns to zero:
+    # the flight starts at the separation (the contact time, the force pulse's, is shorter),
+    # t_(n+1) = t_n + separation_n + 2 v_out,n / g (rounding).
+    seq = simulate_bounces(BALL, MDF18, drop_height=0.1, surface="fitted", max_impacts=6)
+    for a, b in zip(seq, seq[1:]):
+        r = a.result
+        assert r.contact_time < r.separation_time
+        assert b.time == pytest.approx(
+            a.time + r.separation_time + 2 * r.rebound_speed / 9.81, rel=1e-12
+        )

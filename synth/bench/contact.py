@@ -108,7 +108,9 @@ def scipy_contact(
     """The same impact integrated by ``scipy.integrate.solve_ivp`` (an independent
     implementation of the same dimensionless equations), for reference and comparison.
 
-    Returns (restitution, contact_time (s), sol (dense output in s, dimensionless), theta).
+    Returns (restitution, contact_time (s), sol (dense output in s, dimensionless), theta);
+    the contact time as :class:`synth.physics.contact.ImpactResult`'s, the force pulse's
+    length (with a loss the last downward zero of the force, before the penetration's).
     """
     from scipy.integrate import solve_ivp
 
@@ -159,7 +161,16 @@ def scipy_contact(
     settle.terminal = True
     settle.direction = -1
 
+    def force_end(s, y):  # the lossy force's sign before its clip at 0
+        x, w = y
+        return x**n * (1.0 + c * w) + b * math.sqrt(x) * w if x > 0.0 else x
+
+    force_end.direction = -1
+
     events = [end, settle] if (G > 0 and (lam > 0 or c > 0 or b > 0)) else [end]
+    lossy = c != 0.0 or b != 0.0
+    if lossy:
+        events.append(force_end)
     kw = dict(jac=jac) if method in ("Radau", "BDF", "LSODA") else {}
     # start a hair after first touch so that the x = 0 event does not fire at s = 0
     # (with the first terms of the series solution there: x = s + G s^2/2, w = 1 + G s;
@@ -182,6 +193,8 @@ def scipy_contact(
         s_end = sol.t_events[0][0]
         w_end = sol.y_events[0][0][1]
         e = max(0.0, -w_end)
+        if lossy and sol.t_events[-1].size:
+            s_end = min(s_end, sol.t_events[-1][-1])  # the force pulse's end
     else:
         s_end = sol.t_events[1][0] if len(sol.t_events) > 1 and sol.t_events[1].size else sol.t[-1]
         e = 0.0

@@ -13,14 +13,20 @@ from synth.bench.common import target_verdict
 
 def render_scenes() -> list:
     """The render benchmark's scenes: ``(name, scene, render options)``: the default
-    preset; a thin steel sheet whose modal bank carries thousands of modes; a long series
-    of fast small bounces."""
+    preset (the measured model), and the same scene under the thesis' model beside it (the
+    speed the measured model is held to, in the same run); a thin steel sheet whose modal
+    bank carries thousands of modes; a long series of fast small bounces."""
     from synth.io.presets import load_preset
     from synth.physics.scene import Accelerometer, Ball, Plate, Scene
 
     sheet = Plate("steel", 0.0005, 0.8, 0.6, "simply-supported")
     return [
         ("default preset (10 mm steel on 18 mm MDF, microphone)", load_preset("default"), {}),
+        (
+            "default preset, the thesis' model (contact.model = thesis)",
+            load_preset("default", ["contact.model=thesis"]),
+            {},
+        ),
         (
             "steel sheet 0.5 mm, 0.8 x 0.6 m, 1 mm steel ball, accelerometer, 5 s of tail",
             Scene(

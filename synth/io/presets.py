@@ -39,10 +39,13 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     exponent = 1.5                  # dimensionless n in (1, 4] (only with "power-law")
     stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
     layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")
-    plate = "impedance"             # or "modal": the finite plate's modes in the contact
-    surface = "ideal"               # or "fitted" (with "hertz"): the material's fitted surface
-    model = "thesis"                # or "fitted": names law, plate and surface at once
-    theory = "kirchhoff"            # or "mindlin": the modal plate's theory (plate "modal")
+    plate = "impedance"             # or "modal": the finite plate's modes in the contact; or
+                                    # "auto": the modes where they change the first impact
+    surface = "ideal"               # or "fitted" (with "hertz"): the material's fitted surface;
+                                    # or "auto": the fitted one where the material has one
+    model = "thesis"                # or "measured" (auto plate and surface; the presets'),
+                                    # "fitted": names law, plate and surface at once
+    theory = "kirchhoff"            # or "mindlin": the modal plate's theory (plate "modal"/"auto")
 
     [render]                        # optional: options of synth.render
     samplerate = 48000              # Hz (48000 when left out: PRESET_SAMPLERATE)

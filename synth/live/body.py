@@ -271,7 +271,7 @@ class Body:
         s on the engine's clock: its excitation is computed here, straight into a slot of
         the body's ring (``slot``, reserved by the caller, or one reserved here)."""
         ring = self._ring
-        self._check_length(result.contact_time)
+        self._check_length(result.separation_time)
         own = slot is None  # else the caller gives it back on failure
         if own:
             slot = ring.reserve(voice=voice)
@@ -307,10 +307,12 @@ class Body:
         thread computes its excitation at its next block, see :mod:`synth.live.kernel`); a
         contact too long for a slot's pulse grid is computed here (:meth:`_submit`)."""
         ring = self._ring
-        self._check_length(result.contact_time)
+        self._check_length(result.separation_time)
         c = prepared.coefficients
         fs = c.samplerate
-        lay = pulse_layout(result.contact_time, onset, c.omega_max, fs, self._engine.pulse_points)
+        lay = pulse_layout(
+            result.separation_time, onset, c.omega_max, fs, self._engine.pulse_points
+        )
         n, M = lay.points, lay.samples
         if n + M > ring.pulse_samples:
             return self._submit(result, onset, prepared, gain, voice=voice)
@@ -325,7 +327,7 @@ class Body:
             p[kernel.STEP] = lay.step
             p[kernel.OFFSET] = lay.offset
             p[kernel.WEIGHT] = 0.0
-            p[kernel.CONTACT_TIME] = result.contact_time
+            p[kernel.CONTACT_TIME] = result.separation_time
             p[kernel.ORDER] = result.pulse_order
             p[kernel.GAIN] = self._scale * gain
             p[kernel.MASS_LINE] = prepared.mass_line
@@ -471,7 +473,7 @@ class Body:
                 f"max_pending, or drop from lower"
             )
         for imp in sequence:
-            self._check_length(imp.result.contact_time)
+            self._check_length(imp.result.separation_time)
         n = len(sequence)
         vid = self._engine._next_voice_id()
         reserved = []  # (ear, voice record, slots not yet handed over)

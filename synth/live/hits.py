@@ -26,7 +26,7 @@ MAX_AHEAD = 60.0
 #: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
 #: together.
 HIT_RTOL = 1e-6
-#: The contact law of a hit or a drop given none (Hertz).
+#: The contact law of a hit or a drop given none (a scene's default: Hertz).
 DEFAULT_CONTACT = Contact()
 
 
@@ -76,10 +76,11 @@ def check_contact(contact) -> Contact:
         return DEFAULT_CONTACT
     if not isinstance(contact, Contact):
         raise ParameterError(f"contact={contact!r} must be None or a Contact")
-    if contact.plate != "impedance":
+    if contact.plate == "modal":
         raise ParameterError(
             f"contact.plate={contact.plate!r}: a live body solves its contacts with the "
-            f"plate's impedance (contact.plate='impedance')"
+            f"plate's impedance (contact.plate='impedance', or 'auto', which a live body "
+            f"solves on the impedance plate: it carries no modes in the contact)"
         )
     return contact
 

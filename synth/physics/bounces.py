@@ -131,11 +131,11 @@ class BounceSequence:
 
     @property
     def duration(self) -> float:
-        """End of the last contact, s from release."""
+        """End of the last contact (its separation), s from release."""
         if not self.impacts:
             return 0.0
         last = self.impacts[-1]
-        return last.time + last.result.contact_time
+        return last.time + last.result.separation_time
 
     def table(self) -> list[dict]:
         """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
@@ -287,13 +287,13 @@ def simulate_bounces(
             break
         v_out = res.rebound_speed if rebound is None else e * v
         flight = 2.0 * v_out / g
-        if flight < res.contact_time:
+        if flight < res.separation_time:
             reason = "flight-shorter-than-contact"
             break
         if (v_out / v1) ** 2 < energy_floor:
             reason = "floor"
             break
-        t_next = t + res.contact_time + flight
+        t_next = t + res.separation_time + flight
         if t_next > t_max:
             reason = "max-duration"
             break
@@ -346,7 +346,7 @@ def _modal_bounces(
             reason = "settled"
             break
         v_out = res.rebound_speed
-        if 2.0 * v_out / g < res.contact_time:
+        if 2.0 * v_out / g < res.separation_time:
             reason = "flight-shorter-than-contact"
             break
         if (v_out / v1) ** 2 < energy_floor:
@@ -361,7 +361,7 @@ def _modal_bounces(
             # longer flies free of the plate's motion, it rides it (rests on the plate)
             reason = "settled"
             break
-        t_next = t + res.contact_time + flight
+        t_next = t + res.separation_time + flight
         if t_next > t_max:
             reason = "max-duration"
             break
@@ -371,10 +371,15 @@ def _modal_bounces(
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
-    drop, gravity and contact model); ``options`` as in :func:`simulate_bounces`."""
+    drop, gravity and contact model; ``contact.plate = "auto"`` chosen by
+    :func:`synth.physics.plate_choice.scene_plate`); ``options`` as in
+    :func:`simulate_bounces`."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
+    from synth.physics.plate_choice import scene_plate
+
     c = scene.contact
+    plate = scene_plate(scene).plate  # contact.plate, or the choice of "auto"
     return simulate_bounces(
         scene.ball,
         scene.plate,
@@ -383,8 +388,8 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
         gravity=scene.gravity,
         contact_law=c.law,
         rtol=c.rtol,
-        **({"plate_model": c.plate} if c.plate != "impedance" else {}),
-        **({"theory": c.theory} if c.theory != "kirchhoff" else {}),
+        **({"plate_model": plate} if plate != "impedance" else {}),
+        **({"theory": c.theory} if c.theory != "kirchhoff" and plate == "modal" else {}),
         **c.options(),
         **options,
     )

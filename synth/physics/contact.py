@@ -119,8 +119,16 @@ class ImpactResult:
     restitution : float
         ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
     contact_time : float
-        Duration of the contact ``tau``, s. For a settled ball: the time at which
-        the ball was proven unable to separate.
+        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), the
+        quantity a force transducer measures and the thesis reports (docs/validation.md).
+        For a settled ball: the time at which the ball was proven unable to separate.
+    separation_time : float
+        Time from first touch to separation, s: the penetration's return to 0, where the
+        ball's free flight starts (the bounce scheduler's clock). Equal to ``contact_time``
+        for an elastic law; with a loss the force falls to 0 first, while the ball still
+        moves apart from the indented surface (about ``(3/2) A`` later with the
+        viscoelastic loss, docs/physics.md, "Contact losses"). For a settled ball: as
+        ``contact_time``.
     max_penetration : float
         Largest local deformation ``delta_max``, m.
     peak_force : float
@@ -136,8 +144,8 @@ class ImpactResult:
     plate_energy : float
         Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
     time : ndarray
-        Times of the pulse samples from first touch, s (uniform, ``n_points``);
-        sampled from the dense output on first access, like ``force``.
+        Times of the pulse samples from first touch to separation, s (uniform,
+        ``n_points``); sampled from the dense output on first access, like ``force``.
     force : ndarray
         Contact force at those times, N.
     energy_residual : float
@@ -159,6 +167,7 @@ class ImpactResult:
 
     restitution: float
     contact_time: float
+    separation_time: float
     max_penetration: float
     peak_force: float
     impulse: float
@@ -457,6 +466,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
         {
             "restitution": r[_k.R_RESTITUTION],
             "contact_time": r[_k.R_CONTACT_TIME],
+            "separation_time": r[_k.R_SEPARATION_TIME],
             "max_penetration": r[_k.R_MAX_PENETRATION],
             "peak_force": r[_k.R_PEAK_FORCE],
             "impulse": r[_k.R_IMPULSE],
@@ -497,7 +507,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from synth.physics.materials import contact_surface  # noqa: E402
+from synth.physics.materials import contact_surface, has_contact_surface  # noqa: E402
 from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate  # noqa: E402
 
 
@@ -555,6 +565,16 @@ class ContactLaw:
     viscous_time: float = 0.0
 
 
+def resolved_surface(plate: Plate, law: str, surface: str) -> str:
+    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
+    "auto" is "fitted" for the Hertz law on a material with a fitted surface
+    (:func:`synth.physics.materials.contact_surface`, fitted to measurements), else "ideal"
+    (no measurement to fit); "ideal" and "fitted" name themselves."""
+    if surface != "auto":
+        return surface
+    return "fitted" if law == "hertz" and has_contact_surface(plate.material) else "ideal"
+
+
 def contact_parameters(
     ball: Ball,
     plate: Plate,
@@ -572,11 +592,12 @@ def contact_parameters(
     Parameters
     ----------
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
-    surface : {"ideal", "fitted"}
+    surface : {"ideal", "fitted", "auto"}
         "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
         "hertz" only): the plate material's fitted surface
         (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
-        modulus with its loss (Hunt-Crossley or viscoelastic).
+        modulus with its loss (Hunt-Crossley or viscoelastic). "auto": the model closest to
+        measurement, :func:`resolved_surface`.
     dissipation : float > 0
         Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
     viscous_time : float > 0
@@ -590,6 +611,7 @@ def contact_parameters(
     """
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
+    surface = resolved_surface(plate, contact, surface)
     given = {
         "dissipation": dissipation,
         "viscous_time": viscous_time,
@@ -698,8 +720,9 @@ def solve_impact(
     contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
         Contact law and its parameters (``dissipation``, ``viscous_time``, ``exponent``,
         ``stiffness``, ``layer_depth``; see :func:`contact_parameters`).
-    surface : {"ideal", "fitted"}
-        The plate's side of the contact (see :func:`contact_parameters`).
+    surface : {"ideal", "fitted", "auto"}
+        The plate's side of the contact (see :func:`contact_parameters`; "auto": the fitted
+        surface where the material has one, the measured model).
     rtol : float
         Relative accuracy of restitution and contact time.
     plate_velocity : float

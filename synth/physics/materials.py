@@ -583,14 +583,15 @@ class ContactSurface:
 
 #: MDF's contact surface: two parameters fitted on the thesis' 18 mm board only (docs/physics.md,
 #: "Contact losses"): ``E_t / E`` on its five first-impact contact times (Table 3.3, each ball
-#: carrying the accelerometer of those measurements, about 1 g) and the viscoelastic loss's
+#: carrying the accelerometer of those measurements, about 1 g; the force pulse's length on
+#: both sides, as ``ImpactResult.contact_time``) and the viscoelastic loss's
 #: dissipative time ``A`` on the restitution 0.76 of the 10 mm steel ball at 1.4 m/s (section
 #: 3.2), both with the finite plate in the contact (synth.physics.modal_contact) at the middle
 #: of the board (synth.bench.thesis.surface_fit). The 12 and 6 mm boards use them unchanged
 #: (``synth bench thesis`` prints fit and prediction errors).
 MDF_SURFACE = ContactSurface(
-    transverse_ratio=0.2051,
-    viscous_time=7.211e-6,
+    transverse_ratio=0.1814,
+    viscous_time=7.702e-6,
     source=(
         "fitted on the thesis' 18 mm MDF board: E_t / E on its contact times (Table 3.3, ball "
         "with its 1 g accelerometer) and the viscoelastic A on the restitution 0.76 of the "
@@ -622,6 +623,15 @@ def contact_surface(material: Material) -> ContactSurface:
             f"built-in table)"
         )
     return surface
+
+
+def has_contact_surface(material: Material) -> bool:
+    """True if ``material`` has a fitted :class:`ContactSurface` (:func:`contact_surface`)."""
+    try:
+        contact_surface(material)
+    except ParameterError:
+        return False
+    return True
 
 
 def with_transverse_shear(material: Material) -> Material:

@@ -226,19 +226,28 @@ Listener = Accelerometer | Microphone
 CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law")
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-#: The plate's side of the contact: an isotropic elastic half-space, or the material's
-#: surface fitted to measurements (:class:`synth.physics.materials.ContactSurface`).
-SURFACE_MODELS = ("ideal", "fitted")
-#: Named contact models: (law, plate, surface). "thesis": the thesis' model (Hertz on an
-#: isotropic half-space, the plate as its impedance); "fitted": the model closest to the
-#: thesis' measurements (the finite plate's modes in the contact, the material's fitted
-#: through-thickness modulus and contact loss).
-#: The contact model of a :class:`Contact` that names none.
+#: The plate's side of the contact: an isotropic elastic half-space, the material's surface
+#: fitted to measurements (:class:`synth.physics.materials.ContactSurface`), or "auto": the
+#: fitted one where the material has one (:func:`synth.physics.contact.resolved_surface`).
+SURFACE_MODELS = ("ideal", "fitted", "auto")
+#: The plate in the contact: its impedance, its modes, or "auto": the modes where they change
+#: the first impact by more than the modal contact's tolerance (near an edge or a corner, on a
+#: small plate), the impedance elsewhere (:mod:`synth.physics.plate_choice`).
+PLATE_MODELS = ("impedance", "modal", "auto")
+#: Named contact models: (law, plate, surface). "measured": the model closest to measurement
+#: at the impedance model's speed (the fitted surface where the material has one, the modes
+#: only where they matter); "fitted": the same surface with the finite plate's modes in every
+#: contact (their ringing carried from bounce to bounce); "thesis": the thesis' model (Hertz on
+#: an isotropic half-space, the plate as its impedance).
+#: The contact model of a :class:`Contact` that names none: the thesis' model, which every
+#: scene built in Python had before "measured" existed (the presets name "measured" or
+#: "fitted" themselves).
 DEFAULT_CONTACT_MODEL = "thesis"
 #: The modal plate's theory of a :class:`Contact` that names none.
 DEFAULT_PLATE_THEORY = "kirchhoff"
 
 CONTACT_MODELS = {
+    "measured": ("hertz", "auto", "auto"),
     "thesis": ("hertz", "impedance", "ideal"),
     "fitted": ("hertz", "modal", "fitted"),
 }
@@ -271,22 +280,27 @@ class Contact:
         carries about ``rtol`` times the time elapsed), and they show as phase errors at
         high frequencies (``synth bench render``: 1e-6 gives -49 dB, 1e-9 gives -96 dB
         against a reference render, at the same cost).
-    plate : {"impedance", "modal"}
+    plate : {"impedance", "modal", "auto"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
-        measured values near free edges; the default) or "modal" (the finite plate's modes in
+        measured values near free edges; the default), "modal" (the finite plate's modes in
         the contact, their ringing carried from impact to impact:
         :mod:`synth.physics.modal_contact`; its accuracy is set by its band and steps, not by
-        ``rtol``).
-    surface : {"ideal", "fitted"}
+        ``rtol``) or "auto" (the modes where the edges' reflections change the first impact
+        by more than the modal contact's tolerance, the impedance elsewhere:
+        :mod:`synth.physics.plate_choice`).
+    surface : {"ideal", "fitted", "auto"}
         The plate's side of the contact: "ideal" (an isotropic elastic half-space, the
-        default) or "fitted" (law "hertz" only: the plate material's through-thickness
-        modulus and contact loss fitted to measurements,
-        :class:`synth.physics.materials.ContactSurface`).
-    model : {"thesis", "fitted"}, optional
+        default), "fitted" (law "hertz" only: the plate material's through-thickness modulus
+        and contact loss fitted to measurements,
+        :class:`synth.physics.materials.ContactSurface`) or "auto" ("fitted" for the Hertz
+        law where the material has a fitted surface, else "ideal").
+    model : {"thesis", "measured", "fitted"}, optional
         A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`): "thesis"
-        is the thesis' model, "fitted" the finite plate with the fitted surface. Those three
-        keys default to the model's; any of them given explicitly takes precedence (e.g.
-        ``model="fitted", plate="impedance"``: the fitted surface on the impedance plate).
+        (the default) the thesis' model, "measured" the model closest to measurement at the
+        impedance model's speed (the presets' choice), "fitted" the finite plate in every
+        contact with the fitted surface. Those three keys default to the model's; any of
+        them given explicitly takes precedence (e.g. ``model="fitted", plate="impedance"``:
+        the fitted surface on the impedance plate).
     theory : {"kirchhoff", "mindlin"}, optional
         The plate theory of the modal plate (``plate="modal"`` only;
         :func:`synth.physics.modal_contact.modal_point`): "kirchhoff" (thin plate, the
@@ -310,14 +324,14 @@ class Contact:
         self._resolve_model()
         theory = DEFAULT_PLATE_THEORY if self.theory is None else self.theory
         checks.choice("contact.theory", theory, ("kirchhoff", "mindlin"))
-        if theory != "kirchhoff" and self.plate != "modal":
+        if theory != "kirchhoff" and self.plate == "impedance":
             raise ParameterError(
-                f"contact.theory={theory!r} applies to contact.plate='modal' only, not "
+                f"contact.theory={theory!r} applies to contact.plate='modal' or 'auto' only, not "
                 f"{self.plate!r}"
             )
         object.__setattr__(self, "theory", theory)
         checks.choice("contact.law", self.law, CONTACT_LAWS)
-        checks.choice("contact.plate", self.plate, ("impedance", "modal"))
+        checks.choice("contact.plate", self.plate, PLATE_MODELS)
         checks.choice("contact.surface", self.surface, SURFACE_MODELS)
         if self.surface == "fitted" and self.law != "hertz":
             raise ParameterError(

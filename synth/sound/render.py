@@ -395,8 +395,10 @@ def check_sequence(scene, sequence) -> BounceSequence:
     if not len(sequence):
         raise ParameterError("sequence has no impacts: there is nothing to render")
     first = sequence[0]
+    from synth.physics.plate_choice import scene_plate
+
     c = scene.contact
-    if c.plate == "modal":
+    if scene_plate(scene).plate == "modal":
         return _check_modal_sequence(scene, sequence)
     own = contact.solve_impact(
         scene.ball,

@@ -1,23 +1,32 @@
 """Record what every preset renders to (tests/test_frozen_renders.py checks it).
 
-Run from the repository: ``python tests/data/record_preset_renders.py``. Each preset is
-rendered and analysed as the test does (tests/conftest.py, ``preset_run_from_empty_caches``).
+Run from the repository: ``python tests/data/record_preset_renders.py [NAME ...]``. Each preset
+(or only the presets named, the other entries kept as recorded) is rendered and analysed as the
+test does (tests/conftest.py, ``preset_run_from_empty_caches``). Record only the presets whose
+sound was changed on purpose.
 """
 
 import json
 import sys
 from pathlib import Path
 
-import synth
+from synth.io.presets import available as available_presets
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from conftest import preset_run_from_empty_caches  # noqa: E402  (tests/conftest.py)
 from golden import sketch  # noqa: E402  (tests/golden.py)
 
 
-def main() -> None:
-    out = {}
-    for name in sorted(synth.io.presets.available()):
+def main(names: list[str]) -> None:
+    path = Path(__file__).with_name("preset_renders.json")
+    available = sorted(available_presets())
+    unknown = sorted(set(names) - set(available))
+    if unknown:
+        raise SystemExit(
+            f"no such preset: {', '.join(unknown)} (available: {', '.join(available)})"
+        )
+    out = json.loads(path.read_text()) if names else {}
+    for name in names or available:
         run = preset_run_from_empty_caches(name)
         r = run.render
         ticks = run.analysis.ticks
@@ -28,9 +37,9 @@ def main() -> None:
             ticks=[round(float(t.time), 9) for t in ticks],
         )
         print(name, r.audio.size, len(ticks), flush=True)
-    path = Path(__file__).with_name("preset_renders.json")
+    out = {name: out[name] for name in sorted(out)}
     path.write_text(json.dumps(out, indent=1) + "\n")
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

@@ -40,7 +40,7 @@ def _surface_contact(ball, plate, ratio: float, viscous_time: float, speed: floa
         gravity=0.0,
         dissipation=stored.dissipation,
         viscous_time=stored.viscous_time,
-    ).contact_time
+    ).separation_time
     point = mc.modal_point(plate, plate.centre, max_frequency=mc.BAND_FACTOR / tau)
     K = hertz_stiffness(ball, plate, ratio)
     return mc.ModalContact(

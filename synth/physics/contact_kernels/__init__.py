@@ -32,6 +32,7 @@ import numpy as np
 
 from synth.physics.contact_kernels.dense import (
     END_OF_CONTACT,
+    FORCE_END,
     H_COLS,
     H_H,
     H_T0,
@@ -83,6 +84,7 @@ __all__ = [
     "R_RESTITUTION",
     "R_STATUS",
     "R_STIFF",
+    "R_SEPARATION_TIME",
     "R_S_CONTACT",
     "R_THETA",
     "R_TINY_REBOUND",
@@ -121,7 +123,7 @@ R_STATUS = 0  # SEPARATED, SETTLED or a failure code
 R_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
 R_STIFF = 2  # 1: integrated by Radau IIA, 0: by DOP853
 R_RESTITUTION = 3  # v_out / v_in
-R_CONTACT_TIME = 4  # s
+R_CONTACT_TIME = 4  # s, the force pulse's length (force > 0)
 R_MAX_PENETRATION = 5  # m
 R_PEAK_FORCE = 6  # N
 R_IMPULSE = 7  # N s
@@ -136,16 +138,18 @@ R_S_CONTACT = 15  # dimensionless end of contact (dense output)
 R_THETA = 16  # Zener's time scale, s
 R_F_SCALE = 17  # force scale m v0 / theta, N
 R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output)
-N_RESULT = 19
+R_SEPARATION_TIME = 19  # s, to the penetration's return to 0 (the dense output's end)
+N_RESULT = 20
 
 
 @numba.njit(cache=True)
 def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     """Integrate one contact and find its peak.
 
-    Returns (status, s_contact, s_end, w_end, x_end, I2, loss, x_max, f_max, n_steps,
-    n_rejected, hist), all dimensionless: ``s_contact`` is the contact's duration (to
-    separation, or to the moment the ball was proven unable to separate), ``s_end,
+    Returns (status, s_contact, s_force, s_end, w_end, x_end, I2, loss, x_max, f_max,
+    n_steps, n_rejected, hist), all dimensionless: ``s_contact`` is the contact's duration
+    to separation (the penetration's return to 0), or to the moment the ball was proven
+    unable to separate; ``s_force`` the force pulse's (``force_end``), ``s_end,
     w_end, x_end, I2, loss`` the state where the energy balance is taken, ``n_steps``
     the integrator's accepted steps after the series start, and ``hist`` the dense
     output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
@@ -179,6 +183,9 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
         s_contact = event_root(
             hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, 0.5 * (lam * G) ** 2
         )
+    s_force = s_contact
+    if status == SEPARATED and (c != 0.0 or b != 0.0):
+        s_force = min(force_end(hist, S, nh, radau, lam, G, n, c, b), s_contact)
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
     vbest = -1.0
@@ -220,7 +227,24 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
         if ibest + 1 < nh:
             hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
         f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, b, 1), vbest)
-    return (status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej, hist[:nh])
+    return (
+        status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej,
+        hist[:nh],
+    )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def force_end(hist, S, nh, radau, lam, G, n, c, b):
+    """The end of a lossy contact's force pulse (dimensionless): the last time the force
+    falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
+    and with it the contact, lasts a little longer: the ball moves apart from a surface
+    still indented. Located on the dense output in the last step that starts with a
+    positive force (``event_root``, event ``FORCE_END``)."""
+    for k in range(nh - 1, 0, -1):
+        f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
+        if f > 0.0:
+            return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
+    return event_root(hist, S, 0, radau, FORCE_END, lam, G, n, c, b, 0.0)
 
 
 @numba.njit(cache=True)
@@ -266,7 +290,7 @@ def impact(
     if out[0] == MAX_STEPS and not stiff and method == AUTO:
         stiff = True
         out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, stiff)  # not a literal
-    status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
+    status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0
     if tiny_rebound:
@@ -287,7 +311,8 @@ def impact(
     r[R_TINY_REBOUND] = 1.0 if tiny_rebound else 0.0
     r[R_STIFF] = 1.0 if stiff else 0.0
     r[R_RESTITUTION] = v_out / v_in
-    r[R_CONTACT_TIME] = s_contact * theta
+    r[R_CONTACT_TIME] = s_force * theta
+    r[R_SEPARATION_TIME] = s_contact * theta
     r[R_MAX_PENETRATION] = x_max * theta * v0
     r[R_PEAK_FORCE] = f_max * f_scale
     r[R_IMPULSE] = i1 * m * v0

@@ -22,6 +22,7 @@ from synth.physics.contact_kernels.equations import (
     force,
     penetration_rate,
     positive_power,
+    power,
     settling_energy,
 )
 from synth.physics.contact_kernels.series import series_eval, series_x
@@ -204,17 +205,24 @@ RADAU_STEPS = np.bool_(True)
 END_OF_CONTACT = np.int64(0)
 PEAK_PENETRATION = np.int64(1)
 SETTLING = np.int64(2)
+FORCE_END = np.int64(3)
 
 
 @numba.njit(cache=True)
 def event(which, x, w, lam, G, n, c, b, thr):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
     contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
-    docstring)."""
+    docstring); 3, the numerator ``x^n (1 + c w) + b x^(1/2) w`` of the lossy force before
+    its clip at 0 (``equations.force``: its sign is the force's), or x where ``x <= 0``
+    (the end of the force pulse)."""
     if which == 0:
         return x
     if which == 1:
         return penetration_rate(x, w, lam, n, c, b)
+    if which == 3:
+        if x <= 0.0:
+            return x
+        return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
     return settling_energy(x, w, lam, G, n) - thr
 
 

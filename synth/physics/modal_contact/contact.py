@@ -37,10 +37,10 @@ from synth.physics.modal_contact.point import ModalPoint, modal_point
 from synth.physics.scene import Ball, Plate
 
 #: Band limit of the modes in the contact, in units of ``1 / tau`` (``tau`` the impedance
-#: model's contact time): the force pulse's spectrum is below -60 dB of its peak beyond
+#: model's time to separation): the force pulse's spectrum is below -60 dB of its peak beyond
 #: about ``3 / tau``; the residual stands for the modes above.
 BAND_FACTOR = 4.0
-#: Fixed steps over one contact of the impedance model's duration.
+#: Fixed steps over one contact of the impedance model's duration (to separation).
 STEPS_PER_CONTACT = 512
 #: A contact still going after this many impedance-model contact times is reported as
 #: settled (the ball rests on the plate).
@@ -96,7 +96,9 @@ class ModalImpactResult(ImpactResult):
     (mu delta + b) delta')``, ``b = 3/2 A``, ``F >= 0``, with ``delta`` the cubic Hermite
     interpolant of the penetrations ``step_gaps`` (m) and their rates ``step_rates`` (m/s):
     smooth, and rising after first touch as the contact law does (like ``t^n``, or like
-    ``t^(1/2)`` with the viscoelastic loss). ``contact_loss`` is the energy the contact's loss
+    ``t^(1/2)`` with the viscoelastic loss). ``contact_time`` is the force pulse's length,
+    ``separation_time`` the penetration's return to 0 (the last step); the pulse samples
+    ``time`` and ``force`` span the latter. ``contact_loss`` is the energy the contact's loss
     (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) took, J.
     ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
     at separation over its impact speed (what bounce times measure)."""
@@ -125,7 +127,7 @@ class ModalImpactResult(ImpactResult):
         return 1.5 if self.law_viscous_time != 0.0 else self.law_exponent + 1.0
 
     def _sample_pulse(self):
-        times = np.linspace(0.0, self.contact_time, self.n_points)
+        times = np.linspace(0.0, self.separation_time, self.n_points)
         forces = self.force_and_slope_at(times)[0]
         self.__dict__.update(time=times, force=forces)
         return times, forces
@@ -151,7 +153,7 @@ class ModalImpactResult(ImpactResult):
         ) * r1
         rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
         rate += (3 * u2 - 2 * u) * r1 / h
-        inside = (tt >= 0.0) & (tt <= self.contact_time) & (delta > 0.0)
+        inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
         dpos = np.where(inside, delta, 1.0)
         n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
         elastic = K * dpos**n
@@ -277,7 +279,7 @@ class ModalContact:
         pos = plate.centre if position is None else position
         if max_frequency is None:
             v = 1.0 if speed is None else checks.positive("speed", speed, "m/s")
-            tau = _impedance_contact(ball.mass, K, n, plate, v, mu, A).contact_time
+            tau = _impedance_contact(ball.mass, K, n, plate, v, mu, A).separation_time
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
         return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu, A)
@@ -342,7 +344,7 @@ class ModalContact:
             self.dissipation,
             self.viscous_time,
         )
-        h = ref.contact_time / self.steps_per_contact
+        h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
         q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
         x = np.array([state.x_res])
@@ -400,9 +402,14 @@ class ModalContact:
         scale = max(ball_in, e0, abs(plate), 1e-300)
         residual = abs(ball_in - ball_out - plate) / scale
         e = v_out / v_in if separated and v_out > 0.0 else 0.0
+        end = float(r[R_TIME])
+        lossy = self.dissipation != 0.0 or self.viscous_time != 0.0
         obj = ModalImpactResult(
             restitution=e,
-            contact_time=float(r[R_TIME]),
+            contact_time=_force_end(pulse, self.dissipation, 1.5 * self.viscous_time)
+            if separated and lossy
+            else end,
+            separation_time=end,
             max_penetration=float(r[R_DMAX]),
             peak_force=float(r[R_FMAX]),
             impulse=float(r[R_IMPULSE]),
@@ -498,6 +505,60 @@ def next_touch(
     return s0, contact.ring(state, s0)
 
 
+def _force_end(pulse: _Pulse, mu: float, b: float) -> float:
+    """The end of a lossy contact's force pulse (s from first touch): the last time the force
+    ``K delta^(n-1) (delta + (mu delta + b) delta')`` falls to 0 (Hunt-Crossley, ``b = 0``:
+    where ``1 + mu delta'`` does), on the cubic Hermite interpolant of the penetrations
+    between the solver's steps (as :meth:`ModalImpactResult.force_and_slope_at`), by Illinois'
+    false position to the time resolution of double precision. The ball separates later, when
+    the penetration returns to 0."""
+    positive = np.flatnonzero(pulse.forces > 0.0)
+    if positive.size == 0:
+        return float(pulse.times[-1])
+    i = int(positive[-1])
+    if i + 1 >= pulse.times.size:
+        return float(pulse.times[-1])
+    t0, t1 = float(pulse.times[i]), float(pulse.times[i + 1])
+    h = t1 - t0
+    d0, d1 = float(pulse.gaps[i]), float(pulse.gaps[i + 1])
+    r0, r1 = float(pulse.rates[i]) * h, float(pulse.rates[i + 1]) * h
+
+    def sign(u):  # the sign of the force before its clip at 0, at the fraction u of the step
+        u2 = u * u
+        u3 = u2 * u
+        d = (2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (3 * u2 - 2 * u3) * d1
+        d += (u3 - u2) * r1
+        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+        rate += (3 * u2 - 2 * u) * r1 / h
+        if d <= 0.0:
+            return d
+        return 1.0 + mu * rate if b == 0.0 else d + (mu * d + b) * rate
+
+    lo, hi = 0.0, 1.0
+    f_lo, f_hi = sign(lo), sign(hi)
+    if not (f_lo > 0.0 and f_hi <= 0.0):
+        return t1
+    side = 0
+    for _ in range(200):
+        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        if not lo < mid < hi:
+            mid = 0.5 * (lo + hi)
+        f_mid = sign(mid)
+        if f_mid > 0.0:
+            lo, f_lo = mid, f_mid
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        else:
+            hi, f_hi = mid, f_mid
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        if (hi - lo) * h <= 4e-16 * t1 or f_mid == 0.0:
+            break
+    return t0 + hi * h
+
+
 def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
     """A fresh float array of the band's modes' values followed by the lumped modes'."""
     return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
@@ -522,11 +583,13 @@ def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
 def impedance_contact_time(
     ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
 ) -> float:
-    """The impedance model's contact time (s) of ``ball`` on ``plate`` at ``speed`` (m/s),
-    without gravity, under the contact ``law`` and its options: the time scale from which
-    :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``)."""
+    """The impedance model's time from first touch to separation (s; its
+    ``ImpactResult.separation_time``) of ``ball`` on ``plate`` at ``speed`` (m/s), without
+    gravity, under the contact ``law`` and its options: the time scale from which
+    :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``) and
+    :meth:`ModalContact.solve` its steps."""
     c = contact_parameters(ball, plate, law, **contact_options)
     v = checks.positive("speed", speed, "m/s")
     return _impedance_contact(
         ball.mass, c.stiffness, c.exponent, plate, v, c.dissipation, c.viscous_time
-    ).contact_time
+    ).separation_time

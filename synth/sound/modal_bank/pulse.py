@@ -50,7 +50,7 @@ def pulse_grid(result, omega_max, min_points=PULSE_POINTS):
     ``min_points`` points and a step ``h`` (s) with ``omega_max h <= pi / 4``; ``forces``
     in N.
     """
-    tau = result.contact_time
+    tau = result.separation_time
     n = _grid_size(tau, omega_max, min_points)
     h = tau / (n - 1)
     u = np.arange(n) * h
@@ -85,7 +85,7 @@ def pulse_transforms(result, poles, omega_max=None):
         np.zeros(0),
         np.zeros(0),
         0.0,
-        result.contact_time,
+        result.separation_time,
         result.pulse_order,
         out,
         np.zeros(0),
@@ -229,7 +229,7 @@ def impact_excitation(
     """
     c = coefficients
     fs = c.samplerate
-    tau = result.contact_time
+    tau = result.separation_time
     lay = pulse_layout(tau, onset, c.omega_max, fs, pulse_points)
     n, M = lay.points, lay.samples
     forces, slopes = result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M)

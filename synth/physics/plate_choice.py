@@ -1,0 +1,147 @@
+"""Where the finite plate's modes enter the contact: ``contact.plate = "auto"`` (docs/physics.md,
+"Plate impedance" and "Plate modes").
+
+Before the first wave reflected by an edge returns to the impact point, the finite plate under
+the ball moves as the infinite plate does: the modal contact (:mod:`synth.physics.modal_contact`)
+then gives the impedance model's impact, and its modes cost time for nothing. A flexural wave of
+angular frequency ``omega`` travels at the group speed ``c_g = 2 sqrt(omega) kappa``,
+``kappa = (D / (rho h))^(1/4)`` (Cremer, Heckl & Petersson, section 3.7); from an edge at
+distance ``d`` it is back within the contact's duration ``tau`` if ``2 d / c_g < tau``, that is
+above
+
+    omega_d = (d / (kappa tau))^2.
+
+Only the part of the force pulse's spectrum above ``omega_d`` can meet its reflection while the
+ball is in contact. Its share ``s(d)`` of the pulse's energy ``Int |F(omega)|^2 d omega`` (of the
+first impact solved on the impedance plate) bounds the change of the energy the plate takes,
+``beta Int |F|^2``: the admittance near the edges, blended as in
+:func:`synth.physics.impedance.admittance_at` with these shares in place of its tapers,
+
+    Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]
+
+with ``eps`` the share of the impact's kinetic energy the plate took, ``r_e = 1 / EDGE_RATIO``
+and ``r_c = 1 / CORNER_RATIO`` (the largest changes of the admittance at a free edge and a
+free corner, Eichler 1964 and the thesis' Table 3.4), ``s_x, s_y`` the shares for the nearest
+edge along x and along y; so ``Delta e <= Delta(e^2) / (2 e)``. Where that bound exceeds
+:data:`TOLERANCE` the modes enter the contact ("modal"), elsewhere the impedance plate serves.
+
+What the choice leaves out: the impedance plate starts every impact from a plate at rest, so the
+ringing of earlier bounces under the ball (which scatters the restitution of the last, slow
+bounces of a series; ``synth bench thesis``, rows "mean change of e by the ringing") is the
+modal plate's alone (``contact.plate = "modal"``, or ``contact.model = "fitted"``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.physics import impedance
+
+#: The change of the first impact's e (and relative change of its tau) below which the modal
+#: contact is not used: the modal contact's own accuracy at its default band and steps against
+#: the impedance model at the middle of a large plate (tests/test_fidelity_losses.py,
+#: tests/test_modal_contact.py: within 1e-3).
+TOLERANCE = 1e-3
+#: Samples of the force pulse for its energy spectrum, and the length (a power of two) of the
+#: zero-padded transform: bins of ``1 / (8 tau)`` and pulses resolved to 1/2048 of ``tau``.
+PULSE_SAMPLES = 4096
+TRANSFORM_LENGTH = 1 << 15
+
+
+@dataclass(frozen=True)
+class PlateChoice:
+    """The plate in the contact for one scene: ``plate`` ("impedance" or "modal"), the bound
+    on the change of e by the edges' reflections within the first contact (``bound``,
+    dimensionless), the distances to the nearest edge along x and y (``distances``, m) and
+    the lowest frequency whose reflection from each is back within the contact
+    (``frequencies``, Hz)."""
+
+    plate: str
+    bound: float
+    distances: tuple[float, float]
+    frequencies: tuple[float, float]
+
+
+def energy_share_above(result, omega: float) -> float:
+    """The share of the force pulse's energy ``Int |F(omega)|^2`` above the angular frequency
+    ``omega`` (rad/s) for an :class:`~synth.physics.contact.ImpactResult` (dimensionless,
+    in [0, 1]): the pulse sampled on :data:`PULSE_SAMPLES` points over its contact, its
+    spectrum by a zero-padded FFT."""
+    tau = result.separation_time
+    t = np.linspace(0.0, tau, PULSE_SAMPLES)
+    f = np.asarray(result.force_at(t), dtype=float)
+    dt = t[1] - t[0]
+    spectrum = np.abs(np.fft.rfft(f, TRANSFORM_LENGTH)) ** 2
+    omegas = 2.0 * math.pi * np.fft.rfftfreq(TRANSFORM_LENGTH, dt)
+    total = float(spectrum.sum())
+    if not total > 0.0:
+        return 0.0
+    return float(spectrum[omegas >= omega].sum()) / total
+
+
+def return_frequency(plate, distance: float, contact_time: float) -> float:
+    """The lowest angular frequency (rad/s) whose flexural wave, reflected by an edge at
+    ``distance`` (m), is back at the impact point within ``contact_time`` (s):
+    ``(d / (kappa tau))^2``, ``kappa = (D / (rho h))^(1/4)``."""
+    kappa = (plate.flexural_rigidity / plate.surface_density) ** 0.25
+    return (distance / (kappa * contact_time)) ** 2
+
+
+def choose_plate(result, plate, position, ball_mass: float, speed: float) -> PlateChoice:
+    """The :class:`PlateChoice` for the first impact ``result`` (the impedance plate's, at
+    ``speed`` m/s, of a ball of ``ball_mass`` kg) at ``position`` (m from a corner) on
+    ``plate`` (module docstring; for a ball that settles, the bound is on the plate's share
+    of the energy itself)."""
+    x, y = plate.check_position(position, "position")
+    dx = min(x, plate.length - x)
+    dy = min(y, plate.width - y)
+    tau = result.separation_time
+    omegas = (return_frequency(plate, dx, tau), return_frequency(plate, dy, tau))
+    shares = [energy_share_above(result, w) for w in omegas]
+    r_e = 1.0 / impedance.EDGE_RATIO
+    r_c = 1.0 / impedance.CORNER_RATIO
+    contrast = (r_e - 1.0) * (shares[0] + shares[1]) + (r_c - 2.0 * r_e + 1.0) * shares[0] * shares[
+        1
+    ]
+    taken = result.plate_energy / (0.5 * ball_mass * speed * speed)
+    e = result.restitution
+    # a ball that settles has no e to change: the bound is then on the plate's share itself
+    bound = taken * contrast / (2.0 * e) if e > 0.0 and not result.settled else taken * contrast
+    return PlateChoice(
+        "modal" if bound > TOLERANCE else "impedance",
+        bound,
+        (dx, dy),
+        (omegas[0] / (2.0 * math.pi), omegas[1] / (2.0 * math.pi)),
+    )
+
+
+def scene_plate(scene) -> PlateChoice:
+    """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its
+    ``contact.plate`` where that names one ("impedance" or "modal", bound 0 or inf), else
+    (``"auto"``) :func:`choose_plate` on its first impact solved on the impedance plate."""
+    from synth.physics.contact import solve_impact
+    from synth.physics.scene import Scene
+
+    if not isinstance(scene, Scene):
+        raise ParameterError(f"scene={scene!r} must be a Scene")
+    c = scene.contact
+    if c.plate != "auto":
+        return PlateChoice(
+            c.plate, 0.0 if c.plate == "impedance" else math.inf, (0.0, 0.0), (0.0, 0.0)
+        )
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first = solve_impact(
+        scene.ball,
+        scene.plate,
+        speed,
+        position=scene.position,
+        gravity=scene.gravity,
+        contact=c.law,
+        rtol=c.rtol,
+        **c.options(),
+    )
+    return choose_plate(first, scene.plate, scene.position, scene.ball.mass, speed)
