@@ -1031,3 +1031,78 @@ def test_a_body_may_ring_fewer_voices_than_the_engine(scene):
     assert engine.stats.voices_stolen == 1 and engine.ended() == [first.id] and second.playing
     with pytest.raises(ParameterError, match="max_voices"):
         engine.add(scene.plate, max_voices=0)
+
+
+def test_a_full_body_steals_the_lowest_priority_before_the_oldest(scene):
+    # two slots: the oldest has priority 1, the second 0; the third (priority 0) steals
+    # the second (the lowest priority), which fades out over STEAL_FADE from the third's
+    # injection sample; the oldest rings on untouched
+    from synth.live.voice import STEAL_FADE
+
+    n = 256
+    hits = [(1.5, 0.001), (0.5, 0.004), (1.0, 0.0123)]
+    refs = alone(scene, hits, 16 * n, blocksize=n)
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB, max_voices=2)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voices = [
+        body.hit(scene.ball, v, at=at, priority=p) for (v, at), p in zip(hits, (1, 0, 0))
+    ]
+    assert [v.priority for v in voices] == [1, 0, 0]
+    live = engine.process(16 * n)[:, 0]
+    ct = solve_impact(
+        scene.ball, scene.plate, hits[2][0], position=scene.plate.centre, rtol=HIT_RTOL
+    )
+    inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
+    want = refs[0] + refs[1] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[2]
+    np.testing.assert_allclose(live, want, rtol=0, atol=4 * float32_ulp_of_peak(want))
+    assert engine.stats.voices_stolen == 1 and engine.ended() == [voices[1].id]
+    assert voices[0].playing and voices[2].playing
+
+
+def test_a_voice_below_every_ringing_priority_is_refused_whole_and_counted(scene):
+    # one slot rung by a priority-5 hit: a priority-0 hit and a priority-0 drop find it
+    # taken and are refused when they come to join: nothing of them plays (the output is
+    # the first hit's alone, exactly), every bounce is counted dropped, each voice ends
+    n = 256
+    ref = alone(scene, [(1.0, 0.001)], 32 * n, blocksize=n, max_voices=1)[0]
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB, max_voices=1)
+    body = engine.add(scene.plate, listener=scene.listener)
+    keep = body.hit(scene.ball, 1.0, at=0.001, priority=5)
+    low = body.hit(scene.ball, 2.0, at=0.01, priority=0)
+    drop = body.drop(scene.ball, 0.05, at=0.02, priority=0)
+    live = engine.process(32 * n)[:, 0]
+    np.testing.assert_array_equal(live, ref.astype(np.float32))
+    stats = engine.stats
+    assert stats.voices_refused == 2 and stats.voices_stolen == 0
+    assert stats.impacts_dropped == 1 + len(drop.onsets) and stats.impacts_played == 1
+    assert keep.playing and not low.playing and not drop.playing
+    assert sorted(engine.ended()) == sorted([low.id, drop.id])
+    with pytest.raises(ParameterError, match="priority"):
+        body.hit(scene.ball, 1.0, priority=256)
+    with pytest.raises(ParameterError, match="priority"):
+        body.drop(scene.ball, 0.05, priority=-1)
+
+
+def test_the_engine_wide_cap_steals_across_bodies_or_refuses_by_priority(scene):
+    engine = synth.Engine(samplerate=FS, max_total_voices=2)
+    one = engine.add(scene.plate, listener=scene.listener)
+    two = engine.add(scene.plate, listener=scene.listener)
+    a = one.hit(scene.ball, 1.0, at=0.001)
+    b = two.hit(scene.ball, 1.0, at=0.002)
+    c = one.hit(scene.ball, 1.0, at=0.003)  # beyond the cap: steals a, the oldest
+    engine.process(FS // 10)
+    assert engine.ended() == [a.id] and b.playing and c.playing
+    assert engine.stats.voices_stolen == 1 and engine.stats.voices_playing == 2
+    d = two.hit(scene.ball, 1.0, at=engine.time + 0.001, priority=3)  # steals b
+    e = one.hit(scene.ball, 1.0, at=engine.time + 0.002, priority=3)  # steals c
+    assert two.hit(scene.ball, 1.0, priority=2) is None  # every voice ranks higher
+    assert two.drop(scene.ball, 0.05, priority=0) is None
+    engine.process(FS // 10)
+    assert sorted(engine.ended()) == sorted([b.id, c.id]) and d.playing and e.playing
+    stats = engine.stats
+    assert stats.voices_stolen == 3 and stats.voices_refused == 2
+    assert engine._voice_limit.playing() == 2
+    engine.process(4 * FS)  # both ring out: room again
+    assert one.hit(scene.ball, 1.0) is not None
+    with pytest.raises(ParameterError, match="max_total_voices"):
+        synth.Engine(samplerate=FS, max_total_voices=0)

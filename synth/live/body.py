@@ -22,7 +22,7 @@ from synth.live.hits import (
     trigger,
 )
 from synth.live.queue import PendingRing
-from synth.live.voice import Voice, stop_records
+from synth.live.voice import Voice, check_priority, stop_records
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Ball, Contact, Microphone, Plate
@@ -370,6 +370,7 @@ class Body:
         at: float | None = None,
         contact: Contact | None = None,
         gravity: float = GRAVITY,
+        priority: int = 0,
     ) -> Voice | None:
         """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
         plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
@@ -380,12 +381,16 @@ class Body:
         or, by default, one block plus the stream's output latency after the call.
         ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
         is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
-        Returns its :class:`Voice` (its start time is ``voice.onset``), or None if the
-        hit is refused: the body's ring of pending impacts is full, too many hits wait
-        for the next block, or the hit comes within :attr:`min_interval` of the last one
-        at its point (each counted in :attr:`Engine.stats`). A refused hit plays nothing.
+        ``priority``: an integer in [0, 255] (default 0; higher is kept longer) that
+        decides which voice a full body or a full engine steals, or refuses (see
+        :class:`Voice`). Returns its :class:`Voice` (its start time is ``voice.onset``),
+        or None if the hit is refused: the body's ring of pending impacts is full, too
+        many hits wait for the next block, the hit comes within :attr:`min_interval` of
+        the last one at its point, or the engine's ``max_total_voices`` voices all have a
+        higher priority (each counted in :attr:`Engine.stats`). A refused hit plays nothing.
         """
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
+        p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
         if self._too_close(tr.position, tr.onset):
             return None
@@ -395,17 +400,24 @@ class Body:
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
         vid = self._engine._next_voice_id()
-        records = self._hand_over_voice(result, tr, vid)
-        if records is None:
+        limit = self._engine._voice_limit
+        if not limit.admit(vid, p):
             return None
-        return Voice(self, vid, records, (tr.onset,))
+        voice = None
+        try:
+            records = self._hand_over_voice(result, tr, vid, p)
+            if records is not None:
+                voice = Voice(self, vid, records, (tr.onset,), p)
+        finally:
+            limit.settle(vid, voice)
+        return voice
 
-    def _hand_over_voice(self, result, tr: Trigger, vid: int) -> list[int] | None:
+    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> list[int] | None:
         """Hand a solved hit over at every ear of the body as voice ``vid``: the voice
         records it took (one an ear), or None if an ear refused it (then no ear plays it)."""
         records: list[int] = []
         for ear in self._ears:
-            r = ear._ring.open_voice(vid, 1)
+            r = ear._ring.open_voice(vid, 1, priority)
             if r < 0:
                 break
             try:
@@ -433,11 +445,13 @@ class Body:
         at: float | None = None,
         contact: Contact | None = None,
         gravity: float = GRAVITY,
+        priority: int = 0,
     ) -> Voice | None:
         """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
-        engine's clock from ``at`` (as :meth:`hit`: the first tick's start); ``contact``
+        engine's clock from ``at`` (as :meth:`hit`: the first tick's start; ``priority`` as
+        :meth:`hit`'s, for the whole drop); ``contact``
         (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height``
         in [1e-6, 1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
         sequence (``voice.onsets``: the start times of its ticks, s).
@@ -447,21 +461,15 @@ class Body:
         counted in ``impacts_refused`` (and the drop in ``drops_refused``); a drop with more
         impacts than ``max_pending`` can never fit and raises ParameterError."""
         h = check_height(height)
+        p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
-        ball, pos, g, law, gravity, onset0 = (
-            tr.ball,
-            tr.position,
-            tr.gain,
-            tr.law,
-            tr.gravity,
-            tr.onset,
-        )
+        law = tr.law
         sequence = simulate_bounces(
-            ball,
+            tr.ball,
             self.plate,
             drop_height=h,
-            position=pos,
-            gravity=gravity,
+            position=tr.position,
+            gravity=tr.gravity,
             contact_law=law.law,
             rtol=law.rtol,
             **law.options(),
@@ -474,11 +482,25 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.separation_time)
-        n = len(sequence)
         vid = self._engine._next_voice_id()
+        limit = self._engine._voice_limit
+        if not limit.admit(vid, p):
+            return None
+        voice = None
+        try:
+            voice = self._hand_over_drop(sequence, tr, vid, p)
+        finally:
+            limit.settle(vid, voice)
+        return voice
+
+    def _hand_over_drop(self, sequence, tr: Trigger, vid: int, priority: int) -> Voice | None:
+        """Hand a drop's impacts over at every ear of the body as voice ``vid``, all or
+        none: its Voice, or None (counted) when an ear has too few free slots."""
+        ball, pos, g, gravity, onset0 = tr.ball, tr.position, tr.gain, tr.gravity, tr.onset
+        n = len(sequence)
         reserved = []  # (ear, voice record, slots not yet handed over)
         for ear in self._ears:
-            r = ear._ring.open_voice(vid, n)
+            r = ear._ring.open_voice(vid, n, priority)
             slots = ear._ring.reserve_many(n, voice=r) if r >= 0 else None
             if slots is None:
                 if r >= 0:
@@ -501,7 +523,7 @@ class Body:
         except BaseException:
             _release(reserved)
             raise
-        return Voice(self, vid, [r for _, r, _ in reserved], onsets)
+        return Voice(self, vid, [r for _, r, _ in reserved], onsets, priority)
 
     def stop_all(self) -> None:
         """Silence the body at the next block: every voice stops (and is reported ended),

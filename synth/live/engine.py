@@ -59,7 +59,7 @@ from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, ears
 from synth.live.hits import MAX_AHEAD, MAX_GAIN, check_int
 from synth.live.stats import EngineStats
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
-from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice
+from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
 from synth.physics.scene import Accelerometer, Microphone, Plate, Scene
 from synth.sound.modal_bank import PULSE_POINTS
 from synth.sound.render import modal_model
@@ -152,6 +152,13 @@ class Engine:
         its own, preallocated at :meth:`add`; a new voice when all ring steals the
         oldest (a ``STEAL_FADE`` fade, counted in ``stats.voices_stolen``). A body costs
         up to this many modal banks per block.
+    max_total_voices : int, optional
+        Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
+        None: no cap beyond each body's): a voice counts from the call that makes it until
+        it ends; a new one beyond the cap stops the voice of the lowest priority, of those
+        the oldest, with a ``STEAL_FADE`` fade (counted in ``stats.voices_stolen``), or is
+        refused when all have a higher priority (``stats.voices_refused``); see
+        :class:`~synth.live.voice.VoiceLimit`.
     """
 
     def __init__(
@@ -175,6 +182,7 @@ class Engine:
         callback: str = "native",
         max_bodies: int = MAX_BODIES,
         max_voices: int = MAX_VOICES,
+        max_total_voices: int | None = None,
     ):
         self.samplerate = check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = check_int("blocksize", blocksize, 16, 8192, "frames")
@@ -226,6 +234,10 @@ class Engine:
             )
         max_bodies = check_int("max_bodies", max_bodies, 1, 65536, "bodies")
         self.max_voices = check_int("max_voices", max_voices, 1, 256, "voices")
+        if max_total_voices is not None:
+            max_total_voices = check_int("max_total_voices", max_total_voices, 1, 65536, "voices")
+        self.max_total_voices = max_total_voices
+        self._voice_limit = VoiceLimit(max_total_voices)
         self._fade = fade_s
         self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
         announce("live")
@@ -651,11 +663,14 @@ class Engine:
     @property
     def stats(self) -> EngineStats:
         played = late = refused = pending = ringing = voices = stolen = dropped = 0
+        limit = self._voice_limit
+        voices_refused = limit.refused
         for body in self._bodies:  # a body heard by several listeners counts its first's
             played += int(body._counters[kernel.PLAYED])
             late += int(body._counters[kernel.LATE])
             stolen += int(body._counters[kernel.STOLEN])
             dropped += int(body._counters[kernel.DROPPED])
+            voices_refused += int(body._counters[kernel.REFUSED])
             refused += body._ring.refused
             pending += body.pending
             ringing += body.ringing
@@ -677,7 +692,8 @@ class Engine:
             impacts_pending=pending,
             bodies_ringing=ringing,
             voices_playing=voices,
-            voices_stolen=stolen,
+            voices_stolen=stolen + limit.stolen,
+            voices_refused=voices_refused,
             impacts_dropped=dropped,
             events_lost=int(self._native.events[kernel.E_LOST]),
             peak=float(t[native.PEAK]),

@@ -3,7 +3,9 @@
 A body has a fixed number of voice slots, each a modal state as the offline modal bank's
 (:mod:`synth.sound.modal_bank`): its modes' complex amplitudes, which of them ring, their
 omission debts and thresholds. A voice (a hit, or a whole drop: one handle) takes a free
-slot when its first impact joins, or steals the oldest (:func:`_steal`), and frees it when
+slot when its first impact joins, or steals the one of lowest priority, of those the
+oldest (:func:`_victim`; a voice of lower priority than every ringing one is refused),
+and frees it when
 every mode has fallen below its share of the omission floor relative to the voice's peak,
 or when its stop fade ends; then, with nothing of it pending, it posts a voice-ended event.
 :func:`mix_body` advances each slot over one block with the bank's own steps
@@ -54,7 +56,8 @@ N_PULSE_FIELDS = 7
 #: transformed, voices stolen, impacts dropped (their voice stopped or stolen before
 #: they played), the sample after the last one of the stolen voices' fades (see
 #: :func:`_steal`); then two settings: the body's ears (listeners heard as one body,
-#: written into its voice-ended events) and the steal fade's length (samples).
+#: written into its voice-ended events) and the steal fade's length (samples); then the
+#: voices refused when they came to join (every slot rang a voice of higher priority).
 PLAYED = 0
 LATE = 1
 BUSY_BLOCKS = 2
@@ -66,16 +69,18 @@ DROPPED = 7
 TAIL_END = 8
 EARS = 9
 STEAL_FRAMES = 10
-N_COUNTERS = 11
+REFUSED = 11
+N_COUNTERS = 12
 
 #: A voice record (int64 columns of a body's ``voices``: one per handle, see
 #: :mod:`synth.live.queue`): its id, its state (V_FREE, V_LIVE; the producers' own
 #: WRITING = 2), the impacts its producer hands over, those played or dropped so far (the
 #: audio thread's), the stop fade asked by :meth:`synth.live.Voice.stop` (samples, -1
-#: none; the producer's), 1 once stolen (the audio thread's), and the voice slot whose
-#: modal state it rings (-1 none; the audio thread's).
-V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT = range(7)
-N_VOICE_FIELDS = 7
+#: none; the producer's), 1 once stolen or refused (the audio thread's), the voice slot
+#: whose modal state it rings (-1 none; the audio thread's) and its priority (the
+#: producer's; see :func:`_steal`).
+V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT, V_PRIORITY = range(8)
+N_VOICE_FIELDS = 8
 V_FREE = 0
 V_LIVE = 1
 
@@ -144,10 +149,32 @@ def _drop(state, i, records, r, counters):
     counters[DROPPED] += 1
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _refuse(state, i, records, r, counters, events):
+    """Refuse voice ``r`` (its priority is below every ringing slot's) at its pending
+    impact ``i``: that impact and every later one of it are dropped, and it ends."""
+    records[r, V_DEAD] = 1
+    counters[REFUSED] += 1
+    _drop(state, i, records, r, counters)
+    _settle(records, r, events, counters[EARS])
+
+
+@numba.njit(cache=True, nogil=True)
+def _outranked(records, slots, r):
+    """Whether voice ``r`` would be refused a slot now: every slot rings a voice of higher
+    priority (see :func:`_victim`)."""
+    for j in range(slots.shape[0]):
+        if slots[j, SL_OWNER] < 0:
+            return False
+    return _victim(records, slots, r) < 0
+
+
 @numba.njit(cache=True, nogil=True)
 def _contact_samples(out, t0, n, ring, voice_form, counters, events):
     """Drop every pending impact of a stopped or stolen voice; add the in-contact samples
-    of the others that fall in ``[t0, t0 + n)``, at their voice's gain."""
+    of the others that fall in ``[t0, t0 + n)``, at their voice's gain, but refuse a
+    voice without a slot that would be refused one (:func:`_outranked`) before its first
+    in-contact sample sounds."""
     state, first, length, response, voice = ring[0], ring[2], ring[3], ring[5], ring[7]
     records, vgain = voice_form[0], voice_form[1]
     end = t0 + n
@@ -163,6 +190,9 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
         g = vgain[r]
         lo = max(first[i], t0)
         hi = min(first[i] + length[i], end)
+        if lo < hi and records[r, V_SLOT] < 0 and _outranked(records, voice_form[2], r):
+            _refuse(state, i, records, r, counters, events)  # before it sounds at all
+            continue
         for s in range(lo, hi):
             out[s - t0] += g * response[i, s - first[i]]
 
@@ -290,21 +320,41 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
-    """Free the oldest voice slot at sample ``at`` (all taken): its voice rings on through
-    a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into ``out`` and the
-    body's ``tail`` ring buffer (mixed in by the next blocks), and is ended (its pending
-    impacts are dropped). The oldest, not the quietest: a free decay makes the oldest of
-    like impacts the quietest, and a voice's age is the same at every ear of a body, where
-    its level is not. Returns the slot."""
-    records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
+def _victim(records, slots, r):
+    """The voice slot a new voice ``r`` may steal (all taken): the one whose voice has the
+    lowest priority, of those the oldest (taken earliest; then the lowest id); -1 when
+    that voice's priority is higher than ``r``'s (the new voice is refused).
+
+    The oldest, not the quietest: a free decay makes the oldest of like impacts the
+    quietest, and a voice's age is the same at every ear of a body, where its level is
+    not."""
     s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
     for j in range(1, slots.shape[0]):
-        if slots[j, SL_START] < slots[s, SL_START] or (
-            slots[j, SL_START] == slots[s, SL_START]
-            and records[slots[j, SL_OWNER], V_ID] < records[slots[s, SL_OWNER], V_ID]
+        pj = records[slots[j, SL_OWNER], V_PRIORITY]
+        ps = records[slots[s, SL_OWNER], V_PRIORITY]
+        if pj < ps or (
+            pj == ps
+            and (
+                slots[j, SL_START] < slots[s, SL_START]
+                or (
+                    slots[j, SL_START] == slots[s, SL_START]
+                    and records[slots[j, SL_OWNER], V_ID] < records[slots[s, SL_OWNER], V_ID]
+                )
+            )
         ):
             s = j
+    if records[slots[s, SL_OWNER], V_PRIORITY] > records[r, V_PRIORITY]:
+        return -1
+    return s
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
+    """Free voice slot ``s`` at sample ``at`` (chosen by :func:`_victim`): its voice rings
+    on through a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into
+    ``out`` and the body's ``tail`` ring buffer (mixed in by the next blocks), and is
+    ended (its pending impacts are dropped)."""
+    records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
     F = counters[STEAL_FRAMES]
     _ring_slot(vs, at, at, at + F, s, bank, modal)
@@ -317,13 +367,13 @@ def _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events):
     slots[s, SL_OWNER] = -1
     counters[STOLEN] += 1
     _settle(records, q, events, counters[EARS])
-    return s
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
     """A voice slot for voice ``r``, whose first impact joins at sample ``at``: a free one,
-    else the oldest one stolen (:func:`_steal`); its modal state silent."""
+    else one stolen (:func:`_victim`, :func:`_steal`); its modal state silent. -1 when
+    every slot rings a voice of higher priority than ``r``'s."""
     records, vgain, slots, slot_gain = voice_form[:4]
     s = -1
     for j in range(slots.shape[0]):
@@ -331,7 +381,10 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
             s = j
             break
     if s < 0:
-        s = _steal(out, t0, n, vs, at, bank, modal, voice_form, counters, events)
+        s = _victim(records, slots, r)
+        if s < 0:
+            return -1
+        _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events)
     zr, zi, active, debt, debt_at, thresholds, thr2, level = modal
     for k in range(zr.shape[1]):
         zr[s, k] = 0.0
@@ -480,6 +533,9 @@ def mix_body(
         s = records[r, V_SLOT]
         if s < 0:
             s = _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
+            if s < 0:  # every slot rings a voice of higher priority
+                _refuse(state, i, records, r, counters, events)
+                continue
         else:
             _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
         _inject(s, i, at, ring, bank, modal, floor)

@@ -47,6 +47,7 @@ from synth.live.kernel import (
     V_ID,
     V_LIVE,
     V_PLAYED,
+    V_PRIORITY,
     V_PUT,
     V_SLOT,
     V_STATE,
@@ -117,9 +118,10 @@ class PendingRing:
         """Impacts handed over and not yet played."""
         return int(np.count_nonzero((self.state == READY) | (self.state == PULSE)))
 
-    def open_voice(self, vid: int, impacts: int) -> int:
-        """A free voice record for voice ``vid`` (> 0) that will hand over ``impacts``
-        impacts, or -1 (the impacts counted in ``refused``) when every record is taken."""
+    def open_voice(self, vid: int, impacts: int, priority: int = 0) -> int:
+        """A free voice record for voice ``vid`` (> 0) of ``priority`` that will hand over
+        ``impacts`` impacts, or -1 (the impacts counted in ``refused``) when every record
+        is taken."""
         with self._lock:
             r = int(self.voices[:, V_STATE].argmin())
             if self.voices[r, V_STATE] != V_FREE:
@@ -132,6 +134,7 @@ class PendingRing:
             v[V_STOP] = -1
             v[V_DEAD] = 0
             v[V_SLOT] = -1
+            v[V_PRIORITY] = priority
             self.voice_gain[r] = 1.0
             v[V_STATE] = V_LIVE
             return r

@@ -24,7 +24,10 @@ class EngineStats:
     they were found in); impacts_pending: handed over and not yet played; bodies_ringing:
     bodies with a voice ringing; voices_playing: voice slots ringing (as of the last
     block mixed; a body of several ears counts its first's); voices_stolen: voices ended
-    by a new one when all of their body's slots rang (see :class:`Voice`);
+    by a new one when all of their body's slots rang, or beyond the engine's
+    ``max_total_voices`` (see :class:`Voice`); voices_refused: voices refused for their
+    priority (lower than every voice ringing in their body's slots when they came to
+    join, or than every voice of a full engine; each counted once, at its first ear);
     impacts_dropped: impacts not played because their voice was stopped or stolen (or
     the body silenced) first; events_lost: voice-ended events that found
     :meth:`Engine.ended`'s ring full; peak: the largest |sample| of the master bus before
@@ -50,6 +53,7 @@ class EngineStats:
     bodies_ringing: int
     voices_playing: int
     voices_stolen: int
+    voices_refused: int
     impacts_dropped: int
     events_lost: int
     peak: float

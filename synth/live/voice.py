@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import threading
 from typing import TYPE_CHECKING
 
 from synth import checks
-from synth.live.hits import MAX_GAIN
+from synth.live.hits import MAX_GAIN, check_int
 
 if TYPE_CHECKING:
     from synth.live.body import Body
@@ -19,6 +20,13 @@ STEAL_FADE = 0.005
 #: Bounds of a :meth:`Voice.stop` fade, s.
 MIN_STOP_FADE = 0.001
 MAX_STOP_FADE = 10.0
+#: Largest priority of a voice (priorities are integers from 0, the default, to this).
+MAX_PRIORITY = 255
+
+
+def check_priority(priority) -> int:
+    """A hit's or a drop's ``priority``, checked: an integer in [0, MAX_PRIORITY]."""
+    return check_int("priority", priority, 0, MAX_PRIORITY, "higher plays first")
 
 
 class Voice:
@@ -28,9 +36,14 @@ class Voice:
     ``id``: unique in its engine (the ids :meth:`Engine.ended` reports); ``onset``: the
     stream time its first tick starts, s (``onsets``: every tick's, for a drop).
 
-    A voice takes one of its body's ``max_voices`` voice slots (a modal state of its own)
-    when its first impact joins; when all are ringing it steals the oldest one (the slot
-    taken earliest), whose voice fades out over ``STEAL_FADE`` (a raised cosine) and ends.
+    ``priority``: an integer in [0, MAX_PRIORITY] (higher is kept longer). A voice takes
+    one of its body's ``max_voices`` voice slots (a modal state of its own) when its first
+    impact joins; when all are ringing it steals the slot of the lowest priority, of those
+    the oldest (taken earliest), whose voice fades out over ``STEAL_FADE`` (a raised
+    cosine) and ends; when every slot rings a voice of higher priority, the new voice is
+    refused there (it plays nothing, ends, and is counted in ``stats.voices_refused``).
+    The engine's ``max_total_voices`` caps the voices of all bodies alike (see
+    :class:`VoiceLimit`).
     A voice ends when every one of its modes has fallen below its share of the engine's
     omission floor (``floor_db``) relative to the voice's peak (what it still holds is
     then at most ``floor_db`` below its loudest impact's sum of mode amplitudes), or when
@@ -38,12 +51,13 @@ class Voice:
     is reported by :meth:`Engine.ended`. Every method may be called from any thread.
     """
 
-    __slots__ = ("body", "id", "onsets", "_records", "_gain")
+    __slots__ = ("body", "id", "onsets", "priority", "_records", "_gain")
 
-    def __init__(self, body: Body, vid: int, records, onsets: tuple):
+    def __init__(self, body: Body, vid: int, records, onsets: tuple, priority: int = 0):
         self.body = body
         self.id = vid
         self.onsets = tuple(onsets)
+        self.priority = priority
         self._records = tuple(records)  # the voice's record at each of the body's ears
         self._gain = 1.0
 
@@ -96,3 +110,56 @@ def stop_records(ears, records, vid) -> None:
     it plays: a hit refused at one ear is refused at every ear."""
     for ear, r in zip(ears, records):
         ear._ring.control_voice(r, vid, stop=0)
+
+
+class VoiceLimit:
+    """The engine-wide voice cap (``Engine(max_total_voices=n)``), kept on the threads that
+    make voices (the audio thread never sees it): a voice counts from the call that makes
+    it until it ends. A new voice beyond the cap stops the voice of the lowest priority, of
+    those the oldest (earliest onset, then lowest id), with a ``STEAL_FADE`` fade from the
+    next block (counted in ``stolen``), or is refused when every voice has a higher
+    priority than its own (counted in ``refused``): the same policy as a body's slots.
+    ``limit`` None: no cap, nothing kept."""
+
+    def __init__(self, limit: int | None):
+        self.limit = limit
+        self.stolen = 0
+        self.refused = 0
+        self._live: dict = {}  # id -> Voice (None while its hit is handed over)
+        self._lock = threading.Lock()  # between the threads that make voices
+
+    def admit(self, vid: int, priority: int) -> bool:
+        """Make room for voice ``vid`` of ``priority`` (stealing one if need be), or refuse
+        it (False)."""
+        if self.limit is None:
+            return True
+        with self._lock:
+            for k, voice in list(self._live.items()):
+                if voice is not None and not voice.playing:
+                    del self._live[k]
+            if len(self._live) >= self.limit:
+                ringing = [v for v in self._live.values() if v is not None]
+                victim = min(ringing, key=lambda v: (v.priority, v.onset, v.id), default=None)
+                if victim is None or victim.priority > priority:
+                    self.refused += 1
+                    return False
+                victim.stop(fade=STEAL_FADE)
+                del self._live[victim.id]
+                self.stolen += 1
+            self._live[vid] = None
+            return True
+
+    def settle(self, vid: int, voice: Voice | None) -> None:
+        """Voice ``vid`` admitted was handed over (``voice``) or refused by its body (None)."""
+        if self.limit is None:
+            return
+        with self._lock:
+            if voice is None:
+                self._live.pop(vid, None)
+            elif vid in self._live:
+                self._live[vid] = voice
+
+    def playing(self) -> int:
+        """Voices counted against the cap now (0 without a cap)."""
+        with self._lock:
+            return sum(1 for v in self._live.values() if v is None or v.playing)
