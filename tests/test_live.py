@@ -1106,3 +1106,55 @@ def test_the_engine_wide_cap_steals_across_bodies_or_refuses_by_priority(scene):
     assert one.hit(scene.ball, 1.0) is not None
     with pytest.raises(ParameterError, match="max_total_voices"):
         synth.Engine(samplerate=FS, max_total_voices=0)
+
+
+def test_a_removed_body_rings_out_then_frees_its_memory_and_its_room(scene):
+    import gc
+    import weakref
+
+    n = 256
+    engine = synth.Engine(samplerate=FS, blocksize=n, max_bodies=2)
+    keep = engine.add(scene.plate, listener=scene.listener)
+    gone = engine.add(scene.plate, listener=scene.listener)
+    alone_ = synth.Engine(samplerate=FS, blocksize=n)
+    alone_.add(scene.plate, listener=scene.listener).hit(scene.ball, 1.0, at=0.001)
+    ref = alone_.process(4 * FS)
+    voice = gone.hit(scene.ball, 1.0, at=0.001)
+    engine.process(n)
+    memory = weakref.ref(gone._ring.amplitudes)  # the body's largest array
+    gone.remove()  # rings out: the same samples as never removed
+    assert gone.removed and gone.memory > 0
+    with pytest.raises(SynthError, match="removed"):
+        gone.hit(scene.ball, 1.0)
+    live = engine.process(4 * FS - n)
+    np.testing.assert_array_equal(live, ref[n:])
+    assert not voice.playing and engine.ended() == [voice.id]
+    engine.process(n)  # a block mixed without it: let go of
+    gc.collect()
+    assert memory() is None and gone.memory == 0 and engine.bodies == (keep,)
+    assert engine.stats.impacts_played == 1  # what it played stays counted
+    third = engine.add(scene.plate, listener=scene.listener)  # its room is free again
+    third.hit(scene.ball, 1.0, at=engine.time + 0.001)
+    again = engine.process(FS // 10)
+    np.testing.assert_allclose(again, ref[: FS // 10], rtol=0, atol=4 * float32_ulp_of_peak(ref))
+    voice.stop()  # a handle on a freed body does nothing
+    voice.gain = 0.5
+
+
+def test_a_removed_body_fades_out_when_asked(scene):
+    n = 256
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    body = engine.add(scene.plate, listener=scene.listener)
+    voice = body.hit(scene.ball, 1.0, at=0.001)
+    ref = alone(scene, [(1.0, 0.001)], 8 * n, blocksize=n)[0]
+    engine.process(4 * n)
+    body.remove(fade=0.002)
+    live = engine.process(4 * n)[:, 0]
+    fade = round(0.002 * FS)
+    want = ref[4 * n :] * raised_cosine(4 * n, 0, fade)
+    np.testing.assert_allclose(live, want, rtol=0, atol=4 * float32_ulp_of_peak(ref))
+    assert not voice.playing and not np.any(live[fade:])
+    engine.process(n)
+    assert body.memory == 0 and engine.bodies == ()
+    with pytest.raises(ParameterError, match="fade"):
+        engine.add(scene.plate, listener=scene.listener).remove(fade=0.0)

@@ -22,7 +22,13 @@ from synth.live.hits import (
     trigger,
 )
 from synth.live.queue import PendingRing
-from synth.live.voice import Voice, check_priority, stop_records
+from synth.live.voice import (
+    MAX_STOP_FADE,
+    MIN_STOP_FADE,
+    Voice,
+    check_priority,
+    stop_records,
+)
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Ball, Contact, Microphone, Plate
@@ -118,8 +124,11 @@ class Body:
         self._counters = arrays["counters"]
         self._slots = arrays["voice_slots"]
         self._scalars = arrays["scalars"]
-        self._index = len(engine._native.records)
         self._record = engine._native.add_body(arrays)
+        records = engine._native.records
+        self._index = next(i for i, r in enumerate(records) if r and r[0] is self._record)
+        self._removed = False  # remove() called: hits and drops refused
+        self._freed = False  # its arrays let go (see Engine._reap)
 
     def _warm_up(self):
         """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
@@ -187,6 +196,8 @@ class Body:
         """Bytes of the arrays the body holds for the audio thread (its voice slots' modal
         states, power table, pending ring and voice records, the stolen voices' fade
         buffer, workspace)."""
+        if self._freed:
+            return 0
         records = self._engine._native.records
         return sum(
             int(a.nbytes)
@@ -203,17 +214,17 @@ class Body:
     @property
     def pending(self) -> int:
         """Impacts handed over and not yet played."""
-        return self._ring.pending()
+        return 0 if self._freed else self._ring.pending()
 
     @property
     def awake(self) -> bool:
         """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
-        return self.ringing or any(ear._ring.pending() for ear in self._ears)
+        return self.ringing or any(ear.pending for ear in self._ears)
 
     @property
     def ringing(self) -> bool:
         """Whether a voice of the body rings (as of the last block mixed)."""
-        return any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
+        return not self._freed and any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
 
     @property
     def voices_playing(self) -> int:
@@ -358,6 +369,8 @@ class Body:
     def _trigger(self, ball, position, gain, contact, gravity, at) -> Trigger:
         """The arguments :meth:`hit` and :meth:`drop` share, checked (a ParameterError
         names the argument and its value)."""
+        if self._removed:
+            raise SynthError("this body was removed from its engine (Body.remove): add it again")
         return trigger(self.plate, ball, position, gain, contact, gravity, self._engine._onset(at))
 
     def hit(
@@ -524,6 +537,44 @@ class Body:
             _release(reserved)
             raise
         return Voice(self, vid, [r for _, r, _ in reserved], onsets, priority)
+
+    @property
+    def removed(self) -> bool:
+        """Whether :meth:`remove` was called."""
+        return self._removed
+
+    def remove(self, fade: float | None = None) -> None:
+        """Take the body out of its engine: from now on its hits and drops raise a
+        SynthError; what it plays rings out (``fade`` None: every voice decays to the
+        omission floor) or fades out (a raised cosine over ``fade`` s, in [0.001, 10],
+        from the next block); then, once the mixing has passed a block without it, the
+        engine lets go of its arrays (:attr:`memory` is then 0) and its room in the
+        engine is free for :meth:`Engine.add`. The engine checks this at each of its
+        calls (``add``, ``process``, ``mix_into``, ``stats``, ``ended``, ``remove``);
+        what the body played stays counted in :attr:`Engine.stats`. A hit made on
+        another thread at the very moment of the call may be dropped unplayed."""
+        if fade is not None:
+            f = checks.in_range("fade", fade, MIN_STOP_FADE, MAX_STOP_FADE, "s",
+                                lo_open=False, hi_open=False)  # fmt: skip
+        if self._removed:
+            return
+        self._removed = True
+        if fade is not None:
+            frames = max(1, int(round(f * self._engine.samplerate)))
+            for ear in self._ears:
+                ring = ear._ring
+                for r in range(ring.voices.shape[0]):
+                    ring.control_voice(r, int(ring.voices[r, kernel.V_ID]), stop=frames)
+        self._engine._retire(self)
+
+    def _free(self) -> None:
+        """Let go of the arrays of every ear (the mixing no longer reads them)."""
+        for ear in self._ears:
+            ear._freed = True
+            ear._ring = None
+            ear._state_arrays = None
+            ear._prepared = {}
+            ear._solvers = {}
 
     def stop_all(self) -> None:
         """Silence the body at the next block: every voice stops (and is reported ended),

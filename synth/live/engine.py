@@ -259,6 +259,11 @@ class Engine:
         self._state = "idle"  # idle <-> running; failed for good
         self._failure: str | None = None
         self._drops_refused = 0
+        # removed bodies: ringing out (body, None), or vacated (body, the mixing's progress)
+        self._retiring: list = []
+        self._retired_counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
+        self._retired_refused = 0  # impacts refused by removed bodies' rings
+        self._reap_lock = threading.Lock()  # between the game's threads, never waited on
         self._too_close = 0
         self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
         self._events_lock = threading.Lock()  # between readers of ended()
@@ -269,6 +274,7 @@ class Engine:
         body), oldest first; never blocks the audio thread (a lock-free ring it writes,
         read here; ``EVENT_CAPACITY`` events wait at most, more are counted in
         ``stats.events_lost``). Call it from the game's loop."""
+        self._reap()
         with self._events_lock:
             ev = self._native.events
             written = int(ev[kernel.E_WRITTEN])
@@ -329,7 +335,8 @@ class Engine:
             )
         g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
-        if len(self._native.records) >= self._native.directory.shape[0]:
+        self._reap()
+        if self._native.bodies_held() >= self._native.directory.shape[0]:
             raise ParameterError(
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
             )
@@ -359,7 +366,8 @@ class Engine:
                 )
         g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
-        if len(self._native.records) + len(listeners) > self._native.directory.shape[0]:
+        self._reap()
+        if self._native.bodies_held() + len(listeners) > self._native.directory.shape[0]:
             raise ParameterError(
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
                 f"(one per listener): no room for {len(listeners)} more"
@@ -381,7 +389,40 @@ class Engine:
 
     @property
     def bodies(self) -> tuple[Body, ...]:
+        """The bodies the engine holds (a removed one until its arrays are let go)."""
         return self._bodies
+
+    def _retire(self, body: Body) -> None:
+        """Take a removed body (:meth:`Body.remove`) through ringing out to freed."""
+        self._retiring.append([body, None])
+        self._reap()
+
+    def _reap(self) -> None:
+        """Move the removed bodies on: one that has fallen silent leaves the mixing (its
+        directory entries vacated); one the mixing has left since is let go of. Skipped
+        while another thread does it (a host's audio callback never waits here)."""
+        if not self._retiring or not self._reap_lock.acquire(blocking=False):
+            return
+        try:
+            self._reap_bodies()
+        finally:
+            self._reap_lock.release()
+
+    def _reap_bodies(self) -> None:
+        for item in list(self._retiring):
+            body, progress = item
+            if progress is None:
+                if body.awake:
+                    continue
+                item[1] = [self._native.vacate(ear._index) for ear in body._ears]
+            elif all(self._native.left(p) for p in item[1]):
+                self._retired_counters += body._counters
+                self._retired_refused += body._ring.refused
+                for ear in body._ears:
+                    self._native.release(ear._index)
+                body._free()
+                self._bodies = tuple(b for b in self._bodies if b is not body)
+                self._retiring.remove(item)
 
     # -- master bus -----------------------------------------------------------------------
     @property
@@ -536,6 +577,7 @@ class Engine:
         for a in range(0, n, self.blocksize):  # the callback's blocks
             b = min(n, a + self.blocksize)
             native.mix_engine(self._native.ctl, out[a:b])
+        self._reap()
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:
@@ -562,6 +604,8 @@ class Engine:
             raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
         self._check_open("mix")
         native.mix_engine(self._native.ctl, out)
+        if self._retiring:
+            self._reap()
         return out
 
     def render_block(self, frames: int) -> np.ndarray:
@@ -662,9 +706,13 @@ class Engine:
 
     @property
     def stats(self) -> EngineStats:
-        played = late = refused = pending = ringing = voices = stolen = dropped = 0
+        self._reap()
+        gone = self._retired_counters
+        played, late = int(gone[kernel.PLAYED]), int(gone[kernel.LATE])
+        stolen, dropped = int(gone[kernel.STOLEN]), int(gone[kernel.DROPPED])
+        refused, pending, ringing, voices = self._retired_refused, 0, 0, 0
         limit = self._voice_limit
-        voices_refused = limit.refused
+        voices_refused = limit.refused + int(gone[kernel.REFUSED])
         for body in self._bodies:  # a body heard by several listeners counts its first's
             played += int(body._counters[kernel.PLAYED])
             late += int(body._counters[kernel.LATE])

@@ -543,6 +543,18 @@ class EngineState:
         t[SAMPLERATE] = samplerate
         t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
         t[PAUSE_LEVEL] = 1.0
+        # the record a removed body's directory entry points to: a body with no voice
+        # slot and no pending slot, asleep for good (the callback returns at once)
+        self._vacant_arrays = dict(
+            counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
+            transformed=np.zeros(1, dtype=np.int64),
+            scalars=np.zeros(N_SCALARS),
+            state=np.zeros(1, dtype=np.int64),
+        )
+        self.vacant = np.zeros(N_BODY, dtype=np.int64)
+        for name, a in self._vacant_arrays.items():
+            self.vacant[BODY_FIELDS.index(name)] = a.ctypes.data
+        self.vacant[B_CHANNEL] = -1
 
     @property
     def address(self) -> int:
@@ -553,7 +565,8 @@ class EngineState:
         """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
         audio thread: its record is written, then counted. Returns the record."""
         n = int(self.ctl[N_BODIES])
-        if n >= self.directory.shape[0]:
+        free = [i for i, r in enumerate(self.records) if r is None]
+        if not free and n >= self.directory.shape[0]:
             raise IndexError(n)
         record = np.zeros(N_BODY, dtype=np.int64)
         for i, name in enumerate(BODY_FIELDS):
@@ -564,10 +577,36 @@ class EngineState:
                 record[i] = value.ctypes.data
             else:
                 record[i] = int(value)
+        if free:  # a removed body's entry: the callback mixes the body from the write on
+            self.records[free[0]] = (record, arrays)
+            self.directory[free[0]] = record.ctypes.data
+            return record
         self.records.append((record, arrays))
         self.directory[n] = record.ctypes.data
         self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
         return record
+
+    def bodies_held(self) -> int:
+        """Bodies in the directory (removed ones not counted)."""
+        return sum(1 for r in self.records if r is not None)
+
+    def vacate(self, index: int) -> tuple[int, int]:
+        """Take body ``index`` out of the mixing: its directory entry points to the vacant
+        record from now on (one atomic word). Returns the mixing's progress then (the next
+        frame, the callbacks), for :meth:`left`."""
+        progress = int(self.ctl[FRAME]), int(self.ctl[CALLBACKS])
+        self.directory[index] = self.vacant.ctypes.data
+        return progress
+
+    def left(self, progress: tuple[int, int]) -> bool:
+        """Whether every block that may have read a directory entry before :meth:`vacate`
+        returned ``progress`` has ended (a piece mixed since, or a callback returned)."""
+        return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
+
+    def release(self, index: int) -> None:
+        """Let go of body ``index``'s arrays (vacated, and left by the mixing); its entry
+        is taken again by the next :meth:`add_body`."""
+        self.records[index] = None
 
     def anchor(self) -> tuple[int, float, float]:
         """The last callback's first frame, the monotonic time (s) at which it leaves the

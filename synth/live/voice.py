@@ -73,6 +73,8 @@ class Voice:
     def playing(self) -> bool:
         """Whether the voice is pending or ringing: read from the audio thread's state
         without a lock (True from the call that made it until it has ended)."""
+        if self.body._freed:
+            return False
         return any(
             ear._ring.voice_alive(r, self.id) for ear, r in zip(self.body._ears, self._records)
         )
@@ -89,6 +91,8 @@ class Voice:
         g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
                             hi_open=False)  # fmt: skip
         self._gain = g
+        if self.body._freed:
+            return
         for ear, r in zip(self.body._ears, self._records):
             ear._ring.control_voice(r, self.id, gain=g)
 
@@ -101,6 +105,8 @@ class Voice:
         f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
                             hi_open=False)  # fmt: skip
         frames = max(1, int(round(f * self.body._engine.samplerate)))
+        if self.body._freed:
+            return
         for ear, r in zip(self.body._ears, self._records):
             ear._ring.control_voice(r, self.id, stop=frames)
 
