@@ -496,3 +496,39 @@ def test_pause_holds_the_voices_live_as_process_holds_them(jack, scene):
     assert differs.size and differs[0] > 0.4 * FS
     want = offline(pause_frame=int(differs[0]) // BLOCK * BLOCK)
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_a_body_removed_while_the_stream_runs_is_freed_and_its_room_reused(jack, scene):
+    # two bodies ring; one is removed with a fade while the stream runs: the callback
+    # leaves it at a block boundary and the engine lets go of its arrays; the other plays
+    # on as process() plays it alone, and the freed room takes a new body
+    import gc
+    import weakref
+
+    seconds = 1.0
+    kw = dict(samplerate=FS, blocksize=BLOCK, max_bodies=2)
+    engine = synth.Engine(device=jack.device, record_seconds=seconds, **kw)
+    keep = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    gone = engine.add(scene.plate, listener=scene.listener, gain=0.1)
+    with engine:
+        keep.hit(scene.ball, 1.0, at=0.3)
+        gone.hit(scene.ball, 1.5, position=(0.3, 0.2), at=0.3)
+        assert wait_for(lambda: engine.time > 0.4, 10.0)
+        arrays = weakref.ref(gone._ring.amplitudes)
+        gone.remove(fade=0.01)
+        quiet = engine._frame + BLOCK + int(0.01 * FS)  # the fade ends by then
+        assert wait_for(lambda: engine.stats and gone.memory == 0, 5.0)
+        gc.collect()
+        assert arrays() is None and engine.bodies == (keep,)
+        assert engine.add(scene.plate, listener=scene.listener, gain=0.1).modes == keep.modes
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], seconds + 10)
+        stats = engine.stats
+    assert stats.impacts_played == 2 and stats.impacts_late == 0
+    live = engine.recording[:, 0].astype(float)
+    e = synth.Engine(**kw)
+    e.add(scene.plate, listener=scene.listener, gain=0.1).hit(scene.ball, 1.0, at=0.3)
+    alone = e.process(live.size)[:, 0].astype(float)
+    tol = 4 * float(np.spacing(np.float32(np.max(np.abs(alone)))))
+    # once the removed body's fade has ended, only the kept body sounds
+    assert quiet < live.size
+    np.testing.assert_allclose(live[quiet:], alone[quiet:], rtol=0, atol=tol)
