@@ -283,14 +283,19 @@ from synth.errors import SynthError
 from synth.live.jack import JackDummyServer
 scene = synth.load_preset("default")
 server = JackDummyServer(samplerate=48000, period=256).start()
-engine = synth.Engine(samplerate=48000, blocksize=256, device=server.device)
+lost = []
+event = threading.Event()
+engine = synth.Engine(samplerate=48000, blocksize=256, device=server.device,
+                      on_device_lost=lambda why: (lost.append(why), event.set()))
 body = engine.add(scene.plate, listener=scene.listener, gain=0.1)
 engine.start()
 while engine.stats.callbacks < 10:
     time.sleep(0.01)
+print("lost before", engine.stats.device_lost, len(lost), flush=True)
 server._process.terminate()  # the server goes away (cleanly: JACK's registry stays clean)
 server._process.wait()
-time.sleep(1.0)
+print("lost event", event.wait(60.0), len(lost), "called back" in lost[0], flush=True)
+print("device_lost", engine.stats.device_lost, flush=True)
 print("silent", engine.stats.silent_for > 0.5, flush=True)
 try:
     body.hit(scene.ball, 1.0)
@@ -331,7 +336,11 @@ def test_stop_is_bounded_when_the_server_dies():
     )
     assert out.returncode == 0, out.stderr[-2000:]
     lines = out.stdout.splitlines()
-    # while it runs, a stream that stopped calling back is reported, and hits refused
+    # while it runs, a stream that stopped calling back is reported (once, through
+    # on_device_lost, and in the stats), and hits refused
+    assert lines.pop(0) == "lost before False 0"
+    assert lines.pop(0) == "lost event True 1 True"
+    assert lines.pop(0) == "device_lost True"
     assert lines.pop(0) == "silent True"
     line = lines.pop(0)
     assert line.startswith("refused:") and "has not called back" in line

@@ -75,6 +75,8 @@ MAX_SECONDS = 600.0
 #: A running stream whose callback has not returned for this long (s, or 10 blocks if
 #: longer) has lost its device or server: hits are refused, ``stats.silent_for`` says so.
 DEVICE_LOST = 0.5
+#: How often the watchdog thread looks for a lost device while a stream runs, s.
+WATCH_PERIOD = 0.05
 #: Default room in the body directory the audio thread reads.
 MAX_BODIES = 256
 #: Latency settings PortAudio takes by name (else a positive number of seconds).
@@ -159,6 +161,12 @@ class Engine:
         the oldest, with a ``STEAL_FADE`` fade (counted in ``stats.voices_stolen``), or is
         refused when all have a higher priority (``stats.voices_refused``); see
         :class:`~synth.live.voice.VoiceLimit`.
+    on_device_lost : callable, optional
+        Called once, as ``on_device_lost(reason)`` (a str), when a running stream's device
+        or audio server is lost (its callback has not returned for ``DEVICE_LOST`` s, or
+        10 blocks if longer): on a watchdog thread of the engine's (Python, never the audio
+        thread), which checks every ``WATCH_PERIOD`` s while the stream runs.
+        ``stats.device_lost`` says so too, until :meth:`stop`.
     """
 
     def __init__(
@@ -183,6 +191,7 @@ class Engine:
         max_bodies: int = MAX_BODIES,
         max_voices: int = MAX_VOICES,
         max_total_voices: int | None = None,
+        on_device_lost=None,
     ):
         self.samplerate = check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = check_int("blocksize", blocksize, 16, 8192, "frames")
@@ -227,6 +236,10 @@ class Engine:
         if not isinstance(clip, bool):
             raise ParameterError(f"clip={clip!r} must be True or False")
         self.callback = checks.choice("callback", callback, CALLBACKS)
+        if on_device_lost is not None and not callable(on_device_lost):
+            raise ParameterError(f"on_device_lost={on_device_lost!r} must be None or callable")
+        self._on_device_lost = on_device_lost
+        self._device_lost: str | None = None  # why, once the watchdog found it lost
         if self.callback == "native" and not native.native_available():
             raise ParameterError(
                 "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
@@ -515,14 +528,21 @@ class Engine:
             return 0.0
         return max(0.0, native.monotonic() - float(self._native.times[native.END_TIME]))
 
-    def _check_alive(self) -> None:
+    def _lost(self) -> str | None:
+        """Why the running stream's device is taken as lost, or None."""
         silent = self._silent_for()
         limit = max(DEVICE_LOST, 10 * self.blocksize / self.samplerate)
         if silent > limit:
-            raise SynthError(
+            return (
                 f"the audio stream has not called back for {silent:.2f} s (more than {limit:g} "
                 f"s): its device or audio server is gone; stop() the engine (stats.silent_for)"
             )
+        return None
+
+    def _check_alive(self) -> None:
+        why = self._lost()
+        if why is not None:
+            raise SynthError(why)
 
     def _now_frame(self) -> float:
         """The frame (fractional) leaving the device now; without a stream, the next frame
@@ -659,7 +679,13 @@ class Engine:
         # nothing of the engine, only the addresses of the arrays the closer keeps)
         self._closer = weakref.finalize(self, close_stream, stream, self._native, CLOSE_TIMEOUT)
         self._state = "running"
+        self._device_lost = None
         stream.start()
+        watch = threading.Thread(
+            target=_watch_device, args=(weakref.ref(self), stream), name="synth-watchdog",
+            daemon=True,
+        )  # fmt: skip
+        watch.start()
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
@@ -683,7 +709,8 @@ class Engine:
         closed = close_stream(
             self._stream, self._native, max(0.0, deadline - time.monotonic()), abort=False
         )
-        self._stream = None
+        self._stream = None  # its watchdog ends
+        self._device_lost = None
         if not closed:
             self._state = "failed"
             self._failure = (
@@ -748,5 +775,26 @@ class Engine:
             output_peak=float(t[native.OUT_PEAK]),
             clipped=int(c[native.CLIPPED]),
             failed=self._failure,
+            device_lost=self._device_lost is not None,
             silent_for=self._silent_for(),
         )
+
+
+def _watch_device(engine_ref, stream) -> None:
+    """The watchdog of one running stream (a thread): report a lost device once, through
+    ``on_device_lost`` and ``stats.device_lost``. Holds the engine only weakly (collecting
+    it stops the stream) and ends with the stream."""
+    while True:
+        engine = engine_ref()
+        if engine is None or engine._stream is not stream:
+            return
+        why = engine._lost()
+        if why is not None:
+            engine._device_lost = why
+            callback = engine._on_device_lost
+            del engine
+            if callback is not None:
+                callback(why)
+            return
+        del engine
+        time.sleep(WATCH_PERIOD)

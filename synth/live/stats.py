@@ -35,7 +35,9 @@ class EngineStats:
     clipped: master-bus samples that reached full scale (soft-clipped, or clipped by
     the float-to-integer conversion with ``clip=False``); failed: why the stream
     failed, or None; silent_for: seconds since the last callback returned while the
-    stream runs (0 without a stream): beyond ``DEVICE_LOST`` the device is taken as lost.
+    stream runs (0 without a stream): beyond ``DEVICE_LOST`` the device is taken as lost;
+    device_lost: whether the engine's watchdog found the running stream's device lost
+    (reported once through ``on_device_lost``; False again after :meth:`Engine.stop`).
     """
 
     callbacks: int
@@ -61,3 +63,4 @@ class EngineStats:
     clipped: int
     failed: str | None
     silent_for: float
+    device_lost: bool
