@@ -1158,3 +1158,21 @@ def test_a_removed_body_fades_out_when_asked(scene):
     assert body.memory == 0 and engine.bodies == ()
     with pytest.raises(ParameterError, match="fade"):
         engine.add(scene.plate, listener=scene.listener).remove(fade=0.0)
+
+
+def test_the_master_gain_set_at_run_time_is_ramped_over_one_block(scene):
+    # -6 dB asked between two blocks: the next block ramps the bus' gain linearly from 1
+    # to 10^(-6/20) (the last sample at the target), the blocks after stay there
+    n = 256
+    ref = alone(scene, [(1.0, 0.001)], 8 * n, blocksize=n)[0]
+    engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB)
+    engine.add(scene.plate, listener=scene.listener).hit(scene.ball, 1.0, at=0.001)
+    head = engine.process(4 * n)[:, 0]
+    engine.master_gain_db = -6.0
+    assert engine.master_gain_db == pytest.approx(-6.0, abs=1e-12)
+    tail = engine.process(4 * n)[:, 0]
+    g1 = 10.0 ** (-6.0 / 20.0)
+    ramp = np.concatenate([1.0 + (g1 - 1.0) * np.arange(1, n + 1) / n, np.full(3 * n, g1)])
+    tol = 4 * float32_ulp_of_peak(ref)
+    np.testing.assert_allclose(head, ref[: 4 * n], rtol=0, atol=tol)
+    np.testing.assert_allclose(tail, ref[4 * n :] * ramp, rtol=0, atol=tol)
