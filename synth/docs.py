@@ -24,7 +24,7 @@ BENCH_PAGES = {
     "thesis": "validation.md",
     "analysis": "validation.md",
     "long": "benchmarks.md",
-    "live": "benchmarks.md",
+    "live": "live.md",
     "bank": "benchmarks.md",
     "scale": "benchmarks.md",
     "hires": "benchmarks.md",

@@ -23,6 +23,7 @@ PAGES = (
     "cli.md",
     "materials.md",
     "rolling.md",
+    "live.md",
 )
 
 #: The sections of docs/physics.md that code and other pages link to.
