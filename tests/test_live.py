@@ -1176,3 +1176,20 @@ def test_the_master_gain_set_at_run_time_is_ramped_over_one_block(scene):
     tol = 4 * float32_ulp_of_peak(ref)
     np.testing.assert_allclose(head, ref[: 4 * n], rtol=0, atol=tol)
     np.testing.assert_allclose(tail, ref[4 * n :] * ramp, rtol=0, atol=tol)
+
+
+def test_a_removed_stereo_body_frees_both_ears_and_a_new_one_takes_their_room(scene):
+    engine = synth.Engine(samplerate=FS, channels=2, max_bodies=2)
+    head = synth.live.ears((0.3, 0.2, 0.3))
+    body = engine.add(scene.plate, listener=head)
+    voice = body.hit(scene.ball, 1.0, position=(0.9, 0.3), at=0.0)
+    with pytest.raises(ParameterError, match="max_bodies"):
+        engine.add(scene.plate, listener=head)  # one entry per ear: full
+    engine.process(256)  # it rings
+    body.remove(fade=0.001)
+    engine.process(FS // 10)
+    assert body.memory == 0 and engine.bodies == () and not voice.playing
+    assert engine.ended() == [voice.id] and engine.stats.impacts_played == 1
+    again = engine.add(scene.plate, listener=head)
+    assert again.hit(scene.ball, 1.0, at=engine.time) is not None
+    assert np.any(engine.process(FS // 10))

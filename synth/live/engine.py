@@ -597,7 +597,8 @@ class Engine:
         for a in range(0, n, self.blocksize):  # the callback's blocks
             b = min(n, a + self.blocksize)
             native.mix_engine(self._native.ctl, out[a:b])
-        self._reap()
+            if self._retiring:  # removed bodies move on between the blocks
+                self._reap()
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:
