@@ -366,6 +366,8 @@ def test_channels_carry_the_mono_mix(scene):
         (dict(max_frequency=30000.0), "max_frequency"),
         (dict(max_voices=0), "max_voices"),
         (dict(max_voices=257), "max_voices"),
+        (dict(max_total_voices=65537), "max_total_voices"),
+        (dict(on_device_lost="print"), "on_device_lost"),
     ],
 )
 def test_engine_rejects_bad_arguments(kwargs, name):
