@@ -541,3 +541,44 @@ def test_a_body_removed_while_the_stream_runs_is_freed_and_its_room_reused(jack,
     # once the removed body's fade has ended, only the kept body sounds
     assert quiet < live.size
     np.testing.assert_allclose(live[quiet:], alone[quiet:], rtol=0, atol=tol)
+
+
+def test_priorities_and_the_engine_cap_hold_while_the_stream_runs(jack, scene):
+    # one slot a body, three voices in the engine: a priority-5 hit on each body; lower
+    # ones from another thread never sound: each is refused by its body's slot when it
+    # comes to join (the first one at least: the engine had room for it), or, while an
+    # earlier one waits, steals that one in the engine's cap (equal priorities: the
+    # oldest goes) or is refused there; which of these depends on the thread's timing,
+    # what plays does not: the stream plays the two kept hits as process() plays them
+    seconds = 1.0
+    kw = dict(samplerate=FS, blocksize=BLOCK, max_voices=1, max_total_voices=3)
+    engine = synth.Engine(device=jack.device, record_seconds=seconds, **kw)
+    bodies = [engine.add(scene.plate, listener=scene.listener, gain=0.1) for _ in range(2)]
+    kept = [(0, 1.0, 0.3), (1, 1.5, 0.31)]
+    refused = []
+    with engine:
+        for b, v, at in kept:
+            bodies[b].hit(scene.ball, v, at=at, priority=5)
+
+        def low():
+            for k in range(20):
+                refused.append(bodies[k % 2].hit(scene.ball, 2.0, priority=1))
+                time.sleep(0.005)
+
+        assert wait_for(lambda: engine.time > 0.33, 10.0)  # both kept hits ring
+        t = threading.Thread(target=low)
+        t.start()
+        t.join()
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], seconds + 10)
+        stats = engine.stats
+    assert len(refused) == 20 and not any(v is not None and v.playing for v in refused)
+    assert stats.voices_refused >= 1 and stats.voices_refused + stats.voices_stolen == 20
+    assert stats.impacts_played == 2 and stats.impacts_dropped + stats.impacts_refused == 20
+    e = synth.Engine(**kw)
+    offline = [e.add(scene.plate, listener=scene.listener, gain=0.1) for _ in range(2)]
+    for b, v, at in kept:
+        offline[b].hit(scene.ball, v, at=at, priority=5)
+    want = e.process(engine.recording.shape[0])[:, 0].astype(float)
+    live = engine.recording[:, 0].astype(float)
+    tol = 4 * float(np.spacing(np.float32(np.max(np.abs(want)))))
+    np.testing.assert_allclose(live, want, rtol=0, atol=tol)
