@@ -1046,9 +1046,7 @@ def test_a_full_body_steals_the_lowest_priority_before_the_oldest(scene):
     refs = alone(scene, hits, 16 * n, blocksize=n)
     engine = synth.Engine(samplerate=FS, blocksize=n, floor_db=EXACT_DB, max_voices=2)
     body = engine.add(scene.plate, listener=scene.listener)
-    voices = [
-        body.hit(scene.ball, v, at=at, priority=p) for (v, at), p in zip(hits, (1, 0, 0))
-    ]
+    voices = [body.hit(scene.ball, v, at=at, priority=p) for (v, at), p in zip(hits, (1, 0, 0))]
     assert [v.priority for v in voices] == [1, 0, 0]
     live = engine.process(16 * n)[:, 0]
     ct = solve_impact(
