@@ -6,8 +6,11 @@ very same compiled mixing without a device. A body (:mod:`synth.live.body`) is o
 heard by one listener (or one per channel): ``max_voices`` voice slots, each a modal state
 (:class:`~synth.sound.render.ModalModel`, the offline renderer's). Each hit, and each drop
 as a whole, is a :class:`~synth.live.voice.Voice` that a game controls (gain, stop, whether
-it plays) and that takes a slot when its first impact joins, stealing the oldest when all
-ring. ``Body.hit`` checks its arguments (:mod:`synth.live.hits`), solves the contact on the
+it plays, a priority) and that takes a slot when its first impact joins, stealing the one of
+lowest priority, of those the oldest, when all ring (or refused when all rank higher); an
+optional engine-wide cap (``max_total_voices``) applies the same policy over all bodies.
+:meth:`Body.remove` rings a body out (or fades it), then lets go of its memory.
+``Body.hit`` checks its arguments (:mod:`synth.live.hits`), solves the contact on the
 calling thread and hands its force pulse to the audio thread through a bounded ring
 (:mod:`synth.live.queue`); the callback calls one compiled kernel per body per block
 (:mod:`synth.live.kernel`), which first turns new pulses into the modes' amplitudes (the
@@ -152,8 +155,9 @@ class Engine:
         Voices each body rings at once, in [1, 256] (default ``MAX_VOICES``, 8): each
         :meth:`Body.hit` or :meth:`Body.drop` is a :class:`Voice` with a modal state of
         its own, preallocated at :meth:`add`; a new voice when all ring steals the
-        oldest (a ``STEAL_FADE`` fade, counted in ``stats.voices_stolen``). A body costs
-        up to this many modal banks per block.
+        one of lowest priority, of those the oldest (a ``STEAL_FADE`` fade, counted in
+        ``stats.voices_stolen``; see :class:`Voice`). A body costs up to this many modal
+        banks per block.
     max_total_voices : int, optional
         Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
         None: no cap beyond each body's): a voice counts from the call that makes it until
