@@ -22,7 +22,7 @@ EXACT_DB = -200.0  # an omission floor far below float32 resolution
 
 @pytest.fixture(scope="module")
 def scene():
-    # the thesis' model, a live body's default contact (Contact()): hits and renders compared
+    # the thesis' model (the impedance plate, as a live body's hits): hits and renders compared
     return synth.load_preset("default", ["contact.model=thesis"])
 
 
@@ -35,6 +35,7 @@ def accel_scene():
         drop_height=s.drop_height,
         position=(0.4, 0.2),
         listener=synth.Accelerometer((0.9, 0.3)),
+        contact=s.contact,
     )
 
 
@@ -81,7 +82,9 @@ def test_a_drop_played_live_is_the_render(scene):
     r = rendered(scene)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
-    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE).onsets
+    onsets = body.drop(
+        scene.ball, scene.drop_height, position=scene.position, at=PRE, contact=scene.contact
+    ).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     assert engine.stats.impacts_played == len(onsets)
@@ -97,7 +100,12 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t).onset == PRE + t
+        assert (
+            body.hit(
+                scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact
+            ).onset
+            == PRE + t
+        )
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -140,7 +148,7 @@ def test_several_bodies_add_up(scene, accel_scene):
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
     for s in (scene, accel_scene):
         engine.add(s.plate, listener=s.listener).drop(
-            s.ball, s.drop_height, position=s.position, at=PRE
+            s.ball, s.drop_height, position=s.position, at=PRE, contact=s.contact
         )
     live = engine.process(n)[:, 0]
     tol = float32_ulp_of_peak(a.audio) + float32_ulp_of_peak(b.audio) + float32_ulp_of_peak(want)
@@ -153,7 +161,7 @@ def test_default_floor_keeps_within_its_budget(scene):
     r = synth.render(scene, samplerate=FS, normalize="physical", fade=0.0, preroll=PRE)
     engine = synth.Engine(samplerate=FS)
     engine.add(scene.plate, listener=scene.listener).drop(
-        scene.ball, scene.drop_height, position=scene.position, at=PRE
+        scene.ball, scene.drop_height, position=scene.position, at=PRE, contact=scene.contact
     )
     live = engine.process(r.audio.size)[:, 0]
     budget = 10 ** (-80 / 20) * r.settings["reference_amplitude"] * r.gain
@@ -170,7 +178,7 @@ def test_fewer_pulse_points_stay_below_the_floor(scene):
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB, pulse_points=5)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact)
     live = engine.process(r.audio.size)[:, 0]
     assert 0 < np.max(np.abs(live - r.audio)) < 1e-3 * r.settings["reference_amplitude"] * r.gain
 
@@ -299,7 +307,7 @@ def test_contacts_too_long_for_a_slot_are_transformed_on_the_calling_thread(scen
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact)
     assert body._ring.pulses == 0 and body.pending == 3
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
