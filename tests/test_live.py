@@ -508,12 +508,25 @@ def test_bench_live_figures_format():
 def test_a_scene_added_sounds_as_it_renders(scene):
     # a Scene's default listener is above its impact point; engine.add(scene) hears the
     # scene's plate through the scene's own listener, so a drop off the centre is the render
-    off_centre = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.15))
+    # (the measured model on the impedance plate, the one a live body solves)
+    off_centre = synth.Scene(
+        scene.ball,
+        scene.plate,
+        drop_height=0.05,
+        position=(0.3, 0.15),
+        contact=synth.Contact(plate="impedance"),
+    )
     r = rendered(off_centre)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(off_centre)
     assert body.listener == off_centre.listener
-    body.drop(off_centre.ball, off_centre.drop_height, position=off_centre.position, at=PRE)
+    body.drop(
+        off_centre.ball,
+        off_centre.drop_height,
+        position=off_centre.position,
+        at=PRE,
+        contact=off_centre.contact,
+    )
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -885,8 +898,13 @@ def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
     body = engine.add(scene.plate, listener=scene.listener)
     voices = [body.hit(scene.ball, v, at=at) for v, at in hits]
     live = engine.process(16 * n)[:, 0]
-    ct = solve_impact(
-        scene.ball, scene.plate, hits[2][0], position=scene.plate.centre, rtol=HIT_RTOL
+    ct = solve_impact(  # a hit's default contact: the measured surface, the impedance plate
+        scene.ball,
+        scene.plate,
+        hits[2][0],
+        position=scene.plate.centre,
+        rtol=HIT_RTOL,
+        surface="auto",
     )
     inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
     want = refs[0] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[1] + refs[2]
