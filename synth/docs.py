@@ -61,7 +61,75 @@ def materials_page() -> str:
         "factor dimensionless, Rayleigh `alpha` in 1/s and `beta` in s. What the damping "
         "column does and where each value comes from: [physics.md, Materials]"
         "(physics.md#materials); the works cited: [physics.md, References]"
-        "(physics.md#references).\n\n" + materials.table_markdown()
+        "(physics.md#references).\n\n"
+        + materials.table_markdown()
+        + "\n"
+        + contact_losses_section()
+    )
+
+
+#: The surfaces of the contact-loss table of docs/materials.md: 0.1 m thick, 1 m square
+#: plates of these materials (massive: they take little of the impact's energy).
+LOSS_TABLE_SURFACES = ("steel", "granite", "oak", "rubber")
+#: The balls of that table: solid spheres of this radius (m), dropped from this height (m).
+LOSS_TABLE_RADIUS = 0.02
+LOSS_TABLE_DROP = 1.0
+
+
+def contact_losses_section() -> str:
+    """The "Contact losses" section of docs/materials.md: how each material's loss enters
+    the contact and the first-impact restitution it gives (computed here, by the engine's
+    measured surface, ``synth.physics.contact.material_viscous_time``)."""
+    import math
+
+    from synth.constants import GRAVITY
+    from synth.physics import materials
+    from synth.physics.contact import solve_impact
+    from synth.physics.scene import Ball, Plate
+
+    speed = math.sqrt(2.0 * GRAVITY * LOSS_TABLE_DROP)
+    plates = [Plate(name, 0.1, 1.0, 1.0) for name in LOSS_TABLE_SURFACES]
+    head = " | ".join(f"e on {name}" for name in LOSS_TABLE_SURFACES)
+    lines = [
+        f"| ball material | damping law | {head} | contact time on granite (us) |",
+        "|---|---|" + "---|" * len(LOSS_TABLE_SURFACES) + "---|",
+    ]
+    for name in materials.names():
+        ball = Ball(name, LOSS_TABLE_RADIUS)
+        results = [solve_impact(ball, p, speed, surface="auto", rtol=1e-9) for p in plates]
+        es = " | ".join(f"{r.restitution:.2f}" for r in results)
+        tau = results[LOSS_TABLE_SURFACES.index("granite")].contact_time * 1e6
+        law = materials.TABLE[name].damping
+        law_text = materials._damping_text(law)
+        lines.append(f"| {name} | {law_text} | {es} | {tau:.0f} |")
+    return (
+        "## Contact losses\n\n"
+        'The measured contact model (the default, `contact.surface = "auto"`) gives every '
+        "ball and plate material a contact loss from the damping law of its row above, the "
+        "published loss measurements of the row's source: each body is a Kelvin-Voigt solid "
+        "whose loss factor at the contact's angular frequency `pi / tau_c` is the row's "
+        "(`tau_c` the elastic Hertz contact time of the pair on a rigid flat at 1 m/s), and "
+        "the two compliances add, so the viscoelastic Hertz law's dissipative time is "
+        '`A = E* sum_i eta_i / (omega_c E\'_i)` (docs/physics.md, "Hertz contact"; '
+        "`synth.physics.contact.material_viscous_time`). MDF keeps its surface fitted to the "
+        "thesis' measurements. The thesis' model (`contact.model = \"thesis\"`) has no "
+        "contact loss.\n\n"
+        "These loss factors were measured on bending waves at small strain. No published "
+        "restitution of a ball of these materials has been checked against the engine yet "
+        '(docs/validation.md, "Restitution of solid balls"): the table below is the '
+        "engine's, not a measurement. Two of the law's assumptions are untested: that the "
+        "small-strain loss factor holds at a contact's strains, and that the loss grows as "
+        "the viscoelastic law's `v^(1/5)` away from 1 m/s. A pair of two near-elastic "
+        "materials (loss factors below 0.01: metals, glass, porcelain, stone, "
+        "polycarbonate) keeps `e` near 1 and does not settle from 1 m within the "
+        "scheduler's 60 s (tests/test_materials_losses.py): "
+        "the loss that stops such a ball on a hard floor, local yield at the contact "
+        "(Johnson, *Contact Mechanics*, 1985, ch. 11), has no law in the engine.\n\n"
+        f"First impact of a solid ball of {LOSS_TABLE_RADIUS * 1e3:g} mm radius dropped "
+        f"{LOSS_TABLE_DROP:g} m ({speed:.2f} m/s) on 0.1 m thick, 1 m square plates, the "
+        "impedance plate, the measured surface (computed by `python -m synth.docs`):\n\n"
+        + "\n".join(lines)
+        + "\n"
     )
 
 

@@ -119,8 +119,9 @@ def test_contact_model_names_law_plate_and_surface():
     assert fitted.options() == {"surface": "fitted"}
     thesis = Contact(model="thesis")
     assert (thesis.law, thesis.plate, thesis.surface) == ("hertz", "impedance", "ideal")
-    assert Contact() == Contact(law="hertz", plate="impedance", surface="ideal")
-    assert Contact().options() == {}
+    assert Contact() == Contact(law="hertz", plate="auto", surface="auto")
+    assert Contact().options() == {"surface": "auto"}
+    assert Contact(model="thesis").options() == {}
     # a key given explicitly takes precedence over the model's
     mixed = Contact(model="fitted", plate="impedance")
     assert (mixed.plate, mixed.surface) == ("impedance", "fitted")

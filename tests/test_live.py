@@ -22,7 +22,7 @@ EXACT_DB = -200.0  # an omission floor far below float32 resolution
 
 @pytest.fixture(scope="module")
 def scene():
-    # the thesis' model, a live body's default contact (Contact()): hits and renders compared
+    # the thesis' model (the impedance plate, as a live body's hits): hits and renders compared
     return synth.load_preset("default", ["contact.model=thesis"])
 
 
@@ -35,6 +35,7 @@ def accel_scene():
         drop_height=s.drop_height,
         position=(0.4, 0.2),
         listener=synth.Accelerometer((0.9, 0.3)),
+        contact=s.contact,
     )
 
 
@@ -81,7 +82,9 @@ def test_a_drop_played_live_is_the_render(scene):
     r = rendered(scene)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
-    onsets = body.drop(scene.ball, scene.drop_height, position=scene.position, at=PRE).onsets
+    onsets = body.drop(
+        scene.ball, scene.drop_height, position=scene.position, at=PRE, contact=scene.contact
+    ).onsets
     assert len(onsets) == r.settings["n_impacts"]
     live = engine.process(r.audio.size)[:, 0]
     assert engine.stats.impacts_played == len(onsets)
@@ -97,7 +100,12 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        assert body.hit(scene.ball, v, position=scene.position, at=PRE + t).onset == PRE + t
+        assert (
+            body.hit(
+                scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact
+            ).onset
+            == PRE + t
+        )
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -140,7 +148,7 @@ def test_several_bodies_add_up(scene, accel_scene):
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB)
     for s in (scene, accel_scene):
         engine.add(s.plate, listener=s.listener).drop(
-            s.ball, s.drop_height, position=s.position, at=PRE
+            s.ball, s.drop_height, position=s.position, at=PRE, contact=s.contact
         )
     live = engine.process(n)[:, 0]
     tol = float32_ulp_of_peak(a.audio) + float32_ulp_of_peak(b.audio) + float32_ulp_of_peak(want)
@@ -153,7 +161,7 @@ def test_default_floor_keeps_within_its_budget(scene):
     r = synth.render(scene, samplerate=FS, normalize="physical", fade=0.0, preroll=PRE)
     engine = synth.Engine(samplerate=FS)
     engine.add(scene.plate, listener=scene.listener).drop(
-        scene.ball, scene.drop_height, position=scene.position, at=PRE
+        scene.ball, scene.drop_height, position=scene.position, at=PRE, contact=scene.contact
     )
     live = engine.process(r.audio.size)[:, 0]
     budget = 10 ** (-80 / 20) * r.settings["reference_amplitude"] * r.gain
@@ -170,7 +178,7 @@ def test_fewer_pulse_points_stay_below_the_floor(scene):
     engine = synth.Engine(samplerate=FS, floor_db=EXACT_DB, pulse_points=5)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact)
     live = engine.process(r.audio.size)[:, 0]
     assert 0 < np.max(np.abs(live - r.audio)) < 1e-3 * r.settings["reference_amplitude"] * r.gain
 
@@ -299,7 +307,7 @@ def test_contacts_too_long_for_a_slot_are_transformed_on_the_calling_thread(scen
     engine = synth.Engine(samplerate=FS, blocksize=128, floor_db=EXACT_DB)
     body = engine.add(scene.plate, listener=scene.listener)
     for t, v in zip(times, speeds):
-        body.hit(scene.ball, v, position=scene.position, at=PRE + t)
+        body.hit(scene.ball, v, position=scene.position, at=PRE + t, contact=scene.contact)
     assert body._ring.pulses == 0 and body.pending == 3
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
@@ -502,12 +510,25 @@ def test_bench_live_figures_format():
 def test_a_scene_added_sounds_as_it_renders(scene):
     # a Scene's default listener is above its impact point; engine.add(scene) hears the
     # scene's plate through the scene's own listener, so a drop off the centre is the render
-    off_centre = synth.Scene(scene.ball, scene.plate, drop_height=0.05, position=(0.3, 0.15))
+    # (the measured model on the impedance plate, the one a live body solves)
+    off_centre = synth.Scene(
+        scene.ball,
+        scene.plate,
+        drop_height=0.05,
+        position=(0.3, 0.15),
+        contact=synth.Contact(plate="impedance"),
+    )
     r = rendered(off_centre)
     engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
     body = engine.add(off_centre)
     assert body.listener == off_centre.listener
-    body.drop(off_centre.ball, off_centre.drop_height, position=off_centre.position, at=PRE)
+    body.drop(
+        off_centre.ball,
+        off_centre.drop_height,
+        position=off_centre.position,
+        at=PRE,
+        contact=off_centre.contact,
+    )
     live = engine.process(r.audio.size)[:, 0]
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
@@ -879,8 +900,13 @@ def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
     body = engine.add(scene.plate, listener=scene.listener)
     voices = [body.hit(scene.ball, v, at=at) for v, at in hits]
     live = engine.process(16 * n)[:, 0]
-    ct = solve_impact(
-        scene.ball, scene.plate, hits[2][0], position=scene.plate.centre, rtol=HIT_RTOL
+    ct = solve_impact(  # a hit's default contact: the measured surface, the impedance plate
+        scene.ball,
+        scene.plate,
+        hits[2][0],
+        position=scene.plate.centre,
+        rtol=HIT_RTOL,
+        surface="auto",
     )
     inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
     want = refs[0] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[1] + refs[2]

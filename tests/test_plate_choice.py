@@ -118,16 +118,17 @@ def test_energy_share_falls_from_one_with_the_frequency():
 
 
 def test_auto_surface_is_the_fitted_one_where_the_material_has_one():
-    # contact.surface = "auto": MDF's fitted surface, an ideal half-space for a material
-    # without one (steel); a contact that names its surface keeps it.
+    # contact.surface = "auto": MDF's fitted surface, the materials' own losses for a
+    # material without one (steel); a contact that names its surface keeps it.
     ball = Ball("steel", 0.005, 4.17e-3)
     mdf = Plate("mdf-18", 0.018, 1.227, 0.49)
     steel = Plate("steel", 0.002, 0.5, 0.4)
     for plate in (mdf, steel):
         auto = solve_impact(ball, plate, 1.4, surface="auto", rtol=1e-9)
-        fitted_or_ideal = "fitted" if plate is mdf else "ideal"
-        own = solve_impact(ball, plate, 1.4, surface=fitted_or_ideal, rtol=1e-9)
+        fitted_or_material = "fitted" if plate is mdf else "material"
+        own = solve_impact(ball, plate, 1.4, surface=fitted_or_material, rtol=1e-9)
         assert auto.restitution == own.restitution
-    assert Contact(model="measured").surface == "auto" and Contact().surface == "ideal"
-    # a scene built in Python keeps the thesis' model unless it names another
-    assert DEFAULT_CONTACT_MODEL == "thesis" and Contact().plate == "impedance"
+    assert Contact(model="measured").surface == "auto" and Contact().surface == "auto"
+    # a scene built in Python gets the measured model unless it names another
+    assert DEFAULT_CONTACT_MODEL == "measured" and Contact().plate == "auto"
+    assert Contact(model="thesis").surface == "ideal"

@@ -214,6 +214,7 @@ def test_settled_scene_renders():
         synth.Plate("aluminium", 0.001, 0.6, 0.5),
         drop_height=0.05,
         listener=Accelerometer((0.3, 0.25)),
+        contact=synth.Contact(model="thesis"),  # the impedance plate: lambda >> 1 settles
     )
     r = render(s, samplerate=48000, normalize="none", max_frequency=5000.0)
     assert r.impacts[0].result.settled

@@ -35,7 +35,7 @@ benchmark's cases and tolerances (1e-3 to 1e-10). For very small restitution
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import NamedTuple
 
@@ -507,7 +507,8 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
 # ---------------------------------------------------------------------------------------
 # From scene objects
 # ---------------------------------------------------------------------------------------
-from synth.physics.materials import contact_surface, has_contact_surface  # noqa: E402
+from synth.physics.materials import LossFactor, contact_surface, has_contact_surface  # noqa: E402
+from synth.physics.materials import get as get_material  # noqa: E402
 from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate  # noqa: E402
 
 
@@ -567,12 +568,101 @@ class ContactLaw:
 
 def resolved_surface(plate: Plate, law: str, surface: str) -> str:
     """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
-    "auto" is "fitted" for the Hertz law on a material with a fitted surface
-    (:func:`synth.physics.materials.contact_surface`, fitted to measurements), else "ideal"
-    (no measurement to fit); "ideal" and "fitted" name themselves."""
+    "auto" is, for the Hertz law, "fitted" on a material with a fitted surface
+    (:func:`synth.physics.materials.contact_surface`, fitted to measurements) and
+    "material" elsewhere (each body's published loss factor,
+    :func:`material_viscous_time`); for the other laws (which carry their own loss or none)
+    "ideal". "ideal", "material" and "fitted" name themselves."""
     if surface != "auto":
         return surface
-    return "fitted" if law == "hertz" and has_contact_surface(plate.material) else "ideal"
+    if law != "hertz":
+        return "ideal"
+    return "fitted" if has_contact_surface(plate.material) else "material"
+
+
+#: Impact speed (m/s) at which a material's loss factor sets its share of the viscoelastic
+#: contact's dissipative time (:func:`material_viscous_time`): at other speeds the loss
+#: follows the viscoelastic Hertz law's own ``1 - e ~ v^(1/5)``.
+LOSS_REFERENCE_SPEED = 1.0
+#: Contact time of the elastic Hertz impact on a rigid flat without gravity over
+#: ``delta_max / v`` (closed form, docs/physics.md, "Hertz contact").
+HERTZ_TIME_FACTOR = 2.9433
+
+
+def material_loss_factor(material, omega: float) -> float:
+    """The loss factor ``eta`` (dimensionless) of ``material``'s damping law at the angular
+    frequency ``omega`` (rad/s): a :class:`~synth.physics.materials.LossFactor`'s ``eta``;
+    a :class:`~synth.physics.materials.Rayleigh` law's ``2 sigma / omega = alpha / omega +
+    beta omega``; 0 for a material without a damping law (an elastic ball)."""
+    d = material.damping
+    if d is None:
+        return 0.0
+    if isinstance(d, LossFactor):
+        return d.eta
+    return d.alpha / omega + d.beta * omega
+
+
+def hertz_contact_time(mass: float, stiffness: float, speed: float) -> float:
+    """Contact time (s) of the elastic Hertz impact ``F = K delta^(3/2)`` of a ball of
+    ``mass`` (kg) on a rigid flat at ``speed`` (m/s), without gravity:
+    ``2.9433 delta_max / v``, ``delta_max = (5 m v^2 / (4 K))^(2/5)``."""
+    delta_max = (5.0 * mass * speed * speed / (4.0 * stiffness)) ** 0.4
+    return HERTZ_TIME_FACTOR * delta_max / speed
+
+
+def material_viscous_time(
+    ball: Ball, plate: Plate, transverse_ratio: float = 1.0, plate_share: float | None = None
+) -> float:
+    """The dissipative time ``A`` (s) of the viscoelastic Hertz contact of ``ball`` on
+    ``plate`` from the two materials' loss factors (docs/physics.md, "Contact losses").
+
+    Each body is taken as a Kelvin-Voigt solid, modulus ``E'_i (1 + A_i s)``, whose loss
+    factor at the contact's angular frequency ``omega_c = pi / tau_c`` is its table loss
+    factor ``eta_i`` (:func:`material_loss_factor`): ``A_i = eta_i / omega_c``, with
+    ``tau_c`` the elastic Hertz contact time on a rigid flat at
+    :data:`LOSS_REFERENCE_SPEED` (:func:`hertz_contact_time`; the half-sine pulse's
+    fundamental is ``pi / tau_c``). The two bodies' compliances add, ``1 / E*(s) = sum
+    1 / (E'_i (1 + A_i s))``, so to first order in ``A_i s`` the contact's
+    ``A = E* sum_i A_i / E'_i``: each body's loss weighted by its share of the
+    indentation.
+
+    ``transverse_ratio`` scales the plate's modulus (its fitted surface's
+    ``E_t / E``); ``plate_share`` replaces the plate's term ``E* A_p / E'_p`` by a given
+    dissipative time (s), the fitted surface's own (None: the plate material's loss factor).
+    """
+    K = hertz_stiffness(ball, plate, transverse_ratio)
+    tau_c = hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
+    omega_c = math.pi / tau_c
+    ball_modulus = ball.material.effective_modulus
+    plate_modulus = transverse_ratio * plate.material.effective_modulus
+    e_star = 1.0 / (1.0 / ball_modulus + 1.0 / plate_modulus)
+    ball_term = e_star / ball_modulus * material_loss_factor(ball.material, omega_c) / omega_c
+    if plate_share is None:
+        plate_share = (
+            e_star / plate_modulus * material_loss_factor(plate.material, omega_c) / omega_c
+        )
+    return ball_term + plate_share
+
+
+def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
+    """The dissipative time ``A`` (s) of ``ball`` on ``plate`` with its fitted
+    :class:`~synth.physics.materials.ContactSurface` (viscoelastic).
+
+    The surface's ``viscous_time`` is the whole contact's, fitted with a steel ball (the
+    table's ``steel``): the board's term of :func:`material_viscous_time` for that ball's
+    share of the indentation, ``E'_p / (E'_p + E'_steel)``, plus the steel's own term. For
+    another ball the board's term scales with its share ``E* / E'_p`` (``E'_p`` the
+    surface's through-thickness modulus), and the ball's own term replaces the steel's; a
+    steel ball gets the fitted value itself."""
+    steel = replace(ball, material=get_material("steel"), mass=ball.mass)
+    plate_modulus = surface.transverse_ratio * plate.material.effective_modulus
+    ball_modulus = ball.material.effective_modulus
+    steel_modulus = steel.material.effective_modulus
+    share = ball_modulus / (ball_modulus + plate_modulus)
+    share_fit = steel_modulus / (steel_modulus + plate_modulus)
+    own = material_viscous_time(ball, plate, surface.transverse_ratio, plate_share=0.0)
+    steel_own = material_viscous_time(steel, plate, surface.transverse_ratio, plate_share=0.0)
+    return surface.viscous_time * (share / share_fit) + (own - steel_own)
 
 
 def contact_parameters(
@@ -629,11 +719,23 @@ def contact_parameters(
             if value is not None:
                 raise ParameterError(f"{key}={value!r} does not apply to surface='fitted'")
         fit = contact_surface(plate.material)
+        if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
+            return ContactLaw(
+                hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation
+            )
+        A = fitted_viscous_time(ball, plate, fit)
+        return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, viscous_time=A)
+    if surface == "material":
+        if contact != "hertz":
+            raise ParameterError(
+                f"surface='material' applies to contact='hertz' only, not {contact!r} (the "
+                f"materials' loss is a viscoelastic Hertz contact's)"
+            )
+        for key, value in given.items():
+            if value is not None:
+                raise ParameterError(f"{key}={value!r} does not apply to surface='material'")
         return ContactLaw(
-            hertz_stiffness(ball, plate, fit.transverse_ratio),
-            1.5,
-            fit.dissipation,
-            fit.viscous_time,
+            hertz_stiffness(ball, plate), 1.5, viscous_time=material_viscous_time(ball, plate)
         )
     allowed = {
         "hertz": (),

@@ -226,23 +226,25 @@ Listener = Accelerometer | Microphone
 CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law")
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-#: The plate's side of the contact: an isotropic elastic half-space, the material's surface
-#: fitted to measurements (:class:`synth.physics.materials.ContactSurface`), or "auto": the
-#: fitted one where the material has one (:func:`synth.physics.contact.resolved_surface`).
-SURFACE_MODELS = ("ideal", "fitted", "auto")
+#: The two surfaces in the contact: isotropic elastic half-spaces without loss ("ideal", the
+#: thesis' model), isotropic with each material's published loss factor ("material",
+#: :func:`synth.physics.contact.material_viscous_time`), the plate material's surface fitted
+#: to measurements (:class:`synth.physics.materials.ContactSurface`) with the ball's loss
+#: ("fitted"), or "auto": the fitted one where the material has one, else "material"
+#: (:func:`synth.physics.contact.resolved_surface`).
+SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
 #: The plate in the contact: its impedance, its modes, or "auto": the modes where they change
 #: the first impact by more than the modal contact's tolerance (near an edge or a corner, on a
 #: small plate), the impedance elsewhere (:mod:`synth.physics.plate_choice`).
 PLATE_MODELS = ("impedance", "modal", "auto")
 #: Named contact models: (law, plate, surface). "measured": the model closest to measurement
-#: at the impedance model's speed (the fitted surface where the material has one, the modes
-#: only where they matter); "fitted": the same surface with the finite plate's modes in every
-#: contact (their ringing carried from bounce to bounce); "thesis": the thesis' model (Hertz on
-#: an isotropic half-space, the plate as its impedance).
-#: The contact model of a :class:`Contact` that names none: the thesis' model, which every
-#: scene built in Python had before "measured" existed (the presets name "measured" or
-#: "fitted" themselves).
-DEFAULT_CONTACT_MODEL = "thesis"
+#: at the impedance model's speed (the fitted surface where the material has one, every
+#: material's published loss elsewhere, the modes only where they matter); "fitted": the
+#: fitted surface with the finite plate's modes in every contact (their ringing carried from
+#: bounce to bounce); "thesis": the thesis' model (lossless Hertz on an isotropic half-space,
+#: the plate as its impedance).
+#: The contact model of a :class:`Contact` that names none: the one closest to measurement.
+DEFAULT_CONTACT_MODEL = "measured"
 #: The modal plate's theory of a :class:`Contact` that names none.
 DEFAULT_PLATE_THEORY = "kirchhoff"
 
@@ -282,25 +284,27 @@ class Contact:
         against a reference render, at the same cost).
     plate : {"impedance", "modal", "auto"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
-        measured values near free edges; the default), "modal" (the finite plate's modes in
+        measured values near free edges), "modal" (the finite plate's modes in
         the contact, their ringing carried from impact to impact:
         :mod:`synth.physics.modal_contact`; its accuracy is set by its band and steps, not by
         ``rtol``) or "auto" (the modes where the edges' reflections change the first impact
-        by more than the modal contact's tolerance, the impedance elsewhere:
+        by more than the modal contact's tolerance, the impedance elsewhere, the default:
         :mod:`synth.physics.plate_choice`).
-    surface : {"ideal", "fitted", "auto"}
-        The plate's side of the contact: "ideal" (an isotropic elastic half-space, the
-        default), "fitted" (law "hertz" only: the plate material's through-thickness modulus
-        and contact loss fitted to measurements,
-        :class:`synth.physics.materials.ContactSurface`) or "auto" ("fitted" for the Hertz
-        law where the material has a fitted surface, else "ideal").
-    model : {"thesis", "measured", "fitted"}, optional
-        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`): "thesis"
-        (the default) the thesis' model, "measured" the model closest to measurement at the
-        impedance model's speed (the presets' choice), "fitted" the finite plate in every
-        contact with the fitted surface. Those three keys default to the model's; any of
-        them given explicitly takes precedence (e.g. ``model="fitted", plate="impedance"``:
-        the fitted surface on the impedance plate).
+    surface : {"ideal", "material", "fitted", "auto"}
+        The two surfaces in the contact: "ideal" (isotropic elastic half-spaces without loss,
+        the thesis' model), "material" (law "hertz" only: each material's published loss
+        factor as a viscoelastic loss, :func:`synth.physics.contact.material_viscous_time`),
+        "fitted" (law "hertz" only: the plate material's through-thickness modulus and
+        contact loss fitted to measurements, :class:`synth.physics.materials.ContactSurface`,
+        with the ball's loss) or "auto" (the default: "fitted" for the Hertz law where the
+        material has a fitted surface, else "material"; "ideal" for the other laws).
+    model : {"measured", "thesis", "fitted"}, optional
+        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`):
+        "measured" (the default) the model closest to measurement at the impedance model's
+        speed, "thesis" the thesis' model (to reproduce its figures), "fitted" the finite
+        plate in every contact with the fitted surface. Those three keys default to the
+        model's; any of them given explicitly takes precedence (e.g. ``model="fitted",
+        plate="impedance"``: the fitted surface on the impedance plate).
     theory : {"kirchhoff", "mindlin"}, optional
         The plate theory of the modal plate (``plate="modal"`` only;
         :func:`synth.physics.modal_contact.modal_point`): "kirchhoff" (thin plate, the
@@ -333,9 +337,10 @@ class Contact:
         checks.choice("contact.law", self.law, CONTACT_LAWS)
         checks.choice("contact.plate", self.plate, PLATE_MODELS)
         checks.choice("contact.surface", self.surface, SURFACE_MODELS)
-        if self.surface == "fitted" and self.law != "hertz":
+        if self.surface in ("fitted", "material") and self.law != "hertz":
             raise ParameterError(
-                f"contact.surface='fitted' applies to contact.law='hertz' only, not {self.law!r}"
+                f"contact.surface={self.surface!r} applies to contact.law='hertz' only, not "
+                f"{self.law!r}"
             )
         object.__setattr__(
             self,
@@ -379,7 +384,7 @@ class Contact:
                 )
 
     def _resolve_model(self):
-        """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "thesis")."""
+        """``law``, ``plate`` and ``surface`` not given: the ``model``'s (default "measured")."""
         model = DEFAULT_CONTACT_MODEL if self.model is None else self.model
         checks.choice("contact.model", model, CONTACT_MODELS)
         defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
@@ -413,7 +418,7 @@ class Scene:
     gravity : float in (0, 1000]
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
-        Contact model (default: Hertz at rtol 1e-9, see :class:`Contact`).
+        Contact model (default: the measured model at rtol 1e-9, see :class:`Contact`).
     """
 
     ball: Ball
