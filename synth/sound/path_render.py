@@ -1,0 +1,126 @@
+"""Render a ball released with a horizontal velocity: its bounces and its rolling mixed in one
+signal through one modal bank and one listener (docs/rolling.md, "Rendering a path").
+
+The plate is linear, so the listener's signal is the sum of its responses to the bounces'
+pulses and to the rolling's force (superposition):
+
+* the bounces: :func:`synth.sound.modal_bank.synthesize` (each pulse's exact transform), each
+  impact exciting the modes at its own point (``b_k = phi_k(x_i) / M_k``);
+* the rolling: :func:`synth.sound.rolling.drive_modes`, the force held over each sample
+  period at the moving touching point, from its first sample on the same grid (plate at rest
+  for this part: the bounces' part carries what they left ringing);
+* after the rolling: the force it leaves (the weight of a ball at rest, nothing after a ball
+  that left the plate) held at the last point, until every mode has decayed below the floor
+  (or ``max_tail``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.physics.path import BallPath, simulate_path
+from synth.sound.modal_bank import synthesize
+from synth.sound.rolling import ModeState, drive_modes, path_excitation
+
+
+def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict]:
+    """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
+    through ``model`` (:class:`synth.sound.render.ModalModel`) with the checked render
+    options ``o`` (:func:`synth.sound.render.check_options`); its path and the settings it
+    adds to the render's."""
+    fs = o["samplerate"]
+    floor = 10.0 ** (o["floor_db"] / 20.0)
+    pre, delay = o["preroll"], model.delay
+    first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
+    origin_time = first_touch - pre  # the emission time of the audio's first sample
+    path = simulate_path(
+        scene, samplerate=fs, time_origin=origin_time, max_duration=o["max_duration"]
+    )
+    bounces = _bounces(path, model, fs, floor, origin_time, o)
+    info = {}
+    rolling = path.rolling
+    if rolling is None:
+        audio = bounces
+        info["tail_cut"] = False
+    else:
+        audio, info = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
+    settings = dict(
+        path_end=path.end,
+        path_end_time=path.end_time,
+        path_end_point=list(path.end_point),
+        rolling_speed=path.rolling_speed,
+        rolling_start=None if rolling is None else rolling.start,
+        rolling_seconds=0.0 if rolling is None else rolling.force.size / fs,
+        rolling_flights=0 if rolling is None else rolling.flights,
+        contact_plate="impedance",
+        delay=delay,
+        audio_start=first_touch + delay - pre,
+        **info,
+    )
+    return audio, path, settings
+
+
+def _bounces(path, model, fs, floor, origin_time, o) -> np.ndarray:
+    """The bounces' part of the signal, from the audio's first sample."""
+    impacts = path.impacts
+    excitation = np.array([model.excitation(tuple(p)) for p in path.impact_points])
+    direct = None if model.listener.shape is None else model.listener.shape * excitation
+    onsets = np.array([i.time for i in impacts]) - origin_time
+    max_samples = int(math.ceil((impacts.duration - origin_time + o["max_tail"]) * fs))
+    audio, _ = synthesize(
+        [i.result for i in impacts], onsets, model.poles, excitation, model.output, fs,
+        floor=floor, direct=direct, max_samples=max_samples, pulse_points=o["pulse_points"],
+    )  # fmt: skip
+    return audio
+
+
+def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
+    """The bounces' signal with the rolling's and its tail added, and the tail's settings."""
+    j0 = int(round((rolling.start - origin_time) * fs))
+    c = rolling.contact_coordinate
+    table = path_excitation(
+        model, origin=path.origin, direction=path.direction,
+        start=float(np.min(c)), stop=float(np.max(c)),
+    )  # fmt: skip
+    state = ModeState.at_rest(model.poles.size)
+    drive = drive_modes(
+        rolling.force, c, table, model.poles, model.output, fs, state=state
+    )
+    reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
+    tail_seconds, cut = _tail(
+        state, rolling, path.origin, path.direction, model, floor, reference, o["max_tail"]
+    )
+    n_tail = int(math.ceil(tail_seconds * fs))
+    tail = drive_modes(
+        np.full(n_tail, rolling.final_force), np.full(n_tail, c[-1]), table, model.poles,
+        model.output, fs, state=state,
+    )  # fmt: skip
+    rolled = np.concatenate((drive, tail))
+    audio = np.zeros(max(bounces.size, j0 + rolled.size))
+    audio[: bounces.size] += bounces
+    audio[j0 : j0 + rolled.size] += rolled
+    return audio, dict(tail_cut=cut)
+
+
+def _tail(state, rolling, table_origin, direction, model, floor, reference, max_tail) -> tuple[float, bool]:
+    """How long (s) the modes ring after the rolling until the bound of what they add,
+    ``sum_k |output_k| |zeta_k - zeta_static,k| e^(-sigma_k t) / omega_dk``, falls below
+    ``floor * reference``; and whether ``max_tail`` (s) cut it."""
+    p = model.poles
+    if not p.size or reference <= 0.0:
+        return 0.0, False
+    end = rolling.contact_coordinate[-1]
+    ox, oy = table_origin
+    b = model.excitation((ox + direction[0] * end, oy + direction[1] * end))
+    static = -b * rolling.final_force / p
+    bound = np.abs(model.output) * np.abs(state.zeta - static) / np.abs(p.imag)
+    share = floor * reference / p.size
+    with np.errstate(divide="ignore"):
+        need = np.log(np.maximum(bound / share, 1.0)) / (-p.real)
+    t = float(np.max(need))
+    if not math.isfinite(t):
+        raise ParameterError("a mode without decay (sigma = 0) rings for ever: give the plate a loss")
+    return min(t, max_tail), t > max_tail
