@@ -161,7 +161,10 @@ def edge_distance(plate, origin, direction) -> float:
     """Distance (m) from ``origin`` (on the plate) along the unit ``direction`` to the
     plate's edge."""
     out = math.inf
-    for p, u, size in ((origin[0], direction[0], plate.length), (origin[1], direction[1], plate.width)):
+    for p, u, size in (
+        (origin[0], direction[0], plate.length),
+        (origin[1], direction[1], plate.width),
+    ):
         if u > 0.0:
             out = min(out, (size - p) / u)
         elif u < 0.0:
@@ -232,9 +235,7 @@ def simulate_path(
         scene, solver, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed,
         None if res.settled else v_out,
     )  # fmt: skip
-    return BallPath(
-        sequence, np.array(points), origin, u, speed, part, end, end_time, point(end_s)
-    )
+    return BallPath(sequence, np.array(points), origin, u, speed, part, end, end_time, point(end_s))
 
 
 def _ended(impacts, points, end, g, scene, origin, u, speed, time) -> BallPath:
@@ -255,12 +256,20 @@ def _profile(rolling, length):
     )
 
 
-def _roll(scene, solver, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out):
+def _roll(
+    scene, solver, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out
+):
     """The rolling from the separation at ``t_sep`` (s), ``s_sep`` (m along the path), with
     the horizontal ``speed`` (m/s) and, unless the ball settled (None), the rebound speed
     ``v_out`` (m/s): returns the :class:`RollingPart`, the end, its time (s) and the
     touching point's path coordinate (m)."""
-    ball, plate, g, c, rolling = scene.ball, scene.plate, scene.gravity, scene.contact, scene.rolling
+    ball, plate, g, c, rolling = (
+        scene.ball,
+        scene.plate,
+        scene.gravity,
+        scene.contact,
+        scene.rolling,
+    )
     R, m = ball.radius, ball.mass
     # the first sample boundary at or after the separation
     j0 = math.ceil((t_sep - time_origin) * fs - 1e-9)

@@ -442,7 +442,9 @@ class Rolling:
         )  # fmt: skip
         object.__setattr__(self, "resistance", float(self.resistance))
         object.__setattr__(
-            self, "spacing", checks.positive_at_most("rolling.spacing", self.spacing, 1e-2, "metres")
+            self,
+            "spacing",
+            checks.positive_at_most("rolling.spacing", self.spacing, 1e-2, "metres"),
         )
         sigma = checks.nonnegative("rolling.rms_height", self.rms_height, "metres")
         object.__setattr__(self, "rms_height", sigma)

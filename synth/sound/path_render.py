@@ -86,9 +86,7 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
         start=float(np.min(c)), stop=float(np.max(c)),
     )  # fmt: skip
     state = ModeState.at_rest(model.poles.size)
-    drive = drive_modes(
-        rolling.force, c, table, model.poles, model.output, fs, state=state
-    )
+    drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
     reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
     tail_seconds, cut = _tail(
         state, rolling, path.origin, path.direction, model, floor, reference, o["max_tail"]
@@ -105,7 +103,9 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     return audio, dict(tail_cut=cut)
 
 
-def _tail(state, rolling, table_origin, direction, model, floor, reference, max_tail) -> tuple[float, bool]:
+def _tail(
+    state, rolling, table_origin, direction, model, floor, reference, max_tail
+) -> tuple[float, bool]:
     """How long (s) the modes ring after the rolling until the bound of what they add,
     ``sum_k |output_k| |zeta_k - zeta_static,k| e^(-sigma_k t) / omega_dk``, falls below
     ``floor * reference``; and whether ``max_tail`` (s) cut it."""
@@ -122,5 +122,7 @@ def _tail(state, rolling, table_origin, direction, model, floor, reference, max_
         need = np.log(np.maximum(bound / share, 1.0)) / (-p.real)
     t = float(np.max(need))
     if not math.isfinite(t):
-        raise ParameterError("a mode without decay (sigma = 0) rings for ever: give the plate a loss")
+        raise ParameterError(
+            "a mode without decay (sigma = 0) rings for ever: give the plate a loss"
+        )
     return min(t, max_tail), t > max_tail

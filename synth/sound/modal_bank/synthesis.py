@@ -78,9 +78,7 @@ def synthesize(
             f"excitation has {excitation.shape[0]} rows for {len(impacts)} impacts: give one "
             f"row (K,) or one per impact (I, K)"
         )
-    coefficients = bank_coefficients(
-        poles, excitation[0] if per_impact else excitation, output, fs
-    )
+    coefficients = bank_coefficients(poles, excitation[0] if per_impact else excitation, output, fs)
     poles = coefficients.poles
     K = poles.size
     I = len(impacts)
