@@ -376,6 +376,9 @@ GALLERY = (
     "thesis-steel10-mdf18-corner",
     "small-click-on-acrylic",
     "ceramic-cup-on-stone",
+    "thesis-steel10-mdf18-rolling",
+    "steel-ball-rolling-on-glass-table",
+    "marble-rolling-on-wooden-floor",
 )
 
 
