@@ -20,9 +20,8 @@ import math
 
 import numpy as np
 
-from synth.errors import ParameterError
 from synth.physics.path import BallPath, simulate_path
-from synth.sound.modal_bank import synthesize
+from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
 from synth.sound.rolling import ModeState, drive_modes, path_excitation
 
 
@@ -88,14 +87,7 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     state = ModeState.at_rest(model.poles.size)
     drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
     reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
-    tail_seconds, cut = _tail(
-        state, rolling, path.origin, path.direction, model, floor, reference, o["max_tail"]
-    )
-    n_tail = int(math.ceil(tail_seconds * fs))
-    tail = drive_modes(
-        np.full(n_tail, rolling.final_force), np.full(n_tail, c[-1]), table, model.poles,
-        model.output, fs, state=state,
-    )  # fmt: skip
+    tail, cut = _tail(state, rolling, path, model, fs, floor * reference, o["max_tail"])
     rolled = np.concatenate((drive, tail))
     audio = np.zeros(max(bounces.size, j0 + rolled.size))
     audio[: bounces.size] += bounces
@@ -103,26 +95,29 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     return audio, dict(tail_cut=cut)
 
 
-def _tail(
-    state, rolling, table_origin, direction, model, floor, reference, max_tail
-) -> tuple[float, bool]:
-    """How long (s) the modes ring after the rolling until the bound of what they add,
-    ``sum_k |output_k| |zeta_k - zeta_static,k| e^(-sigma_k t) / omega_dk``, falls below
-    ``floor * reference``; and whether ``max_tail`` (s) cut it."""
+def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool]:
+    """The listener's signal after the rolling, and whether ``max_tail`` (s) cut it: the
+    force the rolling leaves (``rolling.final_force``) held at its last point, so each mode
+    rings from the rolling's end state towards its static deflection under that force,
+    ``zeta_k(t) = zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal
+    bank's ringing (:func:`synth.sound.modal_bank.ring_bank`, each mode until it falls below
+    its share of ``floor``, the amplitude the signal may leave out) plus the static
+    deflection's constant part (as :func:`synth.sound.rolling.drive_modes` hears it)."""
     p = model.poles
-    if not p.size or reference <= 0.0:
-        return 0.0, False
-    end = rolling.contact_coordinate[-1]
-    ox, oy = table_origin
-    b = model.excitation((ox + direction[0] * end, oy + direction[1] * end))
-    static = -b * rolling.final_force / p
-    bound = np.abs(model.output) * np.abs(state.zeta - static) / np.abs(p.imag)
-    share = floor * reference / p.size
-    with np.errstate(divide="ignore"):
-        need = np.log(np.maximum(bound / share, 1.0)) / (-p.real)
-    t = float(np.max(need))
-    if not math.isfinite(t):
-        raise ParameterError(
-            "a mode without decay (sigma = 0) rings for ever: give the plate a loss"
-        )
-    return min(t, max_tail), t > max_tail
+    end = float(rolling.contact_coordinate[-1])
+    point = (path.origin[0] + path.direction[0] * end, path.origin[1] + path.direction[1] * end)
+    b = model.excitation(point)
+    F = rolling.final_force
+    static = -b * F / p
+    coefficients = bank_coefficients(p, np.ones(p.size), model.output, fs)
+    gain = coefficients.coef_re + 1j * coefficients.coef_im
+    constant = float(np.sum((gain * static).real))
+    direct = model.direct(b)
+    if direct is not None:
+        constant += F * float(np.sum(direct.real))
+    out = np.zeros(int(math.ceil(max_tail * fs)))
+    amplitudes = (gain * (state.zeta - static))[None, :]
+    thresholds = np.full(p.size, floor / max(p.size, 1))
+    _, last, left = ring_bank(out, float(fs), p, amplitudes, np.zeros(1, np.int64), thresholds)
+    last = max(int(last), 1)
+    return out[:last] + constant, bool(last >= out.size and left > floor)
