@@ -514,6 +514,7 @@ def _cmd_bench(args):
             lambda: bench.run_rolling(repeat=3 if args.repeat is None else args.repeat),
             bench.format_rolling,
         ),
+        "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -942,6 +943,7 @@ def build_parser() -> argparse.ArgumentParser:
             "bank",
             "cold",
             "rolling",
+            "rollingcheck",
         ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
@@ -954,7 +956,8 @@ def build_parser() -> argparse.ArgumentParser:
         "against one process per file; cold: CPU and wall time and peak memory of the "
         "first import synth, synth render default and live example on empty numba and "
         "plate-mode caches, and the same warm; rolling: the rolling contact's and its modal "
-        "drive's time per second of audio",
+        "drive's time per second of audio, and the rolling presets' renders; rollingcheck: "
+        "the rolling's contact-loss speed, energy balance and spectral centroid against speed",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument(

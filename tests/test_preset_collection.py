@@ -44,7 +44,9 @@ def _thesis_parts(path):
     if path.stem == "default":
         return "steel10", "mdf18", None
     m = THESIS_NAME.match(path.stem)
-    assert m is not None, f"{path.name}: a thesis preset is named thesis-BALL-BOARD[-edge|-corner|-rolling]"
+    assert m is not None, (
+        f"{path.name}: a thesis preset is named thesis-BALL-BOARD[-edge|-corner|-rolling]"
+    )
     return m["ball"], m["board"], m["where"]
 
 

@@ -1,6 +1,6 @@
 """``synth bench rolling``: the rolling contact's cost per second of audio.
 
-A 10 mm steel ball rolls over a rough 6 mm glass plate at three speeds, 48 kHz; its force
+A steel ball of 10 mm radius rolls over a rough 6 mm glass plate at three speeds, 48 kHz; its force
 then drives the plate's modes below 5 kHz at the moving contact, heard by an
 accelerometer. The roughness (Matern spectrum: rms 1 um, correlation length 100 um,
 Hurst exponent 0.8) is a benchmark input, not a published value. Per speed: wall time per
