@@ -39,8 +39,10 @@ def _cmd_info(args):
     scene, section, data = load_preset_with_options(args.preset, args.overrides)
     if args.cost:
         return _print_cost(scene, section, args.json)
-    seq = simulate_scene(scene)
+    path = _path_of(scene, section) if scene.moving else None
+    seq = simulate_scene(scene) if path is None else path.impacts
     rows = seq.table()
+    ending = {} if path is None else _path_ending(path)
     if args.json:
         json.dump(
             dict(
@@ -49,6 +51,7 @@ def _cmd_info(args):
                 stop_reason=seq.stop_reason,
                 duration=seq.duration,
                 impacts=rows,
+                **ending,
             ),
             sys.stdout,
             indent=1,
@@ -68,7 +71,42 @@ def _cmd_info(args):
             f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
         )
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    if path is not None:
+        print(
+            f"rolled {ending['rolling_seconds']:.3f} s from {ending['rolling_start']} s at "
+            f"{ending['rolling_speed']:.4g} m/s; the path ended: {ending['path_end']} at "
+            f"{ending['path_end_time']:.4f} s, ({ending['path_end_point'][0]:.4f}, "
+            f"{ending['path_end_point'][1]:.4f}) m"
+        )
     return 0
+
+
+def _path_of(scene, section: dict):
+    """The :class:`synth.physics.path.BallPath` of a scene with a velocity, on the sample
+    grid of the preset's render section."""
+    import math
+
+    from synth.physics.path import simulate_path
+    from synth.sound.render import check_options
+
+    o = check_options(**{k: v for k, v in section.items() if k != "subtype"})
+    origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o["preroll"]
+    return simulate_path(
+        scene, samplerate=o["samplerate"], time_origin=origin, max_duration=o["max_duration"]
+    )
+
+
+def _path_ending(path) -> dict:
+    """How a ball's path rolled and ended (s, m/s, m), for ``synth info``."""
+    rolling = path.rolling
+    return dict(
+        path_end=path.end,
+        path_end_time=path.end_time,
+        path_end_point=list(path.end_point),
+        rolling_speed=path.rolling_speed,
+        rolling_start=None if rolling is None else round(rolling.start, 6),
+        rolling_seconds=0.0 if rolling is None else rolling.duration,
+    )
 
 
 def _print_cost(scene, section: dict, as_json: bool) -> int:

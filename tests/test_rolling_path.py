@@ -214,3 +214,29 @@ def test_bad_moving_scene_is_refused_naming_the_field(change, field):
 def test_bad_rolling_is_refused_naming_the_field(kw, field):
     with pytest.raises(ParameterError, match=field.replace(".", r"\.")):
         Rolling(**kw)
+
+
+def test_cli_renders_a_rolling_preset_and_reports_its_path(tmp_path, capsys):
+    """`synth render` of a rolling preset writes its WAV and report on a real disk, the
+    report saying how the path ended; `synth info` prints the path's impacts and end (the
+    same impacts as the render)."""
+    import json
+
+    import soundfile
+
+    from synth.cli import main
+
+    wav, report = tmp_path / "roll.wav", tmp_path / "roll.json"
+    name = "thesis-steel10-mdf18-rolling"
+    assert main(["render", name, "-o", str(wav), "--report", str(report)]) == 0
+    audio, fs = soundfile.read(wav)
+    settings = json.loads(report.read_text())["settings"]
+    assert fs == SAMPLERATE and audio.size / fs == pytest.approx(
+        json.loads(report.read_text())["duration"], abs=1 / fs
+    )
+    assert settings["path_end"] == "left-plate" and settings["rolling_seconds"] > 0.0
+    capsys.readouterr()
+    assert main(["info", name, "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["path_end"] == settings["path_end"]
+    assert len(info["impacts"]) == settings["n_impacts"]

@@ -65,6 +65,8 @@ class RollingPart:
 
     Attributes
     ----------
+    samplerate : int
+        Hz.
     start : float
         Time of its first sample, s from the release.
     force, contact_coordinate, speed : ndarray (N,)
@@ -80,6 +82,7 @@ class RollingPart:
         Losses of contact (micro-bounces) while rolling.
     """
 
+    samplerate: int
     start: float
     force: np.ndarray
     contact_coordinate: np.ndarray
@@ -87,6 +90,11 @@ class RollingPart:
     final_force: float
     energy: RollingEnergy
     flights: int
+
+    @property
+    def duration(self) -> float:
+        """How long the ball rolled, s."""
+        return self.force.size / self.samplerate
 
 
 @dataclass(frozen=True)
@@ -365,6 +373,7 @@ def _roll(
     )
     coordinate = np.concatenate(coords) + behind
     part = RollingPart(
+        fs,
         start, np.concatenate(forces), coordinate, np.concatenate(speeds),
         m * g if end == "stopped" else 0.0, energy, flights,
     )  # fmt: skip

@@ -38,21 +38,29 @@ def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict
     path = simulate_path(
         scene, samplerate=fs, time_origin=origin_time, max_duration=o["max_duration"]
     )
-    bounces = _bounces(path, model, fs, floor, origin_time, o)
-    info = {}
+    bounces, bank = _bounces(path, model, fs, floor, origin_time, o)
     rolling = path.rolling
+    info = dict(
+        n_modes_rendered=bank["n_modes_rendered"],
+        mode_samples=bank["mode_samples"],
+        bank_seconds=bank["bank_seconds"],
+        reference_amplitude=bank["reference"],
+        tail_cut=False,
+        left_at_end=bank["left_at_end"] / bank["reference"] if bank["reference"] else 0.0,
+    )
     if rolling is None:
         audio = bounces
-        info["tail_cut"] = False
     else:
-        audio, info = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
+        audio, tail = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
+        # the rolling drives every mode
+        info.update(tail, n_modes_rendered=int(model.poles.size))
     settings = dict(
         path_end=path.end,
         path_end_time=path.end_time,
         path_end_point=list(path.end_point),
         rolling_speed=path.rolling_speed,
         rolling_start=None if rolling is None else rolling.start,
-        rolling_seconds=0.0 if rolling is None else rolling.force.size / fs,
+        rolling_seconds=0.0 if rolling is None else rolling.duration,
         rolling_flights=0 if rolling is None else rolling.flights,
         contact_plate="impedance",
         delay=delay,
@@ -62,22 +70,23 @@ def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict
     return audio, path, settings
 
 
-def _bounces(path, model, fs, floor, origin_time, o) -> np.ndarray:
-    """The bounces' part of the signal, from the audio's first sample."""
+def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
+    """The bounces' part of the signal, from the audio's first sample, and the modal bank's
+    figures (:func:`synth.sound.modal_bank.synthesize`)."""
     impacts = path.impacts
     excitation = np.array([model.excitation(tuple(p)) for p in path.impact_points])
     direct = None if model.listener.shape is None else model.listener.shape * excitation
     onsets = np.array([i.time for i in impacts]) - origin_time
     max_samples = int(math.ceil((impacts.duration - origin_time + o["max_tail"]) * fs))
-    audio, _ = synthesize(
+    return synthesize(
         [i.result for i in impacts], onsets, model.poles, excitation, model.output, fs,
         floor=floor, direct=direct, max_samples=max_samples, pulse_points=o["pulse_points"],
     )  # fmt: skip
-    return audio
 
 
 def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
-    """The bounces' signal with the rolling's and its tail added, and the tail's settings."""
+    """The bounces' signal with the rolling's and its tail added, and the settings of the
+    rolling's part (``left_at_end`` relative to the reference amplitude)."""
     j0 = int(round((rolling.start - origin_time) * fs))
     c = rolling.contact_coordinate
     table = path_excitation(
@@ -87,16 +96,18 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     state = ModeState.at_rest(model.poles.size)
     drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
     reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
-    tail, cut = _tail(state, rolling, path, model, fs, floor * reference, o["max_tail"])
+    tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o["max_tail"])
     rolled = np.concatenate((drive, tail))
     audio = np.zeros(max(bounces.size, j0 + rolled.size))
     audio[: bounces.size] += bounces
     audio[j0 : j0 + rolled.size] += rolled
-    return audio, dict(tail_cut=cut)
+    work = model.poles.size * drive.size
+    return audio, dict(tail_cut=cut, left_at_end=left / reference, rolling_mode_samples=work)
 
 
-def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool]:
-    """The listener's signal after the rolling, and whether ``max_tail`` (s) cut it: the
+def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:
+    """The listener's signal after the rolling, whether ``max_tail`` (s) cut it and the bound
+    of what rings on after its end (the signal's units): the
     force the rolling leaves (``rolling.final_force``) held at its last point, so each mode
     rings from the rolling's end state towards its static deflection under that force,
     ``zeta_k(t) = zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal
@@ -120,4 +131,4 @@ def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray,
     thresholds = np.full(p.size, floor / max(p.size, 1))
     _, last, left = ring_bank(out, float(fs), p, amplitudes, np.zeros(1, np.int64), thresholds)
     last = max(int(last), 1)
-    return out[:last] + constant, bool(last >= out.size and left > floor)
+    return out[:last] + constant, bool(last >= out.size and left > floor), float(left)
