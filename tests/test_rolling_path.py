@@ -240,3 +240,16 @@ def test_cli_renders_a_rolling_preset_and_reports_its_path(tmp_path, capsys):
     info = json.loads(capsys.readouterr().out)
     assert info["path_end"] == settings["path_end"]
     assert len(info["impacts"]) == settings["n_impacts"]
+
+
+def test_time_running_out_while_rolling_leaves_the_weight_on_the_plate(stopping):
+    """A path cut by max_duration while the ball rolls ends "max-duration" with the ball
+    still on the plate: the force after the end is its weight (no step that would make a
+    thump), within the samples up to the limit."""
+    limit = stopping.rolling.start + 0.05
+    path = simulate_path(scene(), samplerate=SAMPLERATE, max_duration=limit)
+    assert path.end == "max-duration"
+    r = path.rolling
+    assert r.final_force == pytest.approx(stopping.rolling.final_force, rel=1e-15)
+    assert r.start + r.duration <= limit + 1e-12
+    assert r.duration == pytest.approx(0.05, abs=1.0 / SAMPLERATE)

@@ -75,8 +75,8 @@ class RollingPart:
         horizontal speed (m/s) over each sample period (as
         :class:`synth.physics.rolling.RollingContact`).
     final_force : float
-        The force on the plate after the end, N: ``m g`` for a ball at rest, 0 for one
-        that left the plate.
+        The force on the plate after the end, N: 0 for a ball that left the plate, else
+        ``m g`` (at rest, or still rolling when the time ran out).
     energy : RollingEnergy
     flights : int
         Losses of contact (micro-bounces) while rolling.
@@ -317,7 +317,7 @@ def _roll(
     )  # fmt: skip
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
-    n_max = max(0, int(math.floor((max_duration - start) * fs)))
+    n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
     forces, coords, speeds = [], [], []
     x, v, n_done, flights = x0, speed, 0, 0
     e_initial = e_final = None
@@ -375,7 +375,7 @@ def _roll(
     part = RollingPart(
         fs,
         start, np.concatenate(forces), coordinate, np.concatenate(speeds),
-        m * g if end == "stopped" else 0.0, energy, flights,
+        0.0 if end == "left-plate" else m * g, energy, flights,
     )  # fmt: skip
     return part, end, start + n_done / fs, float(coordinate[-1])
 
