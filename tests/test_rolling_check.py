@@ -47,3 +47,14 @@ def test_spectral_centroid_of_a_sinusoid_is_its_frequency():
     assert rolling_check.spectral_centroid(np.sin(2e3 * np.pi * t), 48000) == pytest.approx(
         1000.0, rel=1e-2
     )
+
+
+@pytest.mark.slow
+def test_spectral_centroid_falls_with_ball_size():
+    """A larger ball bridges more of the roughness and rests on a softer contact (its
+    natural frequency falls as R^(-5/6)): at one speed the force's and the acceleration's
+    centroids fall at each doubling of the radius."""
+    rows = rolling_check.centroid_rows(speeds=(0.1,), seconds=0.25, radii=rolling_check.SIZE_RADII)
+    for key in ("force_centroid", "acceleration_centroid"):
+        values = [r[key] for r in rows]
+        assert all(b < a for a, b in zip(values, values[1:])), (key, values)

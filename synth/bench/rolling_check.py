@@ -8,7 +8,10 @@
   plate), into the plate's impedance, with the Hunt-Crossley loss, and along a preset's path
   with Coulomb's rolling resistance (:class:`synth.physics.path.RollingEnergy`).
 * The spectral centroid of the contact force and of the plate's acceleration as the speed
-  rises over one rough surface.
+  rises over one rough surface, and as the ball's size grows (the envelope smooths more of
+  the roughness under a larger ball, and its resting contact's natural frequency,
+  ``omega_c^2 = (3/2) g / delta_static`` with ``delta_static ~ R^(5/3)``, falls as
+  ``R^(-5/6)``).
 
 The rough surface (Matern: rms 1 um, correlation length 100 um, Hurst exponent 0.8) and the
 Hunt-Crossley loss (0.1 s/m) are inputs of this check, not published values. Nothing here is
@@ -24,6 +27,9 @@ SAMPLERATE = 48000
 AMPLITUDE, WAVELENGTH = 2e-5, 5e-3
 #: Speeds of the centroid check, m/s.
 CENTROID_SPEEDS = (0.05, 0.1, 0.2, 0.4)
+#: Radii of the size check, m, and its speeds, m/s.
+SIZE_RADII = (0.0025, 0.005, 0.01)
+SIZE_SPEEDS = (0.1, 0.2)
 #: Length of each rolling of the energy and centroid checks, s.
 ROLL_SECONDS = 0.5
 #: Hunt-Crossley damping of the lossy energy case, s/m (an input of the check).
@@ -137,31 +143,35 @@ def spectral_centroid(signal, samplerate) -> float:
     return float(np.sum(f * power) / np.sum(power))
 
 
-def centroid_rows(speeds=CENTROID_SPEEDS, seconds=ROLL_SECONDS) -> list[dict]:
-    """Centroids of the force and of an accelerometer's signal at each speed (m/s)."""
+def centroid_rows(speeds=CENTROID_SPEEDS, seconds=ROLL_SECONDS, radii=None) -> list[dict]:
+    """Centroids of the force and of an accelerometer's signal at each speed (m/s), for the
+    steel ball of each of ``radii`` (m; default the 5 mm radius of the other checks)."""
     from synth.physics import rolling
-    from synth.physics.scene import Accelerometer
+    from synth.physics.scene import Accelerometer, Ball
     from synth.sound import rolling as sound
     from synth.sound.render import modal_model
 
     ball, plate = _pair()
-    env = _rough_envelope(ball.radius)
     model = modal_model(plate, Accelerometer((0.5, 0.2)), samplerate=SAMPLERATE)
     rows = []
-    for v in speeds:
-        r = rolling.roll(
-            ball, plate, env, speed=v, duration=seconds, samplerate=SAMPLERATE,
-            origin=(0.2, 0.3), start=0.01,
-        )  # fmt: skip
-        audio = sound.rolling_sound(r, model)
-        rows.append(
-            dict(
-                speed=v,
-                force_centroid=spectral_centroid(r.force, SAMPLERATE),
-                acceleration_centroid=spectral_centroid(audio, SAMPLERATE),
-                flights=r.flights,
+    for radius in (ball.radius,) if radii is None else radii:
+        ball = Ball("steel", radius)
+        env = _rough_envelope(radius)
+        for v in speeds:
+            r = rolling.roll(
+                ball, plate, env, speed=v, duration=seconds, samplerate=SAMPLERATE,
+                origin=(0.2, 0.3), start=0.015,
+            )  # fmt: skip
+            audio = sound.rolling_sound(r, model)
+            rows.append(
+                dict(
+                    radius=radius,
+                    speed=v,
+                    force_centroid=spectral_centroid(r.force, SAMPLERATE),
+                    acceleration_centroid=spectral_centroid(audio, SAMPLERATE),
+                    flights=r.flights,
+                )
             )
-        )
     return rows
 
 
@@ -171,6 +181,7 @@ def run_rolling_check() -> dict:
         "contact_loss": contact_loss_rows(),
         "energy": energy_rows(),
         "centroid": centroid_rows(),
+        "size": centroid_rows(speeds=SIZE_SPEEDS, radii=SIZE_RADII),
     }
 
 
@@ -216,6 +227,18 @@ def format_rolling_check(result: dict) -> str:
     for r in result["centroid"]:
         lines.append(
             f"| {r['speed']:.2f} | {r['force_centroid']:.0f} | "
+            f"{r['acceleration_centroid']:.0f} | {r['flights']} |"
+        )
+    lines += [
+        "",
+        "The same against the ball's size (steel balls, 0.5 s at each speed):",
+        "",
+        "| radius mm | speed m/s | force centroid Hz | acceleration centroid Hz | flights |",
+        "|---|---|---|---|---|",
+    ]
+    for r in result["size"]:
+        lines.append(
+            f"| {1e3 * r['radius']:.1f} | {r['speed']:.2f} | {r['force_centroid']:.0f} | "
             f"{r['acceleration_centroid']:.0f} | {r['flights']} |"
         )
     return "\n".join(lines)
