@@ -284,25 +284,9 @@ def _roll(
     start = time_origin + j0 / fs
     d = start - t_sep
     s0 = s_sep + speed * d
-    # the profile from a ball radius behind the start (the envelope's reach) to the edge
-    # and a radius beyond it
-    behind = s0 - R
-    length = s_edge - behind + R
-    if rolling.spacing * 4 > length:
-        raise ParameterError(
-            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
-            f"needs at least 4 samples"
-        )
-    if length / rolling.spacing > surface.MAX_PROFILE_SAMPLES:
-        raise ParameterError(
-            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
-            f"needs more than {surface.MAX_PROFILE_SAMPLES} samples; use a larger spacing"
-        )
-    envelope = surface.contact_envelope(_profile(rolling, length), R)
+    envelope, behind, x_end = _envelope_ahead(rolling, R, s0, s_edge)
     path_origin = (origin[0] + u[0] * behind, origin[1] + u[1] * behind)
     x0 = s0 - behind
-    # the centre's last coordinate whose touching point stays on the plate
-    x_end = (s_edge - behind) - float(np.max(np.abs(envelope.contact_offsets))) - rolling.spacing
     if v_out is None:
         state = None
     else:
@@ -324,21 +308,12 @@ def _roll(
     loss = plate_e = resistance = roughness = 0.0
     end = "max-duration"
     while n_done < n_max:
-        n = min(block, n_max - n_done)
-        planned = v - decel * (np.arange(n) + 0.5) / fs
-        stop_here = planned <= 0.0
-        if stop_here.any():
-            n = int(np.argmax(stop_here))
-            end = "stopped"
-        reach = x + np.cumsum(planned[:n]) / fs
-        off = reach > x_end
-        if off.any():
-            n = int(np.argmax(off))
-            end = "left-plate"
+        planned, end = _block_speeds(v, decel, min(block, n_max - n_done), fs, x, x_end)
+        n = planned.size
         if n == 0:
             break
         kwargs = {"state": state} if state is not None else {"start": x}
-        r = rolling_contact.roll(ball, plate, envelope, speed=planned[:n], **kwargs, **options)
+        r = rolling_contact.roll(ball, plate, envelope, speed=planned, **kwargs, **options)
         if not r.success:
             raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
         if e_initial is None:
@@ -365,7 +340,7 @@ def _roll(
             end = "stopped"
             break
     if not forces:
-        return None, "max-duration", t_sep, s_sep
+        return None, end, t_sep, s_sep
     if end == "stopped":
         v = 0.0
     energy = RollingEnergy(
@@ -378,6 +353,47 @@ def _roll(
         0.0 if end == "left-plate" else m * g, energy, flights,
     )  # fmt: skip
     return part, end, start + n_done / fs, float(coordinate[-1])
+
+
+def _envelope_ahead(rolling, radius, s0, s_edge):
+    """The contact envelope of the profile ahead of the centre's start ``s0`` (m along the
+    path) to the edge at ``s_edge`` (m), from a ball radius behind the start (the
+    envelope's reach) to a radius beyond the edge; the path coordinate (m) of its first
+    sample, and the centre's last coordinate on it (m) whose touching point stays on the
+    plate."""
+    behind = s0 - radius
+    length = s_edge - behind + radius
+    if rolling.spacing * 4 > length:
+        raise ParameterError(
+            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
+            f"needs at least 4 samples"
+        )
+    if length / rolling.spacing > surface.MAX_PROFILE_SAMPLES:
+        raise ParameterError(
+            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
+            f"needs more than {surface.MAX_PROFILE_SAMPLES} samples; use a larger spacing"
+        )
+    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    reach = float(np.max(np.abs(envelope.contact_offsets)))
+    return envelope, behind, (s_edge - behind) - reach - rolling.spacing
+
+
+def _block_speeds(v, decel, n, fs, x, x_end) -> tuple[np.ndarray, str]:
+    """The speeds (m/s) of the next block of at most ``n`` samples, from the speed ``v``
+    (m/s) under the deceleration ``decel`` (m/s^2), for a centre at ``x`` (m): cut where the
+    speed reaches 0 (``"stopped"``) or the centre passes ``x_end`` (``"left-plate"``);
+    ``"max-duration"`` if neither."""
+    planned = v - decel * (np.arange(n) + 0.5) / fs
+    end = "max-duration"
+    stop_here = planned <= 0.0
+    if stop_here.any():
+        planned = planned[: int(np.argmax(stop_here))]
+        end = "stopped"
+    off = x + np.cumsum(planned) / fs > x_end
+    if off.any():
+        planned = planned[: int(np.argmax(off))]
+        end = "left-plate"
+    return planned, end
 
 
 def c_rr_deceleration(resistance: float, gravity: float) -> float:
