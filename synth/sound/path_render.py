@@ -74,7 +74,7 @@ def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
     """The bounces' part of the signal, from the audio's first sample, and the modal bank's
     figures (:func:`synth.sound.modal_bank.synthesize`)."""
     impacts = path.impacts
-    excitation = np.array([model.excitation(tuple(p)) for p in path.impact_points])
+    excitation = model.excitations(path.impact_points)
     direct = None if model.listener.shape is None else model.listener.shape * excitation
     onsets = np.array([i.time for i in impacts]) - origin_time
     max_samples = int(math.ceil((impacts.duration - origin_time + o["max_tail"]) * fs))

@@ -222,8 +222,12 @@ class ModalModel:
 
     def excitation(self, position) -> np.ndarray:
         """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
-        phi0 = self.modes.shapes(np.array([position]))[0][self.rendered]
-        return phi0 / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
+        return self.excitations(np.array([position]))[0]
+
+    def excitations(self, points) -> np.ndarray:
+        """``b_k`` (1/kg) of a force at each of ``points`` ((P, 2), m): (P, K)."""
+        phi = self.modes.shapes(np.asarray(points, dtype=float))[:, self.rendered]
+        return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
 
     def direct(self, excitation) -> np.ndarray | None:
         """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
