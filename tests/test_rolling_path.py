@@ -253,3 +253,15 @@ def test_time_running_out_while_rolling_leaves_the_weight_on_the_plate(stopping)
     assert r.final_force == pytest.approx(stopping.rolling.final_force, rel=1e-15)
     assert r.start + r.duration <= limit + 1e-12
     assert r.duration == pytest.approx(0.05, abs=1.0 / SAMPLERATE)
+
+
+def test_simulate_scene_of_a_moving_scene_gives_its_path_bounces(stopping):
+    """simulate_scene follows a moving scene's path: the same impacts as simulate_path (the
+    same solver at the same points: bit for bit), not a straight drop's; an option of the
+    straight drop's scheduler is refused naming it."""
+    from synth.physics.bounces import simulate_scene
+
+    s = scene()
+    assert simulate_scene(s).table() == stopping.impacts.table()
+    with pytest.raises(ParameterError, match="floor_db"):
+        simulate_scene(s, floor_db=-40.0)

@@ -180,18 +180,57 @@ def edge_distance(plate, origin, direction) -> float:
     return out
 
 
-def simulate_path(
-    scene: Scene, *, samplerate: int, time_origin: float = 0.0, max_duration: float = 30.0
-) -> BallPath:
-    """The :class:`BallPath` of ``scene`` (which has a ``velocity`` and ``rolling``).
+@dataclass(frozen=True, eq=False)
+class PathBounces:
+    """The bounces of a ball released with a horizontal velocity, up to its rolling.
 
-    ``samplerate`` (Hz) and ``time_origin`` (s from the release: the time of a sample) set
-    the sample grid on which the rolling is solved; ``max_duration`` (s from the release)
-    the latest time the ball is followed to.
+    Attributes
+    ----------
+    impacts : BounceSequence
+        The impacts (times from the release); ``stop_reason`` "settled" or
+        "flight-shorter-than-contact" (the ball rolls next), "left-plate", "max-duration" or
+        "max-impacts".
+    points : ndarray (I, 2)
+        Where each impact was on the plate, m from its corner.
+    origin, direction : (float, float)
+        The release point (m) and the unit horizontal direction of the line.
+    speed : float
+        The horizontal speed after the grip, m/s.
+    edge : float
+        Distance from the release point along the line to the plate's edge, m.
+    separation_time, separation_position : float
+        When (s from the release) and where (m along the line) the last contact ended.
+    rebound_speed : float or None
+        The last impact's rebound speed, m/s (None: the ball did not leave the plate).
     """
+
+    impacts: BounceSequence
+    points: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    speed: float
+    edge: float
+    separation_time: float
+    separation_position: float
+    rebound_speed: float | None
+
+    @property
+    def rolls(self) -> bool:
+        """Whether the ball rolls after these bounces (it is still on the plate)."""
+        return self.impacts.stop_reason in ("settled", "flight-shorter-than-contact")
+
+    def point(self, s: float) -> tuple[float, float]:
+        """The point ``s`` m along the line, m from the plate's corner."""
+        return (self.origin[0] + self.direction[0] * s, self.origin[1] + self.direction[1] * s)
+
+
+def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
+    """The bounces of ``scene`` (which has a ``velocity``) along its line until the ball
+    rolls, flies off the plate, or the next impact would come after ``max_duration`` s (module
+    docstring). The impacts are the impact solver's at their own points (the plate's
+    impedance in the contact)."""
     if not isinstance(scene, Scene) or not scene.moving:
         raise ParameterError(f"scene={scene!r} must be a Scene with a non-zero velocity")
-    fs = int(samplerate)
     ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
     speed = math.hypot(*scene.velocity)
     u = (scene.velocity[0] / speed, scene.velocity[1] / speed)
@@ -204,10 +243,17 @@ def simulate_path(
     def point(s):
         return (origin[0] + u[0] * s, origin[1] + u[1] * s)
 
+    def ended(reason, time, position, rebound):
+        sequence = BounceSequence(tuple(impacts), reason, scene.drop_height, g)
+        return PathBounces(
+            sequence, np.array(points), origin, u, speed, s_edge, time, position, rebound
+        )
+
     t = math.sqrt(2.0 * scene.drop_height / g)
     v = math.sqrt(2.0 * g * scene.drop_height)
     s = speed * t
     spin = 0.0
+    t_sep, s_sep = t, s  # the last contact's end (before the first: the first touch)
     impacts, points = [], []
     if s > s_edge:
         raise ParameterError(
@@ -216,7 +262,7 @@ def simulate_path(
         )
     while True:
         if len(impacts) >= DEFAULT_MAX_IMPACTS:
-            return _ended(impacts, points, "max-impacts", g, scene, origin, u, speed, t)
+            return ended("max-impacts", t_sep, s_sep, v)
         res = solver.solve(v, position=point(s))
         if not res.success:
             raise SynthError(
@@ -228,29 +274,43 @@ def simulate_path(
         spin = speed / ball.radius
         t_sep = t + res.separation_time
         s_sep = s + speed * res.separation_time
-        v_out = 0.0 if res.settled else res.rebound_speed
+        if res.settled:
+            return ended("settled", t_sep, s_sep, None)
+        v_out = res.rebound_speed
         flight = 2.0 * v_out / g
-        if res.settled or flight < res.separation_time:
-            reason = "settled" if res.settled else "flight-shorter-than-contact"
-            break
+        if flight < res.separation_time:
+            return ended("flight-shorter-than-contact", t_sep, s_sep, v_out)
         if t_sep + flight > max_duration:
-            return _ended(impacts, points, "max-duration", g, scene, origin, u, speed, t_sep)
+            return ended("max-duration", t_sep, s_sep, v_out)
         if s_sep + speed * flight > s_edge:
-            return _ended(impacts, points, "left-plate", g, scene, origin, u, speed, t_sep)
+            return ended("left-plate", t_sep, s_sep, v_out)
         t, s, v = t_sep + flight, s_sep + speed * flight, v_out
-    sequence = BounceSequence(tuple(impacts), reason, scene.drop_height, g)
+
+
+def simulate_path(
+    scene: Scene, *, samplerate: int, time_origin: float = 0.0, max_duration: float = 30.0
+) -> BallPath:
+    """The :class:`BallPath` of ``scene`` (which has a ``velocity`` and ``rolling``).
+
+    ``samplerate`` (Hz) and ``time_origin`` (s from the release: the time of a sample) set
+    the sample grid on which the rolling is solved; ``max_duration`` (s from the release)
+    the latest time the ball is followed to.
+    """
+    bounces = path_bounces(scene, max_duration=max_duration)
+    b = bounces
+    if not b.rolls:
+        last = tuple(b.points[-1])
+        return BallPath(
+            b.impacts, b.points, b.origin, b.direction, b.speed, None, b.impacts.stop_reason,
+            b.separation_time, last,
+        )  # fmt: skip
     part, end, end_time, end_s = _roll(
-        scene, solver, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed,
-        None if res.settled else v_out,
+        scene, int(samplerate), time_origin, max_duration, b.origin, b.direction, b.edge,
+        b.separation_time, b.separation_position, b.speed, b.rebound_speed,
     )  # fmt: skip
-    return BallPath(sequence, np.array(points), origin, u, speed, part, end, end_time, point(end_s))
-
-
-def _ended(impacts, points, end, g, scene, origin, u, speed, time) -> BallPath:
-    """A :class:`BallPath` that ends before any rolling."""
-    sequence = BounceSequence(tuple(impacts), end, scene.drop_height, g)
-    last = points[-1]
-    return BallPath(sequence, np.array(points), origin, u, speed, None, end, time, last)
+    return BallPath(
+        b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time, b.point(end_s)
+    )
 
 
 def _profile(rolling, length):
@@ -264,9 +324,7 @@ def _profile(rolling, length):
     )
 
 
-def _roll(
-    scene, solver, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out
-):
+def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out):
     """The rolling from the separation at ``t_sep`` (s), ``s_sep`` (m along the path), with
     the horizontal ``speed`` (m/s) and, unless the ball settled (None), the rebound speed
     ``v_out`` (m/s): returns the :class:`RollingPart`, the end, its time (s) and the
