@@ -39,8 +39,10 @@ def _cmd_info(args):
     scene, section, data = load_preset_with_options(args.preset, args.overrides)
     if args.cost:
         return _print_cost(scene, section, args.json)
-    seq = simulate_scene(scene)
+    path = _path_of(scene, section) if scene.moving else None
+    seq = simulate_scene(scene) if path is None else path.impacts
     rows = seq.table()
+    ending = {} if path is None else _path_ending(path)
     if args.json:
         json.dump(
             dict(
@@ -49,6 +51,7 @@ def _cmd_info(args):
                 stop_reason=seq.stop_reason,
                 duration=seq.duration,
                 impacts=rows,
+                **ending,
             ),
             sys.stdout,
             indent=1,
@@ -68,7 +71,42 @@ def _cmd_info(args):
             f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
         )
     print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    if path is not None:
+        print(
+            f"rolled {ending['rolling_seconds']:.3f} s from {ending['rolling_start']} s at "
+            f"{ending['rolling_speed']:.4g} m/s; the path ended: {ending['path_end']} at "
+            f"{ending['path_end_time']:.4f} s, ({ending['path_end_point'][0]:.4f}, "
+            f"{ending['path_end_point'][1]:.4f}) m"
+        )
     return 0
+
+
+def _path_of(scene, section: dict):
+    """The :class:`synth.physics.path.BallPath` of a scene with a velocity, on the sample
+    grid of the preset's render section."""
+    import math
+
+    from synth.physics.path import simulate_path
+    from synth.sound.render import check_options
+
+    o = check_options(**{k: v for k, v in section.items() if k != "subtype"})
+    origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o["preroll"]
+    return simulate_path(
+        scene, samplerate=o["samplerate"], time_origin=origin, max_duration=o["max_duration"]
+    )
+
+
+def _path_ending(path) -> dict:
+    """How a ball's path rolled and ended (s, m/s, m), for ``synth info``."""
+    rolling = path.rolling
+    return dict(
+        path_end=path.end,
+        path_end_time=path.end_time,
+        path_end_point=list(path.end_point),
+        rolling_speed=path.rolling_speed,
+        rolling_start=None if rolling is None else round(rolling.start, 6),
+        rolling_seconds=0.0 if rolling is None else rolling.duration,
+    )
 
 
 def _print_cost(scene, section: dict, as_json: bool) -> int:
@@ -376,6 +414,9 @@ GALLERY = (
     "thesis-steel10-mdf18-corner",
     "small-click-on-acrylic",
     "ceramic-cup-on-stone",
+    "thesis-steel10-mdf18-rolling",
+    "steel-ball-rolling-on-glass-table",
+    "marble-rolling-on-wooden-floor",
 )
 
 
@@ -511,6 +552,7 @@ def _cmd_bench(args):
             lambda: bench.run_rolling(repeat=3 if args.repeat is None else args.repeat),
             bench.format_rolling,
         ),
+        "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -939,6 +981,7 @@ def build_parser() -> argparse.ArgumentParser:
             "bank",
             "cold",
             "rolling",
+            "rollingcheck",
         ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
@@ -951,7 +994,8 @@ def build_parser() -> argparse.ArgumentParser:
         "against one process per file; cold: CPU and wall time and peak memory of the "
         "first import synth, synth render default and live example on empty numba and "
         "plate-mode caches, and the same warm; rolling: the rolling contact's and its modal "
-        "drive's time per second of audio",
+        "drive's time per second of audio, and the rolling presets' renders; rollingcheck: "
+        "the rolling's contact-loss speed, energy balance and spectral centroid against speed",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument(

@@ -21,6 +21,7 @@ BENCH_PAGES = {
     "contact": "benchmarks.md",
     "render": "benchmarks.md",
     "rolling": "rolling.md",
+    "rollingcheck": "validation.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
     "long": "benchmarks.md",

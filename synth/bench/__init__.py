@@ -25,6 +25,7 @@ from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
 from synth.bench.long import format_long, long_child, long_recording, run_long
 from synth.bench.render import format_render, render_scenes, run_render
 from synth.bench.rolling import format_rolling, run_rolling
+from synth.bench.rolling_check import format_rolling_check, run_rolling_check
 from synth.bench.scale import (
     SCALE_LADDER,
     SCALE_NAMED,
@@ -73,6 +74,7 @@ __all__ = [
     "format_modal_contact",
     "format_render",
     "format_rolling",
+    "format_rolling_check",
     "format_scale",
     "format_surface_fit",
     "format_thesis",
@@ -91,6 +93,7 @@ __all__ = [
     "run_modal_contact",
     "run_render",
     "run_rolling",
+    "run_rolling_check",
     "run_scale",
     "scale_child",
     "scale_scene",

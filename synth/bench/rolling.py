@@ -1,12 +1,17 @@
 """``synth bench rolling``: the rolling contact's cost per second of audio.
 
-A 10 mm steel ball rolls over a rough 6 mm glass plate at three speeds, 48 kHz; its force
+A steel ball of 10 mm radius rolls over a rough 6 mm glass plate at three speeds, 48 kHz; its force
 then drives the plate's modes below 5 kHz at the moving contact, heard by an
 accelerometer. The roughness (Matern spectrum: rms 1 um, correlation length 100 um,
 Hurst exponent 0.8) is a benchmark input, not a published value. Per speed: wall time per
 second of audio of the contact solver and of the modal drive (best of ``repeat`` runs after
 a warm-up that compiles the kernels), the real-time factor of both together, the solver's
 steps per sample and the ball's flights (micro-bounces).
+
+Then the rolling presets (:data:`ROLLING_PRESETS`: a drop with sideways speed that bounces
+and rolls) rendered whole as ``synth render`` renders them: the audio's length, the time
+the ball rolls, the wall time of its path (bounces and rolling contact) and of the whole
+render (best of ``repeat`` runs after a warm-up), and the render's real-time factor.
 """
 
 from __future__ import annotations
@@ -20,6 +25,27 @@ TARGET_REALTIME = 100.0
 SAMPLERATE = 48000
 DURATION = 1.0
 SPEEDS = (0.1, 0.3, 0.8)
+#: The presets of a ball dropped with sideways speed (bounces, then rolling).
+ROLLING_PRESETS = (
+    "thesis-steel10-mdf18-rolling",
+    "steel-ball-rolling-on-glass-table",
+    "marble-rolling-on-wooden-floor",
+)
+
+
+@dataclass
+class SceneRun:
+    """One rolling preset's render: audio and rolling length, path and render wall time (s)."""
+
+    preset: str
+    audio_s: float
+    rolling_s: float
+    path_s: float
+    render_s: float
+
+    @property
+    def realtime(self) -> float:
+        return self.audio_s / self.render_s
 
 
 @dataclass
@@ -47,7 +73,39 @@ def _best_of(fn, repeat: int):
     return best, value
 
 
-def run_rolling(repeat: int = 3) -> list[dict]:
+def run_rolling(repeat: int = 3) -> dict:
+    """Time the rolling contact and its modal drive at each of :data:`SPEEDS` (m/s)
+    (``"contact"``), and the rolling presets' renders (``"scenes"``)."""
+    return {"contact": run_contact_speeds(repeat), "scenes": run_scenes(repeat)}
+
+
+def run_scenes(repeat: int = 3) -> list[dict]:
+    """Time the renders of :data:`ROLLING_PRESETS` and of their paths."""
+    import math
+
+    from synth.io.presets import load_preset_with_options
+    from synth.physics.path import simulate_path
+    from synth.sound.render import render
+
+    runs = []
+    for name in ROLLING_PRESETS:
+        scene, section, _ = load_preset_with_options(name)
+        opts = {k: v for k, v in section.items() if k != "subtype"}
+        fs = opts["samplerate"]
+        origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - 0.005
+
+        def path(scene=scene, fs=fs, origin=origin):
+            return simulate_path(scene, samplerate=fs, time_origin=origin)
+
+        render(scene, **opts)  # compiles on a cold cache, fills the modes' cache
+        t_path, solved = _best_of(path, repeat)
+        t_render, rendered = _best_of(lambda s=scene, o=opts: render(s, **o), repeat)
+        rolled = 0.0 if solved.rolling is None else solved.rolling.force.size / fs
+        runs.append(asdict(SceneRun(name, rendered.duration, rolled, t_path, t_render)))
+    return runs
+
+
+def run_contact_speeds(repeat: int = 3) -> list[dict]:
     """Time the rolling contact and its modal drive at each of :data:`SPEEDS` (m/s)."""
     from synth.physics import rolling, surface
     from synth.physics.scene import Accelerometer, Ball, Plate
@@ -88,8 +146,37 @@ def run_rolling(repeat: int = 3) -> list[dict]:
     return [asdict(r) for r in runs]
 
 
-def format_rolling(rows: list[dict]) -> str:
-    """A Markdown table of :func:`run_rolling`'s runs and the real-time target's verdict."""
+def format_rolling(result: dict) -> str:
+    """Markdown tables of :func:`run_rolling`'s runs and the real-time target's verdicts."""
+    return format_contact_speeds(result["contact"]) + "\n\n" + format_scenes(result["scenes"])
+
+
+def format_scenes(rows: list[dict]) -> str:
+    """A Markdown table of :func:`run_scenes`' renders and the real-time target's verdict."""
+    runs = [SceneRun(**row) for row in rows]
+    lines = [
+        "| rolling preset | audio s | rolling s | path s | render s | real-time factor |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in runs:
+        lines.append(
+            f"| {r.preset} | {r.audio_s:.2f} | {r.rolling_s:.2f} | {r.path_s:.3f} | "
+            f"{r.render_s:.3f} | {r.realtime:.0f}x |"
+        )
+    worst = min(r.realtime for r in runs)
+    met = "met" if worst >= TARGET_REALTIME else "NOT met"
+    return "\n".join(
+        lines
+        + [
+            "",
+            f"- slowest rolling preset's real-time factor {worst:.0f}x, target at least "
+            f"{TARGET_REALTIME:g}x: {met}.",
+        ]
+    )
+
+
+def format_contact_speeds(rows: list[dict]) -> str:
+    """A Markdown table of :func:`run_contact_speeds`' runs and the target's verdict."""
     runs = [RollingRun(**row) for row in rows]
     lines = [
         "| speed m/s | contact ms per s | modes ms per s | real-time factor | "

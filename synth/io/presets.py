@@ -25,6 +25,16 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     [drop]
     height = 0.1                    # m, lowest point of the ball above the plate
     position = [0.6135, 0.245]      # m from a plate corner (optional: far from the edges)
+    velocity = [0.3, 0.0]           # m/s, horizontal at release (optional: a straight drop);
+                                    # the ball bounces along, then rolls: needs [rolling]
+
+    [rolling]                       # with drop.velocity (docs/rolling.md): no built-in values
+    resistance = 0.002              # C_rr, dimensionless: rolling resistance C_rr m g per metre
+    spacing = 5e-6                  # m, the roughness profile's sample spacing along the path
+    rms_height = 1e-7               # m, Matern roughness sigma (0 or left out: smooth)
+    correlation_length = 1e-4       # m, xi (with rms_height > 0)
+    hurst = 0.8                     # H in (0, 1] (with rms_height > 0)
+    seed = 0                        # the profile's seed
 
     [listener]                      # optional: a microphone 0.2 m above the impact point
     type = "microphone"             # or "accelerometer"
@@ -97,6 +107,7 @@ from synth.physics.scene import (
     Contact,
     Microphone,
     Plate,
+    Rolling,
     Scene,
 )
 
@@ -116,9 +127,10 @@ def _fields(cls):
 SECTIONS = {
     "ball": _fields(Ball),
     "plate": _fields(Plate),
-    "drop": ("height", "position"),
+    "drop": ("height", "position", "velocity"),
     "listener": ("type", "position"),
     "contact": _fields(Contact),
+    "rolling": _fields(Rolling),
     "render": None,  # the options of synth.render (synth.sound.render.OPTIONS) and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
@@ -390,6 +402,16 @@ def _scene_from_dict(data, source):
         if not isinstance(position, list):
             raise PresetError(f"{source}: drop.position={position!r} must be [x, y] in metres")
         position = tuple(position)
+    velocity = drop.get("velocity")
+    if velocity is not None:
+        if not isinstance(velocity, list):
+            raise PresetError(f"{source}: drop.velocity={velocity!r} must be [vx, vy] in m/s")
+        velocity = tuple(velocity)
+    rolling = None
+    if "rolling" in data:
+        r = data["rolling"]
+        _require(r, _required_fields(Rolling), "rolling")
+        rolling = Rolling(**r)
     listener = None
     if "listener" in data:
         lst = data["listener"]
@@ -419,6 +441,8 @@ def _scene_from_dict(data, source):
         listener=listener,
         gravity=gravity,
         contact=contact,
+        velocity=velocity,
+        rolling=rolling,
     )
     return scene, _render_section(data.get("render", {}), source)
 
@@ -498,6 +522,8 @@ def with_defaults(data: dict, *, varied=()) -> dict:
         named = zip(("law", "plate", "surface"), CONTACT_MODELS[contact["model"]], strict=True)
         contact = {**dict(named), **contact}
     out["contact"] = contact
+    if "rolling" in out:
+        out["rolling"] = {**_fixed_defaults(Rolling), **out["rolling"]}
     if "listener" in out:
         out["listener"] = {"type": DEFAULT_LISTENER, **out["listener"]}
     section = out.get("render", {})

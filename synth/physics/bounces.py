@@ -373,11 +373,15 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
     """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
     drop, gravity and contact model; ``contact.plate = "auto"`` chosen by
     :func:`synth.physics.plate_choice.scene_plate`); ``options`` as in
-    :func:`simulate_bounces`."""
+    :func:`simulate_bounces`. A scene with a horizontal velocity gives its bounces along its
+    path until it rolls (:func:`synth.physics.path.path_bounces`; ``max_duration`` is its
+    only option)."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     from synth.physics.plate_choice import scene_plate
 
+    if scene.moving:
+        return _moving_scene_bounces(scene, options)
     c = scene.contact
     plate = scene_plate(scene).plate  # contact.plate, or the choice of "auto"
     return simulate_bounces(
@@ -393,3 +397,16 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
         **c.options(),
         **options,
     )
+
+
+def _moving_scene_bounces(scene: Scene, options: dict) -> BounceSequence:
+    """:func:`simulate_scene` of a scene with a horizontal velocity."""
+    from synth.physics.path import path_bounces
+
+    other = sorted(set(options) - {"max_duration"})
+    if other:
+        raise ParameterError(
+            f"{other[0]}={options[other[0]]!r}: a scene with drop.velocity takes only "
+            f"max_duration (s) here; its bounces follow its path (synth.physics.path)"
+        )
+    return path_bounces(scene, **options).impacts

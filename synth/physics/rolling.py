@@ -412,8 +412,13 @@ def _contact_points(setup, centre):
     """Path coordinates (m) and plate points (m) of the touching points of the centre at
     the path coordinates ``centre`` (m)."""
     env = setup.envelope
+    # the envelope's samples around the centres only (the same nodes, so the same values,
+    # at a cost that does not grow with the envelope's length)
+    last = env.heights.size - 1
+    i0 = min(max(int(math.floor(np.min(centre) / env.spacing)) - 1, 0), last)
+    i1 = min(max(int(math.ceil(np.max(centre) / env.spacing)) + 1, i0), last)
     coordinate = centre + np.interp(
-        centre, np.arange(env.heights.size) * env.spacing, env.contact_offsets
+        centre, np.arange(i0, i1 + 1) * env.spacing, env.contact_offsets[i0 : i1 + 1]
     )
     (ox, oy), (ux, uy) = setup.origin, setup.direction
     return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))

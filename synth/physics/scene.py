@@ -45,6 +45,9 @@ MAX_DROP_HEIGHT = 1000.0
 #: Farthest microphone coordinate from the plate's corner, m: the sound's travel time
 #: (2.9 s at 343 m/s) stays a small part of the render, and every distance finite.
 MAX_LISTENER_DISTANCE = 1000.0
+#: Largest horizontal speed of a ball at release, m/s (a thrown ball; a rolling ball's
+#: contact with a rough plate is solved sample by sample, at any speed).
+MAX_HORIZONTAL_SPEED = 100.0
 #: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
 MAX_GRAVITY = 1000.0
 
@@ -402,6 +405,84 @@ class Contact:
 
 
 @dataclass(frozen=True)
+class Rolling:
+    """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's
+    path"): the resistance to its rolling and the plate's roughness along its path.
+
+    None of these values is built in: the engine has no published rolling-resistance
+    coefficients or roughness spectra it can cite for its materials, so every preset that
+    rolls states them as its author's choice (or a measurement the author cites).
+
+    Parameters
+    ----------
+    resistance : float in [0, 1]
+        Coefficient of rolling resistance ``C_rr`` (dimensionless): the energy the rolling
+        loses per metre, besides what the roughness' micro-impacts take (solved by the
+        contact), is ``C_rr`` times the normal force, ``C_rr m g`` (Coulomb's law of rolling
+        friction: a resistance proportional to the load and independent of the speed; Cross,
+        Am. J. Phys. 84, 221 (2016)).
+    spacing : float > 0
+        Distance between the samples of the surface's profile along the path, m.
+    rms_height : float >= 0
+        RMS height ``sigma`` of the Matern roughness, m (0: a smooth plate).
+    correlation_length : float > 0, optional
+        Its correlation length ``xi``, m (required when ``rms_height > 0``).
+    hurst : float in (0, 1], optional
+        Its Hurst exponent ``H`` (required when ``rms_height > 0``).
+    seed : int >= 0
+        Seed of the profile (the same seed gives the same surface).
+    """
+
+    resistance: float
+    spacing: float
+    rms_height: float = 0.0
+    correlation_length: float | None = None
+    hurst: float | None = None
+    seed: int = 0
+
+    def __post_init__(self):
+        checks.in_range(
+            "rolling.resistance", self.resistance, 0.0, 1.0, "dimensionless",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "resistance", float(self.resistance))
+        object.__setattr__(
+            self,
+            "spacing",
+            checks.positive_at_most("rolling.spacing", self.spacing, 1e-2, "metres"),
+        )
+        sigma = checks.nonnegative("rolling.rms_height", self.rms_height, "metres")
+        object.__setattr__(self, "rms_height", sigma)
+        for name in ("correlation_length", "hurst"):
+            value = getattr(self, name)
+            if sigma > 0.0 and value is None:
+                raise ParameterError(
+                    f"rolling.{name} is required with rolling.rms_height={sigma!r} > 0"
+                )
+        if sigma > 0.0:
+            from synth.physics.surface import RoughnessSpectrum
+
+            try:
+                RoughnessSpectrum(
+                    rms_height=sigma, correlation_length=self.correlation_length, hurst=self.hurst
+                )
+            except ParameterError as exc:
+                raise ParameterError(f"rolling.{exc}") from None
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(f"rolling.seed={self.seed!r} must be an integer >= 0")
+
+    def spectrum(self):
+        """The :class:`synth.physics.surface.RoughnessSpectrum`, or None for a smooth plate."""
+        from synth.physics.surface import RoughnessSpectrum
+
+        if self.rms_height == 0.0:
+            return None
+        return RoughnessSpectrum(
+            rms_height=self.rms_height, correlation_length=self.correlation_length, hurst=self.hurst
+        )
+
+
+@dataclass(frozen=True)
 class Scene:
     """A ball dropped on a plate, heard by a listener.
 
@@ -419,6 +500,12 @@ class Scene:
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
         Contact model (default: the measured model at rtol 1e-9, see :class:`Contact`).
+    velocity : (float, float), optional
+        The ball's horizontal velocity at release ``(v_x, v_y)``, m/s (default: none, a
+        straight drop). A ball released with one bounces along a path and rolls
+        (:mod:`synth.physics.path`); it needs ``rolling``.
+    rolling : Rolling, optional
+        The rolling's resistance and the plate's roughness (with ``velocity``).
     """
 
     ball: Ball
@@ -429,6 +516,8 @@ class Scene:
     listener: Listener | None = None
     gravity: float = GRAVITY
     contact: Contact | None = None
+    velocity: tuple[float, float] | None = None
+    rolling: Rolling | None = None
 
     def __post_init__(self):
         if not isinstance(self.ball, Ball):
@@ -466,3 +555,35 @@ class Scene:
             raise ParameterError(
                 f"listener={self.listener!r} must be an Accelerometer or a Microphone"
             )
+        self._check_path()
+
+    def _check_path(self):
+        """``velocity`` and ``rolling``: a horizontal velocity needs the rolling's
+        description, and a plate in the contact that can follow a moving point."""
+        if self.rolling is not None and not isinstance(self.rolling, Rolling):
+            raise ParameterError(f"rolling={self.rolling!r} must be a Rolling")
+        if self.velocity is None:
+            return
+        vx, vy = checks.point("drop.velocity", self.velocity, 2, "m/s")
+        if math.hypot(vx, vy) > MAX_HORIZONTAL_SPEED:
+            raise ParameterError(
+                f"drop.velocity={self.velocity!r}: its magnitude must be at most "
+                f"{MAX_HORIZONTAL_SPEED:g} m/s"
+            )
+        object.__setattr__(self, "velocity", (vx, vy))
+        if self.rolling is None:
+            raise ParameterError(
+                f"drop.velocity={self.velocity!r} needs the [rolling] section: the ball rolls "
+                f"at the end of its bounces (rolling.resistance, rolling.spacing, roughness)"
+            )
+        if self.contact.plate == "modal":
+            raise ParameterError(
+                "contact.plate='modal' with drop.velocity: the modal plate's contact follows "
+                "one point; a ball moving along a path takes the plate's impedance "
+                "(contact.plate='impedance' or 'auto')"
+            )
+
+    @property
+    def moving(self) -> bool:
+        """True if the ball is released with a horizontal velocity (not zero)."""
+        return self.velocity is not None and self.velocity != (0.0, 0.0)

@@ -222,8 +222,12 @@ class ModalModel:
 
     def excitation(self, position) -> np.ndarray:
         """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
-        phi0 = self.modes.shapes(np.array([position]))[0][self.rendered]
-        return phi0 / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
+        return self.excitations(np.array([position]))[0]
+
+    def excitations(self, points) -> np.ndarray:
+        """``b_k`` (1/kg) of a force at each of ``points`` ((P, 2), m): (P, K)."""
+        phi = self.modes.shapes(np.asarray(points, dtype=float))[:, self.rendered]
+        return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
 
     def direct(self, excitation) -> np.ndarray | None:
         """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
@@ -556,6 +560,13 @@ def render(
         scene, samplerate=fs, max_frequency=f_max, preroll=pre, max_duration=max_duration,
         max_tail=tail, pulse_points=int(pulse_points), floor_db=o["floor_db"],
     ).check(budget)  # fmt: skip
+    if scene.moving:
+        if sequence is not None:
+            raise ParameterError(
+                "sequence: a scene with drop.velocity computes its own path (bounces and "
+                "rolling); pass no sequence"
+            )
+        return _render_moving(scene, o)
     if sequence is None:
         sequence = simulate_scene(scene, max_duration=max_duration)
     else:
@@ -596,17 +607,8 @@ def render(
         max_samples=max_samples,
         pulse_points=int(pulse_points),
     )
-    if fade_s > audio.size / fs:
-        raise ParameterError(
-            f"fade={fade_s!r} s is longer than the audio "
-            f"({audio.size / fs:.6g} s); it must be at most that"
-        )
+    _fade(audio, fade_s, fs)
     from synth.io import audio as audio_io
-
-    if fade_s > 0 and audio.size:
-        # the fade's n frames run from full level (the first) to 0 (the last)
-        n = min(audio.size, int(round(fade_s * fs)))
-        audio_io.apply_fade_out(audio, n - 1)
 
     scaled, gain = audio_io.normalize(
         audio, normalize, samplerate=fs, units=units, peak_db=peak_db, loudness_lufs=loudness_lufs
@@ -639,3 +641,59 @@ def render(
         reference_amplitude=info["reference"],
     )
     return Render(np.asarray(scaled, dtype=np.float32), fs, sequence, units, float(gain), settings)
+
+
+def _render_moving(scene, o) -> Render:
+    """:func:`render` of a scene with a horizontal velocity: its bounces and rolling
+    (:mod:`synth.sound.path_render`), faded and levelled as every render."""
+    from synth.io import audio as audio_io
+    from synth.sound.path_render import render_path_audio
+
+    fs = o["samplerate"]
+    f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
+    model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
+    if not model.poles.size:
+        raise ParameterError(_silent_plate_message(f_max, fs))
+    audio, path, extra = render_path_audio(scene, model, o)
+    _fade(audio, o["fade"], fs)
+    scaled, gain = audio_io.normalize(
+        audio, o["normalize"], samplerate=fs, units=model.units, peak_db=o["peak_db"],
+        loudness_lufs=o["loudness_lufs"],
+    )  # fmt: skip
+    settings = dict(
+        samplerate=fs,
+        normalize=o["normalize"],
+        peak_db=o["peak_db"],
+        loudness_lufs=o["loudness_lufs"],
+        floor_db=o["floor_db"],
+        max_frequency=f_max,
+        preroll=o["preroll"],
+        fade=o["fade"],
+        max_tail=o["max_tail"],
+        listener=type(scene.listener).__name__.lower(),
+        listener_position=list(scene.listener.position),
+        n_impacts=len(path.impacts),
+        stop_reason=path.impacts.stop_reason,
+        n_modes=int(model.poles.size),
+        n_modes_overdamped=model.n_overdamped,
+        **extra,
+    )
+    return Render(
+        np.asarray(scaled, dtype=np.float32), fs, path.impacts, model.units, float(gain), settings
+    )
+
+
+def _fade(audio, fade_s, fs) -> None:
+    """A raised-cosine fade of ``fade_s`` s at the end of ``audio`` (in place); refused if
+    longer than the audio."""
+    from synth.io import audio as audio_io
+
+    if fade_s > audio.size / fs:
+        raise ParameterError(
+            f"fade={fade_s!r} s is longer than the audio "
+            f"({audio.size / fs:.6g} s); it must be at most that"
+        )
+    if fade_s > 0 and audio.size:
+        # the fade's n frames run from full level (the first) to 0 (the last)
+        n = min(audio.size, int(round(fade_s * fs)))
+        audio_io.apply_fade_out(audio, n - 1)

@@ -108,8 +108,38 @@ def path_excitation(
     return PathExcitation(s0, ds, b, direct)
 
 
+@dataclass(eq=False)
+class ModeState:
+    """The modes' state between two calls of :func:`drive_modes` (updated in place by it).
+
+    Attributes
+    ----------
+    zeta : complex ndarray (K,)
+        ``zeta_k`` (module docstring), m/s (``Im(zeta_k) / omega_dk`` is the mode, m).
+    previous : float
+        The force of the last period driven, N (an accelerometer's direct term at the next
+        sample takes the mean of it and the next period's force).
+    """
+
+    zeta: np.ndarray
+    previous: float = 0.0
+
+    @classmethod
+    def at_rest(cls, modes: int) -> ModeState:
+        """The plate at rest and unloaded, ``modes`` modes."""
+        return cls(np.zeros(int(modes), dtype=complex), 0.0)
+
+
 def drive_modes(
-    force, coordinate, path: PathExcitation, poles, output, samplerate, *, preload: float = 0.0
+    force,
+    coordinate,
+    path: PathExcitation,
+    poles,
+    output,
+    samplerate,
+    *,
+    preload: float = 0.0,
+    state: ModeState | None = None,
 ) -> np.ndarray:
     """What a listener hears of the modes driven by ``force`` at ``coordinate``.
 
@@ -132,6 +162,10 @@ def drive_modes(
         The force already on the plate at the first coordinate before the first period,
         N: the modes start in their static deflection under it, ``zeta_k = -b_k F / p_k``
         (0: the plate at rest, unloaded).
+    state : ModeState, optional
+        Start from the modes' state where an earlier call left it, instead of the
+        ``preload``'s (which must then be 0), and leave the end's state in it: consecutive
+        calls give the signal of one call.
 
     Returns
     -------
@@ -166,6 +200,11 @@ def drive_modes(
             f"{last!r}] m"
         )
     F_pre = checks.real("preload", preload, "N")
+    if state is not None:
+        if F_pre != 0.0:
+            raise ParameterError(f"preload={preload!r}: give a preload or a state, not both")
+        if not isinstance(state, ModeState) or np.shape(state.zeta) != (K,):
+            raise ParameterError(f"state={state!r} must be a ModeState of {K} modes")
     # the ringing over one sample and the listener's response per unit state, as the
     # modal bank has them (unit excitation: b_k moves with the contact point here)
     coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
@@ -175,6 +214,10 @@ def drive_modes(
     zeta = np.zeros(K, dtype=complex)
     if F_pre != 0.0 and F.size:
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
+    if state is not None:
+        zeta, F_pre = np.asarray(state.zeta, dtype=complex), float(state.previous)
+    zr = np.ascontiguousarray(zeta.real)
+    zi = np.ascontiguousarray(zeta.imag)
     _drive(
         F,
         c,
@@ -189,11 +232,14 @@ def drive_modes(
         coefficients.coef_im,
         np.ascontiguousarray(hold.real),
         np.ascontiguousarray(hold.imag),
-        np.ascontiguousarray(zeta.real),
-        np.ascontiguousarray(zeta.imag),
+        zr,
+        zi,
         F_pre,
         audio,
     )
+    if state is not None:
+        state.zeta = zr + 1j * zi
+        state.previous = float(F[-1]) if F.size else F_pre
     return audio
 
 

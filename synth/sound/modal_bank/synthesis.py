@@ -39,8 +39,9 @@ def synthesize(
         Each contact's start on the audio timeline, s (float, sub-sample).
     poles : complex ndarray (K,)
         ``p_k = -sigma_k + i omega_dk``, rad/s (all below Nyquist).
-    excitation : ndarray (K,)
-        ``b_k = phi_k(x0) / M_k``, 1/kg.
+    excitation : ndarray (K,) or (I, K)
+        ``b_k = phi_k(x0) / M_k``, 1/kg: one row for every impact, or one per impact (a
+        ball that bounces along a path, each impact at its own point).
     output : complex ndarray (K,)
         Listener gain per unit modal displacement ``q_k`` at the pole: ``phi_k(xp) p_k^2``
         for acceleration, ``G_k p_k`` for a microphone.
@@ -51,8 +52,9 @@ def synthesize(
     settled_weight : sequence of float or None
         For a settled impact, the weight ``m g`` (N) that stays on the plate after its
         contact time (its step adds ``m g exp(-p tau) / p`` to the transform); else None.
-    direct : ndarray (K,) or None
-        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts.
+    direct : ndarray (K,) or (I, K) or None
+        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts
+        (one per impact with an ``excitation`` per impact).
     max_samples : int
         Length cap of the output.
     pulse_points : int >= 5
@@ -69,7 +71,14 @@ def synthesize(
             f"onsets: {float(np.min(onsets))!r} s; every onset must be >= 0 s "
             f"(from the first sample of the audio)"
         )
-    coefficients = bank_coefficients(poles, excitation, output, fs)
+    excitation = np.asarray(excitation)
+    per_impact = excitation.ndim == 2
+    if per_impact and excitation.shape[0] != len(impacts):
+        raise ParameterError(
+            f"excitation has {excitation.shape[0]} rows for {len(impacts)} impacts: give one "
+            f"row (K,) or one per impact (I, K)"
+        )
+    coefficients = bank_coefficients(poles, excitation[0] if per_impact else excitation, output, fs)
     poles = coefficients.poles
     K = poles.size
     I = len(impacts)
@@ -79,6 +88,8 @@ def synthesize(
     work = transform_workspace(K)
     for i, (res, t0) in enumerate(zip(impacts, onsets)):
         weight = float(settled_weight[i]) if settled_weight is not None else 0.0
+        if per_impact and i:
+            coefficients = bank_coefficients(poles, excitation[i], output, fs)
         ex = impact_excitation(
             coefficients,
             res,
@@ -126,8 +137,11 @@ def synthesize(
         else (0, 0, 0.0)
     )
     t_bank = time.perf_counter() - t_bank
-    mass_line = float(np.sum(direct.real)) if direct is not None else 0.0
-    for idx, resp, off_f in contact_samples:
+    if direct is None:
+        mass_lines = np.zeros(I)
+    else:
+        mass_lines = np.broadcast_to(np.sum(np.asarray(direct).real, axis=-1), (I,))
+    for (idx, resp, off_f), mass_line in zip(contact_samples, mass_lines):
         ok = idx < length
         if not ok.any():
             continue

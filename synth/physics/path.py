@@ -1,0 +1,460 @@
+"""The path of a ball released with a horizontal velocity: bounces along a line, then rolling
+until it stops or leaves the plate (docs/rolling.md, "The ball's path").
+
+SI units. The ball's centre moves along the straight line through the release point in the
+direction of its horizontal velocity (nothing in the model turns it). Vertically:
+
+* **Bounces.** Each impact is the impact solver's (:class:`synth.physics.contact.ContactSolver`,
+  the plate's impedance at the impact point), strung together by free flights of ``2 v_out /
+  g`` as in :mod:`synth.physics.bounces`; horizontally the ball keeps its speed in flight.
+* **Grip at an impact.** The friction at the contact point brings that point to rest during
+  the contact (the ball leaves rolling), and it acts at the contact point, so the ball's
+  angular momentum about that point is conserved: ``m v R + I w = m v' R + I v'`` with ``I =
+  (2/5) m R^2`` (a solid sphere), so ``v' = (5 v + 2 R w) / 7``: a ball released without
+  spin keeps 5/7 of its horizontal speed at its first impact, and rolls from then on, so the
+  later impacts leave it unchanged (Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys.
+  70, 1093 (2002), the "rolling" limit of a ball that grips). It assumes friction enough to
+  stop the slip within the contact: ``mu (1 + e) v_y >= (2/7) |v - R w|`` (a ball thrown
+  flat and fast at a grazing angle slides instead, which the model leaves out).
+* **Rolling.** When the next flight would be shorter than the contact (the impacts'
+  ``"flight-shorter-than-contact"`` rule) or the ball does not leave the plate, it rolls: the
+  rolling contact of :func:`synth.physics.rolling.roll` over the roughness of
+  :class:`synth.physics.scene.Rolling` along the path, from the sample after the last
+  separation (the ball's ballistic state there; inside a sample the flight may already have
+  ended, and the ball starts pressed in by at most ``g / (2 fs^2)``).
+* **Rolling resistance.** The rolling sphere's kinetic energy ``(7/10) m v^2`` falls by the
+  work of the contact's horizontal force (``RollingContact.energy.drive_work``: what the
+  roughness' micro-impacts take) and by Coulomb's rolling resistance ``C_rr m g`` per metre
+  (Cross, Am. J. Phys. 84, 221 (2016)): ``dv/dt = -(5/7) C_rr g`` between updates, and the
+  roughness' work taken off at the end of each block of :data:`BLOCK_SECONDS`.
+* **The end.** The ball stops (``"stopped"``: its speed reaches 0, the weight stays on the
+  plate), its touching point reaches the plate's edge (``"left-plate"``: the sound ends with
+  the last contact; the fall beyond is not modelled), it flies off the plate between two
+  bounces (``"left-plate"`` too), or the time runs out (``"max-duration"``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.errors import ParameterError, SynthError
+from synth.physics import rolling as rolling_contact
+from synth.physics import surface
+from synth.physics.bounces import DEFAULT_MAX_IMPACTS, BounceSequence, Impact
+from synth.physics.contact import ContactSolver
+from synth.physics.scene import Scene
+
+#: Length of the rolling's blocks, s: the speed is updated from the roughness' work at the
+#: end of each (its change over a block is a small part of the speed: the blocks only set
+#: when the roughness' share of the resistance is taken off).
+BLOCK_SECONDS = 0.01
+#: Moment of inertia of a solid sphere over ``m R^2``.
+SPHERE_INERTIA = 0.4
+#: The rolling sphere's kinetic energy over ``m v^2``: ``(1 + I / (m R^2)) / 2``.
+ROLLING_ENERGY = 0.5 * (1.0 + SPHERE_INERTIA)
+
+ENDS = ("stopped", "left-plate", "max-duration", "max-impacts")
+
+
+@dataclass(frozen=True, eq=False)
+class RollingPart:
+    """The rolling of a :class:`BallPath`, on the audio's sample grid (SI units).
+
+    Attributes
+    ----------
+    samplerate : int
+        Hz.
+    start : float
+        Time of its first sample, s from the release.
+    force, contact_coordinate, speed : ndarray (N,)
+        Mean force on the plate (N), the touching point's coordinate along the
+        :class:`BallPath`'s line (m from its ``origin``) and the
+        horizontal speed (m/s) over each sample period (as
+        :class:`synth.physics.rolling.RollingContact`).
+    final_force : float
+        The force on the plate after the end, N: 0 for a ball that left the plate, else
+        ``m g`` (at rest, or still rolling when the time ran out).
+    energy : RollingEnergy
+    flights : int
+        Losses of contact (micro-bounces) while rolling.
+    """
+
+    samplerate: int
+    start: float
+    force: np.ndarray
+    contact_coordinate: np.ndarray
+    speed: np.ndarray
+    final_force: float
+    energy: RollingEnergy
+    flights: int
+
+    @property
+    def duration(self) -> float:
+        """How long the ball rolled, s."""
+        return self.force.size / self.samplerate
+
+
+@dataclass(frozen=True)
+class RollingEnergy:
+    """Where the rolling's energy went, J.
+
+    ``initial - final`` equals ``contact_loss + plate_energy + resistance_work`` up to the
+    contact solver's error: the energies are the horizontal kinetic energy ``(7/10) m
+    v^2`` plus the vertical mechanical energy (:class:`synth.physics.rolling.EnergyBalance`).
+    """
+
+    initial: float
+    final: float
+    contact_loss: float
+    plate_energy: float
+    resistance_work: float
+    roughness_work: float
+
+    @property
+    def residual(self) -> float:
+        """``|initial - final - losses|`` relative to ``initial``."""
+        lost = self.contact_loss + self.plate_energy + self.resistance_work
+        return abs(self.initial - self.final - lost) / max(abs(self.initial), 1e-300)
+
+
+@dataclass(frozen=True, eq=False)
+class BallPath:
+    """The path of a ball released with a horizontal velocity.
+
+    Attributes
+    ----------
+    impacts : BounceSequence
+        The bounces (times from the release); their ``stop_reason`` is the impacts' rule
+        that started the rolling, or ``"max-impacts"``.
+    impact_points : ndarray (I, 2)
+        Where each impact was on the plate, m from its corner.
+    origin, direction : (float, float)
+        The line ``origin + s direction`` (m) along which the ball moves: ``origin`` the
+        release point, ``direction`` the unit horizontal direction.
+    rolling_speed : float
+        The horizontal speed after the first impact's grip, m/s.
+    rolling : RollingPart or None
+        None if the ball left the plate (or ran out of time) before rolling.
+    end : str
+        One of :data:`ENDS`.
+    end_time : float
+        When the last contact ended (the ball stopped, left, or the time ran out), s from
+        the release.
+    end_point : (float, float)
+        Where the ball's last touching point was, m from the plate's corner.
+    """
+
+    impacts: BounceSequence
+    impact_points: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    rolling_speed: float
+    rolling: RollingPart | None
+    end: str
+    end_time: float
+    end_point: tuple[float, float]
+
+
+def grip(speed: float, spin: float, radius: float) -> float:
+    """Horizontal speed (m/s) after an impact that brings the contact point to rest:
+    ``(5 v + 2 R w) / 7`` for a solid sphere of radius ``R`` (m) arriving at ``v`` (m/s)
+    with spin ``w`` (rad/s, positive rolling forward); module docstring."""
+    return (speed + SPHERE_INERTIA * radius * spin) / (1.0 + SPHERE_INERTIA)
+
+
+def edge_distance(plate, origin, direction) -> float:
+    """Distance (m) from ``origin`` (on the plate) along the unit ``direction`` to the
+    plate's edge."""
+    out = math.inf
+    for p, u, size in (
+        (origin[0], direction[0], plate.length),
+        (origin[1], direction[1], plate.width),
+    ):
+        if u > 0.0:
+            out = min(out, (size - p) / u)
+        elif u < 0.0:
+            out = min(out, -p / u)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class PathBounces:
+    """The bounces of a ball released with a horizontal velocity, up to its rolling.
+
+    Attributes
+    ----------
+    impacts : BounceSequence
+        The impacts (times from the release); ``stop_reason`` "settled" or
+        "flight-shorter-than-contact" (the ball rolls next), "left-plate", "max-duration" or
+        "max-impacts".
+    points : ndarray (I, 2)
+        Where each impact was on the plate, m from its corner.
+    origin, direction : (float, float)
+        The release point (m) and the unit horizontal direction of the line.
+    speed : float
+        The horizontal speed after the grip, m/s.
+    edge : float
+        Distance from the release point along the line to the plate's edge, m.
+    separation_time, separation_position : float
+        When (s from the release) and where (m along the line) the last contact ended.
+    rebound_speed : float or None
+        The last impact's rebound speed, m/s (None: the ball did not leave the plate).
+    """
+
+    impacts: BounceSequence
+    points: np.ndarray
+    origin: tuple[float, float]
+    direction: tuple[float, float]
+    speed: float
+    edge: float
+    separation_time: float
+    separation_position: float
+    rebound_speed: float | None
+
+    @property
+    def rolls(self) -> bool:
+        """Whether the ball rolls after these bounces (it is still on the plate)."""
+        return self.impacts.stop_reason in ("settled", "flight-shorter-than-contact")
+
+    def point(self, s: float) -> tuple[float, float]:
+        """The point ``s`` m along the line, m from the plate's corner."""
+        return (self.origin[0] + self.direction[0] * s, self.origin[1] + self.direction[1] * s)
+
+
+def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
+    """The bounces of ``scene`` (which has a ``velocity``) along its line until the ball
+    rolls, flies off the plate, or the next impact would come after ``max_duration`` s (module
+    docstring). The impacts are the impact solver's at their own points (the plate's
+    impedance in the contact)."""
+    if not isinstance(scene, Scene) or not scene.moving:
+        raise ParameterError(f"scene={scene!r} must be a Scene with a non-zero velocity")
+    ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
+    speed = math.hypot(*scene.velocity)
+    u = (scene.velocity[0] / speed, scene.velocity[1] / speed)
+    origin = scene.position
+    s_edge = edge_distance(plate, origin, u)
+    solver = ContactSolver.for_pair(
+        ball, plate, gravity=g, law=c.law, rtol=c.rtol, n_points=128, **c.options()
+    )
+
+    def point(s):
+        return (origin[0] + u[0] * s, origin[1] + u[1] * s)
+
+    def ended(reason, time, position, rebound):
+        sequence = BounceSequence(tuple(impacts), reason, scene.drop_height, g)
+        return PathBounces(
+            sequence, np.array(points), origin, u, speed, s_edge, time, position, rebound
+        )
+
+    t = math.sqrt(2.0 * scene.drop_height / g)
+    v = math.sqrt(2.0 * g * scene.drop_height)
+    s = speed * t
+    spin = 0.0
+    t_sep, s_sep = t, s  # the last contact's end (before the first: the first touch)
+    impacts, points = [], []
+    if s > s_edge:
+        raise ParameterError(
+            f"drop.velocity={scene.velocity!r} from drop.position={origin!r}: the ball lands "
+            f"{s:.4g} m along its path, off the plate (its edge is {s_edge:.4g} m away)"
+        )
+    while True:
+        if len(impacts) >= DEFAULT_MAX_IMPACTS:
+            return ended("max-impacts", t_sep, s_sep, v)
+        res = solver.solve(v, position=point(s))
+        if not res.success:
+            raise SynthError(
+                f"impact {len(impacts) + 1} (at {v:.4g} m/s) could not be solved: {res.message}"
+            )
+        impacts.append(Impact(len(impacts) + 1, t, v, res))
+        points.append(point(s))
+        speed = grip(speed, spin, ball.radius)
+        spin = speed / ball.radius
+        t_sep = t + res.separation_time
+        s_sep = s + speed * res.separation_time
+        if res.settled:
+            return ended("settled", t_sep, s_sep, None)
+        v_out = res.rebound_speed
+        flight = 2.0 * v_out / g
+        if flight < res.separation_time:
+            return ended("flight-shorter-than-contact", t_sep, s_sep, v_out)
+        if t_sep + flight > max_duration:
+            return ended("max-duration", t_sep, s_sep, v_out)
+        if s_sep + speed * flight > s_edge:
+            return ended("left-plate", t_sep, s_sep, v_out)
+        t, s, v = t_sep + flight, s_sep + speed * flight, v_out
+
+
+def simulate_path(
+    scene: Scene, *, samplerate: int, time_origin: float = 0.0, max_duration: float = 30.0
+) -> BallPath:
+    """The :class:`BallPath` of ``scene`` (which has a ``velocity`` and ``rolling``).
+
+    ``samplerate`` (Hz) and ``time_origin`` (s from the release: the time of a sample) set
+    the sample grid on which the rolling is solved; ``max_duration`` (s from the release)
+    the latest time the ball is followed to.
+    """
+    bounces = path_bounces(scene, max_duration=max_duration)
+    b = bounces
+    if not b.rolls:
+        last = tuple(b.points[-1])
+        return BallPath(
+            b.impacts, b.points, b.origin, b.direction, b.speed, None, b.impacts.stop_reason,
+            b.separation_time, last,
+        )  # fmt: skip
+    part, end, end_time, end_s = _roll(
+        scene, int(samplerate), time_origin, max_duration, b.origin, b.direction, b.edge,
+        b.separation_time, b.separation_position, b.speed, b.rebound_speed,
+    )  # fmt: skip
+    return BallPath(
+        b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time, b.point(end_s)
+    )
+
+
+def _profile(rolling, length):
+    """The plate's profile along ``length`` m of path (:class:`synth.physics.scene.Rolling`)."""
+    spectrum = rolling.spectrum()
+    if spectrum is None:
+        n = int(math.ceil(length / rolling.spacing)) + 1
+        return surface.Profile(np.zeros(max(n, 4)), rolling.spacing, "smooth")
+    return surface.rough_profile(
+        spectrum, length=length, spacing=rolling.spacing, seed=rolling.seed
+    )
+
+
+def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out):
+    """The rolling from the separation at ``t_sep`` (s), ``s_sep`` (m along the path), with
+    the horizontal ``speed`` (m/s) and, unless the ball settled (None), the rebound speed
+    ``v_out`` (m/s): returns the :class:`RollingPart`, the end, its time (s) and the
+    touching point's path coordinate (m)."""
+    ball, plate, g, c, rolling = (
+        scene.ball,
+        scene.plate,
+        scene.gravity,
+        scene.contact,
+        scene.rolling,
+    )
+    R, m = ball.radius, ball.mass
+    # the first sample boundary at or after the separation
+    j0 = math.ceil((t_sep - time_origin) * fs - 1e-9)
+    start = time_origin + j0 / fs
+    d = start - t_sep
+    s0 = s_sep + speed * d
+    envelope, behind, x_end = _envelope_ahead(rolling, R, s0, s_edge)
+    path_origin = (origin[0] + u[0] * behind, origin[1] + u[1] * behind)
+    x0 = s0 - behind
+    if v_out is None:
+        state = None
+    else:
+        # ballistic from the separation: at most a sample's fall into the surface
+        state = rolling_contact.RollingState.at(
+            envelope, path_position=x0, height=v_out * d - 0.5 * g * d * d,
+            vertical_velocity=v_out - g * d,
+        )  # fmt: skip
+    options = dict(
+        samplerate=fs, origin=path_origin, direction=u, contact=c.law,
+        gravity=g, **c.options(),
+    )  # fmt: skip
+    decel = c_rr_deceleration(rolling.resistance, g)
+    block = max(1, int(round(BLOCK_SECONDS * fs)))
+    n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
+    forces, coords, speeds = [], [], []
+    x, v, n_done, flights = x0, speed, 0, 0
+    e_initial = e_final = None
+    loss = plate_e = resistance = roughness = 0.0
+    end = "max-duration"
+    while n_done < n_max:
+        planned, end = _block_speeds(v, decel, min(block, n_max - n_done), fs, x, x_end)
+        n = planned.size
+        if n == 0:
+            break
+        kwargs = {"state": state} if state is not None else {"start": x}
+        r = rolling_contact.roll(ball, plate, envelope, speed=planned, **kwargs, **options)
+        if not r.success:
+            raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
+        if e_initial is None:
+            e_initial = r.energy.initial + ROLLING_ENERGY * m * v * v
+        forces.append(r.force)
+        coords.append(r.contact_coordinate)
+        speeds.append(r.speed)
+        flights += r.flights
+        distance = float(np.sum(r.speed)) / fs
+        loss += r.energy.loss_work
+        plate_e += r.energy.plate_energy
+        resistance += rolling.resistance * m * g * distance
+        roughness += r.energy.drive_work
+        state = r.final_state
+        x = state.path_position
+        n_done += n
+        v_end = v - decel * n / fs
+        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.energy.drive_work
+        v = math.sqrt(max(kinetic, 0.0) / (ROLLING_ENERGY * m))
+        e_final = r.energy.final
+        if end != "max-duration":
+            break
+        if kinetic <= 0.0:
+            end = "stopped"
+            break
+    if not forces:
+        return None, end, t_sep, s_sep
+    if end == "stopped":
+        v = 0.0
+    energy = RollingEnergy(
+        e_initial, e_final + ROLLING_ENERGY * m * v * v, loss, plate_e, resistance, roughness
+    )
+    coordinate = np.concatenate(coords) + behind
+    part = RollingPart(
+        fs,
+        start, np.concatenate(forces), coordinate, np.concatenate(speeds),
+        0.0 if end == "left-plate" else m * g, energy, flights,
+    )  # fmt: skip
+    return part, end, start + n_done / fs, float(coordinate[-1])
+
+
+def _envelope_ahead(rolling, radius, s0, s_edge):
+    """The contact envelope of the profile ahead of the centre's start ``s0`` (m along the
+    path) to the edge at ``s_edge`` (m), from a ball radius behind the start (the
+    envelope's reach) to a radius beyond the edge; the path coordinate (m) of its first
+    sample, and the centre's last coordinate on it (m) whose touching point stays on the
+    plate."""
+    behind = s0 - radius
+    length = s_edge - behind + radius
+    if rolling.spacing * 4 > length:
+        raise ParameterError(
+            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
+            f"needs at least 4 samples"
+        )
+    if length / rolling.spacing > surface.MAX_PROFILE_SAMPLES:
+        raise ParameterError(
+            f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
+            f"needs more than {surface.MAX_PROFILE_SAMPLES} samples; use a larger spacing"
+        )
+    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    reach = float(np.max(np.abs(envelope.contact_offsets)))
+    return envelope, behind, (s_edge - behind) - reach - rolling.spacing
+
+
+def _block_speeds(v, decel, n, fs, x, x_end) -> tuple[np.ndarray, str]:
+    """The speeds (m/s) of the next block of at most ``n`` samples, from the speed ``v``
+    (m/s) under the deceleration ``decel`` (m/s^2), for a centre at ``x`` (m): cut where the
+    speed reaches 0 (``"stopped"``) or the centre passes ``x_end`` (``"left-plate"``);
+    ``"max-duration"`` if neither."""
+    planned = v - decel * (np.arange(n) + 0.5) / fs
+    end = "max-duration"
+    stop_here = planned <= 0.0
+    if stop_here.any():
+        planned = planned[: int(np.argmax(stop_here))]
+        end = "stopped"
+    off = x + np.cumsum(planned) / fs > x_end
+    if off.any():
+        planned = planned[: int(np.argmax(off))]
+        end = "left-plate"
+    return planned, end
+
+
+def c_rr_deceleration(resistance: float, gravity: float) -> float:
+    """The deceleration (m/s^2) of a rolling solid sphere by Coulomb's rolling resistance
+    ``C_rr m g``: ``d((7/10) m v^2)/dt = -C_rr m g v``, so ``dv/dt = -(5/7) C_rr g``."""
+    return resistance * gravity / (2.0 * ROLLING_ENERGY)

@@ -1,0 +1,134 @@
+"""Render a ball released with a horizontal velocity: its bounces and its rolling mixed in one
+signal through one modal bank and one listener (docs/rolling.md, "Rendering a path").
+
+The plate is linear, so the listener's signal is the sum of its responses to the bounces'
+pulses and to the rolling's force (superposition):
+
+* the bounces: :func:`synth.sound.modal_bank.synthesize` (each pulse's exact transform), each
+  impact exciting the modes at its own point (``b_k = phi_k(x_i) / M_k``);
+* the rolling: :func:`synth.sound.rolling.drive_modes`, the force held over each sample
+  period at the moving touching point, from its first sample on the same grid (plate at rest
+  for this part: the bounces' part carries what they left ringing);
+* after the rolling: the force it leaves (the weight of a ball at rest, nothing after a ball
+  that left the plate) held at the last point, until every mode has decayed below the floor
+  (or ``max_tail``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from synth.physics.path import BallPath, simulate_path
+from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
+from synth.sound.rolling import ModeState, drive_modes, path_excitation
+
+
+def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict]:
+    """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
+    through ``model`` (:class:`synth.sound.render.ModalModel`) with the checked render
+    options ``o`` (:func:`synth.sound.render.check_options`); its path and the settings it
+    adds to the render's."""
+    fs = o["samplerate"]
+    floor = 10.0 ** (o["floor_db"] / 20.0)
+    pre, delay = o["preroll"], model.delay
+    first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
+    origin_time = first_touch - pre  # the emission time of the audio's first sample
+    path = simulate_path(
+        scene, samplerate=fs, time_origin=origin_time, max_duration=o["max_duration"]
+    )
+    bounces, bank = _bounces(path, model, fs, floor, origin_time, o)
+    rolling = path.rolling
+    info = dict(
+        n_modes_rendered=bank["n_modes_rendered"],
+        mode_samples=bank["mode_samples"],
+        bank_seconds=bank["bank_seconds"],
+        reference_amplitude=bank["reference"],
+        tail_cut=False,
+        left_at_end=bank["left_at_end"] / bank["reference"] if bank["reference"] else 0.0,
+    )
+    if rolling is None:
+        audio = bounces
+    else:
+        audio, tail = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
+        # the rolling drives every mode
+        info.update(tail, n_modes_rendered=int(model.poles.size))
+    settings = dict(
+        path_end=path.end,
+        path_end_time=path.end_time,
+        path_end_point=list(path.end_point),
+        rolling_speed=path.rolling_speed,
+        rolling_start=None if rolling is None else rolling.start,
+        rolling_seconds=0.0 if rolling is None else rolling.duration,
+        rolling_flights=0 if rolling is None else rolling.flights,
+        contact_plate="impedance",
+        delay=delay,
+        audio_start=first_touch + delay - pre,
+        **info,
+    )
+    return audio, path, settings
+
+
+def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
+    """The bounces' part of the signal, from the audio's first sample, and the modal bank's
+    figures (:func:`synth.sound.modal_bank.synthesize`)."""
+    impacts = path.impacts
+    excitation = model.excitations(path.impact_points)
+    direct = None if model.listener.shape is None else model.listener.shape * excitation
+    onsets = np.array([i.time for i in impacts]) - origin_time
+    max_samples = int(math.ceil((impacts.duration - origin_time + o["max_tail"]) * fs))
+    return synthesize(
+        [i.result for i in impacts], onsets, model.poles, excitation, model.output, fs,
+        floor=floor, direct=direct, max_samples=max_samples, pulse_points=o["pulse_points"],
+    )  # fmt: skip
+
+
+def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
+    """The bounces' signal with the rolling's and its tail added, and the settings of the
+    rolling's part (``left_at_end`` relative to the reference amplitude)."""
+    j0 = int(round((rolling.start - origin_time) * fs))
+    c = rolling.contact_coordinate
+    table = path_excitation(
+        model, origin=path.origin, direction=path.direction,
+        start=float(np.min(c)), stop=float(np.max(c)),
+    )  # fmt: skip
+    state = ModeState.at_rest(model.poles.size)
+    drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
+    reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
+    tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o["max_tail"])
+    rolled = np.concatenate((drive, tail))
+    audio = np.zeros(max(bounces.size, j0 + rolled.size))
+    audio[: bounces.size] += bounces
+    audio[j0 : j0 + rolled.size] += rolled
+    work = model.poles.size * drive.size
+    return audio, dict(tail_cut=cut, left_at_end=left / reference, rolling_mode_samples=work)
+
+
+def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:
+    """The listener's signal after the rolling, whether ``max_tail`` (s) cut it and the bound
+    of what rings on after its end (the signal's units): the
+    force the rolling leaves (``rolling.final_force``) held at its last point, so each mode
+    rings from the rolling's end state towards its static deflection under that force,
+    ``zeta_k(t) = zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal
+    bank's ringing (:func:`synth.sound.modal_bank.ring_bank`, each mode until it falls below
+    its share of ``floor``, the amplitude the signal may leave out) plus the static
+    deflection's constant part (as :func:`synth.sound.rolling.drive_modes` hears it)."""
+    p = model.poles
+    end = float(rolling.contact_coordinate[-1])
+    point = (path.origin[0] + path.direction[0] * end, path.origin[1] + path.direction[1] * end)
+    b = model.excitation(point)
+    F = rolling.final_force
+    static = -b * F / p
+    coefficients = bank_coefficients(p, np.ones(p.size), model.output, fs)
+    gain = coefficients.coef_re + 1j * coefficients.coef_im
+    constant = float(np.sum((gain * static).real))
+    direct = model.direct(b)
+    if direct is not None:
+        constant += F * float(np.sum(direct.real))
+    out = np.zeros(int(math.ceil(max_tail * fs)))
+    amplitudes = (gain * (state.zeta - static))[None, :]
+    thresholds = np.full(p.size, floor / max(p.size, 1))
+    _, last, left = ring_bank(out, float(fs), p, amplitudes, np.zeros(1, np.int64), thresholds)
+    last = max(int(last), 1)
+    return out[:last] + constant, bool(last >= out.size and left > floor), float(left)
