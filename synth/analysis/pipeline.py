@@ -50,6 +50,7 @@ from synth.analysis.validity import (
     check_impulsive,
     flag_series,
     flag_warnings,
+    impact_series,
     make_series,
     new_series_at,
     without_spurious_end,
@@ -219,7 +220,10 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
-    series = _numbered(_drops(x, settings, clipping is not None))
+    found = _drops(x, settings, clipping is not None)
+    series = _numbered(
+        impact_series(found, lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db)
+    )
     ticks = [t for s in series for t in s.ticks]
     check_impulsive(ticks, x[_first_sample(ticks, settings) :], settings.samplerate)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
@@ -277,7 +281,10 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
             return declipped_mix(used, mask, settings.whitening_order)
         return mix_of(used)
 
-    series = _numbered(_block_drops(source.frames, signal, settings, bool(levels)))
+    found = _block_drops(source.frames, signal, settings, bool(levels))
+    series = _numbered(
+        impact_series(found, signal, settings.samplerate, settings.dynamic_range_db)
+    )
     ticks = [t for s in series for t in s.ticks]
     first = _first_sample(ticks, settings)
     ringing = signal(first, min(source.frames, first + block_frames(settings.samplerate)))
