@@ -45,6 +45,7 @@ from synth.analysis.settings import (
     read_recording,
 )
 from synth.analysis.validity import (
+    RiseTest,
     Series,
     as_series_start,
     check_impulsive,
@@ -221,9 +222,9 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
     found = _drops(x, settings, clipping is not None)
-    series = _numbered(
-        impact_series(found, lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db)
-    )
+    noise = dsp.noise_floor(x, settings.samplerate)
+    test = RiseTest(lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db, noise)
+    series = _numbered(impact_series(found, test))
     ticks = [t for s in series for t in s.ticks]
     check_impulsive(ticks, x[_first_sample(ticks, settings) :], settings.samplerate)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
@@ -231,7 +232,7 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
         duration=x.size / settings.samplerate,
-        noise_floor=dsp.noise_floor(x, settings.samplerate),
+        noise_floor=noise,
         gravity=settings.gravity,
         channel=settings.channel,
         clipped=clipping is not None,
@@ -282,9 +283,8 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         return mix_of(used)
 
     found = _block_drops(source.frames, signal, settings, bool(levels))
-    series = _numbered(
-        impact_series(found, signal, settings.samplerate, settings.dynamic_range_db)
-    )
+    test = RiseTest(signal, settings.samplerate, settings.dynamic_range_db, sv.noise_floor)
+    series = _numbered(impact_series(found, test))
     ticks = [t for s in series for t in s.ticks]
     first = _first_sample(ticks, settings)
     ringing = signal(first, min(source.frames, first + block_frames(settings.samplerate)))

@@ -54,37 +54,64 @@ SPECTRAL_RISE_SPAN = 0.01
 SPECTRAL_RISE_MIN_SPAN = 0.001
 
 
-def spectral_rise_db(before: np.ndarray, after: np.ndarray, dynamic_range_db: float) -> float:
+#: A frequency holds sound, not noise, where the power before and after an onset together
+#: exceed the noise's there by this much, dB (the noise's power at one frequency scatters
+#: as an exponential variable: 10 dB over its mean has probability 5e-5).
+SPECTRAL_NOISE_MARGIN_DB = 10.0
+
+
+@dataclass(frozen=True)
+class RiseTest:
+    """What :func:`adds_sound` weighs a tick against: the analysed signal ``read(start,
+    stop)``, its sample rate ``fs`` (Hz), the dynamic range (dB) and the noise's RMS (signal
+    units)."""
+
+    read: object
+    fs: float
+    dynamic_range_db: float
+    noise_rms: float
+
+
+def spectral_rise_db(
+    before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
+) -> float:
     """The median over frequencies of the power of ``after`` over that of ``before`` (two
     stretches of one length, Hann-windowed), dB, over the frequencies whose summed power lies
-    within ``dynamic_range_db`` of the largest; +inf where ``before`` is silent there."""
+    within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over the
+    noise's (white, RMS ``noise_rms``); +inf where there is none or ``before`` is silent."""
     w = np.hanning(before.size)
     pb = np.abs(np.fft.rfft(before * w)) ** 2
     pa = np.abs(np.fft.rfft(after * w)) ** 2
     total = pa + pb
-    keep = total > total.max() * 10.0 ** (-dynamic_range_db / 10.0)
+    noise = 2.0 * noise_rms**2 * float(np.sum(w * w))  # two stretches' expected power
+    keep = (total > total.max() * 10.0 ** (-dynamic_range_db / 10.0)) & (
+        total > noise * 10.0 ** (SPECTRAL_NOISE_MARGIN_DB / 10.0)
+    )
+    if not np.any(keep):
+        return math.inf
     with np.errstate(divide="ignore"):
         ratio = 10.0 * np.log10(pa[keep] / pb[keep])
     return float(np.median(ratio))
 
 
-def adds_sound(read, tick_time: float, span: float, fs: float, dynamic_range_db: float) -> bool:
+def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
     """Whether the recording's spectrum rises at ``tick_time`` (s) by
     :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
-    side, as an impact's does; ``read(start, stop)`` gives the analysed signal's samples.
-    Kept (True) where the span is under :data:`SPECTRAL_RISE_MIN_SPAN` or the recording has
-    no room for it before the onset (the first tick)."""
+    side, as an impact's does. Kept (True) where the span is under
+    :data:`SPECTRAL_RISE_MIN_SPAN` or the recording has no room for it before the onset."""
+    fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
     if n < SPECTRAL_RISE_MIN_SPAN * fs or i < n:
         return True
-    seg = np.asarray(read(i - n, i + n), dtype=float)
+    seg = np.asarray(test.read(i - n, i + n), dtype=float)
     if seg.size < 2 * n:
         return True
-    return spectral_rise_db(seg[:n], seg[n:], dynamic_range_db) >= SPECTRAL_RISE_DB
+    rise = spectral_rise_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
+    return rise >= SPECTRAL_RISE_DB
 
 
-def impact_series(found: list[list], read, fs: float, dynamic_range_db: float) -> list[list]:
+def impact_series(found: list[list], test: RiseTest) -> list[list]:
     """The bounce series of ``found`` (tick lists, one per series) that start with an impact:
     a drop starts with its fastest impact, whose sound the recording's spectrum shows rising
     (:func:`adds_sound`, over the stretch up to its series' second tick); a series whose first
@@ -95,7 +122,7 @@ def impact_series(found: list[list], read, fs: float, dynamic_range_db: float) -
         if not ticks:
             continue
         span = ticks[1].time - ticks[0].time if len(ticks) > 1 else SPECTRAL_RISE_SPAN
-        if adds_sound(read, ticks[0].time, span, fs, dynamic_range_db):
+        if adds_sound(test, ticks[0].time, span):
             out.append(ticks)
     return out
 
