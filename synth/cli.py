@@ -525,6 +525,11 @@ def _cmd_bench(args):
         run, fmt = runs[args.what]
         if args.json and (args.markdown or args.update_docs):
             raise SynthError("--json cannot be combined with --markdown or --update-docs")
+        if args.random and (args.what != "analysis" or args.update_docs):
+            raise SynthError(
+                "--random is an option of 'synth bench analysis' alone, and its figures have "
+                "no block in docs/ (--update-docs)"
+            )
         result = run()
         if args.json:
             json.dump(result, sys.stdout, indent=1)

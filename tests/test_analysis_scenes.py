@@ -134,3 +134,12 @@ def test_bench_prints_the_totals():
     text = format_random(result)
     assert "false ticks" in text and "audible impacts missed" in text
     assert result["rows"][0]["impacts"] >= result["rows"][0]["audible"] >= 1
+
+
+def test_random_is_refused_outside_the_analysis_bench(capsys):
+    # --random draws scenes for the analysis only; its figures have no block in docs/
+    from synth.cli import main
+
+    assert main(["bench", "render", "--random", "3"]) == 2
+    assert main(["bench", "analysis", "--random", "3", "--update-docs"]) == 2
+    assert "--random" in capsys.readouterr().err
