@@ -224,9 +224,7 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     found = _drops(x, settings, clipping is not None)
     noise = dsp.noise_floor(x, settings.samplerate)
     test = RiseTest(lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db, noise)
-    series = _numbered(impact_series(found, test))
-    ticks = [t for s in series for t in s.ticks]
-    check_impulsive(ticks, x[_first_sample(ticks, settings) :], settings.samplerate)
+    series = _impact_series(found, test, lambda first: x[first:], settings)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -284,11 +282,12 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
 
     found = _block_drops(source.frames, signal, settings, bool(levels))
     test = RiseTest(signal, settings.samplerate, settings.dynamic_range_db, sv.noise_floor)
-    series = _numbered(impact_series(found, test))
-    ticks = [t for s in series for t in s.ticks]
-    first = _first_sample(ticks, settings)
-    ringing = signal(first, min(source.frames, first + block_frames(settings.samplerate)))
-    check_impulsive(ticks, ringing, settings.samplerate)
+    series = _impact_series(
+        found,
+        test,
+        lambda first: signal(first, min(source.frames, first + block_frames(test.fs))),
+        settings,
+    )
     warnings = (() if warning is None else (warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -301,6 +300,23 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         warnings=warnings,
         series=series,
     )
+
+
+def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
+    """The numbered :class:`Series` of the tick lists ``found`` that start with an impact
+    (:func:`~synth.analysis.validity.impact_series`). Input whose bursts are followed by no
+    decaying ringing (:func:`~synth.analysis.validity.check_impulsive`, over
+    ``ringing_from(first sample)``) or of which no series starts with an impact is refused
+    (``AnalysisError``): it holds no impact."""
+    ticks = [t for s in _numbered(found) for t in s.ticks]
+    check_impulsive(ticks, ringing_from(_first_sample(ticks, settings)), test.fs)
+    kept = impact_series(found, test)
+    if ticks and not kept:
+        raise AnalysisError(
+            f"no impact found: none of the {len(ticks)} bursts found raises the recording's "
+            f"spectrum as an impact does (is this a recording of impacts?)"
+        )
+    return _numbered(kept)
 
 
 def _first_sample(ticks: list, settings: Settings) -> int:
