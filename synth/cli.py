@@ -542,7 +542,12 @@ def _cmd_bench(args):
             bench.format_render,
         ),
         "thesis": (lambda: bench.thesis_comparison(modal=True), bench.format_thesis),
-        "analysis": (bench.run_analysis, bench.format_analysis),
+        "analysis": (
+            (lambda: bench.run_random(args.random, args.seed, limit=args.limit))
+            if args.random
+            else bench.run_analysis,
+            bench.format_random if args.random else bench.format_analysis,
+        ),
         "long": (bench.run_long, bench.format_long),
         "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
         "scale": (bench.run_scale, bench.format_scale),
@@ -562,6 +567,11 @@ def _cmd_bench(args):
         run, fmt = runs[args.what]
         if args.json and (args.markdown or args.update_docs):
             raise SynthError("--json cannot be combined with --markdown or --update-docs")
+        if args.random and (args.what != "analysis" or args.update_docs):
+            raise SynthError(
+                "--random is an option of 'synth bench analysis' alone, and its figures have "
+                "no block in docs/ (--update-docs)"
+            )
         result = run()
         if args.json:
             json.dump(result, sys.stdout, indent=1)
@@ -1024,6 +1034,24 @@ def build_parser() -> argparse.ArgumentParser:
         help="live: length of each JACK dummy server phase, s (default 30)",
     )
     p.add_argument("--count", type=int, default=200, help="bank: sounds of the bank (default 200)")
+    p.add_argument(
+        "--random",
+        type=_positive_int,
+        metavar="N",
+        help="analysis: N random scenes rendered by the engine, scored against its impacts "
+        "(false ticks, impossible values, audible impacts missed, s per s of audio)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="analysis --random: the seed drawing the scenes"
+    )
+    p.add_argument(
+        "--limit",
+        type=float,
+        default=120.0,
+        metavar="S",
+        help="analysis --random: longest analysis of one scene, s; a scene that takes longer "
+        "is stopped and counted with every audible impact missed (default 120)",
+    )
     p.set_defaults(func=_cmd_bench)
     return parser
 

@@ -433,19 +433,19 @@ def standing_out(
 
     A tick stands out at its onset when the recording's energy over the next
     :data:`STANDS_OUT_SPAN` is at least :data:`STANDS_OUT_DB` over its mean over the
-    :data:`STANDS_OUT_BEFORE` before (per unit time): the issue's criterion. The recording
-    alone does not tell a tick from the beating of a few strong modes, which the whitening
-    predicts; so the whitened signal must rise too, by more than white noise's scatter allows
-    (the ratio of the mean squares of ``L`` and ``B`` samples of white Gaussian noise follows
-    Fisher's F distribution with ``(L, B)`` degrees of freedom: its quantile of
-    :data:`STANDS_OUT_FALSE_ALARM`), and lie within ``dynamic_range_db`` of its strongest
-    stretch (the floor of steps 1-6, under which the whitening's remainders of the ringing
-    lie). Each run of positions (frames of ``hop``) where all three hold, away from the ticks
-    ``known``, is a candidate, timed in what the recording's past does not predict
+    :data:`STANDS_OUT_BEFORE` before (per unit time): a clearly audible tick (docs/analysis.md,
+    step 8). The recording alone does not tell a tick from the beating of a few strong modes,
+    which the whitening predicts; so the whitened signal must rise too, by more than white
+    noise's scatter allows (the ratio of the mean squares of ``L`` and ``B`` samples of white
+    Gaussian noise follows Fisher's F distribution with ``(L, B)`` degrees of freedom: its
+    quantile of :data:`STANDS_OUT_FALSE_ALARM`), and lie within ``dynamic_range_db`` of its
+    strongest stretch (the floor of steps 1-6, under which the whitening's remainders of the
+    ringing lie). Each run of positions (frames of ``hop``) where all three hold, away from the
+    ticks ``known``, is a candidate, timed in what the recording's past does not predict
     (:func:`_local_onset`), and kept when, at that onset, the recording's criterion holds and
-    that prediction error rises by the F quantile (the recording's noise, whatever its level
-    and spectrum, judged by its own statistics), and its whitened energy lies within
-    ``max_drop_db`` of the tick before it (:func:`_dropped`).
+    that prediction error rises by the F quantile (the recording's noise, whatever its level and
+    spectrum, judged by its own statistics), and its whitened energy lies within ``max_drop_db``
+    of the tick before it (:func:`_dropped`).
     """
     hop, fs = settings.hop, settings.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))

@@ -45,11 +45,13 @@ from synth.analysis.settings import (
     read_recording,
 )
 from synth.analysis.validity import (
+    RiseTest,
     Series,
     as_series_start,
     check_impulsive,
     flag_series,
     flag_warnings,
+    impact_series,
     make_series,
     new_series_at,
     without_spurious_end,
@@ -219,15 +221,16 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
         raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
-    series = _numbered(_drops(x, settings, clipping is not None))
-    ticks = [t for s in series for t in s.ticks]
-    check_impulsive(ticks, x[_first_sample(ticks, settings) :], settings.samplerate)
+    found = _drops(x, settings, clipping is not None)
+    noise = dsp.noise_floor(x, settings.samplerate)
+    test = RiseTest(lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db, noise)
+    series = _impact_series(found, test, lambda first: x[first:], settings)
     warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
         duration=x.size / settings.samplerate,
-        noise_floor=dsp.noise_floor(x, settings.samplerate),
+        noise_floor=noise,
         gravity=settings.gravity,
         channel=settings.channel,
         clipped=clipping is not None,
@@ -277,11 +280,14 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
             return declipped_mix(used, mask, settings.whitening_order)
         return mix_of(used)
 
-    series = _numbered(_block_drops(source.frames, signal, settings, bool(levels)))
-    ticks = [t for s in series for t in s.ticks]
-    first = _first_sample(ticks, settings)
-    ringing = signal(first, min(source.frames, first + block_frames(settings.samplerate)))
-    check_impulsive(ticks, ringing, settings.samplerate)
+    found = _block_drops(source.frames, signal, settings, bool(levels))
+    test = RiseTest(signal, settings.samplerate, settings.dynamic_range_db, sv.noise_floor)
+    series = _impact_series(
+        found,
+        test,
+        lambda first: signal(first, min(source.frames, first + block_frames(test.fs))),
+        settings,
+    )
     warnings = (() if warning is None else (warning,)) + flag_warnings(series)
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
@@ -294,6 +300,23 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         warnings=warnings,
         series=series,
     )
+
+
+def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
+    """The numbered :class:`Series` of the tick lists ``found`` that start with an impact
+    (:func:`~synth.analysis.validity.impact_series`). Input whose bursts are followed by no
+    decaying ringing (:func:`~synth.analysis.validity.check_impulsive`, over
+    ``ringing_from(first sample)``) or of which no series starts with an impact is refused
+    (``AnalysisError``): it holds no impact."""
+    ticks = [t for s in _numbered(found) for t in s.ticks]
+    check_impulsive(ticks, ringing_from(_first_sample(ticks, settings)), test.fs)
+    kept = impact_series(found, test)
+    if ticks and not kept:
+        raise AnalysisError(
+            f"no impact found: none of the {len(ticks)} bursts found raises the recording's "
+            f"spectrum as an impact does (is this a recording of impacts?)"
+        )
+    return _numbered(kept)
 
 
 def _first_sample(ticks: list, settings: Settings) -> int:

@@ -37,6 +37,96 @@ MISSED_GROWTH = 3.0
 #: tick makes, dB: ``(1 + e)^2 / e^2 >= 4`` for any restitution ``e <= 1``
 #: (:func:`missed_bounces`).
 MISSED_ENERGY_DB = 10.0 * math.log10(4.0)
+#: Least rise of the recording's spectrum at an impact, dB: the median over the frequencies
+#: that hold sound (within the dynamic range) of the power just after the onset over the
+#: power just before. An impact whose own sound is at least as loud as the ringing it falls
+#: into (the audibility of a tick among the ringing of the earlier ones) at least doubles the
+#: power where its broad contact spectrum lies: 3 dB. A burst that the whitening leaves in the
+#: free ringing of a lightly damped plate (beating modes the predictor cannot follow) moves
+#: power between a few frequencies and adds none.
+SPECTRAL_RISE_DB = 3.0
+#: Longest stretch before and after an onset over which that rise is measured, s: the
+#: frequency resolution (100 Hz) that parts a plate's ringing from an impact's broad spectrum;
+#: shorter where the neighbouring ticks are nearer.
+SPECTRAL_RISE_SPAN = 0.01
+#: Shortest such stretch, s: over fewer than a few hundred microseconds the spectrum has too
+#: few frequencies to judge, and the tick is kept.
+SPECTRAL_RISE_MIN_SPAN = 0.001
+
+
+#: A frequency holds sound, not noise, where the power before and after an onset together
+#: exceed the noise's there by this much, dB (the noise's power at one frequency scatters
+#: as an exponential variable: 10 dB over its mean has probability 5e-5).
+SPECTRAL_NOISE_MARGIN_DB = 10.0
+
+
+@dataclass(frozen=True)
+class RiseTest:
+    """What :func:`adds_sound` weighs a tick against: the analysed signal ``read(start,
+    stop)``, its sample rate ``fs`` (Hz), the dynamic range (dB) and the noise's RMS (signal
+    units)."""
+
+    read: object
+    fs: float
+    dynamic_range_db: float
+    noise_rms: float
+
+
+def spectral_rise_db(
+    before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
+) -> float:
+    """The median over frequencies of the power of ``after`` over that of ``before`` (two
+    stretches of one length, Hann-windowed), dB, over the frequencies whose summed power lies
+    within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over the
+    noise's (white, RMS ``noise_rms``); +inf where there is none or ``before`` is silent."""
+    w = np.hanning(before.size)
+    pb = np.abs(np.fft.rfft(before * w)) ** 2
+    pa = np.abs(np.fft.rfft(after * w)) ** 2
+    total = pa + pb
+    noise = 2.0 * noise_rms**2 * float(np.sum(w * w))  # two stretches' expected power
+    keep = (total > total.max() * 10.0 ** (-dynamic_range_db / 10.0)) & (
+        total > noise * 10.0 ** (SPECTRAL_NOISE_MARGIN_DB / 10.0)
+    )
+    if not np.any(keep):
+        return math.inf
+    with np.errstate(divide="ignore"):
+        ratio = 10.0 * np.log10(pa[keep] / pb[keep])
+    return float(np.median(ratio))
+
+
+def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
+    """Whether the recording's spectrum rises at ``tick_time`` (s) by
+    :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
+    side, as an impact's does. Kept (True) where the span is under
+    :data:`SPECTRAL_RISE_MIN_SPAN` or the recording has no room for it before the onset."""
+    fs = test.fs
+    n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
+    i = int(round(tick_time * fs))
+    if n < SPECTRAL_RISE_MIN_SPAN * fs or i < n:
+        return True
+    seg = np.asarray(test.read(i - n, i + n), dtype=float)
+    if seg.size < 2 * n:
+        return True
+    rise = spectral_rise_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
+    return rise >= SPECTRAL_RISE_DB
+
+
+def impact_series(found: list[list], test: RiseTest) -> list[list]:
+    """The bounce series of ``found`` (tick lists, one per series) that start with an impact:
+    a drop starts with its fastest impact, whose sound the recording's spectrum shows rising
+    (:func:`adds_sound`, over the stretch up to its series' second tick); a series whose first
+    tick adds no sound is the whitened ringing of a plate once the ball is at rest, and all of
+    its ticks, weaker still, go with it."""
+    out = []
+    for ticks in found:
+        if not ticks:
+            continue
+        span = ticks[1].time - ticks[0].time if len(ticks) > 1 else SPECTRAL_RISE_SPAN
+        if adds_sound(test, ticks[0].time, span):
+            out.append(ticks)
+    return out
+
+
 #: Smoothing of the envelope over which a whole recording's ringing is seen to decay, s: many
 #: periods of a plate's lowest modes and of a periodic wave down to 20 Hz, so that neither
 #: leaves a ripple the fit could take for a decay.

@@ -198,9 +198,12 @@ def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
     to three times while ``G`` is not positive definite to rounding; None if it stays so."""
     from scipy.linalg import LinAlgError, cholesky
 
+    n = G.shape[0]
     for _ in range(4):
+        loaded = G.copy()  # the load on the diagonal in place: no n-by-n identity and sum
+        loaded.flat[:: n + 1] += load
         try:
-            return cholesky(G + load * np.eye(G.shape[0]), lower=True, check_finite=False)
+            return cholesky(loaded, lower=True, check_finite=False, overwrite_a=True)
         except LinAlgError:
             load *= 100.0
     return None

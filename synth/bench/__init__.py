@@ -10,6 +10,7 @@ reaches every benchmark's public functions (the child processes of ``long``, ``s
 """
 
 from synth.bench.analysis import format_analysis, run_analysis, synthetic_bounce
+from synth.bench.analysis_scenes import format_random, run_random
 from synth.bench.cold import format_cold, run_cold
 from synth.bench.common import markdown_block
 from synth.bench.contact import (
@@ -55,6 +56,8 @@ from synth.bench.thesis import (
 )
 
 __all__ = [
+    "format_random",
+    "run_random",
     "HIRES_RATES",
     "SCALE_LADDER",
     "SCALE_NAMED",

@@ -1,0 +1,145 @@
+"""The analysis on the engine's renders of random scenes (``synth bench analysis --random``):
+the corpus, its scores, and the suite's own fixed corpus of scenes.
+
+The suite's corpus is drawn with :data:`CORPUS_SEED`, a seed ``synth bench analysis --random``
+is never run with for the figures it reports (docs/analysis.md, Random scenes)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from synth.analysis.report import GROWN_BOUNCE, Tick
+from synth.analysis.validity import SPECTRAL_RISE_DB, spectral_rise_db
+from synth.bench.analysis_scenes import (
+    Truth,
+    format_random,
+    random_specs,
+    run_random,
+    run_scene,
+    score,
+)
+
+#: The seed of the suite's fixed corpus.
+CORPUS_SEED = 1
+#: Its scenes: the first six of that seed, among them a 2.6 mm copper plate (loss factor 2e-3)
+#: ringing for seconds after the ball comes to rest, whose free ringing the whitening used to
+#: leave as 36 false ticks in five "drops" after the last impact.
+CORPUS_SIZE = 6
+
+
+def _tick(time, restitution=None, speed=None, flags=()):
+    return Tick(
+        index=1,
+        time=time,
+        bounce_time=None,
+        restitution=restitution,
+        speed=speed,
+        energy=1.0,
+        peak=1.0,
+        centroid=1000.0,
+        spread=100.0,
+        decay_time=0.01,
+        window=0.02,
+        strength=10.0,
+        flags=flags,
+    )
+
+
+def test_random_specs_span_the_scenes_asked_for():
+    # thin and thick plates, lightly damped metal and glass, points near an edge, both
+    # listeners, 44.1 to 96 kHz: all drawn in a corpus of 60, and the same for the same seed
+    specs = random_specs(60, seed=12345)
+    assert specs == random_specs(60, seed=12345)
+    assert min(s.thickness for s in specs) < 0.003 and max(s.thickness for s in specs) > 0.02
+    assert {"aluminium", "steel", "glass", "brass", "copper"} <= {s.plate for s in specs}
+    assert {s.listener for s in specs} == {"microphone", "accelerometer"}
+    assert {s.samplerate for s in specs} == {44100, 48000, 88200, 96000}
+    near_edge = [
+        s
+        for s in specs
+        if min(s.position[0], s.length - s.position[0]) <= 0.04 * s.length
+        or min(s.position[1], s.width - s.position[1]) <= 0.04 * s.width
+    ]
+    assert len(near_edge) >= 15  # half the scenes are drawn near an edge
+    for s in specs:  # every point on the plate, every microphone above it
+        assert 0.0 < s.position[0] < s.length and 0.0 < s.position[1] < s.width
+        if s.listener == "microphone":
+            assert s.listener_position[2] >= 0.1
+
+
+def test_score_counts_false_ticks_impossible_values_and_audible_misses():
+    truth = Truth(
+        audio=np.zeros(10),
+        samplerate=48000,
+        onsets=np.array([0.1, 0.5, 0.8, 0.9]),
+        contact_times=np.array([1e-4, 1e-4, 2e-3, 1e-4]),
+        audible=np.array([True, True, True, False]),
+        fall_speed=2.0,
+    )
+    ticks = [
+        _tick(0.1002),
+        _tick(0.1005),  # a second tick on the first impact: false
+        _tick(0.5, restitution=1.2, flags=(GROWN_BOUNCE,)),  # found, impossible value
+        _tick(0.8015, speed=3.0),  # within the 2 ms contact: found; faster than the fall
+        _tick(0.7),  # no impact there: false
+    ]
+    false, impossible, missed = score(truth, ticks)
+    assert (false, impossible, missed) == (2, 2, 0)
+    # the inaudible fourth impact is not asked for; the first, unfound, is missed
+    assert score(truth, ticks[2:4]) == (0, 2, 1)
+
+
+def test_spectral_rise_of_free_ringing_and_of_an_impact():
+    # Two stretches of the same stationary ringing (undamped modes, beating pairs) hold the
+    # same power at every frequency: no rise. The same ringing with an impulse of the same
+    # energy as the ringing over the stretch (a tick as loud as the ringing it falls into)
+    # raises every frequency the impulse's flat spectrum covers: by 3 dB at least where the
+    # ringing is weaker, which is most frequencies of a few lines.
+    fs, n = 48000, 480
+    t = np.arange(2 * n) / fs
+    freqs = (440.0, 447.0, 1210.0, 1222.0, 3100.0)
+    ring = sum(np.sin(2 * np.pi * f * t + k) for k, f in enumerate(freqs))
+    assert abs(spectral_rise_db(ring[:n], ring[n:], 60.0)) < SPECTRAL_RISE_DB
+    impulse = np.zeros(n)
+    impulse[n // 2] = math.sqrt(np.sum(ring[n:] ** 2))
+    assert spectral_rise_db(ring[:n], ring[n:] + impulse, 60.0) >= SPECTRAL_RISE_DB
+
+
+def test_spectral_rise_leaves_out_the_noise():
+    # White noise on both sides, a tick in a band: the frequencies that hold only noise (10 dB
+    # over its power) do not vote, so the band's rise decides.
+    rng = np.random.default_rng(3)
+    fs, n = 48000, 480
+    noise = rng.standard_normal(2 * n) * 1e-3
+    k = np.arange(n) / fs
+    tick = np.exp(-k / 0.002) * np.sin(2 * np.pi * 2000.0 * k)
+    before, after = noise[:n], noise[n:] + tick
+    assert spectral_rise_db(before, after, 60.0, 0.0) < SPECTRAL_RISE_DB  # every bin votes
+    assert spectral_rise_db(before, after, 60.0, 1e-3) > 20.0
+
+
+@pytest.mark.slow
+def test_fixed_corpus_no_false_tick_no_impossible_value_no_audible_miss():
+    # the engine's own renders of the suite's scenes, scored against its scheduler's impacts
+    for spec in random_specs(CORPUS_SIZE, CORPUS_SEED):
+        s = run_scene(spec)
+        assert s.error is None, (s.scene, s.error)
+        assert (s.false_ticks, s.impossible, s.missed) == (0, 0, 0), s
+
+
+@pytest.mark.slow
+def test_bench_prints_the_totals():
+    result = run_random(1, CORPUS_SEED)
+    text = format_random(result)
+    assert "false ticks" in text and "audible impacts missed" in text
+    assert result["rows"][0]["impacts"] >= result["rows"][0]["audible"] >= 1
+
+
+def test_random_is_refused_outside_the_analysis_bench(capsys):
+    # --random draws scenes for the analysis only; its figures have no block in docs/
+    from synth.cli import main
+
+    assert main(["bench", "render", "--random", "3"]) == 2
+    assert main(["bench", "analysis", "--random", "3", "--update-docs"]) == 2
+    assert "--random" in capsys.readouterr().err
