@@ -48,8 +48,14 @@ GROUPS = {
         KernelGroup(
             "contact",
             "the contact kernels",
-            ("synth.physics.contact_kernels", "impact"),
+            ("synth.physics.contact_kernels", "impact_explicit"),
             ("synth.physics.contact_kernels",),
+        ),
+        KernelGroup(
+            "stiff-contact",
+            "the stiff contact kernels (Radau IIA)",
+            ("synth.physics.contact_kernels", "impact_implicit"),
+            ("synth.physics.contact_kernels.impact_implicit",),
         ),
         KernelGroup(
             "modal-contact",

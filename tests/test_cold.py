@@ -139,9 +139,12 @@ def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path)
     assert cold.returncode == 0, cold.stderr
     notes = [line for line in cold.stderr.splitlines() if line.startswith(NOTE)]
     assert len(notes) == 1
-    assert notes[0].startswith("synth: compiling the contact kernels for first use")
+    assert notes[0].startswith(
+        "synth: compiling the stiff contact kernels (Radau IIA) for first use"
+    )
     assert notes[0].endswith("; later runs start at once")
     assert "synth.physics.contact_kernels.radau.integrate_radau" in cold.stdout
+    assert "synth.physics.contact_kernels.dop853" not in cold.stdout  # not used, not compiled
     warm = _python(code, env)
     assert warm.returncode == 0, warm.stderr
     assert NOTE not in warm.stderr

@@ -42,7 +42,6 @@ from typing import NamedTuple
 import numpy as np
 
 from synth import checks
-from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
@@ -426,7 +425,6 @@ def _check_points(n_points) -> int:
 
 def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
-    announce("contact")
     r, hist = _k.impact(
         m,
         K,
