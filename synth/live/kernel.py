@@ -184,21 +184,23 @@ def mix_body(
     K = zr.shape[0]
     a = t0
     while True:
+        # ring up to the next injection due in this block (a late one: at once), or to the
+        # block's end; one call site of ring_modes, which numba inlines (each inlined copy
+        # is compiled again)
         i = _next_due(state, inject, end)
+        stop = end
+        if i >= 0:
+            stop = inject[i]
+            if stop < t0:
+                counters[LATE] += 1
+                stop = t0
+        if stop > a:
+            ring_modes(
+                out, t0, a, stop, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
+            )
+            a = stop
         if i < 0:
-            ring_modes(
-                out, t0, a, end, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
-            )
             break
-        at = inject[i]
-        if at < t0:
-            counters[LATE] += 1
-            at = t0
-        if at > a:
-            ring_modes(
-                out, t0, a, at, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
-            )
-            a = at
         if reference[i] > level[0]:
             level[0] = reference[i]
             share = floor * level[0] / max(K, 1)
