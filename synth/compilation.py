@@ -78,7 +78,7 @@ GROUPS = {
         KernelGroup(
             "live",
             "the live engine's kernels",
-            ("synth.live.kernel", "mix_body"),
+            ("synth.live.native", "run_block"),
             ("synth.live",),
         ),
     )

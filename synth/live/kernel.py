@@ -86,7 +86,7 @@ def _next_due(state, inject, end):
     return best
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _transform_pulses(
     state, length, amplitudes, response, reference, transform, pulse_form, transformed
 ):
@@ -128,7 +128,7 @@ def _transform_pulses(
     return count
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def mix_body(
     out,
     t0,

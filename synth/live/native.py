@@ -177,7 +177,7 @@ def _i64(address, n):
     return numba.carray(_pointer(address), n, np.int64)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _mix_one_body(record, scratch, mix, t0, n):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
     (ramped linearly over the block from its value at the last block to its target);
