@@ -69,11 +69,6 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="known: the single impact kernel's callees (dense output, integrators) are still "
-    "typed twice, once per way the driver and its callers pass the integrator flag",
-)
 def test_every_kernel_of_a_render_and_a_contact_compiles_once(tmp_path):
     # A constant argument (or a counter started at a constant) reaches a compiled callee
     # typed as a literal, and numba compiles the callee once more for it: event_root was
