@@ -146,7 +146,7 @@ N_RESULT = 19
 IMPLICIT_NEEDED = -100
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def start(lam, G, n, c, b, rtol):
     """The series start of a contact (``series.py``) and a new dense-output history whose
     row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist)."""
@@ -160,7 +160,7 @@ def start(lam, G, n, c, b, rtol):
     return S, s1, x1, w1, i2, loss, hist
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
     """``solve`` by DOP853 (its result)."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
@@ -173,7 +173,7 @@ def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
     )
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def solve_implicit(lam, G, n, c, b, rtol, atol, max_steps):
     """``solve`` by Radau IIA (its result)."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
@@ -201,7 +201,7 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     return integrate(lam, G, n, c, b, rtol, atol, max_steps)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b):
     """The end of contact, peak penetration and force of an integrated contact (``hist``
     its dense output of ``nh`` rows, by Radau IIA if ``radau``): the result of ``solve``."""
@@ -286,7 +286,7 @@ def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def scales(m, K, beta, v_in, g, n, mu, A, v_free):
     """The scales of ``impact``: (v0, theta, lam, G, c, b, f_scale)."""
     v0 = v_in + v_free
@@ -330,7 +330,7 @@ def implicit_needed():
     return r, np.empty((0, H_COLS))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
     """The result array of ``impact`` from ``solve``'s result ``out`` and the scales."""
     status, s_contact, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
