@@ -15,8 +15,8 @@ for one impact, from first touch to separation or settling:
   on which the end of contact, the peak penetration and force are located and the
   pulse is sampled;
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, through ``solve``), ``pulse``, ``force_slope_at`` and
-  ``pulse_samples`` (the force from the dense output).
+  parameters, by ``impact_explicit`` or ``impact_implicit``), ``pulse`` and
+  ``force_slope_at`` (the force from the dense output).
 
 numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
 these modules, clear the ``__pycache__`` folders so that the kernels calling it compile
@@ -96,7 +96,6 @@ __all__ = [
     "force_slope_at",
     "impact",
     "pulse",
-    "pulse_samples",
     "solve",
 ]
 
@@ -428,27 +427,3 @@ def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
             D = 1.0 + c * lam * a + b * lam * r
             N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
             slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D
-
-
-@numba.njit(cache=True)
-def pulse_samples(
-    hist, radau, lam, G, n, c, b, s_contact, theta, f_scale, step, points, offset, period,
-    samples, out, slope,
-):  # fmt: skip
-    """The force (N) and its rate (N/s) at ``u_j = j step`` (``j < points``) and then at
-    ``offset + m period`` (``m < samples``), times in s from first touch: ``force_slope_at``
-    on those times, scaled to SI units (``theta`` s, ``f_scale`` N), written into
-    ``out[:points + samples]`` and ``slope[:points + samples]``."""
-    total = points + samples
-    s = np.empty(total)
-    for j in range(points):
-        s[j] = (j * step) / theta
-    for m in range(samples):
-        s[points + m] = (offset + m * period) / theta
-    f = out[:total]
-    r = slope[:total]
-    force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, f, r)
-    rate = f_scale / theta
-    for i in range(total):
-        f[i] *= f_scale
-        r[i] *= rate
