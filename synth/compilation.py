@@ -72,7 +72,7 @@ GROUPS = {
         KernelGroup(
             "radiation",
             "the radiation kernels",
-            ("synth.sound.radiation.common", "accumulate"),
+            ("synth.sound.radiation.common", "_rows_fast"),
             ("synth.sound.radiation",),
         ),
         KernelGroup(
