@@ -25,6 +25,7 @@ import pytest
 from golden import relative_error
 
 import synth
+import synth.io.presets
 
 RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())
 #: The waveform's largest relative L2 error (-120 dB): float rounding moves it by about 1e-7.
