@@ -45,7 +45,6 @@ import numba
 import numpy as np
 import scipy.special
 
-from synth.compilation import announce
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import single_thread_product
@@ -55,7 +54,7 @@ from synth.sound.radiation.common import (
     MAX_ORDER,
     REFINE,
     RadiationResult,
-    accumulate,
+    add_sums,
     check_listener,
     check_poles,
     check_settings,
@@ -669,8 +668,7 @@ def _apply_separable_rule(
         _add_circle_sums(rr, whole, wavenumbers, centre, phi)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        announce("radiation")
-        accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
+        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
         return theta.size
 
     def worker(w):
