@@ -129,11 +129,11 @@ class PresetRun:
 
 
 @functools.cache
-def preset_run_from_empty_caches(name: str) -> PresetRun:
+def preset_run_from_empty_caches(name: str, overrides: tuple[str, ...] = ()) -> PresetRun:
     """The preset ``name`` rendered as its file sets it but without normalisation
     (``normalize="none"``: its physical units), from empty caches (a private cache folder and
     empty memory caches, so a fresh mode solve, as on a machine that never rendered it), and
-    analysed with the analysis' defaults at the scene's gravity.
+    analysed with the analysis' defaults at the scene's gravity; ``overrides`` as ``--set``.
     Computed once per session: the frozen renders (tests/test_frozen_renders.py, which
     tests/data/record_preset_renders.py records) and the round trip (tests/test_roundtrip.py)
     read the same run."""
@@ -146,7 +146,7 @@ def preset_run_from_empty_caches(name: str) -> PresetRun:
             os.environ["SYNTH_CACHE_DIR"] = tmp
             modes.clear_memory_cache()
             radiation.clear_memory_cache()
-            render = synth.render_preset(name, normalize="none")
+            render = synth.render_preset(name, overrides=overrides, normalize="none")
     finally:
         if old is None:
             os.environ.pop("SYNTH_CACHE_DIR", None)
@@ -154,7 +154,7 @@ def preset_run_from_empty_caches(name: str) -> PresetRun:
             os.environ["SYNTH_CACHE_DIR"] = old
         modes.clear_memory_cache()
         radiation.clear_memory_cache()
-    scene = synth.load_preset(name)
+    scene = synth.load_preset(name, overrides=list(overrides))
     analysis = synth.analyze(render.audio, render.samplerate, gravity=scene.gravity)
     return PresetRun(scene, render, analysis)
 

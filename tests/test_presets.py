@@ -681,7 +681,7 @@ def test_canonical_preset_fills_defaults_and_drops_what_rows_set():
     spelled["description"] = "said otherwise"
     spelled["gravity"] = 9.81
     spelled.setdefault("render", {})["normalize"] = "peak"
-    spelled.setdefault("contact", {})["model"] = "thesis"
+    spelled.setdefault("contact", {})["law"] = "hertz"
     bare.setdefault("render", {})["normalize"] = "peak"
     assert canonical(spelled) == canonical(bare)
     varied = canonical(spelled, varied=("ball.radius", "gravity"))

@@ -163,8 +163,8 @@ def test_microphone_on_the_surface_is_the_limit_of_one_above_it():
 # --------------------------------------------------------------------------- cost estimate
 
 HEAVY = {
-    # a 1000 kg ball resting on the default MDF board: a 107 s contact, a pulse grid of
-    # 2e7 points (73 s and 789 MB before the estimate refused it)
+    # a 1000 kg ball resting on the default MDF board: a contact of about 500 s (its
+    # viscoelastic surface), a pulse grid of 1e8 points
     "1000 kg on MDF": ["default", "--set", "ball.mass=1000"],
     # 840 kg on the 6 mm board under the thesis' model: an 878 s contact, 1.7e8 points
     "840 kg on 6 mm": [
