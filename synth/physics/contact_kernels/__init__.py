@@ -275,12 +275,16 @@ def force_end(hist, S, nh, radau, lam, G, n, c, b):
     falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
     and with it the contact, lasts a little longer: the ball moves apart from a surface
     still indented. Located on the dense output in the last step that starts with a
-    positive force (``event_root``, event ``FORCE_END``)."""
-    for k in range(nh - 1, 0, -1):
+    positive force (``event_root``, event ``FORCE_END``), row 0 (the series) if none does.
+    One call with a step index typed int64: a constant index would reach ``event_root``
+    as a literal and compile it (and ``dense_state``) once more."""
+    k = nh - 1
+    while k > 0:
         f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
         if f > 0.0:
-            return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
-    return event_root(hist, S, 0, radau, FORCE_END, lam, G, n, c, b, 0.0)
+            break
+        k -= 1
+    return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
 
 
 def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):

@@ -43,7 +43,6 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-import scipy.special
 
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
@@ -278,6 +277,8 @@ def _angular_band(x: float, tol: float) -> int:
     and ``|J_n(k r)| <= |J_n(k_b r)|`` decreases in ``n`` past ``k_b r``: a shape made
     of such waves is, to ``tol``, a trigonometric polynomial of degree ``N``.
     """
+    import scipy.special  # imported on use: a render from cached gains needs none
+
     n = np.arange(math.floor(x), math.floor(x) + 64 + int(8 * x ** (1.0 / 3.0)))
     small = np.flatnonzero(np.abs(scipy.special.jv(n, x)) <= tol)
     return int(n[small[0]]) if small.size else int(n[-1])
