@@ -48,8 +48,14 @@ GROUPS = {
         KernelGroup(
             "contact",
             "the contact kernels",
-            ("synth.physics.contact_kernels", "impact"),
+            ("synth.physics.contact_kernels", "impact_explicit"),
             ("synth.physics.contact_kernels",),
+        ),
+        KernelGroup(
+            "stiff-contact",
+            "the stiff contact kernels (Radau IIA)",
+            ("synth.physics.contact_kernels", "impact_implicit"),
+            ("synth.physics.contact_kernels.impact_implicit",),
         ),
         KernelGroup(
             "modal-contact",
@@ -66,13 +72,13 @@ GROUPS = {
         KernelGroup(
             "radiation",
             "the radiation kernels",
-            ("synth.sound.radiation.common", "accumulate"),
+            ("synth.sound.radiation.common", "_rows_fast"),
             ("synth.sound.radiation",),
         ),
         KernelGroup(
             "live",
             "the live engine's kernels",
-            ("synth.live.kernel", "mix_body"),
+            ("synth.live.native", "run_block"),
             ("synth.live",),
         ),
     )

@@ -69,11 +69,6 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="known: the single impact kernel's callees (dense output, integrators) are still "
-    "typed twice, once per way the driver and its callers pass the integrator flag",
-)
 def test_every_kernel_of_a_render_and_a_contact_compiles_once(tmp_path):
     # A constant argument (or a counter started at a constant) reaches a compiled callee
     # typed as a literal, and numba compiles the callee once more for it: event_root was
@@ -139,9 +134,12 @@ def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path)
     assert cold.returncode == 0, cold.stderr
     notes = [line for line in cold.stderr.splitlines() if line.startswith(NOTE)]
     assert len(notes) == 1
-    assert notes[0].startswith("synth: compiling the contact kernels for first use")
+    assert notes[0].startswith(
+        "synth: compiling the stiff contact kernels (Radau IIA) for first use"
+    )
     assert notes[0].endswith("; later runs start at once")
     assert "synth.physics.contact_kernels.radau.integrate_radau" in cold.stdout
+    assert "synth.physics.contact_kernels.dop853" not in cold.stdout  # not used, not compiled
     warm = _python(code, env)
     assert warm.returncode == 0, warm.stderr
     assert NOTE not in warm.stderr

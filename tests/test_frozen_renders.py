@@ -28,6 +28,7 @@ import pytest
 from golden import relative_error, sketch
 
 import synth
+import synth.io.presets
 
 RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").read_text())
 #: The waveform's largest relative L2 error (-120 dB): float rounding moves it by about 1e-7.
@@ -56,7 +57,8 @@ def rounding_sensitivity(name, audio, preset_run):
 
 #: Presets whose analysis is known to move a tick by more than MAX_TICK_SHIFT when the audio
 #: changes by float rounding alone: the marble's first onset, 5 ms into the file, moves by
-#: 1.4 samples with a waveform change below 1e-7 (seen between a warm and a cold numba cache).
+#: 1.4 samples with a waveform change below 1e-7 (between versions of the contact kernels; an
+#: empty and a warm numba cache give the same bytes, as they must).
 UNSTABLE_FIRST_TICK = {"marble-on-wooden-floor"}
 
 

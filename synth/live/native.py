@@ -392,7 +392,8 @@ def mix_engine(ctl, out):
     mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
     scratch = numba.carray(_pointer(ctl[SCRATCH]), (2, cap), np.float64)
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
-    done = 0
+    # typed int64 from the start: a literal 0 would have numba type _write_block twice
+    done = np.int64(0)
     while done < frames:
         if ctl[PAUSE] != 0 and times[PAUSE_LEVEL] <= 0.0:
             for s in range(done, frames):
@@ -475,7 +476,8 @@ def stream_callback(input, output, frames, time_info, flags, userdata):
     ctl = numba.carray(userdata, N_CTL, np.int64)
     out = numba.carray(output, (np.int64(frames), ctl[CHANNELS]), np.float32)
     info = numba.carray(time_info, 3, np.float64)  # adc time, current time, dac time
-    run_block(ctl, out, flags, info[1], info[2], entry)
+    # int64 flags, as the Python fallback passes them: one compile of run_block for both
+    run_block(ctl, out, np.int64(flags), info[1], info[2], entry)
     return PA_CONTINUE
 
 

@@ -42,7 +42,6 @@ from typing import NamedTuple
 import numpy as np
 
 from synth import checks
-from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
@@ -250,46 +249,38 @@ class ImpactResult:
         ``L >= points + samples``, whose rows take the forces and the slopes (the live
         engine writes them straight into a slot); returns views of its rows then."""
         d = self._dense
-        total = int(points) + int(samples)
+        points, samples = int(points), int(samples)
+        total = points + samples
         if out is None:
             out = np.empty((2, total))
         elif out.ndim != 2 or out.shape[0] != 2 or out.shape[1] < total:
             raise ParameterError(
                 f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
             )
-        forces, slopes = out[0], out[1]
-        _k.pulse_samples(
-            d.hist,
-            d.radau,
-            d.lam,
-            d.G,
-            d.n,
-            d.c,
-            d.b,
-            d.s_contact,
-            d.theta,
-            d.f_scale,
-            float(step),
-            int(points),
-            float(offset),
-            float(period),
-            int(samples),
-            forces,
-            slopes,
-        )
-        return forces[:total], slopes[:total]
+        s = np.empty(total)
+        s[:points] = np.arange(points) * float(step)
+        s[points:] = float(offset) + np.arange(samples) * float(period)
+        s /= d.theta
+        forces, slopes = out[0, :total], out[1, :total]
+        self._force_and_slope(s, forces, slopes)
+        return forces, slopes
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
         touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
-        d = self._dense
-        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / d.theta)
+        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / self._dense.theta)
         out = np.empty_like(s)
         slope = np.empty_like(s)
+        self._force_and_slope(s, out, slope)
+        return out, slope
+
+    def _force_and_slope(self, s, out, slope) -> None:
+        """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
+        times ``s`` (s / theta): the dense output's, scaled to SI units."""
+        d = self._dense
         _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
-        return out, slope
 
 
 def solve_contact(
@@ -435,7 +426,6 @@ def _check_points(n_points) -> int:
 
 def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
-    announce("contact")
     r, hist = _k.impact(
         m,
         K,

@@ -15,8 +15,8 @@ for one impact, from first touch to separation or settling:
   on which the end of contact, the peak penetration and force are located and the
   pulse is sampled;
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, through ``solve``), ``pulse``, ``force_slope_at`` and
-  ``pulse_samples`` (the force from the dense output).
+  parameters, by ``impact_explicit`` or ``impact_implicit``), ``pulse`` and
+  ``force_slope_at`` (the force from the dense output).
 
 numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
 these modules, clear the ``__pycache__`` folders so that the kernels calling it compile
@@ -30,7 +30,9 @@ import math
 import numba
 import numpy as np
 
+from synth.compilation import announce
 from synth.physics.contact_kernels.dense import (
+    DOP853_STEPS,
     END_OF_CONTACT,
     FORCE_END,
     H_COLS,
@@ -39,6 +41,7 @@ from synth.physics.contact_kernels.dense import (
     H_W0,
     H_X0,
     PEAK_PENETRATION,
+    RADAU_STEPS,
     SETTLING,
     dense_state,
     event_root,
@@ -95,7 +98,6 @@ __all__ = [
     "force_slope_at",
     "impact",
     "pulse",
-    "pulse_samples",
     "solve",
 ]
 
@@ -141,10 +143,53 @@ R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output)
 R_SEPARATION_TIME = 19  # s, to the penetration's return to 0 (the dense output's end)
 N_RESULT = 20
 
+#: Status of ``impact_explicit``'s result that hands an impact to ``impact_implicit``
+#: (never returned by ``impact``).
+IMPLICIT_NEEDED = -100
 
-@numba.njit(cache=True)
+
+@numba.njit(cache=True, inline="always")
+def start(lam, G, n, c, b, rtol):
+    """The series start of a contact (``series.py``) and a new dense-output history whose
+    row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist)."""
+    S = new_series(b)
+    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
+    hist = np.empty((32, H_COLS))
+    hist[0, H_T0] = 0.0
+    hist[0, H_H] = s1
+    hist[0, H_X0] = 0.0
+    hist[0, H_W0] = 1.0
+    return S, s1, x1, w1, i2, loss, hist
+
+
+@numba.njit(cache=True, inline="always")
+def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
+    """``solve`` by DOP853 (its result)."""
+    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
+    # The series' validity ends at s1 like a step's: the next step is of the same length.
+    status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
+        lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+    )
+    return finish(
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def solve_implicit(lam, G, n, c, b, rtol, atol, max_steps):
+    """``solve`` by Radau IIA (its result)."""
+    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
+    status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
+        lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+    )
+    return finish(
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b
+    )
+
+
 def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
-    """Integrate one contact and find its peak.
+    """Integrate one contact and find its peak: by Radau IIA if ``stiff``, else by DOP853
+    (two kernels, so that a scene compiles only the integrator it uses).
 
     Returns (status, s_contact, s_force, s_end, w_end, x_end, I2, loss, x_max, f_max,
     n_steps, n_rejected, hist), all dimensionless: ``s_contact`` is the contact's duration
@@ -155,23 +200,14 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
     recompute).
     """
-    S = new_series(b)
-    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
-    hist = np.empty((32, H_COLS))
-    hist[0, H_T0] = 0.0
-    hist[0, H_H] = s1
-    hist[0, H_X0] = 0.0
-    hist[0, H_W0] = 1.0
-    # The series' validity ends at s1 like a step's: the next step is of the same length.
-    if stiff:
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
-            lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
-        )
-    else:
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
-            lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
-        )
-    radau = stiff
+    integrate = solve_implicit if stiff else solve_explicit
+    return integrate(lam, G, n, c, b, rtol, atol, max_steps)
+
+
+@numba.njit(cache=True, inline="always")
+def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b):
+    """The end of contact, peak penetration and force of an integrated contact (``hist``
+    its dense output of ``nh`` rows, by Radau IIA if ``radau``): the result of ``solve``."""
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
@@ -239,57 +275,91 @@ def force_end(hist, S, nh, radau, lam, G, n, c, b):
     falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
     and with it the contact, lasts a little longer: the ball moves apart from a surface
     still indented. Located on the dense output in the last step that starts with a
-    positive force (``event_root``, event ``FORCE_END``)."""
-    for k in range(nh - 1, 0, -1):
+    positive force (``event_root``, event ``FORCE_END``), row 0 (the series) if none does.
+    One call with a step index typed int64: a constant index would reach ``event_root``
+    as a literal and compile it (and ``dense_state``) once more."""
+    k = nh - 1
+    while k > 0:
         f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
         if f > 0.0:
-            return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
-    return event_root(hist, S, 0, radau, FORCE_END, lam, G, n, c, b, 0.0)
+            break
+        k -= 1
+    return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
 
 
-@numba.njit(cache=True)
-def impact(
-    m,
-    K,
-    beta,
-    v_in,
-    g,
-    n,
-    mu,
-    A,
-    v_free,
-    rtol,
-    method,
-):
+def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     """One impact from lumped parameters (SI units, checked by the caller).
 
     Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
     length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
-    integrates them by ``solve`` (``method``: AUTO picks Radau IIA above
-    ``STIFF_LAMBDA`` and falls back to it when DOP853 reaches ``EXPLICIT_STEP_LIMIT``
-    steps), and takes the energy balance (docs/physics.md, "Hertz contact"; the contact's
-    loss included). ``rtol`` is the integrators' local tolerance, ``ABSOLUTE_FACTOR`` times
-    it the absolute one.
+    integrates them (``method``: AUTO picks Radau IIA above ``STIFF_LAMBDA`` and falls back
+    to it when DOP853 reaches ``EXPLICIT_STEP_LIMIT`` steps), and takes the energy balance
+    (docs/physics.md, "Hertz contact"; the contact's loss included). ``rtol`` is the
+    integrators' local tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one.
 
     Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
     fields are named by the ``R_*`` indices above (flags and counts stored as
     floats), ``hist`` the dense output that ``pulse`` and ``force_slope_at`` read.
+
+    The explicit and the implicit method are two kernels (``impact_explicit``,
+    ``impact_implicit``), chosen here, so that a scene compiles only the one it uses.
     """
+    if method != RADAU:
+        announce("contact")
+        r, hist = impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method == AUTO)
+        if r[R_STATUS] != IMPLICIT_NEEDED:
+            return r, hist
+    announce("stiff-contact")
+    return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
+
+
+@numba.njit(cache=True, inline="always")
+def scales(m, K, beta, v_in, g, n, mu, A, v_free):
+    """The scales of ``impact``: (v0, theta, lam, G, c, b, f_scale)."""
     v0 = v_in + v_free
     theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
     lam = beta * m / theta
     G = g * theta / v0
     c = mu * v0
     b = 1.5 * A / theta
+    return v0, theta, lam, G, c, b, m * v0 / theta
+
+
+@numba.njit(cache=True)
+def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
+    """``impact`` by DOP853; with ``auto``, a result of status ``IMPLICIT_NEEDED`` (and an
+    empty history) where the automatic choice takes Radau IIA: above ``STIFF_LAMBDA``, or
+    when DOP853 reaches its step limit."""
+    v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
+    if auto and lam > STIFF_LAMBDA:
+        return implicit_needed()
     atol = rtol * ABSOLUTE_FACTOR
-    stiff = (lam > STIFF_LAMBDA) if method == AUTO else (method == RADAU)
-    f_scale = m * v0 / theta
-    out = solve(
-        lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT if stiff else EXPLICIT_STEP_LIMIT, stiff
-    )
-    if out[0] == MAX_STEPS and not stiff and method == AUTO:
-        stiff = True
-        out = solve(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT, stiff)  # not a literal
+    out = solve_explicit(lam, G, n, c, b, rtol, atol, EXPLICIT_STEP_LIMIT)
+    if auto and out[0] == MAX_STEPS:
+        return implicit_needed()
+    return result(out, DOP853_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
+
+
+@numba.njit(cache=True)
+def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
+    """``impact`` by Radau IIA."""
+    v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
+    atol = rtol * ABSOLUTE_FACTOR
+    out = solve_implicit(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT)
+    return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
+
+
+@numba.njit(cache=True)
+def implicit_needed():
+    """The result of ``impact_explicit`` that hands the impact to ``impact_implicit``."""
+    r = np.zeros(N_RESULT)
+    r[R_STATUS] = IMPLICIT_NEEDED
+    return r, np.empty((0, H_COLS))
+
+
+@numba.njit(cache=True, inline="always")
+def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
+    """The result array of ``impact`` from ``solve``'s result ``out`` and the scales."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
     separated = status == SEPARATED
     tiny_rebound = separated and w_end > 0.0
@@ -386,27 +456,3 @@ def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
             D = 1.0 + c * lam * a + b * lam * r
             N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
             slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D
-
-
-@numba.njit(cache=True)
-def pulse_samples(
-    hist, radau, lam, G, n, c, b, s_contact, theta, f_scale, step, points, offset, period,
-    samples, out, slope,
-):  # fmt: skip
-    """The force (N) and its rate (N/s) at ``u_j = j step`` (``j < points``) and then at
-    ``offset + m period`` (``m < samples``), times in s from first touch: ``force_slope_at``
-    on those times, scaled to SI units (``theta`` s, ``f_scale`` N), written into
-    ``out[:points + samples]`` and ``slope[:points + samples]``."""
-    total = points + samples
-    s = np.empty(total)
-    for j in range(points):
-        s[j] = (j * step) / theta
-    for m in range(samples):
-        s[points + m] = (offset + m * period) / theta
-    f = out[:total]
-    r = slope[:total]
-    force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, f, r)
-    rate = f_scale / theta
-    for i in range(total):
-        f[i] *= f_scale
-        r[i] *= rate

@@ -33,6 +33,7 @@ from synth.physics.contact_kernels.equations import (
     STEP_TOO_SMALL,
     power,
     rhs,
+    rise_ended,
     settling_energy,
 )
 
@@ -144,7 +145,9 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
     wthr = 0.5 * (lam * G) ** 2
-    peaked = False  # past the first penetration peak (a settled pulse keeps its landing)
+    # past the first penetration peak or the end of an overdamped creep (rise_ended): a
+    # settled pulse keeps its landing
+    peaked = False
     rejected = False
     h_rej = 0.0
     err_rej = 0.0
@@ -155,7 +158,8 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
     # dx moves the end by dx / x', and the contact time is of order one
     x_top = x
     while True:
-        if nst > max_steps:
+        if nst > max_steps or not math.isfinite(s + h):
+            # an unbounded step (a state that no event ends) counts as the step limit
             return MAX_STEPS, s, x, w, q2, q3, nst, nrej, hist
         if not (h >= 1e-14 * s and h >= 1e-300):
             return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
@@ -316,7 +320,7 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             K[0, q] = K[_NS, q]
         if x <= 0.0:
             return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
-        if K[0, 0] <= 0.0:
+        if rise_ended(K[0, 0], w, atol):
             peaked = True
         if settle and peaked and settling_energy(x, w, lam, G, n) < wthr:
             return SETTLED, s, x, w, q2, q3, nst, nrej, hist

@@ -133,6 +133,19 @@ def settling_energy(x, w, lam, G, n):
     return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
 
 
+#: Machine epsilon of float64.
+EPS = 2.220446049250313e-16
+
+
+@numba.njit(cache=True)
+def rise_ended(dx, w, atol):
+    """True if the penetration rate ``dx = x' = w - lam f`` (at speed ``w``) is not
+    positive to the absolute tolerance ``atol`` of the state and to the rounding of its two
+    terms ``w`` and ``lam f = w - dx``: past the penetration's peak, or at the end of an
+    overdamped landing, which creeps up to the static penetration without a peak."""
+    return dx <= atol + 4.0 * EPS * (abs(w) + abs(w - dx))
+
+
 @numba.njit(cache=True)
 def penetration_rate(x, w, lam, n, c, b):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""

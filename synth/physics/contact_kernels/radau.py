@@ -32,6 +32,7 @@ from synth.physics.contact_kernels.equations import (
     force,
     jacobian,
     rhs,
+    rise_ended,
     settling_energy,
 )
 
@@ -93,7 +94,8 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
     j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
     rejected = False
     while True:
-        if nst > max_steps:
+        if nst > max_steps or not math.isfinite(s + h):
+            # an unbounded step (a state that no event ends) counts as the step limit
             return MAX_STEPS, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if not (h >= 1e-14 * s and h >= 1e-300):
             return STEP_TOO_SMALL, s, y[0], y[1], y[2], y[3], nst, nrej, hist
@@ -253,7 +255,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
         f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
         if y[0] <= 0.0:
             return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
-        if f0[0] <= 0.0:
+        if rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
             peaked = True
         if settle and peaked and settling_energy(y[0], y[1], lam, G, n) < wthr:
             return SETTLED, s, y[0], y[1], y[2], y[3], nst, nrej, hist

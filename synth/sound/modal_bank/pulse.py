@@ -130,7 +130,7 @@ def long_contact(sigma_max, tau):
     return sigma_max * tau > LONG_CONTACT_NEPERS
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def transform_pulse(
     pr,
     pi,

@@ -48,9 +48,6 @@ import math
 
 import numba
 import numpy as np
-import scipy.linalg
-from scipy.linalg import lapack
-from scipy.special import gammaln, roots_legendre
 
 # Shift s of K + s I (dimensionless units of omega^2 L^4 rho h / D). The lowest
 # elastic mode of any free or clamped rectangle lies above 13 (square free plate);
@@ -104,6 +101,8 @@ def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndar
     (:func:`_recurrence`); for ``alpha = 4`` the polynomials are multiplied by
     ``u = (1 - xi^2)^2``.
     """
+    from scipy.special import gammaln  # imported on use: a render from cached modes needs none
+
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp(
@@ -137,6 +136,8 @@ def matrices_1d(alpha: int, n: int):
     is the identity.) Gauss-Legendre with ``n + 6`` nodes integrates these
     polynomials of degree at most ``2n + 6`` exactly.
     """
+    from scipy.special import roots_legendre
+
     xq, wq = roots_legendre(n + 6)
     b = basis_1d(alpha, n, xq, derivatives=2)
     bw = b * wq[None, :, None]
@@ -243,6 +244,9 @@ def solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
     eigenvalues ``mu = 1 / (lambda + s)`` of the inverse carry a relative error of
     about ``eps * lambda / s``, whatever the norm of ``K``.
     """
+    import scipy.linalg  # imported on use: a render from cached modes solves nothing
+    from scipy.linalg import lapack
+
     k = _stiffness(mx, my, I, J, rx, ry, nu, SHIFT)
     c, info = lapack.dpotrf(k, lower=0, clean=1, overwrite_a=1)
     if info != 0:

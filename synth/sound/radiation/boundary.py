@@ -43,7 +43,6 @@ import math
 
 import numba
 import numpy as np
-import scipy.special as sp
 
 from synth.sound.asymptotic_modes import edge_part, interior_part
 from synth.sound.radiation.common import (
@@ -385,6 +384,8 @@ def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
 
 def _bessel_small(x, osc):
     """``(f0, g0, f1, g1)`` of :func:`_bessel` by scipy (for ``x < _ASYMPTOTIC_X``)."""
+    import scipy.special as sp  # imported on use: a render from cached gains needs none
+
     if osc:
         return sp.j0(x), sp.y0(x), sp.j1(x), sp.y1(x)
     return sp.i0e(x), sp.k0e(x), sp.i1e(x), sp.k1e(x)
@@ -756,6 +757,8 @@ def _small_bessel(k, rho, osc, on_node):
     """Bessel values (rows ``f0, g0, f1, g1`` of :func:`_bessel`) at the arguments
     ``k[r] rho[j] < _ASYMPTOTIC_X`` (:func:`_small_arguments`; ``f1, g1`` only at the
     nodes ``on_node``, the others 0) and where each row's start."""
+    import scipy.special as sp
+
     x, starts = _small_arguments(k, rho, _ASYMPTOTIC_X)
     out = np.zeros((4, x.size))
     if osc:

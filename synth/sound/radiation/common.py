@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from synth import checks
+from synth.compilation import announce
 from synth.errors import ParameterError
 from synth.vecmath import cis, exp_small
 
@@ -192,7 +193,7 @@ def _exp_scaled(u, halvings):
     return e
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@numba.njit(cache=True, fastmath={"contract"}, nogil=True)
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
 
@@ -241,7 +242,7 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
             mag[k] += abs(f)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
     """As :func:`_rows_fast` with ``halvings = 0``, with libm exp, cos and sin (any arguments)."""
     m = phi.shape[1]
@@ -263,6 +264,18 @@ def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
     _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""
     if halvings >= 0:
+        _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
+    else:
+        _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)
+
+
+def add_sums(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
+    """:func:`accumulate` for callers in Python: the kernel is chosen here, so that only
+    the one the sums need compiles (the compiled ``accumulate``, for compiled callers,
+    holds both). The fast kernel's first compile is noted on stderr (the libm kernel's
+    takes a fraction of a second). Runs without the GIL."""
+    if halvings >= 0:
+        announce("radiation")
         _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
     else:
         _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag)

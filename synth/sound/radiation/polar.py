@@ -43,9 +43,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-import scipy.special
 
-from synth.compilation import announce
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import single_thread_product
@@ -55,7 +53,7 @@ from synth.sound.radiation.common import (
     MAX_ORDER,
     REFINE,
     RadiationResult,
-    accumulate,
+    add_sums,
     check_listener,
     check_poles,
     check_settings,
@@ -279,6 +277,8 @@ def _angular_band(x: float, tol: float) -> int:
     and ``|J_n(k r)| <= |J_n(k_b r)|`` decreases in ``n`` past ``k_b r``: a shape made
     of such waves is, to ``tol``, a trigonometric polynomial of degree ``N``.
     """
+    import scipy.special  # imported on use: a render from cached gains needs none
+
     n = np.arange(math.floor(x), math.floor(x) + 64 + int(8 * x ** (1.0 / 3.0)))
     small = np.flatnonzero(np.abs(scipy.special.jv(n, x)) <= tol)
     return int(n[small[0]]) if small.size else int(n[-1])
@@ -669,8 +669,7 @@ def _apply_separable_rule(
         _add_circle_sums(rr, whole, wavenumbers, centre, phi)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        announce("radiation")
-        accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
+        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, *acc_w)
         return theta.size
 
     def worker(w):

@@ -40,6 +40,7 @@ from synth.sound.radiation.common import (
     REFINE,
     RadiationResult,
     accumulate,
+    add_sums,
     check_listener,
     check_poles,
     check_settings,
@@ -137,7 +138,6 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
     qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
     qi = np.ascontiguousarray(q.imag)
-    announce("radiation")
     with ThreadPoolExecutor(max_workers=workers) as pool:
         running = []
         for start in range(0, n_total, chunk):
@@ -156,7 +156,7 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
             n = idx.size
             running = [
                 pool.submit(
-                    accumulate,
+                    add_sums,
                     w * n // workers,
                     (w + 1) * n // workers,
                     dist,

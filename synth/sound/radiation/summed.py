@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from synth.compilation import announce
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import single_thread_product
-from synth.sound.radiation.common import CHUNK_BYTES, REFINE, accumulate
+from synth.sound.radiation.common import CHUNK_BYTES, REFINE, add_sums
 from synth.sound.radiation.polar import angular_rule, polar_gains, polar_setup, radial_nodes
 from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 
@@ -70,8 +69,7 @@ def _apply_summed_rule(
         phi = shapes.combine(sums, None if every else active)
         big_r = np.sqrt(rr * rr + zl * zl)
         weight = wr[start : start + rows] * rr / big_r
-        announce("radiation")
-        accumulate(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
+        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
     return acc_re + 1j * acc_im, n_points
 
 
