@@ -595,6 +595,74 @@ def test_the_master_bus_never_sends_full_scale(scene):
     assert np.max(np.abs(quiet.process(FS // 10))) > 1.0  # as asked: nothing done
 
 
+def limited_engine(scene, gain, **kw):
+    """A stereo engine (the ears of the docs' example) with one hit at 10 ms on the
+    scene's plate at body ``gain``; the keywords go to Engine."""
+    engine = synth.Engine(samplerate=FS, channels=2, clip=False, **kw)
+    body = engine.add(scene.plate, listener=synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0)))
+    body.gain = gain
+    body.hit(scene.ball, 2.0, at=0.01)
+    return engine
+
+
+def unit_peak(scene):
+    """The bus' sample peak of :func:`limited_engine` at body gain 1, no limiter."""
+    return float(np.max(np.abs(limited_engine(scene, 1.0).process(FS // 10))))
+
+
+@pytest.mark.parametrize("ceiling_db", [0.0, -3.0])
+def test_the_limiter_keeps_a_burst_of_plus_12_dbfs_at_its_ceiling(scene, ceiling_db):
+    # a hit whose bus peaks at +12 dBFS: with the limiter, no sample and no 4x-oversampled
+    # inter-sample point above the ceiling reaches the device (the float32 samples sent);
+    # its gain reduction covers the burst's true peak over the ceiling, and it is counted
+    from synth.live.limiter import true_peak
+
+    gain = 10.0 ** (12.0 / 20.0) / unit_peak(scene)
+    loud = limited_engine(scene, gain).process(FS // 10)
+    assert 10.0 ** (11.99 / 20.0) <= np.max(np.abs(loud)) <= 10.0 ** (12.01 / 20.0)
+    engine = limited_engine(scene, gain, limiter=True, ceiling_db=ceiling_db)
+    out = engine.process(FS // 10)
+    ceiling = 10.0 ** (ceiling_db / 20.0)
+    assert out.dtype == np.float32
+    assert np.max(np.abs(out)) <= ceiling
+    assert true_peak(out) <= ceiling
+    stats = engine.stats
+    assert stats.peak == pytest.approx(float(np.max(np.abs(loud))), rel=1e-6)
+    needed = 20.0 * np.log10(true_peak(loud) / ceiling)
+    assert stats.limiter_max_reduction_db >= needed - 1e-6
+    assert stats.limiter_active > 0 and stats.clipped == 0
+    # the limiter is not a clipper: the loudest part keeps its shape, within 1 dB of the
+    # ceiling (the gain follows the envelope, it does not flatten the waveform)
+    assert np.max(np.abs(out)) >= ceiling * 10.0 ** (-1.0 / 20.0)
+
+
+def test_a_bus_below_the_ceiling_passes_the_limiter_bit_identical(scene):
+    # 6 dB below the ceiling (true peak): the limiter only delays the bus by its look-ahead
+    from synth.live.limiter import true_peak
+
+    gain = 0.5 / unit_peak(scene)
+    plain = limited_engine(scene, gain).process(FS // 10)
+    assert true_peak(plain) < 1.0
+    engine = limited_engine(scene, gain, limiter=True, ceiling_db=0.0)
+    out = engine.process(FS // 10)
+    delay = int(round(0.0015 * FS))
+    assert np.array_equal(out[delay:], plain[:-delay]) and not out[:delay].any()
+    assert engine.stats.limiter_active == 0 and engine.stats.limiter_max_reduction_db == 0.0
+
+
+def test_the_limiter_s_settings_are_checked(scene):
+    for kw, name in [
+        (dict(limiter=1), "limiter"),
+        (dict(limiter=True, ceiling_db=0.5), "ceiling_db"),
+        (dict(limiter=True, ceiling_db=-21.0), "ceiling_db"),
+        (dict(limiter=True, lookahead=0.0), "lookahead"),
+        (dict(limiter=True, lookahead=256 / FS + 1e-3), "lookahead"),  # beyond one block
+        (dict(limiter=True, lookahead=8 / FS), "lookahead"),  # shorter than its reach
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            synth.Engine(samplerate=FS, blocksize=256, **kw)
+
+
 INSPECT_CALLBACK = """
 from synth.live import native
 native.warm_up()
@@ -603,7 +671,7 @@ for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc",
     print(symbol, symbol in ir)
 print("clock_gettime", "clock_gettime" in ir)
 print("run_block", "run_block" in ir)
-for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
     print(callee, callee in ir)
 """
 
@@ -628,8 +696,8 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
     assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
     # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
-    # that take and steal slots are inlined into mix_body)
-    for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+    # that take and steal slots are inlined into mix_body), and the master bus' limiter
+    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
         assert found.pop(callee) == "True", callee
     assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
     assert set(found.values()) == {"False"}, found
@@ -1193,3 +1261,19 @@ def test_a_removed_stereo_body_frees_both_ears_and_a_new_one_takes_their_room(sc
     again = engine.add(scene.plate, listener=head)
     assert again.hit(scene.ball, 1.0, at=engine.time) is not None
     assert np.any(engine.process(FS // 10))
+
+
+@pytest.mark.parametrize("cycles", [0.02, 0.1, 0.2, 0.25, 0.3, 0.35])
+def test_the_true_peak_estimate_reads_a_sine_s_peak_between_its_samples(cycles):
+    # a unit sine at ``cycles`` per sample, every phase (faded in and out, so that its ends
+    # add no overshoot): 4x oversampling misses the crest by at most an eighth of a sample,
+    # so it reads at least cos(2 pi cycles / 8) of it (closed form); its 12-tap interpolator
+    # adds at most 0.2 % of passband ripple up to 0.35 of the sample rate
+    from synth.live.limiter import true_peak
+
+    n = np.arange(4800)
+    ramp = np.sin(0.5 * np.pi * np.arange(1000) / 1000) ** 2
+    fade = np.concatenate([ramp, np.ones(n.size - 2000), ramp[::-1]])
+    for phase in np.linspace(0.0, np.pi, 17):
+        x = np.sin(2 * np.pi * cycles * n + phase) * fade
+        assert np.cos(2 * np.pi * cycles / 8) - 1e-9 <= true_peak(x) <= 1.002

@@ -582,3 +582,45 @@ def test_priorities_and_the_engine_cap_hold_while_the_stream_runs(jack, scene):
     live = engine.recording[:, 0].astype(float)
     tol = 4 * float(np.spacing(np.float32(np.max(np.abs(want)))))
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_the_limiter_holds_the_ceiling_on_the_stream_as_process_does(jack, scene):
+    # a stereo hit at +12 dBFS through the stream with the true-peak limiter: the samples
+    # the callback sent are process()'s of the same hit (the same compiled bus), none and
+    # no 4x-oversampled point between them above the ceiling; a hit without ``at`` counts
+    # the look-ahead in its latency (it is not played late)
+    from synth.live.limiter import true_peak
+
+    ears = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
+
+    def engine_with_hit(**kw):
+        engine = synth.Engine(
+            samplerate=FS, blocksize=BLOCK, channels=2, clip=False, limiter=True,
+            ceiling_db=-1.0, **kw,
+        )  # fmt: skip
+        body = engine.add(scene.plate, listener=ears, gain=1.0)
+        return engine, body
+
+    probe, body = engine_with_hit()
+    body.hit(scene.ball, 2.0, at=0.05)
+    probe.process(FS // 5)
+    gain = 10.0 ** (12.0 / 20.0) / probe.stats.peak  # the bus' peak before the limiter
+    live, body = engine_with_hit(device=jack.device, record_seconds=0.5)
+    body.gain = gain
+    with live:
+        body.hit(scene.ball, 2.0, at=0.05)
+        assert wait_for(lambda: live.recorded >= live.recording.shape[0], 10.0)
+        late = body.hit(scene.ball, 2.0)  # on the stream's own clock
+        assert wait_for(lambda: live.stats.impacts_played == 2, 5.0)
+    offline, body = engine_with_hit()
+    body.gain = gain
+    body.hit(scene.ball, 2.0, at=0.05)
+    want = offline.process(FS // 2)
+    ceiling = 10.0 ** (-1.0 / 20.0)
+    assert offline.stats.peak > 10.0 ** (11.0 / 20.0)  # the bus before the limiter
+    tol = 4 * float(np.spacing(np.float32(ceiling)))
+    np.testing.assert_allclose(live.recording, want, rtol=0, atol=tol)
+    assert np.max(np.abs(live.recording)) <= ceiling and true_peak(live.recording) <= ceiling
+    stats = live.stats
+    assert stats.limiter_max_reduction_db > 11.0 and stats.limiter_active > 0
+    assert stats.impacts_late == 0 and late is not None

@@ -43,7 +43,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from synth.live import kernel
+from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
 #: ``ctl`` fields (int64).
@@ -73,8 +73,15 @@ from synth.live.atomics import fence as _fence
     EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
     N_EVENTS,  # its length (header included)
     PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
+    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
+    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
+    LIM_FLOATS,
+    LIM_TAPS,
+    LIM_X,
+    LIM_R,
+    LIM_M,
     N_CTL,
-) = range(25)
+) = range(32)
 
 #: ``times`` fields (float64).
 (
@@ -95,8 +102,9 @@ from synth.live.atomics import fence as _fence
     LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
     GAP_MAX,  # longest time between two callbacks' entries, in blocks
     PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
+    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
     N_TIMES,
-) = range(18)
+) = range(19)
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -314,11 +322,29 @@ def soft_clip(v):
 
 
 @numba.njit(cache=True, nogil=True)
+def _limiter(ctl, channels):
+    """The limiter's arrays (:meth:`synth.live.limiter.LimiterState.arrays`), made from
+    their addresses in ``ctl``."""
+    ints = _i64(ctl[LIM_INTS], limiter.N_INTS)
+    D = ints[limiter.I_DELAY]
+    A = ints[limiter.I_ATTACK]
+    return (
+        ints,
+        _f64(ctl[LIM_FLOATS], limiter.N_FLOATS),
+        numba.carray(_pointer(ctl[LIM_TAPS]), (limiter.OVERSAMPLING - 1, limiter.TAPS), np.float64),
+        numba.carray(_pointer(ctl[LIM_X]), (D + 1, channels), np.float64),
+        _f64(ctl[LIM_R], A + 2 * limiter.REACH + 1),
+        _f64(ctl[LIM_M], A + 1),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames: the pause and stop fades, the master gain (ramped
-    over the block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
-    (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
-    the recording."""
+    over the block), the meter, the optional true-peak limiter (:mod:`synth.live.limiter`)
+    and the optional soft clipper; channel ``c`` of ``out[row:row + n]`` (float32) is
+    ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after; the
+    recording."""
     channels = out.shape[1]
     pos = ctl[FADE_AT]
     length = ctl[FADE_LENGTH]
@@ -350,11 +376,17 @@ def _write_block(ctl, times, mix, out, row, n):
         mix[0, s] = 0.0
         for c in range(channels):
             v = (common + mix[c + 1, s]) * g
-            mix[c + 1, s] = 0.0
+            mix[c + 1, s] = v
             a = abs(v)
             if a > peak:
                 peak = a
-            if a >= 1.0:
+    if ctl[LIMIT] != 0:
+        limiter.limit_block(_limiter(ctl, channels), mix[1:], n)
+    for s in range(n):
+        for c in range(channels):
+            v = mix[c + 1, s]
+            mix[c + 1, s] = 0.0
+            if abs(v) >= 1.0:
                 clipped += 1
             if clip:
                 v = soft_clip(v)
@@ -417,8 +449,8 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     last callback's entry (a gap of more than a block means the system ran the audio
     thread late, whatever the callback's own cost), anchor the clock (the block's first
     frame leaves the device ``dac - current`` s after ``entry_ns``, the callback's entry on
-    the monotonic clock), mix, and account the callback's run time from its entry as a
-    fraction of the block."""
+    the monotonic clock, plus the limiter's look-ahead, by which it delays the bus), mix,
+    and account the callback's run time from its entry as a fraction of the block."""
     times = _f64(ctl[TIMES], N_TIMES)
     frames = out.shape[0]
     if flags & PA_OUTPUT_UNDERFLOW:
@@ -439,7 +471,7 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     ctl[SEQ] += 1
     _fence()
     times[ANCHOR_FRAME] = ctl[FRAME]
-    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead
+    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
     _fence()
     ctl[SEQ] += 1
     mix_engine(ctl, out)
@@ -501,7 +533,8 @@ class EngineState:
     """The arrays the audio thread works on (see the module's docstring), allocated once:
     ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
     ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
-    voice-ended events."""
+    voice-ended events, and the master bus' true-peak limiter's state (``limit``, or None
+    without a limiter)."""
 
     def __init__(
         self,
@@ -514,6 +547,7 @@ class EngineState:
         fade_frames: int,
         clip: bool,
         events: int = 4096,
+        limit: limiter.LimiterState | None = None,
     ):
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
@@ -538,6 +572,14 @@ class EngineState:
         c[SCRATCH] = self.scratch.ctypes.data
         c[RECORD] = self.recording.ctypes.data
         c[CLIP] = int(bool(clip))
+        self.limiter = limit
+        if limit is not None:
+            c[LIMIT] = 1
+            for field, a in zip(
+                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
+            ):
+                c[field] = a.ctypes.data
+            t[LIMIT_DELAY] = limit.delay / samplerate
         c[EVENTS] = self.events.ctypes.data
         c[N_EVENTS] = self.events.shape[0]
         t[SAMPLERATE] = samplerate
