@@ -224,6 +224,7 @@ def silence(ring):
         1e-4,
         1.0,
         steal_frames=4,
+        gains=np.ones(3),
     )
     a = arrays
     modal = tuple(a[k] for k in ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2"))
@@ -233,7 +234,12 @@ def silence(ring):
     voice_form = tuple(a[k] for k in ("voices", "voice_gain", "voice_slots", "slot_gain", "tail"))
     events = np.zeros(kernel.N_EVENT_HEADER + 8, dtype=np.int64)
     kernel.silence(
-        modal + (a["level"],), ring_form, a["transformed"], voice_form, a["counters"], events
+        modal + tuple(a[k] for k in ("level", "park_r", "park_i", "park_at")),
+        ring_form,
+        a["transformed"],
+        voice_form,
+        a["counters"],
+        events,
     )
     return events
 

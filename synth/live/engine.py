@@ -498,6 +498,27 @@ class Engine:
         )
         self._native.times[native.MASTER_GAIN] = 10.0 ** (db / 20.0)
 
+    def move_listener(self, position, facing=(1.0, 0.0)) -> None:
+        """Move the game's listener: every body (not removed) hears from ``position``
+        ((x, y, z), m, z > 0 above its plate) from the next block on, its modes' gains
+        ramped over that block (see :meth:`Body.move`). A body of two ears hears through
+        :func:`ears` there, facing ``facing`` ((x, y) in the plate's plane); a body of one
+        ear through a Microphone there. The gains are computed on the calling thread."""
+        position = checks.point("position", position, 3)
+        checks.point("facing", facing, 2, "dimensionless")
+        for body in self.bodies:
+            if body.removed:
+                continue
+            n = len(body._ears)
+            if n == 1:
+                body.move(Microphone(position))
+            elif n == 2:
+                body.move(ears(position, facing))
+            else:
+                raise ParameterError(
+                    f"move_listener places one or two ears; a body has {n}: use body.move"
+                )
+
     def reset_meter(self) -> None:
         """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
         self._native.times[native.PEAK] = 0.0

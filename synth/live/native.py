@@ -115,6 +115,7 @@ BODY_FIELDS = (
     "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
     "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
     "n_records", "n_voice_slots", "tail_frames",
+    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
 )  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
@@ -124,6 +125,7 @@ BODY_FIELDS = (
     B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
     B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
+    B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
 ) = range(len(BODY_FIELDS))  # fmt: skip
 N_BODY = len(BODY_FIELDS)
 
@@ -198,8 +200,9 @@ def _i64(address, n):
 @numba.njit(cache=True, nogil=True)
 def _body_form(record):
     """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
-    takes them: the bank (power table, poles, sample rate), the voice slots' modal states,
-    the pending ring, the PULSE form's transform and pulses, the voices."""
+    takes them: the bank (power table, poles, sample rate, the listener's gains and their
+    sequence numbers), the voice slots' modal states (with their parked modes), the
+    pending ring, the PULSE form's transform and pulses, the voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
@@ -210,6 +213,8 @@ def _body_form(record):
         numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
         numba.carray(_pointer(record[B_POLES]), K, np.complex128),
         scalars[S_FS],
+        numba.carray(_pointer(record[B_HEARD]), (kernel.N_HEARD_ROWS, K), np.float64),
+        _i64(record[B_HEARD_SEQ], 2),
     )
     modal = (
         numba.carray(_pointer(record[B_ZR]), (V, K), np.float64),
@@ -220,6 +225,9 @@ def _body_form(record):
         numba.carray(_pointer(record[B_THRESHOLDS]), (V, K), np.float64),
         numba.carray(_pointer(record[B_THR2]), (V, K), np.float64),
         _f64(record[B_LEVEL], V),
+        numba.carray(_pointer(record[B_PARK_R]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_PARK_I]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_PARK_AT]), (V, K), np.int64),
     )
     ring = (
         _i64(record[B_STATE], R),
@@ -239,6 +247,8 @@ def _body_form(record):
         scalars[S_SIGMA_MAX],
         scalars[S_PERIOD],
         numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
+        numba.carray(_pointer(record[B_HEARD_COEF]), (2, K), np.float64),
+        numba.carray(_pointer(record[B_HEARD_AMPS]), K, np.complex128),
     )
     pulse_form = (
         numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
@@ -516,7 +526,9 @@ def transform_pending(record):
     """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
     a stream starts: hits queued without a stream are not bounded per block)."""
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
-    kernel._transform_pulses(ring, transform, pulse_form, _i64(record[B_TRANSFORMED], 1))
+    transformed = _i64(record[B_TRANSFORMED], 1)
+    # the in-contact response and peak heard with the gains the mixing holds now
+    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -684,7 +696,9 @@ def warm_up() -> None:
     )  # fmt: skip
     c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
     table = power_table(poles, float(fs))
-    arrays = body_arrays(c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4)
+    arrays = body_arrays(
+        c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4, gains=np.ones(1)
+    )
     record = state.add_body(arrays)
     transform_pending(record)
     out = np.zeros((8, 1), dtype=np.float32)
@@ -706,6 +720,7 @@ def body_arrays(
     steal_frames: int,
     mix_frames: int = 4096,
     ears: int = 1,
+    gains: np.ndarray,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
@@ -714,14 +729,17 @@ def body_arrays(
     its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
     output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
     most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
-    both) and the ``ears`` of the body it belongs to."""
+    both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
+    its modes (K,; the mixing applies them at its output, the voices' states are the
+    plate's)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
     fs = float(c.samplerate)
     K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal_state
+    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
     V = zr.shape[0]
+    heard, heard_seq = kernel.heard_arrays(np.asarray(gains, dtype=complex))
     voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
     voice_slots[:, kernel.SL_OWNER] = -1
     counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
@@ -751,4 +769,6 @@ def body_arrays(
         channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
         voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
         n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
+        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
+        heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
     )  # fmt: skip
