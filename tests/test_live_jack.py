@@ -624,3 +624,41 @@ def test_the_limiter_holds_the_ceiling_on_the_stream_as_process_does(jack, scene
     stats = live.stats
     assert stats.limiter_max_reduction_db > 11.0 and stats.limiter_active > 0
     assert stats.impacts_late == 0 and late is not None
+
+
+def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, scene):
+    # the game moves its listener while a hit rings: the samples the callback sent are the
+    # old listener's render up to one block, that block ramps every mode's gain linearly
+    # (old + u (new - old)), and from the next block on they are the new listener's render
+    old = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
+    new = synth.live.ears((0.3, 0.5, 0.3), (1.0, 0.0))
+    seconds = 0.6
+
+    def render(listener):
+        engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0)
+        engine.add(scene.plate, listener=listener).hit(scene.ball, 1.0, at=0.05)
+        return engine.process(int(seconds * FS))
+
+    before, after = render(old), render(new)
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, channels=2, floor_db=-200.0,
+        record_seconds=seconds,
+    )  # fmt: skip
+    body = engine.add(scene.plate, listener=old)
+    with engine:
+        body.hit(scene.ball, 1.0, at=0.05)
+        assert wait_for(lambda: engine.time > 0.2, 10.0)
+        engine.move_listener((0.3, 0.5, 0.3), facing=(1.0, 0.0))
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
+    live = engine.recording
+    tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
+    differs = np.abs(live - before).max(axis=1) > tol
+    first = int(np.argmax(differs))
+    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
+    k = first // BLOCK  # the block that took the new gains
+    np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
+    u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
+    span = slice(k * BLOCK, (k + 1) * BLOCK)
+    ramp = before[span] + u * (after[span] - before[span])
+    np.testing.assert_allclose(live[span], ramp, rtol=0, atol=2 * tol)
+    np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)
