@@ -492,6 +492,7 @@ def test_bench_live_figures_format():
 
     result = dict(
         callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+        move=bench.move_cost(bodies=1, seconds=0.1, every=2),
         transform=bench.transform_cost(repeat=2),
         hit_us=bench.hit_cost(repeat=5),
         add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001),
@@ -501,7 +502,8 @@ def test_bench_live_figures_format():
     assert all(r["played"] >= 1 for r in result["callback"])
     text = bench.format_live(result)
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
-    assert "the audio thread's share of a hit" in text
+    assert "the audio thread's share of a hit" in text and "the listener moving" in text
+    assert result["move"]["moves"] >= 1
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
 
 

@@ -397,24 +397,29 @@ def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a,
 @numba.njit(cache=True, nogil=True)
 def _revive(t0, bank, modal, slots):
     """After the listener moved (its gains for this block just taken): every parked mode
-    that the new gains hear louder than the old ones rings again from its parked plate
-    state decayed to ``t0`` (added to its state if it rings); its debt is cleared, as
-    nothing of it is left out any more. The omission tests then stop the modes the new
-    listener does not hear."""
+    that the new gains hear louder than the old ones, and above its omission share, rings
+    again from its parked plate state decayed to ``t0`` (added to its state if it rings);
+    its debt is cleared, as nothing of it is left out any more. The omission tests then
+    stop the modes the new listener does not hear."""
     poles, fs, heard = bank[1], bank[2], bank[3]
-    zr, zi, active, debt = modal[0], modal[1], modal[2], modal[3]
+    zr, zi, active, debt, thr2 = modal[0], modal[1], modal[2], modal[3], modal[6]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
-    for s in range(slots.shape[0]):
-        if slots[s, SL_OWNER] < 0:
+    for k in range(zr.shape[1]):
+        before = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
+        after = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
+        if after <= before:
             continue
-        for k in range(zr.shape[1]):
+        for s in range(slots.shape[0]):
             pr = park_r[s, k]
             pi = park_i[s, k]
-            if pr == 0.0 and pi == 0.0:
+            if (pr == 0.0 and pi == 0.0) or slots[s, SL_OWNER] < 0:
                 continue
-            before = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
-            after = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
-            if after <= before:
+            # heard now at most |G1| |park| (it decays): below its share it stays parked
+            m2 = (pr * pr + pi * pi) * after
+            if m2 <= thr2[s, k]:
+                continue
+            decay = math.exp(poles[k].real * ((t0 - park_at[s, k]) / fs))
+            if m2 * decay * decay <= thr2[s, k]:
                 continue
             e = np.exp(poles[k] * ((t0 - park_at[s, k]) / fs))
             zr[s, k] += pr * e.real - pi * e.imag
