@@ -653,7 +653,9 @@ def test_a_bus_below_the_ceiling_passes_the_limiter_bit_identical(scene):
     assert true_peak(plain) < 1.0
     engine = limited_engine(scene, gain, limiter=True, ceiling_db=0.0)
     out = engine.process(FS // 10)
-    delay = int(round(0.0015 * FS))
+    from synth.live.limiter import LOOKAHEAD
+
+    delay = int(round(LOOKAHEAD * FS))
     assert np.array_equal(out[delay:], plain[:-delay]) and not out[:delay].any()
     assert engine.stats.limiter_active == 0 and engine.stats.limiter_max_reduction_db == 0.0
 
@@ -669,6 +671,9 @@ def test_the_limiter_s_settings_are_checked(scene):
     ]:
         with pytest.raises(ParameterError, match=rf"{name}=.* must"):
             synth.Engine(samplerate=FS, blocksize=256, **kw)
+    # the default look-ahead is at most one block; without the limiter it is not asked for
+    assert synth.Engine(samplerate=FS, blocksize=16, limiter=True)._native.limiter.delay == 16
+    assert synth.Engine(samplerate=FS, blocksize=16)._native.limiter is None
 
 
 INSPECT_CALLBACK = """

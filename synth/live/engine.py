@@ -62,7 +62,7 @@ from synth.live import kernel, native
 from synth.live.atomics import fence
 from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, ears
 from synth.live.hits import MAX_AHEAD, MAX_GAIN, check_int
-from synth.live.limiter import MIN_ATTACK, LimiterState, min_delay
+from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
 from synth.live.stats import EngineStats
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
@@ -154,11 +154,11 @@ class Engine:
         sounds that much later; :meth:`Engine.hit`'s timing includes it).
     ceiling_db : float
         The limiter's ceiling, dBFS (true peak), in [-20, 0].
-    lookahead : float
+    lookahead : float or None
         The limiter's look-ahead, s: at most one block, at least
         ``synth.live.limiter.min_delay()`` frames (the interpolator's reach on both sides
         and a 4-frame attack); its attack lasts the look-ahead less the interpolator's
-        reach.
+        reach. None: ``synth.live.limiter.LOOKAHEAD`` s, or one block if shorter.
     callback : "native" or "python"
         The stream's callback: compiled code that PortAudio calls without Python (default;
         needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
@@ -207,7 +207,7 @@ class Engine:
         clip: bool = True,
         limiter: bool = False,
         ceiling_db: float = -1.0,
-        lookahead: float = 0.0015,
+        lookahead: float | None = None,
         callback: str = "native",
         max_bodies: int = MAX_BODIES,
         max_voices: int = MAX_VOICES,
@@ -312,14 +312,17 @@ class Engine:
         ceiling = checks.in_range(
             "ceiling_db", ceiling_db, -20.0, 0.0, "dBFS", lo_open=False, hi_open=False
         )
-        seconds = checks.positive("lookahead", lookahead, "s")
-        frames = int(round(seconds * self.samplerate))
+        if lookahead is None:
+            frames = min(int(round(LOOKAHEAD * self.samplerate)), self.blocksize)
+        else:
+            frames = int(round(checks.positive("lookahead", lookahead, "s") * self.samplerate))
         lo, hi = min_delay(), self.blocksize
-        if not lo <= frames <= hi:
+        if limit and not lo <= frames <= hi:
             raise ParameterError(
                 f"lookahead={lookahead!r} s is {frames} frames at samplerate="
-                f"{self.samplerate} Hz; it must be in [{lo}, {hi}] frames (at least the "
-                f"interpolator's reach and a {MIN_ATTACK}-frame attack, at most one block)"
+                f"{self.samplerate} Hz with blocksize={self.blocksize}; it must be in "
+                f"[{lo}, {hi}] frames (at least the interpolator's reach and a "
+                f"{MIN_ATTACK}-frame attack, at most one block)"
             )
         if not limit:
             return None

@@ -49,6 +49,9 @@ RELEASE_DB_PER_S = 60.0
 #: the interpolator's sum of |taps| (below 2) times that, so 2^-22 keeps the float32
 #: output's sample and true peaks at or below the ceiling.
 FLOAT32_MARGIN = 2.0**-22
+#: The default look-ahead, s (or one block if shorter): 72 frames at 48 kHz, of which 60
+#: of attack, short next to a block and to the latency a game accepts.
+LOOKAHEAD = 0.0015
 #: Fewest attack frames (a look-ahead shorter than ``2 * REACH + MIN_ATTACK`` is refused).
 MIN_ATTACK = 4
 
