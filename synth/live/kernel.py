@@ -1,19 +1,21 @@
 """The audio thread's work: one compiled call per body per block, one to write the output.
 
 A body has a fixed number of voice slots, each a modal state as the offline modal bank's
-(:mod:`synth.sound.modal_bank`): its modes' complex amplitudes, which of them ring, their
-omission debts and thresholds. A voice (a hit, or a whole drop: one handle) takes a free
-slot when its first impact joins, or steals the one of lowest priority, of those the
-oldest (:func:`_victim`; a voice of lower priority than every ringing one is refused),
-and frees it when
-every mode has fallen below its share of the omission floor relative to the voice's peak,
-or when its stop fade ends; then, with nothing of it pending, it posts a voice-ended event.
-:func:`mix_body` advances each slot over one block with the bank's own steps
-(:func:`~synth.sound.modal_bank.ring_modes` between injections,
-:func:`~synth.sound.modal_bank.inject_amplitudes` at each impact that falls in the block),
-so a voice's impacts played block by block are the offline render of the same impacts,
-up to the rounding of the state's advance (the segments end at block boundaries instead
-of the bank's tiles), times the voice's gain (ramped over a block) and fades.
+(:mod:`synth.sound.modal_bank`), of the plate itself (without the listener's gains): its
+modes' complex amplitudes, which of them ring, their omission debts and thresholds, and
+the parked states of the modes that stopped. A voice (a hit, or a whole drop: one handle)
+takes a free slot when its first impact joins, or steals the one of lowest priority, of
+those the oldest (:func:`_victim`; a voice of lower priority than every ringing one is
+refused), and frees it when every mode has fallen below its share of the omission floor
+relative to the voice's peak, or when its stop fade ends; then, with nothing of it
+pending, it posts a voice-ended event. :func:`mix_body` advances each slot over one block
+with the bank's steps taken through the listener's gains (:func:`ring_heard`: the bank's
+:func:`~synth.sound.modal_bank.ring_modes` with each mode's complex gain at its output,
+ramped over the block after the listener moved; :func:`_inject_heard` at each impact
+that falls in the block), so a voice's impacts played block by block are the offline
+render of the same impacts heard by the same listener, up to the rounding of the state's
+advance (the segments end at block boundaries instead of the bank's tiles), times the
+voice's gain (ramped over a block) and fades.
 
 Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
 into mode amplitudes first, at the start of the block, by the renderer's transform
