@@ -232,6 +232,7 @@ def silence(ring):
         1e-4,
         1.0,
         steal_frames=4,
+        gains=np.ones(3),
     )
     a = arrays
     modal = tuple(a[k] for k in ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2"))
@@ -241,7 +242,12 @@ def silence(ring):
     voice_form = tuple(a[k] for k in ("voices", "voice_gain", "voice_slots", "slot_gain", "tail"))
     events = np.zeros(kernel.N_EVENT_HEADER + 8, dtype=np.int64)
     kernel.silence(
-        modal + (a["level"],), ring_form, a["transformed"], voice_form, a["counters"], events
+        modal + tuple(a[k] for k in ("level", "park_r", "park_i", "park_at")),
+        ring_form,
+        a["transformed"],
+        voice_form,
+        a["counters"],
+        events,
     )
     return events
 
@@ -494,6 +500,7 @@ def test_bench_live_figures_format():
 
     result = dict(
         callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),
+        move=bench.move_cost(bodies=1, seconds=0.1, every=2),
         transform=bench.transform_cost(repeat=2),
         hit_us=bench.hit_cost(repeat=5),
         add_s=dict(cold=1.0, warm_disk=0.01, warm_memory=0.001),
@@ -503,7 +510,8 @@ def test_bench_live_figures_format():
     assert all(r["played"] >= 1 for r in result["callback"])
     text = bench.format_live(result)
     assert "1 body:" in text and "hit() on the calling thread" in text and "not measured" in text
-    assert "the audio thread's share of a hit" in text
+    assert "the audio thread's share of a hit" in text and "the listener moving" in text
+    assert result["move"]["moves"] >= 1
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
 
 
@@ -616,6 +624,79 @@ def test_the_master_bus_never_sends_full_scale(scene):
     assert np.max(np.abs(quiet.process(FS // 10))) > 1.0  # as asked: nothing done
 
 
+def limited_engine(scene, gain, **kw):
+    """A stereo engine (the ears of the docs' example) with one hit at 10 ms on the
+    scene's plate at body ``gain``; the keywords go to Engine."""
+    engine = synth.Engine(samplerate=FS, channels=2, clip=False, **kw)
+    body = engine.add(scene.plate, listener=synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0)))
+    body.gain = gain
+    body.hit(scene.ball, 2.0, at=0.01)
+    return engine
+
+
+def unit_peak(scene):
+    """The bus' sample peak of :func:`limited_engine` at body gain 1, no limiter."""
+    return float(np.max(np.abs(limited_engine(scene, 1.0).process(FS // 10))))
+
+
+@pytest.mark.parametrize("ceiling_db", [0.0, -3.0])
+def test_the_limiter_keeps_a_burst_of_plus_12_dbfs_at_its_ceiling(scene, ceiling_db):
+    # a hit whose bus peaks at +12 dBFS: with the limiter, no sample and no 4x-oversampled
+    # inter-sample point above the ceiling reaches the device (the float32 samples sent);
+    # its gain reduction covers the burst's true peak over the ceiling, and it is counted
+    from synth.live.limiter import true_peak
+
+    gain = 10.0 ** (12.0 / 20.0) / unit_peak(scene)
+    loud = limited_engine(scene, gain).process(FS // 10)
+    assert 10.0 ** (11.99 / 20.0) <= np.max(np.abs(loud)) <= 10.0 ** (12.01 / 20.0)
+    engine = limited_engine(scene, gain, limiter=True, ceiling_db=ceiling_db)
+    out = engine.process(FS // 10)
+    ceiling = 10.0 ** (ceiling_db / 20.0)
+    assert out.dtype == np.float32
+    assert np.max(np.abs(out)) <= ceiling
+    assert true_peak(out) <= ceiling
+    stats = engine.stats
+    assert stats.peak == pytest.approx(float(np.max(np.abs(loud))), rel=1e-6)
+    needed = 20.0 * np.log10(true_peak(loud) / ceiling)
+    assert stats.limiter_max_reduction_db >= needed - 1e-6
+    assert stats.limiter_active > 0 and stats.clipped == 0
+    # the limiter is not a clipper: the loudest part keeps its shape, within 1 dB of the
+    # ceiling (the gain follows the envelope, it does not flatten the waveform)
+    assert np.max(np.abs(out)) >= ceiling * 10.0 ** (-1.0 / 20.0)
+
+
+def test_a_bus_below_the_ceiling_passes_the_limiter_bit_identical(scene):
+    # 6 dB below the ceiling (true peak): the limiter only delays the bus by its look-ahead
+    from synth.live.limiter import true_peak
+
+    gain = 0.5 / unit_peak(scene)
+    plain = limited_engine(scene, gain).process(FS // 10)
+    assert true_peak(plain) < 1.0
+    engine = limited_engine(scene, gain, limiter=True, ceiling_db=0.0)
+    out = engine.process(FS // 10)
+    from synth.live.limiter import LOOKAHEAD
+
+    delay = int(round(LOOKAHEAD * FS))
+    assert np.array_equal(out[delay:], plain[:-delay]) and not out[:delay].any()
+    assert engine.stats.limiter_active == 0 and engine.stats.limiter_max_reduction_db == 0.0
+
+
+def test_the_limiter_s_settings_are_checked(scene):
+    for kw, name in [
+        (dict(limiter=1), "limiter"),
+        (dict(limiter=True, ceiling_db=0.5), "ceiling_db"),
+        (dict(limiter=True, ceiling_db=-21.0), "ceiling_db"),
+        (dict(limiter=True, lookahead=0.0), "lookahead"),
+        (dict(limiter=True, lookahead=256 / FS + 1e-3), "lookahead"),  # beyond one block
+        (dict(limiter=True, lookahead=8 / FS), "lookahead"),  # shorter than its reach
+    ]:
+        with pytest.raises(ParameterError, match=rf"{name}=.* must"):
+            synth.Engine(samplerate=FS, blocksize=256, **kw)
+    # the default look-ahead is at most one block; without the limiter it is not asked for
+    assert synth.Engine(samplerate=FS, blocksize=16, limiter=True)._native.limiter.delay == 16
+    assert synth.Engine(samplerate=FS, blocksize=16)._native.limiter is None
+
+
 INSPECT_CALLBACK = """
 from synth.live import native
 native.warm_up()
@@ -624,7 +705,7 @@ for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc",
     print(symbol, symbol in ir)
 print("clock_gettime", "clock_gettime" in ir)
 print("run_block", "run_block" in ir)
-for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
     print(callee, callee in ir)
 """
 
@@ -649,8 +730,8 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
     assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
     # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
-    # that take and steal slots are inlined into mix_body)
-    for callee in ("mix_body", "_advance", "_add_slot", "_settle"):
+    # that take and steal slots are inlined into mix_body), and the master bus' limiter
+    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
         assert found.pop(callee) == "True", callee
     assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
     assert set(found.values()) == {"False"}, found
@@ -1219,3 +1300,81 @@ def test_a_removed_stereo_body_frees_both_ears_and_a_new_one_takes_their_room(sc
     again = engine.add(scene.plate, listener=head)
     assert again.hit(scene.ball, 1.0, at=engine.time) is not None
     assert np.any(engine.process(FS // 10))
+
+
+@pytest.mark.parametrize("cycles", [0.02, 0.1, 0.2, 0.25, 0.3, 0.35])
+def test_the_true_peak_estimate_reads_a_sine_s_peak_between_its_samples(cycles):
+    # a unit sine at ``cycles`` per sample, every phase (faded in and out, so that its ends
+    # add no overshoot): 4x oversampling misses the crest by at most an eighth of a sample,
+    # so it reads at least cos(2 pi cycles / 8) of it (closed form); its 12-tap interpolator
+    # adds at most 0.2 % of passband ripple up to 0.35 of the sample rate
+    from synth.live.limiter import true_peak
+
+    n = np.arange(4800)
+    ramp = np.sin(0.5 * np.pi * np.arange(1000) / 1000) ** 2
+    fade = np.concatenate([ramp, np.ones(n.size - 2000), ramp[::-1]])
+    for phase in np.linspace(0.0, np.pi, 17):
+        x = np.sin(2 * np.pi * cycles * n + phase) * fade
+        assert np.cos(2 * np.pi * cycles / 8) - 1e-9 <= true_peak(x) <= 1.002
+
+
+def heard_by(scene, listener, floor_db, move_to=None, at_block=0, blocks=60):
+    """A stereo engine's output of one hit at 1 ms on the scene's plate heard through
+    ``listener`` (two ears), moved to ``move_to`` before block ``at_block`` (process() in
+    blocks of the engine's 256 frames)."""
+    engine = synth.Engine(samplerate=FS, channels=2, floor_db=floor_db)
+    body = engine.add(scene.plate, listener=listener)
+    body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+    out = []
+    for b in range(blocks):
+        if move_to is not None and b == at_block:
+            body.move(move_to)
+        out.append(engine.process(256))
+    return np.concatenate(out), body
+
+
+def test_a_listener_moved_mid_ring_ramps_every_mode_to_its_new_gain(scene):
+    # the voices ring the plate's modal state and each ear applies its listener's gains:
+    # moved at a block boundary mid-ring, the block before is the old listener's render,
+    # the block after the new one's (every mode at its new gain, to float32 rounding: the
+    # sum is linear in the gains), and the block between ramps each mode's gain linearly
+    # (so the output is old + u (new - old), u = 1/n .. 1: no step beyond the ramp's)
+    old = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
+    new = synth.live.ears((0.3, 0.5, 0.3), (1.0, 0.0))
+    k, n = 20, 256
+    moved, body = heard_by(scene, old, EXACT_DB, move_to=new, at_block=k)
+    before, _ = heard_by(scene, old, EXACT_DB)
+    after, _ = heard_by(scene, new, EXACT_DB)
+    tol = 2 * float32_ulp_of_peak(np.concatenate([before, after]))
+    np.testing.assert_allclose(moved[: k * n], before[: k * n], rtol=0, atol=tol)
+    np.testing.assert_allclose(moved[(k + 1) * n :], after[(k + 1) * n :], rtol=0, atol=tol)
+    u = (np.arange(1, n + 1) / n)[:, None]
+    ramp = before[k * n : (k + 1) * n] + u * (after - before)[k * n : (k + 1) * n]
+    np.testing.assert_allclose(moved[k * n : (k + 1) * n], ramp, rtol=0, atol=2 * tol)
+    assert np.max(np.abs(after - before)[(k + 1) * n :]) > 100 * tol  # the move is heard
+    assert body.listener == new
+    with pytest.raises(ParameterError, match="listener"):
+        body.move(synth.Microphone((0.3, 0.5, 0.3)))  # one listener for two ears
+
+
+def test_modes_the_old_listener_left_out_ring_for_the_new_one(scene):
+    # above the plate's centre the antisymmetric modes are not heard: at the default floor
+    # they stop at once (their heard level is nil) and park their plate state; moved to an
+    # ear off the centre, they ring again at their new gain. After the ramp, the output is
+    # the new listener's exact render (no omission) within the omission budget (each
+    # mode's share of the floor times the voice's peak as first heard, summed: floor x
+    # peak) and float32 rounding; rescaling heard states mode by mode would have lost them
+    cx, cy = scene.plate.centre
+    centre = (synth.Microphone((cx, cy, 0.3)), synth.Microphone((cx, cy, 0.3)))
+    new = synth.live.ears((0.25, 0.2, 0.3), (1.0, 0.0))
+    k, n, floor_db = 10, 256, -80.0
+    moved, body = heard_by(scene, centre, floor_db, move_to=new, at_block=k)
+    exact, _ = heard_by(scene, new, EXACT_DB)
+    first, _ = heard_by(scene, centre, floor_db, blocks=k)
+    level = float(np.max(body._ears[0]._state_arrays[7]))  # the voice's heard peak
+    budget = 10.0 ** (floor_db / 20.0) * level  # level: output units (full scale 1)
+    tol = budget + 2 * float32_ulp_of_peak(exact)
+    assert np.max(np.abs(moved - exact)[(k + 1) * n :]) <= tol
+    # the modes left out above the centre are what the new listener hears most of
+    assert np.max(np.abs(exact[(k + 1) * n :])) > 10 * tol
+    assert np.max(np.abs(first)) < np.max(np.abs(exact[: k * n]))

@@ -582,3 +582,83 @@ def test_priorities_and_the_engine_cap_hold_while_the_stream_runs(jack, scene):
     live = engine.recording[:, 0].astype(float)
     tol = 4 * float(np.spacing(np.float32(np.max(np.abs(want)))))
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
+
+
+def test_the_limiter_holds_the_ceiling_on_the_stream_as_process_does(jack, scene):
+    # a stereo hit at +12 dBFS through the stream with the true-peak limiter: the samples
+    # the callback sent are process()'s of the same hit (the same compiled bus), none and
+    # no 4x-oversampled point between them above the ceiling; a hit without ``at`` counts
+    # the look-ahead in its latency (it is not played late)
+    from synth.live.limiter import true_peak
+
+    ears = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
+
+    def engine_with_hit(**kw):
+        engine = synth.Engine(
+            samplerate=FS, blocksize=BLOCK, channels=2, clip=False, limiter=True,
+            ceiling_db=-1.0, **kw,
+        )  # fmt: skip
+        body = engine.add(scene.plate, listener=ears, gain=1.0)
+        return engine, body
+
+    probe, body = engine_with_hit()
+    body.hit(scene.ball, 2.0, at=0.05)
+    probe.process(FS // 5)
+    gain = 10.0 ** (12.0 / 20.0) / probe.stats.peak  # the bus' peak before the limiter
+    live, body = engine_with_hit(device=jack.device, record_seconds=0.5)
+    body.gain = gain
+    with live:
+        body.hit(scene.ball, 2.0, at=0.05)
+        assert wait_for(lambda: live.recorded >= live.recording.shape[0], 10.0)
+        late = body.hit(scene.ball, 2.0)  # on the stream's own clock
+        assert wait_for(lambda: live.stats.impacts_played == 2, 5.0)
+    offline, body = engine_with_hit()
+    body.gain = gain
+    body.hit(scene.ball, 2.0, at=0.05)
+    want = offline.process(FS // 2)
+    ceiling = 10.0 ** (-1.0 / 20.0)
+    assert offline.stats.peak > 10.0 ** (11.0 / 20.0)  # the bus before the limiter
+    tol = 4 * float(np.spacing(np.float32(ceiling)))
+    np.testing.assert_allclose(live.recording, want, rtol=0, atol=tol)
+    assert np.max(np.abs(live.recording)) <= ceiling and true_peak(live.recording) <= ceiling
+    stats = live.stats
+    assert stats.limiter_max_reduction_db > 11.0 and stats.limiter_active > 0
+    assert stats.impacts_late == 0 and late is not None
+
+
+def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, scene):
+    # the game moves its listener while a hit rings: the samples the callback sent are the
+    # old listener's render up to one block, that block ramps every mode's gain linearly
+    # (old + u (new - old)), and from the next block on they are the new listener's render
+    old = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
+    new = synth.live.ears((0.3, 0.5, 0.3), (1.0, 0.0))
+    seconds = 0.6
+
+    def render(listener):
+        engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0)
+        engine.add(scene.plate, listener=listener).hit(scene.ball, 1.0, at=0.05)
+        return engine.process(int(seconds * FS))
+
+    before, after = render(old), render(new)
+    engine = synth.Engine(
+        samplerate=FS, blocksize=BLOCK, device=jack.device, channels=2, floor_db=-200.0,
+        record_seconds=seconds,
+    )  # fmt: skip
+    body = engine.add(scene.plate, listener=old)
+    with engine:
+        body.hit(scene.ball, 1.0, at=0.05)
+        assert wait_for(lambda: engine.time > 0.2, 10.0)
+        engine.move_listener((0.3, 0.5, 0.3), facing=(1.0, 0.0))
+        assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
+    live = engine.recording
+    tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
+    differs = np.abs(live - before).max(axis=1) > tol
+    first = int(np.argmax(differs))
+    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
+    k = first // BLOCK  # the block that took the new gains
+    np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
+    u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
+    span = slice(k * BLOCK, (k + 1) * BLOCK)
+    ramp = before[span] + u * (after[span] - before[span])
+    np.testing.assert_allclose(live[span], ramp, rtol=0, atol=2 * tol)
+    np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)

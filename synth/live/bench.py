@@ -2,6 +2,8 @@
 
 * the callback's mixing cost per block for 1, 4 and 16 bodies of the default preset's plate
   (all ringing: each is hit ten times a second), as a fraction of the block's duration;
+* the listener moving: the cost of a block that ramps the listener's gains and of one that
+  does not, and ``Engine.move_listener`` on the calling thread;
 * the audio thread's share of a hit (its pulse transformed into mode amplitudes), and the
   cost of a block that takes the most hits a running stream allows;
 * ``Body.hit`` on the calling thread (median over many calls; at one impact point, and at a
@@ -108,6 +110,64 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
             )
         )
     return rows
+
+
+def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25, seed=3) -> dict:
+    """The listener moving: ``bodies`` stereo bodies (two ears each) ringing as in
+    :func:`callback_cost`, the listener moved to a new point every ``every`` blocks
+    (:meth:`Engine.move_listener`, between two blocks): the mixing cost of the blocks
+    that ramp the gains and of the others (mean, fraction of the block), and
+    ``move_listener`` on the calling thread (median, s; new radiation gains for every
+    ear, into a temporary cache directory)."""
+    from synth.live.body import ears
+    from synth.live.engine import Engine
+
+    scene = _scene()
+    rng = np.random.default_rng(seed)
+    block = blocksize / samplerate
+    saved = os.environ.get("SYNTH_CACHE_DIR")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["SYNTH_CACHE_DIR"] = tmp
+        try:
+            engine = Engine(samplerate=samplerate, blocksize=blocksize, channels=2)
+            head = np.array([0.6, 0.25, 0.4])
+            schedule = []
+            for _ in range(bodies):
+                body = engine.add(scene.plate, listener=ears(tuple(head), (0.0, 1.0)))
+                for t in np.arange(block, seconds, 0.1) + rng.uniform(0.0, 0.1):
+                    pos = (float(rng.uniform(0.1, 1.1)), float(rng.uniform(0.05, 0.44)))
+                    body.prepare(pos)
+                    schedule.append((float(t), body, float(rng.uniform(0.3, 2.0)), pos))
+            schedule.sort(key=lambda hit: hit[0])
+            out = np.zeros((blocksize, 2), dtype=np.float32)
+            ramp, still, moves = [], [], []
+            k = 0
+            for b in range(int(seconds * samplerate / blocksize)):
+                while k < len(schedule) and schedule[k][0] < (b + 2) * block:
+                    t, body, v, pos = schedule[k]
+                    body.hit(scene.ball, v, at=max(t, (b + 1) * block), position=pos)
+                    k += 1
+                moved = b % every == every - 1
+                if moved:
+                    head = head + rng.uniform(-0.02, 0.02, 3)
+                    t = time.perf_counter()
+                    engine.move_listener(tuple(head), facing=(0.0, 1.0))
+                    moves.append(time.perf_counter() - t)
+                t = time.perf_counter()
+                engine._mix_into(out, blocksize)
+                (ramp if moved else still).append((time.perf_counter() - t) / block)
+        finally:
+            if saved is None:
+                os.environ.pop("SYNTH_CACHE_DIR", None)
+            else:
+                os.environ["SYNTH_CACHE_DIR"] = saved
+    return dict(
+        bodies=bodies,
+        ramp=float(np.mean(ramp)),
+        still=float(np.mean(still)),
+        move_s=float(np.median(moves)),
+        moves=len(moves),
+    )
 
 
 def transform_cost(samplerate=48000, blocksize=256, repeat=60) -> dict:
@@ -318,7 +378,11 @@ def run_live(seconds=30.0) -> dict:
     from synth.live.jack import jackd_available
 
     result = dict(
-        add_s=add_times(), callback=callback_cost(), transform=transform_cost(), hit_us=hit_cost()
+        add_s=add_times(),
+        callback=callback_cost(),
+        move=move_cost(),
+        transform=transform_cost(),
+        hit_us=hit_cost(),
     )
     if jackd_available():
         result["jack"] = jack_run(seconds=seconds)
@@ -368,6 +432,15 @@ def format_live(result) -> str:
         f"{widest.get('memory', 0) / 2**20:.2f} MiB (Body.memory: modal state, pending ring "
         f"of {_max_pending()} impacts, workspace)"
     )
+    m = result.get("move")
+    if m is not None:
+        lines.append(
+            f"- the listener moving ({m['bodies']} stereo bodies ringing, "
+            f"Engine.move_listener every few blocks, {m['moves']} moves): a block that ramps "
+            f"every mode's gain at every ear costs {100 * m['ramp']:.2f} % of the block, one "
+            f"that does not {100 * m['still']:.2f} %; move_listener on the calling thread "
+            f"(new radiation gains for each ear): median {m['move_s'] * 1e3:.1f} ms"
+        )
     x = result["transform"]
     lines += [
         f"- the audio thread's share of a hit (its pulse turned into {x['modes']} mode "

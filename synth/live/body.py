@@ -3,7 +3,8 @@ and the hit and the drop that fill them on the calling thread."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import threading
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -13,6 +14,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
 from synth.live import kernel, native
+from synth.live.atomics import fence
 from synth.live.hits import (
     HIT_RTOL,
     MAX_GAIN,
@@ -31,7 +33,7 @@ from synth.live.voice import (
 )
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
-from synth.physics.scene import Ball, Contact, Microphone, Plate
+from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
 from synth.sound.modal_bank import (
     bank_coefficients,
     impact_excitation,
@@ -39,6 +41,7 @@ from synth.sound.modal_bank import (
     pulse_layout,
     samples_in_contact,
 )
+from synth.sound.render import modal_model
 
 if TYPE_CHECKING:
     from synth.live.engine import Engine
@@ -61,10 +64,13 @@ WARM_UP_BALL_RADIUS = 0.005
 
 @dataclass(frozen=True)
 class _Prepared:
-    """A body's excitation at one impact point: the bank coefficients and the
-    accelerometer's direct-term line (0 for a microphone)."""
+    """A body's excitation at one impact point: the bank coefficients heard by its
+    listener now (``coefficients``), the plate's own (``plate``: without the listener's
+    gains; the voices' modal states take these) and the accelerometer's direct-term line
+    (0 for a microphone)."""
 
     coefficients: object
+    plate: object
     mass_line: float
 
 
@@ -96,6 +102,7 @@ class Body:
         poles = np.ascontiguousarray(model.poles)
         self._scale = 1.0 / PHYSICAL_FULL_SCALE[model.units]
         self._prepared: dict = {}
+        self._plate_coefficients: dict = {}  # position -> (excitation, plate coefficients)
         self._solvers: dict = {}
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
@@ -109,6 +116,7 @@ class Body:
         )
         self._state_arrays = kernel.body_state(poles.size, voices)
         self._warm_up()
+        self._move_lock = threading.Lock()  # between the game's threads moving the listener
         arrays = native.body_arrays(
             coefficients,
             power_table(poles, float(fs)),
@@ -120,7 +128,10 @@ class Body:
             steal_frames=engine._steal_frames,
             mix_frames=engine._native.mix.shape[1],
             ears=ears,
+            gains=model.output,
         )
+        self._heard = arrays["heard"]
+        self._heard_seq = arrays["heard_seq"]
         self._counters = arrays["counters"]
         self._slots = arrays["voice_slots"]
         self._scalars = arrays["scalars"]
@@ -233,19 +244,87 @@ class Body:
 
     def _prepare(self, position) -> _Prepared:
         """The bank coefficients for impacts at ``position`` (checked; kept for the last
-        ``KEPT_POINTS`` points)."""
+        ``KEPT_POINTS`` points): the plate's, and those heard by the listener now."""
         p = self._prepared.get(position)
         if p is None:
-            excitation = self._model.excitation(position)
-            direct = self._model.direct(excitation)
-            coefficients = bank_coefficients(
-                self._model.poles, excitation, self._model.output, self._engine.samplerate
+            model = self._model
+            plate = self._plate_coefficients.get(position)
+            if plate is None:
+                excitation = model.excitation(position)
+                ones = np.ones(model.poles.size)
+                plate = (
+                    excitation,
+                    bank_coefficients(model.poles, excitation, ones, self._engine.samplerate),
+                )
+                if len(self._plate_coefficients) >= KEPT_POINTS:
+                    self._plate_coefficients.pop(next(iter(self._plate_coefficients)))
+                self._plate_coefficients[position] = plate
+            excitation, c = plate
+            coef = (c.coef_re + 1j * c.coef_im) * model.output
+            heard = replace(
+                c,
+                coef_re=np.ascontiguousarray(coef.real),
+                coef_im=np.ascontiguousarray(coef.imag),
             )
-            p = _Prepared(coefficients, float(np.sum(direct.real)) if direct is not None else 0.0)
+            direct = model.direct(excitation)
+            p = _Prepared(heard, c, float(np.sum(direct.real)) if direct is not None else 0.0)
             if len(self._prepared) >= KEPT_POINTS:
                 self._prepared.pop(next(iter(self._prepared)))
             self._prepared[position] = p
         return p
+
+    def move(self, listener) -> None:
+        """Hear the body through ``listener`` from now on (the game's listener moved): an
+        Accelerometer or a Microphone for a body of one ear, else a sequence of one per
+        ear (:func:`ears`), of the units the body was added with. Each mode's gain at each
+        ear goes from the old listener's to the new one's linearly over the next block
+        mixed (no click); the voices' modal states are the plate's, so every mode rings on
+        at its new level, also one the old listener did not hear. The gains are computed
+        here, on the calling thread (the radiation of each mode to the new point)."""
+        listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
+        if len(listeners) != len(self._ears):
+            raise ParameterError(
+                f"listener: {len(listeners)} listener(s) for a body of {len(self._ears)} ear(s)"
+            )
+        if self._removed:
+            raise SynthError("the body was removed: it cannot move its listener")
+        engine = self._engine
+        models = []
+        for i, (ear, li) in enumerate(zip(self._ears, listeners)):
+            if isinstance(li, Accelerometer):
+                self.plate.check_position(li.position, f"listener[{i}].position")
+            elif not isinstance(li, Microphone):
+                raise ParameterError(
+                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
+                )
+            model = modal_model(
+                self.plate, li, samplerate=engine.samplerate, max_frequency=engine.max_frequency
+            )
+            if model.units != ear._model.units:
+                raise ParameterError(
+                    f"listener[{i}]={li!r} hears in {model.units}, the body's ear in "
+                    f"{ear._model.units}: add a new body for another kind of listener"
+                )
+            models.append(model)
+        for ear, li, model in zip(self._ears, listeners, models):
+            ear._hand_over_gains(li, model)
+        self.listener = listeners if len(listeners) > 1 else listeners[0]
+
+    def _hand_over_gains(self, listener, model) -> None:
+        """Write the new listener's gains for the mixing (a sequence lock: odd while they
+        are written; the mixing takes them whole at a block's start, or at the next)."""
+        with self._move_lock:
+            self._model = model
+            self._prepared = {}
+            gains = np.asarray(model.output, dtype=complex)
+            seq = self._heard_seq
+            seq[kernel.SEQ_PUT] += 1
+            fence()
+            self._heard[kernel.HPR] = gains.real
+            self._heard[kernel.HPI] = gains.imag
+            fence()
+            seq[kernel.SEQ_PUT] += 1
+            self.listener = listener
 
     def prepare(self, *positions) -> None:
         """Prepare impact points ahead of hits there (``(x, y)``, m from a plate corner):
@@ -289,13 +368,21 @@ class Body:
         if slot < 0:
             return False
         try:
+            # the plate's amplitudes for the voice's state; the response and peak heard
+            impact_excitation(
+                prepared.plate,
+                result,
+                onset,
+                weight=weight,
+                pulse_points=self._engine.pulse_points,
+                amplitudes=ring.amplitudes[slot],
+            )
             ex = impact_excitation(
                 prepared.coefficients,
                 result,
                 onset,
                 weight=weight,
                 pulse_points=self._engine.pulse_points,
-                amplitudes=ring.amplitudes[slot],
                 response=ring.response[slot],
             )
         except BaseException:
@@ -303,7 +390,7 @@ class Body:
                 ring.release(slot)
             raise
         g = self._scale * gain
-        amplitudes, response = ex.amplitudes, ex.response  # views of the slot
+        amplitudes, response = ring.amplitudes[slot], ex.response  # views of the slot
         amplitudes *= g
         if prepared.mass_line:
             response += ex.forces * prepared.mass_line
@@ -332,8 +419,8 @@ class Body:
             return False
         try:
             result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M, out=ring.samples[slot])
-            ring.coefficients[slot, 0] = c.coef_re
-            ring.coefficients[slot, 1] = c.coef_im
+            ring.coefficients[slot, 0] = prepared.plate.coef_re  # the audio thread hears them
+            ring.coefficients[slot, 1] = prepared.plate.coef_im
             p = ring.pulse[slot]
             p[kernel.STEP] = lay.step
             p[kernel.OFFSET] = lay.offset

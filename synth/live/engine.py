@@ -25,10 +25,12 @@ Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the
 calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
 times each hit's gain, its voice's gain and its body's gain (settable at run time, ramped
 over a block) and the master gain, so bodies and hits keep their true level relation. The
-master bus ends in a stated soft clipper (identity up to -1 dBFS, a tanh knee above;
-``clip=False`` turns it off), so no sample above full scale reaches the device; its peak
-and the samples that reached full scale before it are in :attr:`Engine.stats`
-(:mod:`synth.live.stats`).
+master bus ends in an optional true-peak limiter (``limiter=True``: a look-ahead of at
+most one block keeps the bus' sample and 4x-oversampled inter-sample peaks at or below
+``ceiling_db``; :mod:`synth.live.limiter`), then a stated soft clipper (identity up to
+-1 dBFS, a tanh knee above; ``clip=False`` turns it off), so no sample above full scale
+reaches the device; its peak, the samples that reached full scale before the clipper
+and the limiter's gain reduction are in :attr:`Engine.stats` (:mod:`synth.live.stats`).
 
 The callback allocates nothing, touches no Python object, file or lock: PortAudio calls a
 numba ``cfunc`` with the address of the engine's arrays (:mod:`synth.live.stream` opens
@@ -60,6 +62,7 @@ from synth.live import kernel, native
 from synth.live.atomics import fence
 from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, ears
 from synth.live.hits import MAX_AHEAD, MAX_GAIN, check_int
+from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
 from synth.live.stats import EngineStats
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
@@ -145,6 +148,17 @@ class Engine:
     clip : bool
         Soft-clip the master bus (identity up to -1 dBFS, a tanh knee above it that stays
         below full scale); False passes it as is (PortAudio's conversion then clips).
+    limiter : bool
+        Run the master bus through the true-peak limiter (:mod:`synth.live.limiter`)
+        before the clipper: its output delays the bus by ``lookahead`` (every hit
+        sounds that much later; :meth:`Engine.hit`'s timing includes it).
+    ceiling_db : float
+        The limiter's ceiling, dBFS (true peak), in [-20, 0].
+    lookahead : float or None
+        The limiter's look-ahead, s: at most one block, at least
+        ``synth.live.limiter.min_delay()`` frames (the interpolator's reach on both sides
+        and a 4-frame attack); its attack lasts the look-ahead less the interpolator's
+        reach. None: ``synth.live.limiter.LOOKAHEAD`` s, or one block if shorter.
     callback : "native" or "python"
         The stream's callback: compiled code that PortAudio calls without Python (default;
         needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
@@ -191,6 +205,9 @@ class Engine:
         record_seconds: float = 0.0,
         master_gain_db: float = 0.0,
         clip: bool = True,
+        limiter: bool = False,
+        ceiling_db: float = -1.0,
+        lookahead: float | None = None,
         callback: str = "native",
         max_bodies: int = MAX_BODIES,
         max_voices: int = MAX_VOICES,
@@ -239,6 +256,7 @@ class Engine:
         )
         if not isinstance(clip, bool):
             raise ParameterError(f"clip={clip!r} must be True or False")
+        limit = self._limiter_state(limiter, ceiling_db, lookahead)
         self.callback = checks.choice("callback", callback, CALLBACKS)
         if on_device_lost is not None and not callable(on_device_lost):
             raise ParameterError(f"on_device_lost={on_device_lost!r} must be None or callable")
@@ -268,6 +286,7 @@ class Engine:
             fade_frames=max(1, int(round(fade_s * self.samplerate))),
             clip=clip,
             events=EVENT_CAPACITY,
+            limit=limit,
         )
         self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()
@@ -285,6 +304,34 @@ class Engine:
         self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
         self._events_lock = threading.Lock()  # between readers of ended()
         self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
+
+    def _limiter_state(self, limit, ceiling_db, lookahead) -> LimiterState | None:
+        """The master bus' limiter (checked), or None without one."""
+        if not isinstance(limit, bool):
+            raise ParameterError(f"limiter={limit!r} must be True or False")
+        ceiling = checks.in_range(
+            "ceiling_db", ceiling_db, -20.0, 0.0, "dBFS", lo_open=False, hi_open=False
+        )
+        if lookahead is None:
+            frames = min(int(round(LOOKAHEAD * self.samplerate)), self.blocksize)
+        else:
+            frames = int(round(checks.positive("lookahead", lookahead, "s") * self.samplerate))
+        lo, hi = min_delay(), self.blocksize
+        if limit and not lo <= frames <= hi:
+            raise ParameterError(
+                f"lookahead={lookahead!r} s is {frames} frames at samplerate="
+                f"{self.samplerate} Hz with blocksize={self.blocksize}; it must be in "
+                f"[{lo}, {hi}] frames (at least the interpolator's reach and a "
+                f"{MIN_ATTACK}-frame attack, at most one block)"
+            )
+        if not limit:
+            return None
+        return LimiterState(
+            channels=self.channels,
+            delay=frames,
+            ceiling=10.0 ** (ceiling / 20.0),
+            samplerate=self.samplerate,
+        )
 
     def ended(self) -> list[int]:
         """The ids of the voices that ended since the last call (at every ear of their
@@ -454,10 +501,33 @@ class Engine:
         )
         self._native.times[native.MASTER_GAIN] = 10.0 ** (db / 20.0)
 
+    def move_listener(self, position, facing=(1.0, 0.0)) -> None:
+        """Move the game's listener: every body (not removed) hears from ``position``
+        ((x, y, z), m, z > 0 above its plate) from the next block on, its modes' gains
+        ramped over that block (see :meth:`Body.move`). A body of two ears hears through
+        :func:`ears` there, facing ``facing`` ((x, y) in the plate's plane); a body of one
+        ear through a Microphone there. The gains are computed on the calling thread."""
+        position = checks.point("position", position, 3)
+        checks.point("facing", facing, 2, "dimensionless")
+        for body in self.bodies:
+            if body.removed:
+                continue
+            n = len(body._ears)
+            if n == 1:
+                body.move(Microphone(position))
+            elif n == 2:
+                body.move(ears(position, facing))
+            else:
+                raise ParameterError(
+                    f"move_listener places one or two ears; a body has {n}: use body.move"
+                )
+
     def reset_meter(self) -> None:
         """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
         self._native.times[native.PEAK] = 0.0
         self._native.times[native.OUT_PEAK] = 0.0
+        if self._native.limiter is not None:
+            self._native.limiter.reset_meter()
 
     # -- clock ----------------------------------------------------------------------------
     @property
@@ -555,19 +625,26 @@ class Engine:
             return float(self._frame)
         frame, dac, callbacks = self._native.anchor()
         if callbacks == 0:  # no callback yet: the stream starts with the next frame
-            return float(self._frame) - self._native.times[native.LEAD] * self.samplerate
+            times = self._native.times
+            return (
+                float(self._frame)
+                - (times[native.LEAD] + times[native.LIMIT_DELAY]) * self.samplerate
+            )
         return frame + (native.monotonic() - dac) * self.samplerate
 
     def _onset(self, at) -> float:
         """A tick's start, s on the engine's clock: ``at`` (from the next frame to at most
-        ``MAX_AHEAD`` s after it), or one block plus the output latency plus the hand-over
-        allowance from now (no stream: from the next frame)."""
+        ``MAX_AHEAD`` s after it), or one block plus the output latency, the limiter's
+        look-ahead and the hand-over allowance from now (no stream: from the next frame;
+        the frame leaving the device now counts the look-ahead's delay, see
+        :func:`synth.live.native.run_block`)."""
         self._check_open("play an impact")
         self._check_alive()
         if at is None:
             if not self.running:
                 return (self._frame + self.blocksize) / self.samplerate
-            lead = self._native.times[native.LEAD]
+            times = self._native.times
+            lead = times[native.LEAD] + times[native.LIMIT_DELAY]
             frame = self._now_frame() + self.blocksize + (lead + self.handover) * self.samplerate
             return max(frame, float(self._frame)) / self.samplerate
         t = checks.real("at", at, "s")
@@ -756,6 +833,7 @@ class Engine:
             ringing += body.ringing
             voices += body.voices_playing
         c, t = self._native.ctl, self._native.times
+        lim = self._native.limiter
         n = int(c[native.CALLBACKS])
         return EngineStats(
             callbacks=n,
@@ -779,6 +857,9 @@ class Engine:
             peak=float(t[native.PEAK]),
             output_peak=float(t[native.OUT_PEAK]),
             clipped=int(c[native.CLIPPED]),
+            limiter_reduction_db=lim.reduction_db if lim is not None else 0.0,
+            limiter_max_reduction_db=lim.max_reduction_db if lim is not None else 0.0,
+            limiter_active=lim.active_frames if lim is not None else 0,
             failed=self._failure,
             device_lost=self._device_lost is not None,
             silent_for=self._silent_for(),

@@ -1,19 +1,21 @@
 """The audio thread's work: one compiled call per body per block, one to write the output.
 
 A body has a fixed number of voice slots, each a modal state as the offline modal bank's
-(:mod:`synth.sound.modal_bank`): its modes' complex amplitudes, which of them ring, their
-omission debts and thresholds. A voice (a hit, or a whole drop: one handle) takes a free
-slot when its first impact joins, or steals the one of lowest priority, of those the
-oldest (:func:`_victim`; a voice of lower priority than every ringing one is refused),
-and frees it when
-every mode has fallen below its share of the omission floor relative to the voice's peak,
-or when its stop fade ends; then, with nothing of it pending, it posts a voice-ended event.
-:func:`mix_body` advances each slot over one block with the bank's own steps
-(:func:`~synth.sound.modal_bank.ring_modes` between injections,
-:func:`~synth.sound.modal_bank.inject_amplitudes` at each impact that falls in the block),
-so a voice's impacts played block by block are the offline render of the same impacts,
-up to the rounding of the state's advance (the segments end at block boundaries instead
-of the bank's tiles), times the voice's gain (ramped over a block) and fades.
+(:mod:`synth.sound.modal_bank`), of the plate itself (without the listener's gains): its
+modes' complex amplitudes, which of them ring, their omission debts and thresholds, and
+the parked states of the modes that stopped. A voice (a hit, or a whole drop: one handle)
+takes a free slot when its first impact joins, or steals the one of lowest priority, of
+those the oldest (:func:`_victim`; a voice of lower priority than every ringing one is
+refused), and frees it when every mode has fallen below its share of the omission floor
+relative to the voice's peak, or when its stop fade ends; then, with nothing of it
+pending, it posts a voice-ended event. :func:`mix_body` advances each slot over one block
+with the bank's steps taken through the listener's gains (:func:`ring_heard`: the bank's
+:func:`~synth.sound.modal_bank.ring_modes` with each mode's complex gain at its output,
+ramped over the block after the listener moved; :func:`_inject_heard` at each impact
+that falls in the block), so a voice's impacts played block by block are the offline
+render of the same impacts heard by the same listener, up to the rounding of the state's
+advance (the segments end at block boundaries instead of the bank's tiles), times the
+voice's gain (ramped over a block) and fades.
 
 Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
 into mode amplitudes first, at the start of the block, by the renderer's transform
@@ -28,13 +30,11 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from synth.live.atomics import fence
-from synth.sound.modal_bank import (
-    inject_amplitudes,
-    ring_modes,
-    transform_pulse,
-)
+from synth.sound.modal_bank import transform_pulse
+from synth.sound.modal_bank.bank_kernels import SUB
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
 #: producers' own).
@@ -212,15 +212,19 @@ def _next_due(state, inject, end):
 
 
 @numba.njit(cache=True, nogil=True)
-def _transform_pulses(ring, transform, pulse_form, transformed):
+def _transform_pulses(ring, transform, pulse_form, transformed, heard):
     """Turn every slot in the PULSE form into the READY form: the renderer's transform of
     its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
-    decay rate in 1/s, the sample period in s and the audio thread's own workspace of
-    :func:`~synth.sound.modal_bank.transform_workspace`), times the hit's gain, plus an
-    accelerometer's direct term; as :func:`synth.sound.modal_bank.impact_excitation` and
-    the producer's scaling would make it. Returns the number of pulses transformed."""
+    decay rate in 1/s, the sample period in s, the audio thread's own workspace of
+    :func:`~synth.sound.modal_bank.transform_workspace`, and room for the heard
+    coefficients and amplitudes), times the hit's gain, plus an accelerometer's direct
+    term; as :func:`synth.sound.modal_bank.impact_excitation` and the producer's scaling
+    would make it. The slot's coefficients are the plate's (without the listener): they
+    give the plate amplitudes the voice's state takes; the same transform with them times
+    the listener's gains now (``heard``'s target) gives the in-contact response and the
+    heard peak. Returns the number of pulses transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
-    pr, pi, ur, ui, sigma_max, period, work = transform
+    pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form
     count = 0
     for i in range(state.shape[0]):
@@ -234,10 +238,22 @@ def _transform_pulses(ring, transform, pulse_form, transformed):
         resp = response[i, :M]
         forces = samples[i, 0]
         slopes = samples[i, 1]
-        magnitude = transform_pulse(
-            pr, pi, coefficients[i, 0], coefficients[i, 1], ur, ui, sigma_max, period,
+        cr = coefficients[i, 0]
+        ci = coefficients[i, 1]
+        for k in range(cr.shape[0]):
+            gr = heard[H1R, k]
+            gi = heard[H1I, k]
+            heard_coef[0, k] = gr * cr[k] - gi * ci[k]
+            heard_coef[1, k] = gr * ci[k] + gi * cr[k]
+        transform_pulse(
+            pr, pi, cr, ci, ur, ui, sigma_max, period,
             p[STEP], forces[:n], slopes[:n], p[OFFSET], forces[n : n + M], slopes[n : n + M],
             p[WEIGHT], p[CONTACT_TIME], p[ORDER], amps, resp, work,
+        )  # fmt: skip
+        magnitude = transform_pulse(
+            pr, pi, heard_coef[0], heard_coef[1], ur, ui, sigma_max, period,
+            p[STEP], forces[:n], slopes[:n], p[OFFSET], forces[n : n + M], slopes[n : n + M],
+            p[WEIGHT], p[CONTACT_TIME], p[ORDER], heard_amps, resp, work,
         )  # fmt: skip
         g = p[GAIN]
         for k in range(amps.shape[0]):
@@ -252,17 +268,217 @@ def _transform_pulses(ring, transform, pulse_form, transformed):
     return count
 
 
+#: Rows of a body's ``heard`` (float64, (N_HEARD_ROWS, K)): the listener's complex gain
+#: of each mode at the start of the block (re, im), its target at the block's end (re, im;
+#: ramped linearly over the block), and the gains a producer hands over (re, im; see
+#: :meth:`synth.live.Body.move`).
+H0R, H0I, H1R, H1I, HPR, HPI = range(6)
+N_HEARD_ROWS = 6
+#: ``heard_seq`` (int64): the producer's sequence number of the handed-over gains (odd
+#: while it writes them), and the last one the mixing took.
+SEQ_PUT, SEQ_TAKEN = range(2)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _heard_power(heard, k):
+    """The largest power gain ``|G|^2`` of mode ``k`` over the block (its start and its
+    target): what the omission tests compare against, so that a mode is never left out
+    while the ramp makes it louder than the test assumed."""
+    a = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
+    b = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
+    return max(a, b)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
+    """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being
+    heard (its heard level under its omission share): added to what it parked before,
+    decayed to ``at``, so that a listener that hears it better later gets it back
+    (:func:`_revive`)."""
+    pr = park_r[k]
+    pi = park_i[k]
+    if pr != 0.0 or pi != 0.0:
+        e = np.exp(poles[k] * ((at - park_at[k]) / fs))
+        pr, pi = pr * e.real - pi * e.imag, pr * e.imag + pi * e.real
+    park_r[k] = pr + cr
+    park_i[k] = pi + ci
+    park_at[k] = at
+
+
 @numba.njit(cache=True, nogil=True)
-def _ring_slot(vs, offset, a, b, s, bank, modal):
+def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
+               poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
+    """:func:`~synth.sound.modal_bank.ring_modes` of a voice slot's plate state (its modes'
+    complex amplitudes without the listener's gains), heard through each mode's complex
+    gain ``G_k`` (``heard``), ramped linearly from its value at the block's start ``t0``
+    to its target over the block's ``n`` samples (the target after it):
+    ``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``. With a still listener the gain is
+    folded into the state once per ``SUB`` samples, and the inner loop is the bank's;
+    while the gains ramp it takes one more complex multiply-add a mode-sample. A mode whose
+    heard level (with its larger gain of the block) and debt fit its omission share stops,
+    as in the bank, and parks its plate state (:func:`_park`)."""
+    K = zr.shape[0]
+    inv_n = 1.0 / n
+    for k in range(K):
+        if not active[k]:
+            continue
+        pr = table[k, 0]
+        pi = table[k, 1]
+        g0r = heard[H0R, k]
+        g0i = heard[H0I, k]
+        g1r = heard[H1R, k]
+        g1i = heard[H1I, k]
+        ramp = g0r != g1r or g0i != g1i
+        g2 = _heard_power(heard, k)
+        cr = zr[k]
+        ci = zi[k]
+        s = a
+        while s < b:
+            m = min(SUB, b - s)
+            o = out[s - offset : s - offset + m]
+            if not ramp or s >= t0 + n:
+                hr = g1r * cr - g1i * ci
+                hi = g1r * ci + g1i * cr
+                for j in range(m):
+                    o[j] += hr * pr[j] - hi * pi[j]
+            else:
+                hr = g0r * cr - g0i * ci
+                hi = g0r * ci + g0i * cr
+                dr = (g1r - g0r) * cr - (g1i - g0i) * ci
+                di = (g1r - g0r) * ci + (g1i - g0i) * cr
+                base = s - t0 + 1
+                for j in range(m):
+                    u = min(1.0, (base + j) * inv_n)
+                    o[j] += (hr * pr[j] - hi * pi[j]) + u * (dr * pr[j] - di * pi[j])
+            er = pr[m]
+            ei = pi[m]
+            cr, ci = cr * er - ci * ei, cr * ei + ci * er
+            s += m
+            m2 = (cr * cr + ci * ci) * g2
+            if m2 < thr2[k]:
+                d = debt[k]
+                if d > 0.0:
+                    d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
+                mag = math.sqrt(m2)
+                if mag + d <= thresholds[k]:
+                    debt[k] = d + mag
+                    debt_at[k] = s
+                    _park(park_r, park_i, park_at, k, cr, ci, s, poles, fs)
+                    active[k] = False
+                    cr = 0.0
+                    ci = 0.0
+                    break
+        zr[k] = cr
+        zi[k] = ci
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, park_r,
+                  park_i, park_at, heard):  # fmt: skip
+    """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``: the
+    omission test takes each mode's heard level (its larger gain of the block); a mode
+    that stops parks its plate state (:func:`_park`)."""
+    for k in range(zr.shape[0]):
+        zr[k] += amps[k].real
+        zi[k] += amps[k].imag
+        mag = math.sqrt((zr[k] * zr[k] + zi[k] * zi[k]) * _heard_power(heard, k))
+        d = debt[k]
+        if d > 0.0:
+            d *= math.exp(poles[k].real * ((a - debt_at[k]) / fs))
+        if mag + d <= thresholds[k]:
+            debt[k] = d + mag
+            debt_at[k] = a
+            _park(park_r, park_i, park_at, k, zr[k], zi[k], a, poles, fs)
+            zr[k] = 0.0
+            zi[k] = 0.0
+            active[k] = False
+        else:
+            active[k] = True
+
+
+@numba.njit(cache=True, nogil=True)
+def _revive(t0, bank, modal, slots):
+    """After the listener moved (its gains for this block just taken): every parked mode
+    that the new gains hear louder than the old ones, and above its omission share, rings
+    again from its parked plate state decayed to ``t0`` (added to its state if it rings);
+    its debt is cleared, as nothing of it is left out any more. The omission tests then
+    stop the modes the new listener does not hear."""
+    poles, fs, heard = bank[1], bank[2], bank[3]
+    zr, zi, active, debt, thr2 = modal[0], modal[1], modal[2], modal[3], modal[6]
+    park_r, park_i, park_at = modal[8], modal[9], modal[10]
+    for k in range(zr.shape[1]):
+        before = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
+        after = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
+        if after <= before:
+            continue
+        for s in range(slots.shape[0]):
+            pr = park_r[s, k]
+            pi = park_i[s, k]
+            if (pr == 0.0 and pi == 0.0) or slots[s, SL_OWNER] < 0:
+                continue
+            # heard now at most |G1| |park| (it decays): below its share it stays parked
+            m2 = (pr * pr + pi * pi) * after
+            if m2 <= thr2[s, k]:
+                continue
+            decay = math.exp(poles[k].real * ((t0 - park_at[s, k]) / fs))
+            if m2 * decay * decay <= thr2[s, k]:
+                continue
+            e = np.exp(poles[k] * ((t0 - park_at[s, k]) / fs))
+            zr[s, k] += pr * e.real - pi * e.imag
+            zi[s, k] += pr * e.imag + pi * e.real
+            park_r[s, k] = 0.0
+            park_i[s, k] = 0.0
+            debt[s, k] = 0.0
+            active[s, k] = True
+
+
+@numba.njit(cache=True, nogil=True)
+def _take_gains(t0, bank, modal, slots, asleep):
+    """At a block's start: the gains of the block's start are the last block's target;
+    gains handed over since (a consistent copy: the producer's sequence number even and
+    unchanged across it) become the target, reached at the block's end; a body with no
+    voice takes them at once. Parked modes the new gains hear better ring again."""
+    heard, seq = bank[3], bank[4]
+    K = heard.shape[1]
+    for k in range(K):
+        heard[H0R, k] = heard[H1R, k]
+        heard[H0I, k] = heard[H1I, k]
+    put = seq[SEQ_PUT]
+    if put == seq[SEQ_TAKEN] or put % 2 == 1:
+        return
+    fence()  # the gains after their sequence number
+    for k in range(K):
+        heard[H1R, k] = heard[HPR, k]
+        heard[H1I, k] = heard[HPI, k]
+    fence()
+    if seq[SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
+        for k in range(K):
+            heard[H1R, k] = heard[H0R, k]
+            heard[H1I, k] = heard[H0I, k]
+        return
+    seq[SEQ_TAKEN] = put
+    if asleep:
+        for k in range(K):
+            heard[H0R, k] = heard[H1R, k]
+            heard[H0I, k] = heard[H1I, k]
+    else:
+        _revive(t0, bank, modal, slots)
+
+
+@numba.njit(cache=True, nogil=True)
+def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
-    (cleared first): the bank's own step (:func:`~synth.sound.modal_bank.ring_modes`)."""
-    table, poles, fs = bank
+    (cleared first), heard through the listener's gains ramped over the block of ``n``
+    samples from ``t0`` (:func:`ring_heard`, the bank's step with the gains at its
+    output)."""
+    table, poles, fs, heard = bank[0], bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2 = modal[:7]
+    park_r, park_i, park_at = modal[8], modal[9], modal[10]
     for j in range(a - offset, b - offset):
         vs[j] = 0.0
-    ring_modes(
+    ring_heard(
         vs, offset, a, b, table, zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s],
-        thr2[s], poles, fs,
+        thr2[s], poles, fs, park_r[s], park_i[s], park_at[s], heard, t0, n,
     )  # fmt: skip
 
 
@@ -314,7 +530,7 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
     slots, slot_gain, tail = voice_form[2], voice_form[3], voice_form[4]
     a = slots[s, SL_POS]
     if b > a:
-        _ring_slot(vs, t0, a, b, s, bank, modal)
+        _ring_slot(vs, t0, a, b, s, bank, modal, t0, n)
         _add_slot(out, t0, n, vs, t0, a, b, slots[s], slot_gain[s], tail)
         slots[s, SL_POS] = b
 
@@ -357,7 +573,7 @@ def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
     F = counters[STEAL_FRAMES]
-    _ring_slot(vs, at, at, at + F, s, bank, modal)
+    _ring_slot(vs, at, at, at + F, s, bank, modal, t0, n)
     slots[s, SL_STEAL] = F  # from SL_POS = at
     _add_slot(out, t0, n, vs, at, at, at + F, slots[s], voice_form[3][s], tail)
     counters[TAIL_END] = max(counters[TAIL_END], at + F)
@@ -385,7 +601,8 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
         if s < 0:
             return -1
         _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events)
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal
+    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
+    park_r, park_i = modal[8], modal[9]
     for k in range(zr.shape[1]):
         zr[s, k] = 0.0
         zi[s, k] = 0.0
@@ -393,6 +610,8 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
         debt[s, k] = 0.0
         thresholds[s, k] = 0.0
         thr2[s, k] = 0.0
+        park_r[s, k] = 0.0
+        park_i[s, k] = 0.0
     level[s] = 0.0
     slots[s, SL_OWNER] = r
     slots[s, SL_START] = at
@@ -407,12 +626,13 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _inject(s, i, at, ring, bank, modal, floor):
-    """Add pending impact ``i``'s amplitudes to voice slot ``s`` at sample ``at``; the
-    voice's peak (the largest sum of ``|amplitudes|`` of its impacts) sets its modes'
-    omission thresholds: ``floor * peak / K`` each, as the offline bank's."""
+    """Add pending impact ``i``'s plate amplitudes to voice slot ``s`` at sample ``at``;
+    the voice's peak (the largest sum of heard ``|amplitudes|`` of its impacts, as handed
+    over) sets its modes' omission thresholds: ``floor * peak / K`` each, as the offline
+    bank's."""
     amplitudes, reference = ring[4], ring[6]
-    table, poles, fs = bank
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal
+    poles, fs, heard = bank[1], bank[2], bank[3]
+    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
     K = zr.shape[1]
     if reference[i] > level[s]:
         level[s] = reference[i]
@@ -420,9 +640,10 @@ def _inject(s, i, at, ring, bank, modal, floor):
         for k in range(K):
             thresholds[s, k] = share
             thr2[s, k] = share * share
-    inject_amplitudes(
-        zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i], at
-    )
+    _inject_heard(
+        zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i],
+        at, modal[8][s], modal[9][s], modal[10][s], heard,
+    )  # fmt: skip
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -491,8 +712,10 @@ def mix_body(
     """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock),
     voice by voice (``vs``: a scratch of at least ``n`` and the steal fade's samples).
 
-    bank: the power table, poles and sample rate; modal: the voice slots' modal states,
-    (V, K) each (see :func:`~synth.sound.modal_bank.ring_modes`), and their peaks (V,);
+    bank: the power table, poles and sample rate, the listener's gains (``heard``, see
+    ``H0R``) and their sequence numbers (``heard_seq``); modal: the voice slots' modal
+    states of the plate, (V, K) each (see :func:`ring_heard`), their peaks (V,), and the
+    parked states of their stopped modes (re, im, sample; (V, K) each, see :func:`_park`);
     floor: the omission floor, a fraction of a voice's peak. ring: the pending ring
     (``state``, ``inject``, ``first``, ``length``, ``amplitudes``, ``response``,
     ``reference``, ``voice``; see :mod:`synth.live.queue`); the PULSE form (``transform``,
@@ -504,7 +727,8 @@ def mix_body(
     """
     state, inject = ring[0], ring[1]
     records = voice_form[0]
-    pulses = _transform_pulses(ring, transform, pulse_form, transformed)
+    _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
+    pulses = _transform_pulses(ring, transform, pulse_form, transformed, bank[3])
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
@@ -589,9 +813,8 @@ def silence(modal, ring, transformed, voice_form, counters, events):
 def body_state(modes: int, voices: int) -> tuple:
     """The silent modal states of ``voices`` voice slots of ``modes`` modes, (voices, modes)
     each: amplitudes (re, im), ringing flags, omission debts, the sample of each debt,
-    thresholds and their squares; then each slot's peak (voices,)."""
-    import numpy as np
-
+    thresholds and their squares; then each slot's peak (voices,); then the parked plate
+    states of stopped modes (re, im) and their samples (voices, modes)."""
     shape = (voices, modes)
     return (
         np.zeros(shape),
@@ -602,4 +825,16 @@ def body_state(modes: int, voices: int) -> tuple:
         np.zeros(shape),
         np.zeros(shape),
         np.zeros(voices),
+        np.zeros(shape),
+        np.zeros(shape),
+        np.zeros(shape, dtype=np.int64),
     )
+
+
+def heard_arrays(gains) -> tuple:
+    """A body's ``heard`` (:data:`N_HEARD_ROWS`, K) with every row at the listener's
+    complex gains ``gains`` (K,), and its ``heard_seq`` (int64, 2)."""
+    heard = np.empty((N_HEARD_ROWS, gains.size))
+    heard[0::2] = gains.real
+    heard[1::2] = gains.imag
+    return heard, np.zeros(2, dtype=np.int64)

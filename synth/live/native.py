@@ -43,7 +43,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from synth.live import kernel
+from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
 #: ``ctl`` fields (int64).
@@ -73,8 +73,15 @@ from synth.live.atomics import fence as _fence
     EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
     N_EVENTS,  # its length (header included)
     PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
+    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
+    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
+    LIM_FLOATS,
+    LIM_TAPS,
+    LIM_X,
+    LIM_R,
+    LIM_M,
     N_CTL,
-) = range(25)
+) = range(32)
 
 #: ``times`` fields (float64).
 (
@@ -95,8 +102,9 @@ from synth.live.atomics import fence as _fence
     LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
     GAP_MAX,  # longest time between two callbacks' entries, in blocks
     PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
+    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
     N_TIMES,
-) = range(18)
+) = range(19)
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -107,6 +115,7 @@ BODY_FIELDS = (
     "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
     "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
     "n_records", "n_voice_slots", "tail_frames",
+    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
 )  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
@@ -116,6 +125,7 @@ BODY_FIELDS = (
     B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
     B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
+    B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
 ) = range(len(BODY_FIELDS))  # fmt: skip
 N_BODY = len(BODY_FIELDS)
 
@@ -190,8 +200,9 @@ def _i64(address, n):
 @numba.njit(cache=True, nogil=True)
 def _body_form(record):
     """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
-    takes them: the bank (power table, poles, sample rate), the voice slots' modal states,
-    the pending ring, the PULSE form's transform and pulses, the voices."""
+    takes them: the bank (power table, poles, sample rate, the listener's gains and their
+    sequence numbers), the voice slots' modal states (with their parked modes), the
+    pending ring, the PULSE form's transform and pulses, the voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
@@ -202,6 +213,8 @@ def _body_form(record):
         numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
         numba.carray(_pointer(record[B_POLES]), K, np.complex128),
         scalars[S_FS],
+        numba.carray(_pointer(record[B_HEARD]), (kernel.N_HEARD_ROWS, K), np.float64),
+        _i64(record[B_HEARD_SEQ], 2),
     )
     modal = (
         numba.carray(_pointer(record[B_ZR]), (V, K), np.float64),
@@ -212,6 +225,9 @@ def _body_form(record):
         numba.carray(_pointer(record[B_THRESHOLDS]), (V, K), np.float64),
         numba.carray(_pointer(record[B_THR2]), (V, K), np.float64),
         _f64(record[B_LEVEL], V),
+        numba.carray(_pointer(record[B_PARK_R]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_PARK_I]), (V, K), np.float64),
+        numba.carray(_pointer(record[B_PARK_AT]), (V, K), np.int64),
     )
     ring = (
         _i64(record[B_STATE], R),
@@ -231,6 +247,8 @@ def _body_form(record):
         scalars[S_SIGMA_MAX],
         scalars[S_PERIOD],
         numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
+        numba.carray(_pointer(record[B_HEARD_COEF]), (2, K), np.float64),
+        numba.carray(_pointer(record[B_HEARD_AMPS]), K, np.complex128),
     )
     pulse_form = (
         numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
@@ -314,11 +332,29 @@ def soft_clip(v):
 
 
 @numba.njit(cache=True, nogil=True)
+def _limiter(ctl, channels):
+    """The limiter's arrays (:meth:`synth.live.limiter.LimiterState.arrays`), made from
+    their addresses in ``ctl``."""
+    ints = _i64(ctl[LIM_INTS], limiter.N_INTS)
+    D = ints[limiter.I_DELAY]
+    A = ints[limiter.I_ATTACK]
+    return (
+        ints,
+        _f64(ctl[LIM_FLOATS], limiter.N_FLOATS),
+        numba.carray(_pointer(ctl[LIM_TAPS]), (limiter.OVERSAMPLING - 1, limiter.TAPS), np.float64),
+        numba.carray(_pointer(ctl[LIM_X]), (D + 1, channels), np.float64),
+        _f64(ctl[LIM_R], A + 2 * limiter.REACH + 1),
+        _f64(ctl[LIM_M], A + 1),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames: the pause and stop fades, the master gain (ramped
-    over the block), the meter and the optional soft clipper; channel ``c`` of ``out[row:row + n]``
-    (float32) is ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after;
-    the recording."""
+    over the block), the meter, the optional true-peak limiter (:mod:`synth.live.limiter`)
+    and the optional soft clipper; channel ``c`` of ``out[row:row + n]`` (float32) is
+    ``mix[0] + mix[c + 1]`` (every channel's bus plus its own), cleared after; the
+    recording."""
     channels = out.shape[1]
     pos = ctl[FADE_AT]
     length = ctl[FADE_LENGTH]
@@ -350,11 +386,17 @@ def _write_block(ctl, times, mix, out, row, n):
         mix[0, s] = 0.0
         for c in range(channels):
             v = (common + mix[c + 1, s]) * g
-            mix[c + 1, s] = 0.0
+            mix[c + 1, s] = v
             a = abs(v)
             if a > peak:
                 peak = a
-            if a >= 1.0:
+    if ctl[LIMIT] != 0:
+        limiter.limit_block(_limiter(ctl, channels), mix[1:], n)
+    for s in range(n):
+        for c in range(channels):
+            v = mix[c + 1, s]
+            mix[c + 1, s] = 0.0
+            if abs(v) >= 1.0:
                 clipped += 1
             if clip:
                 v = soft_clip(v)
@@ -418,8 +460,8 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     last callback's entry (a gap of more than a block means the system ran the audio
     thread late, whatever the callback's own cost), anchor the clock (the block's first
     frame leaves the device ``dac - current`` s after ``entry_ns``, the callback's entry on
-    the monotonic clock), mix, and account the callback's run time from its entry as a
-    fraction of the block."""
+    the monotonic clock, plus the limiter's look-ahead, by which it delays the bus), mix,
+    and account the callback's run time from its entry as a fraction of the block."""
     times = _f64(ctl[TIMES], N_TIMES)
     frames = out.shape[0]
     if flags & PA_OUTPUT_UNDERFLOW:
@@ -440,7 +482,7 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     ctl[SEQ] += 1
     _fence()
     times[ANCHOR_FRAME] = ctl[FRAME]
-    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead
+    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
     _fence()
     ctl[SEQ] += 1
     mix_engine(ctl, out)
@@ -486,7 +528,9 @@ def transform_pending(record):
     """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
     a stream starts: hits queued without a stream are not bounded per block)."""
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
-    kernel._transform_pulses(ring, transform, pulse_form, _i64(record[B_TRANSFORMED], 1))
+    transformed = _i64(record[B_TRANSFORMED], 1)
+    # the in-contact response and peak heard with the gains the mixing holds now
+    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -503,7 +547,8 @@ class EngineState:
     """The arrays the audio thread works on (see the module's docstring), allocated once:
     ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
     ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
-    voice-ended events."""
+    voice-ended events, and the master bus' true-peak limiter's state (``limit``, or None
+    without a limiter)."""
 
     def __init__(
         self,
@@ -516,6 +561,7 @@ class EngineState:
         fade_frames: int,
         clip: bool,
         events: int = 4096,
+        limit: limiter.LimiterState | None = None,
     ):
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
@@ -540,6 +586,14 @@ class EngineState:
         c[SCRATCH] = self.scratch.ctypes.data
         c[RECORD] = self.recording.ctypes.data
         c[CLIP] = int(bool(clip))
+        self.limiter = limit
+        if limit is not None:
+            c[LIMIT] = 1
+            for field, a in zip(
+                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
+            ):
+                c[field] = a.ctypes.data
+            t[LIMIT_DELAY] = limit.delay / samplerate
         c[EVENTS] = self.events.ctypes.data
         c[N_EVENTS] = self.events.shape[0]
         t[SAMPLERATE] = samplerate
@@ -644,7 +698,9 @@ def warm_up() -> None:
     )  # fmt: skip
     c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
     table = power_table(poles, float(fs))
-    arrays = body_arrays(c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4)
+    arrays = body_arrays(
+        c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4, gains=np.ones(1)
+    )
     record = state.add_body(arrays)
     transform_pending(record)
     out = np.zeros((8, 1), dtype=np.float32)
@@ -666,6 +722,7 @@ def body_arrays(
     steal_frames: int,
     mix_frames: int = 4096,
     ears: int = 1,
+    gains: np.ndarray,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
@@ -674,14 +731,17 @@ def body_arrays(
     its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
     output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
     most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
-    both) and the ``ears`` of the body it belongs to."""
+    both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
+    its modes (K,; the mixing applies them at its output, the voices' states are the
+    plate's)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
     fs = float(c.samplerate)
     K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal_state
+    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
     V = zr.shape[0]
+    heard, heard_seq = kernel.heard_arrays(np.asarray(gains, dtype=complex))
     voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
     voice_slots[:, kernel.SL_OWNER] = -1
     counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
@@ -711,4 +771,6 @@ def body_arrays(
         channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
         voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
         n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
+        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
+        heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
     )  # fmt: skip

@@ -33,7 +33,11 @@ class EngineStats:
     :meth:`Engine.ended`'s ring full; peak: the largest |sample| of the master bus before
     the clipper, full scale 1; output_peak: the largest |sample| sent to the device;
     clipped: master-bus samples that reached full scale (soft-clipped, or clipped by
-    the float-to-integer conversion with ``clip=False``); failed: why the stream
+    the float-to-integer conversion with ``clip=False``; after the limiter when it runs);
+    limiter_reduction_db: the true-peak limiter's gain reduction at the last frame out,
+    dB (0 without a limiter); limiter_max_reduction_db: its largest since the last
+    :meth:`Engine.reset_meter`; limiter_active: frames it sent out with a gain below 1
+    since then; failed: why the stream
     failed, or None; silent_for: seconds since the last callback returned while the
     stream runs (0 without a stream): beyond ``DEVICE_LOST`` the device is taken as lost;
     device_lost: whether the engine's watchdog found the running stream's device lost
@@ -61,6 +65,9 @@ class EngineStats:
     peak: float
     output_peak: float
     clipped: int
+    limiter_reduction_db: float
+    limiter_max_reduction_db: float
+    limiter_active: int
     failed: str | None
     silent_for: float
     device_lost: bool
