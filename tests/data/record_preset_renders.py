@@ -14,7 +14,12 @@ from synth.io.presets import available as available_presets
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from conftest import preset_run_from_empty_caches  # noqa: E402  (tests/conftest.py)
-from golden import sketch  # noqa: E402  (tests/golden.py)
+from golden import (  # noqa: E402  (tests/golden.py)
+    MAX_RELATIVE_ERROR,
+    ROUNDING_PERTURBATION,
+    rounding_horizon,
+    sketch,
+)
 
 
 def main(names: list[str]) -> None:
@@ -36,6 +41,13 @@ def main(names: list[str]) -> None:
             samplerate=r.samplerate,
             ticks=[round(float(t.time), 9) for t in ticks],
         )
+        height = run.scene.drop_height * (1.0 + ROUNDING_PERTURBATION)
+        moved = preset_run_from_empty_caches(name, (f"drop.height={height!r}",)).render.audio
+        horizon = rounding_horizon(r.audio, moved, MAX_RELATIVE_ERROR)
+        if horizon is not None:
+            out[name].update(
+                horizon=horizon, horizon_sketch=[float(x) for x in sketch(r.audio[:horizon])]
+            )
         print(name, r.audio.size, len(ticks), flush=True)
     out = {name: out[name] for name in sorted(out)}
     path.write_text(json.dumps(out, indent=1) + "\n")
