@@ -1467,3 +1467,20 @@ def test_files_outside_the_manifest_are_reported_and_removed_only_with_prune(
     assert "--prune" in again.summary()
     assert main(["bank-gain", str(out), "-o", str(gained), "--prune"]) == 0
     assert not (gained / "extra.ogg").exists() and len(_audio_files(gained)) == 2
+
+
+@pytest.mark.slow
+def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
+    # `synth bench bank` measures, in one run, sounds per second of --jobs 1 and
+    # --jobs 2 and files per second of the bank-gain pass, and prints each in its table
+    from synth.bank import bench
+
+    r = bench.run_bank(count=4, process_files=1, dask=False)
+    assert all(r[k]["rate"] > 0 for k in ("jobs1", "jobs2", "gain"))
+    table = bench.format_bank(r)
+    rows = {line.split(" | ")[0]: line for line in table.splitlines() if line.startswith("| ")}
+    assert {"| `synth bank --jobs 1`", "| `synth bank --jobs 2`"} <= set(rows)
+    gain = [line for line in rows.values() if "bank-gain" in line]
+    assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
+    assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
+    assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]
