@@ -643,6 +643,7 @@ def _cmd_bank(args):
         dry_run=args.dry_run,
         force=args.force,
         redo=args.redo,
+        prune=args.prune,
     )
     if args.dry_run:
         import json
@@ -658,7 +659,9 @@ def _cmd_bank(args):
 def _cmd_bank_gain(args):
     from synth.bank.gain import apply_gain
 
-    result = apply_gain(args.bank, args.output, target=args.target, level=args.level)
+    result = apply_gain(
+        args.bank, args.output, target=args.target, level=args.level, prune=args.prune
+    )
     print(result.summary(), file=sys.stderr)
     return 0
 
@@ -885,6 +888,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="render these rows again although complete (e.g. 17,40-45)",
     )
     p.add_argument(
+        "--prune",
+        action="store_true",
+        help="delete the audio files in DIR that are in neither the manifest nor the plan "
+        "(without it they are only reported)",
+    )
+    p.add_argument(
         "--sheet",
         metavar="PNG",
         help="a contact sheet of the finished sounds (waveform, spectrogram, values)",
@@ -914,6 +923,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         metavar="DB",
         help="the target: dBTP for true_peak (default -1), LUFS for loudness (default -23)",
+    )
+    p.add_argument(
+        "--prune",
+        action="store_true",
+        help="delete the audio files in DIR that its manifest does not name (without it "
+        "they are only reported)",
     )
     p.set_defaults(func=_cmd_bank_gain)
 

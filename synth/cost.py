@@ -23,6 +23,22 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   ``n^3 / 3``, its inverse ``2 n^3 / 3``, the symmetric eigen-solution ``4 n^3 / 3``
   for the values and ``9 n^3`` with the vectors); a cold solve only (the modes are
   cached on disk).
+* **the radiation stage** (a microphone): the Rayleigh sums of the rectangle rule
+  (:func:`synth.sound.radiation.rayleigh_gains`) on the panels and orders of its first
+  rule (:func:`synth.sound.radiation.rectangle.first_rule`, at the wavenumber of the
+  highest rendered frequency, before any mode is solved) and of every refinement the
+  convergence test may ask for (``MAX_RULES`` rules, ``REFINE`` times the points per axis
+  each): its *evaluations* (points times modes) and *work* (evaluations times one plus
+  the terms each shape value costs, :func:`synth.sound.modes.shape_terms`: the Ritz basis'
+  degrees along one axis, 1 for the closed-form modes). An upper bound: a rule that
+  converges at the first refinement takes ``(1 + REFINE^2) / sum_l REFINE^(2 l)`` of it.
+  The budget (``max_radiation_work``) holds the rules whose summed work fits: a render
+  stops refining there (its gains then carry the convergence warning, with the error
+  each mode reached), and a scene whose first rule and one refinement (the fewest the
+  convergence test needs) do not fit is refused.
+  The plates whose rectangle-rule work passes the engine's switch-over to the polar,
+  summed or boundary rules (:mod:`synth.sound.radiation`) take those instead, whose cost
+  grows with the plate's perimeter rather than its area: their work is not estimated.
 * **the audio**: the preroll, the bounce series (the fall, the flights of the first
   impact's restitution summed as a geometric series, at most ``max_duration``) and the
   slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
@@ -41,7 +57,8 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   without the interpreter's fixed overhead.
 
 :class:`Budget` bounds them (``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
-``$SYNTH_MAX_MEMORY_BYTES``, or the keywords of :func:`synth.render`): work beyond it is
+``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS``, ``$SYNTH_MAX_RADIATION_WORK``,
+or the keywords of :func:`synth.render`): work beyond it is
 refused before it starts, with a message naming what is too big and what to change. A
 contact longer than ``max_duration`` is refused whatever the budget (the render could not
 hold the pulse). ``synth info --cost`` prints the estimate.
@@ -51,6 +68,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
@@ -67,6 +86,10 @@ DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
 #: machine-independent units: a dense symmetric eigensolver runs at a few GFLOP/s on one
 #: core, so minutes; about four times the costliest shipped preset's solve).
 DEFAULT_MAX_SOLVER_FLOPS = 10**12
+#: Default budget: terms of the radiation stage's sums (:class:`RadiationWork`: shape
+#: terms and Rayleigh terms, each a multiply-add or an exponential). Every shipped
+#: preset's first four rules fit at 48 kHz (tests/test_cost.py).
+DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
 
 #: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
 #: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
@@ -78,6 +101,7 @@ ENVIRONMENT = {
     "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
     "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
     "SYNTH_MAX_SOLVER_FLOPS": DEFAULT_MAX_SOLVER_FLOPS,
+    "SYNTH_MAX_RADIATION_WORK": DEFAULT_MAX_RADIATION_WORK,
 }
 
 
@@ -87,15 +111,21 @@ class Budget:
     ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
     of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
     operations of a cold mode solve: its time, in units that do not depend on the
-    machine)."""
+    machine) and ``max_radiation_work`` (terms of a microphone's Rayleigh sums,
+    :class:`RadiationWork`: the radiation stage's time in the same way)."""
 
     max_modes: int = DEFAULT_MAX_MODES
     max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
     max_memory_bytes: int = DEFAULT_MAX_MEMORY_BYTES
     max_solver_flops: int = DEFAULT_MAX_SOLVER_FLOPS
+    max_radiation_work: int = DEFAULT_MAX_RADIATION_WORK
 
     def __post_init__(self):
-        for name in ("max_modes", "max_pulse_points", "max_memory_bytes", "max_solver_flops"):
+        names = (
+            "max_modes", "max_pulse_points", "max_memory_bytes", "max_solver_flops",
+            "max_radiation_work",
+        )  # fmt: skip
+        for name in names:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
@@ -103,8 +133,8 @@ class Budget:
     @classmethod
     def from_environment(cls) -> Budget:
         """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
-        ``$SYNTH_MAX_MEMORY_BYTES`` and ``$SYNTH_MAX_SOLVER_FLOPS`` (each defaulting to this
-        module's constant)."""
+        ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS`` and
+        ``$SYNTH_MAX_RADIATION_WORK`` (each defaulting to this module's constant)."""
         values = [
             checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
         ]
@@ -167,6 +197,52 @@ class MemoryParts:
 
 
 @dataclass(frozen=True)
+class RadiationWork:
+    """The radiation stage's work for a microphone (see the module docstring).
+
+    Attributes
+    ----------
+    rule : str
+        The rule the engine takes: "rectangle" (estimated), "polar", "summed" or
+        "boundary" (switched to for their lower cost: not estimated), "none" (an
+        accelerometer: no radiation).
+    first_points : int
+        Points of the rectangle rule's first rule.
+    rules : int
+        Rules the refinement may take within the budget (at most ``MAX_RULES``).
+    points : int
+        Points of those rules, summed.
+    max_points : int or None
+        Points of the last of them when the budget stops the refinement before
+        ``MAX_RULES`` (the ``max_points`` a render passes to the sums), else None.
+    rule_points : tuple of int
+        Points of each of the ``MAX_RULES`` rules.
+    shape_terms : int
+        Terms one shape value costs per mode (:func:`synth.sound.modes.shape_terms`).
+    evaluations : float
+        ``points`` times the modes: the Rayleigh sums' terms.
+    """
+
+    rule: str = "none"
+    first_points: int = 0
+    points: int = 0
+    shape_terms: int = 0
+    evaluations: float = 0.0
+    rules: int = 0
+    max_points: int | None = None
+    rule_points: tuple = ()
+
+    def work_of(self, rules: int, modes: int) -> float:
+        """Terms of the first ``rules`` rules for ``modes`` modes."""
+        return sum(self.rule_points[:rules]) * float(modes) * (1 + self.shape_terms)
+
+    @property
+    def work(self) -> float:
+        """Terms of the sums and of the shapes they need: ``evaluations (1 + shape_terms)``."""
+        return self.evaluations * (1 + self.shape_terms)
+
+
+@dataclass(frozen=True)
 class CostEstimate:
     """The sizes of one render's work (see the module docstring for each estimate).
 
@@ -215,6 +291,7 @@ class CostEstimate:
     solver_flops: float = 0.0
     impacts: int = 1
     memory: MemoryParts | None = None
+    radiation: RadiationWork = RadiationWork()
 
     def excess(self, budget: Budget) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
@@ -245,6 +322,17 @@ class CostEstimate:
                 f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
                 f"modes)"
             )
+        r = self.radiation
+        if r.rule == "rectangle" and r.rules < 2:
+            out.append(
+                f"the microphone's Rayleigh sums need about {r.work_of(2, self.modes):.3g} "
+                f"terms for their first rule and one refinement "
+                f"({sum(r.rule_points[:2])} points x {self.modes} modes x "
+                f"{1 + r.shape_terms} terms each), more than the budget of "
+                f"{budget.max_radiation_work:.3g} (SYNTH_MAX_RADIATION_WORK); lower "
+                f"max_frequency or the samplerate, use an accelerometer listener, or a "
+                f"simply supported plate (closed-form shapes)"
+            )
         if self.memory_bytes > budget.max_memory_bytes:
             out.append(
                 f"the render's largest arrays take about {self.memory_bytes / 2**20:.0f} MiB"
@@ -253,6 +341,20 @@ class CostEstimate:
                 f"max_tail, max_duration, max_frequency or the samplerate"
             )
         return out
+
+    def _radiation_row(self) -> str:
+        r = self.radiation
+        if r.rule == "none":
+            return "none (accelerometer)"
+        if r.rule != "rectangle":
+            return f"{r.rule} rule (not estimated)"
+        from synth.sound.radiation.common import MAX_RULES
+
+        cut = "" if r.max_points is None else f" (the budget's; of {MAX_RULES})"
+        return (
+            f"rectangle rule, {r.first_points} points, {r.points} in up to {r.rules} "
+            f"rules{cut}, {r.shape_terms} shape terms, {r.work:.3g} terms"
+        )
 
     def _largest_part(self) -> str:
         """`` (most of it the <part>: N MiB)`` for the largest part of the memory."""
@@ -281,6 +383,7 @@ class CostEstimate:
                 "mode solver (cold)",
                 f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
             ),
+            ("radiation (microphone)", self._radiation_row()),
             ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
             ("impacts (estimated)", f"{self.impacts}"),
             ("memory (largest arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
@@ -329,8 +432,6 @@ def modal_count(plate, max_frequency: float) -> int:
     dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
     Clamped edges are counted as simply supported (their wavenumbers lie half a step
     higher)."""
-    import numpy as np
-
     omega = 2.0 * math.pi * max_frequency
     k = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))  # rad/m
     first = 0 if plate.boundary == "free" else 1
@@ -449,9 +550,12 @@ def estimate(
     max_tail: float = 60.0,
     pulse_points: int = 65,
     floor_db: float = -80.0,
+    budget: Budget | None = None,
 ) -> CostEstimate:
     """The :class:`CostEstimate` of rendering ``scene`` with these options of
-    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s)."""
+    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s);
+    ``budget`` (default: the environment's) sets the radiation rules that fit."""
+    budget = Budget.from_environment() if budget is None else budget
     from synth.sound import modes as plate_modes
     from synth.sound.modal_bank.pulse import _grid_size
     from synth.sound.modal_bank.transform_kernels import WORK_ROWS
@@ -482,6 +586,7 @@ def estimate(
         shapes=8 * max(main, default=0) * modes,
         radiation=_radiation_bytes(scene, modes, f_max),
     )  # fmt: skip
+    radiation = radiation_work(scene, modes, f_max, budget)
     return CostEstimate(
         max_frequency=f_max,
         modes=modes,
@@ -498,6 +603,73 @@ def estimate(
         solver_flops=float(flops),
         impacts=impacts,
         memory=memory,
+        radiation=radiation,
+    )
+
+
+def _kappa(plate, f_max: float) -> float:
+    """The rectangle rule's wavenumber at ``f_max`` (Hz): bending plus acoustic, rad/m
+    (the highest mode's, which lies at or below ``f_max``)."""
+    from synth.constants import SOUND_SPEED
+
+    omega = 2.0 * math.pi * f_max
+    bending = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
+    return bending + omega / SOUND_SPEED
+
+
+def _radiation_rule(plate, modes: int, f_max: float) -> str:
+    """The rule :func:`synth.sound.radiation.plate_gains` takes for ``modes`` modes up to
+    ``f_max`` (Hz): its own switch-overs on the rectangle rule's work (modes times the
+    points of :func:`~synth.sound.radiation.rectangle_points`), and for a plate with edge
+    effect modes (beyond the Ritz crossover) its test of the boundary rule."""
+    from synth.sound import radiation as rad
+    from synth.sound.modes import CROSSOVER_UNKNOWNS, _dimensionless_band
+    from synth.sound.modes.ritz import ritz_unknowns
+
+    size = (plate.length, plate.width)
+    kappa = _kappa(plate, f_max)
+    work = modes * rad.rectangle_points(size, kappa, RADIATION_TOL)
+    if plate.boundary == "simply-supported":
+        return "polar" if work > rad._POLAR_WORK else "rectangle"
+    omega = _dimensionless_band(plate, f_max)
+    if ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS:
+        a, b = size
+        big = work > rad.BOUNDARY_RULE_WORK and kappa * a * b / (a + b) > rad.BOUNDARY_RULE_SIZE
+        return "boundary" if big else "rectangle"
+    return "summed" if work > rad.SUMMED_RULE_WORK else "rectangle"
+
+
+def radiation_work(scene, modes: int, f_max: float, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of ``scene``'s listener for ``modes`` modes up to
+    ``f_max`` (Hz), before any mode is solved, with the rules whose summed work fits
+    ``budget`` (at least the first; see the module docstring)."""
+    from synth.physics.scene import Microphone
+    from synth.sound.modes import shape_terms
+    from synth.sound.radiation.common import MAX_RULES, REFINE
+    from synth.sound.radiation.rectangle import first_rule
+
+    if not isinstance(scene.listener, Microphone) or modes == 0:
+        return RadiationWork()
+    plate = scene.plate
+    rule = _radiation_rule(plate, modes, f_max)
+    if rule != "rectangle":
+        return RadiationWork(rule)
+    _, _, px, py = first_rule(
+        plate.length, plate.width, scene.listener.position, _kappa(plate, f_max),
+        0.1 * RADIATION_TOL,
+    )  # fmt: skip
+    per_rule = [
+        int(np.ceil(px * REFINE**level).sum()) * int(np.ceil(py * REFINE**level).sum())
+        for level in range(MAX_RULES)
+    ]
+    terms = shape_terms(plate, f_max)
+    summed = np.cumsum(per_rule)
+    fit = int(np.sum(summed * float(modes) * (1 + terms) <= budget.max_radiation_work))
+    rules = max(fit, 1)
+    points = int(summed[rules - 1])
+    cut = per_rule[rules - 1] if rules < MAX_RULES else None
+    return RadiationWork(
+        rule, per_rule[0], points, terms, float(points) * modes, rules, cut, tuple(per_rule)
     )
 
 

@@ -1402,3 +1402,85 @@ def test_bank_gain_that_would_clip_is_refused_naming_the_file(serial, tmp_path):
         encode(over, 16000, "flac", "PCM_24", "x.flac", CLIP_ADVICE)
     data = encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)  # floats hold it
     assert data == encode(over, 16000, "wav", "FLOAT", "x.wav", CLIP_ADVICE)
+
+
+def test_bank_gain_follows_a_renamed_preset_without_scaling_again(tmp_path, cache_dir):
+    # The source bank's preset renamed (the same sounds under new names, the bank
+    # resumed): the gain pass into the same folder is not refused, scales nothing again,
+    # moves its files to the new names, and its folder then equals a fresh pass's.
+    from synth.bank.gain import apply_gain
+
+    spec = _labelled_spec(tmp_path / "spec")
+    src, out = tmp_path / "bank", tmp_path / "gained"
+    assert bank.run(spec, src, jobs=1).ok
+    assert apply_gain(src, out).done == 3
+    renamed = _labelled_spec(tmp_path / "spec2", preset="tiny.toml", small="little")
+    assert bank.run(renamed, src, jobs=1).renamed == 3
+    again = apply_gain(src, out)
+    assert (again.done, again.skipped, again.renamed, again.orphans) == (0, 3, 3, [])
+    fresh = apply_gain(src, tmp_path / "fresh")
+    assert fresh.done == 3
+    assert _audio_files(out) == _audio_files(tmp_path / "fresh")
+    assert all(name.startswith("tiny-") for name in _audio_files(out))
+    for name in (mf.JSONL, mf.CSV):
+        assert (out / name).read_bytes() == (tmp_path / "fresh" / name).read_bytes()
+
+
+def test_files_outside_the_manifest_are_reported_and_removed_only_with_prune(
+    tmp_path, cache_dir, capsys
+):
+    # Audio files that neither the manifest nor the plan names (an earlier template's
+    # file a stopped run did not record, one copied there by hand, in a subfolder) are
+    # named in the summary and left; a dry run with --prune deletes nothing; --prune
+    # deletes exactly them (and the folder they leave empty), nothing of the bank. The
+    # same in the gain pass' folder.
+    from synth.bank.gain import apply_gain
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    stray = ["old-000.wav", "takes/old-001.flac"]
+    (out / "takes").mkdir()
+    for name in stray:
+        (out / name).write_bytes((out / "small-000.wav").read_bytes())
+    (out / "notes.txt").write_text("kept: not audio")
+    assert main(["bank", str(spec), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "2 files in the folder are not in the manifest" in err and "--prune" in err
+    assert all(name in err for name in stray)
+    before = _tree(out)
+    assert main(["bank", str(spec), "-o", str(out), "--dry-run", "--prune"]) == 0
+    assert "2 files in the folder are not in the manifest" in capsys.readouterr().err
+    assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1, prune=True)
+    assert result.ok and result.pruned and result.orphans == stray
+    assert not (out / "takes").exists() and (out / "notes.txt").is_file()
+    _check_complete_files = {r["file"] for r in mf.read_rows(out)}
+    assert set(_audio_files(out)) == _check_complete_files == {"small-000.wav", "small-001.wav"}
+    assert bank.run(spec, out, jobs=1).orphans == []
+
+    gained = tmp_path / "gained"
+    assert apply_gain(out, gained).done == 2
+    (gained / "extra.ogg").write_bytes(b"not ours")
+    again = apply_gain(out, gained)
+    assert again.orphans == ["extra.ogg"] and (gained / "extra.ogg").is_file()
+    assert "--prune" in again.summary()
+    assert main(["bank-gain", str(out), "-o", str(gained), "--prune"]) == 0
+    assert not (gained / "extra.ogg").exists() and len(_audio_files(gained)) == 2
+
+
+@pytest.mark.slow
+def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
+    # `synth bench bank` measures, in one run, sounds per second of --jobs 1 and
+    # --jobs 2 and files per second of the bank-gain pass, and prints each in its table
+    from synth.bank import bench
+
+    r = bench.run_bank(count=4, process_files=1, dask=False)
+    assert all(r[k]["rate"] > 0 for k in ("jobs1", "jobs2", "gain"))
+    table = bench.format_bank(r)
+    rows = {line.split(" | ")[0]: line for line in table.splitlines() if line.startswith("| ")}
+    assert {"| `synth bank --jobs 1`", "| `synth bank --jobs 2`"} <= set(rows)
+    gain = [line for line in rows.values() if "bank-gain" in line]
+    assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
+    assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
+    assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]

@@ -12,7 +12,11 @@ then decodes each file, scales it by that gain and encodes it again in the bank'
 format and subtype into ``out_dir`` (the same names; bytes a function of the samples,
 :mod:`synth.io.reproducible`). The source bank is not touched. The pass is resumable as
 the bank is: each file is published once and its row appended to ``out_dir``'s manifest
-after it; a rerun skips the rows whose file has the recorded hash. The manifest of
+after it; a rerun skips the rows whose file has the recorded hash. A source bank whose
+files took new names since (a renamed preset, an edited label or name template: the same
+sounds, :func:`synth.bank.spec.compared_form`) has its scaled files moved to those names,
+not scaled again. Audio files in ``out_dir`` that its manifest does not name are reported
+(``orphans``) and deleted only with ``prune``. The manifest of
 ``out_dir`` is the source's with ``gain_db`` and the level columns and hashes of the
 scaled files; the gain and its target are stored in ``out_dir/gain.json``.
 
@@ -28,12 +32,12 @@ import json
 import math
 import statistics
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.run import BankRunError, encode
+from synth.bank.run import BankRunError, encode, move_files
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -46,7 +50,9 @@ GAIN_FILE = "gain.json"
 @dataclass
 class GainResult:
     """The outcome of :func:`apply_gain`: the gain (dB), ``done`` files scaled now,
-    ``skipped`` found complete, and the pass' ``elapsed`` time (s)."""
+    ``skipped`` found complete (of which ``renamed`` moved to the source's new names),
+    ``orphans`` (audio files in ``out_dir`` its manifest does not name; deleted if
+    ``pruned``), and the pass' ``elapsed`` time (s)."""
 
     out_dir: Path
     gain_db: float
@@ -54,6 +60,9 @@ class GainResult:
     level: float
     done: int = 0
     skipped: int = 0
+    renamed: int = 0
+    orphans: list = field(default_factory=list)
+    pruned: bool = False
     elapsed: float = 0.0
 
     @property
@@ -62,10 +71,15 @@ class GainResult:
         return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     def summary(self) -> str:
-        return (
+        text = (
             f"{self.out_dir}: gain {self.gain_db:+.3f} dB ({self.target} to {self.level:g}); "
             f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
         )
+        if self.renamed:
+            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
+        if self.orphans:
+            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
+        return text
 
 
 def bank_gain(rows: list[dict], target: str, level: float) -> float:
@@ -142,20 +156,63 @@ def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
     return encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
 
 
-def _stored_record(path: Path) -> dict:
-    """The record of ``gain.json`` with its bank's spec in the canonical form
-    (:func:`synth.bank.spec.canonical`; earlier versions stored the spec as written)."""
-    record = json.loads(path.read_text())
-    if isinstance(record.get("spec"), dict):
-        record["spec"] = bank_spec.canonical(record["spec"])
-    return record
+def _compared(record: dict) -> dict:
+    """The part of a ``gain.json`` record that makes the scaled sounds: the source, the
+    target, level and gain, and the part of its bank's spec that makes the sounds
+    (:func:`synth.bank.spec.compared_form`: a renamed preset, an edited label, name
+    template or tag do not count; earlier versions stored the spec as written)."""
+    out = dict(record)
+    if isinstance(out.get("spec"), dict):
+        out["spec"] = bank_spec.compared_form(out["spec"])
+    return out
 
 
-def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> GainResult:
+def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
+    """The source ``rows`` whose scaled file in ``out`` is complete (recorded in its
+    manifest with the file's hash), as rows of ``out``'s manifest, and how many of them
+    were moved to the source's name (:func:`synth.bank.run.move_files`): a renamed
+    source row keeps its scaled file."""
+    source = {r["index"]: r for r in rows}
+    complete = {
+        r["index"]: r
+        for r in mf.read_rows(out)
+        if r.get("index") in source
+        and isinstance(r.get("file"), str)
+        and (out / r["file"]).is_file()
+        and mf.sha256_file(out / r["file"]) == r.get("sha256")
+    }
+    moves = {i: (r["file"], source[i]["file"]) for i, r in complete.items()}
+    moved = move_files(out, fmt, moves)
+    kept = []
+    for index, row in complete.items():
+        data = moved.get(index)
+        hashes = mf.file_hashes(data) if data is not None else {
+            k: row.get(k) for k in ("sha256", "audio_sha256")
+        }  # fmt: skip
+        kept.append(_described(source[index], row, hashes))
+    return kept, len(moved)
+
+
+def _described(source_row: dict, row: dict, hashes: dict) -> dict:
+    """A row of the scaled manifest: the source's row (its name, values, labels and
+    tags as they are now) with the scaled file's levels, gain and ``hashes``."""
+    new = dict(source_row)
+    for key in ("gain_db", "peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
+        new[key] = row.get(key)
+    new.update(hashes)
+    return new
+
+
+def apply_gain(
+    bank_dir, out_dir, *, target: str = "true_peak", level=None, prune: bool = False
+) -> GainResult:
     """Scale the finished bank in ``bank_dir`` by one gain into ``out_dir`` (see the
     module docstring). ``target``: "true_peak" (``level`` dBTP, default -1) or
-    "loudness" (``level`` LUFS, default -23)."""
+    "loudness" (``level`` LUFS, default -23); ``prune``: delete the audio files in
+    ``out_dir`` that its manifest does not name (else only reported)."""
     level = _check_target(target, level)
+    if not isinstance(prune, bool):
+        raise BankSpecError(f"prune={prune!r} must be True or False")
     src, out = Path(bank_dir), Path(out_dir)
     if src.resolve() == out.resolve():
         raise BankSpecError(f"out_dir={str(out)!r} must be another folder than the bank's")
@@ -167,21 +224,18 @@ def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> G
     t0 = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     stored = out / GAIN_FILE
-    if stored.is_file() and _stored_record(stored) != record:
+    if stored.is_file() and _compared(json.loads(stored.read_text())) != _compared(record):
         raise BankSpecError(
             f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
             f"use another folder"
         )
     mf.write_atomic(stored, (json.dumps(record, indent=1, sort_keys=True) + "\n").encode())
+    mf.clean_temporaries(out)
     cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
     book = mf.Manifest(out, cols)
-    done_rows = {
-        r["index"]: r
-        for r in mf.read_rows(out)
-        if (out / r["file"]).is_file() and mf.sha256_file(out / r["file"]) == r.get("sha256")
-    }
-    result = GainResult(out, gain_db, target, level, skipped=len(done_rows))
-    kept = list(done_rows.values())
+    kept, renamed = _done_rows(out, rows, spec["format"])
+    done_rows = {r["index"] for r in kept}
+    result = GainResult(out, gain_db, target, level, skipped=len(kept), renamed=renamed)
     book.rewrite(kept)
     try:
         for row in rows:
@@ -199,6 +253,10 @@ def apply_gain(bank_dir, out_dir, *, target: str = "true_peak", level=None) -> G
             result.done += 1
     finally:
         book.close()
-        book.rewrite(kept)
+        book.rewrite(sorted(kept, key=lambda r: r["index"]))
+    result.orphans = mf.orphans(out, [r["file"] for r in kept])
+    if prune and result.orphans:
+        mf.remove_files(out, result.orphans)
+        result.pruned = True
     result.elapsed = time.perf_counter() - t0
     return result

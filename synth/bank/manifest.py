@@ -109,6 +109,59 @@ def clean_temporaries(folder: Path) -> int:
     return n
 
 
+#: Suffixes of the audio files a bank writes (its formats): the files
+#: :func:`orphans` looks for.
+AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
+
+
+def orphans(folder: Path, kept_names) -> list[str]:
+    """The audio files (:data:`AUDIO_SUFFIXES`) in ``folder`` and its subfolders whose
+    names (relative, with ``/``) are not in ``kept_names`` (the manifest's files and the
+    plan's): left by an earlier name template, a run stopped before recording them, or
+    put there by hand. Sorted; temporaries (:data:`TEMPORARY`) are not counted."""
+    kept = set(kept_names)
+    out = []
+    for p in folder.rglob("*"):
+        name = p.relative_to(folder).as_posix()
+        if p.suffix.lower() in AUDIO_SUFFIXES and not TEMPORARY.match(p.name) and p.is_file():
+            if name not in kept:
+                out.append(name)
+    return sorted(out)
+
+
+def remove_files(folder: Path, names) -> int:
+    """Delete the files ``names`` (relative to ``folder``) and the subfolders they leave
+    empty; returns how many files were deleted."""
+    n = 0
+    for name in names:
+        path = folder / name
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            continue
+        n += 1
+        parent = path.parent
+        while parent != folder and parent.is_relative_to(folder):
+            try:
+                parent.rmdir()
+            except OSError:  # not empty
+                break
+            parent = parent.parent
+    return n
+
+
+def orphans_note(names: list[str], removed: bool) -> str:
+    """The summary line of :func:`orphans`: removed (``--prune``), or left with what
+    removes them."""
+    shown = ", ".join(names[:5]) + (f" ... ({len(names) - 5} more)" if len(names) > 5 else "")
+    if removed:
+        return f"{len(names)} files not in the manifest removed (--prune): {shown}"
+    return (
+        f"{len(names)} files in the folder are not in the manifest (left in place; "
+        f"--prune removes them): {shown}"
+    )
+
+
 def sha256_file(path: Path) -> str:
     """SHA-256 (hex) of a file's bytes."""
     h = hashlib.sha256()

@@ -68,7 +68,9 @@ class BankResult:
     ``planned`` rows in the plan; ``done`` rendered now (ok), ``skipped`` found complete,
     ``failed`` recorded with their error (``failures``: index and error), ``renamed``
     of the complete rows moved to a new name (the preset renamed, a label or the name
-    template edited), ``stopped`` the
+    template edited), ``orphans`` the audio files in the folder that are in neither
+    the manifest nor the plan (:func:`synth.bank.manifest.orphans`; removed if
+    ``pruned``), ``stopped`` the
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
     ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
     largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
@@ -82,6 +84,8 @@ class BankResult:
     failed: int = 0
     failures: list = field(default_factory=list)
     renamed: int = 0
+    orphans: list = field(default_factory=list)
+    pruned: bool = False
     stopped: str | None = None
     elapsed: float = 0.0
     startup: float = 0.0
@@ -107,11 +111,14 @@ class BankResult:
     def summary(self) -> str:
         """The summary printed at the end of ``synth bank``."""
         if self.estimate is not None:
-            return (
+            text = (
                 f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
                 f"{self.planned} sounds to render ({self.skipped} already done); estimated "
                 f"{self.estimate:.1f} s to render them"
             )
+            if self.orphans:
+                text += "\n  " + mf.orphans_note(self.orphans, removed=False)
+            return text
         text = (
             f"{self.out_dir}: {self.done} done, {self.skipped} skipped, {self.failed} failed "
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
@@ -119,6 +126,8 @@ class BankResult:
         )
         if self.renamed:
             text += f"\n  {self.renamed} files renamed (same sounds, new names)"
+        if self.orphans:
+            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
@@ -700,27 +709,44 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
     published under their new names as the bytes a render would give there
     (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial follows the name).
     A run killed meanwhile leaves rows whose recorded file is missing: they are redone."""
-    from synth.io.atomic import temporary_name
-
-    moving = {r["index"]: r for r in rows if r["file"] != plan[r["index"]].file}
-    aside = {}
-    for index, row in moving.items():
-        old = out_dir / row["file"]
-        aside[index] = out_dir / temporary_name(old.suffix)  # cleaned up if killed here
-        os.replace(old, aside[index])
-        _remove_empty_folders(out_dir, old.parent)
+    moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
+    moved = move_files(out_dir, spec.format, moves)
     out = []
     for row in rows:
         item = plan[row["index"]]
-        if row["index"] in aside:
-            data = reproducible(aside[row["index"]].read_bytes(), spec.format, item.file)
-            target = out_dir / item.file
-            target.parent.mkdir(parents=True, exist_ok=True)
-            mf.write_atomic(target, data)
-            aside[row["index"]].unlink()
-            row = dict(row, file=item.file, **mf.file_hashes(data))
+        if row["index"] in moved:
+            row = dict(row, file=item.file, **mf.file_hashes(moved[row["index"]]))
         out.append(_described(spec, item, row))
     return out
+
+
+def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
+    """Move the files ``moves`` (index: (old name, new name), relative to ``out_dir``;
+    those whose names are equal stay) to their new names, each published as the bytes a
+    render would give under that name (:func:`synth.io.reproducible.reproducible`: an Ogg
+    stream's serial follows the name). The files are first moved aside to temporaries (a
+    new name may be another file's old one; a run killed meanwhile leaves only
+    temporaries, cleaned up by the next). Returns index: the moved file's bytes."""
+    from synth.io.atomic import temporary_name
+
+    aside = {}
+    for index, (old_name, new_name) in moves.items():
+        if old_name == new_name:
+            continue
+        old = out_dir / old_name
+        aside[index] = out_dir / temporary_name(old.suffix)
+        os.replace(old, aside[index])
+        _remove_empty_folders(out_dir, old.parent)
+    moved = {}
+    for index, temporary in aside.items():
+        new_name = moves[index][1]
+        data = reproducible(temporary.read_bytes(), fmt, new_name)
+        target = out_dir / new_name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        mf.write_atomic(target, data)
+        temporary.unlink()
+        moved[index] = data
+    return moved
 
 
 def _remove_empty_folders(out_dir: Path, folder: Path) -> None:
@@ -831,6 +857,7 @@ def run(
     dry_run: bool = False,
     force: bool = False,
     redo=None,
+    prune: bool = False,
 ) -> BankResult:
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
     folder ``out_dir`` (created if needed), resuming what an earlier run left.
@@ -851,6 +878,11 @@ def run(
     redo : str or set of int, optional
         Rows to render again although complete (``"17,40-45"``): their files are
         replaced.
+    prune : bool
+        Delete the audio files in the folder that are in neither the manifest nor the
+        plan (``result.orphans``: left by an earlier name template, a run stopped before
+        recording them, or put there by hand). Without it they are only reported; a dry
+        run reports them and deletes nothing.
 
     Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
     raises :class:`~synth.bank.spec.BankSpecError` before any work (every row's scene is
@@ -862,17 +894,21 @@ def run(
     items = bank_spec.plan(spec)
     again = frozenset() if redo is None else bank_spec.parse_rows(redo, len(items))
     out = Path(out_dir)
+    if not isinstance(prune, bool):
+        raise BankSpecError(f"prune={prune!r} must be True or False")
     if dry_run:
         return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again)
     connection = _connect(scheduler) if scheduler is not None else None
     try:
-        return _run_in(spec, items, out, n_jobs, connection, force, again)
+        return _run_in(spec, items, out, n_jobs, connection, force, again, prune)
     finally:
         if connection is not None:
             connection.close()
 
 
-def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool, again) -> BankResult:
+def _run_in(
+    spec, items, out: Path, n_jobs: int, connection, force: bool, again, prune: bool
+) -> BankResult:
     """:func:`run` once the plan is checked and the cluster (if any) reached."""
     global _HELD_LOCK
     try:
@@ -883,7 +919,9 @@ def _run_in(spec, items, out: Path, n_jobs: int, connection, force: bool, again)
         lock = _lock(out)
         _HELD_LOCK = lock
         try:
-            return _run(spec, items, out, n_jobs, connection, force, again)
+            result = _run(spec, items, out, n_jobs, connection, force, again)
+            _find_orphans(out, items, result, prune)
+            return result
         finally:
             _HELD_LOCK = None
             _unlock(out, lock)
@@ -911,9 +949,22 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     todo = [item for item in items if item.index not in done_ids]
     result = BankResult(out, len(items), skipped=len(kept))
     result.planned_rows = [_base_row(spec, item, "planned") for item in todo]
+    if out.is_dir() and not other:
+        recorded = [r["file"] for r in _verified(out, mf.read_rows(out), plan)]
+        result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
     result.estimate = _estimate(spec, todo, jobs)
     result.elapsed = time.perf_counter() - t0
     return result
+
+
+def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
+    """``result.orphans``: the audio files in ``out`` in neither the manifest nor the
+    plan; deleted if ``prune`` (``result.pruned``)."""
+    recorded = [str(r.get("file")) for r in mf.read_rows(out)]
+    result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
+    if prune and result.orphans:
+        mf.remove_files(out, result.orphans)
+        result.pruned = True
 
 
 def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> BankResult:

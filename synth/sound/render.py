@@ -91,7 +91,7 @@ def _samplerate(value) -> int:
     return int(value)
 
 
-def _microphone_gains(modes, plate, microphone, poles, k_max):
+def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
     """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
     for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
 
@@ -126,6 +126,7 @@ def _microphone_gains(modes, plate, microphone, poles, k_max):
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
         reference_distance=nearest_distance(plate, microphone),
+        **({} if max_points is None else {"max_points": max_points}),
     )
     return np.asarray(h) * poles / mirror
 
@@ -156,16 +157,20 @@ class ListenerOutput:
     units: str
 
 
-def _accelerometer_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+def _accelerometer_output(
+    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
+) -> ListenerOutput:
     phip = modes.shapes(np.array([listener.position]))[0][ok]
     return ListenerOutput(phip * poles**2, phip, 0.0, "m/s^2")
 
 
-def _microphone_output(modes, plate, listener, poles, ok, sigma, omega, wd) -> ListenerOutput:
+def _microphone_output(
+    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
+) -> ListenerOutput:
     D = plate.flexural_rigidity
     rho_h = plate.surface_density
     k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
-    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max)
+    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max, max_points)
     return ListenerOutput(
         np.asarray(all_gains)[ok] * poles,
         None,
@@ -236,7 +241,12 @@ class ModalModel:
 
 
 def modal_model(
-    plate, listener, *, samplerate: int, max_frequency: float | None = None
+    plate,
+    listener,
+    *,
+    samplerate: int,
+    max_frequency: float | None = None,
+    radiation_max_points: int | None = None,
 ) -> ModalModel:
     """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
     Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
@@ -245,7 +255,9 @@ def modal_model(
 
     A mode with sigma >= omega is overdamped: it does not ring (possible only for a loss
     factor >= 2, or a Rayleigh law far outside any material's range); it is left out and
-    counted.
+    counted. ``radiation_max_points``: the most points of one rule of a microphone's
+    sums (:attr:`synth.cost.RadiationWork.max_points`: where the budget stops the
+    refinement; None: the sums' own default).
     """
     fs = samplerate
     f_max = 0.5 * fs if max_frequency is None else max_frequency
@@ -256,7 +268,9 @@ def modal_model(
     wd = np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
     ok = under & (wd < math.pi * fs)
     poles = (-sigma + 1j * wd)[ok]
-    gains = LISTENER_OUTPUTS[type(listener)](modes, plate, listener, poles, ok, sigma, omega, wd)
+    gains = LISTENER_OUTPUTS[type(listener)](
+        modes, plate, listener, poles, ok, sigma, omega, wd, radiation_max_points
+    )
     return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
 
 
@@ -556,10 +570,11 @@ def render(
         budget = cost.Budget.from_environment()
     elif not isinstance(budget, cost.Budget):
         raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
-    cost.estimate(
+    estimate = cost.estimate(
         scene, samplerate=fs, max_frequency=f_max, preroll=pre, max_duration=max_duration,
-        max_tail=tail, pulse_points=int(pulse_points), floor_db=o["floor_db"],
-    ).check(budget)  # fmt: skip
+        max_tail=tail, pulse_points=int(pulse_points), floor_db=o["floor_db"], budget=budget,
+    )  # fmt: skip
+    estimate.check(budget)
     if scene.moving:
         if sequence is not None:
             raise ParameterError(
@@ -578,7 +593,13 @@ def render(
                 f"{imp.result.message} The scene is outside what the contact solver handles"
             )
 
-    model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
+    model = modal_model(
+        scene.plate,
+        scene.listener,
+        samplerate=fs,
+        max_frequency=f_max,
+        radiation_max_points=estimate.radiation.max_points,
+    )
     poles = model.poles
     excitation = model.excitation(scene.position)
     output = model.output

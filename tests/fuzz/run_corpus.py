@@ -4,7 +4,25 @@ category (inputs, right results, clean errors, tracebacks, hangs, leftovers, dat
 
 A case with ``timeout`` (s) runs as ``python -m synth`` in a subprocess killed after that
 long: a hang is counted, never waited for. ``env`` sets environment variables for the
-case; ``wav_frames`` writes a silent mono 48 kHz WAV of that many frames at ``{wav}``."""
+case; ``wav_frames`` writes a silent mono 48 kHz WAV of that many frames at ``{wav}``.
+
+Other kinds of case:
+
+* ``code`` (instead of ``argv``): Python statements run in this process with ``synth``,
+  ``np``, ``out`` and ``folder`` (the run's paths), ``scene()`` (a small scene, cheap to
+  render) and ``engine()`` (a live engine, offline, with that scene's plate added: its
+  ``body``); ``expect = "error"``: a :class:`synth.ParameterError` (any other exception
+  is a traceback) whose message holds ``words``; ``"ok"``: no exception.
+* ``signal`` (``"SIGTERM"`` or ``"SIGKILL"``) with ``after`` (s): the command runs in a
+  subprocess sent that signal ``after`` seconds in; expected: it ends within ``timeout``,
+  no traceback, the existing output unchanged (``expect = "killed"``). A SIGKILL cannot
+  be cleaned up after: the next run of the command (``then``, an argv run to the end)
+  must finish the work and leave no temporary.
+* ``check``: a Python expression on ``out`` and ``folder`` that must hold after an
+  ``"ok"`` case (the output is what was asked for).
+
+A *silent wrong* result is a case that succeeded where it must fail, or whose ``check``
+does not hold."""
 
 from __future__ import annotations
 
@@ -37,6 +55,7 @@ class Outcome:
     partial: bool = False
     lost: bool = False
     hang: bool = False
+    silent_wrong: bool = False
 
 
 def load_corpus() -> list[dict]:
@@ -95,6 +114,109 @@ def _in_subprocess(argv: list[str], env: dict, timeout: float) -> tuple[int | No
     return proc.returncode, err, False
 
 
+SMALL_SCENE = """
+[ball]
+material = "steel"
+radius = 0.005
+[plate]
+material = "mdf-18"
+thickness = 0.018
+length = 0.3
+width = 0.2
+boundary = "simply-supported"
+[drop]
+height = 0.02
+position = [0.15, 0.1]
+[listener]
+type = "microphone"
+position = [0.15, 0.1, 0.2]
+[render]
+samplerate = 16000
+max_frequency = 4000.0
+max_duration = 0.3
+max_tail = 0.3
+"""
+
+
+def _scene():
+    """The small scene of :data:`SMALL_SCENE`."""
+    import tomllib
+
+    from synth.io.presets import scene_from_dict
+
+    return scene_from_dict(tomllib.loads(SMALL_SCENE), "small")[0]
+
+
+def _engine():
+    """A live engine (offline, 16 kHz) with the small scene's plate added: ``(engine,
+    body, ball)``."""
+    import synth
+
+    scene = _scene()
+    engine = synth.Engine(samplerate=16000)
+    return engine, engine.add(scene.plate), scene.ball
+
+
+#: The status of a ``code`` case whose own ``assert`` failed: a wrong result, no error.
+SILENT_WRONG = 3
+
+
+def audio_ok(path) -> bool:
+    """True if ``path`` is an audio file of at least one frame whose samples are finite
+    and within full scale (the ``check`` of a render)."""
+    import numpy as np
+    import soundfile
+
+    data, _ = soundfile.read(str(path), dtype="float64")
+    return data.size > 0 and bool(np.all(np.isfinite(data))) and float(np.max(np.abs(data))) <= 1
+
+
+def _in_code(code: str, folder: Path, out: Path) -> tuple[int | None, str, bool]:
+    """(0, "", False) if ``code`` runs, (2, the message, False) for a ParameterError,
+    (1, the traceback, True) for any other exception."""
+    import numpy as np
+
+    import synth
+
+    names = {"synth": synth, "np": np, "out": out, "folder": folder}
+    names.update(scene=_scene, engine=_engine)
+    try:
+        exec(code, names)  # noqa: S102 - the corpus' own statements
+    except synth.ParameterError as exc:
+        return 2, f"ParameterError: {exc}", False
+    except AssertionError as exc:  # the statements ran and checked a wrong result
+        return SILENT_WRONG, f"AssertionError: {exc}", False
+    except Exception:  # noqa: BLE001 - a traceback is what we count
+        return 1, traceback.format_exc(), True
+    return 0, "", False
+
+
+def _signalled(argv, env, name: str, after: float, timeout: float):
+    """(exit status, stderr, hang) of ``python -m synth argv`` sent signal ``name`` after
+    ``after`` s, waited for at most ``timeout`` s more."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "synth", *argv],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, **{k: str(v) for k, v in env.items()}},
+        start_new_session=True,
+    )
+    try:
+        _, err = proc.communicate(timeout=after)
+        return proc.returncode, err, False  # ended before the signal
+    except subprocess.TimeoutExpired:
+        pass
+    os.killpg(proc.pid, getattr(signal, name))
+    try:
+        _, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        _, err = proc.communicate()
+        return None, err, True
+    return proc.returncode, err, False
+
+
 def _write_wav(path: Path, frames: int) -> None:
     import numpy as np
     import soundfile as sf
@@ -113,24 +235,54 @@ def run_case(case: dict) -> Outcome:
         wav = folder / "input.wav"
         if "wav_frames" in case:
             _write_wav(wav, case["wav_frames"])
-        argv = [
-            a.replace("{out}", str(out))
-            .replace("{dir}", str(folder))
-            .replace("{preset}", str(preset))
-            .replace("{wav}", str(wav))
-            for a in case["argv"]
-        ]
+
+        def substituted(args):
+            return [
+                a.replace("{out}", str(out))
+                .replace("{dir}", str(folder))
+                .replace("{preset}", str(preset))
+                .replace("{wav}", str(wav))
+                for a in args
+            ]
+
+        argv = substituted(case.get("argv", []))
         before = {p.name for p in folder.iterdir()}
         env = case.get("env", {})
-        if "timeout" in case:
+        if "code" in case:
+            (code, stderr, tb), hang = _in_code(case["code"], folder, out), False
+        elif "signal" in case:
+            code, stderr, hang = _signalled(
+                argv, env, case["signal"], case["after"], case["timeout"]
+            )
+            tb = "Traceback (most recent call last)" in stderr
+            killed = code != 0
+            if "then" in case and not hang:
+                then = substituted(case["then"])
+                code2, stderr2, hang = _in_subprocess(then, env, case["timeout"])
+                tb = tb or "Traceback (most recent call last)" in stderr2
+                stderr += stderr2 if code2 != 0 else ""
+                code = code2  # the killed run's status is the signal's
+        elif "timeout" in case:
             code, stderr, hang = _in_subprocess(argv, env, case["timeout"])
             tb = "Traceback (most recent call last)" in stderr
         else:
             (code, stderr, tb), hang = _in_process(argv, env), False
         o = Outcome(case, code, stderr, traceback=tb, hang=hang)
-        new = {p.name for p in folder.iterdir()} - before
+        if "signal" in case and not hang and not killed:
+            o.problems.append("ended before the signal: make `after` shorter")
+        new = {p.name for p in folder.rglob("*")} - before
         o.partial = any(n.startswith(".") for n in new)
-        o.lost = out.read_bytes() != PRECIOUS and case["expect"] == "error"
+        o.lost = out.read_bytes() != PRECIOUS and case["expect"] in ("error", "killed")
+        checked = case.get("check")
+        if checked and case["expect"] == "ok" and code == 0 and not hang and not tb:
+            try:
+                held = eval(checked, {"out": out, "folder": folder, "audio_ok": audio_ok})  # noqa: S307
+            except Exception:  # noqa: BLE001 - a check that cannot be made does not hold
+                held = False
+            if not held:
+                o.silent_wrong = True
+        if (case["expect"] == "error" and code == 0) or code == SILENT_WRONG:
+            o.silent_wrong = True
     lines = [
         x
         for x in o.stderr.strip().splitlines()
@@ -143,6 +295,11 @@ def run_case(case: dict) -> Outcome:
     elif case["expect"] == "ok":
         if code != 0:
             o.problems.append(f"exit {code}, expected 0: {o.stderr.strip()[-300:]}")
+        if o.silent_wrong:
+            o.problems.append(f"the result does not hold: {case.get('check', o.stderr)}")
+    elif case["expect"] == "killed":
+        if "then" in case and code != 0:
+            o.problems.append(f"the next run failed (exit {code}): {o.stderr.strip()[-300:]}")
     else:
         if code not in (1, 2):
             o.problems.append(f"exit {code}, expected 1 or 2")
@@ -159,18 +316,28 @@ def run_case(case: dict) -> Outcome:
 
 
 #: The columns of the figures, in order.
-COLUMNS = ("inputs", "right", "clean_errors", "tracebacks", "hangs", "leftovers", "data_loss")
+COLUMNS = (
+    "inputs",
+    "right",
+    "clean_errors",
+    "tracebacks",
+    "hangs",
+    "leftovers",
+    "data_loss",
+    "silent_wrong",
+)
 
 
 def _counts(outcomes: list[Outcome]) -> dict:
     return {
         "inputs": len(outcomes),
-        "right": sum(o.case["expect"] == "ok" and not o.problems for o in outcomes),
+        "right": sum(o.case["expect"] in ("ok", "killed") and not o.problems for o in outcomes),
         "clean_errors": sum(o.case["expect"] == "error" and not o.problems for o in outcomes),
         "tracebacks": sum(o.traceback for o in outcomes),
         "hangs": sum(o.hang for o in outcomes),
         "leftovers": sum(o.partial for o in outcomes),
         "data_loss": sum(o.lost for o in outcomes),
+        "silent_wrong": sum(o.silent_wrong for o in outcomes),
         "unexpected": sum(bool(o.problems) for o in outcomes),
     }
 
@@ -195,6 +362,7 @@ def format_figures(f: dict) -> str:
         f"{f['inputs']} inputs ({cats}): {f['clean_errors']} clean errors, "
         f"{f['right']} right, {f['tracebacks']} tracebacks, {f['hangs']} hangs, "
         f"{f['leftovers']} leftovers, {f['data_loss']} data loss, "
+        f"{f['silent_wrong']} silent wrong, "
         f"{f['unexpected']} not as expected"
     )
 

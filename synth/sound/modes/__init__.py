@@ -314,6 +314,31 @@ def _dimensionless_band(plate: Plate, max_frequency: float) -> float:
     return 2.0 * math.pi * max_frequency / _frequency_scale(plate)
 
 
+def _ritz_band(plate: Plate, max_frequency: float) -> float:
+    """The dimensionless band of the Ritz problems :func:`modes` solves for ``plate`` up
+    to ``max_frequency`` (Hz): the whole band, or beyond the crossover its low band."""
+    aspect = plate.length / plate.width
+    omega_req = _dimensionless_band(plate, max_frequency)
+    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+        from synth.sound.modes.crossover import _LOW_BAND_UNKNOWNS, band_of_unknowns
+
+        omega_req = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+    return omega_req
+
+
+def shape_terms(plate: Plate, max_frequency: float) -> int:
+    """Terms of the sum one shape value costs per mode on a grid of points, known before
+    any mode is solved: 1 for the closed-form modes of a simply supported plate (a product
+    of sines), else the Ritz basis' degrees along one axis
+    (:func:`~synth.sound.modes.ritz.first_basis_degrees`; :mod:`synth.cost` sizes the
+    radiation stage's work by it)."""
+    from synth.sound.modes.ritz import first_basis_degrees
+
+    if plate.boundary == "simply-supported":
+        return 1
+    return first_basis_degrees(plate.length / plate.width, _ritz_band(plate, max_frequency))
+
+
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
     """Unknowns of the Rayleigh-Ritz problems :func:`modes` solves for ``plate`` up to
     ``max_frequency`` (Hz): each symmetry class's main and check bases of the first
@@ -321,13 +346,7 @@ def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[in
     plate (closed form). A larger basis is tried only when the first does not converge."""
     if plate.boundary == "simply-supported":
         return [], []
-    aspect = plate.length / plate.width
-    omega_req = _dimensionless_band(plate, max_frequency)
-    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
-        from synth.sound.modes.crossover import _LOW_BAND_UNKNOWNS, band_of_unknowns
-
-        omega_req = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
-    return first_basis_sizes(aspect, omega_req)
+    return first_basis_sizes(plate.length / plate.width, _ritz_band(plate, max_frequency))
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:

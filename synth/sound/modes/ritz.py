@@ -257,6 +257,22 @@ def ritz_unknowns(aspect: float, omega: float) -> float:
     return math.pi / 16.0 * nx_max * ny_max
 
 
+def first_basis_degrees(aspect: float, omega: float) -> int:
+    """The most degrees of one parity along one axis in a symmetry class of the first
+    main basis :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the terms
+    of the sum a shape value on a grid of points costs per mode
+    (:meth:`RitzSolution.shapes` shares the sum along the other axis), for
+    :mod:`synth.cost`."""
+    rx, ry = ratios(aspect)
+    k_l = math.sqrt(omega)
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    most = 1
+    for px, py in _CLASSES:
+        i, j = index_set(px, py, kx, ky, _C0, _C1)
+        most = max(most, np.unique(i).size, np.unique(j).size)
+    return int(most)
+
+
 def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]]:
     """Unknowns of each symmetry class's main and check bases in the first basis
     :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the index sets it
