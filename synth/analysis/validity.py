@@ -170,6 +170,39 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
     return out
 
 
+def doubtful_ticks(ticks: list[Tick]) -> list[int]:
+    """Indices of the ticks after the first of one search (``ticks``, in time order) whose
+    measurements do not show them to be a ball's bounces: the second (no bounce before its own
+    to compare it with), one whose own sound does not decay (an impact excites a ringing that
+    decays), a bounce that grew (``e_n >= 1``) or the one after it, or a restitution over a
+    missed bounce (:func:`missed_bounces`)."""
+    missed = missed_bounces(ticks)
+    out = []
+    for i in range(1, len(ticks)):
+        grown = [t.restitution is not None and not t.restitution < 1.0 for t in ticks[i : i + 2]]
+        if i == 1 or ticks[i].decay_time is None or any(grown) or i in missed:
+            out.append(i)
+    return out
+
+
+def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound
+    (:func:`adds_sound`) over the stretch that parts them from both neighbours: the
+    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
+    the first milliseconds of a response that reaches the listener from the plate's edges,
+    a clipped run's interpolation), which no bounce made. A tick whose measurements follow a
+    ball's series is not tested: the late ticks of a fast series lie too close together for
+    the spectrum to show their rise."""
+    out = []
+    for i in doubtful_ticks(ticks):
+        gaps = [ticks[i].time - ticks[i - 1].time]
+        if i + 1 < len(ticks):
+            gaps.append(ticks[i + 1].time - ticks[i].time)
+        if not adds_sound(test, ticks[i].time, min(gaps)):
+            out.append(i)
+    return out
+
+
 #: Smoothing of the envelope over which a whole recording's ringing is seen to decay, s: many
 #: periods of a plate's lowest modes and of a periodic wave down to 20 Hz, so that neither
 #: leaves a ripple the fit could take for a decay.
