@@ -172,15 +172,18 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
     """Indices of the ticks after the first of one search (``ticks``, in time order) whose
-    measurements do not show them to be a ball's bounces: the second (no bounce before its own
-    to compare it with), one whose own sound does not decay (an impact excites a ringing that
-    decays), a bounce that grew (``e_n >= 1``) or the one after it, or a restitution over a
-    missed bounce (:func:`missed_bounces`)."""
+    bounce times do not show them to be a ball's bounces: the second (no bounce before its own
+    to compare it with), a bounce that grew (``e_n >= 1``) or the one after it, or a
+    restitution over a missed bounce (:func:`missed_bounces`). A tick without a decay of its
+    own sound is not doubtful for that alone: the last ticks of a fast series, each within
+    milliseconds of the next, leave no window for a decay."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
-        grown = [t.restitution is not None and not t.restitution < 1.0 for t in ticks[i : i + 2]]
-        if i == 1 or ticks[i].decay_time is None or any(grown) or i in missed:
+        grown = [
+            e is not None and not e < 1.0 for e in (ticks[i - 1].restitution, ticks[i].restitution)
+        ]
+        if i == 1 or any(grown) or i in missed:
             out.append(i)
     return out
 
