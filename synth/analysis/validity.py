@@ -96,7 +96,16 @@ def spectral_rise_db(
 
 def rise_chance(ratios_db: np.ndarray) -> float:
     """The chance that stationary ringing gives a median of ``ratios_db`` (the per-frequency
-    rises of :func:`rise_ratios_db`, dB) at least as large as theirs.
+    rises of :func:`rise_ratios_db`, dB) at least as large as theirs
+    (:func:`median_rise_chance`); 1 without a frequency."""
+    if not ratios_db.size:
+        return 1.0
+    return median_rise_chance(float(np.median(ratios_db)), ratios_db.size)
+
+
+def median_rise_chance(median_db: float, count: int) -> float:
+    """The chance that stationary ringing gives a median rise of ``median_db`` (dB) or more
+    over ``count`` frequencies.
 
     Over two stretches of one stationary random signal, each frequency's power is an
     exponential variable of the same mean on both sides, so its ratio ``r`` after over before
@@ -104,13 +113,10 @@ def rise_chance(ratios_db: np.ndarray) -> float:
     :data:`INDEPENDENT_BINS`-th frequency as independent, the median of ``k`` of them
     reaches ``q`` when at least half exceed it: a binomial tail. Ringing that decays between
     the stretches only lowers the chance of a rise."""
-    if not ratios_db.size:
-        return 1.0
-    median = float(np.median(ratios_db))
-    if median == math.inf:
+    if median_db == math.inf:
         return 0.0
-    p = 1.0 / (1.0 + 10.0 ** (median / 10.0))
-    k = -(-ratios_db.size // INDEPENDENT_BINS)
+    p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
+    k = -(-count // INDEPENDENT_BINS)
     need = -(-k // 2)
     return float(sum(math.comb(k, j) * p**j * (1.0 - p) ** (k - j) for j in range(need, k + 1)))
 
@@ -133,25 +139,45 @@ def rise_ratios_db(
         return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
-def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
+@dataclass(frozen=True)
+class RiseVerdict:
+    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
+    whether it could have said so (``decisive``): over as many frequencies, a rise of
+    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`)."""
+
+    adds: bool
+    decisive: bool
+
+
+def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     """Whether the recording's spectrum rises at ``tick_time`` (s) by
     :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
     side, as an impact's does, over enough frequencies that stationary ringing would do so
-    with a chance of :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`). Kept (True)
-    where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording has no room for it
-    before the onset, or no frequency holds sound."""
+    with a chance of :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`). It adds sound,
+    without a decision, where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording
+    has no room for it before the onset, or no frequency holds sound."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
+    undecided = RiseVerdict(True, False)
     if n < SPECTRAL_RISE_MIN_SPAN * fs or i < n:
-        return True
+        return undecided
     seg = np.asarray(test.read(i - n, i + n), dtype=float)
     if seg.size < 2 * n:
-        return True
+        return undecided
     ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
     if not ratios.size:
-        return True
-    return float(np.median(ratios)) >= SPECTRAL_RISE_DB and rise_chance(ratios) <= RISE_FALSE_ALARM
+        return undecided
+    return RiseVerdict(
+        float(np.median(ratios)) >= SPECTRAL_RISE_DB and rise_chance(ratios) <= RISE_FALSE_ALARM,
+        median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM,
+    )
+
+
+def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
+    """Whether the spectrum rises at ``tick_time`` (s) as an impact's does
+    (:func:`rise_verdict`, over ``span``, s); True where it cannot be measured."""
+    return rise_verdict(test, tick_time, span).adds
 
 
 def impact_series(found: list[list], test: RiseTest) -> list[list]:
@@ -189,19 +215,20 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound
-    (:func:`adds_sound`) over the stretch that parts them from both neighbours: the
-    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
-    the first milliseconds of a response that reaches the listener from the plate's edges,
-    a clipped run's interpolation), which no bounce made. A tick whose measurements follow a
-    ball's series is not tested: the late ticks of a fast series lie too close together for
-    the spectrum to show their rise."""
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound over the
+    stretch that parts them from both neighbours, over frequencies enough to tell
+    (:func:`rise_verdict`): the whitening's bursts in a ringing it cannot follow (a lightly
+    damped plate's beating modes, a clipped run's interpolation), which no bounce made. A
+    tick whose bounce times follow a ball's series is not tested, nor one whose spectrum
+    holds too few frequencies to decide (a plate of a few modes: an impact on a ringing mode
+    may as well lower it, as its phase falls)."""
     out = []
     for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
-        if not adds_sound(test, ticks[i].time, min(gaps)):
+        verdict = rise_verdict(test, ticks[i].time, min(gaps))
+        if verdict.decisive and not verdict.adds:
             out.append(i)
     return out
 
