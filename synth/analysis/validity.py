@@ -58,6 +58,17 @@ SPECTRAL_RISE_MIN_SPAN = 0.001
 #: exceed the noise's there by this much, dB (the noise's power at one frequency scatters
 #: as an exponential variable: 10 dB over its mean has probability 5e-5).
 SPECTRAL_NOISE_MARGIN_DB = 10.0
+#: Largest chance that stationary ringing shows a rise as large as the one measured, over as
+#: many frequencies, for the rise to be an impact's: a significance level of 0.1 %. The
+#: whitening leaves a few bursts per second in a lightly damped plate's ringing; each one
+#: taken for a drop's start is a series of false ticks, so at most one in a thousand may pass
+#: (:func:`rise_chance`). A median over a handful of frequencies swings by 10 dB in such
+#: ringing and decides nothing; over the tens of frequencies an impact's broad spectrum
+#: raises, a 3 dB rise is far beyond that chance.
+RISE_FALSE_ALARM = 1e-3
+#: Frequencies of a Hann-windowed spectrum this far apart are nearly independent: the powers
+#: of neighbouring bins of a random signal correlate by 4/9, of bins two apart by 1/36.
+INDEPENDENT_BINS = 2
 
 
 @dataclass(frozen=True)
@@ -79,6 +90,43 @@ def spectral_rise_db(
     stretches of one length, Hann-windowed), dB, over the frequencies whose summed power lies
     within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over the
     noise's (white, RMS ``noise_rms``); +inf where there is none or ``before`` is silent."""
+    ratios = rise_ratios_db(before, after, dynamic_range_db, noise_rms)
+    return float(np.median(ratios)) if ratios.size else math.inf
+
+
+def rise_chance(ratios_db: np.ndarray) -> float:
+    """The chance that stationary ringing gives a median of ``ratios_db`` (the per-frequency
+    rises of :func:`rise_ratios_db`, dB) at least as large as theirs
+    (:func:`median_rise_chance`); 1 without a frequency."""
+    if not ratios_db.size:
+        return 1.0
+    return median_rise_chance(float(np.median(ratios_db)), ratios_db.size)
+
+
+def median_rise_chance(median_db: float, count: int) -> float:
+    """The chance that stationary ringing gives a median rise of ``median_db`` (dB) or more
+    over ``count`` frequencies.
+
+    Over two stretches of one stationary random signal, each frequency's power is an
+    exponential variable of the same mean on both sides, so its ratio ``r`` after over before
+    exceeds ``q`` with probability ``1 / (1 + q)`` (an F(2, 2) variable). Taking every
+    :data:`INDEPENDENT_BINS`-th frequency as independent, the median of ``k`` of them
+    reaches ``q`` when at least half exceed it: a binomial tail. Ringing that decays between
+    the stretches only lowers the chance of a rise."""
+    if median_db == math.inf:
+        return 0.0
+    p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
+    k = -(-count // INDEPENDENT_BINS)
+    need = -(-k // 2)
+    return float(sum(math.comb(k, j) * p**j * (1.0 - p) ** (k - j) for j in range(need, k + 1)))
+
+
+def rise_ratios_db(
+    before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
+) -> np.ndarray:
+    """The power of ``after`` over that of ``before`` (two stretches of one length,
+    Hann-windowed) at each frequency that holds sound (:func:`spectral_rise_db`), dB; +inf
+    where ``before`` is silent there."""
     w = np.hanning(before.size)
     pb = np.abs(np.fft.rfft(before * w)) ** 2
     pa = np.abs(np.fft.rfft(after * w)) ** 2
@@ -87,28 +135,49 @@ def spectral_rise_db(
     keep = (total > total.max() * 10.0 ** (-dynamic_range_db / 10.0)) & (
         total > noise * 10.0 ** (SPECTRAL_NOISE_MARGIN_DB / 10.0)
     )
-    if not np.any(keep):
-        return math.inf
     with np.errstate(divide="ignore"):
-        ratio = 10.0 * np.log10(pa[keep] / pb[keep])
-    return float(np.median(ratio))
+        return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
-def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
+@dataclass(frozen=True)
+class RiseVerdict:
+    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
+    whether it could have said so (``decisive``): over as many frequencies, a rise of
+    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`)."""
+
+    adds: bool
+    decisive: bool
+
+
+def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     """Whether the recording's spectrum rises at ``tick_time`` (s) by
     :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
-    side, as an impact's does. Kept (True) where the span is under
-    :data:`SPECTRAL_RISE_MIN_SPAN` or the recording has no room for it before the onset."""
+    side, as an impact's does, over enough frequencies that stationary ringing would do so
+    with a chance of :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`). It adds sound,
+    without a decision, where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording
+    has no room for it before the onset, or no frequency holds sound."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
+    undecided = RiseVerdict(True, False)
     if n < SPECTRAL_RISE_MIN_SPAN * fs or i < n:
-        return True
+        return undecided
     seg = np.asarray(test.read(i - n, i + n), dtype=float)
     if seg.size < 2 * n:
-        return True
-    rise = spectral_rise_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
-    return rise >= SPECTRAL_RISE_DB
+        return undecided
+    ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
+    if not ratios.size:
+        return undecided
+    return RiseVerdict(
+        float(np.median(ratios)) >= SPECTRAL_RISE_DB and rise_chance(ratios) <= RISE_FALSE_ALARM,
+        median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM,
+    )
+
+
+def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
+    """Whether the spectrum rises at ``tick_time`` (s) as an impact's does
+    (:func:`rise_verdict`, over ``span``, s); True where it cannot be measured."""
+    return rise_verdict(test, tick_time, span).adds
 
 
 def impact_series(found: list[list], test: RiseTest) -> list[list]:
@@ -124,6 +193,43 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
         span = ticks[1].time - ticks[0].time if len(ticks) > 1 else SPECTRAL_RISE_SPAN
         if adds_sound(test, ticks[0].time, span):
             out.append(ticks)
+    return out
+
+
+def doubtful_ticks(ticks: list[Tick]) -> list[int]:
+    """Indices of the ticks after the first of one search (``ticks``, in time order) whose
+    bounce times do not show them to be a ball's bounces: the second (no bounce before its own
+    to compare it with), a bounce that grew (``e_n >= 1``) or the one after it, or a
+    restitution over a missed bounce (:func:`missed_bounces`). A tick without a decay of its
+    own sound is not doubtful for that alone: the last ticks of a fast series, each within
+    milliseconds of the next, leave no window for a decay."""
+    missed = missed_bounces(ticks)
+    out = []
+    for i in range(1, len(ticks)):
+        grown = [
+            e is not None and not e < 1.0 for e in (ticks[i - 1].restitution, ticks[i].restitution)
+        ]
+        if i == 1 or any(grown) or i in missed:
+            out.append(i)
+    return out
+
+
+def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound over the
+    stretch that parts them from both neighbours, over frequencies enough to tell
+    (:func:`rise_verdict`): the whitening's bursts in a ringing it cannot follow (a lightly
+    damped plate's beating modes, a clipped run's interpolation), which no bounce made. A
+    tick whose bounce times follow a ball's series is not tested, nor one whose spectrum
+    holds too few frequencies to decide (a plate of a few modes: an impact on a ringing mode
+    may as well lower it, as its phase falls)."""
+    out = []
+    for i in doubtful_ticks(ticks):
+        gaps = [ticks[i].time - ticks[i - 1].time]
+        if i + 1 < len(ticks):
+            gaps.append(ticks[i + 1].time - ticks[i].time)
+        verdict = rise_verdict(test, ticks[i].time, min(gaps))
+        if verdict.decisive and not verdict.adds:
+            out.append(i)
     return out
 
 
