@@ -548,8 +548,8 @@ def _with_default_keys(spec: Path) -> None:
         + preset.read_text()
         .replace("cheap to render", "described otherwise")
         .replace("radius = 0.005", "radius = 0.006")
-        + '[contact]\nmodel = "thesis"\nlaw = "hertz"\nplate = "impedance"\n'
-        + 'surface = "ideal"\ntheory = "kirchhoff"\nrtol = 1e-9\n'
+        + '[contact]\nmodel = "measured"\nlaw = "hertz"\nplate = "auto"\n'
+        + 'surface = "auto"\ntheory = "kirchhoff"\nrtol = 1e-9\n'
     )
 
 
@@ -611,10 +611,10 @@ def test_a_default_derived_from_a_varied_key_is_not_filled(tmp_path):
     # With contact.model varied, a law, plate and surface spelled out in the preset pin
     # them for every row (an explicit key wins over the model's), so the spec makes other
     # files than the preset without them: the stored forms differ there. Without the
-    # axis they are the thesis model's own and the stored forms are equal.
+    # axis they are the default (measured) model's own and the stored forms are equal.
     from synth.bank import spec as bank_spec
 
-    pinned = SMALL_PRESET + '[contact]\nlaw = "hertz"\nplate = "impedance"\nsurface = "ideal"\n'
+    pinned = SMALL_PRESET + '[contact]\nlaw = "hertz"\nplate = "auto"\nsurface = "auto"\n'
     for folder, preset in (("plain", SMALL_PRESET), ("pinned", pinned)):
         (tmp_path / folder).mkdir()
         (tmp_path / folder / "small.toml").write_text(preset)

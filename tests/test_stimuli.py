@@ -110,3 +110,31 @@ def test_mismatch_sequence_rejects_non_scenes():
         stimuli.mismatch_sequence("default", DEFAULT)
     with pytest.raises(ParameterError, match="spectrum_scene"):
         stimuli.mismatch_sequence(DEFAULT, None)
+
+
+def test_scaled_restitution_on_the_modal_plate():
+    # The measured model's "auto" plate is the modal one on a small plate: the rule holds
+    # there too. Each tick records 1 - e' = k (1 - e) of its physical contact (rounding,
+    # 1e-12), the first tick is the physical one (solved before any rule applies, exact),
+    # and k = 0 makes the first flight elastic (e' = 1).
+    from synth.io.presets import scene_from_dict
+
+    scene, _ = scene_from_dict(
+        {
+            "ball": {"material": "steel", "radius": 0.005},
+            "plate": {"material": "mdf-18", "thickness": 0.018, "length": 0.3, "width": 0.2,
+                      "boundary": "simply-supported"},
+            "drop": {"height": 0.02, "position": [0.15, 0.1]},
+            "contact": {"plate": "modal"},
+        },
+        "<modal scene>",
+    )  # fmt: skip
+    physical = synth.simulate_scene(scene, max_impacts=4)
+    for k in (0.0, 0.5):
+        seq = stimuli.scaled_sequence(scene, k, max_impacts=4)
+        assert len(seq) > 1
+        for tick in seq:
+            e = tick.result.restitution
+            assert tick.restitution == pytest.approx(1 - k * (1 - e), rel=1e-12)
+        assert seq[0].result.restitution == physical[0].result.restitution
+    assert stimuli.scaled_sequence(scene, 0.0, max_impacts=2)[0].restitution == 1.0

@@ -209,8 +209,9 @@ def simulate_bounces(
         Samples of each force pulse (``ImpactResult.time`` and ``force``).
     rebound : callable, optional
         A :data:`ReboundRule` that replaces the physical restitution of each flight
-        (the next impact speed is then ``e' v``) while every impact is still solved
-        physically at its own speed; None: the physical rebound. The perception
+        (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
+        the start of the flight over the ringing modal plate) while every impact is still
+        solved physically at its own speed; None: the physical rebound. The perception
         stimuli of :mod:`synth.stimuli.sequences` use it.
     plate_model : {"impedance", "modal"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended
@@ -245,8 +246,6 @@ def simulate_bounces(
     pos = None if position is None else plate.check_position(position, "position")
     checks.choice("plate_model", plate_model, PLATE_MODELS)
     if plate_model == "modal":
-        if rebound is not None:
-            raise ParameterError("rebound rules apply to plate_model='impedance' only")
         return _modal_bounces(
             ball,
             plate,
@@ -260,6 +259,7 @@ def simulate_bounces(
             n_points,
             max_frequency,
             contact_options,
+            rebound,
         )
     if max_frequency is not None:
         raise ParameterError(
@@ -321,12 +321,26 @@ PLATE_MODELS = ("impedance", "modal")
 
 
 def _modal_bounces(
-    ball, plate, h0, pos, g, law, floor, t_max, max_impacts, n_points, max_frequency, options
+    ball,
+    plate,
+    h0,
+    pos,
+    g,
+    law,
+    floor,
+    t_max,
+    max_impacts,
+    n_points,
+    max_frequency,
+    options,
+    rebound=None,
 ) -> BounceSequence:
     """:func:`simulate_bounces` with the finite plate's modes in every contact
     (:mod:`synth.physics.modal_contact`): the plate rings between impacts, and the ringing
     at each landing (found on the moving surface) enters that impact. The rigid-body motion
-    of a free plate is left to its supports after each contact."""
+    of a free plate is left to its supports after each contact. A ``rebound`` rule sets the
+    ball's take-off speed ``e' v`` as on the impedance plate; the plate rings on from its
+    physical state at separation."""
     from synth.physics import modal_contact
 
     t = math.sqrt(2.0 * h0 / g)
@@ -341,11 +355,13 @@ def _modal_bounces(
     reason = "max-impacts"
     while len(impacts) < max_impacts:
         res = contact.solve(v, state, n_points=n_points)
-        impacts.append(Impact(len(impacts) + 1, t, v, res, plate_state=state))
-        if res.settled:
+        e = res.restitution if rebound is None else rebound(res, v)
+        ruled = None if rebound is None else (0.0 if res.settled else max(e, 0.0))
+        impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))
+        if res.settled or ruled == 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed
+        v_out = res.rebound_speed if rebound is None else e * v
         if 2.0 * v_out / g < res.separation_time:
             reason = "flight-shorter-than-contact"
             break
