@@ -1156,8 +1156,13 @@ def test_a_full_body_steals_the_lowest_priority_before_the_oldest(scene):
     voices = [body.hit(scene.ball, v, at=at, priority=p) for (v, at), p in zip(hits, (1, 0, 0))]
     assert [v.priority for v in voices] == [1, 0, 0]
     live = engine.process(16 * n)[:, 0]
-    ct = solve_impact(
-        scene.ball, scene.plate, hits[2][0], position=scene.plate.centre, rtol=HIT_RTOL
+    ct = solve_impact(  # a hit's default contact: the measured surface, the impedance plate
+        scene.ball,
+        scene.plate,
+        hits[2][0],
+        position=scene.plate.centre,
+        rtol=HIT_RTOL,
+        surface="auto",
     )
     inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
     want = refs[0] + refs[1] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[2]

@@ -12,7 +12,7 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_bounces, simulate_scene
-from synth.physics.contact import hertz_stiffness, solve_contact
+from synth.physics.contact import hertz_stiffness, resolved_surface, solve_contact
 from synth.physics.scene import Ball, Contact, Plate, Scene
 
 BALL = Ball("steel", 0.005)
@@ -122,9 +122,11 @@ def test_pulse_is_the_viscoelastic_law_of_the_interpolated_penetration():
 
 def test_the_law_on_the_modal_plate_through_scene_and_scheduler():
     # The modal plate takes the viscoelastic law: the scene's contact, the scheduler and the
-    # scene's series carry A into every impact.
+    # scene's series carry A into every impact. The contact's surface is the default model's
+    # "auto", which for a law other than Hertz is the ideal one (the law carries its own loss).
     contact = Contact(plate="modal", law="viscoelastic", viscous_time=A_MDF)
-    assert contact.options() == {"viscous_time": A_MDF}
+    assert contact.options() == {"viscous_time": A_MDF, "surface": "auto"}
+    assert resolved_surface(SMALL, contact.law, contact.surface) == "ideal"
     seq = simulate_bounces(
         BALL,
         SMALL,
