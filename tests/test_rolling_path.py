@@ -265,3 +265,67 @@ def test_simulate_scene_of_a_moving_scene_gives_its_path_bounces(stopping):
     assert simulate_scene(s).table() == stopping.impacts.table()
     with pytest.raises(ParameterError, match="floor_db"):
         simulate_scene(s, floor_db=-40.0)
+
+
+def _preset_bytes(name: str, cache_dir) -> bytes:
+    """The bytes of preset ``name``'s render (its physical units) with the disk cache in
+    ``cache_dir`` and whatever the process holds in memory."""
+    import os
+
+    import synth
+
+    old = os.environ.get("SYNTH_CACHE_DIR")
+    os.environ["SYNTH_CACHE_DIR"] = str(cache_dir)
+    try:
+        audio = synth.render_preset(name, normalize="none").audio
+    finally:
+        if old is None:
+            os.environ.pop("SYNTH_CACHE_DIR", None)
+        else:
+            os.environ["SYNTH_CACHE_DIR"] = old
+    return np.ascontiguousarray(audio).tobytes()
+
+
+def _other_work(tmp_path) -> None:
+    """Other scenes in the same process: the other rolling presets, a straight drop on
+    another plate, and the rolling and its drive called with read-only arrays (which
+    compile other specialisations of their kernels)."""
+    _preset_bytes("steel-ball-rolling-on-glass-table", tmp_path / "other")
+    _preset_bytes("thesis-steel10-mdf18-rolling", tmp_path / "other")
+    _preset_bytes("small-click-on-acrylic", tmp_path / "other")
+    s = scene(rms=1e-6)
+    path = simulate_path(s, samplerate=SAMPLERATE)
+    model = modal_model(s.plate, s.listener, samplerate=SAMPLERATE)
+    r = path.rolling
+    table = path_excitation(
+        model, origin=path.origin, direction=path.direction,
+        start=float(r.contact_coordinate.min()), stop=float(r.contact_coordinate.max()),
+    )  # fmt: skip
+    force, coordinate = r.force.copy(), r.contact_coordinate.copy()
+    force.setflags(write=False)
+    coordinate.setflags(write=False)
+    state = ModeState.at_rest(model.poles.size)
+    drive_modes(force, coordinate, table, model.poles, model.output, SAMPLERATE, state=state)
+
+
+@pytest.mark.slow
+def test_a_rolling_render_depends_on_its_inputs_alone(tmp_path):
+    # "a result's bytes depend only on its inputs": a rolling preset rendered from an empty
+    # disk and memory cache, again after other scenes in the same process (other rolling
+    # presets, another plate, the rolling kernels called with other argument types) from
+    # the now warm cache, and once more from another empty cache, gives the same bytes. A
+    # rolling render amplifies the last bit of its path (micro-bounces on a rough surface),
+    # so anything a render inherits from the process or the cache shows here.
+    from synth.sound import modes, radiation
+
+    name = "marble-rolling-on-wooden-floor"
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()
+    first = _preset_bytes(name, tmp_path / "a")
+    _other_work(tmp_path)
+    warm = _preset_bytes(name, tmp_path / "a")
+    modes.clear_memory_cache()
+    radiation.clear_memory_cache()
+    empty = _preset_bytes(name, tmp_path / "b")
+    assert warm == first
+    assert empty == first
