@@ -242,7 +242,10 @@ def _product_sums(
                 else:
                     for k in range(m):
                         row[k] = ax[k] * ay[k]
-            accumulate(0, n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
+            # the first row as an int64, not the literal 0: numba would compile a second
+            # specialisation of the fused-multiply-add kernel, which rounds differently from
+            # the one Python callers use, and which one runs would depend on the process
+            accumulate(np.int64(0), n, dist, wr, phi, qr, qi, halvings, acc[0], acc[1], acc[2])
 
 
 def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
