@@ -655,6 +655,18 @@ def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
     return surface.viscous_time * (share / share_fit) + (own - steel_own)
 
 
+def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> None:
+    """Refuse a law other than Hertz, or any law argument in ``given``, beside a surface
+    that sets the whole contact law itself (``why``: what the surface is)."""
+    if contact != "hertz":
+        raise ParameterError(
+            f"surface={surface!r} applies to contact='hertz' only, not {contact!r} ({why})"
+        )
+    for key, value in given.items():
+        if value is not None:
+            raise ParameterError(f"{key}={value!r} does not apply to surface={surface!r}")
+
+
 def contact_parameters(
     ball: Ball,
     plate: Plate,
@@ -700,14 +712,9 @@ def contact_parameters(
         "layer_depth": layer_depth,
     }
     if surface == "fitted":
-        if contact != "hertz":
-            raise ParameterError(
-                f"surface='fitted' applies to contact='hertz' only, not {contact!r} (the fit "
-                f"is of a Hertz contact with its own loss)"
-            )
-        for key, value in given.items():
-            if value is not None:
-                raise ParameterError(f"{key}={value!r} does not apply to surface='fitted'")
+        _check_surface_alone(
+            surface, contact, given, "the fit is of a Hertz contact with its own loss"
+        )
         fit = contact_surface(plate.material)
         if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
             return ContactLaw(
@@ -716,14 +723,9 @@ def contact_parameters(
         A = fitted_viscous_time(ball, plate, fit)
         return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, viscous_time=A)
     if surface == "material":
-        if contact != "hertz":
-            raise ParameterError(
-                f"surface='material' applies to contact='hertz' only, not {contact!r} (the "
-                f"materials' loss is a viscoelastic Hertz contact's)"
-            )
-        for key, value in given.items():
-            if value is not None:
-                raise ParameterError(f"{key}={value!r} does not apply to surface='material'")
+        _check_surface_alone(
+            surface, contact, given, "the materials' loss is a viscoelastic Hertz contact's"
+        )
         return ContactLaw(
             hertz_stiffness(ball, plate), 1.5, viscous_time=material_viscous_time(ball, plate)
         )
