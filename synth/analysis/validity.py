@@ -152,10 +152,13 @@ class RiseVerdict:
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     """Whether the recording's spectrum rises at ``tick_time`` (s) by
     :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
-    side, as an impact's does, over enough frequencies that stationary ringing would do so
-    with a chance of :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`). It adds sound,
-    without a decision, where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording
-    has no room for it before the onset, or no frequency holds sound."""
+    side, as an impact's does, so far that stationary ringing would do so with a chance of
+    :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`) where the frequencies are enough
+    for that to be told; over fewer, the median's rise alone speaks, without a decision (a
+    real impact's short stretch before the next tick may hold a few tens of frequencies, over
+    which no rise is significant). It adds sound, without a decision, where the span is
+    under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording has no room for it before the onset,
+    or no frequency holds sound."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
@@ -168,9 +171,10 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     ratios = rise_ratios_db(seg[:n], seg[n:], test.dynamic_range_db, test.noise_rms)
     if not ratios.size:
         return undecided
+    decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
+    rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
     return RiseVerdict(
-        float(np.median(ratios)) >= SPECTRAL_RISE_DB and rise_chance(ratios) <= RISE_FALSE_ALARM,
-        median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM,
+        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive), decisive
     )
 
 
@@ -198,20 +202,39 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
     """Indices of the ticks after the first of one search (``ticks``, in time order) whose
-    bounce times do not show them to be a ball's bounces: the second (no bounce before its own
-    to compare it with), a bounce that grew (``e_n >= 1``) or the one after it, or a
-    restitution over a missed bounce (:func:`missed_bounces`). A tick without a decay of its
-    own sound is not doubtful for that alone: the last ticks of a fast series, each within
-    milliseconds of the next, leave no window for a decay."""
+    bounce times do not show them to be a ball's bounces: a bounce that grew (``e_n >= 1``)
+    or the one after it, a restitution over a missed bounce (:func:`missed_bounces`), or the
+    second tick unless the two bounces after it confirm it (:func:`_confirmed_second`). A tick
+    without a decay of its own sound is not doubtful for that alone: the last ticks of a fast
+    series, each within milliseconds of the next, leave no window for a decay."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
         grown = [
             e is not None and not e < 1.0 for e in (ticks[i - 1].restitution, ticks[i].restitution)
         ]
-        if i == 1 or any(grown) or i in missed:
+        unconfirmed = i == 1 and not _confirmed_second(ticks, missed)
+        if unconfirmed or any(grown) or i in missed:
             out.append(i)
     return out
+
+
+def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
+    """Whether the bounces after the second tick of ``ticks`` (which has no restitution of
+    its own to compare) show it a ball's bounce: the next restitution, ``e_2 = T_2 / T_1``,
+    below 1 over no missed bounce and, where a fourth tick follows, ``e_3`` too, apart from
+    ``e_2`` by a relative :data:`~synth.analysis.series.RESTITUTION_STEP` at most (a ball's
+    change from one bounce to the next). A burst within a flight parts it into two whose
+    ratios to the flights around agree only by chance. Masked ticks, which add no sound the
+    spectrum could show, are kept by their bounce times alone."""
+    following = [t for t in ticks[2:4]]
+    if not following or missed & {2, 3}:
+        return False
+    if not all(_restitution_below_one(t) for t in following):
+        return False
+    return all(
+        abs(t.restitution / following[0].restitution - 1.0) <= RESTITUTION_STEP for t in following
+    )
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
