@@ -13,8 +13,10 @@ Other kinds of case:
   render) and ``engine()`` (a live engine, offline, with that scene's plate added: its
   ``body``); ``expect = "error"``: a :class:`synth.ParameterError` (any other exception
   is a traceback) whose message holds ``words``; ``"ok"``: no exception.
-* ``signal`` (``"SIGTERM"`` or ``"SIGKILL"``) with ``after`` (s): the command runs in a
-  subprocess sent that signal ``after`` seconds in; expected: it ends within ``timeout``,
+* ``signal`` (``"SIGTERM"`` or ``"SIGKILL"``) with ``after`` (s) or ``when`` (a glob under
+  the run's folder): the command runs in a subprocess sent that signal ``after`` seconds
+  in, or as soon as a path matches ``when`` (work done, more to do: the moment does not
+  hang on the machine's speed); expected: it ends within ``timeout``,
   no traceback, the existing output unchanged (``expect = "killed"``). A SIGKILL cannot
   be cleaned up after: the next run of the command (``then``, an argv run to the end)
   must finish the work and leave no temporary.
@@ -27,12 +29,14 @@ does not hold."""
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import os
 import signal
 import subprocess
 import sys
 import tempfile
+import time
 import tomllib
 import traceback
 from collections import Counter
@@ -191,30 +195,41 @@ def _in_code(code: str, folder: Path, out: Path) -> tuple[int | None, str, bool]
     return 0, "", False
 
 
-def _signalled(argv, env, name: str, after: float, timeout: float):
-    """(exit status, stderr, hang) of ``python -m synth argv`` sent signal ``name`` after
-    ``after`` s, waited for at most ``timeout`` s more."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "synth", *argv],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        env={**os.environ, **{k: str(v) for k, v in env.items()}},
-        start_new_session=True,
-    )
-    try:
-        _, err = proc.communicate(timeout=after)
-        return proc.returncode, err, False  # ended before the signal
-    except subprocess.TimeoutExpired:
-        pass
-    os.killpg(proc.pid, getattr(signal, name))
-    try:
-        _, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        _, err = proc.communicate()
-        return None, err, True
-    return proc.returncode, err, False
+def _signalled(argv, env, name: str, moment, timeout: float):
+    """(exit status, stderr, hang) of ``python -m synth argv`` sent signal ``name`` at
+    ``moment`` (a number of seconds, or a callable true once the signal is due; polled every
+    10 ms for at most ``timeout`` s), waited for at most ``timeout`` s more. Its stderr goes
+    to a file, which no amount of it can block as a pipe would while it is polled."""
+    with tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "synth", *argv],
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            text=True,
+            env={**os.environ, **{k: str(v) for k, v in env.items()}},
+            start_new_session=True,
+        )
+        due = moment if callable(moment) else None
+        deadline = time.monotonic() + (timeout if due else moment)
+        while proc.poll() is None and time.monotonic() < deadline and not (due and due()):
+            time.sleep(0.01)
+        signalled = proc.poll() is None  # else it ended before the signal
+        if signalled:
+            os.killpg(proc.pid, getattr(signal, name))
+        try:
+            proc.wait(timeout=timeout)
+            hang = False
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            hang = True
+        err.seek(0)
+        return (None if hang else proc.returncode), err.read(), hang
+
+
+def _any_match(folder: Path, pattern: str) -> bool:
+    """Whether any path under ``folder`` matches the glob ``pattern``."""
+    return next(folder.glob(pattern), None) is not None
 
 
 def _write_wav(path: Path, frames: int) -> None:
@@ -251,9 +266,10 @@ def run_case(case: dict) -> Outcome:
         if "code" in case:
             (code, stderr, tb), hang = _in_code(case["code"], folder, out), False
         elif "signal" in case:
-            code, stderr, hang = _signalled(
-                argv, env, case["signal"], case["after"], case["timeout"]
-            )
+            moment = case.get("after")
+            if "when" in case:
+                moment = functools.partial(_any_match, folder, case["when"])
+            code, stderr, hang = _signalled(argv, env, case["signal"], moment, case["timeout"])
             tb = "Traceback (most recent call last)" in stderr
             killed = code != 0
             if "then" in case and not hang:
