@@ -124,8 +124,9 @@ class VoiceLimit:
     it until it ends. A new voice beyond the cap stops the voice of the lowest priority, of
     those the oldest (earliest onset, then lowest id), with a ``STEAL_FADE`` fade from the
     next block (counted in ``stolen``), or is refused when every voice has a higher
-    priority than its own (counted in ``refused``): the same policy as a body's slots.
-    ``limit`` None: no cap, nothing kept."""
+    priority than its own (counted in ``refused``): the same policy as a body's slots. A
+    waiting voice that its body refuses on the audio thread as the cap steals it is counted
+    in both (no lock between them). ``limit`` None: no cap, nothing kept."""
 
     def __init__(self, limit: int | None):
         self.limit = limit
