@@ -13,6 +13,7 @@ from synth.analysis.report import GROWN_BOUNCE, Tick
 from synth.analysis.validity import (
     RISE_FALSE_ALARM,
     SPECTRAL_RISE_DB,
+    doubtful_ticks,
     median_rise_chance,
     spectral_rise_db,
 )
@@ -49,6 +50,28 @@ def _tick(time, restitution=None, speed=None, flags=()):
         strength=10.0,
         flags=flags,
     )
+
+
+def _series(times):
+    """Ticks at ``times`` (s) with the restitutions their bounce times give."""
+    t = np.asarray(times, dtype=float)
+    out = [_tick(t[0]), _tick(t[1])]
+    for n in range(2, t.size):
+        out.append(_tick(t[n], restitution=(t[n] - t[n - 1]) / (t[n - 1] - t[n - 2])))
+    return out
+
+
+def test_the_second_tick_is_doubtful_unless_the_bounces_after_it_agree():
+    # a ball's series (e = 0.6, then 0.65: a step of 8 %, under RESTITUTION_STEP) confirms
+    # its second tick; a burst 20 ms before the second bounce parts its flight into two whose
+    # ratios to the flights around (0.08, then 12) no ball gives; two ticks cannot tell
+    flights = [0.2, 0.12, 0.078]
+    ball = np.concatenate([[0.0], np.cumsum(flights)])
+    assert doubtful_ticks(_series(ball)) == []
+    assert doubtful_ticks(_series(ball[:3])) == []  # e_2 = 0.6 alone: below 1
+    burst = np.sort(np.append(ball, ball[1] - 0.02))
+    assert 1 in doubtful_ticks(_series(burst[:4]))
+    assert doubtful_ticks(_series(ball[:2])) == [1]
 
 
 def test_random_specs_span_the_scenes_asked_for():
