@@ -26,29 +26,8 @@ from synth.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
-SMALL_PRESET = """
-description = "steel ball on a small MDF plate (cheap to render)"
-[ball]
-material = "steel"
-radius = 0.005
-[plate]
-material = "mdf-18"
-thickness = 0.018
-length = 0.3
-width = 0.2
-boundary = "simply-supported"
-[drop]
-height = 0.02
-position = [0.15, 0.1]
-[listener]
-type = "microphone"
-position = [0.15, 0.1, 0.2]
-[render]
-samplerate = 16000
-max_frequency = 4000.0
-max_duration = 0.3
-max_tail = 0.3
-"""
+#: A steel ball on a small MDF plate, cheap to render (shared with the fuzz corpus).
+SMALL_PRESET = (ROOT / "tests" / "data" / "small-scene.toml").read_text()
 
 SMALL_SPEC = """
 preset = "small.toml"

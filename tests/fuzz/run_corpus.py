@@ -118,28 +118,8 @@ def _in_subprocess(argv: list[str], env: dict, timeout: float) -> tuple[int | No
     return proc.returncode, err, False
 
 
-SMALL_SCENE = """
-[ball]
-material = "steel"
-radius = 0.005
-[plate]
-material = "mdf-18"
-thickness = 0.018
-length = 0.3
-width = 0.2
-boundary = "simply-supported"
-[drop]
-height = 0.02
-position = [0.15, 0.1]
-[listener]
-type = "microphone"
-position = [0.15, 0.1, 0.2]
-[render]
-samplerate = 16000
-max_frequency = 4000.0
-max_duration = 0.3
-max_tail = 0.3
-"""
+#: A steel ball on a small MDF plate, cheap to render (shared with tests/test_bank.py).
+SMALL_SCENE = (Path(__file__).resolve().parents[1] / "data" / "small-scene.toml").read_text()
 
 
 def _scene():
