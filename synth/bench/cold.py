@@ -19,6 +19,8 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 
+from synth.bench.common import markdown_table, target_verdict
+
 #: Cold-start targets, CPU seconds (user + system) of the whole child process.
 TARGETS = {"import": 0.5, "render": 15.0, "live": 15.0}
 
@@ -129,15 +131,19 @@ def run_cold(cases: tuple[str, ...] = tuple(CASES)) -> list[dict]:
 def format_cold(rows: list[dict]) -> str:
     """A Markdown table of :func:`run_cold`'s runs and a line per target."""
     runs = [Run(**row) for row in rows]
-    lines = [
-        "| first use | caches | CPU s | wall s | peak MB | compile note |",
-        "|---|---|---|---|---|---|",
+    header = ["first use", "caches", "CPU s", "wall s", "peak MB", "compile note"]
+    cells = [
+        [
+            TITLES[r.case],
+            "empty" if r.cold else "warm",
+            f"{r.cpu_s:.2f}",
+            f"{r.wall_s:.2f}",
+            f"{r.peak_mb:.0f}",
+            "yes" if r.noted else "no",
+        ]
+        for r in runs
     ]
-    for r in runs:
-        lines.append(
-            f"| {TITLES[r.case]} | {'empty' if r.cold else 'warm'} | {r.cpu_s:.2f} | "
-            f"{r.wall_s:.2f} | {r.peak_mb:.0f} | {'yes' if r.noted else 'no'} |"
-        )
+    lines = markdown_table(header, cells)
     lines += [
         "",
         "CPU: user + system time of the child process (os.wait4); empty: new NUMBA_CACHE_DIR "
@@ -147,7 +153,7 @@ def format_cold(rows: list[dict]) -> str:
     ]
     for r in runs:
         if r.cold and r.case in TARGETS:
-            met = "met" if r.cpu_s < TARGETS[r.case] else "NOT met"
+            met = target_verdict(r.cpu_s < TARGETS[r.case])
             lines.append(
                 f"- {TITLES[r.case]}, empty caches: {r.cpu_s:.1f} s of CPU, target under "
                 f"{TARGETS[r.case]:g} s: {met}."

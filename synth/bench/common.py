@@ -12,6 +12,16 @@ def target_verdict(met: bool) -> str:
     return "met" if met else "NOT met"
 
 
+def markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """The lines of a Markdown table: ``header``, its rule, then one line a row of cells
+    (already formatted)."""
+    return [
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+        *("| " + " | ".join(row) + " |" for row in rows),
+    ]
+
+
 def median_time(fn, repeat):
     ts = np.empty(repeat)
     for i in range(repeat):

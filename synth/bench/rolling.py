@@ -19,6 +19,8 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass
 
+from synth.bench.common import markdown_table, target_verdict
+
 #: Real-time factor the rolling scenes aim at (contact plus modal drive).
 TARGET_REALTIME = 100.0
 
@@ -126,9 +128,15 @@ def run_contact_speeds(repeat: int = 3) -> list[dict]:
 
         def solve(speed=speed):
             return rolling.roll(
-                ball, plate, envelope, speed=speed, duration=DURATION,
-                samplerate=SAMPLERATE, origin=(0.05, 0.3), start=0.01,
-            )  # fmt: skip
+                ball,
+                plate,
+                envelope,
+                speed=speed,
+                duration=DURATION,
+                samplerate=SAMPLERATE,
+                origin=(0.05, 0.3),
+                start=0.01,
+            )
 
         solve()  # compiles on a cold cache
         t_contact, result = _best_of(solve, repeat)
@@ -154,45 +162,52 @@ def format_rolling(result: dict) -> str:
 def format_scenes(rows: list[dict]) -> str:
     """A Markdown table of :func:`run_scenes`' renders and the real-time target's verdict."""
     runs = [SceneRun(**row) for row in rows]
-    lines = [
-        "| rolling preset | audio s | rolling s | path s | render s | real-time factor |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in runs:
-        lines.append(
-            f"| {r.preset} | {r.audio_s:.2f} | {r.rolling_s:.2f} | {r.path_s:.3f} | "
-            f"{r.render_s:.3f} | {r.realtime:.0f}x |"
-        )
-    worst = min(r.realtime for r in runs)
-    met = "met" if worst >= TARGET_REALTIME else "NOT met"
-    return "\n".join(
-        lines
-        + [
-            "",
-            f"- slowest rolling preset's real-time factor {worst:.0f}x, target at least "
-            f"{TARGET_REALTIME:g}x: {met}.",
+    header = ["rolling preset", "audio s", "rolling s", "path s", "render s", "real-time factor"]
+    cells = [
+        [
+            r.preset,
+            f"{r.audio_s:.2f}",
+            f"{r.rolling_s:.2f}",
+            f"{r.path_s:.3f}",
+            f"{r.render_s:.3f}",
+            f"{r.realtime:.0f}x",
         ]
-    )
+        for r in runs
+    ]
+    return "\n".join(markdown_table(header, cells) + ["", _realtime_line("rolling preset", runs)])
 
 
 def format_contact_speeds(rows: list[dict]) -> str:
     """A Markdown table of :func:`run_contact_speeds`' runs and the target's verdict."""
     runs = [RollingRun(**row) for row in rows]
-    lines = [
-        "| speed m/s | contact ms per s | modes ms per s | real-time factor | "
-        "steps/sample | flights | modes |",
-        "|---|---|---|---|---|---|---|",
+    header = [
+        "speed m/s",
+        "contact ms per s",
+        "modes ms per s",
+        "real-time factor",
+        "steps/sample",
+        "flights",
+        "modes",
     ]
-    for r in runs:
-        lines.append(
-            f"| {r.speed:.1f} | {r.contact_s_per_s * 1e3:.1f} | {r.modes_s_per_s * 1e3:.1f} | "
-            f"{r.realtime:.0f}x | {r.steps_per_sample:.2f} | {r.flights} | {r.modes} |"
-        )
+    cells = [
+        [
+            f"{r.speed:.1f}",
+            f"{r.contact_s_per_s * 1e3:.1f}",
+            f"{r.modes_s_per_s * 1e3:.1f}",
+            f"{r.realtime:.0f}x",
+            f"{r.steps_per_sample:.2f}",
+            str(r.flights),
+            str(r.modes),
+        ]
+        for r in runs
+    ]
+    return "\n".join(markdown_table(header, cells) + ["", _realtime_line("speed", runs)])
+
+
+def _realtime_line(what: str, runs) -> str:
+    """The summary line of the slowest run's real-time factor against the target."""
     worst = min(r.realtime for r in runs)
-    met = "met" if worst >= TARGET_REALTIME else "NOT met"
-    lines += [
-        "",
-        f"- slowest speed's real-time factor {worst:.0f}x, target at least "
-        f"{TARGET_REALTIME:g}x: {met}.",
-    ]
-    return "\n".join(lines)
+    return (
+        f"- slowest {what}'s real-time factor {worst:.0f}x, target at least "
+        f"{TARGET_REALTIME:g}x: {target_verdict(worst >= TARGET_REALTIME)}."
+    )

@@ -34,7 +34,7 @@ import numpy as np
 
 from synth.live.atomics import fence
 from synth.sound.modal_bank import transform_pulse
-from synth.sound.modal_bank.bank_kernels import SUB
+from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
 #: producers' own).
@@ -355,19 +355,12 @@ def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, threshol
             cr, ci = cr * er - ci * ei, cr * ei + ci * er
             s += m
             m2 = (cr * cr + ci * ci) * g2
-            if m2 < thr2[k]:
-                d = debt[k]
-                if d > 0.0:
-                    d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
-                mag = math.sqrt(m2)
-                if mag + d <= thresholds[k]:
-                    debt[k] = d + mag
-                    debt_at[k] = s
-                    _park(park_r, park_i, park_at, k, cr, ci, s, poles, fs)
-                    active[k] = False
-                    cr = 0.0
-                    ci = 0.0
-                    break
+            if m2 < thr2[k] and falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
+                _park(park_r, park_i, park_at, k, cr, ci, s, poles, fs)
+                active[k] = False
+                cr = 0.0
+                ci = 0.0
+                break
         zr[k] = cr
         zi[k] = ci
 
@@ -381,19 +374,12 @@ def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a,
     for k in range(zr.shape[0]):
         zr[k] += amps[k].real
         zi[k] += amps[k].imag
-        mag = math.sqrt((zr[k] * zr[k] + zi[k] * zi[k]) * _heard_power(heard, k))
-        d = debt[k]
-        if d > 0.0:
-            d *= math.exp(poles[k].real * ((a - debt_at[k]) / fs))
-        if mag + d <= thresholds[k]:
-            debt[k] = d + mag
-            debt_at[k] = a
+        m2 = (zr[k] * zr[k] + zi[k] * zi[k]) * _heard_power(heard, k)
+        active[k] = not falls_silent(k, m2, a, debt, debt_at, thresholds, poles, fs)
+        if not active[k]:
             _park(park_r, park_i, park_at, k, zr[k], zi[k], a, poles, fs)
             zr[k] = 0.0
             zi[k] = 0.0
-            active[k] = False
-        else:
-            active[k] = True
 
 
 @numba.njit(cache=True, nogil=True)

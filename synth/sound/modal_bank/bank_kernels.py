@@ -46,6 +46,23 @@ def power_table(poles, fs):
 
 
 @numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True, inline="always")
+def falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
+    """Whether mode ``k``, of squared magnitude ``m2`` at sample ``s``, now fits its share
+    of the omission budget: ``|z|`` plus its debt decayed to ``s`` (poles in rad/s, fs in
+    Hz) at most ``thresholds[k]``. If so, its debt takes ``|z|`` on, as of ``s``, and the
+    caller stops the mode."""
+    d = debt[k]
+    if d > 0.0:
+        d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
+    mag = math.sqrt(m2)
+    if mag + d > thresholds[k]:
+        return False
+    debt[k] = d + mag
+    debt_at[k] = s
+    return True
+
+
+@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True, inline="always")
 def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a):
     """Add one impact's complex amplitudes ``amps`` (K,) to the modes' states ``zr + i zi``
     at sample ``a`` (the bank's state, see :func:`ring_modes`); a mode whose state plus what
@@ -55,18 +72,11 @@ def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps
     for k in range(K):
         zr[k] += amps[k].real
         zi[k] += amps[k].imag
-        mag = math.sqrt(zr[k] * zr[k] + zi[k] * zi[k])
-        d = debt[k]
-        if d > 0.0:
-            d *= math.exp(poles[k].real * ((a - debt_at[k]) / fs))
-        if mag + d <= thresholds[k]:
-            debt[k] = d + mag
-            debt_at[k] = a
+        m2 = zr[k] * zr[k] + zi[k] * zi[k]
+        active[k] = not falls_silent(k, m2, a, debt, debt_at, thresholds, poles, fs)
+        if not active[k]:
             zr[k] = 0.0
             zi[k] = 0.0
-            active[k] = False
-        else:
-            active[k] = True
 
 
 @numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True, inline="always")
@@ -108,18 +118,11 @@ def ring_modes(
             cr, ci = cr * er - ci * ei, cr * ei + ci * er
             s += n
             m2 = cr * cr + ci * ci
-            if m2 < thr2[k]:
-                d = debt[k]
-                if d > 0.0:
-                    d *= math.exp(poles[k].real * ((s - debt_at[k]) / fs))
-                mag = math.sqrt(m2)
-                if mag + d <= thresholds[k]:
-                    debt[k] = d + mag
-                    debt_at[k] = s
-                    active[k] = False
-                    cr = 0.0
-                    ci = 0.0
-                    break
+            if m2 < thr2[k] and falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
+                active[k] = False
+                cr = 0.0
+                ci = 0.0
+                break
         work += s - a
         if s > last:
             last = s
