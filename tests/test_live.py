@@ -968,6 +968,16 @@ def test_a_drop_is_one_voice_and_stop_drops_its_later_bounces(scene):
     assert engine.ended() == [voice.id]
 
 
+def injection_sample(scene, speed, at):
+    """The sample at which a hit at ``speed`` (m/s) at ``at`` (s) on the plate's centre joins
+    the modes, the first after its contact (synth.live's pulse layout): a hit's default
+    contact is the measured surface on the impedance plate."""
+    ct = solve_impact(
+        scene.ball, scene.plate, speed, position=scene.plate.centre, rtol=HIT_RTOL, surface="auto"
+    )
+    return int(np.ceil((at + ct.separation_time) * FS - 1e-9))
+
+
 def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
     # two voice slots, three hits: the third steals the first (the oldest, though the
     # second is quieter), which fades out over STEAL_FADE from the third's injection
@@ -981,15 +991,7 @@ def test_a_new_voice_steals_the_oldest_with_a_fade(scene):
     body = engine.add(scene.plate, listener=scene.listener)
     voices = [body.hit(scene.ball, v, at=at) for v, at in hits]
     live = engine.process(16 * n)[:, 0]
-    ct = solve_impact(  # a hit's default contact: the measured surface, the impedance plate
-        scene.ball,
-        scene.plate,
-        hits[2][0],
-        position=scene.plate.centre,
-        rtol=HIT_RTOL,
-        surface="auto",
-    )
-    inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
+    inject = injection_sample(scene, *hits[2])
     want = refs[0] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[1] + refs[2]
     tol = 4 * float32_ulp_of_peak(want)
     np.testing.assert_allclose(live, want, rtol=0, atol=tol)
@@ -1156,15 +1158,7 @@ def test_a_full_body_steals_the_lowest_priority_before_the_oldest(scene):
     voices = [body.hit(scene.ball, v, at=at, priority=p) for (v, at), p in zip(hits, (1, 0, 0))]
     assert [v.priority for v in voices] == [1, 0, 0]
     live = engine.process(16 * n)[:, 0]
-    ct = solve_impact(  # a hit's default contact: the measured surface, the impedance plate
-        scene.ball,
-        scene.plate,
-        hits[2][0],
-        position=scene.plate.centre,
-        rtol=HIT_RTOL,
-        surface="auto",
-    )
-    inject = int(np.ceil((hits[2][1] + ct.separation_time) * FS - 1e-9))  # pulse_layout
+    inject = injection_sample(scene, *hits[2])
     want = refs[0] + refs[1] * raised_cosine(16 * n, inject, round(STEAL_FADE * FS)) + refs[2]
     np.testing.assert_allclose(live, want, rtol=0, atol=4 * float32_ulp_of_peak(want))
     assert engine.stats.voices_stolen == 1 and engine.ended() == [voices[1].id]

@@ -90,10 +90,7 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
         costs = []
         k = 0
         for b in range(int(seconds * samplerate / blocksize)):
-            while k < len(schedule) and schedule[k][0] < (b + 2) * block:
-                t, body, v, pos = schedule[k]
-                body.hit(scene.ball, v, at=max(t, (b + 1) * block), position=pos)
-                k += 1
+            k = _hit_due(schedule, k, b, block, scene.ball)
             t = time.perf_counter()
             engine._mix_into(out, blocksize)
             costs.append(time.perf_counter() - t)
@@ -143,10 +140,7 @@ def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25,
             ramp, still, moves = [], [], []
             k = 0
             for b in range(int(seconds * samplerate / blocksize)):
-                while k < len(schedule) and schedule[k][0] < (b + 2) * block:
-                    t, body, v, pos = schedule[k]
-                    body.hit(scene.ball, v, at=max(t, (b + 1) * block), position=pos)
-                    k += 1
+                k = _hit_due(schedule, k, b, block, scene.ball)
                 moved = b % every == every - 1
                 if moved:
                     head = head + rng.uniform(-0.02, 0.02, 3)
@@ -517,3 +511,15 @@ def _max_pending() -> int:
 
 def _dbfs(x: float) -> str:
     return f"{20 * np.log10(x):.1f} dBFS" if x > 0 else "silence"
+
+
+def _hit_due(schedule: list, k: int, b: int, block: float, ball) -> int:
+    """Make the hits of ``schedule`` (``(time s, body, speed m/s, position m)``, in time
+    order) from index ``k`` that fall before the end of block ``b + 1`` (blocks of ``block``
+    s), each no earlier than block ``b + 1`` starts, as a game does a block ahead; returns
+    the index of the first hit left."""
+    while k < len(schedule) and schedule[k][0] < (b + 2) * block:
+        t, body, v, pos = schedule[k]
+        body.hit(ball, v, at=max(t, (b + 1) * block), position=pos)
+        k += 1
+    return k
