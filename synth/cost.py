@@ -444,7 +444,7 @@ def modal_count(plate, max_frequency: float) -> int:
 def hertz_contact_time(ball, plate, speed: float) -> float:
     """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
     ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``."""
-    from synth.physics.contact import effective_modulus
+    from synth.physics.contact_law import effective_modulus
 
     e_star = effective_modulus(ball, plate)
     depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4

@@ -80,7 +80,7 @@ LOSS_TABLE_DROP = 1.0
 def contact_losses_section() -> str:
     """The "Contact losses" section of docs/materials.md: how each material's loss enters
     the contact and the first-impact restitution it gives (computed here, by the engine's
-    measured surface, ``synth.physics.contact.material_viscous_time``)."""
+    measured surface, ``synth.physics.contact_law.material_viscous_time``)."""
     import math
 
     from synth.constants import GRAVITY
@@ -112,7 +112,7 @@ def contact_losses_section() -> str:
         "(`tau_c` the elastic Hertz contact time of the pair on a rigid flat at 1 m/s), and "
         "the two compliances add, so the viscoelastic Hertz law's dissipative time is "
         '`A = E* sum_i eta_i / (omega_c E\'_i)` (docs/physics.md, "Hertz contact"; '
-        "`synth.physics.contact.material_viscous_time`). MDF keeps its surface fitted to the "
+        "`synth.physics.contact_law.material_viscous_time`). MDF keeps its surface fitted to the "
         "thesis' measurements. The thesis' model (`contact.model = \"thesis\"`) has no "
         "contact loss.\n\n"
         "These loss factors were measured on bending waves at small strain. No published "

@@ -10,7 +10,8 @@ from synth.bench.thesis.losses import gap_met
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
-from synth.physics.contact import contact_parameters, hertz_stiffness, solve_contact, solve_impact
+from synth.physics.contact import solve_contact, solve_impact
+from synth.physics.contact_law import contact_parameters, hertz_stiffness
 from synth.physics.materials import MDF_SURFACE, contact_surface, get
 from synth.physics.scene import Ball, Contact, Plate
 

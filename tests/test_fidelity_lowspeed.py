@@ -12,7 +12,8 @@ from synth.bench.thesis import adhesion_loss, air_film_loss
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import bounce_time_restitution, simulate_bounces
-from synth.physics.contact import contact_parameters, solve_impact
+from synth.physics.contact import solve_impact
+from synth.physics.contact_law import contact_parameters
 from synth.physics.scene import Ball, Plate
 
 STEEL = Ball("steel", 0.005, 4.17e-3)

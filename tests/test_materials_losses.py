@@ -1,4 +1,4 @@
-"""Every material's contact loss (synth.physics.contact.material_viscous_time): the table's
+"""Every material's contact loss (synth.physics.contact_law.material_viscous_time): the table's
 loss factors as a viscoelastic Hertz loss, and balls that settle."""
 
 import math
@@ -8,14 +8,14 @@ import pytest
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.bounces import simulate_bounces
-from synth.physics.contact import (
+from synth.physics.contact import solve_impact
+from synth.physics.contact_law import (
     LOSS_REFERENCE_SPEED,
     contact_parameters,
     hertz_contact_time,
     hertz_stiffness,
     material_loss_factor,
     material_viscous_time,
-    solve_impact,
 )
 from synth.physics.materials import MDF_SURFACE, LossFactor, Material, Rayleigh
 from synth.physics.scene import Ball, Contact, Plate

@@ -11,7 +11,8 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_bounces, simulate_scene
-from synth.physics.contact import hertz_stiffness, solve_contact, solve_impact
+from synth.physics.contact import solve_contact, solve_impact
+from synth.physics.contact_law import hertz_stiffness
 from synth.physics.materials import LossFactor, with_transverse_shear
 from synth.physics.scene import Ball, Contact, Plate, Scene
 

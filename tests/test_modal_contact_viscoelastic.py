@@ -12,7 +12,8 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_bounces, simulate_scene
-from synth.physics.contact import hertz_stiffness, resolved_surface, solve_contact
+from synth.physics.contact import solve_contact
+from synth.physics.contact_law import hertz_stiffness, resolved_surface
 from synth.physics.scene import Ball, Contact, Plate, Scene
 
 BALL = Ball("steel", 0.005)

@@ -239,7 +239,8 @@ def test_hertz_contact_time_is_the_closed_form_on_a_rigid_plate():
     # no gravity): the closed form 2.9433 delta_max / v (thesis) to the solver's accuracy
     import synth
     from synth import cost
-    from synth.physics.contact import hertz_stiffness, solve_contact
+    from synth.physics.contact import solve_contact
+    from synth.physics.contact_law import hertz_stiffness
 
     scene = synth.load_preset("default")
     ball, plate = scene.ball, scene.plate

@@ -195,7 +195,7 @@ def simulate_bounces(
     contact_law : str
         "hertz" (default), "elastic-foundation", "hunt-crossley", "viscoelastic" or
         "power-law"; its parameters go in ``contact_options`` (see
-        :func:`synth.physics.contact.contact_parameters`).
+        :func:`synth.physics.contact_law.contact_parameters`).
     rtol : float
         Relative accuracy of each impact's restitution and contact time.
     floor_db : float < 0

@@ -3,7 +3,7 @@
 The model (docs/rolling.md): the ball's centre moves along a straight path on the plate at
 the horizontal speed ``v`` (the caller's, one per call or one per sample period);
 vertically it is a free body under gravity pressed by the impacts' contact law
-(:func:`synth.physics.contact.contact_parameters`: Hertz, with the material's loss where the
+(:func:`synth.physics.contact_law.contact_parameters`: Hertz, with the material's loss where the
 law has one) against the plate's surface, which is the profile's envelope under the ball
 (:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's point
 impedance (its admittance ``beta``, as the impacts' contact, docs/physics.md "Hertz
@@ -39,7 +39,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import rolling_kernels as _k
-from synth.physics.contact import ContactLaw, contact_parameters
+from synth.physics.contact_law import ContactLaw, contact_parameters
 from synth.physics.scene import MAX_GRAVITY, Ball, Plate
 from synth.physics.surface import ContactEnvelope, envelope_at
 
@@ -288,7 +288,7 @@ def roll(
         start from a ball above the surface (:meth:`RollingState.at`), such as one landing.
     contact : str
         The contact law and its ``contact_options`` (see
-        :func:`synth.physics.contact.contact_parameters`).
+        :func:`synth.physics.contact_law.contact_parameters`).
     admittance : float >= 0, optional
         The plate's admittance at the contact, m/(N s): 0 for a rigid plate; default the
         infinite plate's ``1 / Z_inf`` (:func:`synth.physics.impedance.infinite_plate_impedance`).

@@ -231,10 +231,10 @@ CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", 
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
 #: The two surfaces in the contact: isotropic elastic half-spaces without loss ("ideal", the
 #: thesis' model), isotropic with each material's published loss factor ("material",
-#: :func:`synth.physics.contact.material_viscous_time`), the plate material's surface fitted
+#: :func:`synth.physics.contact_law.material_viscous_time`), the plate material's surface fitted
 #: to measurements (:class:`synth.physics.materials.ContactSurface`) with the ball's loss
 #: ("fitted"), or "auto": the fitted one where the material has one, else "material"
-#: (:func:`synth.physics.contact.resolved_surface`).
+#: (:func:`synth.physics.contact_law.resolved_surface`).
 SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
 #: The plate in the contact: its impedance, its modes, or "auto": the modes where they change
 #: the first impact by more than the modal contact's tolerance (near an edge or a corner, on a
@@ -296,7 +296,7 @@ class Contact:
     surface : {"ideal", "material", "fitted", "auto"}
         The two surfaces in the contact: "ideal" (isotropic elastic half-spaces without loss,
         the thesis' model), "material" (law "hertz" only: each material's published loss
-        factor as a viscoelastic loss, :func:`synth.physics.contact.material_viscous_time`),
+        factor as a viscoelastic loss, :func:`synth.physics.contact_law.material_viscous_time`),
         "fitted" (law "hertz" only: the plate material's through-thickness modulus and
         contact loss fitted to measurements, :class:`synth.physics.materials.ContactSurface`,
         with the ball's loss) or "auto" (the default: "fitted" for the Hertz law where the
@@ -397,7 +397,7 @@ class Contact:
 
     def options(self) -> dict:
         """The law's parameters as keyword arguments of
-        :func:`synth.physics.contact.contact_parameters`."""
+        :func:`synth.physics.contact_law.contact_parameters`."""
         options = {k: getattr(self, k) for k in LAW_OPTIONS if getattr(self, k) is not None}
         if self.surface != "ideal":
             options["surface"] = self.surface

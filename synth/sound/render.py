@@ -443,7 +443,7 @@ def _check_modal_sequence(scene, sequence) -> BounceSequence:
     """:func:`check_sequence` for a scene with the modal plate in the contact: the first
     impact is one of the modal contact (:class:`~synth.physics.modal_contact.ModalImpactResult`)
     under the scene's contact law (its constants equal to ``SEQUENCE_RTOL``)."""
-    from synth.physics.contact import contact_parameters
+    from synth.physics.contact_law import contact_parameters
     from synth.physics.modal_contact import ModalImpactResult
 
     c = scene.contact

@@ -48,7 +48,8 @@ def impedance_plate_restitution(ball, plate, speed: float, **loss) -> float:
     ``plate``, Hertz at MDF's fitted ``E_t`` with the contact ``loss`` (one keyword of
     :func:`synth.physics.contact.solve_contact`)."""
     from synth.physics import impedance
-    from synth.physics.contact import hertz_stiffness, solve_contact
+    from synth.physics.contact import solve_contact
+    from synth.physics.contact_law import hertz_stiffness
     from synth.physics.materials import MDF_SURFACE
 
     return solve_contact(

@@ -108,7 +108,7 @@ def _lowspeed_restitution_rows(scene, seq, found) -> list:
     series of ``scene``, ``found`` the analysis of its render."""
     from synth.physics import modal_contact as mc
     from synth.physics.bounces import bounce_time_restitution
-    from synth.physics.contact import contact_parameters
+    from synth.physics.contact_law import contact_parameters
 
     c = scene.contact
     contact = mc.ModalContact.for_pair(

@@ -25,7 +25,8 @@ def _surface_contact(ball, plate, ratio: float, viscous_time: float, speed: floa
     loss of dissipative time ``viscous_time`` (s): a trial
     :class:`~synth.physics.materials.ContactSurface`."""
     from synth.physics import modal_contact as mc
-    from synth.physics.contact import hertz_stiffness, solve_contact
+    from synth.physics.contact import solve_contact
+    from synth.physics.contact_law import hertz_stiffness
     from synth.physics.materials import MDF_SURFACE
 
     beta = 1.0 / impedance.infinite_plate_impedance(plate)

@@ -15,7 +15,8 @@ from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.contact import ImpactResult, contact_parameters, solve_contact
+from synth.physics.contact import ImpactResult, solve_contact
+from synth.physics.contact_law import contact_parameters
 from synth.physics.modal_contact.kernels import (
     R_CONTACT_LOSS,
     R_DAMPING_LOSS,
@@ -266,7 +267,7 @@ class ModalContact:
         **contact_options,
     ) -> ModalContact:
         """The modal contact of ``ball`` on ``plate`` at ``position`` (m; None: the centre)
-        under the contact ``law`` and its options (:func:`synth.physics.contact.contact_law`).
+        under the contact ``law`` and its options (:func:`synth.physics.contact_law.contact_law`).
         ``max_frequency`` (Hz) defaults to :data:`BAND_FACTOR` over the impedance model's
         contact time at ``speed`` (m/s; default 1 m/s); ``theory`` is the plate theory of
         :func:`modal_point`."""

@@ -1,0 +1,293 @@
+"""The contact law of a ball on a plate, from their materials and sizes: the contact modulus
+and Hertz stiffness, the law's parameters (Hertz, Hunt-Crossley, viscoelastic Hertz with each
+material's loss; the foundation of a layered surface) and the measured model's surfaces
+(docs/physics.md, "Hertz contact" and "Contact losses"). :mod:`synth.physics.contact`
+integrates the impact these parameters set."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+from synth.physics.materials import LossFactor, contact_surface, has_contact_surface
+from synth.physics.materials import get as get_material
+from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate
+
+
+def effective_modulus(ball: Ball, plate: Plate) -> float:
+    """Contact modulus ``E*`` with ``1/E* = 1/E'_ball + 1/E'_plate``, Pa."""
+    return 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate.material.effective_modulus)
+
+
+def hertz_stiffness(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> float:
+    """Hertz constant ``K = 4/3 sqrt(R) E*`` of a sphere on a flat (thesis 2.9-2.11), N/m^1.5;
+    the plate's side taken at ``transverse_ratio`` (dimensionless) times its modulus (see
+    :class:`synth.physics.materials.ContactSurface`)."""
+    plate_modulus = transverse_ratio * plate.material.effective_modulus
+    e_star = 1.0 / (1.0 / ball.material.effective_modulus + 1.0 / plate_modulus)
+    return 4.0 / 3.0 * math.sqrt(ball.radius) * e_star
+
+
+def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -> float:
+    """Elastic-foundation constant ``K = pi E'_plate R / h`` (thesis 4.3.2), N/m^2.
+
+    ``depth`` is the Winkler layer's depth ``h`` in metres (default: the plate thickness).
+    """
+    h = plate.thickness if depth is None else checks.positive("layer_depth", depth, "metres")
+    return math.pi * plate.material.effective_modulus * ball.radius / h
+
+
+def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
+    """Static penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis 2.48), m.
+
+    ``gravity`` in m/s^2; Hertz contact.
+    """
+    g = checks.positive("gravity", gravity, "m/s^2")
+    return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """The constants of a contact law (docs/physics.md, "Hertz contact" and "Contact losses").
+
+    Attributes
+    ----------
+    stiffness : float
+        ``K`` of ``F = K delta^n``, N/m^n.
+    exponent : float
+        ``n``, dimensionless.
+    dissipation : float
+        Hunt-Crossley ``mu``, s/m (0: none).
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none).
+    """
+
+    stiffness: float
+    exponent: float
+    dissipation: float = 0.0
+    viscous_time: float = 0.0
+
+
+def resolved_surface(plate: Plate, law: str, surface: str) -> str:
+    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
+    "auto" is, for the Hertz law, "fitted" on a material with a fitted surface
+    (:func:`synth.physics.materials.contact_surface`, fitted to measurements) and
+    "material" elsewhere (each body's published loss factor,
+    :func:`material_viscous_time`); for the other laws (which carry their own loss or none)
+    "ideal". "ideal", "material" and "fitted" name themselves."""
+    if surface != "auto":
+        return surface
+    if law != "hertz":
+        return "ideal"
+    return "fitted" if has_contact_surface(plate.material) else "material"
+
+
+#: Impact speed (m/s) at which a material's loss factor sets its share of the viscoelastic
+#: contact's dissipative time (:func:`material_viscous_time`): at other speeds the loss
+#: follows the viscoelastic Hertz law's own ``1 - e ~ v^(1/5)``.
+LOSS_REFERENCE_SPEED = 1.0
+#: Contact time of the elastic Hertz impact on a rigid flat without gravity over
+#: ``delta_max / v`` (closed form, docs/physics.md, "Hertz contact").
+HERTZ_TIME_FACTOR = 2.9433
+
+
+def material_loss_factor(material, omega: float) -> float:
+    """The loss factor ``eta`` (dimensionless) of ``material``'s damping law at the angular
+    frequency ``omega`` (rad/s): a :class:`~synth.physics.materials.LossFactor`'s ``eta``;
+    a :class:`~synth.physics.materials.Rayleigh` law's ``2 sigma / omega = alpha / omega +
+    beta omega``; 0 for a material without a damping law (an elastic ball)."""
+    d = material.damping
+    if d is None:
+        return 0.0
+    if isinstance(d, LossFactor):
+        return d.eta
+    return d.alpha / omega + d.beta * omega
+
+
+def hertz_contact_time(mass: float, stiffness: float, speed: float) -> float:
+    """Contact time (s) of the elastic Hertz impact ``F = K delta^(3/2)`` of a ball of
+    ``mass`` (kg) on a rigid flat at ``speed`` (m/s), without gravity:
+    ``2.9433 delta_max / v``, ``delta_max = (5 m v^2 / (4 K))^(2/5)``."""
+    delta_max = (5.0 * mass * speed * speed / (4.0 * stiffness)) ** 0.4
+    return HERTZ_TIME_FACTOR * delta_max / speed
+
+
+def material_viscous_time(
+    ball: Ball, plate: Plate, transverse_ratio: float = 1.0, plate_share: float | None = None
+) -> float:
+    """The dissipative time ``A`` (s) of the viscoelastic Hertz contact of ``ball`` on
+    ``plate`` from the two materials' loss factors (docs/physics.md, "Contact losses").
+
+    Each body is taken as a Kelvin-Voigt solid, modulus ``E'_i (1 + A_i s)``, whose loss
+    factor at the contact's angular frequency ``omega_c = pi / tau_c`` is its table loss
+    factor ``eta_i`` (:func:`material_loss_factor`): ``A_i = eta_i / omega_c``, with
+    ``tau_c`` the elastic Hertz contact time on a rigid flat at
+    :data:`LOSS_REFERENCE_SPEED` (:func:`hertz_contact_time`; the half-sine pulse's
+    fundamental is ``pi / tau_c``). The two bodies' compliances add, ``1 / E*(s) = sum
+    1 / (E'_i (1 + A_i s))``, so to first order in ``A_i s`` the contact's
+    ``A = E* sum_i A_i / E'_i``: each body's loss weighted by its share of the
+    indentation.
+
+    ``transverse_ratio`` scales the plate's modulus (its fitted surface's
+    ``E_t / E``); ``plate_share`` replaces the plate's term ``E* A_p / E'_p`` by a given
+    dissipative time (s), the fitted surface's own (None: the plate material's loss factor).
+    """
+    K = hertz_stiffness(ball, plate, transverse_ratio)
+    tau_c = hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
+    omega_c = math.pi / tau_c
+    ball_modulus = ball.material.effective_modulus
+    plate_modulus = transverse_ratio * plate.material.effective_modulus
+    e_star = 1.0 / (1.0 / ball_modulus + 1.0 / plate_modulus)
+    ball_term = e_star / ball_modulus * material_loss_factor(ball.material, omega_c) / omega_c
+    if plate_share is None:
+        plate_share = (
+            e_star / plate_modulus * material_loss_factor(plate.material, omega_c) / omega_c
+        )
+    return ball_term + plate_share
+
+
+def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
+    """The dissipative time ``A`` (s) of ``ball`` on ``plate`` with its fitted
+    :class:`~synth.physics.materials.ContactSurface` (viscoelastic).
+
+    The surface's ``viscous_time`` is the whole contact's, fitted with a steel ball (the
+    table's ``steel``): the board's term of :func:`material_viscous_time` for that ball's
+    share of the indentation, ``E'_p / (E'_p + E'_steel)``, plus the steel's own term. For
+    another ball the board's term scales with its share ``E* / E'_p`` (``E'_p`` the
+    surface's through-thickness modulus), and the ball's own term replaces the steel's; a
+    steel ball gets the fitted value itself."""
+    steel = replace(ball, material=get_material("steel"), mass=ball.mass)
+    plate_modulus = surface.transverse_ratio * plate.material.effective_modulus
+    ball_modulus = ball.material.effective_modulus
+    steel_modulus = steel.material.effective_modulus
+    share = ball_modulus / (ball_modulus + plate_modulus)
+    share_fit = steel_modulus / (steel_modulus + plate_modulus)
+    own = material_viscous_time(ball, plate, surface.transverse_ratio, plate_share=0.0)
+    steel_own = material_viscous_time(steel, plate, surface.transverse_ratio, plate_share=0.0)
+    return surface.viscous_time * (share / share_fit) + (own - steel_own)
+
+
+def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> None:
+    """Refuse a law other than Hertz, or any law argument in ``given``, beside a surface
+    that sets the whole contact law itself (``why``: what the surface is)."""
+    if contact != "hertz":
+        raise ParameterError(
+            f"surface={surface!r} applies to contact='hertz' only, not {contact!r} ({why})"
+        )
+    for key, value in given.items():
+        if value is not None:
+            raise ParameterError(f"{key}={value!r} does not apply to surface={surface!r}")
+
+
+def contact_parameters(
+    ball: Ball,
+    plate: Plate,
+    contact: str = "hertz",
+    *,
+    dissipation: float | None = None,
+    viscous_time: float | None = None,
+    exponent: float | None = None,
+    stiffness: float | None = None,
+    layer_depth: float | None = None,
+    surface: str = "ideal",
+) -> ContactLaw:
+    """The constants of a named contact law (docs/physics.md, "Hertz contact").
+
+    Parameters
+    ----------
+    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
+    surface : {"ideal", "fitted", "auto"}
+        "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
+        "hertz" only): the plate material's fitted surface
+        (:func:`synth.physics.materials.contact_surface`): Hertz at its through-thickness
+        modulus with its loss (Hunt-Crossley or viscoelastic). "auto": the model closest to
+        measurement, :func:`resolved_surface`.
+    dissipation : float > 0
+        Hunt-Crossley ``mu``, s/m (required for "hunt-crossley", refused otherwise).
+    viscous_time : float > 0
+        The dissipative time ``A`` (s) of the viscoelastic Hertz contact
+        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt)``, ``F >= 0`` (Kuwabara &
+        Kono 1987; Brilliantov et al. 1996): required for "viscoelastic", refused otherwise.
+    exponent, stiffness : float
+        ``n`` (dimensionless, in (1, 4]) and ``K_n`` (N/m^n): required for "power-law".
+    layer_depth : float > 0
+        Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
+    """
+    checks.choice("contact", contact, CONTACT_LAWS)
+    checks.choice("surface", surface, SURFACE_MODELS)
+    surface = resolved_surface(plate, contact, surface)
+    given = {
+        "dissipation": dissipation,
+        "viscous_time": viscous_time,
+        "exponent": exponent,
+        "stiffness": stiffness,
+        "layer_depth": layer_depth,
+    }
+    if surface == "fitted":
+        _check_surface_alone(
+            surface, contact, given, "the fit is of a Hertz contact with its own loss"
+        )
+        fit = contact_surface(plate.material)
+        if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
+            return ContactLaw(
+                hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation
+            )
+        A = fitted_viscous_time(ball, plate, fit)
+        return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, viscous_time=A)
+    if surface == "material":
+        _check_surface_alone(
+            surface, contact, given, "the materials' loss is a viscoelastic Hertz contact's"
+        )
+        return ContactLaw(
+            hertz_stiffness(ball, plate), 1.5, viscous_time=material_viscous_time(ball, plate)
+        )
+    allowed = {
+        "hertz": (),
+        "hunt-crossley": ("dissipation",),
+        "viscoelastic": ("viscous_time",),
+        "elastic-foundation": ("layer_depth",),
+        "power-law": ("exponent", "stiffness"),
+    }[contact]
+    for key, value in given.items():
+        if value is not None and key not in allowed:
+            raise ParameterError(f"{key}={value!r} does not apply to contact={contact!r}")
+    if contact == "hertz":
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5)
+    if contact == "hunt-crossley":
+        if dissipation is None:
+            raise ParameterError("contact='hunt-crossley' needs dissipation (mu, s/m, > 0)")
+        mu = checks.positive("dissipation", dissipation, "s/m")
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5, mu)
+    if contact == "viscoelastic":
+        if viscous_time is None:
+            raise ParameterError("contact='viscoelastic' needs viscous_time (A, s, > 0)")
+        A = checks.positive("viscous_time", viscous_time, "s")
+        return ContactLaw(hertz_stiffness(ball, plate), 1.5, viscous_time=A)
+    if contact == "elastic-foundation":
+        return ContactLaw(foundation_stiffness(ball, plate, layer_depth), 2.0)
+    if exponent is None or stiffness is None:
+        raise ParameterError("contact='power-law' needs exponent (n) and stiffness (K_n, N/m^n)")
+    return ContactLaw(
+        checks.positive("stiffness", stiffness, "N/m^n"),
+        checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False),
+    )
+
+
+def contact_law(
+    ball: Ball, plate: Plate, contact: str = "hertz", **options
+) -> tuple[float, float, float]:
+    """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law: the
+    :func:`contact_parameters` of the laws those three constants describe (all but
+    "viscoelastic", whose viscous time has no place among them: ``ParameterError``; the
+    finite plate's contact, :mod:`synth.physics.modal_contact`, reads all of
+    :func:`contact_parameters`)."""
+    law = contact_parameters(ball, plate, contact, **options)
+    if law.viscous_time != 0.0:
+        raise ParameterError(
+            f"contact={contact!r}: the viscoelastic law's viscous_time is not one of (K, n, mu); "
+            f"contact_parameters gives all of the law's constants"
+        )
+    return law.stiffness, law.exponent, law.dissipation
