@@ -250,17 +250,15 @@ def test_pool_workers_take_sigterm_by_default(tmp_path, cache_dir):
     # The command line's SIGTERM handler raises to unwind; a forked worker must not inherit
     # it: the pool stops its workers with SIGTERM when one dies, and a raise inside a
     # library callback (soundfile's writer) is swallowed and printed as a traceback.
-    import importlib
 
+    from synth.bank import executors
     from synth.bank import spec as bank_spec
     from synth.cli import _on_sigterm
-
-    bank_run = importlib.import_module("synth.bank.run")  # synth.bank.run is also a function
 
     spec = bank_spec.load(_write_spec(tmp_path / "spec", count=2))
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        pool = bank_run._Pool(spec, str(tmp_path / "out"), 2)
+        pool = executors.Pool(spec, str(tmp_path / "out"), 2)
         try:
             futures = [pool.executor.submit(signal.getsignal, signal.SIGTERM) for _ in range(4)]
             assert all(f.result(timeout=60) == signal.SIG_DFL for f in futures)
@@ -325,17 +323,17 @@ def test_disk_that_fills(serial, tmp_path, monkeypatch):
 def test_failed_scene_recorded_and_exit_status(tmp_path, cache_dir, capsys, monkeypatch):
     # A row whose render fails (here a solver error injected into row 1) is recorded with
     # its error; the other rows are rendered; the command exits with status 1.
-    import importlib
 
-    bank_run = importlib.import_module("synth.bank.run")
-    render = bank_run._render
+    from synth.bank import row as bank_row
+
+    render = bank_row.render_scene
 
     def failing(spec, item):
         if item.index == 1:
             raise FloatingPointError("the contact solver diverged")
         return render(spec, item)
 
-    monkeypatch.setattr(bank_run, "_render", failing)
+    monkeypatch.setattr(bank_row, "render_scene", failing)
     spec = tmp_path / "bank.toml"
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
     spec.write_text(
@@ -925,9 +923,10 @@ def test_bytes_depend_only_on_the_spec(tmp_path, monkeypatch, fmt):
     # one warm process, with 2 forked workers warm, with 2 spawned workers from another
     # cold cache, and on a Dask cluster from a third: every file the same (WAV, FLAC:
     # bytes; OGG: bytes and decoded samples).
-    import importlib
 
-    bank_run = importlib.import_module("synth.bank.run")
+    from synth.bank import executors
+    from synth.bank import row as bank_row
+
     distributed = pytest.importorskip("dask.distributed")
     folder = tmp_path / "spec"
     folder.mkdir()
@@ -945,7 +944,7 @@ def test_bytes_depend_only_on_the_spec(tmp_path, monkeypatch, fmt):
     reversed_dir = tmp_path / "reversed"
     reversed_dir.mkdir()
     for item in reversed(bank.plan(spec)):  # this process is warm with every band now
-        assert bank_run.render_item(spec, item, str(reversed_dir)).row["status"] == "ok"
+        assert bank_row.render_item(spec, item, str(reversed_dir)).row["status"] == "ok"
     _assert_same_bank(reversed_dir, ref, fmt)
 
     assert bank.run(spec_path, tmp_path / "warm2", jobs=2).ok
@@ -954,7 +953,7 @@ def test_bytes_depend_only_on_the_spec(tmp_path, monkeypatch, fmt):
     # spawned workers (one BLAS thread each, this process one per core) from another
     # cold cache: they solve the plate's modes themselves
     monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache2"))
-    monkeypatch.setattr(bank_run, "_start_method", lambda: "spawn")
+    monkeypatch.setattr(executors, "_start_method", lambda: "spawn")
     _clear_memory_caches()
     assert bank.run(spec_path, tmp_path / "cold2", jobs=2).ok
     _assert_same_bank(tmp_path / "cold2", ref, fmt)

@@ -3,7 +3,9 @@
 manifest; a rerun resumes.
 
 * :mod:`synth.bank.spec`: the TOML spec, checked, and its plan;
-* :mod:`synth.bank.run`: the workers and the run (:func:`run`);
+* :mod:`synth.bank.run`: the run (:func:`run`): lock, resume, manifest, the final check;
+* :mod:`synth.bank.row`: one row rendered, encoded and measured;
+* :mod:`synth.bank.executors`: where rows render: this process, a pool, a Dask cluster;
 * :mod:`synth.bank.manifest`: ``manifest.jsonl`` / ``manifest.csv`` and the stored spec.
 
 ``synth bank SPEC -o DIR`` on the command line.

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.bank import manifest as mf
-from synth.bank.run import BankRunError
+from synth.bank.executors import BankRunError
 
 #: Silence between two sounds of a preview, s.
 PREVIEW_GAP = 0.25

@@ -89,7 +89,7 @@ def run_bank(count: int = 200, process_files: int = 5, dask: bool = True) -> dic
     """Measure the bank benchmark (see the module docstring); a dict of figures."""
     spec = bank_spec.from_dict(tomllib.loads(SPEC.format(count=count)))
     items = bank_spec.plan(spec)
-    from synth.bank.run import warm
+    from synth.bank.row import warm
 
     warm(spec)
     out = {"count": count, "process_files": process_files}

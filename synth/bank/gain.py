@@ -37,7 +37,9 @@ from pathlib import Path
 
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.run import BankRunError, encode, move_files
+from synth.bank.executors import BankRunError
+from synth.bank.row import encode
+from synth.bank.run import move_files
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -146,7 +148,7 @@ def _scaled_row(row: dict, data: bytes, gain_db: float) -> dict:
 
 def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
     """The file ``source`` decoded, scaled by ``gain_db`` and encoded again as the
-    bank's format and subtype (:func:`synth.bank.run.encode`); PCM that would clip is
+    bank's format and subtype (:func:`synth.bank.row.encode`); PCM that would clip is
     refused."""
     import soundfile
 

@@ -18,10 +18,7 @@ and running the bank again completes it.
 
 from __future__ import annotations
 
-import io
-import math
 import os
-import resource
 import sys
 import time
 from dataclasses import dataclass, field
@@ -31,34 +28,20 @@ import numpy as np
 
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
-from synth.errors import SynthError
+from synth.bank.executors import (
+    BankRunError,
+    Dask,
+    Pool,
+    Serial,
+    connect,
+    hold_lock,
+)
+from synth.bank.row import base_row, described, render_scene, warm
+from synth.bank.spec import BankSpec, BankSpecError
 from synth.io.reproducible import reproducible
-
-#: Threads of the numerical libraries in each pool worker: the pool is the parallelism.
-_WORKER_THREADS = {
-    "OMP_NUM_THREADS": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "NUMBA_NUM_THREADS": "1",
-}
 
 #: Renders timed by a dry run to estimate the bank's time (rows spread over the plan).
 ESTIMATE_RENDERS = 5
-
-
-class BankRunError(SynthError):
-    """A bank that cannot go on: its folder is in use, or a file cannot be written."""
-
-
-@dataclass
-class RowResult:
-    """What a worker returns for a row: the manifest ``row``, or ``fatal`` (a file that
-    could not be written; the row is not recorded), and the worker's peak memory."""
-
-    row: dict | None
-    fatal: str | None = None
-    max_rss: int = 0
 
 
 @dataclass
@@ -135,447 +118,6 @@ class BankResult:
         if self.stopped:
             text += f"\nstopped: {self.stopped}"
         return text
-
-
-# ------------------------------------------------------------------------ one row
-
-
-def _max_rss() -> int:
-    """Peak resident memory of this process, bytes."""
-    r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    return int(r if sys.platform == "darwin" else r * 1024)
-
-
-def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
-    """Integrated loudness (ITU-R BS.1770, LUFS) of ``audio`` zero-padded to one 400 ms
-    gating block, or None without pyloudnorm or below the -70 LUFS gate."""
-    try:
-        import pyloudnorm
-    except ImportError:
-        return None
-    from synth.io.audio import LOUDNESS_BLOCK
-
-    x = np.asarray(audio, dtype=np.float64)
-    need = math.ceil(LOUDNESS_BLOCK * samplerate)
-    if x.shape[0] < need:
-        x = np.pad(x, [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1))
-    value = float(pyloudnorm.Meter(samplerate, block_size=LOUDNESS_BLOCK).integrated_loudness(x))
-    return round(value, 6) if math.isfinite(value) else None
-
-
-#: What to change when a row's PCM audio would clip.
-CLIP_ADVICE = "use render.normalize = 'peak', or format = 'wav' with render.subtype = 'FLOAT'"
-
-
-def encode(
-    audio: np.ndarray, samplerate: int, fmt: str, subtype: str, identity: str, advice: str
-) -> bytes:
-    """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
-    of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
-    ``identity`` (the file's name in the bank) alone
-    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
-    PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
-    and ``advice`` (what to change); the files of a render and of the bank-gain pass
-    are made here alike."""
-    import soundfile
-
-    from synth.io.audio import FLOAT_SUBTYPES
-
-    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
-    if subtype not in FLOAT_SUBTYPES and peak > 1.0:
-        raise BankSpecError(
-            f"{identity!r} peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, "
-            f"and subtype {subtype!r} would clip it: {advice}"
-        )
-    buf = io.BytesIO()
-    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
-    return reproducible(buf.getvalue(), fmt, identity)
-
-
-def _render(spec: BankSpec, item: PlanItem):
-    """Render row ``item``: the Render, the file's bytes, and the row's figures."""
-    from synth.io.presets import scene_from_dict
-    from synth.sound.render import render
-    from synth.stimuli.sequences import scaled_sequence
-
-    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
-    subtype = str(options.pop("subtype", spec.subtype)).upper()
-    k = item.values.get(RESTITUTION_SCALE)
-    sequence = (
-        None
-        if k is None
-        else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
-    )
-    rendered = render(scene, sequence=sequence, **options)
-    audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
-    data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
-    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
-    first = rendered.impacts[0] if len(rendered.impacts) else None
-    figures = {
-        "duration": audio.shape[0] / rendered.samplerate,
-        "stop_reason": rendered.impacts.stop_reason,
-        "length_reason": length_reason,
-        "audible_duration": _audible_duration(audio, rendered.samplerate),
-        "ticks": len(rendered.impacts),
-        "first_restitution": first.restitution if first is not None else None,
-        "first_speed": first.speed if first is not None else None,
-        "first_contact_time": first.result.contact_time if first is not None else None,
-        "first_peak_force": first.result.peak_force if first is not None else None,
-        "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
-        "true_peak_dbtp": _true_peak_db(audio),
-        "loudness_lufs": _loudness(audio, rendered.samplerate),
-        "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
-        "scene": bank_spec.scene_data(spec, item.values),
-    }
-    return rendered, data, figures
-
-
-#: Level below the peak that ends the audible part of a sound (the manifest's
-#: ``audible_duration``), dB.
-AUDIBLE_BELOW_DB = -60.0
-
-
-def _last_above(audio: np.ndarray, below_db: float) -> int:
-    """Index after the last sample whose magnitude reaches ``below_db`` dB re the peak
-    (0 for silence)."""
-    mag = np.abs(audio) if audio.ndim == 1 else np.max(np.abs(audio), axis=1)
-    peak = float(mag.max()) if mag.size else 0.0
-    if not peak > 0:
-        return 0
-    above = np.flatnonzero(mag >= peak * 10.0 ** (below_db / 20.0))
-    return int(above[-1]) + 1
-
-
-def _audible_duration(audio: np.ndarray, samplerate: int) -> float:
-    """Time to the last sample within :data:`AUDIBLE_BELOW_DB` of the peak, s."""
-    return _last_above(audio, AUDIBLE_BELOW_DB) / samplerate
-
-
-def trim_tail(audio: np.ndarray, samplerate: int, trim: dict | None):
-    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak
-    (and at ``trim["max_length"]`` s), its last ``trim["fade"]`` s faded out with a
-    raised cosine; with the reason: "tail-cut", "max-length", or "whole" (nothing cut,
-    also without ``trim``)."""
-    if trim is None:
-        return audio, "whole"
-    n = audio.shape[0]
-    end, reason = min(n, _last_above(audio, trim["below_db"])), "tail-cut"
-    if trim["max_length"] is not None and end > round(trim["max_length"] * samplerate):
-        end, reason = round(trim["max_length"] * samplerate), "max-length"
-    if end >= n:
-        return audio, "whole"
-    out = np.array(audio[:end], dtype=np.float64)
-    k = min(end, round(trim["fade"] * samplerate))
-    if k > 0:
-        ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(1, k + 1) / k)))
-        out[end - k :] *= ramp if out.ndim == 1 else ramp[:, None]
-    return out, reason
-
-
-#: Oversampling of the true-peak estimate (ITU-R BS.1770-4, Annex 2: 4 at 48 kHz).
-TRUE_PEAK_OVERSAMPLING = 4
-
-
-def _true_peak_db(audio: np.ndarray) -> float | None:
-    """True peak, dBTP: the largest magnitude of ``audio`` upsampled
-    :data:`TRUE_PEAK_OVERSAMPLING` times (polyphase windowed-sinc interpolation,
-    scipy.signal.resample_poly), as ITU-R BS.1770-4 Annex 2 estimates it."""
-    from scipy.signal import resample_poly
-
-    x = np.asarray(audio, dtype=np.float64)
-    if not x.size:
-        return None
-    peak = float(np.max(np.abs(resample_poly(x, TRUE_PEAK_OVERSAMPLING, 1, axis=0))))
-    peak = max(peak, float(np.max(np.abs(x))))
-    return round(20 * math.log10(peak), 6) if peak > 0 else None
-
-
-def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
-    """Spectral centroid of the whole sound, Hz: the mean frequency of its power
-    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed; the sound zero-padded to
-    a length the FFT factors well, scipy.fft.next_fast_len, which samples the same
-    spectrum more finely)."""
-    from scipy import fft
-
-    x = np.asarray(audio, dtype=np.float64)
-    if x.ndim > 1:
-        x = x.sum(axis=1)
-    n = fft.next_fast_len(max(x.size, 1), real=True)
-    power = np.abs(fft.rfft(x, n)) ** 2
-    total = float(power.sum())
-    if not total > 0:
-        return None
-    f = fft.rfftfreq(n, 1.0 / samplerate)
-    return round(float(np.dot(f, power) / total), 6)
-
-
-def _base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
-    row = {"index": item.index, "file": item.file, "seed": spec.seed, "status": status}
-    for k, v in item.values.items():
-        row[k] = list(v) if isinstance(v, tuple) else v
-    return _described(spec, item, row)
-
-
-def _described(spec: BankSpec, item: PlanItem, row: dict) -> dict:
-    """``row`` with the columns that describe its sound without changing it, as the
-    spec gives them now: its values' labels and the spec's tags."""
-    return dict(row, labels=bank_spec.row_labels(spec, item.values), tags=spec.tags)
-
-
-def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
-    """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
-    (:func:`synth.bank.manifest.write_once`: atomically, never over a file already
-    there; the run removes the stale files of the rows it renders before it starts):
-    the task function of every worker (pool or Dask). A scene that fails gives a
-    ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
-    try:
-        _, data, figures = _render(spec, item)
-    except Exception as exc:  # noqa: BLE001 - any error of one scene is recorded, the rest go on
-        row = _base_row(spec, item, "failed")
-        row["error"] = f"{type(exc).__name__}: {exc}"
-        return RowResult(row, max_rss=_max_rss())
-    target = Path(out_dir) / item.file
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)  # a subfolder of the template
-        if not mf.write_once(target, data):
-            # A file already there was published by another attempt of this row in this
-            # run (a Dask task recomputed after its worker was lost): it is kept, never
-            # rewritten, and the row records its bytes.
-            data = target.read_bytes()
-    except OSError as exc:
-        return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
-    row = _base_row(spec, item, "ok")
-    row.update(figures, **mf.file_hashes(data))
-    return RowResult(row, max_rss=_max_rss())
-
-
-def warm(spec: BankSpec) -> None:
-    """Load the engine in this process: render the base scene once (compiled kernels,
-    plate modes and radiation gains into the caches). Errors are left to the rows."""
-    try:
-        _render(spec, PlanItem(-1, "warm", {}))
-    except Exception:  # noqa: BLE001, S110 - a base scene that fails is reported by its rows
-        pass
-
-
-# ------------------------------------------------------------------------ executors
-
-_WORKER_SPEC: BankSpec | None = None
-_WORKER_DIR: str | None = None
-
-
-#: The bank folder's lock file held by this process (see :func:`_lock`); a forked worker
-#: closes its copy so that only the parent holds the lock.
-_HELD_LOCK = None
-
-#: Period of a worker's watch on its parent, s (the fallback of PR_SET_PDEATHSIG).
-PARENT_WATCH_PERIOD = 0.5
-
-
-def _die_with_parent(parent: int) -> None:
-    """Make this worker end when the process ``parent`` does (killed with -9 too), so a
-    killed bank leaves no worker behind (nor its hold on the folder's lock): on Linux the
-    kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``, prctl(2));
-    everywhere a daemon thread checks every :data:`PARENT_WATCH_PERIOD` s that the
-    parent is still this process's parent, and kills this process otherwise."""
-    import signal
-    import threading
-
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            pr_set_pdeathsig = 1
-            libc.prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):  # no prctl: the watch below does it
-            pass
-    if os.getppid() != parent:  # the parent died before the signal was armed
-        os._exit(1)
-
-    def watch():
-        while os.getppid() == parent:
-            time.sleep(PARENT_WATCH_PERIOD)
-        os.kill(os.getpid(), signal.SIGKILL)
-
-    threading.Thread(target=watch, name="synth-bank-parent-watch", daemon=True).start()
-
-
-def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
-    """A worker's start: it dies with its parent (:func:`_die_with_parent`), drops its
-    copy of the folder's lock, and SIGTERM takes its default action (the pool stops its
-    workers with SIGTERM when one dies; a forked worker would otherwise inherit the
-    command line's handler, which raises inside whatever library callback is running,
-    where it is swallowed and printed). A temporary left by a stopped worker is removed
-    by the next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
-    import signal
-
-    global _WORKER_SPEC, _WORKER_DIR
-    _die_with_parent(parent)
-    if _HELD_LOCK is not None:  # forked: closing the copy leaves the parent's lock held
-        _HELD_LOCK.close()
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    _WORKER_SPEC, _WORKER_DIR = spec, out_dir
-    warm(spec)
-
-
-def _pool_ready() -> int:
-    """A no-op task: its result tells that a worker has started and warmed the engine."""
-    return os.getpid()
-
-
-def _pool_task(item: PlanItem) -> RowResult:
-    return render_item(_WORKER_SPEC, item, _WORKER_DIR)
-
-
-class _Serial:
-    def __init__(self, spec, out_dir):
-        self.spec, self.out_dir = spec, out_dir
-        warm(spec)
-
-    def results(self, items):
-        for item in items:
-            yield render_item(self.spec, item, self.out_dir)
-
-    def close(self):
-        pass
-
-
-def _start_method() -> str:
-    """``fork`` where it is safe and available (Linux, no other thread in this process
-    that could hold a lock across the fork): the workers then start with the engine this
-    process has imported and warmed. Else ``spawn``: each worker imports and warms it."""
-    import threading
-
-    if sys.platform.startswith("linux") and threading.active_count() == 1:
-        return "fork"
-    return "spawn"
-
-
-class _Pool:
-    """Long-lived worker processes, one thread of numerics each; returns once every
-    worker has warmed the engine. A worker that dies (killed, crashed) stops the run with
-    a :class:`BankRunError` instead of waiting for its row forever: the rows done are in
-    the manifest, and running the same bank again resumes."""
-
-    def __init__(self, spec, out_dir, jobs):
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        method = _start_method()
-        if method == "fork":
-            warm(spec)
-        ctx = multiprocessing.get_context(method)
-        saved = {k: os.environ.get(k) for k in _WORKER_THREADS}
-        os.environ.update({k: v for k, v in _WORKER_THREADS.items() if saved[k] is None})
-        try:
-            self.executor = ProcessPoolExecutor(
-                jobs,
-                mp_context=ctx,
-                initializer=_pool_init,
-                initargs=(spec, out_dir, os.getpid()),
-            )
-            # one no-op per worker: each submit starts a worker, each result is a warm one
-            for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
-                self._result(ready)
-        finally:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-
-    @staticmethod
-    def _result(future):
-        from concurrent.futures.process import BrokenProcessPool
-
-        try:
-            return future.result()
-        except BrokenProcessPool:
-            raise BankRunError(
-                "a worker process died (killed or crashed): the sounds finished are kept in "
-                "the manifest; run the same bank again to resume"
-            ) from None
-
-    def results(self, items):
-        from concurrent.futures import as_completed
-
-        futures = [self.executor.submit(_pool_task, item) for item in items]
-        for future in as_completed(futures):
-            yield self._result(future)
-
-    def close(self):
-        self.executor.shutdown(wait=True, cancel_futures=True)
-
-
-#: Time to reach a Dask scheduler before the bank is refused, s.
-CONNECT_TIMEOUT = 5.0
-
-
-@dataclass
-class _Connection:
-    """A Dask client for the run, and whether the run made it (and so closes it)."""
-
-    client: object
-    own: bool
-
-    def close(self) -> None:
-        if self.own:
-            self.client.close()
-
-
-def _connect(scheduler) -> _Connection:
-    """A client of the Dask scheduler ``scheduler`` (an address or a Client), reached
-    within :data:`CONNECT_TIMEOUT` s, before the bank's folder is touched."""
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise BankRunError(
-            "scheduler= needs the optional package dask.distributed: "
-            "pip install 'impact-synth[dask]'"
-        ) from None
-    if isinstance(scheduler, Client):
-        return _Connection(scheduler, own=False)
-    try:
-        return _Connection(Client(scheduler, timeout=CONNECT_TIMEOUT), own=True)
-    except (OSError, ValueError, TypeError, TimeoutError) as exc:
-        raise BankRunError(
-            f"scheduler={scheduler!r}: cannot connect within {CONNECT_TIMEOUT:g} s ({exc}); "
-            f"nothing was written"
-        ) from None
-
-
-class _Dask:
-    """The same task function on a Dask cluster, through ``client``."""
-
-    def __init__(self, spec, out_dir, client):
-        self.client = client
-        self.spec, self.out_dir = spec, out_dir
-        self.client.run(warm, spec)
-
-    def results(self, items):
-        """Each row's result as it finishes. A result read is released at once: the
-        scheduler then has no reason to recompute a finished task when the worker that
-        holds it is lost (only the rows still running or queued there are redone)."""
-        from dask.distributed import as_completed
-
-        spec = self.client.scatter(self.spec, broadcast=True)
-        futures = [
-            self.client.submit(render_item, spec, item, self.out_dir, pure=False) for item in items
-        ]
-        self._futures = futures
-        for fut in as_completed(futures):
-            try:
-                res = fut.result()
-            except Exception as exc:  # noqa: BLE001 - a task the cluster lost (KilledWorker ...)
-                res = RowResult(
-                    None,
-                    fatal=f"the Dask cluster lost a row ({type(exc).__name__}: {exc})",
-                )
-            fut.release()
-            yield res
-
-    def close(self):
-        for fut in getattr(self, "_futures", ()):
-            fut.cancel()
 
 
 # ------------------------------------------------------------------------ the run
@@ -689,7 +231,7 @@ def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
     """The rows that are complete: ``ok``, in the plan, and their file (in the folder,
     under the name recorded, which :func:`_renamed` moves to the plan's) present with
     the recorded SHA-256; their labels and tags as the spec gives them now
-    (:func:`_described`). ``failed`` and ``planned`` rows are redone."""
+    (:func:`described`). ``failed`` and ``planned`` rows are redone."""
     out = []
     for row in rows:
         item = plan.get(row.get("index"))
@@ -716,7 +258,7 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
         item = plan[row["index"]]
         if row["index"] in moved:
             row = dict(row, file=item.file, **mf.file_hashes(moved[row["index"]]))
-        out.append(_described(spec, item, row))
+        out.append(described(spec, item, row))
     return out
 
 
@@ -815,7 +357,7 @@ def _estimate(spec: BankSpec, items, jobs: int) -> float:
     t0 = time.perf_counter()
     for item in sample:
         try:
-            _render(spec, item)
+            render_scene(spec, item)
         except Exception:  # noqa: BLE001, S110 - a failing row costs about as much as a render
             pass
     per = (time.perf_counter() - t0) / len(sample)
@@ -834,10 +376,10 @@ def _progress(total: int):
 
 def _executor(spec, out_dir: Path, jobs: int, connection):
     if connection is not None:
-        return _Dask(spec, str(out_dir), connection.client)
+        return Dask(spec, str(out_dir), connection.client)
     if jobs == 1:
-        return _Serial(spec, str(out_dir))
-    return _Pool(spec, str(out_dir), jobs)
+        return Serial(spec, str(out_dir))
+    return Pool(spec, str(out_dir), jobs)
 
 
 def _jobs(jobs) -> int:
@@ -898,7 +440,7 @@ def run(
         raise BankSpecError(f"prune={prune!r} must be True or False")
     if dry_run:
         return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again)
-    connection = _connect(scheduler) if scheduler is not None else None
+    connection = connect(scheduler) if scheduler is not None else None
     try:
         return _run_in(spec, items, out, n_jobs, connection, force, again, prune)
     finally:
@@ -910,20 +452,19 @@ def _run_in(
     spec, items, out: Path, n_jobs: int, connection, force: bool, again, prune: bool
 ) -> BankResult:
     """:func:`run` once the plan is checked and the cluster (if any) reached."""
-    global _HELD_LOCK
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise BankRunError(f"out_dir={str(out)!r} cannot be created: {exc}") from None
     try:
         lock = _lock(out)
-        _HELD_LOCK = lock
+        hold_lock(lock)
         try:
             result = _run(spec, items, out, n_jobs, connection, force, again)
             _find_orphans(out, items, result, prune)
             return result
         finally:
-            _HELD_LOCK = None
+            hold_lock(None)
             _unlock(out, lock)
     except OSError as exc:  # the folder cannot be written (full, read-only) before rendering
         raise BankRunError(
@@ -948,7 +489,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     done_ids = {r["index"] for r in kept}
     todo = [item for item in items if item.index not in done_ids]
     result = BankResult(out, len(items), skipped=len(kept))
-    result.planned_rows = [_base_row(spec, item, "planned") for item in todo]
+    result.planned_rows = [base_row(spec, item, "planned") for item in todo]
     if out.is_dir() and not other:
         recorded = [r["file"] for r in _verified(out, mf.read_rows(out), plan)]
         result.orphans = mf.orphans(out, [item.file for item in items] + recorded)

@@ -43,7 +43,8 @@ earlier impact), and as ``Omega`` grows the model tends to the finite thin plate
 edges, before any reflection returns, it equals the impedance model.
 
 Ball (mass ``m``, height ``u`` of its lowest point, gravity ``g``): ``m u'' = F - m g``;
-contact law ``F = K delta^n`` with ``delta = w - u`` (:func:`synth.physics.contact_law.contact_law`),
+contact law ``F = K delta^n`` with ``delta = w - u``
+(:func:`synth.physics.contact_law.contact_law`),
 or with a loss ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``: Hunt &
 Crossley's ``K delta^n (1 + mu delta')`` for ``b = 0`` (J. Appl. Mech. 42 (1975) 440-445) and
 the viscoelastic Hertz contact ``K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` for ``mu = 0``,

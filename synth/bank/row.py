@@ -1,0 +1,247 @@
+"""One row of a bank: its scene rendered, trimmed and encoded, its file written atomically
+and its manifest row measured (level, loudness, centroid, duration, hash), in whichever
+process renders it (:mod:`synth.bank.executors`)."""
+
+from __future__ import annotations
+
+import io
+import math
+import resource
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from synth.bank import manifest as mf
+from synth.bank import spec as bank_spec
+from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
+from synth.io.reproducible import reproducible
+
+
+@dataclass
+class RowResult:
+    """What a worker returns for a row: the manifest ``row``, or ``fatal`` (a file that
+    could not be written; the row is not recorded), and the worker's peak memory."""
+
+    row: dict | None
+    fatal: str | None = None
+    max_rss: int = 0
+
+
+def _max_rss() -> int:
+    """Peak resident memory of this process, bytes."""
+    r = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return int(r if sys.platform == "darwin" else r * 1024)
+
+
+def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
+    """Integrated loudness (ITU-R BS.1770, LUFS) of ``audio`` zero-padded to one 400 ms
+    gating block, or None without pyloudnorm or below the -70 LUFS gate."""
+    try:
+        import pyloudnorm
+    except ImportError:
+        return None
+    from synth.io.audio import LOUDNESS_BLOCK
+
+    x = np.asarray(audio, dtype=np.float64)
+    need = math.ceil(LOUDNESS_BLOCK * samplerate)
+    if x.shape[0] < need:
+        x = np.pad(x, [(0, need - x.shape[0])] + [(0, 0)] * (x.ndim - 1))
+    value = float(pyloudnorm.Meter(samplerate, block_size=LOUDNESS_BLOCK).integrated_loudness(x))
+    return round(value, 6) if math.isfinite(value) else None
+
+
+#: What to change when a row's PCM audio would clip.
+CLIP_ADVICE = "use render.normalize = 'peak', or format = 'wav' with render.subtype = 'FLOAT'"
+
+
+def encode(
+    audio: np.ndarray, samplerate: int, fmt: str, subtype: str, identity: str, advice: str
+) -> bytes:
+    """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
+    of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
+    ``identity`` (the file's name in the bank) alone
+    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
+    PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
+    and ``advice`` (what to change); the files of a render and of the bank-gain pass
+    are made here alike."""
+    import soundfile
+
+    from synth.io.audio import FLOAT_SUBTYPES
+
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
+    if subtype not in FLOAT_SUBTYPES and peak > 1.0:
+        raise BankSpecError(
+            f"{identity!r} peaks at {20 * math.log10(peak):+.2f} dBFS, above full scale, "
+            f"and subtype {subtype!r} would clip it: {advice}"
+        )
+    buf = io.BytesIO()
+    soundfile.write(buf, audio, samplerate, subtype=subtype, format=bank_spec.FORMATS[fmt][1])
+    return reproducible(buf.getvalue(), fmt, identity)
+
+
+def render_scene(spec: BankSpec, item: PlanItem):
+    """Render row ``item``: the Render, the file's bytes, and the row's figures."""
+    from synth.io.presets import scene_from_dict
+    from synth.sound.render import render
+    from synth.stimuli.sequences import scaled_sequence
+
+    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
+    subtype = str(options.pop("subtype", spec.subtype)).upper()
+    k = item.values.get(RESTITUTION_SCALE)
+    sequence = (
+        None
+        if k is None
+        else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
+    )
+    rendered = render(scene, sequence=sequence, **options)
+    audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
+    data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
+    peak = float(np.max(np.abs(audio))) if audio.size else 0.0
+    first = rendered.impacts[0] if len(rendered.impacts) else None
+    figures = {
+        "duration": audio.shape[0] / rendered.samplerate,
+        "stop_reason": rendered.impacts.stop_reason,
+        "length_reason": length_reason,
+        "audible_duration": _audible_duration(audio, rendered.samplerate),
+        "ticks": len(rendered.impacts),
+        "first_restitution": first.restitution if first is not None else None,
+        "first_speed": first.speed if first is not None else None,
+        "first_contact_time": first.result.contact_time if first is not None else None,
+        "first_peak_force": first.result.peak_force if first is not None else None,
+        "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
+        "true_peak_dbtp": _true_peak_db(audio),
+        "loudness_lufs": _loudness(audio, rendered.samplerate),
+        "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
+        "scene": bank_spec.scene_data(spec, item.values),
+    }
+    return rendered, data, figures
+
+
+#: Level below the peak that ends the audible part of a sound (the manifest's
+#: ``audible_duration``), dB.
+AUDIBLE_BELOW_DB = -60.0
+
+
+def _last_above(audio: np.ndarray, below_db: float) -> int:
+    """Index after the last sample whose magnitude reaches ``below_db`` dB re the peak
+    (0 for silence)."""
+    mag = np.abs(audio) if audio.ndim == 1 else np.max(np.abs(audio), axis=1)
+    peak = float(mag.max()) if mag.size else 0.0
+    if not peak > 0:
+        return 0
+    above = np.flatnonzero(mag >= peak * 10.0 ** (below_db / 20.0))
+    return int(above[-1]) + 1
+
+
+def _audible_duration(audio: np.ndarray, samplerate: int) -> float:
+    """Time to the last sample within :data:`AUDIBLE_BELOW_DB` of the peak, s."""
+    return _last_above(audio, AUDIBLE_BELOW_DB) / samplerate
+
+
+def trim_tail(audio: np.ndarray, samplerate: int, trim: dict | None):
+    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak
+    (and at ``trim["max_length"]`` s), its last ``trim["fade"]`` s faded out with a
+    raised cosine; with the reason: "tail-cut", "max-length", or "whole" (nothing cut,
+    also without ``trim``)."""
+    if trim is None:
+        return audio, "whole"
+    n = audio.shape[0]
+    end, reason = min(n, _last_above(audio, trim["below_db"])), "tail-cut"
+    if trim["max_length"] is not None and end > round(trim["max_length"] * samplerate):
+        end, reason = round(trim["max_length"] * samplerate), "max-length"
+    if end >= n:
+        return audio, "whole"
+    out = np.array(audio[:end], dtype=np.float64)
+    k = min(end, round(trim["fade"] * samplerate))
+    if k > 0:
+        ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(1, k + 1) / k)))
+        out[end - k :] *= ramp if out.ndim == 1 else ramp[:, None]
+    return out, reason
+
+
+#: Oversampling of the true-peak estimate (ITU-R BS.1770-4, Annex 2: 4 at 48 kHz).
+TRUE_PEAK_OVERSAMPLING = 4
+
+
+def _true_peak_db(audio: np.ndarray) -> float | None:
+    """True peak, dBTP: the largest magnitude of ``audio`` upsampled
+    :data:`TRUE_PEAK_OVERSAMPLING` times (polyphase windowed-sinc interpolation,
+    scipy.signal.resample_poly), as ITU-R BS.1770-4 Annex 2 estimates it."""
+    from scipy.signal import resample_poly
+
+    x = np.asarray(audio, dtype=np.float64)
+    if not x.size:
+        return None
+    peak = float(np.max(np.abs(resample_poly(x, TRUE_PEAK_OVERSAMPLING, 1, axis=0))))
+    peak = max(peak, float(np.max(np.abs(x))))
+    return round(20 * math.log10(peak), 6) if peak > 0 else None
+
+
+def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
+    """Spectral centroid of the whole sound, Hz: the mean frequency of its power
+    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed; the sound zero-padded to
+    a length the FFT factors well, scipy.fft.next_fast_len, which samples the same
+    spectrum more finely)."""
+    from scipy import fft
+
+    x = np.asarray(audio, dtype=np.float64)
+    if x.ndim > 1:
+        x = x.sum(axis=1)
+    n = fft.next_fast_len(max(x.size, 1), real=True)
+    power = np.abs(fft.rfft(x, n)) ** 2
+    total = float(power.sum())
+    if not total > 0:
+        return None
+    f = fft.rfftfreq(n, 1.0 / samplerate)
+    return round(float(np.dot(f, power) / total), 6)
+
+
+def base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
+    row = {"index": item.index, "file": item.file, "seed": spec.seed, "status": status}
+    for k, v in item.values.items():
+        row[k] = list(v) if isinstance(v, tuple) else v
+    return described(spec, item, row)
+
+
+def described(spec: BankSpec, item: PlanItem, row: dict) -> dict:
+    """``row`` with the columns that describe its sound without changing it, as the
+    spec gives them now: its values' labels and the spec's tags."""
+    return dict(row, labels=bank_spec.row_labels(spec, item.values), tags=spec.tags)
+
+
+def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
+    """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
+    (:func:`synth.bank.manifest.write_once`: atomically, never over a file already
+    there; the run removes the stale files of the rows it renders before it starts):
+    the task function of every worker (pool or Dask). A scene that fails gives a
+    ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
+    try:
+        _, data, figures = render_scene(spec, item)
+    except Exception as exc:  # noqa: BLE001 - any error of one scene is recorded, the rest go on
+        row = base_row(spec, item, "failed")
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        return RowResult(row, max_rss=_max_rss())
+    target = Path(out_dir) / item.file
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)  # a subfolder of the template
+        if not mf.write_once(target, data):
+            # A file already there was published by another attempt of this row in this
+            # run (a Dask task recomputed after its worker was lost): it is kept, never
+            # rewritten, and the row records its bytes.
+            data = target.read_bytes()
+    except OSError as exc:
+        return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
+    row = base_row(spec, item, "ok")
+    row.update(figures, **mf.file_hashes(data))
+    return RowResult(row, max_rss=_max_rss())
+
+
+def warm(spec: BankSpec) -> None:
+    """Load the engine in this process: render the base scene once (compiled kernels,
+    plate modes and radiation gains into the caches). Errors are left to the rows."""
+    try:
+        render_scene(spec, PlanItem(-1, "warm", {}))
+    except Exception:  # noqa: BLE001, S110 - a base scene that fails is reported by its rows
+        pass
