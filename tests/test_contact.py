@@ -8,6 +8,7 @@ import pytest
 from synth.bench import contact_cases
 from synth.errors import ParameterError
 from synth.physics import contact, impedance
+from synth.physics import contact_law as laws
 from synth.physics.materials import TABLE
 from synth.physics.scene import Ball, Plate
 
@@ -18,7 +19,7 @@ MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)  # E 5.689 GPa, rho 700, nu 0.4
 def lumped(ball=STEEL10, plate=MDF18):
     return dict(
         mass=ball.mass,
-        stiffness=contact.hertz_stiffness(ball, plate),
+        stiffness=laws.hertz_stiffness(ball, plate),
         admittance=1.0 / impedance.infinite_plate_impedance(plate),
     )
 
@@ -44,7 +45,7 @@ def test_thesis_mid_plate_with_gravity():
 def test_settled_penetration_thesis_value():
     # Thesis eq. 2.48: delta_eq = (m g / K)^(2/3) = 1.6e-7 m for the 10 mm ball on MDF
     # (two significant digits printed: +- 0.05e-7).
-    d = contact.settled_penetration(STEEL10, MDF18)
+    d = laws.settled_penetration(STEEL10, MDF18)
     assert d == pytest.approx(1.6e-7, abs=0.05e-7)
 
 
@@ -54,7 +55,7 @@ def test_settled_impact_penetration_between_static_and_sudden_load():
     # the arrival energy added: (m g d - 0 ... ) => d_eq <= d_max <= (2.5 (m g d + KE) / K)^(2/3)
     # bounded here by 1.9 d_eq (the sudden-load value 2.5^(2/3) = 1.842 plus the tiny KE).
     r = contact.solve_impact(STEEL10, MDF18, 1e-5)
-    d_eq = contact.settled_penetration(STEEL10, MDF18)
+    d_eq = laws.settled_penetration(STEEL10, MDF18)
     assert r.settled and r.restitution == 0.0 and r.success
     assert d_eq <= r.max_penetration <= 1.9 * d_eq
 
@@ -88,10 +89,10 @@ def test_rigid_plate_closed_forms(v):
     # Hertz's closed forms within 1e-4 (the constants 2.9433 and 1.2827 have 5 digits).
     m = STEEL10.mass
     R = STEEL10.radius
-    E = contact.effective_modulus(STEEL10, MDF18)
+    E = laws.effective_modulus(STEEL10, MDF18)
     r = contact.solve_contact(
         mass=m,
-        stiffness=contact.hertz_stiffness(STEEL10, MDF18),
+        stiffness=laws.hertz_stiffness(STEEL10, MDF18),
         admittance=0.0,
         speed=v,
         gravity=0.0,
@@ -229,7 +230,7 @@ def test_hunt_crossley_loss_in_energy_balance():
 
 def test_power_law_with_hertz_exponent_equals_hertz():
     # "power-law" with n = 3/2 and K = Hertz's K is the Hertz law (1e-12).
-    K = contact.hertz_stiffness(STEEL10, MDF18)
+    K = laws.hertz_stiffness(STEEL10, MDF18)
     a = contact.solve_impact(STEEL10, MDF18, 1.0, contact="power-law", exponent=1.5, stiffness=K)
     b = contact.solve_impact(STEEL10, MDF18, 1.0)
     assert a.restitution == pytest.approx(b.restitution, rel=1e-12)
@@ -278,7 +279,7 @@ def test_sweep_extreme_cases():
 
 def _admittance_of(result, ball, plate, speed):
     """beta (m/(N s)) that ``result`` was solved with, from Zener's lambda = beta m / theta."""
-    K = contact.hertz_stiffness(ball, plate)
+    K = laws.hertz_stiffness(ball, plate)
     theta = (ball.mass / (K * speed**0.5)) ** 0.4
     return result.inelasticity * theta / ball.mass
 

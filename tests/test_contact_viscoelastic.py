@@ -9,6 +9,7 @@ import pytest
 from synth.bench.contact import ContactCase
 from synth.errors import ParameterError
 from synth.physics import contact, impedance
+from synth.physics import contact_law as laws
 from synth.physics.bounces import simulate_scene
 from synth.physics.materials import TABLE
 from synth.physics.scene import Ball, Contact, Plate, Scene
@@ -91,7 +92,7 @@ def test_energy_balance_with_gravity_on_a_soft_plate(speed, rtol):
 def _lumped(ball, plate):
     return dict(
         mass=ball.mass,
-        stiffness=contact.hertz_stiffness(ball, plate),
+        stiffness=laws.hertz_stiffness(ball, plate),
         admittance=1.0 / impedance.infinite_plate_impedance(plate),
     )
 
@@ -117,7 +118,7 @@ def test_integrators_agree():
 
 def _case(name, ball, plate, speed, A, gravity=9.81, admittance=None):
     beta = 1.0 / impedance.infinite_plate_impedance(plate) if admittance is None else admittance
-    K = contact.hertz_stiffness(ball, plate)
+    K = laws.hertz_stiffness(ball, plate)
     return ContactCase(name, ball.mass, K, beta, speed, gravity, 1.5, 0.0, A)
 
 
@@ -206,7 +207,7 @@ def test_the_law_through_solve_impact_solver_and_scene():
     assert a.restitution == b.restitution == lumped.restitution
     assert a.contact_time == b.contact_time
     assert a.restitution < contact.solve_impact(STEEL10, MDF18, 1.4).restitution
-    law = contact.contact_parameters(STEEL10, MDF18, "viscoelastic", viscous_time=A_MDF)
+    law = laws.contact_parameters(STEEL10, MDF18, "viscoelastic", viscous_time=A_MDF)
     assert (law.exponent, law.dissipation, law.viscous_time) == (1.5, 0.0, A_MDF)
     scene = Scene(
         STEEL10,
@@ -251,7 +252,7 @@ def test_rejects_the_law_where_it_does_not_apply():
     with pytest.raises(ParameterError, match="needs contact.viscous_time"):
         Contact(law="viscoelastic")
     with pytest.raises(ParameterError, match="contact_parameters gives"):
-        contact.contact_law(STEEL10, MDF18, "viscoelastic", viscous_time=1e-6)
+        laws.contact_law(STEEL10, MDF18, "viscoelastic", viscous_time=1e-6)
 
 
 def test_pulse_transform_takes_the_square_root_onset():

@@ -13,6 +13,7 @@ from synth.bench.common import median_time, target_verdict
 from synth.bench.thesis import thesis_pair
 from synth.constants import GRAVITY
 from synth.physics import contact, impedance
+from synth.physics import contact_law as laws
 from synth.physics.scene import Ball, Plate
 
 
@@ -44,8 +45,8 @@ class ContactCase:
         )
 
 
-def _case(name, ball, plate, speed, gravity=GRAVITY, contact_law="hertz", **kw):
-    K, n, mu = contact.contact_law(ball, plate, contact_law, **kw)
+def _case(name, ball, plate, speed, gravity=GRAVITY, law="hertz", **kw):
+    K, n, mu = laws.contact_law(ball, plate, law, **kw)
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
     return ContactCase(name, ball.mass, K, beta, speed, gravity, n, mu)
 
@@ -76,7 +77,7 @@ def contact_cases() -> list[ContactCase]:
             Ball("glass", 0.006275),
             Plate("mdf-6", 0.00615, 1.2, 0.4895),
             1.4,
-            contact_law="hunt-crossley",
+            law="hunt-crossley",
             dissipation=0.2,
         ),
     ]
