@@ -711,10 +711,9 @@ def test_restitution_scale_changes_the_ticks(tmp_path, cache_dir):
 def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
     # Where the pool cannot fork (not Linux, or threads in this process) its workers are
     # spawned and import the engine themselves: the same files.
-    import synth.bank.run  # noqa: F401 - the module (synth.bank.run is also the function)
+    from synth.bank import executors
 
-    run_module = sys.modules["synth.bank.run"]
-    monkeypatch.setattr(run_module, "_start_method", lambda: "spawn")
+    monkeypatch.setattr(executors, "_start_method", lambda: "spawn")
     spec, ref = serial
     result = bank.run(spec, tmp_path / "spawn", jobs=2)
     assert result.ok and result.done == 12
@@ -1365,11 +1364,11 @@ def test_renamed_preset_and_edited_label_resume_without_rendering(tmp_path, cach
 
 
 def test_bank_gain_that_would_clip_is_refused_naming_the_file(serial, tmp_path):
-    # The gain pass encodes through the render's encoder (synth.bank.run.encode): a
+    # The gain pass encodes through the render's encoder (synth.bank.row.encode): a
     # gain that takes a PCM file above full scale is refused naming the file, its peak
     # and what to change, before that file is written.
     from synth.bank.gain import apply_gain
-    from synth.bank.run import CLIP_ADVICE, encode
+    from synth.bank.row import CLIP_ADVICE, encode
 
     _, ref = serial
     with pytest.raises(BankSpecError, match=r"'small-\d{3}\.wav' peaks at \+[\d.]+ dBFS.*lower"):
