@@ -227,7 +227,7 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
     change from one bounce to the next). A burst within a flight parts it into two whose
     ratios to the flights around agree only by chance. Masked ticks, which add no sound the
     spectrum could show, are kept by their bounce times alone."""
-    following = [t for t in ticks[2:4]]
+    following = ticks[2:4]
     if not following or missed & {2, 3}:
         return False
     if not all(_restitution_below_one(t) for t in following):
