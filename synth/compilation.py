@@ -10,7 +10,8 @@ On an empty cache a render spends most of its time compiling. This module
 - names the kernel groups whose compile takes seconds (:data:`GROUPS`) and tells, once per
   process and only when the group is really missing from the disk cache, that it is
   about to compile (:func:`announce`), with the CPU time its compile took when measured
-  (the figures ``synth warmup --record`` keeps beside this module).
+  (the figures ``synth warmup --record`` keeps beside this module);
+- holds the options every kernel of the package is compiled with (:func:`compiled`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,19 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numba
+
+
+def compiled(**options):
+    """``numba.njit`` with the package's options and ``options`` (``nogil``, ``fastmath``,
+    ``inline``, ``parallel``): the machine code cached on disk (``cache=True``; the folder
+    is chosen by :mod:`synth.jitcache`), and no C-callable wrapper
+    (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it can be
+    passed as a first-class function: no kernel here is, and building it takes about a
+    twentieth of a first render's compile (``synth bench cold``)."""
+    return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
+
 
 #: The measured compile time (CPU s) of each group, written by ``synth warmup --record``.
 COMPILE_TIMES = Path(__file__).with_name("compile_times.json")

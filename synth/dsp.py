@@ -14,8 +14,9 @@ function that converts one takes ``samplerate`` (Hz) explicitly.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 #: Frame length of the noise-floor estimate, s.
 NOISE_FRAME = 0.01
@@ -114,7 +115,7 @@ def _covariance_row(seg: np.ndarray, p: int) -> np.ndarray:
     return full - head
 
 
-@numba.njit(cache=True)
+@compiled()
 def _shift_recursion(C, first, last):  # pragma: no cover - compiled
     """Rows 1..p of the covariance matrix from row 0 (in place), ``first[b, i] = x[n1-1-i]``
     and ``last[b, i] = x[n2-1-i]`` of each block; the lower triangle mirrored."""
@@ -140,7 +141,7 @@ def is_minimum_phase(a: np.ndarray) -> bool:
     return bool(_step_down(np.ascontiguousarray(a, dtype=float)))
 
 
-@numba.njit(cache=True)
+@compiled()
 def _step_down(c):  # pragma: no cover - compiled
     c = c.copy()
     for m in range(c.size - 1, 0, -1):

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 _PIO2_1 = 1.57079632673412561417e00  # first 33 bits of pi/2 (fdlibm)
 _PIO2_1T = 6.07710050650619224932e-11  # pi/2 - _PIO2_1
@@ -35,7 +36,7 @@ FASTMATH_EXACT_FUNCTIONS = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"
 CIS_MAX = 2.0**19 * math.pi
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def cis(theta):
     """(cos theta, sin theta) for |theta| < 2^19 pi, within a few ulp."""
     n = np.floor(theta * _INVPIO2 + 0.5)
@@ -52,7 +53,7 @@ def cis(theta):
     return c0 * c_sign, s0 * s_sign
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def exp_small(u):
     """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
     e = 1.0 / 6402373705728000.0
@@ -76,7 +77,7 @@ def exp_small(u):
     return 1.0 + u * e
 
 
-@numba.njit(cache=True)
+@compiled()
 def halvings_for(largest):
     """Fewest halvings ``J`` with ``largest / 2^J <= 1`` (``largest >= 0``): the argument
     scaling ``exp(u) = exp_small(u / 2^J)^(2^J)`` needs for exponents up to ``largest`` in

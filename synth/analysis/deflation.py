@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from synth import dsp
@@ -29,6 +28,7 @@ from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import DOUBTFUL_DB, separation, too_strong
 from synth.analysis.settings import Settings
 from synth.analysis.validity import MISSED_GROWTH
+from synth.compilation import compiled
 
 #: Lags of the FIR filter that shapes the first tick's whitened response into a later
 #: tick's, s: before (onset error) and after (a longer contact than the first).
@@ -132,7 +132,7 @@ def running_median(d: np.ndarray, size: int) -> np.ndarray:
     return _running_median(np.ascontiguousarray(d, dtype=np.float64), int(size))
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _running_median(d, size):  # pragma: no cover - compiled
     n = d.size
     half = size // 2
@@ -179,7 +179,7 @@ def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return h
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pragma: no cover
     """The rules a frame ``k >= first`` of the detection function ``d`` must clear (one pass,
     for the thousands of candidate searches of a recording): its threshold, the largest of

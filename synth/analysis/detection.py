@@ -11,11 +11,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from synth.analysis.series import ANCHOR_DB, bounce_series
 from synth.analysis.settings import AnalysisError, Settings
+from synth.compilation import compiled
 
 #: Level of the onset walk relative to the whitened background, standard deviations (a
 #: Gaussian sample exceeds 4 sigma with probability 6e-5).
@@ -57,7 +57,7 @@ def frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
     return _frame_energies(np.ascontiguousarray(z, dtype=np.float64), int(hop), int(w))
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _frame_energies(z, hop, w):  # pragma: no cover - compiled
     n = (z.size - w) // hop + 1
     out = np.empty(n)
@@ -66,7 +66,7 @@ def _frame_energies(z, hop, w):  # pragma: no cover - compiled
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
     """``sum(z[start:start+n]**2)`` as numpy's pairwise summation adds it: a plain sum under
     8 terms, eight running sums combined pairwise up to 128, halves (multiples of 8) beyond."""

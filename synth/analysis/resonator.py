@@ -16,7 +16,6 @@ import functools
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from synth.analysis.deflation import DeflationSearch, NewTick, Residual, Snapshot, solve_general
@@ -31,6 +30,7 @@ from synth.analysis.series import (
 )
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import PREDICTION_FLOOR
+from synth.compilation import compiled
 
 #: The resonator's search must find the first search's ticks within this, s (two sample
 #: periods at 48 kHz), to continue their series; a candidate within it of a tick of the first
@@ -270,7 +270,7 @@ class _NormalEquations:
         return h, res
 
 
-@numba.njit(cache=True)
+@compiled()
 def _least_description(
     G, b, y, M, lo, choices, n_offsets, n_templates, pre_all, post_all
 ):  # pragma: no cover - compiled
@@ -319,7 +319,7 @@ def _least_description(
     return best, best_length, best_h, best_res
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
     """``sum(a[start:start+n])`` as numpy's pairwise summation adds it (``numpy.trace`` too):
     a plain sum under 8 terms, eight running sums combined pairwise up to 128, halves
@@ -359,7 +359,7 @@ def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
     return result
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
     """numpy's pairwise sum of ``a[start:start+n]``, ``n <= 128``."""
     if n < 8:
@@ -382,7 +382,7 @@ def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
     return res
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no cover - compiled
     """Rows ``lo .. hi - 1`` of the design matrix of :class:`_NormalEquations`: ``M[i, c] =
     T_t[i - o_k - post + j]`` (0 outside ``T_t``) in column ``c = (k n_t + t) ntap + j``, for

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 #: A bounce time more than this many times the previous one breaks a bounce series (a
 #: restitution above 1.5: room for the contact time, which grows as the ball slows, and for a
@@ -105,7 +106,7 @@ def bounce_series(
     return chain[::-1]
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
     """The tables of :func:`bounce_series`' dynamic programme over the onsets ``t``:
     ``best[i, j]``, most ticks in a series from tick 0 ending ..., t_i, t_j; ``second[i,

@@ -10,9 +10,10 @@ either: the producer puts a full fence between its data and its state word
 
 from __future__ import annotations
 
-import numba
 from numba import types
 from numba.extending import intrinsic
+
+from synth.compilation import compiled
 
 
 @intrinsic
@@ -26,14 +27,14 @@ def _fence(typingctx):
     return sig, codegen
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def fence():
     """A sequentially consistent fence: no load or store moves across it (compiler and
     processor)."""
     _fence()
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def publish(state, slot, value):
     """``state[slot] = value`` after every earlier store of the calling thread (the slot's
     data) is visible to other threads."""

@@ -32,6 +32,7 @@ import math
 import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.live.atomics import fence
 from synth.sound.modal_bank import transform_pulse
 from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
@@ -109,7 +110,7 @@ E_WRITTEN, E_READ, E_LOST = range(3)
 N_EVENT_HEADER = 3
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _voice_ended(records, r, events, ears):
     """Free voice record ``r`` and post its id to the engine's event ring: a lock-free ring
     with one writer (the thread that mixes: the audio thread, or the caller of
@@ -128,19 +129,19 @@ def _voice_ended(records, r, events, ears):
     events[E_WRITTEN] = written + 1
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _settle(records, r, events, ears):
     """End voice ``r`` if it rings in no slot and has nothing left to play."""
     if records[r, V_SLOT] < 0 and records[r, V_PLAYED] == records[r, V_PUT]:
         _voice_ended(records, r, events, ears)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _stopped(records, r):
     return records[r, V_STOP] >= 0 or records[r, V_DEAD] != 0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _drop(state, i, records, r, counters):
     """Drop pending impact ``i`` of voice ``r`` (stopped or stolen before it played)."""
     fence()  # done reading the slot before a producer may take it
@@ -149,7 +150,7 @@ def _drop(state, i, records, r, counters):
     counters[DROPPED] += 1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _refuse(state, i, records, r, counters, events):
     """Refuse voice ``r`` (its priority is below every ringing slot's) at its pending
     impact ``i``: that impact and every later one of it are dropped, and it ends."""
@@ -159,7 +160,7 @@ def _refuse(state, i, records, r, counters, events):
     _settle(records, r, events, counters[EARS])
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _outranked(records, slots, r):
     """Whether voice ``r`` would be refused a slot now: every slot rings a voice of higher
     priority (see :func:`_victim`)."""
@@ -169,7 +170,7 @@ def _outranked(records, slots, r):
     return _victim(records, slots, r) < 0
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _contact_samples(out, t0, n, ring, voice_form, counters, events):
     """Drop every pending impact of a stopped or stolen voice; add the in-contact samples
     of the others that fall in ``[t0, t0 + n)``, at their voice's gain, but refuse a
@@ -197,7 +198,7 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
             out[s - t0] += g * response[i, s - first[i]]
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _next_due(state, inject, end):
     """The pending slot with the earliest injection before ``end``, or -1."""
     best = -1
@@ -211,7 +212,7 @@ def _next_due(state, inject, end):
     return best
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _transform_pulses(ring, transform, pulse_form, transformed, heard):
     """Turn every slot in the PULSE form into the READY form: the renderer's transform of
     its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
@@ -279,7 +280,7 @@ N_HEARD_ROWS = 6
 SEQ_PUT, SEQ_TAKEN = range(2)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _heard_power(heard, k):
     """The largest power gain ``|G|^2`` of mode ``k`` over the block (its start and its
     target): what the omission tests compare against, so that a mode is never left out
@@ -289,7 +290,7 @@ def _heard_power(heard, k):
     return max(a, b)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
     """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being
     heard (its heard level under its omission share): added to what it parked before,
@@ -305,7 +306,7 @@ def _park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
     park_at[k] = at
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
                poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
     """:func:`~synth.sound.modal_bank.ring_modes` of a voice slot's plate state (its modes'
@@ -365,7 +366,7 @@ def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, threshol
         zi[k] = ci
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, park_r,
                   park_i, park_at, heard):  # fmt: skip
     """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``: the
@@ -382,7 +383,7 @@ def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a,
             zi[k] = 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _revive(t0, bank, modal, slots):
     """After the listener moved (its gains for this block just taken): every parked mode
     that the new gains hear louder than the old ones, and above its omission share, rings
@@ -418,7 +419,7 @@ def _revive(t0, bank, modal, slots):
             active[s, k] = True
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _take_gains(t0, bank, modal, slots, asleep):
     """At a block's start: the gains of the block's start are the last block's target;
     gains handed over since (a consistent copy: the producer's sequence number even and
@@ -451,7 +452,7 @@ def _take_gains(t0, bank, modal, slots, asleep):
         _revive(t0, bank, modal, slots)
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
     (cleared first), heard through the listener's gains ramped over the block of ``n``
@@ -468,7 +469,7 @@ def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _fade(x, at, frames):
     """A raised-cosine fade from 1 at sample ``at`` to 0 at ``at + frames`` (1 before, 0
     after): continuous, with zero slope at both ends, so it never clicks."""
@@ -480,7 +481,7 @@ def _fade(x, at, frames):
     return 0.5 * (1.0 + math.cos(math.pi * p / frames))
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
     """Add ``vs[a - offset : b - offset]`` (samples ``a .. b - 1`` of a voice slot) into the
     body's ``out`` (samples ``t0 .. t0 + n - 1``; later ones into the ring buffer ``tail``)
@@ -510,7 +511,7 @@ def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
             tail[x % L] += v
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
     """Ring voice slot ``s`` from where it stands to sample ``b`` into ``out``."""
     slots, slot_gain, tail = voice_form[2], voice_form[3], voice_form[4]
@@ -521,7 +522,7 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
         slots[s, SL_POS] = b
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _victim(records, slots, r):
     """The voice slot a new voice ``r`` may steal (all taken): the one whose voice has the
     lowest priority, of those the oldest (taken earliest; then the lowest id); -1 when
@@ -550,7 +551,7 @@ def _victim(records, slots, r):
     return s
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
     """Free voice slot ``s`` at sample ``at`` (chosen by :func:`_victim`): its voice rings
     on through a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into
@@ -571,7 +572,7 @@ def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
     _settle(records, q, events, counters[EARS])
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
     """A voice slot for voice ``r``, whose first impact joins at sample ``at``: a free one,
     else one stolen (:func:`_victim`, :func:`_steal`); its modal state silent. -1 when
@@ -610,7 +611,7 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
     return s
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _inject(s, i, at, ring, bank, modal, floor):
     """Add pending impact ``i``'s plate amplitudes to voice slot ``s`` at sample ``at``;
     the voice's peak (the largest sum of heard ``|amplitudes|`` of its impacts, as handed
@@ -632,7 +633,7 @@ def _inject(s, i, at, ring, bank, modal, floor):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _begin_voices(t0, voice_form):
     """At a block's start: each ringing slot takes its voice's gain as the block's target
     and starts the stop fade its voice asked for."""
@@ -649,7 +650,7 @@ def _begin_voices(t0, voice_form):
             slots[s, SL_FADE_LEN] = max(stop, 1)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
     """At a block's end: ring every slot to it, free the slots whose modes all stopped
     (the voice's level fell below the floor relative to its peak) or whose stop fade
@@ -681,7 +682,7 @@ def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
     return ringing
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _take_tail(out, t0, n, tail, counters):
     """Add the stolen voices' fades that fall in ``[t0, t0 + n)`` (and clear them)."""
     L = tail.shape[0]
@@ -690,7 +691,7 @@ def _take_tail(out, t0, n, tail, counters):
         tail[x % L] = 0.0
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def mix_body(
     out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
     voice_form, events,
@@ -764,7 +765,7 @@ def mix_body(
     counters[AWAKE] = awake
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def silence(modal, ring, transformed, voice_form, counters, events):
     """Stop every voice and drop every pending impact of a body (their voices end); a slot
     that a producer is still filling stays its own. A dropped pulse counts as taken

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 #: Interpolated points per sample of the true-peak estimate (BS.1770-4 Annex 2: 4x).
 OVERSAMPLING = 4
@@ -164,7 +165,7 @@ class LimiterState:
         return int(self.ints[I_ACTIVE])
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _required_gain(ints, floats, taps, x, q):
     """``r(q)``: 1, or the ceiling over the true-peak estimate at position ``q`` (its
     sample and the interpolated points after it, every channel), read from the input ring
@@ -188,7 +189,7 @@ def _required_gain(ints, floats, taps, x, q):
     return 1.0
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _window_min(ints, r, u):
     """``m(u)``: the least ``r`` over ``[u - REACH, u + A + REACH]``; exactly 1 when no
     position there needed a reduction."""
@@ -205,7 +206,7 @@ def _window_min(ints, r, u):
     return least
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def limit_block(state, bus, n):
     """Limit ``bus[c, 0:n]`` (channel ``c``, float64, full scale 1) in place: each frame
     goes in, and the frame ``D`` earlier comes out at the limiter's gain (see the

@@ -43,6 +43,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from synth.compilation import compiled
 from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
@@ -187,17 +188,17 @@ def _monotonic_ns(typingctx):
     return sig, codegen
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _f64(address, n):
     return numba.carray(_pointer(address), n, np.float64)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def _i64(address, n):
     return numba.carray(_pointer(address), n, np.int64)
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _body_form(record):
     """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
     takes them: the bank (power table, poles, sample rate, the listener's gains and their
@@ -267,12 +268,12 @@ def _body_form(record):
     return bank, modal, ring, transform, pulse_form, voice_form
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _events(ctl):
     return _i64(ctl[EVENTS], ctl[N_EVENTS])
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _mix_one_body(ctl, record, scratch, mix, t0, n):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
     (ramped linearly over the block from its value at the last block to its target);
@@ -317,7 +318,7 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
     scalars[S_GAIN_NOW] = g1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@compiled(nogil=True, inline="always")
 def soft_clip(v):
     """The master bus' soft clipper: the identity up to ``KNEE`` of full scale, then a
     tanh knee that approaches full scale without reaching it (continuous with its first
@@ -331,7 +332,7 @@ def soft_clip(v):
     return y if v > 0.0 else -y
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _limiter(ctl, channels):
     """The limiter's arrays (:meth:`synth.live.limiter.LimiterState.arrays`), made from
     their addresses in ``ctl``."""
@@ -348,7 +349,7 @@ def _limiter(ctl, channels):
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _write_block(ctl, times, mix, out, row, n):
     """The master bus over ``n`` frames: the pause and stop fades, the master gain (ramped
     over the block), the meter, the optional true-peak limiter (:mod:`synth.live.limiter`)
@@ -422,7 +423,7 @@ def _write_block(ctl, times, mix, out, row, n):
         ctl[RECORDED] = done + m
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def mix_engine(ctl, out):
     """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
     float32, in pieces of at most ``MIX_CAP`` frames: the one mixing code of the stream's
@@ -454,7 +455,7 @@ def mix_engine(ctl, out):
         done += n
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def run_block(ctl, out, flags, current, dac, entry_ns):
     """One callback's work: count PortAudio's status ``flags``, note the time since the
     last callback's entry (a gap of more than a block means the system ran the audio
@@ -497,7 +498,7 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     ctl[CALLBACKS] += 1
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def monotonic_ns():
     """The callback's clock in ns, read from compiled code (for the Python fallback)."""
     return _monotonic_ns()
@@ -523,7 +524,7 @@ def stream_callback(input, output, frames, time_info, flags, userdata):
     return PA_CONTINUE
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def transform_pending(record):
     """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
     a stream starts: hits queued without a stream are not bounded per block)."""
@@ -533,7 +534,7 @@ def transform_pending(record):
     kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3])
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def silence_body(ctl, record):
     """Stop every voice of a body and drop its pending impacts now, on the calling thread
     (no stream runs; see :func:`synth.live.kernel.silence`)."""

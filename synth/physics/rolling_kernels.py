@@ -36,9 +36,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import force
 from synth.physics.surface import envelope_at
 
@@ -75,7 +75,7 @@ E1, E3, E4, E5, E6, E7 = (
 )
 
 
-@numba.njit(cache=True)
+@compiled()
 def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
     """The right-hand side of the module docstring at the state ``y`` into ``out``; returns
     the penetration ``delta`` (m)."""
@@ -97,14 +97,14 @@ def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - comp
     return delta
 
 
-@numba.njit(cache=True)
+@compiled()
 def penetration(y, env, dx):  # pragma: no cover - compiled
     """``delta = e(s) - z``, m."""
     e, _, _ = envelope_at(env, dx, y[S])
     return e - y[Z]
 
 
-@numba.njit(cache=True)
+@compiled()
 def roll(
     y,
     h,

@@ -32,11 +32,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from synth import checks
+from synth.compilation import compiled
 from synth.errors import ParameterError
 
 #: Most samples of a profile (a 10 m path at 1 um spacing), to keep its arrays in memory.
@@ -320,7 +320,7 @@ def _spline(x, y) -> np.ndarray:
     return np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _dilate(h, coefficients, dx, R, window, e, off):  # pragma: no cover - compiled
     """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's cubic spline (``coefficients``
     as :attr:`ContactEnvelope.coefficients`): the best sample, then Newton's iteration on
@@ -372,7 +372,7 @@ def _dilate(h, coefficients, dx, R, window, e, off):  # pragma: no cover - compi
         off[i] = x_best - s
 
 
-@numba.njit(cache=True)
+@compiled()
 def envelope_at(coefficients, dx, s):  # pragma: no cover - compiled
     """``(e(s), e'(s), e''(s))`` (m, dimensionless, 1/m) of the envelope's cubic spline
     (:attr:`ContactEnvelope.coefficients`) at ``s`` (m, inside ``[0, (N-1) dx]``)."""

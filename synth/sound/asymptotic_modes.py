@@ -67,8 +67,9 @@ import cmath
 import json
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 __all__ = ["EdgeEffectSolution", "solve", "mode_count_estimate"]
 
@@ -82,7 +83,7 @@ _PAIR_GAP = 0.01
 _VERSION = 3
 
 
-@numba.njit(cache=True)
+@compiled()
 def _entire(s, h):  # pragma: no cover
     """``(cos(k h), k sin(k h), sin(k h) / k)`` for ``k = sqrt(s)``, entire in ``s``
     (``cosh``, ``-kappa sinh``, ``sinh / kappa`` for ``s = -kappa^2 < 0``)."""
@@ -97,7 +98,7 @@ def _entire(s, h):  # pragma: no cover
     return 1.0, 0.0, h
 
 
-@numba.njit(cache=True)
+@compiled()
 def _edge(m2, h):  # pragma: no cover
     """``(mu tanh(mu h), tanh(mu h) / mu)`` for ``mu = sqrt(m2)``, entire in ``m2``."""
     if m2 > 0.0:
@@ -111,7 +112,7 @@ def _edge(m2, h):  # pragma: no cover
     return 0.0, h
 
 
-@numba.njit(cache=True)
+@compiled()
 def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
     """Left side of the one-dimensional characteristic equation (module notes) at
     ``s_x = s`` for ``s_y = so``, half-length ``h``."""
@@ -128,7 +129,7 @@ def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
     return ks + c * mt
 
 
-@numba.njit(cache=True)
+@compiled()
 def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # pragma: no cover
     """Root of the characteristic function in the bracket ``[lo, hi]`` (values ``flo``,
     ``fhi`` of opposite signs) by the Illinois variant of regula falsi (superlinear,
@@ -154,7 +155,7 @@ def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # pragma: no co
     return 0.5 * (lo + hi)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _root(n, so, h, free, nu):  # pragma: no cover
     """``s`` of the ``n``-th root of the one-dimensional equation for ``s_y = so``.
 
@@ -194,7 +195,7 @@ def _root(n, so, h, free, nu):  # pragma: no cover
     return math.nan
 
 
-@numba.njit(cache=True)
+@compiled()
 def _solve_pairs(nx, ny, hx, hy, free, nu, sx, sy):  # pragma: no cover
     """``(s_x, s_y)`` of every index pair by alternating the two equations, in place.
     Starts from the values in ``sx``, ``sy``."""
@@ -469,7 +470,7 @@ def _pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
     return partner
 
 
-@numba.njit(cache=True)
+@compiled()
 def _exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # pragma: no cover
     """A factor ``scale (u + ce e)`` (see :func:`_factor`) as ``sum_t coef[t] exp(rate[t]
     x + shift[t])`` on ``[-h, h]``, written into the arrays (4 entries); returns the
@@ -510,7 +511,7 @@ def _exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # pragma: no cove
     return 4
 
 
-@numba.njit(cache=True)
+@compiled()
 def _span(a, b, h):  # pragma: no cover
     """``Int_{-h}^{h} exp(a x + b) dx`` for complex ``a``, ``b``."""
     z = a * h
@@ -519,7 +520,7 @@ def _span(a, b, h):  # pragma: no cover
     return (cmath.exp(b + z) - cmath.exp(b - z)) / a
 
 
-@numba.njit(cache=True)
+@compiled()
 def _moments(c1, a1, b1, c2, a2, b2, h, out):  # pragma: no cover
     """``out = (Int f g, Int f' g', Int f'' g'', Int f'' g, Int f g'')`` over ``[-h, h]``
     of two factors in exponential form (:func:`_exponentials`), in closed form."""
@@ -537,7 +538,7 @@ def _moments(c1, a1, b1, c2, a2, b2, h, out):  # pragma: no cover
             out[4] += (q * v).real
 
 
-@numba.njit(cache=True)
+@compiled()
 def _pair_eigen(kk, mm):  # pragma: no cover
     """Eigenpairs of ``K v = lam M v`` (2 x 2, symmetric, ``M`` positive definite):
     ``(lam, v0, v1)``, ``lam`` ascending, column ``j`` the vector ``(v0[j], v1[j])`` with
@@ -575,7 +576,7 @@ def _pair_eigen(kk, mm):  # pragma: no cover
     return lam, v0, v1
 
 
-@numba.njit(cache=True)
+@compiled()
 def _rayleigh_ritz(
     sx, sy, nx, ny, hx, hy, free, nu, cx, gx, cy, gy, omega, partner
 ):  # pragma: no cover
@@ -664,7 +665,7 @@ def _rayleigh_ritz(
     return out, own, other
 
 
-@numba.njit(cache=True)
+@compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
     """``(c_edge, norm)`` of the factor ``u(x) + c_edge e(x)``: ``u = cos(k x)`` or
     ``sin(k x) / k`` (entire in ``s``), ``e = cosh(mu x) / cosh(mu h)`` or
@@ -698,7 +699,7 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
     return ce
 
 
-@numba.njit(cache=True)
+@compiled()
 def interior_part(x, s, h, n):  # pragma: no cover
     """Interior part ``u`` of one factor at ``x`` in ``[-h, h]`` (unnormalised, see
     :func:`factor_parts`): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
@@ -712,7 +713,7 @@ def interior_part(x, s, h, n):  # pragma: no cover
     return x if odd else 1.0
 
 
-@numba.njit(cache=True)
+@compiled()
 def edge_part(x, s, so, h, n):  # pragma: no cover
     """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (see :func:`factor_parts`):
     ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``, ``mu^2 = s + 2 so``
@@ -734,7 +735,7 @@ def edge_part(x, s, so, h, n):  # pragma: no cover
     return x / h if odd else 1.0
 
 
-@numba.njit(cache=True)
+@compiled()
 def factor_parts(x, s, so, h, n):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
     (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
@@ -742,14 +743,14 @@ def factor_parts(x, s, so, h, n):  # pragma: no cover
     return interior_part(x, s, h, n), edge_part(x, s, so, h, n)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _factor(x, s, so, h, n, ce):  # pragma: no cover
     """One factor's value at ``x`` in ``[-h, h]`` (unnormalised)."""
     u, e = factor_parts(x, s, so, h, n)
     return u + ce * e
 
 
-@numba.njit(cache=True)
+@compiled()
 def _norm(s, so, h, n, ce):  # pragma: no cover
     """Root mean square of a factor over ``[-h, h]`` (Gauss-Legendre panels)."""
     k = math.sqrt(abs(s)) + math.sqrt(abs(s + 2.0 * so)) + 1.0 / h
@@ -789,7 +790,7 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
     return math.sqrt(total / (2.0 * h))
 
 
-@numba.njit(cache=True)
+@compiled()
 def _factor_constants(s, so, n, h, free, nu):  # pragma: no cover
     """Edge coefficient and ``1 / rms`` of every factor (:func:`_coefficients`; the mean
     square in closed form, :func:`_exponentials` and :func:`_moments`, or by
@@ -812,7 +813,7 @@ def _factor_constants(s, so, n, h, free, nu):  # pragma: no cover
     return ce, scale
 
 
-@numba.njit(cache=True)
+@compiled()
 def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
     """``out[p, k]``: factor ``k`` (normalised) at ``x[p]`` in ``[-h, h]``."""
     out = np.empty((x.size, s.size))
@@ -822,7 +823,7 @@ def _factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
     return out
 
 
-@numba.njit(cache=True)
+@compiled()
 def _gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
     """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
     ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,

@@ -34,10 +34,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from synth import checks
+from synth.compilation import compiled
 from synth.errors import ParameterError
 from synth.sound.modal_bank import bank_coefficients
 from synth.vecmath import FASTMATH_EXACT_FUNCTIONS
@@ -251,7 +251,7 @@ def _row_at(table, start, step, coordinate) -> np.ndarray:
     return (1.0 - t) * table[i] + t * table[i + 1]
 
 
-@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
+@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
     previous, out,

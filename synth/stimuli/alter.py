@@ -121,11 +121,11 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from scipy.signal import lfilter
 
 from synth import checks, dsp
+from synth.compilation import compiled
 from synth.errors import ParameterError
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
@@ -162,7 +162,7 @@ NORMALIZE_MODES = ("none", "peak")
 # --------------------------------------------------------------------------- prediction
 
 
-@numba.njit(cache=True, fastmath=True)
+@compiled(fastmath=True)
 def _cholesky_solve(A, b):  # pragma: no cover - compiled
     """Solve ``A x = b`` for symmetric positive definite ``A`` (Cholesky, ``A = L L^T``,
     Golub and Van Loan, Matrix Computations, sec. 4.2); NaN when ``A`` is not positive

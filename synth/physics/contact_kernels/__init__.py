@@ -27,10 +27,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from synth.compilation import announce
+from synth.compilation import announce, compiled
 from synth.physics.contact_kernels.dense import (
     DOP853_STEPS,
     END_OF_CONTACT,
@@ -148,7 +147,7 @@ N_RESULT = 20
 IMPLICIT_NEEDED = -100
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def start(lam, G, n, c, b, rtol):
     """The series start of a contact (``series.py``) and a new dense-output history whose
     row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist)."""
@@ -162,7 +161,7 @@ def start(lam, G, n, c, b, rtol):
     return S, s1, x1, w1, i2, loss, hist
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
     """``solve`` by DOP853 (its result)."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
@@ -175,7 +174,7 @@ def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
     )
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def solve_implicit(lam, G, n, c, b, rtol, atol, max_steps):
     """``solve`` by Radau IIA (its result)."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
@@ -204,7 +203,7 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     return integrate(lam, G, n, c, b, rtol, atol, max_steps)
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b):
     """The end of contact, peak penetration and force of an integrated contact (``hist``
     its dense output of ``nh`` rows, by Radau IIA if ``radau``): the result of ``solve``."""
@@ -269,7 +268,7 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
     )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@compiled()
 def force_end(hist, S, nh, radau, lam, G, n, c, b):
     """The end of a lossy contact's force pulse (dimensionless): the last time the force
     falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
@@ -313,7 +312,7 @@ def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def scales(m, K, beta, v_in, g, n, mu, A, v_free):
     """The scales of ``impact``: (v0, theta, lam, G, c, b, f_scale)."""
     v0 = v_in + v_free
@@ -325,7 +324,7 @@ def scales(m, K, beta, v_in, g, n, mu, A, v_free):
     return v0, theta, lam, G, c, b, m * v0 / theta
 
 
-@numba.njit(cache=True)
+@compiled()
 def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
     """``impact`` by DOP853; with ``auto``, a result of status ``IMPLICIT_NEEDED`` (and an
     empty history) where the automatic choice takes Radau IIA: above ``STIFF_LAMBDA``, or
@@ -340,7 +339,7 @@ def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
     return result(out, DOP853_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
 
 
-@numba.njit(cache=True)
+@compiled()
 def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     """``impact`` by Radau IIA."""
     v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
@@ -349,7 +348,7 @@ def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
 
 
-@numba.njit(cache=True)
+@compiled()
 def implicit_needed():
     """The result of ``impact_explicit`` that hands the impact to ``impact_implicit``."""
     r = np.zeros(N_RESULT)
@@ -357,7 +356,7 @@ def implicit_needed():
     return r, np.empty((0, H_COLS))
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
     """The result array of ``impact`` from ``solve``'s result ``out`` and the scales."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
@@ -400,7 +399,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
     return r, hist
 
 
-@numba.njit(cache=True)
+@compiled()
 def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, times, forces):
     """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
@@ -415,7 +414,7 @@ def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, 
         forces[-1] = 0.0
 
 
-@numba.njit(cache=True)
+@compiled()
 def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
     output ``hist`` of ``solve`` (same lam, G, n, c, b), 0 outside ``[0, s_contact]``, into

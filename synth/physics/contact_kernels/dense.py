@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import (
     force,
     penetration_rate,
@@ -33,7 +33,7 @@ H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
 H_COLS = H_COEF + 14
 
 
-@numba.njit(cache=True)
+@compiled()
 def grow_history(hist, k):
     """The history with room for row ``k``: itself, or a copy of twice its rows."""
     if k < hist.shape[0]:
@@ -47,7 +47,7 @@ def grow_history(hist, k):
     return new
 
 
-@numba.njit(cache=True)
+@compiled()
 def hermite_dips(x0, x1, d0, d1):
     """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1
     the derivatives times the step) reaches 0 inside it: the ball left the plate and came
@@ -77,7 +77,7 @@ def hermite_dips(x0, x1, d0, d1):
     return lowest <= 0.0
 
 
-@numba.njit(cache=True)
+@compiled()
 def hermite_root(x0, x1, d0, d1):
     """Fraction of a step at which the cubic Hermite interpolant of x (values x0 > 0,
     x1 <= 0; d0, d1 the derivatives times the step) crosses zero, by bisection to 1e-6
@@ -101,7 +101,7 @@ def hermite_root(x0, x1, d0, d1):
     return b
 
 
-@numba.njit(cache=True)
+@compiled()
 def radau_dense(hist, k, s):
     """(x, w) at time s inside Radau step k: its collocation polynomial."""
     p1 = (s - hist[k, H_T0]) / hist[k, H_H]
@@ -113,7 +113,7 @@ def radau_dense(hist, k, s):
     return x, w
 
 
-@numba.njit(cache=True)
+@compiled()
 def dense_state(hist, S, k, s, radau, n, b):
     """(x, w) at dimensionless time s inside step k of the history (step 0: the series)."""
     if k == 0:
@@ -137,7 +137,7 @@ def dense_state(hist, S, k, s, radau, n, b):
     return x + hist[k, H_X0], w + hist[k, H_W0]
 
 
-@numba.njit(cache=True)
+@compiled()
 def find_step(hist, nst, s):
     """The step (row of the first ``nst`` of the history) whose span holds time s: the
     last one starting at or before s (bisection)."""
@@ -152,7 +152,7 @@ def find_step(hist, nst, s):
     return lo
 
 
-@numba.njit(cache=True)
+@compiled()
 def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b):
     """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
     k = find_step(hist, nst, s)
@@ -161,7 +161,7 @@ def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b):
     return x, f
 
 
-@numba.njit(cache=True)
+@compiled()
 def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
     """Maximum of x (which=0) or f (which=1) over [lo, hi] by golden-section search."""
     g = 0.6180339887498949
@@ -208,7 +208,7 @@ SETTLING = np.int64(2)
 FORCE_END = np.int64(3)
 
 
-@numba.njit(cache=True)
+@compiled()
 def event(which, x, w, lam, G, n, c, b, thr):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
     contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
@@ -226,7 +226,7 @@ def event(which, x, w, lam, G, n, c, b, thr):
     return settling_energy(x, w, lam, G, n) - thr
 
 
-@numba.njit(cache=True)
+@compiled()
 def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
     """Where the event function ``which`` falls through 0 inside step k (positive at the
     step's start, not positive at its end): Illinois (modified regula falsi) on the dense
@@ -263,7 +263,7 @@ def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
     return tb if -fb < fa else ta
 
 
-@numba.njit(cache=True)
+@compiled()
 def sample_pulse(hist, S, nh, radau, lam, n, c, b, s_contact, times, forces):
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
     and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.physics import dop853_tableau as _dop
 from synth.physics.contact_kernels.dense import (
     H_COEF,
@@ -48,7 +48,7 @@ _D = np.ascontiguousarray(_dop.D)
 _A_EXTRA = np.ascontiguousarray(_dop.A[_NS + 1 :])
 
 
-@numba.njit(cache=True)
+@compiled()
 def end_force_factor(w, c, b):
     """phi of the force phi x^n with which a contact ends at the speed -w (w < 0): 1 + c w
     for Hunt-Crossley (1 for Hertz), clipped at 0; 0 with the viscoelastic loss, whose force
@@ -58,7 +58,7 @@ def end_force_factor(w, c, b):
     return max(0.0, 1.0 + c * w)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _time_to_end(x, w, dx, lam, G, n, c, b):
     """Time left until the end of contact, predicted after a step that ends with x > 0
     moving apart (x' = dx < 0), and the separation speed v it implies; (inf, 0) if the
@@ -98,7 +98,7 @@ def _time_to_end(x, w, dx, lam, G, n, c, b):
     return sig, u - G * sig + un * power(sig, n) * sig / (n + 1.0)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
     """Fraction of a step (from (x0, w0) to (x1, w1), rates dx, dw at its ends, length h) at
     which the viscoelastic force switches off or on: where q = x (1 + c w) + b w changes
@@ -114,7 +114,7 @@ def _switch_fraction(x0, w0, x1, w1, dx0, dw0, dx1, dw1, h, c, b):
     return hermite_root(-q0, -q1, -dq0, -dq1)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _landing_factor(n):
     """kappa(n) of the error of a DOP853 step that ends where the force switches off.
 
@@ -134,7 +134,7 @@ def _landing_factor(n):
     return e5 * e5 / math.sqrt(3.0 * (e5 * e5 + 0.01 * e3 * e3))
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
     of the history ``hist`` (the series) filled in. Returns (status, s_end, x, w, I2, L,

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 
-import numba
+from synth.compilation import compiled
 
 # Status codes shared with synth.physics.contact.
 SEPARATED = 0
@@ -41,7 +41,7 @@ MAX_STEPS = -1
 STEP_TOO_SMALL = -2
 
 
-@numba.njit(cache=True)
+@compiled()
 def power(x, n):
     """x^n for x > 0, with fast paths for the usual exponents."""
     if n == 1.5:
@@ -51,7 +51,7 @@ def power(x, n):
     return x**n
 
 
-@numba.njit(cache=True)
+@compiled()
 def positive_power(a, n):
     """a <- max(a, 0)^n in place, the exponent tested once (so that the loop vectorises)."""
     if n == 1.5:
@@ -63,7 +63,7 @@ def positive_power(a, n):
             a[i] = max(a[i], 0.0) ** n
 
 
-@numba.njit(cache=True)
+@compiled()
 def force(x, w, lam, n, c, b):
     """Dimensionless contact force f and its elastic part x^n (both 0 out of contact):
     ``f = x^n + d(x) x'`` with the damping ``d = c x^n + b x^(1/2)`` (module docstring)."""
@@ -84,7 +84,7 @@ def force(x, w, lam, n, c, b):
     return f, a
 
 
-@numba.njit(cache=True)
+@compiled()
 def rhs(x, w, lam, G, n, c, b):
     """Right-hand side (x', w', I2', L') of the module docstring."""
     f, a = force(x, w, lam, n, c, b)
@@ -92,7 +92,7 @@ def rhs(x, w, lam, G, n, c, b):
     return dx, G - f, f * f, (f - a) * dx
 
 
-@numba.njit(cache=True)
+@compiled()
 def jacobian(x, w, lam, n, c, b):
     """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
 
@@ -126,7 +126,7 @@ def jacobian(x, w, lam, n, c, b):
     return -lam * fx, 1.0 - lam * fw, -fx, -fw
 
 
-@numba.njit(cache=True)
+@compiled()
 def settling_energy(x, w, lam, G, n):
     """Settling function W of the module docstring."""
     u = lam * G - w
@@ -137,7 +137,7 @@ def settling_energy(x, w, lam, G, n):
 EPS = 2.220446049250313e-16
 
 
-@numba.njit(cache=True)
+@compiled()
 def rise_ended(dx, w, atol):
     """True if the penetration rate ``dx = x' = w - lam f`` (at speed ``w``) is not
     positive to the absolute tolerance ``atol`` of the state and to the rounding of its two
@@ -146,7 +146,7 @@ def rise_ended(dx, w, atol):
     return dx <= atol + 4.0 * EPS * (abs(w) + abs(w - dx))
 
 
-@numba.njit(cache=True)
+@compiled()
 def penetration_rate(x, w, lam, n, c, b):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     f, _ = force(x, w, lam, n, c, b)

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.physics.contact_kernels.dense import (
     H_COEF,
     H_H,
@@ -69,7 +69,7 @@ _RB = np.array([(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0])
 _NEWTON_MAXITER = 6
 
 
-@numba.njit(cache=True)
+@compiled()
 def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import positive_power, power
 
 #: Terms s^(i + j n) of the start series with i + j n <= this degree are kept.
@@ -35,7 +35,7 @@ SERIES_COLS = max(SERIES_SIZE, HALF_SERIES_DEGREE + 1)
 HALF_SERIES_BAND = 5
 
 
-@numba.njit(cache=True)
+@compiled()
 def new_series(b):
     """An array for the coefficients of the start series that the viscoelastic loss ``b``
     chooses: (7, SERIES_SIZE, SERIES_SIZE) for the series in s and s^n (b = 0), with
@@ -44,19 +44,19 @@ def new_series(b):
     return np.empty((7, SERIES_SIZE, SERIES_COLS if b != 0.0 else SERIES_SIZE))
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_rows(n):
     """Highest j of the start series' terms s^(i + j n) (i, j >= 0, i + j n <= degree)."""
     return int(SERIES_DEGREE / n + 1e-9)
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_len(j, n):
     """Highest i of row j of the start series."""
     return int(SERIES_DEGREE - j * n + 1e-9)
 
 
-@numba.njit(cache=True)
+@compiled()
 def half_series_coefficients(lam, G, c, b, S):
     """Coefficients of the solution at first touch as a series in sigma = s^(1/2), for the
     viscoelastic loss (n = 3/2, b > 0; any Hunt-Crossley c as well).
@@ -116,7 +116,7 @@ def half_series_coefficients(lam, G, c, b, S):
         Q[k] = q
 
 
-@numba.njit(cache=True)
+@compiled()
 def half_series_eval(S, s):
     """(x, w) at time s from the series in s^(1/2) (Horner)."""
     sg = math.sqrt(s) if s > 0.0 else 0.0
@@ -129,7 +129,7 @@ def half_series_eval(S, s):
     return s * y, w
 
 
-@numba.njit(cache=True)
+@compiled()
 def half_series_start(rtol, S):
     """``series_start`` for the series in s^(1/2) (coefficients in ``S``): the error
     estimate from the terms of its last ``HALF_SERIES_BAND`` degrees, and I2 = sum (F F)[k]
@@ -172,7 +172,7 @@ def half_series_start(rtol, S):
     return s1, x1, w1, i2, loss
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_coefficients(lam, G, n, c, b, S):
     """Coefficients of the solution at first touch as a series in s and s^n; with the
     viscoelastic loss (b > 0), in s^(1/2) (``half_series_coefficients``).
@@ -252,7 +252,7 @@ def series_coefficients(lam, G, n, c, b, S):
             F[i, j] = f
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_eval(S, s, n, b):
     """(x, w) at time s from the start series (nested Horner in s, then in s^n; with the
     viscoelastic loss, b > 0, ``half_series_eval``)."""
@@ -275,7 +275,7 @@ def series_eval(S, s, n, b):
     return s * X, W
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_start(lam, G, n, c, b, rtol, S):
     """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over.
 
@@ -350,7 +350,7 @@ def series_start(lam, G, n, c, b, rtol, S):
     return s1, x1, w1, i2, loss
 
 
-@numba.njit(cache=True)
+@compiled()
 def series_x(S, n, s, out):
     """x from the start series at the times ``s`` (into ``out``), all times at once."""
     b = s.copy()

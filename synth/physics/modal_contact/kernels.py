@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 # Result columns of the kernel.
 R_STATUS, R_TIME, R_V, R_U, R_DMAX, R_FMAX, R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
@@ -23,7 +24,7 @@ SEPARATED, SETTLED = 0, 1
 # --------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True)
+@compiled()
 def _phi12(z):  # pragma: no cover
     """``phi_1(z) = (e^z - 1) / z`` and ``phi_2(z) = (e^z - 1 - z) / z^2`` (complex z), by
     their Taylor series near 0 (no cancellation) and the closed forms elsewhere."""
@@ -40,7 +41,7 @@ def _phi12(z):  # pragma: no cover
     return (ez - 1.0) / z, (ez - 1.0 - z) / (z * z)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _transition(omega, sigma, h):  # pragma: no cover
     """The free oscillation of ``q'' + 2 sigma q' + omega^2 q = 0`` (underdamped) over a step
     ``h`` (s): the damped frequency ``omega_d = sqrt(omega^2 - sigma^2)`` (rad/s), the decay
@@ -51,7 +52,7 @@ def _transition(omega, sigma, h):  # pragma: no cover
     return wd, math.exp(-sigma * h), math.cos(wd * h), math.sin(wd * h)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
     """Exact step ``h`` (s) of ``q'' + 2 sigma q' + omega^2 q = f`` (underdamped) with ``f``
     linear over the step: ``[q, v](h) = P [q, v](0) + G[:, 0:2] f(0) + G[:, 2:4] f(h)``;
@@ -75,14 +76,14 @@ def _mode_coefficients(omega, sigma, h, P, G):  # pragma: no cover
         G[k, 3] = (p * j1).imag / wd
 
 
-@numba.njit(cache=True)
+@compiled()
 def _real_coefficients(a, h):  # pragma: no cover
     """Step ``h`` of ``x' = -a x + f`` with ``f`` linear: ``x(h) = E x(0) + g0 f(0) + g1 f(h)``."""
     p1, p2 = _phi12(complex(-a * h, 0.0))
     return math.exp(-a * h), h * (p1.real - p2.real), h * p2.real
 
 
-@numba.njit(cache=True)
+@compiled()
 def _solve_delta(A, B, K, n):  # pragma: no cover
     """The root ``delta >= 0`` of ``delta + B K delta^n = A`` (A > 0): Newton from above
     (the left side is convex and increasing)."""
@@ -104,7 +105,7 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
     return d
 
 
-@numba.njit(cache=True)
+@compiled()
 def _lossy_force(d, K, n, mu, b, Av, Bv):  # pragma: no cover
     """The lossy contact force ``F = K d^(n-1) (d + c(d) d')``, ``c(d) = mu d + b`` (N, at
     least 0): Hunt-Crossley ``K d^n (1 + mu d')`` for ``b = 0``, the viscoelastic Hertz
@@ -134,7 +135,7 @@ def _lossy_force(d, K, n, mu, b, Av, Bv):  # pragma: no cover
     return F, (dr * num + r * (1.0 + mu * Av)) / den - F * dden / den
 
 
-@numba.njit(cache=True)
+@compiled()
 def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv):  # pragma: no cover
     """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the lossy force of
     :func:`_lossy_force` (increasing in ``delta`` where positive: one root in ``[0, A]``):
@@ -158,7 +159,7 @@ def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv):  # pragma: no cover
     return d
 
 
-@numba.njit(cache=True)
+@compiled()
 def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: no cover
     """Plate displacement under the ball after a step ``h`` with the force at its end left out:
     modes, rigid body and residual from their states and the force ``F0`` at the start."""
@@ -170,7 +171,7 @@ def _plate_free(q, v, P, G, c, F0, qr, vr, rc, x, Er, r0, beta, h):  # pragma: n
     return w
 
 
-@numba.njit(cache=True)
+@compiled()
 def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # pragma: no cover
     """Penetration rate ``delta'`` (m/s) after a step ``h`` with the force at its end left out
     (the part of the rate that does not depend on it): plate surface velocity (modes, rigid
@@ -181,7 +182,7 @@ def _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h):  # p
     return w - (vs - g * h + 0.5 * h * F0 / m)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, h):  # pragma: no cover
     """``delta`` after a step ``h`` over which the force falls linearly from ``F0`` to 0."""
     P = np.empty((q.size, 4))
@@ -193,7 +194,7 @@ def _end_gap(q, v, c, omega, sigma, F0, qr, vr, rc, x, a, beta, u, vs, m, g, h):
     return w - ub
 
 
-@numba.njit(cache=True)
+@compiled()
 def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
     """Advance the modes over one step with the force going linearly from F0 to F1; returns
     the modal damping loss over the step (trapezoid rule), J."""
@@ -207,7 +208,7 @@ def _advance(q, v, P, G, c, sigma, F0, F1, h):  # pragma: no cover
     return loss
 
 
-@numba.njit(cache=True)
+@compiled()
 def _surface_velocity(v, vr, xdot):  # pragma: no cover
     """Velocity of the plate surface under the ball (m/s, upward): bending modes, rigid body
     and residual (whose displacement ``x_res`` is downward)."""
@@ -217,7 +218,7 @@ def _surface_velocity(v, vr, xdot):  # pragma: no cover
     return w
 
 
-@numba.njit(cache=True)
+@compiled()
 def contact_kernel(
     omega,
     sigma,
@@ -393,7 +394,7 @@ def contact_kernel(
     return r
 
 
-@numba.njit(cache=True)
+@compiled()
 def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
     """Free ringing of the modes over ``duration`` (s), in place: the transition matrix of
     :func:`_transition` (the homogeneous part of :func:`_mode_coefficients`) applied to each

@@ -12,10 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
-from synth.compilation import announce
+from synth.compilation import announce, compiled
 from synth.errors import ParameterError
 from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
 from synth.sound.modal_bank.transform_kernels import (
@@ -122,7 +121,7 @@ class ImpactExcitation:
     magnitude: float
 
 
-@numba.njit(cache=True)
+@compiled()
 def long_contact(sigma_max, tau):
     """True if the contact of ``tau`` s lasts more than ``LONG_CONTACT_NEPERS`` time
     constants of the fastest-decaying mode (``sigma_max``, 1/s): the transforms of
@@ -130,7 +129,7 @@ def long_contact(sigma_max, tau):
     return sigma_max * tau > LONG_CONTACT_NEPERS
 
 
-@numba.njit(cache=True, inline="always")
+@compiled(inline="always")
 def transform_pulse(
     pr,
     pi,

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.vecmath import FASTMATH_EXACT_FUNCTIONS, cis, exp_small, halvings_for
 
 #: Largest phase step ``omega h`` (rad) of the pulse grid at which a mode's transform is
@@ -24,7 +24,7 @@ RICHARDSON_MAX_PHASE = 0.5
 WORK_ROWS = 20
 
 
-@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS)
+@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS)
 def _magnitude_sum(amps):
     """``sum_k |amps_k|`` of complex amplitudes (bounds the peak of what they ring)."""
     total = 0.0
@@ -33,14 +33,14 @@ def _magnitude_sum(amps):
     return total
 
 
-@numba.njit(cache=True)
+@compiled()
 def _sample_due(m, M, j, N, uj, h, d0, period):
     """Whether in-contact sample ``m`` (of ``M``) falls in ``[u_j, u_j + h)`` (or at or
     after ``u_j``, the last of ``N`` points)."""
     return m < M and (j == N - 1 or d0 + m * period < uj + h)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS)
+@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS)
 def _in_contact(
     m, j, N, h, d0, period, forces, slopes, offset_forces, offset_slopes,
     pr, pi, cr, ci, ur, ui, vr, vi, er, ei, qr, qi, gr, gi, tr, ti, resp,
@@ -90,7 +90,7 @@ def _in_contact(
     return m
 
 
-@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS)
+@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS)
 def impact_transform(
     pr,
     pi,
@@ -273,7 +273,7 @@ def impact_transform(
     return _magnitude_sum(amps)
 
 
-@numba.njit(cache=True, fastmath=FASTMATH_EXACT_FUNCTIONS)
+@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS)
 def long_impact_transform(
     pr,
     pi,

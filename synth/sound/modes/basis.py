@@ -46,8 +46,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from synth.compilation import compiled
 
 # Shift s of K + s I (dimensionless units of omega^2 L^4 rho h / D). The lowest
 # elastic mode of any free or clamped rectangle lies above 13 (square free plate);
@@ -63,7 +64,7 @@ def basis_alpha(boundary: str) -> int:
     return 0 if boundary == "free" else 4
 
 
-@numba.njit(cache=True)
+@compiled()
 def _recurrence(x, a, p0, out):  # pragma: no cover
     """Orthonormal symmetric Jacobi polynomials and derivatives by their recurrence.
 
@@ -183,7 +184,7 @@ def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 # --------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma: no cover
     """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle).
 

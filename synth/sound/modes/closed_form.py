@@ -14,9 +14,9 @@ import json
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.sound.modes.common import CHUNK_ELEMENTS, VERSION, ratios
 
 
@@ -126,7 +126,7 @@ def _sine_factors(u, rate, in_use, index):
     return _sine_table(t, n)[:, index]
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _sine_table(t, n):  # pragma: no cover
     """``out[j, m] = sqrt(2) sin((m + 1) t_j)`` for ``m < n``: by rotation
     ``exp(i (m + 1) t) = exp(i m t) exp(i t)``, restarted from libm's sin and cos every

@@ -24,9 +24,9 @@ import json
 import math
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.errors import SynthError
 from synth.sound.modes.basis import (
     SHIFT,
@@ -62,7 +62,7 @@ _CLASSES = ((0, 0), (0, 1), (1, 0), (1, 1))
 ONE_THREAD_UNKNOWNS = 0
 
 
-@numba.njit(cache=True)
+@compiled()
 def _take_columns(a, index):  # pragma: no cover
     """Reorder the columns of ``a`` in place, row by row: ``a[p, k] = a_old[p, index[k]]``
     (``index`` a permutation of ``range(a.shape[1])``)."""

@@ -44,6 +44,7 @@ import math
 import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.sound.asymptotic_modes import edge_part, interior_part
 from synth.sound.radiation.common import (
     GRADING,
@@ -326,7 +327,7 @@ _A0 = _hankel_coefficients(0)
 _A1 = _hankel_coefficients(1)
 
 
-@numba.njit(cache=True)
+@compiled()
 def _hankel_pq(x, a):  # pragma: no cover
     """``(P, Q)`` of the Hankel expansion with coefficients ``a`` at ``x``, and the
     sum ``sum_k a_k / x^k`` (K) and ``sum_k (-1)^k a_k / x^k`` (I)."""
@@ -354,7 +355,7 @@ def _hankel_pq(x, a):  # pragma: no cover
     return p, q, sk, si
 
 
-@numba.njit(cache=True)
+@compiled()
 def _bessel_at(v, osc, a, shift):  # pragma: no cover
     """``(J_nu, Y_nu)`` (``osc``) or exponentially scaled ``(I_nu, K_nu)`` at ``v >=
     _ASYMPTOTIC_X`` from the Hankel expansion with coefficients ``a`` of order ``nu``
@@ -368,7 +369,7 @@ def _bessel_at(v, osc, a, shift):  # pragma: no cover
     return si / math.sqrt(2.0 * math.pi * v), sk * math.sqrt(0.5 * math.pi / v)
 
 
-@numba.njit(cache=True, parallel=True)
+@compiled(parallel=True)
 def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
     """Bessel values where ``x >= xmin`` (others untouched): ``osc`` True:
     ``J0, Y0, J1, Y1`` into ``b0, c0, b1, c1``... see :func:`_bessel`."""
@@ -407,7 +408,7 @@ def _bessel(x, osc):
     return f0, g0, f1, g1
 
 
-@numba.njit(cache=True)
+@compiled()
 def _small_arguments(k, rho, xmin):  # pragma: no cover
     """The arguments ``k[r] rho[j] < xmin`` (``rho`` ascending: a first run of nodes per
     row), row after row, and where each row's run starts (``starts[r] : starts[r + 1]``)."""
@@ -425,7 +426,7 @@ def _small_arguments(k, rho, xmin):  # pragma: no cover
     return x, starts
 
 
-@numba.njit(cache=True)
+@compiled()
 def _cumulate(sflat, off, vals, out):  # pragma: no cover
     """``out[a] = sum_b S[a, b] vals[b]``: cumulative integrals inside one panel."""
     p = vals.size
@@ -437,7 +438,7 @@ def _cumulate(sflat, off, vals, out):  # pragma: no cover
         out[a] = acc
 
 
-@numba.njit(cache=True)
+@compiled()
 def _parts(x, s, so, h, n, ce, scale, interior, edge):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of a trial factor (normalised, see
     :func:`synth.sound.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``; a part
@@ -447,7 +448,7 @@ def _parts(x, s, so, h, n, ce, scale, interior, edge):  # pragma: no cover
     return u, e
 
 
-@numba.njit(cache=True)
+@compiled()
 def _slopes(x, s, so, h, n, ce, scale):  # pragma: no cover
     """Derivatives ``(u', e')`` (per unit of ``x``) of the parts of :func:`_parts`."""
     odd = n % 2 == 1
@@ -480,7 +481,7 @@ def _slopes(x, s, so, h, n, ce, scale):  # pragma: no cover
     return scale * du, scale * ce * de
 
 
-@numba.njit(cache=True)
+@compiled()
 def _decaying_tables(
     kap, f0, g0, g, rho, starts, lo, hi, on_edge, etab, eoff, ekap, va, vb, oa, ob, ca, cb
 ):  # pragma: no cover
@@ -540,7 +541,7 @@ def _decaying_tables(
         base = base * math.exp(-kap * (hi[i] - lo[i])) + tot * math.exp(-rest * (hi[i] - lo[i]))
 
 
-@numba.njit(cache=True)
+@compiled()
 def _row_tables(
     g,
     rho,
@@ -641,7 +642,7 @@ def _row_tables(
                 df[j] = -kap * (f1 * cb[j] - g1 * ca[j])
 
 
-@numba.njit(cache=True, parallel=True)
+@compiled(parallel=True)
 def _row_integrals(
     rho,
     rbig,

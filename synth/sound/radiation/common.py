@@ -13,11 +13,10 @@ import functools
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from synth import checks
-from synth.compilation import announce
+from synth.compilation import announce, compiled
 from synth.errors import ParameterError
 from synth.vecmath import cis, exp_small
 
@@ -177,7 +176,7 @@ def min_order(tol: float) -> int:
 # vectorises; the general kernel calls libm.
 
 
-@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+@compiled(fastmath={"contract"}, inline="always")
 def _exp_scaled(u, halvings):
     """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
     the squarings as selects rather than a loop: a loop of variable length inside the
@@ -193,7 +192,7 @@ def _exp_scaled(u, halvings):
     return e
 
 
-@numba.njit(cache=True, fastmath={"contract"}, nogil=True)
+@compiled(fastmath={"contract"}, nogil=True)
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
 
@@ -242,7 +241,7 @@ def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
             mag[k] += abs(f)
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
     """As :func:`_rows_fast` with ``halvings = 0``, with libm exp, cos and sin (any arguments)."""
     m = phi.shape[1]
@@ -259,7 +258,7 @@ def _rows_libm(j0, j1, dist, wr, phi, qr, qi, acc_re, acc_im, mag):
             mag[k] += abs(f)
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Add the Rayleigh sums of points ``j0 <= j < j1`` to acc_re, acc_im, mag (see
     _rows_fast; ``halvings < 0``: the libm kernel). Runs without the GIL."""

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from synth.compilation import compiled
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import single_thread_product
@@ -312,7 +313,7 @@ def _gauss_table(largest: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t, w, start
 
 
-@numba.njit(cache=True)
+@compiled()
 def _panel_points(lo, hi, count, order, table_t, table_w, table_start):  # pragma: no cover
     """Nodes and weights of ``count[a]`` equal panels of ``order[a]`` Gauss-Legendre points
     on each interval ``[lo[a], hi[a]]`` (the rules of :func:`_gauss_table`), in order."""
@@ -462,7 +463,7 @@ _J0_QQ = (
 )
 
 
-@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+@compiled(fastmath={"contract"}, inline="always")
 def _horner(coef, z):
     """``coef[0] z^(n-1) + ... + coef[n-1]``."""
     v = coef[0]
@@ -471,7 +472,7 @@ def _horner(coef, z):
     return v
 
 
-@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+@compiled(fastmath={"contract"}, inline="always")
 def _horner_monic(coef, z):
     """``z^n + coef[0] z^(n-1) + ... + coef[n-1]``."""
     v = z + coef[0]
@@ -480,7 +481,7 @@ def _horner_monic(coef, z):
     return v
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def _j0_cephes(x):
     """J_0(x), ``x >= 0``, by Cephes' rational approximations."""
     if x <= 5.0:
@@ -495,7 +496,7 @@ def _j0_cephes(x):
     return (p * cs - w * q * sn) * _SQRT_2_OVER_PI / math.sqrt(x)
 
 
-@numba.njit(cache=True, fastmath={"contract"}, inline="always")
+@compiled(fastmath={"contract"}, inline="always")
 def _j0_hankel(inv_x, sqrt_inv_x, x):
     """J_0(x) for ``x >= 25`` by its asymptotic expansion, from ``1 / x`` and
     ``sqrt(1 / x)`` (products only, so that a loop over modes vectorises)."""
@@ -509,7 +510,7 @@ def _j0_hankel(inv_x, sqrt_inv_x, x):
     return (p * cs - inv_x * q * sn) * _SQRT_2_OVER_PI * sqrt_inv_x
 
 
-@numba.njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def bessel_j0(x):  # pragma: no cover
     """J_0 of every entry of the 1-D array ``x`` (each ``>= 0``), as
     :func:`_add_circle_sums` evaluates it (tests compare it with scipy.special.j0)."""
@@ -522,7 +523,7 @@ def bessel_j0(x):  # pragma: no cover
     return out
 
 
-@numba.njit(cache=True, fastmath={"contract"}, nogil=True)
+@compiled(fastmath={"contract"}, nogil=True)
 def _add_circle_sums(radii, signs, wavenumbers, amplitudes, out):  # pragma: no cover
     """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows
     with ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m).

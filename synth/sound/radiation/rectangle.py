@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from synth.compilation import announce
+from synth.compilation import announce, compiled
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.radiation.common import (
@@ -209,7 +209,7 @@ class ProductFactors:
 _PRODUCT_BLOCK = 64
 
 
-@numba.njit(cache=True, nogil=True)
+@compiled(nogil=True)
 def _product_sums(
     i0, i1, xs, wx, ys, wy, listener, r_mid, fx, fy, gx, gy, paired, qr, qi, halvings, acc
 ):  # pragma: no cover
