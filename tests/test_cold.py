@@ -99,6 +99,45 @@ def test_every_kernel_of_a_render_and_a_contact_compiles_once(tmp_path):
     assert {k: n for k, n in counts.items() if n != 1} == {}
 
 
+ROLL_THEN_RENDER = """
+import hashlib, sys
+if sys.argv[1] == "roll-first":
+    from synth.physics import rolling, surface
+    from synth.physics.scene import Ball, Plate
+    ball = Ball("steel", 0.01)
+    spec = surface.RoughnessSpectrum(rms_height=1e-6, correlation_length=1e-4, hurst=0.8)
+    env = surface.contact_envelope(
+        surface.rough_profile(spec, length=0.02, spacing=5e-6, seed=3), ball.radius
+    )
+    rolling.roll(
+        ball, Plate("glass", 0.006, 0.5, 0.4), env, speed=0.2, duration=0.01,
+        samplerate=48000, origin=(0.1, 0.2), start=0.005,
+    )
+import synth
+r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
+print(r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest())
+"""
+
+
+@pytest.mark.slow
+def test_a_render_does_not_depend_on_what_compiled_before_it(tmp_path):
+    # The same rolling preset in two new processes on empty numba caches, one of which
+    # first rolls a ball on its own (compiling the rolling kernels before the impact
+    # kernels): the same bytes. The rolling kernels once called the impact kernels'
+    # compiled contact law, whose machine code in the impact kernels then depended on
+    # which of the two compiled it first (the bounce series amplified the difference).
+    outs = []
+    for order in ("clean", "roll-first"):
+        env = {"NUMBA_CACHE_DIR": str(tmp_path / order), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
+        out = subprocess.run(
+            [sys.executable, "-c", ROLL_THEN_RENDER, order],
+            capture_output=True, text=True, env=dict(os.environ, **env), timeout=900,
+        )  # fmt: skip
+        assert out.returncode == 0, out.stderr[-2000:]
+        outs.append(out.stdout.split()[-2:])
+    assert outs[0] == outs[1]
+
+
 def test_compile_log_records_a_compile_with_its_own_and_total_time():
     from synth.compilation import CompileLog
 

@@ -39,8 +39,15 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
-from synth.physics.contact_kernels.equations import force
+from synth.physics.contact_kernels import equations
 from synth.physics.surface import envelope_at
+
+#: The impact solver's contact law (``equations.force``), inlined into the rolling kernels
+#: rather than called as the impact kernels' compiled function: the machine code numba
+#: makes of the impact kernels depends on whether that function was compiled before them,
+#: so a rolling that compiled it first changed the bits of every later impact in the
+#: process (a render then depended on what ran before it).
+force = compiled(inline="always")(equations.force.py_func)
 
 # Status codes.
 OK = 0
