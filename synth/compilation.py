@@ -31,8 +31,8 @@ def compiled(**options):
     ``inline``, ``parallel``): the machine code cached on disk (``cache=True``; the folder
     is chosen by :mod:`synth.jitcache`), and no C-callable wrapper
     (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it can be
-    passed as a first-class function: no kernel here is, and building it takes about a
-    twentieth of a first render's compile (``synth bench cold``)."""
+    passed as a first-class function: no kernel here is, and building it only adds to the
+    first compile (``synth bench cold``)."""
     return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
 
 

@@ -45,8 +45,8 @@ from synth.physics.surface import envelope_at
 #: The impact solver's contact law (``equations.force``), inlined into the rolling kernels
 #: rather than called as the impact kernels' compiled function: the machine code numba
 #: makes of the impact kernels depends on whether that function was compiled before them,
-#: so a rolling that compiled it first changed the bits of every later impact in the
-#: process (a render then depended on what ran before it).
+#: so a shared one would make every later impact's bits depend on whether a rolling ran
+#: first (tests/test_cold.py).
 force = compiled(inline="always")(equations.force.py_func)
 
 # Status codes.
