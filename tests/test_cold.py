@@ -48,6 +48,20 @@ def test_import_synth_loads_no_numerical_library_and_every_name_resolves():
     assert lines[2] == "synth.sound.modes synth.physics.contact synth.physics.materials"
 
 
+def test_importing_the_live_engine_compiles_nothing(tmp_path):
+    # numba compiles a cfunc where it is made: the PortAudio callback is made on first
+    # use, so that the engine's note comes before its compile, not at an import
+    code = (
+        "import synth.live.engine\n"
+        "from synth.live import native\n"
+        "print(native.stream_callback.cache_info().currsize, len(native.run_block.overloads))\n"
+    )
+    proc = _python(code, {"NUMBA_CACHE_DIR": str(tmp_path / "numba")})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["0", "0"]
+    assert NOTE not in proc.stderr
+
+
 def test_unknown_attribute_is_an_attribute_error():
     import synth
 

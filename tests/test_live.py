@@ -700,7 +700,7 @@ def test_the_limiter_s_settings_are_checked(scene):
 INSPECT_CALLBACK = """
 from synth.live import native
 native.warm_up()
-ir = native.stream_callback.inspect_llvm()
+ir = native.stream_callback().inspect_llvm()
 for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate"):
     print(symbol, symbol in ir)
 print("clock_gettime", "clock_gettime" in ir)

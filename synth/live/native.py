@@ -13,7 +13,7 @@ through their addresses, so that its callback touches no Python object:
   counters, see :data:`BODY_FIELDS`; :func:`_body_form` makes the views the kernel takes);
 * the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
 
-:func:`stream_callback` is a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
+:func:`stream_callback` gives a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
 signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
 address as ``userData`` (as python-rtmixer does with its C callback). PortAudio's thread
 then runs it without Python's GIL: a busy Python thread cannot delay it. It allocates
@@ -34,6 +34,7 @@ the callback brackets its anchor writes with a sequence number and full fences
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -509,8 +510,7 @@ CALLBACK_SIGNATURE = types.intc(
 )
 
 
-@numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True)
-def stream_callback(input, output, frames, time_info, flags, userdata):
+def _callback(input, output, frames, time_info, flags, userdata):
     """PortAudio's ``PaStreamCallback``: ``int (const void *input, void *output,
     unsigned long frameCount, const PaStreamCallbackTimeInfo *timeInfo,
     PaStreamCallbackFlags statusFlags, void *userData)``, with ``userData`` the address of
@@ -522,6 +522,15 @@ def stream_callback(input, output, frames, time_info, flags, userdata):
     # int64 flags, as the Python fallback passes them: one compile of run_block for both
     run_block(ctl, out, np.int64(flags), info[1], info[2], entry)
     return PA_CONTINUE
+
+
+@functools.cache
+def stream_callback():
+    """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio).
+    numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
+    one compiles the whole block: made on first use, after the engine's note that it
+    compiles (:func:`synth.compilation.announce`), not when this module is imported."""
+    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True)(_callback)
 
 
 @compiled(nogil=True)
@@ -708,7 +717,7 @@ def warm_up() -> None:
     run_block(state.ctl, out, 0, 0.0, 0.0, monotonic_ns())
     mix_engine(state.ctl, out)
     silence_body(state.ctl, record)
-    stream_callback.address  # noqa: B018 (compiles the cfunc, or loads it)
+    stream_callback().address  # noqa: B018 (compiles the cfunc, or loads it)
 
 
 def body_arrays(

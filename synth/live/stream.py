@@ -49,7 +49,7 @@ def open_stream(sd, state: native.EngineState, callback: str, **settings):
     return sd._StreamBase(
         kind="output",
         wrap_callback=None,
-        callback=ffi.cast("void *", native.stream_callback.address),
+        callback=ffi.cast("void *", native.stream_callback().address),
         userdata=ffi.cast("void *", state.address),
         dtype="float32",
         **settings,
