@@ -11,7 +11,8 @@ On an empty cache a render spends most of its time compiling. This module
   process and only when the group is really missing from the disk cache, that it is
   about to compile (:func:`announce`), with the CPU time its compile took when measured
   (the figures ``synth warmup --record`` keeps beside this module);
-- holds the options every kernel of the package is compiled with (:func:`compiled`).
+- holds the options every kernel of the package is compiled with (:func:`compiled`,
+  :data:`FASTMATH`).
 """
 
 from __future__ import annotations
@@ -25,15 +26,26 @@ from pathlib import Path
 
 import numba
 
+#: numba's fast-math flags of every kernel: fused multiply-add contraction only, so that
+#: the compiler keeps the order of every sum and the approximations of no function. One set
+#: for all: numba compiles a kernel, and the helpers it takes from numba (``np.empty``,
+#: ``max``), with the flags of the first kernel that calls it where its own are unset
+#: (``inherit_if_not_set``), and keeps that machine code for every later caller; with two
+#: sets, a kernel's code, and a render's bits, would depend on which caller compiled it
+#: first, in this process or in the one that filled the disk cache.
+FASTMATH = frozenset({"contract"})
+
 
 def compiled(**options):
-    """``numba.njit`` with the package's options and ``options`` (``nogil``, ``fastmath``,
-    ``inline``, ``parallel``): the machine code cached on disk (``cache=True``; the folder
-    is chosen by :mod:`synth.jitcache`), and no C-callable wrapper
-    (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it can be
-    passed as a first-class function: no kernel here is, and building it only adds to the
-    first compile (``synth bench cold``)."""
-    return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
+    """``numba.njit`` with the package's options and ``options`` (``nogil``, ``inline``,
+    ``parallel``): the fast-math flags :data:`FASTMATH`, the machine code cached on disk
+    (``cache=True``; the folder is chosen by :mod:`synth.jitcache`), and no C-callable
+    wrapper (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it
+    can be passed as a first-class function: no kernel here is, and building it only adds
+    to the first compile (``synth bench cold``)."""
+    if "fastmath" in options:
+        raise TypeError("compiled(): the fast-math flags are the package's (FASTMATH)")
+    return numba.njit(cache=True, no_cfunc_wrapper=True, fastmath=set(FASTMATH), **options)
 
 
 #: The measured compile time (CPU s) of each group, written by ``synth warmup --record``.

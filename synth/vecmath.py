@@ -6,9 +6,9 @@ vector units. Accuracy: :func:`cis` within a few ulp for ``|theta| < 2^19 pi`` (
 kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an ulp or two
 on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
 ``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
-ulp (the kernels square in loops of their own, so that each vectorises). Only fused
-multiply-add contraction is allowed (``contract``), so the compiler keeps the order of
-every sum.
+ulp (the kernels square in loops of their own, so that each vectorises). Like every
+kernel of the package (:data:`synth.compilation.FASTMATH`), they allow fused multiply-add
+contraction only, so the compiler keeps the order of every sum.
 """
 
 from __future__ import annotations
@@ -27,16 +27,11 @@ _S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969
 _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
-#: numba's fast-math flags without approximate transcendental functions ("afn"): the
-#: compiler may reorder and contract sums, but ``exp``, ``cos`` and ``sin`` stay exact
-#: (the modal bank's kernels).
-FASTMATH_EXACT_FUNCTIONS = {"nnan", "ninf", "nsz", "arcp", "contract", "reassoc"}
-
 #: Largest ``|theta|`` (rad) :func:`cis` takes within a few ulp.
 CIS_MAX = 2.0**19 * math.pi
 
 
-@compiled(fastmath={"contract"})
+@compiled()
 def cis(theta):
     """(cos theta, sin theta) for |theta| < 2^19 pi, within a few ulp."""
     n = np.floor(theta * _INVPIO2 + 0.5)
@@ -53,7 +48,7 @@ def cis(theta):
     return c0 * c_sign, s0 * s_sign
 
 
-@compiled(fastmath={"contract"})
+@compiled()
 def exp_small(u):
     """exp(u) for |u| <= 1 by its Taylor series to u^18 (remainder < 2e-17)."""
     e = 1.0 / 6402373705728000.0

@@ -44,7 +44,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from synth.compilation import compiled
+from synth.compilation import FASTMATH, compiled
 from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
@@ -530,7 +530,9 @@ def stream_callback():
     numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
     one compiles the whole block: made on first use, after the engine's note that it
     compiles (:func:`synth.compilation.announce`), not when this module is imported."""
-    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True)(_callback)
+    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=set(FASTMATH))(
+        _callback
+    )
 
 
 @compiled(nogil=True)

@@ -40,7 +40,6 @@ from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
 from synth.sound.modal_bank import bank_coefficients
-from synth.vecmath import FASTMATH_EXACT_FUNCTIONS
 
 #: Points of the mode-shape table per bending wavelength of the highest mode.
 POINTS_PER_WAVELENGTH = 32
@@ -251,7 +250,7 @@ def _row_at(table, start, step, coordinate) -> np.ndarray:
     return (1.0 - t) * table[i] + t * table[i + 1]
 
 
-@compiled(fastmath=FASTMATH_EXACT_FUNCTIONS, nogil=True)
+@compiled(nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
     previous, out,

@@ -134,7 +134,7 @@ def _landing_factor(n):
     return e5 * e5 / math.sqrt(3.0 * (e5 * e5 + 0.01 * e3 * e3))
 
 
-@compiled(fastmath={"contract"})
+@compiled()
 def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
     of the history ``hist`` (the series) filled in. Returns (status, s_end, x, w, I2, L,

@@ -176,7 +176,7 @@ def min_order(tol: float) -> int:
 # vectorises; the general kernel calls libm.
 
 
-@compiled(fastmath={"contract"}, inline="always")
+@compiled(inline="always")
 def _exp_scaled(u, halvings):
     """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
     the squarings as selects rather than a loop: a loop of variable length inside the
@@ -192,7 +192,7 @@ def _exp_scaled(u, halvings):
     return e
 
 
-@compiled(fastmath={"contract"}, nogil=True)
+@compiled(nogil=True)
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
     """Rayleigh sums over points ``j0 <= j < j1``.
 

@@ -463,7 +463,7 @@ _J0_QQ = (
 )
 
 
-@compiled(fastmath={"contract"}, inline="always")
+@compiled(inline="always")
 def _horner(coef, z):
     """``coef[0] z^(n-1) + ... + coef[n-1]``."""
     v = coef[0]
@@ -472,7 +472,7 @@ def _horner(coef, z):
     return v
 
 
-@compiled(fastmath={"contract"}, inline="always")
+@compiled(inline="always")
 def _horner_monic(coef, z):
     """``z^n + coef[0] z^(n-1) + ... + coef[n-1]``."""
     v = z + coef[0]
@@ -481,7 +481,7 @@ def _horner_monic(coef, z):
     return v
 
 
-@compiled(fastmath={"contract"})
+@compiled()
 def _j0_cephes(x):
     """J_0(x), ``x >= 0``, by Cephes' rational approximations."""
     if x <= 5.0:
@@ -496,7 +496,7 @@ def _j0_cephes(x):
     return (p * cs - w * q * sn) * _SQRT_2_OVER_PI / math.sqrt(x)
 
 
-@compiled(fastmath={"contract"}, inline="always")
+@compiled(inline="always")
 def _j0_hankel(inv_x, sqrt_inv_x, x):
     """J_0(x) for ``x >= 25`` by its asymptotic expansion, from ``1 / x`` and
     ``sqrt(1 / x)`` (products only, so that a loop over modes vectorises)."""
@@ -510,7 +510,7 @@ def _j0_hankel(inv_x, sqrt_inv_x, x):
     return (p * cs - inv_x * q * sn) * _SQRT_2_OVER_PI * sqrt_inv_x
 
 
-@compiled(fastmath={"contract"})
+@compiled()
 def bessel_j0(x):  # pragma: no cover
     """J_0 of every entry of the 1-D array ``x`` (each ``>= 0``), as
     :func:`_add_circle_sums` evaluates it (tests compare it with scipy.special.j0)."""
@@ -523,7 +523,7 @@ def bessel_j0(x):  # pragma: no cover
     return out
 
 
-@compiled(fastmath={"contract"}, nogil=True)
+@compiled(nogil=True)
 def _add_circle_sums(radii, signs, wavenumbers, amplitudes, out):  # pragma: no cover
     """``out[i, k] += signs[i] amplitudes[k] J_0(wavenumbers[k] radii[i])`` for the rows
     with ``signs[i] != 0`` (radii > 0 m, wavenumbers >= 0 rad/m).
