@@ -60,22 +60,3 @@ def rounding_horizon(audio: np.ndarray, moved: np.ndarray, bound: float) -> int 
     if beyond.size == 0:
         return None if a.size == b.size else n
     return int(beyond[0])
-
-
-#: Presets whose render in the full test session differs from a render in a fresh process (a
-#: defect: a result must depend on its inputs alone). The machine code numba makes of a kernel
-#: depends on whether the kernels it calls were compiled before it (by another family of
-#: kernels) or with it; with the host CPU's FMA the results then differ in their last bits,
-#: which a long bounce series amplifies. One case is removed (the rolling kernels compiled the
-#: impact kernels' contact law first: tests/test_cold.py); another is seen and not yet removed
-#: (the live engine's kernels compiled before a render move the glass marble's bytes), and the
-#: rolling presets still move in the session. Their golden and gallery tests are non-strict
-#: xfails until every such sharing is gone.
-HISTORY_DEPENDENT = {
-    "glass-marble-on-glass-table",
-    "steel-ball-on-steel-sheet",
-    "marble-rolling-on-wooden-floor",
-    "steel-ball-rolling-on-glass-table",
-    "thesis-steel10-mdf18-rolling",
-}
-HISTORY_DEPENDENT_REASON = "moves with the order in which numba compiled shared kernels"

@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import soundfile
-from golden import HISTORY_DEPENDENT, HISTORY_DEPENDENT_REASON
 
 from synth import bench
 from synth.cli import GALLERY, main
@@ -88,15 +87,7 @@ def test_gallery_command_rejects_missing_folder(tmp_path, capsys):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(name, marks=pytest.mark.xfail(strict=False, reason=HISTORY_DEPENDENT_REASON))
-        if name in HISTORY_DEPENDENT
-        else name
-        for name in GALLERY
-    ],
-)
+@pytest.mark.parametrize("name", GALLERY)
 def test_committed_gallery_is_current(name, empty_caches):
     # renders/ holds what `synth gallery` makes today: each committed WAV equals a fresh
     # render of its preset to 1e-5 of full scale (a few 24-bit steps: the plate's

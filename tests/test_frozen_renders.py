@@ -27,12 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from golden import (
-    HISTORY_DEPENDENT,
-    HISTORY_DEPENDENT_REASON,
-    MAX_RELATIVE_ERROR,
-    relative_error,
-)
+from golden import MAX_RELATIVE_ERROR, relative_error
 
 import synth
 import synth.io.presets
@@ -54,9 +49,7 @@ def _cases():
     unstable = pytest.mark.xfail(
         strict=False, reason="the analysis' first onset is unstable under float rounding"
     )
-    history = pytest.mark.xfail(strict=False, reason=HISTORY_DEPENDENT_REASON)
     marks = {name: unstable for name in UNSTABLE_FIRST_TICK}
-    marks.update({name: history for name in HISTORY_DEPENDENT})
     return [
         pytest.param(name, marks=marks[name]) if name in marks else name
         for name in sorted(RECORDED)

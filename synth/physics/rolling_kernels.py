@@ -42,12 +42,8 @@ from synth.compilation import compiled
 from synth.physics.contact_kernels import equations
 from synth.physics.surface import envelope_at
 
-#: The impact solver's contact law (``equations.force``), inlined into the rolling kernels
-#: rather than called as the impact kernels' compiled function: the machine code numba
-#: makes of the impact kernels depends on whether that function was compiled before them,
-#: so a shared one would make every later impact's bits depend on whether a rolling ran
-#: first (tests/test_cold.py).
-force = compiled(inline="always")(equations.force.py_func)
+#: The impact solver's contact law, the same compiled function as the impacts'.
+force = equations.force
 
 # Status codes.
 OK = 0
