@@ -167,7 +167,9 @@ class Engine:
     callback : "native" or "python"
         The stream's callback: compiled code that PortAudio calls without Python (default;
         needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
-        for each block (a busy Python thread then delays it).
+        for each block (a busy Python thread then delays it; its ``stats.callback_*`` times
+        start once it holds the GIL and exclude that wait, which ``stats.callback_gap_max``
+        shows).
     max_bodies : int
         Bodies the engine can hold, in [1, 65536] (the audio thread's directory).
     max_voices : int
