@@ -513,6 +513,19 @@ def test_bench_live_figures_format():
     assert "the audio thread's share of a hit" in text and "the listener moving" in text
     assert result["move"]["moves"] >= 1
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
+    # the JACK figures: the time to the output is labelled as derived from the onset that
+    # hit() sets (block + latency + hand-over), the time to the callback as measured
+    phase = dict(callbacks=10, underflows=0, played=5, late=0, refused=0, stolen=0)
+    result["jack"] = dict(
+        realtime_server=False, block_s=256 / FS, latency_s=0.01, nominal_latency_s=0.005,
+        handover_s=0.002, hit_to_callback_ms=dict(median=5.0, max=7.0), hit_to_output_ms=17.3,
+        seconds=1.0, rate=200.0, bodies=16, alone=phase, busy=phase, threads8=phase,
+        callback_mean=0.1, callback_max=0.5, callback_gap_max=1.0, peak=0.1, output_peak=0.1,
+        clipped=0,
+    )  # fmt: skip
+    text = bench.format_live(result)
+    assert "first sample at the output: 17.30 ms, derived, not measured" in text
+    assert "hit() to the end of the callback holding the tick's first sample: median" in text
 
 
 def test_a_scene_added_sounds_as_it_renders(scene):
