@@ -88,7 +88,7 @@ class Body:
         channel: int = -1,
         ears: int = 1,
         voices: int = 1,
-        pan: float | None = None,
+        pan: float = float("nan"),
     ):
         self._engine = engine
         self.max_voices = voices

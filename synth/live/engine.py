@@ -426,9 +426,7 @@ class Engine:
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
-        body = Body(
-            self, plate, listener, g, model, voices=voices, pan=None if pan is None else panned
-        )
+        body = Body(self, plate, listener, g, model, voices=voices, pan=panned)
         self._bodies = self._bodies + (body,)
         return body
 

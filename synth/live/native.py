@@ -759,7 +759,7 @@ def body_arrays(
     mix_frames: int = 4096,
     ears: int = 1,
     gains: np.ndarray,
-    pan: float | None = None,
+    pan: float = math.nan,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
@@ -770,7 +770,7 @@ def body_arrays(
     most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
     both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
     its modes (K,; the mixing applies them at its output, the voices' states are the
-    plate's) and its ``pan`` (None: unpanned; see :func:`pan_gains`)."""
+    plate's) and its ``pan`` (NaN: unpanned; see :func:`pan_gains`)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
@@ -791,7 +791,7 @@ def body_arrays(
     scalars[S_SIGMA_MAX] = c.sigma_max
     scalars[S_PERIOD] = 1.0 / fs
     scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
-    scalars[S_PAN] = scalars[S_PAN_NOW] = math.nan if pan is None else pan
+    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
     work = transform_workspace(K)
     return dict(
         table=np.ascontiguousarray(table),
