@@ -513,6 +513,19 @@ def test_bench_live_figures_format():
     assert "the audio thread's share of a hit" in text and "the listener moving" in text
     assert result["move"]["moves"] >= 1
     assert result["transform"]["hits_per_block"] == synth.Engine(samplerate=FS).max_hits_per_block
+    # the JACK figures: the time to the output is labelled as derived from the onset that
+    # hit() sets (block + latency + hand-over), the time to the callback as measured
+    phase = dict(callbacks=10, underflows=0, played=5, late=0, refused=0, stolen=0)
+    result["jack"] = dict(
+        realtime_server=False, block_s=256 / FS, latency_s=0.01, nominal_latency_s=0.005,
+        handover_s=0.002, hit_to_callback_ms=dict(median=5.0, max=7.0), hit_to_output_ms=17.3,
+        seconds=1.0, rate=200.0, bodies=16, alone=phase, busy=phase, threads8=phase,
+        callback_mean=0.1, callback_max=0.5, callback_gap_max=1.0, peak=0.1, output_peak=0.1,
+        clipped=0,
+    )  # fmt: skip
+    text = bench.format_live(result)
+    assert "first sample at the output: 17.30 ms, derived, not measured" in text
+    assert "hit() to the end of the callback holding the tick's first sample: median" in text
 
 
 def test_a_scene_added_sounds_as_it_renders(scene):
@@ -1377,3 +1390,149 @@ def test_modes_the_old_listener_left_out_ring_for_the_new_one(scene):
     # the modes left out above the centre are what the new listener hears most of
     assert np.max(np.abs(exact[(k + 1) * n :])) > 10 * tol
     assert np.max(np.abs(first)) < np.max(np.abs(exact[: k * n]))
+
+
+def mono_of(scene, hits, frames, **kw):
+    """The mono engine's output of ``hits`` ((speed, at) pairs) on the scene's plate heard by
+    its listener: float64 (frames,), the signal a pan places."""
+    e = synth.Engine(samplerate=FS, floor_db=EXACT_DB, **kw)
+    body = e.add(scene.plate, listener=scene.listener)
+    for v, at in hits:
+        body.hit(scene.ball, v, at=at)
+    return e.process(frames)[:, 0].astype(float)
+
+
+def panned(scene, hits, frames, pan, changes=(), **kw):
+    """A stereo engine's output of ``hits`` on a body added at ``pan``, its pan set to each
+    of ``changes`` ((block, pan) pairs) before that block of 256 frames: float64
+    (frames, 2)."""
+    e = synth.Engine(samplerate=FS, channels=2, floor_db=EXACT_DB, **kw)
+    body = e.add(scene.plate, listener=scene.listener, pan=pan)
+    for v, at in hits:
+        body.hit(scene.ball, v, at=at)
+    changes, out = dict(changes), []
+    for b in range(frames // 256):
+        if b in changes:
+            body.pan = changes[b]
+            assert body.pan == changes[b]
+        out.append(e.process(256))
+    return np.concatenate(out).astype(float), body
+
+
+def law(pan):
+    """The constant-power pan law, (left, right) = (cos, sin) of (pan + 1) pi / 4."""
+    theta = (pan + 1.0) * np.pi / 4.0
+    return np.cos(theta), np.sin(theta)
+
+
+def test_a_panned_body_follows_the_constant_power_law(scene):
+    # each channel is the mono body's signal times the law's gain: hard left is the mono
+    # signal on the left and exact silence on the right (and the mirror); the centre is
+    # the same on both channels, 1/sqrt(2) of the mono signal (-3.01 dB each); at every
+    # pan left^2 + right^2 = mono^2 (constant power), to float32 rounding
+    hits, frames = [(1.0, 0.001), (0.5, 0.02)], 8192
+    mono = mono_of(scene, hits, frames)
+    tol = 2 * float32_ulp_of_peak(mono)
+    left, _ = panned(scene, hits, frames, -1.0)
+    np.testing.assert_array_equal(left[:, 0], mono)
+    assert np.max(np.abs(mono)) > 0 and not np.any(left[:, 1])
+    right, _ = panned(scene, hits, frames, 1.0)
+    np.testing.assert_array_equal(right[:, 1], mono)
+    assert not np.any(right[:, 0])
+    centre, body = panned(scene, hits, frames, 0.0)
+    assert body.pan == 0.0
+    np.testing.assert_array_equal(centre[:, 0], centre[:, 1])
+    np.testing.assert_allclose(centre[:, 0], mono * np.sqrt(0.5), rtol=0, atol=tol)
+    level_db = 20 * np.log10(np.sqrt(np.mean(centre[:, 0] ** 2) / np.mean(mono**2)))
+    assert level_db == pytest.approx(-3.0103, abs=1e-3)
+    for pan in (-0.7, 0.3):
+        out, _ = panned(scene, hits, frames, pan)
+        gl, gr = law(pan)
+        np.testing.assert_allclose(out[:, 0], gl * mono, rtol=0, atol=tol)
+        np.testing.assert_allclose(out[:, 1], gr * mono, rtol=0, atol=tol)
+        np.testing.assert_allclose(
+            out[:, 0] ** 2 + out[:, 1] ** 2, mono**2, rtol=0, atol=2 * tol * np.max(np.abs(mono))
+        )
+    # unpanned (the default): the mono signal at its full level on both channels
+    unpanned, body = panned(scene, hits, frames, None)
+    assert body.pan is None
+    np.testing.assert_array_equal(unpanned[:, 0], mono)
+    np.testing.assert_array_equal(unpanned[:, 1], mono)
+
+
+def test_a_pan_set_while_a_body_rings_is_ramped_over_one_block(scene):
+    # added hard left; pan=0.5 asked before block 4, then None (unpanned) before block 8:
+    # each channel's gain goes linearly over the next block from its old value to its new
+    # one at the block's last sample (as body.gain does), then holds: the output is the
+    # mono signal times that piecewise-linear gain, so no step is larger than the ramp's
+    n, frames = 256, 16 * 256
+    hits = [(1.0, 0.001)]
+    mono = mono_of(scene, hits, frames)
+    out, body = panned(scene, hits, frames, -1.0, changes=[(4, 0.5), (8, None)])
+    u = np.arange(1, n + 1) / n
+    gl, gr = law(0.5)
+    for c, (g_left, g_mid) in enumerate([(1.0, gl), (0.0, gr)]):
+        gain = np.concatenate([
+            np.full(4 * n, g_left),
+            g_left + (g_mid - g_left) * u,
+            np.full(3 * n, g_mid),
+            g_mid + (1.0 - g_mid) * u,  # unpanned again: the full mono level
+            np.full(frames - 9 * n, 1.0),
+        ])  # fmt: skip
+        tol = 2 * float32_ulp_of_peak(mono)
+        np.testing.assert_allclose(out[:, c], gain * mono, rtol=0, atol=tol)
+    assert not np.any(out[: 4 * n, 1]) and np.max(np.abs(out[4 * n :, 1])) > 0
+    assert body.pan is None
+
+
+def test_pan_is_refused_where_it_means_nothing(scene):
+    # a pan places a mono body between two channels: out of [-1, 1], in an engine of one
+    # channel or of four, or on a body heard through its own ears, it is a ParameterError
+    # naming pan and what is allowed
+    stereo = synth.Engine(samplerate=FS, channels=2)
+    body = stereo.add(scene.plate, listener=scene.listener)
+    for bad in (1.5, -1.01, float("nan"), "left", True):
+        with pytest.raises(ParameterError, match=r"pan="):
+            body.pan = bad
+    assert body.pan is None
+    with pytest.raises(ParameterError, match=r"pan=1.5 must be in \[-1, 1\]"):
+        stereo.add(scene.plate, listener=scene.listener, pan=1.5)
+    head = synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 1.0))
+    with pytest.raises(ParameterError, match="pan=0.0: this body is heard through 2 listeners"):
+        stereo.add(scene.plate, listener=head, pan=0.0)
+    two_ears = stereo.add(scene.plate, listener=head)
+    with pytest.raises(ParameterError, match="listeners"):
+        two_ears.pan = 0.0
+    assert two_ears.pan is None
+    for channels in (1, 4):
+        engine = synth.Engine(samplerate=FS, channels=channels)
+        with pytest.raises(ParameterError, match=f"pan=0.0: .*channels={channels}"):
+            engine.add(scene.plate, listener=scene.listener, pan=0.0)
+        mono = engine.add(scene.plate, listener=scene.listener)
+        with pytest.raises(ParameterError, match=f"channels={channels}"):
+            mono.pan = -0.5
+        mono.pan = None  # unpanned, as it is
+
+
+def test_four_channels_are_each_heard_through_their_own_listener(scene):
+    # an engine of 4 channels, a body added with 4 listeners: each channel is exactly the
+    # mono engine of that channel's listener (its own Rayleigh gains); a body of one
+    # listener plays on every channel
+    listeners = synth.live.ears((0.6, 0.1, 0.4), facing=(0.0, 1.0)) + synth.live.ears(
+        (0.3, 0.2, 0.3)
+    )
+    engine = synth.Engine(samplerate=FS, channels=4)
+    body = engine.add(scene.plate, listener=listeners)
+    body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+    engine.add(scene.plate, listener=scene.listener, gain=0.5).hit(scene.ball, 0.7, at=0.05)
+    out = engine.process(FS // 10)
+    assert out.shape == (FS // 10, 4)
+    for c, listener in enumerate(listeners):
+        mono = synth.Engine(samplerate=FS)
+        mono.add(scene.plate, listener=listener).hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+        mono.add(scene.plate, listener=scene.listener, gain=0.5).hit(scene.ball, 0.7, at=0.05)
+        want = mono.process(FS // 10)[:, 0]
+        np.testing.assert_allclose(out[:, c], want, rtol=0, atol=float32_ulp_of_peak(want))
+    peaks = np.max(np.abs(out[: int(0.05 * FS)]), axis=0)  # before the mono body's hit
+    assert np.all(peaks > 0) and np.unique(peaks).size == 4  # four distinct listeners
+    assert engine.stats.impacts_played == 2

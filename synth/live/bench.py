@@ -11,8 +11,12 @@
 * ``Engine.add`` with a cold cache (an empty cache directory: plate modes and microphone
   gains computed) and warm (from memory, and from disk);
 * through JACK's dummy server (:mod:`synth.live.jack`): the time from ``hit()`` to the end of
-  the callback whose block holds the tick's first sample, and to that sample's output time;
-  then underflows and late impacts over ``seconds`` of 20 hits/s on 4 bodies.
+  the callback whose block holds the tick's first sample (measured), and to that sample's
+  output time (derived: one block plus the output latency plus the hand-over allowance,
+  the onset ``hit()`` sets; not measured at the output); then, over ``seconds`` each, the
+  underflows, late, refused and stolen voices of ``rate`` hits/s (200) on ``bodies`` bodies
+  (16) from one thread alone, from one thread while a pure-Python thread spins, and from 8
+  threads, the callback's cost and the master bus' peak.
 """
 
 from __future__ import annotations
@@ -472,8 +476,9 @@ def format_live(result) -> str:
             f"{target:.2f} ms): {target_verdict(j['hit_to_callback_ms']['max'] <= target)}"
         )
     lines.append(
-        f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms "
-        f"(one block + output latency + hand-over allowance, the same for every hit)"
+        f"  - hit() to the tick's first sample at the output: {j['hit_to_output_ms']:.2f} ms, "
+        f"derived, not measured (one block + output latency + hand-over allowance: the onset "
+        f"hit() sets, the same for every hit)"
     )
     for key, what in (
         ("alone", "one thread hitting and nothing else (the machine's baseline)"),

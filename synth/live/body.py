@@ -88,6 +88,7 @@ class Body:
         channel: int = -1,
         ears: int = 1,
         voices: int = 1,
+        pan: float = float("nan"),
     ):
         self._engine = engine
         self.max_voices = voices
@@ -129,6 +130,7 @@ class Body:
             mix_frames=engine._native.mix.shape[1],
             ears=ears,
             gains=model.output,
+            pan=pan,
         )
         self._heard = arrays["heard"]
         self._heard_seq = arrays["heard_seq"]
@@ -166,6 +168,26 @@ class Body:
         g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
         for ear in self._ears:
             ear._scalars[native.S_GAIN] = g
+
+    @property
+    def pan(self) -> float | None:
+        """The body's place between the left and right channels of an ``Engine(channels=2)``:
+        -1 left, 0 centre, +1 right, or None (the default: unpanned, the body's mono signal
+        at its full level on both channels). The cheap alternative to hearing a body through
+        two ears (:func:`ears`): one modal state, placed by a constant-power pan law, left
+        gain ``cos(theta)`` and right gain ``sin(theta)`` with ``theta = (pan + 1) pi / 4``
+        (left^2 + right^2 = 1: the centre is -3.01 dB on each channel, below the unpanned
+        level), times :attr:`gain` (see :func:`synth.live.native.pan_gains`). Settable
+        while it plays: each channel's gain is ramped linearly over the next block (no
+        click), as :attr:`gain` is; a body that is silent takes the new pan at once. A body
+        heard through several listeners, and a body of an engine of other than two channels,
+        refuse it (ParameterError)."""
+        p = float(self._scalars[native.S_PAN])
+        return None if np.isnan(p) else p
+
+    @pan.setter
+    def pan(self, value: float | None) -> None:
+        self._scalars[native.S_PAN] = check_pan(value, self._engine.channels, len(self._ears))
 
     @property
     def min_interval(self) -> float:
@@ -684,6 +706,25 @@ def _release(reserved) -> None:
         for slot in slots:
             ear._ring.release(slot)
         ear._ring.close_voice(r, len(slots))
+
+
+def check_pan(value, channels: int, listeners: int = 1) -> float:
+    """A body's ``pan`` (:attr:`Body.pan`) as its scalar for the mixing (NaN for None),
+    checked against the engine's ``channels`` and the body's ``listeners``."""
+    if value is None:
+        return float("nan")
+    if channels != 2:
+        raise ParameterError(
+            f"pan={value!r}: a pan places a body between two channels; this engine has "
+            f"channels={channels} (make it with channels=2, or hear the body through one "
+            f"listener per channel)"
+        )
+    if listeners > 1:
+        raise ParameterError(
+            f"pan={value!r}: this body is heard through {listeners} listeners (ears), whose "
+            f"balance comes from the plate's radiation; pan is for a body of one listener"
+        )
+    return checks.in_range("pan", value, -1.0, 1.0, "dimensionless", lo_open=False, hi_open=False)
 
 
 def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:

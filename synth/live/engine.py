@@ -24,7 +24,9 @@ Voices that end are posted to a lock-free ring that :meth:`Engine.ended` reads.
 Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the fixed
 calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
 times each hit's gain, its voice's gain and its body's gain (settable at run time, ramped
-over a block) and the master gain, so bodies and hits keep their true level relation. The
+over a block) and the master gain, so bodies and hits keep their true level relation. A body
+of one listener in a two-channel engine may be panned (:attr:`Body.pan`, a constant-power
+law, ramped over a block like the gain). The
 master bus ends in an optional true-peak limiter (``limiter=True``: a look-ahead of at
 most one block keeps the bus' sample and 4x-oversampled inter-sample peaks at or below
 ``ceiling_db``; :mod:`synth.live.limiter`), then a stated soft clipper (identity up to
@@ -60,7 +62,7 @@ from synth.compilation import announce
 from synth.errors import ParameterError, SynthError
 from synth.live import kernel, native
 from synth.live.atomics import fence
-from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, ears
+from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_pan, ears
 from synth.live.hits import MAX_AHEAD, MAX_GAIN, check_int
 from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
 from synth.live.stats import EngineStats
@@ -109,7 +111,10 @@ class Engine:
     latency : "low", "high" or float
         The stream's suggested output latency (s, > 0, or PortAudio's named setting).
     channels : int
-        Output channels, in [1, 64]; every channel carries the same mono mix.
+        Output channels, in [1, 64]. A body added with one listener plays its mono signal
+        on every channel (or, with ``channels=2``, between the two at its :attr:`Body.pan`);
+        a body added with one listener per channel (:func:`ears` for two) is heard on each
+        channel through that channel's listener.
     floor_db : float < 0
         Omission floor of each body's bank, dB below its loudest impact so far (as the
         offline renderer's ``floor_db``).
@@ -162,7 +167,9 @@ class Engine:
     callback : "native" or "python"
         The stream's callback: compiled code that PortAudio calls without Python (default;
         needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
-        for each block (a busy Python thread then delays it).
+        for each block (a busy Python thread then delays it; its ``stats.callback_*`` times
+        start once it holds the GIL and exclude that wait, which ``stats.callback_gap_max``
+        shows).
     max_bodies : int
         Bodies the engine can hold, in [1, 65536] (the audio thread's directory).
     max_voices : int
@@ -364,7 +371,13 @@ class Engine:
         return 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
 
     def add(
-        self, plate: Plate | Scene, *, listener=None, gain: float = 1.0, max_voices=None
+        self,
+        plate: Plate | Scene,
+        *,
+        listener=None,
+        gain: float = 1.0,
+        max_voices=None,
+        pan: float | None = None,
     ) -> Body:
         """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
         return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
@@ -374,10 +387,15 @@ class Engine:
         none), so that the scene sounds live as it renders offline. ``gain`` in
         (0, MAX_GAIN] scales everything it plays. ``max_voices``: the voices the body rings
         at once, in [1, 256] (default the engine's ``max_voices``; a body hit seldom needs
-        fewer, and each costs its modal state's memory). Allowed while the stream runs (the
+        fewer, and each costs its modal state's memory). ``pan``: the body's place between
+        the two channels of an ``Engine(channels=2)``, in [-1, 1] (-1 left, +1 right) by a
+        constant-power law, or None (unpanned: its mono signal at full level on every
+        channel); see :attr:`Body.pan`, settable later. Allowed while the stream runs (the
         callback picks the body up at its next block)."""
         voices = self.max_voices if max_voices is None else max_voices
         voices = check_int("max_voices", voices, 1, 256, "voices")
+        listeners = len(listener) if isinstance(listener, (tuple, list)) else 1
+        panned = check_pan(pan, self.channels, listeners)
         if isinstance(listener, (tuple, list)):
             return self._add_ears(plate, listener, gain, voices)
         if isinstance(plate, Scene):
@@ -408,7 +426,7 @@ class Engine:
         model = modal_model(
             plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
         )
-        body = Body(self, plate, listener, g, model, voices=voices)
+        body = Body(self, plate, listener, g, model, voices=voices, pan=panned)
         self._bodies = self._bodies + (body,)
         return body
 

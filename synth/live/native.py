@@ -132,9 +132,10 @@ BODY_FIELDS = (
 N_BODY = len(BODY_FIELDS)
 
 #: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
-#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear).
-S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW = range(6)
-N_SCALARS = 6
+#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
+#: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
+S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW = range(8)
+N_SCALARS = 8
 
 #: PortAudio's stream callback flags (portaudio.h) and its paContinue.
 PA_OUTPUT_UNDERFLOW = 0x4
@@ -274,11 +275,40 @@ def _events(ctl):
     return _i64(ctl[EVENTS], ctl[N_EVENTS])
 
 
+@compiled(nogil=True, inline="always")
+def pan_gains(pan):
+    """The constant-power pan law: the (left, right) gains of a mono body at ``pan`` in
+    [-1, 1] (-1 left, 0 centre, +1 right), ``cos(theta)`` and ``sin(theta)`` with
+    ``theta = (pan + 1) pi / 4``, so that left^2 + right^2 = 1 (the body's power is the
+    same at every pan; the centre is -3.01 dB on each channel). Computed as
+    ``sin((1 - pan) pi / 4)`` and ``sin((1 + pan) pi / 4)``, the same gains, exactly 1 and 0
+    at the ends. NaN (unpanned): 1 on both, the body's mono signal at its full level."""
+    if math.isnan(pan):
+        return 1.0, 1.0
+    return math.sin((1.0 - pan) * (0.25 * math.pi)), math.sin((1.0 + pan) * (0.25 * math.pi))
+
+
+@compiled(nogil=True, inline="always")
+def _add_ramped(row, out, g0, g1, n):
+    """``row += g * out`` over ``n`` frames, ``g`` ramped linearly from ``g0`` (before the
+    block) to ``g1`` (at its last sample)."""
+    if g0 == g1:
+        for s in range(n):
+            row[s] += g1 * out[s]
+    else:
+        step = (g1 - g0) / n
+        for s in range(n):
+            row[s] += (g0 + step * (s + 1)) * out[s]
+
+
 @compiled(nogil=True)
 def _mix_one_body(ctl, record, scratch, mix, t0, n):
-    """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` at its gain
-    (ramped linearly over the block from its value at the last block to its target);
-    applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's."""
+    """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` (every
+    channel's row, then each channel's own, see :func:`_write_block`) at its gain, into
+    its channel's row (every channel's for a body of one listener), or for a panned body
+    into the first two channels' rows at its gain times :func:`pan_gains`; each channel's
+    gain is ramped linearly over the block from its value at the last block to its target.
+    Applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's."""
     counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
     transformed = _i64(record[B_TRANSFORMED], 1)
     scalars = _f64(record[B_SCALARS], N_SCALARS)
@@ -289,6 +319,8 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
         kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
     g0 = scalars[S_GAIN_NOW]
     g1 = scalars[S_GAIN]
+    p0 = scalars[S_PAN_NOW]
+    p1 = scalars[S_PAN]  # one word: a pan set on another thread is read whole
     busy = counters[kernel.BUSY_BLOCKS]
     if counters[kernel.AWAKE] == 0:
         # asleep: nothing to mix unless something was handed over
@@ -299,6 +331,7 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
                 break
         if not waiting:
             scalars[S_GAIN_NOW] = g1
+            scalars[S_PAN_NOW] = p1
             return
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
     out = scratch[0]
@@ -309,14 +342,15 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
         pulse_form, transformed, voice_form, _events(ctl),
     )  # fmt: skip
     if counters[kernel.BUSY_BLOCKS] != busy:
-        if g0 == g1:
-            for s in range(n):
-                mix[s] += g1 * out[s]
-        else:
-            step = (g1 - g0) / n
-            for s in range(n):
-                mix[s] += (g0 + step * (s + 1)) * out[s]
+        if math.isnan(p0) and math.isnan(p1):
+            _add_ramped(mix[record[B_CHANNEL] + 1], out, g0, g1, n)
+        else:  # a mono body panned between the first two channels
+            left0, right0 = pan_gains(p0)
+            left1, right1 = pan_gains(p1)
+            _add_ramped(mix[1], out, g0 * left0, g1 * left1, n)
+            _add_ramped(mix[2], out, g0 * right0, g1 * right1, n)
     scalars[S_GAIN_NOW] = g1
+    scalars[S_PAN_NOW] = p1
 
 
 @compiled(nogil=True, inline="always")
@@ -450,7 +484,7 @@ def mix_engine(ctl, out):
         _fence()  # the records of the bodies counted are complete
         for b in range(bodies):
             record = _i64(directory[b], N_BODY)
-            _mix_one_body(ctl, record, scratch, mix[record[B_CHANNEL] + 1], t0, n)
+            _mix_one_body(ctl, record, scratch, mix, t0, n)
         _write_block(ctl, times, mix, out, done, n)
         ctl[FRAME] = t0 + n
         done += n
@@ -619,6 +653,7 @@ class EngineState:
             scalars=np.zeros(N_SCALARS),
             state=np.zeros(1, dtype=np.int64),
         )
+        self._vacant_arrays["scalars"][[S_PAN, S_PAN_NOW]] = math.nan
         self.vacant = np.zeros(N_BODY, dtype=np.int64)
         for name, a in self._vacant_arrays.items():
             self.vacant[BODY_FIELDS.index(name)] = a.ctypes.data
@@ -735,6 +770,7 @@ def body_arrays(
     mix_frames: int = 4096,
     ears: int = 1,
     gains: np.ndarray,
+    pan: float = math.nan,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
@@ -745,7 +781,7 @@ def body_arrays(
     most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
     both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
     its modes (K,; the mixing applies them at its output, the voices' states are the
-    plate's)."""
+    plate's) and its ``pan`` (NaN: unpanned; see :func:`pan_gains`)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
@@ -766,6 +802,7 @@ def body_arrays(
     scalars[S_SIGMA_MAX] = c.sigma_max
     scalars[S_PERIOD] = 1.0 / fs
     scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
+    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
     work = transform_workspace(K)
     return dict(
         table=np.ascontiguousarray(table),

@@ -10,15 +10,21 @@ class EngineStats:
     """Counters of an engine since it was made.
 
     callbacks: blocks mixed by a stream's callback; output_underflows: callbacks that
-    PortAudio flagged ``output_underflow`` (the device ran dry before);
+    PortAudio flagged ``output_underflow`` (the device ran dry before; a stall of many
+    blocks may be flagged once: callback_gap_max gives its length);
     callback_mean, callback_max, callback_last: the callback's run time from its entry to
-    its return (read from the monotonic clock by the compiled callback itself), as a
-    fraction of its block's duration; callback_gap_max: the longest time between two
-    callbacks' entries, in blocks (about 1 when the system runs the audio thread on
-    time; an underflow with a large gap and a small callback_max was the system's
-    scheduling, not the callback's work); impacts_played: impacts injected into a body's
-    modes; impacts_refused: impacts refused (a body's ring full, too many pulses waiting
-    for one block, or a whole drop that did not fit); drops_refused: drops refused whole;
+    its return (read from the monotonic clock by the compiled callback itself, the first
+    thing it does), as a fraction of its block's duration; callback_gap_max: the longest
+    time between two callbacks' entries, in blocks (about 1 when the system runs the audio
+    thread on time; an underflow with a large gap and a small callback_max was the
+    system's scheduling, not the callback's work). With the Python fallback
+    (``Engine(callback="python")``) the callback reads the clock once it holds the GIL:
+    its callback_mean, callback_max and callback_last exclude the wait for the GIL, which
+    only callback_gap_max shows (read that one there).
+
+    impacts_played: impacts injected into a body's modes; impacts_refused: impacts
+    refused (a body's ring full, too many pulses waiting for one block, or a whole drop
+    that did not fit); drops_refused: drops refused whole;
     impacts_too_close: hits refused by a body's ``min_interval``;
     impacts_late: impacts found after their start time (played at the start of the block
     they were found in); impacts_pending: handed over and not yet played; bodies_ringing:
