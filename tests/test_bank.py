@@ -1461,3 +1461,104 @@ def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
     assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
     assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
     assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]
+
+
+#: Steel, rubber and ABS balls on the small plate with the thesis' lossless Hertz contact:
+#: rubber and ABS then keep e near 0.99 and, unbounded, bounce on for tens of seconds.
+MATERIALS_SPEC = """
+preset = "small.toml"
+name = "{{ball.material}}-h{{drop.height:.2f}}"
+format = "wav"
+[vary]
+"ball.material" = ["steel", "rubber", "abs"]
+"drop.height" = [0.02, 0.05]
+[render]
+max_duration = 30.0
+{render}
+"""
+
+
+def _materials_spec(folder: Path, render: str = "") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "small.toml").write_text(SMALL_PRESET + '[contact]\nmodel = "thesis"\n')
+    path = folder / "bank.toml"
+    path.write_text(MATERIALS_SPEC.format(render=render))
+    return path
+
+
+@pytest.mark.slow
+def test_near_elastic_balls_stop_at_the_banks_impact_limit(tmp_path, cache_dir):
+    # Rubber and ABS keep the lossless contact (e > 0.97 at every impact): with the
+    # render's own limits their series run for tens of seconds (rubber from 5 cm to the
+    # 30 s max_duration). In a bank the documented impact limit stops every drop: each
+    # row records why (max-impacts, or its own end before it) and its impact count, none
+    # reaches max_duration, and the restitution of each impact is the physics' own (the
+    # bound cuts the series, it changes no bounce).
+    from synth.bank.spec import BANK_MAX_IMPACTS
+    from synth.io.presets import scene_from_dict
+    from synth.physics.bounces import simulate_scene
+
+    spec = _materials_spec(tmp_path / "spec")
+    out = tmp_path / "out"
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and result.done == 6
+    _check_complete(out, 6)
+    rows = mf.read_rows(out)
+    for row in rows:
+        assert row["stop_reason"] != "max-duration"
+        assert 1 <= row["ticks"] <= BANK_MAX_IMPACTS
+        assert row["scene"]["render"]["max_impacts"] == BANK_MAX_IMPACTS
+        assert (row["stop_reason"] == "max-impacts") == (row["ticks"] == BANK_MAX_IMPACTS)
+        scene, options = scene_from_dict(row["scene"], "row")
+        unbounded = simulate_scene(scene, max_duration=options["max_duration"])
+        bounded = simulate_scene(
+            scene, max_duration=options["max_duration"], max_impacts=BANK_MAX_IMPACTS
+        )
+        assert [i.restitution for i in bounded] == [
+            i.restitution for i in unbounded[: len(bounded)]
+        ]
+        assert row["first_restitution"] == unbounded[0].restitution
+        if row["ball.material"] in ("rubber", "abs"):
+            assert row["stop_reason"] == "max-impacts", row
+            assert min(i.restitution for i in bounded) > 0.97
+            # unbounded, the same drop lasts more than 5 s (the bank's row ends at the limit)
+            assert unbounded.duration > 5.0 and len(unbounded) > BANK_MAX_IMPACTS
+            if row["drop.height"] == 0.05 and row["ball.material"] == "rubber":
+                assert unbounded.stop_reason == "max-duration"
+    # the user's own bounds, from [render], are taken and recorded the same way: steel
+    # (e about 0.89) falls 3 dB in kinetic energy within a few bounces and stops at the
+    # level rule, after the first impact n whose rebound energy (e_1 ... e_n)^2 of the
+    # first is below -3 dB; rubber (e about 0.99) at 5 impacts
+    spec = _materials_spec(tmp_path / "own", "max_impacts = 5\nbounce_floor_db = -3.0\n")
+    out = tmp_path / "own-out"
+    assert bank.run(spec, out, jobs=1).ok
+    for row in mf.read_rows(out):
+        scene, options = scene_from_dict(row["scene"], "row")
+        assert (options["max_impacts"], options["bounce_floor_db"]) == (5, -3.0)
+        e = np.array([i.restitution for i in simulate_scene(scene)])
+        below = np.flatnonzero(np.cumprod(e**2) < 10 ** (-3.0 / 10))
+        if row["ball.material"] == "steel":
+            assert row["stop_reason"] == "floor" and row["ticks"] == below[0] + 1 < 5, row
+        else:
+            assert row["stop_reason"] == "max-impacts" and row["ticks"] == 5, row
+            assert below[0] + 1 > 5
+
+
+@pytest.mark.parametrize(
+    "render, says",
+    [
+        ("max_impacts = 0", "render.max_impacts=0 must be an integer in [1, 100000]"),
+        ("max_impacts = 2.5", "render.max_impacts=2.5 must be an integer in [1, 100000]"),
+        ("max_impacts = 100001", "render.max_impacts=100001 must be an integer in [1, 100000]"),
+        ("bounce_floor_db = 0.0", "render.bounce_floor_db=0.0 must be < 0 (dB"),
+        ('bounce_floor_db = "low"', "render.bounce_floor_db='low' must be a real number < 0"),
+        ("bounce_floor_db = inf", "render.bounce_floor_db=inf must be finite and < 0"),
+    ],
+)
+def test_bad_bounce_limits_refused_at_plan_time(tmp_path, render, says):
+    # In the spec's [render] or as an axis: refused before any work, naming the key, its
+    # value and the allowed range (and, for an axis, the row).
+    assert says in _bad(tmp_path, BASE + f"[render]\n{render}\n")
+    key, value = render.split(" = ")
+    text = _bad(tmp_path, BASE + f'[vary]\n"render.{key}" = [{value}]\n')
+    assert "row 0 (" in text and says.removeprefix("render.") in text, text

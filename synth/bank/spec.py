@@ -25,6 +25,8 @@ A spec (every key; only ``preset`` is required)::
     [render]                        # overrides the preset's [render] (synth.render options)
     samplerate = 48000              # Hz
     normalize = "physical"          # "physical" (default for banks), "peak", "loudness", "none"
+    max_impacts = 64                # the bounces end after this many impacts (bank default 64,
+                                    # BANK_MAX_IMPACTS); bounce_floor_db = -60.0 their level rule
     subtype = "PCM_24"              # the files' sample format (soundfile subtype)
 
 With ``count``, variation ``i`` draws its ranges from its own generator
@@ -127,6 +129,20 @@ RESTITUTION_SCALE = "restitution_scale"
 
 #: The bank's level default: one calibration for every file (see synth.io.audio).
 DEFAULT_NORMALIZE = "physical"
+
+#: The bank's impact limit (``[render] max_impacts``; a plain render's is
+#: :data:`synth.physics.bounces.DEFAULT_MAX_IMPACTS`): a stated stop rule for a ball that
+#: loses little per bounce (rubber or ABS with the lossless Hertz contact, e near 0.99,
+#: which would bounce to ``max_duration``), not a change of its restitution. Kinetic energy
+#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so a ball with e <= 0.89 is
+#: 20 * 63 * log10(1 / 0.89) = 64 dB below its first impact by impact 64, past the
+#: series' level rule (``bounce_floor_db``, -60 dB) that ends it by itself; a ball that
+#: keeps more (near-elastic, or e about 0.93 for a marble on wood) stops here, its
+#: ``stop_reason`` "max-impacts".
+BANK_MAX_IMPACTS = 64
+
+#: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
+RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
 
 #: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
 #: scene is built and checked before the bank starts, and a bank of this many sounds of
@@ -380,7 +396,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         raise _error("render", render_section, "must be a table of render options")
     base = dict(base_raw)
     base["render"] = {
-        "normalize": DEFAULT_NORMALIZE,
+        **RENDER_DEFAULTS,
         **base_raw.get("render", {}),
         **render_section,
     }
