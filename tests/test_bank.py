@@ -1562,3 +1562,63 @@ def test_bad_bounce_limits_refused_at_plan_time(tmp_path, render, says):
     key, value = render.split(" = ")
     text = _bad(tmp_path, BASE + f'[vary]\n"render.{key}" = [{value}]\n')
     assert "row 0 (" in text and says.removeprefix("render.") in text, text
+
+
+def _edit_json(path: Path, **changes) -> None:
+    """Set (or, with None, remove) keys of a stored JSON record."""
+    data = json.loads(path.read_text())
+    for key, value in changes.items():
+        if value is None:
+            data.pop(key, None)
+        else:
+            data[key] = value
+    path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def test_a_bank_of_another_engine_is_refused_naming_both_versions(tmp_path, cache_dir, capsys):
+    # bank.json records the engine that rendered the bank. Resumed by another engine (or
+    # one whose bank.json records none), the run, its dry run and the command refuse it
+    # naming both versions and --force, and write or delete nothing; --force starts over.
+    import synth
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    assert mf.read_spec(out)["engine"] == synth.__version__
+    for recorded, says in (("0.0.1", "made by synth 0.0.1"), (None, "recorded no version")):
+        _edit_json(out / mf.SPEC, engine=recorded)
+        before = _tree(out)
+        for dry_run in (False, True):
+            with pytest.raises(BankSpecError) as info:
+                bank.run(spec, out, jobs=1, dry_run=dry_run)
+            text = str(info.value)
+            assert says in text and f"this is synth {synth.__version__}" in text, text
+            assert "--force" in text
+        assert main(["bank", str(spec), "-o", str(out), "--jobs", "1"]) == 2
+        assert says in capsys.readouterr().err
+        assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1, force=True)
+    assert result.ok and (result.done, result.skipped) == (2, 0)
+    assert mf.read_spec(out)["engine"] == synth.__version__
+    _check_complete(out, 2)
+
+
+def test_a_gain_pass_of_another_engine_is_refused_naming_both_versions(serial, tmp_path):
+    # gain.json records the engine of the pass and the source's (in its spec): a pass
+    # resumed by another engine is refused, nothing in the folder changed.
+    import synth
+
+    from synth.bank.gain import GAIN_FILE, apply_gain
+
+    _, ref = serial
+    out = tmp_path / "gained"
+    assert apply_gain(ref, out).done == 12
+    record = json.loads((out / GAIN_FILE).read_text())
+    assert record["engine"] == record["spec"]["engine"] == synth.__version__
+    _edit_json(out / GAIN_FILE, engine="0.0.1")
+    before = _tree(out)
+    with pytest.raises(BankSpecError) as info:
+        apply_gain(ref, out)
+    text = str(info.value)
+    assert "made by synth 0.0.1" in text and f"this is synth {synth.__version__}" in text, text
+    assert _tree(out) == before

@@ -35,11 +35,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import synth
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.executors import BankRunError
 from synth.bank.row import encode
-from synth.bank.run import move_files
+from synth.bank.run import engine_problem, move_files
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -162,9 +163,13 @@ def _compared(record: dict) -> dict:
     """The part of a ``gain.json`` record that makes the scaled sounds: the source, the
     target, level and gain, and the part of its bank's spec that makes the sounds
     (:func:`synth.bank.spec.compared_form`: a renamed preset, an edited label, name
-    template or tag do not count; earlier versions stored the spec as written)."""
+    template or tag do not count; earlier versions stored the spec as written) with the
+    engine that rendered the source; not the engine of the pass
+    (:func:`synth.bank.run.engine_problem` checks it)."""
     out = dict(record)
+    out.pop(bank_spec.ENGINE, None)  # the pass' engine: checked on its own
     if isinstance(out.get("spec"), dict):
+        out["source_engine"] = out["spec"].get(bank_spec.ENGINE)
         out["spec"] = bank_spec.compared_form(out["spec"])
     return out
 
@@ -222,15 +227,23 @@ def apply_gain(
     spec = bank_spec.canonical(spec)  # as a run stores it, whichever version stored it
     gain_db = round(bank_gain(rows, target, level), 9)
     record = {"source": str(src.resolve()), "spec": spec, "target": target, "level": level}
-    record["gain_db"] = gain_db
+    record.update(gain_db=gain_db, **{bank_spec.ENGINE: synth.__version__})
     t0 = time.perf_counter()
-    out.mkdir(parents=True, exist_ok=True)
     stored = out / GAIN_FILE
-    if stored.is_file() and _compared(json.loads(stored.read_text())) != _compared(record):
+    previous = json.loads(stored.read_text()) if stored.is_file() else None
+    problem = engine_problem(
+        f"out_dir={str(out)!r} ({GAIN_FILE})",
+        previous,
+        "scale into another folder, or empty this one to scale the bank again",
+    )
+    if problem is not None:
+        raise BankSpecError(problem)
+    if previous is not None and _compared(previous) != _compared(record):
         raise BankSpecError(
             f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
             f"use another folder"
         )
+    out.mkdir(parents=True, exist_ok=True)
     mf.write_atomic(stored, (json.dumps(record, indent=1, sort_keys=True) + "\n").encode())
     mf.clean_temporaries(out)
     cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]

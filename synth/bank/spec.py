@@ -72,6 +72,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+import synth
 from synth import cost
 from synth.errors import ParameterError
 from synth.io import presets
@@ -96,6 +97,11 @@ TOP_LEVEL = (
 #: Keys of a stored spec that do not change any sound (they name the files or describe
 #: them): left out when a spec is compared with the one a bank was made by.
 NOT_AUDIO = ("preset", "name", "labels", "tags")
+
+#: Key of a stored spec naming the engine that renders the bank (``synth.__version__``):
+#: compared on its own, not with the spec (:func:`synth.bank.run.engine_problem`), since
+#: another engine may make other bytes of the same spec.
+ENGINE = "engine"
 
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
@@ -260,6 +266,7 @@ class BankSpec:
             "labels": self.labels,
             "min_distance": self.min_distance,
             "tags": self.tags,
+            ENGINE: synth.__version__,
         }
 
     def stored_form(self) -> dict:
@@ -291,8 +298,9 @@ def canonical(data: dict) -> dict:
 def compared_form(data: dict) -> dict:
     """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
     form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
-    and the tags), so that a bank resumes across a change of them."""
-    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO}
+    and the tags), so that a bank resumes across a change of them, and without the
+    :data:`ENGINE` that rendered it (checked on its own)."""
+    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO + (ENGINE,)}
 
 
 @dataclass(frozen=True)
