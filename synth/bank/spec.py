@@ -143,7 +143,7 @@ DEFAULT_NORMALIZE = "physical"
 #: falls by e^2 per bounce (docs/physics.md, "Bounces"), so a ball with e <= 0.89 is
 #: 20 * 63 * log10(1 / 0.89) = 64 dB below its first impact by impact 64, past the
 #: series' level rule (``bounce_floor_db``, -60 dB) that ends it by itself; a ball that
-#: keeps more (near-elastic, or e about 0.93 for a marble on wood) stops here, its
+#: keeps more (near-elastic, or a glass marble on a wooden floor) stops here, its
 #: ``stop_reason`` "max-impacts".
 BANK_MAX_IMPACTS = 64
 
