@@ -184,14 +184,18 @@ def _cmd_render(args):
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
     if args.timing_from is not None or args.restitution_scale is not None:
+        from synth.sound.render import bounce_options, check_options
         from synth.stimuli import sequences as stimuli
 
         k = 1.0 if args.restitution_scale is None else args.restitution_scale
+        bounces = bounce_options(check_options(**opts))  # the preset's stop rules
         if args.timing_from is None:
-            opts["sequence"] = stimuli.scaled_sequence(scene, k)
+            opts["sequence"] = stimuli.scaled_sequence(scene, k, **bounces)
         else:
             timing = load_preset_with_options(args.timing_from)[0]
-            opts["sequence"] = stimuli.mismatch_sequence(timing, scene, restitution_scale=k)
+            opts["sequence"] = stimuli.mismatch_sequence(
+                timing, scene, restitution_scale=k, **bounces
+            )
     rendered = render(scene, **opts)
     with outputs:
         audio_io.write_audio(

@@ -840,9 +840,10 @@ def test_workers_die_with_a_killed_parent_and_the_next_run_resumes(tmp_path, cac
         os.kill(w, signal.SIGKILL)
     assert not orphans, "workers outlived their parent"
     assert len(mf.read_rows(out)) < 400  # the kill came before the end
+    assert (out / mf.LOCK).is_file()  # left by the killed parent, no longer locked
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
     assert done.returncode == 0, done.stderr
-    _check_complete(out, 400)
+    _check_complete(out, 400)  # the lock file and every temporary gone
 
 
 HISTORY_SPEC = """
@@ -1461,3 +1462,311 @@ def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
     assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
     assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
     assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]
+
+
+#: Steel, rubber and ABS balls on the small plate with the thesis' lossless Hertz contact:
+#: rubber and ABS then keep e near 0.99 and, unbounded, bounce on for tens of seconds.
+MATERIALS_SPEC = """
+preset = "small.toml"
+name = "{{ball.material}}-h{{drop.height:.2f}}"
+format = "wav"
+[vary]
+"ball.material" = ["steel", "rubber", "abs"]
+"drop.height" = [0.02, 0.05]
+[render]
+max_duration = 30.0
+{render}
+"""
+
+
+def _materials_spec(folder: Path, render: str = "") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "small.toml").write_text(SMALL_PRESET + '[contact]\nmodel = "thesis"\n')
+    path = folder / "bank.toml"
+    path.write_text(MATERIALS_SPEC.format(render=render))
+    return path
+
+
+@pytest.mark.slow
+def test_near_elastic_balls_stop_at_the_banks_impact_limit(tmp_path, cache_dir):
+    # Rubber and ABS keep the lossless contact (e > 0.97 at every impact): with the
+    # render's own limits their series run for tens of seconds (rubber from 5 cm to the
+    # 30 s max_duration). In a bank the documented impact limit stops every drop: each
+    # row records why (max-impacts, or its own end before it) and its impact count, none
+    # reaches max_duration, and the restitution of each impact is the physics' own (the
+    # bound cuts the series, it changes no bounce).
+    from synth.bank.spec import BANK_MAX_IMPACTS
+    from synth.io.presets import scene_from_dict
+    from synth.physics.bounces import simulate_scene
+
+    spec = _materials_spec(tmp_path / "spec")
+    out = tmp_path / "out"
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and result.done == 6
+    _check_complete(out, 6)
+    rows = mf.read_rows(out)
+    for row in rows:
+        assert row["stop_reason"] != "max-duration"
+        assert 1 <= row["ticks"] <= BANK_MAX_IMPACTS
+        assert row["scene"]["render"]["max_impacts"] == BANK_MAX_IMPACTS
+        assert (row["stop_reason"] == "max-impacts") == (row["ticks"] == BANK_MAX_IMPACTS)
+        scene, options = scene_from_dict(row["scene"], "row")
+        unbounded = simulate_scene(scene, max_duration=options["max_duration"])
+        bounded = simulate_scene(
+            scene, max_duration=options["max_duration"], max_impacts=BANK_MAX_IMPACTS
+        )
+        assert [i.restitution for i in bounded] == [
+            i.restitution for i in unbounded[: len(bounded)]
+        ]
+        assert row["first_restitution"] == unbounded[0].restitution
+        if row["ball.material"] in ("rubber", "abs"):
+            assert row["stop_reason"] == "max-impacts", row
+            assert min(i.restitution for i in bounded) > 0.97
+            # unbounded, the same drop lasts more than 5 s (the bank's row ends at the limit)
+            assert unbounded.duration > 5.0 and len(unbounded) > BANK_MAX_IMPACTS
+            if row["drop.height"] == 0.05 and row["ball.material"] == "rubber":
+                assert unbounded.stop_reason == "max-duration"
+    # the user's own bounds, from [render], are taken and recorded the same way: steel
+    # (e about 0.89) falls 3 dB in kinetic energy within a few bounces and stops at the
+    # level rule, after the first impact n whose rebound energy (e_1 ... e_n)^2 of the
+    # first is below -3 dB; rubber (e about 0.99) at 5 impacts
+    spec = _materials_spec(tmp_path / "own", "max_impacts = 5\nbounce_floor_db = -3.0\n")
+    out = tmp_path / "own-out"
+    assert bank.run(spec, out, jobs=1).ok
+    for row in mf.read_rows(out):
+        scene, options = scene_from_dict(row["scene"], "row")
+        assert (options["max_impacts"], options["bounce_floor_db"]) == (5, -3.0)
+        e = np.array([i.restitution for i in simulate_scene(scene)])
+        below = np.flatnonzero(np.cumprod(e**2) < 10 ** (-3.0 / 10))
+        if row["ball.material"] == "steel":
+            assert row["stop_reason"] == "floor" and row["ticks"] == below[0] + 1 < 5, row
+        else:
+            assert row["stop_reason"] == "max-impacts" and row["ticks"] == 5, row
+            assert below[0] + 1 > 5
+
+
+@pytest.mark.parametrize(
+    "render, says",
+    [
+        ("max_impacts = 0", "render.max_impacts=0 must be an integer in [1, 100000]"),
+        ("max_impacts = 2.5", "render.max_impacts=2.5 must be an integer in [1, 100000]"),
+        ("max_impacts = 100001", "render.max_impacts=100001 must be an integer in [1, 100000]"),
+        ("bounce_floor_db = 0.0", "render.bounce_floor_db=0.0 must be < 0 (dB"),
+        ('bounce_floor_db = "low"', "render.bounce_floor_db='low' must be a real number < 0"),
+        ("bounce_floor_db = inf", "render.bounce_floor_db=inf must be finite and < 0"),
+    ],
+)
+def test_bad_bounce_limits_refused_at_plan_time(tmp_path, render, says):
+    # In the spec's [render] or as an axis: refused before any work, naming the key, its
+    # value and the allowed range (and, for an axis, the row).
+    assert says in _bad(tmp_path, BASE + f"[render]\n{render}\n")
+    key, value = render.split(" = ")
+    text = _bad(tmp_path, BASE + f'[vary]\n"render.{key}" = [{value}]\n')
+    assert "row 0 (" in text and says.removeprefix("render.") in text, text
+
+
+def _edit_json(path: Path, **changes) -> None:
+    """Set (or, with None, remove) keys of a stored JSON record."""
+    data = json.loads(path.read_text())
+    for key, value in changes.items():
+        if value is None:
+            data.pop(key, None)
+        else:
+            data[key] = value
+    path.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+
+
+def test_a_bank_of_another_engine_is_refused_naming_both_versions(tmp_path, cache_dir, capsys):
+    # bank.json records the engine that rendered the bank. Resumed by another engine (or
+    # one whose bank.json records none), the run, its dry run and the command refuse it
+    # naming both versions and --force, and write or delete nothing; --force starts over.
+    import synth
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    assert mf.read_spec(out)["engine"] == synth.__version__
+    for recorded, says in (("0.0.1", "made by synth 0.0.1"), (None, "recorded no version")):
+        _edit_json(out / mf.SPEC, engine=recorded)
+        before = _tree(out)
+        for dry_run in (False, True):
+            with pytest.raises(BankSpecError) as info:
+                bank.run(spec, out, jobs=1, dry_run=dry_run)
+            text = str(info.value)
+            assert says in text and f"this is synth {synth.__version__}" in text, text
+            assert "--force" in text
+        assert main(["bank", str(spec), "-o", str(out), "--jobs", "1"]) == 2
+        assert says in capsys.readouterr().err
+        assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1, force=True)
+    assert result.ok and (result.done, result.skipped) == (2, 0)
+    assert mf.read_spec(out)["engine"] == synth.__version__
+    _check_complete(out, 2)
+
+
+def test_a_gain_pass_of_another_engine_is_refused_naming_both_versions(serial, tmp_path):
+    # gain.json records the engine of the pass and the source's (in its spec): a pass
+    # resumed by another engine is refused, nothing in the folder changed.
+    import synth
+    from synth.bank.gain import GAIN_FILE, apply_gain
+
+    _, ref = serial
+    out = tmp_path / "gained"
+    assert apply_gain(ref, out).done == 12
+    record = json.loads((out / GAIN_FILE).read_text())
+    assert record["engine"] == record["spec"]["engine"] == synth.__version__
+    _edit_json(out / GAIN_FILE, engine="0.0.1")
+    before = _tree(out)
+    with pytest.raises(BankSpecError) as info:
+        apply_gain(ref, out)
+    text = str(info.value)
+    assert "made by synth 0.0.1" in text and f"this is synth {synth.__version__}" in text, text
+    assert _tree(out) == before
+
+
+def _file_loudness(path: Path) -> float:
+    """Integrated loudness of an audio file, LUFS (ITU-R BS.1770 by pyloudnorm), zero-padded
+    to one 400 ms gating block as the manifest measures it."""
+    import pyloudnorm
+    import soundfile
+
+    x, fs = soundfile.read(path, dtype="float64")
+    x = np.pad(x, (0, max(0, round(0.4 * fs) - x.size)))
+    return pyloudnorm.Meter(fs, block_size=0.4).integrated_loudness(x)
+
+
+def test_bank_gain_brings_the_median_loudness_to_its_level(serial, tmp_path):
+    # target = "loudness": the median loudness of the scaled files, measured again from
+    # them, is the level asked for, within 0.01 LU (the pass stops within 0.001 LU of it,
+    # measured on the samples before quantization; the files are within one 24-bit step of
+    # them, which moves a loudness above -70 LUFS by far less). These quiet sounds (-70 to
+    # -60 LUFS at the physical level) are the hard case: BS.1770's gates let more of their
+    # blocks in once they are lifted, so their loudness does not rise dB for dB with the
+    # gain, and the manifest's loudness of each scaled file is that of the file too.
+    # The level is chosen 3 dB under the clip of the loudest true peak.
+    import statistics
+
+    pytest.importorskip("pyloudnorm")
+    from synth.bank.gain import apply_gain
+
+    _, ref = serial
+    src_rows = mf.read_rows(ref)
+    median = statistics.median(r["loudness_lufs"] for r in src_rows if r["loudness_lufs"])
+    level = round(median + (-3.0 - max(r["true_peak_dbtp"] for r in src_rows)), 3)
+    out = tmp_path / "gained"
+    result = apply_gain(ref, out, target="loudness", level=level)
+    assert result.done == len(src_rows) and result.reached == pytest.approx(level, abs=1e-3)
+    rows = mf.read_rows(out)
+    measured = [_file_loudness(out / r["file"]) for r in rows]
+    assert statistics.median(measured) == pytest.approx(level, abs=0.01)
+    for value, row in zip(measured, rows):
+        assert row["loudness_lufs"] == pytest.approx(value, abs=0.01)
+    again = apply_gain(ref, out, target="loudness", level=level)  # the same gain found
+    assert (again.done, again.skipped, again.gain_db) == (0, len(rows), result.gain_db)
+
+
+#: Runs a gain pass in a child process, each file's scaling slowed (so that the test can
+#: kill it between two files): argv = source, out.
+SLOW_GAIN = """
+import sys, time
+from synth.bank import gain
+scale = gain._scale_file
+def slow(*args):
+    time.sleep(0.25)
+    return scale(*args)
+gain._scale_file = slow
+gain.apply_gain(sys.argv[1], sys.argv[2])
+"""
+
+
+@pytest.mark.slow
+def test_bank_gain_killed_mid_pass_resumes_scaling_each_file_once(serial, tmp_path):
+    # A gain pass SIGKILLed after a few files: the rerun scales only the files not
+    # recorded (those recorded keep their inode and mtime), no temporary is left, every
+    # row is in the manifest once with its file's hash, and the folder equals that of a
+    # pass never interrupted, byte for byte.
+    from synth.bank.gain import apply_gain
+
+    _, ref = serial
+    out = tmp_path / "gained"
+    child = subprocess.Popen([sys.executable, "-c", SLOW_GAIN, str(ref), str(out)])
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and child.poll() is None:
+        if (out / mf.JSONL).is_file() and len((out / mf.JSONL).read_text().splitlines()) >= 3:
+            break
+        time.sleep(0.01)
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    recorded = [r for r in mf.read_rows(out) if r["status"] == "ok"]
+    assert 3 <= len(recorded) < 12, "the pass was not killed mid-way"
+    before = {r["file"]: _file_identity(out / r["file"]) for r in recorded}
+    again = apply_gain(ref, out)
+    assert (again.done, again.skipped) == (12 - len(recorded), len(recorded))
+    assert {name: _file_identity(out / name) for name in before} == before
+    rows = mf.read_rows(out)
+    assert [r["index"] for r in rows] == list(range(12))
+    for r in rows:
+        assert mf.sha256_file(out / r["file"]) == r["sha256"]
+    assert not [p for p in out.iterdir() if mf.TEMPORARY.match(p.name)]
+    assert apply_gain(ref, tmp_path / "fresh").done == 12
+    assert _audio_files(out) == _audio_files(tmp_path / "fresh")
+    for name in (mf.JSONL, mf.CSV):
+        assert (out / name).read_bytes() == (tmp_path / "fresh" / name).read_bytes()
+
+
+def test_trim_max_length_and_audible_duration(serial, tmp_path, cache_dir):
+    # [trim] max_length = 0.1 s (below_db so low that the tail is never cut first): every
+    # file is the untrimmed one's first 0.1 s, its last 10 ms faded by a raised cosine,
+    # and the manifest says "max-length". The audible duration of each untrimmed file is
+    # the time to its last sample within 60 dB of its peak, found again in the decoded
+    # file (to within the samples one 24-bit step either side of that level).
+    import soundfile
+
+    _, ref = serial
+    spec = _write_spec(
+        tmp_path / "spec", extra="[trim]\nbelow_db = -200.0\nfade = 0.01\nmax_length = 0.1\n"
+    )
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    fs, step = 16000, 2.0**-23
+    n, k = round(0.1 * fs), round(0.01 * fs)
+    ramp = 0.5 * (1.0 + np.cos(np.pi * np.arange(1, k + 1) / k))
+    for row, whole in zip(mf.read_rows(out), mf.read_rows(ref)):
+        assert row["length_reason"] == "max-length" and row["duration"] == pytest.approx(0.1)
+        cut, _ = soundfile.read(out / row["file"])
+        full, _ = soundfile.read(ref / whole["file"])
+        assert cut.size == n < full.size
+        assert np.array_equal(cut[: n - k], full[: n - k])
+        assert np.max(np.abs(cut[n - k :] - full[n - k : n] * ramp)) <= step
+        assert row["audible_duration"] <= row["duration"]
+        level = np.max(np.abs(full)) * 10 ** (-60 / 20)
+        last = [np.flatnonzero(np.abs(full) >= level + d)[-1] + 1 for d in (step, -step)]
+        assert last[0] <= round(whole["audible_duration"] * fs) <= last[1]
+
+
+def test_the_next_run_cleans_what_a_killed_run_left(tmp_path, cache_dir):
+    # After kill -9 of the parent, the folder holds its .bank.lock (no longer locked) and
+    # the temporaries of the files being written (in subfolders too): the next run,
+    # resumed or dry, takes the lock; the run (not the dry run) removes them all, and the
+    # finished folder holds neither.
+    from synth.io.atomic import temporary_name
+
+    spec = _write_spec(tmp_path / "spec", count=2, extra="")
+    spec.write_text(
+        spec.read_text().replace(
+            'name = "{preset}-{index:03d}"', 'name = "sub/{preset}-{index:03d}"'
+        )
+    )
+    out = tmp_path / "out"
+    assert bank.run(spec, out, jobs=1).ok
+    (out / mf.LOCK).touch()
+    left = [out / temporary_name(".wav"), out / "sub" / temporary_name(".wav")]
+    for path in left:
+        path.write_bytes(b"partial")
+    assert all(mf.TEMPORARY.match(p.name) for p in left)
+    before = _tree(out)
+    assert bank.run(spec, out, jobs=1, dry_run=True).skipped == 2
+    assert _tree(out) == before
+    result = bank.run(spec, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 2)
+    assert not (out / mf.LOCK).exists() and not any(p.exists() for p in left)

@@ -6,7 +6,11 @@ level too. :func:`apply_gain` computes one gain from the finished bank's manifes
 
 * ``true_peak``: the loudest true peak of the bank to a target (default -1 dBTP), or
 * ``loudness``: the median integrated loudness of the bank to a target (LUFS; rows
-  below the -70 LUFS gate, with no loudness, are left out of the median),
+  below the -70 LUFS gate, with no loudness, are left out of the median). Integrated
+  loudness (ITU-R BS.1770) gates its 400 ms blocks, so a gain that lifts quiet sounds lets
+  more of their blocks in and their loudness rises by less than the gain: the gain is
+  found by measuring the scaled sounds (:func:`loudness_gain`), and the manifest's
+  loudness of each scaled file is measured, not added up,
 
 then decodes each file, scales it by that gain and encodes it again in the bank's
 format and subtype into ``out_dir`` (the same names; bytes a function of the samples,
@@ -35,11 +39,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import synth
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.executors import BankRunError
-from synth.bank.row import encode
-from synth.bank.run import move_files
+from synth.bank.row import encode, integrated_loudness
+from synth.bank.run import engine_problem, move_files
 from synth.bank.spec import BankSpecError
 
 #: Targets of the gain and their defaults (dBTP, LUFS).
@@ -48,13 +53,20 @@ TARGETS = {"true_peak": -1.0, "loudness": -23.0}
 #: File stored beside the scaled bank's manifest: the gain, its target and the source.
 GAIN_FILE = "gain.json"
 
+#: Gains tried by :func:`loudness_gain`; and how close the median loudness of the scaled
+#: sounds must come to the level, LU (a thousandth of the smallest step of loudness
+#: anyone hears, about 1 LU).
+LOUDNESS_TRIALS = 8
+LOUDNESS_TOLERANCE = 1e-3
+
 
 @dataclass
 class GainResult:
     """The outcome of :func:`apply_gain`: the gain (dB), ``done`` files scaled now,
     ``skipped`` found complete (of which ``renamed`` moved to the source's new names),
     ``orphans`` (audio files in ``out_dir`` its manifest does not name; deleted if
-    ``pruned``), and the pass' ``elapsed`` time (s)."""
+    ``pruned``), the pass' ``elapsed`` time (s), and the level ``reached``: the loudest
+    true peak (dBTP) or the median loudness (LUFS) of the scaled files."""
 
     out_dir: Path
     gain_db: float
@@ -66,6 +78,7 @@ class GainResult:
     orphans: list = field(default_factory=list)
     pruned: bool = False
     elapsed: float = 0.0
+    reached: float | None = None
 
     @property
     def rate(self) -> float:
@@ -74,7 +87,8 @@ class GainResult:
 
     def summary(self) -> str:
         text = (
-            f"{self.out_dir}: gain {self.gain_db:+.3f} dB ({self.target} to {self.level:g}); "
+            f"{self.out_dir}: gain {self.gain_db:+.3f} dB ({self.target} to {self.level:g}"
+            f"{'' if self.reached is None else f', reached {self.reached:.3f}'}); "
             f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
         )
         if self.renamed:
@@ -86,7 +100,8 @@ class GainResult:
 
 def bank_gain(rows: list[dict], target: str, level: float) -> float:
     """The bank's gain, dB, from its manifest rows: ``level`` less the loudest true
-    peak (``target = "true_peak"``) or less the median loudness (``"loudness"``)."""
+    peak (``target = "true_peak"``), or less the median loudness (``"loudness"``: the
+    first estimate of :func:`loudness_gain`)."""
     if target == "true_peak":
         peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
         if not peaks:
@@ -99,6 +114,56 @@ def bank_gain(rows: list[dict], target: str, level: float) -> float:
             "'impact-synth[loudness]', or every row below the -70 LUFS gate)"
         )
     return level - statistics.median(values)
+
+
+def _median_loudness(bank_dir: Path, rows: list[dict], gain_db: float) -> float | None:
+    """The median integrated loudness, LUFS, of the files of ``rows`` in ``bank_dir``
+    scaled by ``gain_db`` (those below the -70 LUFS gate left out; None if all are)."""
+    import soundfile
+
+    values = []
+    for row in rows:
+        audio, samplerate = soundfile.read(bank_dir / row["file"], dtype="float64")
+        value = integrated_loudness(audio * 10.0 ** (gain_db / 20.0), samplerate)
+        if value is not None:
+            values.append(value)
+    return statistics.median(values) if values else None
+
+
+def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
+    """The gain, dB, that brings the median loudness of the bank's files (``rows`` in
+    ``bank_dir``) to ``level`` LUFS once scaled. Integrated loudness (ITU-R BS.1770) is
+    not homogeneous: its blocks below -70 LUFS (absolute gate) and 10 LU below the
+    loudness of the rest (relative gate) are left out, so a gain lifts a quiet sound's
+    loudness by less than itself as more of its blocks come in. From the manifest's
+    estimate (:func:`bank_gain`), each trial measures the scaled files and moves the
+    gain by the median's miss, which is exact while the same blocks pass the gates
+    (loudness then rises dB for dB), until the miss is below
+    :data:`LOUDNESS_TOLERANCE`; after :data:`LOUDNESS_TRIALS` the gain that came
+    closest (the result's ``reached`` says how close)."""
+    gain = bank_gain(rows, "loudness", level)
+    best = None
+    for _ in range(LOUDNESS_TRIALS):
+        median = _median_loudness(bank_dir, rows, gain)
+        if median is None:
+            break
+        miss = level - median
+        if best is None or abs(miss) < abs(best[1]):
+            best = (gain, miss)
+        if abs(miss) <= LOUDNESS_TOLERANCE:
+            break
+        gain += miss
+    return gain if best is None else best[0]
+
+
+def _reached(rows: list[dict], target: str) -> float | None:
+    """The level the scaled ``rows`` reach: their loudest true peak (dBTP) or their
+    median loudness (LUFS); None if none has one."""
+    if target == "true_peak":
+        peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
+        return max(peaks) if peaks else None
+    values = [r["loudness_lufs"] for r in rows if r.get("loudness_lufs") is not None]
+    return statistics.median(values) if values else None
 
 
 def _check_target(target: str, level) -> float:
@@ -136,17 +201,31 @@ def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
     return spec, rows
 
 
-def _scaled_row(row: dict, data: bytes, gain_db: float) -> dict:
+def _scaled_row(row: dict, scaled: Scaled, gain_db: float) -> dict:
+    """The manifest row of a scaled file: the source's ``row`` with ``gain_db``, its
+    peak and true peak moved by the gain (both scale with the samples exactly), its
+    loudness measured (it does not, :func:`loudness_gain`) and its hashes."""
     new = dict(row)
     new["gain_db"] = gain_db
-    for key in ("peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
+    for key in ("peak_dbfs", "true_peak_dbtp"):
         if new.get(key) is not None:
             new[key] = round(new[key] + gain_db, 6)
-    new.update(mf.file_hashes(data))
+    new["loudness_lufs"] = scaled.loudness_lufs
+    new.update(mf.file_hashes(scaled.data))
     return new
 
 
-def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
+@dataclass
+class Scaled:
+    """A scaled file: its bytes and the integrated loudness of its samples (LUFS, None
+    below the gate or without pyloudnorm), measured before quantization as a render's
+    manifest measures it."""
+
+    data: bytes
+    loudness_lufs: float | None
+
+
+def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> Scaled:
     """The file ``source`` decoded, scaled by ``gain_db`` and encoded again as the
     bank's format and subtype (:func:`synth.bank.row.encode`); PCM that would clip is
     refused."""
@@ -155,16 +234,21 @@ def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> bytes:
     audio, samplerate = soundfile.read(source, dtype="float64")
     audio = audio * 10.0 ** (gain_db / 20.0)
     advice = f"the gain of {gain_db:+.2f} dB is too high: choose a lower level"
-    return encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
+    data = encode(audio, samplerate, spec["format"], spec["subtype"], name, advice)
+    return Scaled(data, integrated_loudness(audio, samplerate))
 
 
 def _compared(record: dict) -> dict:
     """The part of a ``gain.json`` record that makes the scaled sounds: the source, the
     target, level and gain, and the part of its bank's spec that makes the sounds
     (:func:`synth.bank.spec.compared_form`: a renamed preset, an edited label, name
-    template or tag do not count; earlier versions stored the spec as written)."""
+    template or tag do not count; earlier versions stored the spec as written) with the
+    engine that rendered the source; not the engine of the pass
+    (:func:`synth.bank.run.engine_problem` checks it)."""
     out = dict(record)
+    out.pop(bank_spec.ENGINE, None)  # the pass' engine: checked on its own
     if isinstance(out.get("spec"), dict):
+        out["source_engine"] = out["spec"].get(bank_spec.ENGINE)
         out["spec"] = bank_spec.compared_form(out["spec"])
     return out
 
@@ -220,17 +304,26 @@ def apply_gain(
         raise BankSpecError(f"out_dir={str(out)!r} must be another folder than the bank's")
     spec, rows = _finished_rows(src)
     spec = bank_spec.canonical(spec)  # as a run stores it, whichever version stored it
-    gain_db = round(bank_gain(rows, target, level), 9)
+    gain = bank_gain(rows, target, level) if target == "true_peak" else None
+    gain_db = round(loudness_gain(src, rows, level) if gain is None else gain, 9)
     record = {"source": str(src.resolve()), "spec": spec, "target": target, "level": level}
-    record["gain_db"] = gain_db
+    record.update(gain_db=gain_db, **{bank_spec.ENGINE: synth.__version__})
     t0 = time.perf_counter()
-    out.mkdir(parents=True, exist_ok=True)
     stored = out / GAIN_FILE
-    if stored.is_file() and _compared(json.loads(stored.read_text())) != _compared(record):
+    previous = json.loads(stored.read_text()) if stored.is_file() else None
+    problem = engine_problem(
+        f"out_dir={str(out)!r} ({GAIN_FILE})",
+        previous,
+        "scale into another folder, or empty this one to scale the bank again",
+    )
+    if problem is not None:
+        raise BankSpecError(problem)
+    if previous is not None and _compared(previous) != _compared(record):
         raise BankSpecError(
             f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
             f"use another folder"
         )
+    out.mkdir(parents=True, exist_ok=True)
     mf.write_atomic(stored, (json.dumps(record, indent=1, sort_keys=True) + "\n").encode())
     mf.clean_temporaries(out)
     cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
@@ -246,16 +339,17 @@ def apply_gain(
             target_file = out / row["file"]
             target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
             target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
-            data = _scale_file(src / row["file"], spec, gain_db, row["file"])
-            if not mf.write_once(target_file, data):
-                data = target_file.read_bytes()
-            new = _scaled_row(row, data, gain_db)
+            scaled = _scale_file(src / row["file"], spec, gain_db, row["file"])
+            if not mf.write_once(target_file, scaled.data):
+                scaled.data = target_file.read_bytes()
+            new = _scaled_row(row, scaled, gain_db)
             book.append(new)
             kept.append(new)
             result.done += 1
     finally:
         book.close()
         book.rewrite(sorted(kept, key=lambda r: r["index"]))
+    result.reached = _reached(kept, target)
     result.orphans = mf.orphans(out, [r["file"] for r in kept])
     if prune and result.orphans:
         mf.remove_files(out, result.orphans)

@@ -35,7 +35,7 @@ def _max_rss() -> int:
     return int(r if sys.platform == "darwin" else r * 1024)
 
 
-def _loudness(audio: np.ndarray, samplerate: int) -> float | None:
+def integrated_loudness(audio: np.ndarray, samplerate: int) -> float | None:
     """Integrated loudness (ITU-R BS.1770, LUFS) of ``audio`` zero-padded to one 400 ms
     gating block, or None without pyloudnorm or below the -70 LUFS gate."""
     try:
@@ -84,16 +84,14 @@ def encode(
 def render_scene(spec: BankSpec, item: PlanItem):
     """Render row ``item``: the Render, the file's bytes, and the row's figures."""
     from synth.io.presets import scene_from_dict
-    from synth.sound.render import render
+    from synth.sound.render import bounce_options, check_options, render
     from synth.stimuli.sequences import scaled_sequence
 
     scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
     subtype = str(options.pop("subtype", spec.subtype)).upper()
     k = item.values.get(RESTITUTION_SCALE)
     sequence = (
-        None
-        if k is None
-        else scaled_sequence(scene, k, max_duration=options.get("max_duration", 30.0))
+        None if k is None else scaled_sequence(scene, k, **bounce_options(check_options(**options)))
     )
     rendered = render(scene, sequence=sequence, **options)
     audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
@@ -112,7 +110,7 @@ def render_scene(spec: BankSpec, item: PlanItem):
         "first_peak_force": first.result.peak_force if first is not None else None,
         "peak_dbfs": round(20 * math.log10(peak), 6) if peak > 0 else None,
         "true_peak_dbtp": _true_peak_db(audio),
-        "loudness_lufs": _loudness(audio, rendered.samplerate),
+        "loudness_lufs": integrated_loudness(audio, rendered.samplerate),
         "spectral_centroid": _spectral_centroid(audio, rendered.samplerate),
         "scene": bank_spec.scene_data(spec, item.values),
     }

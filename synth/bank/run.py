@@ -196,13 +196,40 @@ def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
     )
 
 
-def _stored(out_dir: Path) -> dict | None:
-    """The part of the spec stored in the folder that makes its sounds (None if none):
-    :func:`synth.bank.spec.compared_form`, in which a folder of an earlier version (which
-    stored the spec as written) compares as the same spec, and a renamed preset, an
-    edited label, name template or tag do not count."""
+def made_by_another_engine(recorded: dict | None) -> bool:
+    """True if a folder's stored record ``recorded`` (a ``bank.json`` or a ``gain.json``;
+    None: no record, a new folder) names another :data:`synth.bank.spec.ENGINE` than
+    ``synth.__version__``, or none (an engine that did not record its version): another
+    engine may make other bytes of the same spec, so resuming would mix two engines'
+    files."""
+    import synth
+
+    return recorded is not None and recorded.get(bank_spec.ENGINE) != synth.__version__
+
+
+def engine_problem(what: str, recorded: dict | None, advice: str) -> str | None:
+    """The error of ``what`` (a folder's record ``recorded``) made by another engine
+    (:func:`made_by_another_engine`), naming both versions, with ``advice`` (what to do
+    instead); None if this engine made it."""
+    import synth
+
+    if not made_by_another_engine(recorded):
+        return None
+    made_by = recorded.get(bank_spec.ENGINE)
+    by = f"synth {made_by}" if isinstance(made_by, str) else "a synth that recorded no version"
+    return (
+        f"{what} was made by {by}, and this is synth {synth.__version__}: another engine "
+        f"may render other bytes, so resuming would mix the two engines' files; {advice}"
+    )
+
+
+def _stored(out_dir: Path) -> tuple[dict | None, dict | None]:
+    """The spec stored in the folder as it is (None if none) and the part of it that
+    makes its sounds: :func:`synth.bank.spec.compared_form`, in which a canonical form of
+    an earlier version compares as the same spec, and a renamed preset, an edited
+    label, name template or tag do not count."""
     stored = mf.read_spec(out_dir) if out_dir.is_dir() else None
-    return None if stored is None else bank_spec.compared_form(stored)
+    return stored, None if stored is None else bank_spec.compared_form(stored)
 
 
 def _of_another_spec(stored: dict | None, new: dict) -> bool:
@@ -211,13 +238,38 @@ def _of_another_spec(stored: dict | None, new: dict) -> bool:
     return stored is not None and stored != new and not _grows(stored, new)
 
 
+def _refuse_to_resume(out_dir: Path, spec: BankSpec) -> bool:
+    """True if the folder holds a bank this run cannot resume: another engine made it
+    (:func:`engine_problem`) or another spec (:func:`_of_another_spec`); without
+    ``force`` the caller refuses it (:func:`_refuse`)."""
+    raw, stored = _stored(out_dir)
+    return made_by_another_engine(raw) or _of_another_spec(
+        stored, bank_spec.compared_form(spec.stored_form())
+    )
+
+
+def _refuse(out_dir: Path, spec: BankSpec) -> None:
+    """Raise the error of a folder this run cannot resume (:func:`_refuse_to_resume`),
+    naming the two engines or the keys that differ."""
+    raw, stored = _stored(out_dir)
+    problem = engine_problem(
+        f"out_dir={str(out_dir)!r} ({mf.SPEC})",
+        raw,
+        "use --force (force=True) to start over and render the bank again with this "
+        "engine, or another folder",
+    )
+    if problem is not None:
+        raise BankSpecError(problem)
+    _refuse_other_spec(out_dir, stored, bank_spec.compared_form(spec.stored_form()))
+
+
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
-    """Refuse a folder made by another spec (naming the keys that differ), or with
-    ``force`` delete its files and manifest to start over."""
-    stored, new = _stored(out_dir), bank_spec.compared_form(spec.stored_form())
-    if _of_another_spec(stored, new):
+    """Refuse a folder made by another engine or another spec (naming the engines or
+    the keys that differ), or with ``force`` delete its files and manifest to start
+    over."""
+    if _refuse_to_resume(out_dir, spec):
         if not force:
-            _refuse_other_spec(out_dir, stored, new)
+            _refuse(out_dir, spec)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
             if _inside(out_dir, f) and f.is_file():
@@ -480,10 +532,9 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     refused as a run refuses it; with ``force`` every row counts as to be rendered."""
     t0 = time.perf_counter()
     plan = {item.index: item for item in items}
-    stored, new = _stored(out), bank_spec.compared_form(spec.stored_form())
-    other = _of_another_spec(stored, new)
+    other = _refuse_to_resume(out, spec)
     if other and not force:
-        _refuse_other_spec(out, stored, new)
+        _refuse(out, spec)
     kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
     kept = [r for r in kept if r["index"] not in again]
     done_ids = {r["index"] for r in kept}

@@ -25,6 +25,8 @@ A spec (every key; only ``preset`` is required)::
     [render]                        # overrides the preset's [render] (synth.render options)
     samplerate = 48000              # Hz
     normalize = "physical"          # "physical" (default for banks), "peak", "loudness", "none"
+    max_impacts = 64                # the bounces end after this many impacts (bank default 64,
+                                    # BANK_MAX_IMPACTS); bounce_floor_db = -60.0 their level rule
     subtype = "PCM_24"              # the files' sample format (soundfile subtype)
 
 With ``count``, variation ``i`` draws its ranges from its own generator
@@ -70,6 +72,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+import synth
 from synth import cost
 from synth.errors import ParameterError
 from synth.io import presets
@@ -94,6 +97,11 @@ TOP_LEVEL = (
 #: Keys of a stored spec that do not change any sound (they name the files or describe
 #: them): left out when a spec is compared with the one a bank was made by.
 NOT_AUDIO = ("preset", "name", "labels", "tags")
+
+#: Key of a stored spec naming the engine that renders the bank (``synth.__version__``):
+#: compared on its own, not with the spec (:func:`synth.bank.run.engine_problem`), since
+#: another engine may make other bytes of the same spec.
+ENGINE = "engine"
 
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
@@ -127,6 +135,20 @@ RESTITUTION_SCALE = "restitution_scale"
 
 #: The bank's level default: one calibration for every file (see synth.io.audio).
 DEFAULT_NORMALIZE = "physical"
+
+#: The bank's impact limit (``[render] max_impacts``; a plain render's is
+#: :data:`synth.physics.bounces.DEFAULT_MAX_IMPACTS`): a stated stop rule for a ball that
+#: loses little per bounce (rubber or ABS with the lossless Hertz contact, e near 0.99,
+#: which would bounce to ``max_duration``), not a change of its restitution. Kinetic energy
+#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so a ball with e <= 0.89 is
+#: 20 * 63 * log10(1 / 0.89) = 64 dB below its first impact by impact 64, past the
+#: series' level rule (``bounce_floor_db``, -60 dB) that ends it by itself; a ball that
+#: keeps more (near-elastic, or a glass marble on a wooden floor) stops here, its
+#: ``stop_reason`` "max-impacts".
+BANK_MAX_IMPACTS = 64
+
+#: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
+RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
 
 #: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
 #: scene is built and checked before the bank starts, and a bank of this many sounds of
@@ -244,6 +266,7 @@ class BankSpec:
             "labels": self.labels,
             "min_distance": self.min_distance,
             "tags": self.tags,
+            ENGINE: synth.__version__,
         }
 
     def stored_form(self) -> dict:
@@ -275,8 +298,9 @@ def canonical(data: dict) -> dict:
 def compared_form(data: dict) -> dict:
     """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
     form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
-    and the tags), so that a bank resumes across a change of them."""
-    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO}
+    and the tags), so that a bank resumes across a change of them, and without the
+    :data:`ENGINE` that rendered it (checked on its own)."""
+    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO + (ENGINE,)}
 
 
 @dataclass(frozen=True)
@@ -380,7 +404,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         raise _error("render", render_section, "must be a table of render options")
     base = dict(base_raw)
     base["render"] = {
-        "normalize": DEFAULT_NORMALIZE,
+        **RENDER_DEFAULTS,
         **base_raw.get("render", {}),
         **render_section,
     }

@@ -69,6 +69,8 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     max_duration = 30.0             # s from release: latest impact
     max_tail = 60.0                 # s of ringing after the last impact, at most
     pulse_points = 65               # fewest points per pulse for the transforms
+    bounce_floor_db = -60.0         # dB: the bounces end below this kinetic energy re the first
+    max_impacts = 10000             # the bounces end after this many impacts
     subtype = "PCM_24"              # the output file's sample format (soundfile subtype)
 
 An inline material is ``{ name = "oak-board", density = 700.0, young = 12e9,

@@ -19,7 +19,12 @@ from synth import checks, cost
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError, SynthError
 from synth.io import cache as disk_cache
-from synth.physics.bounces import BounceSequence, simulate_scene
+from synth.physics.bounces import (
+    DEFAULT_FLOOR_DB,
+    DEFAULT_MAX_IMPACTS,
+    BounceSequence,
+    simulate_scene,
+)
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
 from synth.sound.modal_bank import PULSE_POINTS, synthesize
@@ -288,6 +293,8 @@ OPTIONS = (
     "max_duration",
     "max_tail",
     "pulse_points",
+    "bounce_floor_db",
+    "max_impacts",
 )
 
 
@@ -306,6 +313,9 @@ MAX_PULSE_POINTS = 4097
 #: Relative agreement of a passed sequence's first contact with the scene's own (the
 #: solver's tolerance is far tighter; another ball or plate differs by percents).
 SEQUENCE_RTOL = 1e-4
+#: Most impacts a render's bounce series may be given (``max_impacts``): each impact is a
+#: contact solve and a pulse, so this many is minutes of work; a guard against a typo.
+MAX_IMPACTS = 100_000
 
 
 def check_options(
@@ -321,6 +331,8 @@ def check_options(
     max_duration=30.0,
     max_tail=60.0,
     pulse_points=PULSE_POINTS,
+    bounce_floor_db=DEFAULT_FLOOR_DB,
+    max_impacts=DEFAULT_MAX_IMPACTS,
 ) -> dict:
     """Check the options of :func:`render` (units and ranges there) and return them
     converted (floats, an int rate); a bad one is a ``ParameterError`` naming it, its
@@ -352,6 +364,20 @@ def check_options(
         raise ParameterError(
             f"pulse_points={pulse_points!r} must be an integer in [5, {MAX_PULSE_POINTS}]"
         )
+    bounce_floor = checks.real("bounce_floor_db", bounce_floor_db, "dB", "< 0")
+    if not bounce_floor < 0.0:
+        raise ParameterError(
+            f"bounce_floor_db={bounce_floor_db!r} must be < 0 (dB: an impact's kinetic "
+            f"energy re the first impact's)"
+        )
+    if (
+        isinstance(max_impacts, bool)
+        or not isinstance(max_impacts, (int, np.integer))
+        or not 1 <= max_impacts <= MAX_IMPACTS
+    ):
+        raise ParameterError(
+            f"max_impacts={max_impacts!r} must be an integer in [1, {MAX_IMPACTS}]"
+        )
     if peak < MIN_LEVEL_DB:
         raise ParameterError(f"peak_db={peak_db!r} must be in [{MIN_LEVEL_DB:g}, 0] (dBFS)")
     if lufs < MIN_LEVEL_DB:
@@ -370,6 +396,19 @@ def check_options(
         max_duration=_seconds("max_duration", max_duration, MAX_DURATION),
         max_tail=_seconds("max_tail", max_tail, MAX_DURATION),
         pulse_points=int(pulse_points),
+        bounce_floor_db=bounce_floor,
+        max_impacts=int(max_impacts),
+    )
+
+
+def bounce_options(options: dict) -> dict:
+    """The options of :func:`synth.physics.bounces.simulate_scene` that checked render
+    ``options`` (:func:`check_options`) set: the series' duration, level and impact
+    rules, one place for every caller that computes a render's bounces."""
+    return dict(
+        max_duration=options["max_duration"],
+        floor_db=options["bounce_floor_db"],
+        max_impacts=options["max_impacts"],
     )
 
 
@@ -487,6 +526,8 @@ def render(
     max_tail=60.0,
     sequence=None,
     pulse_points=PULSE_POINTS,
+    bounce_floor_db=DEFAULT_FLOOR_DB,
+    max_impacts=DEFAULT_MAX_IMPACTS,
     budget=None,
 ) -> Render:
     """Render ``scene`` at ``samplerate``.
@@ -531,6 +572,16 @@ def render(
         Fewest points of the uniform grid on which each force pulse's Laplace
         transforms are taken (see :mod:`synth.sound.modal_bank`; the default keeps their error
         below 2e-6 of the impulse; a reference render may ask for more).
+    bounce_floor_db : float < 0
+        The bounce series' level rule (:func:`synth.physics.bounces.simulate_bounces`'s
+        ``floor_db``): the series ends before an impact whose kinetic energy would be this
+        many dB below the first impact's (``stop_reason`` "floor"). Not ``floor_db``,
+        which bounds the synthesis' omissions.
+    max_impacts : int in [1, 100000]
+        The bounce series' impact limit: it ends after this many impacts
+        (``stop_reason`` "max-impacts"), a stated stop for a ball that loses little per
+        bounce. Both rules apply to a drop; a scene with ``drop.velocity`` follows its path
+        until the ball rolls (:mod:`synth.physics.path`) and does not use them.
     budget : synth.cost.Budget, optional
         The most work the render may take on (default: ``Budget.from_environment()``):
         the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
@@ -553,6 +604,8 @@ def render(
         max_duration=max_duration,
         max_tail=max_tail,
         pulse_points=pulse_points,
+        bounce_floor_db=bounce_floor_db,
+        max_impacts=max_impacts,
     )
     fs = o["samplerate"]
     floor = 10.0 ** (o["floor_db"] / 20.0)
@@ -583,7 +636,7 @@ def render(
             )
         return _render_moving(scene, o)
     if sequence is None:
-        sequence = simulate_scene(scene, max_duration=max_duration)
+        sequence = simulate_scene(scene, **bounce_options(o))
     else:
         check_sequence(scene, sequence)
     for imp in sequence:
@@ -644,6 +697,8 @@ def render(
         preroll=pre,
         fade=fade_s,
         max_tail=tail,
+        bounce_floor_db=o["bounce_floor_db"],
+        max_impacts=o["max_impacts"],
         listener=type(listener).__name__.lower(),
         listener_position=list(listener.position),
         delay=delay,
