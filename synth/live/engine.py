@@ -513,7 +513,8 @@ class Engine:
         there, facing ``facing`` ((x, y) in the plate's plane); of more ears through its
         ears moved all by the same displacement, their centroid to ``position`` (their
         arrangement kept; to turn them, give :meth:`Body.move` the ears). The gains are
-        computed on the calling thread."""
+        computed on the calling thread (:meth:`prepare_moves` readies them at load time).
+        """
         position = checks.point("position", position, 3)
         checks.point("facing", facing, 2, "dimensionless")
         if not position[2] > 0.0:
@@ -528,6 +529,18 @@ class Engine:
                 body.move(ears(position, facing))
             else:
                 body.move(_shifted(body.listener, position))
+
+    def prepare_moves(self) -> None:
+        """Build now the fixed radiation grids that moving a microphone above a plate takes
+        its gains from (:meth:`Body.move`, :meth:`move_listener`), one per plate of the
+        bodies heard through microphones, as a game does at load time: otherwise the first
+        move of each plate builds them on the calling thread (a few exact moves' time;
+        ``synth bench live`` prints it)."""
+        for body in self.bodies:
+            if body.removed or body.units != "Pa":
+                continue
+            for ear in body._ears:
+                ear._grid = self._listener_grid(ear._model)
 
     def _listener_grid(self, model):
         """The fixed radiation grids of ``model``'s plate (:func:`listener_grid`), built at
