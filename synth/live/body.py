@@ -288,11 +288,11 @@ class Body:
         from the plate's fixed radiation grids (:mod:`synth.sound.radiation.fixed`: one
         exponential per mode and grid point, no shape evaluated; within the rectangle
         rule's tolerance of its gains), built at the first such move of any body of the
-        same plate (about the cost of one exact move) and kept while a body of the plate
-        is in the engine (:attr:`Engine.listener_grid_memory`); a lower microphone by the
-        exact rule of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated
-        around the point: ten times as long or more). ``synth bench live`` prints what a
-        move costs."""
+        same plate (a few exact moves' time) and kept while a body of the plate
+        is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
+        builds them ahead); a lower microphone by the exact rule of
+        :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the point).
+        ``synth bench live`` prints what a move costs, both ways."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(

@@ -28,8 +28,10 @@ mode and point of its band's grid (:attr:`ListenerGrid.points`); memory: the sha
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from synth.constants import AIR_DENSITY, SOUND_SPEED
@@ -93,6 +95,7 @@ class ListenerGrid:
         self._s = np.asarray(s, dtype=complex)
         self._q = self._s / self._c
         self._bands = _bands(modes, self._q, float(max_wavenumber), self.size, self.height, tol)
+        self._shares = _shares(self._bands, max(1, numba.get_num_threads()))
 
     @property
     def nbytes(self) -> int:
@@ -130,16 +133,38 @@ class ListenerGrid:
         qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
         qi = np.ascontiguousarray(q.imag)
         acc = np.zeros((3, q.size))
-        for band in self._bands:
-            r = np.sqrt((band.x - xl) ** 2 + (band.y - yl) ** 2 + zl * zl)
-            k0, k1 = band.start, band.stop
-            add_sums(
-                0, r.size, r - r_mid, band.w / r, band.phi,
-                qr[k0:k1], qi[k0:k1], halvings, acc[0, k0:k1], acc[1, k0:k1], acc[2, k0:k1],
-            )  # fmt: skip
+
+        def add(bands):
+            for band in bands:
+                r = np.sqrt((band.x - xl) ** 2 + (band.y - yl) ** 2 + zl * zl)
+                k0, k1 = band.start, band.stop
+                add_sums(
+                    0, r.size, r - r_mid, band.w / r, band.phi,
+                    qr[k0:k1], qi[k0:k1], halvings, acc[0, k0:k1], acc[1, k0:k1], acc[2, k0:k1],
+                )  # fmt: skip
+
+        if len(self._shares) == 1:
+            add(self._shares[0])
+        else:
+            with ThreadPoolExecutor(max_workers=len(self._shares)) as pool:
+                for job in [pool.submit(add, share) for share in self._shares]:
+                    job.result()
         shift = r_mid - (0.0 if reference_distance is None else float(reference_distance))
         factor = self._rho * self._s / (2.0 * math.pi) * np.exp(-q * shift)
         return factor * (acc[0] + 1j * acc[1])
+
+
+def _shares(bands, workers: int) -> list:
+    """The bands split in at most ``workers`` shares of about equal work (modes times
+    points; the largest band first to the least loaded share). Each band's sums are its
+    own modes', so the gains do not depend on the split or on the threads' timing."""
+    shares = [[] for _ in range(min(workers, max(1, len(bands))))]
+    load = [0] * len(shares)
+    for band in sorted(bands, key=lambda b: -b.w.size * (b.stop - b.start)):
+        i = load.index(min(load))
+        shares[i].append(band)
+        load[i] += band.w.size * (band.stop - band.start)
+    return shares
 
 
 def _bands(modes, q, kb, size, height, tol) -> tuple[_Band, ...]:
