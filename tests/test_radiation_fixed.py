@@ -57,6 +57,7 @@ def _assert_within_two_tol(grid, m, s, kb, microphones):
         )
         assert exact.success, exact.message
         fast = grid.gains(mic, r0)
+        assert grid.gains(mic, r0) is fast and not fast.flags.writeable  # kept, read-only
         allowed = 2 * TOL * np.maximum(np.abs(exact.gains), COHERENT_FLOOR * exact.coherent)
         worst = int(np.argmax(np.abs(fast - exact.gains) / allowed))
         assert np.all(np.abs(fast - exact.gains) <= allowed), (mic, worst)

@@ -49,6 +49,9 @@ from synth.sound.radiation.rectangle import _panel_orders, panel_nodes
 #: most this long (see the module's docstring). A game's listener (a head) is rarely closer
 #: to a surface; a lower one takes :func:`~synth.sound.radiation.plate_gains`.
 NEAR_FIELD_HEIGHT = 0.1
+#: Microphones whose gains a grid keeps (the latest): the bodies of one plate moved to one
+#: listener (``Engine.move_listener``) compute its gains once.
+KEPT_MICROPHONES = 8
 #: Largest ratio of the wavenumbers of the fastest and the slowest mode of one band: each
 #: band's grid follows its own fastest mode (its points grow as the square of it), so
 #: closer bands evaluate fewer exponentials but keep more grids.
@@ -96,6 +99,7 @@ class ListenerGrid:
         self._q = self._s / self._c
         self._bands = _bands(modes, self._q, float(max_wavenumber), self.size, self.height, tol)
         self._shares = _shares(self._bands, max(1, numba.get_num_threads()))
+        self._kept: dict = {}  # the gains at the last few microphones, by position
 
     @property
     def nbytes(self) -> int:
@@ -115,8 +119,12 @@ class ListenerGrid:
         """``H_k(s_k)`` (times ``exp(s_k R0 / c)`` with ``R0 = reference_distance``, m), Pa
         per (m/s) of modal velocity, of every mode at the microphone ``listener_position``
         ((x, y, z), m, z >= :attr:`height`), as :func:`~synth.sound.radiation.plate_gains`
-        computes them."""
+        computes them (read-only; kept for the last :data:`KEPT_MICROPHONES` microphones)."""
         xl, yl, zl = check_listener(listener_position)
+        key = (xl, yl, zl, reference_distance)
+        kept = self._kept.get(key)
+        if kept is not None:
+            return kept
         if zl < self.height:
             raise ParameterError(
                 f"listener_position.z={zl!r} m is below the fixed grids' height "
@@ -151,7 +159,12 @@ class ListenerGrid:
                     job.result()
         shift = r_mid - (0.0 if reference_distance is None else float(reference_distance))
         factor = self._rho * self._s / (2.0 * math.pi) * np.exp(-q * shift)
-        return factor * (acc[0] + 1j * acc[1])
+        gains = factor * (acc[0] + 1j * acc[1])
+        gains.setflags(write=False)
+        if len(self._kept) >= KEPT_MICROPHONES:
+            self._kept.pop(next(iter(self._kept)), None)
+        self._kept[key] = gains
+        return gains
 
 
 def _shares(bands, workers: int) -> list:
