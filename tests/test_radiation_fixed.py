@@ -15,7 +15,7 @@ from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.modes import crossover
 from synth.sound.radiation.common import COHERENT_FLOOR
-from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT, ListenerGrid
+from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT, GridTooLarge, ListenerGrid
 from synth.sound.render import listener_grid, modal_model, nearest_distance
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -119,3 +119,27 @@ def test_a_microphone_below_the_grids_is_refused_and_modal_model_s_rule_kept():
     exact = modal_model(plate, Microphone(low), samplerate=16000)
     np.testing.assert_array_equal(model.heard_by(Microphone(low), grid).output, exact.output)
     np.testing.assert_array_equal(model.heard_by(Microphone(low)).output, exact.output)
+
+
+def test_grids_beyond_their_memory_budget_are_refused_before_any_shape():
+    plate = Plate(STEEL, 0.002, 0.3, 0.2, "free")
+    model = modal_model(plate, Microphone((0.1, 0.1, 0.2)), samplerate=16000)
+    grid = listener_grid(model)
+    with pytest.raises(GridTooLarge, match="MiB"):
+        listener_grid(model, max_bytes=grid.nbytes - 1)
+    assert listener_grid(model, max_bytes=grid.nbytes).nbytes == grid.nbytes  # the estimate
+
+
+def test_an_engine_moves_a_plate_beyond_the_grids_budget_by_the_exact_rule(monkeypatch):
+    import synth.sound.radiation.fixed as F
+
+    monkeypatch.setattr(F, "MAX_GRID_BYTES", 1)
+    plate = Plate(STEEL, 0.002, 0.3, 0.2, "free")
+    engine = synth.Engine(samplerate=16000)
+    body = engine.add(plate)
+    mic = synth.Microphone((0.2, 0.1, 0.3))
+    body.move(mic)
+    engine.prepare_moves()
+    assert engine.listener_grid_memory == 0 and body._grid is None
+    exact = modal_model(plate, mic, samplerate=16000)
+    np.testing.assert_array_equal(body._model.output, exact.output)

@@ -290,9 +290,10 @@ class Body:
         rule's tolerance of its gains), built at the first such move of any body of the
         same plate (a few exact moves' time) and kept while a body of the plate
         is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
-        builds them ahead); a lower microphone by the exact rule of
-        :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the point).
-        ``synth bench live`` prints what a move costs, both ways."""
+        builds them ahead); a lower microphone, or any microphone of a plate whose grids
+        would exceed :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by the exact rule
+        of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the
+        point). ``synth bench live`` prints what a move costs, both ways."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(

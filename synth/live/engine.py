@@ -68,6 +68,7 @@ from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_st
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
 from synth.physics.scene import Accelerometer, Microphone, Plate, Scene
 from synth.sound.modal_bank import PULSE_POINTS
+from synth.sound.radiation.fixed import GridTooLarge
 from synth.sound.render import listener_grid, modal_model
 
 __all__ = ["Body", "Engine", "EngineStats", "Voice", "ears"]
@@ -307,6 +308,7 @@ class Engine:
         # while a body of the plate holds its own reference
         self._grids: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
         self._grids_lock = threading.Lock()  # between the game's threads moving listeners
+        self._too_large_for_grids: set = set()  # plates whose grids exceed their budget
         self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
 
     def _limiter_state(self, limit, ceiling_db, lookahead) -> LimiterState | None:
@@ -544,12 +546,18 @@ class Engine:
 
     def _listener_grid(self, model):
         """The fixed radiation grids of ``model``'s plate (:func:`listener_grid`), built at
-        the first call for the plate and shared by its bodies."""
+        the first call for the plate and shared by its bodies; None for a plate whose grids
+        would exceed their memory budget (:data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`:
+        its moves take the exact rule)."""
         plate = model.modes.plate
         with self._grids_lock:
             grid = self._grids.get(plate)
-            if grid is None:
-                grid = listener_grid(model)
+            if grid is None and plate not in self._too_large_for_grids:
+                try:
+                    grid = listener_grid(model)
+                except GridTooLarge:
+                    self._too_large_for_grids.add(plate)  # the exact rule for its moves
+                    return None
                 self._grids[plate] = grid
         return grid
 

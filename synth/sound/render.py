@@ -317,12 +317,14 @@ def _mode_rates(modes):
     return sigma, omega, np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
 
 
-def listener_grid(model: ModalModel):
+def listener_grid(model: ModalModel, max_bytes: int | None = None):
     """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: its
     microphone gains at any point at least
     :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate at the cost of
     the sums alone (:meth:`ModalModel.heard_by`); it keeps the modes' shapes on its grids
-    (:attr:`~synth.sound.radiation.fixed.ListenerGrid.nbytes`)."""
+    (:attr:`~synth.sound.radiation.fixed.ListenerGrid.nbytes`; a
+    :class:`~synth.sound.radiation.fixed.GridTooLarge` error beyond ``max_bytes``, bytes,
+    default :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`)."""
     from synth.sound.radiation.fixed import ListenerGrid
 
     sigma, omega, wd = _mode_rates(model.modes)
@@ -332,6 +334,7 @@ def listener_grid(model: ModalModel):
         max_wavenumber=_max_wavenumber(model.modes.plate, omega[model.rendered]),
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
+        max_bytes=max_bytes,
     )
 
 

@@ -35,7 +35,7 @@ import numba
 import numpy as np
 
 from synth.constants import AIR_DENSITY, SOUND_SPEED
-from synth.errors import ParameterError
+from synth.errors import ParameterError, SynthError
 from synth.sound.radiation.common import (
     MAX_ORDER,
     add_sums,
@@ -58,6 +58,17 @@ KEPT_MICROPHONES = 8
 BAND_RATIO = 1.1
 
 
+#: Most memory (bytes) the fixed grids of one plate take by default: the shapes of every mode
+#: on its band's grid (8 bytes a value). A plate whose grids would take more (a large plate,
+#: or a high sample rate: the points grow as the square of the highest wavenumber) keeps the
+#: exact rule for every listener.
+MAX_GRID_BYTES = 256 * 2**20
+
+
+class GridTooLarge(SynthError):
+    """The fixed grids of a plate would take more than their memory budget."""
+
+
 @dataclass(frozen=True, eq=False)
 class _Band:
     """Modes ``start <= k < stop`` on one tensor grid: the points ``x`` and ``y`` (m, (N,)),
@@ -77,7 +88,9 @@ class ListenerGrid:
 
     ``s``: the complex frequency of each mode (rad/s), as for
     :func:`~synth.sound.radiation.plate_gains`; ``max_wavenumber``: the largest bending
-    wavenumber of the modes (rad/m); ``tol``: the rectangle rule's (dimensionless).
+    wavenumber of the modes (rad/m); ``tol``: the rectangle rule's (dimensionless);
+    ``max_bytes``: the most memory the grids may take, bytes (default
+    :data:`MAX_GRID_BYTES`; :class:`GridTooLarge` beyond, before any shape is evaluated).
     """
 
     def __init__(
@@ -90,6 +103,7 @@ class ListenerGrid:
         sound_speed: float = SOUND_SPEED,
         height: float = NEAR_FIELD_HEIGHT,
         tol: float = 1e-6,
+        max_bytes: int | None = None,
     ):
         self.height = float(height)
         self.size = (modes.plate.length, modes.plate.width)
@@ -97,7 +111,17 @@ class ListenerGrid:
         self._c = float(sound_speed)
         self._s = np.asarray(s, dtype=complex)
         self._q = self._s / self._c
-        self._bands = _bands(modes, self._q, float(max_wavenumber), self.size, self.height, tol)
+        axes = _band_axes(modes, self._q, float(max_wavenumber), self.size, self.height, tol)
+        need = sum(
+            8 * (stop - start + 3) * xs.size * ys.size for start, stop, (xs, _), (ys, _) in axes
+        )
+        max_bytes = MAX_GRID_BYTES if max_bytes is None else max_bytes
+        if need > max_bytes:
+            raise GridTooLarge(
+                f"the fixed radiation grids of {len(modes)} modes would take {need / 2**20:.0f} "
+                f"MiB, more than max_bytes={max_bytes / 2**20:.0f} MiB"
+            )
+        self._bands = _bands(axes, modes)
         self._shares = _shares(self._bands, max(1, numba.get_num_threads()))
         self._kept: dict = {}  # the gains at the last few microphones, by position
 
@@ -180,19 +204,33 @@ def _shares(bands, workers: int) -> list:
     return shares
 
 
-def _bands(modes, q, kb, size, height, tol) -> tuple[_Band, ...]:
-    """The modes' bands of wavenumber and their grids (shapes evaluated on them)."""
+def _band_axes(modes, q, kb, size, height, tol) -> list:
+    """The modes' bands of wavenumber and their grids' axes: ``(start, stop, (xs, wx),
+    (ys, wy))`` for modes ``start <= k < stop``."""
     from synth.sound.radiation import _wavenumber_bands
 
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     if omega.size == 0:
-        return ()
+        return []
     kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(q)
-    bands = []
+    out = []
     for start, stop in _wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO):
         band_kappa = float(np.max(kappa[start:stop]))
-        xs, wx = _axis(size[0], band_kappa, height, tol)
-        ys, wy = _axis(size[1], band_kappa, height, tol)
+        out.append(
+            (
+                start,
+                stop,
+                _axis(size[0], band_kappa, height, tol),
+                _axis(size[1], band_kappa, height, tol),
+            )
+        )
+    return out
+
+
+def _bands(axes, modes) -> tuple[_Band, ...]:
+    """The bands of :func:`_band_axes` with their tensor grids and the shapes on them."""
+    bands = []
+    for start, stop, (xs, wx), (ys, wy) in axes:
         x = np.repeat(xs, ys.size)
         y = np.tile(ys, xs.size)
         w = np.repeat(wx, ys.size) * np.tile(wy, xs.size)
