@@ -116,7 +116,8 @@ def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25,
     (:meth:`Engine.move_listener`, between two blocks): the mixing cost of the blocks
     that ramp the gains and of the others (mean, fraction of the block), and
     ``move_listener`` on the calling thread (median, s; new radiation gains for every
-    ear, into a temporary cache directory)."""
+    ear, from the plate's fixed grids, which the bodies share; a temporary cache
+    directory)."""
     from synth.live.body import ears
     from synth.live.engine import Engine
 
@@ -494,7 +495,8 @@ def format_live(result) -> str:
             f"Engine.move_listener every few blocks, {m['moves']} moves): a block that ramps "
             f"every mode's gain at every ear costs {100 * m['ramp']:.2f} % of the block, one "
             f"that does not {100 * m['still']:.2f} %; move_listener on the calling thread "
-            f"(new radiation gains for each ear): median {m['move_s'] * 1e3:.1f} ms"
+            f"(new radiation gains for each ear; the bodies share one plate, whose fixed "
+            f"grids compute the two ears' gains once): median {m['move_s'] * 1e3:.1f} ms"
         )
     lm = result.get("listener_move")
     if lm is not None:
