@@ -286,10 +286,10 @@ class Body:
         The gains are computed here, on the calling thread: a microphone at least
         :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate takes them
         from the plate's fixed radiation grids (:mod:`synth.sound.radiation.fixed`: one
-        exponential per mode and grid point, no shape evaluated; within the rectangle
-        rule's tolerance of its gains), built at the first such move of any body of the
-        same plate (a few exact moves' time) and kept while a body of the plate
-        is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
+        exponential per mode and grid point, no shape evaluated; within twice the
+        rectangle rule's tolerance of its gains, tested), built at the first such move of
+        any body of the same plate (a few exact moves' time) and kept while a body of the
+        plate is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
         builds them ahead); a lower microphone, or any microphone of a plate whose grids
         would exceed :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by the exact rule
         of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the
