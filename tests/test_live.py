@@ -1536,3 +1536,68 @@ def test_four_channels_are_each_heard_through_their_own_listener(scene):
     peaks = np.max(np.abs(out[: int(0.05 * FS)]), axis=0)  # before the mono body's hit
     assert np.all(peaks > 0) and np.unique(peaks).size == 4  # four distinct listeners
     assert engine.stats.impacts_played == 2
+
+
+@pytest.mark.slow
+def test_a_listener_moved_above_its_plate_hears_as_a_body_added_there(scene):
+    # engine.move_listener at every ear count: mono (a Microphone), stereo (ears) and four
+    # ears (moved all by one displacement, their centroid to the new position: the refusal
+    # of more than two ears is gone). After the block that ramps, each engine's output is
+    # that of an engine whose body was added with the new listeners (their gains from the
+    # plate's fixed radiation grids, within 2e-6 of the exact rule's, far below float32's
+    # rounding of the output: 2 ulps of its peak, as for any two live renders)
+    head, moved_to = (0.7, 0.1, 0.45), (0.35, 0.3, 0.25)
+    quad = tuple(synth.Microphone((0.7 + dx, 0.1 + dy, 0.45)) for dx, dy in
+                 ((0.1, 0.0), (0.0, 0.1), (-0.1, 0.0), (0.0, -0.1)))  # fmt: skip
+    shifted = tuple(
+        synth.Microphone(tuple(p + m - h for p, m, h in zip(q.position, moved_to, head)))
+        for q in quad
+    )
+    cases = (
+        (1, synth.Microphone(head), synth.Microphone(moved_to)),
+        (2, synth.live.ears(head), synth.live.ears(moved_to)),
+        (4, quad, shifted),
+    )
+    k, n = 8, 256
+    for channels, first, then in cases:
+        outs = []
+        for listener, move in ((first, True), (then, False)):
+            engine = synth.Engine(samplerate=FS, channels=channels, floor_db=EXACT_DB)
+            body = engine.add(scene.plate, listener=listener)
+            body.hit(scene.ball, 1.0, position=(0.2, 0.3), at=0.001)
+            blocks = []
+            for b in range(3 * k):
+                if move and b == k:
+                    engine.move_listener(moved_to)
+                    moved_body = body
+                blocks.append(engine.process(n))
+            outs.append(np.concatenate(blocks))
+        moved, fresh = outs
+        tol = 2 * float32_ulp_of_peak(fresh)
+        np.testing.assert_allclose(moved[(k + 1) * n :], fresh[(k + 1) * n :], rtol=0, atol=tol)
+        assert np.max(np.abs(moved - fresh)[: k * n]) > 100 * tol  # the move is heard
+        if channels == 4:
+            for got, want in zip(moved_body.listener, shifted):
+                np.testing.assert_allclose(got.position, want.position, rtol=0, atol=1e-15)
+        assert moved_body._engine.listener_grid_memory > 0  # the plate's grids, kept
+
+
+def test_a_listener_moved_close_to_its_plate_takes_the_exact_rule(scene):
+    # below the fixed grids' height (their panels no longer resolve 1/R) a move takes the
+    # gains of modal_model itself, bit for bit; above it, from the grids the engine keeps
+    # once a plate's listener moved, one for all the bodies of that plate
+    from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
+    from synth.sound.render import modal_model
+
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(scene.plate)
+    other = engine.add(scene.plate)
+    low = synth.Microphone((0.5, 0.2, 0.5 * NEAR_FIELD_HEIGHT))
+    body.move(low)
+    exact = modal_model(scene.plate, low, samplerate=FS)
+    np.testing.assert_array_equal(body._model.output, exact.output)
+    assert engine.listener_grid_memory == 0  # no grid built for it
+    body.move(synth.Microphone((0.5, 0.2, NEAR_FIELD_HEIGHT)))
+    other.move(synth.Microphone((0.5, 0.2, 2 * NEAR_FIELD_HEIGHT)))
+    assert len(engine._grids) == 1 and body._grid is other._grid
+    assert engine.listener_grid_memory == body._grid.nbytes > 0

@@ -666,7 +666,7 @@ def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, sce
     # (old + u (new - old)), and from the next block on they are the new listener's render
     old = synth.live.ears((0.6, -0.4, 0.5), (0.0, 1.0))
     new = synth.live.ears((0.3, 0.5, 0.3), (1.0, 0.0))
-    seconds = 0.6
+    seconds = 1.2  # the move, made at 0.2 s, computes its gains on this thread meanwhile
 
     def render(listener):
         engine = synth.Engine(samplerate=FS, blocksize=BLOCK, channels=2, floor_db=-200.0)
@@ -679,6 +679,7 @@ def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, sce
         record_seconds=seconds,
     )  # fmt: skip
     body = engine.add(scene.plate, listener=old)
+    engine.prepare_moves()  # as a game at load time: the move below takes the sums alone
     with engine:
         body.hit(scene.ball, 1.0, at=0.05)
         assert wait_for(lambda: engine.time > 0.2, 10.0)

@@ -3,7 +3,8 @@
 * the callback's mixing cost per block for 1, 4 and 16 bodies of the default preset's plate
   (all ringing: each is hit ten times a second), as a fraction of the block's duration;
 * the listener moving: the cost of a block that ramps the listener's gains and of one that
-  does not, and ``Engine.move_listener`` on the calling thread;
+  does not, ``Engine.move_listener`` on the calling thread, and ``Body.move`` per mono and
+  stereo body (median and 99th percentile), beside the exact rule it replaces;
 * the audio thread's share of a hit (its pulse transformed into mode amplitudes), and the
   cost of a block that takes the most hits a running stream allows;
 * ``Body.hit`` on the calling thread (median over many calls; at one impact point, and at a
@@ -119,7 +120,8 @@ def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25,
     (:meth:`Engine.move_listener`, between two blocks): the mixing cost of the blocks
     that ramp the gains and of the others (mean, fraction of the block), and
     ``move_listener`` on the calling thread (median, s; new radiation gains for every
-    ear, into a temporary cache directory)."""
+    ear, from the plate's fixed grids, which the bodies share; a temporary cache
+    directory)."""
     from synth.live.body import ears
     from synth.live.engine import Engine
 
@@ -166,6 +168,64 @@ def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25,
         move_s=float(np.median(moves)),
         moves=len(moves),
     )
+
+
+def listener_move_cost(samplerate=48000, moves=40, seed=5) -> dict:
+    """:meth:`Body.move` on the calling thread, per body of the default plate: a mono and
+    a stereo body (:func:`ears`) each moved ``moves`` times, every time to a point within
+    2 cm of the last (a game's head from frame to frame), at least
+    :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate (median and
+    99th percentile, s; the first move, which builds the plate's fixed radiation grids,
+    apart); the exact rule at a new point for comparison (:func:`modal_model`, which a
+    move took before the grids: one microphone, uncached); the grids' memory (bytes)."""
+    from synth.live.body import ears
+    from synth.live.engine import Engine
+    from synth.physics.scene import Microphone
+    from synth.sound.radiation import clear_memory_cache
+    from synth.sound.render import modal_model
+
+    scene = _scene()
+    rng = np.random.default_rng(seed)
+    saved = os.environ.get("SYNTH_CACHE_DIR")
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["SYNTH_CACHE_DIR"] = tmp
+        try:
+            engine = Engine(samplerate=samplerate, channels=2)
+            mono = engine.add(scene.plate)
+            head = np.array([0.6, 0.25, 0.4])
+            stereo = engine.add(scene.plate, listener=ears(tuple(head), (0.0, 1.0)))
+            for name, body in (("mono", mono), ("stereo", stereo)):
+                times = []
+                for _ in range(moves + 1):
+                    head = head + rng.uniform(-0.02, 0.02, 3) / np.sqrt(3.0)
+                    head[2] = max(head[2], 0.2)
+                    listener = Microphone(tuple(head)) if name == "mono" else ears(tuple(head))
+                    t = time.perf_counter()
+                    body.move(listener)
+                    times.append(time.perf_counter() - t)
+                out[name] = dict(
+                    first=times[0],
+                    median=float(np.median(times[1:])),
+                    p99=float(np.percentile(times[1:], 99)),
+                )
+            exact = []
+            for _ in range(3):
+                head = head + rng.uniform(-0.02, 0.02, 3)
+                clear_memory_cache()
+                t = time.perf_counter()
+                modal_model(scene.plate, Microphone(tuple(head)), samplerate=samplerate)
+                exact.append(time.perf_counter() - t)
+            out["exact_s"] = float(np.median(exact))
+            out["grid_bytes"] = engine.listener_grid_memory
+            out["modes"] = mono.modes
+            out["moves"] = moves
+        finally:
+            if saved is None:
+                os.environ.pop("SYNTH_CACHE_DIR", None)
+            else:
+                os.environ["SYNTH_CACHE_DIR"] = saved
+    return out
 
 
 def transform_cost(samplerate=48000, blocksize=256, repeat=60) -> dict:
@@ -379,6 +439,7 @@ def run_live(seconds=30.0) -> dict:
         add_s=add_times(),
         callback=callback_cost(),
         move=move_cost(),
+        listener_move=listener_move_cost(),
         transform=transform_cost(),
         hit_us=hit_cost(),
     )
@@ -392,6 +453,7 @@ def run_live(seconds=30.0) -> dict:
 def format_live(result) -> str:
     """The live benchmark as Markdown, with the targets and whether they are met."""
     from synth.live.engine import MAX_VOICES
+    from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
 
     rows = result["callback"]
     by_n = {r["bodies"]: r for r in rows}
@@ -437,7 +499,22 @@ def format_live(result) -> str:
             f"Engine.move_listener every few blocks, {m['moves']} moves): a block that ramps "
             f"every mode's gain at every ear costs {100 * m['ramp']:.2f} % of the block, one "
             f"that does not {100 * m['still']:.2f} %; move_listener on the calling thread "
-            f"(new radiation gains for each ear): median {m['move_s'] * 1e3:.1f} ms"
+            f"(new radiation gains for each ear; the bodies share one plate, whose fixed "
+            f"grids compute the two ears' gains once): median {m['move_s'] * 1e3:.1f} ms"
+        )
+    lm = result.get("listener_move")
+    if lm is not None:
+        lines.append(
+            f"- Body.move on the calling thread ({lm['modes']} modes, {lm['moves']} moves of "
+            f"2 cm, microphones from the plate's fixed radiation grids): mono body median "
+            f"{lm['mono']['median'] * 1e3:.1f} ms, 99th percentile "
+            f"{lm['mono']['p99'] * 1e3:.1f} ms; stereo body median "
+            f"{lm['stereo']['median'] * 1e3:.1f} ms, 99th percentile "
+            f"{lm['stereo']['p99'] * 1e3:.1f} ms; the plate's first move (grids built) "
+            f"{lm['mono']['first']:.2f} s, grids {lm['grid_bytes'] / 2**20:.0f} MiB a plate; "
+            f"the exact rule at a new point (one microphone; a move lower than "
+            f"{100 * NEAR_FIELD_HEIGHT:.0f} cm above the plate takes it) "
+            f"{lm['exact_s'] * 1e3:.0f} ms"
         )
     x = result["transform"]
     lines += [

@@ -41,7 +41,8 @@ from synth.sound.modal_bank import (
     pulse_layout,
     samples_in_contact,
 )
-from synth.sound.render import modal_model
+from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
+from synth.sound.render import LISTENER_UNITS
 
 if TYPE_CHECKING:
     from synth.live.engine import Engine
@@ -105,6 +106,7 @@ class Body:
         self._prepared: dict = {}
         self._plate_coefficients: dict = {}  # position -> (excitation, plate coefficients)
         self._solvers: dict = {}
+        self._grid = None  # the plate's fixed radiation grids, once a listener moved
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
@@ -301,8 +303,19 @@ class Body:
         ear (:func:`ears`), of the units the body was added with. Each mode's gain at each
         ear goes from the old listener's to the new one's linearly over the next block
         mixed (no click); the voices' modal states are the plate's, so every mode rings on
-        at its new level, also one the old listener did not hear. The gains are computed
-        here, on the calling thread (the radiation of each mode to the new point)."""
+        at its new level, also one the old listener did not hear.
+
+        The gains are computed here, on the calling thread: a microphone at least
+        :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate takes them
+        from the plate's fixed radiation grids (:mod:`synth.sound.radiation.fixed`: one
+        exponential per mode and grid point, no shape evaluated; within twice the
+        rectangle rule's tolerance of its gains, tested), built at the first such move of
+        any body of the same plate (a few exact moves' time) and kept while a body of the
+        plate is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
+        builds them ahead); a lower microphone, or any microphone of a plate whose grids
+        would exceed :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by the exact rule
+        of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the
+        point). ``synth bench live`` prints what a move costs, both ways."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -310,8 +323,6 @@ class Body:
             )
         if self._removed:
             raise SynthError("the body was removed: it cannot move its listener")
-        engine = self._engine
-        models = []
         for i, (ear, li) in enumerate(zip(self._ears, listeners)):
             if isinstance(li, Accelerometer):
                 self.plate.check_position(li.position, f"listener[{i}].position")
@@ -319,18 +330,22 @@ class Body:
                 raise ParameterError(
                     f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
                 )
-            model = modal_model(
-                self.plate, li, samplerate=engine.samplerate, max_frequency=engine.max_frequency
-            )
-            if model.units != ear._model.units:
+            if LISTENER_UNITS[type(li)] != ear._model.units:
                 raise ParameterError(
-                    f"listener[{i}]={li!r} hears in {model.units}, the body's ear in "
-                    f"{ear._model.units}: add a new body for another kind of listener"
+                    f"listener[{i}]={li!r} hears in {LISTENER_UNITS[type(li)]}, the body's "
+                    f"ear in {ear._model.units}: add a new body for another kind of listener"
                 )
-            models.append(model)
+        models = [ear._heard_by(li) for ear, li in zip(self._ears, listeners)]
         for ear, li, model in zip(self._ears, listeners, models):
             ear._hand_over_gains(li, model)
         self.listener = listeners if len(listeners) > 1 else listeners[0]
+
+    def _heard_by(self, listener):
+        """This ear's modal model heard by ``listener`` (see :meth:`move`)."""
+        grid = None
+        if isinstance(listener, Microphone) and listener.position[2] >= NEAR_FIELD_HEIGHT:
+            grid = self._grid = self._engine._listener_grid(self._model)
+        return self._model.heard_by(listener, grid)
 
     def _hand_over_gains(self, listener, model) -> None:
         """Write the new listener's gains for the mixing (a sequence lock: odd while they
@@ -684,6 +699,7 @@ class Body:
             ear._state_arrays = None
             ear._prepared = {}
             ear._solvers = {}
+            ear._grid = None
 
     def stop_all(self) -> None:
         """Silence the body at the next block: every voice stops (and is reported ended),

@@ -70,7 +70,8 @@ from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_st
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
 from synth.physics.scene import Accelerometer, Microphone, Plate, Scene
 from synth.sound.modal_bank import PULSE_POINTS
-from synth.sound.render import modal_model
+from synth.sound.radiation.fixed import GridTooLarge
+from synth.sound.render import listener_grid, modal_model
 
 __all__ = ["Body", "Engine", "EngineStats", "Voice", "ears"]
 
@@ -310,6 +311,11 @@ class Engine:
         self._too_close = 0
         self._next_voice_id = itertools.count(1).__next__  # atomic under the GIL
         self._events_lock = threading.Lock()  # between readers of ended()
+        # the fixed radiation grids of the plates whose listener moved (Body.move), kept
+        # while a body of the plate holds its own reference
+        self._grids: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+        self._grids_lock = threading.Lock()  # between the game's threads moving listeners
+        self._too_large_for_grids: set = set()  # plates whose grids exceed their budget
         self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
 
     def _limiter_state(self, limit, ceiling_db, lookahead) -> LimiterState | None:
@@ -522,11 +528,17 @@ class Engine:
     def move_listener(self, position, facing=(1.0, 0.0)) -> None:
         """Move the game's listener: every body (not removed) hears from ``position``
         ((x, y, z), m, z > 0 above its plate) from the next block on, its modes' gains
-        ramped over that block (see :meth:`Body.move`). A body of two ears hears through
-        :func:`ears` there, facing ``facing`` ((x, y) in the plate's plane); a body of one
-        ear through a Microphone there. The gains are computed on the calling thread."""
+        ramped over that block (see :meth:`Body.move`, also for what a move costs). A body
+        of one ear hears through a Microphone there; of two ears through :func:`ears`
+        there, facing ``facing`` ((x, y) in the plate's plane); of more ears through its
+        ears moved all by the same displacement, their centroid to ``position`` (their
+        arrangement kept; to turn them, give :meth:`Body.move` the ears). The gains are
+        computed on the calling thread (:meth:`prepare_moves` readies them at load time).
+        """
         position = checks.point("position", position, 3)
         checks.point("facing", facing, 2, "dimensionless")
+        if not position[2] > 0.0:
+            raise ParameterError(f"position.z={position[2]!r} must be > 0 (m above the plate)")
         for body in self.bodies:
             if body.removed:
                 continue
@@ -536,9 +548,43 @@ class Engine:
             elif n == 2:
                 body.move(ears(position, facing))
             else:
-                raise ParameterError(
-                    f"move_listener places one or two ears; a body has {n}: use body.move"
-                )
+                body.move(_shifted(body.listener, position))
+
+    def prepare_moves(self) -> None:
+        """Build now the fixed radiation grids that moving a microphone above a plate takes
+        its gains from (:meth:`Body.move`, :meth:`move_listener`), one per plate of the
+        bodies heard through microphones, as a game does at load time: otherwise the first
+        move of each plate builds them on the calling thread (a few exact moves' time;
+        ``synth bench live`` prints it)."""
+        for body in self.bodies:
+            if body.removed or body.units != "Pa":
+                continue
+            for ear in body._ears:
+                ear._grid = self._listener_grid(ear._model)
+
+    def _listener_grid(self, model):
+        """The fixed radiation grids of ``model``'s plate (:func:`listener_grid`), built at
+        the first call for the plate and shared by its bodies; None for a plate whose grids
+        would exceed their memory budget (:data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`:
+        its moves take the exact rule)."""
+        plate = model.modes.plate
+        with self._grids_lock:
+            grid = self._grids.get(plate)
+            if grid is None and plate not in self._too_large_for_grids:
+                try:
+                    grid = listener_grid(model)
+                except GridTooLarge:
+                    self._too_large_for_grids.add(plate)  # the exact rule for its moves
+                    return None
+                self._grids[plate] = grid
+        return grid
+
+    @property
+    def listener_grid_memory(self) -> int:
+        """Bytes of the fixed radiation grids the engine keeps for moving listeners (one
+        per plate whose listener moved, see :meth:`Body.move`), beside the bodies'
+        :attr:`Body.memory`."""
+        return sum(grid.nbytes for grid in list(self._grids.values()))
 
     def reset_meter(self) -> None:
         """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
@@ -902,3 +948,22 @@ def _watch_device(engine_ref, stream) -> None:
             return
         del engine
         time.sleep(WATCH_PERIOD)
+
+
+def _shifted(listeners, position) -> tuple:
+    """``listeners`` (Microphones) moved all by one displacement, their centroid to
+    ``position`` ((x, y, z), m); a listener that is not a Microphone (an accelerometer, on
+    the plate) is a ParameterError."""
+    for i, li in enumerate(listeners):
+        if not isinstance(li, Microphone):
+            raise ParameterError(
+                f"listener[{i}]={li!r}: move_listener moves microphones only; use body.move"
+            )
+    points = np.array([li.position for li in listeners], dtype=float)
+    moved = points + (np.asarray(position, dtype=float) - points.mean(axis=0))
+    for i, p in enumerate(moved):
+        if not p[2] > 0.0:
+            raise ParameterError(
+                f"listener[{i}] would be at z={p[2]!r} m: an ear must stay above the plate"
+            )
+    return tuple(Microphone(tuple(float(v) for v in p)) for p in moved)

@@ -10,6 +10,7 @@ stage (``normalize``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -166,27 +167,40 @@ def _accelerometer_output(
     modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
 ) -> ListenerOutput:
     phip = modes.shapes(np.array([listener.position]))[0][ok]
-    return ListenerOutput(phip * poles**2, phip, 0.0, "m/s^2")
+    return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
 
 
 def _microphone_output(
     modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
 ) -> ListenerOutput:
-    D = plate.flexural_rigidity
-    rho_h = plate.surface_density
-    k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
+    k_max = _max_wavenumber(plate, omega[ok])
     all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max, max_points)
+    return _pressure_output(all_gains, poles, ok, plate, listener)
+
+
+def _max_wavenumber(plate, omega) -> float:
+    """The largest bending wavenumber (rad/m) of modes of angular frequencies ``omega``
+    (rad/s; 1 for none): ``(omega^2 rho h / D)^(1/4)``."""
+    if omega.size == 0:
+        return 1.0
+    return (float(np.max(omega)) ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
+
+
+def _pressure_output(all_gains, poles, ok, plate, microphone) -> ListenerOutput:
+    """A microphone's :class:`ListenerOutput` from the gains ``G_k`` of every mode."""
     return ListenerOutput(
         np.asarray(all_gains)[ok] * poles,
         None,
-        nearest_distance(plate, listener) / SOUND_SPEED,
-        "Pa",
+        nearest_distance(plate, microphone) / SOUND_SPEED,
+        LISTENER_UNITS[Microphone],
     )
 
 
 #: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
 #: plate; Microphone: Rayleigh radiation of the baffled plate).
 LISTENER_OUTPUTS = {Accelerometer: _accelerometer_output, Microphone: _microphone_output}
+#: The units each kind of listener hears in.
+LISTENER_UNITS = {Accelerometer: "m/s^2", Microphone: "Pa"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,6 +253,29 @@ class ModalModel:
         phi = self.modes.shapes(np.asarray(points, dtype=float))[:, self.rendered]
         return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
 
+    def heard_by(self, listener, grid=None) -> ModalModel:
+        """The same modes heard by another ``listener`` (an Accelerometer or a
+        Microphone of the same plate), as :func:`modal_model` computes them. With
+        ``grid`` (:func:`listener_grid` of this model) a microphone it serves (at least
+        its height above the plate) takes its gains from it: the sums alone, no shape
+        evaluated (see :mod:`synth.sound.radiation.fixed`); any other listener is
+        computed as :func:`modal_model` does (a microphone's gains by
+        :func:`synth.sound.radiation.plate_gains`, cached)."""
+        modes = self.modes
+        plate = modes.plate
+        sigma, omega, wd = _mode_rates(modes)
+        ok = self.rendered
+        microphone = isinstance(listener, Microphone)
+        if microphone and grid is not None and grid.serves(listener.position):
+            poles = -sigma + 1j * wd
+            h = grid.gains(listener.position, nearest_distance(plate, listener))
+            output = _pressure_output(h * poles / -np.conj(poles), self.poles, ok, plate, listener)
+        else:
+            output = LISTENER_OUTPUTS[type(listener)](
+                modes, plate, listener, self.poles, ok, sigma, omega, wd
+            )
+        return dataclasses.replace(self, listener=output)
+
     def direct(self, excitation) -> np.ndarray | None:
         """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
         microphone)."""
@@ -267,16 +304,43 @@ def modal_model(
     fs = samplerate
     f_max = 0.5 * fs if max_frequency is None else max_frequency
     modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
-    sigma = np.asarray(modes.decay_rates, dtype=float)
-    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    sigma, omega, wd = _mode_rates(modes)
     under = sigma < omega
-    wd = np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
     ok = under & (wd < math.pi * fs)
     poles = (-sigma + 1j * wd)[ok]
     gains = LISTENER_OUTPUTS[type(listener)](
         modes, plate, listener, poles, ok, sigma, omega, wd, radiation_max_points
     )
     return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
+
+
+def _mode_rates(modes):
+    """``(sigma, omega, omega_d)`` of every mode, rad/s: decay rate, undamped and damped
+    angular frequency (0 for an overdamped mode)."""
+    sigma = np.asarray(modes.decay_rates, dtype=float)
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    return sigma, omega, np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
+
+
+def listener_grid(model: ModalModel, max_bytes: int | None = None):
+    """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: its
+    microphone gains at any point at least
+    :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate at the cost of
+    the sums alone (:meth:`ModalModel.heard_by`); it keeps the modes' shapes on its grids
+    (:attr:`~synth.sound.radiation.fixed.ListenerGrid.nbytes`; a
+    :class:`~synth.sound.radiation.fixed.GridTooLarge` error beyond ``max_bytes``, bytes,
+    default :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`)."""
+    from synth.sound.radiation.fixed import ListenerGrid
+
+    sigma, omega, wd = _mode_rates(model.modes)
+    return ListenerGrid(
+        model.modes,
+        -np.conj(-sigma + 1j * wd),
+        max_wavenumber=_max_wavenumber(model.modes.plate, omega[model.rendered]),
+        air_density=AIR_DENSITY,
+        sound_speed=SOUND_SPEED,
+        max_bytes=max_bytes,
+    )
 
 
 #: The render options a preset's ``[render]`` section may set (with ``subtype``, the

@@ -1,0 +1,253 @@
+"""The rectangle rule on grids fixed for every listener above a height
+(:class:`ListenerGrid`): the mode shapes evaluated once, the gains at a new microphone one
+pass of the sums, for a listener that moves (the live engine's, :meth:`synth.live.Body.move`).
+
+:func:`synth.sound.radiation.plate_gains` builds its panels around each microphone (graded
+towards its projection on the plate, see :mod:`~synth.sound.radiation.rectangle`), so a
+new microphone evaluates every mode's shape anew at every point: most of its time. Here
+the panels do not depend on the microphone: along each axis they are all as long, at most
+``h = 2 w24 / kappa`` (the oscillation of the integrand, as in the rectangle rule) and at
+most the height :data:`NEAR_FIELD_HEIGHT`. A panel no longer than ``z`` keeps the complex
+singularities of ``1 / R`` (at a distance ``>= z`` from the real axis, ``z`` the
+microphone's height) outside its Bernstein ellipse of parameter ``2 + sqrt(5) = 4.24``,
+wherever the projection falls on it: more than the ``2.89`` of the rectangle rule's worst
+graded panel, for which its fewest points per panel (:func:`~.common.min_order`) are made;
+so for a microphone at least that high the fixed panels meet every bound the rectangle
+rule's first rule meets, and take its points per panel. The modes are split in bands of
+wavenumber (:data:`BAND_RATIO`), each with its own grid, as the banded rectangle rule does.
+A microphone lower than the height is left to :func:`plate_gains` (the caller's choice).
+
+No finer rule checks the gains at each microphone (that would cost 1.56 times the sums
+again): the tests compare them with :func:`plate_gains` at random microphones, within
+``2 tol`` relative to ``max(|H_k|, 1e-4 S_k)`` (both rules meet ``tol``, see
+:mod:`~synth.sound.radiation.refinement`). Cost of a new microphone: one exponential per
+mode and point of its band's grid (:attr:`ListenerGrid.points`); memory: the shapes kept,
+8 bytes per mode and point (:attr:`ListenerGrid.nbytes`).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.errors import ParameterError, SynthError
+from synth.sound.radiation.common import (
+    MAX_ORDER,
+    add_sums,
+    check_listener,
+    exp_halvings,
+    half_phase,
+)
+from synth.sound.radiation.rectangle import _panel_orders, panel_nodes
+
+#: Lowest microphone (m above the plate's plane) the fixed grids serve: their panels are at
+#: most this long (see the module's docstring). A game's listener (a head) is rarely closer
+#: to a surface; a lower one takes :func:`~synth.sound.radiation.plate_gains`.
+NEAR_FIELD_HEIGHT = 0.1
+#: Microphones whose gains a grid keeps (the latest): the bodies of one plate moved to one
+#: listener (``Engine.move_listener``) compute its gains once.
+KEPT_MICROPHONES = 8
+#: Largest ratio of the wavenumbers of the fastest and the slowest mode of one band: each
+#: band's grid follows its own fastest mode (its points grow as the square of it), so
+#: closer bands evaluate fewer exponentials but keep more grids.
+BAND_RATIO = 1.1
+
+
+#: Most memory (bytes) the fixed grids of one plate take by default: the shapes of every mode
+#: on its band's grid (8 bytes a value). A plate whose grids would take more (a large plate,
+#: or a high sample rate: the points grow as the square of the highest wavenumber) keeps the
+#: exact rule for every listener.
+MAX_GRID_BYTES = 256 * 2**20
+
+
+class GridTooLarge(SynthError):
+    """The fixed grids of a plate would take more than their memory budget."""
+
+
+@dataclass(frozen=True, eq=False)
+class _Band:
+    """Modes ``start <= k < stop`` on one tensor grid: the points ``x`` and ``y`` (m, (N,)),
+    the weights ``w`` (m^2, (N,)) and the shapes ``phi`` ((N, stop - start), C order)."""
+
+    start: int
+    stop: int
+    x: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    phi: np.ndarray
+
+
+class ListenerGrid:
+    """The Rayleigh gains of a plate's ``modes`` at any microphone at least ``height`` m
+    above the plate (:meth:`gains`), from shapes evaluated once on fixed grids.
+
+    ``s``: the complex frequency of each mode (rad/s), as for
+    :func:`~synth.sound.radiation.plate_gains`; ``max_wavenumber``: the largest bending
+    wavenumber of the modes (rad/m); ``tol``: the rectangle rule's (dimensionless);
+    ``max_bytes``: the most memory the grids may take, bytes (default
+    :data:`MAX_GRID_BYTES`; :class:`GridTooLarge` beyond, before any shape is evaluated).
+    """
+
+    def __init__(
+        self,
+        modes,
+        s,
+        *,
+        max_wavenumber: float,
+        air_density: float = AIR_DENSITY,
+        sound_speed: float = SOUND_SPEED,
+        height: float = NEAR_FIELD_HEIGHT,
+        tol: float = 1e-6,
+        max_bytes: int | None = None,
+    ):
+        self.height = float(height)
+        self.size = (modes.plate.length, modes.plate.width)
+        self._rho = float(air_density)
+        self._c = float(sound_speed)
+        self._s = np.asarray(s, dtype=complex)
+        self._q = self._s / self._c
+        axes = _band_axes(modes, self._q, float(max_wavenumber), self.size, self.height, tol)
+        need = sum(
+            8 * (stop - start + 3) * xs.size * ys.size for start, stop, (xs, _), (ys, _) in axes
+        )
+        max_bytes = MAX_GRID_BYTES if max_bytes is None else max_bytes
+        if need > max_bytes:
+            raise GridTooLarge(
+                f"the fixed radiation grids of {len(modes)} modes would take {need / 2**20:.0f} "
+                f"MiB, more than max_bytes={max_bytes / 2**20:.0f} MiB"
+            )
+        self._bands = _bands(axes, modes)
+        self._shares = _shares(self._bands, max(1, numba.get_num_threads()))
+        self._kept: dict = {}  # the gains at the last few microphones, by position
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the grids and the shapes kept."""
+        return sum(b.phi.nbytes + 3 * b.w.nbytes for b in self._bands)
+
+    @property
+    def points(self) -> int:
+        """Exponentials a new microphone costs: modes times points of their band's grid."""
+        return sum(b.w.size * (b.stop - b.start) for b in self._bands)
+
+    def serves(self, listener_position) -> bool:
+        """Whether a microphone at ``listener_position`` ((x, y, z), m) is high enough."""
+        return float(listener_position[2]) >= self.height
+
+    def gains(self, listener_position, reference_distance: float | None = None) -> np.ndarray:
+        """``H_k(s_k)`` (times ``exp(s_k R0 / c)`` with ``R0 = reference_distance``, m), Pa
+        per (m/s) of modal velocity, of every mode at the microphone ``listener_position``
+        ((x, y, z), m, z >= :attr:`height`), as :func:`~synth.sound.radiation.plate_gains`
+        computes them (read-only; kept for the last :data:`KEPT_MICROPHONES` microphones)."""
+        xl, yl, zl = check_listener(listener_position)
+        key = (xl, yl, zl, reference_distance)
+        kept = self._kept.get(key)
+        if kept is not None:
+            return kept
+        if zl < self.height:
+            raise ParameterError(
+                f"listener_position.z={zl!r} m is below the fixed grids' height "
+                f"{self.height} m: use synth.sound.radiation.plate_gains"
+            )
+        a, b = self.size
+        dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
+        dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
+        r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
+        r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+        r_mid = 0.5 * (r_max + r_min)
+        q = self._q
+        halvings = exp_halvings(q, 0.5 * (r_max - r_min))
+        qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+        qi = np.ascontiguousarray(q.imag)
+        acc = np.zeros((3, q.size))
+
+        def add(bands):
+            for band in bands:
+                r = np.sqrt((band.x - xl) ** 2 + (band.y - yl) ** 2 + zl * zl)
+                k0, k1 = band.start, band.stop
+                add_sums(
+                    0, r.size, r - r_mid, band.w / r, band.phi,
+                    qr[k0:k1], qi[k0:k1], halvings, acc[0, k0:k1], acc[1, k0:k1], acc[2, k0:k1],
+                )  # fmt: skip
+
+        if len(self._shares) == 1:
+            add(self._shares[0])
+        else:
+            with ThreadPoolExecutor(max_workers=len(self._shares)) as pool:
+                for job in [pool.submit(add, share) for share in self._shares]:
+                    job.result()
+        shift = r_mid - (0.0 if reference_distance is None else float(reference_distance))
+        factor = self._rho * self._s / (2.0 * math.pi) * np.exp(-q * shift)
+        gains = factor * (acc[0] + 1j * acc[1])
+        gains.setflags(write=False)
+        if len(self._kept) >= KEPT_MICROPHONES:
+            self._kept.pop(next(iter(self._kept)), None)
+        self._kept[key] = gains
+        return gains
+
+
+def _shares(bands, workers: int) -> list:
+    """The bands split in at most ``workers`` shares of about equal work (modes times
+    points; the largest band first to the least loaded share). Each band's sums are its
+    own modes', so the gains do not depend on the split or on the threads' timing."""
+    shares = [[] for _ in range(min(workers, max(1, len(bands))))]
+    load = [0] * len(shares)
+    for band in sorted(bands, key=lambda b: -b.w.size * (b.stop - b.start)):
+        i = load.index(min(load))
+        shares[i].append(band)
+        load[i] += band.w.size * (band.stop - band.start)
+    return shares
+
+
+def _band_axes(modes, q, kb, size, height, tol) -> list:
+    """The modes' bands of wavenumber and their grids' axes: ``(start, stop, (xs, wx),
+    (ys, wy))`` for modes ``start <= k < stop``."""
+    from synth.sound.radiation import _wavenumber_bands
+
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    if omega.size == 0:
+        return []
+    kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(q)
+    out = []
+    for start, stop in _wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO):
+        band_kappa = float(np.max(kappa[start:stop]))
+        out.append(
+            (
+                start,
+                stop,
+                _axis(size[0], band_kappa, height, tol),
+                _axis(size[1], band_kappa, height, tol),
+            )
+        )
+    return out
+
+
+def _bands(axes, modes) -> tuple[_Band, ...]:
+    """The bands of :func:`_band_axes` with their tensor grids and the shapes on them."""
+    bands = []
+    for start, stop, (xs, wx), (ys, wy) in axes:
+        x = np.repeat(xs, ys.size)
+        y = np.tile(ys, xs.size)
+        w = np.repeat(wx, ys.size) * np.tile(wy, xs.size)
+        points = np.column_stack((x, y))
+        phi = np.ascontiguousarray(modes.shapes(points, index=np.arange(start, stop)), float)
+        if not np.isfinite(phi).all():
+            raise ParameterError(f"the shapes of modes {start}-{stop - 1} are not finite")
+        bands.append(_Band(start, stop, x, y, w, phi))
+    return tuple(bands)
+
+
+def _axis(length: float, kappa: float, height: float, tol: float):
+    """Nodes and weights along one side (``length`` m) of a band's grid: equal panels at
+    most ``min(2 w24 / kappa, height)`` long, each with the rectangle rule's first-rule
+    points for its length."""
+    tol_panel = 0.1 * tol
+    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
+    n = max(1, math.ceil(length / min(h, height)))
+    ends = np.linspace(0.0, length, n + 1)
+    return panel_nodes(ends, _panel_orders(ends, kappa, tol_panel))
