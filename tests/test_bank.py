@@ -7,6 +7,7 @@ Most tests use a cheap scene (a small simply supported MDF plate heard at 16 kHz
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
 import signal
@@ -481,7 +482,10 @@ def test_unreachable_scheduler_fails_leaving_nothing(tmp_path):
 
 
 def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
-    # With count, a list of n values gives each value once in every n consecutive rows.
+    # With count, a list of n values gives each value once in every n consecutive rows,
+    # by the rule of plan 2 (a permutation of the list per block from
+    # default_rng([seed, axis, block, 1])), which plan 3 keeps for one list axis; a count
+    # above the 4 values (no range axis) repeats them, with a warning.
     from synth.bank import spec as S
 
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
@@ -489,9 +493,112 @@ def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
     s = S.from_dict(
         {"preset": "small.toml", "count": 10, "vary": {"ball.radius": radii}}, base_dir=tmp_path
     )
-    drawn = [item.values["ball.radius"] for item in S.plan(s)]
+    with pytest.warns(S.RepeatedRowsWarning, match="4 distinct rows"):
+        drawn = [item.values["ball.radius"] for item in S.plan(s)]
     assert sorted(drawn[:4]) == radii and sorted(drawn[4:8]) == radii
     assert set(drawn[8:]) <= set(radii) and len(set(drawn[8:])) == 2
+    plan_2 = [
+        radii[np.random.default_rng([0, 0, i // 4, 1]).permutation(4)[i % 4]] for i in range(10)
+    ]
+    assert drawn == plan_2
+
+
+def _lists_spec(tmp_path, count: int, seed: int, vary: dict):
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {"preset": "small.toml", "count": count, "seed": seed, "vary": vary}
+    return S.from_dict(data, base_dir=tmp_path)
+
+
+def _combos(items) -> list:
+    return [json.dumps(item.values, sort_keys=True) for item in items]
+
+
+TWO_BY_THREE = {"ball.radius": [0.004, 0.005], "drop.height": [0.01, 0.02, 0.03]}
+
+
+def test_list_combinations_drawn_without_replacement(tmp_path):
+    # Lists of 2 x 3 values with count = 6 give the 6 combinations once each, for every
+    # seed (drawn per axis, 4 or 5 distinct rows were common); count = 12 gives each
+    # twice, once per block of 6; a smaller count is a prefix of a larger one.
+    from synth.bank import spec as S
+
+    grid = {json.dumps({"ball.radius": r, "drop.height": h}, sort_keys=True)
+            for r in TWO_BY_THREE["ball.radius"] for h in TWO_BY_THREE["drop.height"]}  # fmt: skip
+    for seed in range(100):
+        six = _combos(S.plan(_lists_spec(tmp_path, 6, seed, TWO_BY_THREE), check_scenes=False))
+        assert set(six) == grid, seed
+    with pytest.warns(S.RepeatedRowsWarning):
+        twelve = _combos(S.plan(_lists_spec(tmp_path, 12, 5, TWO_BY_THREE), check_scenes=False))
+    assert set(twelve[:6]) == set(twelve[6:]) == grid
+    four = _combos(S.plan(_lists_spec(tmp_path, 4, 5, TWO_BY_THREE), check_scenes=False))
+    assert four == twelve[:4]
+
+
+def test_many_list_combinations_drawn_without_replacement(tmp_path):
+    # 50 x 50 x 50 = 125000 combinations, more than a whole permutation is drawn for:
+    # each row draws until it has a combination no earlier row has; still a prefix when
+    # the count grows.
+    from synth.bank import spec as S
+
+    vary = {
+        "ball.radius": [0.004 + 1e-5 * i for i in range(50)],
+        "drop.height": [0.01 + 1e-4 * i for i in range(50)],
+        "restitution_scale": [0.5 + 0.01 * i for i in range(50)],
+    }
+    assert math.prod(len(v) for v in vary.values()) > S.PERMUTED_COMBINATIONS
+    rows = _combos(S.plan(_lists_spec(tmp_path, 3000, 2, vary), check_scenes=False))
+    assert len(set(rows)) == 3000
+    assert _combos(S.plan(_lists_spec(tmp_path, 1000, 2, vary), check_scenes=False)) == rows[:1000]
+
+
+def test_count_above_the_distinct_rows_warns_once_naming_them(tmp_path, capsys):
+    # Without a range axis, count = 7 over 2 x 3 lists repeats a row: one warning naming
+    # the 6 distinct rows (on the command line one "synth: warning" line); with a range
+    # axis the rows differ and nothing is said.
+    import warnings
+
+    from synth.bank import spec as S
+
+    with pytest.warns(S.RepeatedRowsWarning, match=r"count=7 .* the 6 distinct rows") as caught:
+        S.plan(_lists_spec(tmp_path, 7, 0, TWO_BY_THREE), check_scenes=False)
+    assert len(caught) == 1
+    spec = tmp_path / "seven.toml"
+    spec.write_text(
+        'preset = "small.toml"\ncount = 7\nname = "{index}"\n[vary]\n'
+        '"ball.radius" = [0.004, 0.005]\n"drop.height" = [0.01, 0.02, 0.03]\n'
+    )
+    assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "1"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("synth: warning: count=7") == 1 and "6 distinct rows" in err
+    ranged = dict(TWO_BY_THREE, **{"drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(S.plan(_lists_spec(tmp_path, 20, 0, ranged), check_scenes=False)) == 20
+
+
+def test_a_bank_of_plan_2_resumes_where_its_rows_are_drawn_alike(tmp_path, cache_dir):
+    # Plan 3 changed the draws of specs with two or more list axes and count only: a
+    # bank stored by plan 2 with one list axis resumes without rendering; one with two
+    # list axes is refused naming the plan (its rows would differ), as any change.
+    one = _write_spec(tmp_path / "one", count=3)
+    out = tmp_path / "one-out"
+    assert bank.run(one, out, jobs=1).ok
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    mf.write_spec(out, dict(mf.read_spec(out), plan=2))
+    result = bank.run(one, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 3)
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav")} == before
+    assert mf.read_spec(out)["plan"] == 3
+
+    two = _write_spec(tmp_path / "two", count=2, extra='"drop.height" = [0.01, 0.02]\n')
+    two.write_text(two.read_text().replace('"drop.height" = { min = 0.01, max = 0.05 }\n', ""))
+    out = tmp_path / "two-out"
+    assert bank.run(two, out, jobs=1).ok
+    mf.write_spec(out, dict(mf.read_spec(out), plan=2))
+    with pytest.raises(BankSpecError, match=r"differing keys: plan\b.*drawing rules"):
+        bank.run(two, out, jobs=1)
 
 
 def test_raising_count_adds_rows_keeping_the_first(tmp_path, cache_dir):

@@ -189,9 +189,15 @@ def _grows(stored: dict, new: dict) -> bool:
 
 def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
     diff = bank_spec.differences(stored, new)
+    rules = (
+        f"; the folder's rows were drawn by the drawing rules of plan {stored.get('plan')}, "
+        f"this version's are those of plan {new.get('plan')}"
+        if "plan" in diff
+        else ""
+    )
     raise BankSpecError(
         f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
-        f"{', '.join(diff)}): use the same spec to resume, another folder, or "
+        f"{', '.join(diff)}{rules}): use the same spec to resume, another folder, or "
         f"--force to start over"
     )
 
