@@ -367,6 +367,47 @@ def test_dry_run_changes_nothing(tmp_path, cache_dir):
     assert "estimated" in result.summary()
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_dry_run_estimate_runs_rows_as_the_run_does(tmp_path, cache_dir, monkeypatch, jobs):
+    # The estimate is made of what a run pays, each part measured by running a sample of
+    # the rows as the run runs them: the workers started as the run starts them (jobs of
+    # them), each sampled row's manifest row appended by this process, in a scratch
+    # folder removed after; and its seconds are the sum of its parts.
+    import importlib
+
+    run_module = importlib.import_module("synth.bank.run")
+    started, appended = [], []
+    real_executor, real_append = run_module._executor, mf.Manifest.append
+
+    def executor(spec, out, n_jobs, connection):
+        started.append((n_jobs, out))
+        return real_executor(spec, out, n_jobs, connection)
+
+    def append(book, row):
+        appended.append(row["index"])
+        real_append(book, row)
+
+    monkeypatch.setattr(run_module, "_executor", executor)
+    monkeypatch.setattr(mf.Manifest, "append", append)
+    spec = _write_spec(tmp_path / "spec")
+    result = bank.run(spec, tmp_path / "out", jobs=jobs, dry_run=True)
+    e = result.estimated
+    assert not (tmp_path / "out").exists()
+    # 5 rows or more, a whole number per worker, spread over the 12 (first and last)
+    assert (e.rows, e.jobs, e.sampled) == (12, jobs, {1: 5, 2: 6}[jobs])
+    assert len(started) == 1 and started[0][0] == jobs
+    scratch = started[0][1]
+    assert not scratch.exists() and not scratch.is_relative_to(tmp_path)
+    assert len(appended) == e.sampled and {0, 11} <= set(appended)
+    assert min(e.before, e.startup, e.per_row, e.finish) > 0
+    parts = e.before + e.startup + e.rows * e.per_row + e.finish
+    assert result.estimate == e.seconds == pytest.approx(parts, rel=1e-12)
+    text = result.summary()
+    workers = "this process" if jobs == 1 else f"{jobs} workers"
+    assert f"start-up of {workers}" in text and f"12 rows x {e.per_row:.3f} s" in text
+    assert f"timed on {e.sampled} rows" in text
+
+
 def test_force_dry_run_on_a_finished_bank_writes_and_deletes_nothing(tmp_path, cache_dir):
     # A finished bank, then --force --dry-run with a changed spec, and a plain --dry-run:
     # the folder's tree (names, mtimes, bytes) is the same before and after each.
@@ -828,6 +869,7 @@ def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
     assert (tmp_path / "spawn" / mf.JSONL).read_bytes() == (ref / mf.JSONL).read_bytes()
 
 
+@pytest.mark.slow
 def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     # The issue's spec as written, through `synth bank --dry-run`: 200 planned rows with the
     # varied values, no audio, an estimate; a bad spec is exit status 2 naming the key.
@@ -1568,3 +1610,10 @@ def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
     assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
     assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
     assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]
+    # and the dry run's estimate of each against its run's wall time
+    estimate = [line for line in table.splitlines() if "`--dry-run` estimate" in line]
+    assert len(estimate) == 1
+    for j in (1, 2):
+        f = r[f"jobs{j}"]
+        said = f"`--jobs {j}` {f['estimate']:.1f} s estimated, {f['seconds']:.1f} s run"
+        assert said in estimate[0]
