@@ -522,6 +522,35 @@ def test_unreachable_scheduler_fails_leaving_nothing(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "address", ["tcp://127.0.0.1:1", "tcp://192.0.2.1:8786"], ids=["refused", "no-answer"]
+)
+def test_a_wrong_scheduler_address_is_given_up_within_the_connect_timeout(tmp_path, address):
+    # `synth bank --scheduler` at a port that refuses and at an address that does not
+    # answer (TEST-NET-1, RFC 5737), with Dask's own connect timeout set to 600 s in the
+    # command's environment: the command gives up by its own CONNECT_TIMEOUT (5 s), so it
+    # ends well within a subprocess limit of 120 s (which a wait for Dask's timeout would
+    # pass), exit status 2, naming the address, with no folder made.
+    pytest.importorskip("dask.distributed")
+    from synth.bank.executors import CONNECT_TIMEOUT
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    env = dict(os.environ, DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="600s")
+    done = subprocess.run(
+        [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--scheduler", address],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert done.returncode == 2, done.stderr
+    assert f"scheduler={address!r}: cannot connect within {CONNECT_TIMEOUT:g} s" in done.stderr
+    assert "nothing was written" in done.stderr
+    assert not out.exists()
+
+
 def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
     # With count, a list of n values gives each value once in every n consecutive rows,
     # by the rule of plan 2 (a permutation of the list per block from
