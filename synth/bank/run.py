@@ -155,7 +155,7 @@ class BankResult:
             text = (
                 f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
                 f"{self.planned} sounds to render ({self.skipped} already done); estimated "
-                f"{self.estimate:.1f} s to render them"
+                f"time of the run {self.estimate:.1f} s"
             )
             if self.planned_rows:
                 text += f" = {self.estimated.describe()}"

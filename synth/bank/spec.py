@@ -642,7 +642,9 @@ class _ListDraws:
 
     def __init__(self, spec: BankSpec):
         self.axes = [a for a in spec.axes if isinstance(a, ListAxis)]
-        self.key = [spec.seed] + [n for n, a in enumerate(spec.axes) if isinstance(a, ListAxis)]
+        self.entropy = [spec.seed] + [
+            n for n, a in enumerate(spec.axes) if isinstance(a, ListAxis)
+        ]  # the generators' seed: the spec's seed and the list axes' positions
         self.total = math.prod(len(a.values) for a in self.axes)
         self._block, self._order = None, None
         self._drawn: list[int] = []  # beyond PERMUTED_COMBINATIONS: each row's combination
@@ -650,6 +652,8 @@ class _ListDraws:
 
     def values(self, index: int) -> dict:
         """Row ``index``'s values of the list axes (varied key: value)."""
+        if not self.axes:
+            return {}
         c = self._combination(index)
         out = {}
         for axis in reversed(self.axes):
@@ -661,7 +665,7 @@ class _ListDraws:
         if self.total <= PERMUTED_COMBINATIONS:
             block, position = divmod(index, self.total)
             if block != self._block:
-                rng = np.random.default_rng(self.key + [block, 1])
+                rng = np.random.default_rng(self.entropy + [block, 1])
                 self._block, self._order = block, rng.permutation(self.total)
             return int(self._order[position])
         while len(self._drawn) <= index:
@@ -673,7 +677,7 @@ class _ListDraws:
     def _unused(self, index: int) -> int:
         """A combination no row before ``index`` has, drawn from row ``index``'s generator
         (each draw is new with probability 1 - ``index`` / ``total`` > 0)."""
-        rng = np.random.default_rng(self.key + [index, 3])
+        rng = np.random.default_rng(self.entropy + [index, 3])
         while True:
             c = 0
             for axis in self.axes:
@@ -958,9 +962,9 @@ def _check_template(spec: BankSpec) -> None:
 def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
     """Every row of the bank, checked: the file names are distinct and short enough,
     and (``check_scenes``) every row's scene and render options are valid
-    (:func:`check_rows`), so that a bank either starts clean or is refused."""
+    (:func:`check_rows`), so that a bank either starts clean or is refused; a plan whose
+    rows repeat (:func:`_warn_repeated_rows`) is warned of."""
     n = _rows(spec)
-    _warn_repeated_rows(spec)
     if n > MAX_ROWS:
         raise _error(
             "count" if spec.count is not None else "vary",
@@ -982,6 +986,7 @@ def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
         items.append(PlanItem(index, f, values))
     if check_scenes:
         check_rows(spec, items)
+    _warn_repeated_rows(spec)
     return tuple(items)
 
 
