@@ -7,6 +7,7 @@ Most tests use a cheap scene (a small simply supported MDF plate heard at 16 kHz
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
 import signal
@@ -366,6 +367,47 @@ def test_dry_run_changes_nothing(tmp_path, cache_dir):
     assert "estimated" in result.summary()
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_dry_run_estimate_runs_rows_as_the_run_does(tmp_path, cache_dir, monkeypatch, jobs):
+    # The estimate is made of what a run pays, each part measured by running a sample of
+    # the rows as the run runs them: the workers started as the run starts them (jobs of
+    # them), each sampled row's manifest row appended by this process, in a scratch
+    # folder removed after; and its seconds are the sum of its parts.
+    import importlib
+
+    run_module = importlib.import_module("synth.bank.run")
+    started, appended = [], []
+    real_executor, real_append = run_module._executor, mf.Manifest.append
+
+    def executor(spec, out, n_jobs, connection):
+        started.append((n_jobs, out))
+        return real_executor(spec, out, n_jobs, connection)
+
+    def append(book, row):
+        appended.append(row["index"])
+        real_append(book, row)
+
+    monkeypatch.setattr(run_module, "_executor", executor)
+    monkeypatch.setattr(mf.Manifest, "append", append)
+    spec = _write_spec(tmp_path / "spec")
+    result = bank.run(spec, tmp_path / "out", jobs=jobs, dry_run=True)
+    e = result.estimated
+    assert not (tmp_path / "out").exists()
+    # 5 rows or more, a whole number per worker, spread over the 12 (first and last)
+    assert (e.rows, e.jobs, e.sampled) == (12, jobs, {1: 5, 2: 6}[jobs])
+    assert len(started) == 1 and started[0][0] == jobs
+    scratch = started[0][1]
+    assert not scratch.exists() and not scratch.is_relative_to(tmp_path)
+    assert len(appended) == e.sampled and {0, 11} <= set(appended)
+    assert min(e.before, e.startup, e.per_row, e.finish) > 0
+    parts = e.before + e.startup + e.rows * e.per_row + e.finish
+    assert result.estimate == e.seconds == pytest.approx(parts, rel=1e-12)
+    text = result.summary()
+    workers = "this process" if jobs == 1 else f"{jobs} workers"
+    assert f"start-up of {workers}" in text and f"12 rows x {e.per_row:.3f} s" in text
+    assert f"timed on {e.sampled} rows" in text
+
+
 def test_force_dry_run_on_a_finished_bank_writes_and_deletes_nothing(tmp_path, cache_dir):
     # A finished bank, then --force --dry-run with a changed spec, and a plain --dry-run:
     # the folder's tree (names, mtimes, bytes) is the same before and after each.
@@ -480,8 +522,40 @@ def test_unreachable_scheduler_fails_leaving_nothing(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "address", ["tcp://127.0.0.1:1", "tcp://192.0.2.1:8786"], ids=["refused", "no-answer"]
+)
+def test_a_wrong_scheduler_address_is_given_up_within_the_connect_timeout(tmp_path, address):
+    # `synth bank --scheduler` at a port that refuses and at an address that does not
+    # answer (TEST-NET-1, RFC 5737), with Dask's own connect timeout set to 600 s in the
+    # command's environment: the command gives up by its own CONNECT_TIMEOUT (5 s), so it
+    # ends well within a subprocess limit of 120 s (which a wait for Dask's timeout would
+    # pass), exit status 2, naming the address, with no folder made.
+    pytest.importorskip("dask.distributed")
+    from synth.bank.executors import CONNECT_TIMEOUT
+
+    spec = _write_spec(tmp_path / "spec", count=2)
+    out = tmp_path / "out"
+    env = dict(os.environ, DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="600s")
+    done = subprocess.run(
+        [sys.executable, "-m", "synth", "bank", str(spec), "-o", str(out), "--scheduler", address],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert done.returncode == 2, done.stderr
+    assert f"scheduler={address!r}: cannot connect within {CONNECT_TIMEOUT:g} s" in done.stderr
+    assert "nothing was written" in done.stderr
+    assert not out.exists()
+
+
 def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
-    # With count, a list of n values gives each value once in every n consecutive rows.
+    # With count, a list of n values gives each value once in every n consecutive rows,
+    # by the rule of plan 2 (a permutation of the list per block from
+    # default_rng([seed, axis, block, 1])), which plan 3 keeps for one list axis; a count
+    # above the 4 values (no range axis) repeats them, with a warning.
     from synth.bank import spec as S
 
     (tmp_path / "small.toml").write_text(SMALL_PRESET)
@@ -489,9 +563,112 @@ def test_list_axes_drawn_without_replacement_block_by_block(tmp_path):
     s = S.from_dict(
         {"preset": "small.toml", "count": 10, "vary": {"ball.radius": radii}}, base_dir=tmp_path
     )
-    drawn = [item.values["ball.radius"] for item in S.plan(s)]
+    with pytest.warns(S.RepeatedRowsWarning, match="4 distinct rows"):
+        drawn = [item.values["ball.radius"] for item in S.plan(s)]
     assert sorted(drawn[:4]) == radii and sorted(drawn[4:8]) == radii
     assert set(drawn[8:]) <= set(radii) and len(set(drawn[8:])) == 2
+    plan_2 = [
+        radii[np.random.default_rng([0, 0, i // 4, 1]).permutation(4)[i % 4]] for i in range(10)
+    ]
+    assert drawn == plan_2
+
+
+def _lists_spec(tmp_path, count: int, seed: int, vary: dict):
+    from synth.bank import spec as S
+
+    (tmp_path / "small.toml").write_text(SMALL_PRESET)
+    data = {"preset": "small.toml", "count": count, "seed": seed, "vary": vary}
+    return S.from_dict(data, base_dir=tmp_path)
+
+
+def _combos(items) -> list:
+    return [json.dumps(item.values, sort_keys=True) for item in items]
+
+
+TWO_BY_THREE = {"ball.radius": [0.004, 0.005], "drop.height": [0.01, 0.02, 0.03]}
+
+
+def test_list_combinations_drawn_without_replacement(tmp_path):
+    # Lists of 2 x 3 values with count = 6 give the 6 combinations once each, for every
+    # seed (drawn per axis, 4 or 5 distinct rows were common); count = 12 gives each
+    # twice, once per block of 6; a smaller count is a prefix of a larger one.
+    from synth.bank import spec as S
+
+    grid = {json.dumps({"ball.radius": r, "drop.height": h}, sort_keys=True)
+            for r in TWO_BY_THREE["ball.radius"] for h in TWO_BY_THREE["drop.height"]}  # fmt: skip
+    for seed in range(100):
+        six = _combos(S.plan(_lists_spec(tmp_path, 6, seed, TWO_BY_THREE), check_scenes=False))
+        assert set(six) == grid, seed
+    with pytest.warns(S.RepeatedRowsWarning):
+        twelve = _combos(S.plan(_lists_spec(tmp_path, 12, 5, TWO_BY_THREE), check_scenes=False))
+    assert set(twelve[:6]) == set(twelve[6:]) == grid
+    four = _combos(S.plan(_lists_spec(tmp_path, 4, 5, TWO_BY_THREE), check_scenes=False))
+    assert four == twelve[:4]
+
+
+def test_many_list_combinations_drawn_without_replacement(tmp_path):
+    # 50 x 50 x 50 = 125000 combinations, more than a whole permutation is drawn for:
+    # each row draws until it has a combination no earlier row has; still a prefix when
+    # the count grows.
+    from synth.bank import spec as S
+
+    vary = {
+        "ball.radius": [0.004 + 1e-5 * i for i in range(50)],
+        "drop.height": [0.01 + 1e-4 * i for i in range(50)],
+        "restitution_scale": [0.5 + 0.01 * i for i in range(50)],
+    }
+    assert math.prod(len(v) for v in vary.values()) > S.PERMUTED_COMBINATIONS
+    rows = _combos(S.plan(_lists_spec(tmp_path, 3000, 2, vary), check_scenes=False))
+    assert len(set(rows)) == 3000
+    assert _combos(S.plan(_lists_spec(tmp_path, 1000, 2, vary), check_scenes=False)) == rows[:1000]
+
+
+def test_count_above_the_distinct_rows_warns_once_naming_them(tmp_path, capsys):
+    # Without a range axis, count = 7 over 2 x 3 lists repeats a row: one warning naming
+    # the 6 distinct rows (on the command line one "synth: warning" line); with a range
+    # axis the rows differ and nothing is said.
+    import warnings
+
+    from synth.bank import spec as S
+
+    with pytest.warns(S.RepeatedRowsWarning, match=r"count=7 .* the 6 distinct rows") as caught:
+        S.plan(_lists_spec(tmp_path, 7, 0, TWO_BY_THREE), check_scenes=False)
+    assert len(caught) == 1
+    spec = tmp_path / "seven.toml"
+    spec.write_text(
+        'preset = "small.toml"\ncount = 7\nname = "{index}"\n[vary]\n'
+        '"ball.radius" = [0.004, 0.005]\n"drop.height" = [0.01, 0.02, 0.03]\n'
+    )
+    assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "1"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("synth: warning: count=7") == 1 and "6 distinct rows" in err
+    ranged = dict(TWO_BY_THREE, **{"drop.position": {"min": [0.05, 0.05], "max": [0.25, 0.15]}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(S.plan(_lists_spec(tmp_path, 20, 0, ranged), check_scenes=False)) == 20
+
+
+def test_a_bank_of_plan_2_resumes_where_its_rows_are_drawn_alike(tmp_path, cache_dir):
+    # Plan 3 changed the draws of specs with two or more list axes and count only: a
+    # bank stored by plan 2 with one list axis resumes without rendering; one with two
+    # list axes is refused naming the plan (its rows would differ), as any change.
+    one = _write_spec(tmp_path / "one", count=3)
+    out = tmp_path / "one-out"
+    assert bank.run(one, out, jobs=1).ok
+    before = {p.name: _file_identity(p) for p in out.glob("*.wav")}
+    mf.write_spec(out, dict(mf.read_spec(out), plan=2))
+    result = bank.run(one, out, jobs=1)
+    assert result.ok and (result.done, result.skipped) == (0, 3)
+    assert {p.name: _file_identity(p) for p in out.glob("*.wav")} == before
+    assert mf.read_spec(out)["plan"] == 3
+
+    two = _write_spec(tmp_path / "two", count=2, extra='"drop.height" = [0.01, 0.02]\n')
+    two.write_text(two.read_text().replace('"drop.height" = { min = 0.01, max = 0.05 }\n', ""))
+    out = tmp_path / "two-out"
+    assert bank.run(two, out, jobs=1).ok
+    mf.write_spec(out, dict(mf.read_spec(out), plan=2))
+    with pytest.raises(BankSpecError, match=r"differing keys: plan\b.*drawing rules"):
+        bank.run(two, out, jobs=1)
 
 
 def test_raising_count_adds_rows_keeping_the_first(tmp_path, cache_dir):
@@ -721,6 +898,7 @@ def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
     assert (tmp_path / "spawn" / mf.JSONL).read_bytes() == (ref / mf.JSONL).read_bytes()
 
 
+@pytest.mark.slow
 def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     # The issue's spec as written, through `synth bank --dry-run`: 200 planned rows with the
     # varied values, no audio, an estimate; a bad spec is exit status 2 naming the key.
@@ -1462,6 +1640,13 @@ def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
     assert len(gain) == 1 and f"{r['gain']['rate']:.1f}" in gain[0]
     assert f"{r['jobs1']['rate']:.1f}" in rows["| `synth bank --jobs 1`"]
     assert f"{r['jobs2']['rate']:.1f}" in rows["| `synth bank --jobs 2`"]
+    # and the dry run's estimate of each against its run's wall time
+    estimate = [line for line in table.splitlines() if "`--dry-run` estimate" in line]
+    assert len(estimate) == 1
+    for j in (1, 2):
+        f = r[f"jobs{j}"]
+        said = f"`--jobs {j}` {f['estimate']:.1f} s estimated, {f['seconds']:.1f} s run"
+        assert said in estimate[0]
 
 
 #: Steel, rubber and ABS balls on the small plate with the thesis' lossless Hertz contact:

@@ -8,7 +8,9 @@ rendered
   files, and the rate extrapolated to the bank: each process is independent);
 * by ``synth.bank.run`` with ``jobs=1`` (in this process) and ``jobs=2`` (two workers):
   wall time of the whole call, of which the workers' start-up (spawn, import, one warm
-  render), and the rate once they are warm, on which the two-core target is judged;
+  render), and the rate once they are warm, on which the two-core target is judged; each
+  after a dry run of it into the same folder, whose estimate of the time
+  (:class:`synth.bank.run.Estimate`) is printed against the run's;
 * on a Dask ``LocalCluster`` of two worker processes (started before the clock), whose
   overhead per sound is its time per sound less that of ``jobs=2``, both once warm;
 
@@ -99,9 +101,11 @@ def run_bank(count: int = 200, process_files: int = 5, dask: bool = True) -> dic
         per_file = _process_per_file(items, tmp / "process", process_files)
         out["process_per_file"] = {"seconds_per_sound": per_file, "rate": 1.0 / per_file}
         for jobs in (1, 2):
+            dry = run_bank_spec(spec, tmp / f"jobs{jobs}", jobs=jobs, dry_run=True)
             seconds, result = _timed_run(spec, tmp / f"jobs{jobs}", jobs=jobs)
             assert result.ok, result.summary()
             out[f"jobs{jobs}"] = _figures(seconds, result, count)
+            out[f"jobs{jobs}"]["estimate"] = dry.estimate
         gained = apply_gain(tmp / "jobs2", tmp / "gain")
         out["gain"] = {"seconds": gained.elapsed, "rate": gained.rate, "gain_db": gained.gain_db}
         if dask:
@@ -202,6 +206,15 @@ def format_bank(r: dict) -> str:
             f"{ratios['jobs2_over_jobs1_with_startup']:.2f}x"
         ),
     ]
+    lines.append(
+        "- `--dry-run` estimate against the run's wall time: "
+        + "; ".join(
+            f"`--jobs {j}` {r[f'jobs{j}']['estimate']:.1f} s estimated, "
+            f"{r[f'jobs{j}']['seconds']:.1f} s run "
+            f"({r[f'jobs{j}']['estimate'] / r[f'jobs{j}']['seconds']:.2f}x)"
+            for j in (1, 2)
+        )
+    )
     if d and "skipped" not in d:
         lines.append(
             f"- Dask overhead per sound against `--jobs 2`: {d['overhead_per_sound'] * 1e3:+.1f} ms"

@@ -18,6 +18,7 @@ and running the bank again completes it.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import time
@@ -36,12 +37,59 @@ from synth.bank.executors import (
     connect,
     hold_lock,
 )
-from synth.bank.row import base_row, described, render_scene, warm
+from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
 from synth.io.reproducible import reproducible
 
-#: Renders timed by a dry run to estimate the bank's time (rows spread over the plan).
+#: Rows a dry run runs to time the bank (rows spread over the plan): at least this many,
+#: and at least :data:`ESTIMATE_ROWS_PER_WORKER` per worker, a whole number per worker.
 ESTIMATE_RENDERS = 5
+
+#: Least rows each worker runs when a dry run times the bank (:func:`_estimate`).
+ESTIMATE_ROWS_PER_WORKER = 2
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The time a run of ``rows`` rows on ``jobs`` workers would take, from what a dry
+    run measured (:func:`_estimate`), s:
+
+    ``before``: the time before the workers start (the plan, every row's scene checked;
+    the folder's stored spec and files read and verified), as the dry run spent it;
+    ``startup``: starting and warming the workers (imports, compiled kernels loaded, the
+    caches filled; forked from this process or spawned), timed by starting them as the
+    run does; ``per_row``: wall time per row while ``jobs`` workers render, encode, hash
+    and publish the files (fsynced) and this process appends the manifest rows (fsynced),
+    timed on ``sampled`` rows run so (the machine's real parallel speed-up and load, not
+    an assumed one), in a scratch folder in ``scratch_in``; ``finish``: the run's end (the
+    workers stopped, every file hashed again, the manifests rewritten; its per-row part,
+    a hash of each file, is small beside a render and not scaled).
+    """
+
+    rows: int
+    jobs: int
+    sampled: int
+    before: float
+    startup: float
+    per_row: float
+    finish: float
+    scratch_in: str
+
+    @property
+    def seconds(self) -> float:
+        """The estimated wall time of the run, s."""
+        return self.before + self.startup + self.rows * self.per_row + self.finish
+
+    def describe(self) -> str:
+        """What the estimate is made of, for the dry run's summary."""
+        workers = "this process" if self.jobs == 1 else f"{self.jobs} workers"
+        return (
+            f"{self.before:.1f} s plan and checks + {self.startup:.1f} s start-up of "
+            f"{workers} + {self.rows} rows x {self.per_row:.3f} s (wall time per row on "
+            f"{workers}: rendering, encoding, hashing, files and manifest written and "
+            f"fsynced) + {self.finish:.1f} s end (workers stopped, final check); timed on "
+            f"{self.sampled} rows run in {self.scratch_in}"
+        )
 
 
 @dataclass
@@ -56,8 +104,11 @@ class BankResult:
     ``pruned``), ``stopped`` the
     reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
     ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
-    largest resident memory of a worker, bytes; for a dry run, ``estimate`` the time the
-    bank would take, s, and ``planned_rows`` the manifest rows it would render.
+    largest resident memory of a worker, bytes; ``rendering`` s from the workers ready to
+    the last row recorded, ``finishing`` s after it (the workers stopped, every file hashed
+    again, the manifests rewritten); for a dry run, ``estimated`` the time
+    the bank would take (:class:`Estimate`; ``estimate``: its seconds) and
+    ``planned_rows`` the manifest rows it would render.
     """
 
     out_dir: Path
@@ -73,8 +124,15 @@ class BankResult:
     elapsed: float = 0.0
     startup: float = 0.0
     peak_worker_rss: int = 0
-    estimate: float | None = None
+    rendering: float = 0.0
+    finishing: float = 0.0
+    estimated: Estimate | None = None
     planned_rows: list = field(default_factory=list)
+
+    @property
+    def estimate(self) -> float | None:
+        """For a dry run, the estimated time of the run, s (:class:`Estimate`)."""
+        return None if self.estimated is None else self.estimated.seconds
 
     @property
     def rate(self) -> float:
@@ -97,8 +155,10 @@ class BankResult:
             text = (
                 f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
                 f"{self.planned} sounds to render ({self.skipped} already done); estimated "
-                f"{self.estimate:.1f} s to render them"
+                f"time of the run {self.estimate:.1f} s"
             )
+            if self.planned_rows:
+                text += f" = {self.estimated.describe()}"
             if self.orphans:
                 text += "\n  " + mf.orphans_note(self.orphans, removed=False)
             return text
@@ -189,9 +249,15 @@ def _grows(stored: dict, new: dict) -> bool:
 
 def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
     diff = bank_spec.differences(stored, new)
+    rules = (
+        f"; the folder's rows were drawn by the drawing rules of plan {stored.get('plan')}, "
+        f"this version's are those of plan {new.get('plan')}"
+        if "plan" in diff
+        else ""
+    )
     raise BankSpecError(
         f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
-        f"{', '.join(diff)}): use the same spec to resume, another folder, or "
+        f"{', '.join(diff)}{rules}): use the same spec to resume, another folder, or "
         f"--force to start over"
     )
 
@@ -398,22 +464,41 @@ def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: 
     return kept
 
 
-def _estimate(spec: BankSpec, items, jobs: int) -> float:
-    """Time to render ``items`` on ``jobs`` workers, from a few renders timed here."""
+def _estimate_sample(items, jobs: int) -> list:
+    """The rows a dry run runs: :data:`ESTIMATE_RENDERS` or more, a whole number per
+    worker (:data:`ESTIMATE_ROWS_PER_WORKER` at least), spread over ``items`` (the first
+    rows may all be alike: one grid corner)."""
+    per_worker = max(ESTIMATE_ROWS_PER_WORKER, math.ceil(ESTIMATE_RENDERS / jobs))
+    n = min(len(items), per_worker * jobs)
+    picks = np.unique(np.linspace(0, len(items) - 1, n).round().astype(int))
+    return [items[int(i)] for i in picks]
+
+
+def _estimate(spec: BankSpec, items, jobs: int, before: float) -> Estimate:
+    """The time a run of ``items`` on ``jobs`` workers would take (:class:`Estimate`),
+    ``before`` s having gone to the plan and checks: a sample of the rows
+    (:func:`_estimate_sample`) is run as the run runs them (the same workers, started the
+    same way; files published and manifest rows appended, fsynced; the final check), in
+    a scratch folder of the system's temporary folder, removed after, so that nothing of
+    the bank's folder is touched."""
+    import tempfile
+
+    scratch_in = tempfile.gettempdir()
     if not items:
-        return 0.0
-    warm(spec)
-    # rows spread over the plan (its first rows may all be alike: one grid corner)
-    picks = np.unique(np.linspace(0, len(items) - 1, min(ESTIMATE_RENDERS, len(items))).round())
-    sample = [items[int(i)] for i in picks]
-    t0 = time.perf_counter()
-    for item in sample:
-        try:
-            render_scene(spec, item)
-        except Exception:  # noqa: BLE001, S110 - a failing row costs about as much as a render
-            pass
-    per = (time.perf_counter() - t0) / len(sample)
-    return per * len(items) / max(1, jobs)
+        return Estimate(0, jobs, 0, before, 0.0, 0.0, 0.0, scratch_in)
+    sample = _estimate_sample(items, jobs)
+    with tempfile.TemporaryDirectory(prefix="synth-bank-estimate-") as scratch:
+        probe = _run(spec, sample, Path(scratch), jobs, None, False, progress=False)
+    return Estimate(
+        rows=len(items),
+        jobs=jobs,
+        sampled=len(sample),
+        before=before,
+        startup=probe.startup,
+        per_row=probe.rendering / len(sample),
+        finish=probe.finishing,
+        scratch_in=scratch_in,
+    )
 
 
 def _progress(total: int):
@@ -466,7 +551,8 @@ def run(
     dry_run : bool
         Change nothing (no folder, file, manifest or lock written or deleted, also with
         ``force``): the rows that would be rendered (``result.planned_rows``) and an
-        estimate of the time from a few renders.
+        estimate of the time (``result.estimated``), from a few rows run as the run runs
+        them in a scratch folder of the system's temporary folder (:func:`_estimate`).
     force : bool
         Start over in a folder made by another spec (its files and manifest deleted).
     redo : str or set of int, optional
@@ -483,6 +569,7 @@ def run(
     checked), a scheduler that cannot be reached a :class:`BankRunError` within
     :data:`CONNECT_TIMEOUT` s; neither writes anything.
     """
+    t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
     items = bank_spec.plan(spec)
@@ -491,7 +578,7 @@ def run(
     if not isinstance(prune, bool):
         raise BankSpecError(f"prune={prune!r} must be True or False")
     if dry_run:
-        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again)
+        return _dry_run(spec, items, out, n_jobs if scheduler is None else 1, force, again, t0)
     connection = connect(scheduler) if scheduler is not None else None
     try:
         return _run_in(spec, items, out, n_jobs, connection, force, again, prune)
@@ -525,12 +612,15 @@ def _run_in(
         ) from None
 
 
-def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) -> BankResult:
-    """What a run would do, without writing or deleting anything: the rows it would
-    render (``result.planned_rows``, status ``planned``), the rows already complete, and
-    an estimate of the time from a few renders done here. A folder of another spec is
-    refused as a run refuses it; with ``force`` every row counts as to be rendered."""
-    t0 = time.perf_counter()
+def _dry_run(
+    spec, items, out: Path, jobs: int, force: bool, again=frozenset(), t0: float | None = None
+) -> BankResult:
+    """What a run would do, without writing or deleting anything in ``out``: the rows it
+    would render (``result.planned_rows``, status ``planned``), the rows already
+    complete, and an estimate of the time (:func:`_estimate`; ``t0``: when the call
+    began, :func:`time.perf_counter`). A folder of another spec is refused as a run
+    refuses it; with ``force`` every row counts as to be rendered."""
+    t0 = time.perf_counter() if t0 is None else t0
     plan = {item.index: item for item in items}
     other = _refuse_to_resume(out, spec)
     if other and not force:
@@ -544,7 +634,7 @@ def _dry_run(spec, items, out: Path, jobs: int, force: bool, again=frozenset()) 
     if out.is_dir() and not other:
         recorded = [r["file"] for r in _verified(out, mf.read_rows(out), plan)]
         result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
-    result.estimate = _estimate(spec, todo, jobs)
+    result.estimated = _estimate(spec, todo, jobs, before=time.perf_counter() - t0)
     result.elapsed = time.perf_counter() - t0
     return result
 
@@ -559,7 +649,9 @@ def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
         result.pruned = True
 
 
-def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> BankResult:
+def _run(
+    spec, items, out, n_jobs, connection, force, again=frozenset(), progress: bool = True
+) -> BankResult:
     _check_stored(out, spec, force)
     mf.clean_temporaries(out)
     plan = {item.index: item for item in items}
@@ -577,7 +669,7 @@ def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> Bank
     t_start = time.perf_counter()
     executor = _executor(spec, out, n_jobs, connection) if todo else None
     result.startup = time.perf_counter() - t_start
-    bar = _progress(len(todo))
+    bar = _progress(len(todo)) if progress else None
     try:
         for res in executor.results(todo) if executor else ():
             result.peak_worker_rss = max(result.peak_worker_rss, res.max_rss)
@@ -604,6 +696,7 @@ def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> Bank
             if bar is not None:
                 bar.update()
     finally:
+        t_rows = time.perf_counter()
         if executor is not None:
             executor.close()
         if bar is not None:
@@ -615,4 +708,6 @@ def _run(spec, items, out, n_jobs, connection, force, again=frozenset()) -> Bank
         book.rewrite(rows)
     except OSError as exc:  # the appended rows stay; the next run rewrites them
         result.stopped = result.stopped or f"cannot rewrite the manifest: {exc}"
+    result.rendering = t_rows - t_start - result.startup
+    result.finishing = time.perf_counter() - t_rows
     return result

@@ -32,8 +32,10 @@ A spec (every key; only ``preset`` is required)::
 With ``count``, variation ``i`` draws its ranges from its own generator
 ``numpy.random.default_rng([seed, i])`` (uniformly or log-uniformly; with
 ``sampling = "lhs"`` within strata dealt block by block, :func:`_lhs_fraction`) and its
-lists without replacement block by block (:func:`_list_value`), so a variation does not
-depend on the count or on the rows after it: raising ``count`` adds rows.
+lists' combinations without replacement block by block (:class:`_ListDraws`), so a
+variation does not depend on the count or on the rows after it: raising ``count`` adds
+rows. A ``count`` above the distinct rows of a spec without ranges (its lists'
+combinations) repeats them, with a :class:`RepeatedRowsWarning`.
 Without ``count``, the plan is the grid of the list axes (the first axis varies
 slowest) and the ranges are drawn per grid point the same way.
 
@@ -66,6 +68,7 @@ import json
 import math
 import string
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -156,8 +159,16 @@ RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPAC
 MAX_ROWS = 100_000
 
 #: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
-#: is another bank): 2 draws list axes without replacement, block by block.
-PLAN_VERSION = 2
+#: is another bank): 2 drew each list axis without replacement block by block, 3 draws
+#: the combinations of the list axes without replacement (:class:`_ListDraws`), which
+#: makes the rows of 2 for a spec with fewer than two list axes or without ``count``
+#: (a bank of 2 of such a spec resumes, :func:`canonical`).
+PLAN_VERSION = 3
+
+#: Most combinations of the list axes drawn as whole permutations, block by block
+#: (:class:`_ListDraws`); not below :data:`MAX_ROWS`, so that beyond it a count never
+#: fills a block. Part of the plan's rules (:data:`PLAN_VERSION`).
+PERMUTED_COMBINATIONS = 100_000
 
 #: Longest file name most file systems take, bytes (NAME_MAX of ext4, APFS, NTFS).
 MAX_NAME_BYTES = 255
@@ -282,17 +293,31 @@ def canonical(data: dict) -> dict:
     (:func:`synth.io.presets.canonical`: render options, gravity, plate boundary,
     contact model ...; not those derived from a varied key; without the preset's
     description and the base values of the varied keys, which every row sets), its
-    ``render.subtype`` the files' subtype. A value that changes the
+    ``render.subtype`` the files' subtype, its ``plan`` the rules that draw its rows
+    (:func:`_plan_rules`). A value that changes the
     files still differs, under its dotted key (:func:`differences`). A ``data`` that is
     no valid spec is returned as it is (it then differs from any valid one)."""
     try:
         base = presets.canonical(data["preset_data"], varied=tuple(data["vary"]))
+        plan_rules = _plan_rules(data)
     except (ParameterError, KeyError, TypeError, ValueError, AttributeError):
         return data
     base["render"]["subtype"] = data["subtype"]
-    out = dict(data, preset_data=base)
+    out = dict(data, preset_data=base, plan=plan_rules)
     out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
     return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
+
+
+def _plan_rules(data: dict):
+    """The plan version a stored spec ``data`` is compared by: its own, except that one
+    of plan 2 whose rows plan 3 draws alike (without ``count``, or with fewer than two
+    list axes: 3 changed only how the combinations of several lists are drawn) counts as
+    :data:`PLAN_VERSION`, so its bank resumes."""
+    version = data.get("plan")
+    lists = [v for v in data["vary"].values() if isinstance(v, list)]
+    if version == 2 and (data.get("count") is None or len(lists) < 2):
+        return PLAN_VERSION
+    return version
 
 
 def compared_form(data: dict) -> dict:
@@ -624,15 +649,65 @@ def _lhs_fraction(spec: BankSpec, number: int, size: int, index: int, rng) -> np
     return (strata + rng.random(size)) / LHS_BLOCK
 
 
-def _list_value(spec: BankSpec, number: int, axis: ListAxis, index: int):
-    """Row ``index``'s value of list axis ``number`` with ``count``: drawn without
-    replacement block by block, rows ``k n .. k n + n - 1`` (``n`` values) taking a
-    permutation of the list drawn from ``default_rng([seed, number, k, 1])``; so every
-    value comes up once per block and a row depends on its index alone."""
-    n = len(axis.values)
-    block, position = divmod(index, n)
-    order = np.random.default_rng([spec.seed, number, block, 1]).permutation(n)
-    return axis.values[int(order[position])]
+class _ListDraws:
+    """The values of the list axes of the rows with ``count``, drawn without replacement
+    over their combinations: the product of the lists, ``total`` combinations numbered
+    as in the grid (the first list axis varying slowest).
+
+    With ``total`` <= :data:`PERMUTED_COMBINATIONS`, rows ``k total .. k total + total - 1``
+    (block ``k``) take the combinations in the order of a permutation drawn from
+    ``default_rng([seed, a, b, ..., k, 1])`` (``a, b, ...``: the list axes' positions in
+    ``[vary]``), so every combination comes once per block and a row depends on its index
+    alone; with one list axis these are plan 2's draws. With more combinations than that
+    (a count, at most :data:`MAX_ROWS`, never fills a block), row ``i`` draws a combination
+    from ``default_rng([seed, a, b, ..., i, 3])`` (each axis uniformly) until it finds
+    one no earlier row has: it depends on its index and the rows before it. Either way a
+    larger count keeps the first rows."""
+
+    def __init__(self, spec: BankSpec):
+        self.axes = [a for a in spec.axes if isinstance(a, ListAxis)]
+        self.entropy = [spec.seed] + [
+            n for n, a in enumerate(spec.axes) if isinstance(a, ListAxis)
+        ]  # the generators' seed: the spec's seed and the list axes' positions
+        self.total = math.prod(len(a.values) for a in self.axes)
+        self._block, self._order = None, None
+        self._drawn: list[int] = []  # beyond PERMUTED_COMBINATIONS: each row's combination
+        self._taken: set[int] = set()
+
+    def values(self, index: int) -> dict:
+        """Row ``index``'s values of the list axes (varied key: value)."""
+        if not self.axes:
+            return {}
+        c = self._combination(index)
+        out = {}
+        for axis in reversed(self.axes):
+            c, k = divmod(c, len(axis.values))
+            out[axis.key] = axis.values[k]
+        return out
+
+    def _combination(self, index: int) -> int:
+        if self.total <= PERMUTED_COMBINATIONS:
+            block, position = divmod(index, self.total)
+            if block != self._block:
+                rng = np.random.default_rng(self.entropy + [block, 1])
+                self._block, self._order = block, rng.permutation(self.total)
+            return int(self._order[position])
+        while len(self._drawn) <= index:
+            c = self._unused(len(self._drawn))
+            self._drawn.append(c)
+            self._taken.add(c)
+        return self._drawn[index]
+
+    def _unused(self, index: int) -> int:
+        """A combination no row before ``index`` has, drawn from row ``index``'s generator
+        (each draw is new with probability 1 - ``index`` / ``total`` > 0)."""
+        rng = np.random.default_rng(self.entropy + [index, 3])
+        while True:
+            c = 0
+            for axis in self.axes:
+                c = c * len(axis.values) + int(rng.integers(len(axis.values)))
+            if c not in self._taken:
+                return c
 
 
 def _min_distance(value, count, sampling, axes) -> float | None:
@@ -669,14 +744,16 @@ def _unit_point(spec: BankSpec, values: dict) -> np.ndarray:
 
 
 def _spaced_variations(spec: BankSpec):
-    """Rows with ``min_distance``: row ``i`` draws from ``default_rng([seed, i])`` until
-    its point is at least ``min_distance`` from every earlier row's (so it depends on
-    its index and the rows before it, not on the count)."""
+    """Rows with ``min_distance``: row ``i`` draws its ranges from ``default_rng([seed,
+    i])`` until its point is at least ``min_distance`` from every earlier row's (so it
+    depends on its index and the rows before it, not on the count); its lists are
+    drawn as without it (:class:`_ListDraws`)."""
     points = []
+    lists = _ListDraws(spec)
     for i in range(spec.count):
         rng = np.random.default_rng([spec.seed, i])
         for _ in range(MIN_DISTANCE_ATTEMPTS):
-            values = _draw(spec, i, None, rng)
+            values = _draw(spec, i, lists.values(i), rng)
             p = _unit_point(spec, values)
             if not points or np.min(np.linalg.norm(np.array(points) - p, axis=1)) >= (
                 spec.min_distance
@@ -693,14 +770,15 @@ def _spaced_variations(spec: BankSpec):
         yield values
 
 
-def _draw(spec: BankSpec, index: int, grid_point: dict | None, rng=None) -> dict:
+def _draw(spec: BankSpec, index: int, lists: dict, rng=None) -> dict:
+    """Row ``index``'s values: its list axes' ``lists`` (a grid point, or drawn by
+    :class:`_ListDraws`) and its ranges drawn with ``rng`` (default
+    ``default_rng([seed, index])``), in the spec's order of the axes."""
     rng = np.random.default_rng([spec.seed, index]) if rng is None else rng
     values = {}
     for number, axis in enumerate(spec.axes):
-        if grid_point is not None and axis.key in grid_point:
-            values[axis.key] = grid_point[axis.key]
-        elif isinstance(axis, ListAxis):
-            values[axis.key] = _list_value(spec, number, axis, index)
+        if isinstance(axis, ListAxis):
+            values[axis.key] = lists[axis.key]
         elif spec.sampling == "lhs":
             size = np.atleast_1d(np.asarray(axis.low)).size
             values[axis.key] = axis.position(_lhs_fraction(spec, number, size, index, rng))
@@ -709,10 +787,38 @@ def _draw(spec: BankSpec, index: int, grid_point: dict | None, rng=None) -> dict
     return values
 
 
-def _rows(spec: BankSpec) -> int:
-    if spec.count is not None:
-        return spec.count
+def _combinations(spec: BankSpec) -> int:
+    """How many distinct combinations the list axes have (1 without lists)."""
     return math.prod(len(a.values) for a in spec.axes if isinstance(a, ListAxis))
+
+
+def _rows(spec: BankSpec) -> int:
+    return spec.count if spec.count is not None else _combinations(spec)
+
+
+class RepeatedRowsWarning(UserWarning):
+    """A ``count`` above the number of distinct rows a spec can make: rows repeat."""
+
+
+def _warn_repeated_rows(spec: BankSpec) -> None:
+    """Warn when ``count`` asks for more rows than the spec has distinct ones: without a
+    range axis a row is one of the list axes' combinations, so rows beyond them repeat
+    earlier ones (each combination once in every block of them, a randomised block
+    design; identical sounds under other names). Not refused: repeated stimuli are a
+    valid design, a container of game sounds wants the count lowered."""
+    distinct = _combinations(spec)
+    if spec.count is None or spec.count <= distinct:
+        return
+    if any(isinstance(a, RangeAxis) for a in spec.axes):
+        return
+    lists = " x ".join(f"{a.key} ({len(a.values)})" for a in spec.axes) or "no axis"
+    warnings.warn(
+        f"count={spec.count} is more than the {distinct} distinct rows of the list axes "
+        f"({lists}) with no range axis: rows repeat, each combination once in every "
+        f"{distinct} rows; lower count to {distinct} for distinct sounds",
+        RepeatedRowsWarning,
+        stacklevel=3,
+    )
 
 
 def variations(spec: BankSpec):
@@ -721,8 +827,9 @@ def variations(spec: BankSpec):
         yield from _spaced_variations(spec)
         return
     if spec.count is not None:
+        lists = _ListDraws(spec)
         for i in range(spec.count):
-            yield _draw(spec, i, None)
+            yield _draw(spec, i, lists.values(i))
         return
     lists = [a for a in spec.axes if isinstance(a, ListAxis)]
     for i, combo in enumerate(itertools.product(*(a.values for a in lists))):
@@ -879,7 +986,8 @@ def _check_template(spec: BankSpec) -> None:
 def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
     """Every row of the bank, checked: the file names are distinct and short enough,
     and (``check_scenes``) every row's scene and render options are valid
-    (:func:`check_rows`), so that a bank either starts clean or is refused."""
+    (:func:`check_rows`), so that a bank either starts clean or is refused; a plan whose
+    rows repeat (:func:`_warn_repeated_rows`) is warned of."""
     n = _rows(spec)
     if n > MAX_ROWS:
         raise _error(
@@ -902,6 +1010,7 @@ def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
         items.append(PlanItem(index, f, values))
     if check_scenes:
         check_rows(spec, items)
+    _warn_repeated_rows(spec)
     return tuple(items)
 
 
