@@ -117,13 +117,8 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
 
     from synth import cost
 
-    keys = (
-        "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
-        "floor_db",
-    )  # fmt: skip
-    options = {k: section[k] for k in keys if section.get(k) is not None}  # samplerate set
-    estimate = cost.estimate(scene, **options)
     budget = cost.Budget.from_environment()
+    estimate = cost.estimate_render(scene, section, budget)  # the section sets samplerate
     too_big = estimate.excess(budget)
     if as_json:
         json.dump(
