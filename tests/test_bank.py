@@ -460,6 +460,18 @@ def test_row_beyond_the_mode_budget_refused_at_plan_time(tmp_path, monkeypatch):
     assert "row 1 (" in text and "SYNTH_MAX_MODES" in text and "row 0 (" not in text, text
 
 
+def test_row_beyond_the_render_estimate_refused_at_plan_time(tmp_path):
+    # The plan holds each row to the render's whole cost estimate (synth.cost.estimate_render
+    # against the budget), not only its mode count, so no worker starts a row its render would
+    # refuse: a ball of 999 to 1000 kg comes to rest on the small board, a contact of minutes
+    # (longer than the preset's max_duration of 0.3 s, and a pulse grid beyond the budget).
+    text = _bad(tmp_path, BASE + 'count = 2\n[vary]\n"ball.mass" = { min = 999.0, max = 1000.0 }\n')
+    for row in (0, 1):
+        assert f"row {row} (ball.mass=" in text, text
+    assert "comes to rest" in text and "max_duration=0.3" in text and "lower ball.mass" in text
+    assert "SYNTH_MAX_PULSE_POINTS" in text
+
+
 def test_file_name_over_255_bytes_refused(tmp_path):
     text = _bad(
         tmp_path, BASE + 'name = "' + "x" * 260 + '{index}"\n[vary]\n"drop.height" = [0.01]\n'

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from synth import checks
+from synth import checks, cost
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
@@ -280,7 +280,9 @@ class Body:
         ear goes from the old listener's to the new one's linearly over the next block
         mixed (no click); the voices' modal states are the plate's, so every mode rings on
         at its new level, also one the old listener did not hear. The gains are computed
-        here, on the calling thread (the radiation of each mode to the new point)."""
+        here, on the calling thread (the radiation of each mode to the new point), after
+        each new listener's cost is checked against the budget as :meth:`Engine.add`
+        checks it."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -289,16 +291,24 @@ class Body:
         if self._removed:
             raise SynthError("the body was removed: it cannot move its listener")
         engine = self._engine
-        models = []
-        for i, (ear, li) in enumerate(zip(self._ears, listeners)):
+        cuts = []
+        for i, li in enumerate(listeners):
             if isinstance(li, Accelerometer):
                 self.plate.check_position(li.position, f"listener[{i}].position")
             elif not isinstance(li, Microphone):
                 raise ParameterError(
                     f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
                 )
+            f_max = engine._highest_frequency()
+            cuts.append(cost.check_body(self.plate, li, f_max, self.max_voices))
+        models = []
+        for i, (ear, li, cut) in enumerate(zip(self._ears, listeners, cuts)):
             model = modal_model(
-                self.plate, li, samplerate=engine.samplerate, max_frequency=engine.max_frequency
+                self.plate,
+                li,
+                samplerate=engine.samplerate,
+                max_frequency=engine.max_frequency,
+                radiation_max_points=cut,
             )
             if model.units != ear._model.units:
                 raise ParameterError(
