@@ -847,16 +847,33 @@ def _radiation_rule(plate, modes: int, f_max: float, max_points: int | None = No
     return "summed" if work > rad.SUMMED_RULE_WORK else "rectangle"
 
 
-def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
-    """The :class:`RadiationWork` of the counts ``rule``
-    (:class:`synth.sound.radiation.work.RuleWork`) with the rules whose summed work fits
-    ``budget`` (at least the first)."""
+def _rules_taken(points, max_points: int | None) -> int:
+    """Rules a refinement takes with ``max_points`` (None: no cut): after its first two it
+    stops before a rule of more points (:mod:`synth.sound.radiation.refinement`)."""
     from synth.sound.radiation.common import MAX_RULES
 
-    summed = rule.fixed + np.cumsum(rule.work)
-    rules = max(int(np.sum(summed <= budget.max_radiation_work)), 1)
+    taken = 2
+    while taken < MAX_RULES and (max_points is None or points[taken] <= max_points):
+        taken += 1
+    return taken
+
+
+def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of the counts ``rule``
+    (:class:`synth.sound.radiation.work.RuleWork`) with the most rules whose summed work
+    fits ``budget``: the ``max_points`` that stops the refinement there (at least the
+    rule's ``floor``) and the rules it then takes; one rule (refused) if not even two
+    fit."""
+    from synth.sound.radiation.common import MAX_RULES
+
+    rules, cut = 1, int(rule.points[0])
+    for last in range(MAX_RULES, 1, -1):
+        candidate = None if last == MAX_RULES else max(int(rule.points[last - 1]), rule.floor)
+        taken = _rules_taken(rule.points, candidate)
+        if rule.fixed + float(sum(rule.work[:taken])) <= budget.max_radiation_work:
+            rules, cut = taken, candidate
+            break
     points = int(sum(rule.points[:rules]))
-    cut = int(rule.points[rules - 1]) if rules < MAX_RULES else None
     return RadiationWork(
         rule.rule, int(rule.points[0]), points, terms, float(points) * modes, rules, cut,
         tuple(int(p) for p in rule.points), tuple(float(w) for w in rule.work),
@@ -937,7 +954,10 @@ def _boundary_counts(plate, position, modes: int, f_max: float, terms: int):
     ]
     edge = work.boundary_work(size, position, bands, tol_panel)
     ritz = work.rectangle_work(size, position, _kappa(plate, f_low), n_low, terms, tol_panel)
-    return dataclasses.replace(edge, fixed=edge.fixed + float(sum(ritz.work)))
+    # the Ritz modes' rectangle rule takes the same max_points: at least its check rule's
+    return dataclasses.replace(
+        edge, fixed=edge.fixed + float(sum(ritz.work)), floor=ritz.points[1] if n_low else 0
+    )
 
 
 def _radiation_bytes(plate, listener, modes: int, f_max: float) -> int:

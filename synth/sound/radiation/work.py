@@ -64,14 +64,17 @@ BOUNDARY_BANDS = 6
 @dataclass(frozen=True)
 class RuleWork:
     """One rule's counts: ``points`` and ``work`` (terms) of each of its ``MAX_RULES``
-    rules, ``fixed`` terms outside the refinement (the in-phase bounds), and ``unit``,
-    what its points count."""
+    rules, ``fixed`` terms outside the refinement (the in-phase bounds), ``unit``, what
+    its points count, and ``floor``, the fewest ``max_points`` the render may pass (the
+    boundary rule's Ritz modes take the rectangle rule with the same ``max_points``,
+    which must hold its check rule)."""
 
     rule: str
     points: tuple
     work: tuple
     fixed: float
     unit: str
+    floor: int = 0
 
 
 def _levels():
@@ -98,9 +101,11 @@ def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
     return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
 
 
-def _polar_grid(size, listener, kb, qa, tol_panel) -> list[tuple[int, int]]:
+def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[int, int]]:
     """Per rule: (radii, angular points) of the polar rules (:func:`polar_setup`'s
-    panels, :func:`_circle_points`' arcs)."""
+    panels); at each radius the arcs on the plate (the summed rule's
+    :func:`angular_rule`), or with ``shorter`` the shorter of those on and off it (the
+    separable rule's :func:`_circle_points`)."""
     from synth.sound.radiation import polar
 
     a, b = size
@@ -116,9 +121,10 @@ def _polar_grid(size, listener, kb, qa, tol_panel) -> list[tuple[int, int]]:
         angular = 0
         for r in radii:
             on, off = polar._circle_arcs(float(r), a, b, xl, yl)
-            shorter = off if sum(v - u for u, v in off) < sum(v - u for u, v in on) else on
+            if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
+                on = off
             angular += sum(
-                n * p for _, _, n, p in polar._arc_panels(float(r), kb, tol_panel, f, shorter)
+                n * p for _, _, n, p in polar._arc_panels(float(r), kb, tol_panel, f, on)
             )
         out.append((radii.size, angular))
     return out
@@ -135,7 +141,7 @@ def _in_phase_points(size, listener, kb, tol_panel) -> tuple[int, int]:
 
 def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel) -> RuleWork:
     """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors."""
-    grid = _polar_grid(size, listener, kb, qa, tol_panel)
+    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=True)
     work = [
         float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * POLAR_RADIAL_TERMS
         for radii, angular in grid
@@ -148,7 +154,7 @@ def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel) -> RuleWork:
 def summed_work(size, listener, kb, qa, modes, n_x, n_y, basis, terms, tol_panel) -> RuleWork:
     """The summed polar rule's work for ``modes`` Ritz modes (``n_x``, ``n_y`` factors,
     ``basis`` coefficients per mode, shape values of ``terms`` terms)."""
-    grid = _polar_grid(size, listener, kb, qa, tol_panel)
+    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=False)
     work = [
         float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * (basis + 1)
         for radii, angular in grid
@@ -186,6 +192,16 @@ def _boundary_grid(size, listener, band: RateBand, tol_panel, refine):
     return br._Grid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
 
 
+def boundary_row_terms(grid) -> float:
+    """Terms of one row of the boundary rule on ``grid`` (a
+    :class:`~synth.sound.radiation.boundary._Grid`; see the module docstring)."""
+    return (
+        BOUNDARY_NODE_TERMS * grid.rho.size
+        + BOUNDARY_CUMULATIONS * float(np.sum(grid.orders.astype(float) ** 2))
+        + BOUNDARY_EDGE_TERMS * grid.edge_arrays[4].size
+    )
+
+
 def boundary_work(size, listener, bands, tol_panel) -> RuleWork:
     """The boundary rule's work for its rows in ``bands`` (:class:`RateBand`)."""
     points, work = [], []
@@ -195,13 +211,8 @@ def boundary_work(size, listener, bands, tol_panel) -> RuleWork:
             if band.rows == 0:
                 continue
             grid = _boundary_grid(size, listener, band, tol_panel, f)
-            per_row = (
-                BOUNDARY_NODE_TERMS * grid.rho.size
-                + BOUNDARY_CUMULATIONS * float(np.sum(grid.orders.astype(float) ** 2))
-                + BOUNDARY_EDGE_TERMS * grid.edge_arrays[4].size
-            )
             nodes = max(nodes, grid.rho.size)
-            terms += band.rows * per_row
+            terms += band.rows * boundary_row_terms(grid)
         points.append(nodes)
         work.append(terms)
     return RuleWork("boundary", tuple(points), tuple(work), 0.0, "radial nodes")
