@@ -889,41 +889,46 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.scene import Microphone
     from synth.sound.modes import shape_terms
-    from synth.sound.radiation import work
 
     if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
+    terms = shape_terms(plate, f_max)
+    rule = _radiation_rule(plate, modes, f_max)
+    fitted = _fitted(rule_counts(rule, plate, listener, modes, f_max), modes, terms, budget)
+    cut = fitted.max_points
+    if rule != "rectangle" or cut is None:
+        return fitted
+    if not (_crossed(plate, f_max) and _boundary_forced(plate, f_max, cut)):
+        return fitted
+    boundary = _fitted(rule_counts("boundary", plate, listener, modes, f_max), modes, terms, budget)
+    if boundary.max_points is None:  # the rectangle rule's cut keeps the switch
+        return dataclasses.replace(boundary, max_points=cut)
+    return boundary
+
+
+def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
+    """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
+    "polar", "summed" or "boundary") for ``listener`` (a Microphone) hearing ``plate``'s
+    ``modes`` modes up to ``f_max`` (Hz), whichever rule the engine would take."""
+    from synth.sound.modes import shape_terms
+    from synth.sound.radiation import work
+
     size, position = (plate.length, plate.width), listener.position
     kb, qa = _bending(plate, f_max), _acoustic(f_max)
     tol_panel = 0.1 * RADIATION_TOL
     terms = shape_terms(plate, f_max)
-    rule = _radiation_rule(plate, modes, f_max)
     if rule == "rectangle":
-        fitted = _fitted(
-            work.rectangle_work(size, position, kb + qa, modes, terms, tol_panel),
-            modes, terms, budget,
-        )  # fmt: skip
-        cut = fitted.max_points
-        if cut is None or not (_crossed(plate, f_max) and _boundary_forced(plate, f_max, cut)):
-            return fitted
-        boundary = _fitted(
-            _boundary_counts(plate, position, modes, f_max, terms), modes, terms, budget
-        )
-        if boundary.max_points is None:  # the rectangle rule's cut keeps the switch
-            return dataclasses.replace(boundary, max_points=cut)
-        return boundary
+        return work.rectangle_work(size, position, kb + qa, modes, terms, tol_panel)
     if rule == "polar":
         n_x, n_y = (int(kb * side / math.pi) for side in size)
-        counts = work.polar_work(size, position, kb, qa, modes, n_x, n_y, tol_panel)
-    elif rule == "summed":
+        return work.polar_work(size, position, kb, qa, modes, n_x, n_y, tol_panel)
+    if rule == "summed":
         from synth.sound.modes import ritz_factors, solver_sizes
 
         n_x, n_y = ritz_factors(plate, f_max)
         basis = max(solver_sizes(plate, f_max)[0], default=1)
-        counts = work.summed_work(size, position, kb, qa, modes, n_x, n_y, basis, terms, tol_panel)
-    else:
-        counts = _boundary_counts(plate, position, modes, f_max, terms)
-    return _fitted(counts, modes, terms, budget)
+        return work.summed_work(size, position, kb, qa, modes, n_x, n_y, basis, terms, tol_panel)
+    return _boundary_counts(plate, position, modes, f_max, terms)
 
 
 def _ritz_band_frequency(plate, f_max: float) -> float:
