@@ -458,3 +458,45 @@ def test_every_shipped_preset_keeps_four_radiation_rules_within_the_default_budg
         r = est.radiation
         assert r.rule != "rectangle" or r.rules >= 4, (name, r)
         assert not est.excess(cost.Budget()), name
+
+
+# ------------------------------------------------------------------- time in seconds
+
+
+def test_the_estimated_time_is_the_work_over_the_measured_rates(tmp_path):
+    # synth info --cost turns the solver's operations and the radiation rule's terms into
+    # seconds by the rates synth bench cost measured (synth.cost.Rates): the time is their
+    # quotient, exactly, from the radiation's first two rules (the fewest a refinement takes)
+    # to every rule the budget holds; without measured rates the row says how to measure
+    # them. No clock is read here.
+    import json
+
+    path = tmp_path / "rates.json"
+    path.write_text(json.dumps({
+        "solver_flops_per_second": 1e10,
+        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9,
+                                       "boundary": 1e8},
+        "measured": "a test",
+    }))  # fmt: skip
+    rates = cost.Rates.load(path)
+    scene, options = scene_from_dict(RADIATION_SCENES["free-plate"], "free-plate")
+    est = _estimate(scene, options)
+    solver, fewest, most = rates.seconds(est)
+    r = est.radiation
+    assert solver == est.solver_flops / 1e10 and most == r.work / 2e9 and r.rules > 2
+    assert fewest == r.work_of(2) / 2e9 < most
+    name, text = cost.time_row(est, rates)
+    assert f"{solver + fewest:.3g} to {solver + most:.3g} s" in text and "a test" in text
+    assert "synth bench cost --record" in cost.time_row(est, None)[1]
+    assert cost.Rates.load(tmp_path / "absent.json") is None
+
+
+def test_the_shipped_rates_if_measured_cover_every_rule():
+    # The rates file synth bench cost --record writes beside synth.cost names a positive rate
+    # for the mode solver and for every radiation rule the estimate may take.
+    rates = cost.Rates.load()
+    if rates is None:
+        pytest.skip("no rates measured (synth bench cost --record)")
+    assert rates.solver > 0 and rates.measured.startswith("synth bench cost")
+    assert set(rates.radiation) == {"rectangle", "polar", "summed", "boundary"}
+    assert all(v > 0 for v in rates.radiation.values())
