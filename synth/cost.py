@@ -517,8 +517,9 @@ def modes_excess(modes: int, max_frequency: float, budget: Budget) -> str | None
 def check_modes(plate, max_frequency: float, budget: Budget | None = None) -> int:
     """The modes of ``plate`` below ``max_frequency`` (Hz, :func:`modal_count`), counted
     before any is solved; ``ParameterError`` if they are beyond ``budget`` (default: the
-    environment's, :meth:`Budget.from_environment`). The live engine's bodies and a bank's
-    rows are checked with it, as :func:`estimate` checks a render."""
+    environment's, :meth:`Budget.from_environment`): the mode count alone (a render is
+    checked by :meth:`CostEstimate.check`, a live body by :func:`check_body`, a bank's rows
+    by :func:`estimate_render`)."""
     budget = Budget.from_environment() if budget is None else budget
     modes = modal_count(plate, max_frequency)
     too_many = modes_excess(modes, max_frequency, budget)

@@ -452,7 +452,7 @@ def test_bad_row_values_refused_at_plan_time(tmp_path, axis, row, says):
 
 
 def test_row_beyond_the_mode_budget_refused_at_plan_time(tmp_path, monkeypatch):
-    # The rows' plates are held to the render's mode budget (synth.cost.check_modes) when the
+    # The rows' plates are held to the render's mode budget (synth.cost.estimate_render) when the
     # bank is planned, so a bank never starts a row that its renders would refuse: the 1 mm
     # board has about 130 modes below 4 kHz, over a budget of 100; the 18 mm one about 7.
     monkeypatch.setenv("SYNTH_MAX_MODES", "100")
