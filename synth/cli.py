@@ -109,6 +109,25 @@ def _path_ending(path) -> dict:
     )
 
 
+def _budget_seconds(estimate, budget) -> str:
+    """`` (about N s and M s of the <rule> rule at the measured rates)``: the time budgets in
+    seconds (:class:`synth.cost.Rates`), or nothing without measured rates."""
+    from synth import cost
+
+    rates = cost.Rates.load()
+    if rates is None:
+        return ""
+    rule = estimate.radiation.rule
+    radiation = (
+        ""
+        if rule == "none"
+        else f" and {budget.max_radiation_work / rates.radiation[rule]:.3g} s of the {rule} rule"
+    )
+    return (
+        f" (about {budget.max_solver_flops / rates.solver:.3g} s{radiation} at the measured rates)"
+    )
+
+
 def _print_cost(scene, section: dict, as_json: bool) -> int:
     """``synth info --cost``: the render's :func:`synth.cost.estimate` with the preset's
     render options, and what a render would refuse (nothing is solved but the first
@@ -117,13 +136,8 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
 
     from synth import cost
 
-    keys = (
-        "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
-        "floor_db",
-    )  # fmt: skip
-    options = {k: section[k] for k in keys if section.get(k) is not None}  # samplerate set
-    estimate = cost.estimate(scene, **options)
     budget = cost.Budget.from_environment()
+    estimate = cost.estimate_render(scene, section, budget)  # the section sets samplerate
     too_big = estimate.excess(budget)
     if as_json:
         json.dump(
@@ -135,7 +149,8 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
         print(f"{name:<28} {value}")
     print(
         f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
-        f"{budget.max_memory_bytes / 2**20:.0f} MiB"
+        f"{budget.max_memory_bytes / 2**20:.0f} MiB, {budget.max_solver_flops:.3g} solver "
+        f"flop, {budget.max_radiation_work:.3g} radiation terms{_budget_seconds(estimate, budget)}"
     )
     for reason in too_big:
         print(f"a render would be refused: {reason}")
@@ -562,6 +577,7 @@ def _cmd_bench(args):
             bench.format_rolling,
         ),
         "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
+        "cost": (bench.run_cost, bench.format_cost),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
             lambda r: _bank_bench().format_bank(r),
@@ -576,7 +592,11 @@ def _cmd_bench(args):
                 "--random is an option of 'synth bench analysis' alone, and its figures have "
                 "no block in docs/ (--update-docs)"
             )
+        if args.record and args.what != "cost":
+            raise SynthError("--record is an option of 'synth bench cost' alone")
         result = run()
+        if args.record:
+            print(f"{bench.record_rates(result)}: rates recorded")
         if args.json:
             json.dump(result, sys.stdout, indent=1)
             print()
@@ -1011,6 +1031,7 @@ def build_parser() -> argparse.ArgumentParser:
             "cold",
             "rolling",
             "rollingcheck",
+            "cost",
         ],
         help="contact: solver error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
@@ -1024,7 +1045,14 @@ def build_parser() -> argparse.ArgumentParser:
         "first import synth, synth render default and live example on empty numba and "
         "plate-mode caches, and the same warm; rolling: the rolling contact's and its modal "
         "drive's time per second of audio, and the rolling presets' renders; rollingcheck: "
-        "the rolling's contact-loss speed, energy balance and spectral centroid against speed",
+        "the rolling's contact-loss speed, energy balance and spectral centroid against speed; "
+        "cost: this machine's rates of the cost estimate's work (a cold mode solve, each "
+        "radiation rule), which synth info --cost turns into seconds",
+    )
+    p.add_argument(
+        "--record",
+        action="store_true",
+        help="cost: write the rates for synth info --cost (synth/cost_rates.json)",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument(

@@ -37,8 +37,11 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   each mode reached), and a scene whose first rule and one refinement (the fewest the
   convergence test needs) do not fit is refused.
   The plates whose rectangle-rule work passes the engine's switch-over to the polar,
-  summed or boundary rules (:mod:`synth.sound.radiation`) take those instead, whose cost
-  grows with the plate's perimeter rather than its area: their work is not estimated.
+  summed or boundary rules (:mod:`synth.sound.radiation`; also a cut of the rectangle rule
+  that switches edge effect modes to the boundary rule) take those instead, whose cost
+  grows with the plate's perimeter rather than its area: their radii, angular points or
+  radial grids are counted from their own builders in the same way
+  (:mod:`synth.sound.radiation.work`), and the budget holds their rules alike.
 * **the audio**: the preroll, the bounce series (the fall, the flights of the first
   impact's restitution summed as a geometric series, at most ``max_duration``) and the
   slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
@@ -56,6 +59,10 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   An upper estimate of the traced peak (tests/test_cost.py bounds it within a factor),
   without the interpreter's fixed overhead.
 
+:func:`body_cost` is the same estimate for a live body (:meth:`synth.Engine.add`,
+which :func:`check_body` checks), :func:`estimate_render` a render's from its options
+(``synth info --cost``, a bank's plan).
+
 :class:`Budget` bounds them (``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
 ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS``, ``$SYNTH_MAX_RADIATION_WORK``,
 or the keywords of :func:`synth.render`): work beyond it is
@@ -66,8 +73,11 @@ hold the pulse). ``synth info --cost`` prints the estimate.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -198,16 +208,17 @@ class MemoryParts:
 
 @dataclass(frozen=True)
 class RadiationWork:
-    """The radiation stage's work for a microphone (see the module docstring).
+    """The radiation stage's work for a microphone (see the module docstring and
+    :mod:`synth.sound.radiation.work`).
 
     Attributes
     ----------
     rule : str
-        The rule the engine takes: "rectangle" (estimated), "polar", "summed" or
-        "boundary" (switched to for their lower cost: not estimated), "none" (an
-        accelerometer: no radiation).
+        The rule the engine takes: "rectangle", "polar", "summed" or "boundary" (the
+        edge effect modes'; the Ritz modes below them take the rectangle rule), "none"
+        (an accelerometer: no radiation).
     first_points : int
-        Points of the rectangle rule's first rule.
+        Points of the first rule (in ``unit``).
     rules : int
         Rules the refinement may take within the budget (at most ``MAX_RULES``).
     points : int
@@ -220,7 +231,15 @@ class RadiationWork:
     shape_terms : int
         Terms one shape value costs per mode (:func:`synth.sound.modes.shape_terms`).
     evaluations : float
-        ``points`` times the modes: the Rayleigh sums' terms.
+        ``points`` times the modes.
+    rule_work : tuple of float
+        Terms of each of the ``MAX_RULES`` rules.
+    fixed_work : float
+        Terms outside the refinement (the polar rules' in-phase bounds, the boundary
+        rule's Ritz modes).
+    unit : str
+        What the points count: the rectangle rule's "points", the polar rules' "angular
+        points", the boundary rule's "radial nodes".
     """
 
     rule: str = "none"
@@ -231,15 +250,49 @@ class RadiationWork:
     rules: int = 0
     max_points: int | None = None
     rule_points: tuple = ()
+    rule_work: tuple = ()
+    fixed_work: float = 0.0
+    unit: str = "points"
 
-    def work_of(self, rules: int, modes: int) -> float:
-        """Terms of the first ``rules`` rules for ``modes`` modes."""
-        return sum(self.rule_points[:rules]) * float(modes) * (1 + self.shape_terms)
+    def work_of(self, rules: int) -> float:
+        """Terms of the first ``rules`` rules (and of the work outside the refinement)."""
+        if self.rule == "none":
+            return 0.0
+        return self.fixed_work + float(sum(self.rule_work[:rules]))
 
     @property
     def work(self) -> float:
-        """Terms of the sums and of the shapes they need: ``evaluations (1 + shape_terms)``."""
-        return self.evaluations * (1 + self.shape_terms)
+        """Terms of the rules the budget holds."""
+        return self.work_of(self.rules)
+
+    def excess(self, modes: int, budget: Budget) -> str | None:
+        """Why the first rule and one refinement (the fewest the convergence test needs)
+        are beyond ``budget`` and what to change, or None."""
+        if self.rule == "none" or self.rules >= 2:
+            return None
+        closed = (
+            "" if self.rule == "polar" else ", or a simply supported plate (closed-form shapes)"
+        )
+        return (
+            f"the microphone's Rayleigh sums need about {self.work_of(2):.3g} terms for their "
+            f"first rule and one refinement ({self.rule} rule: {sum(self.rule_points[:2])} "
+            f"{self.unit} for {modes} modes), more than the budget of "
+            f"{budget.max_radiation_work:.3g} (SYNTH_MAX_RADIATION_WORK); lower max_frequency "
+            f"or the samplerate, use an accelerometer listener{closed}"
+        )
+
+    def row(self) -> str:
+        """One line for ``synth info --cost``."""
+        from synth.sound.radiation.common import MAX_RULES
+
+        if self.rule == "none":
+            return "none (accelerometer)"
+        cut = "" if self.max_points is None else f" (the budget's; of {MAX_RULES})"
+        shape = f", {self.shape_terms} shape terms" if self.rule == "rectangle" else ""
+        return (
+            f"{self.rule} rule, {self.first_points} {self.unit}, {self.points} in up to "
+            f"{self.rules} rules{cut}{shape}, {self.work:.3g} terms"
+        )
 
 
 @dataclass(frozen=True)
@@ -292,6 +345,8 @@ class CostEstimate:
     impacts: int = 1
     memory: MemoryParts | None = None
     radiation: RadiationWork = RadiationWork()
+    #: What the memory message calls the owner of the arrays.
+    subject = "render"
 
     def excess(self, budget: Budget) -> list[str]:
         """What is too big for ``budget`` or for the render itself, each with what to
@@ -314,55 +369,8 @@ class CostEstimate:
                 f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
                 f"max_frequency or ball.mass"
             )
-        if self.solver_flops > budget.max_solver_flops:
-            out.append(
-                f"a cold solve of the plate's modes takes about {self.solver_flops:.3g} "
-                f"floating-point operations ({self.solver_unknowns} unknowns), more than the "
-                f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
-                f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
-                f"modes)"
-            )
-        r = self.radiation
-        if r.rule == "rectangle" and r.rules < 2:
-            out.append(
-                f"the microphone's Rayleigh sums need about {r.work_of(2, self.modes):.3g} "
-                f"terms for their first rule and one refinement "
-                f"({sum(r.rule_points[:2])} points x {self.modes} modes x "
-                f"{1 + r.shape_terms} terms each), more than the budget of "
-                f"{budget.max_radiation_work:.3g} (SYNTH_MAX_RADIATION_WORK); lower "
-                f"max_frequency or the samplerate, use an accelerometer listener, or a "
-                f"simply supported plate (closed-form shapes)"
-            )
-        if self.memory_bytes > budget.max_memory_bytes:
-            out.append(
-                f"the render's largest arrays take about {self.memory_bytes / 2**20:.0f} MiB"
-                f"{self._largest_part()}, more than the budget of "
-                f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); lower "
-                f"max_tail, max_duration, max_frequency or the samplerate"
-            )
+        out += _stage_excess(self, budget, RENDER_MEMORY_ADVICE)
         return out
-
-    def _radiation_row(self) -> str:
-        r = self.radiation
-        if r.rule == "none":
-            return "none (accelerometer)"
-        if r.rule != "rectangle":
-            return f"{r.rule} rule (not estimated)"
-        from synth.sound.radiation.common import MAX_RULES
-
-        cut = "" if r.max_points is None else f" (the budget's; of {MAX_RULES})"
-        return (
-            f"rectangle rule, {r.first_points} points, {r.points} in up to {r.rules} "
-            f"rules{cut}, {r.shape_terms} shape terms, {r.work:.3g} terms"
-        )
-
-    def _largest_part(self) -> str:
-        """`` (most of it the <part>: N MiB)`` for the largest part of the memory."""
-        if self.memory is None:
-            return ""
-        parts = vars(self.memory)
-        name = max(parts, key=parts.get)
-        return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
 
     def check(self, budget: Budget) -> None:
         """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
@@ -383,14 +391,111 @@ class CostEstimate:
                 "mode solver (cold)",
                 f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
             ),
-            ("radiation (microphone)", self._radiation_row()),
+            ("radiation (microphone)", self.radiation.row()),
             ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
             ("impacts (estimated)", f"{self.impacts}"),
             ("memory (largest arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
         ] + ([] if self.memory is None else [
             (f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB")
             for name in ("audio", "impacts", "pulse", "solver", "shapes", "radiation")
-        ])  # fmt: skip
+        ]) + [time_row(self, Rates.load())]  # fmt: skip
+
+
+#: This machine's rates of the estimate's work, measured once by ``synth bench cost
+#: --record`` (:class:`Rates`): absent until measured.
+RATES = Path(__file__).with_name("cost_rates.json")
+
+
+@dataclass(frozen=True)
+class Rates:
+    """Measured rates of the estimate's work: ``solver`` (floating-point operations per
+    second of a cold mode solve), ``radiation`` (terms per second of each rule, by name),
+    and ``measured`` (the command, date, machine and load that measured them)."""
+
+    solver: float
+    radiation: dict
+    measured: str
+
+    @classmethod
+    def load(cls, path: Path = RATES) -> Rates | None:
+        """The rates in ``path`` (default :data:`RATES`), or None if none were measured."""
+        try:
+            data = json.loads(path.read_text())
+        except FileNotFoundError:
+            return None
+        return cls(
+            float(data["solver_flops_per_second"]),
+            {k: float(v) for k, v in data["radiation_terms_per_second"].items()},
+            str(data["measured"]),
+        )
+
+    def seconds(self, cost) -> tuple[float, float, float]:
+        """Estimated wall seconds of the cold mode solve and of the radiation stage of
+        ``cost`` (a :class:`CostEstimate` or :class:`BodyCost`), their work over these
+        rates (the synthesis is not included): the solve, the radiation's first rule and
+        one refinement (the fewest the convergence test takes) and every rule the budget
+        holds (the most)."""
+        r = cost.radiation
+        if r.rule == "none":
+            return cost.solver_flops / self.solver, 0.0, 0.0
+        rate = self.radiation[r.rule]
+        fewest = r.work_of(min(2, r.rules))
+        return cost.solver_flops / self.solver, fewest / rate, r.work / rate
+
+
+def time_row(cost, rates: Rates | None) -> tuple[str, str]:
+    """The ``synth info --cost`` row of the estimated time of ``cost``'s mode solve and
+    radiation stage (:class:`Rates`)."""
+    name = "time, cold (estimated)"
+    if rates is None:
+        return name, "rates not measured (synth bench cost --record)"
+    solver, fewest, most = rates.seconds(cost)
+    return name, (
+        f"{solver + fewest:.3g} to {solver + most:.3g} s: mode solver {solver:.3g} s, "
+        f"radiation {fewest:.3g} s (two rules) to {most:.3g} s ({cost.radiation.rules} rules; "
+        f"without the synthesis; rates of {rates.measured})"
+    )
+
+
+#: What to change when a render's arrays are beyond the memory budget.
+RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
+#: The same for a live body's.
+BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
+
+
+def _stage_excess(cost, budget: Budget, memory_advice: str) -> list[str]:
+    """What of the mode solver, the radiation stage and the memory of ``cost`` (a
+    :class:`CostEstimate` or a :class:`BodyCost`) is beyond ``budget``, each with what
+    to change: one message for a render and a live body."""
+    out = []
+    if cost.solver_flops > budget.max_solver_flops:
+        out.append(
+            f"a cold solve of the plate's modes takes about {cost.solver_flops:.3g} "
+            f"floating-point operations ({cost.solver_unknowns} unknowns), more than the "
+            f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
+            f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
+            f"modes)"
+        )
+    too_much = cost.radiation.excess(cost.modes, budget)
+    if too_much:
+        out.append(too_much)
+    if cost.memory_bytes > budget.max_memory_bytes:
+        out.append(
+            f"the {cost.subject}'s largest arrays take about {cost.memory_bytes / 2**20:.0f} MiB"
+            f"{_largest_part(cost.memory)}, more than the budget of "
+            f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
+            f"{memory_advice}"
+        )
+    return out
+
+
+def _largest_part(memory) -> str:
+    """`` (most of it the <part>: N MiB)`` for the largest part of ``memory``."""
+    if memory is None:
+        return ""
+    parts = vars(memory)
+    name = max(parts, key=parts.get)
+    return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
 
 
 REST = " (the ball comes to rest)"
@@ -412,8 +517,9 @@ def modes_excess(modes: int, max_frequency: float, budget: Budget) -> str | None
 def check_modes(plate, max_frequency: float, budget: Budget | None = None) -> int:
     """The modes of ``plate`` below ``max_frequency`` (Hz, :func:`modal_count`), counted
     before any is solved; ``ParameterError`` if they are beyond ``budget`` (default: the
-    environment's, :meth:`Budget.from_environment`). The live engine's bodies and a bank's
-    rows are checked with it, as :func:`estimate` checks a render."""
+    environment's, :meth:`Budget.from_environment`): the mode count alone (a render is
+    checked by :meth:`CostEstimate.check`, a live body by :func:`check_body`, a bank's rows
+    by :func:`estimate_render`)."""
     budget = Budget.from_environment() if budget is None else budget
     modes = modal_count(plate, max_frequency)
     too_many = modes_excess(modes, max_frequency, budget)
@@ -540,6 +646,49 @@ def _tail_seconds(plate, floor_db: float, max_tail: float) -> float:
     return min(max_tail, nepers / sigma) if sigma > 0.0 else max_tail
 
 
+#: The options of :func:`synth.render` the estimate depends on (:func:`estimate_render`).
+RENDER_OPTIONS = (
+    "samplerate", "max_frequency", "preroll", "max_duration", "max_tail", "pulse_points",
+    "floor_db",
+)  # fmt: skip
+
+
+def estimate_render(scene, options: dict, budget: Budget | None = None) -> CostEstimate:
+    """:func:`estimate` of ``scene`` with the render options in ``options`` (a preset's
+    ``[render]`` section or a bank row's: ``samplerate`` required, the others of
+    :data:`RENDER_OPTIONS` when given and not None, any other key ignored)."""
+    given = {k: options[k] for k in RENDER_OPTIONS if options.get(k) is not None}
+    return estimate(scene, budget=budget, **given)
+
+
+@dataclass(frozen=True)
+class SolverCost:
+    """The cold mode solve (see the module docstring): ``unknowns`` of its largest
+    problem, ``flops``, and the ``memory`` of its matrices and of the shapes it keeps,
+    bytes."""
+
+    unknowns: int
+    flops: float
+    solver_bytes: int
+    shapes_bytes: int
+
+
+def solver_cost(plate, f_max: float, modes: int) -> SolverCost:
+    """The :class:`SolverCost` of ``plate``'s ``modes`` modes up to ``f_max`` (Hz)."""
+    from synth.sound import modes as plate_modes
+
+    main, check = plate_modes.solver_sizes(plate, f_max)
+    flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
+    flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
+    return SolverCost(
+        unknowns=max(main + check, default=0),
+        flops=float(flops),
+        solver_bytes=8 * max(SOLVER_SQUARES * max(main, default=0) ** 2,
+                             CHECK_SQUARES * max(check, default=0) ** 2),
+        shapes_bytes=8 * max(main, default=0) * modes,
+    )  # fmt: skip
+
+
 def estimate(
     scene,
     *,
@@ -556,7 +705,6 @@ def estimate(
     :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s);
     ``budget`` (default: the environment's) sets the radiation rules that fit."""
     budget = Budget.from_environment() if budget is None else budget
-    from synth.sound import modes as plate_modes
     from synth.sound.modal_bank.pulse import _grid_size
     from synth.sound.modal_bank.transform_kernels import WORK_ROWS
 
@@ -572,21 +720,16 @@ def estimate(
     series = _series_seconds(scene, first, longest, max_duration)
     seconds = preroll + series + _tail_seconds(scene.plate, floor_db, max_tail)
     samples = int(math.ceil(seconds * samplerate))
-    main, check = plate_modes.solver_sizes(scene.plate, f_max)
-    flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)
-    flops += sum(n**3 / 3 + 2 * n**3 / 3 + 4 * n**3 / 3 for n in check)
-    largest = max(main + check, default=0)
+    solver = solver_cost(scene.plate, f_max, modes)
     impacts = _impact_count(first, speed, scene.gravity, max_duration)
     memory = MemoryParts(
         audio=AUDIO_BYTES_PER_SAMPLE * samples,
         impacts=16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
         pulse=16 * points,
-        solver=8 * max(SOLVER_SQUARES * max(main, default=0) ** 2,
-                       CHECK_SQUARES * max(check, default=0) ** 2),
-        shapes=8 * max(main, default=0) * modes,
-        radiation=_radiation_bytes(scene, modes, f_max),
-    )  # fmt: skip
-    radiation = radiation_work(scene, modes, f_max, budget)
+        solver=solver.solver_bytes,
+        shapes=solver.shapes_bytes,
+        radiation=_radiation_bytes(scene.plate, scene.listener, modes, f_max),
+    )
     return CostEstimate(
         max_frequency=f_max,
         modes=modes,
@@ -599,96 +742,301 @@ def estimate(
         audio_samples=samples,
         memory_bytes=memory.total,
         max_duration=max_duration,
-        solver_unknowns=largest,
-        solver_flops=float(flops),
+        solver_unknowns=solver.unknowns,
+        solver_flops=solver.flops,
         impacts=impacts,
         memory=memory,
-        radiation=radiation,
+        radiation=radiation_work(scene.plate, scene.listener, modes, f_max, budget),
     )
+
+
+@dataclass(frozen=True)
+class BodyCost:
+    """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold
+    solve, a microphone's radiation gains; then its voices' modal states), the same
+    estimates as a render's (:class:`CostEstimate`) for what a body has of a render.
+
+    Attributes
+    ----------
+    max_frequency : float
+        Highest rendered frequency, Hz.
+    modes : int
+        Plate modes below it (:func:`modal_count`).
+    solver_unknowns, solver_flops
+        The cold mode solve (as :class:`CostEstimate`).
+    radiation : RadiationWork
+        The listener's radiation stage (none for an accelerometer).
+    memory : MemoryParts
+        The largest arrays (``impacts``: the voices' modal states and the per-mode
+        vectors; no audio or pulse).
+    memory_bytes : int
+        Their total (:attr:`MemoryParts.total`).
+    """
+
+    max_frequency: float
+    modes: int
+    solver_unknowns: int
+    solver_flops: float
+    radiation: RadiationWork
+    memory: MemoryParts
+    memory_bytes: int
+    #: What the memory message calls the owner of the arrays.
+    subject = "body"
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget``, each with what to change (the messages of
+        :meth:`CostEstimate.excess`; empty: the body fits)."""
+        out = []
+        too_many = modes_excess(self.modes, self.max_frequency, budget)
+        if too_many:
+            out.append(too_many)
+        return out + _stage_excess(self, budget, BODY_MEMORY_ADVICE)
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
+
+
+def body_cost(
+    plate, listener, max_frequency: float, voices: int = 1, budget: Budget | None = None
+) -> BodyCost:
+    """The :class:`BodyCost` of ``plate`` heard by ``listener`` (an Accelerometer or a
+    Microphone) up to ``max_frequency`` (Hz) with ``voices`` voices; ``budget`` (default:
+    the environment's) sets the radiation rules that fit. Nothing is solved."""
+    budget = Budget.from_environment() if budget is None else budget
+    modes = modal_count(plate, max_frequency)
+    solver = solver_cost(plate, max_frequency, modes)
+    memory = MemoryParts(
+        audio=0,
+        impacts=16 * modes * (voices + MODE_VALUES),
+        pulse=0,
+        solver=solver.solver_bytes,
+        shapes=solver.shapes_bytes,
+        radiation=_radiation_bytes(plate, listener, modes, max_frequency),
+    )
+    return BodyCost(
+        max_frequency=max_frequency,
+        modes=modes,
+        solver_unknowns=solver.unknowns,
+        solver_flops=solver.flops,
+        radiation=radiation_work(plate, listener, modes, max_frequency, budget),
+        memory=memory,
+        memory_bytes=memory.total,
+    )
+
+
+def check_body(
+    plate, listener, max_frequency: float, voices: int = 1, budget: Budget | None = None
+) -> int | None:
+    """Check a live body before any work (:func:`body_cost` against ``budget``, default
+    the environment's): ``ParameterError`` naming what is too big and what to change, as
+    a render's. Returns the ``radiation_max_points`` to pass to
+    :func:`synth.sound.render.modal_model` (where the budget stops the sums' refinement;
+    None: not stopped)."""
+    budget = Budget.from_environment() if budget is None else budget
+    cost = body_cost(plate, listener, max_frequency, voices, budget)
+    cost.check(budget)
+    return cost.radiation.max_points
+
+
+def _bending(plate, f_max: float) -> float:
+    """The bending wavenumber at ``f_max`` (Hz), rad/m."""
+    omega = 2.0 * math.pi * f_max
+    return math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
+
+
+def _acoustic(f_max: float) -> float:
+    """The acoustic wavenumber at ``f_max`` (Hz), rad/m."""
+    from synth.constants import SOUND_SPEED
+
+    return 2.0 * math.pi * f_max / SOUND_SPEED
 
 
 def _kappa(plate, f_max: float) -> float:
     """The rectangle rule's wavenumber at ``f_max`` (Hz): bending plus acoustic, rad/m
     (the highest mode's, which lies at or below ``f_max``)."""
-    from synth.constants import SOUND_SPEED
-
-    omega = 2.0 * math.pi * f_max
-    bending = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
-    return bending + omega / SOUND_SPEED
+    return _bending(plate, f_max) + _acoustic(f_max)
 
 
-def _radiation_rule(plate, modes: int, f_max: float) -> str:
-    """The rule :func:`synth.sound.radiation.plate_gains` takes for ``modes`` modes up to
-    ``f_max`` (Hz): its own switch-overs on the rectangle rule's work (modes times the
-    points of :func:`~synth.sound.radiation.rectangle_points`), and for a plate with edge
-    effect modes (beyond the Ritz crossover) its test of the boundary rule."""
-    from synth.sound import radiation as rad
+def _crossed(plate, f_max: float) -> bool:
+    """Whether ``plate``'s modes up to ``f_max`` (Hz) pass the Ritz crossover (a free or
+    clamped plate with dynamic edge effect modes, :func:`synth.sound.modes.modes`)."""
     from synth.sound.modes import CROSSOVER_UNKNOWNS, _dimensionless_band
     from synth.sound.modes.ritz import ritz_unknowns
 
+    if plate.boundary == "simply-supported":
+        return False
+    omega = _dimensionless_band(plate, f_max)
+    return ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS
+
+
+def _boundary_forced(plate, f_max: float, max_points: int) -> bool:
+    """Whether ``max_points`` switches the edge effect modes to the boundary rule: the
+    rectangle rule's check rule (``REFINE^2`` times the first one's points) would exceed
+    it (:func:`synth.sound.radiation._use_boundary`)."""
+    from synth.sound import radiation as rad
+
+    size = (plate.length, plate.width)
+    return (
+        rad.rectangle_points(size, _kappa(plate, f_max), RADIATION_TOL) * rad.REFINE**2 > max_points
+    )
+
+
+def _radiation_rule(plate, modes: int, f_max: float, max_points: int | None = None) -> str:
+    """The rule :func:`synth.sound.radiation.plate_gains` takes for ``modes`` modes up to
+    ``f_max`` (Hz) with ``max_points`` (default: the sums' own): its own switch-overs on
+    the rectangle rule's work (modes times the points of
+    :func:`~synth.sound.radiation.rectangle_points`), and for a plate with edge effect
+    modes (beyond the Ritz crossover) its test of the boundary rule."""
+    from synth.sound import radiation as rad
+
+    max_points = rad.DEFAULT_MAX_POINTS if max_points is None else max_points
     size = (plate.length, plate.width)
     kappa = _kappa(plate, f_max)
     work = modes * rad.rectangle_points(size, kappa, RADIATION_TOL)
     if plate.boundary == "simply-supported":
         return "polar" if work > rad._POLAR_WORK else "rectangle"
-    omega = _dimensionless_band(plate, f_max)
-    if ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS:
+    if _crossed(plate, f_max):
         a, b = size
         big = work > rad.BOUNDARY_RULE_WORK and kappa * a * b / (a + b) > rad.BOUNDARY_RULE_SIZE
-        return "boundary" if big else "rectangle"
+        forced = _boundary_forced(plate, f_max, max_points)
+        return "boundary" if big or forced else "rectangle"
     return "summed" if work > rad.SUMMED_RULE_WORK else "rectangle"
 
 
-def radiation_work(scene, modes: int, f_max: float, budget: Budget) -> RadiationWork:
-    """The :class:`RadiationWork` of ``scene``'s listener for ``modes`` modes up to
-    ``f_max`` (Hz), before any mode is solved, with the rules whose summed work fits
-    ``budget`` (at least the first; see the module docstring)."""
+def _rules_taken(points, max_points: int | None) -> int:
+    """Rules a refinement takes with ``max_points`` (None: no cut): after its first two it
+    stops before a rule of more points (:mod:`synth.sound.radiation.refinement`)."""
+    from synth.sound.radiation.common import MAX_RULES
+
+    taken = 2
+    while taken < MAX_RULES and (max_points is None or points[taken] <= max_points):
+        taken += 1
+    return taken
+
+
+def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of the counts ``rule``
+    (:class:`synth.sound.radiation.work.RuleWork`) with the most rules whose summed work
+    fits ``budget``: the ``max_points`` that stops the refinement there (at least the
+    rule's ``floor``) and the rules it then takes; one rule (refused) if not even two
+    fit."""
+    from synth.sound.radiation.common import MAX_RULES
+
+    rules, cut = 1, int(rule.points[0])
+    for last in range(MAX_RULES, 1, -1):
+        candidate = None if last == MAX_RULES else max(int(rule.points[last - 1]), rule.floor)
+        taken = _rules_taken(rule.points, candidate)
+        if rule.fixed + float(sum(rule.work[:taken])) <= budget.max_radiation_work:
+            rules, cut = taken, candidate
+            break
+    points = int(sum(rule.points[:rules]))
+    return RadiationWork(
+        rule.rule, int(rule.points[0]), points, terms, float(points) * modes, rules, cut,
+        tuple(int(p) for p in rule.points), tuple(float(w) for w in rule.work),
+        float(rule.fixed), rule.unit,
+    )  # fmt: skip
+
+
+def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) -> RadiationWork:
+    """The :class:`RadiationWork` of ``listener`` hearing ``plate``'s ``modes`` modes up to
+    ``f_max`` (Hz), before any mode is solved, for the rule the render takes (also when the
+    budget's cut of the rectangle rule switches edge effect modes to the boundary rule),
+    with the rules whose summed work fits ``budget`` (at least the first; see the module
+    docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.scene import Microphone
     from synth.sound.modes import shape_terms
-    from synth.sound.radiation.common import MAX_RULES, REFINE
-    from synth.sound.radiation.rectangle import first_rule
 
-    if not isinstance(scene.listener, Microphone) or modes == 0:
+    if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
-    plate = scene.plate
-    rule = _radiation_rule(plate, modes, f_max)
-    if rule != "rectangle":
-        return RadiationWork(rule)
-    _, _, px, py = first_rule(
-        plate.length, plate.width, scene.listener.position, _kappa(plate, f_max),
-        0.1 * RADIATION_TOL,
-    )  # fmt: skip
-    per_rule = [
-        int(np.ceil(px * REFINE**level).sum()) * int(np.ceil(py * REFINE**level).sum())
-        for level in range(MAX_RULES)
-    ]
     terms = shape_terms(plate, f_max)
-    summed = np.cumsum(per_rule)
-    fit = int(np.sum(summed * float(modes) * (1 + terms) <= budget.max_radiation_work))
-    rules = max(fit, 1)
-    points = int(summed[rules - 1])
-    cut = per_rule[rules - 1] if rules < MAX_RULES else None
-    return RadiationWork(
-        rule, per_rule[0], points, terms, float(points) * modes, rules, cut, tuple(per_rule)
+    rule = _radiation_rule(plate, modes, f_max)
+    fitted = _fitted(rule_counts(rule, plate, listener, modes, f_max), modes, terms, budget)
+    cut = fitted.max_points
+    if rule != "rectangle" or cut is None:
+        return fitted
+    if not (_crossed(plate, f_max) and _boundary_forced(plate, f_max, cut)):
+        return fitted
+    boundary = _fitted(rule_counts("boundary", plate, listener, modes, f_max), modes, terms, budget)
+    if boundary.max_points is None:  # the rectangle rule's cut keeps the switch
+        return dataclasses.replace(boundary, max_points=cut)
+    return boundary
+
+
+def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
+    """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
+    "polar", "summed" or "boundary") for ``listener`` (a Microphone) hearing ``plate``'s
+    ``modes`` modes up to ``f_max`` (Hz), whichever rule the engine would take."""
+    from synth.sound.modes import shape_terms
+    from synth.sound.radiation import work
+
+    size, position = (plate.length, plate.width), listener.position
+    kb, qa = _bending(plate, f_max), _acoustic(f_max)
+    tol_panel = 0.1 * RADIATION_TOL
+    terms = shape_terms(plate, f_max)
+    if rule == "rectangle":
+        return work.rectangle_work(size, position, kb + qa, modes, terms, tol_panel)
+    if rule == "polar":
+        n_x, n_y = (int(kb * side / math.pi) for side in size)
+        return work.polar_work(size, position, kb, qa, modes, n_x, n_y, tol_panel)
+    if rule == "summed":
+        from synth.sound.modes import ritz_factors, solver_sizes
+
+        n_x, n_y = ritz_factors(plate, f_max)
+        basis = max(solver_sizes(plate, f_max)[0], default=1)
+        return work.summed_work(size, position, kb, qa, modes, n_x, n_y, basis, terms, tol_panel)
+    return _boundary_counts(plate, position, modes, f_max, terms)
+
+
+def _ritz_band_frequency(plate, f_max: float) -> float:
+    """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
+    edge effect modes lies at or below it, :mod:`synth.sound.modes.crossover`)."""
+    from synth.sound.modes import _frequency_scale, _ritz_band
+
+    return _ritz_band(plate, f_max) * _frequency_scale(plate) / (2.0 * math.pi)
+
+
+def _boundary_counts(plate, position, modes: int, f_max: float, terms: int):
+    """The boundary rule's counts (:func:`synth.sound.radiation.work.boundary_work`) for
+    the edge effect modes between the Ritz low band and ``f_max`` (Hz), in
+    ``BOUNDARY_BANDS`` bands of frequency (each mode one row, or two for a pair: counted
+    as two), plus, outside the refinement, every rule of the rectangle rule of the Ritz
+    modes below them (at their own wavenumber)."""
+    from synth.sound.radiation import work
+
+    size = (plate.length, plate.width)
+    tol_panel = 0.1 * RADIATION_TOL
+    f_low = _ritz_band_frequency(plate, f_max)
+    n_low = modal_count(plate, f_low)
+    edges = f_low * (f_max / f_low) ** (np.arange(work.BOUNDARY_BANDS + 1) / work.BOUNDARY_BANDS)
+    counts = [modal_count(plate, float(f)) for f in edges]
+    bands = [
+        work.RateBand(_bending(plate, lo), _bending(plate, hi), _acoustic(hi), 2 * (n1 - n0))
+        for lo, hi, n0, n1 in zip(edges[:-1], edges[1:], counts[:-1], counts[1:])
+    ]
+    edge = work.boundary_work(size, position, bands, tol_panel)
+    ritz = work.rectangle_work(size, position, _kappa(plate, f_low), n_low, terms, tol_panel)
+    # the Ritz modes' rectangle rule takes the same max_points: at least its check rule's
+    return dataclasses.replace(
+        edge, fixed=edge.fixed + float(sum(ritz.work)), floor=ritz.points[1] if n_low else 0
     )
 
 
-def _radiation_bytes(scene, modes: int, f_max: float) -> int:
+def _radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     """Bytes of the chunks of shape values a microphone's Rayleigh sums hold
     (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule (the
     first rule refined once, ``REFINE^2`` its points, :func:`rectangle_points` at the
-    bending plus acoustic wavenumber of ``f_max``), at most ``CHUNK_BYTES``."""
-    from synth.constants import SOUND_SPEED
+    bending plus acoustic wavenumber of ``f_max``), at most ``CHUNK_BYTES`` (the polar
+    rules' blocks of radii and the boundary rule's Ritz modes are held to it too)."""
     from synth.physics.scene import Microphone
     from synth.sound.radiation import rectangle_points
     from synth.sound.radiation.common import CHUNK_BYTES, REFINE
 
-    if not isinstance(scene.listener, Microphone) or modes == 0:
+    if not isinstance(listener, Microphone) or modes == 0:
         return 0
-    plate = scene.plate
-    omega = 2.0 * math.pi * f_max
-    bending = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
-    kappa = bending + omega / SOUND_SPEED
-    points = rectangle_points((plate.length, plate.width), kappa, RADIATION_TOL) * REFINE**2
+    size = (plate.length, plate.width)
+    points = rectangle_points(size, _kappa(plate, f_max), RADIATION_TOL) * REFINE**2
     chunk = min(float(CHUNK_BYTES), 8.0 * modes * points)
     return int(RADIATION_CHUNKS * chunk)

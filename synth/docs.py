@@ -30,6 +30,7 @@ BENCH_PAGES = {
     "scale": "benchmarks.md",
     "hires": "benchmarks.md",
     "cold": "benchmarks.md",
+    "cost": "cli.md",
 }
 
 _BLOCK = re.compile(

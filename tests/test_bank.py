@@ -494,12 +494,24 @@ def test_bad_row_values_refused_at_plan_time(tmp_path, axis, row, says):
 
 
 def test_row_beyond_the_mode_budget_refused_at_plan_time(tmp_path, monkeypatch):
-    # The rows' plates are held to the render's mode budget (synth.cost.check_modes) when the
+    # The rows' plates are held to the render's mode budget (synth.cost.estimate_render) when the
     # bank is planned, so a bank never starts a row that its renders would refuse: the 1 mm
     # board has about 130 modes below 4 kHz, over a budget of 100; the 18 mm one about 7.
     monkeypatch.setenv("SYNTH_MAX_MODES", "100")
     text = _bad(tmp_path, BASE + 'count = 2\n[vary]\n"plate.thickness" = [0.018, 0.001]\n')
     assert "row 1 (" in text and "SYNTH_MAX_MODES" in text and "row 0 (" not in text, text
+
+
+def test_row_beyond_the_render_estimate_refused_at_plan_time(tmp_path):
+    # The plan holds each row to the render's whole cost estimate (synth.cost.estimate_render
+    # against the budget), not only its mode count, so no worker starts a row its render would
+    # refuse: a ball of 999 to 1000 kg comes to rest on the small board, a contact of minutes
+    # (longer than the preset's max_duration of 0.3 s, and a pulse grid beyond the budget).
+    text = _bad(tmp_path, BASE + 'count = 2\n[vary]\n"ball.mass" = { min = 999.0, max = 1000.0 }\n')
+    for row in (0, 1):
+        assert f"row {row} (ball.mass=" in text, text
+    assert "comes to rest" in text and "max_duration=0.3" in text and "lower ball.mass" in text
+    assert "SYNTH_MAX_PULSE_POINTS" in text
 
 
 def test_file_name_over_255_bytes_refused(tmp_path):

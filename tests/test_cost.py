@@ -245,7 +245,7 @@ def test_radiation_estimate_bounds_the_sums_measured(name, cut, tmp_path, monkey
     assert full.radiation.rule == "rectangle" and full.radiation.max_points is None
     budget = cost.Budget()
     if cut:  # the first two rules' work, and less than the third's
-        budget = cost.Budget(max_radiation_work=int(full.radiation.work_of(2, full.modes)) + 1)
+        budget = cost.Budget(max_radiation_work=int(full.radiation.work_of(2)) + 1)
     est = cost.estimate(scene, samplerate=options["samplerate"], budget=budget,
                         **{k: options[k] for k in ("max_frequency", "preroll", "max_duration",
                                                    "max_tail", "pulse_points", "floor_db")
@@ -259,7 +259,158 @@ def test_radiation_estimate_bounds_the_sums_measured(name, cut, tmp_path, monkey
     r = est.radiation
     assert len(calls) <= r.rules and (r.rules == 2) == cut
     assert points <= r.points <= 2.0 * _rule_ratio(r.rules) * points, (name, calls, r)
-    assert r.work == r.evaluations * (1 + r.shape_terms) == r.work_of(r.rules, est.modes)
+    assert r.work == r.evaluations * (1 + r.shape_terms) == r.work_of(r.rules)
+
+
+# ------------------------------------------------------------- the other radiation rules
+
+#: A plate past the Ritz crossover (free steel, 0.3 x 0.2 m, 2 mm, to 8 kHz) once the
+#: crossover is lowered (RULE_SCENES): Ritz modes of a low band, edge effect modes above.
+CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
+                   plate__thickness=0.002, listener__position=[0.11, 0.08, 0.1],
+                   render__max_frequency=8000.0)  # fmt: skip
+
+#: Each of the other rules on a small scene, with the engine's switch-over to it lowered
+#: (the same module constants the estimate reads, synth.cost._radiation_rule): the
+#: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
+#: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
+RULE_SCENES = {
+    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation._POLAR_WORK": 0.0}),
+    "summed": (RADIATION_SCENES["free-plate"], {"synth.sound.radiation.SUMMED_RULE_WORK": 0.0}),
+    "boundary": (CROSSED, {
+        "synth.sound.modes.CROSSOVER_UNKNOWNS": 80,
+        "synth.sound.modes.crossover._LOW_BAND_UNKNOWNS": 50,
+        "synth.sound.radiation.BOUNDARY_RULE_WORK": 0.0,
+        "synth.sound.radiation.BOUNDARY_RULE_SIZE": 0.0,
+    }),
+}  # fmt: skip
+
+#: How far above the counted points of a rule the estimate's may lie: it takes the
+#: wavenumbers of the band's top (the render its highest mode's, at or below it).
+POINTS_FACTOR = 1.25
+#: How far above the counted work of the rules a render took the estimate's may lie:
+#: besides POINTS_FACTOR, the boundary rule counts two rows (a pair's) for every edge
+#: effect mode and every row on the grid of its band's top, and each rule counts every
+#: mode where a selective refinement evaluates only those still failing.
+WORK_FACTOR = 3.0
+
+
+def _counted_rules(name, monkeypatch) -> list:
+    """Per rule the render applies, from now on: [points, work] counted from the rule's
+    own arguments with the term weights of synth.sound.radiation.work."""
+    import numpy as np
+
+    from synth.sound.radiation import boundary, polar, summed
+    from synth.sound.radiation import work as w
+
+    levels = []
+    if name == "boundary":
+        original_rule, original_entries = boundary.boundary_integrals, boundary._entry_integrals
+
+        def rule(sol, index, size, listener, q, r0, refine, tol_panel):
+            levels.append([0, 0.0])
+            out = original_rule(sol, index, size, listener, q, r0, refine, tol_panel)
+            levels[-1][0] = out[1]  # its radial nodes (the finest grid's)
+            return out
+
+        def entries(grid, sol, trials, *rest):
+            levels[-1][1] += trials.size * w.boundary_row_terms(grid)
+            return original_entries(grid, sol, trials, *rest)
+
+        monkeypatch.setattr(boundary, "boundary_integrals", rule)
+        monkeypatch.setattr(boundary, "_entry_integrals", entries)
+        return levels
+    module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
+        summed, "_apply_summed_rule")  # fmt: skip
+    original = getattr(module, attr)
+
+    def counted(shapes, size, listener, radii, *rest):
+        active = rest[-1]
+        total, angular = original(shapes, size, listener, radii, *rest)
+        if name == "polar":
+            n_x = np.unique(shapes.x_index[active]).size
+            n_y = np.unique(shapes.y_index[active]).size
+            per_mode = w.POLAR_RADIAL_TERMS
+        else:
+            n_x, n_y = shapes.n_x, shapes.n_y
+            per_mode = 1 + max(coef.shape[0] for _, _, coef in shapes._parts)
+        terms = angular * (n_x + n_y + n_x * n_y) + radii.size * active.size * per_mode
+        levels.append([angular, float(terms)])
+        return total, angular
+
+    monkeypatch.setattr(module, attr, counted)
+    return levels
+
+
+@pytest.mark.parametrize("name", sorted(RULE_SCENES))
+@pytest.mark.parametrize("cut", [False, True], ids=["budget", "cut"])
+def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkeypatch):
+    # A cold render by the polar, summed or boundary rule, each rule it applies counted
+    # (the polar rules' angular points, the boundary rule's radial nodes, and their work
+    # by the same term weights on the real factors, modes and rows): the estimate of each
+    # rule lies at or above the count and within POINTS_FACTOR of it, its work within
+    # WORK_FACTOR. With a budget that holds only the first rule and one refinement the
+    # render takes no more (the estimate's max_points stops it there).
+    import warnings
+
+    data, lowered = RULE_SCENES[name]
+    for target, value in lowered.items():
+        monkeypatch.setattr(target, value)
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path))
+    _clear_memory_caches()
+    scene, options = scene_from_dict(data, name)
+    options.pop("subtype", None)
+    full = _estimate(scene, options)
+    assert full.radiation.rule == name and full.radiation.max_points is None, full.radiation
+    budget = cost.Budget()
+    if cut:
+        budget = cost.Budget(max_radiation_work=int(full.radiation.work_of(2)) + 1)
+    est = cost.estimate_render(scene, options, budget)
+    r = est.radiation
+    levels = _counted_rules(name, monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a cut refinement warns
+        render(scene, budget=budget, **options)
+    _clear_memory_caches()
+    assert 2 <= len(levels) <= r.rules and (r.rules == 2) == cut, (levels, r)
+    for level, (points, _) in enumerate(levels):
+        assert points <= r.rule_points[level] <= POINTS_FACTOR * points, (level, levels, r)
+    work = sum(terms for _, terms in levels)
+    estimated = r.work_of(len(levels)) - r.fixed_work
+    assert work <= estimated <= WORK_FACTOR * work, (levels, r)
+
+
+def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
+    # plate_gains sends edge effect modes to the boundary rule on its work and size, or when
+    # max_points is below the rectangle rule's check rule (synth.sound.radiation._use_boundary,
+    # which a budget's cut can trigger): for two steel sheets past the crossover (5 x 5 m to
+    # 6 kHz, which keeps the rectangle rule; 3 x 3 m to 24 kHz, which takes the boundary rule)
+    # under radiation budgets that hold at least two rules, the estimate's rule is the one
+    # plate_gains takes with the estimate's max_points (poles at the band's top; nothing solved).
+    import numpy as np
+
+    from synth import Microphone, Plate
+    from synth.constants import SOUND_SPEED
+    from synth.sound import radiation as rad
+
+    seen = set()
+    for side, f_max in ((5.0, 6000.0), (3.0, 24000.0)):
+        plate = Plate("steel", thickness=0.001, length=side, width=side)
+        microphone = Microphone((side / 2, side / 2, 0.3))
+        modes = cost.modal_count(plate, f_max)
+        poles = np.full(modes, 2j * np.pi * f_max)
+        for work in (1e10, 1e11, 1e12, 1e13):
+            budget = cost.Budget(max_radiation_work=int(work))
+            r = cost.radiation_work(plate, microphone, modes, f_max, budget)
+            if r.rules < 2:
+                continue  # refused: nothing runs
+            max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
+            engine = rad._use_boundary(
+                (side, side), poles, cost._bending(plate, f_max), SOUND_SPEED, 1e-6, max_points
+            )
+            assert (r.rule == "boundary") == engine, (side, work, r.rule, max_points)
+            seen.add(r.rule)
+    assert seen == {"rectangle", "boundary"}
 
 
 STRIP = _default(
@@ -307,3 +458,45 @@ def test_every_shipped_preset_keeps_four_radiation_rules_within_the_default_budg
         r = est.radiation
         assert r.rule != "rectangle" or r.rules >= 4, (name, r)
         assert not est.excess(cost.Budget()), name
+
+
+# ------------------------------------------------------------------- time in seconds
+
+
+def test_the_estimated_time_is_the_work_over_the_measured_rates(tmp_path):
+    # synth info --cost turns the solver's operations and the radiation rule's terms into
+    # seconds by the rates synth bench cost measured (synth.cost.Rates): the time is their
+    # quotient, exactly, from the radiation's first two rules (the fewest a refinement takes)
+    # to every rule the budget holds; without measured rates the row says how to measure
+    # them. No clock is read here.
+    import json
+
+    path = tmp_path / "rates.json"
+    path.write_text(json.dumps({
+        "solver_flops_per_second": 1e10,
+        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9,
+                                       "boundary": 1e8},
+        "measured": "a test",
+    }))  # fmt: skip
+    rates = cost.Rates.load(path)
+    scene, options = scene_from_dict(RADIATION_SCENES["free-plate"], "free-plate")
+    est = _estimate(scene, options)
+    solver, fewest, most = rates.seconds(est)
+    r = est.radiation
+    assert solver == est.solver_flops / 1e10 and most == r.work / 2e9 and r.rules > 2
+    assert fewest == r.work_of(2) / 2e9 < most
+    name, text = cost.time_row(est, rates)
+    assert f"{solver + fewest:.3g} to {solver + most:.3g} s" in text and "a test" in text
+    assert "synth bench cost --record" in cost.time_row(est, None)[1]
+    assert cost.Rates.load(tmp_path / "absent.json") is None
+
+
+def test_the_shipped_rates_if_measured_cover_every_rule():
+    # The rates file synth bench cost --record writes beside synth.cost names a positive rate
+    # for the mode solver and for every radiation rule the estimate may take.
+    rates = cost.Rates.load()
+    if rates is None:
+        pytest.skip("no rates measured (synth bench cost --record)")
+    assert rates.solver > 0 and rates.measured.startswith("synth bench cost")
+    assert set(rates.radiation) == {"rectangle", "polar", "summed", "boundary"}
+    assert all(v > 0 for v in rates.radiation.values())

@@ -429,7 +429,7 @@ def test_add_hit_drop_reject_bad_arguments(scene):
 
 
 def test_a_body_beyond_the_mode_budget_is_refused_before_any_work(empty_caches, monkeypatch):
-    # Engine.add holds a plate to the render's mode budget (synth.cost.check_modes) before its
+    # Engine.add holds a plate to the render's mode budget (synth.cost.check_body) before its
     # modes are solved: the 18 mm board of 1.2 x 0.6 m has about 500 modes below 24 kHz, over
     # a budget of 100, and nothing reaches the plate-mode cache.
     monkeypatch.setenv("SYNTH_MAX_MODES", "100")
@@ -439,6 +439,60 @@ def test_a_body_beyond_the_mode_budget_is_refused_before_any_work(empty_caches, 
         engine.add(plate)
     cache = Path(os.environ["SYNTH_CACHE_DIR"])
     assert not cache.exists() or not any(p.is_file() for p in cache.rglob("*"))
+
+
+@pytest.mark.parametrize(
+    "variable, value, says",
+    [
+        # the board's microphone sums: about 2e10 terms at 24 kHz (synth info --cost)
+        ("SYNTH_MAX_RADIATION_WORK", "1000000000", "Rayleigh sums need .*accelerometer"),
+        # its cold Ritz solve: about 1e10 floating-point operations
+        ("SYNTH_MAX_SOLVER_FLOPS", "1000000000", "cold solve of the plate's modes"),
+        # its solver's matrices and the radiation chunks: about 150 MiB
+        ("SYNTH_MAX_MEMORY_BYTES", "10000000", "body's largest arrays .*max_voices"),
+    ],
+)
+def test_a_body_beyond_the_render_budget_is_refused_before_any_work(
+    empty_caches, monkeypatch, variable, value, says
+):
+    # Engine.add holds a body to the budget of a render (synth.cost.check_body: modes, mode
+    # solver, radiation work, memory) before any mode is solved: the free 18 mm board of
+    # 1.2 x 0.6 m heard by a microphone at 48 kHz is refused under each lowered budget, the
+    # message naming what is too big, the variable and what to change; nothing reaches the
+    # disk cache (no mode solved, no gain computed).
+    monkeypatch.setenv(variable, value)
+    engine = synth.Engine(samplerate=48000)
+    plate = synth.Plate("mdf-18", thickness=0.018, length=1.2, width=0.6)
+    with pytest.raises(synth.ParameterError, match=f"refused before any work: .*{says}") as info:
+        engine.add(plate)
+    assert variable in str(info.value)
+    cache = Path(os.environ["SYNTH_CACHE_DIR"])
+    assert not cache.exists() or not any(p.is_file() for p in cache.rglob("*"))
+    assert engine.bodies == ()
+
+
+def test_a_moved_listener_beyond_the_budget_is_refused_and_the_body_keeps_its_own(
+    empty_caches, monkeypatch
+):
+    # Body.move checks the new listener's cost as Engine.add does, before its gains are
+    # computed: a small simply supported plate (closed-form modes) heard by a microphone
+    # moves within the budget, and under a radiation budget below its sums' first two rules
+    # a move is refused and the body keeps its listener; so is a new body of two ears.
+    engine = synth.Engine(samplerate=16000)
+    plate = synth.Plate("mdf-18", thickness=0.018, length=0.3, width=0.2,
+                        boundary="simply-supported")  # fmt: skip
+    first = synth.Microphone((0.15, 0.1, 0.2))
+    body = engine.add(plate, listener=first)
+    body.move(synth.Microphone((0.1, 0.1, 0.3)))
+    monkeypatch.setenv("SYNTH_MAX_RADIATION_WORK", "1")
+    with pytest.raises(synth.ParameterError, match="SYNTH_MAX_RADIATION_WORK"):
+        body.move(synth.Microphone((0.2, 0.1, 0.2)))
+    assert body.listener == synth.Microphone((0.1, 0.1, 0.3))
+    # and a body heard by two ears is refused alike before any of them is prepared
+    stereo = synth.Engine(samplerate=16000, channels=2)
+    with pytest.raises(synth.ParameterError, match="SYNTH_MAX_RADIATION_WORK"):
+        stereo.add(plate, listener=synth.live.ears((0.15, 0.1, 0.2)))
+    assert stereo.bodies == ()
 
 
 def test_start_without_portaudio_says_what_to_install(monkeypatch, scene):

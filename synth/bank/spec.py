@@ -1018,20 +1018,22 @@ def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
 ROWS_NAMED = 5
 
 
-def row_problem(spec: BankSpec, item: PlanItem) -> str | None:
+def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = None) -> str | None:
     """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
-    render options are built and checked as a render checks them, and its plate's modes
-    counted against the budget (:func:`synth.cost.check_modes`), without solving anything
-    (no modes, no contact)."""
+    render options are built and checked as a render checks them, and its render's cost
+    estimate (:func:`synth.cost.estimate_render`: modes, longest contact, pulse grid, mode
+    solver, radiation, memory) held to ``budget`` (default: the environment's) as the
+    render will hold it, without solving anything but the first contact by the impedance
+    model (milliseconds; no modes)."""
     k = item.values.get(RESTITUTION_SCALE)
     if k is not None and (
         isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
     ):
         return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
+    budget = cost.Budget.from_environment() if budget is None else budget
     try:
         scene, options = presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
-        nyquist = 0.5 * options["samplerate"]
-        cost.check_modes(scene.plate, min(options.get("max_frequency") or nyquist, nyquist))
+        cost.estimate_render(scene, options, budget).check(budget)
     except ParameterError as exc:
         return str(exc).removeprefix(f"row {item.index}: ")
     except (TypeError, ValueError) as exc:  # a value of the wrong type deep in a section
@@ -1043,8 +1045,9 @@ def check_rows(spec: BankSpec, items) -> None:
     """Refuse the plan if a row's scene cannot be rendered (:func:`row_problem`), naming
     the rows, their varied values and what is wrong."""
     bad = []
+    budget = cost.Budget.from_environment()
     for item in items:
-        problem = row_problem(spec, item)
+        problem = row_problem(spec, item, budget)
         if problem is not None:
             bad.append((item, problem))
     if not bad:

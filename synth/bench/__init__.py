@@ -1,7 +1,7 @@
 """Benchmarks: numerical error against run time (``synth bench ...``).
 
 One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold,
-rolling; the live
+rolling, cost; the live
 engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
 figure is measured in one run on this machine, after a warm-up. Nothing here is imported
 by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
@@ -22,6 +22,7 @@ from synth.bench.contact import (
     run_modal_contact,
     scipy_contact,
 )
+from synth.bench.cost import format_cost, record_rates, run_cost
 from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
 from synth.bench.long import format_long, long_child, long_recording, run_long
 from synth.bench.render import format_render, render_scenes, run_render
@@ -71,6 +72,9 @@ __all__ = [
     "envelope_decay_time",
     "format_analysis",
     "format_cold",
+    "format_cost",
+    "record_rates",
+    "run_cost",
     "format_contact",
     "format_hires",
     "format_long",

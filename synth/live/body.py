@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from synth import checks
+from synth import checks, cost
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
 from synth.io.audio import PHYSICAL_FULL_SCALE
@@ -42,7 +42,7 @@ from synth.sound.modal_bank import (
     samples_in_contact,
 )
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
-from synth.sound.render import LISTENER_UNITS
+from synth.sound.render import LISTENER_UNITS, modal_model
 
 if TYPE_CHECKING:
     from synth.live.engine import Engine
@@ -305,7 +305,8 @@ class Body:
         mixed (no click); the voices' modal states are the plate's, so every mode rings on
         at its new level, also one the old listener did not hear.
 
-        The gains are computed here, on the calling thread: a microphone at least
+        Each new listener's cost is first checked against the budget as :meth:`Engine.add`
+        checks it. The gains are computed here, on the calling thread: a microphone at least
         :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate takes them
         from the plate's fixed radiation grids (:mod:`synth.sound.radiation.fixed`: one
         exponential per mode and grid point, no shape evaluated; within twice the
@@ -315,7 +316,8 @@ class Body:
         builds them ahead); a lower microphone, or any microphone of a plate whose grids
         would exceed :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by the exact rule
         of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the
-        point). ``synth bench live`` prints what a move costs, both ways."""
+        point; cut where the budget stops its refinement, as a render's). ``synth bench
+        live`` prints what a move costs, both ways."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -323,6 +325,8 @@ class Body:
             )
         if self._removed:
             raise SynthError("the body was removed: it cannot move its listener")
+        engine = self._engine
+        cuts = []
         for i, (ear, li) in enumerate(zip(self._ears, listeners)):
             if isinstance(li, Accelerometer):
                 self.plate.check_position(li.position, f"listener[{i}].position")
@@ -335,13 +339,27 @@ class Body:
                     f"listener[{i}]={li!r} hears in {LISTENER_UNITS[type(li)]}, the body's "
                     f"ear in {ear._model.units}: add a new body for another kind of listener"
                 )
-        models = [ear._heard_by(li) for ear, li in zip(self._ears, listeners)]
+            cuts.append(
+                cost.check_body(self.plate, li, engine._highest_frequency(), self.max_voices)
+            )
+        models = [ear._heard_by(li, cut) for ear, li, cut in zip(self._ears, listeners, cuts)]
         for ear, li, model in zip(self._ears, listeners, models):
             ear._hand_over_gains(li, model)
         self.listener = listeners if len(listeners) > 1 else listeners[0]
 
-    def _heard_by(self, listener):
-        """This ear's modal model heard by ``listener`` (see :meth:`move`)."""
+    def _heard_by(self, listener, cut: int | None = None):
+        """This ear's modal model heard by ``listener`` (see :meth:`move`); ``cut``: the
+        budget's ``radiation_max_points`` for the exact rule (None: not cut), which then
+        serves a microphone instead of the fixed grids."""
+        if cut is not None:
+            engine = self._engine
+            return modal_model(
+                self.plate,
+                listener,
+                samplerate=engine.samplerate,
+                max_frequency=engine.max_frequency,
+                radiation_max_points=cut,
+            )
         grid = None
         if isinstance(listener, Microphone) and listener.position[2] >= NEAR_FIELD_HEIGHT:
             grid = self._grid = self._engine._listener_grid(self._model)

@@ -397,7 +397,13 @@ class Engine:
         the two channels of an ``Engine(channels=2)``, in [-1, 1] (-1 left, +1 right) by a
         constant-power law, or None (unpanned: its mono signal at full level on every
         channel); see :attr:`Body.pan`, settable later. Allowed while the stream runs (the
-        callback picks the body up at its next block)."""
+        callback picks the body up at its next block).
+
+        Before any mode is solved the body's cost (:func:`synth.cost.check_body`: its
+        modes, their cold solve, the listener's radiation work and the memory) is held to
+        the budget of a render (:meth:`synth.cost.Budget.from_environment`): beyond it a
+        ``ParameterError`` names what is too big and what to change, and where the budget
+        stops a microphone's refinement the gains are cut there as a render's are."""
         voices = self.max_voices if max_voices is None else max_voices
         voices = check_int("max_voices", voices, 1, 256, "voices")
         listeners = len(listener) if isinstance(listener, (tuple, list)) else 1
@@ -428,9 +434,13 @@ class Engine:
             raise ParameterError(
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
             )
-        cost.check_modes(plate, self._highest_frequency())
+        cut = cost.check_body(plate, listener, self._highest_frequency(), voices)
         model = modal_model(
-            plate, listener, samplerate=self.samplerate, max_frequency=self.max_frequency
+            plate,
+            listener,
+            samplerate=self.samplerate,
+            max_frequency=self.max_frequency,
+            radiation_max_points=cut,
         )
         body = Body(self, plate, listener, g, model, voices=voices, pan=panned)
         self._bodies = self._bodies + (body,)
@@ -460,10 +470,16 @@ class Engine:
                 f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
                 f"(one per listener): no room for {len(listeners)} more"
             )
-        cost.check_modes(plate, self._highest_frequency())
+        cuts = [cost.check_body(plate, li, self._highest_frequency(), voices) for li in listeners]
         models = [
-            modal_model(plate, li, samplerate=self.samplerate, max_frequency=self.max_frequency)
-            for li in listeners
+            modal_model(
+                plate,
+                li,
+                samplerate=self.samplerate,
+                max_frequency=self.max_frequency,
+                radiation_max_points=cut,
+            )
+            for li, cut in zip(listeners, cuts)
         ]
         ears_ = [
             Body(self, plate, li, g, m, channel=c, ears=len(listeners), voices=voices)

@@ -339,6 +339,15 @@ def shape_terms(plate: Plate, max_frequency: float) -> int:
     return first_basis_degrees(plate.length / plate.width, _ritz_band(plate, max_frequency))
 
 
+def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
+    """Factors ``(n_x, n_y)`` of the Ritz shapes of ``plate`` up to ``max_frequency`` (Hz)
+    as sums of products (:meth:`Modes.summed`), known before any mode is solved (of the
+    first basis tried; for :mod:`synth.cost`)."""
+    from synth.sound.modes.ritz import first_basis_factors
+
+    return first_basis_factors(plate.length / plate.width, _ritz_band(plate, max_frequency))
+
+
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
     """Unknowns of the Rayleigh-Ritz problems :func:`modes` solves for ``plate`` up to
     ``max_frequency`` (Hz): each symmetry class's main and check bases of the first

@@ -273,6 +273,22 @@ def first_basis_degrees(aspect: float, omega: float) -> int:
     return int(most)
 
 
+def first_basis_factors(aspect: float, omega: float) -> tuple[int, int]:
+    """Factors ``(n_x, n_y)`` along x and y that the first main basis :func:`solve_ritz`
+    tries for the band ``omega`` (dimensionless) spans (the highest degree plus one over
+    the symmetry classes, as :meth:`RitzSolution.summed` counts them), for
+    :mod:`synth.cost`."""
+    rx, ry = ratios(aspect)
+    k_l = math.sqrt(omega)
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    n_x = n_y = 1
+    for px, py in _CLASSES:
+        i, j = index_set(px, py, kx, ky, _C0, _C1)
+        if i.size:
+            n_x, n_y = max(n_x, int(i.max()) + 1), max(n_y, int(j.max()) + 1)
+    return n_x, n_y
+
+
 def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]]:
     """Unknowns of each symmetry class's main and check bases in the first basis
     :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the index sets it

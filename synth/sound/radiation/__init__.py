@@ -95,6 +95,9 @@ __all__ = [
     "clear_memory_cache",
 ]
 
+#: Most points of one rule of :func:`plate_gains` unless the caller gives ``max_points``.
+DEFAULT_MAX_POINTS = 4_000_000
+
 # Work of the rectangle rule (modes times points of its first rule, estimated from its
 # longest panels) above which a plate
 # with separable shapes takes the polar rule of separable_gains. Below it the rectangle
@@ -317,7 +320,7 @@ def plate_gains(
     sound_speed=SOUND_SPEED,
     reference_distance=None,
     tol=1e-6,
-    max_points=4_000_000,
+    max_points=DEFAULT_MAX_POINTS,
     full_output=False,
     cache=True,
 ):

@@ -1035,6 +1035,10 @@ def boundary_rule(
         return integrals, bounds[active]
 
     def npoints(level):
-        return nodes.get(level, 0)
+        # a rule not yet applied: its orders, hence its nodes, grow as REFINE per level
+        if level in nodes:
+            return nodes[level]
+        known = max(nodes)
+        return int(nodes[known] * REFINE ** (level - known))
 
     return refine_selective(rule, npoints, factor, scale, tol, max_points, (0, 0))
