@@ -660,6 +660,24 @@ def test_the_limiter_holds_the_ceiling_on_the_stream_as_process_does(jack, scene
     assert stats.impacts_late == 0 and late is not None
 
 
+def assert_ramped_in_one_block(live, before, after, seconds):
+    """``live`` (a stream's recording of ``seconds``) is ``before`` up to one block, that
+    block ramps linearly (old + u (new - old)) to ``after``, which it is from the next
+    block on; the change came between 0.2 s and the last 0.1 s. Tolerance: two float32
+    steps at the larger peak (the stream and process() mix alike, rounded to float32)."""
+    tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
+    differs = np.abs(live - before).max(axis=1) > tol
+    first = int(np.argmax(differs))
+    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
+    k = first // BLOCK  # the block that took the change
+    np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
+    u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
+    span = slice(k * BLOCK, (k + 1) * BLOCK)
+    ramp = before[span] + u * (after[span] - before[span])
+    np.testing.assert_allclose(live[span], ramp, rtol=0, atol=2 * tol)
+    np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)
+
+
 def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, scene):
     # the game moves its listener while a hit rings: the samples the callback sent are the
     # old listener's render up to one block, that block ramps every mode's gain linearly
@@ -685,18 +703,7 @@ def test_a_listener_moved_while_the_stream_runs_ramps_within_one_block(jack, sce
         assert wait_for(lambda: engine.time > 0.2, 10.0)
         engine.move_listener((0.3, 0.5, 0.3), facing=(1.0, 0.0))
         assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
-    live = engine.recording
-    tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
-    differs = np.abs(live - before).max(axis=1) > tol
-    first = int(np.argmax(differs))
-    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
-    k = first // BLOCK  # the block that took the new gains
-    np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
-    u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
-    span = slice(k * BLOCK, (k + 1) * BLOCK)
-    ramp = before[span] + u * (after[span] - before[span])
-    np.testing.assert_allclose(live[span], ramp, rtol=0, atol=2 * tol)
-    np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)
+    assert_ramped_in_one_block(engine.recording, before, after, seconds)
 
 
 def test_a_device_without_the_engine_s_rate_is_refused_naming_both_rates(jack, scene):
@@ -734,18 +741,7 @@ def test_a_pan_set_while_the_stream_runs_ramps_within_one_block(jack, scene):
         assert wait_for(lambda: engine.time > 0.2, 10.0)
         body.pan = 0.8
         assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
-    live = engine.recording
-    tol = 2 * float(np.spacing(np.float32(max(np.abs(before).max(), np.abs(after).max()))))
-    differs = np.abs(live - before).max(axis=1) > tol
-    first = int(np.argmax(differs))
-    assert differs.any() and FS * 0.2 <= first < FS * (seconds - 0.1)
-    k = first // BLOCK  # the block that took the new pan
-    np.testing.assert_allclose(live[: k * BLOCK], before[: k * BLOCK], rtol=0, atol=tol)
-    u = (np.arange(1, BLOCK + 1) / BLOCK)[:, None]
-    span = slice(k * BLOCK, (k + 1) * BLOCK)
-    ramp = before[span] + u * (after[span] - before[span])
-    np.testing.assert_allclose(live[span], ramp, rtol=0, atol=2 * tol)
-    np.testing.assert_allclose(live[(k + 1) * BLOCK :], after[(k + 1) * BLOCK :], rtol=0, atol=tol)
+    assert_ramped_in_one_block(engine.recording, before, after, seconds)
 
 
 def test_the_callback_timing_tells_a_gil_wait_from_the_callback_s_work(jack, scene):
