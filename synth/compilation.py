@@ -26,14 +26,15 @@ from pathlib import Path
 
 import numba
 
-#: numba's fast-math flags of every kernel: fused multiply-add contraction only, so that
-#: the compiler keeps the order of every sum and the approximations of no function. One set
-#: for all: numba compiles a kernel, and the helpers it takes from numba (``np.empty``,
-#: ``max``), with the flags of the first kernel that calls it where its own are unset
-#: (``inherit_if_not_set``), and keeps that machine code for every later caller; with two
-#: sets, a kernel's code, and a render's bits, would depend on which caller compiled it
-#: first, in this process or in the one that filled the disk cache.
-FASTMATH = frozenset({"contract"})
+#: numba's fast-math flags of every kernel: none, and given, never left unset. With
+#: ``contract``, LLVM fuses multiplies and adds differently in the code numba compiles in
+#: the process and in the code it writes to and loads from its disk cache, so a render's
+#: bits would depend on whether its kernels were compiled in this run. And a kernel whose
+#: flags are unset is compiled, with the helpers it takes from numba (``np.empty``,
+#: ``max``), with the flags of the first kernel that calls it (``inherit_if_not_set``) and
+#: keeps that code for every later caller, so that two sets would make a kernel's code
+#: depend on which caller compiled it first.
+FASTMATH = False
 
 
 def compiled(**options):
@@ -45,7 +46,7 @@ def compiled(**options):
     to the first compile (``synth bench cold``)."""
     if "fastmath" in options:
         raise TypeError("compiled(): the fast-math flags are the package's (FASTMATH)")
-    return numba.njit(cache=True, no_cfunc_wrapper=True, fastmath=set(FASTMATH), **options)
+    return numba.njit(cache=True, no_cfunc_wrapper=True, fastmath=FASTMATH, **options)
 
 
 #: The measured compile time (CPU s) of each group, written by ``synth warmup --record``.

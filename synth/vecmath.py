@@ -7,8 +7,8 @@ kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an u
 on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
 ``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
 ulp (the kernels square in loops of their own, so that each vectorises). Like every
-kernel of the package (:data:`synth.compilation.FASTMATH`), they allow fused multiply-add
-contraction only, so the compiler keeps the order of every sum.
+kernel of the package (:data:`synth.compilation.FASTMATH`), they are compiled without
+fast-math flags: the compiler keeps every operation and the order of every sum.
 """
 
 from __future__ import annotations

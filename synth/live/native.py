@@ -564,9 +564,7 @@ def stream_callback():
     numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
     one compiles the whole block: made on first use, after the engine's note that it
     compiles (:func:`synth.compilation.announce`), not when this module is imported."""
-    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=set(FASTMATH))(
-        _callback
-    )
+    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(_callback)
 
 
 @compiled(nogil=True)

@@ -153,7 +153,10 @@ def start(lam, G, n, c, b, rtol):
     row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist)."""
     S = new_series(b)
     s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
-    hist = np.empty((32, H_COLS))
+    # zeros, not empty: a row fills only its method's columns (row 0, the series, none of
+    # the coefficients), and the history is returned whole; uninitialised columns would
+    # carry whatever the heap held, which differs between processes
+    hist = np.zeros((32, H_COLS))
     hist[0, H_T0] = 0.0
     hist[0, H_H] = s1
     hist[0, H_X0] = 0.0

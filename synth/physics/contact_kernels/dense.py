@@ -38,7 +38,7 @@ def grow_history(hist, k):
     """The history with room for row ``k``: itself, or a copy of twice its rows."""
     if k < hist.shape[0]:
         return hist
-    new = np.empty((2 * hist.shape[0], hist.shape[1]))
+    new = np.zeros((2 * hist.shape[0], hist.shape[1]))  # see ``start``: no uninitialised column
     # element by element: a slice assignment compiles numba's shape-mismatch error
     # path (string formatting), seconds of the first run's compile time
     for i in range(hist.shape[0]):
