@@ -144,16 +144,19 @@ def test_a_render_does_not_depend_on_what_compiled_before_it(tmp_path):
     # alone, a rolling): the same bytes. numba compiles a kernel, and its own helpers, with
     # the fast-math flags of the first kernel that calls it; with kernels on different
     # flags, whichever family compiled first set the bits of every later render.
+    # A third process renders on the first one's cache: the kernels loaded from numba's
+    # disk cache give the bytes of the kernels compiled in the run (with fast-math
+    # contraction they did not).
     outs = []
-    for order in ("clean", "others-first"):
-        env = {"NUMBA_CACHE_DIR": str(tmp_path / order), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
+    for order, cache in (("clean", "a"), ("others-first", "b"), ("clean", "a")):
+        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
         out = subprocess.run(
             [sys.executable, "-c", ROLL_THEN_RENDER, order],
             capture_output=True, text=True, env=dict(os.environ, **env), timeout=900,
         )  # fmt: skip
         assert out.returncode == 0, out.stderr[-2000:]
         outs.append(out.stdout.split()[-2:])
-    assert outs[0] == outs[1]
+    assert outs[0] == outs[1] == outs[2]
 
 
 def test_compile_log_records_a_compile_with_its_own_and_total_time():
