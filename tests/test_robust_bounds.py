@@ -162,15 +162,20 @@ def test_microphone_on_the_surface_is_the_limit_of_one_above_it():
 
 # --------------------------------------------------------------------------- cost estimate
 
+#: Scenes whose work follows from their inputs and exceeds the default budget
+#: (synth.cost.Budget), each refused by a different bound; ``synth info --cost`` with the
+#: same arguments prints the estimate that refuses it.
 HEAVY = {
-    # a 1000 kg ball resting on the default MDF board: a contact of about 500 s (its
-    # viscoelastic surface), a pulse grid of 1e8 points
+    # a ball heavy enough to come to rest on the default MDF board: its contact (on the
+    # viscoelastic surface) lasts longer than max_duration, its pulse grid exceeds
+    # SYNTH_MAX_PULSE_POINTS
     "1000 kg on MDF": ["default", "--set", "ball.mass=1000"],
-    # 840 kg on the 6 mm board under the thesis' model: an 878 s contact, 1.7e8 points
+    # the same on the 6 mm board under the thesis' elastic model: refused by the pulse
+    # grid and the memory as well as the contact's length
     "840 kg on 6 mm": [
         "thesis-steel10-mdf6", "--set", "ball.mass=840", "--set", "contact.model=thesis",
     ],
-    # a 1 mm x 5 m x 5 m steel sheet: 188 000 modes below 24 kHz
+    # a 1 mm x 5 m x 5 m steel sheet: more modes below Nyquist than SYNTH_MAX_MODES
     "5 x 5 m sheet": [
         "steel-ball-on-steel-sheet", "--set", "plate.length=5", "--set", "plate.width=5",
         "--set", "ball.radius=0.005", "--set", "drop.position=[2.5, 2.5]",
