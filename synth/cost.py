@@ -509,6 +509,14 @@ def _first_contact(scene) -> FirstContact:
     )
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
     first = solver.solve(speed, position=scene.position)
+    if not first.success:  # the render would fail at this impact: say so before any work
+        given = [f"contact.law={c.law!r}"]
+        given += [f"contact.{k}={v!r}" for k, v in options.items() if k != "surface"]
+        raise ParameterError(
+            f"the first impact (at {speed:.4g} m/s) could not be solved with "
+            f"{', '.join(given)}: {first.message} The scene is outside what the contact "
+            f"solver handles"
+        )
     e = 0.0 if first.settled else float(first.restitution)
     if c.plate == "impedance" or not first.settled:
         return FirstContact(first.separation_time, bool(first.settled), e)

@@ -466,3 +466,59 @@ def test_no_shipped_preset_is_refused_by_the_default_budget():
         keys = ("samplerate", "max_frequency", "max_duration", "max_tail", "floor_db")
         options = {k: section[k] for k in keys if section.get(k) is not None}
         assert cost.estimate(scene, **options).excess(cost.Budget()) == [], name
+
+
+def test_a_full_disk_names_the_users_path_not_a_temporary(capsys, tmp_path, monkeypatch):
+    # write_audio stages its file once more inside the command's staged temporary: the
+    # system's error named that second temporary (.synth-<pid>-<hex>.part.wav)
+    import errno
+    import os
+
+    import soundfile
+
+    def full_disk(file, *args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(file))
+
+    monkeypatch.setattr(soundfile, "write", full_disk)
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"precious")
+    code, _, err = run(capsys, "render", "default", "-o", out, "--samplerate", 8000)
+    assert code == 1 and "No space left on device" in err and str(out) in err, err
+    assert ".synth-" not in err and len(err.strip().splitlines()) == 1, err
+    assert out.read_bytes() == b"precious" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "x.wav"
+    ]
+
+
+def test_a_cache_folder_that_is_a_file_is_one_error_for_render_and_cache_info(
+    capsys, tmp_path, monkeypatch
+):
+    # SYNTH_CACHE_DIR naming a file turned the disk cache off without a word for render,
+    # and `synth cache info` reported "0 entries" of the file
+    occupied = tmp_path / "not-a-folder"
+    occupied.write_bytes(b"a file")
+    monkeypatch.setenv("SYNTH_CACHE_DIR", str(occupied))
+    out = tmp_path / "out.wav"
+    code_render, _, err_render = run(capsys, "render", "default", "-o", out)
+    code_info, _, err_info = run(capsys, "cache", "info")
+    assert code_render == code_info == 2
+    assert err_render == err_info and f"SYNTH_CACHE_DIR={str(occupied)!r}" in err_render
+    assert "directory" in err_render and not out.exists()
+    assert occupied.read_bytes() == b"a file"
+
+
+@pytest.mark.parametrize("key", ["rms_height", "correlation_length"])
+def test_a_roughness_beyond_any_plate_is_named(capsys, key):
+    # 1e308 m overflowed in the spectrum (sigma^2) or in the synthesis domain's sample
+    # count (an infinite float to int) only when the render drew the profile
+    code, _, err = run(
+        capsys, "info", "thesis-steel10-mdf18-rolling", "--set", f"rolling.{key}=1e308"
+    )
+    assert code == 2 and f"rolling.{key}=1e+308" in err and "<= 100 (metres)" in err, err
+
+
+def test_a_roughness_taller_than_the_plate_is_named(capsys):
+    code, _, err = run(
+        capsys, "info", "thesis-steel10-mdf18-rolling", "--set", "rolling.rms_height=0.1"
+    )
+    assert code == 2 and "rolling.rms_height=0.1" in err and "plate.thickness=0.018" in err, err

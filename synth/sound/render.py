@@ -170,7 +170,10 @@ def _microphone_output(
     D = plate.flexural_rigidity
     rho_h = plate.surface_density
     k_max = (float(np.max(omega[ok])) ** 2 * rho_h / D) ** 0.25 if ok.any() else 1.0
-    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max, max_points)
+    # a mode left out (overdamped) takes the pole -omega_k in the sums, its gain unused:
+    # its own -sigma_k can be of any size, and the sums' panels follow the largest |s|
+    s = np.where(ok, -sigma + 1j * wd, -omega + 0j)
+    all_gains = _microphone_gains(modes, plate, listener, s, k_max, max_points)
     return ListenerOutput(
         np.asarray(all_gains)[ok] * poles,
         None,
@@ -265,7 +268,8 @@ def modal_model(
     sigma = np.asarray(modes.decay_rates, dtype=float)
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     under = sigma < omega
-    wd = np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
+    wd = np.zeros_like(omega)  # an overdamped mode's sigma can be of any size: not squared
+    wd[under] = np.sqrt(omega[under] ** 2 - sigma[under] ** 2)
     ok = under & (wd < math.pi * fs)
     poles = (-sigma + 1j * wd)[ok]
     gains = LISTENER_OUTPUTS[type(listener)](
@@ -382,9 +386,16 @@ def _seconds(name, value, hi, lo_open=True) -> float:
     return x
 
 
-def _silent_plate_message(f_max: float, samplerate: int) -> str:
+def _silent_plate_message(f_max: float, samplerate: int, plate=None, overdamped: int = 0) -> str:
     """Why a plate without a mode below ``f_max`` (Hz) is refused, and what can change:
-    ``max_frequency`` only while it is below the Nyquist frequency."""
+    the damping law when every mode there is ``overdamped`` (they do not ring; ``plate``
+    names it), else ``max_frequency`` only while it is below the Nyquist frequency."""
+    if overdamped:
+        return (
+            f"plate.material.damping={plate.material.damping!r} damps all {overdamped} modes "
+            f"of the plate below {f_max:g} Hz past critical (they decay faster than they "
+            f"ring), so the render would be silent; a solid's loss factor is below 1"
+        )
     if f_max < 0.5 * samplerate:
         return (
             f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
@@ -540,7 +551,7 @@ def render(
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()  # before the bounces: the modes will need it
-    disk_cache.max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES refused before any work
+    disk_cache.check_environment()  # a bad $SYNTH_CACHE_* refused before any work
     o = check_options(
         samplerate=samplerate,
         normalize=normalize,
@@ -607,7 +618,7 @@ def render(
     delay = model.delay
     units = model.units
     if not poles.size:
-        raise ParameterError(_silent_plate_message(f_max, fs))
+        raise ParameterError(_silent_plate_message(f_max, fs, scene.plate, model.n_overdamped))
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])
@@ -674,7 +685,7 @@ def _render_moving(scene, o) -> Render:
     f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
     model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
     if not model.poles.size:
-        raise ParameterError(_silent_plate_message(f_max, fs))
+        raise ParameterError(_silent_plate_message(f_max, fs, scene.plate, model.n_overdamped))
     audio, path, extra = render_path_audio(scene, model, o)
     _fade(audio, o["fade"], fs)
     scaled, gain = audio_io.normalize(
