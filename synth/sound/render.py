@@ -11,6 +11,7 @@ stage (``normalize``).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -118,17 +119,40 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
-    h = plate_gains(
-        modes,
-        microphone.position,
-        mirror,
-        max_wavenumber=k_max,
-        air_density=AIR_DENSITY,
-        sound_speed=SOUND_SPEED,
-        reference_distance=nearest_distance(plate, microphone),
-        **({} if max_points is None else {"max_points": max_points}),
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        h = plate_gains(
+            modes,
+            microphone.position,
+            mirror,
+            max_wavenumber=k_max,
+            air_density=AIR_DENSITY,
+            sound_speed=SOUND_SPEED,
+            reference_distance=nearest_distance(plate, microphone),
+            **({} if max_points is None else {"max_points": max_points}),
+        )
+    for w in caught:
+        warnings.warn_explicit(
+            _budget_named(w.message, max_points), w.category, w.filename, w.lineno
+        )
     return np.asarray(h) * poles / mirror
+
+
+def _budget_named(message, max_points):
+    """A warning of the sums stopped at ``max_points`` (the render's radiation budget's
+    cut, :attr:`synth.cost.RadiationWork.max_points`) reworded to name the setting the
+    user can change, ``SYNTH_MAX_RADIATION_WORK``; any other warning as it is."""
+    internal = f"the next rule would exceed max_points={max_points}"
+    text = str(message)
+    if max_points is None or internal not in text:
+        return message
+    return type(message)(
+        text.replace(
+            internal,
+            "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise "
+            "it for converged gains; synth info --cost prints the work)",
+        )
+    )
 
 
 def nearest_distance(plate, microphone) -> float:
