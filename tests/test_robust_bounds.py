@@ -250,20 +250,35 @@ def test_modal_count_is_the_wavenumber_lattice():
         assert abs(cost.modal_count(plate, 24000.0) - exact) <= tolerance * exact
 
 
-def test_a_strips_modes_are_a_beams():
-    # a 5 m x 1 mm strip: no mode varies across its width below 24 kHz (the first needs
-    # k = pi / b = 3142 rad/m), so its modes are the beam's k a / pi + 1 (the area term
-    # alone counted 75)
-    import math
+def _free_plates():
+    import dataclasses
 
-    from synth import cost
+    import synth
     from synth.physics.scene import Plate
 
-    strip = Plate("steel", 0.0005, 5.0, 0.001)
-    k = math.sqrt(
-        2 * math.pi * 24000.0 * math.sqrt(strip.surface_density / strip.flexural_rigidity)
-    )
-    assert cost.modal_count(strip, 24000.0) == math.floor(k * 5.0 / math.pi) + 1
+    board = synth.load_preset("default").plate
+    return {
+        # the strip's torsional modes (w = y theta(x)) were missed: 693 counted, 781 solved
+        "5 m x 1 mm strip": Plate("steel", 0.0005, 5.0, 0.001),
+        "square board": dataclasses.replace(board, length=board.width),
+        "default board": board,
+    }
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param("5 m x 1 mm strip", marks=pytest.mark.slow), "square board", "default board"],
+)
+def test_a_free_plates_mode_count_is_the_solvers(name):
+    # the count is an estimate for the budgets, made before any mode is solved: within
+    # 10 % of the Rayleigh-Ritz count below 24 kHz, so never low by more than that
+    from synth import cost
+    from synth.sound import modes as plate_modes
+
+    plate = _free_plates()[name]
+    solved = plate_modes.modes(plate, max_frequency=24000.0 * (1.0 - 1e-9)).angular_frequencies
+    counted = cost.modal_count(plate, 24000.0)
+    assert abs(counted - solved.size) <= 0.10 * solved.size, (counted, solved.size)
 
 
 def test_hertz_contact_time_is_the_closed_form_on_a_rigid_plate():
