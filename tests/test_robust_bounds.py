@@ -564,3 +564,16 @@ def test_a_roughness_taller_than_the_plate_is_named(capsys):
         capsys, "info", "thesis-steel10-mdf18-rolling", "--set", "rolling.rms_height=0.1"
     )
     assert code == 2 and "rolling.rms_height=0.1" in err and "plate.thickness=0.018" in err, err
+
+
+def test_a_profiles_sample_count_is_named_before_it_becomes_an_int():
+    # length / spacing = 1e300 samples: an OverflowError (infinity to int) before
+    from synth.physics import surface
+
+    spectrum = surface.RoughnessSpectrum(1e-6, 1e-4, 0.8)
+    with pytest.raises(ParameterError, match="spacing=1e-300 gives more than 10000000"):
+        surface.rough_profile(spectrum, length=1.0, spacing=1e-300, seed=1)
+    with pytest.raises(ParameterError, match="more than 40000000 samples"):
+        surface.expected_mean_square(
+            surface.RoughnessSpectrum(1e-6, 100.0, 0.8), length=1.0, spacing=1e-6
+        )

@@ -160,13 +160,15 @@ class RoughnessSpectrum:
 def _check_grid(length, spacing) -> tuple[float, float, int]:
     L = checks.positive("length", length, "metres")
     dx = checks.positive("spacing", spacing, "metres")
-    count = math.ceil(L / dx - 1e-9) + 1 if L / dx < MAX_PROFILE_SAMPLES else math.inf
-    if not 4 <= count <= MAX_PROFILE_SAMPLES:
+    # the ratio compared before it becomes an int: it can be too large for one (1e308)
+    n = math.ceil(L / dx - 1e-9) + 1 if L / dx < MAX_PROFILE_SAMPLES else None
+    if n is None or not 4 <= n <= MAX_PROFILE_SAMPLES:
+        count = f"more than {MAX_PROFILE_SAMPLES}" if n is None else n
         raise ParameterError(
-            f"length={length!r} with spacing={spacing!r} gives {count:g} samples; a profile "
+            f"length={length!r} with spacing={spacing!r} gives {count} samples; a profile "
             f"has 4 to {MAX_PROFILE_SAMPLES} samples (metres)"
         )
-    return L, dx, int(count)
+    return L, dx, n
 
 
 def _seed(seed) -> int:

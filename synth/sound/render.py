@@ -10,6 +10,7 @@ stage (``normalize``).
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -119,18 +120,21 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
+    gains = functools.partial(
+        plate_gains,
+        modes,
+        microphone.position,
+        mirror,
+        max_wavenumber=k_max,
+        air_density=AIR_DENSITY,
+        sound_speed=SOUND_SPEED,
+        reference_distance=nearest_distance(plate, microphone),
+    )
+    if max_points is None:
+        return np.asarray(gains()) * poles / mirror
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        h = plate_gains(
-            modes,
-            microphone.position,
-            mirror,
-            max_wavenumber=k_max,
-            air_density=AIR_DENSITY,
-            sound_speed=SOUND_SPEED,
-            reference_distance=nearest_distance(plate, microphone),
-            **({} if max_points is None else {"max_points": max_points}),
-        )
+        h = gains(max_points=max_points)
     for w in caught:
         warnings.warn_explicit(
             _budget_named(w.message, max_points), w.category, w.filename, w.lineno
@@ -144,7 +148,7 @@ def _budget_named(message, max_points):
     user can change, ``SYNTH_MAX_RADIATION_WORK``; any other warning as it is."""
     internal = f"the next rule would exceed max_points={max_points}"
     text = str(message)
-    if max_points is None or internal not in text:
+    if internal not in text:
         return message
     return type(message)(
         text.replace(
