@@ -174,3 +174,23 @@ def environment_integer(name: str, default: int, least: int = 0, unit: str = "")
     if value is None or value < least:
         raise ParameterError(f"{name}={text!r} must be an integer >= {least}{_unit(unit)}")
     return value
+
+
+def environment_directory(name: str):
+    """The folder named by the environment variable ``name`` (a :class:`pathlib.Path`,
+    ``~`` expanded; it need not exist yet), or None when it is unset or empty: raises
+    ``ParameterError`` naming the variable and its text when the path exists and is not
+    a folder (a file there would otherwise turn the folder's use off without a word)."""
+    import os
+    from pathlib import Path
+
+    text = os.environ.get(name)
+    if text is None or not text.strip():
+        return None
+    path = Path(text).expanduser()
+    if path.exists() and not path.is_dir():
+        raise ParameterError(
+            f"{name}={text!r} must be a directory (created if missing), not a file; give a "
+            f"folder or unset it"
+        )
+    return path

@@ -282,15 +282,25 @@ class Outputs:
     def _name_the_targets(self, exc: BaseException) -> None:
         """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
         a full disk): the temporary is removed on the way out and means nothing to the
-        user."""
-        for field, tmp in self.temporaries.items():
-            target = str(self.paths[field])
-            if isinstance(exc, OSError) and exc.filename is not None:
-                if str(exc.filename) == str(tmp):
-                    exc.filename = target
-            exc.args = tuple(
-                a.replace(str(tmp), target) if isinstance(a, str) else a for a in exc.args
+        user. A writer may stage its file once more beside the staged one (its own atomic
+        write): any engine temporary (:func:`synth.io.atomic.temporary_name`) in a
+        target's folder with its suffix is that target's."""
+        import functools
+        import re
+
+        from synth.io.atomic import TEMPORARY_PREFIX
+
+        for field in self.temporaries:
+            target = self.paths[field]
+            hidden = re.compile(
+                re.escape(str(target.with_name(TEMPORARY_PREFIX)))
+                + r"\d+-[0-9a-f]+\.part"
+                + re.escape(target.suffix)
             )
+            named = functools.partial(hidden.sub, lambda _, path=str(target): path)
+            if isinstance(exc, OSError) and exc.filename is not None:
+                exc.filename = named(str(exc.filename))
+            exc.args = tuple(named(a) if isinstance(a, str) else a for a in exc.args)
 
 
 def _refuse_shared_paths(paths: dict) -> None:

@@ -240,3 +240,52 @@ def test_ladder_rounding_brackets_each_rate():
         assert rate <= up < rate * B._RATE_LADDER * (1.0 + 1e-12)
         assert rate / B._RATE_LADDER * (1.0 - 1e-12) < down <= rate
     assert B._on_ladder(0.0) == 0.0 and B._below_ladder(0.0) == 0.0
+
+
+def _factor_bounds_before(s, so, n, h, ce, scale):
+    """_factor_bounds as it was before its growing bound was taken in logarithms (every
+    branch evaluated for every trial): the reference where it did not overflow."""
+    odd = n % 2 == 1
+    k = np.sqrt(np.abs(s))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        u_osc = np.where(odd, np.minimum(h, 1.0 / k), 1.0)
+        u_grow = np.where(odd, np.sinh(k * h) / k, np.cosh(k * h))
+        u = np.where(s > 0.0, u_osc, np.where(s < 0.0, u_grow, np.where(odd, h, 1.0)))
+        m2 = s + 2.0 * so
+        mu = np.sqrt(np.abs(m2))
+        e_osc = 1.0 / np.abs(np.where(odd, np.sin(mu * h), np.cos(mu * h)))
+        e = np.where(m2 < 0.0, e_osc, 1.0)
+    return np.abs(scale) * (u + np.abs(ce) * e)
+
+
+@pytest.mark.parametrize("boundary", ["free", "clamped"])
+def test_factor_bounds_are_unchanged_where_they_did_not_overflow(boundary):
+    # the trials of a real edge effect solution (oscillating parts of both parities, and
+    # growing ones on the free plate): the same values as the direct evaluation, to 1e-12
+    # (an invariant: below k h = 700 the arithmetic is the same)
+    sol, _, _ = _edge_modes(boundary)
+    (cx, gx), (cy, gy) = sol.factor_constants()
+    hx, hy = sol.half
+    assert (boundary == "free") == bool(np.any(sol.sx < 0.0) and np.any(sol.sy < 0.0))
+    for args in ((sol.sx, sol.sy, sol.nx, hx, cx, gx), (sol.sy, sol.sx, sol.ny, hy, cy, gy)):
+        with np.errstate(all="raise"):
+            new = B._factor_bounds(*args)
+        np.testing.assert_allclose(new, _factor_bounds_before(*args), rtol=1e-12, atol=0.0)
+
+
+def test_factor_bounds_of_far_growing_trials_are_finite():
+    # h = 2.5 m and |s| = 1e5 m^-2: k h = 791, where cosh overflowed (a warning, and an
+    # infinite bound that would let the convergence test pass any gain). A growing even
+    # trial normalised to mean square 1 on [-h, h] (scale = 1 / rms, a subnormal number
+    # at k h = 720) is bounded by sqrt(2 k h): cosh(k h)^2 / rms^2 -> 2 k h (closed form
+    # of the mean square of cosh, (1 + sinh(2 k h) / (2 k h)) / 2)
+    h, kh = 2.5, 720.0
+    k = kh / h
+    s = np.array([1e5, -1e5, 1e5, -(k**2)])
+    n = np.array([0, 1, 1, 0])
+    scale = np.array([1.0, 0.0, 1.0, math.exp(0.5 * math.log(8.0 * kh) - kh)])
+    with np.errstate(all="raise"):
+        bound = B._factor_bounds(s, np.full(4, 2e5), n, h, np.zeros(4), scale)
+    assert np.all(np.isfinite(bound))
+    assert bound[:3].tolist() == [1.0, 0.0, 1.0 / math.sqrt(1e5)]
+    assert bound[3] == pytest.approx(math.sqrt(2.0 * kh), rel=1e-9)

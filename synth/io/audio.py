@@ -255,6 +255,10 @@ def write_audio(
     def write(tmp):
         try:
             soundfile.write(tmp, a, sr, subtype=st, format=fmt)
+        except OSError as exc:  # the system's refusal (a full disk): of the path asked for
+            if exc.filename is not None and str(exc.filename) == str(tmp):
+                exc.filename = str(p)
+            raise
         except (soundfile.SoundFileError, RuntimeError) as exc:
             reason = getattr(exc, "error_string", None) or str(exc)
             raise AudioFileError(

@@ -61,10 +61,12 @@ RESCAN_SECONDS = 30.0
 def cache_dir() -> Path:
     """Directory of the disk cache: ``$SYNTH_CACHE_DIR`` if set, else the platform's
     user cache directory (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux,
-    ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) + ``synth``."""
-    env = os.environ.get("SYNTH_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
+    ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) + ``synth``. Raises
+    ``ParameterError`` for a ``$SYNTH_CACHE_DIR`` that is a file, as ``synth cache info``
+    does: never a silent "off"."""
+    env = checks.environment_directory("SYNTH_CACHE_DIR")
+    if env is not None:
+        return env
     home = Path.home()
     if sys.platform == "win32":
         base = os.environ.get("LOCALAPPDATA")
@@ -73,6 +75,13 @@ def cache_dir() -> Path:
         return home / "Library" / "Caches" / "synth"
     base = os.environ.get("XDG_CACHE_HOME")
     return (Path(base) if base else home / ".cache") / "synth"
+
+
+def check_environment() -> None:
+    """Raise ``ParameterError`` for a bad ``$SYNTH_CACHE_DIR`` or ``$SYNTH_CACHE_MAX_BYTES``
+    (before any work: a render would otherwise find it at its first write)."""
+    checks.environment_directory("SYNTH_CACHE_DIR")
+    max_bytes()
 
 
 def max_bytes() -> int:

@@ -314,14 +314,17 @@ def _material(value, where):
             raise PresetError(
                 f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
             )
-        if set(damping) == {"eta"}:
-            kw["damping"] = LossFactor(damping["eta"])
-        elif set(damping) == {"alpha", "beta"}:
-            kw["damping"] = Rayleigh(damping["alpha"], damping["beta"])
-        else:
+        law = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}.get(
+            frozenset(damping)
+        )
+        if law is None:
             raise PresetError(
                 f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
             )
+        try:
+            kw["damping"] = law(**damping)
+        except ParameterError as exc:  # "damping.eta=...": the key under this material
+            raise PresetError(f"{where}.{exc}") from None
     _require(kw, ("density", "young", "poisson"), where)
     try:
         if shear == TIED_SHEAR:

@@ -141,12 +141,30 @@ def material_viscous_time(
     ball_modulus = ball.material.effective_modulus
     plate_modulus = transverse_ratio * plate.material.effective_modulus
     e_star = 1.0 / (1.0 / ball_modulus + 1.0 / plate_modulus)
-    ball_term = e_star / ball_modulus * material_loss_factor(ball.material, omega_c) / omega_c
+    ball_term = e_star / ball_modulus * _contact_loss_factor(ball, "ball", omega_c) / omega_c
     if plate_share is None:
         plate_share = (
-            e_star / plate_modulus * material_loss_factor(plate.material, omega_c) / omega_c
+            e_star / plate_modulus * _contact_loss_factor(plate, "plate", omega_c) / omega_c
         )
     return ball_term + plate_share
+
+
+def _contact_loss_factor(body, name: str, omega: float) -> float:
+    """:func:`material_loss_factor` of ``body``'s material at the contact's angular
+    frequency ``omega`` (rad/s), or ``ParameterError`` naming ``name.material.damping``
+    when it is not below 1: a solid's loss factor is below 1 (the bound of
+    :class:`~synth.physics.materials.LossFactor`), and the Kelvin-Voigt loss of
+    :func:`material_viscous_time` holds to first order in it. A Rayleigh law's ``alpha /
+    omega + beta omega`` can exceed it at the contact's frequency although the modes it
+    damps are in range."""
+    eta = material_loss_factor(body.material, omega)
+    if not eta < 1.0:
+        raise ParameterError(
+            f"{name}.material.damping={body.material.damping!r}: its loss factor at the "
+            f"contact's frequency {omega / (2.0 * math.pi):.4g} Hz is {eta:.3g}; a solid's "
+            f"loss factor is below 1"
+        )
+    return eta
 
 
 def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:

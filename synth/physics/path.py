@@ -319,9 +319,12 @@ def _profile(rolling, length):
     if spectrum is None:
         n = int(math.ceil(length / rolling.spacing)) + 1
         return surface.Profile(np.zeros(max(n, 4)), rolling.spacing, "smooth")
-    return surface.rough_profile(
-        spectrum, length=length, spacing=rolling.spacing, seed=rolling.seed
-    )
+    try:
+        return surface.rough_profile(
+            spectrum, length=length, spacing=rolling.spacing, seed=rolling.seed
+        )
+    except ParameterError as exc:  # the spectrum's keys are the [rolling] section's
+        raise ParameterError(f"rolling.{exc}") from None
 
 
 def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out):

@@ -424,9 +424,12 @@ class Rolling:
     spacing : float > 0
         Distance between the samples of the surface's profile along the path, m.
     rms_height : float >= 0
-        RMS height ``sigma`` of the Matern roughness, m (0: a smooth plate).
-    correlation_length : float > 0, optional
-        Its correlation length ``xi``, m (required when ``rms_height > 0``).
+        RMS height ``sigma`` of the Matern roughness, m (0: a smooth plate; at most
+        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE`, and in a scene at most the
+        plate's thickness: a roughness is a variation of the plate's surface).
+    correlation_length : float in (0, 100], optional
+        Its correlation length ``xi``, m (required when ``rms_height > 0``; at most
+        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE`).
     hurst : float in (0, 1], optional
         Its Hurst exponent ``H`` (required when ``rms_height > 0``).
     seed : int >= 0
@@ -562,6 +565,13 @@ class Scene:
         description, and a plate in the contact that can follow a moving point."""
         if self.rolling is not None and not isinstance(self.rolling, Rolling):
             raise ParameterError(f"rolling={self.rolling!r} must be a Rolling")
+        if self.rolling is not None and self.rolling.rms_height > self.plate.thickness:
+            # a roughness is a variation of the plate's surface, no taller than the plate
+            raise ParameterError(
+                f"rolling.rms_height={self.rolling.rms_height!r} must be <= plate.thickness="
+                f"{self.plate.thickness!r} (metres): a roughness is a variation of the "
+                f"plate's surface, not taller than the plate"
+            )
         if self.velocity is None:
             return
         vx, vy = checks.point("drop.velocity", self.velocity, 2, "m/s")

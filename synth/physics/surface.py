@@ -48,6 +48,14 @@ PADDING_CORRELATION_LENGTHS = 16.0
 #: Newton iterations locating a summit's contact point between samples (quadratic
 #: convergence from within a sample of it: machine precision in about four).
 NEWTON_ITERATIONS = 6
+#: Largest RMS height and correlation length of a roughness spectrum, m: the largest plate
+#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`, its greatest thickness and side). A
+#: roughness is a variation of a plate's surface: its heights are no taller than the
+#: thickest plate (a scene holds them to its own plate's thickness) and its lateral scale
+#: is no longer than the longest plate (the synthesis domain of :func:`rough_profile`
+#: holds :data:`PADDING_CORRELATION_LENGTHS` of it). The bound also keeps ``sigma^2``
+#: and the spectrum's normalisation far from float64's overflow.
+MAX_ROUGHNESS_SCALE = 100.0
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -111,10 +119,11 @@ class RoughnessSpectrum:
 
     Parameters
     ----------
-    rms_height : float > 0
-        ``sigma``, metres.
-    correlation_length : float > 0
-        ``xi``, metres: the roll-off from a flat spectrum to the power law.
+    rms_height : float in (0, 100]
+        ``sigma``, metres (:data:`MAX_ROUGHNESS_SCALE`).
+    correlation_length : float in (0, 100]
+        ``xi``, metres: the roll-off from a flat spectrum to the power law
+        (:data:`MAX_ROUGHNESS_SCALE`).
     hurst : float in (0, 1]
         Hurst exponent ``H`` of the self-affine range (1: smooth, 0.5: Brownian).
     """
@@ -124,11 +133,14 @@ class RoughnessSpectrum:
     hurst: float
 
     def __post_init__(self):
+        top = MAX_ROUGHNESS_SCALE
         for key, value in (
-            ("rms_height", checks.positive("rms_height", self.rms_height, "metres")),
+            ("rms_height", checks.positive_at_most("rms_height", self.rms_height, top, "metres")),
             (
                 "correlation_length",
-                checks.positive("correlation_length", self.correlation_length, "metres"),
+                checks.positive_at_most(
+                    "correlation_length", self.correlation_length, top, "metres"
+                ),
             ),
             (
                 "hurst",
@@ -148,11 +160,13 @@ class RoughnessSpectrum:
 def _check_grid(length, spacing) -> tuple[float, float, int]:
     L = checks.positive("length", length, "metres")
     dx = checks.positive("spacing", spacing, "metres")
-    n = int(math.ceil(L / dx - 1e-9)) + 1
-    if n < 4 or n > MAX_PROFILE_SAMPLES:
+    # the ratio compared before it becomes an int: it can be too large for one (1e308)
+    n = math.ceil(L / dx - 1e-9) + 1 if L / dx < MAX_PROFILE_SAMPLES else None
+    if n is None or not 4 <= n <= MAX_PROFILE_SAMPLES:
+        count = f"more than {MAX_PROFILE_SAMPLES}" if n is None else n
         raise ParameterError(
-            f"length={length!r} with spacing={spacing!r} gives {n} samples; a profile has "
-            f"4 to {MAX_PROFILE_SAMPLES} samples (metres)"
+            f"length={length!r} with spacing={spacing!r} gives {count} samples; a profile "
+            f"has 4 to {MAX_PROFILE_SAMPLES} samples (metres)"
         )
     return L, dx, n
 
@@ -204,11 +218,12 @@ def rough_profile(
 def _synthesis_size(length: float, spacing: float, correlation_length: float) -> int:
     """Samples ``M`` (even) of the periodic synthesis domain of :func:`rough_profile`."""
     span = length + PADDING_CORRELATION_LENGTHS * correlation_length
-    m = int(math.ceil(span / spacing)) + 1
-    if m > 4 * MAX_PROFILE_SAMPLES:
+    most = 4 * MAX_PROFILE_SAMPLES
+    m = math.ceil(span / spacing) + 1 if span / spacing < most else math.inf
+    if m > most:
         raise ParameterError(
             f"correlation_length={correlation_length!r} with spacing={spacing!r}: the "
-            f"synthesis domain would hold {m} samples (at most {4 * MAX_PROFILE_SAMPLES})"
+            f"synthesis domain would hold more than {most} samples"
         )
     return m + (m % 2)
 

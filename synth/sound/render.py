@@ -11,7 +11,9 @@ stage (``normalize``).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,7 +126,8 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
-    h = plate_gains(
+    gains = functools.partial(
+        plate_gains,
         modes,
         microphone.position,
         mirror,
@@ -132,9 +135,34 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
         reference_distance=nearest_distance(plate, microphone),
-        **({} if max_points is None else {"max_points": max_points}),
     )
+    if max_points is None:
+        return np.asarray(gains()) * poles / mirror
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        h = gains(max_points=max_points)
+    for w in caught:
+        warnings.warn_explicit(
+            _budget_named(w.message, max_points), w.category, w.filename, w.lineno
+        )
     return np.asarray(h) * poles / mirror
+
+
+def _budget_named(message, max_points):
+    """A warning of the sums stopped at ``max_points`` (the render's radiation budget's
+    cut, :attr:`synth.cost.RadiationWork.max_points`) reworded to name the setting the
+    user can change, ``SYNTH_MAX_RADIATION_WORK``; any other warning as it is."""
+    internal = f"the next rule would exceed max_points={max_points}"
+    text = str(message)
+    if internal not in text:
+        return message
+    return type(message)(
+        text.replace(
+            internal,
+            "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise "
+            "it for converged gains; synth info --cost prints the work)",
+        )
+    )
 
 
 def nearest_distance(plate, microphone) -> float:
@@ -174,8 +202,16 @@ def _microphone_output(
     modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
 ) -> ListenerOutput:
     k_max = _max_wavenumber(plate, omega[ok])
-    all_gains = _microphone_gains(modes, plate, listener, (-sigma + 1j * wd), k_max, max_points)
+    s = _sum_poles(sigma, omega, wd, ok)
+    all_gains = _microphone_gains(modes, plate, listener, s, k_max, max_points)
     return _pressure_output(all_gains, poles, ok, plate, listener)
+
+
+def _sum_poles(sigma, omega, wd, ok):
+    """The poles ``s_k`` (rad/s) the radiation sums take for every mode: a mode left out
+    (``ok`` False, e.g. overdamped) takes ``-omega_k``, its gain unused: its own
+    ``-sigma_k`` can be of any size, and the sums' panels follow the largest ``|s|``."""
+    return np.where(ok, -sigma + 1j * wd, -omega + 0j)
 
 
 def _max_wavenumber(plate, omega) -> float:
@@ -319,7 +355,10 @@ def _mode_rates(modes):
     angular frequency (0 for an overdamped mode)."""
     sigma = np.asarray(modes.decay_rates, dtype=float)
     omega = np.asarray(modes.angular_frequencies, dtype=float)
-    return sigma, omega, np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
+    under = sigma < omega
+    wd = np.zeros_like(omega)  # an overdamped mode's sigma can be of any size: not squared
+    wd[under] = np.sqrt(omega[under] ** 2 - sigma[under] ** 2)
+    return sigma, omega, wd
 
 
 def listener_grid(model: ModalModel, max_bytes: int | None = None):
@@ -335,7 +374,7 @@ def listener_grid(model: ModalModel, max_bytes: int | None = None):
     sigma, omega, wd = _mode_rates(model.modes)
     return ListenerGrid(
         model.modes,
-        -np.conj(-sigma + 1j * wd),
+        -np.conj(_sum_poles(sigma, omega, wd, model.rendered)),
         max_wavenumber=_max_wavenumber(model.modes.plate, omega[model.rendered]),
         air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED,
@@ -485,9 +524,16 @@ def _seconds(name, value, hi, lo_open=True) -> float:
     return x
 
 
-def _silent_plate_message(f_max: float, samplerate: int) -> str:
+def _silent_plate_message(f_max: float, samplerate: int, plate=None, overdamped: int = 0) -> str:
     """Why a plate without a mode below ``f_max`` (Hz) is refused, and what can change:
-    ``max_frequency`` only while it is below the Nyquist frequency."""
+    the damping law when every mode there is ``overdamped`` (they do not ring; ``plate``
+    names it), else ``max_frequency`` only while it is below the Nyquist frequency."""
+    if overdamped:
+        return (
+            f"plate.material.damping={plate.material.damping!r} damps all {overdamped} modes "
+            f"of the plate below {f_max:g} Hz past critical (they decay faster than they "
+            f"ring), so the render would be silent; a solid's loss factor is below 1"
+        )
     if f_max < 0.5 * samplerate:
         return (
             f"max_frequency={f_max!r} (Hz): no mode of the plate rings below it, so the "
@@ -655,7 +701,7 @@ def render(
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()  # before the bounces: the modes will need it
-    disk_cache.max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES refused before any work
+    disk_cache.check_environment()  # a bad $SYNTH_CACHE_* refused before any work
     o = check_options(
         samplerate=samplerate,
         normalize=normalize,
@@ -724,7 +770,7 @@ def render(
     delay = model.delay
     units = model.units
     if not poles.size:
-        raise ParameterError(_silent_plate_message(f_max, fs))
+        raise ParameterError(_silent_plate_message(f_max, fs, scene.plate, model.n_overdamped))
     listener = scene.listener
 
     times = np.array([imp.time for imp in sequence])
@@ -793,7 +839,7 @@ def _render_moving(scene, o) -> Render:
     f_max = 0.5 * fs if o["max_frequency"] is None else o["max_frequency"]
     model = modal_model(scene.plate, scene.listener, samplerate=fs, max_frequency=f_max)
     if not model.poles.size:
-        raise ParameterError(_silent_plate_message(f_max, fs))
+        raise ParameterError(_silent_plate_message(f_max, fs, scene.plate, model.n_overdamped))
     audio, path, extra = render_path_audio(scene, model, o)
     _fade(audio, o["fade"], fs)
     scaled, gain = audio_io.normalize(

@@ -952,21 +952,43 @@ def _inverse_distance_integral(size, listener) -> float:
     return f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
 
 
+#: Largest ``k h`` whose ``cosh`` and ``sinh`` :func:`_factor_bounds` takes directly
+#: (``cosh(700) = 5e303``); beyond, its bound is taken in logarithms.
+_DIRECT_GROWTH = 700.0
+
+
 def _factor_bounds(s, so, n, h, ce, scale):
     """Upper bounds of ``|X|`` on ``[-h, h]`` for trial factors (interior part ``cos``,
     ``sin / k``, ``cosh``, ``sinh / k``; edge part at most 1, or ``1 / |cos|``,
-    ``1 / |sin|`` of the edge value for an oscillating edge part)."""
+    ``1 / |sin|`` of the edge value for an oscillating edge part), times ``|scale|``.
+
+    Each interior bound is evaluated for its own trials only: a growing part's ``cosh(k
+    h)`` overflows float64 beyond ``k h = 710`` although the normalised factor, ``scale``
+    times it, stays of order ``sqrt(k h)``. Beyond :data:`_DIRECT_GROWTH` that product is
+    ``exp(log|scale| + k h - log 2)`` (``/ k`` when odd): ``cosh(k h) = exp(k h) / 2``
+    and ``sinh(k h) = exp(k h) / 2`` to a relative ``exp(-2 k h) < 1e-600``. Below it the
+    arithmetic is the direct one."""
     odd = n % 2 == 1
     k = np.sqrt(np.abs(s))
+    kh = k * h
     with np.errstate(divide="ignore", invalid="ignore"):
-        u_osc = np.where(odd, np.minimum(h, 1.0 / k), 1.0)
-        u_grow = np.where(odd, np.sinh(k * h) / k, np.cosh(k * h))
-        u = np.where(s > 0.0, u_osc, np.where(s < 0.0, u_grow, np.where(odd, h, 1.0)))
+        u = np.where(odd, h, 1.0)  # s == 0: x or 1
+        osc = s > 0.0
+        u[osc] = np.where(odd[osc], np.minimum(h, 1.0 / k[osc]), 1.0)
+        grow = s < 0.0
+        direct = grow & (kh <= _DIRECT_GROWTH)
+        u[direct] = np.where(odd[direct], np.sinh(kh[direct]) / k[direct], np.cosh(kh[direct]))
         m2 = s + 2.0 * so
         mu = np.sqrt(np.abs(m2))
         e_osc = 1.0 / np.abs(np.where(odd, np.sin(mu * h), np.cos(mu * h)))
         e = np.where(m2 < 0.0, e_osc, 1.0)
-    return np.abs(scale) * (u + np.abs(ce) * e)
+        bound = np.abs(scale) * (u + np.abs(ce) * e)
+        far = grow & (kh > _DIRECT_GROWTH)
+        if far.any():
+            log_u = kh[far] - math.log(2.0) - np.where(odd[far], np.log(k[far]), 0.0)
+            weight = np.abs(scale[far])
+            bound[far] = np.exp(np.log(weight) + log_u) + weight * np.abs(ce[far]) * e[far]
+    return bound
 
 
 def in_phase_bounds(sol, modes_index, size, listener) -> np.ndarray:
