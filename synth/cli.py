@@ -109,23 +109,19 @@ def _path_ending(path) -> dict:
     )
 
 
-def _budget_seconds(estimate, budget) -> str:
-    """`` (about N s and M s of the <rule> rule at the measured rates)``: the time budgets in
-    seconds (:class:`synth.cost.Rates`), or nothing without measured rates."""
+def _budget_seconds(budget) -> str:
+    """`` (about N s and M s of radiation at the measured rates)``: the time budgets in
+    seconds (:class:`synth.cost.Rates`; the radiation budget's rectangle-term equivalents
+    at the rectangle rule's rate, the same time for every rule), or nothing without
+    measured rates."""
     from synth import cost
 
     rates = cost.Rates.load()
     if rates is None:
         return ""
-    rule = estimate.radiation.rule
-    radiation = (
-        ""
-        if rule == "none"
-        else f" and {budget.max_radiation_work / rates.radiation[rule]:.3g} s of the {rule} rule"
-    )
-    return (
-        f" (about {budget.max_solver_flops / rates.solver:.3g} s{radiation} at the measured rates)"
-    )
+    solver = budget.max_solver_flops / rates.solver
+    radiation = budget.max_radiation_work / rates.radiation["rectangle"]
+    return f" (about {solver:.3g} s and {radiation:.3g} s of radiation at the measured rates)"
 
 
 def _print_cost(scene, section: dict, as_json: bool) -> int:
@@ -150,7 +146,8 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
     print(
         f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
         f"{budget.max_memory_bytes / 2**20:.0f} MiB, {budget.max_solver_flops:.3g} solver "
-        f"flop, {budget.max_radiation_work:.3g} radiation terms{_budget_seconds(estimate, budget)}"
+        f"flop, {budget.max_radiation_work:.3g} radiation rectangle-term equivalents"
+        f"{_budget_seconds(budget)}"
     )
     for reason in too_big:
         print(f"a render would be refused: {reason}")

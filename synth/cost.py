@@ -42,6 +42,14 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   grows with the plate's perimeter rather than its area: their radii, angular points or
   radial grids are counted from their own builders in the same way
   (:mod:`synth.sound.radiation.work`), and the budget holds their rules alike.
+  The rules' terms cost different times (a boundary-rule term, Bessel values and
+  cumulative integrals, takes many rectangle-rule terms' time, a multiply-add in a matrix
+  product), so each rule's work is counted in *rectangle-term equivalents*: its terms
+  times the rectangle rule's rate over its own (:func:`rule_weights`, the terms per second
+  of :data:`RATES`), and the budget is the same time whichever rule a scene takes. The
+  weights are read from the rates file shipped with the package, a constant file (not
+  measured where the render runs), so a scene's cut, and the bytes of its render, do not
+  depend on the machine it runs on.
 * **the audio**: the preroll, the bounce series (the fall, the flights of the first
   impact's restitution summed as a geometric series, at most ``max_duration``) and the
   slowest mode's ring-down to the floor (``floor_db``; the lowest mode, at most
@@ -74,6 +82,7 @@ hold the pulse). ``synth info --cost`` prints the estimate.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 from dataclasses import dataclass
@@ -96,9 +105,10 @@ DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
 #: machine-independent units: a dense symmetric eigensolver runs at a few GFLOP/s on one
 #: core, so minutes; about four times the costliest shipped preset's solve).
 DEFAULT_MAX_SOLVER_FLOPS = 10**12
-#: Default budget: terms of the radiation stage's sums (:class:`RadiationWork`: shape
-#: terms and Rayleigh terms, each a multiply-add or an exponential). Every shipped
-#: preset's first four rules fit at 48 kHz (tests/test_cost.py).
+#: Default budget: rectangle-term equivalents of the radiation stage's sums
+#: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
+#: or an exponential, weighted by :func:`rule_weights` to the rectangle rule's time). Every
+#: shipped preset's first four rules fit at 48 kHz (tests/test_cost.py).
 DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
 
 #: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
@@ -121,8 +131,9 @@ class Budget:
     ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
     of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
     operations of a cold mode solve: its time, in units that do not depend on the
-    machine) and ``max_radiation_work`` (terms of a microphone's Rayleigh sums,
-    :class:`RadiationWork`: the radiation stage's time in the same way)."""
+    machine) and ``max_radiation_work`` (rectangle-term equivalents of a microphone's
+    Rayleigh sums, :class:`RadiationWork`: the radiation stage's time in the same way,
+    whichever rule it takes)."""
 
     max_modes: int = DEFAULT_MAX_MODES
     max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
@@ -233,10 +244,11 @@ class RadiationWork:
     evaluations : float
         ``points`` times the modes.
     rule_work : tuple of float
-        Terms of each of the ``MAX_RULES`` rules.
+        Work of each of the ``MAX_RULES`` rules, rectangle-term equivalents (its terms
+        times the rule's weight, :func:`rule_weights`).
     fixed_work : float
-        Terms outside the refinement (the polar rules' in-phase bounds, the boundary
-        rule's Ritz modes).
+        Work outside the refinement (the polar rules' in-phase bounds, the boundary
+        rule's Ritz modes, which take the rectangle rule), rectangle-term equivalents.
     unit : str
         What the points count: the rectangle rule's "points", the polar rules' "angular
         points", the boundary rule's "radial nodes".
@@ -255,14 +267,15 @@ class RadiationWork:
     unit: str = "points"
 
     def work_of(self, rules: int) -> float:
-        """Terms of the first ``rules`` rules (and of the work outside the refinement)."""
+        """Rectangle-term equivalents of the first ``rules`` rules (and of the work outside
+        the refinement)."""
         if self.rule == "none":
             return 0.0
         return self.fixed_work + float(sum(self.rule_work[:rules]))
 
     @property
     def work(self) -> float:
-        """Terms of the rules the budget holds."""
+        """Rectangle-term equivalents of the rules the budget holds."""
         return self.work_of(self.rules)
 
     def excess(self, modes: int, budget: Budget) -> str | None:
@@ -274,7 +287,8 @@ class RadiationWork:
             "" if self.rule == "polar" else ", or a simply supported plate (closed-form shapes)"
         )
         return (
-            f"the microphone's Rayleigh sums need about {self.work_of(2):.3g} terms for their "
+            f"the microphone's Rayleigh sums need about {self.work_of(2):.3g} rectangle-term "
+            f"equivalents for their "
             f"first rule and one refinement ({self.rule} rule: {sum(self.rule_points[:2])} "
             f"{self.unit} for {modes} modes), more than the budget of "
             f"{budget.max_radiation_work:.3g} (SYNTH_MAX_RADIATION_WORK); lower max_frequency "
@@ -291,7 +305,7 @@ class RadiationWork:
         shape = f", {self.shape_terms} shape terms" if self.rule == "rectangle" else ""
         return (
             f"{self.rule} rule, {self.first_points} {self.unit}, {self.points} in up to "
-            f"{self.rules} rules{cut}{shape}, {self.work:.3g} terms"
+            f"{self.rules} rules{cut}{shape}, {self.work:.3g} rectangle-term equivalents"
         )
 
 
@@ -401,8 +415,9 @@ class CostEstimate:
         ]) + [time_row(self, Rates.load())]  # fmt: skip
 
 
-#: This machine's rates of the estimate's work, measured once by ``synth bench cost
-#: --record`` (:class:`Rates`): absent until measured.
+#: The rates of the estimate's work (:class:`Rates`), measured by ``synth bench cost
+#: --record`` on the machine named in it and shipped with the package: the seconds of
+#: ``synth info --cost`` and the radiation rules' weights (:func:`rule_weights`).
 RATES = Path(__file__).with_name("cost_rates.json")
 
 
@@ -438,9 +453,41 @@ class Rates:
         r = cost.radiation
         if r.rule == "none":
             return cost.solver_flops / self.solver, 0.0, 0.0
-        rate = self.radiation[r.rule]
+        rate = self.radiation["rectangle"]  # the work is in rectangle-term equivalents
         fewest = r.work_of(min(2, r.rules))
         return cost.solver_flops / self.solver, fewest / rate, r.work / rate
+
+
+@functools.cache
+def rule_weights() -> dict[str, float]:
+    """Rectangle-term equivalents of one term of each radiation rule, by name: the
+    rectangle rule's terms per second over the rule's, in the rates file shipped with
+    the package (:data:`RATES`). A constant of the package, read from that file and not
+    measured where it runs, so the budget's cut of a scene's refinement (and the bytes
+    of its render) do not depend on the machine; recording new rates (``synth bench cost
+    --record``) changes the package's weights. The rectangle rule's weight is 1."""
+    rates = Rates.load()
+    if rates is None:
+        raise FileNotFoundError(
+            f"{RATES} is missing: the radiation budget weighs each rule's terms by its "
+            f"rates (synth bench cost --record)"
+        )
+    rectangle = rates.radiation["rectangle"]
+    return {rule: rectangle / rate for rule, rate in rates.radiation.items()}
+
+
+def weighted_counts(counts):
+    """``counts`` (:class:`synth.sound.radiation.work.RuleWork`, terms) in rectangle-term
+    equivalents (:func:`rule_weights`): each rule's work times its rule's weight, and the
+    work outside the refinement too, except the boundary rule's, which is the rectangle
+    rule of its Ritz modes (weight 1)."""
+    weight = rule_weights()[counts.rule]
+    fixed_weight = 1.0 if counts.rule == "boundary" else weight
+    return dataclasses.replace(
+        counts,
+        work=tuple(weight * float(w) for w in counts.work),
+        fixed=fixed_weight * float(counts.fixed),
+    )
 
 
 def time_row(cost, rates: Rates | None) -> tuple[str, str]:
@@ -975,11 +1022,13 @@ def _rules_taken(points, max_points: int | None) -> int:
 
 def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of the counts ``rule``
-    (:class:`synth.sound.radiation.work.RuleWork`) with the most rules whose summed work
-    fits ``budget``: the ``max_points`` that stops the refinement there (at least the
-    rule's ``floor``) and the rules it then takes; one rule (refused) if not even two
-    fit."""
+    (:class:`synth.sound.radiation.work.RuleWork`, terms) with the most rules whose summed
+    work, in rectangle-term equivalents (:func:`weighted_counts`), fits ``budget``: the
+    ``max_points`` that stops the refinement there (at least the rule's ``floor``) and the
+    rules it then takes; one rule (refused) if not even two fit."""
     from synth.sound.radiation.common import MAX_RULES
+
+    rule = weighted_counts(rule)
 
     rules, cut = 1, int(rule.points[0])
     for last in range(MAX_RULES, 1, -1):

@@ -12,6 +12,7 @@ numba kernels are not traced.
 from __future__ import annotations
 
 import copy
+import re
 import tracemalloc
 
 import pytest
@@ -376,7 +377,8 @@ def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkey
     for level, (points, _) in enumerate(levels):
         assert points <= r.rule_points[level] <= POINTS_FACTOR * points, (level, levels, r)
     work = sum(terms for _, terms in levels)
-    estimated = r.work_of(len(levels)) - r.fixed_work
+    # the estimate's work is in rectangle-term equivalents: back to the rule's own terms
+    estimated = (r.work_of(len(levels)) - r.fixed_work) / cost.rule_weights()[name]
     assert work <= estimated <= WORK_FACTOR * work, (levels, r)
 
 
@@ -442,6 +444,94 @@ def test_the_long_thin_strip_is_refused_or_cut_before_any_work():
     says = r"Rayleigh sums need .* first rule and one refinement.*SYNTH_MAX_RADIATION_WORK.*accel"
     with pytest.raises(ParameterError, match=says):
         refused.check(small)
+
+
+#: The 3 x 3 m, 1 mm steel sheet heard from 0.3 m above its centre to 24 kHz: past the
+#: Ritz crossover, its edge effect modes take the boundary rule.
+SHEET = dict(side=3.0, thickness=0.001, max_frequency=24000.0)
+
+
+def _sheet():
+    """(plate, microphone, modes, f_max) of SHEET."""
+    from synth import Microphone, Plate
+
+    side, f_max = SHEET["side"], SHEET["max_frequency"]
+    plate = Plate("steel", thickness=SHEET["thickness"], length=side, width=side)
+    return plate, Microphone((side / 2, side / 2, 0.3)), cost.modal_count(plate, f_max), f_max
+
+
+def _shipped_weights() -> dict:
+    """The rectangle rule's rate over each rule's, read from the shipped rates file."""
+    import json
+
+    rates = json.loads(cost.RATES.read_text())["radiation_terms_per_second"]
+    return {rule: rates["rectangle"] / rate for rule, rate in rates.items()}
+
+
+def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
+    # The budget counts a rule's terms in rectangle-term equivalents: its terms times the
+    # rectangle rule's rate over its own, both from the rates file shipped with the package
+    # (so the same on every machine); the rectangle rule's weight is 1. For each rule's
+    # counts of the 3 x 3 m sheet, the weighted work is the counted terms times that ratio
+    # (to rounding: one product), the boundary rule's Ritz modes (outside its refinement,
+    # the rectangle rule) at weight 1; the estimate's radiation work is the weighted counts.
+    plate, microphone, modes, f_max = _sheet()
+    weights = _shipped_weights()
+    assert cost.rule_weights() == pytest.approx(weights, rel=1e-15)
+    assert cost.rule_weights()["rectangle"] == 1.0 and weights["boundary"] > 10
+    for rule in ("rectangle", "polar", "summed", "boundary"):
+        counts = cost.rule_counts(rule, plate, microphone, modes, f_max)
+        weighted = cost.weighted_counts(counts)
+        assert weighted.work == pytest.approx([w * weights[rule] for w in counts.work], rel=1e-15)
+        fixed = 1.0 if rule == "boundary" else weights[rule]
+        assert weighted.fixed == pytest.approx(counts.fixed * fixed, rel=1e-15), rule
+        assert weighted.points == counts.points, rule
+    r = cost.radiation_work(plate, microphone, modes, f_max, cost.Budget(max_radiation_work=10**14))
+    counts = cost.weighted_counts(cost.rule_counts(r.rule, plate, microphone, modes, f_max))
+    assert r.rule == "boundary" and r.rule_work == counts.work and r.fixed_work == counts.fixed
+
+
+def test_the_3_m_sheets_boundary_rule_is_refused_by_the_budget_in_its_own_time():
+    # The sheet's boundary rule: its first two rules' terms fit the default budget's number
+    # (unweighted, the budget held four of its rules), but a boundary term takes about 19
+    # rectangle terms' time (the shipped rates), and in rectangle-term equivalents not even
+    # its first rule and one refinement fit: a render is refused before any work, naming
+    # the budget. The estimated time of what it needs is its terms at the boundary rule's
+    # own rate (plus its Ritz modes' at the rectangle rule's).
+    plate, microphone, modes, f_max = _sheet()
+    budget = cost.Budget()
+    counts = cost.rule_counts("boundary", plate, microphone, modes, f_max)
+    assert counts.fixed + sum(counts.work[:2]) <= cost.DEFAULT_MAX_RADIATION_WORK
+    r = cost.radiation_work(plate, microphone, modes, f_max, budget)
+    assert r.rule == "boundary" and r.rules == 1
+    rates = cost.Rates.load()
+    edge = sum(counts.work[:2]) / rates.radiation["boundary"]
+    assert r.work_of(2) / rates.radiation["rectangle"] == pytest.approx(
+        edge + counts.fixed / rates.radiation["rectangle"], rel=1e-12
+    )
+    says = r"about .* rectangle-term equivalents.*\(boundary rule.*SYNTH_MAX_RADIATION_WORK"
+    assert re.search(says, r.excess(modes, budget))
+
+
+def test_a_rectangle_rules_cut_is_that_of_its_terms():
+    # The rectangle rule weighs 1: the long strip's cut (the most rules whose summed terms
+    # fit the default budget, the refinement stopped at the last one's points) is that of
+    # its unweighted counts.
+    from synth.sound.modes import shape_terms
+    from synth.sound.radiation.common import MAX_RULES
+
+    scene, options = scene_from_dict(STRIP, "strip")
+    f_max = _estimate(scene, options).max_frequency
+    modes = cost.modal_count(scene.plate, f_max)
+    r = cost.radiation_work(scene.plate, scene.listener, modes, f_max, cost.Budget())
+    counts = cost.rule_counts("rectangle", scene.plate, scene.listener, modes, f_max)
+    fits = [
+        n for n in range(2, MAX_RULES + 1)
+        if counts.fixed + sum(counts.work[:n]) <= cost.DEFAULT_MAX_RADIATION_WORK
+    ]  # fmt: skip
+    assert r.rule == "rectangle" and r.shape_terms == shape_terms(scene.plate, f_max)
+    assert r.rule_work == counts.work and r.rules == max(fits) < MAX_RULES
+    assert r.max_points == counts.points[r.rules - 1]
 
 
 def test_every_shipped_preset_keeps_four_radiation_rules_within_the_default_budget():

@@ -5,9 +5,11 @@ solver's floating-point operations and each radiation rule's terms
 (:mod:`synth.sound.radiation.work`). This benchmark times, once, a cold mode solve and each
 radiation rule applied alone (memory caches off) on a scene of its own, and divides the
 estimate's count of that work (of the rules the refinement took) by the wall time: the
-rates ``synth info --cost`` turns the estimate into seconds with. ``--record`` writes them
-to :data:`synth.cost.RATES` with the date, the machine and its load (the figures are those
-of one run; a loaded machine gives lower rates).
+rates ``synth info --cost`` turns the estimate into seconds with, and whose ratios weigh
+each radiation rule's terms in the budget (:func:`synth.cost.rule_weights`; the counts
+timed here are the rules' own terms, unweighted). ``--record`` writes them to
+:data:`synth.cost.RATES` with the date, the machine and its load (the figures are those of
+one run; a loaded machine gives lower rates), which changes the package's weights.
 """
 
 from __future__ import annotations
