@@ -94,7 +94,7 @@ __all__ = [
     "solve_impact",
     "write_audio",
 ]
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 
 def __getattr__(name):
