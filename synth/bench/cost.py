@@ -118,7 +118,8 @@ def run_cost() -> dict:
 
     modes.clear_memory_cache()
     radiation.clear_memory_cache()
-    _rule_rate("rectangle")  # warm-up: the kernels compiled and loaded
+    for rule in RULE_SCENES:  # warm-up: every rule's kernels compiled and loaded
+        _rule_rate(rule)
     stages = [_solver_rate()] + [_rule_rate(rule) for rule in RULE_SCENES]
     return {
         "stages": [asdict(s) for s in stages],
