@@ -1098,9 +1098,9 @@ def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
 def _ritz_band_frequency(plate, f_max: float) -> float:
     """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
     edge effect modes lies at or below it, :mod:`synth.sound.modes.crossover`)."""
-    from synth.sound.modes import _frequency_scale, _ritz_band
+    from synth.sound.modes import frequency_scale, ritz_band
 
-    return _ritz_band(plate, f_max) * _frequency_scale(plate) / (2.0 * math.pi)
+    return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
 
 
 def _boundary_counts(plate, position, modes: int, f_max: float, terms: int):

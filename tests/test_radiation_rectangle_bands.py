@@ -20,15 +20,15 @@ def test_wavenumber_bands_cover_the_modes_within_the_ratio():
     """Bands of a non-decreasing sequence are consecutive, cover every mode once, and hold
     the modes whose wavenumbers lie within the ratio of the band's first one."""
     kappa = np.cumsum(np.random.default_rng(1).uniform(0.0, 1.0, 500)) + 10.0
-    bands = R._wavenumber_bands(kappa, 1.25)
+    bands = R.wavenumber_bands(kappa, 1.25)
     assert bands[0][0] == 0 and bands[-1][1] == kappa.size
     assert all(a[1] == b[0] for a, b in zip(bands[:-1], bands[1:]))
     for lo, hi in bands:
         assert hi > lo and kappa[hi - 1] <= 1.25 * kappa[lo]
     for a, b in zip(bands[:-1], bands[1:]):
         assert kappa[b[0]] > 1.25 * kappa[a[0]]  # a band ends at the first mode beyond
-    assert R._wavenumber_bands(kappa, np.inf) == [(0, kappa.size)]
-    assert R._wavenumber_bands(np.zeros(0), 1.25) == []
+    assert R.wavenumber_bands(kappa, np.inf) == [(0, kappa.size)]
+    assert R.wavenumber_bands(np.zeros(0), 1.25) == []
 
 
 @pytest.mark.slow

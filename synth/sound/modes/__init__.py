@@ -302,7 +302,7 @@ class Modes:
         return sol.summed(len(self), p.length, p.width, k)
 
 
-def _frequency_scale(plate: Plate) -> float:
+def frequency_scale(plate: Plate) -> float:
     """``omega / Omega`` (rad/s): ``Omega = omega L^2 sqrt(rho h / D)`` is dimensionless,
     ``L = max(a, b)``."""
     length = max(plate.length, plate.width)
@@ -311,10 +311,10 @@ def _frequency_scale(plate: Plate) -> float:
 
 def _dimensionless_band(plate: Plate, max_frequency: float) -> float:
     """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
-    return 2.0 * math.pi * max_frequency / _frequency_scale(plate)
+    return 2.0 * math.pi * max_frequency / frequency_scale(plate)
 
 
-def _ritz_band(plate: Plate, max_frequency: float) -> float:
+def ritz_band(plate: Plate, max_frequency: float) -> float:
     """The dimensionless band of the Ritz problems :func:`modes` solves for ``plate`` up
     to ``max_frequency`` (Hz): the whole band, or beyond the crossover its low band."""
     aspect = plate.length / plate.width
@@ -336,7 +336,7 @@ def shape_terms(plate: Plate, max_frequency: float) -> int:
 
     if plate.boundary == "simply-supported":
         return 1
-    return first_basis_degrees(plate.length / plate.width, _ritz_band(plate, max_frequency))
+    return first_basis_degrees(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
@@ -345,7 +345,7 @@ def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
     first basis tried; for :mod:`synth.cost`)."""
     from synth.sound.modes.ritz import first_basis_factors
 
-    return first_basis_factors(plate.length / plate.width, _ritz_band(plate, max_frequency))
+    return first_basis_factors(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
@@ -355,7 +355,7 @@ def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[in
     plate (closed form). A larger basis is tried only when the first does not converge."""
     if plate.boundary == "simply-supported":
         return [], []
-    return first_basis_sizes(plate.length / plate.width, _ritz_band(plate, max_frequency))
+    return first_basis_sizes(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
@@ -401,7 +401,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     aspect = plate.length / plate.width
-    scale = _frequency_scale(plate)
+    scale = frequency_scale(plate)
     omega_req = _dimensionless_band(plate, fmax)
     if plate.boundary == "simply-supported":
         sol = SimplySupported(aspect, omega_req)

@@ -195,7 +195,7 @@ def _use_summed(modes, size, q_s, kb, c, tol):
 BAND_RATIO = 1.1
 
 
-def _wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
+def wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
     """Consecutive bands ``(start, stop)`` of modes (indices of ``kappa``, the modes in
     frequency order): a band starts at the first mode past the previous one and holds the
     following modes while their ``kappa`` stays within ``ratio`` times its first one's."""
@@ -273,7 +273,7 @@ def _banded_rectangle(modes, n_low, size, listener, q_s, kb, c, max_points, sett
         _band_rectangle(
             modes, n_low + lo, n_low + hi, size, listener, q_s, kb, max_points, settings
         )
-        for lo, hi in _wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
+        for lo, hi in wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
     ]
     largest = max(parts, key=lambda p: p.n_points)
     failed = sum(not p.success for p in parts)

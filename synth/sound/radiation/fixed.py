@@ -43,7 +43,7 @@ from synth.sound.radiation.common import (
     exp_halvings,
     half_phase,
 )
-from synth.sound.radiation.rectangle import _panel_orders, panel_nodes
+from synth.sound.radiation.rectangle import panel_nodes, panel_orders
 
 #: Lowest microphone (m above the plate's plane) the fixed grids serve: their panels are at
 #: most this long (see the module's docstring). A game's listener (a head) is rarely closer
@@ -207,14 +207,14 @@ def _shares(bands, workers: int) -> list:
 def _band_axes(modes, q, kb, size, height, tol) -> list:
     """The modes' bands of wavenumber and their grids' axes: ``(start, stop, (xs, wx),
     (ys, wy))`` for modes ``start <= k < stop``."""
-    from synth.sound.radiation import _wavenumber_bands
+    from synth.sound.radiation import wavenumber_bands
 
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     if omega.size == 0:
         return []
     kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(q)
     out = []
-    for start, stop in _wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO):
+    for start, stop in wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO):
         band_kappa = float(np.max(kappa[start:stop]))
         out.append(
             (
@@ -250,4 +250,4 @@ def _axis(length: float, kappa: float, height: float, tol: float):
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
     n = max(1, math.ceil(length / min(h, height)))
     ends = np.linspace(0.0, length, n + 1)
-    return panel_nodes(ends, _panel_orders(ends, kappa, tol_panel))
+    return panel_nodes(ends, panel_orders(ends, kappa, tol_panel))

@@ -86,7 +86,7 @@ def _breakpoints(length: float, centre: float, height: float, h: float) -> np.nd
     return ends
 
 
-def _panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
+def panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
     """Fewest points per panel (first rule) integrating ``exp(i kappa x)`` to ``tol``
     (``kappa`` rad/m, one for every panel or one per panel)."""
     lengths = np.diff(ends)
@@ -575,12 +575,12 @@ def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
     ex = _breakpoints(a, xl, zl, h)
     ey = _breakpoints(b, yl, zl, h)
     if acoustic is None:
-        return ex, ey, _panel_orders(ex, kappa, tol_panel), _panel_orders(ey, kappa, tol_panel)
+        return ex, ey, panel_orders(ex, kappa, tol_panel), panel_orders(ey, kappa, tol_panel)
     return (
         ex,
         ey,
-        _panel_orders(ex, _local_kappa(ex, xl, zl, kappa, acoustic), tol_panel),
-        _panel_orders(ey, _local_kappa(ey, yl, zl, kappa, acoustic), tol_panel),
+        panel_orders(ex, _local_kappa(ex, xl, zl, kappa, acoustic), tol_panel),
+        panel_orders(ey, _local_kappa(ey, yl, zl, kappa, acoustic), tol_panel),
     )
 
 
