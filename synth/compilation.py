@@ -26,27 +26,35 @@ from pathlib import Path
 
 import numba
 
-#: numba's fast-math flags of every kernel: none, and given, never left unset. With
-#: ``contract``, LLVM fuses multiplies and adds differently in the code numba compiles in
-#: the process and in the code it writes to and loads from its disk cache, so a render's
-#: bits would depend on whether its kernels were compiled in this run. And a kernel whose
-#: flags are unset is compiled, with the helpers it takes from numba (``np.empty``,
-#: ``max``), with the flags of the first kernel that calls it (``inherit_if_not_set``) and
-#: keeps that code for every later caller, so that two sets would make a kernel's code
-#: depend on which caller compiled it first.
+#: numba's fast-math flags of a kernel: none, or with ``sums=True`` (the modal bank's
+#: loops over modes, whose sums must vectorise) :data:`FAST_SUMS`. Always given, never
+#: left unset: a kernel whose flags are unset is compiled with the flags of the first
+#: kernel that calls it (numba's ``inherit_if_not_set``) and keeps that code for every
+#: later caller, so its bits would depend on which caller compiled it first.
 FASTMATH = False
+#: Sums may be reordered (``reassoc``, so that a loop that accumulates vectorises), the
+#: sign of a zero ignored (``nsz``), a division taken as a multiplication by the reciprocal
+#: (``arcp``). Not ``contract``: LLVM fuses multiplies and adds differently in the code
+#: numba compiles in the process and in the code it loads from its disk cache, so a
+#: render's bits would depend on whether its kernels were compiled in this run. Not
+#: ``nnan`` or ``ninf``: the kernels test for non-finite values. A function that needs
+#: its operations in their order (:func:`synth.vecmath.cis`'s argument reduction) is a
+#: kernel of its own without them; inlined by LLVM, its operations keep their flags.
+FAST_SUMS = frozenset({"reassoc", "nsz", "arcp"})
 
 
-def compiled(**options):
+def compiled(*, sums: bool = False, **options):
     """``numba.njit`` with the package's options and ``options`` (``nogil``, ``inline``,
-    ``parallel``): the fast-math flags :data:`FASTMATH`, the machine code cached on disk
+    ``parallel``): the fast-math flags :data:`FASTMATH` (:data:`FAST_SUMS` with
+    ``sums=True``), the machine code cached on disk
     (``cache=True``; the folder is chosen by :mod:`synth.jitcache`), and no C-callable
     wrapper (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it
     can be passed as a first-class function: no kernel here is, and building it only adds
     to the first compile (``synth bench cold``)."""
     if "fastmath" in options:
-        raise TypeError("compiled(): the fast-math flags are the package's (FASTMATH)")
-    return numba.njit(cache=True, no_cfunc_wrapper=True, fastmath=FASTMATH, **options)
+        raise TypeError("compiled(): the fast-math flags are the package's (sums=True or not)")
+    fastmath = set(FAST_SUMS) if sums else FASTMATH
+    return numba.njit(cache=True, no_cfunc_wrapper=True, fastmath=fastmath, **options)
 
 
 #: The measured compile time (CPU s) of each group, written by ``synth warmup --record``.

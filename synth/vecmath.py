@@ -6,9 +6,9 @@ vector units. Accuracy: :func:`cis` within a few ulp for ``|theta| < 2^19 pi`` (
 kernels after a Cody-Waite reduction by ``pi/2``); :func:`exp_small` within an ulp or two
 on ``|u| <= 1`` (Taylor series to ``u^18``); a larger argument is scaled by
 ``2^-J`` (:func:`halvings_for`) and the result squared ``J`` times, within about ``2^J``
-ulp (the kernels square in loops of their own, so that each vectorises). Like every
-kernel of the package (:data:`synth.compilation.FASTMATH`), they are compiled without
-fast-math flags: the compiler keeps every operation and the order of every sum.
+ulp (the kernels square in loops of their own, so that each vectorises). They are
+compiled without fast-math flags (:data:`synth.compilation.FASTMATH`): the argument
+reductions need their operations in their order.
 """
 
 from __future__ import annotations

@@ -250,7 +250,7 @@ def _row_at(table, start, step, coordinate) -> np.ndarray:
     return (1.0 - t) * table[i] + t * table[i + 1]
 
 
-@compiled(nogil=True)
+@compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
     previous, out,

@@ -162,7 +162,7 @@ NORMALIZE_MODES = ("none", "peak")
 # --------------------------------------------------------------------------- prediction
 
 
-@compiled()
+@compiled(sums=True)
 def _cholesky_solve(A, b):  # pragma: no cover - compiled
     """Solve ``A x = b`` for symmetric positive definite ``A`` (Cholesky, ``A = L L^T``,
     Golub and Van Loan, Matrix Computations, sec. 4.2); NaN when ``A`` is not positive

@@ -23,7 +23,7 @@ SUB = 32
 TILE = 2048
 
 
-@compiled(nogil=True, inline="always")
+@compiled(sums=True, nogil=True, inline="always")
 def power_table(poles, fs):
     """``r^j = e^(p_k j / fs)``, ``j = 0..SUB``, of every mode: (K, 2, SUB + 1) real and
     imaginary parts, by recurrence from ``r = e^(p / fs)`` re-anchored on an exact
@@ -44,7 +44,7 @@ def power_table(poles, fs):
     return table
 
 
-@compiled(nogil=True, inline="always")
+@compiled(sums=True, nogil=True, inline="always")
 def falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
     """Whether mode ``k``, of squared magnitude ``m2`` at sample ``s``, now fits its share
     of the omission budget: ``|z|`` plus its debt decayed to ``s`` (poles in rad/s, fs in
@@ -61,7 +61,7 @@ def falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
     return True
 
 
-@compiled(nogil=True, inline="always")
+@compiled(sums=True, nogil=True, inline="always")
 def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a):
     """Add one impact's complex amplitudes ``amps`` (K,) to the modes' states ``zr + i zi``
     at sample ``a`` (the bank's state, see :func:`ring_modes`); a mode whose state plus what
@@ -78,7 +78,7 @@ def inject_amplitudes(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps
             zi[k] = 0.0
 
 
-@compiled(nogil=True, inline="always")
+@compiled(sums=True, nogil=True, inline="always")
 def ring_modes(
     out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
 ):
@@ -130,7 +130,7 @@ def ring_modes(
     return work, last
 
 
-@compiled(nogil=True, inline="always")
+@compiled(sums=True, nogil=True, inline="always")
 def remainder(zr, zi, active, debt, debt_at, poles, fs, at):
     """Bound of what the bank's modes leave out at sample ``at``: ``|z|`` of the modes still
     ringing plus every mode's debt decayed to ``at``."""
@@ -145,7 +145,7 @@ def remainder(zr, zi, active, debt, debt_at, poles, fs, at):
     return left
 
 
-@compiled()
+@compiled(sums=True)
 def ring_bank(out, fs, poles, amps, inject, thresholds):
     """The modal bank: every mode's ringing after every injection, added into ``out``.
 

@@ -24,7 +24,7 @@ RICHARDSON_MAX_PHASE = 0.5
 WORK_ROWS = 20
 
 
-@compiled()
+@compiled(sums=True)
 def _magnitude_sum(amps):
     """``sum_k |amps_k|`` of complex amplitudes (bounds the peak of what they ring)."""
     total = 0.0
@@ -40,7 +40,7 @@ def _sample_due(m, M, j, N, uj, h, d0, period):
     return m < M and (j == N - 1 or d0 + m * period < uj + h)
 
 
-@compiled()
+@compiled(sums=True)
 def _in_contact(
     m, j, N, h, d0, period, forces, slopes, offset_forces, offset_slopes,
     pr, pi, cr, ci, ur, ui, vr, vi, er, ei, qr, qi, gr, gi, tr, ti, resp,
@@ -90,7 +90,7 @@ def _in_contact(
     return m
 
 
-@compiled()
+@compiled(sums=True)
 def impact_transform(
     pr,
     pi,
@@ -273,7 +273,7 @@ def impact_transform(
     return _magnitude_sum(amps)
 
 
-@compiled()
+@compiled(sums=True)
 def long_impact_transform(
     pr,
     pi,
