@@ -367,6 +367,20 @@ def test_dry_run_changes_nothing(tmp_path, cache_dir):
     assert "estimated" in result.summary()
 
 
+def test_dry_run_samples_more_rows_as_the_bank_grows():
+    # rows differ in cost (ten times between impact points): the dry run times at least
+    # the square root of the rows, spread from the first to the last, a whole number per
+    # worker, so that the sampled mean's relative error falls with the bank's size
+    from synth.bank.run import _estimate_sample
+
+    items = list(range(200))
+    for jobs, want in ((1, 15), (2, 16)):
+        sample = _estimate_sample(items, jobs)
+        assert len(sample) == want and sample[0] == 0 and sample[-1] == 199
+    assert len(_estimate_sample(list(range(12)), 1)) == 5
+    assert len(_estimate_sample(list(range(10_000)), 2)) == 100
+
+
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_dry_run_estimate_runs_rows_as_the_run_does(tmp_path, cache_dir, monkeypatch, jobs):
     # The estimate is made of what a run pays, each part measured by running a sample of
