@@ -38,26 +38,31 @@ RECORDED = json.loads((Path(__file__).parent / "data" / "preset_renders.json").r
 MAX_TICK_SHIFT = 100e-9
 
 
-#: Presets whose analysis is known to move a tick by more than MAX_TICK_SHIFT when the audio
-#: changes by float rounding alone: the marble's first onset, 5 ms into the file, moves by
-#: 1.4 samples with a waveform change below 1e-7 (between versions of the contact kernels; an
-#: empty and a warm numba cache give the same bytes, as they must).
-UNSTABLE_FIRST_TICK = {"marble-on-wooden-floor"}
+#: Presets whose analysis is known to move ticks by more than MAX_TICK_SHIFT when the audio
+#: changes by float rounding alone (a defect of the analysis: its onsets should be as stable
+#: as the sound). Their audio is checked as every preset's; a tick that moves makes the test
+#: an expected failure naming the case.
+UNSTABLE_ANALYSIS = {
+    # the first onset, 5 ms into the file, moves by 1.4 samples with a waveform change
+    # below 1e-7 (between versions of the contact kernels)
+    "marble-on-wooden-floor": "the analysis' first onset is unstable under float rounding",
+    # at the lowest dependency versions the render moves within 1e-6 of its recording and
+    # 13 of 23 onsets move, the first by 44 us and others by up to 149 us
+    "thesis-glass17-mdf12": "the analysis' onsets move with the rounding of other versions",
+}
 
 
-def _cases():
-    unstable = pytest.mark.xfail(
-        strict=False, reason="the analysis' first onset is unstable under float rounding"
-    )
-    marks = {name: unstable for name in UNSTABLE_FIRST_TICK}
-    return [
-        pytest.param(name, marks=marks[name]) if name in marks else name
-        for name in sorted(RECORDED)
-    ]
+def _check_ticks(name, ticks, recorded):
+    """The analysis' ticks equal the recorded ones within MAX_TICK_SHIFT (an expected
+    failure for a preset of UNSTABLE_ANALYSIS that they do not)."""
+    same = len(ticks) == len(recorded) and np.allclose(ticks, recorded, rtol=0, atol=MAX_TICK_SHIFT)
+    if not same and name in UNSTABLE_ANALYSIS:
+        pytest.xfail(UNSTABLE_ANALYSIS[name])
+    np.testing.assert_allclose(ticks, recorded, rtol=0, atol=MAX_TICK_SHIFT)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", _cases())
+@pytest.mark.parametrize("name", sorted(RECORDED))
 def test_preset_renders_the_recorded_sound(name, preset_run):
     want = RECORDED[name]
     run = preset_run(name)
@@ -68,7 +73,7 @@ def test_preset_renders_the_recorded_sound(name, preset_run):
     if horizon is None:
         assert r.audio.size == want["samples"]
         assert relative_error(r.audio, want["sketch"]) < MAX_RELATIVE_ERROR
-        np.testing.assert_allclose(ticks, want["ticks"], rtol=0, atol=MAX_TICK_SHIFT)
+        _check_ticks(name, ticks, want["ticks"])
         return
     # past its horizon the series is not fixed by its inputs to better than rounding: the
     # render up to there, and the ticks whose next tick is before it (an onset is read
@@ -78,7 +83,7 @@ def test_preset_renders_the_recorded_sound(name, preset_run):
     end = horizon / r.samplerate
     settled = [t for t, after in zip(want["ticks"], want["ticks"][1:]) if after < end]
     assert len(ticks) > len(settled)
-    np.testing.assert_allclose(ticks[: len(settled)], settled, rtol=0, atol=MAX_TICK_SHIFT)
+    _check_ticks(name, ticks[: len(settled)], settled)
 
 
 def test_every_preset_is_recorded():
