@@ -32,6 +32,7 @@ from synth.physics.modal_contact.kernels import (
     R_V,
     SEPARATED,
     contact_kernel,
+    first_touch,
     ring_free,
 )
 from synth.physics.modal_contact.point import ModalPoint, modal_point
@@ -458,22 +459,17 @@ def next_touch(
     The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)`` (the
     band's and the residual's lumped modes): the
     search runs over the part of the flight where the ball is within ``W`` of the rest
-    position, in steps of an eighth of the shortest mode period, and bisects the first sign
-    change of the gap to the time resolution of double precision."""
+    position, in steps of an eighth of the shortest mode period, and closes the first sign
+    change of the gap to the time resolution of double precision
+    (:func:`~synth.physics.modal_contact.kernels.first_touch`)."""
     p = contact.point
     g = contact.gravity
     if not g > 0.0:
         raise ParameterError("the ball lands again only with gravity > 0")
-    omega = p.contact_modes[0]
+    omega, sigma, _ = p.contact_modes
     qs, vs = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
     W = abs(state.x_res) + float(np.sqrt(qs**2 + (vs / omega) ** 2).sum())
     v = speed
-
-    def ball(s):
-        return height + v * s - 0.5 * g * s * s
-
-    def gap(s):
-        return ball(s) - contact.ring(state, s).displacement
 
     def when(level):  # the later time at which the ball passes ``level`` going down
         disc = v * v + 2.0 * g * (height - level)
@@ -481,29 +477,11 @@ def next_touch(
 
     dt = 1.0 / (8.0 * p.max_frequency)
     s0 = when(W) if height + v * v / (2.0 * g) > W else dt
-    hi = when(-W)
-    # at most one step of dt per dt of the window (and one more for rounding); a step
-    # below the float spacing at s0 goes to the window's end instead of nowhere
-    steps = int(math.ceil((hi - s0) / dt)) + 1 if hi > s0 else 0
-    for _ in range(steps):
-        if not (gap(s0) > 0.0 and s0 < hi):
-            break
-        s1 = min(s0 + dt, hi)
-        if not s1 > s0:
-            s1 = hi
-        if gap(s1) <= 0.0:
-            a, b = s0, s1
-            for _ in range(200):
-                mid = 0.5 * (a + b)
-                if gap(mid) > 0.0:
-                    a = mid
-                else:
-                    b = mid
-                if b - a <= 4e-16 * b:
-                    break
-            return b, contact.ring(state, b)
-        s0 = s1
-    return s0, contact.ring(state, s0)
+    s = first_touch(
+        omega, sigma, qs, vs, float(state.x_res), float(p.residual_rate),
+        float(height), float(v), float(g), dt, s0, when(-W),
+    )  # fmt: skip
+    return s, contact.ring(state, s)
 
 
 def _force_end(pulse: _Pulse, mu: float, b: float) -> float:

@@ -407,3 +407,105 @@ def ring_free(omega, sigma, q, v, duration):  # pragma: no cover
         v0 = v[k]
         q[k] = e * ((c + s / wd * sn) * q0 + sn / wd * v0)
         v[k] = e * (-w0 * w0 / wd * sn * q0 + (c - s / wd * sn) * v0)
+
+
+@compiled()
+def _surface(omega, sigma, q0, v0, x_res, rate, s, q, v):  # pragma: no cover
+    """Displacement (m, upward) of the surface under the ball ``s`` seconds after the state
+    ``q0``, ``v0`` (m, m/s; the band's modes then the residual's lumped ones, as ``omega``
+    and ``sigma``) and ``x_res`` (m, the residual's tail, decaying at ``rate``, 1/s), as
+    :meth:`ModalContact.ring` gives it; ``q``, ``v`` are work arrays."""
+    for k in range(q0.size):
+        q[k] = q0[k]
+        v[k] = v0[k]
+    if s > 0.0:
+        ring_free(omega, sigma, q, v, s)
+    total = 0.0
+    for k in range(q.size):
+        total += q[k]
+    return total - x_res * math.exp(-rate * s)
+
+
+@compiled()
+def first_touch(  # pragma: no cover
+    omega, sigma, q0, v0, x_res, rate, height, speed, gravity, dt, s0, end
+):
+    """The first time in ``[s0, end]`` (s) at which a ball at ``height`` (m) rising at
+    ``speed`` (m/s) under ``gravity`` (m/s^2) meets the surface ringing from the state
+    (as :func:`_surface`), or ``end`` if it does not.
+
+    The gap is sampled in steps of ``dt`` (s), the modes carried from step to step by their
+    transition matrices over ``dt`` (exact for free ringing, to rounding); the first sign
+    change is then closed on the surface evaluated afresh at each trial time, by Illinois'
+    false position kept inside the bracket (a bisection where it would leave it), to the
+    time resolution of double precision. The time returned is the bracket's end where the
+    gap is <= 0."""
+    n = q0.size
+    q = np.empty(n)
+    v = np.empty(n)
+    if not end > s0:
+        return s0
+    # the state at s0, then the transition over one step
+    surface = _surface(omega, sigma, q0, v0, x_res, rate, s0, q, v)
+    P = np.empty((n, 4))
+    for k in range(n):
+        wd, e, c, sn = _transition(omega[k], sigma[k], dt)
+        P[k, 0] = e * (c + sigma[k] / wd * sn)
+        P[k, 1] = e * sn / wd
+        P[k, 2] = -e * omega[k] * omega[k] / wd * sn
+        P[k, 3] = e * (c - sigma[k] / wd * sn)
+    tail = x_res * math.exp(-rate * s0)
+    tail_step = math.exp(-rate * dt)
+    gap0 = height + speed * s0 - 0.5 * gravity * s0 * s0 - surface
+    if not gap0 > 0.0:
+        return s0
+    while s0 < end:
+        s1 = s0 + dt
+        if s0 < s1 < end:
+            total = 0.0
+            for k in range(n):
+                qk = P[k, 0] * q[k] + P[k, 1] * v[k]
+                v[k] = P[k, 2] * q[k] + P[k, 3] * v[k]
+                q[k] = qk
+                total += qk
+            tail *= tail_step
+            surface = total - tail
+        else:
+            s1 = end
+            surface = _surface(omega, sigma, q0, v0, x_res, rate, s1, q, v)
+        gap1 = height + speed * s1 - 0.5 * gravity * s1 * s1 - surface
+        if gap1 <= 0.0:
+            return _close_touch(omega, sigma, q0, v0, x_res, rate, height, speed, gravity,
+                                s0, gap0, s1, gap1, q, v)  # fmt: skip
+        s0 = s1
+        gap0 = gap1
+    return end
+
+
+@compiled()
+def _close_touch(  # pragma: no cover
+    omega, sigma, q0, v0, x_res, rate, height, speed, gravity, a, gap_a, b, gap_b, q, v
+):
+    """The touch inside ``[a, b]`` (s), ``gap_a > 0 >= gap_b`` (m): Illinois' false
+    position on the gap, a bisection where its step leaves the bracket, until the bracket is
+    within the spacing of doubles at ``b``; returns ``b``."""
+    side = 0
+    for _ in range(200):
+        if b - a <= 4e-16 * b:
+            break
+        t = (a * gap_b - b * gap_a) / (gap_b - gap_a)
+        if not a < t < b:
+            t = 0.5 * (a + b)
+        gap = height + speed * t - 0.5 * gravity * t * t
+        gap -= _surface(omega, sigma, q0, v0, x_res, rate, t, q, v)
+        if gap > 0.0:
+            a, gap_a = t, gap
+            if side == 1:
+                gap_b *= 0.5
+            side = 1
+        else:
+            b, gap_b = t, gap
+            if side == -1:
+                gap_a *= 0.5
+            side = -1
+    return b
