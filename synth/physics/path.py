@@ -36,6 +36,7 @@ direction of its horizontal velocity (nothing in the model turns it). Vertically
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -356,10 +357,13 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
             envelope, path_position=x0, height=v_out * d - 0.5 * g * d * d,
             vertical_velocity=v_out - g * d,
         )  # fmt: skip
-    options = dict(
-        samplerate=fs, origin=path_origin, direction=u, contact=c.law,
+    roller = rolling_contact.Roller.over(
+        ball, plate, envelope, samplerate=fs, origin=path_origin, direction=u, contact=c.law,
         gravity=g, **c.options(),
     )  # fmt: skip
+    if x0 < x_end:
+        # every block's centre stays in [x0, x_end] (_block_speeds): checked once for all
+        roller.check_reach(x0, x_end)
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
     n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
@@ -374,7 +378,7 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         if n == 0:
             break
         kwargs = {"state": state} if state is not None else {"start": x}
-        r = rolling_contact.roll(ball, plate, envelope, speed=planned, **kwargs, **options)
+        r = roller.roll(planned, **kwargs, reach_checked=True)
         if not r.success:
             raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
         if e_initial is None:
@@ -416,6 +420,35 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
     return part, end, start + n_done / fs, float(coordinate[-1])
 
 
+#: Most profile samples of an envelope kept for the next path over the same surface (each
+#: sample takes 48 bytes: the heights, the contact offsets and the spline's coefficients).
+ENVELOPE_CACHE_SAMPLES = 2_000_000
+#: The envelopes kept, most recent last: ``(key, envelope)``, ``key`` what makes them.
+_ENVELOPES: list = []
+_ENVELOPES_LOCK = threading.Lock()
+
+
+def _envelope(rolling, length, radius):
+    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling`` along
+    ``length`` m of path; the same one as the last calls' with the same arguments (a pure
+    function of them: a seeded profile), kept while its samples, with the others kept,
+    number at most :data:`ENVELOPE_CACHE_SAMPLES` (a scene rendered again, or a sound bank
+    of one surface, makes its surface once)."""
+    key = (rolling.rms_height, rolling.correlation_length, rolling.hurst, rolling.seed,
+           rolling.spacing, float(length), float(radius))  # fmt: skip
+    with _ENVELOPES_LOCK:
+        for i, (k, envelope) in enumerate(_ENVELOPES):
+            if k == key:
+                _ENVELOPES.append(_ENVELOPES.pop(i))
+                return envelope
+    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    with _ENVELOPES_LOCK:
+        _ENVELOPES.append((key, envelope))
+        while sum(e.heights.size for _, e in _ENVELOPES) > ENVELOPE_CACHE_SAMPLES:
+            _ENVELOPES.pop(0)
+    return envelope
+
+
 def _envelope_ahead(rolling, radius, s0, s_edge):
     """The contact envelope of the profile ahead of the centre's start ``s0`` (m along the
     path) to the edge at ``s_edge`` (m), from a ball radius behind the start (the
@@ -434,7 +467,7 @@ def _envelope_ahead(rolling, radius, s0, s_edge):
             f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
             f"needs more than {surface.MAX_PROFILE_SAMPLES} samples; use a larger spacing"
         )
-    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    envelope = _envelope(rolling, length, radius)
     reach = float(np.max(np.abs(envelope.contact_offsets)))
     return envelope, behind, (s_edge - behind) - reach - rolling.spacing
 

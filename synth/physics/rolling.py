@@ -310,47 +310,109 @@ def roll(
     speed that keeps the penetration steady; if that force is negative the ball starts just
     touching, moving with the surface.
     """
-    if not isinstance(ball, Ball):
-        raise ParameterError(f"ball={ball!r} must be a Ball")
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
-    if not isinstance(envelope, ContactEnvelope):
-        raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
-    if envelope.radius != ball.radius:
-        raise ParameterError(
-            f"envelope.radius={envelope.radius!r} must be the ball's radius "
-            f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+    roller = Roller.over(
+        ball, plate, envelope, samplerate=samplerate, origin=origin, direction=direction,
+        contact=contact, admittance=admittance, gravity=gravity, rtol=rtol,
+        landing_speed=landing_speed, **contact_options,
+    )  # fmt: skip
+    return roller.roll(speed, duration=duration, start=start, state=state)
+
+
+@dataclass(frozen=True, eq=False)
+class Roller:
+    """:func:`roll`'s ball, plate, envelope and options, checked and worked out once, for a
+    rolling solved in many consecutive calls (:func:`synth.physics.path.simulate_path`'s
+    blocks): each :meth:`roll` then costs its checks of the speeds and the integration.
+    Made by :meth:`over` (the arguments of :func:`roll`)."""
+
+    setup: _Setup
+    plate: Plate
+
+    @classmethod
+    def over(
+        cls,
+        ball: Ball,
+        plate: Plate,
+        envelope: ContactEnvelope,
+        *,
+        samplerate: int,
+        origin,
+        direction=(1.0, 0.0),
+        contact: str = "hertz",
+        admittance: float | None = None,
+        gravity: float = GRAVITY,
+        rtol: float = 1e-6,
+        landing_speed: float = 1.0,
+        **contact_options,
+    ) -> Roller:
+        """The :class:`Roller` of :func:`roll`'s arguments (checked as there)."""
+        if not isinstance(ball, Ball):
+            raise ParameterError(f"ball={ball!r} must be a Ball")
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate")
+        if not isinstance(envelope, ContactEnvelope):
+            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        if envelope.radius != ball.radius:
+            raise ParameterError(
+                f"envelope.radius={envelope.radius!r} must be the ball's radius "
+                f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+            )
+        fs = checks.samplerate(samplerate)
+        g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
+        tol = checks.in_range(
+            "rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False
         )
-    fs = checks.samplerate(samplerate)
-    speeds = _speeds(speed, duration, fs)
-    g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
-    tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
-    u_land = checks.positive("landing_speed", landing_speed, "m/s")
-    if state is not None:
-        if start is not None:
-            raise ParameterError("give start or state, not both")
-        if not isinstance(state, RollingState):
-            raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
-        s0 = float(state.vector[_k.S])
-    else:
-        s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
-    ox, oy = checks.point("origin", origin, 2)
-    ux, uy = _direction(direction)
-    planned = s0 + np.concatenate(([0.0], np.cumsum(speeds) / fs))
-    if not 0.0 <= planned[-1] <= envelope.length:
-        raise ParameterError(
-            f"speed={speed!r} from the path coordinate {s0!r} m reaches {planned[-1]!r} m, "
-            f"beyond the envelope's length {envelope.length!r} m"
+        u_land = checks.positive("landing_speed", landing_speed, "m/s")
+        ox, oy = checks.point("origin", origin, 2)
+        ux, uy = _direction(direction)
+        law = contact_parameters(ball, plate, contact, **contact_options)
+        beta = (
+            1.0 / impedance.infinite_plate_impedance(plate)
+            if admittance is None
+            else checks.nonnegative("admittance", admittance, "m/(N s)")
         )
-    law = contact_parameters(ball, plate, contact, **contact_options)
-    beta = (
-        1.0 / impedance.infinite_plate_impedance(plate)
-        if admittance is None
-        else checks.nonnegative("admittance", admittance, "m/(N s)")
-    )
-    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
-    _check_reach(setup, planned[0], planned[-1], plate, origin, direction)
-    return _solve(setup, speeds, s0, state)
+        setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
+        return cls(setup, plate)
+
+    def check_reach(self, first: float, last: float) -> None:
+        """``ParameterError`` unless the touching points of the centre between the path
+        coordinates ``first <= last`` (m) all lie on the plate."""
+        setup = self.setup
+        _check_reach(setup, first, last, self.plate, setup.origin, setup.direction)
+
+    def roll(
+        self,
+        speed,
+        *,
+        duration: float | None = None,
+        start: float | None = None,
+        state: RollingState | None = None,
+        reach_checked: bool = False,
+    ) -> RollingContact:
+        """:func:`roll` with this roller's ball, plate, envelope and options; with
+        ``reach_checked`` the caller has checked (:meth:`check_reach`) a stretch of path that
+        holds this call's, and it is not checked again."""
+        setup = self.setup
+        fs = setup.samplerate
+        speeds = _speeds(speed, duration, fs)
+        if state is not None:
+            if start is not None:
+                raise ParameterError("give start or state, not both")
+            if not isinstance(state, RollingState):
+                raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
+            s0 = float(state.vector[_k.S])
+        else:
+            s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
+        envelope = setup.envelope
+        last = float(s0 + np.cumsum(speeds)[-1] / fs)
+        if not 0.0 <= last <= envelope.length:
+            raise ParameterError(
+                f"speed={speed!r} from the path coordinate {s0!r} m reaches {last!r} m, "
+                f"beyond the envelope's length {envelope.length!r} m"
+            )
+        if not reach_checked:
+            self.check_reach(s0, last)
+        return _solve(setup, speeds, s0, state)
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
