@@ -441,12 +441,18 @@ def _envelope(rolling, length, radius):
             if k == key:
                 _ENVELOPES.append(_ENVELOPES.pop(i))
                 return envelope
-    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    envelope = make_envelope(rolling, length, radius)
     with _ENVELOPES_LOCK:
         _ENVELOPES.append((key, envelope))
         while sum(e.heights.size for _, e in _ENVELOPES) > ENVELOPE_CACHE_SAMPLES:
             _ENVELOPES.pop(0)
     return envelope
+
+
+def make_envelope(rolling, length, radius):
+    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling``
+    (:class:`synth.physics.scene.Rolling`) along ``length`` m of path, made afresh."""
+    return surface.contact_envelope(_profile(rolling, length), radius)
 
 
 def _envelope_ahead(rolling, radius, s0, s_edge):
