@@ -81,10 +81,12 @@ E1, E3, E4, E5, E6, E7 = (
 )
 
 
-@compiled()
+@compiled(inline="always")
 def rhs(y, out, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
     """The right-hand side of the module docstring at the state ``y`` into ``out``; returns
-    the penetration ``delta`` (m)."""
+    the penetration ``delta`` (m). Inlined into :func:`roll` (numba's ``inline="always"``:
+    the same operations, so the same bits), where a call per stage cost as much as the
+    equations."""
     e, ep, _ = envelope_at(env, dx, y[S])
     delta = e - y[Z]
     w = ep * v - y[VY]
