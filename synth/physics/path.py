@@ -367,9 +367,9 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
     n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
-    forces, coords, speeds = [], [], []
+    forces, centres, speeds = [], [], []
     x, v, n_done, flights = x0, speed, 0, 0
-    e_initial = e_final = None
+    e_initial = None
     loss = plate_e = resistance = roughness = 0.0
     end = "max-duration"
     while n_done < n_max:
@@ -377,28 +377,26 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         n = planned.size
         if n == 0:
             break
-        kwargs = {"state": state} if state is not None else {"start": x}
-        r = roller.roll(planned, **kwargs, reach_checked=True)
+        r = roller.advance(planned, state=state, start=x)
         if not r.success:
             raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
         if e_initial is None:
-            e_initial = r.energy.initial + ROLLING_ENERGY * m * v * v
+            e_initial = roller.mechanical_energy(r.initial_state) + ROLLING_ENERGY * m * v * v
         forces.append(r.force)
-        coords.append(r.contact_coordinate)
-        speeds.append(r.speed)
+        centres.append(r.centre)
+        speeds.append(planned)
         flights += r.flights
-        distance = float(np.sum(r.speed)) / fs
-        loss += r.energy.loss_work
-        plate_e += r.energy.plate_energy
+        distance = float(np.sum(planned)) / fs
+        loss += r.loss_work
+        plate_e += r.plate_energy
         resistance += rolling.resistance * m * g * distance
-        roughness += r.energy.drive_work
+        roughness += r.drive_work
         state = r.final_state
         x = state.path_position
         n_done += n
         v_end = v - decel * n / fs
-        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.energy.drive_work
+        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.drive_work
         v = math.sqrt(max(kinetic, 0.0) / (ROLLING_ENERGY * m))
-        e_final = r.energy.final
         if end != "max-duration":
             break
         if kinetic <= 0.0:
@@ -408,10 +406,12 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         return None, end, t_sep, s_sep
     if end == "stopped":
         v = 0.0
+    e_final = roller.mechanical_energy(state)
     energy = RollingEnergy(
         e_initial, e_final + ROLLING_ENERGY * m * v * v, loss, plate_e, resistance, roughness
     )
-    coordinate = np.concatenate(coords) + behind
+    # the touching points of every block at once (the same interpolation as per block)
+    coordinate = roller.contact_coordinates(np.concatenate(centres)) + behind
     part = RollingPart(
         fs,
         start, np.concatenate(forces), coordinate, np.concatenate(speeds),

@@ -321,8 +321,9 @@ def roll(
 @dataclass(frozen=True, eq=False)
 class Roller:
     """:func:`roll`'s ball, plate, envelope and options, checked and worked out once, for a
-    rolling solved in many consecutive calls (:func:`synth.physics.path.simulate_path`'s
-    blocks): each :meth:`roll` then costs its checks of the speeds and the integration.
+    rolling solved in many consecutive calls: each :meth:`roll` then costs its checks of the
+    speeds and the integration, and :meth:`advance` (the blocks of
+    :func:`synth.physics.path.simulate_path`) only the integration.
     Made by :meth:`over` (the arguments of :func:`roll`)."""
 
     setup: _Setup
@@ -387,11 +388,8 @@ class Roller:
         duration: float | None = None,
         start: float | None = None,
         state: RollingState | None = None,
-        reach_checked: bool = False,
     ) -> RollingContact:
-        """:func:`roll` with this roller's ball, plate, envelope and options; with
-        ``reach_checked`` the caller has checked (:meth:`check_reach`) a stretch of path that
-        holds this call's, and it is not checked again."""
+        """:func:`roll` with this roller's ball, plate, envelope and options."""
         setup = self.setup
         fs = setup.samplerate
         speeds = _speeds(speed, duration, fs)
@@ -410,9 +408,75 @@ class Roller:
                 f"speed={speed!r} from the path coordinate {s0!r} m reaches {last!r} m, "
                 f"beyond the envelope's length {envelope.length!r} m"
             )
-        if not reach_checked:
-            self.check_reach(s0, last)
+        self.check_reach(s0, last)
         return _solve(setup, speeds, s0, state)
+
+    def advance(self, speeds: np.ndarray, *, state: RollingState | None = None,
+                start: float | None = None) -> RollingBlock:  # fmt: skip
+        """Integrate over the sample periods of ``speeds`` (m/s, finite and >= 0, made by
+        the caller) from ``state`` or, without one, from a ball rolling at ``start`` (m) as
+        :func:`roll` starts it, the path within a stretch checked by :meth:`check_reach`:
+        the same integration as :meth:`roll`'s, without its checks, contact points and
+        energy balance (:meth:`contact_coordinates` and :meth:`mechanical_energy` give them
+        for many calls at once)."""
+        setup = self.setup
+        s0 = float(state.vector[_k.S]) if state is not None else float(start)
+        y, h = _start(setup, speeds, s0, state)
+        y0 = y.copy()
+        status, _, _, flights, h, forces, _, centres = _integrate(setup, speeds, y, h)
+        centres += 0.5 * speeds / setup.samplerate  # the middle of each period
+        return RollingBlock(
+            forces,
+            centres,
+            int(flights),
+            *(float(y[i] - y0[i]) for i in (_k.LOSS, _k.PLATE, _k.DRIVE)),
+            status == _k.OK,
+            _MESSAGES.get(int(status), "Unknown status."),
+            RollingState(_read_only(y0), None),
+            RollingState(_read_only(y.copy()), float(h)),
+        )
+
+    def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
+        """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
+        :attr:`RollingContact.contact_coordinate`."""
+        return _contact_points(self.setup, centres)[0]
+
+    def mechanical_energy(self, state: RollingState) -> float:
+        """The ball's and its contact's mechanical energy in ``state``, J (as
+        :attr:`EnergyBalance.initial`)."""
+        return _mechanical_energy(state.vector, self.setup)
+
+
+@dataclass(frozen=True, eq=False)
+class RollingBlock:
+    """One :meth:`Roller.advance` (SI units).
+
+    Attributes
+    ----------
+    force : ndarray (N,)
+        Mean contact force over each sample period, N.
+    centre : ndarray (N,)
+        The ball's centre on the path in the middle of each period, m.
+    flights : int
+        Losses of contact seen at the steps' ends.
+    loss_work, plate_energy, drive_work : float
+        As :class:`EnergyBalance`'s, J.
+    success : bool
+    message : str
+    initial_state, final_state : RollingState
+        Where the block started and ended.
+    """
+
+    force: np.ndarray
+    centre: np.ndarray
+    flights: int
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    success: bool
+    message: str
+    initial_state: RollingState
+    final_state: RollingState
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
@@ -536,31 +600,38 @@ def _mechanical_energy(y, setup) -> float:
     return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
 
 
-def _solve(setup, speeds, s0, state):
+def _start(setup, speeds, s0, state):
+    """The integrator's state vector and first step (s) of a call from ``s0`` (m) or
+    ``state``."""
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    K, n = law.stiffness, law.exponent
+    delta_ref = (m * g / K) ** (1.0 / n)
+    first = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
+    if state is None:
+        e, ep, epp = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, s0)
+        return _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp), first
+    return np.array(state.vector), (state.step if state.step is not None else first)
+
+
+def _integrate(setup, speeds, y, h):
+    """Integrate from ``y`` (updated in place) with the first step ``h`` (s) over the sample
+    periods of ``speeds`` (m/s): ``(status, steps, rejected, flights, h, forces,
+    min_penetration, centres)``, the arrays NaN where a failed integration did not reach
+    and ``centres`` the path coordinate at each period's start (m)."""
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    env = setup.envelope.coefficients
-    dx = setup.envelope.spacing
     delta_ref = (m * g / K) ** (1.0 / n)
-    if state is None:
-        e, ep, epp = envelope_at(env, dx, s0)
-        y = _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp)
-        h = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
-    else:
-        y = np.array(state.vector)
-        h = state.step if state.step is not None else min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
-    y0 = y.copy()
     N = speeds.size
-    # NaN where a failed integration did not reach
     forces = np.full(N, np.nan)
     min_pen = np.full(N, np.nan)
-    path = np.full(N, np.nan)
+    centres = np.full(N, np.nan)
     status, steps, rejected, flights, h = _k.roll(
         y,
         h,
-        env,
-        dx,
+        setup.envelope.coefficients,
+        setup.envelope.spacing,
         speeds,
         m,
         K,
@@ -576,8 +647,19 @@ def _solve(setup, speeds, s0, state):
         MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
-        path,
+        centres,
     )
+    return status, steps, rejected, flights, h, forces, min_pen, centres
+
+
+def _solve(setup, speeds, s0, state):
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    delta_ref = (m * g / law.stiffness) ** (1.0 / law.exponent)
+    y, h = _start(setup, speeds, s0, state)
+    y0 = y.copy()
+    N = speeds.size
+    status, steps, rejected, flights, h, forces, min_pen, path = _integrate(setup, speeds, y, h)
     E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
     loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
     scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)
