@@ -383,3 +383,36 @@ def test_rolling_force_on_a_sinusoid_is_the_closed_form(pair):
     expected = ball.mass * w * w * E1 / (1.0 - correction) * math.sin(half) / half
     assert F1 == pytest.approx(expected, rel=1e-5)
     assert correction > 1e-3
+
+
+def test_roller_blocks_give_the_bits_of_one_roll(pair):
+    """A rolling integrated in blocks by ``Roller.advance`` (the path's way: no checks per
+    block, the contact points and energies taken once) gives the bytes of one ``roll`` call
+    over the same speeds: forces, centres, touching points, quadratures and final state."""
+    ball, plate = pair
+    spec = surface.RoughnessSpectrum(rms_height=2e-6, correlation_length=2e-4, hurst=0.8)
+    env = surface.contact_envelope(
+        surface.rough_profile(spec, length=0.05, spacing=5e-6, seed=7), ball.radius
+    )
+    speeds = np.linspace(0.35, 0.25, 2400)  # a speed per sample, as the path gives
+    kw = dict(samplerate=SAMPLERATE, origin=(0.2, 0.3))
+    whole = rolling.roll(ball, plate, env, speed=speeds, start=0.01, **kw)
+    assert whole.success, whole.message
+    roller = rolling.Roller.over(ball, plate, env, **kw)
+    roller.check_reach(0.01, 0.01 + float(np.sum(speeds)) / SAMPLERATE)
+    blocks, state = [], None
+    for part in np.split(speeds, [480, 481, 1500]):
+        block = roller.advance(part, state=state, start=0.01)
+        assert block.success, block.message
+        blocks.append(block)
+        state = block.final_state
+    forces = np.concatenate([b.force for b in blocks])
+    centres = np.concatenate([b.centre for b in blocks])
+    assert forces.tobytes() == whole.force.tobytes()
+    assert centres.tobytes() == whole.path_position.tobytes()
+    coordinates = roller.contact_coordinates(centres)
+    assert coordinates.tobytes() == whole.contact_coordinate.tobytes()
+    assert state.vector.tobytes() == whole.final_state.vector.tobytes()
+    assert sum(b.flights for b in blocks) == whole.flights
+    assert roller.mechanical_energy(blocks[0].initial_state) == whole.energy.initial
+    assert roller.mechanical_energy(state) == whole.energy.final

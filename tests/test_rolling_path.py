@@ -329,3 +329,28 @@ def test_a_rolling_render_depends_on_its_inputs_alone(tmp_path):
     empty = _preset_bytes(name, tmp_path / "b")
     assert warm == first
     assert empty == first
+
+
+def test_the_surface_kept_for_the_next_path_is_the_one_made_afresh(monkeypatch):
+    """A path over the surface of an earlier one reuses its envelope (a pure function of the
+    roughness, its seed, the length and the radius): the same values as one made afresh,
+    another seed or radius a surface of its own, and no more samples kept than the bound."""
+    from synth.physics import path as path_module
+
+    rough = Rolling(
+        resistance=0.0, spacing=5e-6, rms_height=1e-6, correlation_length=1e-4, hurst=0.8,
+        seed=3,
+    )  # fmt: skip
+    monkeypatch.setattr(path_module, "_ENVELOPES", [])
+    kept = path_module._envelope(rough, 0.01, 0.005)
+    assert path_module._envelope(rough, 0.01, 0.005) is kept
+    monkeypatch.setattr(path_module, "_ENVELOPES", [])
+    fresh = path_module._envelope(rough, 0.01, 0.005)
+    for name in ("heights", "contact_offsets", "coefficients"):
+        assert np.array_equal(getattr(fresh, name), getattr(kept, name))
+    other_seed = Rolling(**{**rough.__dict__, "seed": 4})
+    assert not np.array_equal(path_module._envelope(other_seed, 0.01, 0.005).heights, kept.heights)
+    assert path_module._envelope(rough, 0.01, 0.004) is not fresh
+    monkeypatch.setattr(path_module, "ENVELOPE_CACHE_SAMPLES", 2 * fresh.heights.size)
+    path_module._envelope(rough, 0.01, 0.003)
+    assert sum(e.heights.size for _, e in path_module._ENVELOPES) <= 2 * fresh.heights.size

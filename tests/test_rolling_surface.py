@@ -90,3 +90,34 @@ def test_surface_rejects_bad_input():
         surface.Profile(np.zeros((3, 3)), 1e-5, "measured")
     with pytest.raises(ParameterError, match="spacing"):
         surface.Profile(np.zeros(10), 0.0, "measured")
+
+
+def _best_samples_by_full_scan(h, caps):
+    """Every sample's best ``h_j - cap`` and its first sample, scanning every ``j`` within
+    reach: the scan the envelope's pruned search must reproduce."""
+    n, window = h.size, (caps.size - 1) // 2
+    best, first = np.empty(n), np.empty(n, dtype=np.int64)
+    for i in range(n):
+        lo, hi = max(0, i - window), min(n - 1, i + window)
+        g = h[lo : hi + 1] - caps[lo - i + window : hi - i + window + 1]
+        first[i] = lo + int(np.argmax(g))  # argmax: the first of equal maxima
+        best[i] = g[first[i] - lo]
+    return best, first
+
+
+@pytest.mark.parametrize("radius", [2e-4, 5e-3])
+def test_envelope_search_skips_only_samples_that_cannot_win(radius):
+    """The dilation's search, which skips runs of samples bounded below the best so far,
+    finds every sample's best height and its first maximiser bit for bit as the full scan
+    (a rough profile, and one with plateaus of equal heights, where ties decide)."""
+    rough = surface.rough_profile(SPEC, length=0.02, spacing=2e-6, seed=3).heights
+    plateaus = np.round(rough / 4e-7) * 4e-7
+    for h in (rough, plateaus):
+        span = float(np.ptp(h))
+        window = min(int(math.ceil(math.sqrt(span * (2.0 * radius - span)) / 2e-6)) + 1, 400)
+        caps = surface._cap_depths(2e-6, radius, window)
+        best, first = np.empty(h.size), np.empty(h.size, dtype=np.int64)
+        surface._best_samples(np.ascontiguousarray(h), caps, best, first)
+        want_best, want_first = _best_samples_by_full_scan(h, caps)
+        assert np.array_equal(best, want_best)
+        assert np.array_equal(first, want_first)

@@ -6,12 +6,16 @@ accelerometer. The roughness (Matern spectrum: rms 1 um, correlation length 100 
 Hurst exponent 0.8) is a benchmark input, not a published value. Per speed: wall time per
 second of audio of the contact solver and of the modal drive (best of ``repeat`` runs after
 a warm-up that compiles the kernels), the real-time factor of both together, the solver's
-steps per sample and the ball's flights (micro-bounces).
+steps per sample and the ball's flights (micro-bounces), and the steps per 48 kHz sample
+the solver takes over the same second sampled at :data:`COARSE_SAMPLERATE`: what its
+accuracy asks for when the sample boundaries do not cut its steps.
 
 Then the rolling presets (:data:`ROLLING_PRESETS`: a drop with sideways speed that bounces
 and rolls) rendered whole as ``synth render`` renders them: the audio's length, the time
 the ball rolls, the wall time of its path (bounces and rolling contact) and of the whole
-render (best of ``repeat`` runs after a warm-up), and the render's real-time factor.
+render (best of ``repeat`` runs after a warm-up, which makes the path's surface: a render
+again reuses it), the render's real-time factor, and the wall time of making that surface
+afresh (the profile and its envelope), as the first render over it does.
 """
 
 from __future__ import annotations
@@ -25,6 +29,8 @@ from synth.bench.common import markdown_table, target_verdict
 TARGET_REALTIME = 100.0
 
 SAMPLERATE = 48000
+#: The samplerate (Hz) of the run that shows the steps the solver's accuracy asks for.
+COARSE_SAMPLERATE = 480
 DURATION = 1.0
 SPEEDS = (0.1, 0.3, 0.8)
 #: The presets of a ball dropped with sideways speed (bounces, then rolling).
@@ -44,6 +50,7 @@ class SceneRun:
     rolling_s: float
     path_s: float
     render_s: float
+    surface_s: float
 
     @property
     def realtime(self) -> float:
@@ -58,6 +65,7 @@ class RollingRun:
     contact_s_per_s: float
     modes_s_per_s: float
     steps_per_sample: float
+    accuracy_steps_per_sample: float
     flights: int
     modes: int
 
@@ -103,8 +111,25 @@ def run_scenes(repeat: int = 3) -> list[dict]:
         t_path, solved = _best_of(path, repeat)
         t_render, rendered = _best_of(lambda s=scene, o=opts: render(s, **o), repeat)
         rolled = 0.0 if solved.rolling is None else solved.rolling.force.size / fs
-        runs.append(asdict(SceneRun(name, rendered.duration, rolled, t_path, t_render)))
+        t_surface = _surface_seconds(scene, repeat)
+        runs.append(asdict(SceneRun(name, rendered.duration, rolled, t_path, t_render, t_surface)))
     return runs
+
+
+def _surface_seconds(scene, repeat) -> float:
+    """Wall time (s, best of ``repeat``) of making afresh the surface that the last render
+    of ``scene`` rolled over (the profile and its contact envelope), as a first render does."""
+    from synth.physics import path
+
+    r = scene.rolling
+    made = [
+        key for key, _ in path._ENVELOPES
+        if key[:5] == (r.rms_height, r.correlation_length, r.hurst, r.seed, r.spacing)
+        and key[6] == scene.ball.radius
+    ]  # fmt: skip
+    length, radius = made[-1][5], made[-1][6]
+    best, _ = _best_of(lambda: path.make_envelope(r, length, radius), repeat)
+    return best
 
 
 def run_contact_speeds(repeat: int = 3) -> list[dict]:
@@ -126,14 +151,14 @@ def run_contact_speeds(repeat: int = 3) -> list[dict]:
     runs = []
     for speed in SPEEDS:
 
-        def solve(speed=speed):
+        def solve(speed=speed, samplerate=SAMPLERATE):
             return rolling.roll(
                 ball,
                 plate,
                 envelope,
                 speed=speed,
                 duration=DURATION,
-                samplerate=SAMPLERATE,
+                samplerate=samplerate,
                 origin=(0.05, 0.3),
                 start=0.01,
             )
@@ -141,12 +166,14 @@ def run_contact_speeds(repeat: int = 3) -> list[dict]:
         solve()  # compiles on a cold cache
         t_contact, result = _best_of(solve, repeat)
         t_modes, _ = _best_of(lambda r=result: sound.rolling_sound(r, model), repeat)
+        coarse = solve(samplerate=COARSE_SAMPLERATE)
         runs.append(
             RollingRun(
                 speed=speed,
                 contact_s_per_s=t_contact / DURATION,
                 modes_s_per_s=t_modes / DURATION,
                 steps_per_sample=result.n_steps / result.force.size,
+                accuracy_steps_per_sample=coarse.n_steps / result.force.size,
                 flights=int(result.flights),
                 modes=int(model.poles.size),
             )
@@ -162,7 +189,15 @@ def format_rolling(result: dict) -> str:
 def format_scenes(rows: list[dict]) -> str:
     """A Markdown table of :func:`run_scenes`' renders and the real-time target's verdict."""
     runs = [SceneRun(**row) for row in rows]
-    header = ["rolling preset", "audio s", "rolling s", "path s", "render s", "real-time factor"]
+    header = [
+        "rolling preset",
+        "audio s",
+        "rolling s",
+        "path s",
+        "render s",
+        "real-time factor",
+        "surface afresh s",
+    ]
     cells = [
         [
             r.preset,
@@ -171,6 +206,7 @@ def format_scenes(rows: list[dict]) -> str:
             f"{r.path_s:.3f}",
             f"{r.render_s:.3f}",
             f"{r.realtime:.0f}x",
+            f"{r.surface_s:.3f}",
         ]
         for r in runs
     ]
@@ -186,6 +222,7 @@ def format_contact_speeds(rows: list[dict]) -> str:
         "modes ms per s",
         "real-time factor",
         "steps/sample",
+        f"steps/sample at {COARSE_SAMPLERATE} Hz",
         "flights",
         "modes",
     ]
@@ -196,6 +233,7 @@ def format_contact_speeds(rows: list[dict]) -> str:
             f"{r.modes_s_per_s * 1e3:.1f}",
             f"{r.realtime:.0f}x",
             f"{r.steps_per_sample:.2f}",
+            f"{r.accuracy_steps_per_sample:.2f}",
             str(r.flights),
             str(r.modes),
         ]

@@ -36,6 +36,7 @@ direction of its horizontal velocity (nothing in the model turns it). Vertically
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -356,16 +357,19 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
             envelope, path_position=x0, height=v_out * d - 0.5 * g * d * d,
             vertical_velocity=v_out - g * d,
         )  # fmt: skip
-    options = dict(
-        samplerate=fs, origin=path_origin, direction=u, contact=c.law,
+    roller = rolling_contact.Roller.over(
+        ball, plate, envelope, samplerate=fs, origin=path_origin, direction=u, contact=c.law,
         gravity=g, **c.options(),
     )  # fmt: skip
+    if x0 < x_end:
+        # every block's centre stays in [x0, x_end] (_block_speeds): checked once for all
+        roller.check_reach(x0, x_end)
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
     n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
-    forces, coords, speeds = [], [], []
+    forces, centres, speeds = [], [], []
     x, v, n_done, flights = x0, speed, 0, 0
-    e_initial = e_final = None
+    e_initial = None
     loss = plate_e = resistance = roughness = 0.0
     end = "max-duration"
     while n_done < n_max:
@@ -373,28 +377,26 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         n = planned.size
         if n == 0:
             break
-        kwargs = {"state": state} if state is not None else {"start": x}
-        r = rolling_contact.roll(ball, plate, envelope, speed=planned, **kwargs, **options)
+        r = roller.advance(planned, state=state, start=x)
         if not r.success:
             raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
         if e_initial is None:
-            e_initial = r.energy.initial + ROLLING_ENERGY * m * v * v
+            e_initial = roller.mechanical_energy(r.initial_state) + ROLLING_ENERGY * m * v * v
         forces.append(r.force)
-        coords.append(r.contact_coordinate)
-        speeds.append(r.speed)
+        centres.append(r.centre)
+        speeds.append(planned)
         flights += r.flights
-        distance = float(np.sum(r.speed)) / fs
-        loss += r.energy.loss_work
-        plate_e += r.energy.plate_energy
+        distance = float(np.sum(planned)) / fs
+        loss += r.loss_work
+        plate_e += r.plate_energy
         resistance += rolling.resistance * m * g * distance
-        roughness += r.energy.drive_work
+        roughness += r.drive_work
         state = r.final_state
         x = state.path_position
         n_done += n
         v_end = v - decel * n / fs
-        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.energy.drive_work
+        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.drive_work
         v = math.sqrt(max(kinetic, 0.0) / (ROLLING_ENERGY * m))
-        e_final = r.energy.final
         if end != "max-duration":
             break
         if kinetic <= 0.0:
@@ -404,16 +406,53 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         return None, end, t_sep, s_sep
     if end == "stopped":
         v = 0.0
+    e_final = roller.mechanical_energy(state)
     energy = RollingEnergy(
         e_initial, e_final + ROLLING_ENERGY * m * v * v, loss, plate_e, resistance, roughness
     )
-    coordinate = np.concatenate(coords) + behind
+    # the touching points of every block at once (the same interpolation as per block)
+    coordinate = roller.contact_coordinates(np.concatenate(centres)) + behind
     part = RollingPart(
         fs,
         start, np.concatenate(forces), coordinate, np.concatenate(speeds),
         0.0 if end == "left-plate" else m * g, energy, flights,
     )  # fmt: skip
     return part, end, start + n_done / fs, float(coordinate[-1])
+
+
+#: Most profile samples of an envelope kept for the next path over the same surface (each
+#: sample takes 48 bytes: the heights, the contact offsets and the spline's coefficients).
+ENVELOPE_CACHE_SAMPLES = 2_000_000
+#: The envelopes kept, most recent last: ``(key, envelope)``, ``key`` what makes them.
+_ENVELOPES: list = []
+_ENVELOPES_LOCK = threading.Lock()
+
+
+def _envelope(rolling, length, radius):
+    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling`` along
+    ``length`` m of path; the same one as the last calls' with the same arguments (a pure
+    function of them: a seeded profile), kept while its samples, with the others kept,
+    number at most :data:`ENVELOPE_CACHE_SAMPLES` (a scene rendered again, or a sound bank
+    of one surface, makes its surface once)."""
+    key = (rolling.rms_height, rolling.correlation_length, rolling.hurst, rolling.seed,
+           rolling.spacing, float(length), float(radius))  # fmt: skip
+    with _ENVELOPES_LOCK:
+        for i, (k, envelope) in enumerate(_ENVELOPES):
+            if k == key:
+                _ENVELOPES.append(_ENVELOPES.pop(i))
+                return envelope
+    envelope = make_envelope(rolling, length, radius)
+    with _ENVELOPES_LOCK:
+        _ENVELOPES.append((key, envelope))
+        while sum(e.heights.size for _, e in _ENVELOPES) > ENVELOPE_CACHE_SAMPLES:
+            _ENVELOPES.pop(0)
+    return envelope
+
+
+def make_envelope(rolling, length, radius):
+    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling``
+    (:class:`synth.physics.scene.Rolling`) along ``length`` m of path, made afresh."""
+    return surface.contact_envelope(_profile(rolling, length), radius)
 
 
 def _envelope_ahead(rolling, radius, s0, s_edge):
@@ -434,7 +473,7 @@ def _envelope_ahead(rolling, radius, s0, s_edge):
             f"rolling.spacing={rolling.spacing!r} m: the path left to roll, {length:.4g} m, "
             f"needs more than {surface.MAX_PROFILE_SAMPLES} samples; use a larger spacing"
         )
-    envelope = surface.contact_envelope(_profile(rolling, length), radius)
+    envelope = _envelope(rolling, length, radius)
     reach = float(np.max(np.abs(envelope.contact_offsets)))
     return envelope, behind, (s_edge - behind) - reach - rolling.spacing
 

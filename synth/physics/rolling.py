@@ -310,47 +310,173 @@ def roll(
     speed that keeps the penetration steady; if that force is negative the ball starts just
     touching, moving with the surface.
     """
-    if not isinstance(ball, Ball):
-        raise ParameterError(f"ball={ball!r} must be a Ball")
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
-    if not isinstance(envelope, ContactEnvelope):
-        raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
-    if envelope.radius != ball.radius:
-        raise ParameterError(
-            f"envelope.radius={envelope.radius!r} must be the ball's radius "
-            f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+    roller = Roller.over(
+        ball, plate, envelope, samplerate=samplerate, origin=origin, direction=direction,
+        contact=contact, admittance=admittance, gravity=gravity, rtol=rtol,
+        landing_speed=landing_speed, **contact_options,
+    )  # fmt: skip
+    return roller.roll(speed, duration=duration, start=start, state=state)
+
+
+@dataclass(frozen=True, eq=False)
+class Roller:
+    """:func:`roll`'s ball, plate, envelope and options, checked and worked out once, for a
+    rolling solved in many consecutive calls: each :meth:`roll` then costs its checks of the
+    speeds and the integration, and :meth:`advance` (the blocks of
+    :func:`synth.physics.path.simulate_path`) only the integration.
+    Made by :meth:`over` (the arguments of :func:`roll`)."""
+
+    setup: _Setup
+    plate: Plate
+
+    @classmethod
+    def over(
+        cls,
+        ball: Ball,
+        plate: Plate,
+        envelope: ContactEnvelope,
+        *,
+        samplerate: int,
+        origin,
+        direction=(1.0, 0.0),
+        contact: str = "hertz",
+        admittance: float | None = None,
+        gravity: float = GRAVITY,
+        rtol: float = 1e-6,
+        landing_speed: float = 1.0,
+        **contact_options,
+    ) -> Roller:
+        """The :class:`Roller` of :func:`roll`'s arguments (checked as there)."""
+        if not isinstance(ball, Ball):
+            raise ParameterError(f"ball={ball!r} must be a Ball")
+        if not isinstance(plate, Plate):
+            raise ParameterError(f"plate={plate!r} must be a Plate")
+        if not isinstance(envelope, ContactEnvelope):
+            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        if envelope.radius != ball.radius:
+            raise ParameterError(
+                f"envelope.radius={envelope.radius!r} must be the ball's radius "
+                f"{ball.radius!r} (metres): make it with contact_envelope(profile, ball.radius)"
+            )
+        fs = checks.samplerate(samplerate)
+        g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
+        tol = checks.in_range(
+            "rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False
         )
-    fs = checks.samplerate(samplerate)
-    speeds = _speeds(speed, duration, fs)
-    g = checks.positive_at_most("gravity", gravity, MAX_GRAVITY, "m/s^2")
-    tol = checks.in_range("rtol", rtol, 1e-12, 1e-2, "dimensionless", lo_open=False, hi_open=False)
-    u_land = checks.positive("landing_speed", landing_speed, "m/s")
-    if state is not None:
-        if start is not None:
-            raise ParameterError("give start or state, not both")
-        if not isinstance(state, RollingState):
-            raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
-        s0 = float(state.vector[_k.S])
-    else:
-        s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
-    ox, oy = checks.point("origin", origin, 2)
-    ux, uy = _direction(direction)
-    planned = s0 + np.concatenate(([0.0], np.cumsum(speeds) / fs))
-    if not 0.0 <= planned[-1] <= envelope.length:
-        raise ParameterError(
-            f"speed={speed!r} from the path coordinate {s0!r} m reaches {planned[-1]!r} m, "
-            f"beyond the envelope's length {envelope.length!r} m"
+        u_land = checks.positive("landing_speed", landing_speed, "m/s")
+        ox, oy = checks.point("origin", origin, 2)
+        ux, uy = _direction(direction)
+        law = contact_parameters(ball, plate, contact, **contact_options)
+        beta = (
+            1.0 / impedance.infinite_plate_impedance(plate)
+            if admittance is None
+            else checks.nonnegative("admittance", admittance, "m/(N s)")
         )
-    law = contact_parameters(ball, plate, contact, **contact_options)
-    beta = (
-        1.0 / impedance.infinite_plate_impedance(plate)
-        if admittance is None
-        else checks.nonnegative("admittance", admittance, "m/(N s)")
-    )
-    setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
-    _check_reach(setup, planned[0], planned[-1], plate, origin, direction)
-    return _solve(setup, speeds, s0, state)
+        setup = _Setup(ball.mass, law, beta, g, tol, fs, envelope, (ox, oy), (ux, uy), u_land)
+        return cls(setup, plate)
+
+    def check_reach(self, first: float, last: float) -> None:
+        """``ParameterError`` unless the touching points of the centre between the path
+        coordinates ``first <= last`` (m) all lie on the plate."""
+        setup = self.setup
+        _check_reach(setup, first, last, self.plate, setup.origin, setup.direction)
+
+    def roll(
+        self,
+        speed,
+        *,
+        duration: float | None = None,
+        start: float | None = None,
+        state: RollingState | None = None,
+    ) -> RollingContact:
+        """:func:`roll` with this roller's ball, plate, envelope and options."""
+        setup = self.setup
+        fs = setup.samplerate
+        speeds = _speeds(speed, duration, fs)
+        if state is not None:
+            if start is not None:
+                raise ParameterError("give start or state, not both")
+            if not isinstance(state, RollingState):
+                raise ParameterError(f"state={state!r} must be a RollingState (a final_state)")
+            s0 = float(state.vector[_k.S])
+        else:
+            s0 = 0.0 if start is None else checks.nonnegative("start", start, "metres")
+        envelope = setup.envelope
+        last = float(s0 + np.cumsum(speeds)[-1] / fs)
+        if not 0.0 <= last <= envelope.length:
+            raise ParameterError(
+                f"speed={speed!r} from the path coordinate {s0!r} m reaches {last!r} m, "
+                f"beyond the envelope's length {envelope.length!r} m"
+            )
+        self.check_reach(s0, last)
+        return _solve(setup, speeds, s0, state)
+
+    def advance(self, speeds: np.ndarray, *, state: RollingState | None = None,
+                start: float | None = None) -> RollingBlock:  # fmt: skip
+        """Integrate over the sample periods of ``speeds`` (m/s, finite and >= 0, made by
+        the caller) from ``state`` or, without one, from a ball rolling at ``start`` (m) as
+        :func:`roll` starts it, the path within a stretch checked by :meth:`check_reach`:
+        the same integration as :meth:`roll`'s, without its checks, contact points and
+        energy balance (:meth:`contact_coordinates` and :meth:`mechanical_energy` give them
+        for many calls at once)."""
+        setup = self.setup
+        s0 = float(state.vector[_k.S]) if state is not None else float(start)
+        y, h = _start(setup, speeds, s0, state)
+        y0 = y.copy()
+        status, _, _, flights, h, forces, _, centres = _integrate(setup, speeds, y, h)
+        centres += 0.5 * speeds / setup.samplerate  # the middle of each period
+        return RollingBlock(
+            forces,
+            centres,
+            int(flights),
+            *(float(y[i] - y0[i]) for i in (_k.LOSS, _k.PLATE, _k.DRIVE)),
+            status == _k.OK,
+            _MESSAGES.get(int(status), "Unknown status."),
+            RollingState(_read_only(y0), None),
+            RollingState(_read_only(y.copy()), float(h)),
+        )
+
+    def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
+        """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
+        :attr:`RollingContact.contact_coordinate`."""
+        return _contact_points(self.setup, centres)[0]
+
+    def mechanical_energy(self, state: RollingState) -> float:
+        """The ball's and its contact's mechanical energy in ``state``, J (as
+        :attr:`EnergyBalance.initial`)."""
+        return _mechanical_energy(state.vector, self.setup)
+
+
+@dataclass(frozen=True, eq=False)
+class RollingBlock:
+    """One :meth:`Roller.advance` (SI units).
+
+    Attributes
+    ----------
+    force : ndarray (N,)
+        Mean contact force over each sample period, N.
+    centre : ndarray (N,)
+        The ball's centre on the path in the middle of each period, m.
+    flights : int
+        Losses of contact seen at the steps' ends.
+    loss_work, plate_energy, drive_work : float
+        As :class:`EnergyBalance`'s, J.
+    success : bool
+    message : str
+    initial_state, final_state : RollingState
+        Where the block started and ended.
+    """
+
+    force: np.ndarray
+    centre: np.ndarray
+    flights: int
+    loss_work: float
+    plate_energy: float
+    drive_work: float
+    success: bool
+    message: str
+    initial_state: RollingState
+    final_state: RollingState
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
@@ -474,31 +600,38 @@ def _mechanical_energy(y, setup) -> float:
     return 0.5 * m * y[_k.VY] ** 2 + m * g * (y[_k.Z] + y[_k.U]) + elastic
 
 
-def _solve(setup, speeds, s0, state):
+def _start(setup, speeds, s0, state):
+    """The integrator's state vector and first step (s) of a call from ``s0`` (m) or
+    ``state``."""
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    K, n = law.stiffness, law.exponent
+    delta_ref = (m * g / K) ** (1.0 / n)
+    first = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
+    if state is None:
+        e, ep, epp = envelope_at(setup.envelope.coefficients, setup.envelope.spacing, s0)
+        return _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp), first
+    return np.array(state.vector), (state.step if state.step is not None else first)
+
+
+def _integrate(setup, speeds, y, h):
+    """Integrate from ``y`` (updated in place) with the first step ``h`` (s) over the sample
+    periods of ``speeds`` (m/s): ``(status, steps, rejected, flights, h, forces,
+    min_penetration, centres)``, the arrays NaN where a failed integration did not reach
+    and ``centres`` the path coordinate at each period's start (m)."""
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    env = setup.envelope.coefficients
-    dx = setup.envelope.spacing
     delta_ref = (m * g / K) ** (1.0 / n)
-    if state is None:
-        e, ep, epp = envelope_at(env, dx, s0)
-        y = _initial_state(m, K, n, beta, g, float(speeds[0]), s0, e, ep, epp)
-        h = min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
-    else:
-        y = np.array(state.vector)
-        h = state.step if state.step is not None else min(0.1 * math.sqrt(delta_ref / g), 1.0 / fs)
-    y0 = y.copy()
     N = speeds.size
-    # NaN where a failed integration did not reach
     forces = np.full(N, np.nan)
     min_pen = np.full(N, np.nan)
-    path = np.full(N, np.nan)
+    centres = np.full(N, np.nan)
     status, steps, rejected, flights, h = _k.roll(
         y,
         h,
-        env,
-        dx,
+        setup.envelope.coefficients,
+        setup.envelope.spacing,
         speeds,
         m,
         K,
@@ -514,8 +647,19 @@ def _solve(setup, speeds, s0, state):
         MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
-        path,
+        centres,
     )
+    return status, steps, rejected, flights, h, forces, min_pen, centres
+
+
+def _solve(setup, speeds, s0, state):
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    delta_ref = (m * g / law.stiffness) ** (1.0 / law.exponent)
+    y, h = _start(setup, speeds, s0, state)
+    y0 = y.copy()
+    N = speeds.size
+    status, steps, rejected, flights, h, forces, min_pen, path = _integrate(setup, speeds, y, h)
     E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
     loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
     scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)

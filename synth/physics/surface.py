@@ -48,6 +48,8 @@ PADDING_CORRELATION_LENGTHS = 16.0
 #: Newton iterations locating a summit's contact point between samples (quadratic
 #: convergence from within a sample of it: machine precision in about four).
 NEWTON_ITERATIONS = 6
+#: Samples per run whose highest point bounds the runs :func:`_best_samples` may skip.
+DILATION_BLOCK = 8
 #: Largest RMS height and correlation length of a roughness spectrum, m: the largest plate
 #: (:data:`synth.physics.scene.MAX_PLATE_SIZE`, its greatest thickness and side). A
 #: roughness is a variation of a plate's surface: its heights are no taller than the
@@ -319,7 +321,7 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
     e = np.empty(h.size)
     off = np.empty(h.size)
     x = np.arange(h.size) * dx
-    _dilate(np.ascontiguousarray(h), _spline(x, h), dx, R, window, e, off)
+    _dilate(np.ascontiguousarray(h), _spline(x, h), dx, R, _cap_depths(dx, R, window), e, off)
     return ContactEnvelope(
         _read_only(e),
         _read_only(off),
@@ -335,27 +337,89 @@ def _spline(x, y) -> np.ndarray:
     return np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T)
 
 
+def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
+    """The sphere's cap depth ``R - sqrt(R^2 - d^2)`` (m) at the offsets ``d = k dx`` for
+    ``k = -window .. window`` (index ``k + window``), ``+inf`` where ``|d| >= R`` (out of
+    reach): the same operations, so the same bits, as evaluating it at each pair of
+    samples, once per offset instead of once per pair."""
+    d = np.arange(-window, window + 1) * dx
+    q = R * R - d * d
+    depths = np.full(d.size, np.inf)
+    inside = d * d < R * R
+    depths[inside] = R - np.sqrt(q[inside])
+    return depths
+
+
 @compiled()
-def _dilate(h, coefficients, dx, R, window, e, off):  # pragma: no cover - compiled
+def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
+    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` over the
+    samples within ``window = (caps.size - 1) // 2`` of it, and ``first_i`` the first ``j``
+    that reaches it (as a scan of ``j`` upwards keeping only strictly greater values).
+
+    The runs of :data:`DILATION_BLOCK` samples are scanned from the one holding ``i``
+    outwards, and a run is skipped whose highest sample less the cap's smallest depth over
+    the run is below the best so far: no sample of it can reach the best (a difference of
+    floats is monotone in each operand; the depths are symmetric and grow with the
+    offset), so the values are those of the full scan, bit for bit."""
+    n = h.shape[0]
+    window = (caps.shape[0] - 1) // 2
+    B = DILATION_BLOCK
+    n_blocks = (n + B - 1) // B
+    tops = np.empty(n_blocks)
+    for b in range(n_blocks):
+        top = -np.inf
+        for j in range(b * B, min(n, b * B + B)):
+            top = max(top, h[j])
+        tops[b] = top
+    for i in range(n):
+        lo = max(0, i - window)
+        hi = min(n - 1, i + window)
+        b_lo = lo // B
+        b_hi = hi // B
+        b_mid = i // B
+        g_best = -np.inf
+        jb = i
+        # the run holding i first, then outwards, nearer runs first: the best so far
+        # rises fast and the runs further out are skipped
+        for r in range(2 * max(b_mid - b_lo, b_hi - b_mid) + 1):
+            b = b_mid + (r + 1) // 2 if r % 2 == 1 else b_mid - r // 2
+            if b < b_lo or b > b_hi:
+                continue
+            j0 = max(lo, b * B)
+            j1 = min(hi, b * B + B - 1)
+            if j1 < i:
+                nearest = i - j1
+            elif j0 > i:
+                nearest = j0 - i
+            else:
+                nearest = 0
+            if tops[b] - caps[nearest + window] < g_best:
+                continue
+            for j in range(j0, j1 + 1):
+                g = h[j] - caps[j - i + window]
+                if g > g_best or (g == g_best and j < jb):
+                    g_best = g
+                    jb = j
+        best[i] = g_best
+        first[i] = jb
+
+
+@compiled()
+def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compiled
     """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's cubic spline (``coefficients``
-    as :attr:`ContactEnvelope.coefficients`): the best sample, then Newton's iteration on
+    as :attr:`ContactEnvelope.coefficients`): the best sample (the cap's depths at the
+    samples' offsets ``caps``, :func:`_cap_depths`; out of reach the depth is +inf, so
+    never the best), then Newton's iteration on
     ``g'(x) = h'(x) - (x - s_i) / sqrt(R^2 - (x - s_i)^2) = 0`` within its two neighbours;
     ``off_i`` the maximiser's offset, m."""
     n = h.shape[0]
     R2 = R * R
+    bests = np.empty(n)
+    firsts = np.empty(n, dtype=np.int64)
+    _best_samples(h, caps, bests, firsts)
     for i in range(n):
-        lo = max(0, i - window)
-        hi = min(n - 1, i + window)
-        best = -np.inf
-        jb = i
-        for j in range(lo, hi + 1):
-            d = (j - i) * dx
-            if d * d >= R2:
-                continue
-            g = h[j] - (R - math.sqrt(R2 - d * d))
-            if g > best:
-                best = g
-                jb = j
+        best = bests[i]
+        jb = firsts[i]
         x_best = jb * dx
         a = max(jb - 1, 0) * dx
         b = min(jb + 1, n - 1) * dx
