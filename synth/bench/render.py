@@ -14,8 +14,9 @@ from synth.bench.common import target_verdict
 def render_scenes() -> list:
     """The render benchmark's scenes: ``(name, scene, render options)``: the default
     preset (the measured model), and the same scene under the thesis' model beside it (the
-    speed the measured model is held to, in the same run); a thin steel sheet whose modal
-    bank carries thousands of modes; a long series of fast small bounces."""
+    speed the measured model is held to, in the same run); the thesis' corner drop, where
+    the plate's modes enter every contact; a thin steel sheet whose modal bank carries
+    thousands of modes; a long series of fast small bounces."""
     from synth.io.presets import load_preset
     from synth.physics.scene import Accelerometer, Ball, Plate, Scene
 
@@ -25,6 +26,11 @@ def render_scenes() -> list:
         (
             "default preset, the thesis' model (contact.model = thesis)",
             load_preset("default", ["contact.model=thesis"]),
+            {},
+        ),
+        (
+            "thesis-steel10-mdf18-corner (the plate's modes in every contact)",
+            load_preset("thesis-steel10-mdf18-corner"),
             {},
         ),
         (
