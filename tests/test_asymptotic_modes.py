@@ -75,7 +75,7 @@ def test_edge_effect_frequencies_agree_with_ritz_in_their_overlap(boundary, aspe
     effect frequency (with the Rayleigh-Ritz step) agrees with the converged Ritz solution
     of the same rank: measured worst 0.012 % (clamped, the Rayleigh quotients of shapes
     that meet the clamped conditions) and 0.43 % (free); asserted 0.05 % and 0.5 % (the
-    issue's figure). Counts agree exactly (no mode lost or doubled at the seam)."""
+    the stated target). Counts agree exactly (no mode lost or doubled at the seam)."""
     omega = 6000.0 if aspect < 2 else 40000.0
     hyb = _hybrid(boundary, aspect, omega)
     ref = ritz.ritz_frequencies(boundary, 0.3, aspect, omega * 1.05, omega)
@@ -91,7 +91,7 @@ def test_square_pairs_split_by_the_rayleigh_ritz_step(boundary):
     """Square plate: the corners split the degenerate pairs ``(m, n)``, ``(n, m)`` of one
     symmetry class, which the edge effect method alone leaves equal (0.61 % from the
     nearest Ritz mode, free). With the 2 x 2 Rayleigh-Ritz step, measured 0.28 % (free)
-    and 0.014 % (clamped); asserted 0.5 % (the issue's figure) and 0.05 %, median 0.1 %.
+    and 0.014 % (clamped); asserted 0.5 % (the the stated target) and 0.05 %, median 0.1 %.
     Counts may differ by the Ritz modes within 0.5 % of the band's top (a mode that close
     may fall on either side of the cut)."""
     hyb = _hybrid(boundary, 1.0, 6000.0)

@@ -50,7 +50,7 @@ def _file_identity(path: Path):
 
 BANK_SPECS_BY_NAME = ["marble-on-glass-table-game", "restitution-stimuli"]
 
-ISSUE_SPEC = """\
+EXAMPLE_SPEC = """\
 preset = "default"                  # a name or a file
 count = 200                         # random variations; leave out for the full grid of lists
 seed = 7
@@ -831,13 +831,13 @@ def test_example_specs_by_name(name):
     assert len(bank.plan(bank.load(name))) >= 10
 
 
-def test_issue_spec_as_written():
-    # The issue's example: 200 rows, every value within its range or list, reproducible.
+def test_example_spec_as_written():
+    # The example bank: 200 rows, every value within its range or list, reproducible.
     import tomllib
 
     from synth.bank import spec as S
 
-    s = S.from_dict(tomllib.loads(ISSUE_SPEC))
+    s = S.from_dict(tomllib.loads(EXAMPLE_SPEC))
     items = S.plan(s)
     assert len(items) == 200 and items[0].file == "default-0000.flac"
     assert s.render["normalize"] == "physical" and s.render["samplerate"] == 48000
@@ -846,9 +846,9 @@ def test_issue_spec_as_written():
         x, y = it.values["drop.position"]
         assert 0.2 <= x <= 1.0 and 0.1 <= y <= 0.4
         assert it.values["ball.radius"] in (0.004, 0.005, 0.006)
-    assert S.plan(S.from_dict(tomllib.loads(ISSUE_SPEC))) == items
+    assert S.plan(S.from_dict(tomllib.loads(EXAMPLE_SPEC))) == items
     # a row depends on its index only: a shorter bank is a prefix of the longer one
-    shorter = S.plan(S.from_dict(tomllib.loads(ISSUE_SPEC.replace("200", "20"))))
+    shorter = S.plan(S.from_dict(tomllib.loads(EXAMPLE_SPEC.replace("200", "20"))))
     assert shorter == items[:20]
     # with 200 draws from 3 values each value comes up (binomial: P(missing one) < 1e-34)
     assert {it.values["ball.radius"] for it in items} == {0.004, 0.005, 0.006}
@@ -925,11 +925,11 @@ def test_spawned_workers_identical(serial, tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
-    # The issue's spec as written, through `synth bank --dry-run`: 200 planned rows with the
+def test_example_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
+    # The example spec as written, through `synth bank --dry-run`: 200 planned rows with the
     # varied values, no audio, an estimate; a bad spec is exit status 2 naming the key.
     spec = tmp_path / "bank.toml"
-    spec.write_text(ISSUE_SPEC)
+    spec.write_text(EXAMPLE_SPEC)
     assert main(["bank", str(spec), "-o", str(tmp_path / "out"), "--dry-run", "--jobs", "2"]) == 0
     captured = capsys.readouterr()
     assert "estimated" in captured.err
@@ -937,7 +937,7 @@ def test_issue_spec_dry_run_from_the_command_line(tmp_path, cache_dir, capsys):
     assert len(rows) == 200 and rows[5]["file"] == "default-0005.flac"
     assert set(rows[0]) >= {"drop.height", "drop.position", "ball.radius", "seed", "status"}
     assert not (tmp_path / "out").exists()
-    spec.write_text(ISSUE_SPEC.replace("count = 200", "count = 0"))
+    spec.write_text(EXAMPLE_SPEC.replace("count = 200", "count = 0"))
     assert main(["bank", str(spec), "-o", str(tmp_path / "out2")]) == 2
     assert "count=0" in capsys.readouterr().err
 

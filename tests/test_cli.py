@@ -39,7 +39,7 @@ def data_rows(text):
 
 def test_info(capsys):
     # The default preset, the measured model: a 10 mm steel ball at 1.4 m/s (10 cm drop)
-    # mid-plate on 18 mm MDF rebounds at the measured e = 0.76 (thesis section 3.2; issue 29's
+    # mid-plate on 18 mm MDF rebounds at the measured e = 0.76 (thesis section 3.2; within
     # 0.02). The table ends with the scheduler's stop reason and counts the rows it printed.
     code, out, err = run(capsys, "info", "default")
     assert code == 0 and err == ""

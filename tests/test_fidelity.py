@@ -129,7 +129,7 @@ def _extreme_scene(rng, kind, i):
 @pytest.mark.parametrize("kind, count", [("slow", 4000), ("broad", 800), ("stiff", 200)])
 def test_default_tolerance_agrees_with_a_tight_one(kind, count):
     # Every impact solved at the default rtol (1e-6) agrees with the same impact at rtol
-    # 1e-10 within 1e-4 in e (the issue's bound; 100x the rtol asked: the error bound is
+    # 1e-10 within 1e-4 in e (the stated bound; 100x the rtol asked: the error bound is
     # relative to e, and e enters the edge admittance's fixed point), and in whether the
     # ball settled. Near an edge and at low speed the ball may leave the plate and land
     # again within one integration step (a flight of 2 v_out / g, microseconds at 1e-5 m/s);
@@ -143,7 +143,7 @@ def test_default_tolerance_agrees_with_a_tight_one(kind, count):
         assert a.settled == b.settled, (ball, plate, v, pos)
 
 
-def test_issue_example_near_a_corner():
+def test_example_near_a_corner():
     # A 0.23 mm ball 1.2 mm from a corner at 0.2 mm/s, every ball and plate material of the
     # table, four thicknesses: the default and the tight tolerance agree within 1e-4 in e.
     from synth.physics.materials import TABLE

@@ -137,8 +137,8 @@ def test_surface_fit_on_18_mm_and_predictions():
     # Two MDF parameters fitted on the 18 mm board only; the stored ones are the fit's
     # (E_t / E within 1 %, the viscoelastic A within 2 %: two rounds of the alternating fit
     # from the stored values, and their rounding to four figures), e at 1.4 m/s
-    # meets issue 14's target (0.76 within 0.02), and the four contact times of the 12 and
-    # 6 mm boards are predictions within issue 14's 15 %.
+    # meets the target (0.76 within 0.02), and the four contact times of the 12 and
+    # 6 mm boards are predictions within the target's 15 %.
     fit = bench.surface_fit(rounds=2)
     assert fit["ratio"] == pytest.approx(MDF_SURFACE.transverse_ratio, rel=0.01)
     assert fit["viscous_time"] == pytest.approx(MDF_SURFACE.viscous_time, rel=0.02)
@@ -147,7 +147,7 @@ def test_surface_fit_on_18_mm_and_predictions():
     assert {r["board"] for r in predictions} == {"12 mm", "6 mm"} and len(predictions) == 4
     for r in predictions:
         assert abs(r["error"]) < 0.15, r
-    # the fit's own rows too: issue 14's 15 % for eight of the nine pairs (one modulus for five
+    # the fit's own rows too: the target's 15 % for eight of the nine pairs (one modulus for five
     # balls; each ball as Table 3.3 measured it, with its 1 g accelerometer; contact times the
     # force pulse's length on both sides); the 12.55 mm glass ball, the shortest contact, is
     # 15.4 % short (asserted as that miss, under 16 %)
@@ -155,7 +155,7 @@ def test_surface_fit_on_18_mm_and_predictions():
         small_glass = (r["ball"], r["board"]) == ("glass 12.55 mm", "18 mm")
         assert (-0.16 < r["error"] < -0.15) if small_glass else abs(r["error"]) < 0.15, r
         assert r["bare_contact_time"] < r["contact_time"]
-    # the fitted model's restitution gaps (issue 14's targets, the 12 and 6 mm boards
+    # the fitted model's restitution gaps (the targets, the 12 and 6 mm boards
     # predictions): the viscoelastic loss meets the 18 mm board's speed dependence (-12 % at
     # 1 m/s against -18 %, -9 % at 0.2 m/s against -8 %) and the 12 mm board; the 6 mm
     # board's +57 % lies beyond the +35 % x 1.5 edge (asserted as that miss, under 5 %)
@@ -167,7 +167,7 @@ def test_surface_fit_on_18_mm_and_predictions():
 
 
 def test_viscoelastic_loss_follows_the_measured_speed_dependence():
-    # issue 14's restitution-gap targets (section 3.2: the measured gap's sign, its size
+    # the restitution-gap targets (section 3.2: the measured gap's sign, its size
     # within half) with each law's one loss fitted on e = 0.76 at 1.4 m/s (18 mm), on the
     # impedance plate: the viscoelastic Hertz loss (1 - e ~ v^(1/5)) meets the 18 mm board's
     # speed dependence and the 12 mm board's prediction; Hunt-Crossley (1 - e ~ v) misses

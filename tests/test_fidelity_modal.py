@@ -32,7 +32,7 @@ def test_modal_plate_edge_restitution(rows):
 
 @pytest.mark.slow
 def test_modal_plate_critical_distance_table_3_3(rows):
-    # issue 14's target: inside each measured range (Table 3.3) +- 5 mm, with no formula
+    # the target: inside each measured range (Table 3.3) +- 5 mm, with no formula
     for ball, board in PAIRS:
         r = rows[f"critical distance, modal plate, {ball} on {board}"]
         lo, hi = r["measured"]
@@ -60,7 +60,7 @@ def test_ringing_scatters_late_restitutions(rows):
 
 @pytest.mark.slow
 def test_fitted_model_first_impact_meets_the_measurement(rows):
-    # issue 14's target: e = 0.76 within 0.02 for the 10 mm steel ball on the 18 mm board
+    # the target: e = 0.76 within 0.02 for the 10 mm steel ball on the 18 mm board
     # (the Hunt-Crossley loss is fitted on it: this checks the stored fit in the thesis rows)
     r = rows[
         "restitution, fitted model (modal plate, MDF's fitted surface), steel 10.0 mm on "
@@ -94,7 +94,7 @@ def test_modal_contact_error_against_run_time(monkeypatch):
 def test_mindlin_plate_impedance_table_3_4(rows):
     # Shear and rotary inertia soften the 18 mm board by the infinite Mindlin plate's band
     # average (1 / <Re Y> over 0-10 kHz: 1327 against Kirchhoff's 1629 N s/m): the middle
-    # meets issue 14's target, within 10 % of the hammer's 1271 N s/m; at the edge and the
+    # meets the target, within 10 % of the hammer's 1271 N s/m; at the edge and the
     # corner the same softening carries the free plate's modes below the hammer's values:
     # at each of the three the Mindlin row over the thin plate's is the infinite plates'
     # ratio, 1327 / 1629, within 3 % (measured +1.5, -2.1 and -1.3 %). Two comparisons are
@@ -124,8 +124,8 @@ def test_mindlin_plate_impedance_table_3_4(rows):
 @pytest.mark.slow
 def test_mindlin_plate_keeps_the_fitted_contact(rows):
     # The fitted model on the Mindlin plate, nothing refitted: the contact's own frequencies
-    # (a few kHz, k h < 1) see little of the shear: e at 1.4 m/s still within issue 14's
-    # 0.02 of the measured 0.76 and the contact times within its 15 % of Table 3.3.
+    # (a few kHz, k h < 1) see little of the shear: e at 1.4 m/s still within
+    # 0.02 of the measured 0.76 and the contact times within 15 % of Table 3.3.
     r = rows[
         "restitution at middle, fitted model on the Mindlin plate, steel 10.0 mm on 18 mm (1.4 m/s)"
     ]

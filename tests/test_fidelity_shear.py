@@ -48,7 +48,7 @@ def test_impedance_table_3_4(rows):
     # residual's share below the band (the infinite plate's modes above the band, reactive
     # below it but for their damping:
     # the row lies within 12 % below the modes' sum). The tied G_t softens the 18 mm board
-    # far below the hammer's 1271 / 389 / 168 N s/m (issue 14's 10 % is missed at all three:
+    # far below the hammer's 1271 / 389 / 168 N s/m (the target's 10 % is missed at all three:
     # docs/validation.md gives the G_t each measurement alone would need).
     import math
 
@@ -72,7 +72,7 @@ def test_impedance_table_3_4(rows):
 
 @pytest.mark.slow
 def test_restitution_middle_and_edge(rows):
-    # issue 14's targets, e = 0.76 within 0.02 (the viscoelastic loss fitted on the thin
+    # the targets, e = 0.76 within 0.02 (the viscoelastic loss fitted on the thin
     # plate, not refitted; measured 0.772) and at the edge "about 5 %" below Eichler's 0.63
     # (0.60 +- 0.03: a value derived from the thesis' text, its two figures; measured 0.624):
     # both met. On this soft shear the
@@ -86,7 +86,7 @@ def test_restitution_middle_and_edge(rows):
 
 @pytest.mark.slow
 def test_contact_times_table_3_3(rows):
-    # issue 14's target, each within 15 % of Table 3.3 (the 12 mm board predicted), the ball
+    # the target, each within 15 % of Table 3.3 (the 12 mm board predicted), the ball
     # carrying the measurement's 1 g accelerometer
     for ball, board in PAIRS:
         r = rows[f"contact time, transverse-shear model, {ball} on {board}"]
@@ -95,7 +95,7 @@ def test_contact_times_table_3_3(rows):
 
 @pytest.mark.slow
 def test_critical_distances_table_3_3(rows):
-    # issue 14's target, inside the measured range +- 5 mm: on the 18 mm board (the fit board)
+    # the target, inside the measured range +- 5 mm: on the 18 mm board (the fit board)
     # missed by 2.1 mm (measured 52.1 mm against 35-45 mm; asserted as a miss under 3 mm: the
     # contact is lengthened by the soft shear's local compliance, which the residual carries);
     # on the 12 mm board (a prediction) the distance stays beyond it (the fitted
@@ -109,7 +109,7 @@ def test_critical_distances_table_3_3(rows):
 
 @pytest.mark.slow
 def test_restitution_gaps_section_3_2(rows):
-    # issue 14's target for the gaps to the thesis' model: the sign right and the size within
+    # the target for the gaps to the thesis' model: the sign right and the size within
     # half. Missed by the 12 mm board's prediction (measured 5-10 % below): the sign is right
     # but the size short, -0.5 % (asserted as that miss: below zero, above half of -5 %); on
     # the 18 mm board at 1 m/s the sign is right but the size short of the measured -18 % (a

@@ -1,4 +1,4 @@
-"""The measured model by default (issue 29): the plate in the contact chosen per scene
+"""The measured model by default: the plate in the contact chosen per scene
 (``contact.plate = "auto"``, :mod:`synth.physics.plate_choice`), the material's fitted surface
 where it has one (``contact.surface = "auto"``), and the thesis' model one option away."""
 
@@ -57,7 +57,7 @@ def _first_impact(scene):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(available()))
 def test_every_presets_first_impact_agrees_with_the_full_modal_contact(name):
-    # issue 29: wherever the choice leaves the modes out, the first impact equals the full
+    # wherever the choice leaves the modes out, the first impact equals the full
     # modal contact's within its tolerance (1e-3 in e and relative in tau). One preset misses,
     # the 2 mm bead on acrylic: 2.1e-3 in e whatever the plate's size and boundary (a plate
     # three times larger, whose edges are three times farther, gives the same offset to 5e-5),
@@ -87,7 +87,7 @@ def test_every_presets_first_impact_agrees_with_the_full_modal_contact(name):
 
 
 def test_default_preset_is_the_measured_model_on_the_impedance_plate():
-    # issue 29, "done means": the default preset's first impact within 0.02 of the measured
+    # the default preset's first impact within 0.02 of the measured
     # e = 0.76 and within 15 % of the measured 219 us (the bare ball: the thesis' 1 g
     # accelerometer lengthened its contact), on the impedance plate (the middle of the board:
     # no reflection returns within the contact; bound well below the tolerance).

@@ -231,7 +231,7 @@ def _contact_comments(path) -> str:
 
 @pytest.mark.parametrize("path", FILES, ids=NAMES)
 def test_contact_comments_name_the_loss_the_model_solves(path):
-    # issue 29: a preset's [contact] comments name the contact loss its model solves, and no
+    # a preset's [contact] comments name the contact loss its model solves, and no
     # other: the fitted surface's (MDF's is the viscoelastic Hertz loss, not Hunt-Crossley) or
     # the law's own; an elastic contact names neither.
     from synth.physics.contact_law import resolved_surface

@@ -1,4 +1,4 @@
-"""Robustness, second round: silent wrong results, tracebacks and hangs of issue 28. Every
+"""Robustness, second round: silent wrong results, tracebacks and hangs. Every
 case here failed before its fix; a hang is run in a subprocess whose timeout is the test's
 time limit (the bound is the subprocess timeout, never an assertion on a measured time)."""
 

@@ -117,7 +117,7 @@ def test_random_big_clamped_scene_heard_by_a_microphone():
 
 
 def test_random_scale_specs_are_valid_and_reproducible():
-    """The benchmark's random scenes: the issue's ranges (sides 0.1-2 m, 1-40 mm,
+    """The benchmark's random scenes: the stated ranges (sides 0.1-2 m, 1-40 mm,
     22.05-48 kHz), every boundary among the benchmark's eight, the same for a seed."""
     from synth import bench
 

@@ -1,6 +1,6 @@
 """``synth bench bank``: sounds per second of a sound bank of the default scene.
 
-Measured in one run on this machine: the issue's example bank (``count`` variations of the
+Measured in one run on this machine: an example bank (``count`` variations of the
 default preset: drop height, impact point, ball radius; FLAC at 48 kHz, physical level)
 rendered
 
@@ -34,7 +34,7 @@ from synth.bank import spec as bank_spec
 from synth.bank.gain import apply_gain
 from synth.bench.common import target_verdict
 
-#: The issue's example spec, with the count left to the benchmark.
+#: The example bank's spec, with the count left to the benchmark.
 SPEC = """\
 preset = "default"
 count = {count}
@@ -151,7 +151,7 @@ def format_bank(r: dict) -> str:
     """The bank benchmark as a Markdown table, with the targets and whether they are met."""
     n = r["count"]
     title = (
-        f"{n}-sound bank of the default scene (issue example: height, impact point, "
+        f"{n}-sound bank of the default scene (an example bank: height, impact point, "
         f"ball radius; FLAC 48 kHz, physical level); wall time of each way, worker "
         f"start-up included (`--jobs 1` renders in the benchmark's process, warmed "
         f"before the clock as the caches are)"

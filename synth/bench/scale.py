@@ -18,14 +18,14 @@ SCALE_LADDER = (
     ("thunder sheet", "steel", 0.001, 1.5, 1.0, "simply-supported", 48000),
     ("2 m thin metal", "steel", 0.0021, 1.86, 1.86, "simply-supported", 44100),
     ("free bar", "steel", 0.0037, 1.84, 0.10, "free", 48000),
-    # the issue's two named plates had more modes than these steel ones (34 161 to
-    # 22.05 kHz and 4614 to 24 kHz, of materials not in the table): the same sizes in the
-    # table's materials with at least as many modes carry the targets
+    # two named targets are for plates with more modes than these steel ones (34 161 to
+    # 22.05 kHz and 4614 to 24 kHz): the same sizes in the table's materials with at
+    # least as many modes carry them
     ("1.86 m plate", "abs", 0.0021, 1.86, 1.86, "simply-supported", 44100),
     ("1.84 m bar", "rubber", 0.0037, 1.84, 0.10, "free", 48000),
 )
-#: The ladder's plates that carry the issue's two named targets, and the fewest modes each
-#: must have (the issue's plates' own counts).
+#: The ladder's plates that carry the two named targets, and the fewest modes each must
+#: have (the counts the targets were set for).
 SCALE_NAMED = {"1.86 m plate": 34161, "1.84 m bar": 4614}
 
 
@@ -39,7 +39,7 @@ _BOUNDARIES = ("free", "simply-supported", "clamped")
 
 
 def random_scale_specs(count: int, seed: int = SCALE_SEED) -> list:
-    """``count`` random valid plates as the issue's new user would pick them: sides
+    """``count`` random valid plates as a new user would pick them: sides
     0.1-2 m, thickness 1-40 mm (log-uniform), any of six materials and the three
     boundaries, 22.05-48 kHz; specs for :func:`scale_child`."""
     rng = np.random.default_rng(seed)
@@ -169,7 +169,7 @@ def run_scale(ladder=SCALE_LADDER, timeout=600.0, random=SCALE_RANDOM) -> list:
     return rows
 
 
-#: Targets of the scale benchmark (the issue's): the random scenes' median cold work
+#: Targets of the scale benchmark: the random scenes' median cold work
 #: (modes, gains and render in a new process), s; the longest any may take, s (or the
 #: audio's own length if longer); peak resident memory, MB; the 1.86 m simply supported
 #: plate's cold work, s; the free 1.84 x 0.10 m bar's cold modes to 24 kHz, s.
@@ -299,13 +299,13 @@ def _ladder_targets(rows) -> list:
         if row["name"] == "1.86 m plate":
             out.append(
                 f"1.86 m simply supported plate ({row['material']}, {c['n_modes']} modes; the "
-                f"issue's had {SCALE_NAMED[row['name']]}), cold work {_work_s(c):.3g} s: under "
+                f"target is set for {SCALE_NAMED[row['name']]}), cold work {_work_s(c):.3g} s: under "
                 f"{t['thin_metal_s']:g} s {_verdict(_work_s(c) < t['thin_metal_s'])}."
             )
         if row["name"] == "1.84 m bar":
             out.append(
-                f"Free 1.84 x 0.10 m bar ({row['material']}, {c['n_modes']} modes; the issue's "
-                f"had {SCALE_NAMED[row['name']]}) to {row['samplerate'] // 2} Hz, cold modes "
+                f"Free 1.84 x 0.10 m bar ({row['material']}, {c['n_modes']} modes; the target "
+                f"is set for {SCALE_NAMED[row['name']]}) to {row['samplerate'] // 2} Hz, cold modes "
                 f"{c['modes_s']:.3g} s: under {t['bar_modes_s']:g} s "
                 f"{_verdict(c['modes_s'] < t['bar_modes_s'])}."
             )

@@ -31,7 +31,7 @@ import numpy as np
 
 from synth.bench.common import target_verdict
 
-#: Targets of the issue (fractions of a block, microseconds, counts).
+#: The live engine's targets (fractions of a block, microseconds, counts).
 TARGETS = dict(callback_1=0.05, callback_16=0.5, hit_us=50.0, underflows=0)
 
 

@@ -24,7 +24,8 @@ from synth.constants import GRAVITY
 THESIS_RESTITUTION_REPEATABILITY = 0.03
 #: Resolutions of the sensitivity table (relative fall of e below the middle's).
 EDGE_RESOLUTIONS = (0.01, 0.02, 0.03, 0.05)
-#: The issue's allowance around each measured range of Table 3.3 (m).
+#: The allowance around each measured range of Table 3.3 (m) within which a predicted
+#: critical distance counts as agreeing.
 CRITICAL_DISTANCE_ALLOWANCE = 5e-3
 #: Contact models of the study: the fitted model (the thesis scenes' default) and the modal
 #: plate with the thesis' own contact (Hertz at the in-plane modulus, no contact loss).

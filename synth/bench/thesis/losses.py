@@ -108,7 +108,7 @@ def loss_law_study() -> dict:
 
 
 def gap_met(gap: float, measured) -> bool:
-    """The issue's target for a restitution gap: the sign right and the size within half of
+    """The target for a restitution gap: the sign right and the size within half of
     the measured one (a range: within half of its nearer end outside it)."""
     lo, hi = measured if isinstance(measured, tuple | list) else (measured, measured)
     return (gap * lo > 0.0) and (
