@@ -26,6 +26,10 @@ from pathlib import Path
 
 import numba
 
+from synth import jitcache
+
+jitcache.stamp_with_the_package()
+
 #: numba's fast-math flags of a kernel: none, or with ``sums=True`` (the modal bank's
 #: loops over modes, whose sums must vectorise) :data:`FAST_SUMS`. Always given, never
 #: left unset: a kernel whose flags are unset is compiled with the flags of the first

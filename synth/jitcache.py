@@ -11,6 +11,8 @@ writable, numba's caching is turned off (the kernels compile on every start). A
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 import sys
 import tempfile
@@ -71,6 +73,41 @@ def configure(environ=None, source_dirs=None, stream=None) -> str | None:
         file=stream,
     )
     return None
+
+
+def package_digest(root: Path | None = None) -> str:
+    """SHA-256 (hex) of the package's Python sources under ``root`` (default: this
+    package's folder): each file's path relative to ``root`` and its bytes, in path
+    order."""
+    root = Path(__file__).resolve().parent if root is None else Path(root)
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def stamp_with_the_package() -> None:
+    """Make numba's cache entry of every kernel defined in this package valid for the
+    package's sources as a whole (:func:`package_digest`), not for the kernel's own file:
+    a change anywhere in the package recompiles every kernel once. Must run before the
+    first kernel is defined; other packages' kernels keep numba's own stamp."""
+    from numba.core import caching
+
+    mixin = caching._SourceFileBackedLocatorMixin
+    if getattr(mixin, "synth_stamp", False):
+        return
+    own_stamp = mixin.get_source_stamp
+    root = str(Path(__file__).resolve().parent) + os.sep
+    digest = functools.cache(package_digest)
+
+    def get_source_stamp(self):
+        if os.path.realpath(self._py_file).startswith(root):
+            return ("synth package", digest())
+        return own_stamp(self)
+
+    mixin.get_source_stamp = get_source_stamp
+    mixin.synth_stamp = True
 
 
 def _disable_caching() -> None:
