@@ -127,7 +127,7 @@ class HollowBall(Ball):
     """
 
     _: KW_ONLY
-    thickness: float = 0.0
+    thickness: float | None = None
     pressure: float = 0.0
 
     def __post_init__(self):
@@ -137,6 +137,8 @@ class HollowBall(Ball):
                 f"(ball.thickness, ball.material's density) and its gas (ball.pressure); "
                 f"leave ball.mass out"
             )
+        if self.thickness is None:
+            raise ParameterError("ball.thickness is required for a hollow ball (metres)")
         object.__setattr__(self, "material", resolve(self.material, "ball.material"))
         R = checks.in_range(
             "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
@@ -634,10 +636,12 @@ class Scene:
                 f"diameter must not exceed the plate's smaller side "
                 f"{min(self.plate.length, self.plate.width)!r} (metres)"
             )
+        hollow = isinstance(self.ball, HollowBall)
         if self.contact is None:
-            object.__setattr__(self, "contact", Contact())
+            object.__setattr__(self, "contact", Contact(law="shell") if hollow else Contact())
         elif not isinstance(self.contact, Contact):
             raise ParameterError(f"contact={self.contact!r} must be a Contact")
+        self._check_shell(hollow)
         if self.listener is None:
             object.__setattr__(self, "listener", Microphone((pos[0], pos[1], 0.2)))
         elif isinstance(self.listener, Accelerometer):
@@ -647,6 +651,30 @@ class Scene:
                 f"listener={self.listener!r} must be an Accelerometer or a Microphone"
             )
         self._check_path()
+
+    def _check_shell(self, hollow: bool):
+        """A hollow ball takes the thin-shell law, on the impedance plate (the modal contact
+        and the rolling contact take the power laws only), and the shell law a hollow ball."""
+        law, plate = self.contact.law, self.contact.plate
+        if hollow and law != "shell":
+            raise ParameterError(
+                f"contact.law={law!r}: a hollow ball's contact is the thin-shell law, "
+                f"contact.law='shell'"
+            )
+        if not hollow and law == "shell":
+            raise ParameterError(
+                "contact.law='shell' applies to a hollow ball only (ball.thickness given)"
+            )
+        if hollow and plate == "modal":
+            raise ParameterError(
+                "contact.plate='modal' does not take contact.law='shell' (the modal contact "
+                "integrates the power laws); allowed: 'impedance', 'auto' (the impedance plate)"
+            )
+        if hollow and self.velocity is not None:
+            raise ParameterError(
+                f"drop.velocity={self.velocity!r}: a hollow ball does not roll in this engine "
+                f"(the rolling contact takes the power laws); leave drop.velocity out"
+            )
 
     def _check_path(self):
         """``velocity`` and ``rolling``: a horizontal velocity needs the rolling's
