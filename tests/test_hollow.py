@@ -215,3 +215,30 @@ def test_table_tennis_preset_renders():
         rtol=scene.contact.rtol,
     )
     assert first.result.restitution == pytest.approx(own.restitution, rel=1e-12)
+
+
+def test_cost_estimate_takes_the_shell_contact():
+    # a hollow ball's rigid-plate contact time in the cost estimate is its shell law's at
+    # small deflection, pi sqrt(m / k0): the solver's at a slow impact, to its tolerance
+    from synth import cost
+
+    b = HollowBall("abs", 0.02, thickness=5.2e-4)
+    tau = cost.hertz_contact_time(b, RIGID, 0.05)
+    assert tau == pytest.approx(math.pi * math.sqrt(b.mass / shell_law(b).stiffness), rel=1e-14)
+    # the same ball without its loss (ELASTIC_SHELL: ABS's elastic constants and density)
+    solved = _lumped(HollowBall(ELASTIC_SHELL, 0.02, thickness=5.2e-4), 0.05, rtol=1e-9)
+    assert solved.contact_time == pytest.approx(tau, rel=1e-8)
+
+
+def test_bank_axes_reach_the_hollow_ball():
+    # a bank's ``ball.*`` axes are preset overrides: the hollow ball's own fields vary too
+    from synth.io.presets import canonical, read
+
+    base = load_preset("tennis-ball-on-concrete")
+    softer = load_preset("tennis-ball-on-concrete", ["ball.pressure=4e4", "ball.thickness=0.003"])
+    assert (softer.ball.pressure, softer.ball.thickness) == (4e4, 0.003)
+    assert softer.ball.mass < base.ball.mass
+    data = read(synth.io.presets.find("tennis-ball-on-concrete"))
+    c = canonical(data, varied=("ball.pressure",))
+    assert c["ball"]["kind"] == "hollow" and "pressure" not in c["ball"]
+    assert c["contact"]["law"] == "shell"
