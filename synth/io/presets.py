@@ -14,6 +14,11 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     material = "steel"              # a table name (synth materials), or an inline table
     radius = 0.005                  # m
     mass = 4.17e-3                  # kg (optional: from the density and radius)
+    kind = "solid"                  # optional: "solid" (default) or "hollow" (a HollowBall:
+                                    # a thin shell with air inside, docs/physics.md,
+                                    # "Hollow balls"; its mass is derived, never given)
+    thickness = 5.2e-4              # m, the shell's wall (kind = "hollow" only)
+    pressure = 0.0                  # Pa above the atmosphere (kind = "hollow" only)
 
     [plate]
     material = "mdf-18"             # a table name or an inline table (damping: to render)
