@@ -133,7 +133,14 @@ def test_parameter_errors_name_the_field():
         HollowBall("abs", 0.02)
     b = _ball()
     with pytest.raises(synth.ParameterError, match=r"contact='hertz': a HollowBall's contact"):
-        solve_impact(b, RIGID, 1.0)
+        solve_impact(b, RIGID, 1.0, contact="hertz")
+    # no law named: the ball's own
+    assert (
+        solve_impact(b, RIGID, 1.0).restitution
+        == solve_impact(b, RIGID, 1.0, contact="shell").restitution
+    )
+    with pytest.raises(synth.ParameterError, match=r"the modal contact integrates the power"):
+        synth.simulate_bounces(b, RIGID, drop_height=0.3, plate_model="modal")
     with pytest.raises(synth.ParameterError, match=r"contact='shell' applies to a HollowBall"):
         solve_impact(synth.Ball("steel", 0.01), RIGID, 1.0, contact="shell")
     with pytest.raises(synth.ParameterError, match=r"contact\.law='hertz': a hollow ball"):

@@ -634,7 +634,7 @@ def solve_impact(
     *,
     position: tuple[float, float] | None = None,
     gravity: float = GRAVITY,
-    contact: str = "hertz",
+    contact: str | None = None,
     rtol: float = 1e-6,
     dissipation: float | None = None,
     viscous_time: float | None = None,
@@ -660,9 +660,12 @@ def solve_impact(
         time, so the two are solved together by fixed-point iteration.
     gravity : float >= 0
         m/s^2.
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
-        Contact law and its parameters (``dissipation``, ``viscous_time``, ``exponent``,
-        ``stiffness``, ``layer_depth``; see :func:`contact_parameters`).
+    contact : str or None
+        Contact law: "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic",
+        "power-law" or "shell"; None: the ball's own, "shell" for a
+        :class:`~synth.physics.scene.HollowBall`, else "hertz". Its parameters:
+        ``dissipation``, ``viscous_time``, ``exponent``, ``stiffness``, ``layer_depth`` (see
+        :func:`contact_parameters`).
     surface : {"ideal", "fitted", "auto"}
         The plate's side of the contact (see :func:`contact_parameters`; "auto": the fitted
         surface where the material has one, the measured model).
@@ -946,14 +949,15 @@ class ContactSolver:
         plate,
         *,
         gravity: float = GRAVITY,
-        law: str = "hertz",
+        law: str | None = None,
         rtol: float = 1e-6,
         n_points: int = 128,
         method: str = "auto",
         **contact_options,
     ) -> ContactSolver:
         """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
-        ``contact_options``, see :func:`contact_parameters`); gravity in m/s^2."""
+        ``contact_options``, see :func:`contact_parameters`; None: the ball's own law,
+        "shell" for a hollow ball, else "hertz"); gravity in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):

@@ -154,6 +154,12 @@ def shell_law(ball: HollowBall) -> ShellLaw:
     return ShellLaw(kR, cP, kg, A)
 
 
+def own_law(ball: Ball) -> str:
+    """The contact law a ball takes when none is named: "shell" for a
+    :class:`~synth.physics.scene.HollowBall` (its only law), else "hertz"."""
+    return "shell" if isinstance(ball, HollowBall) else "hertz"
+
+
 def resolved_surface(plate: Plate, law: str, surface: str) -> str:
     """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
     "auto" is, for the Hertz law, "fitted" on a material with a fitted surface
@@ -286,7 +292,7 @@ def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> N
 def contact_parameters(
     ball: Ball,
     plate: Plate,
-    contact: str = "hertz",
+    contact: str | None = "hertz",
     *,
     dissipation: float | None = None,
     viscous_time: float | None = None,
@@ -299,7 +305,9 @@ def contact_parameters(
 
     Parameters
     ----------
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law", "shell"}
+    contact : str or None
+        One of :data:`~synth.physics.scene.CONTACT_LAWS`; None: the ball's own law
+        (:func:`own_law`).
         "shell": the thin-shell law of a :class:`~synth.physics.scene.HollowBall`
         (:func:`shell_law`; its only law, and for it only).
     surface : {"ideal", "fitted", "auto"}
@@ -319,6 +327,8 @@ def contact_parameters(
     layer_depth : float > 0
         Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
     """
+    if contact is None:
+        contact = own_law(ball)
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or contact == "shell":
