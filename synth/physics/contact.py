@@ -362,8 +362,8 @@ def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, tol, n_points) -> Shel
         tol * TOLERANCE_SAFETY,
     )  # fmt: skip
     r = r.tolist()
-    status = int(r[0])
-    residual = r[11]
+    status = int(r[_shell.SR_STATUS])
+    residual = r[_shell.SR_ENERGY_RESIDUAL]
     energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
     if energy_failed:
         status = ENERGY_IMBALANCE
@@ -372,16 +372,16 @@ def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, tol, n_points) -> Shel
         obj,
         "__dict__",
         {
-            "restitution": r[2],
-            "contact_time": r[3],
-            "separation_time": r[4],
-            "max_penetration": r[5],
-            "peak_force": r[6],
-            "impulse": r[7],
-            "inelasticity": r[8],
+            "restitution": r[_shell.SR_RESTITUTION],
+            "contact_time": r[_shell.SR_CONTACT_TIME],
+            "separation_time": r[_shell.SR_SEPARATION_TIME],
+            "max_penetration": r[_shell.SR_MAX_PENETRATION],
+            "peak_force": r[_shell.SR_PEAK_FORCE],
+            "impulse": r[_shell.SR_IMPULSE],
+            "inelasticity": r[_shell.SR_INELASTICITY],
             "settled": status == _k.SETTLED,
-            "rebound_speed": r[9],
-            "plate_energy": r[10],
+            "rebound_speed": r[_shell.SR_REBOUND_SPEED],
+            "plate_energy": r[_shell.SR_PLATE_ENERGY],
             "energy_residual": residual,
             "success": status >= 0,
             "status": status,
@@ -389,22 +389,22 @@ def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, tol, n_points) -> Shel
                 _energy_message(residual)
                 if energy_failed
                 else _TINY_REBOUND
-                if r[1]
+                if r[_shell.SR_TINY_REBOUND]
                 else _MESSAGES.get(status, "Unknown status.")
             ),
-            "n_steps": int(r[12]),
+            "n_steps": int(r[_shell.SR_N_STEPS]),
             "method": "DOPRI5",
             "_dense": ShellDense(
                 hist,
-                r[8],
-                r[13],
+                r[_shell.SR_INELASTICITY],
+                r[_shell.SR_G],
                 rR,
-                r[17],
+                r[_shell.SR_XT],
                 1.0 - rR,
-                law.viscous_time / r[15],
-                r[14],
-                r[15],
-                r[16],
+                law.viscous_time / r[_shell.SR_THETA],
+                r[_shell.SR_S_CONTACT],
+                r[_shell.SR_THETA],
+                r[_shell.SR_F_SCALE],
                 n_points,
             ),  # fmt: skip
         },
