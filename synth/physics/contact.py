@@ -164,7 +164,8 @@ class ImpactResult:
     n_steps : int
         Accepted integration steps (after the series start of the contact).
     method : str
-        ``"DOP853"`` or ``"Radau"``.
+        ``"DOP853"`` or ``"Radau"``; ``"DOPRI5"`` for a hollow ball's thin-shell law
+        (:class:`ShellImpactResult`).
     """
 
     restitution: float
