@@ -249,3 +249,27 @@ def test_bank_axes_reach_the_hollow_ball():
     c = canonical(data, varied=("ball.pressure",))
     assert c["ball"]["kind"] == "hollow" and "pressure" not in c["ball"]
     assert c["contact"]["law"] == "shell"
+
+
+@pytest.mark.slow
+def test_bank_varies_the_hollow_balls_pressure(tmp_path):
+    # a real bank (one worker process) over a hollow ball's own field: a softer ball (less
+    # gas) has a longer first contact (k0 = k_R + 2 pi R p, tau ~ pi sqrt(m / k0))
+    import json
+
+    from synth import bank
+    from synth.bank import spec as bank_spec
+
+    spec = bank_spec.from_dict(
+        {
+            "preset": "basketball-on-wooden-floor",
+            "vary": {"ball.pressure": [4e4, 6e4]},
+            "render": {"max_duration": 1.0, "max_tail": 0.2},
+        },
+        base_dir=tmp_path,
+    )
+    result = bank.run(spec, tmp_path / "out", jobs=1)
+    assert "2 done" in result.summary()
+    rows = [json.loads(line) for line in (tmp_path / "out" / "manifest.jsonl").open()]
+    assert [r["ball.pressure"] for r in rows] == [4e4, 6e4]
+    assert rows[0]["first_contact_time"] > rows[1]["first_contact_time"]
