@@ -273,3 +273,15 @@ def test_bank_varies_the_hollow_balls_pressure(tmp_path):
     rows = [json.loads(line) for line in (tmp_path / "out" / "manifest.jsonl").open()]
     assert [r["ball.pressure"] for r in rows] == [4e4, 6e4]
     assert rows[0]["first_contact_time"] > rows[1]["first_contact_time"]
+
+
+def test_a_shell_result_keeps_its_class_with_another_message():
+    # the edge iteration reports its best solution with a new message (contact._with_message):
+    # a hollow ball's result must keep its own pulse (it failed before: the power laws' pulse
+    # kernel read the shell's dense output)
+    from synth.physics import contact
+
+    r = solve_impact(_ball(), RIGID, 1.0)
+    copy = contact._with_message(r, "another message")
+    assert type(copy) is type(r) and copy.message == "another message"
+    np.testing.assert_array_equal(copy.force, r.force)

@@ -825,8 +825,9 @@ def _solve_at(
 
 
 def _with_message(result, message):
-    """A copy of ``result`` (an :class:`ImpactResult`) with another ``message``."""
-    obj = object.__new__(ImpactResult)
+    """A copy of ``result`` (an :class:`ImpactResult`, of its own class) with another
+    ``message``."""
+    obj = object.__new__(type(result))
     d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
     d["message"] = message
     object.__setattr__(obj, "__dict__", d)
