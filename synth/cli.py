@@ -584,6 +584,7 @@ def _cmd_bench(args):
             bench.format_rolling,
         ),
         "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
+        "hollow": (bench.run_hollow, bench.format_hollow),
         "cost": (bench.run_cost, bench.format_cost),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
@@ -1038,9 +1039,11 @@ def build_parser() -> argparse.ArgumentParser:
             "cold",
             "rolling",
             "rollingcheck",
+            "hollow",
             "cost",
         ],
-        help="contact: solver error and time per impact against scipy; render: audio "
+        help="hollow: the hollow balls against their rule books' bounce tests; contact: solver "
+        "error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
         "beside the thesis' model and measurements; analysis: recovered "
         "restitution and onsets against noise; live: the live engine's "

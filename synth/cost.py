@@ -322,7 +322,8 @@ class CostEstimate:
     impact_speed : float
         First impact's speed, m/s.
     hertz_contact : float
-        Hertz' contact time of the first impact on a rigid plate, s.
+        Hertz' contact time of the first impact on a rigid plate, s (a hollow ball's: its
+        shell law's at small deflection, :func:`hertz_contact_time`).
     longest_contact : float
         Longest contact the series can have, s.
     settles : bool
@@ -398,7 +399,7 @@ class CostEstimate:
             ("highest frequency", f"{self.max_frequency:.6g} Hz"),
             ("plate modes", f"{self.modes}"),
             ("first impact speed", f"{self.impact_speed:.4g} m/s"),
-            ("Hertz contact (rigid plate)", f"{self.hertz_contact:.4g} s"),
+            ("contact on a rigid plate", f"{self.hertz_contact:.4g} s"),
             ("longest contact", f"{self.longest_contact:.4g} s" + (REST if self.settles else "")),
             ("pulse grid", f"{self.pulse_points} points"),
             (
@@ -644,8 +645,15 @@ def _twisting_count(k: float, length: float, g: float) -> int:
 
 def hertz_contact_time(ball, plate, speed: float) -> float:
     """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
-    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``."""
-    from synth.physics.contact_law import effective_modulus
+    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``. For a hollow ball
+    (:class:`~synth.physics.scene.HollowBall`), the thin-shell law's at small deflection,
+    where it is linear: the half period ``pi sqrt(m / k0)`` (docs/physics.md, "Hollow
+    balls"), at any speed."""
+    from synth.physics.contact_law import effective_modulus, shell_law
+    from synth.physics.scene import HollowBall
+
+    if isinstance(ball, HollowBall):
+        return math.pi * math.sqrt(ball.mass / shell_law(ball).stiffness)
 
     e_star = effective_modulus(ball, plate)
     depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4

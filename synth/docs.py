@@ -22,6 +22,7 @@ BENCH_PAGES = {
     "render": "benchmarks.md",
     "rolling": "rolling.md",
     "rollingcheck": "validation.md",
+    "hollow": "validation.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
     "long": "benchmarks.md",

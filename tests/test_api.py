@@ -11,6 +11,7 @@ from synth import contact, materials
 PUBLIC = [
     "Material",
     "Ball",
+    "HollowBall",
     "Plate",
     "Scene",
     "Contact",

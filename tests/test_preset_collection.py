@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from synth import simulate_scene
+from synth import cost, simulate_scene
 from synth.errors import ParameterError
 from synth.io.presets import PresetError, find, load_preset, load_preset_with_options, read
 from synth.physics.materials import TABLE
-from synth.physics.scene import Accelerometer, Microphone
+from synth.physics.scene import Accelerometer, HollowBall, Microphone
 
 REPO = Path(__file__).resolve().parent.parent
 FILES = sorted((REPO / "synth" / "presets").glob("*.toml"))
@@ -137,8 +137,14 @@ def test_preset_scene_computes(path):
         # Contact times lie between ~10 us (steel on steel) and ~1 ms (heavy ball on a thin
         # plate), docs/physics.md, "Hertz contact"; a soft rubber ball is allowed a decade more
         # on a plate at rest. On a ringing plate a slow ball may ride the surface's motion
-        # longer (the rubber ball's last bounces on its floor: 16 ms at a few cm/s).
-        assert 1e-6 < r.contact_time < (0.1 if ringing and imp.index > 1 else 1e-2)
+        # longer (the rubber ball's last bounces on its floor: 16 ms at a few cm/s). A hollow
+        # ball bends instead of indenting: its contact is about its shell law's half period
+        # pi sqrt(m / k0) (docs/physics.md, "Hollow balls"; 11 ms for a basketball), which
+        # Pogorelov's softening lengthens.
+        longest = 0.1 if ringing and imp.index > 1 else 1e-2
+        if isinstance(scene.ball, HollowBall):
+            longest = 2.0 * cost.hertz_contact_time(scene.ball, scene.plate, imp.speed)
+        assert 1e-6 < r.contact_time < longest
     # Every scene of the collection bounces (no first-impact settling): e1 > 0.1.
     assert seq[0].result.restitution > 0.1
     # Each impact speed is the previous rebound speed (free flight is lossless, thesis A.2;

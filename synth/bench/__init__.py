@@ -1,7 +1,7 @@
 """Benchmarks: numerical error against run time (``synth bench ...``).
 
 One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold,
-rolling, cost; the live
+rolling, hollow, cost; the live
 engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
 figure is measured in one run on this machine, after a warm-up. Nothing here is imported
 by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
@@ -24,6 +24,7 @@ from synth.bench.contact import (
 )
 from synth.bench.cost import format_cost, record_rates, run_cost
 from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
+from synth.bench.hollow import format_hollow, run_hollow
 from synth.bench.long import format_long, long_child, long_recording, run_long
 from synth.bench.render import format_render, render_scenes, run_render
 from synth.bench.rolling import format_rolling, run_rolling
@@ -57,6 +58,8 @@ from synth.bench.thesis import (
 )
 
 __all__ = [
+    "format_hollow",
+    "run_hollow",
     "format_random",
     "run_random",
     "HIRES_RATES",

@@ -14,6 +14,11 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
     material = "steel"              # a table name (synth materials), or an inline table
     radius = 0.005                  # m
     mass = 4.17e-3                  # kg (optional: from the density and radius)
+    kind = "solid"                  # optional: "solid" (default) or "hollow" (a HollowBall:
+                                    # a thin shell with air inside, docs/physics.md,
+                                    # "Hollow balls"; its mass is derived, never given)
+    thickness = 5.2e-4              # m, the shell's wall (kind = "hollow" only)
+    pressure = 0.0                  # Pa above the atmosphere (kind = "hollow" only)
 
     [plate]
     material = "mdf-18"             # a table name or an inline table (damping: to render)
@@ -107,6 +112,7 @@ from synth.physics.scene import (
     Accelerometer,
     Ball,
     Contact,
+    HollowBall,
     Microphone,
     Plate,
     Rolling,
@@ -126,8 +132,12 @@ def _fields(cls):
 
 
 #: Keys allowed in each section. Ball, plate and contact keys are the dataclass fields.
+#: The kinds of ball a preset's ``ball.kind`` names: a solid sphere (the default) or a
+#: hollow one (a thin shell with gas inside, :class:`~synth.physics.scene.HollowBall`, whose
+#: keys ``thickness`` and ``pressure`` apply to it only).
+BALL_KINDS = {"solid": Ball, "hollow": HollowBall}
 SECTIONS = {
-    "ball": _fields(Ball),
+    "ball": _fields(HollowBall) + ("kind",),
     "plate": _fields(Plate),
     "drop": ("height", "position", "velocity"),
     "listener": ("type", "position"),
@@ -389,6 +399,7 @@ def _scene_from_dict(data, source):
     p = dict(data["plate"])
     if "material" not in b or "material" not in p:
         raise PresetError(f"{source}: ball.material and plate.material are required")
+    ball_class = _ball_class(b, source)
     _require(b, _required_fields(Ball), "ball")
     _require(p, _required_fields(Plate), "plate")
     b["material"] = _material(b["material"], "ball.material")
@@ -397,7 +408,7 @@ def _scene_from_dict(data, source):
         for k, v in kw.items():
             if k not in ("material", "boundary", "mass") and not isinstance(v, (int, float)):
                 raise PresetError(f"{source}: {sec}.{k}={v!r} must be a number")
-    ball = Ball(**b)
+    ball = ball_class(**b)
     plate = Plate(**p)
     drop = data["drop"]
     if "height" not in drop:
@@ -433,7 +444,7 @@ def _scene_from_dict(data, source):
                 f"{source}: listener.position={lp!r} must be a list of numbers (metres)"
             )
         listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
-    contact = Contact(**data["contact"]) if "contact" in data else None
+    contact = Contact(**_contact_section(data)) if "contact" in data else None
     gravity = data.get("gravity", GRAVITY)
     description = data.get("description", "")
     if not isinstance(description, str):
@@ -450,6 +461,36 @@ def _scene_from_dict(data, source):
         rolling=rolling,
     )
     return scene, _render_section(data.get("render", {}), source)
+
+
+def _ball_class(section: dict, source: str):
+    """The ball's class named by ``section["kind"]`` (:data:`BALL_KINDS`; removed from
+    ``section``), or ``PresetError``; the hollow ball's keys refused on a solid one."""
+    kind = section.pop("kind", "solid")
+    if kind not in BALL_KINDS:
+        raise PresetError(
+            f"{source}: ball.kind={kind!r} must be one of {', '.join(map(repr, BALL_KINDS))}"
+        )
+    if kind == "solid":
+        for key in ("thickness", "pressure"):
+            if key in section:
+                raise PresetError(
+                    f"{source}: ball.{key}={section[key]!r} applies to ball.kind='hollow' only"
+                )
+    return BALL_KINDS[kind]
+
+
+def _is_hollow(data: dict) -> bool:
+    return data.get("ball", {}).get("kind", "solid") == "hollow"
+
+
+def _contact_section(data: dict) -> dict:
+    """The ``[contact]`` section with a hollow ball's law, "shell", where it names none (a
+    hollow ball has that law only, :class:`~synth.physics.scene.Scene`)."""
+    section = dict(data["contact"])
+    if _is_hollow(data):
+        section.setdefault("law", "shell")
+    return section
 
 
 def _render_section(section: dict, source: str) -> dict:
@@ -520,9 +561,13 @@ def with_defaults(data: dict, *, varied=()) -> dict:
     must be a valid preset (:func:`scene_from_dict`)."""
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
-    for section, cls in (("ball", Ball), ("plate", Plate), ("contact", Contact)):
+    hollow = _is_hollow(data)
+    ball_class = HollowBall if hollow else Ball
+    for section, cls in (("ball", ball_class), ("plate", Plate), ("contact", Contact)):
         out[section] = {**_fixed_defaults(cls), **out.get(section, {})}
     contact = {"model": DEFAULT_CONTACT_MODEL, "theory": DEFAULT_PLATE_THEORY, **out["contact"]}
+    if hollow:
+        contact.setdefault("law", "shell")
     if "contact.model" not in varied:
         named = zip(("law", "plate", "surface"), CONTACT_MODELS[contact["model"]], strict=True)
         contact = {**dict(named), **contact}

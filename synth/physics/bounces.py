@@ -169,7 +169,7 @@ def simulate_bounces(
     drop_height: float,
     position: tuple[float, float] | None = None,
     gravity: float = GRAVITY,
-    contact_law: str = "hertz",
+    contact_law: str | None = None,
     rtol: float = 1e-6,
     floor_db: float = DEFAULT_FLOOR_DB,
     max_duration: float = 60.0,
@@ -192,9 +192,11 @@ def simulate_bounces(
         Impact point, m from a plate corner (None: far from the edges).
     gravity : float > 0
         m/s^2.
-    contact_law : str
-        "hertz" (default), "elastic-foundation", "hunt-crossley", "viscoelastic" or
-        "power-law"; its parameters go in ``contact_options`` (see
+    contact_law : str or None
+        "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law" or
+        "shell" (a hollow ball's); None (default): the ball's own, "shell" for a
+        :class:`~synth.physics.scene.HollowBall`, else "hertz"; its parameters go in
+        ``contact_options`` (see
         :func:`synth.physics.contact_law.contact_parameters`).
     rtol : float
         Relative accuracy of each impact's restitution and contact time.

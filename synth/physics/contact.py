@@ -46,7 +46,8 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
-from synth.physics.contact_law import contact_parameters
+from synth.physics.contact_kernels import shell as _shell
+from synth.physics.contact_law import ShellLaw, contact_parameters
 from synth.physics.scene import Ball, Plate
 
 #: Zener's inelasticity above which the contact is integrated by the implicit Radau IIA
@@ -163,7 +164,8 @@ class ImpactResult:
     n_steps : int
         Accepted integration steps (after the series start of the contact).
     method : str
-        ``"DOP853"`` or ``"Radau"``.
+        ``"DOP853"`` or ``"Radau"``; ``"DOPRI5"`` for a hollow ball's thin-shell law
+        (:class:`ShellImpactResult`).
     """
 
     restitution: float
@@ -283,6 +285,132 @@ class ImpactResult:
         _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
         out *= d.f_scale
         slope *= d.f_scale / d.theta
+
+
+class ShellDense(NamedTuple):
+    """The dense output of a thin-shell contact (:mod:`.contact_kernels.shell`): its
+    history, the dimensionless parameters (``lam``, ``G``, ``r_R``, ``x_t``, ``r_g``, ``a``,
+    end of contact ``s_contact``) and the scales (``theta``, s; ``f_scale``, N)."""
+
+    hist: np.ndarray
+    lam: float
+    G: float
+    rR: float
+    xt: float
+    rg: float
+    a: float
+    s_contact: float
+    theta: float
+    f_scale: float
+    n_points: int
+
+
+class ShellImpactResult(ImpactResult):
+    """An :class:`ImpactResult` of the thin-shell law (a
+    :class:`~synth.physics.scene.HollowBall`): the same fields, its pulse from the shell
+    kernel's dense output."""
+
+    @property
+    def exponent(self) -> float:
+        """1: the shell law is linear at first touch (Reissner's stiffness and the gas')."""
+        return 1.0
+
+    @property
+    def pulse_order(self) -> float:
+        """``q`` of the trapezoid rule's error ``C h^q`` on the pulse: 2 for the lossless
+        shell (the force rises like ``t``), 1 with the Kelvin-Voigt loss (the force starts
+        with a step ``A k_R v``)."""
+        return 1.0 if self._dense.a != 0.0 else 2.0
+
+    def _sample_pulse(self):
+        d = self._dense
+        s = np.linspace(0.0, d.s_contact, d.n_points)
+        forces = np.empty(d.n_points)
+        slopes = np.empty(d.n_points)
+        _shell.shell_force_slope(
+            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, forces, slopes
+        )
+        if self.status != _k.SEPARATED:
+            forces[-1] = _shell_force_at_end(d)
+        times = s * d.theta
+        forces *= d.f_scale
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
+    def _force_and_slope(self, s, out, slope) -> None:
+        d = self._dense
+        _shell.shell_force_slope(
+            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, out, slope
+        )
+        out *= d.f_scale
+        slope *= d.f_scale / d.theta
+
+
+def _shell_force_at_end(d: ShellDense) -> float:
+    """The dimensionless force at the end of a settled contact's dense output."""
+    row = d.hist[-1]
+    f, _ = _shell.shell_force(row[_shell.S_X1], row[_shell.S_W1], d.lam, d.rR, d.xt, d.rg, d.a)
+    return f
+
+
+def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, tol, n_points) -> ShellImpactResult:
+    """One impact of the thin-shell ``law`` (checked values, SI units; docs/physics.md,
+    "Hollow balls"), integrated by :func:`.contact_kernels.shell.shell_impact`."""
+    k0 = law.stiffness
+    rR = law.reissner_stiffness / k0
+    r, hist = _shell.shell_impact(
+        m, k0, rR, law.transition, 1.0 - rR, law.viscous_time, beta, v_in, g, v_free,
+        tol * TOLERANCE_SAFETY,
+    )  # fmt: skip
+    r = r.tolist()
+    status = int(r[_shell.SR_STATUS])
+    residual = r[_shell.SR_ENERGY_RESIDUAL]
+    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
+    if energy_failed:
+        status = ENERGY_IMBALANCE
+    obj = object.__new__(ShellImpactResult)
+    object.__setattr__(
+        obj,
+        "__dict__",
+        {
+            "restitution": r[_shell.SR_RESTITUTION],
+            "contact_time": r[_shell.SR_CONTACT_TIME],
+            "separation_time": r[_shell.SR_SEPARATION_TIME],
+            "max_penetration": r[_shell.SR_MAX_PENETRATION],
+            "peak_force": r[_shell.SR_PEAK_FORCE],
+            "impulse": r[_shell.SR_IMPULSE],
+            "inelasticity": r[_shell.SR_INELASTICITY],
+            "settled": status == _k.SETTLED,
+            "rebound_speed": r[_shell.SR_REBOUND_SPEED],
+            "plate_energy": r[_shell.SR_PLATE_ENERGY],
+            "energy_residual": residual,
+            "success": status >= 0,
+            "status": status,
+            "message": (
+                _energy_message(residual)
+                if energy_failed
+                else _TINY_REBOUND
+                if r[_shell.SR_TINY_REBOUND]
+                else _MESSAGES.get(status, "Unknown status.")
+            ),
+            "n_steps": int(r[_shell.SR_N_STEPS]),
+            "method": "DOPRI5",
+            "_dense": ShellDense(
+                hist,
+                r[_shell.SR_INELASTICITY],
+                r[_shell.SR_G],
+                rR,
+                r[_shell.SR_XT],
+                1.0 - rR,
+                law.viscous_time / r[_shell.SR_THETA],
+                r[_shell.SR_S_CONTACT],
+                r[_shell.SR_THETA],
+                r[_shell.SR_F_SCALE],
+                n_points,
+            ),  # fmt: skip
+        },
+    )
+    return obj
 
 
 def solve_contact(
@@ -426,8 +554,12 @@ def _check_points(n_points) -> int:
     return int(n_points)
 
 
-def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method):
-    """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name)."""
+def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None):
+    """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name);
+    with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
+    (``K, n, mu, A`` and ``method`` are then its own and unused)."""
+    if shell is not None:
+        return _solve_shell(m, shell, beta, v_in, g, v_free, tol, n_points)
     r, hist = _k.impact(
         m,
         K,
@@ -503,7 +635,7 @@ def solve_impact(
     *,
     position: tuple[float, float] | None = None,
     gravity: float = GRAVITY,
-    contact: str = "hertz",
+    contact: str | None = None,
     rtol: float = 1e-6,
     dissipation: float | None = None,
     viscous_time: float | None = None,
@@ -529,9 +661,12 @@ def solve_impact(
         time, so the two are solved together by fixed-point iteration.
     gravity : float >= 0
         m/s^2.
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
-        Contact law and its parameters (``dissipation``, ``viscous_time``, ``exponent``,
-        ``stiffness``, ``layer_depth``; see :func:`contact_parameters`).
+    contact : str or None
+        Contact law: "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic",
+        "power-law" or "shell"; None: the ball's own, "shell" for a
+        :class:`~synth.physics.scene.HollowBall`, else "hertz". Its parameters:
+        ``dissipation``, ``viscous_time``, ``exponent``, ``stiffness``, ``layer_depth`` (see
+        :func:`contact_parameters`).
     surface : {"ideal", "fitted", "auto"}
         The plate's side of the contact (see :func:`contact_parameters`; "auto": the fitted
         surface where the material has one, the measured model).
@@ -563,6 +698,11 @@ def solve_impact(
     )
     K, n, mu, A = law.stiffness, law.exponent, law.dissipation, law.viscous_time
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
+    if law.shell is not None:
+        solver = ContactSolver(
+            ball.mass, K, n, 0.0, gravity, rtol, n_points, plate, "auto", A, shell=law.shell
+        )
+        return solver.solve(speed, position=position, free_velocity=plate_velocity)
     kwargs = dict(
         mass=ball.mass,
         stiffness=K,
@@ -602,8 +742,9 @@ EDGE_ITERATIONS = 80
 
 
 def _solve_at(
-    plate, x, y, m, K, v_in, g, n, mu, A, v_free, tol, n_points, first=None, beta_inf=None
-):
+    plate, x, y, m, K, v_in, g, n, mu, A, v_free, tol, n_points, first=None, beta_inf=None,
+    shell=None,
+):  # fmt: skip
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
     :func:`synth.physics.impedance.point_admittance` (lumped values checked by the caller).
 
@@ -624,7 +765,7 @@ def _solve_at(
     result = (
         first
         if first is not None
-        else _solve(m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto")
+        else _solve(m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell)
     )
     if plate.boundary != "free" or not result.success:
         return result
@@ -667,7 +808,7 @@ def _solve_at(
             )
         # fixed-point step while it stays inside the bracket and contracts; else bisect
         beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
-        result = _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto")
+        result = _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell)
         if not result.success:
             return result
         target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
@@ -684,8 +825,9 @@ def _solve_at(
 
 
 def _with_message(result, message):
-    """A copy of ``result`` (an :class:`ImpactResult`) with another ``message``."""
-    obj = object.__new__(ImpactResult)
+    """A copy of ``result`` (an :class:`ImpactResult`, of its own class) with another
+    ``message``."""
+    obj = object.__new__(type(result))
     d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
     d["message"] = message
     object.__setattr__(obj, "__dict__", d)
@@ -725,6 +867,10 @@ class ContactSolver:
     viscous_time : float
         The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; exponent 1.5
         only).
+    shell : ShellLaw or None
+        The thin-shell law of a hollow ball (:func:`synth.physics.contact_law.shell_law`),
+        which then sets the contact: ``stiffness`` its ``k0`` (N/m), ``exponent`` 1,
+        ``viscous_time`` its shell's, ``dissipation`` 0.
     """
 
     mass: float
@@ -737,8 +883,12 @@ class ContactSolver:
     plate: Plate | None = None
     method: str = "auto"
     viscous_time: float = 0.0
+    shell: ShellLaw | None = None
 
     def __post_init__(self):
+        if self.shell is not None:
+            self._check_shell()
+            return
         checked = dict(
             mass=checks.positive("mass", self.mass, "kg"),
             stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
@@ -763,6 +913,37 @@ class ContactSolver:
         )
         object.__setattr__(self, "_beta_inf", beta_inf)
 
+    def _check_shell(self) -> None:
+        """``__post_init__`` of a thin-shell solver: its law's constants are the law's."""
+        law = self.shell
+        if not isinstance(law, ShellLaw):
+            raise ParameterError(f"shell={law!r} must be a ShellLaw or None")
+        if (self.stiffness, self.exponent, self.dissipation, self.viscous_time) != (
+            law.stiffness, 1.0, 0.0, law.viscous_time,
+        ):  # fmt: skip
+            raise ParameterError(
+                f"stiffness={self.stiffness!r}, exponent={self.exponent!r}, dissipation="
+                f"{self.dissipation!r}, viscous_time={self.viscous_time!r}: with a shell law they "
+                f"are its own ({law.stiffness!r}, 1.0, 0.0, {law.viscous_time!r})"
+            )
+        checked = dict(
+            mass=checks.positive("mass", self.mass, "kg"),
+            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+            rtol=checks.in_range(
+                "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
+            ),
+            n_points=_check_points(self.n_points),
+            method=checks.choice("method", self.method, ("auto",)),
+        )
+        if self.plate is not None and not isinstance(self.plate, Plate):
+            raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
+        for key, value in checked.items():
+            object.__setattr__(self, key, value)
+        beta_inf = (
+            None if self.plate is None else 1.0 / impedance.infinite_plate_impedance(self.plate)
+        )
+        object.__setattr__(self, "_beta_inf", beta_inf)
+
     @classmethod
     def for_pair(
         cls,
@@ -770,14 +951,15 @@ class ContactSolver:
         plate,
         *,
         gravity: float = GRAVITY,
-        law: str = "hertz",
+        law: str | None = None,
         rtol: float = 1e-6,
         n_points: int = 128,
         method: str = "auto",
         **contact_options,
     ) -> ContactSolver:
         """The solver of ``ball`` on ``plate`` under the contact ``law`` (its parameters in
-        ``contact_options``, see :func:`contact_parameters`); gravity in m/s^2."""
+        ``contact_options``, see :func:`contact_parameters`; None: the ball's own law,
+        "shell" for a hollow ball, else "hertz"); gravity in m/s^2."""
         if not isinstance(ball, Ball):
             raise ParameterError(f"ball={ball!r} must be a Ball")
         if not isinstance(plate, Plate):
@@ -794,6 +976,7 @@ class ContactSolver:
             plate,
             method,
             c.viscous_time,
+            c.shell,
         )
 
     @property
@@ -850,6 +1033,7 @@ class ContactSolver:
                 self.rtol,
                 self.n_points,
                 self.method,
+                self.shell,
             )
         if self.plate is None:
             raise ParameterError("a ContactSolver without a plate needs admittance (m/(N s))")
@@ -867,6 +1051,7 @@ class ContactSolver:
                 self.rtol,
                 self.n_points,
                 self.method,
+                self.shell,
             )
         x, y = self.plate.check_position(position, "position")
         return _solve_at(
@@ -884,4 +1069,5 @@ class ContactSolver:
             self.rtol,
             self.n_points,
             beta_inf=self._beta_inf,
+            shell=self.shell,
         )

@@ -9,12 +9,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics.materials import LossFactor, contact_surface, has_contact_surface
 from synth.physics.materials import get as get_material
-from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, Plate
+from synth.physics.scene import CONTACT_LAWS, SURFACE_MODELS, Ball, HollowBall, Plate
 
 
 def effective_modulus(ball: Ball, plate: Plate) -> float:
@@ -69,6 +71,93 @@ class ContactLaw:
     exponent: float
     dissipation: float = 0.0
     viscous_time: float = 0.0
+    shell: ShellLaw | None = None
+
+
+#: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled)
+#: cap, ``F = C (E h^(5/2) / (R (1 - nu^2)^(3/4))) delta^(1/2)`` (A. V. Pogorelov, "Bendings
+#: of Surfaces and Stability of Shells", AMS Translations of Mathematical Monographs 72,
+#: 1988), dimensionless.
+POGORELOV_CONSTANT = 3.56
+
+
+@dataclass(frozen=True)
+class ShellLaw:
+    """The thin-shell contact of a :class:`~synth.physics.scene.HollowBall` on a flat
+    (docs/physics.md, "Hollow balls"): ``F = min(k_R delta, C_P delta^(1/2)) + k_g delta``
+    with the shell's Kelvin-Voigt loss ``A k_s d(delta)/dt``.
+
+    Attributes
+    ----------
+    reissner_stiffness : float
+        ``k_R = 4 E h^2 / (R sqrt(3 (1 - nu^2)))``, N/m: the shell's local stiffness at
+        small deflection (Reissner's point load on a spherical shell).
+    pogorelov_constant : float
+        ``C_P = 3.56 E h^(5/2) / (R (1 - nu^2)^(3/4))``, N/m^(1/2) (Pogorelov).
+    gas_stiffness : float
+        ``k_g = 2 pi R p``, N/m: the gauge pressure ``p`` on the flat contact area
+        ``pi (2 R delta)``.
+    viscous_time : float
+        The shell's dissipative time ``A = eta / omega_c``, s (0: none).
+    """
+
+    reissner_stiffness: float
+    pogorelov_constant: float
+    gas_stiffness: float
+    viscous_time: float = 0.0
+
+    @property
+    def stiffness(self) -> float:
+        """``k0 = k_R + k_g``, the law's stiffness at small deflection, N/m."""
+        return self.reissner_stiffness + self.gas_stiffness
+
+    @property
+    def transition(self) -> float:
+        """``delta_t = (C_P / k_R)^2``, m: the deflection where the two shell laws meet
+        (Reissner's below, Pogorelov's above: the smaller of the two forces)."""
+        return (self.pogorelov_constant / self.reissner_stiffness) ** 2
+
+    def elastic_force(self, delta):
+        """The elastic force ``F_e`` (N) at the deflection ``delta`` (m, >= 0)."""
+        d = np.asarray(delta, dtype=float)
+        shell = np.minimum(self.reissner_stiffness * d, self.pogorelov_constant * np.sqrt(d))
+        return shell + self.gas_stiffness * d
+
+
+def reissner_stiffness(ball: HollowBall) -> float:
+    """``k_R = 4 E h^2 / (R sqrt(3 (1 - nu^2)))`` (N/m): E. Reissner, "Stresses and small
+    displacements of shallow spherical shells", J. Math. Phys. 25 (1946) 80 and 279 (the
+    point load on a spherical shell)."""
+    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.radius
+    return 4.0 * E * h * h / (R * math.sqrt(3.0 * (1.0 - nu * nu)))
+
+
+def pogorelov_constant(ball: HollowBall) -> float:
+    """``C_P = 3.56 E h^(5/2) / (R (1 - nu^2)^(3/4))`` (N/m^(1/2)), :data:`POGORELOV_CONSTANT`."""
+    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.radius
+    return POGORELOV_CONSTANT * E * h**2.5 / (R * (1.0 - nu * nu) ** 0.75)
+
+
+def shell_law(ball: HollowBall) -> ShellLaw:
+    """The :class:`ShellLaw` of ``ball`` on a rigid or impedance flat: the plate's own
+    indentation is left out (the flattened shell spreads its force over a disc of radius
+    ``sqrt(2 R delta)``, where the plate is orders of magnitude stiffer than the shell),
+    and so is the gas' compression (its volume change ~ ``pi R delta^2`` is second order).
+    The shell's loss: a Kelvin-Voigt shell whose loss factor at the contact's angular
+    frequency ``omega_c = sqrt(k0 / m)`` (the small-deflection contact's, ``pi / tau``) is
+    the material's ``eta`` (:func:`material_loss_factor`): ``A = eta / omega_c``."""
+    kR = reissner_stiffness(ball)
+    cP = pogorelov_constant(ball)
+    kg = 2.0 * math.pi * ball.radius * ball.pressure
+    omega = math.sqrt((kR + kg) / ball.mass)
+    A = _contact_loss_factor(ball, "ball", omega) / omega
+    return ShellLaw(kR, cP, kg, A)
+
+
+def own_law(ball: Ball) -> str:
+    """The contact law a ball takes when none is named: "shell" for a
+    :class:`~synth.physics.scene.HollowBall` (its only law), else "hertz"."""
+    return "shell" if isinstance(ball, HollowBall) else "hertz"
 
 
 def resolved_surface(plate: Plate, law: str, surface: str) -> str:
@@ -203,7 +292,7 @@ def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> N
 def contact_parameters(
     ball: Ball,
     plate: Plate,
-    contact: str = "hertz",
+    contact: str | None = "hertz",
     *,
     dissipation: float | None = None,
     viscous_time: float | None = None,
@@ -216,7 +305,11 @@ def contact_parameters(
 
     Parameters
     ----------
-    contact : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
+    contact : str or None
+        One of :data:`~synth.physics.scene.CONTACT_LAWS`; None: the ball's own law
+        (:func:`own_law`).
+        "shell": the thin-shell law of a :class:`~synth.physics.scene.HollowBall`
+        (:func:`shell_law`; its only law, and for it only).
     surface : {"ideal", "fitted", "auto"}
         "ideal": the plate an isotropic elastic half-space (the thesis' model). "fitted" (with
         "hertz" only): the plate material's fitted surface
@@ -234,8 +327,13 @@ def contact_parameters(
     layer_depth : float > 0
         Winkler layer depth, m, for "elastic-foundation" (default: plate thickness).
     """
+    if contact is None:
+        contact = own_law(ball)
     checks.choice("contact", contact, CONTACT_LAWS)
     checks.choice("surface", surface, SURFACE_MODELS)
+    if isinstance(ball, HollowBall) or contact == "shell":
+        return _shell_parameters(ball, contact, surface, stiffness, dissipation, viscous_time,
+                                 exponent, layer_depth)  # fmt: skip
     surface = resolved_surface(plate, contact, surface)
     given = {
         "dissipation": dissipation,
@@ -292,6 +390,32 @@ def contact_parameters(
         checks.positive("stiffness", stiffness, "N/m^n"),
         checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False),
     )
+
+
+def _shell_parameters(ball, contact, surface, *given) -> ContactLaw:
+    """:func:`contact_parameters` of the thin-shell law: a :class:`HollowBall` under
+    ``contact="shell"`` and nothing else (its loss is its shell's own)."""
+    if not isinstance(ball, HollowBall):
+        raise ParameterError(
+            f"contact={contact!r} applies to a HollowBall only (a thin shell), not {ball!r}"
+        )
+    if contact != "shell":
+        raise ParameterError(
+            f"contact={contact!r}: a HollowBall's contact is the thin-shell law, contact='shell' "
+            f"(docs/physics.md, 'Hollow balls')"
+        )
+    if surface not in ("ideal", "auto"):
+        raise ParameterError(
+            f"surface={surface!r} does not apply to contact='shell' (the shell carries its "
+            f"own loss; allowed: 'ideal', 'auto')"
+        )
+    if any(value is not None for value in given):
+        raise ParameterError(
+            "contact='shell' takes no law parameters (dissipation, viscous_time, exponent, "
+            "stiffness, layer_depth): the shell's own geometry and material set them"
+        )
+    law = shell_law(ball)
+    return ContactLaw(law.stiffness, 1.0, viscous_time=law.viscous_time, shell=law)
 
 
 def contact_law(

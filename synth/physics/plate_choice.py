@@ -122,13 +122,19 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
 def scene_plate(scene) -> PlateChoice:
     """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its
     ``contact.plate`` where that names one ("impedance" or "modal", bound 0 or inf), else
-    (``"auto"``) :func:`choose_plate` on its first impact solved on the impedance plate."""
+    (``"auto"``) :func:`choose_plate` on its first impact solved on the impedance plate; the
+    impedance plate for the thin-shell law of a hollow ball, which the modal contact does not
+    integrate."""
     from synth.physics.contact import solve_impact
     from synth.physics.scene import Scene
 
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     c = scene.contact
+    if c.law == "shell":
+        # the modal contact integrates the power laws only: a hollow ball's contact is on the
+        # impedance plate (with its admittance near the edges, synth.physics.impedance)
+        return PlateChoice("impedance", 0.0, (0.0, 0.0), (0.0, 0.0))
     if c.plate != "auto":
         return PlateChoice(
             c.plate, 0.0 if c.plate == "impedance" else math.inf, (0.0, 0.0), (0.0, 0.0)

@@ -93,6 +93,93 @@ class Ball:
         object.__setattr__(self, "mass", m)
 
 
+#: Air's specific gas constant, J/(kg K) (dry air), and the temperature at which a hollow
+#: ball's gas is weighed, K (20 degrees C), and the atmosphere its gauge pressure is above,
+#: Pa (ISO 2533 standard atmosphere at sea level).
+AIR_GAS_CONSTANT = 287.05
+GAS_TEMPERATURE = 293.15
+ATMOSPHERE = 101_325.0
+#: Largest gauge pressure of a hollow ball's gas, Pa (10 bar: a pressurised ball is below 1).
+MAX_GAUGE_PRESSURE = 1e6
+
+
+@dataclass(frozen=True)
+class HollowBall(Ball):
+    """A thin spherical shell filled with air (a table-tennis ball, a tennis ball, a
+    basketball): usable wherever a :class:`Ball` is; its contact is the thin-shell law
+    (``contact="shell"``, docs/physics.md, "Hollow balls").
+
+    Parameters
+    ----------
+    material : Material or str
+        The shell's material.
+    radius : float in [1e-6, 1]
+        Outer radius ``R``, metres.
+    thickness : float in (0, radius / 2]
+        Wall thickness ``h``, metres (keyword only); the thin-shell laws hold for
+        ``h << R``, and a wall thicker than half the radius is not a shell.
+    pressure : float in [0, 1e6]
+        Gauge pressure of the gas inside (above one standard atmosphere), Pa (keyword only;
+        0: an unpressurised ball such as a table-tennis ball).
+
+    The mass (kg) is derived, never given: the shell's ``rho 4/3 pi (R^3 - (R - h)^3)`` plus
+    the air inside at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas).
+    """
+
+    _: KW_ONLY
+    thickness: float | None = None
+    pressure: float = 0.0
+
+    def __post_init__(self):
+        if self.mass is not None:
+            raise ParameterError(
+                f"ball.mass={self.mass!r}: a hollow ball's mass is derived from its shell "
+                f"(ball.thickness, ball.material's density) and its gas (ball.pressure); "
+                f"leave ball.mass out"
+            )
+        if self.thickness is None:
+            raise ParameterError("ball.thickness is required for a hollow ball (metres)")
+        object.__setattr__(self, "material", resolve(self.material, "ball.material"))
+        R = checks.in_range(
+            "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        h = checks.in_range(
+            "ball.thickness", self.thickness, 0.0, 0.5 * R, "metres (at most half the radius)",
+            hi_open=False,
+        )  # fmt: skip
+        p = checks.in_range(
+            "ball.pressure", self.pressure, 0.0, MAX_GAUGE_PRESSURE, "Pa (gauge)",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
+        object.__setattr__(self, "radius", R)
+        object.__setattr__(self, "thickness", h)
+        object.__setattr__(self, "pressure", p)
+        m = self.shell_mass + self.gas_mass
+        if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
+            raise ParameterError(
+                f"ball.mass={m:.4g} kg (from ball.radius={R!r} m, ball.thickness={h!r} m) must "
+                f"be in [{MIN_BALL_MASS:g}, {MAX_BALL_MASS:g}] (kg)"
+            )
+        object.__setattr__(self, "mass", m)
+
+    @property
+    def inner_radius(self) -> float:
+        """``R - h``, m."""
+        return self.radius - self.thickness
+
+    @property
+    def shell_mass(self) -> float:
+        """Mass of the shell, kg."""
+        return self.material.density * 4.0 / 3.0 * math.pi * (self.radius**3 - self.inner_radius**3)
+
+    @property
+    def gas_mass(self) -> float:
+        """Mass of the air inside at the absolute pressure ``ATMOSPHERE + pressure``, kg."""
+        density = (ATMOSPHERE + self.pressure) / (AIR_GAS_CONSTANT * GAS_TEMPERATURE)
+        return density * 4.0 / 3.0 * math.pi * self.inner_radius**3
+
+
 @dataclass(frozen=True)
 class Plate:
     """A rectangular plate of uniform thickness.
@@ -226,7 +313,9 @@ class Microphone:
 
 Listener = Accelerometer | Microphone
 
-CONTACT_LAWS = ("hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law")
+CONTACT_LAWS = (
+    "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law", "shell"
+)  # fmt: skip
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
 #: The two surfaces in the contact: isotropic elastic half-spaces without loss ("ideal", the
@@ -375,6 +464,7 @@ class Contact:
             "viscoelastic": ("viscous_time",),
             "elastic-foundation": (),
             "power-law": ("exponent", "stiffness"),
+            "shell": (),
         }[self.law]
         allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
         for name in LAW_OPTIONS:
@@ -546,10 +636,12 @@ class Scene:
                 f"diameter must not exceed the plate's smaller side "
                 f"{min(self.plate.length, self.plate.width)!r} (metres)"
             )
+        hollow = isinstance(self.ball, HollowBall)
         if self.contact is None:
-            object.__setattr__(self, "contact", Contact())
+            object.__setattr__(self, "contact", Contact(law="shell") if hollow else Contact())
         elif not isinstance(self.contact, Contact):
             raise ParameterError(f"contact={self.contact!r} must be a Contact")
+        self._check_shell(hollow)
         if self.listener is None:
             object.__setattr__(self, "listener", Microphone((pos[0], pos[1], 0.2)))
         elif isinstance(self.listener, Accelerometer):
@@ -559,6 +651,30 @@ class Scene:
                 f"listener={self.listener!r} must be an Accelerometer or a Microphone"
             )
         self._check_path()
+
+    def _check_shell(self, hollow: bool):
+        """A hollow ball takes the thin-shell law, on the impedance plate (the modal contact
+        and the rolling contact take the power laws only), and the shell law a hollow ball."""
+        law, plate = self.contact.law, self.contact.plate
+        if hollow and law != "shell":
+            raise ParameterError(
+                f"contact.law={law!r}: a hollow ball's contact is the thin-shell law, "
+                f"contact.law='shell'"
+            )
+        if not hollow and law == "shell":
+            raise ParameterError(
+                "contact.law='shell' applies to a hollow ball only (ball.thickness given)"
+            )
+        if hollow and plate == "modal":
+            raise ParameterError(
+                "contact.plate='modal' does not take contact.law='shell' (the modal contact "
+                "integrates the power laws); allowed: 'impedance', 'auto' (the impedance plate)"
+            )
+        if hollow and self.velocity is not None:
+            raise ParameterError(
+                f"drop.velocity={self.velocity!r}: a hollow ball does not roll in this engine "
+                f"(the rolling contact takes the power laws); leave drop.velocity out"
+            )
 
     def _check_path(self):
         """``velocity`` and ``rolling``: a horizontal velocity needs the rolling's

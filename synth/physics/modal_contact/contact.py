@@ -277,6 +277,11 @@ class ModalContact:
         if not isinstance(plate, Plate):
             raise ParameterError(f"plate={plate!r} must be a Plate")
         law_ = contact_parameters(ball, plate, law, **contact_options)
+        if law_.shell is not None:
+            raise ParameterError(
+                "the modal contact integrates the power laws only, not a hollow ball's "
+                "contact='shell': solve it on the impedance plate (plate_model='impedance')"
+            )
         K, n, mu, A = law_.stiffness, law_.exponent, law_.dissipation, law_.viscous_time
         pos = plate.centre if position is None else position
         if max_frequency is None:

@@ -1,0 +1,287 @@
+"""Hollow balls: the thin-shell contact law's closed forms, its energy balance, its checks,
+the rule books' bounce tests (docs/validation.md, "Hollow balls") and a preset's render."""
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import synth
+from synth.bench.hollow import RULE_BOOK_TESTS, format_hollow, rule_book_row
+from synth.io.presets import PresetError, load_preset, scene_from_dict
+from synth.physics.contact import ContactSolver, solve_impact
+from synth.physics.contact_law import POGORELOV_CONSTANT, shell_law
+from synth.physics.materials import Material
+from synth.physics.scene import Contact, HollowBall, Plate, Scene
+
+#: A lossless shell material (no damping law: the shell's loss is 0), ABS's elastic constants.
+ELASTIC_SHELL = Material("elastic-shell", 1050.0, 2.2e9, 0.39)
+#: A massive, rigid-like surface: a 0.5 m steel plate takes ~1e-7 of a light ball's energy.
+RIGID = Plate("steel", 0.5, 1.0, 1.0)
+
+
+def _ball(pressure=0.0, material=ELASTIC_SHELL):
+    return HollowBall(material, 0.02, thickness=5e-4, pressure=pressure)
+
+
+def _lumped(ball, speed, **kw):
+    """The impact on a perfectly rigid flat (admittance 0) without gravity."""
+    solver = ContactSolver.for_pair(ball, RIGID, law="shell", gravity=0.0, **kw)
+    return solver.solve(speed, admittance=0.0)
+
+
+def test_mass_is_the_shells_and_the_gas():
+    b = _ball(pressure=1e5)
+    shell = 1050.0 * 4.0 / 3.0 * math.pi * (0.02**3 - 0.0195**3)
+    gas = (101325.0 + 1e5) / (287.05 * 293.15) * 4.0 / 3.0 * math.pi * 0.0195**3
+    assert b.mass == pytest.approx(shell + gas, rel=1e-12)
+
+
+def test_reissner_stiffness_sets_the_small_deflection_contact():
+    # Reissner: k_R = 4 E h^2 / (R sqrt(3 (1 - nu^2))); below delta_t the contact is a linear
+    # spring on a rigid flat: a half period pi sqrt(m / k_R), e = 1, delta_max = v sqrt(m / k)
+    b = _ball()
+    law = shell_law(b)
+    k = 4.0 * 2.2e9 * 5e-4**2 / (0.02 * math.sqrt(3.0 * (1.0 - 0.39**2)))
+    assert law.reissner_stiffness == pytest.approx(k, rel=1e-14)
+    v = 0.5 * law.transition * math.sqrt(k / b.mass)  # peak deflection delta_t / 2
+    r = _lumped(b, v, rtol=1e-9)
+    assert r.contact_time == pytest.approx(math.pi * math.sqrt(b.mass / k), rel=1e-8)
+    assert r.max_penetration == pytest.approx(0.5 * law.transition, rel=1e-8)
+    assert r.restitution == pytest.approx(1.0, abs=1e-8)
+
+
+def test_pogorelov_law_at_large_deflection():
+    # Pogorelov: F = 3.56 E h^(5/2) delta^(1/2) / (R (1 - nu^2)^(3/4)) beyond delta_t. On a
+    # rigid flat the energy m v^2 / 2 = k_R dt^2 / 2 + 2/3 C_P (d^(3/2) - dt^(3/2)) gives
+    # the peak deflection d and the peak force C_P d^(1/2) in closed form.
+    b = _ball()
+    law = shell_law(b)
+    cP = POGORELOV_CONSTANT * 2.2e9 * 5e-4**2.5 / (0.02 * (1.0 - 0.39**2) ** 0.75)
+    assert law.pogorelov_constant == pytest.approx(cP, rel=1e-14)
+    dt = law.transition
+    assert law.elastic_force(10.0 * dt) == pytest.approx(cP * math.sqrt(10.0 * dt), rel=1e-14)
+    assert law.elastic_force(0.1 * dt) == pytest.approx(law.reissner_stiffness * 0.1 * dt)
+    v = 20.0  # m/s, a smash
+    energy = 0.5 * b.mass * v * v
+    d = ((energy - 0.5 * law.reissner_stiffness * dt * dt) * 1.5 / cP + dt**1.5) ** (2.0 / 3.0)
+    assert d > 2.0 * dt  # the contact goes well into Pogorelov's range
+    r = _lumped(b, v, rtol=1e-9)
+    assert r.max_penetration == pytest.approx(d, rel=1e-7)
+    assert r.peak_force == pytest.approx(cP * math.sqrt(d), rel=1e-7)
+
+
+def test_gas_pressure_on_the_flat_contact():
+    # k_g = 2 pi R p: the gauge pressure on the flat contact's area pi (2 R delta)
+    b = _ball(pressure=5e4)
+    law = shell_law(b)
+    assert law.gas_stiffness == pytest.approx(2.0 * math.pi * 0.02 * 5e4, rel=1e-14)
+    assert law.elastic_force(1e-4) == pytest.approx(
+        law.reissner_stiffness * 1e-4 + law.gas_stiffness * 1e-4, rel=1e-14
+    )
+
+
+@pytest.mark.parametrize("speed", [0.3, 3.0, 8.0])
+@pytest.mark.parametrize("pressure", [0.0, 8e4])
+@pytest.mark.parametrize("rtol", [1e-6, 1e-9])
+def test_no_loss_gives_e_one_within_the_tolerance(speed, pressure, rtol):
+    # energy balance: without loss (a shell material without damping) on a rigid flat,
+    # with gravity, the ball leaves at its impact speed within the solver's tolerance
+    b = _ball(pressure)
+    solver = ContactSolver.for_pair(b, RIGID, law="shell", rtol=rtol)
+    r = solver.solve(speed, admittance=0.0)
+    assert r.success and r.status == 0
+    assert r.restitution == pytest.approx(1.0, abs=rtol)
+    assert r.energy_residual < rtol
+
+
+def test_shell_loss_is_the_materials_loss_factor():
+    # A = eta / omega_c with omega_c = sqrt(k0 / m) (docs/physics.md, "Hollow balls")
+    b = HollowBall("abs", 0.02, thickness=5.2e-4)
+    law = shell_law(b)
+    omega = math.sqrt(law.stiffness / b.mass)
+    assert law.viscous_time == pytest.approx(0.02 / omega, rel=1e-14)
+    # a small loss: to first order the linear Kelvin-Voigt oscillator's e = exp(-pi eta / 2)
+    # (zeta = eta / 2); at a small deflection (linear range) within its second-order terms
+    speed = 0.2 * law.transition * omega
+    r = _lumped(b, speed, rtol=1e-9)
+    assert r.restitution == pytest.approx(math.exp(-math.pi * 0.02 / 2.0), abs=2e-3)
+    assert r.energy_residual < 1e-8
+
+
+def test_solve_impact_and_the_force_pulse():
+    b = HollowBall("abs", 0.02, thickness=5.2e-4)
+    plate = Plate("plywood", 0.025, 2.74, 1.525)
+    r = solve_impact(b, plate, 2.45, contact="shell", position=(0.685, 0.7625))
+    assert r.success
+    # the pulse integrates to the impulse (trapezoid on the dense output, fine grid)
+    t = np.linspace(0.0, r.separation_time, 20001)
+    assert np.trapezoid(r.force_at(t), t) == pytest.approx(r.impulse, rel=1e-4)
+    assert r.force.max() <= r.peak_force * (1 + 1e-9)
+
+
+def test_parameter_errors_name_the_field():
+    with pytest.raises(synth.ParameterError, match=r"ball\.thickness=0\.02 must be in"):
+        HollowBall("abs", 0.02, thickness=0.02)
+    with pytest.raises(synth.ParameterError, match=r"ball\.pressure=-1\.0 must be in"):
+        HollowBall("abs", 0.02, thickness=5e-4, pressure=-1.0)
+    with pytest.raises(synth.ParameterError, match=r"ball\.mass=0\.0027: a hollow ball's mass"):
+        HollowBall("abs", 0.02, 0.0027, thickness=5e-4)
+    with pytest.raises(synth.ParameterError, match=r"ball\.thickness is required"):
+        HollowBall("abs", 0.02)
+    b = _ball()
+    with pytest.raises(synth.ParameterError, match=r"contact='hertz': a HollowBall's contact"):
+        solve_impact(b, RIGID, 1.0, contact="hertz")
+    # no law named: the ball's own
+    assert (
+        solve_impact(b, RIGID, 1.0).restitution
+        == solve_impact(b, RIGID, 1.0, contact="shell").restitution
+    )
+    with pytest.raises(synth.ParameterError, match=r"the modal contact integrates the power"):
+        synth.simulate_bounces(b, RIGID, drop_height=0.3, plate_model="modal")
+    with pytest.raises(synth.ParameterError, match=r"contact='shell' applies to a HollowBall"):
+        solve_impact(synth.Ball("steel", 0.01), RIGID, 1.0, contact="shell")
+    with pytest.raises(synth.ParameterError, match=r"contact\.law='hertz': a hollow ball"):
+        Scene(b, RIGID, drop_height=0.3, contact=Contact(law="hertz"))
+    with pytest.raises(synth.ParameterError, match=r"contact\.plate='modal' does not take"):
+        Scene(b, RIGID, drop_height=0.3, contact=Contact(law="shell", plate="modal"))
+    assert Scene(b, RIGID, drop_height=0.3).contact.law == "shell"
+
+
+def test_preset_ball_kind():
+    data = {
+        "ball": {"kind": "hollow", "material": "abs", "radius": 0.02, "thickness": 5e-4},
+        "plate": {"material": "steel", "thickness": 0.01, "length": 1.0, "width": 1.0},
+        "drop": {"height": 0.3},
+        "contact": {"plate": "impedance"},
+    }
+    scene, _ = scene_from_dict(data)
+    assert isinstance(scene.ball, HollowBall) and scene.contact.law == "shell"
+    with pytest.raises(PresetError, match=r"ball\.kind='hollo' must be one of"):
+        scene_from_dict({**data, "ball": {**data["ball"], "kind": "hollo"}})
+    solid = {"material": "abs", "radius": 0.02, "thickness": 5e-4}
+    with pytest.raises(PresetError, match=r"ball\.thickness=0\.0005 applies to ball\.kind="):
+        scene_from_dict({**data, "ball": solid})
+
+
+#: The rule books' bounce tests: every hollow ball of the presets rebounds above the rule
+#: book's range, because the shell's published loss factor is the only loss in the engine (a
+#: real ball also loses energy to its shell's ringing, its air and, for tennis, its felt;
+#: docs/physics.md, "Hollow balls"). The engine's rebound (m, as the rule book measures it)
+#: with the tolerance of the solver (rtol 1e-9) and of the printed digits: these figures are
+#: the ones docs/validation.md prints.
+ENGINE_REBOUND = {
+    "table-tennis-ball-on-table": 0.287,
+    "tennis-ball-on-concrete": 2.242,
+    "basketball-on-wooden-floor": 1.744,
+}
+
+
+@pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
+def test_rule_book_bounce_is_missed_high(test):
+    row = rule_book_row(test)
+    assert row.rebound == pytest.approx(ENGINE_REBOUND[test.preset], abs=5e-4)
+    # the miss, asserted as one: above the range's upper end
+    assert row.rebound > test.rebound_high
+    assert row.error > 0.0
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the shells' published loss factors alone leave the balls too lively: the "
+    "shell's ringing, the air and the felt are not in the engine (docs/validation.md)",
+)
+@pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
+def test_rule_book_bounce_inside_range(test):
+    row = rule_book_row(test)
+    assert test.rebound_low <= row.rebound <= test.rebound_high
+
+
+def test_validation_page_prints_the_engines_table():
+    text = (Path(__file__).parents[1] / "docs" / "validation.md").read_text()
+    block = re.search(r"<!-- bench:hollow -->\n(.*?)<!-- /bench:hollow -->", text, re.S)
+    assert block is not None
+    table = format_hollow([rule_book_row(t) for t in RULE_BOOK_TESTS])
+    assert table.strip() in block.group(1)
+
+
+@pytest.mark.slow
+def test_table_tennis_preset_renders():
+    scene = load_preset("table-tennis-ball-on-table")
+    r = synth.render(scene, samplerate=48000, max_duration=1.0, max_tail=0.2)
+    assert r.audio.size > 0 and np.all(np.isfinite(r.audio)) and np.abs(r.audio).max() > 0.0
+    first = r.impacts[0]
+    own = solve_impact(
+        scene.ball,
+        scene.plate,
+        first.speed,
+        contact="shell",
+        position=scene.position,
+        rtol=scene.contact.rtol,
+    )
+    assert first.result.restitution == pytest.approx(own.restitution, rel=1e-12)
+
+
+def test_cost_estimate_takes_the_shell_contact():
+    # a hollow ball's rigid-plate contact time in the cost estimate is its shell law's at
+    # small deflection, pi sqrt(m / k0): the solver's at a slow impact, to its tolerance
+    from synth import cost
+
+    b = HollowBall("abs", 0.02, thickness=5.2e-4)
+    tau = cost.hertz_contact_time(b, RIGID, 0.05)
+    assert tau == pytest.approx(math.pi * math.sqrt(b.mass / shell_law(b).stiffness), rel=1e-14)
+    # the same ball without its loss (ELASTIC_SHELL: ABS's elastic constants and density)
+    solved = _lumped(HollowBall(ELASTIC_SHELL, 0.02, thickness=5.2e-4), 0.05, rtol=1e-9)
+    assert solved.contact_time == pytest.approx(tau, rel=1e-8)
+
+
+def test_bank_axes_reach_the_hollow_ball():
+    # a bank's ``ball.*`` axes are preset overrides: the hollow ball's own fields vary too
+    from synth.io.presets import canonical, read
+
+    base = load_preset("tennis-ball-on-concrete")
+    softer = load_preset("tennis-ball-on-concrete", ["ball.pressure=4e4", "ball.thickness=0.003"])
+    assert (softer.ball.pressure, softer.ball.thickness) == (4e4, 0.003)
+    assert softer.ball.mass < base.ball.mass
+    data = read(synth.io.presets.find("tennis-ball-on-concrete"))
+    c = canonical(data, varied=("ball.pressure",))
+    assert c["ball"]["kind"] == "hollow" and "pressure" not in c["ball"]
+    assert c["contact"]["law"] == "shell"
+
+
+@pytest.mark.slow
+def test_bank_varies_the_hollow_balls_pressure(tmp_path):
+    # a real bank (one worker process) over a hollow ball's own field: a softer ball (less
+    # gas) has a longer first contact (k0 = k_R + 2 pi R p, tau ~ pi sqrt(m / k0))
+    import json
+
+    from synth import bank
+    from synth.bank import spec as bank_spec
+
+    spec = bank_spec.from_dict(
+        {
+            "preset": "basketball-on-wooden-floor",
+            "vary": {"ball.pressure": [4e4, 6e4]},
+            "render": {"max_duration": 1.0, "max_tail": 0.2},
+        },
+        base_dir=tmp_path,
+    )
+    result = bank.run(spec, tmp_path / "out", jobs=1)
+    assert "2 done" in result.summary()
+    rows = [json.loads(line) for line in (tmp_path / "out" / "manifest.jsonl").open()]
+    assert [r["ball.pressure"] for r in rows] == [4e4, 6e4]
+    assert rows[0]["first_contact_time"] > rows[1]["first_contact_time"]
+
+
+def test_a_shell_result_keeps_its_class_with_another_message():
+    # the edge iteration reports its best solution with a new message (contact._with_message):
+    # a hollow ball's result must keep its own pulse (it failed before: the power laws' pulse
+    # kernel read the shell's dense output)
+    from synth.physics import contact
+
+    r = solve_impact(_ball(), RIGID, 1.0)
+    copy = contact._with_message(r, "another message")
+    assert type(copy) is type(r) and copy.message == "another message"
+    np.testing.assert_array_equal(copy.force, r.force)
