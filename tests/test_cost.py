@@ -272,7 +272,7 @@ CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
                    render__max_frequency=8000.0)  # fmt: skip
 
 #: Each of the other rules on a small scene, with the engine's switch-over to it lowered
-#: (the same module constants the estimate reads, synth.cost._radiation_rule): the
+#: (the same module constants the estimate reads, synth.cost.radiation._radiation_rule): the
 #: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
 #: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
 RULE_SCENES = {
@@ -408,7 +408,12 @@ def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
                 continue  # refused: nothing runs
             max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
             engine = rad._use_boundary(
-                (side, side), poles, cost._bending(plate, f_max), SOUND_SPEED, 1e-6, max_points
+                (side, side),
+                poles,
+                cost.radiation.bending_wavenumber(plate, f_max),
+                SOUND_SPEED,
+                1e-6,
+                max_points,
             )
             assert (r.rule == "boundary") == engine, (side, work, r.rule, max_points)
             seen.add(r.rule)
