@@ -306,7 +306,7 @@ def _counted_rules(name, monkeypatch) -> list:
 
     levels = []
     if name == "boundary":
-        original_rule, original_entries = boundary.boundary_integrals, boundary._entry_integrals
+        original_rule, original_entries = boundary.boundary_integrals, boundary.entry_integrals
 
         def rule(sol, index, size, listener, q, r0, refine, tol_panel):
             levels.append([0, 0.0])
@@ -319,7 +319,7 @@ def _counted_rules(name, monkeypatch) -> list:
             return original_entries(grid, sol, trials, *rest)
 
         monkeypatch.setattr(boundary, "boundary_integrals", rule)
-        monkeypatch.setattr(boundary, "_entry_integrals", entries)
+        monkeypatch.setattr(boundary, "entry_integrals", entries)
         return levels
     module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
         summed, "_apply_summed_rule")  # fmt: skip

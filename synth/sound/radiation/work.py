@@ -25,7 +25,7 @@ multiply-add, or one exponential, Bessel value or shape factor value.
   exponential; once, the in-phase bounds' rectangle rule (as the rectangle rule's terms).
 * **boundary** (:func:`boundary_work`, the edge effect modes of
   :func:`~synth.sound.radiation.boundary.boundary_rule`): per row (a mode's trial, two
-  for a pair) the radial grid of its rate (:class:`~synth.sound.radiation.boundary._Grid`,
+  for a pair) the radial grid of its rate (:class:`~synth.sound.radiation.boundary_grid.RadialGrid`,
   built for the top of each band of rates): per radial node an exponential and the two
   Bessel values of each of the three Helmholtz parts, per panel the parts' two
   cumulative integrals (``p^2`` each), per boundary node the trial's parts and slopes.
@@ -180,21 +180,21 @@ def _boundary_grid(size, listener, band: RateBand, tol_panel, refine):
     """The radial grid :func:`boundary_integrals` builds for the band's top rate: its
     oscillating rate ``k + |q|`` and the edge parts' decay (at most ``sqrt(2) k`` along an
     edge), the decaying parts' ``sqrt(3) k`` and the band's lowest ``k`` (the tail)."""
-    from synth.sound.radiation import boundary as br
+    from synth.sound.radiation import boundary_grid as bg
 
     w_max = half_phase(MAX_ORDER, tol_panel)
-    k_osc = br._on_ladder(band.k_hi + band.qa)
-    k_dec = max(k_osc, br._on_ladder(math.sqrt(2.0) * band.k_hi))
-    kappa_max = br._on_ladder(math.sqrt(3.0) * band.k_hi)
-    kappa_min = br._below_ladder(band.k_lo)
+    k_osc = bg.on_ladder(band.k_hi + band.qa)
+    k_dec = max(k_osc, bg.on_ladder(math.sqrt(2.0) * band.k_hi))
+    kappa_max = bg.on_ladder(math.sqrt(3.0) * band.k_hi)
+    kappa_min = bg.below_ladder(band.k_lo)
     if kappa_min * 2.0 * w_max / k_dec <= 2.0:
         kappa_min = 0.0
-    return br._Grid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
+    return bg.RadialGrid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
 
 
 def boundary_row_terms(grid) -> float:
     """Terms of one row of the boundary rule on ``grid`` (a
-    :class:`~synth.sound.radiation.boundary._Grid`; see the module docstring)."""
+    :class:`~synth.sound.radiation.boundary_grid.RadialGrid`; see the module docstring)."""
     return (
         BOUNDARY_NODE_TERMS * grid.rho.size
         + BOUNDARY_CUMULATIONS * float(np.sum(grid.orders.astype(float) ** 2))
