@@ -17,7 +17,7 @@ from synth.sound.radiation.common import (
     gauss,
     half_phase,
 )
-from synth.sound.radiation.polar import radial_nodes, radial_orders, radial_panels
+from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels
 
 #: Longest substituted radial panel (``r = lo + L u^2``) of the decaying tables, times
 #: ``1 / kappa``: there the cumulative integrals carry ``exp(kappa (t - lo))`` across the

@@ -13,8 +13,8 @@ multiply-add, or one exponential, Bessel value or shape factor value.
   costing per mode one exponential and the ``terms`` of a shape value.
 * **polar** (:func:`polar_work`, the separable shapes of
   :func:`~synth.sound.radiation.separable_gains`): the radii of the radial panels
-  (:func:`~synth.sound.radiation.polar.radial_orders`) and at each the angular points of
-  the shorter set of arcs (:func:`~synth.sound.radiation.polar._arc_panels`); per angular
+  (:func:`~synth.sound.radiation.radial.radial_orders`) and at each the angular points of
+  the shorter set of arcs (:func:`~synth.sound.radiation.angular.arc_panels`); per angular
   point the ``n_x + n_y`` factor values and the ``n_x n_y`` products of the angular sums,
   per radius and mode an exponential and a ``J_0``; once, the in-phase bounds' rectangle
   rule at ``2 kb`` refined once (factor values and its two matrix products).
@@ -106,26 +106,25 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     panels); at each radius the arcs on the plate (the summed rule's
     :func:`angular_rule`), or with ``shorter`` the shorter of those on and off it (the
     separable rule's :func:`_circle_points`)."""
-    from synth.sound.radiation import polar
+    from synth.sound.radiation.angular import arc_panels, circle_arcs
+    from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels
 
     a, b = size
     xl, yl, _ = listener
     kappa = kb + qa
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa
-    panels, orders = polar.radial_orders(
-        polar.radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
+    panels, orders = radial_orders(
+        radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
     )
     out = []
     for f in _levels():
-        radii, _ = polar.radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
+        radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
         angular = 0
         for r in radii:
-            on, off = polar._circle_arcs(float(r), a, b, xl, yl)
+            on, off = circle_arcs(float(r), a, b, xl, yl)
             if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
                 on = off
-            angular += sum(
-                n * p for _, _, n, p in polar._arc_panels(float(r), kb, tol_panel, f, on)
-            )
+            angular += sum(n * p for _, _, n, p in arc_panels(float(r), kb, tol_panel, f, on))
         out.append((radii.size, angular))
     return out
 
