@@ -14,9 +14,7 @@ from synth.compilation import compiled
 from synth.sound.asymptotic_modes import edge_part, interior_part
 from synth.sound.radiation.boundary_bessel import A0, A1, ASYMPTOTIC_X, bessel_at, small_bessel
 from synth.sound.radiation.boundary_grid import DECAY_LADDER, DECAY_MIN_C, SENTINEL, decay_weights
-from synth.sound.radiation.common import (
-    MAX_ORDER,
-)
+from synth.sound.radiation.common import MAX_ORDER
 
 
 @compiled()
