@@ -276,11 +276,11 @@ CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
 #: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
 #: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
 RULE_SCENES = {
-    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation._POLAR_WORK": 0.0}),
+    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation.POLAR_WORK": 0.0}),
     "summed": (RADIATION_SCENES["free-plate"], {"synth.sound.radiation.SUMMED_RULE_WORK": 0.0}),
     "boundary": (CROSSED, {
         "synth.sound.modes.CROSSOVER_UNKNOWNS": 80,
-        "synth.sound.modes.crossover._LOW_BAND_UNKNOWNS": 50,
+        "synth.sound.modes.crossover.LOW_BAND_UNKNOWNS": 50,
         "synth.sound.radiation.BOUNDARY_RULE_WORK": 0.0,
         "synth.sound.radiation.BOUNDARY_RULE_SIZE": 0.0,
     }),

@@ -196,7 +196,7 @@ def _hybrid_modes(monkeypatch, boundary):
     effect modes (the solution for large plates, at a size a test can check against the
     rectangle rule)."""
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
-    monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
+    monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
     monkeypatch.setattr(R, "BOUNDARY_RULE_SIZE", 0.0)
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)

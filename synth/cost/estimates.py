@@ -56,7 +56,7 @@ def estimate(
     :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s);
     ``budget`` (default: the environment's) sets the radiation rules that fit."""
     budget = Budget.from_environment() if budget is None else budget
-    from synth.sound.modal_bank.pulse import _grid_size
+    from synth.sound.modal_bank.pulse import grid_size
     from synth.sound.modal_bank.transform_kernels import WORK_ROWS
 
     f_max = 0.5 * samplerate if max_frequency is None else min(max_frequency, 0.5 * samplerate)
@@ -67,7 +67,7 @@ def estimate(
     longest = (
         first.contact_time if settles else series_longest(first.contact_time, speed, scene.gravity)
     )
-    points = _grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
+    points = grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
     series = series_seconds(scene, first, longest, max_duration)
     seconds = preroll + series + tail_seconds(scene.plate, floor_db, max_tail)
     samples = int(math.ceil(seconds * samplerate))

@@ -37,12 +37,12 @@ def _kappa(plate, f_max: float) -> float:
 def _crossed(plate, f_max: float) -> bool:
     """Whether ``plate``'s modes up to ``f_max`` (Hz) pass the Ritz crossover (a free or
     clamped plate with dynamic edge effect modes, :func:`synth.sound.modes.modes`)."""
-    from synth.sound.modes import CROSSOVER_UNKNOWNS, _dimensionless_band
+    from synth.sound.modes import CROSSOVER_UNKNOWNS, dimensionless_band
     from synth.sound.modes.ritz import ritz_unknowns
 
     if plate.boundary == "simply-supported":
         return False
-    omega = _dimensionless_band(plate, f_max)
+    omega = dimensionless_band(plate, f_max)
     return ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS
 
 
@@ -71,7 +71,7 @@ def _radiation_rule(plate, modes: int, f_max: float, max_points: int | None = No
     kappa = _kappa(plate, f_max)
     work = modes * rad.rectangle_points(size, kappa, RADIATION_TOL)
     if plate.boundary == "simply-supported":
-        return "polar" if work > rad._POLAR_WORK else "rectangle"
+        return "polar" if work > rad.POLAR_WORK else "rectangle"
     if _crossed(plate, f_max):
         a, b = size
         big = work > rad.BOUNDARY_RULE_WORK and kappa * a * b / (a + b) > rad.BOUNDARY_RULE_SIZE

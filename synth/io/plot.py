@@ -42,7 +42,7 @@ ENVELOPE_BINS = 4_000
 _QUANTITY = {"Pa": ("Sound pressure", "Pa"), "m/s^2": ("Acceleration", "m/s²")}
 
 
-def _import_matplotlib():
+def import_matplotlib():
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -152,7 +152,7 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     impacts = list(_attr(render, "impacts"))
     times = _onsets(_attr(render, "onsets"), len(impacts))
     settings = _attr(render, "settings")
-    Figure, FigureCanvasAgg = _import_matplotlib()
+    Figure, FigureCanvasAgg = import_matplotlib()
 
     x = audio.astype(np.float64).reshape(audio.shape[0], -1) / gain
     frames, channels = x.shape
