@@ -103,7 +103,7 @@ def contact_losses_section() -> str:
         es = " | ".join(f"{r.restitution:.2f}" for r in results)
         tau = results[LOSS_TABLE_SURFACES.index("granite")].contact_time * 1e6
         law = materials.TABLE[name].damping
-        law_text = materials._damping_text(law)
+        law_text = materials.damping_text(law)
         lines.append(f"| {name} | {law_text} | {es} | {tau:.0f} |")
     return (
         "## Contact losses\n\n"

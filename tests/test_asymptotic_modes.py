@@ -14,6 +14,8 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import asymptotic_modes as AM
 from synth.sound import modes as P
+from synth.sound.asymptotic_modes import ritz as edge_ritz
+from synth.sound.asymptotic_modes import roots
 from synth.sound.modes import crossover, ritz
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -39,7 +41,7 @@ def test_one_dimensional_roots_are_the_beam_roots_without_transverse_wavenumber(
     """With ``s_y = 0`` the one-dimensional equations are the beam's: its roots k L to
     1e-9 (closed-form beam limit)."""
     h = 0.5
-    roots = [math.sqrt(AM._root(n, 0.0, h, free, 0.3)) for n in range(2, 7)]
+    roots = [math.sqrt(roots._root(n, 0.0, h, free, 0.3)) for n in range(2, 7)]
     np.testing.assert_allclose(roots, BEAM, rtol=1e-9)
 
 
@@ -47,9 +49,9 @@ def test_one_dimensional_root_rejects_nothing_for_the_free_low_family():
     """Free index 0 (the beam-like family) with a transverse wavenumber: the root is the
     anticlastic one, ``s < 0``, and satisfies the equation."""
     so, h = 100.0, 0.05
-    s = AM._root(0, so, h, True, 0.3)
+    s = roots._root(0, so, h, True, 0.3)
     assert -2.0 * so < s < 0.0
-    assert abs(AM._characteristic(s, so, h, True, False, 0.3)) < 1e-6 * so**2.5
+    assert abs(roots._characteristic(s, so, h, True, False, 0.3)) < 1e-6 * so**2.5
 
 
 def _hybrid(boundary, aspect, omega, low_unknowns=200):
@@ -140,7 +142,7 @@ def test_pairs_are_nearest_neighbours_of_one_class():
     gap; a class's lone trial and trials farther apart stay alone."""
     omega = np.array([100.0, 100.5, 100.6, 101.0, 200.0, 200.1])
     cls = np.array([0, 1, 0, 0, 2, 3])
-    partner = AM._pairs(omega, cls, 0.01)
+    partner = edge_ritz.near_pairs(omega, cls, 0.01)
     np.testing.assert_array_equal(partner, [2, -1, 0, -1, -1, -1])
 
 

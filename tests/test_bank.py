@@ -1447,7 +1447,7 @@ def test_min_distance_between_rows(tmp_path):
     }
     items = S.plan(S.from_dict(data, base_dir=tmp_path))
     s = S.from_dict(data, base_dir=tmp_path)
-    pts = np.array([S._unit_point(s, i.values) for i in items])
+    pts = np.array([S.sampling._unit_point(s, i.values) for i in items])
     d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
     assert d[~np.eye(len(pts), dtype=bool)].min() >= 0.1
     assert S.plan(S.from_dict(dict(data, count=20), base_dir=tmp_path)) == items[:20]

@@ -272,15 +272,15 @@ CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
                    render__max_frequency=8000.0)  # fmt: skip
 
 #: Each of the other rules on a small scene, with the engine's switch-over to it lowered
-#: (the same module constants the estimate reads, synth.cost._radiation_rule): the
+#: (the same module constants the estimate reads, synth.cost.radiation._radiation_rule): the
 #: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
 #: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
 RULE_SCENES = {
-    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation._POLAR_WORK": 0.0}),
+    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation.POLAR_WORK": 0.0}),
     "summed": (RADIATION_SCENES["free-plate"], {"synth.sound.radiation.SUMMED_RULE_WORK": 0.0}),
     "boundary": (CROSSED, {
         "synth.sound.modes.CROSSOVER_UNKNOWNS": 80,
-        "synth.sound.modes.crossover._LOW_BAND_UNKNOWNS": 50,
+        "synth.sound.modes.crossover.LOW_BAND_UNKNOWNS": 50,
         "synth.sound.radiation.BOUNDARY_RULE_WORK": 0.0,
         "synth.sound.radiation.BOUNDARY_RULE_SIZE": 0.0,
     }),
@@ -306,7 +306,7 @@ def _counted_rules(name, monkeypatch) -> list:
 
     levels = []
     if name == "boundary":
-        original_rule, original_entries = boundary.boundary_integrals, boundary._entry_integrals
+        original_rule, original_entries = boundary.boundary_integrals, boundary.entry_integrals
 
         def rule(sol, index, size, listener, q, r0, refine, tol_panel):
             levels.append([0, 0.0])
@@ -319,7 +319,7 @@ def _counted_rules(name, monkeypatch) -> list:
             return original_entries(grid, sol, trials, *rest)
 
         monkeypatch.setattr(boundary, "boundary_integrals", rule)
-        monkeypatch.setattr(boundary, "_entry_integrals", entries)
+        monkeypatch.setattr(boundary, "entry_integrals", entries)
         return levels
     module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
         summed, "_apply_summed_rule")  # fmt: skip
@@ -408,7 +408,12 @@ def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
                 continue  # refused: nothing runs
             max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
             engine = rad._use_boundary(
-                (side, side), poles, cost._bending(plate, f_max), SOUND_SPEED, 1e-6, max_points
+                (side, side),
+                poles,
+                cost.radiation.bending_wavenumber(plate, f_max),
+                SOUND_SPEED,
+                1e-6,
+                max_points,
             )
             assert (r.rule == "boundary") == engine, (side, work, r.rule, max_points)
             seen.add(r.rule)

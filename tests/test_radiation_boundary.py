@@ -19,6 +19,8 @@ from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.modes import EdgeEffectPart, crossover
 from synth.sound.radiation import boundary as B
+from synth.sound.radiation import boundary_bessel as BB
+from synth.sound.radiation import boundary_grid as BG
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 RHO, C = 1.204, 343.0
@@ -101,7 +103,7 @@ def test_bessel_functions_equal_scipy_across_the_asymptotic_threshold():
         (True, (sp.j0, sp.y0, sp.j1, sp.y1)),
         (False, (sp.i0e, sp.k0e, sp.i1e, sp.k1e)),
     ):
-        got = B._bessel(x, np.array([osc]))
+        got = BB._bessel(x, np.array([osc]))
         for g, f in zip(got, ref):
             assert np.max(np.abs(g - f(x)) * np.sqrt(x)) < 2e-15 * 10
 
@@ -149,7 +151,7 @@ def test_decay_weights_at_zero_rate_are_spectral_integration():
     nodes) and the Gauss-Legendre weights (last row), to round-off."""
     for p in (6, 13, 24, 37):
         weights = B.decay_weights(p, 0.0)
-        np.testing.assert_allclose(weights[:p], B._spectral(p), atol=1e-15)
+        np.testing.assert_allclose(weights[:p], BG._spectral(p), atol=1e-15)
         np.testing.assert_allclose(weights[p], np.polynomial.legendre.leggauss(p)[1], atol=1e-15)
 
 
@@ -158,9 +160,9 @@ def test_small_arguments_are_each_rows_first_run():
     (rho ascending), and nothing else."""
     rho = np.sort(np.random.default_rng(3).uniform(0.0, 0.5, 200))
     k = np.array([10.0, 100.0, 1000.0, 1e5])
-    x, starts = B._small_arguments(k, rho, B._ASYMPTOTIC_X)
+    x, starts = BB._small_arguments(k, rho, BB.ASYMPTOTIC_X)
     for r in range(k.size):
-        want = k[r] * rho[k[r] * rho < B._ASYMPTOTIC_X]
+        want = k[r] * rho[k[r] * rho < BB.ASYMPTOTIC_X]
         np.testing.assert_array_equal(x[starts[r] : starts[r + 1]], want)
 
 
@@ -168,9 +170,9 @@ def test_rate_steps_bracket_each_rate():
     """Each radial rate lies on or below its step's top and above the step below (the
     panels sized for the top are at most the ladder's ratio finer than the rate needs)."""
     rate = np.geomspace(0.3, 3e4, 5001)
-    top = B._RATE_LADDER ** B._rate_steps(rate).astype(float)
+    top = BG.RATE_LADDER ** BG.rate_steps(rate).astype(float)
     assert np.all(rate <= top * (1.0 + 1e-12))
-    assert np.all(rate > top / B._RATE_LADDER * (1.0 - 1e-12))
+    assert np.all(rate > top / BG.RATE_LADDER * (1.0 - 1e-12))
 
 
 def test_inverse_distance_integral_closed_form():
@@ -194,7 +196,7 @@ def _hybrid_modes(monkeypatch, boundary):
     effect modes (the solution for large plates, at a size a test can check against the
     rectangle rule)."""
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
-    monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
+    monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
     monkeypatch.setattr(R, "BOUNDARY_RULE_SIZE", 0.0)
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
@@ -236,10 +238,10 @@ def test_ladder_rounding_brackets_each_rate():
     """A rate rounded up (down) to the ladder is at or above (below) it by less than the
     ladder's ratio; 0 stays 0 (no decay: no tail, no limit on substituted panels)."""
     for rate in np.geomspace(1e-3, 1e5, 97):
-        up, down = B._on_ladder(float(rate)), B._below_ladder(float(rate))
-        assert rate <= up < rate * B._RATE_LADDER * (1.0 + 1e-12)
-        assert rate / B._RATE_LADDER * (1.0 - 1e-12) < down <= rate
-    assert B._on_ladder(0.0) == 0.0 and B._below_ladder(0.0) == 0.0
+        up, down = BG.on_ladder(float(rate)), BG.below_ladder(float(rate))
+        assert rate <= up < rate * BG.RATE_LADDER * (1.0 + 1e-12)
+        assert rate / BG.RATE_LADDER * (1.0 - 1e-12) < down <= rate
+    assert BG.on_ladder(0.0) == 0.0 and BG.below_ladder(0.0) == 0.0
 
 
 def _factor_bounds_before(s, so, n, h, ce, scale):

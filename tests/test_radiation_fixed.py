@@ -80,7 +80,7 @@ def test_fixed_grids_take_the_edge_effect_modes_shapes(monkeypatch):
     # its dynamic edge effect modes, which plate_gains sums by their factor tables, by
     # their shapes on the fixed grids
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
-    monkeypatch.setattr(crossover, "_LOW_BAND_UNKNOWNS", 50)
+    monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
     monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", np.inf)
     plate = Plate(STEEL, 0.002, 0.3, 0.2, "free")
     m, s, kb = _case(plate, 6000.0)

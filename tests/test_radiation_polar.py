@@ -12,6 +12,7 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
+from synth.sound.radiation import angular
 from synth.sound.radiation.refinement import refine_selective
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -201,7 +202,7 @@ def test_whole_circle_in_closed_form(radius):
     listener = (0.12, 0.09, 0.2)
     kb = sep.wavenumber * np.sqrt(2.0)
     a, b = 0.3, 0.2
-    on, off = R.polar._circle_arcs(radius, a, b, listener[0], listener[1])
+    on, off = angular.circle_arcs(radius, a, b, listener[0], listener[1])
     assert abs(sum(h - lo for lo, h in on + off) - 2.0 * np.pi) < 1e-12
 
     def arc_sums(arcs):

@@ -27,15 +27,11 @@ The stages, one module each:
 """
 
 from synth.analysis.measures import DECAY_MIN_FALL, DECAY_NOISE_MARGIN_DB, WINDOW_GUARD
-from synth.analysis.pipeline import (
-    AGREEMENT,
-    CLEAN_GUARD,
-    RESONATOR_GAIN_DB,
-    analyze,
-    analyze_file,
-)
+from synth.analysis.pipeline import analyze, analyze_file
 from synth.analysis.plotting import check_plot_path, plot_analysis
 from synth.analysis.report import Analysis, Tick, format_table, to_csv, to_dict
+from synth.analysis.resonator import AGREEMENT
+from synth.analysis.search import CLEAN_GUARD, RESONATOR_GAIN_DB
 from synth.analysis.series import (
     ANCHOR_DB,
     BOUNCE_GROWTH,

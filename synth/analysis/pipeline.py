@@ -24,18 +24,14 @@ from synth.analysis.blocks import (
     whole_frames,
 )
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
-from synth.analysis.deflation import DeflationSearch, FirstTick
-from synth.analysis.detection import first_ticks
-from synth.analysis.measures import (
-    WINDOW_GUARD,
-    FoundTick,
-    TickMeter,
-    Whitening,
-    with_standing_out,
-)
+from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.report import Analysis
-from synth.analysis.resonator import AGREEMENT, BACKGROUND_SPAN, ResonatorSearch
-from synth.analysis.series import BOUNCE_GROWTH, bounce_order
+from synth.analysis.search import CLEAN_GUARD as CLEAN_GUARD
+from synth.analysis.search import RESONATOR_GAIN_DB as RESONATOR_GAIN_DB
+from synth.analysis.search import FirstSearch as FirstSearch
+from synth.analysis.search import LazyTick, first_search, measured_ticks, tick_meter
+from synth.analysis.search import SearchResult as SearchResult
+from synth.analysis.series import BOUNCE_GROWTH
 from synth.analysis.settings import (
     AnalysisError,
     Settings,
@@ -54,28 +50,16 @@ from synth.analysis.validity import (
     impact_series,
     make_series,
     new_series_at,
-    not_impacts,
     without_spurious_end,
 )
-from synth.analysis.whitening import (
-    one_blas_thread,
-    resonator_predictor,
-    whiten,
-    whitening_predictor,
-)
+from synth.analysis.whitening import one_blas_thread
 from synth.errors import ParameterError
 from synth.io.audio import wav_shortfall
 
-#: The resonator's search (step 7) is kept when its predictor leaves at least this much
-#: less of the first tick's ringing than the first search's, dB.
-RESONATOR_GAIN_DB = 20.0
 #: Largest fraction of the samples in flat tops (clipping) of a recording of impacts: its
 #: ticks' peaks are short and their ringing decays below the clip level within each bounce,
 #: so a signal held at its extremes for half its length is no such recording.
 CLIPPED_AT_MOST = 0.5
-#: The free ringing of the first bounce is taken from this long after the first onset (past
-#: the contact), s.
-CLEAN_GUARD = 0.002
 
 
 def analyze(
@@ -430,16 +414,8 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
 
 
 @dataclass(frozen=True)
-class FirstSearch:
-    """Steps 1-5 over a signal: the whitening predictor and the search's result."""
-
-    predictor: np.ndarray
-    result: SearchResult
-
-
-@dataclass(frozen=True)
 class Located:
-    """The ticks of steps 1-6 over a block (:class:`_LazyTick`), and whether the search
+    """The ticks of steps 1-6 over a block (:class:`LazyTick`), and whether the search
     stopped a few ticks past the start of a new series."""
 
     ticks: list
@@ -450,15 +426,15 @@ def _located(
     x: np.ndarray, settings: Settings, clipped: bool, locate: bool, parts=None
 ) -> Located | None:
     """Steps 1-6 over the block ``x`` (with ``locate``, stopped a few ticks past the start of
-    a new series), each tick measured when asked (:class:`_LazyTick`), or None where it has
-    no tick (silence, no tick, too short). ``parts``: as for :func:`_first_search`."""
+    a new series), each tick measured when asked (:class:`LazyTick`), or None where it has
+    no tick (silence, no tick, too short). ``parts``: as for :func:`first_search`."""
     try:
-        first = _first_search(x, settings, locate, parts)
-        meter = _meter(x, first, settings, clipped, resonator=False)
+        first = first_search(x, settings, locate, parts)
+        meter = tick_meter(x, first, settings, clipped, resonator=False)
     except (AnalysisError, ParameterError):
         return None
     fs = settings.samplerate
-    ticks = [_LazyTick(meter, i) for i in range(len(meter.found))]
+    ticks = [LazyTick(meter, i) for i in range(len(meter.found))]
     return Located(
         without_spurious_end(ticks, x.size / fs, settings.window / fs), first.result.stopped
     )
@@ -468,7 +444,7 @@ def _searched(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
 ) -> list:
     """The ticks of ``x`` (:func:`_ticks`), none where it has none (silence, no tick, too
-    short). ``parts``: as for :func:`_first_search`."""
+    short). ``parts``: as for :func:`first_search`."""
     try:
         return _ticks(x, settings, clipped, resonator, parts)
     except (AnalysisError, ParameterError):
@@ -522,101 +498,8 @@ def _ticks(
 ) -> list:
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
     without ``resonator``, by steps 1-6 only (where a block's series start, see
-    :func:`_block_drops`). ``parts``: as for :func:`_first_search`."""
-    return _measured(x, _first_search(x, settings, parts=parts), settings, clipped, resonator)
-
-
-def _first_search(
-    x: np.ndarray, settings: Settings, locate: bool = False, parts: dict | None = None
-) -> FirstSearch:
-    """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past the start of a new
-    series (:meth:`~synth.analysis.deflation.DeflationSearch.run`). ``parts``: the
-    autocorrelation's terms shared with the searches of a signal that ``x`` starts or of its
-    start (:func:`~synth.analysis.whitening.whitening_predictor`)."""
-    A = whitening_predictor(x, settings.whitening_order, settings.samplerate, parts)
-    with one_blas_thread():
-        return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
-
-
-def _measured(
-    x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
-) -> list:
-    """The ticks of ``x`` from steps 1-5 (``search``): their bounce order (step 6), the
-    resonator's search (step 7, with ``resonator``) and the measurements."""
-    meter = _meter(x, search, settings, clipped, resonator)
-    with one_blas_thread():
-        ticks = [meter.tick(i) for i in range(len(meter.found))]
-    fs = settings.samplerate
-    test = RiseTest(lambda a, b: x[a:b], fs, settings.dynamic_range_db, meter.noise)
-    dropped = set(not_impacts(ticks, test))
-    while dropped:  # the others measured again: their bounces span the dropped ones, and
-        # a bounce that spans one may show a tick doubtful that the dropped one hid
-        found = [f for i, f in enumerate(meter.found) if i not in dropped]
-        meter = TickMeter(x, found, meter.whitenings, settings, meter.noise)
-        with one_blas_thread():
-            ticks = [meter.tick(i) for i in range(len(found))]
-        dropped = set(not_impacts(ticks, test))
-    return without_spurious_end(ticks, x.size / fs, settings.window / fs)
-
-
-def _meter(
-    x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
-) -> TickMeter:
-    """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
-    with ``resonator``, the resonator's search (step 7), with those that stand out (step 8),
-    ready to be measured: step 8 with step 7 only, since the searches that locate where series
-    start (steps 1-6, :func:`_located`) do not need the weak ticks it adds."""
-    first = search.result
-    found = [
-        FoundTick(
-            first.onsets[i],
-            first.strengths[i],
-            None if first.models is None else first.models[i],
-            0,
-            first.onsets[i],
-        )
-        for i in bounce_order(first.onsets, first.strengths, settings.e_min)
-    ]
-    whitenings = [Whitening(search.predictor, first.whitened, first.residual)]
-    if (
-        resonator
-        and first.ringing_left is not None
-        and first.ringing_left > 10.0 ** (-settings.dynamic_range_db / 10.0)
-        and not settings.fixed_order
-        and not clipped
-    ):
-        found = _resonator_stage(x, settings, first, found, whitenings)
-    if resonator:  # a search's own ticks; where series start (steps 1-6) needs none of them
-        found = with_standing_out(x, found, whitenings[0], settings)
-    noise = dsp.noise_floor(x, settings.samplerate)
-    return TickMeter(x, found, whitenings, settings, noise)
-
-
-class _LazyTick:
-    """A tick of steps 1-6 over a block (:func:`_located`), measured only when a
-    measurement other than its time is asked for: where a block's series start needs the
-    energies of the ticks around a long bounce and the decay of a few only
-    (:func:`~synth.analysis.validity.new_series_at`,
-    :func:`~synth.analysis.validity.without_spurious_end`)."""
-
-    def __init__(self, meter: TickMeter, i: int):
-        self._meter, self._i, self._tick = meter, i, None
-
-    @property
-    def time(self) -> float:
-        return self._meter.time(self._i)
-
-    @property
-    def measured(self):
-        """The tick's :class:`~synth.analysis.report.Tick`."""
-        if self._tick is None:
-            self._tick = self._meter.tick(self._i)
-        return self._tick
-
-    def __getattr__(self, name):
-        if name.startswith("_"):
-            raise AttributeError(name)
-        return getattr(self.measured, name)
+    :func:`_block_drops`). ``parts``: as for :func:`first_search`."""
+    return measured_ticks(x, first_search(x, settings, parts=parts), settings, clipped, resonator)
 
 
 def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
@@ -708,118 +591,3 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
-
-
-@dataclass(frozen=True)
-class SearchResult:
-    """The ticks one search found in one whitening: onsets (samples) and strengths (dB) in
-    time order, the residual and each tick's model (None without deflation), what the
-    whitening leaves of the first tick's ringing (None without a second tick), the candidate
-    frames of steps 2-4, and the onsets timed against the first tick's template (step 7)."""
-
-    whitened: np.ndarray
-    onsets: np.ndarray
-    strengths: np.ndarray
-    residual: np.ndarray | None
-    models: list | None
-    ringing_left: float | None
-    peaks: np.ndarray
-    timed: np.ndarray | None
-    stopped: bool = False
-
-
-def _search(
-    r: np.ndarray, settings: Settings, order: int | None = None, known=(), locate: bool = False
-) -> SearchResult:
-    """Steps 2-5 on the whitened signal ``r``; with ``order`` (the resonator's predictor's),
-    the rules of step 7: the local background of step 3 over :data:`BACKGROUND_SPAN` times
-    the order (a tick's whitened response lasts about that), the first bounce ending where
-    the second tick's burst begins, and no fixed floor unless ``dynamic_range_db`` was
-    given. ``known``: the onsets of the first search (samples)."""
-    fs, hop = settings.samplerate, settings.hop
-    background = (
-        settings.background
-        if order is None
-        else max(settings.background, BACKGROUND_SPAN * order / fs)
-    )
-    ft = first_ticks(r, settings, background)
-    if not settings.deflate:
-        return SearchResult(r, ft.onsets, ft.strengths, None, None, None, ft.peaks, None)
-    peaks, d = ft.peaks, ft.d
-    end1 = (peaks[1] - 1) * hop if peaks.size > 1 else r.size
-    if order is not None and peaks.size > 1:
-        end1 = min(end1, max(int(math.floor(ft.onsets[1])) - WINDOW_GUARD, 1))
-    first = FirstTick(ft.onsets[0], ft.strengths[0], d[peaks[0] : peaks[0] + 2].max(), end1)
-    anchors = (ft.anchors[1:], ft.anchor_strengths[1:])
-    fixed_floor = d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)
-    if order is None:
-        search = DeflationSearch(r, settings, first, anchors, fixed_floor, float(d.max()), known)
-    else:
-        search = ResonatorSearch(
-            r,
-            settings,
-            first,
-            anchors,
-            fixed_floor if settings.fixed_range else None,
-            float(d.max()),
-            known,
-        )
-    out = search.run(locate)
-    return SearchResult(
-        r,
-        out.onsets,
-        out.strengths,
-        out.residual,
-        out.models,
-        out.ringing_left if peaks.size > 1 else None,
-        peaks,
-        out.timed,
-        out.stopped,
-    )
-
-
-def _resonator_stage(
-    x: np.ndarray,
-    settings: Settings,
-    first: SearchResult,
-    found: list[FoundTick],
-    whitenings: list[Whitening],
-) -> list[FoundTick]:
-    """Step 7: the first tick rings on above the floor up to the second under the whitening;
-    the resonator's own predictor, from the free ringing of the first bounce, and the search
-    again. Kept when it leaves :data:`RESONATOR_GAIN_DB` less of the first tick's ringing and
-    finds the first search's ticks, from the first on (at least two), within
-    :data:`AGREEMENT`: then it continues their series where the two part, and its onsets
-    (timed against the first tick's template) replace the first search's for the ticks they
-    share: one estimator for every bounce time. Its whitening is appended to
-    ``whitenings``."""
-    fs = settings.samplerate
-    lo = int(math.floor(first.onsets[0])) + int(round(CLEAN_GUARD * fs))
-    hi = (first.peaks[1] - 1) * settings.hop
-    a_res = resonator_predictor(x[lo:hi], fs, settings.whitening_order) if hi > lo else None
-    if a_res is None:
-        return found
-    known = np.array([f.onset for f in found])
-    try:
-        with one_blas_thread():
-            res = _search(whiten(x, a_res), settings, a_res.size - 1, known)
-    except AnalysisError:
-        return found
-    if res.ringing_left is None or not (
-        res.ringing_left < first.ringing_left * 10.0 ** (-RESONATOR_GAIN_DB / 10.0)
-    ):
-        return found
-    kept = bounce_order(res.onsets, res.strengths, settings.e_min)
-    on2 = res.onsets[kept]
-    tol = AGREEMENT * fs
-    n = 0
-    while n < min(len(found), on2.size) and abs(on2[n] - found[n].onset) <= tol:
-        n += 1
-    if not (n >= 2 and (n == len(found) or on2.size > n and on2[n] < found[n].onset - tol)):
-        return found
-    whitenings.append(Whitening(a_res, res.whitened, res.residual))
-    timed = res.timed
-    return [replace(found[j], onset=timed[kept[j]]) for j in range(n)] + [
-        FoundTick(timed[kept[j]], res.strengths[kept[j]], res.models[kept[j]], 1, on2[j])
-        for j in range(n, on2.size)
-    ]

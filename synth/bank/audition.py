@@ -102,9 +102,9 @@ def sheet(bank_dir, path, *, columns: int = SHEET_COLUMNS) -> Path:
     """Write a contact sheet of ``bank_dir``'s finished sounds to the PNG ``path``:
     per sound a waveform over a spectrogram (up to :data:`SHEET_MAX_SOUNDS` sounds)."""
     from synth.io.atomic import write_atomically
-    from synth.io.plot import _import_matplotlib
+    from synth.io.plot import import_matplotlib
 
-    figure_class, canvas_class = _import_matplotlib()
+    figure_class, canvas_class = import_matplotlib()
     items = sounds(bank_dir)[:SHEET_MAX_SOUNDS]
     stored = mf.read_spec(Path(bank_dir)) or {}
     keys = list(stored.get("vary", {}))

@@ -42,7 +42,7 @@ ENVELOPE_BINS = 4_000
 _QUANTITY = {"Pa": ("Sound pressure", "Pa"), "m/s^2": ("Acceleration", "m/s²")}
 
 
-def _import_matplotlib():
+def import_matplotlib():
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -152,8 +152,7 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     impacts = list(_attr(render, "impacts"))
     times = _onsets(_attr(render, "onsets"), len(impacts))
     settings = _attr(render, "settings")
-    Figure, FigureCanvasAgg = _import_matplotlib()
-    from scipy import signal
+    Figure, FigureCanvasAgg = import_matplotlib()
 
     x = audio.astype(np.float64).reshape(audio.shape[0], -1) / gain
     frames, channels = x.shape
@@ -171,7 +170,25 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     ax_bar = fig.add_subplot(grid[1, 1])
     fig.suptitle(_title(settings, sr, units, gain, len(impacts), frames, channels), fontsize=10)
 
-    # (a) waveform
+    _waveform_panel(ax_w, t, x, times, sr, gain, units)
+    _spectrogram_panel(fig, ax_s, ax_bar, x, sr, times, units)
+    _pulses_panel(ax_f, impacts, max_pulses)
+
+    def write(tmp):
+        try:
+            fig.savefig(tmp, format="png", dpi=DPI)
+        except (OSError, ValueError, RuntimeError) as exc:
+            raise SynthError(f"cannot write {str(p)!r}: {exc}") from exc
+
+    write_atomically(p, write, error=ParameterError)
+    return p
+
+
+def _waveform_panel(ax_w, t, x, times, sr, gain, units) -> None:
+    """Panel (a): the waveform ``x`` (frames x channels, physical units) against ``t`` (s),
+    a red line at each impact time (s), the full scale (``gain`` per unit) on the right."""
+    frames, channels = x.shape
+    quantity, unit_label = _QUANTITY[units]
     labels = [f"channel {c + 1}" for c in range(channels)]
     _draw_waveform(ax_w, t, x, labels)
     for ti in times:
@@ -188,7 +205,15 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
         ax_w.legend(loc="upper right", fontsize=8)
     ax_w.grid(alpha=0.3)
 
-    # (b) spectrogram of the first channel
+
+def _spectrogram_panel(fig, ax_s, ax_bar, x, sr, times, units) -> None:
+    """Panel (b): the spectrogram of the first channel of ``x`` (power spectral density, dB
+    re 1 unit^2/Hz, up to the Nyquist frequency ``sr / 2``), impacts marked on its top
+    edge, and its colour bar in ``ax_bar``."""
+    from scipy import signal
+
+    frames, channels = x.shape
+    _, unit_label = _QUANTITY[units]
     # Frames of about SPECTROGRAM_FRAME, but short enough for at least 13 frames
     # (hop = nper / 4) when the audio is short; never longer than the audio.
     nper = 2 ** max(5, int(round(math.log2(SPECTROGRAM_FRAME * sr))))
@@ -242,7 +267,10 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     bar = fig.colorbar(image, cax=ax_bar)
     bar.set_label(f"PSD (dB re 1 {unit_label}²/Hz)")
 
-    # (c) force pulses of the first impacts
+
+def _pulses_panel(ax_f, impacts, max_pulses) -> None:
+    """Panel (c): the contact force (N) of the first ``max_pulses`` impacts against time
+    from first touch (us), with their speed, restitution and contact time."""
     shown = impacts[:max_pulses]
     for imp in shown:
         r = imp.result
@@ -267,12 +295,3 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
         loc="left",
     )
     ax_f.grid(alpha=0.3)
-
-    def write(tmp):
-        try:
-            fig.savefig(tmp, format="png", dpi=DPI)
-        except (OSError, ValueError, RuntimeError) as exc:
-            raise SynthError(f"cannot write {str(p)!r}: {exc}") from exc
-
-    write_atomically(p, write, error=ParameterError)
-    return p

@@ -492,7 +492,7 @@ def resolve(value, field_name: str = "material") -> Material:
     raise ParameterError(f"{field_name}={value!r} must be a Material or a material name")
 
 
-def _damping_text(d) -> str:
+def damping_text(d) -> str:
     if isinstance(d, LossFactor):
         return f"loss factor {d.eta:.3g}"
     return f"Rayleigh alpha {d.alpha:g} 1/s, beta {d.beta:g} s"
@@ -519,7 +519,7 @@ def table_markdown() -> str:
         source = m.source.replace("|", "\\|")
         lines.append(
             f"| {m.name} | {m.density:g} | {m.young / 1e9:.4g} | {m.poisson:g} | "
-            f"{_damping_text(m.damping)} | {source} |"
+            f"{damping_text(m.damping)} | {source} |"
         )
     return "\n".join(lines) + "\n"
 

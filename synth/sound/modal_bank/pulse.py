@@ -34,7 +34,7 @@ PULSE_POINTS = 65
 LONG_CONTACT_NEPERS = 300.0
 
 
-def _grid_size(tau, omega_max, min_points=PULSE_POINTS):
+def grid_size(tau, omega_max, min_points=PULSE_POINTS):
     """Points of the uniform pulse grid over a contact of ``tau`` s: an odd number (for
     the extrapolation), at least ``min_points``, with a step ``h`` such that
     ``omega_max h <= pi / 4`` (8 points a period of the highest mode)."""
@@ -50,7 +50,7 @@ def pulse_grid(result, omega_max, min_points=PULSE_POINTS):
     in N.
     """
     tau = result.separation_time
-    n = _grid_size(tau, omega_max, min_points)
+    n = grid_size(tau, omega_max, min_points)
     h = tau / (n - 1)
     u = np.arange(n) * h
     f = result.force_at(u)
@@ -199,7 +199,7 @@ def pulse_layout(
     with at least ``pulse_points`` grid points (the kernel guards the rounding of a sample
     that falls on the touch)."""
     fs = samplerate
-    n = _grid_size(contact_time, omega_max, pulse_points)
+    n = grid_size(contact_time, omega_max, pulse_points)
     first = int(math.ceil(onset * fs - 1e-9))
     samples = max(0, int(math.ceil((onset + contact_time) * fs - 1e-9)) - first)
     return PulseLayout(n, contact_time / (n - 1), first, samples, first * (1.0 / fs) - onset)

@@ -191,7 +191,7 @@ class Modes:
         if isinstance(sol, SimplySupported):
             return True
         if isinstance(sol, RitzSolution):
-            return sol.omega_max == _dimensionless_band(self.plate, self.max_frequency)
+            return sol.omega_max == dimensionless_band(self.plate, self.max_frequency)
         return False  # a hybrid's low Ritz band may itself be a wider band's
 
     def separable(self) -> SeparableShapes | None:
@@ -309,7 +309,7 @@ def frequency_scale(plate: Plate) -> float:
     return math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
 
 
-def _dimensionless_band(plate: Plate, max_frequency: float) -> float:
+def dimensionless_band(plate: Plate, max_frequency: float) -> float:
     """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
     return 2.0 * math.pi * max_frequency / frequency_scale(plate)
 
@@ -318,11 +318,11 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
     """The dimensionless band of the Ritz problems :func:`modes` solves for ``plate`` up
     to ``max_frequency`` (Hz): the whole band, or beyond the crossover its low band."""
     aspect = plate.length / plate.width
-    omega_req = _dimensionless_band(plate, max_frequency)
+    omega_req = dimensionless_band(plate, max_frequency)
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
-        from synth.sound.modes.crossover import _LOW_BAND_UNKNOWNS, band_of_unknowns
+        from synth.sound.modes.crossover import LOW_BAND_UNKNOWNS, band_of_unknowns
 
-        omega_req = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+        omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
     return omega_req
 
 
@@ -402,7 +402,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
         raise ParameterError(f"cache={cache!r} must be True or False")
     aspect = plate.length / plate.width
     scale = frequency_scale(plate)
-    omega_req = _dimensionless_band(plate, fmax)
+    omega_req = dimensionless_band(plate, fmax)
     if plate.boundary == "simply-supported":
         sol = SimplySupported(aspect, omega_req)
         tol = 0.0

@@ -24,7 +24,7 @@ EDGE_EFFECT_TOLERANCE = 0.005
 # Crossover to the dynamic edge effect method (synth.sound.asymptotic_modes): a free or
 # clamped band whose Ritz problem would exceed this many unknowns per symmetry class
 # (the estimate of ritz_unknowns) takes the Ritz modes of a low band only (up to
-# _LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
+# LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
 # edge effect modes above the same low band, so the crossover sets the cost alone, not
 # the accuracy: it lies just above every preset's band at 48 kHz (at most 1831 unknowns,
 # ping-pong table, steel sheet: their recorded renders keep the Ritz path). A Ritz
@@ -34,7 +34,7 @@ CROSSOVER_UNKNOWNS = 1850
 # Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
 # method's least accurate: corner and beam-like modes; the tests measure its accuracy
 # above a band of 200) exact, in a fraction of a second.
-_LOW_BAND_UNKNOWNS = 300
+LOW_BAND_UNKNOWNS = 300
 # Most modes any band may hold (arrays of a few hundred MB per listener beyond).
 _MAX_MODES = 2_000_000
 
@@ -115,7 +115,7 @@ def crossed(boundary, nu, aspect, omega_req, cache):
     count = asymptotic_modes.mode_count_estimate(aspect, omega_req)
     if count > _MAX_MODES:
         raise TooLarge(int(count), "modes", _MAX_MODES)
-    omega_low = band_of_unknowns(aspect, _LOW_BAND_UNKNOWNS, omega_req)
+    omega_low = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
     ritz = cached_ritz(boundary, nu, aspect, omega_low, cache)
     edge = asymptotic_modes.solve(boundary, nu, aspect, omega_req)
     return HybridSolution(ritz, omega_low, edge, omega_req)

@@ -104,7 +104,7 @@ DEFAULT_MAX_POINTS = 4_000_000
 # rule takes at most a few seconds and is kept: its gains (the polar rule's agree to
 # tol, not to the last bit) are those the presets' recorded renders were made with
 # (the largest simply supported preset, 550 modes at 48 kHz, is 3.6e7).
-_POLAR_WORK = 5e7
+POLAR_WORK = 5e7
 
 
 def _use_separable(modes, size, listener, q_s, kb, c, tol):
@@ -113,17 +113,17 @@ def _use_separable(modes, size, listener, q_s, kb, c, tol):
     shapes = modes.separable()
     if shapes is None or q_s.size == 0:
         return None
-    return shapes if _rectangle_work(size, q_s, kb, c, tol) > _POLAR_WORK else None
+    return shapes if _rectangle_work(size, q_s, kb, c, tol) > POLAR_WORK else None
 
 
-#: Rectangle-rule work (modes times points, as for ``_POLAR_WORK``) above which a free or
+#: Rectangle-rule work (modes times points, as for ``POLAR_WORK``) above which a free or
 #: clamped plate takes the polar rule of :func:`summed_gains`. Above every preset's (at
 #: most 3.4e8, a free wooden table at 48 kHz: their recorded renders were made with the
 #: rectangle rule), below the default board's at 192 kHz (7e8). ``math.inf``: never.
 SUMMED_RULE_WORK = 5e8
 
 
-#: Rectangle-rule work (as for ``_POLAR_WORK``) above which a plate with dynamic edge effect
+#: Rectangle-rule work (as for ``POLAR_WORK``) above which a plate with dynamic edge effect
 #: modes takes the boundary rule for them. Its cost grows with the plate's diameter times
 #: the wavenumber rather than the area times its square, but with a larger constant: below
 #: this work the banded rectangle rules are cheaper (a free acrylic plate of 1.18 x 0.92 m at

@@ -19,8 +19,10 @@ import numpy as np
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.sound.modes import single_thread_product
+from synth.sound.radiation.angular import angular_rule
 from synth.sound.radiation.common import CHUNK_BYTES, REFINE, add_sums
-from synth.sound.radiation.polar import angular_rule, polar_gains, polar_setup, radial_nodes
+from synth.sound.radiation.polar import polar_gains, polar_setup
+from synth.sound.radiation.radial import radial_nodes
 from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 
 # ----------------------------------------------------------------------------------------

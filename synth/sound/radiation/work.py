@@ -13,8 +13,8 @@ multiply-add, or one exponential, Bessel value or shape factor value.
   costing per mode one exponential and the ``terms`` of a shape value.
 * **polar** (:func:`polar_work`, the separable shapes of
   :func:`~synth.sound.radiation.separable_gains`): the radii of the radial panels
-  (:func:`~synth.sound.radiation.polar.radial_orders`) and at each the angular points of
-  the shorter set of arcs (:func:`~synth.sound.radiation.polar._arc_panels`); per angular
+  (:func:`~synth.sound.radiation.radial.radial_orders`) and at each the angular points of
+  the shorter set of arcs (:func:`~synth.sound.radiation.angular.arc_panels`); per angular
   point the ``n_x + n_y`` factor values and the ``n_x n_y`` products of the angular sums,
   per radius and mode an exponential and a ``J_0``; once, the in-phase bounds' rectangle
   rule at ``2 kb`` refined once (factor values and its two matrix products).
@@ -25,7 +25,7 @@ multiply-add, or one exponential, Bessel value or shape factor value.
   exponential; once, the in-phase bounds' rectangle rule (as the rectangle rule's terms).
 * **boundary** (:func:`boundary_work`, the edge effect modes of
   :func:`~synth.sound.radiation.boundary.boundary_rule`): per row (a mode's trial, two
-  for a pair) the radial grid of its rate (:class:`~synth.sound.radiation.boundary._Grid`,
+  for a pair) the radial grid of its rate (:class:`~synth.sound.radiation.boundary_grid.RadialGrid`,
   built for the top of each band of rates): per radial node an exponential and the two
   Bessel values of each of the three Helmholtz parts, per panel the parts' two
   cumulative integrals (``p^2`` each), per boundary node the trial's parts and slopes.
@@ -106,26 +106,25 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     panels); at each radius the arcs on the plate (the summed rule's
     :func:`angular_rule`), or with ``shorter`` the shorter of those on and off it (the
     separable rule's :func:`_circle_points`)."""
-    from synth.sound.radiation import polar
+    from synth.sound.radiation.angular import arc_panels, circle_arcs
+    from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels
 
     a, b = size
     xl, yl, _ = listener
     kappa = kb + qa
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa
-    panels, orders = polar.radial_orders(
-        polar.radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
+    panels, orders = radial_orders(
+        radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
     )
     out = []
     for f in _levels():
-        radii, _ = polar.radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
+        radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
         angular = 0
         for r in radii:
-            on, off = polar._circle_arcs(float(r), a, b, xl, yl)
+            on, off = circle_arcs(float(r), a, b, xl, yl)
             if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
                 on = off
-            angular += sum(
-                n * p for _, _, n, p in polar._arc_panels(float(r), kb, tol_panel, f, on)
-            )
+            angular += sum(n * p for _, _, n, p in arc_panels(float(r), kb, tol_panel, f, on))
         out.append((radii.size, angular))
     return out
 
@@ -180,21 +179,21 @@ def _boundary_grid(size, listener, band: RateBand, tol_panel, refine):
     """The radial grid :func:`boundary_integrals` builds for the band's top rate: its
     oscillating rate ``k + |q|`` and the edge parts' decay (at most ``sqrt(2) k`` along an
     edge), the decaying parts' ``sqrt(3) k`` and the band's lowest ``k`` (the tail)."""
-    from synth.sound.radiation import boundary as br
+    from synth.sound.radiation import boundary_grid as bg
 
     w_max = half_phase(MAX_ORDER, tol_panel)
-    k_osc = br._on_ladder(band.k_hi + band.qa)
-    k_dec = max(k_osc, br._on_ladder(math.sqrt(2.0) * band.k_hi))
-    kappa_max = br._on_ladder(math.sqrt(3.0) * band.k_hi)
-    kappa_min = br._below_ladder(band.k_lo)
+    k_osc = bg.on_ladder(band.k_hi + band.qa)
+    k_dec = max(k_osc, bg.on_ladder(math.sqrt(2.0) * band.k_hi))
+    kappa_max = bg.on_ladder(math.sqrt(3.0) * band.k_hi)
+    kappa_min = bg.below_ladder(band.k_lo)
     if kappa_min * 2.0 * w_max / k_dec <= 2.0:
         kappa_min = 0.0
-    return br._Grid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
+    return bg.RadialGrid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
 
 
 def boundary_row_terms(grid) -> float:
     """Terms of one row of the boundary rule on ``grid`` (a
-    :class:`~synth.sound.radiation.boundary._Grid`; see the module docstring)."""
+    :class:`~synth.sound.radiation.boundary_grid.RadialGrid`; see the module docstring)."""
     return (
         BOUNDARY_NODE_TERMS * grid.rho.size
         + BOUNDARY_CUMULATIONS * float(np.sum(grid.orders.astype(float) ** 2))

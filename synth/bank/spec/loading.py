@@ -1,0 +1,343 @@
+"""Reading a spec: the example specs installed with the package, a TOML file or a dict
+checked key by key into a :class:`~synth.bank.spec.model.BankSpec`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from synth.bank.spec.model import (
+    FORMATS,
+    RENDER_DEFAULTS,
+    RESTITUTION_SCALE,
+    TOP_LEVEL,
+    TRIM_DEFAULTS,
+    BankSpec,
+    BankSpecError,
+    ListAxis,
+    RangeAxis,
+    spec_error,
+)
+from synth.bank.spec.naming import check_template
+from synth.bank.spec.sampling import MIN_DISTANCE_MAX_ROWS, SAMPLINGS, grid_axis
+from synth.errors import ParameterError
+from synth.io import presets
+
+#: Where the example specs installed with the package are (usable by name).
+PACKAGE_BANKS = Path(__file__).resolve().parents[2] / "presets" / "banks"
+
+
+def available() -> dict[str, Path]:
+    """The example specs installed with the package, by name (the file's stem)."""
+    return {p.stem: p for p in sorted(PACKAGE_BANKS.glob("*.toml"))}
+
+
+def find(path_or_name) -> Path:
+    """The spec file ``path_or_name``: a file, or the name of an installed example."""
+    p = Path(path_or_name)
+    if p.exists() or p.suffix == ".toml":
+        return p
+    known = available()
+    if str(path_or_name) in known:
+        return known[str(path_or_name)]
+    near = difflib.get_close_matches(str(path_or_name), known, n=2, cutoff=0.4)
+    hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+    raise BankSpecError(
+        f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
+        f"{', '.join(known) or 'none'}"
+    )
+
+
+def load(path) -> BankSpec:
+    """Read and check the spec file ``path`` (TOML), or the installed example of that
+    name (:func:`available`)."""
+    p = find(path)
+    try:
+        with open(p, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise BankSpecError(f"{p}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise BankSpecError(f"spec={str(p)!r} cannot be read: {exc.strerror}") from None
+    return from_dict(data, base_dir=p.parent, source=str(p))
+
+
+def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
+    """Check a spec given as a dict (``base_dir``: where a relative preset file is)."""
+    try:
+        return _from_dict(data, Path(base_dir))
+    except BankSpecError as exc:
+        raise BankSpecError(f"{source}: {exc}") from None
+
+
+def _from_dict(data: dict, base_dir: Path) -> BankSpec:
+    for key, value in data.items():
+        if key not in TOP_LEVEL:
+            near = difflib.get_close_matches(key, TOP_LEVEL, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise spec_error(
+                key, value, f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}"
+            )
+    if "preset" not in data:
+        raise BankSpecError("preset is required: a preset name or a .toml file")
+    preset_path, preset_name = _preset(data["preset"], base_dir)
+    count = data.get("count")
+    if count is not None and (isinstance(count, bool) or not isinstance(count, int) or count < 1):
+        raise spec_error("count", count, "must be an integer >= 1 (or left out for the full grid)")
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise spec_error("seed", seed, "must be an integer >= 0")
+    fmt = data.get("format", "flac")
+    if fmt not in FORMATS:
+        raise spec_error("format", fmt, f"must be one of {', '.join(map(repr, FORMATS))}")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise spec_error("description", description, "must be a string")
+    vary = data.get("vary", {})
+    if not isinstance(vary, dict):
+        raise spec_error("vary", vary, "must be a table of axes")
+    base_raw = presets.read(preset_path)
+    sampling = data.get("sampling", "random")
+    if sampling not in SAMPLINGS:
+        raise spec_error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
+    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    if sampling == "grid":
+        if count is not None:
+            raise spec_error("count", count, "must be left out with sampling = 'grid'")
+        axes = tuple(grid_axis(a) for a in axes)
+    elif any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
+        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
+    render_section = data.get("render", {})
+    if not isinstance(render_section, dict):
+        raise spec_error("render", render_section, "must be a table of render options")
+    base = dict(base_raw)
+    base["render"] = {
+        **RENDER_DEFAULTS,
+        **base_raw.get("render", {}),
+        **render_section,
+    }
+    try:
+        _, options = presets.scene_from_dict(base, str(preset_path))
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    subtype = options.pop("subtype", FORMATS[fmt][2]).upper()
+    _check_subtype(fmt, subtype)
+    name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
+    if not isinstance(name, str) or not name:
+        raise spec_error(
+            "name", name, "must be a non-empty format string such as '{preset}-{index:04d}'"
+        )
+    spec = BankSpec(
+        preset=str(preset_path),
+        preset_name=preset_name,
+        base=base,
+        description=description,
+        count=count,
+        seed=seed,
+        name=name,
+        format=fmt,
+        subtype=subtype,
+        render=options,
+        axes=axes,
+        trim=_trim(data.get("trim")),
+        sampling=sampling,
+        labels=_labels(data.get("labels", {}), axes),
+        min_distance=_min_distance(data.get("min_distance"), count, sampling, axes),
+        tags=_tags(data.get("tags")),
+    )
+    check_template(spec)
+    return spec
+
+
+def _trim(value) -> dict | None:
+    """The checked ``[trim]`` table (see :data:`TRIM_DEFAULTS`), or None."""
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise spec_error("trim", value, "must be a table: { below_db = -60, fade = 0.01 }")
+    for k in value:
+        if k not in TRIM_DEFAULTS:
+            raise spec_error(
+                f"trim.{k}", value[k], f"is not a key; allowed: {', '.join(TRIM_DEFAULTS)}"
+            )
+    out = dict(TRIM_DEFAULTS, **value)
+
+    def number(key):
+        v = out[key]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise spec_error(f"trim.{key}", v, "must be a finite number")
+        return float(v)
+
+    out["below_db"] = number("below_db")
+    if not out["below_db"] < 0.0:
+        raise spec_error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
+    out["fade"] = number("fade")
+    if not 0.0 <= out["fade"] <= 1.0:
+        raise spec_error("trim.fade", out["fade"], "must be in [0, 1] (s)")
+    if out["max_length"] is not None:
+        out["max_length"] = number("max_length")
+        if not out["max_length"] > out["fade"]:
+            raise spec_error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
+    return out
+
+
+def _tag_value(where: str, value) -> None:
+    if isinstance(value, str) and value:
+        return
+    if isinstance(value, bool) or (isinstance(value, (int, float)) and math.isfinite(value)):
+        return
+    raise spec_error(where, value, "must be a non-empty text, a finite number or a boolean")
+
+
+def _tags(value) -> list | dict | None:
+    """The checked ``tags``: a list of keywords (non-empty texts) or a table of
+    name = text, number or boolean; None if left out."""
+    if value is None:
+        return None
+    if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
+        return list(value)
+    if isinstance(value, dict):
+        for name, v in value.items():
+            _tag_value(f"tags.{name}", v)
+        return dict(value)
+    raise spec_error(
+        "tags",
+        value,
+        'must be a list of keywords (["impact", "glass"]) or a table of name = text, '
+        'number or boolean ({ category = "impact" })',
+    )
+
+
+def _preset(value, base_dir: Path) -> tuple[Path, str]:
+    if not isinstance(value, str) or not value:
+        raise spec_error("preset", value, "must be a preset name or a .toml file")
+    candidate = base_dir / value
+    try:
+        path = presets.find(candidate if value.endswith(".toml") and candidate.is_file() else value)
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    return path, path.stem
+
+
+def _check_subtype(fmt: str, subtype: str) -> None:
+    import soundfile
+
+    if not soundfile.check_format(FORMATS[fmt][1], subtype):
+        raise spec_error(
+            "render.subtype",
+            subtype,
+            f"is not a subtype of format={fmt!r}; allowed: "
+            f"{', '.join(soundfile.available_subtypes(FORMATS[fmt][1]))}",
+        )
+
+
+def _allowed_keys() -> list[str]:
+    from synth.sound.render import OPTIONS
+
+    keys = [RESTITUTION_SCALE] + list(presets.TOP_LEVEL)
+    for section, fields in presets.SECTIONS.items():
+        for f in OPTIONS + ("subtype",) if fields is None else fields:
+            keys.append(f"{section}.{f}")
+    return [k for k in keys if k != "description"]
+
+
+def _axis(key: str, value, base_raw: dict):
+    where = f"vary.{key}"
+    allowed = _allowed_keys()
+    if key not in allowed:
+        near = difflib.get_close_matches(key, allowed, n=1)
+        hint = f" (did you mean {near[0]!r}?)" if near else ""
+        raise BankSpecError(
+            f"{where}: {key!r} is not a preset key{hint}; keys are "
+            f"'section.key' as in synth render --set (e.g. drop.height), or "
+            f"{RESTITUTION_SCALE}"
+        )
+    if isinstance(value, list):
+        if not value:
+            raise spec_error(where, value, "is an empty list: give at least one value")
+        return ListAxis(key, tuple(value))
+    if isinstance(value, dict):
+        return _range_axis(where, key, value)
+    raise spec_error(
+        where,
+        value,
+        "must be a list of values (a grid axis) or a range { min = ..., max = ..., log = false }",
+    )
+
+
+def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
+    for k, v in value.items():
+        if k not in ("min", "max", "log", "steps"):
+            raise spec_error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log, steps")
+    steps = value.get("steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 2):
+        raise spec_error(f"{where}.steps", steps, "must be an integer >= 2 (values of the grid)")
+    if "min" not in value or "max" not in value:
+        raise spec_error(where, value, "needs both min and max")
+    log = value.get("log", False)
+    if not isinstance(log, bool):
+        raise spec_error(f"{where}.log", log, "must be true or false")
+    lo, hi = _bound(f"{where}.min", value["min"]), _bound(f"{where}.max", value["max"])
+    if isinstance(lo, tuple) != isinstance(hi, tuple) or (
+        isinstance(lo, tuple) and len(lo) != len(hi)
+    ):
+        raise spec_error(
+            where, value, "needs min and max of one shape (two numbers, or two lists of one length)"
+        )
+    for a, b in zip(np.atleast_1d(lo), np.atleast_1d(hi)):
+        if a > b:
+            raise spec_error(where, value, f"has min > max ({a!r} > {b!r})")
+        if log and a <= 0.0:
+            raise spec_error(where, value, "with log = true needs min > 0")
+    return RangeAxis(key, lo, hi, log, steps)
+
+
+def _bound(where: str, v):
+    def number(x):
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+            raise spec_error(where, v, "must be a finite number or a list of them")
+        return float(x)
+
+    if isinstance(v, list):
+        if not v:
+            raise spec_error(where, v, "is an empty list")
+        return tuple(number(x) for x in v)
+    return number(v)
+
+
+def _min_distance(value, count, sampling, axes) -> float | None:
+    """The checked ``min_distance``: the least distance between two rows' range values,
+    each component scaled to [0, 1] over its range (log ranges in log), with ``count``
+    and random sampling."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+        raise spec_error(
+            "min_distance", value, "must be a number > 0 (in the unit cube of the ranges)"
+        )
+    if count is None or sampling != "random":
+        raise spec_error("min_distance", value, "needs count and sampling = 'random'")
+    if count > MIN_DISTANCE_MAX_ROWS:
+        raise spec_error("count", count, f"must be <= {MIN_DISTANCE_MAX_ROWS} with min_distance")
+    if not any(isinstance(a, RangeAxis) for a in axes):
+        raise spec_error("min_distance", value, "needs a range axis in [vary]")
+    return float(value)
+
+
+def _labels(value, axes) -> dict:
+    """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
+    and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
+    if not isinstance(value, dict):
+        raise spec_error("labels", value, "must be a table of varied keys")
+    keys = {a.key for a in axes}
+    for key, table in value.items():
+        if key not in keys:
+            raise spec_error(f"labels.{key}", table, f"is not a varied key; varied: {sorted(keys)}")
+        if not isinstance(table, dict) or not all(isinstance(v, str) and v for v in table.values()):
+            raise spec_error(f"labels.{key}", table, 'must be a table of value = "label"')
+    return {k: dict(v) for k, v in value.items()}

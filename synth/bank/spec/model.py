@@ -1,0 +1,254 @@
+"""A bank spec's record (:class:`BankSpec`, its axes), its keys and defaults, its stored
+and compared forms, and the error a spec's mistake raises (:class:`BankSpecError`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+import synth
+from synth.errors import ParameterError
+from synth.io import presets
+
+#: Top-level keys of a spec.
+TOP_LEVEL = (
+    "preset",
+    "description",
+    "count",
+    "seed",
+    "name",
+    "format",
+    "vary",
+    "render",
+    "trim",
+    "sampling",
+    "labels",
+    "min_distance",
+    "tags",
+)
+
+
+#: Keys of a stored spec that do not change any sound (they name the files or describe
+#: them): left out when a spec is compared with the one a bank was made by.
+NOT_AUDIO = ("preset", "name", "labels", "tags")
+
+
+#: Key of a stored spec naming the engine that renders the bank (``synth.__version__``):
+#: compared on its own, not with the spec (:func:`synth.bank.run.engine_problem`), since
+#: another engine may make other bytes of the same spec.
+ENGINE = "engine"
+
+
+#: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
+#: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
+#: there, and at ``max_length`` s at most (None: no bound).
+TRIM_DEFAULTS = {"below_db": -60.0, "fade": 0.01, "max_length": None}
+
+
+#: File formats: suffix and soundfile format name, and the default subtype of each.
+FORMATS = {
+    "wav": ("wav", "WAV", "PCM_24"),
+    "flac": ("flac", "FLAC", "PCM_24"),
+    "ogg": ("ogg", "OGG", "VORBIS"),
+}
+
+
+#: The axis key of the perception stimuli's restitution scaling.
+RESTITUTION_SCALE = "restitution_scale"
+
+
+#: The bank's level default: one calibration for every file (see synth.io.audio).
+DEFAULT_NORMALIZE = "physical"
+
+
+#: The bank's impact limit (``[render] max_impacts``; a plain render's is
+#: :data:`synth.physics.bounces.DEFAULT_MAX_IMPACTS`): a stated stop rule for a ball that
+#: loses little per bounce (rubber or ABS with the lossless Hertz contact, e near 0.99,
+#: which would bounce to ``max_duration``), not a change of its restitution. Kinetic energy
+#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so a ball with e <= 0.89 is
+#: 20 * 63 * log10(1 / 0.89) = 64 dB below its first impact by impact 64, past the
+#: series' level rule (``bounce_floor_db``, -60 dB) that ends it by itself; a ball that
+#: keeps more (near-elastic, or a glass marble on a wooden floor) stops here, its
+#: ``stop_reason`` "max-impacts".
+BANK_MAX_IMPACTS = 64
+
+
+#: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
+RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
+
+
+#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
+#: scene is built and checked before the bank starts, and a bank of this many sounds of
+#: about 0.1 s of rendering each is already a day of one core's work.
+MAX_ROWS = 100_000
+
+
+#: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
+#: is another bank): 2 drew each list axis without replacement block by block, 3 draws
+#: the combinations of the list axes without replacement (:class:`_ListDraws`), which
+#: makes the rows of 2 for a spec with fewer than two list axes or without ``count``
+#: (a bank of 2 of such a spec resumes, :func:`canonical`).
+PLAN_VERSION = 3
+
+
+class BankSpecError(ParameterError):
+    """A bank spec that cannot be run; the message names the key and value."""
+
+
+@dataclass(frozen=True)
+class ListAxis:
+    """A grid axis (or, with ``count``, a list sampled uniformly): ``key``, ``values``."""
+
+    key: str
+    values: tuple
+
+
+@dataclass(frozen=True)
+class RangeAxis:
+    """A range drawn uniformly (``log``: log-uniformly) between ``low`` and ``high``,
+    scalars or vectors of one length (``tuple``), in the key's units."""
+
+    key: str
+    low: float | tuple
+    high: float | tuple
+    log: bool = False
+    steps: int | None = None
+
+    def position(self, u: np.ndarray):
+        """The value at fractions ``u`` (one per component, in [0, 1]) of the range."""
+        lo = np.atleast_1d(np.asarray(self.low, dtype=float))
+        hi = np.atleast_1d(np.asarray(self.high, dtype=float))
+        if self.log:
+            v = np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
+        else:
+            v = lo + u * (hi - lo)
+        v = np.clip(v, lo, hi)  # rounding of lo + u (hi - lo) may cross hi by an ulp
+        return [float(x) for x in v] if isinstance(self.low, tuple) else float(v[0])
+
+    def draw(self, rng: np.random.Generator):
+        """One value, drawn uniformly (log: log-uniformly) with ``rng``."""
+        return self.position(rng.random(np.atleast_1d(np.asarray(self.low)).size))
+
+
+@dataclass(frozen=True)
+class BankSpec:
+    """A checked bank spec (see the module docstring for the keys).
+
+    ``base`` is the preset's raw dict with the spec's ``[render]`` applied, ``render``
+    the render options (``normalize`` defaulted to "physical"), ``subtype`` the files'.
+    """
+
+    preset: str
+    preset_name: str
+    base: dict
+    description: str
+    count: int | None
+    seed: int
+    name: str
+    format: str
+    subtype: str
+    render: dict
+    axes: tuple
+    trim: dict | None = None
+    sampling: str = "random"
+    labels: dict = dataclasses.field(default_factory=dict)
+    min_distance: float | None = None
+    tags: list | dict | None = None
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """The varied keys, in the spec's order."""
+        return tuple(a.key for a in self.axes)
+
+    @property
+    def suffix(self) -> str:
+        return FORMATS[self.format][0]
+
+    def as_dict(self) -> dict:
+        """Everything that determines the bank's files, as JSON-able data (stored with
+        the bank to refuse a changed spec)."""
+        axes = {}
+        for a in self.axes:
+            if isinstance(a, ListAxis):
+                axes[a.key] = list(a.values)
+            else:
+                axes[a.key] = {"min": _jsonable(a.low), "max": _jsonable(a.high), "log": a.log}
+                if a.steps is not None:
+                    axes[a.key]["steps"] = a.steps
+        return {
+            "preset": self.preset_name,
+            "preset_data": self.base,
+            "count": self.count,
+            "seed": self.seed,
+            "name": self.name,
+            "format": self.format,
+            "subtype": self.subtype,
+            "render": self.render,
+            "vary": axes,
+            "plan": PLAN_VERSION,
+            "trim": self.trim,
+            "sampling": self.sampling,
+            "labels": self.labels,
+            "min_distance": self.min_distance,
+            "tags": self.tags,
+            ENGINE: synth.__version__,
+        }
+
+    def stored_form(self) -> dict:
+        """:meth:`as_dict` in its canonical form (:func:`canonical`): what is stored with
+        the bank and compared with the spec of a later run."""
+        return canonical(self.as_dict())
+
+
+def canonical(data: dict) -> dict:
+    """The canonical form of a stored spec ``data`` (:meth:`BankSpec.as_dict`, or this
+    form itself: the function is idempotent), in which two specs that make the same
+    files are equal: the base preset with every fixed default spelled out
+    (:func:`synth.io.presets.canonical`: render options, gravity, plate boundary,
+    contact model ...; not those derived from a varied key; without the preset's
+    description and the base values of the varied keys, which every row sets), its
+    ``render.subtype`` the files' subtype, its ``plan`` the rules that draw its rows
+    (:func:`_plan_rules`). A value that changes the
+    files still differs, under its dotted key (:func:`differences`). A ``data`` that is
+    no valid spec is returned as it is (it then differs from any valid one)."""
+    try:
+        base = presets.canonical(data["preset_data"], varied=tuple(data["vary"]))
+        plan_rules = _plan_rules(data)
+    except (ParameterError, KeyError, TypeError, ValueError, AttributeError):
+        return data
+    base["render"]["subtype"] = data["subtype"]
+    out = dict(data, preset_data=base, plan=plan_rules)
+    out["render"] = {k: v for k, v in base["render"].items() if k != "subtype"}
+    return json.loads(json.dumps(out))  # tuples as lists, as the stored JSON holds them
+
+
+def _plan_rules(data: dict):
+    """The plan version a stored spec ``data`` is compared by: its own, except that one
+    of plan 2 whose rows plan 3 draws alike (without ``count``, or with fewer than two
+    list axes: 3 changed only how the combinations of several lists are drawn) counts as
+    :data:`PLAN_VERSION`, so its bank resumes."""
+    version = data.get("plan")
+    lists = [v for v in data["vary"].values() if isinstance(v, list)]
+    if version == 2 and (data.get("count") is None or len(lists) < 2):
+        return PLAN_VERSION
+    return version
+
+
+def compared_form(data: dict) -> dict:
+    """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
+    form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
+    and the tags), so that a bank resumes across a change of them, and without the
+    :data:`ENGINE` that rendered it (checked on its own)."""
+    return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO + (ENGINE,)}
+
+
+def _jsonable(v):
+    return list(v) if isinstance(v, tuple) else v
+
+
+def spec_error(key: str, value, allowed: str) -> BankSpecError:
+    return BankSpecError(f"{key}={value!r} {allowed}")

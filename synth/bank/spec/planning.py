@@ -1,0 +1,154 @@
+"""The plan: a spec's rows (:class:`PlanItem`) with their file names and scenes, each held to
+the render's cost budget, and the row lists of ``--redo``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from synth import cost
+from synth.bank.spec.model import MAX_ROWS, RESTITUTION_SCALE, BankSpec, BankSpecError, spec_error
+from synth.bank.spec.naming import file_name
+from synth.bank.spec.sampling import row_count, variations, warn_repeated_rows
+from synth.errors import ParameterError
+from synth.io import presets
+
+
+@dataclass(frozen=True)
+class PlanItem:
+    """One sound of the bank: ``index``, ``file`` (relative to the bank's folder) and
+    ``values`` (the varied keys and their values)."""
+
+    index: int
+    file: str
+    values: dict
+
+
+def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
+    """Every row of the bank, checked: the file names are distinct and short enough,
+    and (``check_scenes``) every row's scene and render options are valid
+    (:func:`check_rows`), so that a bank either starts clean or is refused; a plan whose
+    rows repeat (:func:`warn_repeated_rows`) is warned of."""
+    n = row_count(spec)
+    if n > MAX_ROWS:
+        raise spec_error(
+            "count" if spec.count is not None else "vary",
+            n if spec.count is not None else f"a grid of {n} rows",
+            f"is more than the {MAX_ROWS} rows a bank may have: split it into several "
+            f"banks (seeds or folders)",
+        )
+    items, seen = [], {}
+    for index, values in enumerate(variations(spec)):
+        f = file_name(spec, index, values)
+        if f in seen:
+            raise spec_error(
+                "name",
+                spec.name,
+                f"makes two files the same name {f!r} (rows "
+                f"{seen[f]} and {index}): use {{index}} or more axes in it",
+            )
+        seen[f] = index
+        items.append(PlanItem(index, f, values))
+    if check_scenes:
+        check_rows(spec, items)
+    warn_repeated_rows(spec)
+    return tuple(items)
+
+
+#: Rows named in the message of a plan refused for its rows' values.
+ROWS_NAMED = 5
+
+
+def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = None) -> str | None:
+    """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
+    render options are built and checked as a render checks them, and its render's cost
+    estimate (:func:`synth.cost.estimate_render`: modes, longest contact, pulse grid, mode
+    solver, radiation, memory) held to ``budget`` (default: the environment's) as the
+    render will hold it, without solving anything but the first contact by the impedance
+    model (milliseconds; no modes)."""
+    k = item.values.get(RESTITUTION_SCALE)
+    if k is not None and (
+        isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
+    ):
+        return f"{RESTITUTION_SCALE}={k!r} must be a finite number >= 0 (dimensionless)"
+    budget = cost.Budget.from_environment() if budget is None else budget
+    try:
+        scene, options = presets.scene_from_dict(scene_data(spec, item.values), f"row {item.index}")
+        cost.estimate_render(scene, options, budget).check(budget)
+    except ParameterError as exc:
+        return str(exc).removeprefix(f"row {item.index}: ")
+    except (TypeError, ValueError) as exc:  # a value of the wrong type deep in a section
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+def check_rows(spec: BankSpec, items) -> None:
+    """Refuse the plan if a row's scene cannot be rendered (:func:`row_problem`), naming
+    the rows, their varied values and what is wrong."""
+    bad = []
+    budget = cost.Budget.from_environment()
+    for item in items:
+        problem = row_problem(spec, item, budget)
+        if problem is not None:
+            bad.append((item, problem))
+    if not bad:
+        return
+    lines = [
+        f"row {item.index} ({', '.join(f'{k}={v!r}' for k, v in item.values.items())}): {why}"
+        for item, why in bad[:ROWS_NAMED]
+    ]
+    more = f"\n  ... and {len(bad) - ROWS_NAMED} more rows" if len(bad) > ROWS_NAMED else ""
+    raise BankSpecError(
+        f"vary: {len(bad)} of {len(items)} rows cannot be rendered:\n  " + "\n  ".join(lines) + more
+    )
+
+
+def scene_data(spec: BankSpec, values: dict) -> dict:
+    """The preset dict of a row: the base with the row's values set under their dotted
+    keys, as ``synth render --set`` sets them (the restitution scale is not a preset key
+    and is left out)."""
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in spec.base.items()}
+    for key, value in values.items():
+        if key != RESTITUTION_SCALE:
+            presets.set_key(data, key, value, f"vary.{key}")
+    return data
+
+
+def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
+    """The dotted keys whose values differ between two spec dicts (:func:`canonical`)."""
+    out = []
+    for k in sorted(set(old) | set(new), key=str):
+        a, b = old.get(k, dataclasses.MISSING), new.get(k, dataclasses.MISSING)
+        key = f"{prefix}{k}"
+        if isinstance(a, dict) and isinstance(b, dict):
+            out.extend(differences(a, b, key + "."))
+        elif a != b:
+            out.append(key)
+    return out
+
+
+def parse_rows(text, planned: int) -> frozenset[int]:
+    """The row indices of ``text`` (``"17,40-45"``: indices and inclusive ranges, as
+    ``--redo`` takes them), each in ``0 .. planned - 1``."""
+    if isinstance(text, (set, frozenset, list, tuple)):
+        parts = [str(v) for v in text]
+    elif isinstance(text, str):
+        parts = [p.strip() for p in text.split(",")]
+    else:
+        raise spec_error("redo", text, "must be row indices such as '17,40-45'")
+    rows = set()
+    for part in parts:
+        lo, sep, hi = part.partition("-")
+        try:
+            first = int(lo)
+            last = int(hi) if sep else first
+        except ValueError:
+            raise spec_error("redo", text, f"has {part!r}, not an index or a range a-b") from None
+        if first < 0 or last < first or last >= planned:
+            raise spec_error(
+                "redo", text, f"has {part!r}: rows are 0 to {planned - 1}, ranges ascending"
+            )
+        rows.update(range(first, last + 1))
+    return frozenset(rows)

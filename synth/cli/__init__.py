@@ -1,0 +1,104 @@
+"""The command line: ``synth SUBCOMMAND ...`` (argparse).
+
+Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter`` (a
+recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
+preset), ``presets`` (list them),
+``materials`` (the material table), ``play`` (a preset through the live engine),
+``bench`` (error against run time).
+Errors in the input are reported in one line on stderr with exit status 2.
+
+This module holds the parser and :func:`main` (exit statuses, SIGTERM, warnings as one
+line); each subcommand's options and action live in the module of its area:
+:mod:`~synth.cli.render` (info, render, gallery), :mod:`~synth.cli.recordings` (analyze,
+alter), :mod:`~synth.cli.catalog` (presets, materials, cache), :mod:`~synth.cli.bank` (bank,
+bank-gain), :mod:`~synth.cli.play`, :mod:`~synth.cli.bench` (bench, warmup) and
+:mod:`~synth.cli.common` (the arguments they share).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from synth.cli.bank import add_bank_gain_parser, add_bank_parser
+from synth.cli.bench import add_bench_parser, add_warmup_parser
+from synth.cli.catalog import add_cache_parser, add_materials_parser, add_presets_parser
+from synth.cli.play import add_play_parser
+from synth.cli.recordings import add_alter_parser, add_analyze_parser
+from synth.cli.render import GALLERY as GALLERY
+from synth.cli.render import Outputs as Outputs
+from synth.cli.render import add_gallery_parser, add_info_parser, add_render_parser
+from synth.cli.render import render_options as render_options
+from synth.errors import SynthError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="synth", description="Physically based bouncing and impact sounds."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_info_parser(sub)
+    add_render_parser(sub)
+    add_analyze_parser(sub)
+    add_alter_parser(sub)
+    add_gallery_parser(sub)
+    add_presets_parser(sub)
+    add_materials_parser(sub)
+    add_bank_parser(sub)
+    add_bank_gain_parser(sub)
+    add_cache_parser(sub)
+    add_play_parser(sub)
+    add_warmup_parser(sub)
+    add_bench_parser(sub)
+    return parser
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C (SIGINT): every
+    temporary file is removed on the way out."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning as one line of the command's own (``synth: warning: ...``), never a
+    Python source line: a user cannot act on the engine's file and line number."""
+    print(f"synth: warning: {message}", file=sys.stderr if file is None else file)
+
+
+def main(argv=None) -> int:
+    import signal
+    import threading
+    import warnings
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return args.func(args)
+    except SynthError as exc:
+        print(f"synth: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:  # output piped into a program that stopped reading (head)
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except OSError as exc:  # the system refused: full disk, read-only folder, I/O error
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"synth: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
+    except Terminated:
+        print("synth: terminated (SIGTERM); nothing partial was left", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)

@@ -1,0 +1,198 @@
+"""The subcommands on a recording: ``analyze`` (detect and measure its ticks) and ``alter``
+(change its restitution).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from synth.constants import GRAVITY
+from synth.errors import SynthError
+
+
+def _cmd_analyze(args):
+    from synth import analysis
+
+    if args.plot:
+        analysis.check_plot_path(args.plot)  # a bad image path fails before any output
+    import warnings
+
+    from synth.io.audio import TruncatedAudioWarning
+
+    with warnings.catch_warnings():
+        # a truncated file is one of the result's warnings, printed below
+        warnings.simplefilter("ignore", TruncatedAudioWarning)
+        result = analysis.analyze_file(  # options checked first; a long file read in blocks
+            args.file,
+            gravity=args.gravity,
+            channel=_channel(args.channel),
+            min_separation=args.min_separation,
+            window=args.window,
+            deflate=not args.no_deflate,
+        )
+        audio, fs = analysis.read_recording(args.file) if args.plot else (None, None)
+    for warning in result.warnings:
+        print(f"synth: warning: {warning}", file=sys.stderr)
+    if args.json:
+        json.dump(analysis.to_dict(result), sys.stdout, indent=1, default=float)
+        print()
+    elif args.csv:
+        sys.stdout.write(analysis.to_csv(result))
+    else:
+        print(analysis.format_table(result, warnings=False))
+    if args.plot:
+        analysis.plot_analysis(result, audio, fs, args.plot)
+    return 0
+
+
+def _read_warned(reader, path):
+    """``reader(path)``, its warnings (a truncated file) printed as the command's own."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = reader(path)
+    for w in caught:
+        print(f"synth: warning: {w.message}", file=sys.stderr)
+    return out
+
+
+def _channel(value):
+    if value is None or value == "mix":
+        return None
+    try:
+        return int(value)
+    except ValueError:
+        raise SynthError(
+            f"channel={value!r} must be a channel number (0, 1, ...) or 'mix'"
+        ) from None
+
+
+def _cmd_alter(args):
+    from synth.analysis import analyze
+    from synth.io import audio as audio_io
+    from synth.stimuli.alter import alter_restitution
+
+    audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
+    audio, fs = _read_warned(audio_io.read_audio, args.file)
+    channel = _channel(args.channel)
+    onsets = [
+        t.time
+        for t in analyze(
+            audio, fs, gravity=args.gravity, channel=channel, min_separation=args.min_separation
+        ).ticks
+    ]
+    out, t_new, e, e_new = alter_restitution(
+        audio,
+        fs,
+        args.restitution_scale,
+        onsets=onsets,
+        gravity=args.gravity,
+        scale_amplitude=not args.keep_amplitude,
+        min_bounce=args.min_bounce,
+        normalize=args.normalize,
+    )
+    peak = float(np.max(np.abs(out)))
+    subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
+    if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:
+        raise SynthError(
+            f"the altered audio peaks at {20 * np.log10(peak):+.2f} dBFS, above full scale, "
+            f"and {args.output!r} would clip it (nothing written); use --normalize peak "
+            f"(or a .wav file with --subtype FLOAT)"
+        )
+    audio_io.write_audio(args.output, out, fs, subtype=args.subtype)
+    dropped = len(onsets) - len(t_new)
+    shortest = args.min_bounce if args.min_bounce is not None else float(np.min(np.diff(onsets)))
+    end = (
+        f"; the series ends after {len(t_new)} ticks ({dropped} dropped: the next bounce "
+        f"would be shorter than {shortest * 1e3:.3g} ms)"
+        if dropped
+        else ""
+    )
+    print(
+        f"{args.output}: {len(t_new)} ticks re-laid; e {np.mean(e):.3f} -> "
+        f"{np.mean(e_new):.3f} (mean over bounces){end}, {out.shape[0] / fs:.3f} s, "
+        f"normalize={args.normalize}"
+    )
+    return 0
+
+
+def add_analyze_parser(sub) -> None:
+    """Add the analyze subcommand: the ticks of a recording."""
+    p = sub.add_parser(
+        "analyze", help="detect and measure the ticks of a recording (WAV, FLAC, ...)"
+    )
+    p.add_argument("file")
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="machine-readable output")
+    out.add_argument("--csv", action="store_true", help="one row per tick")
+    p.add_argument(
+        "--plot",
+        metavar="OUT.png",
+        help="ticks, bounce times, restitution, energy, centroid, decay",
+    )
+    p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2, for the impact speeds")
+    p.add_argument(
+        "--min-separation",
+        type=float,
+        default=0.001,
+        metavar="S",
+        help="shortest time between two ticks, s (default 0.001): a burst closer "
+        "than this to a tick is part of it (the end of a long contact); lower it "
+        "(0.0002) for hard balls whose last bounces are shorter than 1 ms",
+    )
+    p.add_argument(
+        "--window",
+        type=float,
+        default=0.02,
+        metavar="S",
+        help="length of every tick's measurement window, s (default 0.02): energy, "
+        "peak, centroid, spread and decay of the tick's own sound over it",
+    )
+    p.add_argument(
+        "--no-deflate",
+        action="store_true",
+        help="do not take the earlier ticks out when looking for the later ones",
+    )
+    p.set_defaults(func=_cmd_analyze)
+
+
+def add_alter_parser(sub) -> None:
+    """Add the alter subcommand: a recording's restitution changed."""
+    p = sub.add_parser("alter", help="change the restitution of a recording: 1 - e' = K (1 - e)")
+    p.add_argument("file")
+    p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
+    p.add_argument("--restitution-scale", type=float, required=True, metavar="K")
+    p.add_argument(
+        "--keep-amplitude",
+        action="store_true",
+        help="do not scale each tick by its new impact speed over its old one",
+    )
+    p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
+    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2")
+    p.add_argument(
+        "--min-separation",
+        type=float,
+        default=0.001,
+        metavar="S",
+        help="shortest time between two ticks, s (as for analyze)",
+    )
+    p.add_argument(
+        "--min-bounce",
+        type=float,
+        metavar="S",
+        help="shortest new bounce time, s: the series ends before a shorter one "
+        "(default: the shortest bounce of the recording)",
+    )
+    p.add_argument(
+        "--normalize",
+        choices=["none", "peak"],
+        default="none",
+        help="level: none (the recording's, default) or peak (-1 dBFS)",
+    )
+    p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
+    p.set_defaults(func=_cmd_alter)

@@ -1,0 +1,422 @@
+"""The subcommands on a preset's scene: ``info`` (its impact table, its cost against the
+budget), ``render`` (to a WAV or FLAC file, with the plot and report written with it, all or
+none) and ``gallery`` (the reference renders).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from synth.cli.common import add_preset_args
+from synth.errors import SynthError
+
+
+def _cmd_info(args):
+    from synth.io.presets import load_preset_with_options
+    from synth.physics.bounces import simulate_scene
+
+    scene, section, data = load_preset_with_options(args.preset, args.overrides)
+    if args.cost:
+        return _print_cost(scene, section, args.json)
+    path = _path_of(scene, section) if scene.moving else None
+    seq = simulate_scene(scene) if path is None else path.impacts
+    rows = seq.table()
+    ending = {} if path is None else _path_ending(path)
+    if args.json:
+        json.dump(
+            dict(
+                preset=args.preset,
+                description=data.get("description", ""),
+                stop_reason=seq.stop_reason,
+                duration=seq.duration,
+                impacts=rows,
+                **ending,
+            ),
+            sys.stdout,
+            indent=1,
+        )
+        print()
+        return 0
+    if data.get("description"):
+        print(data["description"])
+    print(
+        f"{'n':>4} {'time (s)':>10} {'speed (m/s)':>12} {'e':>8} {'tau (us)':>9} "
+        f"{'F_max (N)':>10} {'lambda':>8}"
+    )
+    for r in rows:
+        e = "settled" if r["settled"] else f"{r['restitution']:.4f}"
+        print(
+            f"{r['n']:>4} {r['time']:>10.5f} {r['speed']:>12.5f} {e:>8} "
+            f"{r['contact_time'] * 1e6:>9.2f} {r['peak_force']:>10.4g} {r['inelasticity']:>8.4f}"
+        )
+    print(f"{len(rows)} impacts; the sequence ended: {seq.stop_reason}")
+    if path is not None:
+        print(
+            f"rolled {ending['rolling_seconds']:.3f} s from {ending['rolling_start']} s at "
+            f"{ending['rolling_speed']:.4g} m/s; the path ended: {ending['path_end']} at "
+            f"{ending['path_end_time']:.4f} s, ({ending['path_end_point'][0]:.4f}, "
+            f"{ending['path_end_point'][1]:.4f}) m"
+        )
+    return 0
+
+
+def _path_of(scene, section: dict):
+    """The :class:`synth.physics.path.BallPath` of a scene with a velocity, on the sample
+    grid of the preset's render section."""
+    import math
+
+    from synth.physics.path import simulate_path
+    from synth.sound.render import check_options
+
+    o = check_options(**{k: v for k, v in section.items() if k != "subtype"})
+    origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o["preroll"]
+    return simulate_path(
+        scene, samplerate=o["samplerate"], time_origin=origin, max_duration=o["max_duration"]
+    )
+
+
+def _path_ending(path) -> dict:
+    """How a ball's path rolled and ended (s, m/s, m), for ``synth info``."""
+    rolling = path.rolling
+    return dict(
+        path_end=path.end,
+        path_end_time=path.end_time,
+        path_end_point=list(path.end_point),
+        rolling_speed=path.rolling_speed,
+        rolling_start=None if rolling is None else round(rolling.start, 6),
+        rolling_seconds=0.0 if rolling is None else rolling.duration,
+    )
+
+
+def _budget_seconds(budget) -> str:
+    """`` (about N s and M s of radiation at the measured rates)``: the time budgets in
+    seconds (:class:`synth.cost.Rates`; the radiation budget's rectangle-term equivalents
+    at the rectangle rule's rate, the same time for every rule), or nothing without
+    measured rates."""
+    from synth import cost
+
+    rates = cost.Rates.load()
+    if rates is None:
+        return ""
+    solver = budget.max_solver_flops / rates.solver
+    radiation = budget.max_radiation_work / rates.radiation["rectangle"]
+    return f" (about {solver:.3g} s and {radiation:.3g} s of radiation at the measured rates)"
+
+
+def _print_cost(scene, section: dict, as_json: bool) -> int:
+    """``synth info --cost``: the render's :func:`synth.cost.estimate` with the preset's
+    render options, and what a render would refuse (nothing is solved but the first
+    contact)."""
+    from dataclasses import asdict
+
+    from synth import cost
+
+    budget = cost.Budget.from_environment()
+    estimate = cost.estimate_render(scene, section, budget)  # the section sets samplerate
+    too_big = estimate.excess(budget)
+    if as_json:
+        json.dump(
+            dict(asdict(estimate), budget=asdict(budget), refused=too_big), sys.stdout, indent=1
+        )
+        print()
+        return 0
+    for name, value in estimate.rows():
+        print(f"{name:<28} {value}")
+    print(
+        f"budget: {budget.max_modes} modes, {budget.max_pulse_points} pulse points, "
+        f"{budget.max_memory_bytes / 2**20:.0f} MiB, {budget.max_solver_flops:.3g} solver "
+        f"flop, {budget.max_radiation_work:.3g} radiation rectangle-term equivalents"
+        f"{_budget_seconds(budget)}"
+    )
+    for reason in too_big:
+        print(f"a render would be refused: {reason}")
+    if not too_big:
+        print("a render fits the budget")
+    return 0
+
+
+def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
+    """Render keywords from a preset's [render] section (checked when the preset was
+    read) and the command line (which wins)."""
+    opts = dict(scene_render)
+    for key in ("samplerate", "normalize", "subtype", "loudness_lufs", "peak_db", "floor_db"):
+        value = getattr(args, key, None)
+        if value is not None:
+            opts[key] = value
+    subtype = opts.pop("subtype", None)
+    return opts, subtype
+
+
+def _report(rendered, data, preset) -> dict:
+    return dict(
+        preset=str(preset),
+        description=data.get("description", ""),
+        samplerate=rendered.samplerate,
+        duration=rendered.duration,
+        units=rendered.units,
+        gain=rendered.gain,
+        settings=rendered.settings,
+        impacts=[
+            dict(row, onset=float(onset))
+            for row, onset in zip(rendered.impacts.table(), rendered.onsets)
+        ],
+    )
+
+
+def _cmd_render(args):
+    from synth.io import audio as audio_io
+    from synth.io.presets import find, load_preset_with_options
+    from synth.sound.render import render
+
+    outputs = Outputs(  # every output path checked before any work
+        {"output": args.output, "report": args.report, "plot": args.plot},
+        {"output": audio_io.FORMATS, "plot": (".png",)},
+    )
+    scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
+    opts, subtype = render_options(render_section, args, str(find(args.preset)))
+    if args.timing_from is not None or args.restitution_scale is not None:
+        from synth.sound.render import bounce_options, check_options
+        from synth.stimuli import sequences as stimuli
+
+        k = 1.0 if args.restitution_scale is None else args.restitution_scale
+        bounces = bounce_options(check_options(**opts))  # the preset's stop rules
+        if args.timing_from is None:
+            opts["sequence"] = stimuli.scaled_sequence(scene, k, **bounces)
+        else:
+            timing = load_preset_with_options(args.timing_from)[0]
+            opts["sequence"] = stimuli.mismatch_sequence(
+                timing, scene, restitution_scale=k, **bounces
+            )
+    rendered = render(scene, **opts)
+    with outputs:
+        audio_io.write_audio(
+            outputs.staged("output"), rendered.audio, rendered.samplerate, subtype=subtype
+        )
+        if args.report:
+            _write_json(outputs.staged("report"), _report(rendered, data, args.preset))
+        if args.plot:
+            from synth.io.plot import plot_render
+
+            plot_render(rendered, outputs.staged("plot"))
+    print(
+        f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
+        f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
+        f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
+        f"normalize={rendered.settings['normalize']}"
+    )
+    return 0
+
+
+class Outputs:
+    """The output files of one command, written all or none.
+
+    Each path is checked when the command starts (before any work): not a directory, in
+    an existing folder where a file can be created. Inside ``with outputs:`` every file
+    is written to a temporary name beside its target (:meth:`staged`); they are renamed
+    onto their targets only when the block ends without an error, else removed, so a
+    failure (or SIGTERM, SIGINT) leaves every existing output as it was.
+    """
+
+    def __init__(self, paths: dict, suffixes: dict | None = None):
+        from pathlib import Path
+
+        from synth.io.audio import check_output_path
+
+        self.paths = {k: Path(v) for k, v in paths.items() if v}
+        _refuse_shared_paths(self.paths)
+        for field, path in self.paths.items():
+            check_output_path(path, field, (suffixes or {}).get(field))
+        self.temporaries: dict = {}
+
+    def staged(self, field: str):
+        """The temporary path to write ``field``'s file to (same folder and suffix)."""
+        from synth.io.atomic import temporary_name
+
+        target = self.paths[field]
+        tmp = target.with_name(temporary_name(target.suffix))
+        self.temporaries[field] = tmp
+        return tmp
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        import os
+
+        try:
+            if kind is None:
+                for field, tmp in self.temporaries.items():
+                    os.replace(tmp, self.paths[field])
+            elif exc is not None:
+                self._name_the_targets(exc)
+        finally:
+            for tmp in self.temporaries.values():
+                if tmp.exists():
+                    tmp.unlink()
+        return False
+
+    def _name_the_targets(self, exc: BaseException) -> None:
+        """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
+        a full disk): the temporary is removed on the way out and means nothing to the
+        user. A writer may stage its file once more beside the staged one (its own atomic
+        write): any engine temporary (:func:`synth.io.atomic.temporary_name`) in a
+        target's folder with its suffix is that target's."""
+        import functools
+        import re
+
+        from synth.io.atomic import TEMPORARY_PREFIX
+
+        for field in self.temporaries:
+            target = self.paths[field]
+            hidden = re.compile(
+                re.escape(str(target.with_name(TEMPORARY_PREFIX)))
+                + r"\d+-[0-9a-f]+\.part"
+                + re.escape(target.suffix)
+            )
+            named = functools.partial(hidden.sub, lambda _, path=str(target): path)
+            if isinstance(exc, OSError) and exc.filename is not None:
+                exc.filename = named(str(exc.filename))
+            exc.args = tuple(named(a) if isinstance(a, str) else a for a in exc.args)
+
+
+def _refuse_shared_paths(paths: dict) -> None:
+    """Two outputs of one command on one file would leave only the last one written (the
+    audio replaced by the report, say): refused before any work. Paths are compared
+    resolved (``./a.wav``, ``a.wav`` and a symbolic link to it are one file)."""
+    seen: dict = {}
+    for field, path in paths.items():
+        key = path.resolve()
+        if key in seen:
+            other = seen[key]
+            raise SynthError(
+                f"{other}={str(paths[other])!r} and {field}={str(path)!r} are the same file; "
+                f"give each output its own path (nothing was written)"
+            )
+        seen[key] = field
+
+
+def _write_json(path, obj):
+    from pathlib import Path
+
+    from synth.io.atomic import write_json_atomically
+
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise SynthError(f"report={str(path)!r}: the directory {str(path.parent)!r} does not exist")
+    write_json_atomically(path, obj, error=SynthError)
+
+
+#: The presets of the reference gallery in renders/ (`synth gallery`).
+GALLERY = (
+    "default",
+    "thesis-steel10-mdf18-corner",
+    "small-click-on-acrylic",
+    "ceramic-cup-on-stone",
+    "thesis-steel10-mdf18-rolling",
+    "steel-ball-rolling-on-glass-table",
+    "marble-rolling-on-wooden-floor",
+)
+
+
+def _cmd_gallery(args):
+    from pathlib import Path
+
+    from synth.io import audio as audio_io
+    from synth.io.plot import plot_render
+    from synth.io.presets import find, load_preset_with_options
+    from synth.sound.render import render
+
+    out = Path(args.output_dir)
+    if not out.is_dir():
+        raise SynthError(f"output_dir={str(out)!r} is not a directory")
+    names = args.names or GALLERY
+    for name in names:
+        scene, section, data = load_preset_with_options(name)
+        opts, subtype = render_options(section, args, str(find(name)))
+        rendered = render(scene, **opts)
+        # the file synth render writes (same options, same subtype)
+        audio_io.write_audio(
+            out / f"{name}.wav", rendered.audio, rendered.samplerate, subtype=subtype
+        )
+        plot_render(rendered, out / f"{name}.png")
+        _write_json(out / f"{name}.json", _report(rendered, data, name))
+        print(
+            f"{out / name}.wav/.png/.json: {rendered.duration:.2f} s, "
+            f"{len(rendered.impacts)} impacts"
+        )
+    return 0
+
+
+def add_info_parser(sub) -> None:
+    """Add the info subcommand: a preset's impact table and cost."""
+    p = sub.add_parser("info", help="print the impact table of a preset's scene")
+    add_preset_args(p)
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument(
+        "--cost",
+        action="store_true",
+        help="the render's cost estimate (modes, longest contact, pulse grid, audio, memory) "
+        "against the budget, before any work",
+    )
+    p.set_defaults(func=_cmd_info)
+
+
+def add_render_parser(sub) -> None:
+    """Add the render subcommand: a preset to an audio file."""
+    p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
+    add_preset_args(p)
+    p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
+    p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
+    p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
+    p.add_argument(
+        "--normalize",
+        choices=["peak", "loudness", "physical", "none"],
+        help="level: peak (-1 dBFS, default), loudness (LUFS), physical (1000 Pa or "
+        "10 000 m/s^2 full scale), none (Pa or m/s^2; needs --subtype FLOAT)",
+    )
+    p.add_argument(
+        "--peak-db", type=float, metavar="DBFS", help="peak level for --normalize peak (default -1)"
+    )
+    p.add_argument(
+        "--loudness-lufs",
+        type=float,
+        metavar="LUFS",
+        help="integrated loudness for --normalize loudness (default -23; a bouncing "
+        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower)",
+    )
+    p.add_argument(
+        "--floor-db",
+        type=float,
+        metavar="DB",
+        help="omission floor below the loudest tick's peak (default -80)",
+    )
+    p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
+    p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
+    p.add_argument(
+        "--restitution-scale",
+        type=float,
+        metavar="K",
+        help="perception stimulus: 1 - e' = K (1 - e) for every tick (thesis 5.2.2)",
+    )
+    p.add_argument(
+        "--timing-from",
+        metavar="PRESET",
+        help="perception stimulus: impact times and speeds of another preset, ticks of this one",
+    )
+    p.set_defaults(func=_cmd_render)
+
+
+def add_gallery_parser(sub) -> None:
+    """Add the gallery subcommand: the reference renders."""
+    p = sub.add_parser(
+        "gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/"
+    )
+    p.add_argument(
+        "names",
+        nargs="*",
+        metavar="PRESET",
+        help=f"presets to render (default: {', '.join(GALLERY)})",
+    )
+    p.add_argument("--output-dir", default="renders", help="folder (default: renders)")
+    p.set_defaults(func=_cmd_gallery)

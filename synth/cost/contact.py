@@ -1,0 +1,128 @@
+"""The longest contact of a bounce series and the audio's length, from the first impact solved
+alone on the infinite plate and Hertz' law for the later ones.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from synth.errors import ParameterError
+
+#: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
+#: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
+TAU_HERTZ = 2.9433
+
+
+def hertz_contact_time(ball, plate, speed: float) -> float:
+    """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
+    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``. For a hollow ball
+    (:class:`~synth.physics.scene.HollowBall`), the thin-shell law's at small deflection,
+    where it is linear: the half period ``pi sqrt(m / k0)`` (docs/physics.md, "Hollow
+    balls"), at any speed."""
+    from synth.physics.contact_law import effective_modulus, shell_law
+    from synth.physics.scene import HollowBall
+
+    if isinstance(ball, HollowBall):
+        return math.pi * math.sqrt(ball.mass / shell_law(ball).stiffness)
+
+    e_star = effective_modulus(ball, plate)
+    depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4
+    return TAU_HERTZ * depth / speed
+
+
+def series_longest(first_contact: float, speed: float, gravity: float) -> float:
+    """The longest contact of a bouncing series whose first contact at ``speed`` (m/s)
+    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact,
+    where the series ends: the flight ``2 v / g`` as short as the contact, or the kinetic
+    energy ``floor_db`` below the first impact's (:func:`simulate_bounces`' rules), s."""
+
+    slowest = _slowest_speed(first_contact, speed, gravity)
+    return first_contact * max(1.0, (speed / slowest) ** 0.2)
+
+
+def _slowest_speed(first_contact: float, speed: float, gravity: float) -> float:
+    """The slowest impact of the series of :func:`series_longest`, m/s."""
+    from synth.physics.bounces import DEFAULT_FLOOR_DB
+
+    by_flight = (gravity * first_contact * speed**0.2 / 2.0) ** (5.0 / 6.0)
+    by_energy = speed * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
+    return max(by_flight, by_energy)
+
+
+def impact_count(first: FirstContact, speed: float, gravity: float, max_duration: float) -> int:
+    """Impacts of the series: speeds ``v e^n`` of the first impact's restitution ``e``
+    down to the slowest (:func:`_slowest_speed`), or, for ``e`` near 1, as many as the
+    flights ``2 v / g`` fit in ``max_duration``; at most the bounce simulation's
+    ``max_impacts``."""
+    from synth.physics.bounces import DEFAULT_MAX_IMPACTS as most
+
+    if first.settled:
+        return 1
+    e = first.restitution
+    slowest = _slowest_speed(first.contact_time, speed, gravity)
+    by_speed = math.log(slowest / speed) / math.log(e) if 0.0 < e < 1.0 else math.inf
+    by_time = max_duration * gravity / (2.0 * speed * max(e, 1e-300))
+    return int(min(most, 1 + math.ceil(min(by_speed, max(by_time, 1.0)))))
+
+
+@dataclass(frozen=True)
+class FirstContact:
+    """The first impact by the impedance model: ``contact_time`` (s, to separation: the
+    span the renderer integrates), ``settled`` (the ball comes to rest), ``restitution``."""
+
+    contact_time: float
+    settled: bool
+    restitution: float
+
+
+def solve_first_contact(scene) -> FirstContact:
+    """The first impact by the impedance model; for the modal plate, a ball that comes to
+    rest gets the modal contact's longest (``SETTLE_FACTOR`` impedance contact times)."""
+    from synth.physics.contact import ContactSolver
+    from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
+
+    c = scene.contact
+    options = c.options()
+    solver = ContactSolver.for_pair(
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol, **options
+    )
+    speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
+    first = solver.solve(speed, position=scene.position)
+    if not first.success:  # the render would fail at this impact: say so before any work
+        given = [f"contact.law={c.law!r}"]
+        given += [f"contact.{k}={v!r}" for k, v in options.items() if k != "surface"]
+        raise ParameterError(
+            f"the first impact (at {speed:.4g} m/s) could not be solved with "
+            f"{', '.join(given)}: {first.message} The scene is outside what the contact "
+            f"solver handles"
+        )
+    e = 0.0 if first.settled else float(first.restitution)
+    if c.plate == "impedance" or not first.settled:
+        return FirstContact(first.separation_time, bool(first.settled), e)
+    tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
+    return FirstContact(SETTLE_FACTOR * tau, True, e)
+
+
+def series_seconds(scene, first: FirstContact, longest: float, max_duration: float) -> float:
+    """Length of the bounce series from release, s: the fall, then the flights
+    ``2 v e^n / g`` of a constant restitution ``e`` (the first impact's) summed,
+    ``2 v e / (g (1 - e))``, and the longest contact; at most ``max_duration``."""
+    g = scene.gravity
+    fall = math.sqrt(2.0 * scene.drop_height / g)
+    speed = g * fall
+    e = first.restitution
+    flights = math.inf if e >= 1.0 else 2.0 * speed * e / (g * (1.0 - e))
+    return min(max_duration, fall + flights + longest)
+
+
+def tail_seconds(plate, floor_db: float, max_tail: float) -> float:
+    """How long the slowest-decaying mode rings before falling ``floor_db`` (dB, < 0)
+    below its start, s, at most ``max_tail``: every damping law's decay rate grows with
+    frequency, so the slowest is the lowest mode, at the lattice's first wavenumber
+    ``k = pi / max(a, b)`` (rad/m)."""
+    k = math.pi / max(plate.length, plate.width)
+    omega = k * k * math.sqrt(plate.flexural_rigidity / plate.surface_density)
+    sigma = float(plate.damping_law().decay_rate(omega))
+    nepers = -floor_db / 20.0 * math.log(10.0)
+    return min(max_tail, nepers / sigma) if sigma > 0.0 else max_tail

@@ -1,0 +1,379 @@
+"""The estimates' records: the memory a render holds (:class:`MemoryParts`), the radiation
+stage's work (:class:`RadiationWork`), a render's whole estimate (:class:`CostEstimate`), a
+live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), and what of
+them is beyond a budget with what to change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from synth.cost.budget import Budget, modes_excess
+from synth.cost.rates import Rates, time_row
+from synth.errors import ParameterError
+
+#: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
+#: the level makes (:func:`synth.io.audio.normalize`) and the float32 :class:`Render`.
+AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
+
+
+#: Complex values per mode that the modal model and the synthesis hold besides the
+#: transform's workspace: the poles, their one-sample step and the response
+#: coefficients (:func:`synth.sound.modal_bank.coefficients.bank_coefficients`, each also
+#: as real and imaginary parts), the excitation and output gains, the modes'
+#: frequencies, decay rates and masses, the ring bank's state and masks.
+MODE_VALUES = 20
+
+
+#: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
+#: (:func:`synth.sound.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
+#: copy LAPACK's dpotrf/dpotri factor and invert in place, the eigenvectors, and dsyevd's
+#: workspace of ``1 + 6 n + 2 n^2`` doubles (LAPACK Users' Guide, 3rd ed., DSYEVD).
+SOLVER_SQUARES = 5
+
+
+#: The same for the check basis, eigenvalues only: the matrix and its copy (the
+#: workspace is ``1 + 2 n``).
+CHECK_SQUARES = 2
+
+
+#: Chunks of shape values (points x modes, float64, at most ``CHUNK_BYTES`` each, see
+#: :mod:`synth.sound.radiation.common`) alive at once while a microphone's gains are
+#: summed: the chunk the worker threads add up and the next one being evaluated
+#: (the pipeline of :func:`synth.sound.radiation.rectangle.apply_rule`), and the shape
+#: evaluation's temporaries of the same size (the two factor tables taken at the modes'
+#: indices and their product, :mod:`synth.sound.modes.closed_form`).
+RADIATION_CHUNKS = 5
+
+
+#: Tolerance of the microphone's gains (:func:`synth.sound.radiation.plate_gains`'
+#: default, which a render uses).
+RADIATION_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class MemoryParts:
+    """The bytes of the largest arrays a render holds (see the module docstring):
+    ``audio``, ``impacts`` (modal amplitudes and the transform's workspace), ``pulse``,
+    ``solver`` (the cold mode solve's matrices), ``shapes`` (its eigenvectors kept),
+    ``radiation`` (the Rayleigh sums' chunks; 0 for an accelerometer)."""
+
+    audio: int
+    impacts: int
+    pulse: int
+    solver: int
+    shapes: int
+    radiation: int
+
+    @property
+    def total(self) -> int:
+        """Bytes: the stages that run one after the other (the solve, the radiation
+        sums, the synthesis) counted at their largest, plus what stays held."""
+        stages = max(self.solver, self.radiation, self.audio + self.impacts + self.pulse)
+        return stages + self.shapes
+
+
+@dataclass(frozen=True)
+class RadiationWork:
+    """The radiation stage's work for a microphone (see the module docstring and
+    :mod:`synth.sound.radiation.work`).
+
+    Attributes
+    ----------
+    rule : str
+        The rule the engine takes: "rectangle", "polar", "summed" or "boundary" (the
+        edge effect modes'; the Ritz modes below them take the rectangle rule), "none"
+        (an accelerometer: no radiation).
+    first_points : int
+        Points of the first rule (in ``unit``).
+    rules : int
+        Rules the refinement may take within the budget (at most ``MAX_RULES``).
+    points : int
+        Points of those rules, summed.
+    max_points : int or None
+        Points of the last of them when the budget stops the refinement before
+        ``MAX_RULES`` (the ``max_points`` a render passes to the sums), else None.
+    rule_points : tuple of int
+        Points of each of the ``MAX_RULES`` rules.
+    shape_terms : int
+        Terms one shape value costs per mode (:func:`synth.sound.modes.shape_terms`).
+    evaluations : float
+        ``points`` times the modes.
+    rule_work : tuple of float
+        Work of each of the ``MAX_RULES`` rules, rectangle-term equivalents (its terms
+        times the rule's weight, :func:`rule_weights`).
+    fixed_work : float
+        Work outside the refinement (the polar rules' in-phase bounds, the boundary
+        rule's Ritz modes, which take the rectangle rule), rectangle-term equivalents.
+    unit : str
+        What the points count: the rectangle rule's "points", the polar rules' "angular
+        points", the boundary rule's "radial nodes".
+    """
+
+    rule: str = "none"
+    first_points: int = 0
+    points: int = 0
+    shape_terms: int = 0
+    evaluations: float = 0.0
+    rules: int = 0
+    max_points: int | None = None
+    rule_points: tuple = ()
+    rule_work: tuple = ()
+    fixed_work: float = 0.0
+    unit: str = "points"
+
+    def work_of(self, rules: int) -> float:
+        """Rectangle-term equivalents of the first ``rules`` rules (and of the work outside
+        the refinement)."""
+        if self.rule == "none":
+            return 0.0
+        return self.fixed_work + float(sum(self.rule_work[:rules]))
+
+    @property
+    def work(self) -> float:
+        """Rectangle-term equivalents of the rules the budget holds."""
+        return self.work_of(self.rules)
+
+    def excess(self, modes: int, budget: Budget) -> str | None:
+        """Why the first rule and one refinement (the fewest the convergence test needs)
+        are beyond ``budget`` and what to change, or None."""
+        if self.rule == "none" or self.rules >= 2:
+            return None
+        closed = (
+            "" if self.rule == "polar" else ", or a simply supported plate (closed-form shapes)"
+        )
+        return (
+            f"the microphone's Rayleigh sums need about {self.work_of(2):.3g} rectangle-term "
+            f"equivalents for their "
+            f"first rule and one refinement ({self.rule} rule: {sum(self.rule_points[:2])} "
+            f"{self.unit} for {modes} modes), more than the budget of "
+            f"{budget.max_radiation_work:.3g} (SYNTH_MAX_RADIATION_WORK); lower max_frequency "
+            f"or the samplerate, use an accelerometer listener{closed}"
+        )
+
+    def row(self) -> str:
+        """One line for ``synth info --cost``."""
+        from synth.sound.radiation.common import MAX_RULES
+
+        if self.rule == "none":
+            return "none (accelerometer)"
+        cut = "" if self.max_points is None else f" (the budget's; of {MAX_RULES})"
+        shape = f", {self.shape_terms} shape terms" if self.rule == "rectangle" else ""
+        return (
+            f"{self.rule} rule, {self.first_points} {self.unit}, {self.points} in up to "
+            f"{self.rules} rules{cut}{shape}, {self.work:.3g} rectangle-term equivalents"
+        )
+
+
+@dataclass(frozen=True)
+class CostEstimate:
+    """The sizes of one render's work (see the module docstring for each estimate).
+
+    Attributes
+    ----------
+    max_frequency : float
+        Highest rendered frequency, Hz.
+    modes : int
+        Plate modes below it (the wavenumber lattice, :func:`modal_count`).
+    impact_speed : float
+        First impact's speed, m/s.
+    hertz_contact : float
+        Hertz' contact time of the first impact on a rigid plate, s (a hollow ball's: its
+        shell law's at small deflection, :func:`hertz_contact_time`).
+    longest_contact : float
+        Longest contact the series can have, s.
+    settles : bool
+        The first impact does not separate (the ball comes to rest on the plate).
+    pulse_points : int
+        Points of the longest force pulse's grid.
+    audio_seconds : float
+        Audio length, s (estimated: see the module docstring).
+    audio_samples : int
+        Its samples.
+    memory_bytes : int
+        Bytes of the largest arrays held at once (:attr:`MemoryParts.total`).
+    max_duration : float
+        The render's longest bounce series, s.
+    solver_unknowns : int
+        Unknowns of the mode solver's largest problem (0: closed-form modes).
+    solver_flops : float
+        Floating-point operations of a cold mode solve.
+    """
+
+    max_frequency: float
+    modes: int
+    impact_speed: float
+    hertz_contact: float
+    longest_contact: float
+    settles: bool
+    pulse_points: int
+    audio_seconds: float
+    audio_samples: int
+    memory_bytes: int
+    max_duration: float
+    solver_unknowns: int = 0
+    solver_flops: float = 0.0
+    impacts: int = 1
+    memory: MemoryParts | None = None
+    radiation: RadiationWork = RadiationWork()
+    #: What the memory message calls the owner of the arrays.
+    subject = "render"
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget`` or for the render itself, each with what to
+        change (empty: the render fits)."""
+        out = []
+        if self.longest_contact > self.max_duration:
+            out.append(
+                f"the ball {'comes to rest on' if self.settles else 'stays on'} the plate: "
+                f"its contact lasts about {self.longest_contact:.4g} s, longer than "
+                f"max_duration={self.max_duration:g} s (the render could not hold its force "
+                f"pulse); lower ball.mass or use a stiffer or heavier plate"
+            )
+        too_many = modes_excess(self.modes, self.max_frequency, budget)
+        if too_many:
+            out.append(too_many)
+        if self.pulse_points > budget.max_pulse_points:
+            out.append(
+                f"the longest force pulse ({self.longest_contact:.4g} s) needs "
+                f"{self.pulse_points} grid points up to {self.max_frequency:.6g} Hz, more than "
+                f"the budget of {budget.max_pulse_points} (SYNTH_MAX_PULSE_POINTS); lower "
+                f"max_frequency or ball.mass"
+            )
+        out += _stage_excess(self, budget, RENDER_MEMORY_ADVICE)
+        return out
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
+
+    def rows(self) -> list[tuple[str, str]]:
+        """(name, value with unit) rows, for ``synth info --cost``."""
+        return [
+            ("highest frequency", f"{self.max_frequency:.6g} Hz"),
+            ("plate modes", f"{self.modes}"),
+            ("first impact speed", f"{self.impact_speed:.4g} m/s"),
+            ("contact on a rigid plate", f"{self.hertz_contact:.4g} s"),
+            ("longest contact", f"{self.longest_contact:.4g} s" + (REST if self.settles else "")),
+            ("pulse grid", f"{self.pulse_points} points"),
+            (
+                "mode solver (cold)",
+                f"{self.solver_unknowns} unknowns, {self.solver_flops:.3g} flop",
+            ),
+            ("radiation (microphone)", self.radiation.row()),
+            ("audio", f"{self.audio_seconds:.4g} s, {self.audio_samples} samples"),
+            ("impacts (estimated)", f"{self.impacts}"),
+            ("memory (largest arrays)", f"{self.memory_bytes / 2**20:.1f} MiB"),
+        ] + ([] if self.memory is None else [
+            (f"  {name}", f"{getattr(self.memory, name) / 2**20:.1f} MiB")
+            for name in ("audio", "impacts", "pulse", "solver", "shapes", "radiation")
+        ]) + [time_row(self, Rates.load())]  # fmt: skip
+
+
+#: What to change when a render's arrays are beyond the memory budget.
+RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
+
+
+#: The same for a live body's.
+BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
+
+
+def _stage_excess(cost, budget: Budget, memory_advice: str) -> list[str]:
+    """What of the mode solver, the radiation stage and the memory of ``cost`` (a
+    :class:`CostEstimate` or a :class:`BodyCost`) is beyond ``budget``, each with what
+    to change: one message for a render and a live body."""
+    out = []
+    if cost.solver_flops > budget.max_solver_flops:
+        out.append(
+            f"a cold solve of the plate's modes takes about {cost.solver_flops:.3g} "
+            f"floating-point operations ({cost.solver_unknowns} unknowns), more than the "
+            f"budget of {budget.max_solver_flops:.3g} (SYNTH_MAX_SOLVER_FLOPS); lower "
+            f"max_frequency or the samplerate, or use a simply supported plate (closed-form "
+            f"modes)"
+        )
+    too_much = cost.radiation.excess(cost.modes, budget)
+    if too_much:
+        out.append(too_much)
+    if cost.memory_bytes > budget.max_memory_bytes:
+        out.append(
+            f"the {cost.subject}'s largest arrays take about {cost.memory_bytes / 2**20:.0f} MiB"
+            f"{_largest_part(cost.memory)}, more than the budget of "
+            f"{budget.max_memory_bytes / 2**20:.0f} MiB (SYNTH_MAX_MEMORY_BYTES); "
+            f"{memory_advice}"
+        )
+    return out
+
+
+def _largest_part(memory) -> str:
+    """`` (most of it the <part>: N MiB)`` for the largest part of ``memory``."""
+    if memory is None:
+        return ""
+    parts = vars(memory)
+    name = max(parts, key=parts.get)
+    return f" (most of it the {name}: {parts[name] / 2**20:.0f} MiB)"
+
+
+REST = " (the ball comes to rest)"
+
+
+@dataclass(frozen=True)
+class SolverCost:
+    """The cold mode solve (see the module docstring): ``unknowns`` of its largest
+    problem, ``flops``, and the ``memory`` of its matrices and of the shapes it keeps,
+    bytes."""
+
+    unknowns: int
+    flops: float
+    solver_bytes: int
+    shapes_bytes: int
+
+
+@dataclass(frozen=True)
+class BodyCost:
+    """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold
+    solve, a microphone's radiation gains; then its voices' modal states), the same
+    estimates as a render's (:class:`CostEstimate`) for what a body has of a render.
+
+    Attributes
+    ----------
+    max_frequency : float
+        Highest rendered frequency, Hz.
+    modes : int
+        Plate modes below it (:func:`modal_count`).
+    solver_unknowns, solver_flops
+        The cold mode solve (as :class:`CostEstimate`).
+    radiation : RadiationWork
+        The listener's radiation stage (none for an accelerometer).
+    memory : MemoryParts
+        The largest arrays (``impacts``: the voices' modal states and the per-mode
+        vectors; no audio or pulse).
+    memory_bytes : int
+        Their total (:attr:`MemoryParts.total`).
+    """
+
+    max_frequency: float
+    modes: int
+    solver_unknowns: int
+    solver_flops: float
+    radiation: RadiationWork
+    memory: MemoryParts
+    memory_bytes: int
+    #: What the memory message calls the owner of the arrays.
+    subject = "body"
+
+    def excess(self, budget: Budget) -> list[str]:
+        """What is too big for ``budget``, each with what to change (the messages of
+        :meth:`CostEstimate.excess`; empty: the body fits)."""
+        out = []
+        too_many = modes_excess(self.modes, self.max_frequency, budget)
+        if too_many:
+            out.append(too_many)
+        return out + _stage_excess(self, budget, BODY_MEMORY_ADVICE)
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
