@@ -927,6 +927,7 @@ class Engine:
             drops_refused=self._drops_refused,
             impacts_too_close=self._too_close,
             impacts_late=late,
+            transforms_max=int(c[native.TRANSFORMS_MAX]),
             impacts_pending=pending,
             bodies_ringing=ringing,
             voices_playing=voices,

@@ -82,8 +82,9 @@ from synth.live.atomics import fence as _fence
     LIM_X,
     LIM_R,
     LIM_M,
+    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
     N_CTL,
-) = range(32)
+) = range(33)
 
 #: ``times`` fields (float64).
 (
@@ -491,6 +492,18 @@ def mix_engine(ctl, out):
 
 
 @compiled(nogil=True)
+def _transformed(ctl):
+    """The pulses every body in the directory has transformed so far (a removed body's
+    vacant record counts none)."""
+    directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
+    total = 0
+    for b in range(ctl[N_BODIES]):
+        record = _i64(directory[b], N_BODY)
+        total += _i64(record[B_TRANSFORMED], 1)[0]
+    return total
+
+
+@compiled(nogil=True)
 def run_block(ctl, out, flags, current, dac, entry_ns):
     """One callback's work: count PortAudio's status ``flags``, note the time since the
     last callback's entry (a gap of more than a block means the system ran the audio
@@ -521,7 +534,11 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
     _fence()
     ctl[SEQ] += 1
+    before = _transformed(ctl)
     mix_engine(ctl, out)
+    transforms = _transformed(ctl) - before
+    if transforms > ctl[TRANSFORMS_MAX]:
+        ctl[TRANSFORMS_MAX] = transforms
     end = _monotonic_ns()
     times[END_TIME] = end * 1e-9
     times[END_FRAME] = ctl[FRAME]
