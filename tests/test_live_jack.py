@@ -116,7 +116,6 @@ def test_a_burst_of_hits_is_bounded_per_block_while_the_stream_runs(jack, scene)
     assert stats.impacts_played == accepted >= engine_limit
 
 
-@pytest.mark.slow
 def test_a_burst_on_many_bodies_is_bounded_per_callback_and_every_hit_played(jack, scene):
     # max_hits_per_block pulses on each of M bodies wait while the engine is paused (its
     # clock held, no block transforms anything); all start at the held clock's next frame.
