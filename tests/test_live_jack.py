@@ -2,7 +2,9 @@
 hardware (`.ci/run` installs jackd2 and libportaudio2)."""
 
 import ctypes
+import os
 import re
+import signal
 import threading
 import time
 
@@ -148,6 +150,26 @@ def test_a_burst_on_many_bodies_is_bounded_per_callback_and_every_hit_played(jac
     assert stats.impacts_refused == stats.impacts_dropped == 0
     assert stats.impacts_late == bodies_n * bound - bound
     assert stats.transforms_deferred >= bodies_n * bound - bound
+
+
+def test_a_stalled_server_is_counted_as_its_own_late_cycle(jack, scene):
+    # the server's process stopped for 50 ms (about 9 blocks: a machine that does not run
+    # it, as a virtual machine's host may not): its own cycle ends late, which it prints,
+    # and the engine's callback is flagged with an output underflow although its work
+    # took a fraction of a block. `synth bench live` reports both per phase
+    with synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device) as engine:
+        engine.add(scene.plate, listener=scene.listener, gain=0.05).hit(scene.ball, 1.0)
+        time.sleep(0.2)
+        late, underflows = jack.late_cycles(), engine.stats.output_underflows
+        os.kill(jack.pid, signal.SIGSTOP)
+        try:
+            time.sleep(0.05)
+        finally:
+            os.kill(jack.pid, signal.SIGCONT)
+        assert wait_for(lambda: jack.late_cycles() > late, 2.0)
+        assert wait_for(lambda: engine.stats.output_underflows > underflows, 2.0)
+        assert engine.running and not engine.stats.device_lost
+    assert "jackd" in jack.log() or "jackdmp" in jack.log()
 
 
 def test_add_while_running_and_stop_fades_out(jack, scene):
