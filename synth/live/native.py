@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import functools
 import math
+import mmap
 import time
 
 import numba
@@ -664,6 +665,23 @@ def silence_body(ctl, record):
     kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
 
 
+def touch(a: np.ndarray) -> np.ndarray:
+    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
+    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
+    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
+    only copied at its first write. One byte of each page (and the last byte) is written
+    with its own value; a read-only array is read instead. Returns ``a``."""
+    b = a.reshape(-1).view(np.uint8)
+    if b.size == 0:
+        return a
+    if a.flags.writeable:
+        b[:: mmap.PAGESIZE] = b[:: mmap.PAGESIZE].copy()
+        b[-1] = b[-1]
+    else:
+        _read = int(b[:: mmap.PAGESIZE].sum()) + int(b[-1])  # noqa: F841 (the reads touch)
+    return a
+
+
 class EngineState:
     """The arrays the audio thread works on (see the module's docstring), allocated once:
     ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
@@ -695,6 +713,9 @@ class EngineState:
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
+        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
+                  self.recording):  # fmt: skip
+            touch(a)
         self.records: list = []  # the bodies' records and arrays, kept alive here
         c, t = self.ctl, self.times
         c[FADE_AT] = -1
@@ -757,6 +778,7 @@ class EngineState:
             if isinstance(value, np.ndarray):
                 if not value.flags.c_contiguous:
                     raise ValueError(f"{name} must be C-contiguous")
+                touch(value)  # the audio thread takes no page fault on it
                 record[i] = value.ctypes.data
             else:
                 record[i] = int(value)
