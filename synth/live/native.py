@@ -525,7 +525,7 @@ def _mix_engine(ctl, out, budget):
     scratch = numba.carray(_pointer(ctl[SCRATCH]), (2, cap), np.float64)
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
     allow = _i64(ctl[ALLOW], ctl[MAX_BODIES])
-    shared = False
+    shared = -1  # the bodies counted when the budget was shared (once a call)
     # typed int64 from the start: a literal 0 would have numba type _write_block twice
     done = np.int64(0)
     while done < frames:
@@ -538,12 +538,14 @@ def _mix_engine(ctl, out, budget):
         t0 = ctl[FRAME]
         bodies = ctl[N_BODIES]
         _fence()  # the records of the bodies counted are complete
-        if budget >= 0 and not shared:  # once a call: the budget is the callback's
+        if budget >= 0 and shared < 0:  # once a call: the budget is the callback's
             _share_budget(ctl, directory, bodies, allow, budget)
-            shared = True
+            shared = bodies
         for b in range(bodies):
             record = _i64(directory[b], N_BODY)
-            limit = allow[b] if budget >= 0 else -1
+            limit = -1
+            if budget >= 0:  # a body added after the share waits for the next call
+                limit = allow[b] if b < shared else 0
             pulses = _mix_one_body(ctl, record, scratch, mix, t0, n, limit)
             if budget >= 0:
                 allow[b] = limit - pulses
