@@ -1655,3 +1655,27 @@ def test_a_listener_moved_close_to_its_plate_takes_the_exact_rule(scene):
     other.move(synth.Microphone((0.5, 0.2, 2 * NEAR_FIELD_HEIGHT)))
     assert len(engine._grids) == 1 and body._grid is other._grid
     assert engine.listener_grid_memory == body._grid.nbytes > 0
+
+
+@pytest.mark.skipif(not hasattr(__import__("resource"), "RUSAGE_THREAD"), reason="Linux only")
+def test_a_first_hit_on_a_new_body_touches_no_new_page(scene):
+    # the audio thread must not take page faults: every array it works on is written once
+    # when the body is added (a fresh allocation's pages are mapped at their first write),
+    # so the block that takes a body's first hit (its pulse transformed, a voice slot's
+    # modal state and its parked state written, the body's mix) faults no page in. Counted
+    # by the kernel for the calling thread: its minor faults over that block alone
+    import resource
+
+    from synth.live import native
+
+    engine = synth.Engine(samplerate=FS)
+    out = np.zeros((engine.blocksize, 1), dtype=np.float32)
+    native.mix_engine(engine._native.ctl, out)  # the engine's own first block
+    bodies = [engine.add(scene.plate, listener=scene.listener) for _ in range(4)]
+    for body in bodies:
+        body.hit(scene.ball, 1.0, at=engine.time)
+    before = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt
+    native.mix_engine(engine._native.ctl, out)
+    faults = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt - before
+    assert engine.stats.impacts_played == len(bodies)
+    assert faults == 0

@@ -2,7 +2,9 @@
 hardware (`.ci/run` installs jackd2 and libportaudio2)."""
 
 import ctypes
+import os
 import re
+import signal
 import threading
 import time
 
@@ -10,6 +12,7 @@ import numpy as np
 import pytest
 
 import synth
+from synth.live import native
 from synth.live.jack import JackDummyServer, jackd_available
 
 pytestmark = pytest.mark.skipif(
@@ -113,6 +116,60 @@ def test_a_burst_of_hits_is_bounded_per_block_while_the_stream_runs(jack, scene)
         stats = engine.stats
     assert stats.impacts_refused == 20 * engine_limit - accepted > 0
     assert stats.impacts_played == accepted >= engine_limit
+
+
+def test_a_burst_on_many_bodies_is_bounded_per_callback_and_every_hit_played(jack, scene):
+    # max_hits_per_block pulses on each of M bodies wait while the engine is paused (its
+    # clock held, no block transforms anything); all start at the held clock's next frame.
+    # On resume no callback transforms more than max_hits_per_block pulses over all bodies
+    # (M times as many, M * 110 us each on the default plate, would take several blocks):
+    # the first callback takes the bound, each later one the bound again; every hit is
+    # played, and those transformed after their start are counted late (played at the
+    # start of the block that takes them), so late = M * bound - bound exactly
+    bodies_n = 8
+    with synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device, fade=0.002) as engine:
+        bound = engine.max_hits_per_block
+        bodies = [
+            engine.add(scene.plate, listener=scene.listener, gain=0.01) for _ in range(bodies_n)
+        ]
+        for body in bodies:
+            body.prepare(scene.position)
+        engine.pause()
+        assert wait_for(lambda: float(engine._native.times[native.PAUSE_LEVEL]) == 0.0, 2.0)
+        time.sleep(0.05)  # a callback that began before the fade ended has returned
+        at = engine.time
+        for body in bodies:
+            for _ in range(bound):
+                assert body.hit(scene.ball, 1.0, position=scene.position, at=at) is not None
+        assert engine.stats.impacts_played == 0
+        engine.resume()
+        assert wait_for(lambda: engine.stats.impacts_pending == 0, 5.0)
+        stats = engine.stats
+    assert stats.transforms_max == bound
+    assert stats.impacts_played == bodies_n * bound
+    assert stats.impacts_refused == stats.impacts_dropped == 0
+    assert stats.impacts_late == bodies_n * bound - bound
+    assert stats.transforms_deferred >= bodies_n * bound - bound
+
+
+def test_a_stalled_server_is_counted_as_its_own_late_cycle(jack, scene):
+    # the server's process stopped for 50 ms (about 9 blocks: a machine that does not run
+    # it, as a virtual machine's host may not): its own cycle ends late, which it prints,
+    # and the engine's callback is flagged with an output underflow although its work
+    # took a fraction of a block. `synth bench live` reports both per phase
+    with synth.Engine(samplerate=FS, blocksize=BLOCK, device=jack.device) as engine:
+        engine.add(scene.plate, listener=scene.listener, gain=0.05).hit(scene.ball, 1.0)
+        time.sleep(0.2)
+        late, underflows = jack.late_cycles(), engine.stats.output_underflows
+        os.kill(jack.pid, signal.SIGSTOP)
+        try:
+            time.sleep(0.05)
+        finally:
+            os.kill(jack.pid, signal.SIGCONT)
+        assert wait_for(lambda: jack.late_cycles() > late, 2.0)
+        assert wait_for(lambda: engine.stats.output_underflows > underflows, 2.0)
+        assert engine.running and not engine.stats.device_lost
+    assert "jackd" in jack.log() or "jackdmp" in jack.log()
 
 
 def test_add_while_running_and_stop_fades_out(jack, scene):

@@ -344,9 +344,10 @@ def _hitter(handles, ball, rate, seed):
     return run
 
 
-def _phase(engine, targets, seconds) -> dict:
+def _phase(engine, server, targets, seconds) -> dict:
     """Run ``targets`` (each ``f(stop)``) on threads for ``seconds``; the engine's counters
-    over that time."""
+    over that time, and the JACK ``server``'s own cycles that ended late meanwhile."""
+    late0 = server.late_cycles()
     s0 = engine.stats
     stop = threading.Event()
     threads = [threading.Thread(target=t, args=(stop,)) for t in targets]
@@ -365,6 +366,8 @@ def _phase(engine, targets, seconds) -> dict:
         late=s1.impacts_late - s0.impacts_late,
         refused=s1.impacts_refused - s0.impacts_refused,
         stolen=s1.voices_stolen - s0.voices_stolen,
+        transforms_max=s1.transforms_max,
+        server_late=server.late_cycles() - late0,
     )
 
 
@@ -396,10 +399,12 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
                 to_callback.append(end - t)
         latency, nominal = engine.latency, float(engine._native.times[native.NOMINAL_LATENCY])
         engine.reset_meter()
-        alone = _phase(engine, [_hitter(handles, scene.ball, rate, seed)], seconds)
-        busy = _phase(engine, [_busy_python, _hitter(handles, scene.ball, rate, seed)], seconds)
+        alone = _phase(engine, server, [_hitter(handles, scene.ball, rate, seed)], seconds)
+        busy = _phase(
+            engine, server, [_busy_python, _hitter(handles, scene.ball, rate, seed)], seconds
+        )
         hitters = [_hitter(handles, scene.ball, rate / 8, seed + 1 + k) for k in range(8)]
-        threads8 = _phase(engine, hitters, seconds)
+        threads8 = _phase(engine, server, hitters, seconds)
         stats = engine.stats
         engine.stop()
         realtime = server.realtime
@@ -425,6 +430,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         callback_mean=stats.callback_mean,
         callback_max=stats.callback_max,
         callback_gap_max=stats.callback_gap_max,
+        transforms_max=stats.transforms_max,
         peak=stats.peak,
         output_peak=stats.output_peak,
         clipped=stats.clipped,
@@ -571,10 +577,19 @@ def format_live(result) -> str:
             f"{TARGETS['underflows']}): {target_verdict(p['underflows'] <= TARGETS['underflows'])}"
             f"; {p['played']} impacts played, {p['late']} late, {p['refused']} refused, "
             f"{p.get('stolen', 0)} voices stolen (max_voices={MAX_VOICES} a body)"
+            + (
+                f"; the server's own cycle ended late {p['server_late']} times (its timer "
+                f"thread was run late: every client's output is flagged then, whatever its "
+                f"work)"
+                if "server_late" in p
+                else ""
+            )
         )
     lines.append(
         f"  - callback from its entry (all phases): mean {100 * j['callback_mean']:.2f} %, max "
-        f"{100 * j['callback_max']:.1f} % of the block; longest time between two callbacks "
+        f"{100 * j['callback_max']:.1f} % of the block, at most "
+        f"{j.get('transforms_max', 0)} hits transformed in one callback (max_hits_per_block "
+        f"over all bodies); longest time between two callbacks "
         f"{j.get('callback_gap_max', 0.0):.2f} blocks (the system's scheduling); master bus "
         f"peak "
         f"{_dbfs(j['peak'])} before the soft clipper, {_dbfs(j['output_peak'])} at the device, "

@@ -15,9 +15,10 @@ calling thread and hands its force pulse to the audio thread through a bounded r
 (:mod:`synth.live.queue`); the callback calls one compiled kernel per body per block
 (:mod:`synth.live.kernel`), which first turns new pulses into the modes' amplitudes (the
 renderer's transform, :func:`~synth.sound.modal_bank.transform_pulse`; at most
-``max_hits_per_block`` a block) and then advances each voice block by block from its state
-with the offline bank's own steps. ``Body.drop`` computes its impacts' amplitudes on the
-calling thread (:func:`~synth.sound.modal_bank.impact_excitation`) and hands those over.
+``max_hits_per_block`` a callback over all bodies) and then advances each voice block by
+block from its state with the offline bank's own steps. ``Body.drop`` computes its impacts'
+amplitudes on the calling thread (:func:`~synth.sound.modal_bank.impact_excitation`) and
+hands those over.
 So the voices played live are ``synth.render`` of the same impacts, to float32 rounding.
 Voices that end are posted to a lock-free ring that :meth:`Engine.ended` reads.
 
@@ -90,7 +91,7 @@ WATCH_PERIOD = 0.05
 MAX_BODIES = 256
 #: Latency settings PortAudio takes by name (else a positive number of seconds).
 LATENCIES = ("low", "high")
-#: Default bound on the hits a body takes between two blocks (``max_hits_per_block``).
+#: Default bound on the hits a callback transforms (``max_hits_per_block``).
 HITS_PER_BLOCK = 16
 #: Voice-ended events the engine holds for :meth:`Engine.ended` (more are counted lost).
 EVENT_CAPACITY = 4096
@@ -123,11 +124,14 @@ class Engine:
         Impacts a body holds before they are played, in [1, 4096]; beyond it a hit is
         refused and counted.
     max_hits_per_block : int, optional
-        Hits a body takes between two blocks, in [1, max_pending] (default
-        ``min(HITS_PER_BLOCK, max_pending)``): the audio thread turns
-        each into mode amplitudes at the start of the next block (about ``modes * points``
-        complex multiply-adds), so this bounds that work in any block; beyond it a hit is
-        refused and counted.
+        In [1, max_pending] (default ``min(HITS_PER_BLOCK, max_pending)``): the audio
+        thread turns each hit into mode amplitudes at the start of a block (about
+        ``modes * points`` complex multiply-adds); a stream's callback turns at most this
+        many over all bodies (those that start first in each body, the bodies served in
+        turn), so this bounds that work in any callback; the others wait for the next
+        callback (played late, and counted, if their start passes meanwhile; never lost).
+        A body also holds at most this many hits waiting while the stream runs: beyond it
+        a hit is refused and counted.
     max_frequency : float, optional
         Highest mode of every body, Hz, at most Nyquist (default Nyquist): fewer modes cost
         less per block and per hit.
@@ -293,6 +297,7 @@ class Engine:
             record_frames=int(round(rec * self.samplerate)),
             fade_frames=max(1, int(round(fade_s * self.samplerate))),
             clip=clip,
+            transforms_per_block=self.max_hits_per_block,
             events=EVENT_CAPACITY,
             limit=limit,
         )
@@ -927,6 +932,8 @@ class Engine:
             drops_refused=self._drops_refused,
             impacts_too_close=self._too_close,
             impacts_late=late,
+            transforms_max=int(c[native.TRANSFORMS_MAX]),
+            transforms_deferred=int(c[native.TRANSFORMS_DEFERRED]),
             impacts_pending=pending,
             bodies_ringing=ringing,
             voices_playing=voices,

@@ -28,6 +28,10 @@ SERVER_NAMES = tuple(f"synth-dummy-{i}" for i in range(MAX_SERVERS))
 
 #: Seconds to wait for the server to come up (or to go away).
 STARTUP_TIMEOUT = 15.0
+#: What jackd's timed driver (the dummy backend's) prints when one of its own cycles ended
+#: after the next one was due (JACK2's JackTimedDriver::ProcessWait): the server's own
+#: thread ran late, so every client's output of that cycle is flagged, whatever its work.
+DRIVER_LATE = "JackTimedDriver::Process XRun"
 
 
 def _bounded(call, timeout: float) -> bool:
@@ -157,6 +161,22 @@ class JackDummyServer:
             time.sleep(0.2)
         self.stop()
         raise SynthError(f"the JACK dummy server did not come up within {STARTUP_TIMEOUT} s")
+
+    def log(self) -> str:
+        """What the server has printed so far (read without moving its write offset)."""
+        if self._log is None:
+            return ""
+        fd = self._log.fileno()
+        return os.pread(fd, os.fstat(fd).st_size, 0).decode(errors="replace")
+
+    def late_cycles(self) -> int:
+        """The server's own cycles that ended late so far (:data:`DRIVER_LATE` lines)."""
+        return self.log().count(DRIVER_LATE)
+
+    @property
+    def pid(self) -> int | None:
+        """The server's process id while it runs, else None."""
+        return self._process.pid if self.alive else None
 
     @property
     def alive(self) -> bool:

@@ -213,8 +213,23 @@ def _next_due(state, inject, end):
 
 
 @compiled(nogil=True)
-def _transform_pulses(ring, transform, pulse_form, transformed, heard):
-    """Turn every slot in the PULSE form into the READY form: the renderer's transform of
+def _next_pulse(state, inject):
+    """The slot in the PULSE form whose impact starts first, or -1."""
+    best = -1
+    when = 0
+    for i in range(state.shape[0]):
+        if state[i] == PULSE:
+            fence()  # the slot's data after its state word
+            if best < 0 or inject[i] < when:
+                when = inject[i]
+                best = i
+    return best
+
+
+@compiled(nogil=True)
+def _transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
+    """Turn at most ``limit`` slots in the PULSE form (every one if ``limit`` < 0), those
+    whose impacts start first, into the READY form: the renderer's transform of
     its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
     decay rate in 1/s, the sample period in s, the audio thread's own workspace of
     :func:`~synth.sound.modal_bank.transform_workspace`, and room for the heard
@@ -223,15 +238,17 @@ def _transform_pulses(ring, transform, pulse_form, transformed, heard):
     would make it. The slot's coefficients are the plate's (without the listener): they
     give the plate amplitudes the voice's state takes; the same transform with them times
     the listener's gains now (``heard``'s target) gives the in-contact response and the
-    heard peak. Returns the number of pulses transformed."""
+    heard peak. The slots left wait for a later block. Returns the number of pulses
+    transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form
+    inject = ring[1]
     count = 0
-    for i in range(state.shape[0]):
-        if state[i] != PULSE:
-            continue
-        fence()  # the slot's data after its state word
+    while limit < 0 or count < limit:
+        i = _next_pulse(state, inject)
+        if i < 0:
+            break
         n = points[i]
         M = length[i]
         p = pulse[i]
@@ -694,7 +711,7 @@ def _take_tail(out, t0, n, tail, counters):
 @compiled(nogil=True)
 def mix_body(
     out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
-    voice_form, events,
+    voice_form, events, limit,
 ):  # fmt: skip
     """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock),
     voice by voice (``vs``: a scratch of at least ``n`` and the steal fade's samples).
@@ -708,20 +725,22 @@ def mix_body(
     ``reference``, ``voice``; see :mod:`synth.live.queue`); the PULSE form (``transform``,
     ``pulse_form``, ``transformed``: see :func:`_transform_pulses`). voice_form: the voice
     records and their gains, the slots and their gains, the stolen voices' ``tail``;
-    events: the engine's event ring. A pending impact whose voice has no slot takes one
-    when it joins (:func:`_take_slot`). A body with no ringing voice and nothing pending
-    returns at once.
+    events: the engine's event ring; limit: the most pulses this block transforms (-1: all;
+    the others wait for a later block, and are played late, at the start of the block that
+    takes them, if their start has passed by then). A pending impact whose voice has no
+    slot takes one when it joins (:func:`_take_slot`). A body with no ringing voice and
+    nothing pending returns at once. Returns the number of pulses transformed.
     """
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
-    pulses = _transform_pulses(ring, transform, pulse_form, transformed, bank[3])
+    pulses = _transform_pulses(ring, transform, pulse_form, transformed, bank[3], limit)
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
     due = _next_due(state, inject, end + (1 << 40))
     if counters[AWAKE] == 0 and due < 0:
-        return
+        return pulses
     counters[AWAKE] = 1
     if counters[TAIL_END] > t0:
         _take_tail(out, t0, n, voice_form[4], counters)
@@ -763,6 +782,7 @@ def mix_body(
                 awake = 1
                 break
     counters[AWAKE] = awake
+    return pulses
 
 
 @compiled(nogil=True)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import functools
 import math
+import mmap
 import time
 
 import numba
@@ -82,8 +83,13 @@ from synth.live.atomics import fence as _fence
     LIM_X,
     LIM_R,
     LIM_M,
+    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
+    TRANSFORM_BUDGET,  # the most pulses a stream's callback transforms, over every body
+    TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
+    SHARE_FROM,  # the body served first by the next callback's share of the budget
+    ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
     N_CTL,
-) = range(32)
+) = range(37)
 
 #: ``times`` fields (float64).
 (
@@ -302,13 +308,14 @@ def _add_ramped(row, out, g0, g1, n):
 
 
 @compiled(nogil=True)
-def _mix_one_body(ctl, record, scratch, mix, t0, n):
+def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` (every
     channel's row, then each channel's own, see :func:`_write_block`) at its gain, into
     its channel's row (every channel's for a body of one listener), or for a panned body
     into the first two channels' rows at its gain times :func:`pan_gains`; each channel's
     gain is ramped linearly over the block from its value at the last block to its target.
-    Applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's."""
+    Applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's;
+    ``limit``: the most pulses it transforms (-1: all). Returns the pulses transformed."""
     counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
     transformed = _i64(record[B_TRANSFORMED], 1)
     scalars = _f64(record[B_SCALARS], N_SCALARS)
@@ -332,14 +339,14 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
         if not waiting:
             scalars[S_GAIN_NOW] = g1
             scalars[S_PAN_NOW] = p1
-            return
+            return 0
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
     out = scratch[0]
     for s in range(n):
         out[s] = 0.0
-    kernel.mix_body(
+    pulses = kernel.mix_body(
         out, scratch[1], t0, n, bank, modal, scalars[S_FLOOR], ring, counters, transform,
-        pulse_form, transformed, voice_form, _events(ctl),
+        pulse_form, transformed, voice_form, _events(ctl), limit,
     )  # fmt: skip
     if counters[kernel.BUSY_BLOCKS] != busy:
         if math.isnan(p0) and math.isnan(p1):
@@ -351,6 +358,43 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n):
             _add_ramped(mix[2], out, g0 * right0, g1 * right1, n)
     scalars[S_GAIN_NOW] = g1
     scalars[S_PAN_NOW] = p1
+    return pulses
+
+
+@compiled(nogil=True)
+def _share_budget(ctl, directory, bodies, allow, budget):
+    """Share a callback's ``budget`` of pulse transforms among the ``bodies`` first bodies
+    of the ``directory``: ``allow[b]``, at most the pulses body ``b`` has waiting, given in
+    turn from the body ``SHARE_FROM`` names, the first body left short serves first at
+    the next callback (so under a sustained surplus every body's pulses are taken in turn
+    and none waits for ever). The pulses left waiting are counted in
+    ``TRANSFORMS_DEFERRED``; a pulse handed over after this count waits for the next
+    callback."""
+    start = ctl[SHARE_FROM]
+    if start >= bodies:
+        start = 0
+    left = budget
+    short = -1
+    deferred = 0
+    for k in range(bodies):
+        b = start + k
+        if b >= bodies:
+            b -= bodies
+        record = _i64(directory[b], N_BODY)
+        state = _i64(record[B_STATE], record[B_SLOTS])
+        waiting = 0
+        for i in range(state.shape[0]):
+            if state[i] == kernel.PULSE:
+                waiting += 1
+        give = min(waiting, left)
+        allow[b] = give
+        left -= give
+        if give < waiting:
+            deferred += waiting - give
+            if short < 0:
+                short = b
+    ctl[TRANSFORMS_DEFERRED] += deferred
+    ctl[SHARE_FROM] = short if short >= 0 else start
 
 
 @compiled(nogil=True, inline="always")
@@ -461,15 +505,27 @@ def _write_block(ctl, times, mix, out, row, n):
 @compiled(nogil=True)
 def mix_engine(ctl, out):
     """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
-    float32, in pieces of at most ``MIX_CAP`` frames: the one mixing code of the stream's
-    callback, of the fallback Python callback and of :meth:`synth.live.Engine.process`.
-    Paused (its fade done), it writes silence and holds the clock and every voice."""
+    float32, every pulse handed over transformed (no deadline: :meth:`Engine.process`,
+    :meth:`Engine.mix_into`); see :func:`_mix_engine`."""
+    _mix_engine(ctl, out, np.int64(-1))
+
+
+@compiled(nogil=True)
+def _mix_engine(ctl, out, budget):
+    """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
+    float32, in pieces of at most ``MIX_CAP`` frames, transforming at most ``budget``
+    pulses over every body (-1: all; see :func:`_share_budget`): the one mixing code of
+    the stream's callback, of the fallback Python callback and of
+    :meth:`synth.live.Engine.process`. Paused (its fade done), it writes silence and
+    holds the clock and every voice."""
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
     times = _f64(ctl[TIMES], N_TIMES)
     mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
     scratch = numba.carray(_pointer(ctl[SCRATCH]), (2, cap), np.float64)
     directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
+    allow = _i64(ctl[ALLOW], ctl[MAX_BODIES])
+    shared = -1  # the bodies counted when the budget was shared (once a call)
     # typed int64 from the start: a literal 0 would have numba type _write_block twice
     done = np.int64(0)
     while done < frames:
@@ -482,12 +538,32 @@ def mix_engine(ctl, out):
         t0 = ctl[FRAME]
         bodies = ctl[N_BODIES]
         _fence()  # the records of the bodies counted are complete
+        if budget >= 0 and shared < 0:  # once a call: the budget is the callback's
+            _share_budget(ctl, directory, bodies, allow, budget)
+            shared = bodies
         for b in range(bodies):
             record = _i64(directory[b], N_BODY)
-            _mix_one_body(ctl, record, scratch, mix, t0, n)
+            limit = -1
+            if budget >= 0:  # a body added after the share waits for the next call
+                limit = allow[b] if b < shared else 0
+            pulses = _mix_one_body(ctl, record, scratch, mix, t0, n, limit)
+            if budget >= 0:
+                allow[b] = limit - pulses
         _write_block(ctl, times, mix, out, done, n)
         ctl[FRAME] = t0 + n
         done += n
+
+
+@compiled(nogil=True)
+def _transformed(ctl):
+    """The pulses every body in the directory has transformed so far (a removed body's
+    vacant record counts none)."""
+    directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
+    total = 0
+    for b in range(ctl[N_BODIES]):
+        record = _i64(directory[b], N_BODY)
+        total += _i64(record[B_TRANSFORMED], 1)[0]
+    return total
 
 
 @compiled(nogil=True)
@@ -521,7 +597,11 @@ def run_block(ctl, out, flags, current, dac, entry_ns):
     times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
     _fence()
     ctl[SEQ] += 1
-    mix_engine(ctl, out)
+    before = _transformed(ctl)
+    _mix_engine(ctl, out, ctl[TRANSFORM_BUDGET])
+    transforms = _transformed(ctl) - before
+    if transforms > ctl[TRANSFORMS_MAX]:
+        ctl[TRANSFORMS_MAX] = transforms
     end = _monotonic_ns()
     times[END_TIME] = end * 1e-9
     times[END_FRAME] = ctl[FRAME]
@@ -574,7 +654,7 @@ def transform_pending(record):
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
     transformed = _i64(record[B_TRANSFORMED], 1)
     # the in-contact response and peak heard with the gains the mixing holds now
-    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3])
+    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
 
 
 @compiled(nogil=True)
@@ -587,12 +667,30 @@ def silence_body(ctl, record):
     kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
 
 
+def touch(a: np.ndarray) -> np.ndarray:
+    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
+    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
+    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
+    only copied at its first write. One byte of each page (and the last byte) is written
+    with its own value; a read-only array is read instead. Returns ``a``."""
+    b = a.reshape(-1).view(np.uint8)
+    if b.size == 0:
+        return a
+    if a.flags.writeable:
+        b[:: mmap.PAGESIZE] = b[:: mmap.PAGESIZE].copy()
+        b[-1] = b[-1]
+    else:
+        _read = int(b[:: mmap.PAGESIZE].sum()) + int(b[-1])  # noqa: F841 (the reads touch)
+    return a
+
+
 class EngineState:
     """The arrays the audio thread works on (see the module's docstring), allocated once:
     ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
     ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
-    voice-ended events, and the master bus' true-peak limiter's state (``limit``, or None
-    without a limiter)."""
+    voice-ended events, the master bus' true-peak limiter's state (``limit``, or None
+    without a limiter), and the most pulses a stream's callback transforms over every body
+    (``transforms_per_block``; see :func:`_share_budget`)."""
 
     def __init__(
         self,
@@ -604,17 +702,22 @@ class EngineState:
         record_frames: int,
         fade_frames: int,
         clip: bool,
+        transforms_per_block: int,
         events: int = 4096,
         limit: limiter.LimiterState | None = None,
     ):
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
         self.directory = np.zeros(max_bodies, dtype=np.int64)
+        self.allow = np.zeros(max_bodies, dtype=np.int64)
         self.mix = np.zeros((channels + 1, mix_frames))
         self.scratch = np.zeros((2, mix_frames))
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
+        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
+                  self.recording):  # fmt: skip
+            touch(a)
         self.records: list = []  # the bodies' records and arrays, kept alive here
         c, t = self.ctl, self.times
         c[FADE_AT] = -1
@@ -626,6 +729,8 @@ class EngineState:
         c[RECORD_FRAMES] = record_frames
         c[TIMES] = t.ctypes.data
         c[DIRECTORY] = self.directory.ctypes.data
+        c[ALLOW] = self.allow.ctypes.data
+        c[TRANSFORM_BUDGET] = transforms_per_block
         c[MIX] = self.mix.ctypes.data
         c[SCRATCH] = self.scratch.ctypes.data
         c[RECORD] = self.recording.ctypes.data
@@ -675,6 +780,7 @@ class EngineState:
             if isinstance(value, np.ndarray):
                 if not value.flags.c_contiguous:
                     raise ValueError(f"{name} must be C-contiguous")
+                touch(value)  # the audio thread takes no page fault on it
                 record[i] = value.ctypes.data
             else:
                 record[i] = int(value)
@@ -739,7 +845,7 @@ def warm_up() -> None:
     ring.publish_pulse(slot, 1, 0, 0, 5)
     state = EngineState(
         samplerate=fs, channels=1, max_bodies=1, mix_frames=8, record_frames=4,
-        fade_frames=4, clip=True,
+        fade_frames=4, clip=True, transforms_per_block=1,
     )  # fmt: skip
     c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
     table = power_table(poles, float(fs))

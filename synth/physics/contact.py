@@ -261,13 +261,11 @@ class ImpactResult:
             raise ParameterError(
                 f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
             )
-        s = np.empty(total)
-        s[:points] = np.arange(points) * float(step)
-        s[points:] = float(offset) + np.arange(samples) * float(period)
-        s /= d.theta
-        forces, slopes = out[0, :total], out[1, :total]
-        self._force_and_slope(s, forces, slopes)
-        return forces, slopes
+        _k.pulse_force_slope(
+            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, d.theta, d.f_scale,
+            float(step), points, float(offset), float(period), samples, out,
+        )  # fmt: skip
+        return out[0, :total], out[1, :total]
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first

@@ -418,6 +418,31 @@ def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, 
 
 
 @compiled()
+def pulse_force_slope(
+    hist, radau, lam, G, n, c, b, s_contact, theta, f_scale, step, points, offset, period,
+    samples, out,
+):  # fmt: skip
+    """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` (their first
+    ``points + samples`` entries) at the times ``j step`` (s, ``j < points``) and then
+    ``offset + m period`` (s, ``m < samples``) from first touch: :func:`force_slope_at` at
+    those times over ``theta`` (s), scaled by ``f_scale`` (N) and ``f_scale / theta``
+    (N/s). One call for what would take a handful of array temporaries."""
+    total = points + samples
+    s = np.empty(total)
+    for j in range(points):
+        s[j] = j * step / theta
+    for m in range(samples):
+        s[points + m] = (offset + m * period) / theta
+    forces = out[0, :total]
+    slopes = out[1, :total]
+    force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, forces, slopes)
+    rate = f_scale / theta
+    for i in range(total):
+        forces[i] *= f_scale
+        slopes[i] *= rate
+
+
+@compiled()
 def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
     output ``hist`` of ``solve`` (same lam, G, n, c, b), 0 outside ``[0, s_contact]``, into
