@@ -110,6 +110,24 @@ def test_hits_in_the_middle_of_blocks_are_the_render(scene):
     np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
 
 
+def test_hits_of_a_hollow_ball_are_the_render(scene):
+    # a table tennis ball's shell law: the live slot takes its pulse from the shell
+    # kernel's dense output, as the offline bank does
+    ball = synth.HollowBall("abs", 0.02, thickness=5.2e-4)
+    hollow = synth.Scene(
+        ball, scene.plate, drop_height=0.3, position=scene.position, listener=scene.listener
+    )
+    times, speeds = np.array([0.0, 0.0107, 0.05]), [2.4, 0.7, 1.1]
+    r = rendered(hollow, hits_sequence(hollow, times, speeds))
+    engine = synth.Engine(samplerate=FS, blocksize=256, floor_db=EXACT_DB)
+    body = engine.add(hollow.plate, listener=hollow.listener)
+    for t, v in zip(times, speeds):
+        body.hit(ball, v, position=hollow.position, at=PRE + t)
+    live = engine.process(r.audio.size)[:, 0]
+    assert engine.stats.impacts_played == len(times)
+    np.testing.assert_allclose(live, r.audio, rtol=0, atol=float32_ulp_of_peak(r.audio))
+
+
 def test_a_drop_with_another_contact_law_and_gravity_is_the_render(scene):
     # the drop takes a scene's contact model and gravity: Hunt-Crossley damping on the Moon
     moon = synth.Scene(

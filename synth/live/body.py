@@ -534,8 +534,9 @@ class Body:
 
         The tick starts at ``at`` (s on the engine's clock, not before :attr:`Engine.time`)
         or, by default, one block plus the stream's output latency after the call.
-        ``contact``: the contact law (default Hertz, see :class:`synth.Contact`; its ``rtol``
-        is not used: a single hit is solved to 1e-6); ``gravity``: m/s^2, > 0.
+        ``contact``: the contact law (default the ball's own: Hertz, the thin-shell law for
+        a HollowBall; see :class:`synth.Contact`; its ``rtol`` is not used: a single hit is
+        solved to 1e-6); ``gravity``: m/s^2, > 0.
         ``priority``: an integer in [0, 255] (default 0; higher is kept longer) that
         decides which voice a full body or a full engine steals, or refuses (see
         :class:`Voice`). Returns its :class:`Voice` (its start time is ``voice.onset``),
@@ -606,9 +607,9 @@ class Body:
         ``position`` (default the centre): the whole bouncing sequence
         (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
         engine's clock from ``at`` (as :meth:`hit`: the first tick's start; ``priority`` as
-        :meth:`hit`'s, for the whole drop); ``contact``
-        (default Hertz at a scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height``
-        in [1e-6, 1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
+        :meth:`hit`'s, for the whole drop); ``contact`` (default the ball's own law at a
+        scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height`` in [1e-6,
+        1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
         sequence (``voice.onsets``: the start times of its ticks, s).
 
         A drop is handed over whole or not at all: when the body's ring has fewer free slots

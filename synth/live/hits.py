@@ -11,7 +11,14 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.physics.scene import MAX_DROP_HEIGHT, MIN_DROP_HEIGHT, Ball, Contact, Plate
+from synth.physics.scene import (
+    MAX_DROP_HEIGHT,
+    MIN_DROP_HEIGHT,
+    Ball,
+    Contact,
+    HollowBall,
+    Plate,
+)
 
 #: Largest speed of a hit, m/s: far beyond the elastic range of every material in the table
 #: (metal balls dent above a few m/s), a bound against nonsense, not a physical limit.
@@ -26,8 +33,10 @@ MAX_AHEAD = 60.0
 #: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
 #: together.
 HIT_RTOL = 1e-6
-#: The contact law of a hit or a drop given none (a scene's default: Hertz).
+#: The contact law of a hit or a drop given none (a scene's default: Hertz; for a hollow
+#: ball, the thin-shell law).
 DEFAULT_CONTACT = Contact()
+SHELL_CONTACT = Contact(law="shell")
 
 
 @dataclass(slots=True)
@@ -50,7 +59,7 @@ def trigger(plate: Plate, ball, position, gain, contact, gravity, onset) -> Trig
         ball=check_ball(ball, plate),
         position=plate.check_position(plate.centre if position is None else position, "position"),
         gain=checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless"),
-        law=check_contact(contact),
+        law=check_contact(contact, ball),
         gravity=checks.positive("gravity", gravity, "m/s^2"),
         onset=onset,
     )
@@ -69,11 +78,12 @@ def check_ball(ball, plate: Plate) -> Ball:
     return ball
 
 
-def check_contact(contact) -> Contact:
-    """``contact`` checked: None (``DEFAULT_CONTACT``) or a Contact solved with the
-    plate's impedance."""
+def check_contact(contact, ball=None) -> Contact:
+    """``contact`` checked: None (the ball's own law: ``SHELL_CONTACT`` for a
+    :class:`~synth.physics.scene.HollowBall`, else ``DEFAULT_CONTACT``) or a Contact solved
+    with the plate's impedance."""
     if contact is None:
-        return DEFAULT_CONTACT
+        return SHELL_CONTACT if isinstance(ball, HollowBall) else DEFAULT_CONTACT
     if not isinstance(contact, Contact):
         raise ParameterError(f"contact={contact!r} must be None or a Contact")
     if contact.plate == "modal":

@@ -252,7 +252,6 @@ class ImpactResult:
         pulse grid and in-contact audio samples). ``out``: an optional (2, L) float array,
         ``L >= points + samples``, whose rows take the forces and the slopes (the live
         engine writes them straight into a slot); returns views of its rows then."""
-        d = self._dense
         points, samples = int(points), int(samples)
         total = points + samples
         if out is None:
@@ -261,11 +260,17 @@ class ImpactResult:
             raise ParameterError(
                 f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
             )
+        self._pulse_force_slope(float(step), points, float(offset), float(period), samples, out)
+        return out[0, :total], out[1, :total]
+
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
+        call on the Hertz-family dense output."""
+        d = self._dense
         _k.pulse_force_slope(
             d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, d.theta, d.f_scale,
-            float(step), points, float(offset), float(period), samples, out,
+            step, points, offset, period, samples, out,
         )  # fmt: skip
-        return out[0, :total], out[1, :total]
 
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
@@ -334,6 +339,16 @@ class ShellImpactResult(ImpactResult):
         forces *= d.f_scale
         self.__dict__.update(time=times, force=forces)
         return times, forces
+
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, from the shell
+        kernel's dense output at the grid's times."""
+        total = points + samples
+        s = np.empty(total)
+        s[:points] = np.arange(points) * step
+        s[points:] = offset + np.arange(samples) * period
+        s /= self._dense.theta
+        self._force_and_slope(s, out[0, :total], out[1, :total])
 
     def _force_and_slope(self, s, out, slope) -> None:
         d = self._dense
