@@ -113,7 +113,7 @@ GROUPS = {
         KernelGroup(
             "live",
             "the live engine's kernels",
-            ("synth.live.native", "run_block"),
+            ("synth.live.native", "_callback"),
             ("synth.live",),
         ),
     )
@@ -142,16 +142,23 @@ def announce(name: str, stream=None) -> None:
 
 
 def is_cached(group: KernelGroup) -> bool:
-    """True if the group's probe kernel is compiled in this process or has an entry in
-    numba's disk cache for this source (numba drops an index whose source changed).
+    """True if the group's probe kernel (a dispatcher, or the Python function of a
+    ``cfunc``) is compiled in this process or has an entry in numba's disk cache for this
+    source (numba drops an index whose source changed).
     Where numba's cache cannot be read (caching off, another numba), True: no note is
     better than a wrong one."""
     module, kernel = group.probe
-    dispatcher = getattr(importlib.import_module(module), kernel)
-    if dispatcher.overloads:
-        return True
+    function = getattr(importlib.import_module(module), kernel)
     try:
-        return bool(dispatcher._cache._cache_file._load_index())
+        if isinstance(function, numba.core.dispatcher.Dispatcher):
+            if function.overloads:
+                return True
+            cache = function._cache
+        else:  # the Python function of a cfunc, which compiles where it is made
+            from numba.core.caching import FunctionCache
+
+            cache = FunctionCache(function)
+        return bool(cache._cache_file._load_index())
     except Exception:
         return True
 

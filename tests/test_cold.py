@@ -54,7 +54,7 @@ def test_importing_the_live_engine_compiles_nothing(tmp_path):
     code = (
         "import synth.live.engine\n"
         "from synth.live import native\n"
-        "print(native.stream_callback.cache_info().currsize, len(native.run_block.overloads))\n"
+        "print(native.stream_callback.cache_info().currsize, len(native._run_block.overloads))\n"
     )
     proc = _python(code, {"NUMBA_CACHE_DIR": str(tmp_path / "numba")})
     assert proc.returncode == 0, proc.stderr
