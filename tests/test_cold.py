@@ -62,6 +62,19 @@ def test_importing_the_live_engine_compiles_nothing(tmp_path):
     assert NOTE not in proc.stderr
 
 
+def test_the_live_block_is_compiled_into_the_callback_only():
+    # numba links a compiled callee into each caller and compiles it to machine code again
+    # there: the callback, the block and the mixing, three compiled entries to the same
+    # tree of kernels, compiled it three times over. The levels between the callback and
+    # the bodies' mixing are inlined into the callback, which Python calls as well: none
+    # of them has a specialisation of its own (compiled, or loaded from the disk cache).
+    from synth.live import native
+
+    native.warm_up()
+    for inlined in (native._run_block, native._mix_engine, native._mix_one_body):
+        assert inlined.overloads == {}, inlined.py_func.__name__
+
+
 def test_unknown_attribute_is_an_attribute_error():
     import synth
 
