@@ -21,8 +21,10 @@ import importlib
 import json
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numba
 
@@ -149,18 +151,44 @@ def is_cached(group: KernelGroup) -> bool:
     better than a wrong one."""
     module, kernel = group.probe
     function = getattr(importlib.import_module(module), kernel)
+    if isinstance(function, numba.core.dispatcher.Dispatcher) and function.overloads:
+        return True
+    return in_disk_cache(function)
+
+
+def in_disk_cache(function) -> bool:
+    """True if the dispatcher ``function`` (or the Python function of a ``cfunc``) has an
+    entry in numba's disk cache for this source; True as well where the cache cannot be
+    read (see :func:`is_cached`)."""
     try:
         if isinstance(function, numba.core.dispatcher.Dispatcher):
-            if function.overloads:
-                return True
             cache = function._cache
-        else:  # the Python function of a cfunc, which compiles where it is made
+        else:
             from numba.core.caching import FunctionCache
 
             cache = FunctionCache(function)
         return bool(cache._cache_file._load_index())
     except Exception:
         return True
+
+
+@contextmanager
+def cfunc_compiling(function, signature):
+    """numba's ``numba:compile`` event around the compile of a ``cfunc`` of ``function``
+    (numba signals the compiles of dispatchers only), so that :class:`CompileLog` counts
+    it; nothing when the cfunc is in the disk cache (it is loaded, not compiled)."""
+    if in_disk_cache(function):
+        yield
+        return
+    from numba.core import event
+
+    data = {
+        "dispatcher": SimpleNamespace(py_func=function),
+        "args": signature.args,
+        "return_type": signature.return_type,
+    }
+    with event.trigger_event("numba:compile", data=data):
+        yield
 
 
 def recorded_seconds() -> dict[str, float]:

@@ -44,7 +44,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from synth.compilation import FASTMATH, compiled
+from synth.compilation import FASTMATH, cfunc_compiling, compiled
 from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
@@ -587,7 +587,10 @@ def stream_callback():
     code and optimised and compiled to machine code again with it (numba's
     ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
     tree once more."""
-    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(_callback)
+    with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
+        return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
+            _callback
+        )
 
 
 def _check_block(ctl: np.ndarray, out: np.ndarray) -> None:
