@@ -196,6 +196,30 @@ def test_compile_log_records_a_compile_with_its_own_and_total_time():
     assert log.seconds == pytest.approx(top.total_seconds, rel=1e-9, abs=1e-12)
 
 
+def _doubled(x):
+    return 2.0 * x
+
+
+def test_compile_log_counts_the_compile_of_a_cfunc():
+    # numba signals numba:compile for dispatchers only: the live engine's PortAudio
+    # callback, a cfunc that compiles the whole mixing, was missing from the log (from
+    # synth warmup and from the first-use note's estimate)
+    import numba
+    from numba import types
+
+    from synth.compilation import CompileLog, cfunc_compiling
+
+    signature = types.float64(types.float64)
+    log = CompileLog()
+    with log.recording(), cfunc_compiling(_doubled, signature):
+        made = numba.cfunc(signature, nopython=True)(_doubled)
+    assert made.ctypes(1.5) == 3.0
+    assert [(c.kernel, c.signature, c.depth) for c in log.compiles] == [
+        (f"{__name__}._doubled", "float64", 0)
+    ]
+    assert log.compiles[0].own_seconds > 0.0
+
+
 @pytest.mark.slow
 def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path):
     # Step 2 (a contact by Radau IIA) on an empty numba cache: the note on stderr once,
