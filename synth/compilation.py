@@ -21,8 +21,10 @@ import importlib
 import json
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numba
 
@@ -117,7 +119,7 @@ GROUPS = {
         KernelGroup(
             "live",
             "the live engine's kernels",
-            ("synth.live.native", "run_block"),
+            ("synth.live.native", "_callback"),
             ("synth.live",),
         ),
     )
@@ -146,18 +148,51 @@ def announce(name: str, stream=None) -> None:
 
 
 def is_cached(group: KernelGroup) -> bool:
-    """True if the group's probe kernel is compiled in this process or has an entry in
-    numba's disk cache for this source (numba drops an index whose source changed).
+    """True if the group's probe kernel (a dispatcher, or the Python function of a
+    ``cfunc``) is compiled in this process or has an entry in numba's disk cache for this
+    source (numba drops an index whose source changed).
     Where numba's cache cannot be read (caching off, another numba), True: no note is
     better than a wrong one."""
     module, kernel = group.probe
-    dispatcher = getattr(importlib.import_module(module), kernel)
-    if dispatcher.overloads:
+    function = getattr(importlib.import_module(module), kernel)
+    if isinstance(function, numba.core.dispatcher.Dispatcher) and function.overloads:
         return True
+    return in_disk_cache(function)
+
+
+def in_disk_cache(function) -> bool:
+    """True if the dispatcher ``function`` (or the Python function of a ``cfunc``) has an
+    entry in numba's disk cache for this source; True as well where the cache cannot be
+    read (see :func:`is_cached`)."""
     try:
-        return bool(dispatcher._cache._cache_file._load_index())
+        if isinstance(function, numba.core.dispatcher.Dispatcher):
+            cache = function._cache
+        else:
+            from numba.core.caching import FunctionCache
+
+            cache = FunctionCache(function)
+        return bool(cache._cache_file._load_index())
     except Exception:
         return True
+
+
+@contextmanager
+def cfunc_compiling(function, signature):
+    """numba's ``numba:compile`` event around the compile of a ``cfunc`` of ``function``
+    (numba signals the compiles of dispatchers only), so that :class:`CompileLog` counts
+    it; nothing when the cfunc is in the disk cache (it is loaded, not compiled)."""
+    if in_disk_cache(function):
+        yield
+        return
+    from numba.core import event
+
+    data = {
+        "dispatcher": SimpleNamespace(py_func=function),
+        "args": signature.args,
+        "return_type": signature.return_type,
+    }
+    with event.trigger_event("numba:compile", data=data):
+        yield
 
 
 def recorded_seconds() -> dict[str, float]:

@@ -54,12 +54,25 @@ def test_importing_the_live_engine_compiles_nothing(tmp_path):
     code = (
         "import synth.live.engine\n"
         "from synth.live import native\n"
-        "print(native.stream_callback.cache_info().currsize, len(native.run_block.overloads))\n"
+        "print(native.stream_callback.cache_info().currsize, len(native._run_block.overloads))\n"
     )
     proc = _python(code, {"NUMBA_CACHE_DIR": str(tmp_path / "numba")})
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["0", "0"]
     assert NOTE not in proc.stderr
+
+
+def test_the_live_block_is_compiled_into_the_callback_only():
+    # numba links a compiled callee into each caller and compiles it to machine code again
+    # there: the callback, the block and the mixing, three compiled entries to the same
+    # tree of kernels, compiled it three times over. The levels between the callback and
+    # the bodies' mixing are inlined into the callback, which Python calls as well: none
+    # of them has a specialisation of its own (compiled, or loaded from the disk cache).
+    from synth.live import native
+
+    native.warm_up()
+    for inlined in (native._run_block, native._mix_engine, native._mix_one_body):
+        assert inlined.overloads == {}, inlined.py_func.__name__
 
 
 def test_unknown_attribute_is_an_attribute_error():
@@ -181,6 +194,30 @@ def test_compile_log_records_a_compile_with_its_own_and_total_time():
     nested = sum(c.own_seconds for c in log.compiles[:-1])
     assert top.total_seconds == pytest.approx(top.own_seconds + nested, rel=1e-9, abs=1e-12)
     assert log.seconds == pytest.approx(top.total_seconds, rel=1e-9, abs=1e-12)
+
+
+def _doubled(x):
+    return 2.0 * x
+
+
+def test_compile_log_counts_the_compile_of_a_cfunc():
+    # numba signals numba:compile for dispatchers only: the live engine's PortAudio
+    # callback, a cfunc that compiles the whole mixing, was missing from the log (from
+    # synth warmup and from the first-use note's estimate)
+    import numba
+    from numba import types
+
+    from synth.compilation import CompileLog, cfunc_compiling
+
+    signature = types.float64(types.float64)
+    log = CompileLog()
+    with log.recording(), cfunc_compiling(_doubled, signature):
+        made = numba.cfunc(signature, nopython=True)(_doubled)
+    assert made.ctypes(1.5) == 3.0
+    assert [(c.kernel, c.signature, c.depth) for c in log.compiles] == [
+        (f"{__name__}._doubled", "float64", 0)
+    ]
+    assert log.compiles[0].own_seconds > 0.0
 
 
 @pytest.mark.slow

@@ -789,7 +789,7 @@ ir = native.stream_callback().inspect_llvm()
 for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate"):
     print(symbol, symbol in ir)
 print("clock_gettime", "clock_gettime" in ir)
-print("run_block", "run_block" in ir)
+print("_write_block", "_write_block" in ir)
 for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
     print(callee, callee in ir)
 """
@@ -813,7 +813,7 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-2000:]
     found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
-    assert found.pop("run_block") == "True"  # the callees' code is in the inspected IR
+    assert found.pop("_write_block") == "True"  # the callees' code is in the inspected IR
     # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
     # that take and steal slots are inlined into mix_body), and the master bus' limiter
     for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):

@@ -722,7 +722,7 @@ class Engine:
         ``MAX_AHEAD`` s after it), or one block plus the output latency, the limiter's
         look-ahead and the hand-over allowance from now (no stream: from the next frame;
         the frame leaving the device now counts the look-ahead's delay, see
-        :func:`synth.live.native.run_block`)."""
+        :func:`synth.live.native._run_block`)."""
         self._check_open("play an impact")
         self._check_alive()
         if at is None:

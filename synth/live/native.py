@@ -19,8 +19,8 @@ address as ``userData`` (as python-rtmixer does with its C callback). PortAudio'
 then runs it without Python's GIL: a busy Python thread cannot delay it. It allocates
 nothing (every array is a view made from an address), takes no lock, and reads the time
 with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
-which the trigger threads compare). :func:`run_block` is its body: the Python fallback
-callback and :meth:`synth.live.Engine.process` call the very same compiled code.
+which the trigger threads compare). The Python fallback callback (:func:`run_block`) and
+:meth:`synth.live.Engine.process` (:func:`mix_engine`) call the very same compiled code.
 
 numba caches these functions keyed on this file alone (its time stamp and size): after a
 change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
@@ -45,7 +45,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from synth.compilation import FASTMATH, compiled
+from synth.compilation import FASTMATH, cfunc_compiling, compiled
 from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
 
@@ -172,6 +172,17 @@ def _pointer(typingctx, address):
 
     def codegen(context, builder, signature, args):
         return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return sig, codegen
+
+
+@intrinsic
+def _address(typingctx, pointer):
+    """The ``void*`` ``pointer`` as an int64 (0: NULL)."""
+    sig = types.int64(types.voidptr)
+
+    def codegen(context, builder, signature, args):
+        return builder.ptrtoint(args[0], cgutils.ir.IntType(64))
 
     return sig, codegen
 
@@ -307,7 +318,7 @@ def _add_ramped(row, out, g0, g1, n):
             row[s] += (g0 + step * (s + 1)) * out[s]
 
 
-@compiled(nogil=True)
+@compiled(nogil=True, inline="always")
 def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` (every
     channel's row, then each channel's own, see :func:`_write_block`) at its gain, into
@@ -502,22 +513,12 @@ def _write_block(ctl, times, mix, out, row, n):
         ctl[RECORDED] = done + m
 
 
-@compiled(nogil=True)
-def mix_engine(ctl, out):
-    """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
-    float32, every pulse handed over transformed (no deadline: :meth:`Engine.process`,
-    :meth:`Engine.mix_into`); see :func:`_mix_engine`."""
-    _mix_engine(ctl, out, np.int64(-1))
-
-
-@compiled(nogil=True)
+@compiled(nogil=True, inline="always")
 def _mix_engine(ctl, out, budget):
     """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
     float32, in pieces of at most ``MIX_CAP`` frames, transforming at most ``budget``
-    pulses over every body (-1: all; see :func:`_share_budget`): the one mixing code of
-    the stream's callback, of the fallback Python callback and of
-    :meth:`synth.live.Engine.process`. Paused (its fade done), it writes silence and
-    holds the clock and every voice."""
+    pulses over every body (-1: all; see :func:`_share_budget`). Paused (its fade done),
+    it writes silence and holds the clock and every voice."""
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
     times = _f64(ctl[TIMES], N_TIMES)
@@ -566,57 +567,56 @@ def _transformed(ctl):
     return total
 
 
-@compiled(nogil=True)
-def run_block(ctl, out, flags, current, dac, entry_ns):
-    """One callback's work: count PortAudio's status ``flags``, note the time since the
+@compiled(nogil=True, inline="always")
+def _run_block(ctl, out, flags, current, dac, entry_ns, device):
+    """One block: :func:`_mix_engine`, and for a ``device`` block (a stream's callback) the
+    accounting around it: count PortAudio's status ``flags``, note the time since the
     last callback's entry (a gap of more than a block means the system ran the audio
     thread late, whatever the callback's own cost), anchor the clock (the block's first
     frame leaves the device ``dac - current`` s after ``entry_ns``, the callback's entry on
-    the monotonic clock, plus the limiter's look-ahead, by which it delays the bus), mix,
-    and account the callback's run time from its entry as a fraction of the block."""
+    the monotonic clock, plus the limiter's look-ahead, by which it delays the bus), and
+    account the callback's run time from its entry as a fraction of the block. One call
+    of :func:`_mix_engine` for both, so that its code is compiled once."""
     times = _f64(ctl[TIMES], N_TIMES)
     frames = out.shape[0]
-    if flags & PA_OUTPUT_UNDERFLOW:
-        ctl[UNDERFLOWS] += 1
-    if flags & PA_OUTPUT_OVERFLOW:
-        ctl[OVERFLOWS] += 1
-    if dac > 0.0 and current > 0.0 and dac >= current:
-        lead = dac - current
-    else:
-        lead = times[NOMINAL_LATENCY]
-    times[LEAD] = lead
-    now = entry_ns * 1e-9
-    if times[LAST_ENTRY] > 0.0:
-        gap = (now - times[LAST_ENTRY]) * times[SAMPLERATE] / max(frames, 1)
-        if gap > times[GAP_MAX]:
-            times[GAP_MAX] = gap
-    times[LAST_ENTRY] = now
-    ctl[SEQ] += 1
-    _fence()
-    times[ANCHOR_FRAME] = ctl[FRAME]
-    times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
-    _fence()
-    ctl[SEQ] += 1
+    if device:
+        if flags & PA_OUTPUT_UNDERFLOW:
+            ctl[UNDERFLOWS] += 1
+        if flags & PA_OUTPUT_OVERFLOW:
+            ctl[OVERFLOWS] += 1
+        if dac > 0.0 and current > 0.0 and dac >= current:
+            lead = dac - current
+        else:
+            lead = times[NOMINAL_LATENCY]
+        times[LEAD] = lead
+        now = entry_ns * 1e-9
+        if times[LAST_ENTRY] > 0.0:
+            gap = (now - times[LAST_ENTRY]) * times[SAMPLERATE] / max(frames, 1)
+            if gap > times[GAP_MAX]:
+                times[GAP_MAX] = gap
+        times[LAST_ENTRY] = now
+        ctl[SEQ] += 1
+        _fence()
+        times[ANCHOR_FRAME] = ctl[FRAME]
+        times[ANCHOR_DAC] = entry_ns * 1e-9 + lead + times[LIMIT_DELAY]
+        _fence()
+        ctl[SEQ] += 1
+    budget = ctl[TRANSFORM_BUDGET] if device else np.int64(-1)
     before = _transformed(ctl)
-    _mix_engine(ctl, out, ctl[TRANSFORM_BUDGET])
-    transforms = _transformed(ctl) - before
-    if transforms > ctl[TRANSFORMS_MAX]:
-        ctl[TRANSFORMS_MAX] = transforms
-    end = _monotonic_ns()
-    times[END_TIME] = end * 1e-9
-    times[END_FRAME] = ctl[FRAME]
-    cost = (end - entry_ns) * 1e-9 * times[SAMPLERATE] / max(frames, 1)
-    times[COST_LAST] = cost
-    times[COST_SUM] += cost
-    if cost > times[COST_MAX]:
-        times[COST_MAX] = cost
-    ctl[CALLBACKS] += 1
-
-
-@compiled(nogil=True)
-def monotonic_ns():
-    """The callback's clock in ns, read from compiled code (for the Python fallback)."""
-    return _monotonic_ns()
+    _mix_engine(ctl, out, budget)
+    if device:
+        transforms = _transformed(ctl) - before
+        if transforms > ctl[TRANSFORMS_MAX]:
+            ctl[TRANSFORMS_MAX] = transforms
+        end = _monotonic_ns()
+        times[END_TIME] = end * 1e-9
+        times[END_FRAME] = ctl[FRAME]
+        cost = (end - entry_ns) * 1e-9 * times[SAMPLERATE] / max(frames, 1)
+        times[COST_LAST] = cost
+        times[COST_SUM] += cost
+        if cost > times[COST_MAX]:
+            times[COST_MAX] = cost
+        ctl[CALLBACKS] += 1
 
 
 CALLBACK_SIGNATURE = types.intc(
@@ -628,13 +628,20 @@ def _callback(input, output, frames, time_info, flags, userdata):
     """PortAudio's ``PaStreamCallback``: ``int (const void *input, void *output,
     unsigned long frameCount, const PaStreamCallbackTimeInfo *timeInfo,
     PaStreamCallbackFlags statusFlags, void *userData)``, with ``userData`` the address of
-    the engine's ``ctl``; float32 interleaved output. Returns paContinue."""
+    the engine's ``ctl``; float32 interleaved output. Returns paContinue. A NULL
+    ``timeInfo`` (never from PortAudio) mixes without the device's accounting: the block of
+    :func:`mix_engine`."""
     entry = _monotonic_ns()
     ctl = numba.carray(userdata, N_CTL, np.int64)
     out = numba.carray(output, (np.int64(frames), ctl[CHANNELS]), np.float32)
-    info = numba.carray(time_info, 3, np.float64)  # adc time, current time, dac time
-    # int64 flags, as the Python fallback passes them: one compile of run_block for both
-    run_block(ctl, out, np.int64(flags), info[1], info[2], entry)
+    device = _address(time_info) != 0
+    current = 0.0
+    dac = 0.0
+    if device:
+        info = numba.carray(time_info, 3, np.float64)  # adc time, current time, dac time
+        current = info[1]
+        dac = info[2]
+    _run_block(ctl, out, np.int64(flags), current, dac, entry, device)
     return PA_CONTINUE
 
 
@@ -643,8 +650,58 @@ def stream_callback():
     """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio).
     numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
     one compiles the whole block: made on first use, after the engine's note that it
-    compiles (:func:`synth.compilation.announce`), not when this module is imported."""
-    return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(_callback)
+    compiles (:func:`synth.compilation.announce`), not when this module is imported.
+
+    It is the only compiled entry to the block: the mixing levels it calls are inlined
+    into it (``inline="always"``), and Python calls it too (:func:`mix_engine`,
+    :func:`run_block`), so that the block's tree of kernels is compiled into one library.
+    A kernel compiled on its own and called from another is linked into the caller's
+    code and optimised and compiled to machine code again with it (numba's
+    ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
+    tree once more."""
+    with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
+        return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
+            _callback
+        )
+
+
+def _check_block(ctl: np.ndarray, out: np.ndarray) -> None:
+    """``out`` must be what the compiled block writes: float32, C-contiguous, writeable,
+    (frames, the engine's channels)."""
+    if (
+        out.dtype != np.float32
+        or out.ndim != 2
+        or out.shape[1] != ctl[CHANNELS]
+        or not out.flags.c_contiguous
+        or not out.flags.writeable
+    ):
+        raise ValueError(
+            f"out {out.dtype} {out.shape} must be writeable C-contiguous float32 "
+            f"(frames, {int(ctl[CHANNELS])})"
+        )
+
+
+def mix_engine(ctl: np.ndarray, out: np.ndarray) -> None:
+    """Mix the next ``out.shape[0]`` frames of every body into ``out`` (frames, channels)
+    float32, in pieces of at most ``MIX_CAP`` frames, with the stream's compiled callback
+    (:func:`stream_callback`, without its device accounting): the one mixing code of the
+    stream, of the fallback Python callback and of :meth:`synth.live.Engine.process`.
+    Paused (its fade done), it writes silence and holds the clock and every voice."""
+    _check_block(ctl, out)
+    stream_callback().ctypes(None, out.ctypes.data, out.shape[0], None, 0, ctl.ctypes.data)
+
+
+def run_block(ctl: np.ndarray, out: np.ndarray, flags: int, time_info: np.ndarray) -> None:
+    """One callback's work (the stream's compiled callback, called from Python: the
+    fallback callback): PortAudio's status ``flags`` and ``time_info`` (float64: the
+    stream's adc, current and dac times, s) accounted, then the block mixed into ``out``
+    as by :func:`mix_engine`."""
+    _check_block(ctl, out)
+    if time_info.dtype != np.float64 or time_info.shape != (3,):
+        raise ValueError(f"time_info {time_info.dtype} {time_info.shape} must be float64 (3,)")
+    stream_callback().ctypes(
+        None, out.ctypes.data, out.shape[0], time_info.ctypes.data, flags, ctl.ctypes.data
+    )
 
 
 @compiled(nogil=True)
@@ -855,10 +912,9 @@ def warm_up() -> None:
     record = state.add_body(arrays)
     transform_pending(record)
     out = np.zeros((8, 1), dtype=np.float32)
-    run_block(state.ctl, out, 0, 0.0, 0.0, monotonic_ns())
+    run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
     silence_body(state.ctl, record)
-    stream_callback().address  # noqa: B018 (compiles the cfunc, or loads it)
 
 
 def body_arrays(

@@ -5,7 +5,8 @@ gone."""
 from __future__ import annotations
 
 import threading
-import time
+
+import numpy as np
 
 from synth.errors import SynthError
 from synth.live import native
@@ -87,17 +88,11 @@ def python_callback(ctl):
     """The fallback stream callback: a Python function (it needs the GIL each block) that
     runs the compiled block (:func:`synth.live.native.run_block`); it holds the engine's
     arrays, not the engine."""
-    clock = native.CLOCK
+    time_info = np.zeros(3)  # adc, current and dac time, s
 
-    def callback(outdata, frames, time_info, status):
-        entry = time.clock_gettime_ns(clock) if clock >= 0 else native.monotonic_ns()
-        native.run_block(
-            ctl,
-            outdata,
-            status._flags,
-            time_info.currentTime,
-            time_info.outputBufferDacTime,
-            entry,
-        )
+    def callback(outdata, frames, info, status):
+        time_info[1] = info.currentTime
+        time_info[2] = info.outputBufferDacTime
+        native.run_block(ctl, outdata, status._flags, time_info)
 
     return callback
