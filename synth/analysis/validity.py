@@ -199,13 +199,27 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     if not ratios.size:
         return undecided
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
-    median = float(np.median(ratios))
-    rises = median >= SPECTRAL_RISE_DB
+    rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
     return RiseVerdict(
         rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
         decisive,
-        impact_fall_chance(median, ratios.size) <= RISE_FALSE_ALARM,
+        _refuted(seg, n, test),
     )
+
+
+def _refuted(seg: np.ndarray, n: int, test: RiseTest) -> bool:
+    """Whether the spectrum of ``seg`` (``n`` samples before a tick's onset and ``n`` after)
+    falls where an impact's would rise (:func:`impact_fall_chance`), over the half of each
+    stretch next to the onset: the ringing the tick falls into, past the attack of the
+    neighbour ``n`` samples away (a louder, earlier tick whose attack would stand for
+    ringing and make the next one seem to fall)."""
+    h = n // 2
+    if h < SPECTRAL_RISE_MIN_SPAN * test.fs:
+        return False
+    ratios = rise_ratios_db(seg[n - h : n], seg[n : n + h], test.dynamic_range_db, test.noise_rms)
+    if not ratios.size:
+        return False
+    return impact_fall_chance(float(np.median(ratios)), ratios.size) <= RISE_FALSE_ALARM
 
 
 def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
