@@ -96,7 +96,7 @@ __all__ = [
     "solve_impact",
     "write_audio",
 ]
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 
 def __getattr__(name):
