@@ -41,8 +41,8 @@ def test_one_dimensional_roots_are_the_beam_roots_without_transverse_wavenumber(
     """With ``s_y = 0`` the one-dimensional equations are the beam's: its roots k L to
     1e-9 (closed-form beam limit)."""
     h = 0.5
-    roots = [math.sqrt(roots._root(n, 0.0, h, free, 0.3)) for n in range(2, 7)]
-    np.testing.assert_allclose(roots, BEAM, rtol=1e-9)
+    found = [math.sqrt(roots._root(n, 0.0, h, free, 0.3)) for n in range(2, 7)]
+    np.testing.assert_allclose(found, BEAM, rtol=1e-9)
 
 
 def test_one_dimensional_root_rejects_nothing_for_the_free_low_family():
