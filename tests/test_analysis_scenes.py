@@ -13,11 +13,8 @@ from synth.analysis.report import GROWN_BOUNCE, Tick
 from synth.analysis.validity import (
     RISE_FALSE_ALARM,
     SPECTRAL_RISE_DB,
-    RiseTest,
     doubtful_ticks,
-    impact_fall_chance,
     median_rise_chance,
-    not_impacts,
     spectral_rise_db,
 )
 from synth.bench.analysis_scenes import (
@@ -164,53 +161,6 @@ def test_rise_chance_is_the_binomial_tail_of_f22_ratios():
     assert median_rise_chance(SPECTRAL_RISE_DB, 8) > RISE_FALSE_ALARM
     assert median_rise_chance(SPECTRAL_RISE_DB, 400) < RISE_FALSE_ALARM
     assert median_rise_chance(math.inf, 3) == 0.0
-
-
-def test_impact_fall_chance_is_the_binomial_tail_of_scaled_f22_ratios():
-    # one frequency: an impact's mean rise q0 (SPECTRAL_RISE_DB) times an F(2, 2) ratio falls
-    # to q or below with probability (q / q0) / (1 + q / q0): to 0 dB (q = 1) in a third
-    q = 1.0 / 10.0 ** (SPECTRAL_RISE_DB / 10.0)
-    p = q / (1.0 + q)
-    assert p == pytest.approx(1.0 / 3.0, rel=2e-3)
-    assert impact_fall_chance(0.0, 1) == pytest.approx(p)
-    # five frequencies, every second independent: the median of three falls when two do
-    assert impact_fall_chance(0.0, 5) == pytest.approx(3 * p * p * (1 - p) + p**3)
-    # a spectrum that falls by 8 dB over a few tens of frequencies is no impact's, though a
-    # 3 dB rise over as many would not be significant either (the rise test cannot decide)
-    assert impact_fall_chance(-8.0, 40) < RISE_FALSE_ALARM
-    assert median_rise_chance(SPECTRAL_RISE_DB, 40) > RISE_FALSE_ALARM
-    assert impact_fall_chance(math.inf, 3) == 1.0
-
-
-def _ringing(fs, length, onsets, decay):
-    """Impacts at ``onsets`` (s) on a plate of 300 modes (0.2-15 kHz, amplitude decay time
-    ``decay``, s), each impact exciting all of them with one amplitude: its broad spectrum."""
-    rng = np.random.default_rng(7)
-    freqs = rng.uniform(200.0, 15000.0, 300)
-    phases = rng.uniform(0.0, 2.0 * np.pi, 300)
-    t = np.arange(int(length * fs)) / fs
-    x = np.zeros(t.size)
-    for t0 in onsets:
-        k = t >= t0
-        tt = t[k] - t0
-        x[k] += np.sum(np.sin(2 * np.pi * np.outer(freqs, tt) + phases[:, None]), axis=0) * (
-            np.exp(-tt / decay)
-        )
-    return x
-
-
-def test_a_burst_whose_spectrum_falls_in_the_ringing_is_no_impact():
-    # impacts at 1, 200 and 320 ms on a plate whose modes decay in 3 ms; the whitening's burst
-    # 5 ms after the first falls in its ringing, 4 ms from it: over 4 ms the spectrum holds
-    # about 100 frequencies, too few for a 3 dB rise to be significant, but the ringing has
-    # fallen by 12 dB at every one of them there, which an impact's rise gives with a chance
-    # of 1e-20: the burst is dropped, the impacts are kept
-    fs = 48000
-    x = _ringing(fs, 0.4, (0.001, 0.2, 0.32), 0.003)
-    ticks = _series([0.001, 0.005, 0.2, 0.32])
-    test = RiseTest(lambda a, b: x[a:b], fs, 60.0, 0.0)
-    assert doubtful_ticks(ticks) == [1, 2, 3]
-    assert not_impacts(ticks, test) == [1]
 
 
 @pytest.mark.slow

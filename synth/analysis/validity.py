@@ -115,29 +115,7 @@ def median_rise_chance(median_db: float, count: int) -> float:
     the stretches only lowers the chance of a rise."""
     if median_db == math.inf:
         return 0.0
-    return _half_or_more(1.0 / (1.0 + 10.0 ** (median_db / 10.0)), count)
-
-
-def impact_fall_chance(median_db: float, count: int) -> float:
-    """The chance that an impact gives a median rise of ``median_db`` (dB) or less over
-    ``count`` frequencies.
-
-    An impact at least as loud as the ringing it falls into raises the mean power at each
-    frequency by :data:`SPECTRAL_RISE_DB` at least; each frequency's measured ratio after over
-    before is then that mean rise times an F(2, 2) variable (:func:`median_rise_chance`), below
-    ``q`` with probability ``q' / (1 + q')``, ``q'`` being ``q`` over the mean rise. The median
-    of ``k`` independent frequencies (every :data:`INDEPENDENT_BINS`-th) falls to ``q`` when at
-    least half of them do: a binomial tail. A larger rise only lowers the chance."""
-    if median_db == math.inf:
-        return 1.0
-    q = 10.0 ** ((median_db - SPECTRAL_RISE_DB) / 10.0)
-    return _half_or_more(q / (1.0 + q), count)
-
-
-def _half_or_more(p: float, count: int) -> float:
-    """The chance that at least half of the independent frequencies among ``count`` (every
-    :data:`INDEPENDENT_BINS`-th) pass a test each passes with probability ``p``: the binomial
-    tail that puts their median past the test's bound."""
+    p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
     k = -(-count // INDEPENDENT_BINS)
     need = -(-k // 2)
     return float(sum(math.comb(k, j) * p**j * (1.0 - p) ** (k - j) for j in range(need, k + 1)))
@@ -163,17 +141,12 @@ def rise_ratios_db(
 
 @dataclass(frozen=True)
 class RiseVerdict:
-    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``),
+    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
     whether it could have said so (``decisive``): over as many frequencies, a rise of
-    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`), and
-    whether it rules an impact out (``refuted``): an impact would give a rise as low as the
-    one measured with a chance of :data:`RISE_FALSE_ALARM` at most
-    (:func:`impact_fall_chance`). Over a few tens of frequencies a 3 dB rise is not
-    significant, yet a spectrum that falls by several dB there is no impact's."""
+    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`)."""
 
     adds: bool
     decisive: bool
-    refuted: bool = False
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
@@ -201,25 +174,8 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
     rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
     return RiseVerdict(
-        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
-        decisive,
-        _refuted(seg, n, test),
+        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive), decisive
     )
-
-
-def _refuted(seg: np.ndarray, n: int, test: RiseTest) -> bool:
-    """Whether the spectrum of ``seg`` (``n`` samples before a tick's onset and ``n`` after)
-    falls where an impact's would rise (:func:`impact_fall_chance`), over the half of each
-    stretch next to the onset: the ringing the tick falls into, past the attack of the
-    neighbour ``n`` samples away (a louder, earlier tick whose attack would stand for
-    ringing and make the next one seem to fall)."""
-    h = n // 2
-    if h < SPECTRAL_RISE_MIN_SPAN * test.fs:
-        return False
-    ratios = rise_ratios_db(seg[n - h : n], seg[n : n + h], test.dynamic_range_db, test.noise_rms)
-    if not ratios.size:
-        return False
-    return impact_fall_chance(float(np.median(ratios)), ratios.size) <= RISE_FALSE_ALARM
 
 
 def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
@@ -283,11 +239,9 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound over the
-    stretch that parts them from both neighbours, over frequencies enough to tell, or whose
-    spectrum falls where an impact's would rise, over frequencies enough that an impact falls
-    so with a chance of :data:`RISE_FALSE_ALARM` at most (:func:`rise_verdict`): the
-    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
-    the decaying ringing of a tick, a clipped run's interpolation), which no bounce made. A
+    stretch that parts them from both neighbours, over frequencies enough to tell
+    (:func:`rise_verdict`): the whitening's bursts in a ringing it cannot follow (a lightly
+    damped plate's beating modes, a clipped run's interpolation), which no bounce made. A
     tick whose bounce times follow a ball's series is not tested, nor one whose spectrum
     holds too few frequencies to decide (a plate of a few modes: an impact on a ringing mode
     may as well lower it, as its phase falls)."""
@@ -297,7 +251,7 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
-        if verdict.refuted or (verdict.decisive and not verdict.adds):
+        if verdict.decisive and not verdict.adds:
             out.append(i)
     return out
 
