@@ -45,7 +45,6 @@ def test_a_changed_callee_in_another_file_recompiles_its_caller(tmp_path):
     (package / "probe_callee.py").write_text(CALLEE.format("1.0"))
     cache = tmp_path / "numba-cache"
     assert _run_caller(package.parent, cache) == "2.0"
-    assert _run_caller(package.parent, cache) == "2.0"  # from the cache
     (package / "probe_callee.py").write_text(CALLEE.format("5.0"))
     assert _run_caller(package.parent, cache) == "10.0"
 

@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from synth.errors import ParameterError
 from synth.io.presets import available, load_preset
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_scene
@@ -17,7 +18,7 @@ from synth.physics.plate_choice import (
     return_frequency,
     scene_plate,
 )
-from synth.physics.scene import DEFAULT_CONTACT_MODEL, Ball, Contact, Plate
+from synth.physics.scene import DEFAULT_CONTACT_MODEL, Ball, Contact, HollowBall, Plate
 
 #: The thesis' first impact, 10 mm steel ball on the 18 mm board from 10 cm: measured
 #: restitution (section 3.2) and contact time (Table 3.3, force pulse), and the thesis' model's
@@ -66,6 +67,13 @@ def test_every_presets_first_impact_agrees_with_the_full_modal_contact(name):
     # A moving scene's first impact is checked at its landing point (_first_impact): the
     # impedance its path takes there must be the modes' answer too.
     scene = load_preset(name)
+    if isinstance(scene.ball, HollowBall):
+        # the modal contact integrates the power laws only: a hollow ball's shell law is
+        # solved on the impedance plate everywhere, and the modes refuse it by name
+        assert scene_plate(scene).plate == "impedance"
+        with pytest.raises(ParameterError, match="hollow ball"):
+            _full_modal_first(scene)
+        return
     first, point = _first_impact(scene)
     full = _full_modal_first(scene, point)
     de = first.restitution - full.restitution
