@@ -160,15 +160,22 @@ def test_a_render_does_not_depend_on_what_compiled_before_it(tmp_path):
     # A third process renders on the first one's cache: the kernels loaded from numba's
     # disk cache give the bytes of the kernels compiled in the run (with fast-math
     # contraction they did not).
-    outs = []
-    for order, cache in (("clean", "a"), ("others-first", "b"), ("clean", "a")):
-        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
-        out = subprocess.run(
-            [sys.executable, "-c", ROLL_THEN_RENDER, order],
-            capture_output=True, text=True, env=dict(os.environ, **env), timeout=900,
+    # The first two, on caches of their own, run side by side; the third after the first.
+
+    def start(order, cache):
+        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache), "SYNTH_CACHE_DIR": str(tmp_path / cache)}
+        return subprocess.Popen(
+            [sys.executable, "-c", ROLL_THEN_RENDER, order], stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, env=dict(os.environ, **env),
         )  # fmt: skip
-        assert out.returncode == 0, out.stderr[-2000:]
-        outs.append(out.stdout.split()[-2:])
+
+    def bytes_of(proc):
+        stdout, stderr = proc.communicate(timeout=900)
+        assert proc.returncode == 0, stderr[-2000:]
+        return stdout.split()[-2:]
+
+    first, second = start("clean", "a"), start("others-first", "b")
+    outs = [bytes_of(first), bytes_of(second), bytes_of(start("clean", "a"))]
     assert outs[0] == outs[1] == outs[2]
 
 

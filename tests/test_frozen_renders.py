@@ -49,6 +49,9 @@ UNSTABLE_ANALYSIS = {
     # at the lowest dependency versions the render moves within 1e-6 of its recording and
     # 13 of 23 onsets move, the first by 44 us and others by up to 149 us
     "thesis-glass17-mdf12": "the analysis' onsets move with the rounding of other versions",
+    # at the lowest dependency versions the tennis ball's render stays within 1e-6 and its
+    # first onset moves by 43 us, 24 of 89 ticks by more than 100 ns
+    "tennis-ball-on-concrete": "the analysis' onsets move with the rounding of other versions",
 }
 
 
