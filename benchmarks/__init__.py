@@ -1,19 +1,22 @@
-"""Benchmarks: numerical error against run time (``synth bench ...``).
+"""The benchmarks: numerical error against run time (``synth bench NAME``, run from a source
+checkout; :mod:`benchmarks.cli`). Not installed with the package.
 
-One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold,
-rolling, hollow, cost; the live
-engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
-figure is measured in one run on this machine, after a warm-up. Nothing here is imported
-by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
-reaches every benchmark's public functions (the child processes of ``long``, ``scale`` and
-``hires`` call them that way).
+One module per benchmark (contact, render, analysis, long, scale, hires, cold, rolling,
+hollow, cost; the live engine's and the sound banks' are :mod:`benchmarks.live` and
+:mod:`benchmarks.bank`; the thesis study, ``synth bench thesis``, is the ``validation``
+package). :mod:`benchmarks.jack` runs a JACK dummy server for the live benchmark and the
+tests; :mod:`benchmarks.docs` writes the figures into docs/. Every figure is measured in
+one run on this machine, after a warm-up. The engine (``synth``) imports nothing from here.
+The names below are re-exported so that ``benchmarks.NAME`` reaches every benchmark's
+public functions (the child processes of ``long``, ``scale`` and ``hires`` call them that
+way).
 """
 
-from synth.bench.analysis import format_analysis, run_analysis, synthetic_bounce
-from synth.bench.analysis_scenes import format_random, run_random
-from synth.bench.cold import format_cold, run_cold
-from synth.bench.common import markdown_block
-from synth.bench.contact import (
+from benchmarks.analysis import format_analysis, run_analysis, synthetic_bounce
+from benchmarks.analysis_scenes import format_random, run_random
+from benchmarks.cold import format_cold, run_cold
+from benchmarks.common import markdown_block
+from benchmarks.contact import (
     ContactCase,
     contact_cases,
     format_contact,
@@ -22,14 +25,14 @@ from synth.bench.contact import (
     run_modal_contact,
     scipy_contact,
 )
-from synth.bench.cost import format_cost, record_rates, run_cost
-from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
-from synth.bench.hollow import format_hollow, run_hollow
-from synth.bench.long import format_long, long_child, long_recording, run_long
-from synth.bench.render import format_render, render_scenes, run_render
-from synth.bench.rolling import format_rolling, run_rolling
-from synth.bench.rolling_check import format_rolling_check, run_rolling_check
-from synth.bench.scale import (
+from benchmarks.cost import format_cost, record_rates, run_cost
+from benchmarks.hires import HIRES_RATES, format_hires, hires_child, run_hires
+from benchmarks.hollow import format_hollow, run_hollow
+from benchmarks.long import format_long, long_child, long_recording, run_long
+from benchmarks.render import format_render, render_scenes, run_render
+from benchmarks.rolling import format_rolling, run_rolling
+from benchmarks.rolling_check import format_rolling_check, run_rolling_check
+from benchmarks.scale import (
     SCALE_LADDER,
     SCALE_NAMED,
     SCALE_RANDOM,
@@ -39,7 +42,7 @@ from synth.bench.scale import (
     scale_child,
     scale_scene,
 )
-from synth.bench.thesis import (
+from validation import (
     THESIS_IMPACTS,
     THESIS_IMPEDANCE,
     THESIS_RESTITUTION,

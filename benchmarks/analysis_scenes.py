@@ -302,8 +302,8 @@ def warm_analysis() -> None:
     call imports its lazy modules (scipy.signal) and loads its compiled kernels, seconds of
     work that a process analysing many recordings pays once and that is no part of the time
     per second of audio; a child forked afterwards inherits them."""
+    from benchmarks.analysis import synthetic_bounce
     from synth.analysis import analyze
-    from synth.bench.analysis import synthetic_bounce
 
     x, fs, _ = synthetic_bounce(0.8, 48000, snr_db=40.0)
     analyze(x, fs)

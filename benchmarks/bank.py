@@ -29,10 +29,10 @@ import time
 import tomllib
 from pathlib import Path
 
+from benchmarks.common import target_verdict
 from synth.bank import run as run_bank_spec
 from synth.bank import spec as bank_spec
 from synth.bank.gain import apply_gain
-from synth.bench.common import target_verdict
 
 #: The example bank's spec, with the count left to the benchmark.
 SPEC = """\

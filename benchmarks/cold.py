@@ -19,7 +19,7 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass
 
-from synth.bench.common import markdown_table, target_verdict
+from benchmarks.common import markdown_table, target_verdict
 
 #: Cold-start targets, CPU seconds (user + system) of the whole child process.
 TARGETS = {"import": 0.5, "render": 15.0, "live": 15.0}

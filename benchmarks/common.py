@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
+
+#: The source checkout holding this package. A child process puts it last on ``sys.path``:
+#: it imports these benchmarks, and ``synth`` as installed (as the parent does).
+CHECKOUT = Path(__file__).resolve().parents[1]
 
 
 def target_verdict(met: bool) -> str:
@@ -58,7 +63,7 @@ def peak_rss_mb() -> float:
 
 def child_json(code: str, argv: list, timeout: float, cache_dir=None) -> dict:
     """Run ``python -c code *argv`` in a new process (with ``SYNTH_CACHE_DIR=cache_dir``
-    if given) and return the JSON object its last line of output prints, with
+    if given, and :data:`CHECKOUT` last on its path) and return the JSON object its last line of output prints, with
     ``process_s`` its wall time (s); or ``{"error": ...}`` saying why there is none (a
     timeout, a signal, or the last line of its error output)."""
     import json
@@ -72,7 +77,12 @@ def child_json(code: str, argv: list, timeout: float, cache_dir=None) -> dict:
     t0 = time.perf_counter()
     try:
         proc = subprocess.run(
-            [sys.executable, "-c", code, *argv],
+            [
+                sys.executable,
+                "-c",
+                f"import sys; sys.path.append({str(CHECKOUT)!r})\n{code}",
+                *argv,
+            ],
             env=env,
             capture_output=True,
             text=True,

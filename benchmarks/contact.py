@@ -9,12 +9,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.bench.common import median_time, target_verdict
-from synth.bench.thesis import thesis_pair
+from benchmarks.common import median_time, target_verdict
 from synth.constants import GRAVITY
 from synth.physics import contact, impedance
 from synth.physics import contact_law as laws
 from synth.physics.scene import Ball, Plate
+from validation import thesis_pair
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from synth.bench.common import markdown_table
+from benchmarks.common import markdown_table
 
 #: The mode solve timed: the free 18 mm MDF board of 1.2 x 0.6 m to this frequency, Hz.
 SOLVER_FREQUENCY = 16000.0
@@ -152,7 +152,7 @@ def format_cost(result: dict) -> str:
         "",
         f"One run on {result['machine']}, load {result['load']}: each stage timed once alone "
         "(wall time), its work the cost estimate's count of what it did (the rules its "
-        "refinement took). The scenes: synth.bench.cost.RULE_SCENES.",
+        "refinement took). The scenes: benchmarks.cost.RULE_SCENES.",
     ]
     return "\n".join(lines)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 
-from synth.bench.common import child_json, peak_rss_mb
+from benchmarks.common import child_json, peak_rss_mb
 
 #: Sample rates of the hires benchmark, Hz; the last is also rendered with the previous paths.
 HIRES_RATES = (96000, 192000, 384000)
@@ -52,7 +52,7 @@ def _hires_run(samplerate, previous, timeout):
     import tempfile
 
     code = (
-        "import json, sys; from synth import bench; "
+        "import json, sys; import benchmarks as bench; "
         "print(json.dumps(bench.hires_child(int(sys.argv[1]), sys.argv[2] == '1')))"
     )
     with tempfile.TemporaryDirectory(prefix="synth-hires-") as tmp:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from synth.bench.common import markdown_table
+from benchmarks.common import markdown_table
 from synth.constants import GRAVITY
 from synth.physics.contact import solve_impact
 from synth.physics.scene import Plate

@@ -11,7 +11,7 @@
   new point each time, which adds the mode shapes there);
 * ``Engine.add`` with a cold cache (an empty cache directory: plate modes and microphone
   gains computed) and warm (from memory, and from disk);
-* through JACK's dummy server (:mod:`synth.live.jack`): the time from ``hit()`` to the end of
+* through JACK's dummy server (:mod:`benchmarks.jack`): the time from ``hit()`` to the end of
   the callback whose block holds the tick's first sample (measured), and to that sample's
   output time (derived: one block plus the output latency plus the hand-over allowance,
   the onset ``hit()`` sets; not measured at the output); then, over ``seconds`` each, the
@@ -29,7 +29,7 @@ import time
 
 import numpy as np
 
-from synth.bench.common import target_verdict
+from benchmarks.common import target_verdict
 
 #: The live engine's targets (fractions of a block, microseconds, counts).
 TARGETS = dict(callback_1=0.05, callback_16=0.5, hit_us=50.0, underflows=0)
@@ -376,9 +376,9 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
     of ``rate`` hits/s on ``bodies`` bodies from one thread alone (the machine's baseline),
     the same while a pure-Python thread spins, then the same rate spread over 8 hitting
     threads."""
+    from benchmarks.jack import JackDummyServer
     from synth.live import native
     from synth.live.engine import Engine
-    from synth.live.jack import JackDummyServer
 
     scene = _scene()
     rng = np.random.default_rng(seed)
@@ -439,7 +439,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
 
 def run_live(seconds=30.0) -> dict:
     """Every figure of the live benchmark (``seconds``: the JACK run's length)."""
-    from synth.live.jack import jackd_available
+    from benchmarks.jack import jackd_available
 
     result = dict(
         add_s=add_times(),

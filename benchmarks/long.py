@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from synth.bench.analysis import synthetic_bounce
-from synth.bench.common import child_json
+from benchmarks.analysis import synthetic_bounce
+from benchmarks.common import child_json
 
 #: Lengths of the recordings of the long-recording benchmark, s.
 LONG_DURATIONS = (30.0, 120.0, 600.0)
@@ -72,7 +72,7 @@ def run_long(durations=LONG_DURATIONS, timeout: float = 1800.0) -> list:
     import tempfile
 
     code = (
-        "import json, resource, sys; from synth import bench; "
+        "import json, resource, sys; import benchmarks as bench; "
         "bench.long_child(sys.argv[2]); r = bench.long_child(sys.argv[1]); "
         "r['rss_mb'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0; "
         "print(json.dumps(r))"

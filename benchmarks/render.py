@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from synth.bench.common import target_verdict
+from benchmarks.common import target_verdict
 
 
 def render_scenes() -> list:

@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass
 
-from synth.bench.common import markdown_table, target_verdict
+from benchmarks.common import markdown_table, target_verdict
 
 #: Real-time factor the rolling scenes aim at (contact plus modal drive).
 TARGET_REALTIME = 100.0

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from synth.bench.common import child_json, peak_rss_mb
+from benchmarks.common import child_json, peak_rss_mb
 
 SCALE_LADDER = (
     # name, material, thickness m, length m, width m, boundary, samplerate Hz
@@ -134,7 +134,7 @@ def _scale_run(spec, cache_dir, timeout):
     import json
 
     code = (
-        "import json, sys; from synth import bench; "
+        "import json, sys; import benchmarks as bench; "
         "print(json.dumps(bench.scale_child(json.loads(sys.argv[1]))))"
     )
     return child_json(code, [json.dumps(spec)], timeout, cache_dir)

@@ -3,6 +3,7 @@
 import functools
 import json
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from importlib import metadata
@@ -13,6 +14,13 @@ import pytest
 
 #: The repository (or the fresh copy CI runs in) that holds these tests.
 REPOSITORY = Path(__file__).resolve().parents[1]
+
+#: The packages beside ``synth`` in the repository, which are not installed: the tests of the
+#: benchmarks and of the thesis study import them from here. The repository goes last on
+#: ``sys.path``, after the installed packages, so that ``synth`` stays the installed one.
+CHECKOUT_PACKAGES = ("benchmarks", "validation")
+if str(REPOSITORY) not in sys.path:
+    sys.path.append(str(REPOSITORY))
 
 
 def _editable_install_of(folder: Path) -> bool:
@@ -40,6 +48,22 @@ def pytest_configure(config):
             "package: run `pip install .` (or `pip install -e .` to develop) and then `pytest`, "
             "not `python -m pytest`"
         )
+    _check_checkout_packages()
+
+
+def _check_checkout_packages():
+    """Refuse to run if ``benchmarks`` or ``validation`` would be imported from elsewhere than
+    this repository (an installed package of the same name comes first on ``sys.path``)."""
+    from importlib.util import find_spec
+
+    for name in CHECKOUT_PACKAGES:
+        spec = find_spec(name)
+        where = Path(spec.origin).resolve().parent if spec and spec.origin else None
+        if where != REPOSITORY / name:
+            raise pytest.UsageError(
+                f"the tests import {name} from {where}, not from the repository's "
+                f"{REPOSITORY / name}: another package of that name is installed"
+            )
 
 
 def _damage(path, how, array=None):
@@ -89,8 +113,8 @@ def empty_caches(tmp_path, monkeypatch):
 
 @functools.cache
 def _scipy_reference(case):
-    """scipy's Radau at rtol 1e-12 for a :class:`synth.bench.contact.ContactCase`: (e, tau)."""
-    from synth.bench.contact import scipy_contact
+    """scipy's Radau at rtol 1e-12 for a :class:`benchmarks.contact.ContactCase`: (e, tau)."""
+    from benchmarks.contact import scipy_contact
 
     e, tau, _, _ = scipy_contact(case)
     return e, tau
@@ -113,7 +137,7 @@ def _assert_honours_rtol(case, rtol):
 def assert_honours_rtol():
     """A function ``check(case, rtol)``: the engine's contact solver at ``rtol`` against
     scipy's Radau at rtol 1e-12 (an independent implementation of the same equations) on a
-    :class:`synth.bench.contact.ContactCase`: the relative errors of e and tau are below
+    :class:`benchmarks.contact.ContactCase`: the relative errors of e and tau are below
     ``rtol``; a settled contact has e = 0 exactly (its tau is when settling is proven, not
     compared)."""
     return _assert_honours_rtol

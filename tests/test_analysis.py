@@ -1231,7 +1231,7 @@ def test_bench_analysis():
     # columns, every tick found without noise and at 40 dB SNR, and the restitution
     # within what onsets within a sample period allow: 2 d / T_8 + 2 d / T_7 = 0.23 %
     # (d = 20.8 us at 48 kHz, T_n = 0.15 s 0.8^(n-1))
-    from synth import bench
+    import benchmarks as bench
 
     result = bench.run_analysis(snrs=(None, 40.0), restitutions=(0.8,), seeds=2)
     assert result["samplerate"] == 48000 and result["restitutions"] == [0.8]

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from benchmarks import synthetic_bounce
 from synth import analysis
 from synth.analysis import blocks, pipeline
 from synth.analysis.series import bounce_series
-from synth.bench import synthetic_bounce
 from synth.errors import ParameterError
 
 FS = 48000
@@ -209,7 +209,7 @@ def test_long_benchmark_recordings(tmp_path):
     """``synth bench long`` writes its recordings in pieces: the length asked, a drop at 1 s
     and, repeated, one every LONG_PERIOD s (20 ticks each: 3 drops in 25 s); its table has a
     row per recording."""
-    from synth import bench
+    import benchmarks as bench
 
     path = tmp_path / "long.wav"
     assert bench.long_recording(path, 25.0, True) == 60

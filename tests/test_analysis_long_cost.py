@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks import synthetic_bounce
 from synth import analysis
 from synth.analysis import blocks, deflation, pipeline, resonator
 from synth.analysis.settings import make_settings
-from synth.bench import synthetic_bounce
 
 FS = 48000
 

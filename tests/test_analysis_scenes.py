@@ -9,6 +9,14 @@ import math
 import numpy as np
 import pytest
 
+from benchmarks.analysis_scenes import (
+    Truth,
+    format_random,
+    random_specs,
+    run_random,
+    run_scene,
+    score,
+)
 from synth.analysis.report import GROWN_BOUNCE, Tick
 from synth.analysis.validity import (
     RISE_FALSE_ALARM,
@@ -16,14 +24,6 @@ from synth.analysis.validity import (
     doubtful_ticks,
     median_rise_chance,
     spectral_rise_db,
-)
-from synth.bench.analysis_scenes import (
-    Truth,
-    format_random,
-    random_specs,
-    run_random,
-    run_scene,
-    score,
 )
 
 #: The seed of the suite's fixed corpus.

@@ -1655,7 +1655,7 @@ def test_files_outside_the_manifest_are_reported_and_removed_only_with_prune(
 def test_bench_bank_prints_the_rates_of_both_pools_and_the_gain_pass(cache_dir):
     # `synth bench bank` measures, in one run, sounds per second of --jobs 1 and
     # --jobs 2 and files per second of the bank-gain pass, and prints each in its table
-    from synth.bank import bench
+    from benchmarks import bank as bench
 
     r = bench.run_bank(count=4, process_files=1, dask=False)
     assert all(r[k]["rate"] > 0 for k in ("jobs1", "jobs2", "gain"))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import soundfile
 
-from synth import bench
+import benchmarks as bench
 from synth.cli import GALLERY, main
 
 REPO = Path(__file__).resolve().parent.parent
@@ -112,7 +112,7 @@ def test_committed_gallery_is_current(name, empty_caches):
 def test_scale_child_measures_a_small_plate():
     # One rung of `synth bench scale`, in this process: modes, gains and render each timed,
     # no error (the benchmark reports a failing stage as a row, so only a test catches it).
-    from synth.bench import scale_child
+    from benchmarks import scale_child
 
     out = scale_child(
         {

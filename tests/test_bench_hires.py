@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from synth import bench
+import benchmarks as bench
 
 
 @pytest.fixture(autouse=True)

@@ -215,11 +215,46 @@ def test_materials_rejects_arguments():
 
 
 def test_parser_bench_accepts_contact():
-    # The bench subcommand parses "contact" and its options (nothing is run here).
-    args = build_parser().parse_args(
-        ["bench", "contact", "--repeat", "3", "--tolerances", "1e-3", "1e-6"]
-    )
+    # `synth bench` hands the rest of its command line to the checkout's benchmarks, whose
+    # parser reads "contact" and its options (nothing is run here).
+    from benchmarks.cli import build_parser as bench_parser
+
+    argv = ["contact", "--repeat", "3", "--tolerances", "1e-3", "1e-6"]
+    assert build_parser().parse_args(["bench", *argv]).argv == argv
+    args = bench_parser().parse_args(argv)
     assert (args.what, args.repeat, args.tolerances) == ("contact", 3, [1e-3, 1e-6])
+
+
+def test_bench_outside_a_checkout_says_where_the_benchmarks_are(tmp_path, monkeypatch, capsys):
+    # The benchmarks are not installed: outside a source checkout `synth bench` says what
+    # they are, where they live and how to run them, in one line, whatever follows it.
+    monkeypatch.chdir(tmp_path)
+    for argv in (["bench", "contact"], ["bench", "--help"], ["bench"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1, err
+        for words in ("benchmarks and validation studies", "source repository", "synth bench NAME"):
+            assert words in err, (words, err)
+        assert str(tmp_path) in err
+
+
+def test_bench_finds_the_checkout_from_a_subfolder(tmp_path):
+    # The checkout is the nearest folder up with a benchmarks package and a pyproject.toml
+    # naming this project; another project's pyproject.toml, or none, is passed over.
+    from conftest import REPOSITORY
+
+    from synth.cli.bench import find_checkout
+
+    assert find_checkout(REPOSITORY / "docs") == REPOSITORY
+    other = tmp_path / "other"
+    (other / "benchmarks").mkdir(parents=True)
+    (other / "benchmarks" / "__init__.py").write_text("")
+    (other / "pyproject.toml").write_text('[project]\nname = "another-project"\n')
+    assert find_checkout(other / "benchmarks") is None
+    (other / "pyproject.toml").write_text("not toml [")
+    assert find_checkout(other) is None
+    (other / "pyproject.toml").write_text('[project]\nname = "impact-synth"\n')
+    assert find_checkout(other / "benchmarks") == other.resolve()
 
 
 @pytest.mark.parametrize(

@@ -252,7 +252,7 @@ def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path)
 
 
 def test_bench_cold_measures_the_import_in_child_processes():
-    from synth.bench import cold
+    from benchmarks import cold
 
     rows = cold.run_cold(("import",))
     assert [(r["case"], r["cold"], r["status"], r["noted"]) for r in rows] == [

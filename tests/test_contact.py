@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from synth.bench import contact_cases
+from benchmarks import contact_cases
 from synth.errors import ParameterError
 from synth.physics import contact, impedance
 from synth.physics import contact_law as laws

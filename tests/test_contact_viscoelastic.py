@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from synth.bench.contact import ContactCase
+from benchmarks.contact import ContactCase
 from synth.errors import ParameterError
 from synth.physics import contact, impedance
 from synth.physics import contact_law as laws

@@ -73,7 +73,7 @@ def test_thesis_measurements_are_the_published_ones():
     # and 5), never a model value: each is checked against its published figure, and the
     # model column of the contact time is the measurement over Table 3.2's ratio
     # (e.g. 219 us / 2.19 = 100 us, the model's 10 mm steel ball on 18 mm).
-    from synth import bench
+    import benchmarks as bench
 
     assert bench.THESIS_RESTITUTION == {"model": 0.87, "measured": 0.76}
     assert {k: v[1] for k, v in bench.THESIS_IMPEDANCE.items()} == {
@@ -94,7 +94,7 @@ def test_thesis_measurements_are_the_published_ones():
 def test_thesis_row_gap():
     # The gap is engine minus measurement; for a measured range, 0 inside it and the
     # distance to its nearer end outside.
-    from synth.bench import thesis_row
+    from benchmarks import thesis_row
 
     assert thesis_row("q", "m", 0.050, None, (0.035, 0.045))["gap"] == pytest.approx(0.005)
     assert thesis_row("q", "m", 0.030, None, (0.035, 0.045))["gap"] == pytest.approx(-0.005)

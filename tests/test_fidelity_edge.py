@@ -1,16 +1,16 @@
 """The critical distance of Table 3.3 as the thesis' measurement resolves it
-(synth/bench/thesis/edge.py; docs/validation.md, "Against the thesis' recordings")."""
+(validation/edge.py; docs/validation.md, "Against the thesis' recordings")."""
 
 import json
 import math
 
 import pytest
 
-from synth import bench
-from synth.bench.thesis import edge
-from synth.bench.thesis.modal import modal_critical_distance
-from synth.bench.thesis.rows import thesis_pair
+import benchmarks as bench
 from synth.constants import GRAVITY
+from validation import edge
+from validation.modal import modal_critical_distance
+from validation.rows import thesis_pair
 
 V1 = math.sqrt(2.0 * GRAVITY * 0.1)  # the thesis' drop of 10 cm (m/s), as the study uses
 

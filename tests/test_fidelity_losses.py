@@ -5,8 +5,7 @@ import math
 
 import pytest
 
-from synth import bench
-from synth.bench.thesis.losses import gap_met
+import benchmarks as bench
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
@@ -14,6 +13,7 @@ from synth.physics.contact import solve_contact, solve_impact
 from synth.physics.contact_law import contact_parameters, hertz_stiffness
 from synth.physics.materials import MDF_SURFACE, contact_surface, get
 from synth.physics.scene import Ball, Contact, Plate
+from validation.losses import gap_met
 
 STEEL = Ball("steel", 0.005, 4.17e-3)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
@@ -176,7 +176,7 @@ def test_viscoelastic_loss_follows_the_measured_speed_dependence():
     # with the viscoelastic loss on the modal plate) both laws miss it, asserted as that miss,
     # under 5 % (+57 % viscoelastic). Both fits reproduce
     # the 0.76 they were fitted on to the solver's tolerance.
-    from synth.bench.thesis import losses, thesis_pair
+    from validation import losses, thesis_pair
 
     study = losses.loss_law_study()
     ball, plate = thesis_pair("steel 10.0 mm", "18 mm")

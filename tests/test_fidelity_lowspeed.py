@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from synth.bench.thesis import adhesion_loss, air_film_loss
 from synth.errors import ParameterError
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import bounce_time_restitution, simulate_bounces
 from synth.physics.contact import solve_impact
 from synth.physics.contact_law import contact_parameters
 from synth.physics.scene import Ball, Plate
+from validation import adhesion_loss, air_film_loss
 
 STEEL = Ball("steel", 0.005, 4.17e-3)
 MDF18 = Plate("mdf-18", 0.018, 1.227, 0.49)
@@ -118,10 +118,10 @@ def test_tick_decay_follows_the_envelope_smoothing():
     # (the band and the smoothing window are not the same measure).
     from scipy.signal import butter, sosfiltfilt
 
-    from synth.bench.thesis import envelope_decay_time
     from synth.io.presets import load_preset
     from synth.physics.bounces import BounceSequence, simulate_scene
     from synth.sound.render import render
+    from validation import envelope_decay_time
 
     fs = 48000
     scene = load_preset("default", ["contact.model=fitted"])

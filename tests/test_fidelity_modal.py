@@ -3,8 +3,8 @@
 
 import pytest
 
-from synth import bench
-from synth.bench import contact as contact_bench
+import benchmarks as bench
+from benchmarks import contact as contact_bench
 
 PAIRS = [("steel 10.0 mm", "18 mm"), ("steel 19.0 mm", "18 mm")]
 THREE = ("middle", "edge", "corner")

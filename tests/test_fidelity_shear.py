@@ -5,8 +5,8 @@ thesis` prints. ``G_t = E_t / (2 (1 + nu))`` is tied to the fitted through-thick
 
 import pytest
 
-from synth import bench
-from synth.bench import thesis as thesis_bench
+import benchmarks as bench
+import validation as thesis_bench
 from synth.physics import impedance
 
 PAIRS = [("steel 10.0 mm", "18 mm"), ("steel 10.0 mm", "12 mm")]

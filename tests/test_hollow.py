@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import synth
-from synth.bench.hollow import RULE_BOOK_TESTS, format_hollow, rule_book_row
+from benchmarks.hollow import RULE_BOOK_TESTS, format_hollow, rule_book_row
 from synth.io.presets import PresetError, load_preset, scene_from_dict
 from synth.physics.contact import ContactSolver, solve_impact
 from synth.physics.contact_law import POGORELOV_CONSTANT, shell_law

@@ -568,7 +568,7 @@ def test_examples_run_offline(script, argv, tmp_path, monkeypatch, capsys):
 def test_bench_live_figures_format():
     # the benchmark's pieces run and print their targets (figures themselves are not
     # asserted: wall-clock times depend on the machine)
-    from synth.live import bench
+    from benchmarks import live as bench
 
     result = dict(
         callback=bench.callback_cost(bodies=(1, 2), seconds=0.1),

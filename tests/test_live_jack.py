@@ -10,10 +10,11 @@ import time
 
 import numpy as np
 import pytest
+from conftest import REPOSITORY
 
 import synth
+from benchmarks.jack import JackDummyServer, jackd_available
 from synth.live import native
-from synth.live.jack import JackDummyServer, jackd_available
 
 pytestmark = pytest.mark.skipif(
     not jackd_available(), reason="jackd is not installed (Debian: apt-get install jackd2)"
@@ -338,9 +339,10 @@ def test_collecting_a_running_engine_closes_its_stream(jack):
 
 DEATH_SCRIPT = """
 import os, sys, threading, time
+sys.path.append(sys.argv[1])  # the repository's benchmarks, after the installed synth
 import synth
 from synth.errors import SynthError
-from synth.live.jack import JackDummyServer
+from benchmarks.jack import JackDummyServer
 scene = synth.load_preset("default")
 server = JackDummyServer(samplerate=48000, period=256).start()
 lost = []
@@ -388,7 +390,7 @@ def test_stop_is_bounded_when_the_server_dies():
     import sys
 
     out = subprocess.run(
-        [sys.executable, "-c", DEATH_SCRIPT],
+        [sys.executable, "-c", DEATH_SCRIPT, str(REPOSITORY)],
         capture_output=True,
         text=True,
         timeout=300,

@@ -1,11 +1,11 @@
-"""The rolling's validation figures (synth.bench.rolling_check; docs/validation.md,
+"""The rolling's validation figures (benchmarks.rolling_check; docs/validation.md,
 "Rolling"): energy balances and the spectral centroid's rise with speed."""
 
 from __future__ import annotations
 
 import pytest
 
-from synth.bench import rolling_check
+from benchmarks import rolling_check
 
 
 @pytest.mark.slow

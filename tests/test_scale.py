@@ -56,14 +56,14 @@ def test_random_simply_supported_scene_renders(seed):
 @pytest.mark.slow
 @pytest.mark.parametrize("index", [2, 3])
 def test_random_big_free_and_clamped_scenes_render(index):
-    """Random valid plates of the scale benchmark (synth.bench.random_scale_specs) whose
+    """Random valid plates of the scale benchmark (benchmarks.random_scale_specs) whose
     Ritz problem is past the crossover (a clamped 1.62 x 0.45 m and a free 1.92 x 1.97 m
     plate) render with no refusal: Ritz low band plus dynamic edge effect modes; the
     audio is finite and not silent (no timing asserted). Heard by an accelerometer: a
     microphone's gains are timed by the scale benchmark."""
     from dataclasses import replace
 
-    from synth import bench
+    import benchmarks as bench
     from synth.physics.scene import Accelerometer
 
     spec = bench.random_scale_specs(index + 1)[index]
@@ -86,7 +86,7 @@ def test_random_big_clamped_scene_heard_by_a_microphone():
     are sums of two products) heard by its microphone: the radiation gains converge to
     their tolerance for every mode, none exceeds its in-phase bound (|H_k| <= S_k, the
     whole plate radiating in phase), and the audio is finite and not silent."""
-    from synth import bench
+    import benchmarks as bench
     from synth.sound.render import nearest_distance
 
     spec = bench.random_scale_specs(3)[2]
@@ -119,7 +119,7 @@ def test_random_big_clamped_scene_heard_by_a_microphone():
 def test_random_scale_specs_are_valid_and_reproducible():
     """The benchmark's random scenes: the stated ranges (sides 0.1-2 m, 1-40 mm,
     22.05-48 kHz), every boundary among the benchmark's eight, the same for a seed."""
-    from synth import bench
+    import benchmarks as bench
 
     specs = bench.random_scale_specs(bench.SCALE_RANDOM)
     assert specs == bench.random_scale_specs(bench.SCALE_RANDOM)
@@ -134,7 +134,7 @@ def test_scale_table_summarises_random_scenes():
     """The random scenes' lines: median and largest cold work (modes, gains, render) and
     process time, peak memory, how many exceeded max(15 s, audio length) and how many were
     refused, and the targets' verdicts; the ladder's named targets."""
-    from synth import bench
+    import benchmarks as bench
 
     run = {
         "n_modes": 10,

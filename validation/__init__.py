@@ -1,5 +1,7 @@
-"""``synth bench thesis``: the engine against the thesis' model and the thesis' measurements
-(restitution, contact times, impedances, critical distances, tick decay, the MDF surface fit).
+"""The thesis validation study, ``synth bench thesis`` (run from a source checkout; not
+installed with the package): the engine against the thesis' model and the thesis'
+measurements (restitution, contact times, impedances, critical distances, tick decay, the
+MDF surface fit).
 
 One module per part: ``rows`` (the measured values, one row, the first rows and the table),
 ``edge`` (the critical distance as the measurement resolves it), ``losses`` (which contact
@@ -7,7 +9,7 @@ loss law follows the measured speed dependence), ``modal`` (the finite plate in 
 contact: impedances, critical distances, the end of a series), ``surface`` (MDF's contact surface fit), ``series`` (the end of a series and the
 tick decay's definition) and ``shear`` (the transverse shear modulus)."""
 
-from synth.bench.thesis.edge import (
+from validation.edge import (
     CRITICAL_DISTANCE_ALLOWANCE,
     EDGE_MODELS,
     EDGE_RESOLUTIONS,
@@ -19,7 +21,7 @@ from synth.bench.thesis.edge import (
     format_edge_study,
     thesis_edge_rows,
 )
-from synth.bench.thesis.losses import (
+from validation.losses import (
     LOSS_LAWS,
     LossLawGap,
     fitted_losses,
@@ -27,14 +29,14 @@ from synth.bench.thesis.losses import (
     gap_met,
     loss_law_study,
 )
-from synth.bench.thesis.modal import (
+from validation.modal import (
     LATE_SPEED_BINS,
     MODAL_IMPEDANCE_BAND,
     THESIS_EDGE_RESTITUTION,
     modal_critical_distance,
     thesis_modal_rows,
 )
-from synth.bench.thesis.rows import (
+from validation.rows import (
     DECAY_SMOOTHING,
     THESIS_ACCELEROMETER_MASS,
     THESIS_BALLS,
@@ -53,7 +55,7 @@ from synth.bench.thesis.rows import (
     tick_decay_times,
     with_accelerometer,
 )
-from synth.bench.thesis.series import (
+from validation.series import (
     AIR_FILM_CUTOFF,
     AIR_VISCOSITY,
     DIRECT_PULSE_SPAN,
@@ -66,7 +68,7 @@ from synth.bench.thesis.series import (
     air_film_loss,
     thesis_lowspeed_rows,
 )
-from synth.bench.thesis.shear import (
+from validation.shear import (
     THESIS_WAVE_SPEEDS,
     TRANSVERSE_SHEAR_MODEL,
     format_transverse_shear_sensitivity,
@@ -75,7 +77,7 @@ from synth.bench.thesis.shear import (
     transverse_shear_pair,
     transverse_shear_sensitivity,
 )
-from synth.bench.thesis.surface import (
+from validation.surface import (
     format_surface_fit,
     surface_fit,
 )

@@ -6,7 +6,7 @@ The modal plate's restitution approaches the middle's value smoothly from a long
 on 18 mm). The thesis measured e from bounce times with a repeatability of 3 % (section 3.2:
 three repeated series agree within 3 %), so its "distance from the edge where e starts to
 fall" is where the fall exceeds that: the distance at which e has come to within the
-repeatability of the middle's. :func:`synth.bench.thesis.modal.modal_critical_distance` is
+repeatability of the middle's. :func:`validation.modal.modal_critical_distance` is
 the model's own reading (where e stops rising); this module reads the same curve through
 the measurement's resolution, and shows how the reading depends on that resolution."""
 
@@ -16,8 +16,8 @@ import math
 from dataclasses import asdict, dataclass
 from functools import cached_property
 
-from synth.bench.thesis.rows import THESIS_IMPACTS, thesis_pair, thesis_row
 from synth.constants import GRAVITY
+from validation.rows import THESIS_IMPACTS, thesis_pair, thesis_row
 
 #: Relative repeatability of the thesis' measured restitution (section 3.2: "three repeated
 #: series agree within 3 %"): a smaller fall of e is not seen in its drops.
@@ -167,7 +167,7 @@ def edge_study(pairs=None, models=EDGE_MODELS, resolutions=EDGE_RESOLUTIONS) -> 
 
 def thesis_edge_rows(readings: list) -> list:
     """The thesis rows of the critical distances read at the thesis' repeatability."""
-    from synth.bench.thesis.rows import THESIS_BOARDS
+    from validation.rows import THESIS_BOARDS
 
     r = THESIS_RESTITUTION_REPEATABILITY
     rows = []

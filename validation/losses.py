@@ -10,19 +10,19 @@ board, with MDF's fitted through-thickness modulus (the stored ``E_t / E``); the
 that board and the 12 and 6 mm boards are predictions. The plate is the impedance model (the
 infinite plate under the middle of the board, gravity included): the study that chose the law
 of MDF's fitted surface, which the fitted model solves on the modal plate
-(:func:`synth.bench.thesis.surface_fit`)."""
+(:func:`validation.surface_fit`)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
 
-from synth.bench.thesis.rows import (
+from synth.constants import GRAVITY
+from validation.rows import (
     THESIS_RESTITUTION,
     THESIS_RESTITUTION_GAPS,
     thesis_pair,
 )
-from synth.constants import GRAVITY
 
 #: The two loss laws of the study: name -> the keyword of :func:`solve_contact` that carries
 #: the law's one loss parameter.
@@ -87,7 +87,7 @@ def fitted_losses() -> dict[str, float]:
 
 def loss_law_study() -> dict:
     """The fitted loss of each law and the restitution gaps of
-    :data:`synth.bench.thesis.rows.THESIS_RESTITUTION_GAPS` under each (as plain data:
+    :data:`validation.rows.THESIS_RESTITUTION_GAPS` under each (as plain data:
     ``losses``, law -> parameter; ``rows``, :class:`LossLawGap` as dicts)."""
     from synth.physics.contact import solve_impact
 

@@ -7,8 +7,9 @@ import math
 
 import numpy as np
 
-from synth.bench.thesis.edge import MidlineWalk
-from synth.bench.thesis.rows import (
+from synth.constants import GRAVITY
+from validation.edge import MidlineWalk
+from validation.rows import (
     THESIS_BOARDS,
     THESIS_IMPACTS,
     THESIS_IMPEDANCE,
@@ -19,7 +20,6 @@ from synth.bench.thesis.rows import (
     tick_decay_times,
     with_accelerometer,
 )
-from synth.constants import GRAVITY
 
 #: Band of the impedance read from the modal plate (Hz): the band of an impact hammer and of
 #: the contact pulses of Table 3.3 (their spectra fall off above about 1 / tau ~ 10 kHz).

@@ -253,16 +253,16 @@ def thesis_comparison(samplerate: int = 48000, *, modal: bool = False) -> dict:
     """
     from scipy.signal import butter, sosfiltfilt
 
-    from synth.bench.thesis.edge import edge_study, edge_study_json, thesis_edge_rows
-    from synth.bench.thesis.losses import loss_law_study
-    from synth.bench.thesis.modal import thesis_modal_rows
-    from synth.bench.thesis.series import thesis_lowspeed_rows
-    from synth.bench.thesis.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
-    from synth.bench.thesis.surface import surface_fit
     from synth.io.presets import load_preset
     from synth.physics.bounces import BounceSequence, simulate_scene
     from synth.physics.contact import solve_impact
     from synth.sound.render import render
+    from validation.edge import edge_study, edge_study_json, thesis_edge_rows
+    from validation.losses import loss_law_study
+    from validation.modal import thesis_modal_rows
+    from validation.series import thesis_lowspeed_rows
+    from validation.shear import thesis_transverse_shear_rows, transverse_shear_sensitivity
+    from validation.surface import surface_fit
 
     rows = []
     ball, plate = thesis_pair("steel 10.0 mm", "18 mm")
@@ -416,10 +416,10 @@ def _shown(value, scale, fmt):
 def format_thesis(c: dict) -> str:
     """The table of :func:`thesis_comparison` (Markdown): engine, thesis model, thesis
     measurement and the engine's gap to the measurement, per quantity."""
-    from synth.bench.thesis.edge import format_edge_study
-    from synth.bench.thesis.losses import format_loss_law_study
-    from synth.bench.thesis.shear import format_transverse_shear_sensitivity
-    from synth.bench.thesis.surface import format_surface_fit
+    from validation.edge import format_edge_study
+    from validation.losses import format_loss_law_study
+    from validation.shear import format_transverse_shear_sensitivity
+    from validation.surface import format_surface_fit
 
     lines = [
         "Engine: the thesis' model in the engine (Hertz, the plate as its impedance) unless the "

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from synth.bench.thesis.modal import LATE_SPEED_BINS
-from synth.bench.thesis.rows import (
+from validation.modal import LATE_SPEED_BINS
+from validation.rows import (
     DECAY_SMOOTHING,
     THESIS_TICK_DECAY,
     envelope_decay_time,

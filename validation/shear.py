@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import math
 
-from synth.bench.thesis.modal import (
+from synth.constants import GRAVITY
+from synth.physics import impedance
+from validation.modal import (
     MODAL_IMPEDANCE_BAND,
     THESIS_EDGE_RESTITUTION,
     modal_critical_distance,
 )
-from synth.bench.thesis.rows import (
+from validation.rows import (
     THESIS_BOARDS,
     THESIS_IMPACTS,
     THESIS_IMPEDANCE,
@@ -20,8 +22,6 @@ from synth.bench.thesis.rows import (
     thesis_row,
     with_accelerometer,
 )
-from synth.constants import GRAVITY
-from synth.physics import impedance
 
 #: Bending-wave speeds the thesis measured (Chapter 3, m/s): board -> (frequency in Hz at
 #: which the engine's speed is compared, "phase" or "group", measured speed). The first

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import math
 
-from synth.bench.thesis.losses import gap_met
-from synth.bench.thesis.rows import (
+from synth.constants import GRAVITY
+from synth.physics import impedance
+from validation.losses import gap_met
+from validation.rows import (
     THESIS_ACCELEROMETER_MASS,
     THESIS_IMPACTS,
     THESIS_RESTITUTION,
@@ -14,8 +16,6 @@ from synth.bench.thesis.rows import (
     thesis_pair,
     with_accelerometer,
 )
-from synth.constants import GRAVITY
-from synth.physics import impedance
 
 
 def _surface_contact(ball, plate, ratio: float, viscous_time: float, speed: float):

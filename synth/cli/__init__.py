@@ -4,7 +4,7 @@ Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter``
 recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
 preset), ``presets`` (list them),
 ``materials`` (the material table), ``play`` (a preset through the live engine),
-``bench`` (error against run time).
+``bench`` (the benchmarks of a source checkout: error against run time).
 Errors in the input are reported in one line on stderr with exit status 2.
 
 This module holds the parser and :func:`main` (exit statuses, SIGTERM, warnings as one
@@ -21,7 +21,7 @@ import argparse
 import sys
 
 from synth.cli.bank import add_bank_gain_parser, add_bank_parser
-from synth.cli.bench import add_bench_parser, add_warmup_parser
+from synth.cli.bench import add_bench_parser, add_warmup_parser, bench_arguments
 from synth.cli.catalog import add_cache_parser, add_materials_parser, add_presets_parser
 from synth.cli.play import add_play_parser
 from synth.cli.recordings import add_alter_parser, add_analyze_parser
@@ -73,8 +73,11 @@ def main(argv=None) -> int:
     import threading
     import warnings
 
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["bench"]:  # the rest is the benchmarks' command line (synth.cli.bench)
+        args = bench_arguments(argv[1:])
+    else:
+        args = build_parser().parse_args(argv)
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)

@@ -1,88 +1,34 @@
-"""The subcommands timing the engine: ``bench`` (error against run time, the figures of
-docs/) and ``warmup`` (every kernel compiled ahead of time).
+"""The subcommands timing the engine: ``bench`` (the benchmarks and validation studies that
+print the figures of docs/, run from a source checkout) and ``warmup`` (every kernel compiled
+ahead of time).
+
+The benchmarks are not installed with the package: they live in the ``benchmarks`` and
+``validation`` packages beside ``synth/`` in the source repository. ``synth bench`` finds that
+checkout from the current folder (:func:`find_checkout`), puts it last on ``sys.path`` (so
+``synth`` stays the installed package) and hands the rest of its command line to
+``benchmarks.cli.main``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+from pathlib import Path
 
 from synth.errors import SynthError
 
+#: The project's name in the ``pyproject.toml`` of its source repository.
+PROJECT = "impact-synth"
 
-def _cmd_bench(args):
-    from synth import bench
-    from synth.live import bench as live_bench
-
-    runs = {
-        "contact": (
-            lambda: bench.run_contact(
-                tolerances=tuple(args.tolerances)
-                if args.tolerances
-                else (1e-3, 1e-4, 1e-6, 1e-8, 1e-10),
-                repeat=300 if args.repeat is None else args.repeat,
-                modal=True,
-            ),
-            bench.format_contact,
-        ),
-        "render": (
-            lambda: bench.run_render(repeat=5 if args.repeat is None else args.repeat),
-            bench.format_render,
-        ),
-        "thesis": (lambda: bench.thesis_comparison(modal=True), bench.format_thesis),
-        "analysis": (
-            (lambda: bench.run_random(args.random, args.seed, limit=args.limit))
-            if args.random
-            else bench.run_analysis,
-            bench.format_random if args.random else bench.format_analysis,
-        ),
-        "long": (bench.run_long, bench.format_long),
-        "live": (lambda: live_bench.run_live(seconds=args.seconds), live_bench.format_live),
-        "scale": (bench.run_scale, bench.format_scale),
-        "hires": (bench.run_hires, bench.format_hires),
-        "cold": (bench.run_cold, bench.format_cold),
-        "rolling": (
-            lambda: bench.run_rolling(repeat=3 if args.repeat is None else args.repeat),
-            bench.format_rolling,
-        ),
-        "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
-        "hollow": (bench.run_hollow, bench.format_hollow),
-        "cost": (bench.run_cost, bench.format_cost),
-        "bank": (
-            lambda: _bank_bench().run_bank(count=args.count),
-            lambda r: _bank_bench().format_bank(r),
-        ),
-    }
-    if args.what in runs:
-        run, fmt = runs[args.what]
-        if args.json and (args.markdown or args.update_docs):
-            raise SynthError("--json cannot be combined with --markdown or --update-docs")
-        if args.random and (args.what != "analysis" or args.update_docs):
-            raise SynthError(
-                "--random is an option of 'synth bench analysis' alone, and its figures have "
-                "no block in docs/ (--update-docs)"
-            )
-        if args.record and args.what != "cost":
-            raise SynthError("--record is an option of 'synth bench cost' alone")
-        result = run()
-        if args.record:
-            print(f"{bench.record_rates(result)}: rates recorded")
-        if args.json:
-            json.dump(result, sys.stdout, indent=1)
-            print()
-        elif args.markdown or args.update_docs:
-            block = bench.markdown_block(_bench_command(args), fmt(result))
-            if args.update_docs:
-                from synth.docs import update_bench_docs
-
-                print(f"{update_bench_docs(args.what, block)}: block bench:{args.what} updated")
-            else:
-                print(block, end="")
-        else:
-            print(fmt(result))
-        return 0
-    raise SystemExit(f"unknown benchmark {args.what!r}")
+#: What ``synth bench`` says outside a checkout of the source repository.
+NO_CHECKOUT = (
+    "synth bench runs the project's benchmarks and validation studies (the figures of "
+    "docs/benchmarks.md and docs/validation.md: error against run time, the engine beside "
+    "the thesis' measurements); they are not installed with the package but live in the "
+    "benchmarks/ and validation/ folders of its source repository. Run `synth bench NAME` "
+    "(or `python -m benchmarks NAME`) in a checkout of that repository, with the package "
+    "installed (pip install -e '.[test]'); no checkout holds {cwd}"
+)
 
 
 def _cmd_warmup(args):
@@ -96,32 +42,6 @@ def _cmd_warmup(args):
     if args.record:
         print(f"{warmup.record(done)}: compile times recorded")
     return 0
-
-
-def _bank_bench():
-    from synth.bank import bench
-
-    return bench
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
-    return value
-
-
-def _bench_command(args) -> str:
-    """The benchmark's command line, as printed in a docs/ block."""
-    words = ["synth", "bench", args.what]
-    if args.repeat is not None:
-        words += ["--repeat", str(args.repeat)]
-    if args.tolerances:
-        words += ["--tolerances", *(f"{t:g}" for t in args.tolerances)]
-    return " ".join(words + ["--markdown"])
 
 
 def add_warmup_parser(sub) -> None:
@@ -149,92 +69,69 @@ def add_warmup_parser(sub) -> None:
     p.set_defaults(func=_cmd_warmup)
 
 
+def names_project(pyproject: Path) -> bool:
+    """Whether ``pyproject`` is a readable ``pyproject.toml`` naming this project."""
+    import tomllib
+
+    try:
+        return tomllib.loads(pyproject.read_text())["project"]["name"] == PROJECT
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError, KeyError, TypeError):
+        return False
+
+
+def find_checkout(start: Path) -> Path | None:
+    """The source checkout holding the folder ``start``: the nearest of it and its parents
+    with a ``benchmarks`` package and a ``pyproject.toml`` naming this project; None if
+    there is none."""
+    start = start.resolve()
+    for folder in (start, *start.parents):
+        if (folder / "benchmarks" / "__init__.py").is_file() and names_project(
+            folder / "pyproject.toml"
+        ):
+            return folder
+    return None
+
+
+def checkout_benchmarks(root: Path):
+    """The command-line module of the checkout ``root``'s benchmarks (``benchmarks.cli``),
+    imported with ``root`` last on ``sys.path``: after the installed packages, so that
+    ``synth`` remains the installed package the benchmarks measure."""
+    import importlib
+
+    if str(root) not in sys.path:
+        sys.path.append(str(root))
+    cli = importlib.import_module("benchmarks.cli")
+    where = Path(cli.__file__).resolve().parent
+    if where != (root / "benchmarks").resolve():
+        raise SynthError(
+            f"benchmarks={str(where)!r}: another package named benchmarks is imported "
+            f"before the checkout's ({root / 'benchmarks'})"
+        )
+    return cli
+
+
+def _cmd_bench(args) -> int:
+    root = find_checkout(Path.cwd())
+    if root is None:
+        raise SynthError(NO_CHECKOUT.format(cwd=Path.cwd()))
+    return checkout_benchmarks(root).main(args.argv, prog="synth bench")
+
+
 def add_bench_parser(sub) -> None:
-    """Add the bench subcommand: error against run time."""
-    p = sub.add_parser("bench", help="error against run time")
-    p.add_argument(
-        "what",
-        choices=[
-            "contact",
-            "render",
-            "thesis",
-            "analysis",
-            "long",
-            "live",
-            "scale",
-            "hires",
-            "bank",
-            "cold",
-            "rolling",
-            "rollingcheck",
-            "hollow",
-            "cost",
-        ],
-        help="hollow: the hollow balls against their rule books' bounce tests; contact: solver "
-        "error and time per impact against scipy; render: audio "
-        "error against a reference and real-time factor; thesis: the engine "
-        "beside the thesis' model and measurements; analysis: recovered "
-        "restitution and onsets against noise; live: the live engine's "
-        "callback, hit() and add() costs, and underflows through a JACK dummy "
-        "server; scale: cold and warm cost of modes, radiation gains and "
-        "synthesis for a ladder of plates; hires: cold renders at 96, 192 and 384 kHz, "
-        "and at 384 kHz with the previous paths; bank: sounds/s of a sound bank "
-        "against one process per file; cold: CPU and wall time and peak memory of the "
-        "first import synth, synth render default and live example on empty numba and "
-        "plate-mode caches, and the same warm; rolling: the rolling contact's and its modal "
-        "drive's time per second of audio, and the rolling presets' renders; rollingcheck: "
-        "the rolling's contact-loss speed, energy balance and spectral centroid against speed; "
-        "cost: this machine's rates of the cost estimate's work (a cold mode solve, each "
-        "radiation rule), which synth info --cost turns into seconds",
+    """Add the bench subcommand; its own options are those of the checkout's benchmarks
+    (``synth bench --help`` in a checkout lists them), so the rest of the command line is
+    theirs (:func:`bench_arguments`)."""
+    p = sub.add_parser(
+        "bench",
+        add_help=False,
+        help="error against run time: the benchmarks of a source checkout (synth bench --help)",
     )
-    p.add_argument(
-        "--record",
-        action="store_true",
-        help="cost: write the rates for synth info --cost (synth/cost_rates.json)",
-    )
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument(
-        "--markdown",
-        action="store_true",
-        help="the block for docs/: the command, date and machine, then the tables",
-    )
-    p.add_argument(
-        "--update-docs",
-        action="store_true",
-        help="write that block between its markers in docs/ (a source checkout)",
-    )
-    p.add_argument(
-        "--repeat",
-        type=_positive_int,
-        help="timed calls per figure, median, >= 1 (default: "
-        "contact 300, render 5, rolling 3; thesis and analysis time nothing)",
-    )
-    p.add_argument(
-        "--tolerances", type=float, nargs="+", help="rtol values (default 1e-3 ... 1e-10)"
-    )
-    p.add_argument(
-        "--seconds",
-        type=float,
-        default=30.0,
-        help="live: length of each JACK dummy server phase, s (default 30)",
-    )
-    p.add_argument("--count", type=int, default=200, help="bank: sounds of the bank (default 200)")
-    p.add_argument(
-        "--random",
-        type=_positive_int,
-        metavar="N",
-        help="analysis: N random scenes rendered by the engine, scored against its impacts "
-        "(false ticks, impossible values, audible impacts missed, s per s of audio)",
-    )
-    p.add_argument(
-        "--seed", type=int, default=0, help="analysis --random: the seed drawing the scenes"
-    )
-    p.add_argument(
-        "--limit",
-        type=float,
-        default=120.0,
-        metavar="S",
-        help="analysis --random: longest analysis of one scene, s; a scene that takes longer "
-        "is stopped and counted with every audible impact missed (default 120)",
-    )
+    p.add_argument("argv", nargs=argparse.REMAINDER, help="a benchmark's name and options")
     p.set_defaults(func=_cmd_bench)
+
+
+def bench_arguments(argv: list[str]):
+    """The parsed command line of ``synth bench ...`` (``argv`` after ``bench``): all of it
+    for the benchmarks' own parser, options first included (argparse's remainder would take
+    none before the benchmark's name)."""
+    return argparse.Namespace(command="bench", argv=list(argv), func=_cmd_bench)
