@@ -19,7 +19,10 @@ def ruff() -> list[str]:
 
 @pytest.mark.parametrize(
     "args",
-    [["check", "synth", "tests", "examples"], ["format", "--check", "synth", "tests", "examples"]],
+    [
+        ["check", "synth", "benchmarks", "validation", "tests", "examples"],
+        ["format", "--check", "synth", "benchmarks", "validation", "tests", "examples"],
+    ],
 )
 def test_ruff(args):
     done = subprocess.run(ruff() + args, cwd=ROOT, capture_output=True, text=True, timeout=300)

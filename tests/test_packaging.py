@@ -1,6 +1,8 @@
-"""What a user installs: the wheel holds every module and preset, the installed package is the
-one under test, and the project states one version."""
+"""What a user installs: the wheel holds every module and preset and nothing of the studies
+beside the package, the installed package is the one under test, and the project states one
+version."""
 
+import ast
 import re
 import subprocess
 import sys
@@ -13,6 +15,8 @@ from conftest import REPOSITORY
 import synth
 
 SOURCE = REPOSITORY / "synth"
+#: The packages beside synth/ in the repository, never installed.
+BESIDE = ("benchmarks/", "validation/")
 
 
 def _source_files() -> set[str]:
@@ -26,7 +30,8 @@ def _source_files() -> set[str]:
 def test_wheel_holds_every_module_and_preset(tmp_path):
     # The wheel `pip install .` builds holds every module under synth/ and every preset: a
     # package left out of pyproject.toml breaks every installed copy while a suite importing
-    # the source tree stays green. Built from a copy of the files a build reads, so the
+    # the source tree stays green; and it holds nothing of the benchmarks and the thesis
+    # study beside the package. Built from a copy of the files a build reads, so the
     # repository is left as it was.
     tracked = subprocess.run(
         ["git", "-C", str(REPOSITORY), "ls-files", "pyproject.toml", "README.md", "LICENSE"],
@@ -37,7 +42,14 @@ def test_wheel_holds_every_module_and_preset(tmp_path):
     build.mkdir()
     for name in tracked:
         (build / name).write_bytes((REPOSITORY / name).read_bytes())
-    for rel in _source_files() | {"synth/py.typed"}:
+    beside = {
+        p.relative_to(REPOSITORY).as_posix()
+        for folder in BESIDE
+        for p in (REPOSITORY / folder).rglob("*.py")
+        if "__pycache__" not in p.parts
+    }
+    assert beside, "the benchmarks are beside the package"
+    for rel in _source_files() | beside | {"synth/py.typed"}:
         (build / rel).parent.mkdir(parents=True, exist_ok=True)
         (build / rel).write_bytes((REPOSITORY / rel).read_bytes())
     subprocess.run(
@@ -51,6 +63,32 @@ def test_wheel_holds_every_module_and_preset(tmp_path):
     missing = _source_files() - names
     assert not missing, f"the wheel lacks {sorted(missing)}"
     assert not [n for n in names if n.startswith(("tests/", "docs/"))]
+    # the benchmarks and the thesis study stay in the source repository; of the modules
+    # named bench, the wheel holds the command finding them (synth/cli/bench.py) alone
+    studies = [
+        n
+        for n in names
+        if n.startswith(BESIDE)
+        or (re.search(r"(^|/)bench(/|\.py$)", n) and n != "synth/cli/bench.py")
+    ]
+    assert not studies, f"the wheel holds {studies}"
+
+
+def test_the_package_imports_nothing_beside_it():
+    # The engine runs from an installed copy: no module of synth/ imports the benchmarks or
+    # the thesis study (synth bench finds them in a checkout at run time, by name).
+    beside = {name.rstrip("/") for name in BESIDE}
+    found = []
+    for path in sorted(SOURCE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                names = [node.module or ""]
+            else:
+                continue
+            found += [f"{path}: {n}" for n in names if n.split(".")[0] in beside]
+    assert found == []
 
 
 def test_installed_package_is_the_source_trees():
@@ -64,14 +102,15 @@ def test_installed_package_is_the_source_trees():
 
 def test_one_version():
     # synth.__version__ is the package's version (pyproject.toml reads it), CITATION.cff
-    # states it and the changelog's newest entry is it.
+    # states it and the changelog's newest version is it (above it, the changes not yet
+    # released, under "Unreleased").
     from importlib.metadata import version
 
     assert version("impact-synth") == synth.__version__
     citation = (REPOSITORY / "CITATION.cff").read_text()
     assert re.search(r'^version: "([^"]+)"$', citation, re.M).group(1) == synth.__version__
     changelog = (REPOSITORY / "CHANGELOG.md").read_text()
-    assert re.search(r"^## (\S+)", changelog, re.M).group(1) == synth.__version__
+    assert re.search(r"^## (?!Unreleased$)(\S+)", changelog, re.M).group(1) == synth.__version__
 
 
 def test_lowest_versions_are_the_declared_bounds():

@@ -79,23 +79,32 @@ def _layout_entries(layout: str) -> list[list[str]]:
     return entries
 
 
+#: The packages of the repository the layout maps: the engine, and the benchmarks and the
+#: thesis study beside it.
+PACKAGES = ("synth", "benchmarks", "validation")
+
+
 def _listed_modules(entry: list[str]) -> set[str]:
-    """A module's own entry names it; a package's (``synth/.../``) names its modules, each
-    ``name.py`` in its text."""
+    """A module's own entry names it; a package's (``synth/.../``, ``benchmarks/``, ...)
+    names its modules, each ``name.py`` in its text."""
     head = entry[0]
-    if not (head.startswith("synth/") and head.endswith("/")):
+    if not (head.startswith(tuple(f"{p}/" for p in PACKAGES)) and head.endswith("/")):
         return {head}
     names = (word.strip(",;:()") for word in entry[1:])
     return {head + name for name in names if re.fullmatch(r"\w+\.py", name)}
 
 
 def test_readme_layout_lists_every_module():
-    # The layout map names every module of the package: a line each, or a package's line
-    # naming its modules.
+    # The layout map names every module of the package and of the benchmarks beside it: a
+    # line each, or a package's line naming its modules.
     text = (ROOT / "README.md").read_text()
     layout = text.split("## Layout", 1)[1].split("```")[1]
     listed = set().union(*(_listed_modules(e) for e in _layout_entries(layout)))
-    files = {p.relative_to(ROOT).as_posix() for p in (ROOT / "synth").rglob("*.py")}
+    files = {
+        p.relative_to(ROOT).as_posix()
+        for package in PACKAGES
+        for p in (ROOT / package).rglob("*.py")
+    }
     required = {f for f in files if not f.endswith(("/__init__.py", "/__main__.py"))}
     assert required - listed == set()
     assert {m for m in listed if m.endswith(".py")} - files == set()
