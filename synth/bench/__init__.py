@@ -1,7 +1,7 @@
 """Benchmarks: numerical error against run time (``synth bench ...``).
 
 One module per benchmark (contact, render, thesis, analysis, long, scale, hires, cold,
-rolling, hollow, cost; the live
+rolling, hollow, materials, cost; the live
 engine's and the sound banks' are ``synth.live.bench`` and ``synth.bank.bench``). Every
 figure is measured in one run on this machine, after a warm-up. Nothing here is imported
 by the rest of the engine. The names below are re-exported so that ``synth.bench.NAME``
@@ -26,6 +26,7 @@ from synth.bench.cost import format_cost, record_rates, run_cost
 from synth.bench.hires import HIRES_RATES, format_hires, hires_child, run_hires
 from synth.bench.hollow import format_hollow, run_hollow
 from synth.bench.long import format_long, long_child, long_recording, run_long
+from synth.bench.materials import format_materials, run_materials
 from synth.bench.render import format_render, render_scenes, run_render
 from synth.bench.rolling import format_rolling, run_rolling
 from synth.bench.rolling_check import format_rolling_check, run_rolling_check
@@ -60,6 +61,8 @@ from synth.bench.thesis import (
 __all__ = [
     "format_hollow",
     "run_hollow",
+    "format_materials",
+    "run_materials",
     "format_random",
     "run_random",
     "HIRES_RATES",

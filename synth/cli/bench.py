@@ -48,6 +48,7 @@ def _cmd_bench(args):
         ),
         "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
         "hollow": (bench.run_hollow, bench.format_hollow),
+        "materials": (bench.run_materials, bench.format_materials),
         "cost": (bench.run_cost, bench.format_cost),
         "bank": (
             lambda: _bank_bench().run_bank(count=args.count),
@@ -168,9 +169,11 @@ def add_bench_parser(sub) -> None:
             "rolling",
             "rollingcheck",
             "hollow",
+            "materials",
             "cost",
         ],
-        help="hollow: the hollow balls against their rule books' bounce tests; contact: solver "
+        help="hollow: the hollow balls against their rule books' bounce tests; materials: solid "
+        "balls of the material table against published bounces; contact: solver "
         "error and time per impact against scipy; render: audio "
         "error against a reference and real-time factor; thesis: the engine "
         "beside the thesis' model and measurements; analysis: recovered "
