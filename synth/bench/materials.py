@@ -32,6 +32,10 @@ from synth.physics.scene import Ball, Plate
 
 #: The accuracy of every impact of the table (relative, on e and the contact time).
 RTOL = 1e-9
+#: The contact surface of every impact: the default model's, the one closest to measurement
+#: (each body's published loss factor on a table material, synth.physics.contact_law.
+#: resolved_surface).
+SURFACE = "auto"
 
 
 @dataclass(frozen=True)
@@ -174,7 +178,13 @@ def pulse_row(observation: PulseObservation, rtol: float = RTOL) -> PulseRow:
     """The engine's first impact of ``observation`` at each of its drop heights."""
     ball = _ball(observation)
     results = [
-        solve_impact(ball, observation.surface, math.sqrt(2.0 * GRAVITY * h), rtol=rtol)
+        solve_impact(
+            ball,
+            observation.surface,
+            math.sqrt(2.0 * GRAVITY * h),
+            surface=SURFACE,
+            rtol=rtol,
+        )
         for h in observation.drop_heights
     ]
     return PulseRow(
@@ -187,7 +197,10 @@ def pulse_row(observation: PulseObservation, rtol: float = RTOL) -> PulseRow:
 def bounce_row(observation: BounceObservation) -> BounceRow:
     """The engine's whole drop of ``observation`` (the scheduler's default limits)."""
     seq = simulate_bounces(
-        _ball(observation), observation.surface, drop_height=observation.drop_height
+        _ball(observation),
+        observation.surface,
+        drop_height=observation.drop_height,
+        surface=SURFACE,
     )
     first, last = seq.impacts[0], seq.impacts[-1]
     return BounceRow(
