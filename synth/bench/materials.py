@@ -2,7 +2,7 @@
 
 Each row is one published observation of a solid ball on a hard surface, with the engine's
 account of the same drop (the default contact: the measured model's material surface, on the
-impedance plate, docs/physics.md, "Contact"). Two kinds of observation are set beside the
+impedance plate, docs/physics.md, "Contact losses"). Two kinds of observation are set beside the
 engine:
 
 * a force pulse's length (:class:`PulseObservation`): the engine's first impact at the
