@@ -2,7 +2,7 @@
 checkout; :mod:`benchmarks.cli`). Not installed with the package.
 
 One module per benchmark (contact, render, analysis, long, scale, hires, cold, rolling,
-hollow, cost; the live engine's and the sound banks' are :mod:`benchmarks.live` and
+hollow, materials, cost; the live engine's and the sound banks' are :mod:`benchmarks.live` and
 :mod:`benchmarks.bank`; the thesis study, ``synth bench thesis``, is the ``validation``
 package). :mod:`benchmarks.jack` runs a JACK dummy server for the live benchmark and the
 tests; :mod:`benchmarks.docs` writes the figures into docs/. Every figure is measured in
@@ -29,6 +29,7 @@ from benchmarks.cost import format_cost, record_rates, run_cost
 from benchmarks.hires import HIRES_RATES, format_hires, hires_child, run_hires
 from benchmarks.hollow import format_hollow, run_hollow
 from benchmarks.long import format_long, long_child, long_recording, run_long
+from benchmarks.materials import format_materials, run_materials
 from benchmarks.render import format_render, render_scenes, run_render
 from benchmarks.rolling import format_rolling, run_rolling
 from benchmarks.rolling_check import format_rolling_check, run_rolling_check
@@ -63,6 +64,8 @@ from validation import (
 __all__ = [
     "format_hollow",
     "run_hollow",
+    "format_materials",
+    "run_materials",
     "format_random",
     "run_random",
     "HIRES_RATES",

@@ -34,6 +34,7 @@ BENCHMARKS = {
     "rollingcheck": "the rolling's contact-loss speed, energy balance and spectral centroid "
     "against speed",
     "hollow": "the hollow balls against their rule books' bounce tests",
+    "materials": "solid balls of the material table against published bounces",
     "cost": "this machine's rates of the cost estimate's work (a cold mode solve, each "
     "radiation rule), which synth info --cost turns into seconds",
 }
@@ -70,6 +71,7 @@ def _runs(args) -> dict:
         "rolling": (lambda: bench.run_rolling(repeat=repeat(3)), bench.format_rolling),
         "rollingcheck": (bench.run_rolling_check, bench.format_rolling_check),
         "hollow": (bench.run_hollow, bench.format_hollow),
+        "materials": (bench.run_materials, bench.format_materials),
         "cost": (bench.run_cost, bench.format_cost),
         "bank": (lambda: bank.run_bank(count=args.count), bank.format_bank),
     }

@@ -23,6 +23,7 @@ BENCH_PAGES = {
     "rolling": "rolling.md",
     "rollingcheck": "validation.md",
     "hollow": "validation.md",
+    "materials": "validation.md",
     "thesis": "validation.md",
     "analysis": "validation.md",
     "long": "benchmarks.md",
@@ -118,8 +119,11 @@ def contact_losses_section() -> str:
         "thesis' measurements. The thesis' model (`contact.model = \"thesis\"`) has no "
         "contact loss.\n\n"
         "These loss factors were measured on bending waves at small strain. No published "
-        "restitution of a ball of these materials has been checked against the engine yet "
-        '(docs/validation.md, "Restitution of solid balls"): the table below is the '
+        "coefficient of restitution of a ball of these materials has been checked against "
+        'the engine yet (docs/validation.md, "Restitution of solid balls", sets two published '
+        "observations of steel balls beside it: a force pulse's width, which agrees, and a "
+        "demonstration's steel ball that comes to rest after dozens of bounces, which the "
+        "engine's does not): the table below is the "
         "engine's, not a measurement. Two of the law's assumptions are untested: that the "
         "small-strain loss factor holds at a contact's strains, and that the loss grows as "
         "the viscoelastic law's `v^(1/5)` away from 1 m/s. A pair of two near-elastic "

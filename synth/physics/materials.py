@@ -587,7 +587,7 @@ class ContactSurface:
 #: both sides, as ``ImpactResult.contact_time``) and the viscoelastic loss's
 #: dissipative time ``A`` on the restitution 0.76 of the 10 mm steel ball at 1.4 m/s (section
 #: 3.2), both with the finite plate in the contact (synth.physics.modal_contact) at the middle
-#: of the board (synth.bench.thesis.surface_fit). The 12 and 6 mm boards use them unchanged
+#: of the board (validation.surface.surface_fit). The 12 and 6 mm boards use them unchanged
 #: (``synth bench thesis`` prints fit and prediction errors).
 MDF_SURFACE = ContactSurface(
     transverse_ratio=0.1814,
