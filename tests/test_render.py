@@ -292,7 +292,7 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     # discretisation), and the gain at the pole itself, which weights far elements by
     # exp(sigma (R - R0) / c) ~ e^3, fits far worse.
     from synth.sound import radiation as R
-    from synth.sound.render import AIR_DENSITY, SOUND_SPEED, _microphone_gains
+    from synth.sound.listener import AIR_DENSITY, SOUND_SPEED, _microphone_gains
 
     plate = synth.Plate("steel", 0.001, 0.12, 0.1, "simply-supported")
     modes = plate_modes.modes(plate, max_frequency=20000.0)
