@@ -9,6 +9,7 @@ import dataclasses
 import inspect
 import re
 import tomllib
+from pathlib import Path
 
 import pytest
 
@@ -74,6 +75,13 @@ def test_cli_render_has_a_flag_per_field_in_order():
     for action in flags:
         assert action.default is None  # unset: the preset's value holds
         assert render_options.describe(action.dest) in action.help
+
+
+def test_cli_page_prints_the_flags_of_the_fields():
+    # docs/cli.md's rows of the render options are synth.sound.options.flag_rows()' output
+    text = (Path(__file__).parent.parent / "docs" / "cli.md").read_text()
+    for row in render_options.flag_rows().splitlines():
+        assert row in text, row
 
 
 def test_options_check_once_and_convert():

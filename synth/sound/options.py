@@ -158,7 +158,7 @@ class RenderOptions:
     samplerate: int = _option(
         dataclasses.MISSING, unit="Hz", metavar="HZ", check=_samplerate,
         allowed=f"an integer in [{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]",
-        doc="sample rate (no default in the API: every render names it)",
+        doc="sample rate",
     )  # fmt: skip
     normalize: str = _option(
         "peak", unit="", metavar="MODE", check=_choice, choices=NORMALIZE,
@@ -306,6 +306,20 @@ def parameters_doc(indent: str = "    ") -> str:
         lines.append(f"{indent}{f.name} : {f.type}, {shown}")
         lines.append(f"{indent}    {describe(f.name)}.")
     return "\n".join(lines)
+
+
+def flag_rows() -> str:
+    """The rows of ``synth render``'s flags for the render options (Markdown, as
+    docs/cli.md prints them: flag, doc, unit, values allowed, default)."""
+    rows = []
+    for name in OPTIONS:
+        d = declaration(name)
+        value = PRESET_SAMPLERATE if name == "samplerate" else default(name)
+        shown = "samplerate / 2" if value is None else value
+        shown = f"{shown:g}" if isinstance(shown, float) else shown
+        text = describe(name).replace("|", "/")
+        rows.append(f"| `--{name.replace('_', '-')} {d.metavar}` | {text}; default {shown} |")
+    return "\n".join(rows)
 
 
 def keyword_parameters() -> list[inspect.Parameter]:
