@@ -345,4 +345,5 @@ def bounce_options(options) -> dict:
     return options.bounces()
 
 
-RenderOptions.__doc__ += "\n" + parameters_doc()
+if RenderOptions.__doc__:  # None under python -OO
+    RenderOptions.__doc__ += "\n" + parameters_doc()

@@ -99,7 +99,8 @@ def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> R
     return _render_drop(scene, o, sequence, model)
 
 
-render.__doc__ = render.__doc__.replace("{options}", parameters_doc())
+if render.__doc__:  # None under python -OO
+    render.__doc__ = render.__doc__.replace("{options}", parameters_doc())
 render.__signature__ = inspect.Signature(
     [
         inspect.Parameter("scene", inspect.Parameter.POSITIONAL_OR_KEYWORD),
