@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import inspect
+import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -304,7 +305,10 @@ def parameters_doc(indent: str = "    ") -> str:
         value = default(f.name)
         shown = "required" if value is inspect.Parameter.empty else f"default {value!r}"
         lines.append(f"{indent}{f.name} : {f.type}, {shown}")
-        lines.append(f"{indent}    {describe(f.name)}.")
+        body = indent + "    "
+        lines.append(
+            textwrap.fill(describe(f.name) + ".", 92, initial_indent=body, subsequent_indent=body)
+        )
     return "\n".join(lines)
 
 

@@ -64,26 +64,26 @@ __all__ = [
 
 def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> Render:
     """Render ``scene`` with the render options: ``options`` (a
-        :class:`~synth.sound.options.RenderOptions`), or its fields as keywords (``samplerate``
-        required: there is no default or global rate), or both (the keywords win).
+    :class:`~synth.sound.options.RenderOptions`), or its fields as keywords (``samplerate``
+    required: there is no default or global rate), or both (the keywords win).
 
-        Parameters
-        ----------
-        scene : Scene
-        options : RenderOptions, optional
-            The options; a keyword below changes one of them.
-    {options}
-        sequence : BounceSequence, optional
-            Precomputed impacts of this scene (default: computed here); not empty, and its
-            contacts must be this scene's (see :func:`~synth.sound.sequence_check.check_sequence`).
-        budget : synth.cost.Budget, optional
-            The most work the render may take on (default: ``Budget.from_environment()``):
-            the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
-            ``max_duration``, is refused before any work with a ``ParameterError`` naming
-            what is too big and what to change.
+    Parameters
+    ----------
+    scene : Scene
+    options : RenderOptions, optional
+        The options; a keyword below changes one of them.
+    OPTIONS_DOC
+    sequence : BounceSequence, optional
+        Precomputed impacts of this scene (default: computed here); not empty, and its
+        contacts must be this scene's (see :func:`~synth.sound.sequence_check.check_sequence`).
+    budget : synth.cost.Budget, optional
+        The most work the render may take on (default: ``Budget.from_environment()``):
+        the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
+        ``max_duration``, is refused before any work with a ``ParameterError`` naming
+        what is too big and what to change.
 
-        A tail cut by ``max_tail`` is reported in ``info.tail_cut`` and ``info.left_at_end``
-        (the bound, relative to the reference amplitude, of what rings on after the end).
+    A tail cut by ``max_tail`` is reported in ``info.tail_cut`` and ``info.left_at_end``
+    (the bound, relative to the reference amplitude, of what rings on after the end).
     """
     o = _checked_options(scene, options, overrides)
     estimate = _checked_work(scene, o, sequence, budget)
@@ -100,7 +100,7 @@ def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> R
 
 
 if render.__doc__:  # None under python -OO
-    render.__doc__ = render.__doc__.replace("{options}", parameters_doc())
+    render.__doc__ = render.__doc__.replace("    OPTIONS_DOC", parameters_doc())
 render.__signature__ = inspect.Signature(
     [
         inspect.Parameter("scene", inspect.Parameter.POSITIONAL_OR_KEYWORD),
