@@ -46,6 +46,8 @@ _LAZY = {
     "Plate": "synth.physics.scene",
     "Scene": "synth.physics.scene",
     "Render": "synth.sound.render",
+    "RenderInfo": "synth.sound.result",
+    "RenderOptions": "synth.sound.options",
     "render": "synth.sound.render",
 }
 #: Public submodules, imported on first use; ``plate`` is the plate's modes under its
@@ -77,6 +79,8 @@ __all__ = [
     "Rayleigh",
     "Scene",
     "Render",
+    "RenderInfo",
+    "RenderOptions",
     "SynthError",
     "Tick",
     "Voice",

@@ -1,4 +1,6 @@
-"""Physical constants shared by the physics and the sound (SI units).
+"""Physical constants shared by the physics and the sound (SI units), and the defaults of
+the bounce series and the pulse grid that the physics, the synthesis and the render options
+(:class:`synth.sound.options.RenderOptions`) share.
 
 Air is taken at 20 degC and 101.325 kPa, dry, the conditions of the thesis
 (docs/physics.md, References) measurements and of ISO 9613-1's reference
@@ -18,3 +20,12 @@ AIR_DENSITY = 1.204
 #: Gravitational acceleration used by default, m/s^2 (9.81: the value of the thesis'
 #: computations; the standard gravity of CGPM 1901 is 9.80665).
 GRAVITY = 9.81
+
+#: The bounce series' ``"floor"`` rule by default: it ends when an impact's kinetic energy
+#: would be this far below the first's, dB.
+DEFAULT_FLOOR_DB = -60.0
+#: Most impacts a series computes by default (``max_impacts``: a guard for a ball that
+#: keeps bouncing).
+DEFAULT_MAX_IMPACTS = 10_000
+#: Fewest points of the uniform grid on which a force pulse's transforms are taken.
+PULSE_POINTS = 65

@@ -28,6 +28,8 @@ PUBLIC = [
     "Impact",
     "render",
     "Render",
+    "RenderOptions",
+    "RenderInfo",
     "load_preset",
     "write_audio",
     "read_audio",

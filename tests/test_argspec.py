@@ -1,63 +1,107 @@
-"""The defaults of the render options are declared three times for three readers: the
-signature of ``synth.render``, that of ``synth.sound.render.check_options`` (which presets
-use) and the ``[render]`` section documented in ``synth.io.presets``. They must agree (as
-python-soundfile's test_argspec keeps its functions' defaults together)."""
+"""The render options are declared once, in ``synth.RenderOptions``; its three front ends
+read them from there: ``synth.render``'s signature and docstring are generated from the
+fields, ``synth render`` has a flag per field, and a preset's ``[render]`` table (documented
+in ``synth.io.presets``, the one copy written by hand) holds them. These tests keep the
+front ends on the fields (as python-soundfile's test_argspec keeps its functions' defaults
+together)."""
 
+import dataclasses
 import inspect
 import re
 import tomllib
+from pathlib import Path
+
+import pytest
 
 import synth
+from synth.cli import build_parser
 from synth.constants import GRAVITY
 from synth.io import presets
 from synth.io.audio import DEFAULT_SUBTYPE
 from synth.physics.scene import Scene
-from synth.sound import render as render_module
+from synth.sound import options as render_options
+from synth.sound.options import OPTIONS, RenderOptions
 
-#: Parameters of render() that are not options (the scene, a precomputed sequence, and the
-#: budget of work, which is not a property of the sound).
-NOT_OPTIONS = {"scene", "sequence", "budget"}
-
-
-def defaults(func, skip=()) -> dict:
-    return {
-        name: p.default
-        for name, p in inspect.signature(func).parameters.items()
-        if name not in skip
-    }
+#: Parameters of render() that are not options (the scene, the options as one object, a
+#: precomputed sequence, and the budget of work, which is not a property of the sound).
+NOT_OPTIONS = ("scene", "options", "sequence", "budget")
 
 
-def documented_section(name: str) -> dict:
-    """The keys and values of ``[name]`` in the presets module's docstring (TOML)."""
+def documented_section(name: str) -> tuple[dict, dict]:
+    """The keys and values of ``[name]`` in the presets module's docstring (TOML), and each
+    key's comment."""
     doc = presets.__doc__
     block = doc[doc.index(f"    [{name}]") :].split("\n\n")[0]
-    text = "\n".join(line[4:] for line in block.splitlines())
-    return tomllib.loads(text)[name]
+    lines = [line[4:] for line in block.splitlines()]
+    comments = {
+        line.split("=")[0].strip(): line.split("#", 1)[1].strip() for line in lines if "=" in line
+    }
+    return tomllib.loads("\n".join(lines))[name], comments
 
 
-def test_render_and_check_options_have_the_same_defaults():
-    assert defaults(synth.render, NOT_OPTIONS) == defaults(render_module.check_options)
+def test_render_signature_is_the_fields():
+    params = inspect.signature(synth.render).parameters
+    assert tuple(p for p in params if p not in NOT_OPTIONS) == OPTIONS
+    for name in OPTIONS:
+        assert params[name].default == render_options.default(name), name
+        assert params[name].kind is inspect.Parameter.KEYWORD_ONLY
+    assert params["samplerate"].default is inspect.Parameter.empty  # required of every caller
 
 
-def test_options_list_names_every_option_in_order():
-    assert tuple(defaults(render_module.check_options)) == render_module.OPTIONS
+def test_render_docstring_documents_every_field():
+    words = " ".join(synth.render.__doc__.split())
+    for name in OPTIONS:
+        assert f"    {name} : " in synth.render.__doc__, name
+        assert " ".join(render_options.describe(name).split()) in words, name
 
 
-def test_documented_preset_render_keys_are_the_defaults():
-    doc = documented_section("render")
-    opts = defaults(render_module.check_options)
-    assert set(doc) == set(opts) | {"subtype"}
+def test_documented_preset_render_keys_are_the_defaults_and_units():
+    doc, comments = documented_section("render")
+    assert tuple(doc) == OPTIONS + ("subtype",)
     assert doc.pop("subtype") == DEFAULT_SUBTYPE
-    assert opts["samplerate"] is inspect.Parameter.empty  # required of every caller
     assert doc.pop("samplerate") == presets.PRESET_SAMPLERATE  # a preset's when it names none
     for key, value in doc.items():
-        if opts[key] is None:  # no default (e.g. max_frequency: the Nyquist frequency)
+        unit = render_options.declaration(key).unit
+        if unit:  # the comment starts with the unit
+            assert comments[key].split()[0].rstrip(",:") == unit, key
+        if render_options.default(key) is None:  # derived (max_frequency: the Nyquist)
             continue
-        assert value == opts[key], key
+        assert value == render_options.default(key), key
+
+
+def test_cli_render_has_a_flag_per_field_in_order():
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    flags = [a for a in sub.choices["render"]._actions if a.dest in OPTIONS]
+    assert tuple(a.dest for a in flags) == OPTIONS
+    for action in flags:
+        assert action.default is None  # unset: the preset's value holds
+        assert render_options.describe(action.dest) in action.help
+
+
+def test_cli_page_prints_the_flags_of_the_fields():
+    # docs/cli.md's rows of the render options are synth.sound.options.flag_rows()' output
+    text = (Path(__file__).parent.parent / "docs" / "cli.md").read_text()
+    for row in render_options.flag_rows().splitlines():
+        assert row in text, row
+
+
+def test_options_check_once_and_convert():
+    o = RenderOptions(samplerate=48000, peak_db=-3, max_impacts=5)
+    assert (o.peak_db, type(o.peak_db), o.max_impacts) == (-3.0, float, 5)
+    assert o.top_frequency == 24000.0
+    with pytest.raises(synth.ParameterError, match=r"max_frequency=30000\.0 must be <= the"):
+        o.replace(max_frequency=30000.0)  # a copy is checked again
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        o.peak_db = 0.0
+    with pytest.raises(TypeError, match="did you mean 'peak_db'"):
+        RenderOptions.of(samplerate=48000, peak_dB=-3)
+    with pytest.raises(TypeError, match="samplerate"):
+        RenderOptions.of(peak_db=-3)
+    assert RenderOptions.of(o, fade=0.0) == o.replace(fade=0.0)
 
 
 def test_documented_gravity_is_the_default():
     line = next(s for s in presets.__doc__.splitlines() if s.strip().startswith("gravity ="))
     assert float(re.search(r"gravity = ([0-9.]+)", line)[1]) == GRAVITY
-    assert defaults(Scene)["gravity"] == GRAVITY
-    assert defaults(synth.simulate_bounces)["gravity"] == GRAVITY
+    assert inspect.signature(Scene).parameters["gravity"].default == GRAVITY
+    assert inspect.signature(synth.simulate_bounces).parameters["gravity"].default == GRAVITY

@@ -402,6 +402,8 @@ def test_render_command_options(capsys, tmp_path):
         "render.max_tail=0.5",
         "--floor-db",
         "-60",
+        "--max-frequency",
+        "5000",
         "--plot",
         str(png),
         "--report",
@@ -414,6 +416,7 @@ def test_render_command_options(capsys, tmp_path):
     assert 20 * math.log10(np.max(np.abs(x))) == pytest.approx(-6.0, abs=0.01)  # 16-bit steps
     data = json.loads(rep.read_text())
     assert data["settings"]["floor_db"] == -60.0 and data["settings"]["max_tail"] == 0.5
+    assert data["settings"]["max_frequency"] == 5000.0  # a flag generated from RenderOptions
     assert data["impacts"][0]["speed"] == pytest.approx(math.sqrt(2 * 9.81 * 0.05), rel=1e-12)
     assert png.stat().st_size > 10_000
     assert str(out) in text
@@ -484,6 +487,8 @@ def test_render_command_loudness(capsys, tmp_path):
         (["--set", "render.max_frequency=40000"], ["render.max_frequency=40000", "Nyquist"]),
         (["--set", "ball.radius=-1"], ["ball.radius=-1", "[1e-06, 1]"]),
         (["--peak-db", "3"], ["peak_db=3.0", "<= 0"]),
+        (["--max-impacts", "0"], ["max_impacts=0", "[1, 100000]"]),  # a generated flag
+        (["--max-frequency", "30000"], ["max_frequency=30000.0", "Nyquist"]),
     ],
 )
 def test_render_command_rejects_bad_options(capsys, tmp_path, argv, words):

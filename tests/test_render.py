@@ -1,5 +1,6 @@
 """Modal synthesis and rendering (docs/physics.md, "Modal synthesis")."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -42,6 +43,31 @@ def test_render_default_preset(default_render):
     assert np.max(np.abs(r.audio)) == pytest.approx(10 ** (-1 / 20), rel=1e-6)
     assert len(r.impacts) > 10
     assert np.all(np.isfinite(r.audio))
+
+
+def test_render_info_is_typed_and_settings_is_its_view(default_render):
+    # The render's options and figures in a RenderInfo (options checked, max_frequency the
+    # Nyquist frequency it rendered to); Render.settings is the same, flat and read-only.
+    info = default_render.info
+    assert isinstance(info, synth.RenderInfo) and isinstance(info.options, synth.RenderOptions)
+    assert info.options.max_frequency == 24000.0 and info.path is None
+    assert info.n_impacts == len(default_render.impacts) and 0 < info.n_modes_rendered
+    settings = default_render.settings
+    assert settings["max_frequency"] == 24000.0 and settings["n_modes"] == info.n_modes
+    assert settings["listener_position"] == list(info.listener_position)
+    with pytest.raises(TypeError):
+        settings["peak_db"] = 0.0  # type: ignore[index]
+
+
+def test_render_takes_options_as_one_object():
+    # render(scene, options=RenderOptions(...)) is render(scene, **fields): the same samples
+    o = synth.RenderOptions(samplerate=8000, max_frequency=2000.0, max_tail=0.5, **EXACT)
+    a = render(accel_scene(), options=o)
+    b = render(accel_scene(), samplerate=8000, max_frequency=2000.0, max_tail=0.5, **EXACT)
+    assert np.array_equal(a.audio, b.audio)
+    assert a.info == dataclasses.replace(b.info, bank_seconds=a.info.bank_seconds)
+    c = render(accel_scene(), options=o, max_tail=0.01)  # a keyword changes one option
+    assert c.info.options.max_tail == 0.01 and c.audio.size < a.audio.size
 
 
 def test_first_tick_is_causal_to_the_sample():
@@ -292,7 +318,7 @@ def test_microphone_gain_is_the_least_squares_fit_of_the_causal_pressure():
     # discretisation), and the gain at the pole itself, which weights far elements by
     # exp(sigma (R - R0) / c) ~ e^3, fits far worse.
     from synth.sound import radiation as R
-    from synth.sound.render import AIR_DENSITY, SOUND_SPEED, _microphone_gains
+    from synth.sound.listener import AIR_DENSITY, SOUND_SPEED, _microphone_gains
 
     plate = synth.Plate("steel", 0.001, 0.12, 0.1, "simply-supported")
     modes = plate_modes.modes(plate, max_frequency=20000.0)

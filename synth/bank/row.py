@@ -84,16 +84,16 @@ def encode(
 def render_scene(spec: BankSpec, item: PlanItem):
     """Render row ``item``: the Render, the file's bytes, and the row's figures."""
     from synth.io.presets import scene_from_dict
-    from synth.sound.render import bounce_options, check_options, render
+    from synth.sound.options import RenderOptions
+    from synth.sound.render import render
     from synth.stimuli.sequences import scaled_sequence
 
-    scene, options = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
-    subtype = str(options.pop("subtype", spec.subtype)).upper()
+    scene, section = scene_from_dict(bank_spec.scene_data(spec, item.values), f"row {item.index}")
+    subtype = str(section.pop("subtype", spec.subtype)).upper()
+    options = RenderOptions(**section)
     k = item.values.get(RESTITUTION_SCALE)
-    sequence = (
-        None if k is None else scaled_sequence(scene, k, **bounce_options(check_options(**options)))
-    )
-    rendered = render(scene, sequence=sequence, **options)
+    sequence = None if k is None else scaled_sequence(scene, k, **options.bounces())
+    rendered = render(scene, options=options, sequence=sequence)
     audio, length_reason = trim_tail(rendered.audio, rendered.samplerate, spec.trim)
     data = encode(audio, rendered.samplerate, spec.format, subtype, item.file, CLIP_ADVICE)
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0

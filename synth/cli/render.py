@@ -10,6 +10,7 @@ import sys
 
 from synth.cli.common import add_preset_args
 from synth.errors import SynthError
+from synth.sound.options import OPTIONS, PRESET_SAMPLERATE, declaration, default, describe
 
 
 def _cmd_info(args):
@@ -67,12 +68,12 @@ def _path_of(scene, section: dict):
     import math
 
     from synth.physics.path import simulate_path
-    from synth.sound.render import check_options
+    from synth.sound.options import RenderOptions
 
-    o = check_options(**{k: v for k, v in section.items() if k != "subtype"})
-    origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o["preroll"]
+    o = RenderOptions(**{k: v for k, v in section.items() if k != "subtype"})
+    origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o.preroll
     return simulate_path(
-        scene, samplerate=o["samplerate"], time_origin=origin, max_duration=o["max_duration"]
+        scene, samplerate=o.samplerate, time_origin=origin, max_duration=o.max_duration
     )
 
 
@@ -138,9 +139,9 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
 
 def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
     """Render keywords from a preset's [render] section (checked when the preset was
-    read) and the command line (which wins)."""
+    read) and the command line (which wins), and the output file's subtype."""
     opts = dict(scene_render)
-    for key in ("samplerate", "normalize", "subtype", "loudness_lufs", "peak_db", "floor_db"):
+    for key in OPTIONS + ("subtype",):
         value = getattr(args, key, None)
         if value is not None:
             opts[key] = value
@@ -156,7 +157,7 @@ def _report(rendered, data, preset) -> dict:
         duration=rendered.duration,
         units=rendered.units,
         gain=rendered.gain,
-        settings=rendered.settings,
+        settings=dict(rendered.settings),
         impacts=[
             dict(row, onset=float(onset))
             for row, onset in zip(rendered.impacts.table(), rendered.onsets)
@@ -176,11 +177,11 @@ def _cmd_render(args):
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
     opts, subtype = render_options(render_section, args, str(find(args.preset)))
     if args.timing_from is not None or args.restitution_scale is not None:
-        from synth.sound.render import bounce_options, check_options
+        from synth.sound.options import RenderOptions
         from synth.stimuli import sequences as stimuli
 
         k = 1.0 if args.restitution_scale is None else args.restitution_scale
-        bounces = bounce_options(check_options(**opts))  # the preset's stop rules
+        bounces = RenderOptions(**opts).bounces()  # the preset's stop rules
         if args.timing_from is None:
             opts["sequence"] = stimuli.scaled_sequence(scene, k, **bounces)
         else:
@@ -202,8 +203,8 @@ def _cmd_render(args):
     print(
         f"{args.output}: {rendered.duration:.3f} s at {rendered.samplerate} Hz, "
         f"{len(rendered.impacts)} impacts ({rendered.impacts.stop_reason}), "
-        f"{rendered.settings['n_modes_rendered']} of {rendered.settings['n_modes']} modes, "
-        f"normalize={rendered.settings['normalize']}"
+        f"{rendered.info.n_modes_rendered} of {rendered.info.n_modes} modes, "
+        f"normalize={rendered.info.options.normalize}"
     )
     return 0
 
@@ -362,35 +363,36 @@ def add_info_parser(sub) -> None:
     p.set_defaults(func=_cmd_info)
 
 
+def add_option_flags(p, names) -> None:
+    """Add a flag for each render option of ``names``
+    (:class:`synth.sound.options.RenderOptions`: its doc, unit, values allowed and default;
+    unset, the preset's value holds)."""
+    for name in names:
+        d = declaration(name)
+        value = default(name)
+        shown = PRESET_SAMPLERATE if name == "samplerate" else value
+        where = "the Nyquist frequency" if value is None and name != "samplerate" else shown
+        p.add_argument(
+            "--" + name.replace("_", "-"),
+            type=OPTION_TYPES.get(name, float),
+            choices=d.choices,
+            metavar=d.metavar,
+            help=f"{describe(name)}; default: the preset's, else {where}",
+        )
+
+
+#: The command line's types of the render options that are not real numbers.
+OPTION_TYPES = {"samplerate": int, "normalize": str, "pulse_points": int, "max_impacts": int}
+
+
 def add_render_parser(sub) -> None:
     """Add the render subcommand: a preset to an audio file."""
     p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
     add_preset_args(p)
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
-    p.add_argument("--samplerate", type=int, help="Hz (default: the preset's, else 48000)")
+    add_option_flags(p, OPTIONS[:1])
     p.add_argument("--subtype", help="soundfile subtype: PCM_16, PCM_24 (default), FLOAT (WAV) ...")
-    p.add_argument(
-        "--normalize",
-        choices=["peak", "loudness", "physical", "none"],
-        help="level: peak (-1 dBFS, default), loudness (LUFS), physical (1000 Pa or "
-        "10 000 m/s^2 full scale), none (Pa or m/s^2; needs --subtype FLOAT)",
-    )
-    p.add_argument(
-        "--peak-db", type=float, metavar="DBFS", help="peak level for --normalize peak (default -1)"
-    )
-    p.add_argument(
-        "--loudness-lufs",
-        type=float,
-        metavar="LUFS",
-        help="integrated loudness for --normalize loudness (default -23; a bouncing "
-        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower)",
-    )
-    p.add_argument(
-        "--floor-db",
-        type=float,
-        metavar="DB",
-        help="omission floor below the loudest tick's peak (default -80)",
-    )
+    add_option_flags(p, OPTIONS[1:])
     p.add_argument("--plot", metavar="OUT.png", help="waveform, spectrogram, impacts, force pulses")
     p.add_argument("--report", metavar="OUT.json", help="impact table and render settings")
     p.add_argument(

@@ -24,6 +24,7 @@ from synth.cost.records import (
     CostEstimate,
     MemoryParts,
 )
+from synth.sound.options import default
 
 #: The options of :func:`synth.render` the estimate depends on (:func:`estimate_render`).
 RENDER_OPTIONS = (
@@ -44,16 +45,17 @@ def estimate(
     scene,
     *,
     samplerate: int,
-    max_frequency: float | None = None,
-    preroll: float = 0.005,
-    max_duration: float = 30.0,
-    max_tail: float = 60.0,
-    pulse_points: int = 65,
-    floor_db: float = -80.0,
+    max_frequency: float | None = default("max_frequency"),
+    preroll: float = default("preroll"),
+    max_duration: float = default("max_duration"),
+    max_tail: float = default("max_tail"),
+    pulse_points: int = default("pulse_points"),
+    floor_db: float = default("floor_db"),
     budget: Budget | None = None,
 ) -> CostEstimate:
     """The :class:`CostEstimate` of rendering ``scene`` with these options of
-    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s);
+    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s; the
+    defaults :class:`synth.sound.options.RenderOptions`');
     ``budget`` (default: the environment's) sets the radiation rules that fit."""
     budget = Budget.from_environment() if budget is None else budget
     from synth.sound.modal_bank.pulse import grid_size

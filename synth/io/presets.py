@@ -5,7 +5,7 @@ and ``[contact]`` are exactly the fields of :class:`~synth.physics.scene.Ball`,
 :class:`~synth.physics.scene.Plate` and :class:`~synth.physics.scene.Contact` (one declaration
 each, so the dataclass field, the preset key and the ``--set`` option cannot
 drift apart), and those of ``[render]`` the options of :func:`synth.render`
-(:data:`synth.sound.render.OPTIONS`). Every key, with its unit::
+(the fields of :class:`synth.sound.options.RenderOptions`). Every key, with its unit::
 
     description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"  # text
     gravity = 9.81                  # m/s^2 (optional, default 9.81)
@@ -118,6 +118,7 @@ from synth.physics.scene import (
     Rolling,
     Scene,
 )
+from synth.sound.options import PRESET_SAMPLERATE
 
 if TYPE_CHECKING:
     from synth.sound.render import Render
@@ -143,12 +144,9 @@ SECTIONS = {
     "listener": ("type", "position"),
     "contact": _fields(Contact),
     "rolling": _fields(Rolling),
-    "render": None,  # the options of synth.render (synth.sound.render.OPTIONS) and "subtype"
+    "render": None,  # the fields of synth.sound.options.RenderOptions and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
-# Hz: the rate of a preset whose [render] section names none (the render section
-# returned by the loader always holds a rate, since synth.render requires one).
-PRESET_SAMPLERATE = 48000
 _MATERIAL_KEYS = ("name", "density", "young", "poisson", "damping", "source", "transverse_shear")
 #: The value of ``transverse_shear`` that ties it to the material's fitted through-thickness
 #: modulus (:func:`synth.physics.materials.with_transverse_shear`).
@@ -494,10 +492,10 @@ def _contact_section(data: dict) -> dict:
 
 
 def _render_section(section: dict, source: str) -> dict:
-    """The ``[render]`` section, checked: its keys are options of :func:`synth.render`
-    (checked by :func:`synth.sound.render.check_options`) and ``subtype`` (a soundfile
-    subtype name such as "PCM_24" or "FLOAT")."""
-    from synth.sound.render import OPTIONS
+    """The ``[render]`` section, checked: its keys are fields of
+    :class:`~synth.sound.options.RenderOptions` and ``subtype`` (a soundfile subtype name
+    such as "PCM_24" or "FLOAT")."""
+    from synth.sound.options import OPTIONS
 
     allowed = OPTIONS + ("subtype",)
     for k, v in section.items():
@@ -526,13 +524,19 @@ def _render_section(section: dict, source: str) -> dict:
 
 
 def _render_options(section: dict) -> dict:
-    """The render options of a ``[render]`` section, checked and with every default
-    (:func:`synth.sound.render.check_options`; the rate :data:`PRESET_SAMPLERATE` if
-    the section names none); its ``subtype`` is the file's, not a render option."""
-    from synth.sound.render import check_options
+    """The render options of a ``[render]`` section, checked and with every default, by
+    name in field order (:meth:`render_options_of` as a dict)."""
+    return render_options_of(section).as_dict()
+
+
+def render_options_of(section: dict):
+    """The :class:`~synth.sound.options.RenderOptions` of a ``[render]`` section (the rate
+    :data:`PRESET_SAMPLERATE` if it names none); its ``subtype`` is the file's, not a
+    render option."""
+    from synth.sound.options import RenderOptions
 
     section = {"samplerate": PRESET_SAMPLERATE, **section}
-    return check_options(**{k: v for k, v in section.items() if k != "subtype"})
+    return RenderOptions(**{k: v for k, v in section.items() if k != "subtype"})
 
 
 def _fixed_defaults(cls) -> dict:
@@ -552,7 +556,7 @@ def with_defaults(data: dict, *, varied=()) -> dict:
     ``[ball]``, ``[plate]`` and ``[contact]`` (the section itself, its ``model`` and
     ``theory``, and the model's ``law``, ``plate`` and ``surface``), ``listener.type``,
     and every option of ``[render]`` but ``subtype`` (checked and converted by
-    :func:`synth.sound.render.check_options`).
+    :class:`synth.sound.options.RenderOptions`).
 
     Defaults derived from other keys (a ball's mass, the impact point, the microphone
     over it, ``max_frequency``) are left out, and so are those derived from a key of

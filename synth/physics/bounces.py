@@ -34,17 +34,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from synth import checks
-from synth.constants import GRAVITY
+from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.scene import Ball, Plate, Scene
-
-#: The ``"floor"`` rule's default: the series ends when an impact's kinetic energy is this
-#: far below the first's, dB.
-DEFAULT_FLOOR_DB = -60.0
-#: Most impacts a series computes by default (``max_impacts``: a guard for a ball that
-#: keeps bouncing).
-DEFAULT_MAX_IMPACTS = 10_000
 
 STOP_REASONS = (
     "settled",

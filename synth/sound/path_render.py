@@ -25,19 +25,18 @@ from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
 from synth.sound.rolling import ModeState, drive_modes, path_excitation
 
 
-def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict]:
+def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
     """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
-    through ``model`` (:class:`synth.sound.render.ModalModel`) with the checked render
-    options ``o`` (:func:`synth.sound.render.check_options`); its path and the settings it
-    adds to the render's."""
-    fs = o["samplerate"]
-    floor = 10.0 ** (o["floor_db"] / 20.0)
-    pre, delay = o["preroll"], model.delay
+    through ``model`` (:class:`synth.sound.listener.ModalModel`) with the render options
+    ``o`` (:class:`synth.sound.options.RenderOptions`); its path and its figures: those of
+    :class:`synth.sound.result.PathInfo` and the synthesis' of
+    :class:`synth.sound.result.RenderInfo`."""
+    fs = o.samplerate
+    floor = 10.0 ** (o.floor_db / 20.0)
+    pre, delay = o.preroll, model.delay
     first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
     origin_time = first_touch - pre  # the emission time of the audio's first sample
-    path = simulate_path(
-        scene, samplerate=fs, time_origin=origin_time, max_duration=o["max_duration"]
-    )
+    path = simulate_path(scene, samplerate=fs, time_origin=origin_time, max_duration=o.max_duration)
     bounces, bank = _bounces(path, model, fs, floor, origin_time, o)
     rolling = path.rolling
     info = dict(
@@ -54,10 +53,10 @@ def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict
         audio, tail = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
         # the rolling drives every mode
         info.update(tail, n_modes_rendered=int(model.poles.size))
-    settings = dict(
+    figures = dict(
         path_end=path.end,
         path_end_time=path.end_time,
-        path_end_point=list(path.end_point),
+        path_end_point=tuple(path.end_point),
         rolling_speed=path.rolling_speed,
         rolling_start=None if rolling is None else rolling.start,
         rolling_seconds=0.0 if rolling is None else rolling.duration,
@@ -67,7 +66,7 @@ def render_path_audio(scene, model, o: dict) -> tuple[np.ndarray, BallPath, dict
         audio_start=first_touch + delay - pre,
         **info,
     )
-    return audio, path, settings
+    return audio, path, figures
 
 
 def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
@@ -77,15 +76,15 @@ def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
     excitation = model.excitations(path.impact_points)
     direct = None if model.listener.shape is None else model.listener.shape * excitation
     onsets = np.array([i.time for i in impacts]) - origin_time
-    max_samples = int(math.ceil((impacts.duration - origin_time + o["max_tail"]) * fs))
+    max_samples = int(math.ceil((impacts.duration - origin_time + o.max_tail) * fs))
     return synthesize(
         [i.result for i in impacts], onsets, model.poles, excitation, model.output, fs,
-        floor=floor, direct=direct, max_samples=max_samples, pulse_points=o["pulse_points"],
+        floor=floor, direct=direct, max_samples=max_samples, pulse_points=o.pulse_points,
     )  # fmt: skip
 
 
 def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
-    """The bounces' signal with the rolling's and its tail added, and the settings of the
+    """The bounces' signal with the rolling's and its tail added, and the figures of the
     rolling's part (``left_at_end`` relative to the reference amplitude)."""
     j0 = int(round((rolling.start - origin_time) * fs))
     c = rolling.contact_coordinate
@@ -96,7 +95,7 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     state = ModeState.at_rest(model.poles.size)
     drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
     reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
-    tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o["max_tail"])
+    tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o.max_tail)
     rolled = np.concatenate((drive, tail))
     audio = np.zeros(max(bounces.size, j0 + rolled.size))
     audio[: bounces.size] += bounces

@@ -237,7 +237,7 @@ def _check_subtype(fmt: str, subtype: str) -> None:
 
 
 def _allowed_keys() -> list[str]:
-    from synth.sound.render import OPTIONS
+    from synth.sound.options import OPTIONS
 
     keys = [RESTITUTION_SCALE] + list(presets.TOP_LEVEL)
     for section, fields in presets.SECTIONS.items():

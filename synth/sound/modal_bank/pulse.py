@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.compilation import announce, compiled
+from synth.constants import PULSE_POINTS
 from synth.errors import ParameterError
 from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
 from synth.sound.modal_bank.transform_kernels import (
@@ -22,9 +23,6 @@ from synth.sound.modal_bank.transform_kernels import (
     impact_transform,
     long_impact_transform,
 )
-
-#: Fewest points of the uniform grid on which a pulse's transforms are taken.
-PULSE_POINTS = 65
 
 #: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
 #: for :func:`impact_transform`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and

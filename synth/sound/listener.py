@@ -1,0 +1,302 @@
+"""How a listener hears a plate's modes: :class:`ModalModel` (the modes, their poles and the
+listener's gains) and :func:`modal_model`, which :func:`synth.render` and the live engine
+(:mod:`synth.live`) build once per plate and listener; an accelerometer hears the plate's
+acceleration at a point (m/s^2), a microphone the Rayleigh radiation of the baffled plate
+(Pa, :mod:`synth.sound.radiation`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.physics.scene import Accelerometer, Microphone
+from synth.sound import modes as plate_modes
+
+
+def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
+    """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
+    for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
+
+    A mode rings only after its impact, so a plate element at distance ``R`` is heard
+    from ``R / c`` on: the Rayleigh integral's exact gain at the pole, ``H_k(p_k)``,
+    holds only once every element has been heard, and it weights an element by
+    ``exp(sigma_k (R - R0) / c)``, the mode's amplitude when that element's sound set
+    out: for strongly damped modes and large plates (1 / sigma_k shorter than the
+    spread of arrival times), a growth of many orders of magnitude that the early
+    samples would carry. Instead each mode gets the one complex gain that makes its
+    ringing ``G_k exp(p_k t)``, from the first arrival ``R0 / c`` on (``R0`` the
+    distance to the nearest point of the plate), closest in the least-squares sense to
+    the causal pressure: the projection of ``Int W(tau) exp(p (t - tau)) [t > tau] dtau``
+    (``W`` the arrival-time density of ``phi_k / R``) on ``exp(p t)``, which is
+
+        G_k = (rho p_k / 2 pi) Int phi_k exp(-(sigma_k + i omega_k) (R - R0) / c) / R dA
+            = H_k(s'_k) p_k / s'_k,      s'_k = sigma_k + i omega_k = -conj(p_k),
+
+    the Rayleigh gain at the mirror pole: every element weighted by ``exp(-sigma_k (R -
+    R0) / c) <= 1`` (so ``|G_k|`` never exceeds the in-phase bound), and equal to
+    ``H_k(p_k)`` for a lightly damped mode (``sigma_k (R - R0) / c << 1``). Cached: see
+    :func:`synth.sound.radiation.plate_gains`.
+    """
+    from synth.sound.radiation import plate_gains
+
+    mirror = -np.conj(poles)
+    gains = functools.partial(
+        plate_gains,
+        modes,
+        microphone.position,
+        mirror,
+        max_wavenumber=k_max,
+        air_density=AIR_DENSITY,
+        sound_speed=SOUND_SPEED,
+        reference_distance=nearest_distance(plate, microphone),
+    )
+    if max_points is None:
+        return np.asarray(gains()) * poles / mirror
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        h = gains(max_points=max_points)
+    for w in caught:
+        warnings.warn_explicit(
+            _budget_named(w.message, max_points), w.category, w.filename, w.lineno
+        )
+    return np.asarray(h) * poles / mirror
+
+
+def _budget_named(message, max_points):
+    """A warning of the sums stopped at ``max_points`` (the render's radiation budget's
+    cut, :attr:`synth.cost.RadiationWork.max_points`) reworded to name the setting the
+    user can change, ``SYNTH_MAX_RADIATION_WORK``; any other warning as it is."""
+    internal = f"the next rule would exceed max_points={max_points}"
+    text = str(message)
+    if internal not in text:
+        return message
+    return type(message)(
+        text.replace(
+            internal,
+            "the next rule would exceed the radiation budget SYNTH_MAX_RADIATION_WORK (raise "
+            "it for converged gains; synth info --cost prints the work)",
+        )
+    )
+
+
+def nearest_distance(plate, microphone) -> float:
+    """Distance (m) from the microphone to the nearest point of the plate."""
+    x, y, z = microphone.position
+    p = plate
+    dx = max(0.0, -x, x - p.length)
+    dy = max(0.0, -y, y - p.width)
+    return math.sqrt(dx * dx + dy * dy + z * z)
+
+
+@dataclass(frozen=True, eq=False)
+class ListenerOutput:
+    """How a listener hears the plate's modes.
+
+    output: complex (K,), listener gain per unit modal displacement ``q_k`` at the pole
+    (``phi_k(xp) p_k^2`` for acceleration, m/s^2 per m; ``G_k p_k`` for a microphone, Pa
+    per m); shape: ``phi_k(xp)`` for the accelerometer's direct term inside contacts, or
+    None; delay: the sound's travel time to the listener from the nearest point of the
+    plate, s; units: "m/s^2" or "Pa".
+    """
+
+    output: np.ndarray
+    shape: np.ndarray | None
+    delay: float
+    units: str
+
+
+def _accelerometer_output(
+    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
+) -> ListenerOutput:
+    phip = modes.shapes(np.array([listener.position]))[0][ok]
+    return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
+
+
+def _microphone_output(
+    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
+) -> ListenerOutput:
+    k_max = _max_wavenumber(plate, omega[ok])
+    s = _sum_poles(sigma, omega, wd, ok)
+    all_gains = _microphone_gains(modes, plate, listener, s, k_max, max_points)
+    return _pressure_output(all_gains, poles, ok, plate, listener)
+
+
+def _sum_poles(sigma, omega, wd, ok):
+    """The poles ``s_k`` (rad/s) the radiation sums take for every mode: a mode left out
+    (``ok`` False, e.g. overdamped) takes ``-omega_k``, its gain unused: its own
+    ``-sigma_k`` can be of any size, and the sums' panels follow the largest ``|s|``."""
+    return np.where(ok, -sigma + 1j * wd, -omega + 0j)
+
+
+def _max_wavenumber(plate, omega) -> float:
+    """The largest bending wavenumber (rad/m) of modes of angular frequencies ``omega``
+    (rad/s; 1 for none): ``(omega^2 rho h / D)^(1/4)``."""
+    if omega.size == 0:
+        return 1.0
+    return (float(np.max(omega)) ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
+
+
+def _pressure_output(all_gains, poles, ok, plate, microphone) -> ListenerOutput:
+    """A microphone's :class:`ListenerOutput` from the gains ``G_k`` of every mode."""
+    return ListenerOutput(
+        np.asarray(all_gains)[ok] * poles,
+        None,
+        nearest_distance(plate, microphone) / SOUND_SPEED,
+        LISTENER_UNITS[Microphone],
+    )
+
+
+#: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
+#: plate; Microphone: Rayleigh radiation of the baffled plate).
+LISTENER_OUTPUTS = {Accelerometer: _accelerometer_output, Microphone: _microphone_output}
+#: The units each kind of listener hears in.
+LISTENER_UNITS = {Accelerometer: "m/s^2", Microphone: "Pa"}
+
+
+@dataclass(frozen=True, eq=False)
+class ModalModel:
+    """A plate's modes as one listener hears them: what :func:`render` and the live engine
+    (:mod:`synth.live`) build once per plate and listener.
+
+    Attributes
+    ----------
+    modes : synth.sound.modes.Modes
+        The plate's modes below ``max_frequency``.
+    poles : complex ndarray (K,)
+        ``p_k = -sigma_k + i omega_dk``, rad/s, of the ringing modes below Nyquist.
+    rendered : bool ndarray
+        Which of ``modes`` the poles are (overdamped modes and modes whose damped
+        frequency reaches Nyquist are left out).
+    listener : ListenerOutput
+        The listener's gains, direct-term shape, delay (s) and units.
+    n_overdamped : int
+        Modes left out as overdamped (``sigma >= omega``: they do not ring).
+    samplerate : int
+        Hz.
+    """
+
+    modes: object
+    poles: np.ndarray
+    rendered: np.ndarray
+    listener: ListenerOutput
+    n_overdamped: int
+    samplerate: int
+
+    @property
+    def output(self) -> np.ndarray:
+        return self.listener.output
+
+    @property
+    def delay(self) -> float:
+        return self.listener.delay
+
+    @property
+    def units(self) -> str:
+        return self.listener.units
+
+    def excitation(self, position) -> np.ndarray:
+        """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
+        return self.excitations(np.array([position]))[0]
+
+    def excitations(self, points) -> np.ndarray:
+        """``b_k`` (1/kg) of a force at each of ``points`` ((P, 2), m): (P, K)."""
+        phi = self.modes.shapes(np.asarray(points, dtype=float))[:, self.rendered]
+        return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
+
+    def heard_by(self, listener, grid=None) -> ModalModel:
+        """The same modes heard by another ``listener`` (an Accelerometer or a
+        Microphone of the same plate), as :func:`modal_model` computes them. With
+        ``grid`` (:func:`listener_grid` of this model) a microphone it serves (at least
+        its height above the plate) takes its gains from it: the sums alone, no shape
+        evaluated (see :mod:`synth.sound.radiation.fixed`); any other listener is
+        computed as :func:`modal_model` does (a microphone's gains by
+        :func:`synth.sound.radiation.plate_gains`, cached)."""
+        modes = self.modes
+        plate = modes.plate
+        sigma, omega, wd = _mode_rates(modes)
+        ok = self.rendered
+        microphone = isinstance(listener, Microphone)
+        if microphone and grid is not None and grid.serves(listener.position):
+            poles = -sigma + 1j * wd
+            h = grid.gains(listener.position, nearest_distance(plate, listener))
+            output = _pressure_output(h * poles / -np.conj(poles), self.poles, ok, plate, listener)
+        else:
+            output = LISTENER_OUTPUTS[type(listener)](
+                modes, plate, listener, self.poles, ok, sigma, omega, wd
+            )
+        return dataclasses.replace(self, listener=output)
+
+    def direct(self, excitation) -> np.ndarray | None:
+        """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
+        microphone)."""
+        return None if self.listener.shape is None else self.listener.shape * excitation
+
+
+def modal_model(
+    plate,
+    listener,
+    *,
+    samplerate: int,
+    max_frequency: float | None = None,
+    radiation_max_points: int | None = None,
+) -> ModalModel:
+    """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
+    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
+    a mode at or above Nyquist is never rendered). Plate modes and microphone gains come
+    from their caches when present.
+
+    A mode with sigma >= omega is overdamped: it does not ring (possible only for a loss
+    factor >= 2, or a Rayleigh law far outside any material's range); it is left out and
+    counted. ``radiation_max_points``: the most points of one rule of a microphone's
+    sums (:attr:`synth.cost.RadiationWork.max_points`: where the budget stops the
+    refinement; None: the sums' own default).
+    """
+    fs = samplerate
+    f_max = 0.5 * fs if max_frequency is None else max_frequency
+    modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
+    sigma, omega, wd = _mode_rates(modes)
+    under = sigma < omega
+    ok = under & (wd < math.pi * fs)
+    poles = (-sigma + 1j * wd)[ok]
+    gains = LISTENER_OUTPUTS[type(listener)](
+        modes, plate, listener, poles, ok, sigma, omega, wd, radiation_max_points
+    )
+    return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
+
+
+def _mode_rates(modes):
+    """``(sigma, omega, omega_d)`` of every mode, rad/s: decay rate, undamped and damped
+    angular frequency (0 for an overdamped mode)."""
+    sigma = np.asarray(modes.decay_rates, dtype=float)
+    omega = np.asarray(modes.angular_frequencies, dtype=float)
+    under = sigma < omega
+    wd = np.zeros_like(omega)  # an overdamped mode's sigma can be of any size: not squared
+    wd[under] = np.sqrt(omega[under] ** 2 - sigma[under] ** 2)
+    return sigma, omega, wd
+
+
+def listener_grid(model: ModalModel, max_bytes: int | None = None):
+    """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: its
+    microphone gains at any point at least
+    :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate at the cost of
+    the sums alone (:meth:`ModalModel.heard_by`); it keeps the modes' shapes on its grids
+    (:attr:`~synth.sound.radiation.fixed.ListenerGrid.nbytes`; a
+    :class:`~synth.sound.radiation.fixed.GridTooLarge` error beyond ``max_bytes``, bytes,
+    default :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`)."""
+    from synth.sound.radiation.fixed import ListenerGrid
+
+    sigma, omega, wd = _mode_rates(model.modes)
+    return ListenerGrid(
+        model.modes,
+        -np.conj(_sum_poles(sigma, omega, wd, model.rendered)),
+        max_wavenumber=_max_wavenumber(model.modes.plate, omega[model.rendered]),
+        air_density=AIR_DENSITY,
+        sound_speed=SOUND_SPEED,
+        max_bytes=max_bytes,
+    )

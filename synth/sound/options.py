@@ -1,0 +1,353 @@
+"""The render options, declared once: :class:`RenderOptions`.
+
+Each option is a field of the frozen dataclass with its type, default, unit, the values
+allowed and a one-line doc (:class:`Option`, in the field's metadata). The three front ends
+read them from here: :func:`synth.render` takes them as keywords (its signature and the
+options' part of its docstring are generated from the fields), a preset's ``[render]``
+table holds them (with ``subtype``, the output file's format), and ``synth render`` has a
+flag for each (:func:`add_option_flags`). Constructing a ``RenderOptions`` is the one check:
+a bad value is a :class:`~synth.errors.ParameterError` naming the option, its value and what
+is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import inspect
+import textwrap
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synth import checks
+from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, PULSE_POINTS
+from synth.errors import ParameterError
+
+#: Hz: the rate of a preset whose ``[render]`` table names none (the table a preset's loader
+#: returns always holds a rate, since a render requires one), and of ``synth render`` then.
+PRESET_SAMPLERATE = 48000
+#: The level stages (see :func:`synth.io.audio.normalize`).
+NORMALIZE = ("peak", "loudness", "physical", "none")
+#: Range of the sample rate, Hz.
+MIN_SAMPLERATE, MAX_SAMPLERATE = 8000, 384000
+#: Longest preroll and fade, s.
+MAX_PREROLL = 10.0
+#: Longest bounce series and tail, s each (10 minutes each: the longest render, 20 minutes,
+#: is a float64 buffer of 3.7 GB at 384 kHz, 0.46 GB at 48 kHz).
+MAX_DURATION = 600.0
+#: Lowest peak level and loudness, dBFS and LUFS: a peak at -120 dBFS spans a few levels
+#: of a 24-bit file (its step is 2^-23, -138 dBFS); below it the file is silence.
+MIN_LEVEL_DB = -120.0
+#: Most points of a pulse's grid: the rule's error falls as ``n^-2.5`` (see
+#: :mod:`synth.sound.modal_bank`) from 2e-6 of the impulse at 65 points, so at 4097 it is
+#: below 1e-10, far under float32 audio's resolution (6e-8); more points only cost time.
+MAX_PULSE_POINTS = 4097
+#: Most impacts a render's bounce series may be given (``max_impacts``): each impact is a
+#: contact solve and a pulse, so this many is minutes of work; a guard against a typo.
+MAX_IMPACTS = 100_000
+
+
+@dataclass(frozen=True)
+class Option:
+    """The declaration of one render option (a field's metadata).
+
+    unit: SI unit or level scale ("" for a count or a name); allowed: the values allowed,
+    as the error and the docs state them; doc: what it does, one line; metavar: the
+    command line's name of its value; check: ``check(name, value, checked)`` returns the
+    value converted (float, int) or raises ``ParameterError``; ``checked`` holds the
+    options checked before it (``max_frequency`` reads the rate).
+    """
+
+    unit: str
+    allowed: str
+    doc: str
+    metavar: str
+    check: Callable[[str, object, dict], object]
+    choices: tuple[str, ...] | None = None
+
+
+def _option(default, **declaration):
+    kwargs = {} if default is dataclasses.MISSING else {"default": default}
+    return field(metadata={"option": Option(**declaration)}, **kwargs)
+
+
+def _samplerate(name, value, checked) -> int:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or not MIN_SAMPLERATE <= value <= MAX_SAMPLERATE
+    ):
+        raise ParameterError(
+            f"{name}={value!r} must be an integer number of Hz in "
+            f"[{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]"
+        )
+    return int(value)
+
+
+def _choice(name, value, checked) -> str:
+    checks.choice(name, value, NORMALIZE)
+    return value
+
+
+def _negative_db(unit: str, least: float | None = None, closed: bool = False, why: str = ""):
+    """The check of a level below 0 (``<= 0`` when ``closed``), at least ``least``."""
+    top = "<= 0" if closed else "< 0"
+
+    def check(name, value, checked) -> float:
+        x = checks.real(name, value, unit, top)
+        if not (x <= 0.0 if closed else x < 0.0):
+            raise ParameterError(f"{name}={value!r} must be {top} ({unit}{why})")
+        if least is not None and x < least:
+            right = "]" if closed else ")"
+            raise ParameterError(f"{name}={value!r} must be in [{least:g}, 0{right} ({unit})")
+        return x
+
+    return check
+
+
+def _max_frequency(name, value, checked) -> float | None:
+    if value is None:
+        return None
+    f_max = checks.positive(name, value, "Hz")
+    fs = checked["samplerate"]
+    if f_max > 0.5 * fs:
+        raise ParameterError(
+            f"{name}={value!r} must be <= the Nyquist frequency "
+            f"{0.5 * fs:g} Hz at samplerate={fs} (Hz)"
+        )
+    return f_max
+
+
+def _seconds(hi: float, lo_open: bool = True):
+    """The check of a time in s: in (0, hi], or [0, hi] unless ``lo_open``."""
+
+    def check(name, value, checked) -> float:
+        if lo_open:
+            return checks.positive_at_most(name, value, hi, "s")
+        x = checks.nonnegative(name, value, "s")
+        if x > hi:
+            raise ParameterError(f"{name}={value!r} must be >= 0 and <= {hi:g} (s)")
+        return x
+
+    return check
+
+
+def _integer(lo: int, hi: int):
+    def check(name, value, checked) -> int:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, np.integer))
+            or not lo <= value <= hi
+        ):
+            raise ParameterError(f"{name}={value!r} must be an integer in [{lo}, {hi}]")
+        return int(value)
+
+    return check
+
+
+@dataclass(frozen=True, kw_only=True)
+class RenderOptions:
+    """The options of a render (:func:`synth.render`): checked and converted when made,
+    immutable after. ``samplerate`` has no default: every caller names the rate.
+
+    ``RenderOptions(samplerate=48000, max_tail=2.0)``; :meth:`replace` makes a changed copy,
+    checked again. The fields, each with its unit and the values allowed:
+    """
+
+    samplerate: int = _option(
+        dataclasses.MISSING, unit="Hz", metavar="HZ", check=_samplerate,
+        allowed=f"an integer in [{MIN_SAMPLERATE}, {MAX_SAMPLERATE}]",
+        doc="sample rate",
+    )  # fmt: skip
+    normalize: str = _option(
+        "peak", unit="", metavar="MODE", check=_choice, choices=NORMALIZE,
+        allowed=", ".join(NORMALIZE),
+        doc="level: peak (to peak_db dBFS), loudness (to loudness_lufs LUFS, needs "
+        "pyloudnorm), physical (1000 Pa or 10 000 m/s^2 full scale), none (Pa or m/s^2; a "
+        "file then needs subtype FLOAT)",
+    )  # fmt: skip
+    peak_db: float = _option(
+        -1.0, unit="dBFS", metavar="DBFS", check=_negative_db("dBFS", MIN_LEVEL_DB, True),
+        allowed=f"in [{MIN_LEVEL_DB:g}, 0]", doc="peak level for normalize peak",
+    )  # fmt: skip
+    loudness_lufs: float = _option(
+        -23.0, unit="LUFS", metavar="LUFS", check=_negative_db("LUFS", MIN_LEVEL_DB),
+        allowed=f"in [{MIN_LEVEL_DB:g}, 0)",
+        doc="integrated loudness (ITU-R BS.1770) for normalize loudness; a bouncing "
+        "sound's crest factor is 30-40 dB, so a PCM file may need -40 or lower",
+    )  # fmt: skip
+    floor_db: float = _option(
+        -80.0, unit="dB", metavar="DB", check=_negative_db("dB"), allowed="< 0",
+        doc="omission floor below the reference amplitude (the bound on the loudest "
+        "tick's peak): omitted modes and tails add up to at most this",
+    )  # fmt: skip
+    max_frequency: float | None = _option(
+        None, unit="Hz", metavar="HZ", check=_max_frequency,
+        allowed="> 0 and <= samplerate / 2; None: samplerate / 2",
+        doc="highest mode rendered; below the plate's lowest mode the render would be "
+        "silent and is refused",
+    )  # fmt: skip
+    preroll: float = _option(
+        0.005, unit="s", metavar="S", check=_seconds(MAX_PREROLL, lo_open=False),
+        allowed=f"in [0, {MAX_PREROLL:g}]", doc="silence before the first tick",
+    )  # fmt: skip
+    fade: float = _option(
+        0.005, unit="s", metavar="S", check=_seconds(MAX_PREROLL, lo_open=False),
+        allowed=f"in [0, {MAX_PREROLL:g}]",
+        doc="raised-cosine fade at the end (the tail there is already below the floor); "
+        "one longer than the audio is refused",
+    )  # fmt: skip
+    max_duration: float = _option(
+        30.0, unit="s", metavar="S", check=_seconds(MAX_DURATION),
+        allowed=f"in (0, {MAX_DURATION:g}]",
+        doc="longest bounce series from release; the first impact must fall inside it",
+    )  # fmt: skip
+    max_tail: float = _option(
+        60.0, unit="s", metavar="S", check=_seconds(MAX_DURATION),
+        allowed=f"in (0, {MAX_DURATION:g}]",
+        doc="longest ringing after the last impact: the audio ends when every tail is "
+        "below the floor or here (a cut is reported: RenderInfo.tail_cut, left_at_end)",
+    )  # fmt: skip
+    pulse_points: int = _option(
+        PULSE_POINTS, unit="", metavar="N", check=_integer(5, MAX_PULSE_POINTS),
+        allowed=f"an integer in [5, {MAX_PULSE_POINTS}]",
+        doc="fewest points of each force pulse's grid for its Laplace transforms (the "
+        "default keeps their error below 2e-6 of the impulse)",
+    )  # fmt: skip
+    bounce_floor_db: float = _option(
+        DEFAULT_FLOOR_DB, unit="dB", metavar="DB", allowed="< 0",
+        check=_negative_db("dB", why=": an impact's kinetic energy re the first impact's"),
+        doc="a drop's bounces end before an impact whose kinetic energy would be this far "
+        "below the first's (not floor_db, which bounds the synthesis' omissions)",
+    )  # fmt: skip
+    max_impacts: int = _option(
+        DEFAULT_MAX_IMPACTS, unit="", metavar="N", check=_integer(1, MAX_IMPACTS),
+        allowed=f"an integer in [1, {MAX_IMPACTS}]",
+        doc="a drop's bounces end after this many impacts (a scene with drop.velocity "
+        "follows its path until the ball rolls and uses neither rule)",
+    )  # fmt: skip
+
+    def __post_init__(self):
+        checked: dict = {}
+        for f in dataclasses.fields(self):
+            checked[f.name] = declaration(f.name).check(f.name, getattr(self, f.name), checked)
+            object.__setattr__(self, f.name, checked[f.name])
+
+    @classmethod
+    def of(cls, options: RenderOptions | None = None, /, **overrides) -> RenderOptions:
+        """``options`` (default: only ``overrides``) with ``overrides`` (fields by name)
+        applied; an unknown name is a ``TypeError`` naming the nearest option."""
+        for name in overrides:
+            if name not in OPTIONS:
+                near = difflib.get_close_matches(name, OPTIONS, n=1)
+                hint = f" (did you mean {near[0]!r}?)" if near else ""
+                raise TypeError(
+                    f"{name!r} is not a render option{hint}; options: {', '.join(OPTIONS)}"
+                )
+        if options is None:
+            if "samplerate" not in overrides:
+                raise TypeError("samplerate (Hz) is required: there is no default rate")
+            return cls(**overrides)
+        if not isinstance(options, cls):
+            raise ParameterError(f"options={options!r} must be a RenderOptions")
+        return options.replace(**overrides) if overrides else options
+
+    def replace(self, **changes) -> RenderOptions:
+        """A copy with ``changes`` (fields by name), checked."""
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict:
+        """The options by name, in the order of the fields."""
+        return {name: getattr(self, name) for name in OPTIONS}
+
+    @property
+    def top_frequency(self) -> float:
+        """``max_frequency``, or the Nyquist frequency where it is None, Hz."""
+        return 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
+
+    def bounces(self) -> dict:
+        """The keywords of :func:`synth.physics.bounces.simulate_scene` these options set:
+        the series' duration, level and impact rules."""
+        return dict(
+            max_duration=self.max_duration,
+            floor_db=self.bounce_floor_db,
+            max_impacts=self.max_impacts,
+        )
+
+
+#: The names of the render options, in the order of their fields.
+OPTIONS = tuple(f.name for f in dataclasses.fields(RenderOptions))
+
+
+def declaration(name: str) -> Option:
+    """The :class:`Option` of the render option ``name``."""
+    return RenderOptions.__dataclass_fields__[name].metadata["option"]
+
+
+def default(name: str):
+    """The default of the render option ``name`` (``inspect.Parameter.empty`` for none)."""
+    value = RenderOptions.__dataclass_fields__[name].default
+    return inspect.Parameter.empty if value is dataclasses.MISSING else value
+
+
+def describe(name: str) -> str:
+    """``doc (unit; allowed)`` of the render option ``name``."""
+    d = declaration(name)
+    return f"{d.doc} ({d.unit + '; ' if d.unit else ''}{d.allowed})"
+
+
+def parameters_doc(indent: str = "    ") -> str:
+    """The render options as a numpydoc parameter list (name, type, default, doc)."""
+    lines = []
+    for f in dataclasses.fields(RenderOptions):
+        value = default(f.name)
+        shown = "required" if value is inspect.Parameter.empty else f"default {value!r}"
+        lines.append(f"{indent}{f.name} : {f.type}, {shown}")
+        body = indent + "    "
+        lines.append(
+            textwrap.fill(describe(f.name) + ".", 92, initial_indent=body, subsequent_indent=body)
+        )
+    return "\n".join(lines)
+
+
+def flag_rows() -> str:
+    """The rows of ``synth render``'s flags for the render options (Markdown, as
+    docs/cli.md prints them: flag, doc, unit, values allowed, default)."""
+    rows = []
+    for name in OPTIONS:
+        d = declaration(name)
+        value = PRESET_SAMPLERATE if name == "samplerate" else default(name)
+        shown = "samplerate / 2" if value is None else value
+        shown = f"{shown:g}" if isinstance(shown, float) else shown
+        text = describe(name).replace("|", "/")
+        rows.append(f"| `--{name.replace('_', '-')} {d.metavar}` | {text}; default {shown} |")
+    return "\n".join(rows)
+
+
+def keyword_parameters() -> list[inspect.Parameter]:
+    """The render options as keyword-only parameters (for a generated signature)."""
+    return [
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default(name))
+        for name in OPTIONS
+    ]
+
+
+def check_options(**options) -> dict:
+    """The render options ``options`` (keywords of :func:`synth.render`, ``samplerate``
+    required) checked and converted, every default filled in, by name in field order: a
+    :class:`RenderOptions` as a dict."""
+    return RenderOptions.of(**options).as_dict()
+
+
+def bounce_options(options) -> dict:
+    """:meth:`RenderOptions.bounces` of ``options`` (a :class:`RenderOptions` or the dict
+    :func:`check_options` returns)."""
+    if not isinstance(options, RenderOptions):
+        options = RenderOptions(**options)
+    return options.bounces()
+
+
+if RenderOptions.__doc__:  # None under python -OO
+    RenderOptions.__doc__ += "\n" + parameters_doc()
