@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+from dataclasses import dataclass
 
 import numba
 import pytest
@@ -95,44 +96,33 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
     assert proc.stdout.splitlines()[-1] == "[]"
 
 
-@pytest.mark.slow
-def test_every_kernel_of_a_render_and_a_contact_compiles_once(tmp_path):
-    # A constant argument (or a counter started at a constant) reaches a compiled callee
-    # typed as a literal, and numba compiles the callee once more for it: event_root was
-    # compiled three times per integrator, solve and both integrators twice, _in_contact
-    # twice. On an empty cache, every kernel of the package compiles one specialisation.
-    code = (
-        "import json\n"
-        "from synth.compilation import CompileLog\n"
-        "from synth.io.presets import render_preset\n"
-        "from synth.physics.contact import solve_contact\n"
-        "log = CompileLog()\n"
-        "with log.recording():\n"
-        "    render_preset('default')\n"
-        "    for method in ('auto', 'Radau'):\n"
-        "        solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0,"
-        " method=method)\n"
-        "    solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0,"
-        " viscous_time=1e-7)\n"
-        "print(json.dumps([[k, n] for k, n, _ in log.by_kernel() if k.startswith('synth.')]))\n"
-    )
-    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba"), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
-    proc = _python(code, env)
-    assert proc.returncode == 0, proc.stderr
-    counts = dict(json.loads(proc.stdout.splitlines()[-1]))
-    assert counts["synth.physics.contact_kernels.dense.event_root"] >= 1
-    assert counts["synth.sound.modal_bank.transform_kernels._in_contact"] >= 1
-    assert counts["synth.physics.contact_kernels.radau.integrate_radau"] >= 1
-    assert {k: n for k, n in counts.items() if n != 1} == {}
-
-
-ROLL_THEN_RENDER = """
-import hashlib, sys
-if sys.argv[1] == "others-first":
+#: A child on an empty numba cache renders the rolling preset (``clean``: nothing compiled
+#: before; ``again``: on the cache a ``clean`` child filled; ``others-first``: other kernels
+#: compiled from Python first, the live engine's callback among them, whose fresh code it
+#: inspects: cached code cannot be), or (``render-and-contact``) renders the default preset
+#: and solves a contact by each integrator. It prints one JSON line: the rolling render's
+#: size and digest, the compiles numba logged from the first render on, what the callback's
+#: code calls.
+COLD_CHILD = """
+import hashlib, json, sys
+from synth.compilation import CompileLog
+case = sys.argv[1]
+found = {}
+log = CompileLog()
+if case == "others-first":
     from synth.live import native
     from synth.physics import rolling, surface
     from synth.physics.contact_kernels import equations
     native.warm_up()
+    ir = native.stream_callback().inspect_llvm()
+    found["callback"] = {
+        symbol: symbol in ir
+        for symbol in (
+            "PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate",
+            "clock_gettime", "_write_block", "mix_body", "_advance", "_add_slot", "_settle",
+            "limit_block",
+        )
+    }
     equations.force(1e-6, 0.1, 1e9, 1.5, 0.0, 0.0)
     from synth.physics.scene import Ball, Plate
     ball = Ball("steel", 0.01)
@@ -144,14 +134,92 @@ if sys.argv[1] == "others-first":
         ball, Plate("glass", 0.006, 0.5, 0.4), env, speed=0.2, duration=0.01,
         samplerate=48000, origin=(0.1, 0.2), start=0.005,
     )
-import synth
-r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
-print(r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest())
+with log.recording():
+    import synth
+    if case == "render-and-contact":
+        from synth.physics.contact import solve_contact
+        synth.render_preset("default")
+        for method in ("auto", "Radau"):
+            solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=method)
+        solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, viscous_time=1e-7)
+    else:
+        r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
+        found["rolling"] = [r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest()]
+found["compiles"] = {k: n for k, n, _ in log.by_kernel() if k.startswith("synth.")}
+print(json.dumps(found))
 """
 
 
+#: ``synth warmup`` of step 2 (a contact by Radau IIA).
+WARMUP = "from synth.cli import main; raise SystemExit(main(['warmup', '--step', '2']))"
+
+
+@dataclass(frozen=True)
+class ColdChildren:
+    """What the children of :data:`COLD_CHILD` printed (one JSON object each), and the two
+    runs of :data:`WARMUP`: on an empty numba cache, then on the cache it filled."""
+
+    clean: dict
+    others_first: dict
+    again: dict
+    render_and_contact: dict
+    warmup: subprocess.CompletedProcess
+    warmup_again: subprocess.CompletedProcess
+
+
+@pytest.fixture(scope="module")
+def cold_children(tmp_path_factory):
+    """The cold children, run once for the module: each costs a whole compile of its
+    kernels (tens of seconds of CPU), and several tests read their output. About two at a
+    time (two cores): the clean and the others-first children, on caches of their own, side
+    by side; the others-first one compiles the live engine too, and while it does, the
+    clean one's ``again`` on its cache, the render-and-contact child and the warmups each
+    on a cache of their own."""
+    tmp = tmp_path_factory.mktemp("cold")
+
+    def start(cache, code, *args):
+        env = {"NUMBA_CACHE_DIR": str(tmp / cache), "SYNTH_CACHE_DIR": str(tmp / cache)}
+        return subprocess.Popen(
+            [sys.executable, "-c", code, *args], stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, env=dict(os.environ, **env),
+        )  # fmt: skip
+
+    def finish(proc):
+        stdout, stderr = proc.communicate(timeout=900)
+        return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+
+    def found(proc):
+        done = finish(proc)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return json.loads(done.stdout.splitlines()[-1])
+
+    clean = start("a", COLD_CHILD, "clean")
+    others_first = start("b", COLD_CHILD, "others-first")
+    clean = found(clean)
+    render_and_contact = start("c", COLD_CHILD, "render-and-contact")
+    again = found(start("a", COLD_CHILD, "again"))
+    warmup = finish(start("d", WARMUP))
+    warmup_again = finish(start("d", WARMUP))
+    return ColdChildren(
+        clean, found(others_first), again, found(render_and_contact), warmup, warmup_again
+    )
+
+
 @pytest.mark.slow
-def test_a_render_does_not_depend_on_what_compiled_before_it(tmp_path):
+def test_every_kernel_of_a_render_and_a_contact_compiles_once(cold_children):
+    # A constant argument (or a counter started at a constant) reaches a compiled callee
+    # typed as a literal, and numba compiles the callee once more for it: event_root was
+    # compiled three times per integrator, solve and both integrators twice, _in_contact
+    # twice. On an empty cache, every kernel of the package compiles one specialisation.
+    counts = cold_children.render_and_contact["compiles"]
+    assert counts["synth.physics.contact_kernels.dense.event_root"] >= 1
+    assert counts["synth.sound.modal_bank.transform_kernels._in_contact"] >= 1
+    assert counts["synth.physics.contact_kernels.radau.integrate_radau"] >= 1
+    assert {k: n for k, n in counts.items() if n != 1} == {}
+
+
+@pytest.mark.slow
+def test_a_render_does_not_depend_on_what_compiled_before_it(cold_children):
     # The same rolling preset in two new processes on empty numba caches, one of which
     # first compiles other kernels from Python (the live engine's block, the contact law
     # alone, a rolling): the same bytes. numba compiles a kernel, and its own helpers, with
@@ -160,23 +228,24 @@ def test_a_render_does_not_depend_on_what_compiled_before_it(tmp_path):
     # A third process renders on the first one's cache: the kernels loaded from numba's
     # disk cache give the bytes of the kernels compiled in the run (with fast-math
     # contraction they did not).
-    # The first two, on caches of their own, run side by side; the third after the first.
+    runs = (cold_children.clean, cold_children.others_first, cold_children.again)
+    assert runs[0]["rolling"] == runs[1]["rolling"] == runs[2]["rolling"]
+    assert cold_children.again["compiles"] == {}  # loaded from the disk cache
 
-    def start(order, cache):
-        env = {"NUMBA_CACHE_DIR": str(tmp_path / cache), "SYNTH_CACHE_DIR": str(tmp_path / cache)}
-        return subprocess.Popen(
-            [sys.executable, "-c", ROLL_THEN_RENDER, order], stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, env=dict(os.environ, **env),
-        )  # fmt: skip
 
-    def bytes_of(proc):
-        stdout, stderr = proc.communicate(timeout=900)
-        assert proc.returncode == 0, stderr[-2000:]
-        return stdout.split()[-2:]
-
-    first, second = start("clean", "a"), start("others-first", "b")
-    outs = [bytes_of(first), bytes_of(second), bytes_of(start("clean", "a"))]
-    assert outs[0] == outs[1] == outs[2]
+@pytest.mark.slow
+def test_the_compiled_callback_has_no_python_and_no_allocation(cold_children):
+    # the audio thread's code as compiled (fresh, in a child with an empty numba cache, as
+    # cached code cannot be inspected), callees included: no call into Python's C API (no
+    # GIL) and none into numba's allocator (its arrays are views made from addresses)
+    found = dict(cold_children.others_first["callback"])
+    assert found.pop("_write_block")  # the callees' code is in the inspected IR
+    # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
+    # that take and steal slots are inlined into mix_body), and the master bus' limiter
+    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
+        assert found.pop(callee), callee
+    assert found.pop("clock_gettime")  # its cost is timed from its entry
+    assert set(found.values()) == {False}, found
 
 
 def test_compile_log_records_a_compile_with_its_own_and_total_time():
@@ -228,13 +297,11 @@ def test_compile_log_counts_the_compile_of_a_cfunc():
 
 
 @pytest.mark.slow
-def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path):
+def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(cold_children):
     # Step 2 (a contact by Radau IIA) on an empty numba cache: the note on stderr once,
     # before compiling, and the kernels listed with their times; the same again on the
     # cache it filled: no note, nothing compiled.
-    env = {"NUMBA_CACHE_DIR": str(tmp_path / "numba"), "SYNTH_CACHE_DIR": str(tmp_path / "s")}
-    code = "from synth.cli import main; raise SystemExit(main(['warmup', '--step', '2']))"
-    cold = _python(code, env)
+    cold = cold_children.warmup
     assert cold.returncode == 0, cold.stderr
     notes = [line for line in cold.stderr.splitlines() if line.startswith(NOTE)]
     assert len(notes) == 1
@@ -244,7 +311,7 @@ def test_warmup_compiles_and_says_so_once_then_nothing_on_a_warm_cache(tmp_path)
     assert notes[0].endswith("; later runs start at once")
     assert "synth.physics.contact_kernels.radau.integrate_radau" in cold.stdout
     assert "synth.physics.contact_kernels.dop853" not in cold.stdout  # not used, not compiled
-    warm = _python(code, env)
+    warm = cold_children.warmup_again
     assert warm.returncode == 0, warm.stderr
     assert NOTE not in warm.stderr
     assert "0 compiles" in warm.stdout and "(all kernels already compiled)" in warm.stdout

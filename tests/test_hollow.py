@@ -221,9 +221,12 @@ def test_validation_page_prints_the_engines_table():
 
 
 @pytest.mark.slow
-def test_table_tennis_preset_renders():
-    scene = load_preset("table-tennis-ball-on-table")
-    r = synth.render(scene, samplerate=48000, max_duration=1.0, max_tail=0.2)
+def test_table_tennis_preset_renders(preset_run):
+    # the session's render of the preset (tests/conftest.py), which the frozen renders
+    # (tests/test_frozen_renders.py) compare with its recording: a render of its own repeated
+    # the contacts and the plate's synthesis
+    run = preset_run("table-tennis-ball-on-table")
+    scene, r = run.scene, run.render
     assert r.audio.size > 0 and np.all(np.isfinite(r.audio)) and np.abs(r.audio).max() > 0.0
     first = r.impacts[0]
     own = solve_impact(

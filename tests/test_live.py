@@ -782,46 +782,6 @@ def test_the_limiter_s_settings_are_checked(scene):
     assert synth.Engine(samplerate=FS, blocksize=16)._native.limiter is None
 
 
-INSPECT_CALLBACK = """
-from synth.live import native
-native.warm_up()
-ir = native.stream_callback().inspect_llvm()
-for symbol in ("PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate"):
-    print(symbol, symbol in ir)
-print("clock_gettime", "clock_gettime" in ir)
-print("_write_block", "_write_block" in ir)
-for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
-    print(callee, callee in ir)
-"""
-
-
-@pytest.mark.slow
-def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
-    # the audio thread's code as compiled (fresh, in a child with an empty numba cache, as
-    # cached code cannot be inspected), callees included: no call into Python's C API (no
-    # GIL) and none into numba's allocator (its arrays are views made from addresses)
-    import os
-    import subprocess
-
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    out = subprocess.run(
-        [sys.executable, "-c", INSPECT_CALLBACK],
-        capture_output=True,
-        text=True,
-        timeout=900,
-        env=env,
-    )
-    assert out.returncode == 0, out.stderr[-2000:]
-    found = dict(line.rsplit(" ", 1) for line in out.stdout.splitlines())
-    assert found.pop("_write_block") == "True"  # the callees' code is in the inspected IR
-    # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
-    # that take and steal slots are inlined into mix_body), and the master bus' limiter
-    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
-        assert found.pop(callee) == "True", callee
-    assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
-    assert set(found.values()) == {"False"}, found
-
-
 def test_a_host_mixes_into_its_own_buffers(scene):
     # mix_into fills a host's buffer of any size with the same mixing as process(); with
     # the exact modal sum (no omission, whose checks fall on the pieces' boundaries) the

@@ -318,6 +318,7 @@ print("collected")
 """
 
 
+@pytest.mark.slow  # a new process imports the package and loads the engine's kernels
 def test_collecting_a_running_engine_closes_its_stream(jack):
     # the engine, its stream and a Python callback formed a cycle that nothing closed:
     # collecting it aborted Python on the audio thread. Now a finaliser closes the stream
@@ -379,6 +380,7 @@ os._exit(0)
 """
 
 
+@pytest.mark.slow  # a new process imports the package and loads the engine's kernels
 def test_stop_is_bounded_when_the_server_dies():
     # PortAudio's stop waits for the JACK server for ever once it is gone: stop(timeout=)
     # abandons the stream, marks the engine failed, and hits are then refused clearly; before

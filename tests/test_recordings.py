@@ -212,6 +212,7 @@ def test_peak_normalised_file_is_not_clipped(tmp_path):
     assert len(an.series) == 5
 
 
+@pytest.mark.slow  # the analysis of clipped drops
 def test_true_clip_is_clipping(tmp_path):
     # the same drops 12 dB too loud, clipped at full scale: flat tops, clipping
     path = tmp_path / "clipped.wav"
