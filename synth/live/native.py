@@ -711,7 +711,7 @@ def transform_pending(record):
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
     transformed = _i64(record[B_TRANSFORMED], 1)
     # the in-contact response and peak heard with the gains the mixing holds now
-    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
+    kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
 
 
 @compiled(nogil=True)
