@@ -292,12 +292,12 @@ def test_bank_varies_the_hollow_balls_pressure(tmp_path):
 
 
 def test_a_shell_result_keeps_its_class_with_another_message():
-    # the edge iteration reports its best solution with a new message (contact._with_message):
-    # a hollow ball's result must keep its own pulse (it failed before: the power laws' pulse
+    # the edge iteration reports its best solution with a new message (with_message): a
+    # hollow ball's result must keep its own pulse (it failed before: the power laws' pulse
     # kernel read the shell's dense output)
-    from synth.physics import contact
+    from synth.physics.contact_result import with_message
 
     r = solve_impact(_ball(), RIGID, 1.0)
-    copy = contact._with_message(r, "another message")
+    copy = with_message(r, "another message")
     assert type(copy) is type(r) and copy.message == "another message"
     np.testing.assert_array_equal(copy.force, r.force)

@@ -9,13 +9,14 @@ those the oldest (:func:`_victim`; a voice of lower priority than every ringing 
 refused), and frees it when every mode has fallen below its share of the omission floor
 relative to the voice's peak, or when its stop fade ends; then, with nothing of it
 pending, it posts a voice-ended event. :func:`mix_body` advances each slot over one block
-with the bank's steps taken through the listener's gains (:func:`ring_heard`: the bank's
-:func:`~synth.sound.modal_bank.ring_modes` with each mode's complex gain at its output,
-ramped over the block after the listener moved; :func:`_inject_heard` at each impact
-that falls in the block), so a voice's impacts played block by block are the offline
-render of the same impacts heard by the same listener, up to the rounding of the state's
-advance (the segments end at block boundaries instead of the bank's tiles), times the
-voice's gain (ramped over a block) and fades.
+with the bank's steps taken through the listener's gains (:mod:`synth.live.heard`:
+:func:`~synth.live.heard.ring_heard`, the bank's :func:`~synth.sound.modal_bank.ring_modes`
+with each mode's complex gain at its output, ramped over the block after the listener
+moved; :func:`~synth.live.heard.inject_heard` at each impact that falls in the block), so
+a voice's impacts played block by block are the offline render of the same impacts heard
+by the same listener, up to the rounding of the state's advance (the segments end at
+block boundaries instead of the bank's tiles), times the voice's gain (ramped over a
+block) and fades.
 
 Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
 into mode amplitudes first, at the start of the block, by the renderer's transform
@@ -34,8 +35,21 @@ import numpy as np
 
 from synth.compilation import compiled
 from synth.live.atomics import fence
+from synth.live.heard import H0I as H0I
+from synth.live.heard import H0R as H0R
+from synth.live.heard import (
+    H1I,
+    H1R,
+    HPI,
+    HPR,
+    SEQ_PUT,
+    SEQ_TAKEN,
+    inject_heard,
+    ring_heard,
+)
+from synth.live.heard import N_HEARD_ROWS as N_HEARD_ROWS
+from synth.live.heard import heard_arrays as heard_arrays
 from synth.sound.modal_bank import transform_pulse
-from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
 #: producers' own).
@@ -227,7 +241,7 @@ def _next_pulse(state, inject):
 
 
 @compiled(nogil=True)
-def _transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
+def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
     """Turn at most ``limit`` slots in the PULSE form (every one if ``limit`` < 0), those
     whose impacts start first, into the READY form: the renderer's transform of
     its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
@@ -284,120 +298,6 @@ def _transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
         transformed[0] += 1
         count += 1
     return count
-
-
-#: Rows of a body's ``heard`` (float64, (N_HEARD_ROWS, K)): the listener's complex gain
-#: of each mode at the start of the block (re, im), its target at the block's end (re, im;
-#: ramped linearly over the block), and the gains a producer hands over (re, im; see
-#: :meth:`synth.live.Body.move`).
-H0R, H0I, H1R, H1I, HPR, HPI = range(6)
-N_HEARD_ROWS = 6
-#: ``heard_seq`` (int64): the producer's sequence number of the handed-over gains (odd
-#: while it writes them), and the last one the mixing took.
-SEQ_PUT, SEQ_TAKEN = range(2)
-
-
-@compiled(nogil=True, inline="always")
-def _heard_power(heard, k):
-    """The largest power gain ``|G|^2`` of mode ``k`` over the block (its start and its
-    target): what the omission tests compare against, so that a mode is never left out
-    while the ramp makes it louder than the test assumed."""
-    a = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
-    b = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
-    return max(a, b)
-
-
-@compiled(nogil=True, inline="always")
-def _park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
-    """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being
-    heard (its heard level under its omission share): added to what it parked before,
-    decayed to ``at``, so that a listener that hears it better later gets it back
-    (:func:`_revive`)."""
-    pr = park_r[k]
-    pi = park_i[k]
-    if pr != 0.0 or pi != 0.0:
-        e = np.exp(poles[k] * ((at - park_at[k]) / fs))
-        pr, pi = pr * e.real - pi * e.imag, pr * e.imag + pi * e.real
-    park_r[k] = pr + cr
-    park_i[k] = pi + ci
-    park_at[k] = at
-
-
-@compiled(nogil=True)
-def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
-               poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
-    """:func:`~synth.sound.modal_bank.ring_modes` of a voice slot's plate state (its modes'
-    complex amplitudes without the listener's gains), heard through each mode's complex
-    gain ``G_k`` (``heard``), ramped linearly from its value at the block's start ``t0``
-    to its target over the block's ``n`` samples (the target after it):
-    ``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``. With a still listener the gain is
-    folded into the state once per ``SUB`` samples, and the inner loop is the bank's;
-    while the gains ramp it takes one more complex multiply-add a mode-sample. A mode whose
-    heard level (with its larger gain of the block) and debt fit its omission share stops,
-    as in the bank, and parks its plate state (:func:`_park`)."""
-    K = zr.shape[0]
-    inv_n = 1.0 / n
-    for k in range(K):
-        if not active[k]:
-            continue
-        pr = table[k, 0]
-        pi = table[k, 1]
-        g0r = heard[H0R, k]
-        g0i = heard[H0I, k]
-        g1r = heard[H1R, k]
-        g1i = heard[H1I, k]
-        ramp = g0r != g1r or g0i != g1i
-        g2 = _heard_power(heard, k)
-        cr = zr[k]
-        ci = zi[k]
-        s = a
-        while s < b:
-            m = min(SUB, b - s)
-            o = out[s - offset : s - offset + m]
-            if not ramp or s >= t0 + n:
-                hr = g1r * cr - g1i * ci
-                hi = g1r * ci + g1i * cr
-                for j in range(m):
-                    o[j] += hr * pr[j] - hi * pi[j]
-            else:
-                hr = g0r * cr - g0i * ci
-                hi = g0r * ci + g0i * cr
-                dr = (g1r - g0r) * cr - (g1i - g0i) * ci
-                di = (g1r - g0r) * ci + (g1i - g0i) * cr
-                base = s - t0 + 1
-                for j in range(m):
-                    u = min(1.0, (base + j) * inv_n)
-                    o[j] += (hr * pr[j] - hi * pi[j]) + u * (dr * pr[j] - di * pi[j])
-            er = pr[m]
-            ei = pi[m]
-            cr, ci = cr * er - ci * ei, cr * ei + ci * er
-            s += m
-            m2 = (cr * cr + ci * ci) * g2
-            if m2 < thr2[k] and falls_silent(k, m2, s, debt, debt_at, thresholds, poles, fs):
-                _park(park_r, park_i, park_at, k, cr, ci, s, poles, fs)
-                active[k] = False
-                cr = 0.0
-                ci = 0.0
-                break
-        zr[k] = cr
-        zi[k] = ci
-
-
-@compiled(nogil=True, inline="always")
-def _inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, park_r,
-                  park_i, park_at, heard):  # fmt: skip
-    """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``: the
-    omission test takes each mode's heard level (its larger gain of the block); a mode
-    that stops parks its plate state (:func:`_park`)."""
-    for k in range(zr.shape[0]):
-        zr[k] += amps[k].real
-        zi[k] += amps[k].imag
-        m2 = (zr[k] * zr[k] + zi[k] * zi[k]) * _heard_power(heard, k)
-        active[k] = not falls_silent(k, m2, a, debt, debt_at, thresholds, poles, fs)
-        if not active[k]:
-            _park(park_r, park_i, park_at, k, zr[k], zi[k], a, poles, fs)
-            zr[k] = 0.0
-            zi[k] = 0.0
 
 
 @compiled(nogil=True)
@@ -473,7 +373,7 @@ def _take_gains(t0, bank, modal, slots, asleep):
 def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
     (cleared first), heard through the listener's gains ramped over the block of ``n``
-    samples from ``t0`` (:func:`ring_heard`, the bank's step with the gains at its
+    samples from ``t0`` (:func:`~synth.live.heard.ring_heard`, the bank's step with the gains at its
     output)."""
     table, poles, fs, heard = bank[0], bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2 = modal[:7]
@@ -644,7 +544,7 @@ def _inject(s, i, at, ring, bank, modal, floor):
         for k in range(K):
             thresholds[s, k] = share
             thr2[s, k] = share * share
-    _inject_heard(
+    inject_heard(
         zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i],
         at, modal[8][s], modal[9][s], modal[10][s], heard,
     )  # fmt: skip
@@ -718,12 +618,13 @@ def mix_body(
 
     bank: the power table, poles and sample rate, the listener's gains (``heard``, see
     ``H0R``) and their sequence numbers (``heard_seq``); modal: the voice slots' modal
-    states of the plate, (V, K) each (see :func:`ring_heard`), their peaks (V,), and the
-    parked states of their stopped modes (re, im, sample; (V, K) each, see :func:`_park`);
+    states of the plate, (V, K) each (see :func:`~synth.live.heard.ring_heard`), their peaks
+    (V,), and the parked states of their stopped modes (re, im, sample; (V, K) each, see
+    :func:`~synth.live.heard.park`);
     floor: the omission floor, a fraction of a voice's peak. ring: the pending ring
     (``state``, ``inject``, ``first``, ``length``, ``amplitudes``, ``response``,
     ``reference``, ``voice``; see :mod:`synth.live.queue`); the PULSE form (``transform``,
-    ``pulse_form``, ``transformed``: see :func:`_transform_pulses`). voice_form: the voice
+    ``pulse_form``, ``transformed``: see :func:`transform_pulses`). voice_form: the voice
     records and their gains, the slots and their gains, the stolen voices' ``tail``;
     events: the engine's event ring; limit: the most pulses this block transforms (-1: all;
     the others wait for a later block, and are played late, at the start of the block that
@@ -734,7 +635,7 @@ def mix_body(
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
-    pulses = _transform_pulses(ring, transform, pulse_form, transformed, bank[3], limit)
+    pulses = transform_pulses(ring, transform, pulse_form, transformed, bank[3], limit)
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
@@ -836,12 +737,3 @@ def body_state(modes: int, voices: int) -> tuple:
         np.zeros(shape),
         np.zeros(shape, dtype=np.int64),
     )
-
-
-def heard_arrays(gains) -> tuple:
-    """A body's ``heard`` (:data:`N_HEARD_ROWS`, K) with every row at the listener's
-    complex gains ``gains`` (K,), and its ``heard_seq`` (int64, 2)."""
-    heard = np.empty((N_HEARD_ROWS, gains.size))
-    heard[0::2] = gains.real
-    heard[1::2] = gains.imag
-    return heard, np.zeros(2, dtype=np.int64)

@@ -1,17 +1,9 @@
 """The audio thread without Python: PortAudio calls compiled code directly.
 
-The engine's whole state lives in preallocated numpy arrays that the audio thread reaches
-through their addresses, so that its callback touches no Python object:
-
-* ``ctl`` (int64, :data:`N_CTL`): the engine's integers (the clock, the stop fade, the
-  number of bodies, the callback's counters) and the addresses of the other arrays;
-* ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
-  when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
-  master bus' gain, pause level and meter;
-* a directory of body records (int64, one address per body; a record holds the addresses
-  and sizes of the body's voice slots' modal states, pending ring, voice records and
-  counters, see :data:`BODY_FIELDS`; :func:`_body_form` makes the views the kernel takes);
-* the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
+The block works on the engine's state (:mod:`synth.live.state`: ``ctl``, ``times``, the
+directory of body records and the event ring, preallocated numpy arrays that the audio
+thread reaches through their addresses), so that its callback touches no Python object;
+the names of that layout stay importable from here.
 
 :func:`stream_callback` gives a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
 signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
@@ -36,112 +28,148 @@ from __future__ import annotations
 
 import functools
 import math
-import mmap
-import time
 
 import numba
 import numpy as np
 from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
 from synth.compilation import FASTMATH, cfunc_compiling, compiled
 from synth.live import kernel, limiter
 from synth.live.atomics import fence as _fence
-
-#: ``ctl`` fields (int64).
-(
-    FRAME,  # next frame to mix, on the engine's clock
-    FADE_AT,  # position in the stop fade, -1 without one
-    FADE_LENGTH,  # frames
-    FADE_FRAME,  # frame where the last stop fade began, -1 before
-    N_BODIES,  # bodies the callback mixes (published after their record)
-    MAX_BODIES,  # the directory's length
+from synth.live.state import (
+    ALLOW,
+    ANCHOR_DAC,
+    ANCHOR_FRAME,
+    B_CHANNEL,
+    B_COUNTERS,
+    B_SCALARS,
+    B_SLOTS,
+    B_STATE,
+    B_TRANSFORMED,
+    CALLBACKS,
     CHANNELS,
-    MIX_CAP,  # frames of the mixing scratch buffers
-    CALLBACKS,  # blocks mixed by a stream's callback
-    UNDERFLOWS,  # callbacks PortAudio flagged output underflow
-    OVERFLOWS,  # callbacks flagged output overflow (PortAudio's paOutputOverflow)
-    CLIPPED,  # output samples that reached full scale (before the clipper)
-    SEQ,  # the anchor's sequence number: odd while the callback writes it
-    RECORD_FRAMES,  # frames of the recording buffer
-    RECORDED,  # frames recorded so far
-    TIMES,  # address of ``times``
-    DIRECTORY,  # address of the body directory
-    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
-    # bus, then each channel's own)
-    SCRATCH,  # address of one body's mix and one voice's (float64, 2 x MIX_CAP)
-    RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
-    CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
-    EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
-    N_EVENTS,  # its length (header included)
-    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
-    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
-    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
+    CLIP,
+    CLIPPED,
+    COST_LAST,
+    COST_MAX,
+    COST_SUM,
+    DIRECTORY,
+    END_FRAME,
+    END_TIME,
+    FADE_AT,
+    FADE_FRAME,
+    FADE_LENGTH,
+    FRAME,
+    GAP_MAX,
+    LAST_ENTRY,
+    LEAD,
     LIM_FLOATS,
+    LIM_INTS,
+    LIM_M,
+    LIM_R,
     LIM_TAPS,
     LIM_X,
-    LIM_R,
-    LIM_M,
-    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
-    TRANSFORM_BUDGET,  # the most pulses a stream's callback transforms, over every body
-    TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
-    SHARE_FROM,  # the body served first by the next callback's share of the budget
-    ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
+    LIMIT,
+    LIMIT_DELAY,
+    MASTER_GAIN,
+    MASTER_NOW,
+    MAX_BODIES,
+    MIX,
+    MIX_CAP,
+    N_BODIES,
+    N_BODY,
     N_CTL,
-) = range(37)
-
-#: ``times`` fields (float64).
-(
-    SAMPLERATE,  # Hz
-    NOMINAL_LATENCY,  # the stream's output latency as PortAudio opened it, s
-    LEAD,  # the last callback's outputBufferDacTime - currentTime, s
-    ANCHOR_FRAME,  # the last callback's first frame
-    ANCHOR_DAC,  # the monotonic time (s) at which that frame leaves the device
-    END_TIME,  # monotonic time (s) at the end of the last callback
-    END_FRAME,  # the frame after the last callback's block
-    COST_SUM,  # sum over callbacks of (run time / block duration)
-    COST_MAX,
-    COST_LAST,
-    MASTER_GAIN,  # the master bus' target gain (linear)
-    MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
-    PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
-    OUT_PEAK,  # largest |sample| sent to the device since the last reset
-    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
-    GAP_MAX,  # longest time between two callbacks' entries, in blocks
-    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
-    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
+    N_SCALARS,
     N_TIMES,
-) = range(19)
-
-#: A body record (int64): addresses, then sizes.
-BODY_FIELDS = (
-    "table", "poles", "zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2",
-    "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
-    "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
-    "samples", "points", "pulse", "transformed", "scalars",
-    "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
-    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
-    "n_records", "n_voice_slots", "tail_frames",
-    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
-)  # fmt: skip
-(
-    B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
-    B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
-    B_COUNTERS, B_POLE_RE, B_POLE_IM, B_STEP_RE, B_STEP_IM, B_WORK, B_COEFFICIENTS,
-    B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
-    B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
-    B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
-    B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
-    B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
-) = range(len(BODY_FIELDS))  # fmt: skip
-N_BODY = len(BODY_FIELDS)
-
-#: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
-#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
-#: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
-S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW = range(8)
-N_SCALARS = 8
+    NOMINAL_LATENCY,
+    OUT_PEAK,
+    OVERFLOWS,
+    PAUSE,
+    PAUSE_LEVEL,
+    PEAK,
+    RECORD,
+    RECORD_FRAMES,
+    RECORDED,
+    S_FLOOR,
+    S_GAIN,
+    S_GAIN_NOW,
+    S_PAN,
+    S_PAN_NOW,
+    SAMPLERATE,
+    SCRATCH,
+    SEQ,
+    SHARE_FROM,
+    TIMES,
+    TRANSFORM_BUDGET,
+    TRANSFORMS_DEFERRED,
+    TRANSFORMS_MAX,
+    UNDERFLOWS,
+    EngineState,
+    address_of,
+    body_arrays,
+    body_form,
+    event_ring,
+    f64_at,
+    i64_at,
+    monotonic_ns,
+    pointer_to,
+)
+from synth.live.state import B_ACTIVE as B_ACTIVE
+from synth.live.state import B_AMPLITUDES as B_AMPLITUDES
+from synth.live.state import B_COEFFICIENTS as B_COEFFICIENTS
+from synth.live.state import B_CONTACT as B_CONTACT
+from synth.live.state import B_DEBT as B_DEBT
+from synth.live.state import B_DEBT_AT as B_DEBT_AT
+from synth.live.state import B_FIRST as B_FIRST
+from synth.live.state import B_HEARD as B_HEARD
+from synth.live.state import B_HEARD_AMPS as B_HEARD_AMPS
+from synth.live.state import B_HEARD_COEF as B_HEARD_COEF
+from synth.live.state import B_HEARD_SEQ as B_HEARD_SEQ
+from synth.live.state import B_INJECT as B_INJECT
+from synth.live.state import B_LENGTH as B_LENGTH
+from synth.live.state import B_LEVEL as B_LEVEL
+from synth.live.state import B_MODES as B_MODES
+from synth.live.state import B_PARK_AT as B_PARK_AT
+from synth.live.state import B_PARK_I as B_PARK_I
+from synth.live.state import B_PARK_R as B_PARK_R
+from synth.live.state import B_POINTS as B_POINTS
+from synth.live.state import B_POLE_IM as B_POLE_IM
+from synth.live.state import B_POLE_RE as B_POLE_RE
+from synth.live.state import B_POLES as B_POLES
+from synth.live.state import B_PULSE as B_PULSE
+from synth.live.state import B_PULSE_SAMPLES as B_PULSE_SAMPLES
+from synth.live.state import B_RECORDS as B_RECORDS
+from synth.live.state import B_REFERENCE as B_REFERENCE
+from synth.live.state import B_RESPONSE as B_RESPONSE
+from synth.live.state import B_SAMPLES as B_SAMPLES
+from synth.live.state import B_SLOT_GAIN as B_SLOT_GAIN
+from synth.live.state import B_STEP_IM as B_STEP_IM
+from synth.live.state import B_STEP_RE as B_STEP_RE
+from synth.live.state import B_TABLE as B_TABLE
+from synth.live.state import B_TABLE_COLS as B_TABLE_COLS
+from synth.live.state import B_TAIL as B_TAIL
+from synth.live.state import B_TAIL_FRAMES as B_TAIL_FRAMES
+from synth.live.state import B_THR2 as B_THR2
+from synth.live.state import B_THRESHOLDS as B_THRESHOLDS
+from synth.live.state import B_VOICE as B_VOICE
+from synth.live.state import B_VOICE_GAIN as B_VOICE_GAIN
+from synth.live.state import B_VOICE_SLOT_COUNT as B_VOICE_SLOT_COUNT
+from synth.live.state import B_VOICE_SLOTS as B_VOICE_SLOTS
+from synth.live.state import B_VOICES as B_VOICES
+from synth.live.state import B_WORK as B_WORK
+from synth.live.state import B_WORK_ROWS as B_WORK_ROWS
+from synth.live.state import B_ZI as B_ZI
+from synth.live.state import B_ZR as B_ZR
+from synth.live.state import BODY_FIELDS as BODY_FIELDS
+from synth.live.state import CLOCK as CLOCK
+from synth.live.state import EVENTS as EVENTS
+from synth.live.state import N_EVENTS as N_EVENTS
+from synth.live.state import S_FS as S_FS
+from synth.live.state import S_PERIOD as S_PERIOD
+from synth.live.state import S_SIGMA_MAX as S_SIGMA_MAX
+from synth.live.state import monotonic as monotonic
+from synth.live.state import native_available as native_available
+from synth.live.state import touch as touch
 
 #: PortAudio's stream callback flags (portaudio.h) and its paContinue.
 PA_OUTPUT_UNDERFLOW = 0x4
@@ -150,146 +178,6 @@ PA_CONTINUE = 0
 
 #: The soft clipper's largest output: the largest float32 below full scale.
 CEILING = float(np.nextafter(np.float32(1.0), np.float32(0.0)))
-
-#: The clock the callback reads (and the trigger threads, in Python).
-CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
-
-
-def native_available() -> bool:
-    """Whether this platform has the POSIX clock the compiled callback reads."""
-    return CLOCK >= 0
-
-
-def monotonic() -> float:
-    """The callback's clock, s (POSIX ``CLOCK_MONOTONIC``)."""
-    return time.clock_gettime_ns(CLOCK) * 1e-9
-
-
-@intrinsic
-def _pointer(typingctx, address):
-    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
-    sig = types.voidptr(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], cgutils.voidptr_t)
-
-    return sig, codegen
-
-
-@intrinsic
-def _address(typingctx, pointer):
-    """The ``void*`` ``pointer`` as an int64 (0: NULL)."""
-    sig = types.int64(types.voidptr)
-
-    def codegen(context, builder, signature, args):
-        return builder.ptrtoint(args[0], cgutils.ir.IntType(64))
-
-    return sig, codegen
-
-
-@intrinsic
-def _monotonic_ns(typingctx):
-    """``clock_gettime(CLOCK)`` in ns: the C library's call, no Python."""
-    sig = types.int64()
-
-    def codegen(context, builder, signature, args):
-        i64 = cgutils.ir.IntType(64)
-        i32 = cgutils.ir.IntType(32)
-        spec = cgutils.ir.LiteralStructType([i64, i64])
-        fnty = cgutils.ir.FunctionType(i32, [i32, spec.as_pointer()])
-        fn = cgutils.get_or_insert_function(builder.module, fnty, "clock_gettime")
-        ts = cgutils.alloca_once(builder, spec)
-        builder.call(fn, [i32(max(CLOCK, 0)), ts])
-        sec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 0))
-        nsec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 1))
-        return builder.add(builder.mul(sec, i64(1_000_000_000)), nsec)
-
-    return sig, codegen
-
-
-@compiled(nogil=True, inline="always")
-def _f64(address, n):
-    return numba.carray(_pointer(address), n, np.float64)
-
-
-@compiled(nogil=True, inline="always")
-def _i64(address, n):
-    return numba.carray(_pointer(address), n, np.int64)
-
-
-@compiled(nogil=True)
-def _body_form(record):
-    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
-    takes them: the bank (power table, poles, sample rate, the listener's gains and their
-    sequence numbers), the voice slots' modal states (with their parked modes), the
-    pending ring, the PULSE form's transform and pulses, the voices."""
-    K = record[B_MODES]
-    R = record[B_SLOTS]
-    C = record[B_CONTACT]
-    P = record[B_PULSE_SAMPLES]
-    V = record[B_VOICE_SLOT_COUNT]
-    scalars = _f64(record[B_SCALARS], N_SCALARS)
-    bank = (
-        numba.carray(_pointer(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
-        numba.carray(_pointer(record[B_POLES]), K, np.complex128),
-        scalars[S_FS],
-        numba.carray(_pointer(record[B_HEARD]), (kernel.N_HEARD_ROWS, K), np.float64),
-        _i64(record[B_HEARD_SEQ], 2),
-    )
-    modal = (
-        numba.carray(_pointer(record[B_ZR]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_ZI]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_ACTIVE]), (V, K), np.bool_),
-        numba.carray(_pointer(record[B_DEBT]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_DEBT_AT]), (V, K), np.int64),
-        numba.carray(_pointer(record[B_THRESHOLDS]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_THR2]), (V, K), np.float64),
-        _f64(record[B_LEVEL], V),
-        numba.carray(_pointer(record[B_PARK_R]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_PARK_I]), (V, K), np.float64),
-        numba.carray(_pointer(record[B_PARK_AT]), (V, K), np.int64),
-    )
-    ring = (
-        _i64(record[B_STATE], R),
-        _i64(record[B_INJECT], R),
-        _i64(record[B_FIRST], R),
-        _i64(record[B_LENGTH], R),
-        numba.carray(_pointer(record[B_AMPLITUDES]), (R, K), np.complex128),
-        numba.carray(_pointer(record[B_RESPONSE]), (R, C), np.float64),
-        _f64(record[B_REFERENCE], R),
-        _i64(record[B_VOICE], R),
-    )
-    transform = (
-        _f64(record[B_POLE_RE], K),
-        _f64(record[B_POLE_IM], K),
-        _f64(record[B_STEP_RE], K),
-        _f64(record[B_STEP_IM], K),
-        scalars[S_SIGMA_MAX],
-        scalars[S_PERIOD],
-        numba.carray(_pointer(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
-        numba.carray(_pointer(record[B_HEARD_COEF]), (2, K), np.float64),
-        numba.carray(_pointer(record[B_HEARD_AMPS]), K, np.complex128),
-    )
-    pulse_form = (
-        numba.carray(_pointer(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
-        numba.carray(_pointer(record[B_SAMPLES]), (R, 2, P), np.float64),
-        _i64(record[B_POINTS], R),
-        numba.carray(_pointer(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
-    )
-    N = record[B_RECORDS]
-    voice_form = (
-        numba.carray(_pointer(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
-        _f64(record[B_VOICE_GAIN], N),
-        numba.carray(_pointer(record[B_VOICE_SLOTS]), (V, kernel.N_SLOT_FIELDS), np.int64),
-        numba.carray(_pointer(record[B_SLOT_GAIN]), (V, 2), np.float64),
-        _f64(record[B_TAIL], record[B_TAIL_FRAMES]),
-    )
-    return bank, modal, ring, transform, pulse_form, voice_form
-
-
-@compiled(nogil=True)
-def _events(ctl):
-    return _i64(ctl[EVENTS], ctl[N_EVENTS])
 
 
 @compiled(nogil=True, inline="always")
@@ -327,14 +215,14 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     gain is ramped linearly over the block from its value at the last block to its target.
     Applies a pending ``stop_all`` first. ``scratch``: the body's mix and a voice's;
     ``limit``: the most pulses it transforms (-1: all). Returns the pulses transformed."""
-    counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
-    transformed = _i64(record[B_TRANSFORMED], 1)
-    scalars = _f64(record[B_SCALARS], N_SCALARS)
+    counters = i64_at(record[B_COUNTERS], kernel.N_COUNTERS)
+    transformed = i64_at(record[B_TRANSFORMED], 1)
+    scalars = f64_at(record[B_SCALARS], N_SCALARS)
     R = record[B_SLOTS]
-    state = _i64(record[B_STATE], R)
+    state = i64_at(record[B_STATE], R)
     if counters[kernel.SILENCE] != 0:
-        bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
-        kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
+        bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
+        kernel.silence(modal, ring, transformed, voice_form, counters, event_ring(ctl))
     g0 = scalars[S_GAIN_NOW]
     g1 = scalars[S_GAIN]
     p0 = scalars[S_PAN_NOW]
@@ -351,13 +239,13 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
             scalars[S_GAIN_NOW] = g1
             scalars[S_PAN_NOW] = p1
             return 0
-    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
+    bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
     out = scratch[0]
     for s in range(n):
         out[s] = 0.0
     pulses = kernel.mix_body(
         out, scratch[1], t0, n, bank, modal, scalars[S_FLOOR], ring, counters, transform,
-        pulse_form, transformed, voice_form, _events(ctl), limit,
+        pulse_form, transformed, voice_form, event_ring(ctl), limit,
     )  # fmt: skip
     if counters[kernel.BUSY_BLOCKS] != busy:
         if math.isnan(p0) and math.isnan(p1):
@@ -391,8 +279,8 @@ def _share_budget(ctl, directory, bodies, allow, budget):
         b = start + k
         if b >= bodies:
             b -= bodies
-        record = _i64(directory[b], N_BODY)
-        state = _i64(record[B_STATE], record[B_SLOTS])
+        record = i64_at(directory[b], N_BODY)
+        state = i64_at(record[B_STATE], record[B_SLOTS])
         waiting = 0
         for i in range(state.shape[0]):
             if state[i] == kernel.PULSE:
@@ -426,16 +314,18 @@ def soft_clip(v):
 def _limiter(ctl, channels):
     """The limiter's arrays (:meth:`synth.live.limiter.LimiterState.arrays`), made from
     their addresses in ``ctl``."""
-    ints = _i64(ctl[LIM_INTS], limiter.N_INTS)
+    ints = i64_at(ctl[LIM_INTS], limiter.N_INTS)
     D = ints[limiter.I_DELAY]
     A = ints[limiter.I_ATTACK]
     return (
         ints,
-        _f64(ctl[LIM_FLOATS], limiter.N_FLOATS),
-        numba.carray(_pointer(ctl[LIM_TAPS]), (limiter.OVERSAMPLING - 1, limiter.TAPS), np.float64),
-        numba.carray(_pointer(ctl[LIM_X]), (D + 1, channels), np.float64),
-        _f64(ctl[LIM_R], A + 2 * limiter.REACH + 1),
-        _f64(ctl[LIM_M], A + 1),
+        f64_at(ctl[LIM_FLOATS], limiter.N_FLOATS),
+        numba.carray(
+            pointer_to(ctl[LIM_TAPS]), (limiter.OVERSAMPLING - 1, limiter.TAPS), np.float64
+        ),
+        numba.carray(pointer_to(ctl[LIM_X]), (D + 1, channels), np.float64),
+        f64_at(ctl[LIM_R], A + 2 * limiter.REACH + 1),
+        f64_at(ctl[LIM_M], A + 1),
     )
 
 
@@ -506,7 +396,7 @@ def _write_block(ctl, times, mix, out, row, n):
     done = ctl[RECORDED]
     if done < cap:
         m = min(n, cap - done)
-        rec = numba.carray(_pointer(ctl[RECORD]), (cap, channels), np.float32)
+        rec = numba.carray(pointer_to(ctl[RECORD]), (cap, channels), np.float32)
         for s in range(m):
             for c in range(channels):
                 rec[done + s, c] = out[row + s, c]
@@ -521,11 +411,11 @@ def _mix_engine(ctl, out, budget):
     it writes silence and holds the clock and every voice."""
     frames = out.shape[0]
     cap = ctl[MIX_CAP]
-    times = _f64(ctl[TIMES], N_TIMES)
-    mix = numba.carray(_pointer(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
-    scratch = numba.carray(_pointer(ctl[SCRATCH]), (2, cap), np.float64)
-    directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
-    allow = _i64(ctl[ALLOW], ctl[MAX_BODIES])
+    times = f64_at(ctl[TIMES], N_TIMES)
+    mix = numba.carray(pointer_to(ctl[MIX]), (ctl[CHANNELS] + 1, cap), np.float64)
+    scratch = numba.carray(pointer_to(ctl[SCRATCH]), (2, cap), np.float64)
+    directory = i64_at(ctl[DIRECTORY], ctl[MAX_BODIES])
+    allow = i64_at(ctl[ALLOW], ctl[MAX_BODIES])
     shared = -1  # the bodies counted when the budget was shared (once a call)
     # typed int64 from the start: a literal 0 would have numba type _write_block twice
     done = np.int64(0)
@@ -543,7 +433,7 @@ def _mix_engine(ctl, out, budget):
             _share_budget(ctl, directory, bodies, allow, budget)
             shared = bodies
         for b in range(bodies):
-            record = _i64(directory[b], N_BODY)
+            record = i64_at(directory[b], N_BODY)
             limit = -1
             if budget >= 0:  # a body added after the share waits for the next call
                 limit = allow[b] if b < shared else 0
@@ -559,11 +449,11 @@ def _mix_engine(ctl, out, budget):
 def _transformed(ctl):
     """The pulses every body in the directory has transformed so far (a removed body's
     vacant record counts none)."""
-    directory = _i64(ctl[DIRECTORY], ctl[MAX_BODIES])
+    directory = i64_at(ctl[DIRECTORY], ctl[MAX_BODIES])
     total = 0
     for b in range(ctl[N_BODIES]):
-        record = _i64(directory[b], N_BODY)
-        total += _i64(record[B_TRANSFORMED], 1)[0]
+        record = i64_at(directory[b], N_BODY)
+        total += i64_at(record[B_TRANSFORMED], 1)[0]
     return total
 
 
@@ -577,7 +467,7 @@ def _run_block(ctl, out, flags, current, dac, entry_ns, device):
     the monotonic clock, plus the limiter's look-ahead, by which it delays the bus), and
     account the callback's run time from its entry as a fraction of the block. One call
     of :func:`_mix_engine` for both, so that its code is compiled once."""
-    times = _f64(ctl[TIMES], N_TIMES)
+    times = f64_at(ctl[TIMES], N_TIMES)
     frames = out.shape[0]
     if device:
         if flags & PA_OUTPUT_UNDERFLOW:
@@ -608,7 +498,7 @@ def _run_block(ctl, out, flags, current, dac, entry_ns, device):
         transforms = _transformed(ctl) - before
         if transforms > ctl[TRANSFORMS_MAX]:
             ctl[TRANSFORMS_MAX] = transforms
-        end = _monotonic_ns()
+        end = monotonic_ns()
         times[END_TIME] = end * 1e-9
         times[END_FRAME] = ctl[FRAME]
         cost = (end - entry_ns) * 1e-9 * times[SAMPLERATE] / max(frames, 1)
@@ -631,10 +521,10 @@ def _callback(input, output, frames, time_info, flags, userdata):
     the engine's ``ctl``; float32 interleaved output. Returns paContinue. A NULL
     ``timeInfo`` (never from PortAudio) mixes without the device's accounting: the block of
     :func:`mix_engine`."""
-    entry = _monotonic_ns()
+    entry = monotonic_ns()
     ctl = numba.carray(userdata, N_CTL, np.int64)
     out = numba.carray(output, (np.int64(frames), ctl[CHANNELS]), np.float32)
-    device = _address(time_info) != 0
+    device = address_of(time_info) != 0
     current = 0.0
     dac = 0.0
     if device:
@@ -708,180 +598,20 @@ def run_block(ctl: np.ndarray, out: np.ndarray, flags: int, time_info: np.ndarra
 def transform_pending(record):
     """Turn a body's waiting pulses into mode amplitudes now, on the calling thread (before
     a stream starts: hits queued without a stream are not bounded per block)."""
-    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
-    transformed = _i64(record[B_TRANSFORMED], 1)
+    bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
+    transformed = i64_at(record[B_TRANSFORMED], 1)
     # the in-contact response and peak heard with the gains the mixing holds now
-    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
+    kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
 
 
 @compiled(nogil=True)
 def silence_body(ctl, record):
     """Stop every voice of a body and drop its pending impacts now, on the calling thread
     (no stream runs; see :func:`synth.live.kernel.silence`)."""
-    bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
-    counters = _i64(record[B_COUNTERS], kernel.N_COUNTERS)
-    transformed = _i64(record[B_TRANSFORMED], 1)
-    kernel.silence(modal, ring, transformed, voice_form, counters, _events(ctl))
-
-
-def touch(a: np.ndarray) -> np.ndarray:
-    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
-    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
-    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
-    only copied at its first write. One byte of each page (and the last byte) is written
-    with its own value; a read-only array is read instead. Returns ``a``."""
-    b = a.reshape(-1).view(np.uint8)
-    if b.size == 0:
-        return a
-    if a.flags.writeable:
-        b[:: mmap.PAGESIZE] = b[:: mmap.PAGESIZE].copy()
-        b[-1] = b[-1]
-    else:
-        _read = int(b[:: mmap.PAGESIZE].sum()) + int(b[-1])  # noqa: F841 (the reads touch)
-    return a
-
-
-class EngineState:
-    """The arrays the audio thread works on (see the module's docstring), allocated once:
-    ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
-    ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
-    voice-ended events, the master bus' true-peak limiter's state (``limit``, or None
-    without a limiter), and the most pulses a stream's callback transforms over every body
-    (``transforms_per_block``; see :func:`_share_budget`)."""
-
-    def __init__(
-        self,
-        *,
-        samplerate: int,
-        channels: int,
-        max_bodies: int,
-        mix_frames: int,
-        record_frames: int,
-        fade_frames: int,
-        clip: bool,
-        transforms_per_block: int,
-        events: int = 4096,
-        limit: limiter.LimiterState | None = None,
-    ):
-        self.ctl = np.zeros(N_CTL, dtype=np.int64)
-        self.times = np.zeros(N_TIMES)
-        self.directory = np.zeros(max_bodies, dtype=np.int64)
-        self.allow = np.zeros(max_bodies, dtype=np.int64)
-        self.mix = np.zeros((channels + 1, mix_frames))
-        self.scratch = np.zeros((2, mix_frames))
-        # the voice-ended events: the kernel's header, then a ring of ``events``
-        self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
-        self.recording = np.zeros((record_frames, channels), dtype=np.float32)
-        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
-                  self.recording):  # fmt: skip
-            touch(a)
-        self.records: list = []  # the bodies' records and arrays, kept alive here
-        c, t = self.ctl, self.times
-        c[FADE_AT] = -1
-        c[FADE_LENGTH] = fade_frames
-        c[FADE_FRAME] = -1
-        c[MAX_BODIES] = max_bodies
-        c[CHANNELS] = channels
-        c[MIX_CAP] = mix_frames
-        c[RECORD_FRAMES] = record_frames
-        c[TIMES] = t.ctypes.data
-        c[DIRECTORY] = self.directory.ctypes.data
-        c[ALLOW] = self.allow.ctypes.data
-        c[TRANSFORM_BUDGET] = transforms_per_block
-        c[MIX] = self.mix.ctypes.data
-        c[SCRATCH] = self.scratch.ctypes.data
-        c[RECORD] = self.recording.ctypes.data
-        c[CLIP] = int(bool(clip))
-        self.limiter = limit
-        if limit is not None:
-            c[LIMIT] = 1
-            for field, a in zip(
-                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
-            ):
-                c[field] = a.ctypes.data
-            t[LIMIT_DELAY] = limit.delay / samplerate
-        c[EVENTS] = self.events.ctypes.data
-        c[N_EVENTS] = self.events.shape[0]
-        t[SAMPLERATE] = samplerate
-        t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
-        t[PAUSE_LEVEL] = 1.0
-        # the record a removed body's directory entry points to: a body with no voice
-        # slot and no pending slot, asleep for good (the callback returns at once)
-        self._vacant_arrays = dict(
-            counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
-            transformed=np.zeros(1, dtype=np.int64),
-            scalars=np.zeros(N_SCALARS),
-            state=np.zeros(1, dtype=np.int64),
-        )
-        self._vacant_arrays["scalars"][[S_PAN, S_PAN_NOW]] = math.nan
-        self.vacant = np.zeros(N_BODY, dtype=np.int64)
-        for name, a in self._vacant_arrays.items():
-            self.vacant[BODY_FIELDS.index(name)] = a.ctypes.data
-        self.vacant[B_CHANNEL] = -1
-
-    @property
-    def address(self) -> int:
-        """The address of ``ctl``: the callback's ``userData``."""
-        return self.ctl.ctypes.data
-
-    def add_body(self, arrays: dict) -> np.ndarray:
-        """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
-        audio thread: its record is written, then counted. Returns the record."""
-        n = int(self.ctl[N_BODIES])
-        free = [i for i, r in enumerate(self.records) if r is None]
-        if not free and n >= self.directory.shape[0]:
-            raise IndexError(n)
-        record = np.zeros(N_BODY, dtype=np.int64)
-        for i, name in enumerate(BODY_FIELDS):
-            value = arrays[name]
-            if isinstance(value, np.ndarray):
-                if not value.flags.c_contiguous:
-                    raise ValueError(f"{name} must be C-contiguous")
-                touch(value)  # the audio thread takes no page fault on it
-                record[i] = value.ctypes.data
-            else:
-                record[i] = int(value)
-        if free:  # a removed body's entry: the callback mixes the body from the write on
-            self.records[free[0]] = (record, arrays)
-            self.directory[free[0]] = record.ctypes.data
-            return record
-        self.records.append((record, arrays))
-        self.directory[n] = record.ctypes.data
-        self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
-        return record
-
-    def bodies_held(self) -> int:
-        """Bodies in the directory (removed ones not counted)."""
-        return sum(1 for r in self.records if r is not None)
-
-    def vacate(self, index: int) -> tuple[int, int]:
-        """Take body ``index`` out of the mixing: its directory entry points to the vacant
-        record from now on (one atomic word). Returns the mixing's progress then (the next
-        frame, the callbacks), for :meth:`left`."""
-        progress = int(self.ctl[FRAME]), int(self.ctl[CALLBACKS])
-        self.directory[index] = self.vacant.ctypes.data
-        return progress
-
-    def left(self, progress: tuple[int, int]) -> bool:
-        """Whether every block that may have read a directory entry before :meth:`vacate`
-        returned ``progress`` has ended (a piece mixed since, or a callback returned)."""
-        return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
-
-    def release(self, index: int) -> None:
-        """Let go of body ``index``'s arrays (vacated, and left by the mixing); its entry
-        is taken again by the next :meth:`add_body`."""
-        self.records[index] = None
-
-    def anchor(self) -> tuple[int, float, float]:
-        """The last callback's first frame, the monotonic time (s) at which it leaves the
-        device and the callbacks so far (0: none yet): a consistent reading (the callback
-        writes them between two increments of a sequence number)."""
-        c, t = self.ctl, self.times
-        while True:
-            seq = int(c[SEQ])
-            frame, dac = float(t[ANCHOR_FRAME]), float(t[ANCHOR_DAC])
-            if seq % 2 == 0 and int(c[SEQ]) == seq:
-                return frame, dac, seq // 2
+    bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
+    counters = i64_at(record[B_COUNTERS], kernel.N_COUNTERS)
+    transformed = i64_at(record[B_TRANSFORMED], 1)
+    kernel.silence(modal, ring, transformed, voice_form, counters, event_ring(ctl))
 
 
 def warm_up() -> None:
@@ -915,71 +645,3 @@ def warm_up() -> None:
     run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
     silence_body(state.ctl, record)
-
-
-def body_arrays(
-    coefficients,
-    table,
-    modal_state,
-    ring,
-    floor: float,
-    gain: float,
-    channel: int = -1,
-    *,
-    steal_frames: int,
-    mix_frames: int = 4096,
-    ears: int = 1,
-    gains: np.ndarray,
-    pan: float = math.nan,
-) -> dict:
-    """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
-    its poles and one-sample steps (``coefficients``, a
-    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, its
-    voice slots' modal states (:func:`synth.live.kernel.body_state`), pending ``ring`` with
-    its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
-    output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
-    most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
-    both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
-    its modes (K,; the mixing applies them at its output, the voices' states are the
-    plate's) and its ``pan`` (NaN: unpanned; see :func:`pan_gains`)."""
-    from synth.sound.modal_bank import transform_workspace
-
-    c = coefficients
-    fs = float(c.samplerate)
-    K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
-    V = zr.shape[0]
-    heard, heard_seq = kernel.heard_arrays(np.asarray(gains, dtype=complex))
-    voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
-    voice_slots[:, kernel.SL_OWNER] = -1
-    counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
-    counters[kernel.EARS] = ears
-    counters[kernel.STEAL_FRAMES] = steal_frames
-    tail = np.zeros(mix_frames + steal_frames)
-    scalars = np.zeros(N_SCALARS)
-    scalars[S_FS] = fs
-    scalars[S_FLOOR] = floor
-    scalars[S_SIGMA_MAX] = c.sigma_max
-    scalars[S_PERIOD] = 1.0 / fs
-    scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
-    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
-    work = transform_workspace(K)
-    return dict(
-        table=np.ascontiguousarray(table),
-        poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
-        zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
-        thr2=thr2, level=level, state=ring.state, inject=ring.inject, first=ring.first,
-        length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
-        reference=ring.reference, counters=counters,
-        pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
-        step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
-        work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
-        pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
-        modes=K, slots=ring.capacity, contact=ring.max_contact,
-        pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
-        channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
-        voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
-        n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
-        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
-        heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
-    )  # fmt: skip

@@ -16,6 +16,11 @@ a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate` a
 :class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
 and ``message``; only bad input raises (``ParameterError``).
 
+Modules: this one holds the checks and the power laws' solve (:func:`solve_contact`,
+:func:`solve_impact`, :class:`ContactSolver`, the admittance near an edge);
+:mod:`~synth.physics.contact_result` the results (:class:`ImpactResult`) and their one
+builder; :mod:`~synth.physics.contact_shell` the hollow ball's thin-shell solve.
+
 Numerics (see ``synth/physics/contact_kernels/``): the equations are scaled by
 Zener's time ``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0``, so
 every state variable is of order one and one relative tolerance means the same
@@ -35,9 +40,7 @@ benchmark's cases and tolerances (1e-3 to 1e-10). For very small restitution
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from functools import cached_property
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,8 +49,18 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
-from synth.physics.contact_kernels import shell as _shell
 from synth.physics.contact_law import ShellLaw, contact_parameters
+from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
+from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
+from synth.physics.contact_result import (
+    DenseOutput,
+    ImpactResult,
+    result_from_row,
+    with_message,
+)
+from synth.physics.contact_shell import ShellDense as ShellDense
+from synth.physics.contact_shell import ShellImpactResult as ShellImpactResult
+from synth.physics.contact_shell import solve_shell
 from synth.physics.scene import Ball, Plate
 
 #: Zener's inelasticity above which the contact is integrated by the implicit Radau IIA
@@ -62,368 +75,8 @@ TOLERANCE_SAFETY = 0.2
 #: Fewest samples of a force pulse over the contact.
 MIN_POINTS = 64
 
-_MESSAGES = {
-    _k.SEPARATED: "The ball separated from the plate.",
-    _k.SETTLED: "The ball settled: its energy fell below what a separation needs.",
-    _k.MAX_STEPS: "The step limit was reached before the contact ended.",
-    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
-}
-_TINY_REBOUND = (
-    "The ball separated with a rebound speed below the solver's resolution; "
-    "restitution reported as 0."
-)
-#: Status of a contact integrated to its end whose energy balance is not met.
-ENERGY_IMBALANCE = -3
-#: Largest energy residual (relative, see ``ImpactResult.energy_residual``) of a result
-#: reported as a success: the solver meets its tolerance with residuals of 1e-7 and
-#: below; 1 % means the integration lost the physics (e.g. an admittance so large
-#: that the contact lasts less than the time axis resolves).
-ENERGY_RESIDUAL_LIMIT = 0.01
-
-
-def _energy_message(residual: float) -> str:
-    return (
-        f"The energy balance is not met: residual {residual:.3g} of the energy "
-        f"exchanged (at most {ENERGY_RESIDUAL_LIMIT:g}); the result is not physical."
-    )
-
-
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
 _INF = math.inf
-
-
-class DenseOutput(NamedTuple):
-    """The solver's dense output of one contact, for sampling the pulse afterwards:
-    the step history of the kernels, the integrator (``radau``), the dimensionless
-    parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
-    ``s_contact``) and the
-    scales back to SI units (``theta``, s; ``f_scale``, N)."""
-
-    hist: np.ndarray
-    radau: bool
-    lam: float
-    G: float
-    n: float
-    c: float
-    b: float
-    s_contact: float
-    theta: float
-    f_scale: float
-    n_points: int
-
-
-@dataclass(frozen=True, eq=False)
-class ImpactResult:
-    """The outcome of one impact (SI units).
-
-    Attributes
-    ----------
-    restitution : float
-        ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
-    contact_time : float
-        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), the
-        quantity a force transducer measures and the thesis reports (docs/validation.md).
-        For a settled ball: the time at which the ball was proven unable to separate.
-    separation_time : float
-        Time from first touch to separation, s: the penetration's return to 0, where the
-        ball's free flight starts (the bounce scheduler's clock). Equal to ``contact_time``
-        for an elastic law; with a loss the force falls to 0 first, while the ball still
-        moves apart from the indented surface (about ``(3/2) A`` later with the
-        viscoelastic loss, docs/physics.md, "Contact losses"). For a settled ball: as
-        ``contact_time``.
-    max_penetration : float
-        Largest local deformation ``delta_max``, m.
-    peak_force : float
-        Largest contact force, N.
-    impulse : float
-        Integral of the contact force over the contact, N s.
-    inelasticity : float
-        Zener's parameter ``lam = beta m / theta``, dimensionless.
-    settled : bool
-        True if the ball never separated (it came to rest on the plate).
-    rebound_speed : float
-        Relative speed of separation ``v_out = v_s(tau) - v_free``, m/s (0 if settled).
-    plate_energy : float
-        Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
-    time : ndarray
-        Times of the pulse samples from first touch to separation, s (uniform,
-        ``n_points``); sampled from the dense output on first access, like ``force``.
-    force : ndarray
-        Contact force at those times, N.
-    energy_residual : float
-        Error of the energy balance (docs/physics.md, "Hertz contact"; with the
-        contact's loss), relative to the energy exchanged: the impact's kinetic energy, or
-        the work of gravity or the energy carried into the plate where larger.
-    success : bool
-        True if the contact was integrated to its end.
-    status : int
-        0 separated, 1 settled, negative: failure (see ``message``; -3: the energy
-        balance is off by more than ``ENERGY_RESIDUAL_LIMIT``).
-    message : str
-        Human-readable description of ``status``.
-    n_steps : int
-        Accepted integration steps (after the series start of the contact).
-    method : str
-        ``"DOP853"`` or ``"Radau"``; ``"DOPRI5"`` for a hollow ball's thin-shell law
-        (:class:`ShellImpactResult`).
-    """
-
-    restitution: float
-    contact_time: float
-    separation_time: float
-    max_penetration: float
-    peak_force: float
-    impulse: float
-    inelasticity: float
-    settled: bool
-    rebound_speed: float
-    plate_energy: float
-    energy_residual: float
-    success: bool
-    status: int
-    message: str
-    n_steps: int
-    method: str
-
-    _dense: DenseOutput | None = field(default=None, repr=False, compare=False)
-
-    @cached_property
-    def time(self) -> np.ndarray:
-        return self._sample_pulse()[0]
-
-    @cached_property
-    def force(self) -> np.ndarray:
-        return self._sample_pulse()[1]
-
-    @property
-    def exponent(self) -> float:
-        """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
-        rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
-        separation."""
-        return self._dense.n
-
-    @property
-    def pulse_order(self) -> float:
-        """Exponent ``q`` of the trapezoid rule's leading error ``C h^q`` on the force pulse
-        (dimensionless; the modal bank extrapolates with it): ``n + 1`` for a pulse that rises
-        like ``t^n`` and falls like ``(tau - t)^n``; ``3/2`` with the viscoelastic loss, whose
-        force rises like ``t^(1/2)`` (and switches off with a kink before separation: ``h^2``)."""
-        d = self._dense
-        if d is not None and d.b != 0.0:
-            return 1.5
-        return self.exponent + 1.0
-
-    def _sample_pulse(self):
-        # Both arrays at once, cached beside each other (most uses of an impact, such as
-        # rendering, need only force_at).
-        d = self._dense
-        times = np.empty(d.n_points)
-        forces = np.empty(d.n_points)
-        _k.pulse(
-            d.hist,
-            d.radau,
-            d.lam,
-            d.G,
-            d.n,
-            d.c,
-            d.b,
-            d.s_contact,
-            self.status == _k.SEPARATED,
-            d.theta,
-            d.f_scale,
-            times,
-            forces,
-        )
-        self.__dict__.update(time=times, force=forces)
-        return times, forces
-
-    def force_at(self, t) -> float | np.ndarray:
-        """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
-        solver's dense output (its accuracy is the solver's); 0 outside the contact."""
-        out, _ = self.force_and_slope_at(np.atleast_1d(t))
-        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
-
-    def pulse_samples(
-        self, step: float, points: int, offset: float, period: float, samples: int, out=None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate of change (N/s) on a uniform grid ``j step`` (s, ``j <
-        points``) and then at ``offset + m period`` (s, ``m < samples``), times from first
-        touch: :meth:`force_and_slope_at` of those times, in one call (the modal bank's
-        pulse grid and in-contact audio samples). ``out``: an optional (2, L) float array,
-        ``L >= points + samples``, whose rows take the forces and the slopes (the live
-        engine writes them straight into a slot); returns views of its rows then."""
-        points, samples = int(points), int(samples)
-        total = points + samples
-        if out is None:
-            out = np.empty((2, total))
-        elif out.ndim != 2 or out.shape[0] != 2 or out.shape[1] < total:
-            raise ParameterError(
-                f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
-            )
-        self._pulse_force_slope(float(step), points, float(offset), float(period), samples, out)
-        return out[0, :total], out[1, :total]
-
-    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
-        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
-        call on the Hertz-family dense output."""
-        d = self._dense
-        _k.pulse_force_slope(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, d.theta, d.f_scale,
-            step, points, offset, period, samples, out,
-        )  # fmt: skip
-
-    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
-        touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
-        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / self._dense.theta)
-        out = np.empty_like(s)
-        slope = np.empty_like(s)
-        self._force_and_slope(s, out, slope)
-        return out, slope
-
-    def _force_and_slope(self, s, out, slope) -> None:
-        """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
-        times ``s`` (s / theta): the dense output's, scaled to SI units."""
-        d = self._dense
-        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
-        out *= d.f_scale
-        slope *= d.f_scale / d.theta
-
-
-class ShellDense(NamedTuple):
-    """The dense output of a thin-shell contact (:mod:`.contact_kernels.shell`): its
-    history, the dimensionless parameters (``lam``, ``G``, ``r_R``, ``x_t``, ``r_g``, ``a``,
-    end of contact ``s_contact``) and the scales (``theta``, s; ``f_scale``, N)."""
-
-    hist: np.ndarray
-    lam: float
-    G: float
-    rR: float
-    xt: float
-    rg: float
-    a: float
-    s_contact: float
-    theta: float
-    f_scale: float
-    n_points: int
-
-
-class ShellImpactResult(ImpactResult):
-    """An :class:`ImpactResult` of the thin-shell law (a
-    :class:`~synth.physics.scene.HollowBall`): the same fields, its pulse from the shell
-    kernel's dense output."""
-
-    @property
-    def exponent(self) -> float:
-        """1: the shell law is linear at first touch (Reissner's stiffness and the gas')."""
-        return 1.0
-
-    @property
-    def pulse_order(self) -> float:
-        """``q`` of the trapezoid rule's error ``C h^q`` on the pulse: 2 for the lossless
-        shell (the force rises like ``t``), 1 with the Kelvin-Voigt loss (the force starts
-        with a step ``A k_R v``)."""
-        return 1.0 if self._dense.a != 0.0 else 2.0
-
-    def _sample_pulse(self):
-        d = self._dense
-        s = np.linspace(0.0, d.s_contact, d.n_points)
-        forces = np.empty(d.n_points)
-        slopes = np.empty(d.n_points)
-        _shell.shell_force_slope(
-            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, forces, slopes
-        )
-        if self.status != _k.SEPARATED:
-            forces[-1] = _shell_force_at_end(d)
-        times = s * d.theta
-        forces *= d.f_scale
-        self.__dict__.update(time=times, force=forces)
-        return times, forces
-
-    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
-        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, from the shell
-        kernel's dense output at the grid's times."""
-        total = points + samples
-        s = np.empty(total)
-        s[:points] = np.arange(points) * step
-        s[points:] = offset + np.arange(samples) * period
-        s /= self._dense.theta
-        self._force_and_slope(s, out[0, :total], out[1, :total])
-
-    def _force_and_slope(self, s, out, slope) -> None:
-        d = self._dense
-        _shell.shell_force_slope(
-            d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, out, slope
-        )
-        out *= d.f_scale
-        slope *= d.f_scale / d.theta
-
-
-def _shell_force_at_end(d: ShellDense) -> float:
-    """The dimensionless force at the end of a settled contact's dense output."""
-    row = d.hist[-1]
-    f, _ = _shell.shell_force(row[_shell.S_X1], row[_shell.S_W1], d.lam, d.rR, d.xt, d.rg, d.a)
-    return f
-
-
-def _solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, tol, n_points) -> ShellImpactResult:
-    """One impact of the thin-shell ``law`` (checked values, SI units; docs/physics.md,
-    "Hollow balls"), integrated by :func:`.contact_kernels.shell.shell_impact`."""
-    k0 = law.stiffness
-    rR = law.reissner_stiffness / k0
-    r, hist = _shell.shell_impact(
-        m, k0, rR, law.transition, 1.0 - rR, law.viscous_time, beta, v_in, g, v_free,
-        tol * TOLERANCE_SAFETY,
-    )  # fmt: skip
-    r = r.tolist()
-    status = int(r[_shell.SR_STATUS])
-    residual = r[_shell.SR_ENERGY_RESIDUAL]
-    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
-    if energy_failed:
-        status = ENERGY_IMBALANCE
-    obj = object.__new__(ShellImpactResult)
-    object.__setattr__(
-        obj,
-        "__dict__",
-        {
-            "restitution": r[_shell.SR_RESTITUTION],
-            "contact_time": r[_shell.SR_CONTACT_TIME],
-            "separation_time": r[_shell.SR_SEPARATION_TIME],
-            "max_penetration": r[_shell.SR_MAX_PENETRATION],
-            "peak_force": r[_shell.SR_PEAK_FORCE],
-            "impulse": r[_shell.SR_IMPULSE],
-            "inelasticity": r[_shell.SR_INELASTICITY],
-            "settled": status == _k.SETTLED,
-            "rebound_speed": r[_shell.SR_REBOUND_SPEED],
-            "plate_energy": r[_shell.SR_PLATE_ENERGY],
-            "energy_residual": residual,
-            "success": status >= 0,
-            "status": status,
-            "message": (
-                _energy_message(residual)
-                if energy_failed
-                else _TINY_REBOUND
-                if r[_shell.SR_TINY_REBOUND]
-                else _MESSAGES.get(status, "Unknown status.")
-            ),
-            "n_steps": int(r[_shell.SR_N_STEPS]),
-            "method": "DOPRI5",
-            "_dense": ShellDense(
-                hist,
-                r[_shell.SR_INELASTICITY],
-                r[_shell.SR_G],
-                rR,
-                r[_shell.SR_XT],
-                1.0 - rR,
-                law.viscous_time / r[_shell.SR_THETA],
-                r[_shell.SR_S_CONTACT],
-                r[_shell.SR_THETA],
-                r[_shell.SR_F_SCALE],
-                n_points,
-            ),  # fmt: skip
-        },
-    )
-    return obj
 
 
 def solve_contact(
@@ -572,7 +225,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=N
     with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
     (``K, n, mu, A`` and ``method`` are then its own and unused)."""
     if shell is not None:
-        return _solve_shell(m, shell, beta, v_in, g, v_free, tol, n_points)
+        return solve_shell(m, shell, beta, v_in, g, v_free, tol * TOLERANCE_SAFETY, n_points)
     r, hist = _k.impact(
         m,
         K,
@@ -587,58 +240,21 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=N
         _METHODS[method],
     )
     r = r.tolist()  # Python floats, read once each
-    status = int(r[_k.R_STATUS])
     stiff = bool(r[_k.R_STIFF])
-    lam = r[_k.R_INELASTICITY]
-    residual = r[_k.R_ENERGY_RESIDUAL]
-    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
-    if energy_failed:
-        status = ENERGY_IMBALANCE
-    obj = object.__new__(ImpactResult)
-    # The solver's own values need no checks: fill the frozen instance directly (the
-    # generated __init__ would take a good part of the time an impact takes).
-    object.__setattr__(
-        obj,
-        "__dict__",
-        {
-            "restitution": r[_k.R_RESTITUTION],
-            "contact_time": r[_k.R_CONTACT_TIME],
-            "separation_time": r[_k.R_SEPARATION_TIME],
-            "max_penetration": r[_k.R_MAX_PENETRATION],
-            "peak_force": r[_k.R_PEAK_FORCE],
-            "impulse": r[_k.R_IMPULSE],
-            "inelasticity": lam,
-            "settled": status == _k.SETTLED,
-            "rebound_speed": r[_k.R_REBOUND_SPEED],
-            "plate_energy": r[_k.R_PLATE_ENERGY],
-            "energy_residual": r[_k.R_ENERGY_RESIDUAL],
-            "success": status >= 0,
-            "status": status,
-            "message": (
-                _energy_message(residual)
-                if energy_failed
-                else _TINY_REBOUND
-                if r[_k.R_TINY_REBOUND]
-                else _MESSAGES.get(status, "Unknown status.")
-            ),
-            "n_steps": int(r[_k.R_N_STEPS]),
-            "method": "Radau" if stiff else "DOP853",
-            "_dense": DenseOutput(
-                hist,
-                stiff,
-                lam,
-                r[_k.R_G],
-                n,
-                r[_k.R_C],
-                r[_k.R_B],
-                r[_k.R_S_CONTACT],
-                r[_k.R_THETA],
-                r[_k.R_F_SCALE],
-                n_points,
-            ),
-        },
+    dense = DenseOutput(
+        hist,
+        stiff,
+        r[_k.R_INELASTICITY],
+        r[_k.R_G],
+        n,
+        r[_k.R_C],
+        r[_k.R_B],
+        r[_k.R_S_CONTACT],
+        r[_k.R_THETA],
+        r[_k.R_F_SCALE],
+        n_points,
     )
-    return obj
+    return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
 
 def solve_impact(
@@ -811,7 +427,7 @@ def _solve_at(
                 )
             else:
                 why = "the contact switches between settling and separating there"
-            return _with_message(
+            return with_message(
                 res_b,
                 (
                     f"{res_b.message} The edge admittance has no consistent value: "
@@ -828,23 +444,13 @@ def _solve_at(
         if abs(target - beta) < best[0]:
             best = (abs(target - beta), result, beta)
     err, res_b, beta_b = best
-    return _with_message(
+    return with_message(
         res_b,
         (
             f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
             f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."
         ),
     )
-
-
-def _with_message(result, message):
-    """A copy of ``result`` (an :class:`ImpactResult`, of its own class) with another
-    ``message``."""
-    obj = object.__new__(type(result))
-    d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
-    d["message"] = message
-    object.__setattr__(obj, "__dict__", d)
-    return obj
 
 
 @dataclass(frozen=True, eq=False)

@@ -14,6 +14,8 @@ for one impact, from first touch to separation or settling:
 - ``dense.py``: the history of the steps with their dense output (row 0: the series),
   on which the end of contact, the peak penetration and force are located and the
   pulse is sampled;
+- ``outcome.py``: the result array of one impact (its fields ``R_*``) and the kernel that
+  fills it, shared with the thin shell's driver (``shell.py``);
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
   parameters, by ``impact_explicit`` or ``impact_implicit``), ``pulse`` and
   ``force_slope_at`` (the force from the dense output).
@@ -58,6 +60,31 @@ from synth.physics.contact_kernels.equations import (
     penetration_rate,
     power,
 )
+from synth.physics.contact_kernels.outcome import (
+    N_RESULT,
+    R_B,
+    R_C,
+    R_CONTACT_TIME,
+    R_ENERGY_RESIDUAL,
+    R_F_SCALE,
+    R_G,
+    R_IMPULSE,
+    R_INELASTICITY,
+    R_MAX_PENETRATION,
+    R_N_STEPS,
+    R_PEAK_FORCE,
+    R_PLATE_ENERGY,
+    R_REBOUND_SPEED,
+    R_RESTITUTION,
+    R_S_CONTACT,
+    R_SEPARATION_TIME,
+    R_STATUS,
+    R_STIFF,
+    R_THETA,
+    R_TINY_REBOUND,
+    R_XT,
+    impact_row,
+)
 from synth.physics.contact_kernels.radau import integrate_radau
 from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
@@ -90,6 +117,7 @@ __all__ = [
     "R_S_CONTACT",
     "R_THETA",
     "R_TINY_REBOUND",
+    "R_XT",
     "SEPARATED",
     "SETTLED",
     "STEP_TOO_SMALL",
@@ -119,28 +147,6 @@ AUTO = 0
 DOP853 = 1
 RADAU = 2
 
-# Fields of the result array of ``impact``: the one place that names their order.
-R_STATUS = 0  # SEPARATED, SETTLED or a failure code
-R_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
-R_STIFF = 2  # 1: integrated by Radau IIA, 0: by DOP853
-R_RESTITUTION = 3  # v_out / v_in
-R_CONTACT_TIME = 4  # s, the force pulse's length (force > 0)
-R_MAX_PENETRATION = 5  # m
-R_PEAK_FORCE = 6  # N
-R_IMPULSE = 7  # N s
-R_INELASTICITY = 8  # Zener's lam = beta m / theta
-R_REBOUND_SPEED = 9  # m/s
-R_PLATE_ENERGY = 10  # J
-R_ENERGY_RESIDUAL = 11  # relative error of the energy balance
-R_N_STEPS = 12  # accepted steps
-R_G = 13  # dimensionless gravity g theta / v0 (dense output)
-R_C = 14  # dimensionless Hunt-Crossley loss mu v0 (dense output)
-R_S_CONTACT = 15  # dimensionless end of contact (dense output)
-R_THETA = 16  # Zener's time scale, s
-R_F_SCALE = 17  # force scale m v0 / theta, N
-R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output)
-R_SEPARATION_TIME = 19  # s, to the penetration's return to 0 (the dense output's end)
-N_RESULT = 20
 
 #: Status of ``impact_explicit``'s result that hands an impact to ``impact_implicit``
 #: (never returned by ``impact``).
@@ -361,43 +367,16 @@ def implicit_needed():
 
 @compiled(inline="always")
 def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
-    """The result array of ``impact`` from ``solve``'s result ``out`` and the scales."""
+    """The result array of ``impact`` from ``solve``'s result ``out`` and the scales
+    (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields)."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
-    separated = status == SEPARATED
-    tiny_rebound = separated and w_end > 0.0
-    if tiny_rebound:
-        # The contact ended with the ball still (barely) approaching: the rebound is
-        # below the solver's absolute resolution (atol of v0).
-        w_end = 0.0
-    i1 = 1.0 - w_end + G * s_end  # from w' = G - f
-    # energy balance, dimensionless (docs/physics.md, "Hertz contact", in the plate's frame)
     elastic = x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
-    lhs = 0.5 * w_end * w_end + elastic - G * x_end - 0.5
-    rhs = G * lam * i1 - lam * i2 - loss
-    # relative to the energy exchanged: the arrival energy, or the work of gravity and the
-    # energy carried away when they are larger (a slow, heavy ball sinking with the plate)
-    scale = max(0.5, abs(G * lam * i1), lam * i2, abs(loss), abs(G * x_end))
-    v_out = -w_end * v0 if separated else 0.0
-    r = np.empty(N_RESULT)
-    r[R_STATUS] = status
-    r[R_TINY_REBOUND] = 1.0 if tiny_rebound else 0.0
+    r = impact_row(
+        status, w_end, x_end, elastic, s_end, s_force, s_contact, i2, loss, x_max * theta * v0,
+        f_max, nst, m, v_in, v0, theta, lam, G, f_scale,
+    )  # fmt: skip
     r[R_STIFF] = 1.0 if stiff else 0.0
-    r[R_RESTITUTION] = v_out / v_in
-    r[R_CONTACT_TIME] = s_force * theta
-    r[R_SEPARATION_TIME] = s_contact * theta
-    r[R_MAX_PENETRATION] = x_max * theta * v0
-    r[R_PEAK_FORCE] = f_max * f_scale
-    r[R_IMPULSE] = i1 * m * v0
-    r[R_INELASTICITY] = lam
-    r[R_REBOUND_SPEED] = v_out
-    r[R_PLATE_ENERGY] = lam * i2 * m * v0 * v0
-    r[R_ENERGY_RESIDUAL] = abs(lhs - rhs) / scale
-    r[R_N_STEPS] = nst
-    r[R_G] = G
     r[R_C] = c
-    r[R_S_CONTACT] = s_contact
-    r[R_THETA] = theta
-    r[R_F_SCALE] = f_scale
     r[R_B] = b
     return r, hist
 

@@ -41,6 +41,7 @@ from synth.physics.contact_kernels.equations import (
     SETTLED,
     STEP_TOO_SMALL,
 )
+from synth.physics.contact_kernels.outcome import R_XT, impact_row
 
 S_T0, S_H, S_X0, S_W0, S_DX0, S_DW0, S_X1, S_W1, S_DX1, S_DW1 = range(10)
 S_COLS = 10
@@ -50,26 +51,6 @@ SHELL_STEP_LIMIT = 200_000
 #: power laws' ``ABSOLUTE_FACTOR``).
 SHELL_ABSOLUTE_FACTOR = 1e-6
 
-# Fields of the result array of ``shell_impact``: the one place that names their order.
-SR_STATUS = 0  # SEPARATED, SETTLED or a failure code
-SR_TINY_REBOUND = 1  # 1: separated with a rebound below the solver's resolution
-SR_RESTITUTION = 2  # v_out / v_in
-SR_CONTACT_TIME = 3  # s, the force pulse's length (force > 0)
-SR_SEPARATION_TIME = 4  # s, to the penetration's return to 0
-SR_MAX_PENETRATION = 5  # m
-SR_PEAK_FORCE = 6  # N
-SR_IMPULSE = 7  # N s
-SR_INELASTICITY = 8  # Zener's lam = beta m / theta
-SR_REBOUND_SPEED = 9  # m/s
-SR_PLATE_ENERGY = 10  # J
-SR_ENERGY_RESIDUAL = 11  # relative error of the energy balance
-SR_N_STEPS = 12  # accepted steps
-SR_G = 13  # dimensionless gravity g theta / v0
-SR_S_CONTACT = 14  # dimensionless end of contact
-SR_THETA = 15  # s, the time scale sqrt(m / k0)
-SR_F_SCALE = 16  # N, the force scale m v0 / theta
-SR_XT = 17  # dimensionless transition deflection delta_t / (theta v0)
-SR_COUNT = 18
 
 # Dormand & Prince 5(4): nodes, coupling coefficients, 5th-order weights, and the
 # difference of the 5th- and 4th-order weights (the error estimate).
@@ -350,7 +331,7 @@ def integrate(lam, G, rR, xt, rg, a, rtol, atol):
 def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
     """One impact of the shell law from SI parameters (``k0`` N/m, ``xt_si`` the
     transition deflection m, ``A`` s, ``beta`` m/(N s)): returns the result array, its
-    fields named by the ``SR_*`` indices, and the dense output (``hist``)."""
+    fields named by the ``R_*`` indices of ``outcome.py``, and the dense output (``hist``)."""
     v0 = v_in + v_free
     theta = math.sqrt(m / k0)
     L = theta * v0
@@ -388,35 +369,12 @@ def shell_impact(m, k0, rR, xt_si, rg, A, beta, v_in, g, v_free, rtol):
                                 lam, rR, xt, rg, a, 0))  # fmt: skip
     f_max = max(vf, _golden_max(hist, nh, hist[kf, S_T0], _row_end(hist, nh, kf, s_contact),
                                 lam, rR, xt, rg, a, 1))  # fmt: skip
-    separated = status == SEPARATED
-    tiny = separated and w_end > 0.0
-    if tiny:
-        w_end = 0.0
-    i1 = 1.0 - w_end + G * s_end
-    lhs = 0.5 * w_end * w_end + shell_potential(x_end, rR, xt, rg) - G * x_end - 0.5
-    rhs = G * lam * i1 - lam * i2 - loss
-    scale = max(0.5, abs(G * lam * i1), lam * i2, abs(loss), abs(G * x_end))
-    v_out = -w_end * v0 if separated else 0.0
     f_scale = m * v0 / theta
-    r = np.empty(SR_COUNT)
-    r[SR_STATUS] = status
-    r[SR_TINY_REBOUND] = 1.0 if tiny else 0.0
-    r[SR_RESTITUTION] = v_out / v_in
-    r[SR_CONTACT_TIME] = s_force * theta
-    r[SR_SEPARATION_TIME] = s_contact * theta
-    r[SR_MAX_PENETRATION] = x_max * L
-    r[SR_PEAK_FORCE] = f_max * f_scale
-    r[SR_IMPULSE] = i1 * m * v0
-    r[SR_INELASTICITY] = lam
-    r[SR_REBOUND_SPEED] = v_out
-    r[SR_PLATE_ENERGY] = lam * i2 * m * v0 * v0
-    r[SR_ENERGY_RESIDUAL] = abs(lhs - rhs) / scale
-    r[SR_N_STEPS] = nh
-    r[SR_G] = G
-    r[SR_S_CONTACT] = s_contact
-    r[SR_THETA] = theta
-    r[SR_F_SCALE] = f_scale
-    r[SR_XT] = xt
+    r = impact_row(
+        status, w_end, x_end, shell_potential(x_end, rR, xt, rg), s_end, s_force, s_contact, i2,
+        loss, x_max * L, f_max, nh, m, v_in, v0, theta, lam, G, f_scale,
+    )  # fmt: skip
+    r[R_XT] = xt
     return r, hist
 
 

@@ -1,0 +1,497 @@
+"""The engine's state: the arrays the audio thread works on, their layout and their memory.
+
+The engine's whole state lives in preallocated numpy arrays that the audio thread reaches
+through their addresses (:mod:`synth.live.native` runs the block on them), so that its
+callback touches no Python object:
+
+* ``ctl`` (int64, :data:`N_CTL`): the engine's integers (the clock, the stop fade, the
+  number of bodies, the callback's counters) and the addresses of the other arrays;
+* ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
+  when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
+  master bus' gain, pause level and meter;
+* a directory of body records (int64, one address per body; a record holds the addresses
+  and sizes of the body's voice slots' modal states, pending ring, voice records and
+  counters, see :data:`BODY_FIELDS`; :func:`body_form` makes the views the kernel takes);
+* the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
+
+:class:`EngineState` allocates them once (their pages mapped at once, :func:`touch`) and
+publishes bodies (:func:`body_arrays`) to the audio thread.
+"""
+
+from __future__ import annotations
+
+import math
+import mmap
+import time
+
+import numba
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from synth.compilation import compiled
+from synth.live import kernel, limiter
+from synth.live.heard import N_HEARD_ROWS, heard_arrays
+
+#: ``ctl`` fields (int64).
+(
+    FRAME,  # next frame to mix, on the engine's clock
+    FADE_AT,  # position in the stop fade, -1 without one
+    FADE_LENGTH,  # frames
+    FADE_FRAME,  # frame where the last stop fade began, -1 before
+    N_BODIES,  # bodies the callback mixes (published after their record)
+    MAX_BODIES,  # the directory's length
+    CHANNELS,
+    MIX_CAP,  # frames of the mixing scratch buffers
+    CALLBACKS,  # blocks mixed by a stream's callback
+    UNDERFLOWS,  # callbacks PortAudio flagged output underflow
+    OVERFLOWS,  # callbacks flagged output overflow (PortAudio's paOutputOverflow)
+    CLIPPED,  # output samples that reached full scale (before the clipper)
+    SEQ,  # the anchor's sequence number: odd while the callback writes it
+    RECORD_FRAMES,  # frames of the recording buffer
+    RECORDED,  # frames recorded so far
+    TIMES,  # address of ``times``
+    DIRECTORY,  # address of the body directory
+    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
+    # bus, then each channel's own)
+    SCRATCH,  # address of one body's mix and one voice's (float64, 2 x MIX_CAP)
+    RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
+    CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
+    EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
+    N_EVENTS,  # its length (header included)
+    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
+    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
+    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
+    LIM_FLOATS,
+    LIM_TAPS,
+    LIM_X,
+    LIM_R,
+    LIM_M,
+    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
+    TRANSFORM_BUDGET,  # the most pulses a stream's callback transforms, over every body
+    TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
+    SHARE_FROM,  # the body served first by the next callback's share of the budget
+    ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
+    N_CTL,
+) = range(37)
+
+#: ``times`` fields (float64).
+(
+    SAMPLERATE,  # Hz
+    NOMINAL_LATENCY,  # the stream's output latency as PortAudio opened it, s
+    LEAD,  # the last callback's outputBufferDacTime - currentTime, s
+    ANCHOR_FRAME,  # the last callback's first frame
+    ANCHOR_DAC,  # the monotonic time (s) at which that frame leaves the device
+    END_TIME,  # monotonic time (s) at the end of the last callback
+    END_FRAME,  # the frame after the last callback's block
+    COST_SUM,  # sum over callbacks of (run time / block duration)
+    COST_MAX,
+    COST_LAST,
+    MASTER_GAIN,  # the master bus' target gain (linear)
+    MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
+    PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
+    OUT_PEAK,  # largest |sample| sent to the device since the last reset
+    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
+    GAP_MAX,  # longest time between two callbacks' entries, in blocks
+    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
+    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
+    N_TIMES,
+) = range(19)
+
+#: A body record (int64): addresses, then sizes.
+BODY_FIELDS = (
+    "table", "poles", "zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2",
+    "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
+    "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
+    "samples", "points", "pulse", "transformed", "scalars",
+    "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
+    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
+    "n_records", "n_voice_slots", "tail_frames",
+    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
+)  # fmt: skip
+(
+    B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
+    B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
+    B_COUNTERS, B_POLE_RE, B_POLE_IM, B_STEP_RE, B_STEP_IM, B_WORK, B_COEFFICIENTS,
+    B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
+    B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
+    B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
+    B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
+    B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
+) = range(len(BODY_FIELDS))  # fmt: skip
+N_BODY = len(BODY_FIELDS)
+
+#: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
+#: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
+#: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
+S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW = range(8)
+N_SCALARS = 8
+
+#: The clock the callback reads (and the trigger threads, in Python).
+CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
+
+
+def native_available() -> bool:
+    """Whether this platform has the POSIX clock the compiled callback reads."""
+    return CLOCK >= 0
+
+
+def monotonic() -> float:
+    """The callback's clock, s (POSIX ``CLOCK_MONOTONIC``)."""
+    return time.clock_gettime_ns(CLOCK) * 1e-9
+
+
+@intrinsic
+def pointer_to(typingctx, address):
+    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
+    sig = types.voidptr(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return sig, codegen
+
+
+@intrinsic
+def address_of(typingctx, pointer):
+    """The ``void*`` ``pointer`` as an int64 (0: NULL)."""
+    sig = types.int64(types.voidptr)
+
+    def codegen(context, builder, signature, args):
+        return builder.ptrtoint(args[0], cgutils.ir.IntType(64))
+
+    return sig, codegen
+
+
+@intrinsic
+def monotonic_ns(typingctx):
+    """``clock_gettime(CLOCK)`` in ns: the C library's call, no Python."""
+    sig = types.int64()
+
+    def codegen(context, builder, signature, args):
+        i64 = cgutils.ir.IntType(64)
+        i32 = cgutils.ir.IntType(32)
+        spec = cgutils.ir.LiteralStructType([i64, i64])
+        fnty = cgutils.ir.FunctionType(i32, [i32, spec.as_pointer()])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "clock_gettime")
+        ts = cgutils.alloca_once(builder, spec)
+        builder.call(fn, [i32(max(CLOCK, 0)), ts])
+        sec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 0))
+        nsec = builder.load(cgutils.gep_inbounds(builder, ts, 0, 1))
+        return builder.add(builder.mul(sec, i64(1_000_000_000)), nsec)
+
+    return sig, codegen
+
+
+@compiled(nogil=True, inline="always")
+def f64_at(address, n):
+    return numba.carray(pointer_to(address), n, np.float64)
+
+
+@compiled(nogil=True, inline="always")
+def i64_at(address, n):
+    return numba.carray(pointer_to(address), n, np.int64)
+
+
+@compiled(nogil=True)
+def body_form(record):
+    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
+    takes them: the bank (power table, poles, sample rate, the listener's gains and their
+    sequence numbers), the voice slots' modal states (with their parked modes), the
+    pending ring, the PULSE form's transform and pulses, the voices."""
+    K = record[B_MODES]
+    R = record[B_SLOTS]
+    C = record[B_CONTACT]
+    P = record[B_PULSE_SAMPLES]
+    V = record[B_VOICE_SLOT_COUNT]
+    scalars = f64_at(record[B_SCALARS], N_SCALARS)
+    bank = (
+        numba.carray(pointer_to(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
+        numba.carray(pointer_to(record[B_POLES]), K, np.complex128),
+        scalars[S_FS],
+        numba.carray(pointer_to(record[B_HEARD]), (N_HEARD_ROWS, K), np.float64),
+        i64_at(record[B_HEARD_SEQ], 2),
+    )
+    modal = (
+        numba.carray(pointer_to(record[B_ZR]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_ZI]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_ACTIVE]), (V, K), np.bool_),
+        numba.carray(pointer_to(record[B_DEBT]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_DEBT_AT]), (V, K), np.int64),
+        numba.carray(pointer_to(record[B_THRESHOLDS]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_THR2]), (V, K), np.float64),
+        f64_at(record[B_LEVEL], V),
+        numba.carray(pointer_to(record[B_PARK_R]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_PARK_I]), (V, K), np.float64),
+        numba.carray(pointer_to(record[B_PARK_AT]), (V, K), np.int64),
+    )
+    ring = (
+        i64_at(record[B_STATE], R),
+        i64_at(record[B_INJECT], R),
+        i64_at(record[B_FIRST], R),
+        i64_at(record[B_LENGTH], R),
+        numba.carray(pointer_to(record[B_AMPLITUDES]), (R, K), np.complex128),
+        numba.carray(pointer_to(record[B_RESPONSE]), (R, C), np.float64),
+        f64_at(record[B_REFERENCE], R),
+        i64_at(record[B_VOICE], R),
+    )
+    transform = (
+        f64_at(record[B_POLE_RE], K),
+        f64_at(record[B_POLE_IM], K),
+        f64_at(record[B_STEP_RE], K),
+        f64_at(record[B_STEP_IM], K),
+        scalars[S_SIGMA_MAX],
+        scalars[S_PERIOD],
+        numba.carray(pointer_to(record[B_WORK]), (record[B_WORK_ROWS], K), np.float64),
+        numba.carray(pointer_to(record[B_HEARD_COEF]), (2, K), np.float64),
+        numba.carray(pointer_to(record[B_HEARD_AMPS]), K, np.complex128),
+    )
+    pulse_form = (
+        numba.carray(pointer_to(record[B_COEFFICIENTS]), (R, 2, K), np.float64),
+        numba.carray(pointer_to(record[B_SAMPLES]), (R, 2, P), np.float64),
+        i64_at(record[B_POINTS], R),
+        numba.carray(pointer_to(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
+    )
+    N = record[B_RECORDS]
+    voice_form = (
+        numba.carray(pointer_to(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
+        f64_at(record[B_VOICE_GAIN], N),
+        numba.carray(pointer_to(record[B_VOICE_SLOTS]), (V, kernel.N_SLOT_FIELDS), np.int64),
+        numba.carray(pointer_to(record[B_SLOT_GAIN]), (V, 2), np.float64),
+        f64_at(record[B_TAIL], record[B_TAIL_FRAMES]),
+    )
+    return bank, modal, ring, transform, pulse_form, voice_form
+
+
+@compiled(nogil=True)
+def event_ring(ctl):
+    return i64_at(ctl[EVENTS], ctl[N_EVENTS])
+
+
+def touch(a: np.ndarray) -> np.ndarray:
+    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
+    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
+    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
+    only copied at its first write. One byte of each page (and the last byte) is written
+    with its own value; a read-only array is read instead. Returns ``a``."""
+    b = a.reshape(-1).view(np.uint8)
+    if b.size == 0:
+        return a
+    if a.flags.writeable:
+        b[:: mmap.PAGESIZE] = b[:: mmap.PAGESIZE].copy()
+        b[-1] = b[-1]
+    else:
+        _read = int(b[:: mmap.PAGESIZE].sum()) + int(b[-1])  # noqa: F841 (the reads touch)
+    return a
+
+
+class EngineState:
+    """The arrays the audio thread works on (see the module's docstring), allocated once:
+    ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
+    ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
+    voice-ended events, the master bus' true-peak limiter's state (``limit``, or None
+    without a limiter), and the most pulses a stream's callback transforms over every body
+    (``transforms_per_block``; see :mod:`synth.live.native`)."""
+
+    def __init__(
+        self,
+        *,
+        samplerate: int,
+        channels: int,
+        max_bodies: int,
+        mix_frames: int,
+        record_frames: int,
+        fade_frames: int,
+        clip: bool,
+        transforms_per_block: int,
+        events: int = 4096,
+        limit: limiter.LimiterState | None = None,
+    ):
+        self.ctl = np.zeros(N_CTL, dtype=np.int64)
+        self.times = np.zeros(N_TIMES)
+        self.directory = np.zeros(max_bodies, dtype=np.int64)
+        self.allow = np.zeros(max_bodies, dtype=np.int64)
+        self.mix = np.zeros((channels + 1, mix_frames))
+        self.scratch = np.zeros((2, mix_frames))
+        # the voice-ended events: the kernel's header, then a ring of ``events``
+        self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
+        self.recording = np.zeros((record_frames, channels), dtype=np.float32)
+        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
+                  self.recording):  # fmt: skip
+            touch(a)
+        self.records: list = []  # the bodies' records and arrays, kept alive here
+        c, t = self.ctl, self.times
+        c[FADE_AT] = -1
+        c[FADE_LENGTH] = fade_frames
+        c[FADE_FRAME] = -1
+        c[MAX_BODIES] = max_bodies
+        c[CHANNELS] = channels
+        c[MIX_CAP] = mix_frames
+        c[RECORD_FRAMES] = record_frames
+        c[TIMES] = t.ctypes.data
+        c[DIRECTORY] = self.directory.ctypes.data
+        c[ALLOW] = self.allow.ctypes.data
+        c[TRANSFORM_BUDGET] = transforms_per_block
+        c[MIX] = self.mix.ctypes.data
+        c[SCRATCH] = self.scratch.ctypes.data
+        c[RECORD] = self.recording.ctypes.data
+        c[CLIP] = int(bool(clip))
+        self.limiter = limit
+        if limit is not None:
+            c[LIMIT] = 1
+            for field, a in zip(
+                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
+            ):
+                c[field] = a.ctypes.data
+            t[LIMIT_DELAY] = limit.delay / samplerate
+        c[EVENTS] = self.events.ctypes.data
+        c[N_EVENTS] = self.events.shape[0]
+        t[SAMPLERATE] = samplerate
+        t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
+        t[PAUSE_LEVEL] = 1.0
+        # the record a removed body's directory entry points to: a body with no voice
+        # slot and no pending slot, asleep for good (the callback returns at once)
+        self._vacant_arrays = dict(
+            counters=np.zeros(kernel.N_COUNTERS, dtype=np.int64),
+            transformed=np.zeros(1, dtype=np.int64),
+            scalars=np.zeros(N_SCALARS),
+            state=np.zeros(1, dtype=np.int64),
+        )
+        self._vacant_arrays["scalars"][[S_PAN, S_PAN_NOW]] = math.nan
+        self.vacant = np.zeros(N_BODY, dtype=np.int64)
+        for name, a in self._vacant_arrays.items():
+            self.vacant[BODY_FIELDS.index(name)] = a.ctypes.data
+        self.vacant[B_CHANNEL] = -1
+
+    @property
+    def address(self) -> int:
+        """The address of ``ctl``: the callback's ``userData``."""
+        return self.ctl.ctypes.data
+
+    def add_body(self, arrays: dict) -> np.ndarray:
+        """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
+        audio thread: its record is written, then counted. Returns the record."""
+        n = int(self.ctl[N_BODIES])
+        free = [i for i, r in enumerate(self.records) if r is None]
+        if not free and n >= self.directory.shape[0]:
+            raise IndexError(n)
+        record = np.zeros(N_BODY, dtype=np.int64)
+        for i, name in enumerate(BODY_FIELDS):
+            value = arrays[name]
+            if isinstance(value, np.ndarray):
+                if not value.flags.c_contiguous:
+                    raise ValueError(f"{name} must be C-contiguous")
+                touch(value)  # the audio thread takes no page fault on it
+                record[i] = value.ctypes.data
+            else:
+                record[i] = int(value)
+        if free:  # a removed body's entry: the callback mixes the body from the write on
+            self.records[free[0]] = (record, arrays)
+            self.directory[free[0]] = record.ctypes.data
+            return record
+        self.records.append((record, arrays))
+        self.directory[n] = record.ctypes.data
+        self.ctl[N_BODIES] = n + 1  # last: the callback mixes the body from now on
+        return record
+
+    def bodies_held(self) -> int:
+        """Bodies in the directory (removed ones not counted)."""
+        return sum(1 for r in self.records if r is not None)
+
+    def vacate(self, index: int) -> tuple[int, int]:
+        """Take body ``index`` out of the mixing: its directory entry points to the vacant
+        record from now on (one atomic word). Returns the mixing's progress then (the next
+        frame, the callbacks), for :meth:`left`."""
+        progress = int(self.ctl[FRAME]), int(self.ctl[CALLBACKS])
+        self.directory[index] = self.vacant.ctypes.data
+        return progress
+
+    def left(self, progress: tuple[int, int]) -> bool:
+        """Whether every block that may have read a directory entry before :meth:`vacate`
+        returned ``progress`` has ended (a piece mixed since, or a callback returned)."""
+        return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
+
+    def release(self, index: int) -> None:
+        """Let go of body ``index``'s arrays (vacated, and left by the mixing); its entry
+        is taken again by the next :meth:`add_body`."""
+        self.records[index] = None
+
+    def anchor(self) -> tuple[int, float, float]:
+        """The last callback's first frame, the monotonic time (s) at which it leaves the
+        device and the callbacks so far (0: none yet): a consistent reading (the callback
+        writes them between two increments of a sequence number)."""
+        c, t = self.ctl, self.times
+        while True:
+            seq = int(c[SEQ])
+            frame, dac = float(t[ANCHOR_FRAME]), float(t[ANCHOR_DAC])
+            if seq % 2 == 0 and int(c[SEQ]) == seq:
+                return frame, dac, seq // 2
+
+
+def body_arrays(
+    coefficients,
+    table,
+    modal_state,
+    ring,
+    floor: float,
+    gain: float,
+    channel: int = -1,
+    *,
+    steal_frames: int,
+    mix_frames: int = 4096,
+    ears: int = 1,
+    gains: np.ndarray,
+    pan: float = math.nan,
+) -> dict:
+    """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
+    its poles and one-sample steps (``coefficients``, a
+    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, its
+    voice slots' modal states (:func:`synth.live.kernel.body_state`), pending ``ring`` with
+    its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
+    output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
+    most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
+    both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
+    its modes (K,; the mixing applies them at its output, the voices' states are the
+    plate's) and its ``pan`` (NaN: unpanned; see :func:`synth.live.native.pan_gains`)."""
+    from synth.sound.modal_bank import transform_workspace
+
+    c = coefficients
+    fs = float(c.samplerate)
+    K = c.poles.size
+    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
+    V = zr.shape[0]
+    heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
+    voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
+    voice_slots[:, kernel.SL_OWNER] = -1
+    counters = np.zeros(kernel.N_COUNTERS, dtype=np.int64)
+    counters[kernel.EARS] = ears
+    counters[kernel.STEAL_FRAMES] = steal_frames
+    tail = np.zeros(mix_frames + steal_frames)
+    scalars = np.zeros(N_SCALARS)
+    scalars[S_FS] = fs
+    scalars[S_FLOOR] = floor
+    scalars[S_SIGMA_MAX] = c.sigma_max
+    scalars[S_PERIOD] = 1.0 / fs
+    scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
+    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
+    work = transform_workspace(K)
+    return dict(
+        table=np.ascontiguousarray(table),
+        poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
+        zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
+        thr2=thr2, level=level, state=ring.state, inject=ring.inject, first=ring.first,
+        length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
+        reference=ring.reference, counters=counters,
+        pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
+        step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
+        work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
+        pulse=ring.pulse, transformed=ring.transformed, scalars=scalars,
+        modes=K, slots=ring.capacity, contact=ring.max_contact,
+        pulse_samples=ring.pulse_samples, work_rows=work.shape[0], table_cols=table.shape[2],
+        channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
+        voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
+        n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
+        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
+        heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
+    )  # fmt: skip

@@ -1,0 +1,299 @@
+"""The outcome of one impact: :class:`ImpactResult` and the one builder that fills it.
+
+An impact's contact kernel (``synth/physics/contact_kernels/``: the power laws' and the
+thin shell's) returns an array of results (fields ``R_*`` of its ``outcome.py``) and a
+dense output; :func:`result_from_row` turns them into the result of the law's class
+(:class:`ImpactResult`, or :class:`~synth.physics.contact_shell.ShellImpactResult` for a
+hollow ball), whose pulse is sampled from the dense output on first access. Numerical
+trouble is reported in ``success``, ``status`` and ``message``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import NamedTuple
+
+import numpy as np
+
+from synth.errors import ParameterError
+from synth.physics import contact_kernels as _k
+
+_MESSAGES = {
+    _k.SEPARATED: "The ball separated from the plate.",
+    _k.SETTLED: "The ball settled: its energy fell below what a separation needs.",
+    _k.MAX_STEPS: "The step limit was reached before the contact ended.",
+    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
+}
+_TINY_REBOUND = (
+    "The ball separated with a rebound speed below the solver's resolution; "
+    "restitution reported as 0."
+)
+#: Status of a contact integrated to its end whose energy balance is not met.
+ENERGY_IMBALANCE = -3
+#: Largest energy residual (relative, see ``ImpactResult.energy_residual``) of a result
+#: reported as a success: the solver meets its tolerance with residuals of 1e-7 and
+#: below; 1 % means the integration lost the physics (e.g. an admittance so large
+#: that the contact lasts less than the time axis resolves).
+ENERGY_RESIDUAL_LIMIT = 0.01
+
+
+def _energy_message(residual: float) -> str:
+    return (
+        f"The energy balance is not met: residual {residual:.3g} of the energy "
+        f"exchanged (at most {ENERGY_RESIDUAL_LIMIT:g}); the result is not physical."
+    )
+
+
+class DenseOutput(NamedTuple):
+    """The solver's dense output of one contact, for sampling the pulse afterwards:
+    the step history of the kernels, the integrator (``radau``), the dimensionless
+    parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
+    ``s_contact``) and the
+    scales back to SI units (``theta``, s; ``f_scale``, N)."""
+
+    hist: np.ndarray
+    radau: bool
+    lam: float
+    G: float
+    n: float
+    c: float
+    b: float
+    s_contact: float
+    theta: float
+    f_scale: float
+    n_points: int
+
+
+@dataclass(frozen=True, eq=False)
+class ImpactResult:
+    """The outcome of one impact (SI units).
+
+    Attributes
+    ----------
+    restitution : float
+        ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
+    contact_time : float
+        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), the
+        quantity a force transducer measures and the thesis reports (docs/validation.md).
+        For a settled ball: the time at which the ball was proven unable to separate.
+    separation_time : float
+        Time from first touch to separation, s: the penetration's return to 0, where the
+        ball's free flight starts (the bounce scheduler's clock). Equal to ``contact_time``
+        for an elastic law; with a loss the force falls to 0 first, while the ball still
+        moves apart from the indented surface (about ``(3/2) A`` later with the
+        viscoelastic loss, docs/physics.md, "Contact losses"). For a settled ball: as
+        ``contact_time``.
+    max_penetration : float
+        Largest local deformation ``delta_max``, m.
+    peak_force : float
+        Largest contact force, N.
+    impulse : float
+        Integral of the contact force over the contact, N s.
+    inelasticity : float
+        Zener's parameter ``lam = beta m / theta``, dimensionless.
+    settled : bool
+        True if the ball never separated (it came to rest on the plate).
+    rebound_speed : float
+        Relative speed of separation ``v_out = v_s(tau) - v_free``, m/s (0 if settled).
+    plate_energy : float
+        Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
+    time : ndarray
+        Times of the pulse samples from first touch to separation, s (uniform,
+        ``n_points``); sampled from the dense output on first access, like ``force``.
+    force : ndarray
+        Contact force at those times, N.
+    energy_residual : float
+        Error of the energy balance (docs/physics.md, "Hertz contact"; with the
+        contact's loss), relative to the energy exchanged: the impact's kinetic energy, or
+        the work of gravity or the energy carried into the plate where larger.
+    success : bool
+        True if the contact was integrated to its end.
+    status : int
+        0 separated, 1 settled, negative: failure (see ``message``; -3: the energy
+        balance is off by more than ``ENERGY_RESIDUAL_LIMIT``).
+    message : str
+        Human-readable description of ``status``.
+    n_steps : int
+        Accepted integration steps (after the series start of the contact).
+    method : str
+        ``"DOP853"`` or ``"Radau"``; ``"DOPRI5"`` for a hollow ball's thin-shell law
+        (:class:`~synth.physics.contact_shell.ShellImpactResult`).
+    """
+
+    restitution: float
+    contact_time: float
+    separation_time: float
+    max_penetration: float
+    peak_force: float
+    impulse: float
+    inelasticity: float
+    settled: bool
+    rebound_speed: float
+    plate_energy: float
+    energy_residual: float
+    success: bool
+    status: int
+    message: str
+    n_steps: int
+    method: str
+
+    _dense: DenseOutput | None = field(default=None, repr=False, compare=False)
+
+    @cached_property
+    def time(self) -> np.ndarray:
+        return self._sample_pulse()[0]
+
+    @cached_property
+    def force(self) -> np.ndarray:
+        return self._sample_pulse()[1]
+
+    @property
+    def exponent(self) -> float:
+        """Exponent ``n`` of the contact law ``F = K delta^n`` (dimensionless): the pulse
+        rises like ``t^n`` after first touch and falls like ``(tau - t)^n`` before
+        separation."""
+        return self._dense.n
+
+    @property
+    def pulse_order(self) -> float:
+        """Exponent ``q`` of the trapezoid rule's leading error ``C h^q`` on the force pulse
+        (dimensionless; the modal bank extrapolates with it): ``n + 1`` for a pulse that rises
+        like ``t^n`` and falls like ``(tau - t)^n``; ``3/2`` with the viscoelastic loss, whose
+        force rises like ``t^(1/2)`` (and switches off with a kink before separation: ``h^2``)."""
+        d = self._dense
+        if d is not None and d.b != 0.0:
+            return 1.5
+        return self.exponent + 1.0
+
+    def _sample_pulse(self):
+        # Both arrays at once, cached beside each other (most uses of an impact, such as
+        # rendering, need only force_at).
+        d = self._dense
+        times = np.empty(d.n_points)
+        forces = np.empty(d.n_points)
+        _k.pulse(
+            d.hist,
+            d.radau,
+            d.lam,
+            d.G,
+            d.n,
+            d.c,
+            d.b,
+            d.s_contact,
+            self.status == _k.SEPARATED,
+            d.theta,
+            d.f_scale,
+            times,
+            forces,
+        )
+        self.__dict__.update(time=times, force=forces)
+        return times, forces
+
+    def force_at(self, t) -> float | np.ndarray:
+        """Contact force (N) at times ``t`` (s from first touch, array-like), evaluated on the
+        solver's dense output (its accuracy is the solver's); 0 outside the contact."""
+        out, _ = self.force_and_slope_at(np.atleast_1d(t))
+        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
+
+    def pulse_samples(
+        self, step: float, points: int, offset: float, period: float, samples: int, out=None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Force (N) and its rate of change (N/s) on a uniform grid ``j step`` (s, ``j <
+        points``) and then at ``offset + m period`` (s, ``m < samples``), times from first
+        touch: :meth:`force_and_slope_at` of those times, in one call (the modal bank's
+        pulse grid and in-contact audio samples). ``out``: an optional (2, L) float array,
+        ``L >= points + samples``, whose rows take the forces and the slopes (the live
+        engine writes them straight into a slot); returns views of its rows then."""
+        points, samples = int(points), int(samples)
+        total = points + samples
+        if out is None:
+            out = np.empty((2, total))
+        elif out.ndim != 2 or out.shape[0] != 2 or out.shape[1] < total:
+            raise ParameterError(
+                f"out has shape {out.shape}; the pulse samples need (2, >= {total})"
+            )
+        self._pulse_force_slope(float(step), points, float(offset), float(period), samples, out)
+        return out[0, :total], out[1, :total]
+
+    def _pulse_force_slope(self, step, points, offset, period, samples, out) -> None:
+        """:meth:`pulse_samples`' forces and slopes into ``out``'s rows, in one compiled
+        call on the Hertz-family dense output."""
+        d = self._dense
+        _k.pulse_force_slope(
+            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, d.theta, d.f_scale,
+            step, points, offset, period, samples, out,
+        )  # fmt: skip
+
+    def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first
+        touch, a 1-D array), from the solver's dense output; both 0 outside the contact."""
+        s = np.ascontiguousarray(np.asarray(t, dtype=float).ravel() / self._dense.theta)
+        out = np.empty_like(s)
+        slope = np.empty_like(s)
+        self._force_and_slope(s, out, slope)
+        return out, slope
+
+    def _force_and_slope(self, s, out, slope) -> None:
+        """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
+        times ``s`` (s / theta): the dense output's, scaled to SI units."""
+        d = self._dense
+        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
+        out *= d.f_scale
+        slope *= d.f_scale / d.theta
+
+
+def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
+    """The :class:`ImpactResult` of class ``cls`` of a contact kernel's result ``r`` (its
+    array as a list of Python floats, fields ``R_*``), integrated by ``method``, with the
+    dense output ``dense`` of its pulse. A contact integrated to its end whose energy
+    balance is off by more than :data:`ENERGY_RESIDUAL_LIMIT` is reported as a failure
+    (``ENERGY_IMBALANCE``)."""
+    status = int(r[_k.R_STATUS])
+    residual = r[_k.R_ENERGY_RESIDUAL]
+    energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
+    if energy_failed:
+        status = ENERGY_IMBALANCE
+    obj = object.__new__(cls)
+    # The solver's own values need no checks: fill the frozen instance directly (the
+    # generated __init__ would take a good part of the time an impact takes).
+    object.__setattr__(
+        obj,
+        "__dict__",
+        {
+            "restitution": r[_k.R_RESTITUTION],
+            "contact_time": r[_k.R_CONTACT_TIME],
+            "separation_time": r[_k.R_SEPARATION_TIME],
+            "max_penetration": r[_k.R_MAX_PENETRATION],
+            "peak_force": r[_k.R_PEAK_FORCE],
+            "impulse": r[_k.R_IMPULSE],
+            "inelasticity": r[_k.R_INELASTICITY],
+            "settled": status == _k.SETTLED,
+            "rebound_speed": r[_k.R_REBOUND_SPEED],
+            "plate_energy": r[_k.R_PLATE_ENERGY],
+            "energy_residual": residual,
+            "success": status >= 0,
+            "status": status,
+            "message": (
+                _energy_message(residual)
+                if energy_failed
+                else _TINY_REBOUND
+                if r[_k.R_TINY_REBOUND]
+                else _MESSAGES.get(status, "Unknown status.")
+            ),
+            "n_steps": int(r[_k.R_N_STEPS]),
+            "method": method,
+            "_dense": dense,
+        },
+    )
+    return obj
+
+
+def with_message(result: ImpactResult, message: str) -> ImpactResult:
+    """A copy of ``result`` (an :class:`ImpactResult`, of its own class) with another
+    ``message``."""
+    obj = object.__new__(type(result))
+    d = {k: v for k, v in result.__dict__.items() if k not in ("time", "force")}
+    d["message"] = message
+    object.__setattr__(obj, "__dict__", d)
+    return obj
