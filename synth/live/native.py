@@ -658,11 +658,16 @@ def stream_callback():
     A kernel compiled on its own and called from another is linked into the caller's
     code and optimised and compiled to machine code again with it (numba's
     ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
-    tree once more."""
+    tree once more.
+
+    Compiled with the options of the kernels it inlines (``nogil`` as well, which a cfunc
+    does not use): numba keeps its own helpers (``numba.carray``, ``min``, ``max``) per
+    argument types and compile options, and compiles them again for a caller whose
+    options differ."""
     with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
-        return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
-            _callback
-        )
+        return numba.cfunc(
+            CALLBACK_SIGNATURE, nopython=True, nogil=True, cache=True, fastmath=FASTMATH
+        )(_callback)
 
 
 def _check_block(ctl: np.ndarray, out: np.ndarray) -> None:
@@ -710,8 +715,10 @@ def transform_pending(record):
     a stream starts: hits queued without a stream are not bounded per block)."""
     bank, modal, ring, transform, pulse_form, voice_form = _body_form(record)
     transformed = _i64(record[B_TRANSFORMED], 1)
-    # the in-contact response and peak heard with the gains the mixing holds now
-    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
+    # the in-contact response and peak heard with the gains the mixing holds now; every
+    # pulse (limit -1) as an int64, the type mix_body passes: a literal -1 would have numba
+    # compile _transform_pulses a second time
+    kernel._transform_pulses(ring, transform, pulse_form, transformed, bank[3], np.int64(-1))
 
 
 @compiled(nogil=True)
@@ -914,7 +921,6 @@ def warm_up() -> None:
     out = np.zeros((8, 1), dtype=np.float32)
     run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
-    silence_body(state.ctl, record)
 
 
 def body_arrays(
