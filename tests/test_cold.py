@@ -75,23 +75,6 @@ def test_the_live_block_is_compiled_into_the_callback_only():
         assert inlined.overloads == {}, inlined.py_func.__name__
 
 
-def test_every_kernel_of_the_live_block_has_one_specialisation():
-    # The pending pulses are transformed from Python (transform_pending, limit -1: all) and
-    # from the mixing (mix_body, an int64 limit): the literal -1 had numba compile
-    # _transform_pulses, the longest kernel of the block, a second time on first use.
-    from synth.live import kernel, native
-
-    native.warm_up()
-    counts = {
-        f"{module.__name__}.{name}": len(f.overloads)
-        for module in (kernel, native)
-        for name, f in vars(module).items()
-        if isinstance(f, numba.core.dispatcher.Dispatcher)
-    }
-    assert counts["synth.live.kernel._transform_pulses"] == 1
-    assert {k: n for k, n in counts.items() if n > 1} == {}
-
-
 def test_unknown_attribute_is_an_attribute_error():
     import synth
 

@@ -792,6 +792,9 @@ print("clock_gettime", "clock_gettime" in ir)
 print("_write_block", "_write_block" in ir)
 for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
     print(callee, callee in ir)
+from synth.live import kernel
+twice = [n for n, f in vars(kernel).items() if len(getattr(f, "overloads", ())) > 1]
+print("specialised_twice", ",".join(twice) or "none")
 """
 
 
@@ -819,6 +822,10 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(tmp_path):
     for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
         assert found.pop(callee) == "True", callee
     assert found.pop("clock_gettime") == "True"  # its cost is timed from its entry
+    # one specialisation of each kernel: the pulses transformed from Python
+    # (transform_pending, limit -1: all) and by the mixing (an int64 limit) took two of
+    # _transform_pulses, the longest kernel of the block, when the -1 was a literal
+    assert found.pop("specialised_twice") == "none"
     assert set(found.values()) == {"False"}, found
 
 

@@ -658,16 +658,11 @@ def stream_callback():
     A kernel compiled on its own and called from another is linked into the caller's
     code and optimised and compiled to machine code again with it (numba's
     ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
-    tree once more.
-
-    Compiled with the options of the kernels it inlines (``nogil`` as well, which a cfunc
-    does not use): numba keeps its own helpers (``numba.carray``, ``min``, ``max``) per
-    argument types and compile options, and compiles them again for a caller whose
-    options differ."""
+    tree once more."""
     with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
-        return numba.cfunc(
-            CALLBACK_SIGNATURE, nopython=True, nogil=True, cache=True, fastmath=FASTMATH
-        )(_callback)
+        return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
+            _callback
+        )
 
 
 def _check_block(ctl: np.ndarray, out: np.ndarray) -> None:
