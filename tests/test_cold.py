@@ -84,12 +84,14 @@ def test_unknown_attribute_is_an_attribute_error():
 
 
 def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks(tmp_path):
+    # nor what a scene on the plate's impedance does not use: scipy.special (the modes'
+    # normalisation took two log-factorials from it) and the plate-coupled contact
     code = (
         "import sys\n"
         "from synth.cli import main\n"
         f"main(['render', 'default', '-o', {str(tmp_path / 'x.wav')!r}])\n"
         "print(sorted(m for m in ('synth.analysis', 'synth.live', 'synth.bank', 'sounddevice',"
-        " 'matplotlib') if m in sys.modules))\n"
+        " 'matplotlib', 'scipy.special', 'synth.physics.modal_contact') if m in sys.modules))\n"
     )
     proc = _python(code)
     assert proc.returncode == 0, proc.stderr
@@ -123,6 +125,10 @@ if case == "others-first":
             "limit_block",
         )
     }
+    from synth.live import kernel
+    found["specialised_twice"] = sorted(
+        n for n, f in vars(kernel).items() if len(getattr(f, "overloads", ())) > 1
+    )
     equations.force(1e-6, 0.1, 1e9, 1.5, 0.0, 0.0)
     from synth.physics.scene import Ball, Plate
     ball = Ball("steel", 0.01)
@@ -245,6 +251,10 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(cold_children):
     for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
         assert found.pop(callee), callee
     assert found.pop("clock_gettime")  # its cost is timed from its entry
+    # one specialisation of each live kernel: the pulses transformed from Python
+    # (transform_pending, limit -1: all) and by the mixing (an int64 limit) took two of
+    # transform_pulses, the longest kernel of the block, when the -1 was a literal
+    assert found.pop("specialised_twice") == []
     assert set(found.values()) == {False}, found
 
 

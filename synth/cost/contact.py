@@ -80,7 +80,6 @@ def solve_first_contact(scene) -> FirstContact:
     """The first impact by the impedance model; for the modal plate, a ball that comes to
     rest gets the modal contact's longest (``SETTLE_FACTOR`` impedance contact times)."""
     from synth.physics.contact import ContactSolver
-    from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
 
     c = scene.contact
     options = c.options()
@@ -100,6 +99,9 @@ def solve_first_contact(scene) -> FirstContact:
     e = 0.0 if first.settled else float(first.restitution)
     if c.plate == "impedance" or not first.settled:
         return FirstContact(first.separation_time, bool(first.settled), e)
+    # imported here: a scene on the plate's impedance (most renders) needs no modal contact
+    from synth.physics.modal_contact.contact import SETTLE_FACTOR, impedance_contact_time
+
     tau = impedance_contact_time(scene.ball, scene.plate, speed, law=c.law, **options)
     return FirstContact(SETTLE_FACTOR * tau, True, e)
 

@@ -600,8 +600,10 @@ def transform_pending(record):
     a stream starts: hits queued without a stream are not bounded per block)."""
     bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
     transformed = i64_at(record[B_TRANSFORMED], 1)
-    # the in-contact response and peak heard with the gains the mixing holds now
-    kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], -1)
+    # the in-contact response and peak heard with the gains the mixing holds now; every
+    # pulse (limit -1) as an int64, the type mix_body passes: a literal -1 would have numba
+    # compile transform_pulses a second time
+    kernel.transform_pulses(ring, transform, pulse_form, transformed, bank[3], np.int64(-1))
 
 
 @compiled(nogil=True)
@@ -644,4 +646,3 @@ def warm_up() -> None:
     out = np.zeros((8, 1), dtype=np.float32)
     run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
-    silence_body(state.ctl, record)

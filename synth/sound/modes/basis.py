@@ -92,6 +92,13 @@ def _recurrence(x, a, p0, out):  # pragma: no cover
                 ]
 
 
+def _log_factorial(k: int) -> float:
+    """``ln k! = ln Gamma(k + 1)`` of a small integer ``k``: the logarithm of the exact
+    product, as ``scipy.special.gammaln`` takes it below 13 (Cephes' ``lgam``), without
+    importing scipy.special for a render."""
+    return math.log(math.factorial(k))
+
+
 def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
     """Basis functions ``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1].
 
@@ -102,12 +109,10 @@ def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndar
     (:func:`_recurrence`); for ``alpha = 4`` the polynomials are multiplied by
     ``u = (1 - xi^2)^2``.
     """
-    from scipy.special import gammaln  # imported on use: a render from cached modes needs none
-
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp(
-        (2 * alpha + 1) * math.log(2.0) + 2 * gammaln(alpha + 1) - gammaln(2 * alpha + 2)
+        (2 * alpha + 1) * math.log(2.0) + 2 * _log_factorial(alpha) - _log_factorial(2 * alpha + 1)
     )
     m = np.arange(n + 1, dtype=float)
     a = np.sqrt(m * (m + 2 * alpha) / ((2 * m + 2 * alpha + 1) * (2 * m + 2 * alpha - 1)))
