@@ -130,11 +130,12 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     The orders tried start at ``start`` and double while the best lies in the top quarter, up
     to a third of the stretch (two equations per unknown, at least) and :data:`MAX_ORDER`;
     every predictor comes from one Cholesky factorisation at the largest order (its leading
-    blocks factor the smaller systems). Then the normal equations are solved again with the
-    least prediction error energy on their diagonal: the noise, which no order predicts, as
-    white noise (a ridge), so that no predictor lifts a band the ringing leaves empty (above
-    its modes, under an anti-aliasing filter) far over the noise, where a tick's onset would
-    drown; without noise it changes nothing. ``fs`` (Hz) is the sample rate of ``seg``.
+    blocks factor the smaller systems; :func:`_loaded_cholesky`, O(p^2)). Then the normal
+    equations are solved again with the least prediction error energy on their diagonal: the
+    noise, which no order predicts, as white noise (a ridge), so that no predictor lifts a
+    band the ringing leaves empty (above its modes, under an anti-aliasing filter) far over
+    the noise, where a tick's onset would drown; without noise it changes nothing. ``fs``
+    (Hz) is the sample rate of ``seg``.
     """
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
@@ -175,10 +176,7 @@ def one_blas_thread():
     per recording; the triangular solutions of the resonator's predictor). The helper threads
     of a multithreaded BLAS, waiting for cores that other work keeps busy, made them three to
     ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
-    :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
-    resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
-    library's threads unless its caller runs on one (a recording searched block by block,
-    :mod:`synth.analysis.pipeline`). Only the outermost of nested contexts sets the limit:
+    :mod:`synth.sound.modes`). Only the outermost of nested contexts sets the limit:
     each entry scans the process' loaded libraries (milliseconds, several times per drop of
     a long recording), and an inner one would change nothing."""
     from threadpoolctl import threadpool_limits
