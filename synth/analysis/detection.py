@@ -8,6 +8,7 @@ whitened signal.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -331,22 +332,33 @@ def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
     m`` of a spectrum zero-padded to ``n``: ``(C_0 + 2 Re sum_(f>=1) C_f e^(2 pi i f k / n)) /
     n`` by the chirp z-transform (Bluestein's convolution; Rabiner, Schafer and Rader 1969,
     IEEE Trans. Audio Electroacoust. 17, 86): transforms of about ``m + k1 - k0`` points,
-    not ``n``. With ``f k = (f^2 + k^2 - (k - f)^2) / 2``, each chirp's phase is taken from
-    its exact integer numerator modulo ``2 n``."""
+    not ``n`` (:func:`_chirps`)."""
     from scipy import fft
 
-    m = C.size
-    count = k1 - k0 + 1
+    pre, kernel, post = _chirps(n, k0, C.size, k1 - k0 + 1)
+    X = fft.ifft(fft.fft(C * pre, kernel.size) * kernel)[: post.size] * post
+    return (2.0 * X.real - C[0].real) / n
+
+
+@functools.lru_cache(maxsize=4)
+def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chirps of :func:`_fine_correlation` for ``m`` bins, ``count`` lags from ``k0``, a
+    transform of ``n``: with ``f k = (f^2 + k^2 - (k - f)^2) / 2``, the factor of each bin
+    ``e^(i pi (f^2 + 2 k0 f) / n)``, the transform of the convolution kernel ``e^(-i pi j^2 /
+    n)`` (``j = 1 - m .. count - 1``) and the factor of each lag ``e^(i pi k^2 / n)``; each
+    phase from its exact integer numerator modulo ``2 n``. The same for every tick timed
+    against one template (the resonator's search), so computed once."""
+    from scipy import fft
+
     size = fft.next_fast_len(m + count - 1)
     f = np.arange(m, dtype=np.int64)
     k = np.arange(count, dtype=np.int64)
-    u = C * np.exp(1j * math.pi / n * ((f * f + 2 * k0 * f) % (2 * n)))
+    pre = np.exp(1j * math.pi / n * ((f * f + 2 * k0 * f) % (2 * n)))
     v = np.zeros(size, dtype=complex)
     v[:count] = np.exp(-1j * math.pi / n * ((k * k) % (2 * n)))
     v[size - m + 1 :] = np.exp(-1j * math.pi / n * ((f[:0:-1] ** 2) % (2 * n)))
-    X = fft.ifft(fft.fft(u, size) * fft.fft(v))[:count]
-    X *= np.exp(1j * math.pi / n * ((k * k) % (2 * n)))
-    return (2.0 * X.real - C[0].real) / n
+    post = np.exp(1j * math.pi / n * ((k * k) % (2 * n)))
+    return pre, fft.fft(v), post
 
 
 @dataclass(frozen=True)
