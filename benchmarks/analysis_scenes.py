@@ -9,11 +9,12 @@ analysis' defaults and each detected tick matched to the nearest true onset.
 Scores, per scene and in total:
 
 * false ticks: detected ticks that match no true impact;
-* impossible values: ticks whose reported values no bounce can have (a restitution outside
-  (0, 1), an impact speed above the drop's free-fall speed, a non-finite measurement) or
-  whose restitution the analysis itself flags as no bounce's
-  (:data:`~synth.analysis.report.RESTITUTION_FLAGS`): a flagged value is still a value a
-  user reads;
+* impossible values: ticks whose reported values contradict physics or the scene's truth
+  (:func:`impossible_value`): a non-finite measurement, a restitution not above 0, an
+  impact speed above the drop's free-fall speed, a restitution of 1 or more (growth of the
+  bounce time) where the true impacts its ticks match show no growth, or a restitution the
+  analysis flags as spanning a missed bounce. A ratio above 1 is a possible value: a
+  vibrating plate can give the ball energy back, and the engine's own flights then grow;
 * audible impacts missed: true impacts that are audible (:func:`audible_impacts`) and that
   no detected tick matches;
 * seconds of analysis per second of audio.
@@ -33,6 +34,10 @@ import numpy as np
 #: onset, s, or within the impact's contact time when that is longer (a soft ball's tick
 #: rises over its contact).
 MATCH_TOLERANCE = 1e-3
+#: A measured onset may lie this many sample periods from the true one without contradicting
+#: it when a restitution is judged against the true ratio (sub-sample onsets; the analysis'
+#: own searches agree within two sample periods).
+ONSET_SLACK = 2.0
 #: An impact is audible when its own sound, over its window, has at least this much energy
 #: relative to all the other impacts' sound (the ringing) in the same window, dB: a tick
 #: that does not stand as loud as the ringing around it is masked (tick-to-masker ratio,
@@ -260,34 +265,63 @@ class SceneScore:
 
 def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
     """False ticks, impossible values and audible impacts missed of ``ticks`` (the analysis'
-    :class:`~synth.analysis.report.Tick` list) against ``truth``."""
-    from synth.analysis.report import RESTITUTION_FLAGS
-
+    :class:`~synth.analysis.report.Tick` list, in time order) against ``truth``."""
     tol = np.maximum(MATCH_TOLERANCE, truth.contact_times)
     matched = np.zeros(truth.onsets.size, dtype=bool)
-    false = 0
+    match = []  # the true impact of each tick, -1 for a false tick
     for t in ticks:
         d = np.abs(truth.onsets - t.time)
         free = np.where(~matched & (d <= tol))[0]
         if free.size:
-            matched[free[np.argmin(d[free])]] = True
+            k = int(free[np.argmin(d[free])])
+            matched[k] = True
+            match.append(k)
         else:
-            false += 1
-    bad_flags = set(RESTITUTION_FLAGS)
-    impossible = sum(_impossible(t, truth.fall_speed, bad_flags) for t in ticks)
+            match.append(-1)
+    impossible = sum(
+        impossible_value(t, truth, match[max(0, n - 3) : n + 1]) for n, t in enumerate(ticks)
+    )
     missed = int(np.count_nonzero(truth.audible & ~matched))
-    return false, impossible, missed
+    return len(match) - sum(k >= 0 for k in match), impossible, missed
 
 
-def _impossible(t, fall_speed: float, bad_flags: set) -> bool:
-    """Whether the tick ``t`` reports a value no bounce of this drop can have."""
+def impossible_value(t, truth: Truth, impacts: list) -> bool:
+    """Whether the tick ``t`` reports a value that contradicts physics or ``truth``.
+
+    ``impacts`` are the true impacts (indices, -1 for a false tick) that ``t`` and the up to
+    three ticks before it match; its restitution ``e_n = t_n / t_(n-1)`` is measured from the
+    last three. Physics: every measurement finite, ``e_n > 0``, the impact speed at most the
+    drop's free-fall speed (1 % over it allowed: the bounce time holds the contact time too).
+    Truth: ``e_n >= 1``, or the flag that says so (``restitution>=1``), only where the true
+    onsets of those impacts allow a ratio of 1 or more (:func:`_growth_allowed`; with a false
+    tick among them no bounce grew), and the flag ``after-restitution>=1`` only where the
+    truth allows the growth of the bounce before. The flag ``missed-bounce`` says that the
+    value spans a missed bounce, no bounce's restitution: impossible as before."""
+    from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, MISSED_BOUNCE
+
     values = (t.time, t.energy, t.peak, t.centroid, t.spread)
-    if not all(math.isfinite(v) for v in values) or set(t.flags) & bad_flags:
+    if not all(math.isfinite(v) for v in values) or MISSED_BOUNCE in t.flags:
         return True
-    if t.restitution is not None and not 0.0 < t.restitution < 1.0:
+    if t.speed is not None and not t.speed <= 1.01 * truth.fall_speed:
         return True
-    # the bounce time holds the contact time too: 1 % over the free-fall speed allowed
-    return t.speed is not None and t.speed > 1.01 * fall_speed
+    if AFTER_GROWN in t.flags and not _growth_allowed(truth, impacts[:-1]):
+        return True
+    if t.restitution is None:
+        return False
+    if not (math.isfinite(t.restitution) and t.restitution > 0.0):
+        return True
+    grown = t.restitution >= 1.0 or GROWN_BOUNCE in t.flags
+    return grown and not _growth_allowed(truth, impacts[-3:])
+
+
+def _growth_allowed(truth: Truth, impacts: list) -> bool:
+    """Whether the true impacts ``impacts`` (three, in order, none false) allow a bounce-time
+    ratio of 1 or more, each onset moved by :data:`ONSET_SLACK` sample periods."""
+    if len(impacts) < 3 or min(impacts) < 0:
+        return False
+    on = truth.onsets[impacts]
+    slack = ONSET_SLACK / truth.samplerate
+    return bool(on[2] - on[1] + 2.0 * slack >= on[1] - on[0] - 2.0 * slack)
 
 
 def _analysis_child(audio: np.ndarray, samplerate: int, conn) -> None:

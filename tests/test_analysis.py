@@ -813,6 +813,55 @@ def test_resonator_predictor_rejects_short_stretch():
     assert _resonator_predictor(np.ones(6), 48000, 64) is None
 
 
+def test_resonator_factor_from_the_displacement_structure():
+    # The resonator's normal matrix G (covariance method, order p) changes along its diagonals
+    # by one sample entering and one leaving the sums; the generalized Schur algorithm on
+    # that structure factors G + load I with the backward error of a Cholesky factorisation
+    # (a few p eps of the matrix: 1e-12 allowed at p = 256) and, where the matrix is well
+    # conditioned (load 1e-3 of the mean diagonal), gives LAPACK's factor (the factor is
+    # unique). A matrix that is not positive definite (a load of -2 times its largest
+    # diagonal element) is refused: the hyperbolic rotation breaks down.
+    from scipy.linalg import cholesky
+
+    from synth.analysis.whitening import (
+        _displacement_columns,
+        _loaded_cholesky,
+        _schur_cholesky,
+    )
+    from synth.dsp import covariance_matrix as _covariance
+
+    rng = np.random.default_rng(5)
+    t = np.arange(5000) / 48000.0
+    x = sum(
+        np.exp(-t / rng.uniform(0.05, 0.5)) * np.sin(2 * np.pi * rng.uniform(100, 20000) * t)
+        for _ in range(60)
+    )
+    p = 256
+    G = _covariance(x, p)[1:, 1:]
+    for load in (1e-12 * np.trace(G) / p, 1e-3 * np.trace(G) / p):
+        L = _loaded_cholesky(G, x, load)
+        loaded = G + load * np.eye(p)
+        assert np.max(np.abs(L @ L.T - loaded)) < 1e-12 * np.max(np.abs(loaded))
+    lapack = cholesky(loaded, lower=True)
+    assert np.max(np.abs(L - lapack)) < 1e-9 * np.max(np.abs(lapack))
+    assert _schur_cholesky(G[0], _displacement_columns(x, p), -2.0 * np.max(np.diag(G))) is None
+
+
+def test_fine_correlation_is_the_zero_padded_inverse_transform():
+    # The delay's band-limited correlation on a few lags by the chirp z-transform equals the
+    # inverse transform of the spectrum zero-padded 16 times, at those lags (negative ones
+    # wrapped), to rounding (1e-12 of its largest value).
+    from synth.analysis.detection import _fine_correlation
+
+    rng = np.random.default_rng(6)
+    n = 1000
+    C = rng.standard_normal(n // 2 + 1) + 1j * rng.standard_normal(n // 2 + 1)
+    full = np.fft.irfft(C, 16 * n)
+    lags = np.arange(-40, 400)
+    got = _fine_correlation(C, 16 * n, -40, 399)
+    assert np.max(np.abs(got - full[lags % full.size])) < 1e-12 * np.max(np.abs(full))
+
+
 def test_covariance_normal_equations():
     # The covariance method's matrix from the autocorrelation and its edge corrections
     # equals the direct sums C[i, j] = sum_{t=p}^{N-1} x[t-i] x[t-j] (to rounding).

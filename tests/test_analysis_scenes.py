@@ -131,6 +131,36 @@ def test_score_counts_false_ticks_impossible_values_and_audible_misses():
     assert score(truth, ticks[2:4]) == (0, 2, 1)
 
 
+def test_score_judges_a_restitution_against_the_true_ratio():
+    # a vibrating plate gives the ball energy back: the true flights grow by 2.3 %, and a tick
+    # that measures 1.021 there (flagged or not) reports a possible value; growth where the
+    # true flights shrink (0.1 s, then 0.08 s) contradicts the truth, as does a restitution
+    # that the analysis says spans a missed bounce
+    from synth.analysis.report import AFTER_GROWN, MISSED_BOUNCE
+
+    truth = Truth(
+        audio=np.zeros(10),
+        samplerate=48000,
+        onsets=np.array([0.1, 0.3, 0.4, 0.5023, 0.6, 0.68]),
+        contact_times=np.full(6, 1e-4),
+        audible=np.ones(6, dtype=bool),
+        fall_speed=2.0,
+    )
+    ticks = [
+        _tick(0.1),
+        _tick(0.3),
+        _tick(0.4, restitution=0.5),
+        _tick(0.5023, restitution=1.021, flags=(GROWN_BOUNCE,)),
+        _tick(0.6, restitution=0.95, flags=(AFTER_GROWN,)),
+        _tick(0.68, restitution=1.05),
+    ]
+    assert score(truth, ticks) == (0, 1, 0)
+    ticks[4] = _tick(0.6, restitution=0.95, flags=(MISSED_BOUNCE,))
+    assert score(truth, ticks) == (0, 2, 0)
+    # a false tick among the three: no true ratio shows growth
+    assert score(truth, [*ticks[:3], _tick(0.45), _tick(0.5023, restitution=1.1)]) == (1, 1, 2)
+
+
 def test_spectral_rise_of_free_ringing_and_of_an_impact():
     # Two stretches of the same stationary ringing (undamped modes, beating pairs) hold the
     # same power at every frequency: no rise. The same ringing with an impulse of the same

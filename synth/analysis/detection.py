@@ -8,6 +8,7 @@ whitened signal.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -309,22 +310,55 @@ def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | 
     # unit magnitude, but for bins 240 dB under the strongest (rounding: they have no phase)
     C = np.where(mag > 1e-12 * mag.max(), C / np.maximum(mag, 1e-300), 0.0)
     # band-limited interpolation of the (circular) correlation: its spectrum zero-padded
-    # DELAY_UPSAMPLING times (the Nyquist bin split between the two halves), then a
-    # parabola through the finest grid's peak
+    # DELAY_UPSAMPLING times (the Nyquist bin split between the two halves), evaluated on
+    # the lags allowed and one on either side, then a parabola through the finest grid's peak
     up = DELAY_UPSAMPLING
     if n % 2 == 0:
         C[-1] *= 0.5
-    c = np.fft.irfft(C, n * up)
     i0 = int(math.ceil(lo * up))
     i1 = int(math.floor(hi * up))
-    lags = np.arange(i0, i1 + 1)
-    k = int(lags[np.argmax(c[lags % c.size])])
+    c = _fine_correlation(C, n * up, i0 - 1, i1 + 1)
+    k = i0 + int(np.argmax(c[1:-1]))
     if k in (i0, i1) and i1 > i0:
         return None
-    a, b, d = c[(k - 1) % c.size], c[k % c.size], c[(k + 1) % c.size]
+    a, b, d = c[k - i0], c[k - i0 + 1], c[k - i0 + 2]
     den = a - 2.0 * b + d
     frac = 0.5 * (a - d) / den if den < 0.0 else 0.0
     return (k + min(0.5, max(-0.5, frac))) / up
+
+
+def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
+    """Samples ``k0 .. k1`` (any integers; periodic) of ``irfft(C, n)``, ``C`` the bins ``0 ..
+    m`` of a spectrum zero-padded to ``n``: ``(C_0 + 2 Re sum_(f>=1) C_f e^(2 pi i f k / n)) /
+    n`` by the chirp z-transform (Bluestein's convolution; Rabiner, Schafer and Rader 1969,
+    IEEE Trans. Audio Electroacoust. 17, 86): transforms of about ``m + k1 - k0`` points,
+    not ``n`` (:func:`_chirps`)."""
+    from scipy import fft
+
+    pre, kernel, post = _chirps(n, k0, C.size, k1 - k0 + 1)
+    X = fft.ifft(fft.fft(C * pre, kernel.size) * kernel)[: post.size] * post
+    return (2.0 * X.real - C[0].real) / n
+
+
+@functools.lru_cache(maxsize=4)
+def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chirps of :func:`_fine_correlation` for ``m`` bins, ``count`` lags from ``k0``, a
+    transform of ``n``: with ``f k = (f^2 + k^2 - (k - f)^2) / 2``, the factor of each bin
+    ``e^(i pi (f^2 + 2 k0 f) / n)``, the transform of the convolution kernel ``e^(-i pi j^2 /
+    n)`` (``j = 1 - m .. count - 1``) and the factor of each lag ``e^(i pi k^2 / n)``; each
+    phase from its exact integer numerator modulo ``2 n``. The same for every tick timed
+    against one template (the resonator's search), so computed once."""
+    from scipy import fft
+
+    size = fft.next_fast_len(m + count - 1)
+    f = np.arange(m, dtype=np.int64)
+    k = np.arange(count, dtype=np.int64)
+    pre = np.exp(1j * math.pi / n * ((f * f + 2 * k0 * f) % (2 * n)))
+    v = np.zeros(size, dtype=complex)
+    v[:count] = np.exp(-1j * math.pi / n * ((k * k) % (2 * n)))
+    v[size - m + 1 :] = np.exp(-1j * math.pi / n * ((f[:0:-1] ** 2) % (2 * n)))
+    post = np.exp(1j * math.pi / n * ((k * k) % (2 * n)))
+    return pre, fft.fft(v), post
 
 
 @dataclass(frozen=True)

@@ -335,10 +335,9 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
     searched once by steps 1-6 with the block that holds it and once whole on its own,
     whatever the number of drops.
 
-    Every block runs on one BLAS thread (:func:`one_blas_thread`), the Cholesky factor of
-    each drop's resonator predictor too: its order starts at 20 ms of samples (960 at 48 kHz,
-    a fiftieth of a second on one core), and a second thread, spinning while it waits for a
-    core that other work keeps busy, made it several times as costly, once per drop."""
+    Every block runs on one BLAS thread (:func:`one_blas_thread`): a second thread, spinning
+    while it waits for a core that other work keeps busy, made the small products and
+    solutions several times as costly."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import dsp
+from synth.compilation import compiled
 
-#: Highest order of the resonator's predictor (step 7): its cost grows as the cube.
+#: Highest order of the resonator's predictor (step 7): its cost grows as the square.
 MAX_ORDER = 4096
 #: Least prediction error energy of the resonator's predictor counted by its order
 #: criterion, relative to the stretch's energy (120 dB of prediction gain; below, rounding).
@@ -129,11 +130,12 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     The orders tried start at ``start`` and double while the best lies in the top quarter, up
     to a third of the stretch (two equations per unknown, at least) and :data:`MAX_ORDER`;
     every predictor comes from one Cholesky factorisation at the largest order (its leading
-    blocks factor the smaller systems). Then the normal equations are solved again with the
-    least prediction error energy on their diagonal: the noise, which no order predicts, as
-    white noise (a ridge), so that no predictor lifts a band the ringing leaves empty (above
-    its modes, under an anti-aliasing filter) far over the noise, where a tick's onset would
-    drown; without noise it changes nothing. ``fs`` (Hz) is the sample rate of ``seg``.
+    blocks factor the smaller systems; :func:`_loaded_cholesky`, O(p^2)). Then the normal
+    equations are solved again with the least prediction error energy on their diagonal: the
+    noise, which no order predicts, as white noise (a ridge), so that no predictor lifts a
+    band the ringing leaves empty (above its modes, under an anti-aliasing filter) far over
+    the noise, where a tick's onset would drown; without noise it changes nothing. ``fs``
+    (Hz) is the sample rate of ``seg``.
     """
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
@@ -142,7 +144,7 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
     while True:
         C = dsp.covariance_matrix(seg, p_max)
         G = C[1:, 1:]
-        Lc = _loaded_cholesky(G, 1e-12 * np.trace(G) / p_max)
+        Lc = _loaded_cholesky(G, seg, 1e-12 * np.trace(G) / p_max)
         if Lc is None:
             return None
         with one_blas_thread():
@@ -151,7 +153,7 @@ def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | 
         if best <= 0.75 * p_max or p_max >= cap:
             break
         p_max = min(cap, 2 * p_max)
-    Lc = _loaded_cholesky(G, max(float(crit.energy.min()), 1e-12 * np.trace(G) / p_max))
+    Lc = _loaded_cholesky(G, seg, max(float(crit.energy.min()), 1e-12 * np.trace(G) / p_max))
     if Lc is None:
         return None
     with one_blas_thread():
@@ -174,10 +176,7 @@ def one_blas_thread():
     per recording; the triangular solutions of the resonator's predictor). The helper threads
     of a multithreaded BLAS, waiting for cores that other work keeps busy, made them three to
     ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
-    :mod:`synth.sound.modes`). The one large factorisation, the Cholesky factor of the
-    resonator's predictor (up to 4096 unknowns, :func:`resonator_predictor`), keeps the
-    library's threads unless its caller runs on one (a recording searched block by block,
-    :mod:`synth.analysis.pipeline`). Only the outermost of nested contexts sets the limit:
+    :mod:`synth.sound.modes`). Only the outermost of nested contexts sets the limit:
     each entry scans the process' loaded libraries (milliseconds, several times per drop of
     a long recording), and an inner one would change nothing."""
     from threadpoolctl import threadpool_limits
@@ -193,13 +192,20 @@ def one_blas_thread():
         _BLAS_DEPTH[0] -= 1
 
 
-def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
-    """Lower Cholesky factor of ``G`` with ``load`` on its diagonal, raised a hundredfold up
-    to three times while ``G`` is not positive definite to rounding; None if it stays so."""
+def _loaded_cholesky(G: np.ndarray, seg: np.ndarray, load: float) -> np.ndarray | None:
+    """Lower Cholesky factor of ``G`` (the covariance method's normal matrix of ``seg``, less
+    its first row and column: :func:`resonator_predictor`) with ``load`` on its diagonal,
+    raised a hundredfold up to three times while ``G`` is not positive definite to rounding;
+    None if it stays so. The factor comes from the matrix's displacement structure
+    (:func:`_schur_cholesky`, O(p^2)); where that algorithm's hyperbolic rotations break down
+    (a matrix positive definite only to rounding), from LAPACK's factorisation (O(p^3))."""
     from scipy.linalg import LinAlgError, cholesky
 
     n = G.shape[0]
     for _ in range(4):
+        L = _schur_cholesky(G[0], _displacement_columns(seg, n), load)
+        if L is not None:
+            return L
         loaded = G.copy()  # the load on the diagonal in place: no n-by-n identity and sum
         loaded.flat[:: n + 1] += load
         try:
@@ -209,14 +215,121 @@ def _loaded_cholesky(G: np.ndarray, load: float) -> np.ndarray | None:
     return None
 
 
+def _displacement_columns(seg: np.ndarray, p: int) -> tuple[np.ndarray, np.ndarray]:
+    """The samples by which the normal matrix ``G`` of order ``p`` of :func:`resonator_predictor`
+    changes along its diagonals: ``G[k+1, l+1] - G[k, l] = a_k a_l - b_k b_l`` with ``a_k =
+    seg[p-2-k]`` (a sample entering the sums) and ``b_k = seg[N-2-k]`` (one leaving them),
+    ``k = 0 .. p-2`` (:func:`synth.dsp.covariance_matrix`'s recursion)."""
+    n = seg.size
+    a = np.ascontiguousarray(seg[p - 2 :: -1][: p - 1]) if p >= 2 else np.zeros(0)
+    b = np.ascontiguousarray(seg[n - 2 :: -1][: p - 1]) if p >= 2 else np.zeros(0)
+    return a, b
+
+
+def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray | None:
+    """Lower Cholesky factor of ``G + load I`` from its generator (:func:`_schur_kernel`), or
+    None where the matrix is not positive definite to rounding."""
+    a, b = columns
+    U = np.zeros((first_row.size, first_row.size))
+    ok = _schur_kernel(np.ascontiguousarray(first_row, dtype=float), a, b, float(load), U)
+    return U.T if ok else None
+
+
+@compiled()
+def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
+    """The generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297) for the
+    symmetric matrix ``R`` whose first row is ``row`` (plus ``load`` on its diagonal) and
+    whose displacement is ``R[k+1, l+1] - R[k, l] = a_k a_l - b_k b_l``: ``R - Z R Z^T =
+    g1 g1^T - g2 g2^T + g3 g3^T - g4 g4^T`` with ``g1 = r / sqrt(d)``, ``g2 = (r - d e_0) /
+    sqrt(d)`` (``r`` the loaded first row, ``d = r_0``), ``g3 = (0, a)``, ``g4 = (0, b)``.
+    Each step rotates the positive columns together and the negative ones (Givens), then
+    the first against the second (a hyperbolic rotation in the mixed form of Bojanczyk,
+    Brent, de Hoog and Sweet 1995, SIAM J. Matrix Anal. Appl. 16, 40, backward stable for a
+    positive definite ``R``), takes the first as the factor's column and shifts it down.
+    Writes the factor's transpose into ``U`` (zeros on entry; its rows are the factor's
+    columns, written whole); False where a rotation breaks down (``R`` not positive definite
+    to rounding)."""
+    p = row.size
+    d = row[0] + load
+    if not d > 0.0:
+        return False
+    g1 = np.empty(p)
+    g2 = np.empty(p)
+    g3 = np.zeros(p)
+    g4 = np.zeros(p)
+    s = math.sqrt(d)
+    for i in range(p):
+        g1[i] = row[i] / s
+        g2[i] = row[i] / s
+    g1[0] = d / s
+    g2[0] = 0.0
+    for i in range(p - 1):
+        g3[i + 1] = a[i]
+        g4[i + 1] = b[i]
+    for k in range(p):
+        _givens(g1, g3, k)
+        _givens(g2, g4, k)
+        u, v = g1[k], g2[k]
+        if not abs(v) < abs(u):
+            return False
+        rho = v / u
+        c = math.sqrt((1.0 - rho) * (1.0 + rho))
+        for i in range(k, p):
+            x = (g1[i] - rho * g2[i]) / c
+            g2[i] = c * g2[i] - rho * x
+            g1[i] = x
+        sign = 1.0 if g1[k] > 0.0 else -1.0
+        for i in range(k, p):
+            U[k, i] = sign * g1[i]
+        for i in range(p - 1, k, -1):
+            g1[i] = g1[i - 1]
+        g1[k] = 0.0
+    return True
+
+
+@compiled()
+def _givens(x, y, k):  # pragma: no cover - compiled
+    """Rotate ``x[k:]`` and ``y[k:]`` together so that ``y[k]`` becomes zero."""
+    h = math.hypot(x[k], y[k])
+    if h == 0.0 or y[k] == 0.0:
+        return
+    c = x[k] / h
+    s = y[k] / h
+    for i in range(k, x.size):
+        xi = x[i]
+        x[i] = c * xi + s * y[i]
+        y[i] = c * y[i] - s * xi
+
+
 def _predictor(Lc: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
     """The prediction-error filter of ``order`` from the leading block of the factor ``Lc``
     (back substitution of ``y``)."""
-    from scipy.linalg import solve_triangular
+    return _predictors(Lc, y, np.array([order]))[0]
 
-    return np.concatenate(
-        ([1.0], -solve_triangular(Lc[:order, :order].T, y[:order], lower=False, check_finite=False))
-    )
+
+def _predictors(Lc: np.ndarray, y: np.ndarray, orders: np.ndarray) -> list[np.ndarray]:
+    """The prediction-error filters of each of ``orders`` from the leading blocks of the
+    factor ``Lc``: back substitutions of ``y`` in one compiled pass (thousands of small
+    ones per recording; a library call each cost more than its arithmetic)."""
+    U = Lc.T if Lc.T.flags.c_contiguous else np.ascontiguousarray(Lc.T)
+    orders = np.asarray(orders, dtype=np.int64)
+    out = np.zeros((orders.size, int(orders.max()) + 1))
+    _back_substitutions(U, np.ascontiguousarray(y, dtype=float), orders, out)
+    return [out[i, : orders[i] + 1] for i in range(orders.size)]
+
+
+@compiled()
+def _back_substitutions(U, y, orders, out):  # pragma: no cover - compiled
+    """Row ``i`` of ``out``: ``[1, -h]`` with ``U[:m, :m] h = y[:m]``, ``m = orders[i]``
+    (``U`` upper triangular, its rows read whole)."""
+    for g in range(orders.size):
+        m = orders[g]
+        out[g, 0] = 1.0
+        for i in range(m - 1, -1, -1):
+            acc = y[i]
+            for j in range(i + 1, m):
+                acc += U[i, j] * out[g, j + 1]
+            out[g, i + 1] = -acc / U[i, i]
 
 
 def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCriterion:
@@ -228,7 +341,7 @@ def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCr
     y = solve_triangular(Lc, C[1:, 0], lower=True, check_finite=False)
     n = seg.size - p
     grid = np.unique(np.round(np.geomspace(1, p, ORDER_GRID)).astype(int))
-    predictors = [_predictor(Lc, y, int(order)) for order in grid]
+    predictors = _predictors(Lc, y, grid)
     energy = np.maximum(_error_energies(seg, predictors, p), PREDICTION_FLOOR * C[0, 0])
     return _OrderCriterion(grid, energy, n * np.log(energy / n) + grid * math.log(n), y)
 
