@@ -52,6 +52,10 @@ UNSTABLE_ANALYSIS = {
     # at the lowest dependency versions the tennis ball's render stays within 1e-6 and its
     # first onset moves by 43 us, 24 of 89 ticks by more than 100 ns
     "tennis-ball-on-concrete": "the analysis' onsets move with the rounding of other versions",
+    # the last of 11 ticks, at the end of a chatter of 0.5 ms flights, moves by 1.2 us
+    # and 119 us (the true onsets 16.6 us and 101 us away) with rounding-level changes of
+    # the resonator's factor (LAPACK's Cholesky against the generalized Schur algorithm)
+    "steel-ball-on-steel-sheet": "the analysis' last onsets move with the factor's rounding",
 }
 
 
