@@ -33,7 +33,7 @@ import soundfile
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.io.atomic import temporary_sibling, write_atomically
+from synth.store.atomic import temporary_sibling, write_atomically
 
 #: Digital full scale (|sample| = 1.0) of the ``"physical"`` calibration, per unit of
 #: the listener's signal. ``"Pa"``: 1000 Pa, i.e. 154 dB SPL re 20 uPa

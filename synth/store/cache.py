@@ -9,7 +9,7 @@ The disk cache is shared by every process of the machine (a sound bank's workers
 ``synth`` commands), so:
 
 * :func:`savez_atomic` writes each entry to a temporary file of a unique name and renames
-  it into place (:func:`synth.io.atomic.write_atomically`; ``os.replace`` is atomic): two
+  it into place (:func:`synth.store.atomic.write_atomically`; ``os.replace`` is atomic): two
   processes filling the same entry at once both succeed, the last rename wins, and a
   reader never sees a partial file;
 * every entry stores the SHA-256 of its arrays (names, dtypes, shapes and bytes), and
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from synth import checks
-from synth.io.atomic import write_atomically
+from synth.store.atomic import write_atomically
 
 #: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
 #: radiation gains well under 1 MB: a few dozen plates fit).
@@ -206,7 +206,7 @@ class DiskEntry:
 
 def _is_temporary(p: Path) -> bool:
     """A file being written (or left by a writer that died): ``.name.<hex>.part.npz``
-    (:mod:`synth.io.atomic`), or ``*.tmp`` of earlier versions."""
+    (:mod:`synth.store.atomic`), or ``*.tmp`` of earlier versions."""
     return p.name.startswith(".") or p.suffix == ".tmp"
 
 

@@ -61,9 +61,9 @@ plates", J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*,
 (1969).
 
 Modules: this one holds :class:`EdgeEffectSolution` and :func:`solve`;
-:mod:`~synth.sound.asymptotic_modes.roots` the one-dimensional equations and their roots,
-:mod:`~synth.sound.asymptotic_modes.ritz` the Rayleigh-Ritz step and
-:mod:`~synth.sound.asymptotic_modes.factors` the shapes' factors and their tables.
+:mod:`~synth.physics.asymptotic_modes.roots` the one-dimensional equations and their roots,
+:mod:`~synth.physics.asymptotic_modes.ritz` the Rayleigh-Ritz step and
+:mod:`~synth.physics.asymptotic_modes.factors` the shapes' factors and their tables.
 """
 
 from __future__ import annotations
@@ -73,12 +73,12 @@ import math
 
 import numpy as np
 
-from synth.sound.asymptotic_modes.factors import edge_part as edge_part
-from synth.sound.asymptotic_modes.factors import factor_edge_constants, factor_table, gather_modes
-from synth.sound.asymptotic_modes.factors import factor_parts as factor_parts
-from synth.sound.asymptotic_modes.factors import interior_part as interior_part
-from synth.sound.asymptotic_modes.ritz import near_pairs, rayleigh_ritz
-from synth.sound.asymptotic_modes.roots import length_ratios, solve_pairs, starting_s
+from synth.physics.asymptotic_modes.factors import edge_part as edge_part
+from synth.physics.asymptotic_modes.factors import factor_edge_constants, factor_table, gather_modes
+from synth.physics.asymptotic_modes.factors import factor_parts as factor_parts
+from synth.physics.asymptotic_modes.factors import interior_part as interior_part
+from synth.physics.asymptotic_modes.ritz import near_pairs, rayleigh_ritz
+from synth.physics.asymptotic_modes.roots import length_ratios, solve_pairs, starting_s
 
 __all__ = ["EdgeEffectSolution", "solve", "mode_count_estimate"]
 

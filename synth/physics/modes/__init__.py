@@ -18,13 +18,13 @@ bending wavelength is 25 thicknesses; more when the wavelength nears a few
 thicknesses (an 18 mm board at 24 kHz).
 
 Simply supported edges
-    The closed form (:mod:`synth.sound.modes.closed_form`).
+    The closed form (:mod:`synth.physics.modes.closed_form`).
 
 Free and clamped edges
-    Rayleigh-Ritz (:mod:`synth.sound.modes.ritz`, its basis in
-    :mod:`synth.sound.modes.basis`), cached (:mod:`synth.sound.modes.cache`); a large band
+    Rayleigh-Ritz (:mod:`synth.physics.modes.ritz`, its basis in
+    :mod:`synth.physics.modes.basis`), cached (:mod:`synth.physics.modes.cache`); a large band
     crosses over to dynamic edge effect modes above a low Ritz band
-    (:mod:`synth.sound.modes.crossover`).
+    (:mod:`synth.physics.modes.crossover`).
 
 Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
 1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
@@ -48,18 +48,16 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.io.cache import cache_dir
-from synth.physics.scene import Plate
-from synth.sound.modes.cache import cache_info, cached_ritz, clear_memory_cache
-from synth.sound.modes.closed_form import SeparableShapes, SimplySupported
-from synth.sound.modes.common import single_thread_product
-from synth.sound.modes.crossover import (
+from synth.physics.modes.cache import cache_info, cached_ritz, clear_memory_cache
+from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
+from synth.physics.modes.common import single_thread_product
+from synth.physics.modes.crossover import (
     CROSSOVER_UNKNOWNS,
     EDGE_EFFECT_TOLERANCE,
     HybridSolution,
     crossed,
 )
-from synth.sound.modes.ritz import (
+from synth.physics.modes.ritz import (
     TOLERANCE,
     RitzSolution,
     SummedShapes,
@@ -67,6 +65,8 @@ from synth.sound.modes.ritz import (
     first_basis_sizes,
     ritz_unknowns,
 )
+from synth.physics.scene import Plate
+from synth.store.cache import cache_dir
 
 __all__ = [
     "Modes",
@@ -87,7 +87,7 @@ __all__ = [
 class EdgeEffectPart:
     """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes
     ``offset, offset + 1, ...`` of ``solution``
-    (:class:`synth.sound.asymptotic_modes.EdgeEffectSolution`; lengths in units of the
+    (:class:`synth.physics.asymptotic_modes.EdgeEffectSolution`; lengths in units of the
     plate's longer side); the modes before ``first_mode`` are Rayleigh-Ritz modes."""
 
     first_mode: int
@@ -100,7 +100,7 @@ class EdgeEffectPart:
         coordinates ``x`` and ``y`` (metres, on the plate): ``(x_own, y_own, x_other,
         y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] +
         x_other[a, k] y_other[b, k]`` (see
-        :meth:`synth.sound.asymptotic_modes.EdgeEffectSolution.product_factors`)."""
+        :meth:`synth.physics.asymptotic_modes.EdgeEffectSolution.product_factors`)."""
         xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
         own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
@@ -320,7 +320,7 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
-        from synth.sound.modes.crossover import LOW_BAND_UNKNOWNS, band_of_unknowns
+        from synth.physics.modes.crossover import LOW_BAND_UNKNOWNS, band_of_unknowns
 
         omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
     return omega_req
@@ -330,9 +330,9 @@ def shape_terms(plate: Plate, max_frequency: float) -> int:
     """Terms of the sum one shape value costs per mode on a grid of points, known before
     any mode is solved: 1 for the closed-form modes of a simply supported plate (a product
     of sines), else the Ritz basis' degrees along one axis
-    (:func:`~synth.sound.modes.ritz.first_basis_degrees`; :mod:`synth.cost` sizes the
+    (:func:`~synth.physics.modes.ritz.first_basis_degrees`; :mod:`synth.cost` sizes the
     radiation stage's work by it)."""
-    from synth.sound.modes.ritz import first_basis_degrees
+    from synth.physics.modes.ritz import first_basis_degrees
 
     if plate.boundary == "simply-supported":
         return 1
@@ -343,7 +343,7 @@ def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
     """Factors ``(n_x, n_y)`` of the Ritz shapes of ``plate`` up to ``max_frequency`` (Hz)
     as sums of products (:meth:`Modes.summed`), known before any mode is solved (of the
     first basis tried; for :mod:`synth.cost`)."""
-    from synth.sound.modes.ritz import first_basis_factors
+    from synth.physics.modes.ritz import first_basis_factors
 
     return first_basis_factors(plate.length / plate.width, ritz_band(plate, max_frequency))
 
@@ -370,7 +370,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
         Upper end of the band, Hz.
     cache : bool
         Reuse and store the eigen-solution (memory and disk, see
-        :mod:`synth.sound.modes.cache`). ``False`` computes afresh and stores nothing.
+        :mod:`synth.physics.modes.cache`). ``False`` computes afresh and stores nothing.
 
     Returns
     -------
@@ -390,7 +390,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
     sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
     milliseconds from the cache); beyond the crossover
-    (:mod:`synth.sound.modes.crossover`) a Ritz low band and the dynamic edge effect
+    (:mod:`synth.physics.modes.crossover`) a Ritz low band and the dynamic edge effect
     modes above it, whose cost is linear in the number of modes, are returned with
     ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
     """
