@@ -65,7 +65,7 @@ def _timed(call) -> tuple[object, float]:
 
 def _solver_rate() -> StageRate:
     from synth import Plate, cost
-    from synth.sound.modes import modes
+    from synth.physics.modes import modes
 
     plate = Plate("mdf-18", thickness=0.018, length=1.2, width=0.6)
     m, seconds = _timed(lambda: modes(plate, max_frequency=SOLVER_FREQUENCY, cache=False))
@@ -97,7 +97,7 @@ def _rule_call(rule, m, listener, s, kb):
 
 def _rule_rate(rule: str) -> StageRate:
     from synth import Microphone, cost
-    from synth.sound.modes import modes
+    from synth.physics.modes import modes
 
     spec = RULE_SCENES[rule]
     plate, f_max, listener = _plate(spec), spec[5], spec[6]
@@ -114,7 +114,8 @@ def _rule_rate(rule: str) -> StageRate:
 
 def run_cost() -> dict:
     """Time the mode solve and each rule once (see the module docstring)."""
-    from synth.sound import modes, radiation
+    from synth.physics import modes
+    from synth.sound import radiation
 
     modes.clear_memory_cache()
     radiation.clear_memory_cache()

@@ -18,11 +18,11 @@ def hires_child(samplerate: int, previous: bool = False) -> dict:
     memory (MB). ``previous``: with the engine's former paths, the rectangle rule for
     every plate (:data:`synth.sound.radiation.SUMMED_RULE_WORK` and ``BOUNDARY_RULE_WORK``
     infinite) and the Ritz solve on BLAS's threads at every size
-    (:data:`synth.sound.modes.ritz.ONE_THREAD_UNKNOWNS` infinite)."""
+    (:data:`synth.physics.modes.ritz.ONE_THREAD_UNKNOWNS` infinite)."""
     from synth.io.presets import load_preset
-    from synth.sound import modes as plate_modes
+    from synth.physics import modes as plate_modes
+    from synth.physics.modes import ritz
     from synth.sound import radiation
-    from synth.sound.modes import ritz
     from synth.sound.render import render
 
     if previous:

@@ -45,7 +45,8 @@ def add_times(samplerate=48000) -> dict:
     """``Engine.add`` of the default plate: cold (empty cache directory, nothing in memory),
     warm from disk (memory cleared), warm from memory; seconds."""
     from synth.live.engine import Engine
-    from synth.sound import modes, radiation
+    from synth.physics import modes
+    from synth.sound import radiation
 
     scene = _scene()
     saved = os.environ.get("SYNTH_CACHE_DIR")

@@ -85,7 +85,7 @@ def scale_child(spec: dict) -> dict:
     gains then come from the memory cache: the rest is contact, scheduler and
     synthesis), and the CPU seconds of the three (``work_cpu_s``: every thread of the
     process; on a busy machine the wall time also counts the waits for a core)."""
-    from synth.sound import modes as plate_modes
+    from synth.physics import modes as plate_modes
     from synth.sound import render as render_mod
     from synth.sound.radiation import plate_gains
 

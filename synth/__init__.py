@@ -19,8 +19,8 @@ _LAZY = {
     "Tick": "synth.analysis",
     "analyze": "synth.analysis",
     "analyze_file": "synth.analysis",
-    "read_audio": "synth.io.audio",
-    "write_audio": "synth.io.audio",
+    "read_audio": "synth.store.audio",
+    "write_audio": "synth.store.audio",
     "play": "synth.io.playback",
     "load_preset": "synth.io.presets",
     "render_preset": "synth.io.presets",
@@ -55,7 +55,7 @@ _LAZY = {
 _SUBMODULES = {
     "contact": "synth.physics.contact",
     "materials": "synth.physics.materials",
-    "plate": "synth.sound.modes",
+    "plate": "synth.physics.modes",
     "bank": "synth.bank",
 }
 

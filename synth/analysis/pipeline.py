@@ -54,7 +54,7 @@ from synth.analysis.validity import (
 )
 from synth.analysis.whitening import one_blas_thread
 from synth.errors import ParameterError
-from synth.io.audio import wav_shortfall
+from synth.store.audio import wav_shortfall
 
 #: Largest fraction of the samples in flat tops (clipping) of a recording of impacts: its
 #: ticks' peaks are short and their ringing decays below the clip level within each bounce,

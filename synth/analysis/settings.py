@@ -290,7 +290,7 @@ def read_recording(path) -> tuple[np.ndarray, float]:
         An unreadable file (corrupt header, unknown format) or one without samples.
     """
     check_recording_path(path)
-    from synth.io.audio import AudioFileError, read_audio
+    from synth.store.audio import AudioFileError, read_audio
 
     try:
         audio, samplerate = read_audio(path)  # the one reader: formats, truncation warning

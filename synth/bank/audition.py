@@ -62,7 +62,7 @@ def sounds(bank_dir) -> list[Sound]:
 def preview(bank_dir, path, *, gap: float = PREVIEW_GAP) -> Path:
     """Write every finished sound of ``bank_dir`` into one file ``path`` (WAV or FLAC),
     ``gap`` s of silence between two; returns ``path``."""
-    from synth.io.audio import write_audio
+    from synth.store.audio import write_audio
 
     if isinstance(gap, bool) or not isinstance(gap, (int, float)) or not 0 <= gap <= 10:
         raise BankRunError(f"gap={gap!r} must be a number of seconds in [0, 10]")
@@ -101,8 +101,8 @@ def _title(row: dict, keys: list[str]) -> str:
 def sheet(bank_dir, path, *, columns: int = SHEET_COLUMNS) -> Path:
     """Write a contact sheet of ``bank_dir``'s finished sounds to the PNG ``path``:
     per sound a waveform over a spectrogram (up to :data:`SHEET_MAX_SOUNDS` sounds)."""
-    from synth.io.atomic import write_atomically
     from synth.io.plot import import_matplotlib
+    from synth.store.atomic import write_atomically
 
     figure_class, canvas_class = import_matplotlib()
     items = sounds(bank_dir)[:SHEET_MAX_SOUNDS]

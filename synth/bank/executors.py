@@ -82,7 +82,7 @@ def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
     workers with SIGTERM when one dies; a forked worker would otherwise inherit the
     command line's handler, which raises inside whatever library callback is running,
     where it is swallowed and printed). A temporary left by a stopped worker is removed
-    by the next write in that folder (:func:`synth.io.atomic.remove_stale_temporaries`)."""
+    by the next write in that folder (:func:`synth.store.atomic.remove_stale_temporaries`)."""
     import signal
 
     global _WORKER_SPEC, _WORKER_DIR

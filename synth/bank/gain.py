@@ -14,7 +14,7 @@ level too. :func:`apply_gain` computes one gain from the finished bank's manifes
 
 then decodes each file, scales it by that gain and encodes it again in the bank's
 format and subtype into ``out_dir`` (the same names; bytes a function of the samples,
-:mod:`synth.io.reproducible`). The source bank is not touched. The pass is resumable as
+:mod:`synth.store.reproducible`). The source bank is not touched. The pass is resumable as
 the bank is: each file is published once and its row appended to ``out_dir``'s manifest
 after it; a rerun skips the rows whose file has the recorded hash. A source bank whose
 files took new names since (a renamed preset, an edited label or name template: the same

@@ -22,10 +22,10 @@ first impact's), ``first_contact_time`` (s), ``first_peak_force`` (N), ``peak_db
 ``loudness_lufs``
 (LUFS, ITU-R BS.1770, when pyloudnorm is installed; None below its -70 LUFS absolute
 gate), ``sha256`` of the file and ``audio_sha256`` of its decoded samples
-(:func:`synth.io.reproducible.decoded_sha256`) and ``scene``, the row's whole preset
+(:func:`synth.store.reproducible.decoded_sha256`) and ``scene``, the row's whole preset
 (the base preset with the row's values set: a row renders again from the manifest
 alone, with its ``restitution_scale`` if varied). Every file's bytes are a function of the
-spec and its row (:mod:`synth.io.reproducible`), OGG's included.
+spec and its row (:mod:`synth.store.reproducible`), OGG's included.
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ import os
 import re
 from pathlib import Path
 
-from synth.io.atomic import write_atomically
-from synth.io.atomic import write_once as _write_once
+from synth.store.atomic import write_atomically
+from synth.store.atomic import write_once as _write_once
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -71,7 +71,7 @@ RESULT_COLUMNS = (
     "scene",
 )
 
-#: Temporary files of :mod:`synth.io.atomic` beside their targets: hidden, 12 hex digits,
+#: Temporary files of :mod:`synth.store.atomic` beside their targets: hidden, 12 hex digits,
 #: then ``.part[.ext]`` (``.{name}.{hex}.part.wav``, ``.synth-{pid}-{hex}.part.wav``).
 TEMPORARY = re.compile(r"^\..+[.-][0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
 
@@ -82,7 +82,7 @@ def columns(keys) -> list[str]:
 
 
 def write_atomic(target: Path, data: bytes) -> None:
-    """Write ``data`` to ``target`` atomically (:func:`synth.io.atomic.write_atomically`:
+    """Write ``data`` to ``target`` atomically (:func:`synth.store.atomic.write_atomically`:
     a temporary sibling ``.{stem}.{12 hex}.part{suffix}``, fsynced, renamed), so
     ``target`` is either as it was or complete; an OSError (a full disk ...) leaves no
     temporary file behind."""
@@ -91,7 +91,7 @@ def write_atomic(target: Path, data: bytes) -> None:
 
 def write_once(target: Path, data: bytes) -> bool:
     """Publish ``data`` as ``target`` unless a file is there
-    (:func:`synth.io.atomic.write_once`); True if this call wrote it."""
+    (:func:`synth.store.atomic.write_once`); True if this call wrote it."""
     return _write_once(target, data)
 
 
@@ -173,8 +173,8 @@ def sha256_file(path: Path) -> str:
 
 def file_hashes(data: bytes) -> dict:
     """The hash columns of a row whose file holds ``data``: ``sha256`` of the bytes and
-    ``audio_sha256`` of the decoded samples (:func:`synth.io.reproducible.decoded_sha256`)."""
-    from synth.io.reproducible import decoded_sha256
+    ``audio_sha256`` of the decoded samples (:func:`synth.store.reproducible.decoded_sha256`)."""
+    from synth.store.reproducible import decoded_sha256
 
     return {"sha256": hashlib.sha256(data).hexdigest(), "audio_sha256": decoded_sha256(data)}
 

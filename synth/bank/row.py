@@ -16,7 +16,7 @@ import numpy as np
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
 from synth.bank.spec import RESTITUTION_SCALE, BankSpec, BankSpecError, PlanItem
-from synth.io.reproducible import reproducible
+from synth.store.reproducible import reproducible
 
 
 @dataclass
@@ -42,7 +42,7 @@ def integrated_loudness(audio: np.ndarray, samplerate: int) -> float | None:
         import pyloudnorm
     except ImportError:
         return None
-    from synth.io.audio import LOUDNESS_BLOCK
+    from synth.store.audio import LOUDNESS_BLOCK
 
     x = np.asarray(audio, dtype=np.float64)
     need = math.ceil(LOUDNESS_BLOCK * samplerate)
@@ -62,13 +62,13 @@ def encode(
     """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
     of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
     ``identity`` (the file's name in the bank) alone
-    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
+    (:func:`synth.store.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
     PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
     and ``advice`` (what to change); the files of a render and of the bank-gain pass
     are made here alike."""
     import soundfile
 
-    from synth.io.audio import FLOAT_SUBTYPES
+    from synth.store.audio import FLOAT_SUBTYPES
 
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     if subtype not in FLOAT_SUBTYPES and peak > 1.0:

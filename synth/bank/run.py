@@ -39,7 +39,7 @@ from synth.bank.executors import (
 )
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
-from synth.io.reproducible import reproducible
+from synth.store.reproducible import reproducible
 
 #: Rows a dry run runs to time the bank (rows spread over the plan): at least this many,
 #: and at least the square root of the rows (rows differ in cost, by ten times and more
@@ -370,7 +370,7 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
     are the same), and their labels and tags as the spec gives them now. The files are
     first moved aside to temporaries (a new name may be another row's old one), then
     published under their new names as the bytes a render would give there
-    (:func:`synth.io.reproducible.reproducible`: an Ogg stream's serial follows the name).
+    (:func:`synth.store.reproducible.reproducible`: an Ogg stream's serial follows the name).
     A run killed meanwhile leaves rows whose recorded file is missing: they are redone."""
     moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
     moved = move_files(out_dir, spec.format, moves)
@@ -386,11 +386,11 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
 def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
     """Move the files ``moves`` (index: (old name, new name), relative to ``out_dir``;
     those whose names are equal stay) to their new names, each published as the bytes a
-    render would give under that name (:func:`synth.io.reproducible.reproducible`: an Ogg
+    render would give under that name (:func:`synth.store.reproducible.reproducible`: an Ogg
     stream's serial follows the name). The files are first moved aside to temporaries (a
     new name may be another file's old one; a run killed meanwhile leaves only
     temporaries, cleaned up by the next). Returns index: the moved file's bytes."""
-    from synth.io.atomic import temporary_name
+    from synth.store.atomic import temporary_name
 
     aside = {}
     for index, (old_name, new_name) in moves.items():

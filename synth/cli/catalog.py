@@ -31,7 +31,7 @@ def _cmd_materials(args):
 
 
 def _cmd_cache(args):
-    from synth.io import cache
+    from synth.store import cache
 
     if args.action == "clear":
         n, freed = cache.clear_disk()

@@ -20,7 +20,7 @@ def _cmd_analyze(args):
         analysis.check_plot_path(args.plot)  # a bad image path fails before any output
     import warnings
 
-    from synth.io.audio import TruncatedAudioWarning
+    from synth.store.audio import TruncatedAudioWarning
 
     with warnings.catch_warnings():
         # a truncated file is one of the result's warnings, printed below
@@ -73,8 +73,8 @@ def _channel(value):
 
 def _cmd_alter(args):
     from synth.analysis import analyze
-    from synth.io import audio as audio_io
     from synth.stimuli.alter import alter_restitution
+    from synth.store import audio as audio_io
 
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
     audio, fs = _read_warned(audio_io.read_audio, args.file)

@@ -166,9 +166,9 @@ def _report(rendered, data, preset) -> dict:
 
 
 def _cmd_render(args):
-    from synth.io import audio as audio_io
     from synth.io.presets import find, load_preset_with_options
     from synth.sound.render import render
+    from synth.store import audio as audio_io
 
     outputs = Outputs(  # every output path checked before any work
         {"output": args.output, "report": args.report, "plot": args.plot},
@@ -222,7 +222,7 @@ class Outputs:
     def __init__(self, paths: dict, suffixes: dict | None = None):
         from pathlib import Path
 
-        from synth.io.audio import check_output_path
+        from synth.store.audio import check_output_path
 
         self.paths = {k: Path(v) for k, v in paths.items() if v}
         _refuse_shared_paths(self.paths)
@@ -232,7 +232,7 @@ class Outputs:
 
     def staged(self, field: str):
         """The temporary path to write ``field``'s file to (same folder and suffix)."""
-        from synth.io.atomic import temporary_name
+        from synth.store.atomic import temporary_name
 
         target = self.paths[field]
         tmp = target.with_name(temporary_name(target.suffix))
@@ -261,12 +261,12 @@ class Outputs:
         """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
         a full disk): the temporary is removed on the way out and means nothing to the
         user. A writer may stage its file once more beside the staged one (its own atomic
-        write): any engine temporary (:func:`synth.io.atomic.temporary_name`) in a
+        write): any engine temporary (:func:`synth.store.atomic.temporary_name`) in a
         target's folder with its suffix is that target's."""
         import functools
         import re
 
-        from synth.io.atomic import TEMPORARY_PREFIX
+        from synth.store.atomic import TEMPORARY_PREFIX
 
         for field in self.temporaries:
             target = self.paths[field]
@@ -300,7 +300,7 @@ def _refuse_shared_paths(paths: dict) -> None:
 def _write_json(path, obj):
     from pathlib import Path
 
-    from synth.io.atomic import write_json_atomically
+    from synth.store.atomic import write_json_atomically
 
     path = Path(path)
     if not path.parent.is_dir():
@@ -323,10 +323,10 @@ GALLERY = (
 def _cmd_gallery(args):
     from pathlib import Path
 
-    from synth.io import audio as audio_io
     from synth.io.plot import plot_render
     from synth.io.presets import find, load_preset_with_options
     from synth.sound.render import render
+    from synth.store import audio as audio_io
 
     out = Path(args.output_dir)
     if not out.is_dir():

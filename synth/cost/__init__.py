@@ -18,7 +18,7 @@ options, before the plate's modes, the radiation gains or the bounce series are 
 * **the pulse grid**: the points of the longest force pulse's uniform grid, 8 a period of
   the highest mode (see :mod:`synth.sound.modal_bank.pulse`).
 * **the mode solver**: the unknowns of its Rayleigh-Ritz problems (the solver's own index
-  sets, :func:`synth.sound.modes.solver_sizes`) and their floating-point operations by
+  sets, :func:`synth.physics.modes.solver_sizes`) and their floating-point operations by
   LAPACK's counts (Golub & Van Loan, *Matrix Computations*, 4th ed., 8.3: Cholesky
   ``n^3 / 3``, its inverse ``2 n^3 / 3``, the symmetric eigen-solution ``4 n^3 / 3``
   for the values and ``9 n^3`` with the vectors); a cold solve only (the modes are
@@ -29,7 +29,7 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   highest rendered frequency, before any mode is solved) and of every refinement the
   convergence test may ask for (``MAX_RULES`` rules, ``REFINE`` times the points per axis
   each): its *evaluations* (points times modes) and *work* (evaluations times one plus
-  the terms each shape value costs, :func:`synth.sound.modes.shape_terms`: the Ritz basis'
+  the terms each shape value costs, :func:`synth.physics.modes.shape_terms`: the Ritz basis'
   degrees along one axis, 1 for the closed-form modes). An upper bound: a rule that
   converges at the first refinement takes ``(1 + REFINE^2) / sum_l REFINE^(2 l)`` of it.
   The budget (``max_radiation_work``) holds the rules whose summed work fits: a render

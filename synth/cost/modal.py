@@ -96,7 +96,7 @@ def _twisting_count(k: float, length: float, g: float) -> int:
 
 def solver_cost(plate, f_max: float, modes: int) -> SolverCost:
     """The :class:`SolverCost` of ``plate``'s ``modes`` modes up to ``f_max`` (Hz)."""
-    from synth.sound import modes as plate_modes
+    from synth.physics import modes as plate_modes
 
     main, check = plate_modes.solver_sizes(plate, f_max)
     flops = sum(n**3 / 3 + 2 * n**3 / 3 + 9 * n**3 for n in main)

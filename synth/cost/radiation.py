@@ -36,9 +36,9 @@ def _kappa(plate, f_max: float) -> float:
 
 def _crossed(plate, f_max: float) -> bool:
     """Whether ``plate``'s modes up to ``f_max`` (Hz) pass the Ritz crossover (a free or
-    clamped plate with dynamic edge effect modes, :func:`synth.sound.modes.modes`)."""
-    from synth.sound.modes import CROSSOVER_UNKNOWNS, dimensionless_band
-    from synth.sound.modes.ritz import ritz_unknowns
+    clamped plate with dynamic edge effect modes, :func:`synth.physics.modes.modes`)."""
+    from synth.physics.modes import CROSSOVER_UNKNOWNS, dimensionless_band
+    from synth.physics.modes.ritz import ritz_unknowns
 
     if plate.boundary == "simply-supported":
         return False
@@ -122,8 +122,8 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     budget's cut of the rectangle rule switches edge effect modes to the boundary rule),
     with the rules whose summed work fits ``budget`` (at least the first; see the module
     docstring and :mod:`synth.sound.radiation.work`)."""
+    from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
-    from synth.sound.modes import shape_terms
 
     if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
@@ -145,7 +145,7 @@ def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
     """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
     "polar", "summed" or "boundary") for ``listener`` (a Microphone) hearing ``plate``'s
     ``modes`` modes up to ``f_max`` (Hz), whichever rule the engine would take."""
-    from synth.sound.modes import shape_terms
+    from synth.physics.modes import shape_terms
     from synth.sound.radiation import work
 
     size, position = (plate.length, plate.width), listener.position
@@ -158,7 +158,7 @@ def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
         n_x, n_y = (int(kb * side / math.pi) for side in size)
         return work.polar_work(size, position, kb, qa, modes, n_x, n_y, tol_panel)
     if rule == "summed":
-        from synth.sound.modes import ritz_factors, solver_sizes
+        from synth.physics.modes import ritz_factors, solver_sizes
 
         n_x, n_y = ritz_factors(plate, f_max)
         basis = max(solver_sizes(plate, f_max)[0], default=1)
@@ -168,8 +168,8 @@ def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
 
 def _ritz_band_frequency(plate, f_max: float) -> float:
     """The top of the Ritz low band of a plate past the crossover, Hz (its seam with the
-    edge effect modes lies at or below it, :mod:`synth.sound.modes.crossover`)."""
-    from synth.sound.modes import frequency_scale, ritz_band
+    edge effect modes lies at or below it, :mod:`synth.physics.modes.crossover`)."""
+    from synth.physics.modes import frequency_scale, ritz_band
 
     return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
 

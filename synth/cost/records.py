@@ -13,7 +13,7 @@ from synth.cost.rates import Rates, time_row
 from synth.errors import ParameterError
 
 #: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
-#: the level makes (:func:`synth.io.audio.normalize`) and the float32 :class:`Render`.
+#: the level makes (:func:`synth.store.audio.normalize`) and the float32 :class:`Render`.
 AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
 
 
@@ -26,7 +26,7 @@ MODE_VALUES = 20
 
 
 #: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
-#: (:func:`synth.sound.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
+#: (:func:`synth.physics.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
 #: copy LAPACK's dpotrf/dpotri factor and invert in place, the eigenvectors, and dsyevd's
 #: workspace of ``1 + 6 n + 2 n^2`` doubles (LAPACK Users' Guide, 3rd ed., DSYEVD).
 SOLVER_SQUARES = 5
@@ -42,7 +42,7 @@ CHECK_SQUARES = 2
 #: summed: the chunk the worker threads add up and the next one being evaluated
 #: (the pipeline of :func:`synth.sound.radiation.rectangle.apply_rule`), and the shape
 #: evaluation's temporaries of the same size (the two factor tables taken at the modes'
-#: indices and their product, :mod:`synth.sound.modes.closed_form`).
+#: indices and their product, :mod:`synth.physics.modes.closed_form`).
 RADIATION_CHUNKS = 5
 
 
@@ -96,7 +96,7 @@ class RadiationWork:
     rule_points : tuple of int
         Points of each of the ``MAX_RULES`` rules.
     shape_terms : int
-        Terms one shape value costs per mode (:func:`synth.sound.modes.shape_terms`).
+        Terms one shape value costs per mode (:func:`synth.physics.modes.shape_terms`).
     evaluations : float
         ``points`` times the modes.
     rule_work : tuple of float

@@ -1,2 +1,3 @@
-"""Everything that touches files or devices: audio files, presets, plots, playback and the
-on-disk cache."""
+"""The front ends that touch files or devices: presets, plots and playback. The on-disk
+cache, atomic writes, audio files and reproducible bytes live in :mod:`synth.store`; their
+old names here (``synth.io.cache``, ...) are the same modules."""

@@ -17,8 +17,8 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
-from synth.io.atomic import write_atomically
-from synth.io.audio import PHYSICAL_FULL_SCALE, output_path
+from synth.store.atomic import write_atomically
+from synth.store.audio import PHYSICAL_FULL_SCALE, output_path
 
 if TYPE_CHECKING:
     from synth.sound.render import Render

@@ -12,7 +12,6 @@ import numpy as np
 from synth import checks, cost
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
-from synth.io.audio import PHYSICAL_FULL_SCALE
 from synth.live import kernel, native
 from synth.live.atomics import fence
 from synth.live.hits import (
@@ -43,6 +42,7 @@ from synth.sound.modal_bank import (
 )
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
 from synth.sound.render import LISTENER_UNITS, modal_model
+from synth.store.audio import PHYSICAL_FULL_SCALE
 
 if TYPE_CHECKING:
     from synth.live.engine import Engine

@@ -23,7 +23,7 @@ So the voices played live are ``synth.render`` of the same impacts, to float32 r
 Voices that end are posted to a lock-free ring that :meth:`Engine.ended` reads.
 
 Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the fixed
-calibration of ``normalize="physical"`` (:data:`synth.io.audio.PHYSICAL_FULL_SCALE`),
+calibration of ``normalize="physical"`` (:data:`synth.store.audio.PHYSICAL_FULL_SCALE`),
 times each hit's gain, its voice's gain and its body's gain (settable at run time, ramped
 over a block) and the master gain, so bodies and hits keep their true level relation. A body
 of one listener in a two-channel engine may be panned (:attr:`Body.pan`, a constant-power

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.constants import AIR_DENSITY, SOUND_SPEED
+from synth.physics import modes as plate_modes
 from synth.physics.scene import Accelerometer, Microphone
-from synth.sound import modes as plate_modes
 
 
 def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):

@@ -28,7 +28,7 @@ from synth.errors import ParameterError
 #: Hz: the rate of a preset whose ``[render]`` table names none (the table a preset's loader
 #: returns always holds a rate, since a render requires one), and of ``synth render`` then.
 PRESET_SAMPLERATE = 48000
-#: The level stages (see :func:`synth.io.audio.normalize`).
+#: The level stages (see :func:`synth.store.audio.normalize`).
 NORMALIZE = ("peak", "loudness", "physical", "none")
 #: Range of the sample rate, Hz.
 MIN_SAMPLERATE, MAX_SAMPLERATE = 8000, 384000

@@ -19,7 +19,6 @@ import numpy as np
 
 from synth import cost
 from synth.errors import ParameterError, SynthError
-from synth.io import cache as disk_cache
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Scene
 from synth.sound.listener import (
@@ -50,6 +49,7 @@ from synth.sound.options import (
 )
 from synth.sound.result import PathInfo, Render, RenderInfo
 from synth.sound.sequence_check import SEQUENCE_RTOL, check_sequence
+from synth.store import cache as disk_cache
 
 #: The names this module has always offered (the render's pieces live in the modules
 #: above; these are their old paths).
@@ -248,7 +248,7 @@ def _info(scene, o: RenderOptions, model: ModalModel, impacts, **figures) -> Ren
 def _levelled(audio, o: RenderOptions, units: str, impacts, info: RenderInfo) -> Render:
     """The :class:`Render` of the physical signal ``audio`` (``units``), faded at its end
     and scaled by the level stage."""
-    from synth.io import audio as audio_io
+    from synth.store import audio as audio_io
 
     _fade(audio, o.fade, o.samplerate)
     scaled, gain = audio_io.normalize(
@@ -263,7 +263,7 @@ def _levelled(audio, o: RenderOptions, units: str, impacts, info: RenderInfo) ->
 def _fade(audio, fade_s, fs) -> None:
     """A raised-cosine fade of ``fade_s`` s at the end of ``audio`` (in place); refused if
     longer than the audio."""
-    from synth.io import audio as audio_io
+    from synth.store import audio as audio_io
 
     if fade_s > audio.size / fs:
         raise ParameterError(

@@ -61,7 +61,7 @@ FORMATS = {
 RESTITUTION_SCALE = "restitution_scale"
 
 
-#: The bank's level default: one calibration for every file (see synth.io.audio).
+#: The bank's level default: one calibration for every file (see synth.store.audio).
 DEFAULT_NORMALIZE = "physical"
 
 

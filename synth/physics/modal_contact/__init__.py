@@ -7,7 +7,7 @@ its displacement under the ball is
 
     w(t) = sum_k q_k(t) + q_rigid(t) + sum_j q_j(t) - x_res(t)
 
-* ``q_k`` bending mode k (:func:`synth.sound.modes.modes`, frequencies ``omega_k``, decay rates
+* ``q_k`` bending mode k (:func:`synth.physics.modes.modes`, frequencies ``omega_k``, decay rates
   ``sigma_k``), seen at the contact point ``x0``: ``q_k'' + 2 sigma_k q_k' + omega_k^2 q_k =
   -c_k F`` with the coupling ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
 * ``q_rigid`` the rigid-body motion of a free plate (translation and two rotations,

@@ -14,9 +14,9 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.physics import impedance
 from synth.physics.scene import Plate
+from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
 #: The residual's lumped modes above the band limit: this many geometric bins, each this
 #: ratio wide in frequency (three per octave, four octaves: the tail starts at 16 Omega).
@@ -390,9 +390,9 @@ def _plate_key(plate: Plate, max_frequency: float) -> dict:
 def band_modes(plate: Plate, max_frequency: float):
     """The bending modes of ``plate`` up to ``max_frequency`` (Hz) from an eigen-solution of
     exactly that band: the mode cache's if it holds that band, else a solve of the band
-    alone (:func:`synth.sound.modes.modes` with ``cache=False``) where the cache would serve
+    alone (:func:`synth.physics.modes.modes` with ``cache=False``) where the cache would serve
     a wider band's. Held in memory for the next contact on the plate."""
-    from synth.sound.modes import modes as plate_modes
+    from synth.physics.modes import modes as plate_modes
 
     key = json.dumps(_plate_key(plate, max_frequency), sort_keys=True)
     held = _BAND_MODES.get(key)
@@ -407,7 +407,7 @@ def band_modes(plate: Plate, max_frequency: float):
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
     """Angular frequencies (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of the modes of
     :func:`band_modes` at ``position``: from the disk cache, or computed and stored."""
-    from synth.sound.modes import TOLERANCE
+    from synth.physics.modes import TOLERANCE
 
     key = json.dumps(
         dict(

@@ -34,11 +34,11 @@ Rules (one module each)
   :mod:`~synth.sound.radiation.common`: their result, checks and numba kernel;
   :mod:`~synth.sound.radiation.cache`: the gains kept in memory and on disk.
 
-:func:`plate_gains` computes the gains of a :class:`synth.sound.modes.Modes`, cached: by
+:func:`plate_gains` computes the gains of a :class:`synth.physics.modes.Modes`, cached: by
 the rectangle rule, unless its work (modes times points) exceeds ``5e7`` for separable
 shapes (then the polar rule) or :data:`SUMMED_RULE_WORK` (``5e8``, above every preset's)
 for free and clamped plates (then the summed polar rule). A plate with dynamic edge effect
-modes (past the Ritz crossover of :func:`synth.sound.modes.modes`) whose rectangle-rule work
+modes (past the Ritz crossover of :func:`synth.physics.modes.modes`) whose rectangle-rule work
 exceeds :data:`BOUNDARY_RULE_WORK` on a plate of more than :data:`BOUNDARY_RULE_SIZE`
 wavelengths (or whose rectangle rule would exceed ``max_points``) takes the boundary rule for
 those and the rectangle rule for its Ritz modes; otherwise the rectangle rule band by band of
@@ -58,7 +58,7 @@ import numpy as np
 from synth import checks
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
-from synth.sound.modes import Modes
+from synth.physics.modes import Modes
 from synth.sound.radiation.boundary import boundary_rule
 from synth.sound.radiation.cache import (
     CACHE,
@@ -108,7 +108,7 @@ POLAR_WORK = 5e7
 
 
 def _use_separable(modes, size, listener, q_s, kb, c, tol):
-    """The modes' :class:`~synth.sound.modes.SeparableShapes` if :func:`plate_gains`
+    """The modes' :class:`~synth.physics.modes.SeparableShapes` if :func:`plate_gains`
     should use :func:`separable_gains`, else None."""
     shapes = modes.separable()
     if shapes is None or q_s.size == 0:
@@ -176,7 +176,7 @@ def rectangle_points(size, kappa: float, tol: float = 1e-6) -> float:
 
 
 def _use_summed(modes, size, q_s, kb, c, tol):
-    """The modes' :class:`~synth.sound.modes.SummedShapes` if :func:`plate_gains`
+    """The modes' :class:`~synth.physics.modes.SummedShapes` if :func:`plate_gains`
     should use :func:`summed_gains`, else None."""
     if q_s.size == 0 or _rectangle_work(size, q_s, kb, c, tol) <= SUMMED_RULE_WORK:
         return None
@@ -328,8 +328,8 @@ def plate_gains(
 
     Parameters
     ----------
-    modes : synth.sound.modes.Modes
-        The plate's modes; their :meth:`~synth.sound.modes.Modes.shapes` are the
+    modes : synth.physics.modes.Modes
+        The plate's modes; their :meth:`~synth.physics.modes.Modes.shapes` are the
         normal-velocity shapes and the plate's length and width the size.
     listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol,
     max_points, full_output
@@ -347,23 +347,23 @@ def plate_gains(
     Raises
     ------
     ParameterError
-        If ``modes`` is not a :class:`~synth.sound.modes.Modes`, ``s`` does not have one
+        If ``modes`` is not a :class:`~synth.physics.modes.Modes`, ``s`` does not have one
         entry per mode, ``cache`` is not a bool, or as :func:`rayleigh_gains`.
 
     Notes
     -----
     The result is stored under a key made of everything that determines it:
-    :attr:`~synth.sound.modes.Modes.shape_key` (the plate's size and eigen-solution),
+    :attr:`~synth.physics.modes.Modes.shape_key` (the plate's size and eigen-solution),
     the listener position, the poles ``s`` (exact bytes), the maximum wavenumber,
     the air constants, the reference distance, ``tol``, ``max_points`` and the
     quadrature's settings. Files ``radiation-gains-*.npz`` sit beside the mode
-    cache (:func:`synth.sound.modes.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
+    cache (:func:`synth.physics.modes.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
     atomically; an unreadable or inconsistent file is ignored and rewritten. A
     result loaded from disk equals the computed one exactly (the
     convergence warning, if any, is repeated).
     """
     if not isinstance(modes, Modes):
-        raise ParameterError(f"modes={modes!r} must be a synth.sound.modes.Modes")
+        raise ParameterError(f"modes={modes!r} must be a synth.physics.modes.Modes")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     listener = check_listener(listener_position)

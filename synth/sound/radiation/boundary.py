@@ -1,7 +1,7 @@
 """Rayleigh gains of the dynamic edge effect modes as integrals over the plate's boundary.
 
 Each edge effect shape is a sum of products ``f(x) g(y)`` with ``f'' = alpha_x f`` and
-``g'' = alpha_y g`` (:mod:`synth.sound.asymptotic_modes`: interior ``cos``/``sin`` terms,
+``g'' = alpha_y g`` (:mod:`synth.physics.asymptotic_modes`: interior ``cos``/``sin`` terms,
 ``alpha = -s``, and edge ``cosh``/``sinh`` terms, ``alpha = s + 2 s_o``), so every product
 ``psi`` solves the Helmholtz equation ``(lap + q^2) psi = 0`` with ``q^2 = -(alpha_x +
 alpha_y)``: ``+k^2`` (interior x interior), ``-k^2`` (interior x edge) or ``-3 k^2``

@@ -11,7 +11,7 @@ import numba
 import numpy as np
 
 from synth.compilation import compiled
-from synth.sound.asymptotic_modes import edge_part, interior_part
+from synth.physics.asymptotic_modes import edge_part, interior_part
 from synth.sound.radiation.boundary_bessel import A0, A1, ASYMPTOTIC_X, bessel_at, small_bessel
 from synth.sound.radiation.boundary_grid import DECAY_LADDER, DECAY_MIN_C, SENTINEL, decay_weights
 from synth.sound.radiation.common import MAX_ORDER
@@ -32,7 +32,7 @@ def _cumulate(sflat, off, vals, out):  # pragma: no cover
 @compiled()
 def _parts(x, s, so, h, n, ce, scale, interior, edge):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of a trial factor (normalised, see
-    :func:`synth.sound.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``; a part
+    :func:`synth.physics.asymptotic_modes.factor_parts`) at ``x`` in ``[-h, h]``; a part
     not asked for (``interior``, ``edge`` False) is 0."""
     u = scale * interior_part(x, s, h, n) if interior else 0.0
     e = scale * ce * edge_part(x, s, so, h, n) if edge else 0.0

@@ -1,6 +1,6 @@
 """The cache of :func:`synth.sound.radiation.plate_gains`: gains in memory and on disk.
 
-The gains of a :class:`synth.sound.modes.Modes` are kept in memory and on disk
+The gains of a :class:`synth.physics.modes.Modes` are kept in memory and on disk
 (``radiation-gains-*.npz`` beside the plate-mode cache, ``$SYNTH_CACHE_DIR`` if set), keyed
 by everything that determines them, so that a scene rendered again (in this process or
 another) does not repeat the integral.
@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
 from synth.sound.radiation.common import (
     COHERENT_FLOOR,
     GRADING,
@@ -25,6 +24,7 @@ from synth.sound.radiation.common import (
     RadiationResult,
 )
 from synth.sound.radiation.polar import POLAR_REVISION
+from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
 _CACHE_VERSION = 1  # layout of the stored gains and the algorithm; part of the key
 CACHE = MemoryCache("computations", max_entries=32)  # least recently used dropped

@@ -50,7 +50,7 @@ import numpy as np
 from synth.compilation import compiled
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
-from synth.sound.modes import single_thread_product
+from synth.physics.modes import single_thread_product
 from synth.sound.radiation.angular import POLAR_PANEL_TOL, arc_panels, circle_arcs, panels_points
 from synth.sound.radiation.angular import angular_rule as angular_rule
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
@@ -415,8 +415,8 @@ def separable_gains(
 
     Parameters
     ----------
-    shapes : synth.sound.modes.SeparableShapes
-        The modes' shapes (see :meth:`synth.sound.modes.Modes.separable`) and the
+    shapes : synth.physics.modes.SeparableShapes
+        The modes' shapes (see :meth:`synth.physics.modes.Modes.separable`) and the
         plate's size.
     listener_position, s, max_wavenumber, air_density, sound_speed
         As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
@@ -445,10 +445,10 @@ def separable_gains(
     instead of ``N n_modes`` exponentials. Measured on a simply supported 1.86 m
     square plate to 22 kHz (39 797 modes): see ``synth bench scale``.
     """
-    from synth.sound.modes import SeparableShapes
+    from synth.physics.modes import SeparableShapes
 
     if not isinstance(shapes, SeparableShapes):
-        raise ParameterError(f"shapes={shapes!r} must be a synth.sound.modes.SeparableShapes")
+        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
     setup = polar_setup(
         (shapes.length, shapes.width),
         shapes.x_index.size,

@@ -185,7 +185,7 @@ class ProductFactors:
     """Mode shapes on a tensor grid as at most two products of one factor per axis:
     ``phi_k(x_a, y_b) = x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``
     (dimensionless; ``x_other`` and ``y_other`` None: the first product alone), as the
-    dynamic edge effect modes are (:mod:`synth.sound.asymptotic_modes`)."""
+    dynamic edge effect modes are (:mod:`synth.physics.asymptotic_modes`)."""
 
     x_own: np.ndarray
     y_own: np.ndarray

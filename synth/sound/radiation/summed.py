@@ -1,7 +1,7 @@
 """The polar rule of the Rayleigh integral for sums of separable shapes
 (:func:`summed_gains`): the free and clamped plates' Ritz shapes.
 
-Such shapes are ``phi_k = sum_ij C_kij X_i(x) Y_j(y)`` (:class:`synth.sound.modes.SummedShapes`).
+Such shapes are ``phi_k = sum_ij C_kij X_i(x) Y_j(y)`` (:class:`synth.physics.modes.SummedShapes`).
 :func:`summed_gains` applies the polar rule of :mod:`synth.sound.radiation.polar`: at each
 radius the angular sums ``A_ij = sum_theta w X_i Y_j`` are one small matrix product whatever
 the number of modes, and ``Phi_k = sum_ij C_kij A_ij`` one product of a block of radii's
@@ -18,7 +18,7 @@ import numpy as np
 
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
-from synth.sound.modes import single_thread_product
+from synth.physics.modes import single_thread_product
 from synth.sound.radiation.angular import angular_rule
 from synth.sound.radiation.common import CHUNK_BYTES, REFINE, add_sums
 from synth.sound.radiation.polar import polar_gains, polar_setup
@@ -108,8 +108,8 @@ def summed_gains(
 
     Parameters
     ----------
-    shapes : synth.sound.modes.SummedShapes
-        The modes' shapes (see :meth:`synth.sound.modes.Modes.summed`) and the
+    shapes : synth.physics.modes.SummedShapes
+        The modes' shapes (see :meth:`synth.physics.modes.Modes.summed`) and the
         plate's size.
     listener_position, s, max_wavenumber, air_density, sound_speed
         As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
@@ -136,10 +136,10 @@ def summed_gains(
     (``RadiationResult.coherent``) come from a rectangle rule that resolves the
     shapes alone, to about 2 %. Measured at 384 kHz: see ``synth bench render``.
     """
-    from synth.sound.modes import SummedShapes
+    from synth.physics.modes import SummedShapes
 
     if not isinstance(shapes, SummedShapes):
-        raise ParameterError(f"shapes={shapes!r} must be a synth.sound.modes.SummedShapes")
+        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
     setup = polar_setup(
         (shapes.length, shapes.width),
         shapes.n_modes,

@@ -10,8 +10,8 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
-from synth.sound.asymptotic_modes.ritz import factor_exponentials, factor_moments
-from synth.sound.asymptotic_modes.roots import edge_terms, entire_terms
+from synth.physics.asymptotic_modes.ritz import factor_exponentials, factor_moments
+from synth.physics.asymptotic_modes.roots import edge_terms, entire_terms
 
 
 @compiled()

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.io.cache import MemoryCache, cache_path, load_npz, savez_atomic
-from synth.sound.modes.ritz import RitzSolution, solution_key, solve_ritz
+from synth.physics.modes.ritz import RitzSolution, solution_key, solve_ritz
+from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
 # Solutions held in memory: least recently used ones are dropped beyond 1 GiB (the
 # newest is always kept).

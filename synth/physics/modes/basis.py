@@ -1,4 +1,4 @@
-"""The Rayleigh-Ritz basis of the free and clamped plates (:mod:`synth.sound.modes.ritz`),
+"""The Rayleigh-Ritz basis of the free and clamped plates (:mod:`synth.physics.modes.ritz`),
 its size, and the eigen-solution of one symmetry class.
 
 Rayleigh-Ritz in the coordinates ``xi = 2x/a - 1``, ``eta = 2y/b - 1``, with a

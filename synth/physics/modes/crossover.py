@@ -2,7 +2,7 @@
 
 A band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS` per symmetry class takes
 the Ritz modes of a low band and, above it, the dynamic edge effect modes of
-:mod:`synth.sound.asymptotic_modes` (cost linear in the number of modes; frequencies within
+:mod:`synth.physics.asymptotic_modes` (cost linear in the number of modes; frequencies within
 0.5 % of the Ritz solver above that band, see docs/physics.md, "Large free and clamped
 plates").
 """
@@ -13,15 +13,15 @@ import json
 
 import numpy as np
 
-from synth.sound.modes.cache import cached_ritz
-from synth.sound.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
+from synth.physics.modes.cache import cached_ritz
+from synth.physics.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
 
 #: Relative accuracy of the dynamic edge effect frequencies (with their Rayleigh-Ritz
 #: step) above the Ritz low band of a crossed-over plate, against the Ritz solver
 #: (tests/test_asymptotic_modes.py: measured 0.015 % clamped, 0.43 % free rectangles,
 #: 0.28 % free squares).
 EDGE_EFFECT_TOLERANCE = 0.005
-# Crossover to the dynamic edge effect method (synth.sound.asymptotic_modes): a free or
+# Crossover to the dynamic edge effect method (synth.physics.asymptotic_modes): a free or
 # clamped band whose Ritz problem would exceed this many unknowns per symmetry class
 # (the estimate of ritz_unknowns) takes the Ritz modes of a low band only (up to
 # LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
@@ -110,7 +110,7 @@ class HybridSolution:
 
 def crossed(boundary, nu, aspect, omega_req, cache):
     """Hybrid solution of a band beyond the crossover (see ``CROSSOVER_UNKNOWNS``)."""
-    from synth.sound import asymptotic_modes
+    from synth.physics import asymptotic_modes
 
     count = asymptotic_modes.mode_count_estimate(aspect, omega_req)
     if count > _MAX_MODES:

@@ -3,7 +3,7 @@
 Closed form (Leissa 1969, chapter 4): ``omega_mn = pi^2 sqrt(D / (rho h))
 ((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi y / b)``.
 
-The shapes are products ``X_m(x) Y_n(y)``; :meth:`synth.sound.modes.Modes.separable`
+The shapes are products ``X_m(x) Y_n(y)``; :meth:`synth.physics.modes.Modes.separable`
 returns them as such (:class:`SeparableShapes`), so that sums over many points can be
 shared between modes (the polar rule of :func:`synth.sound.radiation.separable_gains`).
 """
@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synth.compilation import compiled
-from synth.sound.modes.common import CHUNK_ELEMENTS, VERSION, ratios
+from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios
 
 
 class SimplySupported:

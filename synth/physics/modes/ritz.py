@@ -1,7 +1,7 @@
 """Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
 
 The basis, its size and the eigen-solution of one symmetry class are those of
-:mod:`synth.sound.modes.basis`; this module solves the four classes, checks convergence
+:mod:`synth.physics.modes.basis`; this module solves the four classes, checks convergence
 and evaluates the shapes.
 
 Convergence check. Each class is solved again (eigenvalues only) with a
@@ -28,7 +28,7 @@ import numpy as np
 
 from synth.compilation import compiled
 from synth.errors import SynthError
-from synth.sound.modes.basis import (
+from synth.physics.modes.basis import (
     SHIFT,
     basis_1d,
     basis_alpha,
@@ -36,7 +36,7 @@ from synth.sound.modes.basis import (
     matrices_1d,
     solve_class,
 )
-from synth.sound.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_thread_product
+from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_thread_product
 
 #: Relative accuracy of every returned mode's frequency (Ritz estimate, see above).
 TOLERANCE = 1e-4
@@ -308,7 +308,7 @@ def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
     ``one_thread``: LAPACK runs on one BLAS thread. A multithreaded LAPACK call whose
     helper threads wait for cores that other work keeps busy stalls: measured with
     dense eigen-solutions of 1400 unknowns on two shared cores, 16 times slower than
-    on one thread (see :func:`synth.sound.modes.common.single_thread_product`).
+    on one thread (see :func:`synth.physics.modes.common.single_thread_product`).
     """
 
     def solve(c):

@@ -1,0 +1,440 @@
+"""The finite rectangular plate's bending modes (docs/physics.md, "Plate modes").
+
+:func:`modes` returns every bending mode of a :class:`~synth.physics.scene.Plate` up to a
+frequency: natural frequencies, modal damping, modal masses and the mode shapes
+``phi_k(x, y)``, which the synthesis combines as
+
+    v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k * (h_k * F)(t).
+
+Thin-plate (Kirchhoff) theory: transverse displacement ``w(x, y)``, kinetic
+energy ``1/2 rho h omega^2 Int w^2 dA`` and strain energy
+
+    U = D/2 Int [ w_xx^2 + w_yy^2 + 2 nu w_xx w_yy + 2 (1 - nu) w_xy^2 ] dA,
+
+``D = E h^3 / (12 (1 - nu^2))``. Kirchhoff theory ignores shear deformation and
+rotary inertia: against Mindlin's theory it overestimates a mode's frequency by
+about ``(k h)^2 / 5`` (``k`` the bending wavenumber, nu = 0.3), 1 % when the
+bending wavelength is 25 thicknesses; more when the wavelength nears a few
+thicknesses (an 18 mm board at 24 kHz).
+
+Simply supported edges
+    The closed form (:mod:`synth.physics.modes.closed_form`).
+
+Free and clamped edges
+    Rayleigh-Ritz (:mod:`synth.physics.modes.ritz`, its basis in
+    :mod:`synth.physics.modes.basis`), cached (:mod:`synth.physics.modes.cache`); a large band
+    crosses over to dynamic edge effect modes above a low Ritz band
+    (:mod:`synth.physics.modes.crossover`).
+
+Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
+1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
+orthogonal: ``Int phi_k phi_l dA = 0`` for ``k != l``. A shape's sign is arbitrary
+(only products ``phi_k(x0) phi_k(xp)`` matter); within a degenerate pair (square
+plates) the two shapes are one orthonormal basis of the pair's plane.
+
+References
+----------
+A. W. Leissa, *Vibration of Plates*, NASA SP-160 (1969), chapter 4.
+A. W. Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synth import checks
+from synth.errors import ParameterError
+from synth.physics.modes.cache import cache_info, cached_ritz, clear_memory_cache
+from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
+from synth.physics.modes.common import single_thread_product
+from synth.physics.modes.crossover import (
+    CROSSOVER_UNKNOWNS,
+    EDGE_EFFECT_TOLERANCE,
+    HybridSolution,
+    crossed,
+)
+from synth.physics.modes.ritz import (
+    TOLERANCE,
+    RitzSolution,
+    SummedShapes,
+    TooLarge,
+    first_basis_sizes,
+    ritz_unknowns,
+)
+from synth.physics.scene import Plate
+from synth.store.cache import cache_dir
+
+__all__ = [
+    "Modes",
+    "EdgeEffectPart",
+    "modes",
+    "SeparableShapes",
+    "SummedShapes",
+    "TOLERANCE",
+    "EDGE_EFFECT_TOLERANCE",
+    "cache_info",
+    "clear_memory_cache",
+    "cache_dir",
+    "single_thread_product",
+]
+
+
+@dataclass(frozen=True)
+class EdgeEffectPart:
+    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes
+    ``offset, offset + 1, ...`` of ``solution``
+    (:class:`synth.physics.asymptotic_modes.EdgeEffectSolution`; lengths in units of the
+    plate's longer side); the modes before ``first_mode`` are Rayleigh-Ritz modes."""
+
+    first_mode: int
+    solution: object
+    offset: int
+
+    def product_factors(self, x, y, length: float, width: float, index):
+        """Modes ``index`` (ascending, numbered as in :class:`Modes`, each ``>= first_mode``)
+        of a plate ``length`` x ``width`` (metres) as tables of their factors at the distinct
+        coordinates ``x`` and ``y`` (metres, on the plate): ``(x_own, y_own, x_other,
+        y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] +
+        x_other[a, k] y_other[b, k]`` (see
+        :meth:`synth.physics.asymptotic_modes.EdgeEffectSolution.product_factors`)."""
+        xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
+        eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
+        own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
+        return self.solution.product_factors(xi, eta, own)
+
+
+@dataclass(frozen=True, eq=False)
+class Modes:
+    """The bending modes of a plate up to a frequency (see :func:`modes`).
+
+    Attributes
+    ----------
+    plate : Plate
+        The plate.
+    max_frequency : float > 0
+        The band asked for, Hz: every mode at or below it, none above.
+    frequencies : ndarray, shape (n,)
+        Natural frequencies ``f_k``, Hz, ascending (a free plate's three
+        rigid-body motions excluded).
+    angular_frequencies : ndarray, shape (n,)
+        ``omega_k = 2 pi f_k``, rad/s.
+    decay_rates : ndarray, shape (n,)
+        Amplitude decay rates ``sigma_k`` (amplitude ``~ exp(-sigma_k t)``), 1/s,
+        from ``plate.material.damping.decay_rate(omega_k)``.
+    modal_masses : ndarray, shape (n,)
+        ``M_k = rho h Int phi_k^2 dA = rho h a b`` (the plate's mass), kg.
+    tolerance : float
+        Relative accuracy of every frequency (Rayleigh-Ritz convergence check;
+        the simply supported closed form is exact; :data:`EDGE_EFFECT_TOLERANCE`
+        beyond the crossover).
+
+    Normalisation: ``Int phi_k^2 dA = a b`` over the plate (mean square 1), so
+    ``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k (h_k * F)(t)`` with these
+    :meth:`shapes` and :attr:`modal_masses`. Arrays are read-only.
+    """
+
+    plate: Plate
+    max_frequency: float
+    frequencies: np.ndarray = field(repr=False)
+    angular_frequencies: np.ndarray = field(repr=False)
+    decay_rates: np.ndarray = field(repr=False)
+    modal_masses: np.ndarray = field(repr=False)
+    tolerance: float
+    _solution: object = field(repr=False)
+
+    def __len__(self) -> int:
+        return int(self.frequencies.size)
+
+    @property
+    def shape_key(self) -> str:
+        """Text that identifies :meth:`shapes` exactly, for caches of results
+        computed from them (such as radiation gains).
+
+        Two :class:`Modes` with equal keys return equal shape values at every
+        point. The key holds the plate's length and width, the number of modes
+        and the eigen-solution the shapes come from (boundary, Poisson ratio,
+        aspect ratio, the band it was solved for, the solver settings): not the
+        material's stiffness, density or damping, which do not change the shapes.
+        """
+        p = self.plate
+        return json.dumps(
+            {
+                "solution": self._solution.key,
+                "length": float(p.length).hex(),
+                "width": float(p.width).hex(),
+                "modes": len(self),
+            },
+            sort_keys=True,
+        )
+
+    def __repr__(self) -> str:
+        p = self.plate
+        band = f"{self.frequencies[0]:.6g}..{self.frequencies[-1]:.6g} Hz" if len(self) else "none"
+        return (
+            f"Modes({len(self)} modes, {band}, max_frequency={self.max_frequency:g} Hz; "
+            f"{p.boundary} {p.material.name} plate {p.length:g} x {p.width:g} x "
+            f"{p.thickness:g} m)"
+        )
+
+    @property
+    def solved_for_band(self) -> bool:
+        """True when the eigen-solution was solved for exactly ``max_frequency`` (the
+        simply supported closed form always is). A cached wider band's solution serves a
+        narrower request with modes equal within :data:`TOLERANCE` but not to the last bit;
+        a caller whose result must not depend on the cache's history (the modal contact,
+        whose bounces amplify such differences) checks this."""
+        sol = self._solution
+        if isinstance(sol, SimplySupported):
+            return True
+        if isinstance(sol, RitzSolution):
+            return sol.omega_max == dimensionless_band(self.plate, self.max_frequency)
+        return False  # a hybrid's low Ritz band may itself be a wider band's
+
+    def separable(self) -> SeparableShapes | None:
+        """The shapes as products ``X_i(x) Y_j(y)`` (:class:`SeparableShapes`), or None
+        when they are not (free and clamped plates: sums of such products)."""
+        sol = self._solution
+        if not isinstance(sol, SimplySupported):
+            return None
+        n = len(self)
+        p = self.plate
+        m_idx = np.asarray(sol.m[:n], dtype=np.int64) - 1
+        n_idx = np.asarray(sol.n[:n], dtype=np.int64) - 1
+        k = math.pi * max(
+            (int(m_idx.max()) + 1) / p.length if n else 0.0,
+            (int(n_idx.max()) + 1) / p.width if n else 0.0,
+        )
+        return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
+
+    def shapes(self, points, index=None) -> np.ndarray:
+        """Mode shapes ``phi_k`` at points on the plate.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, 2)
+            ``(x, y)`` positions, metres from the plate's corner: ``0 <= x <= a``
+            (length), ``0 <= y <= b`` (width).
+        index : array of int, optional
+            Modes to evaluate (ascending, distinct); every mode if None. Edge effect
+            modes are evaluated alone; others as columns of the first modes' shapes.
+
+        Returns
+        -------
+        ndarray, shape (n, n_modes)
+            ``phi_k`` (dimensionless, mean square 1 over the plate), one column per
+            mode in the order of :attr:`frequencies` (of ``index`` if given).
+
+        Notes
+        -----
+        Cost ``~ n * (basis size) * n_modes / 4`` for scattered points; points on a
+        grid (few distinct x or y) share the sum over one direction and cost far
+        less. Temporaries are bounded (about 32 MB) whatever ``n``; the result
+        itself takes ``8 n n_modes`` bytes, so evaluate very many points in chunks.
+
+        Raises
+        ------
+        ParameterError
+            If ``points`` is not an ``(n, 2)`` array of finite numbers, a point is
+            off the plate, or ``index`` is not ascending distinct mode numbers.
+        """
+        if index is not None:
+            index = np.asarray(index)
+            if (
+                index.ndim != 1
+                or not np.issubdtype(index.dtype, np.integer)
+                or (index.size and (index[0] < 0 or index[-1] >= len(self)))
+                or np.any(np.diff(index) <= 0)
+            ):
+                raise ParameterError(
+                    f"index={index!r} must be ascending distinct mode numbers in [0, {len(self)})"
+                )
+        try:
+            pts = np.asarray(points, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError(
+                f"points={points!r} must be an (n, 2) array of (x, y) positions (metres)"
+            ) from None
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise ParameterError(
+                f"points with shape {pts.shape} must be an (n, 2) array of (x, y) "
+                f"positions (metres)"
+            )
+        bad = ~np.all(np.isfinite(pts), axis=1)
+        p = self.plate
+        a, b = p.length, p.width
+        bad |= (pts[:, 0] < 0.0) | (pts[:, 0] > a) | (pts[:, 1] < 0.0) | (pts[:, 1] > b)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ParameterError(
+                f"points[{i}]=({pts[i, 0]!r}, {pts[i, 1]!r}) is off the plate: x must be in "
+                f"[0, {a!r}] and y in [0, {b!r}] (metres from a corner)"
+            )
+        xi = np.clip(2.0 * pts[:, 0] / a - 1.0, -1.0, 1.0)
+        eta = np.clip(2.0 * pts[:, 1] / b - 1.0, -1.0, 1.0)
+        if index is None:
+            return self._solution.shapes(xi, eta, len(self))
+        if isinstance(self._solution, HybridSolution):
+            return self._solution.shapes_of(xi, eta, index)
+        return self._solution.shapes(xi, eta, int(index[-1]) + 1 if index.size else 0)[:, index]
+
+    def edge_effect(self) -> EdgeEffectPart | None:
+        """The modes that come from the dynamic edge effect method (a free or clamped
+        plate beyond the Ritz crossover, see :func:`modes`), or None if there are none."""
+        sol = self._solution
+        if not isinstance(sol, HybridSolution) or sol.n_low >= len(self):
+            return None
+        return EdgeEffectPart(sol.n_low, sol.edge, sol.first)
+
+    def summed(self) -> SummedShapes | None:
+        """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)``
+        (:class:`SummedShapes`: free and clamped plates), or None (simply supported
+        plates: see :meth:`separable`)."""
+        sol = self._solution
+        if not isinstance(sol, RitzSolution):
+            return None
+        p = self.plate
+        omega = float(self.angular_frequencies[-1]) if len(self) else 0.0
+        k = (omega * omega * p.surface_density / p.flexural_rigidity) ** 0.25
+        return sol.summed(len(self), p.length, p.width, k)
+
+
+def frequency_scale(plate: Plate) -> float:
+    """``omega / Omega`` (rad/s): ``Omega = omega L^2 sqrt(rho h / D)`` is dimensionless,
+    ``L = max(a, b)``."""
+    length = max(plate.length, plate.width)
+    return math.sqrt(plate.flexural_rigidity / plate.surface_density) / length**2
+
+
+def dimensionless_band(plate: Plate, max_frequency: float) -> float:
+    """The band ``max_frequency`` (Hz) as the dimensionless ``Omega`` of the solutions."""
+    return 2.0 * math.pi * max_frequency / frequency_scale(plate)
+
+
+def ritz_band(plate: Plate, max_frequency: float) -> float:
+    """The dimensionless band of the Ritz problems :func:`modes` solves for ``plate`` up
+    to ``max_frequency`` (Hz): the whole band, or beyond the crossover its low band."""
+    aspect = plate.length / plate.width
+    omega_req = dimensionless_band(plate, max_frequency)
+    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+        from synth.physics.modes.crossover import LOW_BAND_UNKNOWNS, band_of_unknowns
+
+        omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
+    return omega_req
+
+
+def shape_terms(plate: Plate, max_frequency: float) -> int:
+    """Terms of the sum one shape value costs per mode on a grid of points, known before
+    any mode is solved: 1 for the closed-form modes of a simply supported plate (a product
+    of sines), else the Ritz basis' degrees along one axis
+    (:func:`~synth.physics.modes.ritz.first_basis_degrees`; :mod:`synth.cost` sizes the
+    radiation stage's work by it)."""
+    from synth.physics.modes.ritz import first_basis_degrees
+
+    if plate.boundary == "simply-supported":
+        return 1
+    return first_basis_degrees(plate.length / plate.width, ritz_band(plate, max_frequency))
+
+
+def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
+    """Factors ``(n_x, n_y)`` of the Ritz shapes of ``plate`` up to ``max_frequency`` (Hz)
+    as sums of products (:meth:`Modes.summed`), known before any mode is solved (of the
+    first basis tried; for :mod:`synth.cost`)."""
+    from synth.physics.modes.ritz import first_basis_factors
+
+    return first_basis_factors(plate.length / plate.width, ritz_band(plate, max_frequency))
+
+
+def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
+    """Unknowns of the Rayleigh-Ritz problems :func:`modes` solves for ``plate`` up to
+    ``max_frequency`` (Hz): each symmetry class's main and check bases of the first
+    basis tried (of the low band, beyond the crossover); none for a simply supported
+    plate (closed form). A larger basis is tried only when the first does not converge."""
+    if plate.boundary == "simply-supported":
+        return [], []
+    return first_basis_sizes(plate.length / plate.width, ritz_band(plate, max_frequency))
+
+
+def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
+    """Every bending mode of ``plate`` with frequency at or below ``max_frequency``.
+
+    Parameters
+    ----------
+    plate : Plate
+        The plate (material, thickness, length ``a`` along x, width ``b`` along y,
+        boundary "free", "simply-supported" or "clamped").
+    max_frequency : float > 0
+        Upper end of the band, Hz.
+    cache : bool
+        Reuse and store the eigen-solution (memory and disk, see
+        :mod:`synth.physics.modes.cache`). ``False`` computes afresh and stores nothing.
+
+    Returns
+    -------
+    Modes
+        Frequencies (Hz, ascending), angular frequencies (rad/s), decay rates
+        (1/s), modal masses (kg) and shapes; every frequency accurate to
+        :data:`TOLERANCE` relative.
+
+    Raises
+    ------
+    ParameterError
+        If ``plate`` is not a Plate, ``max_frequency`` is not a finite number
+        > 0, or the band holds more than two million modes.
+
+    Notes
+    -----
+    The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
+    sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
+    milliseconds from the cache); beyond the crossover
+    (:mod:`synth.physics.modes.crossover`) a Ritz low band and the dynamic edge effect
+    modes above it, whose cost is linear in the number of modes, are returned with
+    ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
+    """
+    if not isinstance(plate, Plate):
+        raise ParameterError(f"plate={plate!r} must be a Plate")
+    damping = plate.damping_law()
+    fmax = checks.positive("max_frequency", max_frequency, "Hz")
+    if not isinstance(cache, bool):
+        raise ParameterError(f"cache={cache!r} must be True or False")
+    aspect = plate.length / plate.width
+    scale = frequency_scale(plate)
+    omega_req = dimensionless_band(plate, fmax)
+    if plate.boundary == "simply-supported":
+        sol = SimplySupported(aspect, omega_req)
+        tol = 0.0
+    else:
+        nu = plate.material.poisson
+        try:
+            if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+                sol = crossed(plate.boundary, nu, aspect, omega_req, cache)
+            else:
+                sol = cached_ritz(plate.boundary, nu, aspect, omega_req, cache)
+        except TooLarge as exc:
+            raise ParameterError(
+                f"max_frequency={max_frequency!r} is too high for this plate (Hz): the "
+                f"mode solver would need {exc.n} {exc.what}, more than {exc.limit}"
+            ) from None
+        tol = EDGE_EFFECT_TOLERANCE if isinstance(sol, HybridSolution) else TOLERANCE
+    omega = sol.omega * scale
+    freq = omega / (2.0 * math.pi)
+    n = int(np.searchsorted(freq, fmax, side="right"))
+    omega, freq = omega[:n].copy(), freq[:n].copy()
+    sigma = np.asarray(damping.decay_rate(omega), dtype=float)
+    sigma = np.broadcast_to(sigma, omega.shape).copy()
+    mass = np.full(n, plate.mass)
+    for arr in (omega, freq, sigma, mass):
+        arr.setflags(write=False)
+    return Modes(
+        plate=plate,
+        max_frequency=fmax,
+        frequencies=freq,
+        angular_frequencies=omega,
+        decay_rates=sigma,
+        modal_masses=mass,
+        tolerance=tol,
+        _solution=sol,
+    )

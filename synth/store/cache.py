@@ -1,0 +1,404 @@
+"""Caches of expensive results (plate modes, radiation gains): in memory and on disk.
+
+A :class:`MemoryCache` holds results under a key (a canonical JSON string of everything
+that determines them), drops the least recently used beyond an entry count or a size in
+bytes, and counts its traffic; it is thread-safe.
+
+On disk, results are ``.npz`` files in :func:`cache_dir`, named by a digest of the key.
+The disk cache is shared by every process of the machine (a sound bank's workers, several
+``synth`` commands), so:
+
+* :func:`savez_atomic` writes each entry to a temporary file of a unique name and renames
+  it into place (:func:`synth.store.atomic.write_atomically`; ``os.replace`` is atomic): two
+  processes filling the same entry at once both succeed, the last rename wins, and a
+  reader never sees a partial file;
+* every entry stores the SHA-256 of its arrays (names, dtypes, shapes and bytes), and
+  :func:`load_npz` returns the arrays only when it matches, so an altered or damaged file
+  is recomputed (the callers also check the stored key and the arrays' consistency);
+* the total size is bounded (:func:`max_bytes`, ``$SYNTH_CACHE_MAX_BYTES``, default
+  :data:`DEFAULT_MAX_BYTES`): the least recently used entries are evicted, "used" being
+  the file's modification time, which :func:`load_npz` refreshes. A process counts what it
+  writes and scans the directory (a cost that grows with the number of entries) only when
+  its count passes the bound or is older than :data:`RESCAN_SECONDS`, so a write costs the
+  same in a cache of ten entries or of ten thousand; other processes' writes are seen at
+  the next scan.
+
+:func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and ``synth cache clear``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import sys
+import threading
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from synth import checks
+from synth.store.atomic import write_atomically
+
+#: Default bound of the disk cache, bytes (a plate's modes to 20 kHz take 1-30 MB, its
+#: radiation gains well under 1 MB: a few dozen plates fit).
+DEFAULT_MAX_BYTES = 512 * 1024 * 1024
+
+#: Name of the array holding the SHA-256 of the others in every entry.
+DIGEST_ARRAY = "__sha256__"
+
+#: A temporary file older than this (s) was left by a process that died mid-write.
+STALE_TEMPORARY_AGE = 3600.0
+
+#: How long a process trusts its own count of the disk cache's total size (s) before it
+#: scans the directory again (to see other processes' writes and remove stale temporaries).
+RESCAN_SECONDS = 30.0
+
+
+def cache_dir() -> Path:
+    """Directory of the disk cache: ``$SYNTH_CACHE_DIR`` if set, else the platform's
+    user cache directory (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux,
+    ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) + ``synth``. Raises
+    ``ParameterError`` for a ``$SYNTH_CACHE_DIR`` that is a file, as ``synth cache info``
+    does: never a silent "off"."""
+    env = checks.environment_directory("SYNTH_CACHE_DIR")
+    if env is not None:
+        return env
+    home = Path.home()
+    if sys.platform == "win32":
+        base = os.environ.get("LOCALAPPDATA")
+        return (Path(base) if base else home / "AppData" / "Local") / "synth" / "Cache"
+    if sys.platform == "darwin":
+        return home / "Library" / "Caches" / "synth"
+    base = os.environ.get("XDG_CACHE_HOME")
+    return (Path(base) if base else home / ".cache") / "synth"
+
+
+def check_environment() -> None:
+    """Raise ``ParameterError`` for a bad ``$SYNTH_CACHE_DIR`` or ``$SYNTH_CACHE_MAX_BYTES``
+    (before any work: a render would otherwise find it at its first write)."""
+    checks.environment_directory("SYNTH_CACHE_DIR")
+    max_bytes()
+
+
+def max_bytes() -> int:
+    """Bound of the disk cache's total size, bytes: ``$SYNTH_CACHE_MAX_BYTES`` (an
+    integer >= 0; 0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
+    return checks.environment_integer("SYNTH_CACHE_MAX_BYTES", DEFAULT_MAX_BYTES, 0, "bytes")
+
+
+def cache_path(prefix: str, key: str) -> Path:
+    """The file of ``key`` in :func:`cache_dir`: ``{prefix}-{digest}.npz``. Raises
+    RuntimeError where there is no home directory."""
+    digest = hashlib.sha256(key.encode()).hexdigest()[:24]
+    return cache_dir() / f"{prefix}-{digest}.npz"
+
+
+def arrays_digest(arrays: dict) -> str:
+    """SHA-256 (hex) of named arrays: each name, dtype, shape and bytes, by name."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == DIGEST_ARRAY:
+            continue
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def savez_atomic(path: Path, arrays: dict) -> bool:
+    """Write ``arrays`` and their digest to ``path`` (``.npz``): a temporary file of a
+    unique name in the same directory, then an atomic rename, so that a reader never
+    sees a partial file and concurrent writers of one entry all succeed. Then evict the
+    least recently used entries beyond :func:`max_bytes`. Returns False, having written
+    nothing, if the file cannot be written (a cache is then skipped); raises
+    ``ParameterError`` for a bad ``$SYNTH_CACHE_MAX_BYTES``, as ``synth cache info`` does."""
+    digest = np.array(arrays_digest(arrays))
+    limit = max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES is the user's error, never a silent "off"
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(path, lambda tmp: np.savez(tmp, **arrays, **{DIGEST_ARRAY: digest}))
+    except (OSError, RuntimeError):  # unwritable, no home: no disk cache
+        return False
+    _SIZE_COUNT.after_write(path, limit)
+    return True
+
+
+class _SizeCount:
+    """This process's count of the disk cache's total size (bytes): the total found by the
+    last scan of the directory plus the sizes written since. A write within the bound and
+    within :data:`RESCAN_SECONDS` of the scan only adds to it; otherwise the directory is
+    scanned and evicted (:func:`evict`) and the count restarts from what is left."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._directory: Path | None = None
+        self._total = 0
+        self._scanned = -math.inf
+
+    def after_write(self, path: Path, limit: int) -> None:
+        try:
+            size = path.stat().st_size
+        except OSError:  # evicted meanwhile by another process
+            size = 0
+        with self._lock:
+            recent = time.monotonic() - self._scanned < RESCAN_SECONDS
+            if self._directory == path.parent and recent and self._total + size <= limit:
+                self._total += size
+                return
+        remaining = _evict(limit, keep=path).remaining
+        with self._lock:
+            self._directory, self._total, self._scanned = path.parent, remaining, time.monotonic()
+
+
+_SIZE_COUNT = _SizeCount()
+
+
+class CacheEntryError(ValueError):
+    """A disk cache entry whose stored digest does not match its arrays (or has none)."""
+
+
+class VerifiedArrays(dict):
+    """The arrays of a cache entry whose digest matched: a dict, usable in ``with`` and
+    with ``files`` (the names), as the ``NpzFile`` of ``numpy.load``."""
+
+    @property
+    def files(self) -> list[str]:
+        return list(self)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def load_npz(path: Path) -> VerifiedArrays:
+    """The arrays of the cache entry ``path``, checked against its stored digest, and
+    the entry marked as used (its modification time set to now) for the eviction order.
+
+    Raises OSError (missing, unreadable), ValueError (not an npz file) or
+    :class:`CacheEntryError` (digest missing or wrong): the caller recomputes."""
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {name: z[name] for name in z.files}
+    stored = arrays.pop(DIGEST_ARRAY, None)
+    if stored is None or str(stored[()]) != arrays_digest(arrays):
+        raise CacheEntryError(f"{path}: the arrays do not match the stored digest")
+    try:
+        os.utime(path)
+    except OSError:  # evicted meanwhile or read-only: the arrays read are still good
+        pass
+    return VerifiedArrays(arrays)
+
+
+@dataclass(frozen=True)
+class DiskEntry:
+    """A file of the disk cache: ``path``, ``size`` (bytes) and ``used`` (Unix time of
+    the last write or read, s)."""
+
+    path: Path
+    size: int
+    used: float
+
+
+def _is_temporary(p: Path) -> bool:
+    """A file being written (or left by a writer that died): ``.name.<hex>.part.npz``
+    (:mod:`synth.store.atomic`), or ``*.tmp`` of earlier versions."""
+    return p.name.startswith(".") or p.suffix == ".tmp"
+
+
+def _entries(directory: Path) -> list[DiskEntry]:
+    out = []
+    for p in directory.glob("*.npz"):
+        if _is_temporary(p):
+            continue
+        try:
+            st = p.stat()
+        except FileNotFoundError:  # evicted by another process meanwhile
+            continue
+        out.append(DiskEntry(p, st.st_size, st.st_mtime))
+    return out
+
+
+def _stale_temporaries(directory: Path, now: float) -> list[Path]:
+    out = []
+    for p in directory.iterdir():
+        if not _is_temporary(p):
+            continue
+        try:
+            if now - p.stat().st_mtime > STALE_TEMPORARY_AGE:
+                out.append(p)
+        except FileNotFoundError:
+            continue
+    return out
+
+
+def evict(limit: int, *, keep: Path | None = None) -> int:
+    """Delete the least recently used entries of :func:`cache_dir` until their total
+    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
+    temporary files left by dead writers. Safe against other processes doing the same.
+    Returns the number of entries deleted."""
+    return _evict(limit, keep=keep).deleted
+
+
+@dataclass(frozen=True)
+class Eviction:
+    """What one :func:`evict` did: entries ``deleted`` and the bytes ``remaining``."""
+
+    deleted: int
+    remaining: int
+
+
+def _evict(limit: int, *, keep: Path | None = None) -> Eviction:
+    try:
+        directory = cache_dir()
+        if not directory.is_dir():
+            return Eviction(0, 0)
+        for p in _stale_temporaries(directory, time.time()):
+            _unlink(p)
+        entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
+    except (OSError, RuntimeError):
+        return Eviction(0, 0)
+    total = sum(e.size for e in entries)
+    deleted = 0
+    for e in entries:
+        if total <= limit:
+            break
+        if _unlink(e.path):
+            deleted += 1
+        total -= e.size
+    return Eviction(deleted, total)
+
+
+def _unlink(p: Path) -> bool:
+    try:
+        p.unlink()
+        return True
+    except OSError:  # already gone (another process) or not removable
+        return False
+
+
+@dataclass(frozen=True)
+class DiskInfo:
+    """The disk cache: ``directory``, ``entries`` (files), ``bytes`` (their total),
+    ``max_bytes`` (the bound), and ``by_kind`` (entries and bytes per file prefix)."""
+
+    directory: Path
+    entries: int
+    bytes: int
+    max_bytes: int
+    by_kind: dict
+
+
+def disk_info() -> DiskInfo:
+    """What the disk cache holds (``synth cache info``)."""
+    directory = cache_dir()
+    entries = _entries(directory) if directory.is_dir() else []
+    kinds: dict = {}
+    for e in entries:
+        kind = e.path.stem.rsplit("-", 1)[0]
+        n, b = kinds.get(kind, (0, 0))
+        kinds[kind] = (n + 1, b + e.size)
+    return DiskInfo(
+        directory,
+        len(entries),
+        sum(e.size for e in entries),
+        max_bytes(),
+        dict(sorted(kinds.items())),
+    )
+
+
+def clear_disk() -> tuple[int, int]:
+    """Delete every entry (and temporary file) of the disk cache (``synth cache clear``).
+    Returns (files deleted, bytes freed)."""
+    directory = cache_dir()
+    if not directory.is_dir():
+        return 0, 0
+    n = freed = 0
+    for p in [p for p in directory.iterdir() if p.suffix in (".npz", ".tmp")]:
+        try:
+            size = p.stat().st_size
+        except FileNotFoundError:
+            continue
+        if _unlink(p):
+            n += 1
+            freed += size
+    return n, freed
+
+
+class MemoryCache:
+    """Results held in memory under their keys, least recently used dropped first.
+
+    Parameters
+    ----------
+    computed : str
+        Name of the counter of results computed (``"solves"``, ``"computations"``).
+    max_entries : int or None
+        Most results held.
+    max_bytes : int or None
+        Most bytes held, by ``value.nbytes`` (the newest result is always kept).
+
+    Counters (:meth:`info`): the computed ones, ``memory_hits``, ``disk_hits``,
+    ``disk_writes``, and ``entries`` (results held).
+    """
+
+    def __init__(
+        self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None
+    ):
+        self.max_entries = max_entries
+        self.max_bytes = max_bytes
+        self._items: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()
+        self._computed = computed
+        self._stats = {computed: 0, "memory_hits": 0, "disk_hits": 0, "disk_writes": 0}
+
+    def info(self) -> dict:
+        """The counters since start-up or :meth:`clear`, and ``entries``."""
+        with self._lock:
+            return dict(self._stats, entries=len(self._items))
+
+    def clear(self) -> None:
+        """Forget the results held and reset the counters."""
+        with self._lock:
+            self._items.clear()
+            for k in self._stats:
+                self._stats[k] = 0
+
+    def count(self, name: str) -> None:
+        """Add one to the counter ``name`` (``computed``, ``disk_writes``)."""
+        with self._lock:
+            self._stats[self._computed if name == "computed" else name] += 1
+
+    def get(self, key: str, usable=None):
+        """The result held for ``key`` (counted as a memory hit) if there is one and
+        ``usable(result)`` is true (default: always), else None."""
+        with self._lock:
+            value = self._items.get(key)
+            if value is None or (usable is not None and not usable(value)):
+                return None
+            self._stats["memory_hits"] += 1
+            self._items.move_to_end(key)
+            return value
+
+    def put(self, key: str, value, *, source: str, better=None) -> None:
+        """Hold ``value`` for ``key``, obtained from ``source`` (``"computed"`` or
+        ``"disk"``, counted), unless ``better(held, value)`` says the result held is
+        at least as good. Then drop the least recently used beyond the limits."""
+        with self._lock:
+            self._stats[self._computed if source == "computed" else "disk_hits"] += 1
+            old = self._items.get(key)
+            if old is not None and better is not None and better(old, value):
+                return
+            self._items[key] = value
+            self._items.move_to_end(key)
+            if self.max_entries is not None:
+                while len(self._items) > self.max_entries:
+                    self._items.popitem(last=False)
+            if self.max_bytes is not None:
+                total = sum(v.nbytes for v in self._items.values())
+                while total > self.max_bytes and len(self._items) > 1:
+                    _, dropped = self._items.popitem(last=False)
+                    total -= dropped.nbytes

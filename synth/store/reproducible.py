@@ -1,0 +1,113 @@
+"""Encoded audio whose bytes depend only on its samples and a chosen identity.
+
+Two encoders put a varying field into otherwise deterministic files:
+
+* libsndfile writes a ``PEAK`` chunk into WAV files of floating-point samples, and that
+  chunk carries the time of writing (a 32-bit timestamp, RIFF ``PEAK`` chunk: version,
+  timestamp, then a value and a position per channel);
+* an Ogg stream carries a serial number (RFC 3533, section 6: bytes 14-17 of every
+  page header) that libsndfile draws at random for each file, and every page's CRC-32
+  (bytes 22-25, polynomial 0x04C11DB7, initial value 0, not reflected, computed over
+  the page with the CRC field zeroed) covers it.
+
+:func:`reproducible` sets the timestamp to 0 and the serial to a given number (its page
+checksums recomputed), so that encoding the same samples twice gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+
+import numpy as np
+
+__all__ = ["decoded_sha256", "ogg_serial_for", "reproducible", "set_ogg_serial"]
+
+
+def _crc_table() -> np.ndarray:
+    table = np.zeros(256, dtype=np.uint32)
+    for i in range(256):
+        r = i << 24
+        for _ in range(8):
+            r = ((r << 1) ^ 0x04C11DB7) if r & 0x80000000 else (r << 1)
+        table[i] = r & 0xFFFFFFFF
+    return table
+
+
+_CRC_TABLE = [int(v) for v in _crc_table()]
+
+
+def ogg_crc(page: bytes) -> int:
+    """The Ogg CRC-32 of ``page`` (its CRC field must be zero)."""
+    crc = 0
+    table = _CRC_TABLE
+    for b in page:
+        crc = ((crc << 8) & 0xFFFFFFFF) ^ table[((crc >> 24) ^ b) & 0xFF]
+    return crc
+
+
+def ogg_serial_for(name: str) -> int:
+    """A stream serial number (32 bits) that is a function of ``name`` alone."""
+    return int.from_bytes(hashlib.sha256(name.encode("utf-8")).digest()[:4], "little")
+
+
+def set_ogg_serial(data: bytes, serial: int) -> bytes:
+    """The Ogg file ``data`` (one logical stream) with every page's serial number set
+    to ``serial`` and its CRC recomputed. Raises ValueError on bytes that are not a
+    sequence of whole Ogg pages."""
+    out = bytearray(data)
+    pos = 0
+    while pos < len(out):
+        if out[pos : pos + 4] != b"OggS" or pos + 27 > len(out):
+            raise ValueError(f"not an Ogg page at byte {pos}")
+        n_segments = out[pos + 26]
+        table_end = pos + 27 + n_segments
+        if table_end > len(out):
+            raise ValueError(f"Ogg page at byte {pos} is cut")
+        end = table_end + sum(out[pos + 27 : table_end])
+        if end > len(out):
+            raise ValueError(f"Ogg page at byte {pos} is cut")
+        struct.pack_into("<I", out, pos + 14, serial)
+        struct.pack_into("<I", out, pos + 22, 0)
+        struct.pack_into("<I", out, pos + 22, ogg_crc(bytes(out[pos:end])))
+        pos = end
+    return bytes(out)
+
+
+def _zero_wav_peak_timestamp(data: bytes) -> bytes:
+    """WAV ``data`` with the timestamp of its ``PEAK`` chunk (if any) set to 0."""
+    if data[:4] != b"RIFF" or data[8:12] != b"WAVE":
+        return data
+    out = bytearray(data)
+    pos = 12
+    while pos + 8 <= len(out):
+        tag, size = bytes(out[pos : pos + 4]), struct.unpack_from("<I", out, pos + 4)[0]
+        if tag == b"PEAK" and size >= 8:
+            struct.pack_into("<I", out, pos + 12, 0)  # after the chunk's version field
+            break
+        if tag == b"data":
+            break
+        pos += 8 + size + (size & 1)
+    return bytes(out)
+
+
+def reproducible(data: bytes, fmt: str, identity: str) -> bytes:
+    """``data`` encoded as ``fmt`` ("wav", "flac", "ogg") made a function of its samples
+    and ``identity`` (the Ogg serial is :func:`ogg_serial_for` of it)."""
+    if fmt == "ogg":
+        return set_ogg_serial(data, ogg_serial_for(identity))
+    if fmt == "wav":
+        return _zero_wav_peak_timestamp(data)
+    return data
+
+
+def decoded_sha256(data: bytes) -> str:
+    """SHA-256 (hex) of the decoded samples of an encoded file: 32-bit floats,
+    little-endian, frames in order, channels interleaved (exact for PCM up to 24 bits;
+    for a lossy format the decoder's output, the same on every run of one decoder)."""
+    import io
+
+    import soundfile
+
+    samples, _ = soundfile.read(io.BytesIO(data), dtype="float32", always_2d=True)
+    return hashlib.sha256(np.ascontiguousarray(samples, dtype="<f4").tobytes()).hexdigest()
