@@ -46,7 +46,7 @@ def test_import_synth_loads_no_numerical_library_and_every_name_resolves():
     lines = proc.stdout.splitlines()
     assert lines[0] == "[]"
     assert lines[1] == "[] True"
-    assert lines[2] == "synth.sound.modes synth.physics.contact synth.physics.materials"
+    assert lines[2] == "synth.physics.modes synth.physics.contact synth.physics.materials"
 
 
 def test_importing_the_live_engine_compiles_nothing(tmp_path):
