@@ -225,6 +225,17 @@ def test_every_kernel_of_a_render_and_a_contact_compiles_once(cold_children):
 
 
 @pytest.mark.slow
+def test_every_kernel_of_a_rolling_render_compiles_once(cold_children):
+    # The rolling preset on an empty cache: the envelope's spline was evaluated by the
+    # dilation on a writable array of coefficients and by the rolling contact on the
+    # envelope's read-only one, two types to numba, so envelope_at compiled twice.
+    counts = cold_children.clean["compiles"]
+    assert counts["synth.physics.surface.envelope_at"] >= 1
+    assert counts["synth.physics.rolling_kernels.roll"] >= 1
+    assert {k: n for k, n in counts.items() if n != 1} == {}
+
+
+@pytest.mark.slow
 def test_a_render_does_not_depend_on_what_compiled_before_it(cold_children):
     # The same rolling preset in two new processes on empty numba caches, one of which
     # first compiles other kernels from Python (the live engine's block, the contact law

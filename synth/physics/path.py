@@ -485,13 +485,14 @@ def _block_speeds(v, decel, n, fs, x, x_end) -> tuple[np.ndarray, str]:
     ``"max-duration"`` if neither."""
     planned = v - decel * (np.arange(n) + 0.5) / fs
     end = "max-duration"
-    stop_here = planned <= 0.0
-    if stop_here.any():
-        planned = planned[: int(np.argmax(stop_here))]
+    # the speeds fall and the centre's positions rise (a float sum of positive terms
+    # never falls), so each cut is a search in a sorted array, its last value the test
+    if n and planned[-1] <= 0.0:
+        planned = planned[: int(np.searchsorted(-planned, 0.0))]
         end = "stopped"
-    off = x + np.cumsum(planned) / fs > x_end
-    if off.any():
-        planned = planned[: int(np.argmax(off))]
+    reached = x + np.cumsum(planned) / fs
+    if reached.size and reached[-1] > x_end:
+        planned = planned[: int(np.searchsorted(reached, x_end, side="right"))]
         end = "left-plate"
     return planned, end
 

@@ -328,13 +328,16 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
         dx,
         R,
         f"{profile.description}; ball radius={R:g} m",
-        _read_only(_spline(x, e)),
+        _spline(x, e),
     )
 
 
 def _spline(x, y) -> np.ndarray:
-    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``."""
-    return np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T)
+    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``,
+    read-only: numba types a read-only array apart from a writable one, so every caller of
+    :func:`envelope_at` (the dilation, the rolling contact) passes the one type and it
+    compiles once."""
+    return _read_only(np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T))
 
 
 def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
