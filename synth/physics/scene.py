@@ -500,8 +500,10 @@ class Rolling:
     path"): the resistance to its rolling and the plate's roughness along its path.
 
     None of these values is built in: the engine has no published rolling-resistance
-    coefficients or roughness spectra it can cite for its materials, so every preset that
-    rolls states them as its author's choice (or a measurement the author cites).
+    coefficients it can cite for its materials, so every preset that rolls states them as
+    its author's choice; its roughness is a published measurement's where
+    :data:`synth.physics.surface.MEASURED_ROUGHNESS` has one for the plate's surface, its
+    author's choice otherwise.
 
     Parameters
     ----------

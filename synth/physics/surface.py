@@ -12,9 +12,10 @@ Profiles (docs/rolling.md, "The surface"):
   the FFT's rounding may differ between builds).
 * :func:`sinusoidal_profile`: ``h(x) = A sin(k x + phase)``, for the closed-form checks.
 
-No roughness values are built in: the engine has no published set of (``sigma``, ``xi``,
-``H``) per plate material it can cite, so the caller gives them (from a profilometer trace of
-the surface, or a paper they can cite).
+:data:`MEASURED_ROUGHNESS`: the surfaces whose roughness has a published measurement the
+engine cites (:class:`MeasuredRoughness`: the Ra and the profile filter's cut-off it was
+measured with, and the Matern spectrum derived from them); for any other surface the caller
+gives (``sigma``, ``xi``, ``H``), from a profilometer trace or a paper they cite.
 
 :func:`contact_envelope`: a rigid sphere of radius ``R`` resting on the profile with its centre
 above ``s`` has its lowest point at
@@ -157,6 +158,76 @@ class RoughnessSpectrum:
         norm = 2.0 * math.sqrt(math.pi) * xi * math.exp(math.lgamma(H + 0.5) - math.lgamma(H))
         kx = np.asarray(k, dtype=float) * xi
         return self.rms_height**2 * norm * (1.0 + kx * kx) ** -(H + 0.5)
+
+
+#: Hurst exponent of the measured surfaces' self-affine range: ``H = 3 - D_f`` with the
+#: fractal dimension ``D_f = 2.15 +- 0.15`` that Persson (2014, "On the fractal dimension of
+#: rough surfaces", Tribol. Lett. 54, 99) finds for most natural and engineering surfaces
+#: (polished, sandblasted, ...).
+SELF_AFFINE_HURST = 0.85
+
+
+@dataclass(frozen=True)
+class MeasuredRoughness:
+    """A surface's published roughness and the Matern spectrum derived from it
+    (docs/rolling.md, "Measured surfaces").
+
+    Attributes
+    ----------
+    surface : str
+        What was measured.
+    ra : float
+        Arithmetic mean deviation of the roughness profile ``Ra`` (ISO 4287), metres.
+    cutoff : float
+        Cut-off wavelength ``lambda_c`` of the profile filter the ``Ra`` was measured with,
+        metres: the measured roughness holds the wavelengths shorter than it.
+    source : str
+        Where the values are published, and how any not stated there was chosen.
+    """
+
+    surface: str
+    ra: float
+    cutoff: float
+    source: str
+
+    @property
+    def rms_height(self) -> float:
+        """``sigma = Rq = sqrt(pi / 2) Ra``, metres: the mean absolute height of a Gaussian
+        profile (which :func:`rough_profile` makes) is ``sigma sqrt(2 / pi)``."""
+        return math.sqrt(0.5 * math.pi) * self.ra
+
+    @property
+    def correlation_length(self) -> float:
+        """``xi = lambda_c / (2 pi)``, metres: the spectrum's knee at the filter's cut-off
+        wavenumber ``2 pi / lambda_c``, so the profile's variance lies in the wavelengths the
+        measurement held (no published spectrum gives the knee itself)."""
+        return self.cutoff / (2.0 * math.pi)
+
+    def spectrum(self) -> RoughnessSpectrum:
+        """The :class:`RoughnessSpectrum` of ``sigma``, ``xi`` and
+        :data:`SELF_AFFINE_HURST`."""
+        return RoughnessSpectrum(self.rms_height, self.correlation_length, SELF_AFFINE_HURST)
+
+
+#: The surfaces with a published roughness measurement (docs/rolling.md, "Measured surfaces").
+MEASURED_ROUGHNESS = {
+    "mdf": MeasuredRoughness(
+        "medium density fibreboard, the panel's face",
+        4.15e-6,
+        2.5e-3,
+        "Akbulut & Ayrilmis 2006, Silva Fennica 40(1), 161-167 (doi:10.14214/sf.358): "
+        "Ra 4.15 um, ISO 4287 stylus, the rougher of its two panel types; the cut-off is "
+        "ISO 4288's for a non-periodic profile of 2 um < Ra <= 10 um",
+    ),
+    "cold-rolled-steel-sheet": MeasuredRoughness(
+        "cold-rolled steel sheet",
+        1.0e-6,
+        0.8e-3,
+        "Luo et al. 2013, Physical Testing and Chemical Analysis Part A 49(6), 349-356: "
+        "Ra 0.5-2.0 um on cold-rolled sheet with a 0.8 mm sampling length; Ra here is the "
+        "range's geometric middle",
+    ),
+}
 
 
 def _check_grid(length, spacing) -> tuple[float, float, int]:
