@@ -250,6 +250,19 @@ def _row_at(table, start, step, coordinate) -> np.ndarray:
     return (1.0 - t) * table[i] + t * table[i + 1]
 
 
+@compiled(inline="always")
+def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
+    """The table's interval ``i`` holding ``coordinate`` (m; the first or the last beyond
+    the table's ends) and the fraction ``t`` of the way through it."""
+    u = (coordinate - start) / step
+    i = int(math.floor(u))
+    if i < 0:
+        i = 0
+    if i > rows - 2:
+        i = rows - 2
+    return i, u - i
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
@@ -259,22 +272,49 @@ def _drive(
     one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
     li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
     as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
-    force before the first period, N."""
+    force before the first period, N.
+
+    Two consecutive samples in the same interval of the table (most are: the table's step
+    is many samples' travel) are driven in one pass over the modes, each mode's
+    coefficients and state loaded once for both; the operations on each sample are those
+    of a single sample's pass."""
     K = er.shape[0]
     rows = table.shape[0]
-    for j in range(force.shape[0]):
-        u = (coordinate[j] - start) / step
-        i = int(math.floor(u))
-        if i < 0:
-            i = 0
-        if i > rows - 2:
-            i = rows - 2
-        t = u - i
+    n = force.shape[0]
+    j = 0
+    while j < n:
+        i, t = _row(coordinate[j], start, step, rows)
+        row_a = table[i]
+        row_b = table[i + 1]
         F = force[j]
         wa = (1.0 - t) * F
         wb = t * F
-        row_a = table[i]
-        row_b = table[i + 1]
+        if j + 1 < n and not has_direct:
+            i2, t2 = _row(coordinate[j + 1], start, step, rows)
+            if i2 == i:
+                F2 = force[j + 1]
+                wa2 = (1.0 - t2) * F2
+                wb2 = t2 * F2
+                acc = 0.0
+                acc2 = 0.0
+                for k in range(K):
+                    a, b = row_a[k], row_b[k]
+                    z_r, z_i = zr[k], zi[k]
+                    acc += lr[k] * z_r - li[k] * z_i
+                    bf = wa * a + wb * b
+                    r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
+                    z_i = er[k] * z_i + ei[k] * z_r + hi[k] * bf
+                    z_r = r
+                    acc2 += lr[k] * z_r - li[k] * z_i
+                    bf = wa2 * a + wb2 * b
+                    r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
+                    zi[k] = er[k] * z_i + ei[k] * z_r + hi[k] * bf
+                    zr[k] = r
+                out[j] = acc
+                out[j + 1] = acc2
+                previous = F2
+                j += 2
+                continue
         acc = 0.0
         for k in range(K):
             acc += lr[k] * zr[k] - li[k] * zi[k]
@@ -291,6 +331,7 @@ def _drive(
                 acc += Fj * ((1.0 - t) * da[k] + t * db[k])
         previous = F
         out[j] = acc
+        j += 1
 
 
 def rolling_sound(rolling, model) -> np.ndarray:
