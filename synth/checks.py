@@ -254,13 +254,13 @@ def names(cls) -> tuple[str, ...]:
 
 def check_names(cls, given, what: str) -> None:
     """Raise ``TypeError`` naming the nearest option for a name of ``given`` that is not an
-    option of ``cls`` (``what``: "render", "analysis")."""
+    option of ``cls`` (``what``: "a render option", "an analysis option")."""
     known = names(cls)
     for name in given:
         if name not in known:
             near = difflib.get_close_matches(name, known, n=1)
             hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise TypeError(f"{name!r} is not an {what} option{hint}; options: {', '.join(known)}")
+            raise TypeError(f"{name!r} is not {what}{hint}; options: {', '.join(known)}")
 
 
 def declaration(cls, name: str) -> Option:

@@ -221,7 +221,7 @@ class AnalysisOptions:
     def of(cls, options: AnalysisOptions | None = None, /, **overrides) -> AnalysisOptions:
         """``options`` (default: the defaults) with ``overrides`` (fields by name) applied;
         an unknown name is a ``TypeError`` naming the nearest option."""
-        checks.check_names(cls, overrides, "analysis")
+        checks.check_names(cls, overrides, "an analysis option")
         if options is None:
             return cls(**overrides)
         if not isinstance(options, cls):
@@ -230,7 +230,7 @@ class AnalysisOptions:
 
     def replace(self, **changes) -> AnalysisOptions:
         """A copy with ``changes`` (fields by name), checked."""
-        checks.check_names(type(self), changes, "analysis")
+        checks.check_names(type(self), changes, "an analysis option")
         return type(self)(**{**self.as_dict(), **changes})
 
     def as_dict(self) -> dict:

@@ -28,11 +28,7 @@ from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, f
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.options import AnalysisOptions, parameters_doc
 from synth.analysis.report import Analysis
-from synth.analysis.search import CLEAN_GUARD as CLEAN_GUARD
-from synth.analysis.search import RESONATOR_GAIN_DB as RESONATOR_GAIN_DB
-from synth.analysis.search import FirstSearch as FirstSearch
 from synth.analysis.search import LazyTick, first_search, measured_ticks, tick_meter
-from synth.analysis.search import SearchResult as SearchResult
 from synth.analysis.series import BOUNCE_GROWTH
 from synth.analysis.settings import (
     AnalysisError,
@@ -123,16 +119,21 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     noise = dsp.noise_floor(x, settings.samplerate)
     test = RiseTest(lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db, noise)
     series = _impact_series(found, test, lambda first: x[first:], settings)
-    warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
+    return _result(series, x.size, noise, None if clipping is None else clipping.warning, settings)
+
+
+def _result(series: list, frames: int, noise: float, clipping: str | None, settings) -> Analysis:
+    """The :class:`Analysis` of the bounce ``series`` found in ``frames`` frames (``noise``:
+    their noise floor; ``clipping``: its warning, None where nothing was clipped)."""
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
-        duration=x.size / settings.samplerate,
+        duration=frames / settings.samplerate,
         noise_floor=noise,
         gravity=settings.gravity,
         channel=settings.channel,
         clipped=clipping is not None,
-        warnings=warnings,
+        warnings=(() if clipping is None else (clipping,)) + flag_warnings(series),
         series=series,
     )
 
@@ -152,12 +153,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         tops = sum(
             int(sv.high_tops[c] if lv == sv.highs[c] else sv.low_tops[c]) for c, lv in levels
         )
-        size = source.frames * sv.highs.size
-        if tops > CLIPPED_AT_MOST * size:
-            raise AnalysisError(
-                f"{tops} of {size} samples sit in flat tops at the extremes: not a recording "
-                f"of impacts (a square wave, or one clipped throughout)"
-            )
+        _refuse_clipped_throughout(tops, source.frames * sv.highs.size)
         worst = max(levels, key=lambda cl: sv.high_tops[cl[0]] + sv.low_tops[cl[0]])[0]
         warning = clipping_warning(
             tops,
@@ -186,18 +182,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         lambda first: signal(first, min(source.frames, first + block_frames(test.fs))),
         settings,
     )
-    warnings = (() if warning is None else (warning,)) + flag_warnings(series)
-    return Analysis(
-        ticks=[t for s in series for t in s.ticks],
-        samplerate=settings.samplerate,
-        duration=source.frames / settings.samplerate,
-        noise_floor=sv.noise_floor,
-        gravity=settings.gravity,
-        channel=settings.channel,
-        clipped=bool(levels),
-        warnings=warnings,
-        series=series,
-    )
+    return _result(series, source.frames, sv.noise_floor, warning, settings)
 
 
 def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
@@ -490,12 +475,18 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     clipping = find_clipping(used, settings.clip_samples)
-    if clipping is not None and np.count_nonzero(clipping.mask) > CLIPPED_AT_MOST * used.size:
-        raise AnalysisError(
-            f"{np.count_nonzero(clipping.mask)} of {used.size} samples sit in flat tops at "
-            f"the extremes: not a recording of impacts (a square wave, or one clipped "
-            f"throughout)"
-        )
+    if clipping is not None:
+        _refuse_clipped_throughout(int(np.count_nonzero(clipping.mask)), used.size)
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
+
+
+def _refuse_clipped_throughout(tops: int, size: int) -> None:
+    """Raise ``AnalysisError`` where more than :data:`CLIPPED_AT_MOST` of the ``size``
+    samples sit in flat tops at the extremes (``tops`` of them)."""
+    if tops > CLIPPED_AT_MOST * size:
+        raise AnalysisError(
+            f"{tops} of {size} samples sit in flat tops at the extremes: not a recording of "
+            f"impacts (a square wave, or one clipped throughout)"
+        )
