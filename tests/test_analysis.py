@@ -1334,3 +1334,20 @@ def test_method_page_states_the_codes_parameters():
         assert phrase in text, phrase
     assert detection.STANDS_OUT_SPAN == 1e-3  # "its first millisecond"
     assert validity.RISE_FALSE_ALARM == 1e-3 and "once in a thousand" in text
+    assert f"(`--window`, default {o.window * 1e3:g} ms)" in text
+
+
+def test_random_scenes_page_states_the_benchmarks_rules():
+    # the scoring rules docs/analysis.md states for synth bench analysis --random
+    from pathlib import Path
+
+    from benchmarks import analysis_scenes as b
+
+    text = " ".join((Path(__file__).parent.parent / "docs" / "analysis.md").read_text().split())
+    for phrase in (
+        f"ticks farther than {b.MATCH_TOLERANCE * 1e3:g} ms",
+        f"within {'two' if b.ONSET_SLACK == 2.0 else '?'} sample periods each",
+        f"at most {b.AUDIBLE_WINDOW * 1e3:g} ms; tick-to-masker ratio {b.AUDIBLE_TMR_DB:g} dB",
+        f"its peak is within {b.AUDIBLE_RANGE_DB:g} dB of the recording's",
+    ):
+        assert phrase in text, phrase

@@ -267,7 +267,7 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
         nxt = stop - overlap
         if ticks:
             start = int(math.floor(ticks[0].time * fs)) - lead
-            if not _series_ended(ticks, stop / fs, settings, lead / fs):
+            if not _series_ended(ticks, stop / fs, lead / fs):
                 if start <= pos:  # one series over the whole block: a longer block
                     size *= 2
                     continue
@@ -348,7 +348,7 @@ def _searched(
         return []
 
 
-def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> bool:
+def _series_ended(ticks: list, end: float, lead: float) -> bool:
     """Whether a series can have no tick after ``end`` (s): the block goes on past its next
     bounce, at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last one (and
     :data:`OVERLAP` at least), and the local background before that tick."""

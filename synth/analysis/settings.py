@@ -24,8 +24,8 @@ MIN_FRAME = 12
 ONSET_GAP = 0.00025
 #: Longest gap bridged by the onset walk inside the weak burst of a doubtful candidate of the
 #: deflation (its walk level the noise's), s: the longest contact of a bounce series' ticks,
-#: whose whitened burst is the transients at its two ends (a slow ball's on a soft board: 0.54
-#: ms on the thesis' 6 mm board's tenth bounce, its end's transients 0.37 ms after its start's).
+#: whose whitened burst is the transients at its two ends (a slow ball's on a soft board
+#: lasts about half a millisecond).
 WEAK_ONSET_GAP = 0.0005
 #: Length of the default whitening predictor, s (at least 8 samples).
 WHITENING_SPAN = 0.02
