@@ -1351,3 +1351,16 @@ def test_random_scenes_page_states_the_benchmarks_rules():
         f"its peak is within {b.AUDIBLE_RANGE_DB:g} dB of the recording's",
     ):
         assert phrase in text, phrase
+
+
+def test_options_object_and_keywords_give_the_same_analysis(clean44):
+    # analyze(x, fs, options=AnalysisOptions(...)) is analyze(x, fs, **fields), the keywords
+    # overriding the object's fields; the defaults' analysis is the fixture's
+    from synth.analysis import AnalysisOptions
+
+    x, _, _, an = clean44
+    assert analyze(x, 44100, options=AnalysisOptions()).ticks == an.ticks
+    assert (
+        analyze(x, 44100, options=AnalysisOptions(window=0.05), window=0.01).ticks
+        == analyze(x, 44100, window=0.01).ticks
+    )

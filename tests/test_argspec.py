@@ -178,3 +178,28 @@ def test_analysis_options_from_the_command_line_text():
         analysis_options.from_text({"channel": "left"})
     with pytest.raises(synth.ParameterError, match="window='abc' must be in"):
         analysis_options.from_text({"window": "abc"})
+
+
+def test_cli_analysis_flags_reach_the_analysis(tmp_path, monkeypatch, capsys):
+    # synth analyze passes the flags given, parsed as their fields declare, and no others
+    import soundfile
+
+    from synth import analysis
+    from synth.cli import main
+
+    path = tmp_path / "x.wav"
+    soundfile.write(path, np.zeros(100), 8000)
+    got = {}
+
+    def fake(file, *, options):
+        got["options"] = options
+        raise synth.SynthError("stop")
+
+    monkeypatch.setattr(analysis, "analyze_file", fake)
+    argv = ["analyze", str(path), "--no-deflate", "--lpc-order", "32", "--channel", "mix"]
+    assert main([*argv, "--window", "0.05", "--on-clipping", "raise"]) != 0
+    assert got["options"] == AnalysisOptions(
+        deflate=False, lpc_order=32, window=0.05, on_clipping="raise"
+    )
+    assert main(["analyze", str(path), "--hop", "x"]) == 2  # before any analysis
+    assert "hop='x' must be in (0, 0.01]" in capsys.readouterr().err
