@@ -16,6 +16,7 @@ from synth.errors import ParameterError, SynthError
 #: Where each public name lives: imported from there on first use.
 _LAZY = {
     "Analysis": "synth.analysis",
+    "AnalysisOptions": "synth.analysis",
     "Tick": "synth.analysis",
     "analyze": "synth.analysis",
     "analyze_file": "synth.analysis",
@@ -62,6 +63,7 @@ _SUBMODULES = {
 __all__ = [
     "Accelerometer",
     "Analysis",
+    "AnalysisOptions",
     "Ball",
     "Body",
     "BounceSequence",

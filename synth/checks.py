@@ -1,16 +1,30 @@
-"""Validation helpers shared by every public constructor and function.
+"""Validation helpers shared by every public constructor and function, and the options
+declared once that are built on them.
 
 Each helper takes the dotted field name used in messages (``plate.thickness``),
 the value, and the unit, and returns the value as a Python ``float``. Nothing is
 ever clamped: a value outside the allowed range raises ``ParameterError`` with a
 message such as ``plate.thickness=-0.002 must be > 0 (metres)``.
+
+Options declared once (the render's, the analysis'): the fields of a frozen dataclass, each
+with its type, default, unit, the values allowed, its doc and its check (:class:`Option`, in
+the field's metadata). A front end reads everything it shows from the declaration: a
+function's signature and the options' part of its docstring (:func:`keyword_parameters`,
+:func:`parameters_doc`), a command's flags. Constructing the dataclass is the one check
+(:func:`check_fields` in its ``__post_init__``); a misspelt name is a ``TypeError`` naming
+the nearest option (:func:`check_names`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
+import inspect
 import math
 import numbers
-from collections.abc import Iterable
+import textwrap
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -194,3 +208,94 @@ def environment_directory(name: str):
             f"folder or unset it"
         )
     return path
+
+
+@dataclass(frozen=True)
+class Option:
+    """The declaration of one option (a field's metadata).
+
+    unit: SI unit or level scale ("" for a count or a name); allowed: the values allowed,
+    as the error and the docs state them; doc: what it does; metavar: the command line's
+    name of its value; check: ``check(name, value, checked)`` returns the value converted
+    (float, int) or raises ``ParameterError``; ``checked`` holds the options checked before
+    it; choices: the allowed names of a choice; parse: the value from its command-line text
+    (``bool`` for a flag that is on or off).
+    """
+
+    unit: str
+    allowed: str
+    doc: str
+    metavar: str
+    check: Callable[[str, object, dict], object]
+    choices: tuple[str, ...] | None = None
+    parse: Callable[[str], object] = float
+
+
+def option(default, **declaration):
+    """A dataclass field declaring an option (:class:`Option`'s fields as keywords);
+    ``dataclasses.MISSING`` for an option without a default."""
+    kwargs = {} if default is dataclasses.MISSING else {"default": default}
+    return field(metadata={"option": Option(**declaration)}, **kwargs)
+
+
+def check_fields(instance) -> None:
+    """Check and convert every field of the frozen ``instance`` in order (its
+    ``__post_init__``)."""
+    checked: dict = {}
+    for f in dataclasses.fields(instance):
+        checked[f.name] = f.metadata["option"].check(f.name, getattr(instance, f.name), checked)
+        object.__setattr__(instance, f.name, checked[f.name])
+
+
+def names(cls) -> tuple[str, ...]:
+    """The options of ``cls``, in the order of its fields."""
+    return tuple(f.name for f in dataclasses.fields(cls))
+
+
+def check_names(cls, given, what: str) -> None:
+    """Raise ``TypeError`` naming the nearest option for a name of ``given`` that is not an
+    option of ``cls`` (``what``: "a render option", "an analysis option")."""
+    known = names(cls)
+    for name in given:
+        if name not in known:
+            near = difflib.get_close_matches(name, known, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise TypeError(f"{name!r} is not {what}{hint}; options: {', '.join(known)}")
+
+
+def declaration(cls, name: str) -> Option:
+    """The :class:`Option` of the option ``name`` of ``cls``."""
+    return cls.__dataclass_fields__[name].metadata["option"]
+
+
+def default(cls, name: str):
+    """The default of the option ``name`` of ``cls`` (``inspect.Parameter.empty`` for none)."""
+    value = cls.__dataclass_fields__[name].default
+    return inspect.Parameter.empty if value is dataclasses.MISSING else value
+
+
+def describe(cls, name: str) -> str:
+    """``doc (unit; allowed)`` of the option ``name`` of ``cls``."""
+    d = declaration(cls, name)
+    return f"{d.doc} ({d.unit + '; ' if d.unit else ''}{d.allowed})"
+
+
+def parameters_doc(cls, indent: str = "    ") -> str:
+    """The options of ``cls`` as a numpydoc parameter list (name, type, default, doc)."""
+    lines = []
+    for f in dataclasses.fields(cls):
+        value = default(cls, f.name)
+        shown = "required" if value is inspect.Parameter.empty else f"default {value!r}"
+        lines.append(f"{indent}{f.name} : {f.type}, {shown}")
+        body = indent + "    "
+        text = describe(cls, f.name) + "."
+        lines.append(textwrap.fill(text, 92, initial_indent=body, subsequent_indent=body))
+    return "\n".join(lines)
+
+
+def keyword_parameters(cls) -> list[inspect.Parameter]:
+    """The options of ``cls`` as keyword-only parameters (for a generated signature)."""
+    return [
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default(cls, name))
+        for name in names(cls)
+    ]

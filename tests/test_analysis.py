@@ -1300,3 +1300,67 @@ def test_bench_analysis():
     a, _, _ = bench.synthetic_bounce(0.8, 48000, seed=0)
     b, _, _ = bench.synthetic_bounce(0.8, 48000, seed=1)
     assert np.max(np.abs(a - b)) > 0.1 * np.max(np.abs(a))
+
+
+# ---------------------------------------------------------------------------
+# docs/analysis.md
+
+
+def test_method_page_states_the_codes_parameters():
+    # every figure of docs/analysis.md's method and long-recording notes is a constant or a
+    # default of the code, stated here by name
+    from pathlib import Path
+
+    from synth.analysis import blocks, detection, options, search, series, settings, validity
+
+    text = " ".join((Path(__file__).parent.parent / "docs" / "analysis.md").read_text().split())
+    o = options.AnalysisOptions()
+    for phrase in (
+        f"longer than {blocks.WHOLE:g} s is analysed in blocks of {blocks.BLOCK:g} s",
+        f"A linear predictor of {settings.WHITENING_SPAN * 1e3:g} ms of samples",
+        f"every `hop` ({o.hop * 1e3:g} ms), at least {settings.MIN_FRAME} samples long",
+        f"up to {options.MAX_ORDER};",
+        f"Kept when it leaves {search.RESONATOR_GAIN_DB:g} dB less of the ringing",
+        f"its first millisecond stands {detection.STANDS_OUT_DB:g} dB over the "
+        f"{detection.STANDS_OUT_BEFORE * 1e3:g} ms before it",
+        f"A bounce over {series.BOUNCE_GROWTH:g} times the one before starts a new series when "
+        f"the tick is over {series.MAX_EXCESS_DB:g} dB louder than the one before or the bounce "
+        f"is over {validity.MISSED_GROWTH:g} times it",
+        f"over {validity.SPECTRAL_RISE_SPAN * 1e3:g} ms after the onset",
+        f"must rise by {validity.SPECTRAL_RISE_DB:g} dB",
+        f"{validity.SPECTRAL_NOISE_MARGIN_DB:g} dB over the noise",
+        f"an energy {validity.MISSED_ENERGY_DB:.0f} dB under `e^2` times the tick before",
+    ):
+        assert phrase in text, phrase
+    assert detection.STANDS_OUT_SPAN == 1e-3  # "its first millisecond"
+    assert validity.RISE_FALSE_ALARM == 1e-3 and "once in a thousand" in text
+    assert f"(`--window`, default {o.window * 1e3:g} ms)" in text
+
+
+def test_random_scenes_page_states_the_benchmarks_rules():
+    # the scoring rules docs/analysis.md states for synth bench analysis --random
+    from pathlib import Path
+
+    from benchmarks import analysis_scenes as b
+
+    text = " ".join((Path(__file__).parent.parent / "docs" / "analysis.md").read_text().split())
+    for phrase in (
+        f"ticks farther than {b.MATCH_TOLERANCE * 1e3:g} ms",
+        f"within {'two' if b.ONSET_SLACK == 2.0 else '?'} sample periods each",
+        f"at most {b.AUDIBLE_WINDOW * 1e3:g} ms; tick-to-masker ratio {b.AUDIBLE_TMR_DB:g} dB",
+        f"its peak is within {b.AUDIBLE_RANGE_DB:g} dB of the recording's",
+    ):
+        assert phrase in text, phrase
+
+
+def test_options_object_and_keywords_give_the_same_analysis(clean44):
+    # analyze(x, fs, options=AnalysisOptions(...)) is analyze(x, fs, **fields), the keywords
+    # overriding the object's fields; the defaults' analysis is the fixture's
+    from synth.analysis import AnalysisOptions
+
+    x, _, _, an = clean44
+    assert analyze(x, 44100, options=AnalysisOptions()).ticks == an.ticks
+    assert (
+        analyze(x, 44100, options=AnalysisOptions(window=0.05), window=0.01).ticks
+        == analyze(x, 44100, window=0.01).ticks
+    )

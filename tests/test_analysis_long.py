@@ -308,9 +308,7 @@ def test_lazy_block_ticks_are_the_measured_ones():
     """A block's ticks of steps 1-6 are measured only where the series rules ask; asked, each
     is the tick the whole measurement gives (the same fields, to the last bit)."""
     y, _ = _drops(12.0, (1.0, 6.0), n_ticks=10)
-    settings = analysis.settings.make_settings(
-        1, FS, gravity=9.81, channel=None, **pipeline._options({})
-    )
+    settings = analysis.settings.make_settings(1, FS, analysis.AnalysisOptions())
     loc = pipeline._located(y, settings, False, locate=False)
     want = pipeline._ticks(y, settings, False, resonator=False)
     assert [t.time for t in loc.ticks] == [t.time for t in want]

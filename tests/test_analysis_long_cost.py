@@ -11,6 +11,7 @@ import pytest
 from benchmarks import synthetic_bounce
 from synth import analysis
 from synth.analysis import blocks, deflation, pipeline, resonator
+from synth.analysis.options import AnalysisOptions
 from synth.analysis.settings import make_settings
 
 FS = 48000
@@ -96,7 +97,7 @@ def test_the_shorter_look_for_a_candidate_gives_the_longer_looks_answer(seed, mo
     anywhere (also just past the shorter stretch's end), every answer equals the one of
     the longer look alone."""
     rng = np.random.default_rng(seed)
-    settings = make_settings(1, FS, gravity=9.81, channel=None, **pipeline._options({}))
+    settings = make_settings(1, FS, AnalysisOptions())
     r = rng.standard_normal(60000)
     for at in rng.integers(500, 59000, 25):
         r[at : at + 30] += rng.uniform(3.0, 30.0) * rng.standard_normal(30)
@@ -154,7 +155,7 @@ def test_a_bounded_look_for_a_candidate_gives_the_full_looks_answer(seed):
     starts by then, and None when it starts later or there is none, over whitened noise with
     bursts anywhere."""
     rng = np.random.default_rng(seed)
-    settings = make_settings(1, FS, gravity=9.81, channel=None, **pipeline._options({}))
+    settings = make_settings(1, FS, AnalysisOptions())
     r = rng.standard_normal(60000)
     for at in rng.integers(500, 59000, 25):
         r[at : at + 30] += rng.uniform(3.0, 30.0) * rng.standard_normal(30)

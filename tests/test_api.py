@@ -37,6 +37,7 @@ PUBLIC = [
     "analyze",
     "analyze_file",
     "Analysis",
+    "AnalysisOptions",
     "Tick",
     "SynthError",
     "ParameterError",

@@ -1,7 +1,9 @@
 """The render options are declared once, in ``synth.RenderOptions``; its three front ends
 read them from there: ``synth.render``'s signature and docstring are generated from the
 fields, ``synth render`` has a flag per field, and a preset's ``[render]`` table (documented
-in ``synth.io.presets``, the one copy written by hand) holds them. These tests keep the
+in ``synth.io.presets``, the one copy written by hand) holds them. The analysis options
+likewise, in ``synth.AnalysisOptions``, for ``synth.analyze``, ``synth.analyze_file`` and
+the flags of ``synth analyze`` and ``synth alter``. These tests keep the
 front ends on the fields (as python-soundfile's test_argspec keeps its functions' defaults
 together)."""
 
@@ -11,9 +13,13 @@ import re
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import synth
+from synth.analysis import options as analysis_options
+from synth.analysis.options import OPTIONS as ANALYSIS_OPTIONS
+from synth.analysis.options import AnalysisOptions
 from synth.cli import build_parser
 from synth.constants import GRAVITY
 from synth.io import presets
@@ -105,3 +111,95 @@ def test_documented_gravity_is_the_default():
     assert float(re.search(r"gravity = ([0-9.]+)", line)[1]) == GRAVITY
     assert inspect.signature(Scene).parameters["gravity"].default == GRAVITY
     assert inspect.signature(synth.simulate_bounces).parameters["gravity"].default == GRAVITY
+
+
+# The analysis options: declared once in synth.AnalysisOptions; analyze and analyze_file take
+# them as keywords (generated signatures and docstrings), synth analyze and synth alter have a
+# flag per field, docs/cli.md prints the flags' rows.
+
+
+@pytest.mark.parametrize("function, leading", [("analyze", 2), ("analyze_file", 1)])
+def test_analysis_signatures_are_the_fields(function, leading):
+    f = getattr(synth, function)
+    params = list(inspect.signature(f).parameters.values())
+    assert tuple(p.name for p in params[leading:-1]) == ANALYSIS_OPTIONS
+    assert params[-1].name == "options" and params[-1].default is None
+    for p in params[leading:]:
+        assert p.kind is inspect.Parameter.KEYWORD_ONLY
+        if p.name != "options":
+            assert p.default == getattr(AnalysisOptions(), p.name), p.name
+    words = " ".join(f.__doc__.split())
+    for name in ANALYSIS_OPTIONS:
+        assert f"    {name} : " in f.__doc__, name
+        assert " ".join(analysis_options.describe(name).split()) in words, name
+
+
+@pytest.mark.parametrize("command", ["analyze", "alter"])
+def test_cli_analysis_commands_have_a_flag_per_field_in_order(command):
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    flags = [a for a in sub.choices[command]._actions if a.dest in ANALYSIS_OPTIONS]
+    assert tuple(a.dest for a in flags) == ANALYSIS_OPTIONS
+    for action in flags:
+        assert action.default is None  # unset: the option's default holds
+        assert action.option_strings == [analysis_options.flag(action.dest).split()[0]]
+        assert action.help == analysis_options.flag_help(action.dest)
+
+
+def test_cli_page_prints_the_flags_of_the_analysis_fields():
+    text = (Path(__file__).parent.parent / "docs" / "cli.md").read_text()
+    for row in analysis_options.flag_rows().splitlines():
+        assert row in text, row
+
+
+def test_analysis_options_check_once_and_name_the_nearest():
+    o = AnalysisOptions(window=1, clip_samples=np.int64(3))
+    assert (o.window, type(o.window), o.clip_samples, type(o.clip_samples)) == (1.0, float, 3, int)
+    assert o.gravity == GRAVITY and AnalysisOptions.of(o, hop=0.001) == o.replace(hop=0.001)
+    with pytest.raises(synth.ParameterError, match=r"window=3\.0 must be > 0 and <= 2 \(s\)"):
+        o.replace(window=3.0)  # a copy is checked again
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        o.window = 0.0
+    with pytest.raises(TypeError, match="did you mean 'threshold_db'"):
+        synth.analyze(np.zeros(10), 44100, treshold_db=12)  # before the audio is checked
+    with pytest.raises(TypeError, match="did you mean 'window'"):
+        synth.analyze_file("none.wav", windw=0.01)  # before the file is looked for
+    with pytest.raises(TypeError, match="did you mean 'deflate'"):
+        o.replace(deflat=False)
+    with pytest.raises(synth.ParameterError, match="options=.*must be an AnalysisOptions"):
+        synth.analyze(np.zeros(10), 44100, options={"window": 0.01})
+
+
+def test_analysis_options_from_the_command_line_text():
+    assert analysis_options.from_text({"channel": "mix", "lpc_order": "32"}) == AnalysisOptions(
+        channel=None, lpc_order=32
+    )
+    assert analysis_options.from_text({"deflate": False}).deflate is False
+    with pytest.raises(synth.ParameterError, match="channel='left' must be a channel index"):
+        analysis_options.from_text({"channel": "left"})
+    with pytest.raises(synth.ParameterError, match="window='abc' must be in"):
+        analysis_options.from_text({"window": "abc"})
+
+
+def test_cli_analysis_flags_reach_the_analysis(tmp_path, monkeypatch, capsys):
+    # synth analyze passes the flags given, parsed as their fields declare, and no others
+    import soundfile
+
+    from synth import analysis
+    from synth.cli import main
+
+    path = tmp_path / "x.wav"
+    soundfile.write(path, np.zeros(100), 8000)
+    got = {}
+
+    def fake(file, *, options):
+        got["options"] = options
+        raise synth.SynthError("stop")
+
+    monkeypatch.setattr(analysis, "analyze_file", fake)
+    argv = ["analyze", str(path), "--no-deflate", "--lpc-order", "32", "--channel", "mix"]
+    assert main([*argv, "--window", "0.05", "--on-clipping", "raise"]) != 0
+    assert got["options"] == AnalysisOptions(
+        deflate=False, lpc_order=32, window=0.05, on_clipping="raise"
+    )
+    assert main(["analyze", str(path), "--hop", "x"]) == 2  # before any analysis
+    assert "hop='x' must be in (0, 0.01]" in capsys.readouterr().err

@@ -9,7 +9,9 @@ accuracy.
 
 The stages, one module each:
 
-* :mod:`~synth.analysis.settings`: the checked options (:class:`Settings`) and reading a file;
+* :mod:`~synth.analysis.options`: the options, declared once (:class:`AnalysisOptions`);
+* :mod:`~synth.analysis.settings`: the options for one recording, in samples, and reading a
+  file;
 * :mod:`~synth.analysis.clipping`: clipped samples found and interpolated;
 * :mod:`~synth.analysis.whitening`: step 1, and the resonator's own predictor of step 7;
 * :mod:`~synth.analysis.detection`: steps 2-4 (detection function, threshold, onsets) and the
@@ -26,28 +28,39 @@ The stages, one module each:
   presentation.
 """
 
-from synth.analysis.measures import DECAY_MIN_FALL, DECAY_NOISE_MARGIN_DB, WINDOW_GUARD
-from synth.analysis.pipeline import analyze, analyze_file
-from synth.analysis.plotting import check_plot_path, plot_analysis
-from synth.analysis.report import Analysis, Tick, format_table, to_csv, to_dict
-from synth.analysis.resonator import AGREEMENT
-from synth.analysis.search import CLEAN_GUARD, RESONATOR_GAIN_DB
-from synth.analysis.series import (
-    ANCHOR_DB,
-    BOUNCE_GROWTH,
-    DOUBTFUL_DB,
-    MAX_EXCESS_DB,
-    RESTITUTION_STEP,
-    SERIES_HORIZON,
-)
-from synth.analysis.settings import (
-    DYNAMIC_RANGE_DB,
-    MIN_FRAME,
-    AnalysisError,
-    Settings,
-    read_recording,
-)
-from synth.analysis.validity import MISSED_GROWTH, Series
+#: Where each public name lives: imported from there on first use (PEP 562), so that the
+#: command line reads the options' declaration (:mod:`~synth.analysis.options`) without
+#: loading the analysis.
+_LAZY = {
+    "AGREEMENT": "resonator",
+    "ANCHOR_DB": "series",
+    "BOUNCE_GROWTH": "series",
+    "CLEAN_GUARD": "search",
+    "DECAY_MIN_FALL": "measures",
+    "DECAY_NOISE_MARGIN_DB": "measures",
+    "DOUBTFUL_DB": "series",
+    "DYNAMIC_RANGE_DB": "options",
+    "MAX_EXCESS_DB": "series",
+    "MIN_FRAME": "settings",
+    "MISSED_GROWTH": "validity",
+    "RESONATOR_GAIN_DB": "search",
+    "RESTITUTION_STEP": "series",
+    "SERIES_HORIZON": "series",
+    "WINDOW_GUARD": "measures",
+    "Analysis": "report",
+    "AnalysisError": "settings",
+    "AnalysisOptions": "options",
+    "Series": "validity",
+    "Tick": "report",
+    "analyze": "pipeline",
+    "analyze_file": "pipeline",
+    "check_plot_path": "plotting",
+    "format_table": "report",
+    "plot_analysis": "plotting",
+    "read_recording": "settings",
+    "to_csv": "report",
+    "to_dict": "report",
+}
 
 __all__ = [
     "AGREEMENT",
@@ -67,8 +80,8 @@ __all__ = [
     "WINDOW_GUARD",
     "Analysis",
     "AnalysisError",
+    "AnalysisOptions",
     "Series",
-    "Settings",
     "Tick",
     "analyze",
     "analyze_file",
@@ -79,3 +92,24 @@ __all__ = [
     "to_csv",
     "to_dict",
 ]
+
+
+def __getattr__(name):
+    """The public name or submodule ``name``, imported on first use (PEP 562)."""
+    import importlib
+
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    else:
+        try:
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":  # a module it needs is missing
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

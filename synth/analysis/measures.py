@@ -67,19 +67,6 @@ def with_standing_out(
     return sorted(found + added, key=lambda f: f.onset)
 
 
-def measure_ticks(
-    x: np.ndarray,
-    found: list[FoundTick],
-    whitenings: list[Whitening],
-    settings: Settings,
-    noise: float,
-) -> list[Tick]:
-    """The :class:`Tick` of each tick found in the recording ``x`` (``noise``: its noise
-    floor, signal units)."""
-    meter = TickMeter(x, found, whitenings, settings, noise)
-    return [meter.tick(i) for i in range(len(found))]
-
-
 class TickMeter:
     """The measurements of the ticks ``found`` in the recording ``x``, one tick at a time
     (:meth:`tick`): each depends on its own model and window, the next tick's window start

@@ -5,12 +5,13 @@ block (docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from synth import dsp
+from synth import checks, dsp
 from synth.analysis.blocks import (
     OVERLAP,
     ArraySource,
@@ -25,12 +26,9 @@ from synth.analysis.blocks import (
 )
 from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, find_clipping
 from synth.analysis.measures import WINDOW_GUARD
+from synth.analysis.options import AnalysisOptions, parameters_doc
 from synth.analysis.report import Analysis
-from synth.analysis.search import CLEAN_GUARD as CLEAN_GUARD
-from synth.analysis.search import RESONATOR_GAIN_DB as RESONATOR_GAIN_DB
-from synth.analysis.search import FirstSearch as FirstSearch
 from synth.analysis.search import LazyTick, first_search, measured_ticks, tick_meter
-from synth.analysis.search import SearchResult as SearchResult
 from synth.analysis.series import BOUNCE_GROWTH
 from synth.analysis.settings import (
     AnalysisError,
@@ -62,32 +60,12 @@ from synth.store.audio import wav_shortfall
 CLIPPED_AT_MOST = 0.5
 
 
-def analyze(
-    audio,
-    samplerate,
-    *,
-    gravity=9.81,
-    channel=None,
-    min_separation=0.001,
-    hop=0.00025,
-    threshold_db=10.0,
-    rise_db=6.0,
-    release=5.0,
-    dynamic_range_db=None,
-    max_drop_db=20.0,
-    background=0.02,
-    onset_fraction=0.1,
-    lpc_order=None,
-    window=0.02,
-    subtract_tails=True,
-    deflate=True,
-    decay_smoothing=0.002,
-    clip_samples=4,
-    on_clipping="warn",
-) -> Analysis:
-    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method); a
-    recording longer than :data:`~synth.analysis.blocks.WHOLE` block by block, in
-    time linear in its length (docs/analysis.md, Long recordings).
+def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
+    """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method), with
+    the analysis options: ``options`` (an :class:`~synth.analysis.options.AnalysisOptions`),
+    or its fields as keywords, or both (the keywords win). A recording longer than
+    :data:`~synth.analysis.blocks.WHOLE` is analysed block by block, in time linear in its
+    length (docs/analysis.md, Long recordings).
 
     Parameters
     ----------
@@ -95,60 +73,9 @@ def analyze(
         The recording, in any signal units (energies and peaks are in them).
     samplerate : float in (0, 768000]
         Sample rate, Hz.
-    gravity : float in (0, 300]
-        Gravity for the impact speeds ``v_n = g t_n / 2``, m/s^2.
-    channel : int or None
-        The channel to analyse (0-based); ``None`` mixes them (mean).
-    min_separation : float in (0, 1]
-        Shortest time between two ticks, s: a burst closer than this to a tick is part
-        of it (default 1 ms). Longer contacts are told apart by the bounce-series rules
-        (steps 3, 5 and 6); lower it (0.2 ms) for hard balls whose last bounces are
-        shorter than 1 ms.
-    hop : float in (0, 0.01]
-        Spacing of the detection function's frames, s (at least one sample; each
-        frame spans at least 12 samples).
-    threshold_db : float in (0, 300]
-        Margin above the local background, dB.
-    rise_db : float in (0, 300]
-        Margin above the fading memory of the earlier frames, dB.
-    release : float in (0, 1000]
-        How fast that memory fades, dB per ms.
-    dynamic_range_db : float in (0, 300], optional
-        Ticks more than this below the strongest frame of the whitened signal are ignored,
-        dB, in every step. Default: :data:`~synth.analysis.settings.DYNAMIC_RANGE_DB`
-        (60 dB) in steps 1-6; in the resonator's search (step 7), which models every earlier
-        tick and weighs a candidate against what those models are expected to leave, no
-        fixed range: the floor there is the whitened noise floor raised by ``threshold_db``
-        and ``max_drop_db`` under the last tick.
-    max_drop_db : float in (0, 300]
-        A tick more than this below the previous tick is ignored, dB (20 dB: a
-        restitution below 0.1); it also sets the shortest plausible bounce,
-        ``10^(-max_drop_db / 20)`` times the previous one.
-    background : float in (0, 1]
-        Length of the running median giving the local background, s.
-    onset_fraction : float in (0, 1)
-        Level of the onset crossing, as a fraction of the burst's peak.
-    lpc_order : int in 2..4096, optional
-        Order of the whitening predictor. Default: 20 ms of samples, at least 8, and where
-        the first tick rings on under it, the resonator's own predictor (step 7). Given,
-        that order alone (no step 7).
-    window : float in (0, 2]
-        Length of every tick's measurement window, s (shorter only where the recording
-        ends).
-    subtract_tails : bool
-        Measure each tick's own sound (its excitation through the resonator's all-pole
-        model, without the other ticks); False measures the recording over the window.
-    deflate : bool
-        Find the ticks after the first one by one, each with the earlier ticks' whitened
-        responses taken out (steps 5 and 7); False keeps the ticks of step 3.
-    decay_smoothing : float in (0, 0.1]
-        Length of the Hann window smoothing the envelope for the decay fit, s
-        (at least 3 samples).
-    clip_samples : int >= 2
-        Samples at exactly a channel's largest (or smallest) value, in flat tops of at
-        least two consecutive samples, that mean clipping.
-    on_clipping : {"warn", "raise"}
-        Report clipping in :attr:`Analysis.warnings`, or raise ``AnalysisError``.
+    options : AnalysisOptions, optional
+        The options; a keyword below changes one of them.
+    OPTIONS_DOC
 
     Returns
     -------
@@ -159,33 +86,15 @@ def analyze(
     ParameterError
         Bad input (each option's range is given above, checked before any work); the
         message names the field, its value and what is allowed.
+    TypeError
+        A keyword that is not an option (the message names the nearest).
     AnalysisError
         A silent recording, one without a detectable tick, or a clipped one with
         ``on_clipping="raise"``.
     """
+    o = AnalysisOptions.of(options, **overrides)
     chans = audio_array(audio)
-    settings = make_settings(
-        chans.shape[1],
-        samplerate,
-        gravity=gravity,
-        channel=channel,
-        min_separation=min_separation,
-        hop=hop,
-        threshold_db=threshold_db,
-        rise_db=rise_db,
-        release=release,
-        dynamic_range_db=dynamic_range_db,
-        max_drop_db=max_drop_db,
-        background=background,
-        onset_fraction=onset_fraction,
-        lpc_order=lpc_order,
-        window=window,
-        subtract_tails=subtract_tails,
-        deflate=deflate,
-        decay_smoothing=decay_smoothing,
-        clip_samples=clip_samples,
-        on_clipping=on_clipping,
-    )
+    settings = make_settings(chans.shape[1], samplerate, o)
     return _analyze_source(ArraySource(chans, settings.samplerate), settings)
 
 
@@ -210,16 +119,21 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     noise = dsp.noise_floor(x, settings.samplerate)
     test = RiseTest(lambda a, b: x[a:b], settings.samplerate, settings.dynamic_range_db, noise)
     series = _impact_series(found, test, lambda first: x[first:], settings)
-    warnings = (() if clipping is None else (clipping.warning,)) + flag_warnings(series)
+    return _result(series, x.size, noise, None if clipping is None else clipping.warning, settings)
+
+
+def _result(series: list, frames: int, noise: float, clipping: str | None, settings) -> Analysis:
+    """The :class:`Analysis` of the bounce ``series`` found in ``frames`` frames (``noise``:
+    their noise floor; ``clipping``: its warning, None where nothing was clipped)."""
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
-        duration=x.size / settings.samplerate,
+        duration=frames / settings.samplerate,
         noise_floor=noise,
         gravity=settings.gravity,
         channel=settings.channel,
         clipped=clipping is not None,
-        warnings=warnings,
+        warnings=(() if clipping is None else (clipping,)) + flag_warnings(series),
         series=series,
     )
 
@@ -239,12 +153,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         tops = sum(
             int(sv.high_tops[c] if lv == sv.highs[c] else sv.low_tops[c]) for c, lv in levels
         )
-        size = source.frames * sv.highs.size
-        if tops > CLIPPED_AT_MOST * size:
-            raise AnalysisError(
-                f"{tops} of {size} samples sit in flat tops at the extremes: not a recording "
-                f"of impacts (a square wave, or one clipped throughout)"
-            )
+        _refuse_clipped_throughout(tops, source.frames * sv.highs.size)
         worst = max(levels, key=lambda cl: sv.high_tops[cl[0]] + sv.low_tops[cl[0]])[0]
         warning = clipping_warning(
             tops,
@@ -273,18 +182,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
         lambda first: signal(first, min(source.frames, first + block_frames(test.fs))),
         settings,
     )
-    warnings = (() if warning is None else (warning,)) + flag_warnings(series)
-    return Analysis(
-        ticks=[t for s in series for t in s.ticks],
-        samplerate=settings.samplerate,
-        duration=source.frames / settings.samplerate,
-        noise_floor=sv.noise_floor,
-        gravity=settings.gravity,
-        channel=settings.channel,
-        clipped=bool(levels),
-        warnings=warnings,
-        series=series,
-    )
+    return _result(series, source.frames, sv.noise_floor, warning, settings)
 
 
 def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
@@ -369,7 +267,7 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
         nxt = stop - overlap
         if ticks:
             start = int(math.floor(ticks[0].time * fs)) - lead
-            if not _series_ended(ticks, stop / fs, settings, lead / fs):
+            if not _series_ended(ticks, stop / fs, lead / fs):
                 if start <= pos:  # one series over the whole block: a longer block
                     size *= 2
                     continue
@@ -450,7 +348,7 @@ def _searched(
         return []
 
 
-def _series_ended(ticks: list, end: float, settings: Settings, lead: float) -> bool:
+def _series_ended(ticks: list, end: float, lead: float) -> bool:
     """Whether a series can have no tick after ``end`` (s): the block goes on past its next
     bounce, at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last one (and
     :data:`OVERLAP` at least), and the local background before that tick."""
@@ -501,7 +399,7 @@ def _ticks(
     return measured_ticks(x, first_search(x, settings, parts=parts), settings, clipped, resonator)
 
 
-def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
+def analyze_file(path, *, options=None, **overrides) -> Analysis:
     """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a
     file longer than :data:`~synth.analysis.blocks.WHOLE` is read block by block,
     never whole (:mod:`synth.analysis.blocks`). The options are checked before any sample is
@@ -511,12 +409,9 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
     ----------
     path : str or path-like
         The file (WAV, FLAC, OGG, AIFF, ...).
-    gravity : float in (0, 300]
-        Gravity for the impact speeds, m/s^2.
-    channel : int or None
-        The channel to analyse (0-based); ``None`` mixes them (mean).
-    **options
-        The other keyword arguments of :func:`analyze`.
+    options : AnalysisOptions, optional
+        The options; a keyword below changes one of them.
+    OPTIONS_DOC
 
     A WAV file that holds fewer frames than its header declares is analysed as far as it
     goes, with a warning in :attr:`Analysis.warnings` (and a ``TruncatedAudioWarning``).
@@ -525,48 +420,47 @@ def analyze_file(path, *, gravity=9.81, channel=None, **options) -> Analysis:
     ------
     ParameterError
         A missing file or bad options.
+    TypeError
+        A keyword that is not an option (the message names the nearest).
     AnalysisError
         An unreadable file (corrupt header, unknown format) and the cases of
         :func:`analyze`.
     """
+    o = AnalysisOptions.of(options, **overrides)
     check_recording_path(path)
     frames = file_frames(path)
-    source = None
-    if frames is not None:
+    if frames is None:  # not a file read in blocks: read whole
+        settings, source = None, None
+    else:
         source = FileSource(path)
-        settings = make_settings(
-            source.channels,
-            source.samplerate,
-            gravity=gravity,
-            channel=channel,
-            **_options(options),
-        )
+        settings = make_settings(source.channels, source.samplerate, o)
     if source is None or frames <= whole_frames(settings.samplerate):
         audio, samplerate = read_recording(path)
-        result = analyze(audio, samplerate, gravity=gravity, channel=channel, **options)
+        result = analyze(audio, samplerate, options=o)
     else:
         result = _analyze_source(source, settings)
     short = wav_shortfall(path)
     return result if short is None else replace(result, warnings=result.warnings + (short,))
 
 
-def _options(options: dict) -> dict:
-    """The keyword arguments of :func:`make_settings` from :func:`analyze`'s ``options``, its
-    defaults for those not given; an unknown one is a ``ParameterError``."""
-    import inspect
+def _generated_signature(function, *leading: str) -> None:
+    """Give ``function`` (``leading`` positional parameters, ``options`` and the analysis
+    options as keywords) its signature and its docstring's list of the options, from the
+    fields of :class:`AnalysisOptions`."""
+    if function.__doc__:  # None under python -OO
+        function.__doc__ = function.__doc__.replace("    OPTIONS_DOC", parameters_doc())
+    function.__signature__ = inspect.Signature(
+        [
+            *(inspect.Parameter(n, inspect.Parameter.POSITIONAL_OR_KEYWORD) for n in leading),
+            *checks.keyword_parameters(AnalysisOptions),
+            inspect.Parameter("options", inspect.Parameter.KEYWORD_ONLY, default=None),
+        ],
+        return_annotation=Analysis,
+    )
 
-    params = inspect.signature(analyze).parameters
-    unknown = sorted(set(options) - set(params) - {"audio", "samplerate", "gravity", "channel"})
-    if unknown:
-        raise ParameterError(
-            f"unknown option(s) {', '.join(unknown)}; allowed: "
-            f"{', '.join(p for p in params if p not in ('audio', 'samplerate'))}"
-        )
-    return {
-        name: options.get(name, p.default)
-        for name, p in params.items()
-        if name not in ("audio", "samplerate", "gravity", "channel")
-    }
+
+_generated_signature(analyze, "audio", "samplerate")
+_generated_signature(analyze_file, "path")
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
@@ -581,12 +475,18 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
     if not np.any(used):
         raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
     clipping = find_clipping(used, settings.clip_samples)
-    if clipping is not None and np.count_nonzero(clipping.mask) > CLIPPED_AT_MOST * used.size:
-        raise AnalysisError(
-            f"{np.count_nonzero(clipping.mask)} of {used.size} samples sit in flat tops at "
-            f"the extremes: not a recording of impacts (a square wave, or one clipped "
-            f"throughout)"
-        )
+    if clipping is not None:
+        _refuse_clipped_throughout(int(np.count_nonzero(clipping.mask)), used.size)
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
+
+
+def _refuse_clipped_throughout(tops: int, size: int) -> None:
+    """Raise ``AnalysisError`` where more than :data:`CLIPPED_AT_MOST` of the ``size``
+    samples sit in flat tops at the extremes (``tops`` of them)."""
+    if tops > CLIPPED_AT_MOST * size:
+        raise AnalysisError(
+            f"{tops} of {size} samples sit in flat tops at the extremes: not a recording of "
+            f"impacts (a square wave, or one clipped throughout)"
+        )

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 
@@ -11,6 +10,7 @@ from synth import checks
 from synth.analysis.report import Analysis, checked_analysis
 from synth.analysis.settings import audio_array
 from synth.errors import ParameterError, SynthError
+from synth.store.atomic import write_atomically
 
 
 def check_plot_path(path) -> str:
@@ -57,7 +57,7 @@ def plot_analysis(analysis, audio, samplerate, path):
     and restitution per bounce; tick energy on a log scale against bounce
     number, with the line ``E_1 ebar^(2 (n - 1))`` through the first tick
     (``ebar`` the mean restitution); centroid (Hz) and decay time (ms) per
-    bounce. Written to a temporary file beside ``path`` and renamed onto it.
+    bounce. Written whole or not at all (:func:`synth.store.atomic.write_atomically`).
 
     Parameters
     ----------
@@ -99,7 +99,7 @@ def plot_analysis(analysis, audio, samplerate, path):
     _spectrum_panel(ax[1, 1], an)
     for a_ in (ax[0, 1], ax[1, 0], ax[1, 1]):
         a_.xaxis.set_major_locator(MaxNLocator(integer=True))
-    _save_atomically(fig, os.fspath(path), fmt)
+    write_atomically(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=110), error=ParameterError)
     return fig
 
 
@@ -172,17 +172,3 @@ def _spectrum_panel(ax, an: Analysis) -> None:
     twin = ax.twinx()
     twin.plot(n, _column(an, "decay_time", 1e3), "s-", color="tab:brown", ms=3)
     twin.set_ylabel("decay time (ms)", color="tab:brown")
-
-
-def _save_atomically(fig, path: str, fmt: str) -> None:
-    """Write ``fig`` to a temporary file beside ``path`` and rename it onto ``path``."""
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".plot-", suffix="." + fmt, dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, format=fmt, dpi=110)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise

@@ -30,11 +30,12 @@ SERIES_HORIZON = 64
 MAX_EXCESS_DB = 6.0
 #: Ticks at least this far above their threshold are sure, dB: no bounce-order rule
 #: drops them for a weaker one, and the deflation passes over none of step 3's series
-#: (100 times the threshold; the remainders and reflections met so far reached 11 dB).
+#: (100 times the threshold in energy, well above what a remainder of an earlier tick or a
+#: reflection clears).
 ANCHOR_DB = 20.0
-#: Largest relative change of the restitution from one bounce to the next in a series:
-#: the presets' steepest is 18 % (a steel ball on a 6 mm board, whose contact time
-#: grows to a sizeable part of the bounce time).
+#: Largest relative change of the restitution from one bounce to the next in a series: it
+#: changes most where the contact time grows to a sizeable part of the bounce time (a steel
+#: ball on a thin board), and this leaves room for that.
 RESTITUTION_STEP = 0.25
 #: Ticks weaker than this (``strength``, dB) are doubtful.
 DOUBTFUL_DB = 6.0

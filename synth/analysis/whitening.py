@@ -17,10 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import dsp
+from synth.analysis.options import MAX_ORDER
 from synth.compilation import compiled
 
-#: Highest order of the resonator's predictor (step 7): its cost grows as the square.
-MAX_ORDER = 4096
 #: Least prediction error energy of the resonator's predictor counted by its order
 #: criterion, relative to the stretch's energy (120 dB of prediction gain; below, rounding).
 PREDICTION_FLOOR = 1e-12

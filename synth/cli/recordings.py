@@ -9,7 +9,6 @@ import sys
 
 import numpy as np
 
-from synth.constants import GRAVITY
 from synth.errors import SynthError
 
 
@@ -25,14 +24,8 @@ def _cmd_analyze(args):
     with warnings.catch_warnings():
         # a truncated file is one of the result's warnings, printed below
         warnings.simplefilter("ignore", TruncatedAudioWarning)
-        result = analysis.analyze_file(  # options checked first; a long file read in blocks
-            args.file,
-            gravity=args.gravity,
-            channel=_channel(args.channel),
-            min_separation=args.min_separation,
-            window=args.window,
-            deflate=not args.no_deflate,
-        )
+        # options checked first; a long file read in blocks
+        result = analysis.analyze_file(args.file, options=_analysis_options(args))
         audio, fs = analysis.read_recording(args.file) if args.plot else (None, None)
     for warning in result.warnings:
         print(f"synth: warning: {warning}", file=sys.stderr)
@@ -60,15 +53,14 @@ def _read_warned(reader, path):
     return out
 
 
-def _channel(value):
-    if value is None or value == "mix":
-        return None
-    try:
-        return int(value)
-    except ValueError:
-        raise SynthError(
-            f"channel={value!r} must be a channel number (0, 1, ...) or 'mix'"
-        ) from None
+def _analysis_options(args):
+    """The analysis options of the command's flags (:func:`add_analysis_flags`); the unset
+    ones keep their defaults."""
+    from synth.analysis.options import OPTIONS, from_text
+
+    return from_text(
+        {name: getattr(args, name) for name in OPTIONS if getattr(args, name) is not None}
+    )
 
 
 def _cmd_alter(args):
@@ -77,20 +69,15 @@ def _cmd_alter(args):
     from synth.store import audio as audio_io
 
     audio_io.check_output_path(args.output, "output", audio_io.FORMATS)  # before the analysis
+    options = _analysis_options(args)
     audio, fs = _read_warned(audio_io.read_audio, args.file)
-    channel = _channel(args.channel)
-    onsets = [
-        t.time
-        for t in analyze(
-            audio, fs, gravity=args.gravity, channel=channel, min_separation=args.min_separation
-        ).ticks
-    ]
+    onsets = [t.time for t in analyze(audio, fs, options=options).ticks]
     out, t_new, e, e_new = alter_restitution(
         audio,
         fs,
         args.restitution_scale,
         onsets=onsets,
-        gravity=args.gravity,
+        gravity=options.gravity,
         scale_amplitude=not args.keep_amplitude,
         min_bounce=args.min_bounce,
         normalize=args.normalize,
@@ -134,30 +121,7 @@ def add_analyze_parser(sub) -> None:
         metavar="OUT.png",
         help="ticks, bounce times, restitution, energy, centroid, decay",
     )
-    p.add_argument("--channel", help="channel number, or 'mix' (default: the mean of the channels)")
-    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2, for the impact speeds")
-    p.add_argument(
-        "--min-separation",
-        type=float,
-        default=0.001,
-        metavar="S",
-        help="shortest time between two ticks, s (default 0.001): a burst closer "
-        "than this to a tick is part of it (the end of a long contact); lower it "
-        "(0.0002) for hard balls whose last bounces are shorter than 1 ms",
-    )
-    p.add_argument(
-        "--window",
-        type=float,
-        default=0.02,
-        metavar="S",
-        help="length of every tick's measurement window, s (default 0.02): energy, "
-        "peak, centroid, spread and decay of the tick's own sound over it",
-    )
-    p.add_argument(
-        "--no-deflate",
-        action="store_true",
-        help="do not take the earlier ticks out when looking for the later ones",
-    )
+    add_analysis_flags(p)
     p.set_defaults(func=_cmd_analyze)
 
 
@@ -171,15 +135,6 @@ def add_alter_parser(sub) -> None:
         "--keep-amplitude",
         action="store_true",
         help="do not scale each tick by its new impact speed over its old one",
-    )
-    p.add_argument("--channel", help="channel to detect the ticks on (default: the mean)")
-    p.add_argument("--gravity", type=float, default=GRAVITY, help="m/s^2")
-    p.add_argument(
-        "--min-separation",
-        type=float,
-        default=0.001,
-        metavar="S",
-        help="shortest time between two ticks, s (as for analyze)",
     )
     p.add_argument(
         "--min-bounce",
@@ -195,4 +150,24 @@ def add_alter_parser(sub) -> None:
         help="level: none (the recording's, default) or peak (-1 dBFS)",
     )
     p.add_argument("--subtype", help="soundfile subtype of the output (default PCM_24)")
+    add_analysis_flags(p)  # the ticks re-laid are the analysis'
     p.set_defaults(func=_cmd_alter)
+
+
+def add_analysis_flags(p) -> None:
+    """Add a flag for each analysis option (:class:`synth.analysis.AnalysisOptions`: its
+    doc, unit, values allowed and default); a switch on by default is turned off by
+    ``--no-NAME``. Unset, the option keeps its default."""
+    from synth.analysis import options
+
+    for name in options.OPTIONS:
+        d = options.declaration(name)
+        flag = options.flag(name).split()[0]
+        if d.parse is bool:
+            p.add_argument(
+                flag, dest=name, action="store_const", const=False, help=options.flag_help(name)
+            )
+        else:
+            p.add_argument(
+                flag, dest=name, choices=d.choices, metavar=d.metavar, help=options.flag_help(name)
+            )

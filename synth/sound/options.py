@@ -13,15 +13,13 @@ is allowed.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import inspect
-import textwrap
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from synth import checks
+from synth.checks import Option
 from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, PULSE_POINTS
 from synth.errors import ParameterError
 
@@ -49,28 +47,7 @@ MAX_PULSE_POINTS = 4097
 MAX_IMPACTS = 100_000
 
 
-@dataclass(frozen=True)
-class Option:
-    """The declaration of one render option (a field's metadata).
-
-    unit: SI unit or level scale ("" for a count or a name); allowed: the values allowed,
-    as the error and the docs state them; doc: what it does, one line; metavar: the
-    command line's name of its value; check: ``check(name, value, checked)`` returns the
-    value converted (float, int) or raises ``ParameterError``; ``checked`` holds the
-    options checked before it (``max_frequency`` reads the rate).
-    """
-
-    unit: str
-    allowed: str
-    doc: str
-    metavar: str
-    check: Callable[[str, object, dict], object]
-    choices: tuple[str, ...] | None = None
-
-
-def _option(default, **declaration):
-    kwargs = {} if default is dataclasses.MISSING else {"default": default}
-    return field(metadata={"option": Option(**declaration)}, **kwargs)
+_option = checks.option
 
 
 def _samplerate(name, value, checked) -> int:
@@ -230,22 +207,13 @@ class RenderOptions:
     )  # fmt: skip
 
     def __post_init__(self):
-        checked: dict = {}
-        for f in dataclasses.fields(self):
-            checked[f.name] = declaration(f.name).check(f.name, getattr(self, f.name), checked)
-            object.__setattr__(self, f.name, checked[f.name])
+        checks.check_fields(self)
 
     @classmethod
     def of(cls, options: RenderOptions | None = None, /, **overrides) -> RenderOptions:
         """``options`` (default: only ``overrides``) with ``overrides`` (fields by name)
         applied; an unknown name is a ``TypeError`` naming the nearest option."""
-        for name in overrides:
-            if name not in OPTIONS:
-                near = difflib.get_close_matches(name, OPTIONS, n=1)
-                hint = f" (did you mean {near[0]!r}?)" if near else ""
-                raise TypeError(
-                    f"{name!r} is not a render option{hint}; options: {', '.join(OPTIONS)}"
-                )
+        checks.check_names(cls, overrides, "a render option")
         if options is None:
             if "samplerate" not in overrides:
                 raise TypeError("samplerate (Hz) is required: there is no default rate")
@@ -278,38 +246,27 @@ class RenderOptions:
 
 
 #: The names of the render options, in the order of their fields.
-OPTIONS = tuple(f.name for f in dataclasses.fields(RenderOptions))
+OPTIONS = checks.names(RenderOptions)
 
 
 def declaration(name: str) -> Option:
-    """The :class:`Option` of the render option ``name``."""
-    return RenderOptions.__dataclass_fields__[name].metadata["option"]
+    """The :class:`~synth.checks.Option` of the render option ``name``."""
+    return checks.declaration(RenderOptions, name)
 
 
 def default(name: str):
     """The default of the render option ``name`` (``inspect.Parameter.empty`` for none)."""
-    value = RenderOptions.__dataclass_fields__[name].default
-    return inspect.Parameter.empty if value is dataclasses.MISSING else value
+    return checks.default(RenderOptions, name)
 
 
 def describe(name: str) -> str:
     """``doc (unit; allowed)`` of the render option ``name``."""
-    d = declaration(name)
-    return f"{d.doc} ({d.unit + '; ' if d.unit else ''}{d.allowed})"
+    return checks.describe(RenderOptions, name)
 
 
 def parameters_doc(indent: str = "    ") -> str:
     """The render options as a numpydoc parameter list (name, type, default, doc)."""
-    lines = []
-    for f in dataclasses.fields(RenderOptions):
-        value = default(f.name)
-        shown = "required" if value is inspect.Parameter.empty else f"default {value!r}"
-        lines.append(f"{indent}{f.name} : {f.type}, {shown}")
-        body = indent + "    "
-        lines.append(
-            textwrap.fill(describe(f.name) + ".", 92, initial_indent=body, subsequent_indent=body)
-        )
-    return "\n".join(lines)
+    return checks.parameters_doc(RenderOptions, indent)
 
 
 def flag_rows() -> str:
@@ -328,10 +285,7 @@ def flag_rows() -> str:
 
 def keyword_parameters() -> list[inspect.Parameter]:
     """The render options as keyword-only parameters (for a generated signature)."""
-    return [
-        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default(name))
-        for name in OPTIONS
-    ]
+    return checks.keyword_parameters(RenderOptions)
 
 
 def check_options(**options) -> dict:

@@ -1,0 +1,301 @@
+"""The analysis options, declared once: :class:`AnalysisOptions`.
+
+Each option is a field of the frozen dataclass with its type, default, unit (SI: durations
+in s), the values allowed and its doc (:class:`~synth.checks.Option`). The front ends read
+them from here: :func:`synth.analysis.analyze` and :func:`~synth.analysis.analyze_file`
+take them as keywords (their signatures and the options' part of their docstrings are
+generated from the fields), and ``synth analyze`` and ``synth alter`` have a flag for each.
+Constructing an ``AnalysisOptions`` checks every value that does not depend on the
+recording; what does (a duration of at least a few samples, a channel the audio has) is
+checked when the options meet the recording (:func:`~synth.analysis.settings.make_settings`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth import checks
+from synth.constants import GRAVITY
+from synth.errors import ParameterError
+
+#: Default floor of the detection, dB under the strongest frame of the whitened signal, in
+#: steps 1-6 (a guard against what the 20 ms predictor leaves of the earlier ticks, which
+#: those steps do not model over their whole response) and for the test that calls step 7.
+DYNAMIC_RANGE_DB = 60.0
+
+#: The upper ends of the options' ranges, checked before any work (each a bound past which
+#: the option has no use, so that an absurd value is named rather than run into an
+#: allocation or an overflow):
+#: gravity, m/s^2: past the Sun's surface gravity (274 m/s^2);
+MAX_GRAVITY = 300.0
+#: margins and ranges in dB: float64 resolves 313 dB (2^-52) and no more;
+MAX_DB = 300.0
+#: the fading memory's release, dB per ms: past this it forgets within a sample at 1 MHz;
+MAX_RELEASE = 1000.0
+#: ``min_separation``, s: a bounce series' ticks come within a second of each other once
+#: the ball has bounced (a first bounce of 1 s is a drop from 1.2 m);
+MAX_SEPARATION = 1.0
+#: ``hop``, s: the frames must resolve ticks a few ms apart;
+MAX_HOP = 0.01
+#: ``background``, s: the local background of the detection (ticks are sparse over it);
+MAX_BACKGROUND = 1.0
+#: ``window``, s: a tick's measurement window (a lightly damped plate rings for seconds);
+MAX_WINDOW = 2.0
+#: ``decay_smoothing``, s: the envelope's smoothing, under the longest window;
+MAX_SMOOTHING = 0.1
+#: Highest order of the whitening predictors (the resonator's, of step 7, costs its square).
+MAX_ORDER = 4096
+#: What ``on_clipping`` may say.
+ON_CLIPPING = ("warn", "raise")
+
+
+def _at_most(hi: float, unit: str, optional: bool = False):
+    """The check of a real number in (0, hi] (or None where ``optional``)."""
+
+    def check(name, value, checked) -> float | None:
+        if optional and value is None:
+            return None
+        return checks.positive_at_most(name, value, hi, unit)
+
+    return check
+
+
+def _fraction(name, value, checked) -> float:
+    return checks.in_range(name, value, 0.0, 1.0)
+
+
+def _integer(lo: int, hi: int | None = None, optional: bool = False):
+    """The check of an integer in ``lo..hi`` (``>= lo`` without ``hi``; or None)."""
+    allowed = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+
+    def check(name, value, checked) -> int | None:
+        if optional and value is None:
+            return None
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise ParameterError(f"{name}={value!r} must be an integer {allowed}")
+        if value < lo or (hi is not None and value > hi):
+            raise ParameterError(f"{name}={value!r} must be {allowed}")
+        return int(value)
+
+    return check
+
+
+def _channel(name, value, checked) -> int | None:
+    # its range is the recording's (make_settings)
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ParameterError(f"{name}={value!r} must be None (mix) or a channel index")
+    return int(value)
+
+
+def _flag(name, value, checked) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(f"{name}={value!r} must be True or False")
+    return bool(value)
+
+
+def _policy(name, value, checked) -> str:
+    return checks.choice(name, value, ON_CLIPPING)
+
+
+def channel_text(text: str) -> int | None:
+    """A channel from the command line: its number, or ``mix`` (None)."""
+    return None if text == "mix" else int(text)
+
+
+_option = checks.option
+
+
+@dataclass(frozen=True, kw_only=True)
+class AnalysisOptions:
+    """The options of an analysis (:func:`synth.analysis.analyze`): checked and converted
+    when made, immutable after; every one has a default.
+
+    ``AnalysisOptions(window=0.05)``; :meth:`replace` makes a changed copy, checked again.
+    The fields, each with its unit and the values allowed:
+    """
+
+    gravity: float = _option(
+        GRAVITY, unit="m/s^2", metavar="G", check=_at_most(MAX_GRAVITY, "m/s^2"),
+        allowed=f"in (0, {MAX_GRAVITY:g}]", doc="gravity for the impact speeds v_n = g t_n / 2",
+    )  # fmt: skip
+    channel: int | None = _option(
+        None, unit="", metavar="N", check=_channel, parse=channel_text,
+        allowed="a channel index of the audio, from 0, or None: the mean of the channels "
+        "('mix' on the command line)",
+        doc="the channel analysed",
+    )  # fmt: skip
+    min_separation: float = _option(
+        0.001, unit="s", metavar="S", check=_at_most(MAX_SEPARATION, "s"),
+        allowed=f"in (0, {MAX_SEPARATION:g}], at least one sample",
+        doc="shortest time between two ticks: a burst closer than this to a tick is part of "
+        "it (the end of a long contact); lower it (0.0002) for hard balls whose last bounces "
+        "are shorter than 1 ms",
+    )  # fmt: skip
+    hop: float = _option(
+        0.00025, unit="s", metavar="S", check=_at_most(MAX_HOP, "s"),
+        allowed=f"in (0, {MAX_HOP:g}], at least one sample",
+        doc="spacing of the detection function's frames, each at least 12 samples long",
+    )  # fmt: skip
+    threshold_db: float = _option(
+        10.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"),
+        allowed=f"in (0, {MAX_DB:g}]", doc="a tick's margin above the local background",
+    )  # fmt: skip
+    rise_db: float = _option(
+        6.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"), allowed=f"in (0, {MAX_DB:g}]",
+        doc="a tick's margin above the fading memory of the earlier frames",
+    )  # fmt: skip
+    release: float = _option(
+        5.0, unit="dB/ms", metavar="DB_PER_MS", check=_at_most(MAX_RELEASE, "dB/ms"),
+        allowed=f"in (0, {MAX_RELEASE:g}]", doc="how fast that memory fades",
+    )  # fmt: skip
+    dynamic_range_db: float | None = _option(
+        None, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB", optional=True),
+        allowed=f"in (0, {MAX_DB:g}]; None: {DYNAMIC_RANGE_DB:g} in steps 1-6 and none in the "
+        "resonator's search, step 7, whose floor is the whitened noise floor raised by "
+        "threshold_db and max_drop_db under the last tick",
+        doc="ticks more than this below the strongest frame of the whitened signal are "
+        "ignored, in every step",
+    )  # fmt: skip
+    max_drop_db: float = _option(
+        20.0, unit="dB", metavar="DB", check=_at_most(MAX_DB, "dB"),
+        allowed=f"in (0, {MAX_DB:g}]",
+        doc="a tick more than this below the previous tick is ignored (20 dB: a restitution "
+        "below 0.1); the shortest plausible bounce is 10^(-max_drop_db / 20) times the "
+        "previous one",
+    )  # fmt: skip
+    background: float = _option(
+        0.02, unit="s", metavar="S", check=_at_most(MAX_BACKGROUND, "s"),
+        allowed=f"in (0, {MAX_BACKGROUND:g}]",
+        doc="length of the running median giving the local background",
+    )  # fmt: skip
+    onset_fraction: float = _option(
+        0.1, unit="", metavar="F", check=_fraction, allowed="in (0, 1)",
+        doc="level of the onset crossing, as a fraction of the burst's peak",
+    )  # fmt: skip
+    lpc_order: int | None = _option(
+        None, unit="", metavar="N", check=_integer(2, MAX_ORDER, optional=True), parse=int,
+        allowed=f"an integer in 2..{MAX_ORDER}; None: 20 ms of samples, at least 8, and the "
+        "resonator's own predictor (step 7) where the first tick rings on under it",
+        doc="order of the whitening predictor; given, that order alone and no step 7",
+    )  # fmt: skip
+    window: float = _option(
+        0.02, unit="s", metavar="S", check=_at_most(MAX_WINDOW, "s"),
+        allowed=f"in (0, {MAX_WINDOW:g}], at least one sample",
+        doc="every tick's measurement window (shorter only where the recording ends): "
+        "energy, peak, centroid, spread and decay of the tick's own sound over it",
+    )  # fmt: skip
+    subtract_tails: bool = _option(
+        True, unit="", metavar="", check=_flag, parse=bool, allowed="True or False",
+        doc="measure each tick's own sound (its excitation through the resonator's all-pole "
+        "model, without the other ticks), not the recording over the window",
+    )  # fmt: skip
+    deflate: bool = _option(
+        True, unit="", metavar="", check=_flag, parse=bool, allowed="True or False",
+        doc="find the ticks after the first one by one, each with the earlier ticks' "
+        "whitened responses taken out (steps 5 and 7), not only those of step 3",
+    )  # fmt: skip
+    decay_smoothing: float = _option(
+        0.002, unit="s", metavar="S", check=_at_most(MAX_SMOOTHING, "s"),
+        allowed=f"in (0, {MAX_SMOOTHING:g}], at least 3 samples",
+        doc="length of the Hann window smoothing the envelope for the decay fit",
+    )  # fmt: skip
+    clip_samples: int = _option(
+        4, unit="", metavar="N", check=_integer(2), parse=int, allowed="an integer >= 2",
+        doc="samples at exactly a channel's largest (or smallest) value, in flat tops of at "
+        "least two, that mean clipping",
+    )  # fmt: skip
+    on_clipping: str = _option(
+        "warn", unit="", metavar="POLICY", check=_policy, parse=str, choices=ON_CLIPPING,
+        allowed=", ".join(ON_CLIPPING),
+        doc="report clipping in Analysis.warnings, or raise AnalysisError",
+    )  # fmt: skip
+
+    def __post_init__(self):
+        checks.check_fields(self)
+
+    @classmethod
+    def of(cls, options: AnalysisOptions | None = None, /, **overrides) -> AnalysisOptions:
+        """``options`` (default: the defaults) with ``overrides`` (fields by name) applied;
+        an unknown name is a ``TypeError`` naming the nearest option."""
+        checks.check_names(cls, overrides, "an analysis option")
+        if options is None:
+            return cls(**overrides)
+        if not isinstance(options, cls):
+            raise ParameterError(f"options={options!r} must be an AnalysisOptions")
+        return options.replace(**overrides) if overrides else options
+
+    def replace(self, **changes) -> AnalysisOptions:
+        """A copy with ``changes`` (fields by name), checked."""
+        checks.check_names(type(self), changes, "an analysis option")
+        return type(self)(**{**self.as_dict(), **changes})
+
+    def as_dict(self) -> dict:
+        """The options by name, in the order of the fields."""
+        return {name: getattr(self, name) for name in OPTIONS}
+
+
+#: The names of the analysis options, in the order of their fields.
+OPTIONS = checks.names(AnalysisOptions)
+
+
+def declaration(name: str) -> checks.Option:
+    """The :class:`~synth.checks.Option` of the analysis option ``name``."""
+    return checks.declaration(AnalysisOptions, name)
+
+
+def describe(name: str) -> str:
+    """``doc (unit; allowed)`` of the analysis option ``name``."""
+    return checks.describe(AnalysisOptions, name)
+
+
+def parameters_doc(indent: str = "    ") -> str:
+    """The analysis options as a numpydoc parameter list."""
+    return checks.parameters_doc(AnalysisOptions, indent)
+
+
+def flag(name: str) -> str:
+    """The command line's flag of the analysis option ``name`` (``--no-NAME`` for a switch
+    that is on by default)."""
+    d = declaration(name)
+    dashed = name.replace("_", "-")
+    if d.parse is bool:
+        return f"--no-{dashed}" if checks.default(AnalysisOptions, name) else f"--{dashed}"
+    return f"--{dashed} {d.metavar}"
+
+
+def flag_help(name: str) -> str:
+    """The help of the flag of the analysis option ``name``: its doc, unit, values allowed
+    and default."""
+    value = checks.default(AnalysisOptions, name)
+    if declaration(name).parse is bool:
+        return f"{name}={not value} (default {value}: {declaration(name).doc})"
+    shown = "None" if value is None else f"{value:g}" if isinstance(value, float) else value
+    return f"{describe(name)}; default {shown}"
+
+
+def flag_rows() -> str:
+    """The rows of the analysis options' flags (Markdown, as docs/cli.md prints them)."""
+    return "\n".join(
+        f"| `{flag(name)}` | {flag_help(name).replace('|', '/')} |" for name in OPTIONS
+    )
+
+
+def from_text(given: dict) -> AnalysisOptions:
+    """The options from the command line's text of some of them (a switch's value already
+    True or False): each text parsed as its declaration says, then checked."""
+    values = {}
+    for name, text in given.items():
+        parse = declaration(name).parse
+        try:
+            values[name] = text if parse is bool else parse(text)
+        except ValueError:
+            raise ParameterError(f"{name}={text!r} must be {declaration(name).allowed}") from None
+    return AnalysisOptions(**values)
+
+
+if AnalysisOptions.__doc__:  # None under python -OO
+    AnalysisOptions.__doc__ += "\n" + parameters_doc()
