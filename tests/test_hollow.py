@@ -234,10 +234,24 @@ def test_flights_through_the_air_are_the_closed_forms():
     assert rise_height(2.3, 1e6) == pytest.approx(2.3**2 / (2.0 * 9.81), rel=1e-9)
 
 
+def test_table_tennis_rebound_over_the_shells_published_loss_range():
+    # ABS's published loss factors, 0.0138-0.0446 (Granta MaterialUniverse), move the table
+    # tennis ball's rebound through the air across the ITTF's range (0.24-0.26 m): the
+    # table's 0.02 is near the range's lively end. Figures as docs/validation.md prints them
+    from benchmarks.hollow import rebounds_over_loss_range
+
+    (test,) = [t for t in RULE_BOOK_TESTS if t.preset == "table-tennis-ball-on-table"]
+    most, least = rebounds_over_loss_range(test)
+    assert (least, most) == pytest.approx((0.248, 0.272), abs=5e-4)
+    assert least < test.rebound_high and most > test.rebound_high
+    assert least < rule_book_row(test).rebound < most
+
+
 def test_tennis_contact_time_is_missed_short():
     # Brody: a tennis ball is in contact with a court for "five milliseconds" in play; the
     # engine's pulse in the ITF drop test is about half of it: a miss, asserted as one (the
-    # speeds differ, and its cause is not established: docs/validation.md, "Hollow balls")
+    # speeds differ; the engine's ball is also about 3 times stiffer than the ITF's static
+    # test allows, test_tennis_ball_is_stiffer_than_the_itfs_static_test)
     (test,) = [t for t in RULE_BOOK_TESTS if t.preset == "tennis-ball-on-concrete"]
     row = rule_book_row(test)
     assert test.contact_time == 5e-3
@@ -348,3 +362,21 @@ def test_a_shell_result_keeps_its_class_with_another_message():
     copy = with_message(r, "another message")
     assert type(copy) is type(r) and copy.message == "another message"
     np.testing.assert_array_equal(copy.force, r.force)
+
+
+def test_tennis_ball_is_stiffer_than_the_itfs_static_test():
+    # the ITF's forward deformation (80.1 N along a diameter): 5.59-7.37 mm. The engine's
+    # ball shortens about a third of it: a miss, asserted as one (docs/validation.md)
+    from benchmarks.hollow import (
+        ITF_DEFORMATION_LOAD,
+        ITF_FORWARD_DEFORMATION,
+        static_compression,
+    )
+
+    ball = load_preset("tennis-ball-on-concrete").ball
+    law = shell_law(ball)
+    engine = static_compression(ball, ITF_DEFORMATION_LOAD)
+    # below the transition the law is linear: 2 F / k0
+    assert engine / 2.0 < law.transition
+    assert engine == pytest.approx(2.0 * ITF_DEFORMATION_LOAD / law.stiffness, rel=1e-12)
+    assert 0.25 < engine / ITF_FORWARD_DEFORMATION[0] < 0.4
