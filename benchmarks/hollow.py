@@ -75,7 +75,7 @@ RULE_BOOK_TESTS = (
         "coefficient (tan delta)",
     ),
     RuleBookTest(
-        "tennis (pressurised, 83 kPa)",
+        "tennis (pressurised, 80 kPa)",
         "tennis-ball-on-concrete",
         "concrete (0.15 m slab)",
         Plate("concrete", 0.15, 4.0, 4.0),
@@ -92,8 +92,8 @@ RULE_BOOK_TESTS = (
         "inwards, resulting in a sudden decrease in ball stiffness' once the force has risen "
         "to about half its peak (R. Cross, 'Dynamic properties of tennis balls', Sports "
         "Engineering 2 (1999) 23, abstract); the shell law has the wall's inversion "
-        "(Pogorelov) but not the cloth cover; the engine's ball is stiffer than the ITF's "
-        "static test allows (below), which shortens its pulse",
+        "(Pogorelov) but not the cloth cover, whose compression and loss are left out (its "
+        "mass and thickness are in the ball)",
         contact_time=5e-3,
         contact_source="H. Brody, answer to 'Is it possible for a tennis ball that is heavy "
         "with topspin ... to increase its forward velocity after it hits the ground?' "
@@ -212,7 +212,14 @@ def rebounds_over_loss_range(test: RuleBookTest, rtol: float = 1e-9) -> tuple[fl
     heights = []
     for eta in test.loss_range:
         material = dataclasses.replace(ball.material, damping=LossFactor(eta))
-        other = HollowBall(material, ball.radius, thickness=ball.thickness, pressure=ball.pressure)
+        other = HollowBall(
+            material,
+            ball.radius,
+            thickness=ball.thickness,
+            pressure=ball.pressure,
+            cover_thickness=ball.cover_thickness,
+            cover_mass=ball.cover_mass,
+        )
         heights.append(_drop_through_air(test, other, rtol).rebound)
     return heights[0], heights[1]
 
@@ -261,13 +268,13 @@ def itf_deformation_note() -> str:
     ball = load_preset("tennis-ball-on-concrete").ball
     low, high = ITF_FORWARD_DEFORMATION
     engine = static_compression(ball, ITF_DEFORMATION_LOAD)
+    verdict = "inside" if low <= engine <= high else "outside"
     return (
         f"- tennis, statically: under the ITF's {ITF_DEFORMATION_LOAD:.1f} N along a diameter "
         f"(Rules of Tennis, Appendix I, 'forward deformation') the engine's ball shortens "
-        f"{1e3 * engine:.2f} mm, the rule book requires {1e3 * low:.2f}-{1e3 * high:.2f} mm: "
-        f"the engine's ball is at least {low / engine:.1f} times too stiff (the preset's 4 mm "
-        f"wall of the table's rubber, the felt counted as rubber), as its short pulse says "
-        f"too."
+        f"{1e3 * engine:.2f} mm, {verdict} the rule book's {1e3 * low:.2f}-{1e3 * high:.2f} mm "
+        f"(the core's wall, rubber, pressure and felt from their sources, docs/materials.md, "
+        f"'The tennis ball'; not fitted to this test)."
     )
 
 

@@ -176,7 +176,7 @@ def test_preset_ball_kind():
 #: and of the printed digits: these figures are the ones docs/validation.md prints.
 ENGINE_REBOUND = {
     "table-tennis-ball-on-table": (0.267, 0.287),
-    "tennis-ball-on-concrete": (2.058, 2.242),
+    "tennis-ball-on-concrete": (2.214, 2.416),
     "basketball-on-wooden-floor": (1.641, 1.744),
 }
 
@@ -247,16 +247,15 @@ def test_table_tennis_rebound_over_the_shells_published_loss_range():
     assert least < rule_book_row(test).rebound < most
 
 
-def test_tennis_contact_time_is_missed_short():
+def test_tennis_contact_time_is_brodys():
     # Brody: a tennis ball is in contact with a court for "five milliseconds" in play; the
-    # engine's pulse in the ITF drop test is about half of it: a miss, asserted as one (the
-    # speeds differ; the engine's ball is also about 3 times stiffer than the ITF's static
-    # test allows, test_tennis_ball_is_stiffer_than_the_itfs_static_test)
+    # engine's pulse in the ITF drop test is within that one-figure value's rounding
+    # (4.5-5.5 ms), its construction from its sources (docs/materials.md, "The tennis ball")
     (test,) = [t for t in RULE_BOOK_TESTS if t.preset == "tennis-ball-on-concrete"]
     row = rule_book_row(test)
     assert test.contact_time == 5e-3
     assert row.contact_time_error == pytest.approx(row.contact_time / 5e-3 - 1.0)
-    assert -0.6 < row.contact_time_error < -0.4
+    assert abs(row.contact_time_error) < 0.1
     others = [rule_book_row(t) for t in RULE_BOOK_TESTS if t is not test]
     assert all(r.contact_time_error is None for r in others)
 
@@ -264,7 +263,8 @@ def test_tennis_contact_time_is_missed_short():
 @pytest.mark.xfail(
     strict=True,
     reason="the shells' published loss factors alone leave the balls too lively, the air's "
-    "drag taken in: the felt, the wall's ringing and the seams are not in the engine "
+    "drag taken in: the felt's loss (tennis), the wall's ringing and the seams are not in "
+    "the engine, and the tennis ball's gas, most of its stiffness, is lossless "
     "(docs/validation.md)",
 )
 @pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
@@ -364,9 +364,9 @@ def test_a_shell_result_keeps_its_class_with_another_message():
     np.testing.assert_array_equal(copy.force, r.force)
 
 
-def test_tennis_ball_is_stiffer_than_the_itfs_static_test():
+def test_tennis_ball_passes_the_itfs_static_test():
     # the ITF's forward deformation (80.1 N along a diameter): 5.59-7.37 mm. The engine's
-    # ball shortens about a third of it: a miss, asserted as one (docs/validation.md)
+    # ball, built from its sources and not fitted to this test, shortens inside it
     from benchmarks.hollow import (
         ITF_DEFORMATION_LOAD,
         ITF_FORWARD_DEFORMATION,
@@ -379,4 +379,45 @@ def test_tennis_ball_is_stiffer_than_the_itfs_static_test():
     # below the transition the law is linear: 2 F / k0
     assert engine / 2.0 < law.transition
     assert engine == pytest.approx(2.0 * ITF_DEFORMATION_LOAD / law.stiffness, rel=1e-12)
-    assert 0.25 < engine / ITF_FORWARD_DEFORMATION[0] < 0.4
+    # the figure docs/validation.md prints, to its digits
+    assert engine == pytest.approx(7.11e-3, abs=5e-6)
+    low, high = ITF_FORWARD_DEFORMATION
+    assert low <= engine <= high
+
+
+def test_tennis_ball_is_the_itfs_and_its_rubber_the_abaqus_examples():
+    # the ITF's mass (56.0-59.4 g) and diameter (65.4-68.6 mm); the felt 20 % of the ITF's
+    # middle mass (Artengo); the core's rubber the small-strain E and nu of the Mooney-Rivlin
+    # rubber of the Abaqus example (C10 0.690 MPa, C01 0.173 MPa, D1 0.0145 1/MPa), to the
+    # preset's printed digits
+    ball = load_preset("tennis-ball-on-concrete").ball
+    assert 0.056 <= ball.mass <= 0.0594
+    assert 0.0654 <= 2.0 * ball.radius <= 0.0686
+    assert ball.cover_mass == pytest.approx(0.2 * 0.0577, abs=5e-6)
+    mu, bulk = 2.0 * (0.690e6 + 0.173e6), 2.0 / 0.0145e-6
+    young = 9.0 * bulk * mu / (3.0 * bulk + mu)
+    poisson = (3.0 * bulk - 2.0 * mu) / (2.0 * (3.0 * bulk + mu))
+    assert ball.material.young == pytest.approx(young, abs=50.0)
+    assert ball.material.poisson == pytest.approx(poisson, abs=5e-5)
+
+
+def test_a_cover_carries_mass_and_size_but_no_force():
+    # the felt sets the ball's radius and adds its mass; the shell law is the bare shell's
+    # of the shell's radius R_s = R - c (docs/physics.md, "Hollow balls")
+    bare = HollowBall("rubber", 0.0305, thickness=4e-3, pressure=8e4)
+    felted = HollowBall(
+        "rubber", 0.0335, thickness=4e-3, pressure=8e4, cover_thickness=3e-3, cover_mass=0.01
+    )
+    assert felted.shell_radius == pytest.approx(0.0305, rel=1e-15)
+    assert felted.mass == pytest.approx(bare.mass + 0.01, rel=1e-14)
+    a, b = shell_law(bare), shell_law(felted)
+    assert (b.reissner_stiffness, b.pogorelov_constant, b.gas_stiffness) == pytest.approx(
+        (a.reissner_stiffness, a.pogorelov_constant, a.gas_stiffness), rel=1e-14
+    )
+    with pytest.raises(synth.ParameterError, match=r"ball\.cover_thickness=0\.02 must be in"):
+        HollowBall("rubber", 0.04, thickness=4e-3, cover_thickness=0.02)
+    with pytest.raises(synth.ParameterError, match=r"ball\.cover_mass=-0\.001 must be in"):
+        HollowBall("rubber", 0.04, thickness=4e-3, cover_mass=-0.001)
+    # the wall: at most half the shell's radius (0.025 m here)
+    with pytest.raises(synth.ParameterError, match=r"ball\.thickness=0\.013 must be in"):
+        HollowBall("rubber", 0.04, thickness=0.013, cover_thickness=0.015)
