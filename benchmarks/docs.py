@@ -69,6 +69,8 @@ def materials_page() -> str:
         + materials.table_markdown()
         + "\n"
         + contact_losses_section()
+        + "\n"
+        + tennis_ball_section()
     )
 
 
@@ -137,6 +139,113 @@ def contact_losses_section() -> str:
         "impedance plate, the measured surface (computed by `python -m benchmarks.docs`):\n\n"
         + "\n".join(lines)
         + "\n"
+    )
+
+
+#: The tennis ball's maker's page (Artengo, Decathlon's tennis brand): "Core : rubber, around
+#: 4mm thick. Pressure : pressurised to around 0.8 bar. ... Felt : ... The felt cover
+#: represents 20% of the weight of the ball (it is around 3mm thick)."
+_ARTENGO = (
+    "Artengo (Decathlon), 'Discover the composition and specific characteristics of the "
+    "Artengo pressure ball', www.artengo.com/tennis-ball"
+)
+#: The Mooney-Rivlin rubber of the tennis ball of the Abaqus manual's example (Abaqus/Explicit
+#: Example Problems Manual, "Tennis racket and ball", section 2.1.5 in version 6.6): C10, C01
+#: (Pa), D1 (1/Pa), and its density (kg/m^3).
+ABAQUS_TENNIS_RUBBER = (0.690e6, 0.173e6, 0.0145e-6, 1068.0)
+
+
+def mooney_rivlin_small_strain(c10: float, c01: float, d1: float) -> tuple[float, float]:
+    """Young's modulus (Pa) and Poisson's ratio at small strain of a compressible
+    Mooney-Rivlin rubber (``c10``, ``c01`` in Pa, ``d1`` in 1/Pa): ``mu0 = 2 (C10 + C01)``,
+    ``K0 = 2 / D1``, ``E = 9 K0 mu0 / (3 K0 + mu0)``, ``nu = (3 K0 - 2 mu0) / (2 (3 K0 +
+    mu0))``."""
+    mu, bulk = 2.0 * (c10 + c01), 2.0 / d1
+    return 9.0 * bulk * mu / (3.0 * bulk + mu), (3.0 * bulk - 2.0 * mu) / (2.0 * (3.0 * bulk + mu))
+
+
+def tennis_ball_section() -> str:
+    """The "The tennis ball" section of docs/materials.md: the preset's construction, each
+    value with its source, and the masses the other published values would give."""
+    import dataclasses
+
+    from synth.io.presets import load_preset
+    from synth.physics.scene import HollowBall
+
+    ball = load_preset("tennis-ball-on-concrete").ball
+    young, poisson = mooney_rivlin_small_strain(*ABAQUS_TENNIS_RUBBER[:3])
+
+    def mass_with(thickness=ball.thickness, density=ball.material.density) -> float:
+        material = dataclasses.replace(ball.material, density=density)
+        kw = dict(pressure=ball.pressure, cover_thickness=ball.cover_thickness)
+        other = HollowBall(
+            material, ball.radius, thickness=thickness, cover_mass=ball.cover_mass, **kw
+        )
+        return other.mass
+
+    rows = [
+        (
+            "diameter",
+            f"{2e3 * ball.radius:.1f} mm",
+            "ITF Rules of Tennis, Appendix I: 65.41-68.58 mm",
+        ),
+        (
+            "mass (derived)",
+            f"{1e3 * ball.mass:.1f} g",
+            "ITF Rules of Tennis, Appendix I: 56.0-59.4 g",
+        ),
+        ("core's wall", f"{1e3 * ball.thickness:g} mm", f"{_ARTENGO}: 'around 4mm thick'"),
+        (
+            "felt's thickness",
+            f"{1e3 * ball.cover_thickness:g} mm",
+            f"{_ARTENGO}: 'around 3mm thick'",
+        ),
+        (
+            "felt's mass",
+            f"{1e3 * ball.cover_mass:.2f} g",
+            f"{_ARTENGO}: '20% of the weight of the ball', of the middle of the ITF's "
+            "range of masses",
+        ),
+        ("gauge pressure", f"{1e-3 * ball.pressure:g} kPa", f"{_ARTENGO}: 'around 0.8 bar'"),
+        (
+            "core rubber's E, nu",
+            f"{1e-6 * ball.material.young:.3f} MPa, {ball.material.poisson:.4f}",
+            "the small-strain values (closed form above) of the Mooney-Rivlin rubber of the "
+            "Abaqus/Explicit Example Problems Manual, 'Tennis racket and ball' (C10 0.690 MPa, "
+            f"C01 0.173 MPa, D1 0.0145 1/MPa: {1e-6 * young:.3f} MPa, {poisson:.4f})",
+        ),
+        ("core rubber's density", f"{ball.material.density:g} kg/m^3", "the table's rubber row"),
+        ("core rubber's loss factor", f"{ball.material.damping.eta:g}", "the table's rubber row"),
+    ]
+    lines = ["| quantity | value | source |", "|---|---|---|"]
+    lines += [f"| {q} | {v} | {src} |" for q, v, src in rows]
+    return (
+        "## The tennis ball\n\n"
+        "The preset `tennis-ball-on-concrete` is a `HollowBall` built from a tennis ball's "
+        "construction: a pressurised rubber core (the shell of the contact law) under a felt "
+        "(the ball's cover: its thickness and mass, no force). No value is fitted to the "
+        "ITF's tests, which validate it (docs/validation.md, \"Hollow balls\"). The core's "
+        "modulus is the small-strain modulus of a compressible Mooney-Rivlin rubber, "
+        "`mu0 = 2 (C10 + C01)`, `K0 = 2 / D1`, `E = 9 K0 mu0 / (3 K0 + mu0)`, "
+        "`nu = (3 K0 - 2 mu0) / (2 (3 K0 + mu0))` (computed by `python -m benchmarks.docs`):\n\n"
+        + "\n".join(lines)
+        + "\n\n"
+        "Other published values, and why they are not taken: a wall of 'about 3 mm' (the "
+        "rubber and the cloth cover each, an unattributed answer to 'How thick is the rubber "
+        "of a tennis ball?', cscart.konouzeg.com/how-thick-is-the-rubber-of-a-tennis-ball.html) "
+        f"would make the ball {1e3 * mass_with(thickness=3e-3):.2f} g; the Abaqus example's "
+        f"own density, {ABAQUS_TENNIS_RUBBER[3]:g} kg/m^3, {1e3 * mass_with(density=ABAQUS_TENNIS_RUBBER[3]):.2f} g: "
+        "both below the ITF's 56.0 g. The example's 41 kPa (6 psi) is its own choice; the "
+        "commonly given 12 psi (83 kPa) agrees with the maker's 0.8 bar to 4 %. Not read: a "
+        "tennis core compound's own density and loss factor (natural rubber, 'generally used' for "
+        "the core, the same answer; the table's neoprene row stands in), and its modulus at an impact's strain rates "
+        "(up to 500-800 per second: 'Measurement of strain and strain rate during the impact "
+        "of tennis ball cores', Appl. Sci. 8 (2018) 371, which notes that elastomers stiffen "
+        "as the rate rises). "
+        "Left out: the felt's compression and loss, which Cross measures in the first rise of "
+        "the force ('compression of the cloth cover and the rubber wall near the impact "
+        "point', R. Cross, 'Dynamic properties of tennis balls', Sports Engineering 2 (1999) "
+        "23); no law of it has been read.\n"
     )
 
 

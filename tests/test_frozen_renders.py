@@ -50,7 +50,7 @@ UNSTABLE_ANALYSIS = {
     # 13 of 23 onsets move, the first by 44 us and others by up to 149 us
     "thesis-glass17-mdf12": "the analysis' onsets move with the rounding of other versions",
     # at the lowest dependency versions the tennis ball's render stays within 1e-6 and its
-    # first onset moves by 43 us, 24 of 89 ticks by more than 100 ns
+    # onsets move by tens of us
     "tennis-ball-on-concrete": "the analysis' onsets move with the rounding of other versions",
     # the last of 11 ticks, at the end of a chatter of 0.5 ms flights, moves by 1.2 us
     # and 119 us (the true onsets 16.6 us and 101 us away) with rounding-level changes of

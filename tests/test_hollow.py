@@ -10,6 +10,7 @@ import pytest
 
 import synth
 from benchmarks.hollow import RULE_BOOK_TESTS, format_hollow, rule_book_row
+from synth.constants import AIR_DENSITY
 from synth.io.presets import PresetError, load_preset, scene_from_dict
 from synth.physics.contact import ContactSolver, solve_impact
 from synth.physics.contact_law import POGORELOV_CONSTANT, shell_law
@@ -167,44 +168,104 @@ def test_preset_ball_kind():
 
 
 #: The rule books' bounce tests: every hollow ball of the presets rebounds above the rule
-#: book's range, because the shell's published loss factor is the only loss in the engine (a
-#: real ball also loses energy to its shell's ringing, its air and, for tennis, its felt;
-#: docs/physics.md, "Hollow balls"). The engine's rebound (m, as the rule book measures it)
-#: with the tolerance of the solver (rtol 1e-9) and of the printed digits: these figures are
-#: the ones docs/validation.md prints.
+#: book's range, the air's drag on its fall and rise taken in (a published drag coefficient
+#: per ball), because the shell's published loss factor is the only loss of its impact (a
+#: real ball also loses energy to its felt (tennis), its wall's ringing and its seams;
+#: docs/physics.md, "Hollow balls"). The engine's rebound (m, as the rule book measures it,
+#: through the air) and without the air's drag, with the tolerance of the solver (rtol 1e-9)
+#: and of the printed digits: these figures are the ones docs/validation.md prints.
 ENGINE_REBOUND = {
-    "table-tennis-ball-on-table": 0.287,
-    "tennis-ball-on-concrete": 2.242,
-    "basketball-on-wooden-floor": 1.744,
+    "table-tennis-ball-on-table": (0.267, 0.287),
+    "tennis-ball-on-concrete": (2.214, 2.416),
+    "basketball-on-wooden-floor": (1.641, 1.744),
 }
 
 
 @pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
 def test_rule_book_bounce_is_missed_high(test):
     row = rule_book_row(test)
-    assert row.rebound == pytest.approx(ENGINE_REBOUND[test.preset], abs=5e-4)
+    in_air, in_vacuum = ENGINE_REBOUND[test.preset]
+    assert row.rebound == pytest.approx(in_air, abs=5e-4)
+    assert row.rebound_in_vacuum == pytest.approx(in_vacuum, abs=5e-4)
     # the miss, asserted as one: above the range's upper end
     assert row.rebound > test.rebound_high
     assert row.error > 0.0
 
 
-def test_tennis_contact_time_is_missed_short():
+def _flight_with_drag(v_t, up_speed=None, height=None, step=1e-5):
+    """RK4 of ``dv/dt = -g - g v |v| / v_t^2`` (quadratic drag against the motion) and
+    ``dz/dt = v``: thrown up at ``up_speed`` (m/s), the height reached (m); released from rest
+    at ``height`` (m), the speed at the ground (m/s). The crossing is interpolated linearly
+    within the last step (its error is far below the test's tolerance)."""
+    g = 9.81
+
+    def rate(state):
+        v = state[1]
+        return np.array([v, -g - g * v * abs(v) / v_t**2])
+
+    up = up_speed is not None
+    state = np.array([0.0, up_speed]) if up else np.array([height, 0.0])
+    i = 1 if up else 0  # the component that crosses 0 at the end
+    last = state
+    while state[i] > 0.0 or state is last:
+        k1 = rate(state)
+        k2 = rate(state + 0.5 * step * k1)
+        k3 = rate(state + 0.5 * step * k2)
+        k4 = rate(state + step * k3)
+        last, state = state, state + step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    w = last[i] / (last[i] - state[i])
+    end = last + w * (state - last)
+    return end[0] if up else abs(end[1])
+
+
+def test_flights_through_the_air_are_the_closed_forms():
+    # the rule books measure heights in air: the fall's speed and the rise's height with
+    # quadratic drag against a direct integration, and their limits without drag
+    from benchmarks.hollow import fall_speed, rise_height, terminal_speed
+
+    v_t = terminal_speed(0.0027, 0.02, 0.445)
+    # m g = rho C_D pi R^2 v_t^2 / 2 at the terminal speed
+    drag = 0.5 * AIR_DENSITY * 0.445 * math.pi * 0.02**2 * v_t**2
+    assert drag == pytest.approx(0.0027 * 9.81, rel=1e-14)
+    assert fall_speed(0.305, v_t) == pytest.approx(_flight_with_drag(v_t, height=0.305), rel=1e-6)
+    assert rise_height(2.3, v_t) == pytest.approx(_flight_with_drag(v_t, up_speed=2.3), rel=1e-6)
+    # without drag (v_t -> infinity): sqrt(2 g h) and v^2 / (2 g)
+    assert fall_speed(0.305, 1e6) == pytest.approx(math.sqrt(2.0 * 9.81 * 0.305), rel=1e-9)
+    assert rise_height(2.3, 1e6) == pytest.approx(2.3**2 / (2.0 * 9.81), rel=1e-9)
+
+
+def test_table_tennis_rebound_over_the_shells_published_loss_range():
+    # ABS's published loss factors, 0.0138-0.0446 (Granta MaterialUniverse), move the table
+    # tennis ball's rebound through the air across the ITTF's range (0.24-0.26 m): the
+    # table's 0.02 is near the range's lively end. Figures as docs/validation.md prints them
+    from benchmarks.hollow import rebounds_over_loss_range
+
+    (test,) = [t for t in RULE_BOOK_TESTS if t.preset == "table-tennis-ball-on-table"]
+    most, least = rebounds_over_loss_range(test)
+    assert (least, most) == pytest.approx((0.248, 0.272), abs=5e-4)
+    assert least < test.rebound_high and most > test.rebound_high
+    assert least < rule_book_row(test).rebound < most
+
+
+def test_tennis_contact_time_is_brodys():
     # Brody: a tennis ball is in contact with a court for "five milliseconds" in play; the
-    # engine's pulse in the ITF drop test is about half of it: a miss, asserted as one (the
-    # speeds differ, and its cause is not established: docs/validation.md, "Hollow balls")
+    # engine's pulse in the ITF drop test is within that one-figure value's rounding
+    # (4.5-5.5 ms), its construction from its sources (docs/materials.md, "The tennis ball")
     (test,) = [t for t in RULE_BOOK_TESTS if t.preset == "tennis-ball-on-concrete"]
     row = rule_book_row(test)
     assert test.contact_time == 5e-3
     assert row.contact_time_error == pytest.approx(row.contact_time / 5e-3 - 1.0)
-    assert -0.6 < row.contact_time_error < -0.4
+    assert abs(row.contact_time_error) < 0.1
     others = [rule_book_row(t) for t in RULE_BOOK_TESTS if t is not test]
     assert all(r.contact_time_error is None for r in others)
 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="the shells' published loss factors alone leave the balls too lively: the "
-    "shell's ringing, the air and the felt are not in the engine (docs/validation.md)",
+    reason="the shells' published loss factors alone leave the balls too lively, the air's "
+    "drag taken in: the felt's loss (tennis), the wall's ringing and the seams are not in "
+    "the engine, and the tennis ball's gas, most of its stiffness, is lossless "
+    "(docs/validation.md)",
 )
 @pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
 def test_rule_book_bounce_inside_range(test):
@@ -301,3 +362,62 @@ def test_a_shell_result_keeps_its_class_with_another_message():
     copy = with_message(r, "another message")
     assert type(copy) is type(r) and copy.message == "another message"
     np.testing.assert_array_equal(copy.force, r.force)
+
+
+def test_tennis_ball_passes_the_itfs_static_test():
+    # the ITF's forward deformation (80.1 N along a diameter): 5.59-7.37 mm. The engine's
+    # ball, built from its sources and not fitted to this test, shortens inside it
+    from benchmarks.hollow import (
+        ITF_DEFORMATION_LOAD,
+        ITF_FORWARD_DEFORMATION,
+        static_compression,
+    )
+
+    ball = load_preset("tennis-ball-on-concrete").ball
+    law = shell_law(ball)
+    engine = static_compression(ball, ITF_DEFORMATION_LOAD)
+    # below the transition the law is linear: 2 F / k0
+    assert engine / 2.0 < law.transition
+    assert engine == pytest.approx(2.0 * ITF_DEFORMATION_LOAD / law.stiffness, rel=1e-12)
+    # the figure docs/validation.md prints, to its digits
+    assert engine == pytest.approx(7.11e-3, abs=5e-6)
+    low, high = ITF_FORWARD_DEFORMATION
+    assert low <= engine <= high
+
+
+def test_tennis_ball_is_the_itfs_and_its_rubber_the_abaqus_examples():
+    # the ITF's mass (56.0-59.4 g) and diameter (65.4-68.6 mm); the felt 20 % of the ITF's
+    # middle mass (Artengo); the core's rubber the small-strain E and nu of the Mooney-Rivlin
+    # rubber of the Abaqus example (C10 0.690 MPa, C01 0.173 MPa, D1 0.0145 1/MPa), to the
+    # preset's printed digits
+    ball = load_preset("tennis-ball-on-concrete").ball
+    assert 0.056 <= ball.mass <= 0.0594
+    assert 0.0654 <= 2.0 * ball.radius <= 0.0686
+    assert ball.cover_mass == pytest.approx(0.2 * 0.0577, abs=5e-6)
+    mu, bulk = 2.0 * (0.690e6 + 0.173e6), 2.0 / 0.0145e-6
+    young = 9.0 * bulk * mu / (3.0 * bulk + mu)
+    poisson = (3.0 * bulk - 2.0 * mu) / (2.0 * (3.0 * bulk + mu))
+    assert ball.material.young == pytest.approx(young, abs=50.0)
+    assert ball.material.poisson == pytest.approx(poisson, abs=5e-5)
+
+
+def test_a_cover_carries_mass_and_size_but_no_force():
+    # the felt sets the ball's radius and adds its mass; the shell law is the bare shell's
+    # of the shell's radius R_s = R - c (docs/physics.md, "Hollow balls")
+    bare = HollowBall("rubber", 0.0305, thickness=4e-3, pressure=8e4)
+    felted = HollowBall(
+        "rubber", 0.0335, thickness=4e-3, pressure=8e4, cover_thickness=3e-3, cover_mass=0.01
+    )
+    assert felted.shell_radius == pytest.approx(0.0305, rel=1e-15)
+    assert felted.mass == pytest.approx(bare.mass + 0.01, rel=1e-14)
+    a, b = shell_law(bare), shell_law(felted)
+    assert (b.reissner_stiffness, b.pogorelov_constant, b.gas_stiffness) == pytest.approx(
+        (a.reissner_stiffness, a.pogorelov_constant, a.gas_stiffness), rel=1e-14
+    )
+    with pytest.raises(synth.ParameterError, match=r"ball\.cover_thickness=0\.02 must be in"):
+        HollowBall("rubber", 0.04, thickness=4e-3, cover_thickness=0.02)
+    with pytest.raises(synth.ParameterError, match=r"ball\.cover_mass=-0\.001 must be in"):
+        HollowBall("rubber", 0.04, thickness=4e-3, cover_mass=-0.001)
+    # the wall: at most half the shell's radius (0.025 m here)
+    with pytest.raises(synth.ParameterError, match=r"ball\.thickness=0\.013 must be in"):
+        HollowBall("rubber", 0.04, thickness=0.013, cover_thickness=0.015)

@@ -19,6 +19,8 @@ drift apart), and those of ``[render]`` the options of :func:`synth.render`
                                     # "Hollow balls"; its mass is derived, never given)
     thickness = 5.2e-4              # m, the shell's wall (kind = "hollow" only)
     pressure = 0.0                  # Pa above the atmosphere (kind = "hollow" only)
+    cover_thickness = 0.0           # m, a cover outside the shell, e.g. felt (hollow only)
+    cover_mass = 0.0                # kg, the cover's mass (kind = "hollow" only)
 
     [plate]
     material = "mdf-18"             # a table name or an inline table (damping: to render)
@@ -135,7 +137,7 @@ def _fields(cls):
 #: Keys allowed in each section. Ball, plate and contact keys are the dataclass fields.
 #: The kinds of ball a preset's ``ball.kind`` names: a solid sphere (the default) or a
 #: hollow one (a thin shell with gas inside, :class:`~synth.physics.scene.HollowBall`, whose
-#: keys ``thickness`` and ``pressure`` apply to it only).
+#: keys ``thickness``, ``pressure``, ``cover_thickness`` and ``cover_mass`` apply to it only).
 BALL_KINDS = {"solid": Ball, "hollow": HollowBall}
 SECTIONS = {
     "ball": _fields(HollowBall) + ("kind",),
@@ -470,7 +472,7 @@ def _ball_class(section: dict, source: str):
             f"{source}: ball.kind={kind!r} must be one of {', '.join(map(repr, BALL_KINDS))}"
         )
     if kind == "solid":
-        for key in ("thickness", "pressure"):
+        for key in ("thickness", "pressure", "cover_thickness", "cover_mass"):
             if key in section:
                 raise PresetError(
                     f"{source}: ball.{key}={section[key]!r} applies to ball.kind='hollow' only"

@@ -128,13 +128,13 @@ def reissner_stiffness(ball: HollowBall) -> float:
     """``k_R = 4 E h^2 / (R sqrt(3 (1 - nu^2)))`` (N/m): E. Reissner, "Stresses and small
     displacements of shallow spherical shells", J. Math. Phys. 25 (1946) 80 and 279 (the
     point load on a spherical shell)."""
-    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.radius
+    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.shell_radius
     return 4.0 * E * h * h / (R * math.sqrt(3.0 * (1.0 - nu * nu)))
 
 
 def pogorelov_constant(ball: HollowBall) -> float:
     """``C_P = 3.56 E h^(5/2) / (R (1 - nu^2)^(3/4))`` (N/m^(1/2)), :data:`POGORELOV_CONSTANT`."""
-    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.radius
+    E, nu, h, R = ball.material.young, ball.material.poisson, ball.thickness, ball.shell_radius
     return POGORELOV_CONSTANT * E * h**2.5 / (R * (1.0 - nu * nu) ** 0.75)
 
 
@@ -148,7 +148,7 @@ def shell_law(ball: HollowBall) -> ShellLaw:
     the material's ``eta`` (:func:`material_loss_factor`): ``A = eta / omega_c``."""
     kR = reissner_stiffness(ball)
     cP = pogorelov_constant(ball)
-    kg = 2.0 * math.pi * ball.radius * ball.pressure
+    kg = 2.0 * math.pi * ball.shell_radius * ball.pressure
     omega = math.sqrt((kR + kg) / ball.mass)
     A = _contact_loss_factor(ball, "ball", omega) / omega
     return ShellLaw(kR, cP, kg, A)

@@ -121,14 +121,24 @@ class HollowBall(Ball):
     pressure : float in [0, 1e6]
         Gauge pressure of the gas inside (above one standard atmosphere), Pa (keyword only;
         0: an unpressurised ball such as a table-tennis ball).
+    cover_thickness : float in [0, radius / 2)
+        Thickness of a cover outside the shell (a tennis ball's felt), m (keyword only; 0:
+        none). The shell's outer radius is ``R_s = radius - cover_thickness``; the cover
+        carries the ball's mass and size but no force of the contact (docs/physics.md,
+        "Hollow balls").
+    cover_mass : float in [0, 1000]
+        The cover's mass, kg (keyword only; 0 without a cover).
 
-    The mass (kg) is derived, never given: the shell's ``rho 4/3 pi (R^3 - (R - h)^3)`` plus
-    the air inside at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas).
+    The mass (kg) is derived, never given: the shell's ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``
+    plus the air inside at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas)
+    plus the cover's mass.
     """
 
     _: KW_ONLY
     thickness: float | None = None
     pressure: float = 0.0
+    cover_thickness: float = 0.0
+    cover_mass: float = 0.0
 
     def __post_init__(self):
         if self.mass is not None:
@@ -144,18 +154,29 @@ class HollowBall(Ball):
             "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
             lo_open=False, hi_open=False,
         )  # fmt: skip
+        c = checks.in_range(
+            "ball.cover_thickness", self.cover_thickness, 0.0, 0.5 * R,
+            "metres (below half the radius)", lo_open=False,
+        )  # fmt: skip
         h = checks.in_range(
-            "ball.thickness", self.thickness, 0.0, 0.5 * R, "metres (at most half the radius)",
+            "ball.thickness", self.thickness, 0.0, 0.5 * (R - c),
+            "metres (at most half the shell's radius, ball.radius - ball.cover_thickness)",
             hi_open=False,
         )  # fmt: skip
         p = checks.in_range(
             "ball.pressure", self.pressure, 0.0, MAX_GAUGE_PRESSURE, "Pa (gauge)",
             lo_open=False, hi_open=False,
         )  # fmt: skip
+        cover = checks.in_range(
+            "ball.cover_mass", self.cover_mass, 0.0, MAX_BALL_MASS, "kg",
+            lo_open=False, hi_open=False,
+        )  # fmt: skip
         object.__setattr__(self, "radius", R)
         object.__setattr__(self, "thickness", h)
         object.__setattr__(self, "pressure", p)
-        m = self.shell_mass + self.gas_mass
+        object.__setattr__(self, "cover_thickness", c)
+        object.__setattr__(self, "cover_mass", cover)
+        m = self.shell_mass + self.gas_mass + cover
         if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
             raise ParameterError(
                 f"ball.mass={m:.4g} kg (from ball.radius={R!r} m, ball.thickness={h!r} m) must "
@@ -164,14 +185,20 @@ class HollowBall(Ball):
         object.__setattr__(self, "mass", m)
 
     @property
+    def shell_radius(self) -> float:
+        """``R_s = R - cover_thickness``, the shell's outer radius, m."""
+        return self.radius - self.cover_thickness
+
+    @property
     def inner_radius(self) -> float:
-        """``R - h``, m."""
-        return self.radius - self.thickness
+        """``R_s - h``, m."""
+        return self.shell_radius - self.thickness
 
     @property
     def shell_mass(self) -> float:
         """Mass of the shell, kg."""
-        return self.material.density * 4.0 / 3.0 * math.pi * (self.radius**3 - self.inner_radius**3)
+        outer, inner = self.shell_radius, self.inner_radius
+        return self.material.density * 4.0 / 3.0 * math.pi * (outer**3 - inner**3)
 
     @property
     def gas_mass(self) -> float:
