@@ -85,7 +85,7 @@ def _cmd_alter(args):
             audio, fs, gravity=args.gravity, channel=channel, min_separation=args.min_separation
         ).ticks
     ]
-    out, t_new, e, e_new = alter_restitution(
+    altered = alter_restitution(
         audio,
         fs,
         args.restitution_scale,
@@ -95,6 +95,8 @@ def _cmd_alter(args):
         min_bounce=args.min_bounce,
         normalize=args.normalize,
     )
+    out, t_new = altered.audio, altered.onsets
+    e, e_new = altered.restitution, altered.new_restitution
     peak = float(np.max(np.abs(out)))
     subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
     if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:

@@ -98,33 +98,10 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise spec_error("description", description, "must be a string")
-    vary = data.get("vary", {})
-    if not isinstance(vary, dict):
-        raise spec_error("vary", vary, "must be a table of axes")
     base_raw = presets.read(preset_path)
     sampling = data.get("sampling", "random")
-    if sampling not in SAMPLINGS:
-        raise spec_error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
-    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
-    if sampling == "grid":
-        if count is not None:
-            raise spec_error("count", count, "must be left out with sampling = 'grid'")
-        axes = tuple(grid_axis(a) for a in axes)
-    elif any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
-        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
-    render_section = data.get("render", {})
-    if not isinstance(render_section, dict):
-        raise spec_error("render", render_section, "must be a table of render options")
-    base = dict(base_raw)
-    base["render"] = {
-        **RENDER_DEFAULTS,
-        **base_raw.get("render", {}),
-        **render_section,
-    }
-    try:
-        _, options = presets.scene_from_dict(base, str(preset_path))
-    except ParameterError as exc:
-        raise BankSpecError(str(exc)) from None
+    axes = _axes(data.get("vary", {}), sampling, count, base_raw)
+    base, options = _base(base_raw, data.get("render", {}), preset_path)
     subtype = options.pop("subtype", FORMATS[fmt][2]).upper()
     _check_subtype(fmt, subtype)
     name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
@@ -152,6 +129,41 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     )
     check_template(spec)
     return spec
+
+
+def _axes(vary, sampling, count, base_raw: dict) -> tuple:
+    """The checked axes of the ``[vary]`` table over the preset dict ``base_raw``, made
+    grids with ``sampling = "grid"``."""
+    if not isinstance(vary, dict):
+        raise spec_error("vary", vary, "must be a table of axes")
+    if sampling not in SAMPLINGS:
+        raise spec_error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
+    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    if sampling == "grid":
+        if count is not None:
+            raise spec_error("count", count, "must be left out with sampling = 'grid'")
+        return tuple(grid_axis(a) for a in axes)
+    if any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
+        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
+    return axes
+
+
+def _base(base_raw: dict, render_section, preset_path) -> tuple[dict, dict]:
+    """The preset dict with the spec's ``[render]`` table over the preset's (and the bank's
+    defaults under both), and its checked render options (with ``subtype`` if named)."""
+    if not isinstance(render_section, dict):
+        raise spec_error("render", render_section, "must be a table of render options")
+    base = dict(base_raw)
+    base["render"] = {
+        **RENDER_DEFAULTS,
+        **base_raw.get("render", {}),
+        **render_section,
+    }
+    try:
+        _, options = presets.scene_from_dict(base, str(preset_path))
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    return base, options
 
 
 def _trim(value) -> dict | None:
