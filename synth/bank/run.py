@@ -683,20 +683,8 @@ def _run(
             if res.row["index"] in recorded:  # a second attempt of a row (a lost worker's)
                 continue
             recorded.add(res.row["index"])
-            try:
-                book.append(res.row)
-            except OSError as exc:
-                result.stopped = (
-                    f"cannot append to the manifest: {exc}; the finished rows "
-                    f"are kept: run again to resume"
-                )
+            if not _record(res.row, book, rows, result):
                 break
-            rows.append(res.row)
-            if res.row["status"] == "ok":
-                result.done += 1
-            else:
-                result.failed += 1
-                result.failures.append((res.row["index"], res.row.get("error")))
             if bar is not None:
                 bar.update()
     finally:
@@ -715,3 +703,23 @@ def _run(
     result.rendering = t_rows - t_start - result.startup
     result.finishing = time.perf_counter() - t_rows
     return result
+
+
+def _record(row: dict, book, rows: list, result: BankResult) -> bool:
+    """Append a finished ``row`` to the manifest ``book``, to ``rows`` and to the counts of
+    ``result``; False when the manifest cannot take it (``result.stopped`` says why: the
+    run stops, the rows finished before are kept)."""
+    try:
+        book.append(row)
+    except OSError as exc:
+        result.stopped = (
+            f"cannot append to the manifest: {exc}; the finished rows are kept: run again to resume"
+        )
+        return False
+    rows.append(row)
+    if row["status"] == "ok":
+        result.done += 1
+    else:
+        result.failed += 1
+        result.failures.append((row["index"], row.get("error")))
+    return True
