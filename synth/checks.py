@@ -8,6 +8,7 @@ message such as ``plate.thickness=-0.002 must be > 0 (metres)``.
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from collections.abc import Iterable
@@ -98,6 +99,14 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     if value not in allowed:
         raise ParameterError(f"{name}={value!r} must be one of {', '.join(map(repr, allowed))}")
     return value
+
+
+def did_you_mean(name: str, allowed: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` naming the allowed word nearest to a misspelt ``name``
+    (by :func:`difflib.get_close_matches`), or ``""`` when none is near: the hint of an
+    unknown key's message."""
+    near = difflib.get_close_matches(name, list(allowed), n=1)
+    return f" (did you mean {near[0]!r}?)" if near else ""
 
 
 def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:

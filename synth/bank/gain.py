@@ -91,10 +91,7 @@ class GainResult:
             f"{'' if self.reached is None else f', reached {self.reached:.3f}'}); "
             f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
         )
-        if self.renamed:
-            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
-        if self.orphans:
-            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
+        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
         return text
 
 

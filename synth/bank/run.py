@@ -170,10 +170,7 @@ class BankResult:
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
             f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
         )
-        if self.renamed:
-            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
-        if self.orphans:
-            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
+        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:

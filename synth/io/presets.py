@@ -101,6 +101,7 @@ import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
@@ -406,10 +407,9 @@ def _check_keys(section: str, table: dict, allowed, source: str) -> None:
     """Refuse a key of ``[section]`` not in ``allowed``, naming the nearest allowed one."""
     for k in table:
         if k not in allowed:
-            near = difflib.get_close_matches(k, allowed, n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
             raise PresetError(
-                f"{source}: {section}.{k}={table[k]!r} is not a known key{hint}; "
+                f"{source}: {section}.{k}={table[k]!r} is not a known key"
+                f"{checks.did_you_mean(k, allowed)}; "
                 f"allowed: {', '.join(allowed)}"
             )
 

@@ -222,6 +222,12 @@ class BounceOptions:
         mine = {k: v for k, v in options.items() if k in names}
         return mine, {k: v for k, v in options.items() if k not in names}
 
+    def take_off(self, result: ImpactResult, restitution: float, speed: float) -> float:
+        """The ball's speed as it leaves the plate after an impact at ``speed`` (m/s): the
+        physical rebound, or ``e' v`` by the :data:`ReboundRule` (``restitution``, its
+        ``e'``)."""
+        return result.rebound_speed if self.rebound is None else restitution * speed
+
     def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float):
         """Why the series ends after an impact that sends the ball off at ``v_out`` (m/s;
         the first impact at ``v1``), or None: its flight is shorter than the contact, or
@@ -302,7 +308,7 @@ def simulate_bounces(
     v = math.sqrt(2.0 * g * h0)
     v1 = v
     impacts = []
-    reason = "max-impacts"
+    reason = None
     while len(impacts) < o.max_impacts:
         res = solver.solve(v, position=pos)
         e = res.restitution if o.rebound is None else o.rebound(res, v)
@@ -313,17 +319,16 @@ def simulate_bounces(
         if res.settled or e <= 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed if o.rebound is None else e * v
-        ended = o.ended(res, v_out, v1, g)
-        if ended is not None:
-            reason = ended
+        v_out = o.take_off(res, e, v)
+        reason = o.ended(res, v_out, v1, g)
+        if reason is not None:
             break
         t_next = t + res.separation_time + 2.0 * v_out / g
         if t_next > o.max_duration:
             reason = "max-duration"
             break
         t, v = t_next, v_out
-    return BounceSequence(tuple(impacts), reason, h0, g)
+    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
@@ -365,7 +370,7 @@ def _modal_bounces(
     )  # fmt: skip
     state = contact.at_rest()
     impacts = []
-    reason = "max-impacts"
+    reason = None
     while len(impacts) < o.max_impacts:
         res = contact.solve(v, state, n_points=o.n_points)
         e = res.restitution if o.rebound is None else o.rebound(res, v)
@@ -374,10 +379,9 @@ def _modal_bounces(
         if res.settled or ruled == 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed if o.rebound is None else e * v
-        ended = o.ended(res, v_out, v1, g)
-        if ended is not None:
-            reason = ended
+        v_out = o.take_off(res, e, v)
+        reason = o.ended(res, v_out, v1, g)
+        if reason is not None:
             break
         flight, state = modal_contact.next_touch(
             contact, res.ringing, res.ringing.displacement, v_out
@@ -393,7 +397,7 @@ def _modal_bounces(
             reason = "max-duration"
             break
         t, v = t_next, v_next
-    return BounceSequence(tuple(impacts), reason, h0, g)
+    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
 
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:

@@ -13,8 +13,7 @@ Where the numbers come from
 ---------------------------
 * Thesis rows (``mdf-18``, ``mdf-12``, ``mdf-6``, ``steel``, ``glass``): the
   Table 3.1 of the thesis (docs/physics.md, "Materials" and References). The MDF moduli were
-  measured on the
-  three boards; their Rayleigh damping is the fit to the thesis' recordings
+  measured on the three boards; their Rayleigh damping is the fit to the thesis' recordings
   (docs/physics.md, "Materials").
 * Handbook rows: the elastic constants and the loss factor of one printed row
   of one of these tables, unless the row's ``source`` says otherwise:

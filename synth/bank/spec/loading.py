@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth import checks
 from synth.bank.spec.model import (
     FORMATS,
     RENDER_DEFAULTS,
@@ -78,8 +79,7 @@ def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
 def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     for key, value in data.items():
         if key not in TOP_LEVEL:
-            near = difflib.get_close_matches(key, TOP_LEVEL, n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            hint = checks.did_you_mean(key, TOP_LEVEL)
             raise spec_error(
                 key, value, f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}"
             )
@@ -262,10 +262,8 @@ def _axis(key: str, value, base_raw: dict):
     where = f"vary.{key}"
     allowed = _allowed_keys()
     if key not in allowed:
-        near = difflib.get_close_matches(key, allowed, n=1)
-        hint = f" (did you mean {near[0]!r}?)" if near else ""
         raise BankSpecError(
-            f"{where}: {key!r} is not a preset key{hint}; keys are "
+            f"{where}: {key!r} is not a preset key{checks.did_you_mean(key, allowed)}; keys are "
             f"'section.key' as in synth render --set (e.g. drop.height), or "
             f"{RESTITUTION_SCALE}"
         )

@@ -42,9 +42,8 @@ the factors and their derivatives, taken in closed form (each factor is a sum of
 exponentials). This is what splits the degenerate pairs ``(m, n)``, ``(n, m)`` of a square,
 which the corners couple and the method alone leaves equal. A clamped trial alone takes
 its Rayleigh quotient: its shape meets the clamped conditions exactly, so the quotient's
-error is second order in the shape's (measured 5 to 20 times closer to the Ritz
-frequencies than the edge effect value); a free trial alone keeps the edge effect value
-(its quotient, with the free conditions unmet at the corners, was measured no closer).
+error is second order in the shape's; a free trial alone keeps the edge effect value
+(its quotient gains no order: the free conditions are unmet at the corners).
 The step costs a fixed number of operations per mode.
 
 Accuracy. Against the exact (Ritz) solver, frequencies agree within 0.5 % for all but the
