@@ -18,7 +18,7 @@ from synth.errors import ParameterError
 from synth.physics.bounces import BounceSequence, Impact
 from synth.sound.render import render
 from synth.stimuli import alter
-from synth.stimuli.alter import alter_restitution, extend
+from synth.stimuli.alter import AlterOptions, alter_restitution, extend
 
 FS = 48000
 
@@ -414,6 +414,9 @@ def test_channels_are_altered_together(short):
     assert np.array_equal(alter_restitution(X, FS, 0.5, onsets=on).audio, y)
     other = alter_restitution(X, FS, 0.5, onsets=on, seed=7).audio
     assert not np.array_equal(other, y)
+    # the options as an object: the same output as by keyword
+    same = alter_restitution(X, FS, 0.5, onsets=on, options=AlterOptions(seed=7)).audio
+    assert np.array_equal(same, other)
     assert np.max(np.abs(other - y)) < 1e-4 * np.abs(y).max()
 
 
