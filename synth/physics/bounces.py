@@ -228,7 +228,7 @@ class BounceOptions:
         ``e'``)."""
         return result.rebound_speed if self.rebound is None else restitution * speed
 
-    def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float):
+    def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float) -> str | None:
         """Why the series ends after an impact that sends the ball off at ``v_out`` (m/s;
         the first impact at ``v1``), or None: its flight is shorter than the contact, or
         the next impact is below the perceptual floor."""
