@@ -101,12 +101,12 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     return value
 
 
-def did_you_mean(name: str, allowed: Iterable[str]) -> str:
-    """`` (did you mean 'x'?)`` naming the allowed word nearest to a misspelt ``name``
-    (by :func:`difflib.get_close_matches`), or ``""`` when none is near: the hint of an
-    unknown key's message."""
-    near = difflib.get_close_matches(name, list(allowed), n=1)
-    return f" (did you mean {near[0]!r}?)" if near else ""
+def did_you_mean(name: str, allowed: Iterable[str], n: int = 1, cutoff: float = 0.6) -> str:
+    """`` (did you mean 'x'?)`` naming the ``n`` allowed words nearest to a misspelt
+    ``name`` (by :func:`difflib.get_close_matches` with ``cutoff``), or ``""`` when none is
+    near: the hint of an unknown key's or name's message."""
+    near = difflib.get_close_matches(str(name), list(allowed), n=n, cutoff=cutoff)
+    return f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
 
 
 def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:

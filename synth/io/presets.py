@@ -95,7 +95,6 @@ key and value.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import os
 import tomllib
 from pathlib import Path
@@ -205,11 +204,10 @@ def find(name_or_path) -> Path:
     names = available()
     if str(name_or_path) in names:
         return names[str(name_or_path)]
-    near = difflib.get_close_matches(str(name_or_path), names, n=3, cutoff=0.4)
-    hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+    hint = checks.did_you_mean(name_or_path, names, n=3, cutoff=0.4)
     raise PresetError(
-        f"preset={str(name_or_path)!r} is not a file or a known preset{hint} "
-        f"(known: {', '.join(names) or 'none'})"
+        f"preset={str(name_or_path)!r} is not a file or a known preset{hint}; "
+        f"known: {', '.join(names) or 'none'}"
     )
 
 

@@ -56,7 +56,6 @@ value), which overstates the stiffness of a board bent across the grain.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -472,10 +471,9 @@ def get(name: str) -> Material:
     try:
         return TABLE[key]
     except KeyError:
-        near = difflib.get_close_matches(key, TABLE, n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+        hint = checks.did_you_mean(key, TABLE, n=3, cutoff=0.5)
         raise ParameterError(
-            f"material={name!r} is not in the table{hint} (known: {', '.join(names())})"
+            f"material={name!r} is not in the table{hint}; known: {', '.join(names())}"
         ) from None
 
 

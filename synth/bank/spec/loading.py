@@ -4,7 +4,6 @@ checked key by key into a :class:`~synth.bank.spec.model.BankSpec`.
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
@@ -46,8 +45,7 @@ def find(path_or_name) -> Path:
     known = available()
     if str(path_or_name) in known:
         return known[str(path_or_name)]
-    near = difflib.get_close_matches(str(path_or_name), known, n=2, cutoff=0.4)
-    hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+    hint = checks.did_you_mean(path_or_name, known, n=2, cutoff=0.4)
     raise BankSpecError(
         f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
         f"{', '.join(known) or 'none'}"
