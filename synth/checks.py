@@ -114,6 +114,14 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
     return value
 
 
+def did_you_mean(name: str, allowed: Iterable[str], n: int = 1, cutoff: float = 0.6) -> str:
+    """`` (did you mean 'x'?)`` naming the ``n`` allowed words nearest to a misspelt
+    ``name`` (by :func:`difflib.get_close_matches` with ``cutoff``), or ``""`` when none is
+    near: the hint of an unknown key's or name's message."""
+    near = difflib.get_close_matches(str(name), list(allowed), n=n, cutoff=cutoff)
+    return f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+
+
 def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[float, ...]:
     """A tuple of ``dims`` finite floats (a position)."""
     if type(value) is tuple and len(value) == dims:
@@ -258,8 +266,7 @@ def check_names(cls, given, what: str) -> None:
     known = names(cls)
     for name in given:
         if name not in known:
-            near = difflib.get_close_matches(name, known, n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            hint = did_you_mean(name, known)
             raise TypeError(f"{name!r} is not {what}{hint}; options: {', '.join(known)}")
 
 

@@ -18,7 +18,7 @@ from synth.errors import ParameterError
 from synth.physics.bounces import BounceSequence, Impact
 from synth.sound.render import render
 from synth.stimuli import alter
-from synth.stimuli.alter import alter_restitution, extend
+from synth.stimuli.alter import AlterOptions, alter_restitution, extend
 
 FS = 48000
 
@@ -123,11 +123,12 @@ def test_scale_one_returns_the_recording(recording):
     # k = 1 changes nothing: T' = T, and the recording comes back sample for sample, noisy
     # or not, mono or not.
     x, on = recording
-    y, t_new, e, e_new = alter_restitution(x, FS, 1.0, onsets=on)
+    altered = alter_restitution(x, FS, 1.0, onsets=on)
+    y, t_new = altered.audio, altered.onsets
     assert y.shape == x.shape and np.array_equal(y, x)
     assert np.allclose(t_new, on, rtol=0, atol=1e-12)
     xn = np.stack([x, x + noise_for(x, on, 30.0)], axis=1)
-    assert np.array_equal(alter_restitution(xn, FS, 1.0, onsets=on)[0], xn)
+    assert np.array_equal(alter_restitution(xn, FS, 1.0, onsets=on).audio, xn)
 
 
 @pytest.mark.parametrize("k", [0.5, 2.0])
@@ -136,7 +137,8 @@ def test_new_timing_follows_the_rule(short, k):
     # k = 2 ends the series at the first new bounce shorter than the shortest recorded one
     # (93 ms here): 5 of the 10 ticks.
     x, on = short
-    y, t_new, e, e_new = alter_restitution(x, FS, k, onsets=on)
+    altered = alter_restitution(x, FS, k, onsets=on)
+    t_new, e, e_new = altered.onsets, altered.restitution, altered.new_restitution
     T, Tn = np.diff(on), np.diff(t_new)
     assert np.allclose(e, T[1:] / T[:-1], rtol=1e-12)
     assert Tn == pytest.approx(expected_series(on, k), rel=1e-12)
@@ -168,7 +170,8 @@ def test_no_gap_and_no_click(recording, k, snr, scale):
     x, on = recording
     noise = 0.0 if snr is None else noise_for(x, on, snr)
     xn = x + noise
-    y, t_new, _, _ = alter_restitution(xn, FS, k, onsets=on, scale_amplitude=scale)
+    altered = alter_restitution(xn, FS, k, onsets=on, scale_amplitude=scale)
+    y, t_new = altered.audio, altered.onsets
     c1 = int(round((on[1] - alter.LEAD) * FS))
     assert np.array_equal(y[:c1], xn[:c1])
     n = FS // 1000
@@ -199,7 +202,8 @@ def test_background_noise_is_kept_in_lengthened_bounces(recording):
     T = np.diff(on)
     for snr, kind in ((30.0, "white"), (20.0, "white"), (20.0, "pink")):
         noise = noise_for(x, on, snr, kind)
-        y, t_new, _, _ = alter_restitution(x + noise, FS, 0.3, onsets=on)
+        altered = alter_restitution(x + noise, FS, 0.3, onsets=on)
+        y, t_new = altered.audio, altered.onsets
         floor = noise.std()
         own = db(frame_rms(noise, FS // 100) / floor)
         tol = 3.0 if kind == "white" else 1.0 - own.min()
@@ -236,7 +240,8 @@ def test_deader_ball_ends_its_series(recording, k, kept):
     # 10 ms before the final fade within 6 dB of it; measured within 2.7 dB).
     x, on = recording
     for scale in (True, False):
-        y, t_new, _, _ = alter_restitution(x, FS, k, onsets=on, scale_amplitude=scale)
+        altered = alter_restitution(x, FS, k, onsets=on, scale_amplitude=scale)
+        y, t_new = altered.audio, altered.onsets
         assert t_new.size == kept
         assert np.diff(t_new).min() >= np.diff(on).min() * (1 - 1e-9)
         assert np.diff(t_new) == pytest.approx(expected_series(on, k), rel=1e-12)
@@ -268,7 +273,8 @@ def test_deader_ball_against_the_rendered_relaying(scene):
     r = render(scene, samplerate=FS, sequence=full, normalize="none")
     x, on = r.audio.astype(float), r.onsets
     release = full[0].time - on[0]  # impact times are from the release
-    y, t_new, _, _ = alter_restitution(x, FS, 2.0, onsets=on)
+    altered = alter_restitution(x, FS, 2.0, onsets=on)
+    y, t_new = altered.audio, altered.onsets
     gain = np.r_[1.0, np.diff(t_new) / np.diff(on)[: t_new.size - 1]]
     n = y.size + FS
     ideal, prev, impacts = np.zeros(n), np.zeros(n), []
@@ -312,7 +318,8 @@ def test_same_alteration_at_any_rate(scene):
         levels = []
         for fs, (up, down) in ((22050, (147, 320)), (44100, (147, 160)), (96000, (2, 1))):
             xr = resample_poly(x, up, down)
-            y, t_new, _, _ = alter_restitution(xr, fs, k, onsets=on)
+            altered = alter_restitution(xr, fs, k, onsets=on)
+            y, t_new = altered.audio, altered.onsets
             before, after = int(round(0.0001 * fs)), int(round(0.001 * fs))
             lags = np.arange(-int(0.0005 * fs), int(0.0005 * fs) + 1)
             for j in range(1, t_new.size):
@@ -351,10 +358,10 @@ def test_normalize_peak(louder_late, tmp_path, capsys):
     # to clip 24-bit PCM (exit 2, nothing written, the hint names --normalize peak); with
     # it the file peaks at -1 dBFS (within 24-bit rounding, 1e-4 dB).
     x, on = louder_late
-    y, *_ = alter_restitution(x, FS, 0.0, onsets=on)
+    y = alter_restitution(x, FS, 0.0, onsets=on).audio
     assert db(np.abs(y).max()) > 3.0
     for target in (-1.0, -3.0):
-        yp, *_ = alter_restitution(x, FS, 0.0, onsets=on, normalize="peak", peak_db=target)
+        yp = alter_restitution(x, FS, 0.0, onsets=on, normalize="peak", peak_db=target).audio
         assert np.abs(yp).max() == pytest.approx(10 ** (target / 20), rel=1e-12)
         assert np.allclose(yp * np.abs(y).max() / np.abs(yp).max(), y, rtol=0, atol=1e-12)
     src, out = tmp_path / "rec.wav", tmp_path / "out.wav"
@@ -400,12 +407,16 @@ def test_channels_are_altered_together(short):
     # render's -90 dB floor: 1e-4 of the peak).
     x, on = short
     X = np.stack([x, 0.5 * x], axis=1)
-    y, t_new, _, _ = alter_restitution(X, FS, 0.5, onsets=on)
+    altered = alter_restitution(X, FS, 0.5, onsets=on)
+    y = altered.audio
     assert y.shape[1] == 2
     assert np.max(np.abs(y[:, 0] - 2 * y[:, 1])) < 1e-4 * np.abs(y).max()
-    assert np.array_equal(alter_restitution(X, FS, 0.5, onsets=on)[0], y)
-    other = alter_restitution(X, FS, 0.5, onsets=on, seed=7)[0]
+    assert np.array_equal(alter_restitution(X, FS, 0.5, onsets=on).audio, y)
+    other = alter_restitution(X, FS, 0.5, onsets=on, seed=7).audio
     assert not np.array_equal(other, y)
+    # the options as an object: the same output as by keyword
+    same = alter_restitution(X, FS, 0.5, onsets=on, options=AlterOptions(seed=7)).audio
+    assert np.array_equal(same, other)
     assert np.max(np.abs(other - y)) < 1e-4 * np.abs(y).max()
 
 

@@ -1,9 +1,13 @@
 """The code passes the project's linter and formatter (ruff, configured in pyproject.toml),
 when ruff is installed (it is in the ``test`` extra)."""
 
+import ast
+import json
+import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -27,3 +31,47 @@ def ruff() -> list[str]:
 def test_ruff(args):
     done = subprocess.run(ruff() + args, cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+#: The rules on a function's size and arguments, whose stated exceptions are the kernels.
+SIZE_RULES = ("C901", "PLR0912", "PLR0913", "PLR0915")
+
+
+def _decorated_compiled(path: Path, line: int) -> bool:
+    """Whether the function defined at ``line`` of ``path`` is a numba kernel (@compiled)."""
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.FunctionDef) and node.lineno == line:
+            return any("compiled" in ast.unparse(d) for d in node.decorator_list)
+    raise AssertionError(f"no function at {path}:{line}")
+
+
+def test_size_rule_exceptions_are_kernels_or_pending():
+    # A module listed in pyproject's per-file ignores of the size rules is exempt only where
+    # every function the rules flag in it is a numba kernel (nopython code takes its arrays
+    # by position), unless its line says "pending:" (a fold still to do, named there).
+    text = (ROOT / "pyproject.toml").read_text()
+    lint = tomllib.loads(text)["tool"]["ruff"]["lint"]
+    kernel_modules = [
+        path
+        for path, codes in lint["per-file-ignores"].items()
+        if set(SIZE_RULES) & set(codes)
+        and not re.search(rf'^"{re.escape(path)}" = .*# pending:', text, re.M)
+    ]
+    limits = [
+        f"lint.mccabe.max-complexity={lint['mccabe']['max-complexity']}",
+        *(f"lint.pylint.{k}={v}" for k, v in lint["pylint"].items()),
+    ]
+    args = ["check", "--isolated", "--select", ",".join(SIZE_RULES), "--output-format", "json"]
+    for limit in limits:
+        args += ["--config", limit]
+    done = subprocess.run(
+        ruff() + args + kernel_modules, cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+    findings = json.loads(done.stdout)
+    assert findings, "the kernel modules' findings are what the list exempts"
+    not_kernels = [
+        f"{f['filename']}:{f['location']['row']} {f['code']}"
+        for f in findings
+        if not _decorated_compiled(Path(f["filename"]), f["location"]["row"])
+    ]
+    assert not not_kernels, not_kernels

@@ -5,7 +5,7 @@ import math
 import pytest
 
 from synth.errors import ParameterError
-from synth.physics.bounces import simulate_bounces, simulate_scene
+from synth.physics.bounces import BounceOptions, simulate_bounces, simulate_scene
 from synth.physics.scene import Ball, Plate, Scene
 
 BALL = Ball("steel", 0.005, mass=4.17e-3)
@@ -65,6 +65,18 @@ def test_max_impacts_and_duration():
     )
     seq = simulate_bounces(BALL, MDF18, drop_height=0.1, max_duration=0.5)
     assert seq.stop_reason == "max-duration" and seq[-1].time <= 0.5
+
+
+def test_options_object_and_keywords_agree():
+    # BounceOptions holds the keywords' fields: the same series either way (same arithmetic),
+    # keywords replacing the object's fields, and a bad field refused when the object is made.
+    by_keywords = simulate_bounces(BALL, MDF18, drop_height=0.1, max_impacts=3, floor_db=-20.0)
+    options = BounceOptions(max_impacts=5, floor_db=-20.0)
+    by_object = simulate_bounces(BALL, MDF18, drop_height=0.1, options=options, max_impacts=3)
+    assert by_object.table() == by_keywords.table()
+    assert by_object.stop_reason == by_keywords.stop_reason
+    with pytest.raises(ParameterError, match="max_impacts"):
+        BounceOptions(max_impacts=0)
 
 
 def test_heavy_ball_on_thin_plate_settles():

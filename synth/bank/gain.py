@@ -91,10 +91,7 @@ class GainResult:
             f"{'' if self.reached is None else f', reached {self.reached:.3f}'}); "
             f"{self.done} files scaled, {self.skipped} already done, in {self.elapsed:.1f} s"
         )
-        if self.renamed:
-            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
-        if self.orphans:
-            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
+        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
         return text
 
 
@@ -289,6 +286,38 @@ def _described(source_row: dict, row: dict, hashes: dict) -> dict:
     return new
 
 
+def _check_scaled_before(out: Path, record: dict) -> None:
+    """Refuse an ``out`` that holds a bank scaled otherwise (another source, spec, target,
+    level or gain, its :data:`GAIN_FILE` differs) or by another engine."""
+    stored = out / GAIN_FILE
+    previous = json.loads(stored.read_text()) if stored.is_file() else None
+    problem = engine_problem(
+        f"out_dir={str(out)!r} ({GAIN_FILE})",
+        previous,
+        "scale into another folder, or empty this one to scale the bank again",
+    )
+    if problem is not None:
+        raise BankSpecError(problem)
+    if previous is not None and _compared(previous) != _compared(record):
+        raise BankSpecError(
+            f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
+            f"use another folder"
+        )
+
+
+def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> dict:
+    """Scale the file of ``row`` from ``src`` into ``out`` by ``gain_db`` (dB), written
+    once (a file an earlier run wrote whole is read back, not written again); its new
+    manifest row."""
+    target_file = out / row["file"]
+    target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
+    target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
+    scaled = _scale_file(src / row["file"], spec, gain_db, row["file"])
+    if not mf.write_once(target_file, scaled.data):
+        scaled.data = target_file.read_bytes()
+    return _scaled_row(row, scaled, gain_db)
+
+
 def apply_gain(
     bank_dir, out_dir, *, target: str = "true_peak", level=None, prune: bool = False
 ) -> GainResult:
@@ -309,22 +338,10 @@ def apply_gain(
     record = {"source": str(src.resolve()), "spec": spec, "target": target, "level": level}
     record.update(gain_db=gain_db, **{bank_spec.ENGINE: synth.__version__})
     t0 = time.perf_counter()
-    stored = out / GAIN_FILE
-    previous = json.loads(stored.read_text()) if stored.is_file() else None
-    problem = engine_problem(
-        f"out_dir={str(out)!r} ({GAIN_FILE})",
-        previous,
-        "scale into another folder, or empty this one to scale the bank again",
-    )
-    if problem is not None:
-        raise BankSpecError(problem)
-    if previous is not None and _compared(previous) != _compared(record):
-        raise BankSpecError(
-            f"out_dir={str(out)!r} holds a bank scaled otherwise ({GAIN_FILE} differs): "
-            f"use another folder"
-        )
+    _check_scaled_before(out, record)
     out.mkdir(parents=True, exist_ok=True)
-    mf.write_atomic(stored, (json.dumps(record, indent=1, sort_keys=True) + "\n").encode())
+    record_bytes = (json.dumps(record, indent=1, sort_keys=True) + "\n").encode()
+    mf.write_atomic(out / GAIN_FILE, record_bytes)
     mf.clean_temporaries(out)
     cols = mf.columns(list(spec.get("vary", {}))) + ["gain_db"]
     book = mf.Manifest(out, cols)
@@ -336,13 +353,7 @@ def apply_gain(
         for row in rows:
             if row["index"] in done_rows:
                 continue
-            target_file = out / row["file"]
-            target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
-            target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
-            scaled = _scale_file(src / row["file"], spec, gain_db, row["file"])
-            if not mf.write_once(target_file, scaled.data):
-                scaled.data = target_file.read_bytes()
-            new = _scaled_row(row, scaled, gain_db)
+            new = _scale_row(src, out, row, spec, gain_db)
             book.append(new)
             kept.append(new)
             result.done += 1

@@ -162,6 +162,16 @@ def orphans_note(names: list[str], removed: bool) -> str:
     )
 
 
+def files_note(renamed: int, orphans: list[str], removed: bool) -> str:
+    """The summary's lines on the folder's files: how many were renamed (same sounds,
+    new names) and the :func:`orphans_note`; each line starts with a newline ("" if
+    there is nothing to say)."""
+    text = f"\n  {renamed} files renamed (same sounds, new names)" if renamed else ""
+    if orphans:
+        text += "\n  " + orphans_note(orphans, removed=removed)
+    return text
+
+
 def sha256_file(path: Path) -> str:
     """SHA-256 (hex) of a file's bytes."""
     h = hashlib.sha256()

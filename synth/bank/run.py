@@ -170,10 +170,7 @@ class BankResult:
             f"of {self.planned} in {self.elapsed:.1f} s ({self.rate:.1f} sounds/s; "
             f"{self.startup:.1f} s of worker start-up, then {self.render_rate:.1f} sounds/s)"
         )
-        if self.renamed:
-            text += f"\n  {self.renamed} files renamed (same sounds, new names)"
-        if self.orphans:
-            text += "\n  " + mf.orphans_note(self.orphans, removed=self.pruned)
+        text += mf.files_note(self.renamed, self.orphans, removed=self.pruned)
         for index, error in self.failures[:5]:
             text += f"\n  row {index} failed: {error}"
         if len(self.failures) > 5:
@@ -683,20 +680,8 @@ def _run(
             if res.row["index"] in recorded:  # a second attempt of a row (a lost worker's)
                 continue
             recorded.add(res.row["index"])
-            try:
-                book.append(res.row)
-            except OSError as exc:
-                result.stopped = (
-                    f"cannot append to the manifest: {exc}; the finished rows "
-                    f"are kept: run again to resume"
-                )
+            if not _record(res.row, book, rows, result):
                 break
-            rows.append(res.row)
-            if res.row["status"] == "ok":
-                result.done += 1
-            else:
-                result.failed += 1
-                result.failures.append((res.row["index"], res.row.get("error")))
             if bar is not None:
                 bar.update()
     finally:
@@ -715,3 +700,23 @@ def _run(
     result.rendering = t_rows - t_start - result.startup
     result.finishing = time.perf_counter() - t_rows
     return result
+
+
+def _record(row: dict, book, rows: list, result: BankResult) -> bool:
+    """Append a finished ``row`` to the manifest ``book``, to ``rows`` and to the counts of
+    ``result``; False when the manifest cannot take it (``result.stopped`` says why: the
+    run stops, the rows finished before are kept)."""
+    try:
+        book.append(row)
+    except OSError as exc:
+        result.stopped = (
+            f"cannot append to the manifest: {exc}; the finished rows are kept: run again to resume"
+        )
+        return False
+    rows.append(row)
+    if row["status"] == "ok":
+        result.done += 1
+    else:
+        result.failed += 1
+        result.failures.append((row["index"], row.get("error")))
+    return True

@@ -72,7 +72,7 @@ def _cmd_alter(args):
     options = _analysis_options(args)
     audio, fs = _read_warned(audio_io.read_audio, args.file)
     onsets = [t.time for t in analyze(audio, fs, options=options).ticks]
-    out, t_new, e, e_new = alter_restitution(
+    altered = alter_restitution(
         audio,
         fs,
         args.restitution_scale,
@@ -82,6 +82,8 @@ def _cmd_alter(args):
         min_bounce=args.min_bounce,
         normalize=args.normalize,
     )
+    out, t_new = altered.audio, altered.onsets
+    e, e_new = altered.restitution, altered.new_restitution
     peak = float(np.max(np.abs(out)))
     subtype = (args.subtype or audio_io.DEFAULT_SUBTYPE).upper()
     if peak > 1.0 and subtype not in audio_io.FLOAT_SUBTYPES:

@@ -24,7 +24,7 @@ from synth.cost.records import (
     CostEstimate,
     MemoryParts,
 )
-from synth.sound.options import default
+from synth.sound.options import RenderOptions
 
 #: The options of :func:`synth.render` the estimate depends on (:func:`estimate_render`).
 RENDER_OPTIONS = (
@@ -42,26 +42,19 @@ def estimate_render(scene, options: dict, budget: Budget | None = None) -> CostE
 
 
 def estimate(
-    scene,
-    *,
-    samplerate: int,
-    max_frequency: float | None = default("max_frequency"),
-    preroll: float = default("preroll"),
-    max_duration: float = default("max_duration"),
-    max_tail: float = default("max_tail"),
-    pulse_points: int = default("pulse_points"),
-    floor_db: float = default("floor_db"),
-    budget: Budget | None = None,
+    scene, options: RenderOptions | None = None, /, *, budget: Budget | None = None, **overrides
 ) -> CostEstimate:
-    """The :class:`CostEstimate` of rendering ``scene`` with these options of
-    :func:`synth.render` (``samplerate`` in Hz, ``max_frequency`` in Hz, times in s; the
-    defaults :class:`synth.sound.options.RenderOptions`');
-    ``budget`` (default: the environment's) sets the radiation rules that fit."""
+    """The :class:`CostEstimate` of rendering ``scene`` with the render ``options`` (a
+    :class:`~synth.sound.options.RenderOptions`, and ``overrides`` of its fields by name, as
+    :func:`synth.render` takes them; ``samplerate`` in Hz is required); ``budget`` (default:
+    the environment's) sets the radiation rules that fit. Nothing is solved but the first
+    contact."""
+    o = RenderOptions.of(options, **overrides)
     budget = Budget.from_environment() if budget is None else budget
     from synth.sound.modal_bank.pulse import grid_size
     from synth.sound.modal_bank.transform_kernels import WORK_ROWS
 
-    f_max = 0.5 * samplerate if max_frequency is None else min(max_frequency, 0.5 * samplerate)
+    f_max = o.top_frequency
     modes = modal_count(scene.plate, f_max)
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
     first = solve_first_contact(scene)
@@ -69,12 +62,12 @@ def estimate(
     longest = (
         first.contact_time if settles else series_longest(first.contact_time, speed, scene.gravity)
     )
-    points = grid_size(longest, 2.0 * math.pi * f_max, pulse_points)
-    series = series_seconds(scene, first, longest, max_duration)
-    seconds = preroll + series + tail_seconds(scene.plate, floor_db, max_tail)
-    samples = int(math.ceil(seconds * samplerate))
+    points = grid_size(longest, 2.0 * math.pi * f_max, o.pulse_points)
+    series = series_seconds(scene, first, longest, o.max_duration)
+    seconds = o.preroll + series + tail_seconds(scene.plate, o.floor_db, o.max_tail)
+    samples = int(math.ceil(seconds * o.samplerate))
     solver = solver_cost(scene.plate, f_max, modes)
-    impacts = impact_count(first, speed, scene.gravity, max_duration)
+    impacts = impact_count(first, speed, scene.gravity, o.max_duration)
     memory = MemoryParts(
         audio=AUDIO_BYTES_PER_SAMPLE * samples,
         impacts=16 * modes * (impacts + WORK_ROWS + MODE_VALUES),
@@ -94,7 +87,7 @@ def estimate(
         audio_seconds=seconds,
         audio_samples=samples,
         memory_bytes=memory.total,
-        max_duration=max_duration,
+        max_duration=o.max_duration,
         solver_unknowns=solver.unknowns,
         solver_flops=solver.flops,
         impacts=impacts,

@@ -97,12 +97,12 @@ key and value.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import os
 import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
@@ -206,11 +206,10 @@ def find(name_or_path) -> Path:
     names = available()
     if str(name_or_path) in names:
         return names[str(name_or_path)]
-    near = difflib.get_close_matches(str(name_or_path), names, n=3, cutoff=0.4)
-    hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+    hint = checks.did_you_mean(name_or_path, names, n=3, cutoff=0.4)
     raise PresetError(
-        f"preset={str(name_or_path)!r} is not a file or a known preset{hint} "
-        f"(known: {', '.join(names) or 'none'})"
+        f"preset={str(name_or_path)!r} is not a file or a known preset{hint}; "
+        f"known: {', '.join(names) or 'none'}"
     )
 
 
@@ -316,25 +315,9 @@ def _material(value, where):
         kw = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)} | kw
         built_in = kw.pop("transverse_shear")
         shear = built_in if shear is None else shear
-    damping = kw.pop("damping", None)
-    if isinstance(damping, LossFactor | Rayleigh):  # the built-in material's
+    damping = _damping(kw.pop("damping", None), where)
+    if damping is not None:
         kw["damping"] = damping
-    elif damping is not None:
-        if not isinstance(damping, dict):
-            raise PresetError(
-                f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
-            )
-        law = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}.get(
-            frozenset(damping)
-        )
-        if law is None:
-            raise PresetError(
-                f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
-            )
-        try:
-            kw["damping"] = law(**damping)
-        except ParameterError as exc:  # "damping.eta=...": the key under this material
-            raise PresetError(f"{where}.{exc}") from None
     _require(kw, ("density", "young", "poisson"), where)
     try:
         if shear == TIED_SHEAR:
@@ -342,6 +325,27 @@ def _material(value, where):
         return Material(**kw, **({} if shear is None else {"transverse_shear": shear}))
     except ParameterError as exc:
         raise PresetError(f"{where}: {exc}") from None
+
+
+def _damping(damping, where: str):
+    """The damping law of a material's ``damping`` key: a built-in material's law as it
+    is, ``{eta=...}`` a :class:`LossFactor`, ``{alpha=..., beta=...}`` a
+    :class:`Rayleigh`; None when not given."""
+    if damping is None or isinstance(damping, LossFactor | Rayleigh):
+        return damping
+    law = None
+    if isinstance(damping, dict):
+        law = {frozenset({"eta"}): LossFactor, frozenset({"alpha", "beta"}): Rayleigh}.get(
+            frozenset(damping)
+        )
+    if law is None:
+        raise PresetError(
+            f"{where}.damping={damping!r} must be {{eta=...}} or {{alpha=..., beta=...}}"
+        )
+    try:
+        return law(**damping)
+    except ParameterError as exc:  # "damping.eta=...": the key under this material
+        raise PresetError(f"{where}.{exc}") from None
 
 
 def _require(section: dict, keys, where: str) -> None:
@@ -373,20 +377,52 @@ def scene_from_dict(data: dict, source: str = "<preset>") -> tuple[Scene, dict]:
 
 
 def _scene_from_dict(data, source):
+    _check_sections(data, source)
+    ball, plate = _bodies(data, source)
+    height, position, velocity = _drop(data["drop"], source)
+    rolling = None
+    if "rolling" in data:
+        _require(data["rolling"], _required_fields(Rolling), "rolling")
+        rolling = Rolling(**data["rolling"])
+    listener = _listener(data["listener"], source) if "listener" in data else None
+    contact = Contact(**_contact_section(data)) if "contact" in data else None
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise PresetError(f"{source}: description={description!r} must be a string")
+    scene = Scene(
+        ball,
+        plate,
+        drop_height=height,
+        position=position,
+        listener=listener,
+        gravity=data.get("gravity", GRAVITY),
+        contact=contact,
+        velocity=velocity,
+        rolling=rolling,
+    )
+    return scene, _render_section(data.get("render", {}), source)
+
+
+def _check_keys(section: str, table: dict, allowed, source: str) -> None:
+    """Refuse a key of ``[section]`` not in ``allowed``, naming the nearest allowed one."""
+    for k in table:
+        if k not in allowed:
+            raise PresetError(
+                f"{source}: {section}.{k}={table[k]!r} is not a known key"
+                f"{checks.did_you_mean(k, allowed)}; "
+                f"allowed: {', '.join(allowed)}"
+            )
+
+
+def _check_sections(data: dict, source: str) -> None:
+    """Refuse an unknown section, top-level key or key of a section, and a missing
+    ``[ball]``, ``[plate]`` or ``[drop]``."""
     for key, value in data.items():
         if key in SECTIONS:
             if not isinstance(value, dict):
                 raise PresetError(f"{source}: [{key}] must be a table, got {value!r}")
-            allowed = SECTIONS[key]
-            if allowed is not None:
-                for k in value:
-                    if k not in allowed:
-                        near = difflib.get_close_matches(k, allowed, n=1)
-                        hint = f" (did you mean {near[0]!r}?)" if near else ""
-                        raise PresetError(
-                            f"{source}: {key}.{k}={value[k]!r} is not a known key{hint}; "
-                            f"allowed: {', '.join(allowed)}"
-                        )
+            if SECTIONS[key] is not None:
+                _check_keys(key, value, SECTIONS[key], source)
         elif key not in TOP_LEVEL:
             raise PresetError(
                 f"{source}: {key}={value!r} is not a known key; sections: "
@@ -395,6 +431,10 @@ def _scene_from_dict(data, source):
     for required in ("ball", "plate", "drop"):
         if required not in data:
             raise PresetError(f"{source}: the [{required}] section is missing")
+
+
+def _bodies(data: dict, source: str):
+    """The ball and the plate of ``[ball]`` and ``[plate]``."""
     b = dict(data["ball"])
     p = dict(data["plate"])
     if "material" not in b or "material" not in p:
@@ -408,59 +448,40 @@ def _scene_from_dict(data, source):
         for k, v in kw.items():
             if k not in ("material", "boundary", "mass") and not isinstance(v, (int, float)):
                 raise PresetError(f"{source}: {sec}.{k}={v!r} must be a number")
-    ball = ball_class(**b)
-    plate = Plate(**p)
-    drop = data["drop"]
+    return ball_class(**b), Plate(**p)
+
+
+def _drop(drop: dict, source: str):
+    """``(height, position, velocity)`` of ``[drop]``: m, m from a corner (or None), m/s
+    (or None)."""
     if "height" not in drop:
         raise PresetError(f"{source}: drop.height is required (metres)")
     position = drop.get("position")
-    if position is not None:
-        if not isinstance(position, list):
-            raise PresetError(f"{source}: drop.position={position!r} must be [x, y] in metres")
-        position = tuple(position)
+    if position is not None and not isinstance(position, list):
+        raise PresetError(f"{source}: drop.position={position!r} must be [x, y] in metres")
     velocity = drop.get("velocity")
-    if velocity is not None:
-        if not isinstance(velocity, list):
-            raise PresetError(f"{source}: drop.velocity={velocity!r} must be [vx, vy] in m/s")
-        velocity = tuple(velocity)
-    rolling = None
-    if "rolling" in data:
-        r = data["rolling"]
-        _require(r, _required_fields(Rolling), "rolling")
-        rolling = Rolling(**r)
-    listener = None
-    if "listener" in data:
-        lst = data["listener"]
-        kind = lst.get("type", DEFAULT_LISTENER)
-        if kind not in ("microphone", "accelerometer"):
-            raise PresetError(
-                f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'"
-            )
-        if "position" not in lst:
-            raise PresetError(f"{source}: listener.position is required")
-        lp = lst["position"]
-        if not isinstance(lp, list):
-            raise PresetError(
-                f"{source}: listener.position={lp!r} must be a list of numbers (metres)"
-            )
-        listener = Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
-    contact = Contact(**_contact_section(data)) if "contact" in data else None
-    gravity = data.get("gravity", GRAVITY)
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise PresetError(f"{source}: description={description!r} must be a string")
-    scene = Scene(
-        ball,
-        plate,
-        drop_height=drop["height"],
-        position=position,
-        listener=listener,
-        gravity=gravity,
-        contact=contact,
-        velocity=velocity,
-        rolling=rolling,
+    if velocity is not None and not isinstance(velocity, list):
+        raise PresetError(f"{source}: drop.velocity={velocity!r} must be [vx, vy] in m/s")
+    return (
+        drop["height"],
+        None if position is None else tuple(position),
+        None if velocity is None else tuple(velocity),
     )
-    return scene, _render_section(data.get("render", {}), source)
+
+
+def _listener(section: dict, source: str):
+    """The microphone or accelerometer of ``[listener]``."""
+    kind = section.get("type", DEFAULT_LISTENER)
+    if kind not in ("microphone", "accelerometer"):
+        raise PresetError(
+            f"{source}: listener.type={kind!r} must be 'microphone' or 'accelerometer'"
+        )
+    if "position" not in section:
+        raise PresetError(f"{source}: listener.position is required")
+    lp = section["position"]
+    if not isinstance(lp, list):
+        raise PresetError(f"{source}: listener.position={lp!r} must be a list of numbers (metres)")
+    return Microphone(tuple(lp)) if kind == "microphone" else Accelerometer(tuple(lp))
 
 
 def _ball_class(section: dict, source: str):
@@ -499,15 +520,7 @@ def _render_section(section: dict, source: str) -> dict:
     such as "PCM_24" or "FLOAT")."""
     from synth.sound.options import OPTIONS
 
-    allowed = OPTIONS + ("subtype",)
-    for k, v in section.items():
-        if k not in allowed:
-            near = difflib.get_close_matches(k, allowed, n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
-            raise PresetError(
-                f"{source}: render.{k}={v!r} is not a known key{hint}; "
-                f"allowed: {', '.join(allowed)}"
-            )
+    _check_keys("render", section, OPTIONS + ("subtype",), source)
     section = {"samplerate": PRESET_SAMPLERATE, **section}
     try:
         _render_options(section)

@@ -29,6 +29,7 @@ of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -155,6 +156,89 @@ class BounceSequence:
 ReboundRule = Callable[[ImpactResult, float], float]
 
 
+@dataclass(frozen=True)
+class BounceOptions:
+    """How :func:`simulate_bounces` solves each impact and when the series ends (module
+    docstring); checked when made.
+
+    Attributes
+    ----------
+    rtol : float
+        Relative accuracy of each impact's restitution and contact time (the impedance
+        plate's; the modal plate's accuracy is set by its band and steps, ``synth bench
+        contact`` gives its error).
+    n_points : int >= 64
+        Samples of each force pulse (``ImpactResult.time`` and ``force``).
+    max_frequency : float, optional
+        Band limit of the modes of the "modal" plate, Hz (default: see
+        :data:`synth.physics.modal_contact.BAND_FACTOR`).
+    floor_db : float < 0
+        Perceptual floor: stop when an impact's kinetic energy is this many dB
+        below the first impact's.
+    max_duration : float > 0
+        Latest start of an impact, s from release.
+    max_impacts : int >= 1
+        Most impacts computed.
+    rebound : callable, optional
+        A :data:`ReboundRule` that replaces the physical restitution of each flight
+        (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
+        the start of the flight over the ringing modal plate) while every impact is still
+        solved physically at its own speed; None: the physical rebound. The perception
+        stimuli of :mod:`synth.stimuli.sequences` use it.
+    """
+
+    rtol: float = 1e-6
+    n_points: int = 128
+    max_frequency: float | None = None
+    floor_db: float = DEFAULT_FLOOR_DB
+    max_duration: float = 60.0
+    max_impacts: int = DEFAULT_MAX_IMPACTS
+    rebound: ReboundRule | None = None
+
+    def __post_init__(self):
+        floor = checks.real("floor_db", self.floor_db, "dB")
+        if not floor < 0.0:
+            raise ParameterError(
+                f"floor_db={self.floor_db!r} must be < 0 (dB relative to the first tick)"
+            )
+        object.__setattr__(self, "floor_db", floor)
+        object.__setattr__(
+            self, "max_duration", checks.positive("max_duration", self.max_duration, "s")
+        )
+        n = self.max_impacts
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise ParameterError(f"max_impacts={n!r} must be an integer >= 1")
+        if self.rebound is not None and not callable(self.rebound):
+            raise ParameterError(
+                f"rebound={self.rebound!r} must be a callable (ImpactResult, speed) -> "
+                f"restitution, or None"
+            )
+
+    @classmethod
+    def split(cls, options: dict) -> tuple[dict, dict]:
+        """``options`` (by name) parted into the fields of a ``BounceOptions`` and the rest
+        (the contact law's parameters)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        mine = {k: v for k, v in options.items() if k in names}
+        return mine, {k: v for k, v in options.items() if k not in names}
+
+    def take_off(self, result: ImpactResult, restitution: float, speed: float) -> float:
+        """The ball's speed as it leaves the plate after an impact at ``speed`` (m/s): the
+        physical rebound, or ``e' v`` by the :data:`ReboundRule` (``restitution``, its
+        ``e'``)."""
+        return result.rebound_speed if self.rebound is None else restitution * speed
+
+    def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float) -> str | None:
+        """Why the series ends after an impact that sends the ball off at ``v_out`` (m/s;
+        the first impact at ``v1``), or None: its flight is shorter than the contact, or
+        the next impact is below the perceptual floor."""
+        if 2.0 * v_out / gravity < result.separation_time:
+            return "flight-shorter-than-contact"
+        if (v_out / v1) ** 2 < 10.0 ** (self.floor_db / 10.0):
+            return "floor"
+        return None
+
+
 def simulate_bounces(
     ball: Ball,
     plate: Plate,
@@ -163,15 +247,9 @@ def simulate_bounces(
     position: tuple[float, float] | None = None,
     gravity: float = GRAVITY,
     contact_law: str | None = None,
-    rtol: float = 1e-6,
-    floor_db: float = DEFAULT_FLOOR_DB,
-    max_duration: float = 60.0,
-    max_impacts: int = DEFAULT_MAX_IMPACTS,
-    n_points: int = 128,
-    rebound: ReboundRule | None = None,
     plate_model: str = "impedance",
-    max_frequency: float | None = None,
-    **contact_options,
+    options: BounceOptions | None = None,
+    **overrides,
 ) -> BounceSequence:
     """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
 
@@ -189,34 +267,18 @@ def simulate_bounces(
         "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law" or
         "shell" (a hollow ball's); None (default): the ball's own, "shell" for a
         :class:`~synth.physics.scene.HollowBall`, else "hertz"; its parameters go in
-        ``contact_options`` (see
-        :func:`synth.physics.contact_law.contact_parameters`).
-    rtol : float
-        Relative accuracy of each impact's restitution and contact time.
-    floor_db : float < 0
-        Perceptual floor: stop when an impact's kinetic energy is this many dB
-        below the first impact's.
-    max_duration : float > 0
-        Latest start of an impact, s from release.
-    max_impacts : int >= 1
-        Most impacts computed.
-    n_points : int >= 64
-        Samples of each force pulse (``ImpactResult.time`` and ``force``).
-    rebound : callable, optional
-        A :data:`ReboundRule` that replaces the physical restitution of each flight
-        (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
-        the start of the flight over the ringing modal plate) while every impact is still
-        solved physically at its own speed; None: the physical rebound. The perception
-        stimuli of :mod:`synth.stimuli.sequences` use it.
+        ``overrides`` (see :func:`synth.physics.contact_law.contact_parameters`).
     plate_model : {"impedance", "modal"}
         The plate in the contact: "impedance" (the infinite plate's impedance, blended
         towards measured values near free edges) or "modal" (the finite plate's modes and a
         residual, :mod:`synth.physics.modal_contact`), whose ringing after each impact is
-        carried into the next one. ``rtol`` is the impedance model's; the modal plate's
-        accuracy is set by its band and steps (``synth bench contact`` gives its error).
-    max_frequency : float, optional
-        Band limit of the modes of the "modal" plate, Hz (default: see
-        :data:`synth.physics.modal_contact.BAND_FACTOR`).
+        carried into the next one.
+    options : BounceOptions, optional
+        The accuracy of each impact and the rules that end the series.
+    **overrides
+        Fields of :class:`BounceOptions` by name (``rtol``, ``n_points``,
+        ``max_frequency``, ``floor_db``, ``max_duration``, ``max_impacts``, ``rebound``),
+        replacing those of ``options``; any other name is a parameter of the contact law.
 
     Returns
     -------
@@ -228,51 +290,28 @@ def simulate_bounces(
         raise ParameterError(f"plate={plate!r} must be a Plate")
     h0 = checks.positive("drop_height", drop_height, "metres")
     g = checks.positive("gravity", gravity, "m/s^2")
-    floor = checks.real("floor_db", floor_db, "dB")
-    if not floor < 0.0:
-        raise ParameterError(f"floor_db={floor_db!r} must be < 0 (dB relative to the first tick)")
-    t_max = checks.positive("max_duration", max_duration, "s")
-    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
-        raise ParameterError(f"max_impacts={max_impacts!r} must be an integer >= 1")
-    if rebound is not None and not callable(rebound):
-        raise ParameterError(
-            f"rebound={rebound!r} must be a callable (ImpactResult, speed) -> restitution, or None"
-        )
+    given, contact_options = BounceOptions.split(overrides)
+    o = dataclasses.replace(options or BounceOptions(), **given)
     pos = None if position is None else plate.check_position(position, "position")
     checks.choice("plate_model", plate_model, PLATE_MODELS)
     if plate_model == "modal":
-        return _modal_bounces(
-            ball,
-            plate,
-            h0,
-            pos,
-            g,
-            contact_law,
-            floor,
-            t_max,
-            max_impacts,
-            n_points,
-            max_frequency,
-            contact_options,
-            rebound,
-        )
-    if max_frequency is not None:
+        return _modal_bounces(ball, plate, h0, pos, g, contact_law, o, contact_options)
+    if o.max_frequency is not None:
         raise ParameterError(
-            f"max_frequency={max_frequency!r} applies to plate_model='modal' only (Hz)"
+            f"max_frequency={o.max_frequency!r} applies to plate_model='modal' only (Hz)"
         )
     solver = ContactSolver.for_pair(
-        ball, plate, gravity=g, law=contact_law, rtol=rtol, n_points=n_points, **contact_options
-    )
-    energy_floor = 10.0 ** (floor / 10.0)
-
+        ball, plate, gravity=g, law=contact_law, rtol=o.rtol, n_points=o.n_points,
+        **contact_options,
+    )  # fmt: skip
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)
     v1 = v
     impacts = []
-    reason = "max-impacts"
-    while len(impacts) < max_impacts:
+    reason = None
+    while len(impacts) < o.max_impacts:
         res = solver.solve(v, position=pos)
-        e = res.restitution if rebound is None else rebound(res, v)
+        e = res.restitution if o.rebound is None else o.rebound(res, v)
         impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
         if not res.success:
             reason = "solver-failure"
@@ -280,20 +319,16 @@ def simulate_bounces(
         if res.settled or e <= 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed if rebound is None else e * v
-        flight = 2.0 * v_out / g
-        if flight < res.separation_time:
-            reason = "flight-shorter-than-contact"
+        v_out = o.take_off(res, e, v)
+        reason = o.ended(res, v_out, v1, g)
+        if reason is not None:
             break
-        if (v_out / v1) ** 2 < energy_floor:
-            reason = "floor"
-            break
-        t_next = t + res.separation_time + flight
-        if t_next > t_max:
+        t_next = t + res.separation_time + 2.0 * v_out / g
+        if t_next > o.max_duration:
             reason = "max-duration"
             break
         t, v = t_next, v_out
-    return BounceSequence(tuple(impacts), reason, h0, g)
+    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
@@ -316,19 +351,7 @@ PLATE_MODELS = ("impedance", "modal")
 
 
 def _modal_bounces(
-    ball,
-    plate,
-    h0,
-    pos,
-    g,
-    law,
-    floor,
-    t_max,
-    max_impacts,
-    n_points,
-    max_frequency,
-    options,
-    rebound=None,
+    ball, plate, h0, pos, g, law, o: BounceOptions, contact_options: dict
 ) -> BounceSequence:
     """:func:`simulate_bounces` with the finite plate's modes in every contact
     (:mod:`synth.physics.modal_contact`): the plate rings between impacts, and the ringing
@@ -342,26 +365,23 @@ def _modal_bounces(
     v = math.sqrt(2.0 * g * h0)
     v1 = v
     contact = modal_contact.ModalContact.for_pair(
-        ball, plate, pos, gravity=g, law=law, max_frequency=max_frequency, speed=v, **options
-    )
+        ball, plate, pos, gravity=g, law=law, max_frequency=o.max_frequency, speed=v,
+        **contact_options,
+    )  # fmt: skip
     state = contact.at_rest()
-    energy_floor = 10.0 ** (floor / 10.0)
     impacts = []
-    reason = "max-impacts"
-    while len(impacts) < max_impacts:
-        res = contact.solve(v, state, n_points=n_points)
-        e = res.restitution if rebound is None else rebound(res, v)
-        ruled = None if rebound is None else (0.0 if res.settled else max(e, 0.0))
+    reason = None
+    while len(impacts) < o.max_impacts:
+        res = contact.solve(v, state, n_points=o.n_points)
+        e = res.restitution if o.rebound is None else o.rebound(res, v)
+        ruled = None if o.rebound is None else (0.0 if res.settled else max(e, 0.0))
         impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))
         if res.settled or ruled == 0.0:
             reason = "settled"
             break
-        v_out = res.rebound_speed if rebound is None else e * v
-        if 2.0 * v_out / g < res.separation_time:
-            reason = "flight-shorter-than-contact"
-            break
-        if (v_out / v1) ** 2 < energy_floor:
-            reason = "floor"
+        v_out = o.take_off(res, e, v)
+        reason = o.ended(res, v_out, v1, g)
+        if reason is not None:
             break
         flight, state = modal_contact.next_touch(
             contact, res.ringing, res.ringing.displacement, v_out
@@ -373,11 +393,11 @@ def _modal_bounces(
             reason = "settled"
             break
         t_next = t + res.separation_time + flight
-        if t_next > t_max:
+        if t_next > o.max_duration:
             reason = "max-duration"
             break
         t, v = t_next, v_next
-    return BounceSequence(tuple(impacts), reason, h0, g)
+    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
 
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:

@@ -13,8 +13,7 @@ Where the numbers come from
 ---------------------------
 * Thesis rows (``mdf-18``, ``mdf-12``, ``mdf-6``, ``steel``, ``glass``): the
   Table 3.1 of the thesis (docs/physics.md, "Materials" and References). The MDF moduli were
-  measured on the
-  three boards; their Rayleigh damping is the fit to the thesis' recordings
+  measured on the three boards; their Rayleigh damping is the fit to the thesis' recordings
   (docs/physics.md, "Materials").
 * Handbook rows: the elastic constants and the loss factor of one printed row
   of one of these tables, unless the row's ``source`` says otherwise:
@@ -57,7 +56,6 @@ value), which overstates the stiffness of a board bent across the grain.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -473,10 +471,9 @@ def get(name: str) -> Material:
     try:
         return TABLE[key]
     except KeyError:
-        near = difflib.get_close_matches(key, TABLE, n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+        hint = checks.did_you_mean(key, TABLE, n=3, cutoff=0.5)
         raise ParameterError(
-            f"material={name!r} is not in the table{hint} (known: {', '.join(names())})"
+            f"material={name!r} is not in the table{hint}; known: {', '.join(names())}"
         ) from None
 
 

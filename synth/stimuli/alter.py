@@ -123,7 +123,9 @@ models are in :mod:`synth.stimuli.prediction` and the splicing of a channel in
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -139,7 +141,7 @@ from synth.stimuli.prediction import SMOOTHING as SMOOTHING
 from synth.stimuli.prediction import extend as extend
 from synth.stimuli.splice import END_FLOOR_DB as END_FLOOR_DB
 from synth.stimuli.splice import MAX_TAIL as MAX_TAIL
-from synth.stimuli.splice import SplicedChannel
+from synth.stimuli.splice import SplicedChannel, TickLayout
 
 #: Before each onset: where the fits end and the prediction starts, clear of the attack's
 #: pre-echo (an anti-aliasing or resampling filter spreads an attack over a few tenths of
@@ -160,21 +162,46 @@ FADE = 0.005
 NORMALIZE_MODES = ("none", "peak")
 
 
-# --------------------------------------------------------------------------- the alteration
+@dataclass(frozen=True)
+class _Timing:
+    """The bounce times of a series and their alteration (module docstring): ``bounces``
+    ``T_n`` (s) and ``restitution`` ``e_n`` measured; ``new_restitution`` ``e'_n`` by the
+    rule; ``new_bounces`` ``T'_n`` (s) up to the end of the altered series."""
 
+    bounces: np.ndarray
+    restitution: np.ndarray
+    new_restitution: np.ndarray
+    new_bounces: np.ndarray
 
-def _timing(t, k, min_bounce):
-    """New bounce times from the rule, up to the end of the series."""
-    T = np.diff(t)
-    e = T[1:] / T[:-1]
-    e_new = 1.0 - k * (1.0 - e)
-    T_new = [T[0]]
-    for en in e_new:
-        tn = en * T_new[-1]
-        if not tn >= min_bounce * (1.0 - 1e-9):  # to rounding: k = 1 keeps every tick
-            break
-        T_new.append(tn)
-    return T, e, e_new, np.array(T_new)
+    @classmethod
+    def of(cls, t, k: float, min_bounce: float) -> _Timing:
+        """The timing of onsets ``t`` (s) altered by ``k``, ending before a bounce shorter
+        than ``min_bounce`` (s)."""
+        T = np.diff(t)
+        e = T[1:] / T[:-1]
+        e_new = 1.0 - k * (1.0 - e)
+        T_new = [T[0]]
+        for en in e_new:
+            tn = en * T_new[-1]
+            if not tn >= min_bounce * (1.0 - 1e-9):  # to rounding: k = 1 keeps every tick
+                break
+            T_new.append(tn)
+        return cls(T, e, e_new, np.array(T_new))
+
+    def too_short(self, k: float, min_bounce: float) -> ParameterError:
+        """The error of an alteration that leaves fewer than 3 ticks, with the largest
+        ``k`` that keeps a third."""
+        e, e_new, T, T_new = self.restitution, self.new_restitution, self.bounces, self.new_bounces
+        if e_new[0] <= 0.0:  # no rebound at all (a bounce time would be meaningless)
+            why = "<= 0: the ball would not rebound"
+        else:
+            why = f"a bounce of {T_new[0] * e_new[0] * 1e3:.3g} ms against min_bounce = "
+            why += f"{min_bounce * 1e3:.3g} ms"
+        return ParameterError(
+            f"restitution_scale={k!r} ends the series after 2 ticks (e' = 1 - k (1 - e) = "
+            f"{e_new[0]:.3g} at the second impact, {why}): no altered bounce is left; "
+            f"k must be < {(1.0 - min_bounce / T[0]) / (1.0 - e[0]):.4g} here"
+        )
 
 
 def _check_one_series(t: np.ndarray) -> None:
@@ -195,6 +222,75 @@ def _check_one_series(t: np.ndarray) -> None:
         )
 
 
+@dataclass(frozen=True)
+class AlterOptions:
+    """How :func:`alter_restitution` re-lays the ticks and sets the output's level; checked
+    when made.
+
+    Attributes
+    ----------
+    scale_amplitude : bool
+        Scale each tick's own sound by its new impact speed over its old one.
+    min_bounce : float > 0, optional
+        Shortest new bounce time, s: the series ends before a shorter one. Default: the
+        shortest bounce of the recording. At least 2 sample periods.
+    normalize : {"none", "peak"}
+        ``"none"``: the recording's units and level (a louder tick may exceed full
+        scale); ``"peak"``: the largest sample put at ``peak_db`` dBFS.
+    peak_db : float <= 0
+        dBFS, for ``"peak"``.
+    seed : int >= 0
+        Seed of the synthesised background noise (the output is reproducible).
+    """
+
+    scale_amplitude: bool = True
+    min_bounce: float | None = None
+    normalize: str = "none"
+    peak_db: float = -1.0
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.min_bounce is not None:
+            checks.positive("min_bounce", self.min_bounce, "s")
+        checks.choice("normalize", self.normalize, NORMALIZE_MODES)
+        if checks.real("peak_db", self.peak_db, "dBFS") > 0.0:
+            raise ParameterError(f"peak_db={self.peak_db!r} must be <= 0 (dBFS)")
+        if not isinstance(self.scale_amplitude, (bool, np.bool_)):
+            raise ParameterError(f"scale_amplitude={self.scale_amplitude!r} must be True or False")
+        seed = self.seed
+        if (
+            isinstance(seed, (bool, np.bool_))
+            or not isinstance(seed, (int, np.integer))
+            or seed < 0
+        ):
+            raise ParameterError(f"seed={seed!r} must be an integer >= 0")
+
+
+@dataclass(frozen=True)
+class Alteration:
+    """The result of :func:`alter_restitution`.
+
+    Attributes
+    ----------
+    audio : ndarray
+        The altered audio (float64, the recording's channels, in its units unless
+        ``normalize="peak"``).
+    onsets : ndarray
+        The new onsets of the ticks kept, s (``M`` of them: all, unless the series ended
+        early).
+    restitution : ndarray
+        The measured restitutions ``e_n`` (``N - 2`` for ``N`` onsets), dimensionless.
+    new_restitution : ndarray
+        The new ones between the ticks kept (``M - 2``), so that
+        ``new_restitution == 1 - k (1 - restitution[:M - 2])``.
+    """
+
+    audio: np.ndarray
+    onsets: np.ndarray
+    restitution: np.ndarray
+    new_restitution: np.ndarray
+
+
 def alter_restitution(
     audio,
     samplerate,
@@ -202,13 +298,10 @@ def alter_restitution(
     *,
     onsets=None,
     gravity=9.81,
-    scale_amplitude=True,
     channel=None,
-    min_bounce=None,
-    normalize="none",
-    peak_db=-1.0,
-    seed=0,
-):
+    options: AlterOptions | None = None,
+    **overrides,
+) -> Alteration:
     """Change the restitution of a recorded bouncing sound by ``1 - e' = k (1 - e)``
     (module docstring).
 
@@ -226,29 +319,16 @@ def alter_restitution(
         detected by :func:`synth.analysis.analyze`.
     gravity : float > 0
         m/s^2, for the detection (impact speeds), when ``onsets`` is None.
-    scale_amplitude : bool
-        Scale each tick's own sound by its new impact speed over its old one.
     channel : int or None
         Detect the ticks on this channel (None: their mean); every channel is altered.
-    min_bounce : float > 0, optional
-        Shortest new bounce time, s: the series ends before a shorter one. Default: the
-        shortest bounce of the recording. At least 2 sample periods.
-    normalize : {"none", "peak"}
-        ``"none"``: the recording's units and level (a louder tick may exceed full
-        scale); ``"peak"``: the largest sample put at ``peak_db`` dBFS.
-    peak_db : float <= 0
-        dBFS, for ``"peak"``.
-    seed : int >= 0
-        Seed of the synthesised background noise (the output is reproducible).
+    options : AlterOptions, optional
+        How the ticks are re-laid and the output's level; ``overrides`` (its fields by
+        name: ``scale_amplitude``, ``min_bounce``, ``normalize``, ``peak_db``, ``seed``)
+        change them.
 
     Returns
     -------
-    (audio, onsets, e, e_new)
-        The altered audio (float64, same channels, in the recording's units unless
-        ``normalize="peak"``); the new onsets of the ticks kept, s (``M`` of them: all,
-        unless the series ended early); the measured restitutions ``e_n`` (``N - 2`` for
-        ``N`` onsets); and the new ones between the ticks kept (``M - 2``), so that
-        ``e_new == 1 - k (1 - e[:M - 2])``.
+    Alteration
 
     Raises
     ------
@@ -256,36 +336,37 @@ def alter_restitution(
         Bad input, onsets that are not one bounce series (a bounce time that grows: a
         missed tick or several drops), or an alteration that leaves fewer than 3 ticks.
     """
-    x, fs, k, mode, target_db = _checked_arguments(
-        audio, samplerate, restitution_scale, normalize, peak_db, scale_amplitude, seed
-    )
+    o = dataclasses.replace(options or AlterOptions(), **overrides)
+    x, fs, k = _checked_arguments(audio, samplerate, restitution_scale)
     mono = x.ndim == 1
     X = x[:, None] if mono else x
     t = _checked_onsets(x, fs, onsets, gravity, channel, X.shape[0])
-    min_b = _checked_min_bounce(min_bounce, t, fs)
-    T, e, e_new, T_new = _timing(t, k, min_b)
+    min_b = _checked_min_bounce(o.min_bounce, t, fs)
+    timing = _Timing.of(t, k, min_b)
+    T, T_new = timing.bounces, timing.new_bounces
     M = T_new.size + 1
     if M < 3:
-        raise _series_too_short(k, e, e_new, T, T_new, min_b)
+        raise timing.too_short(k, min_b)
     t_new = np.r_[t[0], t[1] + np.r_[0.0, np.cumsum(T_new[1:])]]  # t'_1 = t_1 exactly
     gain = np.ones(M)
-    if scale_amplitude:
+    if o.scale_amplitude:
         gain[1:] = T_new / T[: M - 1]  # v'_n / v_n, for the tick after each bounce
-    parts = _spliced_channels(X, fs, t, t_new, T, gain, min_b, seed)
+    layout = _layout(fs, t, t_new, T, gain, min_b)
+    parts = [
+        SplicedChannel(X[:, ch], fs, layout, np.random.default_rng([int(o.seed), ch]))
+        for ch in range(X.shape[1])
+    ]
     Y = _joined(parts, X, fs)
-    if mode == "peak":
+    if o.normalize == "peak":
         peak = float(np.max(np.abs(Y)))
         if peak > 0.0:
-            Y = (Y / peak) * 10.0 ** (target_db / 20.0)
+            Y = (Y / peak) * 10.0 ** (o.peak_db / 20.0)
     T_kept = np.diff(t_new)
-    return (Y[:, 0] if mono else Y), t_new, e, T_kept[1:] / T_kept[:-1]
+    return Alteration(Y[:, 0] if mono else Y, t_new, timing.restitution, T_kept[1:] / T_kept[:-1])
 
 
-def _checked_arguments(
-    audio, samplerate, restitution_scale, normalize, peak_db, scale_amplitude, seed
-):
-    """The checked audio (float64), samplerate (Hz), ``k``, normalize mode and peak
-    (dBFS) of :func:`alter_restitution`."""
+def _checked_arguments(audio, samplerate, restitution_scale):
+    """The checked audio (float64), samplerate (Hz) and ``k`` of :func:`alter_restitution`."""
     x = np.asarray(audio, dtype=float)
     if x.ndim not in (1, 2) or x.shape[0] == 0 or (x.ndim == 2 and x.shape[1] == 0):
         raise ParameterError(f"audio with shape {x.shape} must be (frames,) or (frames, channels)")
@@ -293,15 +374,7 @@ def _checked_arguments(
         raise ParameterError("audio contains NaN or inf; every sample must be finite")
     fs = checks.positive("samplerate", samplerate, "Hz")
     k = checks.nonnegative("restitution_scale", restitution_scale, "dimensionless")
-    mode = checks.choice("normalize", normalize, NORMALIZE_MODES)
-    target_db = checks.real("peak_db", peak_db, "dBFS")
-    if target_db > 0.0:
-        raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
-    if not isinstance(scale_amplitude, (bool, np.bool_)):
-        raise ParameterError(f"scale_amplitude={scale_amplitude!r} must be True or False")
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ParameterError(f"seed={seed!r} must be an integer >= 0")
-    return x, fs, k, mode, target_db
+    return x, fs, k
 
 
 def _checked_onsets(x, fs, onsets, gravity, channel, frames):
@@ -328,7 +401,7 @@ def _checked_min_bounce(min_bounce, t, fs) -> float:
     shortest bounce."""
     if min_bounce is None:
         return float(np.min(np.diff(t)))
-    min_b = checks.positive("min_bounce", min_bounce, "s")
+    min_b = float(min_bounce)  # positive: checked by AlterOptions
     if min_b < 2.0 / fs:
         raise ParameterError(
             f"min_bounce={min_bounce!r} must be at least 2 sample periods "
@@ -337,53 +410,32 @@ def _checked_min_bounce(min_bounce, t, fs) -> float:
     return min_b
 
 
-def _series_too_short(k, e, e_new, T, T_new, min_b) -> ParameterError:
-    """The error of an alteration that leaves fewer than 3 ticks, with the largest ``k``
-    that keeps a third."""
-    if e_new[0] <= 0.0:  # no rebound at all (a bounce time would be meaningless)
-        why = "<= 0: the ball would not rebound"
-    else:
-        why = f"a bounce of {T_new[0] * e_new[0] * 1e3:.3g} ms against min_bounce = "
-        why += f"{min_b * 1e3:.3g} ms"
-    return ParameterError(
-        f"restitution_scale={k!r} ends the series after 2 ticks (e' = 1 - k (1 - e) = "
-        f"{e_new[0]:.3g} at the second impact, {why}): no altered bounce is left; "
-        f"k must be < {(1.0 - min_b / T[0]) / (1.0 - e[0]):.4g} here"
-    )
-
-
-def _spliced_channels(X, fs, t, t_new, T, gain, min_b, seed) -> list[SplicedChannel]:
-    """Every channel of ``X`` spliced (:class:`~synth.stimuli.splice.SplicedChannel`): the
-    ticks at onsets ``t`` (s) laid anew at ``t_new`` with their ``gain``."""
+def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:
+    """The places of the ticks at onsets ``t`` (s), laid anew at ``t_new`` with their
+    ``gain`` (:class:`~synth.stimuli.splice.TickLayout`); ``T``: the recorded bounces, s;
+    ``min_b``: the shortest new bounce, s."""
     M = gain.size
     guard = min(GUARD, 0.5 * min_b, 0.5 * float(np.min(T)))
     lead = min(LEAD, guard)
     cut = np.maximum(np.round((t - guard) * fs).astype(int), 0)
-    join = np.maximum(np.round((t - lead) * fs).astype(int), 0)
     join_new = np.maximum(np.round((t_new - lead) * fs).astype(int), 0)
-    on, on_new = t * fs, t_new * fs
-    # under each contact: from the cut to EXCITATION after the onset, at most half the bounce
-    reach = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(on), np.inf])
-    excluded = [(int(c), int(math.ceil(o + r))) for c, o, r in zip(cut, on, reach)]
-    reach_new = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(on_new), np.inf])
-    excluded_new = [(int(c), int(math.ceil(o + r))) for c, o, r in zip(join_new, on_new, reach_new)]
-    speed = np.r_[1.0, T[: M - 1] / T[0]]  # v_j / v_1, for the template of a tail
-    return [
-        SplicedChannel(
-            X[:, ch],
-            fs,
-            cut,
-            join,
-            join_new,
-            gain,
-            speed,
-            excluded,
-            excluded_new,
-            lead,
-            np.random.default_rng([int(seed), ch]),
-        )
-        for ch in range(X.shape[1])
-    ]
+    return TickLayout(
+        cut=cut,
+        join=np.maximum(np.round((t - lead) * fs).astype(int), 0),
+        join_new=join_new,
+        gain=gain,
+        speed=np.r_[1.0, T[: M - 1] / T[0]],  # v_j / v_1, for the template of a tail
+        excluded=_under_contacts(cut, t * fs, fs),
+        excluded_new=_under_contacts(join_new, t_new * fs, fs),
+        lead=lead,
+    )
+
+
+def _under_contacts(start, onsets, fs) -> list[tuple[int, int]]:
+    """The samples under each contact, left out of the fits: from ``start`` to EXCITATION
+    after the onset (``onsets`` in samples), at most half the bounce."""
+    reach = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(onsets), np.inf])
+    return [(int(c), int(math.ceil(o + r))) for c, o, r in zip(start, onsets, reach)]
 
 
 def _joined(parts, X, fs):

@@ -6,6 +6,8 @@ synthesised noise, up to where the output falls to the recording's end level.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from synth.stimuli.prediction import (
@@ -23,20 +25,58 @@ END_FLOOR_DB = -80.0
 MAX_TAIL = 60.0
 
 
+@dataclass(frozen=True)
+class TickLayout:
+    """Where every tick is cut, joined and laid anew, in samples, the same for every
+    channel (module docstring of :mod:`synth.stimuli.alter`).
+
+    ``cut``: where each tick's fits end and its prediction starts, GUARD before its onset
+    (in the recording); ``join`` and ``join_new``: where its own sound starts, LEAD before
+    its onset (in the recording and in the output); ``gain``: each kept tick's gain;
+    ``speed``: each kept tick's impact speed over tick 1's (for the template of a tail);
+    ``excluded`` and ``excluded_new``: the ``(start, stop)`` samples under each contact,
+    left out of the fits (in the recording and in the output); ``lead``: LEAD as used, s.
+    """
+
+    cut: np.ndarray
+    join: np.ndarray
+    join_new: np.ndarray
+    gain: np.ndarray
+    speed: np.ndarray
+    excluded: list
+    excluded_new: list
+    lead: float
+
+
+@dataclass(frozen=True)
+class _OwnSound:
+    """A tick's own sound (:meth:`SplicedChannel._own_sound`): ``recorded`` as in the
+    recording, ``observed`` samples from its join; its deterministic continuation
+    ``continued`` from sample ``continued_from``; the crossfade from the first to the
+    second over ``[start - fade, start)``."""
+
+    recorded: np.ndarray
+    observed: int
+    start: int
+    fade: int
+    continued: np.ndarray
+    continued_from: int
+
+
 class SplicedChannel:
     """One channel of the alteration (module docstring), built in time order: ``y`` is
     final up to ``done``; ``F`` holds what the ticks so far will still sound after it
     (deterministic parts and gated recorded noise). :meth:`finish` ends it.
 
-    ``cut``: where each tick's fits end and its prediction starts, GUARD before its onset
-    (in the recording); ``join`` and ``join_new``: where its own sound starts, LEAD before
-    its onset (in the recording and in the output)."""
+    ``z``: the channel's recording; ``fs``: its rate, Hz; ``layout``: the ticks' places
+    (:class:`TickLayout`); ``rng``: the generator of its synthesised noise."""
 
-    def __init__(self, z, fs, cut, join, join_new, gain, speed, excluded, excluded_new, lead, rng):
+    def __init__(self, z, fs, layout: TickLayout, rng):
         self.z, self.fs = z, fs
+        cut, join, join_new, gain = layout.cut, layout.join, layout.join_new, layout.gain
         self.cut, self.join, self.join_new = cut, join, join_new
-        self.gain, self.speed = gain, speed
-        self.excluded, self.excluded_new = excluded, excluded_new
+        self.gain, self.speed = gain, layout.speed
+        self.excluded, self.excluded_new = layout.excluded, layout.excluded_new
         self.N, self.M = cut.size, gain.size
         self.noise = NoiseModel(z, fs)
         self.level = _end_level(z, fs, self.noise.level)
@@ -46,7 +86,7 @@ class SplicedChannel:
             return
         self.models = {}
         self.npow = self.noise.level**2
-        r = max(1, int(round(lead * fs)))  # ramps: the lead
+        r = max(1, int(round(layout.lead * fs)))  # ramps: the lead
         self.r = r
         self.ramp = 0.5 * (1.0 - np.cos(np.pi * (np.arange(r) + 0.5) / r))  # 0 -> 1
         self.lx = max(r, int(round(SMOOTHING * fs)))  # crossfade to a tick's continuation
@@ -55,7 +95,7 @@ class SplicedChannel:
         self.rng = rng
         self.y, self.done, self.F = [z[: join[self.i0]].copy()], join[self.i0], np.zeros(0)
         self.syn = []  # (start, samples) of synthesised noise
-        self.ref = self._reference(self.stop * min(1.0, float(np.min(speed[1:]))))
+        self.ref = self._reference(self.stop * min(1.0, float(np.min(self.speed[1:]))))
         for j in range(self.i0, self.M):
             latest, at = self._lay(j)
         self.tail = join_new[self.M - 1] + latest  # deterministic after this, but for noise
@@ -89,11 +129,10 @@ class SplicedChannel:
         P.take(at - q)
         return P
 
-    def _own_sound(self, j, need):
-        """Tick j's own sound as recorded (from its join to ``obs``, the next tick's cut,
-        clear of that tick's pre-echo; with the recorded noise), and its deterministic
-        continuation ``d`` from sample ``d0``, crossfaded over ``[st - k, st)``: ``(own, obs,
-        st, k, d, d0)``."""
+    def _own_sound(self, j, need) -> _OwnSound:
+        """Tick j's own sound as recorded (from its join to the next tick's cut, clear of
+        that tick's pre-echo; with the recorded noise), and its deterministic continuation,
+        at least ``need`` samples from the join."""
         z, fs, cut, join, r = self.z, self.fs, self.cut, self.join, self.r
         jj = join[j]
         obs = cut[j + 1] - jj if j + 1 < self.N else min(z.size - jj, jj - join[j - 1])
@@ -112,12 +151,12 @@ class SplicedChannel:
             # the recording's ringing after q (every tick up to j) less that of the earlier
             # ticks: own_j rung on alone, continuing it where it stops
             d = _follow(self._ringing(q, q), Pj, self.stop, max(0, need - obs), fs)
-            return own, obs, obs, 0, d, obs
+            return _OwnSound(own, obs, obs, 0, d, obs)
         # a tick recorded too briefly or too weakly to be continued from its own recording:
         # the template (tick 1's own sound) at its impact speed
         st = max(min(sink, obs), r)
         k = min(self.lx, st - r)
-        return own, obs, st, k, self.speed[j] * self.ref[st - k : max(st, need)], st - k
+        return _OwnSound(own, obs, st, k, self.speed[j] * self.ref[st - k : max(st, need)], st - k)
 
     def _rebase(self, j):
         """No onset of the output within the reach of tick j's model: the output's ringing
@@ -145,7 +184,9 @@ class SplicedChannel:
             for s0, nz in self.syn:
                 yp[s0 : s0 + nz.size] -= nz
             self.F = _follow(Ringing(self._model(self.cut[j])[0], yp), None, self.stop, need, fs)
-        own, obs, st, k, d, d0 = self._own_sound(j, need)
+        sound = self._own_sound(j, need)
+        own, obs, st, k = sound.recorded, sound.observed, sound.start, sound.fade
+        d, d0 = sound.continued, sound.continued_from
         ends = span is None or span > obs  # the record ends before the next tick
         latest = obs if ends else span
         n = max(obs, d0 + d.size)

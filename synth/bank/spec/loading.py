@@ -4,13 +4,13 @@ checked key by key into a :class:`~synth.bank.spec.model.BankSpec`.
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
+from synth import checks
 from synth.bank.spec.model import (
     FORMATS,
     RENDER_DEFAULTS,
@@ -45,8 +45,7 @@ def find(path_or_name) -> Path:
     known = available()
     if str(path_or_name) in known:
         return known[str(path_or_name)]
-    near = difflib.get_close_matches(str(path_or_name), known, n=2, cutoff=0.4)
-    hint = f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
+    hint = checks.did_you_mean(path_or_name, known, n=2, cutoff=0.4)
     raise BankSpecError(
         f"spec={str(path_or_name)!r} is not a file nor an example spec{hint}; examples: "
         f"{', '.join(known) or 'none'}"
@@ -78,8 +77,7 @@ def from_dict(data: dict, *, base_dir=".", source: str = "<spec>") -> BankSpec:
 def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     for key, value in data.items():
         if key not in TOP_LEVEL:
-            near = difflib.get_close_matches(key, TOP_LEVEL, n=1)
-            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            hint = checks.did_you_mean(key, TOP_LEVEL)
             raise spec_error(
                 key, value, f"is not a known key{hint}; allowed: {', '.join(TOP_LEVEL)}"
             )
@@ -98,33 +96,10 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise spec_error("description", description, "must be a string")
-    vary = data.get("vary", {})
-    if not isinstance(vary, dict):
-        raise spec_error("vary", vary, "must be a table of axes")
     base_raw = presets.read(preset_path)
     sampling = data.get("sampling", "random")
-    if sampling not in SAMPLINGS:
-        raise spec_error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
-    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
-    if sampling == "grid":
-        if count is not None:
-            raise spec_error("count", count, "must be left out with sampling = 'grid'")
-        axes = tuple(grid_axis(a) for a in axes)
-    elif any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
-        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
-    render_section = data.get("render", {})
-    if not isinstance(render_section, dict):
-        raise spec_error("render", render_section, "must be a table of render options")
-    base = dict(base_raw)
-    base["render"] = {
-        **RENDER_DEFAULTS,
-        **base_raw.get("render", {}),
-        **render_section,
-    }
-    try:
-        _, options = presets.scene_from_dict(base, str(preset_path))
-    except ParameterError as exc:
-        raise BankSpecError(str(exc)) from None
+    axes = _axes(data.get("vary", {}), sampling, count, base_raw)
+    base, options = _base(base_raw, data.get("render", {}), preset_path)
     subtype = options.pop("subtype", FORMATS[fmt][2]).upper()
     _check_subtype(fmt, subtype)
     name = data.get("name", "{preset}-{index:05d}" if axes else "{preset}")
@@ -152,6 +127,41 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
     )
     check_template(spec)
     return spec
+
+
+def _axes(vary, sampling, count, base_raw: dict) -> tuple:
+    """The checked axes of the ``[vary]`` table over the preset dict ``base_raw``, made
+    grids with ``sampling = "grid"``."""
+    if not isinstance(vary, dict):
+        raise spec_error("vary", vary, "must be a table of axes")
+    if sampling not in SAMPLINGS:
+        raise spec_error("sampling", sampling, f"must be one of {', '.join(map(repr, SAMPLINGS))}")
+    axes = tuple(_axis(key, value, base_raw) for key, value in vary.items())
+    if sampling == "grid":
+        if count is not None:
+            raise spec_error("count", count, "must be left out with sampling = 'grid'")
+        return tuple(grid_axis(a) for a in axes)
+    if any(isinstance(a, RangeAxis) and a.steps is not None for a in axes):
+        raise BankSpecError("vary: 'steps' of a range needs sampling = 'grid'")
+    return axes
+
+
+def _base(base_raw: dict, render_section, preset_path) -> tuple[dict, dict]:
+    """The preset dict with the spec's ``[render]`` table over the preset's (and the bank's
+    defaults under both), and its checked render options (with ``subtype`` if named)."""
+    if not isinstance(render_section, dict):
+        raise spec_error("render", render_section, "must be a table of render options")
+    base = dict(base_raw)
+    base["render"] = {
+        **RENDER_DEFAULTS,
+        **base_raw.get("render", {}),
+        **render_section,
+    }
+    try:
+        _, options = presets.scene_from_dict(base, str(preset_path))
+    except ParameterError as exc:
+        raise BankSpecError(str(exc)) from None
+    return base, options
 
 
 def _trim(value) -> dict | None:
@@ -250,10 +260,8 @@ def _axis(key: str, value, base_raw: dict):
     where = f"vary.{key}"
     allowed = _allowed_keys()
     if key not in allowed:
-        near = difflib.get_close_matches(key, allowed, n=1)
-        hint = f" (did you mean {near[0]!r}?)" if near else ""
         raise BankSpecError(
-            f"{where}: {key!r} is not a preset key{hint}; keys are "
+            f"{where}: {key!r} is not a preset key{checks.did_you_mean(key, allowed)}; keys are "
             f"'section.key' as in synth render --set (e.g. drop.height), or "
             f"{RESTITUTION_SCALE}"
         )

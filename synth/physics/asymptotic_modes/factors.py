@@ -173,7 +173,7 @@ def factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 
 @compiled()
-def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # pragma: no cover
+def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # noqa: PLR0913  # pragma: no cover
     """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
     ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
     ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1).

@@ -32,7 +32,7 @@ def near_pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
 
 
 @compiled()
-def factor_exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # pragma: no cover
+def factor_exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # noqa: PLR0913  # pragma: no cover
     """A factor ``scale (u + ce e)`` (see :func:`_factor`) as ``sum_t coef[t] exp(rate[t]
     x + shift[t])`` on ``[-h, h]``, written into the arrays (4 entries); returns the
     number of terms, 0 for the measure-zero cases ``s = 0`` or ``s + 2 so = 0`` (a
@@ -138,7 +138,7 @@ def _pair_eigen(kk, mm):  # pragma: no cover
 
 
 @compiled()
-def rayleigh_ritz(
+def rayleigh_ritz(  # noqa: PLR0913
     sx, sy, nx, ny, hx, hy, free, nu, cx, gx, cy, gy, omega, partner
 ):  # pragma: no cover
     """Frequencies and shape coefficients of the Rayleigh-Ritz step (module notes):

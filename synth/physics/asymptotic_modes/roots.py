@@ -67,7 +67,7 @@ def _characteristic(s, so, h, free, odd, nu):  # pragma: no cover
 
 
 @compiled()
-def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # pragma: no cover
+def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913  # pragma: no cover
     """Root of the characteristic function in the bracket ``[lo, hi]`` (values ``flo``,
     ``fhi`` of opposite signs) by the Illinois variant of regula falsi (superlinear,
     never leaves the bracket). ``squared``: the variable is ``k`` and ``s = k^2``."""

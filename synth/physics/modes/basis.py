@@ -15,7 +15,7 @@ The mass matrix is therefore the identity; the stiffness matrix is assembled
 from exact one-dimensional integrals of products of ``psi``, ``psi'`` and
 ``psi''`` (Gauss-Legendre quadrature, exact for these polynomials). A basis
 function is even or odd in ``xi`` with its degree, so the problem splits into
-
+the plate's four symmetry classes (even/odd in x times even/odd in y), solved
 apart.
 
 Eigen-solution. The stiffness matrix spans many decades (its largest Ritz
@@ -26,8 +26,7 @@ degree 160) and a plain symmetric eigen-solver loses the low modes (errors of
 errors stay relative to each entry of this graded matrix), forms
 ``(K + s I)^-1`` (LAPACK ``potri``) and takes its largest eigenvalues
 ``mu = 1 / (lambda + s)``: their absolute error ``eps / s`` gives the wanted
-
-the low modes agree with a degree-24 solve to 1e-8).
+eigenvalues to a relative error ``eps * lambda / s``, whatever the norm of ``K``.
 
 Basis size. A mode of bending wavenumber ``k`` (``omega^2 rho h = D k^4``)
 varies along x at most like ``sin(k x)``, i.e. like ``sin(kappa xi)`` with
@@ -37,18 +36,21 @@ spectral convergence). The basis keeps the degree pairs ``(i, j)`` needed by
 some wavenumber ``(k_x, k_y)`` with ``k_x^2 + k_y^2 <= k_max^2``:
 ``(g^-1(i) / K_x)^2 + (g^-1(j) / K_y)^2 <= 1``, ``K_x = k_max a / 2``,
 ``K_y = k_max b / 2`` (a quarter ellipse instead of the full rectangle: a
-fifth fewer unknowns). With ``c0 = 2``, ``c1 = 3`` every mode up to ``k_max``
-is measured converged to about 1e-7 in frequency (free) and 1e-9 (clamped),
-from 1D beam tests (``N - kappa ~ 3.5 kappa^(1/3)`` degrees for 1e-6) and 2D
+fifth fewer unknowns). The constants ``c0 = 2``, ``c1 = 3`` follow the 1D beam's
+convergence (``N - kappa ~ 3.5 kappa^(1/3)`` degrees for a relative error of 1e-6);
+every mode returned is checked against a larger basis
+(:mod:`synth.physics.modes.ritz`, its ``TOLERANCE``).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from synth.compilation import compiled
+from synth.physics.modes.common import ratios
 
 # Shift s of K + s I (dimensionless units of omega^2 L^4 rho h / D). The lowest
 # elastic mode of any free or clamped rectangle lies above 13 (square free plate);
@@ -190,7 +192,7 @@ def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
 
 
 @compiled(nogil=True)
-def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma: no cover
+def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # noqa: PLR0913  # pragma: no cover
     """Shifted stiffness ``K + shift 1`` of the basis ``psi_I(xi) psi_J(eta)`` (upper triangle).
 
     ``K[p, q] = 16 [rx^4 A22[i,k] d_jl + ry^4 d_ik B22[j,l]
@@ -222,7 +224,37 @@ def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # pragma:
     return k
 
 
-def _stiffness(mx, my, I, J, rx, ry, nu, shift=0.0):
+@dataclass(frozen=True)
+class RitzProblem:
+    """The Rayleigh-Ritz problem of one plate, shared by its four symmetry classes.
+
+    ``mx``, ``my``: the one-dimensional integral matrices (:func:`matrices_1d`) along
+    ``xi`` and ``eta``, up to the largest degree of the bases solved; ``rx = L/a``,
+    ``ry = L/b`` with ``L = max(a, b)``; ``nu``: Poisson's ratio.
+    """
+
+    mx: tuple
+    my: tuple
+    rx: float
+    ry: float
+    nu: float
+
+    @classmethod
+    def over(cls, boundary: str, aspect: float, nu: float, sets) -> RitzProblem:
+        """The problem of a plate of aspect ``a/b`` with the degree pairs ``sets`` (one
+        ``(I, J)`` per class, :func:`index_set`): its matrices reach their largest degrees."""
+        alpha = basis_alpha(boundary)
+        rx, ry = ratios(aspect)
+        return cls(
+            matrices_1d(alpha, max(int(ij[0].max()) for ij in sets) + 1),
+            matrices_1d(alpha, max(int(ij[1].max()) for ij in sets) + 1),
+            rx,
+            ry,
+            nu,
+        )
+
+
+def _stiffness(problem: RitzProblem, I, J, shift=0.0):
     """Dimensionless stiffness matrix (upper triangle) of the basis ``psi_I(xi) psi_J(eta)``.
 
     With ``L = max(a, b)``, ``rx = L/a``, ``ry = L/b`` and eigenvalue
@@ -234,17 +266,18 @@ def _stiffness(mx, my, I, J, rx, ry, nu, shift=0.0):
     return _assemble(
         np.ascontiguousarray(I, dtype=np.int64),
         np.ascontiguousarray(J, dtype=np.int64),
-        *mx,
-        *my,
-        float(rx),
-        float(ry),
-        float(nu),
+        *problem.mx,
+        *problem.my,
+        float(problem.rx),
+        float(problem.ry),
+        float(problem.nu),
         float(shift),
     )
 
 
-def solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
-    """Eigenpairs with eigenvalue <= ``lam_max`` of one class, through ``(K + s I)^-1``.
+def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):
+    """Eigenpairs with eigenvalue <= ``lam_max`` of the class of basis ``(I, J)``, through
+    ``(K + s I)^-1``.
 
     Returns ``(lam, vec)`` ascending (``vec`` is None if not wanted). The largest
     eigenvalues ``mu = 1 / (lambda + s)`` of the inverse carry a relative error of
@@ -253,7 +286,7 @@ def solve_class(mx, my, I, J, rx, ry, nu, lam_max: float, vectors: bool):
     import scipy.linalg  # imported on use: a render from cached modes solves nothing
     from scipy.linalg import lapack
 
-    k = _stiffness(mx, my, I, J, rx, ry, nu, SHIFT)
+    k = _stiffness(problem, I, J, SHIFT)
     c, info = lapack.dpotrf(k, lower=0, clean=1, overwrite_a=1)
     if info != 0:
         raise np.linalg.LinAlgError(f"Cholesky failed (info={info})")  # pragma: no cover

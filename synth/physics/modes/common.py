@@ -15,7 +15,7 @@ CHUNK_ELEMENTS = 1 << 22
 # runs products up to 4 * 65536 multiply-adds on one thread (its default
 # GEMM_MULTITHREAD_THRESHOLD). Shapes are evaluated beside other busy threads (the
 # Rayleigh sums of synth.sound.radiation); a multithreaded product whose helper thread
-# waits for a busy core stalls (measured: 5 to 10 times slower than on one thread).
+# waits for a busy core stalls until that core is free, so each call stays on one thread.
 _PIECE = 1 << 18
 # Version of the stored solution layout and algorithm; part of the cache key.
 VERSION = 1

@@ -30,10 +30,10 @@ from synth.compilation import compiled
 from synth.errors import SynthError
 from synth.physics.modes.basis import (
     SHIFT,
+    RitzProblem,
     basis_1d,
     basis_alpha,
     index_set,
-    matrices_1d,
     solve_class,
 )
 from synth.physics.modes.common import CHUNK_ELEMENTS, VERSION, ratios, single_thread_product
@@ -75,37 +75,47 @@ def _take_columns(a, index):  # pragma: no cover
             a[p, k] = row[k]
 
 
+@dataclass(eq=False, repr=False)
 class RitzSolution:
     """Free or clamped modes of a plate of aspect ``a/b``, Poisson ``nu``, up to
     ``omega_max`` (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``).
 
     ``omega`` ascending; mode ``k`` is column ``col[k]`` of ``coef[cls[k]]``, the
     coefficients on ``psi_I(xi) psi_J(eta)`` with ``I, J = index[cls[k]]`` (unit
-    norm: the shape is ``2 sum c_ij psi_i(xi) psi_j(eta)``).
+    norm: the shape is ``2 sum c_ij psi_i(xi) psi_j(eta)``). ``info``: how it was
+    obtained (the bases tried, or the cache file read). The arrays are made read-only.
     """
 
-    def __init__(self, boundary, nu, aspect, omega_max, omega, cls, col, index, coef, info):
-        self.boundary = boundary
-        self.nu = nu
-        self.aspect = aspect
-        self.omega_max = omega_max
-        self.omega = omega
-        self.cls = cls
-        self.col = col
-        self.index = index
-        self.coef = coef
-        self.info = info
-        arrays = (omega, cls, col, *[a for ij in index for a in ij], *coef)
+    boundary: str
+    nu: float
+    aspect: float
+    omega_max: float
+    omega: np.ndarray
+    cls: np.ndarray
+    col: np.ndarray
+    index: list
+    coef: list
+    info: dict
+    nbytes: int = field(init=False)
+    key: str = field(init=False)
+    # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the latest
+    # few are kept (a grid is usually evaluated chunk by chunk).
+    _dense: dict = field(init=False, repr=False, default_factory=dict)
+
+    def __post_init__(self):
+        arrays = (
+            self.omega, self.cls, self.col, *[a for ij in self.index for a in ij], *self.coef
+        )  # fmt: skip
         for arr in arrays:
             arr.setflags(write=False)
         self.nbytes = sum(arr.nbytes for arr in arrays)
         self.key = json.dumps(
-            {"solution": solution_key(boundary, nu, aspect), "omega_max": float(omega_max).hex()},
+            {
+                "solution": solution_key(self.boundary, self.nu, self.aspect),
+                "omega_max": float(self.omega_max).hex(),
+            },
             sort_keys=True,
         )
-        # Dense coefficient tensors of _grouped, by (class, modes, grouped axis): the
-        # latest few are kept (a grid is usually evaluated chunk by chunk).
-        self._dense = {}
 
     def _dense_coefficients(self, c, m, axis):
         """Coefficients of class ``c``'s first ``m`` modes as a dense
@@ -301,19 +311,18 @@ def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]
     return main, check
 
 
-def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
+def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
     """``(lam, vec, lam_check)`` of each symmetry class: eigenpairs of the basis
     ``main[c]`` and eigenvalues of the larger ``check[c]`` (see :func:`solve_class`).
 
     ``one_thread``: LAPACK runs on one BLAS thread. A multithreaded LAPACK call whose
-    helper threads wait for cores that other work keeps busy stalls: measured with
-    dense eigen-solutions of 1400 unknowns on two shared cores, 16 times slower than
-    on one thread (see :func:`synth.physics.modes.common.single_thread_product`).
+    helper threads wait for cores that other work keeps busy stalls, many times slower
+    than on one thread (see :func:`synth.physics.modes.common.single_thread_product`).
     """
 
     def solve(c):
-        lam, vec = solve_class(mx, my, *main[c], rx, ry, nu, lam_cut, True)
-        lam2, _ = solve_class(mx, my, *check[c], rx, ry, nu, lam_cut, False)
+        lam, vec = solve_class(problem, *main[c], lam_cut, True)
+        lam2, _ = solve_class(problem, *check[c], lam_cut, False)
         return lam, vec, lam2
 
     if not one_thread:
@@ -324,63 +333,66 @@ def _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread):
         return [solve(c) for c in range(4)]
 
 
+def _bases(rx: float, ry: float, omega_req: float, grow: float):
+    """The main and check bases (one ``(I, J)`` per symmetry class) for modes up to
+    ``omega_req``, the wavenumbers scaled by ``grow``; ``TooLarge`` past the dense solver."""
+    # Wavenumbers per unit of xi, eta: k L = sqrt(Omega), a = L / rx.
+    k_l = math.sqrt(omega_req) * grow
+    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    # The kept degree pairs fill more than pi/4 of the rectangle of the largest
+    # degrees: refuse hopeless sizes before building any index set.
+    nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
+    ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
+    if math.pi / 16.0 * nx_max * ny_max > _MAX_UNKNOWNS:
+        raise TooLarge(int(math.pi / 16.0 * nx_max * ny_max))
+    main = [index_set(px, py, kx, ky, _C0, _C1) for px, py in _CLASSES]
+    check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1) for px, py in _CLASSES]
+    largest = max(ij[0].size for ij in check)
+    if largest > _MAX_UNKNOWNS:
+        raise TooLarge(largest)
+    return main, check
+
+
+def _elastic(boundary: str, c: int, lam, vec, lam2):
+    """The class's eigenpairs without its rigid-body motion: a free plate's classes 0, 1
+    and 2 hold one (1, xi, eta), a zero eigenvalue each (numerically ``|lambda| ~ eps s``)."""
+    if boundary != "free" or c == 3:
+        return lam, vec, lam2
+    if not (lam.size and lam2.size and abs(lam[0]) < 1e-6 * SHIFT and abs(lam2[0]) < 1e-6 * SHIFT):
+        raise SynthError("free plate: rigid-body modes not found")  # pragma: no cover
+    return lam[1:], vec[:, 1:], lam2[1:]
+
+
+def _worst_change(om, om2, omega_req: float) -> float:
+    """The largest relative change of a mode at or below ``omega_req`` from the main
+    basis (``om``) to the check basis (``om2``); ``inf`` when a check mode has no main
+    partner."""
+    need = int(np.searchsorted(om2, omega_req, side="right"))
+    if need > om.size:
+        return math.inf
+    if not need:
+        return 0.0
+    return float(np.max(np.abs((om[:need] - om2[:need]) / om[:need])))
+
+
 def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> RitzSolution:
     """All converged modes with dimensionless frequency <= ``omega_req``."""
-    alpha = basis_alpha(boundary)
     rx, ry = ratios(aspect)
     lam_cut = (omega_req * (1.0 + 10.0 * TOLERANCE)) ** 2
     grow = 1.0
     attempts = []
     one_thread = None
     for _ in range(6):
-        # Wavenumbers per unit of xi, eta: k L = sqrt(Omega), a = L / rx.
-        k_l = math.sqrt(omega_req) * grow
-        kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
-        # The kept degree pairs fill more than pi/4 of the rectangle of the largest
-        # degrees: refuse hopeless sizes before building any index set.
-        nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
-        ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
-        if math.pi / 16.0 * nx_max * ny_max > _MAX_UNKNOWNS:
-            raise TooLarge(int(math.pi / 16.0 * nx_max * ny_max))
-        main = [index_set(px, py, kx, ky, _C0, _C1) for px, py in _CLASSES]
-        check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1) for px, py in _CLASSES]
-        sizes = [ij[0].size for ij in check]
-        if max(sizes) > _MAX_UNKNOWNS:
-            raise TooLarge(max(sizes))
-        nx = max(int(ij[0].max()) for ij in check) + 1
-        ny = max(int(ij[1].max()) for ij in check) + 1
-        mx = matrices_1d(alpha, nx)
-        my = matrices_1d(alpha, ny)
+        main, check = _bases(rx, ry, omega_req, grow)
+        problem = RitzProblem.over(boundary, aspect, nu, check)
         if one_thread is None:  # decided on the first basis, kept for the larger ones
             one_thread = max(ij[0].size for ij in main) > ONE_THREAD_UNKNOWNS
-        solved = _solve_classes(mx, my, main, check, rx, ry, nu, lam_cut, one_thread)
-        lams, vecs, ok = [], [], True
-        worst = 0.0
-        for c, (lam, vec, lam2) in enumerate(solved):
-            if boundary == "free" and c != 3:
-                # The rigid-body motions (1, xi, eta) lie in classes 0, 1, 2: one zero
-                # eigenvalue each (numerically |lambda| ~ eps * s).
-                if not (
-                    lam.size
-                    and lam2.size
-                    and abs(lam[0]) < 1e-6 * SHIFT
-                    and abs(lam2[0]) < 1e-6 * SHIFT
-                ):
-                    raise SynthError("free plate: rigid-body modes not found")  # pragma: no cover
-                lam, vec, lam2 = lam[1:], vec[:, 1:], lam2[1:]
+        lams, vecs, worst = [], [], 0.0
+        for c, solved in enumerate(_solve_classes(problem, main, check, lam_cut, one_thread)):
+            lam, vec, lam2 = _elastic(boundary, c, *solved)
             om = np.sqrt(np.maximum(lam, 0.0))
-            om2 = np.sqrt(np.maximum(lam2, 0.0))
             # Every check mode at or below omega_req needs a converged main partner.
-            need = int(np.searchsorted(om2, omega_req, side="right"))
-            if need > om.size:
-                ok = False
-                worst = math.inf
-            else:
-                err = (om[:need] - om2[:need]) / om[:need] if need else np.zeros(0)
-                if err.size:
-                    worst = max(worst, float(np.max(np.abs(err))))
-                    if np.any(np.abs(err) > TOLERANCE):
-                        ok = False
+            worst = max(worst, _worst_change(om, np.sqrt(np.maximum(lam2, 0.0)), omega_req))
             keep = int(np.searchsorted(om, omega_req, side="right"))
             lams.append(om[:keep])
             vecs.append(np.ascontiguousarray(vec[:, :keep]))
@@ -388,11 +400,11 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
             {
                 "grow": grow,
                 "unknowns": [ij[0].size for ij in main],
-                "check_unknowns": sizes,
+                "check_unknowns": [ij[0].size for ij in check],
                 "worst_relative_change": worst,
             }
         )
-        if ok:
+        if worst <= TOLERANCE:
             break
         grow *= 1.15
     else:
@@ -432,15 +444,13 @@ def ritz_frequencies(
     A diagnostic of the basis-size rule: bases grow (nested) with ``omega_basis``,
     ``c0`` and ``c1``, so each Ritz value can only decrease as they grow.
     """
-    alpha = basis_alpha(boundary)
     rx, ry = ratios(aspect)
     k_l = math.sqrt(omega_basis)
     sets = [index_set(px, py, 0.5 * k_l / rx, 0.5 * k_l / ry, c0, c1) for px, py in _CLASSES]
-    mx = matrices_1d(alpha, max(int(ij[0].max()) for ij in sets) + 1)
-    my = matrices_1d(alpha, max(int(ij[1].max()) for ij in sets) + 1)
+    problem = RitzProblem.over(boundary, aspect, nu, sets)
     out = []
     for c, (I, J) in enumerate(sets):
-        lam, _ = solve_class(mx, my, I, J, rx, ry, nu, omega_cut**2, False)
+        lam, _ = solve_class(problem, I, J, omega_cut**2, False)
         if boundary == "free" and c != 3:
             lam = lam[1:]
         out.append(np.sqrt(np.maximum(lam, 0.0)))
