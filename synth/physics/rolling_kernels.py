@@ -112,6 +112,10 @@ def penetration(y, env, dx):  # pragma: no cover - compiled
     return e - y[Z]
 
 
+#: Rows of :func:`roll_into`'s workspace (the stages, the stage argument, the 5th-order end).
+WORK_ROWS = 9
+
+
 @compiled()
 def roll(
     y,
@@ -144,20 +148,55 @@ def roll(
     Every period is integrated from its own time 0 (the state and the step size carry
     over), so a rolling cut into consecutive calls at sample boundaries gives the bits of
     one call. Returns ``(status, steps, rejected, flights, h)``: ``flights`` counts the
-    losses of contact seen at steps' ends; ``h`` is the next step size."""
+    losses of contact seen at steps' ends; ``h`` is the next step size. The work of
+    :func:`roll_into` in a workspace of its own."""
+    work = np.empty((WORK_ROWS, N_STATE))
+    return roll_into(
+        y, h, env, dx, speeds, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max,
+        max_steps, force_out, min_penetration, path_out, work,
+    )  # fmt: skip
+
+
+@compiled()
+def roll_into(
+    y,
+    h,
+    env,
+    dx,
+    speeds,
+    m,
+    K,
+    n,
+    mu,
+    b,
+    beta,
+    g,
+    samplerate,
+    rtol,
+    delta_ref,
+    h_max,
+    max_steps,
+    force_out,
+    min_penetration,
+    path_out,
+    work,
+):  # pragma: no cover - compiled
+    """:func:`roll` in the caller's workspace ``work`` (float64, ``(WORK_ROWS, N_STATE)``):
+    it allocates nothing, so the live engine's audio thread runs it (the same code, so the
+    same bits as :func:`roll`)."""
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate
     atol_z = rtol * delta_ref
     atol_v = rtol * math.sqrt(g * delta_ref)
-    k1 = np.empty(N_STATE)
-    k2 = np.empty(N_STATE)
-    k3 = np.empty(N_STATE)
-    k4 = np.empty(N_STATE)
-    k5 = np.empty(N_STATE)
-    k6 = np.empty(N_STATE)
-    k7 = np.empty(N_STATE)
-    tmp = np.empty(N_STATE)
-    y5 = np.empty(N_STATE)
+    k1 = work[0]
+    k2 = work[1]
+    k3 = work[2]
+    k4 = work[3]
+    k5 = work[4]
+    k6 = work[5]
+    k7 = work[6]
+    tmp = work[7]
+    y5 = work[8]
     steps = 0
     rejected = 0
     flights = 0
