@@ -9,11 +9,11 @@ import pytest
 
 import synth
 from synth.errors import ParameterError
+from synth.live.rolling import HORIZON
 from synth.physics import rolling, surface
 from synth.physics.scene import Ball
 from synth.sound.render import modal_model
 from synth.sound.rolling import POINTS_PER_WAVELENGTH, rolling_sound
-from synth.live.rolling import HORIZON
 from synth.store.audio import PHYSICAL_FULL_SCALE
 
 FS = 48000
@@ -236,3 +236,18 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
     assert voice.overruns <= late * FS
     assert voice.frames > 2 * seconds * FS * 0.9
     assert np.sqrt(np.mean(recording[: int(2 * seconds * FS)].astype(float) ** 2)) > 0.0
+
+
+def test_the_rolling_example_of_the_docs_runs_as_printed():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "live.md").read_text()
+    code = [part.split("```", 1)[0] for part in text.split("```python")[1:]][1]
+    assert "floor.roll(" in code
+    namespace = {}
+    exec(compile(code, "docs/live.md", "exec"), namespace)
+    rolling, engine = namespace["rolling"], namespace["engine"]
+    assert np.max(np.abs(namespace["audio"])) > 0.0
+    assert rolling.overruns == 0 and rolling.frames == 30 * 768
+    engine.process(4800)
+    assert not rolling.playing and engine.ended() == [rolling.id]

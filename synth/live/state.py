@@ -272,7 +272,9 @@ def rolling_form(record):
         numba.carray(pointer_to(record[B_ROLL_Y]), (R, N), np.float64),
         numba.carray(pointer_to(record[B_ROLL_WORK]), (R, rolling_block.WORK_ROWS, N), np.float64),
         numba.carray(
-            pointer_to(record[B_ROLL_BUF]), (R, rolling_block.N_BUF, record[B_ROLL_FRAMES]), np.float64
+            pointer_to(record[B_ROLL_BUF]),
+            (R, rolling_block.N_BUF, record[B_ROLL_FRAMES]),
+            np.float64,
         ),
         numba.carray(pointer_to(record[B_ROLL_Z]), (R, 2, K), np.float64),
         numba.carray(pointer_to(record[B_ROLL_COEF]), (R, rolling_block.N_COEF, K), np.float64),
