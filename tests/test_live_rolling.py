@@ -251,3 +251,18 @@ def test_the_rolling_example_of_the_docs_runs_as_printed():
     assert rolling.overruns == 0 and rolling.frames == 30 * 768
     engine.process(4800)
     assert not rolling.playing and engine.ended() == [rolling.id]
+
+
+def test_a_removed_body_fades_its_rolling_voice_out_then_is_freed(setup):
+    plate, mic, ball, envelope = setup
+    engine = synth.Engine(samplerate=FS)
+    body = engine.add(plate, listener=mic)
+    voice = body.roll(ball, (0.5, 0.3), (0.2, 0.0), envelope=envelope, start=START)
+    engine.process(1024)
+    body.remove(fade=0.01)
+    assert body.awake  # it still fades out
+    engine.process(2048)
+    assert not voice.playing and voice.ended_by == "stop" and engine.ended() == [voice.id]
+    engine.process(256)
+    assert body.memory == 0 and engine.bodies == ()
+    voice.update((0.5, 0.3), (0.2, 0.0))  # a late update of the game does nothing

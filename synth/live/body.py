@@ -135,7 +135,8 @@ class Body:
             pan=pan,
             rolls=rolling.body_rolls(engine.max_rolls, model, engine._native.mix.shape[1]),
         )
-        self._rolls, self._roll_step = arrays, rolling.table_step(model)
+        self._rolls = {k: v for k, v in arrays.items() if k.startswith("roll")}
+        self._roll_step = rolling.table_step(model)
         self._roll_lock, self._roll_holds = threading.Lock(), [None] * engine.max_rolls
         self.rolls_refused = 0  # Body.roll calls that found every rolling slot taken
         self._heard = arrays["heard"]
@@ -258,7 +259,7 @@ class Body:
     @property
     def awake(self) -> bool:
         """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
-        return self.ringing or any(ear.pending for ear in self._ears)
+        return self.ringing or any(ear.pending for ear in self._ears) or rolling.rolls(self)
 
     @property
     def ringing(self) -> bool:
@@ -716,6 +717,7 @@ class Body:
         if self._removed:
             return
         self._removed = True
+        rolling.stop_rolls(self, fade)
         if fade is not None:
             frames = max(1, int(round(f * self._engine.samplerate)))
             for ear in self._ears:
@@ -728,7 +730,7 @@ class Body:
         """Let go of the arrays of every ear (the mixing no longer reads them)."""
         for ear in self._ears:
             ear._freed = True
-            ear._ring = None
+            ear._ring = ear._rolls = None
             ear._state_arrays = None
             ear._prepared = {}
             ear._solvers = {}

@@ -14,7 +14,6 @@ block plus the stream's output latency after the call at most.
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 
@@ -99,14 +98,15 @@ class RollingVoice:
         self.id = vid
         self._slot = slot
         self._direction = direction
-        self._lock = threading.Lock()  # between the game's threads updating it
+        # the body's: between the game's threads updating its voices and taking its slots
+        self._lock = body._roll_lock
+        rolls = body._rolls
+        self._ints = rolls["roll_ints"][slot]  # its slot's scalars (kept after the body's end)
+        self._floats = rolls["roll_floats"][slot]
+        self._state = rolls["roll_y"][slot]
 
     def __repr__(self):
         return f"RollingVoice(id={self.id}, playing={self.playing})"
-
-    @property
-    def _ints(self) -> np.ndarray:
-        return self.body._rolls["roll_ints"][self._slot]
 
     @property
     def playing(self) -> bool:
@@ -122,7 +122,7 @@ class RollingVoice:
     def path_position(self) -> float:
         """How far the ball's centre has rolled along its surface's envelope, m (from the
         envelope's start; as of the last block mixed)."""
-        return float(self.body._rolls["roll_y"][self._slot][rb.rolling_kernels.S])
+        return float(self._state[rb.rolling_kernels.S])
 
     @property
     def overruns(self) -> int:
@@ -151,14 +151,15 @@ class RollingVoice:
     def gain(self) -> float:
         """The voice's gain (linear, in [0, 1e4]), on top of the body's; set while it rolls,
         it is ramped linearly over the next block."""
-        return float(self.body._rolls["roll_floats"][self._slot][rb.F_GAIN])
+        return float(self._floats[rb.F_GAIN])
 
     @gain.setter
     def gain(self, value: float) -> None:
         g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
                             hi_open=False)  # fmt: skip
-        if self.playing:
-            self.body._rolls["roll_floats"][self._slot][rb.F_GAIN] = g
+        with self._lock:
+            if self.playing:
+                self._floats[rb.F_GAIN] = g
 
     def update(self, position, velocity) -> None:
         """The ball's centre is now above ``position`` ((x, y), m from the plate's corner),
@@ -178,10 +179,13 @@ class RollingVoice:
         """Write the table of the segment from ``(x, y)`` into the back buffer and swap it
         into the middle (flagged fresh) for the audio thread."""
         body, r = self.body, self._slot
+        rolls = body._rolls
+        if rolls is None:  # the body left its engine
+            return
         ux, uy = self._direction
         plate = body.plate
         step = body._roll_step
-        rows_cap = body._rolls["roll_rows"]
+        rows_cap = rolls["roll_rows"]
         back = min(MARGIN, _reach(plate, x, y, -ux, -uy))
         ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
@@ -191,8 +195,8 @@ class RollingVoice:
         ints = self._ints
         b = int(ints[rb.I_BACK])
         rows = table.excitation.shape[0]
-        body._rolls["roll_tables"][r, b, :rows] = table.excitation
-        body._rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
+        rolls["roll_tables"][r, b, :rows] = table.excitation
+        rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
         old = rb.exchange(ints, rb.I_MIDDLE, b | rb.FRESH)
         ints[rb.I_BACK] = old & 3
 
@@ -208,6 +212,24 @@ class RollingVoice:
             ints = self._ints
             if self.playing and ints[rb.I_STOP] < 0:
                 ints[rb.I_STOP] = max(1, int(round(f * engine.samplerate)))
+
+
+def rolls(body) -> bool:
+    """Whether a rolling voice of ``body`` rolls or fades (or is being handed over)."""
+    arrays = body._rolls
+    return arrays is not None and bool(np.any(arrays["roll_ints"][:, rb.I_STATE] != rb.FREE))
+
+
+def stop_rolls(body, fade: float | None) -> None:
+    """Fade out every rolling voice of ``body`` (taken out of its engine) over ``fade`` s
+    (None: the engine's ``fade``)."""
+    engine = body._engine
+    frames = max(1, int(round((engine._fade if fade is None else fade) * engine.samplerate)))
+    with body._roll_lock:
+        ints = body._rolls["roll_ints"]
+        for r in range(ints.shape[0]):
+            if ints[r, rb.I_STATE] == rb.LIVE and ints[r, rb.I_STOP] < 0:
+                ints[r, rb.I_STOP] = frames
 
 
 def start_roll(
@@ -237,23 +259,23 @@ def start_roll(
     )
     s0 = checks.in_range("start", start, 0.0, envelope.length, "metres", lo_open=False)
     slots = body._rolls["roll_ints"]
-    with body._roll_lock:
+    with body._roll_lock:  # no update of an ended voice of the slot writes into it meanwhile
         free = [r for r in range(slots.shape[0]) if slots[r, rb.I_STATE] == rb.FREE]
         if not free:
             body.rolls_refused += 1
             return None
         r = free[0]
         slots[r, rb.I_STATE] = rb.WRITING
-    try:
-        _fill_slot(body, r, roller, envelope, s0, speed, g)
-    except BaseException:
-        slots[r, rb.I_STATE] = rb.FREE
-        raise
-    vid = engine._next_voice_id()
-    voice = RollingVoice(body, vid, r, (ux, uy) if speed > 0.0 else (1.0, 0.0))
-    slots[r, rb.I_ID] = vid
-    voice._publish(x, y, speed)
-    publish(slots[r], rb.I_STATE, rb.LIVE)  # last: the audio thread rolls it from now on
+        try:
+            _fill_slot(body, r, roller, envelope, s0, speed, g)
+            vid = engine._next_voice_id()
+            voice = RollingVoice(body, vid, r, (ux, uy) if speed > 0.0 else (1.0, 0.0))
+            slots[r, rb.I_ID] = vid
+            voice._publish(x, y, speed)
+        except BaseException:
+            slots[r, rb.I_STATE] = rb.FREE
+            raise
+        publish(slots[r], rb.I_STATE, rb.LIVE)  # last: the audio thread rolls it from now on
     return voice
 
 
