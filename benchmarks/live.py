@@ -438,7 +438,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
     )
 
 
-def rolling_cost(samplerate=48000, blocksize=256, seconds=2.0, speeds=(0.1, 0.3, 1.0)) -> dict:
+def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3, 1.0)) -> dict:
     """A rolling voice (:meth:`Body.roll`) on the default plate, a steel ball of 10 mm radius
     over a rough surface (the caller's roughness: RMS 1 um, correlation length 0.2 mm,
     Hurst 0.8), updated every 16 ms (three blocks) at each of ``speeds`` (m/s): the block's
