@@ -438,6 +438,63 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
     )
 
 
+def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3, 1.0)) -> dict:
+    """A rolling voice (:meth:`Body.roll`) on the default plate, a steel ball of 10 mm radius
+    over a rough surface (the caller's roughness: RMS 1 um, correlation length 0.2 mm,
+    Hurst 0.8), updated every 16 ms (three blocks) at each of ``speeds`` (m/s): the block's
+    mixing cost with the voice alone on the body (mean, 99th percentile, max, as a fraction
+    of the block), the integrator's steps per sample, :meth:`RollingVoice.update` on the
+    calling thread (median and 99th percentile, s) and the memory of one rolling slot."""
+    from synth.live.engine import Engine
+    from synth.physics import surface
+    from synth.physics.scene import Ball
+
+    scene = _scene()
+    ball = Ball("steel", 0.01)
+    spec = surface.RoughnessSpectrum(rms_height=1e-6, correlation_length=2e-4, hurst=0.8)
+    length = max(speeds) * seconds + 0.02
+    profile = surface.rough_profile(spec, length=length, spacing=5e-6, seed=1)
+    envelope = surface.contact_envelope(profile, ball.radius)
+    block = blocksize / samplerate
+    rows = []
+    for v in speeds:
+        engine = Engine(samplerate=samplerate, blocksize=blocksize)
+        body = engine.add(scene.plate, listener=scene.listener)
+        start = np.array([0.05, 0.5 * scene.plate.width])
+        voice = body.roll(ball, start, (v, 0.0), envelope=envelope, start=0.01)
+        out = np.zeros((blocksize, 1), dtype=np.float32)
+        costs, updates = [], []
+        for b in range(int(seconds * samplerate / blocksize)):
+            if b and b % 3 == 0:
+                t = time.perf_counter()
+                voice.update(start + (voice.path_position - 0.01, 0.0), (v, 0.0))
+                updates.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            engine._mix_into(out, blocksize)
+            costs.append(time.perf_counter() - t)
+        costs = np.array(costs) / block
+        rows.append(
+            dict(
+                speed=v,
+                mean=float(costs.mean()),
+                p99=float(np.percentile(costs, 99)),
+                max=float(costs.max()),
+                steps=voice.steps / max(voice.frames, 1),
+                overruns=voice.overruns,
+                update_median=float(np.median(updates)),
+                update_p99=float(np.percentile(updates, 99)),
+            )
+        )
+    slot = sum(
+        int(a[0].nbytes)
+        for k, a in body._rolls.items()
+        if k.startswith("roll_") and isinstance(a, np.ndarray)
+    )
+    return dict(
+        rows=rows, modes=body.modes, slot_bytes=slot, rows_per_table=body._rolls["roll_rows"]
+    )
+
+
 def run_live(seconds=30.0) -> dict:
     """Every figure of the live benchmark (``seconds``: the JACK run's length)."""
     from benchmarks.jack import jackd_available
@@ -449,6 +506,7 @@ def run_live(seconds=30.0) -> dict:
         listener_move=listener_move_cost(),
         transform=transform_cost(),
         hit_us=hit_cost(),
+        rolling=rolling_cost(),
     )
     if jackd_available():
         result["jack"] = jack_run(seconds=seconds)
@@ -541,6 +599,7 @@ def format_live(result) -> str:
         f"- Engine.add(default plate): cold cache {a['cold']:.2f} s, warm from disk "
         f"{a['warm_disk'] * 1e3:.0f} ms, warm from memory {a['warm_memory'] * 1e3:.0f} ms",
     ]
+    lines += _rolling_lines(result.get("rolling"))
     j = result["jack"]
     if j is None:
         lines.append("- JACK dummy server: jackd not installed, not measured")
@@ -597,6 +656,34 @@ def format_live(result) -> str:
         f"{j['clipped']} samples reached full scale"
     )
     return "\n".join(lines)
+
+
+def _rolling_lines(r) -> list:
+    """The rolling voice's figures (:func:`rolling_cost`) as Markdown lines."""
+    if r is None:
+        return []
+    from synth.live.rolling import HORIZON
+
+    costs = "; ".join(
+        f"{row['speed']:g} m/s: mean {100 * row['mean']:.2f} %, 99th percentile "
+        f"{100 * row['p99']:.2f} %, max {100 * row['max']:.2f} % of the block, "
+        f"{row['steps']:.2f} steps a sample"
+        for row in r["rows"]
+    )
+    updates = ", ".join(
+        f"{row['update_median'] * 1e6:.0f} us ({row['update_p99'] * 1e6:.0f} us) at "
+        f"{row['speed']:g} m/s"
+        for row in r["rows"]
+    )
+    return [
+        f"- a rolling voice (Body.roll: a steel ball of 10 mm radius on the default plate, "
+        f"{r['modes']} modes, its contact integrated and its force driving the modes in the "
+        f"callback), updated every 16 ms, alone on its body: {costs}",
+        f"- RollingVoice.update on the calling thread (the mode-shape table {HORIZON * 1e3:.0f}"
+        f" ms ahead), median (99th percentile): {updates}; a rolling slot's memory "
+        f"{r['slot_bytes'] / 2**20:.2f} MiB (tables of {r['rows_per_table']} rows, three "
+        f"buffers); an update sounds from the next block's start",
+    ]
 
 
 def _max_pending() -> int:

@@ -11,6 +11,7 @@ either: the producer puts a full fence between its data and its state word
 from __future__ import annotations
 
 from numba import types
+from numba.core import cgutils
 from numba.extending import intrinsic
 
 from synth.compilation import compiled
@@ -40,3 +41,14 @@ def publish(state, slot, value):
     data) is visible to other threads."""
     _fence()
     state[slot] = value
+
+
+@intrinsic
+def pointer_to(typingctx, address):
+    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
+    sig = types.voidptr(types.int64)
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return sig, codegen

@@ -12,7 +12,7 @@ import numpy as np
 from synth import checks, cost
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
-from synth.live import kernel, native
+from synth.live import kernel, native, rolling
 from synth.live.atomics import fence
 from synth.live.hits import (
     HIT_RTOL,
@@ -133,7 +133,12 @@ class Body:
             ears=ears,
             gains=model.output,
             pan=pan,
+            rolls=rolling.body_rolls(engine.max_rolls, model, engine._native.mix.shape[1]),
         )
+        self._rolls = {k: v for k, v in arrays.items() if k.startswith("roll")}
+        self._roll_step = rolling.table_step(model)
+        self._roll_lock, self._roll_holds = threading.Lock(), [None] * engine.max_rolls
+        self.rolls_refused = 0  # Body.roll calls that found every rolling slot taken
         self._heard = arrays["heard"]
         self._heard_seq = arrays["heard_seq"]
         self._counters = arrays["counters"]
@@ -254,7 +259,7 @@ class Body:
     @property
     def awake(self) -> bool:
         """Whether the body rings or has impacts pending (a quiet body costs nothing)."""
-        return self.ringing or any(ear.pending for ear in self._ears)
+        return self.ringing or any(ear.pending for ear in self._ears) or rolling.rolls(self)
 
     @property
     def ringing(self) -> bool:
@@ -681,6 +686,16 @@ class Body:
             raise
         return Voice(self, vid, [r for _, r, _ in reserved], onsets, priority)
 
+    def roll(self, ball: Ball, position, velocity, **options) -> rolling.RollingVoice | None:
+        """A ``ball`` rolling from ``position`` ((x, y), m) at ``velocity`` ((vx, vy), m/s)
+        over ``envelope`` (a :class:`synth.physics.surface.ContactEnvelope` made with the
+        ball's radius; keyword), its centre from ``start`` (m along it, default 0), at
+        ``gain``, with ``contact`` and ``rtol`` as :func:`synth.physics.rolling.roll`:
+        the game updates it every frame (:class:`synth.live.rolling.RollingVoice`).
+        Returns None when the body's ``max_rolls`` slots all roll (counted in
+        ``rolls_refused``). A body heard by one microphone only."""
+        return rolling.start_roll(self, ball, position, velocity, **options)
+
     @property
     def removed(self) -> bool:
         """Whether :meth:`remove` was called."""
@@ -702,6 +717,7 @@ class Body:
         if self._removed:
             return
         self._removed = True
+        rolling.stop_rolls(self, fade)
         if fade is not None:
             frames = max(1, int(round(f * self._engine.samplerate)))
             for ear in self._ears:
@@ -714,7 +730,7 @@ class Body:
         """Let go of the arrays of every ear (the mixing no longer reads them)."""
         for ear in self._ears:
             ear._freed = True
-            ear._ring = None
+            ear._ring = ear._rolls = None
             ear._state_arrays = None
             ear._prepared = {}
             ear._solvers = {}

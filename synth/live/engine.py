@@ -71,6 +71,7 @@ from synth.live.bookkeeping import WATCH_PERIOD as WATCH_PERIOD
 from synth.live.bookkeeping import EngineBookkeeping, watch_device
 from synth.live.hits import MAX_GAIN, check_int
 from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
+from synth.live.rolling import MAX_ROLLS
 from synth.live.stats import EngineStats
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
@@ -184,6 +185,10 @@ class Engine(EngineBookkeeping):
         one of lowest priority, of those the oldest (a ``STEAL_FADE`` fade, counted in
         ``stats.voices_stolen``; see :class:`Voice`). A body costs up to this many modal
         banks per block.
+    max_rolls : int
+        Rolling voices (:meth:`Body.roll`) each body rolls at once, in [0, 16] (default
+        ``MAX_ROLLS``, 1): each a modal state, an integrator and mode-shape tables of its
+        own, preallocated at :meth:`add` (see docs/live.md, "Rolling").
     max_total_voices : int, optional
         Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
         None: no cap beyond each body's): a voice counts from the call that makes it until
@@ -225,6 +230,7 @@ class Engine(EngineBookkeeping):
         max_voices: int = MAX_VOICES,
         max_total_voices: int | None = None,
         on_device_lost=None,
+        max_rolls: int = MAX_ROLLS,
     ):
         self.samplerate = check_int("samplerate", samplerate, 8000, 384000, "Hz")
         self.blocksize = check_int("blocksize", blocksize, 16, 8192, "frames")
@@ -281,6 +287,7 @@ class Engine(EngineBookkeeping):
             )
         max_bodies = check_int("max_bodies", max_bodies, 1, 65536, "bodies")
         self.max_voices = check_int("max_voices", max_voices, 1, 256, "voices")
+        self.max_rolls = check_int("max_rolls", max_rolls, 0, 16, "rolling voices")
         if max_total_voices is not None:
             max_total_voices = check_int("max_total_voices", max_total_voices, 1, 65536, "voices")
         self.max_total_voices = max_total_voices

@@ -133,12 +133,19 @@ def _voice_ended(records, r, events, ears):
     vid = records[r, V_ID]
     fence()  # done with the record before a producer may take it
     records[r, V_STATE] = V_FREE
+    post_event(events, vid * EVENT_EARS + ears)
+
+
+@compiled(nogil=True, inline="always")
+def post_event(events, value):
+    """Post ``value`` (``id * EVENT_EARS + ears``) in the engine's event ring (see
+    :func:`_voice_ended`), or count it lost if the ring is full."""
     cap = events.shape[0] - N_EVENT_HEADER
     written = events[E_WRITTEN]
     if written - events[E_READ] >= cap:
         events[E_LOST] += 1
         return
-    events[N_EVENT_HEADER + written % cap] = vid * EVENT_EARS + ears
+    events[N_EVENT_HEADER + written % cap] = value
     fence()  # the event before its count
     events[E_WRITTEN] = written + 1
 

@@ -34,7 +34,7 @@ import numpy as np
 from numba import types
 
 from synth.compilation import FASTMATH, cfunc_compiling, compiled
-from synth.live import kernel, limiter
+from synth.live import kernel, limiter, rolling_block
 from synth.live.atomics import fence as _fence
 from synth.live.state import (
     ALLOW,
@@ -113,6 +113,7 @@ from synth.live.state import (
     i64_at,
     monotonic_ns,
     pointer_to,
+    rolling_form,
 )
 from synth.live.state import B_ACTIVE as B_ACTIVE
 from synth.live.state import B_AMPLITUDES as B_AMPLITUDES
@@ -222,32 +223,39 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     state = i64_at(record[B_STATE], R)
     if counters[kernel.SILENCE] != 0:
         bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
+        rolling_block.silence_rolls(rolling_form(record)[0], event_ring(ctl))
         kernel.silence(modal, ring, transformed, voice_form, counters, event_ring(ctl))
     g0 = scalars[S_GAIN_NOW]
     g1 = scalars[S_GAIN]
     p0 = scalars[S_PAN_NOW]
     p1 = scalars[S_PAN]  # one word: a pan set on another thread is read whole
     busy = counters[kernel.BUSY_BLOCKS]
-    if counters[kernel.AWAKE] == 0:
+    rolls = rolling_form(record)
+    rolling = rolling_block.any_live(rolls[0])
+    waiting = counters[kernel.AWAKE] != 0
+    if not waiting:
         # asleep: nothing to mix unless something was handed over
-        waiting = False
         for i in range(R):
             if state[i] == kernel.READY or state[i] == kernel.PULSE:
                 waiting = True
                 break
-        if not waiting:
+        if not waiting and not rolling:
             scalars[S_GAIN_NOW] = g1
             scalars[S_PAN_NOW] = p1
             return 0
-    bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
     out = scratch[0]
     for s in range(n):
         out[s] = 0.0
-    pulses = kernel.mix_body(
-        out, scratch[1], t0, n, bank, modal, scalars[S_FLOOR], ring, counters, transform,
-        pulse_form, transformed, voice_form, event_ring(ctl), limit,
-    )  # fmt: skip
-    if counters[kernel.BUSY_BLOCKS] != busy:
+    pulses = 0
+    if waiting:
+        bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
+        pulses = kernel.mix_body(
+            out, scratch[1], t0, n, bank, modal, scalars[S_FLOOR], ring, counters, transform,
+            pulse_form, transformed, voice_form, event_ring(ctl), limit,
+        )  # fmt: skip
+    if rolling:
+        rolling = rolling_block.mix_rolls(out, n, rolls, event_ring(ctl))
+    if counters[kernel.BUSY_BLOCKS] != busy or rolling:
         if math.isnan(p0) and math.isnan(p1):
             _add_ramped(mix[record[B_CHANNEL] + 1], out, g0, g1, n)
         else:  # a mono body panned between the first two channels
@@ -613,6 +621,7 @@ def silence_body(ctl, record):
     bank, modal, ring, transform, pulse_form, voice_form = body_form(record)
     counters = i64_at(record[B_COUNTERS], kernel.N_COUNTERS)
     transformed = i64_at(record[B_TRANSFORMED], 1)
+    rolling_block.silence_rolls(rolling_form(record)[0], event_ring(ctl))
     kernel.silence(modal, ring, transformed, voice_form, counters, event_ring(ctl))
 
 

@@ -31,7 +31,8 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from synth.compilation import compiled
-from synth.live import kernel, limiter
+from synth.live import kernel, limiter, rolling_block
+from synth.live.atomics import pointer_to as pointer_to
 from synth.live.heard import N_HEARD_ROWS, heard_arrays
 
 #: ``ctl`` fields (int64).
@@ -109,6 +110,8 @@ BODY_FIELDS = (
     "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
     "n_records", "n_voice_slots", "tail_frames",
     "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
+    "roll_ints", "roll_floats", "roll_y", "roll_buf", "roll_z", "roll_coef",
+    "roll_tables", "roll_meta", "n_rolls", "roll_rows", "roll_frames",
 )  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
@@ -119,6 +122,8 @@ BODY_FIELDS = (
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
     B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
     B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
+    B_ROLL_INTS, B_ROLL_FLOATS, B_ROLL_Y, B_ROLL_BUF, B_ROLL_Z, B_ROLL_COEF,
+    B_ROLL_TABLES, B_ROLL_META, B_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES,
 ) = range(len(BODY_FIELDS))  # fmt: skip
 N_BODY = len(BODY_FIELDS)
 
@@ -140,17 +145,6 @@ def native_available() -> bool:
 def monotonic() -> float:
     """The callback's clock, s (POSIX ``CLOCK_MONOTONIC``)."""
     return time.clock_gettime_ns(CLOCK) * 1e-9
-
-
-@intrinsic
-def pointer_to(typingctx, address):
-    """The int64 ``address`` as a ``void*`` (for ``numba.carray``)."""
-    sig = types.voidptr(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.inttoptr(args[0], cgutils.voidptr_t)
-
-    return sig, codegen
 
 
 @intrinsic
@@ -262,6 +256,30 @@ def body_form(record):
         f64_at(record[B_TAIL], record[B_TAIL_FRAMES]),
     )
     return bank, modal, ring, transform, pulse_form, voice_form
+
+
+@compiled(nogil=True, inline="always")
+def rolling_form(record):
+    """Views of a body's rolling slots' arrays (:func:`synth.live.rolling_block.rolling_arrays`)
+    from its ``record``, as :func:`synth.live.rolling_block.mix_rolls` takes them."""
+    R = record[B_ROLLS]
+    K = record[B_MODES]
+    P = record[B_ROLL_ROWS]
+    N = rolling_block.N_STATE
+    return (
+        numba.carray(pointer_to(record[B_ROLL_INTS]), (R, rolling_block.N_INTS), np.int64),
+        numba.carray(pointer_to(record[B_ROLL_FLOATS]), (R, rolling_block.N_FLOATS), np.float64),
+        numba.carray(pointer_to(record[B_ROLL_Y]), (R, N), np.float64),
+        numba.carray(
+            pointer_to(record[B_ROLL_BUF]),
+            (R, rolling_block.N_BUF, record[B_ROLL_FRAMES]),
+            np.float64,
+        ),
+        numba.carray(pointer_to(record[B_ROLL_Z]), (R, 2, K), np.float64),
+        numba.carray(pointer_to(record[B_ROLL_COEF]), (R, rolling_block.N_COEF, K), np.float64),
+        numba.carray(pointer_to(record[B_ROLL_TABLES]), (R, 3, P, K), np.float64),
+        numba.carray(pointer_to(record[B_ROLL_META]), (R, 3, rolling_block.N_META), np.float64),
+    )
 
 
 @compiled(nogil=True)
@@ -443,6 +461,7 @@ def body_arrays(
     ears: int = 1,
     gains: np.ndarray,
     pan: float = math.nan,
+    rolls: dict | None = None,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
     its poles and one-sample steps (``coefficients``, a
@@ -453,7 +472,8 @@ def body_arrays(
     most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
     both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
     its modes (K,; the mixing applies them at its output, the voices' states are the
-    plate's) and its ``pan`` (NaN: unpanned; see :func:`synth.live.native.pan_gains`)."""
+    plate's), its ``pan`` (NaN: unpanned; see :func:`synth.live.native.pan_gains`) and its
+    rolling slots (``rolls``: :func:`synth.live.rolling_block.rolling_arrays`; None: none)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
@@ -476,7 +496,9 @@ def body_arrays(
     scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
     scalars[S_PAN] = scalars[S_PAN_NOW] = pan
     work = transform_workspace(K)
-    return dict(
+    if rolls is None:
+        rolls = rolling_block.rolling_arrays(0, K, 2, 1)
+    return rolls | dict(
         table=np.ascontiguousarray(table),
         poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
         zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,

@@ -267,6 +267,19 @@ class Roller:
             RollingState(read_only(y.copy()), float(h)),
         )
 
+    def initial_state(self, speed: float, start: float) -> RollingState:
+        """The state (and first step) :func:`roll` starts from without ``state``: the ball
+        rolling at ``start`` (m) at ``speed`` (m/s, its first period's): a rolling that
+        continues from it gives the bits of :func:`roll` from ``start``."""
+        y, h = _start(self.setup, np.array([float(speed)]), float(start), None)
+        return RollingState(read_only(y), float(h))
+
+    def kernel_constants(self) -> tuple:
+        """The constants :func:`synth.physics.rolling_kernels.roll` takes after the speeds,
+        in its order: ``(m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max)``
+        (SI units), as :func:`roll` passes them."""
+        return _constants(self.setup)
+
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
         """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
         :attr:`RollingContact.contact_coordinate`."""
@@ -418,10 +431,6 @@ def _integrate(setup, speeds, y, h):
     periods of ``speeds`` (m/s): ``(status, steps, rejected, flights, h, forces,
     min_penetration, centres)``, the arrays NaN where a failed integration did not reach
     and ``centres`` the path coordinate at each period's start (m)."""
-    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
-    law = setup.law
-    K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    delta_ref = (m * g / K) ** (1.0 / n)
     N = speeds.size
     forces = np.full(N, np.nan)
     min_pen = np.full(N, np.nan)
@@ -432,23 +441,22 @@ def _integrate(setup, speeds, y, h):
         setup.envelope.coefficients,
         setup.envelope.spacing,
         speeds,
-        m,
-        K,
-        n,
-        mu,
-        b,
-        beta,
-        g,
-        float(fs),
-        setup.rtol,
-        delta_ref,
-        setup.max_step,
+        *_constants(setup),
         MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
         centres,
     )
     return status, steps, rejected, flights, h, forces, min_pen, centres
+
+
+def _constants(setup) -> tuple:
+    """The kernel's constants of ``setup`` (see :meth:`Roller.kernel_constants`)."""
+    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
+    law = setup.law
+    K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
+    delta_ref = (m * g / K) ** (1.0 / n)
+    return m, K, n, mu, b, beta, g, float(fs), setup.rtol, delta_ref, setup.max_step
 
 
 def _solve(setup, speeds, s0, state):

@@ -1,0 +1,355 @@
+"""The audio thread's share of a rolling voice: its contact integrated and its force driving
+the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
+
+A body holds ``max_rolls`` rolling slots (arrays made by :func:`rolling_arrays`, reached by
+the callback through the body's record, :func:`rolling_form`). A slot that rings
+(``I_STATE == LIVE``) is, each block of ``n`` frames:
+
+1. handed the game's newest update, if one came: a triple buffer (Bartlett's lock-free
+   "triple buffering": the game writes its back buffer, then swaps it with the middle one
+   by one atomic exchange, :func:`exchange`, flagged ``FRESH``; the callback swaps its
+   front buffer with a fresh middle one at the block's start), each buffer the update's
+   speed and the mode-shape table along its straight segment ahead (rows ``b_k = phi_k /
+   M_k`` every ``step`` m from the game's position, as the offline
+   :func:`synth.sound.rolling.path_excitation`). The segment is anchored where the ball's
+   centre is at that block's start: from there the contact point moves along it by the
+   path the integrator rolls.
+2. rolled over the block at that speed by the offline contact integrator itself
+   (:func:`synth.physics.rolling_kernels.roll`, the kernel of
+   :func:`synth.physics.rolling.roll`, whose stages are scalars: no allocation), at most
+   :data:`MAX_STEPS_PER_SAMPLE` steps a sample (a bound on the block's work; beyond it
+   the voice fades out and is counted failed).
+3. its mean force per sample period drives the slot's modes at the touching point, as
+   :func:`synth.sound.rolling.drive_modes` does (the force held over each period, the
+   exact update of each mode), heard through the listener's gains, times the voice's gain
+   (ramped over the block) and its stop fade (a raised cosine), added to the body's mix.
+
+A stopped voice (``I_STOP``), one whose centre would leave the envelope, and one whose
+integration failed fade out over their fade; the slot is then freed and the voice's id
+posted in the engine's voice-ended ring.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from synth.compilation import compiled
+from synth.live.atomics import fence, pointer_to
+from synth.live.kernel import EVENT_EARS, post_event
+from synth.physics import rolling_kernels
+from synth.physics.rolling_kernels import N_STATE, roll
+
+#: The most integration steps a sample of a live rolling may take: a bound on the audio
+#: thread's work (the offline solver takes about 1 to 1.5 a sample, more briefly in a
+#: micro-bounce).
+MAX_STEPS_PER_SAMPLE = 16
+
+#: Slot states.
+FREE = 0
+LIVE = 1
+WRITING = 2  # taken by the game's thread, not yet published
+
+#: The middle buffer's flag: the game put an update there that the callback has not taken.
+FRESH = 4
+
+#: int64 fields of a slot (``ints``).
+(
+    I_STATE,
+    I_ID,
+    I_MIDDLE,  # the middle buffer's index, | FRESH (swapped by both threads)
+    I_FRONT,  # the callback's buffer
+    I_BACK,  # the game's buffer
+    I_STOP,  # the stop fade asked (frames), -1 none (the game's)
+    I_FADE_AT,  # position in the fade, -1 none (the callback's)
+    I_FADE_LEN,  # frames
+    I_END_FADE,  # the fade of a voice that ends by itself (frames)
+    I_STARTED,  # 1 once its first block preloaded the modes
+    I_ENDED,  # why it ended or fades: 0 not, END_* below
+    I_STEPS,  # integration steps so far
+    I_FRAMES,  # frames rolled
+    I_OVERRUN,  # samples whose contact point lay beyond the update's table (held at its end)
+    I_ENV,  # address of the envelope's spline coefficients ((I_ENV_N, 4) float64)
+    I_ENV_N,
+    I_OFF,  # address of the envelope's contact offsets ((I_OFF_N,) float64)
+    I_OFF_N,
+    I_EARS,  # the body's ears (the voice-ended event's suffix)
+    N_INTS,
+) = range(20)
+
+#: Why a rolling voice ended (``I_ENDED``).
+END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
+
+#: float64 fields of a slot (``floats``): the kernel's constants (in its order), the
+#: envelope's spacing and length, the next step, the segment's anchor, the gains, the
+#: last force.
+(
+    F_M, F_K, F_N, F_MU, F_B, F_BETA, F_G, F_FS, F_RTOL, F_DREF, F_HMAX,
+    F_DX, F_LENGTH, F_H, F_ANCHOR, F_GAIN, F_GAIN_NOW, F_PREVIOUS, F_SPEED,
+    N_FLOATS,
+) = range(20)  # fmt: skip
+
+#: A buffer's scalars (``meta``): the update's speed (m/s), the table's first row's and
+#: its step's distance from the game's position along the segment (m), its rows.
+M_SPEED, M_START, M_STEP, M_ROWS = range(4)
+N_META = 4
+
+#: Rows of a slot's coefficients (``coef``, float64 (N_COEF, K)): one sample's ringing
+#: ``e^(p/fs)``, the listener's response per unit state, the hold's gain ``(e^(p/fs) - 1)
+#: / p`` (each re, im; as :func:`synth.sound.rolling.drive_modes`), and ``-1 / p`` (the
+#: static deflection per unit excitation, for the preload).
+C_ER, C_EI, C_LR, C_LI, C_HR, C_HI, C_QR, C_QI = range(8)
+N_COEF = 8
+
+#: Rows of a slot's work buffer (float64 (N_BUF, mix frames)).
+W_SPEED, W_FORCE, W_MINPEN, W_CENTRE = range(4)
+N_BUF = 4
+
+
+@intrinsic
+def _xchg(typingctx, array, index, value):
+    """``old = array[index]; array[index] = value`` as one atomic exchange (int64)."""
+    sig = types.int64(array, types.intp, types.int64)
+
+    def codegen(context, builder, signature, args):
+        arr_t, _, _ = signature.args
+        arr = context.make_array(arr_t)(context, builder, args[0])
+        ptr = cgutils.get_item_pointer(context, builder, arr_t, arr, [args[1]])
+        return builder.atomic_rmw("xchg", ptr, args[2], "seq_cst")
+
+    return sig, codegen
+
+
+@compiled(nogil=True)
+def exchange(array, index, value):
+    """Atomically swap ``array[index]`` (int64) with ``value``; returns the old value (the
+    game's thread swaps its back buffer in with it)."""
+    return _xchg(array, index, value)
+
+
+def rolling_arrays(slots: int, modes: int, rows: int, frames: int) -> dict:
+    """A body's rolling slots' arrays by body-record field name: ``slots`` slots of
+    ``modes`` modes, tables of ``rows`` rows, a work buffer of ``frames`` frames (the
+    engine's mixing piece)."""
+    ints = np.zeros((slots, N_INTS), dtype=np.int64)
+    return dict(
+        roll_ints=ints,
+        roll_floats=np.zeros((slots, N_FLOATS)),
+        roll_y=np.zeros((slots, N_STATE)),
+        roll_buf=np.zeros((slots, N_BUF, frames)),
+        roll_z=np.zeros((slots, 2, modes)),
+        roll_coef=np.zeros((slots, N_COEF, modes)),
+        roll_tables=np.zeros((slots, 3, rows, modes)),
+        roll_meta=np.zeros((slots, 3, N_META)),
+        n_rolls=slots,
+        roll_rows=rows,
+        roll_frames=frames,
+    )
+
+
+@compiled(nogil=True, inline="always")
+def _carray2(address, a, b):
+    return numba.carray(pointer_to(address), (a, b), np.float64)
+
+
+@compiled(nogil=True, sums=True)
+def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, gain0, gain1,
+           fade_at, fade_len):  # fmt: skip
+    """Drive the modes ``zr + i zi`` (updated in place) with ``force`` held over each period
+    at ``coordinate`` (m along the table's segment; rows interpolated linearly, held at the
+    table's ends), adding what the listener hears (``coef``'s response), times the gain
+    ramped from ``gain0`` to ``gain1`` and the raised-cosine fade from ``fade_at`` (-1 none)
+    of ``fade_len`` frames, into ``out``. The recursion of
+    :func:`synth.sound.rolling.drive_modes`. Returns the samples held at a table end."""
+    K = zr.shape[0]
+    er, ei, lr, li, hr, hi = coef[C_ER], coef[C_EI], coef[C_LR], coef[C_LI], coef[C_HR], coef[C_HI]
+    overrun = 0
+    g_step = (gain1 - gain0) / n
+    for j in range(n):
+        u = (coordinate[j] - start) / step
+        if u > rows - 1.0:
+            u = rows - 1.0
+            overrun += 1
+        elif u < 0.0:
+            u = 0.0
+            overrun += 1
+        i = int(math.floor(u))
+        if i > rows - 2:
+            i = rows - 2
+        t = u - i
+        F = force[j]
+        wa = (1.0 - t) * F
+        wb = t * F
+        row_a = table[i]
+        row_b = table[i + 1]
+        acc = 0.0
+        for k in range(K):
+            acc += lr[k] * zr[k] - li[k] * zi[k]
+            bf = wa * row_a[k] + wb * row_b[k]
+            r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
+            zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
+            zr[k] = r
+        g = gain0 + g_step * (j + 1)
+        if fade_at >= 0:
+            at = fade_at + j
+            g = g * 0.5 * (1.0 + math.cos(math.pi * at / fade_len)) if at < fade_len else 0.0
+        out[j] += g * acc
+    return overrun
+
+
+@compiled(nogil=True, inline="always")
+def _preload(coef, row_a, row_b, t, F, zr, zi):
+    """The modes in their static deflection under ``F`` (N) at the row interpolated at
+    ``t`` between ``row_a`` and ``row_b``: ``zeta = -b F / p``, so the rolling starts as a
+    ball already rolling there (as :func:`synth.sound.rolling.rolling_sound`)."""
+    for k in range(zr.shape[0]):
+        bf = ((1.0 - t) * row_a[k] + t * row_b[k]) * F
+        zr[k] = bf * coef[C_QR, k]
+        zi[k] = bf * coef[C_QI, k]
+
+
+@compiled(nogil=True, inline="always")
+def _take_update(iv, fv, y):
+    """Take the game's newest update (swap the front buffer with a fresh middle one),
+    anchoring its segment at the centre's path coordinate now."""
+    if (iv[I_MIDDLE] & FRESH) != 0:
+        old = _xchg(iv, I_MIDDLE, iv[I_FRONT])
+        iv[I_FRONT] = old & 3
+        fv[F_ANCHOR] = y[rolling_kernels.S]
+
+
+@compiled(nogil=True, inline="always")
+def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
+    """The touching point's distance along the segment (m) in the middle of each period,
+    into the centre's row: the centre there, plus the envelope's contact offset
+    (interpolated linearly between its samples, as
+    :meth:`synth.physics.rolling.Roller.contact_coordinates`), less the anchor."""
+    centre = buf[W_CENTRE]
+    last = offsets.shape[0] - 1
+    half = 0.5 * speed / fs
+    for j in range(n):
+        c = centre[j] + half
+        u = c / dx
+        i = int(math.floor(u))
+        if i < 0:
+            i = 0
+        if i > last - 1:
+            i = last - 1
+        t = u - i
+        centre[j] = c + offsets[i] + t * (offsets[i + 1] - offsets[i]) - anchor
+
+
+@compiled(nogil=True)
+def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, events):
+    """One block of one live slot (module docstring)."""
+    _take_update(iv, fv, y)
+    front = iv[I_FRONT]
+    m = meta[front]
+    speed = m[M_SPEED]
+    stop = iv[I_STOP]
+    if stop >= 0 and iv[I_FADE_AT] < 0:
+        iv[I_FADE_AT] = 0
+        iv[I_FADE_LEN] = max(stop, 1)
+        iv[I_ENDED] = END_STOPPED
+    fs = fv[F_FS]
+    if iv[I_ENDED] == 0 and y[rolling_kernels.S] + speed * n / fs > fv[F_LENGTH]:
+        iv[I_ENDED] = END_SURFACE  # its centre would leave the envelope: stop there
+        iv[I_FADE_AT] = 0
+        iv[I_FADE_LEN] = iv[I_END_FADE]
+    force = buf[W_FORCE]
+    if iv[I_ENDED] == END_SURFACE or iv[I_ENDED] == END_FAILED:
+        for j in range(n):  # the ball held where it is, its last force on the plate
+            force[j] = fv[F_PREVIOUS]
+            buf[W_CENTRE, j] = y[rolling_kernels.S]
+        speed = 0.0
+    else:
+        speeds = buf[W_SPEED]
+        for j in range(n):
+            speeds[j] = speed
+        env = _carray2(iv[I_ENV], iv[I_ENV_N], 4)
+        status, steps, _, _, h = roll(
+            y, fv[F_H], env, fv[F_DX], speeds[:n], fv[F_M], fv[F_K], fv[F_N], fv[F_MU],
+            fv[F_B], fv[F_BETA], fv[F_G], fs, fv[F_RTOL], fv[F_DREF], fv[F_HMAX],
+            MAX_STEPS_PER_SAMPLE * n, force[:n], buf[W_MINPEN, :n], buf[W_CENTRE, :n],
+        )  # fmt: skip
+        fv[F_H] = h
+        iv[I_STEPS] += steps
+        if status != rolling_kernels.OK:
+            iv[I_ENDED] = END_FAILED
+            iv[I_FADE_AT] = 0
+            iv[I_FADE_LEN] = iv[I_END_FADE]
+            for j in range(n):
+                if not math.isfinite(force[j]):
+                    force[j] = fv[F_PREVIOUS]
+                    buf[W_CENTRE, j] = y[rolling_kernels.S]
+            speed = 0.0
+    offsets = numba.carray(pointer_to(iv[I_OFF]), iv[I_OFF_N], np.float64)
+    _contact_coordinates(buf, n, speed, fs, offsets, fv[F_DX], fv[F_ANCHOR])
+    table = tables[front]
+    rows = int(m[M_ROWS])
+    start, step = m[M_START], m[M_STEP]
+    zr, zi = z[0], z[1]
+    if iv[I_STARTED] == 0:
+        u = min(max((buf[W_CENTRE, 0] - start) / step, 0.0), rows - 1.0)
+        i = min(int(math.floor(u)), rows - 2)
+        _preload(coef, table[i], table[i + 1], u - i, force[0], zr, zi)
+        iv[I_STARTED] = 1
+    fade_at = iv[I_FADE_AT]
+    iv[I_OVERRUN] += _drive(
+        out, n, force, buf[W_CENTRE], start, step, rows, table, coef, zr, zi, fv[F_GAIN_NOW],
+        fv[F_GAIN], fade_at, iv[I_FADE_LEN],
+    )  # fmt: skip
+    fv[F_GAIN_NOW] = fv[F_GAIN]
+    fv[F_PREVIOUS] = force[n - 1]
+    fv[F_SPEED] = speed
+    iv[I_FRAMES] += n
+    if fade_at >= 0:
+        iv[I_FADE_AT] = fade_at + n
+        if fade_at + n >= iv[I_FADE_LEN]:  # faded out: the slot is free, the voice ended
+            vid = iv[I_ID]
+            fence()
+            iv[I_STATE] = FREE
+            post_event(events, vid * EVENT_EARS + iv[I_EARS])
+
+
+@compiled(nogil=True, inline="always")
+def any_live(ints):
+    """Whether a rolling slot rings."""
+    for r in range(ints.shape[0]):
+        if ints[r, I_STATE] == LIVE:
+            return True
+    return False
+
+
+@compiled(nogil=True)
+def mix_rolls(out, n, form, events):
+    """Add every live rolling slot's block of ``n`` frames into ``out`` (the body's mix,
+    before its gain); returns whether one rang."""
+    ints, floats, ys, bufs, zs, coefs, tables, metas = form
+    rang = False
+    for r in range(ints.shape[0]):
+        if ints[r, I_STATE] != LIVE:
+            continue
+        fence()  # the slot's data, written before its state word
+        _roll_slot(out, n, ints[r], floats[r], ys[r], bufs[r], zs[r], coefs[r],
+                   tables[r], metas[r], events)  # fmt: skip
+        rang = True
+    return rang
+
+
+@compiled(nogil=True)
+def silence_rolls(ints, events):
+    """End every rolling slot now (the engine stops, or ``stop_all``): free it and post its
+    voice's end."""
+    for r in range(ints.shape[0]):
+        if ints[r, I_STATE] == LIVE:
+            vid = ints[r, I_ID]
+            ints[r, I_ENDED] = END_STOPPED
+            fence()
+            ints[r, I_STATE] = FREE
+            post_event(events, vid * EVENT_EARS + ints[r, I_EARS])
