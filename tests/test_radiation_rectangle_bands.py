@@ -11,8 +11,8 @@ from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
-from synth.sound.radiation import rules
 from synth.sound.modes import crossover
+from synth.sound.radiation import rules
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
@@ -132,8 +132,8 @@ def _sheet_problem(side, f_max, max_points=None):
     """The radiation problem of a 1 mm steel sheet ``side`` x ``side`` m past the Ritz
     crossover to ``f_max`` Hz, microphone 0.3 m above its middle (nothing solved)."""
     from synth import Microphone, Plate
-    from synth.cost.radiation import radiation_problem
     from synth.cost.modal import modal_count
+    from synth.cost.radiation import radiation_problem
 
     plate = Plate("steel", thickness=0.001, length=side, width=side)
     microphone = Microphone((side / 2, side / 2, 0.3))

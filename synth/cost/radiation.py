@@ -4,7 +4,6 @@ points and terms of its rules, the rules the budget holds and the bytes of the s
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 from synth.cost.budget import Budget
@@ -112,10 +111,9 @@ def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
 def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of ``listener`` hearing ``plate``'s ``modes`` modes up to
     ``f_max`` (Hz), before any mode is solved, for the rule the render takes
-    (:func:`synth.sound.radiation.rules.choose_rule`, also when the budget's cut of the
-    refinement leaves that rule's check rule too large and another rule is taken), with the
-    rules whose summed work fits ``budget`` (at least the first; see the module docstring
-    and :mod:`synth.sound.radiation.work`)."""
+    (:func:`synth.sound.radiation.rules.choose_rule`; the budget's cut, at least that rule's
+    check rule, keeps it), with the rules whose summed work fits ``budget`` (at least the
+    first; see the module docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
     from synth.sound.radiation.rules import choose_rule
@@ -125,18 +123,7 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     terms = shape_terms(plate, f_max)
     problem = radiation_problem(plate, listener, modes, f_max)
     rule = choose_rule(problem)
-    fitted = _fitted(rule.counts(problem), modes, terms, budget)
-    cut = fitted.max_points
-    if cut is None:
-        return fitted
-    problem = dataclasses.replace(problem, max_points=cut)
-    other = choose_rule(problem)
-    if other is rule:
-        return fitted
-    switched = _fitted(other.counts(problem), modes, terms, budget)
-    if switched.max_points is None:  # the first rule's cut keeps the switch
-        return dataclasses.replace(switched, max_points=cut)
-    return switched
+    return _fitted(rule.counts(problem), modes, terms, budget)
 
 
 def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
