@@ -72,10 +72,7 @@ def format_rules(rows) -> str:
     header = ["scene", "shapes", "modes", *RULE_NAMES, "chosen"]
     cells = [
         [row["scene"], row["shapes"], str(row["modes"])]
-        + [
-            f"{row['seconds'][n]:.3g}" if n in row["seconds"] else "-"
-            for n in RULE_NAMES
-        ]
+        + [f"{row['seconds'][n]:.3g}" if n in row["seconds"] else "-" for n in RULE_NAMES]
         + [row["chosen"]]
         for row in rows
     ]

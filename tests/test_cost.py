@@ -496,10 +496,11 @@ def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
 def test_the_3_m_sheets_boundary_rule_is_refused_by_the_budget_in_its_own_time(monkeypatch):
     # The sheet's boundary rule (the only rule choose_rule may take): its first two rules'
     # terms fit the default budget's number (unweighted, the budget held four of its
-    # rules), but a boundary term takes about 19 rectangle terms' time (the shipped rates), and in rectangle-term equivalents not even
-    # its first rule and one refinement fit: a render is refused before any work, naming
-    # the budget. The estimated time of what it needs is its terms at the boundary rule's
-    # own rate (plus its Ritz modes' at the rectangle rule's).
+    # rules), but a boundary term takes over ten rectangle terms' time (the shipped rates),
+    # and in rectangle-term equivalents not even its first rule and one refinement fit: a
+    # render is refused before any work, naming the budget. The estimated time of what it
+    # needs is its terms at the boundary rule's own rate (plus its Ritz modes' at the
+    # rectangle rule's).
     from synth.sound.radiation.rules import BoundaryRule
 
     monkeypatch.setattr("synth.sound.radiation.rules.RULES", (BoundaryRule(),))
