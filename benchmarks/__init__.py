@@ -2,7 +2,7 @@
 checkout; :mod:`benchmarks.cli`). Not installed with the package.
 
 One module per benchmark (contact, render, analysis, long, scale, hires, cold, rolling,
-hollow, materials, cost; the live engine's and the sound banks' are :mod:`benchmarks.live` and
+hollow, materials, cost, rules; the live engine's and the sound banks' are :mod:`benchmarks.live` and
 :mod:`benchmarks.bank`; the thesis study, ``synth bench thesis``, is the ``validation``
 package). :mod:`benchmarks.jack` runs a JACK dummy server for the live benchmark and the
 tests; :mod:`benchmarks.docs` writes the figures into docs/. Every figure is measured in
@@ -33,6 +33,7 @@ from benchmarks.materials import format_materials, run_materials
 from benchmarks.render import format_render, render_scenes, run_render
 from benchmarks.rolling import format_rolling, run_rolling
 from benchmarks.rolling_check import format_rolling_check, run_rolling_check
+from benchmarks.rules import format_rules, run_rules
 from benchmarks.scale import (
     SCALE_LADDER,
     SCALE_NAMED,
@@ -82,6 +83,8 @@ __all__ = [
     "format_analysis",
     "format_cold",
     "format_cost",
+    "format_rules",
+    "run_rules",
     "record_rates",
     "run_cost",
     "format_contact",

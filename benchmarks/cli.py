@@ -35,6 +35,8 @@ BENCHMARKS = {
     "against speed",
     "hollow": "the hollow balls against their rule books' bounce tests",
     "materials": "solid balls of the material table against published bounces",
+    "rules": "each radiation rule's estimated cost and the rule chosen on the presets, the "
+    "scale benchmark's plates and the hires rates",
     "cost": "this machine's rates of the cost estimate's work (a cold mode solve, each "
     "radiation rule), which synth info --cost turns into seconds",
 }
@@ -73,6 +75,7 @@ def _runs(args) -> dict:
         "hollow": (bench.run_hollow, bench.format_hollow),
         "materials": (bench.run_materials, bench.format_materials),
         "cost": (bench.run_cost, bench.format_cost),
+        "rules": (bench.run_rules, bench.format_rules),
         "bank": (lambda: bank.run_bank(count=args.count), bank.format_bank),
     }
 

@@ -29,12 +29,14 @@ SOLVER_FREQUENCY = 16000.0
 
 #: Each rule's scene: (material, thickness m, length m, width m, boundary, highest
 #: frequency Hz, microphone (x, y, z) m). The summed rule's plate stays below the Ritz
-#: crossover, the boundary rule's lies past it (its edge effect modes are timed).
+#: crossover, the boundary and banded rules' lies past it (the boundary rule's edge effect
+#: modes are timed, the banded rule's whole plate).
 RULE_SCENES = {
     "rectangle": ("mdf-18", 0.018, 1.2, 0.6, "free", 16000.0, (0.4, 0.25, 0.2)),
     "polar": ("steel", 0.001, 1.0, 0.8, "simply-supported", 12000.0, (0.4, 0.3, 0.3)),
     "summed": ("mdf-18", 0.018, 1.2, 0.6, "free", 16000.0, (0.4, 0.25, 0.2)),
     "boundary": ("steel", 0.0005, 0.6, 0.5, "free", 12000.0, (0.25, 0.2, 0.2)),
+    "banded": ("steel", 0.0005, 0.6, 0.5, "free", 12000.0, (0.25, 0.2, 0.2)),
 }
 
 
@@ -78,6 +80,7 @@ def _rule_call(rule, m, listener, s, kb):
     from synth.constants import AIR_DENSITY, SOUND_SPEED
     from synth.sound import radiation as rad
     from synth.sound.radiation.boundary import boundary_rule
+    from synth.sound.radiation.rules import BandedRule
 
     size = (m.plate.length, m.plate.width)
     settings = dict(max_wavenumber=kb, full_output=True)
@@ -87,6 +90,12 @@ def _rule_call(rule, m, listener, s, kb):
         return rad.separable_gains(m.separable(), listener, s, **settings)
     if rule == "summed":
         return rad.summed_gains(m.summed(), listener, s, **settings)
+    if rule == "banded":
+        return BandedRule().gains(
+            m, listener, s, dict(max_wavenumber=kb, air_density=AIR_DENSITY,
+            sound_speed=SOUND_SPEED, reference_distance=None, tol=1e-6,
+            max_points=rad.DEFAULT_MAX_POINTS),
+        )  # fmt: skip
     edge = m.edge_effect()
     return boundary_rule(
         edge, len(m), size, listener, s[edge.first_mode :], air_density=AIR_DENSITY,
@@ -137,6 +146,7 @@ TITLES = {
     "polar": "polar rule (terms)",
     "summed": "summed polar rule (terms)",
     "boundary": "boundary rule (terms)",
+    "banded": "banded rectangle rule (terms)",
 }
 
 

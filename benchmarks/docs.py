@@ -31,6 +31,7 @@ BENCH_PAGES = {
     "bank": "benchmarks.md",
     "scale": "benchmarks.md",
     "hires": "benchmarks.md",
+    "rules": "physics.md",
     "cold": "benchmarks.md",
     "cost": "cli.md",
 }

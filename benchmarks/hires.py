@@ -16,18 +16,18 @@ def hires_child(samplerate: int, previous: bool = False) -> dict:
     of the plate's modes, of the rest of the first render (radiation gains, contact,
     synthesis), of a second render (warm: the rest without the gains), and peak resident
     memory (MB). ``previous``: with the engine's former paths, the rectangle rule for
-    every plate (:data:`synth.sound.radiation.SUMMED_RULE_WORK` and ``BOUNDARY_RULE_WORK``
-    infinite) and the Ritz solve on BLAS's threads at every size
+    every plate (band by band past the Ritz crossover: the only rules of
+    :data:`synth.sound.radiation.rules.RULES`) and the Ritz solve on BLAS's threads at every size
     (:data:`synth.physics.modes.ritz.ONE_THREAD_UNKNOWNS` infinite)."""
     from synth.io.presets import load_preset
     from synth.physics import modes as plate_modes
     from synth.physics.modes import ritz
     from synth.sound import radiation
+    from synth.sound.radiation import rules
     from synth.sound.render import render
 
     if previous:
-        radiation.SUMMED_RULE_WORK = math.inf
-        radiation.BOUNDARY_RULE_WORK = math.inf
+        rules.RULES = (rules.RectangleRule(), rules.BandedRule())
         ritz.ONE_THREAD_UNKNOWNS = math.inf
     scene = load_preset("default")
     t0 = time.perf_counter()

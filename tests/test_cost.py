@@ -19,6 +19,7 @@ import pytest
 
 from synth import cost
 from synth.io.presets import find, read, scene_from_dict
+from synth.sound.radiation.rules import BoundaryRule, PolarRule, SummedRule
 from synth.sound.render import render
 
 #: How far above the traced peak the estimate may lie: it counts every chunk the
@@ -141,6 +142,10 @@ def warm():
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_memory_estimate_bounds_the_traced_peak(name, warm, tmp_path, monkeypatch):
     monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path))  # cold: modes and gains solved
+    if name == "radiation-chunks":  # the rectangle rule's chunks, which the estimate holds
+        from synth.sound.radiation.rules import RectangleRule
+
+        monkeypatch.setattr("synth.sound.radiation.rules.RULES", (RectangleRule(),))
     _clear_memory_caches()
     scene, options = scene_from_dict(SCENES[name], name)
     options.pop("subtype", None)
@@ -271,18 +276,19 @@ CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
                    plate__thickness=0.002, listener__position=[0.11, 0.08, 0.1],
                    render__max_frequency=8000.0)  # fmt: skip
 
-#: Each of the other rules on a small scene, with the engine's switch-over to it lowered
-#: (the same module constants the estimate reads, synth.cost.radiation._radiation_rule): the
+#: Each of the other rules on a small scene, the only rule choose_rule may take (the list
+#: the estimate and the render both choose from, synth.sound.radiation.rules.RULES): the
 #: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
 #: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
 RULE_SCENES = {
-    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation.POLAR_WORK": 0.0}),
-    "summed": (RADIATION_SCENES["free-plate"], {"synth.sound.radiation.SUMMED_RULE_WORK": 0.0}),
+    "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation.rules.RULES": (PolarRule(),)}),
+    "summed": (
+        RADIATION_SCENES["free-plate"], {"synth.sound.radiation.rules.RULES": (SummedRule(),)}
+    ),
     "boundary": (CROSSED, {
         "synth.sound.modes.CROSSOVER_UNKNOWNS": 80,
         "synth.sound.modes.crossover.LOW_BAND_UNKNOWNS": 50,
-        "synth.sound.radiation.BOUNDARY_RULE_WORK": 0.0,
-        "synth.sound.radiation.BOUNDARY_RULE_SIZE": 0.0,
+        "synth.sound.radiation.rules.RULES": (BoundaryRule(),),
     }),
 }  # fmt: skip
 
@@ -383,41 +389,32 @@ def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkey
 
 
 def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
-    # plate_gains sends edge effect modes to the boundary rule on its work and size, or when
-    # max_points is below the rectangle rule's check rule (synth.sound.radiation._use_boundary,
-    # which a budget's cut can trigger): for two steel sheets past the crossover (5 x 5 m to
-    # 6 kHz, which keeps the rectangle rule; 3 x 3 m to 24 kHz, which takes the boundary rule)
-    # under radiation budgets that hold at least two rules, the estimate's rule is the one
-    # plate_gains takes with the estimate's max_points (poles at the band's top; nothing solved).
-    import numpy as np
-
+    # The estimate and plate_gains choose by one function (choose_rule), which excludes a
+    # rule whose check rule exceeds max_points: for two steel sheets past the crossover
+    # (5 x 5 m to 6 kHz, 3 x 3 m to 24 kHz) under radiation budgets that hold at least two
+    # rules, the estimate's rule is the one choose_rule takes with the estimate's
+    # max_points (a cut never below the rule's check rule: it keeps the rule; nothing
+    # solved).
     from synth import Microphone, Plate
-    from synth.constants import SOUND_SPEED
     from synth.sound import radiation as rad
+    from synth.sound.radiation.rules import choose_rule
 
     seen = set()
     for side, f_max in ((5.0, 6000.0), (3.0, 24000.0)):
         plate = Plate("steel", thickness=0.001, length=side, width=side)
         microphone = Microphone((side / 2, side / 2, 0.3))
         modes = cost.modal_count(plate, f_max)
-        poles = np.full(modes, 2j * np.pi * f_max)
         for work in (1e10, 1e11, 1e12, 1e13):
             budget = cost.Budget(max_radiation_work=int(work))
             r = cost.radiation_work(plate, microphone, modes, f_max, budget)
             if r.rules < 2:
                 continue  # refused: nothing runs
             max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
-            engine = rad._use_boundary(
-                (side, side),
-                poles,
-                cost.radiation.bending_wavenumber(plate, f_max),
-                SOUND_SPEED,
-                1e-6,
-                max_points,
-            )
-            assert (r.rule == "boundary") == engine, (side, work, r.rule, max_points)
+            problem = cost.radiation.radiation_problem(plate, microphone, modes, f_max, max_points)
+            rule = choose_rule(problem)
+            assert r.rule == rule.name and rule.fits(problem), (side, work, r.rule, max_points)
             seen.add(r.rule)
-    assert seen == {"rectangle", "boundary"}
+    assert seen == {"banded"}
 
 
 STRIP = _default(
@@ -484,7 +481,7 @@ def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
     weights = _shipped_weights()
     assert cost.rule_weights() == pytest.approx(weights, rel=1e-15)
     assert cost.rule_weights()["rectangle"] == 1.0 and weights["boundary"] > 10
-    for rule in ("rectangle", "polar", "summed", "boundary"):
+    for rule in ("banded", "boundary"):
         counts = cost.rule_counts(rule, plate, microphone, modes, f_max)
         weighted = cost.weighted_counts(counts)
         assert weighted.work == pytest.approx([w * weights[rule] for w in counts.work], rel=1e-15)
@@ -493,16 +490,20 @@ def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
         assert weighted.points == counts.points, rule
     r = cost.radiation_work(plate, microphone, modes, f_max, cost.Budget(max_radiation_work=10**14))
     counts = cost.weighted_counts(cost.rule_counts(r.rule, plate, microphone, modes, f_max))
-    assert r.rule == "boundary" and r.rule_work == counts.work and r.fixed_work == counts.fixed
+    assert r.rule == "banded" and r.rule_work == counts.work and r.fixed_work == counts.fixed
 
 
-def test_the_3_m_sheets_boundary_rule_is_refused_by_the_budget_in_its_own_time():
-    # The sheet's boundary rule: its first two rules' terms fit the default budget's number
-    # (unweighted, the budget held four of its rules), but a boundary term takes about 19
-    # rectangle terms' time (the shipped rates), and in rectangle-term equivalents not even
-    # its first rule and one refinement fit: a render is refused before any work, naming
-    # the budget. The estimated time of what it needs is its terms at the boundary rule's
-    # own rate (plus its Ritz modes' at the rectangle rule's).
+def test_the_3_m_sheets_boundary_rule_is_refused_by_the_budget_in_its_own_time(monkeypatch):
+    # The sheet's boundary rule (the only rule choose_rule may take): its first two rules'
+    # terms fit the default budget's number (unweighted, the budget held four of its
+    # rules), but a boundary term takes over ten rectangle terms' time (the shipped rates),
+    # and in rectangle-term equivalents not even its first rule and one refinement fit: a
+    # render is refused before any work, naming the budget. The estimated time of what it
+    # needs is its terms at the boundary rule's own rate (plus its Ritz modes' at the
+    # rectangle rule's).
+    from synth.sound.radiation.rules import BoundaryRule
+
+    monkeypatch.setattr("synth.sound.radiation.rules.RULES", (BoundaryRule(),))
     plate, microphone, modes, f_max = _sheet()
     budget = cost.Budget()
     counts = cost.rule_counts("boundary", plate, microphone, modes, f_max)
@@ -569,7 +570,7 @@ def test_the_estimated_time_is_the_work_over_the_measured_rates(tmp_path):
     path = tmp_path / "rates.json"
     path.write_text(json.dumps({
         "solver_flops_per_second": 1e10,
-        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9,
+        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9, "banded": 1e9,
                                        "boundary": 1e8},
         "measured": "a test",
     }))  # fmt: skip
@@ -593,5 +594,5 @@ def test_the_shipped_rates_if_measured_cover_every_rule():
     if rates is None:
         pytest.skip("no rates measured (synth bench cost --record)")
     assert rates.solver > 0 and rates.measured.startswith("synth bench cost")
-    assert set(rates.radiation) == {"rectangle", "polar", "summed", "boundary"}
+    assert set(rates.radiation) == {"rectangle", "polar", "summed", "boundary", "banded"}
     assert all(v > 0 for v in rates.radiation.values())

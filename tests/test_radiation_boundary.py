@@ -21,6 +21,7 @@ from synth.sound.modes import EdgeEffectPart, crossover
 from synth.sound.radiation import boundary as B
 from synth.sound.radiation import boundary_bessel as BB
 from synth.sound.radiation import boundary_grid as BG
+from synth.sound.radiation import rules
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 RHO, C = 1.204, 343.0
@@ -197,8 +198,7 @@ def _hybrid_modes(monkeypatch, boundary):
     rectangle rule)."""
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
-    monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", 0.0)
-    monkeypatch.setattr(R, "BOUNDARY_RULE_SIZE", 0.0)
+    monkeypatch.setattr(rules, "RULES", (rules.BoundaryRule(),))
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()
     assert part is not None and 0 < part.first_mode < len(m) - 50
@@ -207,8 +207,8 @@ def _hybrid_modes(monkeypatch, boundary):
 
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_plate_gains_past_the_crossover_take_the_boundary_rule(monkeypatch, boundary):
-    """plate_gains of a plate with edge effect modes (the boundary rule's work threshold
-    lowered to 0): rule "boundary", converged, within
+    """plate_gains of a plate with edge effect modes (the boundary rule the only one
+    choose_rule may take): rule "boundary", converged, within
     2 tol of the rectangle rule over every mode (Ritz and edge effect); shapes of a subset
     of modes are those columns of all the shapes."""
     m, part = _hybrid_modes(monkeypatch, boundary)

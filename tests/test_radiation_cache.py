@@ -240,9 +240,13 @@ def test_cache_memory_is_bounded(monkeypatch):
 
 
 def test_cache_repeats_convergence_warning(monkeypatch):
-    # A stored result that failed the convergence test warns again when loaded.
+    # A stored result that failed the convergence test warns again when loaded (the
+    # rectangle rule, the only one choose_rule may take, made to fail).
+    from synth.sound.radiation import rules
+
     m = _modes()
     real = R.rayleigh_gains
+    monkeypatch.setattr(rules, "RULES", (rules.RectangleRule(),))
 
     def unconverged(*args, **kwargs):
         r = real(*args, **kwargs)
@@ -258,7 +262,7 @@ def test_cache_repeats_convergence_warning(monkeypatch):
             "stopped (test)",
         )
 
-    monkeypatch.setattr(R, "rayleigh_gains", unconverged)
+    monkeypatch.setattr(rules, "rayleigh_gains", unconverged)
     with pytest.warns(RuntimeWarning, match="plate_gains: stopped"):
         _gains(m)
     R.clear_memory_cache()

@@ -14,6 +14,7 @@ from synth.physics.scene import Microphone, Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.modes import crossover
+from synth.sound.radiation import rules
 from synth.sound.radiation.common import COHERENT_FLOOR
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT, GridTooLarge, ListenerGrid
 from synth.sound.render import listener_grid, modal_model, nearest_distance
@@ -81,7 +82,7 @@ def test_fixed_grids_take_the_edge_effect_modes_shapes(monkeypatch):
     # their shapes on the fixed grids
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
-    monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", np.inf)
+    monkeypatch.setattr(rules, "RULES", (rules.BandedRule(),))
     plate = Plate(STEEL, 0.002, 0.3, 0.2, "free")
     m, s, kb = _case(plate, 6000.0)
     assert m.edge_effect() is not None

@@ -12,6 +12,7 @@ from synth.physics.scene import Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.modes import crossover
+from synth.sound.radiation import rules
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
@@ -20,29 +21,29 @@ def test_wavenumber_bands_cover_the_modes_within_the_ratio():
     """Bands of a non-decreasing sequence are consecutive, cover every mode once, and hold
     the modes whose wavenumbers lie within the ratio of the band's first one."""
     kappa = np.cumsum(np.random.default_rng(1).uniform(0.0, 1.0, 500)) + 10.0
-    bands = R.wavenumber_bands(kappa, 1.25)
+    bands = rules.wavenumber_bands(kappa, 1.25)
     assert bands[0][0] == 0 and bands[-1][1] == kappa.size
     assert all(a[1] == b[0] for a, b in zip(bands[:-1], bands[1:]))
     for lo, hi in bands:
         assert hi > lo and kappa[hi - 1] <= 1.25 * kappa[lo]
     for a, b in zip(bands[:-1], bands[1:]):
         assert kappa[b[0]] > 1.25 * kappa[a[0]]  # a band ends at the first mode beyond
-    assert R.wavenumber_bands(kappa, np.inf) == [(0, kappa.size)]
-    assert R.wavenumber_bands(np.zeros(0), 1.25) == []
+    assert rules.wavenumber_bands(kappa, np.inf) == [(0, kappa.size)]
+    assert rules.wavenumber_bands(np.zeros(0), 1.25) == []
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     """A small plate past a lowered Ritz crossover (a few Ritz modes, then edge effect
-    modes), the boundary rule never taken: plate_gains (rule "rectangle", several bands)
+    modes), the boundary rule never taken: plate_gains (rule "banded", several bands)
     converges and agrees with rayleigh_gains of every mode on one rule within 2 tol (each
     is within tol of the integral: the refinement test's bound); its in-phase bounds within
     10 % (they bound |H_k| and set the tolerance floor; |phi_k| has kinks on the nodal
     lines, which the two grids integrate differently)."""
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
-    monkeypatch.setattr(R, "BOUNDARY_RULE_WORK", np.inf)
+    monkeypatch.setattr(rules, "RULES", (rules.BandedRule(),))
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()
     assert part is not None and 0 < part.first_mode < len(m) - 50
@@ -53,7 +54,7 @@ def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     listener = (0.11, 0.08, 0.1)
     tol = 1e-6
     res = R.plate_gains(m, listener, s, max_wavenumber=kb, tol=tol, full_output=True, cache=False)
-    assert res.rule == "rectangle" and res.success, res.message
+    assert res.rule == "banded" and res.success, res.message
     assert "bands of wavenumber" in res.message and not res.message.startswith("1 bands")
     full = R.rayleigh_gains(
         m.shapes, (0.3, 0.2), listener, s, max_wavenumber=kb, tol=tol, full_output=True
@@ -127,21 +128,33 @@ def test_product_rule_agrees_with_the_rectangle_rule(paired):
     assert got.n_points < want.n_points
 
 
-def test_boundary_rule_only_beyond_both_work_and_size():
-    """Edge effect modes take the boundary rule when the rectangle rule's work exceeds
-    BOUNDARY_RULE_WORK on a plate of more than BOUNDARY_RULE_SIZE wavelengths
-    (kappa a b / (a + b)), or when its check rule would exceed max_points."""
-    q_s = 1j * 2.0 * np.pi * np.linspace(1000.0, 20000.0, 20000)
-    c, tol = 343.0, 1e-6
-    kappa = 400.0 + float(np.abs(q_s).max()) / c
+def _sheet_problem(side, f_max, max_points=None):
+    """The radiation problem of a 1 mm steel sheet ``side`` x ``side`` m past the Ritz
+    crossover to ``f_max`` Hz, microphone 0.3 m above its middle (nothing solved)."""
+    from synth import Microphone, Plate
+    from synth.cost.modal import modal_count
+    from synth.cost.radiation import radiation_problem
 
-    def wavelengths(size):
-        return kappa * size[0] * size[1] / (size[0] + size[1])
+    plate = Plate("steel", thickness=0.001, length=side, width=side)
+    microphone = Microphone((side / 2, side / 2, 0.3))
+    return radiation_problem(plate, microphone, modal_count(plate, f_max), f_max, max_points)
 
-    small, large = (1.0, 1.0), (4.0, 4.0)
-    assert wavelengths(small) < R.BOUNDARY_RULE_SIZE < wavelengths(large)
-    assert R._rectangle_work(small, q_s, 400.0, c, tol) > R.BOUNDARY_RULE_WORK
-    assert not R._use_boundary(small, q_s, 400.0, c, tol, 10**9)
-    assert R._use_boundary(large, q_s, 400.0, c, tol, 10**9)
-    assert R._use_boundary(small, q_s, 400.0, c, tol, 1000)  # the rectangle rule too large
-    assert not R._use_boundary(small, q_s[:10], 1.0, c, tol, 10**9)  # little work
+
+def test_choose_rule_takes_the_cheapest_rule_that_holds_the_bound():
+    """Edge effect modes take the banded or the boundary rule, whichever costs less
+    (its first rule and check rule, in rectangle-term equivalents), both with the bound
+    tol; with max_points below the banded rule's check rule only the boundary rule holds
+    the bound, and it is taken though it costs more."""
+    for side, f_max in ((1.0, 12000.0), (3.0, 24000.0), (5.0, 6000.0)):
+        problem = _sheet_problem(side, f_max)
+        assert problem.shapes == "edge"
+        banded, boundary = rules.BandedRule(), rules.BoundaryRule()
+        assert banded.error_bound(problem) == boundary.error_bound(problem) == problem.tol
+        cheaper = min((banded, boundary), key=lambda r: r.cost(problem))
+        assert type(rules.choose_rule(problem)) is type(cheaper)
+    problem = _sheet_problem(1.0, 12000.0)
+    assert rules.choose_rule(problem).name == "banded"
+    cut = rules.BandedRule().counts(problem).points[1] - 1
+    tight = _sheet_problem(1.0, 12000.0, cut)
+    assert rules.BandedRule().error_bound(tight) == np.inf
+    assert rules.BoundaryRule().fits(tight) and rules.choose_rule(tight).name == "boundary"

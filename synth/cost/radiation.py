@@ -4,10 +4,7 @@ points and terms of its rules, the rules the budget holds and the bytes of the s
 
 from __future__ import annotations
 
-import dataclasses
 import math
-
-import numpy as np
 
 from synth.cost.budget import Budget
 from synth.cost.modal import modal_count
@@ -46,38 +43,33 @@ def _crossed(plate, f_max: float) -> bool:
     return ritz_unknowns(plate.length / plate.width, omega) > CROSSOVER_UNKNOWNS
 
 
-def _boundary_forced(plate, f_max: float, max_points: int) -> bool:
-    """Whether ``max_points`` switches the edge effect modes to the boundary rule: the
-    rectangle rule's check rule (``REFINE^2`` times the first one's points) would exceed
-    it (:func:`synth.sound.radiation._use_boundary`)."""
+def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None):
+    """The :class:`synth.sound.radiation.rules.Problem` of ``listener`` (a Microphone)
+    hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz) with ``max_points`` (default:
+    the sums' own), before any mode is solved: the wavenumbers of ``f_max``, and for a plate
+    past the Ritz crossover its Ritz low band and edge effect modes (:func:`modal_count`)."""
+    from synth.constants import SOUND_SPEED
     from synth.sound import radiation as rad
-
-    size = (plate.length, plate.width)
-    return (
-        rad.rectangle_points(size, _kappa(plate, f_max), RADIATION_TOL) * rad.REFINE**2 > max_points
-    )
-
-
-def _radiation_rule(plate, modes: int, f_max: float, max_points: int | None = None) -> str:
-    """The rule :func:`synth.sound.radiation.plate_gains` takes for ``modes`` modes up to
-    ``f_max`` (Hz) with ``max_points`` (default: the sums' own): its own switch-overs on
-    the rectangle rule's work (modes times the points of
-    :func:`~synth.sound.radiation.rectangle_points`), and for a plate with edge effect
-    modes (beyond the Ritz crossover) its test of the boundary rule."""
-    from synth.sound import radiation as rad
+    from synth.sound.radiation.rules import edge_split, plate_problem
 
     max_points = rad.DEFAULT_MAX_POINTS if max_points is None else max_points
-    size = (plate.length, plate.width)
-    kappa = _kappa(plate, f_max)
-    work = modes * rad.rectangle_points(size, kappa, RADIATION_TOL)
-    if plate.boundary == "simply-supported":
-        return "polar" if work > rad.POLAR_WORK else "rectangle"
+    kb = bending_wavenumber(plate, f_max)
+    edge = None
     if _crossed(plate, f_max):
-        a, b = size
-        big = work > rad.BOUNDARY_RULE_WORK and kappa * a * b / (a + b) > rad.BOUNDARY_RULE_SIZE
-        forced = _boundary_forced(plate, f_max, max_points)
-        return "boundary" if big or forced else "rectangle"
-    return "summed" if work > rad.SUMMED_RULE_WORK else "rectangle"
+        f_low = _ritz_band_frequency(plate, f_max)
+        n_low = modal_count(plate, f_low)
+        edge = edge_split(kb, f_low, f_max, n_low, lambda f: modal_count(plate, f), SOUND_SPEED)
+    return plate_problem(
+        plate,
+        listener.position,
+        modes,
+        f_max,
+        kb=kb,
+        qa=_acoustic(f_max),
+        tol=RADIATION_TOL,
+        max_points=max_points,
+        edge=edge,
+    )
 
 
 def _rules_taken(points, max_points: int | None) -> int:
@@ -118,52 +110,35 @@ def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
 
 def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of ``listener`` hearing ``plate``'s ``modes`` modes up to
-    ``f_max`` (Hz), before any mode is solved, for the rule the render takes (also when the
-    budget's cut of the rectangle rule switches edge effect modes to the boundary rule),
-    with the rules whose summed work fits ``budget`` (at least the first; see the module
-    docstring and :mod:`synth.sound.radiation.work`)."""
+    ``f_max`` (Hz), before any mode is solved, for the rule the render takes
+    (:func:`synth.sound.radiation.rules.choose_rule`; the budget's cut, at least that rule's
+    check rule, keeps it), with the rules whose summed work fits ``budget`` (at least the
+    first; see the module docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
+    from synth.sound.radiation.rules import choose_rule
 
     if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
     terms = shape_terms(plate, f_max)
-    rule = _radiation_rule(plate, modes, f_max)
-    fitted = _fitted(rule_counts(rule, plate, listener, modes, f_max), modes, terms, budget)
-    cut = fitted.max_points
-    if rule != "rectangle" or cut is None:
-        return fitted
-    if not (_crossed(plate, f_max) and _boundary_forced(plate, f_max, cut)):
-        return fitted
-    boundary = _fitted(rule_counts("boundary", plate, listener, modes, f_max), modes, terms, budget)
-    if boundary.max_points is None:  # the rectangle rule's cut keeps the switch
-        return dataclasses.replace(boundary, max_points=cut)
-    return boundary
+    problem = radiation_problem(plate, listener, modes, f_max)
+    rule = choose_rule(problem)
+    return _fitted(rule.counts(problem), modes, terms, budget)
 
 
 def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
     """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
-    "polar", "summed" or "boundary") for ``listener`` (a Microphone) hearing ``plate``'s
-    ``modes`` modes up to ``f_max`` (Hz), whichever rule the engine would take."""
-    from synth.physics.modes import shape_terms
-    from synth.sound.radiation import work
+    "polar", "summed" or "boundary", :mod:`synth.sound.radiation.rules`) for ``listener``
+    (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz), whichever rule
+    the engine would take (the rectangle rule of a plate past the Ritz crossover: band by
+    band)."""
+    from synth.sound.radiation.rules import RULES
 
-    size, position = (plate.length, plate.width), listener.position
-    kb, qa = bending_wavenumber(plate, f_max), _acoustic(f_max)
-    tol_panel = 0.1 * RADIATION_TOL
-    terms = shape_terms(plate, f_max)
-    if rule == "rectangle":
-        return work.rectangle_work(size, position, kb + qa, modes, terms, tol_panel)
-    if rule == "polar":
-        n_x, n_y = (int(kb * side / math.pi) for side in size)
-        return work.polar_work(size, position, kb, qa, modes, n_x, n_y, tol_panel)
-    if rule == "summed":
-        from synth.physics.modes import ritz_factors, solver_sizes
-
-        n_x, n_y = ritz_factors(plate, f_max)
-        basis = max(solver_sizes(plate, f_max)[0], default=1)
-        return work.summed_work(size, position, kb, qa, modes, n_x, n_y, basis, terms, tol_panel)
-    return _boundary_counts(plate, position, modes, f_max, terms)
+    problem = radiation_problem(plate, listener, modes, f_max)
+    found = [r for r in RULES if r.name == rule and r.applies(problem)]
+    if not found:
+        raise ValueError(f"the {rule} rule does not take the shapes of {plate!r}")
+    return found[0].counts(problem)
 
 
 def _ritz_band_frequency(plate, f_max: float) -> float:
@@ -172,37 +147,6 @@ def _ritz_band_frequency(plate, f_max: float) -> float:
     from synth.physics.modes import frequency_scale, ritz_band
 
     return ritz_band(plate, f_max) * frequency_scale(plate) / (2.0 * math.pi)
-
-
-def _boundary_counts(plate, position, modes: int, f_max: float, terms: int):
-    """The boundary rule's counts (:func:`synth.sound.radiation.work.boundary_work`) for
-    the edge effect modes between the Ritz low band and ``f_max`` (Hz), in
-    ``BOUNDARY_BANDS`` bands of frequency (each mode one row, or two for a pair: counted
-    as two), plus, outside the refinement, every rule of the rectangle rule of the Ritz
-    modes below them (at their own wavenumber)."""
-    from synth.sound.radiation import work
-
-    size = (plate.length, plate.width)
-    tol_panel = 0.1 * RADIATION_TOL
-    f_low = _ritz_band_frequency(plate, f_max)
-    n_low = modal_count(plate, f_low)
-    edges = f_low * (f_max / f_low) ** (np.arange(work.BOUNDARY_BANDS + 1) / work.BOUNDARY_BANDS)
-    counts = [modal_count(plate, float(f)) for f in edges]
-    bands = [
-        work.RateBand(
-            bending_wavenumber(plate, lo),
-            bending_wavenumber(plate, hi),
-            _acoustic(hi),
-            2 * (n1 - n0),
-        )
-        for lo, hi, n0, n1 in zip(edges[:-1], edges[1:], counts[:-1], counts[1:])
-    ]
-    edge = work.boundary_work(size, position, bands, tol_panel)
-    ritz = work.rectangle_work(size, position, _kappa(plate, f_low), n_low, terms, tol_panel)
-    # the Ritz modes' rectangle rule takes the same max_points: at least its check rule's
-    return dataclasses.replace(
-        edge, fixed=edge.fixed + float(sum(ritz.work)), floor=ritz.points[1] if n_low else 0
-    )
 
 
 def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:

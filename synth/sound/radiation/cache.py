@@ -49,15 +49,13 @@ def clear_memory_cache() -> None:
     CACHE.clear()
 
 
-def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, polar=False, rule=None) -> str:
+def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, rule) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
-    (``polar``: computed by :func:`separable_gains`; ``rule``: another rule's name)."""
-    extra = {"rule": "polar", "polar_revision": POLAR_REVISION} if polar else {}
-    if rule is not None:
-        extra = {"rule": rule}
+    (``rule``: the name of the rule's class, :mod:`~synth.sound.radiation.rules`)."""
     return json.dumps(
         {
-            **extra,
+            "rule": rule,
+            "polar_revision": POLAR_REVISION,
             "version": _CACHE_VERSION,
             "shapes": modes.shape_key,
             "listener": [float(v).hex() for v in listener],

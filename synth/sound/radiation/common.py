@@ -59,10 +59,11 @@ class RadiationResult:
         A sentence saying which.
     rule : str
         "rectangle" (:func:`rayleigh_gains`: panels along x and y), "polar"
-        (:func:`separable_gains`: radial panels about the microphone, and 0) or
-        "boundary" (:func:`synth.sound.radiation.plate_gains` of a plate with dynamic
-        edge effect modes: those by the boundary rule of
-        :mod:`synth.sound.radiation.boundary`, the others by the rectangle rule).
+        (:func:`separable_gains` and :func:`summed_gains`: radial panels about the
+        microphone), or for a plate with dynamic edge effect modes (its Ritz modes by the
+        rectangle rule) "banded" (those by the rectangle rule band by band of wavenumber)
+        or "boundary" (by the boundary rule of :mod:`synth.sound.radiation.boundary`); see
+        :mod:`synth.sound.radiation.rules`.
     """
 
     gains: np.ndarray

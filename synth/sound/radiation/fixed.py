@@ -207,7 +207,7 @@ def _shares(bands, workers: int) -> list:
 def _band_axes(modes, q, kb, size, height, tol) -> list:
     """The modes' bands of wavenumber and their grids' axes: ``(start, stop, (xs, wx),
     (ys, wy))`` for modes ``start <= k < stop``."""
-    from synth.sound.radiation import wavenumber_bands
+    from synth.sound.radiation.rules import wavenumber_bands
 
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     if omega.size == 0:

@@ -1,0 +1,140 @@
+"""``synth bench rules``: the radiation rule each scene takes and what each rule would cost.
+
+For every shipped preset (at 48 kHz), the plates of ``synth bench scale`` (its ladder and its
+random scenes) and the default board at the rates of ``synth bench hires``, the microphone's
+radiation problem (:func:`synth.cost.radiation.radiation_problem`, nothing solved), the cost
+of each rule that takes its shapes (:meth:`synth.sound.radiation.rules.Rule.cost`: the first
+rule and its check rule in rectangle-term equivalents, over the shipped rectangle rate: the
+estimated seconds on the machine that recorded the rates) and the rule
+:func:`~synth.sound.radiation.rules.choose_rule` takes. A rule never chosen here is a rule
+whose cost never pays on these scenes. The edge effect modes' two rules are also timed on the
+default board at :data:`EDGE_RATE` (:func:`measure_edge_rules`): the figure of where the
+boundary rule pays, beside their estimates.
+"""
+
+from __future__ import annotations
+
+from benchmarks.common import markdown_table
+
+#: The rate (Hz) of the default board whose edge effect modes both edge rules are timed on.
+EDGE_RATE = 384000
+
+#: The rules' columns, in order (``-`` where a rule does not take the scene's shapes).
+RULE_NAMES = ("rectangle", "polar", "summed", "banded", "boundary")
+
+
+def _scenes() -> list:
+    """(name, scene, samplerate Hz) of every scene of the table."""
+    from benchmarks.hires import HIRES_RATES
+    from benchmarks.scale import SCALE_LADDER, SCALE_RANDOM, random_scale_specs, scale_scene
+    from synth.io import presets
+
+    rows = [(name, presets.load_preset(name), 48000) for name in sorted(presets.available())]
+    for name, material, h, a, b, boundary, fs in SCALE_LADDER:
+        rows.append((f"scale: {name} {fs} Hz", scale_scene(material, h, a, b, boundary), fs))
+    for i, spec in enumerate(random_scale_specs(SCALE_RANDOM)):
+        scene = scale_scene(
+            spec["material"], spec["thickness"], spec["length"], spec["width"], spec["boundary"]
+        )
+        rows.append((f"scale: random {i + 1}", scene, spec["samplerate"]))
+    default = presets.load_preset("default")
+    rows += [(f"default at {fs} Hz", default, fs) for fs in HIRES_RATES]
+    return rows
+
+
+def measure_edge_rules(samplerate: int = EDGE_RATE) -> dict:
+    """CPU seconds (every thread of this process) of the banded and the boundary rule on the
+    default board's modes up to ``samplerate / 2`` Hz (the render's mirror poles, its
+    microphone, tol 1e-6), and the largest difference of their gains over the bound of two
+    rules, ``2 tol max(|H|, 1e-4 S)``."""
+    import time
+
+    import numpy as np
+
+    from synth.constants import AIR_DENSITY, SOUND_SPEED
+    from synth.io.presets import load_preset
+    from synth.physics import modes as plate_modes
+    from synth.sound.radiation import DEFAULT_MAX_POINTS
+    from synth.sound.radiation.rules import BandedRule, BoundaryRule
+
+    scene = load_preset("default")
+    m = plate_modes.modes(scene.plate, max_frequency=0.5 * samplerate * (1.0 - 1e-9))
+    omega, sigma = np.asarray(m.angular_frequencies), np.asarray(m.decay_rates)
+    s = sigma + 1j * np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
+    kb = (omega.max() ** 2 * scene.plate.surface_density / scene.plate.flexural_rigidity) ** 0.25
+    settings = dict(max_wavenumber=kb, air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
+                    reference_distance=None, tol=1e-6, max_points=DEFAULT_MAX_POINTS)  # fmt: skip
+    out, gains = {"samplerate": samplerate, "modes": len(m)}, {}
+    for rule in (BandedRule(), BoundaryRule()):
+        start = time.process_time()
+        gains[rule.name] = rule.gains(m, scene.listener.position, s, settings)
+        out[rule.name + "_cpu_s"] = time.process_time() - start
+    a, b = gains["banded"], gains["boundary"]
+    bound = 2e-6 * np.maximum(np.abs(a.gains), 1e-4 * a.coherent)
+    out["difference_over_bound"] = float(np.max(np.abs(a.gains - b.gains) / bound))
+    return out
+
+
+def run_rules() -> dict:
+    """``rows``, one per scene with a microphone: its shapes, modes, each rule's estimated
+    seconds (None where the rule does not apply) and the rule chosen; ``edge``:
+    :func:`measure_edge_rules`."""
+    return {"rows": _rule_rows(), "edge": measure_edge_rules()}
+
+
+def _rule_rows() -> list:
+    """The rows of :func:`run_rules`."""
+    from synth.cost import Rates
+    from synth.cost.modal import modal_count
+    from synth.cost.radiation import radiation_problem
+    from synth.physics.scene import Microphone
+    from synth.sound.radiation.rules import RULES, choose_rule
+
+    rate = Rates.load().radiation["rectangle"]
+    rows = []
+    for name, scene, fs in _scenes():
+        if not isinstance(scene.listener, Microphone):
+            continue
+        f_max = 0.5 * fs
+        modes = modal_count(scene.plate, f_max)
+        problem = radiation_problem(scene.plate, scene.listener, modes, f_max)
+        costs = {r.name: r.cost(problem) / rate for r in RULES if r.applies(problem)}
+        rows.append(
+            {
+                "scene": name,
+                "shapes": problem.shapes,
+                "modes": modes,
+                "seconds": costs,
+                "chosen": choose_rule(problem).name,
+            }
+        )
+    return rows
+
+
+def format_rules(result) -> str:
+    """The table of :func:`run_rules`, the count of scenes each rule is chosen for and the
+    edge rules' measured times."""
+    rows, edge = result["rows"], result["edge"]
+    header = ["scene", "shapes", "modes", *RULE_NAMES, "chosen"]
+    cells = [
+        [row["scene"], row["shapes"], str(row["modes"])]
+        + [f"{row['seconds'][n]:.3g}" if n in row["seconds"] else "-" for n in RULE_NAMES]
+        + [row["chosen"]]
+        for row in rows
+    ]
+    chosen = {n: sum(row["chosen"] == n for row in rows) for n in RULE_NAMES}
+    lines = markdown_table(header, cells)
+    lines += [
+        "",
+        "Estimated seconds of each rule's first rule and check rule (its cost in "
+        "rectangle-term equivalents over the shipped rectangle rate, synth/cost_rates.json); "
+        "'chosen' is choose_rule's pick. Scenes per rule: "
+        + ", ".join(f"{n} {c}" for n, c in chosen.items())
+        + ".",
+        "",
+        f"Measured in this run, the default board at {edge['samplerate']} Hz "
+        f"({edge['modes']} modes): banded rule {edge['banded_cpu_s']:.3g} CPU s, boundary "
+        f"rule {edge['boundary_cpu_s']:.3g} CPU s (every thread), their gains within "
+        f"{edge['difference_over_bound']:.2g} of the bound of two rules (2 tol).",
+    ]
+    return "\n".join(lines)

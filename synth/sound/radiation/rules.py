@@ -1,0 +1,428 @@
+"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, and the
+choice among them (:func:`choose_rule`).
+
+Every rule evaluates the same Rayleigh integral and ends with the same convergence test
+(:mod:`~synth.sound.radiation.refinement`: successive rules 1.25 times finer per axis until
+each mode's change is within ``tol * max(|H_k|, 1e-4 S_k)``), so every rule states the same
+error bound, that change, as long as its check rule (the first rule refined once) fits
+``max_points``. What differs is the cost: each rule counts, before any mode is solved, the
+terms of its first rule and its check rule from its own panel builders
+(:mod:`~synth.sound.radiation.work`), weighed in rectangle-term equivalents by the rates
+shipped with the package (:func:`synth.cost.rates.rule_weights`, measured by ``synth bench
+cost``). :func:`choose_rule` takes, among the rules that apply to the shapes and whose check
+rule fits ``max_points``, the one of least cost; ``synth bench rules`` prints each rule's
+cost and the choice on the presets, the scale ladder and its random scenes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from synth.sound.radiation import work
+from synth.sound.radiation.boundary import boundary_rule
+from synth.sound.radiation.common import RadiationResult
+from synth.sound.radiation.polar import separable_gains
+from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
+from synth.sound.radiation.summed import summed_gains
+
+#: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic) of the fastest and the
+#: slowest edge effect mode of one band of :class:`BandedRule`. The rectangle rule's points
+#: grow as ``kappa^2``: bands 1.1 apart put each mode on a grid at most 1.21 times the points
+#: its own wavenumber needs, while each band adds its own panels, factor tables and threads.
+BAND_RATIO = 1.1
+
+
+@dataclass(frozen=True)
+class EdgeSplit:
+    """The Ritz modes ``0 <= k < ritz_modes`` and the dynamic edge effect modes above of a
+    free or clamped plate past the Ritz crossover: ``ritz_kappa`` the Ritz modes' largest
+    wavenumber (bending plus acoustic, rad/m) and ``bands`` the edge effect modes in bands
+    of wavenumber (:class:`~synth.sound.radiation.work.RateBand`, two rows per mode)."""
+
+    ritz_modes: int
+    ritz_kappa: float
+    bands: tuple
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What decides a rule's error bound and cost, known before any gain is computed.
+
+    ``size`` (a, b) and ``listener`` (x, y, z), metres; ``modes`` the number of modes;
+    ``kb`` the highest mode's bending wavenumber and ``qa`` the largest acoustic one
+    (``max |s| / c``), rad/m; ``shapes`` "separable" (products ``X_i(x) Y_j(y)``), "summed"
+    (sums of such products, the Ritz modes of free and clamped plates), "edge" (Ritz modes
+    and dynamic edge effect modes, :class:`EdgeSplit` ``edge``) or "any"; ``terms`` the terms of one
+    shape value, ``factors`` (n_x, n_y) the factors of the polar rules and ``basis`` the
+    Ritz coefficients per mode; ``tol`` and ``max_points`` those of the rules."""
+
+    size: tuple
+    listener: tuple
+    modes: int
+    kb: float
+    qa: float
+    shapes: str
+    terms: int
+    factors: tuple
+    basis: int
+    tol: float
+    max_points: int
+    edge: EdgeSplit | None = None
+
+    @property
+    def tol_panel(self) -> float:
+        """The panels' own tolerance (a tenth of ``tol``, as every rule builds them)."""
+        return 0.1 * self.tol
+
+
+class Rule:
+    """One rule of the Rayleigh integral: which shapes it takes (``shapes``), its counts
+    (:meth:`counts`, terms and points of each refinement), its error bound and its cost."""
+
+    name = ""
+    shapes: tuple = ()
+
+    def applies(self, problem: Problem) -> bool:
+        """Whether the rule takes ``problem``'s shapes."""
+        return problem.shapes in self.shapes and problem.modes > 0
+
+    def counts(self, problem: Problem) -> work.RuleWork:
+        """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
+        raise NotImplementedError
+
+    def error_bound(self, problem: Problem) -> float:
+        """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
+        convergence test holds when its check rule fits ``max_points``: ``tol``."""
+        return problem.tol if self.fits(problem) else math.inf
+
+    def fits(self, problem: Problem) -> bool:
+        """Whether the check rule (the first rule refined once), the least the
+        convergence test needs, holds at most ``max_points`` points (the rule's unit)."""
+        counts = self.counts(problem)
+        return counts.points[1] <= problem.max_points and counts.floor <= problem.max_points
+
+    def cost(self, problem: Problem) -> float:
+        """Rectangle-term equivalents of the first rule and its check rule (the fewest the
+        convergence test takes) and of the work outside the refinement
+        (:func:`synth.cost.rates.weighted_counts`)."""
+        from synth.cost.rates import weighted_counts
+
+        counts = weighted_counts(self.counts(problem))
+        return counts.fixed + sum(counts.work[:2])
+
+    def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
+        """The gains of ``modes`` (a :class:`synth.physics.modes.Modes`) at ``listener``
+        for the poles ``s`` (rad/s), ``settings`` the keywords of
+        :func:`~.rectangle.rayleigh_gains` (``max_wavenumber``, air, ``tol``...)."""
+        raise NotImplementedError
+
+
+class RectangleRule(Rule):
+    """Tensor Gauss-Legendre panels along x and y (:func:`~.rectangle.rayleigh_gains`):
+    any shapes; each point costs per mode an exponential and a shape value."""
+
+    name = "rectangle"
+    shapes = ("separable", "summed", "any")
+
+    def counts(self, problem):
+        p = problem
+        kappa = p.kb + p.qa
+        return work.rectangle_work(p.size, p.listener, kappa, p.modes, p.terms, p.tol_panel)
+
+    def gains(self, modes, listener, s, settings):
+        size = (modes.plate.length, modes.plate.width)
+        return rayleigh_gains(modes.shapes, size, listener, s, full_output=True, **settings)
+
+
+class PolarRule(Rule):
+    """Polar coordinates about the microphone (:func:`~.polar.separable_gains`): products
+    ``X_i(x) Y_j(y)``; the angular sums are shared by all modes, the radial sums cost per
+    mode an exponential and a ``J_0``."""
+
+    name = "polar"
+    shapes = ("separable",)
+
+    def counts(self, problem):
+        p = problem
+        n_x, n_y = p.factors
+        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.tol_panel)
+
+    def gains(self, modes, listener, s, settings):
+        return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
+
+
+class SummedRule(Rule):
+    """The polar rule for sums of products (:func:`~.summed.summed_gains`): per radius and
+    mode the combination of its Ritz coefficients."""
+
+    name = "summed"
+    shapes = ("summed",)
+
+    def counts(self, problem):
+        p = problem
+        n_x, n_y = p.factors
+        return work.summed_work(
+            p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.basis, p.terms, p.tol_panel
+        )
+
+    def gains(self, modes, listener, s, settings):
+        return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
+
+
+def _ritz_work(problem: Problem) -> work.RuleWork:
+    """The rectangle rule of the Ritz modes below the edge effect modes."""
+    p, e = problem, problem.edge
+    return work.rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms, p.tol_panel)
+
+
+class BandedRule(Rule):
+    """Edge effect modes by the rectangle rule band by band of wavenumber
+    (:data:`BAND_RATIO`), their shapes formed from factor tables (two products at most,
+    :func:`~.rectangle.product_gains`), the Ritz modes by the rectangle rule; its rate is
+    measured on the whole (``synth bench cost``), so the Ritz modes' terms count in its
+    refinement at the same weight."""
+
+    name = "banded"
+    shapes = ("edge",)
+
+    def counts(self, problem):
+        p = problem
+        ritz = _ritz_work(p)
+        points = list(ritz.points if p.edge.ritz_modes else [0] * len(ritz.points))
+        terms = list(ritz.work)
+        for band in p.edge.bands:
+            if band.rows == 0:
+                continue
+            kappa = band.k_hi + band.qa
+            rule = work.rectangle_work(p.size, p.listener, kappa, band.rows // 2, 2, p.tol_panel)
+            points = [max(a, b) for a, b in zip(points, rule.points)]
+            terms = [a + b for a, b in zip(terms, rule.work)]
+        return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
+
+    def gains(self, modes, listener, s, settings):
+        return _with_ritz(modes, listener, s, settings, _banded_rectangle, "banded rule")
+
+
+class BoundaryRule(Rule):
+    """Edge effect modes as integrals over the plate's boundary
+    (:func:`~.boundary.boundary_rule`: a table of Bessel values per radial node and mode,
+    growing with the plate's diameter, not its area), the Ritz modes by the rectangle rule
+    (outside the refinement's count, at the rectangle rule's rate)."""
+
+    name = "boundary"
+    shapes = ("edge",)
+
+    def counts(self, problem):
+        p = problem
+        edge = work.boundary_work(p.size, p.listener, p.edge.bands, p.tol_panel)
+        if p.edge.ritz_modes == 0:
+            return edge
+        ritz = _ritz_work(p)
+        return dataclasses.replace(edge, fixed=sum(ritz.work), floor=ritz.points[1])
+
+    def cost(self, problem):
+        """As :meth:`Rule.cost`, the Ritz modes' rectangle rule too counted to its check
+        rule (:meth:`counts` holds every rule of it, outside the refinement, for the
+        budget)."""
+        from synth.cost.rates import weighted_counts
+
+        counts = weighted_counts(
+            work.boundary_work(
+                problem.size, problem.listener, problem.edge.bands, problem.tol_panel
+            )
+        )
+        ritz = sum(_ritz_work(problem).work[:2]) if problem.edge.ritz_modes else 0.0
+        return ritz + sum(counts.work[:2])
+
+    def gains(self, modes, listener, s, settings):
+        return _with_ritz(modes, listener, s, settings, _boundary, "boundary rule")
+
+
+#: The rules :func:`choose_rule` chooses among.
+RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule(), BoundaryRule())
+
+
+def choose_rule(problem: Problem) -> Rule:
+    """The rule of least :meth:`Rule.cost` among those that take ``problem``'s shapes and
+    whose check rule fits ``max_points`` (their error bound is then ``tol``, the same for
+    every rule); if none fits, the one with the fewest points in its check rule (it stops
+    at ``max_points`` and says so)."""
+    return _cheapest(problem, RULES)
+
+
+@functools.lru_cache(maxsize=256)
+def _cheapest(problem: Problem, candidates: tuple) -> Rule:
+    """:func:`choose_rule` among ``candidates``, kept for the process (counting a rule's
+    panels takes a Python loop over its radii: the warm renders and the live engine
+    choose again for every cached gain)."""
+    rules = [rule for rule in candidates if rule.applies(problem)]
+    fitting = [rule for rule in rules if rule.error_bound(problem) <= problem.tol]
+    if fitting:
+        return min(fitting, key=lambda rule: rule.cost(problem))
+    return min(rules, key=lambda rule: rule.counts(problem).points[1])
+
+
+def wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
+    """Consecutive bands ``(start, stop)`` of modes (indices of ``kappa``, the modes in
+    frequency order): a band starts at the first mode past the previous one and holds the
+    following modes while their ``kappa`` stays within ``ratio`` times its first one's."""
+    bands, start = [], 0
+    while start < kappa.size:
+        limit = kappa[start] * ratio
+        stop = start + 1 + int(np.argmax(np.append(kappa[start + 1 :] > limit, True)))
+        bands.append((start, stop))
+        start = stop
+    return bands
+
+
+def _band_rectangle(modes, start, stop, listener, s, settings):
+    """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
+    wavenumber among them (``max_wavenumber`` scaled by the square root of their highest
+    frequency's ratio to the highest mode's, as for a plate's bending waves). Edge effect
+    modes (all of them at or past ``modes.edge_effect().first_mode``) take it with their
+    factor tables (:func:`~synth.sound.radiation.rectangle.product_gains`)."""
+    omega = modes.angular_frequencies
+    index = np.arange(start, stop)
+    size = (modes.plate.length, modes.plate.width)
+    settings = dict(settings)
+    settings["max_wavenumber"] *= math.sqrt(omega[stop - 1] / omega[-1])
+    edge = modes.edge_effect()
+    if edge is not None and start >= edge.first_mode:
+
+        def factors(x, y):
+            return ProductFactors(*edge.product_factors(x, y, size[0], size[1], index))
+
+        return product_gains(factors, size, listener, s[start:stop], **settings)
+    return rayleigh_gains(
+        lambda points: modes.shapes(points, index=index),
+        size,
+        listener,
+        s[start:stop],
+        full_output=True,
+        **settings,
+    )
+
+
+def _banded_rectangle(modes, n_low, listener, s, settings):
+    """The rectangle rule of the edge effect modes ``n_low`` onwards, band by band of
+    wavenumber (:data:`BAND_RATIO`): each band's rule follows its own fastest mode's
+    wavelength. Each mode passes the same convergence test as on one rule for every mode."""
+    omega = modes.angular_frequencies[n_low:]
+    kb = settings["max_wavenumber"]
+    kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(s[n_low:]) / settings["sound_speed"]
+    parts = [
+        _band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
+        for lo, hi in wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
+    ]
+    largest = max(parts, key=lambda p: p.n_points)
+    failed = sum(not p.success for p in parts)
+    message = (
+        f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
+        f"{largest.message}"
+    )
+    return combined(parts, "banded", message)
+
+
+def _boundary(modes, n_low, listener, s, settings):
+    """The boundary rule of the edge effect modes ``n_low`` onwards."""
+    settings = {k: v for k, v in settings.items() if k != "max_wavenumber"}
+    size = (modes.plate.length, modes.plate.width)
+    result = boundary_rule(modes.edge_effect(), len(modes), size, listener, s[n_low:], **settings)
+    return dataclasses.replace(result, rule="boundary")
+
+
+def _with_ritz(modes, listener, s, settings, edge_rule, how) -> RadiationResult:
+    """Gains of a plate with Rayleigh-Ritz modes below ``first_mode`` of its edge effect
+    part (the rectangle rule, for their own largest wavenumber) and dynamic edge effect
+    modes above (``edge_rule``); one :class:`RadiationResult`."""
+    n_low = modes.edge_effect().first_mode
+    high = edge_rule(modes, n_low, listener, s, settings)
+    if n_low == 0:
+        return high
+    low = _band_rectangle(modes, 0, n_low, listener, s, settings)
+    message = (
+        f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
+        f"{len(modes) - 1} ({how}): {high.message}"
+    )
+    return combined((low, high), high.rule, message)
+
+
+def combined(parts, rule: str, message: str) -> RadiationResult:
+    """One :class:`RadiationResult` of consecutive blocks of modes ``parts`` (``n_points``,
+    ``panels`` those of the block with the most points)."""
+    status = max(p.status for p in parts)
+    largest = max(parts, key=lambda p: p.n_points)
+    return RadiationResult(
+        gains=np.concatenate([p.gains for p in parts]),
+        error=np.concatenate([p.error for p in parts]),
+        coherent=np.concatenate([p.coherent for p in parts]),
+        n_points=largest.n_points,
+        refinements=max(p.refinements for p in parts),
+        panels=largest.panels,
+        success=status == 0,
+        status=status,
+        message=message,
+        rule=rule,
+    )
+
+
+def edge_split(kb, f_low, f_max, ritz_modes, count_below, sound_speed) -> EdgeSplit:
+    """The :class:`EdgeSplit` of a plate whose modes up to ``f_low`` (Hz) are its
+    ``ritz_modes`` Ritz modes and whose edge effect modes reach ``f_max`` (Hz), ``kb`` the
+    bending wavenumber at ``f_max`` (rad/m, growing as the square root of the frequency),
+    ``count_below(f)`` the modes below ``f`` (Hz): ``BOUNDARY_BANDS`` bands of frequency,
+    equal in ratio, each mode two rows (a pair's two products)."""
+    ratios = np.arange(work.BOUNDARY_BANDS + 1) / work.BOUNDARY_BANDS
+    edges = f_low * (f_max / f_low) ** ratios
+    counts = [int(count_below(float(f))) for f in edges]
+    bands = tuple(
+        work.RateBand(
+            kb * math.sqrt(lo / f_max),
+            kb * math.sqrt(hi / f_max),
+            2.0 * math.pi * hi / sound_speed,
+            2 * (n1 - n0),
+        )
+        for lo, hi, n0, n1 in zip(edges[:-1], edges[1:], counts[:-1], counts[1:])
+    )
+    ritz_kappa = kb * math.sqrt(f_low / f_max) + 2.0 * math.pi * f_low / sound_speed
+    return EdgeSplit(ritz_modes, ritz_kappa, bands)
+
+
+def plate_problem(
+    plate, listener, modes, f_max, *, kb, qa, tol, max_points, edge=None, shapes=None
+):
+    """The :class:`Problem` of ``modes`` modes of ``plate`` up to ``f_max`` (Hz) heard at
+    ``listener`` (x, y, z, metres), ``kb`` and ``qa`` the bending and acoustic wavenumbers
+    (rad/m), ``edge`` the :class:`EdgeSplit` of a plate past the Ritz crossover; ``shapes``
+    (default: from the plate's boundary) as for :class:`Problem`."""
+    from synth.physics.modes import ritz_factors, shape_terms, solver_sizes
+
+    size = (plate.length, plate.width)
+    if shapes is None:
+        simply = plate.boundary == "simply-supported"
+        shapes = "edge" if edge is not None else "separable" if simply else "summed"
+    factors, basis = (0, 0), 1
+    if shapes == "separable":
+        factors = tuple(int(kb * s / math.pi) for s in size)
+    elif shapes == "summed":
+        factors = tuple(ritz_factors(plate, f_max))
+        basis = max(solver_sizes(plate, f_max)[0], default=1)
+    return Problem(
+        size=size,
+        listener=tuple(float(v) for v in listener),
+        modes=int(modes),
+        kb=float(kb),
+        qa=float(qa),
+        shapes=shapes,
+        terms=shape_terms(plate, f_max),
+        factors=factors,
+        basis=basis,
+        tol=float(tol),
+        max_points=int(max_points),
+        edge=edge,
+    )
