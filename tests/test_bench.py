@@ -59,13 +59,21 @@ def test_run_contact_summary():
 def test_run_render_one_floor():
     # The render benchmark at the default settings only: every scene within -60 dB of its
     # reference (no omission, fine transforms), the modal bank's cost measured.
-    r = bench.run_render(floors=(-80.0,), tolerances=(1e-9,), repeat=1)
+    r = bench.run_render(floors=(-80.0,), tolerances=(1e-9,), repeat=1, cli_runs=1)
     assert len(r["rows"]) == len(bench.render_scenes())
     for row in r["rows"]:
         assert row["default"] and row["error_db"] <= -60.0, row
         assert row["mode_samples"] > 0 and row["ns_per_mode_sample"] > 0
+        # the split's parts are the stages' own timings; what is left is the rest
+        parts = row["bank_s"] + row["contacts_s"] + row["transforms_s"] + row["rest_s"]
+        assert parts == pytest.approx(row["seconds"], rel=1e-9)
+        assert min(row["bank_s"], row["contacts_s"], row["transforms_s"]) > 0.0
+        assert 0.0 < row["non_bank_share"] < 1.0
+    assert r["cli"]["wall_s"] > 0.0 and r["cli"]["cpu_s"] > 0.0
     assert r["summary"]["met"]["error_db"]
-    assert "Targets at the default settings" in bench.format_render(r)
+    text = bench.format_render(r)
+    assert "Targets at the default settings" in text and "non-bank share" in text
+    assert "`synth render default` as a whole process, warm caches:" in text
 
 
 def test_gallery_command(tmp_path, capsys):
