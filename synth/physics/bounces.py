@@ -37,6 +37,7 @@ from synth import checks
 from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
+from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
 from synth.physics.scene import Ball, Plate, Scene
 
 STOP_REASONS = (
@@ -269,31 +270,38 @@ def simulate_bounces(
     v = math.sqrt(2.0 * g * h0)
     v1 = v
     impacts = []
+    if rebound is None:
+        # the series in one compiled call, as far as it serves (see ContactSolver.solve_drop)
+        drop = solver.solve_drop(
+            v, t, position=pos, energy_floor=energy_floor, max_duration=t_max,
+            max_impacts=max_impacts,
+        )  # fmt: skip
+        for time_, speed, res in zip(drop.times, drop.speeds, drop.results):
+            impacts.append(Impact(len(impacts) + 1, time_, speed, res, _flight_restitution(res)))
+        if drop.end != "handed-over":
+            return BounceSequence(tuple(impacts), drop.end, h0, g)
+        t, v = drop.next_time, drop.next_speed
     reason = "max-impacts"
     while len(impacts) < max_impacts:
         res = solver.solve(v, position=pos)
-        e = res.restitution if rebound is None else rebound(res, v)
+        e = float(res.restitution if rebound is None else rebound(res, v))
         impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
-        if not res.success:
-            reason = "solver-failure"
-            break
-        if res.settled or e <= 0.0:
-            reason = "settled"
-            break
         v_out = res.rebound_speed if rebound is None else e * v
-        flight = 2.0 * v_out / g
-        if flight < res.separation_time:
-            reason = "flight-shorter-than-contact"
-            break
-        if (v_out / v1) ** 2 < energy_floor:
-            reason = "floor"
-            break
-        t_next = t + res.separation_time + flight
-        if t_next > t_max:
-            reason = "max-duration"
+        end, t_next = bounce_end(
+            t, v1, g, res.success, res.settled, e, float(v_out), res.separation_time,
+            energy_floor, float(t_max),
+        )  # fmt: skip
+        if end != NO_END:
+            reason = BOUNCE_ENDS[end]
             break
         t, v = t_next, v_out
     return BounceSequence(tuple(impacts), reason, h0, g)
+
+
+def _flight_restitution(res: ImpactResult) -> float:
+    """The restitution that set the flight after the physical impact ``res``: its own, 0
+    for a ball that settled (dimensionless)."""
+    return max(res.restitution, 0.0) if not res.settled else 0.0
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
