@@ -17,7 +17,8 @@ for one impact, from first touch to separation or settling:
 - ``outcome.py``: the result array of one impact (its fields ``R_*``) and the kernel that
   fills it, shared with the thin shell's driver (``shell.py``);
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, by ``impact_explicit`` or ``impact_implicit``), ``pulse`` and
+  parameters, by ``impacts_explicit`` or ``impact_implicit``), ``impacts_explicit`` (the
+  impacts of a drop, the bounce scheduler's loop compiled), ``pulse`` and
   ``force_slope_at`` (the force from the dense output).
 
 numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
@@ -150,11 +151,6 @@ IMPLICIT_STEP_LIMIT = 200_000
 AUTO = 0
 DOP853 = 1
 RADAU = 2
-
-
-#: Status of ``impact_explicit``'s result that hands an impact to ``impact_implicit``
-#: (never returned by ``impact``).
-IMPLICIT_NEEDED = -100
 
 
 @compiled(inline="always")
@@ -349,14 +345,23 @@ def bounce_end(t, v1, g, success, settled, restitution, v_out, separation, energ
     return NO_END, t_next
 
 
+@compiled(inline="always")
+def _copy_rows(source, start, stop, target, at):
+    """Rows ``start:stop`` of ``source`` into ``target`` from row ``at`` on."""
+    for i in range(stop - start):
+        for j in range(source.shape[1]):
+            target[at + i, j] = source[start + i, j]
+
+
 @compiled()
 def impacts_explicit(
     m, K, beta, g, n, mu, A, v_free, rtol, auto, v1, t1, energy_floor, t_max, max_impacts,
     tau_edge, residual_limit,
 ):  # fmt: skip
-    """The impacts of a drop on the plate's impedance by DOP853 (``impact_explicit`` each),
-    strung together by the bounce scheduler's rules (:func:`bounce_end`) in one compiled
-    call; one impact (``max_impacts = 1``) is ``impact``'s explicit path.
+    """The impacts of a drop on the plate's impedance by DOP853, strung together by the
+    bounce scheduler's rules (:func:`bounce_end`) in one compiled call; one impact
+    (``max_impacts = 1``) is ``impact``'s explicit path, this kernel the one compiled entry
+    to the explicit solver (a second would compile all of it again).
 
     The first impact at ``v1`` (m/s) starts at ``t1`` (s); the ball's mass ``m`` (kg), the law
     ``K``, ``n``, ``mu``, ``A``, the admittance ``beta``, ``v_free``, ``rtol`` and ``auto``
@@ -381,20 +386,34 @@ def impacts_explicit(
     t = t1
     v = v1
     while count < max_impacts:
-        r, hist = impact_explicit(m, K, beta, v, g, n, mu, A, v_free, rtol, auto)
-        status = r[R_STATUS]
-        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= residual_limit
-        if status == IMPLICIT_NEEDED or (success and r[R_CONTACT_TIME] >= tau_edge):
+        # the automatic choice takes Radau IIA above STIFF_LAMBDA, or where DOP853 reaches
+        # its step limit: the caller's
+        v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v, g, n, mu, A, v_free)
+        if auto and lam > STIFF_LAMBDA:
             end = END_HANDED_OVER
             break
-        top = rows[count] + hist.shape[0]
+        out = solve_explicit(lam, G, n, c, b, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
+        if auto and out[0] == MAX_STEPS:
+            end = END_HANDED_OVER
+            break
+        r, hist = result(out, DOP853_STEPS, m, v, v0, theta, lam, G, n, c, b, f_scale)
+        status = r[R_STATUS]
+        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= residual_limit
+        if success and r[R_CONTACT_TIME] >= tau_edge:
+            end = END_HANDED_OVER
+            break
+        # element by element: a slice assignment compiles numba's shape-mismatch error
+        # path (message formatting), seconds of first-use compile for nothing
+        first = rows[count]
+        top = first + hist.shape[0]
         if top > hists.shape[0]:
             grown = np.empty((2 * top, H_COLS))
-            grown[: rows[count]] = hists[: rows[count]]
+            _copy_rows(hists, 0, first, grown, 0)
             hists = grown
-        hists[rows[count] : top] = hist
+        _copy_rows(hist, 0, hist.shape[0], hists, first)
         rows[count + 1] = top
-        results[count] = r
+        for j in range(N_RESULT):
+            results[count, j] = r[j]
         times[count] = t
         speeds[count] = v
         count += 1
@@ -456,22 +475,6 @@ def scales(m, K, beta, v_in, g, n, mu, A, v_free):
     return v0, theta, lam, G, c, b, m * v0 / theta
 
 
-@compiled(inline="always")
-def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
-    """``impact`` by DOP853; with ``auto``, a result of status ``IMPLICIT_NEEDED`` (and an
-    empty history) where the automatic choice takes Radau IIA: above ``STIFF_LAMBDA``, or
-    when DOP853 reaches its step limit. Inlined into :func:`impacts_explicit`, the one
-    compiled entry to it (a second would compile the whole explicit solver again)."""
-    v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
-    if auto and lam > STIFF_LAMBDA:
-        return implicit_needed()
-    atol = rtol * ABSOLUTE_FACTOR
-    out = solve_explicit(lam, G, n, c, b, rtol, atol, EXPLICIT_STEP_LIMIT)
-    if auto and out[0] == MAX_STEPS:
-        return implicit_needed()
-    return result(out, DOP853_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
-
-
 @compiled()
 def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     """``impact`` by Radau IIA."""
@@ -479,14 +482,6 @@ def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     atol = rtol * ABSOLUTE_FACTOR
     out = solve_implicit(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT)
     return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
-
-
-@compiled()
-def implicit_needed():
-    """The result of ``impact_explicit`` that hands the impact to ``impact_implicit``."""
-    r = np.zeros(N_RESULT)
-    r[R_STATUS] = IMPLICIT_NEEDED
-    return r, np.empty((0, H_COLS))
 
 
 @compiled(inline="always")
