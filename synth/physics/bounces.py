@@ -288,8 +288,8 @@ def simulate_bounces(
         impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
         v_out = res.rebound_speed if rebound is None else e * v
         end, t_next = bounce_end(
-            t, v1, g, res.success, res.settled, e, float(v_out), res.separation_time,
-            energy_floor, float(t_max),
+            float(t), v1, float(g), res.success, res.settled, e, float(v_out),
+            res.separation_time, energy_floor, float(t_max),
         )  # fmt: skip
         if end != NO_END:
             reason = BOUNCE_ENDS[end]
