@@ -54,6 +54,11 @@ def test_run_contact_summary():
     json.loads(json.dumps(r, allow_nan=False))
     text = bench.format_contact(r)
     assert "Targets at rtol 1e-06" in text and "Gravity during the contact" in text
+    # a drop's impacts in one compiled call are those of one call each, to the last bit
+    assert {d["rtol"] for d in r["drops"]} == {1e-6, 1e-9}
+    for d in r["drops"]:
+        assert d["same"] and d["impacts"] > 10 and d["batch_us"] > 0 and d["single_us"] > 0
+    assert "The impacts of a drop" in text and "contacts in a drop" in text
 
 
 def test_run_render_one_floor():
