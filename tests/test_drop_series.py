@@ -121,3 +121,23 @@ def test_the_series_ends_as_the_loop_ends_at_its_limits(monkeypatch, max_impacts
     compiled, alone = _both(monkeypatch, run)
     assert _fields(compiled) == _fields(alone)
     assert len(compiled) <= max_impacts
+
+
+def test_a_series_longer_than_one_call_holds_goes_on_one_call_each(monkeypatch):
+    # the compiled series' arrays hold DROP_CAPACITY impacts (a user may allow any number):
+    # past them the series is handed over and goes on one call each, the same series
+    scene = load_preset("default")
+    monkeypatch.setattr(contact, "DROP_CAPACITY", 4)
+    compiled, alone = _both(monkeypatch, lambda: simulate_scene(scene))
+    assert len(compiled) > 8
+    assert _fields(compiled) == _fields(alone)
+    c = scene.contact
+    solver = contact.ContactSolver.for_pair(
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=c.rtol, **c.options()
+    )
+    drop = solver.solve_drop(
+        1.4, 0.14, position=scene.position, energy_floor=1e-6, max_duration=60.0,
+        max_impacts=10**12,
+    )  # fmt: skip
+    assert drop.end == "handed-over" and len(drop.results) == 4
+    assert drop.next_speed == drop.results[-1].rebound_speed

@@ -77,6 +77,9 @@ TOLERANCE_SAFETY = 0.2
 MIN_POINTS = 64
 
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
+#: Most impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
+#: its result arrays are allocated for that many (about 200 bytes each), the render's most.
+DROP_CAPACITY = 100_000
 _INF = math.inf
 
 
@@ -645,21 +648,25 @@ class ContactSolver:
                 edge = min(x, self.plate.length - x, y, self.plate.width - y)
                 # a little before the edge is felt: solve() decides at the edge itself
                 tau_edge = impedance.edge_contact_time(self.plate, edge) * (1.0 - 1e-9)
+        # the kernel's arrays hold every impact it may take: beyond DROP_CAPACITY the series
+        # is handed over after that many (solve() goes on, one call each)
+        take = min(int(max_impacts), DROP_CAPACITY)
         announce("contact")
         count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
             self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
             self.dissipation, self.viscous_time, 0.0, self.rtol * TOLERANCE_SAFETY,
             method == "auto", float(speed), float(start), float(energy_floor),
-            float(max_duration), int(max_impacts), tau_edge, ENERGY_RESIDUAL_LIMIT,
+            float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
         )  # fmt: skip
+        ending = _k.BOUNCE_ENDS[end]
+        if ending == "max-impacts" and take < max_impacts:
+            ending = "handed-over"
         rows = rows.tolist()
         solved = tuple(
             _result(r, hists[rows[i] : rows[i + 1]], self.exponent, self.n_points)
             for i, r in enumerate(results.tolist())
         )
-        return DropImpacts(
-            tuple(times.tolist()), tuple(speeds.tolist()), solved, _k.BOUNCE_ENDS[end], t, v
-        )
+        return DropImpacts(tuple(times.tolist()), tuple(speeds.tolist()), solved, ending, t, v)
 
     @property
     def infinite_admittance(self) -> float | None:
