@@ -344,7 +344,10 @@ def _split_table(rows) -> list[str]:
         for r in rows
         if r["default"]
     ]
-    header = ["scene", "render", "bank", "contacts", "transforms", "rest", "non-bank share"]
+    header = [
+        "scene", "render (ms)", "bank (ms)", "contacts (ms)", "transforms (ms)", "rest (ms)",
+        "non-bank share (% of render)",
+    ]  # fmt: skip
     return head + markdown_table(header, cells)
 
 

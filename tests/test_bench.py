@@ -77,7 +77,7 @@ def test_run_render_one_floor():
     assert r["cli"]["wall_s"] > 0.0 and r["cli"]["cpu_s"] > 0.0
     assert r["summary"]["met"]["error_db"]
     text = bench.format_render(r)
-    assert "Targets at the default settings" in text and "non-bank share" in text
+    assert "Targets at the default settings" in text and "non-bank share (% of" in text
     assert "`synth render default` as a whole process, warm caches:" in text
 
 
