@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmarks.common import median_time, target_verdict
-from synth.constants import GRAVITY
+from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.physics import contact, impedance
 from synth.physics import contact_law as laws
 from synth.physics.scene import Ball, Plate
@@ -215,7 +215,10 @@ def _pulse_error(res, sol, theta, case):
 
 #: The contact solver's targets at the default rtol: the restitution error, the
 #: median time of one impact (us), and the speed-up over scipy's solve_ivp at equal error.
-CONTACT_TARGETS = dict(err_restitution=1e-6, us_per_impact=20.0, speedup=100.0)
+CONTACT_TARGETS = dict(err_restitution=1e-6, us_per_impact=20.0, speedup=100.0, drop_us=5.0)
+#: The drops whose impacts are timed through the compiled series and one call each
+#: (:func:`run_drop_contacts`): presets on the plate's impedance.
+DROP_PRESETS = ("default", "small-click-on-acrylic")
 DEFAULT_RTOL = 1e-6
 
 
@@ -339,10 +342,89 @@ def run_contact(
     )
     for c in comparisons:
         c["scipy_error"] = _finite_or_none(c["scipy_error"])
-    out = dict(rows=rows, scipy=comparisons, gravity=gravity_rows, summary=summary)
+    drops = run_drop_contacts(repeat=max(3, repeat // 15))
+    summary["max_drop_us_per_impact"] = max(
+        d["batch_us"] for d in drops if d["rtol"] == DEFAULT_RTOL
+    )
+    summary["met"]["drop_us"] = bool(
+        summary["max_drop_us_per_impact"] <= CONTACT_TARGETS["drop_us"]
+    )
+    out = dict(rows=rows, scipy=comparisons, gravity=gravity_rows, drops=drops, summary=summary)
     if modal:
         out["modal"] = run_modal_contact(repeat=max(3, repeat // 15))
     return out
+
+
+def run_drop_contacts(repeat: int = 20, presets=DROP_PRESETS) -> list[dict]:
+    """The impacts of each preset's drop (on the plate's impedance, its contact law, the
+    bounce series' default floor and limits) solved through the compiled series
+    (:meth:`~synth.physics.contact.ContactSolver.solve_drop`) and one call each
+    (:meth:`~synth.physics.contact.ContactSolver.solve`, at the series' speeds): the time per
+    impact of each (median of ``repeat``), and whether both give the same impacts (e and
+    tau equal to the last bit: the same error); at the solver's default rtol
+    (:data:`DEFAULT_RTOL`, that of the target) and at the preset's own."""
+    from synth.io.presets import load_preset
+
+    rows = []
+    for name in presets:
+        scene = load_preset(name)
+        for rtol in sorted({DEFAULT_RTOL, scene.contact.rtol}, reverse=True):
+            rows.append(_drop_row(name, scene, rtol, repeat))
+    return rows
+
+
+def _drop_row(name, scene, rtol, repeat) -> dict:
+    """:func:`run_drop_contacts`' figures of one preset's ``scene`` at ``rtol``."""
+    c = scene.contact
+    solver = contact.ContactSolver.for_pair(
+        scene.ball, scene.plate, gravity=scene.gravity, law=c.law, rtol=rtol, **c.options()
+    )
+    g, h0 = scene.gravity, scene.drop_height
+    first = (math.sqrt(2.0 * g * h0), math.sqrt(2.0 * h0 / g))
+    rules = dict(
+        position=scene.position,
+        energy_floor=10.0 ** (DEFAULT_FLOOR_DB / 10.0),
+        max_duration=60.0,
+        max_impacts=DEFAULT_MAX_IMPACTS,
+    )
+    drop = solver.solve_drop(*first, **rules)
+    count = len(drop.results)
+
+    def one_call_each(speeds=drop.speeds):
+        return [solver.solve(v, position=scene.position) for v in speeds]
+
+    same = all(
+        a.restitution == b.restitution and a.contact_time == b.contact_time
+        for a, b in zip(drop.results, one_call_each())
+    )
+    return dict(
+        preset=name,
+        rtol=rtol,
+        impacts=count,
+        end=drop.end,
+        same=bool(same),
+        batch_us=median_time(lambda: solver.solve_drop(*first, **rules), repeat) / count * 1e6,
+        single_us=median_time(one_call_each, repeat) / count * 1e6,
+    )
+
+
+def format_drop_contacts(rows) -> list[str]:
+    """The lines of :func:`run_drop_contacts`' table."""
+    lines = [
+        "",
+        "The impacts of a drop: one compiled call for the series against one call per "
+        "impact, time per impact",
+        "| preset | rtol | impacts | end | same impacts | series in one call (us) | "
+        "one call each (us) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for d in rows:
+        lines.append(
+            f"| {d['preset']} | {d['rtol']:.0e} | {d['impacts']} | {d['end']} | "
+            f"{'yes' if d['same'] else 'NO'} | "
+            f"{d['batch_us']:.1f} | {d['single_us']:.1f} |"
+        )
+    return lines
 
 
 def format_contact(result) -> str:
@@ -380,6 +462,8 @@ def format_contact(result) -> str:
             f"| {g['case']} | {g['g_theta_over_v']:.2e} | {g['e_with']:.6f} | {g['e_without']:.6f} | "
             f"{g['change']:.1e} | {g['us_with']:.1f} | {g['us_without']:.1f} |"
         )
+    if "drops" in result:
+        lines += format_drop_contacts(result["drops"])
     s = result["summary"]
     t = s["targets"]
     lines += [
@@ -393,6 +477,12 @@ def format_contact(result) -> str:
         f"- speed-up over solve_ivp (DOP853) at matched error, smallest: {s['min_speedup']:.0f}x "
         f"(target >= {t['speedup']:.0f}x): {target_verdict(s['met']['speedup'])}",
     ]
+    if "max_drop_us_per_impact" in s:
+        lines.append(
+            f"- contacts in a drop (one compiled call, rtol {s['rtol']:.0e}), slowest preset: "
+            f"{s['max_drop_us_per_impact']:.1f} us per impact (target <= {t['drop_us']:.0f} us): "
+            f"{target_verdict(s['met']['drop_us'])}"
+        )
     if "modal" in result:
         lines += ["", format_modal_contact(result["modal"])]
     return "\n".join(lines)

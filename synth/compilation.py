@@ -89,7 +89,7 @@ GROUPS = {
         KernelGroup(
             "contact",
             "the contact kernels",
-            ("synth.physics.contact_kernels", "impact_explicit"),
+            ("synth.physics.contact_kernels", "impacts_explicit"),
             ("synth.physics.contact_kernels",),
         ),
         KernelGroup(

@@ -54,18 +54,31 @@ def test_run_contact_summary():
     json.loads(json.dumps(r, allow_nan=False))
     text = bench.format_contact(r)
     assert "Targets at rtol 1e-06" in text and "Gravity during the contact" in text
+    # a drop's impacts in one compiled call are those of one call each, to the last bit
+    assert {d["rtol"] for d in r["drops"]} == {1e-6, 1e-9}
+    for d in r["drops"]:
+        assert d["same"] and d["impacts"] > 10 and d["batch_us"] > 0 and d["single_us"] > 0
+    assert "The impacts of a drop" in text and "contacts in a drop" in text
 
 
 def test_run_render_one_floor():
     # The render benchmark at the default settings only: every scene within -60 dB of its
     # reference (no omission, fine transforms), the modal bank's cost measured.
-    r = bench.run_render(floors=(-80.0,), tolerances=(1e-9,), repeat=1)
+    r = bench.run_render(floors=(-80.0,), tolerances=(1e-9,), repeat=1, cli_runs=1)
     assert len(r["rows"]) == len(bench.render_scenes())
     for row in r["rows"]:
         assert row["default"] and row["error_db"] <= -60.0, row
         assert row["mode_samples"] > 0 and row["ns_per_mode_sample"] > 0
+        # the split's parts are the stages' own timings; what is left is the rest
+        parts = row["bank_s"] + row["contacts_s"] + row["transforms_s"] + row["rest_s"]
+        assert parts == pytest.approx(row["seconds"], rel=1e-9)
+        assert min(row["bank_s"], row["contacts_s"], row["transforms_s"]) > 0.0
+        assert 0.0 < row["non_bank_share"] < 1.0
+    assert r["cli"]["wall_s"] > 0.0 and r["cli"]["cpu_s"] > 0.0
     assert r["summary"]["met"]["error_db"]
-    assert "Targets at the default settings" in bench.format_render(r)
+    text = bench.format_render(r)
+    assert "Targets at the default settings" in text and "non-bank share (% of" in text
+    assert "`synth render default` as a whole process, warm caches:" in text
 
 
 def test_gallery_command(tmp_path, capsys):

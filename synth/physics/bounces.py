@@ -38,6 +38,7 @@ from synth import checks
 from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
+from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
 from synth.physics.scene import Ball, Plate, Scene
 
 STOP_REASONS = (
@@ -228,15 +229,21 @@ class BounceOptions:
         ``e'``)."""
         return result.rebound_speed if self.rebound is None else restitution * speed
 
+    @property
+    def energy_floor(self) -> float:
+        """The lowest ratio of an impact's kinetic energy to the first's (``floor_db``)."""
+        return 10.0 ** (self.floor_db / 10.0)
+
     def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float) -> str | None:
         """Why the series ends after an impact that sends the ball off at ``v_out`` (m/s;
         the first impact at ``v1``), or None: its flight is shorter than the contact, or
-        the next impact is below the perceptual floor."""
-        if 2.0 * v_out / gravity < result.separation_time:
-            return "flight-shorter-than-contact"
-        if (v_out / v1) ** 2 < 10.0 ** (self.floor_db / 10.0):
-            return "floor"
-        return None
+        the next impact is below the perceptual floor (the scheduler's rules,
+        :func:`~synth.physics.contact_kernels.bounce_end`, whatever the flight's end)."""
+        end, _ = bounce_end(
+            0.0, float(v1), float(gravity), True, False, 1.0, float(v_out),
+            result.separation_time, self.energy_floor, math.inf,
+        )  # fmt: skip
+        return None if end == NO_END else BOUNCE_ENDS[end]
 
 
 def simulate_bounces(
@@ -308,27 +315,39 @@ def simulate_bounces(
     v = math.sqrt(2.0 * g * h0)
     v1 = v
     impacts = []
-    reason = None
+    energy_floor = o.energy_floor
+    if o.rebound is None:
+        # the series in one compiled call, as far as it serves (see ContactSolver.solve_drop)
+        drop = solver.solve_drop(
+            v, t, position=pos, energy_floor=energy_floor, max_duration=o.max_duration,
+            max_impacts=o.max_impacts,
+        )  # fmt: skip
+        for time_, speed, res in zip(drop.times, drop.speeds, drop.results):
+            impacts.append(Impact(len(impacts) + 1, time_, speed, res, _flight_restitution(res)))
+        if drop.end != "handed-over":
+            return BounceSequence(tuple(impacts), drop.end, h0, g)
+        t, v = drop.next_time, drop.next_speed
+    reason = "max-impacts"
     while len(impacts) < o.max_impacts:
         res = solver.solve(v, position=pos)
-        e = res.restitution if o.rebound is None else o.rebound(res, v)
+        e = float(res.restitution if o.rebound is None else o.rebound(res, v))
         impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
-        if not res.success:
-            reason = "solver-failure"
-            break
-        if res.settled or e <= 0.0:
-            reason = "settled"
-            break
         v_out = o.take_off(res, e, v)
-        reason = o.ended(res, v_out, v1, g)
-        if reason is not None:
-            break
-        t_next = t + res.separation_time + 2.0 * v_out / g
-        if t_next > o.max_duration:
-            reason = "max-duration"
+        end, t_next = bounce_end(
+            float(t), v1, float(g), res.success, res.settled, e, float(v_out),
+            res.separation_time, energy_floor, float(o.max_duration),
+        )  # fmt: skip
+        if end != NO_END:
+            reason = BOUNCE_ENDS[end]
             break
         t, v = t_next, v_out
-    return BounceSequence(tuple(impacts), reason or "max-impacts", h0, g)
+    return BounceSequence(tuple(impacts), reason, h0, g)
+
+
+def _flight_restitution(res: ImpactResult) -> float:
+    """The restitution that set the flight after the physical impact ``res``: its own, 0
+    for a ball that settled (dimensionless)."""
+    return max(res.restitution, 0.0) if not res.settled else 0.0
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
+from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
@@ -76,6 +77,9 @@ TOLERANCE_SAFETY = 0.2
 MIN_POINTS = 64
 
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
+#: Most impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
+#: its result arrays are allocated for that many (about 200 bytes each), the render's most.
+DROP_CAPACITY = 100_000
 _INF = math.inf
 
 
@@ -239,7 +243,12 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=N
         tol * TOLERANCE_SAFETY,
         _METHODS[method],
     )
-    r = r.tolist()  # Python floats, read once each
+    return _result(r.tolist(), hist, n, n_points)
+
+
+def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
+    """The :class:`ImpactResult` of a power law's contact kernel's result ``r`` (a list of
+    Python floats, read once each; fields ``R_*``) and dense output ``hist``."""
     stiff = bool(r[_k.R_STIFF])
     dense = DenseOutput(
         hist,
@@ -454,6 +463,22 @@ def _solve_at(
 
 
 @dataclass(frozen=True, eq=False)
+class DropImpacts:
+    """The impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
+    their starts (``times``, s from release), speeds (m/s) and results, and how the series
+    ended (``end``: one of :data:`synth.physics.contact_kernels.BOUNCE_ENDS`;
+    ``"handed-over"``: the caller goes on with the impact at ``next_time``, s from release,
+    and ``next_speed``, m/s)."""
+
+    times: tuple[float, ...]
+    speeds: tuple[float, ...]
+    results: tuple[ImpactResult, ...]
+    end: str
+    next_time: float
+    next_speed: float
+
+
+@dataclass(frozen=True, eq=False)
 class ContactSolver:
     """Impacts of one ball on one plate under one contact law, at any speed.
 
@@ -597,6 +622,51 @@ class ContactSolver:
             c.viscous_time,
             c.shell,
         )
+
+    def solve_drop(
+        self, speed: float, start: float, *, position, energy_floor: float, max_duration: float,
+        max_impacts: int,
+    ) -> DropImpacts:  # fmt: skip
+        """The impacts of a drop on the plate's impedance in one compiled call
+        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed``
+        (m/s, checked by the caller) ``start`` s after release, the next ones strung together
+        by the bounce scheduler's rules (:mod:`synth.physics.bounces`; ``energy_floor`` the
+        lowest ratio of an impact's kinetic energy to the first's, ``max_duration`` the
+        latest start, s, ``max_impacts`` the most impacts), each as :meth:`solve` at
+        ``position`` gives it. It stops before an impact that :meth:`solve` must take over
+        (Radau IIA, the admittance near a free edge), and takes none for a solver that the
+        compiled series does not serve (Radau IIA chosen, a hollow ball's shell law, no
+        plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
+        # as solve() takes them: the automatic choice of integrator at a position
+        method = self.method if position is None else "auto"
+        if self.shell is not None or method == "Radau" or self.plate is None:
+            return DropImpacts((), (), (), "handed-over", float(start), float(speed))
+        tau_edge = _INF
+        if position is not None:
+            x, y = self.plate.check_position(position, "position")
+            if self.plate.boundary == "free":
+                edge = min(x, self.plate.length - x, y, self.plate.width - y)
+                # a little before the edge is felt: solve() decides at the edge itself
+                tau_edge = impedance.edge_contact_time(self.plate, edge) * (1.0 - 1e-9)
+        # the kernel's arrays hold every impact it may take: beyond DROP_CAPACITY the series
+        # is handed over after that many (solve() goes on, one call each)
+        take = min(int(max_impacts), DROP_CAPACITY)
+        announce("contact")
+        count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
+            self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
+            self.dissipation, self.viscous_time, 0.0, self.rtol * TOLERANCE_SAFETY,
+            method == "auto", float(speed), float(start), float(energy_floor),
+            float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
+        )  # fmt: skip
+        ending = _k.BOUNCE_ENDS[end]
+        if ending == "max-impacts" and take < max_impacts:
+            ending = "handed-over"
+        rows = rows.tolist()
+        solved = tuple(
+            _result(r, hists[rows[i] : rows[i + 1]], self.exponent, self.n_points)
+            for i, r in enumerate(results.tolist())
+        )
+        return DropImpacts(tuple(times.tolist()), tuple(speeds.tolist()), solved, ending, t, v)
 
     @property
     def infinite_admittance(self) -> float | None:

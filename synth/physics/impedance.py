@@ -103,6 +103,13 @@ def _critical_distance(plate: Plate, tau: float) -> float:
     return math.sqrt(math.pi * tau) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
 
 
+def edge_contact_time(plate: Plate, distance: float) -> float:
+    """The contact time (s) from which an edge at ``distance`` (m) is felt: where
+    :func:`critical_distance` reaches it, ``d^2 / (pi sqrt(D / rho h))``."""
+    wave = math.sqrt(plate.flexural_rigidity / plate.surface_density)
+    return distance * distance / (math.pi * wave)
+
+
 def _taper(d, dc):
     if d >= dc:
         return 0.0

@@ -33,6 +33,7 @@ modal plate's alone (``contact.plate = "modal"``, or ``contact.model = "fitted"`
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -71,16 +72,22 @@ def energy_share_above(result, omega: float) -> float:
     ``omega`` (rad/s) for an :class:`~synth.physics.contact.ImpactResult` (dimensionless,
     in [0, 1]): the pulse sampled on :data:`PULSE_SAMPLES` points over its contact, its
     spectrum by a zero-padded FFT."""
+    return energy_shares_above(result, (omega,))[0]
+
+
+def energy_shares_above(result, omegas) -> list[float]:
+    """:func:`energy_share_above` at each of ``omegas`` (rad/s), from one spectrum of the
+    pulse."""
     tau = result.separation_time
     t = np.linspace(0.0, tau, PULSE_SAMPLES)
     f = np.asarray(result.force_at(t), dtype=float)
     dt = t[1] - t[0]
     spectrum = np.abs(np.fft.rfft(f, TRANSFORM_LENGTH)) ** 2
-    omegas = 2.0 * math.pi * np.fft.rfftfreq(TRANSFORM_LENGTH, dt)
+    frequencies = 2.0 * math.pi * np.fft.rfftfreq(TRANSFORM_LENGTH, dt)
     total = float(spectrum.sum())
     if not total > 0.0:
-        return 0.0
-    return float(spectrum[omegas >= omega].sum()) / total
+        return [0.0 for _ in omegas]
+    return [float(spectrum[frequencies >= omega].sum()) / total for omega in omegas]
 
 
 def return_frequency(plate, distance: float, contact_time: float) -> float:
@@ -101,7 +108,7 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
     dy = min(y, plate.width - y)
     tau = result.separation_time
     omegas = (return_frequency(plate, dx, tau), return_frequency(plate, dy, tau))
-    shares = [energy_share_above(result, w) for w in omegas]
+    shares = energy_shares_above(result, omegas)
     r_e = 1.0 / impedance.EDGE_RATIO
     r_c = 1.0 / impedance.CORNER_RATIO
     contrast = (r_e - 1.0) * (shares[0] + shares[1]) + (r_c - 2.0 * r_e + 1.0) * shares[0] * shares[
@@ -125,7 +132,6 @@ def scene_plate(scene) -> PlateChoice:
     (``"auto"``) :func:`choose_plate` on its first impact solved on the impedance plate; the
     impedance plate for the thin-shell law of a hollow ball, which the modal contact does not
     integrate."""
-    from synth.physics.contact import solve_impact
     from synth.physics.scene import Scene
 
     if not isinstance(scene, Scene):
@@ -139,6 +145,21 @@ def scene_plate(scene) -> PlateChoice:
         return PlateChoice(
             c.plate, 0.0 if c.plate == "impedance" else math.inf, (0.0, 0.0), (0.0, 0.0)
         )
+    try:
+        hash(scene)
+    except TypeError:  # a field given as a list: not kept
+        return _automatic_choice.__wrapped__(scene)
+    return _automatic_choice(scene)
+
+
+@functools.lru_cache(maxsize=64)
+def _automatic_choice(scene) -> PlateChoice:
+    """:func:`choose_plate` on the first impact of ``scene`` (a Scene, hashable: its fields
+    are frozen values) solved on the impedance plate; kept for the scene, which a render
+    asks for once per render and a bank or the benchmarks for many renders of one scene."""
+    from synth.physics.contact import solve_impact
+
+    c = scene.contact
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
     first = solve_impact(
         scene.ball,

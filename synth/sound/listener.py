@@ -202,7 +202,8 @@ class ModalModel:
 
     def excitation(self, position) -> np.ndarray:
         """``b_k = phi_k(x0) / M_k`` (1/kg) of a force at ``position`` ((x, y), m)."""
-        return self.excitations(np.array([position]))[0]
+        phi = _shapes_at(self.modes, position)[self.rendered]
+        return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
 
     def excitations(self, points) -> np.ndarray:
         """``b_k`` (1/kg) of a force at each of ``points`` ((P, 2), m): (P, K)."""
@@ -236,6 +237,31 @@ class ModalModel:
         """``phi_k(xp) b_k`` of an accelerometer's direct term ``b_k F(t)`` (None for a
         microphone)."""
         return None if self.listener.shape is None else self.listener.shape * excitation
+
+
+#: The modes' shapes at single points, by ``(Modes.shape_key, x, y)``: a drop's excitation,
+#: which every render of a scene takes at the same point (at most :data:`POINT_SHAPES_KEPT`).
+_POINT_SHAPES: dict = {}
+POINT_SHAPES_KEPT = 64
+
+
+def _shapes_at(modes, position) -> np.ndarray:
+    """``phi_k`` (dimensionless) of every mode of ``modes`` at ``position`` ((x, y), m), read
+    only; kept by the shapes' key (:attr:`~synth.physics.modes.Modes.shape_key`: equal keys,
+    equal shapes), the oldest point forgotten first."""
+    try:
+        x, y = (float(v) for v in position)
+    except (TypeError, ValueError):  # not a point: Modes.shapes names what is wrong
+        return modes.shapes(np.array([position]))[0]
+    key = (modes.shape_key, x, y)
+    phi = _POINT_SHAPES.get(key)
+    if phi is None:
+        phi = modes.shapes(np.array([[x, y]]))[0]
+        phi.setflags(write=False)
+        if len(_POINT_SHAPES) >= POINT_SHAPES_KEPT:
+            _POINT_SHAPES.pop(next(iter(_POINT_SHAPES)), None)
+        _POINT_SHAPES[key] = phi
+    return phi
 
 
 def modal_model(

@@ -12,8 +12,10 @@ stage (``normalize``). The options are :class:`~synth.sound.options.RenderOption
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
+import time
 
 import numpy as np
 
@@ -94,9 +96,11 @@ def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> R
                 "rolling); pass no sequence"
             )
         return _render_moving(scene, o)
+    started = time.perf_counter()
     sequence = _impacts(scene, o, sequence)
+    contact_seconds = time.perf_counter() - started
     model = _heard_modes(scene, o, estimate.radiation.max_points)
-    return _render_drop(scene, o, sequence, model)
+    return _render_drop(scene, o, sequence, model, contact_seconds)
 
 
 if render.__doc__:  # None under python -OO
@@ -138,13 +142,27 @@ def _checked_work(scene, o: RenderOptions, sequence, budget) -> cost.CostEstimat
         budget = cost.Budget.from_environment()
     elif not isinstance(budget, cost.Budget):
         raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
-    estimate = cost.estimate(
-        scene, samplerate=o.samplerate, max_frequency=o.top_frequency, preroll=o.preroll,
+    options = dict(
+        samplerate=o.samplerate, max_frequency=o.top_frequency, preroll=o.preroll,
         max_duration=o.max_duration, max_tail=o.max_tail, pulse_points=o.pulse_points,
-        floor_db=o.floor_db, budget=budget,
+        floor_db=o.floor_db,
     )  # fmt: skip
+    try:
+        hash(scene)
+    except TypeError:  # a field given as a list: not kept
+        estimate = cost.estimate(scene, budget=budget, **options)
+    else:
+        estimate = _estimate(scene, budget, **options)
     estimate.check(budget)
     return estimate
+
+
+@functools.lru_cache(maxsize=64)
+def _estimate(scene, budget, **options) -> cost.CostEstimate:
+    """:func:`synth.cost.estimate` of ``scene`` under ``budget`` with the render ``options``,
+    kept for the scene (a function of its arguments alone: every render of one scene asks
+    for the same)."""
+    return cost.estimate(scene, budget=budget, **options)
 
 
 def _impacts(scene, o: RenderOptions, sequence) -> BounceSequence:
@@ -179,8 +197,11 @@ def _heard_modes(scene, o: RenderOptions, radiation_max_points=None) -> ModalMod
     return model
 
 
-def _render_drop(scene, o: RenderOptions, sequence, model: ModalModel) -> Render:
-    """The drop's impacts through the modal bank, faded and levelled."""
+def _render_drop(
+    scene, o: RenderOptions, sequence, model: ModalModel, contact_seconds: float = 0.0
+) -> Render:
+    """The drop's impacts through the modal bank, faded and levelled (``contact_seconds``:
+    the wall time their contacts took, s)."""
     fs = o.samplerate
     excitation = model.excitation(scene.position)
     times = np.array([imp.time for imp in sequence])
@@ -212,6 +233,8 @@ def _render_drop(scene, o: RenderOptions, sequence, model: ModalModel) -> Render
         left_at_end=bank["left_at_end"] / reference if reference else 0.0,
         bank_seconds=bank["bank_seconds"],
         reference_amplitude=reference,
+        contact_seconds=contact_seconds,
+        transform_seconds=bank["transform_seconds"],
     )  # fmt: skip
     return _levelled(audio, o, model.units, sequence, info)
 

@@ -108,6 +108,11 @@ class RenderInfo:
         The bound on the loudest tick's peak (Pa or m/s^2) that ``floor_db`` is relative to.
     path : PathInfo or None
         A path's rolling and end (a scene with ``drop.velocity``), else None.
+    contact_seconds : float
+        Wall time of the drop's contacts (its bounce series), s; 0 for a path. Like
+        ``bank_seconds`` not a function of the inputs; neither takes part in equality.
+    transform_seconds : float
+        Wall time of the pulses' transforms (the modes' excitation by every impact), s.
     """
 
     options: RenderOptions
@@ -126,6 +131,8 @@ class RenderInfo:
     bank_seconds: float
     reference_amplitude: float
     path: PathInfo | None = None
+    contact_seconds: float = field(default=0.0, compare=False)
+    transform_seconds: float = field(default=0.0, compare=False)
 
     def settings(self) -> dict:
         """The flat dict of :attr:`Render.settings` (what ``synth render --report``

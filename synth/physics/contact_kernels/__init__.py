@@ -17,7 +17,8 @@ for one impact, from first touch to separation or settling:
 - ``outcome.py``: the result array of one impact (its fields ``R_*``) and the kernel that
   fills it, shared with the thin shell's driver (``shell.py``);
 - here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, by ``impact_explicit`` or ``impact_implicit``), ``pulse`` and
+  parameters, by ``impacts_explicit`` or ``impact_implicit``), ``impacts_explicit`` (the
+  impacts of a drop, the bounce scheduler's loop compiled), ``pulse`` and
   ``force_slope_at`` (the force from the dense output).
 
 numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
@@ -122,8 +123,12 @@ __all__ = [
     "SETTLED",
     "STEP_TOO_SMALL",
     "STIFF_LAMBDA",
+    "BOUNCE_ENDS",
+    "NO_END",
+    "bounce_end",
     "force_slope_at",
     "impact",
+    "impacts_explicit",
     "pulse",
     "solve",
 ]
@@ -146,11 +151,6 @@ IMPLICIT_STEP_LIMIT = 200_000
 AUTO = 0
 DOP853 = 1
 RADAU = 2
-
-
-#: Status of ``impact_explicit``'s result that hands an impact to ``impact_implicit``
-#: (never returned by ``impact``).
-IMPLICIT_NEEDED = -100
 
 
 @compiled(inline="always")
@@ -295,6 +295,144 @@ def force_end(hist, S, nh, radau, lam, G, n, c, b):
     return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
 
 
+#: How a bounce series ends (:func:`bounce_end`'s codes are indices into it; the names of
+#: :data:`synth.physics.bounces.STOP_REASONS`), and ``"handed-over"``: the compiled series
+#: (:func:`impacts_explicit`) stopped before an impact that its caller solves (by Radau IIA,
+#: or with the admittance near an edge).
+BOUNCE_ENDS = (
+    "settled",
+    "flight-shorter-than-contact",
+    "floor",
+    "max-duration",
+    "max-impacts",
+    "solver-failure",
+    "handed-over",
+)
+#: :func:`bounce_end`'s code while the series goes on.
+NO_END = -1
+END_SETTLED = 0
+END_FLIGHT = 1
+END_FLOOR = 2
+END_MAX_DURATION = 3
+END_MAX_IMPACTS = 4
+END_SOLVER_FAILURE = 5
+END_HANDED_OVER = 6
+
+
+@compiled()
+def bounce_end(t, v1, g, success, settled, restitution, v_out, separation, energy_floor, t_max):
+    """What follows an impact that started at ``t`` (s from release), the bounce scheduler's
+    rules (:mod:`synth.physics.bounces`): ``(end, t_next)``, ``end`` an index of
+    :data:`BOUNCE_ENDS` where the series ends, else :data:`NO_END` and ``t_next`` the next
+    impact's start (s). ``v1``: the first impact's speed, m/s; ``g``: m/s^2; ``success``,
+    ``settled``: the contact's; ``restitution``: the one that sets the flight; ``v_out``:
+    the take-off speed (m/s); ``separation``: the contact's duration to separation (s);
+    ``energy_floor``: the lowest ratio of an impact's kinetic energy to the first's;
+    ``t_max``: the latest start of an impact, s."""
+    if not success:
+        return END_SOLVER_FAILURE, t
+    if settled or restitution <= 0.0:
+        return END_SETTLED, t
+    # without gravity the ball does not come back: the next impact never starts
+    flight = 2.0 * v_out / g if g > 0.0 else math.inf
+    if flight < separation:
+        return END_FLIGHT, t
+    if (v_out / v1) ** 2 < energy_floor:
+        return END_FLOOR, t
+    t_next = t + separation + flight
+    if t_next > t_max:
+        return END_MAX_DURATION, t
+    return NO_END, t_next
+
+
+@compiled(inline="always")
+def _copy_rows(source, start, stop, target, at):
+    """Rows ``start:stop`` of ``source`` into ``target`` from row ``at`` on."""
+    for i in range(stop - start):
+        for j in range(source.shape[1]):
+            target[at + i, j] = source[start + i, j]
+
+
+@compiled()
+def impacts_explicit(
+    m, K, beta, g, n, mu, A, v_free, rtol, auto, v1, t1, energy_floor, t_max, max_impacts,
+    tau_edge, residual_limit,
+):  # fmt: skip
+    """The impacts of a drop on the plate's impedance by DOP853, strung together by the
+    bounce scheduler's rules (:func:`bounce_end`) in one compiled call; one impact
+    (``max_impacts = 1``) is ``impact``'s explicit path, this kernel the one compiled entry
+    to the explicit solver (a second would compile all of it again).
+
+    The first impact at ``v1`` (m/s) starts at ``t1`` (s); the ball's mass ``m`` (kg), the law
+    ``K``, ``n``, ``mu``, ``A``, the admittance ``beta``, ``v_free``, ``rtol`` and ``auto``
+    as in ``impact``; ``energy_floor``, ``t_max`` as in :func:`bounce_end`. The series is
+    handed over (``END_HANDED_OVER``) before an impact that Radau IIA must solve (``auto``)
+    or whose contact time reaches ``tau_edge`` (s: where the admittance near an edge takes
+    over); a contact whose energy residual exceeds ``residual_limit`` is a failure.
+
+    Returns ``(count, end, t, v, results, times, speeds, hists, rows)``: the impacts
+    solved, the index of :data:`BOUNCE_ENDS` that ended the series, the start (s) and speed
+    (m/s) of the impact handed over, the impacts' result arrays (fields
+    ``R_*``, ``(count, N_RESULT)``), starts (s) and speeds (m/s), their dense outputs one
+    after the other in ``hists``, impact ``i``'s in rows ``rows[i]:rows[i + 1]``.
+    """
+    results = np.empty((max_impacts, N_RESULT))
+    times = np.empty(max_impacts)
+    speeds = np.empty(max_impacts)
+    rows = np.zeros(max_impacts + 1, dtype=np.int64)
+    hists = np.empty((64, H_COLS))
+    count = 0
+    end = END_MAX_IMPACTS
+    t = t1
+    v = v1
+    while count < max_impacts:
+        # the automatic choice takes Radau IIA above STIFF_LAMBDA, or where DOP853 reaches
+        # its step limit: the caller's
+        v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v, g, n, mu, A, v_free)
+        if auto and lam > STIFF_LAMBDA:
+            end = END_HANDED_OVER
+            break
+        out = solve_explicit(lam, G, n, c, b, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
+        if auto and out[0] == MAX_STEPS:
+            end = END_HANDED_OVER
+            break
+        r, hist = result(out, DOP853_STEPS, m, v, v0, theta, lam, G, n, c, b, f_scale)
+        status = r[R_STATUS]
+        success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= residual_limit
+        if success and r[R_CONTACT_TIME] >= tau_edge:
+            end = END_HANDED_OVER
+            break
+        # element by element: a slice assignment compiles numba's shape-mismatch error
+        # path (message formatting), seconds of first-use compile for nothing
+        first = rows[count]
+        top = first + hist.shape[0]
+        if top > hists.shape[0]:
+            grown = np.empty((2 * top, H_COLS))
+            _copy_rows(hists, 0, first, grown, 0)
+            hists = grown
+        _copy_rows(hist, 0, hist.shape[0], hists, first)
+        rows[count + 1] = top
+        for j in range(N_RESULT):
+            results[count, j] = r[j]
+        times[count] = t
+        speeds[count] = v
+        count += 1
+        settled = success and status == SETTLED
+        v_out = r[R_REBOUND_SPEED]
+        code, t = bounce_end(
+            t, v1, g, success, settled, r[R_RESTITUTION], v_out, r[R_SEPARATION_TIME],
+            energy_floor, t_max,
+        )  # fmt: skip
+        if code != NO_END:
+            end = code
+            break
+        v = v_out
+    return (
+        count, end, t, v, results[:count], times[:count], speeds[:count], hists[: rows[count]],
+        rows,
+    )  # fmt: skip
+
+
 def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     """One impact from lumped parameters (SI units, checked by the caller).
 
@@ -309,14 +447,18 @@ def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
     fields are named by the ``R_*`` indices above (flags and counts stored as
     floats), ``hist`` the dense output that ``pulse`` and ``force_slope_at`` read.
 
-    The explicit and the implicit method are two kernels (``impact_explicit``,
-    ``impact_implicit``), chosen here, so that a scene compiles only the one it uses.
+    The explicit and the implicit method are two kernels (:func:`impacts_explicit` of one
+    impact, ``impact_implicit``), chosen here, so that a scene compiles only the one it
+    uses.
     """
     if method != RADAU:
         announce("contact")
-        r, hist = impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method == AUTO)
-        if r[R_STATUS] != IMPLICIT_NEEDED:
-            return r, hist
+        count, _, _, _, results, _, _, hists, _ = impacts_explicit(
+            m, K, beta, g, n, mu, A, v_free, rtol, method == AUTO, v_in, 0.0, 0.0, math.inf, 1,
+            math.inf, math.inf,
+        )  # fmt: skip
+        if count:
+            return results[0], hists
     announce("stiff-contact")
     return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
 
@@ -334,35 +476,12 @@ def scales(m, K, beta, v_in, g, n, mu, A, v_free):
 
 
 @compiled()
-def impact_explicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol, auto):
-    """``impact`` by DOP853; with ``auto``, a result of status ``IMPLICIT_NEEDED`` (and an
-    empty history) where the automatic choice takes Radau IIA: above ``STIFF_LAMBDA``, or
-    when DOP853 reaches its step limit."""
-    v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
-    if auto and lam > STIFF_LAMBDA:
-        return implicit_needed()
-    atol = rtol * ABSOLUTE_FACTOR
-    out = solve_explicit(lam, G, n, c, b, rtol, atol, EXPLICIT_STEP_LIMIT)
-    if auto and out[0] == MAX_STEPS:
-        return implicit_needed()
-    return result(out, DOP853_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
-
-
-@compiled()
 def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
     """``impact`` by Radau IIA."""
     v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
     atol = rtol * ABSOLUTE_FACTOR
     out = solve_implicit(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT)
     return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
-
-
-@compiled()
-def implicit_needed():
-    """The result of ``impact_explicit`` that hands the impact to ``impact_implicit``."""
-    r = np.zeros(N_RESULT)
-    r[R_STATUS] = IMPLICIT_NEEDED
-    return r, np.empty((0, H_COLS))
 
 
 @compiled(inline="always")
