@@ -78,7 +78,7 @@ MIN_POINTS = 64
 
 _METHODS = {"auto": _k.AUTO, "DOP853": _k.DOP853, "Radau": _k.RADAU}
 #: Most impacts of a drop solved in one compiled call (:meth:`ContactSolver.solve_drop`):
-#: its result arrays are allocated for that many (about 200 bytes each), the render's most.
+#: its result arrays grow by doubling up to that many (about 200 bytes each), the render's most.
 DROP_CAPACITY = 100_000
 _INF = math.inf
 
@@ -648,7 +648,7 @@ class ContactSolver:
                 edge = min(x, self.plate.length - x, y, self.plate.width - y)
                 # a little before the edge is felt: solve() decides at the edge itself
                 tau_edge = impedance.edge_contact_time(self.plate, edge) * (1.0 - 1e-9)
-        # the kernel's arrays hold every impact it may take: beyond DROP_CAPACITY the series
+        # the kernel's arrays grow to at most DROP_CAPACITY impacts: beyond, the series
         # is handed over after that many (solve() goes on, one call each)
         take = min(int(max_impacts), DROP_CAPACITY)
         announce("contact")

@@ -353,6 +353,23 @@ def _copy_rows(source, start, stop, target, at):
             target[at + i, j] = source[start + i, j]
 
 
+@compiled(inline="always")
+def _grown(results, times, speeds, rows, used, size):
+    """Copies of :func:`impacts_explicit`'s arrays for ``size`` impacts, the first ``used``
+    kept (``rows`` one longer)."""
+    grown = np.empty((size, results.shape[1]))
+    _copy_rows(results, 0, used, grown, 0)
+    t = np.empty(size)
+    v = np.empty(size)
+    r = np.zeros(size + 1, dtype=np.int64)
+    for i in range(used):
+        t[i] = times[i]
+        v[i] = speeds[i]
+        r[i] = rows[i]
+    r[used] = rows[used]
+    return grown, t, v, r
+
+
 @compiled()
 def impacts_explicit(
     m, K, beta, g, n, mu, A, v_free, rtol, auto, v1, t1, energy_floor, t_max, max_impacts,
@@ -376,10 +393,13 @@ def impacts_explicit(
     ``R_*``, ``(count, N_RESULT)``), starts (s) and speeds (m/s), their dense outputs one
     after the other in ``hists``, impact ``i``'s in rows ``rows[i]:rows[i + 1]``.
     """
-    results = np.empty((max_impacts, N_RESULT))
-    times = np.empty(max_impacts)
-    speeds = np.empty(max_impacts)
-    rows = np.zeros(max_impacts + 1, dtype=np.int64)
+    # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
+    # arrays of max_impacts rows would hold megabytes for a series of a few impacts
+    capacity = min(max_impacts, 64)
+    results = np.empty((capacity, N_RESULT))
+    times = np.empty(capacity)
+    speeds = np.empty(capacity)
+    rows = np.zeros(capacity + 1, dtype=np.int64)
     hists = np.empty((64, H_COLS))
     count = 0
     end = END_MAX_IMPACTS
@@ -402,6 +422,9 @@ def impacts_explicit(
         if success and r[R_CONTACT_TIME] >= tau_edge:
             end = END_HANDED_OVER
             break
+        if count == results.shape[0]:
+            capacity = min(2 * capacity, max_impacts)
+            results, times, speeds, rows = _grown(results, times, speeds, rows, count, capacity)
         # element by element: a slice assignment compiles numba's shape-mismatch error
         # path (message formatting), seconds of first-use compile for nothing
         first = rows[count]

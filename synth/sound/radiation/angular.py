@@ -62,6 +62,38 @@ _ANGLE_MIN_ORDER = 4  # Gauss-Legendre points of the shortest angular panels
 POLAR_PANEL_TOL = 0.1
 
 
+#: Largest argument whose Bessel orders :func:`bessel_orders` takes by recurrence (checked
+#: against scipy's ``jv`` up to here: tests/test_radiation_polar.py); above it, scipy.
+RECURRENCE_MAX_X = 1200.0
+
+
+def bessel_orders(x: float, n_max: int) -> np.ndarray:
+    """``J_0(x) .. J_n_max(x)`` for ``x >= 0`` by Miller's backward recurrence
+    (``J_(k-1) = (2k / x) J_k - J_(k+1)`` from an order well past ``max(n_max, x)``,
+    normalised by ``J_0 + 2 sum_k J_2k = 1``; Abramowitz & Stegun 9.1.27 and 9.1.46), with
+    no scipy import: a plain render's rule choice counts the angular orders with it."""
+    out = np.zeros(n_max + 1)
+    if x == 0.0:
+        out[0] = 1.0
+        return out
+    top = max(n_max, math.ceil(x))
+    m = top + 20 + int(math.sqrt(160.0 * top))
+    m += m % 2
+    j = np.zeros(m + 2)
+    j[m] = 1e-30
+    total = 0.0
+    for k in range(m, 0, -1):
+        j[k - 1] = (2.0 * k / x) * j[k] - j[k + 1]
+        if abs(j[k - 1]) > 1e250:  # rescaled: the recurrence grows past the decaying orders
+            j[k - 1 : m + 1] *= 1e-250
+            total *= 1e-250
+        if k - 1 > 0 and (k - 1) % 2 == 0:
+            total += 2.0 * j[k - 1]
+    total += j[0]
+    out[:] = j[: n_max + 1] / total
+    return out
+
+
 @functools.lru_cache(maxsize=4096)
 def _angular_band(x: float, tol: float) -> int:
     """Fewest Fourier orders ``N >= x`` beyond which ``|J_n(x)| <= tol`` (``n >= N``).
@@ -71,10 +103,14 @@ def _angular_band(x: float, tol: float) -> int:
     and ``|J_n(k r)| <= |J_n(k_b r)|`` decreases in ``n`` past ``k_b r``: a shape made
     of such waves is, to ``tol``, a trigonometric polynomial of degree ``N``.
     """
-    import scipy.special  # imported on use: a render from cached gains needs none
-
     n = np.arange(math.floor(x), math.floor(x) + 64 + int(8 * x ** (1.0 / 3.0)))
-    small = np.flatnonzero(np.abs(scipy.special.jv(n, x)) <= tol)
+    if x <= RECURRENCE_MAX_X:
+        j = bessel_orders(x, int(n[-1]))[n[0] :]
+    else:
+        import scipy.special  # imported on use: only plates far larger than the presets'
+
+        j = scipy.special.jv(n, x)
+    small = np.flatnonzero(np.abs(j) <= tol)
     return int(n[small[0]]) if small.size else int(n[-1])
 
 
