@@ -44,6 +44,7 @@ from synth.live.atomics import fence, pointer_to
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
 from synth.physics.rolling_kernels import N_STATE, roll
+from synth.sound.rolling import drive_sample
 
 #: The most integration steps a sample of a live rolling may take: a bound on the audio
 #: thread's work (the offline solver takes about 1 to 1.5 a sample, more briefly in a
@@ -166,7 +167,6 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
     ramped from ``gain0`` to ``gain1`` and the raised-cosine fade from ``fade_at`` (-1 none)
     of ``fade_len`` frames, into ``out``. The recursion of
     :func:`synth.sound.rolling.drive_modes`. Returns the samples held at a table end."""
-    K = zr.shape[0]
     er, ei, lr, li, hr, hi = coef[C_ER], coef[C_EI], coef[C_LR], coef[C_LI], coef[C_HR], coef[C_HI]
     overrun = 0
     g_step = (gain1 - gain0) / n
@@ -187,13 +187,7 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
         wb = t * F
         row_a = table[i]
         row_b = table[i + 1]
-        acc = 0.0
-        for k in range(K):
-            acc += lr[k] * zr[k] - li[k] * zi[k]
-            bf = wa * row_a[k] + wb * row_b[k]
-            r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
-            zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
-            zr[k] = r
+        acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
         g = gain0 + g_step * (j + 1)
         if fade_at >= 0:
             at = fade_at + j

@@ -41,14 +41,7 @@ from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
 from synth.physics.scene import Ball, Plate, Scene
 
-STOP_REASONS = (
-    "settled",
-    "flight-shorter-than-contact",
-    "floor",
-    "max-duration",
-    "max-impacts",
-    "solver-failure",
-)
+STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
 
 
 @dataclass(frozen=True)

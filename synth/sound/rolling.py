@@ -263,6 +263,23 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
     return i, u - i
 
 
+@compiled(inline="always", sums=True, nogil=True)
+def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
+    """One sample period of every mode ``zr + i zi`` (updated in place), driven by the force
+    held over it at the shape ``wa row_a + wb row_b`` (the table's rows weighted by the
+    force, N): returns what the listener hears at the period's start (the response
+    ``lr + i li`` of the state), then rings (``er + i ei``) and adds the hold's gain
+    ``hr + i hi`` times the drive. The recursion of the module docstring, one sample."""
+    acc = 0.0
+    for k in range(er.shape[0]):
+        acc += lr[k] * zr[k] - li[k] * zi[k]
+        bf = wa * row_a[k] + wb * row_b[k]
+        r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
+        zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
+        zr[k] = r
+    return acc
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
@@ -315,13 +332,7 @@ def _drive(
                 previous = F2
                 j += 2
                 continue
-        acc = 0.0
-        for k in range(K):
-            acc += lr[k] * zr[k] - li[k] * zi[k]
-            bf = wa * row_a[k] + wb * row_b[k]
-            r = er[k] * zr[k] - ei[k] * zi[k] + hr[k] * bf
-            zi[k] = er[k] * zi[k] + ei[k] * zr[k] + hi[k] * bf
-            zr[k] = r
+        acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
         if has_direct:
             # the held force jumps at t_j: its value there is the mean of both sides
             Fj = 0.5 * (F + previous)
