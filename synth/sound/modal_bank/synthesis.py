@@ -112,19 +112,7 @@ def synthesize(
     # a mode whose amplitudes add up to at most its share is left out whole
     total = np.sum(np.abs(amps), axis=0) if I else np.zeros(K)
     keep = total > thr
-    # buffer: until every kept mode's state is below half its share (the sum of its
-    # amplitudes bounds its state after the last impact), so that with what it has left
-    # out before it can stop; trimmed below to what was written
-    if I and keep.any():
-        sig = -poles.real[keep]
-        t_tail = np.log(np.maximum(2.0 * total[keep] / max(thr, 1e-300), 1.0)) / np.maximum(
-            sig, 1e-12
-        )
-        length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + TILE)
-    else:
-        length = int(inject[-1] + 1) if I else 1
-    if max_samples is not None:
-        length = min(length, int(max_samples))
+    length = _buffer_length(poles, keep, total, thr, inject, fs, max_samples)
     out = np.zeros(length)
     announce("modal-bank")
     t_bank = time.perf_counter()
@@ -170,3 +158,21 @@ def synthesize(
         left_at_end=left,
     )
     return out, info
+
+
+def _buffer_length(poles, keep, total, thr, inject, fs, max_samples) -> int:
+    """Samples of the output buffer: until every kept mode's state is below half its share
+    ``thr`` (the sum of its amplitudes ``total`` bounds its state after the last impact,
+    injected at sample ``inject[-1]``), so that with what it has left out before it can
+    stop; at most ``max_samples``. The caller trims it to what was written."""
+    if inject.size and keep.any():
+        sig = -poles.real[keep]
+        t_tail = np.log(np.maximum(2.0 * total[keep] / max(thr, 1e-300), 1.0)) / np.maximum(
+            sig, 1e-12
+        )
+        length = int(inject[-1] + math.ceil(float(np.max(t_tail)) * fs) + TILE)
+    else:
+        length = int(inject[-1] + 1) if inject.size else 1
+    if max_samples is not None:
+        length = min(length, int(max_samples))
+    return length

@@ -16,6 +16,7 @@ cost and the choice on the presets, the scale ladder and its random scenes.
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 import functools
 import math
@@ -80,7 +81,7 @@ class Problem:
         return 0.1 * self.tol
 
 
-class Rule:
+class Rule(abc.ABC):
     """One rule of the Rayleigh integral: which shapes it takes (``shapes``), its counts
     (:meth:`counts`, terms and points of each refinement), its error bound and its cost."""
 
@@ -91,9 +92,9 @@ class Rule:
         """Whether the rule takes ``problem``'s shapes."""
         return problem.shapes in self.shapes and problem.modes > 0
 
+    @abc.abstractmethod
     def counts(self, problem: Problem) -> work.RuleWork:
         """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
-        raise NotImplementedError
 
     def error_bound(self, problem: Problem) -> float:
         """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
@@ -115,11 +116,11 @@ class Rule:
         counts = weighted_counts(self.counts(problem))
         return counts.fixed + sum(counts.work[:2])
 
+    @abc.abstractmethod
     def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
         """The gains of ``modes`` (a :class:`synth.physics.modes.Modes`) at ``listener``
         for the poles ``s`` (rad/s), ``settings`` the keywords of
         :func:`~.rectangle.rayleigh_gains` (``max_wavenumber``, air, ``tol``...)."""
-        raise NotImplementedError
 
 
 class RectangleRule(Rule):
