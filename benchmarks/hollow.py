@@ -204,24 +204,93 @@ def rebounds_over_loss_range(test: RuleBookTest, rtol: float = 1e-9) -> tuple[fl
     """The rebounds (m, through the air) of ``test``'s ball with its shell material's loss
     factor at the ends of its published ``loss_range``, the rest of the ball its preset's:
     how far the loss factor's published spread moves the rebound (not a fit)."""
+    low, high = (rebound_with_shell_loss(test, eta, rtol) for eta in test.loss_range)
+    return low, high
+
+
+def rebound_with_shell_loss(test: RuleBookTest, eta: float, rtol: float = 1e-9) -> float:
+    """The rebound (m, through the air) of ``test``'s ball with the shell material's loss
+    factor ``eta`` (dimensionless), the rest of the ball its preset's."""
     from synth.io.presets import load_preset
     from synth.physics.materials import LossFactor
     from synth.physics.scene import HollowBall
 
     ball = load_preset(test.preset).ball
-    heights = []
-    for eta in test.loss_range:
-        material = dataclasses.replace(ball.material, damping=LossFactor(eta))
-        other = HollowBall(
-            material,
-            ball.radius,
-            thickness=ball.thickness,
-            pressure=ball.pressure,
-            cover_thickness=ball.cover_thickness,
-            cover_mass=ball.cover_mass,
+    material = dataclasses.replace(ball.material, damping=LossFactor(eta))
+    other = HollowBall(
+        material,
+        ball.radius,
+        thickness=ball.thickness,
+        pressure=ball.pressure,
+        cover_thickness=ball.cover_thickness,
+        cover_mass=ball.cover_mass,
+    )
+    return _drop_through_air(test, other, rtol).rebound
+
+
+#: The largest shell loss factor :func:`shell_loss_to_land` searches (dimensionless; a
+#: :class:`~synth.physics.materials.LossFactor` is below 1): beyond it the diagnosis reports
+#: "above" it.
+DIAGNOSIS_MAX_LOSS = 0.99
+
+
+def wall_energy_share(ball, deflection: float) -> float:
+    """The share (dimensionless) of the elastic energy at the deflection ``deflection`` (m)
+    that the shell's wall holds, the rest the gas' (``U_s / (U_s + U_g)`` of the shell law's
+    potentials, :func:`~synth.physics.contact_kernels.shell.shell_potential`): the only
+    share the shell material's loss acts on (docs/physics.md, "Hollow balls")."""
+    from synth.physics.contact_kernels.shell import shell_potential
+    from synth.physics.contact_law import shell_law
+
+    law = shell_law(ball)
+    wall = shell_potential(deflection, law.reissner_stiffness, law.transition, 0.0)
+    gas = shell_potential(deflection, 0.0, law.transition, law.gas_stiffness)
+    return wall / (wall + gas)
+
+
+def shell_loss_to_land(test: RuleBookTest, rebound: float, rtol: float = 1e-9) -> float | None:
+    """The shell material's loss factor (dimensionless) with which ``test``'s ball, the
+    rest of it its preset's, rebounds to ``rebound`` (m, through the air): a diagnosis of
+    the loss the engine misses, never a value the engine takes. ``None`` where even
+    :data:`DIAGNOSIS_MAX_LOSS` leaves the ball above ``rebound``."""
+    from scipy.optimize import brentq
+
+    def miss(eta: float) -> float:
+        return rebound_with_shell_loss(test, eta, rtol) - rebound
+
+    if miss(DIAGNOSIS_MAX_LOSS) > 0.0:
+        return None
+    return brentq(miss, 0.0, DIAGNOSIS_MAX_LOSS, xtol=1e-4)
+
+
+def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
+    """A line of docs/validation.md: the share of ``test``'s impact energy its shell's loss
+    acts on, and the loss factor the shell would need to carry the missing loss alone."""
+    from synth.io.presets import load_preset
+
+    ball = load_preset(test.preset).ball
+    share = wall_energy_share(ball, row.deflection)
+    needed = [shell_loss_to_land(test, h) for h in (test.rebound_high, test.rebound_low)]
+    if needed[0] is None:
+        land = f"no loss factor up to {DIAGNOSIS_MAX_LOSS:g} brings it down to the range"
+    else:
+        low = f"{needed[1]:.3f}" if needed[1] is not None else f"above {DIAGNOSIS_MAX_LOSS:g}"
+        land = (
+            f"to carry the missing loss by itself it would need {needed[0]:.3f} for the "
+            f"range's top and {low} for its bottom"
         )
-        heights.append(_drop_through_air(test, other, rtol).rebound)
-    return heights[0], heights[1]
+    if ball.pressure == 0.0:
+        holds = "without gauge pressure the wall holds all the elastic energy"
+    else:
+        holds = (
+            f"at its peak deflection the wall holds {100.0 * share:.0f} % of the elastic "
+            f"energy, the gas (lossless) the rest"
+        )
+    return (
+        f"- {test.ball}, the loss budget: {holds}; the shell's loss factor "
+        f"({ball.material.damping.eta:g}) acts on the wall's share only; {land} "
+        f"(a diagnosis of the missing loss, not a value the engine takes)."
+    )
 
 
 def loss_range_note(test: RuleBookTest) -> str:
@@ -334,4 +403,5 @@ def format_hollow(rows: list[HollowRow]) -> str:
     notes = [f"- {r.test.ball}: {r.test.note}." for r in rows if r.test.note]
     notes.append(itf_deformation_note())
     notes += [loss_range_note(r.test) for r in rows if r.test.loss_range is not None]
+    notes += [loss_budget_note(r.test, r) for r in rows]
     return "\n".join(markdown_table(header, lines) + ([""] + notes if notes else [])) + "\n"
