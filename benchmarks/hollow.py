@@ -263,6 +263,39 @@ def shell_loss_to_land(test: RuleBookTest, rebound: float, rtol: float = 1e-9) -
     return brentq(miss, 0.0, DIAGNOSIS_MAX_LOSS, xtol=1e-4)
 
 
+#: Thermal diffusivity of air at 300 K and one atmosphere, m^2/s (F. P. Incropera, D. P.
+#: DeWitt, T. L. Bergman & A. S. Lavine, "Fundamentals of Heat and Mass Transfer", 6th ed.
+#: (Wiley 2007), Table A.4, air at 300 K: alpha = 22.5e-6 m^2/s); it scales as 1 / pressure.
+AIR_THERMAL_DIFFUSIVITY = 22.5e-6
+#: The ratio of air's specific heats, dimensionless (ideal diatomic gas, 7/5).
+AIR_HEAT_CAPACITY_RATIO = 1.4
+
+
+def gas_thermal_loss_share(ball, row: HollowRow, speed: float) -> float:
+    """An estimate of the share (dimensionless) of a hollow ``ball``'s impact energy (at the
+    impact ``speed``, m/s) that the gas' heat exchange with the wall takes in ``row``'s
+    contact (docs/physics.md, "Hollow balls"): the gas in a cavity of volume ``V`` and wall
+    area ``S`` under a pressure cycle of angular frequency ``omega`` behaves isothermally in
+    the thermal boundary layer ``d = sqrt(2 alpha / omega)`` at the wall, whose phase lag
+    gives the gas spring a loss factor ``eta_g = (gamma - 1) S d / (2 V)``, acting on the
+    compression energy ``gamma p_abs dV^2 / (2 V)`` of the cap's volume ``dV = pi delta^2
+    (R_i - delta / 3)``; one compression and release take ``pi eta_g`` of it. ``omega`` is
+    the contact's ``pi / tau``."""
+    from synth.physics.scene import ATMOSPHERE
+
+    gamma = AIR_HEAT_CAPACITY_RATIO
+    absolute = ATMOSPHERE + ball.pressure
+    alpha = AIR_THERMAL_DIFFUSIVITY * ATMOSPHERE / absolute
+    layer = math.sqrt(2.0 * alpha * row.contact_time / math.pi)
+    radius = ball.inner_radius
+    volume = 4.0 / 3.0 * math.pi * radius**3
+    eta = (gamma - 1.0) * 4.0 * math.pi * radius**2 * layer / (2.0 * volume)
+    d = row.deflection
+    cap = math.pi * d * d * (radius - d / 3.0)
+    compression = gamma * absolute * cap * cap / (2.0 * volume)
+    return math.pi * eta * compression / (0.5 * ball.mass * speed * speed)
+
+
 def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     """A line of docs/validation.md: the share of ``test``'s impact energy its shell's loss
     acts on, and the loss factor the shell would need to carry the missing loss alone."""
@@ -284,10 +317,14 @@ def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     else:
         holds = (
             f"at its peak deflection the wall holds {100.0 * share:.0f} % of the elastic "
-            f"energy, the gas (lossless) the rest"
+            f"energy, the gas the rest"
         )
+    v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
+    thermal = gas_thermal_loss_share(ball, row, fall_speed(test.drop, v_t))
     return (
-        f"- {test.ball}, the loss budget: {holds}; the shell's loss factor "
+        f"- {test.ball}, the loss budget: {holds}; the gas' heat exchange with the wall "
+        f"takes about {thermal:.1e} of the impact energy (an estimate of its order: the "
+        f"thermal boundary layer), the engine none; the shell's loss factor "
         f"({ball.material.damping.eta:g}) acts on the wall's share only; {land} "
         f"(a diagnosis of the missing loss, not a value the engine takes)."
     )
