@@ -169,22 +169,22 @@ def yield_section() -> str:
             continue
         v_y = yield_speed(Ball(name, LOSS_TABLE_RADIUS), Plate(name, 0.1, 1.0, 1.0))
         e = plastic_restitution(speed, v_y)
-        lines.append(f"| {name} | {Y / 1e6:g} | {v_y:.3g} | {e:.2f} |")
+        e_text = "1 (elastic)" if e == 1.0 else f"{e:.2f}"
+        lines.append(f"| {name} | {Y / 1e6:g} | {v_y:.3g} | {e_text} |")
     return (
         "## Yield of the contact\n\n"
         "The ductile rows (metals, polycarbonate) carry a uniaxial yield stress `Y`, whose "
-        "grade and source their row's source names: a contact of two materials yields in "
-        "the softer, when its peak Hertz pressure reaches `1.6 Y` (Johnson, *Contact "
-        "Mechanics*, 1985, section 6.2), at the impact speed `V_y` of "
-        "`synth.physics.contact_law.yield_speed`. Above it the elastic-perfectly plastic "
-        "contact of Thornton (J. Appl. Mech. 64 (1997) 383) restitutes `e(v / V_y)` "
-        "(`plastic_restitution`), applied to a bounce series by the rebound rule "
-        '`yield_rebound` (docs/physics.md, "Yield of the contact"). Glass, porcelain '
-        "and stone are brittle: they crack before they flow, and have no yield law here. "
-        "The grade matters: a metal's yield stress spans a factor of ten between its "
-        "annealed and hardened states, and `V_y` goes as `Y^(5/2)`. No published `e(v)` of a "
-        "ball of these materials has been set beside these figures yet: they are the "
-        "closed form's, not measurements.\n\n"
+        "grade and source their row's source names. A contact of two materials flows in the "
+        "softer, whose hardness, about `2.8 Y` (Tabor 1951), is the limiting pressure of "
+        "Thornton's elastic-perfectly plastic contact (J. Appl. Mech. 64 (1997) 383): elastic "
+        "below the impact speed `V_y` (`synth.physics.contact_law.yield_speed`), above it "
+        "restituting `e(v / V_y)` (`plastic_restitution`), applied to a bounce series by the "
+        'rebound rule `yield_rebound` (docs/physics.md, "Yield of the contact"; checked '
+        "on the Leeb rebound of steels, docs/validation.md). Glass, porcelain and stone are "
+        "brittle: they crack before they flow, and have no yield law here. The grade "
+        "matters: a metal's yield stress spans a factor of ten between its annealed and "
+        "hardened states, and `V_y` goes as `Y^(5/2)`. The figures below are the closed "
+        "form's, not measurements.\n\n"
         f"A solid ball of {LOSS_TABLE_RADIUS * 1e3:g} mm radius on a 0.1 m thick plate "
         "of its own material (computed by `python -m benchmarks.docs`):\n\n"
         + "\n".join(lines)

@@ -2,16 +2,19 @@
 loss factors as a viscoelastic Hertz loss, and balls that settle."""
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
+from synth.constants import DEFAULT_FLOOR_DB, GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import solve_impact
 from synth.physics.contact_law import (
     LOSS_REFERENCE_SPEED,
+    TABOR_CONSTRAINT,
     contact_parameters,
     effective_modulus,
     hertz_contact_time,
@@ -107,23 +110,64 @@ def _near_elastic(name):
     return isinstance(damping, LossFactor) and damping.eta < NEAR_ELASTIC
 
 
-def test_yield_speed_is_johnsons_onset_and_thorntons_restitution_meets_it():
-    # Thornton's V_y for a solid sphere is 1.56 (p_y^5 / (E*^4 rho))^(1/2); with p_y = 1.6 Y
-    # it is Johnson's rho V_y^2 / Y = 26 (Y / E*)^4 (Contact Mechanics, eq. 11.24), whose
-    # 26 is printed to two figures (1.56^2 1.6^5 = 25.5): 2 % on V_y^2
+def test_yield_speed_is_where_the_hertz_peak_pressure_meets_the_hardness():
+    # closed form of the elastic Hertz impact on a rigid flat: delta_m = (15 m v^2 /
+    # (16 E* R^(1/2)))^(2/5), peak pressure p0 = (2 / pi) E* (delta_m / R)^(1/2); at V_y it is
+    # the limiting pressure, the softer body's 2.8 Y (Tabor), either way round
     ball, plate = Ball("steel", RADIUS), _massive("copper")
     Y, e_star = plate.material.yield_stress, effective_modulus(ball, plate)
+    assert yield_pressure(ball, plate) == TABOR_CONSTRAINT * Y
+    assert yield_pressure(Ball("copper", RADIUS), _massive("steel")) == TABOR_CONSTRAINT * Y
     v_y = yield_speed(ball, plate)
-    assert ball.material.density * v_y**2 / Y == pytest.approx(26.0 * (Y / e_star) ** 4, rel=0.02)
+    delta_m = (15.0 * ball.mass * v_y**2 / (16.0 * e_star * math.sqrt(RADIUS))) ** 0.4
+    p0 = 2.0 / math.pi * e_star * math.sqrt(delta_m / RADIUS)
+    assert p0 == pytest.approx(TABOR_CONSTRAINT * Y, rel=1e-12)
     # elastic up to V_y, continuous there (closed form: e(V_y) = 1), and v^(-1/4) far above
     assert plastic_restitution(0.5 * v_y, v_y) == 1.0
     assert plastic_restitution(v_y * (1.0 + 1e-12), v_y) == pytest.approx(1.0, abs=1e-9)
     far = [plastic_restitution(k * v_y, v_y) * k**0.25 for k in (1e6, 1e8)]
     assert far[0] == pytest.approx(far[1], rel=1e-3)
     assert plastic_restitution(3.0, None) == 1.0
-    # the softer body sets the yield: 1.6 Y of copper under a steel ball, either way round
-    assert yield_pressure(ball, plate) == 1.6 * Y
-    assert yield_pressure(Ball("copper", RADIUS), _massive("steel")) == 1.6 * Y
+
+
+#: The Leeb hardness tester's impact device D: an impact body of 5.5 g with a 3 mm tungsten
+#: carbide ball launched with 11 mJ (2.0 m/s); HLD = 1000 v_rebound / v_impact is its
+#: coefficient of restitution (PCE Instruments PCE-2800 and Mitech MH310 manuals, Table 3).
+LEEB_D = dict(mass=5.5e-3, radius=1.5e-3, energy=11e-3)
+#: Tungsten carbide: E 600-720 GPa, nu 0.18-0.24, rho 15300-15900 kg/m^3, middles taken
+#: (Ashby, Materials Selection in Mechanical Design, 4th ed., 2011, Appendix C).
+TUNGSTEN_CARBIDE = Material("tungsten-carbide", 15600.0, 660e9, 0.21)
+#: Published pairings of a Leeb D reading with a static hardness of steel (N/m^2 from kgf/mm^2):
+#: 600 HLD on a steel of about 400 HBW (Wikipedia, "Leeb rebound hardness test", on the
+#: probe D's indentation), and 890 HLD, about 955 HV, the device's upper limit (Proceq,
+#: Equotip 3 operating instructions, 2012, section 2.3).
+LEEB_STEELS = ((0.600, 400.0 * 9.80665e6), (0.890, 955.0 * 9.80665e6))
+
+
+def _leeb_restitution(hardness, pressure_ratio=1.0):
+    """Thornton's e of the Leeb D probe on a massive steel of that hardness (Pa), its
+    limiting pressure ``pressure_ratio`` times the hardness."""
+    tip = Ball(TUNGSTEN_CARBIDE, LEEB_D["radius"], LEEB_D["mass"])
+    steel = replace(
+        materials.get("steel"), yield_stress=pressure_ratio * hardness / TABOR_CONSTRAINT
+    )
+    speed = math.sqrt(2.0 * LEEB_D["energy"] / LEEB_D["mass"])
+    return plastic_restitution(speed, yield_speed(tip, _massive(steel)))
+
+
+def test_thorntons_restitution_at_the_hardness_meets_the_leeb_rebound_of_steels():
+    # published measurements: the Leeb rebound of a tungsten carbide tip on two steels.
+    # Tolerance 0.1 in e, a bound of the closed form's error (elastic-perfectly plastic, no
+    # hardening, no elastic-plastic transition), not a measured scatter: the sources quote
+    # the pairings as approximate. The limiting pressure at the onset of yield instead
+    # (Johnson's 1.6 Y, 0.57 of the hardness) misses both by more than 0.2
+    page = (Path(__file__).parents[1] / "docs" / "validation.md").read_text()
+    for measured, hardness in LEEB_STEELS:
+        engine = _leeb_restitution(hardness)
+        assert engine == pytest.approx(measured, abs=0.1)
+        assert _leeb_restitution(hardness, 1.6 / TABOR_CONSTRAINT) < measured - 0.2
+        # docs/validation.md's Leeb table holds these figures
+        assert f"| {measured:.2f} | {engine:.2f} | {engine - measured:+.2f} |" in page
 
 
 def test_brittle_materials_have_no_yield_and_a_bad_yield_stress_is_refused():
@@ -156,13 +200,16 @@ def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_ma
     # compressed beyond its elastic limit in a relatively low-speed collision" (R. Cross,
     # "The bounce of a ball", Am. J. Phys. 67 (1999) 222, section I). Those pairs are
     # dropped again with the yield of the contact (contact_law.yield_rebound, Thornton
-    # 1997, the tables' yield stresses): every pair whose contact yields at the first
-    # impact must then settle. The pairs left are those that do not yield at 4.4 m/s
-    # (brittle pairs, and hardened steel on glass, porcelain or stone, whose yield speed
-    # is above the drop's): no law of their loss is in the engine, the expected failure.
+    # 1997, the table's yield stresses). Where the contact yields at every impact above the
+    # perceptual floor (yield speed below the floor's speed) the plastic loss alone must
+    # end the series. Where it yields only in the first, fast impacts the slow ones are
+    # elastic again and keep the elastic losses only; the pairs still bouncing at 60 s
+    # (hardened steel on itself, polycarbonate, and the pairs that do not yield at 4.4 m/s:
+    # brittle pairs, hardened steel on glass, porcelain or stone) are the expected failure.
     ball = Ball(ball_material, RADIUS)
-    v1 = math.sqrt(2.0 * 9.81 * 1.0)
-    stuck, unyielding = [], []
+    v1 = math.sqrt(2.0 * GRAVITY * 1.0)
+    floor_speed = v1 * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
+    stuck, still = [], []
     for surface in materials.names():
         plate = _massive(surface)
         seq = simulate_bounces(ball, plate, drop_height=1.0, surface="auto")
@@ -170,17 +217,16 @@ def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_ma
             continue
         stuck.append(surface)
         v_y = yield_speed(ball, plate)
-        if v_y is None or v_y >= v1:
-            unyielding.append(surface)
-            continue
-        seq = simulate_bounces(
-            ball, plate, drop_height=1.0, surface="auto", rebound=yield_rebound(ball, plate)
-        )
-        assert seq.stop_reason not in ("max-duration", "max-impacts"), (ball_material, surface)
+        if v_y is not None and v_y < v1:
+            rule = yield_rebound(ball, plate)
+            seq = simulate_bounces(ball, plate, drop_height=1.0, surface="auto", rebound=rule)
+        if seq.stop_reason in ("max-duration", "max-impacts"):
+            assert v_y is None or v_y >= floor_speed, (ball_material, surface, v_y)
+            still.append(surface)
     lossy = [s for s in stuck if not (_near_elastic(ball_material) and _near_elastic(s))]
     assert lossy == [], f"{ball_material} does not settle on {lossy}"
-    if unyielding:
+    if still:
         pytest.xfail(
-            f"near-elastic pairs that do not yield at the drop's speed still bounce at 60 s, "
-            f"where measured ones come to rest: {ball_material} on {unyielding}"
+            f"near-elastic pairs whose slow impacts are elastic still bounce at 60 s, where "
+            f"measured ones come to rest: {ball_material} on {still}"
         )

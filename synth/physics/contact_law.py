@@ -435,30 +435,31 @@ def contact_law(
     return law.stiffness, law.exponent, law.dissipation
 
 
-#: Peak Hertz pressure at the onset of yield over the softer body's yield stress,
-#: ``p0 = 1.6 Y`` (von Mises, Poisson's ratio 0.3: K. L. Johnson, "Contact Mechanics",
-#: Cambridge UP 1985, section 6.2 and eq. 11.24), dimensionless.
-YIELD_ONSET_RATIO = 1.6
+#: Mean pressure of a fully plastic indentation by a sphere over the yield stress, the
+#: hardness ``H = 2.8 Y`` (D. Tabor, "The Hardness of Metals", Oxford 1951; K. L. Johnson,
+#: "Contact Mechanics", Cambridge UP 1985, section 6.2, gives about 3), dimensionless.
+TABOR_CONSTRAINT = 2.8
 
 
 def yield_pressure(ball: Ball, plate: Plate) -> float | None:
-    """The limiting contact pressure ``p_y = 1.6 Y`` (Pa) of ``ball`` on ``plate``, ``Y``
-    the smaller yield stress of the two materials (the softer body yields first); None
-    when neither material has one (:attr:`~synth.physics.materials.Material.yield_stress`:
-    brittle or without a published value), the contact then elastic at every speed."""
+    """The limiting contact pressure ``p_y`` (Pa) of ``ball`` on ``plate``: the hardness
+    ``2.8 Y`` (:data:`TABOR_CONSTRAINT`) of the softer body (the smaller yield stress
+    ``Y`` of the two materials), the pressure a fully plastic contact holds; None when
+    neither material has a yield stress
+    (:attr:`~synth.physics.materials.Material.yield_stress`: brittle or without a
+    published value), the contact then elastic at every speed."""
     stresses = [
         m.yield_stress for m in (ball.material, plate.material) if m.yield_stress is not None
     ]
-    return YIELD_ONSET_RATIO * min(stresses) if stresses else None
+    return TABOR_CONSTRAINT * min(stresses) if stresses else None
 
 
 def yield_speed(ball: Ball, plate: Plate) -> float | None:
-    """The impact speed ``V_y`` (m/s) at which the Hertz contact of ``ball`` on a rigid
-    flat of ``plate``'s modulus first reaches :func:`yield_pressure`: from the elastic
-    Hertz impact's peak pressure, ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)``
-    (C. Thornton, "Coefficient of restitution for collinear collisions of
-    elastic-perfectly plastic spheres", J. Appl. Mech. 64 (1997) 383, eq. 12; for a
-    solid sphere ``1.56 (p_y^5 / (E*^4 rho))^(1/2)``, Johnson's eq. 11.24 with 1.6 Y).
+    """The impact speed ``V_y`` (m/s) at which the peak pressure of the elastic Hertz
+    impact of ``ball`` on a rigid flat of ``plate``'s modulus reaches :func:`yield_pressure`,
+    ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)`` (C. Thornton, "Coefficient of
+    restitution for collinear collisions of elastic-perfectly plastic spheres", J. Appl.
+    Mech. 64 (1997) 383; for a solid sphere ``1.56 (p_y^5 / (E*^4 rho))^(1/2)``).
     None without a yield stress (:func:`yield_pressure`); a hollow ball's shell law has
     no such contact: ``ParameterError``."""
     if isinstance(ball, HollowBall):

@@ -169,8 +169,8 @@ class Material:
         None: isotropic, ``G = E / (2 (1 + nu))``. Only the Mindlin plate reads it; the thin
         plate, the modes and the contact do not.
     yield_stress : float > 0 or None
-        Uniaxial yield stress ``Y`` (Pa) of a ductile material: the contact yields when its
-        peak Hertz pressure reaches ``1.6 Y`` (docs/physics.md, "Yield of the contact").
+        Uniaxial yield stress ``Y`` (Pa) of a ductile material: a plastic contact holds
+        the hardness ``2.8 Y`` (docs/physics.md, "Yield of the contact").
         None: no plastic yield (a brittle solid, glass, stone and ceramics, which crack
         rather than flow, or a material without a published value).
     """
