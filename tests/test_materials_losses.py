@@ -176,6 +176,8 @@ def test_brittle_materials_have_no_yield_and_a_bad_yield_stress_is_refused():
     assert yield_speed(Ball("glass", RADIUS), _massive("porcelain")) is None
     with pytest.raises(ParameterError, match="hard.yield_stress"):
         Material("hard", 7800.0, 200e9, 0.3, yield_stress=-1.0)
+    with pytest.raises(ParameterError, match="v_yield"):
+        plastic_restitution(1.0, -0.1)
 
 
 def test_every_yield_stress_is_in_the_materials_page():

@@ -477,19 +477,19 @@ def yield_speed(ball: Ball, plate: Plate) -> float | None:
     )
 
 
-def plastic_restitution(speed: float, yield_speed_: float | None) -> float:
+def plastic_restitution(speed: float, v_yield: float | None) -> float:
     """Restitution (dimensionless) of an elastic-perfectly plastic Hertz contact at the
-    impact ``speed`` (m/s) with the yield speed ``yield_speed_`` (m/s,
+    impact ``speed`` (m/s) with the yield speed ``v_yield`` (m/s,
     :func:`yield_speed`; None: elastic): 1 up to the yield speed, above it Thornton's
-    closed form (J. Appl. Mech. 64 (1997) 383, eq. 33), with ``r = V_y / v``,
+    closed form (J. Appl. Mech. 64 (1997) 383), with ``r = V_y / v``,
 
         e = (6 sqrt(3) / 5)^(1/2) (1 - r^2 / 6)^(1/2) (r / (r + 2 (6/5 - r^2 / 5)^(1/2)))^(1/4)
 
     which falls as ``v^(-1/4)`` far above the yield speed (Johnson 1985, section 11.4)."""
     v = checks.positive("speed", speed, "m/s")
-    if yield_speed_ is None:
+    if v_yield is None:
         return 1.0
-    v_y = checks.positive("yield_speed", yield_speed_, "m/s")
+    v_y = checks.positive("v_yield", v_yield, "m/s")
     if v <= v_y:
         return 1.0
     r = v_y / v
