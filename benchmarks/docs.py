@@ -71,6 +71,8 @@ def materials_page() -> str:
         + "\n"
         + contact_losses_section()
         + "\n"
+        + yield_section()
+        + "\n"
         + tennis_ball_section()
     )
 
@@ -134,10 +136,57 @@ def contact_losses_section() -> str:
         "polycarbonate) keeps `e` near 1 and does not settle from 1 m within the "
         "scheduler's 60 s (tests/test_materials_losses.py): "
         "the loss that stops such a ball on a hard floor, local yield at the contact "
-        "(Johnson, *Contact Mechanics*, 1985, ch. 11), has no law in the engine.\n\n"
+        "(Johnson, *Contact Mechanics*, 1985, ch. 11), is the rebound rule of the next "
+        "section, outside the contact solver's force law.\n\n"
         f"First impact of a solid ball of {LOSS_TABLE_RADIUS * 1e3:g} mm radius dropped "
         f"{LOSS_TABLE_DROP:g} m ({speed:.2f} m/s) on 0.1 m thick, 1 m square plates, the "
         "impedance plate, the measured surface (computed by `python -m benchmarks.docs`):\n\n"
+        + "\n".join(lines)
+        + "\n"
+    )
+
+
+def yield_section() -> str:
+    """The "Yield of the contact" section of docs/materials.md: each row's yield stress
+    and the yield speed and plastic restitution it gives (computed here,
+    ``synth.physics.contact_law.yield_speed`` and ``plastic_restitution``)."""
+    import math
+
+    from synth.constants import GRAVITY
+    from synth.physics import materials
+    from synth.physics.contact_law import plastic_restitution, yield_speed
+    from synth.physics.scene import Ball, Plate
+
+    speed = math.sqrt(2.0 * GRAVITY * LOSS_TABLE_DROP)
+    lines = [
+        "| name | yield stress Y (MPa) | V_y on its own material (m/s) | "
+        f"Thornton e at {speed:.2f} m/s |",
+        "|---|---|---|---|",
+    ]
+    for name in materials.names():
+        Y = materials.TABLE[name].yield_stress
+        if Y is None:
+            continue
+        v_y = yield_speed(Ball(name, LOSS_TABLE_RADIUS), Plate(name, 0.1, 1.0, 1.0))
+        e = plastic_restitution(speed, v_y)
+        e_text = "1 (elastic)" if e == 1.0 else f"{e:.2f}"
+        lines.append(f"| {name} | {Y / 1e6:g} | {v_y:.3g} | {e_text} |")
+    return (
+        "## Yield of the contact\n\n"
+        "The ductile rows (metals, polycarbonate) carry a uniaxial yield stress `Y`, whose "
+        "grade and source their row's source names. A contact of two materials flows in the "
+        "softer, whose hardness, about `2.8 Y` (Tabor 1951), is the limiting pressure of "
+        "Thornton's elastic-perfectly plastic contact (J. Appl. Mech. 64 (1997) 383): elastic "
+        "below the impact speed `V_y` (`synth.physics.contact_law.yield_speed`), above it "
+        "restituting `e(v / V_y)` (`plastic_restitution`), applied to a bounce series by the "
+        'rebound rule `yield_rebound` (docs/physics.md, "Yield of the contact"; checked '
+        "on the Leeb rebound of steels, docs/validation.md). Glass, porcelain and stone are "
+        "brittle: they crack before they flow, and have no yield law here. The grade "
+        "matters: a metal's yield stress spans a factor of ten between its annealed and "
+        "hardened states, and `V_y` goes as `Y^(5/2)`. The figures below are the closed "
+        "form's, not measurements.\n\n"
+        f"A solid ball of {LOSS_TABLE_RADIUS * 1e3:g} mm radius on a 0.1 m thick plate "
+        "of its own material (computed by `python -m benchmarks.docs`):\n\n"
         + "\n".join(lines)
         + "\n"
     )

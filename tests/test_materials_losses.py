@@ -2,20 +2,29 @@
 loss factors as a viscoelastic Hertz loss, and balls that settle."""
 
 import math
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
+from synth.constants import DEFAULT_FLOOR_DB, GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import solve_impact
 from synth.physics.contact_law import (
     LOSS_REFERENCE_SPEED,
+    TABOR_CONSTRAINT,
     contact_parameters,
+    effective_modulus,
     hertz_contact_time,
     hertz_stiffness,
     material_loss_factor,
     material_viscous_time,
+    plastic_restitution,
+    yield_pressure,
+    yield_rebound,
+    yield_speed,
 )
 from synth.physics.materials import MDF_SURFACE, LossFactor, Material, Rayleigh
 from synth.physics.scene import Ball, Contact, Plate
@@ -101,31 +110,125 @@ def _near_elastic(name):
     return isinstance(damping, LossFactor) and damping.eta < NEAR_ELASTIC
 
 
+def test_yield_speed_is_where_the_hertz_peak_pressure_meets_the_hardness():
+    # closed form of the elastic Hertz impact on a rigid flat: delta_m = (15 m v^2 /
+    # (16 E* R^(1/2)))^(2/5), peak pressure p0 = (2 / pi) E* (delta_m / R)^(1/2); at V_y it is
+    # the limiting pressure, the softer body's 2.8 Y (Tabor), either way round
+    ball, plate = Ball("steel", RADIUS), _massive("copper")
+    Y, e_star = plate.material.yield_stress, effective_modulus(ball, plate)
+    assert yield_pressure(ball, plate) == TABOR_CONSTRAINT * Y
+    assert yield_pressure(Ball("copper", RADIUS), _massive("steel")) == TABOR_CONSTRAINT * Y
+    v_y = yield_speed(ball, plate)
+    delta_m = (15.0 * ball.mass * v_y**2 / (16.0 * e_star * math.sqrt(RADIUS))) ** 0.4
+    p0 = 2.0 / math.pi * e_star * math.sqrt(delta_m / RADIUS)
+    assert p0 == pytest.approx(TABOR_CONSTRAINT * Y, rel=1e-12)
+    # elastic up to V_y, continuous there (closed form: e(V_y) = 1), and v^(-1/4) far above
+    assert plastic_restitution(0.5 * v_y, v_y) == 1.0
+    assert plastic_restitution(v_y * (1.0 + 1e-12), v_y) == pytest.approx(1.0, abs=1e-9)
+    far = [plastic_restitution(k * v_y, v_y) * k**0.25 for k in (1e6, 1e8)]
+    assert far[0] == pytest.approx(far[1], rel=1e-3)
+    assert plastic_restitution(3.0, None) == 1.0
+
+
+#: The Leeb hardness tester's impact device D: an impact body of 5.5 g with a 3 mm tungsten
+#: carbide ball launched with 11 mJ (2.0 m/s); HLD = 1000 v_rebound / v_impact is its
+#: coefficient of restitution (PCE Instruments PCE-2800 and Mitech MH310 manuals, Table 3).
+LEEB_D = dict(mass=5.5e-3, radius=1.5e-3, energy=11e-3)
+#: Tungsten carbide: E 600-720 GPa, nu 0.18-0.24, rho 15300-15900 kg/m^3, middles taken
+#: (Ashby, Materials Selection in Mechanical Design, 4th ed., 2011, Appendix C).
+TUNGSTEN_CARBIDE = Material("tungsten-carbide", 15600.0, 660e9, 0.21)
+#: Published pairings of a Leeb D reading with a static hardness of steel (N/m^2 from kgf/mm^2):
+#: 600 HLD on a steel of about 400 HBW (Wikipedia, "Leeb rebound hardness test", on the
+#: probe D's indentation), and 890 HLD, about 955 HV, the device's upper limit (Proceq,
+#: Equotip 3 operating instructions, 2012, section 2.3).
+LEEB_STEELS = ((0.600, 400.0 * 9.80665e6), (0.890, 955.0 * 9.80665e6))
+
+
+def _leeb_restitution(hardness, pressure_ratio=1.0):
+    """Thornton's e of the Leeb D probe on a massive steel of that hardness (Pa), its
+    limiting pressure ``pressure_ratio`` times the hardness."""
+    tip = Ball(TUNGSTEN_CARBIDE, LEEB_D["radius"], LEEB_D["mass"])
+    steel = replace(
+        materials.get("steel"), yield_stress=pressure_ratio * hardness / TABOR_CONSTRAINT
+    )
+    speed = math.sqrt(2.0 * LEEB_D["energy"] / LEEB_D["mass"])
+    return plastic_restitution(speed, yield_speed(tip, _massive(steel)))
+
+
+def test_thorntons_restitution_at_the_hardness_meets_the_leeb_rebound_of_steels():
+    # published measurements: the Leeb rebound of a tungsten carbide tip on two steels.
+    # Tolerance 0.1 in e, a bound of the closed form's error (elastic-perfectly plastic, no
+    # hardening, no elastic-plastic transition), not a measured scatter: the sources quote
+    # the pairings as approximate. The limiting pressure at the onset of yield instead
+    # (Johnson's 1.6 Y, 0.57 of the hardness) misses both by more than 0.2
+    page = (Path(__file__).parents[1] / "docs" / "validation.md").read_text()
+    for measured, hardness in LEEB_STEELS:
+        engine = _leeb_restitution(hardness)
+        assert engine == pytest.approx(measured, abs=0.1)
+        assert _leeb_restitution(hardness, 1.6 / TABOR_CONSTRAINT) < measured - 0.2
+        # docs/validation.md's Leeb table holds these figures
+        assert f"| {measured:.2f} | {engine:.2f} | {engine - measured:+.2f} |" in page
+
+
+def test_brittle_materials_have_no_yield_and_a_bad_yield_stress_is_refused():
+    for name in ("glass", "granite", "concrete", "porcelain"):
+        assert materials.get(name).yield_stress is None
+    assert yield_speed(Ball("glass", RADIUS), _massive("porcelain")) is None
+    with pytest.raises(ParameterError, match="hard.yield_stress"):
+        Material("hard", 7800.0, 200e9, 0.3, yield_stress=-1.0)
+    with pytest.raises(ParameterError, match="v_yield"):
+        plastic_restitution(1.0, -0.1)
+
+
+def test_every_yield_stress_is_in_the_materials_page():
+    # docs/materials.md, "Yield of the contact", prints each row's Y with its source
+    page = (Path(__file__).parents[1] / "docs" / "materials.md").read_text()
+    for name in materials.names():
+        Y = materials.get(name).yield_stress
+        if Y is not None:
+            assert f"| {name} | {Y / 1e6:g} |" in page
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("ball_material", materials.names())
 def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_material):
     # The measured contact (the default model's surface) on every table material: a drop
     # from 1 m ends by a physical or perceptual rule before the scheduler's max_duration
     # (60 s) or its impact guard. Pairs of two near-elastic materials (loss factors of
-    # 1e-4 to 7e-3, measured on bending waves) lose too little in the contact to settle by
-    # then, and that is a miss, not a property of such pairs: a small steel ball on a heavy
-    # steel plate "bounces dozens of times before its energy is exhausted" (UCLA Physics &
-    # Astronomy lecture demonstrations, "20. Coefficient of Restitution"), and a steel ball
-    # "can be locally compressed beyond its elastic limit in a relatively low-speed
-    # collision" (R. Cross, "The bounce of a ball", Am. J. Phys. 67 (1999) 222, section I).
-    # The engine has no yield law, and no published e(v) of a metal or glass ball has been
-    # read to check one against (docs/validation.md, "Restitution of solid balls"); those
-    # pairs are reported as the expected failure, the others asserted.
+    # 1e-4 to 7e-3, measured on bending waves) lose too little in the elastic contact to
+    # settle by then: a real pair does (a small steel ball on a heavy steel plate "bounces
+    # dozens of times before its energy is exhausted", UCLA Physics & Astronomy lecture
+    # demonstrations, "20. Coefficient of Restitution"), and a steel ball "can be locally
+    # compressed beyond its elastic limit in a relatively low-speed collision" (R. Cross,
+    # "The bounce of a ball", Am. J. Phys. 67 (1999) 222, section I). Those pairs are
+    # dropped again with the yield of the contact (contact_law.yield_rebound, Thornton
+    # 1997, the table's yield stresses). Where the contact yields at every impact above the
+    # perceptual floor (yield speed below the floor's speed) the plastic loss alone must
+    # end the series. Where it yields only in the first, fast impacts the slow ones are
+    # elastic again and keep the elastic losses only; the pairs still bouncing at 60 s
+    # (hardened steel on itself, polycarbonate, and the pairs that do not yield at 4.4 m/s:
+    # brittle pairs, hardened steel on glass, porcelain or stone) are the expected failure.
     ball = Ball(ball_material, RADIUS)
-    stuck = []
+    v1 = math.sqrt(2.0 * GRAVITY * 1.0)
+    floor_speed = v1 * 10.0 ** (DEFAULT_FLOOR_DB / 20.0)
+    stuck, still = [], []
     for surface in materials.names():
-        seq = simulate_bounces(ball, _massive(surface), drop_height=1.0, surface="auto")
+        plate = _massive(surface)
+        seq = simulate_bounces(ball, plate, drop_height=1.0, surface="auto")
+        if seq.stop_reason not in ("max-duration", "max-impacts"):
+            continue
+        stuck.append(surface)
+        v_y = yield_speed(ball, plate)
+        if v_y is not None and v_y < v1:
+            rule = yield_rebound(ball, plate)
+            seq = simulate_bounces(ball, plate, drop_height=1.0, surface="auto", rebound=rule)
         if seq.stop_reason in ("max-duration", "max-impacts"):
-            stuck.append(surface)
+            assert v_y is None or v_y >= floor_speed, (ball_material, surface, v_y)
+            still.append(surface)
     lossy = [s for s in stuck if not (_near_elastic(ball_material) and _near_elastic(s))]
     assert lossy == [], f"{ball_material} does not settle on {lossy}"
-    if stuck:
+    if still:
         pytest.xfail(
-            f"near-elastic pairs still bouncing at 60 s, where measured ones come to rest "
-            f"(no yield law): {ball_material} on {stuck}"
+            f"near-elastic pairs whose slow impacts are elastic still bounce at 60 s, where "
+            f"measured ones come to rest: {ball_material} on {still}"
         )

@@ -433,3 +433,80 @@ def contact_law(
             f"contact_parameters gives all of the law's constants"
         )
     return law.stiffness, law.exponent, law.dissipation
+
+
+#: Mean pressure of a fully plastic indentation by a sphere over the yield stress, the
+#: hardness ``H = 2.8 Y`` (D. Tabor, "The Hardness of Metals", Oxford 1951; K. L. Johnson,
+#: "Contact Mechanics", Cambridge UP 1985, section 6.2, gives about 3), dimensionless.
+TABOR_CONSTRAINT = 2.8
+
+
+def yield_pressure(ball: Ball, plate: Plate) -> float | None:
+    """The limiting contact pressure ``p_y`` (Pa) of ``ball`` on ``plate``: the hardness
+    ``2.8 Y`` (:data:`TABOR_CONSTRAINT`) of the softer body (the smaller yield stress
+    ``Y`` of the two materials), the pressure a fully plastic contact holds; None when
+    neither material has a yield stress
+    (:attr:`~synth.physics.materials.Material.yield_stress`: brittle or without a
+    published value), the contact then elastic at every speed."""
+    stresses = [
+        m.yield_stress for m in (ball.material, plate.material) if m.yield_stress is not None
+    ]
+    return TABOR_CONSTRAINT * min(stresses) if stresses else None
+
+
+def yield_speed(ball: Ball, plate: Plate) -> float | None:
+    """The impact speed ``V_y`` (m/s) at which the peak pressure of the elastic Hertz
+    impact of ``ball`` on a rigid flat of ``plate``'s modulus reaches :func:`yield_pressure`,
+    ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)`` (C. Thornton, "Coefficient of
+    restitution for collinear collisions of elastic-perfectly plastic spheres", J. Appl.
+    Mech. 64 (1997) 383; for a solid sphere ``1.56 (p_y^5 / (E*^4 rho))^(1/2)``).
+    None without a yield stress (:func:`yield_pressure`); a hollow ball's shell law has
+    no such contact: ``ParameterError``."""
+    if isinstance(ball, HollowBall):
+        raise ParameterError(
+            f"ball={ball!r}: a HollowBall's contact is the thin-shell law, which has no "
+            f"Hertz yield speed"
+        )
+    p_y = yield_pressure(ball, plate)
+    if p_y is None:
+        return None
+    e_star = effective_modulus(ball, plate)
+    R = ball.radius
+    return (math.pi / (2.0 * e_star)) ** 2 * math.sqrt(
+        8.0 * math.pi * R**3 * p_y**5 / (15.0 * ball.mass)
+    )
+
+
+def plastic_restitution(speed: float, v_yield: float | None) -> float:
+    """Restitution (dimensionless) of an elastic-perfectly plastic Hertz contact at the
+    impact ``speed`` (m/s) with the yield speed ``v_yield`` (m/s,
+    :func:`yield_speed`; None: elastic): 1 up to the yield speed, above it Thornton's
+    closed form (J. Appl. Mech. 64 (1997) 383), with ``r = V_y / v``,
+
+        e = (6 sqrt(3) / 5)^(1/2) (1 - r^2 / 6)^(1/2) (r / (r + 2 (6/5 - r^2 / 5)^(1/2)))^(1/4)
+
+    which falls as ``v^(-1/4)`` far above the yield speed (Johnson 1985, section 11.4)."""
+    v = checks.positive("speed", speed, "m/s")
+    if v_yield is None:
+        return 1.0
+    v_y = checks.positive("v_yield", v_yield, "m/s")
+    if v <= v_y:
+        return 1.0
+    r = v_y / v
+    shape = math.sqrt(6.0 * math.sqrt(3.0) / 5.0) * math.sqrt(1.0 - r * r / 6.0)
+    return shape * (r / (r + 2.0 * math.sqrt(6.0 / 5.0 - r * r / 5.0))) ** 0.25
+
+
+def yield_rebound(ball: Ball, plate: Plate):
+    """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``)
+    that adds the plastic loss of the elastic-perfectly plastic contact to each solved
+    impact: ``e' = e(v) plastic_restitution(v, V_y)``, ``e(v)`` the contact solver's
+    restitution and ``V_y`` :func:`yield_speed` of the pair. The two losses are taken
+    as independent (their energy ratios multiply); the force pulse stays the solver's
+    elastic one (docs/physics.md, "Yield of the contact")."""
+    v_y = yield_speed(ball, plate)
+
+    def rebound(result, speed: float) -> float:
+        return result.restitution * plastic_restitution(speed, v_y)
+
+    return rebound

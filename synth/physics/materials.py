@@ -168,6 +168,11 @@ class Material:
         a thick (Mindlin) plate's bending strains (docs/physics.md, "Thick plates (Mindlin)").
         None: isotropic, ``G = E / (2 (1 + nu))``. Only the Mindlin plate reads it; the thin
         plate, the modes and the contact do not.
+    yield_stress : float > 0 or None
+        Uniaxial yield stress ``Y`` (Pa) of a ductile material: a plastic contact holds
+        the hardness ``2.8 Y`` (docs/physics.md, "Yield of the contact").
+        None: no plastic yield (a brittle solid, glass, stone and ceramics, which crack
+        rather than flow, or a material without a published value).
     """
 
     name: str
@@ -177,6 +182,7 @@ class Material:
     damping: Damping | None = None
     source: str = ""
     transverse_shear: float | None = None
+    yield_stress: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -205,6 +211,10 @@ class Material:
                 self,
                 "transverse_shear",
                 checks.positive(f"{n}.transverse_shear", self.transverse_shear, "Pa"),
+            )
+        if self.yield_stress is not None:
+            object.__setattr__(
+                self, "yield_stress", checks.positive(f"{n}.yield_stress", self.yield_stress, "Pa")
             )
 
     @property
@@ -275,7 +285,9 @@ _ROWS: list[Material] = [
         LossFactor(1e-4),
         "elastic: thesis Table 3.1 (steel balls: E = 216 GPa, nu = 0.3, rho 7730-7960); "
         f"damping: eta = 1e-4, {_BHH} (mild steel); {_CHP} gives 2e-5 to 3e-4 "
-        "for flexural waves",
+        "for flexural waves; yield stress (the balls' steel, AISI 52100 bearing steel, "
+        "hardened and tempered): 2033 MPa, AZoM datasheet 'AISI 52100 Alloy Steel (UNS G52986)'",
+        yield_stress=2.03e9,
     ),
     Material(
         "stainless-steel",
@@ -283,7 +295,10 @@ _ROWS: list[Material] = [
         200e9,
         0.3,
         LossFactor(1e-4),
-        f"{_BHH}, row 'Stainless steel 302' (rho, E, nu, eta)",
+        f"{_BHH}, row 'Stainless steel 302' (rho, E, nu, eta); yield stress (type 302, "
+        "annealed, typical): 275 MPa, ASM Metals Handbook Desk Edition, 2nd ed. (1998), "
+        "wrought stainless steels",
+        yield_stress=275e6,
     ),
     Material(
         "aluminium",
@@ -292,7 +307,10 @@ _ROWS: list[Material] = [
         0.34,
         LossFactor(1e-4),
         f"elastic: {_CHP} (aluminium); damping: eta = 1e-4, {_BHH} (aluminium sheet), "
-        "the top of the 3e-6 to 1e-4 flexural range of Cremer et al.",
+        "the top of the 3e-6 to 1e-4 flexural range of Cremer et al.; yield stress "
+        "(6061-T6, the common plate and bar alloy): 276 MPa, ASM Handbook Vol. 2 (1990), "
+        "properties of wrought aluminum alloys",
+        yield_stress=276e6,
     ),
     Material(
         "brass",
@@ -301,7 +319,9 @@ _ROWS: list[Material] = [
         0.33,
         LossFactor(1e-3),
         f"elastic: {_CHP} (brass); damping: eta = 1e-3, {_BHH} and {_MEC}, "
-        "the top of the 2e-4 to 1e-3 flexural range of Cremer et al.",
+        "the top of the 2e-4 to 1e-3 flexural range of Cremer et al.; yield stress "
+        "(C26000 cartridge brass, annealed, OS070): 75 MPa, ASM Handbook Vol. 2 (1990)",
+        yield_stress=75e6,
     ),
     Material(
         "copper",
@@ -309,7 +329,9 @@ _ROWS: list[Material] = [
         125e9,
         0.35,
         LossFactor(2e-3),
-        f"{_CHP}, row 'Copper, polycrystal' (rho, E, nu, flexural eta = 2e-3)",
+        f"{_CHP}, row 'Copper, polycrystal' (rho, E, nu, flexural eta = 2e-3); yield "
+        "stress (C11000, annealed): 69 MPa, ASM Handbook Vol. 2 (1990)",
+        yield_stress=69e6,
     ),
     # Glass and stone.
     Material(
@@ -368,7 +390,9 @@ _ROWS: list[Material] = [
         2.3e9,
         0.35,
         LossFactor(3e-3),
-        f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta)",
+        f"{_BHH}, row 'Polycarbonate' (rho, E, nu, eta); yield stress: 64.5 MPa, the "
+        f"middle of the 59-70 MPa of {_ASH}",
+        yield_stress=64.5e6,
     ),
     Material(
         "abs",
