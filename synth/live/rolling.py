@@ -109,8 +109,15 @@ class RollingVoice:
         self._lock = body._roll_lock
         rolls = body._rolls
         self._ints = rolls["roll_ints"][slots[0]]  # its slot's scalars (kept after the end)
+        self._ear_ints = [ear._rolls["roll_ints"][r] for ear, r in self._slots]
         self._floats = [ear._rolls["roll_floats"][r] for ear, r in self._slots]
         self._state = rolls["roll_y"][slots[0]]
+
+    def _holds(self, ear: int) -> bool:
+        """Whether the voice still holds its slot at ear ``ear`` (an ear may free it a block
+        before the first; under the lock, no other voice takes it meanwhile)."""
+        ints = self._ear_ints[ear]
+        return int(ints[rb.I_STATE]) != rb.FREE and int(ints[rb.I_ID]) == self.id
 
     def __repr__(self):
         return f"RollingVoice(id={self.id}, playing={self.playing})"
@@ -166,8 +173,9 @@ class RollingVoice:
                             hi_open=False)  # fmt: skip
         with self._lock:
             if self.playing:
-                for floats in self._floats:
-                    floats[rb.F_GAIN] = g
+                for ear, floats in enumerate(self._floats):
+                    if self._holds(ear):
+                        floats[rb.F_GAIN] = g
 
     def update(self, position, velocity) -> None:
         """The ball's centre is now above ``position`` ((x, y), m from the plate's corner),
@@ -197,7 +205,9 @@ class RollingVoice:
         ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
         tables = {}  # by the ear's rendered modes (the same for ears of one plate)
-        for ear, r in self._slots:
+        for i, (ear, r) in enumerate(self._slots):
+            if not self._holds(i):
+                continue
             key = (id(ear._model.modes), ear._model.rendered.tobytes())
             if key not in tables:
                 tables[key] = path_excitation(
@@ -217,9 +227,8 @@ class RollingVoice:
         with self._lock:
             if self.playing:
                 frames = max(1, int(round(f * engine.samplerate)))
-                for ear, r in self._slots:
-                    ints = ear._rolls["roll_ints"][r]
-                    if ints[rb.I_ID] == self.id and ints[rb.I_STOP] < 0:
+                for ear, ints in enumerate(self._ear_ints):
+                    if self._holds(ear) and ints[rb.I_STOP] < 0:
                         ints[rb.I_STOP] = frames
 
 
