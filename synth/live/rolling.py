@@ -12,10 +12,11 @@ block plus the stream's output latency after the call at most.
 
 A body heard through several ears (``Engine.add(plate, listener=ears(...))``) rolls the
 voice in one slot at each ear, each heard through its ear's gains (each integrates the
-same contact: the same force, bit for bit); an accelerometer hears the plate's
-acceleration at its sensor with its direct term, as the offline render's. A listener
-moved while the voice rolls (:meth:`synth.live.Body.move`) reaches it over the next block,
-as it reaches the body's impact voices.
+same contact: the same force, bit for bit, when both take an update at the same block);
+an accelerometer hears the plate's acceleration at its sensor with its direct term, as
+the offline render's. A listener moved while the voice rolls
+(:meth:`synth.live.Body.move`) reaches it over the next block, as it reaches the body's
+impact voices.
 """
 
 from __future__ import annotations
