@@ -32,7 +32,7 @@ BENCHMARKS = {
     "rolling": "the rolling contact's and its modal drive's time per second of audio, and "
     "the rolling presets' renders",
     "rollingcheck": "the rolling's contact-loss speed, energy balance and spectral centroid "
-    "against speed",
+    "against speed and size, beside a published measurement of rolling balls",
     "hollow": "the hollow balls against their rule books' bounce tests",
     "materials": "solid balls of the material table against published bounces",
     "rules": "each radiation rule's estimated cost and the rule chosen on the presets, the "

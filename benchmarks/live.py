@@ -441,13 +441,15 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
 def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3, 1.0)) -> dict:
     """A rolling voice (:meth:`Body.roll`) on the default plate, a steel ball of 10 mm radius
     over a rough surface (the caller's roughness: RMS 1 um, correlation length 0.2 mm,
-    Hurst 0.8), updated every 16 ms (three blocks) at each of ``speeds`` (m/s): the block's
+    Hurst 0.8), updated every 16 ms (three blocks) at each of ``speeds`` (m/s), on a body
+    heard by the scene's microphone; and at the middle speed on a body heard through two
+    ears (:func:`synth.live.ears`, two channels) and by an accelerometer. Each: the block's
     mixing cost with the voice alone on the body (mean, 99th percentile, max, as a fraction
     of the block), the integrator's steps per sample, :meth:`RollingVoice.update` on the
-    calling thread (median and 99th percentile, s) and the memory of one rolling slot."""
-    from synth.live.engine import Engine
+    calling thread (median and 99th percentile, s); and the memory of one rolling slot."""
+    from synth.live.engine import ears
     from synth.physics import surface
-    from synth.physics.scene import Ball
+    from synth.physics.scene import Accelerometer, Ball
 
     scene = _scene()
     ball = Ball("steel", 0.01)
@@ -455,36 +457,18 @@ def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3,
     length = max(speeds) * seconds + 0.02
     profile = surface.rough_profile(spec, length=length, spacing=5e-6, seed=1)
     envelope = surface.contact_envelope(profile, ball.radius)
-    block = blocksize / samplerate
+    plate = scene.plate
+    mic = scene.listener
     rows = []
     for v in speeds:
-        engine = Engine(samplerate=samplerate, blocksize=blocksize)
-        body = engine.add(scene.plate, listener=scene.listener)
-        start = np.array([0.05, 0.5 * scene.plate.width])
-        voice = body.roll(ball, start, (v, 0.0), envelope=envelope, start=0.01)
-        out = np.zeros((blocksize, 1), dtype=np.float32)
-        costs, updates = [], []
-        for b in range(int(seconds * samplerate / blocksize)):
-            if b and b % 3 == 0:
-                t = time.perf_counter()
-                voice.update(start + (voice.path_position - 0.01, 0.0), (v, 0.0))
-                updates.append(time.perf_counter() - t)
-            t = time.perf_counter()
-            engine._mix_into(out, blocksize)
-            costs.append(time.perf_counter() - t)
-        costs = np.array(costs) / block
-        rows.append(
-            dict(
-                speed=v,
-                mean=float(costs.mean()),
-                p99=float(np.percentile(costs, 99)),
-                max=float(costs.max()),
-                steps=voice.steps / max(voice.frames, 1),
-                overruns=voice.overruns,
-                update_median=float(np.median(updates)),
-                update_p99=float(np.percentile(updates, 99)),
-            )
-        )
+        row, body = _rolling_row(plate, mic, ball, envelope, v, samplerate, blocksize, seconds)
+        rows.append(dict(row, listener="microphone"))
+    v = speeds[len(speeds) // 2]
+    two_ears = ears(mic.position)
+    sensor = Accelerometer((0.7 * plate.length, 0.3 * plate.width))
+    for name, listener in (("two ears", two_ears), ("accelerometer", sensor)):
+        row, _ = _rolling_row(plate, listener, ball, envelope, v, samplerate, blocksize, seconds)
+        rows.append(dict(row, listener=name))
     slot = sum(
         int(a[0].nbytes)
         for k, a in body._rolls.items()
@@ -493,6 +477,41 @@ def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3,
     return dict(
         rows=rows, modes=body.modes, slot_bytes=slot, rows_per_table=body._rolls["roll_rows"]
     )
+
+
+def _rolling_row(plate, listener, ball, envelope, v, samplerate, blocksize, seconds):
+    """One case of :func:`rolling_cost` (a tuple of listeners: one channel each): its
+    figures and the body."""
+    from synth.live.engine import Engine
+
+    channels = len(listener) if isinstance(listener, tuple) else 1
+    block = blocksize / samplerate
+    engine = Engine(samplerate=samplerate, blocksize=blocksize, channels=channels)
+    body = engine.add(plate, listener=listener)
+    start = np.array([0.05, 0.5 * plate.width])
+    voice = body.roll(ball, start, (v, 0.0), envelope=envelope, start=0.01)
+    out = np.zeros((blocksize, channels), dtype=np.float32)
+    costs, updates = [], []
+    for b in range(int(seconds * samplerate / blocksize)):
+        if b and b % 3 == 0:
+            t = time.perf_counter()
+            voice.update(start + (voice.path_position - 0.01, 0.0), (v, 0.0))
+            updates.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        engine._mix_into(out, blocksize)
+        costs.append(time.perf_counter() - t)
+    costs = np.array(costs) / block
+    row = dict(
+        speed=v,
+        mean=float(costs.mean()),
+        p99=float(np.percentile(costs, 99)),
+        max=float(costs.max()),
+        steps=voice.steps / max(voice.frames, 1),
+        overruns=voice.overruns,
+        update_median=float(np.median(updates)),
+        update_p99=float(np.percentile(updates, 99)),
+    )
+    return row, body
 
 
 def run_live(seconds=30.0) -> dict:
@@ -665,20 +684,21 @@ def _rolling_lines(r) -> list:
     from synth.live.rolling import HORIZON
 
     costs = "; ".join(
-        f"{row['speed']:g} m/s: mean {100 * row['mean']:.2f} %, 99th percentile "
-        f"{100 * row['p99']:.2f} %, max {100 * row['max']:.2f} % of the block, "
-        f"{row['steps']:.2f} steps a sample"
+        f"{row['speed']:g} m/s, {row.get('listener', 'microphone')}: mean "
+        f"{100 * row['mean']:.2f} %, 99th percentile {100 * row['p99']:.2f} %, max "
+        f"{100 * row['max']:.2f} % of the block, {row['steps']:.2f} steps a sample"
         for row in r["rows"]
     )
     updates = ", ".join(
         f"{row['update_median'] * 1e6:.0f} us ({row['update_p99'] * 1e6:.0f} us) at "
-        f"{row['speed']:g} m/s"
+        f"{row['speed']:g} m/s, {row.get('listener', 'microphone')}"
         for row in r["rows"]
     )
     return [
         f"- a rolling voice (Body.roll: a steel ball of 10 mm radius on the default plate, "
         f"{r['modes']} modes, its contact integrated and its force driving the modes in the "
-        f"callback), updated every 16 ms, alone on its body: {costs}",
+        f"callback; through two ears, once at each), updated every 16 ms, alone on its "
+        f"body: {costs}",
         f"- RollingVoice.update on the calling thread (the mode-shape table {HORIZON * 1e3:.0f}"
         f" ms ahead), median (99th percentile): {updates}; a rolling slot's memory "
         f"{r['slot_bytes'] / 2**20:.2f} MiB (tables of {r['rows_per_table']} rows, three "

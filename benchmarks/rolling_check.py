@@ -13,8 +13,15 @@
   ``omega_c^2 = (3/2) g / delta_static`` with ``delta_static ~ R^(5/3)``, falls as
   ``R^(-5/6)``).
 
-The rough surface (Matern: rms 1 um, correlation length 100 um, Hurst exponent 0.8) and the
-Hunt-Crossley loss (0.1 s/m) are inputs of this check, not published values. Nothing here is
+* The rolling sound against speed and ball size beside the published measurement of
+  Houben, Kohlrausch & Hermes (2004), who recorded wooden balls rolling on a wooden plate
+  with a microphone (:data:`HOUBEN_2004`): oak balls on an MDF plate of the measured MDF
+  roughness (:data:`synth.physics.surface.MEASURED_ROUGHNESS`), heard by a microphone above
+  it; the sound's spectral centroid and level at each speed and size.
+
+The rough surface of the first checks (Matern: rms 1 um, correlation length 100 um, Hurst
+exponent 0.8) and the Hunt-Crossley loss (0.1 s/m) are inputs of this check, not published
+values; so are the balls' radii and speeds of the published comparison. Nothing here is
 timed.
 """
 
@@ -34,6 +41,22 @@ SIZE_SPEEDS = (0.1, 0.2)
 ROLL_SECONDS = 0.5
 #: Hunt-Crossley damping of the lossy energy case, s/m (an input of the check).
 HUNT_CROSSLEY = 0.1
+#: The published measurement the rolling sound is set beside: its source and what it reports
+#: of the recorded sound as the speed and the ball's size grow (directions only: the
+#: engine holds no figure of the paper's to compare number with number).
+HOUBEN_2004 = dict(
+    source="Houben, Kohlrausch & Hermes (2004), Speech Communication 43, 331-345: wooden "
+    "balls rolling on a wooden plate, recorded with a microphone",
+    speed="the spectrum shifts up (higher spectral centroid) and the sound grows louder",
+    size="a larger ball's spectrum lies lower (lower spectral centroid)",
+)
+#: Speeds (m/s), oak balls' radii (m) and length of each rolling (s) of the published
+#: comparison (inputs of the check).
+PUBLISHED_SPEEDS = (0.1, 0.2, 0.4)
+PUBLISHED_RADII = (0.005, 0.01, 0.02)
+PUBLISHED_SECONDS = 0.5
+#: Rough profiles (of the one measured spectrum) each figure is the mean over.
+PUBLISHED_PROFILES = 4
 
 
 def _pair():
@@ -175,6 +198,68 @@ def centroid_rows(speeds=CENTROID_SPEEDS, seconds=ROLL_SECONDS, radii=None) -> l
     return rows
 
 
+def published_rows(
+    speeds=PUBLISHED_SPEEDS, radii=PUBLISHED_RADII, seconds=PUBLISHED_SECONDS,
+    profiles=PUBLISHED_PROFILES,
+) -> list[dict]:  # fmt: skip
+    """The rolling sound of an oak ball of each of ``radii`` (m) at each of ``speeds``
+    (m/s) for ``seconds`` s on an 18 mm MDF plate of the measured MDF roughness, heard by a
+    microphone 0.3 m above its centre (:data:`HOUBEN_2004`'s setting, wood on wood): the
+    sound's spectral centroid (Hz) and RMS level (dB re 1 Pa), each the mean over
+    ``profiles`` rough profiles of the one spectrum (seeds 1, 2, ...), with their standard
+    deviations over them (``centroid_spread``, ``level_spread``)."""
+    import numpy as np
+
+    from synth.physics import surface
+    from synth.physics.scene import Microphone, Plate
+    from synth.sound.render import modal_model
+
+    plate = Plate("mdf-18", thickness=0.018, length=1.2, width=0.6)
+    model = modal_model(plate, Microphone((0.6, 0.3, 0.3)), samplerate=SAMPLERATE)
+    spectrum = surface.MEASURED_ROUGHNESS["mdf"].spectrum()
+    length = max(speeds) * seconds + 0.05
+    draws = [
+        surface.rough_profile(spectrum, length=length, spacing=5e-6, seed=seed)
+        for seed in range(1, profiles + 1)
+    ]
+    rows = []
+    for radius in radii:
+        envelopes = [surface.contact_envelope(profile, radius) for profile in draws]
+        for v in speeds:
+            found = np.array(
+                [_sound_figures(radius, v, e, plate, model, seconds) for e in envelopes]
+            )
+            rows.append(
+                dict(
+                    radius=radius,
+                    speed=v,
+                    centroid=float(found[:, 0].mean()),
+                    centroid_spread=float(found[:, 0].std()),
+                    level=float(found[:, 1].mean()),
+                    level_spread=float(found[:, 1].std()),
+                    profiles=profiles,
+                )
+            )
+    return rows
+
+
+def _sound_figures(radius, speed, envelope, plate, model, seconds) -> tuple[float, float]:
+    """The spectral centroid (Hz) and RMS level (dB re the model's unit) of an oak ball of
+    ``radius`` (m) rolling at ``speed`` (m/s) over ``envelope`` for ``seconds`` s."""
+    import numpy as np
+
+    from synth.physics import rolling
+    from synth.physics.scene import Ball
+    from synth.sound import rolling as sound
+
+    r = rolling.roll(
+        Ball("oak", radius), plate, envelope, speed=speed, duration=seconds,
+        samplerate=SAMPLERATE, origin=(0.2, 0.3), start=0.015,
+    )  # fmt: skip
+    audio = sound.rolling_sound(r, model)
+    return spectral_centroid(audio, SAMPLERATE), float(20.0 * np.log10(np.sqrt(np.mean(audio**2))))
+
+
 def run_rolling_check() -> dict:
     """Every figure of the module docstring."""
     return {
@@ -182,6 +267,7 @@ def run_rolling_check() -> dict:
         "energy": energy_rows(),
         "centroid": centroid_rows(),
         "size": centroid_rows(speeds=SIZE_SPEEDS, radii=SIZE_RADII),
+        "published": published_rows(),
     }
 
 
@@ -241,4 +327,50 @@ def format_rolling_check(result: dict) -> str:
             f"| {1e3 * r['radius']:.1f} | {r['speed']:.2f} | {r['force_centroid']:.0f} | "
             f"{r['acceleration_centroid']:.0f} | {r['flights']} |"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + _published_lines(result.get("published")))
+
+
+def _published_lines(rows) -> list[str]:
+    """The published comparison (:func:`published_rows`) as Markdown lines: the engine's
+    centroid and level at each speed and size, and its change from the row before beside
+    the published direction."""
+    if not rows:
+        return []
+    lines = [
+        "",
+        f"The rolling sound beside a published measurement ({HOUBEN_2004['source']}): oak "
+        "balls on 18 mm MDF of the measured MDF roughness, a microphone 0.3 m above, "
+        f"{PUBLISHED_SECONDS:g} s at each speed; each figure the mean over "
+        f"{PUBLISHED_PROFILES} rough profiles of the one spectrum (the centroid's standard "
+        "deviation over them in brackets). Published, with the speed: "
+        f"{HOUBEN_2004['speed']}; with the size: {HOUBEN_2004['size']}.",
+        "",
+        "| radius mm | speed m/s | engine centroid Hz (spread) | engine level dB re 1 Pa | "
+        "engine, speed doubled | published, speed doubled |",
+        "|---|---|---|---|---|---|",
+    ]
+    previous = None
+    for r in rows:
+        change = "-"
+        if previous is not None and previous["radius"] == r["radius"]:
+            change = (
+                f"centroid {100 * (r['centroid'] / previous['centroid'] - 1):+.0f} %, level "
+                f"{r['level'] - previous['level']:+.1f} dB"
+            )
+        published = "higher, louder" if change != "-" else "-"
+        lines.append(
+            f"| {1e3 * r['radius']:.0f} | {r['speed']:.2f} | {r['centroid']:.0f} "
+            f"({r['centroid_spread']:.0f}) | {r['level']:.1f} | {change} | {published} |"
+        )
+        previous = r
+    lines += [
+        "",
+        "| speed m/s | engine centroid Hz by radius (mm) | published, larger ball |",
+        "|---|---|---|",
+    ]
+    for v in sorted({r["speed"] for r in rows}):
+        by_size = ", ".join(
+            f"{r['centroid']:.0f} ({1e3 * r['radius']:.0f})" for r in rows if r["speed"] == v
+        )
+        lines.append(f"| {v:.2f} | {by_size} | lower |")
+    return lines

@@ -693,7 +693,8 @@ class Body:
         ``gain``, with ``contact`` and ``rtol`` as :func:`synth.physics.rolling.roll`:
         the game updates it every frame (:class:`synth.live.rolling.RollingVoice`).
         Returns None when the body's ``max_rolls`` slots all roll (counted in
-        ``rolls_refused``). A body heard by one microphone only."""
+        ``rolls_refused``). A body heard through ears rolls it at each ear; an
+        accelerometer hears it with its direct term; :meth:`move` reaches it."""
         return rolling.start_roll(self, ball, position, velocity, **options)
 
     @property

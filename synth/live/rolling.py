@@ -9,6 +9,14 @@ behind and beyond for the touching point's offset); the audio thread
 ball over the block with the offline contact integrator and drives the modes with its
 force at the moving touching point. An update sounds from the next block's start: one
 block plus the stream's output latency after the call at most.
+
+A body heard through several ears (``Engine.add(plate, listener=ears(...))``) rolls the
+voice in one slot at each ear, each heard through its ear's gains (each integrates the
+same contact: the same force, bit for bit, when both take an update at the same block);
+an accelerometer hears the plate's acceleration at its sensor with its direct term, as
+the offline render's. A listener moved while the voice rolls
+(:meth:`synth.live.Body.move`) reaches it over the next block, as it reaches the body's
+impact voices.
 """
 
 from __future__ import annotations
@@ -26,7 +34,6 @@ from synth.live.hits import MAX_GAIN
 from synth.live.voice import MAX_STOP_FADE, MIN_STOP_FADE
 from synth.physics.rolling import Roller
 from synth.physics.scene import Ball
-from synth.sound.modal_bank import bank_coefficients
 from synth.sound.rolling import POINTS_PER_WAVELENGTH, bending_wavenumber, path_excitation
 
 #: Fastest rolling speed a voice takes, m/s.
@@ -88,22 +95,30 @@ class RollingVoice:
     (:meth:`stop`). Every method may be called from any thread.
 
     ``id``: unique in its engine (reported by :meth:`synth.live.Engine.ended` once it has
-    ended). It ends after its stop fade; or, faded out over the engine's ``fade``, when
-    its centre reaches the end of its surface's envelope (``ended_by == "surface"``) or
-    its contact needs more than :data:`synth.live.rolling_block.MAX_STEPS_PER_SAMPLE`
-    integration steps a sample (``"failed"``)."""
+    ended at every ear). It ends after its stop fade; or, faded out over the engine's
+    ``fade``, when its centre reaches the end of its surface's envelope (``ended_by ==
+    "surface"``) or its contact needs more than
+    :data:`synth.live.rolling_block.MAX_STEPS_PER_SAMPLE` integration steps a sample
+    (``"failed"``). Its figures are its first ear's."""
 
-    def __init__(self, body, vid: int, slot: int, direction: tuple[float, float]):
+    def __init__(self, body, vid: int, slots: list[int], direction: tuple[float, float]):
         self.body = body
         self.id = vid
-        self._slot = slot
+        self._slots = tuple(zip(body._ears, slots))  # (ear, its slot) of each ear
         self._direction = direction
         # the body's: between the game's threads updating its voices and taking its slots
         self._lock = body._roll_lock
         rolls = body._rolls
-        self._ints = rolls["roll_ints"][slot]  # its slot's scalars (kept after the body's end)
-        self._floats = rolls["roll_floats"][slot]
-        self._state = rolls["roll_y"][slot]
+        self._ints = rolls["roll_ints"][slots[0]]  # its slot's scalars (kept after the end)
+        self._ear_ints = [ear._rolls["roll_ints"][r] for ear, r in self._slots]
+        self._floats = [ear._rolls["roll_floats"][r] for ear, r in self._slots]
+        self._state = rolls["roll_y"][slots[0]]
+
+    def _holds(self, ear: int) -> bool:
+        """Whether the voice still holds its slot at ear ``ear`` (an ear may free it a block
+        before the first; under the lock, no other voice takes it meanwhile)."""
+        ints = self._ear_ints[ear]
+        return int(ints[rb.I_STATE]) != rb.FREE and int(ints[rb.I_ID]) == self.id
 
     def __repr__(self):
         return f"RollingVoice(id={self.id}, playing={self.playing})"
@@ -131,7 +146,7 @@ class RollingVoice:
 
     @property
     def steps(self) -> int:
-        """Integration steps taken so far (the audio thread's work)."""
+        """Integration steps taken so far (the audio thread's work, at its first ear)."""
         return int(self._ints[rb.I_STEPS])
 
     @property
@@ -151,7 +166,7 @@ class RollingVoice:
     def gain(self) -> float:
         """The voice's gain (linear, in [0, 1e4]), on top of the body's; set while it rolls,
         it is ramped linearly over the next block."""
-        return float(self._floats[rb.F_GAIN])
+        return float(self._floats[0][rb.F_GAIN])
 
     @gain.setter
     def gain(self, value: float) -> None:
@@ -159,7 +174,9 @@ class RollingVoice:
                             hi_open=False)  # fmt: skip
         with self._lock:
             if self.playing:
-                self._floats[rb.F_GAIN] = g
+                for ear, floats in enumerate(self._floats):
+                    if self._holds(ear):
+                        floats[rb.F_GAIN] = g
 
     def update(self, position, velocity) -> None:
         """The ball's centre is now above ``position`` ((x, y), m from the plate's corner),
@@ -176,29 +193,29 @@ class RollingVoice:
                 self._publish(x, y, speed)
 
     def _publish(self, x: float, y: float, speed: float) -> None:
-        """Write the table of the segment from ``(x, y)`` into the back buffer and swap it
-        into the middle (flagged fresh) for the audio thread."""
-        body, r = self.body, self._slot
-        rolls = body._rolls
-        if rolls is None:  # the body left its engine
+        """Write the table of the segment from ``(x, y)`` into each ear's back buffer and
+        swap it into the middle (flagged fresh) for the audio thread."""
+        body = self.body
+        if any(ear._rolls is None for ear in body._ears):  # the body left its engine
             return
         ux, uy = self._direction
         plate = body.plate
         step = body._roll_step
-        rows_cap = rolls["roll_rows"]
+        rows_cap = body._rolls["roll_rows"]
         back = min(MARGIN, _reach(plate, x, y, -ux, -uy))
         ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
-        table = path_excitation(
-            body._model, origin=(x, y), direction=(ux, uy), start=-back, stop=ahead, step=step
-        )
-        ints = self._ints
-        b = int(ints[rb.I_BACK])
-        rows = table.excitation.shape[0]
-        rolls["roll_tables"][r, b, :rows] = table.excitation
-        rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
-        old = rb.exchange(ints, rb.I_MIDDLE, b | rb.FRESH)
-        ints[rb.I_BACK] = old & 3
+        tables = {}  # by the ear's rendered modes (the same for ears of one plate)
+        for i, (ear, r) in enumerate(self._slots):
+            if not self._holds(i):
+                continue
+            key = (id(ear._model.modes), ear._model.rendered.tobytes())
+            if key not in tables:
+                tables[key] = path_excitation(
+                    ear._model, origin=(x, y), direction=(ux, uy), start=-back, stop=ahead,
+                    step=step,
+                )  # fmt: skip
+            _swap_in(ear._rolls, r, tables[key], speed)
 
     def stop(self, fade: float | None = None) -> None:
         """Fade it out from the next block: a raised cosine over ``fade`` s (in [0.001, 10];
@@ -209,15 +226,33 @@ class RollingVoice:
         f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
                             hi_open=False)  # fmt: skip
         with self._lock:
-            ints = self._ints
-            if self.playing and ints[rb.I_STOP] < 0:
-                ints[rb.I_STOP] = max(1, int(round(f * engine.samplerate)))
+            if self.playing:
+                frames = max(1, int(round(f * engine.samplerate)))
+                for ear, ints in enumerate(self._ear_ints):
+                    if self._holds(ear) and ints[rb.I_STOP] < 0:
+                        ints[rb.I_STOP] = frames
+
+
+def _swap_in(rolls: dict, r: int, table, speed: float) -> None:
+    """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s)
+    into slot ``r``'s back buffer of a body's rolling arrays ``rolls`` and swap it into the
+    middle, flagged fresh."""
+    ints = rolls["roll_ints"][r]
+    b = int(ints[rb.I_BACK])
+    rows = table.excitation.shape[0]
+    rolls["roll_tables"][r, b, :rows] = table.excitation
+    rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
+    old = rb.exchange(ints, rb.I_MIDDLE, b | rb.FRESH)
+    ints[rb.I_BACK] = old & 3
 
 
 def rolls(body) -> bool:
-    """Whether a rolling voice of ``body`` rolls or fades (or is being handed over)."""
-    arrays = body._rolls
-    return arrays is not None and bool(np.any(arrays["roll_ints"][:, rb.I_STATE] != rb.FREE))
+    """Whether a rolling voice of ``body`` rolls or fades at one of its ears (or is being
+    handed over)."""
+    return any(
+        ear._rolls is not None and bool(np.any(ear._rolls["roll_ints"][:, rb.I_STATE] != rb.FREE))
+        for ear in body._ears
+    )
 
 
 def stop_rolls(body, fade: float | None) -> None:
@@ -226,10 +261,13 @@ def stop_rolls(body, fade: float | None) -> None:
     engine = body._engine
     frames = max(1, int(round((engine._fade if fade is None else fade) * engine.samplerate)))
     with body._roll_lock:
-        ints = body._rolls["roll_ints"]
-        for r in range(ints.shape[0]):
-            if ints[r, rb.I_STATE] == rb.LIVE and ints[r, rb.I_STOP] < 0:
-                ints[r, rb.I_STOP] = frames
+        for ear in body._ears:
+            if ear._rolls is None:
+                continue
+            ints = ear._rolls["roll_ints"]
+            for r in range(ints.shape[0]):
+                if ints[r, rb.I_STATE] == rb.LIVE and ints[r, rb.I_STOP] < 0:
+                    ints[r, rb.I_STOP] = frames
 
 
 def start_roll(
@@ -242,11 +280,6 @@ def start_roll(
         raise SynthError("this body was removed from its engine (Body.remove): add it again")
     engine._check_open("roll a ball")
     engine._check_alive()
-    if len(body._ears) != 1 or body._model.listener.shape is not None:
-        raise ParameterError(
-            "a rolling voice plays on a body heard by one microphone (not through ears, "
-            "not an accelerometer)"
-        )
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
     x, y = body.plate.check_position(position, "position")
@@ -258,32 +291,47 @@ def start_roll(
         ball, body.plate, envelope, samplerate=fs, origin=(0.0, 0.0), contact=contact, rtol=rtol
     )
     s0 = checks.in_range("start", start, 0.0, envelope.length, "metres", lo_open=False)
-    slots = body._rolls["roll_ints"]
     with body._roll_lock:  # no update of an ended voice of the slot writes into it meanwhile
-        free = [r for r in range(slots.shape[0]) if slots[r, rb.I_STATE] == rb.FREE]
-        if not free:
+        slots = _take_slots(body)
+        if slots is None:
             body.rolls_refused += 1
             return None
-        r = free[0]
-        slots[r, rb.I_STATE] = rb.WRITING
         try:
-            _fill_slot(body, r, roller, envelope, s0, speed, g)
+            for ear, r in zip(body._ears, slots):
+                _fill_slot(ear, r, roller, envelope, s0, speed, g)
             vid = engine._next_voice_id()
-            voice = RollingVoice(body, vid, r, (ux, uy) if speed > 0.0 else (1.0, 0.0))
-            slots[r, rb.I_ID] = vid
+            voice = RollingVoice(body, vid, slots, (ux, uy) if speed > 0.0 else (1.0, 0.0))
+            for ear, r in zip(body._ears, slots):
+                ear._rolls["roll_ints"][r, rb.I_ID] = vid
             voice._publish(x, y, speed)
         except BaseException:
-            slots[r, rb.I_STATE] = rb.FREE
+            for ear, r in zip(body._ears, slots):
+                ear._rolls["roll_ints"][r, rb.I_STATE] = rb.FREE
             raise
-        publish(slots[r], rb.I_STATE, rb.LIVE)  # last: the audio thread rolls it from now on
+        for ear, r in zip(body._ears, slots):  # last: the audio thread rolls it from now on
+            publish(ear._rolls["roll_ints"][r], rb.I_STATE, rb.LIVE)
     return voice
 
 
+def _take_slots(body) -> list[int] | None:
+    """A free rolling slot at each of ``body``'s ears, marked taken (``WRITING``); None
+    when one ear has none (under the body's ``_roll_lock``)."""
+    slots = []
+    for ear in body._ears:
+        states = ear._rolls["roll_ints"][:, rb.I_STATE]
+        free = np.flatnonzero(states == rb.FREE)
+        if free.size == 0:
+            return None
+        slots.append(int(free[0]))
+    for ear, r in zip(body._ears, slots):
+        ear._rolls["roll_ints"][r, rb.I_STATE] = rb.WRITING
+    return slots
+
+
 def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
-    """Write slot ``r``'s constants, start state, coefficients and envelope (the game's
-    thread owns it until it is published)."""
+    """Write slot ``r``'s constants, start state, coefficients and envelope at the ear
+    ``body`` (the game's thread owns it until it is published)."""
     arrays = body._rolls
-    model = body._model
     fs = body._engine.samplerate
     coef_env = np.ascontiguousarray(envelope.coefficients, dtype=float)
     offsets = np.ascontiguousarray(envelope.contact_offsets, dtype=float)
@@ -299,12 +347,22 @@ def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
     fv[rb.F_PREVIOUS] = fv[rb.F_SPEED] = 0.0
     arrays["roll_y"][r] = state.vector
     arrays["roll_z"][r] = 0.0
+    with body._move_lock:  # the listener's gains and their sequence number together
+        model = body._model
+        heard_seq = int(body._heard_seq[kernel.SEQ_PUT])
+        gains = np.asarray(model.output, dtype=complex)
+    accelerometer = model.listener.shape is not None
     p = np.asarray(model.poles, dtype=complex)
-    c = bank_coefficients(p, np.ones(p.size), np.asarray(model.output) * body._scale, fs)
     hold = (np.exp(p / fs) - 1.0) / p
     q = -1.0 / p
-    arrays["roll_coef"][r] = (c.step_re, c.step_im, c.coef_re, c.coef_im, hold.real,
-                              hold.imag, q.real, q.imag)  # fmt: skip
+    step = np.exp(p / fs)
+    coef = arrays["roll_coef"][r]
+    coef[:] = 0.0
+    rows = {rb.C_ER: step.real, rb.C_EI: step.imag, rb.C_HR: hold.real, rb.C_HI: hold.imag,
+            rb.C_QR: q.real, rb.C_QI: q.imag}  # fmt: skip
+    rows.update(rb.heard_coefficients(gains, p, body._scale, accelerometer))
+    for row, values in rows.items():
+        coef[row] = values
     iv = arrays["roll_ints"][r]
     fade = max(1, int(round(body._engine._fade * fs)))
     values = {
@@ -312,7 +370,8 @@ def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
         rb.I_FADE_LEN: 1, rb.I_END_FADE: fade, rb.I_STARTED: 0, rb.I_ENDED: 0, rb.I_STEPS: 0,
         rb.I_FRAMES: 0, rb.I_OVERRUN: 0, rb.I_ENV: coef_env.ctypes.data,
         rb.I_ENV_N: coef_env.shape[0], rb.I_OFF: offsets.ctypes.data, rb.I_OFF_N: offsets.size,
-        rb.I_EARS: int(body._counters[kernel.EARS]),
+        rb.I_EARS: int(body._counters[kernel.EARS]), rb.I_HEARD: heard_seq,
+        rb.I_DIRECT: int(accelerometer),
     }  # fmt: skip
     for field, value in values.items():
         iv[field] = value

@@ -21,8 +21,15 @@ the callback through the body's record, :func:`rolling_form`). A slot that rings
    the voice fades out and is counted failed).
 3. its mean force per sample period drives the slot's modes at the touching point, as
    :func:`synth.sound.rolling.drive_modes` does (the force held over each period, the
-   exact update of each mode), heard through the listener's gains, times the voice's gain
-   (ramped over the block) and its stop fade (a raised cosine), added to the body's mix.
+   exact update of each mode), heard through the listener's gains (an accelerometer also
+   through its direct term), times the voice's gain (ramped over the block) and its stop
+   fade (a raised cosine), added to the body's mix.
+
+The slot's modes are the plate's; the listener's gains are the body's (its ``heard``
+rows, handed over by :meth:`synth.live.Body.move` under a sequence lock): a slot takes a
+newer set at a block's start and ramps what it hears from the old to the new linearly
+over that block, as the body's impact voices do (:func:`_take_heard`). A body heard
+through several ears holds one slot of the voice at each ear.
 
 A stopped voice (``I_STOP``), one whose centre would leave the envelope, and one whose
 integration failed fade out over their fade; the slot is then freed and the voice's id
@@ -41,6 +48,7 @@ from numba.extending import intrinsic
 
 from synth.compilation import compiled
 from synth.live.atomics import fence, pointer_to
+from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
 from synth.physics.rolling_kernels import N_STATE, roll
@@ -80,8 +88,10 @@ FRESH = 4
     I_OFF,  # address of the envelope's contact offsets ((I_OFF_N,) float64)
     I_OFF_N,
     I_EARS,  # the body's ears (the voice-ended event's suffix)
+    I_HEARD,  # the body's gains' sequence number the slot hears through (``heard_seq``)
+    I_DIRECT,  # 1: an accelerometer (its direct term), 0: a microphone
     N_INTS,
-) = range(20)
+) = range(22)
 
 #: Why a rolling voice ended (``I_ENDED``).
 END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
@@ -101,11 +111,18 @@ M_SPEED, M_START, M_STEP, M_ROWS = range(4)
 N_META = 4
 
 #: Rows of a slot's coefficients (``coef``, float64 (N_COEF, K)): one sample's ringing
-#: ``e^(p/fs)``, the listener's response per unit state, the hold's gain ``(e^(p/fs) - 1)
-#: / p`` (each re, im; as :func:`synth.sound.rolling.drive_modes`), and ``-1 / p`` (the
-#: static deflection per unit excitation, for the preload).
-C_ER, C_EI, C_LR, C_LI, C_HR, C_HI, C_QR, C_QI = range(8)
-N_COEF = 8
+#: ``e^(p/fs)``, the listener's response per unit state now, the hold's gain ``(e^(p/fs) -
+#: 1) / p`` (each re, im; as :func:`synth.sound.rolling.drive_modes`), ``-1 / p`` (the
+#: static deflection per unit excitation, for the preload); the response's target over a
+#: block after the listener moved (re, im); what turns a listener's gain ``G_k`` (the
+#: body's ``heard``) into the response, ``-i s / omega_dk`` (``s`` the body's full-scale
+#: factor), and into the accelerometer's direct weight ``Re(G_k s / p_k^2) = s phi_k(xp)``
+#: (0 for a microphone) (each re, im); that weight now and its target.
+(
+    C_ER, C_EI, C_LR, C_LI, C_HR, C_HI, C_QR, C_QI, C_TR, C_TI, C_OR, C_OI, C_AR, C_AI,
+    C_D, C_DT,
+) = range(16)  # fmt: skip
+N_COEF = 16
 
 #: Rows of a slot's work buffer (float64 (N_BUF, mix frames)).
 W_SPEED, W_FORCE, W_MINPEN, W_CENTRE = range(4)
@@ -158,18 +175,43 @@ def _carray2(address, a, b):
     return numba.carray(pointer_to(address), (a, b), np.float64)
 
 
+@compiled(nogil=True, inline="always")
+def _direct_weights(d, row):
+    """``sum_k d_k row_k``: an accelerometer's direct term per newton at a table row."""
+    acc = 0.0
+    for k in range(d.shape[0]):
+        acc += d[k] * row[k]
+    return acc
+
+
+@compiled(nogil=True, inline="always")
+def _heard_change(coef, zr, zi):
+    """``sum_k Re[(target_k - response_k) zeta_k]``: what the listener's move adds to the
+    heard signal of the modes ``zr + i zi`` when the ramp is complete."""
+    tr, ti, lr, li = coef[C_TR], coef[C_TI], coef[C_LR], coef[C_LI]
+    acc = 0.0
+    for k in range(zr.shape[0]):
+        acc += (tr[k] - lr[k]) * zr[k] - (ti[k] - li[k]) * zi[k]
+    return acc
+
+
 @compiled(nogil=True, sums=True)
 def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, gain0, gain1,
-           fade_at, fade_len):  # fmt: skip
+           fade_at, fade_len, ramp, direct, previous):  # fmt: skip
     """Drive the modes ``zr + i zi`` (updated in place) with ``force`` held over each period
     at ``coordinate`` (m along the table's segment; rows interpolated linearly, held at the
-    table's ends), adding what the listener hears (``coef``'s response), times the gain
-    ramped from ``gain0`` to ``gain1`` and the raised-cosine fade from ``fade_at`` (-1 none)
-    of ``fade_len`` frames, into ``out``. The recursion of
-    :func:`synth.sound.rolling.drive_modes`. Returns the samples held at a table end."""
+    table's ends), adding what the listener hears (``coef``'s response, ramped to its
+    target over the block when ``ramp``; with ``direct``, an accelerometer's direct term at
+    each sample, the mean of the held force's two sides there, ``previous`` the force
+    before the block), times the gain ramped from ``gain0`` to ``gain1`` and the
+    raised-cosine fade from ``fade_at`` (-1 none) of ``fade_len`` frames, into ``out``. The
+    recursion of :func:`synth.sound.rolling.drive_modes`. Returns the samples held at a
+    table end."""
     er, ei, lr, li, hr, hi = coef[C_ER], coef[C_EI], coef[C_LR], coef[C_LI], coef[C_HR], coef[C_HI]
     overrun = 0
     g_step = (gain1 - gain0) / n
+    weights = -1  # the table interval whose direct weights are da0 .. db1
+    da0 = da1 = db0 = db1 = 0.0
     for j in range(n):
         u = (coordinate[j] - start) / step
         if u > rows - 1.0:
@@ -187,13 +229,65 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
         wb = t * F
         row_a = table[i]
         row_b = table[i + 1]
-        acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
+        w = (j + 1.0) / n  # the listener's ramp, as the body's impact voices' (heard.py)
+        moved = _heard_change(coef, zr, zi) if ramp else 0.0
+        acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi) + w * moved
+        if direct:
+            if i != weights:
+                da0 = _direct_weights(coef[C_D], row_a)
+                db0 = _direct_weights(coef[C_D], row_b)
+                da1 = _direct_weights(coef[C_DT], row_a) if ramp else da0
+                db1 = _direct_weights(coef[C_DT], row_b) if ramp else db0
+                weights = i
+            da = da0 + w * (da1 - da0)
+            db = db0 + w * (db1 - db0)
+            acc += 0.5 * (F + previous) * ((1.0 - t) * da + t * db)
+            previous = F
         g = gain0 + g_step * (j + 1)
         if fade_at >= 0:
             at = fade_at + j
             g = g * 0.5 * (1.0 + math.cos(math.pi * at / fade_len)) if at < fade_len else 0.0
         out[j] += g * acc
     return overrun
+
+
+@compiled(nogil=True, inline="always")
+def _take_heard(iv, coef, heard, seq):
+    """At a block's start: if the body's listener moved since the slot's gains (its handed
+    over gains whole: the producer's sequence number even and unchanged across the copy,
+    as :func:`synth.live.kernel.mix_body` takes them), make them the slot's target for
+    this block; returns whether it did (the block ramps to them)."""
+    put = seq[SEQ_PUT]
+    if put == iv[I_HEARD] or put % 2 == 1:
+        return False
+    fence()  # the gains after their sequence number
+    for k in range(coef.shape[1]):
+        gr = heard[HPR, k]
+        gi = heard[HPI, k]
+        coef[C_TR, k] = gr * coef[C_OR, k] - gi * coef[C_OI, k]
+        coef[C_TI, k] = gr * coef[C_OI, k] + gi * coef[C_OR, k]
+        coef[C_DT, k] = gr * coef[C_AR, k] - gi * coef[C_AI, k]
+    fence()
+    if seq[SEQ_PUT] != put:  # rewritten meanwhile: try again at the next block
+        return False
+    iv[I_HEARD] = put
+    return True
+
+
+def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
+    """A slot's rows that turn a listener's gains into what it hears (``C_LR``, ``C_LI``,
+    ``C_D`` and the conversions ``C_OR`` .. ``C_AI``; see ``C_ER``), for ``gains`` (the
+    body's ``heard``, complex (K,)) of modes of ``poles`` (rad/s), at the body's full-scale
+    ``scale``; the response is :func:`synth.sound.modal_bank.bank_coefficients`'s."""
+    p = np.asarray(poles, dtype=complex)
+    to_response = -1j * scale / p.imag
+    to_direct = scale / (p * p) if accelerometer else np.zeros(p.size, dtype=complex)
+    response = gains * to_response
+    return {
+        C_LR: response.real, C_LI: response.imag, C_OR: to_response.real,
+        C_OI: to_response.imag, C_AR: to_direct.real, C_AI: to_direct.imag,
+        C_D: (gains * to_direct).real,
+    }  # fmt: skip
 
 
 @compiled(nogil=True, inline="always")
@@ -239,9 +333,10 @@ def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
 
 
 @compiled(nogil=True)
-def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, events):
+def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, heard, seq, events):
     """One block of one live slot (module docstring)."""
     _take_update(iv, fv, y)
+    ramp = _take_heard(iv, coef, heard, seq)
     front = iv[I_FRONT]
     m = meta[front]
     speed = m[M_SPEED]
@@ -288,7 +383,9 @@ def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, events):
     rows = int(m[M_ROWS])
     start, step = m[M_START], m[M_STEP]
     zr, zi = z[0], z[1]
+    previous = fv[F_PREVIOUS]
     if iv[I_STARTED] == 0:
+        previous = force[0]  # the plate starts loaded with it (as the offline preload)
         u = min(max((buf[W_CENTRE, 0] - start) / step, 0.0), rows - 1.0)
         i = min(int(math.floor(u)), rows - 2)
         _preload(coef, table[i], table[i + 1], u - i, force[0], zr, zi)
@@ -296,19 +393,38 @@ def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, events):
     fade_at = iv[I_FADE_AT]
     iv[I_OVERRUN] += _drive(
         out, n, force, buf[W_CENTRE], start, step, rows, table, coef, zr, zi, fv[F_GAIN_NOW],
-        fv[F_GAIN], fade_at, iv[I_FADE_LEN],
+        fv[F_GAIN], fade_at, iv[I_FADE_LEN], ramp, iv[I_DIRECT] != 0, previous,
     )  # fmt: skip
+    if ramp:
+        _reach_heard(coef)
     fv[F_GAIN_NOW] = fv[F_GAIN]
     fv[F_PREVIOUS] = force[n - 1]
     fv[F_SPEED] = speed
     iv[I_FRAMES] += n
     if fade_at >= 0:
-        iv[I_FADE_AT] = fade_at + n
-        if fade_at + n >= iv[I_FADE_LEN]:  # faded out: the slot is free, the voice ended
-            vid = iv[I_ID]
-            fence()
-            iv[I_STATE] = FREE
-            post_event(events, vid * EVENT_EARS + iv[I_EARS])
+        _advance_fade(iv, fade_at, n, events)
+
+
+@compiled(nogil=True, inline="always")
+def _reach_heard(coef):
+    """The listener's target reached at a ramp's end: the slot hears through it from the
+    next block."""
+    for k in range(coef.shape[1]):
+        coef[C_LR, k] = coef[C_TR, k]
+        coef[C_LI, k] = coef[C_TI, k]
+        coef[C_D, k] = coef[C_DT, k]
+
+
+@compiled(nogil=True, inline="always")
+def _advance_fade(iv, fade_at, n, events):
+    """A fading slot ``n`` frames further from ``fade_at``: once faded out, the slot is
+    free and its voice's end posted."""
+    iv[I_FADE_AT] = fade_at + n
+    if fade_at + n >= iv[I_FADE_LEN]:
+        vid = iv[I_ID]
+        fence()
+        iv[I_STATE] = FREE
+        post_event(events, vid * EVENT_EARS + iv[I_EARS])
 
 
 @compiled(nogil=True, inline="always")
@@ -324,14 +440,14 @@ def any_live(ints):
 def mix_rolls(out, n, form, events):
     """Add every live rolling slot's block of ``n`` frames into ``out`` (the body's mix,
     before its gain); returns whether one rang."""
-    ints, floats, ys, bufs, zs, coefs, tables, metas = form
+    ints, floats, ys, bufs, zs, coefs, tables, metas, heard, seq = form
     rang = False
     for r in range(ints.shape[0]):
         if ints[r, I_STATE] != LIVE:
             continue
         fence()  # the slot's data, written before its state word
         _roll_slot(out, n, ints[r], floats[r], ys[r], bufs[r], zs[r], coefs[r],
-                   tables[r], metas[r], events)  # fmt: skip
+                   tables[r], metas[r], heard, seq, events)  # fmt: skip
         rang = True
     return rang
 

@@ -261,7 +261,8 @@ def body_form(record):
 @compiled(nogil=True, inline="always")
 def rolling_form(record):
     """Views of a body's rolling slots' arrays (:func:`synth.live.rolling_block.rolling_arrays`)
-    from its ``record``, as :func:`synth.live.rolling_block.mix_rolls` takes them."""
+    and of its listener's gains (``heard``, ``heard_seq``) from its ``record``, as
+    :func:`synth.live.rolling_block.mix_rolls` takes them."""
     R = record[B_ROLLS]
     K = record[B_MODES]
     P = record[B_ROLL_ROWS]
@@ -279,6 +280,8 @@ def rolling_form(record):
         numba.carray(pointer_to(record[B_ROLL_COEF]), (R, rolling_block.N_COEF, K), np.float64),
         numba.carray(pointer_to(record[B_ROLL_TABLES]), (R, 3, P, K), np.float64),
         numba.carray(pointer_to(record[B_ROLL_META]), (R, 3, rolling_block.N_META), np.float64),
+        numba.carray(pointer_to(record[B_HEARD]), (N_HEARD_ROWS, K), np.float64),
+        i64_at(record[B_HEARD_SEQ], 2),
     )
 
 
