@@ -216,7 +216,8 @@ def drive_modes(
     coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
     hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
-    direct = path.direct if path.direct is not None else np.zeros((2, K))
+    # the direct term's sum over the modes at each row: interpolated as the rows are
+    direct = np.zeros(2) if path.direct is None else np.sum(path.direct, axis=1)
     zeta = np.zeros(K, dtype=complex)
     if F_pre != 0.0 and F.size:
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
@@ -333,6 +334,14 @@ def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
     return acc
 
 
+@compiled(inline="always")
+def _direct_at(direct, i, t, F, previous):  # pragma: no cover - compiled
+    """An accelerometer's direct term at a sample in the table's interval ``i`` at the
+    fraction ``t``: the mean of the held forces ``previous`` and ``F`` (N) before and after
+    it times the modes' summed ``direct`` row, interpolated."""
+    return 0.5 * (F + previous) * ((1.0 - t) * direct[i] + t * direct[i + 1])
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
@@ -342,7 +351,8 @@ def _drive(
     one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
     li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
     as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
-    force before the first period, N.
+    force before the first period, N; ``direct`` the direct term summed over the modes at
+    each row of the table (an accelerometer's, ``has_direct``).
 
     Two consecutive samples in the same interval of the table (most are: the table's step
     is many samples' travel) are driven in one pass over the modes, each mode's
@@ -359,7 +369,7 @@ def _drive(
         F = force[j]
         wa = (1.0 - t) * F
         wb = t * F
-        if j + 1 < n and not has_direct:
+        if j + 1 < n:
             i2, t2 = _row(coordinate[j + 1], start, step, rows)
             if i2 == i:
                 F2 = force[j + 1]
@@ -380,6 +390,9 @@ def _drive(
                     r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
                     zi[k] = er[k] * z_i + ei[k] * z_r + hi[k] * bf
                     zr[k] = r
+                if has_direct:
+                    acc += _direct_at(direct, i, t, F, previous)
+                    acc2 += _direct_at(direct, i, t2, F2, F)
                 out[j] = acc
                 out[j + 1] = acc2
                 previous = F2
@@ -388,11 +401,7 @@ def _drive(
         acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
         if has_direct:
             # the held force jumps at t_j: its value there is the mean of both sides
-            Fj = 0.5 * (F + previous)
-            da = direct[i]
-            db = direct[i + 1]
-            for k in range(K):
-                acc += Fj * ((1.0 - t) * da[k] + t * db[k])
+            acc += _direct_at(direct, i, t, F, previous)
         previous = F
         out[j] = acc
         j += 1
