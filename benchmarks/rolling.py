@@ -185,7 +185,7 @@ def run_contact_speeds(repeat: int = 3) -> list[dict]:
     model = modal_model(
         plate, Accelerometer((0.3, 0.2)), samplerate=SAMPLERATE, max_frequency=5000.0
     )
-    floor = 10.0 ** (RenderOptions().floor_db / 20.0)
+    floor = 10.0 ** (RenderOptions(samplerate=SAMPLERATE).floor_db / 20.0)
     runs = []
     for speed in SPEEDS:
 
