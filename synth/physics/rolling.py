@@ -486,11 +486,14 @@ def _solve(setup, speeds, s0, state):
         E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
     )
     path += 0.5 * speeds / fs  # the middle of each period
-    reached = np.isfinite(path)
-    coordinate = np.full(N, np.nan)
-    points = np.full((N, 2), np.nan)
     # the integrated path is the planned one (checked on the plate) within rounding
-    coordinate[reached], points[reached] = _contact_points(setup, path[reached])
+    if status == _k.OK:
+        coordinate, points = _contact_points(setup, path)
+    else:
+        reached = np.isfinite(path)
+        coordinate = np.full(N, np.nan)
+        points = np.full((N, 2), np.nan)
+        coordinate[reached], points[reached] = _contact_points(setup, path[reached])
     final = RollingState(read_only(y.copy()), float(h))
     for a in (forces, path, coordinate, points, min_pen, speeds):
         a.setflags(write=False)
