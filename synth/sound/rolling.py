@@ -283,16 +283,16 @@ def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
 
 
 def audible_modes(force, path: PathExcitation, poles, output, samplerate, *, floor: float,
-                  reference: float, preload: float = 0.0,
-                  state: ModeState | None = None) -> np.ndarray:  # fmt: skip
-    """The mask (K,) of the modes whose part of :func:`drive_modes`' signal may exceed
-    their share of the omission budget ``floor * reference`` (``floor`` a fraction,
-    ``reference`` an amplitude in the signal's units), by their :func:`mode_bounds` and
+                  reference: float, preload: float = 0.0) -> np.ndarray:  # fmt: skip
+    """The mask (K,) of the modes whose part of :func:`drive_modes`' signal (from the
+    ``preload``'s state) may exceed their share of the omission budget ``floor *
+    reference`` (``floor`` a fraction, ``reference`` an amplitude in the signal's units),
+    by their :func:`mode_bounds` and
     the modal bank's rule (:func:`synth.sound.modal_bank.kept_modes`): the modes left
     out add up to at most ``floor * reference`` at every sample."""
     f = checks.nonnegative("floor", floor, "dimensionless")
     ref = checks.nonnegative("reference", reference, "the signal's units")
-    bounds = mode_bounds(force, path, poles, output, samplerate, preload=preload, state=state)
+    bounds = mode_bounds(force, path, poles, output, samplerate, preload=preload)
     return kept_modes(bounds, ref, f)[0]
 
 
