@@ -176,6 +176,37 @@ def test_rolling_sound_on_a_plate():
         outs.append(sound.rolling_sound(r, model))
     assert np.all(np.isfinite(outs[0])) and np.max(np.abs(outs[0])) > 0.0
     assert outs[0].tobytes() == outs[1].tobytes()
+    check_mode_bounds(r, model, outs[0])
+
+
+def check_mode_bounds(r, model, full):
+    """Each mode's part of the signal stays within its bound (sound.mode_bounds: a geometric
+    series, an invariant of the recursion), and the modes that sound.audible_modes leaves
+    out change no sample by more than ``floor * reference`` (the omission budget)."""
+    c = r.contact_coordinate
+    path = sound.path_excitation(
+        model, origin=r.origin, direction=r.direction, start=c.min(), stop=c.max()
+    )
+    preload = float(r.force[0])
+    bounds = sound.mode_bounds(r.force, path, model.poles, model.output, FS, preload=preload)
+    for k in range(model.poles.size):
+        one = np.arange(model.poles.size) == k
+        part = sound.drive_modes(
+            r.force, c, path.modes(one), model.poles[one], model.output[one], FS,
+            preload=preload,
+        )  # fmt: skip
+        assert np.max(np.abs(part)) <= bounds[k]
+    # a floor that leaves out the modes of the smaller bounds, some of them audible
+    reference = float(np.max(np.abs(full)))
+    floor = np.median(bounds) * bounds.size / reference
+    keep = sound.audible_modes(
+        r.force, path, model.poles, model.output, FS, floor=floor, reference=reference,
+        preload=preload,
+    )  # fmt: skip
+    assert 0 < keep.sum() < keep.size
+    kept = sound.rolling_sound(r, model, floor=floor, reference=reference)
+    assert np.max(np.abs(kept - full)) > 0.0
+    assert np.max(np.abs(kept - full)) <= floor * reference
 
 
 def test_drive_modes_rejects_bad_input():

@@ -490,11 +490,22 @@ def _block_speeds(v, decel, n, fs, x, x_end) -> tuple[np.ndarray, str]:
     if n and planned[-1] <= 0.0:
         planned = planned[: int(np.searchsorted(-planned, 0.0))]
         end = "stopped"
+    if not planned.size or x + _reach_bound(planned, fs, x) <= x_end:
+        return planned, end
     reached = x + np.cumsum(planned) / fs
-    if reached.size and reached[-1] > x_end:
+    if reached[-1] > x_end:
         planned = planned[: int(np.searchsorted(reached, x_end, side="right"))]
         end = "left-plate"
     return planned, end
+
+
+def _reach_bound(planned, fs, x) -> float:
+    """A bound (m) of the centre's travel ``cumsum(planned)[-1] / fs`` as floats give it
+    (speeds > 0, m/s, monotone: the largest at an end): ``n v_max / fs`` plus far more than
+    the rounding of ``n`` sums and of the addition to ``x`` (m), so that a block it keeps
+    short of the plate's edge needs no cumulative sum."""
+    travel = planned.size * max(float(planned[0]), float(planned[-1])) / fs
+    return travel + 1e-9 * (travel + abs(x))
 
 
 def c_rr_deceleration(resistance: float, gravity: float) -> float:

@@ -31,6 +31,7 @@ ball's rotation.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -345,6 +346,12 @@ class _Setup:
         delta_max = ((n + 1.0) * self.mass * u * u / (2.0 * K)) ** (1.0 / (n + 1.0))
         return min(delta_max / u, 1.0 / self.samplerate)
 
+    @functools.cached_property
+    def kernel_constants(self) -> tuple:
+        """:meth:`Roller.kernel_constants`, worked out once (a path calls the kernel per
+        block)."""
+        return _kernel_constants(self)
+
 
 def _contact_points(setup, centre):
     """Path coordinates (m) and plate points (m) of the touching points of the centre at
@@ -452,6 +459,11 @@ def _integrate(setup, speeds, y, h):
 
 def _constants(setup) -> tuple:
     """The kernel's constants of ``setup`` (see :meth:`Roller.kernel_constants`)."""
+    return setup.kernel_constants
+
+
+def _kernel_constants(setup) -> tuple:
+    """:func:`_constants`, worked out."""
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
@@ -474,11 +486,14 @@ def _solve(setup, speeds, s0, state):
         E0, E1, loss, plate_e, drive, gross, abs(E1 - E0 + loss + plate_e - drive) / scale
     )
     path += 0.5 * speeds / fs  # the middle of each period
-    reached = np.isfinite(path)
-    coordinate = np.full(N, np.nan)
-    points = np.full((N, 2), np.nan)
     # the integrated path is the planned one (checked on the plate) within rounding
-    coordinate[reached], points[reached] = _contact_points(setup, path[reached])
+    if status == _k.OK:
+        coordinate, points = _contact_points(setup, path)
+    else:
+        reached = np.isfinite(path)
+        coordinate = np.full(N, np.nan)
+        points = np.full((N, 2), np.nan)
+        coordinate[reached], points[reached] = _contact_points(setup, path[reached])
     final = RollingState(read_only(y.copy()), float(h))
     for a in (forces, path, coordinate, points, min_pen, speeds):
         a.setflags(write=False)

@@ -8,7 +8,10 @@ pulses and to the rolling's force (superposition):
   impact exciting the modes at its own point (``b_k = phi_k(x_i) / M_k``);
 * the rolling: :func:`synth.sound.rolling.drive_modes`, the force held over each sample
   period at the moving touching point, from its first sample on the same grid (plate at rest
-  for this part: the bounces' part carries what they left ringing);
+  for this part: the bounces' part carries what they left ringing), on the modes that may
+  exceed their share of the floor under the bounces' peak
+  (:func:`synth.sound.rolling.audible_modes`: those left out add at most ``floor`` times
+  that peak, and so times the render's reference, at every sample);
 * after the rolling: the force it leaves (the weight of a ball at rest, nothing after a ball
   that left the plate) held at the last point, until every mode has decayed below the floor
   (or ``max_tail``).
@@ -22,7 +25,7 @@ import numpy as np
 
 from synth.physics.path import BallPath, simulate_path
 from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
-from synth.sound.rolling import ModeState, drive_modes, path_excitation
+from synth.sound.rolling import ModeState, audible_modes, drive_modes, path_excitation
 
 
 def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
@@ -50,9 +53,10 @@ def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
     if rolling is None:
         audio = bounces
     else:
-        audio, tail = _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o)
-        # the rolling drives every mode
-        info.update(tail, n_modes_rendered=int(model.poles.size))
+        audio, tail, driven = _with_rolling(
+            bounces, rolling, path, model, fs, floor, origin_time, o
+        )
+        info.update(tail, n_modes_rendered=max(info["n_modes_rendered"], driven))
     figures = dict(
         path_end=path.end,
         path_end_time=path.end_time,
@@ -92,16 +96,27 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
         model, origin=path.origin, direction=path.direction,
         start=float(np.min(c)), stop=float(np.max(c)),
     )  # fmt: skip
+    # the modes within their share of the floor under the bounces' peak are left out
+    bounce_peak = float(np.max(np.abs(bounces))) if bounces.size else 0.0
+    keep = audible_modes(
+        rolling.force, table, model.poles, model.output, fs, floor=floor, reference=bounce_peak
+    )
+    kept = ModeState.at_rest(int(keep.sum()))
+    drive = drive_modes(
+        rolling.force, c, table.modes(keep), model.poles[keep], model.output[keep], fs,
+        state=kept,
+    )  # fmt: skip
     state = ModeState.at_rest(model.poles.size)
-    drive = drive_modes(rolling.force, c, table, model.poles, model.output, fs, state=state)
-    reference = max(float(np.max(np.abs(bounces))), float(np.max(np.abs(drive))))
+    state.zeta[keep], state.previous = kept.zeta, kept.previous
+    reference = max(bounce_peak, float(np.max(np.abs(drive))))
     tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o.max_tail)
     rolled = np.concatenate((drive, tail))
     audio = np.zeros(max(bounces.size, j0 + rolled.size))
     audio[: bounces.size] += bounces
     audio[j0 : j0 + rolled.size] += rolled
-    work = model.poles.size * drive.size
-    return audio, dict(tail_cut=cut, left_at_end=left / reference, rolling_mode_samples=work)
+    work = int(keep.sum()) * drive.size
+    figures = dict(tail_cut=cut, left_at_end=left / reference, rolling_mode_samples=work)
+    return audio, figures, int(keep.sum())
 
 
 def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:

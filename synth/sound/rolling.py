@@ -39,7 +39,7 @@ import numpy as np
 from synth import checks
 from synth.compilation import compiled
 from synth.errors import ParameterError
-from synth.sound.modal_bank import bank_coefficients
+from synth.sound.modal_bank import bank_coefficients, kept_modes
 
 #: Points of the mode-shape table per bending wavelength of the highest mode.
 POINTS_PER_WAVELENGTH = 32
@@ -64,6 +64,13 @@ class PathExcitation:
     step: float
     excitation: np.ndarray
     direct: np.ndarray | None
+
+    def modes(self, keep) -> PathExcitation:
+        """This table for the modes of the mask ``keep`` (K,) only."""
+        direct = None if self.direct is None else np.ascontiguousarray(self.direct[:, keep])
+        return PathExcitation(
+            self.start, self.step, np.ascontiguousarray(self.excitation[:, keep]), direct
+        )
 
 
 def bending_wavenumber(plate, angular_frequency: float) -> float:
@@ -209,7 +216,8 @@ def drive_modes(
     coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
     hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
-    direct = path.direct if path.direct is not None else np.zeros((2, K))
+    # the direct term's sum over the modes at each row: interpolated as the rows are
+    direct = np.zeros(2) if path.direct is None else np.sum(path.direct, axis=1)
     zeta = np.zeros(K, dtype=complex)
     if F_pre != 0.0 and F.size:
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
@@ -240,6 +248,52 @@ def drive_modes(
         state.zeta = zr + 1j * zi
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
+
+
+def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
+                preload: float = 0.0, state: ModeState | None = None) -> np.ndarray:  # fmt: skip
+    """A bound of each mode's part of :func:`drive_modes`' signal at every sample (the
+    signal's units, (K,)), for the same arguments.
+
+    With ``G_k`` the largest ``|b_k|`` of the path's table (the interpolation between two
+    rows stays within them) times the largest ``|F|``, the recursion of the module
+    docstring gives ``|zeta_k(t_j)| <= |zeta_k(0)| + |h_k| G_k / (1 - |e_k|)`` (``e_k =
+    e^(p_k / fs)``, ``h_k`` the hold's gain: a geometric series), and the listener hears
+    at most ``|l_k|`` times that (``l_k`` its response per unit state), plus for an
+    accelerometer the direct term's largest ``|F| |phi_k(xp) b_k|``."""
+    fs = checks.samplerate(samplerate)
+    p = np.asarray(poles, dtype=complex)
+    F = np.asarray(force, dtype=float)
+    f_max = float(np.max(np.abs(F))) if F.size else 0.0
+    coefficients = bank_coefficients(p, np.ones(p.size), np.asarray(output, dtype=complex), fs)
+    listener = np.abs(coefficients.coef_re + 1j * coefficients.coef_im)
+    b_max = np.max(np.abs(path.excitation), axis=0)
+    if state is not None:
+        start = np.abs(np.asarray(state.zeta))
+    else:
+        start = b_max * abs(checks.real("preload", preload, "N")) / np.abs(p)
+    drive = b_max * f_max
+    with np.errstate(divide="ignore"):
+        ringing = np.abs((np.exp(p / fs) - 1.0) / p) / (1.0 - np.exp(p.real / fs))
+    # an undamped mode's ringing sum has no bound unless nothing drives it
+    bounds = listener * (start + np.where(drive > 0.0, ringing * drive, 0.0))
+    if path.direct is not None:
+        bounds = bounds + f_max * np.max(np.abs(path.direct), axis=0)
+    return bounds
+
+
+def audible_modes(force, path: PathExcitation, poles, output, samplerate, *, floor: float,
+                  reference: float, preload: float = 0.0) -> np.ndarray:  # fmt: skip
+    """The mask (K,) of the modes whose part of :func:`drive_modes`' signal (from the
+    ``preload``'s state) may exceed their share of the omission budget ``floor *
+    reference`` (``floor`` a fraction, ``reference`` an amplitude in the signal's units),
+    by their :func:`mode_bounds` and
+    the modal bank's rule (:func:`synth.sound.modal_bank.kept_modes`): the modes left
+    out add up to at most ``floor * reference`` at every sample."""
+    f = checks.nonnegative("floor", floor, "dimensionless")
+    ref = checks.nonnegative("reference", reference, "the signal's units")
+    bounds = mode_bounds(force, path, poles, output, samplerate, preload=preload)
+    return kept_modes(bounds, ref, f)[0]
 
 
 def _row_at(table, start, step, coordinate) -> np.ndarray:
@@ -280,6 +334,14 @@ def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
     return acc
 
 
+@compiled(inline="always")
+def _direct_at(direct, i, t, F, previous):  # pragma: no cover - compiled
+    """An accelerometer's direct term at a sample in the table's interval ``i`` at the
+    fraction ``t``: the mean of the held forces ``previous`` and ``F`` (N) before and after
+    it times the modes' summed ``direct`` row, interpolated."""
+    return 0.5 * (F + previous) * ((1.0 - t) * direct[i] + t * direct[i + 1])
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
@@ -289,7 +351,8 @@ def _drive(
     one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
     li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
     as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
-    force before the first period, N.
+    force before the first period, N; ``direct`` the direct term summed over the modes at
+    each row of the table (an accelerometer's, ``has_direct``).
 
     Two consecutive samples in the same interval of the table (most are: the table's step
     is many samples' travel) are driven in one pass over the modes, each mode's
@@ -306,7 +369,7 @@ def _drive(
         F = force[j]
         wa = (1.0 - t) * F
         wb = t * F
-        if j + 1 < n and not has_direct:
+        if j + 1 < n:
             i2, t2 = _row(coordinate[j + 1], start, step, rows)
             if i2 == i:
                 F2 = force[j + 1]
@@ -327,6 +390,9 @@ def _drive(
                     r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
                     zi[k] = er[k] * z_i + ei[k] * z_r + hi[k] * bf
                     zr[k] = r
+                if has_direct:
+                    acc += _direct_at(direct, i, t, F, previous)
+                    acc2 += _direct_at(direct, i, t2, F2, F)
                 out[j] = acc
                 out[j + 1] = acc2
                 previous = F2
@@ -335,23 +401,21 @@ def _drive(
         acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
         if has_direct:
             # the held force jumps at t_j: its value there is the mean of both sides
-            Fj = 0.5 * (F + previous)
-            da = direct[i]
-            db = direct[i + 1]
-            for k in range(K):
-                acc += Fj * ((1.0 - t) * da[k] + t * db[k])
+            acc += _direct_at(direct, i, t, F, previous)
         previous = F
         out[j] = acc
         j += 1
 
 
-def rolling_sound(rolling, model) -> np.ndarray:
+def rolling_sound(rolling, model, *, floor: float = 0.0, reference: float = 0.0) -> np.ndarray:
     """What ``model``'s listener (a :class:`synth.sound.render.ModalModel`, at the rolling's
     samplerate) hears of a :class:`synth.physics.rolling.RollingContact`: its force driving
     the plate's modes at its moving contact point (without the listener's propagation
     delay; ``model.delay`` s gives it). The rolling starts as a ball already rolling there
     (:func:`synth.physics.rolling.roll`), so the plate starts loaded with its first
-    period's force (``preload``): no step at the start."""
+    period's force (``preload``): no step at the start. The modes within their share of
+    ``floor * reference`` (a fraction and an amplitude in the signal's units, Pa or
+    m/s^2: :func:`audible_modes`) are left out (with the defaults, none is)."""
     if int(model.samplerate) != int(rolling.samplerate):
         raise ParameterError(
             f"model.samplerate={model.samplerate!r} must equal the rolling's samplerate "
@@ -365,7 +429,14 @@ def rolling_sound(rolling, model) -> np.ndarray:
         start=float(np.min(c)),
         stop=float(np.max(c)),
     )
-    return drive_modes(
-        rolling.force, c, path, model.poles, model.output, rolling.samplerate,
-        preload=float(rolling.force[0]),
-    )  # fmt: skip
+    f = checks.nonnegative("floor", floor, "dimensionless")
+    ref = checks.nonnegative("reference", reference, "the signal's units")
+    preload = float(rolling.force[0])
+    poles, output = model.poles, model.output
+    if f * ref > 0.0:
+        keep = audible_modes(
+            rolling.force, path, poles, output, rolling.samplerate,
+            floor=f, reference=ref, preload=preload,
+        )  # fmt: skip
+        path, poles, output = path.modes(keep), poles[keep], output[keep]
+    return drive_modes(rolling.force, c, path, poles, output, rolling.samplerate, preload=preload)

@@ -85,7 +85,7 @@ from synth.sound.modal_bank.pulse import (
     transform_pulse,
     transform_workspace,
 )
-from synth.sound.modal_bank.synthesis import synthesize
+from synth.sound.modal_bank.synthesis import kept_modes, synthesize
 from synth.sound.modal_bank.transform_kernels import (
     RICHARDSON_MAX_PHASE,
     WORK_ROWS,
@@ -107,6 +107,7 @@ __all__ = [
     "impact_excitation",
     "impact_transform",
     "inject_amplitudes",
+    "kept_modes",
     "long_impact_transform",
     "power_table",
     "pulse_grid",

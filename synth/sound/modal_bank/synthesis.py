@@ -108,10 +108,9 @@ def synthesize(
         )
     t_transform = time.perf_counter() - t_transform
     reference = float(np.max(np.sum(np.abs(amps), axis=1))) if I else 0.0
-    thr = floor * reference / max(K, 1)
     # a mode whose amplitudes add up to at most its share is left out whole
     total = np.sum(np.abs(amps), axis=0) if I else np.zeros(K)
-    keep = total > thr
+    keep, thr = kept_modes(total, reference, floor)
     length = _buffer_length(poles, keep, total, thr, inject, fs, max_samples)
     out = np.zeros(length)
     announce("modal-bank")
@@ -158,6 +157,18 @@ def synthesize(
         left_at_end=left,
     )
     return out, info
+
+
+def kept_modes(bounds, reference, floor) -> tuple[np.ndarray, float]:
+    """The modes worth rendering under the omission budget ``floor * reference`` (module
+    docstring of :mod:`synth.sound.modal_bank`, "Leaving out"): each of the ``K`` modes
+    gets the share ``floor * reference / K``, and a mode whose contribution to any sample
+    is bounded by ``bounds[k]`` (the signal's units) within its share is left out, so the
+    modes left out add up to at most ``floor * reference`` at every sample. Returns the
+    mask of the modes kept (K,) and the share."""
+    bounds = np.asarray(bounds, dtype=float)
+    share = floor * reference / max(bounds.size, 1)
+    return bounds > share, share
 
 
 def _buffer_length(poles, keep, total, thr, inject, fs, max_samples) -> int:
