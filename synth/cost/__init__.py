@@ -100,7 +100,7 @@ from synth.cost.budget import (
 from synth.cost.contact import TAU_HERTZ, FirstContact, hertz_contact_time
 from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
 from synth.cost.modal import check_modes, modal_count, solver_cost
-from synth.cost.radiation import radiation_work, rule_counts
+from synth.cost.radiation import radiation_work
 from synth.cost.rates import RATES, Rates, rule_weights, time_row, weighted_counts
 from synth.cost.records import (
     AUDIO_BYTES_PER_SAMPLE,
@@ -155,7 +155,6 @@ __all__ = [
     "modal_count",
     "modes_excess",
     "radiation_work",
-    "rule_counts",
     "rule_weights",
     "solver_cost",
     "time_row",

@@ -131,7 +131,7 @@ class _SizeCount:
     """This process's count of the disk cache's total size (bytes): the total found by the
     last scan of the directory plus the sizes written since. A write within the bound and
     within :data:`RESCAN_SECONDS` of the scan only adds to it; otherwise the directory is
-    scanned and evicted (:func:`evict`) and the count restarts from what is left."""
+    scanned and evicted (:func:`_evict`) and the count restarts from what is left."""
 
     def __init__(self):
         self._lock = threading.Lock()
@@ -236,23 +236,18 @@ def _stale_temporaries(directory: Path, now: float) -> list[Path]:
     return out
 
 
-def evict(limit: int, *, keep: Path | None = None) -> int:
-    """Delete the least recently used entries of :func:`cache_dir` until their total
-    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
-    temporary files left by dead writers. Safe against other processes doing the same.
-    Returns the number of entries deleted."""
-    return _evict(limit, keep=keep).deleted
-
-
 @dataclass(frozen=True)
 class Eviction:
-    """What one :func:`evict` did: entries ``deleted`` and the bytes ``remaining``."""
+    """What one :func:`_evict` did: entries ``deleted`` and the bytes ``remaining``."""
 
     deleted: int
     remaining: int
 
 
 def _evict(limit: int, *, keep: Path | None = None) -> Eviction:
+    """Delete the least recently used entries of :func:`cache_dir` until their total
+    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
+    temporary files left by dead writers. Safe against other processes doing the same."""
     try:
         directory = cache_dir()
         if not directory.is_dir():
