@@ -137,7 +137,10 @@ def rule_summary(rows: list) -> list:
 
 def _summary_lines(rows: list) -> list:
     """The lines of :func:`rule_summary`."""
-    lines = ["Per rule: the scenes it is chosen for; its least cost ratio to the next cheapest."]
+    lines = [
+        "Per rule: the scenes it is chosen for; its least cost ratio to the next cheapest.",
+        "",
+    ]
     for s in rule_summary(rows):
         scenes = ", ".join(s["chosen"]) if s["chosen"] else "none"
         ratio = "-" if s["best_ratio"] is None else f"{s['best_ratio']:.3g} ({s['best_scene']})"

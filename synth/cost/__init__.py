@@ -36,12 +36,11 @@ options, before the plate's modes, the radiation gains or the bounce series are 
   stops refining there (its gains then carry the convergence warning, with the error
   each mode reached), and a scene whose first rule and one refinement (the fewest the
   convergence test needs) do not fit is refused.
-  The plates whose rectangle-rule work passes the engine's switch-over to the polar,
-  summed or boundary rules (:mod:`synth.sound.radiation`; also a cut of the rectangle rule
-  that switches edge effect modes to the boundary rule) take those instead, whose cost
-  grows with the plate's perimeter rather than its area: their radii, angular points or
-  radial grids are counted from their own builders in the same way
-  (:mod:`synth.sound.radiation.work`), and the budget holds their rules alike.
+  The rule counted is the one the render takes
+  (:func:`synth.sound.radiation.rules.choose_rule`, the cheapest that holds the error
+  bound): the other rules' radii, angular points or radial grids are counted from their
+  own builders in the same way (:mod:`synth.sound.radiation.work`), and the budget holds
+  their rules alike.
   The rules' terms cost different times (a boundary-rule term, Bessel values and
   cumulative integrals, takes many rectangle-rule terms' time, a multiply-add in a matrix
   product), so each rule's work is counted in *rectangle-term equivalents*: its terms

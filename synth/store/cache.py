@@ -378,15 +378,11 @@ class MemoryCache:
             self._items.move_to_end(key)
             return value
 
-    def put(self, key: str, value, *, source: str, better=None) -> None:
+    def put(self, key: str, value, *, source: str) -> None:
         """Hold ``value`` for ``key``, obtained from ``source`` (``"computed"`` or
-        ``"disk"``, counted), unless ``better(held, value)`` says the result held is
-        at least as good. Then drop the least recently used beyond the limits."""
+        ``"disk"``, counted); then drop the least recently used beyond the limits."""
         with self._lock:
             self._stats[self._computed if source == "computed" else "disk_hits"] += 1
-            old = self._items.get(key)
-            if old is not None and better is not None and better(old, value):
-                return
             self._items[key] = value
             self._items.move_to_end(key)
             if self.max_entries is not None:

@@ -78,10 +78,10 @@ class RadiationResult:
     rule: str = "rectangle"
 
     @classmethod
-    def no_modes(cls, rule: str = "rectangle") -> RadiationResult:
+    def no_modes(cls) -> RadiationResult:
         """The result of a rule given no modes: nothing to sum, converged."""
         empty = np.zeros(0)
-        return cls(empty.astype(complex), empty, empty, 0, 0, (0, 0), True, 0, "no modes", rule)
+        return cls(empty.astype(complex), empty, empty, 0, 0, (0, 0), True, 0, "no modes")
 
 
 # ----------------------------------------------------------------------------------------
