@@ -332,9 +332,9 @@ def _counted_rules(name, monkeypatch) -> list:
         summed, "_apply_summed_rule")  # fmt: skip
     original = getattr(module, attr)
 
-    def counted(shapes, size, listener, radii, *rest):
+    def counted(shapes, setup, radii, *rest):
         active = rest[-1]
-        total, angular = original(shapes, size, listener, radii, *rest)
+        total, angular = original(shapes, setup, radii, *rest)
         if name == "polar":
             n_x = np.unique(shapes.x_index[active]).size
             n_y = np.unique(shapes.y_index[active]).size

@@ -156,15 +156,16 @@ def _circle_points(radii, size, listener, kb, tol, refine):
     return whole, theta, weights, ends
 
 
-def _apply_separable_rule(
-    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
-):
+def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
-    in ``active`` (indices), and the number of points, by the polar rule (radii
-    ``radii`` with weights ``wr``). At each radius the angular sums are over the arcs on
+    in ``active`` (indices), and the number of points, by the polar rule of ``setup``
+    (:class:`_PolarSetup`) refined by ``refine`` (radii ``radii`` with weights ``wr``).
+    At each radius the angular sums are over the arcs on
     the plate, or, when those off the plate are shorter, the whole circle in closed form
     minus the arcs off the plate (see the comment above :data:`HANKEL_FROM`). Only the
     factors those modes use enter the angular products."""
+    size, listener, kb, tol = setup.size, setup.listener, setup.kb, setup.tol_panel
+    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
     a, b = size
     xl, yl, zl = listener
     m = active.size
@@ -449,8 +450,8 @@ def separable_gains(
 
 
 def polar_rule_gains(setup: _PolarSetup, shapes, in_phase, apply, caller, full_output):
-    """:func:`polar_gains` of ``shapes`` by the polar rule whose sums are ``apply`` (the
-    arguments of :func:`_apply_separable_rule`) on ``setup``'s radial panels, each refined
+    """:func:`polar_gains` of ``shapes`` by the polar rule whose sums are ``apply`` (as
+    :func:`_apply_separable_rule`) on ``setup``'s radial panels, each refined
     rule on its radial nodes; ``in_phase()`` the modes' in-phase integrals."""
     if setup.q.size == 0:
         return polar_gains(setup, None, caller, full_output)
@@ -459,20 +460,7 @@ def polar_rule_gains(setup: _PolarSetup, shapes, in_phase, apply, caller, full_o
     def rule(level, active):
         f = REFINE**level
         radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        total, n = apply(
-            shapes,
-            setup.size,
-            setup.listener,
-            radii,
-            wr,
-            setup.kb,
-            setup.tol_panel,
-            f,
-            setup.q,
-            setup.r_mid,
-            setup.halvings,
-            active,
-        )
+        total, n = apply(shapes, setup, radii, wr, f, active)
         return total, mag[active], n
 
     return polar_gains(setup, rule, caller, full_output)

@@ -40,14 +40,16 @@ from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 # it with the full rectangle rule).
 
 
-def _apply_summed_rule(
-    shapes, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
-):
+def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the summed shapes ``k`` in
-    ``active`` (increasing indices) by the polar rule (radii ``radii`` with weights
-    ``wr``), and the number of points. The angular sums ``A`` serve every mode; only the
-    modes ``active`` are combined from them and take exponentials."""
-    a, b = size
+    ``active`` (increasing indices) by the polar rule of ``setup``
+    (:class:`~synth.sound.radiation.polar._PolarSetup`) refined by ``refine`` (radii
+    ``radii`` with weights ``wr``), and the number of points. The angular sums ``A``
+    serve every mode; only the modes ``active`` are combined from them and take
+    exponentials."""
+    listener, kb, tol = setup.listener, setup.kb, setup.tol_panel
+    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
+    a, b = setup.size
     xl, yl, zl = listener
     m = active.size
     q = q[active]
