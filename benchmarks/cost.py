@@ -104,8 +104,23 @@ def _rule_call(rule, m, listener, s, kb):
     )  # fmt: skip
 
 
+def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
+    """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
+    "polar", "summed", "banded" or "boundary", :mod:`synth.sound.radiation.rules`) for
+    ``listener`` (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz),
+    whichever rule the engine would take."""
+    from synth.cost.radiation import radiation_problem
+    from synth.sound.radiation.rules import RULES
+
+    problem = radiation_problem(plate, listener, modes, f_max)
+    found = [r for r in RULES if r.name == rule and r.applies(problem)]
+    if not found:
+        raise ValueError(f"the {rule} rule does not take the shapes of {plate!r}")
+    return found[0].counts(problem)
+
+
 def _rule_rate(rule: str) -> StageRate:
-    from synth import Microphone, cost
+    from synth import Microphone
     from synth.physics.modes import modes
 
     spec = RULE_SCENES[rule]
@@ -115,7 +130,7 @@ def _rule_rate(rule: str) -> StageRate:
     s = np.asarray(m.decay_rates) + 1j * omega  # the render's mirror poles
     kb = (float(omega.max()) ** 2 * plate.surface_density / plate.flexural_rigidity) ** 0.25
     result, seconds = _timed(lambda: _rule_call(rule, m, listener, s, kb))
-    counts = cost.rule_counts(rule, plate, Microphone(listener), len(m), f_max)
+    counts = rule_counts(rule, plate, Microphone(listener), len(m), f_max)
     rules = result.refinements + 1
     work = float(sum(counts.work[:rules])) + (0.0 if rule == "boundary" else counts.fixed)
     return StageRate(rule, len(m), work, seconds, work / seconds)

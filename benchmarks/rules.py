@@ -6,8 +6,9 @@ radiation problem (:func:`synth.cost.radiation.radiation_problem`, nothing solve
 of each rule that takes its shapes (:meth:`synth.sound.radiation.rules.Rule.cost`: the first
 rule and its check rule in rectangle-term equivalents, over the shipped rectangle rate: the
 estimated seconds on the machine that recorded the rates) and the rule
-:func:`~synth.sound.radiation.rules.choose_rule` takes. A rule never chosen here is a rule
-whose cost never pays on these scenes. The edge effect modes' two rules are also timed on the
+:func:`~synth.sound.radiation.rules.choose_rule` takes; per rule, the scenes it is chosen for
+and its least cost ratio to the cheapest other rule (:func:`rule_summary`). A rule never
+chosen here is a rule whose estimated cost never pays on these scenes. The edge effect modes' two rules are also timed on the
 default board at :data:`EDGE_RATE` (:func:`measure_edge_rules`): the figure of where the
 boundary rule pays, beside their estimates.
 """
@@ -98,7 +99,7 @@ def _rule_rows() -> list:
         f_max = 0.5 * fs
         modes = modal_count(scene.plate, f_max)
         problem = radiation_problem(scene.plate, scene.listener, modes, f_max)
-        costs = {r.name: r.cost(problem) / rate for r in RULES if r.applies(problem)}
+        costs = {r.name: r.estimate(problem).cost / rate for r in RULES if r.applies(problem)}
         rows.append(
             {
                 "scene": name,
@@ -111,9 +112,46 @@ def _rule_rows() -> list:
     return rows
 
 
+def rule_summary(rows: list) -> list:
+    """Per rule of :data:`RULE_NAMES`: the scenes it is chosen for and, over the scenes it
+    takes, its least ratio of estimated cost to the cheapest other rule's (below 1 where it
+    is chosen on cost), with the scene of that ratio."""
+    out = []
+    for name in RULE_NAMES:
+        ratios = [
+            (row["seconds"][name] / min(v for n, v in row["seconds"].items() if n != name), row)
+            for row in rows
+            if name in row["seconds"] and len(row["seconds"]) > 1
+        ]
+        best = min(ratios, key=lambda item: item[0], default=(None, None))
+        out.append(
+            {
+                "rule": name,
+                "chosen": [row["scene"] for row in rows if row["chosen"] == name],
+                "best_ratio": best[0],
+                "best_scene": None if best[1] is None else best[1]["scene"],
+            }
+        )
+    return out
+
+
+def _summary_lines(rows: list) -> list:
+    """The lines of :func:`rule_summary`."""
+    lines = [
+        "Per rule: the scenes it is chosen for; its least cost ratio to the next cheapest.",
+        "",
+    ]
+    for s in rule_summary(rows):
+        scenes = ", ".join(s["chosen"]) if s["chosen"] else "none"
+        ratio = "-" if s["best_ratio"] is None else f"{s['best_ratio']:.3g} ({s['best_scene']})"
+        lines.append(f"- {s['rule']}: chosen for {len(s['chosen'])}: {scenes}; least ratio {ratio}")
+    return lines
+
+
 def format_rules(result) -> str:
-    """The table of :func:`run_rules`, the count of scenes each rule is chosen for and the
-    edge rules' measured times."""
+    """The table of :func:`run_rules`, the count and names of the scenes each rule is
+    chosen for with its cost ratio to the next cheapest rule, and the edge rules' measured
+    times."""
     rows, edge = result["rows"], result["edge"]
     header = ["scene", "shapes", "modes", *RULE_NAMES, "chosen"]
     cells = [
@@ -136,5 +174,7 @@ def format_rules(result) -> str:
         f"({edge['modes']} modes): banded rule {edge['banded_cpu_s']:.3g} CPU s, boundary "
         f"rule {edge['boundary_cpu_s']:.3g} CPU s (every thread), their gains within "
         f"{edge['difference_over_bound']:.2g} of the bound of two rules (2 tol).",
+        "",
+        *_summary_lines(rows),
     ]
     return "\n".join(lines)

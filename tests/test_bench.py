@@ -139,3 +139,22 @@ def test_scale_child_measures_a_small_plate():
     )
     assert "error" not in out, out
     assert out["n_modes"] > 0 and out["gains_s"] >= 0.0
+
+
+def test_rule_summary_names_each_rules_scenes_and_least_ratio():
+    # synth bench rules' per-rule lines, on three made-up rows: a rule's ratio is its cost
+    # over the cheapest other rule's on a scene (exact arithmetic of the row's figures), the
+    # least over the scenes that take it; a rule taking no scene with another has none.
+    from benchmarks.rules import rule_summary
+
+    rows = [
+        {"scene": "a", "seconds": {"rectangle": 2.0, "polar": 1.0}, "chosen": "polar"},
+        {"scene": "b", "seconds": {"rectangle": 1.0, "polar": 4.0}, "chosen": "rectangle"},
+        {"scene": "c", "seconds": {"banded": 3.0, "boundary": 6.0}, "chosen": "banded"},
+    ]
+    got = {s["rule"]: s for s in rule_summary(rows)}
+    assert got["polar"]["chosen"] == ["a"] and got["polar"]["best_ratio"] == 0.5
+    assert got["rectangle"]["chosen"] == ["b"] and got["rectangle"]["best_ratio"] == 0.25
+    assert got["boundary"]["chosen"] == [] and got["boundary"]["best_ratio"] == 2.0
+    assert got["boundary"]["best_scene"] == "c"
+    assert got["summed"]["best_ratio"] is None and got["summed"]["chosen"] == []

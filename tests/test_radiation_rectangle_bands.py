@@ -148,13 +148,14 @@ def test_choose_rule_takes_the_cheapest_rule_that_holds_the_bound():
     for side, f_max in ((1.0, 12000.0), (3.0, 24000.0), (5.0, 6000.0)):
         problem = _sheet_problem(side, f_max)
         assert problem.shapes == "edge"
-        banded, boundary = rules.BandedRule(), rules.BoundaryRule()
-        assert banded.error_bound(problem) == boundary.error_bound(problem) == problem.tol
-        cheaper = min((banded, boundary), key=lambda r: r.cost(problem))
-        assert type(rules.choose_rule(problem)) is type(cheaper)
+        banded, boundary = (r.estimate(problem) for r in (rules.BandedRule(), rules.BoundaryRule()))
+        assert banded.error_bound == boundary.error_bound == problem.tol
+        cheaper = min((banded, boundary), key=lambda e: e.cost)
+        assert type(rules.choose_rule(problem)) is type(cheaper.rule)
     problem = _sheet_problem(1.0, 12000.0)
     assert rules.choose_rule(problem).name == "banded"
     cut = rules.BandedRule().counts(problem).points[1] - 1
     tight = _sheet_problem(1.0, 12000.0, cut)
-    assert rules.BandedRule().error_bound(tight) == np.inf
-    assert rules.BoundaryRule().fits(tight) and rules.choose_rule(tight).name == "boundary"
+    assert rules.BandedRule().estimate(tight).error_bound == np.inf
+    assert rules.BoundaryRule().estimate(tight).fits
+    assert rules.choose_rule(tight).name == "boundary"

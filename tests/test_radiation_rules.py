@@ -48,11 +48,12 @@ def test_choose_rule_is_the_cheapest_rule_that_holds_the_bound():
     cases = [(load_preset(n).plate, load_preset(n).listener.position, 24000.0) for n in PRESETS]
     for plate, listener, f_max in cases + _random_plates(6):
         problem = radiation_problem(plate, Microphone(listener), modal_count(plate, f_max), f_max)
-        fitting = [r for r in rules.RULES if r.applies(problem) and r.fits(problem)]
-        assert fitting and all(r.error_bound(problem) == problem.tol for r in fitting)
+        estimates = [r.estimate(problem) for r in rules.RULES if r.applies(problem)]
+        fitting = [e for e in estimates if e.fits]
+        assert fitting and all(e.error_bound == problem.tol for e in fitting)
         chosen = rules.choose_rule(problem)
-        assert chosen in fitting
-        assert chosen.cost(problem) == min(r.cost(problem) for r in fitting)
+        assert chosen in [e.rule for e in fitting]
+        assert chosen.estimate(problem).cost == min(e.cost for e in fitting)
 
 
 def _check_against_reference(plate, listener, f_max):

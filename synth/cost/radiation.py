@@ -116,29 +116,13 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     first; see the module docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
-    from synth.sound.radiation.rules import choose_rule
+    from synth.sound.radiation.rules import chosen_estimate
 
     if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
     terms = shape_terms(plate, f_max)
     problem = radiation_problem(plate, listener, modes, f_max)
-    rule = choose_rule(problem)
-    return _fitted(rule.counts(problem), modes, terms, budget)
-
-
-def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
-    """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
-    "polar", "summed" or "boundary", :mod:`synth.sound.radiation.rules`) for ``listener``
-    (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz), whichever rule
-    the engine would take (the rectangle rule of a plate past the Ritz crossover: band by
-    band)."""
-    from synth.sound.radiation.rules import RULES
-
-    problem = radiation_problem(plate, listener, modes, f_max)
-    found = [r for r in RULES if r.name == rule and r.applies(problem)]
-    if not found:
-        raise ValueError(f"the {rule} rule does not take the shapes of {plate!r}")
-    return found[0].counts(problem)
+    return _fitted(chosen_estimate(problem).counts, modes, terms, budget)
 
 
 def _ritz_band_frequency(plate, f_max: float) -> float:

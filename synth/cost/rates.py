@@ -79,10 +79,12 @@ def weighted_counts(counts):
     rule of its Ritz modes (weight 1)."""
     weight = rule_weights()[counts.rule]
     fixed_weight = 1.0 if counts.rule == "boundary" else weight
+    check = None if counts.check_fixed is None else fixed_weight * float(counts.check_fixed)
     return dataclasses.replace(
         counts,
         work=tuple(weight * float(w) for w in counts.work),
         fixed=fixed_weight * float(counts.fixed),
+        check_fixed=check,
     )
 
 

@@ -80,17 +80,17 @@ a time, so the method is the same at any sample rate.
 Noise
 -----
 A recording's background noise is not predictable: a continuation by linear prediction
-alone decays into silence below the noise floor (a dropout, up to 33 dB deep at 20 dB
-SNR). The noise floor is estimated from the recording's quietest 10 ms frames (within
-3 dB of the quietest one, frames of digital silence left out): its level, and its
-spectral envelope as an all-pole model of ``NOISE_ORDER`` s fitted to the mean
-autocorrelation of those frames. Where the output has no recorded noise (step 4) that
-model driven by white noise is added, ramped in over ``LEAD`` as the recorded noise is
-ramped out; the predictor's own continuation of the noise dies away as the synthesised
-noise builds up from rest, so the background keeps its level and spectrum. The
-background is assumed stationary; a recording without a quiet stretch (cut while it
-still rings) gets the level of its quietest frames. The synthesised noise is not
-continued by the predictor (it is not ringing), and ``seed`` makes it reproducible.
+alone decays into silence below the noise floor (a dropout). The noise floor is estimated
+from the recording's quietest 10 ms frames (within 3 dB of the quietest one, frames of
+digital silence left out): its level, and its spectral envelope as an all-pole model of
+``NOISE_ORDER`` s fitted to the mean autocorrelation of those frames. Where the output has
+no recorded noise (step 4) that model driven by white noise is added, ramped in over
+``LEAD`` as the recorded noise is ramped out; the predictor's own continuation of the
+noise dies away as the synthesised noise builds up from rest, so the background keeps its
+level and spectrum. The background is assumed stationary; a recording without a quiet
+stretch (cut while it still rings) gets the level of its quietest frames. The synthesised
+noise is not continued by the predictor (it is not ringing), and ``seed`` makes it
+reproducible.
 
 Amplitude
 ---------
@@ -109,9 +109,9 @@ Limits
 ------
 A tick recorded for a few milliseconds only, or at the noise floor, is continued from
 models fitted over several ticks or from the template: its level and decay are kept
-(within about 5 dB of an ideal re-laying of rendered ticks), not its exact waveform or
-its own spectrum. A recording without a quiet stretch gets a background at the level of
-its quietest part.
+(tests/test_alter.py bounds them against an ideal re-laying of rendered ticks), not its
+exact waveform or its own spectrum. A recording without a quiet stretch gets a background
+at the level of its quietest part.
 The output of ``k < 1`` is longer than the recording (``k = 0``: every bounce as long as
 the first); with ``scale_amplitude`` its later ticks are louder and may exceed full
 scale (``normalize="peak"``).

@@ -143,7 +143,7 @@ def write_atomically(
     return path
 
 
-def write_once(path: str | os.PathLike, data: bytes, *, error: type[Exception] = OSError) -> bool:
+def write_once(path: str | os.PathLike, data: bytes) -> bool:
     """Publish ``data`` as ``path`` unless ``path`` exists: written whole to a temporary
     sibling, fsynced, then hard-linked onto ``path`` (``os.link`` fails when the target
     exists, atomically, so of several writers racing for one name exactly one wins and
@@ -151,7 +151,7 @@ def write_once(path: str | os.PathLike, data: bytes, *, error: type[Exception] =
     was there already. Where hard links are not supported, ``os.replace`` is used when no
     file is there (a check and a rename: atomic for the reader, racy between writers)."""
     path = Path(path)
-    with temporary_sibling(path, error) as tmp:
+    with temporary_sibling(path) as tmp:
         tmp.write_bytes(data)
         _fsync(tmp)
         try:
@@ -166,14 +166,14 @@ def write_once(path: str | os.PathLike, data: bytes, *, error: type[Exception] =
 
 
 def write_json_atomically(
-    path: str | os.PathLike, obj, *, error: type[Exception] = OSError, indent: int = 1
+    path: str | os.PathLike, obj, *, error: type[Exception] = OSError
 ) -> Path:
     """Write ``obj`` as JSON (numbers that are not JSON types as floats) plus a newline,
     atomically (see :func:`write_atomically`)."""
 
     def write(tmp: Path) -> None:
         with open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(obj, fh, indent=indent, default=float)
+            json.dump(obj, fh, indent=1, default=float)
             fh.write("\n")
 
     return write_atomically(path, write, error=error)

@@ -131,7 +131,7 @@ class _SizeCount:
     """This process's count of the disk cache's total size (bytes): the total found by the
     last scan of the directory plus the sizes written since. A write within the bound and
     within :data:`RESCAN_SECONDS` of the scan only adds to it; otherwise the directory is
-    scanned and evicted (:func:`evict`) and the count restarts from what is left."""
+    scanned and evicted (:func:`_evict`) and the count restarts from what is left."""
 
     def __init__(self):
         self._lock = threading.Lock()
@@ -236,23 +236,18 @@ def _stale_temporaries(directory: Path, now: float) -> list[Path]:
     return out
 
 
-def evict(limit: int, *, keep: Path | None = None) -> int:
-    """Delete the least recently used entries of :func:`cache_dir` until their total
-    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
-    temporary files left by dead writers. Safe against other processes doing the same.
-    Returns the number of entries deleted."""
-    return _evict(limit, keep=keep).deleted
-
-
 @dataclass(frozen=True)
 class Eviction:
-    """What one :func:`evict` did: entries ``deleted`` and the bytes ``remaining``."""
+    """What one :func:`_evict` did: entries ``deleted`` and the bytes ``remaining``."""
 
     deleted: int
     remaining: int
 
 
 def _evict(limit: int, *, keep: Path | None = None) -> Eviction:
+    """Delete the least recently used entries of :func:`cache_dir` until their total
+    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
+    temporary files left by dead writers. Safe against other processes doing the same."""
     try:
         directory = cache_dir()
         if not directory.is_dir():
@@ -383,15 +378,11 @@ class MemoryCache:
             self._items.move_to_end(key)
             return value
 
-    def put(self, key: str, value, *, source: str, better=None) -> None:
+    def put(self, key: str, value, *, source: str) -> None:
         """Hold ``value`` for ``key``, obtained from ``source`` (``"computed"`` or
-        ``"disk"``, counted), unless ``better(held, value)`` says the result held is
-        at least as good. Then drop the least recently used beyond the limits."""
+        ``"disk"``, counted); then drop the least recently used beyond the limits."""
         with self._lock:
             self._stats[self._computed if source == "computed" else "disk_hits"] += 1
-            old = self._items.get(key)
-            if old is not None and better is not None and better(old, value):
-                return
             self._items[key] = value
             self._items.move_to_end(key)
             if self.max_entries is not None:

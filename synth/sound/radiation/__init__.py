@@ -198,12 +198,7 @@ def plate_gains(
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     listener = check_listener(listener_position)
-    q_s = check_poles(s)
-    if q_s.size != len(modes):
-        raise ParameterError(
-            f"s has {q_s.size} poles for {len(modes)} modes: one complex frequency (rad/s) "
-            f"per mode is needed"
-        )
+    q_s = check_poles(s, len(modes))
     kb, rho, c, r0, tol = check_settings(
         max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
     )

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from synth.compilation import compiled
@@ -77,43 +76,14 @@ def bessel_at(v, osc, a, shift):  # pragma: no cover
     return si / math.sqrt(2.0 * math.pi * v), sk * math.sqrt(0.5 * math.pi / v)
 
 
-@compiled(parallel=True)
-def _bessel_large(x, osc, a0, a1, b0, b1, c0, c1, xmin):  # pragma: no cover
-    """Bessel values where ``x >= xmin`` (others untouched): ``osc`` True:
-    ``J0, Y0, J1, Y1`` into ``b0, c0, b1, c1``... see :func:`_bessel`."""
-    m, n = x.shape
-    for r in numba.prange(m):
-        for j in range(n):
-            v = x[r, j]
-            if v < xmin:
-                continue
-            b0[r, j], c0[r, j] = bessel_at(v, osc[r], a0, 0.25 * math.pi)
-            b1[r, j], c1[r, j] = bessel_at(v, osc[r], a1, 0.75 * math.pi)
-
-
 def _bessel_small(x, osc):
-    """``(f0, g0, f1, g1)`` of :func:`_bessel` by scipy (for ``x < ASYMPTOTIC_X``)."""
+    """``(f0, g0, f1, g1)`` at ``x < ASYMPTOTIC_X`` by scipy: ``J0, Y0, J1, Y1`` where
+    ``osc``, else the exponentially scaled ``I0, K0, I1, K1``."""
     import scipy.special as sp  # imported on use: a render from cached gains needs none
 
     if osc:
         return sp.j0(x), sp.y0(x), sp.j1(x), sp.y1(x)
     return sp.i0e(x), sp.k0e(x), sp.i1e(x), sp.k1e(x)
-
-
-def _bessel(x, osc):
-    """``(f0, g0, f1, g1)`` at ``x`` (rows): ``J0, Y0, J1, Y1`` for rows ``osc``,
-    exponentially scaled ``I0, K0, I1, K1`` for the others."""
-    f0 = np.empty_like(x)
-    g0 = np.empty_like(x)
-    f1 = np.empty_like(x)
-    g1 = np.empty_like(x)
-    _bessel_large(x, osc, A0, A1, f0, f1, g0, g1, ASYMPTOTIC_X)
-    small = x < ASYMPTOTIC_X
-    for kind in (True, False):
-        sel = small & (osc[:, None] == kind)
-        if sel.any():
-            f0[sel], g0[sel], f1[sel], g1[sel] = _bessel_small(x[sel], kind)
-    return f0, g0, f1, g1
 
 
 @compiled()
@@ -135,7 +105,7 @@ def _small_arguments(k, rho, xmin):  # pragma: no cover
 
 
 def small_bessel(k, rho, osc, on_node):
-    """Bessel values (rows ``f0, g0, f1, g1`` of :func:`_bessel`) at the arguments
+    """Bessel values (rows ``f0, g0, f1, g1`` of :func:`_bessel_small`) at the arguments
     ``k[r] rho[j] < ASYMPTOTIC_X`` (:func:`_small_arguments`; ``f1, g1`` only at the
     nodes ``on_node``, the others 0) and where each row's start."""
     import scipy.special as sp

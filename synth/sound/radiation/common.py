@@ -77,6 +77,12 @@ class RadiationResult:
     message: str
     rule: str = "rectangle"
 
+    @classmethod
+    def no_modes(cls) -> RadiationResult:
+        """The result of a rule given no modes: nothing to sum, converged."""
+        empty = np.zeros(0)
+        return cls(empty.astype(complex), empty, empty, 0, 0, (0, 0), True, 0, "no modes")
+
 
 # ----------------------------------------------------------------------------------------
 # Validation helpers
@@ -104,7 +110,21 @@ def check_size(size) -> tuple[float, float]:
     )
 
 
-def check_poles(s) -> np.ndarray:
+def distance_range(size, listener) -> tuple[float, float]:
+    """``(r_min, r_max)``, metres: the distances from the listener ``(x, y, z)`` to the
+    nearest and the farthest point of the plate ``[0, a] x [0, b]`` (``size``)."""
+    a, b = size
+    xl, yl, zl = listener
+    dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
+    dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
+    r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
+    r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+    return r_min, r_max
+
+
+def check_poles(s, n_modes: int | None = None) -> np.ndarray:
+    """``s`` as a 1-D complex array of finite poles (rad/s), one per mode where
+    ``n_modes`` is given."""
     try:
         arr = np.asarray(s)
     except Exception:  # noqa: BLE001 - anything numpy cannot read is bad input
@@ -119,6 +139,11 @@ def check_poles(s) -> np.ndarray:
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise ParameterError(f"s[{i}]={arr[i]!r} must be finite (rad/s)")
+    if n_modes is not None and arr.size != n_modes:
+        raise ParameterError(
+            f"s has {arr.size} poles for {n_modes} modes: one complex frequency (rad/s) "
+            f"per mode is needed"
+        )
     return arr
 
 

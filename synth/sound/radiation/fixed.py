@@ -14,7 +14,8 @@ wherever the projection falls on it: more than the ``2.89`` of the rectangle rul
 graded panel, for which its fewest points per panel (:func:`~.common.min_order`) are made;
 so for a microphone at least that high the fixed panels meet every bound the rectangle
 rule's first rule meets, and take its points per panel. The modes are split in bands of
-wavenumber (:data:`BAND_RATIO`), each with its own grid, as the banded rectangle rule does.
+wavenumber (:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid, as the
+banded rectangle rule does.
 A microphone lower than the height is left to :func:`plate_gains` (the caller's choice).
 
 No finer rule checks the gains at each microphone (that would cost 1.56 times the sums
@@ -40,6 +41,7 @@ from synth.sound.radiation.common import (
     MAX_ORDER,
     add_sums,
     check_listener,
+    distance_range,
     exp_halvings,
     half_phase,
 )
@@ -52,10 +54,6 @@ NEAR_FIELD_HEIGHT = 0.1
 #: Microphones whose gains a grid keeps (the latest): the bodies of one plate moved to one
 #: listener (``Engine.move_listener``) compute its gains once.
 KEPT_MICROPHONES = 8
-#: Largest ratio of the wavenumbers of the fastest and the slowest mode of one band: each
-#: band's grid follows its own fastest mode (its points grow as the square of it), so
-#: closer bands evaluate fewer exponentials but keep more grids.
-BAND_RATIO = 1.1
 
 
 #: Most memory (bytes) the fixed grids of one plate take by default: the shapes of every mode
@@ -154,11 +152,7 @@ class ListenerGrid:
                 f"listener_position.z={zl!r} m is below the fixed grids' height "
                 f"{self.height} m: use synth.sound.radiation.plate_gains"
             )
-        a, b = self.size
-        dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
-        dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
-        r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
-        r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+        r_min, r_max = distance_range(self.size, (xl, yl, zl))
         r_mid = 0.5 * (r_max + r_min)
         q = self._q
         halvings = exp_halvings(q, 0.5 * (r_max - r_min))
@@ -207,14 +201,14 @@ def _shares(bands, workers: int) -> list:
 def _band_axes(modes, q, kb, size, height, tol) -> list:
     """The modes' bands of wavenumber and their grids' axes: ``(start, stop, (xs, wx),
     (ys, wy))`` for modes ``start <= k < stop``."""
-    from synth.sound.radiation.rules import wavenumber_bands
+    from synth.sound.radiation.rules import mode_bands
 
     omega = np.asarray(modes.angular_frequencies, dtype=float)
     if omega.size == 0:
         return []
     kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(q)
     out = []
-    for start, stop in wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO):
+    for start, stop in mode_bands(omega, kb, np.abs(q)):
         band_kappa = float(np.max(kappa[start:stop]))
         out.append(
             (

@@ -69,7 +69,7 @@ from synth.sound.radiation.common import (
 )
 from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels, radial_segments
 from synth.sound.radiation.rectangle import first_rule, panel_nodes
-from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
+from synth.sound.radiation.refinement import refine_selective, warn_unconverged
 
 #: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
 #: earlier revision is recomputed).
@@ -156,15 +156,16 @@ def _circle_points(radii, size, listener, kb, tol, refine):
     return whole, theta, weights, ends
 
 
-def _apply_separable_rule(
-    sep, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
-):
+def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
-    in ``active`` (indices), and the number of points, by the polar rule (radii
-    ``radii`` with weights ``wr``). At each radius the angular sums are over the arcs on
+    in ``active`` (indices), and the number of points, by the polar rule of ``setup``
+    (:class:`_PolarSetup`) refined by ``refine`` (radii ``radii`` with weights ``wr``).
+    At each radius the angular sums are over the arcs on
     the plate, or, when those off the plate are shorter, the whole circle in closed form
     minus the arcs off the plate (see the comment above :data:`HANKEL_FROM`). Only the
     factors those modes use enter the angular products."""
+    size, listener, kb, tol = setup.size, setup.listener, setup.kb, setup.tol_panel
+    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
     a, b = size
     xl, yl, zl = listener
     m = active.size
@@ -293,31 +294,15 @@ class _PolarSetup:
     halvings: int
 
 
-def polar_setup(
-    size,
-    n_modes,
-    listener_position,
-    s,
-    max_wavenumber,
-    air_density,
-    sound_speed,
-    reference_distance,
-    tol,
-    max_points,
-) -> _PolarSetup:
+def polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarSetup:
     """The arguments of a polar rule checked (a ParameterError names the field), and its
-    radial panels about the listener (none without modes)."""
+    radial panels about the listener (none without modes); ``settings`` the keywords of
+    :func:`check_settings`."""
     a, b = size
     listener = check_listener(listener_position)
-    q_s = check_poles(s)
-    if q_s.size != n_modes:
-        raise ParameterError(
-            f"s has {q_s.size} poles for {n_modes} modes: one complex "
-            f"frequency (rad/s) per mode is needed"
-        )
-    kb, rho, c, r0, tol = check_settings(
-        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
-    )
+    q_s = check_poles(s, n_modes)
+    kb, rho, c, r0, tol = check_settings(**settings)
+    max_points = settings["max_points"]
     q = q_s / c
     tol_panel = POLAR_PANEL_TOL * tol
     if q.size == 0:
@@ -353,19 +338,18 @@ def polar_setup(
     )
 
 
-def polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool, selective=False):
-    """The gains of a polar rule, refined until converged (:func:`refine`). ``rule(level)``
-    applies the rule refined ``level`` times and returns its integrals, their in-phase
-    bounds and its number of points; with ``selective``, ``rule(level, active)`` does so
-    for the modes ``active`` alone (:func:`refine_selective`)."""
+def polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
+    """The gains of a polar rule, each mode refined until converged
+    (:func:`refine_selective`): ``rule(level, active)`` applies the rule refined ``level``
+    times to the modes ``active`` and returns their integrals, their in-phase bounds and
+    its number of points."""
     if setup.q.size == 0:
-        empty = np.zeros(0, complex)
-        res = RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
-        return res if full_output else empty
+        res = RadiationResult.no_modes()
+        return res if full_output else res.gains
     counts = {}
 
-    def counted(level, *active):
-        total, mag, points = rule(level, *active)
+    def counted(level, active):
+        total, mag, points = rule(level, active)
         counts.setdefault(level, points)
         return total, mag
 
@@ -380,7 +364,7 @@ def polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool, select
     factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
     scale = rho * np.abs(q_s) / (2.0 * math.pi)
     result = dataclasses.replace(
-        (refine_selective if selective else refine)(
+        refine_selective(
             counted,
             npoints,
             factor,
@@ -449,40 +433,34 @@ def separable_gains(
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
+    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
+                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
+                    max_points=max_points)  # fmt: skip
     setup = polar_setup(
-        (shapes.length, shapes.width),
-        shapes.x_index.size,
-        listener_position,
-        s,
-        max_wavenumber,
-        air_density,
-        sound_speed,
-        reference_distance,
-        tol,
-        max_points,
+        (shapes.length, shapes.width), shapes.x_index.size, listener_position, s, settings
+    )
+    return polar_rule_gains(
+        setup,
+        shapes,
+        lambda: _separable_in_phase(shapes, setup.size, setup.listener, setup.kb, setup.tol_panel),
+        _apply_separable_rule,
+        "separable_gains",
+        full_output,
     )
 
+
+def polar_rule_gains(setup: _PolarSetup, shapes, in_phase, apply, caller, full_output):
+    """:func:`polar_gains` of ``shapes`` by the polar rule whose sums are ``apply`` (as
+    :func:`_apply_separable_rule`) on ``setup``'s radial panels, each refined
+    rule on its radial nodes; ``in_phase()`` the modes' in-phase integrals."""
     if setup.q.size == 0:
-        return polar_gains(setup, None, "separable_gains", full_output)
-    in_phase = _separable_in_phase(shapes, setup.size, setup.listener, setup.kb, setup.tol_panel)
+        return polar_gains(setup, None, caller, full_output)
+    mag = in_phase()
 
     def rule(level, active):
         f = REFINE**level
         radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        total, n = _apply_separable_rule(
-            shapes,
-            setup.size,
-            setup.listener,
-            radii,
-            wr,
-            setup.kb,
-            setup.tol_panel,
-            f,
-            setup.q,
-            setup.r_mid,
-            setup.halvings,
-            active,
-        )
-        return total, in_phase[active], n
+        total, n = apply(shapes, setup, radii, wr, f, active)
+        return total, mag[active], n
 
-    return polar_gains(setup, rule, "separable_gains", full_output, selective=True)
+    return polar_gains(setup, rule, caller, full_output)

@@ -45,6 +45,7 @@ from synth.sound.radiation.common import (
     check_poles,
     check_settings,
     check_size,
+    distance_range,
     exp_halvings,
     gauss,
     half_phase,
@@ -395,18 +396,10 @@ def rayleigh_gains(
         chunk = max(1, int(CHUNK_BYTES // (8 * q.size)))
         return apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk)
 
-    result = _rule_result(
-        evaluate,
-        size,
-        listener_position,
-        s,
-        max_wavenumber,
-        air_density,
-        sound_speed,
-        reference_distance,
-        tol,
-        max_points,
-    )
+    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
+                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
+                    max_points=max_points)  # fmt: skip
+    result = _rule_result(evaluate, size, listener_position, s, settings)
     if full_output:
         return result
     if not result.success:
@@ -452,51 +445,29 @@ def product_gains(
 
         return apply_product_rule(factors, xs, wx, ys, wy, listener, q, r_mid, halvings)
 
-    return _rule_result(
-        evaluate,
-        size,
-        listener_position,
-        s,
-        max_wavenumber,
-        air_density,
-        sound_speed,
-        reference_distance,
-        tol,
-        max_points,
-        local_phase=True,
-    )
+    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
+                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
+                    max_points=max_points)  # fmt: skip
+    return _rule_result(evaluate, size, listener_position, s, settings, local_phase=True)
 
 
-def _rule_result(
-    evaluate,
-    size,
-    listener_position,
-    s,
-    max_wavenumber,
-    air_density,
-    sound_speed,
-    reference_distance,
-    tol,
-    max_points,
-    local_phase=False,
-):
+def _rule_result(evaluate, size, listener_position, s, settings: dict, local_phase=False):
     """The :class:`RadiationResult` of the rectangle rule of :func:`rayleigh_gains`
     (arguments checked here) whose sums ``evaluate(xs, wx, ys, wy, listener, q, r_mid,
     halvings)`` computes, as :func:`apply_rule` does, on the tensor grid of nodes ``xs`` x
     ``ys`` (weights ``wx``, ``wy``; ``active`` the modes to sum, increasing indices, or
     None for every mode). ``local_phase``: each panel's orders for its own bound of the
     acoustic phase's rate (:func:`first_rule`), and each mode refined alone
-    (:func:`~synth.sound.radiation.refinement.refine_selective`)."""
+    (:func:`~synth.sound.radiation.refinement.refine_selective`); ``settings`` the
+    keywords of :func:`~.common.check_settings`."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
-    kb, rho, c, r0, tol = check_settings(
-        max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
-    )
+    kb, rho, c, r0, tol = check_settings(**settings)
+    max_points = settings["max_points"]
     m = q_s.size
     if m == 0:
-        empty = np.zeros(0, complex)
-        return RadiationResult(empty, np.zeros(0), np.zeros(0), 0, 0, (0, 0), True, 0, "no modes")
+        return RadiationResult.no_modes()
 
     q = q_s / c
     kappa = kb + float(np.max(np.abs(q)))
@@ -518,10 +489,7 @@ def _rule_result(
     panels = (ex.size - 1, ey.size - 1)
 
     # Range of R over the plate: the middle is factored out of the exponentials.
-    dx = (max(abs(xl), abs(xl - a)), max(0.0, -xl, xl - a))
-    dy = (max(abs(yl), abs(yl - b)), max(0.0, -yl, yl - b))
-    r_max = math.sqrt(dx[0] ** 2 + dy[0] ** 2 + zl * zl)
-    r_min = math.sqrt(dx[1] ** 2 + dy[1] ** 2 + zl * zl)
+    r_min, r_max = distance_range((a, b), listener)
     r_mid = 0.5 * (r_max + r_min)
     spread = 0.5 * (r_max - r_min)
     # exp(-Re(q) dR) with |Re(q) dR| <= u_max by Taylor on [-1, 1] and `halvings`

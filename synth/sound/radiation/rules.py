@@ -9,9 +9,11 @@ error bound, that change, as long as its check rule (the first rule refined once
 terms of its first rule and its check rule from its own panel builders
 (:mod:`~synth.sound.radiation.work`), weighed in rectangle-term equivalents by the rates
 shipped with the package (:func:`synth.cost.rates.rule_weights`, measured by ``synth bench
-cost``). :func:`choose_rule` takes, among the rules that apply to the shapes and whose check
-rule fits ``max_points``, the one of least cost; ``synth bench rules`` prints each rule's
-cost and the choice on the presets, the scale ladder and its random scenes.
+cost``), once per rule and problem (:meth:`Rule.estimate`). :func:`choose_rule` takes,
+among the rules that apply to the shapes and whose check rule fits ``max_points``, the one
+of least cost; ``synth bench rules`` prints each rule's cost and the choice on the
+presets, the scale ladder, its random scenes and the high rates, and per rule the scenes
+it is chosen for and its least cost ratio to the cheapest other rule.
 """
 
 from __future__ import annotations
@@ -81,9 +83,32 @@ class Problem:
         return 0.1 * self.tol
 
 
+@dataclass(frozen=True)
+class Estimate:
+    """What one rule takes on one :class:`Problem`, its panels counted once: ``counts``
+    (:class:`~.work.RuleWork`), ``fits`` whether its check rule (the first rule refined
+    once, the least the convergence test needs) holds at most ``max_points`` points, and
+    ``cost``, rectangle-term equivalents of the first rule and its check rule and of the
+    work outside the refinement (:func:`synth.cost.rates.weighted_counts`); ``tol`` the
+    problem's."""
+
+    rule: Rule
+    counts: work.RuleWork
+    fits: bool
+    cost: float
+    tol: float
+
+    @property
+    def error_bound(self) -> float:
+        """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
+        convergence test holds: ``tol`` where the check rule fits, else none (inf)."""
+        return self.tol if self.fits else math.inf
+
+
 class Rule(abc.ABC):
     """One rule of the Rayleigh integral: which shapes it takes (``shapes``), its counts
-    (:meth:`counts`, terms and points of each refinement), its error bound and its cost."""
+    (:meth:`counts`, terms and points of each refinement) and, from them,
+    :meth:`estimate`: its error bound and its cost."""
 
     name = ""
     shapes: tuple = ()
@@ -96,25 +121,15 @@ class Rule(abc.ABC):
     def counts(self, problem: Problem) -> work.RuleWork:
         """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
 
-    def error_bound(self, problem: Problem) -> float:
-        """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
-        convergence test holds when its check rule fits ``max_points``: ``tol``."""
-        return problem.tol if self.fits(problem) else math.inf
-
-    def fits(self, problem: Problem) -> bool:
-        """Whether the check rule (the first rule refined once), the least the
-        convergence test needs, holds at most ``max_points`` points (the rule's unit)."""
-        counts = self.counts(problem)
-        return counts.points[1] <= problem.max_points and counts.floor <= problem.max_points
-
-    def cost(self, problem: Problem) -> float:
-        """Rectangle-term equivalents of the first rule and its check rule (the fewest the
-        convergence test takes) and of the work outside the refinement
-        (:func:`synth.cost.rates.weighted_counts`)."""
+    def estimate(self, problem: Problem) -> Estimate:
+        """The rule's :class:`Estimate` on ``problem`` (its panels counted once)."""
         from synth.cost.rates import weighted_counts
 
-        counts = weighted_counts(self.counts(problem))
-        return counts.fixed + sum(counts.work[:2])
+        counts = self.counts(problem)
+        fits = counts.points[1] <= problem.max_points and counts.floor <= problem.max_points
+        weighted = weighted_counts(counts)
+        fixed = weighted.fixed if weighted.check_fixed is None else weighted.check_fixed
+        return Estimate(self, counts, fits, fixed + sum(weighted.work[:2]), problem.tol)
 
     @abc.abstractmethod
     def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
@@ -224,21 +239,9 @@ class BoundaryRule(Rule):
         if p.edge.ritz_modes == 0:
             return edge
         ritz = _ritz_work(p)
-        return dataclasses.replace(edge, fixed=sum(ritz.work), floor=ritz.points[1])
-
-    def cost(self, problem):
-        """As :meth:`Rule.cost`, the Ritz modes' rectangle rule too counted to its check
-        rule (:meth:`counts` holds every rule of it, outside the refinement, for the
-        budget)."""
-        from synth.cost.rates import weighted_counts
-
-        counts = weighted_counts(
-            work.boundary_work(
-                problem.size, problem.listener, problem.edge.bands, problem.tol_panel
-            )
+        return dataclasses.replace(
+            edge, fixed=sum(ritz.work), check_fixed=sum(ritz.work[:2]), floor=ritz.points[1]
         )
-        ritz = sum(_ritz_work(problem).work[:2]) if problem.edge.ritz_modes else 0.0
-        return ritz + sum(counts.work[:2])
 
     def gains(self, modes, listener, s, settings):
         return _with_ritz(modes, listener, s, settings, _boundary, "boundary rule")
@@ -249,23 +252,28 @@ RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule(), BoundaryRule(
 
 
 def choose_rule(problem: Problem) -> Rule:
-    """The rule of least :meth:`Rule.cost` among those that take ``problem``'s shapes and
-    whose check rule fits ``max_points`` (their error bound is then ``tol``, the same for
-    every rule); if none fits, the one with the fewest points in its check rule (it stops
-    at ``max_points`` and says so)."""
+    """The rule of least cost (:class:`Estimate`) among those that take ``problem``'s
+    shapes and whose check rule fits ``max_points`` (their error bound is then ``tol``, the
+    same for every rule); if none fits, the one with the fewest points in its check rule
+    (it stops at ``max_points`` and says so)."""
+    return chosen_estimate(problem).rule
+
+
+def chosen_estimate(problem: Problem) -> Estimate:
+    """The :class:`Estimate` of the rule :func:`choose_rule` takes."""
     return _cheapest(problem, RULES)
 
 
 @functools.lru_cache(maxsize=256)
-def _cheapest(problem: Problem, candidates: tuple) -> Rule:
-    """:func:`choose_rule` among ``candidates``, kept for the process (counting a rule's
-    panels takes a Python loop over its radii: the warm renders and the live engine
+def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
+    """:func:`chosen_estimate` among ``candidates``, kept for the process (counting a
+    rule's panels takes a Python loop over its radii: the warm renders and the live engine
     choose again for every cached gain)."""
-    rules = [rule for rule in candidates if rule.applies(problem)]
-    fitting = [rule for rule in rules if rule.error_bound(problem) <= problem.tol]
+    estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
+    fitting = [e for e in estimates if e.fits]
     if fitting:
-        return min(fitting, key=lambda rule: rule.cost(problem))
-    return min(rules, key=lambda rule: rule.counts(problem).points[1])
+        return min(fitting, key=lambda e: e.cost)
+    return min(estimates, key=lambda e: e.counts.points[1])
 
 
 def wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
@@ -279,6 +287,15 @@ def wavenumber_bands(kappa: np.ndarray, ratio: float) -> list:
         bands.append((start, stop))
         start = stop
     return bands
+
+
+def mode_bands(omega: np.ndarray, kb: float, qa: np.ndarray) -> list:
+    """:func:`wavenumber_bands` of modes of angular frequencies ``omega`` (rad/s,
+    ascending), ``kb`` the highest one's bending wavenumber and ``qa`` their acoustic
+    wavenumbers (rad/m): each mode's ``kappa``, bending (growing as the square root of
+    the frequency) plus acoustic, made non-decreasing, in bands of :data:`BAND_RATIO`."""
+    kappa = kb * np.sqrt(omega / omega[-1]) + qa
+    return wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
 
 
 def _band_rectangle(modes, start, stop, listener, s, settings):
@@ -314,11 +331,10 @@ def _banded_rectangle(modes, n_low, listener, s, settings):
     wavenumber (:data:`BAND_RATIO`): each band's rule follows its own fastest mode's
     wavelength. Each mode passes the same convergence test as on one rule for every mode."""
     omega = modes.angular_frequencies[n_low:]
-    kb = settings["max_wavenumber"]
-    kappa = kb * np.sqrt(omega / omega[-1]) + np.abs(s[n_low:]) / settings["sound_speed"]
+    qa = np.abs(s[n_low:]) / settings["sound_speed"]
     parts = [
         _band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
-        for lo, hi in wavenumber_bands(np.maximum.accumulate(kappa), BAND_RATIO)
+        for lo, hi in mode_bands(omega, settings["max_wavenumber"], qa)
     ]
     largest = max(parts, key=lambda p: p.n_points)
     failed = sum(not p.success for p in parts)

@@ -21,8 +21,7 @@ from synth.errors import ParameterError
 from synth.physics.modes import single_thread_product
 from synth.sound.radiation.angular import angular_rule
 from synth.sound.radiation.common import CHUNK_BYTES, REFINE, add_sums
-from synth.sound.radiation.polar import polar_gains, polar_setup
-from synth.sound.radiation.radial import radial_nodes
+from synth.sound.radiation.polar import polar_rule_gains, polar_setup
 from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 
 # ----------------------------------------------------------------------------------------
@@ -37,18 +36,20 @@ from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 # products; they only set the tolerance floor and the bound S_k, and are taken once on
 # a rectangle rule sized for twice the shapes' wavenumber k_b (and the 1/R peak) but not
 # for the acoustic phase, which |phi_k| / R does not carry: |phi_k| has kinks on the
-# nodal lines, which such a rule integrates to about 2 % (measured against rules 4 and
-# 8 times finer; tests compare it with the full rectangle rule).
+# nodal lines, which such a rule integrates less closely than the gains (tests compare
+# it with the full rectangle rule).
 
 
-def _apply_summed_rule(
-    shapes, size, listener, radii, wr, kb, tol, refine, q, r_mid, halvings, active
-):
+def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the summed shapes ``k`` in
-    ``active`` (increasing indices) by the polar rule (radii ``radii`` with weights
-    ``wr``), and the number of points. The angular sums ``A`` serve every mode; only the
-    modes ``active`` are combined from them and take exponentials."""
-    a, b = size
+    ``active`` (increasing indices) by the polar rule of ``setup``
+    (:class:`~synth.sound.radiation.polar._PolarSetup`) refined by ``refine`` (radii
+    ``radii`` with weights ``wr``), and the number of points. The angular sums ``A``
+    serve every mode; only the modes ``active`` are combined from them and take
+    exponentials."""
+    listener, kb, tol = setup.listener, setup.kb, setup.tol_panel
+    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
+    a, b = setup.size
     xl, yl, zl = listener
     m = active.size
     q = q[active]
@@ -134,47 +135,24 @@ def summed_gains(
     and ``N_r n_modes`` exponentials, against ``N n_modes`` exponentials and shape
     values for the rectangle rule's ``N`` points. The in-phase bounds ``S_k``
     (``RadiationResult.coherent``) come from a rectangle rule that resolves the
-    shapes alone, to about 2 %. Measured at 384 kHz: see ``synth bench render``.
+    shapes alone (see the comment above :func:`_apply_summed_rule`).
     """
     from synth.physics.modes import SummedShapes
 
     if not isinstance(shapes, SummedShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
+    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
+                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
+                    max_points=max_points)  # fmt: skip
     setup = polar_setup(
-        (shapes.length, shapes.width),
-        shapes.n_modes,
-        listener_position,
-        s,
-        max_wavenumber,
-        air_density,
-        sound_speed,
-        reference_distance,
-        tol,
-        max_points,
-    )
-    if setup.q.size == 0:
-        return polar_gains(setup, None, "summed_gains", full_output)
-    in_phase = _summed_in_phase(
-        shapes, setup.size, setup.listener, setup.kb, setup.tol_panel, setup.r_mid
+        (shapes.length, shapes.width), shapes.n_modes, listener_position, s, settings
     )
 
-    def rule(level, active):
-        f = REFINE**level
-        radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        total, n = _apply_summed_rule(
-            shapes,
-            setup.size,
-            setup.listener,
-            radii,
-            wr,
-            setup.kb,
-            setup.tol_panel,
-            f,
-            setup.q,
-            setup.r_mid,
-            setup.halvings,
-            active,
+    def in_phase():
+        return _summed_in_phase(
+            shapes, setup.size, setup.listener, setup.kb, setup.tol_panel, setup.r_mid
         )
-        return total, in_phase[active], n
 
-    return polar_gains(setup, rule, "summed_gains", full_output, selective=True)
+    return polar_rule_gains(
+        setup, shapes, in_phase, _apply_summed_rule, "summed_gains", full_output
+    )

@@ -67,7 +67,8 @@ class RuleWork:
     rules, ``fixed`` terms outside the refinement (the in-phase bounds), ``unit``, what
     its points count, and ``floor``, the fewest ``max_points`` the render may pass (the
     boundary rule's Ritz modes take the rectangle rule with the same ``max_points``,
-    which must hold its check rule)."""
+    which must hold its check rule); ``check_fixed``, where the work outside the
+    refinement refines too (those Ritz modes), its terms up to the check rule."""
 
     rule: str
     points: tuple
@@ -75,28 +76,21 @@ class RuleWork:
     fixed: float
     unit: str
     floor: int = 0
+    check_fixed: float | None = None
 
 
 def _levels():
     return [REFINE**level for level in range(MAX_RULES)]
 
 
-def rectangle_counts(size, listener, kappa, tol_panel) -> list[tuple[int, int, int]]:
-    """Per rule: (points, points along x, points along y) of the rectangle rule at the
-    wavenumber ``kappa`` (rad/m)."""
+def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
+    """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
+    whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
+    ``REFINE^l`` times the first rule's."""
     from synth.sound.radiation.rectangle import first_rule
 
     _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
-    out = []
-    for f in _levels():
-        nx, ny = int(np.ceil(px * f).sum()), int(np.ceil(py * f).sum())
-        out.append((nx * ny, nx, ny))
-    return out
-
-
-def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
-    """The rectangle rule's work for ``modes`` modes whose shape values cost ``terms``."""
-    points = [n for n, _, _ in rectangle_counts(size, listener, kappa, tol_panel)]
+    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in _levels()]
     work = [float(n) * modes * (1 + terms) for n in points]
     return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
 
