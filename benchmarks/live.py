@@ -458,7 +458,7 @@ def rolling_cost(samplerate=48000, blocksize=256, seconds=1.0, speeds=(0.1, 0.3,
     block = blocksize / samplerate
     rows = []
     for v in speeds:
-        engine = Engine(samplerate=samplerate, blocksize=blocksize)
+        engine = Engine(samplerate=samplerate, blocksize=blocksize, max_rolls=1)
         body = engine.add(scene.plate, listener=scene.listener)
         start = np.array([0.05, 0.5 * scene.plate.width])
         voice = body.roll(ball, start, (v, 0.0), envelope=envelope, start=0.01)
