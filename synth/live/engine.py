@@ -198,8 +198,12 @@ class Engine(EngineBookkeeping):
         banks per block.
     max_rolls : int
         Rolling voices (:meth:`Body.roll`) each body rolls at once, in [0, 16] (default
-        ``MAX_ROLLS``, 1): each a modal state, an integrator and mode-shape tables of its
-        own, preallocated at :meth:`add` (see docs/live.md, "Rolling").
+        ``MAX_ROLLS``, 0): each a modal state, an integrator and mode-shape tables of its
+        own, preallocated at :meth:`add` (see docs/live.md, "Rolling"). None by default:
+        a slot costs every body of the engine its memory (about a third of a body's at
+        494 modes) and the rolling block's compile (apart from the callback's, which an
+        engine without slots never compiles nor runs); :meth:`Body.roll` on an engine
+        without slots raises ParameterError naming this setting.
     max_total_voices : int, optional
         Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
         None: no cap beyond each body's): a voice counts from the call that makes it until
