@@ -13,6 +13,9 @@ nothing (every array is a view made from an address), takes no lock, and reads t
 with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
 which the trigger threads compare). The Python fallback callback (:func:`run_block`) and
 :meth:`synth.live.Engine.process` (:func:`mix_engine`) call the very same compiled code.
+The rolling voices' block (:func:`rolling_block_code`, with the rolling contact's
+integrator) is compiled apart, and the callback calls it through its address
+(``ctl[ROLLER]``) for an engine with rolling slots only.
 
 numba caches these functions keyed on this file alone (its time stamp and size): after a
 change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
