@@ -122,6 +122,12 @@ GROUPS = {
             ("synth.live.native", "_callback"),
             ("synth.live",),
         ),
+        KernelGroup(
+            "live-rolling",
+            "the live engine's rolling voices",
+            ("synth.live.native", "_roll_body"),
+            ("synth.live.native._roll_body",),
+        ),
     )
 }
 

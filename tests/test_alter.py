@@ -154,10 +154,13 @@ def test_new_timing_follows_the_rule(short, k):
 @pytest.mark.slow
 @pytest.mark.parametrize("scale", [True, False], ids=["scaled", "kept"])
 @pytest.mark.parametrize("snr", [None, 30.0], ids=["clean", "30dB"])
-@pytest.mark.parametrize("k", [0.3, 0.5, 2.0])
+@pytest.mark.parametrize("k", [0.3, 2.0])
 def test_no_gap_and_no_click(recording, k, snr, scale):
     # Lengthened (k < 1) or shortened (k = 2) bounces, every tick scaled by its new impact
-    # speed or not, with and without noise.
+    # speed or not, with and without noise. One lengthening: every k < 1 takes the same
+    # path (each bounce continued past its recorded end), and k = 0.3 lengthens the most
+    # (its joins the hardest, see below); k = 0.5 lengthens in test_new_timing_follows_the_rule
+    # and test_same_alteration_at_any_rate.
     # * The first bounce is the recording's, sample for sample.
     # * No gap: from the first onset to the final fade no 1 ms window is silent, and none
     #   falls more than 20 dB below the one before it (the recording's own beats between

@@ -55,11 +55,12 @@ def test_importing_the_live_engine_compiles_nothing(tmp_path):
     code = (
         "import synth.live.engine\n"
         "from synth.live import native\n"
-        "print(native.stream_callback.cache_info().currsize, len(native._run_block.overloads))\n"
+        "print(native.stream_callback.cache_info().currsize, len(native._run_block.overloads),"
+        " native.rolling_block_code.cache_info().currsize)\n"
     )
     proc = _python(code, {"NUMBA_CACHE_DIR": str(tmp_path / "numba")})
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split() == ["0", "0"]
+    assert proc.stdout.split() == ["0", "0", "0"]
     assert NOTE not in proc.stderr
 
 
@@ -103,12 +104,12 @@ def test_a_render_imports_neither_the_analysis_nor_the_live_engine_nor_the_banks
 
 
 #: A child on an empty numba cache renders the rolling preset (``clean``: nothing compiled
-#: before; ``again``: on the cache a ``clean`` child filled; ``others-first``: other kernels
-#: compiled from Python first, the live engine's callback among them, whose fresh code it
-#: inspects: cached code cannot be), or (``render-and-contact``) renders the default preset
-#: and solves a contact by each integrator. It prints one JSON line: the rolling render's
-#: size and digest, the compiles numba logged from the first render on, what the callback's
-#: code calls.
+#: before, and then the default preset and a contact by each integrator, in one process so
+#: that the kernels both renders use compile once; ``again``: on the cache a ``clean``
+#: child filled; ``others-first``: other kernels compiled from Python first, the live
+#: engine's callback and rolling block among them, whose fresh code it inspects: cached
+#: code cannot be). It prints one JSON line: the rolling render's size and digest, the
+#: compiles numba logged from the first render on, what the live engine's code calls.
 COLD_CHILD = """
 import hashlib, json, sys
 from synth.compilation import CompileLog
@@ -119,16 +120,16 @@ if case == "others-first":
     from synth.live import native
     from synth.physics import rolling, surface
     from synth.physics.contact_kernels import equations
-    native.warm_up()
-    ir = native.stream_callback().inspect_llvm()
-    found["callback"] = {
-        symbol: symbol in ir
-        for symbol in (
-            "PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate",
-            "clock_gettime", "_write_block", "mix_body", "_advance", "_add_slot", "_settle",
-            "limit_block", "mix_rolls", "rolling_kernels4roll",
-        )
-    }
+    native.warm_up(rolling=True)
+    symbols = (
+        "PyGILState_Ensure", "PyEval_", "PyObject_", "NRT_MemInfo_alloc", "NRT_Allocate",
+        "clock_gettime", "_write_block", "mix_body", "_advance", "_add_slot", "_settle",
+        "limit_block", "mix_rolls", "rolling_kernels4roll",
+    )
+    for name, code in (("callback", native.stream_callback()),
+                       ("rolling_block", native.rolling_block_code())):
+        ir = code.inspect_llvm()
+        found[name] = {symbol: symbol in ir for symbol in symbols}
     from synth.live import kernel
     found["specialised_twice"] = sorted(
         n for n, f in vars(kernel).items() if len(getattr(f, "overloads", ())) > 1
@@ -146,15 +147,14 @@ if case == "others-first":
     )
 with log.recording():
     import synth
-    if case == "render-and-contact":
+    r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
+    found["rolling"] = [r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest()]
+    if case == "clean":
         from synth.physics.contact import solve_contact
         synth.render_preset("default")
         for method in ("auto", "Radau"):
             solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method=method)
         solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, viscous_time=1e-7)
-    else:
-        r = synth.render_preset("thesis-steel10-mdf18-rolling", normalize="none")
-        found["rolling"] = [r.audio.size, hashlib.sha256(r.audio.tobytes()).hexdigest()]
 found["compiles"] = {k: n for k, n, _ in log.by_kernel() if k.startswith("synth.")}
 print(json.dumps(found))
 """
@@ -172,7 +172,6 @@ class ColdChildren:
     clean: dict
     others_first: dict
     again: dict
-    render_and_contact: dict
     warmup: subprocess.CompletedProcess
     warmup_again: subprocess.CompletedProcess
 
@@ -183,8 +182,7 @@ def cold_children(tmp_path_factory):
     kernels (tens of seconds of CPU), and several tests read their output. About two at a
     time (two cores): the clean and the others-first children, on caches of their own, side
     by side; the others-first one compiles the live engine too, and while it does, the
-    clean one's ``again`` on its cache, the render-and-contact child and the warmups each
-    on a cache of their own."""
+    clean one's ``again`` on its cache and the warmups on a cache of their own."""
     tmp = tmp_path_factory.mktemp("cold")
 
     def start(cache, code, *args):
@@ -206,13 +204,10 @@ def cold_children(tmp_path_factory):
     clean = start("a", COLD_CHILD, "clean")
     others_first = start("b", COLD_CHILD, "others-first")
     clean = found(clean)
-    render_and_contact = start("c", COLD_CHILD, "render-and-contact")
     again = found(start("a", COLD_CHILD, "again"))
     warmup = finish(start("d", WARMUP))
     warmup_again = finish(start("d", WARMUP))
-    return ColdChildren(
-        clean, found(others_first), again, found(render_and_contact), warmup, warmup_again
-    )
+    return ColdChildren(clean, found(others_first), again, warmup, warmup_again)
 
 
 @pytest.mark.slow
@@ -220,8 +215,10 @@ def test_every_kernel_of_a_render_and_a_contact_compiles_once(cold_children):
     # A constant argument (or a counter started at a constant) reaches a compiled callee
     # typed as a literal, and numba compiles the callee once more for it: event_root was
     # compiled three times per integrator, solve and both integrators twice, _in_contact
-    # twice. On an empty cache, every kernel of the package compiles one specialisation.
-    counts = cold_children.render_and_contact["compiles"]
+    # twice. On an empty cache, every kernel of the package compiles one specialisation
+    # (the clean child renders the default preset and solves the contacts after its
+    # rolling render).
+    counts = cold_children.clean["compiles"]
     assert counts["synth.physics.contact_kernels.dense.event_root"] >= 1
     assert counts["synth.sound.modal_bank.transform_kernels._in_contact"] >= 1
     assert counts["synth.physics.contact_kernels.radau.integrate_radau"] >= 1
@@ -263,12 +260,18 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(cold_children):
     assert found.pop("_write_block")  # the callees' code is in the inspected IR
     # the voices' code too: slots rung, faded and freed, voice-ended events (the helpers
     # that take and steal slots are inlined into mix_body), and the master bus' limiter
-    # and the rolling voices' (their contact integrated by the offline kernel's loop)
-    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block", "mix_rolls",
-                   "rolling_kernels4roll"):  # fmt: skip
+    for callee in ("mix_body", "_advance", "_add_slot", "_settle", "limit_block"):
         assert found.pop(callee), callee
     assert found.pop("clock_gettime")  # its cost is timed from its entry
+    # and not the rolling voices' code: compiled apart, called through its address by an
+    # engine with rolling slots only
     assert set(found.values()) == {False}, found
+    # that block: the rolling voices' (their contact integrated by the offline kernel's
+    # loop), no Python, no allocation either
+    rolling = dict(cold_children.others_first["rolling_block"])
+    for callee in ("mix_rolls", "rolling_kernels4roll"):
+        assert rolling.pop(callee), callee
+    assert set(rolling.values()) == {False}, rolling
     # one specialisation of each live kernel: the pulses transformed from Python
     # (transform_pending, limit -1: all) and by the mixing (an int64 limit) took two of
     # transform_pulses, the longest kernel of the block, when the -1 was a literal

@@ -9,6 +9,7 @@ import pytest
 
 import synth
 from synth.errors import ParameterError
+from synth.live import native
 from synth.live.rolling import HORIZON
 from synth.physics import rolling, surface
 from synth.physics.scene import Ball
@@ -46,7 +47,8 @@ def live_rolling(setup, speeds, *, stop_after=None, fade=0.02, tail=0, listener=
     stopped after ``stop_after`` frames, heard by ``listener`` (default the setup's
     microphone), moved to ``move = (frame, listener)``; the voice and the engine."""
     plate, mic, ball, envelope = setup
-    engine = synth.Engine(samplerate=FS, blocksize=256, channels=channels)
+    engine = synth.Engine(samplerate=FS, blocksize=256, channels=channels,
+                           max_rolls=1)
     body = engine.add(plate, listener=mic if listener is None else listener)
     voice = body.roll(ball, ORIGIN + DIRECTION * START, speeds[0] * DIRECTION, envelope=envelope,
                       start=START)  # fmt: skip
@@ -185,7 +187,7 @@ def test_a_full_body_refuses_a_rolling_voice_and_counts_it(setup):
 
 def test_the_voice_ends_at_the_end_of_its_surface(setup):
     plate, mic, ball, envelope = setup
-    engine = synth.Engine(samplerate=FS)
+    engine = synth.Engine(samplerate=FS, max_rolls=1)
     body = engine.add(plate, listener=mic)
     # 1 m/s from 2 mm before the envelope's end: it reaches it within a few blocks
     voice = body.roll(ball, (0.5, 0.3), (1.0, 0.0), envelope=envelope,
@@ -216,15 +218,24 @@ def test_the_voice_ends_at_the_end_of_its_surface(setup):
 )  # fmt: skip
 def test_bad_rolling_input_raises_naming_the_field(setup, call, match):
     plate, mic, ball, envelope = setup
-    engine = synth.Engine(samplerate=FS)
+    engine = synth.Engine(samplerate=FS, max_rolls=1)
     body = engine.add(plate, listener=mic)
     with pytest.raises(ParameterError, match=match):
         call(body, ball, envelope)
 
 
-def test_max_rolls_is_checked():
+def test_max_rolls_is_checked_and_an_engine_without_slots_refuses_to_roll(setup):
+    plate, mic, ball, envelope = setup
     with pytest.raises(ParameterError, match=r"max_rolls=17"):
         synth.Engine(samplerate=FS, max_rolls=17)
+    # by default an engine holds no rolling slots, and its callback no rolling code: a
+    # roll is refused with the setting to change, not returned as None (a full body's)
+    engine = synth.Engine(samplerate=FS)
+    assert engine.max_rolls == 0 and engine._native.ctl[native.ROLLER] == 0
+    body = engine.add(plate, listener=mic)
+    with pytest.raises(ParameterError, match=r"max_rolls=0: .* max_rolls=1"):
+        body.roll(ball, (0.5, 0.3), (0.2, 0.0), envelope=envelope, start=START)
+    assert body.rolls_refused == 0
 
 
 def busy_python(stop):
@@ -257,7 +268,7 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
     envelope = surface.contact_envelope(profile, ball.radius)  # 4 s at about 0.1 m/s
     seconds = 2.0
     with JackDummyServer(samplerate=FS, period=256) as server:
-        engine = synth.Engine(samplerate=FS, blocksize=256, device=server.device,
+        engine = synth.Engine(samplerate=FS, blocksize=256, device=server.device, max_rolls=1,
                               record_seconds=2 * seconds + 1.0)  # fmt: skip
         body = engine.add(plate, listener=mic)
         with engine:
@@ -325,7 +336,7 @@ def test_the_rolling_example_of_the_docs_runs_as_printed():
 
 def test_a_removed_body_fades_its_rolling_voice_out_then_is_freed(setup):
     plate, mic, ball, envelope = setup
-    engine = synth.Engine(samplerate=FS)
+    engine = synth.Engine(samplerate=FS, max_rolls=1)
     body = engine.add(plate, listener=mic)
     voice = body.roll(ball, (0.5, 0.3), (0.2, 0.0), envelope=envelope, start=START)
     engine.process(1024)

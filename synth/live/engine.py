@@ -98,6 +98,17 @@ HITS_PER_BLOCK = 16
 EVENT_CAPACITY = 4096
 
 
+def _compile_the_block(*, rolling: bool) -> int:
+    """Compile (or load) the audio thread's code, after the note that it compiles; with
+    ``rolling``, the rolling voices' block too, apart (an engine without rolling slots
+    never compiles it). Returns that block's address for ``ctl[ROLLER]`` (0: none)."""
+    announce("live")
+    if rolling:
+        announce("live-rolling")
+    native.warm_up(rolling=rolling)
+    return native.rolling_block_code().address if rolling else 0
+
+
 class Engine(EngineBookkeeping):
     """An always open output stream that mixes the ringing of every :class:`Body`.
 
@@ -187,8 +198,12 @@ class Engine(EngineBookkeeping):
         banks per block.
     max_rolls : int
         Rolling voices (:meth:`Body.roll`) each body rolls at once, in [0, 16] (default
-        ``MAX_ROLLS``, 1): each a modal state, an integrator and mode-shape tables of its
-        own, preallocated at :meth:`add` (see docs/live.md, "Rolling").
+        ``MAX_ROLLS``, 0): each a modal state, an integrator and mode-shape tables of its
+        own, preallocated at :meth:`add` (see docs/live.md, "Rolling"). None by default:
+        a slot costs every body of the engine its memory (about a third of a body's at
+        494 modes) and the rolling block's compile (apart from the callback's, which an
+        engine without slots never compiles nor runs); :meth:`Body.roll` on an engine
+        without slots raises ParameterError naming this setting.
     max_total_voices : int, optional
         Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
         None: no cap beyond each body's): a voice counts from the call that makes it until
@@ -294,8 +309,7 @@ class Engine(EngineBookkeeping):
         self._voice_limit = VoiceLimit(max_total_voices)
         self._fade = fade_s
         self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
-        announce("live")
-        native.warm_up()
+        roller = _compile_the_block(rolling=self.max_rolls > 0)
         self._native = native.EngineState(
             samplerate=self.samplerate,
             channels=self.channels,
@@ -307,6 +321,7 @@ class Engine(EngineBookkeeping):
             transforms_per_block=self.max_hits_per_block,
             events=EVENT_CAPACITY,
             limit=limit,
+            roller=roller,
         )
         self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()

@@ -13,6 +13,9 @@ nothing (every array is a view made from an address), takes no lock, and reads t
 with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
 which the trigger threads compare). The Python fallback callback (:func:`run_block`) and
 :meth:`synth.live.Engine.process` (:func:`mix_engine`) call the very same compiled code.
+The rolling voices' block (:func:`rolling_block_code`, with the rolling contact's
+integrator) is compiled apart, and the callback calls it through its address
+(``ctl[ROLLER]``) for an engine with rolling slots only.
 
 numba caches these functions keyed on this file alone (its time stamp and size): after a
 change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
@@ -32,6 +35,8 @@ import math
 import numba
 import numpy as np
 from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from synth.compilation import FASTMATH, cfunc_compiling, compiled
 from synth.live import kernel, limiter, rolling_block
@@ -90,6 +95,7 @@ from synth.live.state import (
     RECORD,
     RECORD_FRAMES,
     RECORDED,
+    ROLLER,
     S_FLOOR,
     S_GAIN,
     S_GAIN_NOW,
@@ -207,6 +213,23 @@ def _add_ramped(row, out, g0, g1, n):
             row[s] += (g0 + step * (s + 1)) * out[s]
 
 
+@intrinsic
+def _call_roller(typingctx, address, ctl, record, out, n):
+    """Call the rolling voices' block (:func:`_roll_body`, compiled apart as a ``cfunc``)
+    at ``address`` on the engine's ``ctl``, a body's ``record`` and its mix ``out``
+    (addresses) over ``n`` frames: a plain C call through a pointer, no Python. Returns
+    its result (1 if a rolling voice rang)."""
+    sig = types.int64(address, ctl, record, out, n)
+
+    def codegen(context, builder, signature, args):
+        i64 = cgutils.ir.IntType(64)
+        fnty = cgutils.ir.FunctionType(i64, [i64] * 4)
+        function = builder.inttoptr(args[0], fnty.as_pointer())
+        return builder.call(function, list(args[1:]))
+
+    return sig, codegen
+
+
 @compiled(nogil=True, inline="always")
 def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     """Mix the body of ``record`` over ``n`` frames from ``t0`` into ``mix`` (every
@@ -230,8 +253,8 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     p0 = scalars[S_PAN_NOW]
     p1 = scalars[S_PAN]  # one word: a pan set on another thread is read whole
     busy = counters[kernel.BUSY_BLOCKS]
-    rolls = rolling_form(record)
-    rolling = rolling_block.any_live(rolls[0])
+    roller = ctl[ROLLER]
+    rolling = roller != 0 and rolling_block.any_live(rolling_form(record)[0])
     waiting = counters[kernel.AWAKE] != 0
     if not waiting:
         # asleep: nothing to mix unless something was handed over
@@ -254,7 +277,7 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
             pulse_form, transformed, voice_form, event_ring(ctl), limit,
         )  # fmt: skip
     if rolling:
-        rolling = rolling_block.mix_rolls(out, n, rolls, event_ring(ctl))
+        rolling = _call_roller(roller, ctl.ctypes.data, record.ctypes.data, out.ctypes.data, n) != 0
     if counters[kernel.BUSY_BLOCKS] != busy or rolling:
         if math.isnan(p0) and math.isnan(p1):
             _add_ramped(mix[record[B_CHANNEL] + 1], out, g0, g1, n)
@@ -563,6 +586,36 @@ def stream_callback():
         )
 
 
+ROLLER_SIGNATURE = types.int64(types.int64, types.int64, types.int64, types.int64)
+
+
+def _roll_body(ctl_address, record_address, out_address, n):
+    """The rolling voices of the body at ``record_address`` over ``n`` frames, added into its
+    mix at ``out_address`` (:func:`synth.live.rolling_block.mix_rolls`; their ends posted
+    in the event ring of the engine at ``ctl_address``). Returns 1 if one rang, else 0."""
+    ctl = i64_at(ctl_address, N_CTL)
+    record = i64_at(record_address, N_BODY)
+    out = f64_at(out_address, n)
+    if rolling_block.mix_rolls(out, n, rolling_form(record), event_ring(ctl)):
+        return 1
+    return 0
+
+
+@functools.cache
+def rolling_block_code():
+    """The compiled :func:`_roll_body` (a numba ``CFunc``), which the callback calls through
+    its address (``ctl[ROLLER]``, :func:`_call_roller`) for an engine with rolling slots.
+
+    Apart from the callback, so that an engine without rolling slots never compiles,
+    loads nor runs the rolling contact's integrator
+    (:func:`synth.physics.rolling_kernels.roll`, the largest kernel the live engine
+    calls); made on first use, as :func:`stream_callback`."""
+    with cfunc_compiling(_roll_body, ROLLER_SIGNATURE):
+        return numba.cfunc(ROLLER_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
+            _roll_body
+        )
+
+
 def _check_block(ctl: np.ndarray, out: np.ndarray) -> None:
     """``out`` must be what the compiled block writes: float32, C-contiguous, writeable,
     (frames, the engine's channels)."""
@@ -625,9 +678,10 @@ def silence_body(ctl, record):
     kernel.silence(modal, ring, transformed, voice_form, counters, event_ring(ctl))
 
 
-def warm_up() -> None:
+def warm_up(rolling: bool = False) -> None:
     """Compile (or load from numba's cache) everything the audio thread runs, on a one-mode
-    body with one pulse handed over, so that no callback compiles."""
+    body with one pulse handed over, so that no callback compiles; with ``rolling``, the
+    rolling voices' block too (:func:`rolling_block_code`)."""
     from synth.live.queue import PendingRing
     from synth.sound.modal_bank import bank_coefficients, power_table
 
@@ -655,3 +709,5 @@ def warm_up() -> None:
     out = np.zeros((8, 1), dtype=np.float32)
     run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it
     mix_engine(state.ctl, out)
+    if rolling:
+        rolling_block_code()

@@ -46,8 +46,11 @@ HORIZON = 0.05
 #: touching point's offset from the centre (sub-millimetre for roughness much lower than
 #: the ball) and for the centre's path from the update's block to the next.
 MARGIN = 2e-3
-#: Default rolling slots a body holds (``Engine(max_rolls=...)``).
-MAX_ROLLS = 1
+#: Default rolling slots a body holds (``Engine(max_rolls=...)``): none. A slot costs each
+#: body its tables and modal state (``synth bench live`` prints the memory), and an engine
+#: with slots compiles and loads the rolling contact's integrator beside its callback
+#: (``synth bench cold``): an engine that rolls asks for them (``Body.roll`` says so).
+MAX_ROLLS = 0
 
 
 def table_step(model) -> float:

@@ -74,8 +74,9 @@ from synth.live.heard import N_HEARD_ROWS, heard_arrays
     TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
     SHARE_FROM,  # the body served first by the next callback's share of the budget
     ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
+    ROLLER,  # address of the rolling voices' compiled block (synth.live.native), 0: none
     N_CTL,
-) = range(37)
+) = range(38)
 
 #: ``times`` fields (float64).
 (
@@ -313,7 +314,9 @@ class EngineState:
     ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
     voice-ended events, the master bus' true-peak limiter's state (``limit``, or None
     without a limiter), and the most pulses a stream's callback transforms over every body
-    (``transforms_per_block``; see :mod:`synth.live.native`)."""
+    (``transforms_per_block``; see :mod:`synth.live.native`), and the address of the
+    rolling voices' compiled block (``roller``, :func:`synth.live.native.rolling_block_code`;
+    0 for an engine without rolling slots)."""
 
     def __init__(
         self,
@@ -328,6 +331,7 @@ class EngineState:
         transforms_per_block: int,
         events: int = 4096,
         limit: limiter.LimiterState | None = None,
+        roller: int = 0,
     ):
         self.ctl = np.zeros(N_CTL, dtype=np.int64)
         self.times = np.zeros(N_TIMES)
@@ -358,6 +362,7 @@ class EngineState:
         c[SCRATCH] = self.scratch.ctypes.data
         c[RECORD] = self.recording.ctypes.data
         c[CLIP] = int(bool(clip))
+        c[ROLLER] = roller
         self.limiter = limit
         if limit is not None:
             c[LIMIT] = 1
