@@ -486,9 +486,7 @@ def _rolling_row(plate, listener, ball, envelope, v, samplerate, blocksize, seco
 
     channels = len(listener) if isinstance(listener, tuple) else 1
     block = blocksize / samplerate
-    engine = Engine(
-        samplerate=samplerate, blocksize=blocksize, channels=channels, max_rolls=1
-    )
+    engine = Engine(samplerate=samplerate, blocksize=blocksize, channels=channels, max_rolls=1)
     body = engine.add(plate, listener=listener)
     start = np.array([0.05, 0.5 * plate.width])
     voice = body.roll(ball, start, (v, 0.0), envelope=envelope, start=0.01)

@@ -47,8 +47,7 @@ def live_rolling(setup, speeds, *, stop_after=None, fade=0.02, tail=0, listener=
     stopped after ``stop_after`` frames, heard by ``listener`` (default the setup's
     microphone), moved to ``move = (frame, listener)``; the voice and the engine."""
     plate, mic, ball, envelope = setup
-    engine = synth.Engine(samplerate=FS, blocksize=256, channels=channels,
-                           max_rolls=1)
+    engine = synth.Engine(samplerate=FS, blocksize=256, channels=channels, max_rolls=1)
     body = engine.add(plate, listener=mic if listener is None else listener)
     voice = body.roll(ball, ORIGIN + DIRECTION * START, speeds[0] * DIRECTION, envelope=envelope,
                       start=START)  # fmt: skip
