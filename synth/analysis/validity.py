@@ -238,20 +238,28 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound over the
-    stretch that parts them from both neighbours, over frequencies enough to tell
-    (:func:`rise_verdict`): the whitening's bursts in a ringing it cannot follow (a lightly
-    damped plate's beating modes, a clipped run's interpolation), which no bounce made. A
-    tick whose bounce times follow a ball's series is not tested, nor one whose spectrum
-    holds too few frequencies to decide (a plate of a few modes: an impact on a ringing mode
-    may as well lower it, as its phase falls)."""
+    """Indices of the ticks after the first of one search (``ticks``, in time order) that no
+    impact made: the whitening's bursts in a ringing it cannot follow (a lightly damped
+    plate's beating modes, a clipped run's interpolation). A tick is tested when its bounce
+    times do not show it a ball's bounce (:func:`doubtful_ticks`) or its own sound does not
+    decay (no decay time): an impact adds sound, so the spectrum over the stretch that parts
+    it from both neighbours must rise (:func:`rise_verdict`). A doubtful tick that decays is
+    dropped where the frequencies are enough to tell (a plate of a few modes: an impact on
+    a ringing mode may as well lower it, as its phase falls); one that neither decays nor
+    rises is dropped on the two together, however few the frequencies: nothing of an impact
+    shows in it. A tick too close to its neighbours to weigh (:func:`rise_verdict`) is
+    kept."""
+    doubtful = set(doubtful_ticks(ticks))
     out = []
-    for i in doubtful_ticks(ticks):
+    for i in range(1, len(ticks)):
+        silent = ticks[i].decay_time is None
+        if i not in doubtful and not silent:
+            continue
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
-        if verdict.decisive and not verdict.adds:
+        if not verdict.adds and (verdict.decisive or silent):
             out.append(i)
     return out
 
@@ -311,13 +319,32 @@ def as_series_start(tick: Tick) -> Tick:
 
 
 def flag_series(ticks: list[Tick]) -> list[Tick]:
-    """The ticks of one series with the impossible restitutions flagged: :data:`GROWN_BOUNCE`
-    where ``e_n >= 1``, :data:`AFTER_GROWN` on the tick after one (its restitution is
-    measured against the grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE`
-    where a restitution below 1 spans a missed bounce (:func:`missed_bounces`), and
-    :data:`NO_DECAY`
-    where the tick's own sound has no decay time (an impact excites a ringing that
-    decays)."""
+    """The ticks of one series with the impossible restitutions flagged and withheld
+    (:func:`without_flagged_restitutions`): :data:`GROWN_BOUNCE` where ``e_n >= 1``,
+    :data:`AFTER_GROWN` on the tick after one (its restitution is measured against the
+    grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE` where a restitution
+    below 1 spans a missed bounce (:func:`missed_bounces`), and :data:`NO_DECAY` where the
+    tick's own sound has no decay time (an impact excites a ringing that decays)."""
+    return without_flagged_restitutions(_flagged(ticks))
+
+
+def without_flagged_restitutions(ticks: list[Tick]) -> list[Tick]:
+    """``ticks`` with no restitution where a flag of :data:`RESTITUTION_FLAGS` says it is no
+    ratio of two successive flights of a ball (a tick missed or taken in between pairs the
+    wrong onsets): the tick stays, with its onset, bounce time and measurements, and the flag
+    gives the reason; a value the analysis itself finds impossible is never reported. Where
+    the tick's own bounce grew (:data:`GROWN_BOUNCE`), that bounce is no single flight
+    either, and the impact speed ``g t_n / 2`` it gives is withheld too."""
+    return [
+        replace(t, restitution=None, speed=None if GROWN_BOUNCE in t.flags else t.speed)
+        if set(t.flags) & set(RESTITUTION_FLAGS)
+        else t
+        for t in ticks
+    ]
+
+
+def _flagged(ticks: list[Tick]) -> list[Tick]:
+    """``ticks`` with the flags of :func:`flag_series`, their values as measured."""
     out = []
     for i, t in enumerate(ticks):
         flags = list(t.flags)
@@ -459,8 +486,13 @@ def make_series(ticks: list[Tick]) -> Series:
 
 
 def _listed(ticks: list, shown: int = 5) -> str:
-    """The first ``shown`` flagged ticks with their restitution, and how many more."""
-    listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in ticks[:shown])
+    """The first ``shown`` flagged ticks with their bounce time, and how many more."""
+    listed = ", ".join(
+        f"tick {t.index} (bounce {t.bounce_time:.4g} s)"
+        if t.bounce_time is not None
+        else f"tick {t.index}"
+        for t in ticks[:shown]
+    )
     return listed + (f" and {len(ticks) - shown} more" if len(ticks) > shown else "")
 
 
@@ -471,15 +503,15 @@ def flag_warnings(series: list[Series]) -> tuple[str, ...]:
     if missed:
         out.append(
             f"restitution over a missed bounce at {len(missed)} tick(s): {_listed(missed)}; "
-            f"its bounce times or energy do not follow one ball's series (flagged and left out "
-            f"of the means)"
+            f"its bounce times or energy do not follow one ball's series (flagged, "
+            f"restitution withheld)"
         )
     grown = [t for s in series for t in s.ticks if GROWN_BOUNCE in t.flags]
     if grown:
         out.append(
             f"physically impossible restitution at {len(grown)} tick(s): {_listed(grown)}; a "
             f"ball's bounce times shrink, so a tick was missed before each (its restitution "
-            f"and the next one's are flagged and left out of the means)"
+            f"and the next one's are flagged and withheld)"
         )
     silent = [t for s in series for t in s.ticks if NO_DECAY in t.flags]
     if silent:
