@@ -139,14 +139,25 @@ def rise_ratios_db(
         return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
+#: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
+#: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
+HANN_LINE_BINS = 4
+#: A tick that neither decays nor raises the spectrum is dropped where the frequencies that
+#: hold sound span this many lines at least (:func:`not_impacts`): their median then falls
+#: only where most lines fall, which an impact on one line's phase does not make.
+SILENT_MIN_LINES = 3
+
+
 @dataclass(frozen=True)
 class RiseVerdict:
     """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
     whether it could have said so (``decisive``): over as many frequencies, a rise of
-    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`)."""
+    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`), and over
+    how many frequencies it was weighed."""
 
     adds: bool
     decisive: bool
+    frequencies: int = 0
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
@@ -174,7 +185,9 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
     rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
     return RiseVerdict(
-        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive), decisive
+        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
+        decisive,
+        int(ratios.size),
     )
 
 
@@ -246,9 +259,10 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     it from both neighbours must rise (:func:`rise_verdict`). A doubtful tick that decays is
     dropped where the frequencies are enough to tell (a plate of a few modes: an impact on
     a ringing mode may as well lower it, as its phase falls); one that neither decays nor
-    rises is dropped on the two together, however few the frequencies: nothing of an impact
-    shows in it. A tick too close to its neighbours to weigh (:func:`rise_verdict`) is
-    kept."""
+    rises is dropped on the two together where the frequencies span
+    :data:`SILENT_MIN_LINES` lines at least (an impact on a single ringing line may lower it,
+    as its phase falls): nothing of an impact shows in it. A tick too close to its
+    neighbours to weigh (:func:`rise_verdict`) is kept."""
     doubtful = set(doubtful_ticks(ticks))
     out = []
     for i in range(1, len(ticks)):
@@ -259,7 +273,8 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
-        if not verdict.adds and (verdict.decisive or silent):
+        lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
+        if not verdict.adds and (verdict.decisive or (silent and lines)):
             out.append(i)
     return out
 
