@@ -251,28 +251,23 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the ticks after the first of one search (``ticks``, in time order) that no
-    impact made: the whitening's bursts in a ringing it cannot follow (a lightly damped
-    plate's beating modes, a clipped run's interpolation). A tick is tested when its bounce
-    times do not show it a ball's bounce (:func:`doubtful_ticks`) or its own sound does not
-    decay (no decay time): an impact adds sound, so the spectrum over the stretch that parts
-    it from both neighbours must rise (:func:`rise_verdict`). A doubtful tick that decays is
-    dropped where the frequencies are enough to tell (a plate of a few modes: an impact on
-    a ringing mode may as well lower it, as its phase falls); one that neither decays nor
-    rises is dropped on the two together where the frequencies span
-    :data:`SILENT_MIN_LINES` lines at least (an impact on a single ringing line may lower it,
-    as its phase falls): nothing of an impact shows in it. A tick too close to its
-    neighbours to weigh (:func:`rise_verdict`) is kept."""
-    doubtful = set(doubtful_ticks(ticks))
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that no impact made: the
+    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
+    a clipped run's interpolation). An impact adds sound, so the spectrum over the stretch
+    that parts the tick from both neighbours must rise (:func:`rise_verdict`). A doubtful
+    tick is dropped where it does not and the frequencies are enough to tell (a plate of a
+    few modes: an impact on a ringing mode may as well lower it, as its phase falls), and,
+    however few they are, where its own sound does not decay either and they span
+    :data:`SILENT_MIN_LINES` lines at least: then nothing of an impact shows in it. A tick
+    whose bounce times follow a ball's series is not tested (masked ticks add no sound the
+    spectrum could show), nor one too close to its neighbours to weigh."""
     out = []
-    for i in range(1, len(ticks)):
-        silent = ticks[i].decay_time is None
-        if i not in doubtful and not silent:
-            continue
+    for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
+        silent = ticks[i].decay_time is None
         lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
         if not verdict.adds and (verdict.decisive or (silent and lines)):
             out.append(i)
