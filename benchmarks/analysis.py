@@ -101,8 +101,8 @@ def run_analysis(
 
     A true tick counts as found when a detected onset lies within 1 ms of it; the
     restitution and onset errors are over the found ticks only; a restitution the analysis
-    flags as spanning a missed bounce (or otherwise impossible, its ``RESTITUTION_FLAGS``,
-    left out of its own means) is counted apart, not as an error. A file in which nothing
+    flags as spanning a missed bounce (or otherwise impossible, its ``RESTITUTION_FLAGS``:
+    withheld, no value) is counted apart, not as an error. A file in which nothing
     is detected (``AnalysisError``) counts all its ticks as missed.
     """
     from synth.analysis import AnalysisError, analyze
@@ -129,11 +129,12 @@ def run_analysis(
                     found += 1
                     onset_errs.append(got[j] - onsets[i])
                     tick = a.ticks[j]
-                    if i >= 2 and tick.restitution is not None:
-                        if set(tick.flags) & set(RESTITUTION_FLAGS):
-                            flagged += 1  # the analysis says why this e is not a bounce's
-                        else:
-                            errs.append(abs(tick.restitution - e) / e)
+                    if i < 2:
+                        continue
+                    if set(tick.flags) & set(RESTITUTION_FLAGS):
+                        flagged += 1  # withheld: the analysis says why this is no bounce's
+                    elif tick.restitution is not None:
+                        errs.append(abs(tick.restitution - e) / e)
         n_files = len(restitutions) * seeds
         rows.append(
             dict(

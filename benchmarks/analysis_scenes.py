@@ -12,8 +12,8 @@ Scores, per scene and in total:
 * impossible values: ticks whose reported values contradict physics or the scene's truth
   (:func:`impossible_value`): a non-finite measurement, a restitution not above 0, an
   impact speed above the drop's free-fall speed, a restitution of 1 or more (growth of the
-  bounce time) where the true impacts its ticks match show no growth, or a restitution the
-  analysis flags as spanning a missed bounce. A ratio above 1 is a possible value: a
+  bounce time) where the true impacts its ticks match show no growth, or a restitution
+  reported with a flag that says it is no bounce's. A ratio above 1 is a possible value: a
   vibrating plate can give the ball energy back, and the engine's own flights then grow;
 * audible impacts missed: true impacts that are audible (:func:`audible_impacts`) and that
   no detected tick matches;
@@ -292,26 +292,26 @@ def impossible_value(t, truth: Truth, impacts: list) -> bool:
     three ticks before it match; its restitution ``e_n = t_n / t_(n-1)`` is measured from the
     last three. Physics: every measurement finite, ``e_n > 0``, the impact speed at most the
     drop's free-fall speed (1 % over it allowed: the bounce time holds the contact time too).
-    Truth: ``e_n >= 1``, or the flag that says so (``restitution>=1``), only where the true
-    onsets of those impacts allow a ratio of 1 or more (:func:`_growth_allowed`; with a false
-    tick among them no bounce grew), and the flag ``after-restitution>=1`` only where the
-    truth allows the growth of the bounce before. The flag ``missed-bounce`` says that the
-    value spans a missed bounce, no bounce's restitution: impossible as before."""
-    from synth.analysis.report import AFTER_GROWN, GROWN_BOUNCE, MISSED_BOUNCE
+    Truth: ``e_n >= 1`` only where the true onsets of those impacts allow a ratio of 1 or
+    more (:func:`_growth_allowed`; with a false tick among them no bounce grew). A
+    restitution reported together with a flag of
+    :data:`~synth.analysis.report.RESTITUTION_FLAGS` is one the analysis itself says is no
+    bounce's: impossible. A flag on a tick that reports no restitution is a reason, not a
+    value."""
+    from synth.analysis.report import RESTITUTION_FLAGS
 
     values = (t.time, t.energy, t.peak, t.centroid, t.spread)
-    if not all(math.isfinite(v) for v in values) or MISSED_BOUNCE in t.flags:
+    if not all(math.isfinite(v) for v in values):
         return True
     if t.speed is not None and not t.speed <= 1.01 * truth.fall_speed:
         return True
-    if AFTER_GROWN in t.flags and not _growth_allowed(truth, impacts[:-1]):
-        return True
     if t.restitution is None:
         return False
+    if set(t.flags) & set(RESTITUTION_FLAGS):
+        return True
     if not (math.isfinite(t.restitution) and t.restitution > 0.0):
         return True
-    grown = t.restitution >= 1.0 or GROWN_BOUNCE in t.flags
-    return grown and not _growth_allowed(truth, impacts[-3:])
+    return t.restitution >= 1.0 and not _growth_allowed(truth, impacts[-3:])
 
 
 def _growth_allowed(truth: Truth, impacts: list) -> bool:
@@ -376,8 +376,14 @@ def timed_analysis(audio: np.ndarray, samplerate: int, limit: float | None):
 
 def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     """Render ``spec``, analyse it with the defaults (timed; stopped after ``limit`` s when
-    given) and score it."""
-    truth = render_truth(spec)
+    given) and score it. A scene the engine refuses to render (``ParameterError``: the ball
+    comes to rest on the plate within the render) scores nothing, with the reason."""
+    from synth.errors import ParameterError
+
+    try:
+        truth = render_truth(spec)
+    except ParameterError as exc:
+        return SceneScore(spec.describe(), 0, 0, 0, 0, 0, 0, 0.0, 0.0, f"not rendered: {exc}")
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
     false, impossible, missed = score(truth, ticks)
@@ -405,7 +411,7 @@ def run_random(count: int, seed: int, limit: float | None = None) -> dict:
         print(  # progress: a run of 30 scenes takes minutes
             f"scene {i}/{count}: {r['scene']}: {r['ticks']} ticks, {r['false_ticks']} false, "
             f"{r['impossible']} impossible, {r['missed']} of {r['audible']} audible missed, "
-            f"{r['seconds'] / r['duration']:.3f} s/s",
+            f"{_per_second(r):.3f} s/s{'' if r['error'] is None else ' (' + r['error'] + ')'}",
             file=sys.stderr,
             flush=True,
         )
@@ -420,8 +426,13 @@ def run_random(count: int, seed: int, limit: float | None = None) -> dict:
         audible=sum(r["audible"] for r in rows),
         impacts=sum(r["impacts"] for r in rows),
         seconds_per_second=total_time / total_audio if total_audio else float("nan"),
-        worst_seconds_per_second=max((r["seconds"] / r["duration"] for r in rows), default=0.0),
+        worst_seconds_per_second=max((_per_second(r) for r in rows), default=0.0),
     )
+
+
+def _per_second(row: dict) -> float:
+    """Seconds of analysis per second of audio of a scene's row (0 for one not rendered)."""
+    return row["seconds"] / row["duration"] if row["duration"] else 0.0
 
 
 def format_random(result: dict) -> str:
@@ -439,7 +450,7 @@ def format_random(result: dict) -> str:
         lines.append(
             f"| {i} | {r['scene']}{note} | {r['impacts']} ({r['audible']}) | {r['ticks']} | "
             f"{r['false_ticks']} | {r['impossible']} | {r['missed']} | {r['duration']:.1f} | "
-            f"{r['seconds'] / r['duration']:.3f} |"
+            f"{_per_second(r):.3f} |"
         )
     lines.append(
         f"total: {result['impacts']} impacts ({result['audible']} audible), "

@@ -77,14 +77,16 @@ def missed():
 
 def test_missed_tick_is_flagged(missed):
     # without tick 4 the bounce before tick 4 found is t_3 + t_4 = e (1 + e) t_2: e = 1.44,
-    # impossible for a ball; the next one is e^2 / (1 + e) = 0.36. Both are flagged, the
-    # summary says so, and the mean leaves them out (the rest is e = 0.8 to the rounding of
-    # the onsets to samples, < 0.1 %)
+    # impossible for a ball; the next one is e^2 / (1 + e) = 0.36. Both are flagged and
+    # withheld (the bounce times stay, the grown bounce's speed is withheld too), the
+    # summary says so, and the mean is the rest's: e = 0.8 to the rounding of the onsets to
+    # samples, < 0.1 %
     x, on = missed
     an = analyze(x, FS)
     assert matched([t.time for t in an.ticks], on) == on.size == len(an.ticks)
     bad = an.ticks[3]
-    assert bad.restitution == pytest.approx(0.8 * 1.8, rel=1e-3)
+    assert bad.bounce_time / an.ticks[2].bounce_time == pytest.approx(0.8 * 1.8, rel=1e-3)
+    assert bad.restitution is None and bad.speed is None and an.ticks[4].restitution is None
     assert GROWN_BOUNCE in bad.flags and AFTER_GROWN in an.ticks[4].flags
     assert all(not t.flags for t in an.ticks if t.index not in (4, 5))
     assert any("impossible restitution" in w and "tick 4" in w for w in an.warnings)
@@ -102,9 +104,11 @@ def test_missed_tick_of_a_dead_ball_is_flagged():
     keep[3] = False
     an = analyze(ticks(on[keep], amps[keep], 1.5), FS)
     assert matched([t.time for t in an.ticks], on[keep]) == keep.sum() == len(an.ticks)
-    assert [t.restitution for t in an.ticks[3:5]] == pytest.approx(
+    bounces = [t.bounce_time for t in an.ticks[2:5]]
+    assert [bounces[1] / bounces[0], bounces[2] / bounces[1]] == pytest.approx(
         [0.55 * 1.55, 0.55**2 / 1.55], rel=1e-3
     )
+    assert [t.restitution for t in an.ticks[3:5]] == [None, None]  # withheld: flagged
     assert [t.index for t in an.ticks if t.flags] == [4, 5]
     assert all(t.flags == (MISSED_BOUNCE,) for t in an.ticks[3:5])
     assert any("missed bounce" in w and "tick 4" in w for w in an.warnings)

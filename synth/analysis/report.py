@@ -48,10 +48,12 @@ class Tick:
         Bounce times hold the contact times, so it exceeds the impact's physical
         restitution (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) /
         t_(n-1)`` (docs/analysis.md): of the order of contact time over bounce time.
-        ``None`` for the first two ticks.
+        ``None`` for the first two ticks, and where a flag below says it is no ratio of
+        two successive flights (the value is withheld, the flag gives the reason).
     speed : float or None
         Impact speed ``v_n = g t_n / 2``, m/s (the flight alone gives ``g (t_n -
-        tau) / 2``: this exceeds it by ``g tau / 2``); ``None`` for the first tick.
+        tau) / 2``: this exceeds it by ``g tau / 2``); ``None`` for the first tick, and
+        where the flag ``"restitution>=1"`` says its bounce is no single flight.
     energy : float
         Sum of squares of the tick's own signal (without the other ticks) over its
         window divided by the sample rate, signal units^2 s.
@@ -80,7 +82,7 @@ class Tick:
         restitution changes from one bounce to the next, or the series stops where that
         restitution says the ball bounces on, loud enough to be found); ``"no-decay"``, its
         own sound does not ring down as an impact's does (:mod:`~synth.analysis.validity`).
-        The restitutions of the first three are left out of every mean.
+        The first three withhold the tick's restitution (``None``).
     """
 
     index: int

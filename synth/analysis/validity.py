@@ -139,14 +139,25 @@ def rise_ratios_db(
         return 10.0 * np.log10(pa[keep] / pb[keep])
 
 
+#: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
+#: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
+HANN_LINE_BINS = 4
+#: A tick that neither decays nor raises the spectrum is dropped where the frequencies that
+#: hold sound span this many lines at least (:func:`not_impacts`): their median then falls
+#: only where most lines fall, which an impact on one line's phase does not make.
+SILENT_MIN_LINES = 3
+
+
 @dataclass(frozen=True)
 class RiseVerdict:
     """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
     whether it could have said so (``decisive``): over as many frequencies, a rise of
-    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`)."""
+    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`), and over
+    how many frequencies it was weighed."""
 
     adds: bool
     decisive: bool
+    frequencies: int = 0
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
@@ -174,7 +185,9 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     decisive = median_rise_chance(SPECTRAL_RISE_DB, ratios.size) <= RISE_FALSE_ALARM
     rises = float(np.median(ratios)) >= SPECTRAL_RISE_DB
     return RiseVerdict(
-        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive), decisive
+        rises and (rise_chance(ratios) <= RISE_FALSE_ALARM or not decisive),
+        decisive,
+        int(ratios.size),
     )
 
 
@@ -238,20 +251,25 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that add no sound over the
-    stretch that parts them from both neighbours, over frequencies enough to tell
-    (:func:`rise_verdict`): the whitening's bursts in a ringing it cannot follow (a lightly
-    damped plate's beating modes, a clipped run's interpolation), which no bounce made. A
-    tick whose bounce times follow a ball's series is not tested, nor one whose spectrum
-    holds too few frequencies to decide (a plate of a few modes: an impact on a ringing mode
-    may as well lower it, as its phase falls)."""
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that no impact made: the
+    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
+    a clipped run's interpolation). An impact adds sound, so the spectrum over the stretch
+    that parts the tick from both neighbours must rise (:func:`rise_verdict`). A doubtful
+    tick is dropped where it does not and the frequencies are enough to tell (a plate of a
+    few modes: an impact on a ringing mode may as well lower it, as its phase falls), and,
+    however few they are, where its own sound does not decay either and they span
+    :data:`SILENT_MIN_LINES` lines at least: then nothing of an impact shows in it. A tick
+    whose bounce times follow a ball's series is not tested (masked ticks add no sound the
+    spectrum could show), nor one too close to its neighbours to weigh."""
     out = []
     for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
         if i + 1 < len(ticks):
             gaps.append(ticks[i + 1].time - ticks[i].time)
         verdict = rise_verdict(test, ticks[i].time, min(gaps))
-        if verdict.decisive and not verdict.adds:
+        silent = ticks[i].decay_time is None
+        lines = verdict.frequencies >= SILENT_MIN_LINES * HANN_LINE_BINS
+        if not verdict.adds and (verdict.decisive or (silent and lines)):
             out.append(i)
     return out
 
@@ -311,13 +329,32 @@ def as_series_start(tick: Tick) -> Tick:
 
 
 def flag_series(ticks: list[Tick]) -> list[Tick]:
-    """The ticks of one series with the impossible restitutions flagged: :data:`GROWN_BOUNCE`
-    where ``e_n >= 1``, :data:`AFTER_GROWN` on the tick after one (its restitution is
-    measured against the grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE`
-    where a restitution below 1 spans a missed bounce (:func:`missed_bounces`), and
-    :data:`NO_DECAY`
-    where the tick's own sound has no decay time (an impact excites a ringing that
-    decays)."""
+    """The ticks of one series with the impossible restitutions flagged and withheld
+    (:func:`without_flagged_restitutions`): :data:`GROWN_BOUNCE` where ``e_n >= 1``,
+    :data:`AFTER_GROWN` on the tick after one (its restitution is measured against the
+    grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE` where a restitution
+    below 1 spans a missed bounce (:func:`missed_bounces`), and :data:`NO_DECAY` where the
+    tick's own sound has no decay time (an impact excites a ringing that decays)."""
+    return without_flagged_restitutions(_flagged(ticks))
+
+
+def without_flagged_restitutions(ticks: list[Tick]) -> list[Tick]:
+    """``ticks`` with no restitution where a flag of :data:`RESTITUTION_FLAGS` says it is no
+    ratio of two successive flights of a ball (a tick missed or taken in between pairs the
+    wrong onsets): the tick stays, with its onset, bounce time and measurements, and the flag
+    gives the reason; a value the analysis itself finds impossible is never reported. Where
+    the tick's own bounce grew (:data:`GROWN_BOUNCE`), that bounce is no single flight
+    either, and the impact speed ``g t_n / 2`` it gives is withheld too."""
+    return [
+        replace(t, restitution=None, speed=None if GROWN_BOUNCE in t.flags else t.speed)
+        if set(t.flags) & set(RESTITUTION_FLAGS)
+        else t
+        for t in ticks
+    ]
+
+
+def _flagged(ticks: list[Tick]) -> list[Tick]:
+    """``ticks`` with the flags of :func:`flag_series`, their values as measured."""
     out = []
     for i, t in enumerate(ticks):
         flags = list(t.flags)
@@ -459,8 +496,13 @@ def make_series(ticks: list[Tick]) -> Series:
 
 
 def _listed(ticks: list, shown: int = 5) -> str:
-    """The first ``shown`` flagged ticks with their restitution, and how many more."""
-    listed = ", ".join(f"tick {t.index} (e = {t.restitution:.3g})" for t in ticks[:shown])
+    """The first ``shown`` flagged ticks with their bounce time, and how many more."""
+    listed = ", ".join(
+        f"tick {t.index} (bounce {t.bounce_time:.4g} s)"
+        if t.bounce_time is not None
+        else f"tick {t.index}"
+        for t in ticks[:shown]
+    )
     return listed + (f" and {len(ticks) - shown} more" if len(ticks) > shown else "")
 
 
@@ -471,15 +513,15 @@ def flag_warnings(series: list[Series]) -> tuple[str, ...]:
     if missed:
         out.append(
             f"restitution over a missed bounce at {len(missed)} tick(s): {_listed(missed)}; "
-            f"its bounce times or energy do not follow one ball's series (flagged and left out "
-            f"of the means)"
+            f"its bounce times or energy do not follow one ball's series (flagged, "
+            f"restitution withheld)"
         )
     grown = [t for s in series for t in s.ticks if GROWN_BOUNCE in t.flags]
     if grown:
         out.append(
             f"physically impossible restitution at {len(grown)} tick(s): {_listed(grown)}; a "
             f"ball's bounce times shrink, so a tick was missed before each (its restitution "
-            f"and the next one's are flagged and left out of the means)"
+            f"and the next one's are flagged and withheld)"
         )
     silent = [t for s in series for t in s.ticks if NO_DECAY in t.flags]
     if silent:

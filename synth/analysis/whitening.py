@@ -11,6 +11,7 @@ contact.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 from dataclasses import dataclass
 
@@ -175,20 +176,29 @@ def one_blas_thread():
     per recording; the triangular solutions of the resonator's predictor). The helper threads
     of a multithreaded BLAS, waiting for cores that other work keeps busy, made them three to
     ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
-    :mod:`synth.sound.modes`). Only the outermost of nested contexts sets the limit:
-    each entry scans the process' loaded libraries (milliseconds, several times per drop of
-    a long recording), and an inner one would change nothing."""
-    from threadpoolctl import threadpool_limits
-
+    :mod:`synth.sound.modes`). Only the outermost of nested contexts sets the limit (an
+    inner one would change nothing), through one controller of the BLAS libraries the
+    process loaded (:func:`_blas_controller`): a scan of those libraries takes tens of
+    milliseconds, and the analysis enters such a context hundreds of times."""
     _BLAS_DEPTH[0] += 1
     try:
         if _BLAS_DEPTH[0] > 1:
             yield
         else:
-            with threadpool_limits(1, user_api="blas"):
+            with _blas_controller().limit(limits=1, user_api="blas"):
                 yield
     finally:
         _BLAS_DEPTH[0] -= 1
+
+
+@functools.cache
+def _blas_controller():
+    """The thread-pool controller of the BLAS libraries loaded with numpy and scipy's linear
+    algebra (scanned once; both are imported before any analysis runs)."""
+    import scipy.linalg  # noqa: F401  (its LAPACK and BLAS loaded before the scan)
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 def _loaded_cholesky(G: np.ndarray, seg: np.ndarray, load: float) -> np.ndarray | None:
