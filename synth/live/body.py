@@ -697,11 +697,6 @@ class Body:
         accelerometer hears it with its direct term; :meth:`move` reaches it. The engine
         must be made with ``max_rolls >= 1`` (ParameterError otherwise: its callback
         holds no rolling code)."""
-        if self._engine.max_rolls == 0:
-            raise ParameterError(
-                "max_rolls=0: this body's engine has no rolling slots; make the engine with "
-                "synth.Engine(..., max_rolls=1) (or more, up to 16) to roll balls on its bodies"
-            )
         return rolling.start_roll(self, ball, position, velocity, **options)
 
     @property

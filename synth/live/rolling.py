@@ -283,6 +283,11 @@ def start_roll(
         raise SynthError("this body was removed from its engine (Body.remove): add it again")
     engine._check_open("roll a ball")
     engine._check_alive()
+    if engine.max_rolls == 0:
+        raise ParameterError(
+            "max_rolls=0: this body's engine has no rolling slots; make the engine with "
+            "synth.Engine(..., max_rolls=1) (or more, up to 16) to roll balls on its bodies"
+        )
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
     x, y = body.plate.check_position(position, "position")
