@@ -75,3 +75,26 @@ def test_size_rule_exceptions_are_kernels_or_pending():
         if not _decorated_compiled(Path(f["filename"]), f["location"]["row"])
     ]
     assert not not_kernels, not_kernels
+
+
+#: The package's size limits: lines of a module, lines of a function (a numba kernel, the
+#: stated exception, is one piece of numerics: an integrator's step, a transform's loop).
+MODULE_LINES = 800
+FUNCTION_LINES = 150
+
+
+def test_no_module_or_function_over_the_size_limits():
+    too_long = []
+    for path in sorted((ROOT / "synth").rglob("*.py")):
+        text = path.read_text()
+        name = path.relative_to(ROOT)
+        if text.count("\n") > MODULE_LINES:
+            too_long.append(f"{name}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            lines = node.end_lineno - node.lineno + 1
+            kernel = any("compiled" in ast.unparse(d) for d in node.decorator_list)
+            if lines > FUNCTION_LINES and not kernel:
+                too_long.append(f"{name}:{node.lineno} {node.name}: {lines} lines")
+    assert too_long == [], too_long
