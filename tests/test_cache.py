@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import time
 
 import numpy as np
 import pytest
@@ -129,7 +128,7 @@ def test_size_bound_evicts_least_recently_used(monkeypatch):
     # recently); a fourth entry evicts the least recently used one, not the one read.
     monkeypatch.setenv("SYNTH_CACHE_MAX_BYTES", "350000")
     a, b, c = _entry("kind-a"), _entry("kind-b"), _entry("kind-c")
-    now = time.time()
+    now = c.stat().st_mtime  # the files' own times, set back from the last one written
     for i, p in enumerate((a, b, c)):
         os.utime(p, (now - 300 + 10 * i, now - 300 + 10 * i))
     cache.load_npz(a)
@@ -175,7 +174,7 @@ def test_stale_temporary_files_are_removed():
     stale, fresh = d / "kind-a.x1.tmp", d / "kind-a.x2.tmp"
     stale.write_bytes(b"half")
     fresh.write_bytes(b"being written")
-    old = time.time() - 2 * cache.STALE_TEMPORARY_AGE
+    old = fresh.stat().st_mtime - 2 * cache.STALE_TEMPORARY_AGE
     os.utime(stale, (old, old))
     _entry("kind-b")
     assert not stale.exists() and fresh.exists()
@@ -211,7 +210,7 @@ def test_leftovers_of_killed_writers_are_cleaned_on_the_next_run():
     other = d / "notes.txt"
     for p in (old_tmp, killed_part, live_part, other):
         p.write_bytes(b"half")
-    old = time.time() - 2 * cache.STALE_TEMPORARY_AGE
+    old = live_part.stat().st_mtime - 2 * cache.STALE_TEMPORARY_AGE
     os.utime(old_tmp, (old, old))
     P.modes(_plate(), max_frequency=3000.0)  # the next run: computes and stores an entry
     assert not old_tmp.exists() and not killed_part.exists()
