@@ -591,12 +591,13 @@ ROLLER_SIGNATURE = types.int64(types.int64, types.int64, types.int64, types.int6
 
 def _roll_body(ctl_address, record_address, out_address, n):
     """The rolling voices of the body at ``record_address`` over ``n`` frames, added into its
-    mix at ``out_address`` (:func:`synth.live.rolling_block.mix_rolls`; their ends posted
-    in the event ring of the engine at ``ctl_address``). Returns 1 if one rang, else 0."""
+    mix at ``out_address`` (:func:`synth.live.rolling_block.mix_rolls`, from the engine's
+    frame; their ends posted in the event ring of the engine at ``ctl_address``). Returns 1
+    if one rang, else 0."""
     ctl = i64_at(ctl_address, N_CTL)
     record = i64_at(record_address, N_BODY)
     out = f64_at(out_address, n)
-    if rolling_block.mix_rolls(out, n, rolling_form(record), event_ring(ctl)):
+    if rolling_block.mix_rolls(out, n, ctl[FRAME], rolling_form(record), event_ring(ctl)):
         return 1
     return 0
 

@@ -11,8 +11,8 @@ force at the moving touching point. An update sounds from the next block's start
 block plus the stream's output latency after the call at most.
 
 A body heard through several ears (``Engine.add(plate, listener=ears(...))``) rolls the
-voice in one slot at each ear, each heard through its ear's gains (each integrates the
-same contact: the same force, bit for bit, when both take an update at the same block);
+voice in the same slot at each ear: the first ear's slot integrates its contact once a
+block, and each ear drives its own modes with that force, heard through its own gains;
 an accelerometer hears the plate's acceleration at its sensor with its direct term, as
 the offline render's. A listener moved while the voice rolls
 (:meth:`synth.live.Body.move`) reaches it over the next block, as it reaches the body's
@@ -112,7 +112,7 @@ class RollingVoice:
         # the body's: between the game's threads updating its voices and taking its slots
         self._lock = body._roll_lock
         rolls = body._rolls
-        self._ints = rolls["roll_ints"][slots[0]]  # its slot's scalars (kept after the end)
+        self._ints = rolls["roll_ints"][slots[0]]  # its contact's scalars (kept after the end)
         self._ear_ints = [ear._rolls["roll_ints"][r] for ear, r in self._slots]
         self._floats = [ear._rolls["roll_floats"][r] for ear, r in self._slots]
         self._state = rolls["roll_y"][slots[0]]
@@ -197,7 +197,7 @@ class RollingVoice:
 
     def _publish(self, x: float, y: float, speed: float) -> None:
         """Write the table of the segment from ``(x, y)`` into each ear's back buffer and
-        swap it into the middle (flagged fresh) for the audio thread."""
+        swap them into the middle (flagged fresh) for the audio thread, at once."""
         body = self.body
         if any(ear._rolls is None for ear in body._ears):  # the body left its engine
             return
@@ -208,17 +208,21 @@ class RollingVoice:
         back = min(MARGIN, _reach(plate, x, y, -ux, -uy))
         ahead = min(speed * HORIZON + MARGIN, _reach(plate, x, y, ux, uy))
         ahead = min(ahead, -back + (rows_cap - 1) * step)
+        if not self._holds(0):  # ended: its slots may be another voice's
+            return
         tables = {}  # by the ear's rendered modes (the same for ears of one plate)
-        for i, (ear, r) in enumerate(self._slots):
-            if not self._holds(i):
-                continue
+        contact = self._ints
+        b = int(contact[rb.I_BACK])
+        for ear, r in self._slots:
             key = (id(ear._model.modes), ear._model.rendered.tobytes())
             if key not in tables:
                 tables[key] = path_excitation(
                     ear._model, origin=(x, y), direction=(ux, uy), start=-back, stop=ahead,
                     step=step,
                 )  # fmt: skip
-            _swap_in(ear._rolls, r, tables[key], speed)
+            _write_back(ear._rolls, r, b, tables[key], speed)
+        old = rb.exchange(contact, rb.I_MIDDLE, b | rb.FRESH)
+        contact[rb.I_BACK] = old & 3
 
     def stop(self, fade: float | None = None) -> None:
         """Fade it out from the next block: a raised cosine over ``fade`` s (in [0.001, 10];
@@ -229,24 +233,17 @@ class RollingVoice:
         f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
                             hi_open=False)  # fmt: skip
         with self._lock:
-            if self.playing:
-                frames = max(1, int(round(f * engine.samplerate)))
-                for ear, ints in enumerate(self._ear_ints):
-                    if self._holds(ear) and ints[rb.I_STOP] < 0:
-                        ints[rb.I_STOP] = frames
+            if self.playing and self._holds(0) and self._ints[rb.I_STOP] < 0:
+                self._ints[rb.I_STOP] = max(1, int(round(f * engine.samplerate)))
 
 
-def _swap_in(rolls: dict, r: int, table, speed: float) -> None:
+def _write_back(rolls: dict, r: int, b: int, table, speed: float) -> None:
     """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s)
-    into slot ``r``'s back buffer of a body's rolling arrays ``rolls`` and swap it into the
-    middle, flagged fresh."""
-    ints = rolls["roll_ints"][r]
-    b = int(ints[rb.I_BACK])
+    into buffer ``b`` (the voice's back buffer) of slot ``r`` of an ear's rolling arrays
+    ``rolls``."""
     rows = table.excitation.shape[0]
     rolls["roll_tables"][r, b, :rows] = table.excitation
     rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
-    old = rb.exchange(ints, rb.I_MIDDLE, b | rb.FRESH)
-    ints[rb.I_BACK] = old & 3
 
 
 def rolls(body) -> bool:
@@ -260,17 +257,17 @@ def rolls(body) -> bool:
 
 def stop_rolls(body, fade: float | None) -> None:
     """Fade out every rolling voice of ``body`` (taken out of its engine) over ``fade`` s
-    (None: the engine's ``fade``)."""
+    (None: the engine's ``fade``): each voice's contact, at the first ear, fades it at
+    every ear."""
     engine = body._engine
     frames = max(1, int(round((engine._fade if fade is None else fade) * engine.samplerate)))
     with body._roll_lock:
-        for ear in body._ears:
-            if ear._rolls is None:
-                continue
-            ints = ear._rolls["roll_ints"]
-            for r in range(ints.shape[0]):
-                if ints[r, rb.I_STATE] == rb.LIVE and ints[r, rb.I_STOP] < 0:
-                    ints[r, rb.I_STOP] = frames
+        if body._rolls is None:
+            return
+        ints = body._rolls["roll_ints"]
+        for r in range(ints.shape[0]):
+            if ints[r, rb.I_STATE] == rb.LIVE and ints[r, rb.I_STOP] < 0:
+                ints[r, rb.I_STOP] = frames
 
 
 def start_roll(
@@ -305,8 +302,9 @@ def start_roll(
             body.rolls_refused += 1
             return None
         try:
+            _fill_contact(body, slots[0], roller, envelope, s0, speed)
             for ear, r in zip(body._ears, slots):
-                _fill_slot(ear, r, roller, envelope, s0, speed, g)
+                _fill_slot(ear, r, body, g)
             vid = engine._next_voice_id()
             voice = RollingVoice(body, vid, slots, (ux, uy) if speed > 0.0 else (1.0, 0.0))
             for ear, r in zip(body._ears, slots):
@@ -322,23 +320,23 @@ def start_roll(
 
 
 def _take_slots(body) -> list[int] | None:
-    """A free rolling slot at each of ``body``'s ears, marked taken (``WRITING``); None
-    when one ear has none (under the body's ``_roll_lock``)."""
-    slots = []
+    """The same rolling slot at each of ``body``'s ears, free at every one (its contact
+    slot, the first ear's, is not reused while another ear still reads it), marked taken
+    (``WRITING``); None when there is none (under the body's ``_roll_lock``)."""
+    free = np.ones(body._rolls["roll_ints"].shape[0], dtype=bool)
     for ear in body._ears:
-        states = ear._rolls["roll_ints"][:, rb.I_STATE]
-        free = np.flatnonzero(states == rb.FREE)
-        if free.size == 0:
-            return None
-        slots.append(int(free[0]))
+        free &= ear._rolls["roll_ints"][:, rb.I_STATE] == rb.FREE
+    if not free.any():
+        return None
+    slots = [int(np.flatnonzero(free)[0])] * len(body._ears)
     for ear, r in zip(body._ears, slots):
         ear._rolls["roll_ints"][r, rb.I_STATE] = rb.WRITING
     return slots
 
 
-def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
-    """Write slot ``r``'s constants, start state, coefficients and envelope at the ear
-    ``body`` (the game's thread owns it until it is published)."""
+def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
+    """Write the contact of slot ``r`` at ``body``'s first ear: its constants, start state,
+    envelope, buffers and fade (the game's thread owns it until it is published)."""
     arrays = body._rolls
     fs = body._engine.samplerate
     coef_env = np.ascontiguousarray(envelope.coefficients, dtype=float)
@@ -351,9 +349,28 @@ def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
     fv[rb.F_LENGTH] = envelope.length
     fv[rb.F_H] = state.step
     fv[rb.F_ANCHOR] = s0
-    fv[rb.F_GAIN] = fv[rb.F_GAIN_NOW] = gain
-    fv[rb.F_PREVIOUS] = fv[rb.F_SPEED] = 0.0
+    fv[rb.F_PREVIOUS] = fv[rb.F_SPEED] = fv[rb.F_BEFORE] = 0.0
     arrays["roll_y"][r] = state.vector
+    fade = max(1, int(round(body._engine._fade * fs)))
+    values = {
+        rb.I_MIDDLE: 1, rb.I_FRONT: 0, rb.I_BACK: 2, rb.I_STOP: -1, rb.I_FADE_FROM: -1,
+        rb.I_FADE_LEN: 1, rb.I_END_FADE: fade, rb.I_ENDED: 0, rb.I_STEPS: 0, rb.I_FRAMES: 0,
+        rb.I_ENV: coef_env.ctypes.data, rb.I_ENV_N: coef_env.shape[0],
+        rb.I_OFF: offsets.ctypes.data, rb.I_OFF_N: offsets.size, rb.I_BLOCK: -1,
+    }  # fmt: skip
+    iv = arrays["roll_ints"][r]
+    for field, value in values.items():
+        iv[field] = value
+
+
+def _fill_slot(body, r, lead, gain) -> None:
+    """Write slot ``r`` at the ear ``body``: its gain, modes at rest, coefficients and the
+    addresses of its contact, slot ``r`` at the first ear ``lead`` (the game's thread owns
+    it until it is published)."""
+    arrays = body._rolls
+    fs = body._engine.samplerate
+    fv = arrays["roll_floats"][r]
+    fv[rb.F_GAIN] = fv[rb.F_GAIN_NOW] = gain
     arrays["roll_z"][r] = 0.0
     with body._move_lock:  # the listener's gains and their sequence number together
         model = body._model
@@ -372,14 +389,14 @@ def _fill_slot(body, r, roller, envelope, s0, speed, gain) -> None:
     for row, values in rows.items():
         coef[row] = values
     iv = arrays["roll_ints"][r]
-    fade = max(1, int(round(body._engine._fade * fs)))
+    contact = lead._rolls
     values = {
-        rb.I_MIDDLE: 1, rb.I_FRONT: 0, rb.I_BACK: 2, rb.I_STOP: -1, rb.I_FADE_AT: -1,
-        rb.I_FADE_LEN: 1, rb.I_END_FADE: fade, rb.I_STARTED: 0, rb.I_ENDED: 0, rb.I_STEPS: 0,
-        rb.I_FRAMES: 0, rb.I_OVERRUN: 0, rb.I_ENV: coef_env.ctypes.data,
-        rb.I_ENV_N: coef_env.shape[0], rb.I_OFF: offsets.ctypes.data, rb.I_OFF_N: offsets.size,
-        rb.I_EARS: int(body._counters[kernel.EARS]), rb.I_HEARD: heard_seq,
-        rb.I_DIRECT: int(accelerometer),
+        rb.I_STARTED: 0, rb.I_OVERRUN: 0, rb.I_EARS: int(body._counters[kernel.EARS]),
+        rb.I_HEARD: heard_seq, rb.I_DIRECT: int(accelerometer),
+        rb.I_C_INTS: contact["roll_ints"][r].ctypes.data,
+        rb.I_C_FLOATS: contact["roll_floats"][r].ctypes.data,
+        rb.I_C_Y: contact["roll_y"][r].ctypes.data,
+        rb.I_C_BUF: contact["roll_buf"][r].ctypes.data,
     }  # fmt: skip
     for field, value in values.items():
         iv[field] = value

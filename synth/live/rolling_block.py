@@ -2,38 +2,43 @@
 the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
 
 A body holds ``max_rolls`` rolling slots (arrays made by :func:`rolling_arrays`, reached by
-the callback through the body's record, :func:`rolling_form`). A slot that rings
-(``I_STATE == LIVE``) is, each block of ``n`` frames:
+the callback through the body's record, :func:`rolling_form`). A voice holds the same slot
+at each of its body's ears; the first ear's slot holds its contact (the *contact slot*,
+reached from every ear's slot through its addresses ``I_C_*``), integrated once a block
+for every ear. A slot that rings (``I_STATE == LIVE``) is, each block of ``n`` frames:
 
-1. handed the game's newest update, if one came: a triple buffer (Bartlett's lock-free
-   "triple buffering": the game writes its back buffer, then swaps it with the middle one
-   by one atomic exchange, :func:`exchange`, flagged ``FRESH``; the callback swaps its
-   front buffer with a fresh middle one at the block's start), each buffer the update's
-   speed and the mode-shape table along its straight segment ahead (rows ``b_k = phi_k /
-   M_k`` every ``step`` m from the game's position, as the offline
-   :func:`synth.sound.rolling.path_excitation`). The segment is anchored where the ball's
-   centre is at that block's start: from there the contact point moves along it by the
-   path the integrator rolls.
-2. rolled over the block at that speed by the offline contact integrator itself
-   (:func:`synth.physics.rolling_kernels.roll`, the kernel of
-   :func:`synth.physics.rolling.roll`, whose stages are scalars: no allocation), at most
-   :data:`MAX_STEPS_PER_SAMPLE` steps a sample (a bound on the block's work; beyond it
-   the voice fades out and is counted failed).
-3. its mean force per sample period drives the slot's modes at the touching point, as
+1. if its contact has not rolled this block yet (``I_BLOCK``, the block's first frame):
+   handed the game's newest update, if one came: a triple buffer (Bartlett's lock-free
+   "triple buffering": the game writes its back buffer at every ear, then swaps it with
+   the middle one by one atomic exchange on the contact slot, :func:`exchange`, flagged
+   ``FRESH``; the callback swaps its front buffer with a fresh middle one at the block's
+   start), each buffer the update's speed and the mode-shape table along its straight
+   segment ahead (rows ``b_k = phi_k / M_k`` every ``step`` m from the game's position, as
+   the offline :func:`synth.sound.rolling.path_excitation`). The segment is anchored where
+   the ball's centre is at that block's start: from there the contact point moves along it
+   by the path the integrator rolls. Then rolled over the block at that speed by the
+   offline contact integrator itself (:func:`synth.physics.rolling_kernels.roll`, the
+   kernel of :func:`synth.physics.rolling.roll`, whose stages are scalars: no
+   allocation), at most :data:`MAX_STEPS_PER_SAMPLE` steps a sample (a bound on the
+   block's work; beyond it the voice fades out and is counted failed), its force and
+   touching point kept in the contact slot's work buffer for every ear's drive;
+2. its ear's modes driven by that mean force per sample period at the touching point, as
    :func:`synth.sound.rolling.drive_modes` does (the force held over each period, the
-   exact update of each mode), heard through the listener's gains (an accelerometer also
+   exact update of each mode), heard through the ear's gains (an accelerometer also
    through its direct term), times the voice's gain (ramped over the block) and its stop
    fade (a raised cosine), added to the body's mix.
 
-The slot's modes are the plate's; the listener's gains are the body's (its ``heard``
-rows, handed over by :meth:`synth.live.Body.move` under a sequence lock): a slot takes a
-newer set at a block's start and ramps what it hears from the old to the new linearly
-over that block, as the body's impact voices do (:func:`_take_heard`). A body heard
-through several ears holds one slot of the voice at each ear.
+The slot's modes are the plate's; the listener's gains are the ear's (its ``heard`` rows,
+handed over by :meth:`synth.live.Body.move` under a sequence lock): a slot takes a newer
+set at a block's start and ramps what it hears from the old to the new linearly over that
+block, as the body's impact voices do (:func:`_take_heard`).
 
 A stopped voice (``I_STOP``), one whose centre would leave the envelope, and one whose
-integration failed fade out over their fade; the slot is then freed and the voice's id
-posted in the engine's voice-ended ring.
+integration failed fade out over their fade, decided by the contact (``I_FADE_FROM``, the
+frame it started) so that every ear fades alike; each ear's slot is then freed and the
+voice's id posted in the engine's voice-ended ring. A voice's slot is taken only when it is
+free at every ear (:func:`synth.live.rolling.start_roll`): the contact slot is not reused
+while another ear still reads it.
 """
 
 from __future__ import annotations
@@ -52,6 +57,7 @@ from synth.live.heard import HPI, HPR, SEQ_PUT
 from synth.live.kernel import EVENT_EARS, post_event
 from synth.physics import rolling_kernels
 from synth.physics.rolling_kernels import N_STATE, roll
+from synth.sound.modal_bank.coefficients import response_per_transform
 from synth.sound.rolling import drive_sample
 
 #: The most integration steps a sample of a live rolling may take: a bound on the audio
@@ -67,43 +73,48 @@ WRITING = 2  # taken by the game's thread, not yet published
 #: The middle buffer's flag: the game put an update there that the callback has not taken.
 FRESH = 4
 
-#: int64 fields of a slot (``ints``).
+#: int64 fields of a slot (``ints``); those marked (contact) are read in the contact slot.
 (
     I_STATE,
     I_ID,
-    I_MIDDLE,  # the middle buffer's index, | FRESH (swapped by both threads)
-    I_FRONT,  # the callback's buffer
-    I_BACK,  # the game's buffer
-    I_STOP,  # the stop fade asked (frames), -1 none (the game's)
-    I_FADE_AT,  # position in the fade, -1 none (the callback's)
-    I_FADE_LEN,  # frames
-    I_END_FADE,  # the fade of a voice that ends by itself (frames)
-    I_STARTED,  # 1 once its first block preloaded the modes
-    I_ENDED,  # why it ended or fades: 0 not, END_* below
-    I_STEPS,  # integration steps so far
-    I_FRAMES,  # frames rolled
+    I_MIDDLE,  # (contact) the middle buffer's index, | FRESH (swapped by both threads)
+    I_FRONT,  # (contact) the callback's buffer, at every ear
+    I_BACK,  # (contact) the game's buffer, at every ear
+    I_STOP,  # (contact) the stop fade asked (frames), -1 none (the game's)
+    I_FADE_FROM,  # (contact) the frame its fade started at, -1 none (the callback's)
+    I_FADE_LEN,  # (contact) frames
+    I_END_FADE,  # (contact) the fade of a voice that ends by itself (frames)
+    I_STARTED,  # 1 once its first block preloaded the ear's modes
+    I_ENDED,  # (contact) why it ended or fades: 0 not, END_* below
+    I_STEPS,  # (contact) integration steps so far
+    I_FRAMES,  # (contact) frames rolled
     I_OVERRUN,  # samples whose contact point lay beyond the update's table (held at its end)
-    I_ENV,  # address of the envelope's spline coefficients ((I_ENV_N, 4) float64)
+    I_ENV,  # (contact) address of the envelope's spline coefficients ((I_ENV_N, 4) float64)
     I_ENV_N,
-    I_OFF,  # address of the envelope's contact offsets ((I_OFF_N,) float64)
+    I_OFF,  # (contact) address of the envelope's contact offsets ((I_OFF_N,) float64)
     I_OFF_N,
     I_EARS,  # the body's ears (the voice-ended event's suffix)
-    I_HEARD,  # the body's gains' sequence number the slot hears through (``heard_seq``)
+    I_HEARD,  # the ear's gains' sequence number the slot hears through (``heard_seq``)
     I_DIRECT,  # 1: an accelerometer (its direct term), 0: a microphone
+    I_BLOCK,  # (contact) the first frame of the block last rolled, -1 none
+    I_C_INTS,  # addresses of the contact slot's ints, floats, state and work buffer
+    I_C_FLOATS,
+    I_C_Y,
+    I_C_BUF,
     N_INTS,
-) = range(22)
+) = range(27)
 
 #: Why a rolling voice ended (``I_ENDED``).
 END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
 
-#: float64 fields of a slot (``floats``): the kernel's constants (in its order), the
-#: envelope's spacing and length, the next step, the segment's anchor, the gains, the
-#: last force.
+#: float64 fields of a slot (``floats``): (contact) the kernel's constants (in its order),
+#: the envelope's spacing and length, the next step, the segment's anchor; the ear's gains;
+#: (contact) the last force, the speed, the force before the block last rolled.
 (
     F_M, F_K, F_N, F_MU, F_B, F_BETA, F_G, F_FS, F_RTOL, F_DREF, F_HMAX,
-    F_DX, F_LENGTH, F_H, F_ANCHOR, F_GAIN, F_GAIN_NOW, F_PREVIOUS, F_SPEED,
+    F_DX, F_LENGTH, F_H, F_ANCHOR, F_GAIN, F_GAIN_NOW, F_PREVIOUS, F_SPEED, F_BEFORE,
     N_FLOATS,
-) = range(20)  # fmt: skip
+) = range(21)  # fmt: skip
 
 #: A buffer's scalars (``meta``): the update's speed (m/s), the table's first row's and
 #: its step's distance from the game's position along the segment (m), its rows.
@@ -124,7 +135,8 @@ N_META = 4
 ) = range(16)  # fmt: skip
 N_COEF = 16
 
-#: Rows of a slot's work buffer (float64 (N_BUF, mix frames)).
+#: Rows of a slot's work buffer (float64 (N_BUF, mix frames); the contact slot's is read:
+#: after its block, ``W_FORCE`` the force, ``W_CENTRE`` the touching point's coordinate).
 W_SPEED, W_FORCE, W_MINPEN, W_CENTRE = range(4)
 N_BUF = 4
 
@@ -278,9 +290,11 @@ def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
     """A slot's rows that turn a listener's gains into what it hears (``C_LR``, ``C_LI``,
     ``C_D`` and the conversions ``C_OR`` .. ``C_AI``; see ``C_ER``), for ``gains`` (the
     body's ``heard``, complex (K,)) of modes of ``poles`` (rad/s), at the body's full-scale
-    ``scale``; the response is :func:`synth.sound.modal_bank.bank_coefficients`'s."""
+    ``scale``; the response is the modal bank's per unit transform
+    (:func:`synth.sound.modal_bank.coefficients.response_per_transform`) of excitation
+    ``scale`` heard with gain 1."""
     p = np.asarray(poles, dtype=complex)
-    to_response = -1j * scale / p.imag
+    to_response = response_per_transform(p, scale, 1.0)
     to_direct = scale / (p * p) if accelerometer else np.zeros(p.size, dtype=complex)
     response = gains * to_response
     return {
@@ -332,77 +346,104 @@ def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
         centre[j] = c + offsets[i] + t * (offsets[i + 1] - offsets[i]) - anchor
 
 
+@compiled(nogil=True, inline="always")
+def _start_fade(cv, t0, length, why):
+    """The voice's fade starts at frame ``t0`` (the block's first), ``length`` frames long,
+    ended ``why`` (END_*)."""
+    cv[I_FADE_FROM] = t0
+    cv[I_FADE_LEN] = max(length, 1)
+    cv[I_ENDED] = why
+
+
+@compiled(nogil=True, inline="always")
+def _hold_still(cf, y, buf, n):
+    """The ball held where it is over the block, its last force on the plate."""
+    for j in range(n):
+        buf[W_FORCE, j] = cf[F_PREVIOUS]
+        buf[W_CENTRE, j] = y[rolling_kernels.S]
+
+
 @compiled(nogil=True)
-def _roll_slot(out, n, iv, fv, y, buf, z, coef, tables, meta, heard, seq, events):
-    """One block of one live slot (module docstring)."""
-    _take_update(iv, fv, y)
-    ramp = _take_heard(iv, coef, heard, seq)
-    front = iv[I_FRONT]
-    m = meta[front]
-    speed = m[M_SPEED]
-    stop = iv[I_STOP]
-    if stop >= 0 and iv[I_FADE_AT] < 0:
-        iv[I_FADE_AT] = 0
-        iv[I_FADE_LEN] = max(stop, 1)
-        iv[I_ENDED] = END_STOPPED
-    fs = fv[F_FS]
-    if iv[I_ENDED] == 0 and y[rolling_kernels.S] + speed * n / fs > fv[F_LENGTH]:
-        iv[I_ENDED] = END_SURFACE  # its centre would leave the envelope: stop there
-        iv[I_FADE_AT] = 0
-        iv[I_FADE_LEN] = iv[I_END_FADE]
+def _roll_contact(n, t0, cv, cf, y, buf, speed):
+    """Roll a voice's contact (its contact slot's ``cv``, ``cf``, state ``y``, work buffer
+    ``buf``) over the block of ``n`` frames from frame ``t0`` at ``speed`` (m/s, the
+    update taken; module docstring, step 1): the force into ``buf[W_FORCE]``, the touching
+    point's coordinate into ``buf[W_CENTRE]``; its fade started if it was stopped, would
+    leave the envelope or failed."""
+    cv[I_BLOCK] = t0
+    cf[F_BEFORE] = cf[F_PREVIOUS]
+    if cv[I_STOP] >= 0 and cv[I_FADE_FROM] < 0:
+        _start_fade(cv, t0, cv[I_STOP], END_STOPPED)
+    fs = cf[F_FS]
+    if cv[I_ENDED] == 0 and y[rolling_kernels.S] + speed * n / fs > cf[F_LENGTH]:
+        _start_fade(cv, t0, cv[I_END_FADE], END_SURFACE)  # it would leave the envelope
     force = buf[W_FORCE]
-    if iv[I_ENDED] == END_SURFACE or iv[I_ENDED] == END_FAILED:
-        for j in range(n):  # the ball held where it is, its last force on the plate
-            force[j] = fv[F_PREVIOUS]
-            buf[W_CENTRE, j] = y[rolling_kernels.S]
+    if cv[I_ENDED] == END_SURFACE or cv[I_ENDED] == END_FAILED:
+        _hold_still(cf, y, buf, n)
         speed = 0.0
     else:
         speeds = buf[W_SPEED]
         for j in range(n):
             speeds[j] = speed
-        env = _carray2(iv[I_ENV], iv[I_ENV_N], 4)
+        env = _carray2(cv[I_ENV], cv[I_ENV_N], 4)
         status, steps, _, _, h = roll(
-            y, fv[F_H], env, fv[F_DX], speeds[:n], fv[F_M], fv[F_K], fv[F_N], fv[F_MU],
-            fv[F_B], fv[F_BETA], fv[F_G], fs, fv[F_RTOL], fv[F_DREF], fv[F_HMAX],
+            y, cf[F_H], env, cf[F_DX], speeds[:n], cf[F_M], cf[F_K], cf[F_N], cf[F_MU],
+            cf[F_B], cf[F_BETA], cf[F_G], fs, cf[F_RTOL], cf[F_DREF], cf[F_HMAX],
             MAX_STEPS_PER_SAMPLE * n, force[:n], buf[W_MINPEN, :n], buf[W_CENTRE, :n],
         )  # fmt: skip
-        fv[F_H] = h
-        iv[I_STEPS] += steps
+        cf[F_H] = h
+        cv[I_STEPS] += steps
         if status != rolling_kernels.OK:
-            iv[I_ENDED] = END_FAILED
-            iv[I_FADE_AT] = 0
-            iv[I_FADE_LEN] = iv[I_END_FADE]
+            _start_fade(cv, t0, cv[I_END_FADE], END_FAILED)
             for j in range(n):
                 if not math.isfinite(force[j]):
-                    force[j] = fv[F_PREVIOUS]
+                    force[j] = cf[F_PREVIOUS]
                     buf[W_CENTRE, j] = y[rolling_kernels.S]
             speed = 0.0
-    offsets = numba.carray(pointer_to(iv[I_OFF]), iv[I_OFF_N], np.float64)
-    _contact_coordinates(buf, n, speed, fs, offsets, fv[F_DX], fv[F_ANCHOR])
+    offsets = numba.carray(pointer_to(cv[I_OFF]), cv[I_OFF_N], np.float64)
+    _contact_coordinates(buf, n, speed, fs, offsets, cf[F_DX], cf[F_ANCHOR])
+    cf[F_PREVIOUS] = force[n - 1]
+    cf[F_SPEED] = speed
+    cv[I_FRAMES] += n
+
+
+@compiled(nogil=True)
+def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, frames):
+    """One block of ``n`` frames from frame ``t0`` of one live slot at one ear (module
+    docstring): its voice's contact rolled if no ear rolled it this block, then the ear's
+    modes driven by its force. ``frames``: the work buffers' length."""
+    cv = numba.carray(pointer_to(iv[I_C_INTS]), N_INTS, np.int64)
+    cf = numba.carray(pointer_to(iv[I_C_FLOATS]), N_FLOATS, np.float64)
+    buf = numba.carray(pointer_to(iv[I_C_BUF]), (N_BUF, frames), np.float64)
+    if cv[I_BLOCK] != t0:
+        y = numba.carray(pointer_to(iv[I_C_Y]), rolling_kernels.N_STATE, np.float64)
+        _take_update(cv, cf, y)
+        _roll_contact(n, t0, cv, cf, y, buf, meta[cv[I_FRONT], M_SPEED])
+    ramp = _take_heard(iv, coef, heard, seq)
+    front = cv[I_FRONT]
+    m = meta[front]
     table = tables[front]
     rows = int(m[M_ROWS])
     start, step = m[M_START], m[M_STEP]
+    force, coordinate = buf[W_FORCE], buf[W_CENTRE]
     zr, zi = z[0], z[1]
-    previous = fv[F_PREVIOUS]
+    previous = cf[F_BEFORE]
     if iv[I_STARTED] == 0:
         previous = force[0]  # the plate starts loaded with it (as the offline preload)
-        u = min(max((buf[W_CENTRE, 0] - start) / step, 0.0), rows - 1.0)
+        u = min(max((coordinate[0] - start) / step, 0.0), rows - 1.0)
         i = min(int(math.floor(u)), rows - 2)
         _preload(coef, table[i], table[i + 1], u - i, force[0], zr, zi)
         iv[I_STARTED] = 1
-    fade_at = iv[I_FADE_AT]
+    fade_at = t0 - cv[I_FADE_FROM] if cv[I_FADE_FROM] >= 0 else -1
     iv[I_OVERRUN] += _drive(
-        out, n, force, buf[W_CENTRE], start, step, rows, table, coef, zr, zi, fv[F_GAIN_NOW],
-        fv[F_GAIN], fade_at, iv[I_FADE_LEN], ramp, iv[I_DIRECT] != 0, previous,
+        out, n, force, coordinate, start, step, rows, table, coef, zr, zi, fv[F_GAIN_NOW],
+        fv[F_GAIN], fade_at, cv[I_FADE_LEN], ramp, iv[I_DIRECT] != 0, previous,
     )  # fmt: skip
     if ramp:
         _reach_heard(coef)
     fv[F_GAIN_NOW] = fv[F_GAIN]
-    fv[F_PREVIOUS] = force[n - 1]
-    fv[F_SPEED] = speed
-    iv[I_FRAMES] += n
-    if fade_at >= 0:
-        _advance_fade(iv, fade_at, n, events)
+    if fade_at >= 0 and fade_at + n >= cv[I_FADE_LEN]:
+        _end_slot(iv, events)
 
 
 @compiled(nogil=True, inline="always")
@@ -416,15 +457,12 @@ def _reach_heard(coef):
 
 
 @compiled(nogil=True, inline="always")
-def _advance_fade(iv, fade_at, n, events):
-    """A fading slot ``n`` frames further from ``fade_at``: once faded out, the slot is
-    free and its voice's end posted."""
-    iv[I_FADE_AT] = fade_at + n
-    if fade_at + n >= iv[I_FADE_LEN]:
-        vid = iv[I_ID]
-        fence()
-        iv[I_STATE] = FREE
-        post_event(events, vid * EVENT_EARS + iv[I_EARS])
+def _end_slot(iv, events):
+    """A slot faded out: free it and post its voice's end at its ear."""
+    vid = iv[I_ID]
+    fence()
+    iv[I_STATE] = FREE
+    post_event(events, vid * EVENT_EARS + iv[I_EARS])
 
 
 @compiled(nogil=True, inline="always")
@@ -437,17 +475,17 @@ def any_live(ints):
 
 
 @compiled(nogil=True)
-def mix_rolls(out, n, form, events):
-    """Add every live rolling slot's block of ``n`` frames into ``out`` (the body's mix,
-    before its gain); returns whether one rang."""
-    ints, floats, ys, bufs, zs, coefs, tables, metas, heard, seq = form
+def mix_rolls(out, n, t0, form, events):
+    """Add every live rolling slot's block of ``n`` frames from frame ``t0`` into ``out``
+    (the body's mix, before its gain); returns whether one rang."""
+    ints, floats, _, bufs, zs, coefs, tables, metas, heard, seq = form
     rang = False
     for r in range(ints.shape[0]):
         if ints[r, I_STATE] != LIVE:
             continue
         fence()  # the slot's data, written before its state word
-        _roll_slot(out, n, ints[r], floats[r], ys[r], bufs[r], zs[r], coefs[r],
-                   tables[r], metas[r], heard, seq, events)  # fmt: skip
+        _roll_slot(out, n, t0, ints[r], floats[r], zs[r], coefs[r], tables[r], metas[r],
+                   heard, seq, events, bufs.shape[2])  # fmt: skip
         rang = True
     return rang
 

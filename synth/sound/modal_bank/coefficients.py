@@ -35,6 +35,14 @@ def highest_frequency(poles: np.ndarray) -> float:
     return float(np.max(np.abs(poles.imag))) if poles.size else 0.0
 
 
+def response_per_transform(poles, excitation, output) -> np.ndarray:
+    """The listener's response per unit pulse transform of modes with ``poles`` (rad/s),
+    excited with ``excitation`` ``b_k`` (1/kg) and heard with ``output``: ``-i b_k
+    output_k / omega_dk`` (the ringing ``Re[A exp(p t)]`` of a mode struck by a pulse,
+    :mod:`synth.sound.modal_bank`)."""
+    return -1j * excitation / poles.imag * output
+
+
 def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients:
     """:class:`BankCoefficients` of modes with ``poles`` (rad/s, below Nyquist), excited
     with ``excitation`` ``b_k`` (1/kg) and heard with ``output`` (see
@@ -43,7 +51,7 @@ def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients
     poles = np.ascontiguousarray(poles, dtype=complex)
     omega_max = highest_frequency(poles)
     sigma_max = float(np.max(-poles.real)) if poles.size else 0.0
-    coef = -1j * excitation / poles.imag * output  # response per unit transform
+    coef = response_per_transform(poles, excitation, output)
     step = np.exp(poles * (1.0 / fs))  # one sample's ringing
     return BankCoefficients(
         poles,
