@@ -10,6 +10,7 @@ import pytest
 import synth
 from synth.errors import ParameterError
 from synth.live import native
+from synth.live import rolling_block as rb
 from synth.live.rolling import HORIZON
 from synth.physics import rolling, surface
 from synth.physics.scene import Ball
@@ -105,7 +106,9 @@ def test_a_rolling_voice_is_the_offline_rolling_of_the_same_speeds(setup):
 
 def test_a_rolling_voice_through_two_ears_is_each_ears_offline_rolling(setup):
     # a body heard through two ears rolls the voice at each: each channel is the offline
-    # rolling heard by that ear's microphone, within the tables' bound (as above)
+    # rolling heard by that ear's microphone, within the tables' bound (as above). Its
+    # contact is integrated once a block, in the first ear's slot: the second ear's slot
+    # takes no step and its frames are the voice's (each block rolled once, not per ear)
     ears = synth.live.ears((0.6, 0.3, 0.3))
     live, voice, _ = live_rolling(setup, SPEEDS[:8], listener=ears, channels=2)
     for channel, ear in enumerate(ears):
@@ -113,6 +116,9 @@ def test_a_rolling_voice_through_two_ears_is_each_ears_offline_rolling(setup):
         assert within_table_bound(live[:, channel], offline)
     assert voice.path_position == contact.final_state.path_position
     assert not np.allclose(live[:, 0], live[:, 1])  # the ears hear it differently
+    first, second = (ear._rolls["roll_ints"][0] for ear in voice.body._ears)
+    assert first[rb.I_STEPS] == voice.steps > 0 and second[rb.I_STEPS] == 0
+    assert voice.frames == live.shape[0] and second[rb.I_FRAMES] == 0
 
 
 def test_an_accelerometer_hears_the_rolling_with_its_direct_term(setup):
@@ -248,11 +254,14 @@ def busy_python(stop):
 @pytest.mark.slow  # a JACK server and 4 s of stream
 def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
     # the game's thread updates the voice every 16 ms for 2 s, then as long again while a
-    # pure-Python thread spins: the stream plays it (its recording holds the rolling's
-    # sound), with no underflow but those of the server's own late cycles (its timer thread
-    # run late by the system flags every client's output whatever its work); the updates
+    # pure-Python thread spins: the stream plays it, every block of its life (the
+    # recording, the callback's output, holds its sound in each block from its first to
+    # its end, and nothing after), within the callback's deadline (see below); the updates
     # reach the audio thread in time (no table overrun: the table reaches 50 ms ahead, a
-    # few frames); stop() fades it out and ends it
+    # few frames); stop() fades it out and ends it. PortAudio's underflows are not
+    # asserted: on a loaded machine the system runs the client's thread late (flagged an
+    # underflow) whether or not the server's own cycle was late, whatever the callback's
+    # work; what the callback's work decides is its own run time (its stats)
     from benchmarks.jack import JackDummyServer, jackd_available
 
     if not jackd_available():
@@ -271,7 +280,7 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
                               record_seconds=2 * seconds + 1.0)  # fmt: skip
         body = engine.add(plate, listener=mic)
         with engine:
-            late0, before = server.late_cycles(), engine.stats
+            before = engine.stats
             voice = body.roll(ball, ORIGIN + DIRECTION * START, 0.1 * DIRECTION,
                               envelope=envelope, start=START)  # fmt: skip
             stop = threading.Event()
@@ -303,11 +312,13 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
             deadline = time.monotonic() + 2.0
             while voice.playing and time.monotonic() < deadline:
                 time.sleep(0.01)
-            after, late = engine.stats, server.late_cycles() - late0
+            after = engine.stats
             ended = engine.ended()
         recording = engine.recording
     assert after.callbacks - before.callbacks > 0.9 * 2 * seconds * FS / 256
-    assert after.output_underflows - before.output_underflows <= late
+    # the deadline: the callback's mean run time (its own clock, from its entry to its
+    # return, over every block) under one block, or the stream could not keep up with it
+    assert after.callback_mean < 1.0
     assert not voice.playing and voice.ended_by == "stop" and ended == [voice.id]
     # a table reaches HORIZON s ahead of its update, taken at most two blocks after it: the
     # ball passes its end only when the game's thread (on a loaded machine) updates later
@@ -315,7 +326,15 @@ def test_a_rolling_voice_updated_every_16_ms_plays_through_jack(setup):
     late = sum(max(0.0, b - a - reach) for a, b in zip(updates, updates[1:]))
     assert voice.overruns <= late * FS
     assert voice.frames > 2 * seconds * FS * 0.9
-    assert np.sqrt(np.mean(recording[: int(2 * seconds * FS)].astype(float) ** 2)) > 0.0
+    # its sound in every block the voice rolled (none skipped; the fade's raised cosine is
+    # above 0 to its last frame but one), silence after: the recording's blocks are the
+    # callback's, 256 frames, the voice's first block the first that sounds
+    sound = recording[:, 0].astype(float)
+    first = int(np.flatnonzero(sound)[0])
+    assert first % 256 == 0 and first + voice.frames <= sound.size
+    blocks = sound[first : first + voice.frames].reshape(-1, 256)
+    assert np.all(np.max(np.abs(blocks), axis=1) > 0.0)
+    assert np.all(sound[first + voice.frames :] == 0.0)
 
 
 def test_the_rolling_example_of_the_docs_runs_as_printed():
