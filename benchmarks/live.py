@@ -697,7 +697,8 @@ def _rolling_lines(r) -> list:
     return [
         f"- a rolling voice (Body.roll: a steel ball of 10 mm radius on the default plate, "
         f"{r['modes']} modes, its contact integrated and its force driving the modes in the "
-        f"callback; through two ears, once at each), updated every 16 ms, alone on its "
+        f"callback; through two ears, the contact once and each ear's modes), updated every "
+        f"16 ms, alone on its "
         f"body: {costs}",
         f"- RollingVoice.update on the calling thread (the mode-shape table {HORIZON * 1e3:.0f}"
         f" ms ahead), median (99th percentile): {updates}; a rolling slot's memory "

@@ -4,7 +4,8 @@ numba compiles a kernel for the argument types of its first call, so the kernels
 compiled by running what calls them, on real inputs: the renders of the presets (the
 contact, plate-coupled contact, modal-bank, radiation and mode kernels), the live
 engine's first block (the README's live example, offline), the analysis of a render and
-the change of its restitution. Each step's compiles are recorded (:mod:`synth.compilation`)
+the change of its restitution, and a live engine's rolling voice (its rolling block,
+compiled apart from the callback). Each step's compiles are recorded (:mod:`synth.compilation`)
 and printed, kernel by kernel, with the CPU time each took; on a warm cache nothing
 compiles and every step says so.
 """
@@ -72,6 +73,27 @@ def _live():
     return audio
 
 
+def _live_rolling():
+    """A ball rolled for a tenth of a second on the README's live table by an engine with
+    a rolling slot (``max_rolls=1``), offline: the rolling voices' block, compiled apart
+    from the callback, and what :meth:`synth.live.Body.roll` runs on the calling thread.
+    The surface is the docs' example roughness (RMS 1 um, correlation length 0.2 mm,
+    Hurst 0.8; the caller's value, docs/rolling.md)."""
+    import synth
+    from synth.physics import surface
+
+    engine = synth.Engine(samplerate=SAMPLERATE, blocksize=256, max_rolls=1)
+    table = engine.add(synth.Plate("mdf-18", thickness=0.018, length=1.2, width=0.6))
+    ball = synth.Ball("steel", radius=0.01)
+    spec = surface.RoughnessSpectrum(rms_height=1e-6, correlation_length=2e-4, hurst=0.8)
+    profile = surface.rough_profile(spec, length=0.05, spacing=5e-6, seed=1)
+    envelope = surface.contact_envelope(profile, ball.radius)
+    voice = table.roll(ball, (0.3, 0.2), (0.2, 0.0), envelope=envelope, start=0.01)
+    audio = engine.process(2400)
+    voice.update((0.301, 0.2), (0.2, 0.0))
+    return engine.process(2400), audio
+
+
 def _analysis():
     from synth.analysis import analyze
     from synth.io.presets import render_preset
@@ -89,6 +111,7 @@ def steps() -> list[Step]:
         Step("stiff contact (Radau IIA)", _stiff_contact),
         Step("live example (offline)", _live),
         Step("analysis and restitution change", _analysis),
+        Step("live rolling voice (offline)", _live_rolling),
     ]
 
 

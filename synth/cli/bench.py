@@ -56,10 +56,10 @@ def add_warmup_parser(sub) -> None:
         dest="steps",
         type=int,
         action="append",
-        choices=range(1, 5),
+        choices=range(1, 6),
         metavar="N",
         help="run only step N (repeatable): 1 the presets' renders, 2 a stiff contact, "
-        "3 the live example, 4 the analysis",
+        "3 the live example, 4 the analysis, 5 a live rolling voice",
     )
     p.add_argument(
         "--record",
