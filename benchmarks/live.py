@@ -698,13 +698,23 @@ def _rolling_lines(r) -> list:
         f"- a rolling voice (Body.roll: a steel ball of 10 mm radius on the default plate, "
         f"{r['modes']} modes, its contact integrated and its force driving the modes in the "
         f"callback; through two ears, the contact once and each ear's modes), updated every "
-        f"16 ms, alone on its "
-        f"body: {costs}",
+        f"16 ms, alone on its body: {costs}{_ears_ratio(r['rows'])}",
         f"- RollingVoice.update on the calling thread (the mode-shape table {HORIZON * 1e3:.0f}"
         f" ms ahead), median (99th percentile): {updates}; a rolling slot's memory "
         f"{r['slot_bytes'] / 2**20:.2f} MiB (tables of {r['rows_per_table']} rows, three "
         f"buffers); an update sounds from the next block's start",
     ]
+
+
+def _ears_ratio(rows) -> str:
+    """The two ears' mean block cost over the microphone's at the same speed (this run), as
+    a clause; empty without both rows."""
+    by = {(row["speed"], row.get("listener", "microphone")): row["mean"] for row in rows}
+    pairs = [(v, m) for (v, who), m in by.items() if who == "two ears" and (v, "microphone") in by]
+    if not pairs:
+        return ""
+    v, ears = pairs[0]
+    return f"; two ears cost {ears / by[(v, 'microphone')]:.2f} times the microphone's block"
 
 
 def _max_pending() -> int:
