@@ -278,6 +278,17 @@ def test_the_compiled_callback_has_no_python_and_no_allocation(cold_children):
     assert cold_children.others_first["specialised_twice"] == []
 
 
+def test_every_kernel_group_has_a_recorded_compile_time():
+    # the first-use note of every group (the live rolling block's too, compiled when an
+    # engine with max_rolls >= 1 starts) says how long it compiles: synth warmup --record
+    # measured each (its steps run every group's kernels)
+    from synth.compilation import GROUPS, recorded_seconds
+
+    recorded = recorded_seconds()
+    assert set(GROUPS) <= set(recorded)
+    assert all(seconds > 0.0 for seconds in recorded.values())
+
+
 def test_compile_log_records_a_compile_with_its_own_and_total_time():
     from synth.compilation import CompileLog
 
