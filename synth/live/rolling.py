@@ -118,8 +118,9 @@ class RollingVoice:
         self._state = rolls["roll_y"][slots[0]]
 
     def _holds(self, ear: int) -> bool:
-        """Whether the voice still holds its slot at ear ``ear`` (an ear may free it a block
-        before the first; under the lock, no other voice takes it meanwhile)."""
+        """Whether the voice still holds its slot at ear ``ear`` (a body silenced ear by ear
+        may free it a block before another; under the lock, no other voice takes it
+        meanwhile)."""
         ints = self._ear_ints[ear]
         return int(ints[rb.I_STATE]) != rb.FREE and int(ints[rb.I_ID]) == self.id
 
