@@ -8,7 +8,11 @@ appendix A.2 of the thesis, docs/physics.md, References)::
     t_(n+1) = t_n + tau_n + 2 v_out,n / g,      v_(n+1) = v_out,n
 
 Each impact is solved from first principles at its own speed (restitution
-depends on speed). The series would go on forever (Zeno); it ends by the first
+depends on speed). In the measured contact models (a Hertz contact on any surface but the
+thesis' "ideal") an impact faster than the pair's yield speed ``V_y`` also loses Thornton's
+plastic share: it rebounds at ``e(v) e_p(v / V_y)``
+(:func:`synth.physics.contact_law.model_yield_speed`, docs/physics.md, "Yield of the
+contact"). The series would go on forever (Zeno); it ends by the first
 of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 * ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
@@ -178,8 +182,9 @@ class BounceOptions:
         A :data:`ReboundRule` that replaces the physical restitution of each flight
         (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
         the start of the flight over the ringing modal plate) while every impact is still
-        solved physically at its own speed; None: the physical rebound. The perception
-        stimuli of :mod:`synth.stimuli.sequences` use it.
+        solved physically at its own speed; None: the physical rebound (with the contact
+        model's plastic loss above the yield speed, which a rule replaces too). The
+        perception stimuli of :mod:`synth.stimuli.sequences` use it.
     """
 
     rtol: float = 1e-6
