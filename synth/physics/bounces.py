@@ -366,6 +366,9 @@ class _Series:
         compiled call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` of the impact it
         hands over (``reason`` None) or of its last."""
         o = self.o
+        if len(self.impacts) >= o.max_impacts:
+            self.reason = "max-impacts"
+            return t, v
         drop = self.solver.solve_drop(
             v, t, position=self.position, energy_floor=o.energy_floor * (self.v1 / v) ** 2,
             max_duration=o.max_duration, max_impacts=o.max_impacts - len(self.impacts),
