@@ -246,6 +246,9 @@ def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_ma
         assert _near_elastic(ball_material) and _near_elastic(surface), surface
         v_y = yield_speed(ball, plate)
         assert v_y is None or v_y >= floor_speed, (ball_material, surface, v_y)
+        # below its yield speed the pair loses less than a series ending in 60 s needs
+        need = 2.0 * v1 / (GRAVITY * 60.0)
+        assert 1.0 - solve_impact(ball, plate, 1.0, surface="auto").restitution < need
     assert tuple(still) == UNSETTLED_PAIRS.get(ball_material, ())
     if still:
         pytest.xfail(
