@@ -319,7 +319,7 @@ def simulate_bounces(
     return BounceSequence(tuple(series.impacts), series.reason or "max-impacts", h0, g)
 
 
-def _model_yield_speed(ball, plate, law, contact_options: dict, o: BounceOptions):
+def _model_yield_speed(ball, plate, law, contact_options: dict, o: BounceOptions) -> float | None:
     """The yield speed (m/s) of the contact model's plastic loss
     (:func:`~synth.physics.contact_law.model_yield_speed`); None with a rebound rule, which
     replaces the physical restitution, plastic loss included."""
