@@ -116,7 +116,7 @@ UCLA_DEMONSTRATION = BounceObservation(
     "pair are the table's bending-wave loss factor (1e-4) and the waves the plate carries "
     "away; the local yield that a steel ball can reach 'in a relatively low-speed "
     "collision' (R. Cross, 'The bounce of a ball', Am. J. Phys. 67 (1999) 222-227, section "
-    "I) does not act here: the engine's yield of the contact (an opt-in rebound rule, "
+    "I) does not act here: the engine's yield of the contact (the measured model's, "
     "docs/physics.md, 'Yield of the contact') yields this hardened-steel pair above about "
     "3 m/s, and the drop lands at 2.4 m/s",
 )

@@ -8,7 +8,11 @@ appendix A.2 of the thesis, docs/physics.md, References)::
     t_(n+1) = t_n + tau_n + 2 v_out,n / g,      v_(n+1) = v_out,n
 
 Each impact is solved from first principles at its own speed (restitution
-depends on speed). The series would go on forever (Zeno); it ends by the first
+depends on speed). In the measured contact models (a Hertz contact on any surface but the
+thesis' "ideal") an impact faster than the pair's yield speed ``V_y`` also loses Thornton's
+plastic share: it rebounds at ``e(v) e_p(v / V_y)``
+(:func:`synth.physics.contact_law.model_yield_speed`, docs/physics.md, "Yield of the
+contact"). The series would go on forever (Zeno); it ends by the first
 of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 * ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
@@ -39,6 +43,7 @@ from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
+from synth.physics.contact_law import model_yield_speed, plastic_rebound
 from synth.physics.scene import Ball, Plate, Scene
 
 STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
@@ -177,8 +182,9 @@ class BounceOptions:
         A :data:`ReboundRule` that replaces the physical restitution of each flight
         (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
         the start of the flight over the ringing modal plate) while every impact is still
-        solved physically at its own speed; None: the physical rebound. The perception
-        stimuli of :mod:`synth.stimuli.sequences` use it.
+        solved physically at its own speed; None: the physical rebound (with the contact
+        model's plastic loss above the yield speed, which a rule replaces too). The
+        perception stimuli of :mod:`synth.stimuli.sequences` use it.
     """
 
     rtol: float = 1e-6
@@ -215,12 +221,6 @@ class BounceOptions:
         names = {f.name for f in dataclasses.fields(cls)}
         mine = {k: v for k, v in options.items() if k in names}
         return mine, {k: v for k, v in options.items() if k not in names}
-
-    def take_off(self, result: ImpactResult, restitution: float, speed: float) -> float:
-        """The ball's speed as it leaves the plate after an impact at ``speed`` (m/s): the
-        physical rebound, or ``e' v`` by the :data:`ReboundRule` (``restitution``, its
-        ``e'``)."""
-        return result.rebound_speed if self.rebound is None else restitution * speed
 
     @property
     def energy_floor(self) -> float:
@@ -306,35 +306,87 @@ def simulate_bounces(
     )  # fmt: skip
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)
-    v1 = v
-    impacts = []
-    energy_floor = o.energy_floor
-    if o.rebound is None:
-        # the series in one compiled call, as far as it serves (see ContactSolver.solve_drop)
-        drop = solver.solve_drop(
-            v, t, position=pos, energy_floor=energy_floor, max_duration=o.max_duration,
-            max_impacts=o.max_impacts,
+    series = _Series(solver, pos, v, g, o)
+    v_yield = _model_yield_speed(ball, plate, contact_law, contact_options, o)
+    if v_yield is not None:
+        # the impacts fast enough to yield, one by one with Thornton's plastic loss
+        t, v = series.run(t, v, plastic_rebound(v_yield), faster_than=v_yield)
+    if series.reason is None and o.rebound is None:
+        # the elastic rest in one compiled call, as far as it serves (ContactSolver.solve_drop)
+        t, v = series.compiled(t, v)
+    if series.reason is None:
+        t, v = series.run(t, v, o.rebound)
+    return BounceSequence(tuple(series.impacts), series.reason or "max-impacts", h0, g)
+
+
+def _model_yield_speed(ball, plate, law, contact_options: dict, o: BounceOptions) -> float | None:
+    """The yield speed (m/s) of the contact model's plastic loss
+    (:func:`~synth.physics.contact_law.model_yield_speed`); None with a rebound rule, which
+    replaces the physical restitution, plastic loss included."""
+    if o.rebound is not None:
+        return None
+    return model_yield_speed(ball, plate, law, contact_options.get("surface", "ideal"))
+
+
+class _Series:
+    """The impacts of one drop on the impedance plate as :func:`simulate_bounces` strings
+    them together: ``impacts`` so far, and ``reason`` (None while the series goes on)."""
+
+    def __init__(self, solver: ContactSolver, position, v1: float, gravity: float, o):
+        self.solver, self.position, self.v1, self.gravity, self.o = solver, position, v1, gravity, o
+        self.impacts: list[Impact] = []
+        self.reason: str | None = None
+
+    def run(self, t: float, v: float, rule: ReboundRule | None, faster_than: float = 0.0):
+        """Solve impacts one by one from the impact at ``v`` (m/s) ``t`` s after release,
+        their flights set by ``rule`` (None: the physical rebound), while the impact speed
+        is above ``faster_than`` (m/s); the next impact's ``(t, v)``."""
+        o = self.o
+        while v > faster_than:
+            if len(self.impacts) >= o.max_impacts:
+                self.reason = "max-impacts"
+                break
+            res = self.solver.solve(v, position=self.position)
+            e = float(res.restitution if rule is None else rule(res, v))
+            flight_e = max(e, 0.0) if not res.settled else 0.0
+            self.impacts.append(Impact(len(self.impacts) + 1, t, v, res, flight_e))
+            v_out = _take_off(res, e, v, rule)
+            end, t_next = bounce_end(
+                float(t), self.v1, float(self.gravity), res.success, res.settled, e,
+                float(v_out), res.separation_time, o.energy_floor, float(o.max_duration),
+            )  # fmt: skip
+            if end != NO_END:
+                self.reason = BOUNCE_ENDS[end]
+                break
+            t, v = t_next, v_out
+        return t, v
+
+    def compiled(self, t: float, v: float):
+        """The physical impacts from the one at ``v`` (m/s) ``t`` s after release in one
+        compiled call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` of the impact it
+        hands over (``reason`` None) or of its last."""
+        o = self.o
+        if len(self.impacts) >= o.max_impacts:
+            self.reason = "max-impacts"
+            return t, v
+        drop = self.solver.solve_drop(
+            v, t, position=self.position, energy_floor=o.energy_floor * (self.v1 / v) ** 2,
+            max_duration=o.max_duration, max_impacts=o.max_impacts - len(self.impacts),
         )  # fmt: skip
         for time_, speed, res in zip(drop.times, drop.speeds, drop.results):
-            impacts.append(Impact(len(impacts) + 1, time_, speed, res, _flight_restitution(res)))
+            self.impacts.append(
+                Impact(len(self.impacts) + 1, time_, speed, res, _flight_restitution(res))
+            )
         if drop.end != "handed-over":
-            return BounceSequence(tuple(impacts), drop.end, h0, g)
-        t, v = drop.next_time, drop.next_speed
-    reason = "max-impacts"
-    while len(impacts) < o.max_impacts:
-        res = solver.solve(v, position=pos)
-        e = float(res.restitution if o.rebound is None else o.rebound(res, v))
-        impacts.append(Impact(len(impacts) + 1, t, v, res, max(e, 0.0) if not res.settled else 0.0))
-        v_out = o.take_off(res, e, v)
-        end, t_next = bounce_end(
-            float(t), v1, float(g), res.success, res.settled, e, float(v_out),
-            res.separation_time, energy_floor, float(o.max_duration),
-        )  # fmt: skip
-        if end != NO_END:
-            reason = BOUNCE_ENDS[end]
-            break
-        t, v = t_next, v_out
-    return BounceSequence(tuple(impacts), reason, h0, g)
+            self.reason = drop.end
+        return drop.next_time, drop.next_speed
+
+
+def _take_off(result: ImpactResult, restitution: float, speed: float, rule) -> float:
+    """The ball's speed (m/s) as it leaves the plate after an impact at ``speed`` (m/s): the
+    physical rebound without a :data:`ReboundRule` (``rule`` None), else ``e' v``
+    (``restitution``, the rule's ``e'``)."""
+    return result.rebound_speed if rule is None else restitution * speed
 
 
 def _flight_restitution(res: ImpactResult) -> float:
@@ -381,17 +433,21 @@ def _modal_bounces(
         **contact_options,
     )  # fmt: skip
     state = contact.at_rest()
+    v_yield = _model_yield_speed(ball, plate, law, contact_options, o)
+    plastic = plastic_rebound(v_yield)
     impacts = []
     reason = None
     while len(impacts) < o.max_impacts:
         res = contact.solve(v, state, n_points=o.n_points)
-        e = res.restitution if o.rebound is None else o.rebound(res, v)
-        ruled = None if o.rebound is None else (0.0 if res.settled else max(e, 0.0))
+        # a rebound rule, or Thornton's plastic loss on an impact that yields
+        rule = plastic if o.rebound is None and v_yield is not None and v > v_yield else o.rebound
+        e = res.restitution if rule is None else rule(res, v)
+        ruled = None if rule is None else (0.0 if res.settled else max(e, 0.0))
         impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))
         if res.settled or ruled == 0.0:
             reason = "settled"
             break
-        v_out = o.take_off(res, e, v)
+        v_out = _take_off(res, e, v, rule)
         reason = o.ended(res, v_out, v1, g)
         if reason is not None:
             break

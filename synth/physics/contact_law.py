@@ -497,16 +497,41 @@ def plastic_restitution(speed: float, v_yield: float | None) -> float:
     return shape * (r / (r + 2.0 * math.sqrt(6.0 / 5.0 - r * r / 5.0))) ** 0.25
 
 
+def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
+    """The yield speed ``V_y`` (m/s, :func:`yield_speed`) that the bounce scheduler applies
+    to the impacts of ``ball`` on ``plate`` under ``law`` (None: the ball's own,
+    :func:`own_law`) and ``surface`` (:data:`~synth.physics.scene.SURFACE_MODELS`): the
+    measured surfaces ("material", "fitted", "auto") of the Hertz law carry the materials'
+    yield as they carry their loss factors; the thesis' lossless half-spaces ("ideal"),
+    the other laws (which carry their own loss) and a hollow ball's shell do not (None)."""
+    checks.choice("surface", surface, SURFACE_MODELS)
+    if isinstance(ball, HollowBall) or surface == "ideal":
+        return None
+    if (own_law(ball) if law is None else law) != "hertz":
+        return None
+    return yield_speed(ball, plate)
+
+
 def yield_rebound(ball: Ball, plate: Plate):
     """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``)
     that adds the plastic loss of the elastic-perfectly plastic contact to each solved
     impact: ``e' = e(v) plastic_restitution(v, V_y)``, ``e(v)`` the contact solver's
     restitution and ``V_y`` :func:`yield_speed` of the pair. The two losses are taken
     as independent (their energy ratios multiply); the force pulse stays the solver's
-    elastic one (docs/physics.md, "Yield of the contact")."""
-    v_y = yield_speed(ball, plate)
+    elastic one (docs/physics.md, "Yield of the contact"). The measured contact models
+    apply this loss without a rule (:func:`model_yield_speed`); the rule gives it to
+    another surface, e.g. the thesis' "ideal" one."""
+    return plastic_rebound(yield_speed(ball, plate))
+
+
+def plastic_rebound(v_yield: float | None):
+    """The rebound rule ``e' = e(v) plastic_restitution(v, v_yield)`` of a pair whose yield
+    speed is ``v_yield`` (m/s, None: elastic), ``e(v)`` the contact solver's restitution
+    (:func:`yield_rebound`)."""
+    if v_yield is not None:
+        checks.positive("v_yield", v_yield, "m/s")
 
     def rebound(result, speed: float) -> float:
-        return result.restitution * plastic_restitution(speed, v_y)
+        return result.restitution * plastic_restitution(speed, v_yield)
 
     return rebound
