@@ -18,7 +18,8 @@ its displacement under the ball is
   of area ``S``, each of coupling ``1 / (rho h S m_f(s))``, ``m_f`` Mindlin's modal mass
   factor, 1 for Kirchhoff). Their admittance is ``Y_res(s) = s Int dmu(w) / (w^2 + s^2)``
   over ``w > Omega`` with ``dmu = ds / (4 pi rho h m_f)``: the infinite plate's admittance
-  minus the band's modes (:func:`residual_admittance_exact`). Below the band it is reactive
+  minus the band's modes (checked by adaptive quadrature in the tests). Below the band it
+  is reactive
   (but for the modes' damping) and varies with frequency (for Kirchhoff
   ``i (beta_inf / pi) ln((Omega + omega) / (Omega - omega))``, nearly a spring; for a
   Mindlin plate of soft shear not). It is
@@ -93,7 +94,6 @@ from synth.physics.modal_contact.point import (
     band_modes,
     clear_memory_cache,
     modal_point,
-    residual_admittance_exact,
 )
 
 __all__ = [
@@ -112,5 +112,4 @@ __all__ = [
     "impedance_contact_time",
     "modal_point",
     "next_touch",
-    "residual_admittance_exact",
 ]
