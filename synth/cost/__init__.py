@@ -49,7 +49,7 @@ from synth.cost.budget import (
 )
 from synth.cost.contact import TAU_HERTZ, FirstContact, hertz_contact_time
 from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
-from synth.cost.modal import check_modes, modal_count, solver_cost
+from synth.cost.modal import modal_count, solver_cost
 from synth.cost.radiation import radiation_work
 from synth.cost.rates import RATES, Rates, rule_weights, time_row, weighted_counts
 from synth.cost.records import (
@@ -98,7 +98,6 @@ __all__ = [
     "TAU_HERTZ",
     "body_cost",
     "check_body",
-    "check_modes",
     "estimate",
     "estimate_render",
     "hertz_contact_time",

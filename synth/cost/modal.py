@@ -8,23 +8,7 @@ import math
 
 import numpy as np
 
-from synth.cost.budget import Budget, modes_excess
 from synth.cost.records import CHECK_SQUARES, SOLVER_SQUARES, SolverCost
-from synth.errors import ParameterError
-
-
-def check_modes(plate, max_frequency: float, budget: Budget | None = None) -> int:
-    """The modes of ``plate`` below ``max_frequency`` (Hz, :func:`modal_count`), counted
-    before any is solved; ``ParameterError`` if they are beyond ``budget`` (default: the
-    environment's, :meth:`Budget.from_environment`): the mode count alone (a render is
-    checked by :meth:`CostEstimate.check`, a live body by :func:`check_body`, a bank's rows
-    by :func:`estimate_render`)."""
-    budget = Budget.from_environment() if budget is None else budget
-    modes = modal_count(plate, max_frequency)
-    too_many = modes_excess(modes, max_frequency, budget)
-    if too_many:
-        raise ParameterError("refused before any work: " + too_many)
-    return modes
 
 
 def modal_count(plate, max_frequency: float) -> int:
