@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from synth import checks
+from synth.compilation import compiled
 from synth.constants import PULSE_POINTS
 from synth.errors import ParameterError
 from synth.physics.modal_contact.point import (
@@ -35,6 +36,7 @@ from synth.physics.scene import Plate
 from synth.sound.modal_bank.coefficients import highest_frequency
 from synth.sound.modal_bank.pulse import grid_size, transform_workspace
 from synth.sound.modal_bank.transform_kernels import impact_transform
+from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
 
 
 def pulse_grid(result, omega_max, min_points=PULSE_POINTS):
@@ -151,3 +153,16 @@ def residual_admittance_exact(
         out.append(s * complex(re, im) + tail.tail_admittance * s / (s + tail.tail_rate))
     y = np.array(out)
     return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
+
+
+@compiled()
+def bessel_j0(x):
+    """J_0 of every entry of the 1-D array ``x`` (each ``>= 0``), as
+    :func:`synth.sound.radiation.polar._add_circle_sums` evaluates it."""
+    out = np.empty(x.size)
+    for k in range(x.size):
+        if x[k] >= HANKEL_FROM:
+            out[k] = j0_hankel(1.0 / x[k], math.sqrt(1.0 / x[k]), x[k])
+        else:
+            out[k] = j0_cephes(x[k])
+    return out
