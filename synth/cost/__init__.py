@@ -47,7 +47,7 @@ from synth.cost.budget import (
     Budget,
     modes_excess,
 )
-from synth.cost.contact import TAU_HERTZ, FirstContact, hertz_contact_time
+from synth.cost.contact import FirstContact, hertz_contact_time
 from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
 from synth.cost.modal import modal_count, solver_cost
 from synth.cost.radiation import radiation_work
@@ -95,7 +95,6 @@ __all__ = [
     "Rates",
     "SOLVER_SQUARES",
     "SolverCost",
-    "TAU_HERTZ",
     "body_cost",
     "check_body",
     "estimate",
