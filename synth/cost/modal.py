@@ -11,6 +11,12 @@ import numpy as np
 from synth.cost.records import CHECK_SQUARES, SOLVER_SQUARES, SolverCost
 
 
+def bending_wavenumber(plate, f_max: float) -> float:
+    """The bending wavenumber at ``f_max`` (Hz), rad/m."""
+    omega = 2.0 * math.pi * f_max
+    return math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
+
+
 def modal_count(plate, max_frequency: float) -> int:
     """Modes of ``plate`` below ``max_frequency`` (Hz): the wavenumber lattice of the
     rectangle, ``(m pi / a)^2 + (n pi / b)^2 <= k^2`` with ``k^4 = omega^2 rho h / D``,
@@ -20,8 +26,7 @@ def modal_count(plate, max_frequency: float) -> int:
     dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
     Clamped edges are counted as simply supported (their wavenumbers lie half a step
     higher). Free edges: :func:`_free_modal_count`."""
-    omega = 2.0 * math.pi * max_frequency
-    k = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))  # rad/m
+    k = bending_wavenumber(plate, max_frequency)
     if plate.boundary == "free":
         return _free_modal_count(plate, k)
     kx, ky = k * plate.length / math.pi, k * plate.width / math.pi  # lattice radii
