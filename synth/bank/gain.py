@@ -1,33 +1,13 @@
-"""One gain for a whole bank: a finished bank scaled into another folder.
+"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md,
+"One gain for the bank").
 
-A bank rendered at the physical level (``normalize = "physical"``, one calibration for
-every file) keeps the sounds' relative levels; a bank to ship wants them at a usable
-level too. :func:`apply_gain` computes one gain from the finished bank's manifest
-
-* ``true_peak``: the loudest true peak of the bank to a target (default -1 dBTP), or
-* ``loudness``: the median integrated loudness of the bank to a target (LUFS; rows
-  below the -70 LUFS gate, with no loudness, are left out of the median). Integrated
-  loudness (ITU-R BS.1770) gates its 400 ms blocks, so a gain that lifts quiet sounds lets
-  more of their blocks in and their loudness rises by less than the gain: the gain is
-  found by measuring the scaled sounds (:func:`loudness_gain`), and the manifest's
-  loudness of each scaled file is measured, not added up,
-
-then decodes each file, scales it by that gain and encodes it again in the bank's
-format and subtype into ``out_dir`` (the same names; bytes a function of the samples,
-:mod:`synth.store.reproducible`). The source bank is not touched. The pass is resumable as
-the bank is: each file is published once and its row appended to ``out_dir``'s manifest
-after it; a rerun skips the rows whose file has the recorded hash. A source bank whose
-files took new names since (a renamed preset, an edited label or name template: the same
-sounds, :func:`synth.bank.spec.compared_form`) has its scaled files moved to those names,
-not scaled again. Audio files in ``out_dir`` that its manifest does not name are reported
-(``orphans``) and deleted only with ``prune``. The manifest of
-``out_dir`` is the source's with ``gain_db`` and the level columns and hashes of the
-scaled files; the gain and its target are stored in ``out_dir/gain.json``.
-
-PCM files are decoded to 64-bit floats, scaled and quantized again (one more rounding,
-at most half a step of the subtype); an OGG file is decoded and encoded again (a second
-lossy generation): render a bank to be shipped as OGG in WAV or FLAC, and make the OGG
-files in this pass by ``format``.
+:func:`apply_gain` takes one gain from the finished bank's manifest, to the loudest true peak
+(dBTP) or to the median integrated loudness (LUFS, ITU-R BS.1770): BS.1770 gates its 400 ms
+blocks, so lifting quiet sounds lets more blocks in and the loudness gain is found by
+measuring the scaled sounds (:func:`loudness_gain`). Each file is decoded, scaled and encoded
+again in the bank's format into ``out_dir`` (bytes a function of the samples,
+:mod:`synth.store.reproducible`), published once and recorded, so the pass resumes as the
+bank does; the source bank is never touched.
 """
 
 from __future__ import annotations

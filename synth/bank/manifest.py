@@ -8,24 +8,9 @@ CSV carries the same rows for spreadsheets. At the start and the end of a run bo
 rewritten atomically from the rows that still hold (one per index, by index), so a line
 cut by a crash or a full disk is dropped and the sound redone.
 
-Columns: ``index``, ``file`` (relative to the folder), every varied key, ``labels``
-(the labels of the row's values from the spec's ``[labels]``: varied key: label),
-``tags`` (the spec's free tags: a list of keywords or a table), ``seed``,
-``status`` (``ok``, ``failed`` or, after ``--dry-run``, ``planned``), ``error``,
-``duration`` (s, of the file), ``audible_duration`` (s, to the last sample within 60 dB
-of the peak), ``stop_reason`` (why the bounces ended: ``settled``, ``floor``,
-``max-duration``, ``max-impacts`` ..., see :mod:`synth.physics.bounces`),
-``length_reason`` (``whole``, or with ``[trim]`` ``tail-cut`` or ``max-length``),
-``ticks`` (impacts), ``first_restitution``, ``first_speed`` (m/s, the
-first impact's), ``first_contact_time`` (s), ``first_peak_force`` (N), ``peak_dbfs``
-(dBFS), ``true_peak_dbtp`` (dBTP, 4x oversampled), ``spectral_centroid`` (Hz),
-``loudness_lufs``
-(LUFS, ITU-R BS.1770, when pyloudnorm is installed; None below its -70 LUFS absolute
-gate), ``sha256`` of the file and ``audio_sha256`` of its decoded samples
-(:func:`synth.store.reproducible.decoded_sha256`) and ``scene``, the row's whole preset
-(the base preset with the row's values set: a row renders again from the manifest
-alone, with its ``restitution_scale`` if varied). Every file's bytes are a function of the
-spec and its row (:mod:`synth.store.reproducible`), OGG's included.
+The columns (every varied key, labels, tags, status, the levels, the first impact's
+figures, the hashes and the row's whole preset): docs/banks.md, "Manifest". Every file's
+bytes are a function of the spec and its row (:mod:`synth.store.reproducible`).
 """
 
 from __future__ import annotations

@@ -47,9 +47,9 @@ from synth.cost.budget import (
     Budget,
     modes_excess,
 )
-from synth.cost.contact import TAU_HERTZ, FirstContact, hertz_contact_time
+from synth.cost.contact import FirstContact, hertz_contact_time
 from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
-from synth.cost.modal import check_modes, modal_count, solver_cost
+from synth.cost.modal import modal_count, solver_cost
 from synth.cost.radiation import radiation_work
 from synth.cost.rates import RATES, Rates, rule_weights, time_row, weighted_counts
 from synth.cost.records import (
@@ -95,10 +95,8 @@ __all__ = [
     "Rates",
     "SOLVER_SQUARES",
     "SolverCost",
-    "TAU_HERTZ",
     "body_cost",
     "check_body",
-    "check_modes",
     "estimate",
     "estimate_render",
     "hertz_contact_time",

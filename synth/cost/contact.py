@@ -9,26 +9,21 @@ from dataclasses import dataclass
 
 from synth.errors import ParameterError
 
-#: Hertz' contact time on a rigid plate, ``tau = TAU_HERTZ delta_max / v`` with
-#: ``delta_max = (15 m v^2 / (16 E* sqrt(R)))^(2/5)`` (Johnson, Contact Mechanics, 11.4).
-TAU_HERTZ = 2.9433
-
 
 def hertz_contact_time(ball, plate, speed: float) -> float:
     """Hertz' contact time (s) of ``ball`` on a rigid flat of ``plate``'s material at
-    ``speed`` (m/s): ``2.9433 (15 m v^2 / (16 E* sqrt(R)))^(2/5) / v``. For a hollow ball
+    ``speed`` (m/s), :func:`synth.physics.contact_law.hertz_contact_time` with the pair's
+    Hertz constant (Johnson, Contact Mechanics, 11.4). For a hollow ball
     (:class:`~synth.physics.scene.HollowBall`), the thin-shell law's at small deflection,
     where it is linear: the half period ``pi sqrt(m / k0)`` (docs/physics.md, "Hollow
     balls"), at any speed."""
-    from synth.physics.contact_law import effective_modulus, shell_law
+    from synth.physics import contact_law
     from synth.physics.scene import HollowBall
 
     if isinstance(ball, HollowBall):
-        return math.pi * math.sqrt(ball.mass / shell_law(ball).stiffness)
-
-    e_star = effective_modulus(ball, plate)
-    depth = (15.0 * ball.mass * speed**2 / (16.0 * e_star * math.sqrt(ball.radius))) ** 0.4
-    return TAU_HERTZ * depth / speed
+        return math.pi * math.sqrt(ball.mass / contact_law.shell_law(ball).stiffness)
+    stiffness = contact_law.hertz_stiffness(ball, plate)
+    return contact_law.hertz_contact_time(ball.mass, stiffness, speed)
 
 
 def series_longest(first_contact: float, speed: float, gravity: float) -> float:

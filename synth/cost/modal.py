@@ -8,23 +8,13 @@ import math
 
 import numpy as np
 
-from synth.cost.budget import Budget, modes_excess
 from synth.cost.records import CHECK_SQUARES, SOLVER_SQUARES, SolverCost
-from synth.errors import ParameterError
 
 
-def check_modes(plate, max_frequency: float, budget: Budget | None = None) -> int:
-    """The modes of ``plate`` below ``max_frequency`` (Hz, :func:`modal_count`), counted
-    before any is solved; ``ParameterError`` if they are beyond ``budget`` (default: the
-    environment's, :meth:`Budget.from_environment`): the mode count alone (a render is
-    checked by :meth:`CostEstimate.check`, a live body by :func:`check_body`, a bank's rows
-    by :func:`estimate_render`)."""
-    budget = Budget.from_environment() if budget is None else budget
-    modes = modal_count(plate, max_frequency)
-    too_many = modes_excess(modes, max_frequency, budget)
-    if too_many:
-        raise ParameterError("refused before any work: " + too_many)
-    return modes
+def bending_wavenumber(plate, f_max: float) -> float:
+    """The bending wavenumber at ``f_max`` (Hz), rad/m."""
+    omega = 2.0 * math.pi * f_max
+    return math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
 
 
 def modal_count(plate, max_frequency: float) -> int:
@@ -36,8 +26,7 @@ def modal_count(plate, max_frequency: float) -> int:
     dominates for a strip (a beam's ``k a / pi`` modes where the area term counts few).
     Clamped edges are counted as simply supported (their wavenumbers lie half a step
     higher). Free edges: :func:`_free_modal_count`."""
-    omega = 2.0 * math.pi * max_frequency
-    k = math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))  # rad/m
+    k = bending_wavenumber(plate, max_frequency)
     if plate.boundary == "free":
         return _free_modal_count(plate, k)
     kx, ky = k * plate.length / math.pi, k * plate.width / math.pi  # lattice radii

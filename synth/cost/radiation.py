@@ -7,15 +7,9 @@ from __future__ import annotations
 import math
 
 from synth.cost.budget import Budget
-from synth.cost.modal import modal_count
+from synth.cost.modal import bending_wavenumber, modal_count
 from synth.cost.rates import weighted_counts
 from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, RadiationWork
-
-
-def bending_wavenumber(plate, f_max: float) -> float:
-    """The bending wavenumber at ``f_max`` (Hz), rad/m."""
-    omega = 2.0 * math.pi * f_max
-    return math.sqrt(omega * math.sqrt(plate.surface_density / plate.flexural_rigidity))
 
 
 def _acoustic(f_max: float) -> float:

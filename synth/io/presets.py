@@ -5,93 +5,9 @@ and ``[contact]`` are exactly the fields of :class:`~synth.physics.scene.Ball`,
 :class:`~synth.physics.scene.Plate` and :class:`~synth.physics.scene.Contact` (one declaration
 each, so the dataclass field, the preset key and the ``--set`` option cannot
 drift apart), and those of ``[render]`` the options of :func:`synth.render`
-(the fields of :class:`synth.sound.options.RenderOptions`). Every key, with its unit::
-
-    description = "10 mm steel ball, 10 cm drop, middle of the 18 mm MDF board"  # text
-    gravity = 9.81                  # m/s^2 (optional, default 9.81)
-
-    [ball]
-    material = "steel"              # a table name (synth materials), or an inline table
-    radius = 0.005                  # m
-    mass = 4.17e-3                  # kg (optional: from the density and radius)
-    kind = "solid"                  # optional: "solid" (default) or "hollow" (a HollowBall:
-                                    # a thin shell with air inside, docs/physics.md,
-                                    # "Hollow balls"; its mass is derived, never given)
-    thickness = 5.2e-4              # m, the shell's wall (kind = "hollow" only)
-    pressure = 0.0                  # Pa above the atmosphere (kind = "hollow" only)
-    cover_thickness = 0.0           # m, a cover outside the shell, e.g. felt (hollow only)
-    cover_mass = 0.0                # kg, the cover's mass (kind = "hollow" only)
-
-    [plate]
-    material = "mdf-18"             # a table name or an inline table (damping: to render)
-    thickness = 0.018               # m
-    length = 1.227                  # m, along x
-    width = 0.49                    # m, along y
-    boundary = "free"               # "free" (default), "simply-supported" or "clamped"
-
-    [drop]
-    height = 0.1                    # m, lowest point of the ball above the plate
-    position = [0.6135, 0.245]      # m from a plate corner (optional: far from the edges)
-    velocity = [0.3, 0.0]           # m/s, horizontal at release (optional: a straight drop);
-                                    # the ball bounces along, then rolls: needs [rolling]
-
-    [rolling]                       # with drop.velocity (docs/rolling.md): no built-in values
-    resistance = 0.002              # C_rr, dimensionless: rolling resistance C_rr m g per metre
-    spacing = 5e-6                  # m, the roughness profile's sample spacing along the path
-    rms_height = 1e-7               # m, Matern roughness sigma (0 or left out: smooth)
-    correlation_length = 1e-4       # m, xi (with rms_height > 0)
-    hurst = 0.8                     # H in (0, 1] (with rms_height > 0)
-    seed = 0                        # the profile's seed
-
-    [listener]                      # optional: a microphone 0.2 m above the impact point
-    type = "microphone"             # or "accelerometer"
-    position = [0.6135, 0.245, 0.2] # m: x, y on the plate; z above it (microphone only)
-
-    [contact]                       # optional
-    law = "hertz"                   # "hertz", "elastic-foundation", "hunt-crossley",
-                                    # "viscoelastic", "power-law"
-    rtol = 1e-9                     # relative accuracy of e and tau, dimensionless
-    dissipation = 0.2               # s/m, Hunt-Crossley mu (only with "hunt-crossley")
-    viscous_time = 1e-6             # s, viscoelastic A (only with "viscoelastic")
-    exponent = 1.5                  # dimensionless n in (1, 4] (only with "power-law")
-    stiffness = 1e9                 # N/m^n, K_n (only with "power-law")
-    layer_depth = 0.018             # m, Winkler layer (only with "elastic-foundation")
-    plate = "impedance"             # or "modal": the finite plate's modes in the contact; or
-                                    # "auto": the modes where they change the first impact
-    surface = "ideal"               # or "fitted" (with "hertz"): the material's fitted surface;
-                                    # or "auto": the fitted one where the material has one
-    model = "thesis"                # or "measured" (auto plate and surface; the presets'),
-                                    # "fitted": names law, plate and surface at once
-    theory = "kirchhoff"            # or "mindlin": the modal plate's theory (plate "modal"/"auto")
-
-    [render]                        # optional: options of synth.render
-    samplerate = 48000              # Hz (48000 when left out: PRESET_SAMPLERATE)
-    normalize = "peak"              # "peak", "loudness", "physical" or "none"
-    peak_db = -1.0                  # dBFS, for "peak"
-    loudness_lufs = -23.0           # LUFS, for "loudness"
-    floor_db = -80.0                # dB below the reference amplitude: omission floor
-    max_frequency = 20000.0         # Hz, highest mode (at most samplerate / 2)
-    preroll = 0.005                 # s of silence before the first tick
-    fade = 0.005                    # s, raised-cosine fade at the end
-    max_duration = 30.0             # s from release: latest impact
-    max_tail = 60.0                 # s of ringing after the last impact, at most
-    pulse_points = 65               # fewest points per pulse for the transforms
-    bounce_floor_db = -60.0         # dB: the bounces end below this kinetic energy re the first
-    max_impacts = 10000             # the bounces end after this many impacts
-    subtype = "PCM_24"              # the output file's sample format (soundfile subtype)
-
-An inline material is ``{ name = "oak-board", density = 700.0, young = 12e9,
-poisson = 0.35, damping = { eta = 0.01 }, source = "..." }`` (density in
-kg/m^3, young in Pa, poisson dimensionless; ``damping`` is ``{ eta = ... }``, a
-dimensionless loss factor, or ``{ alpha = ..., beta = ... }``, Rayleigh's 1/s
-and s; a ball's material may leave it out, a plate's may not) and ``transverse_shear``
-is the plate's transverse shear modulus for ``contact.theory = "mindlin"`` (Pa, or
-``"tied"``: ``E_t / (2 (1 + nu))`` from the material's fitted through-thickness modulus
-``E_t``). An inline table that names a built-in material and gives none of density, young
-and poisson is that material with the keys it gives changed:
-``{ name = "mdf-18", transverse_shear = "tied" }``. An unknown key,
-a wrong type or an impossible scene is a :class:`PresetError` naming the file,
-key and value.
+(the fields of :class:`synth.sound.options.RenderOptions`). Every key, with its unit, and
+the inline materials: docs/cli.md, "Preset files". An unknown key, a wrong type or an
+impossible scene is a :class:`PresetError` naming the file, key and value.
 """
 
 from __future__ import annotations

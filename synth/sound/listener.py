@@ -87,11 +87,9 @@ def _budget_named(message, max_points):
 
 def nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    x, y, z = microphone.position
-    p = plate
-    dx = max(0.0, -x, x - p.length)
-    dy = max(0.0, -y, y - p.width)
-    return math.sqrt(dx * dx + dy * dy + z * z)
+    from synth.sound.radiation.boundary import nearest_distance as to_rectangle
+
+    return to_rectangle((plate.length, plate.width), microphone.position)
 
 
 @dataclass(frozen=True, eq=False)

@@ -288,20 +288,5 @@ def keyword_parameters() -> list[inspect.Parameter]:
     return checks.keyword_parameters(RenderOptions)
 
 
-def check_options(**options) -> dict:
-    """The render options ``options`` (keywords of :func:`synth.render`, ``samplerate``
-    required) checked and converted, every default filled in, by name in field order: a
-    :class:`RenderOptions` as a dict."""
-    return RenderOptions.of(**options).as_dict()
-
-
-def bounce_options(options) -> dict:
-    """:meth:`RenderOptions.bounces` of ``options`` (a :class:`RenderOptions` or the dict
-    :func:`check_options` returns)."""
-    if not isinstance(options, RenderOptions):
-        options = RenderOptions(**options)
-    return options.bounces()
-
-
 if RenderOptions.__doc__:  # None under python -OO
     RenderOptions.__doc__ += "\n" + parameters_doc()

@@ -44,8 +44,6 @@ from synth.sound.options import (
     NORMALIZE,
     OPTIONS,
     RenderOptions,
-    bounce_options,
-    check_options,
     keyword_parameters,
     parameters_doc,
 )
@@ -59,8 +57,8 @@ __all__ = [
     "LISTENER_OUTPUTS", "LISTENER_UNITS", "MAX_DURATION", "MAX_IMPACTS", "MAX_PREROLL",
     "MAX_PULSE_POINTS", "MAX_SAMPLERATE", "MIN_LEVEL_DB", "MIN_SAMPLERATE", "NORMALIZE",
     "OPTIONS", "SEQUENCE_RTOL", "ListenerOutput", "ModalModel", "Render", "RenderInfo",
-    "RenderOptions", "bounce_options", "check_options", "check_sequence", "listener_grid",
-    "modal_model", "nearest_distance", "render",
+    "RenderOptions", "check_sequence", "listener_grid", "modal_model", "nearest_distance",
+    "render",
 ]  # fmt: skip
 
 

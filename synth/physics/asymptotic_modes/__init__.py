@@ -1,55 +1,28 @@
 """Free and clamped plate modes by the dynamic edge effect method (docs/physics.md,
 "Plate modes", "Large free and clamped plates").
 
-Bolotin's method (Bolotin 1960; Elishakoff 1976; Vijayakumar 1973) writes a mode of a
-rectangle ``[0, a] x [0, b]`` as a product ``w = X(x) Y(y)``. Along x, with the
-y-dependence of the interior solution ``Y'' = -s_y Y``, Kirchhoff's equation
-``D lap^2 w = rho h omega^2 w`` becomes the beam-like equation
-
-    X'''' - 2 s_y X'' + s_y^2 X = k^4 X,   k^2 = s_x + s_y = omega sqrt(rho h / D),
-
-whose solutions are ``cos(k_x x)``, ``sin(k_x x)`` (``k_x^2 = s_x``; ``cosh``/``sinh`` when
-``s_x < 0``) and the edge terms ``cosh(mu_x x)``, ``sinh(mu_x x)``,
-``mu_x^2 = s_x + 2 s_y``, which decay away from the edges. Symmetric (``cos``, ``cosh``)
-and antisymmetric (``sin``, ``sinh``) solutions about the middle ``x' = x - a/2``
-satisfying the two edge conditions at ``x' = a/2`` (free: ``X'' - nu s_y X = 0`` and
-``X''' - (2 - nu) s_y X' = 0``; clamped: ``X = X' = 0``) give one transcendental equation
-in ``s_x`` for each ``s_y``; the same along y gives ``s_y`` for each ``s_x``. With
-``P = s_x + nu s_y``, ``Q = s_x + (2 - nu) s_y``, ``h = a/2``:
+Bolotin's method (Bolotin 1960; Elishakoff 1976; Vijayakumar 1973): a mode of the
+rectangle ``[0, a] x [0, b]`` is a product ``w = X(x) Y(y)``, each factor an interior term
+plus edge terms that decay away from the edges (the derivation: docs/physics.md). With
+``k_x^2 = s_x``, ``mu^2 = s_x + 2 s_y``, ``P = s_x + nu s_y``, ``Q = s_x + (2 - nu) s_y`` and
+``h = a/2``, the edge conditions at ``x' = a/2`` of the symmetric and antisymmetric factors
+about the middle give, for each ``s_y``, one equation in ``s_x``:
 
     free, symmetric:      Q^2 k_x sin(k_x h) + mu P^2 cos(k_x h) tanh(mu h) = 0
     free, antisymmetric:  -P^2 sin(k_x h) / k_x + Q^2 cos(k_x h) tanh(mu h) / mu = 0
     clamped, symmetric:   k_x sin(k_x h) + mu cos(k_x h) tanh(mu h) = 0
     clamped, antisymmetric: sin(k_x h) / k_x - cos(k_x h) tanh(mu h) / mu = 0
 
-(left sides entire in ``s_x``). For ``k_x > 0`` they read
-``k_x a = N pi - 2 arctan(r)``, ``0 <= 2 arctan(r) < pi``: the ``N``-th root lies in
-``((N - 1) pi / a, N pi / a]`` (``N`` even symmetric, odd antisymmetric); with
-``tanh(mu h) = 1`` this is Bolotin's asymptotic phase condition. Each mode is a pair of
-indices ``(N_x, N_y)`` (``>= 2`` clamped; ``>= 0`` free, without the three rigid-body
-motions ``(0, 0)``, ``(1, 0)``, ``(0, 1)``) and the pair of equations is solved by
-alternating the two one-dimensional solutions (a contraction: each depends on the other
-only through the edge terms). The cost is linear in the number of modes; the shapes
-``X(x) Y(y)`` are separable, one factor pair per trial.
-
-Rayleigh-Ritz step. The products ``X Y`` are then used as trial shapes of Kirchhoff's
-energy functional (the standard Rayleigh-Ritz step on a small subspace; Leissa 1969,
-chapter 1; Bolotin's shapes as trial functions: Elishakoff 1976). Two trials of one
-symmetry class whose frequencies lie within ``_PAIR_GAP`` (1 %) of each other are solved
-together: the 2 x 2 problem ``K v = omega^2 M v`` with ``M_ij = Int psi_i psi_j`` and
-``K_ij`` the strain energy's bilinear form, separable into one-dimensional integrals of
-the factors and their derivatives, taken in closed form (each factor is a sum of four
-exponentials). This is what splits the degenerate pairs ``(m, n)``, ``(n, m)`` of a square,
-which the corners couple and the method alone leaves equal. A clamped trial alone takes
-its Rayleigh quotient: its shape meets the clamped conditions exactly, so the quotient's
-error is second order in the shape's; a free trial alone keeps the edge effect value
-(its quotient gains no order: the free conditions are unmet at the corners).
-The step costs a fixed number of operations per mode.
-
-Accuracy. Against the exact (Ritz) solver, frequencies agree within 0.5 % for all but the
-lowest modes of each family (tests/test_asymptotic_modes.py states the measured figures
-and which modes are excluded); the simply supported limit and the beam limit
-(``b -> 0``: the Euler-Bernoulli beam's ``k a = 4.730, 7.853, ...``) are exact.
+(left sides entire in ``s_x``), whose ``N``-th root lies in ``((N - 1) pi / a, N pi / a]``
+(``N`` even symmetric, odd antisymmetric). A mode is a pair ``(N_x, N_y)`` (``>= 2`` clamped;
+``>= 0`` free, without the rigid-body ``(0, 0)``, ``(1, 0)``, ``(0, 1)``), solved by
+alternating the two one-dimensional equations (a contraction: each depends on the other
+only through the edge terms); the cost is linear in the number of modes. A Rayleigh-Ritz
+step on the products (Leissa 1969, chapter 1) then solves two trials of one symmetry class
+within ``_PAIR_GAP`` (1 %) together, which splits a square's degenerate pairs that the
+corners couple; a clamped trial alone takes its Rayleigh quotient, a free one keeps the edge
+effect value (its quotient gains no order: the free conditions are unmet at the corners).
+Accuracy against the Ritz solver: docs/physics.md and tests/test_asymptotic_modes.py.
 
 References
 ----------

@@ -13,29 +13,11 @@ its displacement under the ball is
 * ``q_rigid`` the rigid-body motion of a free plate (translation and two rotations,
   ``q_rigid'' = -c_rigid F``, ``c_rigid = (1 + 3 xi^2 + 3 eta^2) / M`` with ``xi, eta`` the
   point's coordinates scaled to [-1, 1]); none for supported or clamped edges;
-* the residual: the modes above the band limit ``Omega``, taken as the infinite plate's
-  continuum of modes (wavenumber ``s = k^2``, ``S / (4 pi)`` modes per unit ``s`` on a plate
-  of area ``S``, each of coupling ``1 / (rho h S m_f(s))``, ``m_f`` Mindlin's modal mass
-  factor, 1 for Kirchhoff). Their admittance is ``Y_res(s) = s Int dmu(w) / (w^2 + s^2)``
-  over ``w > Omega`` with ``dmu = ds / (4 pi rho h m_f)``: the infinite plate's admittance
-  minus the band's modes (:func:`residual_admittance_exact`). Below the band it is reactive
-  (but for the modes' damping) and varies with frequency (for Kirchhoff
-  ``i (beta_inf / pi) ln((Omega + omega) / (Omega - omega))``, nearly a spring; for a
-  Mindlin plate of soft shear not). It is
-  realised by :data:`RESIDUAL_BINS` lumped modes, one per geometric bin of
-  :data:`RESIDUAL_RATIO` in frequency above ``Omega``, each with its bin's coupling
-  ``c_j = Int dmu`` and its bin's compliance ``c_j / w_j^2 = Int dmu / w^2`` and the plate's
-  loss ``sigma / omega`` at the band limit (they are the plate's own modes above the band,
-  lumped; the damping law is not extrapolated beyond the band); and above the
-  last bin, ``W``, the one-pole tail ``beta_W s / (s + a)``, ``beta_W`` the infinite plate's
-  ``Re Y`` at ``W`` and ``a = pi W / 2`` (a dashpot ``1 / beta_W`` in parallel with a spring
-  ``a / beta_W``: the continuum of constant density above ``W``): ``x_res' = beta_W F -
-  a x_res``. For Kirchhoff this is exact above ``W`` and the bins hold the residual to
-  2e-3 of ``beta_inf`` below ``Omega / 2`` (0.04 at ``0.9 Omega``, the logarithm at the
-  band edge); for Mindlin the wavenumber integral of a point force diverges
-  logarithmically (the local shear deflection), and the tail's constant density above
-  ``W`` bounds it there: what lies above is the local deformation that the contact law
-  carries.
+* the residual: the modes above the band limit ``Omega``, the infinite plate's continuum of
+  modes less the band's (Kirchhoff's or Mindlin's modal mass factor), realised by
+  :data:`RESIDUAL_BINS` lumped modes a :data:`RESIDUAL_RATIO` apart and a one-pole tail
+  ``x_res' = beta_W F - a x_res`` above the last bin (docs/physics.md, "Plate impedance":
+  the residual, its bins, its tail and their accuracy).
 
 So the onset of every contact sees the infinite plate's admittance, the modes add what the
 finite plate does within the band (reflections from edges and corners, the ringing left by an
@@ -93,7 +75,6 @@ from synth.physics.modal_contact.point import (
     band_modes,
     clear_memory_cache,
     modal_point,
-    residual_admittance_exact,
 )
 
 __all__ = [
@@ -112,5 +93,4 @@ __all__ = [
     "impedance_contact_time",
     "modal_point",
     "next_touch",
-    "residual_admittance_exact",
 ]

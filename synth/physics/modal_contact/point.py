@@ -318,43 +318,6 @@ def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedRes
     return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
 
 
-def residual_admittance_exact(
-    plate: Plate, max_frequency: float, frequency, *, theory: str = "kirchhoff"
-) -> np.ndarray:
-    """The residual's admittance (m/(N s), complex, ``e^(i omega t)``) at ``frequency`` (Hz,
-    below ``max_frequency``) from the wavenumber integral it lumps: ``i omega Int dmu /
-    (w(s)^2 - omega^2 + 2 i sigma(w) omega)`` over the bins' span ``[Omega, W]`` (module
-    docstring; ``sigma`` the plate's damping law) by adaptive quadrature, plus the tail
-    above ``W``. The reference of :meth:`ModalPoint.residual`."""
-    from scipy.integrate import quad
-
-    fmax = checks.positive("max_frequency", max_frequency, "Hz")
-    if theory not in PLATE_THEORIES:
-        raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
-    f = np.atleast_1d(np.asarray(frequency, dtype=float))
-    if not np.all((f > 0.0) & (f < fmax)):
-        raise ParameterError(f"frequency={frequency!r} must be in (0, max_frequency) (Hz)")
-    omega_band = 2.0 * math.pi * fmax
-    top = omega_band * RESIDUAL_RATIO**RESIDUAL_BINS
-    lo, hi = _wavenumber_at(plate, omega_band, theory), _wavenumber_at(plate, top, theory)
-    tail = _lumped_residual(plate, omega_band, theory)
-    loss = _band_edge_loss(plate, omega_band, fmax)
-
-    def term(x, w):
-        wk = float(_mode_frequency(plate, x, theory))
-        sigma = loss * wk
-        return complex(_coupling_density(plate, x, theory)) / (wk * wk - w * w + 2j * sigma * w)
-
-    out = []
-    for w in 2.0 * math.pi * f:
-        re = quad(lambda x, w=w: term(x, w).real, lo, hi, limit=200)[0]
-        im = quad(lambda x, w=w: term(x, w).imag, lo, hi, limit=200)[0]
-        s = 1j * w
-        out.append(s * complex(re, im) + tail.tail_admittance * s / (s + tail.tail_rate))
-    y = np.array(out)
-    return y.reshape(np.shape(frequency)) if np.ndim(frequency) else y[0]
-
-
 def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
     """Kirchhoff's angular frequency (rad/s) of a wave of ``k^2`` (rad^2/m^2)."""
     return wavenumber_squared * math.sqrt(plate.flexural_rigidity / plate.surface_density)

@@ -6,16 +6,8 @@ frequency: natural frequencies, modal damping, modal masses and the mode shapes
 
     v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k * (h_k * F)(t).
 
-Thin-plate (Kirchhoff) theory: transverse displacement ``w(x, y)``, kinetic
-energy ``1/2 rho h omega^2 Int w^2 dA`` and strain energy
-
-    U = D/2 Int [ w_xx^2 + w_yy^2 + 2 nu w_xx w_yy + 2 (1 - nu) w_xy^2 ] dA,
-
-``D = E h^3 / (12 (1 - nu^2))``. Kirchhoff theory ignores shear deformation and
-rotary inertia: against Mindlin's theory it overestimates a mode's frequency by
-about ``(k h)^2 / 5`` (``k`` the bending wavenumber, nu = 0.3), 1 % when the
-bending wavelength is 25 thicknesses; more when the wavelength nears a few
-thicknesses (an 18 mm board at 24 kHz).
+Thin-plate (Kirchhoff) theory; its energies and its error against Mindlin's theory (about
+``(k h)^2 / 5`` on a frequency): docs/physics.md, "Plate modes".
 
 Simply supported edges
     The closed form (:mod:`synth.physics.modes.closed_form`).

@@ -429,34 +429,6 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
     )
 
 
-def ritz_frequencies(
-    boundary: str,
-    nu: float,
-    aspect: float,
-    omega_basis: float,
-    omega_cut: float,
-    c0: float = _C0,
-    c1: float = _C1,
-) -> np.ndarray:
-    """Ritz frequencies (dimensionless, ascending, rigid-body motions removed) up to
-    ``omega_cut`` with the basis the rule ``(c0, c1)`` builds for ``omega_basis``.
-
-    A diagnostic of the basis-size rule: bases grow (nested) with ``omega_basis``,
-    ``c0`` and ``c1``, so each Ritz value can only decrease as they grow.
-    """
-    rx, ry = ratios(aspect)
-    k_l = math.sqrt(omega_basis)
-    sets = [index_set(px, py, 0.5 * k_l / rx, 0.5 * k_l / ry, c0, c1) for px, py in _CLASSES]
-    problem = RitzProblem.over(boundary, aspect, nu, sets)
-    out = []
-    for c, (I, J) in enumerate(sets):
-        lam, _ = solve_class(problem, I, J, omega_cut**2, False)
-        if boundary == "free" and c != 3:
-            lam = lam[1:]
-        out.append(np.sqrt(np.maximum(lam, 0.0)))
-    return np.sort(np.concatenate(out))
-
-
 def solution_key(boundary: str, nu: float, aspect: float) -> str:
     """Everything that determines a stored solution, as a canonical JSON string."""
     return json.dumps(

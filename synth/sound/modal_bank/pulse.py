@@ -1,10 +1,9 @@
 """One contact's pulse as the modal bank takes it (see :mod:`synth.sound.modal_bank`).
 
-Its uniform grid (:func:`pulse_grid`, :func:`pulse_layout`), the transforms at the poles
-(:func:`transform_pulse`, compiled, which the live engine's audio thread calls too;
-:func:`pulse_transforms` for its checks) and the modes' excitation by one impact
-(:func:`impact_excitation`): amplitudes at the first sample after the contact and the
-exact response inside it.
+Its uniform grid (:func:`pulse_layout`), the transforms at the poles (:func:`transform_pulse`,
+compiled, which the live engine's audio thread calls too) and the modes' excitation by one
+impact (:func:`impact_excitation`): amplitudes at the first sample after the contact and
+the exact response inside it.
 """
 
 from __future__ import annotations
@@ -17,7 +16,7 @@ import numpy as np
 from synth.compilation import announce, compiled
 from synth.constants import PULSE_POINTS
 from synth.errors import ParameterError
-from synth.sound.modal_bank.coefficients import BankCoefficients, highest_frequency
+from synth.sound.modal_bank.coefficients import BankCoefficients
 from synth.sound.modal_bank.transform_kernels import (
     WORK_ROWS,
     impact_transform,
@@ -38,57 +37,6 @@ def grid_size(tau, omega_max, min_points=PULSE_POINTS):
     ``omega_max h <= pi / 4`` (8 points a period of the highest mode)."""
     n = max(min_points, int(math.ceil(4.0 * omega_max * tau / math.pi)) + 1)
     return n + 1 - n % 2
-
-
-def pulse_grid(result, omega_max, min_points=PULSE_POINTS):
-    """Uniform grid of a pulse fine enough for the transform: ``(h, forces)``.
-
-    ``omega_max`` (rad/s) is the highest mode's angular frequency; the grid has at least
-    ``min_points`` points and a step ``h`` (s) with ``omega_max h <= pi / 4``; ``forces``
-    in N.
-    """
-    tau = result.separation_time
-    n = grid_size(tau, omega_max, min_points)
-    h = tau / (n - 1)
-    u = np.arange(n) * h
-    f = result.force_at(u)
-    return h, np.ascontiguousarray(f)
-
-
-def pulse_transforms(result, poles, omega_max=None):
-    """Laplace transforms ``L_k = Int_0^tau F(u) exp(-p_k u) du`` of an impact's force
-    pulse at the poles ``p_k`` (rad/s), N s, by the rule the renderer uses (trapezoid
-    rule on :func:`pulse_grid`'s grid for ``omega_max``, rad/s; default the highest
-    ``|Im p_k|``). A settled contact's remaining weight is not included."""
-    poles = np.ascontiguousarray(poles, dtype=complex)
-    if omega_max is None:
-        omega_max = highest_frequency(poles)
-    h, f = pulse_grid(result, omega_max)
-    out = np.empty(poles.size, dtype=complex)
-    one = np.ones(poles.size)
-    zero = np.zeros(poles.size)
-    impact_transform(
-        np.ascontiguousarray(poles.real),
-        np.ascontiguousarray(poles.imag),
-        one,
-        zero,
-        one,
-        zero,
-        1.0,
-        h,
-        f,
-        np.zeros(f.size),
-        0.0,
-        np.zeros(0),
-        np.zeros(0),
-        0.0,
-        result.separation_time,
-        result.pulse_order,
-        out,
-        np.zeros(0),
-        transform_workspace(poles.size),
-    )
-    return out
 
 
 @dataclass(frozen=True, eq=False)

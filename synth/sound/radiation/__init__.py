@@ -1,25 +1,21 @@
 """Sound radiated by plate modes to a microphone: the Rayleigh integral.
 
-The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid
-baffle, air on the side ``z > 0``. When its normal surface velocity is one mode,
-``v(xs, t) = phi_k(xs) u(t)`` with ``u(t) = exp(s t)``, the pressure at the
-listener ``xL = (x, y, z)`` is ``p(xL, t) = H_k(s) exp(s t)`` with the exact
-transfer function of the Rayleigh integral (docs/physics.md, "Radiation")::
+The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid baffle; a
+mode's normal velocity ``phi_k(xs) exp(s t)`` gives the pressure ``H_k(s) exp(s t)`` at the
+listener, with the exact transfer function of the Rayleigh integral (docs/physics.md,
+"Radiation")::
 
     H_k(s) = (rho s / (2 pi)) Int_plate phi_k(xs) exp(-s R / c) / R dA,   R = |xL - xs|
 
-(``rho s u`` is the surface acceleration; the integral is linear and
-time-invariant, so an exponential input returns the same exponential times
-``H_k(s)``, the propagation delay included). ``s`` may be any complex number: a
-damped mode ringing as ``exp(p_k t)``, ``p_k = -sigma_k + i omega_dk``, takes
-``s = p_k`` (the analytic continuation of the same formula). Units: ``H`` is in
-pascals per metre-per-second of the modal velocity ``u`` (Pa s/m).
+for any complex ``s`` (a damped mode takes its pole, the analytic continuation), in Pa per
+m/s of the modal velocity.
 
 For synthesis with one pure delay per listener, the gain can be returned with a
 reference delay factored out, ``H_k(s) exp(+s R0 / c)``, where ``R0`` is the
 distance from the listener to a reference point (for instance the impact point,
 :func:`distance`); the pressure is then that gain applied ``R0 / c`` seconds
 (:func:`delay`) later.
+
 Rules
 -----
 One interface (:mod:`~synth.sound.radiation.rules`): each rule states which shapes it

@@ -7,8 +7,6 @@ from __future__ import annotations
 import fractions
 import math
 
-import numpy as np
-
 from synth.compilation import compiled
 from synth.vecmath import cis
 
@@ -180,16 +178,3 @@ def j0_hankel(inv_x, sqrt_inv_x, x):
         q = q * z + _HANKEL_Q[k]
     cs, sn = cis(x - _QUARTER_PI)
     return (p * cs - inv_x * q * sn) * _SQRT_2_OVER_PI * sqrt_inv_x
-
-
-@compiled()
-def bessel_j0(x):  # pragma: no cover
-    """J_0 of every entry of the 1-D array ``x`` (each ``>= 0``), as
-    :func:`_add_circle_sums` evaluates it (tests compare it with scipy.special.j0)."""
-    out = np.empty(x.size)
-    for k in range(x.size):
-        if x[k] >= HANKEL_FROM:
-            out[k] = j0_hankel(1.0 / x[k], math.sqrt(1.0 / x[k]), x[k])
-        else:
-            out[k] = j0_cephes(x[k])
-    return out

@@ -54,7 +54,6 @@ from synth.physics.modes import single_thread_product
 from synth.sound.radiation.angular import POLAR_PANEL_TOL, arc_panels, circle_arcs, panels_points
 from synth.sound.radiation.angular import angular_rule as angular_rule
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
-from synth.sound.radiation.bessel_j0 import bessel_j0 as bessel_j0
 from synth.sound.radiation.common import (
     CHUNK_BYTES,
     MAX_ORDER,
