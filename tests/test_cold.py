@@ -19,9 +19,9 @@ import pytest
 NOTE = "synth: compiling "
 
 
-def _python(code: str, env: dict | None = None, cwd=None) -> subprocess.CompletedProcess:
+def _python(code: str, env: dict | None = None, cwd=None, args=()) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-c", code],
+        [sys.executable, "-c", code, *args],
         capture_output=True,
         text=True,
         env=dict(os.environ, **(env or {})),
@@ -62,19 +62,6 @@ def test_importing_the_live_engine_compiles_nothing(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["0", "0", "0"]
     assert NOTE not in proc.stderr
-
-
-def test_the_live_block_is_compiled_into_the_callback_only():
-    # numba links a compiled callee into each caller and compiles it to machine code again
-    # there: the callback, the block and the mixing, three compiled entries to the same
-    # tree of kernels, compiled it three times over. The levels between the callback and
-    # the bodies' mixing are inlined into the callback, which Python calls as well: none
-    # of them has a specialisation of its own (compiled, or loaded from the disk cache).
-    from synth.live import native
-
-    native.warm_up()
-    for inlined in (native._run_block, native._mix_engine, native._mix_one_body):
-        assert inlined.overloads == {}, inlined.py_func.__name__
 
 
 def test_unknown_attribute_is_an_attribute_error():
@@ -164,6 +151,12 @@ print(json.dumps(found))
 WARMUP = "from synth.cli import main; raise SystemExit(main(['warmup', '--step', '2']))"
 
 
+#: The live engine's code (the audio callback and the rolling voices' block) compiled into
+#: the suite's own numba cache, the one this process loads from, by a child beside the cold
+#: ones: it is this process' longest compile, and a core is free while the children run.
+SUITE_CACHE_WARMUP = "from synth.live import native; native.warm_up(rolling=True)"
+
+
 @dataclass(frozen=True)
 class ColdChildren:
     """What the children of :data:`COLD_CHILD` printed (one JSON object each), and the two
@@ -176,38 +169,51 @@ class ColdChildren:
     warmup_again: subprocess.CompletedProcess
 
 
+def _run_child(tmp, cache, code, *args) -> subprocess.CompletedProcess:
+    """``code`` in a child process on the numba and synth caches ``tmp / cache``, or on the
+    suite's own caches if ``cache`` is None."""
+    env = {} if cache is None else {
+        "NUMBA_CACHE_DIR": str(tmp / cache), "SYNTH_CACHE_DIR": str(tmp / cache),
+    }  # fmt: skip
+    return _python(code, env, args=args)
+
+
+def _printed(done: subprocess.CompletedProcess) -> dict:
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.splitlines()[-1])
+
+
 @pytest.fixture(scope="module")
 def cold_children(tmp_path_factory):
     """The cold children, run once for the module: each costs a whole compile of its
-    kernels (tens of seconds of CPU), and several tests read their output. About two at a
-    time (two cores): the clean and the others-first children, on caches of their own, side
-    by side; the others-first one compiles the live engine too, and while it does, the
-    clean one's ``again`` on its cache and the warmups on a cache of their own."""
+    kernels (tens of seconds of CPU), and several tests read their output. Two at a time
+    (two cores, one single-threaded compile per child), in this order, each on the next
+    free core: the others-first child (it compiles the live engine too), the clean one
+    then its ``again`` on its cache, the live engine into the suite's cache
+    (:data:`SUITE_CACHE_WARMUP`), the two warmups on a cache of their own."""
+    from concurrent.futures import ThreadPoolExecutor
+
     tmp = tmp_path_factory.mktemp("cold")
 
-    def start(cache, code, *args):
-        env = {"NUMBA_CACHE_DIR": str(tmp / cache), "SYNTH_CACHE_DIR": str(tmp / cache)}
-        return subprocess.Popen(
-            [sys.executable, "-c", code, *args], stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, env=dict(os.environ, **env),
-        )  # fmt: skip
+    def chain(*children):  # children run one after the other (the later on the earlier's cache)
+        return lambda: [_run_child(tmp, *child) for child in children]
 
-    def finish(proc):
-        stdout, stderr = proc.communicate(timeout=900)
-        return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
-
-    def found(proc):
-        done = finish(proc)
-        assert done.returncode == 0, done.stderr[-2000:]
-        return json.loads(done.stdout.splitlines()[-1])
-
-    clean = start("a", COLD_CHILD, "clean")
-    others_first = start("b", COLD_CHILD, "others-first")
-    clean = found(clean)
-    again = found(start("a", COLD_CHILD, "again"))
-    warmup = finish(start("d", WARMUP))
-    warmup_again = finish(start("d", WARMUP))
-    return ColdChildren(clean, found(others_first), again, warmup, warmup_again)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        others_first = pool.submit(chain(("b", COLD_CHILD, "others-first")))
+        clean = pool.submit(chain(("a", COLD_CHILD, "clean"), ("a", COLD_CHILD, "again")))
+        suite = pool.submit(chain((None, SUITE_CACHE_WARMUP)))
+        warmups = pool.submit(chain(("d", WARMUP), ("d", WARMUP)))
+    (suite_warmup,) = suite.result()
+    assert suite_warmup.returncode == 0, suite_warmup.stderr[-2000:]
+    clean_run, again = clean.result()
+    warmup, warmup_again = warmups.result()
+    return ColdChildren(
+        _printed(clean_run),
+        _printed(others_first.result()[0]),
+        _printed(again),
+        warmup,
+        warmup_again,
+    )
 
 
 @pytest.mark.slow
@@ -375,3 +381,18 @@ def test_bench_cold_measures_the_import_in_child_processes():
     text = cold.format_cold(rows)
     assert "| `import synth` | empty |" in text and "| `import synth` | warm |" in text
     assert "- `import synth`, empty caches:" in text and "target under 0.5 s" in text
+
+
+def test_the_live_block_is_compiled_into_the_callback_only():
+    # numba links a compiled callee into each caller and compiles it to machine code again
+    # there: the callback, the block and the mixing, three compiled entries to the same
+    # tree of kernels, compiled it three times over. The levels between the callback and
+    # the bodies' mixing are inlined into the callback, which Python calls as well: none
+    # of them has a specialisation of its own (compiled, or loaded from the disk cache).
+    # Last in the module: with the slow tests, the cold children's fixture has filled
+    # the suite's own numba cache with this code (SUITE_CACHE_WARMUP), loaded here.
+    from synth.live import native
+
+    native.warm_up()
+    for inlined in (native._run_block, native._mix_engine, native._mix_one_body):
+        assert inlined.overloads == {}, inlined.py_func.__name__
