@@ -184,7 +184,7 @@ def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
 def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
     """The ball in flight (no contact force: a parabola) from the path coordinate ``s``
     (m), height ``z`` (m) and vertical speed ``vy`` (m/s) at the horizontal speed ``v``
-    (m/s) under gravity ``g`` (m/s^2), below the envelope: the time (s) it flies, to the
+    (m/s) under gravity ``g`` (m/s^2), above the envelope: the time (s) it flies, to the
     first contact (returned ``tol`` s or less before it, still in flight) or at most
     ``span`` (s), and whether it lands. Over each piece of the envelope's cubic spline
     the penetration ``P(t) = e(s + v t) - z - vy t + g t^2 / 2`` is a cubic in ``t``: a
