@@ -12,7 +12,9 @@ in the process' CPU time (on a machine shared with other work the wall time incl
 time the process waited for a core; the CPU time does not), the solver's
 steps per sample and the ball's flights (micro-bounces), and the steps per 48 kHz sample
 the solver takes over the same second sampled at :data:`COARSE_SAMPLERATE`: what its
-accuracy asks for when the sample boundaries do not cut its steps.
+accuracy asks for when the sample boundaries do not cut its steps; and the share of the
+samples the ball spends in flight (no contact force), which the solver crosses in closed
+form, without steps.
 
 Then the rolling presets (:data:`ROLLING_PRESETS`: a drop with sideways speed that bounces
 and rolls) rendered whole as ``synth render`` renders them: the audio's length, the time
@@ -73,7 +75,7 @@ class SceneRun:
 @dataclass
 class RollingRun:
     """One speed's figures: wall and CPU s per s of audio, steps per sample, flights, modes
-    below 5 kHz and those driven."""
+    below 5 kHz and those driven, the share of the samples without contact force."""
 
     speed: float
     contact_s_per_s: float
@@ -85,6 +87,7 @@ class RollingRun:
     contact_cpu_s_per_s: float
     modes_cpu_s_per_s: float
     modes_driven: int = 0
+    airborne: float = 0.0
 
     @property
     def realtime(self) -> float:
@@ -227,6 +230,7 @@ def run_contact_speeds(repeat: int = 3) -> list[dict]:
                 flights=int(result.flights),
                 modes=int(model.poles.size),
                 modes_driven=int(driven),
+                airborne=float(np.mean(result.force == 0.0)),
                 contact_cpu_s_per_s=cpu_contact / DURATION,
                 modes_cpu_s_per_s=cpu_modes / DURATION,
             )
@@ -280,6 +284,7 @@ def format_contact_speeds(rows: list[dict]) -> str:
         "steps/sample",
         f"steps/sample at {COARSE_SAMPLERATE} Hz",
         "flights",
+        "airborne",
         "modes driven",
     ]
     cells = [
@@ -292,6 +297,7 @@ def format_contact_speeds(rows: list[dict]) -> str:
             f"{r.steps_per_sample:.2f}",
             f"{r.accuracy_steps_per_sample:.2f}",
             str(r.flights),
+            f"{r.airborne:.0%}",
             f"{r.modes_driven} of {r.modes}",
         ]
         for r in runs

@@ -56,7 +56,7 @@ PUBLISHED_SPEEDS = (0.1, 0.2, 0.4)
 PUBLISHED_RADII = (0.005, 0.01, 0.02)
 PUBLISHED_SECONDS = 0.5
 #: Rough profiles (of the one measured spectrum) each figure is the mean over.
-PUBLISHED_PROFILES = 4
+PUBLISHED_PROFILES = 8
 
 
 def _pair():

@@ -69,10 +69,13 @@ def live_rolling(setup, speeds, *, stop_after=None, fade=0.02, tail=0, listener=
 
 def offline_rolling(setup, speeds, listener):
     """The offline rolling of ``speeds`` (one per frame) heard by ``listener`` (its
-    :func:`rolling_sound` at the live engine's full scale), and the contact."""
+    :func:`rolling_sound` at the live engine's full scale), and the contact. Each speed is
+    the one the voice takes from the velocity ``speed * DIRECTION``, its length (within a
+    rounding of the speed: the contact's flights follow it to the bit)."""
     plate, _, ball, envelope = setup
+    heard = np.hypot(*np.multiply.outer(DIRECTION, speeds))
     contact = rolling.roll(
-        ball, plate, envelope, speed=np.repeat(speeds, FRAME), samplerate=FS,
+        ball, plate, envelope, speed=np.repeat(heard, FRAME), samplerate=FS,
         origin=tuple(ORIGIN), direction=tuple(DIRECTION), start=START,
     )  # fmt: skip
     model = listener if hasattr(listener, "poles") else modal_model(plate, listener, samplerate=FS)

@@ -73,9 +73,9 @@ def test_rolling_sound_follows_the_published_measurement_of_speed_and_size():
     """Houben, Kohlrausch & Hermes (2004) recorded wooden balls rolling on a wooden plate:
     the faster ball's sound lies higher and is louder, the larger ball's lies lower. The
     engine's microphone signal of oak balls on MDF of the measured roughness (0.5 s each,
-    means over four rough profiles of the one spectrum) follows each direction at each
+    means over eight rough profiles of the one spectrum) follows each direction at each
     doubling of the speed and of the radius, by more than the two means' standard errors
-    (the figures' spread over the profiles / 2): the trend is the physics', not the draw's."""
+    (the figures' spread over the profiles / sqrt(8)): the trend is the physics', not the draw's."""
     rows = rolling_check.published_rows()
     for radius in rolling_check.PUBLISHED_RADII:
         line = [r for r in rows if r["radius"] == radius]

@@ -25,7 +25,9 @@ Integrator: Dormand & Prince's embedded Runge-Kutta 5(4) pair (Dormand & Prince 
 J. Comput. Appl. Math. 6, 19; Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with local
 error control on ``delta`` and ``v_y`` (absolute ``rtol * delta_ref`` and ``rtol *
 sqrt(g delta_ref)`` plus ``rtol`` times the values), steps ending on every sample boundary
-(where the speed changes, the first stage is evaluated afresh with the new speed).
+(where the speed changes, the first stage is evaluated afresh with the new speed). Off the
+surface (``delta < 0``: no force) the ball's path is a parabola, solved in closed form to
+the landing or the period's end (:func:`flight`), without steps.
 
 numba's cache (``cache=True``) keys these kernels on this file only: after editing
 ``contact_kernels/equations.py`` (the law) or ``surface.py`` (the envelope's spline),
@@ -66,6 +68,9 @@ A61, A62, A63, A64, A65 = (
     -5103.0 / 18656.0,
 )
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+#: An error (relative to the tolerance) below which the step grows by the largest factor,
+#: 5: below ``(0.9 / 5)^5 = 1.9e-4``.
+TINY_ERROR = 1e-4
 E1, E3, E4, E5, E6, E7 = (
     71.0 / 57600.0,
     -71.0 / 16695.0,
@@ -116,6 +121,109 @@ def error4(h, k1, k3, k4, k5, k6, k7):  # pragma: no cover - compiled
     return h * (E1 * k1 + E3 * k3 + E4 * k4 + E5 * k5 + E6 * k6 + E7 * k7)
 
 
+@compiled(inline="always")
+def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - compiled
+    """The step's error relative to the tolerance (``err_z`` and ``err_v`` over their
+    scales ``sc_z`` and ``sc_v``) and the next step (s) after the step ``hh`` (s):
+    ``hh min(5, 0.9 err^-0.2)`` if accepted (``err <= 1``), ``hh max(0.2, 0.9 err^-0.2)``
+    if not (Hairer, Norsett & Wanner II.4). An error so small that the next step is the
+    largest one allowed, ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``): below
+    :data:`TINY_ERROR` the factor is 5, below ``(0.9 hh / h_max)^5`` at least ``h_max /
+    hh``; found with products, without the divisions and the power, and returned as 0."""
+    r = hh * grow
+    reach = max(r * r * r * r * r, TINY_ERROR)
+    if abs(err_z) <= reach * sc_z and abs(err_v) <= reach * sc_v:
+        return 0.0, min(5.0 * hh, h_max)
+    err = max(abs(err_z) / sc_z, abs(err_v) / sc_v)
+    if err > 1.0:
+        return err, hh * max(0.2, 0.9 * err**-0.2)
+    return err, hh * (5.0 if err == 0.0 else min(5.0, 0.9 * err**-0.2))
+
+
+@compiled()
+def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
+    """The first time in ``(a, b]`` (s) at which the cubic ``P(t) = p0 + p1 t + p2 t^2 +
+    p3 t^3`` (the penetration along a flight over one piece of the envelope's spline, m)
+    reaches 0, given ``P(a) < 0``: returned as a time ``t`` with ``P(t) < 0`` within ``tol``
+    (s) before it, or -1.0 if ``P < 0`` over the whole interval. ``P`` is monotone
+    between its critical points, so the first of the critical points in ``(a, b)`` and of
+    ``b`` where ``P >= 0`` brackets the first root, which bisection narrows."""
+    # the critical points: roots of 3 p3 t^2 + 2 p2 t + p1
+    c1 = c2 = b
+    qa, qb = 3.0 * p3, 2.0 * p2
+    if qa != 0.0:
+        disc = qb * qb - 4.0 * qa * p1
+        if disc > 0.0:
+            r = math.sqrt(disc)
+            t1, t2 = (-qb - r) / (2.0 * qa), (-qb + r) / (2.0 * qa)
+            if t1 > t2:
+                t1, t2 = t2, t1
+            if a < t1 < b:
+                c1 = t1
+            if a < t2 < b:
+                c2 = t2
+    elif qb != 0.0:
+        t1 = -p1 / qb
+        if a < t1 < b:
+            c1 = t1
+    lo = a
+    for hi in (c1, c2, b):
+        if ((p3 * hi + p2) * hi + p1) * hi + p0 >= 0.0:
+            while hi - lo > tol:
+                mid = 0.5 * (lo + hi)
+                if ((p3 * mid + p2) * mid + p1) * mid + p0 >= 0.0:
+                    hi = mid
+                else:
+                    lo = mid
+            return lo
+        lo = hi
+    return -1.0
+
+
+@compiled()
+def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
+    """The ball in flight (no contact force: a parabola) from the path coordinate ``s``
+    (m), height ``z`` (m) and vertical speed ``vy`` (m/s) at the horizontal speed ``v``
+    (m/s) under gravity ``g`` (m/s^2), above the envelope: the time (s) it flies, to the
+    first contact (returned ``tol`` s or less before it, still in flight) or at most
+    ``span`` (s), and whether it lands. Over each piece of the envelope's cubic spline
+    the penetration ``P(t) = e(s + v t) - z - vy t + g t^2 / 2`` is a cubic in ``t``: a
+    piece over which ``P`` stays below its chord's larger end plus the bound of its
+    curvature's part, ``max |P''| L^2 / 8`` (``L`` the piece's duration), has no contact;
+    on the others :func:`first_contact` finds the first root."""
+    n = env.shape[0]
+    i = int(math.floor(s / dx))
+    if i < 0:
+        i = 0
+    if i > n - 1:
+        i = n - 1
+    a = 0.0
+    while True:
+        b = span
+        if v > 0.0 and i < n - 1:
+            b = min(span, ((i + 1) * dx - s) / v)
+        if b > a:
+            # the penetration over this piece as a cubic in t (about t = 0)
+            c0, c1, c2, c3 = env[i, 0], env[i, 1], env[i, 2], env[i, 3]
+            o = s - i * dx  # the piece's local coordinate at t = 0
+            p0 = ((c0 * o + c1) * o + c2) * o + c3 - z
+            p1 = ((3.0 * c0 * o + 2.0 * c1) * o + c2) * v - vy
+            p2 = (3.0 * c0 * o + c1) * v * v + 0.5 * g
+            p3 = c0 * v * v * v
+            pa = ((p3 * a + p2) * a + p1) * a + p0
+            pb = ((p3 * b + p2) * b + p1) * b + p0
+            curve = max(abs(2.0 * p2 + 6.0 * p3 * a), abs(2.0 * p2 + 6.0 * p3 * b))
+            if max(pa, pb) + 0.125 * curve * (b - a) * (b - a) >= 0.0:
+                t = first_contact(p0, p1, p2, p3, a, b, tol)
+                if t >= 0.0:
+                    # no step shorter than the root's tolerance to the period's end
+                    return (span if span - t <= tol else t), True
+        if b >= span:
+            return span, False
+        a = b
+        i += 1
+
+
 @compiled()
 def roll(
     y,
@@ -161,6 +269,9 @@ def roll(
     e0, _, _ = envelope_at(env, dx, s)
     d_prev = e0 - z
     v = 0.0
+    # a flight ends this close before its landing (s)
+    root_tol = 1e-6 * period
+    grow = 0.9 / h_max
     # the first stage (k1), carried from a step's last stage (k7) to the next step
     z1 = v1 = u1 = i1 = l1 = p1 = d1 = g1 = 0.0
     for j in range(n_samples):
@@ -172,8 +283,20 @@ def roll(
         imp = 0.0
         d_min = d_prev
         t = 0.0
+        landing = False
         while t < period:
             remaining = period - t
+            if d_prev < 0.0 and not landing:
+                # a flight: in closed form to the landing or the period's end
+                tau, landing = flight(env, dx, s, z, vy, v, g, remaining, root_tol)
+                z, vy, s = z + (vy - 0.5 * g * tau) * tau, vy - g * tau, s + v * tau
+                t = t + tau if tau < remaining else period
+                z1, v1, u1, i1, l1, p1, d1, g1, d_prev = rates(
+                    z, vy, s, env, dx, v, m, K, n, mu, b, beta, g
+                )
+                if d_prev < d_min:
+                    d_min = d_prev
+                continue
             if h > h_max:
                 h = h_max
             last = h >= remaining
@@ -221,7 +344,7 @@ def roll(
             err_v = error4(hh, v1, v3, v4, v5, v6, v7)
             sc_z = atol_z + rtol * max(abs(d_prev), abs(d_new))
             sc_v = atol_v + rtol * max(abs(vy), abs(vy_new))
-            err = max(abs(err_z) / sc_z, abs(err_v) / sc_v)
+            err, proposed = control(hh, err_z, err_v, sc_z, sc_v, grow, h_max)
             steps += 1
             if steps > max_steps:
                 y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
@@ -237,18 +360,17 @@ def roll(
                 drive = step5(drive, hh, d1, d3, d4, d5, d6)
                 gross = step5(gross, hh, g1, g3, g4, g5, g6)
                 z1, v1, u1, i1, l1, p1, d1, g1 = z7, v7, u7, i7, l7, p7, d7, g7
+                landing = False
                 if d_new <= 0.0 < d_prev:
                     flights += 1
                 d_prev = d_new
                 if d_new < d_min:
                     d_min = d_new
-                factor = 5.0 if err == 0.0 else min(5.0, 0.9 * err**-0.2)
-                proposed = hh * factor
                 # a step cut short by the sample boundary does not shrink the next one
                 h = max(proposed, h) if last else proposed
             else:
                 rejected += 1
-                h = hh * max(0.2, 0.9 * err**-0.2)
+                h = proposed
         force_out[j] = imp * samplerate
         min_penetration[j] = d_min
     y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
