@@ -12,10 +12,11 @@ past ringing predicts, and its error rises at its onset; a burst of beating mode
 error than the ringing just before it. The decision weighs that error's mean square over the
 tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN` against that over the
 :data:`~synth.analysis.detection.STANDS_OUT_BEFORE` held out before the onset, both predicted
-by the model fitted before them: a tick must rise over it by the detection's ``threshold_db``
-(the modes the stretch cannot resolve leave a remainder whose beats the model does not
-follow) and by the F quantile of step 8 (:func:`~synth.analysis.detection.standing_out`:
-white noise's scatter).
+by the model fitted before them: a tick must rise over it by more than white noise's
+scatter allows, the F quantile of step 8 (:func:`~synth.analysis.detection.standing_out`).
+A weak impact late in a series rises over the ringing by a few dB only, so no larger margin
+is asked; the modes a short stretch cannot resolve leave some bursts of a plate of
+thousands of modes unexplained.
 """
 
 from __future__ import annotations
@@ -55,9 +56,8 @@ def ringing_explained(x: np.ndarray, prev: float, onset: float, guard: int, s: S
     :data:`~synth.analysis.measures.WINDOW_GUARD` before ``onset`` (at most the last
     :data:`RINGING_FIT` of it), predicted over the held-out stretch before the onset and the
     tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN`; explained when the
-    prediction error does not rise from the one to the other by ``threshold_db`` (a tick's
-    margin over its local background, here what the ringing leaves unexplained) nor by the F
-    quantile of step 8 (white noise's scatter).
+    prediction error does not rise from the one to the other by more than white noise's
+    scatter allows (the F quantile of step 8).
     False (not explained) where the stretch is too short to fit a model of
     :data:`~synth.analysis.detection.LOCAL_ORDER` poles (two equations per unknown) or no
     stable model fits it: nothing is dropped that cannot be judged."""
@@ -75,8 +75,7 @@ def ringing_explained(x: np.ndarray, prev: float, onset: float, guard: int, s: S
     if a is None:
         return False
     e = lfilter(a, [1.0], x[end - a.size + 1 : on + span])[a.size - 1 :]
-    need = max(noise_rise(span, held), 10.0 ** (s.threshold_db / 10.0))
-    return rise_at(e, held, span, held) < need
+    return rise_at(e, held, span, held) < noise_rise(span, held)
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:
