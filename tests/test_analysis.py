@@ -1384,9 +1384,9 @@ def test_ringing_explains_beating_not_an_impact():
     ringing = modes.sum(axis=0)
     s = make_settings(1, fs, AnalysisOptions())
     crest = fs // 3  # the beats' second crest: their envelope |cos(pi 3 Hz t)| peaks at 1/3 s
-    assert ringing_explained(ringing, 0.0, crest, int(0.002 * fs), s)
+    assert ringing_explained(ringing, int(0.002 * fs), crest, s)
     contact = np.sin(math.pi * np.arange(int(1e-4 * fs)) / int(1e-4 * fs))
     hit = np.zeros_like(ringing)
     hit[crest:] = np.convolve(contact, modes.sum(axis=0))[: t.size - crest] / contact.sum()
     hit *= 0.1 * np.abs(ringing).max() / np.abs(hit).max()
-    assert not ringing_explained(ringing + hit, 0.0, crest, int(0.002 * fs), s)
+    assert not ringing_explained(ringing + hit, int(0.002 * fs), crest, s)

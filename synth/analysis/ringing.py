@@ -48,10 +48,10 @@ RINGING_FIT = 0.01
 RIDGE = 1e-12
 
 
-def ringing_explained(x: np.ndarray, prev: float, onset: float, guard: int, s: Settings) -> bool:
-    """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing that
-    follows the tick at ``prev`` (sample): the decaying modes fitted to ``x`` from ``guard``
-    samples after ``prev`` (past its contact) up to
+def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bool:
+    """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing before it,
+    free from sample ``free`` on (past the previous contact): the decaying modes fitted to
+    ``x`` from ``free`` up to
     :data:`~synth.analysis.detection.STANDS_OUT_BEFORE` and
     :data:`~synth.analysis.measures.WINDOW_GUARD` before ``onset`` (at most the last
     :data:`RINGING_FIT` of it), predicted over the held-out stretch before the onset and the
@@ -68,7 +68,7 @@ def ringing_explained(x: np.ndarray, prev: float, onset: float, guard: int, s: S
     held = max(1, int(round(STANDS_OUT_BEFORE * fs)))
     on = int(math.floor(onset)) - WINDOW_GUARD
     end = on - held
-    start = max(int(math.floor(prev)) + guard, end - int(round(RINGING_FIT * fs)))
+    start = max(free, end - int(round(RINGING_FIT * fs)))
     if end - start < 3 * LOCAL_ORDER or on + span > x.size:
         return False
     a = ringing_predictor(x[start:end])

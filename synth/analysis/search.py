@@ -126,18 +126,18 @@ def tick_meter(
 
 
 def ringing_ticks(x: np.ndarray, ticks: list, settings: Settings) -> list[int]:
-    """Indices of the ``ticks`` of ``x`` after the first whose burst the ringing since the
-    last tick kept before it explains (:func:`~synth.analysis.ringing.ringing_explained`, its
-    fit from :data:`CLEAN_GUARD` after that tick's onset: a burst the ringing explains is no
-    contact, and the ringing goes on through it): no impact (step 9)."""
+    """Indices of the ``ticks`` of ``x`` after the first whose burst the ringing before them
+    explains (:func:`~synth.analysis.ringing.ringing_explained`): no impact (step 9). The
+    ringing is free from :data:`CLEAN_GUARD` after the onset of the last tick kept before: a
+    burst the ringing explains is no contact, and the ringing goes on through it."""
     fs = settings.samplerate
     guard = int(round(CLEAN_GUARD * fs))
-    out, kept = [], 0
-    for i in range(1, len(ticks)):
-        if ringing_explained(x, ticks[kept].time * fs, ticks[i].time * fs, guard, settings):
+    out, free = [], 0
+    for i, tick in enumerate(ticks):
+        if i and ringing_explained(x, free, tick.time * fs, settings):
             out.append(i)
         else:
-            kept = i
+            free = int(math.floor(tick.time * fs)) + guard
     return out
 
 
