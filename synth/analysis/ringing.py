@@ -27,7 +27,6 @@ import numpy as np
 
 from synth import dsp
 from synth.analysis.detection import (
-    LOCAL_ORDER,
     STANDS_OUT_BEFORE,
     STANDS_OUT_SPAN,
     noise_rise,
@@ -37,7 +36,7 @@ from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import one_blas_thread
 
-#: The ringing is fitted over at most this much of the stretch before a tick, s: the
+#: The ringing is fitted over this much of the stretch before a tick, s: the
 #: covariance method resolves as many modes as a sixth of its samples (a predictor of a
 #: third of them, two poles per mode; two equations per unknown, at least), 80 over 10 ms
 #: at 48 kHz, at a cost of the cube of that order per tick.
@@ -51,16 +50,18 @@ RIDGE = 1e-12
 def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bool:
     """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing before it,
     free from sample ``free`` on (past the previous contact): the decaying modes fitted to
-    ``x`` from ``free`` up to
+    the last :data:`RINGING_FIT` of ``x`` up to
     :data:`~synth.analysis.detection.STANDS_OUT_BEFORE` and
-    :data:`~synth.analysis.measures.WINDOW_GUARD` before ``onset`` (at most the last
-    :data:`RINGING_FIT` of it), predicted over the held-out stretch before the onset and the
-    tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN`; explained when the
-    prediction error does not rise from the one to the other by more than white noise's
-    scatter allows (the F quantile of step 8).
-    False (not explained) where the stretch is too short to fit a model of
-    :data:`~synth.analysis.detection.LOCAL_ORDER` poles (two equations per unknown) or no
-    stable model fits it: nothing is dropped that cannot be judged."""
+    :data:`~synth.analysis.measures.WINDOW_GUARD` before ``onset``, predicted over the
+    held-out stretch before the onset and the tick's first
+    :data:`~synth.analysis.detection.STANDS_OUT_SPAN`; explained when the prediction error
+    does not rise from the one to the other by more than white noise's scatter allows (the
+    F quantile of step 8).
+    False (not explained) where the free ringing is shorter than :data:`RINGING_FIT` (a
+    shorter stretch resolves too few modes: its error rises at a fast chatter's true
+    contacts no more than at the ringing's bursts) or silent: nothing is dropped that
+    cannot be judged.
+    """
     from scipy.signal import lfilter
 
     fs = s.samplerate
@@ -68,8 +69,8 @@ def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bo
     held = max(1, int(round(STANDS_OUT_BEFORE * fs)))
     on = int(math.floor(onset)) - WINDOW_GUARD
     end = on - held
-    start = max(free, end - int(round(RINGING_FIT * fs)))
-    if end - start < 3 * LOCAL_ORDER or on + span > x.size:
+    start = end - int(round(RINGING_FIT * fs))
+    if start < free or on + span > x.size:
         return False
     a = ringing_predictor(x[start:end])
     if a is None:
