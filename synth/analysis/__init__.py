@@ -19,7 +19,8 @@ The stages, one module each:
 * :mod:`~synth.analysis.series`: the rules of a bounce series (steps 3 and 6);
 * :mod:`~synth.analysis.deflation`: step 5, the ticks found one by one with the earlier ones
   taken out; :mod:`~synth.analysis.resonator`: step 7, its variant on the resonator's
-  whitening;
+  whitening; :mod:`~synth.analysis.ringing`: step 9, a tick's burst against the ringing
+  modelled before it;
 * :mod:`~synth.analysis.measures`: each tick's measurements;
 * :mod:`~synth.analysis.validity`: the bounce series (drops) of a recording, the
   physically impossible restitutions flagged, input that holds no impact refused;

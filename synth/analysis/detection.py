@@ -486,7 +486,7 @@ def standing_out(
     blocks = max(1, int(round(STANDS_OUT_BEFORE * fs / hop)))
     before = blocks * hop
     need_x = 10.0 ** (STANDS_OUT_DB / 10.0)
-    need_e = _noise_rise(span, before)
+    need_e = noise_rise(span, before)
     energy = frame_energies(r, hop, span)
     if energy.size == 0:
         return StandingOut(np.zeros(0), np.zeros(0))
@@ -507,8 +507,8 @@ def standing_out(
         if found is None:
             continue
         on = found.onset
-        rx = _rise_at(x, int(on), span, before)
-        re = _rise_at(found.error, int(on) - found.start, span, before)
+        rx = rise_at(x, int(on), span, before)
+        re = rise_at(found.error, int(on) - found.start, span, before)
         near = np.abs(known - on) < settings.min_separation
         if rx < need_x or re < need_e or near.any():
             continue
@@ -535,7 +535,7 @@ def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings:
     ) * 10.0 ** (-settings.max_drop_db / 10.0)
 
 
-def _noise_rise(m: int, n: int) -> float:
+def noise_rise(m: int, n: int) -> float:
     """The ratio of the mean squares of ``m`` and ``n`` samples of white Gaussian noise
     exceeded with probability :data:`STANDS_OUT_FALSE_ALARM` (Fisher's F distribution)."""
     from scipy.stats import f as fisher
@@ -591,7 +591,7 @@ def _local_onset(
         return None
     on = a0 + _change_point(e[a0 : rise + span])
     past = e[max(lo, on - before) : on]
-    if float(np.dot(past, past)) / max(1, past.size) > variance * _noise_rise(
+    if float(np.dot(past, past)) / max(1, past.size) > variance * noise_rise(
         past.size, fitted.size
     ):
         return None
@@ -627,7 +627,7 @@ def _change_point(z: np.ndarray) -> int:
     return int(tau[np.argmax(ll)])
 
 
-def _rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
+def rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
     """The mean square of ``z`` over ``[k, k + span)`` over that of ``[k - before, k)``."""
     a = z[k : k + span]
     b = z[max(0, k - before) : k]
