@@ -162,7 +162,9 @@ def _significant(token):
 
 
 #: A measured figure: a decimal or exponent number standing alone (not part of a name).
-_NUMBER = r"(?<![\w.])-?(?:\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+)(?![\w.])"
+_NUMBER = r"(?<![\w.])(?P<number>-?(?:\d+\.\d+(?:e[+-]?\d+)?|\d+e[+-]?\d+))(?![\w.])"
+#: A unit written after a figure in a table cell.
+_UNIT = r"(?:\s?(?P<unit>%|(?:dB|Hz|kHz|ms|us|s|mm|um|m/s|m|N|Pa|kPa|MPa|GPa|kg|g|J)\b))?"
 #: Headers of columns of run times, which vary from run to run (a coincidence with a number
 #: of the prose would not be a pasted figure): left out of the check.
 _TIMING = re.compile(
@@ -174,7 +176,9 @@ _TIMING = re.compile(
 def _block_figures(body):
     """Measured figures of a block: decimal numbers with three or more significant digits
     in its table cells, apart from the first column (the case or quantity measured), the
-    columns of published values (a header naming the thesis) and of run times."""
+    columns of published values (a header naming the thesis) and of run times. A number
+    written with its unit in the cell is the figure with that unit ("10.1 dB"): the same
+    number of another quantity elsewhere (a modulus of 10.1 GPa) is not a copy of it."""
     figures = set()
     skip = set()
     for line in body.splitlines():
@@ -194,9 +198,10 @@ def _block_figures(body):
         for i, cell in enumerate(cells):
             if i in skip:
                 continue
-            for token in re.findall(_NUMBER, cell):
-                if _significant(token) >= 3:
-                    figures.add(token.lstrip("-"))
+            for m in re.finditer(_NUMBER + _UNIT, cell):
+                if _significant(m.group("number")) >= 3:
+                    unit = f" {m.group('unit')}" if m.group("unit") else ""
+                    figures.add(m.group("number").lstrip("-") + unit)
     return figures
 
 
@@ -219,7 +224,9 @@ def test_measured_figures_are_not_pasted_outside_their_block():
     for path in [ROOT / "README.md"] + [DOCS / n for n in PAGES]:
         text = _outside_blocks(path.read_text())
         for fig in figures:
-            for m in re.finditer(rf"(?<![\d.]){re.escape(fig)}(?![\d])", text):
+            number, _, unit = fig.partition(" ")
+            after = rf"\s?{re.escape(unit)}(?![\w])" if unit else r"(?![\d])"
+            for m in re.finditer(rf"(?<![\d.]){re.escape(number)}{after}", text):
                 # a reference's number (thesis eq. 2.42, Table 3.3) is not a figure
                 assert _REFERENCE.search(text[: m.start()]), (
                     f"{path.name} repeats the measured figure {fig} outside its block"
@@ -234,8 +241,17 @@ def test_block_figures_are_found():
         "| steel 12.55 mm | 0.871 | 0.87 | 3.4e-07 | 12.6 | 0.013 |\n"
         "| time (us) | 103.7 | 110.0 | 3.41e-07 | 12.7 | 0.0291 |\n"
         "| DOP853 | 1e-03 | 5148 / 7137 | -86.6 | 13.8 | 0.068 |\n"
+        "| level | +10.1 dB | 1.0 | 2.50 | 1.0 | 1.0 |\n"
     )
-    assert _block_figures(body) == {"0.871", "103.7", "3.41e-07", "86.6", "0.0291"}
+    assert _block_figures(body) == {
+        "0.871",
+        "103.7",
+        "3.41e-07",
+        "86.6",
+        "0.0291",
+        "10.1 dB",
+        "2.50",
+    }
 
 
 def test_replace_bench_block():
