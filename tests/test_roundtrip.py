@@ -120,8 +120,6 @@ def _tick_to_masker(scene, seq, r, i):
 #: ms after the eighth, on the ringing board) is missed; strict, so a fix shows.
 ROUNDTRIP_MISSES = {
     "thesis-steel10-mdf6": "the ninth tick, 2 cm/s and 4.5 ms after the eighth, is not found",
-    "marble-rolling-on-wooden-floor": "two ticks are found between the sixth and seventh bounces"
-    " on the ringing floor, where the render has none, and the eighth bounce is missed",
 }
 #: A moving preset stays in the round trip: its first ten impacts are a drop's bounces (each
 #: at its own point along the path, the rolling seconds later), which the analysis of a drop's
