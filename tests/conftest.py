@@ -49,6 +49,10 @@ def pytest_configure(config):
             "not `python -m pytest`"
         )
     _check_checkout_packages()
+    # The Pythons the tests start (``python -c``, ``python -m synth``) run in the checkout:
+    # without this they would put it first on ``sys.path`` and import its source tree, not
+    # the installed package (PYTHONSAFEPATH, Python 3.11).
+    os.environ.setdefault("PYTHONSAFEPATH", "1")
 
 
 def _check_checkout_packages():
