@@ -40,7 +40,7 @@ import math
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels import equations
-from synth.physics.surface import envelope_at
+from synth.physics.surface import envelope_at, spline_piece
 
 #: The impact solver's contact law, the same compiled function as the impacts'.
 force = equations.force
@@ -192,11 +192,7 @@ def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
     curvature's part, ``max |P''| L^2 / 8`` (``L`` the piece's duration), has no contact;
     on the others :func:`first_contact` finds the first root."""
     n = env.shape[0]
-    i = int(math.floor(s / dx))
-    if i < 0:
-        i = 0
-    if i > n - 1:
-        i = n - 1
+    i = spline_piece(n, dx, s)
     a = 0.0
     while True:
         b = span

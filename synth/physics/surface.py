@@ -526,15 +526,22 @@ def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compile
 
 
 @compiled()
+def spline_piece(n, dx, s):  # pragma: no cover - compiled
+    """The piece of a spline of ``n`` pieces of length ``dx`` (m) holding ``s`` (m): the
+    first or the last beyond its ends."""
+    i = int(math.floor(s / dx))
+    if i < 0:
+        return 0
+    if i > n - 1:
+        return n - 1
+    return i
+
+
+@compiled()
 def envelope_at(coefficients, dx, s):  # pragma: no cover - compiled
     """``(e(s), e'(s), e''(s))`` (m, dimensionless, 1/m) of the envelope's cubic spline
     (:attr:`ContactEnvelope.coefficients`) at ``s`` (m, inside ``[0, (N-1) dx]``)."""
-    n = coefficients.shape[0]
-    i = int(math.floor(s / dx))
-    if i < 0:
-        i = 0
-    if i > n - 1:
-        i = n - 1
+    i = spline_piece(coefficients.shape[0], dx, s)
     t = s - i * dx
     c0 = coefficients[i, 0]
     c1 = coefficients[i, 1]
