@@ -3,7 +3,6 @@ analyze, alter)."""
 
 import json
 import math
-import os
 import re
 import subprocess
 import sys
@@ -125,11 +124,9 @@ def test_info_override_rejects_malformed(capsys, item, part):
 def test_info_module_entry_point():
     # `python -m synth info default` runs the same command in a fresh interpreter: status 0,
     # the preset's description first.
-    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run(
         [sys.executable, "-m", "synth", "info", "default"],
         cwd=REPO,
-        env=env,
         capture_output=True,
         text=True,
         timeout=120,
@@ -140,11 +137,9 @@ def test_info_module_entry_point():
 
 def test_info_module_entry_point_rejects_bad_override():
     # The exit status 2 of a bad --set reaches the shell through `python -m synth`.
-    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     proc = subprocess.run(
         [sys.executable, "-m", "synth", "info", "default", "--set", "ball.radius=-1"],
         cwd=REPO,
-        env=env,
         capture_output=True,
         text=True,
         timeout=120,
