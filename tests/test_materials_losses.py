@@ -252,6 +252,9 @@ def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_ma
     assert tuple(still) == UNSETTLED_PAIRS.get(ball_material, ())
     if still:
         pytest.xfail(
-            f"near-elastic pairs without a yield at the series' speeds still bounce at 60 s, "
-            f"where measured ones come to rest: {ball_material} on {still}"
+            f"{ball_material} on {still}: near-elastic pairs without a yield at the series' "
+            f"speeds still bounce at 60 s, where measured ones come to rest; missing: a "
+            f"published e(v) of such a ball on a massive surface of these materials, from "
+            f"which a per-material contact loss would follow (docs/materials.md, 'Coming to "
+            f"rest')"
         )
