@@ -288,8 +288,8 @@ def settling_section() -> str:
         "(docs/physics.md), not a half-space's surface and body waves. A loss per material "
         "from a published restitution (the viscoelastic law's dissipative time from a "
         "measured `e` at a stated speed, Kuwabara & Kono 1987) needs a measured `e(v)` of a "
-        "glass, porcelain, stone, polycarbonate or hardened-steel ball on a massive surface "
-        "of these materials; the published observations set beside the engine "
+        "glass, porcelain, stone, concrete, polycarbonate or hardened-steel ball on a massive "
+        "surface of these materials; the published observations set beside the engine "
         '(docs/validation.md, "Restitution of solid balls") print none, so these pairs keep '
         "the table's loss factors. The figures are the engine's (the measured model's "
         "first impact on the massive plate at each speed), not measurements:\n\n"
