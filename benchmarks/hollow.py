@@ -17,6 +17,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from benchmarks.common import markdown_table
 from synth.constants import AIR_DENSITY, GRAVITY
 from synth.physics.contact import solve_impact
@@ -296,6 +298,119 @@ def gas_thermal_loss_share(ball, row: HollowRow, speed: float) -> float:
     return math.pi * eta * compression / (0.5 * ball.mass * speed * speed)
 
 
+def rise_speed(height: float, v_t: float) -> float:
+    """The speed (m/s) at which a ball thrown up with quadratic drag (terminal speed ``v_t``,
+    m/s) reaches ``height`` (m): :func:`rise_height` inverted, ``v = v_t sqrt(exp(2 g h /
+    v_t^2) - 1)``."""
+    return v_t * math.sqrt(math.expm1(2.0 * GRAVITY * height / (v_t * v_t)))
+
+
+def missing_loss_share(test: RuleBookTest, row: HollowRow, ball) -> float:
+    """The share (dimensionless) of ``test``'s impact energy that ``row``'s impact would have
+    to lose beyond the engine's loss for the ball to rebound through the air to the top of
+    the rule book's range: ``e^2 - e_top^2``, ``e_top`` the restitution that gives that
+    rebound (:func:`rise_speed` over the impact speed)."""
+    v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
+    top = test.rebound_high - (2.0 * ball.radius if test.to_top else 0.0)
+    e_top = rise_speed(top, v_t) / fall_speed(test.drop, v_t)
+    return row.restitution**2 - e_top**2
+
+
+#: The highest order ``n`` of the shell's axisymmetric modes :func:`ringing_bound` sums
+#: (dimensionless): far above the contact's frequency the pulse's spectrum leaves them nothing.
+RINGING_MAX_ORDER = 60
+
+
+def shell_mode_frequencies(ball, n: int) -> tuple[float, ...]:
+    """The angular frequencies (rad/s, ascending) of the axisymmetric modes of order ``n``
+    (Legendre ``P_n``) of ``ball``'s free spherical shell: the positive roots of S. Hayek's
+    frequency equation (membrane theory with the bending correction; "Vibrations of a
+    spherical shell in an acoustic medium", J. Acoust. Soc. Am. 40 (1966) 342, as the
+    code_aster validation manual V2.03.007 states it),
+
+        L^2 - L [1 + 3 nu - a (1 - nu) + b (1 + a nu + a b)]
+            + a b (b^2 - 4 b + 5 - nu^2) + (1 - nu^2) (b - 2 (1 + a)) = 0,
+
+    ``L = lambda^2``, ``a = h^2 / (12 R^2)``, ``b = n (n + 1)``, ``omega = lambda / R
+    sqrt(E / (rho (1 - nu^2)))`` with ``R`` the wall's mid-surface radius. The gauge
+    pressure's prestress and the cover's mass are left out. For ``n = 1`` the lower root is
+    the ball's translation (0), which is left out."""
+    mat = ball.material
+    nu, h = mat.poisson, ball.thickness
+    radius = ball.shell_radius - 0.5 * h
+    a, b = h * h / (12.0 * radius * radius), n * (n + 1.0)
+    p = 1.0 + 3.0 * nu - a * (1.0 - nu) + b * (1.0 + a * nu + a * b)
+    q = a * b * (b * b - 4.0 * b + 5.0 - nu * nu) + (1.0 - nu * nu) * (b - 2.0 * (1.0 + a))
+    root = math.sqrt(p * p - 4.0 * q)
+    scale = math.sqrt(mat.young / (mat.density * (1.0 - nu * nu))) / radius
+    roots = [0.5 * (p - root), 0.5 * (p + root)]
+    return tuple(scale * math.sqrt(L) for L in roots if L > 1e-9 * p)
+
+
+def pulse_spectrum(result, omega: float, points: int = 20001) -> float:
+    """``|F(omega)|`` (N s) of an impact's force pulse, ``int F(t) exp(-i omega t) dt`` over
+    the contact (trapezoid rule on ``points`` samples of the engine's own pulse)."""
+    t = np.linspace(0.0, result.separation_time, points)
+    force = result.force_at(t)
+    return abs(np.trapezoid(force * np.exp(-1j * omega * t), t))
+
+
+def ringing_bound(ball, result) -> float:
+    """An upper bound (J) of the energy the engine's force pulse ``result`` leaves in
+    ``ball``'s shell modes after the contact (the wall's ringing, lost to the rebound), were
+    the shell driven by that pulse at the contact point, its pole: each mode an undamped
+    oscillator, left with ``phi^2 |F(omega)|^2 / (2 M)`` when the force ends. The
+    axisymmetric modes of order ``n`` share the radial motion ``P_n(cos theta)``, whose mass
+    is ``m_s / (2 n + 1)`` (``m_s`` the shell's): over the order's modes ``phi^2 / M`` sums to
+    at most ``(2 n + 1) / m_s`` (``2 / m_s`` for ``n = 1`` beside the translation), so the
+    order leaves at most that times the largest ``|F(omega)|^2 / 2`` of its modes
+    (:func:`shell_mode_frequencies`, :func:`pulse_spectrum`). The estimate holds where the
+    modes lie well above the contact's frequency; where it exceeds the impact's energy the
+    lowest modes take part in the contact itself, which the quasi-static law does not
+    integrate."""
+    total = 0.0
+    for n in range(RINGING_MAX_ORDER + 1):
+        if n == 1:
+            weight = 2.0
+        else:
+            weight = 2.0 * n + 1.0
+        spectrum = max(pulse_spectrum(result, w) for w in shell_mode_frequencies(ball, n))
+        total += weight * spectrum * spectrum / (2.0 * ball.shell_mass)
+    return total
+
+
+def ringing_share(test: RuleBookTest, ball, rtol: float = 1e-9) -> tuple[float, float]:
+    """``test``'s impact of ``ball`` through the air (as :func:`rule_book_row`'s): the shell's
+    lowest mode over the contact's angular frequency ``pi / tau`` and :func:`ringing_bound`'s
+    share of the impact energy (both dimensionless)."""
+    speed = fall_speed(test.drop, terminal_speed(ball.mass, ball.radius, test.drag_coefficient))
+    impact = solve_impact(ball, test.surface, speed, contact="shell", rtol=rtol)
+    lowest = min(w for n in range(RINGING_MAX_ORDER + 1) for w in shell_mode_frequencies(ball, n))
+    ratio = lowest * impact.contact_time / math.pi
+    return ratio, ringing_bound(ball, impact) / (0.5 * ball.mass * speed * speed)
+
+
+def ringing_note(test: RuleBookTest, ball, row: HollowRow) -> str:
+    """The part of a loss-budget line on the wall's ringing (:func:`ringing_share`), beside
+    the loss the engine misses (:func:`missing_loss_share`)."""
+    ratio, share = ringing_share(test, ball)
+    missing = missing_loss_share(test, row, ball)
+    if share < 1.0:
+        verdict = f"leaves at most {share:.1e} of the impact energy in the shell's modes"
+    else:
+        verdict = (
+            f"would leave more than the impact energy ({share:.1f} times it) in them: the "
+            f"lowest modes take part in the contact, which the quasi-static law does not "
+            f"integrate"
+        )
+    return (
+        f"the wall's ringing: its lowest mode lies at {ratio:.1f} times the contact's "
+        f"frequency `pi / tau` (the free elastic shell's, without its gauge pressure), and "
+        f"the engine's pulse {verdict}, against the {missing:.1e} of it the impact would "
+        f"have to lose besides the engine's loss to rebound to the range's top"
+    )
+
+
 def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     """A line of docs/validation.md: the share of ``test``'s impact energy its shell's loss
     acts on, and the loss factor the shell would need to carry the missing loss alone."""
@@ -324,7 +439,8 @@ def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     return (
         f"- {test.ball}, the loss budget: {holds}; the gas' heat exchange with the wall "
         f"takes about {thermal:.1e} of the impact energy (an estimate of its order: the "
-        f"thermal boundary layer), the engine none; the shell's loss factor "
+        f"thermal boundary layer), the engine none; {ringing_note(test, ball, row)}; the shell's "
+        f"loss factor "
         f"({ball.material.damping.eta:g}) acts on the wall's share only; {land} "
         f"(a diagnosis of the missing loss, not a value the engine takes)."
     )
