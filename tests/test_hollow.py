@@ -337,7 +337,8 @@ def test_ringing_against_the_missing_loss():
     # the energy the engine's pulse leaves in the shell's modes (estimate and upper bound),
     # the loss the impact misses for the range's top, and the rebound with the estimate taken
     # off (figures as docs/validation.md prints them): only the basketball's would land in its
-    # range, and the table tennis ball's ringing is below a third of its miss
+    # range, and the table tennis ball's ringing is below a third of its miss; with every mode
+    # 10 % higher the estimate falls by half and more (its sensitivity to the frequencies)
     # (docs/validation.md, "Hollow balls")
     from benchmarks.hollow import (
         fall_speed,
@@ -350,9 +351,9 @@ def test_ringing_against_the_missing_loss():
 
     assert rise_height(rise_speed(1.4, 9.0), 9.0) == pytest.approx(1.4, rel=1e-12)
     printed = {  # to the digits docs/validation.md prints
-        "table-tennis-ball-on-table": ("10.0", "7.1e-03", "8.1e-03", "2.5e-02", "0.265"),
-        "tennis-ball-on-concrete": ("2.7", "3.1e-01", "3.7e-01", "3.3e-01", "1.523"),
-        "basketball-on-wooden-floor": ("4.5", "2.0e-01", "2.2e-01", "1.5e-01", "1.320"),
+        "table-tennis-ball-on-table": ("10.0", "7.1e-03", "8.1e-03", "3.5e-03", "2.5e-02", "0.265"),
+        "tennis-ball-on-concrete": ("2.7", "3.1e-01", "3.7e-01", "1.5e-01", "3.3e-01", "1.523"),
+        "basketball-on-wooden-floor": ("4.5", "2.0e-01", "2.2e-01", "1.1e-01", "1.5e-01", "1.320"),
     }
     for test in RULE_BOOK_TESTS:
         ball, row = load_preset(test.preset).ball, rule_book_row(test)
@@ -362,11 +363,12 @@ def test_ringing_against_the_missing_loss():
             f"{ring.ratio:.1f}",
             f"{ring.estimate:.1e}",
             f"{ring.bound:.1e}",
+            f"{ring.raised:.1e}",
             f"{missing:.1e}",
             f"{ring.rebound:.3f}",
         )
         assert figures == printed[test.preset]
-        assert ring.estimate < ring.bound
+        assert ring.raised < ring.estimate < ring.bound
         if test.preset == "table-tennis-ball-on-table":
             assert ring.bound < missing / 3.0
         inside = test.rebound_low <= ring.rebound <= test.rebound_high
