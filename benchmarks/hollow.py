@@ -371,12 +371,26 @@ def radial_share(ball, n: int, omega: float) -> float:
     return 1.0 / (1.0 + b * ratio * ratio)
 
 
-def pulse_spectrum(result, omega: float, points: int = 20001) -> float:
-    """``|F(omega)|`` (N s) of an impact's force pulse, ``int F(t) exp(-i omega t) dt`` over
-    the contact (trapezoid rule on ``points`` samples of the engine's own pulse)."""
+def pulse_spectrum(result, omegas, points: int = 20001) -> np.ndarray:
+    """``|F(omega)|`` (N s) of an impact's force pulse at the angular frequencies ``omegas``
+    (rad/s), ``int F(t) exp(-i omega t) dt`` over the contact (trapezoid rule on ``points``
+    samples of the engine's own pulse, sampled once)."""
     t = np.linspace(0.0, result.separation_time, points)
     force = result.force_at(t)
-    return abs(np.trapezoid(force * np.exp(-1j * omega * t), t))
+    return np.array([abs(np.trapezoid(force * np.exp(-1j * w * t), t)) for w in omegas])
+
+
+def _shell_modes(ball) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every axisymmetric mode of ``ball``'s shell up to :data:`RINGING_MAX_ORDER`: its order
+    ``n``, angular frequency (rad/s, :func:`shell_mode_frequencies`) and radial share
+    (:func:`radial_share`)."""
+    modes = [
+        (n, w, radial_share(ball, n, w))
+        for n in range(RINGING_MAX_ORDER + 1)
+        for w in shell_mode_frequencies(ball, n)
+    ]
+    order, omega, share = (np.array(column, dtype=float) for column in zip(*modes, strict=True))
+    return order, omega, share
 
 
 def ringing_bound(ball, result) -> float:
@@ -391,14 +405,12 @@ def ringing_bound(ball, result) -> float:
     (:func:`shell_mode_frequencies`, :func:`pulse_spectrum`). Driving the shell with the
     quasi-static pulse is a first-order picture: it holds where the modes lie well above the
     contact's frequency; nearer, they take part in the contact itself."""
+    order, omega, _ = _shell_modes(ball)
+    energy = pulse_spectrum(result, omega) ** 2
     total = 0.0
     for n in range(RINGING_MAX_ORDER + 1):
-        if n == 1:
-            weight = 2.0
-        else:
-            weight = 2.0 * n + 1.0
-        spectrum = max(pulse_spectrum(result, w) for w in shell_mode_frequencies(ball, n))
-        total += weight * spectrum * spectrum / (2.0 * ball.shell_mass)
+        weight = 2.0 if n == 1 else 2.0 * n + 1.0
+        total += weight * energy[order == n].max() / (2.0 * ball.shell_mass)
     return total
 
 
@@ -409,13 +421,9 @@ def ringing_estimate(ball, result, raised: float = 1.0) -> float:
     (:func:`radial_share`; its shape the membrane's, its frequency Hayek's). ``raised``
     (dimensionless) multiplies every mode's frequency, shape and share kept: the estimate's
     sensitivity to the frequencies (the pulse's spectrum falls steeply above the contact's)."""
-    total = 0.0
-    for n in range(RINGING_MAX_ORDER + 1):
-        for w in shell_mode_frequencies(ball, n):
-            spectrum = pulse_spectrum(result, raised * w)
-            share = radial_share(ball, n, w)
-            total += (2.0 * n + 1.0) * share * spectrum * spectrum / (2.0 * ball.shell_mass)
-    return total
+    order, omega, share = _shell_modes(ball)
+    spectrum = pulse_spectrum(result, raised * omega)
+    return float(np.sum((2.0 * order + 1.0) * share * spectrum**2) / (2.0 * ball.shell_mass))
 
 
 #: The factor on every mode's frequency for the sensitivity :class:`Ringing` prints
@@ -445,7 +453,7 @@ def ringing(test: RuleBookTest, ball, rtol: float = 1e-9) -> Ringing:
     v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
     speed = fall_speed(test.drop, v_t)
     impact = solve_impact(ball, test.surface, speed, contact="shell", rtol=rtol)
-    lowest = min(w for n in range(RINGING_MAX_ORDER + 1) for w in shell_mode_frequencies(ball, n))
+    lowest = _shell_modes(ball)[1].min()
     energy = 0.5 * ball.mass * speed * speed
     estimate = ringing_estimate(ball, impact) / energy
     e = math.sqrt(max(impact.restitution**2 - estimate, 0.0))

@@ -315,7 +315,7 @@ def test_pulse_spectrum_of_a_half_sine():
     wc = math.pi / 1e-3
     for omega in (0.5 * wc, 2.7 * wc, 10.3 * wc):
         exact = 10.0 * wc * 2.0 * abs(math.cos(0.5 * omega * 1e-3)) / abs(wc * wc - omega**2)
-        assert pulse_spectrum(HalfSine(), omega) == pytest.approx(exact, rel=1e-6)
+        assert pulse_spectrum(HalfSine(), [omega])[0] == pytest.approx(exact, rel=1e-6)
 
 
 def test_radial_shares_of_an_orders_modes_sum_to_one():
