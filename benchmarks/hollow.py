@@ -17,6 +17,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from benchmarks.common import markdown_table
 from synth.constants import AIR_DENSITY, GRAVITY
 from synth.physics.contact import solve_impact
@@ -296,6 +298,192 @@ def gas_thermal_loss_share(ball, row: HollowRow, speed: float) -> float:
     return math.pi * eta * compression / (0.5 * ball.mass * speed * speed)
 
 
+def rise_speed(height: float, v_t: float) -> float:
+    """The speed (m/s) at which a ball thrown up with quadratic drag (terminal speed ``v_t``,
+    m/s) reaches ``height`` (m): :func:`rise_height` inverted, ``v = v_t sqrt(exp(2 g h /
+    v_t^2) - 1)``."""
+    return v_t * math.sqrt(math.expm1(2.0 * GRAVITY * height / (v_t * v_t)))
+
+
+def missing_loss_share(test: RuleBookTest, row: HollowRow, ball) -> float:
+    """The share (dimensionless) of ``test``'s impact energy that ``row``'s impact would have
+    to lose beyond the engine's loss for the ball to rebound through the air to the top of
+    the rule book's range: ``e^2 - e_top^2``, ``e_top`` the restitution that gives that
+    rebound (:func:`rise_speed` over the impact speed)."""
+    v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
+    top = test.rebound_high - (2.0 * ball.radius if test.to_top else 0.0)
+    e_top = rise_speed(top, v_t) / fall_speed(test.drop, v_t)
+    return row.restitution**2 - e_top**2
+
+
+#: The highest order ``n`` of the shell's axisymmetric modes :func:`ringing_bound` sums
+#: (dimensionless): far above the contact's frequency the pulse's spectrum leaves them nothing.
+RINGING_MAX_ORDER = 60
+
+
+def shell_mode_frequencies(ball, n: int) -> tuple[float, ...]:
+    """The angular frequencies (rad/s, ascending) of the axisymmetric modes of order ``n``
+    (Legendre ``P_n``) of ``ball``'s free spherical shell: the positive roots of S. Hayek's
+    frequency equation (membrane theory with the bending correction; "Vibrations of a
+    spherical shell in an acoustic medium", J. Acoust. Soc. Am. 40 (1966) 342, as the
+    code_aster validation manual V2.03.007 states it),
+
+        L^2 - L [1 + 3 nu - a (1 - nu) + b (1 + a nu + a b)]
+            + a b (b^2 - 4 b + 5 - nu^2) + (1 - nu^2) (b - 2 (1 + a)) = 0,
+
+    ``L = lambda^2``, ``a = h^2 / (12 R^2)``, ``b = n (n + 1)``, ``omega = lambda / R
+    sqrt(E / (rho (1 - nu^2)))`` with ``R`` the wall's mid-surface radius. The gauge
+    pressure's prestress and the cover's mass are left out. For ``n = 1`` the lower root is
+    the ball's translation (0), which is left out."""
+    mat = ball.material
+    nu, h = mat.poisson, ball.thickness
+    radius = ball.shell_radius - 0.5 * h
+    a, b = h * h / (12.0 * radius * radius), n * (n + 1.0)
+    p = 1.0 + 3.0 * nu - a * (1.0 - nu) + b * (1.0 + a * nu + a * b)
+    q = a * b * (b * b - 4.0 * b + 5.0 - nu * nu) + (1.0 - nu * nu) * (b - 2.0 * (1.0 + a))
+    root = math.sqrt(p * p - 4.0 * q)
+    scale = math.sqrt(mat.young / (mat.density * (1.0 - nu * nu))) / radius
+    roots = [0.5 * (p - root), 0.5 * (p + root)]
+    return tuple(scale * math.sqrt(L) for L in roots if L > 1e-9 * p)
+
+
+def radial_share(ball, n: int, omega: float) -> float:
+    """The share (dimensionless, in (0, 1]) of a mode's kinetic energy in its radial motion,
+    for the axisymmetric mode of order ``n`` at the angular frequency ``omega`` (rad/s) of
+    ``ball``'s shell: the membrane equations of the sphere (radial ``w = W P_n``, tangential
+    ``u = U dP_n / d theta``; ``b = n (n + 1)``, ``O^2 = rho (1 - nu^2) R^2 omega^2 / E``)
+
+        (b - (1 - nu) - O^2) U + (1 + nu) W = 0,   (1 + nu) b U + (2 (1 + nu) - O^2) W = 0,
+
+    whose determinant is Hayek's equation without its bending term
+    (:func:`shell_mode_frequencies`), give ``U / W = (O^2 - 2 (1 + nu)) / ((1 + nu) b)``;
+    over the sphere ``P_n^2`` and ``(dP_n / d theta)^2`` integrate in the ratio ``1 : b``, so
+    the share is ``1 / (1 + b (U / W)^2)``. Over the two modes of an order the shares sum to 1
+    (their shapes are orthogonal), 1/3 of ``n = 1``'s being the translation's."""
+    mat = ball.material
+    nu = mat.poisson
+    radius = ball.shell_radius - 0.5 * ball.thickness
+    b = n * (n + 1.0)
+    if b == 0.0:
+        return 1.0
+    o2 = mat.density * (1.0 - nu * nu) * radius * radius * omega * omega / mat.young
+    ratio = (o2 - 2.0 * (1.0 + nu)) / ((1.0 + nu) * b)
+    return 1.0 / (1.0 + b * ratio * ratio)
+
+
+def pulse_spectrum(result, omegas, points: int = 20001) -> np.ndarray:
+    """``|F(omega)|`` (N s) of an impact's force pulse at the angular frequencies ``omegas``
+    (rad/s), ``int F(t) exp(-i omega t) dt`` over the contact (trapezoid rule on ``points``
+    samples of the engine's own pulse, sampled once)."""
+    t = np.linspace(0.0, result.separation_time, points)
+    force = result.force_at(t)
+    return np.array([abs(np.trapezoid(force * np.exp(-1j * w * t), t)) for w in omegas])
+
+
+def _shell_modes(ball) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every axisymmetric mode of ``ball``'s shell up to :data:`RINGING_MAX_ORDER`: its order
+    ``n``, angular frequency (rad/s, :func:`shell_mode_frequencies`) and radial share
+    (:func:`radial_share`)."""
+    modes = [
+        (n, w, radial_share(ball, n, w))
+        for n in range(RINGING_MAX_ORDER + 1)
+        for w in shell_mode_frequencies(ball, n)
+    ]
+    order, omega, share = (np.array(column, dtype=float) for column in zip(*modes, strict=True))
+    return order, omega, share
+
+
+def ringing_bound(ball, result) -> float:
+    """An upper bound (J) of the energy the engine's force pulse ``result`` leaves in
+    ``ball``'s shell modes after the contact (the wall's ringing, lost to the rebound), were
+    the shell driven by that pulse at the contact point, its pole: each mode an undamped
+    oscillator, left with ``phi^2 |F(omega)|^2 / (2 M)`` when the force ends. The
+    axisymmetric modes of order ``n`` share the radial motion ``P_n(cos theta)``, whose mass
+    is ``m_s / (2 n + 1)`` (``m_s`` the shell's): over the order's modes ``phi^2 / M`` sums to
+    at most ``(2 n + 1) / m_s`` (``2 / m_s`` for ``n = 1`` beside the translation), so the
+    order leaves at most that times the largest ``|F(omega)|^2 / 2`` of its modes
+    (:func:`shell_mode_frequencies`, :func:`pulse_spectrum`). Driving the shell with the
+    quasi-static pulse is a first-order picture: it holds where the modes lie well above the
+    contact's frequency; nearer, they take part in the contact itself."""
+    order, omega, _ = _shell_modes(ball)
+    energy = pulse_spectrum(result, omega) ** 2
+    total = 0.0
+    for n in range(RINGING_MAX_ORDER + 1):
+        weight = 2.0 if n == 1 else 2.0 * n + 1.0
+        total += weight * energy[order == n].max() / (2.0 * ball.shell_mass)
+    return total
+
+
+def ringing_estimate(ball, result, raised: float = 1.0) -> float:
+    """An estimate (J) of the energy the engine's force pulse ``result`` leaves in ``ball``'s
+    shell modes (:func:`ringing_bound`'s oscillators): each mode of order ``n`` at ``omega``
+    takes ``(2 n + 1) s |F(omega)|^2 / (2 m_s)``, ``s`` its radial share
+    (:func:`radial_share`; its shape the membrane's, its frequency Hayek's). ``raised``
+    (dimensionless) multiplies every mode's frequency, shape and share kept: the estimate's
+    sensitivity to the frequencies (the pulse's spectrum falls steeply above the contact's)."""
+    order, omega, share = _shell_modes(ball)
+    spectrum = pulse_spectrum(result, raised * omega)
+    return float(np.sum((2.0 * order + 1.0) * share * spectrum**2) / (2.0 * ball.shell_mass))
+
+
+#: The factor on every mode's frequency for the sensitivity :class:`Ringing` prints
+#: (dimensionless): 10 % higher modes.
+RINGING_RAISED = 1.1
+
+
+@dataclass(frozen=True)
+class Ringing:
+    """The wall's ringing in a rule-book test's impact: the shell's lowest mode over the
+    contact's angular frequency ``pi / tau`` (``ratio``), :func:`ringing_bound`'s and
+    :func:`ringing_estimate`'s shares of the impact energy (``bound``, ``estimate``; ``raised``
+    with every mode :data:`RINGING_RAISED` times higher), and the rebound (m, through the air)
+    were the estimate taken off the engine's (``rebound``): a diagnosis, not the engine's
+    bounce (all dimensionless but ``rebound``)."""
+
+    ratio: float
+    bound: float
+    estimate: float
+    raised: float
+    rebound: float
+
+
+def ringing(test: RuleBookTest, ball, rtol: float = 1e-9) -> Ringing:
+    """``test``'s impact of ``ball`` through the air (as :func:`rule_book_row`'s) and its
+    :class:`Ringing`."""
+    v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
+    speed = fall_speed(test.drop, v_t)
+    impact = solve_impact(ball, test.surface, speed, contact="shell", rtol=rtol)
+    lowest = _shell_modes(ball)[1].min()
+    energy = 0.5 * ball.mass * speed * speed
+    estimate = ringing_estimate(ball, impact) / energy
+    e = math.sqrt(max(impact.restitution**2 - estimate, 0.0))
+    top = 2.0 * ball.radius if test.to_top else 0.0
+    return Ringing(
+        lowest * impact.contact_time / math.pi,
+        ringing_bound(ball, impact) / energy,
+        estimate,
+        ringing_estimate(ball, impact, RINGING_RAISED) / energy,
+        rise_height(e * speed, v_t) + top,
+    )
+
+
+def ringing_note(test: RuleBookTest, ball, row: HollowRow) -> str:
+    """The part of a loss-budget line on the wall's ringing (:func:`ringing`), beside the
+    loss the engine misses (:func:`missing_loss_share`)."""
+    ring = ringing(test, ball)
+    missing = missing_loss_share(test, row, ball)
+    return (
+        f"the wall's ringing: its lowest mode lies at {ring.ratio:.1f} times the contact's "
+        f"frequency `pi / tau` (the free elastic shell's, without its gauge pressure), and "
+        f"the engine's pulse leaves about {ring.estimate:.1e} of the impact energy in the "
+        f"shell's modes (at most {ring.bound:.1e}; {ring.raised:.1e} were every mode "
+        f"{100.0 * (RINGING_RAISED - 1.0):.0f} % higher), against the {missing:.1e} of it the "
+        f"impact would have to lose besides the engine's loss to rebound to the range's top; "
+        f"were the estimate taken off the rebound, the ball would rise to {ring.rebound:.3f} m "
+        f"(a diagnosis, not the engine's bounce)"
+    )
+
+
 def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     """A line of docs/validation.md: the share of ``test``'s impact energy its shell's loss
     acts on, and the loss factor the shell would need to carry the missing loss alone."""
@@ -324,7 +512,8 @@ def loss_budget_note(test: RuleBookTest, row: HollowRow) -> str:
     return (
         f"- {test.ball}, the loss budget: {holds}; the gas' heat exchange with the wall "
         f"takes about {thermal:.1e} of the impact energy (an estimate of its order: the "
-        f"thermal boundary layer), the engine none; the shell's loss factor "
+        f"thermal boundary layer), the engine none; {ringing_note(test, ball, row)}; the shell's "
+        f"loss factor "
         f"({ball.material.damping.eta:g}) acts on the wall's share only; {land} "
         f"(a diagnosis of the missing loss, not a value the engine takes)."
     )

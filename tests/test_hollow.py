@@ -283,6 +283,104 @@ def test_loss_budget_of_the_hollow_balls():
     assert top > 9.0 * tennis.material.damping.eta
 
 
+def test_shell_modes_are_hayeks():
+    # Hayek's frequency equation without its bending term (a -> 0) is the membrane sphere's,
+    # lambda^2 roots of L^2 - L (n^2 + n + 1 + 3 nu) + (1 - nu^2) (n^2 + n - 2) = 0 (the
+    # code_aster validation manual V2.03.007): a wall of h / R = 1e-3 is within a b^2 ~ 1e-5
+    from benchmarks.hollow import shell_mode_frequencies
+
+    b = HollowBall(ELASTIC_SHELL, 0.02, thickness=2e-5)
+    radius = 0.02 - 1e-5
+    scale = math.sqrt(2.2e9 / (1050.0 * (1.0 - 0.39**2))) / radius
+    for n in (2, 3, 5):
+        c = n * n + n + 1.0 + 3.0 * 0.39
+        root = math.sqrt(c * c - 4.0 * (1.0 - 0.39**2) * (n * n + n - 2.0))
+        membrane = [scale * math.sqrt(0.5 * (c - root)), scale * math.sqrt(0.5 * (c + root))]
+        assert shell_mode_frequencies(b, n) == pytest.approx(membrane, rel=1e-4)
+    # n = 0, the breathing mode, has one root; n = 1 leaves out the translation (0)
+    assert len(shell_mode_frequencies(b, 0)) == 1 and len(shell_mode_frequencies(b, 1)) == 1
+
+
+def test_pulse_spectrum_of_a_half_sine():
+    # |F(omega)| of F0 sin(pi t / tau) on [0, tau]: F0 (pi / tau) 2 |cos(omega tau / 2)| /
+    # |(pi / tau)^2 - omega^2| (closed form), to the trapezoid rule's error on 20001 points
+    from benchmarks.hollow import pulse_spectrum
+
+    class HalfSine:
+        separation_time = 1e-3
+
+        def force_at(self, t):
+            return 10.0 * np.sin(math.pi * t / 1e-3)
+
+    wc = math.pi / 1e-3
+    for omega in (0.5 * wc, 2.7 * wc, 10.3 * wc):
+        exact = 10.0 * wc * 2.0 * abs(math.cos(0.5 * omega * 1e-3)) / abs(wc * wc - omega**2)
+        assert pulse_spectrum(HalfSine(), [omega])[0] == pytest.approx(exact, rel=1e-6)
+
+
+def test_radial_shares_of_an_orders_modes_sum_to_one():
+    # the membrane sphere's two modes of an order are orthogonal: their radial shares sum to 1
+    # (a thin wall: to Hayek's bending correction); n = 1 leaves the translation's 1/3 out,
+    # n = 0 (breathing) is all radial
+    from benchmarks.hollow import radial_share, shell_mode_frequencies
+
+    b = HollowBall(ELASTIC_SHELL, 0.02, thickness=2e-5)
+    for n in (2, 3, 7):
+        shares = [radial_share(b, n, w) for w in shell_mode_frequencies(b, n)]
+        assert sum(shares) == pytest.approx(1.0, rel=1e-4)
+    (w1,) = shell_mode_frequencies(b, 1)
+    assert radial_share(b, 1, w1) == pytest.approx(2.0 / 3.0, rel=1e-4)
+    assert radial_share(b, 0, shell_mode_frequencies(b, 0)[0]) == 1.0
+
+
+def test_ringing_against_the_missing_loss():
+    # the energy the engine's pulse leaves in the shell's modes (estimate and upper bound),
+    # the loss the impact misses for the range's top, and the rebound with the estimate taken
+    # off (figures as docs/validation.md prints them): only the basketball's would land in its
+    # range, and the table tennis ball's ringing is below a third of its miss; with every mode
+    # 10 % higher the estimate falls by half and more (its sensitivity to the frequencies)
+    # (docs/validation.md, "Hollow balls")
+    from benchmarks.hollow import (
+        fall_speed,
+        missing_loss_share,
+        ringing,
+        rise_height,
+        rise_speed,
+        terminal_speed,
+    )
+
+    assert rise_height(rise_speed(1.4, 9.0), 9.0) == pytest.approx(1.4, rel=1e-12)
+    printed = {  # to the digits docs/validation.md prints
+        "table-tennis-ball-on-table": ("10.0", "7.1e-03", "8.1e-03", "3.5e-03", "2.5e-02", "0.265"),
+        "tennis-ball-on-concrete": ("2.7", "3.1e-01", "3.7e-01", "1.5e-01", "3.3e-01", "1.523"),
+        "basketball-on-wooden-floor": ("4.5", "2.0e-01", "2.2e-01", "1.1e-01", "1.5e-01", "1.320"),
+    }
+    for test in RULE_BOOK_TESTS:
+        ball, row = load_preset(test.preset).ball, rule_book_row(test)
+        ring = ringing(test, ball)
+        missing = missing_loss_share(test, row, ball)
+        figures = (
+            f"{ring.ratio:.1f}",
+            f"{ring.estimate:.1e}",
+            f"{ring.bound:.1e}",
+            f"{ring.raised:.1e}",
+            f"{missing:.1e}",
+            f"{ring.rebound:.3f}",
+        )
+        assert figures == printed[test.preset]
+        assert ring.raised < ring.estimate < ring.bound
+        if test.preset == "table-tennis-ball-on-table":
+            assert ring.bound < missing / 3.0
+        inside = test.rebound_low <= ring.rebound <= test.rebound_high
+        assert inside == (test.preset == "basketball-on-wooden-floor")
+        # the missing loss is the one that lands the rebound on the range's top
+        v_t = terminal_speed(ball.mass, ball.radius, test.drag_coefficient)
+        e_top = math.sqrt(row.restitution**2 - missing)
+        top = 2.0 * ball.radius if test.to_top else 0.0
+        landed = rise_height(e_top * fall_speed(test.drop, v_t), v_t) + top
+        assert landed == pytest.approx(test.rebound_high, rel=1e-12)
+
+
 def test_gas_thermal_loss_is_negligible():
     # the thermal boundary layer's loss factor of the gas spring, (gamma - 1) S d / (2 V) =
     # 0.6 d / R_i for air, and the estimate's share of the impact energy: far below the
@@ -312,10 +410,12 @@ def test_gas_thermal_loss_is_negligible():
 @pytest.mark.xfail(
     strict=True,
     reason="the shells' published loss factors alone leave the balls too lively, the air's "
-    "drag taken in: the felt's loss (tennis), the wall's ringing and the seams are not in "
-    "the engine, no published value of them has been read, and the gas, most of the tennis "
-    "ball's and the basketball's stiffness, is lossless: their walls would need loss "
-    "factors of 0.5 and more to carry the missing loss alone (docs/validation.md)",
+    "drag taken in: the table tennis ball's wall ringing takes less than a third of its miss "
+    "(its shell's modes an order above its contact's frequency); the tennis ball's and the "
+    "basketball's lowest shell modes lie within a few times their contact's frequency, where "
+    "their ringing is of the size of their miss but takes part in the contact, which the "
+    "engine does not integrate (the modes, the gas' prestress, the felt's mass); the felt's "
+    "loss and the seams are not in the engine either (docs/validation.md, 'Hollow balls')",
 )
 @pytest.mark.parametrize("test", RULE_BOOK_TESTS, ids=lambda t: t.preset)
 def test_rule_book_bounce_inside_range(test):
