@@ -263,7 +263,7 @@ class Roller:
             int(flights),
             *(float(y[i] - y0[i]) for i in (_k.LOSS, _k.PLATE, _k.DRIVE)),
             status == _k.OK,
-            _MESSAGES.get(int(status), "Unknown status."),
+            status_message(status),
             RollingState(read_only(y0), None),
             RollingState(read_only(y.copy()), float(h)),
         )
@@ -274,6 +274,12 @@ class Roller:
         continues from it gives the bits of :func:`roll` from ``start``."""
         y, h = _start(self.setup, np.array([float(speed)]), float(start), None)
         return RollingState(read_only(y), float(h))
+
+    def integrator_start(self, speed: float, start: float, state: RollingState | None):
+        """The state vector (a new array) and the first step (s) a rolling starts its
+        integration with (as :meth:`advance`): from ``state`` or, without one, from a ball
+        rolling at ``start`` (m) at ``speed`` (m/s, its first period's)."""
+        return _start(self.setup, np.array([float(speed)]), float(start), state)
 
     def kernel_constants(self) -> tuple:
         """The constants :func:`synth.physics.rolling_kernels.roll` takes after the speeds,
@@ -290,6 +296,11 @@ class Roller:
         """The ball's and its contact's mechanical energy in ``state``, J (as
         :attr:`EnergyBalance.initial`)."""
         return _mechanical_energy(state.vector, self.setup)
+
+
+def status_message(status: int) -> str:
+    """What the integrator's ``status`` (:mod:`synth.physics.rolling_kernels`' codes) says."""
+    return _MESSAGES.get(int(status), "Unknown status.")
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
@@ -515,7 +526,7 @@ def _solve(setup, speeds, s0, state):
         delta_ref,
         status == _k.OK,
         int(status),
-        _MESSAGES.get(int(status), "Unknown status."),
+        status_message(status),
         int(steps),
         int(rejected),
         final,
