@@ -372,7 +372,7 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         gravity=g, **c.options(),
     )  # fmt: skip
     if x0 < x_end:
-        # every block's centre stays in [x0, x_end] (its kernel's block_speeds): checked once for all
+        # every block's centre stays in [x0, x_end] (block_speeds): checked once for all
         roller.check_reach(x0, x_end)
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
