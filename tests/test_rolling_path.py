@@ -186,6 +186,22 @@ def test_a_blocks_travel_stays_within_its_bound_in_floats():
             assert reached[-1] <= x + _k.reach_bound(planned, planned.size, float(SAMPLERATE), x)
 
 
+def test_touching_points_are_numpys_interpolation_to_the_bit():
+    """The compiled touching points (rolling_kernels.touching_points) are the centre plus
+    numpy's interp of the contact offsets on the nodes i * spacing, to the bit (the same
+    interval and formula), at nodes, between them and held beyond the ends."""
+    rng = np.random.default_rng(3)
+    for spacing in (2e-6, 5e-6, 1e-3):
+        offsets = spacing * rng.standard_normal(500)
+        centres = np.concatenate((
+            rng.uniform(-spacing, 501 * spacing, 20000), np.arange(500) * spacing,
+        ))  # fmt: skip
+        out = np.empty_like(centres)
+        _k.touching_points(centres, offsets, spacing, out)
+        expected = centres + np.interp(centres, np.arange(500) * spacing, offsets)
+        assert np.array_equal(out, expected)
+
+
 def test_render_mixes_bounces_and_rolling_in_one_signal():
     """A moving scene renders its bounces and its rolling in one signal: the rolling's part
     is there (the signal after the last bounce is not silent) and the settings say how the

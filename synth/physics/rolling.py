@@ -290,7 +290,7 @@ class Roller:
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
         """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
         :attr:`RollingContact.contact_coordinate`."""
-        return _contact_points(self.setup, centres)[0]
+        return _contact_coordinates(self.setup, centres)
 
     def mechanical_energy(self, state: RollingState) -> float:
         """The ball's and its contact's mechanical energy in ``state``, J (as
@@ -367,17 +367,20 @@ class _Setup:
 def _contact_points(setup, centre):
     """Path coordinates (m) and plate points (m) of the touching points of the centre at
     the path coordinates ``centre`` (m)."""
-    env = setup.envelope
-    # the envelope's samples around the centres only (the same nodes, so the same values,
-    # at a cost that does not grow with the envelope's length)
-    last = env.heights.size - 1
-    i0 = min(max(int(math.floor(np.min(centre) / env.spacing)) - 1, 0), last)
-    i1 = min(max(int(math.ceil(np.max(centre) / env.spacing)) + 1, i0), last)
-    coordinate = centre + np.interp(
-        centre, np.arange(i0, i1 + 1) * env.spacing, env.contact_offsets[i0 : i1 + 1]
-    )
+    coordinate = _contact_coordinates(setup, centre)
     (ox, oy), (ux, uy) = setup.origin, setup.direction
     return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
+
+
+def _contact_coordinates(setup, centre):
+    """Path coordinates (m) of the touching points of the centre at the path coordinates
+    ``centre`` (m, finite): the centre plus the envelope's contact offset, interpolated
+    linearly (:func:`synth.physics.rolling_kernels.touching_points`)."""
+    env = setup.envelope
+    centre = np.ascontiguousarray(centre, dtype=float)
+    out = np.empty_like(centre)
+    _k.touching_points(centre, env.contact_offsets, float(env.spacing), out)
+    return out
 
 
 def _check_reach(setup, first, last, plate, origin, direction):
@@ -388,9 +391,9 @@ def _check_reach(setup, first, last, plate, origin, direction):
     env = setup.envelope
     i0 = int(math.ceil(first / env.spacing))
     i1 = int(math.floor(last / env.spacing))
-    nodes = np.arange(i0, i1 + 1) * env.spacing + env.contact_offsets[i0 : i1 + 1]
-    ends, _ = _contact_points(setup, np.array([first, last]))
-    reach = np.concatenate((ends, nodes))
+    nodes = _k.node_reach(env.contact_offsets, float(env.spacing), i0, i1)
+    ends = _contact_coordinates(setup, np.array([first, last]))
+    reach = np.concatenate((ends, nodes))  # nodes: their least and largest
     (ox, oy), (ux, uy) = setup.origin, setup.direction
     extremes = np.array([np.min(reach), np.max(reach)])
     points = np.column_stack((ox + ux * extremes, oy + uy * extremes))

@@ -477,3 +477,44 @@ def roll_blocks(
             end = STOPPED
             break
     return OK, end, done, h, v, flights
+
+
+@compiled()
+def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
+    """The touching points' path coordinates (m) of the centre at ``centres`` (m), into
+    ``out``: each centre plus the envelope's contact ``offsets`` (m, sampled every
+    ``spacing`` m from 0) interpolated linearly, held beyond the ends; numpy's ``interp``
+    on the nodes ``i spacing``, to the bit: the interval ``x_i <= c < x_(i+1)``, ``o_i``
+    at a node, else ``(o_(i+1) - o_i) / (x_(i+1) - x_i) (c - x_i) + o_i``."""
+    last = offsets.shape[0] - 1
+    for k in range(centres.shape[0]):
+        c = centres[k]
+        if c < 0.0:
+            offset = offsets[0]
+        elif c >= last * spacing:
+            offset = offsets[last]
+        else:
+            i = min(max(int(math.floor(c / spacing)), 0), last - 1)
+            while i > 0 and i * spacing > c:
+                i -= 1
+            while i < last - 1 and (i + 1) * spacing <= c:
+                i += 1
+            x = i * spacing
+            if x == c:
+                offset = offsets[i]
+            else:
+                slope = (offsets[i + 1] - offsets[i]) / ((i + 1) * spacing - x)
+                offset = slope * (c - x) + offsets[i]
+        out[k] = c + offset
+
+
+@compiled()
+def node_reach(offsets, spacing, first, last):  # pragma: no cover - compiled
+    """The least and the largest touching point ``i spacing + offsets[i]`` (m) of the
+    envelope's samples ``first <= i <= last`` (``inf, -inf`` if none)."""
+    lo, hi = math.inf, -math.inf
+    for i in range(max(first, 0), min(last, offsets.shape[0] - 1) + 1):
+        x = i * spacing + offsets[i]
+        lo = min(lo, x)
+        hi = max(hi, x)
+    return lo, hi
