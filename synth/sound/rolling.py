@@ -230,33 +230,45 @@ def drive_modes(
     # the direct term's sum over the modes at each row: interpolated as the rows are
     direct = None if path.direct is None else np.sum(path.direct, axis=1)
     l_heard = listener[heard]
-    w = _ring(F, c, path, table, direct, ringing[heard], l_heard * hold[heard],
-              l_heard * zeta[heard], F_pre, audio)  # fmt: skip
-    zeta[heard] = w / l_heard
+    modes = _Heard(ringing[heard], l_heard * hold[heard], l_heard * zeta[heard])
+    zeta[heard] = _ring(F, c, path, table, direct, modes, F_pre, audio) / l_heard
     if state is not None:
         if not every:
             # the modes nobody hears: their state alone, as they are (l_k = 1)
             silent = ~heard
-            zeta[silent] = _ring(F, c, path, path.excitation[:, silent], None, ringing[silent],
-                                 hold[silent], zeta[silent], F_pre, np.zeros(F.size))  # fmt: skip
+            modes = _Heard(ringing[silent], hold[silent], zeta[silent])
+            zeta[silent] = _ring(
+                F, c, path, path.excitation[:, silent], None, modes, F_pre, np.zeros(F.size)
+            )
         state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
 
 
-def _ring(force, coordinate, path, table, direct, ringing, gain, w, previous, out):
-    """:func:`_drive` of the modes ``w`` (complex (K,), as heard: each mode's part of the
-    listener's signal is ``Re w_k``) of one sample's ``ringing`` and the listener's
-    ``gain`` per unit drive ``b_k F`` (its response times the hold's gain), ``table`` the
-    path's ``b_k`` of these modes, ``direct`` the direct term's sum over the modes at each
-    row or None: writes what the listener hears into ``out``; returns the modes' final ``w``."""
-    wr = np.ascontiguousarray(w.real)
-    wi = np.ascontiguousarray(w.imag)
+@dataclass
+class _Heard:
+    """Modes as a listener hears them, for :func:`_drive` (complex (K,) each): one
+    sample's ``ringing`` ``e_k``, the ``gain`` ``g_k`` of a unit drive ``b_k F`` (the
+    listener's response times the hold's gain) and the ``state`` ``w_k`` (each mode's
+    part of the signal is ``Re w_k``)."""
+
+    ringing: np.ndarray
+    gain: np.ndarray
+    state: np.ndarray
+
+
+def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
+    """:func:`_drive` of ``modes``, ``table`` the path's ``b_k`` of these modes, ``direct``
+    the direct term's sum over the modes at each row or None: writes what the listener
+    hears into ``out``; returns the modes' final ``w_k``."""
+    wr = np.ascontiguousarray(modes.state.real)
+    wi = np.ascontiguousarray(modes.state.imag)
+    e, g = modes.ringing, modes.gain
     _drive(
         force, coordinate, float(path.start), float(path.step), np.ascontiguousarray(table),
         np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
-        np.ascontiguousarray(ringing.real), np.ascontiguousarray(ringing.imag),
-        np.ascontiguousarray(gain.real), np.ascontiguousarray(gain.imag), wr, wi, previous, out,
+        np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
+        np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag), wr, wi, previous, out,
     )  # fmt: skip
     return wr + 1j * wi
 
