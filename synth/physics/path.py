@@ -418,7 +418,7 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         e_initial, e_final + m_kinetic * v * v, loss, plate_e, resistance, roughness
     )
     forces, centres, speeds = np.concatenate(chunks, axis=1)
-    # the touching points of every block at once (the same interpolation as per block)
+    # the touching points of every period at once (as roll gives them)
     coordinate = roller.contact_coordinates(centres) + behind
     part = RollingPart(
         fs,
