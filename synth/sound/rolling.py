@@ -419,6 +419,32 @@ def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - co
     return s0, s1, s2, s3
 
 
+@compiled(inline="always")
+def _ring_four_free(er, ei, wr, wi):  # pragma: no cover - compiled
+    """:func:`_ring_four` without force (the ball in flight): the modes ring on, their
+    drive adds nothing (the same bits: adding an exact zero rounds nothing)."""
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(er.shape[0]):
+        e_r, e_i = er[k], ei[k]
+        xr, xi = wr[k], wi[k]
+        s0 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s1 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s2 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s3 += xr
+        wr[k] = e_r * xr - e_i * xi
+        wi[k] = e_r * xi + e_i * xr
+    return s0, s1, s2, s3
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
@@ -434,7 +460,8 @@ def _drive(
 
     Within an interval of the table (many samples' travel) ``g_k b_k F`` is ``F (1 - t)``
     times the first row's gains plus ``F t`` times the second's, both worked out once per
-    interval; four consecutive samples there are rung in one pass over the modes. The
+    interval; four consecutive samples there are rung in one pass over the modes, without
+    the drive's operations where the four have no force (the ball in flight). The
     operations on each sample are those of a single sample's pass."""
     K = er.shape[0]
     rows = table.shape[0]
@@ -458,7 +485,9 @@ def _drive(
             fb[m] = t_m * force[j + m]
             ts[m] = t_m
             m += 1
-        if m == 4:
+        if m == 4 and force[j] == force[j + 1] == force[j + 2] == force[j + 3] == 0.0:
+            out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four_free(er, ei, wr, wi)
+        elif m == 4:
             out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four(
                 fa, fb, er, ei, ar, ai, br, bi, wr, wi
             )
