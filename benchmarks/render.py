@@ -1,5 +1,6 @@
 """``synth bench render``: a render's error (against a tight reference render) against its
-run time, per scene, floor and tolerance."""
+run time, per scene, floor and tolerance; and the rolling presets' real-time factors, measured
+as ``synth bench rolling`` measures them (:func:`benchmarks.rolling.run_scenes`)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import time
 import numpy as np
 
 from benchmarks.common import markdown_table, target_verdict
+from benchmarks.rolling import format_scenes, run_scenes
 
 
 def render_scenes() -> list:
@@ -177,7 +179,8 @@ def run_render(
         ns per mode-sample; ``default`` marks the engine's default settings (floor
         -80 dB, rtol 1e-9) and holds the split of its time (:func:`_split`); ``cli``:
         the whole-process time of ``synth render default``; ``summary``: the targets and
-        whether they are met.
+        whether they are met; ``rolling``: the rolling presets' renders and their
+        real-time factors (:func:`benchmarks.rolling.run_scenes`, best of ``repeat``).
 
     Notes
     -----
@@ -251,8 +254,9 @@ def run_render(
         numba.set_num_threads(threads)
     cli = cli_render_time(cli_runs) if cli_runs > 0 else None
     return dict(
-        samplerate=samplerate, reference=REFERENCE, rows=rows, cli=cli, summary=_summary(rows)
-    )
+        samplerate=samplerate, reference=REFERENCE, rows=rows, cli=cli, summary=_summary(rows),
+        rolling=run_scenes(repeat),
+    )  # fmt: skip
 
 
 def _summary(rows) -> dict:
@@ -300,6 +304,9 @@ def format_render(result) -> str:
             f"{r['ns_per_mode_sample']:.2f} |"
         )
     lines += _split_table(result["rows"])
+    if "rolling" in result:
+        lines += ["", "The rolling presets, rendered whole (`synth bench rolling`'s table):", ""]
+        lines.append(format_scenes(result["rolling"]))
     cli = result.get("cli")
     if cli is not None:
         lines += ["", _cli_line(cli)]

@@ -79,6 +79,12 @@ def test_run_render_one_floor():
     text = bench.format_render(r)
     assert "Targets at the default settings" in text and "non-bank share (% of" in text
     assert "`synth render default` as a whole process, warm caches:" in text
+    # the rolling presets' real-time factors, as `synth bench rolling` measures them
+    from benchmarks.rolling import ROLLING_PRESETS
+
+    assert [row["preset"] for row in r["rolling"]] == list(ROLLING_PRESETS)
+    assert all(row["audio_s"] > 0.0 and row["render_s"] > 0.0 for row in r["rolling"])
+    assert "slowest rolling preset's real-time factor" in text
 
 
 def test_gallery_command(tmp_path, capsys):

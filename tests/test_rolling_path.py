@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from synth import ParameterError
-from synth.physics import path as path_module
+from synth.physics import rolling_kernels as _k
 from synth.physics.path import c_rr_deceleration, simulate_path
 from synth.physics.scene import Accelerometer, Ball, Contact, Plate, Rolling, Scene
 from synth.sound.modal_bank import synthesize
@@ -173,7 +173,7 @@ def test_per_impact_excitation_with_equal_rows_is_the_shared_one():
 
 def test_a_blocks_travel_stays_within_its_bound_in_floats():
     """The bound that lets a block far from the edge skip its positions' cumulative sum
-    (path._reach_bound) holds the centre's last position as floats give it (invariant: a
+    (rolling_kernels.reach_bound) holds the centre's last position as floats give it (invariant: a
     float sum of n terms each at most v_max is at most n v_max (1 + n eps))."""
     rng = np.random.default_rng(5)
     for _ in range(200):
@@ -183,7 +183,23 @@ def test_a_blocks_travel_stays_within_its_bound_in_floats():
         planned = planned[planned > 0.0]
         if planned.size:
             reached = x + np.cumsum(planned) / SAMPLERATE
-            assert reached[-1] <= x + path_module._reach_bound(planned, SAMPLERATE, x)
+            assert reached[-1] <= x + _k.reach_bound(planned, planned.size, float(SAMPLERATE), x)
+
+
+def test_touching_points_are_numpys_interpolation_to_the_bit():
+    """The compiled touching points (rolling_kernels.touching_points) are the centre plus
+    numpy's interp of the contact offsets on the nodes i * spacing, to the bit (the same
+    interval and formula), at nodes, between them and held beyond the ends."""
+    rng = np.random.default_rng(3)
+    for spacing in (2e-6, 5e-6, 1e-3):
+        offsets = spacing * rng.standard_normal(500)
+        centres = np.concatenate((
+            rng.uniform(-spacing, 501 * spacing, 20000), np.arange(500) * spacing,
+        ))  # fmt: skip
+        out = np.empty_like(centres)
+        _k.touching_points(centres, offsets, spacing, out)
+        expected = centres + np.interp(centres, np.arange(500) * spacing, offsets)
+        assert np.array_equal(out, expected)
 
 
 def test_render_mixes_bounces_and_rolling_in_one_signal():

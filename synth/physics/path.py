@@ -43,6 +43,7 @@ import numpy as np
 
 from synth.errors import ParameterError, SynthError
 from synth.physics import rolling as rolling_contact
+from synth.physics import rolling_kernels as _k
 from synth.physics import surface
 from synth.physics.bounces import DEFAULT_MAX_IMPACTS, BounceSequence, Impact
 from synth.physics.contact import ContactSolver
@@ -58,6 +59,15 @@ SPHERE_INERTIA = 0.4
 ROLLING_ENERGY = 0.5 * (1.0 + SPHERE_INERTIA)
 
 ENDS = ("stopped", "left-plate", "max-duration", "max-impacts")
+#: The ends of the rolling's blocks by their kernel's codes.
+_END_NAMES = {
+    _k.RUNNING: "max-duration",
+    _k.STOPPED: "stopped",
+    _k.LEFT_PLATE: "left-plate",
+}
+#: Blocks of the rolling solved in one call of its kernel (the arrays of a chunk are
+#: allocated for them).
+CHUNK_BLOCKS = 256
 
 
 @dataclass(frozen=True, eq=False)
@@ -362,59 +372,57 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         gravity=g, **c.options(),
     )  # fmt: skip
     if x0 < x_end:
-        # every block's centre stays in [x0, x_end] (_block_speeds): checked once for all
+        # every block's centre stays in [x0, x_end] (block_speeds): checked once for all
         roller.check_reach(x0, x_end)
     decel = c_rr_deceleration(rolling.resistance, g)
     block = max(1, int(round(BLOCK_SECONDS * fs)))
     n_max = max(0, int(math.floor((max_duration - start) * fs + 1e-9)))
-    forces, centres, speeds = [], [], []
-    x, v, n_done, flights = x0, speed, 0, 0
-    e_initial = None
-    loss = plate_e = resistance = roughness = 0.0
-    end = "max-duration"
+    # the first block's speeds: the first one starts a ball rolled there (without a state)
+    first = np.empty(min(block, n_max))
+    count, code = _k.block_speeds(speed, decel, first.size, float(fs), x0, x_end, first)
+    if count == 0:
+        return None, _END_NAMES[code], t_sep, s_sep
+    y, h = roller.integrator_start(float(first[0]), x0, state)
+    m_kinetic = ROLLING_ENERGY * m
+    e_initial = roller.mechanical_energy(rolling_contact.RollingState(y, h))
+    e_initial += m_kinetic * speed * speed
+    chunks, tallies, scratch = [], np.zeros(4), np.empty(block)
+    v, n_done, flights, end = speed, 0, 0, "max-duration"
     while n_done < n_max:
-        planned, end = _block_speeds(v, decel, min(block, n_max - n_done), fs, x, x_end)
-        n = planned.size
-        if n == 0:
+        # the blocks in chunks of whole blocks: each chunk's arrays are written in place
+        size = min(n_max - n_done, block * CHUNK_BLOCKS)
+        chunk = np.empty((3, size))
+        status, code, count, h, v, lost = _k.roll_blocks(
+            y, h, roller.setup.envelope.coefficients, roller.setup.envelope.spacing,
+            *roller.kernel_constants(), rolling_contact.MAX_STEPS_PER_SAMPLE, v, decel,
+            block, size, x_end, m_kinetic, rolling.resistance * m * g, chunk[0], chunk[1],
+            chunk[2], scratch, tallies,
+        )  # fmt: skip
+        chunks.append(chunk[:, :count])
+        n_done += count
+        flights += int(lost)
+        if status != _k.OK:
+            raise SynthError(
+                f"the rolling from {start + n_done / fs:.4g} s: "
+                f"{rolling_contact.status_message(status)}"
+            )
+        end = _END_NAMES[code]
+        if code != _k.RUNNING:
             break
-        r = roller.advance(planned, state=state, start=x)
-        if not r.success:
-            raise SynthError(f"the rolling from {start + n_done / fs:.4g} s: {r.message}")
-        if e_initial is None:
-            e_initial = roller.mechanical_energy(r.initial_state) + ROLLING_ENERGY * m * v * v
-        forces.append(r.force)
-        centres.append(r.centre)
-        speeds.append(planned)
-        flights += r.flights
-        distance = float(np.sum(planned)) / fs
-        loss += r.loss_work
-        plate_e += r.plate_energy
-        resistance += rolling.resistance * m * g * distance
-        roughness += r.drive_work
-        state = r.final_state
-        x = state.path_position
-        n_done += n
-        v_end = v - decel * n / fs
-        kinetic = ROLLING_ENERGY * m * v_end * abs(v_end) - r.drive_work
-        v = math.sqrt(max(kinetic, 0.0) / (ROLLING_ENERGY * m))
-        if end != "max-duration":
-            break
-        if kinetic <= 0.0:
-            end = "stopped"
-            break
-    if not forces:
-        return None, end, t_sep, s_sep
     if end == "stopped":
         v = 0.0
+    state = rolling_contact.RollingState(y, h)
     e_final = roller.mechanical_energy(state)
+    loss, plate_e, resistance, roughness = (float(t) for t in tallies)
     energy = RollingEnergy(
-        e_initial, e_final + ROLLING_ENERGY * m * v * v, loss, plate_e, resistance, roughness
+        e_initial, e_final + m_kinetic * v * v, loss, plate_e, resistance, roughness
     )
-    # the touching points of every block at once (the same interpolation as per block)
-    coordinate = roller.contact_coordinates(np.concatenate(centres)) + behind
+    forces, centres, speeds = np.concatenate(chunks, axis=1)
+    # the touching points of every period at once (as roll gives them)
+    coordinate = roller.contact_coordinates(centres) + behind
     part = RollingPart(
         fs,
-        start, np.concatenate(forces), coordinate, np.concatenate(speeds),
+        start, forces, coordinate, speeds,
         0.0 if end == "left-plate" else m * g, energy, flights,
     )  # fmt: skip
     return part, end, start + n_done / fs, float(coordinate[-1])
@@ -476,36 +484,6 @@ def _envelope_ahead(rolling, radius, s0, s_edge):
     envelope = _envelope(rolling, length, radius)
     reach = float(np.max(np.abs(envelope.contact_offsets)))
     return envelope, behind, (s_edge - behind) - reach - rolling.spacing
-
-
-def _block_speeds(v, decel, n, fs, x, x_end) -> tuple[np.ndarray, str]:
-    """The speeds (m/s) of the next block of at most ``n`` samples, from the speed ``v``
-    (m/s) under the deceleration ``decel`` (m/s^2), for a centre at ``x`` (m): cut where the
-    speed reaches 0 (``"stopped"``) or the centre passes ``x_end`` (``"left-plate"``);
-    ``"max-duration"`` if neither."""
-    planned = v - decel * (np.arange(n) + 0.5) / fs
-    end = "max-duration"
-    # the speeds fall and the centre's positions rise (a float sum of positive terms
-    # never falls), so each cut is a search in a sorted array, its last value the test
-    if n and planned[-1] <= 0.0:
-        planned = planned[: int(np.searchsorted(-planned, 0.0))]
-        end = "stopped"
-    if not planned.size or x + _reach_bound(planned, fs, x) <= x_end:
-        return planned, end
-    reached = x + np.cumsum(planned) / fs
-    if reached[-1] > x_end:
-        planned = planned[: int(np.searchsorted(reached, x_end, side="right"))]
-        end = "left-plate"
-    return planned, end
-
-
-def _reach_bound(planned, fs, x) -> float:
-    """A bound (m) of the centre's travel ``cumsum(planned)[-1] / fs`` as floats give it
-    (speeds > 0, m/s, monotone: the largest at an end): ``n v_max / fs`` plus far more than
-    the rounding of ``n`` sums and of the addition to ``x`` (m), so that a block it keeps
-    short of the plate's edge needs no cumulative sum."""
-    travel = planned.size * max(float(planned[0]), float(planned[-1])) / fs
-    return travel + 1e-9 * (travel + abs(x))
 
 
 def c_rr_deceleration(resistance: float, gravity: float) -> float:

@@ -263,7 +263,7 @@ class Roller:
             int(flights),
             *(float(y[i] - y0[i]) for i in (_k.LOSS, _k.PLATE, _k.DRIVE)),
             status == _k.OK,
-            _MESSAGES.get(int(status), "Unknown status."),
+            status_message(status),
             RollingState(read_only(y0), None),
             RollingState(read_only(y.copy()), float(h)),
         )
@@ -275,6 +275,12 @@ class Roller:
         y, h = _start(self.setup, np.array([float(speed)]), float(start), None)
         return RollingState(read_only(y), float(h))
 
+    def integrator_start(self, speed: float, start: float, state: RollingState | None):
+        """The state vector (a new array) and the first step (s) a rolling starts its
+        integration with (as :meth:`advance`): from ``state`` or, without one, from a ball
+        rolling at ``start`` (m) at ``speed`` (m/s, its first period's)."""
+        return _start(self.setup, np.array([float(speed)]), float(start), state)
+
     def kernel_constants(self) -> tuple:
         """The constants :func:`synth.physics.rolling_kernels.roll` takes after the speeds,
         in its order: ``(m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max)``
@@ -284,12 +290,17 @@ class Roller:
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
         """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
         :attr:`RollingContact.contact_coordinate`."""
-        return _contact_points(self.setup, centres)[0]
+        return _contact_coordinates(self.setup, centres)
 
     def mechanical_energy(self, state: RollingState) -> float:
         """The ball's and its contact's mechanical energy in ``state``, J (as
         :attr:`EnergyBalance.initial`)."""
         return _mechanical_energy(state.vector, self.setup)
+
+
+def status_message(status: int) -> str:
+    """What the integrator's ``status`` (:mod:`synth.physics.rolling_kernels`' codes) says."""
+    return _MESSAGES.get(int(status), "Unknown status.")
 
 
 def _speeds(speed, duration, fs) -> np.ndarray:
@@ -356,17 +367,20 @@ class _Setup:
 def _contact_points(setup, centre):
     """Path coordinates (m) and plate points (m) of the touching points of the centre at
     the path coordinates ``centre`` (m)."""
-    env = setup.envelope
-    # the envelope's samples around the centres only (the same nodes, so the same values,
-    # at a cost that does not grow with the envelope's length)
-    last = env.heights.size - 1
-    i0 = min(max(int(math.floor(np.min(centre) / env.spacing)) - 1, 0), last)
-    i1 = min(max(int(math.ceil(np.max(centre) / env.spacing)) + 1, i0), last)
-    coordinate = centre + np.interp(
-        centre, np.arange(i0, i1 + 1) * env.spacing, env.contact_offsets[i0 : i1 + 1]
-    )
+    coordinate = _contact_coordinates(setup, centre)
     (ox, oy), (ux, uy) = setup.origin, setup.direction
     return coordinate, np.column_stack((ox + ux * coordinate, oy + uy * coordinate))
+
+
+def _contact_coordinates(setup, centre):
+    """Path coordinates (m) of the touching points of the centre at the path coordinates
+    ``centre`` (m, finite): the centre plus the envelope's contact offset, interpolated
+    linearly (:func:`synth.physics.rolling_kernels.touching_points`)."""
+    env = setup.envelope
+    centre = np.ascontiguousarray(centre, dtype=float)
+    out = np.empty_like(centre)
+    _k.touching_points(centre, env.contact_offsets, float(env.spacing), out)
+    return out
 
 
 def _check_reach(setup, first, last, plate, origin, direction):
@@ -377,9 +391,9 @@ def _check_reach(setup, first, last, plate, origin, direction):
     env = setup.envelope
     i0 = int(math.ceil(first / env.spacing))
     i1 = int(math.floor(last / env.spacing))
-    nodes = np.arange(i0, i1 + 1) * env.spacing + env.contact_offsets[i0 : i1 + 1]
-    ends, _ = _contact_points(setup, np.array([first, last]))
-    reach = np.concatenate((ends, nodes))
+    nodes = _k.node_reach(env.contact_offsets, float(env.spacing), i0, i1)
+    ends = _contact_coordinates(setup, np.array([first, last]))
+    reach = np.concatenate((ends, nodes))  # nodes: their least and largest
     (ox, oy), (ux, uy) = setup.origin, setup.direction
     extremes = np.array([np.min(reach), np.max(reach)])
     points = np.column_stack((ox + ux * extremes, oy + uy * extremes))
@@ -515,7 +529,7 @@ def _solve(setup, speeds, s0, state):
         delta_ref,
         status == _k.OK,
         int(status),
-        _MESSAGES.get(int(status), "Unknown status."),
+        status_message(status),
         int(steps),
         int(rejected),
         final,

@@ -372,3 +372,149 @@ def roll(
     y[Z], y[VY], y[U], y[IMPULSE], y[S] = z, vy, u, imp, s
     y[LOSS], y[PLATE], y[DRIVE], y[GROSS] = loss, plate, drive, gross
     return OK, steps, rejected, flights, h
+
+
+# How a path's rolling blocks end (synth.physics.path.ENDS: "max-duration" while running).
+RUNNING = 0
+STOPPED = 1
+LEFT_PLATE = 2
+
+
+@compiled()
+def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
+    """A bound (m) of the centre's travel over the first ``count`` speeds of ``planned``
+    (m/s, > 0, monotone: the largest at an end) as a float cumulative sum gives it:
+    ``count v_max / samplerate`` plus far more than the rounding of ``count`` sums and of
+    the addition to the start ``x`` (m), so that a block it keeps short of the plate's edge
+    needs no cumulative sum."""
+    travel = count * max(planned[0], planned[count - 1]) / samplerate
+    return travel + 1e-9 * (travel + abs(x))
+
+
+@compiled()
+def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cover - compiled
+    """The speeds (m/s) of the next block of at most ``count`` sample periods, written to
+    ``out``, from the speed ``v`` (m/s) under the deceleration ``decel`` (m/s^2), for a
+    centre at ``x`` (m): returns how many and how the block ends, cut where the speed
+    reaches 0 (:data:`STOPPED`) or where the centre passes ``x_end`` (m,
+    :data:`LEFT_PLATE`); :data:`RUNNING` if neither. The speeds fall and the centre's
+    positions rise (a float sum of positive terms never falls), so each cut is the first
+    period past it."""
+    end = RUNNING
+    for k in range(count):
+        out[k] = v - decel * (k + 0.5) / samplerate
+    if count and out[count - 1] <= 0.0:
+        end = STOPPED
+        for k in range(count):
+            if out[k] <= 0.0:
+                count = k
+                break
+    if count == 0 or x + reach_bound(out, count, samplerate, x) <= x_end:
+        return count, end
+    travelled = 0.0
+    for k in range(count):
+        travelled += out[k]
+        if x + travelled / samplerate > x_end:
+            return k, LEFT_PLATE
+    return count, end
+
+
+@compiled()
+def roll_blocks(
+    y, h, env, dx, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max,
+    max_steps_per_sample, v, decel, block, n_max, x_end, kinetic_mass, resistance_force,
+    force_out, centre_out, speed_out, min_penetration, tallies,
+):  # fmt: skip  # pragma: no cover - compiled
+    """A path's rolling (:mod:`synth.physics.path`, "Rolling resistance") from the state
+    ``y`` (updated in place) and first step ``h`` (s) at the speed ``v`` (m/s), in blocks
+    of ``block`` sample periods, at most ``n_max`` in all: each block's speeds fall by
+    the deceleration ``decel`` (m/s^2, :func:`block_speeds`, cut at the stop or where the
+    centre passes ``x_end``, m), :func:`roll` integrates it, and the rolling sphere's
+    kinetic energy ``kinetic_mass v^2`` (J; ``kinetic_mass`` in kg) loses the
+    roughness' work at its end. Writes each period's mean force (N), centre in its
+    middle (m) and speed (m/s) to ``force_out``, ``centre_out`` and ``speed_out`` (``n_max``
+    long; ``min_penetration`` a block's scratch); adds the contact's loss, the energy
+    into the plate, the work of the rolling resistance ``resistance_force`` (N) and the
+    roughness' work (J) to ``tallies[0:4]``. Returns ``(status, end, periods, h, v,
+    flights)``: :func:`roll`'s status (the periods before a failed block), how the blocks
+    ended (:data:`RUNNING` if they reached ``n_max``), the periods done, the next step
+    (s), the speed after them (m/s) and the losses of contact."""
+    done = 0
+    end = RUNNING
+    flights = 0
+    while done < n_max:
+        speeds = speed_out[done : done + min(block, n_max - done)]
+        count, end = block_speeds(v, decel, speeds.size, samplerate, y[S], x_end, speeds)
+        if count == 0:
+            break
+        speeds = speeds[:count]
+        loss, plate, drive = y[LOSS], y[PLATE], y[DRIVE]
+        centres = centre_out[done : done + count]
+        status, _, _, lost, h = roll(
+            y, h, env, dx, speeds, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref,
+            h_max, max_steps_per_sample * count, force_out[done : done + count],
+            min_penetration[:count], centres,
+        )  # fmt: skip
+        if status != OK:
+            return status, end, done, h, v, flights
+        travel = 0.0
+        for k in range(count):
+            centres[k] += 0.5 * speeds[k] / samplerate  # the middle of each period
+            travel += speeds[k]
+        work = y[DRIVE] - drive
+        tallies[0] += y[LOSS] - loss
+        tallies[1] += y[PLATE] - plate
+        tallies[2] += resistance_force * (travel / samplerate)
+        tallies[3] += work
+        flights += lost
+        done += count
+        v_end = v - decel * count / samplerate
+        kinetic = kinetic_mass * v_end * abs(v_end) - work
+        v = math.sqrt(max(kinetic, 0.0) / kinetic_mass)
+        if end != RUNNING:
+            break
+        if kinetic <= 0.0:
+            end = STOPPED
+            break
+    return OK, end, done, h, v, flights
+
+
+@compiled()
+def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
+    """The touching points' path coordinates (m) of the centre at ``centres`` (m), into
+    ``out``: each centre plus the envelope's contact ``offsets`` (m, sampled every
+    ``spacing`` m from 0) interpolated linearly, held beyond the ends; numpy's ``interp``
+    on the nodes ``i spacing``, to the bit: the interval ``x_i <= c < x_(i+1)``, ``o_i``
+    at a node, else ``(o_(i+1) - o_i) / (x_(i+1) - x_i) (c - x_i) + o_i``."""
+    last = offsets.shape[0] - 1
+    for k in range(centres.shape[0]):
+        c = centres[k]
+        if c < 0.0:
+            offset = offsets[0]
+        elif c >= last * spacing:
+            offset = offsets[last]
+        else:
+            i = min(max(int(math.floor(c / spacing)), 0), last - 1)
+            while i > 0 and i * spacing > c:
+                i -= 1
+            while i < last - 1 and (i + 1) * spacing <= c:
+                i += 1
+            x = i * spacing
+            if x == c:
+                offset = offsets[i]
+            else:
+                slope = (offsets[i + 1] - offsets[i]) / ((i + 1) * spacing - x)
+                offset = slope * (c - x) + offsets[i]
+        out[k] = c + offset
+
+
+@compiled()
+def node_reach(offsets, spacing, first, last):  # pragma: no cover - compiled
+    """The least and the largest touching point ``i spacing + offsets[i]`` (m) of the
+    envelope's samples ``first <= i <= last`` (``inf, -inf`` if none)."""
+    lo, hi = math.inf, -math.inf
+    for i in range(max(first, 0), min(last, offsets.shape[0] - 1) + 1):
+        x = i * spacing + offsets[i]
+        lo = min(lo, x)
+        hi = max(hi, x)
+    return lo, hi

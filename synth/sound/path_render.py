@@ -110,10 +110,13 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
     state.zeta[keep], state.previous = kept.zeta, kept.previous
     reference = max(bounce_peak, float(np.max(np.abs(drive))))
     tail, cut, left = _tail(state, rolling, path, model, fs, floor * reference, o.max_tail)
-    rolled = np.concatenate((drive, tail))
-    audio = np.zeros(max(bounces.size, j0 + rolled.size))
-    audio[: bounces.size] += bounces
-    audio[j0 : j0 + rolled.size] += rolled
+    # the sum in one new array, each part added where it lies
+    end = j0 + drive.size
+    audio = np.empty(max(bounces.size, end + tail.size))
+    audio[: bounces.size] = bounces
+    audio[bounces.size :] = 0.0
+    audio[j0:end] += drive
+    audio[end : end + tail.size] += tail
     work = int(keep.sum()) * drive.size
     figures = dict(tail_cut=cut, left_at_end=left / reference, rolling_mode_samples=work)
     return audio, figures, int(keep.sum())

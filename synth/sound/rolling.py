@@ -214,40 +214,63 @@ def drive_modes(
     # the ringing over one sample and the listener's response per unit state, as the
     # modal bank has them (unit excitation: b_k moves with the contact point here)
     coefficients = bank_coefficients(p, np.ones(K), out_gain, fs)
+    ringing = coefficients.step_re + 1j * coefficients.step_im
+    listener = coefficients.coef_re + 1j * coefficients.coef_im
     hold = (np.exp(p / fs) - 1.0) / p
     audio = np.zeros(F.size)
-    # the direct term's sum over the modes at each row: interpolated as the rows are
-    direct = np.zeros(2) if path.direct is None else np.sum(path.direct, axis=1)
     zeta = np.zeros(K, dtype=complex)
     if F_pre != 0.0 and F.size:
         zeta = -_row_at(path.excitation, path.start, path.step, c[0]) * F_pre / p
     if state is not None:
-        zeta, F_pre = np.asarray(state.zeta, dtype=complex), float(state.previous)
-    zr = np.ascontiguousarray(zeta.real)
-    zi = np.ascontiguousarray(zeta.imag)
-    _drive(
-        F,
-        c,
-        float(path.start),
-        float(path.step),
-        np.ascontiguousarray(path.excitation),
-        np.ascontiguousarray(direct),
-        path.direct is not None,
-        coefficients.step_re,
-        coefficients.step_im,
-        coefficients.coef_re,
-        coefficients.coef_im,
-        np.ascontiguousarray(hold.real),
-        np.ascontiguousarray(hold.imag),
-        zr,
-        zi,
-        F_pre,
-        audio,
-    )
+        zeta, F_pre = np.array(state.zeta, dtype=complex), float(state.previous)
+    # the modes the listener hears, as heard: w_k = l_k zeta_k (l_k its response)
+    heard = listener != 0.0
+    every = bool(np.all(heard))
+    table = path.excitation if every else path.excitation[:, heard]
+    # the direct term's sum over the modes at each row: interpolated as the rows are
+    direct = None if path.direct is None else np.sum(path.direct, axis=1)
+    l_heard = listener[heard]
+    modes = _Heard(ringing[heard], l_heard * hold[heard], l_heard * zeta[heard])
+    zeta[heard] = _ring(F, c, path, table, direct, modes, F_pre, audio) / l_heard
     if state is not None:
-        state.zeta = zr + 1j * zi
+        if not every:
+            # the modes nobody hears: their state alone, as they are (l_k = 1)
+            silent = ~heard
+            modes = _Heard(ringing[silent], hold[silent], zeta[silent])
+            zeta[silent] = _ring(
+                F, c, path, path.excitation[:, silent], None, modes, F_pre, np.zeros(F.size)
+            )
+        state.zeta = zeta
         state.previous = float(F[-1]) if F.size else F_pre
     return audio
+
+
+@dataclass
+class _Heard:
+    """Modes as a listener hears them, for :func:`_drive` (complex (K,) each): one
+    sample's ``ringing`` ``e_k``, the ``gain`` ``g_k`` of a unit drive ``b_k F`` (the
+    listener's response times the hold's gain) and the ``state`` ``w_k`` (each mode's
+    part of the signal is ``Re w_k``)."""
+
+    ringing: np.ndarray
+    gain: np.ndarray
+    state: np.ndarray
+
+
+def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
+    """:func:`_drive` of ``modes``, ``table`` the path's ``b_k`` of these modes, ``direct``
+    the direct term's sum over the modes at each row or None: writes what the listener
+    hears into ``out``; returns the modes' final ``w_k``."""
+    wr = np.ascontiguousarray(modes.state.real)
+    wi = np.ascontiguousarray(modes.state.imag)
+    e, g = modes.ringing, modes.gain
+    _drive(
+        force, coordinate, float(path.start), float(path.step), np.ascontiguousarray(table),
+        np.zeros(2) if direct is None else np.ascontiguousarray(direct), direct is not None,
+        np.ascontiguousarray(e.real), np.ascontiguousarray(e.imag),
+        np.ascontiguousarray(g.real), np.ascontiguousarray(g.imag), wr, wi, previous, out,
+    )  # fmt: skip
+    return wr + 1j * wi
 
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
@@ -342,69 +365,142 @@ def _direct_at(direct, i, t, F, previous):  # pragma: no cover - compiled
     return 0.5 * (F + previous) * ((1.0 - t) * direct[i] + t * direct[i + 1])
 
 
+@compiled(inline="always")
+def _interval_gains(row_a, row_b, gr, gi, ar, ai, br, bi):  # pragma: no cover - compiled
+    """The gains ``g_k b_k`` (``gr + i gi`` times each row's ``b_k``) of the table's two
+    rows of an interval, into ``ar + i ai`` and ``br + i bi``."""
+    for k in range(gr.shape[0]):
+        ar[k] = gr[k] * row_a[k]
+        ai[k] = gi[k] * row_a[k]
+        br[k] = gr[k] * row_b[k]
+        bi[k] = gi[k] * row_b[k]
+
+
+@compiled(inline="always")
+def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
+    """One sample period of the heard modes ``wr + i wi`` (updated in place), driven by
+    the parts ``fa`` and ``fb`` (N) of the held force on the interval's two rows (gains
+    ``ar + i ai``, ``br + i bi``): returns what the listener hears at its start."""
+    acc = 0.0
+    for k in range(er.shape[0]):
+        xr, xi = wr[k], wi[k]
+        acc += xr
+        wr[k] = er[k] * xr - ei[k] * xi + ar[k] * fa + br[k] * fb
+        wi[k] = er[k] * xi + ei[k] * xr + ai[k] * fa + bi[k] * fb
+    return acc
+
+
+@compiled(inline="always")
+def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
+    """:func:`_ring_one` for the four consecutive sample periods of ``fa[0:4]`` and
+    ``fb[0:4]`` in one interval, each mode's state and gains loaded once for all four:
+    returns what the listener hears at their starts."""
+    a0, a1, a2, a3 = fa[0], fa[1], fa[2], fa[3]
+    b0, b1, b2, b3 = fb[0], fb[1], fb[2], fb[3]
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(er.shape[0]):
+        e_r, e_i, g_ar, g_ai, g_br, g_bi = er[k], ei[k], ar[k], ai[k], br[k], bi[k]
+        xr, xi = wr[k], wi[k]
+        s0 += xr
+        r = e_r * xr - e_i * xi + g_ar * a0 + g_br * b0
+        xi = e_r * xi + e_i * xr + g_ai * a0 + g_bi * b0
+        xr = r
+        s1 += xr
+        r = e_r * xr - e_i * xi + g_ar * a1 + g_br * b1
+        xi = e_r * xi + e_i * xr + g_ai * a1 + g_bi * b1
+        xr = r
+        s2 += xr
+        r = e_r * xr - e_i * xi + g_ar * a2 + g_br * b2
+        xi = e_r * xi + e_i * xr + g_ai * a2 + g_bi * b2
+        xr = r
+        s3 += xr
+        wr[k] = e_r * xr - e_i * xi + g_ar * a3 + g_br * b3
+        wi[k] = e_r * xi + e_i * xr + g_ai * a3 + g_bi * b3
+    return s0, s1, s2, s3
+
+
+@compiled(inline="always")
+def _ring_four_free(er, ei, wr, wi):  # pragma: no cover - compiled
+    """:func:`_ring_four` without force (the ball in flight): the modes ring on, their
+    drive adds nothing (the same bits: adding an exact zero rounds nothing)."""
+    s0 = s1 = s2 = s3 = 0.0
+    for k in range(er.shape[0]):
+        e_r, e_i = er[k], ei[k]
+        xr, xi = wr[k], wi[k]
+        s0 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s1 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s2 += xr
+        r = e_r * xr - e_i * xi
+        xi = e_r * xi + e_i * xr
+        xr = r
+        s3 += xr
+        wr[k] = e_r * xr - e_i * xi
+        wi[k] = e_r * xi + e_i * xr
+    return s0, s1, s2, s3
+
+
 @compiled(sums=True, nogil=True)
 def _drive(
-    force, coordinate, start, step, table, direct, has_direct, er, ei, lr, li, hr, hi, zr, zi,
+    force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
-):  # fmt: skip
-    """The recursion of the module docstring, ``b_k`` interpolated linearly in ``table``:
-    one sample's ringing ``er + i ei``, the listener's response per unit state ``lr + i
-    li``, the hold's gain ``hr + i hi``; the modes' states ``zr + i zi`` (updated in place)
-    as real and imaginary arrays, so the loop over the modes vectorises; ``previous`` the
-    force before the first period, N; ``direct`` the direct term summed over the modes at
-    each row of the table (an accelerometer's, ``has_direct``).
+):  # fmt: skip  # pragma: no cover - compiled
+    """The recursion of the module docstring for the modes as the listener hears them,
+    ``w_k = l_k zeta_k`` (``wr + i wi``, updated in place; the signal is ``sum_k Re
+    w_k``): ``w_k <- e_k w_k + g_k b_k F`` with one sample's ringing ``e_k = er + i ei``
+    and ``g_k = l_k h_k`` (``gr + i gi``: the listener's response times the hold's gain),
+    ``b_k`` interpolated linearly in ``table``; writes the signal into ``out``. ``previous``
+    is the force before the first period, N; ``direct`` the direct term summed over the
+    modes at each row of the table (an accelerometer's, ``has_direct``).
 
-    Two consecutive samples in the same interval of the table (most are: the table's step
-    is many samples' travel) are driven in one pass over the modes, each mode's
-    coefficients and state loaded once for both; the operations on each sample are those
-    of a single sample's pass."""
+    Within an interval of the table (many samples' travel) ``g_k b_k F`` is ``F (1 - t)``
+    times the first row's gains plus ``F t`` times the second's, both worked out once per
+    interval; four consecutive samples there are rung in one pass over the modes, without
+    the drive's operations where the four have no force (the ball in flight). The
+    operations on each sample are those of a single sample's pass."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]
+    ar, ai, br, bi = np.empty(K), np.empty(K), np.empty(K), np.empty(K)
+    fa, fb, ts = np.empty(4), np.empty(4), np.empty(4)
+    interval = -1
     j = 0
     while j < n:
         i, t = _row(coordinate[j], start, step, rows)
-        row_a = table[i]
-        row_b = table[i + 1]
-        F = force[j]
-        wa = (1.0 - t) * F
-        wb = t * F
-        if j + 1 < n:
-            i2, t2 = _row(coordinate[j + 1], start, step, rows)
-            if i2 == i:
-                F2 = force[j + 1]
-                wa2 = (1.0 - t2) * F2
-                wb2 = t2 * F2
-                acc = 0.0
-                acc2 = 0.0
-                for k in range(K):
-                    a, b = row_a[k], row_b[k]
-                    z_r, z_i = zr[k], zi[k]
-                    acc += lr[k] * z_r - li[k] * z_i
-                    bf = wa * a + wb * b
-                    r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
-                    z_i = er[k] * z_i + ei[k] * z_r + hi[k] * bf
-                    z_r = r
-                    acc2 += lr[k] * z_r - li[k] * z_i
-                    bf = wa2 * a + wb2 * b
-                    r = er[k] * z_r - ei[k] * z_i + hr[k] * bf
-                    zi[k] = er[k] * z_i + ei[k] * z_r + hi[k] * bf
-                    zr[k] = r
-                if has_direct:
-                    acc += _direct_at(direct, i, t, F, previous)
-                    acc2 += _direct_at(direct, i, t2, F2, F)
-                out[j] = acc
-                out[j + 1] = acc2
-                previous = F2
-                j += 2
-                continue
-        acc = drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi)
-        if has_direct:
-            # the held force jumps at t_j: its value there is the mean of both sides
-            acc += _direct_at(direct, i, t, F, previous)
-        previous = F
-        out[j] = acc
-        j += 1
+        if i != interval:
+            _interval_gains(table[i], table[i + 1], gr, gi, ar, ai, br, bi)
+            interval = i
+        # the samples from j on in this interval, at most four
+        m = 0
+        while m < 4 and j + m < n:
+            i_m, t_m = _row(coordinate[j + m], start, step, rows)
+            if i_m != i:
+                break
+            fa[m] = (1.0 - t_m) * force[j + m]
+            fb[m] = t_m * force[j + m]
+            ts[m] = t_m
+            m += 1
+        if m == 4 and force[j] == force[j + 1] == force[j + 2] == force[j + 3] == 0.0:
+            out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four_free(er, ei, wr, wi)
+        elif m == 4:
+            out[j], out[j + 1], out[j + 2], out[j + 3] = _ring_four(
+                fa, fb, er, ei, ar, ai, br, bi, wr, wi
+            )
+        else:
+            m = 1
+            out[j] = _ring_one(fa[0], fb[0], er, ei, ar, ai, br, bi, wr, wi)
+        for q in range(m):
+            F = force[j + q]
+            if has_direct:
+                # the held force jumps at t_j: its value there is the mean of both sides
+                out[j + q] += _direct_at(direct, i, ts[q], F, previous)
+            previous = F
+        j += m
 
 
 def rolling_sound(rolling, model, *, floor: float = 0.0, reference: float = 0.0) -> np.ndarray:
