@@ -1,30 +1,15 @@
 """The audio thread without Python: PortAudio calls compiled code directly.
 
-The block works on the engine's state (:mod:`synth.live.state`: ``ctl``, ``times``, the
-directory of body records and the event ring, preallocated numpy arrays that the audio
-thread reaches through their addresses), so that its callback touches no Python object;
-the names of that layout stay importable from here.
-
-:func:`stream_callback` gives a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
-signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
-address as ``userData`` (as python-rtmixer does with its C callback). PortAudio's thread
-then runs it without Python's GIL: a busy Python thread cannot delay it. It allocates
-nothing (every array is a view made from an address), takes no lock, and reads the time
-with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
-which the trigger threads compare). The Python fallback callback (:func:`run_block`) and
-:meth:`synth.live.Engine.process` (:func:`mix_engine`) call the very same compiled code.
-The rolling voices' block (:func:`rolling_block_code`, with the rolling contact's
-integrator) is compiled apart, and the callback calls it through its address
-(``ctl[ROLLER]``) for an engine with rolling slots only.
-
-numba caches these functions keyed on this file alone (its time stamp and size): after a
-change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
-delete their cache (``synth/live/__pycache__/native.*``) so that they are compiled anew.
-
-Ordering between threads: a producer writes a slot's data, then its state word (see
-:mod:`synth.live.queue`); a body's record is complete before ``ctl[N_BODIES]`` counts it;
-the callback brackets its anchor writes with a sequence number and full fences
-(:func:`synth.live.atomics.fence`), so a reader sees a consistent anchor or retries.
+:func:`stream_callback` is a numba ``cfunc`` of PortAudio's ``PaStreamCallback`` signature
+working on the engine's preallocated state (:mod:`synth.live.state`) through addresses
+(``ctl``'s as ``userData``, as python-rtmixer does), so PortAudio's thread runs it without
+the GIL, allocation or lock, reading ``clock_gettime(CLOCK_MONOTONIC)``. The Python
+fallback (:func:`run_block`) and :meth:`synth.live.Engine.process` (:func:`mix_engine`)
+call the same code; the rolling block (:func:`rolling_block_code`) is compiled apart and
+called through ``ctl[ROLLER]``. numba keys this file's cache on the file alone: after
+changing a kernel it calls, delete ``synth/live/__pycache__/native.*``. Ordering: a slot's
+data before its state word, a body's record before ``ctl[N_BODIES]`` counts it, anchors
+bracketed by a sequence number and fences (:func:`synth.live.atomics.fence`).
 """
 
 from __future__ import annotations
