@@ -222,10 +222,8 @@ class Modes:
 
         Notes
         -----
-        Cost ``~ n * (basis size) * n_modes / 4`` for scattered points; points on a
-        grid (few distinct x or y) share the sum over one direction and cost far
-        less. Temporaries are bounded (about 32 MB) whatever ``n``; the result
-        itself takes ``8 n n_modes`` bytes, so evaluate very many points in chunks.
+        Points on a grid share the sum over one direction; temporaries stay near 32 MB,
+        the result takes ``8 n n_modes`` bytes.
 
         Raises
         ------
@@ -379,12 +377,9 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
 
     Notes
     -----
-    The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
-    sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
-    milliseconds from the cache); beyond the crossover
-    (:mod:`synth.physics.modes.crossover`) a Ritz low band and the dynamic edge effect
-    modes above it, whose cost is linear in the number of modes, are returned with
-    ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
+    The Ritz cost grows as the cube of the number of modes (cached after the first solve);
+    beyond the crossover (:mod:`synth.physics.modes.crossover`) the dynamic edge effect
+    modes, linear in cost, come with ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
