@@ -161,26 +161,15 @@ def modal_point(
     theory: str = "kirchhoff",
 ) -> ModalPoint:
     """The plate at ``position`` (m from a corner) with its bending modes up to
-    ``max_frequency`` (Hz) and the residual above (see the docstring of
-    :mod:`synth.physics.modal_contact`).
+    ``max_frequency`` (Hz) and the residual above (:mod:`synth.physics.modal_contact`).
 
-    ``theory``: "kirchhoff", the thin plate; or "mindlin", with shear deformation and
-    rotary inertia (docs/physics.md, "Thick plates"): each thin-plate mode keeps its shape
-    and its wavenumber ``k^2 = omega_K sqrt(rho h / D)`` and takes Mindlin's frequency at
-    that wavenumber (:func:`synth.physics.impedance.mindlin_angular_frequency`, exact for
-    the simply supported plate) and Mindlin's modal mass
-    (:func:`synth.physics.impedance.mindlin_mass_factor`); the band then needs the thin
-    modes up to the wavenumber of Mindlin's ``max_frequency``. The residual's admittance is
-    the infinite Mindlin plate's at the band limit
-    (:func:`synth.physics.impedance.mindlin_point_admittance`). With these couplings the
-    modes' band-averaged ``Re Y`` is the infinite Mindlin plate's (modal density times
-    ``pi c_k / 2``).
-
-    The modes are those of an eigen-solution for exactly this band
-    (:func:`band_modes`), never a wider band's held in the mode cache: a Ritz solution's
-    modes depend on its basis in their last digits, and a series of bounces on the modal
-    plate amplifies such differences, so the result must not depend on what was solved
-    before. Each point's modes are kept on disk (a later process then needs no solve)."""
+    ``theory`` "mindlin" (docs/physics.md, "Thick plates"): each thin-plate mode keeps its
+    shape and wavenumber and takes Mindlin's frequency
+    (:func:`synth.physics.impedance.mindlin_angular_frequency`) and modal mass
+    (:func:`synth.physics.impedance.mindlin_mass_factor`), the residual the infinite Mindlin
+    plate's admittance, so the band-averaged ``Re Y`` is the infinite Mindlin plate's. The
+    modes are an eigen-solution of exactly this band (:func:`band_modes`), never a wider
+    cached one's (a series of bounces amplifies their last digits), kept on disk per point."""
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
     x, y = plate.check_position(position, "position")

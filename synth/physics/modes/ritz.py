@@ -1,21 +1,11 @@
 """Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
 
-The basis, its size and the eigen-solution of one symmetry class are those of
-:mod:`synth.physics.modes.basis`; this module solves the four classes, checks convergence
-and evaluates the shapes.
-
-Convergence check. Each class is solved again (eigenvalues only) with a
-larger nested basis (``c1 + d1``, ``c0 + d0``). Ritz values of nested spaces
-decrease monotonically towards the exact eigenvalues, so the k-th values of
-the two solves bound the k-th mode's error from below and, with spectral
-convergence, estimate it. Every returned mode agrees to :data:`TOLERANCE`
-(relative, frequency) with the larger basis; if one below ``max_frequency``
-does not, the basis is enlarged and the solve repeated. Nothing above
-``max_frequency`` is returned.
-
-The shapes are sums of products ``2 sum c_ij psi_i(xi) psi_j(eta)``;
-:meth:`RitzSolution.summed` returns them as such (:class:`SummedShapes`, used by
-:func:`synth.sound.radiation.summed_gains`).
+The basis and the eigen-solution of one class are :mod:`synth.physics.modes.basis`'s; this
+module solves the four symmetry classes, checks convergence and evaluates the shapes. Each
+class is solved again with a larger nested basis: Ritz values decrease monotonically
+towards the exact ones, so the two bound and estimate each mode's error; every mode
+returned agrees to :data:`TOLERANCE` (else the basis grows). Shapes are sums of products
+``2 sum c_ij psi_i(xi) psi_j(eta)`` (:class:`SummedShapes`).
 """
 
 from __future__ import annotations
