@@ -457,42 +457,33 @@ class DropImpacts:
 
 @dataclass(frozen=True, eq=False)
 class ContactSolver:
-    """Impacts of one ball on one plate under one contact law, at any speed.
-
-    Built once (the contact law's parameters, the plate's impedance and every
-    setting are checked and derived here) and then asked for impacts by
-    :meth:`solve`: the seam through which the bounce scheduler
-    (:mod:`synth.physics.bounces`) and the stimuli solve their impacts.
+    """Impacts of one ball on one plate under one contact law, at any speed: built once (the
+    law's parameters, the plate's impedance and every setting checked and derived here), then
+    asked for impacts by :meth:`solve`; the bounce scheduler and the stimuli solve through it.
 
     Attributes
     ----------
     mass : float
         Ball mass ``m``, kg.
-    stiffness : float
-        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
-    exponent : float
-        Contact law exponent ``n``, dimensionless.
+    stiffness, exponent : float
+        ``K`` (N/m^n) and ``n`` of ``F = K delta^n``.
     dissipation : float
         Hunt-Crossley damping ``mu``, s/m (0: elastic contact).
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; n = 1.5 only).
     gravity : float
-        Gravitational acceleration ``g``, m/s^2.
+        m/s^2.
     rtol : float
         Relative accuracy of restitution and contact time.
     n_points : int
         Samples of each force pulse.
     plate : Plate or None
-        The plate, for its infinite-plate admittance and the admittance near its
-        edges; None for a solver of lumped parameters (give ``admittance``).
+        The plate (its admittance, also near edges); None for lumped parameters.
     method : {"auto", "DOP853", "Radau"}
         Integrator.
-    viscous_time : float
-        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; exponent 1.5
-        only).
     shell : ShellLaw or None
-        The thin-shell law of a hollow ball (:func:`synth.physics.contact_law.shell_law`),
-        which then sets the contact: ``stiffness`` its ``k0`` (N/m), ``exponent`` 1,
-        ``viscous_time`` its shell's, ``dissipation`` 0.
-    """
+        A hollow ball's thin-shell law (:func:`synth.physics.contact_law.shell_law`), which
+        then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1)."""
 
     mass: float
     stiffness: float
@@ -605,15 +596,12 @@ class ContactSolver:
         max_impacts: int,
     ) -> DropImpacts:  # fmt: skip
         """The impacts of a drop on the plate's impedance in one compiled call
-        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed``
-        (m/s, checked by the caller) ``start`` s after release, the next ones strung together
-        by the bounce scheduler's rules (:mod:`synth.physics.bounces`; ``energy_floor`` the
-        lowest ratio of an impact's kinetic energy to the first's, ``max_duration`` the
-        latest start, s, ``max_impacts`` the most impacts), each as :meth:`solve` at
-        ``position`` gives it. It stops before an impact that :meth:`solve` must take over
-        (Radau IIA, the admittance near a free edge), and takes none for a solver that the
-        compiled series does not serve (Radau IIA chosen, a hollow ball's shell law, no
-        plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
+        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed`` (m/s)
+        ``start`` s after release, the next ones by the bounce scheduler's rules
+        (``energy_floor``, ``max_duration`` s, ``max_impacts``), each as :meth:`solve` at
+        ``position`` gives it. It stops before an impact :meth:`solve` must take (Radau IIA, an
+        edge's admittance) and takes none where the compiled series does not serve (a shell law,
+        no plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
         # as solve() takes them: the automatic choice of integrator at a position
         method = self.method if position is None else "auto"
         if self.shell is not None or method == "Radau" or self.plate is None:
@@ -658,15 +646,10 @@ class ContactSolver:
         position=None,
         free_velocity: float = 0.0,
     ) -> ImpactResult:
-        """The impact at ``speed`` (m/s, downward).
-
-        The plate's admittance at the impact point is ``admittance`` (m/(N s)) if
-        given; else, with ``position`` (m from a plate corner), the position-dependent
-        admittance near free edges (:func:`synth.physics.impedance.point_admittance`,
-        solved together with the contact time); else the infinite plate's.
-        ``free_velocity`` is the plate surface's velocity before the impact, m/s,
-        positive upward.
-        """
+        """The impact at ``speed`` (m/s, downward). The admittance is ``admittance`` (m/(N s)) if
+        given; else, with ``position`` (m from a corner), the one near free edges
+        (:func:`synth.physics.impedance.point_admittance`); else the infinite plate's.
+        ``free_velocity``: the surface's velocity before the impact, m/s, positive upward."""
         v = (
             speed
             if type(speed) is float and 0.0 < speed < _INF
