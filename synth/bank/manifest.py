@@ -1,16 +1,10 @@
-"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv`` in the bank's folder,
-one row per sound, and the spec stored beside them (``bank.json``).
+"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv``, one row per sound, and the
+stored spec (``bank.json``); columns: docs/banks.md, "Manifest".
 
-Rows are appended by one process (the bank's parent) as the sounds finish, each line
-written whole, flushed and fsynced, after its audio file is in place: a ``kill -9`` at any
-moment leaves every finished row with its file. The JSON Lines file is the record; the
-CSV carries the same rows for spreadsheets. At the start and the end of a run both are
-rewritten atomically from the rows that still hold (one per index, by index), so a line
-cut by a crash or a full disk is dropped and the sound redone.
-
-The columns (every varied key, labels, tags, status, the levels, the first impact's
-figures, the hashes and the row's whole preset): docs/banks.md, "Manifest". Every file's
-bytes are a function of the spec and its row (:mod:`synth.store.reproducible`).
+Rows are appended by the bank's parent alone, each line whole, flushed and fsynced after
+its file is in place, so a ``kill -9`` leaves every finished row with its file; at a run's
+start and end both files are rewritten atomically from the rows that hold (a cut line is
+dropped and its sound redone).
 """
 
 from __future__ import annotations
