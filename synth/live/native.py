@@ -106,62 +106,8 @@ from synth.live.state import (
     pointer_to,
     rolling_form,
 )
-from synth.live.state import B_ACTIVE as B_ACTIVE
-from synth.live.state import B_AMPLITUDES as B_AMPLITUDES
-from synth.live.state import B_COEFFICIENTS as B_COEFFICIENTS
-from synth.live.state import B_CONTACT as B_CONTACT
-from synth.live.state import B_DEBT as B_DEBT
-from synth.live.state import B_DEBT_AT as B_DEBT_AT
-from synth.live.state import B_FIRST as B_FIRST
-from synth.live.state import B_HEARD as B_HEARD
-from synth.live.state import B_HEARD_AMPS as B_HEARD_AMPS
-from synth.live.state import B_HEARD_COEF as B_HEARD_COEF
-from synth.live.state import B_HEARD_SEQ as B_HEARD_SEQ
-from synth.live.state import B_INJECT as B_INJECT
-from synth.live.state import B_LENGTH as B_LENGTH
-from synth.live.state import B_LEVEL as B_LEVEL
-from synth.live.state import B_MODES as B_MODES
-from synth.live.state import B_PARK_AT as B_PARK_AT
-from synth.live.state import B_PARK_I as B_PARK_I
-from synth.live.state import B_PARK_R as B_PARK_R
-from synth.live.state import B_POINTS as B_POINTS
-from synth.live.state import B_POLE_IM as B_POLE_IM
-from synth.live.state import B_POLE_RE as B_POLE_RE
-from synth.live.state import B_POLES as B_POLES
-from synth.live.state import B_PULSE as B_PULSE
-from synth.live.state import B_PULSE_SAMPLES as B_PULSE_SAMPLES
-from synth.live.state import B_RECORDS as B_RECORDS
-from synth.live.state import B_REFERENCE as B_REFERENCE
-from synth.live.state import B_RESPONSE as B_RESPONSE
-from synth.live.state import B_SAMPLES as B_SAMPLES
-from synth.live.state import B_SLOT_GAIN as B_SLOT_GAIN
-from synth.live.state import B_STEP_IM as B_STEP_IM
-from synth.live.state import B_STEP_RE as B_STEP_RE
-from synth.live.state import B_TABLE as B_TABLE
-from synth.live.state import B_TABLE_COLS as B_TABLE_COLS
-from synth.live.state import B_TAIL as B_TAIL
-from synth.live.state import B_TAIL_FRAMES as B_TAIL_FRAMES
-from synth.live.state import B_THR2 as B_THR2
-from synth.live.state import B_THRESHOLDS as B_THRESHOLDS
-from synth.live.state import B_VOICE as B_VOICE
-from synth.live.state import B_VOICE_GAIN as B_VOICE_GAIN
-from synth.live.state import B_VOICE_SLOT_COUNT as B_VOICE_SLOT_COUNT
-from synth.live.state import B_VOICE_SLOTS as B_VOICE_SLOTS
-from synth.live.state import B_VOICES as B_VOICES
-from synth.live.state import B_WORK as B_WORK
-from synth.live.state import B_WORK_ROWS as B_WORK_ROWS
-from synth.live.state import B_ZI as B_ZI
-from synth.live.state import B_ZR as B_ZR
-from synth.live.state import BODY_FIELDS as BODY_FIELDS
-from synth.live.state import CLOCK as CLOCK
-from synth.live.state import EVENTS as EVENTS
-from synth.live.state import N_EVENTS as N_EVENTS
-from synth.live.state import S_FS as S_FS
-from synth.live.state import S_PERIOD as S_PERIOD
-from synth.live.state import S_SIGMA_MAX as S_SIGMA_MAX
 from synth.live.state import monotonic as monotonic
 from synth.live.state import native_available as native_available
-from synth.live.state import touch as touch
 
 #: PortAudio's stream callback flags (portaudio.h) and its paContinue.
 PA_OUTPUT_UNDERFLOW = 0x4
