@@ -18,7 +18,7 @@ import re
 from pathlib import Path
 
 from synth.store.atomic import write_atomically
-from synth.store.atomic import write_once as _write_once
+from synth.store.atomic import write_once as write_once
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -66,12 +66,6 @@ def write_atomic(target: Path, data: bytes) -> None:
     ``target`` is either as it was or complete; an OSError (a full disk ...) leaves no
     temporary file behind."""
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
-
-
-def write_once(target: Path, data: bytes) -> bool:
-    """Publish ``data`` as ``target`` unless a file is there
-    (:func:`synth.store.atomic.write_once`); True if this call wrote it."""
-    return _write_once(target, data)
 
 
 def clean_temporaries(folder: Path) -> int:

@@ -234,18 +234,13 @@ def _next_pulse(state, inject):
 
 @compiled(nogil=True)
 def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
-    """Turn at most ``limit`` slots in the PULSE form (every one if ``limit`` < 0), those
-    whose impacts start first, into the READY form: the renderer's transform of
-    its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
-    decay rate in 1/s, the sample period in s, the audio thread's own workspace of
-    :func:`~synth.sound.modal_bank.transform_workspace`, and room for the heard
-    coefficients and amplitudes), times the hit's gain, plus an accelerometer's direct
-    term; as :func:`synth.sound.modal_bank.impact_excitation` and the producer's scaling
-    would make it. The slot's coefficients are the plate's (without the listener): they
-    give the plate amplitudes the voice's state takes; the same transform with them times
-    the listener's gains now (``heard``'s target) gives the in-contact response and the
-    heard peak. The slots left wait for a later block. Returns the number of pulses
-    transformed."""
+    """Turn at most ``limit`` PULSE slots (all if ``limit`` < 0), those that start first, into the
+    READY form, as :func:`synth.sound.modal_bank.impact_excitation` and the producer would:
+    the renderer's transform of the pulse with the plate's coefficients (the voice's plate
+    amplitudes) and with the listener's gains now (the in-contact response and heard peak),
+    times the hit's gain, plus an accelerometer's direct term. ``transform``: the body's
+    poles, steps, largest decay rate (1/s), sample period (s), workspace and room for the
+    heard coefficients. The others wait. Returns the number of pulses transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form

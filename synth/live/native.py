@@ -499,18 +499,11 @@ def _callback(input, output, frames, time_info, flags, userdata):
 
 @functools.cache
 def stream_callback():
-    """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio).
-    numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
-    one compiles the whole block: made on first use, after the engine's note that it
-    compiles (:func:`synth.compilation.announce`), not when this module is imported.
-
-    It is the only compiled entry to the block: the mixing levels it calls are inlined
-    into it (``inline="always"``), and Python calls it too (:func:`mix_engine`,
-    :func:`run_block`), so that the block's tree of kernels is compiled into one library.
-    A kernel compiled on its own and called from another is linked into the caller's
-    code and optimised and compiled to machine code again with it (numba's
-    ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
-    tree once more."""
+    """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio), made on
+    first use after the engine's note (:func:`synth.compilation.announce`), since numba
+    compiles a ``cfunc`` where it is made. It is the block's only compiled entry (its levels
+    are inlined and Python calls it too): numba compiles a kernel's whole tree again into each
+    caller that is compiled on its own."""
     with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
         return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
             _callback
