@@ -1,13 +1,11 @@
-"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md,
-"One gain for the bank").
+"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md, "One
+gain for the bank").
 
-:func:`apply_gain` takes one gain from the finished bank's manifest, to the loudest true peak
-(dBTP) or to the median integrated loudness (LUFS, ITU-R BS.1770): BS.1770 gates its 400 ms
-blocks, so lifting quiet sounds lets more blocks in and the loudness gain is found by
-measuring the scaled sounds (:func:`loudness_gain`). Each file is decoded, scaled and encoded
-again in the bank's format into ``out_dir`` (bytes a function of the samples,
-:mod:`synth.store.reproducible`), published once and recorded, so the pass resumes as the
-bank does; the source bank is never touched.
+:func:`apply_gain` takes one gain from the manifest, to the loudest true peak (dBTP) or the
+median integrated loudness (LUFS, ITU-R BS.1770; found by measuring the scaled sounds,
+:func:`loudness_gain`). Each file is decoded, scaled and encoded again in the bank's format
+into ``out_dir`` (:mod:`synth.store.reproducible`), published once and recorded, so the pass
+resumes as the bank does; the source bank is never touched.
 """
 
 from __future__ import annotations
