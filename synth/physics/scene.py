@@ -345,23 +345,14 @@ CONTACT_LAWS = (
 )  # fmt: skip
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-#: The two surfaces in the contact: isotropic elastic half-spaces without loss ("ideal", the
-#: thesis' model), isotropic with each material's published loss factor ("material",
-#: :func:`synth.physics.contact_law.material_viscous_time`), the plate material's surface fitted
-#: to measurements (:class:`synth.physics.materials.ContactSurface`) with the ball's loss
-#: ("fitted"), or "auto": the fitted one where the material has one, else "material"
-#: (:func:`synth.physics.contact_law.resolved_surface`).
+#: The two surfaces in the contact (:class:`Contact`'s ``surface``;
+#: :func:`synth.physics.contact_law.resolved_surface` resolves "auto").
 SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
-#: The plate in the contact: its impedance, its modes, or "auto": the modes where they change
-#: the first impact by more than the modal contact's tolerance (near an edge or a corner, on a
-#: small plate), the impedance elsewhere (:mod:`synth.physics.plate_choice`).
+#: The plate in the contact (:class:`Contact`'s ``plate``; :mod:`synth.physics.plate_choice`).
 PLATE_MODELS = ("impedance", "modal", "auto")
-#: Named contact models: (law, plate, surface). "measured": the model closest to measurement
-#: at the impedance model's speed (the fitted surface where the material has one, every
-#: material's published loss elsewhere, the modes only where they matter); "fitted": the
-#: fitted surface with the finite plate's modes in every contact (their ringing carried from
-#: bounce to bounce); "thesis": the thesis' model (lossless Hertz on an isotropic half-space,
-#: the plate as its impedance).
+#: Named contact models, (law, plate, surface), below: "measured" the closest to measurement
+#: at the impedance model's speed, "fitted" the fitted surface with the modes in every
+#: contact, "thesis" the thesis' model (lossless Hertz, the plate as its impedance).
 #: The contact model of a :class:`Contact` that names none: the one closest to measurement.
 DEFAULT_CONTACT_MODEL = "measured"
 #: The modal plate's theory of a :class:`Contact` that names none.
