@@ -310,20 +310,10 @@ def clear_disk() -> tuple[int, int]:
 
 
 class MemoryCache:
-    """Results held in memory under their keys, least recently used dropped first.
-
-    Parameters
-    ----------
-    computed : str
-        Name of the counter of results computed (``"solves"``, ``"computations"``).
-    max_entries : int or None
-        Most results held.
-    max_bytes : int or None
-        Most bytes held, by ``value.nbytes`` (the newest result is always kept).
-
-    Counters (:meth:`info`): the computed ones, ``memory_hits``, ``disk_hits``,
-    ``disk_writes``, and ``entries`` (results held).
-    """
+    """Results held in memory under their keys, least recently used dropped first beyond
+    ``max_entries`` or ``max_bytes`` (by ``value.nbytes``; the newest is always kept).
+    ``computed`` names the counter of results computed (``"solves"``, ``"computations"``);
+    :meth:`info` gives it, ``memory_hits``, ``disk_hits``, ``disk_writes`` and ``entries``."""
 
     def __init__(
         self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None

@@ -31,37 +31,14 @@ RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 
 @dataclass(frozen=True, eq=False)
 class ModalPoint:
-    """The finite plate as the contact sees it at one point (see the docstring of
-    :mod:`synth.physics.modal_contact`).
-
-    Attributes
-    ----------
-    plate : Plate
-    position : (float, float)
-        The point, metres from a plate corner.
-    max_frequency : float
-        Band limit of the modes, Hz (``Omega = 2 pi max_frequency``).
-    omega : ndarray
-        Natural angular frequencies of the bending modes in the band, rad/s.
-    sigma : ndarray
-        Their amplitude decay rates, 1/s.
-    coupling : ndarray
-        ``c_k = phi_k(x0)^2 / M_k``, 1/kg.
-    rigid_coupling : float
-        ``c_rigid`` of the free plate's rigid-body motion at the point, 1/kg (0 for
-        supported and clamped plates).
-    residual_admittance : float
-        The residual's tail ``beta_W``: the infinite plate's ``Re Y`` at the top ``W`` of
-        the lumped modes, m/(N s).
-    residual_rate : float
-        The tail's ``a = pi W / 2``, 1/s.
-    theory : str
-        The plate theory of the modes and residual: "kirchhoff" (thin plate) or "mindlin"
-        (shear deformation and rotary inertia, :func:`modal_point`).
-    residual_omega, residual_sigma, residual_coupling : ndarray
-        The residual's lumped modes above the band: angular frequencies (rad/s), decay
-        rates (1/s) and couplings (1/kg) (empty: the tail alone).
-    """
+    """The finite plate as the contact sees it at one point (:mod:`synth.physics.modal_contact`):
+    ``plate``, ``position`` (m from a corner), ``max_frequency`` (the band limit, Hz) and
+    ``theory`` ("kirchhoff" or "mindlin", :func:`modal_point`); the band's modes ``omega``
+    (rad/s), ``sigma`` (1/s) and ``coupling`` ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
+    ``rigid_coupling`` (1/kg, 0 unless free); the residual's lumped modes ``residual_omega``
+    (rad/s), ``residual_sigma`` (1/s), ``residual_coupling`` (1/kg) and its tail,
+    ``residual_admittance`` ``beta_W`` (the infinite plate's ``Re Y`` at the top ``W`` of the
+    lumped modes, m/(N s)) and ``residual_rate`` ``a = pi W / 2`` (1/s)."""
 
     plate: Plate
     position: tuple[float, float]

@@ -447,25 +447,12 @@ class TooLarge(Exception):
 
 @dataclass(frozen=True, eq=False)
 class SummedShapes:
-    """Mode shapes that are sums of products of one function of x and one of y.
-
-    ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the free and clamped plates' Ritz
-    shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a sum over
-    points of ``w phi_k`` is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix
-    for every mode (:meth:`combine`). Used by
-    :func:`synth.sound.radiation.summed_gains` (the polar rule of these shapes).
-
-    Attributes
-    ----------
-    length, width : float
-        ``a`` and ``b``, metres.
-    wavenumber : float
-        Largest bending wavenumber of the modes, rad/m.
-    n_x, n_y : int
-        Number of factors ``X_i`` (columns of :meth:`x_values`) and ``Y_j``.
-    n_modes : int
-        Number of modes (columns of :meth:`combine` and :meth:`values`).
-    """
+    """Mode shapes that are sums of products ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the
+    Ritz shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a weighted
+    sum over points is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix for every
+    mode (:meth:`combine`; :func:`synth.sound.radiation.summed_gains`). ``length``, ``width``:
+    ``a``, ``b``, m; ``wavenumber``: the largest bending wavenumber, rad/m; ``n_x``, ``n_y``:
+    the factors' counts (columns of :meth:`x_values`, :meth:`y_values`); ``n_modes``."""
 
     length: float
     width: float
