@@ -23,22 +23,11 @@ from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 
-def cache_info() -> dict:
-    """Counters of the mode cache since start-up (or :func:`clear_memory_cache`).
-
-    Returns
-    -------
-    dict
-        ``solves`` (eigen-solutions computed), ``memory_hits``, ``disk_hits``
-        (solutions read from disk), ``disk_writes``, and ``entries`` (solutions
-        held in memory).
-    """
-    return CACHE.info()
-
-
-def clear_memory_cache() -> None:
-    """Forget the solutions held in memory and reset the counters (disk untouched)."""
-    CACHE.clear()
+#: Counters of the cache of the Ritz solutions since start-up (``solves``, ``memory_hits``,
+#: ``disk_hits``, ``disk_writes``, ``entries``), and forgetting what memory holds with the
+#: counters (the disk untouched).
+cache_info = CACHE.info
+clear_memory_cache = CACHE.clear
 
 
 def _path(key: str, boundary: str) -> Path:
