@@ -377,23 +377,11 @@ def separable_gains(
     max_points=4_000_000,
     full_output=False,
 ):
-    """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)``, in polar coordinates about the
-    microphone (the same integral, tolerance and convergence test; see the module).
-
-    Parameters
-    ----------
-    shapes : synth.physics.modes.SeparableShapes
-        The modes' shapes (:meth:`synth.physics.modes.Modes.separable`) and the plate's size.
-    listener_position, s, max_wavenumber, air_density, sound_speed
-        As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's, rad/m).
-    reference_distance, tol, max_points, full_output
-        As for :func:`rayleigh_gains` (``max_points`` counts the points of one rule).
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`
-        (``panels`` holds the radial panels and 0)."""
+    """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)`` (``shapes``, a
+    :class:`synth.physics.modes.SeparableShapes` with the plate's size), in polar coordinates
+    about the microphone: the same integral, arguments (``max_wavenumber`` bounding every
+    shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
+    result (``panels``: the radial panels and 0)."""
     from synth.physics.modes import SeparableShapes
 
     if not isinstance(shapes, SeparableShapes):

@@ -97,32 +97,13 @@ def summed_gains(
     max_points=4_000_000,
     full_output=False,
 ):
-    """:func:`rayleigh_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)``, in polar coordinates.
-
-    Parameters
-    ----------
-    shapes : synth.physics.modes.SummedShapes
-        The modes' shapes (see :meth:`synth.physics.modes.Modes.summed`) and the
-        plate's size.
-    listener_position, s, max_wavenumber, air_density, sound_speed
-        As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
-        wavenumber, rad/m).
-    reference_distance, tol, max_points, full_output
-        As for :func:`rayleigh_gains` (``max_points`` counts the points of one rule).
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`
-        (``rule`` "polar", ``panels`` the radial panels and 0).
-
-    Notes
-    -----
-    The rule and convergence test of :func:`separable_gains`; the angular sums combine
+    """:func:`rayleigh_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
+    :class:`synth.physics.modes.SummedShapes` with the plate's size), in polar coordinates: the
+    arguments, rule and convergence test of :func:`separable_gains`; the angular sums combine
     each mode's Ritz coefficients (the comment above :func:`_apply_summed_rule`), about
     ``N_theta n_x n_y + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes``
-    exponentials per rule.
-    """
+    exponentials per rule. Returns the gains, Pa per (m/s) of modal velocity, or a
+    :class:`RadiationResult` (``rule`` "polar", ``panels`` the radial panels and 0)."""
     from synth.physics.modes import SummedShapes
 
     if not isinstance(shapes, SummedShapes):
