@@ -1,12 +1,11 @@
-"""Presets: scenes described in TOML files.
+"""Presets: scenes described in TOML files (every key with its unit, and the inline
+materials: docs/cli.md, "Preset files").
 
-A preset has one section per scene object; the keys of ``[ball]``, ``[plate]``
-and ``[contact]`` are exactly the fields of :class:`~synth.physics.scene.Ball`,
-:class:`~synth.physics.scene.Plate` and :class:`~synth.physics.scene.Contact` (one declaration
-each, so the dataclass field, the preset key and the ``--set`` option cannot
-drift apart), and those of ``[render]`` the options of :func:`synth.render`
-(the fields of :class:`synth.sound.options.RenderOptions`). Every key, with its unit, and
-the inline materials: docs/cli.md, "Preset files". An unknown key, a wrong type or an
+The keys of ``[ball]``, ``[plate]`` and ``[contact]`` are the fields of
+:class:`~synth.physics.scene.Ball`, :class:`~synth.physics.scene.Plate` and
+:class:`~synth.physics.scene.Contact`, those of ``[render]`` the options of
+:func:`synth.render` (:class:`synth.sound.options.RenderOptions`): one declaration each,
+so field, key and ``--set`` option cannot drift apart. An unknown key, a wrong type or an
 impossible scene is a :class:`PresetError` naming the file, key and value.
 """
 

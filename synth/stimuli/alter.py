@@ -1,14 +1,11 @@
 """Alter a recorded bouncing sound: the thesis' restitution change (section 5.2.2).
 
-Every bounce's restitution is changed by one factor ``k`` on ``1 - e``:
-``1 - e'_n = k (1 - e_n)``, the new bounce times ``T'_n = e'_n T'_(n-1)`` from the first.
-Each tick's own sound (what an all-pole continuation of the recording from just before it
-does not explain) is re-laid at its new onset; lengthened bounces are filled with the
-decaying continuation plus the recording's background noise, never silence. The method,
-its constants and its limits: docs/analysis.md, "Altering a recording".
-
-This module holds the rule and its checks (:func:`alter_restitution`); the prediction
-models are in :mod:`synth.stimuli.prediction` and the splicing of a channel in
+Every restitution is changed by ``1 - e'_n = k (1 - e_n)``, the new bounce times
+``T'_n = e'_n T'_(n-1)``. Each tick's own sound (what an all-pole continuation of the
+recording from just before it does not explain) is re-laid at its new onset; lengthened
+bounces are filled with the decaying continuation plus the recording's background noise.
+The method, constants and limits: docs/analysis.md, "Altering a recording". The prediction
+models are in :mod:`synth.stimuli.prediction`, a channel's splicing in
 :mod:`synth.stimuli.splice`.
 """
 
