@@ -1,18 +1,14 @@
 """Validation helpers shared by every public constructor and function, and the options
 declared once that are built on them.
 
-Each helper takes the dotted field name used in messages (``plate.thickness``),
-the value, and the unit, and returns the value as a Python ``float``. Nothing is
-ever clamped: a value outside the allowed range raises ``ParameterError`` with a
-message such as ``plate.thickness=-0.002 must be > 0 (metres)``.
-
-Options declared once (the render's, the analysis'): the fields of a frozen dataclass, each
-with its type, default, unit, the values allowed, its doc and its check (:class:`Option`, in
-the field's metadata). A front end reads everything it shows from the declaration: a
-function's signature and the options' part of its docstring (:func:`keyword_parameters`,
-:func:`parameters_doc`), a command's flags. Constructing the dataclass is the one check
-(:func:`check_fields` in its ``__post_init__``); a misspelt name is a ``TypeError`` naming
-the nearest option (:func:`check_names`).
+Each helper takes the dotted field name used in messages (``plate.thickness``), the value
+and the unit, and returns the value as a Python ``float``; nothing is clamped: a value
+outside the range raises ``ParameterError`` such as ``plate.thickness=-0.002 must be > 0
+(metres)``. Options declared once (the render's, the analysis'): a frozen dataclass's
+fields with type, default, unit, values allowed, doc and check (:class:`Option`), from
+which front ends read signatures, docstrings (:func:`keyword_parameters`,
+:func:`parameters_doc`) and flags; constructing it is the one check (:func:`check_fields`),
+and a misspelt name is a ``TypeError`` naming the nearest option (:func:`check_names`).
 """
 
 from __future__ import annotations

@@ -1,18 +1,12 @@
 """First use of the compiled kernels: what compiles, how long it takes, and a note first.
 
 numba compiles a kernel on its first call and keeps the machine code in its disk cache
-(``cache=True``, folder chosen by :mod:`synth.jitcache`); later processes load it at once.
-On an empty cache a render spends most of its time compiling. This module
-
-- records every compile numba makes (``numba:compile`` events of ``numba.core.event``),
-  with the CPU time it took itself and with the kernels it compiled on the way
-  (:class:`CompileLog`), for ``synth warmup`` and ``synth bench cold``;
-- names the kernel groups whose compile takes seconds (:data:`GROUPS`) and tells, once per
-  process and only when the group is really missing from the disk cache, that it is
-  about to compile (:func:`announce`), with the CPU time its compile took when measured
-  (the figures ``synth warmup --record`` keeps beside this module);
-- holds the options every kernel of the package is compiled with (:func:`compiled`,
-  :data:`FASTMATH`).
+(folder chosen by :mod:`synth.jitcache`). This module records every compile numba makes
+with its own CPU time (:class:`CompileLog`, for ``synth warmup`` and ``synth bench cold``),
+names the groups whose compile takes seconds (:data:`GROUPS`) and says once per process,
+only when a group is missing from the cache, that it is about to compile (:func:`announce`,
+with the time ``synth warmup --record`` keeps), and holds the options every kernel is
+compiled with (:func:`compiled`, :data:`FASTMATH`).
 """
 
 from __future__ import annotations
@@ -51,12 +45,9 @@ FAST_SUMS = frozenset({"reassoc", "nsz", "arcp"})
 
 def compiled(*, sums: bool = False, **options):
     """``numba.njit`` with the package's options and ``options`` (``nogil``, ``inline``,
-    ``parallel``): the fast-math flags :data:`FASTMATH` (:data:`FAST_SUMS` with
-    ``sums=True``), the machine code cached on disk
-    (``cache=True``; the folder is chosen by :mod:`synth.jitcache`), and no C-callable
-    wrapper (``no_cfunc_wrapper=True``), which numba builds for every kernel so that it
-    can be passed as a first-class function: no kernel here is, and building it only adds
-    to the first compile (``synth bench cold``)."""
+    ``parallel``): the fast-math flags :data:`FASTMATH` (:data:`FAST_SUMS` with ``sums=True``),
+    ``cache=True`` and no C-callable wrapper (``no_cfunc_wrapper=True``: no kernel here is
+    passed as a first-class function, and the wrapper only adds to the first compile)."""
     if "fastmath" in options:
         raise TypeError("compiled(): the fast-math flags are the package's (sums=True or not)")
     fastmath = set(FAST_SUMS) if sums else FASTMATH

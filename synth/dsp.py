@@ -1,15 +1,10 @@
-"""Signal processing shared by the analysis of recordings and their alteration.
-
-* Linear prediction: the autocorrelation method (Levinson recursion on a Toeplitz system) and
-  the normal equations of the covariance method (least squares over the signal itself, no
-  window), Makhoul 1975, "Linear prediction: a tutorial review", Proc. IEEE 63, 561,
-  sections 3.1.1 and 3.1.2.
-* The Schur-Cohn stability test of an all-pole model by the step-down recursion (Markel and
-  Gray, Linear Prediction of Speech, 1976, section 5.3).
-* The noise floor of a recording from its quietest frames.
-
-Signals are float64 arrays of samples in any signal units; times are in seconds and every
-function that converts one takes ``samplerate`` (Hz) explicitly.
+"""Signal processing shared by the analysis of recordings and their alteration: linear
+prediction by the autocorrelation method (Levinson recursion) and the covariance method's
+normal equations (Makhoul 1975, "Linear prediction: a tutorial review", Proc. IEEE 63, 561,
+sections 3.1.1 and 3.1.2); the Schur-Cohn stability test by the step-down recursion (Markel
+and Gray, Linear Prediction of Speech, 1976, section 5.3); a recording's noise floor from
+its quietest frames. Signals are float64 arrays in any units; times are in seconds, and a
+function that converts one takes ``samplerate`` (Hz).
 """
 
 from __future__ import annotations

@@ -1,12 +1,10 @@
 """Where numba keeps the compiled kernels (``cache=True``), chosen before numba loads.
 
-numba caches beside the source (``__pycache__``) or, failing that, in the user's cache
-folder (``$XDG_CACHE_HOME/numba``, else ``~/.cache/numba``); with neither writable (an
-installed package and a read-only or missing home) it refuses to compile a cached
-function at all. In that case the cache goes to a folder of this user in the system's
-temporary directory (``NUMBA_CACHE_DIR``), with a note on stderr; if no folder at all is
-writable, numba's caching is turned off (the kernels compile on every start). A
-``NUMBA_CACHE_DIR`` set by the user is always kept.
+numba caches beside the source or in the user's cache folder and, with neither writable
+(an installed package, a read-only home), refuses to compile a cached function. Then the
+cache goes to a folder of this user in the system's temporary directory
+(``NUMBA_CACHE_DIR``, with a note on stderr), or caching is turned off if nothing is
+writable. A ``NUMBA_CACHE_DIR`` set by the user is always kept.
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
 """``synth warmup``: compile every kernel ahead of time (for images and installers).
 
-numba compiles a kernel for the argument types of its first call, so the kernels are
-compiled by running what calls them, on real inputs: the renders of the presets (the
-contact, plate-coupled contact, modal-bank, radiation and mode kernels), the live
-engine's first block (the README's live example, offline), the analysis of a render and
-the change of its restitution, and a live engine's rolling voice (its rolling block,
-compiled apart from the callback). Each step's compiles are recorded (:mod:`synth.compilation`)
-and printed, kernel by kernel, with the CPU time each took; on a warm cache nothing
-compiles and every step says so.
+numba compiles for the argument types of a kernel's first call, so the kernels are compiled
+by running what calls them on real inputs: the presets' renders, the live engine's first
+block (the README's example, offline) and a rolling voice, the analysis of a render and the
+change of its restitution. Each step's compiles are recorded (:mod:`synth.compilation`) and
+printed with their CPU time; on a warm cache nothing compiles and every step says so.
 """
 
 from __future__ import annotations

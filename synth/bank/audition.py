@@ -1,14 +1,8 @@
-"""Auditioning a finished bank: a preview file and a contact sheet, from its files.
-
-* :func:`preview`: every sound of the bank in index order in one audio file (WAV or
-  FLAC by suffix), separated by ``gap`` seconds of silence, at the sounds' own level
-  (no scaling: the bank's relative levels are heard);
-* :func:`sheet`: a PNG with, for each sound, a waveform thumbnail over a spectrogram
-  thumbnail, titled with its index, file name and varied values (matplotlib, the
-  optional ``plot`` extra).
-
-Both read only the rows recorded ``ok`` whose file has the recorded SHA-256, and write
-their output atomically.
+"""Auditioning a finished bank from its files: :func:`preview`, every sound in index order in
+one audio file (WAV or FLAC) separated by ``gap`` s of silence, at the sounds' own level;
+:func:`sheet`, a PNG with a waveform over a spectrogram thumbnail per sound, titled with
+its index, file name and varied values (the optional ``plot`` extra). Both read only the
+rows recorded ``ok`` whose file has the recorded SHA-256, and write atomically.
 """
 
 from __future__ import annotations

@@ -1,13 +1,11 @@
-"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md,
-"One gain for the bank").
+"""One gain for a whole bank: a finished bank scaled into another folder (docs/banks.md, "One
+gain for the bank").
 
-:func:`apply_gain` takes one gain from the finished bank's manifest, to the loudest true peak
-(dBTP) or to the median integrated loudness (LUFS, ITU-R BS.1770): BS.1770 gates its 400 ms
-blocks, so lifting quiet sounds lets more blocks in and the loudness gain is found by
-measuring the scaled sounds (:func:`loudness_gain`). Each file is decoded, scaled and encoded
-again in the bank's format into ``out_dir`` (bytes a function of the samples,
-:mod:`synth.store.reproducible`), published once and recorded, so the pass resumes as the
-bank does; the source bank is never touched.
+:func:`apply_gain` takes one gain from the manifest, to the loudest true peak (dBTP) or the
+median integrated loudness (LUFS, ITU-R BS.1770; found by measuring the scaled sounds,
+:func:`loudness_gain`). Each file is decoded, scaled and encoded again in the bank's format
+into ``out_dir`` (:mod:`synth.store.reproducible`), published once and recorded, so the pass
+resumes as the bank does; the source bank is never touched.
 """
 
 from __future__ import annotations
@@ -109,15 +107,10 @@ def _median_loudness(bank_dir: Path, rows: list[dict], gain_db: float) -> float 
 
 def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
     """The gain, dB, that brings the median loudness of the bank's files (``rows`` in
-    ``bank_dir``) to ``level`` LUFS once scaled. Integrated loudness (ITU-R BS.1770) is
-    not homogeneous: its blocks below -70 LUFS (absolute gate) and 10 LU below the
-    loudness of the rest (relative gate) are left out, so a gain lifts a quiet sound's
-    loudness by less than itself as more of its blocks come in. From the manifest's
-    estimate (:func:`bank_gain`), each trial measures the scaled files and moves the
-    gain by the median's miss, which is exact while the same blocks pass the gates
-    (loudness then rises dB for dB), until the miss is below
-    :data:`LOUDNESS_TOLERANCE`; after :data:`LOUDNESS_TRIALS` the gain that came
-    closest (the result's ``reached`` says how close)."""
+    ``bank_dir``) to ``level`` LUFS once scaled. BS.1770's gates make loudness not homogeneous
+    in the gain, so from the manifest's estimate (:func:`bank_gain`) each trial measures the
+    scaled files and moves the gain by the median's miss, until below
+    :data:`LOUDNESS_TOLERANCE`; after :data:`LOUDNESS_TRIALS` the closest (``reached``)."""
     gain = bank_gain(rows, "loudness", level)
     best = None
     for _ in range(LOUDNESS_TRIALS):

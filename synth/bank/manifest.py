@@ -1,16 +1,10 @@
-"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv`` in the bank's folder,
-one row per sound, and the spec stored beside them (``bank.json``).
+"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv``, one row per sound, and the
+stored spec (``bank.json``); columns: docs/banks.md, "Manifest".
 
-Rows are appended by one process (the bank's parent) as the sounds finish, each line
-written whole, flushed and fsynced, after its audio file is in place: a ``kill -9`` at any
-moment leaves every finished row with its file. The JSON Lines file is the record; the
-CSV carries the same rows for spreadsheets. At the start and the end of a run both are
-rewritten atomically from the rows that still hold (one per index, by index), so a line
-cut by a crash or a full disk is dropped and the sound redone.
-
-The columns (every varied key, labels, tags, status, the levels, the first impact's
-figures, the hashes and the row's whole preset): docs/banks.md, "Manifest". Every file's
-bytes are a function of the spec and its row (:mod:`synth.store.reproducible`).
+Rows are appended by the bank's parent alone, each line whole, flushed and fsynced after
+its file is in place, so a ``kill -9`` leaves every finished row with its file; at a run's
+start and end both files are rewritten atomically from the rows that hold (a cut line is
+dropped and its sound redone).
 """
 
 from __future__ import annotations
@@ -24,7 +18,7 @@ import re
 from pathlib import Path
 
 from synth.store.atomic import write_atomically
-from synth.store.atomic import write_once as _write_once
+from synth.store.atomic import write_once as write_once
 
 JSONL = "manifest.jsonl"
 CSV = "manifest.csv"
@@ -72,12 +66,6 @@ def write_atomic(target: Path, data: bytes) -> None:
     ``target`` is either as it was or complete; an OSError (a full disk ...) leaves no
     temporary file behind."""
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
-
-
-def write_once(target: Path, data: bytes) -> bool:
-    """Publish ``data`` as ``target`` unless a file is there
-    (:func:`synth.store.atomic.write_once`); True if this call wrote it."""
-    return _write_once(target, data)
 
 
 def clean_temporaries(folder: Path) -> int:

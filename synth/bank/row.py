@@ -211,7 +211,7 @@ def described(spec: BankSpec, item: PlanItem, row: dict) -> dict:
 
 def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
     """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
-    (:func:`synth.bank.manifest.write_once`: atomically, never over a file already
+    (:func:`synth.store.atomic.write_once`: atomically, never over a file already
     there; the run removes the stale files of the rows it renders before it starts):
     the task function of every worker (pool or Dask). A scene that fails gives a
     ``failed`` row with its error; a file that cannot be written gives ``fatal``."""

@@ -1,19 +1,12 @@
 """Running a bank: the sounds of a plan rendered by long-lived workers, each file written
-atomically, each finished row appended to the manifest; a rerun resumes.
+atomically, each finished row appended to the manifest; a rerun resumes (docs/banks.md).
 
-Workers: a pool of ``jobs`` processes (default: the machine's cores) that import the
-engine and render the base scene once (loading the compiled kernels and filling the
-plate-mode and radiation caches), then render rows until the plan is done; on Linux they
-are forked from this process once it has warmed the engine itself (when no other thread
-runs here), elsewhere spawned. ``jobs=1`` renders in this process. With ``scheduler``,
-the same task function runs on a Dask
-cluster (``dask.distributed.Client(scheduler)``; the optional extra ``dask``), whose
-workers must see the bank's folder.
-
-The parent alone writes the manifest (see :mod:`synth.bank.manifest`). A row whose scene
-cannot be rendered is recorded ``failed`` with its error and the others go on; a file that
-cannot be written (a full disk) stops the bank cleanly: the finished rows and files stay,
-and running the bank again completes it.
+Workers: ``jobs`` processes that warm the engine once and render rows until the plan is
+done (forked on Linux after this process warmed it, else spawned; ``jobs=1`` renders
+here), or a Dask cluster (``scheduler``; the optional extra ``dask``) that sees the bank's
+folder. The parent alone writes the manifest (:mod:`synth.bank.manifest`). A row that
+cannot be rendered is recorded ``failed`` and the others go on; a file that cannot be
+written stops the bank cleanly, and running it again completes it.
 """
 
 from __future__ import annotations
@@ -54,20 +47,12 @@ ESTIMATE_ROWS_PER_WORKER = 2
 
 @dataclass(frozen=True)
 class Estimate:
-    """The time a run of ``rows`` rows on ``jobs`` workers would take, from what a dry
-    run measured (:func:`_estimate`), s:
-
-    ``before``: the time before the workers start (the plan, every row's scene checked;
-    the folder's stored spec and files read and verified), as the dry run spent it;
-    ``startup``: starting and warming the workers (imports, compiled kernels loaded, the
-    caches filled; forked from this process or spawned), timed by starting them as the
-    run does; ``per_row``: wall time per row while ``jobs`` workers render, encode, hash
-    and publish the files (fsynced) and this process appends the manifest rows (fsynced),
-    timed on ``sampled`` rows run so (the machine's real parallel speed-up and load, not
-    an assumed one), in a scratch folder in ``scratch_in``; ``finish``: the run's end (the
-    workers stopped, every file hashed again, the manifests rewritten; its per-row part,
-    a hash of each file, is small beside a render and not scaled).
-    """
+    """The time a run of ``rows`` rows on ``jobs`` workers would take, s, from a dry run
+    (:func:`_estimate`): ``before`` the plan and checks, ``startup`` starting and warming the
+    workers, ``per_row`` wall time per row as ``jobs`` workers render and publish and this
+    process appends the manifest (timed on ``sampled`` rows in a scratch folder in
+    ``scratch_in``, the machine's real speed-up), ``finish`` the run's end (files hashed
+    again, manifests rewritten)."""
 
     rows: int
     jobs: int
@@ -97,22 +82,12 @@ class Estimate:
 
 @dataclass
 class BankResult:
-    """The outcome of :func:`run`.
-
-    ``planned`` rows in the plan; ``done`` rendered now (ok), ``skipped`` found complete,
-    ``failed`` recorded with their error (``failures``: index and error), ``renamed``
-    of the complete rows moved to a new name (the preset renamed, a label or the name
-    template edited), ``orphans`` the audio files in the folder that are in neither
-    the manifest nor the plan (:func:`synth.bank.manifest.orphans`; removed if
-    ``pruned``), ``stopped`` the
-    reason the bank stopped early (None if it ran through), ``elapsed`` s of the run,
-    ``startup`` s of it spent starting and warming the workers, ``peak_worker_rss`` the
-    largest resident memory of a worker, bytes; ``rendering`` s from the workers ready to
-    the last row recorded, ``finishing`` s after it (the workers stopped, every file hashed
-    again, the manifests rewritten); for a dry run, ``estimated`` the time
-    the bank would take (:class:`Estimate`; ``estimate``: its seconds) and
-    ``planned_rows`` the manifest rows it would render.
-    """
+    """The outcome of :func:`run`: ``planned`` rows; ``done`` rendered now, ``skipped`` found
+    complete, ``failed`` with their errors (``failures``), ``renamed`` moved to a new name,
+    ``orphans`` audio files in neither the manifest nor the plan (removed if ``pruned``);
+    ``stopped`` why it stopped early (or None); ``elapsed``, ``startup``, ``rendering`` and
+    ``finishing``, s; ``peak_worker_rss``, bytes; for a dry run ``estimated``
+    (:class:`Estimate`; ``estimate`` its seconds) and ``planned_rows``."""
 
     out_dir: Path
     planned: int
@@ -362,13 +337,9 @@ def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
 
 
 def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
-    """``rows`` (complete, :func:`_verified`) with their files moved to the plan's names
-    where these changed (a renamed preset, an edited label or name template: the sounds
-    are the same), and their labels and tags as the spec gives them now. The files are
-    first moved aside to temporaries (a new name may be another row's old one), then
-    published under their new names as the bytes a render would give there
-    (:func:`synth.store.reproducible.reproducible`: an Ogg stream's serial follows the name).
-    A run killed meanwhile leaves rows whose recorded file is missing: they are redone."""
+    """``rows`` (complete) with their files moved to the plan's names where these changed (the
+    sounds are the same) and their labels and tags as the spec gives them now (:func:`move_files`;
+    a run killed meanwhile leaves rows whose file is missing, redone)."""
     moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
     moved = move_files(out_dir, spec.format, moves)
     out = []
@@ -381,12 +352,10 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
 
 
 def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
-    """Move the files ``moves`` (index: (old name, new name), relative to ``out_dir``;
-    those whose names are equal stay) to their new names, each published as the bytes a
-    render would give under that name (:func:`synth.store.reproducible.reproducible`: an Ogg
-    stream's serial follows the name). The files are first moved aside to temporaries (a
-    new name may be another file's old one; a run killed meanwhile leaves only
-    temporaries, cleaned up by the next). Returns index: the moved file's bytes."""
+    """Move the files ``moves`` (index: (old name, new name), relative to ``out_dir``) through
+    temporaries (a new name may be another's old one), each published as the bytes a render
+    would give under that name (:func:`synth.store.reproducible.reproducible`). Returns
+    index: the moved file's bytes."""
     from synth.store.atomic import temporary_name
 
     aside = {}
@@ -476,12 +445,9 @@ def _estimate_sample(items, jobs: int) -> list:
 
 
 def _estimate(spec: BankSpec, items, jobs: int, before: float) -> Estimate:
-    """The time a run of ``items`` on ``jobs`` workers would take (:class:`Estimate`),
-    ``before`` s having gone to the plan and checks: a sample of the rows
-    (:func:`_estimate_sample`) is run as the run runs them (the same workers, started the
-    same way; files published and manifest rows appended, fsynced; the final check), in
-    a scratch folder of the system's temporary folder, removed after, so that nothing of
-    the bank's folder is touched."""
+    """The time a run of ``items`` on ``jobs`` workers would take (:class:`Estimate`), ``before``
+    s gone to the plan and checks: a sample of rows (:func:`_estimate_sample`) run as the run
+    runs them, in a scratch folder removed after; the bank's folder is not touched."""
     import tempfile
 
     scratch_in = tempfile.gettempdir()
@@ -539,37 +505,29 @@ def run(
     redo=None,
     prune: bool = False,
 ) -> BankResult:
-    """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into the
-    folder ``out_dir`` (created if needed), resuming what an earlier run left.
+    """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``
+    (created if needed), resuming what an earlier run left.
 
     Parameters
     ----------
     jobs : int >= 1, optional
         Worker processes (default: ``os.cpu_count()``); 1 renders in this process.
     scheduler : str or dask.distributed.Client, optional
-        A Dask scheduler's address (``"tcp://host:8786"``) or a client: the rows run on
-        that cluster instead of the pool.
+        A Dask scheduler's address (``"tcp://host:8786"``) or a client.
     dry_run : bool
-        Change nothing (no folder, file, manifest or lock written or deleted, also with
-        ``force``): the rows that would be rendered (``result.planned_rows``) and an
-        estimate of the time (``result.estimated``), from a few rows run as the run runs
-        them in a scratch folder of the system's temporary folder (:func:`_estimate`).
+        Change nothing; report the rows that would be rendered (``result.planned_rows``) and
+        an estimate of the time (``result.estimated``), from a few rows run in a scratch folder.
     force : bool
         Start over in a folder made by another spec (its files and manifest deleted).
     redo : str or set of int, optional
-        Rows to render again although complete (``"17,40-45"``): their files are
-        replaced.
+        Rows to render again although complete (``"17,40-45"``).
     prune : bool
-        Delete the audio files in the folder that are in neither the manifest nor the
-        plan (``result.orphans``: left by an earlier name template, a run stopped before
-        recording them, or put there by hand). Without it they are only reported; a dry
-        run reports them and deletes nothing.
+        Delete audio files in neither the manifest nor the plan (``result.orphans``);
+        without it they are only reported.
 
-    Returns the :class:`BankResult`; the bank is complete when ``result.ok``. A bad spec
-    raises :class:`~synth.bank.spec.BankSpecError` before any work (every row's scene is
-    checked), a scheduler that cannot be reached a :class:`BankRunError` within
-    :data:`CONNECT_TIMEOUT` s; neither writes anything.
-    """
+    Returns the :class:`BankResult` (complete when ``result.ok``). A bad spec raises
+    :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable scheduler a
+    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s; neither writes anything."""
     t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)

@@ -1,18 +1,11 @@
-"""The command line: ``synth SUBCOMMAND ...`` (argparse).
-
-Subcommands: ``render`` (a preset to a WAV/FLAC file), ``analyze`` and ``alter`` (a
-recording), ``gallery`` (the reference renders), ``info`` (the impact table of a
-preset), ``presets`` (list them),
-``materials`` (the material table), ``play`` (a preset through the live engine),
-``bench`` (the benchmarks of a source checkout: error against run time).
-Errors in the input are reported in one line on stderr with exit status 2.
+"""The command line: ``synth SUBCOMMAND ...`` (argparse; docs/cli.md). Input errors are one
+line on stderr with exit status 2.
 
 This module holds the parser and :func:`main` (exit statuses, SIGTERM, warnings as one
-line); each subcommand's options and action live in the module of its area:
-:mod:`~synth.cli.render` (info, render, gallery), :mod:`~synth.cli.recordings` (analyze,
-alter), :mod:`~synth.cli.catalog` (presets, materials, cache), :mod:`~synth.cli.bank` (bank,
-bank-gain), :mod:`~synth.cli.play`, :mod:`~synth.cli.bench` (bench, warmup) and
-:mod:`~synth.cli.common` (the arguments they share).
+line); each subcommand lives in the module of its area: :mod:`~.render` (info, render,
+gallery), :mod:`~.recordings` (analyze, alter), :mod:`~.catalog` (presets, materials,
+cache), :mod:`~.bank` (bank, bank-gain), :mod:`~.play`, :mod:`~.bench` (bench, warmup),
+:mod:`~.common` (shared arguments).
 """
 
 from __future__ import annotations

@@ -36,29 +36,11 @@ def modal_count(plate, max_frequency: float) -> int:
 
 
 def _free_modal_count(plate, k: float) -> int:
-    """Modes of a free ``plate`` whose bending wavenumber ``k`` (rad/m) is the band's top.
-
-    Along each side the free beam's functions, as in Warburton's approximation of the
-    free plate's modes by their products (Warburton, "The vibration of rectangular
-    plates", Proc. Inst. Mech. Eng. 168, 371 (1954)): a uniform one, a rigid rotation, and
-    the elastic ones of ``cos(q L) cosh(q L) = 1``, ``q_j = (j - 1/2) pi / L`` for ``j >=
-    2`` to within ``1e-3`` relative (Blevins, "Formulas for Natural Frequency and Mode
-    Shape", table of single-span beams). Two families:
-
-    * bending: products of a uniform or elastic function along each side, counted on the
-      lattice ``q_x^2 + q_y^2 <= k^2``;
-    * twisting: the rotation across one side times a function ``cos(m pi x / a)`` along the
-      other (``m >= 0``), ``w = y theta(x)``. Kirchhoff's energy of that shape on a strip of
-      width ``b`` (Timoshenko & Woinowsky-Krieger, "Theory of Plates and Shells", the
-      bending energy's twist term ``2 (1 - nu) w_xy^2``) is that of a bar in torsion, stiffness
-      ``G J = 2 (1 - nu) D b = G b h^3 / 3`` (Saint-Venant's thin strip), plus the bending
-      of the cross lines, ``D b^3 / 12``, over the polar inertia ``rho h b^3 / 12``:
-      ``omega^2 = (D / rho h) (g q^2 + q^4)``, ``g = 24 (1 - nu) / b^2``, so ``q <= q_T``,
-      ``q_T^2 = (sqrt(g^2 + 4 k^4) - g) / 2``. On a strip (``k b < pi``) these are the
-      torsional modes, which no product of bending wavenumbers counts; on a wide plate
-      ``q_T`` nears ``k`` and they are the lattice's first row. The shape ``w = x y`` is
-      both families' first elastic mode: counted once.
-    """
+    """Modes of a free ``plate`` whose bending wavenumber ``k`` (rad/m) is the band's top: the
+    free beam's functions along each side (Warburton, Proc. Inst. Mech. Eng. 168, 371 (1954);
+    Blevins' single-span beams) counted on the lattice ``q_x^2 + q_y^2 <= k^2``, plus the
+    twisting modes up to ``q_T^2 = (sqrt(g^2 + 4 k^4) - g) / 2``, ``g = 24 (1 - nu) / b^2``
+    (the derivation: docs/cli.md, "The cost of a render, and its budget"), ``w = x y`` once."""
     a, b = plate.length, plate.width
     nu = plate.material.poisson
     qx, qy = _free_beam_wavenumbers(k, a), _free_beam_wavenumbers(k, b)

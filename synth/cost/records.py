@@ -75,40 +75,18 @@ class MemoryParts:
 
 @dataclass(frozen=True)
 class RadiationWork:
-    """The radiation stage's work for a microphone (see the module docstring and
-    :mod:`synth.sound.radiation.work`).
+    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.work`).
 
-    Attributes
-    ----------
-    rule : str
-        The rule the engine takes: "rectangle", "polar", "summed" or "boundary" (the
-        edge effect modes'; the Ritz modes below them take the rectangle rule), "none"
-        (an accelerometer: no radiation).
-    first_points : int
-        Points of the first rule (in ``unit``).
-    rules : int
-        Rules the refinement may take within the budget (at most ``MAX_RULES``).
-    points : int
-        Points of those rules, summed.
-    max_points : int or None
-        Points of the last of them when the budget stops the refinement before
-        ``MAX_RULES`` (the ``max_points`` a render passes to the sums), else None.
-    rule_points : tuple of int
-        Points of each of the ``MAX_RULES`` rules.
-    shape_terms : int
-        Terms one shape value costs per mode (:func:`synth.physics.modes.shape_terms`).
-    evaluations : float
-        ``points`` times the modes.
-    rule_work : tuple of float
-        Work of each of the ``MAX_RULES`` rules, rectangle-term equivalents (its terms
-        times the rule's weight, :func:`rule_weights`).
-    fixed_work : float
-        Work outside the refinement (the polar rules' in-phase bounds, the boundary
-        rule's Ritz modes, which take the rectangle rule), rectangle-term equivalents.
-    unit : str
-        What the points count: the rectangle rule's "points", the polar rules' "angular
-        points", the boundary rule's "radial nodes".
-    """
+    ``rule``: the rule the engine takes ("rectangle", "polar", "summed", "banded" or
+    "boundary"; "none" for an accelerometer); ``unit``: what its points count (grid "points",
+    "angular points" or "radial nodes"); ``first_points``: the first rule's points;
+    ``rules``: the rules the refinement may take within the budget (at most ``MAX_RULES``),
+    ``points`` their points summed and ``max_points`` the last one's when the budget stops the
+    refinement early (else None); ``rule_points`` and ``rule_work`` each of the ``MAX_RULES``
+    rules' points and work (rectangle-term equivalents, :func:`rule_weights`); ``fixed_work``
+    the work outside the refinement (in-phase bounds, the Ritz modes of an edge rule);
+    ``shape_terms`` the terms of one shape value per mode
+    (:func:`synth.physics.modes.shape_terms`); ``evaluations`` ``points`` times the modes."""
 
     rule: str = "none"
     first_points: int = 0
@@ -167,38 +145,14 @@ class RadiationWork:
 
 @dataclass(frozen=True)
 class CostEstimate:
-    """The sizes of one render's work (see the module docstring for each estimate).
-
-    Attributes
-    ----------
-    max_frequency : float
-        Highest rendered frequency, Hz.
-    modes : int
-        Plate modes below it (the wavenumber lattice, :func:`modal_count`).
-    impact_speed : float
-        First impact's speed, m/s.
-    hertz_contact : float
-        Hertz' contact time of the first impact on a rigid plate, s (a hollow ball's: its
-        shell law's at small deflection, :func:`hertz_contact_time`).
-    longest_contact : float
-        Longest contact the series can have, s.
-    settles : bool
-        The first impact does not separate (the ball comes to rest on the plate).
-    pulse_points : int
-        Points of the longest force pulse's grid.
-    audio_seconds : float
-        Audio length, s (estimated: see the module docstring).
-    audio_samples : int
-        Its samples.
-    memory_bytes : int
-        Bytes of the largest arrays held at once (:attr:`MemoryParts.total`).
-    max_duration : float
-        The render's longest bounce series, s.
-    solver_unknowns : int
-        Unknowns of the mode solver's largest problem (0: closed-form modes).
-    solver_flops : float
-        Floating-point operations of a cold mode solve.
-    """
+    """The sizes of one render's work (see the module docstring for each estimate):
+    ``max_frequency`` (Hz) and the plate ``modes`` below it (:func:`modal_count`);
+    ``impact_speed`` (m/s), ``hertz_contact`` (Hertz' contact time on a rigid plate, or a hollow
+    ball's shell law's, s, :func:`hertz_contact_time`), ``longest_contact`` (s) and ``settles``
+    (the first impact does not separate); ``pulse_points`` of the longest pulse's grid;
+    ``audio_seconds`` and ``audio_samples``; ``memory_bytes`` of the largest arrays held at
+    once (:attr:`MemoryParts.total`); ``max_duration`` of the bounce series, s;
+    ``solver_unknowns`` (0: closed-form modes) and ``solver_flops`` of a cold mode solve."""
 
     max_frequency: float
     modes: int
@@ -332,26 +286,11 @@ class SolverCost:
 
 @dataclass(frozen=True)
 class BodyCost:
-    """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold
-    solve, a microphone's radiation gains; then its voices' modal states), the same
-    estimates as a render's (:class:`CostEstimate`) for what a body has of a render.
-
-    Attributes
-    ----------
-    max_frequency : float
-        Highest rendered frequency, Hz.
-    modes : int
-        Plate modes below it (:func:`modal_count`).
-    solver_unknowns, solver_flops
-        The cold mode solve (as :class:`CostEstimate`).
-    radiation : RadiationWork
-        The listener's radiation stage (none for an accelerometer).
-    memory : MemoryParts
-        The largest arrays (``impacts``: the voices' modal states and the per-mode
-        vectors; no audio or pulse).
-    memory_bytes : int
-        Their total (:attr:`MemoryParts.total`).
-    """
+    """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold solve, a
+    microphone's gains, its voices' modal states), as :class:`CostEstimate` for what a body has
+    of a render: ``max_frequency`` (Hz), ``modes``, ``solver_unknowns``, ``solver_flops``,
+    ``radiation`` (:class:`RadiationWork`), ``memory`` (:class:`MemoryParts`: ``impacts`` holds
+    the voices' states and per-mode vectors) and ``memory_bytes`` (their total)."""
 
     max_frequency: float
     modes: int

@@ -112,26 +112,17 @@ def _draw_waveform(ax, t, x, labels):
 
 
 def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MAX_PULSES) -> Path:
-    """Draw a render into one PNG: waveform, spectrogram and the first force pulses.
-
-    Panels: (a) the waveform in physical units (``audio / gain``, with the full
-    scale on the right axis) and a marker at each impact; (b) the spectrogram of
-    the first channel, power spectral density in dB re 1 unit^2/Hz up to the
-    Nyquist frequency, impacts marked on its top edge; (c) the contact force of
-    the first ``max_pulses`` impacts against time from first touch, with their
-    speed, restitution ``e`` and contact time ``tau``. The title gives the render
-    settings. The PNG is written to a temporary file beside ``path`` and renamed.
+    """Draw a render into one PNG: (a) the waveform in physical units with each impact marked,
+    (b) the spectrogram of the first channel (PSD, dB re 1 unit^2/Hz, to Nyquist), (c) the
+    force of the first ``max_pulses`` impacts against time from first touch (with speed, m/s,
+    restitution and contact time, s). Written to a temporary file and renamed.
 
     Parameters
     ----------
     render : Render or any object with the same attributes
-        ``audio`` (float array, (frames,) or (frames, channels), full-scale
-        units), ``samplerate`` (int, Hz), ``impacts`` (impacts with ``speed``,
-        m/s, and ``result`` with ``time``, s, ``force``, N, ``restitution``,
-        ``contact_time``, s), ``onsets`` (one per impact, s from the start of the
-        audio), ``settings``
-        (mapping), ``units`` ("Pa" or "m/s^2") and ``gain`` (full scale per
-        physical unit, > 0).
+        ``audio`` (full scale), ``samplerate`` (Hz), ``impacts`` (``speed`` m/s, ``result``
+        with ``time`` s, ``force`` N, ``restitution``, ``contact_time`` s), ``onsets`` (s),
+        ``settings``, ``units`` ("Pa" or "m/s^2") and ``gain`` (> 0).
     path : str or os.PathLike
         Output PNG (suffix ``.png``); its directory must exist.
     max_pulses : int >= 0
@@ -140,8 +131,7 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     Returns
     -------
     pathlib.Path
-        The path written.
-    """
+        The path written."""
     p, _ = output_path(path, {".png": "PNG"}, "picture", error=ParameterError)
     if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
         raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")

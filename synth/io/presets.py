@@ -1,12 +1,11 @@
-"""Presets: scenes described in TOML files.
+"""Presets: scenes described in TOML files (every key with its unit, and the inline
+materials: docs/cli.md, "Preset files").
 
-A preset has one section per scene object; the keys of ``[ball]``, ``[plate]``
-and ``[contact]`` are exactly the fields of :class:`~synth.physics.scene.Ball`,
-:class:`~synth.physics.scene.Plate` and :class:`~synth.physics.scene.Contact` (one declaration
-each, so the dataclass field, the preset key and the ``--set`` option cannot
-drift apart), and those of ``[render]`` the options of :func:`synth.render`
-(the fields of :class:`synth.sound.options.RenderOptions`). Every key, with its unit, and
-the inline materials: docs/cli.md, "Preset files". An unknown key, a wrong type or an
+The keys of ``[ball]``, ``[plate]`` and ``[contact]`` are the fields of
+:class:`~synth.physics.scene.Ball`, :class:`~synth.physics.scene.Plate` and
+:class:`~synth.physics.scene.Contact`, those of ``[render]`` the options of
+:func:`synth.render` (:class:`synth.sound.options.RenderOptions`): one declaration each,
+so field, key and ``--set`` option cannot drift apart. An unknown key, a wrong type or an
 impossible scene is a :class:`PresetError` naming the file, key and value.
 """
 
@@ -481,19 +480,12 @@ def _fixed_defaults(cls) -> dict:
 
 
 def with_defaults(data: dict, *, varied=()) -> dict:
-    """The preset dict ``data`` with every key whose default is a fixed value given that
-    value, so two dicts that describe one scene with the same render options compare
-    equal whichever defaults they spell out: ``gravity``, the fixed defaults of
-    ``[ball]``, ``[plate]`` and ``[contact]`` (the section itself, its ``model`` and
-    ``theory``, and the model's ``law``, ``plate`` and ``surface``), ``listener.type``,
-    and every option of ``[render]`` but ``subtype`` (checked and converted by
-    :class:`synth.sound.options.RenderOptions`).
-
-    Defaults derived from other keys (a ball's mass, the impact point, the microphone
-    over it, ``max_frequency``) are left out, and so are those derived from a key of
-    ``varied`` (dotted keys set later, as a bank's axes: with ``contact.model`` varied,
-    its law, plate and surface), so setting those keys later still moves them. ``data``
-    must be a valid preset (:func:`scene_from_dict`)."""
+    """The preset dict ``data`` with every fixed default spelled out (``gravity``, the fixed
+    defaults of ``[ball]``, ``[plate]``, ``[contact]`` and its model's keys,
+    ``listener.type``, every ``[render]`` option but ``subtype``), so two dicts of one scene
+    compare equal. Defaults derived from other keys, or from a key of ``varied`` (a bank's
+    axes), are left out so setting those keys later still moves them. ``data`` must be a
+    valid preset."""
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
     hollow = _is_hollow(data)

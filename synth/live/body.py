@@ -178,17 +178,12 @@ class Body:
 
     @property
     def pan(self) -> float | None:
-        """The body's place between the left and right channels of an ``Engine(channels=2)``:
-        -1 left, 0 centre, +1 right, or None (the default: unpanned, the body's mono signal
-        at its full level on both channels). The cheap alternative to hearing a body through
-        two ears (:func:`ears`): one modal state, placed by a constant-power pan law, left
-        gain ``cos(theta)`` and right gain ``sin(theta)`` with ``theta = (pan + 1) pi / 4``
-        (left^2 + right^2 = 1: the centre is -3.01 dB on each channel, below the unpanned
-        level), times :attr:`gain` (see :func:`synth.live.native.pan_gains`). Settable
-        while it plays: each channel's gain is ramped linearly over the next block (no
-        click), as :attr:`gain` is; a body that is silent takes the new pan at once. A body
-        heard through several listeners, and a body of an engine of other than two channels,
-        refuse it (ParameterError)."""
+        """The body's place between the channels of an ``Engine(channels=2)``: -1 left, 0 centre,
+        +1 right, or None (default: its mono signal at full level on both). A constant-power law,
+        gains ``cos(theta)``, ``sin(theta)`` with ``theta = (pan + 1) pi / 4`` (the centre is
+        -3.01 dB), times :attr:`gain` (:func:`synth.live.native.pan_gains`); settable while it
+        plays, ramped over the next block. A body of several listeners, or of an engine of other
+        than two channels, refuses it (ParameterError)."""
         p = float(self._scalars[native.S_PAN])
         return None if np.isnan(p) else p
 
@@ -303,26 +298,16 @@ class Body:
         return p
 
     def move(self, listener) -> None:
-        """Hear the body through ``listener`` from now on (the game's listener moved): an
-        Accelerometer or a Microphone for a body of one ear, else a sequence of one per
-        ear (:func:`ears`), of the units the body was added with. Each mode's gain at each
-        ear goes from the old listener's to the new one's linearly over the next block
-        mixed (no click); the voices' modal states are the plate's, so every mode rings on
-        at its new level, also one the old listener did not hear.
-
-        Each new listener's cost is first checked against the budget as :meth:`Engine.add`
-        checks it. The gains are computed here, on the calling thread: a microphone at least
-        :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate takes them
-        from the plate's fixed radiation grids (:mod:`synth.sound.radiation.fixed`: one
-        exponential per mode and grid point, no shape evaluated; within twice the
-        rectangle rule's tolerance of its gains, tested), built at the first such move of
-        any body of the same plate (a few exact moves' time) and kept while a body of the
-        plate is in the engine (:attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves`
-        builds them ahead); a lower microphone, or any microphone of a plate whose grids
-        would exceed :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by the exact rule
-        of :func:`synth.sound.radiation.plate_gains` (its shapes evaluated around the
-        point; cut where the budget stops its refinement, as a render's). ``synth bench
-        live`` prints what a move costs, both ways."""
+        """Hear the body through ``listener`` from now on: an Accelerometer or a Microphone for a
+        body of one ear, else one per ear (:func:`ears`), of the units it was added with. Each
+        mode's gain is ramped to the new listener's over the next block; every mode rings on at
+        its new level. The cost is first checked as :meth:`Engine.add` checks it. Gains are
+        computed on the calling thread: for a microphone at least
+        :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` high, from the plate's fixed grids
+        (:mod:`synth.sound.radiation.fixed`, kept while a body of the plate is in the engine,
+        :attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves` builds them ahead); else,
+        or beyond :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by
+        :func:`synth.sound.radiation.plate_gains`. ``synth bench live`` prints what a move costs."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -532,24 +517,15 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a
-        plate corner; default the centre), scaled by ``gain`` (> 0). Callable from any
-        thread: the contact is solved here and handed to the audio thread without blocking
-        it.
-
-        The tick starts at ``at`` (s on the engine's clock, not before :attr:`Engine.time`)
-        or, by default, one block plus the stream's output latency after the call.
-        ``contact``: the contact law (default the ball's own: Hertz, the thin-shell law for
-        a HollowBall; see :class:`synth.Contact`; its ``rtol`` is not used: a single hit is
-        solved to 1e-6); ``gravity``: m/s^2, > 0.
-        ``priority``: an integer in [0, 255] (default 0; higher is kept longer) that
-        decides which voice a full body or a full engine steals, or refuses (see
-        :class:`Voice`). Returns its :class:`Voice` (its start time is ``voice.onset``),
-        or None if the hit is refused: the body's ring of pending impacts is full, too
-        many hits wait for the next block, the hit comes within :attr:`min_interval` of
-        the last one at its point, or the engine's ``max_total_voices`` voices all have a
-        higher priority (each counted in :attr:`Engine.stats`). A refused hit plays nothing.
-        """
+        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a corner;
+        default the centre), scaled by ``gain`` (> 0); callable from any thread, the contact
+        solved here and handed over without blocking. The tick starts at ``at`` (s on the
+        engine's clock) or one block plus the output latency after the call. ``contact``: the law
+        (default the ball's own; its ``rtol`` unused, a hit is solved to 1e-6); ``gravity``:
+        m/s^2, > 0; ``priority`` in [0, 255] (higher kept longer; :class:`Voice`). Returns its
+        :class:`Voice` (``voice.onset``), or None if refused (ring full, too many hits waiting,
+        within :attr:`min_interval` of the last at its point, or every voice of a full engine of
+        higher priority; counted in :attr:`Engine.stats`)."""
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -608,19 +584,13 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """Drop ``ball`` from ``height`` (m, > 0, its lowest point above the plate) at
+        """Drop ``ball`` from ``height`` (m, in [1e-6, 1000], its lowest point above the plate) at
         ``position`` (default the centre): the whole bouncing sequence
-        (:func:`synth.simulate_bounces`, with a scene's contact accuracy), scheduled on the
-        engine's clock from ``at`` (as :meth:`hit`: the first tick's start; ``priority`` as
-        :meth:`hit`'s, for the whole drop); ``contact`` (default the ball's own law at a
-        scene's rtol, 1e-9) and ``gravity`` (m/s^2) as a Scene's; ``height`` in [1e-6,
-        1000] m as a Scene's. Returns its :class:`Voice`, one voice for the whole
-        sequence (``voice.onsets``: the start times of its ticks, s).
-
-        A drop is handed over whole or not at all: when the body's ring has fewer free slots
-        than the drop has impacts, it is refused (returns None) and its impacts are
-        counted in ``impacts_refused`` (and the drop in ``drops_refused``); a drop with more
-        impacts than ``max_pending`` can never fit and raises ParameterError."""
+        (:func:`synth.simulate_bounces`), scheduled from ``at`` as :meth:`hit`, ``contact`` and
+        ``gravity`` (m/s^2) as a Scene's, ``priority`` as :meth:`hit`'s. Returns one
+        :class:`Voice` for the sequence (``voice.onsets``, s), or None when the ring has fewer free
+        slots than the drop has impacts (counted in ``impacts_refused`` and ``drops_refused``); a
+        drop of more impacts than ``max_pending`` raises ParameterError."""
         h = check_height(height)
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -705,15 +675,11 @@ class Body:
         return self._removed
 
     def remove(self, fade: float | None = None) -> None:
-        """Take the body out of its engine: from now on its hits and drops raise a
-        SynthError; what it plays rings out (``fade`` None: every voice decays to the
-        omission floor) or fades out (a raised cosine over ``fade`` s, in [0.001, 10],
-        from the next block); then, once the mixing has passed a block without it, the
-        engine lets go of its arrays (:attr:`memory` is then 0) and its room in the
-        engine is free for :meth:`Engine.add`. The engine checks this at each of its
-        calls (``add``, ``process``, ``mix_into``, ``stats``, ``ended``, ``remove``);
-        what the body played stays counted in :attr:`Engine.stats`. A hit made on
-        another thread at the very moment of the call may be dropped unplayed."""
+        """Take the body out of its engine: later hits and drops raise a SynthError; what it plays
+        rings out (``fade`` None) or fades out over ``fade`` s (in [0.001, 10]); once the mixing
+        has passed a block without it, the engine frees its arrays (:attr:`memory` 0) and its room.
+        Its counts stay in :attr:`Engine.stats`; a hit made on another thread at that moment may
+        be dropped."""
         if fade is not None:
             f = checks.in_range("fade", fade, MIN_STOP_FADE, MAX_STOP_FADE, "s",
                                 lo_open=False, hi_open=False)  # fmt: skip

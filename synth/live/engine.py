@@ -1,55 +1,19 @@
 """A live engine: an always open output stream that plays physical impacts as they happen.
 
-``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python
-in it (:mod:`synth.live.native`), mixes every body; ``Engine.process(frames)`` runs the
-very same compiled mixing without a device. A body (:mod:`synth.live.body`) is one plate
-heard by one listener (or one per channel): ``max_voices`` voice slots, each a modal state
-(:class:`~synth.sound.render.ModalModel`, the offline renderer's). Each hit, and each drop
-as a whole, is a :class:`~synth.live.voice.Voice` that a game controls (gain, stop, whether
-it plays, a priority) and that takes a slot when its first impact joins, stealing the one of
-lowest priority, of those the oldest, when all ring (or refused when all rank higher); an
-optional engine-wide cap (``max_total_voices``) applies the same policy over all bodies.
-:meth:`Body.remove` rings a body out (or fades it), then lets go of its memory.
-``Body.hit`` checks its arguments (:mod:`synth.live.hits`), solves the contact on the
-calling thread and hands its force pulse to the audio thread through a bounded ring
-(:mod:`synth.live.queue`); the callback calls one compiled kernel per body per block
-(:mod:`synth.live.kernel`), which first turns new pulses into the modes' amplitudes (the
-renderer's transform, :func:`~synth.sound.modal_bank.transform_pulse`; at most
-``max_hits_per_block`` a callback over all bodies) and then advances each voice block by
-block from its state with the offline bank's own steps. ``Body.drop`` computes its impacts'
-amplitudes on the calling thread (:func:`~synth.sound.modal_bank.impact_excitation`) and
-hands those over.
-So the voices played live are ``synth.render`` of the same impacts, to float32 rounding.
-Voices that end are posted to a lock-free ring that :meth:`Engine.ended` reads.
-
-Levels: the output is the listener's physical signal (Pa or m/s^2) scaled by the fixed
-calibration of ``normalize="physical"`` (:data:`synth.store.audio.PHYSICAL_FULL_SCALE`),
-times each hit's gain, its voice's gain and its body's gain (settable at run time, ramped
-over a block) and the master gain, so bodies and hits keep their true level relation. A body
-of one listener in a two-channel engine may be panned (:attr:`Body.pan`, a constant-power
-law, ramped over a block like the gain). The
-master bus ends in an optional true-peak limiter (``limiter=True``: a look-ahead of at
-most one block keeps the bus' sample and 4x-oversampled inter-sample peaks at or below
-``ceiling_db``; :mod:`synth.live.limiter`), then a stated soft clipper (identity up to
--1 dBFS, a tanh knee above; ``clip=False`` turns it off), so no sample above full scale
-reaches the device; its peak, the samples that reached full scale before the clipper
-and the limiter's gain reduction are in :attr:`Engine.stats` (:mod:`synth.live.stats`).
-
-The callback allocates nothing, touches no Python object, file or lock: PortAudio calls a
-numba ``cfunc`` with the address of the engine's arrays (:mod:`synth.live.stream` opens
-and closes the stream), so a busy Python thread cannot delay it.
-``Engine(callback="python")`` is the explicit fallback for hosts where a C callback cannot
-be installed: a Python function that needs the GIL each block (it calls the same compiled
-mixing). A body with no ringing voice and nothing handed over costs nothing.
-
-The engine's clock counts output frames from 0; ``Engine.time`` is the next frame to be
-mixed, in seconds. A hit starts one block plus the stream's output latency after the call
-(sub-sample exact, the same offset for every call, so there is no jitter), or at ``at``.
-:meth:`Engine.pause` holds the clock and every voice (the stream writes silence) until
-:meth:`Engine.resume`.
-
-Modules: this one holds what a user calls (bodies, the master bus, the mixing, the stream);
-:mod:`synth.live.bookkeeping` the engine's state, clock, events and statistics, its base.
+``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python in
+it (:mod:`synth.live.native`), mixes every :class:`Body` (one plate heard by one listener or
+one per channel, ``max_voices`` modal voice slots); ``Engine.process(frames)`` runs the same
+mixing without a device. ``Body.hit`` solves the contact on the calling thread and hands its
+force pulse to the audio thread through a bounded ring (:mod:`synth.live.queue`); the audio
+thread turns pulses into mode amplitudes and rings each voice with the offline bank's steps
+(:mod:`synth.live.kernel`), so the voices played live are ``synth.render`` of the same
+impacts, to float32 rounding. Levels are the listener's physical signal (Pa or m/s^2) at the
+calibration of ``normalize="physical"``, times the hit, voice, body and master gains; the
+master bus ends in an optional true-peak limiter (:mod:`synth.live.limiter`) and a soft
+clipper. The callback allocates nothing and touches no Python object, file or lock. The
+clock counts output frames from 0. Reference: docs/live.md.
+This module holds what a user calls; :mod:`synth.live.bookkeeping` the state, clock, events
+and statistics.
 """
 
 from __future__ import annotations
@@ -110,114 +74,72 @@ def _compile_the_block(*, rolling: bool) -> int:
 
 
 class Engine(EngineBookkeeping):
-    """An always open output stream that mixes the ringing of every :class:`Body`.
+    """An always open output stream that mixes the ringing of every :class:`Body`
+    (docs/live.md states each setting at length).
 
     Parameters
     ----------
     samplerate : int
-        Hz, in [8000, 384000]; required (the device is opened at this rate; a device that
-        does not offer it makes :meth:`start` raise a SynthError saying so).
+        Hz, in [8000, 384000]; the device is opened at this rate.
     blocksize : int
-        Frames per callback, in [16, 8192] (PortAudio's buffer size; also the step of
-        :meth:`process`).
+        Frames per callback, in [16, 8192] (also the step of :meth:`process`).
     device : int or str, optional
-        Output device (a PortAudio index or name; default the system's).
+        PortAudio output device index or name (default the system's).
     latency : "low", "high" or float
         The stream's suggested output latency (s, > 0, or PortAudio's named setting).
     channels : int
-        Output channels, in [1, 64]. A body added with one listener plays its mono signal
-        on every channel (or, with ``channels=2``, between the two at its :attr:`Body.pan`);
-        a body added with one listener per channel (:func:`ears` for two) is heard on each
-        channel through that channel's listener.
+        Output channels, in [1, 64]. A body with one listener plays on every channel (panned
+        by :attr:`Body.pan` with two); a body with one listener per channel (:func:`ears`) is
+        heard on each channel through its own.
     floor_db : float < 0
-        Omission floor of each body's bank, dB below its loudest impact so far (as the
-        offline renderer's ``floor_db``).
+        Omission floor of each body's bank, dB below its loudest impact so far.
     max_pending : int
-        Impacts a body holds before they are played, in [1, 4096]; beyond it a hit is
-        refused and counted.
+        Impacts a body holds before they are played, in [1, 4096]; beyond, a hit is refused.
     max_hits_per_block : int, optional
-        In [1, max_pending] (default ``min(HITS_PER_BLOCK, max_pending)``): the audio
-        thread turns each hit into mode amplitudes at the start of a block (about
-        ``modes * points`` complex multiply-adds); a stream's callback turns at most this
-        many over all bodies (those that start first in each body, the bodies served in
-        turn), so this bounds that work in any callback; the others wait for the next
-        callback (played late, and counted, if their start passes meanwhile; never lost).
-        A body also holds at most this many hits waiting while the stream runs: beyond it
-        a hit is refused and counted.
+        In [1, max_pending] (default ``min(HITS_PER_BLOCK, max_pending)``): the hits one
+        callback turns into mode amplitudes over all bodies, a bound on its work; the others
+        wait for the next callback (counted late if their start passed, never lost).
     max_frequency : float, optional
-        Highest mode of every body, Hz, at most Nyquist (default Nyquist): fewer modes cost
-        less per block and per hit.
+        Highest mode of every body, Hz, at most Nyquist (default Nyquist).
     pulse_points : int >= 5
-        Fewest points of each force pulse's grid for its Laplace transforms at the poles (as
-        the offline renderer's ``pulse_points``; the grid also keeps 8 points a period of the
-        highest mode). The default, 65, is the renderer's (transform error below 2e-6 of the
-        impulse); fewer make ``hit()`` cheaper (its main cost is ``points * modes``), with an
-        error growing like ``points^-3.5`` for Hertz pulses (see :mod:`synth.sound.modal_bank`;
-        5, i.e. 23 points for the default scene, leaves -76 dB of its loudest tick).
+        Fewest points of each force pulse's grid for its Laplace transforms (as the renderer's;
+        the error falls like ``points^-3.5``, :mod:`synth.sound.modal_bank`).
     fade : float
         Fade-out on :meth:`stop`, s, in [0.001, 1].
     handover : float
-        Time allowed to :meth:`Body.hit` between its call and the hand-over of the impact,
-        s, in [0, 0.1]: the default start of a tick is the call's time plus one block plus
-        the output latency plus this (an impact handed over after its block was mixed is
-        played at the start of the next block and counted as late).
+        Time allowed to :meth:`Body.hit` between its call and the hand-over, s, in [0, 0.1]: a
+        tick starts at the call plus one block, the output latency and this.
     record_seconds : float
-        The first seconds of the output are also kept in :attr:`recording`, s, in
-        [0, MAX_SECONDS] (600 s).
+        Seconds of output kept in :attr:`recording`, in [0, MAX_SECONDS].
     master_gain_db : float
-        Gain of the master bus, dB, in [-120, 40]; settable (:attr:`master_gain_db`,
-        ramped over a block).
+        Master gain, dB, in [-120, 40]; settable, ramped over a block.
     clip : bool
-        Soft-clip the master bus (identity up to -1 dBFS, a tanh knee above it that stays
-        below full scale); False passes it as is (PortAudio's conversion then clips).
+        Soft-clip the master bus (identity up to -1 dBFS, a tanh knee above).
     limiter : bool
-        Run the master bus through the true-peak limiter (:mod:`synth.live.limiter`)
-        before the clipper: its output delays the bus by ``lookahead`` (every hit
-        sounds that much later; :meth:`Engine.hit`'s timing includes it).
+        Run the master bus through the true-peak limiter before the clipper (delays the bus by
+        ``lookahead``).
     ceiling_db : float
         The limiter's ceiling, dBFS (true peak), in [-20, 0].
     lookahead : float or None
-        The limiter's look-ahead, s: at most one block, at least
-        ``synth.live.limiter.min_delay()`` frames (the interpolator's reach on both sides
-        and a 4-frame attack); its attack lasts the look-ahead less the interpolator's
-        reach. None: ``synth.live.limiter.LOOKAHEAD`` s, or one block if shorter.
+        The limiter's look-ahead, s, in [``min_delay()`` frames, one block]; None:
+        ``synth.live.limiter.LOOKAHEAD`` or one block if shorter.
     callback : "native" or "python"
-        The stream's callback: compiled code that PortAudio calls without Python (default;
-        needs a POSIX clock), or the explicit fallback, a Python function that holds the GIL
-        for each block (a busy Python thread then delays it; its ``stats.callback_*`` times
-        start once it holds the GIL and exclude that wait, which ``stats.callback_gap_max``
-        shows).
+        Compiled code PortAudio calls without Python (default), or the fallback, a Python
+        function that holds the GIL each block.
     max_bodies : int
-        Bodies the engine can hold, in [1, 65536] (the audio thread's directory).
+        Bodies the engine can hold, in [1, 65536].
     max_voices : int
-        Voices each body rings at once, in [1, 256] (default ``MAX_VOICES``, 8): each
-        :meth:`Body.hit` or :meth:`Body.drop` is a :class:`Voice` with a modal state of
-        its own, preallocated at :meth:`add`; a new voice when all ring steals the
-        one of lowest priority, of those the oldest (a ``STEAL_FADE`` fade, counted in
-        ``stats.voices_stolen``; see :class:`Voice`). A body costs up to this many modal
-        banks per block.
+        Voices each body rings at once, in [1, 256] (default ``MAX_VOICES``); a new voice when
+        all ring steals the one of lowest priority, of those the oldest (:class:`Voice`).
     max_rolls : int
-        Rolling voices (:meth:`Body.roll`) each body rolls at once, in [0, 16] (default
-        ``MAX_ROLLS``, 0): each a modal state, an integrator and mode-shape tables of its
-        own, preallocated at :meth:`add` (see docs/live.md, "Rolling"). None by default:
-        a slot costs every body of the engine its memory (about a third of a body's at
-        494 modes) and the rolling block's compile (apart from the callback's, which an
-        engine without slots never compiles nor runs); :meth:`Body.roll` on an engine
-        without slots raises ParameterError naming this setting.
+        Rolling voices each body rolls at once, in [0, 16] (default ``MAX_ROLLS``, 0: the
+        rolling block is then never compiled; :meth:`Body.roll` raises ParameterError).
     max_total_voices : int, optional
-        Voices the whole engine plays at once, over all bodies, in [1, 65536] (default
-        None: no cap beyond each body's): a voice counts from the call that makes it until
-        it ends; a new one beyond the cap stops the voice of the lowest priority, of those
-        the oldest, with a ``STEAL_FADE`` fade (counted in ``stats.voices_stolen``), or is
-        refused when all have a higher priority (``stats.voices_refused``); see
-        :class:`~synth.live.voice.VoiceLimit`.
+        Voices the whole engine plays at once, in [1, 65536] (default None: no cap beyond each
+        body's), stolen or refused as per body (:class:`~synth.live.voice.VoiceLimit`).
     on_device_lost : callable, optional
-        Called once, as ``on_device_lost(reason)`` (a str), when a running stream's device
-        or audio server is lost (its callback has not returned for ``DEVICE_LOST`` s, or
-        10 blocks if longer): on a watchdog thread of the engine's (Python, never the audio
-        thread), which checks every ``WATCH_PERIOD`` s while the stream runs.
-        ``stats.device_lost`` says so too, until :meth:`stop`.
-    """
+        Called once as ``on_device_lost(reason)`` on the engine's watchdog thread when a
+        running stream's device is lost (no callback for ``DEVICE_LOST`` s or 10 blocks)."""
 
     def __init__(
         self,
@@ -387,25 +309,13 @@ class Engine(EngineBookkeeping):
         max_voices=None,
         pan: float | None = None,
     ) -> Body:
-        """Prepare ``plate`` once (modes, listener gains; from the caches when present) and
-        return its :class:`Body`. ``listener``: an Accelerometer or a Microphone (default:
-        a microphone 0.2 m above the plate's centre, a :class:`synth.Scene`'s default for
-        impacts at the centre). Given a :class:`synth.Scene`, the body is its plate heard
-        by its listener (the scene's default one, above its impact point, when it was given
-        none), so that the scene sounds live as it renders offline. ``gain`` in
-        (0, MAX_GAIN] scales everything it plays. ``max_voices``: the voices the body rings
-        at once, in [1, 256] (default the engine's ``max_voices``; a body hit seldom needs
-        fewer, and each costs its modal state's memory). ``pan``: the body's place between
-        the two channels of an ``Engine(channels=2)``, in [-1, 1] (-1 left, +1 right) by a
-        constant-power law, or None (unpanned: its mono signal at full level on every
-        channel); see :attr:`Body.pan`, settable later. Allowed while the stream runs (the
-        callback picks the body up at its next block).
-
-        Before any mode is solved the body's cost (:func:`synth.cost.check_body`: its
-        modes, their cold solve, the listener's radiation work and the memory) is held to
-        the budget of a render (:meth:`synth.cost.Budget.from_environment`): beyond it a
-        ``ParameterError`` names what is too big and what to change, and where the budget
-        stops a microphone's refinement the gains are cut there as a render's are."""
+        """Prepare ``plate`` (modes, listener gains; cached when present) and return its
+        :class:`Body`, heard by ``listener`` (default a microphone 0.2 m above the centre; a
+        :class:`synth.Scene` gives its plate and listener). ``gain`` in (0, MAX_GAIN];
+        ``max_voices`` in [1, 256] (default the engine's); ``pan`` in [-1, 1] or None (see
+        :attr:`Body.pan`). Allowed while the stream runs. The body's cost is first held to a
+        render's budget (:func:`synth.cost.check_body`): beyond it a ParameterError names what is
+        too big and what to change."""
         voices = self.max_voices if max_voices is None else max_voices
         voices = check_int("max_voices", voices, 1, 256, "voices")
         listeners = len(listener) if isinstance(listener, (tuple, list)) else 1
@@ -507,15 +417,10 @@ class Engine(EngineBookkeeping):
         self._native.times[native.MASTER_GAIN] = 10.0 ** (db / 20.0)
 
     def move_listener(self, position, facing=(1.0, 0.0)) -> None:
-        """Move the game's listener: every body (not removed) hears from ``position``
-        ((x, y, z), m, z > 0 above its plate) from the next block on, its modes' gains
-        ramped over that block (see :meth:`Body.move`, also for what a move costs). A body
-        of one ear hears through a Microphone there; of two ears through :func:`ears`
-        there, facing ``facing`` ((x, y) in the plate's plane); of more ears through its
-        ears moved all by the same displacement, their centroid to ``position`` (their
-        arrangement kept; to turn them, give :meth:`Body.move` the ears). The gains are
-        computed on the calling thread (:meth:`prepare_moves` readies them at load time).
-        """
+        """Move the game's listener for every body to ``position`` ((x, y, z), m, z > 0) from the
+        next block on, the gains ramped over that block (:meth:`Body.move`). Two ears face
+        ``facing`` ((x, y)); more ears move by one displacement, their centroid to ``position``.
+        The gains are computed on the calling thread (:meth:`prepare_moves` readies them)."""
         position = checks.point("position", position, 3)
         checks.point("facing", facing, 2, "dimensionless")
         if not position[2] > 0.0:
@@ -576,12 +481,9 @@ class Engine(EngineBookkeeping):
 
     # -- clock ----------------------------------------------------------------------------
     def pause(self) -> None:
-        """Pause every sound, as a game's pause menu does: the output fades out (a raised
-        cosine over ``fade`` s, from the next block), then the engine's clock and every
-        voice hold where they are and the output is silence; the stream keeps running, so
-        :meth:`resume` is immediate and the device stays the engine's. Hits made while
-        paused are taken on the held clock and start after :meth:`resume`. Works alike
-        without a stream (:meth:`process` then returns silence and holds the clock)."""
+        """Pause every sound: the output fades out over ``fade`` s, then the clock and every voice
+        hold and the output is silence while the stream keeps running (:meth:`resume` is
+        immediate). Hits made while paused start after :meth:`resume`."""
         self._native.ctl[native.PAUSE] = 1
 
     def resume(self) -> None:
@@ -701,12 +603,9 @@ class Engine(EngineBookkeeping):
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out (``fade`` s; at once when paused), then close the stream, within
-        ``timeout`` s (>= 0) plus the fade. Pending impacts and ringing voices are dropped
-        (their voices end) and a pause ends; :meth:`start` starts again. When the audio
-        server does not answer in time (it died), the stream is abandoned, the engine
-        marked failed (:attr:`failed`) and every later call refused with a SynthError
-        saying so."""
+        """Fade out (``fade`` s; at once when paused), then close the stream within ``timeout`` s
+        (>= 0) plus the fade, dropping pending impacts and ringing voices. When the audio server
+        does not answer in time the engine is marked :attr:`failed` and refuses every later call."""
         t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return

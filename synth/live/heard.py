@@ -1,13 +1,11 @@
 """The listener's gains at a voice's output: each mode heard through its complex gain.
 
-A body's voice slots hold the plate's modal states (without the listener); the mixing
-(:mod:`synth.live.kernel`) hears them through ``heard``, each mode's complex gain at the
-block's start and its target at the block's end (ramped linearly over the block after the
-listener moved, :meth:`synth.live.Body.move`): :func:`ring_heard` is the offline bank's
-:func:`~synth.sound.modal_bank.ring_modes` with that gain at its output,
-:func:`inject_heard` the bank's :func:`~synth.sound.modal_bank.inject_amplitudes` with the
-omission test on the heard level. A mode that stops being heard parks its plate state
-(:func:`park`), so that a listener that hears it better later gets it back.
+Voice slots hold the plate's modal states; the mixing hears them through ``heard``, each
+mode's gain at the block's start and its target at the end (ramped after the listener
+moved, :meth:`synth.live.Body.move`). :func:`ring_heard` is the bank's
+:func:`~synth.sound.modal_bank.ring_modes` with that gain at its output, :func:`inject_heard`
+its :func:`~synth.sound.modal_bank.inject_amplitudes` with the omission test on the heard
+level; a mode no longer heard parks its plate state (:func:`park`) for a later listener.
 """
 
 from __future__ import annotations

@@ -1,29 +1,14 @@
 """The audio thread's work: one compiled call per body per block, one to write the output.
 
-A body has a fixed number of voice slots, each a modal state as the offline modal bank's
-(:mod:`synth.sound.modal_bank`), of the plate itself (without the listener's gains): its
-modes' complex amplitudes, which of them ring, their omission debts and thresholds, and
-the parked states of the modes that stopped. A voice (a hit, or a whole drop: one handle)
-takes a free slot when its first impact joins, or steals the one of lowest priority, of
-those the oldest (:func:`_victim`; a voice of lower priority than every ringing one is
-refused), and frees it when every mode has fallen below its share of the omission floor
-relative to the voice's peak, or when its stop fade ends; then, with nothing of it
-pending, it posts a voice-ended event. :func:`mix_body` advances each slot over one block
-with the bank's steps taken through the listener's gains (:mod:`synth.live.heard`:
-:func:`~synth.live.heard.ring_heard`, the bank's :func:`~synth.sound.modal_bank.ring_modes`
-with each mode's complex gain at its output, ramped over the block after the listener
-moved; :func:`~synth.live.heard.inject_heard` at each impact that falls in the block), so
-a voice's impacts played block by block are the offline render of the same impacts heard
-by the same listener, up to the rounding of the state's advance (the segments end at
-block boundaries instead of the bank's tiles), times the voice's gain (ramped over a
-block) and fades.
-
-Impacts handed over as force pulses (:mod:`synth.live.queue`, the PULSE form) are turned
-into mode amplitudes first, at the start of the block, by the renderer's transform
-(:func:`~synth.sound.modal_bank.transform_pulse`).
-
-Compiled ``nogil=True``: while a block is mixed, trigger threads keep running (they solve
-contacts and fill free slots of the pending ring, see :mod:`synth.live.queue`).
+A body has fixed voice slots, each a modal state of the plate as the offline bank's
+(:mod:`synth.sound.modal_bank`). A voice takes a free slot when its first impact joins, or
+steals the one of lowest priority, of those the oldest (:func:`_victim`; refused if lower
+than all), and frees it when every mode is below its share of the omission floor or its
+stop fade ends, then posts a voice-ended event. :func:`mix_body` turns pending pulses into
+mode amplitudes (:func:`~synth.sound.modal_bank.transform_pulse`) and advances each slot
+over the block through the listener's gains (:mod:`synth.live.heard`), so a voice is the
+offline render of the same impacts up to rounding, times its gain and fades. Compiled
+``nogil=True``: trigger threads keep running while a block is mixed.
 """
 
 from __future__ import annotations
@@ -249,18 +234,13 @@ def _next_pulse(state, inject):
 
 @compiled(nogil=True)
 def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
-    """Turn at most ``limit`` slots in the PULSE form (every one if ``limit`` < 0), those
-    whose impacts start first, into the READY form: the renderer's transform of
-    its pulse (``transform``: the body's poles and one-sample steps, re and im, its largest
-    decay rate in 1/s, the sample period in s, the audio thread's own workspace of
-    :func:`~synth.sound.modal_bank.transform_workspace`, and room for the heard
-    coefficients and amplitudes), times the hit's gain, plus an accelerometer's direct
-    term; as :func:`synth.sound.modal_bank.impact_excitation` and the producer's scaling
-    would make it. The slot's coefficients are the plate's (without the listener): they
-    give the plate amplitudes the voice's state takes; the same transform with them times
-    the listener's gains now (``heard``'s target) gives the in-contact response and the
-    heard peak. The slots left wait for a later block. Returns the number of pulses
-    transformed."""
+    """Turn at most ``limit`` PULSE slots (all if ``limit`` < 0), those that start first, into the
+    READY form, as :func:`synth.sound.modal_bank.impact_excitation` and the producer would:
+    the renderer's transform of the pulse with the plate's coefficients (the voice's plate
+    amplitudes) and with the listener's gains now (the in-contact response and heard peak),
+    times the hit's gain, plus an accelerometer's direct term. ``transform``: the body's
+    poles, steps, largest decay rate (1/s), sample period (s), workspace and room for the
+    heard coefficients. The others wait. Returns the number of pulses transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form
@@ -620,25 +600,14 @@ def mix_body(
     out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
     voice_form, events, limit,
 ):  # fmt: skip
-    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1`` of the engine's clock),
-    voice by voice (``vs``: a scratch of at least ``n`` and the steal fade's samples).
-
-    bank: the power table, poles and sample rate, the listener's gains (``heard``, see
-    ``H0R``) and their sequence numbers (``heard_seq``); modal: the voice slots' modal
-    states of the plate, (V, K) each (see :func:`~synth.live.heard.ring_heard`), their peaks
-    (V,), and the parked states of their stopped modes (re, im, sample; (V, K) each, see
-    :func:`~synth.live.heard.park`);
-    floor: the omission floor, a fraction of a voice's peak. ring: the pending ring
-    (``state``, ``inject``, ``first``, ``length``, ``amplitudes``, ``response``,
-    ``reference``, ``voice``; see :mod:`synth.live.queue`); the PULSE form (``transform``,
-    ``pulse_form``, ``transformed``: see :func:`transform_pulses`). voice_form: the voice
-    records and their gains, the slots and their gains, the stolen voices' ``tail``;
-    events: the engine's event ring; limit: the most pulses this block transforms (-1: all;
-    the others wait for a later block, and are played late, at the start of the block that
-    takes them, if their start has passed by then). A pending impact whose voice has no
-    slot takes one when it joins (:func:`_take_slot`). A body with no ringing voice and
-    nothing pending returns at once. Returns the number of pulses transformed.
-    """
+    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1``) voice by voice (``vs`` a
+    scratch of at least ``n`` and the steal fade's samples). bank: power table, poles, rate,
+    the listener's gains ``heard`` and ``heard_seq``; modal: the slots' modal states (V, K),
+    peaks (V,) and parked states (:func:`~synth.live.heard.park`); floor: the omission floor,
+    a fraction of a voice's peak; ring: the pending ring (:mod:`synth.live.queue`) and its
+    PULSE form (:func:`transform_pulses`); voice_form: voice records, slots, gains, stolen
+    tails; events: the event ring; limit: the most pulses transformed this block (-1: all; the
+    others wait, played late if due). Returns the number of pulses transformed."""
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)

@@ -1,27 +1,14 @@
-"""The master bus' true-peak limiter: a look-ahead gain that keeps the bus' sample peaks
-and its inter-sample peaks (estimated by 4x oversampling) at or below a ceiling.
+"""The master bus' true-peak limiter: a look-ahead gain that keeps the bus' sample and
+inter-sample peaks at or below a ceiling.
 
-The detector estimates the signal between samples as ITU-R BS.1770-4 Annex 2 does for
-its true-peak meter: a 4x polyphase interpolator of 12 taps per phase (48 taps); here
-each phase ``p / 4`` (p = 1, 2, 3) is a Kaiser-windowed sinc (:func:`interpolator`)
-normalised to unit gain at DC, and phase 0 is the sample itself. A position ``q`` is
-the sample ``x[q]`` and the three interpolated points after it; its true-peak estimate
-``tp(q)`` is the largest of their magnitudes over the channels (one gain for every
-channel, so the image does not move), and its required gain is ``r(q) = min(1,
-ceiling / tp(q))``.
-
-The gain is a look-ahead minimum followed by a moving average (a linear attack): with a
-look-ahead of ``D`` frames and the interpolator's reach ``R = TAPS / 2`` frames, the
-attack lasts ``A = D - 2 R`` frames; ``m(u) = min r(q)`` over ``q`` in ``[u - R, u + A +
-R]`` and the gain of frame ``t`` is the mean of ``m`` over ``[t - A, t]``, so it is at or
-below ``r(q)`` for every ``q`` within ``R`` frames of ``t`` (every sample that the
-interpolator's output at ``t`` reads) and it reaches each reduction within ``A``
-frames, ramped linearly. The gain then rises back at most ``RELEASE_DB_PER_S`` (a ramp
-linear in dB). The output is the input delayed by ``D`` frames times that gain; while
-every ``r`` in reach is 1 the gain is exactly 1 and the bus passes bit-identical.
-
-Everything is preallocated (:class:`LimiterState`) and the kernel (:func:`limit_block`)
-is compiled ``nogil``: the audio thread runs it without Python or allocation.
+The detector interpolates 4x as ITU-R BS.1770-4 Annex 2's true-peak meter (12 taps per
+phase, Kaiser-windowed sincs, :func:`interpolator`); each position's required gain is
+``r(q) = min(1, ceiling / tp(q))``, one for every channel. The gain is a look-ahead
+minimum of ``r`` over the interpolator's reach ``R = TAPS / 2`` followed by a moving
+average over the attack ``A = D - 2 R`` frames, so it is at or below every ``r`` the output
+at that frame reads; it releases at most ``RELEASE_DB_PER_S``. The output is the input
+delayed by ``D`` frames times the gain, bit-identical while no reduction is needed.
+Preallocated (:class:`LimiterState`), compiled ``nogil`` (:func:`limit_block`).
 """
 
 from __future__ import annotations

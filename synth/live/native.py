@@ -1,30 +1,15 @@
 """The audio thread without Python: PortAudio calls compiled code directly.
 
-The block works on the engine's state (:mod:`synth.live.state`: ``ctl``, ``times``, the
-directory of body records and the event ring, preallocated numpy arrays that the audio
-thread reaches through their addresses), so that its callback touches no Python object;
-the names of that layout stay importable from here.
-
-:func:`stream_callback` gives a numba ``cfunc`` with PortAudio's ``PaStreamCallback``
-signature; the engine hands its address to sounddevice's stream base class with ``ctl``'s
-address as ``userData`` (as python-rtmixer does with its C callback). PortAudio's thread
-then runs it without Python's GIL: a busy Python thread cannot delay it. It allocates
-nothing (every array is a view made from an address), takes no lock, and reads the time
-with ``clock_gettime`` (the clock of ``time.clock_gettime_ns(time.CLOCK_MONOTONIC)``, with
-which the trigger threads compare). The Python fallback callback (:func:`run_block`) and
-:meth:`synth.live.Engine.process` (:func:`mix_engine`) call the very same compiled code.
-The rolling voices' block (:func:`rolling_block_code`, with the rolling contact's
-integrator) is compiled apart, and the callback calls it through its address
-(``ctl[ROLLER]``) for an engine with rolling slots only.
-
-numba caches these functions keyed on this file alone (its time stamp and size): after a
-change to a kernel they call (:mod:`synth.live.kernel`, the bank's kernels) and nothing here,
-delete their cache (``synth/live/__pycache__/native.*``) so that they are compiled anew.
-
-Ordering between threads: a producer writes a slot's data, then its state word (see
-:mod:`synth.live.queue`); a body's record is complete before ``ctl[N_BODIES]`` counts it;
-the callback brackets its anchor writes with a sequence number and full fences
-(:func:`synth.live.atomics.fence`), so a reader sees a consistent anchor or retries.
+:func:`stream_callback` is a numba ``cfunc`` of PortAudio's ``PaStreamCallback`` signature
+working on the engine's preallocated state (:mod:`synth.live.state`) through addresses
+(``ctl``'s as ``userData``, as python-rtmixer does), so PortAudio's thread runs it without
+the GIL, allocation or lock, reading ``clock_gettime(CLOCK_MONOTONIC)``. The Python
+fallback (:func:`run_block`) and :meth:`synth.live.Engine.process` (:func:`mix_engine`)
+call the same code; the rolling block (:func:`rolling_block_code`) is compiled apart and
+called through ``ctl[ROLLER]``. numba keys this file's cache on the file alone: after
+changing a kernel it calls, delete ``synth/live/__pycache__/native.*``. Ordering: a slot's
+data before its state word, a body's record before ``ctl[N_BODIES]`` counts it, anchors
+bracketed by a sequence number and fences (:func:`synth.live.atomics.fence`).
 """
 
 from __future__ import annotations
@@ -121,62 +106,8 @@ from synth.live.state import (
     pointer_to,
     rolling_form,
 )
-from synth.live.state import B_ACTIVE as B_ACTIVE
-from synth.live.state import B_AMPLITUDES as B_AMPLITUDES
-from synth.live.state import B_COEFFICIENTS as B_COEFFICIENTS
-from synth.live.state import B_CONTACT as B_CONTACT
-from synth.live.state import B_DEBT as B_DEBT
-from synth.live.state import B_DEBT_AT as B_DEBT_AT
-from synth.live.state import B_FIRST as B_FIRST
-from synth.live.state import B_HEARD as B_HEARD
-from synth.live.state import B_HEARD_AMPS as B_HEARD_AMPS
-from synth.live.state import B_HEARD_COEF as B_HEARD_COEF
-from synth.live.state import B_HEARD_SEQ as B_HEARD_SEQ
-from synth.live.state import B_INJECT as B_INJECT
-from synth.live.state import B_LENGTH as B_LENGTH
-from synth.live.state import B_LEVEL as B_LEVEL
-from synth.live.state import B_MODES as B_MODES
-from synth.live.state import B_PARK_AT as B_PARK_AT
-from synth.live.state import B_PARK_I as B_PARK_I
-from synth.live.state import B_PARK_R as B_PARK_R
-from synth.live.state import B_POINTS as B_POINTS
-from synth.live.state import B_POLE_IM as B_POLE_IM
-from synth.live.state import B_POLE_RE as B_POLE_RE
-from synth.live.state import B_POLES as B_POLES
-from synth.live.state import B_PULSE as B_PULSE
-from synth.live.state import B_PULSE_SAMPLES as B_PULSE_SAMPLES
-from synth.live.state import B_RECORDS as B_RECORDS
-from synth.live.state import B_REFERENCE as B_REFERENCE
-from synth.live.state import B_RESPONSE as B_RESPONSE
-from synth.live.state import B_SAMPLES as B_SAMPLES
-from synth.live.state import B_SLOT_GAIN as B_SLOT_GAIN
-from synth.live.state import B_STEP_IM as B_STEP_IM
-from synth.live.state import B_STEP_RE as B_STEP_RE
-from synth.live.state import B_TABLE as B_TABLE
-from synth.live.state import B_TABLE_COLS as B_TABLE_COLS
-from synth.live.state import B_TAIL as B_TAIL
-from synth.live.state import B_TAIL_FRAMES as B_TAIL_FRAMES
-from synth.live.state import B_THR2 as B_THR2
-from synth.live.state import B_THRESHOLDS as B_THRESHOLDS
-from synth.live.state import B_VOICE as B_VOICE
-from synth.live.state import B_VOICE_GAIN as B_VOICE_GAIN
-from synth.live.state import B_VOICE_SLOT_COUNT as B_VOICE_SLOT_COUNT
-from synth.live.state import B_VOICE_SLOTS as B_VOICE_SLOTS
-from synth.live.state import B_VOICES as B_VOICES
-from synth.live.state import B_WORK as B_WORK
-from synth.live.state import B_WORK_ROWS as B_WORK_ROWS
-from synth.live.state import B_ZI as B_ZI
-from synth.live.state import B_ZR as B_ZR
-from synth.live.state import BODY_FIELDS as BODY_FIELDS
-from synth.live.state import CLOCK as CLOCK
-from synth.live.state import EVENTS as EVENTS
-from synth.live.state import N_EVENTS as N_EVENTS
-from synth.live.state import S_FS as S_FS
-from synth.live.state import S_PERIOD as S_PERIOD
-from synth.live.state import S_SIGMA_MAX as S_SIGMA_MAX
 from synth.live.state import monotonic as monotonic
 from synth.live.state import native_available as native_available
-from synth.live.state import touch as touch
 
 #: PortAudio's stream callback flags (portaudio.h) and its paContinue.
 PA_OUTPUT_UNDERFLOW = 0x4
@@ -568,18 +499,11 @@ def _callback(input, output, frames, time_info, flags, userdata):
 
 @functools.cache
 def stream_callback():
-    """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio).
-    numba compiles a ``cfunc`` where it is made, not on its first call, and compiling this
-    one compiles the whole block: made on first use, after the engine's note that it
-    compiles (:func:`synth.compilation.announce`), not when this module is imported.
-
-    It is the only compiled entry to the block: the mixing levels it calls are inlined
-    into it (``inline="always"``), and Python calls it too (:func:`mix_engine`,
-    :func:`run_block`), so that the block's tree of kernels is compiled into one library.
-    A kernel compiled on its own and called from another is linked into the caller's
-    code and optimised and compiled to machine code again with it (numba's
-    ``CodeLibrary.finalize``): each compiled entry to the block would compile its whole
-    tree once more."""
+    """The compiled :func:`_callback` (a numba ``CFunc``: ``.address`` for PortAudio), made on
+    first use after the engine's note (:func:`synth.compilation.announce`), since numba
+    compiles a ``cfunc`` where it is made. It is the block's only compiled entry (its levels
+    are inlined and Python calls it too): numba compiles a kernel's whole tree again into each
+    caller that is compiled on its own."""
     with cfunc_compiling(_callback, CALLBACK_SIGNATURE):
         return numba.cfunc(CALLBACK_SIGNATURE, nopython=True, cache=True, fastmath=FASTMATH)(
             _callback

@@ -1,32 +1,15 @@
-"""The hand-off of impacts from trigger threads to the audio thread.
+"""The hand-off of impacts from trigger threads to the audio thread (docs/live.md, "What runs
+where").
 
-Each body has a bounded ring of preallocated slots (``capacity`` impacts; their memory is
-touched when the ring is made, so that no hit pays for a page fault). A slot carries an
-impact in one of two forms:
-
-* READY: its mode amplitudes, injection sample and in-contact response, computed by the
-  producer (a drop's impacts, and contacts too long for a slot's pulse grid);
-* PULSE: its force pulse (on the transform grid and at the in-contact samples), the
-  listener's coefficients at its point and its gain; the audio thread turns it into the
-  READY form at the start of the next block (:func:`synth.live.kernel.mix_body`, the
-  renderer's transform). At most ``max_new`` PULSE slots wait at a time: that bounds the
-  transform work of any block.
-
-A trigger thread takes the producers' lock (the audio thread never does) to reserve a FREE
-slot (marked WRITING), fills it in place and marks it READY or PULSE last; the audio
-thread plays READY slots whose time has come and marks them FREE. The audio thread never
-waits: a slot is only ever written by its owner of the moment (the producer while FREE or
-WRITING, the consumer while READY or PULSE), and the state word is written after the data
-with a fence between them (:mod:`synth.live.atomics`; the audio thread fences between the
-state word it reads and the slot's data). When every slot is taken, or ``max_new`` pulses wait,
-the impact is refused and counted, never queued without bound.
-
-Each impact belongs to a voice (a hit, or a whole drop: what a :class:`synth.live.Voice`
-handle controls): a voice record (``voices``, see :data:`synth.live.kernel.V_ID`) that a
-producer opens under the same lock with the number of impacts it will hand over, and that
-the audio thread frees once the voice has ended. A record's gain and stop request are
-written by producers (under the lock, after checking the voice's id) and read by the audio
-thread at the start of each block.
+Each body has a bounded ring of preallocated, pre-touched slots. A slot carries an impact
+READY (mode amplitudes computed by the producer: a drop's impacts, long contacts) or as a
+PULSE (its force pulse and the listener's coefficients, turned into amplitudes by the audio
+thread at the start of a block; at most ``max_new`` wait, bounding any block's work). A
+producer reserves a FREE slot under the producers' lock (which the audio thread never
+takes), fills it and writes its state word last, after a fence (:mod:`synth.live.atomics`);
+the audio thread plays READY slots when due and frees them. A full ring refuses and counts.
+Each impact belongs to a voice record (``voices``, :data:`synth.live.kernel.V_ID`) whose
+gain and stop request producers write under the lock and the audio thread reads each block.
 """
 
 from __future__ import annotations

@@ -1,21 +1,12 @@
 """The engine's state: the arrays the audio thread works on, their layout and their memory.
 
-The engine's whole state lives in preallocated numpy arrays that the audio thread reaches
-through their addresses (:mod:`synth.live.native` runs the block on them), so that its
-callback touches no Python object:
-
-* ``ctl`` (int64, :data:`N_CTL`): the engine's integers (the clock, the stop fade, the
-  number of bodies, the callback's counters) and the addresses of the other arrays;
-* ``times`` (float64, :data:`N_TIMES`): the clock's anchor (which frame leaves the device
-  when, for :meth:`synth.live.Engine.hit` on other threads), the callback's costs, the
-  master bus' gain, pause level and meter;
-* a directory of body records (int64, one address per body; a record holds the addresses
-  and sizes of the body's voice slots' modal states, pending ring, voice records and
-  counters, see :data:`BODY_FIELDS`; :func:`body_form` makes the views the kernel takes);
-* the voice-ended event ring (int64) that :meth:`synth.live.Engine.ended` reads.
-
-:class:`EngineState` allocates them once (their pages mapped at once, :func:`touch`) and
-publishes bodies (:func:`body_arrays`) to the audio thread.
+Preallocated numpy arrays the audio thread reaches through their addresses, so its callback
+touches no Python object: ``ctl`` (int64, :data:`N_CTL`: clock, stop fade, body count,
+counters, the other arrays' addresses); ``times`` (float64, :data:`N_TIMES`: the clock's
+anchor, callback costs, master gain, pause level, meter); a directory of body records
+(:data:`BODY_FIELDS`; :func:`body_form` makes the kernel's views); the voice-ended event
+ring. :class:`EngineState` allocates them once, pages touched (:func:`touch`), and
+publishes bodies (:func:`body_arrays`).
 """
 
 from __future__ import annotations
@@ -309,14 +300,10 @@ def touch(a: np.ndarray) -> np.ndarray:
 
 
 class EngineState:
-    """The arrays the audio thread works on (see the module's docstring), allocated once:
-    ``samplerate`` Hz, ``channels``, room for ``max_bodies`` bodies, mixing scratch of
-    ``mix_frames`` frames, a recording of ``record_frames`` frames, a ring of ``events``
-    voice-ended events, the master bus' true-peak limiter's state (``limit``, or None
-    without a limiter), and the most pulses a stream's callback transforms over every body
-    (``transforms_per_block``; see :mod:`synth.live.native`), and the address of the
-    rolling voices' compiled block (``roller``, :func:`synth.live.native.rolling_block_code`;
-    0 for an engine without rolling slots)."""
+    """The arrays the audio thread works on, allocated once: ``samplerate`` Hz, ``channels``,
+    ``max_bodies``, mixing scratch of ``mix_frames``, a recording of ``record_frames``, a ring
+    of ``events``, the limiter's state (``limit`` or None), ``transforms_per_block`` and the
+    rolling block's address (``roller``, 0: none)."""
 
     def __init__(
         self,
@@ -472,16 +459,11 @@ def body_arrays(
     rolls: dict | None = None,
 ) -> dict:
     """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
-    its poles and one-sample steps (``coefficients``, a
-    :class:`~synth.sound.modal_bank.BankCoefficients` at any point), power ``table``, its
-    voice slots' modal states (:func:`synth.live.kernel.body_state`), pending ``ring`` with
-    its voice records (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``,
-    output ``channel`` (-1: every channel), the steal fade (``steal_frames`` samples, at
-    most ``mix_frames``, the engine's mixing piece; the stolen voices' ring buffer holds
-    both), the ``ears`` of the body it belongs to, and the listener's complex ``gains`` of
-    its modes (K,; the mixing applies them at its output, the voices' states are the
-    plate's), its ``pan`` (NaN: unpanned; see :func:`synth.live.native.pan_gains`) and its
-    rolling slots (``rolls``: :func:`synth.live.rolling_block.rolling_arrays`; None: none)."""
+    ``coefficients`` (:class:`~synth.sound.modal_bank.BankCoefficients`), power ``table``,
+    voice slots' states (:func:`synth.live.kernel.body_state`), pending ``ring``
+    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``, output ``channel``
+    (-1: all), ``steal_frames`` (samples, at most ``mix_frames``), ``ears``, the listener's
+    complex ``gains`` (K,), ``pan`` (NaN: unpanned) and ``rolls`` (None: none)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients

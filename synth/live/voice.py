@@ -30,26 +30,16 @@ def check_priority(priority) -> int:
 
 
 class Voice:
-    """A handle on one sound of a body: a hit, or a whole drop (returned by
-    :meth:`Body.hit` and :meth:`Body.drop`).
+    """A handle on one sound of a body: a hit or a whole drop (:meth:`Body.hit`,
+    :meth:`Body.drop`); every method may be called from any thread.
 
-    ``id``: unique in its engine (the ids :meth:`Engine.ended` reports); ``onset``: the
-    stream time its first tick starts, s (``onsets``: every tick's, for a drop).
-
-    ``priority``: an integer in [0, MAX_PRIORITY] (higher is kept longer). A voice takes
-    one of its body's ``max_voices`` voice slots (a modal state of its own) when its first
-    impact joins; when all are ringing it steals the slot of the lowest priority, of those
-    the oldest (taken earliest), whose voice fades out over ``STEAL_FADE`` (a raised
-    cosine) and ends; when every slot rings a voice of higher priority, the new voice is
-    refused there (it plays nothing, ends, and is counted in ``stats.voices_refused``).
-    The engine's ``max_total_voices`` caps the voices of all bodies alike (see
-    :class:`VoiceLimit`).
-    A voice ends when every one of its modes has fallen below its share of the engine's
-    omission floor (``floor_db``) relative to the voice's peak (what it still holds is
-    then at most ``floor_db`` below its loudest impact's sum of mode amplitudes), or when
-    its stop fade ends; then it frees its slot and, once nothing of it waits to be played,
-    is reported by :meth:`Engine.ended`. Every method may be called from any thread.
-    """
+    ``id``: unique in its engine (reported by :meth:`Engine.ended`); ``onset``: the stream
+    time its first tick starts, s (``onsets``: every tick's). ``priority`` in [0,
+    MAX_PRIORITY], higher kept longer: a voice takes one of its body's slots when its first
+    impact joins; when all ring it steals the lowest priority's, of those the oldest (faded
+    over ``STEAL_FADE``), or is refused if every one ranks higher (``stats.voices_refused``);
+    ``max_total_voices`` caps all bodies alike (:class:`VoiceLimit`). A voice ends when every
+    mode is below its share of ``floor_db`` relative to its peak, or its stop fade ends."""
 
     __slots__ = ("body", "id", "onsets", "priority", "_records", "_gain")
 
@@ -119,14 +109,10 @@ def stop_records(ears, records, vid) -> None:
 
 
 class VoiceLimit:
-    """The engine-wide voice cap (``Engine(max_total_voices=n)``), kept on the threads that
-    make voices (the audio thread never sees it): a voice counts from the call that makes
-    it until it ends. A new voice beyond the cap stops the voice of the lowest priority, of
-    those the oldest (earliest onset, then lowest id), with a ``STEAL_FADE`` fade from the
-    next block (counted in ``stolen``), or is refused when every voice has a higher
-    priority than its own (counted in ``refused``): the same policy as a body's slots. A
-    waiting voice that its body refuses on the audio thread as the cap steals it is counted
-    in both (no lock between them). ``limit`` None: no cap, nothing kept."""
+    """The engine-wide voice cap (``Engine(max_total_voices=n)``), kept on the threads that make
+    voices: a voice counts from its call until it ends; beyond the cap the lowest priority's,
+    of those the oldest, is stopped with a ``STEAL_FADE`` fade (``stolen``), or the new one
+    refused (``refused``), as a body's slots do. ``limit`` None: no cap."""
 
     def __init__(self, limit: int | None):
         self.limit = limit

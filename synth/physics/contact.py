@@ -1,7 +1,6 @@
 """One impact: a ball against a plate's local contact stiffness and its mechanical impedance.
 
-The model of docs/physics.md, "Hertz contact" (the thesis, docs/physics.md, References,
-eqs. 2.9-2.11, 2.34, 2.42):
+The model of docs/physics.md, "Hertz contact" (the thesis, eqs. 2.9-2.11, 2.34, 2.42):
 
     d(delta)/dt = v_plate - v_s,    v_plate = v_free - beta F(delta)
     d(v_s)/dt   = F / m - g
@@ -9,32 +8,20 @@ eqs. 2.9-2.11, 2.34, 2.42):
     F = K delta^n (1 + mu d(delta)/dt),  F >= 0     (Hunt-Crossley)
     F = K (delta^(3/2) + (3/2) A delta^(1/2) d(delta)/dt),  F >= 0     (viscoelastic Hertz)
 
-``solve_contact`` takes the lumped parameters; ``solve_impact`` derives them from
-a :class:`~synth.physics.scene.Ball` and a :class:`~synth.physics.scene.Plate` and a named law
-(:func:`contact_parameters`; the viscoelastic one: Kuwabara & Kono 1987, Brilliantov et al.
-1996, docs/physics.md, "Contact losses"). Both return an
-:class:`ImpactResult`. Numerical trouble is reported in ``success``, ``status``
-and ``message``; only bad input raises (``ParameterError``).
+(the viscoelastic law: Kuwabara & Kono 1987, Brilliantov et al. 1996). ``solve_contact``
+takes lumped parameters, ``solve_impact`` derives them from a Ball, a Plate and a law; both
+return an :class:`ImpactResult`, numerical trouble reported in ``success``, ``status`` and
+``message`` (only bad input raises ParameterError). Results are in
+:mod:`~synth.physics.contact_result`, the hollow ball's solve in
+:mod:`~synth.physics.contact_shell`.
 
-Modules: this one holds the checks and the power laws' solve (:func:`solve_contact`,
-:func:`solve_impact`, :class:`ContactSolver`, the admittance near an edge);
-:mod:`~synth.physics.contact_result` the results (:class:`ImpactResult`) and their one
-builder; :mod:`~synth.physics.contact_shell` the hollow ball's thin-shell solve.
-
-Numerics (see ``synth/physics/contact_kernels/``): the equations are scaled by
-Zener's time ``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0``, so
-every state variable is of order one and one relative tolerance means the same
-for every ball and plate; they are integrated by DOP853 where the contact is not
-stiff and by Radau IIA (order 5) where it is (Zener's inelasticity
-``lam = beta m / theta`` above :data:`STIFF_LAMBDA`). The end of contact is
-located on the dense output to machine precision.
-
-Error control: the integrators' local tolerance is ``rtol *``
-:data:`TOLERANCE_SAFETY`, a proportionality factor chosen once from the
-benchmark ``synth bench contact`` so that the measured global relative errors of
-the restitution and the contact time stay below the ``rtol`` asked for over the
-benchmark's cases and tolerances (1e-3 to 1e-10). For very small restitution
-(``e`` below about ``rtol``) the error bound is absolute, ``rtol``, not relative.
+Numerics (:mod:`synth.physics.contact_kernels`): the equations are scaled by Zener's time
+``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0`` and integrated by DOP853,
+or Radau IIA (order 5) where the contact is stiff (``beta m / theta`` above
+:data:`STIFF_LAMBDA`); the end of contact is located on the dense output. The local
+tolerance is ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so the
+global errors of restitution and contact time stay below ``rtol`` (absolute for ``e``
+below about ``rtol``).
 """
 
 from __future__ import annotations
@@ -384,20 +371,10 @@ def _solve_at(
     shell=None,
 ):  # fmt: skip
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
-    :func:`synth.physics.impedance.point_admittance` (lumped values checked by the caller).
-
-    The admittance ``beta`` depends on the contact time, which depends on ``beta``:
-    the pair is the root of ``r(beta) = A(tau(beta)) - beta``, with ``A`` the edge
-    blend. Far from the edges (beyond the critical distance for the infinite-plate
-    contact time) the first solution is already exact and is returned at once (edge
-    effects are left out where they do not apply). Otherwise: fixed-point iteration
-    ``beta <- A(tau(beta))``, kept inside a bracket ``[lo, hi]`` (``r(lo) >= 0 >=
-    r(hi)``; initially the middle and the corner values, between which ``A`` always
-    lies) and replaced by bisection when it leaves the bracket or stalls, until
-    ``|r| <= rtol beta / 10`` or the bracket is that narrow. ``A(tau(beta))`` can
-    jump (a contact that switches between settling and separating): then the
-    bracket closes on the jump and the message says so.
-    """
+    :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
+    (``A`` the edge blend, ``tau`` the contact time), at once far from the edges, else by
+    fixed-point iteration kept inside a bracket and replaced by bisection when it leaves it or
+    stalls, until ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is reported."""
     if beta_inf is None:
         beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
     result = (
@@ -480,42 +457,33 @@ class DropImpacts:
 
 @dataclass(frozen=True, eq=False)
 class ContactSolver:
-    """Impacts of one ball on one plate under one contact law, at any speed.
-
-    Built once (the contact law's parameters, the plate's impedance and every
-    setting are checked and derived here) and then asked for impacts by
-    :meth:`solve`: the seam through which the bounce scheduler
-    (:mod:`synth.physics.bounces`) and the stimuli solve their impacts.
+    """Impacts of one ball on one plate under one contact law, at any speed: built once (the
+    law's parameters, the plate's impedance and every setting checked and derived here), then
+    asked for impacts by :meth:`solve`; the bounce scheduler and the stimuli solve through it.
 
     Attributes
     ----------
     mass : float
         Ball mass ``m``, kg.
-    stiffness : float
-        Contact stiffness ``K`` of ``F = K delta^n``, N/m^n.
-    exponent : float
-        Contact law exponent ``n``, dimensionless.
+    stiffness, exponent : float
+        ``K`` (N/m^n) and ``n`` of ``F = K delta^n``.
     dissipation : float
         Hunt-Crossley damping ``mu``, s/m (0: elastic contact).
+    viscous_time : float
+        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; n = 1.5 only).
     gravity : float
-        Gravitational acceleration ``g``, m/s^2.
+        m/s^2.
     rtol : float
         Relative accuracy of restitution and contact time.
     n_points : int
         Samples of each force pulse.
     plate : Plate or None
-        The plate, for its infinite-plate admittance and the admittance near its
-        edges; None for a solver of lumped parameters (give ``admittance``).
+        The plate (its admittance, also near edges); None for lumped parameters.
     method : {"auto", "DOP853", "Radau"}
         Integrator.
-    viscous_time : float
-        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; exponent 1.5
-        only).
     shell : ShellLaw or None
-        The thin-shell law of a hollow ball (:func:`synth.physics.contact_law.shell_law`),
-        which then sets the contact: ``stiffness`` its ``k0`` (N/m), ``exponent`` 1,
-        ``viscous_time`` its shell's, ``dissipation`` 0.
-    """
+        A hollow ball's thin-shell law (:func:`synth.physics.contact_law.shell_law`), which
+        then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1)."""
 
     mass: float
     stiffness: float
@@ -628,15 +596,12 @@ class ContactSolver:
         max_impacts: int,
     ) -> DropImpacts:  # fmt: skip
         """The impacts of a drop on the plate's impedance in one compiled call
-        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed``
-        (m/s, checked by the caller) ``start`` s after release, the next ones strung together
-        by the bounce scheduler's rules (:mod:`synth.physics.bounces`; ``energy_floor`` the
-        lowest ratio of an impact's kinetic energy to the first's, ``max_duration`` the
-        latest start, s, ``max_impacts`` the most impacts), each as :meth:`solve` at
-        ``position`` gives it. It stops before an impact that :meth:`solve` must take over
-        (Radau IIA, the admittance near a free edge), and takes none for a solver that the
-        compiled series does not serve (Radau IIA chosen, a hollow ball's shell law, no
-        plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
+        (:func:`~synth.physics.contact_kernels.impacts_explicit`): the first at ``speed`` (m/s)
+        ``start`` s after release, the next ones by the bounce scheduler's rules
+        (``energy_floor``, ``max_duration`` s, ``max_impacts``), each as :meth:`solve` at
+        ``position`` gives it. It stops before an impact :meth:`solve` must take (Radau IIA, an
+        edge's admittance) and takes none where the compiled series does not serve (a shell law,
+        no plate): :attr:`DropImpacts.end` is then ``"handed-over"``."""
         # as solve() takes them: the automatic choice of integrator at a position
         method = self.method if position is None else "auto"
         if self.shell is not None or method == "Radau" or self.plate is None:
@@ -681,15 +646,10 @@ class ContactSolver:
         position=None,
         free_velocity: float = 0.0,
     ) -> ImpactResult:
-        """The impact at ``speed`` (m/s, downward).
-
-        The plate's admittance at the impact point is ``admittance`` (m/(N s)) if
-        given; else, with ``position`` (m from a plate corner), the position-dependent
-        admittance near free edges (:func:`synth.physics.impedance.point_admittance`,
-        solved together with the contact time); else the infinite plate's.
-        ``free_velocity`` is the plate surface's velocity before the impact, m/s,
-        positive upward.
-        """
+        """The impact at ``speed`` (m/s, downward). The admittance is ``admittance`` (m/(N s)) if
+        given; else, with ``position`` (m from a corner), the one near free edges
+        (:func:`synth.physics.impedance.point_admittance`); else the infinite plate's.
+        ``free_velocity``: the surface's velocity before the impact, m/s, positive upward."""
         v = (
             speed
             if type(speed) is float and 0.0 < speed < _INF

@@ -345,23 +345,14 @@ CONTACT_LAWS = (
 )  # fmt: skip
 #: The contact laws' parameters (fields of :class:`Contact`).
 LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_depth")
-#: The two surfaces in the contact: isotropic elastic half-spaces without loss ("ideal", the
-#: thesis' model), isotropic with each material's published loss factor ("material",
-#: :func:`synth.physics.contact_law.material_viscous_time`), the plate material's surface fitted
-#: to measurements (:class:`synth.physics.materials.ContactSurface`) with the ball's loss
-#: ("fitted"), or "auto": the fitted one where the material has one, else "material"
-#: (:func:`synth.physics.contact_law.resolved_surface`).
+#: The two surfaces in the contact (:class:`Contact`'s ``surface``;
+#: :func:`synth.physics.contact_law.resolved_surface` resolves "auto").
 SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
-#: The plate in the contact: its impedance, its modes, or "auto": the modes where they change
-#: the first impact by more than the modal contact's tolerance (near an edge or a corner, on a
-#: small plate), the impedance elsewhere (:mod:`synth.physics.plate_choice`).
+#: The plate in the contact (:class:`Contact`'s ``plate``; :mod:`synth.physics.plate_choice`).
 PLATE_MODELS = ("impedance", "modal", "auto")
-#: Named contact models: (law, plate, surface). "measured": the model closest to measurement
-#: at the impedance model's speed (the fitted surface where the material has one, every
-#: material's published loss elsewhere, the modes only where they matter); "fitted": the
-#: fitted surface with the finite plate's modes in every contact (their ringing carried from
-#: bounce to bounce); "thesis": the thesis' model (lossless Hertz on an isotropic half-space,
-#: the plate as its impedance).
+#: Named contact models, (law, plate, surface), below: "measured" the closest to measurement
+#: at the impedance model's speed, "fitted" the fitted surface with the modes in every
+#: contact, "thesis" the thesis' model (lossless Hertz, the plate as its impedance).
 #: The contact model of a :class:`Contact` that names none: the one closest to measurement.
 DEFAULT_CONTACT_MODEL = "measured"
 #: The modal plate's theory of a :class:`Contact` that names none.
@@ -385,51 +376,34 @@ class Contact:
     dissipation : float > 0, optional
         Hunt-Crossley damping ``mu``, s/m (only with "hunt-crossley").
     viscous_time : float > 0, optional
-        Dissipative time ``A`` of the viscoelastic Hertz contact, s (only with
-        "viscoelastic"; on either plate).
+        Dissipative time ``A`` of the viscoelastic Hertz contact, s (only with "viscoelastic").
     exponent : float in (1, 4], optional
         Power-law exponent ``n`` (only with "power-law").
     stiffness : float > 0, optional
         Power-law constant ``K_n``, N/m^n (only with "power-law").
     layer_depth : float > 0, optional
-        Winkler layer depth, metres (only with "elastic-foundation"; default the
-        plate thickness).
+        Winkler layer depth, m (only with "elastic-foundation"; default the plate thickness).
     rtol : float in [1e-12, 0.1]
-        Relative accuracy of each impact's restitution and contact time. The default,
-        1e-9, is tighter than :func:`synth.solve_impact`'s 1e-6 because a scene strings
-        impacts together: timing errors add up along the series (the n-th impact's time
-        carries about ``rtol`` times the time elapsed), and they show as phase errors at
-        high frequencies (``synth bench render``: 1e-6 gives -49 dB, 1e-9 gives -96 dB
-        against a reference render, at the same cost).
+        Relative accuracy of each impact's restitution and contact time. The default, 1e-9,
+        is tighter than :func:`synth.solve_impact`'s because timing errors add up along a
+        series of impacts and show as phase errors at high frequencies (``synth bench render``).
     plate : {"impedance", "modal", "auto"}
-        The plate in the contact: "impedance" (the infinite plate's impedance, blended towards
-        measured values near free edges), "modal" (the finite plate's modes in
-        the contact, their ringing carried from impact to impact:
-        :mod:`synth.physics.modal_contact`; its accuracy is set by its band and steps, not by
-        ``rtol``) or "auto" (the modes where the edges' reflections change the first impact
-        by more than the modal contact's tolerance, the impedance elsewhere, the default:
-        :mod:`synth.physics.plate_choice`).
+        The plate in the contact: the infinite plate's impedance, the finite plate's modes
+        (:mod:`synth.physics.modal_contact`, accuracy set by its band and steps), or "auto"
+        (the default: the modes where the edges change the first impact beyond the modal
+        contact's tolerance; :mod:`synth.physics.plate_choice`).
     surface : {"ideal", "material", "fitted", "auto"}
-        The two surfaces in the contact: "ideal" (isotropic elastic half-spaces without loss,
-        the thesis' model), "material" (law "hertz" only: each material's published loss
-        factor as a viscoelastic loss, :func:`synth.physics.contact_law.material_viscous_time`),
-        "fitted" (law "hertz" only: the plate material's through-thickness modulus and
-        contact loss fitted to measurements, :class:`synth.physics.materials.ContactSurface`,
-        with the ball's loss) or "auto" (the default: "fitted" for the Hertz law where the
-        material has a fitted surface, else "material"; "ideal" for the other laws).
+        The surfaces: "ideal" (lossless elastic half-spaces, the thesis' model), "material"
+        (Hertz only: each material's published loss factor as a viscoelastic loss), "fitted"
+        (Hertz only: the plate's fitted :class:`synth.physics.materials.ContactSurface`) or
+        "auto" (default: "fitted" where the material has one, else "material"; "ideal" for the
+        other laws).
     model : {"measured", "thesis", "fitted"}, optional
-        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`):
-        "measured" (the default) the model closest to measurement at the impedance model's
-        speed, "thesis" the thesis' model (to reproduce its figures), "fitted" the finite
-        plate in every contact with the fitted surface. Those three keys default to the
-        model's; any of them given explicitly takes precedence (e.g. ``model="fitted",
-        plate="impedance"``: the fitted surface on the impedance plate).
+        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`; default
+        "measured"); any of those keys given explicitly takes precedence.
     theory : {"kirchhoff", "mindlin"}, optional
-        The plate theory of the modal plate (``plate="modal"`` only;
-        :func:`synth.physics.modal_contact.modal_point`): "kirchhoff" (thin plate, the
-        default) or "mindlin" (shear deformation and rotary inertia, with the plate
-        material's transverse shear modulus).
-    """
+        Plate theory of the modal plate (``plate="modal"`` only): thin plate (default) or
+        shear deformation and rotary inertia."""
 
     law: str | None = None
     dissipation: float | None = None

@@ -20,28 +20,12 @@ from synth.physics.scene import Accelerometer, Microphone
 
 
 def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
-    """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone,
-    for the ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact.
-
-    A mode rings only after its impact, so a plate element at distance ``R`` is heard
-    from ``R / c`` on: the Rayleigh integral's exact gain at the pole, ``H_k(p_k)``,
-    holds only once every element has been heard, and it weights an element by
-    ``exp(sigma_k (R - R0) / c)``, the mode's amplitude when that element's sound set
-    out: for strongly damped modes and large plates (1 / sigma_k shorter than the
-    spread of arrival times), a growth of many orders of magnitude that the early
-    samples would carry. Instead each mode gets the one complex gain that makes its
-    ringing ``G_k exp(p_k t)``, from the first arrival ``R0 / c`` on (``R0`` the
-    distance to the nearest point of the plate), closest in the least-squares sense to
-    the causal pressure: the projection of ``Int W(tau) exp(p (t - tau)) [t > tau] dtau``
-    (``W`` the arrival-time density of ``phi_k / R``) on ``exp(p t)``, which is
-
-        G_k = (rho p_k / 2 pi) Int phi_k exp(-(sigma_k + i omega_k) (R - R0) / c) / R dA
-            = H_k(s'_k) p_k / s'_k,      s'_k = sigma_k + i omega_k = -conj(p_k),
-
-    the Rayleigh gain at the mirror pole: every element weighted by ``exp(-sigma_k (R -
-    R0) / c) <= 1`` (so ``|G_k|`` never exceeds the in-phase bound), and equal to
-    ``H_k(p_k)`` for a lightly damped mode (``sigma_k (R - R0) / c << 1``). Cached: see
-    :func:`synth.sound.radiation.plate_gains`.
+    """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone, for the
+    ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact: the least-squares fit
+    of the causal pressure from the first arrival ``R0 / c`` on, the Rayleigh gain at the
+    mirror pole ``G_k = H_k(s'_k) p_k / s'_k``, ``s'_k = -conj(p_k)`` (docs/physics.md,
+    "Radiation"), which weights every element by ``exp(-sigma_k (R - R0) / c) <= 1`` instead
+    of the exact pole gain's anti-causal growth. Cached (:func:`synth.sound.radiation.plate_gains`).
     """
     from synth.sound.radiation import plate_gains
 
@@ -209,13 +193,9 @@ class ModalModel:
         return phi / np.asarray(self.modes.modal_masses, dtype=float)[self.rendered]
 
     def heard_by(self, listener, grid=None) -> ModalModel:
-        """The same modes heard by another ``listener`` (an Accelerometer or a
-        Microphone of the same plate), as :func:`modal_model` computes them. With
-        ``grid`` (:func:`listener_grid` of this model) a microphone it serves (at least
-        its height above the plate) takes its gains from it: the sums alone, no shape
-        evaluated (see :mod:`synth.sound.radiation.fixed`); any other listener is
-        computed as :func:`modal_model` does (a microphone's gains by
-        :func:`synth.sound.radiation.plate_gains`, cached)."""
+        """The same modes heard by another ``listener`` of the same plate, as :func:`modal_model`
+        computes them; with ``grid`` (:func:`listener_grid`) a microphone it serves takes its
+        gains from the grid's sums (:mod:`synth.sound.radiation.fixed`)."""
         modes = self.modes
         plate = modes.plate
         sigma, omega, wd = _mode_rates(modes)
@@ -271,16 +251,10 @@ def modal_model(
     radiation_max_points: int | None = None,
 ) -> ModalModel:
     """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
-    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist;
-    a mode at or above Nyquist is never rendered). Plate modes and microphone gains come
-    from their caches when present.
-
-    A mode with sigma >= omega is overdamped: it does not ring (possible only for a loss
-    factor >= 2, or a Rayleigh law far outside any material's range); it is left out and
-    counted. ``radiation_max_points``: the most points of one rule of a microphone's
-    sums (:attr:`synth.cost.RadiationWork.max_points`: where the budget stops the
-    refinement; None: the sums' own default).
-    """
+    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist),
+    from the caches when present. Overdamped modes (sigma >= omega) do not ring: left out and
+    counted. ``radiation_max_points``: the most points of one rule of a microphone's sums
+    (where the budget stops the refinement; None: the sums' default)."""
     fs = samplerate
     f_max = 0.5 * fs if max_frequency is None else max_frequency
     modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
@@ -306,12 +280,9 @@ def _mode_rates(modes):
 
 
 def listener_grid(model: ModalModel, max_bytes: int | None = None):
-    """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: its
-    microphone gains at any point at least
-    :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` above the plate at the cost of
-    the sums alone (:meth:`ModalModel.heard_by`); it keeps the modes' shapes on its grids
-    (:attr:`~synth.sound.radiation.fixed.ListenerGrid.nbytes`; a
-    :class:`~synth.sound.radiation.fixed.GridTooLarge` error beyond ``max_bytes``, bytes,
+    """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: microphone
+    gains at any point at least ``NEAR_FIELD_HEIGHT`` above the plate at the cost of the sums
+    alone; :class:`~synth.sound.radiation.fixed.GridTooLarge` beyond ``max_bytes`` (bytes,
     default :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`)."""
     from synth.sound.radiation.fixed import ListenerGrid
 

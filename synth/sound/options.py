@@ -1,13 +1,10 @@
 """The render options, declared once: :class:`RenderOptions`.
 
-Each option is a field of the frozen dataclass with its type, default, unit, the values
-allowed and a one-line doc (:class:`Option`, in the field's metadata). The three front ends
-read them from here: :func:`synth.render` takes them as keywords (its signature and the
-options' part of its docstring are generated from the fields), a preset's ``[render]``
-table holds them (with ``subtype``, the output file's format), and ``synth render`` has a
-flag for each (:func:`add_option_flags`). Constructing a ``RenderOptions`` is the one check:
-a bad value is a :class:`~synth.errors.ParameterError` naming the option, its value and what
-is allowed.
+Each option is a field of the frozen dataclass with its type, default, unit, values
+allowed and a one-line doc (:class:`Option`). :func:`synth.render`'s signature and docstring,
+a preset's ``[render]`` table and ``synth render``'s flags (:func:`add_option_flags`) are
+made from them; constructing a ``RenderOptions`` is the one check, a bad value a
+:class:`~synth.errors.ParameterError` naming the option, its value and what is allowed.
 """
 
 from __future__ import annotations

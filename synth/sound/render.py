@@ -1,12 +1,10 @@
 """Render a scene: bounces -> plate modes -> exact modal synthesis -> level.
 
-``render(scene, samplerate=48000)`` returns a :class:`~synth.sound.result.Render` with the
-audio (float32), the impacts (times from release) with their onsets in the audio, and its
-:class:`~synth.sound.result.RenderInfo` (the options used, what the engine left out). Its
-signal is what the scene's listener picks up (:mod:`synth.sound.listener`): plate
-acceleration (m/s^2) for an :class:`~synth.physics.scene.Accelerometer`, sound pressure (Pa)
-for a :class:`~synth.physics.scene.Microphone` above the baffled plate, scaled by the level
-stage (``normalize``). The options are :class:`~synth.sound.options.RenderOptions`.
+``render(scene, samplerate=48000)`` returns a :class:`~synth.sound.result.Render`: the
+audio (float32), the impacts with their onsets, and its
+:class:`~synth.sound.result.RenderInfo`. The signal is what the scene's listener picks up
+(:mod:`synth.sound.listener`): plate acceleration (m/s^2) for an Accelerometer, sound
+pressure (Pa) for a Microphone above the baffled plate, scaled by ``normalize``.
 """
 
 from __future__ import annotations

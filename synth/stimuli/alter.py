@@ -1,14 +1,11 @@
 """Alter a recorded bouncing sound: the thesis' restitution change (section 5.2.2).
 
-Every bounce's restitution is changed by one factor ``k`` on ``1 - e``:
-``1 - e'_n = k (1 - e_n)``, the new bounce times ``T'_n = e'_n T'_(n-1)`` from the first.
-Each tick's own sound (what an all-pole continuation of the recording from just before it
-does not explain) is re-laid at its new onset; lengthened bounces are filled with the
-decaying continuation plus the recording's background noise, never silence. The method,
-its constants and its limits: docs/analysis.md, "Altering a recording".
-
-This module holds the rule and its checks (:func:`alter_restitution`); the prediction
-models are in :mod:`synth.stimuli.prediction` and the splicing of a channel in
+Every restitution is changed by ``1 - e'_n = k (1 - e_n)``, the new bounce times
+``T'_n = e'_n T'_(n-1)``. Each tick's own sound (what an all-pole continuation of the
+recording from just before it does not explain) is re-laid at its new onset; lengthened
+bounces are filled with the decaying continuation plus the recording's background noise.
+The method, constants and limits: docs/analysis.md, "Altering a recording". The prediction
+models are in :mod:`synth.stimuli.prediction`, a channel's splicing in
 :mod:`synth.stimuli.splice`.
 """
 
@@ -115,24 +112,12 @@ def _check_one_series(t: np.ndarray) -> None:
 
 @dataclass(frozen=True)
 class AlterOptions:
-    """How :func:`alter_restitution` re-lays the ticks and sets the output's level; checked
-    when made.
-
-    Attributes
-    ----------
-    scale_amplitude : bool
-        Scale each tick's own sound by its new impact speed over its old one.
-    min_bounce : float > 0, optional
-        Shortest new bounce time, s: the series ends before a shorter one. Default: the
-        shortest bounce of the recording. At least 2 sample periods.
-    normalize : {"none", "peak"}
-        ``"none"``: the recording's units and level (a louder tick may exceed full
-        scale); ``"peak"``: the largest sample put at ``peak_db`` dBFS.
-    peak_db : float <= 0
-        dBFS, for ``"peak"``.
-    seed : int >= 0
-        Seed of the synthesised background noise (the output is reproducible).
-    """
+    """How :func:`alter_restitution` re-lays the ticks and sets the output's level; checked when
+    made. ``scale_amplitude``: scale each tick's own sound by its new impact speed over its old
+    one; ``min_bounce`` (s, at least 2 sample periods; default the recording's shortest
+    bounce): the series ends before a shorter bounce; ``normalize``: "none" (the recording's
+    units and level) or "peak" (the largest sample at ``peak_db`` dBFS, <= 0); ``seed`` (>= 0)
+    of the synthesised background noise, so the output is reproducible."""
 
     scale_amplitude: bool = True
     min_bounce: float | None = None
@@ -159,22 +144,10 @@ class AlterOptions:
 
 @dataclass(frozen=True)
 class Alteration:
-    """The result of :func:`alter_restitution`.
-
-    Attributes
-    ----------
-    audio : ndarray
-        The altered audio (float64, the recording's channels, in its units unless
-        ``normalize="peak"``).
-    onsets : ndarray
-        The new onsets of the ticks kept, s (``M`` of them: all, unless the series ended
-        early).
-    restitution : ndarray
-        The measured restitutions ``e_n`` (``N - 2`` for ``N`` onsets), dimensionless.
-    new_restitution : ndarray
-        The new ones between the ticks kept (``M - 2``), so that
-        ``new_restitution == 1 - k (1 - restitution[:M - 2])``.
-    """
+    """The result of :func:`alter_restitution`: ``audio`` (float64, the recording's channels and
+    units unless ``normalize="peak"``); ``onsets``, s, of the ``M`` ticks kept; ``restitution``,
+    the ``N - 2`` measured ``e_n`` of ``N`` onsets; ``new_restitution``, the ``M - 2`` new ones,
+    ``1 - k (1 - restitution[:M - 2])``."""
 
     audio: np.ndarray
     onsets: np.ndarray

@@ -167,24 +167,10 @@ def _predict(a, past, n):
 
 
 def extend(x, n, samplerate, *, context=CONTEXT, order=ORDER):
-    """Continue ``x`` by ``n`` samples by linear prediction (the model of the module
-    docstring, fitted on the last ``context`` s of ``x`` with ``order`` s of past).
-    Returns the ``n`` new samples.
-
-    Parameters
-    ----------
-    x : array of float, (frames,)
-        A tail (a sum of decaying modes, no attack), any units.
-    n : int >= 0
-        Samples to add.
-    samplerate : float > 0
-        Hz.
-    context, order : float > 0
-        s.
-
-    The continuation is exact for a sum of at most ``order * samplerate / 2`` decaying
-    sinusoids (1e-9 for two); a rendered tick of the default scene is continued to 1e-3
-    over 30 ms from its tail 100 ms after the onset."""
+    """Continue ``x`` (a tail of decaying modes, any units, (frames,)) by ``n`` samples by linear
+    prediction, the model fitted on the last ``context`` s of ``x`` with ``order`` s of past
+    (``samplerate`` in Hz). Exact for a sum of at most ``order * samplerate / 2`` decaying
+    sinusoids. Returns the ``n`` new samples."""
     fs = checks.positive("samplerate", samplerate, "Hz")
     ctx = checks.positive("context", context, "s")
     od = checks.positive("order", order, "s")

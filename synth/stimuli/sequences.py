@@ -1,16 +1,8 @@
-"""Perception stimuli: bouncing sounds whose parameters are varied on purpose while the
-rest stays physical (the thesis, docs/physics.md, References, section 5.2).
-
-* :func:`scaled_sequence`: restitution changed by the thesis' rule ``1 - e' = k (1 - e)`` for
-  every tick, each impact still solved physically at its own speed (the tick keeps the
-  physics of its spectrum; only the timing and the speeds follow ``e'``).
-* :func:`mismatch_sequence`: the timing (impact times and speeds) of one scene with the
-  ticks of another: each impact of the timing scene is solved again with the other scene's
-  ball, plate and contact at the same speed and time (the "physical mismatch" stimuli the
-  thesis proposes: a large ball's rhythm with a small ball's clicks, and so on).
-
-Render either with :func:`synth.sound.render.render` (``sequence=``) using the scene whose plate
-and listener should be heard.
+"""Perception stimuli: bouncing sounds whose parameters are varied on purpose while the rest
+stays physical (the thesis, section 5.2): :func:`scaled_sequence` (restitution changed by
+``1 - e' = k (1 - e)``, each impact still solved at its own speed) and
+:func:`mismatch_sequence` (one scene's impact times and speeds with another's ticks).
+Render either with :func:`synth.sound.render.render` (``sequence=``).
 """
 
 from __future__ import annotations
@@ -67,14 +59,10 @@ def scaled_sequence(scene: Scene, restitution_scale: float, **options) -> Bounce
 def mismatch_sequence(
     timing_scene: Scene, spectrum_scene: Scene, *, restitution_scale: float = 1.0, **options
 ) -> BounceSequence:
-    """Impact times and speeds of ``timing_scene``, contacts of ``spectrum_scene``.
-
-    Each impact keeps its time (s from release) and speed (m/s) from ``timing_scene``
-    (with its restitution scaled by ``restitution_scale``, as in
-    :func:`scaled_sequence`); its contact (pulse, contact time) is solved with
-    ``spectrum_scene``'s ball, plate, impact point, gravity and contact model at that
-    speed. ``options`` go to the timing scene's :func:`synth.simulate_bounces`.
-    """
+    """Impact times (s from release) and speeds (m/s) of ``timing_scene`` (its restitution
+    scaled by ``restitution_scale``), each contact solved with ``spectrum_scene``'s ball,
+    plate, point, gravity and contact model at that speed; ``options`` go to the timing
+    scene's :func:`synth.simulate_bounces`."""
     for name, s in (("timing_scene", timing_scene), ("spectrum_scene", spectrum_scene)):
         if not isinstance(s, Scene):
             raise ParameterError(f"{name}={s!r} must be a Scene")

@@ -76,17 +76,12 @@ def temporary_sibling(
     field: str = "path",
     suffix: str | None = None,
 ) -> Iterator[Path]:
-    """Create (exclusively) an empty hidden file beside ``path`` and yield its path; on
-    leaving, remove it unless it was renamed away meanwhile.
-
-    The removal covers every way out, also an exception raised between the file's creation
-    and the ``with`` block (a signal handler's, at any bytecode): the name is chosen first
-    and removed by name, which is safe because it carries this process's id and a random
-    part (:func:`temporary_name`). Its name keeps ``path``'s suffix (or ends in ``suffix``)
-    so that writers that choose the format by suffix still work; stale temporaries of
-    killed writers there are removed first. ``error`` is the exception class raised,
-    naming ``field`` and ``path``, when no file can be created there.
-    """
+    """Create (exclusively) an empty hidden file beside ``path`` and yield its path; on leaving,
+    remove it unless it was renamed away, on every way out (the name carries this process's id
+    and a random part, :func:`temporary_name`). It keeps ``path``'s suffix (or ``suffix``) for
+    writers that choose the format by suffix; stale temporaries of killed writers there are
+    removed first. ``error``, naming ``field`` and ``path``, is raised when no file can be
+    created there."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(folder)

@@ -1,22 +1,11 @@
 """The output stage: levels, fades and audio files (WAV, FLAC) via soundfile.
 
-Audio arrays are ``(frames,)`` or ``(frames, channels)`` floats, as soundfile
-and sounddevice take them; ``samplerate`` is always an explicit argument, Hz.
-
-Levels (:func:`normalize`) map the physical signal (pascals from a microphone,
-m/s^2 from an accelerometer) to digital full scale, ``audio = signal * gain``:
-
-* ``"peak"``: the largest sample is put at ``peak_db`` dBFS;
-* ``"loudness"``: the integrated loudness of ITU-R BS.1770 is put at
-  ``loudness_lufs`` (needs the optional ``pyloudnorm``);
-* ``"physical"``: one fixed calibration for every scene,
-  :data:`PHYSICAL_FULL_SCALE`, so that renders keep their true level relation
-  (what a sound bank needs);
-* ``"none"``: gain 1, the physical units themselves.
-
-Files are never left half written: :func:`write_audio` writes a temporary file
-beside the target and renames it into place only once it is complete, and it
-refuses to let a PCM subtype clip.
+Audio arrays are ``(frames,)`` or ``(frames, channels)`` floats; ``samplerate`` is always
+explicit, Hz. :func:`normalize` maps the physical signal (Pa or m/s^2) to full scale by
+"peak", "loudness" (ITU-R BS.1770, optional ``pyloudnorm``), "physical" (one fixed
+calibration, :data:`PHYSICAL_FULL_SCALE`, keeping true level relations) or "none".
+:func:`write_audio` writes a temporary file and renames it into place, and refuses to let
+a PCM subtype clip.
 """
 
 from __future__ import annotations
@@ -192,11 +181,8 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
 def write_audio(
     path: str | os.PathLike, audio: np.ndarray, samplerate: int, subtype: str | None = None
 ) -> Path:
-    """Write audio to a WAV or FLAC file, chosen by the file suffix.
-
-    The file is first written to a temporary file in the same directory and then
-    renamed onto ``path``, so a failure never leaves a partial or corrupt file and
-    an existing file at ``path`` is untouched unless the write succeeds.
+    """Write audio to a WAV or FLAC file, chosen by the file suffix, through a temporary
+    file renamed onto ``path`` (a failure leaves no partial file and ``path`` untouched).
 
     Parameters
     ----------

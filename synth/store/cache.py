@@ -1,29 +1,14 @@
 """Caches of expensive results (plate modes, radiation gains): in memory and on disk.
 
-A :class:`MemoryCache` holds results under a key (a canonical JSON string of everything
-that determines them), drops the least recently used beyond an entry count or a size in
-bytes, and counts its traffic; it is thread-safe.
-
-On disk, results are ``.npz`` files in :func:`cache_dir`, named by a digest of the key.
-The disk cache is shared by every process of the machine (a sound bank's workers, several
-``synth`` commands), so:
-
-* :func:`savez_atomic` writes each entry to a temporary file of a unique name and renames
-  it into place (:func:`synth.store.atomic.write_atomically`; ``os.replace`` is atomic): two
-  processes filling the same entry at once both succeed, the last rename wins, and a
-  reader never sees a partial file;
-* every entry stores the SHA-256 of its arrays (names, dtypes, shapes and bytes), and
-  :func:`load_npz` returns the arrays only when it matches, so an altered or damaged file
-  is recomputed (the callers also check the stored key and the arrays' consistency);
-* the total size is bounded (:func:`max_bytes`, ``$SYNTH_CACHE_MAX_BYTES``, default
-  :data:`DEFAULT_MAX_BYTES`): the least recently used entries are evicted, "used" being
-  the file's modification time, which :func:`load_npz` refreshes. A process counts what it
-  writes and scans the directory (a cost that grows with the number of entries) only when
-  its count passes the bound or is older than :data:`RESCAN_SECONDS`, so a write costs the
-  same in a cache of ten entries or of ten thousand; other processes' writes are seen at
-  the next scan.
-
-:func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and ``synth cache clear``.
+:class:`MemoryCache` holds results under a key (canonical JSON of everything that
+determines them), least recently used dropped first; thread-safe. On disk, ``.npz`` files
+in :func:`cache_dir` named by the key's digest, shared by every process of the machine:
+written atomically (:func:`savez_atomic`), each with the SHA-256 of its arrays checked by
+:func:`load_npz` (a damaged file is recomputed), the total bounded by :func:`max_bytes`
+(``$SYNTH_CACHE_MAX_BYTES``), evicting by modification time; a process rescans the
+directory only past the bound or after :data:`RESCAN_SECONDS`, so a write costs the same
+in any cache. :func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and
+``synth cache clear``.
 """
 
 from __future__ import annotations
@@ -325,20 +310,10 @@ def clear_disk() -> tuple[int, int]:
 
 
 class MemoryCache:
-    """Results held in memory under their keys, least recently used dropped first.
-
-    Parameters
-    ----------
-    computed : str
-        Name of the counter of results computed (``"solves"``, ``"computations"``).
-    max_entries : int or None
-        Most results held.
-    max_bytes : int or None
-        Most bytes held, by ``value.nbytes`` (the newest result is always kept).
-
-    Counters (:meth:`info`): the computed ones, ``memory_hits``, ``disk_hits``,
-    ``disk_writes``, and ``entries`` (results held).
-    """
+    """Results held in memory under their keys, least recently used dropped first beyond
+    ``max_entries`` or ``max_bytes`` (by ``value.nbytes``; the newest is always kept).
+    ``computed`` names the counter of results computed (``"solves"``, ``"computations"``);
+    :meth:`info` gives it, ``memory_hits``, ``disk_hits``, ``disk_writes`` and ``entries``."""
 
     def __init__(
         self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None

@@ -1,17 +1,9 @@
 """Encoded audio whose bytes depend only on its samples and a chosen identity.
 
-Two encoders put a varying field into otherwise deterministic files:
-
-* libsndfile writes a ``PEAK`` chunk into WAV files of floating-point samples, and that
-  chunk carries the time of writing (a 32-bit timestamp, RIFF ``PEAK`` chunk: version,
-  timestamp, then a value and a position per channel);
-* an Ogg stream carries a serial number (RFC 3533, section 6: bytes 14-17 of every
-  page header) that libsndfile draws at random for each file, and every page's CRC-32
-  (bytes 22-25, polynomial 0x04C11DB7, initial value 0, not reflected, computed over
-  the page with the CRC field zeroed) covers it.
-
-:func:`reproducible` sets the timestamp to 0 and the serial to a given number (its page
-checksums recomputed), so that encoding the same samples twice gives the same bytes.
+libsndfile writes a time stamp into a float WAV's ``PEAK`` chunk and a random serial into
+an Ogg stream (RFC 3533, section 6: bytes 14-17 of every page header, covered by the page's
+CRC-32, polynomial 0x04C11DB7); :func:`reproducible` zeroes the time stamp and sets the
+serial to a given number (checksums recomputed), so the same samples give the same bytes.
 """
 
 from __future__ import annotations

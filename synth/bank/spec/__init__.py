@@ -1,21 +1,14 @@
-"""Bank specs: a TOML file describing many variations of one preset, and their plan.
+"""Bank specs: a TOML file describing many variations of one preset, and their plan
+(docs/banks.md, "Every key of a spec").
 
-Every key of a spec (only ``preset`` is required), how its rows are drawn and named:
-docs/banks.md, "Every key of a spec". A variation's ranges come from its own generator
-``numpy.random.default_rng([seed, i])`` and its lists' combinations are drawn block by
-block (:class:`_ListDraws`), so a row does not depend on the count or on the rows after
-it: raising ``count`` adds rows. ``restitution_scale`` is the one key that is not a preset
-key: the impacts are :func:`synth.stimuli.sequences.scaled_sequence` of the scene (thesis
-section 5.2.2). Tags, labels, the preset's name and the name template change no sound: a
-bank resumes across a change of them (:func:`compared_form`).
-
-A spec that cannot be run is a :class:`BankSpecError` naming the key, its value and what is
-allowed, raised before any work (the first scene is built too).
-
-Modules: :mod:`~synth.bank.spec.model` (the record, its keys and forms),
-:mod:`~synth.bank.spec.loading` (reading and checking a spec),
-:mod:`~synth.bank.spec.sampling` (its variations), :mod:`~synth.bank.spec.naming` (labels
-and file names) and :mod:`~synth.bank.spec.planning` (the plan).
+Each row's ranges come from its own generator ``numpy.random.default_rng([seed, i])`` and
+list combinations are drawn block by block (:class:`_ListDraws`), so raising ``count`` only
+adds rows. ``restitution_scale`` scales the impacts
+(:func:`synth.stimuli.sequences.scaled_sequence`); tags, labels, the preset's name and the
+name template change no sound (:func:`compared_form`). A spec that cannot be run is a
+:class:`BankSpecError` naming the key, its value and what is allowed, before any work.
+Modules: :mod:`~.model`, :mod:`~.loading`, :mod:`~.sampling`, :mod:`~.naming`,
+:mod:`~.planning`.
 """
 
 from __future__ import annotations

@@ -65,19 +65,13 @@ def _lhs_fraction(spec: BankSpec, number: int, size: int, index: int, rng) -> np
 
 
 class _ListDraws:
-    """The values of the list axes of the rows with ``count``, drawn without replacement
-    over their combinations: the product of the lists, ``total`` combinations numbered
-    as in the grid (the first list axis varying slowest).
-
-    With ``total`` <= :data:`PERMUTED_COMBINATIONS`, rows ``k total .. k total + total - 1``
-    (block ``k``) take the combinations in the order of a permutation drawn from
-    ``default_rng([seed, a, b, ..., k, 1])`` (``a, b, ...``: the list axes' positions in
-    ``[vary]``), so every combination comes once per block and a row depends on its index
-    alone; with one list axis these are plan 2's draws. With more combinations than that
-    (a count, at most :data:`MAX_ROWS`, never fills a block), row ``i`` draws a combination
-    from ``default_rng([seed, a, b, ..., i, 3])`` (each axis uniformly) until it finds
-    one no earlier row has: it depends on its index and the rows before it. Either way a
-    larger count keeps the first rows."""
+    """The values of the list axes of the rows with ``count``, drawn without replacement over
+    their ``total`` combinations (numbered as in the grid, the first list axis slowest). With
+    ``total`` <= :data:`PERMUTED_COMBINATIONS`, block ``k`` of ``total`` rows takes them in the
+    order of a permutation from ``default_rng([seed, a, b, ..., k, 1])`` (``a, b, ...`` the list
+    axes' positions in ``[vary]``), so a row depends on its index alone; with more, row ``i``
+    draws from ``default_rng([seed, a, b, ..., i, 3])`` until it finds a combination no earlier
+    row has. Either way a larger count keeps the first rows."""
 
     def __init__(self, spec: BankSpec):
         self.axes = [a for a in spec.axes if isinstance(a, ListAxis)]

@@ -1,29 +1,14 @@
-"""numba kernels of the contact solver (private to synth.physics.contact), by stage.
+"""numba kernels of the contact solver (private to synth.physics.contact), by stage, for the
+dimensionless equations of docs/physics.md, "Hertz contact": ``equations`` (the equations,
+Jacobian, settling test, status codes); ``series`` (the start of contact as a series in s
+and s^n); ``dop853`` (DOP853, Hairer, Norsett & Wanner, "Solving ODEs I", II.10, non-stiff);
+``radau`` (Radau IIA of order 5, Hairer & Wanner, "Solving ODEs II", IV.8, stiff);
+``dense`` (the steps' dense output: end of contact, peaks, the sampled pulse); ``outcome``
+(one impact's result array ``R_*``); here the drivers: ``impact``, ``impacts_explicit``
+(a drop's impacts in one compiled loop), ``pulse`` and ``force_slope_at``.
 
-They integrate the dimensionless contact equations of docs/physics.md, "Hertz contact"
-for one impact, from first touch to separation or settling:
-
-- ``equations.py``: the equations, the force, right-hand side and Jacobian, the settling
-  test, the status codes;
-- ``series.py``: the start of contact as a series in s and s^n (x^n is not smooth at
-  x = 0; in s^(1/2) for the viscoelastic loss), up to where the integrators take over;
-- ``dop853.py``: the explicit stepper (DOP853, Hairer, Norsett & Wanner, "Solving ODEs
-  I", II.10) for the non-stiff range;
-- ``radau.py``: the implicit stepper (Radau IIA of order 5, Hairer & Wanner, "Solving
-  ODEs II", IV.8) for the stiff range (lam >> 1);
-- ``dense.py``: the history of the steps with their dense output (row 0: the series),
-  on which the end of contact, the peak penetration and force are located and the
-  pulse is sampled;
-- ``outcome.py``: the result array of one impact (its fields ``R_*``) and the kernel that
-  fills it, shared with the thin shell's driver (``shell.py``);
-- here, the drivers that synth.physics.contact calls: ``impact`` (one impact from SI
-  parameters, by ``impacts_explicit`` or ``impact_implicit``), ``impacts_explicit`` (the
-  impacts of a drop, the bounce scheduler's loop compiled), ``pulse`` and
-  ``force_slope_at`` (the force from the dense output).
-
-numba's cache (``cache=True``) keys a kernel on its own file only: after editing one of
-these modules, clear the ``__pycache__`` folders so that the kernels calling it compile
-again.
+numba's cache keys a kernel on its own file: after editing one of these modules, clear the
+``__pycache__`` folders so that its callers compile again.
 """
 
 from __future__ import annotations
@@ -375,24 +360,17 @@ def impacts_explicit(
     m, K, beta, g, n, mu, A, v_free, rtol, auto, v1, t1, energy_floor, t_max, max_impacts,
     tau_edge, residual_limit,
 ):  # fmt: skip
-    """The impacts of a drop on the plate's impedance by DOP853, strung together by the
-    bounce scheduler's rules (:func:`bounce_end`) in one compiled call; one impact
-    (``max_impacts = 1``) is ``impact``'s explicit path, this kernel the one compiled entry
-    to the explicit solver (a second would compile all of it again).
+    """The impacts of a drop on the plate's impedance by DOP853, strung together by
+    :func:`bounce_end` in one compiled call (``max_impacts = 1``: ``impact``'s explicit path).
 
-    The first impact at ``v1`` (m/s) starts at ``t1`` (s); the ball's mass ``m`` (kg), the law
-    ``K``, ``n``, ``mu``, ``A``, the admittance ``beta``, ``v_free``, ``rtol`` and ``auto``
-    as in ``impact``; ``energy_floor``, ``t_max`` as in :func:`bounce_end`. The series is
-    handed over (``END_HANDED_OVER``) before an impact that Radau IIA must solve (``auto``)
-    or whose contact time reaches ``tau_edge`` (s: where the admittance near an edge takes
-    over); a contact whose energy residual exceeds ``residual_limit`` is a failure.
-
-    Returns ``(count, end, t, v, results, times, speeds, hists, rows)``: the impacts
-    solved, the index of :data:`BOUNCE_ENDS` that ended the series, the start (s) and speed
-    (m/s) of the impact handed over, the impacts' result arrays (fields
-    ``R_*``, ``(count, N_RESULT)``), starts (s) and speeds (m/s), their dense outputs one
-    after the other in ``hists``, impact ``i``'s in rows ``rows[i]:rows[i + 1]``.
-    """
+    The first impact at ``v1`` (m/s) starts at ``t1`` (s); ``m`` (kg), ``K``, ``n``, ``mu``,
+    ``A``, ``beta``, ``v_free``, ``rtol``, ``auto`` as in ``impact``; ``energy_floor``,
+    ``t_max`` as in :func:`bounce_end`. The series is handed over (``END_HANDED_OVER``) before
+    an impact Radau IIA must solve or whose contact time reaches ``tau_edge`` (s); an energy
+    residual above ``residual_limit`` is a failure. Returns ``(count, end, t, v, results,
+    times, speeds, hists, rows)``: impacts solved, the :data:`BOUNCE_ENDS` index, start (s) and
+    speed (m/s) of the impact handed over, result arrays ``(count, N_RESULT)``, starts (s),
+    speeds (m/s), and the dense outputs, impact ``i``'s in ``hists[rows[i]:rows[i + 1]]``."""
     # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
     # arrays of max_impacts rows would hold megabytes for a series of a few impacts
     capacity = min(max_impacts, 64)
@@ -457,23 +435,13 @@ def impacts_explicit(
 
 
 def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
-    """One impact from lumped parameters (SI units, checked by the caller).
-
-    Scales the equations of docs/physics.md, "Hertz contact" by Zener's time ``theta`` and
-    length ``theta v0`` (v0 = v_in + v_free, the approach speed in the plate's frame),
-    integrates them (``method``: AUTO picks Radau IIA above ``STIFF_LAMBDA`` and falls back
-    to it when DOP853 reaches ``EXPLICIT_STEP_LIMIT`` steps), and takes the energy balance
-    (docs/physics.md, "Hertz contact"; the contact's loss included). ``rtol`` is the
-    integrators' local tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one.
-
-    Returns ``(result, hist)``: ``result`` a float array of ``N_RESULT`` values whose
-    fields are named by the ``R_*`` indices above (flags and counts stored as
-    floats), ``hist`` the dense output that ``pulse`` and ``force_slope_at`` read.
-
-    The explicit and the implicit method are two kernels (:func:`impacts_explicit` of one
-    impact, ``impact_implicit``), chosen here, so that a scene compiles only the one it
-    uses.
-    """
+    """One impact from lumped parameters (SI units, checked by the caller): the equations scaled
+    by Zener's time ``theta`` and length ``theta v0`` (``v0 = v_in + v_free``), integrated by
+    DOP853 or Radau IIA (``method``: AUTO takes Radau above ``STIFF_LAMBDA`` or after
+    ``EXPLICIT_STEP_LIMIT`` explicit steps), with the energy balance. ``rtol`` is the local
+    tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one. Returns ``(result, hist)``: the
+    ``N_RESULT`` fields ``R_*`` and the dense output ``pulse`` and ``force_slope_at`` read. The
+    two methods are two kernels so a scene compiles only the one it uses."""
     if method != RADAU:
         announce("contact")
         count, _, _, _, results, _, _, hists, _ = impacts_explicit(

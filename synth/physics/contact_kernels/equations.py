@@ -1,31 +1,18 @@
 """The dimensionless contact equations, their force, Jacobian and settling test (numba).
 
-The equations of docs/physics.md, "Hertz contact" (the thesis, docs/physics.md, References,
-eq. 2.42 generalised to a power law, gravity, contact losses):
+The equations of docs/physics.md, "Hertz contact" (the thesis' eq. 2.42 with a power law,
+gravity and contact losses):
 
     x' = w - lam * f(x, w)          x = delta / (theta v0)   (penetration)
     w' = -f(x, w) + G               w = -v_rel / v0          (ball's downward speed)
     f  = x^n                        (Hertz n = 3/2, power law, elastic foundation n = 2)
-    f  = max(0, x^n + d(x) x')      (with a loss; d(x) = c x^n + b x^(1/2))
-       = max(0, (x^n (1 + c w) + b x^(1/2) w) / (1 + c lam x^n + b lam x^(1/2)))
+    f  = max(0, (x^n (1 + c w) + b x^(1/2) w) / (1 + c lam x^n + b lam x^(1/2)))  (losses)
 
-The damping d(x) holds both losses: Hunt-Crossley (c = mu v0, b = 0) and the viscoelastic
-Hertz contact (Kuwabara & Kono 1987; Brilliantov et al. 1996; n = 3/2, c = 0, b = (3/2) A /
-theta with the material's dissipative time A); the second form solves for f, which x'
-itself contains. With x(0) = 0, w(0) = 1, time s = t / theta, theta = (m / (K v0^(n-1)))^(1/(n+1)),
-lam = beta m / theta (Zener's inelasticity) and G = g theta / v0. Two more
-components carry the quadratures of the energy balance:
-
-    I2' = f^2                       (energy radiated into the plate: lam I2)
-    L'  = (f - x^n) x'              (the contact's loss, >= 0)
-
-Settling (gravity): with u = lam G - w, the function
-    W = u^2 / 2 + x^(n+1) / (n+1) - G x
-never increases (dW/ds = -lam (f - G)^2 - loss) and a separation needs
-W >= (lam G)^2 / 2 (x = 0 while moving apart). Once W falls below that value
-the ball can never leave the plate: it has settled. This test is exact.
-
-Also the status codes with which an integration ends (shared with synth.physics.contact).
+with Hunt-Crossley's ``c = mu v0`` and the viscoelastic ``b = (3/2) A / theta`` (Kuwabara &
+Kono 1987; Brilliantov et al. 1996), time ``s = t / theta``, ``lam = beta m / theta`` and
+``G = g theta / v0``; ``I2' = f^2`` and ``L' = (f - x^n) x'`` carry the energy balance.
+Settling is exact: ``W = u^2 / 2 + x^(n+1) / (n+1) - G x`` (``u = lam G - w``) never
+increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. Also the status codes.
 """
 
 from __future__ import annotations

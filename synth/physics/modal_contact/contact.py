@@ -456,16 +456,11 @@ class ModalContact:
 def next_touch(
     contact: ModalContact, state: PlateRinging, height: float, speed: float
 ) -> tuple[float, PlateRinging]:
-    """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at
-    which the ball, now at ``height`` (m, above the plate's rest position) moving up at
-    ``speed`` (m/s), meets the plate surface (which rings from ``state``), and the plate's
-    state then.
-
-    The surface moves by at most ``W = |x_res| + sum_k sqrt(q_k^2 + (v_k / omega_k)^2)`` (the
-    band's and the residual's lumped modes): the
-    search runs over the part of the flight where the ball is within ``W`` of the rest
-    position, in steps of an eighth of the shortest mode period, and closes the first sign
-    change of the gap to the time resolution of double precision
+    """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at which
+    the ball, at ``height`` (m above the plate's rest position) moving up at ``speed`` (m/s),
+    meets the surface ringing from ``state``, and the plate's state then. The search runs
+    where the ball is within the surface's largest excursion, in steps of an eighth of the
+    shortest period, and closes the first sign change to double precision
     (:func:`~synth.physics.modal_contact.kernels.first_touch`)."""
     p = contact.point
     g = contact.gravity

@@ -31,37 +31,14 @@ RESIDUAL_RATIO = 2.0 ** (1.0 / 3.0)
 
 @dataclass(frozen=True, eq=False)
 class ModalPoint:
-    """The finite plate as the contact sees it at one point (see the docstring of
-    :mod:`synth.physics.modal_contact`).
-
-    Attributes
-    ----------
-    plate : Plate
-    position : (float, float)
-        The point, metres from a plate corner.
-    max_frequency : float
-        Band limit of the modes, Hz (``Omega = 2 pi max_frequency``).
-    omega : ndarray
-        Natural angular frequencies of the bending modes in the band, rad/s.
-    sigma : ndarray
-        Their amplitude decay rates, 1/s.
-    coupling : ndarray
-        ``c_k = phi_k(x0)^2 / M_k``, 1/kg.
-    rigid_coupling : float
-        ``c_rigid`` of the free plate's rigid-body motion at the point, 1/kg (0 for
-        supported and clamped plates).
-    residual_admittance : float
-        The residual's tail ``beta_W``: the infinite plate's ``Re Y`` at the top ``W`` of
-        the lumped modes, m/(N s).
-    residual_rate : float
-        The tail's ``a = pi W / 2``, 1/s.
-    theory : str
-        The plate theory of the modes and residual: "kirchhoff" (thin plate) or "mindlin"
-        (shear deformation and rotary inertia, :func:`modal_point`).
-    residual_omega, residual_sigma, residual_coupling : ndarray
-        The residual's lumped modes above the band: angular frequencies (rad/s), decay
-        rates (1/s) and couplings (1/kg) (empty: the tail alone).
-    """
+    """The finite plate as the contact sees it at one point (:mod:`synth.physics.modal_contact`):
+    ``plate``, ``position`` (m from a corner), ``max_frequency`` (the band limit, Hz) and
+    ``theory`` ("kirchhoff" or "mindlin", :func:`modal_point`); the band's modes ``omega``
+    (rad/s), ``sigma`` (1/s) and ``coupling`` ``c_k = phi_k(x0)^2 / M_k`` (1/kg);
+    ``rigid_coupling`` (1/kg, 0 unless free); the residual's lumped modes ``residual_omega``
+    (rad/s), ``residual_sigma`` (1/s), ``residual_coupling`` (1/kg) and its tail,
+    ``residual_admittance`` ``beta_W`` (the infinite plate's ``Re Y`` at the top ``W`` of the
+    lumped modes, m/(N s)) and ``residual_rate`` ``a = pi W / 2`` (1/s)."""
 
     plate: Plate
     position: tuple[float, float]
@@ -161,26 +138,15 @@ def modal_point(
     theory: str = "kirchhoff",
 ) -> ModalPoint:
     """The plate at ``position`` (m from a corner) with its bending modes up to
-    ``max_frequency`` (Hz) and the residual above (see the docstring of
-    :mod:`synth.physics.modal_contact`).
+    ``max_frequency`` (Hz) and the residual above (:mod:`synth.physics.modal_contact`).
 
-    ``theory``: "kirchhoff", the thin plate; or "mindlin", with shear deformation and
-    rotary inertia (docs/physics.md, "Thick plates"): each thin-plate mode keeps its shape
-    and its wavenumber ``k^2 = omega_K sqrt(rho h / D)`` and takes Mindlin's frequency at
-    that wavenumber (:func:`synth.physics.impedance.mindlin_angular_frequency`, exact for
-    the simply supported plate) and Mindlin's modal mass
-    (:func:`synth.physics.impedance.mindlin_mass_factor`); the band then needs the thin
-    modes up to the wavenumber of Mindlin's ``max_frequency``. The residual's admittance is
-    the infinite Mindlin plate's at the band limit
-    (:func:`synth.physics.impedance.mindlin_point_admittance`). With these couplings the
-    modes' band-averaged ``Re Y`` is the infinite Mindlin plate's (modal density times
-    ``pi c_k / 2``).
-
-    The modes are those of an eigen-solution for exactly this band
-    (:func:`band_modes`), never a wider band's held in the mode cache: a Ritz solution's
-    modes depend on its basis in their last digits, and a series of bounces on the modal
-    plate amplifies such differences, so the result must not depend on what was solved
-    before. Each point's modes are kept on disk (a later process then needs no solve)."""
+    ``theory`` "mindlin" (docs/physics.md, "Thick plates"): each thin-plate mode keeps its
+    shape and wavenumber and takes Mindlin's frequency
+    (:func:`synth.physics.impedance.mindlin_angular_frequency`) and modal mass
+    (:func:`synth.physics.impedance.mindlin_mass_factor`), the residual the infinite Mindlin
+    plate's admittance, so the band-averaged ``Re Y`` is the infinite Mindlin plate's. The
+    modes are an eigen-solution of exactly this band (:func:`band_modes`), never a wider
+    cached one's (a series of bounces amplifies their last digits), kept on disk per point."""
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
     x, y = plate.check_position(position, "position")

@@ -1,33 +1,15 @@
 """The finite rectangular plate's bending modes (docs/physics.md, "Plate modes").
 
 :func:`modes` returns every bending mode of a :class:`~synth.physics.scene.Plate` up to a
-frequency: natural frequencies, modal damping, modal masses and the mode shapes
-``phi_k(x, y)``, which the synthesis combines as
+frequency (frequencies, damping, modal masses, shapes), combined by the synthesis as
+``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k * (h_k * F)(t)``, in thin-plate (Kirchhoff)
+theory. Simply supported edges: the closed form (:mod:`~.closed_form`); free and clamped:
+Rayleigh-Ritz (:mod:`~.ritz`, :mod:`~.basis`), cached (:mod:`~.cache`), crossing over to
+dynamic edge effect modes above a low band (:mod:`~.crossover`). Every shape has mean
+square 1 (``Int phi_k^2 dA = a b``), so ``M_k = rho h a b``; a shape's sign is arbitrary.
 
-    v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k * (h_k * F)(t).
-
-Thin-plate (Kirchhoff) theory; its energies and its error against Mindlin's theory (about
-``(k h)^2 / 5`` on a frequency): docs/physics.md, "Plate modes".
-
-Simply supported edges
-    The closed form (:mod:`synth.physics.modes.closed_form`).
-
-Free and clamped edges
-    Rayleigh-Ritz (:mod:`synth.physics.modes.ritz`, its basis in
-    :mod:`synth.physics.modes.basis`), cached (:mod:`synth.physics.modes.cache`); a large band
-    crosses over to dynamic edge effect modes above a low Ritz band
-    (:mod:`synth.physics.modes.crossover`).
-
-Normalisation. Every mode shape satisfies ``Int phi_k^2 dA = a b`` (mean square
-1), so every modal mass is ``M_k = rho h a b`` (the plate's mass). Shapes are
-orthogonal: ``Int phi_k phi_l dA = 0`` for ``k != l``. A shape's sign is arbitrary
-(only products ``phi_k(x0) phi_k(xp)`` matter); within a degenerate pair (square
-plates) the two shapes are one orthonormal basis of the pair's plane.
-
-References
-----------
-A. W. Leissa, *Vibration of Plates*, NASA SP-160 (1969), chapter 4.
-A. W. Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293.
+References: A. W. Leissa, *Vibration of Plates*, NASA SP-160 (1969), chapter 4; A. W.
+Leissa, "The free vibration of rectangular plates", J. Sound Vib. 31 (1973) 257-293.
 """
 
 from __future__ import annotations
@@ -101,7 +83,7 @@ class EdgeEffectPart:
 
 @dataclass(frozen=True, eq=False)
 class Modes:
-    """The bending modes of a plate up to a frequency (see :func:`modes`).
+    """The bending modes of a plate up to a frequency (see :func:`modes`); arrays read-only.
 
     Attributes
     ----------
@@ -110,24 +92,16 @@ class Modes:
     max_frequency : float > 0
         The band asked for, Hz: every mode at or below it, none above.
     frequencies : ndarray, shape (n,)
-        Natural frequencies ``f_k``, Hz, ascending (a free plate's three
-        rigid-body motions excluded).
+        Natural frequencies ``f_k``, Hz, ascending (a free plate's rigid-body motions excluded).
     angular_frequencies : ndarray, shape (n,)
         ``omega_k = 2 pi f_k``, rad/s.
     decay_rates : ndarray, shape (n,)
-        Amplitude decay rates ``sigma_k`` (amplitude ``~ exp(-sigma_k t)``), 1/s,
-        from ``plate.material.damping.decay_rate(omega_k)``.
+        Amplitude decay rates ``sigma_k``, 1/s (``plate.material.damping.decay_rate``).
     modal_masses : ndarray, shape (n,)
-        ``M_k = rho h Int phi_k^2 dA = rho h a b`` (the plate's mass), kg.
+        ``M_k = rho h a b`` (shapes of mean square 1), kg.
     tolerance : float
-        Relative accuracy of every frequency (Rayleigh-Ritz convergence check;
-        the simply supported closed form is exact; :data:`EDGE_EFFECT_TOLERANCE`
-        beyond the crossover).
-
-    Normalisation: ``Int phi_k^2 dA = a b`` over the plate (mean square 1), so
-    ``v(xp, t) = sum_k phi_k(x0) phi_k(xp) / M_k (h_k * F)(t)`` with these
-    :meth:`shapes` and :attr:`modal_masses`. Arrays are read-only.
-    """
+        Relative accuracy of every frequency (0 for the closed form;
+        :data:`EDGE_EFFECT_TOLERANCE` beyond the crossover)."""
 
     plate: Plate
     max_frequency: float
@@ -143,15 +117,9 @@ class Modes:
 
     @property
     def shape_key(self) -> str:
-        """Text that identifies :meth:`shapes` exactly, for caches of results
-        computed from them (such as radiation gains).
-
-        Two :class:`Modes` with equal keys return equal shape values at every
-        point. The key holds the plate's length and width, the number of modes
-        and the eigen-solution the shapes come from (boundary, Poisson ratio,
-        aspect ratio, the band it was solved for, the solver settings): not the
-        material's stiffness, density or damping, which do not change the shapes.
-        """
+        """Text that identifies :meth:`shapes` exactly, for caches of results computed from them:
+        the plate's size, the number of modes and the eigen-solution (boundary, Poisson ratio,
+        aspect, band, solver settings), not what only scales frequencies or damping."""
         p = self.plate
         return json.dumps(
             {
@@ -174,11 +142,9 @@ class Modes:
 
     @property
     def solved_for_band(self) -> bool:
-        """True when the eigen-solution was solved for exactly ``max_frequency`` (the
-        simply supported closed form always is). A cached wider band's solution serves a
-        narrower request with modes equal within :data:`TOLERANCE` but not to the last bit;
-        a caller whose result must not depend on the cache's history (the modal contact,
-        whose bounces amplify such differences) checks this."""
+        """True when the eigen-solution was solved for exactly ``max_frequency`` (always for the
+        closed form); a caller whose result must not depend on the cache's history (the modal
+        contact) checks this."""
         sol = self._solution
         if isinstance(sol, SimplySupported):
             return True
@@ -222,10 +188,8 @@ class Modes:
 
         Notes
         -----
-        Cost ``~ n * (basis size) * n_modes / 4`` for scattered points; points on a
-        grid (few distinct x or y) share the sum over one direction and cost far
-        less. Temporaries are bounded (about 32 MB) whatever ``n``; the result
-        itself takes ``8 n n_modes`` bytes, so evaluate very many points in chunks.
+        Points on a grid share the sum over one direction; temporaries stay near 32 MB,
+        the result takes ``8 n n_modes`` bytes.
 
         Raises
         ------
@@ -379,12 +343,9 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
 
     Notes
     -----
-    The Ritz cost grows as the cube of the number of modes (a free 0.5 mm steel
-    sheet 0.5 m x 0.4 m to 20 kHz, about 2600 modes, takes seconds once, then
-    milliseconds from the cache); beyond the crossover
-    (:mod:`synth.physics.modes.crossover`) a Ritz low band and the dynamic edge effect
-    modes above it, whose cost is linear in the number of modes, are returned with
-    ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
+    The Ritz cost grows as the cube of the number of modes (cached after the first solve);
+    beyond the crossover (:mod:`synth.physics.modes.crossover`) the dynamic edge effect
+    modes, linear in cost, come with ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
     """
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")

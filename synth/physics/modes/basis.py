@@ -1,45 +1,16 @@
 """The Rayleigh-Ritz basis of the free and clamped plates (:mod:`synth.physics.modes.ritz`),
-its size, and the eigen-solution of one symmetry class.
+its size, and the eigen-solution of one symmetry class (docs/physics.md, "Plate modes").
 
-Rayleigh-Ritz in the coordinates ``xi = 2x/a - 1``, ``eta = 2y/b - 1``, with a
-tensor basis ``psi_i(xi) psi_j(eta)`` that is orthonormal on ``[-1, 1]``:
-
-* free: orthonormal Legendre polynomials ``psi_n = p_n`` (the natural
-  boundary conditions need not be imposed);
-* clamped: ``psi_n = (1 - xi^2)^2 p_n^(4,4)(xi)`` with ``p_n^(4,4)`` the Jacobi
-  polynomials orthonormal for the weight ``(1 - xi^2)^4``; every ``psi_n``
-  has ``w = dw/dn = 0`` at the edges and the ``psi_n`` are orthonormal in
-  plain ``L2`` (no Gram-Schmidt, no ill-conditioned Gram matrix).
-
-The mass matrix is therefore the identity; the stiffness matrix is assembled
-from exact one-dimensional integrals of products of ``psi``, ``psi'`` and
-``psi''`` (Gauss-Legendre quadrature, exact for these polynomials). A basis
-function is even or odd in ``xi`` with its degree, so the problem splits into
-the plate's four symmetry classes (even/odd in x times even/odd in y), solved
-apart.
-
-Eigen-solution. The stiffness matrix spans many decades (its largest Ritz
-values grow as the eighth power of the degree, ~1e14 times the lowest at
-degree 160) and a plain symmetric eigen-solver loses the low modes (errors of
-``eps * ||K||``: 3e-4 relative on the 2nd mode of a square plate at degree
-160). The solver therefore factors ``K + s I = R^T R`` (Cholesky, whose
-errors stay relative to each entry of this graded matrix), forms
-``(K + s I)^-1`` (LAPACK ``potri``) and takes its largest eigenvalues
-``mu = 1 / (lambda + s)``: their absolute error ``eps / s`` gives the wanted
-eigenvalues to a relative error ``eps * lambda / s``, whatever the norm of ``K``.
-
-Basis size. A mode of bending wavenumber ``k`` (``omega^2 rho h = D k^4``)
-varies along x at most like ``sin(k x)``, i.e. like ``sin(kappa xi)`` with
-``kappa = k a / 2``; a polynomial basis resolves that once its degree exceeds
-``g(kappa) = kappa + c1 kappa^(1/3) + c0`` (the Airy-type transition of
-spectral convergence). The basis keeps the degree pairs ``(i, j)`` needed by
-some wavenumber ``(k_x, k_y)`` with ``k_x^2 + k_y^2 <= k_max^2``:
-``(g^-1(i) / K_x)^2 + (g^-1(j) / K_y)^2 <= 1``, ``K_x = k_max a / 2``,
-``K_y = k_max b / 2`` (a quarter ellipse instead of the full rectangle: a
-fifth fewer unknowns). The constants ``c0 = 2``, ``c1 = 3`` follow the 1D beam's
-convergence (``N - kappa ~ 3.5 kappa^(1/3)`` degrees for a relative error of 1e-6);
-every mode returned is checked against a larger basis
-(:mod:`synth.physics.modes.ritz`, its ``TOLERANCE``).
+The basis is a tensor product of functions orthonormal on ``[-1, 1]`` in ``xi = 2x/a - 1``,
+``eta = 2y/b - 1``: Legendre polynomials (free) or ``(1 - xi^2)^2 p_n^(4,4)(xi)`` with
+orthonormal Jacobi polynomials (clamped), so the mass matrix is the identity and the
+stiffness matrix comes from exact Gauss-Legendre integrals; parity splits the problem into
+four symmetry classes. The stiffness spans many decades, so the solver factors ``K + s I``
+by Cholesky, inverts it (LAPACK ``potri``) and takes the largest eigenvalues of the inverse,
+keeping the low modes' relative accuracy. The basis keeps the degree pairs some wavenumber
+``k_x^2 + k_y^2 <= k_max^2`` needs, a degree ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per
+axis (the beam's spectral convergence); every mode is checked against a larger basis
+(:mod:`synth.physics.modes.ritz`, ``TOLERANCE``).
 """
 
 from __future__ import annotations

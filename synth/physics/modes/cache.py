@@ -1,16 +1,10 @@
 """The cache of the free and clamped plates' Ritz solutions: in memory and on disk.
 
-The eigen-solution depends only on the boundary, ``nu``, the aspect ratio
-``a / b`` and the dimensionless band ``omega L^2 sqrt(rho h / D)``,
-``L = max(a, b)``; E, rho, h and the size only scale its frequencies, and the
-damping law is applied afterwards. Free and clamped solutions are kept in memory
-and on disk (``.npz`` in ``$SYNTH_CACHE_DIR`` if set, else the platform's user
-cache directory + ``synth``), keyed by those numbers, the basis settings and the
-band itself. Only a solution of exactly the requested band is reused: a wider band's
-solution has the same modes within the solver's tolerance but not to the last bit
-(its basis is larger), so serving a narrower request from it would make a result
-depend on what was solved before (the order of a bank's rows, the cache's state). The
-simply supported closed form needs no cache.
+A solution depends only on the boundary, ``nu``, the aspect ratio and the dimensionless
+band ``omega L^2 sqrt(rho h / D)``; it is kept in memory and as ``.npz`` in
+``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by those, the basis
+settings and the band. Only exactly the requested band is reused, so no result depends on
+what was solved before (a wider band's modes differ in their last bits).
 """
 
 from __future__ import annotations
@@ -29,22 +23,11 @@ from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 CACHE = MemoryCache("solves", max_bytes=1 << 30)
 
 
-def cache_info() -> dict:
-    """Counters of the mode cache since start-up (or :func:`clear_memory_cache`).
-
-    Returns
-    -------
-    dict
-        ``solves`` (eigen-solutions computed), ``memory_hits``, ``disk_hits``
-        (solutions read from disk), ``disk_writes``, and ``entries`` (solutions
-        held in memory).
-    """
-    return CACHE.info()
-
-
-def clear_memory_cache() -> None:
-    """Forget the solutions held in memory and reset the counters (disk untouched)."""
-    CACHE.clear()
+#: Counters of the cache of the Ritz solutions since start-up (``solves``, ``memory_hits``,
+#: ``disk_hits``, ``disk_writes``, ``entries``), and forgetting what memory holds with the
+#: counters (the disk untouched).
+cache_info = CACHE.info
+clear_memory_cache = CACHE.clear
 
 
 def _path(key: str, boundary: str) -> Path:

@@ -68,24 +68,18 @@ class SimplySupported:
 
 @dataclass(frozen=True)
 class SeparableShapes:
-    """Mode shapes that are products of one function of x and one of y.
-
-    ``phi_k(x, y) = X_(i_k)(x) Y_(j_k)(y)``: :meth:`x_values` and :meth:`y_values`
-    give the factors of every index at once, so that sums over points of a grid
-    or a curve can be shared between the modes (matrix products). Used by
-    :func:`synth.sound.radiation.plate_gains` for the simply supported plate,
-    ``X_m(x) = sqrt(2) sin(m pi x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``.
+    """Mode shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2)
+    sin(m pi x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``: :meth:`x_values` and
+    :meth:`y_values` give every factor at once, so sums over points are shared between modes.
 
     Attributes
     ----------
     length, width : float
         ``a`` and ``b``, metres.
     x_index, y_index : ndarray of int, shape (n_modes,)
-        ``i_k`` and ``j_k``: mode ``k`` takes column ``x_index[k]`` of
-        :meth:`x_values` and column ``y_index[k]`` of :meth:`y_values`.
+        Mode ``k``'s columns of :meth:`x_values` and :meth:`y_values`.
     wavenumber : float
-        Largest rate of oscillation of any factor along its axis, rad/m.
-    """
+        Largest rate of oscillation of any factor along its axis, rad/m."""
 
     length: float
     width: float

@@ -22,13 +22,9 @@ from synth.physics.modes.ritz import RitzSolution, TooLarge, ritz_unknowns
 EDGE_EFFECT_TOLERANCE = 0.005
 # Crossover to the dynamic edge effect method (synth.physics.asymptotic_modes): a free or
 # clamped band whose Ritz problem would exceed this many unknowns per symmetry class
-# (the estimate of ritz_unknowns) takes the Ritz modes of a low band only (up to
-# LOW_BAND_UNKNOWNS) and the edge effect modes above it. Every crossed-over plate has
-# edge effect modes above the same low band, so the crossover sets the cost alone, not
-# the accuracy: it lies just above every preset's band at 48 kHz (at most 1831 unknowns,
-# ping-pong table, steel sheet: their recorded renders keep the Ritz path). A Ritz
-# class costs about 3 s cold at 1400 unknowns and 12 s at 2400 (synth bench scale), the
-# cubic growth beyond is what the crossover avoids.
+# (ritz_unknowns) takes the Ritz modes of a low band only (up to LOW_BAND_UNKNOWNS) and the
+# edge effect modes above it, avoiding the Ritz solve's cubic growth. It lies just above
+# every preset's band at 48 kHz, so their recorded renders keep the Ritz path.
 CROSSOVER_UNKNOWNS = 1850
 # Ritz size of the low band of a crossed-over plate: its lowest modes (the edge effect
 # method's least accurate: corner and beam-like modes; the tests measure its accuracy

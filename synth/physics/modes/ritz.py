@@ -1,21 +1,11 @@
 """Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
 
-The basis, its size and the eigen-solution of one symmetry class are those of
-:mod:`synth.physics.modes.basis`; this module solves the four classes, checks convergence
-and evaluates the shapes.
-
-Convergence check. Each class is solved again (eigenvalues only) with a
-larger nested basis (``c1 + d1``, ``c0 + d0``). Ritz values of nested spaces
-decrease monotonically towards the exact eigenvalues, so the k-th values of
-the two solves bound the k-th mode's error from below and, with spectral
-convergence, estimate it. Every returned mode agrees to :data:`TOLERANCE`
-(relative, frequency) with the larger basis; if one below ``max_frequency``
-does not, the basis is enlarged and the solve repeated. Nothing above
-``max_frequency`` is returned.
-
-The shapes are sums of products ``2 sum c_ij psi_i(xi) psi_j(eta)``;
-:meth:`RitzSolution.summed` returns them as such (:class:`SummedShapes`, used by
-:func:`synth.sound.radiation.summed_gains`).
+The basis and the eigen-solution of one class are :mod:`synth.physics.modes.basis`'s; this
+module solves the four symmetry classes, checks convergence and evaluates the shapes. Each
+class is solved again with a larger nested basis: Ritz values decrease monotonically
+towards the exact ones, so the two bound and estimate each mode's error; every mode
+returned agrees to :data:`TOLERANCE` (else the basis grows). Shapes are sums of products
+``2 sum c_ij psi_i(xi) psi_j(eta)`` (:class:`SummedShapes`).
 """
 
 from __future__ import annotations
@@ -457,25 +447,12 @@ class TooLarge(Exception):
 
 @dataclass(frozen=True, eq=False)
 class SummedShapes:
-    """Mode shapes that are sums of products of one function of x and one of y.
-
-    ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the free and clamped plates' Ritz
-    shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a sum over
-    points of ``w phi_k`` is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix
-    for every mode (:meth:`combine`). Used by
-    :func:`synth.sound.radiation.summed_gains` (the polar rule of these shapes).
-
-    Attributes
-    ----------
-    length, width : float
-        ``a`` and ``b``, metres.
-    wavenumber : float
-        Largest bending wavenumber of the modes, rad/m.
-    n_x, n_y : int
-        Number of factors ``X_i`` (columns of :meth:`x_values`) and ``Y_j``.
-    n_modes : int
-        Number of modes (columns of :meth:`combine` and :meth:`values`).
-    """
+    """Mode shapes that are sums of products ``phi_k(x, y) = sum_ij C_kij X_i(x) Y_j(y)`` (the
+    Ritz shapes, ``X_i(x) = psi_i(2 x / a - 1)``, ``Y_j(y) = psi_j(2 y / b - 1)``): a weighted
+    sum over points is ``sum_ij C_kij A_ij`` with ``A = X^T diag(w) Y`` one matrix for every
+    mode (:meth:`combine`; :func:`synth.sound.radiation.summed_gains`). ``length``, ``width``:
+    ``a``, ``b``, m; ``wavenumber``: the largest bending wavenumber, rad/m; ``n_x``, ``n_y``:
+    the factors' counts (columns of :meth:`x_values`, :meth:`y_values`); ``n_modes``."""
 
     length: float
     width: float

@@ -149,27 +149,14 @@ def remainder(zr, zi, active, debt, debt_at, poles, fs, at):
 def ring_bank(out, fs, poles, amps, inject, thresholds):
     """The modal bank: every mode's ringing after every injection, added into ``out``.
 
-    out (S,) float64 accumulates; fs: Hz; poles (K,) complex, rad/s; amps (I, K) complex
-    amplitudes of the impacts' ringing, already referred to the injection samples
-    inject (I,) int64 (ascending): the mode's state at sample inject[i] gains amps[i, k].
-    thresholds (K,): each mode's share of the omission budget (see :mod:`synth.sound.modal_bank`).
-
-    Omission with a budget: each mode keeps ``debt``, a bound on what it has left out so
-    far as it stands now (it decays with the mode). At an injection, or when the mode's
-    state ``z`` (checked every ``SUB`` samples) has fallen below its share, the mode
-    stops if ``|z| + debt <= threshold``: ``|z|`` joins the debt and the mode is silent
-    until the next injection. So at every sample what a mode leaves out is at most its
-    threshold.
-
-    Layout: the output is taken in tiles of ``TILE`` samples (they stay in the L1/L2
-    cache while every mode adds to them); every segment between injections and tile
-    ends is one :func:`ring_modes` (the block-wise step the live engine takes too), so
-    the state's rounding error grows by about one ulp per ``SUB`` samples.
-
-    Returns (mode-samples computed, end of the last sample written (the samples after it
-    are exactly zero), the sum over the modes of what is left at the end of ``out``:
-    ``|z|`` of the modes still ringing plus every mode's debt).
-    """
+    out (S,) float64; fs: Hz; poles (K,) complex, rad/s; amps (I, K) complex amplitudes joining
+    the state at samples inject (I,) int64, ascending; thresholds (K,): each mode's share of
+    the omission budget (:mod:`synth.sound.modal_bank`). Each mode keeps ``debt``, a bound on
+    what it has left out, and stops while ``|z| + debt <= threshold``, so at every sample what
+    it leaves out is at most its threshold. The output is taken in L1/L2-sized tiles of
+    ``TILE`` samples, every segment one :func:`ring_modes` (the live engine's step too).
+    Returns (mode-samples computed, end of the last sample written, the modes' ``|z|`` plus
+    debts left at the end)."""
     S = out.shape[0]
     K = poles.shape[0]
     I = inject.shape[0]

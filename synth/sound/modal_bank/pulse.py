@@ -41,23 +41,12 @@ def grid_size(tau, omega_max, min_points=PULSE_POINTS):
 
 @dataclass(frozen=True, eq=False)
 class ImpactExcitation:
-    """One impact as the modal bank takes it.
-
-    Attributes
-    ----------
-    amplitudes : complex ndarray (K,)
-        The modes' ringing, referred to sample ``inject`` (listener units).
-    inject : int
-        The first sample after the contact, where the amplitudes join the bank's state.
-    first : int
-        The first sample inside the contact.
-    response : ndarray (M,)
-        The exact listener response at the in-contact samples ``first .. first + M - 1``.
-    forces : ndarray (M,)
-        The contact force there, N (for an accelerometer's direct term).
-    magnitude : float
-        ``sum_k |amplitudes_k|`` (listener units): a bound of the tick's peak.
-    """
+    """One impact as the modal bank takes it: ``amplitudes`` (K,) complex, the modes' ringing
+    referred to sample ``inject`` (the first after the contact; listener units); ``first``,
+    the first sample inside the contact; ``response`` (M,), the exact listener response at
+    samples ``first .. first + M - 1`` and ``forces`` (M,), the contact force there, N (for an
+    accelerometer's direct term); ``magnitude``, ``sum_k |amplitudes_k|``, a bound of the
+    tick's peak."""
 
     amplitudes: np.ndarray
     inject: int

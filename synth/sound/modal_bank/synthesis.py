@@ -36,25 +36,22 @@ def synthesize(
     impacts : sequence of ImpactResult
         The contacts, in time order.
     onsets : ndarray (I,)
-        Each contact's start on the audio timeline, s (float, sub-sample).
+        Each contact's start on the audio timeline, s (sub-sample).
     poles : complex ndarray (K,)
         ``p_k = -sigma_k + i omega_dk``, rad/s (all below Nyquist).
     excitation : ndarray (K,) or (I, K)
-        ``b_k = phi_k(x0) / M_k``, 1/kg: one row for every impact, or one per impact (a
-        ball that bounces along a path, each impact at its own point).
+        ``b_k = phi_k(x0) / M_k``, 1/kg: one row for all impacts, or one per impact.
     output : complex ndarray (K,)
-        Listener gain per unit modal displacement ``q_k`` at the pole: ``phi_k(xp) p_k^2``
-        for acceleration, ``G_k p_k`` for a microphone.
+        Listener gain per unit modal displacement at the pole: ``phi_k(xp) p_k^2``
+        (acceleration) or ``G_k p_k`` (microphone).
     samplerate : float
         Hz.
     floor : float
-        Omission floor, a fraction of the reference amplitude (see :mod:`synth.sound.modal_bank`).
+        Omission floor, a fraction of the reference amplitude (:mod:`synth.sound.modal_bank`).
     settled_weight : sequence of float or None
-        For a settled impact, the weight ``m g`` (N) that stays on the plate after its
-        contact time (its step adds ``m g exp(-p tau) / p`` to the transform); else None.
+        For a settled impact the weight ``m g`` (N) left on the plate after its contact.
     direct : ndarray (K,) or (I, K) or None
-        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts
-        (one per impact with an ``excitation`` per impact).
+        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts.
     max_samples : int
         Length cap of the output.
     pulse_points : int >= 5
@@ -63,9 +60,7 @@ def synthesize(
     Returns
     -------
     (audio float64 (S,), info dict: n_modes_rendered, mode_samples, reference, length,
-    and the wall times (s) of the bank and of the transforms, bank_seconds and
-    transform_seconds)
-    """
+    bank_seconds and transform_seconds, s)"""
     fs = float(samplerate)
     onsets = np.asarray(onsets, dtype=float)
     if onsets.size and not np.min(onsets) >= 0.0:

@@ -112,41 +112,21 @@ def impact_transform(
     resp,
     work,
 ):
-    """One impact's contribution (vectorised over the K modes).
+    """One impact's contribution, vectorised over the K modes (docs/physics.md, "Modal synthesis").
 
-    pr, pi: poles (real, imaginary parts), rad/s; cr, ci: listener response per unit
-    transform (``-i b_k output_k / omega_dk``); ur, ui: ``e^(p_k period)``, the ringing
-    over one sample; period: ``1 / fs``, s; h, forces: the pulse on a uniform grid
-    ``u_j = j h`` (s, N), slopes: ``dF/du`` there (N/s); d0: time from first touch to
-    the first audio sample at or after it (s, in ``[0, period)``); offset_forces (M,):
-    the force at the M audio samples inside the contact, at ``d0 + m period`` from
-    first touch (N), offset_slopes (M,): ``dF/du`` there (N/s); weight: the
-    weight ``m g`` (N) left on the plate after a settled contact (0 otherwise); tau:
-    contact time, s.
+    pr, pi: poles, rad/s; cr, ci: listener response per unit transform
+    (``-i b_k output_k / omega_dk``); ur, ui: ``e^(p_k period)``; period: ``1 / fs``, s; h,
+    forces, slopes: the pulse on the grid ``u_j = j h`` (s, N, N/s); d0: time from first touch
+    to the first audio sample at or after it, s; offset_forces, offset_slopes (M,): force (N)
+    and slope (N/s) at the audio samples inside the contact; weight: ``m g`` (N) left after a
+    settled contact, else 0; tau: contact time, s; order: the exponent ``q = n + 1`` of the
+    trapezoid rule's leading error, for one Richardson step (0: none); work: a
+    (``WORK_ROWS``, K) workspace from the caller, so the audio thread allocates nothing.
 
-    Writes amps (K,) complex: the ringing injected at the first sample after the
-    contact, ``d0 + M period`` from first touch; resp (M,): the exact response at the
-    in-contact samples (partial transforms ``Int_0^d``: the trapezoid rule on the grid
-    to ``u_j <= d`` and on the partial panel ``[u_j, d]``, with the Euler-Maclaurin end
-    corrections ``h^2/12 (g'(0) - g'(u_j)) + dd^2/12 (g'(u_j) - g'(d))`` of the
-    integrand ``g = F e^(-p u)``, ``dd = d - u_j``, which make both exact for cubics;
-    ``g'(0) = 0`` as the pulse starts like ``u^n``, ``n > 1``).
-
-    order: the exponent ``q`` of the trapezoid rule's leading error ``C h^q`` (the pulse
-    vanishes like ``u^n`` at both ends, so ``q = n + 1``; see :mod:`synth.sound.modal_bank`). The
-    whole transform is extrapolated from the rules on the grid and on every other point,
-    ``(2^q T_h - T_2h) / (2^q - 1)`` (``len(forces)`` odd); 0 turns this off. work: a
-    (``WORK_ROWS``, K) workspace (allocated by the caller, so that the live engine's
-    audio thread allocates nothing).
-
-    Returns ``sum_k |amps_k|``.
-
-    Per mode, two complex exponentials (``e^(-p h)``, the transform's step, and
-    ``e^(p d0)``) by the polynomials of :mod:`synth.vecmath`, so that every loop over
-    the modes vectorises; everything else follows by products: ``e^(-p u_j)`` by powers
-    of the step, the in-contact samples and the injection time by powers of
-    ``e^(+-p period)``.
-    """
+    Writes amps (K,), the ringing injected at the first sample after the contact, and resp
+    (M,), the exact response inside it (partial transforms with Euler-Maclaurin end
+    corrections, exact for cubics). Returns ``sum_k |amps_k|``. Per mode two complex
+    exponentials by :mod:`synth.vecmath`, the rest by products, so every loop vectorises."""
     K = pr.shape[0]
     N = forces.shape[0]
     M = offset_forces.shape[0]

@@ -1,44 +1,19 @@
-"""Sound radiated by plate modes to a microphone: the Rayleigh integral.
+"""Sound radiated by plate modes to a microphone: the Rayleigh integral (docs/physics.md,
+"Radiation").
 
-The plate ``[0, a] x [0, b]`` lies in the plane ``z = 0`` of an infinite rigid baffle; a
-mode's normal velocity ``phi_k(xs) exp(s t)`` gives the pressure ``H_k(s) exp(s t)`` at the
-listener, with the exact transfer function of the Rayleigh integral (docs/physics.md,
-"Radiation")::
+The plate ``[0, a] x [0, b]`` lies in an infinite rigid baffle at ``z = 0``; a mode's normal
+velocity ``phi_k exp(s t)`` gives the pressure ``H_k(s) exp(s t)``, Pa per m/s, with
+``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``. A
+reference delay ``R0 / c`` may be factored out (:func:`distance`, :func:`delay`).
 
-    H_k(s) = (rho s / (2 pi)) Int_plate phi_k(xs) exp(-s R / c) / R dA,   R = |xL - xs|
-
-for any complex ``s`` (a damped mode takes its pole, the analytic continuation), in Pa per
-m/s of the modal velocity.
-
-For synthesis with one pure delay per listener, the gain can be returned with a
-reference delay factored out, ``H_k(s) exp(+s R0 / c)``, where ``R0`` is the
-distance from the listener to a reference point (for instance the impact point,
-:func:`distance`); the pressure is then that gain applied ``R0 / c`` seconds
-(:func:`delay`) later.
-
-Rules
------
-One interface (:mod:`~synth.sound.radiation.rules`): each rule states which shapes it
-takes, its error bound (the convergence test's ``tol``, :mod:`~.refinement`, when its check
-rule fits ``max_points``) and its cost (the terms of its first rule and check rule, counted
-from its own panel builders by :mod:`~.work`, weighed by the rates of ``synth bench cost``);
-:func:`~synth.sound.radiation.rules.choose_rule` takes the cheapest rule that holds the
-bound. The rules:
-
-- :func:`rayleigh_gains` (:mod:`~.rectangle`): tensor Gauss-Legendre panels along x and y,
-  any shapes;
-- :func:`separable_gains` (:mod:`~.polar`): polar coordinates about the microphone, for
-  shapes ``X_i(x) Y_j(y)`` (the simply supported plate);
-- :func:`summed_gains` (:mod:`~.summed`): the same for sums of such products (the Ritz
-  modes of free and clamped plates);
-- for the dynamic edge effect modes of large free and clamped plates (the Ritz modes below
-  them by the rectangle rule): the rectangle rule band by band of wavenumber, their shapes
-  formed from factor tables (:func:`~.rectangle.product_gains`), or integrals over the
-  plate's boundary (:mod:`~.boundary`, Green's second identity).
-
-:mod:`~.common` holds their result, checks and numba kernel, :mod:`~.cache` the gains kept
-in memory and on disk. :func:`plate_gains` computes the gains of a
-:class:`synth.physics.modes.Modes` by the chosen rule, cached.
+Rules (:mod:`~.rules`, which takes the cheapest one that holds the convergence test's bound,
+:mod:`~.refinement`, its cost counted by :mod:`~.work`): :func:`rayleigh_gains`
+(:mod:`~.rectangle`, any shapes); :func:`separable_gains` (:mod:`~.polar`, products
+``X_i(x) Y_j(y)``); :func:`summed_gains` (:mod:`~.summed`, sums of products); and for the
+dynamic edge effect modes the rectangle rule band by band (:func:`~.rectangle.product_gains`)
+or the boundary integrals (:mod:`~.boundary`). :mod:`~.common` holds the result, checks and
+kernel, :mod:`~.cache` the gains kept in memory and on disk; :func:`plate_gains` computes a
+:class:`synth.physics.modes.Modes`' gains by the chosen rule, cached.
 """
 
 from __future__ import annotations
@@ -151,19 +126,17 @@ def plate_gains(
     full_output=False,
     cache=True,
 ):
-    """:func:`rayleigh_gains` of a plate's modes, cached in memory and on disk.
+    """:func:`rayleigh_gains` of a plate's modes by the chosen rule, cached in memory and on disk.
 
     Parameters
     ----------
     modes : synth.physics.modes.Modes
-        The plate's modes; their :meth:`~synth.physics.modes.Modes.shapes` are the
-        normal-velocity shapes and the plate's length and width the size.
+        The plate's modes (normal-velocity shapes; the plate's length and width the size).
     listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol,
     max_points, full_output
         As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
     cache : bool
-        Reuse and store the result (memory and disk). ``False`` computes afresh
-        and stores nothing.
+        Reuse and store the result; False computes afresh and stores nothing.
 
     Returns
     -------
@@ -179,16 +152,10 @@ def plate_gains(
 
     Notes
     -----
-    The result is stored under a key made of everything that determines it:
-    :attr:`~synth.physics.modes.Modes.shape_key` (the plate's size and eigen-solution),
-    the listener position, the poles ``s`` (exact bytes), the maximum wavenumber,
-    the air constants, the reference distance, ``tol``, ``max_points`` and the
-    quadrature's settings. Files ``radiation-gains-*.npz`` sit beside the mode
-    cache (:func:`synth.physics.modes.cache_dir`, ``$SYNTH_CACHE_DIR``) and are written
-    atomically; an unreadable or inconsistent file is ignored and rewritten. A
-    result loaded from disk equals the computed one exactly (the
-    convergence warning, if any, is repeated).
-    """
+    The key holds everything that determines the result (the modes' ``shape_key``, listener,
+    poles' exact bytes, wavenumber, air, reference distance, ``tol``, ``max_points``, the
+    quadrature's settings); files ``radiation-gains-*.npz`` beside the mode cache are written
+    atomically, and an unreadable one is ignored and rewritten."""
     if not isinstance(modes, Modes):
         raise ParameterError(f"modes={modes!r} must be a synth.physics.modes.Modes")
     if not isinstance(cache, bool):

@@ -11,26 +11,12 @@ from synth.compilation import compiled
 from synth.vecmath import cis
 
 # ----------------------------------------------------------------------------------------
-# Whole circles in closed form (separable shapes)
-#
-# A simply supported shape phi_k = X_i(x) Y_j(y) = 2 sin(kx x) sin(ky y) solves the
-# Helmholtz equation (lap + k_k^2) phi_k = 0, k_k^2 = kx^2 + ky^2, in the whole plane (the
-# sines continued beyond the plate), and the mean value theorem of that equation (Weber's;
-# Courant and Hilbert, Methods of Mathematical Physics vol. II, ch. IV, sec. 3) gives its
-# integral over a whole circle of radius r about (xl, yl) exactly:
-#     Int_0^2pi phi_k(xl + r cos t, yl + r sin t) dt = 2 pi phi_k(xl, yl) J_0(k_k r).
-# The integral over the arcs on the plate is this minus the integral over the arcs off it;
-# at each radius the polar rule sums whichever set of arcs is shorter (none while the
-# circle lies on the plate), so that the angular points cover at most half of each circle.
-#
-# J_0 is evaluated for every mode and radius (as the exponentials), in a loop that
-# vectorises: for x >= 25 Hankel's asymptotic expansion
-#     J_0(x) = sqrt(2 / (pi x)) (P(x) cos(x - pi/4) - Q(x) sin(x - pi/4))
-# (Abramowitz and Stegun 9.2.5, 9.2.9, 9.2.10) with ten terms of P and of Q: for real x
-# the remainder is at most the first omitted term, a_20 / x^20 <= 4e-18 at x = 25; below
-# 25 the rational approximations of Cephes (S. L. Moshier), as scipy.special.j0 evaluates
-# them. Tests compare the kernel with scipy.special.j0 (within 2e-16 absolute) and the
-# closed form with the angular rule on whole circles.
+# Whole circles in closed form (separable shapes): by the mean value theorem of the
+# Helmholtz equation (Courant and Hilbert, Methods of Mathematical Physics vol. II, ch. IV,
+# sec. 3), Int_0^2pi phi_k(xl + r cos t, yl + r sin t) dt = 2 pi phi_k(xl, yl) J_0(k_k r).
+# J_0 in a loop that vectorises: for x >= 25 Hankel's expansion with ten terms of P and Q
+# (Abramowitz and Stegun 9.2.5, 9.2.9, 9.2.10; remainder <= 4e-18 at x = 25), below it the
+# rational approximations of Cephes (S. L. Moshier), as scipy.special.j0 evaluates them.
 
 HANKEL_FROM = 25.0  # J_0 by its asymptotic expansion from this argument up
 

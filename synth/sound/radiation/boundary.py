@@ -1,45 +1,19 @@
-"""Rayleigh gains of the dynamic edge effect modes as integrals over the plate's boundary.
+"""Rayleigh gains of the dynamic edge effect modes as integrals over the plate's boundary
+(docs/physics.md, "Radiation").
 
-Each edge effect shape is a sum of products ``f(x) g(y)`` with ``f'' = alpha_x f`` and
-``g'' = alpha_y g`` (:mod:`synth.physics.asymptotic_modes`: interior ``cos``/``sin`` terms,
-``alpha = -s``, and edge ``cosh``/``sinh`` terms, ``alpha = s + 2 s_o``), so every product
-``psi`` solves the Helmholtz equation ``(lap + q^2) psi = 0`` with ``q^2 = -(alpha_x +
-alpha_y)``: ``+k^2`` (interior x interior), ``-k^2`` (interior x edge) or ``-3 k^2``
-(edge x edge, the corner term), ``k`` the trial's wavenumber. With ``F`` a radial solution
-(about the microphone's projection ``o``, ``rho = |x - o|``) of ``(lap + q^2) F = G``,
-``G = exp(-sigma R) / R``, ``R = sqrt(rho^2 + z^2)``, ``sigma = s / c``, Green's second
-identity gives exactly::
+Each edge effect shape is a sum of products ``f(x) g(y)`` that solve the Helmholtz equation
+``(lap + q^2) psi = 0`` (:mod:`synth.physics.asymptotic_modes`). With ``F`` a radial
+solution about the microphone's projection of ``(lap + q^2) F = exp(-s R / c) / R``
+(regular at the origin by variation of parameters, in exponentially scaled Bessel
+functions), Green's second identity gives exactly
+``Int_P psi G dA = Oint (psi dF/dn - F dpsi/dn) ds``. The radial and boundary integrals
+share the polar rule's radial Gauss-Legendre panels; decaying factors are integrated
+exactly by product weights (:func:`decay_weights`). The cost grows with the plate's
+diameter times the wavenumber, not its area.
 
-    Int_P psi G dA = Oint (psi dF/dn - F dpsi/dn) ds,    dF/dn = F'(rho) d_e / rho
-
-(``d_e`` the distance from ``o`` to the edge's line, signed positive on the plate's
-side). ``F`` regular at ``rho = 0`` by variation of parameters::
-
-    q^2 = k^2 > 0:   F = (pi/2) [Y0(k rho) Int_0^rho J0(k t) G t dt
-                                - J0(k rho) Int_0^rho Y0(k t) G t dt]
-    q^2 = -kappa^2:  F = -[I0(kappa rho) Int_rho^R1 K0(kappa t) G t dt
-                           + K0(kappa rho) Int_0^rho I0(kappa t) G t dt]
-
-(the second with the growing solution removed, in exponentially scaled Bessel functions).
-Both radial integrals and the boundary integral are taken on one set of radial
-Gauss-Legendre panels (those of the polar rule, :mod:`synth.sound.radiation`: break
-points where a circle touches an edge's line, with the ``sqrt`` behaviour removed, and
-at the corners' distances), a boundary node sitting where its circle crosses the edge;
-the cumulative integrals inside a panel by Gauss-Legendre spectral integration. In the
-decaying parts the factors ``exp(-kappa |rho - t|)`` of the scaled Bessel functions are
-taken exactly: on a plain panel by product weights for the weight function
-``exp(-kappa (t_a - t))`` (:func:`decay_weights`), so the panels need only resolve
-``G`` and the scaled Bessel functions, as in the oscillating part; and ``R1`` lies
-``40 / kappa`` beyond the farthest corner (``F`` has no boundary layer on the plate). The
-three parts share one grid and each boundary node's trial values. The cost per mode is
-a few Bessel functions per radial node plus the boundary nodes: it grows with the
-plate's diameter times the wavenumber, not its area.
-
-This module holds the rule's driver (:func:`boundary_rule`, :func:`boundary_integrals`)
-and the bounds of its in-phase part; the radial grid and its weights are in
-:mod:`~synth.sound.radiation.boundary_grid`, the Bessel functions in
-:mod:`~synth.sound.radiation.boundary_bessel` and the tables and edge integrals in
-:mod:`~synth.sound.radiation.boundary_tables`.
+Here: the driver (:func:`boundary_rule`, :func:`boundary_integrals`) and the bounds of the
+in-phase part; the grid in :mod:`~.boundary_grid`, the Bessel functions in
+:mod:`~.boundary_bessel`, the tables and edge integrals in :mod:`~.boundary_tables`.
 """
 
 from __future__ import annotations

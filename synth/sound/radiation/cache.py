@@ -30,23 +30,11 @@ _CACHE_VERSION = 1  # layout of the stored gains and the algorithm; part of the 
 CACHE = MemoryCache("computations", max_entries=32)  # least recently used dropped
 
 
-def cache_info() -> dict:
-    """Counters of the gain cache of :func:`plate_gains` since start-up (or
-    :func:`clear_memory_cache`).
-
-    Returns
-    -------
-    dict
-        ``computations`` (Rayleigh integrals evaluated), ``memory_hits``,
-        ``disk_hits`` (results read from disk), ``disk_writes``, and ``entries``
-        (results held in memory).
-    """
-    return CACHE.info()
-
-
-def clear_memory_cache() -> None:
-    """Forget the gains held in memory and reset the counters (disk untouched)."""
-    CACHE.clear()
+#: Counters of the gain cache of :func:`plate_gains` since start-up (``computations``,
+#: ``memory_hits``, ``disk_hits``, ``disk_writes``, ``entries``), and forgetting what memory
+#: holds with the counters (the disk untouched).
+cache_info = CACHE.info
+clear_memory_cache = CACHE.clear
 
 
 def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, rule) -> str:

@@ -32,39 +32,14 @@ _TOL_RANGE = (1e-9, 0.1)
 
 @dataclass(frozen=True)
 class RadiationResult:
-    """Gains of the Rayleigh integral and how they were obtained.
-
-    Attributes
-    ----------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` if a reference distance was
-        given), Pa per (m/s) of modal velocity.
-    error : ndarray of float, shape (n_modes,)
-        Estimated absolute error of each gain, ``|H_fine - H_coarse|``, Pa s/m.
-    coherent : ndarray of float, shape (n_modes,)
-        ``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA``, an upper bound of
-        ``|H_k|``, Pa s/m.
-    n_points : int
-        Number of quadrature points of the returned (finer) rule.
-    refinements : int
-        How many times the first rule was refined (by 1.25 in points per axis) to
-        give the returned rule (1 when the first check passed).
-    panels : (int, int)
-        Number of panels along x and along y.
-    success : bool
-        Whether the convergence test passed for every mode.
-    status : int
-        0 converged; 1 stopped after the last refinement; 2 stopped at ``max_points``.
-    message : str
-        A sentence saying which.
-    rule : str
-        "rectangle" (:func:`rayleigh_gains`: panels along x and y), "polar"
-        (:func:`separable_gains` and :func:`summed_gains`: radial panels about the
-        microphone), or for a plate with dynamic edge effect modes (its Ritz modes by the
-        rectangle rule) "banded" (those by the rectangle rule band by band of wavenumber)
-        or "boundary" (by the boundary rule of :mod:`synth.sound.radiation.boundary`); see
-        :mod:`synth.sound.radiation.rules`.
-    """
+    """Gains of the Rayleigh integral and how they were obtained: ``gains`` (n_modes,) complex,
+    ``H_k(s_k)`` (times ``exp(s_k R0 / c)`` with a reference distance), Pa per (m/s) of modal
+    velocity; ``error``, each gain's estimated absolute error ``|H_fine - H_coarse|``, Pa s/m;
+    ``coherent``, the in-phase bound ``S_k >= |H_k|``, Pa s/m; ``n_points`` of the returned
+    rule; ``refinements`` of the first rule (1 when the first check passed); ``panels`` along x
+    and y; ``success`` of the convergence test for every mode; ``status`` (0 converged, 1
+    stopped after the last refinement, 2 stopped at ``max_points``) and ``message`` saying
+    which; ``rule``, the rule's name (:mod:`synth.sound.radiation.rules`)."""
 
     gains: np.ndarray
     error: np.ndarray

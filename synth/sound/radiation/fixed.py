@@ -1,29 +1,16 @@
-"""The rectangle rule on grids fixed for every listener above a height
-(:class:`ListenerGrid`): the mode shapes evaluated once, the gains at a new microphone one
-pass of the sums, for a listener that moves (the live engine's, :meth:`synth.live.Body.move`).
+"""The rectangle rule on grids fixed for every listener above a height (:class:`ListenerGrid`):
+shapes evaluated once, the gains at a new microphone one pass of the sums, for the live
+engine's moving listener (:meth:`synth.live.Body.move`).
 
-:func:`synth.sound.radiation.plate_gains` builds its panels around each microphone (graded
-towards its projection on the plate, see :mod:`~synth.sound.radiation.rectangle`), so a
-new microphone evaluates every mode's shape anew at every point: most of its time. Here
-the panels do not depend on the microphone: along each axis they are all as long, at most
-``h = 2 w24 / kappa`` (the oscillation of the integrand, as in the rectangle rule) and at
-most the height :data:`NEAR_FIELD_HEIGHT`. A panel no longer than ``z`` keeps the complex
-singularities of ``1 / R`` (at a distance ``>= z`` from the real axis, ``z`` the
-microphone's height) outside its Bernstein ellipse of parameter ``2 + sqrt(5) = 4.24``,
-wherever the projection falls on it: more than the ``2.89`` of the rectangle rule's worst
-graded panel, for which its fewest points per panel (:func:`~.common.min_order`) are made;
-so for a microphone at least that high the fixed panels meet every bound the rectangle
-rule's first rule meets, and take its points per panel. The modes are split in bands of
-wavenumber (:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid, as the
-banded rectangle rule does.
-A microphone lower than the height is left to :func:`plate_gains` (the caller's choice).
-
-No finer rule checks the gains at each microphone (that would cost 1.56 times the sums
-again): the tests compare them with :func:`plate_gains` at random microphones, within
-``2 tol`` relative to ``max(|H_k|, 1e-4 S_k)`` (both rules meet ``tol``, see
-:mod:`~synth.sound.radiation.refinement`). Cost of a new microphone: one exponential per
-mode and point of its band's grid (:attr:`ListenerGrid.points`); memory: the shapes kept,
-8 bytes per mode and point (:attr:`ListenerGrid.nbytes`).
+Panels are all as long along each axis, at most ``h = 2 w24 / kappa`` and
+:data:`NEAR_FIELD_HEIGHT`: a panel no longer than the height ``z`` keeps the singularities
+of ``1 / R`` outside its Bernstein ellipse of parameter ``2 + sqrt(5)``, more than the
+rectangle rule's worst graded panel, so for a microphone that high the fixed panels meet
+every bound of the rectangle rule's first rule. Modes are split in bands of wavenumber
+(:func:`~synth.sound.radiation.rules.mode_bands`), each with its own grid; a lower
+microphone is left to :func:`plate_gains`. Tests compare the gains with :func:`plate_gains`
+within ``2 tol``. Cost: one exponential per mode and point (:attr:`ListenerGrid.points`);
+memory 8 bytes per mode and point (:attr:`ListenerGrid.nbytes`).
 """
 
 from __future__ import annotations

@@ -1,40 +1,23 @@
 """The polar rule of the Rayleigh integral for separable shapes (:func:`separable_gains`),
-and the sums it shares with :mod:`synth.sound.radiation.summed`.
+and the sums it shares with :mod:`synth.sound.radiation.summed` (docs/physics.md,
+"Radiation").
 
-The rectangle rule costs one exponential per mode and point, about ``n_modes (k a)(k b)``
-(``k`` the largest of the bending and acoustic wavenumbers): hours for tens of thousands of
-modes on a 2 m plate. For shapes ``X_i(x) Y_j(y)`` (the simply supported plate)
-:func:`separable_gains` integrates in polar coordinates ``(r, theta)`` about the
-microphone's projection, where ``R = sqrt(r^2 + z^2)`` does not depend on ``theta``::
+About the microphone's projection ``R = sqrt(r^2 + z^2)`` does not depend on ``theta``, so
+``Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr`` with
+``Phi_k(r)`` the integral of the shape over the arcs at radius ``r`` on the plate. For
+shapes ``X_i(x) Y_j(y)`` the angular sums of every mode are one matrix product at each
+radius; a whole circle is ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean value theorem of the
+Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate.
+Angular points: Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol``
+(Jacobi-Anger). Radial panels: as in the rectangle rule, with breakpoints where the arcs
+change (the ``sqrt(r - d)`` behaviour removed by ``r = d + L u^2``). Convergence as in
+:mod:`~.refinement`, each mode refined alone. Cost about ``N_theta I J + N_r n_modes`` per
+rule instead of ``N n_modes`` exponentials. Blocks of radii run on numba's threads, their
+sums added in a fixed order.
 
-    Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr,
-    Phi_k(r) = Int_arcs phi_k(xl + r cos theta, yl + r sin theta) dtheta.
-
-``Phi_k`` does not depend on ``s``: at each radius the angular sums of every mode are one
-matrix product of the ``X`` and ``Y`` values at the arc's points, and the radial sums take
-one exponential per mode and radius. A whole circle needs no points: each product of sines
-solves the Helmholtz equation, whose mean value theorem gives ``Int_0^2pi phi_k dtheta = 2
-pi phi_k(xl, yl) J_0(k_k r)``; at each radius the rule sums the arcs on the plate, or, when
-those off the plate are shorter, that closed form minus the arcs off the plate (one ``J_0``
-per mode and radius, as the exponentials). Angular points: Gauss-Legendre panels for a
-trigonometric polynomial of the degree beyond which ``|J_n(k_b r)| <= tol`` (a plane wave
-on a circle, Jacobi-Anger). Radial panels: as along x and y in the rectangle rule, with
-breakpoints where the set of arcs changes (a circle touching an edge's line, where
-``Phi_k`` behaves as ``sqrt(r - d)``, removed by ``r = d + L u^2``; a corner, a kink), and
-sized for the phase of ``exp(-s R / c)`` plus that of the arcs' ends travelling along the
-edges. The tolerance, the error estimate and the convergence test are those of
-:mod:`synth.sound.radiation.refinement`, each mode refined alone
-(:func:`~synth.sound.radiation.refinement.refine_selective`). The in-phase bounds ``S_k``
-(``|phi_k| = |X_i| |Y_j|``) come from one matrix product on a rectangle rule that resolves
-the shapes but not the acoustic phase. Tests compare the two rules on plates where both run
-(agreement within ``2 tol``, in-phase bounds within 5 %). Blocks of radii are shared
-between numba's threads (each with its own sums, added in a fixed order at the end; the
-products and kernels run without the GIL).
-
-This module holds the rule (:func:`separable_gains`) and the sums the polar rules share
-(:func:`polar_setup`, :func:`polar_gains`); the radial panels are in
-:mod:`~synth.sound.radiation.radial`, the angular rule in
-:mod:`~synth.sound.radiation.angular` and ``J_0`` in :mod:`~synth.sound.radiation.bessel_j0`.
+Here: the rule and the shared sums (:func:`polar_setup`, :func:`polar_gains`); the radial
+panels in :mod:`~.radial`, the angular rule in :mod:`~.angular`, ``J_0`` in
+:mod:`~.bessel_j0`.
 """
 
 from __future__ import annotations
@@ -394,40 +377,11 @@ def separable_gains(
     max_points=4_000_000,
     full_output=False,
 ):
-    """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)``, in polar coordinates.
-
-    Parameters
-    ----------
-    shapes : synth.physics.modes.SeparableShapes
-        The modes' shapes (see :meth:`synth.physics.modes.Modes.separable`) and the
-        plate's size.
-    listener_position, s, max_wavenumber, air_density, sound_speed
-        As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
-        wavenumber, rad/m).
-    reference_distance, tol, max_points, full_output
-        As for :func:`rayleigh_gains` (``max_points`` counts the points of one rule).
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`
-        (``panels`` holds the radial panels and 0).
-
-    Notes
-    -----
-    The same integral, tolerance and convergence test (successive rules with 1.25
-    times the points per axis, the error estimate their difference) as
-    :func:`rayleigh_gains`; only the rule differs: polar coordinates about the
-    microphone (see the comment above :func:`radial_segments`). The angular sums
-    of all modes at one radius are one matrix product of ``X`` and ``Y`` values on
-    the shorter of the arcs on and off the plate (the whole circle in closed form,
-    see the comment above :data:`HANKEL_FROM`), and the radial sums cost one
-    exponential and at most one ``J_0`` per mode and radius: about
-    ``N_theta I J + N_r n_modes`` operations per rule (``N_theta`` the points, at
-    most half of each circle, ``N_r`` the radii, ``I, J`` the numbers of factors)
-    instead of ``N n_modes`` exponentials. Measured on a simply supported 1.86 m
-    square plate to 22 kHz (39 797 modes): see ``synth bench scale``.
-    """
+    """:func:`rayleigh_gains` of shapes ``X_i(x) Y_j(y)`` (``shapes``, a
+    :class:`synth.physics.modes.SeparableShapes` with the plate's size), in polar coordinates
+    about the microphone: the same integral, arguments (``max_wavenumber`` bounding every
+    shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
+    result (``panels``: the radial panels and 0)."""
     from synth.physics.modes import SeparableShapes
 
     if not isinstance(shapes, SeparableShapes):

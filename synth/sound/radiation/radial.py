@@ -20,20 +20,9 @@ from synth.sound.radiation.common import (
 
 # ----------------------------------------------------------------------------------------
 # Separable shapes: the integral in polar coordinates about the microphone
-#
-# With r, theta polar coordinates in the plate's plane about the microphone's projection
-# (xl, yl), R = sqrt(r^2 + z^2) depends on r alone, so
-#     Int phi_k exp(-q R) / R dA = Int (r / R) exp(-q R) Phi_k(r) dr,
-#     Phi_k(r) = Int phi_k(xl + r cos theta, yl + r sin theta) dtheta  (arcs inside the plate).
-# Phi_k does not depend on q: for shapes X_i(x) Y_j(y) the angular sums of every mode at
-# one radius are one matrix product, Phi = (X^T diag(w)) Y, and the radial sums take
-# each mode's own exp(-q_k R) (common.accumulate). The angular integrand oscillates at
-# most at k_b r rad/rad (a shape's wavenumber is at most k_b), the radial one at most
-# at k_b + |q|; the 1/R peak under the microphone is resolved by graded radial panels.
-# Phi_k(r) is analytic in r between the radii where the set of arcs changes: at a
-# radius where the circle touches an edge's line Phi_k behaves as sqrt(r - d) (the arc
-# grows as sqrt), removed by r = d + L u^2 on the adjacent panel; at a corner's distance
-# it has a kink, a panel end.
+# (:mod:`synth.sound.radiation.polar`). The angular integrand oscillates at most at k_b r
+# rad/rad, the radial one at k_b + |q|; Phi_k(r) behaves as sqrt(r - d) where a circle
+# touches an edge's line (removed by r = d + L u^2) and has a kink at a corner's distance.
 
 
 def radial_segments(a: float, b: float, xl: float, yl: float):

@@ -1,24 +1,13 @@
 """The rectangle rule of the Rayleigh integral (:func:`rayleigh_gains`): tensor
 Gauss-Legendre panels along x and y, for any shapes.
 
-The integrand oscillates along the plate at most at ``kappa = max_wavenumber + max|s| / c``
-rad/m (the mode's bending wavenumber plus the acoustic one: the phase of ``exp(-s R / c)``
-changes along the plate at most at ``|s| / c``). Along each axis the panels are at most
-``h = 2 w24 / kappa`` long, ``w24`` the largest half-panel phase that 24-point
-Gauss-Legendre integrates (``exp(i w t)`` on ``[-1, 1]``) to ``tol / 10``; each panel then
-gets the fewest points that do so for its own length. Towards the microphone's projection
-``(x, y)`` the panels are graded: a panel whose near end is a distance ``d`` (along the
-axis) from the projection is at most ``2 max(z, d)`` long, so that the near-singular
-``1 / R`` peak (its complex singularities lie at a distance ``>= sqrt(d^2 + z^2)``) is
-resolved for any height ``z > 0``; such a panel gets at least ``ln(1/tol) / (2 ln 2.89)``
-points (its Bernstein-ellipse parameter is ``>= 2.89``). Successive rules are compared as
-in :mod:`synth.sound.radiation.refinement`.
-
-Shapes are evaluated in chunks of points so that one chunk of mode values takes at most
-about 32 MB (``n_modes * chunk * 8`` bytes) whatever the number of modes and points. The
-sums over a chunk run in worker threads without the GIL while the calling thread
-evaluates the next chunk's shapes (two chunks are held at a time); each worker always
-takes the same share of every chunk, so the result does not depend on the timing.
+Panels are at most ``h = 2 w24 / kappa`` long, ``kappa = max_wavenumber + max|s| / c``
+(rad/m) the integrand's fastest oscillation and ``w24`` the largest half-panel phase that
+24-point Gauss-Legendre integrates to ``tol / 10``; towards the microphone's projection they
+are graded (at most ``2 max(z, d)`` long) so that the near-singular ``1 / R`` peak is
+resolved for any height ``z > 0`` (docs/physics.md, "Radiation"). Shapes are evaluated in
+chunks of about 32 MB while worker threads sum the previous chunk without the GIL, each
+worker on a fixed share, so the result does not depend on timing.
 """
 
 from __future__ import annotations
@@ -330,65 +319,44 @@ def rayleigh_gains(
     Parameters
     ----------
     shape_fn : callable
-        ``shape_fn(points) -> values``: ``points`` an ``(n, 2)`` float array of
-        plate positions ``(x, y)``, metres from the corner; ``values`` an
-        ``(n, n_modes)`` real array of the modes' normal-velocity shapes
-        ``phi_k`` there (dimensionless: the surface velocity is ``phi_k u``).
-        It is called on chunks of points (at most about 32 MB of values each);
-        the returned array is read while the next chunk is evaluated, so it
-        must not be reused for the next call's values.
+        ``shape_fn(points) -> values``: ``points`` ``(n, 2)`` plate positions ``(x, y)``, m
+        from the corner; ``values`` ``(n, n_modes)`` normal-velocity shapes ``phi_k``
+        (dimensionless). Called on chunks; the returned array must not be reused by the next
+        call.
     size : (float > 0, float > 0)
-        ``(a, b)``: the plate's extent along x and y, metres.
+        ``(a, b)``: the plate's extent along x and y, m.
     listener_position : (float, float, float)
-        ``(x, y, z)`` of the microphone, metres; any ``x, y``; ``z > 0`` the
-        height above the plate's plane (the air side of the baffle).
+        ``(x, y, z)`` of the microphone, m; ``z > 0`` the height above the baffled plate.
     s : array of complex, shape (n_modes,)
-        The complex frequency of each mode, rad/s: ``i omega`` for a steady
-        sinusoid, the pole ``-sigma_k + i omega_dk`` for a mode ringing freely.
+        Each mode's complex frequency, rad/s (``i omega``, or a pole ``-sigma_k + i omega_dk``).
     max_wavenumber : float >= 0
-        Largest bending wavenumber of the modes, ``k_b = (omega^2 rho h / D)^(1/4)``,
-        rad/m (0 for a rigid piston); sets the panel size with ``max|s| / c``.
+        Largest bending wavenumber of the modes, rad/m (0 for a rigid piston).
     air_density : float > 0
         Density of air, kg/m^3.
     sound_speed : float > 0
         Speed of sound in air, m/s.
     reference_distance : float >= 0 or None
-        ``R0``, metres. If given, the gains are ``H_k(s_k) exp(+s_k R0 / c)``: the
-        transfer function with a pure delay ``R0 / c`` taken out (see :func:`distance`
-        and :func:`delay`). None: ``H_k(s_k)`` itself.
+        ``R0``, m: if given the gains are ``H_k(s_k) exp(+s_k R0 / c)`` (the delay ``R0 / c``
+        taken out; for a damped pole this keeps the growth ``exp(sigma R / c)`` bounded).
     tol : float in [1e-9, 0.1]
-        Relative accuracy of each gain (dimensionless), in the sense of
-        :mod:`synth.sound.radiation.refinement`: ``|error| <= tol * max(|H_k|, 1e-4 S_k)``.
+        Relative accuracy of each gain: ``|error| <= tol * max(|H_k|, 1e-4 S_k)``
+        (:mod:`synth.sound.radiation.refinement`).
     max_points : int > 0
         Most quadrature points one rule may use; refinement stops there.
     full_output : bool
-        If True return a :class:`RadiationResult` (gains, error estimates,
-        success flag); if False return the gains alone, and warn
-        (``RuntimeWarning``) if the convergence test failed.
+        True: return a :class:`RadiationResult`; False: the gains alone, with a
+        ``RuntimeWarning`` if the convergence test failed.
 
     Returns
     -------
     gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity ``u``; or a
-        :class:`RadiationResult` if ``full_output``.
+        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`.
 
     Raises
     ------
     ParameterError
-        For any input outside the ranges above (the message names the field),
-        NaN or infinite shape values, or a plate needing more than ``max_points``
-        points for the first two rules.
-
-    Notes
-    -----
-    Cost: about ``1.6 N n_modes`` evaluations of ``phi exp(-s R / c) / R`` plus
-    ``1.6 N`` points of ``shape_fn`` for the two rules, ``N`` the returned rule's
-    points (``RadiationResult.n_points``; a few 10^4 for ``kappa ~ 800`` rad/m on
-    a 0.5 x 0.4 m plate). A ``shape_fn`` returning a C-ordered (row per point)
-    float64 array is used without a copy. For a damped pole the gain grows as
-    ``exp(sigma R / c)``; with a distant microphone give ``reference_distance``
-    so that only ``exp(sigma (R - R0) / c)`` remains.
-    """
+        For an input outside the ranges above (naming the field), NaN or infinite shape
+        values, or a plate needing more than ``max_points`` points for the first two rules."""
     if not callable(shape_fn):
         raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
 
@@ -420,21 +388,13 @@ def product_gains(
     tol=1e-6,
     max_points=4_000_000,
 ) -> RadiationResult:
-    """:func:`rayleigh_gains` (``full_output``) of shapes that are at most two products of
-    one factor per axis, such as the dynamic edge effect modes: the same panels and
-    convergence test, the shape values formed from the factor tables inside the sums
-    (:func:`apply_product_rule`) instead of evaluated point by point, and each panel's
-    orders for its own bound of the acoustic phase's rate (``acoustic`` of
-    :func:`first_rule`: fewer points where the microphone is high above the panel), each
-    mode refined alone (:func:`~synth.sound.radiation.refinement.refine_selective`: a mode
-    that passes keeps that rule's gain, the next rule sums only the modes still failing).
-    (:func:`rayleigh_gains` keeps one bound for every panel: its gains are those the
-    presets' recorded renders were made with.)
-
-    ``factor_fn(x, y) -> ProductFactors``: the modes' factors at the nodes ``x`` and ``y``
-    (metres from the corner, on the plate) of one rule's grid; the other arguments as for
-    :func:`rayleigh_gains`.
-    """
+    """:func:`rayleigh_gains` (``full_output``) of shapes that are at most two products of one
+    factor per axis (the dynamic edge effect modes): the shape values formed from factor
+    tables inside the sums (:func:`apply_product_rule`), each panel's orders for its own bound
+    of the acoustic phase's rate (:func:`first_rule`), each mode refined alone
+    (:func:`~synth.sound.radiation.refinement.refine_selective`). ``factor_fn(x, y) ->
+    ProductFactors``: the factors at the grid's nodes (m); other arguments as for
+    :func:`rayleigh_gains`."""
     if not callable(factor_fn):
         raise ParameterError(f"factor_fn={factor_fn!r} must be callable (x, y -> factors)")
 

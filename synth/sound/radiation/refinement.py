@@ -1,20 +1,10 @@
 """Successive rules of the Rayleigh integral compared until the gains converge.
 
-The first rule is checked by a second one with 1.25 times the points per axis (about 1.5
-times in all); while any mode fails the test below the rule is refined again by 1.25 per
-axis (up to six times), each rule compared with the previous one. The estimated error of
-mode ``k`` is the change ``|H_fine - H_coarse|`` and the rule is accepted when for every
-mode::
-
-    |H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 * S_k),
-    S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA  >= |H_k|
-
-``S_k`` is the gain the mode would have if the whole plate radiated in phase; for a mode
-whose radiation cancels to below ``1e-4`` of it (-80 dB), the tolerance is taken relative
-to ``1e-4 S_k`` instead of ``|H_k|`` (round-off, about ``1e-16 S_k`` times the square root
-of the number of points, would otherwise dominate). The finer rule's gains are returned.
-With :func:`refine_selective` a mode passing the test keeps that rule's gain and only the
-modes still failing are evaluated on the next rule.
+The first rule is checked by one with 1.25 times the points per axis, refined again (up to
+six times) while any mode fails ``|H_fine - H_coarse| <= tol * max(|H_fine|, 1e-4 S_k)``,
+``S_k = (rho |s_k| / (2 pi)) Int |phi_k| / R dA >= |H_k|`` the in-phase gain (the floor
+keeps round-off from dominating modes that cancel below -80 dB). The finer rule's gains are
+returned; :func:`refine_selective` evaluates only the modes still failing.
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
 """The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, and the
 choice among them (:func:`choose_rule`).
 
-Every rule evaluates the same Rayleigh integral and ends with the same convergence test
-(:mod:`~synth.sound.radiation.refinement`: successive rules 1.25 times finer per axis until
-each mode's change is within ``tol * max(|H_k|, 1e-4 S_k)``), so every rule states the same
-error bound, that change, as long as its check rule (the first rule refined once) fits
-``max_points``. What differs is the cost: each rule counts, before any mode is solved, the
-terms of its first rule and its check rule from its own panel builders
-(:mod:`~synth.sound.radiation.work`), weighed in rectangle-term equivalents by the rates
-shipped with the package (:func:`synth.cost.rates.rule_weights`, measured by ``synth bench
-cost``), once per rule and problem (:meth:`Rule.estimate`). :func:`choose_rule` takes,
-among the rules that apply to the shapes and whose check rule fits ``max_points``, the one
-of least cost; ``synth bench rules`` prints each rule's cost and the choice on the
-presets, the scale ladder, its random scenes and the high rates, and per rule the scenes
-it is chosen for and its least cost ratio to the cheapest other rule.
+Every rule ends with the same convergence test (:mod:`~synth.sound.radiation.refinement`),
+so each holds the same error bound while its check rule fits ``max_points``; they differ
+in cost, counted before any mode is solved from their own panel builders
+(:mod:`~synth.sound.radiation.work`) and weighed by the shipped rates
+(:func:`synth.cost.rates.rule_weights`). :func:`choose_rule` takes the cheapest rule that
+applies and fits; ``synth bench rules`` prints each rule's cost and choice on the presets,
+the scale ladder, its random scenes and the high rates.
 """
 
 from __future__ import annotations

@@ -25,19 +25,11 @@ from synth.sound.radiation.polar import polar_rule_gains, polar_setup
 from synth.sound.radiation.rectangle import apply_rule, first_rule, panel_nodes
 
 # ----------------------------------------------------------------------------------------
-# Sums of separable shapes (free and clamped plates): the polar rule, one matrix of
-# angular sums per radius for every mode
-#
-# For phi_k = sum_ij C_kij X_i(x) Y_j(y) the angular integral at radius r is
-#     Phi_k(r) = sum_ij C_kij A_ij(r),   A(r) = X^T diag(w) Y  (the arc's points),
-# one small matrix product per radius whatever the number of modes, then one product
-# of the radii's A (flattened) with the coefficients for a block of radii
-# (SummedShapes.combine). The in-phase integrals Int |phi_k| / R dA are not sums of
-# products; they only set the tolerance floor and the bound S_k, and are taken once on
-# a rectangle rule sized for twice the shapes' wavenumber k_b (and the 1/R peak) but not
-# for the acoustic phase, which |phi_k| / R does not carry: |phi_k| has kinks on the
-# nodal lines, which such a rule integrates less closely than the gains (tests compare
-# it with the full rectangle rule).
+# Sums of separable shapes (free and clamped plates): for phi_k = sum_ij C_kij X_i Y_j the
+# angular integral at radius r is Phi_k(r) = sum_ij C_kij A_ij(r), A(r) = X^T diag(w) Y,
+# one small matrix product per radius (SummedShapes.combine). The in-phase integrals
+# Int |phi_k| / R dA are not sums of products: they are taken once on a rectangle rule
+# sized for twice the shapes' wavenumber and the 1/R peak, not the acoustic phase.
 
 
 def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
@@ -105,38 +97,13 @@ def summed_gains(
     max_points=4_000_000,
     full_output=False,
 ):
-    """:func:`rayleigh_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)``, in polar coordinates.
-
-    Parameters
-    ----------
-    shapes : synth.physics.modes.SummedShapes
-        The modes' shapes (see :meth:`synth.physics.modes.Modes.summed`) and the
-        plate's size.
-    listener_position, s, max_wavenumber, air_density, sound_speed
-        As for :func:`rayleigh_gains` (``max_wavenumber`` bounds every shape's
-        wavenumber, rad/m).
-    reference_distance, tol, max_points, full_output
-        As for :func:`rayleigh_gains` (``max_points`` counts the points of one rule).
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`
-        (``rule`` "polar", ``panels`` the radial panels and 0).
-
-    Notes
-    -----
-    The rule, tolerance and convergence test of :func:`separable_gains` (each mode
-    refined alone: a mode that passes keeps that rule's gain, and the next rule combines
-    and exponentiates only the modes still failing); only the angular sums differ (see
-    the comment above :func:`_apply_summed_rule`): about
-    ``N_theta n_x n_y + N_r n_basis n_modes / 4`` multiply-adds per rule (matrix
-    products; ``N_r`` radii, ``N_theta`` points, ``n_basis`` the Ritz unknowns)
-    and ``N_r n_modes`` exponentials, against ``N n_modes`` exponentials and shape
-    values for the rectangle rule's ``N`` points. The in-phase bounds ``S_k``
-    (``RadiationResult.coherent``) come from a rectangle rule that resolves the
-    shapes alone (see the comment above :func:`_apply_summed_rule`).
-    """
+    """:func:`rayleigh_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
+    :class:`synth.physics.modes.SummedShapes` with the plate's size), in polar coordinates: the
+    arguments, rule and convergence test of :func:`separable_gains`; the angular sums combine
+    each mode's Ritz coefficients (the comment above :func:`_apply_summed_rule`), about
+    ``N_theta n_x n_y + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes``
+    exponentials per rule. Returns the gains, Pa per (m/s) of modal velocity, or a
+    :class:`RadiationResult` (``rule`` "polar", ``panels`` the radial panels and 0)."""
     from synth.physics.modes import SummedShapes
 
     if not isinstance(shapes, SummedShapes):

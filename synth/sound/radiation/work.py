@@ -1,40 +1,17 @@
 """The work of each radiation rule, counted from the rule's own panel builders before any
 mode is solved (for :func:`synth.cost.radiation_work`).
 
-Every rule refines by ``REFINE`` (:mod:`~synth.sound.radiation.refinement`, at most
-``MAX_RULES`` rules); each count below is per rule, from the panels and orders the rule
-itself builds for the band's largest wavenumbers (the bending wavenumber ``kb`` of the
-highest rendered frequency and the acoustic one ``qa = omega_max / c``, rad/m): the
-same functions, so the counts follow the code. The unit of work is a *term*: a
-multiply-add, or one exponential, Bessel value or shape factor value.
-
-* **rectangle** (:func:`rectangle_work`): the points of the tensor rule
-  (:func:`~synth.sound.radiation.rectangle.first_rule`, orders times ``REFINE^l``), each
-  costing per mode one exponential and the ``terms`` of a shape value.
-* **polar** (:func:`polar_work`, the separable shapes of
-  :func:`~synth.sound.radiation.separable_gains`): the radii of the radial panels
-  (:func:`~synth.sound.radiation.radial.radial_orders`) and at each the angular points of
-  the shorter set of arcs (:func:`~synth.sound.radiation.angular.arc_panels`); per angular
-  point the ``n_x + n_y`` factor values and the ``n_x n_y`` products of the angular sums,
-  per radius and mode an exponential and a ``J_0``; once, the in-phase bounds' rectangle
-  rule at ``2 kb`` refined once (factor values and its two matrix products).
-* **summed** (:func:`summed_work`, the Ritz shapes of
-  :func:`~synth.sound.radiation.summed_gains`): the same radii and angular points; per
-  angular point the factor values and products of the ``n_x x n_y`` angular sums, per
-  radius and mode the combination of its class's ``basis`` coefficients and an
-  exponential; once, the in-phase bounds' rectangle rule (as the rectangle rule's terms).
-* **boundary** (:func:`boundary_work`, the edge effect modes of
-  :func:`~synth.sound.radiation.boundary.boundary_rule`): per row (a mode's trial, two
-  for a pair) the radial grid of its rate (:class:`~synth.sound.radiation.boundary_grid.RadialGrid`,
-  built for the top of each band of rates): per radial node an exponential and the two
-  Bessel values of each of the three Helmholtz parts, per panel the parts' two
-  cumulative integrals (``p^2`` each), per boundary node the trial's parts and slopes.
-
-A rule's *points* are what its ``max_points`` counts: the rectangle rule's grid points,
-the polar rules' angular points, the boundary rule's radial nodes (of its finest grid).
-An upper bound of the work a rule takes: the selective refinements
-(:func:`~synth.sound.radiation.refinement.refine_selective`) evaluate only the modes still
-failing, and a rule that converges early stops there.
+Each count is per rule of the refinement (:mod:`~synth.sound.radiation.refinement`), from
+the panels and orders the rule itself builds for the band's largest bending wavenumber
+``kb`` and acoustic one ``qa = omega_max / c`` (rad/m), so the counts follow the code. The
+unit is a *term*: a multiply-add, or one exponential, Bessel value or shape factor value.
+Rectangle: per grid point and mode an exponential and a shape value's ``terms``. Polar and
+summed: per angular point the factor values and angular products, per radius and mode an
+exponential and a ``J_0`` (or the Ritz coefficients' combination), once the in-phase
+bounds' rule. Boundary: per row of each band the radial grid's exponentials and Bessel
+values, cumulative integrals and boundary nodes. A rule's *points* are what its
+``max_points`` counts. The counts bound the work from above (selective refinements sum
+only the modes still failing).
 """
 
 from __future__ import annotations
