@@ -266,6 +266,14 @@ class SceneScore:
 def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
     """False ticks, impossible values and audible impacts missed of ``ticks`` (the analysis'
     :class:`~synth.analysis.report.Tick` list, in time order) against ``truth``."""
+    false, impossible, missed = faults(truth, ticks)
+    return len(false), len(impossible), len(missed)
+
+
+def faults(truth: Truth, ticks: list) -> tuple[list, list, list]:
+    """The false ticks and the ticks of impossible values of ``ticks`` (lists of
+    :class:`~synth.analysis.report.Tick`) and the onsets of the audible impacts missed (s),
+    against ``truth`` (:func:`score`)."""
     tol = np.maximum(MATCH_TOLERANCE, truth.contact_times)
     matched = np.zeros(truth.onsets.size, dtype=bool)
     match = []  # the true impact of each tick, -1 for a false tick
@@ -278,11 +286,11 @@ def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
             match.append(k)
         else:
             match.append(-1)
-    impossible = sum(
-        impossible_value(t, truth, match[max(0, n - 3) : n + 1]) for n, t in enumerate(ticks)
-    )
-    missed = int(np.count_nonzero(truth.audible & ~matched))
-    return len(match) - sum(k >= 0 for k in match), impossible, missed
+    impossible = [
+        t for n, t in enumerate(ticks) if impossible_value(t, truth, match[max(0, n - 3) : n + 1])
+    ]
+    false = [t for t, k in zip(ticks, match) if k < 0]
+    return false, impossible, list(truth.onsets[truth.audible & ~matched])
 
 
 def impossible_value(t, truth: Truth, impacts: list) -> bool:
@@ -386,15 +394,20 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
         return SceneScore(spec.describe(), 0, 0, 0, 0, 0, 0, 0.0, 0.0, f"not rendered: {exc}")
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
-    false, impossible, missed = score(truth, ticks)
+    false, impossible, missed = faults(truth, ticks)
+    for t in false + impossible:  # each fault, to read one by one
+        what = "false" if t in false else f"impossible (e {t.restitution}, flags {t.flags})"
+        print(f"  {what} tick at {t.time:.5f} s", file=sys.stderr)
+    if missed:
+        print(f"  audible impacts missed at {np.round(missed, 5).tolist()} s", file=sys.stderr)
     return SceneScore(
         scene=spec.describe(),
         impacts=int(truth.onsets.size),
         audible=int(np.count_nonzero(truth.audible)),
         ticks=len(ticks),
-        false_ticks=false,
-        impossible=impossible,
-        missed=missed,
+        false_ticks=len(false),
+        impossible=len(impossible),
+        missed=len(missed),
         duration=duration,
         seconds=seconds,
         error=error,
