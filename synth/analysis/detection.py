@@ -142,9 +142,11 @@ def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -
     ``size`` frames), except up to the first burst's peak, which rises from the lead-in before
     it (the median of up to ``size`` frames under the dynamic range's floor), where lower: a
     centred median there holds the first tick's own ringing, which the whitening of a lightly
-    damped plate leaves nearly as loud as its burst."""
+    damped plate leaves nearly as loud as its burst. A lead-in shorter than
+    :data:`STANDS_OUT_BEFORE` (the stretch step 8 weighs a tick against) is no background:
+    the noise of a recording cut just before a tick crosses the floor within it."""
     k0 = int(np.argmax(d >= d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)))
-    if k0 == 0:
+    if k0 * settings.hop < STANDS_OUT_BEFORE * settings.samplerate:
         return med
     k1 = k0 + 1 + int(np.argmax(np.diff(d[k0:]) < 0))  # through the first burst's peak
     out = med.copy()
