@@ -81,7 +81,7 @@ def measured_ticks(
         ticks = [meter.tick(i) for i in range(len(meter.found))]
     fs = settings.samplerate
     test = RiseTest(lambda a, b: x[a:b], fs, settings.dynamic_range_db, meter.noise)
-    innovation = float(np.max(np.abs(search.result.whitened)))
+    innovation = settings.innovation or float(np.max(np.abs(search.result.whitened)))
     dropped = set(not_impacts(ticks, test)) | set(
         ringing_ticks(x, ticks, meter.found, settings, innovation)
     )
