@@ -249,7 +249,7 @@ def audible_impacts(scene, seq, r, audio: np.ndarray) -> np.ndarray:
 class SceneScore:
     """The analysis of one scene against its truth: impacts (all, audible), ticks reported,
     false ticks, impossible values, audible impacts missed, audio length (s), analysis time
-    (s) and the error raised instead of a result (None)."""
+    (s), the error raised instead of a result (None) and each fault, in words."""
 
     scene: str
     impacts: int
@@ -261,6 +261,7 @@ class SceneScore:
     duration: float
     seconds: float
     error: str | None = None
+    faults: tuple[str, ...] = ()
 
 
 def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
@@ -395,11 +396,13 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
     false, impossible, missed = faults(truth, ticks)
-    for t in false + impossible:  # each fault, to read one by one
-        what = "false" if t in false else f"impossible (e {t.restitution}, flags {t.flags})"
-        print(f"  {what} tick at {t.time:.5f} s", file=sys.stderr)
+    listed = [  # each fault, to read one by one
+        ("false" if t in false else f"impossible (e {t.restitution}, flags {t.flags})")
+        + f" tick at {t.time:.5f} s"
+        for t in false + impossible
+    ]
     if missed:
-        print(f"  audible impacts missed at {np.round(missed, 5).tolist()} s", file=sys.stderr)
+        listed.append(f"audible impacts missed at {np.round(missed, 5).tolist()} s")
     return SceneScore(
         scene=spec.describe(),
         impacts=int(truth.onsets.size),
@@ -411,6 +414,7 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
         duration=duration,
         seconds=seconds,
         error=error,
+        faults=tuple(listed),
     )
 
 
@@ -428,6 +432,8 @@ def run_random(count: int, seed: int, limit: float | None = None) -> dict:
             file=sys.stderr,
             flush=True,
         )
+        for line in r["faults"]:
+            print(f"  {line}", file=sys.stderr, flush=True)
     total_audio = sum(r["duration"] for r in rows)
     total_time = sum(r["seconds"] for r in rows)
     return dict(
