@@ -249,7 +249,7 @@ def audible_impacts(scene, seq, r, audio: np.ndarray) -> np.ndarray:
 class SceneScore:
     """The analysis of one scene against its truth: impacts (all, audible), ticks reported,
     false ticks, impossible values, audible impacts missed, audio length (s), analysis time
-    (s) and the error raised instead of a result (None)."""
+    (s), the error raised instead of a result (None) and each fault, in words."""
 
     scene: str
     impacts: int
@@ -261,11 +261,20 @@ class SceneScore:
     duration: float
     seconds: float
     error: str | None = None
+    faults: tuple[str, ...] = ()
 
 
 def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
     """False ticks, impossible values and audible impacts missed of ``ticks`` (the analysis'
     :class:`~synth.analysis.report.Tick` list, in time order) against ``truth``."""
+    false, impossible, missed = faults(truth, ticks)
+    return len(false), len(impossible), len(missed)
+
+
+def faults(truth: Truth, ticks: list) -> tuple[list, list, list]:
+    """The false ticks and the ticks of impossible values of ``ticks`` (lists of
+    :class:`~synth.analysis.report.Tick`) and the onsets of the audible impacts missed (s),
+    against ``truth`` (:func:`score`)."""
     tol = np.maximum(MATCH_TOLERANCE, truth.contact_times)
     matched = np.zeros(truth.onsets.size, dtype=bool)
     match = []  # the true impact of each tick, -1 for a false tick
@@ -278,11 +287,11 @@ def score(truth: Truth, ticks: list) -> tuple[int, int, int]:
             match.append(k)
         else:
             match.append(-1)
-    impossible = sum(
-        impossible_value(t, truth, match[max(0, n - 3) : n + 1]) for n, t in enumerate(ticks)
-    )
-    missed = int(np.count_nonzero(truth.audible & ~matched))
-    return len(match) - sum(k >= 0 for k in match), impossible, missed
+    impossible = [
+        t for n, t in enumerate(ticks) if impossible_value(t, truth, match[max(0, n - 3) : n + 1])
+    ]
+    false = [t for t, k in zip(ticks, match) if k < 0]
+    return false, impossible, list(truth.onsets[truth.audible & ~matched])
 
 
 def impossible_value(t, truth: Truth, impacts: list) -> bool:
@@ -386,18 +395,26 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
         return SceneScore(spec.describe(), 0, 0, 0, 0, 0, 0, 0.0, 0.0, f"not rendered: {exc}")
     duration = truth.audio.size / truth.samplerate
     ticks, error, seconds = timed_analysis(truth.audio, truth.samplerate, limit)
-    false, impossible, missed = score(truth, ticks)
+    false, impossible, missed = faults(truth, ticks)
+    listed = [  # each fault, to read one by one
+        ("false" if t in false else f"impossible (e {t.restitution}, flags {t.flags})")
+        + f" tick at {t.time:.5f} s"
+        for t in false + impossible
+    ]
+    if missed:
+        listed.append(f"audible impacts missed at {np.round(missed, 5).tolist()} s")
     return SceneScore(
         scene=spec.describe(),
         impacts=int(truth.onsets.size),
         audible=int(np.count_nonzero(truth.audible)),
         ticks=len(ticks),
-        false_ticks=false,
-        impossible=impossible,
-        missed=missed,
+        false_ticks=len(false),
+        impossible=len(impossible),
+        missed=len(missed),
         duration=duration,
         seconds=seconds,
         error=error,
+        faults=tuple(listed),
     )
 
 
@@ -415,6 +432,8 @@ def run_random(count: int, seed: int, limit: float | None = None) -> dict:
             file=sys.stderr,
             flush=True,
         )
+        for line in r["faults"]:
+            print(f"  {line}", file=sys.stderr, flush=True)
     total_audio = sum(r["duration"] for r in rows)
     total_time = sum(r["seconds"] for r in rows)
     return dict(

@@ -310,7 +310,7 @@ def test_lazy_block_ticks_are_the_measured_ones():
     y, _ = _drops(12.0, (1.0, 6.0), n_ticks=10)
     settings = analysis.settings.make_settings(1, FS, analysis.AnalysisOptions())
     loc = pipeline._located(y, settings, False, locate=False)
-    want = pipeline._ticks(y, settings, False, resonator=False)
+    want, _ = pipeline._ticks(y, settings, False, resonator=False)
     assert [t.time for t in loc.ticks] == [t.time for t in want]
     assert [t.measured for t in loc.ticks] == want
 

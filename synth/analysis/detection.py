@@ -129,12 +129,29 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
     med = median_filter(d, size=size, mode="nearest")
     threshold = np.maximum.reduce(
         [
-            med * 10.0 ** (settings.threshold_db / 10.0),
+            _rises_from(d, med, size, settings) * 10.0 ** (settings.threshold_db / 10.0),
             _fading_memory(d, hop, settings) * 10.0 ** (settings.rise_db / 10.0),
             np.full_like(d, d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)),
         ]
     )
     return Detection(_candidates(d, threshold, settings), d, threshold, med)
+
+
+def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -> np.ndarray:
+    """The background each frame of ``d`` must rise from: the running median ``med`` (centred,
+    ``size`` frames), except up to the first burst's peak, which rises from the lead-in before
+    it (the median of up to ``size`` frames under the dynamic range's floor), where lower: a
+    centred median there holds the first tick's own ringing, which the whitening of a lightly
+    damped plate leaves nearly as loud as its burst. A lead-in shorter than
+    :data:`STANDS_OUT_BEFORE` (the stretch step 8 weighs a tick against) is no background:
+    the noise of a recording cut just before a tick crosses the floor within it."""
+    k0 = int(np.argmax(d >= d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)))
+    if k0 * settings.hop < STANDS_OUT_BEFORE * settings.samplerate:
+        return med
+    k1 = k0 + 1 + int(np.argmax(np.diff(d[k0:]) < 0))  # through the first burst's peak
+    out = med.copy()
+    out[:k1] = np.minimum(med[:k1], np.median(d[max(0, k0 - size) : k0]))
+    return out
 
 
 def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:

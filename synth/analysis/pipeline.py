@@ -343,7 +343,7 @@ def _searched(
     """The ticks of ``x`` (:func:`_ticks`), none where it has none (silence, no tick, too
     short). ``parts``: as for :func:`first_search`."""
     try:
-        return _ticks(x, settings, clipped, resonator, parts)
+        return _ticks(x, settings, clipped, resonator, parts)[0]
     except (AnalysisError, ParameterError):
         return []
 
@@ -366,11 +366,13 @@ def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
     few drops), whose bounce times then show drop starts where there are none. So the
     recording is then searched as a long one is (:func:`_block_drops`): steps 1-6 over a
     block show where its series start, and each drop is searched on its own up to the
-    next, whatever the whole search found after its first series."""
-    ticks = _ticks(x, settings, clipped)
+    next, whatever the whole search found after its first series; step 9 weighs each drop's
+    ticks against the whole recording's strongest impact (``Settings.innovation``)."""
+    ticks, innovation = _ticks(x, settings, clipped)
     if new_series_at(ticks) is None:
         return [ticks]
-    return _block_drops(x.size, lambda a, b: x[a:b], settings, clipped)
+    drops = replace(settings, innovation=innovation)
+    return _block_drops(x.size, lambda a, b: x[a:b], drops, clipped)
 
 
 def _numbered(found: list[list]) -> list[Series]:
@@ -392,11 +394,14 @@ def _numbered(found: list[list]) -> list[Series]:
 
 def _ticks(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
-) -> list:
+) -> tuple[list, float]:
     """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
     without ``resonator``, by steps 1-6 only (where a block's series start, see
-    :func:`_block_drops`). ``parts``: as for :func:`first_search`."""
-    return measured_ticks(x, first_search(x, settings, parts=parts), settings, clipped, resonator)
+    :func:`_block_drops`); and the largest magnitude of its whitened signal (its strongest
+    impact's, ``Settings.innovation``). ``parts``: as for :func:`first_search`."""
+    search = first_search(x, settings, parts=parts)
+    ticks = measured_ticks(x, search, settings, clipped, resonator)
+    return ticks, float(np.max(np.abs(search.result.whitened)))
 
 
 def analyze_file(path, *, options=None, **overrides) -> Analysis:

@@ -47,7 +47,9 @@ RINGING_FIT = 0.01
 RIDGE = 1e-12
 
 
-def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bool:
+def ringing_explained(
+    x: np.ndarray, free: int, onset: float, s: Settings, innovation: float
+) -> bool:
     """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing before it,
     free from sample ``free`` on (past the previous contact): the decaying modes fitted to
     the last :data:`RINGING_FIT` of ``x`` up to
@@ -56,7 +58,11 @@ def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bo
     held-out stretch before the onset and the tick's first
     :data:`~synth.analysis.detection.STANDS_OUT_SPAN`; explained when the prediction error
     does not rise from the one to the other by more than white noise's scatter allows (the
-    F quantile of step 8).
+    F quantile of step 8), or where that error peaks more than ``dynamic_range_db`` under
+    ``innovation``, the largest magnitude of the recording's whitened signal (step 1: the
+    strongest impact's contact force, as it shows in a prediction error): what the tick adds
+    to the ringing lies outside the dynamic range of the recording's impacts (a rise of the
+    error of a prediction good to the recording's rounding is none of an impact).
     False (not explained) where the free ringing is shorter than :data:`RINGING_FIT` (a
     shorter stretch resolves too few modes: its error rises at a fast chatter's true
     contacts no more than at the ringing's bursts) or silent: nothing is dropped that
@@ -76,7 +82,10 @@ def ringing_explained(x: np.ndarray, free: int, onset: float, s: Settings) -> bo
     if a is None:
         return False
     e = lfilter(a, [1.0], x[end - a.size + 1 : on + span])[a.size - 1 :]
-    return rise_at(e, held, span, held) < noise_rise(span, held)
+    floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
+    return rise_at(e, held, span, held) < noise_rise(span, held) or not (
+        np.max(np.abs(e[held:])) > floor
+    )
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:

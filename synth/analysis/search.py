@@ -81,7 +81,10 @@ def measured_ticks(
         ticks = [meter.tick(i) for i in range(len(meter.found))]
     fs = settings.samplerate
     test = RiseTest(lambda a, b: x[a:b], fs, settings.dynamic_range_db, meter.noise)
-    dropped = set(not_impacts(ticks, test)) | set(ringing_ticks(x, ticks, meter.found, settings))
+    innovation = settings.innovation or float(np.max(np.abs(search.result.whitened)))
+    dropped = set(not_impacts(ticks, test)) | set(
+        ringing_ticks(x, ticks, meter.found, settings, innovation)
+    )
     while dropped:  # the others measured again: their bounces span the dropped ones, and
         # a bounce that spans one may show a tick doubtful that the dropped one hid
         found = [f for i, f in enumerate(meter.found) if i not in dropped]
@@ -126,10 +129,11 @@ def tick_meter(
 
 
 def ringing_ticks(
-    x: np.ndarray, ticks: list, found: list[FoundTick], settings: Settings
+    x: np.ndarray, ticks: list, found: list[FoundTick], settings: Settings, innovation: float
 ) -> list[int]:
     """Indices of the ``ticks`` of ``x`` after the first whose burst the ringing before them
-    explains (:func:`~synth.analysis.ringing.ringing_explained`): no impact (step 9). The
+    explains (:func:`~synth.analysis.ringing.ringing_explained`, ``innovation``: the largest
+    magnitude of the whitened recording): no impact (step 9). The
     ringing is free from :data:`CLEAN_GUARD` after the onset of the tick before, whether
     kept or not: a fit or a held-out stretch that held a contact (a fast chatter's, taken
     for ringing) would explain the next contact by it. A tick of the resonator's search
@@ -143,7 +147,11 @@ def ringing_ticks(
         for i in range(1, len(ticks))
         if found[i].whitening == 0
         and ringing_explained(
-            x, int(math.floor(ticks[i - 1].time * fs)) + guard, ticks[i].time * fs, settings
+            x,
+            int(math.floor(ticks[i - 1].time * fs)) + guard,
+            ticks[i].time * fs,
+            settings,
+            innovation,
         )
     ]
 

@@ -44,6 +44,9 @@ class Settings:
 
     ``dynamic_range_db`` is the floor of steps 1-6 (:data:`DYNAMIC_RANGE_DB` unless given);
     ``fixed_range`` says whether the caller gave it (then it holds in step 7 too).
+    ``innovation``: the largest magnitude of the whole recording's whitened signal, where its
+    drops are searched one by one (step 9 weighs each drop's ticks against the recording's
+    strongest impact); None: that of the signal searched.
     """
 
     samplerate: float  # Hz
@@ -67,6 +70,7 @@ class Settings:
     decay_smoothing: int  # samples
     clip_samples: int
     on_clipping: str
+    innovation: float | None = None
 
     @property
     def frame(self) -> int:
