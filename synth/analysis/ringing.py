@@ -36,7 +36,7 @@ from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import one_blas_thread
 
-#: The ringing is fitted over this much of the stretch before a tick, s: the
+#: The ringing is fitted over at most this much of the stretch before a tick, s: the
 #: covariance method resolves as many modes as a sixth of its samples (a predictor of a
 #: third of them, two poles per mode; two equations per unknown, at least), 80 over 10 ms
 #: at 48 kHz, at a cost of the cube of that order per tick.
@@ -63,10 +63,13 @@ def ringing_explained(
     strongest impact's contact force, as it shows in a prediction error): what the tick adds
     to the ringing lies outside the dynamic range of the recording's impacts (a rise of the
     error of a prediction good to the recording's rounding is none of an impact).
-    False (not explained) where the free ringing is shorter than :data:`RINGING_FIT` (a
-    shorter stretch resolves too few modes: its error rises at a fast chatter's true
-    contacts no more than at the ringing's bursts) or silent: nothing is dropped that
-    cannot be judged.
+    Where less than :data:`RINGING_FIT` of free ringing precedes the held-out stretch (a fast
+    chatter), the fit takes what there is, the predictor's order a third of it: fewer modes
+    predict the ringing worse before the tick as over it, and the test weighs the one against
+    the other. False (not
+    explained) where that stretch is shorter than the tick's first
+    :data:`~synth.analysis.detection.STANDS_OUT_SPAN` it predicts (a predictor of a few
+    samples follows no mode) or silent: nothing is dropped that cannot be judged.
     """
     from scipy.signal import lfilter
 
@@ -75,8 +78,8 @@ def ringing_explained(
     held = max(1, int(round(STANDS_OUT_BEFORE * fs)))
     on = int(math.floor(onset)) - WINDOW_GUARD
     end = on - held
-    start = end - int(round(RINGING_FIT * fs))
-    if start < free or on + span > x.size:
+    start = max(free, end - int(round(RINGING_FIT * fs)))
+    if end - start < span or on + span > x.size:
         return False
     a = ringing_predictor(x[start:end])
     if a is None:
