@@ -68,9 +68,10 @@ def ringing_explained(
     to the ringing lies outside the dynamic range of the recording's impacts (a rise of the
     error of a prediction good to the recording's rounding is none of an impact).
     Where less than :data:`RINGING_FIT` of free ringing precedes the held-out stretch (a fast
-    chatter), the fit takes what there is, the predictor's order a third of it: fewer modes
-    predict the ringing worse before the tick as over it, and the test weighs the one against
-    the other. False (not
+    chatter), the fit takes what there is, the predictor's order a third of it, and explains
+    a burst only where it models the ringing (:func:`_predicts`): a fit of a few modes over a
+    plate of many leaves an error that a fast chatter's true contacts rise over no more than
+    the ringing's bursts. False (not
     explained) where that stretch is shorter than the tick's first
     :data:`~synth.analysis.detection.STANDS_OUT_SPAN` it predicts or too short for a
     predictor of :data:`RINGING_MIN_ORDER` poles, or silent: nothing is dropped that cannot
@@ -90,10 +91,23 @@ def ringing_explained(
     if a is None:
         return False
     e = lfilter(a, [1.0], x[end - a.size + 1 : on + span])[a.size - 1 :]
+    if end - start < int(round(RINGING_FIT * fs)) and not _predicts(x[end:on], e[:held]):
+        return False
     floor = innovation * 10.0 ** (-s.dynamic_range_db / 20.0)
     return rise_at(e, held, span, held) < noise_rise(span, held) or not (
         np.max(np.abs(e[held:])) > floor
     )
+
+
+def _predicts(held: np.ndarray, error: np.ndarray) -> bool:
+    """Whether a fit over a short free stretch models the ringing: its error over the
+    held-out stretch ``held`` leaves at least
+    :data:`~synth.analysis.search.RESONATOR_GAIN_DB` less than the ringing itself, the gain
+    by which step 7 takes a predictor for a model of the ringing."""
+    from synth.analysis.search import RESONATOR_GAIN_DB
+
+    gain = 10.0 ** (RESONATOR_GAIN_DB / 10.0)
+    return bool(np.dot(held, held) > gain * np.dot(error, error))
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:
