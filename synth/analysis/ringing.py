@@ -41,10 +41,6 @@ from synth.analysis.whitening import one_blas_thread
 #: third of them, two poles per mode; two equations per unknown, at least), 80 over 10 ms
 #: at 48 kHz, at a cost of the cube of that order per tick.
 RINGING_FIT = 0.01
-#: The fewest poles of the ringing's predictor (eight modes), whatever the sample rate: a
-#: predictor of a few poles follows none of a plate's modes and its error rises over the
-#: held-out stretch as over a true contact alike.
-RINGING_MIN_ORDER = 16
 #: The ridge on the normal equations of the ringing's predictor, relative to their mean
 #: diagonal: 120 dB of prediction gain (as the resonator's predictor's floor,
 #: :data:`~synth.analysis.whitening.PREDICTION_FLOOR`); below, rounding.
@@ -73,9 +69,8 @@ def ringing_explained(
     plate of many leaves an error that a fast chatter's true contacts rise over no more than
     the ringing's bursts. False (not
     explained) where that stretch is shorter than the tick's first
-    :data:`~synth.analysis.detection.STANDS_OUT_SPAN` it predicts or too short for a
-    predictor of :data:`RINGING_MIN_ORDER` poles, or silent: nothing is dropped that cannot
-    be judged.
+    :data:`~synth.analysis.detection.STANDS_OUT_SPAN` it predicts, or silent: nothing is
+    dropped that cannot be judged.
     """
     from scipy.signal import lfilter
 
@@ -85,7 +80,7 @@ def ringing_explained(
     on = int(math.floor(onset)) - WINDOW_GUARD
     end = on - held
     start = max(free, end - int(round(RINGING_FIT * fs)))
-    if end - start < max(span, 3 * RINGING_MIN_ORDER + 1) or on + span > x.size:
+    if end - start < span or on + span > x.size:
         return False
     a = ringing_predictor(x[start:end])
     if a is None:
