@@ -28,7 +28,13 @@ from synth.analysis.clipping import Clipping, clipping_warning, declipped_mix, f
 from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.options import AnalysisOptions, parameters_doc
 from synth.analysis.report import Analysis
-from synth.analysis.search import LazyTick, first_search, measured_ticks, tick_meter
+from synth.analysis.search import (
+    LazyTick,
+    first_search,
+    measured_ticks,
+    tick_meter,
+    whitened_peak,
+)
 from synth.analysis.series import BOUNCE_GROWTH
 from synth.analysis.settings import (
     AnalysisError,
@@ -401,7 +407,7 @@ def _ticks(
     impact's, ``Settings.innovation``). ``parts``: as for :func:`first_search`."""
     search = first_search(x, settings, parts=parts)
     ticks = measured_ticks(x, search, settings, clipped, resonator)
-    return ticks, float(np.max(np.abs(search.result.whitened)))
+    return ticks, whitened_peak(search)
 
 
 def analyze_file(path, *, options=None, **overrides) -> Analysis:

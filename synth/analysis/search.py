@@ -81,7 +81,7 @@ def measured_ticks(
         ticks = [meter.tick(i) for i in range(len(meter.found))]
     fs = settings.samplerate
     test = RiseTest(lambda a, b: x[a:b], fs, settings.dynamic_range_db, meter.noise)
-    innovation = settings.innovation or float(np.max(np.abs(search.result.whitened)))
+    innovation = whitened_peak(search) if settings.innovation is None else settings.innovation
     dropped = set(not_impacts(ticks, test)) | set(
         ringing_ticks(x, ticks, meter.found, settings, innovation)
     )
@@ -126,6 +126,12 @@ def tick_meter(
         found = with_standing_out(x, found, whitenings[0], settings)
     noise = dsp.noise_floor(x, settings.samplerate)
     return TickMeter(x, found, whitenings, settings, noise)
+
+
+def whitened_peak(search) -> float:
+    """The largest magnitude of ``search``'s whitened signal (step 1): its strongest
+    impact's, as a prediction error shows it (``Settings.innovation``)."""
+    return float(np.max(np.abs(search.result.whitened)))
 
 
 def ringing_ticks(
