@@ -14,16 +14,20 @@ pole (positive inward). Each mode is an oscillator of the pole's effective mass 
 ((2 n + 1) s_j)`` (``m_s`` the shell's mass, ``s_j`` the mode's radial share, the radial
 motion ``P_n(cos theta)``, whose mean square over the sphere is ``1 / (2 n + 1)``):
 
-    mu_j (y_j'' + eta omega_j y_j' + omega_j^2 y_j) = F,
+    mu_j y_j'' + c_j y_j' + mu_j omega_j^2 y_j = F,
 
-``eta`` the shell material's loss factor (the hysteretic loss as the viscous one of equal
-loss at resonance, ``2 zeta = eta``: L. Cremer, M. Heckl & B. A. T. Petersson,
-"Structure-Borne Sound", 3rd ed. (Springer 2005), section 2.5). The ball ``m w' = m g - F``,
-the plate's admittance ``beta`` as the engine's (``x' = w - beta F``), and the law's own loss,
-its Kelvin-Voigt term, on the residual: ``F = F_r(d) + A k_s d'`` (clipped at 0). Without
-modes this is the engine's shell contact. The modes' frequencies carry the gauge pressure's
-prestress (:func:`prestressed_mode_frequencies`). Whatever energy the modes hold when the
-force ends is lost to the rebound (the wall rings down).
+the loss ``c_j`` on the wall's elastic part ``k_e`` of the mode's stiffness (the prestress'
+part is the gas', lossless): the law's Kelvin-Voigt time, ``c_j = A k_e`` (``A = eta /
+omega_c``, the material's loss factor ``eta`` at the contact's frequency, as the law takes
+it), or at the mode's own frequency, ``c_j = eta k_e / omega_j`` (the hysteretic loss as the
+viscous one of equal loss at resonance, ``2 zeta = eta``: L. Cremer, M. Heckl & B. A. T.
+Petersson, "Structure-Borne Sound", 3rd ed. (Springer 2005), section 2.5). The ball ``m w' =
+m g - F``, the plate's admittance ``beta`` as the engine's (``x' = w - beta F``), and the
+law's own loss, its Kelvin-Voigt term, on the residual: ``F = F_r(d) + A k_d d'`` (clipped at
+0; :class:`ResidualLaw`). Without modes this is the engine's shell contact. The modes'
+frequencies carry the gauge pressure's prestress (:func:`prestressed_mode_frequencies`).
+Whatever energy the modes hold when the force ends is lost to the rebound (the wall rings
+down).
 
 The static correction needs ``C_m < 1 / k0`` (``k0`` the law's small-deflection stiffness):
 a ball whose retained modes are more compliant at the pole than the whole law cannot be
@@ -158,10 +162,13 @@ def prestress_pole_stiffness(ball, n: int) -> float:
 @dataclass(frozen=True)
 class ResidualLaw:
     """The shell law less the modes' static compliance ``C_m`` (m/N): its force ``F_r`` (N) and
-    the shell's tangent stiffness ``k_s`` (N/m, the Kelvin-Voigt term's) at the residual
-    deflection ``d`` (m). Below the transition ``F = k0 delta``, so ``d = (1 / k0 - C_m) F``;
-    beyond it ``F = k_R sqrt(delta_t) s + k_g s^2`` with ``s = sqrt(delta)``, so ``d = (1 -
-    C_m k_g) s^2 - C_m k_R sqrt(delta_t) s``, a quadratic in ``s``."""
+    the stiffness its Kelvin-Voigt term takes (N/m) at the residual deflection ``d`` (m).
+    Below the transition ``F = k0 delta``, so ``d = (1 / k0 - C_m) F``; beyond it ``F = k_R
+    sqrt(delta_t) s + k_g s^2`` with ``s = sqrt(delta)``, so ``d = (1 - C_m k_g) s^2 - C_m k_R
+    sqrt(delta_t) s``, a quadratic in ``s``. The law's loss ``A k_s`` acts on the shell's
+    tangent ``k_s`` (the gas is lossless); the residual's, on the same share ``k_s / k_t`` of
+    its own tangent ``k_r = 1 / (1 / k_t - C_m)`` (``k_t`` the law's tangent): in series with
+    modes of the same Kelvin-Voigt time the law's loss is kept quasi-statically."""
 
     reissner: float
     gas: float
@@ -169,17 +176,19 @@ class ResidualLaw:
     compliance: float
 
     def force(self, d: float) -> tuple[float, float]:
-        """``(F_r, k_s)`` at ``d`` (0 force for ``d <= 0``)."""
+        """``(F_r, k_s k_r / k_t)`` at ``d`` (0 force for ``d <= 0``)."""
         k0 = self.reissner + self.gas
         if d <= 0.0:
-            return 0.0, self.reissner
+            return 0.0, self.reissner / (1.0 - self.compliance * k0)
         if d < self.transition * (1.0 - self.compliance * k0):
-            return d / (1.0 / k0 - self.compliance), self.reissner
+            return d / (1.0 / k0 - self.compliance), self.reissner / (1.0 - self.compliance * k0)
         root_t = math.sqrt(self.transition)
         c = self.compliance * self.reissner * root_t
         a = 1.0 - self.compliance * self.gas
         s = (c + math.sqrt(c * c + 4.0 * a * d)) / (2.0 * a)
-        return self.reissner * root_t * s + self.gas * s * s, 0.5 * self.reissner * root_t / s
+        shell = 0.5 * self.reissner * root_t / s
+        residual_over_law = 1.0 / (1.0 - self.compliance * (shell + self.gas))
+        return self.reissner * root_t * s + self.gas * s * s, shell * residual_over_law
 
 
 @dataclass(frozen=True)
@@ -301,13 +310,17 @@ def modes_note(test) -> str:
             )
             continue
         b = modal_bounce(ball, test.surface, speed, modes)
+        r = modal_bounce(ball, test.surface, speed, modes, resonant=True)
         parts.append(
             f"orders 1-{n} ({modes.compliance * modes.k0:.2f} of the law's compliance): "
             f"rebound {rise_height(b.rebound_speed, v_t) + top:.3f} m, e {b.restitution:.3f}, "
-            f"the modes' loss {b.mode_loss:.1e} and ringing {b.ringing:.1e} of the impact energy"
+            f"the modes' loss {b.mode_loss:.1e} and ringing {b.ringing:.1e} of the impact "
+            f"energy ({rise_height(r.rebound_speed, v_t) + top:.3f} m with the modes' loss "
+            f"factor at their own frequencies)"
         )
     return (
         f"- {test.ball}, with the wall's lowest modes in the contact (prestressed by the gauge "
-        f"pressure, their static compliance taken off the law's; `benchmarks/hollow_modes.py`, "
-        f"a diagnosis, not the engine's bounce): " + "; ".join(parts) + "."
+        f"pressure, their static compliance taken off the law's, their loss the law's "
+        f"Kelvin-Voigt time; `benchmarks/hollow_modes.py`, a diagnosis, not the engine's "
+        f"bounce): " + "; ".join(parts) + "."
     )

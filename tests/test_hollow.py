@@ -470,8 +470,8 @@ def test_contact_with_the_wall_modes_balances_its_energy():
         assert abs(b.balance) < 1e-8
         assert b.ringing > 0.01 and b.mode_loss > 0.01
         assert rise_height(b.rebound_speed, v_t) > 1.2 * test.rebound_high
-    # orders 1-4: the modes are more compliant at the pole than the whole law
-    assert not wall_modes(ball, 4).admissible
+    # orders 1-4: the modes are more compliant at the pole than the whole law, 1-3 are not
+    assert wall_modes(ball, 3).admissible and not wall_modes(ball, 4).admissible
 
 
 @pytest.mark.xfail(
@@ -480,7 +480,7 @@ def test_contact_with_the_wall_modes_balances_its_energy():
     "drag taken in: the table tennis ball's wall ringing takes less than a third of its miss "
     "(its shell's modes an order above its contact's frequency); with the wall's lowest "
     "modes integrated in the contact (prestressed, their static compliance taken off the "
-    "law's) the tennis ball still rebounds to 1.85-1.90 m and the basketball to 1.54-1.60 m, "
+    "law's) the tennis ball still rebounds to 1.84-1.96 m and the basketball to 1.53-1.63 m, "
     "and more orders cannot be split off the law (their point-load compliance exceeds the "
     "law's for the tennis ball); the felt's loss and the seams are not in the engine either "
     "(docs/validation.md, 'Hollow balls')",
