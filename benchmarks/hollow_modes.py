@@ -43,6 +43,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from synth.constants import GRAVITY
+from synth.errors import ParameterError
 
 
 def prestress_stiffness(ball, n: int) -> float:
@@ -197,7 +198,8 @@ class ModalBounce:
     shares of the impact energy ``m v^2 / 2`` (dimensionless) the law's Kelvin-Voigt loss,
     the modes' loss, the plate and the modes' energy after separation (``ringing``) take;
     ``balance`` the energy not accounted for (kinetic in plus gravity's work minus kinetic
-    out and the four, over the impact energy: the integration's error); the contact time (s)."""
+    out and the four, over the impact energy: the integration's error); ``end_time`` (s) when the contact was found over (the gap beyond the
+    modes' reach)."""
 
     speed: float
     rebound_speed: float
@@ -206,7 +208,7 @@ class ModalBounce:
     plate_loss: float
     ringing: float
     balance: float
-    contact_time: float
+    end_time: float
 
     @property
     def restitution(self) -> float:
@@ -229,7 +231,10 @@ def modal_bounce(
     from synth.physics.impedance import infinite_plate_impedance
 
     if not modes.admissible:
-        raise ValueError(f"the modes' static compliance exceeds the law's (C_m k0 >= 1): {modes}")
+        raise ParameterError(
+            f"modes={modes!r}: their static compliance at the pole is "
+            f"{modes.compliance * modes.k0:g} times the shell law's; the split needs less than 1"
+        )
     law = shell_law(ball)
     residual = ResidualLaw(law.reissner_stiffness, law.gas_stiffness, law.transition,
                            modes.compliance)  # fmt: skip
@@ -250,7 +255,7 @@ def modal_bounce(
     def gone(_, z):
         # x plus the modes' largest reach (their energy's amplitude) below 0, moving away
         y, u = z[4 : 4 + k], z[4 + k : 4 + 2 * k]
-        reach = np.sum(np.sqrt(y * y + mu * u * u / (mu * om * om)))
+        reach = np.sum(np.sqrt(y * y + (u / om) ** 2))
         return z[1] + reach if z[3] < 0.0 else 1.0
 
     gone.terminal, gone.direction = True, -1.0

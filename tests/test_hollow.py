@@ -472,6 +472,8 @@ def test_contact_with_the_wall_modes_balances_its_energy():
         assert rise_height(b.rebound_speed, v_t) > 1.2 * test.rebound_high
     # orders 1-4: the modes are more compliant at the pole than the whole law, 1-3 are not
     assert wall_modes(ball, 3).admissible and not wall_modes(ball, 4).admissible
+    with pytest.raises(synth.ParameterError, match="modes="):
+        modal_bounce(ball, test.surface, speed, wall_modes(ball, 4))
 
 
 @pytest.mark.xfail(
