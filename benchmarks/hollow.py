@@ -321,6 +321,19 @@ def missing_loss_share(test: RuleBookTest, row: HollowRow, ball) -> float:
 RINGING_MAX_ORDER = 60
 
 
+def hayek_coefficients(ball, n: int) -> tuple[float, float, float]:
+    """``(P, Q, scale)`` of Hayek's frequency equation ``L^2 - P L + Q = 0`` of ``ball``'s
+    shell at the order ``n`` (:func:`shell_mode_frequencies`): ``P`` and ``Q`` dimensionless,
+    ``scale = sqrt(E / (rho (1 - nu^2))) / R`` (rad/s) with ``omega = scale sqrt(L)``."""
+    mat = ball.material
+    nu, h = mat.poisson, ball.thickness
+    radius = ball.shell_radius - 0.5 * h
+    a, b = h * h / (12.0 * radius * radius), n * (n + 1.0)
+    p = 1.0 + 3.0 * nu - a * (1.0 - nu) + b * (1.0 + a * nu + a * b)
+    q = a * b * (b * b - 4.0 * b + 5.0 - nu * nu) + (1.0 - nu * nu) * (b - 2.0 * (1.0 + a))
+    return p, q, math.sqrt(mat.young / (mat.density * (1.0 - nu * nu))) / radius
+
+
 def shell_mode_frequencies(ball, n: int) -> tuple[float, ...]:
     """The angular frequencies (rad/s, ascending) of the axisymmetric modes of order ``n``
     (Legendre ``P_n``) of ``ball``'s free spherical shell: the positive roots of S. Hayek's
@@ -333,16 +346,10 @@ def shell_mode_frequencies(ball, n: int) -> tuple[float, ...]:
 
     ``L = lambda^2``, ``a = h^2 / (12 R^2)``, ``b = n (n + 1)``, ``omega = lambda / R
     sqrt(E / (rho (1 - nu^2)))`` with ``R`` the wall's mid-surface radius. The gauge
-    pressure's prestress and the cover's mass are left out. For ``n = 1`` the lower root is
-    the ball's translation (0), which is left out."""
-    mat = ball.material
-    nu, h = mat.poisson, ball.thickness
-    radius = ball.shell_radius - 0.5 * h
-    a, b = h * h / (12.0 * radius * radius), n * (n + 1.0)
-    p = 1.0 + 3.0 * nu - a * (1.0 - nu) + b * (1.0 + a * nu + a * b)
-    q = a * b * (b * b - 4.0 * b + 5.0 - nu * nu) + (1.0 - nu * nu) * (b - 2.0 * (1.0 + a))
+    pressure's prestress (:mod:`benchmarks.hollow_modes`) and the cover's mass are left out.
+    For ``n = 1`` the lower root is the ball's translation (0), which is left out."""
+    p, q, scale = hayek_coefficients(ball, n)
     root = math.sqrt(p * p - 4.0 * q)
-    scale = math.sqrt(mat.young / (mat.density * (1.0 - nu * nu))) / radius
     roots = [0.5 * (p - root), 0.5 * (p + root)]
     return tuple(scale * math.sqrt(L) for L in roots if L > 1e-9 * p)
 
@@ -586,6 +593,8 @@ def _published_contact(test: RuleBookTest) -> str:
 
 def format_hollow(rows: list[HollowRow]) -> str:
     """The rule-book table of docs/validation.md, "Hollow balls"."""
+    from benchmarks.hollow_modes import modes_note
+
     header = [
         "ball",
         "surface",
@@ -630,4 +639,5 @@ def format_hollow(rows: list[HollowRow]) -> str:
     notes.append(itf_deformation_note())
     notes += [loss_range_note(r.test) for r in rows if r.test.loss_range is not None]
     notes += [loss_budget_note(r.test, r) for r in rows]
+    notes += [modes_note(r.test) for r in rows]
     return "\n".join(markdown_table(header, lines) + ([""] + notes if notes else [])) + "\n"
