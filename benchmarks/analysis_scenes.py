@@ -15,8 +15,10 @@ Scores, per scene and in total:
   bounce time) where the true impacts its ticks match show no growth, or a restitution
   reported with a flag that says it is no bounce's. A ratio above 1 is a possible value: a
   vibrating plate can give the ball energy back, and the engine's own flights then grow;
-* audible impacts missed: true impacts that are audible (:func:`audible_impacts`) and that
-  no detected tick matches;
+* audible impacts missed: true impacts that are audible (:func:`impact_audibility`) and
+  that no detected tick matches, each listed with its margin over the ringing and the bounce
+  before it (a miss in a fast chatter or a weak one at the edge of audibility reads apart
+  from a clear tick missed);
 * seconds of analysis per second of audio.
 """
 
@@ -166,8 +168,9 @@ def build_scene(spec: SceneSpec):
 @dataclass(frozen=True)
 class Truth:
     """A render and what the engine knows of it: the audio (signal units), its sample rate
-    (Hz), each impact's onset in the audio (s), contact time (s), whether it is audible, and
-    the drop's free-fall speed (m/s)."""
+    (Hz), each impact's onset in the audio (s), contact time (s), whether it is audible, the
+    drop's free-fall speed (m/s), and each impact's margin over the ringing (dB,
+    :class:`Audibility`; None where not worked out)."""
 
     audio: np.ndarray
     samplerate: int
@@ -175,11 +178,12 @@ class Truth:
     contact_times: np.ndarray
     audible: np.ndarray
     fall_speed: float
+    margins: np.ndarray | None = None
 
 
 def render_truth(spec: SceneSpec) -> Truth:
     """Render ``spec`` (no normalisation) and mark its audible impacts
-    (:func:`audible_impacts`)."""
+    (:func:`impact_audibility`)."""
     from synth.physics.bounces import simulate_scene
     from synth.sound.render import render
 
@@ -194,17 +198,34 @@ def render_truth(spec: SceneSpec) -> Truth:
         max_tail=spec.tail,
     )
     audio = np.asarray(r.audio, dtype=float)
+    heard = impact_audibility(scene, seq, r, audio)
     return Truth(
         audio=audio,
         samplerate=r.samplerate,
         onsets=np.asarray(r.onsets, dtype=float),
         contact_times=np.array([imp.result.contact_time for imp in seq]),
-        audible=audible_impacts(scene, seq, r, audio),
+        audible=heard.audible,
         fall_speed=math.sqrt(2.0 * seq.gravity * seq.drop_height),
+        margins=heard.margin_db,
     )
 
 
-def audible_impacts(scene, seq, r, audio: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class Audibility:
+    """Each impact's margin over the ringing, dB: its own sound's energy over its window
+    against all the other impacts' there (-inf where the window is empty), and whether its
+    own peak lies within :data:`AUDIBLE_RANGE_DB` of the recording's."""
+
+    margin_db: np.ndarray
+    loud: np.ndarray
+
+    @property
+    def audible(self) -> np.ndarray:
+        """Loud enough, and at least :data:`AUDIBLE_TMR_DB` over the ringing."""
+        return self.loud & (self.margin_db >= AUDIBLE_TMR_DB)
+
+
+def impact_audibility(scene, seq, r, audio: np.ndarray) -> Audibility:
     """Whether each impact of the render ``r`` is audible: its own sound (the impact rendered
     alone on the same timeline; the synthesis is linear in the impacts) over its window (to
     the next onset, at most :data:`AUDIBLE_WINDOW`) holds at least :data:`AUDIBLE_TMR_DB`
@@ -216,7 +237,8 @@ def audible_impacts(scene, seq, r, audio: np.ndarray) -> np.ndarray:
     fs = r.samplerate
     onsets = np.asarray(r.onsets)
     top = float(np.max(np.abs(audio)))
-    out = np.zeros(len(seq), dtype=bool)
+    margin = np.full(len(seq), -np.inf)
+    loud = np.zeros(len(seq), dtype=bool)
     for i, imp in enumerate(seq):
         # the impact alone, from a whole sample `shift` before its onset in the render: its
         # sample j is the render's sample j + shift, to the same sub-sample place
@@ -240,9 +262,10 @@ def audible_impacts(scene, seq, r, audio: np.ndarray) -> np.ndarray:
         own_part = alone[a - shift : b - shift]
         own = float(np.sum(own_part**2))
         other = float(np.sum((audio[a:b] - own_part) ** 2))
-        loud = np.max(np.abs(own_part)) >= top * 10.0 ** (-AUDIBLE_RANGE_DB / 20.0)
-        out[i] = loud and own >= other * 10.0 ** (AUDIBLE_TMR_DB / 10.0)
-    return out
+        loud[i] = np.max(np.abs(own_part)) >= top * 10.0 ** (-AUDIBLE_RANGE_DB / 20.0)
+        with np.errstate(divide="ignore"):
+            margin[i] = 10.0 * math.log10(own / other) if other > 0.0 else np.inf
+    return Audibility(margin, loud)
 
 
 @dataclass(frozen=True)
@@ -403,6 +426,7 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
     ]
     if missed:
         listed.append(f"audible impacts missed at {np.round(missed, 5).tolist()} s")
+        listed.append(missed_detail(truth, missed))
     return SceneScore(
         scene=spec.describe(),
         impacts=int(truth.onsets.size),
@@ -416,6 +440,18 @@ def run_scene(spec: SceneSpec, limit: float | None = None) -> SceneScore:
         error=error,
         faults=tuple(listed),
     )
+
+
+def missed_detail(truth: Truth, missed: list) -> str:
+    """The missed impacts' margins over the ringing (dB) and the bounces before them (ms,
+    none for the first impact), in the order of ``missed``: a fast chatter's misses, a few
+    milliseconds apart, read apart from isolated ones, and marginal ones from clear ones."""
+    k = np.searchsorted(truth.onsets, missed)
+    gaps = [
+        None if i == 0 else round(float(truth.onsets[i] - truth.onsets[i - 1]) * 1e3, 2) for i in k
+    ]
+    margins = "?" if truth.margins is None else np.round(truth.margins[k], 1).tolist()
+    return f"their margins over the ringing {margins} dB, bounces before them {gaps} ms"
 
 
 def run_random(count: int, seed: int, limit: float | None = None) -> dict:

@@ -6,6 +6,7 @@ is never run with for the figures it reports (docs/analysis.md, Random scenes)."
 
 import functools
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ import pytest
 from benchmarks.analysis_scenes import (
     Truth,
     format_random,
+    missed_detail,
     random_specs,
     run_random,
     run_scene,
@@ -129,6 +131,12 @@ def test_score_counts_false_ticks_impossible_values_and_audible_misses():
     assert (false, impossible, missed) == (2, 2, 0)
     # the inaudible fourth impact is not asked for; the first, unfound, is missed
     assert score(truth, ticks[2:4]) == (0, 2, 1)
+    # a miss is listed with its margin over the ringing and the bounce before it (none for
+    # the first impact; the third's is 0.3 s): the bench reads a chatter's misses apart
+    margins = replace(truth, margins=np.array([4.0, 1.0, 0.25, -3.0]))
+    assert missed_detail(margins, [0.1, 0.8]) == (
+        "their margins over the ringing [4.0, 0.2] dB, bounces before them [None, 300.0] ms"
+    )
 
 
 def test_score_judges_a_restitution_against_the_true_ratio():
