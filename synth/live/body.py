@@ -318,12 +318,7 @@ class Body:
         engine = self._engine
         cuts = []
         for i, (ear, li) in enumerate(zip(self._ears, listeners)):
-            if isinstance(li, Accelerometer):
-                self.plate.check_position(li.position, f"listener[{i}].position")
-            elif not isinstance(li, Microphone):
-                raise ParameterError(
-                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
-                )
+            check_listener(self.plate, li, f"listener[{i}]")
             if LISTENER_UNITS[type(li)] != ear._model.units:
                 raise ParameterError(
                     f"listener[{i}]={li!r} hears in {LISTENER_UNITS[type(li)]}, the body's "
@@ -726,6 +721,14 @@ def _release(reserved) -> None:
         for slot in slots:
             ear._ring.release(slot)
         ear._ring.close_voice(r, len(slots))
+
+
+def check_listener(plate: Plate, listener, field: str) -> None:
+    """``listener`` (the argument ``field``) an Accelerometer on ``plate`` or a Microphone."""
+    if isinstance(listener, Accelerometer):
+        plate.check_position(listener.position, f"{field}.position")
+    elif not isinstance(listener, Microphone):
+        raise ParameterError(f"{field}={listener!r} must be an Accelerometer or a Microphone")
 
 
 def check_pan(value, channels: int, listeners: int = 1) -> float:
