@@ -18,7 +18,9 @@ from synth.errors import ParameterError
 from synth.physics.bounces import BounceSequence, Impact
 from synth.sound.render import render
 from synth.stimuli import alter
-from synth.stimuli.alter import AlterOptions, alter_restitution, extend
+from synth.stimuli.alter import AlterOptions, alter_restitution
+from synth.stimuli.prediction import extend
+from synth.stimuli.splice import END_FLOOR_DB
 
 FS = 48000
 
@@ -257,7 +259,7 @@ def test_deader_ball_ends_its_series(recording, k, kept):
         end_level = db(
             max(
                 np.sqrt(np.mean(x[-FS // 100 :] ** 2)),
-                np.abs(x).max() * 10 ** (alter.END_FLOOR_DB / 20),
+                np.abs(x).max() * 10 ** (END_FLOOR_DB / 20),
             )
         )
         assert abs(env[-1] - end_level) < 6.0
