@@ -462,11 +462,8 @@ class Engine(EngineBookkeeping):
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
         out = np.empty((n, self.channels), dtype=np.float32)
-        for a in range(0, n, self.blocksize):  # the callback's blocks
-            b = min(n, a + self.blocksize)
-            native.mix_engine(self._native.ctl, out[a:b])
-            if self._retiring:  # removed bodies move on between the blocks
-                self._reap()
+        for a in range(0, n, self.blocksize):  # the callback's blocks, removed bodies reaped
+            self.mix_into(out[a : a + self.blocksize])
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:
