@@ -531,22 +531,25 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
+        return self._new_voice(p, lambda vid: self._hand_over_voice(result, tr, vid, p))
+
+    def _new_voice(self, priority: int, hand_over) -> Voice | None:
+        """The Voice ``hand_over(vid)`` makes of a new voice id, once the engine's voice
+        limit admits it at ``priority`` (None: refused by the limit or by ``hand_over``)."""
         vid = self._engine._next_voice_id()
         limit = self._engine._voice_limit
-        if not limit.admit(vid, p):
+        if not limit.admit(vid, priority):
             return None
         voice = None
         try:
-            records = self._hand_over_voice(result, tr, vid, p)
-            if records is not None:
-                voice = Voice(self, vid, records, (tr.onset,), p)
+            voice = hand_over(vid)
         finally:
             limit.settle(vid, voice)
         return voice
 
-    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> list[int] | None:
-        """Hand a solved hit over at every ear of the body as voice ``vid``: the voice
-        records it took (one an ear), or None if an ear refused it (then no ear plays it)."""
+    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> Voice | None:
+        """Hand a solved hit over at every ear of the body as voice ``vid``: its Voice, or
+        None if an ear refused it (then no ear plays it)."""
         records: list[int] = []
         for ear in self._ears:
             r = ear._ring.open_voice(vid, 1, priority)
@@ -565,7 +568,7 @@ class Body:
         if len(records) < len(self._ears):  # refused at one ear: at every ear
             stop_records(self._ears, records, vid)
             return None
-        return records
+        return Voice(self, vid, records, (tr.onset,), priority)
 
     def drop(
         self,
@@ -608,16 +611,7 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.separation_time)
-        vid = self._engine._next_voice_id()
-        limit = self._engine._voice_limit
-        if not limit.admit(vid, p):
-            return None
-        voice = None
-        try:
-            voice = self._hand_over_drop(sequence, tr, vid, p)
-        finally:
-            limit.settle(vid, voice)
-        return voice
+        return self._new_voice(p, lambda vid: self._hand_over_drop(sequence, tr, vid, p))
 
     def _hand_over_drop(self, sequence, tr: Trigger, vid: int, priority: int) -> Voice | None:
         """Hand a drop's impacts over at every ear of the body as voice ``vid``, all or
