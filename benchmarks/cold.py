@@ -3,7 +3,7 @@
 Each case runs in child processes with an empty numba cache (``NUMBA_CACHE_DIR``) and an
 empty plate-mode cache (``SYNTH_CACHE_DIR``), then again with the caches the first run
 filled: ``import synth``; ``synth render default``; the README's live example up to its
-first sound (offline, :func:`synth.warmup.live_example`: the engine's own mixing without
+first sound (offline, :func:`synth.warmup.live_table`: the engine's own mixing without
 an audio device). Per run: CPU time (user + system, ``os.wait4``'s resource usage of the
 child), wall time and peak resident memory of the child, and whether it said on stderr
 that it was compiling (it must on an empty cache, never on a warm one). The cold runs'
@@ -31,7 +31,7 @@ CASES = {
         "from synth.cli import main\n"
         "raise SystemExit(main(['render', 'default', '-o', '{tmp}/default.wav']))"
     ),
-    "live": "from synth.warmup import live_example\nlive_example()",
+    "live": "from synth.warmup import live_table\nlive_table()[0].process(4800)",
 }
 
 #: The child's own peak resident memory, printed on stderr at exit: the kernel's

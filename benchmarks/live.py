@@ -70,8 +70,16 @@ def add_times(samplerate=48000) -> dict:
     return out
 
 
+def _mix_block(engine, out, blocksize: int) -> None:
+    """One block mixed into ``out`` by the stream callback's compiled code, as PortAudio
+    calls it (:func:`synth.live.native.mix_engine`, no checks)."""
+    from synth.live import native
+
+    native.mix_engine(engine._native.ctl, out[:blocksize])
+
+
 def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.0, seed=0) -> list:
-    """Mixing cost of one block (the callback's work, :meth:`Engine._mix_into`) with ``n``
+    """Mixing cost of one block (the callback's work, :func:`_mix_block`) with ``n``
     ringing bodies, each hit ten times a second as a live program would (each hit handed
     over in the block before its start, so the block that takes it transforms its pulse):
     mean and max over ``seconds`` of audio, as a fraction of the block."""
@@ -98,7 +106,7 @@ def callback_cost(bodies=(1, 4, 16), samplerate=48000, blocksize=256, seconds=2.
         for b in range(int(seconds * samplerate / blocksize)):
             k = _hit_due(schedule, k, b, block, scene.ball)
             t = time.perf_counter()
-            engine._mix_into(out, blocksize)
+            _mix_block(engine, out, blocksize)
             costs.append(time.perf_counter() - t)
         costs = np.array(costs) / block
         rows.append(
@@ -155,7 +163,7 @@ def move_cost(bodies=16, samplerate=48000, blocksize=256, seconds=1.0, every=25,
                     engine.move_listener(tuple(head), facing=(0.0, 1.0))
                     moves.append(time.perf_counter() - t)
                 t = time.perf_counter()
-                engine._mix_into(out, blocksize)
+                _mix_block(engine, out, blocksize)
                 (ramp if moved else still).append((time.perf_counter() - t) / block)
         finally:
             if saved is None:
@@ -249,10 +257,10 @@ def transform_cost(samplerate=48000, blocksize=256, repeat=60) -> dict:
             for _ in range(k):
                 body.hit(scene.ball, 1.0, at=engine.time + 2 * block)
             t = time.perf_counter()
-            engine._mix_into(out, blocksize)
+            _mix_block(engine, out, blocksize)
             costs.append(time.perf_counter() - t)
             body.stop_all()
-            engine._mix_into(out, blocksize)
+            _mix_block(engine, out, blocksize)
         medians[k] = float(np.median(costs))
     return dict(
         hits_per_block=full,
@@ -498,7 +506,7 @@ def _rolling_row(plate, listener, ball, envelope, v, samplerate, blocksize, seco
             voice.update(start + (voice.path_position - 0.01, 0.0), (v, 0.0))
             updates.append(time.perf_counter() - t)
         t = time.perf_counter()
-        engine._mix_into(out, blocksize)
+        _mix_block(engine, out, blocksize)
         costs.append(time.perf_counter() - t)
     costs = np.array(costs) / block
     row = dict(

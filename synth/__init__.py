@@ -11,7 +11,7 @@ engine nor the sound banks.
 """
 
 from synth import jitcache  # noqa: F401  (first: picks numba's cache folder before numba loads)
-from synth.errors import ParameterError, SynthError
+from synth.errors import ParameterError, SynthError  # noqa: F401  (in __all__)
 
 #: Where each public name lives: imported from there on first use.
 _LAZY = {
@@ -60,48 +60,8 @@ _SUBMODULES = {
     "bank": "synth.bank",
 }
 
-__all__ = [
-    "Accelerometer",
-    "Analysis",
-    "AnalysisOptions",
-    "Ball",
-    "Body",
-    "BounceSequence",
-    "Contact",
-    "Engine",
-    "EngineStats",
-    "HollowBall",
-    "Impact",
-    "ImpactResult",
-    "LossFactor",
-    "Material",
-    "Microphone",
-    "ParameterError",
-    "Plate",
-    "Rayleigh",
-    "Scene",
-    "Render",
-    "RenderInfo",
-    "RenderOptions",
-    "SynthError",
-    "Tick",
-    "Voice",
-    "analyze",
-    "analyze_file",
-    "contact",
-    "load_preset",
-    "materials",
-    "plate",
-    "play",
-    "read_audio",
-    "render",
-    "render_preset",
-    "simulate_bounces",
-    "simulate_scene",
-    "solve_contact",
-    "solve_impact",
-    "write_audio",
-]
+#: ``from synth import *`` takes every public name but the sound banks (imported by name).
+__all__ = sorted(["ParameterError", "SynthError", *_LAZY, *(_SUBMODULES.keys() - {"bank"})])
 __version__ = "0.4.0"
 
 

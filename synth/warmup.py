@@ -44,8 +44,9 @@ def _stiff_contact():
     return solve_contact(mass=4e-3, stiffness=1e9, admittance=1e-3, speed=1.0, method="Radau")
 
 
-def _live_table(samplerate: float):
-    """The engine and the table of the README's live example, the ball's hit queued."""
+def live_table(samplerate: float = SAMPLERATE):
+    """The engine and the table of the README's live example ("Live, from UI and game
+    code"), the ball's hit queued; ``engine.process`` plays it offline."""
     import synth
 
     engine = synth.Engine(samplerate=samplerate, blocksize=256)
@@ -54,17 +55,11 @@ def _live_table(samplerate: float):
     return engine, table
 
 
-def live_example(samplerate: float = SAMPLERATE):
-    """The README's live example ("Live, from UI and game code"), offline: the engine's
-    own mixing without an audio device. Returns the first 4800 samples."""
-    engine, _ = _live_table(samplerate)
-    return engine.process(4800)
-
-
 def _live():
-    """:func:`live_example`, then its table silenced without a stream (``stop_all``, whose
-    kernel the engine compiles on its first use, not at its start)."""
-    engine, table = _live_table(SAMPLERATE)
+    """The README's live example offline (its first 4800 samples), then its table silenced
+    without a stream (``stop_all``, whose kernel the engine compiles on its first use, not at
+    its start)."""
+    engine, table = live_table()
     audio = engine.process(4800)
     table.stop_all()
     return audio

@@ -9,7 +9,8 @@ import pytest
 import soundfile
 
 import benchmarks as bench
-from synth.cli import GALLERY, main
+from synth.cli import main
+from synth.cli.render import GALLERY
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -274,7 +274,7 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     # a producer owns a reserved slot until it publishes it: the audio thread skips it
     # and stop_all (which drops READY slots) leaves it alone, so no other producer can
     # take it while it is written
-    from synth.live.queue import WRITING, PendingRing
+    from synth.live.queue import FREE, WRITING, PendingRing
 
     ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
@@ -285,7 +285,7 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     assert j != i and ring.reserve() == -1 and ring.refused == 1
     ring.publish(i, 10, 5, 2, 1.0)
     ring.release(j)
-    assert ring.pending() == 1 and ring.free_slots() == 1
+    assert ring.pending() == 1 and np.count_nonzero(ring.state == FREE) == 1
 
 
 def test_waiting_pulses_are_bounded_and_silence_frees_the_bound():

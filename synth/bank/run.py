@@ -211,7 +211,7 @@ def _as_spec(spec) -> BankSpec:
 def _grows(stored: dict, new: dict) -> bool:
     """True if ``new`` is the stored spec with a larger ``count`` (both in the compared
     form, :func:`synth.bank.spec.compared_form`): rows are drawn per
-    index (:func:`synth.bank.spec.variations`), so the rows done stay and the new ones
+    index (:func:`synth.bank.spec.sampling.variations`), so the rows done stay and the new ones
     are added."""
     old_count, new_count = stored.get("count"), new.get("count")
     return (

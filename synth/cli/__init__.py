@@ -18,10 +18,7 @@ from synth.cli.bench import add_bench_parser, add_warmup_parser, bench_arguments
 from synth.cli.catalog import add_cache_parser, add_materials_parser, add_presets_parser
 from synth.cli.play import add_play_parser
 from synth.cli.recordings import add_alter_parser, add_analyze_parser
-from synth.cli.render import GALLERY as GALLERY
-from synth.cli.render import Outputs as Outputs
 from synth.cli.render import add_gallery_parser, add_info_parser, add_render_parser
-from synth.cli.render import render_options as render_options
 from synth.errors import SynthError
 
 

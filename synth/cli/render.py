@@ -67,10 +67,10 @@ def _path_of(scene, section: dict):
     grid of the preset's render section."""
     import math
 
+    from synth.io.presets import render_options_of
     from synth.physics.path import simulate_path
-    from synth.sound.options import RenderOptions
 
-    o = RenderOptions(**{k: v for k, v in section.items() if k != "subtype"})
+    o = render_options_of(section)
     origin = math.sqrt(2.0 * scene.drop_height / scene.gravity) - o.preroll
     return simulate_path(
         scene, samplerate=o.samplerate, time_origin=origin, max_duration=o.max_duration

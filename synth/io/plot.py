@@ -147,7 +147,6 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     x = audio.astype(np.float64).reshape(audio.shape[0], -1) / gain
     frames, channels = x.shape
     t = np.arange(frames) / sr
-    quantity, unit_label = _QUANTITY[units]
 
     fig = Figure(figsize=FIGSIZE, dpi=DPI, layout="constrained")
     FigureCanvasAgg(fig)

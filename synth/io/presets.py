@@ -45,22 +45,18 @@ class PresetError(ParameterError):
     """A preset file (or a ``--set`` override) that cannot describe a scene."""
 
 
-def _fields(cls):
-    return tuple(f.name for f in dataclasses.fields(cls))
-
-
 #: Keys allowed in each section. Ball, plate and contact keys are the dataclass fields.
 #: The kinds of ball a preset's ``ball.kind`` names: a solid sphere (the default) or a
 #: hollow one (a thin shell with gas inside, :class:`~synth.physics.scene.HollowBall`, whose
 #: keys ``thickness``, ``pressure``, ``cover_thickness`` and ``cover_mass`` apply to it only).
 BALL_KINDS = {"solid": Ball, "hollow": HollowBall}
 SECTIONS = {
-    "ball": _fields(HollowBall) + ("kind",),
-    "plate": _fields(Plate),
+    "ball": checks.names(HollowBall) + ("kind",),
+    "plate": checks.names(Plate),
     "drop": ("height", "position", "velocity"),
     "listener": ("type", "position"),
-    "contact": _fields(Contact),
-    "rolling": _fields(Rolling),
+    "contact": checks.names(Contact),
+    "rolling": checks.names(Rolling),
     "render": None,  # the fields of synth.sound.options.RenderOptions and "subtype"
 }
 TOP_LEVEL = ("description", "gravity")
@@ -438,7 +434,7 @@ def _render_section(section: dict, source: str) -> dict:
     _check_keys("render", section, OPTIONS + ("subtype",), source)
     section = {"samplerate": PRESET_SAMPLERATE, **section}
     try:
-        _render_options(section)
+        render_options_of(section)
     except ParameterError as exc:
         raise PresetError(f"{source}: render.{exc}") from None
     if "subtype" in section:
@@ -451,12 +447,6 @@ def _render_section(section: dict, source: str) -> dict:
                 f"such as 'PCM_16', 'PCM_24' or 'FLOAT'"
             )
     return dict(section)
-
-
-def _render_options(section: dict) -> dict:
-    """The render options of a ``[render]`` section, checked and with every default, by
-    name in field order (:meth:`render_options_of` as a dict)."""
-    return render_options_of(section).as_dict()
 
 
 def render_options_of(section: dict):
@@ -505,7 +495,7 @@ def with_defaults(data: dict, *, varied=()) -> dict:
         out["listener"] = {"type": DEFAULT_LISTENER, **out["listener"]}
     section = out.get("render", {})
     subtype = {"subtype": section["subtype"]} if "subtype" in section else {}
-    out["render"] = {**_render_options(section), **subtype}
+    out["render"] = {**render_options_of(section).as_dict(), **subtype}
     return out
 
 

@@ -318,12 +318,7 @@ class Body:
         engine = self._engine
         cuts = []
         for i, (ear, li) in enumerate(zip(self._ears, listeners)):
-            if isinstance(li, Accelerometer):
-                self.plate.check_position(li.position, f"listener[{i}].position")
-            elif not isinstance(li, Microphone):
-                raise ParameterError(
-                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
-                )
+            check_listener(self.plate, li, f"listener[{i}]")
             if LISTENER_UNITS[type(li)] != ear._model.units:
                 raise ParameterError(
                     f"listener[{i}]={li!r} hears in {LISTENER_UNITS[type(li)]}, the body's "
@@ -536,22 +531,25 @@ class Body:
             raise SynthError(
                 f"the contact of {tr.ball!r} at speed={v!r} m/s did not converge: {result.message}"
             )
+        return self._new_voice(p, lambda vid: self._hand_over_voice(result, tr, vid, p))
+
+    def _new_voice(self, priority: int, hand_over) -> Voice | None:
+        """The Voice ``hand_over(vid)`` makes of a new voice id, once the engine's voice
+        limit admits it at ``priority`` (None: refused by the limit or by ``hand_over``)."""
         vid = self._engine._next_voice_id()
         limit = self._engine._voice_limit
-        if not limit.admit(vid, p):
+        if not limit.admit(vid, priority):
             return None
         voice = None
         try:
-            records = self._hand_over_voice(result, tr, vid, p)
-            if records is not None:
-                voice = Voice(self, vid, records, (tr.onset,), p)
+            voice = hand_over(vid)
         finally:
             limit.settle(vid, voice)
         return voice
 
-    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> list[int] | None:
-        """Hand a solved hit over at every ear of the body as voice ``vid``: the voice
-        records it took (one an ear), or None if an ear refused it (then no ear plays it)."""
+    def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> Voice | None:
+        """Hand a solved hit over at every ear of the body as voice ``vid``: its Voice, or
+        None if an ear refused it (then no ear plays it)."""
         records: list[int] = []
         for ear in self._ears:
             r = ear._ring.open_voice(vid, 1, priority)
@@ -570,7 +568,7 @@ class Body:
         if len(records) < len(self._ears):  # refused at one ear: at every ear
             stop_records(self._ears, records, vid)
             return None
-        return records
+        return Voice(self, vid, records, (tr.onset,), priority)
 
     def drop(
         self,
@@ -613,16 +611,7 @@ class Body:
             )
         for imp in sequence:
             self._check_length(imp.result.separation_time)
-        vid = self._engine._next_voice_id()
-        limit = self._engine._voice_limit
-        if not limit.admit(vid, p):
-            return None
-        voice = None
-        try:
-            voice = self._hand_over_drop(sequence, tr, vid, p)
-        finally:
-            limit.settle(vid, voice)
-        return voice
+        return self._new_voice(p, lambda vid: self._hand_over_drop(sequence, tr, vid, p))
 
     def _hand_over_drop(self, sequence, tr: Trigger, vid: int, priority: int) -> Voice | None:
         """Hand a drop's impacts over at every ear of the body as voice ``vid``, all or
@@ -726,6 +715,14 @@ def _release(reserved) -> None:
         for slot in slots:
             ear._ring.release(slot)
         ear._ring.close_voice(r, len(slots))
+
+
+def check_listener(plate: Plate, listener, field: str) -> None:
+    """``listener`` (the argument ``field``) an Accelerometer on ``plate`` or a Microphone."""
+    if isinstance(listener, Accelerometer):
+        plate.check_position(listener.position, f"{field}.position")
+    elif not isinstance(listener, Microphone):
+        raise ParameterError(f"{field}={listener!r} must be an Accelerometer or a Microphone")
 
 
 def check_pan(value, channels: int, listeners: int = 1) -> float:

@@ -133,12 +133,6 @@ class EngineBookkeeping:
         return int(self._native.ctl[native.RECORDED])
 
     @property
-    def fade_frame(self) -> int | None:
-        """The frame where the last :meth:`stop` fade began, or None."""
-        f = int(self._native.ctl[native.FADE_FRAME])
-        return None if f < 0 else f
-
-    @property
     def latency(self) -> float:
         """The stream's output latency, s: from the start of a callback to the time its first
         sample is heard (PortAudio's ``outputBufferDacTime - currentTime``, measured at

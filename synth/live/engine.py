@@ -1,19 +1,12 @@
-"""A live engine: an always open output stream that plays physical impacts as they happen.
+"""A live engine: an always open output stream that plays physical impacts as they happen
+(docs/live.md states the design and what runs where; :class:`Engine` each setting).
 
-``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python in
-it (:mod:`synth.live.native`), mixes every :class:`Body` (one plate heard by one listener or
-one per channel, ``max_voices`` modal voice slots); ``Engine.process(frames)`` runs the same
-mixing without a device. ``Body.hit`` solves the contact on the calling thread and hands its
-force pulse to the audio thread through a bounded ring (:mod:`synth.live.queue`); the audio
-thread turns pulses into mode amplitudes and rings each voice with the offline bank's steps
-(:mod:`synth.live.kernel`), so the voices played live are ``synth.render`` of the same
-impacts, to float32 rounding. Levels are the listener's physical signal (Pa or m/s^2) at the
-calibration of ``normalize="physical"``, times the hit, voice, body and master gains; the
-master bus ends in an optional true-peak limiter (:mod:`synth.live.limiter`) and a soft
-clipper. The callback allocates nothing and touches no Python object, file or lock. The
-clock counts output frames from 0. Reference: docs/live.md.
-This module holds what a user calls; :mod:`synth.live.bookkeeping` the state, clock, events
-and statistics.
+``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python,
+allocation or lock in it (:mod:`synth.live.native`), mixes every :class:`Body`;
+``Engine.process(frames)`` runs the same mixing without a device. Levels are the
+listener's physical signal at the calibration of ``normalize="physical"``. This module
+holds what a user calls; :mod:`synth.live.bookkeeping` the state, clock, events and
+statistics.
 """
 
 from __future__ import annotations
@@ -29,9 +22,7 @@ from synth import checks, cost
 from synth.compilation import announce
 from synth.errors import ParameterError, SynthError
 from synth.live import kernel, native
-from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_pan, ears
-from synth.live.bookkeeping import DEVICE_LOST as DEVICE_LOST
-from synth.live.bookkeeping import WATCH_PERIOD as WATCH_PERIOD
+from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_listener, check_pan, ears
 from synth.live.bookkeeping import EngineBookkeeping, watch_device
 from synth.live.hits import MAX_GAIN, check_int
 from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
@@ -39,7 +30,7 @@ from synth.live.rolling import MAX_ROLLS
 from synth.live.stats import EngineStats
 from synth.live.stream import CLOSE_TIMEOUT, check_device, close_stream, open_stream
 from synth.live.voice import MAX_VOICES, STEAL_FADE, Voice, VoiceLimit
-from synth.physics.scene import Accelerometer, Microphone, Plate, Scene
+from synth.physics.scene import Microphone, Plate, Scene
 from synth.sound.modal_bank import PULSE_POINTS
 from synth.sound.radiation.fixed import GridTooLarge
 from synth.sound.render import listener_grid, modal_model
@@ -318,87 +309,56 @@ class Engine(EngineBookkeeping):
         too big and what to change."""
         voices = self.max_voices if max_voices is None else max_voices
         voices = check_int("max_voices", voices, 1, 256, "voices")
-        listeners = len(listener) if isinstance(listener, (tuple, list)) else 1
-        panned = check_pan(pan, self.channels, listeners)
-        if isinstance(listener, (tuple, list)):
-            return self._add_ears(plate, listener, gain, voices)
-        if isinstance(plate, Scene):
-            if listener is not None:
+        several = isinstance(listener, (tuple, list))
+        panned = check_pan(pan, self.channels, len(listener) if several else 1)
+        if several:
+            listeners = tuple(listener)
+            if self.channels < 2 or len(listeners) != self.channels:
                 raise ParameterError(
-                    "listener must be None when adding a Scene (the scene's listener is used)"
+                    f"listener: a sequence of {len(listeners)} listeners needs an Engine with "
+                    f"as many channels (one listener per channel, at least 2); "
+                    f"channels={self.channels}"
                 )
-            plate, listener = plate.plate, plate.listener
-        if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
-        if listener is None:
-            cx, cy = plate.centre
-            listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
-        elif isinstance(listener, Accelerometer):
-            plate.check_position(listener.position, "listener.position")
-        elif not isinstance(listener, Microphone):
-            raise ParameterError(
-                f"listener={listener!r} must be None, an Accelerometer or a Microphone"
-            )
-        g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
-        self._check_open("add a body")
-        self._reap()
-        if self._native.bodies_held() >= self._native.directory.shape[0]:
-            raise ParameterError(
-                f"the engine holds max_bodies={self._native.directory.shape[0]} bodies already"
-            )
-        cut = cost.check_body(plate, listener, self._highest_frequency(), voices)
-        model = modal_model(
-            plate,
-            listener,
-            samplerate=self.samplerate,
-            max_frequency=self.max_frequency,
-            radiation_max_points=cut,
-        )
-        body = Body(self, plate, listener, g, model, voices=voices, pan=panned)
-        self._bodies = self._bodies + (body,)
-        return body
-
-    def _add_ears(self, plate, listeners, gain, voices: int) -> Body:
-        """A body heard by one listener per output channel (see :meth:`add`)."""
-        if self.channels < 2 or len(listeners) != self.channels:
-            raise ParameterError(
-                f"listener: a sequence of {len(listeners)} listeners needs an Engine with as "
-                f"many channels (one listener per channel, at least 2); channels={self.channels}"
-            )
-        if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
+            if not isinstance(plate, Plate):
+                raise ParameterError(f"plate={plate!r} must be a Plate when listeners are given")
+        else:
+            if isinstance(plate, Scene):
+                if listener is not None:
+                    raise ParameterError(
+                        "listener must be None when adding a Scene (the scene's listener is used)"
+                    )
+                plate, listener = plate.plate, plate.listener
+            if not isinstance(plate, Plate):
+                raise ParameterError(f"plate={plate!r} must be a Plate or a Scene")
+            if listener is None:
+                cx, cy = plate.centre
+                listener = Microphone((cx, cy, DEFAULT_MICROPHONE_HEIGHT))
+            listeners = (listener,)
         for i, li in enumerate(listeners):
-            if isinstance(li, Accelerometer):
-                plate.check_position(li.position, f"listener[{i}].position")
-            elif not isinstance(li, Microphone):
-                raise ParameterError(
-                    f"listener[{i}]={li!r} must be an Accelerometer or a Microphone"
-                )
+            check_listener(plate, li, f"listener[{i}]" if several else "listener")
         g = checks.positive_at_most("gain", gain, MAX_GAIN, "dimensionless")
         self._check_open("add a body")
         self._reap()
-        if self._native.bodies_held() + len(listeners) > self._native.directory.shape[0]:
+        room = self._native.directory.shape[0]
+        if self._native.bodies_held() + len(listeners) > room:
             raise ParameterError(
-                f"the engine holds max_bodies={self._native.directory.shape[0]} bodies "
-                f"(one per listener): no room for {len(listeners)} more"
+                f"the engine holds max_bodies={room} bodies (one per listener): no room for "
+                f"{len(listeners)} more"
             )
-        cuts = [cost.check_body(plate, li, self._highest_frequency(), voices) for li in listeners]
-        models = [
-            modal_model(
+        ears_ = []
+        for c, li in enumerate(listeners):
+            cut = cost.check_body(plate, li, self._highest_frequency(), voices)
+            model = modal_model(
                 plate,
                 li,
                 samplerate=self.samplerate,
                 max_frequency=self.max_frequency,
                 radiation_max_points=cut,
             )
-            for li, cut in zip(listeners, cuts)
-        ]
-        ears_ = [
-            Body(self, plate, li, g, m, channel=c, ears=len(listeners), voices=voices)
-            for c, (li, m) in enumerate(zip(listeners, models))
-        ]
+            channel = c if several else -1
+            ears_.append(Body(self, plate, li, g, model, channel, len(listeners), voices, panned))
         body = ears_[0]
-        body.listener = tuple(listeners)
+        body.listener = listeners if several else listener
         body._ears = ears_
         self._bodies = self._bodies + (body,)
         return body
@@ -492,11 +452,6 @@ class Engine(EngineBookkeeping):
         self._native.ctl[native.PAUSE] = 0
 
     # -- mixing ---------------------------------------------------------------------------
-    def _mix_into(self, outdata, frames: int):
-        """Mix ``frames`` frames into ``outdata`` (frames, channels) float32 with the
-        callback's compiled code (:func:`synth.live.native.mix_engine`)."""
-        native.mix_engine(self._native.ctl, outdata[:frames])
-
     def process(self, frames: int) -> np.ndarray:
         """Mix the next ``frames`` frames (in [0, MAX_SECONDS * samplerate]) without a
         device, in blocks of ``blocksize``: float32 (frames, channels), the very samples the
@@ -507,11 +462,8 @@ class Engine(EngineBookkeeping):
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
         out = np.empty((n, self.channels), dtype=np.float32)
-        for a in range(0, n, self.blocksize):  # the callback's blocks
-            b = min(n, a + self.blocksize)
-            native.mix_engine(self._native.ctl, out[a:b])
-            if self._retiring:  # removed bodies move on between the blocks
-                self._reap()
+        for a in range(0, n, self.blocksize):  # the callback's blocks, removed bodies reaped
+            self.mix_into(out[a : a + self.blocksize])
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:

@@ -32,8 +32,6 @@ from synth.live.heard import (
     inject_heard,
     ring_heard,
 )
-from synth.live.heard import N_HEARD_ROWS as N_HEARD_ROWS
-from synth.live.heard import heard_arrays as heard_arrays
 from synth.sound.modal_bank import transform_pulse
 
 #: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the

@@ -81,7 +81,6 @@ class PendingRing:
         self.pulses = 0  # pulses handed over so far (producers)
         self.transformed = np.zeros(1, dtype=np.int64)  # pulses taken by the audio thread
         self.refused = 0
-        self.puts = 0  # impacts handed over so far (written after READY or PULSE)
         self._lock = threading.Lock()  # between producers only
         self._next = 0  # the slot after the last one reserved
 
@@ -193,7 +192,7 @@ class PendingRing:
         self.first[slot] = first
         self.inject[slot] = inject
         self.reference[slot] = reference
-        self._hand_over(slot, READY)
+        publish(self.state, slot, READY)  # last: the audio thread reads the slot from now on
 
     def publish_pulse(self, slot: int, inject: int, first: int, length: int, points: int):
         """Hand over ``slot`` (reserved with ``pulse=True``) in the PULSE form: its
@@ -204,12 +203,7 @@ class PendingRing:
         self.length[slot] = length
         self.first[slot] = first
         self.inject[slot] = inject
-        self._hand_over(slot, PULSE)
-
-    def _hand_over(self, slot: int, state: int) -> None:
-        publish(self.state, slot, state)  # last: the audio thread reads the slot from now on
-        with self._lock:
-            self.puts += 1
+        publish(self.state, slot, PULSE)  # last, as in publish
 
     def release(self, slot: int, pulse: bool = False) -> None:
         """Give a reserved slot back unfilled (its impact failed before publishing)."""
@@ -217,6 +211,3 @@ class PendingRing:
             if pulse:
                 self.pulses -= 1
             self.state[slot] = FREE
-
-    def free_slots(self) -> int:
-        return int(np.count_nonzero(self.state == FREE))

@@ -1,22 +1,12 @@
 """A ball rolling on a live body, its speed and position updated by the game every frame
-(:meth:`synth.live.Body.roll`, :class:`RollingVoice`; docs/live.md, "Rolling").
+(:meth:`synth.live.Body.roll`, :class:`RollingVoice`; docs/live.md, "Rolling", states the
+hand-over, the listeners and the cost).
 
 The game's thread checks each update and evaluates the mode shapes along the straight
 segment ahead of the ball (:func:`synth.sound.rolling.path_excitation`, every
 ``table_step`` m, over :data:`HORIZON` s at the update's speed, plus :data:`MARGIN` m
 behind and beyond for the touching point's offset); the audio thread
-(:mod:`synth.live.rolling_block`) takes the newest update at each block's start, rolls the
-ball over the block with the offline contact integrator and drives the modes with its
-force at the moving touching point. An update sounds from the next block's start: one
-block plus the stream's output latency after the call at most.
-
-A body heard through several ears (``Engine.add(plate, listener=ears(...))``) rolls the
-voice in the same slot at each ear: the first ear's slot integrates its contact once a
-block, and each ear drives its own modes with that force, heard through its own gains;
-an accelerometer hears the plate's acceleration at its sensor with its direct term, as
-the offline render's. A listener moved while the voice rolls
-(:meth:`synth.live.Body.move`) reaches it over the next block, as it reaches the body's
-impact voices.
+(:mod:`synth.live.rolling_block`) rolls the ball over each block and drives the modes.
 """
 
 from __future__ import annotations

@@ -19,16 +19,6 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.stimuli.prediction import CONTEXT as CONTEXT
-from synth.stimuli.prediction import MAX_T60 as MAX_T60
-from synth.stimuli.prediction import NOISE_FRAME as NOISE_FRAME
-from synth.stimuli.prediction import NOISE_ORDER as NOISE_ORDER
-from synth.stimuli.prediction import ORDER as ORDER
-from synth.stimuli.prediction import RIDGES as RIDGES
-from synth.stimuli.prediction import SMOOTHING as SMOOTHING
-from synth.stimuli.prediction import extend as extend
-from synth.stimuli.splice import END_FLOOR_DB as END_FLOOR_DB
-from synth.stimuli.splice import MAX_TAIL as MAX_TAIL
 from synth.stimuli.splice import SplicedChannel, TickLayout
 
 #: Before each onset: where the fits end and the prediction starts, clear of the attack's

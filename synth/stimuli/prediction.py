@@ -11,9 +11,8 @@ import math
 import numpy as np
 from scipy.signal import lfilter
 
-from synth import checks, dsp
+from synth import dsp
 from synth.compilation import compiled
-from synth.errors import ParameterError
 
 #: Past spanned by the prediction model, s (its order: 400 samples at 48 kHz).
 ORDER = 1.0 / 120.0
@@ -153,33 +152,6 @@ def fit_model(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
     if not phi[0, 0] > 0.0:
         return None, False
     return _stable_fit(phi, fs), clean
-
-
-def _fit(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
-    """The model of :func:`fit_model` alone."""
-    return fit_model(z, end, fs, excluded, context, order)[0]
-
-
-def _predict(a, past, n):
-    """The next ``n`` samples of the all-pole model ``1/a`` with no input, from the last
-    samples of ``past`` (zeros before it)."""
-    return Ringing(a, past).take(n)
-
-
-def extend(x, n, samplerate, *, context=CONTEXT, order=ORDER):
-    """Continue ``x`` (a tail of decaying modes, any units, (frames,)) by ``n`` samples by linear
-    prediction, the model fitted on the last ``context`` s of ``x`` with ``order`` s of past
-    (``samplerate`` in Hz). Exact for a sum of at most ``order * samplerate / 2`` decaying
-    sinusoids. Returns the ``n`` new samples."""
-    fs = checks.positive("samplerate", samplerate, "Hz")
-    ctx = checks.positive("context", context, "s")
-    od = checks.positive("order", order, "s")
-    x = np.asarray(x, dtype=float)
-    if x.ndim != 1 or not np.all(np.isfinite(x)):
-        raise ParameterError(f"x with shape {x.shape} must be (frames,) and finite")
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise ParameterError(f"n={n!r} must be an integer >= 0 (samples)")
-    return _predict(_fit(x, x.size, fs, context=ctx, order=od), x, int(n))
 
 
 # --------------------------------------------------------------------------- noise floor
