@@ -284,19 +284,24 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
     """Text that identifies the eigen-solution :func:`modes` gives ``plate`` up to
-    ``max_frequency`` (Hz), known before any solve: the method, its version and settings
-    and the bands it solves (as :attr:`Modes.shape_key`'s solution). A cache of results
+    ``max_frequency`` (Hz), known before any solve: the method, its version and settings,
+    the bands it solves (as :attr:`Modes.shape_key`'s solution) and the numerical libraries
+    (:func:`~synth.physics.modes.common.numerics_key`). A cache of results
     computed from the modes (the modal contact's point modes) keys its entries with it, so
     that an entry made by another revision of the solver is not served."""
-    if plate.boundary == "simply-supported":
-        return json.dumps({"method": "closed-form"})
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
+    from synth.physics.modes.common import numerics_key
 
+    if plate.boundary == "simply-supported":
+        return json.dumps({"method": "closed-form", "numerics": numerics_key()}, sort_keys=True)
     nu = plate.material.poisson
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
-    key = {"ritz": band_key(plate.boundary, nu, aspect, ritz_band(plate, max_frequency))}
+    key = {
+        "ritz": band_key(plate.boundary, nu, aspect, ritz_band(plate, max_frequency)),
+        "numerics": numerics_key(),
+    }
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
         key["edge"] = asymptotic_modes.solution_key(plate.boundary, nu, aspect, omega_req)
     return json.dumps(key, sort_keys=True)
