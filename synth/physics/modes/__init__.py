@@ -24,7 +24,7 @@ from synth import checks
 from synth.errors import ParameterError
 from synth.physics.modes.cache import cache_info, cached_ritz, clear_memory_cache
 from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
-from synth.physics.modes.common import single_thread_product
+from synth.physics.modes.common import numerics_key, single_thread_product
 from synth.physics.modes.crossover import (
     CROSSOVER_UNKNOWNS,
     EDGE_EFFECT_TOLERANCE,
@@ -118,8 +118,10 @@ class Modes:
     @property
     def shape_key(self) -> str:
         """Text that identifies :meth:`shapes` exactly, for caches of results computed from them:
-        the plate's size, the number of modes and the eigen-solution (boundary, Poisson ratio,
-        aspect, band, solver settings), not what only scales frequencies or damping."""
+        the plate's size, the number of modes, the eigen-solution (boundary, Poisson ratio,
+        aspect, band, solver settings) and the numerical libraries
+        (:func:`~synth.physics.modes.common.numerics_key`), not what only scales frequencies
+        or damping."""
         p = self.plate
         return json.dumps(
             {
@@ -127,6 +129,7 @@ class Modes:
                 "length": float(p.length).hex(),
                 "width": float(p.width).hex(),
                 "modes": len(self),
+                "numerics": numerics_key(),
             },
             sort_keys=True,
         )
@@ -291,7 +294,6 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
     that an entry made by another revision of the solver is not served."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
-    from synth.physics.modes.common import numerics_key
 
     if plate.boundary == "simply-supported":
         return json.dumps({"method": "closed-form", "numerics": numerics_key()}, sort_keys=True)
