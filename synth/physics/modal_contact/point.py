@@ -292,10 +292,11 @@ def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
 # Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
 # point's modes on disk. The disk key holds everything the modes depend on: the plate, the
 # band, the point and the solver that gives the modes (synth.physics.modes.solver_key: its
-# method, version and settings). _POINT_VERSION changes with how a point's modes are taken
-# from the solution, and with any change of the solver's bytes that its key does not name
-# (the number of BLAS threads a solve runs on, for one): no entry of another revision is
-# served, and a bounce series, which amplifies the modes' last bits, is the same in any cache.
+# method, version, settings and numerical libraries). _POINT_VERSION changes with how a
+# point's modes are taken from the solution, and with any change of the solver's bytes that
+# its key does not name (the number of BLAS threads a solve runs on, for one): no entry of
+# another revision is served, and a bounce series, which amplifies the modes' last bits, is
+# the same in any cache.
 _BAND_MODES = MemoryCache("solves", max_entries=8)
 _POINT_VERSION = 2
 

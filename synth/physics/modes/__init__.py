@@ -289,9 +289,9 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
     """Text that identifies the eigen-solution :func:`modes` gives ``plate`` up to
     ``max_frequency`` (Hz), known before any solve: the method, its version and settings,
     the bands it solves (as :attr:`Modes.shape_key`'s solution) and the numerical libraries
-    (:func:`~synth.physics.modes.common.numerics_key`). A cache of results
-    computed from the modes (the modal contact's point modes) keys its entries with it, so
-    that an entry made by another revision of the solver is not served."""
+    (:func:`~synth.physics.modes.common.numerics_key`). A cache of results computed from the
+    modes (the modal contact's point modes) keys its entries with it, so that an entry made
+    by another revision of the solver is not served."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
 
