@@ -52,7 +52,7 @@ from synth.physics.asymptotic_modes.factors import interior_part as interior_par
 from synth.physics.asymptotic_modes.ritz import near_pairs, rayleigh_ritz
 from synth.physics.asymptotic_modes.roots import length_ratios, solve_pairs, starting_s
 
-__all__ = ["EdgeEffectSolution", "solve", "mode_count_estimate"]
+__all__ = ["EdgeEffectSolution", "solve", "solution_key", "mode_count_estimate"]
 
 
 #: Two modes of one symmetry class whose edge effect frequencies differ by less than this
@@ -163,18 +163,7 @@ class EdgeEffectSolution:
             arr.setflags(write=False)
         self.nbytes = sum(a.nbytes for a in arrays)
         self._tables = ({}, {})  # factor tables along x and along y (see _table)
-        self.key = json.dumps(
-            {
-                "method": "edge-effect",
-                "version": _VERSION,
-                "boundary": boundary,
-                "nu": float(nu).hex(),
-                "aspect": float(aspect).hex(),
-                "omega_max": float(omega_max).hex(),
-                "pair_gap": float(_PAIR_GAP).hex(),
-            },
-            sort_keys=True,
-        )
+        self.key = solution_key(boundary, nu, aspect, omega_max)
 
     def factor_constants(self):
         """``((ce_x, scale_x), (ce_y, scale_y))``: edge coefficient and normalising factor of
@@ -288,6 +277,24 @@ class EdgeEffectSolution:
         x_other = np.where(paired, self.other[index] * fx[:, other], 0.0)
         y_other = np.where(paired, fy[:, other], 0.0)
         return x_own, np.ascontiguousarray(fy[:, own]), x_other, y_other
+
+
+def solution_key(boundary: str, nu: float, aspect: float, omega_max: float) -> str:
+    """Everything that determines the solution of :func:`solve` (the method's version and
+    settings), as canonical JSON: known before the solve, for caches of what is computed
+    from its modes."""
+    return json.dumps(
+        {
+            "method": "edge-effect",
+            "version": _VERSION,
+            "boundary": boundary,
+            "nu": float(nu).hex(),
+            "aspect": float(aspect).hex(),
+            "omega_max": float(omega_max).hex(),
+            "pair_gap": float(_PAIR_GAP).hex(),
+        },
+        sort_keys=True,
+    )
 
 
 def solve(boundary: str, nu: float, aspect: float, omega_max: float) -> EdgeEffectSolution:

@@ -290,10 +290,15 @@ def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
 
 
 # Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
-# point's modes on disk. The disk key holds everything the modes depend on; its version
-# changes with the mode solver's algorithm.
+# point's modes on disk. The disk key holds everything the modes depend on: the plate, the
+# band, the point and the solver that gives the modes (synth.physics.modes.solver_key: its
+# method, version, settings and numerical libraries). _POINT_VERSION changes with how a
+# point's modes are taken from the solution, and with any change of the solver's bytes that
+# its key does not name (the number of BLAS threads a solve runs on, for one): no entry of
+# another revision is served, and a bounce series, which amplifies the modes' last bits, is
+# the same in any cache.
 _BAND_MODES = MemoryCache("solves", max_entries=8)
-_POINT_VERSION = 1
+_POINT_VERSION = 2
 
 
 def clear_memory_cache() -> None:
@@ -336,18 +341,7 @@ def band_modes(plate: Plate, max_frequency: float):
 def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarray, np.ndarray]:
     """Angular frequencies (rad/s) and couplings ``phi_k(x0)^2 / M_k`` (1/kg) of the modes of
     :func:`band_modes` at ``position``: from the disk cache, or computed and stored."""
-    from synth.physics.modes import TOLERANCE
-
-    key = json.dumps(
-        dict(
-            _plate_key(plate, max_frequency),
-            x=float(position[0]).hex(),
-            y=float(position[1]).hex(),
-            version=_POINT_VERSION,
-            tolerance=TOLERANCE,
-        ),
-        sort_keys=True,
-    )
+    key = _point_key(plate, position, max_frequency)
     try:
         path = cache_path("contact-point-modes", key)
     except RuntimeError:  # no home directory: no disk cache
@@ -362,6 +356,23 @@ def _point_modes(plate: Plate, position, max_frequency: float) -> tuple[np.ndarr
     if path is not None:
         savez_atomic(path, {"key": np.array(key), "omega": omega, "coupling": coupling})
     return omega, coupling
+
+
+def _point_key(plate: Plate, position, max_frequency: float) -> str:
+    """The disk key of the modes of ``plate`` to ``max_frequency`` (Hz) at ``position`` (m):
+    every input and the solver's identity (the comment above :data:`_BAND_MODES`)."""
+    from synth.physics.modes import solver_key
+
+    return json.dumps(
+        dict(
+            _plate_key(plate, max_frequency),
+            x=float(position[0]).hex(),
+            y=float(position[1]).hex(),
+            version=_POINT_VERSION,
+            solver=solver_key(plate, max_frequency),
+        ),
+        sort_keys=True,
+    )
 
 
 def _load_point(path, key: str):

@@ -24,7 +24,7 @@ from synth import checks
 from synth.errors import ParameterError
 from synth.physics.modes.cache import cache_info, cached_ritz, clear_memory_cache
 from synth.physics.modes.closed_form import SeparableShapes, SimplySupported
-from synth.physics.modes.common import single_thread_product
+from synth.physics.modes.common import numerics_key, single_thread_product
 from synth.physics.modes.crossover import (
     CROSSOVER_UNKNOWNS,
     EDGE_EFFECT_TOLERANCE,
@@ -118,8 +118,10 @@ class Modes:
     @property
     def shape_key(self) -> str:
         """Text that identifies :meth:`shapes` exactly, for caches of results computed from them:
-        the plate's size, the number of modes and the eigen-solution (boundary, Poisson ratio,
-        aspect, band, solver settings), not what only scales frequencies or damping."""
+        the plate's size, the number of modes, the eigen-solution (boundary, Poisson ratio,
+        aspect, band, solver settings) and the numerical libraries
+        (:func:`~synth.physics.modes.common.numerics_key`), not what only scales frequencies
+        or damping."""
         p = self.plate
         return json.dumps(
             {
@@ -127,6 +129,7 @@ class Modes:
                 "length": float(p.length).hex(),
                 "width": float(p.width).hex(),
                 "modes": len(self),
+                "numerics": numerics_key(),
             },
             sort_keys=True,
         )
@@ -280,6 +283,30 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
         omega_req = band_of_unknowns(aspect, LOW_BAND_UNKNOWNS, omega_req)
     return omega_req
+
+
+def solver_key(plate: Plate, max_frequency: float) -> str:
+    """Text that identifies the eigen-solution :func:`modes` gives ``plate`` up to
+    ``max_frequency`` (Hz), known before any solve: the method, its version and settings,
+    the bands it solves (as :attr:`Modes.shape_key`'s solution) and the numerical libraries
+    (:func:`~synth.physics.modes.common.numerics_key`). A cache of results computed from the
+    modes (the modal contact's point modes) keys its entries with it, so that an entry made
+    by another revision of the solver is not served."""
+    from synth.physics import asymptotic_modes
+    from synth.physics.modes.cache import band_key
+
+    if plate.boundary == "simply-supported":
+        return json.dumps({"method": "closed-form", "numerics": numerics_key()}, sort_keys=True)
+    nu = plate.material.poisson
+    aspect = plate.length / plate.width
+    omega_req = dimensionless_band(plate, max_frequency)
+    key = {
+        "ritz": band_key(plate.boundary, nu, aspect, ritz_band(plate, max_frequency)),
+        "numerics": numerics_key(),
+    }
+    if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
+        key["edge"] = asymptotic_modes.solution_key(plate.boundary, nu, aspect, omega_req)
+    return json.dumps(key, sort_keys=True)
 
 
 def shape_terms(plate: Plate, max_frequency: float) -> int:

@@ -3,8 +3,9 @@
 A solution depends only on the boundary, ``nu``, the aspect ratio and the dimensionless
 band ``omega L^2 sqrt(rho h / D)``; it is kept in memory and as ``.npz`` in
 ``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by those, the basis
-settings and the band. Only exactly the requested band is reused, so no result depends on
-what was solved before (a wider band's modes differ in their last bits).
+settings, the band and the numerical libraries (:func:`~.common.numerics_key`). Only exactly
+the requested band is reused, so no result depends on what was solved before (a wider
+band's modes differ in their last bits).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.physics.modes.common import numerics_key
 from synth.physics.modes.ritz import RitzSolution, solution_key, solve_ritz
 from synth.store.cache import MemoryCache, cache_path, load_npz, savez_atomic
 
@@ -135,6 +137,10 @@ def cached_ritz(boundary: str, nu: float, aspect: float, omega_req: float, cache
 def band_key(boundary: str, nu: float, aspect: float, omega_req: float) -> str:
     """The cache key of the solution of exactly the band ``omega_req`` (dimensionless)."""
     return json.dumps(
-        {"solution": solution_key(boundary, nu, aspect), "band": float(omega_req).hex()},
+        {
+            "solution": solution_key(boundary, nu, aspect),
+            "band": float(omega_req).hex(),
+            "numerics": numerics_key(),
+        },
         sort_keys=True,
     )

@@ -1,6 +1,7 @@
-"""What the plate-mode solutions share: the cache layout's version, the temporary-array
-budget of their shapes, the plate's aspect ratios, and a matrix product kept on the
-calling thread (:func:`single_thread_product`).
+"""What the plate-mode solutions share: the cache layout's version, the numerical libraries
+of their keys (:func:`numerics_key`), the temporary-array budget of their shapes, the
+plate's aspect ratios, and a matrix product kept on the calling thread
+(:func:`single_thread_product`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,16 @@ CHUNK_ELEMENTS = 1 << 22
 _PIECE = 1 << 18
 # Version of the stored solution layout and algorithm; part of the cache key.
 VERSION = 1
+
+
+def numerics_key() -> dict:
+    """The numerical libraries whose arithmetic sets a solution's last bits: numpy's (and its
+    BLAS), scipy's (its LAPACK and BLAS) and numba's versions. Part of the disk keys, so
+    that a cache directory written under other libraries is not served."""
+    import numba
+    import scipy
+
+    return {"numpy": np.__version__, "scipy": scipy.__version__, "numba": numba.__version__}
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
