@@ -6,8 +6,8 @@ solver's floating-point operations and each radiation rule's terms
 radiation rule applied alone (memory caches off) on a scene of its own, and divides the
 estimate's count of that work (of the rules the refinement took) by the wall time: the
 rates ``synth info --cost`` turns the estimate into seconds with, and whose ratios weigh
-each radiation rule's terms in the budget (:func:`synth.cost.rule_weights`; the counts
-timed here are the rules' own terms, unweighted). ``--record`` writes them to
+each radiation rule's terms in the budget (:func:`synth.sound.radiation.work.rule_weights`;
+the counts timed here are the rules' own terms, unweighted). ``--record`` writes them to
 :data:`synth.cost.RATES` with the date, the machine and its load (the figures are those of
 one run; a loaded machine gives lower rates), which changes the package's weights.
 """

@@ -20,6 +20,7 @@ from benchmarks.cost import rule_counts
 from synth import cost
 from synth.io.presets import find, read, scene_from_dict
 from synth.sound.radiation.rules import PolarRule, SummedRule
+from synth.sound.radiation.work import rule_weights, weighted_counts
 from synth.sound.render import render
 
 #: How far above the traced peak the estimate may lie: it counts every chunk the
@@ -356,7 +357,7 @@ def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkey
         assert points <= r.rule_points[level] <= POINTS_FACTOR * points, (level, levels, r)
     work = sum(terms for _, terms in levels)
     # the estimate's work is in rectangle-term equivalents: back to the rule's own terms
-    estimated = (r.work_of(len(levels)) - r.fixed_work) / cost.rule_weights()[name]
+    estimated = (r.work_of(len(levels)) - r.fixed_work) / rule_weights()[name]
     assert work <= estimated <= WORK_FACTOR * work, (levels, r)
 
 
@@ -450,15 +451,15 @@ def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
     # (to rounding: one product); the estimate's radiation work is the weighted counts.
     plate, microphone, modes, f_max = _sheet()
     weights = _shipped_weights()
-    assert cost.rule_weights() == pytest.approx(weights, rel=1e-15)
-    assert cost.rule_weights()["rectangle"] == 1.0
+    assert rule_weights() == pytest.approx(weights, rel=1e-15)
+    assert rule_weights()["rectangle"] == 1.0
     counts = rule_counts("banded", plate, microphone, modes, f_max)
-    weighted = cost.weighted_counts(counts)
+    weighted = weighted_counts(counts)
     assert weighted.work == pytest.approx([w * weights["banded"] for w in counts.work], rel=1e-15)
     assert weighted.fixed == pytest.approx(counts.fixed * weights["banded"], rel=1e-15)
     assert weighted.points == counts.points
     r = cost.radiation_work(plate, microphone, modes, f_max, cost.Budget(max_radiation_work=10**14))
-    counts = cost.weighted_counts(rule_counts(r.rule, plate, microphone, modes, f_max))
+    counts = weighted_counts(rule_counts(r.rule, plate, microphone, modes, f_max))
     assert r.rule == "banded" and r.rule_work == counts.work and r.fixed_work == counts.fixed
 
 

@@ -8,8 +8,8 @@ import math
 
 from synth.cost.budget import Budget
 from synth.cost.modal import bending_wavenumber, modal_count
-from synth.cost.rates import weighted_counts
 from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, RadiationWork
+from synth.sound.radiation.work import weighted_counts
 
 
 def _acoustic(f_max: float) -> float:

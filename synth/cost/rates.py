@@ -10,9 +10,9 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from synth.sound.radiation.work import RATES, rule_weights, weighted_counts
+from synth.sound.radiation.work import RATES
 
-__all__ = ["RATES", "Rates", "rule_weights", "time_row", "weighted_counts"]
+__all__ = ["RATES", "Rates", "time_row"]
 
 
 @dataclass(frozen=True)
