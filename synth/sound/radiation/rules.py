@@ -222,7 +222,18 @@ class BandedRule(Rule):
         return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
-        return _with_ritz(modes, listener, s, settings, _banded_rectangle, "banded rule")
+        """The Ritz modes below the edge effect part's ``first_mode`` by the rectangle rule
+        (for their own largest wavenumber), the edge effect modes band by band."""
+        n_low = modes.edge_effect().first_mode
+        high = _banded_rectangle(modes, n_low, listener, s, settings)
+        if n_low == 0:
+            return high
+        low = _band_rectangle(modes, 0, n_low, listener, s, settings)
+        message = (
+            f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
+            f"{len(modes) - 1} (banded rule): {high.message}"
+        )
+        return combined((low, high), "banded", message)
 
 
 #: The rules :func:`choose_rule` chooses among.
@@ -315,22 +326,6 @@ def _banded_rectangle(modes, n_low, listener, s, settings):
         f"{largest.message}"
     )
     return combined(parts, "banded", message)
-
-
-def _with_ritz(modes, listener, s, settings, edge_rule, how) -> RadiationResult:
-    """Gains of a plate with Rayleigh-Ritz modes below ``first_mode`` of its edge effect
-    part (the rectangle rule, for their own largest wavenumber) and dynamic edge effect
-    modes above (``edge_rule``); one :class:`RadiationResult`."""
-    n_low = modes.edge_effect().first_mode
-    high = edge_rule(modes, n_low, listener, s, settings)
-    if n_low == 0:
-        return high
-    low = _band_rectangle(modes, 0, n_low, listener, s, settings)
-    message = (
-        f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
-        f"{len(modes) - 1} ({how}): {high.message}"
-    )
-    return combined((low, high), high.rule, message)
 
 
 def combined(parts, rule: str, message: str) -> RadiationResult:
