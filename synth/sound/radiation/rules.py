@@ -253,9 +253,9 @@ def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
     """:func:`choose_rule` among ``candidates``, kept for the process (the warm renders and
     the live engine choose again for every cached gain)."""
     estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
-    fitting = [e for e in estimates if e.fits]
-    if fitting:
-        return min(fitting, key=lambda e: e.cost)
+    holding = [e for e in estimates if e.error_bound <= problem.tol]
+    if holding:
+        return min(holding, key=lambda e: e.cost)
     return min(estimates, key=lambda e: e.counts.points[1])
 
 
