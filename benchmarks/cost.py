@@ -6,8 +6,8 @@ solver's floating-point operations and each radiation rule's terms
 radiation rule applied alone (memory caches off) on a scene of its own, and divides the
 estimate's count of that work (of the rules the refinement took) by the wall time: the
 rates ``synth info --cost`` turns the estimate into seconds with, and whose ratios weigh
-each radiation rule's terms in the budget (:func:`synth.cost.rule_weights`; the counts
-timed here are the rules' own terms, unweighted). ``--record`` writes them to
+each radiation rule's terms in the budget (:func:`synth.sound.radiation.work.rule_weights`;
+the counts timed here are the rules' own terms, unweighted). ``--record`` writes them to
 :data:`synth.cost.RATES` with the date, the machine and its load (the figures are those of
 one run; a loaded machine gives lower rates), which changes the package's weights.
 """
@@ -29,13 +29,11 @@ SOLVER_FREQUENCY = 16000.0
 
 #: Each rule's scene: (material, thickness m, length m, width m, boundary, highest
 #: frequency Hz, microphone (x, y, z) m). The summed rule's plate stays below the Ritz
-#: crossover, the boundary and banded rules' lies past it (the boundary rule's edge effect
-#: modes are timed, the banded rule's whole plate).
+#: crossover, the banded rule's lies past it (its whole plate is timed).
 RULE_SCENES = {
     "rectangle": ("mdf-18", 0.018, 1.2, 0.6, "free", 16000.0, (0.4, 0.25, 0.2)),
     "polar": ("steel", 0.001, 1.0, 0.8, "simply-supported", 12000.0, (0.4, 0.3, 0.3)),
     "summed": ("mdf-18", 0.018, 1.2, 0.6, "free", 16000.0, (0.4, 0.25, 0.2)),
-    "boundary": ("steel", 0.0005, 0.6, 0.5, "free", 12000.0, (0.25, 0.2, 0.2)),
     "banded": ("steel", 0.0005, 0.6, 0.5, "free", 12000.0, (0.25, 0.2, 0.2)),
 }
 
@@ -79,7 +77,6 @@ def _rule_call(rule, m, listener, s, kb):
     """The rule applied alone to the modes ``m`` (full output, no cache)."""
     from synth.constants import AIR_DENSITY, SOUND_SPEED
     from synth.sound import radiation as rad
-    from synth.sound.radiation.boundary import boundary_rule
     from synth.sound.radiation.rules import BandedRule
 
     size = (m.plate.length, m.plate.width)
@@ -90,23 +87,16 @@ def _rule_call(rule, m, listener, s, kb):
         return rad.separable_gains(m.separable(), listener, s, **settings)
     if rule == "summed":
         return rad.summed_gains(m.summed(), listener, s, **settings)
-    if rule == "banded":
-        return BandedRule().gains(
-            m, listener, s, dict(max_wavenumber=kb, air_density=AIR_DENSITY,
-            sound_speed=SOUND_SPEED, reference_distance=None, tol=1e-6,
-            max_points=rad.DEFAULT_MAX_POINTS),
-        )  # fmt: skip
-    edge = m.edge_effect()
-    return boundary_rule(
-        edge, len(m), size, listener, s[edge.first_mode :], air_density=AIR_DENSITY,
+    return BandedRule().gains(
+        m, listener, s, dict(max_wavenumber=kb, air_density=AIR_DENSITY,
         sound_speed=SOUND_SPEED, reference_distance=None, tol=1e-6,
-        max_points=rad.DEFAULT_MAX_POINTS,
+        max_points=rad.DEFAULT_MAX_POINTS),
     )  # fmt: skip
 
 
 def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
     """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
-    "polar", "summed", "banded" or "boundary", :mod:`synth.sound.radiation.rules`) for
+    "polar", "summed" or "banded", :mod:`synth.sound.radiation.rules`) for
     ``listener`` (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz),
     whichever rule the engine would take."""
     from synth.cost.radiation import radiation_problem
@@ -132,7 +122,7 @@ def _rule_rate(rule: str) -> StageRate:
     result, seconds = _timed(lambda: _rule_call(rule, m, listener, s, kb))
     counts = rule_counts(rule, plate, Microphone(listener), len(m), f_max)
     rules = result.refinements + 1
-    work = float(sum(counts.work[:rules])) + (0.0 if rule == "boundary" else counts.fixed)
+    work = float(sum(counts.work[:rules])) + counts.fixed
     return StageRate(rule, len(m), work, seconds, work / seconds)
 
 
@@ -160,7 +150,6 @@ TITLES = {
     "rectangle": "rectangle rule (terms)",
     "polar": "polar rule (terms)",
     "summed": "summed polar rule (terms)",
-    "boundary": "boundary rule (terms)",
     "banded": "banded rectangle rule (terms)",
 }
 

@@ -8,20 +8,15 @@ rule and its check rule in rectangle-term equivalents, over the shipped rectangl
 estimated seconds on the machine that recorded the rates) and the rule
 :func:`~synth.sound.radiation.rules.choose_rule` takes; per rule, the scenes it is chosen for
 and its least cost ratio to the cheapest other rule (:func:`rule_summary`). A rule never
-chosen here is a rule whose estimated cost never pays on these scenes. The edge effect modes' two rules are also timed on the
-default board at :data:`EDGE_RATE` (:func:`measure_edge_rules`): the figure of where the
-boundary rule pays, beside their estimates.
+chosen here is a rule whose estimated cost never pays on these scenes.
 """
 
 from __future__ import annotations
 
 from benchmarks.common import markdown_table
 
-#: The rate (Hz) of the default board whose edge effect modes both edge rules are timed on.
-EDGE_RATE = 384000
-
 #: The rules' columns, in order (``-`` where a rule does not take the scene's shapes).
-RULE_NAMES = ("rectangle", "polar", "summed", "banded", "boundary")
+RULE_NAMES = ("rectangle", "polar", "summed", "banded")
 
 
 def _scenes() -> list:
@@ -43,48 +38,9 @@ def _scenes() -> list:
     return rows
 
 
-def measure_edge_rules(samplerate: int = EDGE_RATE) -> dict:
-    """CPU seconds (every thread of this process) of the banded and the boundary rule on the
-    default board's modes up to ``samplerate / 2`` Hz (the render's mirror poles, its
-    microphone, tol 1e-6), and the largest difference of their gains over the bound of two
-    rules, ``2 tol max(|H|, 1e-4 S)``."""
-    import time
-
-    import numpy as np
-
-    from synth.constants import AIR_DENSITY, SOUND_SPEED
-    from synth.io.presets import load_preset
-    from synth.physics import modes as plate_modes
-    from synth.sound.radiation import DEFAULT_MAX_POINTS
-    from synth.sound.radiation.rules import BandedRule, BoundaryRule
-
-    scene = load_preset("default")
-    m = plate_modes.modes(scene.plate, max_frequency=0.5 * samplerate * (1.0 - 1e-9))
-    omega, sigma = np.asarray(m.angular_frequencies), np.asarray(m.decay_rates)
-    s = sigma + 1j * np.sqrt(np.maximum(omega**2 - sigma**2, 0.0))
-    kb = (omega.max() ** 2 * scene.plate.surface_density / scene.plate.flexural_rigidity) ** 0.25
-    settings = dict(max_wavenumber=kb, air_density=AIR_DENSITY, sound_speed=SOUND_SPEED,
-                    reference_distance=None, tol=1e-6, max_points=DEFAULT_MAX_POINTS)  # fmt: skip
-    out, gains = {"samplerate": samplerate, "modes": len(m)}, {}
-    for rule in (BandedRule(), BoundaryRule()):
-        start = time.process_time()
-        gains[rule.name] = rule.gains(m, scene.listener.position, s, settings)
-        out[rule.name + "_cpu_s"] = time.process_time() - start
-    a, b = gains["banded"], gains["boundary"]
-    bound = 2e-6 * np.maximum(np.abs(a.gains), 1e-4 * a.coherent)
-    out["difference_over_bound"] = float(np.max(np.abs(a.gains - b.gains) / bound))
-    return out
-
-
 def run_rules() -> dict:
     """``rows``, one per scene with a microphone: its shapes, modes, each rule's estimated
-    seconds (None where the rule does not apply) and the rule chosen; ``edge``:
-    :func:`measure_edge_rules`."""
-    return {"rows": _rule_rows(), "edge": measure_edge_rules()}
-
-
-def _rule_rows() -> list:
-    """The rows of :func:`run_rules`."""
+    seconds (absent where the rule does not apply) and the rule chosen."""
     from synth.cost import Rates
     from synth.cost.modal import modal_count
     from synth.cost.radiation import radiation_problem
@@ -106,10 +62,10 @@ def _rule_rows() -> list:
                 "shapes": problem.shapes,
                 "modes": modes,
                 "seconds": costs,
-                "chosen": choose_rule(problem).name,
+                "chosen": choose_rule(problem).rule.name,
             }
         )
-    return rows
+    return {"rows": rows}
 
 
 def rule_summary(rows: list) -> list:
@@ -149,10 +105,9 @@ def _summary_lines(rows: list) -> list:
 
 
 def format_rules(result) -> str:
-    """The table of :func:`run_rules`, the count and names of the scenes each rule is
-    chosen for with its cost ratio to the next cheapest rule, and the edge rules' measured
-    times."""
-    rows, edge = result["rows"], result["edge"]
+    """The table of :func:`run_rules`, and the count and names of the scenes each rule is
+    chosen for with its cost ratio to the next cheapest rule."""
+    rows = result["rows"]
     header = ["scene", "shapes", "modes", *RULE_NAMES, "chosen"]
     cells = [
         [row["scene"], row["shapes"], str(row["modes"])]
@@ -169,11 +124,6 @@ def format_rules(result) -> str:
         "'chosen' is choose_rule's pick. Scenes per rule: "
         + ", ".join(f"{n} {c}" for n, c in chosen.items())
         + ".",
-        "",
-        f"Measured in this run, the default board at {edge['samplerate']} Hz "
-        f"({edge['modes']} modes): banded rule {edge['banded_cpu_s']:.3g} CPU s, boundary "
-        f"rule {edge['boundary_cpu_s']:.3g} CPU s (every thread), their gains within "
-        f"{edge['difference_over_bound']:.2g} of the bound of two rules (2 tol).",
         "",
         *_summary_lines(rows),
     ]

@@ -157,11 +157,11 @@ def test_rule_summary_names_each_rules_scenes_and_least_ratio():
     rows = [
         {"scene": "a", "seconds": {"rectangle": 2.0, "polar": 1.0}, "chosen": "polar"},
         {"scene": "b", "seconds": {"rectangle": 1.0, "polar": 4.0}, "chosen": "rectangle"},
-        {"scene": "c", "seconds": {"banded": 3.0, "boundary": 6.0}, "chosen": "banded"},
+        {"scene": "c", "seconds": {"rectangle": 3.0, "summed": 6.0}, "chosen": "rectangle"},
     ]
     got = {s["rule"]: s for s in rule_summary(rows)}
     assert got["polar"]["chosen"] == ["a"] and got["polar"]["best_ratio"] == 0.5
-    assert got["rectangle"]["chosen"] == ["b"] and got["rectangle"]["best_ratio"] == 0.25
-    assert got["boundary"]["chosen"] == [] and got["boundary"]["best_ratio"] == 2.0
-    assert got["boundary"]["best_scene"] == "c"
-    assert got["summed"]["best_ratio"] is None and got["summed"]["chosen"] == []
+    assert got["rectangle"]["chosen"] == ["b", "c"] and got["rectangle"]["best_ratio"] == 0.25
+    assert got["summed"]["chosen"] == [] and got["summed"]["best_ratio"] == 2.0
+    assert got["summed"]["best_scene"] == "c"
+    assert got["banded"]["best_ratio"] is None and got["banded"]["chosen"] == []

@@ -12,7 +12,6 @@ numba kernels are not traced.
 from __future__ import annotations
 
 import copy
-import re
 import tracemalloc
 
 import pytest
@@ -20,7 +19,8 @@ import pytest
 from benchmarks.cost import rule_counts
 from synth import cost
 from synth.io.presets import find, read, scene_from_dict
-from synth.sound.radiation.rules import BoundaryRule, PolarRule, SummedRule
+from synth.sound.radiation.rules import PolarRule, SummedRule
+from synth.sound.radiation.work import rule_weights, weighted_counts
 from synth.sound.render import render
 
 #: How far above the traced peak the estimate may lie: it counts every chunk the
@@ -271,35 +271,23 @@ def test_radiation_estimate_bounds_the_sums_measured(name, cut, tmp_path, monkey
 
 # ------------------------------------------------------------- the other radiation rules
 
-#: A plate past the Ritz crossover (free steel, 0.3 x 0.2 m, 2 mm, to 8 kHz) once the
-#: crossover is lowered (RULE_SCENES): Ritz modes of a low band, edge effect modes above.
-CROSSED = _variant(SMALL, plate__boundary="free", plate__material="steel",
-                   plate__thickness=0.002, listener__position=[0.11, 0.08, 0.1],
-                   render__max_frequency=8000.0)  # fmt: skip
-
 #: Each of the other rules on a small scene, the only rule choose_rule may take (the list
 #: the estimate and the render both choose from, synth.sound.radiation.rules.RULES): the
-#: simply supported sheet for the polar rule, the free aluminium plate for the summed one,
-#: and CROSSED with the crossover at 80 unknowns (a low band of 50) for the boundary rule.
+#: simply supported sheet for the polar rule and the free aluminium plate for the summed one.
 RULE_SCENES = {
     "polar": (SCENES["radiation-chunks"], {"synth.sound.radiation.rules.RULES": (PolarRule(),)}),
     "summed": (
-        RADIATION_SCENES["free-plate"], {"synth.sound.radiation.rules.RULES": (SummedRule(),)}
+        RADIATION_SCENES["free-plate"],
+        {"synth.sound.radiation.rules.RULES": (SummedRule(),)},
     ),
-    "boundary": (CROSSED, {
-        "synth.sound.modes.CROSSOVER_UNKNOWNS": 80,
-        "synth.sound.modes.crossover.LOW_BAND_UNKNOWNS": 50,
-        "synth.sound.radiation.rules.RULES": (BoundaryRule(),),
-    }),
-}  # fmt: skip
+}
 
 #: How far above the counted points of a rule the estimate's may lie: it takes the
 #: wavenumbers of the band's top (the render its highest mode's, at or below it).
 POINTS_FACTOR = 1.25
 #: How far above the counted work of the rules a render took the estimate's may lie:
-#: besides POINTS_FACTOR, the boundary rule counts two rows (a pair's) for every edge
-#: effect mode and every row on the grid of its band's top, and each rule counts every
-#: mode where a selective refinement evaluates only those still failing.
+#: besides POINTS_FACTOR, each rule counts every mode where a selective refinement
+#: evaluates only those still failing.
 WORK_FACTOR = 3.0
 
 
@@ -308,26 +296,10 @@ def _counted_rules(name, monkeypatch) -> list:
     own arguments with the term weights of synth.sound.radiation.work."""
     import numpy as np
 
-    from synth.sound.radiation import boundary, polar, summed
+    from synth.sound.radiation import polar, summed
     from synth.sound.radiation import work as w
 
     levels = []
-    if name == "boundary":
-        original_rule, original_entries = boundary.boundary_integrals, boundary.entry_integrals
-
-        def rule(sol, index, size, listener, q, r0, refine, tol_panel):
-            levels.append([0, 0.0])
-            out = original_rule(sol, index, size, listener, q, r0, refine, tol_panel)
-            levels[-1][0] = out[1]  # its radial nodes (the finest grid's)
-            return out
-
-        def entries(grid, sol, trials, *rest):
-            levels[-1][1] += trials.size * w.boundary_row_terms(grid)
-            return original_entries(grid, sol, trials, *rest)
-
-        monkeypatch.setattr(boundary, "boundary_integrals", rule)
-        monkeypatch.setattr(boundary, "entry_integrals", entries)
-        return levels
     module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
         summed, "_apply_summed_rule")  # fmt: skip
     original = getattr(module, attr)
@@ -353,9 +325,9 @@ def _counted_rules(name, monkeypatch) -> list:
 @pytest.mark.parametrize("name", sorted(RULE_SCENES))
 @pytest.mark.parametrize("cut", [False, True], ids=["budget", "cut"])
 def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkeypatch):
-    # A cold render by the polar, summed or boundary rule, each rule it applies counted
-    # (the polar rules' angular points, the boundary rule's radial nodes, and their work
-    # by the same term weights on the real factors, modes and rows): the estimate of each
+    # A cold render by the polar or the summed rule, each rule it applies counted (its
+    # angular points, and its work by the same term weights on the real factors and
+    # modes): the estimate of each
     # rule lies at or above the count and within POINTS_FACTOR of it, its work within
     # WORK_FACTOR. With a budget that holds only the first rule and one refinement the
     # render takes no more (the estimate's max_points stops it there).
@@ -385,7 +357,7 @@ def test_each_rules_estimate_bounds_its_counted_work(name, cut, tmp_path, monkey
         assert points <= r.rule_points[level] <= POINTS_FACTOR * points, (level, levels, r)
     work = sum(terms for _, terms in levels)
     # the estimate's work is in rectangle-term equivalents: back to the rule's own terms
-    estimated = (r.work_of(len(levels)) - r.fixed_work) / cost.rule_weights()[name]
+    estimated = (r.work_of(len(levels)) - r.fixed_work) / rule_weights()[name]
     assert work <= estimated <= WORK_FACTOR * work, (levels, r)
 
 
@@ -412,9 +384,8 @@ def test_the_estimates_rule_is_the_one_plate_gains_takes_with_its_max_points():
                 continue  # refused: nothing runs
             max_points = rad.DEFAULT_MAX_POINTS if r.max_points is None else r.max_points
             problem = cost.radiation.radiation_problem(plate, microphone, modes, f_max, max_points)
-            rule = choose_rule(problem)
-            fits = rule.estimate(problem).fits
-            assert r.rule == rule.name and fits, (side, work, r.rule, max_points)
+            chosen = choose_rule(problem)
+            assert r.rule == chosen.rule.name and chosen.fits, (side, work, r.rule, max_points)
             seen.add(r.rule)
     assert seen == {"banded"}
 
@@ -451,7 +422,7 @@ def test_the_long_thin_strip_is_refused_or_cut_before_any_work():
 
 
 #: The 3 x 3 m, 1 mm steel sheet heard from 0.3 m above its centre to 24 kHz: past the
-#: Ritz crossover, its edge effect modes take the boundary rule.
+#: Ritz crossover, its edge effect modes take the banded rule.
 SHEET = dict(side=3.0, thickness=0.001, max_frequency=24000.0)
 
 
@@ -477,48 +448,19 @@ def test_each_rules_work_is_its_terms_times_its_weight_from_the_shipped_rates():
     # rectangle rule's rate over its own, both from the rates file shipped with the package
     # (so the same on every machine); the rectangle rule's weight is 1. For each rule's
     # counts of the 3 x 3 m sheet, the weighted work is the counted terms times that ratio
-    # (to rounding: one product), the boundary rule's Ritz modes (outside its refinement,
-    # the rectangle rule) at weight 1; the estimate's radiation work is the weighted counts.
+    # (to rounding: one product); the estimate's radiation work is the weighted counts.
     plate, microphone, modes, f_max = _sheet()
     weights = _shipped_weights()
-    assert cost.rule_weights() == pytest.approx(weights, rel=1e-15)
-    assert cost.rule_weights()["rectangle"] == 1.0 and weights["boundary"] > 10
-    for rule in ("banded", "boundary"):
-        counts = rule_counts(rule, plate, microphone, modes, f_max)
-        weighted = cost.weighted_counts(counts)
-        assert weighted.work == pytest.approx([w * weights[rule] for w in counts.work], rel=1e-15)
-        fixed = 1.0 if rule == "boundary" else weights[rule]
-        assert weighted.fixed == pytest.approx(counts.fixed * fixed, rel=1e-15), rule
-        assert weighted.points == counts.points, rule
+    assert rule_weights() == pytest.approx(weights, rel=1e-15)
+    assert rule_weights()["rectangle"] == 1.0
+    counts = rule_counts("banded", plate, microphone, modes, f_max)
+    weighted = weighted_counts(counts)
+    assert weighted.work == pytest.approx([w * weights["banded"] for w in counts.work], rel=1e-15)
+    assert weighted.fixed == pytest.approx(counts.fixed * weights["banded"], rel=1e-15)
+    assert weighted.points == counts.points
     r = cost.radiation_work(plate, microphone, modes, f_max, cost.Budget(max_radiation_work=10**14))
-    counts = cost.weighted_counts(rule_counts(r.rule, plate, microphone, modes, f_max))
+    counts = weighted_counts(rule_counts(r.rule, plate, microphone, modes, f_max))
     assert r.rule == "banded" and r.rule_work == counts.work and r.fixed_work == counts.fixed
-
-
-def test_the_3_m_sheets_boundary_rule_is_refused_by_the_budget_in_its_own_time(monkeypatch):
-    # The sheet's boundary rule (the only rule choose_rule may take): its first two rules'
-    # terms fit the default budget's number (unweighted, the budget held four of its
-    # rules), but a boundary term takes over ten rectangle terms' time (the shipped rates),
-    # and in rectangle-term equivalents not even its first rule and one refinement fit: a
-    # render is refused before any work, naming the budget. The estimated time of what it
-    # needs is its terms at the boundary rule's own rate (plus its Ritz modes' at the
-    # rectangle rule's).
-    from synth.sound.radiation.rules import BoundaryRule
-
-    monkeypatch.setattr("synth.sound.radiation.rules.RULES", (BoundaryRule(),))
-    plate, microphone, modes, f_max = _sheet()
-    budget = cost.Budget()
-    counts = rule_counts("boundary", plate, microphone, modes, f_max)
-    assert counts.fixed + sum(counts.work[:2]) <= cost.DEFAULT_MAX_RADIATION_WORK
-    r = cost.radiation_work(plate, microphone, modes, f_max, budget)
-    assert r.rule == "boundary" and r.rules == 1
-    rates = cost.Rates.load()
-    edge = sum(counts.work[:2]) / rates.radiation["boundary"]
-    assert r.work_of(2) / rates.radiation["rectangle"] == pytest.approx(
-        edge + counts.fixed / rates.radiation["rectangle"], rel=1e-12
-    )
-    says = r"about .* rectangle-term equivalents.*\(boundary rule.*SYNTH_MAX_RADIATION_WORK"
-    assert re.search(says, r.excess(modes, budget))
 
 
 def test_a_rectangle_rules_cut_is_that_of_its_terms():
@@ -572,8 +514,8 @@ def test_the_estimated_time_is_the_work_over_the_measured_rates(tmp_path):
     path = tmp_path / "rates.json"
     path.write_text(json.dumps({
         "solver_flops_per_second": 1e10,
-        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9, "banded": 1e9,
-                                       "boundary": 1e8},
+        "radiation_terms_per_second": {"rectangle": 2e9, "polar": 1e9, "summed": 1e9,
+                                       "banded": 1e9},
         "measured": "a test",
     }))  # fmt: skip
     rates = cost.Rates.load(path)
@@ -596,5 +538,5 @@ def test_the_shipped_rates_cover_every_rule():
     rates = cost.Rates.load()
     assert rates is not None, "synth/cost_rates.json missing from the installed package"
     assert rates.solver > 0 and rates.measured.startswith("synth bench cost")
-    assert set(rates.radiation) == {"rectangle", "polar", "summed", "boundary", "banded"}
+    assert set(rates.radiation) == {"rectangle", "polar", "summed", "banded"}
     assert all(v > 0 for v in rates.radiation.values())

@@ -106,7 +106,7 @@ def test_plate_gains_crossover():
     s, kb = _poles(small)
     res = R.plate_gains(small, (0.1, 0.05, 0.2), s, max_wavenumber=kb, full_output=True)
     problem = R._problem(small, (0.1, 0.05, 0.2), s, kb, SOUND_SPEED, 1e-6, R.DEFAULT_MAX_POINTS)
-    assert res.rule == rules.choose_rule(problem).name == "rectangle"
+    assert res.rule == rules.choose_rule(problem).rule.name == "rectangle"
     big = _ss_modes(1.0, 0.8, 0.001, 10000.0)
     s, kb = _poles(big)
     res = R.plate_gains(big, (0.5, 0.4, 0.3), s, max_wavenumber=kb, full_output=True)

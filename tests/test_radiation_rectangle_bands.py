@@ -1,6 +1,6 @@
 """The rectangle rule band by band of wavenumber (plate_gains of a plate with dynamic edge
-effect modes below the boundary rule's work threshold): each band's rule follows its own
-fastest mode, and every gain still agrees with one rectangle rule for all the modes."""
+effect modes): each band's rule follows its own fastest mode, and every gain still agrees
+with one rectangle rule for all the modes."""
 
 from __future__ import annotations
 
@@ -36,14 +36,13 @@ def test_wavenumber_bands_cover_the_modes_within_the_ratio():
 @pytest.mark.parametrize("boundary", ["free", "clamped"])
 def test_banded_rectangle_rule_agrees_with_one_rule(monkeypatch, boundary):
     """A small plate past a lowered Ritz crossover (a few Ritz modes, then edge effect
-    modes), the boundary rule never taken: plate_gains (rule "banded", several bands)
+    modes): plate_gains (rule "banded", several bands)
     converges and agrees with rayleigh_gains of every mode on one rule within 2 tol (each
     is within tol of the integral: the refinement test's bound); its in-phase bounds within
     10 % (they bound |H_k| and set the tolerance floor; |phi_k| has kinks on the nodal
     lines, which the two grids integrate differently)."""
     monkeypatch.setattr(P, "CROSSOVER_UNKNOWNS", 80)
     monkeypatch.setattr(crossover, "LOW_BAND_UNKNOWNS", 50)
-    monkeypatch.setattr(rules, "RULES", (rules.BandedRule(),))
     m = P.modes(Plate(STEEL, 0.002, 0.3, 0.2, boundary), max_frequency=8000.0, cache=False)
     part = m.edge_effect()
     assert part is not None and 0 < part.first_mode < len(m) - 50
@@ -140,22 +139,16 @@ def _sheet_problem(side, f_max, max_points=None):
     return radiation_problem(plate, microphone, modal_count(plate, f_max), f_max, max_points)
 
 
-def test_choose_rule_takes_the_cheapest_rule_that_holds_the_bound():
-    """Edge effect modes take the banded or the boundary rule, whichever costs less
-    (its first rule and check rule, in rectangle-term equivalents), both with the bound
-    tol; with max_points below the banded rule's check rule only the boundary rule holds
-    the bound, and it is taken though it costs more."""
+def test_edge_effect_modes_take_the_banded_rule_and_state_its_bound():
+    """Edge effect modes take the banded rule, the only rule of their shapes: its error
+    bound is tol while its check rule fits max_points, and none (inf) below it, where it
+    is still taken (it stops at max_points and says so)."""
     for side, f_max in ((1.0, 12000.0), (3.0, 24000.0), (5.0, 6000.0)):
         problem = _sheet_problem(side, f_max)
         assert problem.shapes == "edge"
-        banded, boundary = (r.estimate(problem) for r in (rules.BandedRule(), rules.BoundaryRule()))
-        assert banded.error_bound == boundary.error_bound == problem.tol
-        cheaper = min((banded, boundary), key=lambda e: e.cost)
-        assert type(rules.choose_rule(problem)) is type(cheaper.rule)
+        chosen = rules.choose_rule(problem)
+        assert chosen.rule.name == "banded" and chosen.error_bound == problem.tol
     problem = _sheet_problem(1.0, 12000.0)
-    assert rules.choose_rule(problem).name == "banded"
     cut = rules.BandedRule().counts(problem).points[1] - 1
-    tight = _sheet_problem(1.0, 12000.0, cut)
-    assert rules.BandedRule().estimate(tight).error_bound == np.inf
-    assert rules.BoundaryRule().estimate(tight).fits
-    assert rules.choose_rule(tight).name == "boundary"
+    tight = rules.choose_rule(_sheet_problem(1.0, 12000.0, cut))
+    assert tight.rule.name == "banded" and tight.error_bound == np.inf

@@ -35,7 +35,7 @@ from synth.cost.contact import FirstContact, hertz_contact_time
 from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
 from synth.cost.modal import modal_count, solver_cost
 from synth.cost.radiation import radiation_work
-from synth.cost.rates import RATES, Rates, rule_weights, time_row, weighted_counts
+from synth.cost.rates import RATES, Rates, time_row
 from synth.cost.records import (
     AUDIO_BYTES_PER_SAMPLE,
     BODY_MEMORY_ADVICE,
@@ -87,8 +87,6 @@ __all__ = [
     "modal_count",
     "modes_excess",
     "radiation_work",
-    "rule_weights",
     "solver_cost",
     "time_row",
-    "weighted_counts",
 ]

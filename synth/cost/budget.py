@@ -31,8 +31,9 @@ DEFAULT_MAX_SOLVER_FLOPS = 10**12
 
 #: Default budget: rectangle-term equivalents of the radiation stage's sums
 #: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
-#: or an exponential, weighted by :func:`rule_weights` to the rectangle rule's time). Every
-#: shipped preset's first four rules fit at 48 kHz (tests/test_cost.py).
+#: or an exponential, weighted to the rectangle rule's time by
+#: :func:`synth.sound.radiation.work.rule_weights`). Every shipped preset's first four rules
+#: fit at 48 kHz (tests/test_cost.py).
 DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
 
 

@@ -8,8 +8,8 @@ import math
 
 from synth.cost.budget import Budget
 from synth.cost.modal import bending_wavenumber, modal_count
-from synth.cost.rates import weighted_counts
 from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, RadiationWork
+from synth.sound.radiation.work import weighted_counts
 
 
 def _acoustic(f_max: float) -> float:
@@ -81,15 +81,15 @@ def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of the counts ``rule``
     (:class:`synth.sound.radiation.work.RuleWork`, terms) with the most rules whose summed
     work, in rectangle-term equivalents (:func:`weighted_counts`), fits ``budget``: the
-    ``max_points`` that stops the refinement there (at least the rule's ``floor``) and the
-    rules it then takes; one rule (refused) if not even two fit."""
+    ``max_points`` that stops the refinement there and the rules it then takes; one rule
+    (refused) if not even two fit."""
     from synth.sound.radiation.common import MAX_RULES
 
     rule = weighted_counts(rule)
 
     rules, cut = 1, int(rule.points[0])
     for last in range(MAX_RULES, 1, -1):
-        candidate = None if last == MAX_RULES else max(int(rule.points[last - 1]), rule.floor)
+        candidate = None if last == MAX_RULES else int(rule.points[last - 1])
         taken = _rules_taken(rule.points, candidate)
         if rule.fixed + float(sum(rule.work[:taken])) <= budget.max_radiation_work:
             rules, cut = taken, candidate
@@ -110,13 +110,13 @@ def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) ->
     first; see the module docstring and :mod:`synth.sound.radiation.work`)."""
     from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
-    from synth.sound.radiation.rules import chosen_estimate
+    from synth.sound.radiation.rules import choose_rule
 
     if not isinstance(listener, Microphone) or modes == 0:
         return RadiationWork()
     terms = shape_terms(plate, f_max)
     problem = radiation_problem(plate, listener, modes, f_max)
-    return _fitted(chosen_estimate(problem).counts, modes, terms, budget)
+    return _fitted(choose_rule(problem).counts, modes, terms, budget)
 
 
 def _ritz_band_frequency(plate, f_max: float) -> float:
@@ -132,7 +132,7 @@ def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule (the
     first rule refined once, ``REFINE^2`` its points, :func:`rectangle_points` at the
     bending plus acoustic wavenumber of ``f_max``), at most ``CHUNK_BYTES`` (the polar
-    rules' blocks of radii and the boundary rule's Ritz modes are held to it too)."""
+    rules' blocks of radii are held to it too)."""
     from synth.physics.scene import Microphone
     from synth.sound.radiation import rectangle_points
     from synth.sound.radiation.common import CHUNK_BYTES, REFINE

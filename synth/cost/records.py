@@ -77,15 +77,16 @@ class MemoryParts:
 class RadiationWork:
     """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.work`).
 
-    ``rule``: the rule the engine takes ("rectangle", "polar", "summed", "banded" or
-    "boundary"; "none" for an accelerometer); ``unit``: what its points count (grid "points",
-    "angular points" or "radial nodes"); ``first_points``: the first rule's points;
+    ``rule``: the rule the engine takes ("rectangle", "polar", "summed" or "banded"; "none"
+    for an accelerometer); ``unit``: what its points count (grid "points" or "angular
+    points"); ``first_points``: the first rule's points;
     ``rules``: the rules the refinement may take within the budget (at most ``MAX_RULES``),
     ``points`` their points summed and ``max_points`` the last one's when the budget stops the
     refinement early (else None); ``rule_points`` and ``rule_work`` each of the ``MAX_RULES``
-    rules' points and work (rectangle-term equivalents, :func:`rule_weights`); ``fixed_work``
-    the work outside the refinement (in-phase bounds, the Ritz modes of an edge rule);
-    ``shape_terms`` the terms of one shape value per mode
+    rules' points and work (rectangle-term equivalents,
+    :func:`~synth.sound.radiation.work.rule_weights`); ``fixed_work`` the work outside the
+    refinement (the polar rules' in-phase bounds); ``shape_terms`` the terms of one shape
+    value per mode
     (:func:`synth.physics.modes.shape_terms`); ``evaluations`` ``points`` times the modes."""
 
     rule: str = "none"

@@ -71,7 +71,7 @@ def _budget_named(message, max_points):
 
 def nearest_distance(plate, microphone) -> float:
     """Distance (m) from the microphone to the nearest point of the plate."""
-    from synth.sound.radiation.boundary import nearest_distance as to_rectangle
+    from synth.sound.radiation.common import nearest_distance as to_rectangle
 
     return to_rectangle((plate.length, plate.width), microphone.position)
 

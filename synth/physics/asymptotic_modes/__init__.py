@@ -45,10 +45,7 @@ import math
 
 import numpy as np
 
-from synth.physics.asymptotic_modes.factors import edge_part as edge_part
 from synth.physics.asymptotic_modes.factors import factor_edge_constants, factor_table, gather_modes
-from synth.physics.asymptotic_modes.factors import factor_parts as factor_parts
-from synth.physics.asymptotic_modes.factors import interior_part as interior_part
 from synth.physics.asymptotic_modes.ritz import near_pairs, rayleigh_ritz
 from synth.physics.asymptotic_modes.roots import length_ratios, solve_pairs, starting_s
 

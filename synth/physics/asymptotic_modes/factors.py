@@ -88,7 +88,7 @@ def edge_part(x, s, so, h, n):  # pragma: no cover
 def factor_parts(x, s, so, h, n):  # pragma: no cover
     """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
     (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
-    along its axis (the boundary rule of synth.sound.radiation integrates them apart)."""
+    along its axis."""
     return interior_part(x, s, h, n), edge_part(x, s, so, h, n)
 
 

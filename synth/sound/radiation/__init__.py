@@ -10,8 +10,8 @@ Rules (:mod:`~.rules`, which takes the cheapest one that holds the convergence t
 :mod:`~.refinement`, its cost counted by :mod:`~.work`): :func:`rayleigh_gains`
 (:mod:`~.rectangle`, any shapes); :func:`separable_gains` (:mod:`~.polar`, products
 ``X_i(x) Y_j(y)``); :func:`summed_gains` (:mod:`~.summed`, sums of products); and for the
-dynamic edge effect modes the rectangle rule band by band (:func:`~.rectangle.product_gains`)
-or the boundary integrals (:mod:`~.boundary`). :mod:`~.common` holds the result, checks and
+dynamic edge effect modes the rectangle rule band by band (:func:`~.rectangle.product_gains`).
+:mod:`~.common` holds the result, checks and
 kernel, :mod:`~.cache` the gains kept in memory and on disk; :func:`plate_gains` computes a
 :class:`synth.physics.modes.Modes`' gains by the chosen rule, cached.
 """
@@ -168,7 +168,7 @@ def plate_gains(
 
     rule = None
     if q_s.size:
-        rule = choose_rule(_problem(modes, listener, q_s, kb, c, tol, max_points))
+        rule = choose_rule(_problem(modes, listener, q_s, kb, c, tol, max_points)).rule
     settings = dict(
         max_wavenumber=kb,
         air_density=rho,

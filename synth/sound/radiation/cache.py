@@ -115,7 +115,7 @@ def load_gains(key: str, m: int):
             and status in (0, 1, 2)
             and n_points >= 0
             and refinements >= 0
-            and rule in ("rectangle", "polar", "boundary")
+            and rule in ("rectangle", "polar", "banded")
         )
         if not ok:
             return None

@@ -97,6 +97,16 @@ def distance_range(size, listener) -> tuple[float, float]:
     return r_min, r_max
 
 
+def nearest_distance(size, listener) -> float:
+    """Distance (m) from the microphone ``listener`` (x, y, z) to the nearest point of the
+    plate ``[0, a] x [0, b]`` (``size``)."""
+    a, b = size
+    xl, yl, z = listener
+    dx = max(0.0, -xl, xl - a)
+    dy = max(0.0, -yl, yl - b)
+    return math.sqrt(dx * dx + dy * dy + z * z)
+
+
 def check_poles(s, n_modes: int | None = None) -> np.ndarray:
     """``s`` as a 1-D complex array of finite poles (rad/s), one per mode where
     ``n_modes`` is given."""

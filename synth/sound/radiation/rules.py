@@ -5,15 +5,14 @@ Every rule ends with the same convergence test (:mod:`~synth.sound.radiation.ref
 so each holds the same error bound while its check rule fits ``max_points``; they differ
 in cost, counted before any mode is solved from their own panel builders
 (:mod:`~synth.sound.radiation.work`) and weighed by the shipped rates
-(:func:`synth.cost.rates.rule_weights`). :func:`choose_rule` takes the cheapest rule that
-applies and fits; ``synth bench rules`` prints each rule's cost and choice on the presets,
-the scale ladder, its random scenes and the high rates.
+(:func:`~synth.sound.radiation.work.rule_weights`). :func:`choose_rule` takes the cheapest
+rule that applies and fits; ``synth bench rules`` prints each rule's cost and choice on the
+presets, the scale ladder, its random scenes and the high rates.
 """
 
 from __future__ import annotations
 
 import abc
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -21,7 +20,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.sound.radiation import work
-from synth.sound.radiation.boundary import boundary_rule
 from synth.sound.radiation.common import RadiationResult
 from synth.sound.radiation.polar import separable_gains
 from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
@@ -33,13 +31,27 @@ from synth.sound.radiation.summed import summed_gains
 #: its own wavenumber needs, while each band adds its own panels, factor tables and threads.
 BAND_RATIO = 1.1
 
+#: Bands of frequency, equal in ratio, in which :class:`BandedRule`'s estimate counts the edge
+#: effect modes, each band on the grid of its top (:func:`edge_split`): known before any mode
+#: is solved, an upper bound of the rule's own bands of :data:`BAND_RATIO`.
+EDGE_BANDS = 6
+
+
+@dataclass(frozen=True)
+class EdgeBand:
+    """``modes`` edge effect modes whose wavenumber (bending plus acoustic) is at most
+    ``kappa``, rad/m."""
+
+    kappa: float
+    modes: int
+
 
 @dataclass(frozen=True)
 class EdgeSplit:
     """The Ritz modes ``0 <= k < ritz_modes`` and the dynamic edge effect modes above of a
     free or clamped plate past the Ritz crossover: ``ritz_kappa`` the Ritz modes' largest
     wavenumber (bending plus acoustic, rad/m) and ``bands`` the edge effect modes in bands
-    of wavenumber (:class:`~synth.sound.radiation.work.RateBand`, two rows per mode)."""
+    of wavenumber (:class:`EdgeBand`)."""
 
     ritz_modes: int
     ritz_kappa: float
@@ -83,8 +95,7 @@ class Estimate:
     (:class:`~.work.RuleWork`), ``fits`` whether its check rule (the first rule refined
     once, the least the convergence test needs) holds at most ``max_points`` points, and
     ``cost``, rectangle-term equivalents of the first rule and its check rule and of the
-    work outside the refinement (:func:`synth.cost.rates.weighted_counts`); ``tol`` the
-    problem's."""
+    work outside the refinement (:func:`~.work.weighted_counts`); ``tol`` the problem's."""
 
     rule: Rule
     counts: work.RuleWork
@@ -117,13 +128,10 @@ class Rule(abc.ABC):
 
     def estimate(self, problem: Problem) -> Estimate:
         """The rule's :class:`Estimate` on ``problem`` (its panels counted once)."""
-        from synth.cost.rates import weighted_counts
-
         counts = self.counts(problem)
-        fits = counts.points[1] <= problem.max_points and counts.floor <= problem.max_points
-        weighted = weighted_counts(counts)
-        fixed = weighted.fixed if weighted.check_fixed is None else weighted.check_fixed
-        return Estimate(self, counts, fits, fixed + sum(weighted.work[:2]), problem.tol)
+        weighted = work.weighted_counts(counts)
+        cost = weighted.fixed + sum(weighted.work[:2])
+        return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
 
     @abc.abstractmethod
     def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
@@ -206,67 +214,48 @@ class BandedRule(Rule):
         points = list(ritz.points if p.edge.ritz_modes else [0] * len(ritz.points))
         terms = list(ritz.work)
         for band in p.edge.bands:
-            if band.rows == 0:
+            if band.modes == 0:
                 continue
-            kappa = band.k_hi + band.qa
-            rule = work.rectangle_work(p.size, p.listener, kappa, band.rows // 2, 2, p.tol_panel)
+            rule = work.rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
             points = [max(a, b) for a, b in zip(points, rule.points)]
             terms = [a + b for a, b in zip(terms, rule.work)]
         return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
-        return _with_ritz(modes, listener, s, settings, _banded_rectangle, "banded rule")
-
-
-class BoundaryRule(Rule):
-    """Edge effect modes as integrals over the plate's boundary
-    (:func:`~.boundary.boundary_rule`: a table of Bessel values per radial node and mode,
-    growing with the plate's diameter, not its area), the Ritz modes by the rectangle rule
-    (outside the refinement's count, at the rectangle rule's rate)."""
-
-    name = "boundary"
-    shapes = ("edge",)
-
-    def counts(self, problem):
-        p = problem
-        edge = work.boundary_work(p.size, p.listener, p.edge.bands, p.tol_panel)
-        if p.edge.ritz_modes == 0:
-            return edge
-        ritz = _ritz_work(p)
-        return dataclasses.replace(
-            edge, fixed=sum(ritz.work), check_fixed=sum(ritz.work[:2]), floor=ritz.points[1]
+        """The Ritz modes below the edge effect part's ``first_mode`` by the rectangle rule
+        (for their own largest wavenumber), the edge effect modes band by band."""
+        n_low = modes.edge_effect().first_mode
+        high = _banded_rectangle(modes, n_low, listener, s, settings)
+        if n_low == 0:
+            return high
+        low = _band_rectangle(modes, 0, n_low, listener, s, settings)
+        message = (
+            f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
+            f"{len(modes) - 1} (banded rule): {high.message}"
         )
-
-    def gains(self, modes, listener, s, settings):
-        return _with_ritz(modes, listener, s, settings, _boundary, "boundary rule")
+        return combined((low, high), "banded", message)
 
 
 #: The rules :func:`choose_rule` chooses among.
-RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule(), BoundaryRule())
+RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule())
 
 
-def choose_rule(problem: Problem) -> Rule:
-    """The rule of least cost (:class:`Estimate`) among those that take ``problem``'s
-    shapes and whose check rule fits ``max_points`` (their error bound is then ``tol``, the
-    same for every rule); if none fits, the one with the fewest points in its check rule
-    (it stops at ``max_points`` and says so)."""
-    return chosen_estimate(problem).rule
-
-
-def chosen_estimate(problem: Problem) -> Estimate:
-    """The :class:`Estimate` of the rule :func:`choose_rule` takes."""
+def choose_rule(problem: Problem) -> Estimate:
+    """The rule for ``problem``, as its :class:`Estimate`. Criterion: a rule that takes the
+    shapes and whose check rule fits ``max_points`` holds the error bound ``tol`` (the same
+    convergence test for every rule); among those, the one of least cost. If none fits, the
+    one with the fewest points in its check rule (it stops at ``max_points`` and says so)."""
     return _cheapest(problem, RULES)
 
 
 @functools.lru_cache(maxsize=256)
 def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
-    """:func:`chosen_estimate` among ``candidates``, kept for the process (counting a
-    rule's panels takes a Python loop over its radii: the warm renders and the live engine
-    choose again for every cached gain)."""
+    """:func:`choose_rule` among ``candidates``, kept for the process (the warm renders and
+    the live engine choose again for every cached gain)."""
     estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
-    fitting = [e for e in estimates if e.fits]
-    if fitting:
-        return min(fitting, key=lambda e: e.cost)
+    holding = [e for e in estimates if e.error_bound <= problem.tol]
+    if holding:
+        return min(holding, key=lambda e: e.cost)
     return min(estimates, key=lambda e: e.counts.points[1])
 
 
@@ -339,30 +328,6 @@ def _banded_rectangle(modes, n_low, listener, s, settings):
     return combined(parts, "banded", message)
 
 
-def _boundary(modes, n_low, listener, s, settings):
-    """The boundary rule of the edge effect modes ``n_low`` onwards."""
-    settings = {k: v for k, v in settings.items() if k != "max_wavenumber"}
-    size = (modes.plate.length, modes.plate.width)
-    result = boundary_rule(modes.edge_effect(), len(modes), size, listener, s[n_low:], **settings)
-    return dataclasses.replace(result, rule="boundary")
-
-
-def _with_ritz(modes, listener, s, settings, edge_rule, how) -> RadiationResult:
-    """Gains of a plate with Rayleigh-Ritz modes below ``first_mode`` of its edge effect
-    part (the rectangle rule, for their own largest wavenumber) and dynamic edge effect
-    modes above (``edge_rule``); one :class:`RadiationResult`."""
-    n_low = modes.edge_effect().first_mode
-    high = edge_rule(modes, n_low, listener, s, settings)
-    if n_low == 0:
-        return high
-    low = _band_rectangle(modes, 0, n_low, listener, s, settings)
-    message = (
-        f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
-        f"{len(modes) - 1} ({how}): {high.message}"
-    )
-    return combined((low, high), high.rule, message)
-
-
 def combined(parts, rule: str, message: str) -> RadiationResult:
     """One :class:`RadiationResult` of consecutive blocks of modes ``parts`` (``n_points``,
     ``panels`` those of the block with the most points)."""
@@ -386,19 +351,14 @@ def edge_split(kb, f_low, f_max, ritz_modes, count_below, sound_speed) -> EdgeSp
     """The :class:`EdgeSplit` of a plate whose modes up to ``f_low`` (Hz) are its
     ``ritz_modes`` Ritz modes and whose edge effect modes reach ``f_max`` (Hz), ``kb`` the
     bending wavenumber at ``f_max`` (rad/m, growing as the square root of the frequency),
-    ``count_below(f)`` the modes below ``f`` (Hz): ``BOUNDARY_BANDS`` bands of frequency,
-    equal in ratio, each mode two rows (a pair's two products)."""
-    ratios = np.arange(work.BOUNDARY_BANDS + 1) / work.BOUNDARY_BANDS
+    ``count_below(f)`` the modes below ``f`` (Hz): :data:`EDGE_BANDS` bands of frequency,
+    equal in ratio, each at the wavenumber of its top."""
+    ratios = np.arange(EDGE_BANDS + 1) / EDGE_BANDS
     edges = f_low * (f_max / f_low) ** ratios
     counts = [int(count_below(float(f))) for f in edges]
     bands = tuple(
-        work.RateBand(
-            kb * math.sqrt(lo / f_max),
-            kb * math.sqrt(hi / f_max),
-            2.0 * math.pi * hi / sound_speed,
-            2 * (n1 - n0),
-        )
-        for lo, hi, n0, n1 in zip(edges[:-1], edges[1:], counts[:-1], counts[1:])
+        EdgeBand(kb * math.sqrt(hi / f_max) + 2.0 * math.pi * hi / sound_speed, n1 - n0)
+        for hi, n0, n1 in zip(edges[1:], counts[:-1], counts[1:])
     )
     ritz_kappa = kb * math.sqrt(f_low / f_max) + 2.0 * math.pi * f_low / sound_speed
     return EdgeSplit(ritz_modes, ritz_kappa, bands)

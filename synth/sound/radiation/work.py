@@ -1,5 +1,6 @@
 """The work of each radiation rule, counted from the rule's own panel builders before any
-mode is solved (for :func:`synth.cost.radiation_work`).
+mode is solved, and its weight from the shipped rates (for
+:func:`~synth.sound.radiation.rules.choose_rule` and :func:`synth.cost.radiation_work`).
 
 Each count is per rule of the refinement (:mod:`~synth.sound.radiation.refinement`), from
 the panels and orders the rule itself builds for the band's largest bending wavenumber
@@ -8,16 +9,21 @@ unit is a *term*: a multiply-add, or one exponential, Bessel value or shape fact
 Rectangle: per grid point and mode an exponential and a shape value's ``terms``. Polar and
 summed: per angular point the factor values and angular products, per radius and mode an
 exponential and a ``J_0`` (or the Ritz coefficients' combination), once the in-phase
-bounds' rule. Boundary: per row of each band the radial grid's exponentials and Bessel
-values, cumulative integrals and boundary nodes. A rule's *points* are what its
-``max_points`` counts. The counts bound the work from above (selective refinements sum
-only the modes still failing).
+bounds' rule. A rule's *points* are what its ``max_points`` counts. The counts bound the
+work from above (selective refinements sum only the modes still failing).
+
+A term of each rule takes its own time: :func:`weighted_counts` turns terms into
+rectangle-term equivalents by the rates ``synth bench cost --record`` measured and ships
+(:data:`RATES`), so the choice and the budget's cut do not depend on the machine.
 """
 
 from __future__ import annotations
 
-import math
+import dataclasses
+import functools
+import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -25,35 +31,50 @@ from synth.sound.radiation.common import MAX_ORDER, MAX_RULES, REFINE, half_phas
 
 #: Terms per radius and mode of the polar rule's radial sums: the exponential and ``J_0``.
 POLAR_RADIAL_TERMS = 2
-#: Terms per row and radial node of the boundary rule: the row's exponential and two
-#: Bessel values for each of the three Helmholtz parts.
-BOUNDARY_NODE_TERMS = 7
-#: Cumulative integrals per row and panel of the boundary rule (two per Helmholtz part),
-#: each ``p^2`` multiply-adds on a panel of ``p`` nodes.
-BOUNDARY_CUMULATIONS = 6
-#: Terms per row and boundary node: the trial's two parts and two slopes along the edge
-#: and the nine products of the three parts.
-BOUNDARY_EDGE_TERMS = 13
-#: Bands of rate the boundary rule's rows are counted in (each on the grid of its top).
-BOUNDARY_BANDS = 6
+#: The rates of the estimate's work, measured by ``synth bench cost --record`` on the machine
+#: named in it and shipped with the package: the mode solver's and each radiation rule's
+#: (terms per second, by the rule's name).
+RATES = Path(__file__).parents[2] / "cost_rates.json"
 
 
 @dataclass(frozen=True)
 class RuleWork:
     """One rule's counts: ``points`` and ``work`` (terms) of each of its ``MAX_RULES``
-    rules, ``fixed`` terms outside the refinement (the in-phase bounds), ``unit``, what
-    its points count, and ``floor``, the fewest ``max_points`` the render may pass (the
-    boundary rule's Ritz modes take the rectangle rule with the same ``max_points``,
-    which must hold its check rule); ``check_fixed``, where the work outside the
-    refinement refines too (those Ritz modes), its terms up to the check rule."""
+    rules, ``fixed`` terms outside the refinement (the in-phase bounds) and ``unit``, what
+    its points count."""
 
     rule: str
     points: tuple
     work: tuple
     fixed: float
     unit: str
-    floor: int = 0
-    check_fixed: float | None = None
+
+
+@functools.cache
+def rule_weights() -> dict[str, float]:
+    """Rectangle-term equivalents of one term of each radiation rule, by name: the
+    rectangle rule's terms per second over the rule's, in :data:`RATES` (a constant of the
+    package, not measured where it runs; recording new rates changes it). The rectangle
+    rule's weight is 1."""
+    try:
+        rates = json.loads(RATES.read_text())["radiation_terms_per_second"]
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"{RATES} is missing: the radiation rules are weighed by their rates "
+            f"(synth bench cost --record)"
+        ) from None
+    return {rule: rates["rectangle"] / rate for rule, rate in rates.items()}
+
+
+def weighted_counts(counts: RuleWork) -> RuleWork:
+    """``counts`` (terms) in rectangle-term equivalents: its work inside and outside the
+    refinement times its rule's :func:`rule_weights`."""
+    weight = rule_weights()[counts.rule]
+    return dataclasses.replace(
+        counts,
+        work=tuple(weight * float(w) for w in counts.work),
+        fixed=weight * float(counts.fixed),
+    )
 
 
 def _levels():
@@ -132,57 +153,3 @@ def summed_work(size, listener, kb, qa, modes, n_x, n_y, basis, terms, tol_panel
     xs, ys = _in_phase_points(size, listener, kb, tol_panel)
     fixed = float(xs * ys) * modes * (1 + terms)
     return RuleWork("summed", tuple(a for _, a in grid), tuple(work), fixed, "angular points")
-
-
-@dataclass(frozen=True)
-class RateBand:
-    """Rows of the boundary rule whose modes lie between the bending wavenumbers ``k_lo``
-    and ``k_hi`` (rad/m): ``rows`` terms (a mode's trial, two for a pair), of acoustic
-    wavenumber at most ``qa`` (rad/m)."""
-
-    k_lo: float
-    k_hi: float
-    qa: float
-    rows: int
-
-
-def _boundary_grid(size, listener, band: RateBand, tol_panel, refine):
-    """The radial grid :func:`boundary_integrals` builds for the band's top rate: its
-    oscillating rate ``k + |q|`` and the edge parts' decay (at most ``sqrt(2) k`` along an
-    edge), the decaying parts' ``sqrt(3) k`` and the band's lowest ``k`` (the tail)."""
-    from synth.sound.radiation import boundary_grid as bg
-
-    w_max = half_phase(MAX_ORDER, tol_panel)
-    k_osc = bg.on_ladder(band.k_hi + band.qa)
-    k_dec = max(k_osc, bg.on_ladder(math.sqrt(2.0) * band.k_hi))
-    kappa_max = bg.on_ladder(math.sqrt(3.0) * band.k_hi)
-    kappa_min = bg.below_ladder(band.k_lo)
-    if kappa_min * 2.0 * w_max / k_dec <= 2.0:
-        kappa_min = 0.0
-    return bg.RadialGrid(size, listener, k_dec, kappa_max, kappa_min, tol_panel, refine)
-
-
-def boundary_row_terms(grid) -> float:
-    """Terms of one row of the boundary rule on ``grid`` (a
-    :class:`~synth.sound.radiation.boundary_grid.RadialGrid`; see the module docstring)."""
-    return (
-        BOUNDARY_NODE_TERMS * grid.rho.size
-        + BOUNDARY_CUMULATIONS * float(np.sum(grid.orders.astype(float) ** 2))
-        + BOUNDARY_EDGE_TERMS * grid.edge_arrays[4].size
-    )
-
-
-def boundary_work(size, listener, bands, tol_panel) -> RuleWork:
-    """The boundary rule's work for its rows in ``bands`` (:class:`RateBand`)."""
-    points, work = [], []
-    for f in _levels():
-        nodes, terms = 0, 0.0
-        for band in bands:
-            if band.rows == 0:
-                continue
-            grid = _boundary_grid(size, listener, band, tol_panel, f)
-            nodes = max(nodes, grid.rho.size)
-            terms += band.rows * boundary_row_terms(grid)
-        points.append(nodes)
-        work.append(terms)
-    return RuleWork("boundary", tuple(points), tuple(work), 0.0, "radial nodes")
