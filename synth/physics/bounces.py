@@ -9,10 +9,10 @@ appendix A.2 of the thesis, docs/physics.md, References)::
 
 Each impact is solved from first principles at its own speed (restitution
 depends on speed). In the measured contact models (a Hertz contact on any surface but the
-thesis' "ideal") an impact faster than the pair's yield speed ``V_y`` also loses Thornton's
-plastic share: it rebounds at ``e(v) e_p(v / V_y)``
-(:func:`synth.physics.contact_law.model_yield_speed`, docs/physics.md, "Yield of the
-contact"). The series would go on forever (Zeno); it ends by the first
+thesis' "ideal") an impact faster than the pair's yield speed flows plastically inside the
+contact law (docs/physics.md, "Yield of the contact"); on the modal plate its rebound
+takes Thornton's plastic share ``e(v) e_p(v / V_y)``
+(:func:`synth.physics.contact_law.model_yield_speed`). The series would go on forever (Zeno); it ends by the first
 of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 * ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
@@ -307,11 +307,7 @@ def simulate_bounces(
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)
     series = _Series(solver, pos, v, g, o)
-    v_yield = _model_yield_speed(ball, plate, contact_law, contact_options, o)
-    if v_yield is not None:
-        # the impacts fast enough to yield, one by one with Thornton's plastic loss
-        t, v = series.run(t, v, plastic_rebound(v_yield), faster_than=v_yield)
-    if series.reason is None and o.rebound is None:
+    if o.rebound is None:
         # the elastic rest in one compiled call, as far as it serves (ContactSolver.solve_drop)
         t, v = series.compiled(t, v)
     if series.reason is None:
