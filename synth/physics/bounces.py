@@ -12,8 +12,8 @@ depends on speed). In the measured contact models (a Hertz contact on any surfac
 thesis' "ideal") an impact faster than the pair's yield speed flows plastically inside the
 contact law (docs/physics.md, "Yield of the contact"); on the modal plate its rebound
 takes Thornton's plastic share ``e(v) e_p(v / V_y)``
-(:func:`synth.physics.contact_law.model_yield_speed`). The series would go on forever (Zeno); it ends by the first
-of these rules, named in :attr:`BounceSequence.stop_reason`:
+(:func:`synth.physics.contact_law.model_yield_speed`). The series would go on forever
+(Zeno); it ends by the first of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 * ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
   before the top of its flight (physical: it rests on the plate);

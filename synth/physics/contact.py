@@ -225,9 +225,7 @@ def _check_points(n_points) -> int:
     return int(n_points)
 
 
-def _solve(
-    m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None, delta_y=_INF
-):
+def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None, delta_y=_INF):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name);
     with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
     (``K, n, mu, A`` and ``method`` are then its own and unused); ``delta_y``: the yield

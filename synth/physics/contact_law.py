@@ -358,7 +358,9 @@ def contact_parameters(
             )
         A = fitted_viscous_time(ball, plate, fit)
         K = hertz_stiffness(ball, plate, fit.transverse_ratio)
-        return ContactLaw(K, 1.5, viscous_time=A, yield_penetration=yield_penetration(ball, plate, K))
+        return ContactLaw(
+            K, 1.5, viscous_time=A, yield_penetration=yield_penetration(ball, plate, K)
+        )
     if surface == "material":
         _check_surface_alone(
             surface, contact, given, "the materials' loss is a viscoelastic Hertz contact's"
@@ -536,3 +538,28 @@ def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -
     if contact_parameters(ball, plate, "hertz", surface=surface).yield_penetration == math.inf:
         return None
     return yield_speed(ball, plate)
+
+
+def yield_rebound(ball: Ball, plate: Plate):
+    """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``)
+    that adds the plastic loss of the elastic-perfectly plastic contact to each solved
+    impact: ``e' = e(v) plastic_restitution(v, V_y)``, ``e(v)`` the contact solver's
+    restitution and ``V_y`` :func:`yield_speed` of the pair. The two losses are taken
+    as independent (their energy ratios multiply); the force pulse stays the solver's
+    elastic one. The measured contact models carry the yield in their law instead
+    (:attr:`ContactLaw.yield_penetration`); the rule gives a restitution factor to another
+    surface, e.g. the thesis' "ideal" one, and to the modal plate's contact."""
+    return plastic_rebound(yield_speed(ball, plate))
+
+
+def plastic_rebound(v_yield: float | None):
+    """The rebound rule ``e' = e(v) plastic_restitution(v, v_yield)`` of a pair whose yield
+    speed is ``v_yield`` (m/s, None: elastic), ``e(v)`` the contact solver's restitution
+    (:func:`yield_rebound`)."""
+    if v_yield is not None:
+        checks.positive("v_yield", v_yield, "m/s")
+
+    def rebound(result, speed: float) -> float:
+        return result.restitution * plastic_restitution(speed, v_yield)
+
+    return rebound

@@ -401,9 +401,7 @@ def impacts_explicit(
         if auto and lam > STIFF_LAMBDA:
             end = END_HANDED_OVER
             break
-        out = solve_explicit(
-            lam, G, n, c, b, xy, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT
-        )
+        out = solve_explicit(lam, G, n, c, b, xy, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
         if auto and out[0] == MAX_STEPS:
             end = END_HANDED_OVER
             break
@@ -511,9 +509,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
 
 
 @compiled()
-def pulse(
-    hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces
-):
+def pulse(hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces):
     """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b, xy) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""

@@ -164,7 +164,7 @@ def force(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
 
 
 @compiled()
-def rhs(x, w, lam, G, n, c, b, xy=math.inf, xm=0.0):
+def rhs(x, w, lam, G, n, c, b, xy=math.inf, xm=0.0):  # noqa: PLR0913
     """Right-hand side (x', w', I2', L') of the module docstring (``xy``, ``xm``: the
     yield, :func:`force`)."""
     f, a = force(x, w, lam, n, c, b, xy, xm)

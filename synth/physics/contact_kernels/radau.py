@@ -138,7 +138,9 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             n_iter = it + 1
             ok = True
             for i in range(3):
-                F[i, 0], F[i, 1], _, _ = rhs(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b, xy, xm)
+                F[i, 0], F[i, 1], _, _ = rhs(
+                    y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b, xy, xm
+                )
                 if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
                     ok = False
             if not ok:
@@ -227,7 +229,9 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             rejected = True
             j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
             continue
-        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]):
+        if xn > 0.0 and hermite_dips(
+            y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
+        ):
             # separated and landed again inside the step (see ``integrate_dop853``)
             h *= 0.5
             nrej += 1
