@@ -11,7 +11,6 @@ trouble is reported in ``success``, ``status`` and ``message``.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import NamedTuple
