@@ -37,7 +37,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
-from synth.physics.contact_law import ShellLaw, contact_parameters
+from synth.physics.contact_law import ShellLaw, check_yield_penetration, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
 from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
 from synth.physics.contact_result import (
@@ -195,20 +195,6 @@ def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_tim
             f"applies to the Hertz exponent 1.5 only"
         )
     return A
-
-
-def _check_yield(yield_penetration, exponent: float) -> float:
-    """``yield_penetration`` (m) as a float > 0 (inf: none) that applies to ``exponent``,
-    or ``ParameterError``: Thornton's yield is that of the Hertz law (n = 1.5)."""
-    if yield_penetration == _INF:
-        return _INF
-    d = checks.positive("yield_penetration", yield_penetration, "m")
-    if exponent != 1.5:
-        raise ParameterError(
-            f"yield_penetration={yield_penetration!r} with exponent={exponent!r}: the yield "
-            f"applies to the Hertz exponent 1.5 only"
-        )
-    return d
 
 
 def _check_points(n_points) -> int:
@@ -547,7 +533,9 @@ class ContactSolver:
             method=checks.choice("method", self.method, _METHODS),
         )
         checked["viscous_time"] = _check_viscous_time(self.viscous_time, checked["exponent"])
-        checked["yield_penetration"] = _check_yield(self.yield_penetration, checked["exponent"])
+        checked["yield_penetration"] = check_yield_penetration(
+            self.yield_penetration, checked["exponent"]
+        )
         if self.plate is not None and not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
         for key, value in checked.items():

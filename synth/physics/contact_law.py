@@ -523,21 +523,40 @@ def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
     return R * (math.pi * p_y / (2.0 * e_star)) ** 2
 
 
+def check_yield_penetration(value, exponent: float) -> float:
+    """``value`` as a yield penetration (m, > 0; inf: none) of the law of ``exponent``, or
+    ``ParameterError`` naming ``yield_penetration``: Thornton's yield is the Hertz law's
+    (exponent 1.5)."""
+    if value == math.inf:
+        return math.inf
+    d = checks.positive("yield_penetration", value, "m")
+    if exponent != 1.5:
+        raise ParameterError(
+            f"yield_penetration={value!r} with exponent={exponent!r}: the yield applies to "
+            f"the Hertz exponent 1.5 only"
+        )
+    return d
+
+
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
     """The yield speed ``V_y`` (m/s, :func:`yield_speed`) of the impacts of ``ball`` on
     ``plate`` under ``law`` (None: the ball's own, :func:`own_law`) and ``surface``
     (:data:`~synth.physics.scene.SURFACE_MODELS`): the measured surfaces ("material",
     "fitted", "auto") of the Hertz law carry the materials' yield in their law
     (:attr:`ContactLaw.yield_penetration`) as they carry their loss factors; the thesis'
-    lossless half-spaces ("ideal"), the other laws and a hollow ball's shell do not (None)."""
+    lossless half-spaces ("ideal"), the other laws and a hollow ball's shell do not (None).
+    The speed is that of the law's own Hertz contact on a rigid flat, ``1/2 m V_y^2 = (2/5) K
+    delta_y^(5/2)``: :func:`yield_speed` on a surface of the plate's material, higher on a
+    fitted surface softer than it (a lower pressure at the same force)."""
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or surface == "ideal":
         return None
     if (own_law(ball) if law is None else law) != "hertz":
         return None
-    if contact_parameters(ball, plate, "hertz", surface=surface).yield_penetration == math.inf:
+    c = contact_parameters(ball, plate, "hertz", surface=surface)
+    if c.yield_penetration == math.inf:
         return None
-    return yield_speed(ball, plate)
+    return math.sqrt(0.8 * c.stiffness * c.yield_penetration**2.5 / ball.mass)
 
 
 def yield_rebound(ball: Ball, plate: Plate):

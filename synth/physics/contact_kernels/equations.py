@@ -126,6 +126,18 @@ def plastic_work(xy, xm):
 
 
 @compiled()
+def yield_law_arrays(x, xy, xm, a, r, da, dr):
+    """:func:`yield_law` at each ``x[i]`` (0 where ``x[i] <= 0``) with the largest
+    penetration ``xm[i]`` so far, into ``a``, ``r``, ``da`` and ``dr`` (the modal contact's
+    pulse between its steps, in metres with ``K = 1``: the law is homogeneous)."""
+    for i in range(x.shape[0]):
+        if x[i] > 0.0:
+            a[i], r[i], da[i], dr[i] = yield_law(x[i], xy, xm[i])
+        else:
+            a[i], r[i], da[i], dr[i] = 0.0, 0.0, 0.0, 0.0
+
+
+@compiled()
 def elastic_part(x, n, xy, xm):
     """``(a, r)``: the law's elastic force ``x^n`` (or :func:`yield_law`'s with a finite
     yield penetration ``xy``) and the viscous factor ``x^(1/2)``, at ``x > 0``."""
