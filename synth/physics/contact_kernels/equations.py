@@ -12,7 +12,10 @@ with Hunt-Crossley's ``c = mu v0`` and the viscoelastic ``b = (3/2) A / theta`` 
 Kono 1987; Brilliantov et al. 1996), time ``s = t / theta``, ``lam = beta m / theta`` and
 ``G = g theta / v0``; ``I2' = f^2`` and ``L' = (f - x^n) x'`` carry the energy balance.
 Settling is exact: ``W = u^2 / 2 + x^(n+1) / (n+1) - G x`` (``u = lam G - w``) never
-increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. Also the status codes.
+increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. With a yield (Thornton's
+elastic-perfectly plastic Hertz contact, :func:`yield_law`) ``x^n`` and ``x^(1/2)`` are the
+law's force and contact radius on the branch that the largest penetration so far selects
+(docs/physics.md, "Yield of the contact"). Also the status codes.
 """
 
 from __future__ import annotations
