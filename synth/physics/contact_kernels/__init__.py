@@ -475,7 +475,22 @@ def scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free):
     G = g * theta / v0
     c = mu * v0
     b = 1.5 * A / theta
-    return v0, theta, lam, G, c, b, delta_y / (theta * v0), m * v0 / theta
+    return v0, theta, lam, G, c, b, reachable_yield(delta_y / (theta * v0), lam, G), m * v0 / theta
+
+
+@compiled(inline="always")
+def reachable_yield(xy, lam, G):
+    """The yield penetration ``xy`` (dimensionless), or inf where the contact cannot reach
+    it, so that such an impact runs the elastic law's code: the settling function ``W =
+    u^2 / 2 + x^(5/2) / (5/2) - G x`` (``equations.py``) never increases from its start
+    ``(lam G - 1)^2 / 2``, which bounds the penetration where ``x^(5/2) / (5/2) - G x``
+    grows (``x > G^(2/3)``)."""
+    if (
+        xy > G ** (2.0 / 3.0)
+        and xy * xy * math.sqrt(xy) / 2.5 - G * xy > 0.5 * (lam * G - 1.0) ** 2
+    ):
+        return math.inf
+    return xy
 
 
 @compiled()
