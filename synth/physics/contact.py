@@ -197,6 +197,16 @@ def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_tim
     return A
 
 
+def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
+    """The yield penetration ``delta_y`` (m) for the kernels, or None where no impact
+    approached at ``v0`` (m/s) or slower can reach it
+    (:func:`~synth.physics.contact_kernels.yield_reachable`): numba then runs the kernels
+    compiled without the yield, the elastic law's own code."""
+    if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v0):
+        return None
+    return delta_y
+
+
 def _check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
     if (
@@ -216,6 +226,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=N
     with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
     (``K, n, mu, A`` and ``method`` are then its own and unused); ``delta_y``: the yield
     penetration, m (:attr:`~synth.physics.contact_law.ContactLaw.yield_penetration`)."""
+    delta_y = _kernel_yield(delta_y, m, K, g, beta, v_in + v_free)
     if shell is not None:
         return solve_shell(m, shell, beta, v_in, g, v_free, tol * TOLERANCE_SAFETY, n_points)
     r, hist = _k.impact(
@@ -251,7 +262,7 @@ def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
         r[_k.R_THETA],
         r[_k.R_F_SCALE],
         n_points,
-        r[_k.R_XY],
+        None if r[_k.R_XY] == _INF else r[_k.R_XY],
     )
     return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
@@ -640,8 +651,12 @@ class ContactSolver:
         announce("contact")
         count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
             self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
-            self.dissipation, self.viscous_time, self.yield_penetration, 0.0,
-            self.rtol * TOLERANCE_SAFETY,
+            self.dissipation, self.viscous_time,
+            _kernel_yield(
+                self.yield_penetration, self.mass, self.stiffness, self.gravity,
+                self._beta_inf, float(speed),
+            ),
+            0.0, self.rtol * TOLERANCE_SAFETY,
             method == "auto", float(speed), float(start), float(energy_floor),
             float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
         )  # fmt: skip

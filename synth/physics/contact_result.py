@@ -10,7 +10,6 @@ trouble is reported in ``success``, ``status`` and ``message``.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import NamedTuple
@@ -52,7 +51,7 @@ class DenseOutput(NamedTuple):
     parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
     ``s_contact``) and the
     scales back to SI units (``theta``, s; ``f_scale``, N); ``xy`` the yield penetration
-    over ``theta v0`` (inf: an elastic contact; ``contact_kernels.equations.yield_law``)."""
+    over ``theta v0`` (None: an elastic contact; ``contact_kernels.equations.force``)."""
 
     hist: np.ndarray
     radau: bool
@@ -65,7 +64,7 @@ class DenseOutput(NamedTuple):
     theta: float
     f_scale: float
     n_points: int
-    xy: float = math.inf
+    xy: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

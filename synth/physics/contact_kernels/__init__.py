@@ -122,6 +122,7 @@ __all__ = [
     "impacts_explicit",
     "pulse",
     "solve",
+    "yield_reachable",
 ]
 
 # The solver's settings, constants of the compiled ``impact`` rather than arguments: each
@@ -150,7 +151,7 @@ def start(lam, G, n, c, b, xy, rtol):
     row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist). The series is of
     the elastic law: it ends before the yield penetration ``xy`` (``x <= (1 + G) s``)."""
     S = new_series(b)
-    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S, xy / (1.0 + G))
+    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S, series_limit(xy, G))
     # zeros, not empty: a row fills only its method's columns (row 0, the series, none of
     # the coefficients), and the history is returned whole; uninitialised columns would
     # carry whatever the heap held, which differs between processes
@@ -223,7 +224,9 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
             hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, xy, 0.5 * (lam * G) ** 2
         )
     s_force = s_contact
-    if status == SEPARATED and (c != 0.0 or b != 0.0 or xy != math.inf):
+    # a loss, or a yield (the unloading force ends at the residual penetration), ends the
+    # force before the contact
+    if status == SEPARATED and (c != 0.0 or b != 0.0 or yield_value(xy) != math.inf):
         s_force = min(force_end(hist, S, nh, radau, lam, G, n, c, b, xy), s_contact)
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
@@ -453,7 +456,8 @@ def impact(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol, method):
     tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one. Returns ``(result, hist)``: the
     ``N_RESULT`` fields ``R_*`` and the dense output ``pulse`` and ``force_slope_at`` read. The
     two methods are two kernels so a scene compiles only the one it uses. ``delta_y``: the
-    penetration (m) at which the contact yields (inf: elastic; ``equations.yield_law``)."""
+    penetration (m) at which the contact yields (``equations.yield_law``), or None: the
+    elastic law, compiled without the yield (``equations.force``)."""
     if method != RADAU:
         announce("contact")
         count, _, _, _, results, _, _, hists, _ = impacts_explicit(
@@ -475,22 +479,34 @@ def scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free):
     G = g * theta / v0
     c = mu * v0
     b = 1.5 * A / theta
-    return v0, theta, lam, G, c, b, reachable_yield(delta_y / (theta * v0), lam, G), m * v0 / theta
+    return v0, theta, lam, G, c, b, scaled_yield(delta_y, K, m, g, beta, v0, theta), m * v0 / theta
 
 
-@compiled(inline="always")
-def reachable_yield(xy, lam, G):
-    """The yield penetration ``xy`` (dimensionless), or inf where the contact cannot reach
-    it, so that such an impact runs the elastic law's code: the settling function ``W =
-    u^2 / 2 + x^(5/2) / (5/2) - G x`` (``equations.py``) never increases from its start
-    ``(lam G - 1)^2 / 2``, which bounds the penetration where ``x^(5/2) / (5/2) - G x``
-    grows (``x > G^(2/3)``)."""
-    if (
-        xy > G ** (2.0 / 3.0)
-        and xy * xy * math.sqrt(xy) / 2.5 - G * xy > 0.5 * (lam * G - 1.0) ** 2
-    ):
+@compiled()
+def scaled_yield(delta_y, K, m, g, beta, v0, theta):
+    """The yield penetration over the length scale ``theta v0`` (m over m): None without a
+    yield (``delta_y`` None, the kernels compiled without it), inf where this impact cannot
+    reach it (:func:`yield_reachable`)."""
+    if delta_y is None:
+        return None
+    if not yield_reachable(delta_y, K, m, g, beta, v0):
         return math.inf
-    return xy
+    return delta_y / (theta * v0)
+
+
+@compiled()
+def yield_reachable(delta_y, K, m, g, beta, v0):
+    """Whether a Hertz contact of stiffness ``K`` (N/m^1.5) of a ball of mass ``m`` (kg)
+    under gravity ``g`` (m/s^2), on a plate of admittance ``beta`` (m/(N s)), approached at
+    ``v0`` (m/s), can reach the penetration ``delta_y`` (m): the settling function ``W =
+    u^2 / 2 + x^(5/2) / (5/2) - G x`` (``equations.py``) never increases from ``(lam G -
+    1)^2 / 2``, in SI units ``(2/5) K delta^(5/2) - m g delta <= m (v0 - beta m g)^2 / 2``,
+    which bounds the penetration past the static one ``(m g / K)^(2/3)``, where the left
+    side grows."""
+    if not delta_y > (m * g / K) ** (2.0 / 3.0):
+        return True
+    left = 0.4 * K * delta_y * delta_y * math.sqrt(delta_y) - m * g * delta_y
+    return left <= 0.5 * m * (v0 - beta * m * g) ** 2
 
 
 @compiled()
@@ -508,10 +524,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
     (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields;
     a yielded contact's on its unloading branch from the peak penetration)."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
-    if xy != math.inf:
-        elastic = yield_potential(x_end, xy, x_max if x_max > xy else 0.0)
-    else:
-        elastic = x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
+    elastic = end_energy(x_end, n, xy, x_max)
     r = impact_row(
         status, w_end, x_end, elastic, s_end, s_force, s_contact, i2, loss, x_max * theta * v0,
         f_max, nst, m, v_in, v0, theta, lam, G, f_scale,
@@ -519,7 +532,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
     r[R_STIFF] = 1.0 if stiff else 0.0
     r[R_C] = c
     r[R_B] = b
-    r[R_XY] = xy
+    r[R_XY] = yield_value(xy)
     return r, hist
 
 
@@ -564,6 +577,47 @@ def pulse_force_slope(
 
 
 @compiled()
+def series_limit(xy, G):
+    """The latest end of the series start (dimensionless): before the yield penetration
+    ``xy`` (``x <= (1 + G) s``), inf without a yield (None)."""
+    if xy is None:
+        return math.inf
+    return xy / (1.0 + G)
+
+
+@compiled()
+def yield_value(xy):
+    """The yield penetration ``xy`` as a float: inf for None (no yield)."""
+    if xy is None:
+        return math.inf
+    return xy
+
+
+@compiled()
+def end_energy(x_end, n, xy, x_max):
+    """The elastic energy (dimensionless) at the end penetration ``x_end``: the power
+    law's, or a yielded contact's on its unloading branch from the peak ``x_max``."""
+    if xy is not None:
+        if xy != math.inf:
+            return yield_potential(x_end, xy, x_max if x_max > xy else 0.0)
+    return x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
+
+
+@compiled()
+def _rates(x, w, f, lam, n, xy, xm):
+    """``force_slope_at``'s ``(x', a', r, r')``: the penetration rate, the rates of the
+    elastic force ``a`` and of the viscous factor ``r`` (``equations.yield_law``'s with a
+    finite yield penetration ``xy``), and ``r``."""
+    dx = w - lam * f
+    if xy is not None:
+        if xy != math.inf:
+            _, r, ax, rx = yield_law(x, xy, xm)
+            return dx, ax * dx, r, rx * dx
+    r = math.sqrt(x)
+    return dx, n * power(x, n - 1.0) * dx, r, 0.5 * dx / r
+
+
+@compiled()
 def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
     output ``hist`` of ``solve`` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
@@ -593,15 +647,7 @@ def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
-        dx = w - lam * f
-        if xy == math.inf:
-            da = n * power(x, n - 1.0) * dx
-            r = math.sqrt(x)
-            dr = 0.5 * dx / r
-        else:
-            _, r, ax, rx = yield_law(x, xy, xm)
-            da = ax * dx
-            dr = rx * dx
+        dx, da, r, dr = _rates(x, w, f, lam, n, xy, xm)
         if c == 0.0 and b == 0.0:
             slope[i] = da
         elif b == 0.0:

@@ -19,12 +19,13 @@ import numpy as np
 
 from synth.compilation import compiled
 from synth.physics.contact_kernels.equations import (
-    elastic_part,
     force,
     penetration_rate,
     positive_power,
+    power,
     settling_energy,
     unloading_branch,
+    yield_law,
 )
 from synth.physics.contact_kernels.series import series_eval, series_x
 
@@ -255,10 +256,13 @@ def event(which, x, w, lam, G, n, c, b, thr, xy, xm):
     if which == 3:
         if x <= 0.0:
             return x
-        a, r = elastic_part(x, n, xy, xm)
-        if r == 0.0:
-            return x - unloading_branch(xy, xm)[0]
-        return a * (1.0 + c * w) + b * r * w
+        if xy is not None:
+            if xy != math.inf:
+                a, r, _, _ = yield_law(x, xy, xm)
+                if r == 0.0:
+                    return x - unloading_branch(xy, xm)[0]
+                return a * (1.0 + c * w) + b * r * w
+        return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
     return settling_energy(x, w, lam, G, n, xy, xm) - thr
 
 
@@ -306,12 +310,15 @@ def sample_pulse(hist, S, nh, radau, lam, n, c, b, xy, s_contact, times, forces)
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
     and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
     evaluated step by step, in loops that the compiler vectorises, then raised to n.
-    ``xy``: the yield penetration (``equations.force``)."""
+    ``xy``: the yield penetration (``equations.force``; a float takes the general loop)."""
     n_points = times.shape[0]
     ds = s_contact / (n_points - 1)
     for i in range(n_points):
         times[i] = i * ds
-    if radau or c != 0.0 or b != 0.0 or xy != math.inf:
+    general = radau or c != 0.0 or b != 0.0
+    if xy is not None:
+        general = True
+    if general:
         k = 0
         for i in range(n_points):
             while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:

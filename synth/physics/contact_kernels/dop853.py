@@ -141,8 +141,8 @@ def _landing_factor(n):
 @compiled()
 def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
-    of the history ``hist`` (the series) filled in; ``xy`` the yield penetration (inf: none,
-    ``equations.yield_law``). Returns (status, s_end, x, w, I2, L, n_rows, n_rejected,
+    of the history ``hist`` (the series) filled in; ``xy`` the yield penetration (None or
+    inf: none, ``equations.force``). Returns (status, s_end, x, w, I2, L, n_rows, n_rejected,
     hist), ``n_rows`` the rows of the history in use."""
     xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
     xp = 0.0  # the residual penetration, where the unloading force ends
@@ -280,7 +280,7 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             # not to be trusted across that kink. Redo it to land just past the root
             # (cubic Hermite estimate), so that its stages see a smooth problem.
             th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
-        if xy != math.inf:
+        if xy is not None:
             th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], xy, xm, xp))
         if b != 0.0:
             # The viscoelastic force x^(1/2) (x (1 + c w) + b w) / D switches off (or on)
@@ -333,12 +333,14 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
         x_top = max(x_top, x)
         for q in range(4):
             K[0, q] = K[_NS, q]
-        if xm == 0.0 and x > xy and K[0, 0] <= 0.0:
-            # the step landed on a yielded peak: unload from it (force and contact radius
-            # are continuous there, so the first stage stands), its plastic work lost
-            xm = x
-            xp = unloading_branch(xy, xm)[0]
-            q3 += plastic_work(xy, xm)
+        if xy is not None:
+            if xm == 0.0 and x > xy and K[0, 0] <= 0.0:
+                # the step landed on a yielded peak: unload from it (force and contact
+                # radius are continuous there, so the first stage stands), its plastic
+                # work lost
+                xm = x
+                xp = unloading_branch(xy, xm)[0]
+                q3 += plastic_work(xy, xm)
         if x <= 0.0:
             return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
         if rise_ended(K[0, 0], w, atol):

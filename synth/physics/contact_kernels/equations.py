@@ -143,33 +143,39 @@ def yield_law_arrays(x, xy, xm, a, r, da, dr):
 @compiled()
 def elastic_part(x, n, xy, xm):
     """``(a, r)``: the law's elastic force ``x^n`` (or :func:`yield_law`'s with a finite
-    yield penetration ``xy``) and the viscous factor ``x^(1/2)``, at ``x > 0``."""
-    if xy == math.inf:
-        return power(x, n), math.sqrt(x)
-    a, r, _, _ = yield_law(x, xy, xm)
-    return a, r
+    yield penetration ``xy``; None: no yield) and the viscous factor ``x^(1/2)``, at ``x > 0``."""
+    if xy is not None:
+        if xy != math.inf:
+            a, r, _, _ = yield_law(x, xy, xm)
+            return a, r
+    return power(x, n), math.sqrt(x)
 
 
 @compiled()
-def force(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
+def force(x, w, lam, n, c, b, xy=None, xm=0.0):
     """Dimensionless contact force f and its elastic part a (both 0 out of contact):
     ``f = a + d(x) x'`` with the damping ``d = c a + b r`` (module docstring); ``a = x^n``
     and ``r = x^(1/2)``, or with a finite yield penetration ``xy`` (the largest penetration
-    ``xm`` so far) :func:`yield_law`'s."""
+    ``xm`` so far) :func:`yield_law`'s.
+
+    ``xy`` None: the elastic law, whose kernels numba compiles without the yield's code
+    (its branches pruned on the argument's type), as fast as before the yield existed;
+    a float (inf: not reached) compiles the kernels with it."""
     if x <= 0.0:
         return 0.0, 0.0
-    if xy == math.inf:
-        a = power(x, n)
-        if c == 0.0 and b == 0.0:
-            return a, a
-        r = math.sqrt(x) if b != 0.0 else 0.0
-    else:
-        a, r, _, _ = yield_law(x, xy, xm)
-        if c == 0.0 and b == 0.0:
-            return a, a
+    if xy is not None:
+        if xy != math.inf:
+            a, r, _, _ = yield_law(x, xy, xm)
+            if c == 0.0 and b == 0.0:
+                return a, a
+            return lossy_force(a, r, w, lam, c, b), a
+    a = power(x, n)
+    if c == 0.0 and b == 0.0:
+        return a, a
     num = a * (1.0 + c * w)
     den = 1.0 + c * lam * a
     if b != 0.0:
+        r = math.sqrt(x)
         num += b * r * w
         den += b * lam * r
     f = num / den
@@ -179,7 +185,15 @@ def force(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
 
 
 @compiled()
-def rhs(x, w, lam, G, n, c, b, xy=math.inf, xm=0.0):  # noqa: PLR0913
+def lossy_force(a, r, w, lam, c, b):
+    """The lossy force ``(a (1 + c w) + b r w) / (1 + lam (c a + b r))``, at least 0, of the
+    elastic force ``a`` and the viscous factor ``r`` (:func:`force` with a yield)."""
+    f = (a * (1.0 + c * w) + b * r * w) / (1.0 + lam * (c * a + b * r))
+    return f if f > 0.0 else 0.0
+
+
+@compiled()
+def rhs(x, w, lam, G, n, c, b, xy=None, xm=0.0):  # noqa: PLR0913
     """Right-hand side (x', w', I2', L') of the module docstring (``xy``, ``xm``: the
     yield, :func:`force`)."""
     f, a = force(x, w, lam, n, c, b, xy, xm)
@@ -188,7 +202,7 @@ def rhs(x, w, lam, G, n, c, b, xy=math.inf, xm=0.0):  # noqa: PLR0913
 
 
 @compiled()
-def jacobian(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
+def jacobian(x, w, lam, n, c, b, xy=None, xm=0.0):
     """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
 
     With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``, ``a = x^n``
@@ -196,13 +210,21 @@ def jacobian(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
     + b r) / D``; 0 where f is clipped at 0."""
     if x <= 0.0:
         return 0.0, 1.0, 0.0, 0.0
-    if xy == math.inf:
-        a = power(x, n)
-        da = n * a / x
-        r = math.sqrt(x) if b != 0.0 else 0.0
-        dr = 0.5 / r if b != 0.0 else 0.0
-    else:
-        a, r, da, dr = yield_law(x, xy, xm)
+    if xy is not None:
+        if xy != math.inf:
+            a, r, da, dr = yield_law(x, xy, xm)
+            return jacobian_terms(a, r, da, dr, w, lam, c, b)
+    a = power(x, n)
+    da = n * a / x
+    r = math.sqrt(x) if b != 0.0 else 0.0
+    dr = 0.5 / r if b != 0.0 else 0.0
+    return jacobian_terms(a, r, da, dr, w, lam, c, b)
+
+
+@compiled()
+def jacobian_terms(a, r, da, dr, w, lam, c, b):
+    """:func:`jacobian` from the elastic force ``a``, the viscous factor ``r`` and their
+    x-derivatives ``da``, ``dr``."""
     if c == 0.0 and b == 0.0:
         fx, fw = da, 0.0
     elif b == 0.0:
@@ -225,14 +247,15 @@ def jacobian(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
 
 
 @compiled()
-def settling_energy(x, w, lam, G, n, xy=math.inf, xm=0.0):
+def settling_energy(x, w, lam, G, n, xy=None, xm=0.0):
     """Settling function W of the module docstring; with a yield (``xy``, ``xm``) the
     elastic energy of :func:`yield_potential` and the height measured from the residual
     penetration, where the force ends (the ball leaves from there)."""
     u = lam * G - w
-    if xy != math.inf:
-        xp = unloading_branch(xy, xm)[0] if xm > xy else 0.0
-        return 0.5 * u * u + yield_potential(x, xy, xm) - G * (x - xp)
+    if xy is not None:
+        if xy != math.inf:
+            xp = unloading_branch(xy, xm)[0] if xm > xy else 0.0
+            return 0.5 * u * u + yield_potential(x, xy, xm) - G * (x - xp)
     return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
 
 
@@ -250,7 +273,7 @@ def rise_ended(dx, w, atol):
 
 
 @compiled()
-def penetration_rate(x, w, lam, n, c, b, xy=math.inf, xm=0.0):
+def penetration_rate(x, w, lam, n, c, b, xy=None, xm=0.0):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     f, _ = force(x, w, lam, n, c, b, xy, xm)
     return w - lam * f

@@ -238,7 +238,7 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
             rejected = True
             j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
             continue
-        if xy != math.inf:
+        if xy is not None:
             # land on the yielded peak or the end of the unloading force (``yield_fraction``)
             dn = rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
             th = yield_fraction(y[0], xn, h * f0[0], h * dn, xy, xm, xp)
@@ -273,11 +273,12 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
         s += h
         have_dense = True
         f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b, xy, xm)
-        if xm == 0.0 and y[0] > xy and f0[0] <= 0.0:
-            # landed on a yielded peak (see ``integrate_dop853``)
-            xm = y[0]
-            xp = unloading_branch(xy, xm)[0]
-            y[3] += plastic_work(xy, xm)
+        if xy is not None:
+            if xm == 0.0 and y[0] > xy and f0[0] <= 0.0:
+                # landed on a yielded peak (see ``integrate_dop853``)
+                xm = y[0]
+                xp = unloading_branch(xy, xm)[0]
+                y[3] += plastic_work(xy, xm)
         if y[0] <= 0.0:
             return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
