@@ -159,7 +159,7 @@ def force(x, w, lam, n, c, b, xy=None, xm=0.0):
     ``xm`` so far) :func:`yield_law`'s.
 
     ``xy`` None: the elastic law, whose kernels numba compiles without the yield's code
-    (its branches pruned on the argument's type), as fast as before the yield existed;
+    (its branches pruned on the argument's type), as fast as a kernel without it;
     a float (inf: not reached) compiles the kernels with it."""
     if x <= 0.0:
         return 0.0, 0.0
