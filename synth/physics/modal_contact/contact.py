@@ -412,7 +412,7 @@ class ModalContact:
             self.exponent,
             self.dissipation,
             1.5 * self.viscous_time,
-            self.yield_penetration,
+            None if self.yield_penetration == math.inf else self.yield_penetration,
             self.gravity,
             v_in,
             h,

@@ -134,9 +134,9 @@ def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
     step whose penetration rate is ``d' = Av - Bv F`` (the step's linear response to the
     force ``F`` at its end), solved for ``F``:
     ``F = K d^(n-1) (d + c Av) / (1 + c Bv K d^(n-1))``; and its derivative with respect to
-    ``d`` (N/m). With a finite yield penetration ``dy`` (m; ``dm`` the largest penetration
-    before the step): :func:`_yield_force`."""
-    if dy != math.inf:
+    ``d`` (N/m). With a yield penetration ``dy`` (m; None: no yield; ``dm`` the largest
+    penetration before the step): :func:`_yield_force`."""
+    if dy is not None:
         return _yield_force(d, K, mu, b, Av, Bv, dy, dm)
     if d <= 0.0:
         return 0.0, 0.0
@@ -271,7 +271,8 @@ def contact_kernel(
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
     the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
     (:func:`_lossy_force`; ``mu = b = 0``: elastic), with Thornton's yield past the
-    penetration ``dy`` (m; inf: none), the largest penetration of the steps so far its state.
+    penetration ``dy`` (m; None: none, the kernel then compiled without the yield's code),
+    the largest penetration of the steps so far its state.
 
     ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
     one: the residual's displacement) are the plate's state at first touch and are advanced
@@ -291,7 +292,9 @@ def contact_kernel(
     for k in range(N):
         Bv += c[k] * G[k, 3]
     lossy = mu != 0.0 or b != 0.0
-    yielding = dy != math.inf
+    plain = not lossy  # the elastic law: its own root
+    if dy is not None:
+        plain = False
     contact_loss = 0.0
     work = 0.0  # the elastic-plastic force's work on the penetration (trapezoid rule), J
     Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
@@ -326,7 +329,9 @@ def contact_kernel(
             # Illinois' false position on [0, h]: gap(0) = delta > 0 >= gap(h) = A
             lo = 0.0
             hi = h
-            g_lo = gaps[i] if yielding else (F0 / K) ** (1.0 / n)  # delta at the step's start
+            g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
+            if dy is not None:
+                g_lo = gaps[i]
             g_hi = A
             side = 0
             for _ in range(100):
@@ -365,7 +370,7 @@ def contact_kernel(
             vs += -g * hh + hh * 0.5 * F0 / m
             impulse += 0.5 * hh * F0
             contact_loss += 0.5 * hh * Fd0 * rates[i]
-            if yielding:
+            if dy is not None:
                 work -= 0.5 * K * yield_law(gaps[i], dy, dmax)[0] * gaps[i]
             t += hh
             forces[i + 1] = 0.0
@@ -375,7 +380,7 @@ def contact_kernel(
             status = SEPARATED
             steps = i + 1
             break
-        if not lossy and not yielding:
+        if plain:
             d1 = _solve_delta(A, B, K, n)
             F1 = K * d1**n
         else:
@@ -383,7 +388,7 @@ def contact_kernel(
             d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dmax)
             F1 = _lossy_force(d1, K, n, mu, b, Av, Bv, dy, dmax)[0]
         Fe1 = 0.0
-        if yielding:
+        if dy is not None:
             Fe1 = K * yield_law(d1, dy, dmax)[0] if d1 > 0.0 else 0.0
             Fe0 = K * yield_law(gaps[i], dy, dmax)[0] if gaps[i] > 0.0 else 0.0
             work += 0.5 * (Fe0 + Fe1) * (d1 - gaps[i])
@@ -404,7 +409,9 @@ def contact_kernel(
         gaps[i + 1] = d1
         rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
         if lossy:
-            Fd1 = F1 - (Fe1 if yielding else K * d1**n)
+            Fd1 = F1 - K * d1**n
+            if dy is not None:
+                Fd1 = F1 - Fe1
             contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
             Fd0 = Fd1
         if d1 > dmax:
@@ -413,7 +420,7 @@ def contact_kernel(
             fmax = F1
         steps = i + 1
     x_res[0] = x
-    if yielding:
+    if dy is not None:
         # the plastic work: the elastic-plastic force's work less the energy it still holds
         end = gaps[steps]
         contact_loss += work - (K * yield_potential(end, dy, dmax) if end > 0.0 else 0.0)
