@@ -193,7 +193,7 @@ def lossy_force(a, r, w, lam, c, b):
 
 
 @compiled()
-def rhs(x, w, lam, G, n, c, b, xy=None, xm=0.0):  # noqa: PLR0913
+def rhs(x, w, lam, G, n, c, b, xy, xm):  # noqa: PLR0913
     """Right-hand side (x', w', I2', L') of the module docstring (``xy``, ``xm``: the
     yield, :func:`force`)."""
     f, a = force(x, w, lam, n, c, b, xy, xm)
@@ -202,7 +202,7 @@ def rhs(x, w, lam, G, n, c, b, xy=None, xm=0.0):  # noqa: PLR0913
 
 
 @compiled()
-def jacobian(x, w, lam, n, c, b, xy=None, xm=0.0):
+def jacobian(x, w, lam, n, c, b, xy, xm):
     """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
 
     With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``, ``a = x^n``
@@ -247,7 +247,7 @@ def jacobian_terms(a, r, da, dr, w, lam, c, b):
 
 
 @compiled()
-def settling_energy(x, w, lam, G, n, xy=None, xm=0.0):
+def settling_energy(x, w, lam, G, n, xy, xm):
     """Settling function W of the module docstring; with a yield (``xy``, ``xm``) the
     elastic energy of :func:`yield_potential` and the height measured from the residual
     penetration, where the force ends (the ball leaves from there)."""
@@ -273,7 +273,7 @@ def rise_ended(dx, w, atol):
 
 
 @compiled()
-def penetration_rate(x, w, lam, n, c, b, xy=None, xm=0.0):
+def penetration_rate(x, w, lam, n, c, b, xy, xm):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
     f, _ = force(x, w, lam, n, c, b, xy, xm)
     return w - lam * f
