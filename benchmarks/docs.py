@@ -136,12 +136,12 @@ def contact_losses_section() -> str:
         "small-strain loss factor holds at a contact's strains, and that the loss grows as "
         "the viscoelastic law's `v^(1/5)` away from 1 m/s. A pair of two near-elastic "
         "materials (loss factors below 0.01: metals, glass, porcelain, stone, "
-        "polycarbonate) keeps `e` near 1; the loss that stops such a ball on a hard "
-        "floor, local yield at the contact (Johnson, *Contact Mechanics*, 1985, ch. 11), "
-        "is the next section's, which the measured model adds to each impact that yields "
-        "(the bounce scheduler's, outside the contact solver's force law); the pairs that "
-        "still do not settle from 1 m within the scheduler's 60 s are those of \"Coming to "
-        'rest" below.\n\n'
+        "polycarbonate) keeps `e` near 1 while its contact stays elastic; the loss that "
+        "stops such a ball on a hard floor, local yield at the contact (Johnson, *Contact "
+        "Mechanics*, 1985, ch. 11), is the next section's, which the measured model's "
+        "contact solver integrates in its force law, so the table's `e` of a pair that "
+        "yields at this speed is its plastic rebound. The pairs that still do not settle from 1 m within the scheduler's 60 s are those of "
+        '"Coming to rest" below.\n\n'
         f"First impact of a solid ball of {LOSS_TABLE_RADIUS * 1e3:g} mm radius dropped "
         f"{LOSS_TABLE_DROP:g} m ({speed:.2f} m/s) on 0.1 m thick, 1 m square plates, the "
         "impedance plate, the measured surface (computed by `python -m benchmarks.docs`):\n\n"
@@ -182,9 +182,9 @@ def yield_section() -> str:
         "softer, whose hardness, about `2.8 Y` (Tabor 1951), is the limiting pressure of "
         "Thornton's elastic-perfectly plastic contact (J. Appl. Mech. 64 (1997) 383): elastic "
         "below the impact speed `V_y` (`synth.physics.contact_law.yield_speed`), above it "
-        "restituting `e(v / V_y)` (`plastic_restitution`), which the measured contact "
-        'model (every surface but the thesis\' "ideal") multiplies into the rebound of each '
-        'impact above `V_y` (docs/physics.md, "Yield of the contact"; checked '
+        "restituting `e(v / V_y)` (`plastic_restitution`), the rebound of the law that the "
+        'measured contact model (every surface but the thesis\' "ideal") integrates in its '
+        'contact solver (docs/physics.md, "Yield of the contact"; checked '
         "on the Leeb rebound of steels, docs/validation.md). Glass, porcelain and stone are "
         "brittle: they crack before they flow, and have no yield law here. The grade "
         "matters: a metal's yield stress spans a factor of ten between its annealed and "
@@ -220,16 +220,13 @@ SETTLING_DURATION = 60.0
 def settling_section() -> str:
     """The "Coming to rest" section of docs/materials.md: why a series ends within the
     scheduler's time, and the measured model's ``1 - e`` of the pairs that do not
-    (:data:`UNSETTLED_PAIRS`; computed here by the contact solver and Thornton's law)."""
+    (:data:`UNSETTLED_PAIRS`; computed here by the contact solver, whose law carries
+    Thornton's yield)."""
     import math
 
     from synth.constants import GRAVITY
     from synth.physics.contact import solve_impact
-    from synth.physics.contact_law import (
-        TABOR_CONSTRAINT,
-        model_yield_speed,
-        plastic_restitution,
-    )
+    from synth.physics.contact_law import TABOR_CONSTRAINT, model_yield_speed
     from synth.physics.scene import Ball, Plate
 
     v1 = math.sqrt(2.0 * GRAVITY * LOSS_TABLE_DROP)
@@ -248,7 +245,7 @@ def settling_section() -> str:
             losses = []
             for v in speeds:
                 e = solve_impact(ball, plate, v, surface="auto", rtol=1e-9).restitution
-                losses.append(f"{1.0 - e * plastic_restitution(v, v_y):.3f}")
+                losses.append(f"{1.0 - e:.3f}")
             v_text = "none (brittle)" if v_y is None else f"{float(f'{v_y:.2g}'):g}"
             lines.append(f"| {ball_name} | {plate_name} | {v_text} | {' | '.join(losses)} |")
     return (

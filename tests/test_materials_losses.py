@@ -5,6 +5,7 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from benchmarks.docs import UNSETTLED_PAIRS
@@ -12,7 +13,7 @@ from synth.constants import DEFAULT_FLOOR_DB, GRAVITY
 from synth.errors import ParameterError
 from synth.physics import materials
 from synth.physics.bounces import simulate_bounces
-from synth.physics.contact import solve_impact
+from synth.physics.contact import ContactSolver, solve_impact
 from synth.physics.contact_law import (
     LOSS_REFERENCE_SPEED,
     TABOR_CONSTRAINT,
@@ -203,17 +204,24 @@ def test_the_measured_model_yields_and_the_thesis_model_does_not():
     assert first.speed > v_y
     thornton = plastic_restitution(first.speed, v_y)
     assert thornton < 0.9
-    assert first.restitution == pytest.approx(first.result.restitution * thornton, rel=1e-12)
-    assert measured[1].speed == pytest.approx(first.restitution * first.speed, rel=1e-12)
     ideal = simulate_bounces(ball, plate, drop_height=0.1, max_impacts=2)
     assert ideal[0].restitution == ideal[0].result.restitution > 0.99
+    # the yield is in the contact law: the solver's own rebound, Thornton's loss with the
+    # small viscous and plate losses (0.1 % here) composed inside the force law, so within
+    # that size of their product
+    assert first.restitution == first.result.restitution
+    elastic_loss = 1.0 - ideal[0].result.restitution
+    assert first.restitution == pytest.approx(
+        ideal[0].result.restitution * thornton, abs=elastic_loss
+    )
+    assert measured[1].speed == pytest.approx(first.restitution * first.speed, rel=1e-12)
     ruled = simulate_bounces(
         ball, plate, drop_height=0.1, max_impacts=2, rebound=yield_rebound(ball, plate)
     )
     assert ruled[0].restitution == pytest.approx(ideal[0].result.restitution * thornton, 1e-12)
     assert model_yield_speed(ball, plate, None, "ideal") is None
     assert model_yield_speed(ball, plate, "hunt-crossley", "auto") is None
-    assert model_yield_speed(ball, plate, None, "auto") == v_y
+    assert model_yield_speed(ball, plate, None, "auto") == pytest.approx(v_y, rel=1e-12)
 
 
 @pytest.mark.slow
@@ -258,3 +266,80 @@ def test_every_material_pair_settles_from_one_metre_on_a_massive_surface(ball_ma
             f"which a per-material contact loss would follow (docs/materials.md, 'Coming to "
             f"rest')"
         )
+
+
+# Thornton's elastic-perfectly plastic law inside the contact kernels: a 10 g ball of Hertz
+# constant 1e10 N/m^1.5 on a rigid flat without gravity, yielding at 1 um
+YIELD_MASS, YIELD_K, YIELD_DELTA = 0.01, 1e10, 1e-6
+#: Yield speed of that contact: 1/2 m V_y^2 = (2/5) K delta_y^(5/2) (closed form).
+YIELD_SPEED = math.sqrt(0.8 * YIELD_K * YIELD_DELTA**2.5 / YIELD_MASS)
+
+
+def _yield_solver(method="auto", viscous_time=0.0, yield_penetration=YIELD_DELTA, **kw):
+    return ContactSolver(
+        YIELD_MASS, YIELD_K, 1.5, 0.0, gravity=0.0, method=method, viscous_time=viscous_time,
+        yield_penetration=yield_penetration, **kw,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("method", ["DOP853", "Radau"])
+def test_the_kernels_restitute_as_thorntons_closed_form(method):
+    # closed form (contact_law.plastic_restitution, Thornton 1997): the integrated
+    # elastic-plastic contact rebounds at e(v / V_y), to the solver's tolerance
+    solver = _yield_solver(method, rtol=1e-8)
+    for ratio in (2.0, 10.0, 100.0):
+        v = ratio * YIELD_SPEED
+        res = solver.solve(v, admittance=0.0)
+        assert res.restitution == pytest.approx(plastic_restitution(v, YIELD_SPEED), abs=1e-7)
+
+
+def test_below_the_yield_penetration_the_law_is_hertz():
+    # invariant: a contact that does not reach delta_y is the elastic law's, to rounding.
+    # At 1.05 V_y on a plate of admittance 3e-4 m/(N s) the plate takes enough of the
+    # energy that the peak stays below delta_y, while the energy bound alone (the rigid
+    # flat's) would let it reach it: the kernels run the yield law's elastic branch
+    v = 1.05 * YIELD_SPEED
+    for A in (0.0, 1e-7):
+        hertz = _yield_solver(viscous_time=A, yield_penetration=math.inf).solve(v, admittance=3e-4)
+        law = _yield_solver(viscous_time=A).solve(v, admittance=3e-4)
+        assert hertz.max_penetration < YIELD_DELTA
+        assert law.restitution == pytest.approx(hertz.restitution, rel=1e-12)
+        assert law.contact_time == pytest.approx(hertz.contact_time, rel=1e-12)
+        assert law.peak_force == pytest.approx(hertz.peak_force, rel=1e-12)
+
+
+def _elastic_plastic_force(delta, delta_max):
+    """Thornton's force (N) at ``delta`` (m) after the largest penetration ``delta_max``."""
+    dy, K = YIELD_DELTA, YIELD_K
+    loading = np.where(
+        delta <= dy, K * np.maximum(delta, 0.0) ** 1.5, K * dy**0.5 * (1.5 * delta - 0.5 * dy)
+    )
+    f_m = K * dy**0.5 * (1.5 * delta_max - 0.5 * dy)
+    rho = math.sqrt(K * delta_max**1.5 / f_m)  # (R_p / R)^(1/2)
+    residual = delta_max - f_m / (K * delta_max**0.5)
+    unloading = K * rho * np.maximum(delta - residual, 0.0) ** 1.5
+    return loading, unloading, f_m, residual
+
+
+def test_the_lost_energy_is_the_plastic_work_and_the_viscous_loss():
+    # invariant (energy balance on a rigid flat without gravity): 1/2 m (v_in^2 - v_out^2)
+    # is the work of the elastic-plastic force around its loading and unloading path
+    # (Thornton's law, closed form from the peak penetration) plus the viscous surface's
+    # loss, the integral of the rest of the force over the penetration (from the pulse,
+    # delta by integrating -F / m twice: the trapezoid rule on 8192 samples, ~1e-5)
+    v = 10.0 * YIELD_SPEED
+    res = _yield_solver(viscous_time=2e-7, rtol=1e-9, n_points=8192).solve(v, admittance=0.0)
+    t, F = res.time, res.force
+    speed = v - np.concatenate([[0.0], np.cumsum(0.5 * (F[1:] + F[:-1]) * np.diff(t))]) / YIELD_MASS
+    delta = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
+    peak = int(np.argmax(delta))
+    d_max = res.max_penetration
+    loading, unloading, f_m, residual = _elastic_plastic_force(delta, d_max)
+    elastic = np.where(np.arange(delta.size) <= peak, loading, unloading)
+    viscous = np.sum(0.5 * ((F - elastic)[1:] + (F - elastic)[:-1]) * np.diff(delta))
+    dy, K = YIELD_DELTA, YIELD_K
+    loading_work = K * (dy**2.5 / 2.5 + dy**1.5 * (d_max - dy) + 0.75 * dy**0.5 * (d_max - dy) ** 2)
+    plastic = loading_work - f_m * (d_max - residual) / 2.5
+    lost = 0.5 * YIELD_MASS * v * v * (1.0 - res.restitution**2)
+    assert viscous > 0.05 * plastic
+    assert lost == pytest.approx(plastic + viscous, rel=1e-4)

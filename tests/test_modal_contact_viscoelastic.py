@@ -8,16 +8,18 @@ import math
 import numpy as np
 import pytest
 
+from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics import modal_contact as mc
 from synth.physics.bounces import simulate_bounces, simulate_scene
 from synth.physics.contact import solve_contact
 from synth.physics.contact_law import (
+    contact_parameters,
     hertz_stiffness,
+    model_yield_speed,
     plastic_restitution,
     resolved_surface,
-    yield_speed,
 )
 from synth.physics.scene import Ball, Contact, Plate, Scene
 
@@ -151,21 +153,32 @@ def test_the_law_on_the_modal_plate_through_scene_and_scheduler():
 
 
 def test_the_measured_models_yield_on_the_modal_plate():
-    # A copper ball (annealed, Y = 69 MPa) on the board yields above 0.21 m/s (Thornton's
-    # closed form, contact_law.yield_speed): under the measured model (surface "auto", the
-    # board's fitted viscoelastic surface) its first flight on the modal plate is the
-    # contact's e times Thornton's, as on the impedance plate; the thesis' ideal surface
-    # stays elastic. The band is SMALL_BAND, whose modes the other tests solved.
+    # A copper ball (annealed, Y = 69 MPa) on the board's fitted viscoelastic surface
+    # (the measured model, surface "auto") yields above the law's V_y (Thornton's closed
+    # form, contact_law.model_yield_speed); dropped at twice that speed, the modal contact
+    # integrates Thornton's law past its yield penetration, as the impedance plate's
+    # solver does: the same law on the two
+    # plate models gives the same rebound to within their difference on the elastic ideal
+    # surface (about 1e-3 here; 1e-2 allowed), and the energy balance, plastic work
+    # included, closes to the fixed-step scheme's accuracy (invariant). The thesis' ideal
+    # surface stays elastic. The band is SMALL_BAND, whose modes the other tests solved.
     copper = Ball("copper", 0.005)
-    v_y = yield_speed(copper, SMALL)
-    run = dict(drop_height=0.05, plate_model="modal", max_impacts=2, max_frequency=SMALL_BAND)
-    first = simulate_bounces(copper, SMALL, surface="auto", **run)[0]
+    v_y = model_yield_speed(copper, SMALL, None, "auto")
+    law = contact_parameters(copper, SMALL, "hertz", surface="auto")
+    run = dict(drop_height=(2.0 * v_y) ** 2 / (2.0 * GRAVITY), max_impacts=2)
+    modal = dict(plate_model="modal", max_frequency=SMALL_BAND)
+    first = simulate_bounces(copper, SMALL, surface="auto", **run, **modal)[0]
     assert first.speed > v_y
-    want = first.result.restitution * plastic_restitution(first.speed, v_y)
-    assert first.restitution == pytest.approx(want, rel=1e-12)
-    assert first.restitution < 0.9 * first.result.restitution
-    ideal = simulate_bounces(copper, SMALL, surface="ideal", **run)[0]
+    assert first.result.law_yield_penetration == law.yield_penetration
+    assert first.result.max_penetration > law.yield_penetration
+    assert first.restitution == first.result.restitution
+    assert first.result.energy_residual < 1e-4
+    on_impedance = simulate_bounces(copper, SMALL, surface="auto", **run)[0]
+    assert first.restitution == pytest.approx(on_impedance.restitution, abs=1e-2)
+    assert first.restitution < plastic_restitution(first.speed, v_y)
+    ideal = simulate_bounces(copper, SMALL, surface="ideal", **run, **modal)[0]
     assert ideal.restitution == ideal.result.restitution
+    assert ideal.result.law_yield_penetration == math.inf
 
 
 @pytest.mark.parametrize("bad", [-1e-6, 0.0, float("nan"), float("inf"), "1e-6"])

@@ -236,11 +236,6 @@ def false_missed_bounces(ticks, hit: list[int | None]) -> list[int]:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="not yet, with the materials' contact losses: seed 8 flags a missed bounce over "
-    "consecutive impacts",
-)
 def test_random_scenes():
     # every reported tick is a real impact, every impact that stands out is found, no
     # restitution over consecutive impacts is flagged as spanning a missed bounce

@@ -9,11 +9,10 @@ appendix A.2 of the thesis, docs/physics.md, References)::
 
 Each impact is solved from first principles at its own speed (restitution
 depends on speed). In the measured contact models (a Hertz contact on any surface but the
-thesis' "ideal") an impact faster than the pair's yield speed ``V_y`` also loses Thornton's
-plastic share: it rebounds at ``e(v) e_p(v / V_y)``
-(:func:`synth.physics.contact_law.model_yield_speed`, docs/physics.md, "Yield of the
-contact"). The series would go on forever (Zeno); it ends by the first
-of these rules, named in :attr:`BounceSequence.stop_reason`:
+thesis' "ideal") an impact faster than the pair's yield speed flows plastically inside the
+contact law (docs/physics.md, "Yield of the contact";
+:func:`synth.physics.contact_law.model_yield_speed`). The series would go on forever
+(Zeno); it ends by the first of these rules, named in :attr:`BounceSequence.stop_reason`:
 
 * ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
   before the top of its flight (physical: it rests on the plate);
@@ -43,7 +42,6 @@ from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
-from synth.physics.contact_law import model_yield_speed, plastic_rebound
 from synth.physics.scene import Ball, Plate, Scene
 
 STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
@@ -307,25 +305,12 @@ def simulate_bounces(
     t = math.sqrt(2.0 * h0 / g)
     v = math.sqrt(2.0 * g * h0)
     series = _Series(solver, pos, v, g, o)
-    v_yield = _model_yield_speed(ball, plate, contact_law, contact_options, o)
-    if v_yield is not None:
-        # the impacts fast enough to yield, one by one with Thornton's plastic loss
-        t, v = series.run(t, v, plastic_rebound(v_yield), faster_than=v_yield)
-    if series.reason is None and o.rebound is None:
+    if o.rebound is None:
         # the elastic rest in one compiled call, as far as it serves (ContactSolver.solve_drop)
         t, v = series.compiled(t, v)
     if series.reason is None:
         t, v = series.run(t, v, o.rebound)
     return BounceSequence(tuple(series.impacts), series.reason or "max-impacts", h0, g)
-
-
-def _model_yield_speed(ball, plate, law, contact_options: dict, o: BounceOptions) -> float | None:
-    """The yield speed (m/s) of the contact model's plastic loss
-    (:func:`~synth.physics.contact_law.model_yield_speed`); None with a rebound rule, which
-    replaces the physical restitution, plastic loss included."""
-    if o.rebound is not None:
-        return None
-    return model_yield_speed(ball, plate, law, contact_options.get("surface", "ideal"))
 
 
 class _Series:
@@ -433,14 +418,11 @@ def _modal_bounces(
         **contact_options,
     )  # fmt: skip
     state = contact.at_rest()
-    v_yield = _model_yield_speed(ball, plate, law, contact_options, o)
-    plastic = plastic_rebound(v_yield)
     impacts = []
     reason = None
     while len(impacts) < o.max_impacts:
         res = contact.solve(v, state, n_points=o.n_points)
-        # a rebound rule, or Thornton's plastic loss on an impact that yields
-        rule = plastic if o.rebound is None and v_yield is not None and v > v_yield else o.rebound
+        rule = o.rebound
         e = res.restitution if rule is None else rule(res, v)
         ruled = None if rule is None else (0.0 if res.settled else max(e, 0.0))
         impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))

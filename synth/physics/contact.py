@@ -37,7 +37,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
-from synth.physics.contact_law import ShellLaw, contact_parameters
+from synth.physics.contact_law import ShellLaw, check_yield_penetration, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
 from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
 from synth.physics.contact_result import (
@@ -197,6 +197,16 @@ def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_tim
     return A
 
 
+def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
+    """The yield penetration ``delta_y`` (m) for the kernels, or None where no impact
+    approached at ``v0`` (m/s) or slower can reach it
+    (:func:`~synth.physics.contact_kernels.yield_reachable`): numba then runs the kernels
+    compiled without the yield, the elastic law's own code."""
+    if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v0):
+        return None
+    return delta_y
+
+
 def _check_points(n_points) -> int:
     """``n_points`` as an int >= :data:`MIN_POINTS`, or ``ParameterError``."""
     if (
@@ -211,10 +221,12 @@ def _check_points(n_points) -> int:
     return int(n_points)
 
 
-def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None):
+def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None, delta_y=_INF):
     """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name);
     with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
-    (``K, n, mu, A`` and ``method`` are then its own and unused)."""
+    (``K, n, mu, A`` and ``method`` are then its own and unused); ``delta_y``: the yield
+    penetration, m (:attr:`~synth.physics.contact_law.ContactLaw.yield_penetration`)."""
+    delta_y = _kernel_yield(delta_y, m, K, g, beta, v_in + v_free)
     if shell is not None:
         return solve_shell(m, shell, beta, v_in, g, v_free, tol * TOLERANCE_SAFETY, n_points)
     r, hist = _k.impact(
@@ -226,6 +238,7 @@ def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=N
         n,
         mu,
         A,
+        delta_y,
         v_free,
         tol * TOLERANCE_SAFETY,
         _METHODS[method],
@@ -249,6 +262,7 @@ def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
         r[_k.R_THETA],
         r[_k.R_F_SCALE],
         n_points,
+        None if r[_k.R_XY] == _INF else r[_k.R_XY],
     )
     return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
@@ -323,6 +337,12 @@ def solve_impact(
     )
     K, n, mu, A = law.stiffness, law.exponent, law.dissipation, law.viscous_time
     beta = 1.0 / impedance.infinite_plate_impedance(plate)
+    if law.yield_penetration != _INF:
+        solver = ContactSolver.for_pair(
+            ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
+            surface=surface,
+        )  # fmt: skip
+        return solver.solve(speed, position=position, free_velocity=plate_velocity)
     if law.shell is not None:
         solver = ContactSolver(
             ball.mass, K, n, 0.0, gravity, rtol, n_points, plate, "auto", A, shell=law.shell
@@ -368,7 +388,7 @@ EDGE_ITERATIONS = 80
 
 def _solve_at(
     plate, x, y, m, K, v_in, g, n, mu, A, v_free, tol, n_points, first=None, beta_inf=None,
-    shell=None,
+    shell=None, delta_y=_INF,
 ):  # fmt: skip
     """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
     :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
@@ -380,7 +400,9 @@ def _solve_at(
     result = (
         first
         if first is not None
-        else _solve(m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell)
+        else _solve(
+            m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell, delta_y
+        )
     )
     if plate.boundary != "free" or not result.success:
         return result
@@ -423,7 +445,9 @@ def _solve_at(
             )
         # fixed-point step while it stays inside the bracket and contracts; else bisect
         beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
-        result = _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell)
+        result = _solve(
+            m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell, delta_y
+        )
         if not result.success:
             return result
         target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
@@ -483,7 +507,10 @@ class ContactSolver:
         Integrator.
     shell : ShellLaw or None
         A hollow ball's thin-shell law (:func:`synth.physics.contact_law.shell_law`), which
-        then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1)."""
+        then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1).
+    yield_penetration : float
+        The penetration (m, > 0; inf: none) past which the Hertz contact yields
+        (:attr:`synth.physics.contact_law.ContactLaw.yield_penetration`; exponent 1.5)."""
 
     mass: float
     stiffness: float
@@ -496,6 +523,7 @@ class ContactSolver:
     method: str = "auto"
     viscous_time: float = 0.0
     shell: ShellLaw | None = None
+    yield_penetration: float = _INF
 
     def __post_init__(self):
         if self.shell is not None:
@@ -516,6 +544,9 @@ class ContactSolver:
             method=checks.choice("method", self.method, _METHODS),
         )
         checked["viscous_time"] = _check_viscous_time(self.viscous_time, checked["exponent"])
+        checked["yield_penetration"] = check_yield_penetration(
+            self.yield_penetration, checked["exponent"]
+        )
         if self.plate is not None and not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
         for key, value in checked.items():
@@ -589,6 +620,7 @@ class ContactSolver:
             method,
             c.viscous_time,
             c.shell,
+            c.yield_penetration,
         )
 
     def solve_drop(
@@ -619,7 +651,12 @@ class ContactSolver:
         announce("contact")
         count, end, t, v, results, times, speeds, hists, rows = _k.impacts_explicit(
             self.mass, self.stiffness, self._beta_inf, self.gravity, self.exponent,
-            self.dissipation, self.viscous_time, 0.0, self.rtol * TOLERANCE_SAFETY,
+            self.dissipation, self.viscous_time,
+            _kernel_yield(
+                self.yield_penetration, self.mass, self.stiffness, self.gravity,
+                self._beta_inf, float(speed),
+            ),
+            0.0, self.rtol * TOLERANCE_SAFETY,
             method == "auto", float(speed), float(start), float(energy_floor),
             float(max_duration), take, tau_edge, ENERGY_RESIDUAL_LIMIT,
         )  # fmt: skip
@@ -683,6 +720,7 @@ class ContactSolver:
                 self.n_points,
                 self.method,
                 self.shell,
+                self.yield_penetration,
             )
         if self.plate is None:
             raise ParameterError("a ContactSolver without a plate needs admittance (m/(N s))")
@@ -701,6 +739,7 @@ class ContactSolver:
                 self.n_points,
                 self.method,
                 self.shell,
+                self.yield_penetration,
             )
         x, y = self.plate.check_position(position, "position")
         return _solve_at(
@@ -719,4 +758,5 @@ class ContactSolver:
             self.n_points,
             beta_inf=self._beta_inf,
             shell=self.shell,
+            delta_y=self.yield_penetration,
         )

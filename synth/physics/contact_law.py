@@ -65,6 +65,9 @@ class ContactLaw:
         Hunt-Crossley ``mu``, s/m (0: none).
     viscous_time : float
         The viscoelastic Hertz contact's dissipative time ``A``, s (0: none).
+    yield_penetration : float
+        The penetration ``delta_y`` (m) past which the Hertz contact flows plastically
+        (:func:`yield_penetration`; inf: elastic at every speed).
     """
 
     stiffness: float
@@ -72,6 +75,7 @@ class ContactLaw:
     dissipation: float = 0.0
     viscous_time: float = 0.0
     shell: ShellLaw | None = None
+    yield_penetration: float = math.inf
 
 
 #: Pogorelov's constant of the flattened spherical shell with its inverted (mirror-buckled)
@@ -348,18 +352,24 @@ def contact_parameters(
         )
         fit = contact_surface(plate.material)
         if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
+            K = hertz_stiffness(ball, plate, fit.transverse_ratio)
             return ContactLaw(
-                hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, fit.dissipation
+                K, 1.5, fit.dissipation, yield_penetration=yield_penetration(ball, plate, K)
             )
         A = fitted_viscous_time(ball, plate, fit)
-        return ContactLaw(hertz_stiffness(ball, plate, fit.transverse_ratio), 1.5, viscous_time=A)
+        K = hertz_stiffness(ball, plate, fit.transverse_ratio)
+        return ContactLaw(
+            K, 1.5, viscous_time=A, yield_penetration=yield_penetration(ball, plate, K)
+        )
     if surface == "material":
         _check_surface_alone(
             surface, contact, given, "the materials' loss is a viscoelastic Hertz contact's"
         )
+        K = hertz_stiffness(ball, plate)
         return ContactLaw(
-            hertz_stiffness(ball, plate), 1.5, viscous_time=material_viscous_time(ball, plate)
-        )
+            K, 1.5, viscous_time=material_viscous_time(ball, plate),
+            yield_penetration=yield_penetration(ball, plate, K),
+        )  # fmt: skip
     allowed = {
         "hertz": (),
         "hunt-crossley": ("dissipation",),
@@ -497,19 +507,56 @@ def plastic_restitution(speed: float, v_yield: float | None) -> float:
     return shape * (r / (r + 2.0 * math.sqrt(6.0 / 5.0 - r * r / 5.0))) ** 0.25
 
 
+def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
+    """The penetration ``delta_y = R (pi p_y / (2 E*))^2`` (m) at which the peak pressure
+    ``p_0 = 2 E* a / (pi R)`` of the Hertz contact of stiffness ``K = 4/3 E* R^(1/2)``
+    (``stiffness``, N/m^1.5, the law's own ``E*``) reaches :func:`yield_pressure`, ``a =
+    (R delta)^(1/2)`` (C. Thornton, J. Appl. Mech. 64 (1997) 383): the elastic impact on a
+    rigid flat reaches it at :func:`yield_speed`. Past it the contact kernels load and
+    unload by Thornton's elastic-perfectly plastic law
+    (``synth.physics.contact_kernels.equations.yield_law``). inf without a yield stress."""
+    p_y = yield_pressure(ball, plate)
+    if p_y is None:
+        return math.inf
+    R = ball.radius
+    e_star = 0.75 * stiffness / math.sqrt(R)
+    return R * (math.pi * p_y / (2.0 * e_star)) ** 2
+
+
+def check_yield_penetration(value, exponent: float) -> float:
+    """``value`` as a yield penetration (m, > 0; inf: none) of the law of ``exponent``, or
+    ``ParameterError`` naming ``yield_penetration``: Thornton's yield is the Hertz law's
+    (exponent 1.5)."""
+    if value == math.inf:
+        return math.inf
+    d = checks.positive("yield_penetration", value, "m")
+    if exponent != 1.5:
+        raise ParameterError(
+            f"yield_penetration={value!r} with exponent={exponent!r}: the yield applies to "
+            f"the Hertz exponent 1.5 only"
+        )
+    return d
+
+
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
-    """The yield speed ``V_y`` (m/s, :func:`yield_speed`) that the bounce scheduler applies
-    to the impacts of ``ball`` on ``plate`` under ``law`` (None: the ball's own,
-    :func:`own_law`) and ``surface`` (:data:`~synth.physics.scene.SURFACE_MODELS`): the
-    measured surfaces ("material", "fitted", "auto") of the Hertz law carry the materials'
-    yield as they carry their loss factors; the thesis' lossless half-spaces ("ideal"),
-    the other laws (which carry their own loss) and a hollow ball's shell do not (None)."""
+    """The yield speed ``V_y`` (m/s, :func:`yield_speed`) of the impacts of ``ball`` on
+    ``plate`` under ``law`` (None: the ball's own, :func:`own_law`) and ``surface``
+    (:data:`~synth.physics.scene.SURFACE_MODELS`): the measured surfaces ("material",
+    "fitted", "auto") of the Hertz law carry the materials' yield in their law
+    (:attr:`ContactLaw.yield_penetration`) as they carry their loss factors; the thesis'
+    lossless half-spaces ("ideal"), the other laws and a hollow ball's shell do not (None).
+    The speed is that of the law's own Hertz contact on a rigid flat, ``1/2 m V_y^2 = (2/5) K
+    delta_y^(5/2)``: :func:`yield_speed` on a surface of the plate's material, higher on a
+    fitted surface softer than it (a lower pressure at the same force)."""
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or surface == "ideal":
         return None
     if (own_law(ball) if law is None else law) != "hertz":
         return None
-    return yield_speed(ball, plate)
+    c = contact_parameters(ball, plate, "hertz", surface=surface)
+    if c.yield_penetration == math.inf:
+        return None
+    return math.sqrt(0.8 * c.stiffness * c.yield_penetration**2.5 / ball.mass)
 
 
 def yield_rebound(ball: Ball, plate: Plate):
@@ -518,9 +565,9 @@ def yield_rebound(ball: Ball, plate: Plate):
     impact: ``e' = e(v) plastic_restitution(v, V_y)``, ``e(v)`` the contact solver's
     restitution and ``V_y`` :func:`yield_speed` of the pair. The two losses are taken
     as independent (their energy ratios multiply); the force pulse stays the solver's
-    elastic one (docs/physics.md, "Yield of the contact"). The measured contact models
-    apply this loss without a rule (:func:`model_yield_speed`); the rule gives it to
-    another surface, e.g. the thesis' "ideal" one."""
+    elastic one. The measured contact models carry the yield in their law instead
+    (:attr:`ContactLaw.yield_penetration`); the rule gives a restitution factor to another
+    surface, e.g. the thesis' "ideal" one, and to the modal plate's contact."""
     return plastic_rebound(yield_speed(ball, plate))
 
 

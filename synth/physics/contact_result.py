@@ -50,7 +50,8 @@ class DenseOutput(NamedTuple):
     the step history of the kernels, the integrator (``radau``), the dimensionless
     parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
     ``s_contact``) and the
-    scales back to SI units (``theta``, s; ``f_scale``, N)."""
+    scales back to SI units (``theta``, s; ``f_scale``, N); ``xy`` the yield penetration
+    over ``theta v0`` (None: an elastic contact; ``contact_kernels.equations.force``)."""
 
     hist: np.ndarray
     radau: bool
@@ -63,6 +64,7 @@ class DenseOutput(NamedTuple):
     theta: float
     f_scale: float
     n_points: int
+    xy: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,6 +182,7 @@ class ImpactResult:
             d.n,
             d.c,
             d.b,
+            d.xy,
             d.s_contact,
             self.status == _k.SEPARATED,
             d.theta,
@@ -221,7 +224,7 @@ class ImpactResult:
         call on the Hertz-family dense output."""
         d = self._dense
         _k.pulse_force_slope(
-            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, d.theta, d.f_scale,
+            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, d.theta, d.f_scale,
             step, points, offset, period, samples, out,
         )  # fmt: skip
 
@@ -238,7 +241,9 @@ class ImpactResult:
         """Force (N) into ``out`` and its rate (N/s) into ``slope`` at the dimensionless
         times ``s`` (s / theta): the dense output's, scaled to SI units."""
         d = self._dense
-        _k.force_slope_at(d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.s_contact, s, out, slope)
+        _k.force_slope_at(
+            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact, s, out, slope
+        )
         out *= d.f_scale
         slope *= d.f_scale / d.theta
 

@@ -93,7 +93,7 @@ def rates(z, vy, s, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - 
     e, ep, _ = envelope_at(env, dx, s)
     delta = e - z
     w = ep * v - vy
-    f, a = force(delta, w, beta * K, n, mu, b)
+    f, a = force(delta, w, beta * K, n, mu, b, None, 0.0)  # no yield (equations.force)
     F = K * f
     drive = F * ep * v
     return (

@@ -27,6 +27,7 @@ from synth.physics.contact_kernels.dense import (
     H_T0,
     H_W0,
     H_X0,
+    H_XM,
     PEAK_PENETRATION,
     RADAU_STEPS,
     SETTLING,
@@ -42,9 +43,12 @@ from synth.physics.contact_kernels.equations import (
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
+    elastic_part,
     force,
     penetration_rate,
     power,
+    yield_law,
+    yield_potential,
 )
 from synth.physics.contact_kernels.outcome import (
     N_RESULT,
@@ -69,6 +73,7 @@ from synth.physics.contact_kernels.outcome import (
     R_THETA,
     R_TINY_REBOUND,
     R_XT,
+    R_XY,
     impact_row,
 )
 from synth.physics.contact_kernels.radau import integrate_radau
@@ -104,6 +109,7 @@ __all__ = [
     "R_THETA",
     "R_TINY_REBOUND",
     "R_XT",
+    "R_XY",
     "SEPARATED",
     "SETTLED",
     "STEP_TOO_SMALL",
@@ -116,6 +122,7 @@ __all__ = [
     "impacts_explicit",
     "pulse",
     "solve",
+    "yield_reachable",
 ]
 
 # The solver's settings, constants of the compiled ``impact`` rather than arguments: each
@@ -139,11 +146,12 @@ RADAU = 2
 
 
 @compiled(inline="always")
-def start(lam, G, n, c, b, rtol):
+def start(lam, G, n, c, b, xy, rtol):
     """The series start of a contact (``series.py``) and a new dense-output history whose
-    row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist)."""
+    row 0 is the series: returns (series S, s1, x1, w1, I2, loss, hist). The series is of
+    the elastic law: it ends before the yield penetration ``xy`` (``x <= (1 + G) s``)."""
     S = new_series(b)
-    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S)
+    s1, x1, w1, i2, loss = series_start(lam, G, n, c, b, rtol, S, series_limit(xy, G))
     # zeros, not empty: a row fills only its method's columns (row 0, the series, none of
     # the coefficients), and the history is returned whole; uninitialised columns would
     # carry whatever the heap held, which differs between processes
@@ -156,31 +164,33 @@ def start(lam, G, n, c, b, rtol):
 
 
 @compiled(inline="always")
-def solve_explicit(lam, G, n, c, b, rtol, atol, max_steps):
+def solve_explicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
     """``solve`` by DOP853 (its result)."""
-    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
+    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
     # The series' validity ends at s1 like a step's: the next step is of the same length.
     status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
-        lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
     return finish(
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b
-    )
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b,
+        xy,
+    )  # fmt: skip
 
 
 @compiled(inline="always")
-def solve_implicit(lam, G, n, c, b, rtol, atol, max_steps):
+def solve_implicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
     """``solve`` by Radau IIA (its result)."""
-    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, rtol)
+    S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
     status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
-        lam, G, n, c, b, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
+        lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
     return finish(
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b
-    )
+        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b,
+        xy,
+    )  # fmt: skip
 
 
-def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
+def solve(lam, G, n, c, b, xy, rtol, atol, max_steps, stiff):
     """Integrate one contact and find its peak: by Radau IIA if ``stiff``, else by DOP853
     (two kernels, so that a scene compiles only the integrator it uses).
 
@@ -194,27 +204,30 @@ def solve(lam, G, n, c, b, rtol, atol, max_steps, stiff):
     recompute).
     """
     integrate = solve_implicit if stiff else solve_explicit
-    return integrate(lam, G, n, c, b, rtol, atol, max_steps)
+    return integrate(lam, G, n, c, b, xy, rtol, atol, max_steps)
 
 
 @compiled(inline="always")
-def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b):
+def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b, xy):
     """The end of contact, peak penetration and force of an integrated contact (``hist``
-    its dense output of ``nh`` rows, by Radau IIA if ``radau``): the result of ``solve``."""
+    its dense output of ``nh`` rows, by Radau IIA if ``radau``; ``xy`` the yield
+    penetration): the result of ``solve``."""
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
-        s_end = event_root(hist, S, nh - 1, radau, END_OF_CONTACT, lam, G, n, c, b, 0.0)
+        s_end = event_root(hist, S, nh - 1, radau, END_OF_CONTACT, lam, G, n, c, b, xy, 0.0)
         x_end, w_end = dense_state(hist, S, nh - 1, s_end, radau, n, b)
         x_end = 0.0
         s_contact = s_end
     elif status == SETTLED:
         s_contact = event_root(
-            hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, 0.5 * (lam * G) ** 2
+            hist, S, nh - 1, radau, SETTLING, lam, G, n, c, b, xy, 0.5 * (lam * G) ** 2
         )
     s_force = s_contact
-    if status == SEPARATED and (c != 0.0 or b != 0.0):
-        s_force = min(force_end(hist, S, nh, radau, lam, G, n, c, b), s_contact)
+    # a loss, or a yield (the unloading force ends at the residual penetration), ends the
+    # force before the contact
+    if status == SEPARATED and (c != 0.0 or b != 0.0 or yield_value(xy) != math.inf):
+        s_force = min(force_end(hist, S, nh, radau, lam, G, n, c, b, xy), s_contact)
     # peak penetration and force: bracket by step ends, refine on the dense output
     ibest = 0
     vbest = -1.0
@@ -228,26 +241,27 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
     for k in (ibest - 1, ibest):
         if k < 0 or k >= nh:
             continue
-        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
+        xm = hist[k, H_XM]
+        g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, xm)
         xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n, b)
-        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b) <= 0.0:
+        if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b, xy, xm) <= 0.0:
             xr, _ = dense_state(
                 hist,
                 S,
                 k,
-                event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, 0.0),
+                event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, xy, 0.0),
                 radau,
                 n,
                 b,
             )
             x_max = max(x_max, xr)
     if c == 0.0 and b == 0.0:
-        f_max = power(x_max, n) if x_max > 0.0 else 0.0
+        f_max = elastic_part(x_max, n, xy, 0.0)[0] if x_max > 0.0 else 0.0
     else:
         ibest = 0
         vbest = -1.0
         for k in range(nh):
-            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
+            fk, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, hist[k, H_XM])
             if fk > vbest:
                 vbest = fk
                 ibest = k
@@ -255,7 +269,7 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
         hi = min(hist[ibest, H_T0] + hist[ibest, H_H], s_contact)
         if ibest + 1 < nh:
             hi = min(hist[ibest + 1, H_T0] + hist[ibest + 1, H_H], s_contact)
-        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, b, 1), vbest)
+        f_max = max(golden_max(hist, S, nh, lo, hi, radau, lam, n, c, b, xy, 1), vbest)
     return (
         status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nh - 1, nrej,
         hist[:nh],
@@ -263,7 +277,7 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
 
 
 @compiled()
-def force_end(hist, S, nh, radau, lam, G, n, c, b):
+def force_end(hist, S, nh, radau, lam, G, n, c, b, xy):
     """The end of a lossy contact's force pulse (dimensionless): the last time the force
     falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
     and with it the contact, lasts a little longer: the ball moves apart from a surface
@@ -273,11 +287,11 @@ def force_end(hist, S, nh, radau, lam, G, n, c, b):
     as a literal and compile it (and ``dense_state``) once more."""
     k = nh - 1
     while k > 0:
-        f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b)
+        f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, hist[k, H_XM])
         if f > 0.0:
             break
         k -= 1
-    return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, 0.0)
+    return event_root(hist, S, k, radau, FORCE_END, lam, G, n, c, b, xy, 0.0)
 
 
 #: How a bounce series ends (:func:`bounce_end`'s codes are indices into it; the names of
@@ -357,8 +371,8 @@ def _grown(results, times, speeds, rows, used, size):
 
 @compiled()
 def impacts_explicit(
-    m, K, beta, g, n, mu, A, v_free, rtol, auto, v1, t1, energy_floor, t_max, max_impacts,
-    tau_edge, residual_limit,
+    m, K, beta, g, n, mu, A, delta_y, v_free, rtol, auto, v1, t1, energy_floor, t_max,
+    max_impacts, tau_edge, residual_limit,
 ):  # fmt: skip
     """The impacts of a drop on the plate's impedance by DOP853, strung together by
     :func:`bounce_end` in one compiled call (``max_impacts = 1``: ``impact``'s explicit path).
@@ -386,15 +400,15 @@ def impacts_explicit(
     while count < max_impacts:
         # the automatic choice takes Radau IIA above STIFF_LAMBDA, or where DOP853 reaches
         # its step limit: the caller's
-        v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v, g, n, mu, A, v_free)
+        v0, theta, lam, G, c, b, xy, f_scale = scales(m, K, beta, v, g, n, mu, A, delta_y, v_free)
         if auto and lam > STIFF_LAMBDA:
             end = END_HANDED_OVER
             break
-        out = solve_explicit(lam, G, n, c, b, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
+        out = solve_explicit(lam, G, n, c, b, xy, rtol, rtol * ABSOLUTE_FACTOR, EXPLICIT_STEP_LIMIT)
         if auto and out[0] == MAX_STEPS:
             end = END_HANDED_OVER
             break
-        r, hist = result(out, DOP853_STEPS, m, v, v0, theta, lam, G, n, c, b, f_scale)
+        r, hist = result(out, DOP853_STEPS, m, v, v0, theta, lam, G, n, c, b, xy, f_scale)
         status = r[R_STATUS]
         success = status >= 0.0 and r[R_ENERGY_RESIDUAL] <= residual_limit
         if success and r[R_CONTACT_TIME] >= tau_edge:
@@ -434,53 +448,83 @@ def impacts_explicit(
     )  # fmt: skip
 
 
-def impact(m, K, beta, v_in, g, n, mu, A, v_free, rtol, method):
+def impact(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol, method):
     """One impact from lumped parameters (SI units, checked by the caller): the equations scaled
     by Zener's time ``theta`` and length ``theta v0`` (``v0 = v_in + v_free``), integrated by
     DOP853 or Radau IIA (``method``: AUTO takes Radau above ``STIFF_LAMBDA`` or after
     ``EXPLICIT_STEP_LIMIT`` explicit steps), with the energy balance. ``rtol`` is the local
     tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one. Returns ``(result, hist)``: the
     ``N_RESULT`` fields ``R_*`` and the dense output ``pulse`` and ``force_slope_at`` read. The
-    two methods are two kernels so a scene compiles only the one it uses."""
+    two methods are two kernels so a scene compiles only the one it uses. ``delta_y``: the
+    penetration (m) at which the contact yields (``equations.yield_law``), or None: the
+    elastic law, compiled without the yield (``equations.force``)."""
     if method != RADAU:
         announce("contact")
         count, _, _, _, results, _, _, hists, _ = impacts_explicit(
-            m, K, beta, g, n, mu, A, v_free, rtol, method == AUTO, v_in, 0.0, 0.0, math.inf, 1,
-            math.inf, math.inf,
+            m, K, beta, g, n, mu, A, delta_y, v_free, rtol, method == AUTO, v_in, 0.0, 0.0,
+            math.inf, 1, math.inf, math.inf,
         )  # fmt: skip
         if count:
             return results[0], hists
     announce("stiff-contact")
-    return impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol)
+    return impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol)
 
 
 @compiled(inline="always")
-def scales(m, K, beta, v_in, g, n, mu, A, v_free):
-    """The scales of ``impact``: (v0, theta, lam, G, c, b, f_scale)."""
+def scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free):
+    """The scales of ``impact``: (v0, theta, lam, G, c, b, xy, f_scale)."""
     v0 = v_in + v_free
     theta = (m / (K * v0 ** (n - 1.0))) ** (1.0 / (n + 1.0))
     lam = beta * m / theta
     G = g * theta / v0
     c = mu * v0
     b = 1.5 * A / theta
-    return v0, theta, lam, G, c, b, m * v0 / theta
+    return v0, theta, lam, G, c, b, scaled_yield(delta_y, K, m, g, beta, v0, theta), m * v0 / theta
 
 
 @compiled()
-def impact_implicit(m, K, beta, v_in, g, n, mu, A, v_free, rtol):
+def scaled_yield(delta_y, K, m, g, beta, v0, theta):
+    """The yield penetration over the length scale ``theta v0`` (m over m): None without a
+    yield (``delta_y`` None, the kernels compiled without it), inf where this impact cannot
+    reach it (:func:`yield_reachable`)."""
+    if delta_y is None:
+        return None
+    if not yield_reachable(delta_y, K, m, g, beta, v0):
+        return math.inf
+    return delta_y / (theta * v0)
+
+
+@compiled()
+def yield_reachable(delta_y, K, m, g, beta, v0):
+    """Whether a Hertz contact of stiffness ``K`` (N/m^1.5) of a ball of mass ``m`` (kg)
+    under gravity ``g`` (m/s^2), on a plate of admittance ``beta`` (m/(N s)), approached at
+    ``v0`` (m/s), can reach the penetration ``delta_y`` (m): the settling function ``W =
+    u^2 / 2 + x^(5/2) / (5/2) - G x`` (``equations.py``) never increases from ``(lam G -
+    1)^2 / 2``, in SI units ``(2/5) K delta^(5/2) - m g delta <= m (v0 - beta m g)^2 / 2``,
+    which bounds the penetration past the static one ``(m g / K)^(2/3)``, where the left
+    side grows."""
+    if not delta_y > (m * g / K) ** (2.0 / 3.0):
+        return True
+    left = 0.4 * K * delta_y * delta_y * math.sqrt(delta_y) - m * g * delta_y
+    return left <= 0.5 * m * (v0 - beta * m * g) ** 2
+
+
+@compiled()
+def impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol):
     """``impact`` by Radau IIA."""
-    v0, theta, lam, G, c, b, f_scale = scales(m, K, beta, v_in, g, n, mu, A, v_free)
+    v0, theta, lam, G, c, b, xy, f_scale = scales(m, K, beta, v_in, g, n, mu, A, delta_y, v_free)
     atol = rtol * ABSOLUTE_FACTOR
-    out = solve_implicit(lam, G, n, c, b, rtol, atol, IMPLICIT_STEP_LIMIT)
-    return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, f_scale)
+    out = solve_implicit(lam, G, n, c, b, xy, rtol, atol, IMPLICIT_STEP_LIMIT)
+    return result(out, RADAU_STEPS, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale)
 
 
 @compiled(inline="always")
-def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
+def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
     """The result array of ``impact`` from ``solve``'s result ``out`` and the scales
-    (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields)."""
+    (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields;
+    a yielded contact's on its unloading branch from the peak penetration)."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
-    elastic = x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
+    elastic = end_energy(x_end, n, xy, x_max)
     r = impact_row(
         status, w_end, x_end, elastic, s_end, s_force, s_contact, i2, loss, x_max * theta * v0,
         f_max, nst, m, v_in, v0, theta, lam, G, f_scale,
@@ -488,17 +532,18 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, f_scale):
     r[R_STIFF] = 1.0 if stiff else 0.0
     r[R_C] = c
     r[R_B] = b
+    r[R_XY] = yield_value(xy)
     return r, hist
 
 
 @compiled()
-def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, times, forces):
-    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b) at
+def pulse(hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces):
+    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b, xy) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
     S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
-    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, s_contact, times, forces)
+    sample_pulse(hist, S, hist.shape[0], radau, lam, n, c, b, xy, s_contact, times, forces)
     times *= t_scale
     forces *= f_scale
     if separated:
@@ -508,7 +553,7 @@ def pulse(hist, radau, lam, G, n, c, b, s_contact, separated, t_scale, f_scale, 
 
 @compiled()
 def pulse_force_slope(
-    hist, radau, lam, G, n, c, b, s_contact, theta, f_scale, step, points, offset, period,
+    hist, radau, lam, G, n, c, b, xy, s_contact, theta, f_scale, step, points, offset, period,
     samples, out,
 ):  # fmt: skip
     """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` (their first
@@ -524,7 +569,7 @@ def pulse_force_slope(
         s[points + m] = (offset + m * period) / theta
     forces = out[0, :total]
     slopes = out[1, :total]
-    force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, forces, slopes)
+    force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, forces, slopes)
     rate = f_scale / theta
     for i in range(total):
         forces[i] *= f_scale
@@ -532,16 +577,58 @@ def pulse_force_slope(
 
 
 @compiled()
-def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
+def series_limit(xy, G):
+    """The latest end of the series start (dimensionless): before the yield penetration
+    ``xy`` (``x <= (1 + G) s``), inf without a yield (None)."""
+    if xy is None:
+        return math.inf
+    return xy / (1.0 + G)
+
+
+@compiled()
+def yield_value(xy):
+    """The yield penetration ``xy`` as a float: inf for None (no yield)."""
+    if xy is None:
+        return math.inf
+    return xy
+
+
+@compiled()
+def end_energy(x_end, n, xy, x_max):
+    """The elastic energy (dimensionless) at the end penetration ``x_end``: the power
+    law's, or a yielded contact's on its unloading branch from the peak ``x_max``."""
+    if xy is not None:
+        if xy != math.inf:
+            return yield_potential(x_end, xy, x_max if x_max > xy else 0.0)
+    return x_end * power(x_end, n) / (n + 1.0) if x_end > 0.0 else 0.0
+
+
+@compiled()
+def _rates(x, w, f, lam, n, xy, xm):
+    """``force_slope_at``'s ``(x', a', r, r')``: the penetration rate, the rates of the
+    elastic force ``a`` and of the viscous factor ``r`` (``equations.yield_law``'s with a
+    finite yield penetration ``xy``), and ``r``."""
+    dx = w - lam * f
+    if xy is not None:
+        if xy != math.inf:
+            _, r, ax, rx = yield_law(x, xy, xm)
+            return dx, ax * dx, r, rx * dx
+    r = math.sqrt(x)
+    return dx, n * power(x, n - 1.0) * dx, r, 0.5 * dx / r
+
+
+@compiled()
+def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of ``solve`` (same lam, G, n, c, b), 0 outside ``[0, s_contact]``, into
+    output ``hist`` of ``solve`` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
     ``out``; its rate of change ``df/ds`` into ``slope``.
 
     ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
     ``a' = n x^(n-1) x'``, ``r = x^(1/2)``, ``r' = x' / (2 r)``. Hertz and power laws:
     ``f' = a'``. With a loss: ``f = N / D``, ``N = a (1 + c w) + b r w``, ``D = 1 + c lam a
     + b lam r``, so ``f' = (a' (1 + c w) + a c w' + b (r' w + r w')) / D - f lam (c a' +
-    b r') / D`` (0 where f is clipped at 0).
+    b r') / D`` (0 where f is clipped at 0); with a yield ``a`` and ``r`` are
+    ``equations.yield_law``'s, ``a' = a_x x'`` and ``r' = r_x x'``.
     """
     S = new_series(b)
     series_coefficients(lam, G, n, c, b, S)
@@ -554,21 +641,19 @@ def force_slope_at(hist, radau, lam, G, n, c, b, s_contact, s, out, slope):
             continue
         k = find_step(hist, nh, si)
         x, w = dense_state(hist, S, k, si, radau, n, b)
-        f, a = force(x, w, lam, n, c, b)
+        xm = hist[k, H_XM]
+        f, a = force(x, w, lam, n, c, b, xy, xm)
         out[i] = f
         if x <= 0.0 or f <= 0.0:
             slope[i] = 0.0
             continue
-        dx = w - lam * f
-        da = n * power(x, n - 1.0) * dx
+        dx, da, r, dr = _rates(x, w, f, lam, n, xy, xm)
         if c == 0.0 and b == 0.0:
             slope[i] = da
         elif b == 0.0:
             D = 1.0 + c * lam * a
             slope[i] = (da * (1.0 + c * w) + a * c * (G - f)) / D - f * c * lam * da / D
         else:
-            r = math.sqrt(x)
-            dr = 0.5 * dx / r
             D = 1.0 + c * lam * a + b * lam * r
             N_rate = da * (1.0 + c * w) + a * c * (G - f) + b * (dr * w + r * (G - f))
             slope[i] = (N_rate - f * lam * (c * da + b * dr)) / D

@@ -24,13 +24,16 @@ from synth.physics.contact_kernels.equations import (
     positive_power,
     power,
     settling_energy,
+    unloading_branch,
+    yield_law,
 )
 from synth.physics.contact_kernels.series import series_eval, series_x
 
 # Columns of the dense-output history, one row per accepted step (row 0: the series).
 H_T0, H_H, H_X0, H_W0 = 0, 1, 2, 3
 H_COEF = 4  # DOP853: F[0..6] for x then w (14); Radau: Q[x,0..2], Q[w,0..2] (6)
-H_COLS = H_COEF + 14
+H_XM = H_COEF + 14  # the largest penetration before the step (0 while loading), the yield's
+H_COLS = H_COEF + 15
 
 
 @compiled()
@@ -102,6 +105,34 @@ def hermite_root(x0, x1, d0, d1):
 
 
 @compiled()
+def yield_fraction(x0, x1, d0, d1, xy, xm, xp):
+    """Fraction of a step (x from x0 to x1, its derivatives times the step d0, d1) on
+    which the yielded contact's law changes (``equations.yield_law``): while it loads past
+    the yield penetration ``xy`` (``xm`` 0), the peak of x (the root of the cubic Hermite
+    interpolant's derivative), from which it unloads; while it unloads, the residual
+    penetration ``xp``, where the force ends. 1 if neither lies inside the step."""
+    if xm == 0.0:
+        if not (d0 > 0.0 and d1 < 0.0):
+            return 1.0
+        a = 2.0 * x0 + d0 - 2.0 * x1 + d1  # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
+        q = -3.0 * x0 - 2.0 * d0 + 3.0 * x1 - d1
+        # x'(t) = 3 a t^2 + 2 q t + d0, positive at 0 and negative at 1: its root between
+        lo = 0.0
+        hi = 1.0
+        for _ in range(40):
+            t = 0.5 * (lo + hi)
+            if (3.0 * a * t + 2.0 * q) * t + d0 > 0.0:
+                lo = t
+            else:
+                hi = t
+        peak = ((a * hi + q) * hi + d0) * hi + x0
+        return hi if peak > xy else 1.0
+    if x0 > xp > x1 and xm > xy:
+        return hermite_root(x0 - xp, x1 - xp, d0, d1)
+    return 1.0
+
+
+@compiled()
 def radau_dense(hist, k, s):
     """(x, w) at time s inside Radau step k: its collocation polynomial."""
     p1 = (s - hist[k, H_T0]) / hist[k, H_H]
@@ -153,25 +184,26 @@ def find_step(hist, nst, s):
 
 
 @compiled()
-def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b):
-    """(x, f) at time s from the dense output of the first ``nst`` rows of the history."""
+def penetration_and_force(hist, S, nst, s, radau, lam, n, c, b, xy):
+    """(x, f) at time s from the dense output of the first ``nst`` rows of the history
+    (``xy``: the yield penetration, ``equations.force``)."""
     k = find_step(hist, nst, s)
     x, w = dense_state(hist, S, k, s, radau, n, b)
-    f, a = force(x, w, lam, n, c, b)
+    f, a = force(x, w, lam, n, c, b, xy, hist[k, H_XM])
     return x, f
 
 
 @compiled()
-def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
+def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, xy, which):
     """Maximum of x (which=0) or f (which=1) over [lo, hi] by golden-section search."""
     g = 0.6180339887498949
     ta = lo
     tb = hi
     x1 = tb - g * (tb - ta)
     x2 = ta + g * (tb - ta)
-    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b)
+    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)
     v1 = p[which]
-    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b)
+    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)
     v2 = p[which]
     # The peak is quadratic: locating it to 1e-8 of its bracket gives the value to ~1e-16.
     for _ in range(80):
@@ -182,14 +214,14 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, which):
             x1 = x2
             v1 = v2
             x2 = ta + g * (tb - ta)
-            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b)
+            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)
             v2 = p[which]
         else:
             tb = x2
             x2 = x1
             v2 = v1
             x1 = tb - g * (tb - ta)
-            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b)
+            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)
             v1 = p[which]
     return max(v1, v2)
 
@@ -209,33 +241,43 @@ FORCE_END = np.int64(3)
 
 
 @compiled()
-def event(which, x, w, lam, G, n, c, b, thr):
+def event(which, x, w, lam, G, n, c, b, thr, xy, xm):
     """The functions whose roots end or mark a contact: 0, the penetration x (end of
     contact); 1, x' = w - lam f (peak penetration); 2, W - thr (settling, see the module
     docstring); 3, the numerator ``x^n (1 + c w) + b x^(1/2) w`` of the lossy force before
     its clip at 0 (``equations.force``: its sign is the force's), or x where ``x <= 0``
-    (the end of the force pulse)."""
+    (the end of the force pulse; with a yield the numerator of ``yield_law``'s, or ``x -
+    xp`` below the residual penetration ``xp``). ``xy``, ``xm``: the yield
+    (``equations.force``)."""
     if which == 0:
         return x
     if which == 1:
-        return penetration_rate(x, w, lam, n, c, b)
+        return penetration_rate(x, w, lam, n, c, b, xy, xm)
     if which == 3:
         if x <= 0.0:
             return x
+        if xy is not None:
+            if xy != math.inf:
+                a, r, _, _ = yield_law(x, xy, xm)
+                if r == 0.0:
+                    return x - unloading_branch(xy, xm)[0]
+                return a * (1.0 + c * w) + b * r * w
         return power(x, n) * (1.0 + c * w) + b * math.sqrt(x) * w
-    return settling_energy(x, w, lam, G, n) - thr
+    return settling_energy(x, w, lam, G, n, xy, xm) - thr
 
 
 @compiled()
-def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
+def event_root(hist, S, k, radau, which, lam, G, n, c, b, xy, thr):
     """Where the event function ``which`` falls through 0 inside step k (positive at the
     step's start, not positive at its end): Illinois (modified regula falsi) on the dense
-    output, to machine precision. If it is not positive at the start, the step's end."""
+    output, to machine precision. If it is not positive at the start, the step's end.
+    ``xy``: the yield penetration (``equations.force``)."""
+    xm = hist[k, H_XM]
     ta = hist[k, H_T0]
     tb = ta + hist[k, H_H]
-    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, b, thr)
+    fa = event(which, hist[k, H_X0], hist[k, H_W0], lam, G, n, c, b, thr, xy, xm)
     xb, wb = dense_state(hist, S, k, tb, radau, n, b)
-    fb = event(which, xb, wb, lam, G, n, c, b, thr)
+    fb = event(which, xb, wb, lam, G, n, c, b, thr, xy, xm)
     if fa <= 0.0 or fb >= 0.0:
         return tb
     side = 0
@@ -243,8 +285,8 @@ def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
         m = (ta * fb - tb * fa) / (fb - fa)
         if not (ta < m < tb):
             m = 0.5 * (ta + tb)
-        xm, wm = dense_state(hist, S, k, m, radau, n, b)
-        fm = event(which, xm, wm, lam, G, n, c, b, thr)
+        xq, wq = dense_state(hist, S, k, m, radau, n, b)
+        fm = event(which, xq, wq, lam, G, n, c, b, thr, xy, xm)
         if fm > 0.0:
             ta, fa = m, fm
             if side == 1:
@@ -264,21 +306,25 @@ def event_root(hist, S, k, radau, which, lam, G, n, c, b, thr):
 
 
 @compiled()
-def sample_pulse(hist, S, nh, radau, lam, n, c, b, s_contact, times, forces):
+def sample_pulse(hist, S, nh, radau, lam, n, c, b, xy, s_contact, times, forces):
     """Pulse f at ``len(times)`` uniform times over [0, s_contact] (written into ``times``
     and ``forces``). For DOP853 and a Hertz or power law only x is needed: it is
-    evaluated step by step, in loops that the compiler vectorises, then raised to n."""
+    evaluated step by step, in loops that the compiler vectorises, then raised to n.
+    ``xy``: the yield penetration (``equations.force``; a float takes the general loop)."""
     n_points = times.shape[0]
     ds = s_contact / (n_points - 1)
     for i in range(n_points):
         times[i] = i * ds
-    if radau or c != 0.0 or b != 0.0:
+    general = radau or c != 0.0 or b != 0.0
+    if xy is not None:
+        general = True
+    if general:
         k = 0
         for i in range(n_points):
             while k + 1 < nh and hist[k + 1, H_T0] <= times[i]:
                 k += 1
             x, w = dense_state(hist, S, k, times[i], radau, n, b)
-            forces[i], _ = force(x, w, lam, n, c, b)
+            forces[i], _ = force(x, w, lam, n, c, b, xy, hist[k, H_XM])
         return
     i = 0
     for k in range(nh):

@@ -22,19 +22,23 @@ from synth.physics.contact_kernels.dense import (
     H_T0,
     H_W0,
     H_X0,
+    H_XM,
     grow_history,
     hermite_dips,
     hermite_root,
+    yield_fraction,
 )
 from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
     SEPARATED,
     SETTLED,
     STEP_TOO_SMALL,
+    plastic_work,
     power,
     rhs,
     rise_ended,
     settling_energy,
+    unloading_branch,
 )
 
 # --- DOP853 tableau (Hairer's coefficients, synth/physics/dop853_tableau.py) ------------
@@ -135,12 +139,15 @@ def _landing_factor(n):
 
 
 @compiled()
-def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
-    of the history ``hist`` (the series) filled in. Returns (status, s_end, x, w, I2, L,
-    n_rows, n_rejected, hist), ``n_rows`` the rows of the history in use."""
+    of the history ``hist`` (the series) filled in; ``xy`` the yield penetration (None or
+    inf: none, ``equations.force``). Returns (status, s_end, x, w, I2, L, n_rows, n_rejected,
+    hist), ``n_rows`` the rows of the history in use."""
+    xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
+    xp = 0.0  # the residual penetration, where the unloading force ends
     K = np.empty((16, 4))
-    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c, b)
+    K[0, 0], K[0, 1], K[0, 2], K[0, 3] = rhs(x, w, lam, G, n, c, b, xy, xm)
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
     nrej = 0
     settle = G > 0.0 and (lam > 0.0 or c > 0.0 or b > 0.0)  # W falls: the ball can settle
@@ -182,7 +189,7 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             for j in range(i):
                 a0 += _A[i, j] * K[j, 0]
                 a1 += _A[i, j] * K[j, 1]
-            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c, b)
+            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm)
             K[i, 0] = k0
             K[i, 1] = k1
             K[i, 2] = k2
@@ -201,7 +208,7 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
         wn = w + h * b1
         q2n = q2 + h * b2
         q3n = q3 + h * b3
-        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c, b)
+        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c, b, xy, xm)
         K[_NS, 0] = k0
         K[_NS, 1] = k1
         K[_NS, 2] = k2
@@ -273,12 +280,17 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             # not to be trusted across that kink. Redo it to land just past the root
             # (cubic Hermite estimate), so that its stages see a smooth problem.
             th = hermite_root(x, xn, h * K[0, 0], h * K[_NS, 0])
+        if xy is not None:
+            th = min(th, yield_fraction(x, xn, h * K[0, 0], h * K[_NS, 0], xy, xm, xp))
         if b != 0.0:
             # The viscoelastic force x^(1/2) (x (1 + c w) + b w) / D switches off (or on)
             # where its second factor changes sign, inside the contact: a kink of the same
             # kind, on which the step is made to land as well (the earlier of the two).
             th = min(
-                th, _switch_fraction(x, w, xn, wn, K[0, 0], K[0, 1], K[_NS, 0], K[_NS, 1], h, c, b)
+                th,
+                _switch_fraction(
+                    x - xp, w, xn - xp, wn, K[0, 0], K[0, 1], K[_NS, 0], K[_NS, 1], h, c, b
+                ),
             )
         if th < 0.999:
             h *= th * 1.0001 + 1e-9
@@ -293,8 +305,11 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
             for j in range(i):
                 a0 += _A_EXTRA[ii, j] * K[j, 0]
                 a1 += _A_EXTRA[ii, j] * K[j, 1]
-            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c, b)
+            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(
+                x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm
+            )
         hist[nst, H_T0] = s
+        hist[nst, H_XM] = xm
         hist[nst, H_H] = h
         hist[nst, H_X0] = x
         hist[nst, H_W0] = w
@@ -318,11 +333,19 @@ def integrate_dop853(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, 
         x_top = max(x_top, x)
         for q in range(4):
             K[0, q] = K[_NS, q]
+        if xy is not None:
+            if xm == 0.0 and x > xy and K[0, 0] <= 0.0:
+                # the step landed on a yielded peak: unload from it (force and contact
+                # radius are continuous there, so the first stage stands), its plastic
+                # work lost
+                xm = x
+                xp = unloading_branch(xy, xm)[0]
+                q3 += plastic_work(xy, xm)
         if x <= 0.0:
             return SEPARATED, s, x, w, q2, q3, nst, nrej, hist
         if rise_ended(K[0, 0], w, atol):
             peaked = True
-        if settle and peaked and settling_energy(x, w, lam, G, n) < wthr:
+        if settle and peaked and settling_energy(x, w, lam, G, n, xy, xm) < wthr:
             return SETTLED, s, x, w, q2, q3, nst, nrej, hist
         fac = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / 8.0))
         if rejected:

@@ -12,7 +12,10 @@ with Hunt-Crossley's ``c = mu v0`` and the viscoelastic ``b = (3/2) A / theta`` 
 Kono 1987; Brilliantov et al. 1996), time ``s = t / theta``, ``lam = beta m / theta`` and
 ``G = g theta / v0``; ``I2' = f^2`` and ``L' = (f - x^n) x'`` carry the energy balance.
 Settling is exact: ``W = u^2 / 2 + x^(n+1) / (n+1) - G x`` (``u = lam G - w``) never
-increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. Also the status codes.
+increases, and the ball cannot leave once ``W < (lam G)^2 / 2``. With a yield (Thornton's
+elastic-perfectly plastic Hertz contact, :func:`yield_law`) ``x^n`` and ``x^(1/2)`` are the
+law's force and contact radius on the branch that the largest penetration so far selects
+(docs/physics.md, "Yield of the contact"). Also the status codes.
 """
 
 from __future__ import annotations
@@ -51,11 +54,121 @@ def positive_power(a, n):
 
 
 @compiled()
-def force(x, w, lam, n, c, b):
-    """Dimensionless contact force f and its elastic part x^n (both 0 out of contact):
-    ``f = x^n + d(x) x'`` with the damping ``d = c x^n + b x^(1/2)`` (module docstring)."""
+def unloading_branch(xy, xm):
+    """The elastic unloading of Thornton's contact from the largest penetration ``xm``
+    past the yield penetration ``xy`` (docs/physics.md, "Yield of the contact"): the
+    residual penetration ``xp`` and ``rho = sqrt(R_p / R)`` of ``f = rho (x - xp)^(3/2)``.
+
+    Loading reaches ``f_m = xy^(1/2) (3 xm - xy) / 2``; the contact radius there is the
+    loading one, ``a_p^2 = R delta_m``, and the unloading is Hertz's with the radius
+    ``R_p = 4 E* a_p^3 / (3 F_m)`` through ``(xm, f_m)``: ``R_p / R = xm^(3/2) / f_m`` and
+    ``xm - xp = f_m / xm^(1/2)`` (C. Thornton, J. Appl. Mech. 64 (1997) 383)."""
+    fm = math.sqrt(xy) * (1.5 * xm - 0.5 * xy)
+    return xm - fm / math.sqrt(xm), math.sqrt(xm * math.sqrt(xm) / fm)
+
+
+@compiled()
+def yield_law(x, xy, xm):
+    """Thornton's elastic-perfectly plastic Hertz contact, dimensionless (x > 0, the
+    equations' ``n = 3/2``): ``(a, r, da, dr)``, the elastic-plastic force ``a``, the
+    viscous factor ``r`` (the contact radius over ``sqrt(R theta v0)``: the viscoelastic
+    force is ``b r x'``, Kuwabara & Kono's ``A 2 E* a delta'``) and their x-derivatives.
+
+    ``xy`` is the penetration at which the Hertz peak pressure reaches the limiting
+    pressure ``p_y`` (inf: elastic); ``xm`` the largest penetration of the contact so far
+    (0 while it loads). Loading: Hertz ``x^(3/2)`` up to ``xy``, then the tangent line
+    ``xy^(1/2) (3 x - xy) / 2`` (``F = F_y + pi p_y R (delta - delta_y)``), contact radius
+    ``sqrt(x)``; unloading from ``xm > xy``: :func:`unloading_branch`, contact radius
+    ``rho (x - xp)^(1/2)``, both 0 below the residual penetration ``xp``."""
+    top = max(x, xm)
+    if top <= xy:
+        r = math.sqrt(x)
+        return x * r, r, 1.5 * r, 0.5 / r
+    if x >= xm:
+        r = math.sqrt(x)
+        ry = math.sqrt(xy)
+        return ry * (1.5 * x - 0.5 * xy), r, 1.5 * ry, 0.5 / r
+    xp, rho = unloading_branch(xy, xm)
+    y = x - xp
+    if y <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    r = math.sqrt(y)
+    return rho * y * r, rho * r, 1.5 * rho * r, 0.5 * rho / r
+
+
+@compiled()
+def yield_potential(x, xy, xm):
+    """The elastic energy (dimensionless) that :func:`yield_law` stores at ``x``: Hertz's
+    ``x^(5/2) / (5/2)`` without yield; while loading past ``xy`` the work of the loading
+    law; on the unloading branch ``rho (x - xp)^(5/2) / (5/2)`` (0 below ``xp``). The work
+    of loading to ``xm`` less the unloading branch's energy at ``xm`` is the plastic work
+    (:func:`plastic_work`)."""
+    if x <= 0.0:
+        return 0.0
+    if max(x, xm) <= xy:
+        return x * x * math.sqrt(x) / 2.5
+    if x >= xm:
+        d = x - xy
+        ry = math.sqrt(xy)
+        return xy * xy * ry / 2.5 + xy * ry * d + 0.75 * ry * d * d
+    xp, rho = unloading_branch(xy, xm)
+    y = x - xp
+    return rho * y * y * math.sqrt(y) / 2.5 if y > 0.0 else 0.0
+
+
+@compiled()
+def plastic_work(xy, xm):
+    """The work (dimensionless) dissipated by the plastic flow of a loading to ``xm``
+    (0 below the yield penetration ``xy``): the loading law's work less the energy the
+    unloading branch from ``xm`` gives back."""
+    if xm <= xy:
+        return 0.0
+    fm = math.sqrt(xy) * (1.5 * xm - 0.5 * xy)
+    # the unloading branch's energy at xm: f_m (xm - xp) / (5/2), xm - xp = f_m / xm^(1/2)
+    return yield_potential(xm, xy, 0.0) - fm * fm / (2.5 * math.sqrt(xm))
+
+
+@compiled()
+def yield_law_arrays(x, xy, xm, a, r, da, dr):
+    """:func:`yield_law` at each ``x[i]`` (0 where ``x[i] <= 0``) with the largest
+    penetration ``xm[i]`` so far, into ``a``, ``r``, ``da`` and ``dr`` (the modal contact's
+    pulse between its steps, in metres with ``K = 1``: the law is homogeneous)."""
+    for i in range(x.shape[0]):
+        if x[i] > 0.0:
+            a[i], r[i], da[i], dr[i] = yield_law(x[i], xy, xm[i])
+        else:
+            a[i], r[i], da[i], dr[i] = 0.0, 0.0, 0.0, 0.0
+
+
+@compiled()
+def elastic_part(x, n, xy, xm):
+    """``(a, r)``: the law's elastic force ``x^n`` (or :func:`yield_law`'s with a finite
+    yield penetration ``xy``; None: no yield) and the viscous factor ``x^(1/2)``, at ``x > 0``."""
+    if xy is not None:
+        if xy != math.inf:
+            a, r, _, _ = yield_law(x, xy, xm)
+            return a, r
+    return power(x, n), math.sqrt(x)
+
+
+@compiled()
+def force(x, w, lam, n, c, b, xy=None, xm=0.0):
+    """Dimensionless contact force f and its elastic part a (both 0 out of contact):
+    ``f = a + d(x) x'`` with the damping ``d = c a + b r`` (module docstring); ``a = x^n``
+    and ``r = x^(1/2)``, or with a finite yield penetration ``xy`` (the largest penetration
+    ``xm`` so far) :func:`yield_law`'s.
+
+    ``xy`` None: the elastic law, whose kernels numba compiles without the yield's code
+    (its branches pruned on the argument's type), as fast as a kernel without it;
+    a float (inf: not reached) compiles the kernels with it."""
     if x <= 0.0:
         return 0.0, 0.0
+    if xy is not None:
+        if xy != math.inf:
+            a, r, _, _ = yield_law(x, xy, xm)
+            if c == 0.0 and b == 0.0:
+                return a, a
+            return lossy_force(a, r, w, lam, c, b), a
     a = power(x, n)
     if c == 0.0 and b == 0.0:
         return a, a
@@ -72,24 +185,46 @@ def force(x, w, lam, n, c, b):
 
 
 @compiled()
-def rhs(x, w, lam, G, n, c, b):
-    """Right-hand side (x', w', I2', L') of the module docstring."""
-    f, a = force(x, w, lam, n, c, b)
+def lossy_force(a, r, w, lam, c, b):
+    """The lossy force ``(a (1 + c w) + b r w) / (1 + lam (c a + b r))``, at least 0, of the
+    elastic force ``a`` and the viscous factor ``r`` (:func:`force` with a yield)."""
+    f = (a * (1.0 + c * w) + b * r * w) / (1.0 + lam * (c * a + b * r))
+    return f if f > 0.0 else 0.0
+
+
+@compiled()
+def rhs(x, w, lam, G, n, c, b, xy, xm):  # noqa: PLR0913
+    """Right-hand side (x', w', I2', L') of the module docstring (``xy``, ``xm``: the
+    yield, :func:`force`)."""
+    f, a = force(x, w, lam, n, c, b, xy, xm)
     dx = w - lam * f
     return dx, G - f, f * f, (f - a) * dx
 
 
 @compiled()
-def jacobian(x, w, lam, n, c, b):
+def jacobian(x, w, lam, n, c, b, xy, xm):
     """Jacobian of (x', w') with respect to (x, w): returns j11, j12, j21, j22.
 
-    With ``f = N / D`` (``N = x^n (1 + c w) + b x^(1/2) w``, ``D = 1 + lam (c x^n + b
-    x^(1/2))``): ``f_x = (N_x - f D_x) / D``, ``f_w = (c x^n + b x^(1/2)) / D``; 0 where f
-    is clipped at 0."""
+    With ``f = N / D`` (``N = a (1 + c w) + b r w``, ``D = 1 + lam (c a + b r)``, ``a = x^n``
+    and ``r = x^(1/2)`` or :func:`yield_law`'s): ``f_x = (N_x - f D_x) / D``, ``f_w = (c a
+    + b r) / D``; 0 where f is clipped at 0."""
     if x <= 0.0:
         return 0.0, 1.0, 0.0, 0.0
+    if xy is not None:
+        if xy != math.inf:
+            a, r, da, dr = yield_law(x, xy, xm)
+            return jacobian_terms(a, r, da, dr, w, lam, c, b)
     a = power(x, n)
     da = n * a / x
+    r = math.sqrt(x) if b != 0.0 else 0.0
+    dr = 0.5 / r if b != 0.0 else 0.0
+    return jacobian_terms(a, r, da, dr, w, lam, c, b)
+
+
+@compiled()
+def jacobian_terms(a, r, da, dr, w, lam, c, b):
+    """:func:`jacobian` from the elastic force ``a``, the viscous factor ``r`` and their
+    x-derivatives ``da``, ``dr``."""
     if c == 0.0 and b == 0.0:
         fx, fw = da, 0.0
     elif b == 0.0:
@@ -101,8 +236,6 @@ def jacobian(x, w, lam, n, c, b):
             fx = da * num / (den * den)
             fw = a * c / den
     else:
-        r = math.sqrt(x)
-        dr = 0.5 / r
         den = 1.0 + lam * (c * a + b * r)
         f = (a * (1.0 + c * w) + b * r * w) / den
         if f <= 0.0:
@@ -114,9 +247,15 @@ def jacobian(x, w, lam, n, c, b):
 
 
 @compiled()
-def settling_energy(x, w, lam, G, n):
-    """Settling function W of the module docstring."""
+def settling_energy(x, w, lam, G, n, xy, xm):
+    """Settling function W of the module docstring; with a yield (``xy``, ``xm``) the
+    elastic energy of :func:`yield_potential` and the height measured from the residual
+    penetration, where the force ends (the ball leaves from there)."""
     u = lam * G - w
+    if xy is not None:
+        if xy != math.inf:
+            xp = unloading_branch(xy, xm)[0] if xm > xy else 0.0
+            return 0.5 * u * u + yield_potential(x, xy, xm) - G * (x - xp)
     return 0.5 * u * u + power(x, n) * x / (n + 1.0) - G * x if x > 0.0 else 0.5 * u * u
 
 
@@ -134,7 +273,7 @@ def rise_ended(dx, w, atol):
 
 
 @compiled()
-def penetration_rate(x, w, lam, n, c, b):
+def penetration_rate(x, w, lam, n, c, b, xy, xm):
     """x' = w - lam f, the rate of the penetration (its root is the peak penetration)."""
-    f, _ = force(x, w, lam, n, c, b)
+    f, _ = force(x, w, lam, n, c, b, xy, xm)
     return w - lam * f

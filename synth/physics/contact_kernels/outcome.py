@@ -35,7 +35,8 @@ R_F_SCALE = 17  # force scale m v0 / theta, N
 R_B = 18  # dimensionless viscoelastic loss (3/2) A / theta (dense output; power laws)
 R_SEPARATION_TIME = 19  # s, to the penetration's return to 0 (the dense output's end)
 R_XT = 20  # dimensionless transition deflection delta_t / (theta v0) (shell law)
-N_RESULT = 21
+R_XY = 21  # dimensionless yield penetration delta_y / (theta v0) (power laws; inf: none)
+N_RESULT = 22
 
 
 @compiled(inline="always")

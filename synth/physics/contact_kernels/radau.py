@@ -20,9 +20,11 @@ from synth.physics.contact_kernels.dense import (
     H_T0,
     H_W0,
     H_X0,
+    H_XM,
     grow_history,
     hermite_dips,
     radau_dense,
+    yield_fraction,
 )
 from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
@@ -31,9 +33,11 @@ from synth.physics.contact_kernels.equations import (
     STEP_TOO_SMALL,
     force,
     jacobian,
+    plastic_work,
     rhs,
     rise_ended,
     settling_energy,
+    unloading_branch,
 )
 
 # --- Radau IIA (order 5) constants, as in scipy.integrate.Radau ------------------------
@@ -70,18 +74,20 @@ _NEWTON_MAXITER = 6
 
 
 @compiled()
-def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
+def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """3-stage Radau IIA on (x, w); I2 and the loss are its collocation quadratures.
 
-    Arguments and result as ``integrate_dop853``'s.
+    Arguments and result as ``integrate_dop853``'s (the yield's branch switched likewise).
     """
+    xm = 0.0  # the largest penetration once past a yielded peak (0 while loading)
+    xp = 0.0  # the residual penetration, where the unloading force ends
     y = np.array([x, w, q2, q3])
     Z = np.zeros((3, 2))
     Wt = np.zeros((3, 2))
     F = np.zeros((3, 2))
     fq = np.zeros((3, 2))  # f and (f - a) x' at the stages, for the quadratures
     f0 = np.empty(4)
-    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
+    f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b, xy, xm)
     h_old = -1.0
     err_old = -1.0
     nst = np.int64(1)  # not the literal 1: numba would compile grow_history for it too
@@ -91,7 +97,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
     peaked = False
     have_dense = False
     newton_tol = max(10.0 * 2.220446049250313e-16 / rtol, min(0.03, rtol**0.5))
-    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
+    j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
     rejected = False
     while True:
         if nst > max_steps or not math.isfinite(s + h):
@@ -132,7 +138,9 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
             n_iter = it + 1
             ok = True
             for i in range(3):
-                F[i, 0], F[i, 1], _, _ = rhs(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b)
+                F[i, 0], F[i, 1], _, _ = rhs(
+                    y[0] + Z[i, 0], y[1] + Z[i, 1], lam, G, n, c, b, xy, xm
+                )
                 if not (math.isfinite(F[i, 0]) and math.isfinite(F[i, 1])):
                     ok = False
             if not ok:
@@ -186,7 +194,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
             dw_old = dn
         if not converged:
             # refresh the Jacobian at the step start and halve the step
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
             h *= 0.5
             nrej += 1
             rejected = True
@@ -203,7 +211,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
         s1 = atol + rtol * max(abs(y[1]), abs(wn))
         err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         if rejected and err > 1.0:
-            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c, b)
+            r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c, b, xy, xm)
             b0 = r0 + ze0
             b1 = r1 + ze1
             e0 = (rd * b0 - rb * b1) / rdet
@@ -219,21 +227,33 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
             h *= max(0.2, safety * fac)
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
             continue
-        if xn > 0.0 and hermite_dips(y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b)[0]):
+        if xn > 0.0 and hermite_dips(
+            y[0], xn, h * f0[0], h * rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
+        ):
             # separated and landed again inside the step (see ``integrate_dop853``)
             h *= 0.5
             nrej += 1
             rejected = True
-            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
+            j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
             continue
+        if xy is not None:
+            # land on the yielded peak or the end of the unloading force (``yield_fraction``)
+            dn = rhs(xn, wn, lam, G, n, c, b, xy, xm)[0]
+            th = yield_fraction(y[0], xn, h * f0[0], h * dn, xy, xm, xp)
+            if th < 0.999:
+                h *= th * 1.0001 + 1e-9
+                nrej += 1
+                rejected = True
+                continue
         # accepted
         hist = grow_history(hist, nst)
         hist[nst, H_T0] = s
         hist[nst, H_H] = h
         hist[nst, H_X0] = y[0]
         hist[nst, H_W0] = y[1]
+        hist[nst, H_XM] = xm
         for q in range(2):
             for r in range(3):
                 hist[nst, H_COEF + 3 * q + r] = (
@@ -241,7 +261,7 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
                 )
         # quadratures by the collocation rule (exact for the collocation polynomial)
         for i in range(3):
-            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c, b)
+            fi, ai = force(y[0] + Z[i, 0], y[1] + Z[i, 1], lam, n, c, b, xy, xm)
             dxi = y[1] + Z[i, 1] - lam * fi
             fq[i, 0] = fi * fi
             fq[i, 1] = (fi - ai) * dxi
@@ -252,12 +272,18 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
         nst += 1
         s += h
         have_dense = True
-        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b)
+        f0[0], f0[1], f0[2], f0[3] = rhs(y[0], y[1], lam, G, n, c, b, xy, xm)
+        if xy is not None:
+            if xm == 0.0 and y[0] > xy and f0[0] <= 0.0:
+                # landed on a yielded peak (see ``integrate_dop853``)
+                xm = y[0]
+                xp = unloading_branch(xy, xm)[0]
+                y[3] += plastic_work(xy, xm)
         if y[0] <= 0.0:
             return SEPARATED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if rise_ended(f0[0], y[1], atol):  # past the peak or the end of a creep
             peaked = True
-        if settle and peaked and settling_energy(y[0], y[1], lam, G, n) < wthr:
+        if settle and peaked and settling_energy(y[0], y[1], lam, G, n, xy, xm) < wthr:
             return SETTLED, s, y[0], y[1], y[2], y[3], nst, nrej, hist
         if h_old > 0.0 and err_old > 0.0 and err > 0.0:
             mult = min(1.0, h / h_old * (err_old / err) ** 0.25)
@@ -271,5 +297,5 @@ def integrate_radau(lam, G, n, c, b, rtol, atol, max_steps, hist, s, x, w, q2, q
         h_old = h
         err_old = max(err, 1e-10)
         # the analytic 2x2 Jacobian is cheap: refresh it at every step
-        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b)
+        j11, j12, j21, j22 = jacobian(y[0], y[1], lam, n, c, b, xy, xm)
         h *= fac

@@ -130,7 +130,7 @@ def half_series_eval(S, s):
 
 
 @compiled()
-def half_series_start(rtol, S):
+def half_series_start(rtol, S, s_max):
     """``series_start`` for the series in s^(1/2) (coefficients in ``S``): the error
     estimate from the terms of its last ``HALF_SERIES_BAND`` degrees, and I2 = sum (F F)[k]
     2 s^((k+2)/2) / (k + 2) and L = sum ((F - s^(3/2) A) P)[k] 2 s^((k+2)/2) / (k + 2)
@@ -154,6 +154,7 @@ def half_series_start(rtol, S):
         if e <= 1.01 * rtol:
             break
         s1 *= math.exp(-math.log(e / rtol) * e / de)
+    s1 = min(s1, s_max)
     x1, w1 = half_series_eval(S, s1)
     sg = math.sqrt(s1)
     i2 = 0.0
@@ -276,7 +277,7 @@ def series_eval(S, s, n, b):
 
 
 @compiled()
-def series_start(lam, G, n, c, b, rtol, S):
+def series_start(lam, G, n, c, b, rtol, S, s_max):
     """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over.
 
     The truncation error is estimated by the terms of the last ``n + 1`` degrees
@@ -289,12 +290,13 @@ def series_start(lam, G, n, c, b, rtol, S):
     where e = ``rtol``, at most up to ``SERIES_MAX_TIME``: e is convex in log s, so
     Newton's method in log s from above reaches s1 without overshooting.
 
-    Returns (s1, x, w, I2, L) at s1; the quadratures are integrated term by term. With the
-    viscoelastic loss (b > 0): ``half_series_start``.
+    Returns (s1, x, w, I2, L) at s1, ``s1`` at most ``s_max`` (the end of the elastic law,
+    before a yield); the quadratures are integrated term by term. With the viscoelastic
+    loss (b > 0): ``half_series_start``.
     """
     series_coefficients(lam, G, n, c, b, S)
     if b != 0.0:
-        return half_series_start(rtol, S)
+        return half_series_start(rtol, S, s_max)
     band = SERIES_DEGREE - n - 1.0
     s1 = SERIES_MAX_TIME
     for _ in range(30):
@@ -315,6 +317,7 @@ def series_start(lam, G, n, c, b, rtol, S):
         if e <= 1.01 * rtol:
             break
         s1 *= math.exp(-math.log(e / rtol) * e / de)
+    s1 = min(s1, s_max)
     x1, w1 = series_eval(S, s1, n, 0.0)
     # I2 = int f^2 = sum (F F)[i, j] s^(d + 2n + 1) / (d + 2n + 1) and
     # L = int b (F - A) x' = sum ((F - A) X')[i, j] s^(d + n + 1) / (d + n + 1),

@@ -16,7 +16,8 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
 from synth.physics.contact import ImpactResult, solve_contact
-from synth.physics.contact_law import contact_parameters
+from synth.physics.contact_kernels.equations import yield_law, yield_law_arrays
+from synth.physics.contact_law import check_yield_penetration, contact_parameters
 from synth.physics.modal_contact.kernels import (
     R_CONTACT_LOSS,
     R_DAMPING_LOSS,
@@ -101,7 +102,8 @@ class ModalImpactResult(ImpactResult):
     ``t^(1/2)`` with the viscoelastic loss). ``contact_time`` is the force pulse's length,
     ``separation_time`` the penetration's return to 0 (the last step); the pulse samples
     ``time`` and ``force`` span the latter. ``contact_loss`` is the energy the contact's loss
-    (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) took, J.
+    (Hunt-Crossley ``mu``, s/m, or viscoelastic ``A``, s) and its plastic flow (Thornton's
+    yield past ``law_yield_penetration``, m) took, J.
     ``ringing`` is the plate's state at separation; ``restitution`` is the ball's upward speed
     at separation over its impact speed (what bounce times measure)."""
 
@@ -113,6 +115,7 @@ class ModalImpactResult(ImpactResult):
     law_exponent: float = 1.5
     law_dissipation: float = 0.0
     law_viscous_time: float = 0.0
+    law_yield_penetration: float = math.inf
     contact_loss: float = 0.0
     ringing: PlateRinging | None = field(default=None, repr=False)
     plate_modal_energy: float = 0.0
@@ -158,9 +161,11 @@ class ModalImpactResult(ImpactResult):
         inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
         dpos = np.where(inside, delta, 1.0)
         n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
+        b = 1.5 * self.law_viscous_time
+        if self.law_yield_penetration != math.inf:
+            return self._yield_force_and_slope(i, inside, dpos, rate, u, h)
         elastic = K * dpos**n
         elastic_slope = n * K * dpos ** (n - 1.0) * rate
-        b = 1.5 * self.law_viscous_time
         if mu == 0.0 and b == 0.0:
             return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
         accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
@@ -180,6 +185,26 @@ class ModalImpactResult(ImpactResult):
         root_slope = (n - 1.0) * root / dpos * rate
         slope = root_slope * (dpos + c * rate) + root * (rate + mu * rate * rate + c * accel)
         return force, np.where(lossy, slope, 0.0)
+
+    def _yield_force_and_slope(self, i, inside, delta, rate, u, h):
+        """:meth:`force_and_slope_at` of Thornton's law (``yield_law``, in metres) at the
+        penetrations ``delta`` (m) and rates ``rate`` (m/s) inside steps ``i`` (the fraction
+        ``u`` of their length ``h``, s), the largest penetration before each step its state:
+        ``F = K (a + c delta')``, ``c = mu a + b r``, ``F >= 0``."""
+        K, mu, b = self.law_stiffness, self.law_dissipation, 1.5 * self.law_viscous_time
+        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
+        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
+        accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
+            h * h
+        )
+        dm = np.ascontiguousarray(np.maximum.accumulate(self.step_gaps)[i], dtype=float)
+        a, r, da, dr = (np.empty_like(delta) for _ in range(4))
+        yield_law_arrays(np.ascontiguousarray(delta), self.law_yield_penetration, dm, a, r, da, dr)
+        c = mu * a + b * r
+        force = K * (a + c * rate)
+        slope = K * (da * rate + (mu * da + b * dr) * rate * rate + c * accel)
+        positive = inside & (force > 0.0)
+        return np.where(positive, force, 0.0), np.where(positive, slope, 0.0)
 
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int
@@ -215,6 +240,9 @@ class ModalContact:
         ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')``, ``F >= 0``, s (0: none;
         exponent 1.5 only). With both losses the force is
         ``K delta^(n-1) (delta + (mu delta + 3/2 A) delta')``.
+    yield_penetration : float
+        The penetration (m; inf: none) past which the Hertz contact yields by Thornton's
+        law (:attr:`synth.physics.contact_law.ContactLaw.yield_penetration`).
     """
 
     point: ModalPoint
@@ -225,6 +253,7 @@ class ModalContact:
     steps_per_contact: int = STEPS_PER_CONTACT
     dissipation: float = 0.0
     viscous_time: float = 0.0
+    yield_penetration: float = math.inf
 
     def __post_init__(self):
         if not isinstance(self.point, ModalPoint):
@@ -238,6 +267,9 @@ class ModalContact:
             gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
             dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
             viscous_time=checks.nonnegative("viscous_time", self.viscous_time, "s"),
+        )
+        checked["yield_penetration"] = check_yield_penetration(
+            self.yield_penetration, checked["exponent"]
         )
         if checked["viscous_time"] != 0.0 and checked["exponent"] != 1.5:
             raise ParameterError(
@@ -289,7 +321,9 @@ class ModalContact:
             tau = _impedance_contact(ball.mass, K, n, plate, v, mu, A).separation_time
             max_frequency = BAND_FACTOR / tau
         point = modal_point(plate, pos, max_frequency=max_frequency, theory=theory)
-        return cls(point, ball.mass, K, n, gravity, steps_per_contact, mu, A)
+        return cls(
+            point, ball.mass, K, n, gravity, steps_per_contact, mu, A, law_.yield_penetration
+        )
 
     def at_rest(self) -> PlateRinging:
         """The plate at rest."""
@@ -378,6 +412,7 @@ class ModalContact:
             self.exponent,
             self.dissipation,
             1.5 * self.viscous_time,
+            None if self.yield_penetration == math.inf else self.yield_penetration,
             self.gravity,
             v_in,
             h,
@@ -411,9 +446,12 @@ class ModalContact:
         e = v_out / v_in if separated and v_out > 0.0 else 0.0
         end = float(r[R_TIME])
         lossy = self.dissipation != 0.0 or self.viscous_time != 0.0
+        lossy = lossy or self.yield_penetration != math.inf
         obj = ModalImpactResult(
             restitution=e,
-            contact_time=_force_end(pulse, self.dissipation, 1.5 * self.viscous_time)
+            contact_time=_force_end(
+                pulse, self.dissipation, 1.5 * self.viscous_time, self.yield_penetration
+            )
             if separated and lossy
             else end,
             separation_time=end,
@@ -445,6 +483,7 @@ class ModalContact:
             law_exponent=self.exponent,
             law_dissipation=self.dissipation,
             law_viscous_time=self.viscous_time,
+            law_yield_penetration=self.yield_penetration,
             contact_loss=float(r[R_CONTACT_LOSS]),
             ringing=ringing,
             plate_modal_energy=e_plate,
@@ -484,13 +523,14 @@ def next_touch(
     return s, contact.ring(state, s)
 
 
-def _force_end(pulse: _Pulse, mu: float, b: float) -> float:
+def _force_end(pulse: _Pulse, mu: float, b: float, dy: float) -> float:
     """The end of a lossy contact's force pulse (s from first touch): the last time the force
     ``K delta^(n-1) (delta + (mu delta + b) delta')`` falls to 0 (Hunt-Crossley, ``b = 0``:
     where ``1 + mu delta'`` does), on the cubic Hermite interpolant of the penetrations
     between the solver's steps (as :meth:`ModalImpactResult.force_and_slope_at`), by Illinois'
     false position to the time resolution of double precision. The ball separates later, when
-    the penetration returns to 0."""
+    the penetration returns to 0. With a yield (``dy``, m) the force is Thornton's
+    (:func:`_yield_sign`), 0 below the residual penetration."""
     positive = np.flatnonzero(pulse.forces > 0.0)
     if positive.size == 0:
         return float(pulse.times[-1])
@@ -500,6 +540,7 @@ def _force_end(pulse: _Pulse, mu: float, b: float) -> float:
     t0, t1 = float(pulse.times[i]), float(pulse.times[i + 1])
     h = t1 - t0
     d0, d1 = float(pulse.gaps[i]), float(pulse.gaps[i + 1])
+    dm = float(np.max(pulse.gaps[: i + 1]))
     r0, r1 = float(pulse.rates[i]) * h, float(pulse.rates[i + 1]) * h
 
     def sign(u):  # the sign of the force before its clip at 0, at the fraction u of the step
@@ -511,6 +552,8 @@ def _force_end(pulse: _Pulse, mu: float, b: float) -> float:
         rate += (3 * u2 - 2 * u) * r1 / h
         if d <= 0.0:
             return d
+        if dy != math.inf:
+            return _yield_sign(d, rate, mu, b, dy, dm)
         return 1.0 + mu * rate if b == 0.0 else d + (mu * d + b) * rate
 
     lo, hi = 0.0, 1.0
@@ -536,6 +579,16 @@ def _force_end(pulse: _Pulse, mu: float, b: float) -> float:
         if (hi - lo) * h <= 4e-16 * t1 or f_mid == 0.0:
             break
     return t0 + hi * h
+
+
+def _yield_sign(d, rate, mu, b, dy, dm) -> float:
+    """The sign of Thornton's lossy force ``a + (mu a + b r) delta'`` (``yield_law``'s ``a``
+    and ``r`` at ``d``, m, after the largest penetration ``dm``, m) before its clip at 0;
+    below the residual penetration (``a = 0``) ``-1``."""
+    a, r, _, _ = yield_law(d, dy, dm)
+    if a <= 0.0:
+        return -1.0
+    return a + (mu * a + b * r) * rate
 
 
 def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:

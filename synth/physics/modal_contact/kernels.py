@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
+from synth.physics.contact_kernels.equations import yield_law, yield_potential
 
 # Result columns of the kernel.
 R_STATUS, R_TIME, R_V, R_U, R_DMAX, R_FMAX, R_IMPULSE = 0, 1, 2, 3, 4, 5, 6
@@ -106,14 +107,37 @@ def _solve_delta(A, B, K, n):  # pragma: no cover
 
 
 @compiled()
-def _lossy_force(d, K, n, mu, b, Av, Bv):  # pragma: no cover
+def _yield_force(d, K, mu, b, Av, Bv, dy, dm):  # pragma: no cover
+    """:func:`_lossy_force` of the Hertz law with Thornton's yield (``dy``, m, the yield
+    penetration; ``dm``, m, the largest penetration before the step): ``F = K (a + c
+    d')``, ``c = mu a + b r``, with the elastic-plastic force ``K a`` and the contact radius
+    factor ``r`` of :func:`~synth.physics.contact_kernels.equations.yield_law` (in metres:
+    the law is homogeneous), solved for ``F`` at ``d' = Av - Bv F``; and ``dF / d delta``."""
+    if d <= 0.0:
+        return 0.0, 0.0
+    a, r, da, dr = yield_law(d, dy, dm)
+    c = mu * a + b * r
+    dc = mu * da + b * dr
+    num = a + c * Av
+    if num <= 0.0:
+        return 0.0, 0.0
+    den = 1.0 + c * Bv * K
+    F = K * num / den
+    return F, K * (da + dc * Av) / den - F * dc * Bv * K / den
+
+
+@compiled()
+def _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
     """The lossy contact force ``F = K d^(n-1) (d + c(d) d')``, ``c(d) = mu d + b`` (N, at
     least 0): Hunt-Crossley ``K d^n (1 + mu d')`` for ``b = 0``, the viscoelastic Hertz
     contact ``K (d^(3/2) + b d^(1/2) d')`` (``b = 3/2 A``) for ``mu = 0``; at the end of a
     step whose penetration rate is ``d' = Av - Bv F`` (the step's linear response to the
     force ``F`` at its end), solved for ``F``:
     ``F = K d^(n-1) (d + c Av) / (1 + c Bv K d^(n-1))``; and its derivative with respect to
-    ``d`` (N/m)."""
+    ``d`` (N/m). With a yield penetration ``dy`` (m; None: no yield; ``dm`` the largest
+    penetration before the step): :func:`_yield_force`."""
+    if dy is not None:
+        return _yield_force(d, K, mu, b, Av, Bv, dy, dm)
     if d <= 0.0:
         return 0.0, 0.0
     if b == 0.0:
@@ -136,7 +160,7 @@ def _lossy_force(d, K, n, mu, b, Av, Bv):  # pragma: no cover
 
 
 @compiled()
-def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv):  # pragma: no cover
+def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dm):  # pragma: no cover
     """The root ``delta >= 0`` of ``delta + B F(delta) = A`` (A > 0) with the lossy force of
     :func:`_lossy_force` (increasing in ``delta`` where positive: one root in ``[0, A]``):
     Newton's method kept inside a bracket, bisection where a step leaves it."""
@@ -144,7 +168,7 @@ def _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv):  # pragma: no cover
     hi = A
     d = _solve_delta(A, B, K, n)  # start from the elastic root
     for _ in range(200):
-        F, dF = _lossy_force(d, K, n, mu, b, Av, Bv)
+        F, dF = _lossy_force(d, K, n, mu, b, Av, Bv, dy, dm)
         f = d + B * F - A
         if f > 0.0:
             hi = d
@@ -234,6 +258,7 @@ def contact_kernel(
     n,
     mu,
     b,
+    dy,
     g,
     v_in,
     h,
@@ -245,7 +270,9 @@ def contact_kernel(
 ):  # pragma: no cover
     """One contact from first touch (ball height = plate surface, ball velocity ``-v_in``),
     the contact law ``F = K delta^(n-1) (delta + (mu delta + b) delta')``, ``F >= 0``
-    (:func:`_lossy_force`; ``mu = b = 0``: elastic).
+    (:func:`_lossy_force`; ``mu = b = 0``: elastic), with Thornton's yield past the
+    penetration ``dy`` (m; None: none, the kernel then compiled without the yield's code),
+    the largest penetration of the steps so far its state.
 
     ``q``, ``v`` (modal displacements and velocities under the ball) and ``x_res`` (array of
     one: the residual's displacement) are the plate's state at first touch and are advanced
@@ -265,7 +292,11 @@ def contact_kernel(
     for k in range(N):
         Bv += c[k] * G[k, 3]
     lossy = mu != 0.0 or b != 0.0
+    plain = not lossy  # the elastic law: its own root
+    if dy is not None:
+        plain = False
     contact_loss = 0.0
+    work = 0.0  # the elastic-plastic force's work on the penetration (trapezoid rule), J
     Fd0 = 0.0  # the viscous part F - K delta^n of the force at the start of the step
     w = -x_res[0]
     for k in range(N):
@@ -299,6 +330,8 @@ def contact_kernel(
             lo = 0.0
             hi = h
             g_lo = (F0 / K) ** (1.0 / n)  # delta at the start of the step
+            if dy is not None:
+                g_lo = gaps[i]
             g_hi = A
             side = 0
             for _ in range(100):
@@ -337,6 +370,8 @@ def contact_kernel(
             vs += -g * hh + hh * 0.5 * F0 / m
             impulse += 0.5 * hh * F0
             contact_loss += 0.5 * hh * Fd0 * rates[i]
+            if dy is not None:
+                work -= 0.5 * K * yield_law(gaps[i], dy, dmax)[0] * gaps[i]
             t += hh
             forces[i + 1] = 0.0
             times[i + 1] = t
@@ -345,13 +380,18 @@ def contact_kernel(
             status = SEPARATED
             steps = i + 1
             break
-        if not lossy:
+        if plain:
             d1 = _solve_delta(A, B, K, n)
             F1 = K * d1**n
         else:
             Av = _rate_free(q, v, P, G, c, F0, vr, rc, x, Er, r0, beta, a, vs, m, g, h)
-            d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv)
-            F1 = _lossy_force(d1, K, n, mu, b, Av, Bv)[0]
+            d1 = _solve_lossy_delta(A, B, K, n, mu, b, Av, Bv, dy, dmax)
+            F1 = _lossy_force(d1, K, n, mu, b, Av, Bv, dy, dmax)[0]
+        Fe1 = 0.0
+        if dy is not None:
+            Fe1 = K * yield_law(d1, dy, dmax)[0] if d1 > 0.0 else 0.0
+            Fe0 = K * yield_law(gaps[i], dy, dmax)[0] if gaps[i] > 0.0 else 0.0
+            work += 0.5 * (Fe0 + Fe1) * (d1 - gaps[i])
         damping_loss += _advance(q, v, P, G, c, sigma, F0, F1, h)
         xdot0 = beta * F0 - a * x
         x = Er * x + beta * (r0 * F0 + r1 * F1)
@@ -370,6 +410,8 @@ def contact_kernel(
         rates[i + 1] = _surface_velocity(v, vr, xdot1) - vs
         if lossy:
             Fd1 = F1 - K * d1**n
+            if dy is not None:
+                Fd1 = F1 - Fe1
             contact_loss += 0.5 * h * (Fd0 * rates[i] + Fd1 * rates[i + 1])
             Fd0 = Fd1
         if d1 > dmax:
@@ -378,6 +420,10 @@ def contact_kernel(
             fmax = F1
         steps = i + 1
     x_res[0] = x
+    if dy is not None:
+        # the plastic work: the elastic-plastic force's work less the energy it still holds
+        end = gaps[steps]
+        contact_loss += work - (K * yield_potential(end, dy, dmax) if end > 0.0 else 0.0)
     r[R_STATUS] = status
     r[R_TIME] = t
     r[R_V] = vs
