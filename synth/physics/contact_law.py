@@ -567,7 +567,7 @@ def yield_rebound(ball: Ball, plate: Plate):
     as independent (their energy ratios multiply); the force pulse stays the solver's
     elastic one. The measured contact models carry the yield in their law instead
     (:attr:`ContactLaw.yield_penetration`); the rule gives a restitution factor to another
-    surface, e.g. the thesis' "ideal" one, and to the modal plate's contact."""
+    surface, e.g. the thesis' "ideal" one."""
     return plastic_rebound(yield_speed(ball, plate))
 
 
