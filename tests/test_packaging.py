@@ -21,7 +21,7 @@ BESIDE = ("benchmarks/", "validation/")
 def _source_files() -> set[str]:
     """The package's modules and presets in the source tree, relative to the repository."""
     files = {p for p in SOURCE.rglob("*.py") if "__pycache__" not in p.parts}
-    files |= set((SOURCE / "presets").rglob("*.toml"))
+    files |= set(SOURCE.rglob("*.toml"))
     return {p.relative_to(REPOSITORY).as_posix() for p in files}
 
 
@@ -78,7 +78,7 @@ def test_installed_package_is_the_source_trees():
     # tests that read the repository's files speak of the code that runs.
     installed = Path(synth.__file__).resolve().parent
     files = {p for p in installed.rglob("*.py") if "__pycache__" not in p.parts}
-    files |= set((installed / "presets").rglob("*.toml"))
+    files |= set(installed.rglob("*.toml"))
     assert {"synth/" + p.relative_to(installed).as_posix() for p in files} == _source_files()
 
 
