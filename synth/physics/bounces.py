@@ -1,33 +1,14 @@
 """The bounce sequence: impacts strung together by free flight (docs/physics.md, "Bounces").
 
-A ball released with its lowest point ``h0`` above the plate first touches at
-``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``. After impact n (starting at
-``t_n``, lasting ``tau_n``, rebounding at ``v_out,n``; air drag is negligible by
-appendix A.2 of the thesis, docs/physics.md, References)::
-
-    t_(n+1) = t_n + tau_n + 2 v_out,n / g,      v_(n+1) = v_out,n
-
-Each impact is solved from first principles at its own speed (restitution
-depends on speed). In the measured contact models (a Hertz contact on any surface but the
-thesis' "ideal") an impact faster than the pair's yield speed flows plastically inside the
-contact law (docs/physics.md, "Yield of the contact";
-:func:`synth.physics.contact_law.model_yield_speed`). The series would go on forever
-(Zeno); it ends by the first of these rules, named in :attr:`BounceSequence.stop_reason`:
-
-* ``"settled"``: the ball did not separate, or (modal plate) the ringing plate met it
-  before the top of its flight (physical: it rests on the plate);
-* ``"flight-shorter-than-contact"``: the next flight ``2 v_out / g`` is shorter
-  than the contact itself, so the ball no longer leaves the plate in any audible
-  sense (physical: it rolls into rest);
-* ``"floor"``: the next impact's kinetic energy ``m v^2 / 2`` is below
-  ``floor_db`` (default -60 dB) relative to the first impact's. A tick's energy
-  scales with the impact's kinetic energy (it falls by about ``e^2`` per bounce,
-  docs/physics.md, "Bounces"), so this is a perceptual floor: 60 dB below the first
-  tick;
-* ``"max-duration"``: the next impact would start after ``max_duration``
-  seconds;
-* ``"max-impacts"``: ``max_impacts`` impacts were computed (a guard for
-  lossless scenes, e.g. a rigid plate, where e = 1).
+The ball first touches at ``t1 = sqrt(2 h0 / g)`` with ``v1 = sqrt(2 g h0)``; after impact n,
+``t_(n+1) = t_n + tau_n + 2 v_out,n / g`` and ``v_(n+1) = v_out,n`` (air drag negligible,
+thesis appendix A.2). Each impact is solved at its own speed; in the measured contact models
+one faster than the pair's yield speed flows plastically (docs/physics.md, "Yield of the
+contact"). The series ends by the first rule met (:attr:`BounceSequence.stop_reason`):
+``"settled"`` (no separation, or the ringing plate met the ball in flight), ``"flight-
+shorter-than-contact"`` (the ball no longer leaves the plate audibly), ``"floor"`` (the
+next impact's kinetic energy, which a tick's energy follows, is ``floor_db`` below the
+first's), ``"max-duration"`` or ``"max-impacts"`` (a guard for lossless scenes).
 """
 
 from __future__ import annotations

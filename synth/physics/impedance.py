@@ -1,43 +1,19 @@
 """Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance").
 
-* Infinite thin plate (the thesis, docs/physics.md, References, eqs. 2.34 / 4.30;
-  Cremer, Heckl & Petersson,
-  "Structure-Borne Sound", 3rd ed., section 5.3): real and frequency-independent,
-
-      Z_inf = 8 sqrt(D rho h) = 4 h^2 sqrt(E rho / (3 (1 - nu^2)))        N s/m
-
-* Infinite thick (Mindlin) plate, with shear deformation and rotary inertia
-  (docs/physics.md, "Thick plates (Mindlin)"): ``Re Y`` in closed form from the wavenumber
-  integral of a point force (:func:`mindlin_point_admittance`), frequency-dependent, equal to
-  ``1 / Z_inf`` as ``k h -> 0``; its dispersion relation, frequencies and modal mass serve the
-  modal contact's ``theory="mindlin"``.
-
-* At a free straight edge of a semi-infinite plate, for ka < 1 (Eichler 1964,
-  J. Acoust. Soc. Am. 36, 344; thesis Table 3.4, measured Z_middle/Z_edge =
-  3.3 ... 3.7): ``Z_edge = 0.29 Z_inf`` (:data:`EDGE_RATIO`).
-
-* At a free corner there is no closed form; the thesis measured
-  Z_middle/Z_corner = 7.6 (18 mm MDF), 7.4 (12 mm) and 4.9 (6.15 mm). The thick
-  boards, where ka < 1 holds over the pulse's band as it does for Eichler's edge
-  value, agree: :data:`CORNER_RATIO` = 1/7.5, their mean. (The 6 mm board's
-  lower ratio is outside that regime and is not used.)
-
-* Position dependence: the boundary is felt only within a critical distance of
-  the order of half the distance a flexural wave travels during the contact,
-  ``d_c = c_g tau / 2`` with the group velocity ``c_g = 2 sqrt(omega)
-  (D / (rho h))^(1/4)`` at the pulse's dominant angular frequency
-  ``omega = pi / tau`` (docs/physics.md, "Plate impedance"). The admittance is blended
-  between the middle, edge and corner values with the smooth weight
-  ``s(d) = cos^2(pi d / (2 d_c))`` for ``d < d_c`` (0 beyond) of each distance
-  ``d`` to the nearest edge along x and along y:
-
-      beta / beta_inf = 1 + (r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y
-
-  with ``r_e = 1/EDGE_RATIO`` and ``r_c = 1/CORNER_RATIO``: the middle value far
-  from edges, the edge value on an edge far from corners, the corner value at a
-  corner. This blend is empirical (a bilinear interpolation of the three
-  measured regimes with a C1 taper); its scale ``d_c`` and its end values are
-  those of the thesis.
+* Infinite thin plate (thesis eqs. 2.34 / 4.30; Cremer, Heckl & Petersson, "Structure-Borne
+  Sound", 3rd ed., section 5.3): ``Z_inf = 8 sqrt(D rho h)``, N s/m, real.
+* Infinite thick (Mindlin) plate: ``Re Y`` in closed form from the wavenumber integral of a
+  point force (:func:`mindlin_point_admittance`), ``1 / Z_inf`` as ``k h -> 0``
+  (docs/physics.md, "Thick plates (Mindlin)").
+* Free straight edge, ka < 1: ``Z_edge = 0.29 Z_inf`` (Eichler 1964, J. Acoust. Soc. Am. 36,
+  344; thesis Table 3.4 measured 3.3 ... 3.7 for Z_middle/Z_edge).
+* Free corner: no closed form; :data:`CORNER_RATIO` = 1/7.5, the mean of the thesis' 18 and
+  12 mm boards (7.6, 7.4), where ka < 1 as for Eichler's edge (the 6 mm board's 4.9 is not).
+* Between them the admittance is blended over the critical distance ``d_c = c_g tau / 2``
+  (``c_g`` the group speed at ``omega = pi / tau``) with ``s(d) = cos^2(pi d / (2 d_c))`` of
+  the distance to the nearest edge along x and y: ``beta / beta_inf = 1 + (r_e - 1)(s_x +
+  s_y) + (r_c - 2 r_e + 1) s_x s_y``, ``r_e = 1/EDGE_RATIO``, ``r_c = 1/CORNER_RATIO``; an
+  empirical blend of the three measured regimes, its scale and end values the thesis'.
 """
 
 from __future__ import annotations
@@ -75,21 +51,9 @@ def corner_impedance(plate: Plate) -> float:
     return CORNER_RATIO * infinite_plate_impedance(plate)
 
 
-def group_velocity(plate: Plate, omega: float) -> float:
-    """Flexural group velocity ``c_g = 2 sqrt(omega) (D / (rho h))^(1/4)``, m/s.
-
-    ``omega`` is an angular frequency, rad/s.
-    """
-    omega = checks.positive("omega", omega, "rad/s")
-    return 2.0 * math.sqrt(omega) * (plate.flexural_rigidity / plate.surface_density) ** 0.25
-
-
 def critical_distance(plate: Plate, contact_time: float) -> float:
-    """Distance from an edge within which the edge is felt, ``c_g tau / 2``, m.
-
-    ``contact_time`` is the contact duration ``tau``, s; ``c_g`` is taken at
-    ``omega = pi / tau``.
-    """
+    """Distance from an edge within which the edge is felt, ``c_g tau / 2`` (m), ``c_g`` taken
+    at ``omega = pi / tau`` for the contact duration ``tau`` = ``contact_time`` (s)."""
     tau = (
         contact_time
         if type(contact_time) is float and 0.0 < contact_time < math.inf
@@ -119,13 +83,8 @@ def _taper(d, dc):
 
 def point_admittance(plate: Plate, position: tuple[float, float], contact_time: float) -> float:
     """Admittance ``beta`` (m/(N s)) at ``position`` (metres from a corner) for a pulse of
-    duration ``contact_time`` (s).
-
-    Equals ``1 / Z_inf`` farther than the critical distance from every edge. Only
-    free edges soften the plate this way; for simply supported and clamped plates
-    the infinite-plate value is returned (the thesis measured free edges only;
-    those boundaries are handled by the plate's modes).
-    """
+    ``contact_time`` (s): ``1 / Z_inf`` beyond the critical distance from every edge, and
+    everywhere on simply supported and clamped plates (the thesis measured free edges only)."""
     x, y = plate.check_position(position, "position")
     tau = checks.positive("contact_time", contact_time, "s")
     return admittance_at(plate, x, y, tau, 1.0 / infinite_plate_impedance(plate))
@@ -134,9 +93,8 @@ def point_admittance(plate: Plate, position: tuple[float, float], contact_time: 
 def admittance_at(
     plate: Plate, x: float, y: float, contact_time: float, infinite_admittance: float
 ) -> float:
-    """:func:`point_admittance` at ``(x, y)`` (m, inside the plate) for a contact of
-    ``contact_time`` (s, > 0), given the plate's ``infinite_admittance = 1 / Z_inf``
-    (m/(N s)): the contact solver's inner loop, which has checked these values."""
+    """:func:`point_admittance` at ``(x, y)`` (m) for ``contact_time`` (s) and ``1 / Z_inf`` =
+    ``infinite_admittance`` (m/(N s)), all checked: the contact solver's inner loop."""
     tau, beta_inf = contact_time, infinite_admittance
     if plate.boundary != "free":
         return beta_inf
@@ -160,10 +118,8 @@ SHEAR_COEFFICIENT = 5.0 / 6.0
 
 
 def _mindlin_constants(plate: Plate) -> tuple[float, float, float, float, float]:
-    """``D`` (N m), ``rho h`` (kg/m^2), ``I = rho h^3 / 12`` (kg), ``rho / (kappa G)``
-    (s^2/m^2) and ``kappa G h`` (N/m) of the plate, ``G`` its material's transverse shear
-    modulus (:attr:`synth.physics.materials.Material.transverse_shear_modulus`; isotropic
-    ``E / (2 (1 + nu))`` unless the material gives one)."""
+    """``D`` (N m), ``rho h`` (kg/m^2), ``I = rho h^3 / 12`` (kg), ``rho / (kappa G)`` (s^2/m^2)
+    and ``kappa G h`` (N/m), ``G`` the material's transverse shear modulus."""
     m = plate.material
     shear = m.transverse_shear_modulus
     h = plate.thickness
@@ -177,15 +133,10 @@ def _mindlin_constants(plate: Plate) -> tuple[float, float, float, float, float]
 
 
 def mindlin_wavenumbers(plate: Plate, omega):
-    """The two roots ``s1 > s2`` (rad^2/m^2) in ``s = k^2`` of Mindlin's dispersion relation
-    at angular frequency ``omega`` (rad/s, > 0):
-
-        P(s) = (s - omega^2 rho / (kappa G)) (D s - I omega^2) - rho h omega^2 = 0
-
-    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff, "Wave Motion in Elastic Solids" (1975),
-    chapter 8). ``s1`` is the propagating flexural wave; ``s2 < 0`` is evanescent below
-    the thickness-shear cut-off ``sqrt(kappa G h / I)``. As ``omega h / c -> 0`` they tend
-    to Kirchhoff's ``+-omega sqrt(rho h / D)``."""
+    """The roots ``s1 > s2`` (rad^2/m^2) in ``s = k^2`` of Mindlin's dispersion relation at
+    ``omega`` (rad/s), ``(s - omega^2 rho / (kappa G)) (D s - I omega^2) - rho h omega^2 = 0``
+    (Mindlin, J. Appl. Mech. 18 (1951) 31-38; Graff 1975, ch. 8): ``s1`` the propagating wave,
+    ``s2 < 0`` evanescent below the thickness-shear cut-off; Kirchhoff's as ``omega h / c -> 0``."""
     w2 = np.asarray(omega, dtype=float) ** 2
     D, rh, inertia, slow, _ = _mindlin_constants(plate)
     b = w2 * (inertia + D * slow)
@@ -195,17 +146,11 @@ def mindlin_wavenumbers(plate: Plate, omega):
 
 
 def mindlin_point_admittance(plate: Plate, frequency):
-    """Real part of the driving-point admittance of the infinite Mindlin plate under a point
-    force, m/(N s), at ``frequency`` (Hz, > 0):
-
-        Re Y = omega N(s1) / (4 D (s1 - s2)),   N(s) = 1 + (D s - I omega^2) / (kappa G h)
-
-    the residue of the propagating pole in ``Y = i omega / (4 pi) Int_0^inf N(s) / P(s) ds``
-    (the wavenumber integral of the point force; ``N / P`` the plate's transfer function,
-    see :func:`mindlin_wavenumbers`). It tends to Kirchhoff's ``1 / (8 sqrt(D rho h))``
-    at low frequency and rises with ``k h``: shear makes the plate softer. (The imaginary
-    part diverges logarithmically under a true point force, the local shear deflection;
-    the contact's finite area bounds it, and the contact law carries it.)"""
+    """``Re Y`` (m/(N s)) of the infinite Mindlin plate under a point force at ``frequency`` (Hz):
+    ``omega N(s1) / (4 D (s1 - s2))``, ``N(s) = 1 + (D s - I omega^2) / (kappa G h)``, the
+    residue of the propagating pole of the wavenumber integral; Kirchhoff's ``1 / (8 sqrt(D rho
+    h))`` at low frequency, rising with ``k h``. (``Im Y`` diverges under a true point force;
+    the contact law carries it.)"""
     f = np.asarray(frequency, dtype=float)
     if not np.all(np.isfinite(f) & (f > 0.0)):
         raise ParameterError(f"frequency={frequency!r} must be finite and > 0 (Hz)")
@@ -218,10 +163,8 @@ def mindlin_point_admittance(plate: Plate, frequency):
 
 
 def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
-    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate, ``Re Y``
-    (:func:`mindlin_point_admittance`) averaged over ``[low, high]`` (Hz) by adaptive
-    quadrature: what an impact hammer's band-averaged measurement gives at the middle of a
-    large plate (``ModalPoint.band_impedance`` of :mod:`synth.physics.modal_contact`)."""
+    """``1 / <Re Y>`` (N s/m) of the infinite Mindlin plate, ``Re Y`` averaged over ``[low,
+    high]`` (Hz): an impact hammer's band-averaged measurement at the middle of a large plate."""
     from scipy.integrate import quad
 
     lo = checks.nonnegative("low", low, "Hz")
@@ -234,16 +177,10 @@ def mindlin_band_impedance(plate: Plate, low: float, high: float) -> float:
 
 
 def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
-    """The flexural (lower) Mindlin angular frequency, rad/s, of a wave of ``k^2`` =
-    ``wavenumber_squared`` (rad^2/m^2): the lower root in ``omega^2`` of ``P = 0``
-    (:func:`mindlin_wavenumbers`),
-
-        A omega^4 - B omega^2 + D s^2 = 0,  A = I rho / (kappa G),
-        B = D s rho / (kappa G) + I s + rho h.
-
-    For the simply supported plate's mode (m, n), ``s = (m pi / a)^2 + (n pi / b)^2``, this
-    is Mindlin's exact frequency (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23
-    (1956) 430-436)."""
+    """The flexural (lower) Mindlin angular frequency (rad/s) of ``k^2`` = ``wavenumber_squared``
+    (rad^2/m^2), the lower root of ``A omega^4 - B omega^2 + D s^2 = 0``, ``A = I rho / (kappa
+    G)``, ``B = D s rho / (kappa G) + I s + rho h``: for a simply supported mode, Mindlin's exact
+    frequency (Mindlin, Schacknow & Deresiewicz, J. Appl. Mech. 23 (1956) 430-436)."""
     s = np.asarray(wavenumber_squared, dtype=float)
     D, rh, inertia, slow, _ = _mindlin_constants(plate)
     a = inertia * slow
@@ -253,10 +190,8 @@ def mindlin_angular_frequency(plate: Plate, wavenumber_squared):
 
 
 def mindlin_mass_factor(plate: Plate, wavenumber_squared, omega):
-    """A Mindlin mode's modal mass over Kirchhoff's ``rho h S``-normalised one, for the
-    mode of ``k^2 = wavenumber_squared`` (rad^2/m^2) at ``omega`` (rad/s): the rotations
-    ``psi = i k w / N(s)`` (from the moment equation) add the rotary kinetic energy,
-    ``1 + I s / (rho h N(s)^2)``."""
+    """A Mindlin mode's modal mass over Kirchhoff's at ``k^2`` (rad^2/m^2) and ``omega`` (rad/s):
+    the rotations ``psi = i k w / N(s)`` add ``1 + I s / (rho h N(s)^2)``."""
     s = np.asarray(wavenumber_squared, dtype=float)
     w = np.asarray(omega, dtype=float)
     D, rh, inertia, _, shear_stiffness = _mindlin_constants(plate)
@@ -282,19 +217,11 @@ def kirchhoff_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
 
 
 def mindlin_wave_speeds(plate: Plate, frequency: float) -> WaveSpeeds:
-    """The Mindlin plate's flexural-wave speeds at ``frequency`` (Hz, > 0), with the
-    material's transverse shear modulus (:func:`mindlin_wavenumbers`): ``c = omega / k`` at
-    the propagating root ``k^2 = s1``, and the group speed by implicit differentiation of
-    ``P(k^2, omega^2) = 0``,
-
-        c_g = -(k / omega) (dP/ds) / (dP/d omega^2),
-        dP/ds = (D s - I omega^2) + D (s - omega^2 rho / (kappa G)),
-        dP/d omega^2 = -(rho / (kappa G)) (D s - I omega^2) - I (s - omega^2 rho / (kappa G))
-                       - rho h.
-
-    Below the thin plate's at every frequency; as ``k h -> 0`` they tend to Kirchhoff's
-    (:func:`kirchhoff_wave_speeds`), and at high frequency both tend to the slower of the
-    shear speed ``sqrt(kappa G / rho)`` and the plate speed ``sqrt(D / I)``."""
+    """The Mindlin plate's flexural-wave speeds (m/s) at ``frequency`` (Hz): ``c = omega / k`` at
+    ``k^2 = s1``, and ``c_g = -(k / omega) (dP/ds) / (dP/d omega^2)`` by implicit
+    differentiation of the dispersion relation; below the thin plate's, tending to Kirchhoff's
+    as ``k h -> 0`` and to the slower of ``sqrt(kappa G / rho)`` and ``sqrt(D / I)`` at high
+    frequency."""
     f = checks.positive("frequency", frequency, "Hz")
     w = 2.0 * math.pi * f
     w2 = w * w

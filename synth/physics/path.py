@@ -1,36 +1,22 @@
 """The path of a ball released with a horizontal velocity: bounces along a line, then rolling
 until it stops or leaves the plate (docs/rolling.md, "The ball's path").
 
-SI units. The ball's centre moves along the straight line through the release point in the
-direction of its horizontal velocity (nothing in the model turns it). Vertically:
+The centre moves along the line through the release point in the direction of its velocity.
 
-* **Bounces.** Each impact is the impact solver's (:class:`synth.physics.contact.ContactSolver`,
-  the plate's impedance at the impact point), strung together by free flights of ``2 v_out /
-  g`` as in :mod:`synth.physics.bounces`; horizontally the ball keeps its speed in flight.
-* **Grip at an impact.** The friction at the contact point brings that point to rest during
-  the contact (the ball leaves rolling), and it acts at the contact point, so the ball's
-  angular momentum about that point is conserved: ``m v R + I w = m v' R + I v'`` with ``I =
-  (2/5) m R^2`` (a solid sphere), so ``v' = (5 v + 2 R w) / 7``: a ball released without
-  spin keeps 5/7 of its horizontal speed at its first impact, and rolls from then on, so the
-  later impacts leave it unchanged (Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys.
-  70, 1093 (2002), the "rolling" limit of a ball that grips). It assumes friction enough to
-  stop the slip within the contact: ``mu (1 + e) v_y >= (2/7) |v - R w|`` (a ball thrown
-  flat and fast at a grazing angle slides instead, which the model leaves out).
-* **Rolling.** When the next flight would be shorter than the contact (the impacts'
-  ``"flight-shorter-than-contact"`` rule) or the ball does not leave the plate, it rolls: the
-  rolling contact of :func:`synth.physics.rolling.roll` over the roughness of
-  :class:`synth.physics.scene.Rolling` along the path, from the sample after the last
-  separation (the ball's ballistic state there; inside a sample the flight may already have
-  ended, and the ball starts pressed in by at most ``g / (2 fs^2)``).
-* **Rolling resistance.** The rolling sphere's kinetic energy ``(7/10) m v^2`` falls by the
-  work of the contact's horizontal force (``RollingContact.energy.drive_work``: what the
-  roughness' micro-impacts take) and by Coulomb's rolling resistance ``C_rr m g`` per metre
-  (Cross, Am. J. Phys. 84, 221 (2016)): ``dv/dt = -(5/7) C_rr g`` between updates, and the
-  roughness' work taken off at the end of each block of :data:`BLOCK_SECONDS`.
-* **The end.** The ball stops (``"stopped"``: its speed reaches 0, the weight stays on the
-  plate), its touching point reaches the plate's edge (``"left-plate"``: the sound ends with
-  the last contact; the fall beyond is not modelled), it flies off the plate between two
-  bounces (``"left-plate"`` too), or the time runs out (``"max-duration"``).
+* Bounces: the impact solver's (:class:`synth.physics.contact.ContactSolver`, the impedance
+  at each point) strung by flights of ``2 v_out / g``, as :mod:`synth.physics.bounces`.
+* Grip: friction brings the contact point to rest during an impact, conserving the angular
+  momentum about it: ``v' = (5 v + 2 R w) / 7`` for a solid sphere (Garwin, Am. J. Phys. 37,
+  88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), assuming ``mu (1 + e) v_y >= (2/7) |v - R
+  w|`` (a grazing fast throw slides instead, left out).
+* Rolling: once a flight would be shorter than the contact, :func:`synth.physics.rolling.roll`
+  over the roughness of :class:`synth.physics.scene.Rolling`, from the sample after the last
+  separation.
+* Rolling resistance: the kinetic energy ``(7/10) m v^2`` loses the roughness' work and
+  Coulomb's ``C_rr m g`` per metre (Cross, Am. J. Phys. 84, 221 (2016)): ``dv/dt = -(5/7)
+  C_rr g``, the roughness' work taken off each block of :data:`BLOCK_SECONDS`.
+* The end: ``"stopped"``, ``"left-plate"`` (the touching point reaches the edge, or the ball
+  flies off it) or ``"max-duration"``.
 """
 
 from __future__ import annotations

@@ -1,34 +1,19 @@
 """Where the finite plate's modes enter the contact: ``contact.plate = "auto"`` (docs/physics.md,
 "Plate impedance" and "Plate modes").
 
-Before the first wave reflected by an edge returns to the impact point, the finite plate under
-the ball moves as the infinite plate does: the modal contact (:mod:`synth.physics.modal_contact`)
-then gives the impedance model's impact, and its modes cost time for nothing. A flexural wave of
-angular frequency ``omega`` travels at the group speed ``c_g = 2 sqrt(omega) kappa``,
-``kappa = (D / (rho h))^(1/4)`` (Cremer, Heckl & Petersson, section 3.7); from an edge at
-distance ``d`` it is back within the contact's duration ``tau`` if ``2 d / c_g < tau``, that is
-above
-
-    omega_d = (d / (kappa tau))^2.
-
-Only the part of the force pulse's spectrum above ``omega_d`` can meet its reflection while the
-ball is in contact. Its share ``s(d)`` of the pulse's energy ``Int |F(omega)|^2 d omega`` (of the
-first impact solved on the impedance plate) bounds the change of the energy the plate takes,
-``beta Int |F|^2``: the admittance near the edges, blended as in
-:func:`synth.physics.impedance.admittance_at` with these shares in place of its tapers,
+Until a wave reflected by an edge returns, the finite plate moves as the infinite one and the
+modal contact costs time for nothing. A flexural wave of ``omega`` travels at ``c_g = 2
+sqrt(omega) kappa``, ``kappa = (D / (rho h))^(1/4)`` (Cremer, Heckl & Petersson, section
+3.7), and is back from an edge at ``d`` within the contact time ``tau`` above
+``omega_d = (d / (kappa tau))^2``. The share ``s(d)`` of the first impact's force spectrum
+``|F(omega)|^2`` above it bounds the change of the plate's energy, blended as in
+:func:`synth.physics.impedance.admittance_at`:
 
     Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]
 
-with ``eps`` the share of the impact's kinetic energy the plate took, ``r_e = 1 / EDGE_RATIO``
-and ``r_c = 1 / CORNER_RATIO`` (the largest changes of the admittance at a free edge and a
-free corner, Eichler 1964 and the thesis' Table 3.4), ``s_x, s_y`` the shares for the nearest
-edge along x and along y; so ``Delta e <= Delta(e^2) / (2 e)``. Where that bound exceeds
-:data:`TOLERANCE` the modes enter the contact ("modal"), elsewhere the impedance plate serves.
-
-What the choice leaves out: the impedance plate starts every impact from a plate at rest, so the
-ringing of earlier bounces under the ball (which scatters the restitution of the last, slow
-bounces of a series; ``synth bench thesis``, rows "mean change of e by the ringing") is the
-modal plate's alone (``contact.plate = "modal"``, or ``contact.model = "fitted"``).
+(``eps`` the share of kinetic energy the plate took, ``r_e = 1 / EDGE_RATIO``, ``r_c = 1 /
+CORNER_RATIO``), and ``Delta e <= Delta(e^2) / (2 e)``; above :data:`TOLERANCE` the modes
+enter the contact. Left out: the ringing of earlier bounces, the modal plate's alone.
 """
 
 from __future__ import annotations

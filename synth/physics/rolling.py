@@ -1,32 +1,19 @@
-"""A ball rolling at an imposed horizontal speed over a plate's rough surface.
+"""A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md).
 
-The model (docs/rolling.md): the ball's centre moves along a straight path on the plate at
-the horizontal speed ``v`` (the caller's, one per call or one per sample period);
-vertically it is a free body under gravity pressed by the impacts' contact law
-(:func:`synth.physics.contact_law.contact_parameters`: Hertz, with the material's loss where the
-law has one) against the plate's surface, which is the profile's envelope under the ball
-(:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's point
-impedance (its admittance ``beta``, as the impacts' contact, docs/physics.md "Hertz
-contact"). Contact is lost wherever the surface falls away faster than gravity lets the
-ball follow, and the landings that follow are impacts of the same equations: micro-bounces
-are not a separate model. The equations and the integrator are those of
-:mod:`synth.physics.rolling_kernels`.
+The centre moves along a straight path at the caller's speed ``v``; vertically the ball is a
+free body under gravity pressed by the impacts' contact law
+(:func:`synth.physics.contact_law.contact_parameters`) against the profile's envelope
+(:func:`synth.physics.surface.contact_envelope`), on a rigid plate or on the plate's point
+admittance ``beta``. Contact is lost where the surface falls away faster than gravity lets
+the ball follow, and the landings are impacts of the same equations
+(:mod:`synth.physics.rolling_kernels`). A rolling cut into calls at sample boundaries
+(:class:`RollingState`) gives the bits of one call. :func:`loss_of_contact_speed` answers the
+thesis' question (section 6.2) for a surface.
 
-:func:`roll` returns a :class:`RollingContact`: the contact force averaged over every
-sample period (its sum is the impulse delivered, exactly), the contact point on the plate,
-the smallest penetration per sample, the energy balance, the solver's status, and the state
-to continue from (:class:`RollingState`: a rolling cut into calls, each with its own speeds,
-gives the bits of one call; the seam for a voice whose speed a game updates every frame).
-:func:`loss_of_contact_speed` answers the thesis' question (section 6.2) for a surface.
-The results (:class:`RollingContact`, :class:`RollingState`, :class:`EnergyBalance`,
-:class:`RollingBlock`) are :mod:`synth.physics.rolling_results`'.
-
-Left out (docs/rolling.md, "Limits"): rolling resistance (the horizontal speed is imposed,
-not solved; :attr:`RollingContact.mean_drag` is the mean horizontal force the contact
-opposes to it, whose work the drive supplies); the tilt of the contact normal (forces and
-penetrations are vertical: errors of the order of the profile's slope squared); the local
-curvature of the profile in the Hertz constant (the sphere-on-flat constant is used); the
-ball's rotation.
+Left out (docs/rolling.md, "Limits"): the rolling resistance (the speed is imposed;
+:attr:`RollingContact.mean_drag` is the contact's horizontal force), the tilt of the contact
+normal (errors of the order of the slope squared), the profile's curvature in the Hertz
+constant, and the ball's rotation.
 """
 
 from __future__ import annotations
@@ -101,47 +88,38 @@ def roll(
     envelope : ContactEnvelope
         The path's surface as this ball rides it (made with ``ball.radius``).
     speed : float >= 0, or ndarray (N,) of them
-        Horizontal speed of the ball's centre, m/s: one for the whole ``duration``, or one
-        per sample period (then ``duration`` is ``N / samplerate`` and is not given).
+        Horizontal speed of the centre, m/s: one for ``duration``, or one per sample period.
     samplerate : int > 0
         Hz.
     origin : (float, float)
-        Where the path's coordinate 0 lies on the plate, m from its corner.
+        The path's coordinate 0 on the plate, m from its corner.
     direction : (float, float)
         The path's direction on the plate (normalised here).
-    duration : float > 0
-        s (at most :data:`MAX_DURATION`), with a single ``speed``.
+    duration : float in (0, MAX_DURATION]
+        s, with a single ``speed``.
     start : float >= 0, optional
-        The centre's path coordinate at time 0, m (default 0); the centre's path must stay
-        within the envelope's length.
+        The centre's path coordinate at time 0, m (default 0).
     state : RollingState, optional
-        Continue where an earlier rolling ended (its ``final_state``), instead of starting
-        at ``start``: consecutive calls give the bits of one call over the same speeds. Or
-        start from a ball above the surface (:meth:`RollingState.at`), such as one landing.
+        Continue from an earlier rolling's ``final_state`` (the bits of one call), or from a
+        ball above the surface (:meth:`RollingState.at`), instead of ``start``.
     contact : str
-        The contact law and its ``contact_options`` (see
-        :func:`synth.physics.contact_law.contact_parameters`).
+        The contact law, with ``contact_options``
+        (:func:`synth.physics.contact_law.contact_parameters`).
     admittance : float >= 0, optional
-        The plate's admittance at the contact, m/(N s): 0 for a rigid plate; default the
-        infinite plate's ``1 / Z_inf`` (:func:`synth.physics.impedance.infinite_plate_impedance`).
+        The plate's admittance at the contact, m/(N s): 0 rigid; default ``1 / Z_inf``.
     gravity : float > 0
         m/s^2.
     rtol : float in [1e-12, 1e-2]
-        Local relative tolerance of the integrator (on the penetration, relative to the
-        static penetration, and on the vertical speed).
+        Local relative tolerance on the penetration (relative to the static one) and the
+        vertical speed.
     landing_speed : float > 0
-        The fastest landing (m/s, relative to the surface) whose contact the steps across a
-        flight cannot miss: a step is at most half the elastic Hertz contact's shortest
-        possible duration at that speed, ``2 delta_max / u`` with ``delta_max =
-        ((n + 1) m u^2 / (2 K))^(1/(n+1))`` (the relative speed never exceeds ``u``), and at
-        most a sample period.
+        The fastest landing (m/s) whose contact a step cannot miss: a step is at most half the
+        elastic contact's shortest duration at that speed, ``2 delta_max / u``, ``delta_max =
+        ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and at most a sample period.
 
-    Start (without ``state``): the ball is in contact as a ball rolled there slowly would
-    be: the contact force ``m (g + v^2 e''(s0))`` (the weight plus the centre path's
-    centripetal force), the penetration it needs under the law's elastic part, the vertical
-    speed that keeps the penetration steady; if that force is negative the ball starts just
-    touching, moving with the surface.
-    """
+    Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with
+    ``m (g + v^2 e''(s0))`` (the weight plus the centripetal force), its penetration steady;
+    just touching if that force is negative."""
     roller = Roller.over(
         ball, plate, envelope, samplerate=samplerate, origin=origin, direction=direction,
         contact=contact, admittance=admittance, gravity=gravity, rtol=rtol,
@@ -152,11 +130,8 @@ def roll(
 
 @dataclass(frozen=True, eq=False)
 class Roller:
-    """:func:`roll`'s ball, plate, envelope and options, checked and worked out once, for a
-    rolling solved in many consecutive calls: each :meth:`roll` then costs its checks of the
-    speeds and the integration, and :meth:`advance` (the blocks of
-    :func:`synth.physics.path.simulate_path`) only the integration.
-    Made by :meth:`over` (the arguments of :func:`roll`)."""
+    """:func:`roll`'s arguments, checked and worked out once (:meth:`over`) for a rolling solved in
+    many consecutive calls (:meth:`roll`, or :meth:`advance` without the checks)."""
 
     setup: _Setup
     plate: Plate
@@ -245,12 +220,9 @@ class Roller:
 
     def advance(self, speeds: np.ndarray, *, state: RollingState | None = None,
                 start: float | None = None) -> RollingBlock:  # fmt: skip
-        """Integrate over the sample periods of ``speeds`` (m/s, finite and >= 0, made by
-        the caller) from ``state`` or, without one, from a ball rolling at ``start`` (m) as
-        :func:`roll` starts it, the path within a stretch checked by :meth:`check_reach`:
-        the same integration as :meth:`roll`'s, without its checks, contact points and
-        energy balance (:meth:`contact_coordinates` and :meth:`mechanical_energy` give them
-        for many calls at once)."""
+        """Integrate over the periods of ``speeds`` (m/s, checked by the caller) from ``state`` or a
+        ball rolling at ``start`` (m), in a stretch :meth:`check_reach` checked: :meth:`roll`'s
+        integration without its checks, contact points and energy balance."""
         setup = self.setup
         s0 = float(state.vector[_k.S]) if state is not None else float(start)
         y, h = _start(setup, speeds, s0, state)
@@ -269,23 +241,19 @@ class Roller:
         )
 
     def initial_state(self, speed: float, start: float) -> RollingState:
-        """The state (and first step) :func:`roll` starts from without ``state``: the ball
-        rolling at ``start`` (m) at ``speed`` (m/s, its first period's): a rolling that
-        continues from it gives the bits of :func:`roll` from ``start``."""
+        """The state and first step :func:`roll` starts from at ``start`` (m), ``speed`` (m/s)."""
         y, h = _start(self.setup, np.array([float(speed)]), float(start), None)
         return RollingState(read_only(y), float(h))
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
-        """The state vector (a new array) and the first step (s) a rolling starts its
-        integration with (as :meth:`advance`): from ``state`` or, without one, from a ball
-        rolling at ``start`` (m) at ``speed`` (m/s, its first period's)."""
+        """The state vector (new) and first step (s) of :meth:`advance` from ``state`` or at
+        ``start`` (m) and ``speed`` (m/s)."""
         return _start(self.setup, np.array([float(speed)]), float(start), state)
 
     def kernel_constants(self) -> tuple:
-        """The constants :func:`synth.physics.rolling_kernels.roll` takes after the speeds,
-        in its order: ``(m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max)``
-        (SI units), as :func:`roll` passes them."""
-        return _constants(self.setup)
+        """``(m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max)`` (SI), the constants of
+        :func:`synth.physics.rolling_kernels.roll` after the speeds."""
+        return self.setup.kernel_constants
 
     def contact_coordinates(self, centres: np.ndarray) -> np.ndarray:
         """The touching points' path coordinates (m) of the centre at ``centres`` (m), as
@@ -361,7 +329,13 @@ class _Setup:
     def kernel_constants(self) -> tuple:
         """:meth:`Roller.kernel_constants`, worked out once (a path calls the kernel per
         block)."""
-        return _kernel_constants(self)
+        law = self.law
+        K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
+        delta_ref = (self.mass * self.gravity / K) ** (1.0 / n)
+        return (
+            self.mass, K, n, mu, b, self.admittance, self.gravity, float(self.samplerate),
+            self.rtol, delta_ref, self.max_step,
+        )  # fmt: skip
 
 
 def _contact_points(setup, centre):
@@ -373,9 +347,8 @@ def _contact_points(setup, centre):
 
 
 def _contact_coordinates(setup, centre):
-    """Path coordinates (m) of the touching points of the centre at the path coordinates
-    ``centre`` (m, finite): the centre plus the envelope's contact offset, interpolated
-    linearly (:func:`synth.physics.rolling_kernels.touching_points`)."""
+    """Path coordinates (m) of the touching points of the centre at ``centre`` (m)
+    (:func:`synth.physics.rolling_kernels.touching_points`)."""
     env = setup.envelope
     centre = np.ascontiguousarray(centre, dtype=float)
     out = np.empty_like(centre)
@@ -384,10 +357,9 @@ def _contact_coordinates(setup, centre):
 
 
 def _check_reach(setup, first, last, plate, origin, direction):
-    """``ParameterError`` unless every touching point of the centre between the path
-    coordinates ``first <= last`` (m) lies on the plate: the touching point's coordinate
-    is piecewise linear in the centre's, so its extremes are at the two ends or at the
-    envelope's samples between them, and the plate is convex."""
+    """``ParameterError`` unless the touching points of the centre between the path
+    coordinates ``first <= last`` (m) are on the (convex) plate: piecewise linear in the
+    centre, their extremes are at the ends or at the envelope's samples between them."""
     env = setup.envelope
     i0 = int(math.ceil(first / env.spacing))
     i1 = int(math.floor(last / env.spacing))
@@ -409,7 +381,7 @@ def _check_reach(setup, first, last, plate, origin, direction):
 
 
 def _initial_state(m, K, n, beta, g, v, s0, e, ep, epp) -> np.ndarray:
-    """The state of :func:`roll`'s start without a ``state``."""
+    """The state of :func:`roll`'s start without a ``state`` (see :func:`roll`)."""
     F0 = m * (g + v * v * epp)
     y = np.zeros(_k.N_STATE)
     y[_k.S] = s0
@@ -434,8 +406,7 @@ def _mechanical_energy(y, setup) -> float:
 
 
 def _start(setup, speeds, s0, state):
-    """The integrator's state vector and first step (s) of a call from ``s0`` (m) or
-    ``state``."""
+    """The integrator's state vector and first step (s) from ``s0`` (m) or ``state``."""
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     K, n = law.stiffness, law.exponent
@@ -448,10 +419,9 @@ def _start(setup, speeds, s0, state):
 
 
 def _integrate(setup, speeds, y, h):
-    """Integrate from ``y`` (updated in place) with the first step ``h`` (s) over the sample
-    periods of ``speeds`` (m/s): ``(status, steps, rejected, flights, h, forces,
-    min_penetration, centres)``, the arrays NaN where a failed integration did not reach
-    and ``centres`` the path coordinate at each period's start (m)."""
+    """:func:`synth.physics.rolling_kernels.roll` from ``y`` (updated in place) and step ``h``
+    (s) over ``speeds`` (m/s): its tuple, then the forces (N), smallest penetrations (m) and
+    centres at each period's start (m), NaN where a failed integration did not reach."""
     N = speeds.size
     forces = np.full(N, np.nan)
     min_pen = np.full(N, np.nan)
@@ -462,27 +432,13 @@ def _integrate(setup, speeds, y, h):
         setup.envelope.coefficients,
         setup.envelope.spacing,
         speeds,
-        *_constants(setup),
+        *setup.kernel_constants,
         MAX_STEPS_PER_SAMPLE * N,
         forces,
         min_pen,
         centres,
     )
     return status, steps, rejected, flights, h, forces, min_pen, centres
-
-
-def _constants(setup) -> tuple:
-    """The kernel's constants of ``setup`` (see :meth:`Roller.kernel_constants`)."""
-    return setup.kernel_constants
-
-
-def _kernel_constants(setup) -> tuple:
-    """:func:`_constants`, worked out."""
-    m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
-    law = setup.law
-    K, n, mu, b = law.stiffness, law.exponent, law.dissipation, 1.5 * law.viscous_time
-    delta_ref = (m * g / K) ** (1.0 / n)
-    return m, K, n, mu, b, beta, g, float(fs), setup.rtol, delta_ref, setup.max_step
 
 
 def _solve(setup, speeds, s0, state):
@@ -538,20 +494,9 @@ def _solve(setup, speeds, s0, state):
 
 @dataclass(frozen=True)
 class LossOfContactSpeed:
-    """The speed at which a rolling ball starts to leave the surface (m/s), bracketed.
-
-    Attributes
-    ----------
-    speed : float
-        The bracket's middle, m/s.
-    low, high : float
-        Speeds at which the ball stayed on the surface and left it, m/s.
-    rolls : int
-        Rollings solved.
-    success : bool
-        True if the bracket was found and narrowed to the tolerance.
-    message : str
-    """
+    """The speed at which a rolling ball starts to leave the surface: ``speed`` the middle of
+    the bracket ``low`` (stayed on) to ``high`` (left), m/s; ``rolls`` rollings solved;
+    ``success`` if the bracket was found and narrowed to the tolerance."""
 
     speed: float
     low: float
@@ -577,14 +522,10 @@ def loss_of_contact_speed(
     **options,
 ) -> LossOfContactSpeed:
     """The lowest speed (m/s) at which ``ball`` rolling from ``start`` to ``stop`` (path
-    coordinates, m) leaves the surface, by bisection between ``low`` (stays on) and
-    ``high`` (leaves), to ``tolerance`` (relative, in (0, 0.1]): the thesis' question
-    (section 6.2) for a given surface. Each candidate speed is a :func:`roll` over the
-    stretch (``options`` as there: the contact law, ``admittance``, ``gravity``, ``rtol``);
-    "leaves" means a step's end off the surface. Bisection assumes a single change from
-    staying on to leaving between ``low`` and ``high``: on a random surface the dynamics
-    can make it change more than once, and the bracket then holds one of the changes.
-    """
+    coordinates, m) leaves the surface (a step's end off it), by bisection between ``low``
+    (stays on) and ``high`` (leaves) to the relative ``tolerance`` in (0, 0.1], each speed a
+    :func:`roll` with ``options``: the thesis' question (section 6.2). On a random surface
+    the change may happen more than once; the bracket then holds one of them."""
     v_lo = checks.positive("low", low, "m/s")
     v_hi = checks.positive("high", high, "m/s")
     if not v_hi > v_lo:

@@ -18,31 +18,15 @@ from synth.physics.surface import ContactEnvelope, envelope_at
 
 @dataclass(frozen=True)
 class EnergyBalance:
-    """The energy of the ball and its contact at the start and the end (J), and where the
-    difference went.
-
-    ``final - initial + loss_work + plate_energy - drive_work`` is zero for the exact
-    solution: the mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` changes
-    by the work of the horizontal drive (the force's horizontal part ``-F e'(s)`` against the
-    imposed speed) less what the contact's loss and the plate's impedance take.
-
-    Attributes
-    ----------
-    initial, final : float
-        Mechanical energy, J (potential energy from the plate's nominal plane).
-    loss_work : float
-        Work of the contact's loss, ``Int (F - K delta^n) d(delta)/dt dt``, J (>= 0).
-    plate_energy : float
-        Energy carried into the plate, ``Int beta F^2 dt``, J.
-    drive_work : float
-        Work of the horizontal drive, ``Int F e'(s) v dt``, J.
-    gross_drive_work : float
-        ``Int |F e'(s) v| dt``, J: the energy exchanged with the drive.
-    residual : float
-        ``|final - initial + loss_work + plate_energy - drive_work|`` relative to the
-        largest of ``gross_drive_work``, ``loss_work + plate_energy``, ``|final -
-        initial|`` and the resting contact's energy scale ``m g delta_static``.
-    """
+    """The mechanical energy ``m v_y^2 / 2 + m g y + K delta^(n+1) / (n+1)`` of the ball and its
+    contact at the start and the end, J (``initial``, ``final``; potential from the plate's
+    plane), and where the difference went, J: ``loss_work`` the contact's loss ``Int (F - K
+    delta^n) delta' dt``, ``plate_energy`` into the plate ``Int beta F^2 dt``, ``drive_work``
+    of the horizontal drive ``Int F e'(s) v dt`` (the force's horizontal part against the imposed
+    speed), ``gross_drive_work`` ``Int |F e'(s) v| dt``. ``residual`` is ``|final - initial +
+    loss_work + plate_energy - drive_work|`` (zero for the exact solution) relative to the
+    largest of ``gross_drive_work``, ``loss_work + plate_energy``, ``|final - initial|`` and
+    ``m g delta_static``."""
 
     initial: float
     final: float
@@ -55,18 +39,10 @@ class EnergyBalance:
 
 @dataclass(frozen=True, eq=False)
 class RollingState:
-    """Where a rolling ended, to continue from (:func:`roll`'s ``state``); or, made by
-    :meth:`at`, a ball above (or on) the surface to start from.
-
-    Attributes
-    ----------
-    vector : ndarray
-        The integrator's state (read-only): the ball's height relative to the plate's
-        surface (m), its vertical speed (m/s), the plate surface's displacement (m), the
-        quadratures of the energy balance (J) and the centre's path coordinate (m).
-    step : float or None
-        The integrator's next step size, s (None: :func:`roll` chooses the first one).
-    """
+    """Where a rolling ended, to continue from (:func:`roll`'s ``state``), or a ball above the
+    surface to start from (:meth:`at`): ``vector`` the integrator's state (read-only: height
+    relative to the surface, m; vertical speed, m/s; the plate's displacement, m; the energy
+    quadratures, J; the centre's path coordinate, m), ``step`` its next step, s (None: chosen)."""
 
     vector: np.ndarray
     step: float | None
@@ -80,10 +56,9 @@ class RollingState:
         height: float,
         vertical_velocity: float,
     ) -> RollingState:
-        """The ball with its centre above ``path_position`` (m, on the envelope's path), its
-        lowest point ``height`` (m) above the envelope there (negative: pressed into it by
-        that much), moving up at ``vertical_velocity`` (m/s; negative: down), the plate at
-        rest: a landing ball is ``height=0, vertical_velocity=-v_in``."""
+        """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope
+        (negative: pressed in), moving up at ``vertical_velocity`` (m/s), the plate at rest: a
+        landing ball is ``height=0, vertical_velocity=-v_in``."""
         if not isinstance(envelope, ContactEnvelope):
             raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
         s = checks.in_range(
@@ -110,51 +85,17 @@ class RollingState:
 
 @dataclass(frozen=True, eq=False)
 class RollingContact:
-    """A rolling ball's contact with the plate, sampled at the audio rate (SI units).
-
-    Attributes
-    ----------
-    samplerate : int
-        Hz; sample ``j`` covers ``[j, j + 1) / samplerate`` s from the start.
-    force : ndarray (N,)
-        Mean contact force on the plate over each sample period, N (downward on the plate).
-    path_position : ndarray (N,)
-        Position of the ball's centre along the path in the middle of each sample period,
-        m (where the period's mean force acts).
-    contact_coordinate : ndarray (N,)
-        Position of the touching point along the path there, m (the
-        centre's position plus the envelope's contact offset).
-    contact_point : ndarray (N, 2)
-        That point on the plate, ``(x, y)`` m from the plate's corner.
-    min_penetration : ndarray (N,)
-        Smallest penetration at the solver's steps' ends within each sample, m (<= 0:
-        the ball was off the plate).
-    flights : int
-        Losses of contact seen at the steps' ends.
-    energy : EnergyBalance
-    law : ContactLaw
-        The contact law's constants.
-    admittance : float
-        The plate's admittance ``beta``, m/(N s) (0: rigid).
-    speed : ndarray (N,)
-        Horizontal speed in each sample period, m/s.
-    origin : (float, float)
-        Where the path's coordinate 0 lies on the plate, m from its corner.
-    direction : (float, float)
-        The path's unit direction on the plate.
-    mass : float
-        Ball mass, kg.
-    static_penetration : float
-        ``(m g / K)^(1/n)``, m: the scale of the error control.
-    success : bool
-    status : int
-        0 integrated to its end; negative: failure (see ``message``).
-    message : str
-    n_steps, n_rejected : int
-        Integration steps taken and rejected.
-    final_state : RollingState
-        Where the rolling ended, for a call that continues it.
-    """
+    """A rolling ball's contact with the plate, sampled at ``samplerate`` (Hz; sample ``j`` covers
+    ``[j, j + 1) / samplerate`` s). Arrays (N,) per sample period: ``force`` the mean force on the
+    plate, N; ``path_position`` the centre on the path in the period's middle, m;
+    ``contact_coordinate`` the touching point on the path, m; ``contact_point`` (N, 2) it on the
+    plate, m from its corner; ``min_penetration`` the smallest at the steps' ends, m (<= 0: off
+    the plate); ``speed`` the horizontal speed, m/s. ``flights`` counts the losses of contact;
+    ``law`` the contact law's constants; ``admittance`` ``beta``, m/(N s) (0 rigid); ``origin``
+    (m) and unit ``direction`` of the path; ``mass`` kg; ``static_penetration`` ``(m g /
+    K)^(1/n)``, m, the error control's scale; ``status`` 0 integrated to its end, negative a
+    failure (``message``); ``n_steps``, ``n_rejected`` steps taken and rejected;
+    ``final_state`` to continue from."""
 
     samplerate: int
     force: np.ndarray
@@ -193,23 +134,10 @@ class RollingContact:
 
 @dataclass(frozen=True, eq=False)
 class RollingBlock:
-    """One :meth:`Roller.advance` (SI units).
-
-    Attributes
-    ----------
-    force : ndarray (N,)
-        Mean contact force over each sample period, N.
-    centre : ndarray (N,)
-        The ball's centre on the path in the middle of each period, m.
-    flights : int
-        Losses of contact seen at the steps' ends.
-    loss_work, plate_energy, drive_work : float
-        As :class:`EnergyBalance`'s, J.
-    success : bool
-    message : str
-    initial_state, final_state : RollingState
-        Where the block started and ended.
-    """
+    """One :meth:`Roller.advance`: ``force`` (N,) the mean force per sample period, N; ``centre``
+    the centre on the path in each period's middle, m; ``flights`` the losses of contact;
+    ``loss_work``, ``plate_energy``, ``drive_work`` as :class:`EnergyBalance`'s, J; the
+    ``initial_state`` and ``final_state``."""
 
     force: np.ndarray
     centre: np.ndarray

@@ -1,8 +1,8 @@
 """Scene objects: the ball, the plate, the listener and the scene that joins them.
 
-All are frozen dataclasses validated on construction. Positions on a plate are
-``(x, y)`` in metres from a corner, ``x`` along the plate's length and ``y``
-along its width; a microphone's ``z`` is its height above the plate, metres.
+Frozen dataclasses validated on construction. A point on a plate is ``(x, y)`` in metres
+from a corner, ``x`` along its length and ``y`` its width; a microphone's ``z`` is its
+height above the plate, metres.
 """
 
 from __future__ import annotations
@@ -17,39 +17,53 @@ from synth.physics.materials import Damping, Material, resolve
 
 BOUNDARIES = ("free", "simply-supported", "clamped")
 
-# Ranges of the scene's numbers, checked when an object is made, before any work. They
-# bound what the model describes (a ball dropped on a thin plate in a room, thesis ch. 2;
-# see docs/physics.md) with a wide margin, and keep every derived figure (impact speed,
-# contact time, mode count, audio length) finite and within memory:
-#: Largest ball radius, m (a bowling ball is 0.109 m).
-MAX_BALL_RADIUS = 1.0
-#: Smallest ball radius, m: a grain of fine sand; smaller is a particle outside the
-#: continuum (Hertz) contact, whose contact time falls below the solver's time axis.
+# Ranges of the scene's numbers: they bound what the model describes (a ball dropped on a
+# thin plate in a room, thesis ch. 2; docs/physics.md) with a wide margin, and keep every
+# derived figure (impact speed, contact time, mode count, audio length) finite.
+#: Ball radius, m: a grain of fine sand (a smaller particle is outside the continuum Hertz
+#: contact) to 1 m (a bowling ball is 0.109 m).
 MIN_BALL_RADIUS = 1e-6
-#: Largest ball mass, kg (a bowling ball is 7 kg).
-MAX_BALL_MASS = 1000.0
-#: Smallest ball mass, kg: a steel sphere of MIN_BALL_RADIUS weighs 3e-14 kg. A lighter
-#: ball's impact force (~ m^(3/5)) and sound take float64 towards its underflow, where
-#: the tails' floor (1e-4 of the loudest tick) is no longer a number.
+MAX_BALL_RADIUS = 1.0
+#: Ball mass, kg: a steel sphere of MIN_BALL_RADIUS weighs 3e-14 kg (a lighter ball's force,
+#: ~ m^(3/5), nears float64's underflow) to 1000 kg (a bowling ball is 7 kg).
 MIN_BALL_MASS = 1e-15
+MAX_BALL_MASS = 1000.0
 #: Largest plate side or thickness, m.
 MAX_PLATE_SIZE = 100.0
-#: Thinnest plate, m: a household aluminium foil is 16 um thick; a thinner sheet is a
-#: film (its bending stiffness ``E h^3``, which the contact, the modes and the impedance
-#: all divide by, vanishes as h^3 and underflows to 0 at h = 1e-103 m).
+#: Thinnest plate, m: household aluminium foil is 16 um; a thinner sheet is a film, whose
+#: bending stiffness ``E h^3`` (a divisor of the contact, modes and impedance) vanishes.
 MIN_PLATE_THICKNESS = 1e-6
-#: Drop heights, m: from 1 um (an impact speed of 4.4 mm/s) to 1 km (140 m/s; the
-#: contact stays elastic far below it for every material of the table).
+#: Drop heights, m: 1 um (4.4 mm/s at impact) to 1 km (140 m/s; the contact stays elastic
+#: far below it for every material of the table).
 MIN_DROP_HEIGHT = 1e-6
 MAX_DROP_HEIGHT = 1000.0
-#: Farthest microphone coordinate from the plate's corner, m: the sound's travel time
-#: (2.9 s at 343 m/s) stays a small part of the render, and every distance finite.
+#: Farthest microphone coordinate from the plate's corner, m (2.9 s of travel at 343 m/s).
 MAX_LISTENER_DISTANCE = 1000.0
-#: Largest horizontal speed of a ball at release, m/s (a thrown ball; a rolling ball's
-#: contact with a rough plate is solved sample by sample, at any speed).
+#: Largest horizontal speed of a ball at release, m/s (a thrown ball).
 MAX_HORIZONTAL_SPEED = 100.0
 #: Largest gravity, m/s^2 (the Sun's surface: 274 m/s^2).
 MAX_GRAVITY = 1000.0
+
+
+def _closed(name: str, value, lo: float, hi: float, unit: str) -> float:
+    """``value`` as a float in the closed interval ``[lo, hi]``, else ``ParameterError``."""
+    return checks.in_range(name, value, lo, hi, unit, lo_open=False, hi_open=False)
+
+
+def _set(instance, **values) -> None:
+    """Set the checked ``values`` on a frozen dataclass ``instance``."""
+    for name, value in values.items():
+        object.__setattr__(instance, name, value)
+
+
+def _check_mass(m: float, origin: str, hint: str = "") -> float:
+    """A derived ball mass ``m`` (kg) within [MIN_BALL_MASS, MAX_BALL_MASS]."""
+    if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
+        raise ParameterError(
+            f"ball.mass={m:.4g} kg ({origin}) must be in [{MIN_BALL_MASS:g}, "
+            f"{MAX_BALL_MASS:g}] (kg){hint}"
+        )
+    return m
 
 
 @dataclass(frozen=True)
@@ -71,31 +85,22 @@ class Ball:
     mass: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        r = checks.in_range(
-            "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
-        object.__setattr__(self, "radius", r)
+        material = resolve(self.material, "ball.material")
+        r = _closed("ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres")
         if self.mass is None:
-            m = self.material.density * 4.0 / 3.0 * math.pi * self.radius**3
-            if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
-                raise ParameterError(
-                    f"ball.mass={m:.4g} kg (from ball.radius={r!r} m and the density "
-                    f"{self.material.density:g} kg/m^3) must be in [{MIN_BALL_MASS:g}, "
-                    f"{MAX_BALL_MASS:g}] (kg); give ball.mass or change the radius"
-                )
+            m = _check_mass(
+                material.density * 4.0 / 3.0 * math.pi * r**3,
+                f"from ball.radius={r!r} m and the density {material.density:g} kg/m^3",
+                "; give ball.mass or change the radius",
+            )
         else:
-            m = checks.in_range(
-                "ball.mass", self.mass, MIN_BALL_MASS, MAX_BALL_MASS, "kg",
-                lo_open=False, hi_open=False,
-            )  # fmt: skip
-        object.__setattr__(self, "mass", m)
+            m = _closed("ball.mass", self.mass, MIN_BALL_MASS, MAX_BALL_MASS, "kg")
+        _set(self, material=material, radius=r, mass=m)
 
 
-#: Air's specific gas constant, J/(kg K) (dry air), and the temperature at which a hollow
-#: ball's gas is weighed, K (20 degrees C), and the atmosphere its gauge pressure is above,
-#: Pa (ISO 2533 standard atmosphere at sea level).
+#: Dry air's specific gas constant, J/(kg K), the temperature a hollow ball's gas is weighed
+#: at, K (20 degrees C), and the atmosphere above which its gauge pressure is, Pa (ISO 2533
+#: standard atmosphere at sea level).
 AIR_GAS_CONSTANT = 287.05
 GAS_TEMPERATURE = 293.15
 ATMOSPHERE = 101_325.0
@@ -105,9 +110,11 @@ MAX_GAUGE_PRESSURE = 1e6
 
 @dataclass(frozen=True)
 class HollowBall(Ball):
-    """A thin spherical shell filled with air (a table-tennis ball, a tennis ball, a
-    basketball): usable wherever a :class:`Ball` is; its contact is the thin-shell law
-    (``contact="shell"``, docs/physics.md, "Hollow balls").
+    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball),
+    usable wherever a :class:`Ball` is; its contact is the thin-shell law (``contact="shell"``,
+    docs/physics.md, "Hollow balls"). The mass is derived, never given: the shell's
+    ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``, the air inside at ``ATMOSPHERE + pressure`` and
+    :data:`GAS_TEMPERATURE` (ideal gas), and the cover's mass.
 
     Parameters
     ----------
@@ -116,22 +123,15 @@ class HollowBall(Ball):
     radius : float in [1e-6, 1]
         Outer radius ``R``, metres.
     thickness : float in (0, radius / 2]
-        Wall thickness ``h``, metres (keyword only); the thin-shell laws hold for
-        ``h << R``, and a wall thicker than half the radius is not a shell.
+        Wall thickness ``h``, metres (keyword only; a thicker wall is not a shell).
     pressure : float in [0, 1e6]
-        Gauge pressure of the gas inside (above one standard atmosphere), Pa (keyword only;
-        0: an unpressurised ball such as a table-tennis ball).
+        Gauge pressure of the gas inside, Pa (keyword only; 0: unpressurised).
     cover_thickness : float in [0, radius / 2)
-        Thickness of a cover outside the shell (a tennis ball's felt), m (keyword only; 0:
-        none). The shell's outer radius is ``R_s = radius - cover_thickness``; the cover
-        carries the ball's mass and size but no force of the contact (docs/physics.md,
-        "Hollow balls").
+        Thickness of a cover outside the shell (a tennis ball's felt), m (keyword only): the
+        shell's outer radius is ``R_s = radius - cover_thickness``; the cover carries mass
+        and size but no contact force.
     cover_mass : float in [0, 1000]
-        The cover's mass, kg (keyword only; 0 without a cover).
-
-    The mass (kg) is derived, never given: the shell's ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``
-    plus the air inside at ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas)
-    plus the cover's mass.
+        The cover's mass, kg (keyword only).
     """
 
     _: KW_ONLY
@@ -149,11 +149,7 @@ class HollowBall(Ball):
             )
         if self.thickness is None:
             raise ParameterError("ball.thickness is required for a hollow ball (metres)")
-        object.__setattr__(self, "material", resolve(self.material, "ball.material"))
-        R = checks.in_range(
-            "ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
+        R = _closed("ball.radius", self.radius, MIN_BALL_RADIUS, MAX_BALL_RADIUS, "metres")
         c = checks.in_range(
             "ball.cover_thickness", self.cover_thickness, 0.0, 0.5 * R,
             "metres (below half the radius)", lo_open=False,
@@ -163,26 +159,17 @@ class HollowBall(Ball):
             "metres (at most half the shell's radius, ball.radius - ball.cover_thickness)",
             hi_open=False,
         )  # fmt: skip
-        p = checks.in_range(
-            "ball.pressure", self.pressure, 0.0, MAX_GAUGE_PRESSURE, "Pa (gauge)",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
-        cover = checks.in_range(
-            "ball.cover_mass", self.cover_mass, 0.0, MAX_BALL_MASS, "kg",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
-        object.__setattr__(self, "radius", R)
-        object.__setattr__(self, "thickness", h)
-        object.__setattr__(self, "pressure", p)
-        object.__setattr__(self, "cover_thickness", c)
-        object.__setattr__(self, "cover_mass", cover)
-        m = self.shell_mass + self.gas_mass + cover
-        if not MIN_BALL_MASS <= m <= MAX_BALL_MASS:
-            raise ParameterError(
-                f"ball.mass={m:.4g} kg (from ball.radius={R!r} m, ball.thickness={h!r} m) must "
-                f"be in [{MIN_BALL_MASS:g}, {MAX_BALL_MASS:g}] (kg)"
-            )
-        object.__setattr__(self, "mass", m)
+        _set(
+            self,
+            material=resolve(self.material, "ball.material"),
+            radius=R,
+            thickness=h,
+            pressure=_closed("ball.pressure", self.pressure, 0.0, MAX_GAUGE_PRESSURE, "Pa (gauge)"),
+            cover_thickness=c,
+            cover_mass=_closed("ball.cover_mass", self.cover_mass, 0.0, MAX_BALL_MASS, "kg"),
+        )
+        m = self.shell_mass + self.gas_mass + self.cover_mass
+        _set(self, mass=_check_mass(m, f"from ball.radius={R!r} m, ball.thickness={h!r} m"))
 
     @property
     def shell_radius(self) -> float:
@@ -232,17 +219,16 @@ class Plate:
     boundary: str = "free"
 
     def __post_init__(self):
-        object.__setattr__(self, "material", resolve(self.material, "plate.material"))
+        _set(self, material=resolve(self.material, "plate.material"))
         for name in ("length", "width"):
             size = checks.positive_at_most(
                 f"plate.{name}", getattr(self, name), MAX_PLATE_SIZE, "metres"
             )
-            object.__setattr__(self, name, size)
-        h = checks.in_range(
-            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
-        object.__setattr__(self, "thickness", h)
+            _set(self, **{name: size})
+        h = _closed(
+            "plate.thickness", self.thickness, MIN_PLATE_THICKNESS, MAX_PLATE_SIZE, "metres"
+        )
+        _set(self, thickness=h)
         checks.choice("plate.boundary", self.boundary, BOUNDARIES)
         if self.thickness > min(self.length, self.width):
             raise ParameterError(
@@ -251,9 +237,8 @@ class Plate:
             )
 
     def damping_law(self) -> Damping:
-        """The material's damping law, for computing the plate's modes (their decay rates,
-        1/s). A plate used only in a contact computation needs none; computing its modes
-        without one raises ``ParameterError`` naming the missing law."""
+        """The material's damping law, which the plate's modes need (their decay rates,
+        1/s); ``ParameterError`` naming the missing law if it has none."""
         if self.material.damping is None:
             raise ParameterError(
                 f"plate.material.damping=None ({self.material.name!r}): computing the plate's "
@@ -279,7 +264,7 @@ class Plate:
         return self.surface_density * self.length * self.width
 
     def check_position(self, position, name: str = "position") -> tuple[float, float]:
-        """Validate a point ``(x, y)`` (metres from a corner) on the plate and return it."""
+        """The point ``(x, y)`` (metres from a corner), checked to be on the plate."""
         x, y = checks.point(name, position, 2)
         if not (0.0 <= x <= self.length and 0.0 <= y <= self.width):
             raise ParameterError(
@@ -296,30 +281,20 @@ class Plate:
 
 @dataclass(frozen=True)
 class Accelerometer:
-    """A pickup on the plate measuring its normal acceleration (m/s^2).
-
-    Parameters
-    ----------
-    position : (float, float)
-        ``(x, y)`` on the plate, metres from a corner.
-    """
+    """A pickup of the plate's normal acceleration (m/s^2) at ``position`` ``(x, y)`` on
+    the plate, metres from a corner."""
 
     position: tuple[float, float]
 
     def __post_init__(self):
-        object.__setattr__(self, "position", checks.point("listener.position", self.position, 2))
+        _set(self, position=checks.point("listener.position", self.position, 2))
 
 
 @dataclass(frozen=True)
 class Microphone:
-    """A pressure microphone in the air above the (baffled) plate (Pa).
-
-    Parameters
-    ----------
-    position : (float, float, float)
-        ``(x, y, z)``: x, y in metres from a plate corner, each in [-1000, 1000]; z in
-        (0, 1000] the height above the plate, metres.
-    """
+    """A pressure microphone (Pa) in the air above the (baffled) plate at ``position``
+    ``(x, y, z)``: x, y in [-1000, 1000] metres from a plate corner, z in (0, 1000] metres
+    above the plate."""
 
     position: tuple[float, float, float]
 
@@ -335,7 +310,7 @@ class Microphone:
                     f"listener.position.{axis}={value!r} must be within "
                     f"{MAX_LISTENER_DISTANCE:g} of the plate's corner (metres)"
                 )
-        object.__setattr__(self, "position", pos)
+        _set(self, position=pos)
 
 
 Listener = Accelerometer | Microphone
@@ -350,14 +325,20 @@ LAW_OPTIONS = ("dissipation", "viscous_time", "exponent", "stiffness", "layer_de
 SURFACE_MODELS = ("ideal", "material", "fitted", "auto")
 #: The plate in the contact (:class:`Contact`'s ``plate``; :mod:`synth.physics.plate_choice`).
 PLATE_MODELS = ("impedance", "modal", "auto")
-#: Named contact models, (law, plate, surface), below: "measured" the closest to measurement
-#: at the impedance model's speed, "fitted" the fitted surface with the modes in every
-#: contact, "thesis" the thesis' model (lossless Hertz, the plate as its impedance).
 #: The contact model of a :class:`Contact` that names none: the one closest to measurement.
 DEFAULT_CONTACT_MODEL = "measured"
 #: The modal plate's theory of a :class:`Contact` that names none.
 DEFAULT_PLATE_THEORY = "kirchhoff"
+#: The parameters each law needs (the others need none).
+_LAW_NEEDS = {
+    "hunt-crossley": ("dissipation",),
+    "viscoelastic": ("viscous_time",),
+    "power-law": ("exponent", "stiffness"),
+}
 
+#: Named contact models, (law, plate, surface): "measured" the closest to measurement at the
+#: impedance model's speed, "thesis" the thesis' model (lossless Hertz, the plate as its
+#: impedance), "fitted" the fitted surface with the modes in every contact.
 CONTACT_MODELS = {
     "measured": ("hertz", "auto", "auto"),
     "thesis": ("hertz", "impedance", "ideal"),
@@ -384,26 +365,22 @@ class Contact:
     layer_depth : float > 0, optional
         Winkler layer depth, m (only with "elastic-foundation"; default the plate thickness).
     rtol : float in [1e-12, 0.1]
-        Relative accuracy of each impact's restitution and contact time. The default, 1e-9,
-        is tighter than :func:`synth.solve_impact`'s because timing errors add up along a
-        series of impacts and show as phase errors at high frequencies (``synth bench render``).
+        Relative accuracy of each impact's restitution and contact time; tighter than
+        :func:`synth.solve_impact`'s, as timing errors add up along a series of impacts.
     plate : {"impedance", "modal", "auto"}
-        The plate in the contact: the infinite plate's impedance, the finite plate's modes
-        (:mod:`synth.physics.modal_contact`, accuracy set by its band and steps), or "auto"
-        (the default: the modes where the edges change the first impact beyond the modal
-        contact's tolerance; :mod:`synth.physics.plate_choice`).
+        The infinite plate's impedance, the finite plate's modes
+        (:mod:`synth.physics.modal_contact`), or "auto" (default: the modes where the edges
+        change the first impact beyond their tolerance; :mod:`synth.physics.plate_choice`).
     surface : {"ideal", "material", "fitted", "auto"}
-        The surfaces: "ideal" (lossless elastic half-spaces, the thesis' model), "material"
-        (Hertz only: each material's published loss factor as a viscoelastic loss), "fitted"
-        (Hertz only: the plate's fitted :class:`synth.physics.materials.ContactSurface`) or
-        "auto" (default: "fitted" where the material has one, else "material"; "ideal" for the
-        other laws).
+        "ideal" (lossless half-spaces, the thesis' model), "material" (Hertz only: the
+        materials' published loss factors as a viscoelastic loss), "fitted" (Hertz only: the
+        plate's :class:`synth.physics.materials.ContactSurface`) or "auto" (default:
+        "fitted" where the material has one, else "material"; "ideal" for the other laws).
     model : {"measured", "thesis", "fitted"}, optional
-        A named set of ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`; default
-        "measured"); any of those keys given explicitly takes precedence.
+        A named ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`; default
+        "measured"); those given explicitly take precedence.
     theory : {"kirchhoff", "mindlin"}, optional
-        Plate theory of the modal plate (``plate="modal"`` only): thin plate (default) or
-        shear deformation and rotary inertia."""
+        The modal plate's theory: thin plate (default) or with shear and rotary inertia."""
 
     law: str | None = None
     dissipation: float | None = None
@@ -426,7 +403,7 @@ class Contact:
                 f"contact.theory={theory!r} applies to contact.plate='modal' or 'auto' only, not "
                 f"{self.plate!r}"
             )
-        object.__setattr__(self, "theory", theory)
+        _set(self, theory=theory)
         checks.choice("contact.law", self.law, CONTACT_LAWS)
         checks.choice("contact.plate", self.plate, PLATE_MODELS)
         checks.choice("contact.surface", self.surface, SURFACE_MODELS)
@@ -435,13 +412,7 @@ class Contact:
                 f"contact.surface={self.surface!r} applies to contact.law='hertz' only, not "
                 f"{self.law!r}"
             )
-        object.__setattr__(
-            self,
-            "rtol",
-            checks.in_range(
-                "contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
-            ),
-        )
+        _set(self, rtol=_closed("contact.rtol", self.rtol, 1e-12, 0.1, "dimensionless"))
         for name, unit in (
             ("dissipation", "s/m"),
             ("viscous_time", "s"),
@@ -450,23 +421,13 @@ class Contact:
         ):
             value = getattr(self, name)
             if value is not None:
-                object.__setattr__(self, name, checks.positive(f"contact.{name}", value, unit))
+                _set(self, **{name: checks.positive(f"contact.{name}", value, unit)})
         if self.exponent is not None:
-            object.__setattr__(
-                self,
-                "exponent",
-                checks.in_range(
-                    "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
-                ),
+            exponent = checks.in_range(
+                "contact.exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
             )
-        needs = {
-            "hertz": (),
-            "hunt-crossley": ("dissipation",),
-            "viscoelastic": ("viscous_time",),
-            "elastic-foundation": (),
-            "power-law": ("exponent", "stiffness"),
-            "shell": (),
-        }[self.law]
+            _set(self, exponent=exponent)
+        needs = _LAW_NEEDS.get(self.law, ())
         allowed = needs + (("layer_depth",) if self.law == "elastic-foundation" else ())
         for name in LAW_OPTIONS:
             value = getattr(self, name)
@@ -484,7 +445,7 @@ class Contact:
         defaults = dict(zip(("law", "plate", "surface"), CONTACT_MODELS[model], strict=True))
         for key, value in defaults.items():
             if getattr(self, key) is None:
-                object.__setattr__(self, key, value)
+                _set(self, **{key: value})
 
     def options(self) -> dict:
         """The law's parameters as keyword arguments of
@@ -509,20 +470,16 @@ class Rolling:
     Parameters
     ----------
     resistance : float in [0, 1]
-        Coefficient of rolling resistance ``C_rr`` (dimensionless): the energy the rolling
-        loses per metre, besides what the roughness' micro-impacts take (solved by the
-        contact), is ``C_rr`` times the normal force, ``C_rr m g`` (Coulomb's law of rolling
-        friction: a resistance proportional to the load and independent of the speed; Cross,
-        Am. J. Phys. 84, 221 (2016)).
-    spacing : float > 0
+        Coefficient of rolling resistance ``C_rr`` (dimensionless): besides the roughness'
+        micro-impacts (solved by the contact) the rolling loses ``C_rr m g`` joules per metre
+        (Coulomb's law of rolling friction; Cross, Am. J. Phys. 84, 221 (2016)).
+    spacing : float in (0, 0.01]
         Distance between the samples of the surface's profile along the path, m.
     rms_height : float >= 0
-        RMS height ``sigma`` of the Matern roughness, m (0: a smooth plate; at most
-        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE`, and in a scene at most the
-        plate's thickness: a roughness is a variation of the plate's surface).
+        RMS height ``sigma`` of the Matern roughness, m (0: smooth; at most
+        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness).
     correlation_length : float in (0, 100], optional
-        Its correlation length ``xi``, m (required when ``rms_height > 0``; at most
-        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE`).
+        Its correlation length ``xi``, m (required when ``rms_height > 0``).
     hurst : float in (0, 1], optional
         Its Hurst exponent ``H`` (required when ``rms_height > 0``).
     seed : int >= 0
@@ -537,33 +494,21 @@ class Rolling:
     seed: int = 0
 
     def __post_init__(self):
-        checks.in_range(
-            "rolling.resistance", self.resistance, 0.0, 1.0, "dimensionless",
-            lo_open=False, hi_open=False,
-        )  # fmt: skip
-        object.__setattr__(self, "resistance", float(self.resistance))
-        object.__setattr__(
+        _set(
             self,
-            "spacing",
-            checks.positive_at_most("rolling.spacing", self.spacing, 1e-2, "metres"),
+            resistance=_closed("rolling.resistance", self.resistance, 0.0, 1.0, "dimensionless"),
+            spacing=checks.positive_at_most("rolling.spacing", self.spacing, 1e-2, "metres"),
+            rms_height=checks.nonnegative("rolling.rms_height", self.rms_height, "metres"),
         )
-        sigma = checks.nonnegative("rolling.rms_height", self.rms_height, "metres")
-        object.__setattr__(self, "rms_height", sigma)
         for name in ("correlation_length", "hurst"):
-            value = getattr(self, name)
-            if sigma > 0.0 and value is None:
+            if self.rms_height > 0.0 and getattr(self, name) is None:
                 raise ParameterError(
-                    f"rolling.{name} is required with rolling.rms_height={sigma!r} > 0"
+                    f"rolling.{name} is required with rolling.rms_height={self.rms_height!r} > 0"
                 )
-        if sigma > 0.0:
-            from synth.physics.surface import RoughnessSpectrum
-
-            try:
-                RoughnessSpectrum(
-                    rms_height=sigma, correlation_length=self.correlation_length, hurst=self.hurst
-                )
-            except ParameterError as exc:
-                raise ParameterError(f"rolling.{exc}") from None
+        try:
+            self.spectrum()
+        except ParameterError as exc:
+            raise ParameterError(f"rolling.{exc}") from None
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ParameterError(f"rolling.seed={self.seed!r} must be an integer >= 0")
 
@@ -595,11 +540,10 @@ class Scene:
     gravity : float in (0, 1000]
         Gravitational acceleration, m/s^2.
     contact : Contact, optional
-        Contact model (default: the measured model at rtol 1e-9, see :class:`Contact`).
+        Contact model (default: :class:`Contact`'s).
     velocity : (float, float), optional
-        The ball's horizontal velocity at release ``(v_x, v_y)``, m/s (default: none, a
-        straight drop). A ball released with one bounces along a path and rolls
-        (:mod:`synth.physics.path`); it needs ``rolling``.
+        Horizontal velocity at release ``(v_x, v_y)``, m/s (default: a straight drop): the
+        ball bounces along a path and rolls (:mod:`synth.physics.path`); needs ``rolling``.
     rolling : Rolling, optional
         The rolling's resistance and the plate's roughness (with ``velocity``).
     """
@@ -626,13 +570,13 @@ class Scene:
                 f"drop.height={self.drop_height!r} must be >= "
                 f"{MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (metres)"
             )
-        object.__setattr__(self, "drop_height", h)
-        object.__setattr__(
-            self, "gravity", checks.positive_at_most("gravity", self.gravity, MAX_GRAVITY, "m/s^2")
-        )
         pos = self.plate.centre if self.position is None else self.position
-        pos = self.plate.check_position(pos, "drop.position")
-        object.__setattr__(self, "position", pos)
+        _set(
+            self,
+            drop_height=h,
+            gravity=checks.positive_at_most("gravity", self.gravity, MAX_GRAVITY, "m/s^2"),
+            position=self.plate.check_position(pos, "drop.position"),
+        )
         if 2.0 * self.ball.radius > min(self.plate.length, self.plate.width):
             raise ParameterError(
                 f"ball.radius={self.ball.radius!r} is too large for the plate: the ball's "
@@ -641,12 +585,12 @@ class Scene:
             )
         hollow = isinstance(self.ball, HollowBall)
         if self.contact is None:
-            object.__setattr__(self, "contact", Contact(law="shell") if hollow else Contact())
+            _set(self, contact=Contact(law="shell") if hollow else Contact())
         elif not isinstance(self.contact, Contact):
             raise ParameterError(f"contact={self.contact!r} must be a Contact")
         self._check_shell(hollow)
         if self.listener is None:
-            object.__setattr__(self, "listener", Microphone((pos[0], pos[1], 0.2)))
+            _set(self, listener=Microphone((*self.position, 0.2)))
         elif isinstance(self.listener, Accelerometer):
             self.plate.check_position(self.listener.position, "listener.position")
         elif not isinstance(self.listener, Microphone):
@@ -656,8 +600,8 @@ class Scene:
         self._check_path()
 
     def _check_shell(self, hollow: bool):
-        """A hollow ball takes the thin-shell law, on the impedance plate (the modal contact
-        and the rolling contact take the power laws only), and the shell law a hollow ball."""
+        """A hollow ball takes the thin-shell law, and the impedance plate (the modal and the
+        rolling contact take the power laws only); the shell law takes a hollow ball."""
         law, plate = self.contact.law, self.contact.plate
         if hollow and law != "shell":
             raise ParameterError(
@@ -680,12 +624,10 @@ class Scene:
             )
 
     def _check_path(self):
-        """``velocity`` and ``rolling``: a horizontal velocity needs the rolling's
-        description, and a plate in the contact that can follow a moving point."""
+        """A horizontal velocity needs ``rolling`` and a plate that follows a moving point."""
         if self.rolling is not None and not isinstance(self.rolling, Rolling):
             raise ParameterError(f"rolling={self.rolling!r} must be a Rolling")
         if self.rolling is not None and self.rolling.rms_height > self.plate.thickness:
-            # a roughness is a variation of the plate's surface, no taller than the plate
             raise ParameterError(
                 f"rolling.rms_height={self.rolling.rms_height!r} must be <= plate.thickness="
                 f"{self.plate.thickness!r} (metres): a roughness is a variation of the "
@@ -699,7 +641,7 @@ class Scene:
                 f"drop.velocity={self.velocity!r}: its magnitude must be at most "
                 f"{MAX_HORIZONTAL_SPEED:g} m/s"
             )
-        object.__setattr__(self, "velocity", (vx, vy))
+        _set(self, velocity=(vx, vy))
         if self.rolling is None:
             raise ParameterError(
                 f"drop.velocity={self.velocity!r} needs the [rolling] section: the ball rolls "

@@ -1,41 +1,26 @@
-"""Free and clamped plate modes by the dynamic edge effect method (docs/physics.md,
-"Plate modes", "Large free and clamped plates").
+"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md,
+"Large free and clamped plates").
 
-Bolotin's method (Bolotin 1960; Elishakoff 1976; Vijayakumar 1973): a mode of the
-rectangle ``[0, a] x [0, b]`` is a product ``w = X(x) Y(y)``, each factor an interior term
-plus edge terms that decay away from the edges (the derivation: docs/physics.md). With
-``k_x^2 = s_x``, ``mu^2 = s_x + 2 s_y``, ``P = s_x + nu s_y``, ``Q = s_x + (2 - nu) s_y`` and
-``h = a/2``, the edge conditions at ``x' = a/2`` of the symmetric and antisymmetric factors
-about the middle give, for each ``s_y``, one equation in ``s_x``:
+A mode of ``[0, a] x [0, b]`` is a product ``X(x) Y(y)`` of factors, each an interior term
+plus edge terms decaying away from the edges. With ``k_x^2 = s_x``, ``mu^2 = s_x + 2 s_y``,
+``P = s_x + nu s_y``, ``Q = s_x + (2 - nu) s_y``, ``h = a/2``, the edge conditions of the
+symmetric and antisymmetric factors give one equation in ``s_x`` per ``s_y``:
 
     free, symmetric:      Q^2 k_x sin(k_x h) + mu P^2 cos(k_x h) tanh(mu h) = 0
     free, antisymmetric:  -P^2 sin(k_x h) / k_x + Q^2 cos(k_x h) tanh(mu h) / mu = 0
     clamped, symmetric:   k_x sin(k_x h) + mu cos(k_x h) tanh(mu h) = 0
     clamped, antisymmetric: sin(k_x h) / k_x - cos(k_x h) tanh(mu h) / mu = 0
 
-(left sides entire in ``s_x``), whose ``N``-th root lies in ``((N - 1) pi / a, N pi / a]``
-(``N`` even symmetric, odd antisymmetric). A mode is a pair ``(N_x, N_y)`` (``>= 2`` clamped;
-``>= 0`` free, without the rigid-body ``(0, 0)``, ``(1, 0)``, ``(0, 1)``), solved by
-alternating the two one-dimensional equations (a contraction: each depends on the other
-only through the edge terms); the cost is linear in the number of modes. A Rayleigh-Ritz
-step on the products (Leissa 1969, chapter 1) then solves two trials of one symmetry class
-within ``_PAIR_GAP`` (1 %) together, which splits a square's degenerate pairs that the
-corners couple; a clamped trial alone takes its Rayleigh quotient, a free one keeps the edge
-effect value (its quotient gains no order: the free conditions are unmet at the corners).
-Accuracy against the Ritz solver: docs/physics.md and tests/test_asymptotic_modes.py.
+whose ``N``-th root lies in ``((N - 1) pi / a, N pi / a]``. A mode ``(N_x, N_y)`` is solved
+by alternating the two equations (a contraction), at a cost linear in the modes; a
+Rayleigh-Ritz step (Leissa 1969, ch. 1) then couples trials of one symmetry class within
+``_PAIR_GAP`` (1 %), splitting a square's degenerate pairs; a clamped trial alone takes its
+Rayleigh quotient, a free one keeps the edge-effect value.
 
-References
-----------
-V. V. Bolotin, "The edge effect in the oscillations of elastic shells", PMM 24 (1960)
-831-843; I. Elishakoff, "Bolotin's dynamic edge effect method", Shock Vib. Dig. 8 (1976);
-K. Vijayakumar, "A new method for analysis of flexural vibration of rectangular orthotropic
-plates", J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*, NASA SP-160
-(1969).
-
-Modules: this one holds :class:`EdgeEffectSolution` and :func:`solve`;
-:mod:`~synth.physics.asymptotic_modes.roots` the one-dimensional equations and their roots,
-:mod:`~synth.physics.asymptotic_modes.ritz` the Rayleigh-Ritz step and
-:mod:`~synth.physics.asymptotic_modes.factors` the shapes' factors and their tables.
+References: V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib. Dig. 8 (1976);
+K. Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*,
+NASA SP-160 (1969). Submodules: ``roots`` (the equations), ``ritz`` (the Ritz step),
+``factors`` (the shapes' factors).
 """
 
 from __future__ import annotations
