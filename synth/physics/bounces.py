@@ -30,26 +30,12 @@ STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
 
 @dataclass(frozen=True)
 class Impact:
-    """One impact of the sequence.
-
-    Attributes
-    ----------
-    index : int
-        1 for the first impact.
-    time : float
-        Time of first touch, s from the release of the ball.
-    speed : float
-        Impact speed, m/s.
-    result : ImpactResult
-        The contact solution (restitution, contact time, force pulse, ...).
-    restitution : float
-        The restitution that set the next flight: the physical ``result.restitution``,
-        unless a rebound rule of :func:`simulate_bounces` replaced it.
-    plate_state : PlateRinging or None
-        The modal plate's state under the ball at first touch (the ringing left by the
-        earlier impacts, :class:`synth.physics.modal_contact.PlateRinging`); None for the
-        impedance model, whose plate is at rest at every touch.
-    """
+    """One impact of the sequence: ``index`` (1 for the first), ``time`` of first touch (s from
+    the release), impact ``speed`` (m/s), the contact solution ``result``; ``restitution`` that
+    set the next flight (``result.restitution`` unless a rebound rule of
+    :func:`simulate_bounces` replaced it); ``plate_state`` the modal plate's ringing under the
+    ball at first touch (:class:`synth.physics.modal_contact.PlateRinging`; None on the
+    impedance plate, at rest at every touch)."""
 
     index: int
     time: float
@@ -60,8 +46,7 @@ class Impact:
 
     @property
     def plate_velocity(self) -> float:
-        """Velocity of the plate surface under the ball at first touch, m/s, positive
-        upward (0 for a plate at rest)."""
+        """Velocity of the plate's surface under the ball at first touch, m/s, upward."""
         return 0.0 if self.plate_state is None else self.plate_state.velocity
 
     def __post_init__(self):
@@ -71,21 +56,9 @@ class Impact:
 
 @dataclass(frozen=True)
 class BounceSequence:
-    """The impacts of one drop, in order, and why the sequence ended.
-
-    Behaves as a sequence of :class:`Impact` (``len``, indexing, iteration).
-
-    Attributes
-    ----------
-    impacts : tuple of Impact
-        In time order.
-    stop_reason : str
-        Why the sequence ended (one of :data:`STOP_REASONS`, see the module docstring).
-    drop_height : float
-        Height of the ball's lowest point above the plate at release, m.
-    gravity : float
-        Gravitational acceleration, m/s^2.
-    """
+    """The ``impacts`` of one drop in time order (the sequence behaves as them), the
+    ``stop_reason`` (one of :data:`STOP_REASONS`, module docstring), the ``drop_height`` (m, the
+    ball's lowest point at release) and ``gravity`` (m/s^2)."""
 
     impacts: tuple[Impact, ...]
     stop_reason: str
@@ -129,42 +102,34 @@ class BounceSequence:
 
 
 #: A rebound rule: the restitution ``e'`` (dimensionless) that sets the flight after an
-#: impact, from its contact solution and its impact speed (m/s). ``e' <= 0`` ends the
-#: sequence (the ball does not leave the plate).
+#: impact, from its solution and speed (m/s); ``e' <= 0`` ends the sequence.
 ReboundRule = Callable[[ImpactResult, float], float]
 
 
 @dataclass(frozen=True)
 class BounceOptions:
-    """How :func:`simulate_bounces` solves each impact and when the series ends (module
-    docstring); checked when made.
+    """How :func:`simulate_bounces` solves each impact and when the series ends; checked when made.
 
     Attributes
     ----------
     rtol : float
-        Relative accuracy of each impact's restitution and contact time (the impedance
-        plate's; the modal plate's accuracy is set by its band and steps, ``synth bench
-        contact`` gives its error).
+        Relative accuracy of each impact's restitution and contact time (the impedance plate's;
+        the modal plate's is set by its band and steps).
     n_points : int >= 64
-        Samples of each force pulse (``ImpactResult.time`` and ``force``).
+        Samples of each force pulse.
     max_frequency : float, optional
-        Band limit of the modes of the "modal" plate, Hz (default: see
+        Band limit of the "modal" plate's modes, Hz (default
         :data:`synth.physics.modal_contact.BAND_FACTOR`).
     floor_db : float < 0
-        Perceptual floor: stop when an impact's kinetic energy is this many dB
-        below the first impact's.
+        Stop when an impact's kinetic energy is this many dB below the first's.
     max_duration : float > 0
         Latest start of an impact, s from release.
     max_impacts : int >= 1
         Most impacts computed.
     rebound : callable, optional
-        A :data:`ReboundRule` that replaces the physical restitution of each flight
-        (the ball takes off at ``e' v``: the next impact speed on the impedance plate,
-        the start of the flight over the ringing modal plate) while every impact is still
-        solved physically at its own speed; None: the physical rebound (with the contact
-        model's plastic loss above the yield speed, which a rule replaces too). The
-        perception stimuli of :mod:`synth.stimuli.sequences` use it.
-    """
+        A :data:`ReboundRule` replacing the physical restitution of each flight (take-off at
+        ``e' v``) while every impact is still solved at its own speed; used by the perception
+        stimuli of :mod:`synth.stimuli.sequences`."""
 
     rtol: float = 1e-6
     n_points: int = 128
@@ -207,10 +172,10 @@ class BounceOptions:
         return 10.0 ** (self.floor_db / 10.0)
 
     def ended(self, result: ImpactResult, v_out: float, v1: float, gravity: float) -> str | None:
-        """Why the series ends after an impact that sends the ball off at ``v_out`` (m/s;
-        the first impact at ``v1``), or None: its flight is shorter than the contact, or
-        the next impact is below the perceptual floor (the scheduler's rules,
-        :func:`~synth.physics.contact_kernels.bounce_end`, whatever the flight's end)."""
+        """Why the series ends after an impact sending the ball off at ``v_out`` (m/s; the
+        first at ``v1``), or None: the scheduler's rules
+        (:func:`~synth.physics.contact_kernels.bounce_end`), a flight shorter than the
+        contact or an impact below the floor."""
         end, _ = bounce_end(
             0.0, float(v1), float(gravity), True, False, 1.0, float(v_out),
             result.separation_time, self.energy_floor, math.inf,
@@ -243,26 +208,18 @@ def simulate_bounces(
     gravity : float > 0
         m/s^2.
     contact_law : str or None
-        "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law" or
-        "shell" (a hollow ball's); None (default): the ball's own, "shell" for a
-        :class:`~synth.physics.scene.HollowBall`, else "hertz"; its parameters go in
-        ``overrides`` (see :func:`synth.physics.contact_law.contact_parameters`).
+        One of :data:`synth.physics.scene.CONTACT_LAWS`; None: "shell" for a hollow ball, else
+        "hertz"; its parameters go in ``overrides``
+        (:func:`synth.physics.contact_law.contact_parameters`).
     plate_model : {"impedance", "modal"}
-        The plate in the contact: "impedance" (the infinite plate's impedance, blended
-        towards measured values near free edges) or "modal" (the finite plate's modes and a
-        residual, :mod:`synth.physics.modal_contact`), whose ringing after each impact is
-        carried into the next one.
+        The infinite plate's impedance (blended towards measured values near free edges), or
+        the finite plate's modes (:mod:`synth.physics.modal_contact`), ringing from impact to
+        impact.
     options : BounceOptions, optional
         The accuracy of each impact and the rules that end the series.
     **overrides
-        Fields of :class:`BounceOptions` by name (``rtol``, ``n_points``,
-        ``max_frequency``, ``floor_db``, ``max_duration``, ``max_impacts``, ``rebound``),
-        replacing those of ``options``; any other name is a parameter of the contact law.
-
-    Returns
-    -------
-    BounceSequence
-    """
+        Fields of :class:`BounceOptions` by name, replacing those of ``options``; any other
+        name is a parameter of the contact law."""
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):
@@ -304,9 +261,9 @@ class _Series:
         self.reason: str | None = None
 
     def run(self, t: float, v: float, rule: ReboundRule | None, faster_than: float = 0.0):
-        """Solve impacts one by one from the impact at ``v`` (m/s) ``t`` s after release,
-        their flights set by ``rule`` (None: the physical rebound), while the impact speed
-        is above ``faster_than`` (m/s); the next impact's ``(t, v)``."""
+        """Solve impacts one by one from the one at ``v`` (m/s) ``t`` s after release, flights
+        set by ``rule`` (None: physical), while faster than ``faster_than`` (m/s); returns
+        the next ``(t, v)``."""
         o = self.o
         while v > faster_than:
             if len(self.impacts) >= o.max_impacts:
@@ -314,8 +271,7 @@ class _Series:
                 break
             res = self.solver.solve(v, position=self.position)
             e = float(res.restitution if rule is None else rule(res, v))
-            flight_e = max(e, 0.0) if not res.settled else 0.0
-            self.impacts.append(Impact(len(self.impacts) + 1, t, v, res, flight_e))
+            self.impacts.append(Impact(len(self.impacts) + 1, t, v, res, _flight(res, e)))
             v_out = _take_off(res, e, v, rule)
             end, t_next = bounce_end(
                 float(t), self.v1, float(self.gravity), res.success, res.settled, e,
@@ -329,8 +285,7 @@ class _Series:
 
     def compiled(self, t: float, v: float):
         """The physical impacts from the one at ``v`` (m/s) ``t`` s after release in one
-        compiled call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` of the impact it
-        hands over (``reason`` None) or of its last."""
+        compiled call (:meth:`ContactSolver.solve_drop`); the ``(t, v)`` it hands over."""
         o = self.o
         if len(self.impacts) >= o.max_impacts:
             self.reason = "max-impacts"
@@ -341,7 +296,7 @@ class _Series:
         )  # fmt: skip
         for time_, speed, res in zip(drop.times, drop.speeds, drop.results):
             self.impacts.append(
-                Impact(len(self.impacts) + 1, time_, speed, res, _flight_restitution(res))
+                Impact(len(self.impacts) + 1, time_, speed, res, _flight(res, res.restitution))
             )
         if drop.end != "handed-over":
             self.reason = drop.end
@@ -349,27 +304,21 @@ class _Series:
 
 
 def _take_off(result: ImpactResult, restitution: float, speed: float, rule) -> float:
-    """The ball's speed (m/s) as it leaves the plate after an impact at ``speed`` (m/s): the
-    physical rebound without a :data:`ReboundRule` (``rule`` None), else ``e' v``
-    (``restitution``, the rule's ``e'``)."""
+    """The take-off speed (m/s) after an impact at ``speed`` (m/s): the physical rebound, or
+    ``e' v`` with a :data:`ReboundRule` (``restitution`` its ``e'``)."""
     return result.rebound_speed if rule is None else restitution * speed
 
 
-def _flight_restitution(res: ImpactResult) -> float:
-    """The restitution that set the flight after the physical impact ``res``: its own, 0
-    for a ball that settled (dimensionless)."""
-    return max(res.restitution, 0.0) if not res.settled else 0.0
+def _flight(res: ImpactResult, restitution: float) -> float:
+    """The restitution that sets the flight after ``res``, dimensionless: 0 if it settled."""
+    return max(restitution, 0.0) if not res.settled else 0.0
 
 
 def bounce_time_restitution(seq: BounceSequence) -> list[float]:
-    """The restitution as the thesis measures it, from bounce times (section 3.1; thesis
-    see docs/physics.md, References): ``e_n = t_n / t_(n-1)`` with ``t_n`` the time from the
-    onset of impact n to the onset of impact n + 1 (the contact and the flight), one value
-    for each impact that has one before and one after it (impacts 2 to N - 1 of ``seq``,
-    dimensionless). With the flight alone ``e_n`` would be the physical restitution of a
-    plate at rest; the contact times held in ``t_n`` raise it by about
-    ``(tau_n / e - tau_(n-1)) / t_(n-1)`` (docs/analysis.md), and a surface that moves
-    between touch-down and take-off shifts the flight."""
+    """The restitution as the thesis measures it from bounce times (section 3.1), dimensionless:
+    ``e_n = t_n / t_(n-1)``, ``t_n`` from the onset of impact n to that of n + 1, for impacts 2
+    to N - 1. The contact times in ``t_n`` raise it above the physical restitution by about
+    ``(tau_n / e - tau_(n-1)) / t_(n-1)`` (docs/analysis.md)."""
     if not isinstance(seq, BounceSequence):
         raise ParameterError(f"seq={seq!r} must be a BounceSequence")
     t = [i.time for i in seq]
@@ -383,12 +332,10 @@ PLATE_MODELS = ("impedance", "modal")
 def _modal_bounces(
     ball, plate, h0, pos, g, law, o: BounceOptions, contact_options: dict
 ) -> BounceSequence:
-    """:func:`simulate_bounces` with the finite plate's modes in every contact
-    (:mod:`synth.physics.modal_contact`): the plate rings between impacts, and the ringing
-    at each landing (found on the moving surface) enters that impact. The rigid-body motion
-    of a free plate is left to its supports after each contact. A ``rebound`` rule sets the
-    ball's take-off speed ``e' v`` as on the impedance plate; the plate rings on from its
-    physical state at separation."""
+    """:func:`simulate_bounces` with the finite plate's modes in every contact: the plate rings
+    between impacts, and the ringing at each landing enters that impact (a free plate's
+    rigid-body motion is left to its supports). A ``rebound`` rule sets the take-off ``e' v``;
+    the plate rings on from its physical state."""
     from synth.physics import modal_contact
 
     t = math.sqrt(2.0 * h0 / g)
@@ -405,7 +352,7 @@ def _modal_bounces(
         res = contact.solve(v, state, n_points=o.n_points)
         rule = o.rebound
         e = res.restitution if rule is None else rule(res, v)
-        ruled = None if rule is None else (0.0 if res.settled else max(e, 0.0))
+        ruled = None if rule is None else _flight(res, e)
         impacts.append(Impact(len(impacts) + 1, t, v, res, ruled, plate_state=state))
         if res.settled or ruled == 0.0:
             reason = "settled"
@@ -419,8 +366,7 @@ def _modal_bounces(
         )
         v_next = g * flight - v_out
         if not v_next > 0.0:
-            # the ringing plate meets the ball before the top of its flight: the ball no
-            # longer flies free of the plate's motion, it rides it (rests on the plate)
+            # the ringing plate meets the ball before the top of its flight: it rests on it
             reason = "settled"
             break
         t_next = t + res.separation_time + flight
@@ -432,12 +378,10 @@ def _modal_bounces(
 
 
 def simulate_scene(scene: Scene, **options) -> BounceSequence:
-    """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (its ball, plate,
-    drop, gravity and contact model; ``contact.plate = "auto"`` chosen by
-    :func:`synth.physics.plate_choice.scene_plate`); ``options`` as in
-    :func:`simulate_bounces`. A scene with a horizontal velocity gives its bounces along its
-    path until it rolls (:func:`synth.physics.path.path_bounces`; ``max_duration`` is its
-    only option)."""
+    """:func:`simulate_bounces` for a :class:`~synth.physics.scene.Scene` (``contact.plate =
+    "auto"`` chosen by :func:`synth.physics.plate_choice.scene_plate`); a scene with a horizontal
+    velocity gives its bounces until it rolls (:func:`synth.physics.path.path_bounces`, whose
+    only option is ``max_duration``)."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     from synth.physics.plate_choice import scene_plate

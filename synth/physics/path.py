@@ -36,8 +36,7 @@ from synth.physics.contact import ContactSolver
 from synth.physics.scene import Scene
 
 #: Length of the rolling's blocks, s: the speed is updated from the roughness' work at the
-#: end of each (its change over a block is a small part of the speed: the blocks only set
-#: when the roughness' share of the resistance is taken off).
+#: end of each.
 BLOCK_SECONDS = 0.01
 #: Moment of inertia of a solid sphere over ``m R^2``.
 SPHERE_INERTIA = 0.4
@@ -51,33 +50,17 @@ _END_NAMES = {
     _k.STOPPED: "stopped",
     _k.LEFT_PLATE: "left-plate",
 }
-#: Blocks of the rolling solved in one call of its kernel (the arrays of a chunk are
-#: allocated for them).
+#: Blocks of the rolling solved in one call of its kernel.
 CHUNK_BLOCKS = 256
 
 
 @dataclass(frozen=True, eq=False)
 class RollingPart:
-    """The rolling of a :class:`BallPath`, on the audio's sample grid (SI units).
-
-    Attributes
-    ----------
-    samplerate : int
-        Hz.
-    start : float
-        Time of its first sample, s from the release.
-    force, contact_coordinate, speed : ndarray (N,)
-        Mean force on the plate (N), the touching point's coordinate along the
-        :class:`BallPath`'s line (m from its ``origin``) and the
-        horizontal speed (m/s) over each sample period (as
-        :class:`synth.physics.rolling.RollingContact`).
-    final_force : float
-        The force on the plate after the end, N: 0 for a ball that left the plate, else
-        ``m g`` (at rest, or still rolling when the time ran out).
-    energy : RollingEnergy
-    flights : int
-        Losses of contact (micro-bounces) while rolling.
-    """
+    """The rolling of a :class:`BallPath` on the audio's grid of ``samplerate`` (Hz) from
+    ``start`` (s from the release): per sample period the mean ``force`` on the plate (N),
+    the touching point's ``contact_coordinate`` along the line (m from its ``origin``) and
+    the horizontal ``speed`` (m/s); ``final_force`` after the end (N: 0 off the plate, else
+    ``m g``); the ``energy``; ``flights``, the micro-bounces."""
 
     samplerate: int
     start: float
@@ -96,12 +79,9 @@ class RollingPart:
 
 @dataclass(frozen=True)
 class RollingEnergy:
-    """Where the rolling's energy went, J.
-
-    ``initial - final`` equals ``contact_loss + plate_energy + resistance_work`` up to the
-    contact solver's error: the energies are the horizontal kinetic energy ``(7/10) m
-    v^2`` plus the vertical mechanical energy (:class:`synth.physics.rolling.EnergyBalance`).
-    """
+    """Where the rolling's energy went, J: ``initial - final = contact_loss + plate_energy +
+    resistance_work`` up to the solver's error, the energies the kinetic ``(7/10) m v^2``
+    plus the vertical (:class:`synth.physics.rolling.EnergyBalance`)."""
 
     initial: float
     final: float
@@ -119,30 +99,12 @@ class RollingEnergy:
 
 @dataclass(frozen=True, eq=False)
 class BallPath:
-    """The path of a ball released with a horizontal velocity.
-
-    Attributes
-    ----------
-    impacts : BounceSequence
-        The bounces (times from the release); their ``stop_reason`` is the impacts' rule
-        that started the rolling, or ``"max-impacts"``.
-    impact_points : ndarray (I, 2)
-        Where each impact was on the plate, m from its corner.
-    origin, direction : (float, float)
-        The line ``origin + s direction`` (m) along which the ball moves: ``origin`` the
-        release point, ``direction`` the unit horizontal direction.
-    rolling_speed : float
-        The horizontal speed after the first impact's grip, m/s.
-    rolling : RollingPart or None
-        None if the ball left the plate (or ran out of time) before rolling.
-    end : str
-        One of :data:`ENDS`.
-    end_time : float
-        When the last contact ended (the ball stopped, left, or the time ran out), s from
-        the release.
-    end_point : (float, float)
-        Where the ball's last touching point was, m from the plate's corner.
-    """
+    """The path of a ball released with a horizontal velocity: the ``impacts`` (times from
+    the release; ``stop_reason`` the rule that started the rolling, or "max-impacts") at
+    ``impact_points`` (I, 2) (m from the plate's corner), along the line ``origin + s
+    direction`` (m, unit ``direction``); ``rolling_speed`` after the first grip (m/s); the
+    ``rolling`` (None if the ball left or ran out of time first); the ``end`` (one of
+    :data:`ENDS`), its ``end_time`` (s from the release) and ``end_point`` (m)."""
 
     impacts: BounceSequence
     impact_points: np.ndarray
@@ -156,9 +118,8 @@ class BallPath:
 
 
 def grip(speed: float, spin: float, radius: float) -> float:
-    """Horizontal speed (m/s) after an impact that brings the contact point to rest:
-    ``(5 v + 2 R w) / 7`` for a solid sphere of radius ``R`` (m) arriving at ``v`` (m/s)
-    with spin ``w`` (rad/s, positive rolling forward); module docstring."""
+    """Horizontal speed (m/s) after an impact that brings the contact point to rest, ``(5 v +
+    2 R w) / 7`` for a solid sphere of ``radius`` R (m) at ``speed`` v (m/s), ``spin`` w (rad/s)."""
     return (speed + SPHERE_INERTIA * radius * spin) / (1.0 + SPHERE_INERTIA)
 
 
@@ -179,27 +140,11 @@ def edge_distance(plate, origin, direction) -> float:
 
 @dataclass(frozen=True, eq=False)
 class PathBounces:
-    """The bounces of a ball released with a horizontal velocity, up to its rolling.
-
-    Attributes
-    ----------
-    impacts : BounceSequence
-        The impacts (times from the release); ``stop_reason`` "settled" or
-        "flight-shorter-than-contact" (the ball rolls next), "left-plate", "max-duration" or
-        "max-impacts".
-    points : ndarray (I, 2)
-        Where each impact was on the plate, m from its corner.
-    origin, direction : (float, float)
-        The release point (m) and the unit horizontal direction of the line.
-    speed : float
-        The horizontal speed after the grip, m/s.
-    edge : float
-        Distance from the release point along the line to the plate's edge, m.
-    separation_time, separation_position : float
-        When (s from the release) and where (m along the line) the last contact ended.
-    rebound_speed : float or None
-        The last impact's rebound speed, m/s (None: the ball did not leave the plate).
-    """
+    """The bounces of a ball released with a horizontal velocity, up to its rolling: the
+    ``impacts`` (``stop_reason`` "settled" or "flight-shorter-than-contact": it rolls next)
+    at ``points`` (m), the line's ``origin`` (m) and unit ``direction``, the ``speed`` after
+    the grip (m/s), the ``edge``'s distance along the line (m), when (s) and where (m along
+    the line) the last contact ended, and its ``rebound_speed`` (m/s; None: no separation)."""
 
     impacts: BounceSequence
     points: np.ndarray
@@ -218,14 +163,17 @@ class PathBounces:
 
     def point(self, s: float) -> tuple[float, float]:
         """The point ``s`` m along the line, m from the plate's corner."""
-        return (self.origin[0] + self.direction[0] * s, self.origin[1] + self.direction[1] * s)
+        return _along(self.origin, self.direction, s)
+
+
+def _along(origin, direction, s: float) -> tuple[float, float]:
+    """The point ``s`` m from ``origin`` (m) along the unit ``direction``."""
+    return (origin[0] + direction[0] * s, origin[1] + direction[1] * s)
 
 
 def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
     """The bounces of ``scene`` (which has a ``velocity``) along its line until the ball
-    rolls, flies off the plate, or the next impact would come after ``max_duration`` s (module
-    docstring). The impacts are the impact solver's at their own points (the plate's
-    impedance in the contact)."""
+    rolls, flies off the plate, or the next impact would come after ``max_duration`` s."""
     if not isinstance(scene, Scene) or not scene.moving:
         raise ParameterError(f"scene={scene!r} must be a Scene with a non-zero velocity")
     ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
@@ -236,9 +184,6 @@ def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
     solver = ContactSolver.for_pair(
         ball, plate, gravity=g, law=c.law, rtol=c.rtol, n_points=128, **c.options()
     )
-
-    def point(s):
-        return (origin[0] + u[0] * s, origin[1] + u[1] * s)
 
     def ended(reason, time, position, rebound):
         sequence = BounceSequence(tuple(impacts), reason, scene.drop_height, g)
@@ -260,13 +205,13 @@ def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
     while True:
         if len(impacts) >= DEFAULT_MAX_IMPACTS:
             return ended("max-impacts", t_sep, s_sep, v)
-        res = solver.solve(v, position=point(s))
+        res = solver.solve(v, position=_along(origin, u, s))
         if not res.success:
             raise SynthError(
                 f"impact {len(impacts) + 1} (at {v:.4g} m/s) could not be solved: {res.message}"
             )
         impacts.append(Impact(len(impacts) + 1, t, v, res))
-        points.append(point(s))
+        points.append(_along(origin, u, s))
         speed = grip(speed, spin, ball.radius)
         spin = speed / ball.radius
         t_sep = t + res.separation_time
@@ -287,12 +232,9 @@ def path_bounces(scene: Scene, *, max_duration: float = 30.0) -> PathBounces:
 def simulate_path(
     scene: Scene, *, samplerate: int, time_origin: float = 0.0, max_duration: float = 30.0
 ) -> BallPath:
-    """The :class:`BallPath` of ``scene`` (which has a ``velocity`` and ``rolling``).
-
-    ``samplerate`` (Hz) and ``time_origin`` (s from the release: the time of a sample) set
-    the sample grid on which the rolling is solved; ``max_duration`` (s from the release)
-    the latest time the ball is followed to.
-    """
+    """The :class:`BallPath` of ``scene`` (with ``velocity`` and ``rolling``), the rolling on
+    the grid of ``samplerate`` (Hz) through ``time_origin`` (s from the release), followed to
+    ``max_duration`` (s from the release)."""
     bounces = path_bounces(scene, max_duration=max_duration)
     b = bounces
     if not b.rolls:
@@ -301,10 +243,7 @@ def simulate_path(
             b.impacts, b.points, b.origin, b.direction, b.speed, None, b.impacts.stop_reason,
             b.separation_time, last,
         )  # fmt: skip
-    part, end, end_time, end_s = _roll(
-        scene, int(samplerate), time_origin, max_duration, b.origin, b.direction, b.edge,
-        b.separation_time, b.separation_position, b.speed, b.rebound_speed,
-    )  # fmt: skip
+    part, end, end_time, end_s = _roll(scene, b, int(samplerate), time_origin, max_duration)
     return BallPath(
         b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time, b.point(end_s)
     )
@@ -324,10 +263,8 @@ def _profile(rolling, length):
         raise ParameterError(f"rolling.{exc}") from None
 
 
-def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep, speed, v_out):
-    """The rolling from the separation at ``t_sep`` (s), ``s_sep`` (m along the path), with
-    the horizontal ``speed`` (m/s) and, unless the ball settled (None), the rebound speed
-    ``v_out`` (m/s): returns the :class:`RollingPart`, the end, its time (s) and the
+def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
+    """The rolling after ``bounces``: the :class:`RollingPart`, the end, its time (s) and the
     touching point's path coordinate (m)."""
     ball, plate, g, c, rolling = (
         scene.ball,
@@ -336,6 +273,8 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
         scene.contact,
         scene.rolling,
     )
+    u, s_edge, speed, v_out = bounces.direction, bounces.edge, bounces.speed, bounces.rebound_speed
+    t_sep, s_sep = bounces.separation_time, bounces.separation_position
     R, m = ball.radius, ball.mass
     # the first sample boundary at or after the separation
     j0 = math.ceil((t_sep - time_origin) * fs - 1e-9)
@@ -343,7 +282,7 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
     d = start - t_sep
     s0 = s_sep + speed * d
     envelope, behind, x_end = _envelope_ahead(rolling, R, s0, s_edge)
-    path_origin = (origin[0] + u[0] * behind, origin[1] + u[1] * behind)
+    path_origin = bounces.point(behind)
     x0 = s0 - behind
     if v_out is None:
         state = None
@@ -414,8 +353,7 @@ def _roll(scene, fs, time_origin, max_duration, origin, u, s_edge, t_sep, s_sep,
     return part, end, start + n_done / fs, float(coordinate[-1])
 
 
-#: Most profile samples of an envelope kept for the next path over the same surface (each
-#: sample takes 48 bytes: the heights, the contact offsets and the spline's coefficients).
+#: Most profile samples of the envelopes kept for the next paths (48 bytes a sample).
 ENVELOPE_CACHE_SAMPLES = 2_000_000
 #: The envelopes kept, most recent last: ``(key, envelope)``, ``key`` what makes them.
 _ENVELOPES: list = []
@@ -423,11 +361,8 @@ _ENVELOPES_LOCK = threading.Lock()
 
 
 def _envelope(rolling, length, radius):
-    """The contact envelope of a ball of ``radius`` (m) on the profile of ``rolling`` along
-    ``length`` m of path; the same one as the last calls' with the same arguments (a pure
-    function of them: a seeded profile), kept while its samples, with the others kept,
-    number at most :data:`ENVELOPE_CACHE_SAMPLES` (a scene rendered again, or a sound bank
-    of one surface, makes its surface once)."""
+    """:func:`make_envelope`, kept for the next calls with the same arguments (a seeded
+    profile: a pure function of them) within :data:`ENVELOPE_CACHE_SAMPLES` samples."""
     key = (rolling.rms_height, rolling.correlation_length, rolling.hurst, rolling.seed,
            rolling.spacing, float(length), float(radius))  # fmt: skip
     with _ENVELOPES_LOCK:
@@ -450,11 +385,10 @@ def make_envelope(rolling, length, radius):
 
 
 def _envelope_ahead(rolling, radius, s0, s_edge):
-    """The contact envelope of the profile ahead of the centre's start ``s0`` (m along the
-    path) to the edge at ``s_edge`` (m), from a ball radius behind the start (the
-    envelope's reach) to a radius beyond the edge; the path coordinate (m) of its first
-    sample, and the centre's last coordinate on it (m) whose touching point stays on the
-    plate."""
+    """The contact envelope from a ball ``radius`` (m) behind the centre's start ``s0`` to a
+    radius beyond the edge at ``s_edge`` (m along the path), the path coordinate (m) of its
+    first sample, and the centre's last coordinate on it whose touching point is on the
+    plate (m)."""
     behind = s0 - radius
     length = s_edge - behind + radius
     if rolling.spacing * 4 > length:

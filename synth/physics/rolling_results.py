@@ -13,7 +13,7 @@ from synth import checks
 from synth.errors import ParameterError
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw
-from synth.physics.surface import ContactEnvelope, envelope_at
+from synth.physics.surface import ContactEnvelope, envelope_at, read_only
 
 
 @dataclass(frozen=True)
@@ -149,9 +149,3 @@ class RollingBlock:
     message: str
     initial_state: RollingState
     final_state: RollingState
-
-
-def read_only(a: np.ndarray) -> np.ndarray:
-    """``a``, made read-only (the arrays a result holds)."""
-    a.setflags(write=False)
-    return a

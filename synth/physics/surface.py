@@ -36,34 +36,22 @@ NEWTON_ITERATIONS = 6
 #: Samples per run whose highest point bounds the runs :func:`_best_samples` may skip.
 DILATION_BLOCK = 8
 #: Largest RMS height and correlation length of a roughness spectrum, m: the largest plate
-#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`, its greatest thickness and side). A
-#: roughness is a variation of a plate's surface: its heights are no taller than the
-#: thickest plate (a scene holds them to its own plate's thickness) and its lateral scale
-#: is no longer than the longest plate (the synthesis domain of :func:`rough_profile`
-#: holds :data:`PADDING_CORRELATION_LENGTHS` of it). The bound also keeps ``sigma^2``
-#: and the spectrum's normalisation far from float64's overflow.
+#: (:data:`synth.physics.scene.MAX_PLATE_SIZE`), as a roughness is a variation of a plate's
+#: surface; it also keeps ``sigma^2`` far from float64's overflow.
 MAX_ROUGHNESS_SCALE = 100.0
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
+def read_only(a: np.ndarray) -> np.ndarray:
+    """``a``, made read-only (the arrays a result holds)."""
     a.setflags(write=False)
     return a
 
 
 @dataclass(frozen=True, eq=False)
 class Profile:
-    """Heights of a surface along a straight path, sampled uniformly.
-
-    Attributes
-    ----------
-    heights : ndarray (N,)
-        ``h(x_i)``, metres above the plate's nominal plane, at ``x_i = i * spacing``
-        (4 to :data:`MAX_PROFILE_SAMPLES` finite values; kept as a read-only copy).
-    spacing : float > 0
-        Distance between samples, metres.
-    description : str
-        The model and its parameters, for reports.
-    """
+    """Heights ``h(x_i)`` of a surface along a straight path (m above the plate's nominal plane,
+    ``x_i = i spacing``; 4 to :data:`MAX_PROFILE_SAMPLES` finite values, kept read-only),
+    ``spacing`` (m) and a ``description`` of the model for reports."""
 
     heights: np.ndarray
     spacing: float
@@ -84,7 +72,7 @@ class Profile:
         if not np.all(np.isfinite(h)):
             i = int(np.argmax(~np.isfinite(h)))
             raise ParameterError(f"heights[{i}]={h[i]!r} must be finite (metres)")
-        object.__setattr__(self, "heights", _read_only(h))
+        object.__setattr__(self, "heights", read_only(h))
         object.__setattr__(self, "spacing", checks.positive("spacing", self.spacing, "metres"))
 
     @property
@@ -95,46 +83,27 @@ class Profile:
 
 @dataclass(frozen=True)
 class RoughnessSpectrum:
-    """The Matern (von Karman) roughness spectrum of a profile.
-
-    Two-sided power spectral density of heights over the wavenumber ``k`` (rad/m), with
-    ``Int S dk / (2 pi) = sigma^2``:
+    """The Matern (von Karman) roughness spectrum: two-sided PSD over the wavenumber ``k`` (rad/m),
+    ``Int S dk / (2 pi) = sigma^2``,
 
         S(k) = sigma^2 2 sqrt(pi) xi Gamma(H + 1/2) / Gamma(H) (1 + (k xi)^2)^-(H + 1/2)
 
-    (autocorrelation ``sigma^2 2^(1-H) / Gamma(H) (r/xi)^H K_H(r/xi)``).
-
-    Parameters
-    ----------
-    rms_height : float in (0, 100]
-        ``sigma``, metres (:data:`MAX_ROUGHNESS_SCALE`).
-    correlation_length : float in (0, 100]
-        ``xi``, metres: the roll-off from a flat spectrum to the power law
-        (:data:`MAX_ROUGHNESS_SCALE`).
-    hurst : float in (0, 1]
-        Hurst exponent ``H`` of the self-affine range (1: smooth, 0.5: Brownian).
-    """
+    with ``rms_height`` ``sigma`` and ``correlation_length`` ``xi`` in (0, 100] m
+    (:data:`MAX_ROUGHNESS_SCALE`; ``xi`` the roll-off to the power law) and ``hurst`` ``H`` in
+    (0, 1] (1: smooth, 0.5: Brownian)."""
 
     rms_height: float
     correlation_length: float
     hurst: float
 
     def __post_init__(self):
-        top = MAX_ROUGHNESS_SCALE
-        for key, value in (
-            ("rms_height", checks.positive_at_most("rms_height", self.rms_height, top, "metres")),
-            (
-                "correlation_length",
-                checks.positive_at_most(
-                    "correlation_length", self.correlation_length, top, "metres"
-                ),
-            ),
-            (
-                "hurst",
-                checks.in_range("hurst", self.hurst, 0.0, 1.0, "dimensionless", hi_open=False),
-            ),
-        ):
-            object.__setattr__(self, key, value)
+        top, unit = MAX_ROUGHNESS_SCALE, "metres"
+        for key in ("rms_height", "correlation_length"):
+            object.__setattr__(
+                self, key, checks.positive_at_most(key, getattr(self, key), top, unit)
+            )
+        hurst = checks.in_range("hurst", self.hurst, 0.0, 1.0, "dimensionless", hi_open=False)
+        object.__setattr__(self, "hurst", hurst)
 
     def density(self, k) -> np.ndarray:
         """``S(k)``, m^2 / (rad/m) = m^3, at wavenumbers ``k`` (rad/m)."""
@@ -144,30 +113,17 @@ class RoughnessSpectrum:
         return self.rms_height**2 * norm * (1.0 + kx * kx) ** -(H + 0.5)
 
 
-#: Hurst exponent of the measured surfaces' self-affine range: ``H = 3 - D_f`` with the
-#: fractal dimension ``D_f = 2.15 +- 0.15`` that Persson (2014, "On the fractal dimension of
-#: rough surfaces", Tribol. Lett. 54, 99) finds for most natural and engineering surfaces
-#: (polished, sandblasted, ...).
+#: Hurst exponent of the measured surfaces: ``H = 3 - D_f``, the fractal dimension ``D_f =
+#: 2.15 +- 0.15`` of most natural and engineering surfaces (Persson, Tribol. Lett. 54, 99
+#: (2014)).
 SELF_AFFINE_HURST = 0.85
 
 
 @dataclass(frozen=True)
 class MeasuredRoughness:
-    """A surface's published roughness and the Matern spectrum derived from it
-    (docs/rolling.md, "Measured surfaces").
-
-    Attributes
-    ----------
-    surface : str
-        What was measured.
-    ra : float
-        Arithmetic mean deviation of the roughness profile ``Ra`` (ISO 4287), metres.
-    cutoff : float
-        Cut-off wavelength ``lambda_c`` of the profile filter the ``Ra`` was measured with,
-        metres: the measured roughness holds the wavelengths shorter than it.
-    source : str
-        Where the values are published, and how any not stated there was chosen.
-    """
+    """A surface's published roughness (docs/rolling.md, "Measured surfaces"): ``ra`` the profile's
+    ``Ra`` (ISO 4287), m, measured with the filter cut-off ``cutoff`` ``lambda_c``, m; the
+    ``source`` says where, and how any value not stated there was chosen."""
 
     surface: str
     ra: float
@@ -176,20 +132,17 @@ class MeasuredRoughness:
 
     @property
     def rms_height(self) -> float:
-        """``sigma = Rq = sqrt(pi / 2) Ra``, metres: the mean absolute height of a Gaussian
-        profile (which :func:`rough_profile` makes) is ``sigma sqrt(2 / pi)``."""
+        """``sigma = Rq = sqrt(pi / 2) Ra``, m, as for a Gaussian profile."""
         return math.sqrt(0.5 * math.pi) * self.ra
 
     @property
     def correlation_length(self) -> float:
-        """``xi = lambda_c / (2 pi)``, metres: the spectrum's knee at the filter's cut-off
-        wavenumber ``2 pi / lambda_c``, so the profile's variance lies in the wavelengths the
-        measurement held (no published spectrum gives the knee itself)."""
+        """``xi = lambda_c / (2 pi)``, m: the spectrum's knee at the filter's cut-off, so the
+        variance lies in the wavelengths the measurement held (none publishes the knee itself)."""
         return self.cutoff / (2.0 * math.pi)
 
     def spectrum(self) -> RoughnessSpectrum:
-        """The :class:`RoughnessSpectrum` of ``sigma``, ``xi`` and
-        :data:`SELF_AFFINE_HURST`."""
+        """The :class:`RoughnessSpectrum` of ``sigma``, ``xi`` and :data:`SELF_AFFINE_HURST`."""
         return RoughnessSpectrum(self.rms_height, self.correlation_length, SELF_AFFINE_HURST)
 
 
@@ -237,19 +190,14 @@ def _seed(seed) -> int:
 def rough_profile(
     spectrum: RoughnessSpectrum, *, length: float, spacing: float, seed: int
 ) -> Profile:
-    """A random profile with ``spectrum`` along a path of ``length`` metres, sampled every
-    ``spacing`` metres, from the integer ``seed``.
+    """A random profile with ``spectrum`` along ``length`` m, sampled every ``spacing`` m, from
+    the integer ``seed`` (numpy's PCG64).
 
-    Spectral synthesis on a periodic domain of ``M`` samples (period ``P = M spacing``,
-    the path plus :data:`PADDING_CORRELATION_LENGTHS` correlation lengths):
-    ``h(x_j) = sum_m c_m exp(i k_m x_j)``, ``k_m = 2 pi m / P``, with independent complex
-    Gaussian ``c_m = conj(c_-m)``, ``E |c_m|^2 = S(k_m) / P`` (real at the Nyquist
-    wavenumber ``pi / spacing``) and ``c_0 = 0`` (zero mean: the nominal plane is the mean
-    height); the first ``N`` samples are the profile. Its expected mean square is
-    ``sum_(m != 0) S(k_m) / P`` (:func:`expected_mean_square`): ``sigma^2`` less the
-    wavenumbers the grid does not hold (beyond ``pi / spacing`` and below ``2 pi / P``).
-    The generator is numpy's PCG64 seeded with ``seed``.
-    """
+    Spectral synthesis on a periodic domain of ``M`` samples, ``P = M spacing`` (the path plus
+    :data:`PADDING_CORRELATION_LENGTHS` correlation lengths): ``h(x_j) = sum_m c_m exp(i k_m
+    x_j)``, ``k_m = 2 pi m / P``, independent complex Gaussian ``c_m = conj(c_-m)`` with ``E
+    |c_m|^2 = S(k_m) / P`` (real at Nyquist), ``c_0 = 0`` (zero mean); the first ``N`` samples
+    are the profile, of mean square :func:`expected_mean_square`."""
     if not isinstance(spectrum, RoughnessSpectrum):
         raise ParameterError(f"spectrum={spectrum!r} must be a RoughnessSpectrum")
     L, dx, n = _check_grid(length, spacing)
@@ -265,7 +213,7 @@ def rough_profile(
     heights = np.fft.irfft(coef, n=m_total)[:n] * m_total
     s_ = spectrum
     return Profile(
-        _read_only(np.ascontiguousarray(heights)),
+        read_only(np.ascontiguousarray(heights)),
         dx,
         f"Matern roughness: rms_height={s_.rms_height:g} m, correlation_length="
         f"{s_.correlation_length:g} m, hurst={s_.hurst:g}, seed={s}, spacing={dx:g} m",
@@ -286,8 +234,8 @@ def _synthesis_size(length: float, spacing: float, correlation_length: float) ->
 
 
 def expected_mean_square(spectrum: RoughnessSpectrum, *, length: float, spacing: float) -> float:
-    """Expected mean square height (m^2) of :func:`rough_profile` with these arguments:
-    ``sum_(m != 0) S(k_m) / P`` over the wavenumbers of its synthesis grid."""
+    """Expected mean square height (m^2) of :func:`rough_profile`: ``sum_(m != 0) S(k_m) /
+    P`` over its grid's wavenumbers, ``sigma^2`` less those the grid does not hold."""
     L, dx, _ = _check_grid(length, spacing)
     m_total = _synthesis_size(L, dx, spectrum.correlation_length)
     k = 2.0 * math.pi * np.arange(1, m_total // 2 + 1) / (m_total * dx)
@@ -312,7 +260,7 @@ def sinusoidal_profile(
         )
     x = np.arange(n) * dx
     return Profile(
-        _read_only(A * np.sin(2.0 * math.pi / lam * x + phi)),
+        read_only(A * np.sin(2.0 * math.pi / lam * x + phi)),
         dx,
         f"sinusoid: amplitude={A:g} m, wavelength={lam:g} m, phase={phi:g} rad, spacing={dx:g} m",
     )
@@ -320,26 +268,12 @@ def sinusoidal_profile(
 
 @dataclass(frozen=True, eq=False)
 class ContactEnvelope:
-    """What a sphere of radius ``radius`` resting on a :class:`Profile` touches.
-
-    Attributes
-    ----------
-    heights : ndarray (N,)
-        ``e(s_i)``: height of the sphere's lowest point, metres, with its centre above
-        ``s_i = i * spacing`` (module docstring).
-    contact_offsets : ndarray (N,)
-        Position of the touching point along the path relative to ``s_i``, metres.
-    spacing : float
-        Metres (the profile's).
-    radius : float
-        The sphere's radius ``R``, metres.
-    description : str
-        The profile's description.
-    coefficients : ndarray (N - 1, 4)
-        The cubic spline through ``heights`` ("not-a-knot" ends, C2: its curvature's error
-        is O(spacing^2), so the ball's centripetal acceleration is resolved), interval ``i``
-        being ``sum_m c[i, m] (s - s_i)^(3 - m)`` (:func:`envelope_at` evaluates it).
-    """
+    """What a sphere of ``radius`` ``R`` (m) resting on a :class:`Profile` touches: ``heights``
+    ``e(s_i)`` of its lowest point (m) with its centre above ``s_i = i spacing`` (m),
+    ``contact_offsets`` the touching point relative to ``s_i`` (m), the profile's
+    ``description``, and ``coefficients`` (N - 1, 4) of the not-a-knot cubic spline through
+    ``heights`` (C2, so the centripetal acceleration is resolved), piece ``i`` being ``sum_m
+    c[i, m] (s - s_i)^(3 - m)`` (:func:`envelope_at`)."""
 
     heights: np.ndarray
     contact_offsets: np.ndarray
@@ -355,15 +289,10 @@ class ContactEnvelope:
 
 
 def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
-    """The envelope ``e(s)`` that a sphere of ``radius`` (m) rides on ``profile``.
-
-    The profile between its samples is the cubic spline through them ("not-a-knot" ends).
-    At every sample ``s_i``: the largest ``g_j = h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` over
-    the samples within reach (where the cap's depth is at most the profile's range), then
-    the maximum of ``g`` on the spline between that sample's neighbours by Newton's
-    iteration (so the grid's step does not show in the envelope's curvature over a smooth
-    summit). Between samples, the envelope is the cubic spline through its samples.
-    """
+    """The envelope ``e(s)`` a sphere of ``radius`` (m) rides on ``profile`` (its not-a-knot cubic
+    spline): at every sample the best ``h_j - (R - sqrt(R^2 - (x_j - s_i)^2))`` over the samples
+    within reach, refined by Newton's iteration on the spline between that sample's neighbours
+    (so the grid does not show in the curvature over a smooth summit)."""
     if not isinstance(profile, Profile):
         raise ParameterError(f"profile={profile!r} must be a Profile")
     R = checks.positive("radius", radius, "metres")
@@ -378,8 +307,8 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
     x = np.arange(h.size) * dx
     _dilate(np.ascontiguousarray(h), _spline(x, h), dx, R, _cap_depths(dx, R, window), e, off)
     return ContactEnvelope(
-        _read_only(e),
-        _read_only(off),
+        read_only(e),
+        read_only(off),
         dx,
         R,
         f"{profile.description}; ball radius={R:g} m",
@@ -388,18 +317,14 @@ def contact_envelope(profile: Profile, radius: float) -> ContactEnvelope:
 
 
 def _spline(x, y) -> np.ndarray:
-    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``,
-    read-only: numba types a read-only array apart from a writable one, so every caller of
-    :func:`envelope_at` (the dilation, the rolling contact) passes the one type and it
-    compiles once."""
-    return _read_only(np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T))
+    """The coefficients (N - 1, 4) of the not-a-knot cubic spline through ``(x, y)``, read-only:
+    numba types read-only arrays apart, and every caller of :func:`envelope_at` passes one type."""
+    return read_only(np.ascontiguousarray(CubicSpline(x, y, bc_type="not-a-knot").c.T))
 
 
 def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
-    """The sphere's cap depth ``R - sqrt(R^2 - d^2)`` (m) at the offsets ``d = k dx`` for
-    ``k = -window .. window`` (index ``k + window``), ``+inf`` where ``|d| >= R`` (out of
-    reach): the same operations, so the same bits, as evaluating it at each pair of
-    samples, once per offset instead of once per pair."""
+    """The cap depth ``R - sqrt(R^2 - d^2)`` (m) at ``d = k dx``, ``k = -window .. window``,
+    ``+inf`` out of reach: the bits of evaluating it per pair of samples, once per offset."""
     d = np.arange(-window, window + 1) * dx
     q = R * R - d * d
     depths = np.full(d.size, np.inf)
@@ -410,15 +335,10 @@ def _cap_depths(dx: float, R: float, window: int) -> np.ndarray:
 
 @compiled()
 def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
-    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` over the
-    samples within ``window = (caps.size - 1) // 2`` of it, and ``first_i`` the first ``j``
-    that reaches it (as a scan of ``j`` upwards keeping only strictly greater values).
-
-    The runs of :data:`DILATION_BLOCK` samples are scanned from the one holding ``i``
-    outwards, and a run is skipped whose highest sample less the cap's smallest depth over
-    the run is below the best so far: no sample of it can reach the best (a difference of
-    floats is monotone in each operand; the depths are symmetric and grow with the
-    offset), so the values are those of the full scan, bit for bit."""
+    """For every sample ``i``: ``best_i = max_j (h_j - caps[j - i + window])`` within ``window``
+    of it, and ``first_i`` the first ``j`` reaching it. Runs of :data:`DILATION_BLOCK` samples are
+    scanned from ``i`` outwards, and one is skipped whose top less the cap's least depth over it
+    is below the best so far (the depths grow with the offset): the full scan's bits."""
     n = h.shape[0]
     window = (caps.shape[0] - 1) // 2
     B = DILATION_BLOCK
@@ -464,12 +384,9 @@ def _best_samples(h, caps, best, first):  # pragma: no cover - compiled
 
 @compiled()
 def _dilate(h, coefficients, dx, R, caps, e, off):  # pragma: no cover - compiled
-    """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's cubic spline (``coefficients``
-    as :attr:`ContactEnvelope.coefficients`): the best sample (the cap's depths at the
-    samples' offsets ``caps``, :func:`_cap_depths`; out of reach the depth is +inf, so
-    never the best), then Newton's iteration on
-    ``g'(x) = h'(x) - (x - s_i) / sqrt(R^2 - (x - s_i)^2) = 0`` within its two neighbours;
-    ``off_i`` the maximiser's offset, m."""
+    """``e_i = max_x (h(x) - cap(x - s_i))`` over the profile's spline (``coefficients``): the best
+    sample (:func:`_best_samples`), then Newton's iteration on ``h'(x) - (x - s_i) / sqrt(R^2 -
+    (x - s_i)^2) = 0`` within its neighbours; ``off_i`` the maximiser's offset, m."""
     n = h.shape[0]
     R2 = R * R
     bests = np.empty(n)

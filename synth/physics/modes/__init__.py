@@ -59,22 +59,19 @@ __all__ = [
 
 @dataclass(frozen=True)
 class EdgeEffectPart:
-    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes
-    ``offset, offset + 1, ...`` of ``solution``
-    (:class:`synth.physics.asymptotic_modes.EdgeEffectSolution`; lengths in units of the
-    plate's longer side); the modes before ``first_mode`` are Rayleigh-Ritz modes."""
+    """Modes ``first_mode, first_mode + 1, ...`` of a :class:`Modes` are modes ``offset, offset +
+    1, ...`` of ``solution`` (:class:`synth.physics.asymptotic_modes.EdgeEffectSolution`); those
+    before ``first_mode`` are Rayleigh-Ritz modes."""
 
     first_mode: int
     solution: object
     offset: int
 
     def product_factors(self, x, y, length: float, width: float, index):
-        """Modes ``index`` (ascending, numbered as in :class:`Modes`, each ``>= first_mode``)
-        of a plate ``length`` x ``width`` (metres) as tables of their factors at the distinct
-        coordinates ``x`` and ``y`` (metres, on the plate): ``(x_own, y_own, x_other,
-        y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being ``x_own[a, k] y_own[b, k] +
-        x_other[a, k] y_other[b, k]`` (see
-        :meth:`synth.physics.asymptotic_modes.EdgeEffectSolution.product_factors`)."""
+        """Modes ``index`` (ascending, each ``>= first_mode``) of a plate ``length`` x ``width``
+        (m) as tables of their factors at the distinct coordinates ``x`` and ``y`` (m):
+        ``(x_own, y_own, x_other, y_other)``, mode ``index[k]`` at ``(x[a], y[b])`` being
+        ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``."""
         xi = np.clip(2.0 * np.asarray(x, dtype=float) / length - 1.0, -1.0, 1.0)
         eta = np.clip(2.0 * np.asarray(y, dtype=float) / width - 1.0, -1.0, 1.0)
         own = np.asarray(index, dtype=np.int64) - self.first_mode + self.offset
@@ -83,25 +80,11 @@ class EdgeEffectPart:
 
 @dataclass(frozen=True, eq=False)
 class Modes:
-    """The bending modes of a plate up to a frequency (see :func:`modes`); arrays read-only.
-
-    Attributes
-    ----------
-    plate : Plate
-        The plate.
-    max_frequency : float > 0
-        The band asked for, Hz: every mode at or below it, none above.
-    frequencies : ndarray, shape (n,)
-        Natural frequencies ``f_k``, Hz, ascending (a free plate's rigid-body motions excluded).
-    angular_frequencies : ndarray, shape (n,)
-        ``omega_k = 2 pi f_k``, rad/s.
-    decay_rates : ndarray, shape (n,)
-        Amplitude decay rates ``sigma_k``, 1/s (``plate.material.damping.decay_rate``).
-    modal_masses : ndarray, shape (n,)
-        ``M_k = rho h a b`` (shapes of mean square 1), kg.
-    tolerance : float
-        Relative accuracy of every frequency (0 for the closed form;
-        :data:`EDGE_EFFECT_TOLERANCE` beyond the crossover)."""
+    """The bending modes of ``plate`` at or below ``max_frequency`` (Hz), arrays read-only:
+    ``frequencies`` ``f_k`` (Hz, ascending; a free plate's rigid-body motions excluded),
+    ``angular_frequencies`` (rad/s), ``decay_rates`` ``sigma_k`` (1/s, the material's damping),
+    ``modal_masses`` ``M_k = rho h a b`` (kg; shapes of mean square 1), and ``tolerance``, the
+    relative accuracy of every frequency (0 for the closed form)."""
 
     plate: Plate
     max_frequency: float
@@ -117,11 +100,9 @@ class Modes:
 
     @property
     def shape_key(self) -> str:
-        """Text that identifies :meth:`shapes` exactly, for caches of results computed from them:
-        the plate's size, the number of modes, the eigen-solution (boundary, Poisson ratio,
-        aspect, band, solver settings) and the numerical libraries
-        (:func:`~synth.physics.modes.common.numerics_key`), not what only scales frequencies
-        or damping."""
+        """Text identifying :meth:`shapes` exactly, for caches of results computed from them:
+        the plate's size, the mode count, the eigen-solution and the numerical libraries
+        (:func:`~synth.physics.modes.common.numerics_key`), not what only scales frequencies."""
         p = self.plate
         return json.dumps(
             {
@@ -145,9 +126,8 @@ class Modes:
 
     @property
     def solved_for_band(self) -> bool:
-        """True when the eigen-solution was solved for exactly ``max_frequency`` (always for the
-        closed form); a caller whose result must not depend on the cache's history (the modal
-        contact) checks this."""
+        """True when the eigen-solution was solved for exactly ``max_frequency``, so that a
+        result (the modal contact's) does not depend on the cache's history."""
         sol = self._solution
         if isinstance(sol, SimplySupported):
             return True
@@ -156,8 +136,7 @@ class Modes:
         return False  # a hybrid's low Ritz band may itself be a wider band's
 
     def separable(self) -> SeparableShapes | None:
-        """The shapes as products ``X_i(x) Y_j(y)`` (:class:`SeparableShapes`), or None
-        when they are not (free and clamped plates: sums of such products)."""
+        """The shapes as products ``X_i(x) Y_j(y)`` (simply supported plates), else None."""
         sol = self._solution
         if not isinstance(sol, SimplySupported):
             return None
@@ -172,34 +151,10 @@ class Modes:
         return SeparableShapes(p.length, p.width, m_idx, n_idx, k)
 
     def shapes(self, points, index=None) -> np.ndarray:
-        """Mode shapes ``phi_k`` at points on the plate.
-
-        Parameters
-        ----------
-        points : array_like, shape (n, 2)
-            ``(x, y)`` positions, metres from the plate's corner: ``0 <= x <= a``
-            (length), ``0 <= y <= b`` (width).
-        index : array of int, optional
-            Modes to evaluate (ascending, distinct); every mode if None. Edge effect
-            modes are evaluated alone; others as columns of the first modes' shapes.
-
-        Returns
-        -------
-        ndarray, shape (n, n_modes)
-            ``phi_k`` (dimensionless, mean square 1 over the plate), one column per
-            mode in the order of :attr:`frequencies` (of ``index`` if given).
-
-        Notes
-        -----
-        Points on a grid share the sum over one direction; temporaries stay near 32 MB,
-        the result takes ``8 n n_modes`` bytes.
-
-        Raises
-        ------
-        ParameterError
-            If ``points`` is not an ``(n, 2)`` array of finite numbers, a point is
-            off the plate, or ``index`` is not ascending distinct mode numbers.
-        """
+        """Mode shapes ``phi_k`` (dimensionless, mean square 1) at ``points`` (n, 2), ``(x, y)`` in
+        metres from the plate's corner, one column per mode in the order of :attr:`frequencies`,
+        or of ``index`` (ascending distinct mode numbers) if given. ``ParameterError`` for points
+        not an (n, 2) array of finite numbers, off the plate, or a bad ``index``."""
         if index is not None:
             index = np.asarray(index)
             if (
@@ -241,17 +196,15 @@ class Modes:
         return self._solution.shapes(xi, eta, int(index[-1]) + 1 if index.size else 0)[:, index]
 
     def edge_effect(self) -> EdgeEffectPart | None:
-        """The modes that come from the dynamic edge effect method (a free or clamped
-        plate beyond the Ritz crossover, see :func:`modes`), or None if there are none."""
+        """The modes of the dynamic edge effect method (beyond the Ritz crossover), or None."""
         sol = self._solution
         if not isinstance(sol, HybridSolution) or sol.n_low >= len(self):
             return None
         return EdgeEffectPart(sol.n_low, sol.edge, sol.first)
 
     def summed(self) -> SummedShapes | None:
-        """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)``
-        (:class:`SummedShapes`: free and clamped plates), or None (simply supported
-        plates: see :meth:`separable`)."""
+        """The shapes as sums of products ``sum_ij C_kij X_i(x) Y_j(y)`` (:class:`SummedShapes`:
+        free and clamped plates), or None."""
         sol = self._solution
         if not isinstance(sol, RitzSolution):
             return None
@@ -274,8 +227,8 @@ def dimensionless_band(plate: Plate, max_frequency: float) -> float:
 
 
 def ritz_band(plate: Plate, max_frequency: float) -> float:
-    """The dimensionless band of the Ritz problems :func:`modes` solves for ``plate`` up
-    to ``max_frequency`` (Hz): the whole band, or beyond the crossover its low band."""
+    """The dimensionless band of the Ritz problems :func:`modes` solves up to ``max_frequency``
+    (Hz): the whole band, or beyond the crossover its low band."""
     aspect = plate.length / plate.width
     omega_req = dimensionless_band(plate, max_frequency)
     if ritz_unknowns(aspect, omega_req) > CROSSOVER_UNKNOWNS:
@@ -286,12 +239,9 @@ def ritz_band(plate: Plate, max_frequency: float) -> float:
 
 
 def solver_key(plate: Plate, max_frequency: float) -> str:
-    """Text that identifies the eigen-solution :func:`modes` gives ``plate`` up to
-    ``max_frequency`` (Hz), known before any solve: the method, its version and settings,
-    the bands it solves (as :attr:`Modes.shape_key`'s solution) and the numerical libraries
-    (:func:`~synth.physics.modes.common.numerics_key`). A cache of results computed from the
-    modes (the modal contact's point modes) keys its entries with it, so that an entry made
-    by another revision of the solver is not served."""
+    """Text identifying the eigen-solution :func:`modes` gives ``plate`` up to ``max_frequency``
+    (Hz), known before any solve (method, settings, bands, numerical libraries), keying caches
+    of results computed from the modes so that another revision of the solver is not served."""
     from synth.physics import asymptotic_modes
     from synth.physics.modes.cache import band_key
 
@@ -310,11 +260,9 @@ def solver_key(plate: Plate, max_frequency: float) -> str:
 
 
 def shape_terms(plate: Plate, max_frequency: float) -> int:
-    """Terms of the sum one shape value costs per mode on a grid of points, known before
-    any mode is solved: 1 for the closed-form modes of a simply supported plate (a product
-    of sines), else the Ritz basis' degrees along one axis
-    (:func:`~synth.physics.modes.ritz.first_basis_degrees`; :mod:`synth.cost` sizes the
-    radiation stage's work by it)."""
+    """Terms of the sum one shape value costs per mode on a grid, known before any solve: 1
+    for a simply supported plate, else the Ritz basis' degrees along one axis (for
+    :mod:`synth.cost`)."""
     from synth.physics.modes.ritz import first_basis_degrees
 
     if plate.boundary == "simply-supported":
@@ -323,57 +271,27 @@ def shape_terms(plate: Plate, max_frequency: float) -> int:
 
 
 def ritz_factors(plate: Plate, max_frequency: float) -> tuple[int, int]:
-    """Factors ``(n_x, n_y)`` of the Ritz shapes of ``plate`` up to ``max_frequency`` (Hz)
-    as sums of products (:meth:`Modes.summed`), known before any mode is solved (of the
-    first basis tried; for :mod:`synth.cost`)."""
+    """Factors ``(n_x, n_y)`` of the first Ritz basis' shapes up to ``max_frequency`` (Hz) as sums
+    of products, known before any solve (for :mod:`synth.cost`)."""
     from synth.physics.modes.ritz import first_basis_factors
 
     return first_basis_factors(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def solver_sizes(plate: Plate, max_frequency: float) -> tuple[list[int], list[int]]:
-    """Unknowns of the Rayleigh-Ritz problems :func:`modes` solves for ``plate`` up to
-    ``max_frequency`` (Hz): each symmetry class's main and check bases of the first
-    basis tried (of the low band, beyond the crossover); none for a simply supported
-    plate (closed form). A larger basis is tried only when the first does not converge."""
+    """Unknowns of each symmetry class's main and check bases of the first Ritz basis
+    :func:`modes` tries up to ``max_frequency`` (Hz); none for a simply supported plate."""
     if plate.boundary == "simply-supported":
         return [], []
     return first_basis_sizes(plate.length / plate.width, ritz_band(plate, max_frequency))
 
 
 def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
-    """Every bending mode of ``plate`` with frequency at or below ``max_frequency``.
-
-    Parameters
-    ----------
-    plate : Plate
-        The plate (material, thickness, length ``a`` along x, width ``b`` along y,
-        boundary "free", "simply-supported" or "clamped").
-    max_frequency : float > 0
-        Upper end of the band, Hz.
-    cache : bool
-        Reuse and store the eigen-solution (memory and disk, see
-        :mod:`synth.physics.modes.cache`). ``False`` computes afresh and stores nothing.
-
-    Returns
-    -------
-    Modes
-        Frequencies (Hz, ascending), angular frequencies (rad/s), decay rates
-        (1/s), modal masses (kg) and shapes; every frequency accurate to
-        :data:`TOLERANCE` relative.
-
-    Raises
-    ------
-    ParameterError
-        If ``plate`` is not a Plate, ``max_frequency`` is not a finite number
-        > 0, or the band holds more than two million modes.
-
-    Notes
-    -----
-    The Ritz cost grows as the cube of the number of modes (cached after the first solve);
-    beyond the crossover (:mod:`synth.physics.modes.crossover`) the dynamic edge effect
-    modes, linear in cost, come with ``tolerance`` :data:`EDGE_EFFECT_TOLERANCE`.
-    """
+    """Every bending mode of ``plate`` at or below ``max_frequency`` (Hz, > 0), each frequency
+    accurate to :data:`TOLERANCE` relative (:data:`EDGE_EFFECT_TOLERANCE` beyond the crossover
+    of :mod:`synth.physics.modes.crossover`, whose modes cost linearly instead of the Ritz
+    cube). ``cache``: reuse and store the eigen-solution (:mod:`synth.physics.modes.cache`).
+    ``ParameterError`` for a band of more than two million modes."""
     if not isinstance(plate, Plate):
         raise ParameterError(f"plate={plate!r} must be a Plate")
     damping = plate.damping_law()
