@@ -1,37 +1,24 @@
-"""numba kernel of the rolling contact (private to :mod:`synth.physics.rolling`).
+"""numba kernel of the rolling contact (private to :mod:`synth.physics.rolling`; docs/rolling.md,
+"Rolling contact").
 
-The equations (docs/rolling.md, "Rolling contact"): the ball's centre moves along the
-path at the horizontal speed ``v`` (constant over each sample period), ``s' = v``; its
-lowest point is at height ``y`` and the plate's surface under it at ``u`` (the impedance's
-displacement, 0 for a rigid plate); ``z = y - u``. With the envelope ``e(s)``
-(:func:`synth.physics.surface.contact_envelope`):
+The centre moves along the path at ``v`` (constant over each sample period); the ball's lowest point
+is at ``y``, the plate's surface under it at ``u`` (the impedance's displacement), ``z = y - u``.
+With the envelope ``e(s)`` (:func:`synth.physics.surface.contact_envelope`):
 
-    delta = e(s) - z                     penetration, m
-    w     = e'(s) v - v_y                approach rate with the plate held still, m/s
-    F     = K force(delta, w, beta K, n, mu, (3/2) A)     contact force, N
-    z'    = v_y + beta F
-    v_y'  = F / m - g
-    u'    = -beta F
+    delta = e(s) - z,   w = e'(s) v - v_y,   F = K force(delta, w, beta K, n, mu, (3/2) A)
+    z' = v_y + beta F,   v_y' = F / m - g,   u' = -beta F
 
-``force`` is the impact solver's contact law (``contact_kernels.equations.force``, the
-Hertz / Hunt-Crossley / viscoelastic law solved for the force with the plate's yield
-``delta' = w - beta F``), called in SI units: with ``x = delta``, ``lam = beta K`` and the
-losses ``c = mu``, ``b = (3/2) A`` it returns ``F / K`` and the elastic part ``delta^n``.
-Quadratures carried with the state: the impulse of the current sample, the contact's loss
-``Int (F - K delta^n) delta' dt``, the energy into the plate ``Int beta F^2 dt``, the work
-of the horizontal drive ``Int F e'(s) v dt`` and its gross value ``Int |F e'(s) v| dt``.
+``force`` is the impact solver's law (``contact_kernels.equations.force``, solved for the force with
+the plate's yield ``delta' = w - beta F``). Carried with the state: the sample's impulse, the
+contact's loss ``Int (F - K delta^n) delta' dt``, the energy into the plate ``Int beta F^2 dt``, the
+drive's work ``Int F e'(s) v dt`` and its gross ``Int |F e'(s) v| dt``.
 
-Integrator: Dormand & Prince's embedded Runge-Kutta 5(4) pair (Dormand & Prince 1980,
-J. Comput. Appl. Math. 6, 19; Hairer, Norsett & Wanner, "Solving ODEs I", II.5) with local
-error control on ``delta`` and ``v_y`` (absolute ``rtol * delta_ref`` and ``rtol *
-sqrt(g delta_ref)`` plus ``rtol`` times the values), steps ending on every sample boundary
-(where the speed changes, the first stage is evaluated afresh with the new speed). Off the
-surface (``delta < 0``: no force) the ball's path is a parabola, solved in closed form to
-the landing or the period's end (:func:`flight`), without steps.
+Integrator: Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19 (1980); Hairer, Norsett &
+Wanner, "Solving ODEs I", II.5), error control on ``delta`` and ``v_y``, steps ending on every
+sample boundary; off the surface the flight is a parabola solved in closed form (:func:`flight`).
 
-numba's cache (``cache=True``) keys these kernels on this file only: after editing
-``contact_kernels/equations.py`` (the law) or ``surface.py`` (the envelope's spline),
-clear ``synth/physics/__pycache__`` so that they compile again with the change.
+numba's cache keys these kernels on this file only: after editing
+``contact_kernels/equations.py`` or ``surface.py``, clear ``synth/physics/__pycache__``.
 """
 
 from __future__ import annotations
@@ -54,42 +41,30 @@ STEP_TOO_SMALL = -2
 Z, VY, U, IMPULSE, LOSS, PLATE, DRIVE, GROSS, S = range(9)
 N_STATE = 9
 
-# Dormand-Prince 5(4) tableau.
-C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
+# Dormand-Prince 5(4) tableau (the equations are autonomous: no stage times).
 A21 = 1.0 / 5.0
 A31, A32 = 3.0 / 40.0, 9.0 / 40.0
 A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
 A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
 A61, A62, A63, A64, A65 = (
-    9017.0 / 3168.0,
-    -355.0 / 33.0,
-    46732.0 / 5247.0,
-    49.0 / 176.0,
-    -5103.0 / 18656.0,
-)
+    9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
+)  # fmt: skip
 B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
 #: An error (relative to the tolerance) below which the step grows by the largest factor,
 #: 5: below ``(0.9 / 5)^5 = 1.9e-4``.
 TINY_ERROR = 1e-4
 E1, E3, E4, E5, E6, E7 = (
-    71.0 / 57600.0,
-    -71.0 / 16695.0,
-    71.0 / 1920.0,
-    -17253.0 / 339200.0,
-    22.0 / 525.0,
+    71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
     -1.0 / 40.0,
-)
+)  # fmt: skip
 
 
 @compiled(inline="always")
 def rates(z, vy, s, env, dx, v, m, K, n, mu, b, beta, g):  # pragma: no cover - compiled
-    """The right-hand side of the module docstring at the height ``z`` (m), vertical speed
-    ``vy`` (m/s) and path coordinate ``s`` (m), the only components it reads: ``(z', vy',
-    u', impulse', loss', plate', drive', gross', delta)``, the last the penetration
-    ``delta`` (m); ``s' = v``. Inlined into :func:`roll` (numba's ``inline="always"``),
-    where a call per stage cost as much as the equations; the state and the stages are
-    scalars there, which the compiler keeps in registers (arrays of the state, stored and
-    loaded at every stage, cost a third of the time)."""
+    """The module docstring's right-hand side at the height ``z`` (m), vertical speed ``vy`` (m/s)
+    and path coordinate ``s`` (m): ``(z', vy', u', impulse', loss', plate', drive', gross',
+    delta)``, the last the penetration (m). Inlined into :func:`roll`, where the scalar stages
+    stay in registers (a call per stage cost as much as the equations)."""
     e, ep, _ = envelope_at(env, dx, s)
     delta = e - z
     w = ep * v - vy
@@ -123,13 +98,11 @@ def error4(h, k1, k3, k4, k5, k6, k7):  # pragma: no cover - compiled
 
 @compiled(inline="always")
 def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - compiled
-    """The step's error relative to the tolerance (``err_z`` and ``err_v`` over their
-    scales ``sc_z`` and ``sc_v``) and the next step (s) after the step ``hh`` (s):
-    ``hh min(5, 0.9 err^-0.2)`` if accepted (``err <= 1``), ``hh max(0.2, 0.9 err^-0.2)``
-    if not (Hairer, Norsett & Wanner II.4). An error so small that the next step is the
-    largest one allowed, ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``): below
-    :data:`TINY_ERROR` the factor is 5, below ``(0.9 hh / h_max)^5`` at least ``h_max /
-    hh``; found with products, without the divisions and the power, and returned as 0."""
+    """The step's error relative to the tolerance (``err_z``, ``err_v`` over ``sc_z``, ``sc_v``) and
+    the next step (s) after ``hh`` (s): ``hh min(5, 0.9 err^-0.2)`` if accepted, ``hh max(0.2,
+    0.9 err^-0.2)`` if not (Hairer, Norsett & Wanner II.4). An error so small that the next step
+    is the largest allowed, ``min(5 hh, h_max)`` (``grow = 0.9 / h_max``), is found with products
+    alone and returned as 0."""
     r = hh * grow
     reach = max(r * r * r * r * r, TINY_ERROR)
     if abs(err_z) <= reach * sc_z and abs(err_v) <= reach * sc_v:
@@ -142,12 +115,10 @@ def control(hh, err_z, err_v, sc_z, sc_v, grow, h_max):  # pragma: no cover - co
 
 @compiled()
 def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
-    """The first time in ``(a, b]`` (s) at which the cubic ``P(t) = p0 + p1 t + p2 t^2 +
-    p3 t^3`` (the penetration along a flight over one piece of the envelope's spline, m)
-    reaches 0, given ``P(a) < 0``: returned as a time ``t`` with ``P(t) < 0`` within ``tol``
-    (s) before it, or -1.0 if ``P < 0`` over the whole interval. ``P`` is monotone
-    between its critical points, so the first of the critical points in ``(a, b)`` and of
-    ``b`` where ``P >= 0`` brackets the first root, which bisection narrows."""
+    """The first time in ``(a, b]`` (s) where the cubic ``P(t) = p0 + p1 t + p2 t^2 + p3 t^3`` (the
+    penetration along a flight, m) reaches 0, given ``P(a) < 0``, within ``tol`` (s) before it;
+    -1.0 if none. ``P`` is monotone between its critical points, so the first of them (or ``b``)
+    where ``P >= 0`` brackets the root, which bisection narrows."""
     # the critical points: roots of 3 p3 t^2 + 2 p2 t + p1
     c1 = c2 = b
     qa, qb = 3.0 * p3, 2.0 * p2
@@ -182,15 +153,11 @@ def first_contact(p0, p1, p2, p3, a, b, tol):  # pragma: no cover - compiled
 
 @compiled()
 def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
-    """The ball in flight (no contact force: a parabola) from the path coordinate ``s``
-    (m), height ``z`` (m) and vertical speed ``vy`` (m/s) at the horizontal speed ``v``
-    (m/s) under gravity ``g`` (m/s^2), above the envelope: the time (s) it flies, to the
-    first contact (returned ``tol`` s or less before it, still in flight) or at most
-    ``span`` (s), and whether it lands. Over each piece of the envelope's cubic spline
-    the penetration ``P(t) = e(s + v t) - z - vy t + g t^2 / 2`` is a cubic in ``t``: a
-    piece over which ``P`` stays below its chord's larger end plus the bound of its
-    curvature's part, ``max |P''| L^2 / 8`` (``L`` the piece's duration), has no contact;
-    on the others :func:`first_contact` finds the first root."""
+    """The ball's parabolic flight from ``s`` (m), height ``z`` (m), vertical speed ``vy`` (m/s) at
+    ``v`` (m/s) under ``g`` (m/s^2): the time (s) it flies, to the first contact (``tol`` s or
+    less before it) or at most ``span`` (s), and whether it lands. Over each spline piece the
+    penetration is a cubic in ``t``; a piece where it stays below its chord's larger end plus
+    ``max |P''| L^2 / 8`` has no contact, on the others :func:`first_contact` finds the root."""
     n = env.shape[0]
     i = spline_piece(n, dx, s)
     a = 0.0
@@ -222,37 +189,15 @@ def flight(env, dx, s, z, vy, v, g, span, tol):  # pragma: no cover - compiled
 
 @compiled()
 def roll(
-    y,
-    h,
-    env,
-    dx,
-    speeds,
-    m,
-    K,
-    n,
-    mu,
-    b,
-    beta,
-    g,
-    samplerate,
-    rtol,
-    delta_ref,
-    h_max,
-    max_steps,
-    force_out,
-    min_penetration,
-    path_out,
-):  # pragma: no cover - compiled
-    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s), steps
-    of at most ``h_max`` (s), over
-    ``speeds.size`` sample periods of ``1 / samplerate`` s, the horizontal speed ``speeds[j]``
-    (m/s) in period ``j``; write each period's mean contact force (N), the smallest
-    penetration at its steps' ends (m) and the path coordinate at its start (m).
-
-    Every period is integrated from its own time 0 (the state and the step size carry
-    over), so a rolling cut into consecutive calls at sample boundaries gives the bits of
-    one call. Returns ``(status, steps, rejected, flights, h)``: ``flights`` counts the
-    losses of contact seen at steps' ends; ``h`` is the next step size."""
+    y, h, env, dx, speeds, m, K, n, mu, b, beta, g, samplerate, rtol, delta_ref, h_max,
+    max_steps, force_out, min_penetration, path_out,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Integrate from the state ``y`` (updated in place) with the first step ``h`` (s), steps of at
+    most ``h_max`` (s), over the periods of ``1 / samplerate`` s at the speeds ``speeds`` (m/s);
+    write each period's mean force (N), smallest penetration at its steps' ends (m) and path
+    coordinate at its start (m). Each period starts at its own time 0, so a rolling cut at sample
+    boundaries gives the bits of one call. Returns ``(status, steps, rejected, flights, h)``,
+    ``h`` the next step."""
     n_samples = force_out.shape[0]
     period = 1.0 / samplerate
     atol_z = rtol * delta_ref
@@ -382,24 +327,20 @@ LEFT_PLATE = 2
 
 @compiled()
 def reach_bound(planned, count, samplerate, x):  # pragma: no cover - compiled
-    """A bound (m) of the centre's travel over the first ``count`` speeds of ``planned``
-    (m/s, > 0, monotone: the largest at an end) as a float cumulative sum gives it:
-    ``count v_max / samplerate`` plus far more than the rounding of ``count`` sums and of
-    the addition to the start ``x`` (m), so that a block it keeps short of the plate's edge
-    needs no cumulative sum."""
+    """A bound (m) of the centre's travel over the first ``count`` of the monotone ``planned``
+    speeds (m/s) from ``x`` (m), with far more than the float sums' rounding: a block it keeps
+    short of the edge needs no cumulative sum."""
     travel = count * max(planned[0], planned[count - 1]) / samplerate
     return travel + 1e-9 * (travel + abs(x))
 
 
 @compiled()
 def block_speeds(v, decel, count, samplerate, x, x_end, out):  # pragma: no cover - compiled
-    """The speeds (m/s) of the next block of at most ``count`` sample periods, written to
-    ``out``, from the speed ``v`` (m/s) under the deceleration ``decel`` (m/s^2), for a
-    centre at ``x`` (m): returns how many and how the block ends, cut where the speed
-    reaches 0 (:data:`STOPPED`) or where the centre passes ``x_end`` (m,
-    :data:`LEFT_PLATE`); :data:`RUNNING` if neither. The speeds fall and the centre's
-    positions rise (a float sum of positive terms never falls), so each cut is the first
-    period past it."""
+    """The speeds (m/s) of the next block of at most ``count`` periods into ``out``, from ``v``
+    (m/s) under ``decel`` (m/s^2), for a centre at ``x`` (m): how many, and how the block ends,
+    cut at the stop (:data:`STOPPED`) or where the centre passes ``x_end`` (m,
+    :data:`LEFT_PLATE`), else :data:`RUNNING`. The speeds fall and the positions rise, so each
+    cut is the first period past it."""
     end = RUNNING
     for k in range(count):
         out[k] = v - decel * (k + 0.5) / samplerate
@@ -425,20 +366,14 @@ def roll_blocks(
     max_steps_per_sample, v, decel, block, n_max, x_end, kinetic_mass, resistance_force,
     force_out, centre_out, speed_out, min_penetration, tallies,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """A path's rolling (:mod:`synth.physics.path`, "Rolling resistance") from the state
-    ``y`` (updated in place) and first step ``h`` (s) at the speed ``v`` (m/s), in blocks
-    of ``block`` sample periods, at most ``n_max`` in all: each block's speeds fall by
-    the deceleration ``decel`` (m/s^2, :func:`block_speeds`, cut at the stop or where the
-    centre passes ``x_end``, m), :func:`roll` integrates it, and the rolling sphere's
-    kinetic energy ``kinetic_mass v^2`` (J; ``kinetic_mass`` in kg) loses the
-    roughness' work at its end. Writes each period's mean force (N), centre in its
-    middle (m) and speed (m/s) to ``force_out``, ``centre_out`` and ``speed_out`` (``n_max``
-    long; ``min_penetration`` a block's scratch); adds the contact's loss, the energy
-    into the plate, the work of the rolling resistance ``resistance_force`` (N) and the
-    roughness' work (J) to ``tallies[0:4]``. Returns ``(status, end, periods, h, v,
-    flights)``: :func:`roll`'s status (the periods before a failed block), how the blocks
-    ended (:data:`RUNNING` if they reached ``n_max``), the periods done, the next step
-    (s), the speed after them (m/s) and the losses of contact."""
+    """A path's rolling (:mod:`synth.physics.path`) from ``y`` (updated in place) and step ``h`` (s)
+    at ``v`` (m/s), in blocks of ``block`` periods, at most ``n_max``: each block's speeds fall
+    by ``decel`` (m/s^2, :func:`block_speeds`, cut at ``x_end``, m), :func:`roll` integrates it,
+    and the kinetic energy ``kinetic_mass v^2`` (J, kg) loses the roughness' work. Writes each
+    period's force (N), centre (m) and speed (m/s) into ``force_out``, ``centre_out``,
+    ``speed_out``; adds the contact's loss, the plate's energy, the work of ``resistance_force``
+    (N) and the roughness' (J) to ``tallies[0:4]``. Returns ``(status, end, periods, h, v,
+    flights)``."""
     done = 0
     end = RUNNING
     flights = 0
@@ -481,11 +416,9 @@ def roll_blocks(
 
 @compiled()
 def touching_points(centres, offsets, spacing, out):  # pragma: no cover - compiled
-    """The touching points' path coordinates (m) of the centre at ``centres`` (m), into
-    ``out``: each centre plus the envelope's contact ``offsets`` (m, sampled every
-    ``spacing`` m from 0) interpolated linearly, held beyond the ends; numpy's ``interp``
-    on the nodes ``i spacing``, to the bit: the interval ``x_i <= c < x_(i+1)``, ``o_i``
-    at a node, else ``(o_(i+1) - o_i) / (x_(i+1) - x_i) (c - x_i) + o_i``."""
+    """The touching points' path coordinates (m) of the centres ``centres`` (m) into ``out``: each
+    plus the envelope's ``offsets`` (m, every ``spacing`` m) interpolated linearly, held beyond
+    the ends; numpy's ``interp`` to the bit."""
     last = offsets.shape[0] - 1
     for k in range(centres.shape[0]):
         c = centres[k]

@@ -1,16 +1,13 @@
-"""The Rayleigh-Ritz basis of the free and clamped plates (:mod:`synth.physics.modes.ritz`),
-its size, and the eigen-solution of one symmetry class (docs/physics.md, "Plate modes").
+"""The Rayleigh-Ritz basis of the free and clamped plates, its size, and the eigen-solution
+of one symmetry class (docs/physics.md, "Plate modes").
 
-The basis is a tensor product of functions orthonormal on ``[-1, 1]`` in ``xi = 2x/a - 1``,
-``eta = 2y/b - 1``: Legendre polynomials (free) or ``(1 - xi^2)^2 p_n^(4,4)(xi)`` with
-orthonormal Jacobi polynomials (clamped), so the mass matrix is the identity and the
-stiffness matrix comes from exact Gauss-Legendre integrals; parity splits the problem into
-four symmetry classes. The stiffness spans many decades, so the solver factors ``K + s I``
-by Cholesky, inverts it (LAPACK ``potri``) and takes the largest eigenvalues of the inverse,
-keeping the low modes' relative accuracy. The basis keeps the degree pairs some wavenumber
-``k_x^2 + k_y^2 <= k_max^2`` needs, a degree ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per
-axis (the beam's spectral convergence); every mode is checked against a larger basis
-(:mod:`synth.physics.modes.ritz`, ``TOLERANCE``).
+A tensor product of functions orthonormal on ``[-1, 1]`` in ``xi = 2x/a - 1``, ``eta = 2y/b
+- 1``: Legendre polynomials (free) or ``(1 - xi^2)^2 p_n^(4,4)(xi)`` (clamped), so the mass
+matrix is the identity and the stiffness exact by Gauss-Legendre; parity gives four
+classes. The solver takes the largest eigenvalues of ``(K + s I)^-1`` (Cholesky, LAPACK
+``potri``), keeping the low modes' relative accuracy. The basis keeps the degree pairs a
+wavenumber ``k_x^2 + k_y^2 <= k_max^2`` needs, ``g(kappa) = kappa + 3 kappa^(1/3) + 2`` per
+axis (the beam's spectral convergence).
 """
 
 from __future__ import annotations
@@ -39,14 +36,10 @@ def basis_alpha(boundary: str) -> int:
 
 @compiled()
 def _recurrence(x, a, p0, out):  # pragma: no cover
-    """Orthonormal symmetric Jacobi polynomials and derivatives by their recurrence.
-
-    ``out[d, i, m]`` becomes ``d^d p_m / dxi^d`` at ``x[i]`` for ``d < out.shape[0]``:
-    ``p_0 = p0``, ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and, differentiated,
-    ``p_(m+1)^(d) = (d p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)``
-    (``a`` as in :func:`basis_1d`, ``a[0] = 0``). The operations are those of the
-    recurrence written term by term, in the same order.
-    """
+    """``out[d, i, m] = d^d p_m / dxi^d`` at ``x[i]`` of the orthonormal symmetric Jacobi
+    polynomials: ``p_(m+1) = (xi p_m - a_m p_(m-1)) / a_(m+1)`` and its derivatives
+    ``p_(m+1)^(d) = (d p_m^(d-1) + xi p_m^(d) - a_m p_(m-1)^(d)) / a_(m+1)`` (``a`` as in
+    :func:`basis_1d`), term by term in that order."""
     nd, nx, n = out.shape
     if n == 0:
         return
@@ -73,15 +66,10 @@ def _log_factorial(k: int) -> float:
 
 
 def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndarray:
-    """Basis functions ``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1].
-
-    Returns an array ``(derivatives + 1, len(x), n)``. The orthonormal symmetric
-    Jacobi polynomials come from the three-term recurrence
-    ``xi p_m = a_(m+1) p_(m+1) + a_m p_(m-1)``, ``a_m^2 = m (m + 2 alpha) /
-    ((2m + 2 alpha + 1)(2m + 2 alpha - 1))``, differentiated term by term
-    (:func:`_recurrence`); for ``alpha = 4`` the polynomials are multiplied by
-    ``u = (1 - xi^2)^2``.
-    """
+    """Basis functions ``psi_0 .. psi_(n-1)`` and derivatives at ``x`` in [-1, 1], (derivatives +
+    1, len(x), n): the orthonormal Jacobi polynomials of ``xi p_m = a_(m+1) p_(m+1) + a_m
+    p_(m-1)``, ``a_m^2 = m (m + 2 alpha) / ((2m + 2 alpha + 1)(2m + 2 alpha - 1))``
+    (:func:`_recurrence`), times ``(1 - xi^2)^2`` for ``alpha = 4``."""
     x = np.ascontiguousarray(x, dtype=float).ravel()
     p = np.empty((derivatives + 1, x.size, n))
     mu0 = math.exp(
@@ -108,13 +96,8 @@ def basis_1d(alpha: int, n: int, x: np.ndarray, derivatives: int = 0) -> np.ndar
 
 
 def matrices_1d(alpha: int, n: int):
-    """Exact integrals over [-1, 1] of products of the first ``n`` basis functions.
-
-    Returns ``(A11, A22, A20)``: ``A11[i, k] = Int psi_i' psi_k'``,
-    ``A22 = Int psi_i'' psi_k''``, ``A20 = Int psi_i'' psi_k``. (``Int psi_i psi_k``
-    is the identity.) Gauss-Legendre with ``n + 6`` nodes integrates these
-    polynomials of degree at most ``2n + 6`` exactly.
-    """
+    """``(A11, A22, A20)``: ``Int psi_i' psi_k'``, ``Int psi_i'' psi_k''``, ``Int psi_i'' psi_k``
+    over [-1, 1] for the first ``n`` functions, exact by Gauss-Legendre with ``n + 6`` nodes."""
     from scipy.special import roots_legendre
 
     xq, wq = roots_legendre(n + 6)
@@ -197,12 +180,9 @@ def _assemble(I, J, a11, a22, a20, b11, b22, b20, rx, ry, nu, shift):  # noqa: P
 
 @dataclass(frozen=True)
 class RitzProblem:
-    """The Rayleigh-Ritz problem of one plate, shared by its four symmetry classes.
-
-    ``mx``, ``my``: the one-dimensional integral matrices (:func:`matrices_1d`) along
-    ``xi`` and ``eta``, up to the largest degree of the bases solved; ``rx = L/a``,
-    ``ry = L/b`` with ``L = max(a, b)``; ``nu``: Poisson's ratio.
-    """
+    """The Rayleigh-Ritz problem of one plate, shared by its classes: ``mx``, ``my`` the
+    :func:`matrices_1d` along ``xi`` and ``eta``; ``rx = L/a``, ``ry = L/b``, ``L = max(a, b)``;
+    ``nu`` Poisson's ratio."""
 
     mx: tuple
     my: tuple
@@ -247,13 +227,9 @@ def _stiffness(problem: RitzProblem, I, J, shift=0.0):
 
 
 def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):
-    """Eigenpairs with eigenvalue <= ``lam_max`` of the class of basis ``(I, J)``, through
-    ``(K + s I)^-1``.
-
-    Returns ``(lam, vec)`` ascending (``vec`` is None if not wanted). The largest
-    eigenvalues ``mu = 1 / (lambda + s)`` of the inverse carry a relative error of
-    about ``eps * lambda / s``, whatever the norm of ``K``.
-    """
+    """Eigenpairs ``(lam, vec)`` ascending (``vec`` None if not wanted) with ``lam <= lam_max`` of
+    the class of basis ``(I, J)``, through ``(K + s I)^-1``: its largest eigenvalues carry a
+    relative error of about ``eps lambda / s``, whatever the norm of ``K``."""
     import scipy.linalg  # imported on use: a render from cached modes solves nothing
     from scipy.linalg import lapack
 

@@ -1,11 +1,9 @@
 """Free and clamped plates: the Rayleigh-Ritz solution (docs/physics.md, "Plate modes").
 
-The basis and the eigen-solution of one class are :mod:`synth.physics.modes.basis`'s; this
-module solves the four symmetry classes, checks convergence and evaluates the shapes. Each
-class is solved again with a larger nested basis: Ritz values decrease monotonically
-towards the exact ones, so the two bound and estimate each mode's error; every mode
-returned agrees to :data:`TOLERANCE` (else the basis grows). Shapes are sums of products
-``2 sum c_ij psi_i(xi) psi_j(eta)`` (:class:`SummedShapes`).
+Solves the four symmetry classes (:mod:`synth.physics.modes.basis`) and again with a larger
+nested basis: Ritz values fall monotonically to the exact ones, so the two bound each mode's
+error, and every mode returned agrees to :data:`TOLERANCE` (else the basis grows). Shapes
+are sums of products ``2 sum c_ij psi_i(xi) psi_j(eta)`` (:class:`SummedShapes`).
 """
 
 from __future__ import annotations
@@ -67,14 +65,10 @@ def _take_columns(a, index):  # pragma: no cover
 
 @dataclass(eq=False, repr=False)
 class RitzSolution:
-    """Free or clamped modes of a plate of aspect ``a/b``, Poisson ``nu``, up to
-    ``omega_max`` (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``).
-
-    ``omega`` ascending; mode ``k`` is column ``col[k]`` of ``coef[cls[k]]``, the
-    coefficients on ``psi_I(xi) psi_J(eta)`` with ``I, J = index[cls[k]]`` (unit
-    norm: the shape is ``2 sum c_ij psi_i(xi) psi_j(eta)``). ``info``: how it was
-    obtained (the bases tried, or the cache file read). The arrays are made read-only.
-    """
+    """Free or clamped modes of aspect ``a/b`` and Poisson ``nu`` up to ``omega_max``
+    (dimensionless ``omega L^2 sqrt(rho h / D)``, ``L = max(a, b)``): ``omega`` ascending, mode
+    ``k`` column ``col[k]`` of ``coef[cls[k]]`` on ``psi_I(xi) psi_J(eta)``, ``I, J =
+    index[cls[k]]`` (the shape ``2 sum c_ij psi_i psi_j``); ``info`` how it was obtained."""
 
     boundary: str
     nu: float
@@ -126,14 +120,9 @@ class RitzSolution:
         return dense
 
     def shapes(self, xi, eta, n_modes):
-        """Mode shapes ``phi_k`` of the first ``n_modes`` modes at ``(xi, eta)``.
-
-        Returns ``(len(xi), n_modes)``. Each symmetry class is evaluated as one
-        block of columns by matrix products (its coefficients form one matrix);
-        the columns are put in frequency order at the end (:func:`_take_columns`).
-        Points sharing a coordinate (a grid) share the partial sum over that
-        direction. Temporaries stay below ``CHUNK_ELEMENTS`` doubles.
-        """
+        """Shapes ``phi_k`` (``len(xi)``, ``n_modes``) of the first modes at ``(xi, eta)``, each
+        class one block of columns by matrix products, put in frequency order at the end; points
+        sharing a coordinate share the partial sum; temporaries below ``CHUNK_ELEMENTS`` doubles."""
         out = np.empty((xi.size, n_modes))
         if n_modes == 0 or xi.size == 0:
             return out
@@ -206,16 +195,10 @@ class RitzSolution:
         )
 
     def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
-        """Shapes at points that share values of one coordinate, into column blocks.
-
-        ``axis`` is the grouped coordinate (0: xi, 1: eta); point ``p`` lies at
-        ``u[inv[p]]`` along it and at ``v[inv_v[p]]`` along the other. ``parts``
-        holds, per class, ``(c, cols, coef, I, J)``: the class, its block of
-        ``out``, its coefficients and degrees. The sum over the grouped
-        coordinate's degrees is done once per distinct ``u`` (matrix products for
-        a batch of them), then the points of each ``u`` take the sum over the
-        other's (matrix products per ``u``; see :func:`_product`).
-        """
+        """Shapes at points sharing values of the ``axis`` coordinate (0: xi, 1: eta), point ``p``
+        at ``u[inv[p]]`` and ``v[inv_v[p]]``, into the blocks of ``out`` of ``parts`` (``(c,
+        cols, coef, I, J)`` per class): the grouped coordinate's sum once per distinct ``u``,
+        then each point's sum over the other (:func:`_product`)."""
         deg = [(I, J) if axis == 0 else (J, I) for *_, I, J in parts]
         ps = 2.0 * basis_1d(alpha, max(int(S.max()) for S, _ in deg) + 1, u)[0]
         pv = basis_1d(alpha, max(int(T.max()) for _, T in deg) + 1, v)[0]
@@ -258,11 +241,9 @@ def ritz_unknowns(aspect: float, omega: float) -> float:
 
 
 def first_basis_degrees(aspect: float, omega: float) -> int:
-    """The most degrees of one parity along one axis in a symmetry class of the first
-    main basis :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the terms
-    of the sum a shape value on a grid of points costs per mode
-    (:meth:`RitzSolution.shapes` shares the sum along the other axis), for
-    :mod:`synth.cost`."""
+    """The most degrees of one parity along one axis of the first main basis :func:`solve_ritz`
+    tries for ``omega`` (dimensionless): the terms a shape value on a grid costs per mode,
+    for :mod:`synth.cost`."""
     rx, ry = ratios(aspect)
     k_l = math.sqrt(omega)
     kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
@@ -302,13 +283,9 @@ def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]
 
 
 def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
-    """``(lam, vec, lam_check)`` of each symmetry class: eigenpairs of the basis
-    ``main[c]`` and eigenvalues of the larger ``check[c]`` (see :func:`solve_class`).
-
-    ``one_thread``: LAPACK runs on one BLAS thread. A multithreaded LAPACK call whose
-    helper threads wait for cores that other work keeps busy stalls, many times slower
-    than on one thread (see :func:`synth.physics.modes.common.single_thread_product`).
-    """
+    """``(lam, vec, lam_check)`` of each class: eigenpairs of ``main[c]``, eigenvalues of the
+    larger ``check[c]`` (:func:`solve_class`); ``one_thread``: on one BLAS thread, as a
+    multithreaded LAPACK call stalls on busy cores (:func:`.common.single_thread_product`)."""
 
     def solve(c):
         lam, vec = solve_class(problem, *main[c], lam_cut, True)
@@ -484,14 +461,9 @@ class SummedShapes:
         return basis_1d(self._alpha, self.n_y, eta)[0]
 
     def combine(self, sums: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
-        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode ``k``, or for the
-        modes ``modes`` alone (increasing indices).
-
-        ``sums`` has shape ``(n, n_x, n_y)`` (for instance ``X^T diag(w) Y`` of ``n``
-        sets of points); returns ``(n, n_modes)`` in the order of the frequencies
-        (``(n, len(modes))`` in the order of ``modes``): one matrix product per
-        symmetry class.
-        """
+        """``out[r, k] = sum_ij C_kij sums[r, i, j]`` for every mode, or the increasing ``modes``:
+        ``sums`` (n, n_x, n_y) (``X^T diag(w) Y`` of ``n`` point sets) gives (n, n_modes), one
+        matrix product per symmetry class."""
         flat = np.ascontiguousarray(sums, dtype=float).reshape(sums.shape[0], -1)
         width = self.n_modes if modes is None else len(modes)
         out = np.empty((flat.shape[0], width))
