@@ -147,13 +147,7 @@ def _automatic_choice(scene) -> PlateChoice:
     c = scene.contact
     speed = math.sqrt(2.0 * scene.gravity * scene.drop_height)
     first = solve_impact(
-        scene.ball,
-        scene.plate,
-        speed,
-        position=scene.position,
-        gravity=scene.gravity,
-        contact=c.law,
-        rtol=c.rtol,
-        **c.options(),
-    )
+        scene.ball, scene.plate, speed, position=scene.position, gravity=scene.gravity,
+        contact=c.law, rtol=c.rtol, **c.options(),
+    )  # fmt: skip
     return choose_plate(first, scene.plate, scene.position, scene.ball.mass, speed)

@@ -427,17 +427,9 @@ def _integrate(setup, speeds, y, h):
     min_pen = np.full(N, np.nan)
     centres = np.full(N, np.nan)
     status, steps, rejected, flights, h = _k.roll(
-        y,
-        h,
-        setup.envelope.coefficients,
-        setup.envelope.spacing,
-        speeds,
-        *setup.kernel_constants,
-        MAX_STEPS_PER_SAMPLE * N,
-        forces,
-        min_pen,
-        centres,
-    )
+        y, h, setup.envelope.coefficients, setup.envelope.spacing, speeds,
+        *setup.kernel_constants, MAX_STEPS_PER_SAMPLE * N, forces, min_pen, centres,
+    )  # fmt: skip
     return status, steps, rejected, flights, h, forces, min_pen, centres
 
 
@@ -468,28 +460,10 @@ def _solve(setup, speeds, s0, state):
     for a in (forces, path, coordinate, points, min_pen, speeds):
         a.setflags(write=False)
     return RollingContact(
-        fs,
-        forces,
-        path,
-        coordinate,
-        points,
-        min_pen,
-        int(flights),
-        balance,
-        law,
-        beta,
-        speeds,
-        setup.origin,
-        setup.direction,
-        m,
-        delta_ref,
-        status == _k.OK,
-        int(status),
-        status_message(status),
-        int(steps),
-        int(rejected),
-        final,
-    )
+        fs, forces, path, coordinate, points, min_pen, int(flights), balance, law, beta, speeds,
+        setup.origin, setup.direction, m, delta_ref, status == _k.OK, int(status),
+        status_message(status), int(steps), int(rejected), final,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)

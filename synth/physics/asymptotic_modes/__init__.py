@@ -54,10 +54,9 @@ def mode_count_estimate(aspect: float, omega: float) -> float:
 
 
 def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
-    """The indices ``(nx, ny)`` of the trial shapes up to ``omega_trials`` on the plate of
-    half sides ``hx``, ``hy`` (units of ``L``), the free plate's rigid-body motions left
-    out: ``k_x >= (N_x - 1) pi / A`` and ``k_x^2 + k_y^2 <= omega`` (the ``s >= 0``
-    families; the free ``N = 0, 1`` families have ``s <= (pi / A)^2``)."""
+    """The indices ``(nx, ny)`` of the trials up to ``omega_trials`` on the plate of half sides
+    ``hx``, ``hy`` (units of ``L``) without the free plate's rigid-body motions: ``k_x >= (N_x -
+    1) pi / A`` and ``k_x^2 + k_y^2 <= omega``."""
     first = 0 if free else 2
     kmax = math.sqrt(omega_trials)
     ix = np.arange(first, int(kmax * 2.0 * hx / math.pi) + 3)
@@ -74,17 +73,12 @@ def _trial_indices(hx: float, hy: float, free: bool, omega_trials: float):
 
 
 class EdgeEffectSolution:
-    """Modes of a free or clamped plate of aspect ``a/b`` and Poisson ``nu`` up to the
-    dimensionless ``omega_max`` by the dynamic edge effect method and the Rayleigh-Ritz
-    step on its shapes (module notes).
-
-    Lengths are in units of ``L = max(a, b)``: the plate is ``[-A/2, A/2] x [-B/2, B/2]``,
-    ``A = a / L``, ``B = b / L``. The trial shapes ``X_t(x) Y_t(y)`` have indices
-    ``(nx[t], ny[t])`` and ``s_x = sx[t]``, ``s_y = sy[t]``, in the order of their edge
-    effect frequencies ``sx + sy``. ``omega`` ascending; mode ``k`` is
-    ``own[k] * trial[k] + other[k] * trial[partner[k]]`` (``partner[k] = -1``: the trial
-    alone), of mean square 1.
-    """
+    """Modes of a free or clamped plate of aspect ``a/b`` and Poisson ``nu`` up to the dimensionless
+    ``omega_max`` by the edge effect method and its Rayleigh-Ritz step. Lengths are in units of
+    ``L = max(a, b)`` (the plate ``[-A/2, A/2] x [-B/2, B/2]``); the trials ``X_t(x) Y_t(y)``
+    have indices ``(nx[t], ny[t])`` and ``sx[t]``, ``sy[t]``, ordered by ``sx + sy``; mode ``k``
+    (``omega`` ascending) is ``own[k] trial[k] + other[k] trial[partner[k]]`` (``partner[k] =
+    -1``: alone), of mean square 1."""
 
     def __init__(self, boundary: str, nu: float, aspect: float, omega_max: float):
         self.boundary = boundary
@@ -115,21 +109,9 @@ class EdgeEffectSolution:
         (cx, gx), (cy, gy) = self.factor_constants()
         partner = near_pairs(trial_omega, self.nx % 2 * 2 + self.ny % 2, _PAIR_GAP)
         omega, own, other = rayleigh_ritz(
-            self.sx,
-            self.sy,
-            self.nx,
-            self.ny,
-            hx,
-            hy,
-            free,
-            float(nu),
-            cx,
-            gx,
-            cy,
-            gy,
-            trial_omega,
-            partner,
-        )
+            self.sx, self.sy, self.nx, self.ny, hx, hy, free, float(nu), cx, gx, cy, gy,
+            trial_omega, partner,
+        )  # fmt: skip
         by_omega = np.argsort(omega, kind="stable")
         n = int(np.searchsorted(omega[by_omega], omega_max, side="right"))
         modes = by_omega[:n]
@@ -148,9 +130,8 @@ class EdgeEffectSolution:
         self.key = solution_key(boundary, nu, aspect, omega_max)
 
     def factor_constants(self):
-        """``((ce_x, scale_x), (ce_y, scale_y))``: edge coefficient and normalising factor of
-        every trial's two factors (computed once; a factor is ``scale (u + ce e)``, see
-        :func:`_factor`)."""
+        """``((ce_x, scale_x), (ce_y, scale_y))``: edge coefficient and normalising factor of every
+        trial's two factors ``scale (u + ce e)``, computed once."""
         if self._factor_constants is None:
             free = self.boundary == "free"
             hx, hy = self.half
@@ -162,60 +143,43 @@ class EdgeEffectSolution:
         return self._factor_constants
 
     def factors(self, xi: np.ndarray, eta: np.ndarray, n_trials: int):
-        """The factors ``X_t(xi)`` and ``Y_t(eta)`` of the first ``n_trials`` trial shapes
-        at ``xi, eta`` in [-1, 1] (``x = a (xi + 1) / 2``): arrays ``(len(xi), n_trials)``
-        and ``(len(eta), n_trials)``, each factor of mean square 1 on [-1, 1]."""
-        (cx, gx), (cy, gy) = self.factor_constants()
-        hx, hy = self.half
+        """The factors ``X_t(xi)``, ``Y_t(eta)`` (mean square 1) of the first ``n_trials`` trials at
+        ``xi, eta`` in [-1, 1] (``x = a (xi + 1) / 2``): ``(len(xi), n_trials)`` and ``(len(eta),
+        n_trials)``."""
         m = slice(0, n_trials)
-        fx = factor_table(
-            np.ascontiguousarray(xi, dtype=float) * hx,
-            self.sx[m],
-            self.sy[m],
-            self.nx[m],
-            hx,
-            cx[m],
-            gx[m],
+        return tuple(
+            self._factor_table(axis, np.ascontiguousarray(u, dtype=float), m)
+            for axis, u in enumerate((xi, eta))
         )
-        fy = factor_table(
-            np.ascontiguousarray(eta, dtype=float) * hy,
-            self.sy[m],
-            self.sx[m],
-            self.ny[m],
-            hy,
-            cy[m],
-            gy[m],
-        )
-        return fx, fy
 
-    def _table(self, axis, u, trials):
-        """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` (ascending indices)
-        at the distinct coordinates ``u``; the last two tables of each axis are kept (a
-        grid is evaluated chunk by chunk, each chunk with the same coordinates along one
-        axis: that axis' table is computed once whatever the other's)."""
-        tables = self._tables[axis]
-        key = (trials.size, u.size, hash(u.tobytes()), hash(trials.tobytes()))
-        held = tables.get(key)
-        if held is not None and np.array_equal(held[0], u) and np.array_equal(held[1], trials):
-            return held[2]
+    def _factor_table(self, axis, u, trials):
+        """Factors along ``axis`` (0: x, 1: y) of the trials ``trials`` at ``u`` in [-1, 1]."""
         (cx, gx), (cy, gy) = self.factor_constants()
         m = trials
         if axis == 0:
             h, s, so, n, c, g = self.half[0], self.sx[m], self.sy[m], self.nx[m], cx[m], gx[m]
         else:
             h, s, so, n, c, g = self.half[1], self.sy[m], self.sx[m], self.ny[m], cy[m], gy[m]
-        table = factor_table(u * h, s, so, n, h, c, g)
+        return factor_table(u * h, s, so, n, h, c, g)
+
+    def _table(self, axis, u, trials):
+        """:meth:`_factor_table` at the distinct ``u``, the last two tables of each axis kept (a
+        grid evaluated chunk by chunk shares one axis' coordinates)."""
+        tables = self._tables[axis]
+        key = (trials.size, u.size, hash(u.tobytes()), hash(trials.tobytes()))
+        held = tables.get(key)
+        if held is not None and np.array_equal(held[0], u) and np.array_equal(held[1], trials):
+            return held[2]
+        table = self._factor_table(axis, u, trials)
         if len(tables) >= 2:
             tables.clear()
         tables[key] = (u.copy(), trials.copy(), table)
         return table
 
     def shapes(self, xi, eta, n_modes, first=0, out=None, column=0, index=None):
-        """Shapes of modes ``first <= k < n_modes`` (or of the modes ``index``, ascending
-        integers, if given) at the points ``(xi, eta)``: an array ``(len(xi), n)``, ``n``
-        the number of modes, or written into ``out[:, column:column + n]`` (C-ordered)
-        and ``out`` returned. The factors of the trials these modes use are evaluated once
-        per distinct coordinate (points of a grid share them)."""
+        """Shapes of modes ``first <= k < n_modes`` (or ``index``, ascending) at ``(xi, eta)``: an
+        array ``(len(xi), n)``, or written into ``out[:, column:column + n]`` and returned; the
+        trials' factors are evaluated once per distinct coordinate."""
         ux, inv_x = np.unique(xi, return_inverse=True)
         uy, inv_y = np.unique(eta, return_inverse=True)
         pick = slice(first, n_modes) if index is None else np.asarray(index, dtype=np.int64)
@@ -227,25 +191,17 @@ class EdgeEffectSolution:
         if out is None:
             out, column = np.empty((xi.size, trial.size)), 0
         gather_modes(
-            fx,
-            fy,
-            inv_x.ravel(),
-            inv_y.ravel(),
-            np.searchsorted(used, trial),
-            np.where(partner >= 0, np.searchsorted(used, partner), -1),
-            self.own[pick],
-            self.other[pick],
-            out,
-            column,
-        )
+            fx, fy, inv_x.ravel(), inv_y.ravel(), np.searchsorted(used, trial),
+            np.where(partner >= 0, np.searchsorted(used, partner), -1), self.own[pick],
+            self.other[pick], out, column,
+        )  # fmt: skip
         return out
 
     def product_factors(self, xi, eta, index):
-        """The modes ``index`` (ascending integers) as tables of their factors at the
-        distinct coordinates ``xi`` and ``eta`` (in [-1, 1]): ``(x_own, y_own, x_other,
-        y_other)``, shapes ``(len(xi), n)`` and ``(len(eta), n)``, with mode ``index[k]`` at
-        ``(xi[a], eta[b])`` equal to ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``
-        (the second product zero for a trial alone; the values of :meth:`shapes`)."""
+        """The modes ``index`` (ascending) as tables of factors at the distinct ``xi``, ``eta`` in
+        [-1, 1]: ``(x_own, y_own, x_other, y_other)``, mode ``index[k]`` at ``(xi[a], eta[b])``
+        being ``x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]`` (zero second product for
+        a trial alone)."""
         index = np.asarray(index, dtype=np.int64)
         trial = self.trial[index]
         partner = self.partner[index]
@@ -262,9 +218,8 @@ class EdgeEffectSolution:
 
 
 def solution_key(boundary: str, nu: float, aspect: float, omega_max: float) -> str:
-    """Everything that determines the solution of :func:`solve` (the method's version and
-    settings), as canonical JSON: known before the solve, for caches of what is computed
-    from its modes."""
+    """Everything that determines :func:`solve`'s solution, as canonical JSON known before the
+    solve, for caches of what is computed from its modes."""
     return json.dumps(
         {
             "method": "edge-effect",

@@ -169,42 +169,21 @@ def rayleigh_ritz(  # noqa: PLR0913
         good = True
         for j in range(size):
             r = members[j]
+            x, y = 2 * j, 2 * j + 1
             good &= (
-                factor_exponentials(
-                    sx[r], sy[r], hx, nx[r], cx[r], gx[r], cf[2 * j], rf[2 * j], bf[2 * j]
-                )
-                == 4
+                factor_exponentials(sx[r], sy[r], hx, nx[r], cx[r], gx[r], cf[x], rf[x], bf[x]) == 4
             )
             good &= (
-                factor_exponentials(
-                    sy[r],
-                    sx[r],
-                    hy,
-                    ny[r],
-                    cy[r],
-                    gy[r],
-                    cf[2 * j + 1],
-                    rf[2 * j + 1],
-                    bf[2 * j + 1],
-                )
-                == 4
+                factor_exponentials(sy[r], sx[r], hy, ny[r], cy[r], gy[r], cf[y], rf[y], bf[y]) == 4
             )
         if not good:
             continue
         for i in range(size):
             for j in range(size):
+                a, b = 2 * i, 2 * j
+                factor_moments(cf[a], rf[a], bf[a], cf[b], rf[b], bf[b], hx, mx)
                 factor_moments(
-                    cf[2 * i], rf[2 * i], bf[2 * i], cf[2 * j], rf[2 * j], bf[2 * j], hx, mx
-                )
-                factor_moments(
-                    cf[2 * i + 1],
-                    rf[2 * i + 1],
-                    bf[2 * i + 1],
-                    cf[2 * j + 1],
-                    rf[2 * j + 1],
-                    bf[2 * j + 1],
-                    hy,
-                    my,
+                    cf[a + 1], rf[a + 1], bf[a + 1], cf[b + 1], rf[b + 1], bf[b + 1], hy, my
                 )
                 mm[i, j] = mx[0] * my[0] / area
                 kk[i, j] = (
