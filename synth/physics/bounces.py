@@ -108,28 +108,15 @@ ReboundRule = Callable[[ImpactResult, float], float]
 
 @dataclass(frozen=True)
 class BounceOptions:
-    """How :func:`simulate_bounces` solves each impact and when the series ends; checked when made.
-
-    Attributes
-    ----------
-    rtol : float
-        Relative accuracy of each impact's restitution and contact time (the impedance plate's;
-        the modal plate's is set by its band and steps).
-    n_points : int >= 64
-        Samples of each force pulse.
-    max_frequency : float, optional
-        Band limit of the "modal" plate's modes, Hz (default
-        :data:`synth.physics.modal_contact.BAND_FACTOR`).
-    floor_db : float < 0
-        Stop when an impact's kinetic energy is this many dB below the first's.
-    max_duration : float > 0
-        Latest start of an impact, s from release.
-    max_impacts : int >= 1
-        Most impacts computed.
-    rebound : callable, optional
-        A :data:`ReboundRule` replacing the physical restitution of each flight (take-off at
-        ``e' v``) while every impact is still solved at its own speed; used by the perception
-        stimuli of :mod:`synth.stimuli.sequences`."""
+    """How :func:`simulate_bounces` solves each impact and when the series ends, checked when made:
+    ``rtol``, each impact's relative accuracy on the impedance plate (the modal plate's is set by
+    its band and steps); ``n_points`` >= 64 samples of each force pulse; ``max_frequency``, the
+    "modal" plate's band, Hz (default :data:`synth.physics.modal_contact.BAND_FACTOR`);
+    ``floor_db`` < 0, the end when an impact's kinetic energy is that many dB below the first's;
+    ``max_duration`` > 0, the latest start of an impact, s; ``max_impacts`` >= 1; ``rebound``, a
+    :data:`ReboundRule` replacing each flight's physical restitution (take-off at ``e' v``) while
+    every impact is still solved at its own speed (the stimuli of
+    :mod:`synth.stimuli.sequences`)."""
 
     rtol: float = 1e-6
     n_points: int = 128

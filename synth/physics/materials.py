@@ -81,31 +81,14 @@ Damping = Rayleigh | LossFactor
 
 @dataclass(frozen=True)
 class Material:
-    """An elastic material: isotropic, or transversely isotropic with its own transverse
-    shear modulus (a board softer through its thickness than in its plane).
-
-    Parameters
-    ----------
-    name : str
-        Name used in messages and presets.
-    density : float in DENSITY_RANGE
-        Mass density, kg/m^3.
-    young : float in YOUNG_RANGE
-        Young's modulus, Pa.
-    poisson : float in (-1, 0.5)
-        Poisson's ratio, dimensionless.
-    damping : Rayleigh or LossFactor or None
-        Damping of the bending modes; a plate needs one, a ball's material may leave it out.
-    source : str
-        Citation of the values.
-    transverse_shear : float > 0 or None
-        Transverse shear modulus ``G_t``, Pa, read by the thick (Mindlin) plate only
-        (docs/physics.md, "Thick plates (Mindlin)"); None: isotropic ``E / (2 (1 + nu))``.
-    yield_stress : float > 0 or None
-        Uniaxial yield stress ``Y``, Pa, of a ductile material (a plastic contact holds the
-        hardness ``2.8 Y``, docs/physics.md, "Yield of the contact"); None: no plastic
-        yield (brittle solids crack rather than flow, or no published value).
-    """
+    """An elastic material, isotropic or transversely isotropic (a board softer through its
+    thickness than in its plane): ``name``; ``density`` in :data:`DENSITY_RANGE`, kg/m^3;
+    ``young`` in :data:`YOUNG_RANGE`, Pa; ``poisson`` in (-1, 0.5); ``damping`` of the bending
+    modes (a plate needs one, a ball may have None); ``source``, the citation;
+    ``transverse_shear`` ``G_t`` > 0 Pa, read by the thick (Mindlin) plate only (docs/physics.md,
+    "Thick plates (Mindlin)"; None: isotropic ``E / (2 (1 + nu))``); ``yield_stress`` ``Y`` > 0
+    Pa of a ductile material (a plastic contact holds the hardness ``2.8 Y``, docs/physics.md,
+    "Yield of the contact"; None: brittle, or no published value)."""
 
     name: str
     density: float
@@ -237,26 +220,14 @@ def table_markdown() -> str:
 
 @dataclass(frozen=True)
 class ContactSurface:
-    """A plate material's side of the ball-plate contact, where an isotropic elastic
-    half-space (the thesis' Hertz model) is not what was measured.
-
-    Parameters
-    ----------
-    transverse_ratio : float in (0, 1]
-        ``E_t / E``, dimensionless: the modulus resisting the indentation (a fibreboard's
-        through-thickness one, far below the in-plane one) over ``young``; the plate's side
-        of the Hertz contact is isotropic with ``E_t`` and the material's Poisson's ratio.
-    dissipation : float >= 0
-        Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, s/m (Hunt &
-        Crossley, J. Appl. Mech. 42 (1975) 440-445): ``1 - e`` grows like ``v``.
-    viscous_time : float >= 0
-        Viscoelastic Hertz time ``A`` of ``F = K (delta^(3/2) + (3/2) A delta^(1/2)
-        delta')``, s (Kuwabara & Kono 1987; Brilliantov et al. 1996): ``1 - e`` grows like
-        ``v^(1/5)``. Exactly one of ``dissipation`` and ``viscous_time`` is nonzero; with a
-        ball much stiffer than the plate the loss is the plate's.
-    source : str
-        What the values were fitted on.
-    """
+    """A plate material's side of the ball-plate contact, where an isotropic elastic half-space (the
+    thesis' Hertz model) is not what was measured: ``transverse_ratio`` ``E_t / E`` in (0, 1],
+    the modulus resisting the indentation (a fibreboard's through-thickness one) over ``young``,
+    the plate's side being isotropic with ``E_t`` and ``nu``; and one loss, exactly one of
+    ``dissipation`` ``mu`` >= 0 s/m of ``F = K delta^n (1 + mu delta')`` (Hunt & Crossley, J.
+    Appl. Mech. 42 (1975) 440-445: ``1 - e`` grows like ``v``) and ``viscous_time`` ``A`` >= 0 s
+    of ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')`` (Kuwabara & Kono 1987; Brilliantov et
+    al. 1996: ``1 - e`` like ``v^(1/5)``); ``source``, what it was fitted on."""
 
     transverse_ratio: float
     dissipation: float = 0.0

@@ -28,9 +28,8 @@ from synth.errors import ParameterError
 from synth.physics import impedance
 
 #: The change of the first impact's e (and relative change of its tau) below which the modal
-#: contact is not used: the modal contact's own accuracy at its default band and steps against
-#: the impedance model at the middle of a large plate (tests/test_fidelity_losses.py,
-#: tests/test_modal_contact.py: within 1e-3).
+#: contact is not used: its own accuracy against the impedance model at the middle of a large
+#: plate (tests/test_modal_contact.py: within 1e-3).
 TOLERANCE = 1e-3
 #: Samples of the force pulse for its energy spectrum, and the length (a power of two) of the
 #: zero-padded transform: bins of ``1 / (8 tau)`` and pulses resolved to 1/2048 of ``tau``.
@@ -40,11 +39,10 @@ TRANSFORM_LENGTH = 1 << 15
 
 @dataclass(frozen=True)
 class PlateChoice:
-    """The plate in the contact for one scene: ``plate`` ("impedance" or "modal"), the bound
-    on the change of e by the edges' reflections within the first contact (``bound``,
-    dimensionless), the distances to the nearest edge along x and y (``distances``, m) and
-    the lowest frequency whose reflection from each is back within the contact
-    (``frequencies``, Hz)."""
+    """The plate in the contact for one scene: ``plate`` ("impedance" or "modal"), the ``bound`` on
+    the change of e by the edges' reflections within the first contact, the ``distances`` to the
+    nearest edge along x and y (m) and the lowest ``frequencies`` whose reflection from each is
+    back within the contact (Hz)."""
 
     plate: str
     bound: float
@@ -53,10 +51,9 @@ class PlateChoice:
 
 
 def energy_share_above(result, omega: float) -> float:
-    """The share of the force pulse's energy ``Int |F(omega)|^2`` above the angular frequency
-    ``omega`` (rad/s) for an :class:`~synth.physics.contact.ImpactResult` (dimensionless,
-    in [0, 1]): the pulse sampled on :data:`PULSE_SAMPLES` points over its contact, its
-    spectrum by a zero-padded FFT."""
+    """The share (in [0, 1]) of an :class:`~synth.physics.contact.ImpactResult`'s pulse energy ``Int
+    |F(omega)|^2`` above ``omega`` (rad/s): :data:`PULSE_SAMPLES` samples over the contact, a
+    zero-padded FFT."""
     return energy_shares_above(result, (omega,))[0]
 
 
@@ -84,10 +81,9 @@ def return_frequency(plate, distance: float, contact_time: float) -> float:
 
 
 def choose_plate(result, plate, position, ball_mass: float, speed: float) -> PlateChoice:
-    """The :class:`PlateChoice` for the first impact ``result`` (the impedance plate's, at
-    ``speed`` m/s, of a ball of ``ball_mass`` kg) at ``position`` (m from a corner) on
-    ``plate`` (module docstring; for a ball that settles, the bound is on the plate's share
-    of the energy itself)."""
+    """The :class:`PlateChoice` for the impedance plate's first impact ``result`` at ``speed`` (m/s)
+    of a ball of ``ball_mass`` (kg) at ``position`` (m) on ``plate``; for a ball that settles (no
+    e to change) the bound is on the plate's share of the energy itself."""
     x, y = plate.check_position(position, "position")
     dx = min(x, plate.length - x)
     dy = min(y, plate.width - y)
@@ -96,12 +92,10 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
     shares = energy_shares_above(result, omegas)
     r_e = 1.0 / impedance.EDGE_RATIO
     r_c = 1.0 / impedance.CORNER_RATIO
-    contrast = (r_e - 1.0) * (shares[0] + shares[1]) + (r_c - 2.0 * r_e + 1.0) * shares[0] * shares[
-        1
-    ]
+    sx, sy = shares
+    contrast = (r_e - 1.0) * (sx + sy) + (r_c - 2.0 * r_e + 1.0) * sx * sy
     taken = result.plate_energy / (0.5 * ball_mass * speed * speed)
     e = result.restitution
-    # a ball that settles has no e to change: the bound is then on the plate's share itself
     bound = taken * contrast / (2.0 * e) if e > 0.0 and not result.settled else taken * contrast
     return PlateChoice(
         "modal" if bound > TOLERANCE else "impedance",
@@ -112,19 +106,15 @@ def choose_plate(result, plate, position, ball_mass: float, speed: float) -> Pla
 
 
 def scene_plate(scene) -> PlateChoice:
-    """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its
-    ``contact.plate`` where that names one ("impedance" or "modal", bound 0 or inf), else
-    (``"auto"``) :func:`choose_plate` on its first impact solved on the impedance plate; the
-    impedance plate for the thin-shell law of a hollow ball, which the modal contact does not
-    integrate."""
+    """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its ``contact.plate``
+    where that names one (bound 0 or inf), the impedance plate for the thin-shell law (the modal
+    contact integrates the power laws only), else :func:`choose_plate` on its first impact."""
     from synth.physics.scene import Scene
 
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     c = scene.contact
     if c.law == "shell":
-        # the modal contact integrates the power laws only: a hollow ball's contact is on the
-        # impedance plate (with its admittance near the edges, synth.physics.impedance)
         return PlateChoice("impedance", 0.0, (0.0, 0.0), (0.0, 0.0))
     if c.plate != "auto":
         return PlateChoice(
@@ -139,9 +129,8 @@ def scene_plate(scene) -> PlateChoice:
 
 @functools.lru_cache(maxsize=64)
 def _automatic_choice(scene) -> PlateChoice:
-    """:func:`choose_plate` on the first impact of ``scene`` (a Scene, hashable: its fields
-    are frozen values) solved on the impedance plate; kept for the scene, which a render
-    asks for once per render and a bank or the benchmarks for many renders of one scene."""
+    """:func:`choose_plate` on the first impact of the (hashable) ``scene`` on the impedance plate,
+    kept for the scene (a bank renders one scene many times)."""
     from synth.physics.contact import solve_impact
 
     c = scene.contact

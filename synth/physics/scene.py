@@ -68,17 +68,9 @@ def _check_mass(m: float, origin: str, hint: str = "") -> float:
 
 @dataclass(frozen=True)
 class Ball:
-    """A homogeneous elastic sphere.
-
-    Parameters
-    ----------
-    material : Material or str
-        The ball's material (a :class:`Material` or a table name).
-    radius : float in [1e-6, 1]
-        Radius, metres.
-    mass : float in [1e-15, 1000], optional
-        Mass, kg. Default: ``density * 4/3 pi radius^3``.
-    """
+    """A homogeneous elastic sphere of ``material`` (a :class:`Material` or a table name),
+    ``radius`` in [1e-6, 1] m and ``mass`` in [1e-15, 1000] kg (default ``density 4/3 pi
+    radius^3``)."""
 
     material: Material | str
     radius: float
@@ -110,29 +102,16 @@ MAX_GAUGE_PRESSURE = 1e6
 
 @dataclass(frozen=True)
 class HollowBall(Ball):
-    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball),
-    usable wherever a :class:`Ball` is; its contact is the thin-shell law (``contact="shell"``,
-    docs/physics.md, "Hollow balls"). The mass is derived, never given: the shell's
-    ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``, the air inside at ``ATMOSPHERE + pressure`` and
-    :data:`GAS_TEMPERATURE` (ideal gas), and the cover's mass.
+    """A thin spherical shell filled with air (table-tennis ball, tennis ball, basketball), usable
+    wherever a :class:`Ball` is; its contact is the thin-shell law (``contact="shell"``,
+    docs/physics.md, "Hollow balls").
 
-    Parameters
-    ----------
-    material : Material or str
-        The shell's material.
-    radius : float in [1e-6, 1]
-        Outer radius ``R``, metres.
-    thickness : float in (0, radius / 2]
-        Wall thickness ``h``, metres (keyword only; a thicker wall is not a shell).
-    pressure : float in [0, 1e6]
-        Gauge pressure of the gas inside, Pa (keyword only; 0: unpressurised).
-    cover_thickness : float in [0, radius / 2)
-        Thickness of a cover outside the shell (a tennis ball's felt), m (keyword only): the
-        shell's outer radius is ``R_s = radius - cover_thickness``; the cover carries mass
-        and size but no contact force.
-    cover_mass : float in [0, 1000]
-        The cover's mass, kg (keyword only).
-    """
+    Keyword fields: ``thickness`` ``h`` of the wall in (0, R_s / 2] m; ``pressure`` of the gas
+    above one atmosphere in [0, 1e6] Pa (0: unpressurised); ``cover_thickness`` in [0, radius /
+    2) m of a cover outside the shell (a tennis ball's felt: mass and size, no contact force),
+    the shell's outer radius being ``R_s = radius - cover_thickness``; ``cover_mass`` in [0,
+    1000] kg. The mass is derived: the shell's ``rho 4/3 pi (R_s^3 - (R_s - h)^3)``, the air at
+    ``ATMOSPHERE + pressure`` and :data:`GAS_TEMPERATURE` (ideal gas), and the cover's."""
 
     _: KW_ONLY
     thickness: float | None = None
@@ -196,21 +175,10 @@ class HollowBall(Ball):
 
 @dataclass(frozen=True)
 class Plate:
-    """A rectangular plate of uniform thickness.
-
-    Parameters
-    ----------
-    material : Material or str
-        The plate's material (a :class:`Material` or a table name).
-    thickness : float in [1e-6, 100]
-        Thickness ``h``, metres (at most the smaller side).
-    length : float in (0, 100]
-        Side ``a`` along x, metres.
-    width : float in (0, 100]
-        Side ``b`` along y, metres.
-    boundary : {"free", "simply-supported", "clamped"}
-        Condition on all four edges.
-    """
+    """A rectangular plate of ``material`` (a :class:`Material` or a table name), ``thickness``
+    ``h`` in [1e-6, 100] m (at most the smaller side), ``length`` ``a`` along x and ``width``
+    ``b`` along y in (0, 100] m, and the ``boundary`` of all four edges, one of
+    :data:`BOUNDARIES`."""
 
     material: Material | str
     thickness: float
@@ -350,37 +318,21 @@ CONTACT_MODELS = {
 class Contact:
     """The contact model and its accuracy (docs/physics.md, "Hertz contact").
 
-    Parameters
-    ----------
-    law : {"hertz", "elastic-foundation", "hunt-crossley", "viscoelastic", "power-law"}
-        Contact force law.
-    dissipation : float > 0, optional
-        Hunt-Crossley damping ``mu``, s/m (only with "hunt-crossley").
-    viscous_time : float > 0, optional
-        Dissipative time ``A`` of the viscoelastic Hertz contact, s (only with "viscoelastic").
-    exponent : float in (1, 4], optional
-        Power-law exponent ``n`` (only with "power-law").
-    stiffness : float > 0, optional
-        Power-law constant ``K_n``, N/m^n (only with "power-law").
-    layer_depth : float > 0, optional
-        Winkler layer depth, m (only with "elastic-foundation"; default the plate thickness).
-    rtol : float in [1e-12, 0.1]
-        Relative accuracy of each impact's restitution and contact time; tighter than
-        :func:`synth.solve_impact`'s, as timing errors add up along a series of impacts.
-    plate : {"impedance", "modal", "auto"}
-        The infinite plate's impedance, the finite plate's modes
-        (:mod:`synth.physics.modal_contact`), or "auto" (default: the modes where the edges
-        change the first impact beyond their tolerance; :mod:`synth.physics.plate_choice`).
-    surface : {"ideal", "material", "fitted", "auto"}
-        "ideal" (lossless half-spaces, the thesis' model), "material" (Hertz only: the
-        materials' published loss factors as a viscoelastic loss), "fitted" (Hertz only: the
-        plate's :class:`synth.physics.materials.ContactSurface`) or "auto" (default:
-        "fitted" where the material has one, else "material"; "ideal" for the other laws).
-    model : {"measured", "thesis", "fitted"}, optional
-        A named ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`; default
-        "measured"); those given explicitly take precedence.
-    theory : {"kirchhoff", "mindlin"}, optional
-        The modal plate's theory: thin plate (default) or with shear and rotary inertia."""
+    Fields: ``law``, one of :data:`CONTACT_LAWS`, with its parameters (others refused):
+    ``dissipation`` ``mu`` > 0 s/m ("hunt-crossley"), ``viscous_time`` ``A`` > 0 s
+    ("viscoelastic"), ``exponent`` ``n`` in (1, 4] and ``stiffness`` ``K_n`` > 0 N/m^n
+    ("power-law"), ``layer_depth`` > 0 m ("elastic-foundation", default the plate's thickness).
+    ``rtol`` in [1e-12, 0.1]: each impact's relative accuracy (tighter than
+    :func:`synth.solve_impact`'s, as timing errors add up along a series). ``plate``: "impedance"
+    (the infinite plate's), "modal" (the finite plate's modes,
+    :mod:`synth.physics.modal_contact`) or "auto" (the modes where the edges change the first
+    impact beyond their tolerance, :mod:`synth.physics.plate_choice`). ``surface``: "ideal"
+    (lossless half-spaces, the thesis'), "material" (Hertz only: the published loss factors as a
+    viscoelastic loss), "fitted" (Hertz only: :class:`synth.physics.materials.ContactSurface`) or
+    "auto" ("fitted" where the material has one, else "material"; "ideal" for the other laws).
+    ``model``: a named ``law``, ``plate`` and ``surface`` (:data:`CONTACT_MODELS`, default
+    "measured"), those given taking precedence. ``theory``: the modal plate's, "kirchhoff" (thin,
+    default) or "mindlin" (shear and rotary inertia)."""
 
     law: str | None = None
     dissipation: float | None = None
@@ -458,33 +410,18 @@ class Contact:
 
 @dataclass(frozen=True)
 class Rolling:
-    """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's
-    path"): the resistance to its rolling and the plate's roughness along its path.
+    """How a ball dropped with a horizontal velocity rolls (docs/rolling.md, "The ball's path"). No
+    value is built in (the engine has no published rolling-resistance coefficients to cite): a
+    preset states them as its author's choice, its roughness a published measurement's where
+    :data:`synth.physics.surface.MEASURED_ROUGHNESS` has one.
 
-    None of these values is built in: the engine has no published rolling-resistance
-    coefficients it can cite for its materials, so every preset that rolls states them as
-    its author's choice; its roughness is a published measurement's where
-    :data:`synth.physics.surface.MEASURED_ROUGHNESS` has one for the plate's surface, its
-    author's choice otherwise.
-
-    Parameters
-    ----------
-    resistance : float in [0, 1]
-        Coefficient of rolling resistance ``C_rr`` (dimensionless): besides the roughness'
-        micro-impacts (solved by the contact) the rolling loses ``C_rr m g`` joules per metre
-        (Coulomb's law of rolling friction; Cross, Am. J. Phys. 84, 221 (2016)).
-    spacing : float in (0, 0.01]
-        Distance between the samples of the surface's profile along the path, m.
-    rms_height : float >= 0
-        RMS height ``sigma`` of the Matern roughness, m (0: smooth; at most
-        :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness).
-    correlation_length : float in (0, 100], optional
-        Its correlation length ``xi``, m (required when ``rms_height > 0``).
-    hurst : float in (0, 1], optional
-        Its Hurst exponent ``H`` (required when ``rms_height > 0``).
-    seed : int >= 0
-        Seed of the profile (the same seed gives the same surface).
-    """
+    Fields: ``resistance`` ``C_rr`` in [0, 1]: besides the roughness' micro-impacts the rolling
+    loses ``C_rr m g`` J per metre (Coulomb's law of rolling friction; Cross, Am. J. Phys. 84,
+    221 (2016)); ``spacing`` in (0, 0.01] m of the profile's samples; ``rms_height`` ``sigma`` >=
+    0 m of the Matern roughness (0: smooth; at most
+    :data:`synth.physics.surface.MAX_ROUGHNESS_SCALE` and the plate's thickness), with its
+    ``correlation_length`` ``xi`` in (0, 100] m and ``hurst`` ``H`` in (0, 1] (both required when
+    ``sigma > 0``); ``seed`` >= 0 of the profile."""
 
     resistance: float
     spacing: float
@@ -527,26 +464,12 @@ class Rolling:
 class Scene:
     """A ball dropped on a plate, heard by a listener.
 
-    Parameters
-    ----------
-    ball : Ball
-    plate : Plate
-    drop_height : float in [1e-6, 1000]
-        Height of the ball's lowest point above the plate at release, metres.
-    position : (float, float), optional
-        Impact point on the plate, metres from a corner. Default: the centre.
-    listener : Accelerometer or Microphone, optional
-        Default: a microphone 0.2 m above the impact point.
-    gravity : float in (0, 1000]
-        Gravitational acceleration, m/s^2.
-    contact : Contact, optional
-        Contact model (default: :class:`Contact`'s).
-    velocity : (float, float), optional
-        Horizontal velocity at release ``(v_x, v_y)``, m/s (default: a straight drop): the
-        ball bounces along a path and rolls (:mod:`synth.physics.path`); needs ``rolling``.
-    rolling : Rolling, optional
-        The rolling's resistance and the plate's roughness (with ``velocity``).
-    """
+    Keyword fields: ``drop_height`` in [1e-6, 1000] m of the ball's lowest point at release;
+    ``position`` on the plate, m from a corner (default the centre); ``listener`` (default a
+    microphone 0.2 m above the impact point); ``gravity`` in (0, 1000] m/s^2; ``contact``
+    (default :class:`Contact`'s); ``velocity`` ``(v_x, v_y)`` at release, m/s (default a straight
+    drop: with one the ball bounces along a path and rolls, :mod:`synth.physics.path`, and needs
+    ``rolling``); ``rolling``, its resistance and the plate's roughness."""
 
     ball: Ball
     plate: Plate

@@ -16,11 +16,10 @@ from synth.physics.asymptotic_modes.roots import edge_terms, entire_terms
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
-    """``(c_edge, norm)`` of the factor ``u(x) + c_edge e(x)``: ``u = cos(k x)`` or
-    ``sin(k x) / k`` (entire in ``s``), ``e = cosh(mu x) / cosh(mu h)`` or
-    ``sinh(mu x) / sinh(mu h)``, the edge coefficient from the better-conditioned edge
-    condition and ``norm`` making the mean square over ``[-h, h]`` 1 (Gauss-Legendre
-    sum over panels fine enough for ``k`` and ``mu``)."""
+    """``(c_edge, norm)`` of the factor ``u(x) + c_edge e(x)`` (``u = cos(k x)`` or ``sin(k x) /
+    k``, ``e = cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``): the edge coefficient
+    from the better-conditioned edge condition, ``norm`` making the mean square over ``[-h, h]``
+    1 (panelled Gauss-Legendre)."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     c, ks, sk = entire_terms(s, h)
@@ -174,14 +173,10 @@ def factor_table(x, s, so, n, h, ce, scale):  # pragma: no cover
 
 @compiled()
 def gather_modes(fx, fy, ix, iy, trial, partner, own, other, out, column):  # noqa: PLR0913  # pragma: no cover
-    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (tables
-    ``fx``, ``fy`` of the trials' factors at the distinct coordinates ``ix[p]``,
-    ``iy[p]``; ``t = trial[k]``, ``u = partner[k]``, none if -1).
-
-    The factors are first laid out in the modes' order, ``own[k] X_t`` and
-    ``other[k] X_u`` per distinct x and ``Y_t``, ``Y_u`` per distinct y (0 without a
-    partner), so that each point's row is two products and a sum over contiguous arrays
-    (the same operations, in the same order, as term by term)."""
+    """``out[p, column + k] = own[k] X_t Y_t + other[k] X_u Y_u`` at point ``p`` (``fx``, ``fy`` the
+    trials' factors at the distinct coordinates ``ix[p]``, ``iy[p]``; ``t = trial[k]``, ``u =
+    partner[k]``, none if -1), the factors first laid out in the modes' order so that each row is
+    two products and a sum over contiguous arrays, in the order of the term-by-term sum."""
     m = trial.size
     gx = np.zeros((fx.shape[0], m))
     hx = np.zeros((fx.shape[0], m))

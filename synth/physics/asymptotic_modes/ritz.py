@@ -33,10 +33,9 @@ def near_pairs(omega: np.ndarray, cls: np.ndarray, gap: float) -> np.ndarray:
 
 @compiled()
 def factor_exponentials(s, so, h, n, ce, scale, coef, rate, shift):  # noqa: PLR0913  # pragma: no cover
-    """A factor ``scale (u + ce e)`` (see :func:`_factor`) as ``sum_t coef[t] exp(rate[t]
-    x + shift[t])`` on ``[-h, h]``, written into the arrays (4 entries); returns the
-    number of terms, 0 for the measure-zero cases ``s = 0`` or ``s + 2 so = 0`` (a
-    polynomial term)."""
+    """A factor ``scale (u + ce e)`` as ``sum_t coef[t] exp(rate[t] x + shift[t])`` on ``[-h, h]``
+    into the arrays: the number of terms (4), 0 for the measure-zero polynomial cases ``s = 0``
+    or ``s + 2 so = 0``."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     if s == 0.0 or m2 == 0.0:
@@ -101,11 +100,10 @@ def factor_moments(c1, a1, b1, c2, a2, b2, h, out):  # pragma: no cover
 
 @compiled()
 def _pair_eigen(kk, mm):  # pragma: no cover
-    """Eigenpairs of ``K v = lam M v`` (2 x 2, symmetric, ``M`` positive definite):
-    ``(lam, v0, v1)``, ``lam`` ascending, column ``j`` the vector ``(v0[j], v1[j])`` with
-    ``v^T M v = 1``. Cholesky ``M = L L^T`` and one Jacobi rotation of ``L^-1 K L^-T``:
-    orthogonal to rounding even for a nearly degenerate pair (where the quadratic
-    formula's roots, and vectors from them, lose half the digits)."""
+    """Eigenpairs ``(lam, v0, v1)`` of the 2 x 2 ``K v = lam M v`` (``M`` positive definite),
+    ``lam`` ascending, ``v^T M v = 1``: Cholesky and one Jacobi rotation of ``L^-1 K L^-T``,
+    orthogonal to rounding even for a nearly degenerate pair (where the quadratic formula loses
+    half the digits)."""
     l00 = math.sqrt(mm[0, 0])
     l10 = mm[0, 1] / l00
     l11 = math.sqrt(mm[1, 1] - l10 * l10)
@@ -141,11 +139,10 @@ def _pair_eigen(kk, mm):  # pragma: no cover
 def rayleigh_ritz(  # noqa: PLR0913
     sx, sy, nx, ny, hx, hy, free, nu, cx, gx, cy, gy, omega, partner
 ):  # pragma: no cover
-    """Frequencies and shape coefficients of the Rayleigh-Ritz step (module notes):
-    ``(omega, own, other)`` per trial. A pair ``(t, partner[t])`` solves the 2 x 2
-    problem ``K v = omega^2 M v`` on its two trial shapes, the lower root going to the
-    lower trial; a clamped trial alone takes its Rayleigh quotient; a free one alone keeps
-    its edge effect frequency. Trials whose factors have a polynomial term keep theirs."""
+    """``(omega, own, other)`` per trial of the Rayleigh-Ritz step: a pair ``(t, partner[t])``
+    solves ``K v = omega^2 M v`` on its two shapes (the lower root to the lower trial), a clamped
+    trial alone takes its Rayleigh quotient, a free one alone (or one with a polynomial term)
+    keeps its edge effect frequency."""
     n = omega.size
     out = omega.copy()
     own = np.ones(n)

@@ -94,14 +94,10 @@ def _illinois(lo, hi, flo, fhi, so, h, free, odd, nu, squared):  # noqa: PLR0913
 
 @compiled()
 def _root(n, so, h, free, nu):  # pragma: no cover
-    """``s`` of the ``n``-th root of the one-dimensional equation for ``s_y = so``.
-
-    ``n >= 2``: bisection in ``k = sqrt(s)`` on ``((n - 1) pi / (2h), n pi / (2h)]``,
-    where the equation changes sign (module notes). Free ``n = 0, 1`` (the beam-like and
-    torsion-like families, ``s`` near 0 and possibly negative): the root is bracketed
-    by scanning ``s`` from ``(pi / (2h))^2`` (``n = 1``) or 0 (``n = 0``) downwards to
-    the edge terms' limit ``s + 2 so > 0``. Returns NaN if no root is bracketed.
-    """
+    """``s`` of the ``n``-th root of the one-dimensional equation for ``s_y = so``: for ``n >= 2``
+    on ``k = sqrt(s)`` in ``((n - 1) pi / (2h), n pi / (2h)]``; for free ``n = 0, 1`` (beam- and
+    torsion-like, ``s`` near 0 or negative) bracketed by scanning ``s`` down from ``(pi /
+    (2h))^2`` or 0 to ``s + 2 so > 0``. NaN if no root is bracketed."""
     odd = n % 2 == 1
     if n >= 2:
         lo = (n - 1) * math.pi / (2.0 * h) * (1.0 + 1e-15)

@@ -24,9 +24,6 @@ from synth.physics.modes.common import ratios
 # elastic mode of any free or clamped rectangle lies above 13 (square free plate);
 # s = 100 puts the shifted spectrum's floor near it.
 SHIFT = 100.0
-# --------------------------------------------------------------------------------------
-# One-dimensional basis
-# --------------------------------------------------------------------------------------
 
 
 def basis_alpha(boundary: str) -> int:
@@ -109,11 +106,6 @@ def matrices_1d(alpha: int, n: int):
     return a11, a22, a20
 
 
-# --------------------------------------------------------------------------------------
-# Basis size
-# --------------------------------------------------------------------------------------
-
-
 def _degree_wavenumber(i: np.ndarray, c0: float, c1: float) -> np.ndarray:
     """Inverse of ``g(kappa) = kappa + c1 kappa^(1/3) + c0``: the largest wavenumber
     (per unit of xi) that needs a degree ``i``; 0 for ``i <= c0``.
@@ -138,11 +130,6 @@ def index_set(px: int, py: int, kx: float, ky: float, c0: float, c1: float):
     keep = ki[:, None] ** 2 + kj[None, :] ** 2 <= 1.0
     ii, jj = np.nonzero(keep)
     return i[ii], j[jj]
-
-
-# --------------------------------------------------------------------------------------
-# Ritz solution of one symmetry class
-# --------------------------------------------------------------------------------------
 
 
 @compiled(nogil=True)
@@ -206,24 +193,13 @@ class RitzProblem:
 
 
 def _stiffness(problem: RitzProblem, I, J, shift=0.0):
-    """Dimensionless stiffness matrix (upper triangle) of the basis ``psi_I(xi) psi_J(eta)``.
-
-    With ``L = max(a, b)``, ``rx = L/a``, ``ry = L/b`` and eigenvalue
-    ``lambda = omega^2 L^4 rho h / D``, the Kirchhoff energy becomes
-    ``16 Int [rx^4 w_xixi^2 + ry^4 w_etaeta^2 + 2 nu rx^2 ry^2 w_xixi w_etaeta
-    + 2 (1 - nu) rx^2 ry^2 w_xieta^2] dxi deta`` and the mass matrix is the identity.
-    ``shift`` is added to the diagonal.
-    """
-    return _assemble(
-        np.ascontiguousarray(I, dtype=np.int64),
-        np.ascontiguousarray(J, dtype=np.int64),
-        *problem.mx,
-        *problem.my,
-        float(problem.rx),
-        float(problem.ry),
-        float(problem.nu),
-        float(shift),
-    )
+    """Dimensionless stiffness matrix (upper triangle) of the basis ``psi_I(xi) psi_J(eta)`` plus
+    ``shift`` on the diagonal: with ``rx = L/a``, ``ry = L/b`` and ``lambda = omega^2 L^4 rho h /
+    D`` the Kirchhoff energy is ``16 Int [rx^4 w_xixi^2 + ry^4 w_etaeta^2 + 2 nu rx^2 ry^2 w_xixi
+    w_etaeta + 2 (1 - nu) rx^2 ry^2 w_xieta^2] dxi deta``, the mass matrix the identity."""
+    I, J = (np.ascontiguousarray(a, dtype=np.int64) for a in (I, J))
+    p = problem
+    return _assemble(I, J, *p.mx, *p.my, float(p.rx), float(p.ry), float(p.nu), float(shift))
 
 
 def solve_class(problem: RitzProblem, I, J, lam_max: float, vectors: bool):

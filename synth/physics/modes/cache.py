@@ -1,11 +1,8 @@
-"""The cache of the free and clamped plates' Ritz solutions: in memory and on disk.
-
-A solution depends only on the boundary, ``nu``, the aspect ratio and the dimensionless
-band ``omega L^2 sqrt(rho h / D)``; it is kept in memory and as ``.npz`` in
-``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by those, the basis
-settings, the band and the numerical libraries (:func:`~.common.numerics_key`). Only exactly
-the requested band is reused, so no result depends on what was solved before (a wider
-band's modes differ in their last bits).
+"""The cache of the free and clamped plates' Ritz solutions, in memory and as ``.npz`` in
+``$SYNTH_CACHE_DIR`` (else the user cache directory + ``synth``), keyed by the boundary, ``nu``,
+the aspect, the dimensionless band, the basis settings and the numerical libraries
+(:func:`~.common.numerics_key`). Only the exact band is reused: a wider band's modes differ in
+their last bits, and no result depends on what was solved before.
 """
 
 from __future__ import annotations
@@ -94,17 +91,10 @@ def _load(key: str, boundary: str, nu: float, aspect: float):
         if not ok:
             return None
         return RitzSolution(
-            boundary,
-            nu,
-            aspect,
-            omega_max,
-            omega,
-            cls.astype(np.int64),
-            col.astype(np.int64),
+            boundary, nu, aspect, omega_max, omega, cls.astype(np.int64), col.astype(np.int64),
             [(I.astype(np.int64), J.astype(np.int64)) for I, J in index],
-            [np.ascontiguousarray(cf, dtype=float) for cf in coef],
-            {"source": str(path)},
-        )
+            [np.ascontiguousarray(cf, dtype=float) for cf in coef], {"source": str(path)},
+        )  # fmt: skip
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 

@@ -1,11 +1,7 @@
-"""Simply supported plates: the closed form (docs/physics.md, "Plate modes").
-
-Closed form (Leissa 1969, chapter 4): ``omega_mn = pi^2 sqrt(D / (rho h))
-((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi y / b)``.
-
-The shapes are products ``X_m(x) Y_n(y)``; :meth:`synth.physics.modes.Modes.separable`
-returns them as such (:class:`SeparableShapes`), so that sums over many points can be
-shared between modes (the polar rule of :func:`synth.sound.radiation.separable_gains`).
+"""Simply supported plates: the closed form (Leissa 1969, ch. 4; docs/physics.md, "Plate modes"),
+``omega_mn = pi^2 sqrt(D / (rho h)) ((m/a)^2 + (n/b)^2)``, ``phi_mn = 2 sin(m pi x / a) sin(n pi
+y / b)``, whose product shapes (:class:`SeparableShapes`) share sums over points between modes
+(:func:`synth.sound.radiation.separable_gains`).
 """
 
 from __future__ import annotations
@@ -68,18 +64,11 @@ class SimplySupported:
 
 @dataclass(frozen=True)
 class SeparableShapes:
-    """Mode shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2)
-    sin(m pi x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``: :meth:`x_values` and
-    :meth:`y_values` give every factor at once, so sums over points are shared between modes.
-
-    Attributes
-    ----------
-    length, width : float
-        ``a`` and ``b``, metres.
-    x_index, y_index : ndarray of int, shape (n_modes,)
-        Mode ``k``'s columns of :meth:`x_values` and :meth:`y_values`.
-    wavenumber : float
-        Largest rate of oscillation of any factor along its axis, rad/m."""
+    """Mode shapes that are products ``phi_k = X_(i_k)(x) Y_(j_k)(y)``, ``X_m(x) = sqrt(2) sin(m pi
+    x / a)``, ``Y_n(y) = sqrt(2) sin(n pi y / b)``: :meth:`x_values` and :meth:`y_values` give
+    every factor at once, so sums over points are shared between modes. ``length``, ``width``:
+    ``a``, ``b``, m; ``x_index``, ``y_index``: mode ``k``'s columns of them; ``wavenumber``: the
+    largest of any factor, rad/m."""
 
     length: float
     width: float

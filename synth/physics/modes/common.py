@@ -33,11 +33,9 @@ def numerics_key() -> dict:
 
 
 def single_thread_product(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE``
-    multiply-adds each, which OpenBLAS runs on the calling thread: square-ish blocks
-    of ``out`` (so that BLAS copies each operand into its packed layout a few times
-    only), every entry one whole dot product. On a machine whose cores are busy, a
-    multithreaded product waits for them (see ``_PIECE``)."""
+    """``out[...] = a @ b`` (2-D float arrays) by products of at most ``_PIECE`` multiply-adds,
+    which OpenBLAS runs on the calling thread (a multithreaded product waits for busy cores):
+    square-ish blocks of ``out``, every entry one whole dot product."""
     n, k = a.shape
     m = b.shape[1]
     rows = min(n, max(8, math.isqrt(_PIECE // max(1, k))))

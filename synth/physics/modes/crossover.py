@@ -1,10 +1,7 @@
-"""Large free and clamped plates: Ritz modes of a low band, dynamic edge effect modes above.
-
-A band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS` per symmetry class takes
-the Ritz modes of a low band and, above it, the dynamic edge effect modes of
-:mod:`synth.physics.asymptotic_modes` (cost linear in the number of modes; frequencies within
-0.5 % of the Ritz solver above that band, see docs/physics.md, "Large free and clamped
-plates").
+"""Large free and clamped plates: a band whose Ritz problem would exceed :data:`CROSSOVER_UNKNOWNS`
+per symmetry class takes the Ritz modes of a low band and the dynamic edge effect modes of
+:mod:`synth.physics.asymptotic_modes` above it (linear cost; within 0.5 % of the Ritz solver,
+docs/physics.md, "Large free and clamped plates").
 """
 
 from __future__ import annotations
@@ -48,10 +45,9 @@ def band_of_unknowns(aspect: float, unknowns: float, omega_hi: float) -> float:
 
 
 def _seam(omega: np.ndarray, omega_low: float) -> float:
-    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the
-    middle of the widest relative gap between Ritz modes in the top third of the band
-    ``omega <= omega_low``, so that an edge effect mode's error (below the gap's
-    half-width) does not move it across the seam (no mode counted twice or lost)."""
+    """Where the Ritz modes ``omega`` (ascending) hand over to the edge effect ones: the middle of
+    the widest relative gap in the top third of ``omega <= omega_low``, so that an edge effect
+    mode's error does not move it across the seam."""
     band = omega[(omega >= omega_low * 2.0 / 3.0) & (omega <= omega_low)]
     if band.size < 2:
         return omega_low

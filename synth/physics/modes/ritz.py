@@ -182,17 +182,8 @@ class RitzSolution:
                 I, J = self.index[c]
                 coef = np.ascontiguousarray(2.0 * self.coef[c][:, : cols.size])
                 parts.append((cols, I * n_y + J, coef))
-        return SummedShapes(
-            length,
-            width,
-            wavenumber,
-            n_x,
-            n_y,
-            n_modes,
-            basis_alpha(self.boundary),
-            tuple(parts),
-            self,
-        )
+        alpha = basis_alpha(self.boundary)
+        return SummedShapes(length, width, wavenumber, n_x, n_y, n_modes, alpha, tuple(parts), self)
 
     def _grouped(self, out, parts, axis, u, inv, v, inv_v, alpha):
         """Shapes at points sharing values of the ``axis`` coordinate (0: xi, 1: eta), point ``p``
@@ -383,17 +374,9 @@ def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> Rit
     col = np.concatenate([np.arange(v.size, dtype=np.int64) for v in lams])
     order = np.lexsort((cls, omega))
     return RitzSolution(
-        boundary,
-        nu,
-        aspect,
-        omega_req,
-        omega[order],
-        cls[order],
-        col[order],
-        main,
-        vecs,
+        boundary, nu, aspect, omega_req, omega[order], cls[order], col[order], main, vecs,
         {"attempts": attempts},
-    )
+    )  # fmt: skip
 
 
 def solution_key(boundary: str, nu: float, aspect: float) -> str:
