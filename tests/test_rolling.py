@@ -386,8 +386,8 @@ def test_rolling_force_on_a_sinusoid_is_the_closed_form(pair):
 
 
 def test_roller_blocks_give_the_bits_of_one_roll(pair):
-    """A rolling integrated in blocks by ``Roller.advance`` (the path's way: no checks per
-    block, the contact points and energies taken once) gives the bytes of one ``roll`` call
+    """A rolling integrated in blocks by one ``Roller`` (the path's way: its checks made once,
+    the contact points and energies taken at the end) gives the bytes of one ``roll`` call
     over the same speeds: forces, centres, touching points, quadratures and final state."""
     ball, plate = pair
     spec = surface.RoughnessSpectrum(rms_height=2e-6, correlation_length=2e-4, hurst=0.8)
@@ -402,17 +402,17 @@ def test_roller_blocks_give_the_bits_of_one_roll(pair):
     roller.check_reach(0.01, 0.01 + float(np.sum(speeds)) / SAMPLERATE)
     blocks, state = [], None
     for part in np.split(speeds, [480, 481, 1500]):
-        block = roller.advance(part, state=state, start=0.01)
+        block = roller.roll(part, state=state, start=None if state else 0.01)
         assert block.success, block.message
         blocks.append(block)
         state = block.final_state
     forces = np.concatenate([b.force for b in blocks])
-    centres = np.concatenate([b.centre for b in blocks])
+    centres = np.concatenate([b.path_position for b in blocks])
     assert forces.tobytes() == whole.force.tobytes()
     assert centres.tobytes() == whole.path_position.tobytes()
     coordinates = roller.contact_coordinates(centres)
     assert coordinates.tobytes() == whole.contact_coordinate.tobytes()
     assert state.vector.tobytes() == whole.final_state.vector.tobytes()
     assert sum(b.flights for b in blocks) == whole.flights
-    assert roller.mechanical_energy(blocks[0].initial_state) == whole.energy.initial
+    assert roller.mechanical_energy(roller.initial_state(speeds[0], 0.01)) == whole.energy.initial
     assert roller.mechanical_energy(state) == whole.energy.final

@@ -182,31 +182,16 @@ def simulate_bounces(
     options: BounceOptions | None = None,
     **overrides,
 ) -> BounceSequence:
-    """Drop ``ball`` on ``plate`` and compute every impact until the sequence ends.
+    """Drop ``ball`` on ``plate`` from ``drop_height`` (m, its lowest point at release) and compute
+    every impact until the sequence ends.
 
-    Parameters
-    ----------
-    ball : Ball
-    plate : Plate
-    drop_height : float > 0
-        Height of the ball's lowest point above the plate at release, m.
-    position : (float, float), optional
-        Impact point, m from a plate corner (None: far from the edges).
-    gravity : float > 0
-        m/s^2.
-    contact_law : str or None
-        One of :data:`synth.physics.scene.CONTACT_LAWS`; None: "shell" for a hollow ball, else
-        "hertz"; its parameters go in ``overrides``
-        (:func:`synth.physics.contact_law.contact_parameters`).
-    plate_model : {"impedance", "modal"}
-        The infinite plate's impedance (blended towards measured values near free edges), or
-        the finite plate's modes (:mod:`synth.physics.modal_contact`), ringing from impact to
-        impact.
-    options : BounceOptions, optional
-        The accuracy of each impact and the rules that end the series.
-    **overrides
-        Fields of :class:`BounceOptions` by name, replacing those of ``options``; any other
-        name is a parameter of the contact law."""
+    ``position``: the impact point, m from a corner (None: far from the edges); ``gravity``:
+    m/s^2; ``contact_law``: one of :data:`synth.physics.scene.CONTACT_LAWS` (None: "shell" for a
+    hollow ball, else "hertz"), its parameters in ``overrides``
+    (:func:`synth.physics.contact_law.contact_parameters`); ``plate_model``: "impedance" (the
+    infinite plate's, blended towards measured values near free edges) or "modal" (the finite
+    plate's modes, :mod:`synth.physics.modal_contact`, ringing from impact to impact);
+    ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give by name."""
     if not isinstance(ball, Ball):
         raise ParameterError(f"ball={ball!r} must be a Ball")
     if not isinstance(plate, Plate):

@@ -1,19 +1,11 @@
 """Driving-point impedance of a plate at the impact point (docs/physics.md, "Plate impedance").
 
-* Infinite thin plate (thesis eqs. 2.34 / 4.30; Cremer, Heckl & Petersson, "Structure-Borne
-  Sound", 3rd ed., section 5.3): ``Z_inf = 8 sqrt(D rho h)``, N s/m, real.
-* Infinite thick (Mindlin) plate: ``Re Y`` in closed form from the wavenumber integral of a
-  point force (:func:`mindlin_point_admittance`), ``1 / Z_inf`` as ``k h -> 0``
-  (docs/physics.md, "Thick plates (Mindlin)").
-* Free straight edge, ka < 1: ``Z_edge = 0.29 Z_inf`` (Eichler 1964, J. Acoust. Soc. Am. 36,
-  344; thesis Table 3.4 measured 3.3 ... 3.7 for Z_middle/Z_edge).
-* Free corner: no closed form; :data:`CORNER_RATIO` = 1/7.5, the mean of the thesis' 18 and
-  12 mm boards (7.6, 7.4), where ka < 1 as for Eichler's edge (the 6 mm board's 4.9 is not).
-* Between them the admittance is blended over the critical distance ``d_c = c_g tau / 2``
-  (``c_g`` the group speed at ``omega = pi / tau``) with ``s(d) = cos^2(pi d / (2 d_c))`` of
-  the distance to the nearest edge along x and y: ``beta / beta_inf = 1 + (r_e - 1)(s_x +
-  s_y) + (r_c - 2 r_e + 1) s_x s_y``, ``r_e = 1/EDGE_RATIO``, ``r_c = 1/CORNER_RATIO``; an
-  empirical blend of the three measured regimes, its scale and end values the thesis'.
+The infinite thin plate's ``Z_inf = 8 sqrt(D rho h)`` N s/m (thesis eq. 2.34; Cremer, Heckl &
+Petersson, "Structure-Borne Sound", 3rd ed., section 5.3); the infinite Mindlin plate's ``Re Y``
+(docs/physics.md, "Thick plates (Mindlin)"); near free edges and corners the measured ratios
+(Eichler 1964, J. Acoust. Soc. Am. 36, 344: :data:`EDGE_RATIO`; the thesis' Table 3.4:
+:data:`CORNER_RATIO`), blended over the critical distance ``c_g tau / 2`` by
+:func:`admittance_at`.
 """
 
 from __future__ import annotations

@@ -1,22 +1,10 @@
-"""The path of a ball released with a horizontal velocity: bounces along a line, then rolling
-until it stops or leaves the plate (docs/rolling.md, "The ball's path").
-
-The centre moves along the line through the release point in the direction of its velocity.
-
-* Bounces: the impact solver's (:class:`synth.physics.contact.ContactSolver`, the impedance
-  at each point) strung by flights of ``2 v_out / g``, as :mod:`synth.physics.bounces`.
-* Grip: friction brings the contact point to rest during an impact, conserving the angular
-  momentum about it: ``v' = (5 v + 2 R w) / 7`` for a solid sphere (Garwin, Am. J. Phys. 37,
-  88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), assuming ``mu (1 + e) v_y >= (2/7) |v - R
-  w|`` (a grazing fast throw slides instead, left out).
-* Rolling: once a flight would be shorter than the contact, :func:`synth.physics.rolling.roll`
-  over the roughness of :class:`synth.physics.scene.Rolling`, from the sample after the last
-  separation.
-* Rolling resistance: the kinetic energy ``(7/10) m v^2`` loses the roughness' work and
-  Coulomb's ``C_rr m g`` per metre (Cross, Am. J. Phys. 84, 221 (2016)): ``dv/dt = -(5/7)
-  C_rr g``, the roughness' work taken off each block of :data:`BLOCK_SECONDS`.
-* The end: ``"stopped"``, ``"left-plate"`` (the touching point reaches the edge, or the ball
-  flies off it) or ``"max-duration"``.
+"""The path of a ball released with a horizontal velocity (docs/rolling.md, "The ball's path"):
+bounces along the line of its velocity (the impact solver's, strung by flights as
+:mod:`synth.physics.bounces`), the contact point gripping at each impact (``v' = (5 v + 2 R w) /
+7``; Garwin, Am. J. Phys. 37, 88 (1969); Cross, Am. J. Phys. 70, 1093 (2002)), then rolling
+(:func:`synth.physics.rolling.roll` over the roughness of :class:`synth.physics.scene.Rolling`)
+slowed by the roughness' work and Coulomb's rolling resistance ``C_rr m g`` (Cross, Am. J. Phys.
+84, 221 (2016)) until it stops, leaves the plate or the time runs out.
 """
 
 from __future__ import annotations

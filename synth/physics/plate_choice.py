@@ -1,19 +1,14 @@
 """Where the finite plate's modes enter the contact: ``contact.plate = "auto"`` (docs/physics.md,
 "Plate impedance" and "Plate modes").
 
-Until a wave reflected by an edge returns, the finite plate moves as the infinite one and the
-modal contact costs time for nothing. A flexural wave of ``omega`` travels at ``c_g = 2
-sqrt(omega) kappa``, ``kappa = (D / (rho h))^(1/4)`` (Cremer, Heckl & Petersson, section
-3.7), and is back from an edge at ``d`` within the contact time ``tau`` above
-``omega_d = (d / (kappa tau))^2``. The share ``s(d)`` of the first impact's force spectrum
-``|F(omega)|^2`` above it bounds the change of the plate's energy, blended as in
-:func:`synth.physics.impedance.admittance_at`:
-
-    Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]
-
-(``eps`` the share of kinetic energy the plate took, ``r_e = 1 / EDGE_RATIO``, ``r_c = 1 /
-CORNER_RATIO``), and ``Delta e <= Delta(e^2) / (2 e)``; above :data:`TOLERANCE` the modes
-enter the contact. Left out: the ringing of earlier bounces, the modal plate's alone.
+Until a wave reflected by an edge returns, the finite plate moves as the infinite one. A flexural
+wave (group speed ``2 sqrt(omega) (D / (rho h))^(1/4)``, Cremer, Heckl & Petersson, section 3.7)
+from an edge at ``d`` is back within the contact time above ``omega_d``
+(:func:`return_frequency`); the share ``s`` of the first impact's force spectrum above it bounds
+the change of the plate's energy, blended as in :func:`synth.physics.impedance.admittance_at`,
+``Delta(e^2) <= eps [(r_e - 1)(s_x + s_y) + (r_c - 2 r_e + 1) s_x s_y]`` (``eps`` the plate's
+share of the kinetic energy), and ``Delta e <= Delta(e^2) / (2 e)``: above :data:`TOLERANCE` the
+modes enter the contact.
 """
 
 from __future__ import annotations

@@ -1,19 +1,12 @@
 """A ball rolling at an imposed horizontal speed over a plate's rough surface (docs/rolling.md).
 
-The centre moves along a straight path at the caller's speed ``v``; vertically the ball is a
-free body under gravity pressed by the impacts' contact law
+Vertically a free body under gravity, pressed by the impacts' contact law
 (:func:`synth.physics.contact_law.contact_parameters`) against the profile's envelope
-(:func:`synth.physics.surface.contact_envelope`), on a rigid plate or on the plate's point
-admittance ``beta``. Contact is lost where the surface falls away faster than gravity lets
-the ball follow, and the landings are impacts of the same equations
-(:mod:`synth.physics.rolling_kernels`). A rolling cut into calls at sample boundaries
-(:class:`RollingState`) gives the bits of one call. :func:`loss_of_contact_speed` answers the
-thesis' question (section 6.2) for a surface.
-
-Left out (docs/rolling.md, "Limits"): the rolling resistance (the speed is imposed;
-:attr:`RollingContact.mean_drag` is the contact's horizontal force), the tilt of the contact
-normal (errors of the order of the slope squared), the profile's curvature in the Hertz
-constant, and the ball's rotation.
+(:func:`synth.physics.surface.contact_envelope`) on a rigid plate or on the plate's admittance;
+contact is lost where the surface falls away faster than gravity lets the ball follow, and the
+landings are impacts of the same equations (:mod:`synth.physics.rolling_kernels`). Left out
+(docs/rolling.md, "Limits"): the rolling resistance (the speed is imposed), the tilt of the
+contact normal, the profile's curvature in the Hertz constant, and the ball's rotation.
 """
 
 from __future__ import annotations
@@ -31,7 +24,6 @@ from synth.physics import impedance
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw, contact_parameters
 from synth.physics.rolling_results import EnergyBalance as EnergyBalance
-from synth.physics.rolling_results import RollingBlock as RollingBlock
 from synth.physics.rolling_results import RollingContact as RollingContact
 from synth.physics.rolling_results import RollingState, read_only
 from synth.physics.scene import MAX_GRAVITY, Ball, Plate
@@ -79,47 +71,24 @@ def roll(
     landing_speed: float = 1.0,
     **contact_options,
 ) -> RollingContact:
-    """Roll ``ball`` over ``plate`` along the path of ``envelope``.
+    """Roll ``ball`` over ``plate`` along the path of ``envelope`` (made with ``ball.radius``).
 
-    Parameters
-    ----------
-    ball : Ball
-    plate : Plate
-    envelope : ContactEnvelope
-        The path's surface as this ball rides it (made with ``ball.radius``).
-    speed : float >= 0, or ndarray (N,) of them
-        Horizontal speed of the centre, m/s: one for ``duration``, or one per sample period.
-    samplerate : int > 0
-        Hz.
-    origin : (float, float)
-        The path's coordinate 0 on the plate, m from its corner.
-    direction : (float, float)
-        The path's direction on the plate (normalised here).
-    duration : float in (0, MAX_DURATION]
-        s, with a single ``speed``.
-    start : float >= 0, optional
-        The centre's path coordinate at time 0, m (default 0).
-    state : RollingState, optional
-        Continue from an earlier rolling's ``final_state`` (the bits of one call), or from a
-        ball above the surface (:meth:`RollingState.at`), instead of ``start``.
-    contact : str
-        The contact law, with ``contact_options``
-        (:func:`synth.physics.contact_law.contact_parameters`).
-    admittance : float >= 0, optional
-        The plate's admittance at the contact, m/(N s): 0 rigid; default ``1 / Z_inf``.
-    gravity : float > 0
-        m/s^2.
-    rtol : float in [1e-12, 1e-2]
-        Local relative tolerance on the penetration (relative to the static one) and the
-        vertical speed.
-    landing_speed : float > 0
-        The fastest landing (m/s) whose contact a step cannot miss: a step is at most half the
-        elastic contact's shortest duration at that speed, ``2 delta_max / u``, ``delta_max =
-        ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and at most a sample period.
+    ``speed``: the centre's horizontal speed, m/s (>= 0), one for ``duration`` (s, at most
+    :data:`MAX_DURATION`) or one per sample period of ``samplerate`` (Hz). ``origin``: the path's
+    coordinate 0 on the plate, m from its corner; ``direction``: the path's direction (normalised
+    here). ``start``: the centre's path coordinate at time 0, m (default 0); or ``state``: an
+    earlier rolling's ``final_state`` (consecutive calls give the bits of one call) or a ball above
+    the surface (:meth:`RollingState.at`). ``contact`` and ``contact_options``: the law
+    (:func:`synth.physics.contact_law.contact_parameters`). ``admittance``: the plate's at the
+    contact, m/(N s) (0: rigid; default ``1 / Z_inf``). ``gravity``: m/s^2. ``rtol`` in [1e-12,
+    1e-2]: the local relative tolerance on the penetration (relative to the static one) and the
+    vertical speed. ``landing_speed`` (m/s): the fastest landing whose contact a step cannot miss, a
+    step being at most half the elastic contact's shortest duration at that speed, ``2 delta_max /
+    u``, ``delta_max = ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and at most a sample period.
 
-    Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with
-    ``m (g + v^2 e''(s0))`` (the weight plus the centripetal force), its penetration steady;
-    just touching if that force is negative."""
+    Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with ``m (g
+    + v^2 e''(s0))`` (the weight and the centripetal force), its penetration steady; just
+    touching if that force is negative."""
     roller = Roller.over(
         ball, plate, envelope, samplerate=samplerate, origin=origin, direction=direction,
         contact=contact, admittance=admittance, gravity=gravity, rtol=rtol,
@@ -131,7 +100,8 @@ def roll(
 @dataclass(frozen=True, eq=False)
 class Roller:
     """:func:`roll`'s arguments, checked and worked out once (:meth:`over`) for a rolling solved in
-    many consecutive calls (:meth:`roll`, or :meth:`advance` without the checks)."""
+    many consecutive calls (:meth:`roll`; the path's blocks call the kernel with
+    :attr:`kernel_constants` and :meth:`integrator_start`)."""
 
     setup: _Setup
     plate: Plate
@@ -218,35 +188,13 @@ class Roller:
         self.check_reach(s0, last)
         return _solve(setup, speeds, s0, state)
 
-    def advance(self, speeds: np.ndarray, *, state: RollingState | None = None,
-                start: float | None = None) -> RollingBlock:  # fmt: skip
-        """Integrate over the periods of ``speeds`` (m/s, checked by the caller) from ``state`` or a
-        ball rolling at ``start`` (m), in a stretch :meth:`check_reach` checked: :meth:`roll`'s
-        integration without its checks, contact points and energy balance."""
-        setup = self.setup
-        s0 = float(state.vector[_k.S]) if state is not None else float(start)
-        y, h = _start(setup, speeds, s0, state)
-        y0 = y.copy()
-        status, _, _, flights, h, forces, _, centres = _integrate(setup, speeds, y, h)
-        centres += 0.5 * speeds / setup.samplerate  # the middle of each period
-        return RollingBlock(
-            forces,
-            centres,
-            int(flights),
-            *(float(y[i] - y0[i]) for i in (_k.LOSS, _k.PLATE, _k.DRIVE)),
-            status == _k.OK,
-            status_message(status),
-            RollingState(read_only(y0), None),
-            RollingState(read_only(y.copy()), float(h)),
-        )
-
     def initial_state(self, speed: float, start: float) -> RollingState:
         """The state and first step :func:`roll` starts from at ``start`` (m), ``speed`` (m/s)."""
-        y, h = _start(self.setup, np.array([float(speed)]), float(start), None)
+        y, h = self.integrator_start(speed, start, None)
         return RollingState(read_only(y), float(h))
 
     def integrator_start(self, speed: float, start: float, state: RollingState | None):
-        """The state vector (new) and first step (s) of :meth:`advance` from ``state`` or at
+        """The state vector (new) and first step (s) of a rolling from ``state`` or at
         ``start`` (m) and ``speed`` (m/s)."""
         return _start(self.setup, np.array([float(speed)]), float(start), state)
 
@@ -418,29 +366,20 @@ def _start(setup, speeds, s0, state):
     return np.array(state.vector), (state.step if state.step is not None else first)
 
 
-def _integrate(setup, speeds, y, h):
-    """:func:`synth.physics.rolling_kernels.roll` from ``y`` (updated in place) and step ``h``
-    (s) over ``speeds`` (m/s): its tuple, then the forces (N), smallest penetrations (m) and
-    centres at each period's start (m), NaN where a failed integration did not reach."""
-    N = speeds.size
-    forces = np.full(N, np.nan)
-    min_pen = np.full(N, np.nan)
-    centres = np.full(N, np.nan)
-    status, steps, rejected, flights, h = _k.roll(
-        y, h, setup.envelope.coefficients, setup.envelope.spacing, speeds,
-        *setup.kernel_constants, MAX_STEPS_PER_SAMPLE * N, forces, min_pen, centres,
-    )  # fmt: skip
-    return status, steps, rejected, flights, h, forces, min_pen, centres
-
-
 def _solve(setup, speeds, s0, state):
+    """:func:`roll`'s integration from ``s0`` (m) or ``state`` over ``speeds`` (m/s)."""
     m, g, beta, fs = setup.mass, setup.gravity, setup.admittance, setup.samplerate
     law = setup.law
     delta_ref = (m * g / law.stiffness) ** (1.0 / law.exponent)
     y, h = _start(setup, speeds, s0, state)
     y0 = y.copy()
     N = speeds.size
-    status, steps, rejected, flights, h, forces, min_pen, path = _integrate(setup, speeds, y, h)
+    # NaN where a failed integration did not reach; the path coordinate at each period's start
+    forces, min_pen, path = np.full(N, np.nan), np.full(N, np.nan), np.full(N, np.nan)
+    status, steps, rejected, flights, h = _k.roll(
+        y, h, setup.envelope.coefficients, setup.envelope.spacing, speeds,
+        *setup.kernel_constants, MAX_STEPS_PER_SAMPLE * N, forces, min_pen, path,
+    )  # fmt: skip
     E0, E1 = _mechanical_energy(y0, setup), _mechanical_energy(y, setup)
     loss, plate_e, drive, gross = (y[i] - y0[i] for i in (_k.LOSS, _k.PLATE, _k.DRIVE, _k.GROSS))
     scale = max(gross, loss + plate_e, abs(E1 - E0), m * g * delta_ref)

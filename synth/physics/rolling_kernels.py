@@ -1,21 +1,12 @@
-"""numba kernel of the rolling contact (private to :mod:`synth.physics.rolling`; docs/rolling.md,
-"Rolling contact").
+"""numba kernels of the rolling contact (private to :mod:`synth.physics.rolling`; the equations:
+docs/rolling.md, "Rolling contact").
 
-The centre moves along the path at ``v`` (constant over each sample period); the ball's lowest point
-is at ``y``, the plate's surface under it at ``u`` (the impedance's displacement), ``z = y - u``.
-With the envelope ``e(s)`` (:func:`synth.physics.surface.contact_envelope`):
-
-    delta = e(s) - z,   w = e'(s) v - v_y,   F = K force(delta, w, beta K, n, mu, (3/2) A)
-    z' = v_y + beta F,   v_y' = F / m - g,   u' = -beta F
-
-``force`` is the impact solver's law (``contact_kernels.equations.force``, solved for the force with
-the plate's yield ``delta' = w - beta F``). Carried with the state: the sample's impulse, the
-contact's loss ``Int (F - K delta^n) delta' dt``, the energy into the plate ``Int beta F^2 dt``, the
-drive's work ``Int F e'(s) v dt`` and its gross ``Int |F e'(s) v| dt``.
-
-Integrator: Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19 (1980); Hairer, Norsett &
-Wanner, "Solving ODEs I", II.5), error control on ``delta`` and ``v_y``, steps ending on every
-sample boundary; off the surface the flight is a parabola solved in closed form (:func:`flight`).
+With the envelope ``e(s)``, ``delta = e(s) - z``, ``w = e'(s) v - v_y``, ``F = K force(delta, w,
+beta K, n, mu, (3/2) A)`` (the impact solver's law, ``contact_kernels.equations.force``), ``z' = v_y
++ beta F``, ``v_y' = F / m - g``, ``u' = -beta F``, with the impulse and the energy balance's
+quadratures carried along. Integrator: Dormand & Prince's RK5(4) (J. Comput. Appl. Math. 6, 19
+(1980); Hairer, Norsett & Wanner, "Solving ODEs I", II.5), steps ending on every sample boundary; a
+flight is a parabola solved in closed form (:func:`flight`).
 
 numba's cache keys these kernels on this file only: after editing
 ``contact_kernels/equations.py`` or ``surface.py``, clear ``synth/physics/__pycache__``.

@@ -1,6 +1,5 @@
 """What a rolling returns: its contact sampled at the audio rate, its energy balance, and
-the state to continue from (the results of :func:`synth.physics.rolling.roll` and of
-:meth:`synth.physics.rolling.Roller.advance`)."""
+the state to continue from (the results of :func:`synth.physics.rolling.roll`)."""
 
 from __future__ import annotations
 
@@ -130,22 +129,3 @@ class RollingContact:
         work per metre of path (NaN if the ball did not move)."""
         distance = float(np.sum(self.speed)) / self.samplerate
         return self.energy.drive_work / distance if distance > 0.0 else math.nan
-
-
-@dataclass(frozen=True, eq=False)
-class RollingBlock:
-    """One :meth:`Roller.advance`: ``force`` (N,) the mean force per sample period, N; ``centre``
-    the centre on the path in each period's middle, m; ``flights`` the losses of contact;
-    ``loss_work``, ``plate_energy``, ``drive_work`` as :class:`EnergyBalance`'s, J; the
-    ``initial_state`` and ``final_state``."""
-
-    force: np.ndarray
-    centre: np.ndarray
-    flights: int
-    loss_work: float
-    plate_energy: float
-    drive_work: float
-    success: bool
-    message: str
-    initial_state: RollingState
-    final_state: RollingState

@@ -1,26 +1,15 @@
-"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md,
-"Large free and clamped plates").
+"""Free and clamped plate modes by Bolotin's dynamic edge effect method (docs/physics.md, "Large
+free and clamped plates").
 
-A mode of ``[0, a] x [0, b]`` is a product ``X(x) Y(y)`` of factors, each an interior term
-plus edge terms decaying away from the edges. With ``k_x^2 = s_x``, ``mu^2 = s_x + 2 s_y``,
-``P = s_x + nu s_y``, ``Q = s_x + (2 - nu) s_y``, ``h = a/2``, the edge conditions of the
-symmetric and antisymmetric factors give one equation in ``s_x`` per ``s_y``:
+A mode is a product ``X(x) Y(y)`` of factors, each an interior term plus edge terms decaying away
+from the edges, whose edge conditions give one equation in ``s_x`` per ``s_y`` (:mod:`.roots`),
+solved by alternating the two directions at a cost linear in the modes; a Rayleigh-Ritz step
+(:mod:`.ritz`) couples the trials of one symmetry class within ``_PAIR_GAP``, splitting a square's
+degenerate pairs; :mod:`.factors` evaluates the shapes.
 
-    free, symmetric:      Q^2 k_x sin(k_x h) + mu P^2 cos(k_x h) tanh(mu h) = 0
-    free, antisymmetric:  -P^2 sin(k_x h) / k_x + Q^2 cos(k_x h) tanh(mu h) / mu = 0
-    clamped, symmetric:   k_x sin(k_x h) + mu cos(k_x h) tanh(mu h) = 0
-    clamped, antisymmetric: sin(k_x h) / k_x - cos(k_x h) tanh(mu h) / mu = 0
-
-whose ``N``-th root lies in ``((N - 1) pi / a, N pi / a]``. A mode ``(N_x, N_y)`` is solved
-by alternating the two equations (a contraction), at a cost linear in the modes; a
-Rayleigh-Ritz step (Leissa 1969, ch. 1) then couples trials of one symmetry class within
-``_PAIR_GAP`` (1 %), splitting a square's degenerate pairs; a clamped trial alone takes its
-Rayleigh quotient, a free one keeps the edge-effect value.
-
-References: V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib. Dig. 8 (1976);
-K. Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*,
-NASA SP-160 (1969). Submodules: ``roots`` (the equations), ``ritz`` (the Ritz step),
-``factors`` (the shapes' factors).
+References: V. V. Bolotin, PMM 24 (1960) 831-843; I. Elishakoff, Shock Vib. Dig. 8 (1976); K.
+Vijayakumar, J. Aeronaut. Soc. India 25 (1973); A. W. Leissa, *Vibration of Plates*, NASA SP-160
+(1969).
 """
 
 from __future__ import annotations
