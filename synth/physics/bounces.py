@@ -23,7 +23,7 @@ from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, GRAVITY
 from synth.errors import ParameterError
 from synth.physics.contact import ContactSolver, ImpactResult
 from synth.physics.contact_kernels import BOUNCE_ENDS, NO_END, bounce_end
-from synth.physics.scene import Ball, Plate, Scene
+from synth.physics.scene import Ball, Plate, Scene, check_type
 
 STOP_REASONS = tuple(end for end in BOUNCE_ENDS if end != "handed-over")
 
@@ -192,10 +192,8 @@ def simulate_bounces(
     infinite plate's, blended towards measured values near free edges) or "modal" (the finite
     plate's modes, :mod:`synth.physics.modal_contact`, ringing from impact to impact);
     ``options``: :class:`BounceOptions`, whose fields ``overrides`` may also give by name."""
-    if not isinstance(ball, Ball):
-        raise ParameterError(f"ball={ball!r} must be a Ball")
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
+    check_type("ball", ball, Ball)
+    check_type("plate", plate, Plate)
     h0 = checks.positive("drop_height", drop_height, "metres")
     g = checks.positive("gravity", gravity, "m/s^2")
     given, contact_options = BounceOptions.split(overrides)
@@ -354,8 +352,7 @@ def simulate_scene(scene: Scene, **options) -> BounceSequence:
     "auto"`` chosen by :func:`synth.physics.plate_choice.scene_plate`); a scene with a horizontal
     velocity gives its bounces until it rolls (:func:`synth.physics.path.path_bounces`, whose
     only option is ``max_duration``)."""
-    if not isinstance(scene, Scene):
-        raise ParameterError(f"scene={scene!r} must be a Scene")
+    check_type("scene", scene, Scene)
     from synth.physics.plate_choice import scene_plate
 
     if scene.moving:

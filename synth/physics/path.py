@@ -223,18 +223,16 @@ def simulate_path(
     """The :class:`BallPath` of ``scene`` (with ``velocity`` and ``rolling``), the rolling on
     the grid of ``samplerate`` (Hz) through ``time_origin`` (s from the release), followed to
     ``max_duration`` (s from the release)."""
-    bounces = path_bounces(scene, max_duration=max_duration)
-    b = bounces
+    b = path_bounces(scene, max_duration=max_duration)
     if not b.rolls:
-        last = tuple(b.points[-1])
-        return BallPath(
-            b.impacts, b.points, b.origin, b.direction, b.speed, None, b.impacts.stop_reason,
-            b.separation_time, last,
-        )  # fmt: skip
-    part, end, end_time, end_s = _roll(scene, b, int(samplerate), time_origin, max_duration)
+        part, end, end_time, end_point = None, b.impacts.stop_reason, b.separation_time, None
+    else:
+        part, end, end_time, end_s = _roll(scene, b, int(samplerate), time_origin, max_duration)
+        end_point = b.point(end_s)
     return BallPath(
-        b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time, b.point(end_s)
-    )
+        b.impacts, b.points, b.origin, b.direction, b.speed, part, end, end_time,
+        tuple(b.points[-1]) if end_point is None else end_point,
+    )  # fmt: skip
 
 
 def _profile(rolling, length):
@@ -254,13 +252,8 @@ def _profile(rolling, length):
 def _roll(scene, bounces: PathBounces, fs, time_origin, max_duration):
     """The rolling after ``bounces``: the :class:`RollingPart`, the end, its time (s) and the
     touching point's path coordinate (m)."""
-    ball, plate, g, c, rolling = (
-        scene.ball,
-        scene.plate,
-        scene.gravity,
-        scene.contact,
-        scene.rolling,
-    )
+    ball, plate, g, c = scene.ball, scene.plate, scene.gravity, scene.contact
+    rolling = scene.rolling
     u, s_edge, speed, v_out = bounces.direction, bounces.edge, bounces.speed, bounces.rebound_speed
     t_sep, s_sep = bounces.separation_time, bounces.separation_position
     R, m = ball.radius, ball.mass

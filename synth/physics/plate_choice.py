@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from synth.errors import ParameterError
 from synth.physics import impedance
 
 #: The change of the first impact's e (and relative change of its tau) below which the modal
@@ -104,10 +103,9 @@ def scene_plate(scene) -> PlateChoice:
     """The plate in the contact of a :class:`~synth.physics.scene.Scene`: its ``contact.plate``
     where that names one (bound 0 or inf), the impedance plate for the thin-shell law (the modal
     contact integrates the power laws only), else :func:`choose_plate` on its first impact."""
-    from synth.physics.scene import Scene
+    from synth.physics.scene import Scene, check_type
 
-    if not isinstance(scene, Scene):
-        raise ParameterError(f"scene={scene!r} must be a Scene")
+    check_type("scene", scene, Scene)
     c = scene.contact
     if c.law == "shell":
         return PlateChoice("impedance", 0.0, (0.0, 0.0), (0.0, 0.0))

@@ -26,7 +26,7 @@ from synth.physics.contact_law import ContactLaw, contact_parameters
 from synth.physics.rolling_results import EnergyBalance as EnergyBalance
 from synth.physics.rolling_results import RollingContact as RollingContact
 from synth.physics.rolling_results import RollingState, read_only
-from synth.physics.scene import MAX_GRAVITY, Ball, Plate
+from synth.physics.scene import MAX_GRAVITY, Ball, Plate, check_type
 from synth.physics.surface import ContactEnvelope, envelope_at
 
 #: Most integration steps per sample period before the solver gives up (a contact
@@ -124,12 +124,9 @@ class Roller:
         **contact_options,
     ) -> Roller:
         """The :class:`Roller` of :func:`roll`'s arguments (checked as there)."""
-        if not isinstance(ball, Ball):
-            raise ParameterError(f"ball={ball!r} must be a Ball")
-        if not isinstance(plate, Plate):
-            raise ParameterError(f"plate={plate!r} must be a Plate")
-        if not isinstance(envelope, ContactEnvelope):
-            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        check_type("ball", ball, Ball)
+        check_type("plate", plate, Plate)
+        check_type("envelope", envelope, ContactEnvelope)
         if envelope.radius != ball.radius:
             raise ParameterError(
                 f"envelope.radius={envelope.radius!r} must be the ball's radius "

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import checks
-from synth.errors import ParameterError
 from synth.physics import rolling_kernels as _k
 from synth.physics.contact_law import ContactLaw
+from synth.physics.scene import check_type
 from synth.physics.surface import ContactEnvelope, envelope_at, read_only
 
 
@@ -58,8 +58,7 @@ class RollingState:
         """The ball over ``path_position`` (m), its lowest point ``height`` (m) above the envelope
         (negative: pressed in), moving up at ``vertical_velocity`` (m/s), the plate at rest: a
         landing ball is ``height=0, vertical_velocity=-v_in``."""
-        if not isinstance(envelope, ContactEnvelope):
-            raise ParameterError(f"envelope={envelope!r} must be a ContactEnvelope")
+        check_type("envelope", envelope, ContactEnvelope)
         s = checks.in_range(
             "path_position", path_position, 0.0, envelope.length, "metres",
             lo_open=False, hi_open=False,

@@ -45,6 +45,12 @@ MAX_HORIZONTAL_SPEED = 100.0
 MAX_GRAVITY = 1000.0
 
 
+def check_type(name: str, value, kind: type) -> None:
+    """``ParameterError`` naming ``name`` and its value unless ``value`` is a ``kind``."""
+    if not isinstance(value, kind):
+        raise ParameterError(f"{name}={value!r} must be a {kind.__name__}")
+
+
 def _closed(name: str, value, lo: float, hi: float, unit: str) -> float:
     """``value`` as a float in the closed interval ``[lo, hi]``, else ``ParameterError``."""
     return checks.in_range(name, value, lo, hi, unit, lo_open=False, hi_open=False)
@@ -483,10 +489,8 @@ class Scene:
     rolling: Rolling | None = None
 
     def __post_init__(self):
-        if not isinstance(self.ball, Ball):
-            raise ParameterError(f"ball={self.ball!r} must be a Ball")
-        if not isinstance(self.plate, Plate):
-            raise ParameterError(f"plate={self.plate!r} must be a Plate")
+        check_type("ball", self.ball, Ball)
+        check_type("plate", self.plate, Plate)
         h = checks.positive_at_most("drop.height", self.drop_height, MAX_DROP_HEIGHT, "metres")
         if h < MIN_DROP_HEIGHT:
             raise ParameterError(

@@ -39,7 +39,7 @@ from synth.physics.modes.ritz import (
     first_basis_sizes,
     ritz_unknowns,
 )
-from synth.physics.scene import Plate
+from synth.physics.scene import Plate, check_type
 from synth.store.cache import cache_dir
 
 __all__ = [
@@ -292,8 +292,7 @@ def modes(plate: Plate, *, max_frequency: float, cache: bool = True) -> Modes:
     of :mod:`synth.physics.modes.crossover`, whose modes cost linearly instead of the Ritz
     cube). ``cache``: reuse and store the eigen-solution (:mod:`synth.physics.modes.cache`).
     ``ParameterError`` for a band of more than two million modes."""
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
+    check_type("plate", plate, Plate)
     damping = plate.damping_law()
     fmax = checks.positive("max_frequency", max_frequency, "Hz")
     if not isinstance(cache, bool):
