@@ -219,43 +219,48 @@ class RitzSolution:
                         out[pts, cols] = block
 
 
-def ritz_unknowns(aspect: float, omega: float) -> float:
-    """Estimated unknowns of the largest symmetry class of the Ritz check basis for the
-    band ``omega`` (dimensionless): the kept degree pairs fill about pi/4 of the
-    rectangle of the largest degrees, a quarter per class."""
+def _wavenumbers(aspect: float, omega: float, grow: float = 1.0) -> tuple[float, float]:
+    """The band ``omega``'s (dimensionless) wavenumbers per unit of xi and eta, scaled by
+    ``grow``: ``k L = sqrt(Omega)``, ``a = L / rx``."""
     rx, ry = ratios(aspect)
-    k_l = math.sqrt(omega)
-    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    k_l = math.sqrt(omega) * grow
+    return 0.5 * k_l / rx, 0.5 * k_l / ry
+
+
+def _index_sets(kx: float, ky: float, check: bool = False) -> list:
+    """The main (or the larger check) basis ``(I, J)`` of each symmetry class."""
+    c0, c1 = (_C0 + _D0, _C1 + _D1) if check else (_C0, _C1)
+    return [index_set(px, py, kx, ky, c0, c1) for px, py in _CLASSES]
+
+
+def _check_unknowns(kx: float, ky: float) -> float:
+    """Estimated unknowns of the largest class of the check basis: the kept degree pairs fill
+    about pi/4 of the rectangle of the largest degrees, a quarter per class."""
     nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
     ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
     return math.pi / 16.0 * nx_max * ny_max
+
+
+def ritz_unknowns(aspect: float, omega: float) -> float:
+    """Estimated unknowns of the largest symmetry class of the Ritz check basis for the band
+    ``omega`` (dimensionless)."""
+    return _check_unknowns(*_wavenumbers(aspect, omega))
 
 
 def first_basis_degrees(aspect: float, omega: float) -> int:
     """The most degrees of one parity along one axis of the first main basis :func:`solve_ritz`
     tries for ``omega`` (dimensionless): the terms a shape value on a grid costs per mode,
     for :mod:`synth.cost`."""
-    rx, ry = ratios(aspect)
-    k_l = math.sqrt(omega)
-    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
-    most = 1
-    for px, py in _CLASSES:
-        i, j = index_set(px, py, kx, ky, _C0, _C1)
-        most = max(most, np.unique(i).size, np.unique(j).size)
-    return int(most)
+    sets = _index_sets(*_wavenumbers(aspect, omega))
+    return int(max([1] + [np.unique(a).size for ij in sets for a in ij]))
 
 
 def first_basis_factors(aspect: float, omega: float) -> tuple[int, int]:
-    """Factors ``(n_x, n_y)`` along x and y that the first main basis :func:`solve_ritz`
-    tries for the band ``omega`` (dimensionless) spans (the highest degree plus one over
-    the symmetry classes, as :meth:`RitzSolution.summed` counts them), for
-    :mod:`synth.cost`."""
-    rx, ry = ratios(aspect)
-    k_l = math.sqrt(omega)
-    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
+    """Factors ``(n_x, n_y)`` along x and y spanned by the first main basis :func:`solve_ritz`
+    tries for ``omega`` (dimensionless), as :meth:`RitzSolution.summed` counts them (for
+    :mod:`synth.cost`)."""
     n_x = n_y = 1
-    for px, py in _CLASSES:
-        i, j = index_set(px, py, kx, ky, _C0, _C1)
+    for i, j in _index_sets(*_wavenumbers(aspect, omega)):
         if i.size:
             n_x, n_y = max(n_x, int(i.max()) + 1), max(n_y, int(j.max()) + 1)
     return n_x, n_y
@@ -263,14 +268,10 @@ def first_basis_factors(aspect: float, omega: float) -> tuple[int, int]:
 
 def first_basis_sizes(aspect: float, omega: float) -> tuple[list[int], list[int]]:
     """Unknowns of each symmetry class's main and check bases in the first basis
-    :func:`solve_ritz` tries for the band ``omega`` (dimensionless): the index sets it
-    builds, without any matrix (for :mod:`synth.cost`)."""
-    rx, ry = ratios(aspect)
-    k_l = math.sqrt(omega)
-    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
-    main = [index_set(px, py, kx, ky, _C0, _C1)[0].size for px, py in _CLASSES]
-    check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1)[0].size for px, py in _CLASSES]
-    return main, check
+    :func:`solve_ritz` tries for ``omega`` (dimensionless), without any matrix (for
+    :mod:`synth.cost`)."""
+    kx, ky = _wavenumbers(aspect, omega)
+    return [i.size for i, _ in _index_sets(kx, ky)], [i.size for i, _ in _index_sets(kx, ky, True)]
 
 
 def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
@@ -291,20 +292,14 @@ def _solve_classes(problem: RitzProblem, main, check, lam_cut, one_thread):
         return [solve(c) for c in range(4)]
 
 
-def _bases(rx: float, ry: float, omega_req: float, grow: float):
+def _bases(aspect: float, omega_req: float, grow: float):
     """The main and check bases (one ``(I, J)`` per symmetry class) for modes up to
-    ``omega_req``, the wavenumbers scaled by ``grow``; ``TooLarge`` past the dense solver."""
-    # Wavenumbers per unit of xi, eta: k L = sqrt(Omega), a = L / rx.
-    k_l = math.sqrt(omega_req) * grow
-    kx, ky = 0.5 * k_l / rx, 0.5 * k_l / ry
-    # The kept degree pairs fill more than pi/4 of the rectangle of the largest
-    # degrees: refuse hopeless sizes before building any index set.
-    nx_max = kx + (_C1 + _D1) * kx ** (1.0 / 3.0) + _C0 + _D0
-    ny_max = ky + (_C1 + _D1) * ky ** (1.0 / 3.0) + _C0 + _D0
-    if math.pi / 16.0 * nx_max * ny_max > _MAX_UNKNOWNS:
-        raise TooLarge(int(math.pi / 16.0 * nx_max * ny_max))
-    main = [index_set(px, py, kx, ky, _C0, _C1) for px, py in _CLASSES]
-    check = [index_set(px, py, kx, ky, _C0 + _D0, _C1 + _D1) for px, py in _CLASSES]
+    ``omega_req``, the wavenumbers scaled by ``grow``; ``TooLarge`` past the dense solver
+    (refused on the estimate before any index set is built)."""
+    kx, ky = _wavenumbers(aspect, omega_req, grow)
+    if _check_unknowns(kx, ky) > _MAX_UNKNOWNS:
+        raise TooLarge(int(_check_unknowns(kx, ky)))
+    main, check = _index_sets(kx, ky), _index_sets(kx, ky, check=True)
     largest = max(ij[0].size for ij in check)
     if largest > _MAX_UNKNOWNS:
         raise TooLarge(largest)
@@ -335,13 +330,12 @@ def _worst_change(om, om2, omega_req: float) -> float:
 
 def solve_ritz(boundary: str, nu: float, aspect: float, omega_req: float) -> RitzSolution:
     """All converged modes with dimensionless frequency <= ``omega_req``."""
-    rx, ry = ratios(aspect)
     lam_cut = (omega_req * (1.0 + 10.0 * TOLERANCE)) ** 2
     grow = 1.0
     attempts = []
     one_thread = None
     for _ in range(6):
-        main, check = _bases(rx, ry, omega_req, grow)
+        main, check = _bases(aspect, omega_req, grow)
         problem = RitzProblem.over(boundary, aspect, nu, check)
         if one_thread is None:  # decided on the first basis, kept for the larger ones
             one_thread = max(ij[0].size for ij in main) > ONE_THREAD_UNKNOWNS
