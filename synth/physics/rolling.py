@@ -60,40 +60,24 @@ def roll(
     speed,
     samplerate: int,
     origin,
-    direction=(1.0, 0.0),
     duration: float | None = None,
     start: float | None = None,
     state: RollingState | None = None,
-    contact: str = "hertz",
-    admittance: float | None = None,
-    gravity: float = GRAVITY,
-    rtol: float = 1e-6,
-    landing_speed: float = 1.0,
-    **contact_options,
+    **options,
 ) -> RollingContact:
     """Roll ``ball`` over ``plate`` along the path of ``envelope`` (made with ``ball.radius``).
 
     ``speed``: the centre's horizontal speed, m/s (>= 0), one for ``duration`` (s, at most
     :data:`MAX_DURATION`) or one per sample period of ``samplerate`` (Hz). ``origin``: the path's
-    coordinate 0 on the plate, m from its corner; ``direction``: the path's direction (normalised
-    here). ``start``: the centre's path coordinate at time 0, m (default 0); or ``state``: an
-    earlier rolling's ``final_state`` (consecutive calls give the bits of one call) or a ball above
-    the surface (:meth:`RollingState.at`). ``contact`` and ``contact_options``: the law
-    (:func:`synth.physics.contact_law.contact_parameters`). ``admittance``: the plate's at the
-    contact, m/(N s) (0: rigid; default ``1 / Z_inf``). ``gravity``: m/s^2. ``rtol`` in [1e-12,
-    1e-2]: the local relative tolerance on the penetration (relative to the static one) and the
-    vertical speed. ``landing_speed`` (m/s): the fastest landing whose contact a step cannot miss, a
-    step being at most half the elastic contact's shortest duration at that speed, ``2 delta_max /
-    u``, ``delta_max = ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and at most a sample period.
+    coordinate 0 on the plate, m from its corner. ``start``: the centre's path coordinate at time 0,
+    m (default 0); or ``state``: an earlier rolling's ``final_state`` (consecutive calls give the
+    bits of one call) or a ball above the surface (:meth:`RollingState.at`). ``options``: those of
+    :meth:`Roller.over`.
 
     Without ``state`` the ball starts as a ball rolled there slowly would be: pressed with ``m (g
     + v^2 e''(s0))`` (the weight and the centripetal force), its penetration steady; just
     touching if that force is negative."""
-    roller = Roller.over(
-        ball, plate, envelope, samplerate=samplerate, origin=origin, direction=direction,
-        contact=contact, admittance=admittance, gravity=gravity, rtol=rtol,
-        landing_speed=landing_speed, **contact_options,
-    )  # fmt: skip
+    roller = Roller.over(ball, plate, envelope, samplerate=samplerate, origin=origin, **options)
     return roller.roll(speed, duration=duration, start=start, state=state)
 
 
@@ -123,7 +107,15 @@ class Roller:
         landing_speed: float = 1.0,
         **contact_options,
     ) -> Roller:
-        """The :class:`Roller` of :func:`roll`'s arguments (checked as there)."""
+        """The :class:`Roller` of :func:`roll`'s arguments. ``direction``: the path's direction on
+        the plate (normalised here). ``contact`` and ``contact_options``: the law
+        (:func:`synth.physics.contact_law.contact_parameters`). ``admittance``: the plate's at
+        the contact, m/(N s) (0: rigid; default ``1 / Z_inf``). ``gravity``: m/s^2. ``rtol`` in
+        [1e-12, 1e-2]: the local relative tolerance on the penetration (relative to the static
+        one) and the vertical speed. ``landing_speed`` (m/s): the fastest landing whose contact a
+        step cannot miss, a step being at most half the elastic contact's shortest duration at
+        that speed, ``2 delta_max / u``, ``delta_max = ((n + 1) m u^2 / (2 K))^(1/(n+1))``, and
+        at most a sample period."""
         check_type("ball", ball, Ball)
         check_type("plate", plate, Plate)
         check_type("envelope", envelope, ContactEnvelope)

@@ -15,7 +15,9 @@
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -146,25 +148,10 @@ class MeasuredRoughness:
         return RoughnessSpectrum(self.rms_height, self.correlation_length, SELF_AFFINE_HURST)
 
 
-#: The surfaces with a published roughness measurement (docs/rolling.md, "Measured surfaces").
-MEASURED_ROUGHNESS = {
-    "mdf": MeasuredRoughness(
-        "medium density fibreboard, the panel's face",
-        4.15e-6,
-        2.5e-3,
-        "Akbulut & Ayrilmis 2006, Silva Fennica 40(1), 161-167 (doi:10.14214/sf.358): "
-        "Ra 4.15 um, ISO 4287 stylus, the rougher of its two panel types; the cut-off is "
-        "ISO 4288's for a non-periodic profile of 2 um < Ra <= 10 um",
-    ),
-    "cold-rolled-steel-sheet": MeasuredRoughness(
-        "cold-rolled steel sheet",
-        1.0e-6,
-        0.8e-3,
-        "Luo et al. 2013, Physical Testing and Chemical Analysis Part A 49(6), 349-356: "
-        "Ra 0.5-2.0 um on cold-rolled sheet with a 0.8 mm sampling length; Ra here is the "
-        "range's geometric middle",
-    ),
-}
+#: The surfaces with a published roughness measurement, from ``roughness.toml`` (docs/rolling.md,
+#: "Measured surfaces").
+with open(Path(__file__).with_name("roughness.toml"), "rb") as _file:
+    MEASURED_ROUGHNESS = {k: MeasuredRoughness(**row) for k, row in tomllib.load(_file).items()}
 
 
 def _check_grid(length, spacing) -> tuple[float, float, int]:

@@ -16,10 +16,9 @@ from synth.physics.asymptotic_modes.roots import edge_terms, entire_terms
 
 @compiled()
 def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
-    """``(c_edge, norm)`` of the factor ``u(x) + c_edge e(x)`` (``u = cos(k x)`` or ``sin(k x) /
-    k``, ``e = cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``): the edge coefficient
-    from the better-conditioned edge condition, ``norm`` making the mean square over ``[-h, h]``
-    1 (panelled Gauss-Legendre)."""
+    """``c_edge`` of the factor ``u(x) + c_edge e(x)`` (``u = cos(k x)`` or ``sin(k x) / k``,
+    ``e = cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``), from the
+    better-conditioned edge condition."""
     odd = n % 2 == 1
     m2 = s + 2.0 * so
     c, ks, sk = entire_terms(s, h)
@@ -50,7 +49,7 @@ def _coefficients(s, so, h, n, free, nu):  # pragma: no cover
 @compiled()
 def interior_part(x, s, h, n):  # pragma: no cover
     """Interior part ``u`` of one factor at ``x`` in ``[-h, h]`` (unnormalised, see
-    :func:`factor_parts`): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
+    the factor ``u + ce e``): ``cos``, ``sin / k`` (``cosh``, ``sinh / k`` for ``s < 0``)."""
     odd = n % 2 == 1
     if s > 0.0:
         k = math.sqrt(s)
@@ -63,7 +62,7 @@ def interior_part(x, s, h, n):  # pragma: no cover
 
 @compiled()
 def edge_part(x, s, so, h, n):  # pragma: no cover
-    """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (see :func:`factor_parts`):
+    """Edge part ``e`` of one factor at ``x`` in ``[-h, h]`` (of the factor ``u + ce e``):
     ``cosh(mu x) / cosh(mu h)`` or ``sinh(mu x) / sinh(mu h)``, ``mu^2 = s + 2 so``
     (``cos``, ``sin`` for ``mu^2 < 0``), 1 at the edge ``x = h``."""
     odd = n % 2 == 1
@@ -84,18 +83,10 @@ def edge_part(x, s, so, h, n):  # pragma: no cover
 
 
 @compiled()
-def factor_parts(x, s, so, h, n):  # pragma: no cover
-    """Interior and edge parts ``(u, e)`` of one factor at ``x`` in ``[-h, h]``
-    (unnormalised): the factor is ``u + ce e``. Each part solves a Helmholtz equation
-    along its axis."""
-    return interior_part(x, s, h, n), edge_part(x, s, so, h, n)
-
-
-@compiled()
 def _factor(x, s, so, h, n, ce):  # pragma: no cover
-    """One factor's value at ``x`` in ``[-h, h]`` (unnormalised)."""
-    u, e = factor_parts(x, s, so, h, n)
-    return u + ce * e
+    """One factor's value ``u + ce e`` at ``x`` in ``[-h, h]`` (unnormalised): each part solves
+    a Helmholtz equation along its axis."""
+    return interior_part(x, s, h, n) + ce * edge_part(x, s, so, h, n)
 
 
 @compiled()
@@ -104,30 +95,14 @@ def _norm(s, so, h, n, ce):  # pragma: no cover
     k = math.sqrt(abs(s)) + math.sqrt(abs(s + 2.0 * so)) + 1.0 / h
     panels = int(k * h / 2.0) + 2
     # 8-point Gauss-Legendre
-    t = np.array(
-        [
-            -0.9602898564975363,
-            -0.7966664774136267,
-            -0.5255324099163290,
-            -0.1834346424956498,
-            0.1834346424956498,
-            0.5255324099163290,
-            0.7966664774136267,
-            0.9602898564975363,
-        ]
-    )
-    w = np.array(
-        [
-            0.1012285362903763,
-            0.2223810344533745,
-            0.3137066458778873,
-            0.3626837833783620,
-            0.3626837833783620,
-            0.3137066458778873,
-            0.2223810344533745,
-            0.1012285362903763,
-        ]
-    )
+    t = np.array([
+        -0.9602898564975363, -0.7966664774136267, -0.5255324099163290, -0.1834346424956498,
+        0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363,
+    ])  # fmt: skip
+    w = np.array([
+        0.1012285362903763, 0.2223810344533745, 0.3137066458778873, 0.3626837833783620,
+        0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763,
+    ])  # fmt: skip
     total = 0.0
     half = h / panels
     for p in range(panels):
