@@ -27,7 +27,7 @@ from synth.physics.rolling_results import EnergyBalance as EnergyBalance
 from synth.physics.rolling_results import RollingContact as RollingContact
 from synth.physics.rolling_results import RollingState, read_only
 from synth.physics.scene import MAX_GRAVITY, Ball, Plate, check_type
-from synth.physics.surface import ContactEnvelope, envelope_at
+from synth.physics.surface import ContactEnvelope, envelope_at, samples
 
 #: Most integration steps per sample period before the solver gives up (a contact
 #: resolved at the tolerance asks for a few per period).
@@ -225,19 +225,7 @@ def _speeds(speed, duration, fs) -> np.ndarray:
         return np.full(n, v)
     if duration is not None:
         raise ParameterError("speeds per sample set the duration: give no duration")
-    try:
-        speeds = np.array(speed, dtype=float)
-    except (TypeError, ValueError):
-        raise ParameterError(f"speed={speed!r} must be a number or 1-D array (m/s)") from None
-    if speeds.ndim != 1 or not 1 <= speeds.size <= MAX_SAMPLES:
-        raise ParameterError(
-            f"speed with shape {speeds.shape} must be 1-D with 1 to {MAX_SAMPLES} samples"
-        )
-    bad = ~(np.isfinite(speeds) & (speeds >= 0.0))
-    if np.any(bad):
-        i = int(np.argmax(bad))
-        raise ParameterError(f"speed[{i}]={speeds[i]!r} must be finite and >= 0 (m/s)")
-    return speeds
+    return samples("speed", speed, 1, MAX_SAMPLES, "m/s", nonnegative=True)
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,25 @@ def read_only(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def samples(name: str, value, least: int, most: int, unit: str, nonnegative=False) -> np.ndarray:
+    """``value`` as a new 1-D float array of ``least`` to ``most`` finite samples (``>= 0`` if
+    ``nonnegative``), else a ``ParameterError`` naming the first bad sample."""
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name}={value!r} must be a 1-D array ({unit})") from None
+    if a.ndim != 1 or not least <= a.size <= most:
+        raise ParameterError(
+            f"{name} with shape {a.shape} must be 1-D with {least} to {most} samples ({unit})"
+        )
+    bad = ~(np.isfinite(a) & (a >= 0.0)) if nonnegative else ~np.isfinite(a)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        allowed = "finite and >= 0" if nonnegative else "finite"
+        raise ParameterError(f"{name}[{i}]={a[i]!r} must be {allowed} ({unit})")
+    return a
+
+
 @dataclass(frozen=True, eq=False)
 class Profile:
     """Heights ``h(x_i)`` of a surface along a straight path (m above the plate's nominal plane,
@@ -60,20 +79,7 @@ class Profile:
     description: str
 
     def __post_init__(self):
-        try:
-            h = np.array(self.heights, dtype=float)
-        except (TypeError, ValueError):
-            raise ParameterError(
-                f"heights={self.heights!r} must be a 1-D array of heights (metres)"
-            ) from None
-        if h.ndim != 1 or not 4 <= h.size <= MAX_PROFILE_SAMPLES:
-            raise ParameterError(
-                f"heights with shape {h.shape} must be 1-D with 4 to {MAX_PROFILE_SAMPLES} "
-                f"samples (metres)"
-            )
-        if not np.all(np.isfinite(h)):
-            i = int(np.argmax(~np.isfinite(h)))
-            raise ParameterError(f"heights[{i}]={h[i]!r} must be finite (metres)")
+        h = samples("heights", self.heights, 4, MAX_PROFILE_SAMPLES, "metres")
         object.__setattr__(self, "heights", read_only(h))
         object.__setattr__(self, "spacing", checks.positive("spacing", self.spacing, "metres"))
 
