@@ -154,12 +154,8 @@ with open(Path(__file__).with_name("materials.toml"), "rb") as _file:
     TABLE: dict[str, Material] = {k: _row(k, row) for k, row in tomllib.load(_file).items()}
 
 #: Other names of table rows.
-ALIASES = {
-    "ceramic": "porcelain",
-    "pmma": "acrylic",
-    "aluminum": "aluminium",
-    "stainless": "stainless-steel",
-}
+ALIASES = {"ceramic": "porcelain", "pmma": "acrylic", "aluminum": "aluminium",
+           "stainless": "stainless-steel"}  # fmt: skip
 
 
 def names() -> list[str]:

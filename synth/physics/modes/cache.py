@@ -35,13 +35,8 @@ def _path(key: str, boundary: str) -> Path:
 
 def _save(sol: RitzSolution, key: str) -> None:
     """Write ``sol`` to the disk cache (atomically); skipped if impossible."""
-    arrays = {
-        "key": np.array(key),
-        "omega_max": np.array(sol.omega_max),
-        "omega": sol.omega,
-        "cls": sol.cls,
-        "col": sol.col,
-    }
+    arrays = dict(key=np.array(key), omega_max=np.array(sol.omega_max), omega=sol.omega)
+    arrays.update(cls=sol.cls, col=sol.col)
     for c in range(4):
         arrays[f"I{c}"], arrays[f"J{c}"] = sol.index[c]
         arrays[f"coef{c}"] = sol.coef[c]
