@@ -84,21 +84,14 @@ class BounceSequence:
 
     def table(self) -> list[dict]:
         """One row per impact: n, time (s), speed (m/s), restitution, contact_time (s),
-        peak_force (N), inelasticity (lambda), settled."""
+        peak_force (N), max_penetration (m), inelasticity (lambda), settled."""
         return [
-            dict(
-                n=i.index,
-                time=i.time,
-                speed=i.speed,
-                restitution=i.restitution,
-                contact_time=i.result.contact_time,
-                peak_force=i.result.peak_force,
-                max_penetration=i.result.max_penetration,
-                inelasticity=i.result.inelasticity,
-                settled=i.result.settled,
-            )
+            dict(n=i.index, time=i.time, speed=i.speed, restitution=i.restitution,
+                 contact_time=i.result.contact_time, peak_force=i.result.peak_force,
+                 max_penetration=i.result.max_penetration,
+                 inelasticity=i.result.inelasticity, settled=i.result.settled)
             for i in self.impacts
-        ]
+        ]  # fmt: skip
 
 
 #: A rebound rule: the restitution ``e'`` (dimensionless) that sets the flight after an
@@ -230,12 +223,12 @@ class _Series:
         self.impacts: list[Impact] = []
         self.reason: str | None = None
 
-    def run(self, t: float, v: float, rule: ReboundRule | None, faster_than: float = 0.0):
+    def run(self, t: float, v: float, rule: ReboundRule | None):
         """Solve impacts one by one from the one at ``v`` (m/s) ``t`` s after release, flights
-        set by ``rule`` (None: physical), while faster than ``faster_than`` (m/s); returns
+        set by ``rule`` (None: physical), while the ball lands (``v > 0``, m/s); returns
         the next ``(t, v)``."""
         o = self.o
-        while v > faster_than:
+        while v > 0.0:
             if len(self.impacts) >= o.max_impacts:
                 self.reason = "max-impacts"
                 break
