@@ -238,9 +238,10 @@ def test_a_full_ring_refuses_and_counts(scene):
 
 def silence(ring):
     """kernel.silence of a body of 3 modes and one voice slot whose pending ring is ``ring``."""
-    from synth.live import kernel, native
+    from synth.live import kernel
+    from synth.live import state as st
 
-    arrays = native.body_arrays(
+    arrays = st.body_arrays(
         synth.sound.modal_bank.bank_coefficients(
             np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
         ),

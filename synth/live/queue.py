@@ -1,15 +1,10 @@
 """The hand-off of impacts from trigger threads to the audio thread (docs/live.md, "What runs
-where").
-
-Each body has a bounded ring of preallocated, pre-touched slots. A slot carries an impact
-READY (mode amplitudes computed by the producer: a drop's impacts, long contacts) or as a
-PULSE (its force pulse and the listener's coefficients, turned into amplitudes by the audio
-thread at the start of a block; at most ``max_new`` wait, bounding any block's work). A
-producer reserves a FREE slot under the producers' lock (which the audio thread never
-takes), fills it and writes its state word last, after a fence (:mod:`synth.live.atomics`);
-the audio thread plays READY slots when due and frees them. A full ring refuses and counts.
-Each impact belongs to a voice record (``voices``, :data:`synth.live.kernel.V_ID`) whose
-gain and stop request producers write under the lock and the audio thread reads each block.
+where"): each body has a bounded ring of preallocated slots, each an impact READY (mode
+amplitudes computed by the producer) or a PULSE (its force pulse, transformed by the audio
+thread; at most ``max_new`` wait, bounding a block's work). A producer reserves a FREE slot
+under the producers' lock (the audio thread never takes it), fills it and writes its state
+word last, after a fence; a full ring refuses and counts. Each impact belongs to a voice
+record (:data:`synth.live.kernel.V_ID`) whose gain and stop producers write under the lock.
 """
 
 from __future__ import annotations
@@ -37,16 +32,14 @@ from synth.live.kernel import (
     V_STOP,
 )
 
-#: Slot state while a producer fills it (the audio thread plays READY slots only). The
-#: largest state, so that the first FREE slot is the first minimum of ``state``.
+#: Slot state while a producer fills it: not the least, so a FREE slot is ``state``'s minimum.
 WRITING = 2
 
 
 class PendingRing:
-    """``capacity`` slots of pending impacts for a body of ``modes`` modes, each with up to
-    ``max_contact`` in-contact samples and up to ``pulse_samples`` samples of its pulse (the
-    grid, then the in-contact samples); at most ``max_new`` slots wait in the PULSE form;
-    ``voices`` voice records."""
+    """``capacity`` slots of pending impacts of ``modes`` modes, each with up to ``max_contact``
+    in-contact samples and ``pulse_samples`` of its pulse; at most ``max_new`` wait in the
+    PULSE form; ``voices`` voice records."""
 
     def __init__(
         self,
@@ -101,9 +94,8 @@ class PendingRing:
         return int(np.count_nonzero((self.state == READY) | (self.state == PULSE)))
 
     def open_voice(self, vid: int, impacts: int, priority: int = 0) -> int:
-        """A free voice record for voice ``vid`` (> 0) of ``priority`` that will hand over
-        ``impacts`` impacts, or -1 (the impacts counted in ``refused``) when every record
-        is taken."""
+        """A free voice record for voice ``vid`` of ``priority`` handing over ``impacts``, or -1
+        (counted in ``refused``)."""
         with self._lock:
             r = int(self.voices[:, V_STATE].argmin())
             if self.voices[r, V_STATE] != V_FREE:
@@ -122,8 +114,7 @@ class PendingRing:
             return r
 
     def close_voice(self, r: int, unsent: int) -> None:
-        """Take back ``unsent`` of the impacts voice record ``r`` announced (refused or
-        failed before they were handed over); a record with nothing handed over is freed."""
+        """Take back ``unsent`` of the impacts record ``r`` announced; with none left, free it."""
         with self._lock:
             v = self.voices[r]
             v[V_PUT] -= unsent
@@ -133,13 +124,12 @@ class PendingRing:
                 v[V_STOP] = max(int(v[V_STOP]), 0)  # what was handed over is dropped
 
     def voice_alive(self, r: int, vid: int) -> bool:
-        """Whether voice record ``r`` still holds voice ``vid`` (lock-free: the audio
-        thread frees a record by its state word; a record taken again has a new id)."""
+        """Whether voice record ``r`` still holds voice ``vid`` (lock-free)."""
         return int(self.voices[r, V_STATE]) == V_LIVE and int(self.voices[r, V_ID]) == vid
 
     def control_voice(self, r: int, vid: int, gain=None, stop=None) -> None:
-        """Set voice ``vid``'s gain target or ask for its stop fade (samples; the first
-        asked is kept), if record ``r`` still holds it."""
+        """Set voice ``vid``'s gain or ask its stop fade (samples; the first is kept), if record
+        ``r`` still holds it."""
         with self._lock:
             if not self.voice_alive(r, vid):
                 return
@@ -149,11 +139,9 @@ class PendingRing:
                 self.voices[r, V_STOP] = stop
 
     def reserve(self, pulse: bool = False, bounded: bool = True, voice: int = 0) -> int:
-        """A FREE slot for an impact of voice record ``voice``, now marked WRITING for the
-        caller to fill (see :meth:`publish` and :meth:`publish_pulse`, which ``pulse``
-        announces); -1 (and counted in ``refused``) when the ring is full or, for a pulse
-        and if ``bounded``, ``max_new`` pulses wait (the bound protects an audio thread's
-        deadline; mixing without a device has none)."""
+        """A FREE slot for an impact of voice record ``voice``, marked WRITING for the caller
+        to fill and publish (``pulse``: :meth:`publish_pulse`); -1 (counted) when the ring is
+        full or, for a pulse if ``bounded`` (a device's deadline), ``max_new`` wait."""
         with self._lock:
             i = self._next
             if self.state[i] != FREE:  # slots mostly free in the order they were taken
@@ -171,9 +159,7 @@ class PendingRing:
             return i
 
     def reserve_many(self, n: int, voice: int = 0) -> list[int] | None:
-        """``n`` FREE slots at once for impacts of voice record ``voice``, marked WRITING
-        (each to be published), or None (and ``n`` counted in ``refused``) when fewer are
-        free: all or nothing."""
+        """``n`` FREE slots for voice record ``voice``, marked WRITING, or None (counted)."""
         with self._lock:
             free = np.flatnonzero(self.state == FREE)
             if free.size < n:
@@ -185,9 +171,8 @@ class PendingRing:
             return slots
 
     def publish(self, slot: int, inject: int, first: int, length: int, reference: float):
-        """Hand the filled ``slot`` over: its amplitudes (``amplitudes[slot]``) join the
-        modes at sample ``inject``, its ``length`` in-contact samples (``response[slot]``)
-        start at sample ``first``; ``reference``: the sum of the amplitudes' magnitudes."""
+        """Hand the filled ``slot`` over: its amplitudes join at sample ``inject``, its
+        ``length`` in-contact samples start at ``first``; ``reference``: its heard peak."""
         self.length[slot] = length
         self.first[slot] = first
         self.inject[slot] = inject
@@ -195,10 +180,8 @@ class PendingRing:
         publish(self.state, slot, READY)  # last: the audio thread reads the slot from now on
 
     def publish_pulse(self, slot: int, inject: int, first: int, length: int, points: int):
-        """Hand over ``slot`` (reserved with ``pulse=True``) in the PULSE form: its
-        ``samples[slot]`` (``points`` on the grid, then ``length`` in-contact ones, the first
-        at sample ``first``), ``coefficients[slot]`` and ``pulse[slot]``; its amplitudes
-        join the modes at sample ``inject``."""
+        """Hand ``slot`` over in the PULSE form: ``points`` grid samples then ``length``
+        in-contact ones from sample ``first``; its amplitudes join at ``inject``."""
         self.points[slot] = points
         self.length[slot] = length
         self.first[slot] = first

@@ -1,12 +1,7 @@
-"""The engine's state: the arrays the audio thread works on, their layout and their memory.
-
-Preallocated numpy arrays the audio thread reaches through their addresses, so its callback
-touches no Python object: ``ctl`` (int64, :data:`N_CTL`: clock, stop fade, body count,
-counters, the other arrays' addresses); ``times`` (float64, :data:`N_TIMES`: the clock's
-anchor, callback costs, master gain, pause level, meter); a directory of body records
-(:data:`BODY_FIELDS`; :func:`body_form` makes the kernel's views); the voice-ended event
-ring. :class:`EngineState` allocates them once, pages touched (:func:`touch`), and
-publishes bodies (:func:`body_arrays`).
+"""The engine's state: the preallocated arrays the audio thread reaches through their
+addresses (its callback touches no Python object), their layout and their memory: ``ctl``
+(int64), ``times`` (float64), a directory of body records (:data:`BODY_FIELDS`;
+:func:`body_form` makes the kernel's views) and the voice-ended event ring.
 """
 
 from __future__ import annotations
@@ -26,71 +21,42 @@ from synth.live import kernel, limiter, rolling_block
 from synth.live.atomics import pointer_to as pointer_to
 from synth.live.heard import N_HEARD_ROWS, heard_arrays
 
-#: ``ctl`` fields (int64).
+#: ``ctl`` fields (int64): the next frame to mix; the stop fade's position (-1 none), length
+#: (frames) and first frame (-1 before); the bodies mixed (counted after their record) and
+#: the directory's length; channels; the scratch buffers' frames; callbacks, and those
+#: PortAudio flagged output underflow and overflow; samples that reached full scale before
+#: the clipper; the anchor's sequence number (odd while written); the recording's frames
+#: and those recorded; the addresses of ``times``, the body directory, the master mix
+#: (float64, CHANNELS + 1 rows of MIX_CAP: every channel's bus, then each channel's own),
+#: the scratch (a body's mix and a voice's, 2 x MIX_CAP), the recording (float32,
+#: RECORD_FRAMES x CHANNELS); 1: soft-clip; the event ring's address and length (header
+#: included); 1: pause asked; 1: limit; the limiter's arrays' addresses
+#: (:meth:`~synth.live.limiter.LimiterState.arrays`); the most pulses a callback
+#: transformed, a callback's budget, pulses left waiting, the body the next share serves
+#: first, the address of the shares (int64, MAX_BODIES); the rolling block's address (0:
+#: none).
 (
-    FRAME,  # next frame to mix, on the engine's clock
-    FADE_AT,  # position in the stop fade, -1 without one
-    FADE_LENGTH,  # frames
-    FADE_FRAME,  # frame where the last stop fade began, -1 before
-    N_BODIES,  # bodies the callback mixes (published after their record)
-    MAX_BODIES,  # the directory's length
-    CHANNELS,
-    MIX_CAP,  # frames of the mixing scratch buffers
-    CALLBACKS,  # blocks mixed by a stream's callback
-    UNDERFLOWS,  # callbacks PortAudio flagged output underflow
-    OVERFLOWS,  # callbacks flagged output overflow (PortAudio's paOutputOverflow)
-    CLIPPED,  # output samples that reached full scale (before the clipper)
-    SEQ,  # the anchor's sequence number: odd while the callback writes it
-    RECORD_FRAMES,  # frames of the recording buffer
-    RECORDED,  # frames recorded so far
-    TIMES,  # address of ``times``
-    DIRECTORY,  # address of the body directory
-    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
-    # bus, then each channel's own)
-    SCRATCH,  # address of one body's mix and one voice's (float64, 2 x MIX_CAP)
-    RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
-    CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
-    EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
-    N_EVENTS,  # its length (header included)
-    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
-    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
-    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
-    LIM_FLOATS,
-    LIM_TAPS,
-    LIM_X,
-    LIM_R,
-    LIM_M,
-    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
-    TRANSFORM_BUDGET,  # the most pulses a stream's callback transforms, over every body
-    TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
-    SHARE_FROM,  # the body served first by the next callback's share of the budget
-    ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
-    ROLLER,  # address of the rolling voices' compiled block (synth.live.native), 0: none
-    N_CTL,
-) = range(38)
+    FRAME, FADE_AT, FADE_LENGTH, FADE_FRAME, N_BODIES, MAX_BODIES, CHANNELS, MIX_CAP,
+    CALLBACKS, UNDERFLOWS, OVERFLOWS, CLIPPED, SEQ, RECORD_FRAMES, RECORDED, TIMES, DIRECTORY,
+    MIX, SCRATCH, RECORD, CLIP, EVENTS, N_EVENTS, PAUSE, LIMIT, LIM_INTS, LIM_FLOATS,
+    LIM_TAPS, LIM_X, LIM_R, LIM_M, TRANSFORMS_MAX, TRANSFORM_BUDGET, TRANSFORMS_DEFERRED,
+    SHARE_FROM, ALLOW, ROLLER, N_CTL,
+) = range(38)  # fmt: skip
 
-#: ``times`` fields (float64).
+#: ``times`` fields (float64): the sample rate (Hz); the stream's nominal latency and the
+#: last callback's ``outputBufferDacTime - currentTime`` (s); the anchor: the last
+#: callback's first frame and the monotonic time (s) it leaves the device; the monotonic
+#: time at the last callback's end and the frame after its block; the sum, largest and last
+#: callback run time (a fraction of its block); the master gain's target and its value at
+#: the last block's end (linear); the largest ``|sample|`` of the bus before the clipper and
+#: at the device since the last reset; the last callback's entry (s, 0 before) and the
+#: longest gap between entries (blocks); the pause level (1 playing, 0 paused, ramped over
+#: FADE_LENGTH); the limiter's look-ahead (s; the bus leaves that much later).
 (
-    SAMPLERATE,  # Hz
-    NOMINAL_LATENCY,  # the stream's output latency as PortAudio opened it, s
-    LEAD,  # the last callback's outputBufferDacTime - currentTime, s
-    ANCHOR_FRAME,  # the last callback's first frame
-    ANCHOR_DAC,  # the monotonic time (s) at which that frame leaves the device
-    END_TIME,  # monotonic time (s) at the end of the last callback
-    END_FRAME,  # the frame after the last callback's block
-    COST_SUM,  # sum over callbacks of (run time / block duration)
-    COST_MAX,
-    COST_LAST,
-    MASTER_GAIN,  # the master bus' target gain (linear)
-    MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
-    PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
-    OUT_PEAK,  # largest |sample| sent to the device since the last reset
-    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
-    GAP_MAX,  # longest time between two callbacks' entries, in blocks
-    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
-    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
-    N_TIMES,
-) = range(19)
+    SAMPLERATE, NOMINAL_LATENCY, LEAD, ANCHOR_FRAME, ANCHOR_DAC, END_TIME, END_FRAME,
+    COST_SUM, COST_MAX, COST_LAST, MASTER_GAIN, MASTER_NOW, PEAK, OUT_PEAK, LAST_ENTRY,
+    GAP_MAX, PAUSE_LEVEL, LIMIT_DELAY, N_TIMES,
+) = range(19)  # fmt: skip
 
 #: A body record (int64): addresses, then sizes.
 BODY_FIELDS = (
@@ -122,8 +88,7 @@ N_BODY = len(BODY_FIELDS)
 #: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
 #: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
 #: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
-S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW = range(8)
-N_SCALARS = 8
+S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW, N_SCALARS = range(9)
 
 #: The clock the callback reads (and the trigger threads, in Python).
 CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
@@ -182,10 +147,9 @@ def i64_at(address, n):
 
 @compiled(nogil=True)
 def body_form(record):
-    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
-    takes them: the bank (power table, poles, sample rate, the listener's gains and their
-    sequence numbers), the voice slots' modal states (with their parked modes), the
-    pending ring, the PULSE form's transform and pulses, the voices."""
+    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body` takes
+    them: the bank (power table, poles, rate, the listener's gains and their sequence), the
+    slots' modal states, the pending ring, the pulses' transform and PULSE form, the voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
@@ -252,8 +216,7 @@ def body_form(record):
 
 @compiled(nogil=True, inline="always")
 def rolling_form(record):
-    """Views of a body's rolling slots' arrays (:func:`synth.live.rolling_block.rolling_arrays`)
-    and of its listener's gains (``heard``, ``heard_seq``) from its ``record``, as
+    """Views of a body's rolling slots and listener's gains, as
     :func:`synth.live.rolling_block.mix_rolls` takes them."""
     R = record[B_ROLLS]
     K = record[B_MODES]
@@ -283,11 +246,9 @@ def event_ring(ctl):
 
 
 def touch(a: np.ndarray) -> np.ndarray:
-    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
-    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
-    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
-    only copied at its first write. One byte of each page (and the last byte) is written
-    with its own value; a read-only array is read instead. Returns ``a``."""
+    """Map every page of the C-contiguous array ``a`` now (calloc'd pages are mapped at their
+    first access, a zero page copied at its first write), so the audio thread never takes a
+    page fault on it: a byte of each page is rewritten (read, if read-only). Returns ``a``."""
     b = a.reshape(-1).view(np.uint8)
     if b.size == 0:
         return a
@@ -300,10 +261,9 @@ def touch(a: np.ndarray) -> np.ndarray:
 
 
 class EngineState:
-    """The arrays the audio thread works on, allocated once: ``samplerate`` Hz, ``channels``,
-    ``max_bodies``, mixing scratch of ``mix_frames``, a recording of ``record_frames``, a ring
-    of ``events``, the limiter's state (``limit`` or None), ``transforms_per_block`` and the
-    rolling block's address (``roller``, 0: none)."""
+    """The arrays the audio thread works on, allocated once (``samplerate`` Hz, scratch of
+    ``mix_frames``, ``limit`` the limiter's state or None, ``roller`` the rolling block's
+    address or 0)."""
 
     def __init__(
         self,
@@ -383,8 +343,8 @@ class EngineState:
         return self.ctl.ctypes.data
 
     def add_body(self, arrays: dict) -> np.ndarray:
-        """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
-        audio thread: its record is written, then counted. Returns the record."""
+        """Publish a body (arrays and sizes by :data:`BODY_FIELDS` name) to the audio thread:
+        its record is written, then counted. Returns the record."""
         n = int(self.ctl[N_BODIES])
         free = [i for i, r in enumerate(self.records) if r is None]
         if not free and n >= self.directory.shape[0]:
@@ -413,27 +373,23 @@ class EngineState:
         return sum(1 for r in self.records if r is not None)
 
     def vacate(self, index: int) -> tuple[int, int]:
-        """Take body ``index`` out of the mixing: its directory entry points to the vacant
-        record from now on (one atomic word). Returns the mixing's progress then (the next
-        frame, the callbacks), for :meth:`left`."""
+        """Point body ``index``'s directory entry at the vacant record (one atomic word);
+        returns the mixing's progress (next frame, callbacks) for :meth:`left`."""
         progress = int(self.ctl[FRAME]), int(self.ctl[CALLBACKS])
         self.directory[index] = self.vacant.ctypes.data
         return progress
 
     def left(self, progress: tuple[int, int]) -> bool:
-        """Whether every block that may have read a directory entry before :meth:`vacate`
-        returned ``progress`` has ended (a piece mixed since, or a callback returned)."""
+        """Whether every block that may have read the entry :meth:`vacate` changed has ended."""
         return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
 
     def release(self, index: int) -> None:
-        """Let go of body ``index``'s arrays (vacated, and left by the mixing); its entry
-        is taken again by the next :meth:`add_body`."""
+        """Let go of body ``index``'s arrays (vacated and left); its entry is free again."""
         self.records[index] = None
 
     def anchor(self) -> tuple[int, float, float]:
-        """The last callback's first frame, the monotonic time (s) at which it leaves the
-        device and the callbacks so far (0: none yet): a consistent reading (the callback
-        writes them between two increments of a sequence number)."""
+        """The last callback's first frame, the monotonic time (s) it leaves the device and the
+        callbacks so far, read consistently under the callback's sequence number."""
         c, t = self.ctl, self.times
         while True:
             seq = int(c[SEQ])
@@ -458,12 +414,11 @@ def body_arrays(
     pan: float = math.nan,
     rolls: dict | None = None,
 ) -> dict:
-    """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
-    ``coefficients`` (:class:`~synth.sound.modal_bank.BankCoefficients`), power ``table``,
-    voice slots' states (:func:`synth.live.kernel.body_state`), pending ``ring``
-    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``, output ``channel``
-    (-1: all), ``steal_frames`` (samples, at most ``mix_frames``), ``ears``, the listener's
-    complex ``gains`` (K,), ``pan`` (NaN: unpanned) and ``rolls`` (None: none)."""
+    """A body's arrays and sizes by :data:`BODY_FIELDS` name for :meth:`EngineState.add_body`,
+    from its bank ``coefficients``, power ``table``, slots' states
+    (:func:`synth.live.kernel.body_state`), pending ``ring``, omission ``floor``, output
+    ``channel`` (-1: all), steal fade (samples), the listener's complex ``gains`` (K,),
+    ``pan`` (NaN: unpanned) and rolling slots (None: none)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
