@@ -16,15 +16,7 @@ from synth.live import heard as hd
 from synth.live import kernel, native, rolling
 from synth.live import state as st
 from synth.live.atomics import fence
-from synth.live.hits import (
-    HIT_RTOL,
-    MAX_GAIN,
-    MAX_SPEED,
-    Trigger,
-    check_height,
-    closed,
-    trigger,
-)
+from synth.live.hits import HIT_RTOL, MAX_GAIN, MAX_SPEED, Trigger, check_height, closed, trigger
 from synth.live.queue import PendingRing
 from synth.live.voice import Voice, check_priority, stop_frames, stop_records
 from synth.physics.bounces import simulate_bounces
@@ -54,6 +46,9 @@ MAX_SLOT_GRID = 4097
 DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
 KEPT_POINTS = 64
+#: A PULSE slot's scalars in the order :meth:`Body._hand_over` writes them.
+PULSE_FIELDS = [kernel.STEP, kernel.OFFSET, kernel.WEIGHT, kernel.CONTACT_TIME, kernel.ORDER,
+                kernel.GAIN, kernel.MASS_LINE]  # fmt: skip
 #: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
 WARM_UP_BALL_RADIUS = 0.005
 
@@ -104,31 +99,20 @@ class Body:
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
-            engine.max_pending,
-            poles.size,
-            samples_in_contact(MAX_CONTACT, fs),
+            engine.max_pending, poles.size, samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
-            engine.max_hits_per_block,
-            voices=engine.max_pending + voices,
-        )
+            engine.max_hits_per_block, voices=engine.max_pending + voices,
+        )  # fmt: skip
         self._state_arrays = kernel.body_state(poles.size, voices)
         self._warm_up()
         self._move_lock = threading.Lock()  # between the game's threads moving the listener
+        frames = engine._native.mix.shape[1]
         arrays = st.body_arrays(
-            coefficients,
-            power_table(poles, float(fs)),
-            self._state_arrays,
-            self._ring,
-            engine.floor,
-            gain,
-            channel,
-            steal_frames=engine._steal_frames,
-            mix_frames=engine._native.mix.shape[1],
-            ears=ears,
-            gains=model.output,
-            pan=pan,
-            rolls=rolling.body_rolls(engine.max_rolls, model, engine._native.mix.shape[1]),
-        )
+            coefficients, power_table(poles, float(fs)), self._state_arrays, self._ring,
+            engine.floor, gain, channel, steal_frames=engine._steal_frames, mix_frames=frames,
+            ears=ears, gains=model.output, pan=pan,
+            rolls=rolling.body_rolls(engine.max_rolls, model, frames),
+        )  # fmt: skip
         self._rolls = {k: v for k, v in arrays.items() if k.startswith("roll")}
         self._roll_step = rolling.table_step(model)
         self._roll_lock, self._roll_holds = threading.Lock(), [None] * engine.max_rolls
@@ -365,22 +349,11 @@ class Body:
             return False
         try:
             # the plate's amplitudes for the voice's state; the response and peak heard
-            impact_excitation(
-                prepared.plate,
-                result,
-                onset,
-                weight=weight,
-                pulse_points=self._engine.pulse_points,
-                amplitudes=ring.amplitudes[slot],
-            )
-            ex = impact_excitation(
-                prepared.coefficients,
-                result,
-                onset,
-                weight=weight,
-                pulse_points=self._engine.pulse_points,
-                response=ring.response[slot],
-            )
+            points = self._engine.pulse_points
+            impact_excitation(prepared.plate, result, onset, weight=weight, pulse_points=points,
+                              amplitudes=ring.amplitudes[slot])  # fmt: skip
+            ex = impact_excitation(prepared.coefficients, result, onset, weight=weight,
+                                   pulse_points=points, response=ring.response[slot])  # fmt: skip
         except BaseException:
             if own:
                 ring.release(slot)
@@ -416,14 +389,9 @@ class Body:
             result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M, out=ring.samples[slot])
             ring.coefficients[slot, 0] = prepared.plate.coef_re  # the audio thread hears them
             ring.coefficients[slot, 1] = prepared.plate.coef_im
-            p = ring.pulse[slot]
-            p[kernel.STEP] = lay.step
-            p[kernel.OFFSET] = lay.offset
-            p[kernel.WEIGHT] = 0.0
-            p[kernel.CONTACT_TIME] = result.separation_time
-            p[kernel.ORDER] = result.pulse_order
-            p[kernel.GAIN] = self._scale * gain
-            p[kernel.MASS_LINE] = prepared.mass_line
+            ring.pulse[slot, PULSE_FIELDS] = (lay.step, lay.offset, 0.0, result.separation_time,
+                                              result.pulse_order, self._scale * gain,
+                                              prepared.mass_line)  # fmt: skip
         except BaseException:
             ring.release(slot, pulse=True)
             raise
@@ -435,14 +403,9 @@ class Body:
         key = (tr.ball, tr.law, tr.gravity)
         solver = self._solvers.get(key)
         if solver is None:
-            solver = ContactSolver.for_pair(
-                tr.ball,
-                self.plate,
-                gravity=tr.gravity,
-                law=tr.law.law,
-                rtol=HIT_RTOL,
-                **tr.law.options(),
-            )
+            solver = ContactSolver.for_pair(tr.ball, self.plate, gravity=tr.gravity,
+                                            law=tr.law.law, rtol=HIT_RTOL,
+                                            **tr.law.options())  # fmt: skip
             _keep(self._solvers, key, solver)
         return solver
 
@@ -540,16 +503,9 @@ class Body:
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
         law = tr.law
-        sequence = simulate_bounces(
-            tr.ball,
-            self.plate,
-            drop_height=h,
-            position=tr.position,
-            gravity=tr.gravity,
-            contact_law=law.law,
-            rtol=law.rtol,
-            **law.options(),
-        )
+        sequence = simulate_bounces(tr.ball, self.plate, drop_height=h, position=tr.position,
+                                    gravity=tr.gravity, contact_law=law.law, rtol=law.rtol,
+                                    **law.options())  # fmt: skip
         if len(sequence) > self._ring.capacity:
             raise ParameterError(
                 f"the drop from height={height!r} m has {len(sequence)} impacts, more than "

@@ -64,25 +64,21 @@ class EngineBookkeeping:
         if not self._retiring or not self._reap_lock.acquire(blocking=False):
             return
         try:
-            self._reap_bodies()
+            for item in list(self._retiring):
+                body, progress = item
+                if progress is None:
+                    if not body.awake:
+                        item[1] = [self._native.vacate(ear._index) for ear in body._ears]
+                elif all(self._native.left(p) for p in progress):
+                    self._retired_counters += body._counters
+                    self._retired_refused += body._ring.refused
+                    for ear in body._ears:
+                        self._native.release(ear._index)
+                    body._free()
+                    self._bodies = tuple(b for b in self._bodies if b is not body)
+                    self._retiring.remove(item)
         finally:
             self._reap_lock.release()
-
-    def _reap_bodies(self) -> None:
-        for item in list(self._retiring):
-            body, progress = item
-            if progress is None:
-                if body.awake:
-                    continue
-                item[1] = [self._native.vacate(ear._index) for ear in body._ears]
-            elif all(self._native.left(p) for p in item[1]):
-                self._retired_counters += body._counters
-                self._retired_refused += body._ring.refused
-                for ear in body._ears:
-                    self._native.release(ear._index)
-                body._free()
-                self._bodies = tuple(b for b in self._bodies if b is not body)
-                self._retiring.remove(item)
 
     @property
     def running(self) -> bool:

@@ -173,18 +173,12 @@ class Engine(EngineBookkeeping):
         self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
         roller = _compile_the_block(rolling=self.max_rolls > 0)
         self._native = st.EngineState(
-            samplerate=self.samplerate,
-            channels=self.channels,
-            max_bodies=max_bodies,
-            mix_frames=max(self.blocksize, 4096),
-            record_frames=int(round(rec * self.samplerate)),
-            fade_frames=max(1, int(round(fade_s * self.samplerate))),
-            clip=clip,
-            transforms_per_block=self.max_hits_per_block,
-            events=EVENT_CAPACITY,
-            limit=limit,
+            samplerate=self.samplerate, channels=self.channels, max_bodies=max_bodies,
+            mix_frames=max(self.blocksize, 4096), record_frames=int(round(rec * self.samplerate)),
+            fade_frames=max(1, int(round(fade_s * self.samplerate))), clip=clip,
+            transforms_per_block=self.max_hits_per_block, events=EVENT_CAPACITY, limit=limit,
             roller=roller,
-        )
+        )  # fmt: skip
         self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()
         self._stream = None
@@ -380,13 +374,13 @@ class Engine(EngineBookkeeping):
     def process(self, frames: int) -> np.ndarray:
         """Mix the next ``frames`` frames without a device, in blocks of ``blocksize``: float32
         (frames, channels), the samples the stream's callback would emit."""
-        limit = int(MAX_SECONDS * self.samplerate)
-        n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
+        out = self._new_block(frames)
         if self.running:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
-        out = np.empty((n, self.channels), dtype=np.float32)
-        for a in range(0, n, self.blocksize):  # the callback's blocks, removed bodies reaped
+        for a in range(
+            0, out.shape[0], self.blocksize
+        ):  # the callback's blocks, removed bodies reaped
             self.mix_into(out[a : a + self.blocksize])
         return out
 
@@ -405,9 +399,12 @@ class Engine(EngineBookkeeping):
 
     def render_block(self, frames: int) -> np.ndarray:
         """The next ``frames`` frames as one block (:meth:`mix_into` of a new array)."""
+        return self.mix_into(self._new_block(frames))
+
+    def _new_block(self, frames: int) -> np.ndarray:
         limit = int(MAX_SECONDS * self.samplerate)
         n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
-        return self.mix_into(np.empty((n, self.channels), dtype=np.float32))
+        return np.empty((n, self.channels), dtype=np.float32)
 
     def start(self) -> Engine:
         """Open the output stream and mix from the engine's clock where it stands; SynthError
@@ -424,15 +421,10 @@ class Engine(EngineBookkeeping):
                 native.transform_pending(ear._record)
         try:
             stream = open_stream(
-                sd,
-                self._native,
-                self.callback,
-                samplerate=self.samplerate,
-                blocksize=self.blocksize,
-                device=self.device,
-                channels=self.channels,
+                sd, self._native, self.callback, samplerate=self.samplerate,
+                blocksize=self.blocksize, device=self.device, channels=self.channels,
                 latency=self.latency_setting,
-            )
+            )  # fmt: skip
         except sd.PortAudioError as exc:
             raise SynthError(
                 f"cannot open the output device {info['name']!r} at "

@@ -10,14 +10,7 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.physics.scene import (
-    MAX_DROP_HEIGHT,
-    MIN_DROP_HEIGHT,
-    Ball,
-    Contact,
-    HollowBall,
-    Plate,
-)
+from synth.physics.scene import MAX_DROP_HEIGHT, MIN_DROP_HEIGHT, Ball, Contact, HollowBall, Plate
 
 #: Largest speed of a hit, m/s: far beyond the elastic range of every material in the table
 #: (metal balls dent above a few m/s), a bound against nonsense, not a physical limit.

@@ -56,6 +56,9 @@ SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL, N_SLOT_FIELDS = r
 #: A voice slot's gain (``slot_gain`` columns): at the block's start, and its target.
 G_NOW, G_NEXT = range(2)
 
+#: A sample no impact reaches (beyond every pending injection).
+NEVER = 1 << 62
+
 #: A voice-ended event (int64, in the engine's event ring): ``id * EVENT_EARS + ears``.
 EVENT_EARS = 128
 
@@ -160,28 +163,14 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
 
 
 @compiled(nogil=True)
-def _next_due(state, inject, end):
-    """The pending slot with the earliest injection before ``end``, or -1."""
+def _earliest(state, inject, form, end):
+    """The slot in ``form`` (READY or PULSE) with the earliest injection before ``end``, or -1."""
     best = -1
     when = end
     for i in range(state.shape[0]):
-        if state[i] == READY:
+        if state[i] == form:
             fence()  # the slot's data after its state word
             if inject[i] < when:
-                when = inject[i]
-                best = i
-    return best
-
-
-@compiled(nogil=True)
-def _next_pulse(state, inject):
-    """The slot in the PULSE form whose impact starts first, or -1."""
-    best = -1
-    when = 0
-    for i in range(state.shape[0]):
-        if state[i] == PULSE:
-            fence()  # the slot's data after its state word
-            if best < 0 or inject[i] < when:
                 when = inject[i]
                 best = i
     return best
@@ -200,7 +189,7 @@ def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
     inject = ring[1]
     count = 0
     while limit < 0 or count < limit:
-        i = _next_pulse(state, inject)
+        i = _earliest(state, inject, PULSE, NEVER)
         if i < 0:
             break
         n = points[i]
@@ -544,7 +533,7 @@ def mix_body(
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
-    due = _next_due(state, inject, end + (1 << 40))
+    due = _earliest(state, inject, READY, NEVER)
     if counters[AWAKE] == 0 and due < 0:
         return pulses
     counters[AWAKE] = 1
@@ -554,7 +543,7 @@ def mix_body(
         _contact_samples(out, t0, n, ring, voice_form, counters, events)
     _begin_voices(t0, voice_form)
     while True:
-        i = _next_due(state, inject, end)
+        i = _earliest(state, inject, READY, end)
         if i < 0:
             break
         at = inject[i]
@@ -622,21 +611,13 @@ def silence(modal, ring, transformed, voice_form, counters, events):
     counters[SILENCE] = 0
 
 
-def body_state(modes: int, voices: int) -> tuple:
-    """The silent modal states of ``voices`` slots of ``modes`` modes (voices, modes): re,
-    im, ringing flags, omission debts and their samples, thresholds and their squares; each
-    slot's peak (voices,); the parked states of stopped modes (re, im) and their samples."""
-    shape = (voices, modes)
-    return (
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.bool_),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.int64),
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(voices),
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.int64),
-    )
+def body_state(modes: int, voices: int) -> dict:
+    """The silent modal states of ``voices`` slots of ``modes`` modes by body-record name
+    (voices, modes): re, im, ringing flags, omission debts and their samples, thresholds and
+    their squares, the parked states of stopped modes (re, im) and their samples; and each
+    slot's peak ``level`` (voices,)."""
+    names = ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2", "park_r", "park_i",
+             "park_at")  # fmt: skip
+    types = (float, float, np.bool_, float, np.int64, float, float, float, float, np.int64)
+    arrays = {name: np.zeros((voices, modes), dtype) for name, dtype in zip(names, types)}
+    return arrays | {"level": np.zeros(voices)}

@@ -13,24 +13,8 @@ import threading
 
 import numpy as np
 
+from synth.live import kernel
 from synth.live.atomics import publish
-from synth.live.kernel import (
-    FREE,
-    N_PULSE_FIELDS,
-    N_VOICE_FIELDS,
-    PULSE,
-    READY,
-    V_DEAD,
-    V_FREE,
-    V_ID,
-    V_LIVE,
-    V_PLAYED,
-    V_PRIORITY,
-    V_PUT,
-    V_SLOT,
-    V_STATE,
-    V_STOP,
-)
 
 #: Slot state while a producer fills it: not the least, so a FREE slot is ``state``'s minimum.
 WRITING = 2
@@ -51,8 +35,8 @@ class PendingRing:
         voices: int = 1,
     ):
         self.voice = np.zeros(capacity, dtype=np.int64)  # each slot's voice record
-        self.voices = np.zeros((voices, N_VOICE_FIELDS), dtype=np.int64)
-        self.voices[:, V_SLOT] = -1
+        self.voices = np.zeros((voices, kernel.N_VOICE_FIELDS), dtype=np.int64)
+        self.voices[:, kernel.V_SLOT] = -1
         self.voice_gain = np.ones(voices)
         self.state = np.zeros(capacity, dtype=np.int64)
         self.inject = np.zeros(capacity, dtype=np.int64)
@@ -67,7 +51,7 @@ class PendingRing:
         self.coefficients = np.zeros((capacity, 2, modes))
         self.samples = np.zeros((capacity, 2, pulse_samples))
         self.points = np.zeros(capacity, dtype=np.int64)
-        self.pulse = np.zeros((capacity, N_PULSE_FIELDS))
+        self.pulse = np.zeros((capacity, kernel.N_PULSE_FIELDS))
         for a in (self.amplitudes, self.response, self.coefficients, self.samples):
             a.fill(0.0)  # touch every page now, not at a hit
         self.max_new = max_new
@@ -91,41 +75,44 @@ class PendingRing:
 
     def pending(self) -> int:
         """Impacts handed over and not yet played."""
-        return int(np.count_nonzero((self.state == READY) | (self.state == PULSE)))
+        return int(np.count_nonzero((self.state == kernel.READY) | (self.state == kernel.PULSE)))
 
     def open_voice(self, vid: int, impacts: int, priority: int = 0) -> int:
         """A free voice record for voice ``vid`` of ``priority`` handing over ``impacts``, or -1
         (counted in ``refused``)."""
         with self._lock:
-            r = int(self.voices[:, V_STATE].argmin())
-            if self.voices[r, V_STATE] != V_FREE:
+            r = int(self.voices[:, kernel.V_STATE].argmin())
+            if self.voices[r, kernel.V_STATE] != kernel.V_FREE:
                 self.refused += impacts
                 return -1
             v = self.voices[r]
-            v[V_ID] = vid
-            v[V_PUT] = impacts
-            v[V_PLAYED] = 0
-            v[V_STOP] = -1
-            v[V_DEAD] = 0
-            v[V_SLOT] = -1
-            v[V_PRIORITY] = priority
+            v[kernel.V_ID] = vid
+            v[kernel.V_PUT] = impacts
+            v[kernel.V_PLAYED] = 0
+            v[kernel.V_STOP] = -1
+            v[kernel.V_DEAD] = 0
+            v[kernel.V_SLOT] = -1
+            v[kernel.V_PRIORITY] = priority
             self.voice_gain[r] = 1.0
-            v[V_STATE] = V_LIVE
+            v[kernel.V_STATE] = kernel.V_LIVE
             return r
 
     def close_voice(self, r: int, unsent: int) -> None:
         """Take back ``unsent`` of the impacts record ``r`` announced; with none left, free it."""
         with self._lock:
             v = self.voices[r]
-            v[V_PUT] -= unsent
-            if v[V_PUT] == 0:
-                v[V_STATE] = V_FREE
+            v[kernel.V_PUT] -= unsent
+            if v[kernel.V_PUT] == 0:
+                v[kernel.V_STATE] = kernel.V_FREE
             else:
-                v[V_STOP] = max(int(v[V_STOP]), 0)  # what was handed over is dropped
+                v[kernel.V_STOP] = max(int(v[kernel.V_STOP]), 0)  # handed-over impacts drop
 
     def voice_alive(self, r: int, vid: int) -> bool:
         """Whether voice record ``r`` still holds voice ``vid`` (lock-free)."""
-        return int(self.voices[r, V_STATE]) == V_LIVE and int(self.voices[r, V_ID]) == vid
+        return (
+            int(self.voices[r, kernel.V_STATE]) == kernel.V_LIVE
+            and int(self.voices[r, kernel.V_ID]) == vid
+        )
 
     def control_voice(self, r: int, vid: int, gain=None, stop=None) -> None:
         """Set voice ``vid``'s gain or ask its stop fade (samples; the first is kept), if record
@@ -135,8 +122,8 @@ class PendingRing:
                 return
             if gain is not None:
                 self.voice_gain[r] = gain
-            if stop is not None and self.voices[r, V_STOP] < 0:
-                self.voices[r, V_STOP] = stop
+            if stop is not None and self.voices[r, kernel.V_STOP] < 0:
+                self.voices[r, kernel.V_STOP] = stop
 
     def reserve(self, pulse: bool = False, bounded: bool = True, voice: int = 0) -> int:
         """A FREE slot for an impact of voice record ``voice``, marked WRITING for the caller
@@ -144,9 +131,9 @@ class PendingRing:
         full or, for a pulse if ``bounded`` (a device's deadline), ``max_new`` wait."""
         with self._lock:
             i = self._next
-            if self.state[i] != FREE:  # slots mostly free in the order they were taken
+            if self.state[i] != kernel.FREE:  # slots mostly free in the order they were taken
                 i = int(self.state.argmin())
-            if self.state[i] != FREE or (
+            if self.state[i] != kernel.FREE or (
                 pulse and bounded and self.pulses - int(self.transformed[0]) >= self.max_new
             ):
                 self.refused += 1
@@ -161,7 +148,7 @@ class PendingRing:
     def reserve_many(self, n: int, voice: int = 0) -> list[int] | None:
         """``n`` FREE slots for voice record ``voice``, marked WRITING, or None (counted)."""
         with self._lock:
-            free = np.flatnonzero(self.state == FREE)
+            free = np.flatnonzero(self.state == kernel.FREE)
             if free.size < n:
                 self.refused += n
                 return None
@@ -177,7 +164,7 @@ class PendingRing:
         self.first[slot] = first
         self.inject[slot] = inject
         self.reference[slot] = reference
-        publish(self.state, slot, READY)  # last: the audio thread reads the slot from now on
+        publish(self.state, slot, kernel.READY)  # last: the audio thread reads it
 
     def publish_pulse(self, slot: int, inject: int, first: int, length: int, points: int):
         """Hand ``slot`` over in the PULSE form: ``points`` grid samples then ``length``
@@ -186,11 +173,11 @@ class PendingRing:
         self.length[slot] = length
         self.first[slot] = first
         self.inject[slot] = inject
-        publish(self.state, slot, PULSE)  # last, as in publish
+        publish(self.state, slot, kernel.PULSE)  # last, as in publish
 
     def release(self, slot: int, pulse: bool = False) -> None:
         """Give a reserved slot back unfilled (its impact failed before publishing)."""
         with self._lock:
             if pulse:
                 self.pulses -= 1
-            self.state[slot] = FREE
+            self.state[slot] = kernel.FREE

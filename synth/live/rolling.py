@@ -311,9 +311,7 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
         rb.I_ENV: coef_env.ctypes.data, rb.I_ENV_N: coef_env.shape[0],
         rb.I_OFF: offsets.ctypes.data, rb.I_OFF_N: offsets.size, rb.I_BLOCK: -1,
     }  # fmt: skip
-    iv = arrays["roll_ints"][r]
-    for field, value in values.items():
-        iv[field] = value
+    arrays["roll_ints"][r, list(values)] = list(values.values())
 
 
 def _fill_slot(body, r, lead, gain) -> None:
@@ -340,7 +338,6 @@ def _fill_slot(body, r, lead, gain) -> None:
     rows.update(rb.heard_coefficients(gains, p, body._scale, accelerometer))
     for row, values in rows.items():
         coef[row] = values
-    iv = arrays["roll_ints"][r]
     contact = lead._rolls
     values = {
         rb.I_STARTED: 0, rb.I_OVERRUN: 0, rb.I_EARS: int(body._counters[kernel.EARS]),
@@ -350,6 +347,5 @@ def _fill_slot(body, r, lead, gain) -> None:
         rb.I_C_Y: contact["roll_y"][r].ctypes.data,
         rb.I_C_BUF: contact["roll_buf"][r].ctypes.data,
     }  # fmt: skip
-    for field, value in values.items():
-        iv[field] = value
+    arrays["roll_ints"][r, list(values)] = list(values.values())
     arrays["roll_meta"][r] = 0.0

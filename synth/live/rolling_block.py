@@ -139,11 +139,6 @@ def rolling_arrays(slots: int, modes: int, rows: int, frames: int) -> dict:
 
 
 @compiled(nogil=True, inline="always")
-def _carray2(address, a, b):
-    return numba.carray(pointer_to(address), (a, b), np.float64)
-
-
-@compiled(nogil=True, inline="always")
 def _direct_weights(d, row):
     """``sum_k d_k row_k``: an accelerometer's direct term per newton at a table row."""
     acc = 0.0
@@ -328,7 +323,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
         speeds = buf[W_SPEED]
         for j in range(n):
             speeds[j] = speed
-        env = _carray2(cv[I_ENV], cv[I_ENV_N], 4)
+        env = numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64)
         status, steps, _, _, h = roll(
             y, cf[F_H], env, cf[F_DX], speeds[:n], cf[F_M], cf[F_K], cf[F_N], cf[F_MU],
             cf[F_B], cf[F_BETA], cf[F_G], fs, cf[F_RTOL], cf[F_DREF], cf[F_HMAX],

@@ -289,40 +289,21 @@ class EngineState:
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
-        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
-                  self.recording):  # fmt: skip
-            touch(a)
         self.records: list = []  # the bodies' records and arrays, kept alive here
-        c, t = self.ctl, self.times
-        c[FADE_AT] = -1
-        c[FADE_LENGTH] = fade_frames
-        c[FADE_FRAME] = -1
-        c[MAX_BODIES] = max_bodies
-        c[CHANNELS] = channels
-        c[MIX_CAP] = mix_frames
-        c[RECORD_FRAMES] = record_frames
-        c[TIMES] = t.ctypes.data
-        c[DIRECTORY] = self.directory.ctypes.data
-        c[ALLOW] = self.allow.ctypes.data
-        c[TRANSFORM_BUDGET] = transforms_per_block
-        c[MIX] = self.mix.ctypes.data
-        c[SCRATCH] = self.scratch.ctypes.data
-        c[RECORD] = self.recording.ctypes.data
-        c[CLIP] = int(bool(clip))
-        c[ROLLER] = roller
         self.limiter = limit
+        c, t = self.ctl, self.times
+        arrays = (self.directory, self.allow, self.mix, self.scratch, self.events, self.recording)
+        c[[DIRECTORY, ALLOW, MIX, SCRATCH, EVENTS, RECORD]] = [touch(a).ctypes.data for a in arrays]
+        sizes = (self.events.shape[0], max_bodies, channels, mix_frames, record_frames)
+        c[[N_EVENTS, MAX_BODIES, CHANNELS, MIX_CAP, RECORD_FRAMES]] = sizes
+        c[[TIMES, TRANSFORM_BUDGET, CLIP]] = (t.ctypes.data, transforms_per_block, clip)
+        c[[FADE_AT, FADE_LENGTH, FADE_FRAME, ROLLER]] = (-1, fade_frames, -1, roller)
         if limit is not None:
             c[LIMIT] = 1
-            for field, a in zip(
-                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
-            ):
-                c[field] = a.ctypes.data
+            lim = [a.ctypes.data for a in limit.arrays()]
+            c[[LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M]] = lim
             t[LIMIT_DELAY] = limit.delay / samplerate
-        c[EVENTS] = self.events.ctypes.data
-        c[N_EVENTS] = self.events.shape[0]
-        t[SAMPLERATE] = samplerate
-        t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
-        t[PAUSE_LEVEL] = 1.0
+        t[[SAMPLERATE, MASTER_GAIN, MASTER_NOW, PAUSE_LEVEL]] = (samplerate, 1.0, 1.0, 1.0)
         # the record a removed body's directory entry points to: a body with no voice
         # slot and no pending slot, asleep for good (the callback returns at once)
         self._vacant_arrays = dict(
@@ -424,8 +405,7 @@ def body_arrays(
     c = coefficients
     fs = float(c.samplerate)
     K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
-    V = zr.shape[0]
+    V = modal_state["zr"].shape[0]
     heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
     voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
     voice_slots[:, kernel.SL_OWNER] = -1
@@ -434,22 +414,16 @@ def body_arrays(
     counters[kernel.STEAL_FRAMES] = steal_frames
     tail = np.zeros(mix_frames + steal_frames)
     scalars = np.zeros(N_SCALARS)
-    scalars[S_FS] = fs
-    scalars[S_FLOOR] = floor
-    scalars[S_SIGMA_MAX] = c.sigma_max
-    scalars[S_PERIOD] = 1.0 / fs
-    scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
-    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
+    fields = [S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW]
+    scalars[fields] = (fs, floor, c.sigma_max, 1.0 / fs, gain, gain, pan, pan)
     work = transform_workspace(K)
     if rolls is None:
         rolls = rolling_block.rolling_arrays(0, K, 2, 1)
-    return rolls | dict(
+    return rolls | modal_state | dict(
         table=np.ascontiguousarray(table),
-        poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
-        zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
-        thr2=thr2, level=level, state=ring.state, inject=ring.inject, first=ring.first,
-        length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
-        reference=ring.reference, counters=counters,
+        poles=np.ascontiguousarray(c.poles, dtype=np.complex128), state=ring.state,
+        inject=ring.inject, first=ring.first, length=ring.length, amplitudes=ring.amplitudes,
+        response=ring.response, reference=ring.reference, counters=counters,
         pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
         step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
         work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
@@ -459,6 +433,6 @@ def body_arrays(
         channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
         voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
         n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
-        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
+        heard=heard, heard_seq=heard_seq,
         heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
     )  # fmt: skip

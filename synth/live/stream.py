@@ -45,13 +45,10 @@ def open_stream(sd, state, callback: str, **settings):
 
     ffi = cffi.FFI()
     return sd._StreamBase(
-        kind="output",
-        wrap_callback=None,
+        kind="output", wrap_callback=None, dtype="float32",
         callback=ffi.cast("void *", native.stream_callback().address),
-        userdata=ffi.cast("void *", state.address),
-        dtype="float32",
-        **settings,
-    )
+        userdata=ffi.cast("void *", state.address), **settings,
+    )  # fmt: skip
 
 
 #: Seconds the finaliser of a collected running engine waits for its stream to close.
