@@ -56,7 +56,8 @@ SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL, N_SLOT_FIELDS = r
 #: A voice slot's gain (``slot_gain`` columns): at the block's start, and its target.
 G_NOW, G_NEXT = range(2)
 
-#: A sample no impact reaches (beyond every pending injection).
+#: A sample no impact reaches (beyond every pending injection); the kernels pass it, as the
+#: slot states, as an int64: a literal argument would compile a callee once more.
 NEVER = 1 << 62
 
 #: A voice-ended event (int64, in the engine's event ring): ``id * EVENT_EARS + ears``.
@@ -189,7 +190,7 @@ def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
     inject = ring[1]
     count = 0
     while limit < 0 or count < limit:
-        i = _earliest(state, inject, PULSE, NEVER)
+        i = _earliest(state, inject, np.int64(PULSE), np.int64(NEVER))
         if i < 0:
             break
         n = points[i]
@@ -418,17 +419,10 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
         if s < 0:
             return -1
         _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events)
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
-    park_r, park_i = modal[8], modal[9]
-    for k in range(zr.shape[1]):
-        zr[s, k] = 0.0
-        zi[s, k] = 0.0
-        active[s, k] = False
-        debt[s, k] = 0.0
-        thresholds[s, k] = 0.0
-        thr2[s, k] = 0.0
-        park_r[s, k] = 0.0
-        park_i[s, k] = 0.0
+    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i = modal[:10]
+    for a in (zr, zi, debt, thresholds, thr2, park_r, park_i):
+        a[s, :] = 0.0
+    active[s, :] = False
     level[s] = 0.0
     slots[s, SL_OWNER] = r
     slots[s, SL_START] = at
@@ -533,7 +527,7 @@ def mix_body(
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
-    due = _earliest(state, inject, READY, NEVER)
+    due = _earliest(state, inject, np.int64(READY), np.int64(NEVER))
     if counters[AWAKE] == 0 and due < 0:
         return pulses
     counters[AWAKE] = 1
@@ -543,7 +537,7 @@ def mix_body(
         _contact_samples(out, t0, n, ring, voice_form, counters, events)
     _begin_voices(t0, voice_form)
     while True:
-        i = _earliest(state, inject, READY, end)
+        i = _earliest(state, inject, np.int64(READY), end)
         if i < 0:
             break
         at = inject[i]

@@ -98,16 +98,12 @@ class LimiterState:
         self.x = np.zeros((delay + 1, channels))
         self.r = np.ones(attack + 2 * REACH + 1)
         self.m = np.ones(attack + 1)
-        i, f = self.ints, self.floats
-        i[I_BELOW_AT] = -(1 << 62)
-        i[I_DELAY] = delay
-        i[I_ATTACK] = attack
-        i[I_CHANNELS] = channels
-        f[F_CEILING] = ceiling * (1.0 - FLOAT32_MARGIN)
-        f[F_RELEASE] = 10.0 ** (RELEASE_DB_PER_S / 20.0 / samplerate)
-        f[F_GAIN] = 1.0
-        f[F_SUM] = attack + 1.0
-        f[F_MIN_GAIN] = 1.0
+        self.ints[[I_BELOW_AT, I_DELAY, I_ATTACK, I_CHANNELS]] = (-(1 << 62), delay, attack,
+                                                                  channels)  # fmt: skip
+        release = 10.0 ** (RELEASE_DB_PER_S / 20.0 / samplerate)
+        self.floats[[F_CEILING, F_RELEASE, F_GAIN, F_SUM, F_MIN_GAIN]] = (
+            ceiling * (1.0 - FLOAT32_MARGIN), release, 1.0, attack + 1.0, 1.0
+        )  # fmt: skip
 
     def arrays(self) -> tuple:
         return self.ints, self.floats, self.taps, self.x, self.r, self.m

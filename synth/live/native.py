@@ -84,9 +84,7 @@ def _mix_one_body(ctl, record, scratch, mix, t0, n, limit):
     R = record[st.B_SLOTS]
     state = st.i64_at(record[st.B_STATE], R)
     if counters[kernel.SILENCE] != 0:
-        bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
-        rolling_block.silence_rolls(st.rolling_form(record)[0], st.event_ring(ctl))
-        kernel.silence(modal, ring, transformed, voice_form, counters, st.event_ring(ctl))
+        silence_body(ctl, record)
     g0 = scalars[st.S_GAIN_NOW]
     g1 = scalars[st.S_GAIN]
     p0 = scalars[st.S_PAN_NOW]
@@ -471,7 +469,8 @@ def transform_pending(record):
 
 @compiled(nogil=True)
 def silence_body(ctl, record):
-    """:func:`synth.live.kernel.silence` of a body now, on the calling thread (no stream)."""
+    """:func:`synth.live.kernel.silence` of a body and its rolling voices: a pending
+    ``stop_all``, or at once on the calling thread when no stream runs."""
     bank, modal, ring, transform, pulse_form, voice_form = st.body_form(record)
     counters = st.i64_at(record[st.B_COUNTERS], kernel.N_COUNTERS)
     transformed = st.i64_at(record[st.B_TRANSFORMED], 1)
@@ -490,21 +489,19 @@ def warm_up(rolling: bool = False) -> None:
     ring = PendingRing(1, 1, 2, 7, 1, voices=2)
     voice = ring.open_voice(1, 1)
     slot = ring.reserve(pulse=True, voice=voice)
-    ring.pulse[slot, kernel.GAIN] = 1.0
-    ring.pulse[slot, kernel.STEP] = 1e-5
-    ring.pulse[slot, kernel.CONTACT_TIME] = 4e-5
-    ring.pulse[slot, kernel.ORDER] = 2.5
+    ring.pulse[slot, [kernel.GAIN, kernel.STEP, kernel.CONTACT_TIME, kernel.ORDER]] = (
+        1.0, 1e-5, 4e-5, 2.5
+    )  # fmt: skip
     ring.publish_pulse(slot, 1, 0, 0, 5)
     state = st.EngineState(
         samplerate=fs, channels=1, max_bodies=1, mix_frames=8, record_frames=4,
         fade_frames=4, clip=True, transforms_per_block=1,
     )  # fmt: skip
     c = bank_coefficients(poles, np.ones(1), np.ones(1), float(fs))
-    table = power_table(poles, float(fs))
-    arrays = st.body_arrays(
-        c, table, kernel.body_state(1, 1), ring, 1e-4, 1.0, steal_frames=4, gains=np.ones(1)
-    )
-    record = state.add_body(arrays)
+    record = state.add_body(st.body_arrays(
+        c, power_table(poles, float(fs)), kernel.body_state(1, 1), ring, 1e-4, 1.0,
+        steal_frames=4, gains=np.ones(1),
+    ))  # fmt: skip
     transform_pending(record)
     out = np.zeros((8, 1), dtype=np.float32)
     run_block(state.ctl, out, 0, np.zeros(3))  # compiles the cfunc, or loads it

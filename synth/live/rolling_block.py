@@ -125,17 +125,11 @@ def rolling_arrays(slots: int, modes: int, rows: int, frames: int) -> dict:
     modes, tables of ``rows`` rows, work buffers of ``frames`` (the engine's mixing piece)."""
     return dict(
         roll_ints=np.zeros((slots, N_INTS), dtype=np.int64),
-        roll_floats=np.zeros((slots, N_FLOATS)),
-        roll_y=np.zeros((slots, N_STATE)),
-        roll_buf=np.zeros((slots, N_BUF, frames)),
-        roll_z=np.zeros((slots, 2, modes)),
-        roll_coef=np.zeros((slots, N_COEF, modes)),
-        roll_tables=np.zeros((slots, 3, rows, modes)),
-        roll_meta=np.zeros((slots, 3, N_META)),
-        n_rolls=slots,
-        roll_rows=rows,
-        roll_frames=frames,
-    )
+        roll_floats=np.zeros((slots, N_FLOATS)), roll_y=np.zeros((slots, N_STATE)),
+        roll_buf=np.zeros((slots, N_BUF, frames)), roll_z=np.zeros((slots, 2, modes)),
+        roll_coef=np.zeros((slots, N_COEF, modes)), roll_tables=np.zeros((slots, 3, rows, modes)),
+        roll_meta=np.zeros((slots, 3, N_META)), n_rolls=slots, roll_rows=rows, roll_frames=frames,
+    )  # fmt: skip
 
 
 @compiled(nogil=True, inline="always")

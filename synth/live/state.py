@@ -59,18 +59,6 @@ from synth.live.heard import N_HEARD_ROWS, heard_arrays
 ) = range(19)  # fmt: skip
 
 #: A body record (int64): addresses, then sizes.
-BODY_FIELDS = (
-    "table", "poles", "zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2",
-    "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
-    "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
-    "samples", "points", "pulse", "transformed", "scalars",
-    "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
-    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
-    "n_records", "n_voice_slots", "tail_frames",
-    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
-    "roll_ints", "roll_floats", "roll_y", "roll_buf", "roll_z", "roll_coef",
-    "roll_tables", "roll_meta", "n_rolls", "roll_rows", "roll_frames",
-)  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
     B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
@@ -78,12 +66,14 @@ BODY_FIELDS = (
     B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
     B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
-    B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
+    B_N_RECORDS, B_N_VOICE_SLOTS, B_TAIL_FRAMES,
     B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
     B_ROLL_INTS, B_ROLL_FLOATS, B_ROLL_Y, B_ROLL_BUF, B_ROLL_Z, B_ROLL_COEF,
-    B_ROLL_TABLES, B_ROLL_META, B_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES,
-) = range(len(BODY_FIELDS))  # fmt: skip
-N_BODY = len(BODY_FIELDS)
+    B_ROLL_TABLES, B_ROLL_META, B_N_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES, N_BODY,
+) = range(64)  # fmt: skip
+#: The record's field names, as :func:`body_arrays` keys them: ``B_TABLE`` is "table".
+BODY_FIELDS = tuple(name[2:].lower() for name in sorted(
+    (n for n in vars() if n.startswith("B_")), key=vars().get))  # fmt: skip
 
 #: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
 #: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
@@ -154,7 +144,7 @@ def body_form(record):
     R = record[B_SLOTS]
     C = record[B_CONTACT]
     P = record[B_PULSE_SAMPLES]
-    V = record[B_VOICE_SLOT_COUNT]
+    V = record[B_N_VOICE_SLOTS]
     scalars = f64_at(record[B_SCALARS], N_SCALARS)
     bank = (
         numba.carray(pointer_to(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
@@ -203,7 +193,7 @@ def body_form(record):
         i64_at(record[B_POINTS], R),
         numba.carray(pointer_to(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
     )
-    N = record[B_RECORDS]
+    N = record[B_N_RECORDS]
     voice_form = (
         numba.carray(pointer_to(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
         f64_at(record[B_VOICE_GAIN], N),
@@ -218,7 +208,7 @@ def body_form(record):
 def rolling_form(record):
     """Views of a body's rolling slots and listener's gains, as
     :func:`synth.live.rolling_block.mix_rolls` takes them."""
-    R = record[B_ROLLS]
+    R = record[B_N_ROLLS]
     K = record[B_MODES]
     P = record[B_ROLL_ROWS]
     N = rolling_block.N_STATE
