@@ -313,12 +313,8 @@ class Body:
         """Evaluate the mode shapes at impact points (``(x, y)``, m) ahead of hits there (the
         body keeps the last ``KEPT_POINTS``)."""
         for position in positions:
-            self._prepare(self._position(position))
-
-    def _position(self, position) -> tuple[float, float]:
-        return self.plate.check_position(
-            self.plate.centre if position is None else position, "position"
-        )
+            p = self.plate.centre if position is None else position
+            self._prepare(self.plate.check_position(p, "position"))
 
     def _check_length(self, contact_time: float) -> None:
         if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
