@@ -54,24 +54,13 @@ class PendingRing:
         self.pulse = np.zeros((capacity, kernel.N_PULSE_FIELDS))
         for a in (self.amplitudes, self.response, self.coefficients, self.samples):
             a.fill(0.0)  # touch every page now, not at a hit
+        self.capacity, self.max_contact, self.pulse_samples = capacity, max_contact, pulse_samples
         self.max_new = max_new
         self.pulses = 0  # pulses handed over so far (producers)
         self.transformed = np.zeros(1, dtype=np.int64)  # pulses taken by the audio thread
         self.refused = 0
         self._lock = threading.Lock()  # between producers only
         self._next = 0  # the slot after the last one reserved
-
-    @property
-    def capacity(self) -> int:
-        return self.state.shape[0]
-
-    @property
-    def max_contact(self) -> int:
-        return self.response.shape[1]
-
-    @property
-    def pulse_samples(self) -> int:
-        return self.samples.shape[2]
 
     def pending(self) -> int:
         """Impacts handed over and not yet played."""
