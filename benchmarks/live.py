@@ -316,12 +316,12 @@ def hit_cost(samplerate=48000, repeat=400, seed=1) -> dict:
 def _wait_mixed(engine, frame, timeout=1.0):
     """Wait until a callback has mixed ``frame``; the monotonic time (s) at that callback's
     end, or None."""
-    from synth.live import native
+    from synth.live import state as st
 
     times = engine._native.times
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        end, mixed = times[native.END_TIME], times[native.END_FRAME]
+        end, mixed = times[st.END_TIME], times[st.END_FRAME]
         if mixed > frame:
             return float(end)
         time.sleep(0.0002)
@@ -386,7 +386,7 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
     the same while a pure-Python thread spins, then the same rate spread over 8 hitting
     threads."""
     from benchmarks.jack import JackDummyServer
-    from synth.live import native
+    from synth.live import state as st
     from synth.live.engine import Engine
 
     scene = _scene()
@@ -401,12 +401,12 @@ def jack_run(seconds=30.0, samplerate=48000, blocksize=256, rate=200.0, bodies=1
         to_callback = []
         for _ in range(40):
             time.sleep(float(rng.uniform(0.005, 0.03)))
-            t = native.monotonic()
+            t = st.monotonic()
             onset = handles[0].hit(scene.ball, 1.0).onset
             end = _wait_mixed(engine, int(np.ceil(onset * samplerate)))
             if end is not None:
                 to_callback.append(end - t)
-        latency, nominal = engine.latency, float(engine._native.times[native.NOMINAL_LATENCY])
+        latency, nominal = engine.latency, float(engine._native.times[st.NOMINAL_LATENCY])
         engine.reset_meter()
         alone = _phase(engine, server, [_hitter(handles, scene.ball, rate, seed)], seconds)
         busy = _phase(

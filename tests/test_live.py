@@ -238,9 +238,10 @@ def test_a_full_ring_refuses_and_counts(scene):
 
 def silence(ring):
     """kernel.silence of a body of 3 modes and one voice slot whose pending ring is ``ring``."""
-    from synth.live import kernel, native
+    from synth.live import kernel
+    from synth.live import state as st
 
-    arrays = native.body_arrays(
+    arrays = st.body_arrays(
         synth.sound.modal_bank.bank_coefficients(
             np.array([-1.0 + 100.0j] * 3), np.ones(3), np.ones(3), float(FS)
         ),
@@ -274,7 +275,8 @@ def test_a_slot_being_filled_is_neither_played_nor_dropped():
     # a producer owns a reserved slot until it publishes it: the audio thread skips it
     # and stop_all (which drops READY slots) leaves it alone, so no other producer can
     # take it while it is written
-    from synth.live.queue import FREE, WRITING, PendingRing
+    from synth.live.kernel import FREE
+    from synth.live.queue import WRITING, PendingRing
 
     ring = PendingRing(2, 3, 4, 5, 2)
     i = ring.reserve()
@@ -1416,7 +1418,7 @@ def test_modes_the_old_listener_left_out_ring_for_the_new_one(scene):
     moved, body = heard_by(scene, centre, floor_db, move_to=new, at_block=k)
     exact, _ = heard_by(scene, new, EXACT_DB)
     first, _ = heard_by(scene, centre, floor_db, blocks=k)
-    level = float(np.max(body._ears[0]._state_arrays[7]))  # the voice's heard peak
+    level = float(np.max(body._ears[0]._state_arrays["level"]))  # the voice's heard peak
     budget = 10.0 ** (floor_db / 20.0) * level  # level: output units (full scale 1)
     tol = budget + 2 * float32_ulp_of_peak(exact)
     assert np.max(np.abs(moved - exact)[(k + 1) * n :]) <= tol

@@ -14,7 +14,7 @@ from conftest import REPOSITORY
 
 import synth
 from benchmarks.jack import JackDummyServer, jackd_available
-from synth.live import native
+from synth.live import state as st
 
 pytestmark = pytest.mark.skipif(
     not jackd_available(), reason="jackd is not installed (Debian: apt-get install jackd2)"
@@ -136,7 +136,7 @@ def test_a_burst_on_many_bodies_is_bounded_per_callback_and_every_hit_played(jac
         for body in bodies:
             body.prepare(scene.position)
         engine.pause()
-        assert wait_for(lambda: float(engine._native.times[native.PAUSE_LEVEL]) == 0.0, 2.0)
+        assert wait_for(lambda: float(engine._native.times[st.PAUSE_LEVEL]) == 0.0, 2.0)
         time.sleep(0.05)  # a callback that began before the fade ended has returned
         at = engine.time
         for body in bodies:
@@ -461,7 +461,7 @@ def test_the_live_examples_run_as_printed(jack, path, index, monkeypatch, capsys
 
 def fade_frame(engine) -> int:
     """The frame where the engine's last stop fade began (-1: none)."""
-    return int(engine._native.ctl[native.FADE_FRAME])
+    return int(engine._native.ctl[st.FADE_FRAME])
 
 
 def hit_peak_range(table, ball, fractions=32):
@@ -565,7 +565,6 @@ def test_pause_holds_the_voices_live_as_process_holds_them(jack, scene):
     # counted, silence written), and what it recorded on the engine's clock (held while
     # paused) is process() with the pause taken at the block where the recording first
     # leaves the unpaused render
-    from synth.live import native
 
     kw = dict(samplerate=FS, blocksize=BLOCK)
     engine = synth.Engine(device=jack.device, record_seconds=1.0, **kw)
@@ -574,14 +573,14 @@ def test_pause_holds_the_voices_live_as_process_holds_them(jack, scene):
         voice = body.hit(scene.ball, 1.0, at=0.2)
         assert wait_for(lambda: engine.time > 0.4, 10.0)
         engine.pause()
-        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+        assert wait_for(lambda: engine._native.times[st.PAUSE_LEVEL] == 0.0, 5.0)
         callbacks, held = engine.stats.callbacks, engine.time
         time.sleep(0.2)
         assert engine.stats.callbacks > callbacks and engine.time == held and voice.playing
         engine.resume()
         assert wait_for(lambda: engine.recorded >= engine.recording.shape[0], 10.0)
         engine.pause()  # stop() while paused: the output is silent already
-        assert wait_for(lambda: engine._native.times[native.PAUSE_LEVEL] == 0.0, 5.0)
+        assert wait_for(lambda: engine._native.times[st.PAUSE_LEVEL] == 0.0, 5.0)
     assert not engine.running and not engine.paused and client_ports(jack) == []
     live = engine.recording[:, 0].astype(float)
 

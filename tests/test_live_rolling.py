@@ -9,8 +9,8 @@ import pytest
 
 import synth
 from synth.errors import ParameterError
-from synth.live import native
 from synth.live import rolling_block as rb
+from synth.live import state as st
 from synth.live.rolling import HORIZON
 from synth.physics import rolling, surface
 from synth.physics.scene import Ball
@@ -239,7 +239,7 @@ def test_max_rolls_is_checked_and_an_engine_without_slots_refuses_to_roll(setup)
     # by default an engine holds no rolling slots, and its callback no rolling code: a
     # roll is refused with the setting to change, not returned as None (a full body's)
     engine = synth.Engine(samplerate=FS)
-    assert engine.max_rolls == 0 and engine._native.ctl[native.ROLLER] == 0
+    assert engine.max_rolls == 0 and engine._native.ctl[st.ROLLER] == 0
     body = engine.add(plate, listener=mic)
     with pytest.raises(ParameterError, match=r"max_rolls=0: .* max_rolls=1"):
         body.roll(ball, (0.5, 0.3), (0.2, 0.0), envelope=envelope, start=START)

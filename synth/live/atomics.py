@@ -1,11 +1,7 @@
-"""Memory ordering between the trigger threads and the audio thread.
-
-A slot of a body's pending ring (:mod:`synth.live.queue`) is handed over by writing its
-data, then its state word; the audio thread reads the state word, then the data. x86 keeps
-stores in order and loads in order, but ARM64 (Apple silicon, Raspberry Pi) may reorder
-either: the producer puts a full fence between its data and its state word
-(:func:`publish`), the audio thread one between the state word it read and the data
-(:func:`fence`, in :mod:`synth.live.kernel`), and another before it frees a slot.
+"""Memory ordering between the trigger threads and the audio thread: a slot is handed over
+by writing its data, then its state word, and read in the other order. ARM64 may reorder
+either (x86 does not), so both sides put a full fence between them (:func:`publish`,
+:func:`fence`).
 """
 
 from __future__ import annotations
@@ -30,15 +26,13 @@ def _fence(typingctx):
 
 @compiled(nogil=True, inline="always")
 def fence():
-    """A sequentially consistent fence: no load or store moves across it (compiler and
-    processor)."""
+    """A sequentially consistent fence (compiler and processor)."""
     _fence()
 
 
 @compiled(nogil=True)
 def publish(state, slot, value):
-    """``state[slot] = value`` after every earlier store of the calling thread (the slot's
-    data) is visible to other threads."""
+    """``state[slot] = value`` after the calling thread's earlier stores are visible."""
     _fence()
     state[slot] = value
 

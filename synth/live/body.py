@@ -1,5 +1,5 @@
 """A plate in a live engine (:class:`Body`): its voice slots, its ring of pending impacts,
-and the hit and the drop that fill them on the calling thread."""
+and the hits and drops that fill them on the calling thread."""
 
 from __future__ import annotations
 
@@ -9,27 +9,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from synth import checks, cost
+from synth import checks
 from synth.constants import GRAVITY
 from synth.errors import ParameterError, SynthError
+from synth.live import heard as hd
 from synth.live import kernel, native, rolling
+from synth.live import state as st
 from synth.live.atomics import fence
-from synth.live.hits import (
-    HIT_RTOL,
-    MAX_GAIN,
-    MAX_SPEED,
-    Trigger,
-    check_height,
-    trigger,
-)
+from synth.live.hits import HIT_RTOL, MAX_GAIN, MAX_SPEED, Trigger, check_height, closed, trigger
 from synth.live.queue import PendingRing
-from synth.live.voice import (
-    MAX_STOP_FADE,
-    MIN_STOP_FADE,
-    Voice,
-    check_priority,
-    stop_records,
-)
+from synth.live.voice import Voice, check_priority, stop_frames, stop_records
 from synth.physics.bounces import simulate_bounces
 from synth.physics.contact import ContactSolver
 from synth.physics.scene import Accelerometer, Ball, Contact, Microphone, Plate
@@ -41,7 +30,7 @@ from synth.sound.modal_bank import (
     samples_in_contact,
 )
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT
-from synth.sound.render import LISTENER_UNITS, modal_model
+from synth.sound.render import LISTENER_UNITS
 from synth.store.audio import PHYSICAL_FULL_SCALE
 
 if TYPE_CHECKING:
@@ -49,26 +38,26 @@ if TYPE_CHECKING:
 
 #: Longest contact a body takes, s (its in-contact samples are handed over in a slot).
 MAX_CONTACT = 0.02
-#: Longest contact whose pulse a hit hands to the audio thread as is, s; a longer one (a
-#: soft ball) is turned into mode amplitudes on the calling thread. Sets the size of a
-#: slot's pulse samples (a grid of at most ``MAX_SLOT_GRID`` points, and the in-contact
-#: samples).
+#: Longest contact whose pulse a hit hands to the audio thread as is, s (a longer one is
+#: transformed on the calling thread); with ``MAX_SLOT_GRID``, sets a slot's pulse size.
 SLOT_CONTACT = 0.002
 MAX_SLOT_GRID = 4097
 #: Height (m) of the default microphone above the plate's centre (as a Scene's default).
 DEFAULT_MICROPHONE_HEIGHT = 0.2
 #: Impact points (and balls' contact solvers) a body keeps prepared, the oldest dropped.
 KEPT_POINTS = 64
+#: A PULSE slot's scalars in the order :meth:`Body._hand_over` writes them.
+PULSE_FIELDS = [kernel.STEP, kernel.OFFSET, kernel.WEIGHT, kernel.CONTACT_TIME, kernel.ORDER,
+                kernel.GAIN, kernel.MASS_LINE]  # fmt: skip
 #: Radius (m) of the ball of the hit that warms a new body's hit path up (not played).
 WARM_UP_BALL_RADIUS = 0.005
 
 
 @dataclass(frozen=True)
 class _Prepared:
-    """A body's excitation at one impact point: the bank coefficients heard by its
-    listener now (``coefficients``), the plate's own (``plate``: without the listener's
-    gains; the voices' modal states take these) and the accelerometer's direct-term line
-    (0 for a microphone)."""
+    """A body's excitation at one impact point: the bank coefficients heard by its listener
+    now, the plate's own (the voices' modal states take these) and an accelerometer's
+    direct-term line (0 for a microphone)."""
 
     coefficients: object
     plate: object
@@ -76,8 +65,8 @@ class _Prepared:
 
 
 class Body:
-    """One plate in an :class:`Engine` (made by :meth:`Engine.add`): ``max_voices`` voice
-    slots, each a modal state that one :class:`Voice` (a hit or a drop) excites."""
+    """One plate in an :class:`Engine` (:meth:`Engine.add`): ``max_voices`` voice slots,
+    each a modal state that one :class:`Voice` (a hit or a drop) excites."""
 
     def __init__(
         self,
@@ -110,31 +99,20 @@ class Body:
         coefficients = self._prepare(plate.centre).coefficients
         grid = pulse_layout(SLOT_CONTACT, 0.0, coefficients.omega_max, fs, engine.pulse_points)
         self._ring = PendingRing(
-            engine.max_pending,
-            poles.size,
-            samples_in_contact(MAX_CONTACT, fs),
+            engine.max_pending, poles.size, samples_in_contact(MAX_CONTACT, fs),
             min(grid.points, MAX_SLOT_GRID) + samples_in_contact(SLOT_CONTACT, fs),
-            engine.max_hits_per_block,
-            voices=engine.max_pending + voices,
-        )
+            engine.max_hits_per_block, voices=engine.max_pending + voices,
+        )  # fmt: skip
         self._state_arrays = kernel.body_state(poles.size, voices)
         self._warm_up()
         self._move_lock = threading.Lock()  # between the game's threads moving the listener
-        arrays = native.body_arrays(
-            coefficients,
-            power_table(poles, float(fs)),
-            self._state_arrays,
-            self._ring,
-            engine.floor,
-            gain,
-            channel,
-            steal_frames=engine._steal_frames,
-            mix_frames=engine._native.mix.shape[1],
-            ears=ears,
-            gains=model.output,
-            pan=pan,
-            rolls=rolling.body_rolls(engine.max_rolls, model, engine._native.mix.shape[1]),
-        )
+        frames = engine._native.mix.shape[1]
+        arrays = st.body_arrays(
+            coefficients, power_table(poles, float(fs)), self._state_arrays, self._ring,
+            engine.floor, gain, channel, steal_frames=engine._steal_frames, mix_frames=frames,
+            ears=ears, gains=model.output, pan=pan,
+            rolls=rolling.body_rolls(engine.max_rolls, model, frames),
+        )  # fmt: skip
         self._rolls = {k: v for k, v in arrays.items() if k.startswith("roll")}
         self._roll_step = rolling.table_step(model)
         self._roll_lock, self._roll_holds = threading.Lock(), [None] * engine.max_rolls
@@ -151,8 +129,7 @@ class Body:
         self._freed = False  # its arrays let go (see Engine._reap)
 
     def _warm_up(self):
-        """Run the hit path once (contact solver, pulse transforms: numba compiles or loads
-        them at their first call), so that the first real hit takes microseconds."""
+        """Run the hit path once (numba compiles or loads it), so the first hit is fast."""
         ball = Ball(self.plate.material, WARM_UP_BALL_RADIUS)
         solver = ContactSolver.for_pair(ball, self.plate, rtol=HIT_RTOL)
         result = solver.solve(1.0, position=self.plate.centre)
@@ -166,48 +143,42 @@ class Body:
 
     @property
     def gain(self) -> float:
-        """The body's gain (linear, in (0, MAX_GAIN]); settable while it plays: the change
-        is ramped linearly over the next block (no click)."""
-        return float(self._scalars[native.S_GAIN])
+        """The body's gain (linear, in (0, MAX_GAIN]); a change is ramped over the next block."""
+        return float(self._scalars[st.S_GAIN])
 
     @gain.setter
     def gain(self, value: float) -> None:
         g = checks.positive_at_most("gain", value, MAX_GAIN, "dimensionless")
         for ear in self._ears:
-            ear._scalars[native.S_GAIN] = g
+            ear._scalars[st.S_GAIN] = g
 
     @property
     def pan(self) -> float | None:
-        """The body's place between the channels of an ``Engine(channels=2)``: -1 left, 0 centre,
-        +1 right, or None (default: its mono signal at full level on both). A constant-power law,
-        gains ``cos(theta)``, ``sin(theta)`` with ``theta = (pan + 1) pi / 4`` (the centre is
-        -3.01 dB), times :attr:`gain` (:func:`synth.live.native.pan_gains`); settable while it
-        plays, ramped over the next block. A body of several listeners, or of an engine of other
-        than two channels, refuses it (ParameterError)."""
-        p = float(self._scalars[native.S_PAN])
+        """The body's place between the channels of an ``Engine(channels=2)``: -1 left, 0
+        centre, +1 right, or None (its mono signal at full level on both); a constant-power
+        law (:func:`synth.live.native.pan_gains`), ramped over the next block. Only for a
+        body of one listener."""
+        p = float(self._scalars[st.S_PAN])
         return None if np.isnan(p) else p
 
     @pan.setter
     def pan(self, value: float | None) -> None:
-        self._scalars[native.S_PAN] = check_pan(value, self._engine.channels, len(self._ears))
+        self._scalars[st.S_PAN] = check_pan(value, self._engine.channels, len(self._ears))
 
     @property
     def min_interval(self) -> float:
-        """Shortest time between two hits at one point of the body, s, in [0, 1] (default
-        0: no limit): a hit sooner than this after the last one played at the same point
-        (to 1 mm) is refused (returns None) and counted in ``stats.impacts_too_close``, so
-        that a game's jittering contact does not drone."""
+        """Shortest time between two hits at one point (to 1 mm), s in [0, 1] (0: no limit):
+        a sooner hit is refused (``stats.impacts_too_close``), so a jittering contact does
+        not drone."""
         return self._min_interval
 
     @min_interval.setter
     def min_interval(self, value: float) -> None:
-        self._min_interval = checks.in_range(
-            "min_interval", value, 0.0, 1.0, "s", lo_open=False, hi_open=False
-        )
+        self._min_interval = closed("min_interval", value, 0.0, 1.0, "s")
 
     def _too_close(self, position, onset: float) -> bool:
-        """Whether a hit at ``position`` starting at ``onset`` s comes within
-        ``min_interval`` of the last one there; if not, it becomes the last one."""
+        """Whether a hit at ``position`` at ``onset`` s is within ``min_interval`` of the last
+        there (else it becomes the last)."""
         if self._min_interval <= 0.0:
             return False
         key = (round(position[0], 3), round(position[1], 3))
@@ -216,9 +187,7 @@ class Body:
             self._engine._too_close += 1
             return True
         self._last_onsets.pop(key, None)
-        if len(self._last_onsets) >= KEPT_POINTS:
-            self._last_onsets.pop(next(iter(self._last_onsets)))
-        self._last_onsets[key] = onset
+        _keep(self._last_onsets, key, onset)
         return False
 
     @property
@@ -228,9 +197,7 @@ class Body:
 
     @property
     def memory(self) -> int:
-        """Bytes of the arrays the body holds for the audio thread (its voice slots' modal
-        states, power table, pending ring and voice records, the stolen voices' fade
-        buffer, workspace)."""
+        """Bytes of the arrays the body holds for the audio thread."""
         if self._freed:
             return 0
         records = self._engine._native.records
@@ -258,56 +225,42 @@ class Body:
 
     @property
     def ringing(self) -> bool:
-        """Whether a voice of the body rings (as of the last block mixed)."""
+        """Whether a voice of the body rang in the last block."""
         return not self._freed and any(bool(ear._counters[kernel.AWAKE]) for ear in self._ears)
 
     @property
     def voices_playing(self) -> int:
-        """Voice slots of the body ringing (as of the last block mixed; of its first ear)."""
+        """Voice slots of the body (its first ear) ringing in the last block."""
         return int(np.count_nonzero(self._slots[:, kernel.SL_OWNER] >= 0))
 
     def _prepare(self, position) -> _Prepared:
-        """The bank coefficients for impacts at ``position`` (checked; kept for the last
-        ``KEPT_POINTS`` points): the plate's, and those heard by the listener now."""
+        """The bank coefficients of impacts at ``position`` (kept for ``KEPT_POINTS``)."""
         p = self._prepared.get(position)
-        if p is None:
-            model = self._model
-            plate = self._plate_coefficients.get(position)
-            if plate is None:
-                excitation = model.excitation(position)
-                ones = np.ones(model.poles.size)
-                plate = (
-                    excitation,
-                    bank_coefficients(model.poles, excitation, ones, self._engine.samplerate),
-                )
-                if len(self._plate_coefficients) >= KEPT_POINTS:
-                    self._plate_coefficients.pop(next(iter(self._plate_coefficients)))
-                self._plate_coefficients[position] = plate
-            excitation, c = plate
-            coef = (c.coef_re + 1j * c.coef_im) * model.output
-            heard = replace(
-                c,
-                coef_re=np.ascontiguousarray(coef.real),
-                coef_im=np.ascontiguousarray(coef.imag),
-            )
-            direct = model.direct(excitation)
-            p = _Prepared(heard, c, float(np.sum(direct.real)) if direct is not None else 0.0)
-            if len(self._prepared) >= KEPT_POINTS:
-                self._prepared.pop(next(iter(self._prepared)))
-            self._prepared[position] = p
-        return p
+        if p is not None:
+            return p
+        model = self._model
+        plate = self._plate_coefficients.get(position)
+        if plate is None:
+            excitation = model.excitation(position)
+            ones = np.ones(model.poles.size)
+            c = bank_coefficients(model.poles, excitation, ones, self._engine.samplerate)
+            plate = _keep(self._plate_coefficients, position, (excitation, c))
+        excitation, c = plate
+        coef = (c.coef_re + 1j * c.coef_im) * model.output
+        heard = replace(
+            c, coef_re=np.ascontiguousarray(coef.real), coef_im=np.ascontiguousarray(coef.imag)
+        )
+        direct = model.direct(excitation)
+        line = float(np.sum(direct.real)) if direct is not None else 0.0
+        return _keep(self._prepared, position, _Prepared(heard, c, line))
 
     def move(self, listener) -> None:
-        """Hear the body through ``listener`` from now on: an Accelerometer or a Microphone for a
-        body of one ear, else one per ear (:func:`ears`), of the units it was added with. Each
-        mode's gain is ramped to the new listener's over the next block; every mode rings on at
-        its new level. The cost is first checked as :meth:`Engine.add` checks it. Gains are
-        computed on the calling thread: for a microphone at least
-        :data:`~synth.sound.radiation.fixed.NEAR_FIELD_HEIGHT` high, from the plate's fixed grids
-        (:mod:`synth.sound.radiation.fixed`, kept while a body of the plate is in the engine,
-        :attr:`Engine.listener_grid_memory`; :meth:`Engine.prepare_moves` builds them ahead); else,
-        or beyond :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`, by
-        :func:`synth.sound.radiation.plate_gains`. ``synth bench live`` prints what a move costs."""
+        """Hear the body through ``listener`` from now on (one per ear, of the units it was
+        added with; its cost checked as :meth:`Engine.add`'s): each mode's gain is ramped to
+        the new one over the next block. Gains are computed on the calling thread, for a
+        microphone at least ``NEAR_FIELD_HEIGHT`` high from the plate's fixed grids
+        (:mod:`synth.sound.radiation.fixed`, :meth:`Engine.prepare_moves`), else by
+        :func:`synth.sound.radiation.plate_gains`."""
         listeners = tuple(listener) if isinstance(listener, (tuple, list)) else (listener,)
         if len(listeners) != len(self._ears):
             raise ParameterError(
@@ -324,60 +277,44 @@ class Body:
                     f"listener[{i}]={li!r} hears in {LISTENER_UNITS[type(li)]}, the body's "
                     f"ear in {ear._model.units}: add a new body for another kind of listener"
                 )
-            cuts.append(
-                cost.check_body(self.plate, li, engine._highest_frequency(), self.max_voices)
-            )
+            cuts.append(engine._budget(self.plate, li, self.max_voices))
         models = [ear._heard_by(li, cut) for ear, li, cut in zip(self._ears, listeners, cuts)]
         for ear, li, model in zip(self._ears, listeners, models):
             ear._hand_over_gains(li, model)
         self.listener = listeners if len(listeners) > 1 else listeners[0]
 
     def _heard_by(self, listener, cut: int | None = None):
-        """This ear's modal model heard by ``listener`` (see :meth:`move`); ``cut``: the
-        budget's ``radiation_max_points`` for the exact rule (None: not cut), which then
-        serves a microphone instead of the fixed grids."""
+        """This ear's modal model heard by ``listener``; ``cut``: the budget's
+        ``radiation_max_points`` (None: not cut, the fixed grids may serve)."""
         if cut is not None:
-            engine = self._engine
-            return modal_model(
-                self.plate,
-                listener,
-                samplerate=engine.samplerate,
-                max_frequency=engine.max_frequency,
-                radiation_max_points=cut,
-            )
+            return self._engine._exact_model(self.plate, listener, cut)
         grid = None
         if isinstance(listener, Microphone) and listener.position[2] >= NEAR_FIELD_HEIGHT:
             grid = self._grid = self._engine._listener_grid(self._model)
         return self._model.heard_by(listener, grid)
 
     def _hand_over_gains(self, listener, model) -> None:
-        """Write the new listener's gains for the mixing (a sequence lock: odd while they
-        are written; the mixing takes them whole at a block's start, or at the next)."""
+        """Write the new listener's gains for the mixing under a sequence lock (odd while
+        written; the mixing takes them whole at a block's start)."""
         with self._move_lock:
             self._model = model
             self._prepared = {}
             gains = np.asarray(model.output, dtype=complex)
             seq = self._heard_seq
-            seq[kernel.SEQ_PUT] += 1
+            seq[hd.SEQ_PUT] += 1
             fence()
-            self._heard[kernel.HPR] = gains.real
-            self._heard[kernel.HPI] = gains.imag
+            self._heard[hd.HPR] = gains.real
+            self._heard[hd.HPI] = gains.imag
             fence()
-            seq[kernel.SEQ_PUT] += 1
+            seq[hd.SEQ_PUT] += 1
             self.listener = listener
 
     def prepare(self, *positions) -> None:
-        """Prepare impact points ahead of hits there (``(x, y)``, m from a plate corner):
-        a hit at a point the body has not prepared evaluates every mode's shape there
-        first (a fraction of a millisecond for a few hundred modes). The body keeps the
-        last ``KEPT_POINTS`` points."""
+        """Evaluate the mode shapes at impact points (``(x, y)``, m) ahead of hits there (the
+        body keeps the last ``KEPT_POINTS``)."""
         for position in positions:
-            self._prepare(self._position(position))
-
-    def _position(self, position) -> tuple[float, float]:
-        return self.plate.check_position(
-            self.plate.centre if position is None else position, "position"
-        )
+            p = self.plate.centre if position is None else position
+            self._prepare(self.plate.check_position(p, "position"))
 
     def _check_length(self, contact_time: float) -> None:
         if samples_in_contact(contact_time, self._engine.samplerate) > self._ring.max_contact:
@@ -397,9 +334,8 @@ class Body:
         slot=None,
         voice: int = 0,
     ) -> bool:
-        """Hand one contact of voice record ``voice`` over, its tick starting at ``onset``
-        s on the engine's clock: its excitation is computed here, straight into a slot of
-        the body's ring (``slot``, reserved by the caller, or one reserved here)."""
+        """Hand one contact of voice record ``voice`` over, starting at ``onset`` s, its
+        excitation computed here into ``slot`` (reserved by the caller, or here)."""
         ring = self._ring
         self._check_length(result.separation_time)
         own = slot is None  # else the caller gives it back on failure
@@ -409,22 +345,11 @@ class Body:
             return False
         try:
             # the plate's amplitudes for the voice's state; the response and peak heard
-            impact_excitation(
-                prepared.plate,
-                result,
-                onset,
-                weight=weight,
-                pulse_points=self._engine.pulse_points,
-                amplitudes=ring.amplitudes[slot],
-            )
-            ex = impact_excitation(
-                prepared.coefficients,
-                result,
-                onset,
-                weight=weight,
-                pulse_points=self._engine.pulse_points,
-                response=ring.response[slot],
-            )
+            points = self._engine.pulse_points
+            impact_excitation(prepared.plate, result, onset, weight=weight, pulse_points=points,
+                              amplitudes=ring.amplitudes[slot])  # fmt: skip
+            ex = impact_excitation(prepared.coefficients, result, onset, weight=weight,
+                                   pulse_points=points, response=ring.response[slot])  # fmt: skip
         except BaseException:
             if own:
                 ring.release(slot)
@@ -441,9 +366,8 @@ class Body:
     def _hand_over(
         self, result, onset: float, prepared: _Prepared, gain: float, voice: int
     ) -> bool:
-        """Hand one contact of voice record ``voice`` over as its force pulse (the audio
-        thread computes its excitation at its next block, see :mod:`synth.live.kernel`); a
-        contact too long for a slot's pulse grid is computed here (:meth:`_submit`)."""
+        """Hand one contact of voice record ``voice`` over as its force pulse, transformed by
+        the audio thread (:mod:`synth.live.kernel`); one too long for a slot, by :meth:`_submit`."""
         ring = self._ring
         self._check_length(result.separation_time)
         c = prepared.coefficients
@@ -461,14 +385,9 @@ class Body:
             result.pulse_samples(lay.step, n, lay.offset, 1.0 / fs, M, out=ring.samples[slot])
             ring.coefficients[slot, 0] = prepared.plate.coef_re  # the audio thread hears them
             ring.coefficients[slot, 1] = prepared.plate.coef_im
-            p = ring.pulse[slot]
-            p[kernel.STEP] = lay.step
-            p[kernel.OFFSET] = lay.offset
-            p[kernel.WEIGHT] = 0.0
-            p[kernel.CONTACT_TIME] = result.separation_time
-            p[kernel.ORDER] = result.pulse_order
-            p[kernel.GAIN] = self._scale * gain
-            p[kernel.MASS_LINE] = prepared.mass_line
+            ring.pulse[slot, PULSE_FIELDS] = (lay.step, lay.offset, 0.0, result.separation_time,
+                                              result.pulse_order, self._scale * gain,
+                                              prepared.mass_line)  # fmt: skip
         except BaseException:
             ring.release(slot, pulse=True)
             raise
@@ -476,26 +395,18 @@ class Body:
         return True
 
     def _solver(self, tr: Trigger) -> ContactSolver:
-        """The contact solver of a hit's ball, law and gravity (kept for the last few)."""
+        """The contact solver of a hit's ball, law and gravity (kept for ``KEPT_POINTS``)."""
         key = (tr.ball, tr.law, tr.gravity)
         solver = self._solvers.get(key)
         if solver is None:
-            solver = ContactSolver.for_pair(
-                tr.ball,
-                self.plate,
-                gravity=tr.gravity,
-                law=tr.law.law,
-                rtol=HIT_RTOL,
-                **tr.law.options(),
-            )
-            if len(self._solvers) >= KEPT_POINTS:
-                self._solvers.pop(next(iter(self._solvers)))
-            self._solvers[key] = solver
+            solver = ContactSolver.for_pair(tr.ball, self.plate, gravity=tr.gravity,
+                                            law=tr.law.law, rtol=HIT_RTOL,
+                                            **tr.law.options())  # fmt: skip
+            _keep(self._solvers, key, solver)
         return solver
 
     def _trigger(self, ball, position, gain, contact, gravity, at) -> Trigger:
-        """The arguments :meth:`hit` and :meth:`drop` share, checked (a ParameterError
-        names the argument and its value)."""
+        """The arguments :meth:`hit` and :meth:`drop` share, checked."""
         if self._removed:
             raise SynthError("this body was removed from its engine (Body.remove): add it again")
         return trigger(self.plate, ball, position, gain, contact, gravity, self._engine._onset(at))
@@ -512,15 +423,12 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m from a corner;
-        default the centre), scaled by ``gain`` (> 0); callable from any thread, the contact
-        solved here and handed over without blocking. The tick starts at ``at`` (s on the
-        engine's clock) or one block plus the output latency after the call. ``contact``: the law
-        (default the ball's own; its ``rtol`` unused, a hit is solved to 1e-6); ``gravity``:
-        m/s^2, > 0; ``priority`` in [0, 255] (higher kept longer; :class:`Voice`). Returns its
-        :class:`Voice` (``voice.onset``), or None if refused (ring full, too many hits waiting,
-        within :attr:`min_interval` of the last at its point, or every voice of a full engine of
-        higher priority; counted in :attr:`Engine.stats`)."""
+        """One impact of ``ball`` at ``speed`` (m/s, > 0) at ``position`` ((x, y), m; default
+        the centre), scaled by ``gain`` (> 0), from any thread: the contact is solved here (to
+        1e-6) and handed over without blocking. It starts at ``at`` (s, the engine's clock) or
+        one block plus the output latency from now. ``contact``: the law (default the ball's
+        own); ``gravity`` m/s^2 > 0; ``priority`` in [0, 255] (:class:`Voice`). Returns its
+        :class:`Voice`, or None if refused (counted in :attr:`Engine.stats`)."""
         v = checks.positive_at_most("speed", speed, MAX_SPEED, "m/s")
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
@@ -534,8 +442,8 @@ class Body:
         return self._new_voice(p, lambda vid: self._hand_over_voice(result, tr, vid, p))
 
     def _new_voice(self, priority: int, hand_over) -> Voice | None:
-        """The Voice ``hand_over(vid)`` makes of a new voice id, once the engine's voice
-        limit admits it at ``priority`` (None: refused by the limit or by ``hand_over``)."""
+        """The Voice ``hand_over(vid)`` makes of a new id the engine's voice limit admits at
+        ``priority`` (None: refused)."""
         vid = self._engine._next_voice_id()
         limit = self._engine._voice_limit
         if not limit.admit(vid, priority):
@@ -548,8 +456,8 @@ class Body:
         return voice
 
     def _hand_over_voice(self, result, tr: Trigger, vid: int, priority: int) -> Voice | None:
-        """Hand a solved hit over at every ear of the body as voice ``vid``: its Voice, or
-        None if an ear refused it (then no ear plays it)."""
+        """Hand a solved hit over at every ear as voice ``vid``: its Voice, or None if an ear
+        refused it (then no ear plays it)."""
         records: list[int] = []
         for ear in self._ears:
             r = ear._ring.open_voice(vid, 1, priority)
@@ -582,27 +490,18 @@ class Body:
         gravity: float = GRAVITY,
         priority: int = 0,
     ) -> Voice | None:
-        """Drop ``ball`` from ``height`` (m, in [1e-6, 1000], its lowest point above the plate) at
-        ``position`` (default the centre): the whole bouncing sequence
-        (:func:`synth.simulate_bounces`), scheduled from ``at`` as :meth:`hit`, ``contact`` and
-        ``gravity`` (m/s^2) as a Scene's, ``priority`` as :meth:`hit`'s. Returns one
-        :class:`Voice` for the sequence (``voice.onsets``, s), or None when the ring has fewer free
-        slots than the drop has impacts (counted in ``impacts_refused`` and ``drops_refused``); a
-        drop of more impacts than ``max_pending`` raises ParameterError."""
+        """Drop ``ball`` from ``height`` (m, in [1e-6, 1000] above the plate) at ``position``:
+        the whole bouncing sequence (:func:`synth.simulate_bounces`), the other arguments as
+        :meth:`hit`'s. Returns one :class:`Voice` (``voice.onsets``, s), or None when the
+        ring has too few free slots (``drops_refused``); more impacts than ``max_pending``
+        raise ParameterError."""
         h = check_height(height)
         p = check_priority(priority)
         tr = self._trigger(ball, position, gain, contact, gravity, at)
         law = tr.law
-        sequence = simulate_bounces(
-            tr.ball,
-            self.plate,
-            drop_height=h,
-            position=tr.position,
-            gravity=tr.gravity,
-            contact_law=law.law,
-            rtol=law.rtol,
-            **law.options(),
-        )
+        sequence = simulate_bounces(tr.ball, self.plate, drop_height=h, position=tr.position,
+                                    gravity=tr.gravity, contact_law=law.law, rtol=law.rtol,
+                                    **law.options())  # fmt: skip
         if len(sequence) > self._ring.capacity:
             raise ParameterError(
                 f"the drop from height={height!r} m has {len(sequence)} impacts, more than "
@@ -614,8 +513,7 @@ class Body:
         return self._new_voice(p, lambda vid: self._hand_over_drop(sequence, tr, vid, p))
 
     def _hand_over_drop(self, sequence, tr: Trigger, vid: int, priority: int) -> Voice | None:
-        """Hand a drop's impacts over at every ear of the body as voice ``vid``, all or
-        none: its Voice, or None (counted) when an ear has too few free slots."""
+        """Hand a drop's impacts over at every ear as voice ``vid``, all or none."""
         ball, pos, g, gravity, onset0 = tr.ball, tr.position, tr.gain, tr.gravity, tr.onset
         n = len(sequence)
         reserved = []  # (ear, voice record, slots not yet handed over)
@@ -647,15 +545,11 @@ class Body:
 
     def roll(self, ball: Ball, position, velocity, **options) -> rolling.RollingVoice | None:
         """A ``ball`` rolling from ``position`` ((x, y), m) at ``velocity`` ((vx, vy), m/s)
-        over ``envelope`` (a :class:`synth.physics.surface.ContactEnvelope` made with the
-        ball's radius; keyword), its centre from ``start`` (m along it, default 0), at
-        ``gain``, with ``contact`` and ``rtol`` as :func:`synth.physics.rolling.roll`:
-        the game updates it every frame (:class:`synth.live.rolling.RollingVoice`).
-        Returns None when the body's ``max_rolls`` slots all roll (counted in
-        ``rolls_refused``). A body heard through ears rolls it at each ear; an
-        accelerometer hears it with its direct term; :meth:`move` reaches it. The engine
-        must be made with ``max_rolls >= 1`` (ParameterError otherwise: its callback
-        holds no rolling code)."""
+        over ``envelope`` (a :class:`synth.physics.surface.ContactEnvelope` of the ball's
+        radius), from ``start`` (m along it), at ``gain``, ``contact`` and ``rtol`` as
+        :func:`synth.physics.rolling.roll`; the game updates it every frame
+        (:class:`synth.live.rolling.RollingVoice`). None when all ``max_rolls`` slots roll
+        (``rolls_refused``); an engine of ``max_rolls=0`` raises ParameterError."""
         return rolling.start_roll(self, ball, position, velocity, **options)
 
     @property
@@ -664,20 +558,15 @@ class Body:
         return self._removed
 
     def remove(self, fade: float | None = None) -> None:
-        """Take the body out of its engine: later hits and drops raise a SynthError; what it plays
-        rings out (``fade`` None) or fades out over ``fade`` s (in [0.001, 10]); once the mixing
-        has passed a block without it, the engine frees its arrays (:attr:`memory` 0) and its room.
-        Its counts stay in :attr:`Engine.stats`; a hit made on another thread at that moment may
-        be dropped."""
-        if fade is not None:
-            f = checks.in_range("fade", fade, MIN_STOP_FADE, MAX_STOP_FADE, "s",
-                                lo_open=False, hi_open=False)  # fmt: skip
+        """Take the body out of its engine (later hits raise SynthError): what it plays rings
+        out (``fade`` None) or fades out over ``fade`` s (in [0.001, 10]); once the mixing has
+        left it, its arrays are freed (:attr:`memory` 0). Its counts stay in the stats."""
+        frames = None if fade is None else stop_frames(self._engine, fade)
         if self._removed:
             return
         self._removed = True
         rolling.stop_rolls(self, fade)
-        if fade is not None:
-            frames = max(1, int(round(f * self._engine.samplerate)))
+        if frames is not None:
             for ear in self._ears:
                 ring = ear._ring
                 for r in range(ring.voices.shape[0]):
@@ -695,8 +584,8 @@ class Body:
             ear._grid = None
 
     def stop_all(self) -> None:
-        """Silence the body at the next block: every voice stops (and is reported ended),
-        pending impacts are dropped (at once when no stream runs)."""
+        """Silence the body at the next block (at once without a stream): every voice ends,
+        pending impacts are dropped."""
         if self._engine.running:
             for ear in self._ears:
                 ear._counters[kernel.SILENCE] = 1  # the audio thread applies it
@@ -708,9 +597,16 @@ class Body:
             native.silence_body(self._engine._native.ctl, ear._record)
 
 
+def _keep(cache: dict, key, value):
+    """``cache[key] = value``, the oldest entry dropped beyond ``KEPT_POINTS``; ``value``."""
+    if len(cache) >= KEPT_POINTS:
+        cache.pop(next(iter(cache)))
+    cache[key] = value
+    return value
+
+
 def _release(reserved) -> None:
-    """Give back the slots a drop reserved and did not fill, and take them off their
-    voice records (``(body, voice record, slots)``)."""
+    """Give back the slots a drop reserved and did not fill (``(body, record, slots)``)."""
     for ear, r, slots in reserved:
         for slot in slots:
             ear._ring.release(slot)
@@ -726,8 +622,8 @@ def check_listener(plate: Plate, listener, field: str) -> None:
 
 
 def check_pan(value, channels: int, listeners: int = 1) -> float:
-    """A body's ``pan`` (:attr:`Body.pan`) as its scalar for the mixing (NaN for None),
-    checked against the engine's ``channels`` and the body's ``listeners``."""
+    """A body's ``pan`` checked against the engine's ``channels`` and the body's
+    ``listeners``, as the mixing's scalar (NaN for None)."""
     if value is None:
         return float("nan")
     if channels != 2:
@@ -741,17 +637,15 @@ def check_pan(value, channels: int, listeners: int = 1) -> float:
             f"pan={value!r}: this body is heard through {listeners} listeners (ears), whose "
             f"balance comes from the plate's radiation; pan is for a body of one listener"
         )
-    return checks.in_range("pan", value, -1.0, 1.0, "dimensionless", lo_open=False, hi_open=False)
+    return closed("pan", value, -1.0, 1.0, "dimensionless")
 
 
 def ears(position, facing=(1.0, 0.0), spacing: float = 0.18) -> tuple[Microphone, Microphone]:
-    """A listener's two ears as microphones, (left, right), for ``Engine(channels=2)``:
-    the head at ``position`` ((x, y, z), m, z > 0 above the plate), facing the direction
-    ``facing`` ((x, y) in the plate's plane, any length > 0), the ears ``spacing`` m apart
-    (in (0, 1]; 0.18 m, an adult head's width) on the line across it, the left one on the
-    left of the facing direction (z up). Each ear hears each mode with its own Rayleigh
-    gain (:mod:`synth.sound.radiation`): level, delay-free directivity and the balance
-    between the ears come from the plate's radiation, not from a pan law."""
+    """A listener's two ears as microphones (left, right) for ``Engine(channels=2)``: the
+    head at ``position`` ((x, y, z), m, z > 0), facing ``facing`` ((x, y), length > 0), the
+    ears ``spacing`` m apart (in (0, 1]; 0.18 m, a head's width), the left one on the left (z
+    up). Each ear hears each mode through its own Rayleigh gain: the balance comes from the
+    plate's radiation."""
     x, y, z = checks.point("position", position, 3)
     fx, fy = checks.point("facing", facing, 2, "dimensionless")
     norm = float(np.hypot(fx, fy))

@@ -1,12 +1,7 @@
 """A live engine: an always open output stream that plays physical impacts as they happen
-(docs/live.md states the design and what runs where; :class:`Engine` each setting).
-
-``Engine`` owns one PortAudio output stream whose callback, compiled code with no Python,
-allocation or lock in it (:mod:`synth.live.native`), mixes every :class:`Body`;
-``Engine.process(frames)`` runs the same mixing without a device. Levels are the
-listener's physical signal at the calibration of ``normalize="physical"``. This module
-holds what a user calls; :mod:`synth.live.bookkeeping` the state, clock, events and
-statistics.
+(docs/live.md). Its callback is compiled code with no Python, allocation or lock
+(:mod:`synth.live.native`); :meth:`Engine.process` runs the same mixing without a device.
+Levels are the listener's physical signal at the calibration of ``normalize="physical"``.
 """
 
 from __future__ import annotations
@@ -22,9 +17,10 @@ from synth import checks, cost
 from synth.compilation import announce
 from synth.errors import ParameterError, SynthError
 from synth.live import kernel, native
+from synth.live import state as st
 from synth.live.body import DEFAULT_MICROPHONE_HEIGHT, Body, check_listener, check_pan, ears
 from synth.live.bookkeeping import EngineBookkeeping, watch_device
-from synth.live.hits import MAX_GAIN, check_int
+from synth.live.hits import MAX_GAIN, check_int, closed
 from synth.live.limiter import LOOKAHEAD, MIN_ATTACK, LimiterState, min_delay
 from synth.live.rolling import MAX_ROLLS
 from synth.live.stats import EngineStats
@@ -37,11 +33,9 @@ from synth.sound.render import listener_grid, modal_model
 
 __all__ = ["Body", "Engine", "EngineStats", "Voice", "ears"]
 
-#: The stream callbacks: compiled code that PortAudio calls without Python ("native"), or
-#: the fallback, a Python function (needs the GIL each block).
+#: The stream callbacks: compiled code without Python, or a Python fallback.
 CALLBACKS = ("native", "python")
-#: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s (the
-#: arrays are allocated whole: 600 s of mono float32 at 48 kHz is 115 MB).
+#: Longest output ``process`` mixes in one call and ``record_seconds`` keeps, s.
 MAX_SECONDS = 600.0
 #: Default room in the body directory the audio thread reads.
 MAX_BODIES = 256
@@ -54,9 +48,8 @@ EVENT_CAPACITY = 4096
 
 
 def _compile_the_block(*, rolling: bool) -> int:
-    """Compile (or load) the audio thread's code, after the note that it compiles; with
-    ``rolling``, the rolling voices' block too, apart (an engine without rolling slots
-    never compiles it). Returns that block's address for ``ctl[ROLLER]`` (0: none)."""
+    """Compile (or load) the audio thread's code, and with ``rolling`` the rolling block;
+    returns that block's address for ``ctl[ROLLER]`` (0: none)."""
     announce("live")
     if rolling:
         announce("live-rolling")
@@ -65,72 +58,32 @@ def _compile_the_block(*, rolling: bool) -> int:
 
 
 class Engine(EngineBookkeeping):
-    """An always open output stream that mixes the ringing of every :class:`Body`
-    (docs/live.md states each setting at length).
+    """An always open output stream that mixes the ringing of every :class:`Body`;
+    docs/live.md states each setting at length. Keyword parameters:
 
-    Parameters
-    ----------
-    samplerate : int
-        Hz, in [8000, 384000]; the device is opened at this rate.
-    blocksize : int
-        Frames per callback, in [16, 8192] (also the step of :meth:`process`).
-    device : int or str, optional
-        PortAudio output device index or name (default the system's).
-    latency : "low", "high" or float
-        The stream's suggested output latency (s, > 0, or PortAudio's named setting).
-    channels : int
-        Output channels, in [1, 64]. A body with one listener plays on every channel (panned
-        by :attr:`Body.pan` with two); a body with one listener per channel (:func:`ears`) is
-        heard on each channel through its own.
-    floor_db : float < 0
-        Omission floor of each body's bank, dB below its loudest impact so far.
-    max_pending : int
-        Impacts a body holds before they are played, in [1, 4096]; beyond, a hit is refused.
-    max_hits_per_block : int, optional
-        In [1, max_pending] (default ``min(HITS_PER_BLOCK, max_pending)``): the hits one
-        callback turns into mode amplitudes over all bodies, a bound on its work; the others
-        wait for the next callback (counted late if their start passed, never lost).
-    max_frequency : float, optional
-        Highest mode of every body, Hz, at most Nyquist (default Nyquist).
-    pulse_points : int >= 5
-        Fewest points of each force pulse's grid for its Laplace transforms (as the renderer's;
-        the error falls like ``points^-3.5``, :mod:`synth.sound.modal_bank`).
-    fade : float
-        Fade-out on :meth:`stop`, s, in [0.001, 1].
-    handover : float
-        Time allowed to :meth:`Body.hit` between its call and the hand-over, s, in [0, 0.1]: a
-        tick starts at the call plus one block, the output latency and this.
-    record_seconds : float
-        Seconds of output kept in :attr:`recording`, in [0, MAX_SECONDS].
-    master_gain_db : float
-        Master gain, dB, in [-120, 40]; settable, ramped over a block.
-    clip : bool
-        Soft-clip the master bus (identity up to -1 dBFS, a tanh knee above).
-    limiter : bool
-        Run the master bus through the true-peak limiter before the clipper (delays the bus by
-        ``lookahead``).
-    ceiling_db : float
-        The limiter's ceiling, dBFS (true peak), in [-20, 0].
-    lookahead : float or None
-        The limiter's look-ahead, s, in [``min_delay()`` frames, one block]; None:
-        ``synth.live.limiter.LOOKAHEAD`` or one block if shorter.
-    callback : "native" or "python"
-        Compiled code PortAudio calls without Python (default), or the fallback, a Python
-        function that holds the GIL each block.
-    max_bodies : int
-        Bodies the engine can hold, in [1, 65536].
-    max_voices : int
-        Voices each body rings at once, in [1, 256] (default ``MAX_VOICES``); a new voice when
-        all ring steals the one of lowest priority, of those the oldest (:class:`Voice`).
-    max_rolls : int
-        Rolling voices each body rolls at once, in [0, 16] (default ``MAX_ROLLS``, 0: the
-        rolling block is then never compiled; :meth:`Body.roll` raises ParameterError).
-    max_total_voices : int, optional
-        Voices the whole engine plays at once, in [1, 65536] (default None: no cap beyond each
-        body's), stolen or refused as per body (:class:`~synth.live.voice.VoiceLimit`).
-    on_device_lost : callable, optional
-        Called once as ``on_device_lost(reason)`` on the engine's watchdog thread when a
-        running stream's device is lost (no callback for ``DEVICE_LOST`` s or 10 blocks)."""
+    - ``samplerate`` Hz in [8000, 384000]; ``blocksize`` frames per callback in [16, 8192]
+      (also :meth:`process`'s step); ``device`` a PortAudio output index or name (None: the
+      default); ``latency`` "low", "high" or s > 0; ``channels`` in [1, 64] (a body of one
+      listener plays on every channel, panned by :attr:`Body.pan` with two; one listener per
+      channel, :func:`ears`, is heard on each its own).
+    - ``floor_db`` < 0: each body's omission floor below its loudest impact; ``max_pending``
+      impacts a body holds, in [1, 4096]; ``max_hits_per_block`` in [1, max_pending] (default
+      ``min(HITS_PER_BLOCK, max_pending)``): hits a callback transforms, the others wait;
+      ``max_frequency`` Hz, at most Nyquist (default Nyquist); ``pulse_points`` >= 5 (as the
+      renderer's, :mod:`synth.sound.modal_bank`).
+    - ``fade`` s in [0.001, 1] (:meth:`stop`); ``handover`` s in [0, 0.1] added to a hit's
+      default start; ``record_seconds`` in [0, MAX_SECONDS] kept in :attr:`recording`.
+    - ``master_gain_db`` in [-120, 40] (settable, ramped over a block); ``clip``: soft-clip
+      the master bus above -1 dBFS; ``limiter``: a true-peak limiter before the clipper, at
+      ``ceiling_db`` in [-20, 0] dBFS, ``lookahead`` s in [``min_delay()`` frames, one block]
+      (None: ``LOOKAHEAD`` or one block if shorter).
+    - ``callback``: "native" (compiled, no Python) or "python" (holds the GIL each block).
+    - ``max_bodies`` in [1, 65536]; ``max_voices`` per body in [1, 256] (a new voice steals
+      the lowest priority's, of those the oldest, :class:`Voice`); ``max_rolls`` per body in
+      [0, 16] (0: the rolling block is never compiled); ``max_total_voices`` in [1, 65536]
+      or None (:class:`~synth.live.voice.VoiceLimit`).
+    - ``on_device_lost(reason)``: called once on the watchdog thread when a running stream's
+      device is lost (no callback for ``DEVICE_LOST`` s or 10 blocks)."""
 
     def __init__(
         self,
@@ -193,13 +146,9 @@ class Engine(EngineBookkeeping):
                     f"max_frequency={max_frequency!r} must be <= the Nyquist "
                     f"frequency {0.5 * self.samplerate:g} Hz"
                 )
-        fade_s = checks.in_range("fade", fade, 0.001, 1.0, "s", lo_open=False, hi_open=False)
-        self.handover = checks.in_range(
-            "handover", handover, 0.0, 0.1, "s", lo_open=False, hi_open=False
-        )
-        rec = checks.in_range(
-            "record_seconds", record_seconds, 0.0, MAX_SECONDS, "s", lo_open=False, hi_open=False
-        )
+        fade_s = closed("fade", fade, 0.001, 1.0, "s")
+        self.handover = closed("handover", handover, 0.0, 0.1, "s")
+        rec = closed("record_seconds", record_seconds, 0.0, MAX_SECONDS, "s")
         if not isinstance(clip, bool):
             raise ParameterError(f"clip={clip!r} must be True or False")
         limit = self._limiter_state(limiter, ceiling_db, lookahead)
@@ -208,7 +157,7 @@ class Engine(EngineBookkeeping):
             raise ParameterError(f"on_device_lost={on_device_lost!r} must be None or callable")
         self._on_device_lost = on_device_lost
         self._device_lost: str | None = None  # why, once the watchdog found it lost
-        if self.callback == "native" and not native.native_available():
+        if self.callback == "native" and not st.native_available():
             raise ParameterError(
                 "callback='native' needs a POSIX monotonic clock, which this platform lacks: "
                 "use callback='python'"
@@ -223,19 +172,13 @@ class Engine(EngineBookkeeping):
         self._fade = fade_s
         self._steal_frames = max(1, int(round(STEAL_FADE * self.samplerate)))
         roller = _compile_the_block(rolling=self.max_rolls > 0)
-        self._native = native.EngineState(
-            samplerate=self.samplerate,
-            channels=self.channels,
-            max_bodies=max_bodies,
-            mix_frames=max(self.blocksize, 4096),
-            record_frames=int(round(rec * self.samplerate)),
-            fade_frames=max(1, int(round(fade_s * self.samplerate))),
-            clip=clip,
-            transforms_per_block=self.max_hits_per_block,
-            events=EVENT_CAPACITY,
-            limit=limit,
+        self._native = st.EngineState(
+            samplerate=self.samplerate, channels=self.channels, max_bodies=max_bodies,
+            mix_frames=max(self.blocksize, 4096), record_frames=int(round(rec * self.samplerate)),
+            fade_frames=max(1, int(round(fade_s * self.samplerate))), clip=clip,
+            transforms_per_block=self.max_hits_per_block, events=EVENT_CAPACITY, limit=limit,
             roller=roller,
-        )
+        )  # fmt: skip
         self.master_gain_db = master_gain_db
         self._bodies: tuple[Body, ...] = ()
         self._stream = None
@@ -259,12 +202,9 @@ class Engine(EngineBookkeeping):
         self._partial_events: dict = {}  # id -> ears that ended it, of a body of several
 
     def _limiter_state(self, limit, ceiling_db, lookahead) -> LimiterState | None:
-        """The master bus' limiter (checked), or None without one."""
         if not isinstance(limit, bool):
             raise ParameterError(f"limiter={limit!r} must be True or False")
-        ceiling = checks.in_range(
-            "ceiling_db", ceiling_db, -20.0, 0.0, "dBFS", lo_open=False, hi_open=False
-        )
+        ceiling = closed("ceiling_db", ceiling_db, -20.0, 0.0, "dBFS")
         if lookahead is None:
             frames = min(int(round(LOOKAHEAD * self.samplerate)), self.blocksize)
         else:
@@ -286,10 +226,14 @@ class Engine(EngineBookkeeping):
             samplerate=self.samplerate,
         )
 
-    # -- bodies ---------------------------------------------------------------------------
-    def _highest_frequency(self) -> float:
-        """Hz: the highest mode frequency the bodies render (``max_frequency`` or Nyquist)."""
-        return 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
+    def _budget(self, plate, listener, voices: int) -> int | None:
+        """The radiation points a body's cost allows (:func:`synth.cost.check_body`)."""
+        top = 0.5 * self.samplerate if self.max_frequency is None else self.max_frequency
+        return cost.check_body(plate, listener, top, voices)
+
+    def _exact_model(self, plate, listener, cut):
+        return modal_model(plate, listener, samplerate=self.samplerate,
+                           max_frequency=self.max_frequency, radiation_max_points=cut)  # fmt: skip
 
     def add(
         self,
@@ -300,13 +244,11 @@ class Engine(EngineBookkeeping):
         max_voices=None,
         pan: float | None = None,
     ) -> Body:
-        """Prepare ``plate`` (modes, listener gains; cached when present) and return its
-        :class:`Body`, heard by ``listener`` (default a microphone 0.2 m above the centre; a
-        :class:`synth.Scene` gives its plate and listener). ``gain`` in (0, MAX_GAIN];
-        ``max_voices`` in [1, 256] (default the engine's); ``pan`` in [-1, 1] or None (see
-        :attr:`Body.pan`). Allowed while the stream runs. The body's cost is first held to a
-        render's budget (:func:`synth.cost.check_body`): beyond it a ParameterError names what is
-        too big and what to change."""
+        """Add ``plate`` (or a :class:`synth.Scene`'s plate and listener) as a :class:`Body`
+        heard by ``listener`` (default a microphone 0.2 m above the centre; a sequence: one
+        per channel), at ``gain`` in (0, MAX_GAIN], ``max_voices`` in [1, 256] (default the
+        engine's), ``pan`` in [-1, 1] or None (:attr:`Body.pan`); while the stream runs too.
+        Its cost is held to a render's budget first (:func:`synth.cost.check_body`)."""
         voices = self.max_voices if max_voices is None else max_voices
         voices = check_int("max_voices", voices, 1, 256, "voices")
         several = isinstance(listener, (tuple, list))
@@ -347,14 +289,7 @@ class Engine(EngineBookkeeping):
             )
         ears_ = []
         for c, li in enumerate(listeners):
-            cut = cost.check_body(plate, li, self._highest_frequency(), voices)
-            model = modal_model(
-                plate,
-                li,
-                samplerate=self.samplerate,
-                max_frequency=self.max_frequency,
-                radiation_max_points=cut,
-            )
+            model = self._exact_model(plate, li, self._budget(plate, li, voices))
             channel = c if several else -1
             ears_.append(Body(self, plate, li, g, model, channel, len(listeners), voices, panned))
         body = ears_[0]
@@ -363,24 +298,19 @@ class Engine(EngineBookkeeping):
         self._bodies = self._bodies + (body,)
         return body
 
-    # -- master bus -----------------------------------------------------------------------
     @property
     def master_gain_db(self) -> float:
         """The master bus' gain, dB in [-120, 40]; a change is ramped over the next block."""
-        return 20.0 * float(np.log10(self._native.times[native.MASTER_GAIN]))
+        return 20.0 * float(np.log10(self._native.times[st.MASTER_GAIN]))
 
     @master_gain_db.setter
     def master_gain_db(self, value: float) -> None:
-        db = checks.in_range(
-            "master_gain_db", value, -120.0, 40.0, "dB", lo_open=False, hi_open=False
-        )
-        self._native.times[native.MASTER_GAIN] = 10.0 ** (db / 20.0)
+        db = closed("master_gain_db", value, -120.0, 40.0, "dB")
+        self._native.times[st.MASTER_GAIN] = 10.0 ** (db / 20.0)
 
     def move_listener(self, position, facing=(1.0, 0.0)) -> None:
-        """Move the game's listener for every body to ``position`` ((x, y, z), m, z > 0) from the
-        next block on, the gains ramped over that block (:meth:`Body.move`). Two ears face
-        ``facing`` ((x, y)); more ears move by one displacement, their centroid to ``position``.
-        The gains are computed on the calling thread (:meth:`prepare_moves` readies them)."""
+        """Move every body's listener to ``position`` ((x, y, z), m, z > 0) from the next block
+        (:meth:`Body.move`); two ears face ``facing`` ((x, y)), more move by one displacement."""
         position = checks.point("position", position, 3)
         checks.point("facing", facing, 2, "dimensionless")
         if not position[2] > 0.0:
@@ -397,11 +327,8 @@ class Engine(EngineBookkeeping):
                 body.move(_shifted(body.listener, position))
 
     def prepare_moves(self) -> None:
-        """Build now the fixed radiation grids that moving a microphone above a plate takes
-        its gains from (:meth:`Body.move`, :meth:`move_listener`), one per plate of the
-        bodies heard through microphones, as a game does at load time: otherwise the first
-        move of each plate builds them on the calling thread (a few exact moves' time;
-        ``synth bench live`` prints it)."""
+        """Build now (at a game's load time) the fixed radiation grids each microphone-heard
+        plate's moves take their gains from; else its first move builds them."""
         for body in self.bodies:
             if body.removed or body.units != "Pa":
                 continue
@@ -409,10 +336,8 @@ class Engine(EngineBookkeeping):
                 ear._grid = self._listener_grid(ear._model)
 
     def _listener_grid(self, model):
-        """The fixed radiation grids of ``model``'s plate (:func:`listener_grid`), built at
-        the first call for the plate and shared by its bodies; None for a plate whose grids
-        would exceed their memory budget (:data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`:
-        its moves take the exact rule)."""
+        """The fixed radiation grids of ``model``'s plate, shared by its bodies; None beyond
+        :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES` (its moves take the exact rule)."""
         plate = model.modes.plate
         with self._grids_lock:
             grid = self._grids.get(plate)
@@ -427,64 +352,42 @@ class Engine(EngineBookkeeping):
 
     @property
     def listener_grid_memory(self) -> int:
-        """Bytes of the fixed radiation grids the engine keeps for moving listeners (one
-        per plate whose listener moved, see :meth:`Body.move`), beside the bodies'
-        :attr:`Body.memory`."""
+        """Bytes of the fixed radiation grids kept for moving listeners (one per plate)."""
         return sum(grid.nbytes for grid in list(self._grids.values()))
 
     def reset_meter(self) -> None:
         """Start the master bus' peak meters (``stats.peak``, ``stats.output_peak``) anew."""
-        self._native.times[native.PEAK] = 0.0
-        self._native.times[native.OUT_PEAK] = 0.0
+        self._native.times[st.PEAK] = 0.0
+        self._native.times[st.OUT_PEAK] = 0.0
         if self._native.limiter is not None:
             self._native.limiter.reset_meter()
 
-    # -- clock ----------------------------------------------------------------------------
     def pause(self) -> None:
-        """Pause every sound: the output fades out over ``fade`` s, then the clock and every voice
-        hold and the output is silence while the stream keeps running (:meth:`resume` is
-        immediate). Hits made while paused start after :meth:`resume`."""
-        self._native.ctl[native.PAUSE] = 1
+        """Fade out over ``fade`` s, then hold the clock and every voice (the stream writes
+        silence) until :meth:`resume`."""
+        self._native.ctl[st.PAUSE] = 1
 
     def resume(self) -> None:
-        """Play on from where :meth:`pause` held the clock, fading in over ``fade`` s from
-        the next block (a pause not yet faded out turns back from where it stands)."""
-        self._native.ctl[native.PAUSE] = 0
+        """Play on from where :meth:`pause` held the clock, fading in over ``fade`` s."""
+        self._native.ctl[st.PAUSE] = 0
 
-    # -- mixing ---------------------------------------------------------------------------
     def process(self, frames: int) -> np.ndarray:
-        """Mix the next ``frames`` frames (in [0, MAX_SECONDS * samplerate]) without a
-        device, in blocks of ``blocksize``: float32 (frames, channels), the very samples the
-        stream's callback would emit. Not while the stream runs."""
-        limit = int(MAX_SECONDS * self.samplerate)
-        n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
+        """Mix the next ``frames`` frames without a device, in blocks of ``blocksize``: float32
+        (frames, channels), the samples the stream's callback would emit."""
+        out = self._new_block(frames)
         if self.running:
             raise SynthError("process() mixes without a device: stop() the stream first")
         self._check_open("process")
-        out = np.empty((n, self.channels), dtype=np.float32)
-        for a in range(0, n, self.blocksize):  # the callback's blocks, removed bodies reaped
+        for a in range(
+            0, out.shape[0], self.blocksize
+        ):  # the callback's blocks, removed bodies reaped
             self.mix_into(out[a : a + self.blocksize])
         return out
 
     def mix_into(self, out: np.ndarray) -> np.ndarray:
-        """Mix the next ``out.shape[0]`` frames into ``out``, a caller's float32 C-contiguous
-        (frames, channels) buffer, overwriting it: for hosts that own the audio callback
-        (pygame's mixer, pyo, a game engine's stream, a plugin host) and call this once per
-        block. The same compiled mixing as the stream's callback; not while the engine's own
-        stream runs. Returns ``out``."""
-        if (
-            not isinstance(out, np.ndarray)
-            or out.dtype != np.float32
-            or out.ndim != 2
-            or out.shape[1] != self.channels
-            or not out.flags.c_contiguous
-            or not out.flags.writeable
-        ):
-            raise ParameterError(
-                f"out={type(out).__name__} {getattr(out, 'dtype', '')} "
-                f"{getattr(out, 'shape', '')} must be a writeable C-contiguous float32 array "
-                f"of shape (frames, {self.channels})"
-            )
+        """Mix the next frames into ``out`` (a writeable C-contiguous float32 (frames, channels)
+        array, overwritten), for hosts that own the audio callback; returns ``out``."""
+        native.check_block(self._native.ctl, out)
         check_int("frames", out.shape[0], 0, int(MAX_SECONDS * self.samplerate), "frames")
         if self.running:
             raise SynthError("mix_into() mixes without the engine's stream: stop() it first")
@@ -495,18 +398,17 @@ class Engine(EngineBookkeeping):
         return out
 
     def render_block(self, frames: int) -> np.ndarray:
-        """The next ``frames`` frames as one block, a new float32 (frames, channels) array
-        (:meth:`mix_into` of a fresh buffer)."""
+        """The next ``frames`` frames as one block (:meth:`mix_into` of a new array)."""
+        return self.mix_into(self._new_block(frames))
+
+    def _new_block(self, frames: int) -> np.ndarray:
         limit = int(MAX_SECONDS * self.samplerate)
         n = check_int("frames", frames, 0, limit, f"frames, {MAX_SECONDS:g} s")
-        return self.mix_into(np.empty((n, self.channels), dtype=np.float32))
+        return np.empty((n, self.channels), dtype=np.float32)
 
-    # -- stream ---------------------------------------------------------------------------
     def start(self) -> Engine:
-        """Open the output stream and start mixing, from the engine's clock where it stands
-        (an engine stopped before starts again). Raises SynthError when PortAudio or the
-        sounddevice package is missing, when there is no output device or it does not take
-        the engine's rate, or when the engine failed."""
+        """Open the output stream and mix from the engine's clock where it stands; SynthError
+        without PortAudio, sounddevice or a device that takes the engine's rate."""
         if self.running:
             raise SynthError("the engine is already running")
         self._check_open("start")
@@ -519,27 +421,22 @@ class Engine(EngineBookkeeping):
                 native.transform_pending(ear._record)
         try:
             stream = open_stream(
-                sd,
-                self._native,
-                self.callback,
-                samplerate=self.samplerate,
-                blocksize=self.blocksize,
-                device=self.device,
-                channels=self.channels,
+                sd, self._native, self.callback, samplerate=self.samplerate,
+                blocksize=self.blocksize, device=self.device, channels=self.channels,
                 latency=self.latency_setting,
-            )
+            )  # fmt: skip
         except sd.PortAudioError as exc:
             raise SynthError(
                 f"cannot open the output device {info['name']!r} at "
                 f"{self.samplerate} Hz with {self.channels} channel(s): {exc}"
             ) from None
         times = self._native.times
-        times[native.NOMINAL_LATENCY] = times[native.LEAD] = float(stream.latency)
-        times[native.END_TIME] = native.monotonic()
-        times[native.LAST_ENTRY] = 0.0  # the time stopped is not a gap
+        times[st.NOMINAL_LATENCY] = times[st.LEAD] = float(stream.latency)
+        times[st.END_TIME] = st.monotonic()
+        times[st.LAST_ENTRY] = 0.0  # the time stopped is not a gap
         ctl = self._native.ctl
-        ctl[native.FADE_AT] = -1
-        ctl[native.SEQ] = 0
+        ctl[st.FADE_AT] = -1
+        ctl[st.SEQ] = 0
         self._stream = stream
         # closes the stream if the engine is collected while it runs (the stream holds
         # nothing of the engine, only the addresses of the arrays the closer keeps)
@@ -555,26 +452,25 @@ class Engine(EngineBookkeeping):
         return self
 
     def stop(self, timeout: float = 2.0) -> None:
-        """Fade out (``fade`` s; at once when paused), then close the stream within ``timeout`` s
-        (>= 0) plus the fade, dropping pending impacts and ringing voices. When the audio server
-        does not answer in time the engine is marked :attr:`failed` and refuses every later call."""
+        """Fade out, then close the stream within ``timeout`` s (>= 0) plus the fade, dropping
+        every impact and voice; a server that does not answer marks the engine :attr:`failed`."""
         t = checks.nonnegative("timeout", timeout, "s")
         if not self.running:
             return
         ctl = self._native.ctl
-        length = int(ctl[native.FADE_LENGTH])
+        length = int(ctl[st.FADE_LENGTH])
         deadline = time.monotonic() + t + length / self.samplerate
-        ctl[native.FADE_AT] = 0
-        silent = self.paused and self._native.times[native.PAUSE_LEVEL] <= 0.0
-        while not silent and ctl[native.FADE_AT] < length and time.monotonic() < deadline:
+        ctl[st.FADE_AT] = 0
+        silent = self.paused and self._native.times[st.PAUSE_LEVEL] <= 0.0
+        while not silent and ctl[st.FADE_AT] < length and time.monotonic() < deadline:
             time.sleep(0.002)
         self._closer.detach()
-        closed = close_stream(
+        done = close_stream(
             self._stream, self._native, max(0.0, deadline - time.monotonic()), abort=False
         )
         self._stream = None  # its watchdog ends
         self._device_lost = None
-        if not closed:
+        if not done:
             self._state = "failed"
             self._failure = (
                 f"the audio server did not answer within timeout={timeout!r} s; the stream "
@@ -582,9 +478,9 @@ class Engine(EngineBookkeeping):
             )
             return
         self._state = "idle"
-        ctl[native.FADE_AT] = -1
-        ctl[native.PAUSE] = 0  # a pause ends with the stream
-        self._native.times[native.PAUSE_LEVEL] = 1.0
+        ctl[st.FADE_AT] = -1
+        ctl[st.PAUSE] = 0  # a pause ends with the stream
+        self._native.times[st.PAUSE_LEVEL] = 1.0
         for body in self._bodies:
             body._apply_silence()
 
@@ -596,9 +492,8 @@ class Engine(EngineBookkeeping):
 
 
 def _shifted(listeners, position) -> tuple:
-    """``listeners`` (Microphones) moved all by one displacement, their centroid to
-    ``position`` ((x, y, z), m); a listener that is not a Microphone (an accelerometer, on
-    the plate) is a ParameterError."""
+    """``listeners`` (Microphones only) moved by one displacement, their centroid to
+    ``position`` ((x, y, z), m)."""
     for i, li in enumerate(listeners):
         if not isinstance(li, Microphone):
             raise ParameterError(

@@ -1,11 +1,9 @@
-"""The listener's gains at a voice's output: each mode heard through its complex gain.
-
-Voice slots hold the plate's modal states; the mixing hears them through ``heard``, each
-mode's gain at the block's start and its target at the end (ramped after the listener
-moved, :meth:`synth.live.Body.move`). :func:`ring_heard` is the bank's
-:func:`~synth.sound.modal_bank.ring_modes` with that gain at its output, :func:`inject_heard`
-its :func:`~synth.sound.modal_bank.inject_amplitudes` with the omission test on the heard
-level; a mode no longer heard parks its plate state (:func:`park`) for a later listener.
+"""The listener's gains at a voice's output: voice slots hold the plate's modal states, heard
+through each mode's complex gain (``heard``: at the block's start and its target at the end,
+ramped after :meth:`synth.live.Body.move`). :func:`ring_heard` and :func:`inject_heard` are the
+bank's :func:`~synth.sound.modal_bank.ring_modes` and
+:func:`~synth.sound.modal_bank.inject_amplitudes` with that gain at the output and the
+omission test on the heard level; a mode no longer heard parks its plate state (:func:`park`).
 """
 
 from __future__ import annotations
@@ -15,12 +13,9 @@ import numpy as np
 from synth.compilation import compiled
 from synth.sound.modal_bank.bank_kernels import SUB, falls_silent
 
-#: Rows of a body's ``heard`` (float64, (N_HEARD_ROWS, K)): the listener's complex gain
-#: of each mode at the start of the block (re, im), its target at the block's end (re, im;
-#: ramped linearly over the block), and the gains a producer hands over (re, im; see
-#: :meth:`synth.live.Body.move`).
-H0R, H0I, H1R, H1I, HPR, HPI = range(6)
-N_HEARD_ROWS = 6
+#: Rows of a body's ``heard`` (float64, (N_HEARD_ROWS, K)): each mode's complex gain at the
+#: block's start, its target at the block's end, and the gains a producer hands over.
+H0R, H0I, H1R, H1I, HPR, HPI, N_HEARD_ROWS = range(7)
 #: ``heard_seq`` (int64): the producer's sequence number of the handed-over gains (odd
 #: while it writes them), and the last one the mixing took.
 SEQ_PUT, SEQ_TAKEN = range(2)
@@ -28,9 +23,8 @@ SEQ_PUT, SEQ_TAKEN = range(2)
 
 @compiled(nogil=True, inline="always")
 def heard_power(heard, k):
-    """The largest power gain ``|G|^2`` of mode ``k`` over the block (its start and its
-    target): what the omission tests compare against, so that a mode is never left out
-    while the ramp makes it louder than the test assumed."""
+    """The largest power gain ``|G|^2`` of mode ``k`` over the block, for the omission tests
+    (a mode is never left out while the ramp makes it louder)."""
     a = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
     b = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
     return max(a, b)
@@ -38,10 +32,8 @@ def heard_power(heard, k):
 
 @compiled(nogil=True, inline="always")
 def park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
-    """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being
-    heard (its heard level under its omission share): added to what it parked before,
-    decayed to ``at``, so that a listener that hears it better later gets it back
-    (see :func:`synth.live.kernel.mix_body`)."""
+    """Keep mode ``k``'s plate state ``cr + i ci`` at sample ``at`` when it stops being heard
+    (added to what it parked before, decayed to ``at``), for a later listener."""
     pr = park_r[k]
     pi = park_i[k]
     if pr != 0.0 or pi != 0.0:
@@ -55,15 +47,11 @@ def park(park_r, park_i, park_at, k, cr, ci, at, poles, fs):
 @compiled(nogil=True)
 def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2,
                poles, fs, park_r, park_i, park_at, heard, t0, n):  # fmt: skip
-    """:func:`~synth.sound.modal_bank.ring_modes` of a voice slot's plate state (its modes'
-    complex amplitudes without the listener's gains), heard through each mode's complex
-    gain ``G_k`` (``heard``), ramped linearly from its value at the block's start ``t0``
-    to its target over the block's ``n`` samples (the target after it):
-    ``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``. With a still listener the gain is
-    folded into the state once per ``SUB`` samples, and the inner loop is the bank's;
-    while the gains ramp it takes one more complex multiply-add a mode-sample. A mode whose
-    heard level (with its larger gain of the block) and debt fit its omission share stops,
-    as in the bank, and parks its plate state (:func:`park`)."""
+    """:func:`~synth.sound.modal_bank.ring_modes` of a slot's plate state heard through each
+    mode's gain ``G_k``, ramped from the block's start ``t0`` over ``n`` samples:
+    ``out[s - offset] += Re[G_k(s) z_k r_k^(s - a)]``. A still gain is folded into the state
+    once per ``SUB`` samples (the bank's inner loop); a mode whose heard level and debt fit
+    its omission share stops and parks (:func:`park`)."""
     K = zr.shape[0]
     inv_n = 1.0 / n
     for k in range(K):
@@ -115,9 +103,8 @@ def ring_heard(out, offset, a, b, table, zr, zi, active, debt, debt_at, threshol
 @compiled(nogil=True, inline="always")
 def inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, park_r,
                   park_i, park_at, heard):  # fmt: skip
-    """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``: the
-    omission test takes each mode's heard level (its larger gain of the block); a mode
-    that stops parks its plate state (:func:`park`)."""
+    """:func:`~synth.sound.modal_bank.inject_amplitudes` of plate amplitudes ``amps``, the
+    omission test on the heard level; a mode that stops parks (:func:`park`)."""
     for k in range(zr.shape[0]):
         zr[k] += amps[k].real
         zi[k] += amps[k].imag
@@ -130,8 +117,7 @@ def inject_heard(zr, zi, active, debt, debt_at, thresholds, poles, fs, amps, a, 
 
 
 def heard_arrays(gains) -> tuple:
-    """A body's ``heard`` (:data:`N_HEARD_ROWS`, K) with every row at the listener's
-    complex gains ``gains`` (K,), and its ``heard_seq`` (int64, 2)."""
+    """A body's ``heard``, every row at the complex ``gains`` (K,), and its ``heard_seq``."""
     heard = np.empty((N_HEARD_ROWS, gains.size))
     heard[0::2] = gains.real
     heard[1::2] = gains.imag

@@ -1,6 +1,5 @@
-"""What a hit or a drop on a live body is made of, checked before anything is computed:
-the bounds of its arguments (a ParameterError names the argument, its value and what is
-allowed) and the checked :class:`Trigger` that :meth:`synth.live.Body.hit` and
+"""What a hit or a drop on a live body is made of, checked before anything is computed: the
+bounds of its arguments and the :class:`Trigger` that :meth:`synth.live.Body.hit` and
 :meth:`synth.live.Body.drop` share."""
 
 from __future__ import annotations
@@ -11,14 +10,7 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.physics.scene import (
-    MAX_DROP_HEIGHT,
-    MIN_DROP_HEIGHT,
-    Ball,
-    Contact,
-    HollowBall,
-    Plate,
-)
+from synth.physics.scene import MAX_DROP_HEIGHT, MIN_DROP_HEIGHT, Ball, Contact, HollowBall, Plate
 
 #: Largest speed of a hit, m/s: far beyond the elastic range of every material in the table
 #: (metal balls dent above a few m/s), a bound against nonsense, not a physical limit.
@@ -29,20 +21,17 @@ MAX_GAIN = 1e4
 #: Longest time ahead of the engine's clock a hit or a drop may be scheduled, s (a slot of
 #: the pending ring is held until then).
 MAX_AHEAD = 60.0
-#: Relative accuracy of a hit's contact solution (restitution and contact time); a drop
-#: uses a scene's default (:class:`synth.physics.scene.Contact`), as its impacts string
-#: together.
+#: Relative accuracy of a hit's contact solution (a drop uses a scene's default).
 HIT_RTOL = 1e-6
-#: The contact law of a hit or a drop given none (a scene's default: Hertz; for a hollow
-#: ball, the thin-shell law).
+#: The contact law of a hit or a drop given none: Hertz, or the thin-shell law.
 DEFAULT_CONTACT = Contact()
 SHELL_CONTACT = Contact(law="shell")
 
 
 @dataclass(slots=True)
 class Trigger:
-    """What a hit or a drop is made of, checked: the ball, its impact point (m), its gain,
-    the contact law, gravity (m/s^2) and its start on the engine's clock (s)."""
+    """A hit's or a drop's ball, impact point (m), gain, contact law, gravity (m/s^2) and
+    start on the engine's clock (s), checked."""
 
     ball: Ball
     position: tuple[float, float]
@@ -53,8 +42,7 @@ class Trigger:
 
 
 def trigger(plate: Plate, ball, position, gain, contact, gravity, onset) -> Trigger:
-    """The arguments a hit and a drop share, checked (``position`` by the plate; ``onset``
-    checked by the engine's clock, s)."""
+    """The arguments a hit and a drop share, checked (``onset`` by the engine's clock, s)."""
     return Trigger(
         ball=check_ball(ball, plate),
         position=plate.check_position(plate.centre if position is None else position, "position"),
@@ -79,9 +67,7 @@ def check_ball(ball, plate: Plate) -> Ball:
 
 
 def check_contact(contact, ball=None) -> Contact:
-    """``contact`` checked: None (the ball's own law: ``SHELL_CONTACT`` for a
-    :class:`~synth.physics.scene.HollowBall`, else ``DEFAULT_CONTACT``) or a Contact solved
-    with the plate's impedance."""
+    """``contact`` checked: None (the ball's own law) or a Contact on the plate's impedance."""
     if contact is None:
         return SHELL_CONTACT if isinstance(ball, HollowBall) else DEFAULT_CONTACT
     if not isinstance(contact, Contact):
@@ -102,6 +88,11 @@ def check_height(height) -> float:
             f"height={height!r} must be >= {MIN_DROP_HEIGHT:g} and <= {MAX_DROP_HEIGHT:g} (m)"
         )
     return h
+
+
+def closed(name, value, lo, hi, unit) -> float:
+    """``value`` checked: a finite float in [lo, hi] (unit)."""
+    return checks.in_range(name, value, lo, hi, unit, lo_open=False, hi_open=False)
 
 
 def check_int(name, value, lo, hi, unit):

@@ -19,100 +19,62 @@ import numba
 import numpy as np
 
 from synth.compilation import compiled
+from synth.live import heard as hd
 from synth.live.atomics import fence
-from synth.live.heard import H0I as H0I
-from synth.live.heard import H0R as H0R
-from synth.live.heard import (
-    H1I,
-    H1R,
-    HPI,
-    HPR,
-    SEQ_PUT,
-    SEQ_TAKEN,
-    inject_heard,
-    ring_heard,
-)
 from synth.sound.modal_bank import transform_pulse
 
-#: Slot states of the pending ring (see :mod:`synth.live.queue`; WRITING = 2 is the
-#: producers' own).
-FREE = 0
-READY = 1
-PULSE = 3
+#: Slot states of the pending ring (:mod:`synth.live.queue`; WRITING = 2 is the producers').
+FREE, READY, PULSE = 0, 1, 3
 
-#: The scalars of a slot in the PULSE form (columns of the ring's ``pulse``): the grid
-#: step (s), the first in-contact sample's time from first touch (s), the weight left on
-#: the plate (N), the contact time (s), the rule's error order, the hit's gain and the
-#: accelerometer's direct-term line (listener units per N; 0 for a microphone).
-STEP, OFFSET, WEIGHT, CONTACT_TIME, ORDER, GAIN, MASS_LINE = range(7)
-N_PULSE_FIELDS = 7
+#: A PULSE slot's scalars (columns of the ring's ``pulse``): the grid step (s), the first
+#: in-contact sample's time from first touch (s), the weight left on the plate (N), the
+#: contact time (s), the rule's error order, the hit's gain and the accelerometer's
+#: direct-term line (listener units per N; 0 for a microphone).
+STEP, OFFSET, WEIGHT, CONTACT_TIME, ORDER, GAIN, MASS_LINE, N_PULSE_FIELDS = range(8)
 
-#: Per-body counters (int64 array): impacts played, impacts that arrived after their
-#: start (played at the start of the block they were found in), blocks in which the body
-#: rang, 1 while the body has ringing voices, pending impacts or a stolen voice's fade,
-#: 1 while a ``stop_all`` waits for the audio thread, the most pulses one block has
-#: transformed, voices stolen, impacts dropped (their voice stopped or stolen before
-#: they played), the sample after the last one of the stolen voices' fades (see
-#: :func:`_steal`); then two settings: the body's ears (listeners heard as one body,
-#: written into its voice-ended events) and the steal fade's length (samples); then the
-#: voices refused when they came to join (every slot rang a voice of higher priority).
-PLAYED = 0
-LATE = 1
-BUSY_BLOCKS = 2
-AWAKE = 3
-SILENCE = 4
-MOST_PULSES = 5
-STOLEN = 6
-DROPPED = 7
-TAIL_END = 8
-EARS = 9
-STEAL_FRAMES = 10
-REFUSED = 11
-N_COUNTERS = 12
+#: A body's counters (int64): impacts played, played late (at their block's start), blocks
+#: it rang, 1 while awake (ringing, pending or a steal fade), 1 while a ``stop_all`` waits,
+#: the most pulses a block transformed, voices stolen, impacts dropped (their voice stopped
+#: or stolen first), the sample after the last steal fade; two settings: its ears (in its
+#: voice-ended events) and the steal fade (samples); then voices refused a slot.
+(
+    PLAYED, LATE, BUSY_BLOCKS, AWAKE, SILENCE, MOST_PULSES, STOLEN, DROPPED, TAIL_END, EARS,
+    STEAL_FRAMES, REFUSED, N_COUNTERS,
+) = range(13)  # fmt: skip
 
-#: A voice record (int64 columns of a body's ``voices``: one per handle, see
-#: :mod:`synth.live.queue`): its id, its state (V_FREE, V_LIVE; the producers' own
-#: WRITING = 2), the impacts its producer hands over, those played or dropped so far (the
-#: audio thread's), the stop fade asked by :meth:`synth.live.Voice.stop` (samples, -1
-#: none; the producer's), 1 once stolen or refused (the audio thread's), the voice slot
-#: whose modal state it rings (-1 none; the audio thread's) and its priority (the
-#: producer's; see :func:`_steal`).
-V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT, V_PRIORITY = range(8)
-N_VOICE_FIELDS = 8
-V_FREE = 0
-V_LIVE = 1
+#: A voice record (int64 columns of a body's ``voices``, one per handle): its id, state
+#: (V_FREE, V_LIVE; WRITING = 2 the producers'), impacts handed over, those played or
+#: dropped (the audio thread's), the stop fade asked (samples, -1 none), 1 once stolen or
+#: refused, the voice slot it rings (-1 none) and its priority (:func:`_victim`).
+V_ID, V_STATE, V_PUT, V_PLAYED, V_STOP, V_DEAD, V_SLOT, V_PRIORITY, N_VOICE_FIELDS = range(9)
+V_FREE, V_LIVE = 0, 1
 
-#: A voice slot (int64 columns of a body's ``slots``: one modal state each): the voice
-#: record it rings (-1: free), the sample where it was taken (the oldest is stolen first),
-#: where its stop fade starts (-1 none) and its length (samples), the sample its state
-#: stands at within the block being mixed, and the length of its steal fade (samples, 0
-#: unless it is being stolen; the fade starts at its SL_POS, see :func:`_steal`).
-SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL = range(6)
-N_SLOT_FIELDS = 6
-#: A voice slot's gain (float64 columns of ``slot_gain``): at the start of the block and
-#: the target read from its record at that start (ramped linearly over the block).
+#: A voice slot (int64 columns of a body's ``slots``): the voice record it rings (-1 free),
+#: the sample it was taken at, its stop fade's start (-1 none) and length, the sample its
+#: state stands at in the block, and its steal fade's length (0 unless stolen; from SL_POS).
+SL_OWNER, SL_START, SL_FADE_AT, SL_FADE_LEN, SL_POS, SL_STEAL, N_SLOT_FIELDS = range(7)
+#: A voice slot's gain (``slot_gain`` columns): at the block's start, and its target.
 G_NOW, G_NEXT = range(2)
+
+#: A sample no impact reaches (beyond every pending injection); the kernels pass it, as the
+#: slot states, as an int64: a literal argument would compile a callee once more.
+NEVER = 1 << 62
 
 #: A voice-ended event (int64, in the engine's event ring): ``id * EVENT_EARS + ears``.
 EVENT_EARS = 128
 
 #: Where the master bus' soft clipper leaves the identity: -1 dBFS (a fraction of full
-#: scale); above it a tanh knee approaches full scale (see :func:`synth.live.native.soft_clip`).
+#: scale); above it a tanh knee approaches full scale (:func:`synth.live.native.soft_clip`).
 KNEE = 10.0 ** (-1.0 / 20.0)
 
-
-#: The engine's event ring (int64): events written (the audio thread's), events read (the
-#: reader's), events lost to a full ring (the audio thread's), then the ring.
-E_WRITTEN, E_READ, E_LOST = range(3)
-N_EVENT_HEADER = 3
+#: The engine's event ring (int64): events written (the audio thread's), read (the
+#: reader's), lost to a full ring, then the ring.
+E_WRITTEN, E_READ, E_LOST, N_EVENT_HEADER = range(4)
 
 
 @compiled(nogil=True, inline="always")
 def _voice_ended(records, r, events, ears):
-    """Free voice record ``r`` and post its id to the engine's event ring: a lock-free ring
-    with one writer (the thread that mixes: the audio thread, or the caller of
-    :meth:`synth.live.Engine.process`) and one reader (:meth:`synth.live.Engine.ended`);
-    an event that finds the ring full is counted lost."""
+    """Free voice record ``r`` and post its id to the engine's event ring."""
     vid = records[r, V_ID]
     fence()  # done with the record before a producer may take it
     records[r, V_STATE] = V_FREE
@@ -121,8 +83,9 @@ def _voice_ended(records, r, events, ears):
 
 @compiled(nogil=True, inline="always")
 def post_event(events, value):
-    """Post ``value`` (``id * EVENT_EARS + ears``) in the engine's event ring (see
-    :func:`_voice_ended`), or count it lost if the ring is full."""
+    """Post ``value`` (``id * EVENT_EARS + ears``) in the engine's event ring, a lock-free
+    ring of one writer (the mixing thread) and one reader (:meth:`synth.live.Engine.ended`),
+    or count it lost if the ring is full."""
     cap = events.shape[0] - N_EVENT_HEADER
     written = events[E_WRITTEN]
     if written - events[E_READ] >= cap:
@@ -156,8 +119,8 @@ def _drop(state, i, records, r, counters):
 
 @compiled(nogil=True, inline="always")
 def _refuse(state, i, records, r, counters, events):
-    """Refuse voice ``r`` (its priority is below every ringing slot's) at its pending
-    impact ``i``: that impact and every later one of it are dropped, and it ends."""
+    """Refuse voice ``r`` (outranked by every ringing slot) at its pending impact ``i``: it
+    ends, its impacts dropped."""
     records[r, V_DEAD] = 1
     counters[REFUSED] += 1
     _drop(state, i, records, r, counters)
@@ -166,8 +129,7 @@ def _refuse(state, i, records, r, counters, events):
 
 @compiled(nogil=True)
 def _outranked(records, slots, r):
-    """Whether voice ``r`` would be refused a slot now: every slot rings a voice of higher
-    priority (see :func:`_victim`)."""
+    """Whether voice ``r`` would be refused a slot now (:func:`_victim`)."""
     for j in range(slots.shape[0]):
         if slots[j, SL_OWNER] < 0:
             return False
@@ -176,10 +138,9 @@ def _outranked(records, slots, r):
 
 @compiled(nogil=True)
 def _contact_samples(out, t0, n, ring, voice_form, counters, events):
-    """Drop every pending impact of a stopped or stolen voice; add the in-contact samples
-    of the others that fall in ``[t0, t0 + n)``, at their voice's gain, but refuse a
-    voice without a slot that would be refused one (:func:`_outranked`) before its first
-    in-contact sample sounds."""
+    """Drop the pending impacts of stopped or stolen voices; add the others' in-contact
+    samples in ``[t0, t0 + n)`` at their voice's gain, refusing a voice that would be
+    refused a slot (:func:`_outranked`) before it sounds."""
     state, first, length, response, voice = ring[0], ring[2], ring[3], ring[5], ring[7]
     records, vgain = voice_form[0], voice_form[1]
     end = t0 + n
@@ -203,12 +164,12 @@ def _contact_samples(out, t0, n, ring, voice_form, counters, events):
 
 
 @compiled(nogil=True)
-def _next_due(state, inject, end):
-    """The pending slot with the earliest injection before ``end``, or -1."""
+def _earliest(state, inject, form, end):
+    """The slot in ``form`` (READY or PULSE) with the earliest injection before ``end``, or -1."""
     best = -1
     when = end
     for i in range(state.shape[0]):
-        if state[i] == READY:
+        if state[i] == form:
             fence()  # the slot's data after its state word
             if inject[i] < when:
                 when = inject[i]
@@ -217,35 +178,19 @@ def _next_due(state, inject, end):
 
 
 @compiled(nogil=True)
-def _next_pulse(state, inject):
-    """The slot in the PULSE form whose impact starts first, or -1."""
-    best = -1
-    when = 0
-    for i in range(state.shape[0]):
-        if state[i] == PULSE:
-            fence()  # the slot's data after its state word
-            if best < 0 or inject[i] < when:
-                when = inject[i]
-                best = i
-    return best
-
-
-@compiled(nogil=True)
 def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
-    """Turn at most ``limit`` PULSE slots (all if ``limit`` < 0), those that start first, into the
-    READY form, as :func:`synth.sound.modal_bank.impact_excitation` and the producer would:
-    the renderer's transform of the pulse with the plate's coefficients (the voice's plate
-    amplitudes) and with the listener's gains now (the in-contact response and heard peak),
-    times the hit's gain, plus an accelerometer's direct term. ``transform``: the body's
-    poles, steps, largest decay rate (1/s), sample period (s), workspace and room for the
-    heard coefficients. The others wait. Returns the number of pulses transformed."""
+    """Turn at most ``limit`` PULSE slots (-1: all), the earliest first, into the READY form as
+    :func:`synth.sound.modal_bank.impact_excitation` would: the pulse's transform with the
+    plate's coefficients (the plate amplitudes) and with the listener's gains now (response
+    and heard peak), times the hit's gain, plus an accelerometer's direct term. Returns the
+    number transformed."""
     state, length, amplitudes, response, reference = ring[0], ring[3], ring[4], ring[5], ring[6]
     pr, pi, ur, ui, sigma_max, period, work, heard_coef, heard_amps = transform
     coefficients, samples, points, pulse = pulse_form
     inject = ring[1]
     count = 0
     while limit < 0 or count < limit:
-        i = _next_pulse(state, inject)
+        i = _earliest(state, inject, np.int64(PULSE), np.int64(NEVER))
         if i < 0:
             break
         n = points[i]
@@ -258,8 +203,8 @@ def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
         cr = coefficients[i, 0]
         ci = coefficients[i, 1]
         for k in range(cr.shape[0]):
-            gr = heard[H1R, k]
-            gi = heard[H1I, k]
+            gr = heard[hd.H1R, k]
+            gi = heard[hd.H1I, k]
             heard_coef[0, k] = gr * cr[k] - gi * ci[k]
             heard_coef[1, k] = gr * ci[k] + gi * cr[k]
         transform_pulse(
@@ -287,17 +232,14 @@ def transform_pulses(ring, transform, pulse_form, transformed, heard, limit):
 
 @compiled(nogil=True)
 def _revive(t0, bank, modal, slots):
-    """After the listener moved (its gains for this block just taken): every parked mode
-    that the new gains hear louder than the old ones, and above its omission share, rings
-    again from its parked plate state decayed to ``t0`` (added to its state if it rings);
-    its debt is cleared, as nothing of it is left out any more. The omission tests then
-    stop the modes the new listener does not hear."""
+    """After the listener moved: every parked mode the new gains hear louder, above its
+    omission share, rings again from its parked state decayed to ``t0``, its debt cleared."""
     poles, fs, heard = bank[1], bank[2], bank[3]
     zr, zi, active, debt, thr2 = modal[0], modal[1], modal[2], modal[3], modal[6]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
     for k in range(zr.shape[1]):
-        before = heard[H0R, k] * heard[H0R, k] + heard[H0I, k] * heard[H0I, k]
-        after = heard[H1R, k] * heard[H1R, k] + heard[H1I, k] * heard[H1I, k]
+        before = heard[hd.H0R, k] * heard[hd.H0R, k] + heard[hd.H0I, k] * heard[hd.H0I, k]
+        after = heard[hd.H1R, k] * heard[hd.H1R, k] + heard[hd.H1I, k] * heard[hd.H1I, k]
         if after <= before:
             continue
         for s in range(slots.shape[0]):
@@ -323,33 +265,32 @@ def _revive(t0, bank, modal, slots):
 
 @compiled(nogil=True)
 def _take_gains(t0, bank, modal, slots, asleep):
-    """At a block's start: the gains of the block's start are the last block's target;
-    gains handed over since (a consistent copy: the producer's sequence number even and
-    unchanged across it) become the target, reached at the block's end; a body with no
-    voice takes them at once. Parked modes the new gains hear better ring again."""
+    """At a block's start the last target becomes the start gains; gains handed over since
+    (copied whole under the producer's sequence number) become the target (at once for a
+    body ``asleep``), and parked modes they hear better ring again."""
     heard, seq = bank[3], bank[4]
     K = heard.shape[1]
     for k in range(K):
-        heard[H0R, k] = heard[H1R, k]
-        heard[H0I, k] = heard[H1I, k]
-    put = seq[SEQ_PUT]
-    if put == seq[SEQ_TAKEN] or put % 2 == 1:
+        heard[hd.H0R, k] = heard[hd.H1R, k]
+        heard[hd.H0I, k] = heard[hd.H1I, k]
+    put = seq[hd.SEQ_PUT]
+    if put == seq[hd.SEQ_TAKEN] or put % 2 == 1:
         return
     fence()  # the gains after their sequence number
     for k in range(K):
-        heard[H1R, k] = heard[HPR, k]
-        heard[H1I, k] = heard[HPI, k]
+        heard[hd.H1R, k] = heard[hd.HPR, k]
+        heard[hd.H1I, k] = heard[hd.HPI, k]
     fence()
-    if seq[SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
+    if seq[hd.SEQ_PUT] != put:  # rewritten meanwhile: keep the old target, retry next block
         for k in range(K):
-            heard[H1R, k] = heard[H0R, k]
-            heard[H1I, k] = heard[H0I, k]
+            heard[hd.H1R, k] = heard[hd.H0R, k]
+            heard[hd.H1I, k] = heard[hd.H0I, k]
         return
-    seq[SEQ_TAKEN] = put
+    seq[hd.SEQ_TAKEN] = put
     if asleep:
         for k in range(K):
-            heard[H0R, k] = heard[H1R, k]
-            heard[H0I, k] = heard[H1I, k]
+            heard[hd.H0R, k] = heard[hd.H1R, k]
+            heard[hd.H0I, k] = heard[hd.H1I, k]
     else:
         _revive(t0, bank, modal, slots)
 
@@ -357,15 +298,13 @@ def _take_gains(t0, bank, modal, slots, asleep):
 @compiled(nogil=True)
 def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
     """Ring voice slot ``s`` from sample ``a`` to ``b`` into ``vs[a - offset : b - offset]``
-    (cleared first), heard through the listener's gains ramped over the block of ``n``
-    samples from ``t0`` (:func:`~synth.live.heard.ring_heard`, the bank's step with the gains at its
-    output)."""
+    (cleared first) through the listener's ramped gains (:func:`~synth.live.heard.ring_heard`)."""
     table, poles, fs, heard = bank[0], bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2 = modal[:7]
     park_r, park_i, park_at = modal[8], modal[9], modal[10]
     for j in range(a - offset, b - offset):
         vs[j] = 0.0
-    ring_heard(
+    hd.ring_heard(
         vs, offset, a, b, table, zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s],
         thr2[s], poles, fs, park_r[s], park_i[s], park_at[s], heard, t0, n,
     )  # fmt: skip
@@ -373,8 +312,7 @@ def _ring_slot(vs, offset, a, b, s, bank, modal, t0, n):
 
 @compiled(nogil=True, inline="always")
 def _fade(x, at, frames):
-    """A raised-cosine fade from 1 at sample ``at`` to 0 at ``at + frames`` (1 before, 0
-    after): continuous, with zero slope at both ends, so it never clicks."""
+    """A raised-cosine fade from 1 at sample ``at`` to 0 at ``at + frames`` (no click)."""
     p = x - at
     if p <= 0:
         return 1.0
@@ -385,10 +323,8 @@ def _fade(x, at, frames):
 
 @compiled(nogil=True)
 def _add_slot(out, t0, n, vs, offset, a, b, slot, gains, tail):
-    """Add ``vs[a - offset : b - offset]`` (samples ``a .. b - 1`` of a voice slot) into the
-    body's ``out`` (samples ``t0 .. t0 + n - 1``; later ones into the ring buffer ``tail``)
-    at the slot's gain (ramped linearly over the block), its stop fade and its steal fade
-    if it is being stolen."""
+    """Add a slot's samples ``a .. b - 1`` (``vs[a - offset :]``) into ``out`` (samples from
+    ``t0``; later ones into the ring buffer ``tail``) at its ramped gain and fades."""
     g0 = gains[G_NOW]
     g1 = gains[G_NEXT]
     fade_at = slot[SL_FADE_AT]
@@ -426,13 +362,9 @@ def _advance(out, t0, n, vs, s, b, bank, modal, voice_form):
 
 @compiled(nogil=True, inline="always")
 def _victim(records, slots, r):
-    """The voice slot a new voice ``r`` may steal (all taken): the one whose voice has the
-    lowest priority, of those the oldest (taken earliest; then the lowest id); -1 when
-    that voice's priority is higher than ``r``'s (the new voice is refused).
-
-    The oldest, not the quietest: a free decay makes the oldest of like impacts the
-    quietest, and a voice's age is the same at every ear of a body, where its level is
-    not."""
+    """The slot a new voice ``r`` may steal (all taken): its voice's priority the lowest, of
+    those the oldest (then the lowest id); -1 if that outranks ``r``. The oldest, not the
+    quietest: a voice's age is the same at every ear of a body, its level is not."""
     s = numba.int64(0)  # not a literal: its callees are compiled for int64 once
     for j in range(1, slots.shape[0]):
         pj = records[slots[j, SL_OWNER], V_PRIORITY]
@@ -455,10 +387,8 @@ def _victim(records, slots, r):
 
 @compiled(nogil=True, inline="always")
 def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
-    """Free voice slot ``s`` at sample ``at`` (chosen by :func:`_victim`): its voice rings
-    on through a raised-cosine fade of ``STEAL_FRAMES`` samples, rendered now into
-    ``out`` and the body's ``tail`` ring buffer (mixed in by the next blocks), and is
-    ended (its pending impacts are dropped)."""
+    """Free voice slot ``s`` at sample ``at``: its voice rings on through a ``STEAL_FRAMES``
+    fade rendered now into ``out`` and ``tail`` (mixed in by the next blocks), and ends."""
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     _advance(out, t0, n, vs, s, at, bank, modal, voice_form)
     F = counters[STEAL_FRAMES]
@@ -476,9 +406,8 @@ def _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events):
 
 @compiled(nogil=True, inline="always")
 def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events):
-    """A voice slot for voice ``r``, whose first impact joins at sample ``at``: a free one,
-    else one stolen (:func:`_victim`, :func:`_steal`); its modal state silent. -1 when
-    every slot rings a voice of higher priority than ``r``'s."""
+    """A silent voice slot for voice ``r`` joining at sample ``at``: a free one, else one
+    stolen; -1 when every slot outranks ``r``."""
     records, vgain, slots, slot_gain = voice_form[:4]
     s = -1
     for j in range(slots.shape[0]):
@@ -490,17 +419,10 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
         if s < 0:
             return -1
         _steal(out, t0, n, vs, s, at, bank, modal, voice_form, counters, events)
-    zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
-    park_r, park_i = modal[8], modal[9]
-    for k in range(zr.shape[1]):
-        zr[s, k] = 0.0
-        zi[s, k] = 0.0
-        active[s, k] = False
-        debt[s, k] = 0.0
-        thresholds[s, k] = 0.0
-        thr2[s, k] = 0.0
-        park_r[s, k] = 0.0
-        park_i[s, k] = 0.0
+    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i = modal[:10]
+    for a in (zr, zi, debt, thresholds, thr2, park_r, park_i):
+        a[s, :] = 0.0
+    active[s, :] = False
     level[s] = 0.0
     slots[s, SL_OWNER] = r
     slots[s, SL_START] = at
@@ -515,10 +437,9 @@ def _take_slot(out, t0, n, vs, r, at, bank, modal, voice_form, counters, events)
 
 @compiled(nogil=True, inline="always")
 def _inject(s, i, at, ring, bank, modal, floor):
-    """Add pending impact ``i``'s plate amplitudes to voice slot ``s`` at sample ``at``;
-    the voice's peak (the largest sum of heard ``|amplitudes|`` of its impacts, as handed
-    over) sets its modes' omission thresholds: ``floor * peak / K`` each, as the offline
-    bank's."""
+    """Add pending impact ``i``'s plate amplitudes to voice slot ``s`` at sample ``at``; the
+    voice's peak heard sum of ``|amplitudes|`` sets each mode's omission threshold,
+    ``floor * peak / K``, as the offline bank's."""
     amplitudes, reference = ring[4], ring[6]
     poles, fs, heard = bank[1], bank[2], bank[3]
     zr, zi, active, debt, debt_at, thresholds, thr2, level = modal[:8]
@@ -529,7 +450,7 @@ def _inject(s, i, at, ring, bank, modal, floor):
         for k in range(K):
             thresholds[s, k] = share
             thr2[s, k] = share * share
-    inject_heard(
+    hd.inject_heard(
         zr[s], zi[s], active[s], debt[s], debt_at[s], thresholds[s], poles, fs, amplitudes[i],
         at, modal[8][s], modal[9][s], modal[10][s], heard,
     )  # fmt: skip
@@ -537,8 +458,7 @@ def _inject(s, i, at, ring, bank, modal, floor):
 
 @compiled(nogil=True, inline="always")
 def _begin_voices(t0, voice_form):
-    """At a block's start: each ringing slot takes its voice's gain as the block's target
-    and starts the stop fade its voice asked for."""
+    """At a block's start each ringing slot takes its voice's gain target and stop fade."""
     records, vgain, slots, slot_gain = voice_form[:4]
     for s in range(slots.shape[0]):
         r = slots[s, SL_OWNER]
@@ -554,10 +474,8 @@ def _begin_voices(t0, voice_form):
 
 @compiled(nogil=True, inline="always")
 def _end_voices(out, t0, n, vs, bank, modal, voice_form, counters, events):
-    """At a block's end: ring every slot to it, free the slots whose modes all stopped
-    (the voice's level fell below the floor relative to its peak) or whose stop fade
-    ended, and end their voices if nothing of them is pending. Returns the slots still
-    ringing."""
+    """At a block's end: ring every slot to it, free those whose modes all stopped or whose
+    stop fade ended (ending their voices if nothing is pending); returns those ringing."""
     records, slots, slot_gain = voice_form[0], voice_form[2], voice_form[3]
     active = modal[2]
     end = t0 + n
@@ -598,14 +516,10 @@ def mix_body(
     out, vs, t0, n, bank, modal, floor, ring, counters, transform, pulse_form, transformed,
     voice_form, events, limit,
 ):  # fmt: skip
-    """Mix one body into ``out[0:n]`` (samples ``t0 .. t0 + n - 1``) voice by voice (``vs`` a
-    scratch of at least ``n`` and the steal fade's samples). bank: power table, poles, rate,
-    the listener's gains ``heard`` and ``heard_seq``; modal: the slots' modal states (V, K),
-    peaks (V,) and parked states (:func:`~synth.live.heard.park`); floor: the omission floor,
-    a fraction of a voice's peak; ring: the pending ring (:mod:`synth.live.queue`) and its
-    PULSE form (:func:`transform_pulses`); voice_form: voice records, slots, gains, stolen
-    tails; events: the event ring; limit: the most pulses transformed this block (-1: all; the
-    others wait, played late if due). Returns the number of pulses transformed."""
+    """Mix one body into ``out[0:n]`` (samples from ``t0``) voice by voice (``vs``: scratch
+    of ``n`` plus the steal fade), the arrays as :func:`synth.live.state.body_form` groups
+    them; ``floor``: the omission floor (a fraction of a voice's peak); ``limit``: the most
+    pulses transformed (-1: all; the others wait). Returns the pulses transformed."""
     state, inject = ring[0], ring[1]
     records = voice_form[0]
     _take_gains(t0, bank, modal, voice_form[2], counters[AWAKE] == 0)
@@ -613,7 +527,7 @@ def mix_body(
     if pulses > counters[MOST_PULSES]:
         counters[MOST_PULSES] = pulses
     end = t0 + n
-    due = _next_due(state, inject, end + (1 << 40))
+    due = _earliest(state, inject, np.int64(READY), np.int64(NEVER))
     if counters[AWAKE] == 0 and due < 0:
         return pulses
     counters[AWAKE] = 1
@@ -623,7 +537,7 @@ def mix_body(
         _contact_samples(out, t0, n, ring, voice_form, counters, events)
     _begin_voices(t0, voice_form)
     while True:
-        i = _next_due(state, inject, end)
+        i = _earliest(state, inject, np.int64(READY), end)
         if i < 0:
             break
         at = inject[i]
@@ -662,9 +576,8 @@ def mix_body(
 
 @compiled(nogil=True)
 def silence(modal, ring, transformed, voice_form, counters, events):
-    """Stop every voice and drop every pending impact of a body (their voices end); a slot
-    that a producer is still filling stays its own. A dropped pulse counts as taken
-    (``transformed``), so that the ring's bound on waiting pulses stays exact."""
+    """Stop every voice and drop every pending impact of a body (a slot being filled stays
+    its producer's); a dropped pulse counts as taken, keeping the ring's bound exact."""
     state, voice = ring[0], ring[7]
     records, slots, tail = voice_form[0], voice_form[2], voice_form[4]
     ears = counters[EARS]
@@ -692,22 +605,13 @@ def silence(modal, ring, transformed, voice_form, counters, events):
     counters[SILENCE] = 0
 
 
-def body_state(modes: int, voices: int) -> tuple:
-    """The silent modal states of ``voices`` voice slots of ``modes`` modes, (voices, modes)
-    each: amplitudes (re, im), ringing flags, omission debts, the sample of each debt,
-    thresholds and their squares; then each slot's peak (voices,); then the parked plate
-    states of stopped modes (re, im) and their samples (voices, modes)."""
-    shape = (voices, modes)
-    return (
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.bool_),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.int64),
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(voices),
-        np.zeros(shape),
-        np.zeros(shape),
-        np.zeros(shape, dtype=np.int64),
-    )
+def body_state(modes: int, voices: int) -> dict:
+    """The silent modal states of ``voices`` slots of ``modes`` modes by body-record name
+    (voices, modes): re, im, ringing flags, omission debts and their samples, thresholds and
+    their squares, the parked states of stopped modes (re, im) and their samples; and each
+    slot's peak ``level`` (voices,)."""
+    names = ("zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2", "park_r", "park_i",
+             "park_at")  # fmt: skip
+    types = (float, float, np.bool_, float, np.int64, float, float, float, float, np.int64)
+    arrays = {name: np.zeros((voices, modes), dtype) for name, dtype in zip(names, types)}
+    return arrays | {"level": np.zeros(voices)}

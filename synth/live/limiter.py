@@ -2,13 +2,11 @@
 inter-sample peaks at or below a ceiling.
 
 The detector interpolates 4x as ITU-R BS.1770-4 Annex 2's true-peak meter (12 taps per
-phase, Kaiser-windowed sincs, :func:`interpolator`); each position's required gain is
-``r(q) = min(1, ceiling / tp(q))``, one for every channel. The gain is a look-ahead
-minimum of ``r`` over the interpolator's reach ``R = TAPS / 2`` followed by a moving
-average over the attack ``A = D - 2 R`` frames, so it is at or below every ``r`` the output
-at that frame reads; it releases at most ``RELEASE_DB_PER_S``. The output is the input
-delayed by ``D`` frames times the gain, bit-identical while no reduction is needed.
-Preallocated (:class:`LimiterState`), compiled ``nogil`` (:func:`limit_block`).
+phase, Kaiser-windowed sincs); each position's required gain is ``r(q) = min(1, ceiling /
+tp(q))`` over every channel. The gain is a look-ahead minimum of ``r`` over the reach ``R =
+TAPS / 2`` then a moving average over the attack ``A = D - 2 R`` frames, so it is at or
+below every ``r`` its output frame reads; it releases at most ``RELEASE_DB_PER_S``. The
+output is the input delayed by ``D`` frames times the gain (bit-identical while at 1).
 """
 
 from __future__ import annotations
@@ -43,23 +41,18 @@ LOOKAHEAD = 0.0015
 #: Fewest attack frames (a look-ahead shorter than ``2 * REACH + MIN_ATTACK`` is refused).
 MIN_ATTACK = 4
 
-#: ``ints`` fields: frames taken in, the last position whose r < 1 (-huge before),
-#: frames of the mean's window whose m < 1, frames leaving with a gain < 1 since the
-#: last reset, the look-ahead D and the attack A (frames), the channels.
-I_TAKEN, I_BELOW_AT, I_BOX_BELOW, I_ACTIVE, I_DELAY, I_ATTACK, I_CHANNELS = range(7)
-N_INTS = 7
-#: ``floats`` fields: the ceiling (linear, full scale 1), the release factor per frame,
-#: the last gain, the running sum of the mean's window, the smallest gain since the last
-#: reset.
-F_CEILING, F_RELEASE, F_GAIN, F_SUM, F_MIN_GAIN = range(5)
-N_FLOATS = 5
+#: ``ints`` fields: frames taken in, the last position whose r < 1, frames of the mean's
+#: window whose m < 1, frames out with a gain < 1 since the reset, D, A, channels.
+I_TAKEN, I_BELOW_AT, I_BOX_BELOW, I_ACTIVE, I_DELAY, I_ATTACK, I_CHANNELS, N_INTS = range(8)
+#: ``floats`` fields: the ceiling (linear), the release factor per frame, the last gain, the
+#: mean's running sum, the smallest gain since the reset.
+F_CEILING, F_RELEASE, F_GAIN, F_SUM, F_MIN_GAIN, N_FLOATS = range(6)
 
 
 def interpolator() -> np.ndarray:
     """The interpolator's phases 1..OVERSAMPLING-1, (OVERSAMPLING - 1, TAPS): phase ``p``
-    estimates ``x(q + p / OVERSAMPLING)`` from ``x[q - REACH + 1 .. q + REACH]``
-    (tap ``j`` reads ``x[q - REACH + 1 + j]``): a sinc windowed by a Kaiser window of
-    half-width ``REACH``, normalised to unit gain at DC."""
+    estimates ``x(q + p / OVERSAMPLING)``, tap ``j`` reading ``x[q - REACH + 1 + j]``: a
+    Kaiser-windowed sinc of half-width ``REACH``, unit gain at DC."""
     h = np.empty((OVERSAMPLING - 1, TAPS))
     k = np.arange(TAPS) - (REACH - 1)  # sample offsets from q
     for p in range(1, OVERSAMPLING):
@@ -71,10 +64,9 @@ def interpolator() -> np.ndarray:
 
 
 def true_peak(x: np.ndarray) -> float:
-    """The limiter's true-peak estimate of a whole signal ``x`` (frames,) or (frames,
-    channels), full scale 1: the largest magnitude of its samples and of the points the
-    interpolator (:func:`interpolator`) estimates between them (the signal taken as 0
-    outside). For tests and meters on the calling thread."""
+    """The limiter's true-peak estimate of a whole signal ``x`` ((frames,) or (frames,
+    channels), full scale 1; 0 outside): the largest magnitude of its samples and
+    interpolated points."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 1:
         x = x[:, None]
@@ -88,41 +80,30 @@ def true_peak(x: np.ndarray) -> float:
     return peak
 
 
-def attack_frames(delay: int) -> int:
-    """The attack's length (frames) of a look-ahead of ``delay`` frames."""
-    return delay - 2 * REACH
-
-
 def min_delay() -> int:
     """The shortest look-ahead the limiter takes, frames."""
     return 2 * REACH + MIN_ATTACK
 
 
 class LimiterState:
-    """The limiter's preallocated arrays for ``channels`` channels, a look-ahead of
-    ``delay`` frames (>= :func:`min_delay`), a ``ceiling`` (linear, full scale 1) and
-    ``samplerate`` Hz: ``ints`` and ``floats`` (see ``I_*``, ``F_*``), the interpolator
-    ``taps``, the input ring ``x`` (delay + 1 frames, channels), the ring of required
-    gains ``r`` (attack + 2 reach + 1) and the mean's window ``m`` (attack + 1)."""
+    """The limiter's preallocated arrays for a look-ahead of ``delay`` frames (>=
+    :func:`min_delay`), a ``ceiling`` (linear) at ``samplerate`` Hz: ``ints``, ``floats``,
+    the ``taps``, the input ring ``x``, the required gains' ring ``r`` and the mean's ``m``."""
 
     def __init__(self, *, channels: int, delay: int, ceiling: float, samplerate: float):
-        attack = attack_frames(delay)
+        attack = delay - 2 * REACH
         self.ints = np.zeros(N_INTS, dtype=np.int64)
         self.floats = np.zeros(N_FLOATS)
         self.taps = np.ascontiguousarray(interpolator())
         self.x = np.zeros((delay + 1, channels))
         self.r = np.ones(attack + 2 * REACH + 1)
         self.m = np.ones(attack + 1)
-        i, f = self.ints, self.floats
-        i[I_BELOW_AT] = -(1 << 62)
-        i[I_DELAY] = delay
-        i[I_ATTACK] = attack
-        i[I_CHANNELS] = channels
-        f[F_CEILING] = ceiling * (1.0 - FLOAT32_MARGIN)
-        f[F_RELEASE] = 10.0 ** (RELEASE_DB_PER_S / 20.0 / samplerate)
-        f[F_GAIN] = 1.0
-        f[F_SUM] = attack + 1.0
-        f[F_MIN_GAIN] = 1.0
+        self.ints[[I_BELOW_AT, I_DELAY, I_ATTACK, I_CHANNELS]] = (-(1 << 62), delay, attack,
+                                                                  channels)  # fmt: skip
+        release = 10.0 ** (RELEASE_DB_PER_S / 20.0 / samplerate)
+        self.floats[[F_CEILING, F_RELEASE, F_GAIN, F_SUM, F_MIN_GAIN]] = (
+            ceiling * (1.0 - FLOAT32_MARGIN), release, 1.0, attack + 1.0, 1.0
+        )  # fmt: skip
 
     def arrays(self) -> tuple:
         return self.ints, self.floats, self.taps, self.x, self.r, self.m
@@ -154,9 +135,8 @@ class LimiterState:
 
 @compiled(nogil=True, inline="always")
 def _required_gain(ints, floats, taps, x, q):
-    """``r(q)``: 1, or the ceiling over the true-peak estimate at position ``q`` (its
-    sample and the interpolated points after it, every channel), read from the input ring
-    ``x`` (which holds frames up to ``q + REACH``)."""
+    """``r(q)``: 1, or the ceiling over the true-peak estimate at position ``q`` (its sample
+    and the interpolated points after it, every channel) from the input ring ``x``."""
     L = x.shape[0]
     ceiling = floats[F_CEILING]
     peak = 0.0
@@ -178,8 +158,7 @@ def _required_gain(ints, floats, taps, x, q):
 
 @compiled(nogil=True, inline="always")
 def _window_min(ints, r, u):
-    """``m(u)``: the least ``r`` over ``[u - REACH, u + A + REACH]``; exactly 1 when no
-    position there needed a reduction."""
+    """``m(u)``: the least ``r`` over ``[u - REACH, u + A + REACH]`` (exactly 1 if none < 1)."""
     A = ints[I_ATTACK]
     hi = u + A + REACH
     if ints[I_BELOW_AT] < u - REACH:
@@ -195,9 +174,8 @@ def _window_min(ints, r, u):
 
 @compiled(nogil=True)
 def limit_block(state, bus, n):
-    """Limit ``bus[c, 0:n]`` (channel ``c``, float64, full scale 1) in place: each frame
-    goes in, and the frame ``D`` earlier comes out at the limiter's gain (see the
-    module's docstring). ``state``: :meth:`LimiterState.arrays`."""
+    """Limit ``bus[c, 0:n]`` (float64, full scale 1) in place: each frame goes in, the frame
+    ``D`` earlier comes out at the gain. ``state``: :meth:`LimiterState.arrays`."""
     ints, floats, taps, x, r, m = state
     D = ints[I_DELAY]
     A = ints[I_ATTACK]

@@ -1,11 +1,7 @@
-"""A ball rolling on a live body, its speed and position updated by the game every frame
-(:meth:`synth.live.Body.roll`, :class:`RollingVoice`; docs/live.md, "Rolling", states the
-hand-over, the listeners and the cost).
-
-The game's thread checks each update and evaluates the mode shapes along the straight
-segment ahead of the ball (:func:`synth.sound.rolling.path_excitation`, every
-``table_step`` m, over :data:`HORIZON` s at the update's speed, plus :data:`MARGIN` m
-behind and beyond for the touching point's offset); the audio thread
+"""A ball rolling on a live body, updated by the game every frame (:meth:`synth.live.Body.roll`,
+:class:`RollingVoice`; docs/live.md, "Rolling"). The game's thread evaluates the mode shapes
+along the straight segment ahead of the ball (:func:`synth.sound.rolling.path_excitation`,
+over :data:`HORIZON` s at the update's speed plus :data:`MARGIN` m); the audio thread
 (:mod:`synth.live.rolling_block`) rolls the ball over each block and drives the modes.
 """
 
@@ -17,44 +13,38 @@ import numpy as np
 
 from synth import checks
 from synth.errors import ParameterError, SynthError
+from synth.live import heard as hd
 from synth.live import kernel
 from synth.live import rolling_block as rb
 from synth.live.atomics import publish
-from synth.live.hits import MAX_GAIN
-from synth.live.voice import MAX_STOP_FADE, MIN_STOP_FADE
+from synth.live.voice import check_gain, stop_frames
 from synth.physics.rolling import Roller
 from synth.physics.scene import Ball
 from synth.sound.rolling import POINTS_PER_WAVELENGTH, bending_wavenumber, path_excitation
 
 #: Fastest rolling speed a voice takes, m/s.
 MAX_ROLL_SPEED = 5.0
-#: How far ahead an update's mode-shape table reaches, s at the update's speed: a game that
-#: misses frames for longer holds the excitation at the table's end (counted in
-#: :attr:`RollingVoice.overruns`).
+#: How far ahead an update's mode-shape table reaches, s at its speed (beyond: held at its
+#: end, :attr:`RollingVoice.overruns`).
 HORIZON = 0.05
 #: The table's reach behind the game's position and beyond the horizon, m: room for the
-#: touching point's offset from the centre (sub-millimetre for roughness much lower than
-#: the ball) and for the centre's path from the update's block to the next.
+#: touching point's offset from the centre and the centre's path until the next block.
 MARGIN = 2e-3
-#: Default rolling slots a body holds (``Engine(max_rolls=...)``): none. A slot costs each
-#: body its tables and modal state (``synth bench live`` prints the memory), and an engine
-#: with slots compiles and loads the rolling contact's integrator beside its callback
-#: (``synth bench cold``): an engine that rolls asks for them (``Body.roll`` says so).
+#: Default rolling slots a body holds (``Engine(max_rolls=...)``): none, since a slot costs
+#: memory and an engine with slots compiles the rolling integrator (``synth bench cold``).
 MAX_ROLLS = 0
 
 
 def table_step(model) -> float:
-    """The mode-shape table's row spacing of a :class:`synth.sound.listener.ModalModel`, m:
-    :data:`synth.sound.rolling.POINTS_PER_WAVELENGTH` rows per bending wavelength of its
-    highest mode (as the offline rolling's table)."""
+    """The mode-shape table's row spacing of a modal model, m: ``POINTS_PER_WAVELENGTH`` rows
+    per bending wavelength of its highest mode (as the offline rolling's)."""
     w_max = float(np.max(np.abs(model.poles.imag))) if model.poles.size else 0.0
     k_b = bending_wavenumber(model.modes.plate, w_max)
     return 2.0 * math.pi / (POINTS_PER_WAVELENGTH * k_b) if k_b > 0.0 else 1.0
 
 
 def body_rolls(slots: int, model, frames: int) -> dict:
-    """A body's rolling slots (:func:`synth.live.rolling_block.rolling_arrays`): tables of
-    rows enough for :data:`MAX_ROLL_SPEED` over :data:`HORIZON` plus the margins."""
+    """A body's rolling slots, their tables long enough for :data:`MAX_ROLL_SPEED`."""
     rows = int(math.ceil((MAX_ROLL_SPEED * HORIZON + 2.0 * MARGIN) / table_step(model))) + 2
     return rb.rolling_arrays(slots, model.poles.size, rows, frames)
 
@@ -82,17 +72,20 @@ def _reach(plate, x, y, ux, uy) -> float:
     return max(reach, 0.0)
 
 
-class RollingVoice:
-    """A ball rolling on a body (made by :meth:`synth.live.Body.roll`): the game updates its
-    position and velocity (:meth:`update`, every frame), sets its ``gain`` and stops it
-    (:meth:`stop`). Every method may be called from any thread.
+#: What ended a rolling voice, by ``I_ENDED``.
+ENDED_BY = {rb.END_STOPPED: "stop", rb.END_SURFACE: "surface", rb.END_FAILED: "failed"}
 
-    ``id``: unique in its engine (reported by :meth:`synth.live.Engine.ended` once it has
-    ended at every ear). It ends after its stop fade; or, faded out over the engine's
-    ``fade``, when its centre reaches the end of its surface's envelope (``ended_by ==
-    "surface"``) or its contact needs more than
-    :data:`synth.live.rolling_block.MAX_STEPS_PER_SAMPLE` integration steps a sample
-    (``"failed"``). Its figures are its first ear's."""
+
+def _counter(field: int, doc: str) -> property:
+    return property(lambda voice: int(voice._ints[field]), doc=doc)
+
+
+class RollingVoice:
+    """A ball rolling on a body (:meth:`synth.live.Body.roll`): the game calls :meth:`update`
+    every frame, sets its ``gain`` and calls :meth:`stop`, from any thread. ``id`` is reported
+    by :meth:`synth.live.Engine.ended` once it ended at every ear: after its stop fade, or
+    faded out at its envelope's end (``ended_by == "surface"``) or when its contact needs
+    more than ``MAX_STEPS_PER_SAMPLE`` steps a sample (``"failed"``). Figures: its first ear's."""
 
     def __init__(self, body, vid: int, slots: list[int], direction: tuple[float, float]):
         self.body = body
@@ -108,9 +101,7 @@ class RollingVoice:
         self._state = rolls["roll_y"][slots[0]]
 
     def _holds(self, ear: int) -> bool:
-        """Whether the voice still holds its slot at ear ``ear`` (a body silenced ear by ear
-        may free it a block before another; under the lock, no other voice takes it
-        meanwhile)."""
+        """Whether the voice still holds its slot at ear ``ear`` (ears may free it apart)."""
         ints = self._ear_ints[ear]
         return int(ints[rb.I_STATE]) != rb.FREE and int(ints[rb.I_ID]) == self.id
 
@@ -129,32 +120,17 @@ class RollingVoice:
 
     @property
     def path_position(self) -> float:
-        """How far the ball's centre has rolled along its surface's envelope, m (from the
-        envelope's start; as of the last block mixed)."""
+        """How far the ball's centre has rolled along its envelope, m (at the last block)."""
         return float(self._state[rb.rolling_kernels.S])
 
-    @property
-    def overruns(self) -> int:
-        """Samples whose touching point lay beyond its update's table (updates too rare)."""
-        return int(self._ints[rb.I_OVERRUN])
-
-    @property
-    def steps(self) -> int:
-        """Integration steps taken so far (the audio thread's work, at its first ear)."""
-        return int(self._ints[rb.I_STEPS])
-
-    @property
-    def frames(self) -> int:
-        """Frames rolled so far."""
-        return int(self._ints[rb.I_FRAMES])
+    overruns = _counter(rb.I_OVERRUN, "Samples whose touching point lay beyond its table.")
+    steps = _counter(rb.I_STEPS, "Integration steps taken so far.")
+    frames = _counter(rb.I_FRAMES, "Frames rolled so far.")
 
     @property
     def ended_by(self) -> str | None:
         """``"stop"``, ``"surface"`` (the envelope's end), ``"failed"``, or None (rolling)."""
-        code = int(self._ints[rb.I_ENDED])
-        return {rb.END_STOPPED: "stop", rb.END_SURFACE: "surface", rb.END_FAILED: "failed"}.get(
-            code
-        )
+        return ENDED_BY.get(int(self._ints[rb.I_ENDED]))
 
     @property
     def gain(self) -> float:
@@ -164,8 +140,7 @@ class RollingVoice:
 
     @gain.setter
     def gain(self, value: float) -> None:
-        g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
-                            hi_open=False)  # fmt: skip
+        g = check_gain(value)
         with self._lock:
             if self.playing:
                 for ear, floats in enumerate(self._floats):
@@ -173,10 +148,9 @@ class RollingVoice:
                         floats[rb.F_GAIN] = g
 
     def update(self, position, velocity) -> None:
-        """The ball's centre is now above ``position`` ((x, y), m from the plate's corner),
-        moving at ``velocity`` ((vx, vy), m/s, speed at most :data:`MAX_ROLL_SPEED`): from
-        the next block the ball rolls at that speed, its touching point moving from there
-        along that direction. At rest (``(0, 0)``) it keeps its last direction."""
+        """The ball's centre is now above ``position`` ((x, y), m), moving at ``velocity``
+        ((vx, vy), m/s, at most :data:`MAX_ROLL_SPEED`; at rest it keeps its direction):
+        from the next block it rolls from there along that direction."""
         plate = self.body.plate
         x, y = plate.check_position(position, "position")
         speed, ux, uy = _velocity(velocity)
@@ -187,8 +161,8 @@ class RollingVoice:
                 self._publish(x, y, speed)
 
     def _publish(self, x: float, y: float, speed: float) -> None:
-        """Write the table of the segment from ``(x, y)`` into each ear's back buffer and
-        swap them into the middle (flagged fresh) for the audio thread, at once."""
+        """Write the segment's table from ``(x, y)`` into each ear's back buffer and swap them
+        into the middle (flagged fresh) at once."""
         body = self.body
         if any(ear._rolls is None for ear in body._ears):  # the body left its engine
             return
@@ -216,30 +190,24 @@ class RollingVoice:
         contact[rb.I_BACK] = old & 3
 
     def stop(self, fade: float | None = None) -> None:
-        """Fade it out from the next block: a raised cosine over ``fade`` s (in [0.001, 10];
-        default the engine's ``fade``), then it ends. Does nothing on an ended voice; a
-        second stop keeps the first fade."""
-        engine = self.body._engine
-        f = engine._fade if fade is None else fade
-        f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
-                            hi_open=False)  # fmt: skip
+        """Fade it out from the next block over ``fade`` s (in [0.001, 10]; default the
+        engine's ``fade``); a second stop keeps the first fade."""
+        frames = stop_frames(self.body._engine, fade)
         with self._lock:
             if self.playing and self._holds(0) and self._ints[rb.I_STOP] < 0:
-                self._ints[rb.I_STOP] = max(1, int(round(f * engine.samplerate)))
+                self._ints[rb.I_STOP] = frames
 
 
 def _write_back(rolls: dict, r: int, b: int, table, speed: float) -> None:
-    """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s)
-    into buffer ``b`` (the voice's back buffer) of slot ``r`` of an ear's rolling arrays
-    ``rolls``."""
+    """Write ``table`` (a :class:`synth.sound.rolling.PathExcitation`) at ``speed`` (m/s) into
+    buffer ``b`` of slot ``r`` of an ear's rolling arrays."""
     rows = table.excitation.shape[0]
     rolls["roll_tables"][r, b, :rows] = table.excitation
     rolls["roll_meta"][r, b] = (speed, table.start, table.step, rows)
 
 
 def rolls(body) -> bool:
-    """Whether a rolling voice of ``body`` rolls or fades at one of its ears (or is being
-    handed over)."""
+    """Whether a rolling voice of ``body`` rolls, fades or is being handed over."""
     return any(
         ear._rolls is not None and bool(np.any(ear._rolls["roll_ints"][:, rb.I_STATE] != rb.FREE))
         for ear in body._ears
@@ -247,11 +215,8 @@ def rolls(body) -> bool:
 
 
 def stop_rolls(body, fade: float | None) -> None:
-    """Fade out every rolling voice of ``body`` (taken out of its engine) over ``fade`` s
-    (None: the engine's ``fade``): each voice's contact, at the first ear, fades it at
-    every ear."""
-    engine = body._engine
-    frames = max(1, int(round((engine._fade if fade is None else fade) * engine.samplerate)))
+    """Fade out every rolling voice of ``body`` over ``fade`` s (None: the engine's)."""
+    frames = stop_frames(body._engine, fade)
     with body._roll_lock:
         if body._rolls is None:
             return
@@ -280,8 +245,7 @@ def start_roll(
         raise ParameterError(f"ball={ball!r} must be a Ball")
     x, y = body.plate.check_position(position, "position")
     speed, ux, uy = _velocity(velocity)
-    g = checks.in_range("gain", gain, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
-                        hi_open=False)  # fmt: skip
+    g = check_gain(gain)
     fs = engine.samplerate
     roller = Roller.over(
         ball, body.plate, envelope, samplerate=fs, origin=(0.0, 0.0), contact=contact, rtol=rtol
@@ -311,9 +275,8 @@ def start_roll(
 
 
 def _take_slots(body) -> list[int] | None:
-    """The same rolling slot at each of ``body``'s ears, free at every one (its contact
-    slot, the first ear's, is not reused while another ear still reads it), marked taken
-    (``WRITING``); None when there is none (under the body's ``_roll_lock``)."""
+    """The same rolling slot at each ear, free at every one (the contact slot is not reused
+    while another ear reads it), marked ``WRITING``; None if none (under ``_roll_lock``)."""
     free = np.ones(body._rolls["roll_ints"].shape[0], dtype=bool)
     for ear in body._ears:
         free &= ear._rolls["roll_ints"][:, rb.I_STATE] == rb.FREE
@@ -326,8 +289,7 @@ def _take_slots(body) -> list[int] | None:
 
 
 def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
-    """Write the contact of slot ``r`` at ``body``'s first ear: its constants, start state,
-    envelope, buffers and fade (the game's thread owns it until it is published)."""
+    """Write the contact of slot ``r`` at ``body``'s first ear (unpublished)."""
     arrays = body._rolls
     fs = body._engine.samplerate
     coef_env = np.ascontiguousarray(envelope.coefficients, dtype=float)
@@ -349,15 +311,12 @@ def _fill_contact(body, r, roller, envelope, s0, speed) -> None:
         rb.I_ENV: coef_env.ctypes.data, rb.I_ENV_N: coef_env.shape[0],
         rb.I_OFF: offsets.ctypes.data, rb.I_OFF_N: offsets.size, rb.I_BLOCK: -1,
     }  # fmt: skip
-    iv = arrays["roll_ints"][r]
-    for field, value in values.items():
-        iv[field] = value
+    arrays["roll_ints"][r, list(values)] = list(values.values())
 
 
 def _fill_slot(body, r, lead, gain) -> None:
-    """Write slot ``r`` at the ear ``body``: its gain, modes at rest, coefficients and the
-    addresses of its contact, slot ``r`` at the first ear ``lead`` (the game's thread owns
-    it until it is published)."""
+    """Write slot ``r`` at the ear ``body``: gain, modes at rest, coefficients and the
+    addresses of its contact at the first ear ``lead`` (unpublished)."""
     arrays = body._rolls
     fs = body._engine.samplerate
     fv = arrays["roll_floats"][r]
@@ -365,7 +324,7 @@ def _fill_slot(body, r, lead, gain) -> None:
     arrays["roll_z"][r] = 0.0
     with body._move_lock:  # the listener's gains and their sequence number together
         model = body._model
-        heard_seq = int(body._heard_seq[kernel.SEQ_PUT])
+        heard_seq = int(body._heard_seq[hd.SEQ_PUT])
         gains = np.asarray(model.output, dtype=complex)
     accelerometer = model.listener.shape is not None
     p = np.asarray(model.poles, dtype=complex)
@@ -379,7 +338,6 @@ def _fill_slot(body, r, lead, gain) -> None:
     rows.update(rb.heard_coefficients(gains, p, body._scale, accelerometer))
     for row, values in rows.items():
         coef[row] = values
-    iv = arrays["roll_ints"][r]
     contact = lead._rolls
     values = {
         rb.I_STARTED: 0, rb.I_OVERRUN: 0, rb.I_EARS: int(body._counters[kernel.EARS]),
@@ -389,6 +347,5 @@ def _fill_slot(body, r, lead, gain) -> None:
         rb.I_C_Y: contact["roll_y"][r].ctypes.data,
         rb.I_C_BUF: contact["roll_buf"][r].ctypes.data,
     }  # fmt: skip
-    for field, value in values.items():
-        iv[field] = value
+    arrays["roll_ints"][r, list(values)] = list(values.values())
     arrays["roll_meta"][r] = 0.0

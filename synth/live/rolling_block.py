@@ -1,44 +1,26 @@
 """The audio thread's share of a rolling voice: its contact integrated and its force driving
 the plate's modes, block by block, inside the compiled callback (docs/live.md, "Rolling").
 
-A body holds ``max_rolls`` rolling slots (arrays made by :func:`rolling_arrays`, reached by
-the callback through the body's record, :func:`rolling_form`). A voice holds the same slot
-at each of its body's ears; the first ear's slot holds its contact (the *contact slot*,
-reached from every ear's slot through its addresses ``I_C_*``), integrated once a block
-for every ear. A slot that rings (``I_STATE == LIVE``) is, each block of ``n`` frames:
+A body holds ``max_rolls`` rolling slots (:func:`rolling_arrays`). A voice holds the same slot
+at each ear; the first ear's holds its contact (the *contact slot*, reached through the
+addresses ``I_C_*``), integrated once a block for every ear. Each block, a live slot:
 
-1. if its contact has not rolled this block yet (``I_BLOCK``, the block's first frame):
-   handed the game's newest update, if one came: a triple buffer (Bartlett's lock-free
-   "triple buffering": the game writes its back buffer at every ear, then swaps it with
-   the middle one by one atomic exchange on the contact slot, :func:`exchange`, flagged
-   ``FRESH``; the callback swaps its front buffer with a fresh middle one at the block's
-   start), each buffer the update's speed and the mode-shape table along its straight
-   segment ahead (rows ``b_k = phi_k / M_k`` every ``step`` m from the game's position, as
-   the offline :func:`synth.sound.rolling.path_excitation`). The segment is anchored where
-   the ball's centre is at that block's start: from there the contact point moves along it
-   by the path the integrator rolls. Then rolled over the block at that speed by the
-   offline contact integrator itself (:func:`synth.physics.rolling_kernels.roll`, the
-   kernel of :func:`synth.physics.rolling.roll`, whose stages are scalars: no
-   allocation), at most :data:`MAX_STEPS_PER_SAMPLE` steps a sample (a bound on the
-   block's work; beyond it the voice fades out and is counted failed), its force and
-   touching point kept in the contact slot's work buffer for every ear's drive;
-2. its ear's modes driven by that mean force per sample period at the touching point, as
-   :func:`synth.sound.rolling.drive_modes` does (the force held over each period, the
-   exact update of each mode), heard through the ear's gains (an accelerometer also
-   through its direct term), times the voice's gain (ramped over the block) and its stop
-   fade (a raised cosine), added to the body's mix.
+1. if its contact has not rolled this block (``I_BLOCK``): takes the game's newest update
+   from a lock-free triple buffer (Bartlett's "triple buffering": the game swaps its back
+   buffer with the middle one by an atomic exchange, :func:`exchange`, flagged ``FRESH``),
+   the update's speed and the mode-shape table ahead of it (as
+   :func:`synth.sound.rolling.path_excitation`), anchored at the centre's path coordinate
+   now; then rolls it with the offline integrator (:func:`synth.physics.rolling_kernels.roll`,
+   no allocation), at most :data:`MAX_STEPS_PER_SAMPLE` steps a sample (beyond: it fades out,
+   failed), its force and touching point kept in the contact slot's work buffer;
+2. drives its ear's modes with that force held over each sample period at the touching
+   point (:func:`synth.sound.rolling.drive_modes`), heard through the ear's gains (ramped
+   over a block after a move, :func:`_take_heard`; an accelerometer's direct term too),
+   times the voice's ramped gain and fade, into the body's mix.
 
-The slot's modes are the plate's; the listener's gains are the ear's (its ``heard`` rows,
-handed over by :meth:`synth.live.Body.move` under a sequence lock): a slot takes a newer
-set at a block's start and ramps what it hears from the old to the new linearly over that
-block, as the body's impact voices do (:func:`_take_heard`).
-
-A stopped voice (``I_STOP``), one whose centre would leave the envelope, and one whose
-integration failed fade out over their fade, decided by the contact (``I_FADE_FROM``, the
-frame it started) so that every ear fades alike; each ear's slot is then freed and the
-voice's id posted in the engine's voice-ended ring. A voice's slot is taken only when it is
-free at every ear (:func:`synth.live.rolling.start_roll`): the contact slot is not reused
-while another ear still reads it.
+A stopped voice, one whose centre would leave the envelope, and one that failed fade out as
+the contact decides (``I_FADE_FROM``), alike at every ear; each ear's slot is then freed and
+its end posted in the voice-ended ring. A slot is taken only when free at every ear.
 """
 
 from __future__ import annotations
@@ -60,49 +42,29 @@ from synth.physics.rolling_kernels import N_STATE, roll
 from synth.sound.modal_bank.coefficients import response_per_transform
 from synth.sound.rolling import drive_sample
 
-#: The most integration steps a sample of a live rolling may take: a bound on the audio
-#: thread's work (the offline solver takes about 1 to 1.5 a sample, more briefly in a
-#: micro-bounce).
+#: The most integration steps a sample of a live rolling may take, a bound on the audio
+#: thread's work (the offline solver takes about 1 to 1.5).
 MAX_STEPS_PER_SAMPLE = 16
 
-#: Slot states.
-FREE = 0
-LIVE = 1
-WRITING = 2  # taken by the game's thread, not yet published
+#: Slot states (WRITING: taken by the game's thread, not yet published), and the middle
+#: buffer's flag: the game put an update there that the callback has not taken.
+FREE, LIVE, WRITING, FRESH = 0, 1, 2, 4
 
-#: The middle buffer's flag: the game put an update there that the callback has not taken.
-FRESH = 4
-
-#: int64 fields of a slot (``ints``); those marked (contact) are read in the contact slot.
+#: int64 fields of a slot (``ints``); (c): read in the contact slot. Its state and voice id;
+#: (c) the middle buffer's index (| FRESH, swapped by both threads), the callback's and the
+#: game's buffers; (c) the stop fade asked (frames, -1 none; the game's), the frame its fade
+#: started (-1 none), its length, the fade of a voice that ends by itself; 1 once its first
+#: block preloaded the ear's modes; (c) why it ended (0 not, END_*), integration steps,
+#: frames rolled; samples whose contact point lay beyond the update's table; (c) the
+#: addresses and lengths of the envelope's spline coefficients ((n, 4) float64) and contact
+#: offsets; the body's ears (the voice-ended event's suffix); the ``heard_seq`` the slot
+#: hears through; 1: an accelerometer (direct term); (c) the first frame of the block last
+#: rolled (-1 none); the addresses of the contact slot's ints, floats, state, work buffer.
 (
-    I_STATE,
-    I_ID,
-    I_MIDDLE,  # (contact) the middle buffer's index, | FRESH (swapped by both threads)
-    I_FRONT,  # (contact) the callback's buffer, at every ear
-    I_BACK,  # (contact) the game's buffer, at every ear
-    I_STOP,  # (contact) the stop fade asked (frames), -1 none (the game's)
-    I_FADE_FROM,  # (contact) the frame its fade started at, -1 none (the callback's)
-    I_FADE_LEN,  # (contact) frames
-    I_END_FADE,  # (contact) the fade of a voice that ends by itself (frames)
-    I_STARTED,  # 1 once its first block preloaded the ear's modes
-    I_ENDED,  # (contact) why it ended or fades: 0 not, END_* below
-    I_STEPS,  # (contact) integration steps so far
-    I_FRAMES,  # (contact) frames rolled
-    I_OVERRUN,  # samples whose contact point lay beyond the update's table (held at its end)
-    I_ENV,  # (contact) address of the envelope's spline coefficients ((I_ENV_N, 4) float64)
-    I_ENV_N,
-    I_OFF,  # (contact) address of the envelope's contact offsets ((I_OFF_N,) float64)
-    I_OFF_N,
-    I_EARS,  # the body's ears (the voice-ended event's suffix)
-    I_HEARD,  # the ear's gains' sequence number the slot hears through (``heard_seq``)
-    I_DIRECT,  # 1: an accelerometer (its direct term), 0: a microphone
-    I_BLOCK,  # (contact) the first frame of the block last rolled, -1 none
-    I_C_INTS,  # addresses of the contact slot's ints, floats, state and work buffer
-    I_C_FLOATS,
-    I_C_Y,
-    I_C_BUF,
-    N_INTS,
-) = range(27)
+    I_STATE, I_ID, I_MIDDLE, I_FRONT, I_BACK, I_STOP, I_FADE_FROM, I_FADE_LEN, I_END_FADE,
+    I_STARTED, I_ENDED, I_STEPS, I_FRAMES, I_OVERRUN, I_ENV, I_ENV_N, I_OFF, I_OFF_N, I_EARS,
+    I_HEARD, I_DIRECT, I_BLOCK, I_C_INTS, I_C_FLOATS, I_C_Y, I_C_BUF, N_INTS,
+) = range(27)  # fmt: skip
 
 #: Why a rolling voice ended (``I_ENDED``).
 END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
@@ -118,8 +80,7 @@ END_STOPPED, END_SURFACE, END_FAILED = 1, 2, 3
 
 #: A buffer's scalars (``meta``): the update's speed (m/s), the table's first row's and
 #: its step's distance from the game's position along the segment (m), its rows.
-M_SPEED, M_START, M_STEP, M_ROWS = range(4)
-N_META = 4
+M_SPEED, M_START, M_STEP, M_ROWS, N_META = range(5)
 
 #: Rows of a slot's coefficients (``coef``, float64 (N_COEF, K)): one sample's ringing
 #: ``e^(p/fs)``, the listener's response per unit state now, the hold's gain ``(e^(p/fs) -
@@ -131,14 +92,12 @@ N_META = 4
 #: (0 for a microphone) (each re, im); that weight now and its target.
 (
     C_ER, C_EI, C_LR, C_LI, C_HR, C_HI, C_QR, C_QI, C_TR, C_TI, C_OR, C_OI, C_AR, C_AI,
-    C_D, C_DT,
-) = range(16)  # fmt: skip
-N_COEF = 16
+    C_D, C_DT, N_COEF,
+) = range(17)  # fmt: skip
 
 #: Rows of a slot's work buffer (float64 (N_BUF, mix frames); the contact slot's is read:
 #: after its block, ``W_FORCE`` the force, ``W_CENTRE`` the touching point's coordinate).
-W_SPEED, W_FORCE, W_MINPEN, W_CENTRE = range(4)
-N_BUF = 4
+W_SPEED, W_FORCE, W_MINPEN, W_CENTRE, N_BUF = range(5)
 
 
 @intrinsic
@@ -157,34 +116,20 @@ def _xchg(typingctx, array, index, value):
 
 @compiled(nogil=True)
 def exchange(array, index, value):
-    """Atomically swap ``array[index]`` (int64) with ``value``; returns the old value (the
-    game's thread swaps its back buffer in with it)."""
+    """Atomically swap ``array[index]`` (int64) with ``value``; returns the old value."""
     return _xchg(array, index, value)
 
 
 def rolling_arrays(slots: int, modes: int, rows: int, frames: int) -> dict:
-    """A body's rolling slots' arrays by body-record field name: ``slots`` slots of
-    ``modes`` modes, tables of ``rows`` rows, a work buffer of ``frames`` frames (the
-    engine's mixing piece)."""
-    ints = np.zeros((slots, N_INTS), dtype=np.int64)
+    """A body's rolling slots' arrays by body-record field name: ``slots`` slots of ``modes``
+    modes, tables of ``rows`` rows, work buffers of ``frames`` (the engine's mixing piece)."""
     return dict(
-        roll_ints=ints,
-        roll_floats=np.zeros((slots, N_FLOATS)),
-        roll_y=np.zeros((slots, N_STATE)),
-        roll_buf=np.zeros((slots, N_BUF, frames)),
-        roll_z=np.zeros((slots, 2, modes)),
-        roll_coef=np.zeros((slots, N_COEF, modes)),
-        roll_tables=np.zeros((slots, 3, rows, modes)),
-        roll_meta=np.zeros((slots, 3, N_META)),
-        n_rolls=slots,
-        roll_rows=rows,
-        roll_frames=frames,
-    )
-
-
-@compiled(nogil=True, inline="always")
-def _carray2(address, a, b):
-    return numba.carray(pointer_to(address), (a, b), np.float64)
+        roll_ints=np.zeros((slots, N_INTS), dtype=np.int64),
+        roll_floats=np.zeros((slots, N_FLOATS)), roll_y=np.zeros((slots, N_STATE)),
+        roll_buf=np.zeros((slots, N_BUF, frames)), roll_z=np.zeros((slots, 2, modes)),
+        roll_coef=np.zeros((slots, N_COEF, modes)), roll_tables=np.zeros((slots, 3, rows, modes)),
+        roll_meta=np.zeros((slots, 3, N_META)), n_rolls=slots, roll_rows=rows, roll_frames=frames,
+    )  # fmt: skip
 
 
 @compiled(nogil=True, inline="always")
@@ -210,15 +155,13 @@ def _heard_change(coef, zr, zi):
 @compiled(nogil=True, sums=True)
 def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, gain0, gain1,
            fade_at, fade_len, ramp, direct, previous):  # fmt: skip
-    """Drive the modes ``zr + i zi`` (updated in place) with ``force`` held over each period
-    at ``coordinate`` (m along the table's segment; rows interpolated linearly, held at the
-    table's ends), adding what the listener hears (``coef``'s response, ramped to its
-    target over the block when ``ramp``; with ``direct``, an accelerometer's direct term at
-    each sample, the mean of the held force's two sides there, ``previous`` the force
-    before the block), times the gain ramped from ``gain0`` to ``gain1`` and the
-    raised-cosine fade from ``fade_at`` (-1 none) of ``fade_len`` frames, into ``out``. The
-    recursion of :func:`synth.sound.rolling.drive_modes`. Returns the samples held at a
-    table end."""
+    """Drive the modes ``zr + i zi`` with ``force`` held over each period at ``coordinate``
+    (m along the table's segment, rows interpolated, held at its ends), as
+    :func:`synth.sound.rolling.drive_modes`, adding what the listener hears (ramped to its
+    target when ``ramp``; with ``direct``, an accelerometer's direct term of the held
+    force's mean, ``previous`` the force before the block) times the gain ramped from
+    ``gain0`` to ``gain1`` and the fade from ``fade_at`` (-1 none) into ``out``. Returns the
+    samples held at a table end."""
     er, ei, lr, li, hr, hi = coef[C_ER], coef[C_EI], coef[C_LR], coef[C_LI], coef[C_HR], coef[C_HI]
     overrun = 0
     g_step = (gain1 - gain0) / n
@@ -265,10 +208,8 @@ def _drive(out, n, force, coordinate, start, step, rows, table, coef, zr, zi, ga
 
 @compiled(nogil=True, inline="always")
 def _take_heard(iv, coef, heard, seq):
-    """At a block's start: if the body's listener moved since the slot's gains (its handed
-    over gains whole: the producer's sequence number even and unchanged across the copy,
-    as :func:`synth.live.kernel.mix_body` takes them), make them the slot's target for
-    this block; returns whether it did (the block ramps to them)."""
+    """At a block's start: gains handed over since the slot's (copied whole under the
+    producer's sequence number) become its target for the block; returns whether."""
     put = seq[SEQ_PUT]
     if put == iv[I_HEARD] or put % 2 == 1:
         return False
@@ -287,12 +228,9 @@ def _take_heard(iv, coef, heard, seq):
 
 
 def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
-    """A slot's rows that turn a listener's gains into what it hears (``C_LR``, ``C_LI``,
-    ``C_D`` and the conversions ``C_OR`` .. ``C_AI``; see ``C_ER``), for ``gains`` (the
-    body's ``heard``, complex (K,)) of modes of ``poles`` (rad/s), at the body's full-scale
-    ``scale``; the response is the modal bank's per unit transform
-    (:func:`synth.sound.modal_bank.coefficients.response_per_transform`) of excitation
-    ``scale`` heard with gain 1."""
+    """A slot's rows (``C_LR``, ``C_LI``, ``C_D``, ``C_OR`` .. ``C_AI``) for the listener's
+    complex ``gains`` (K,) of modes of ``poles`` (rad/s) at full-scale factor ``scale``
+    (:func:`synth.sound.modal_bank.coefficients.response_per_transform`)."""
     p = np.asarray(poles, dtype=complex)
     to_response = response_per_transform(p, scale, 1.0)
     to_direct = scale / (p * p) if accelerometer else np.zeros(p.size, dtype=complex)
@@ -306,9 +244,8 @@ def heard_coefficients(gains, poles, scale: float, accelerometer: bool) -> dict:
 
 @compiled(nogil=True, inline="always")
 def _preload(coef, row_a, row_b, t, F, zr, zi):
-    """The modes in their static deflection under ``F`` (N) at the row interpolated at
-    ``t`` between ``row_a`` and ``row_b``: ``zeta = -b F / p``, so the rolling starts as a
-    ball already rolling there (as :func:`synth.sound.rolling.rolling_sound`)."""
+    """The modes in their static deflection ``zeta = -b F / p`` under ``F`` (N) at the row
+    interpolated at ``t``: a ball already rolling (as :func:`synth.sound.rolling.rolling_sound`)."""
     for k in range(zr.shape[0]):
         bf = ((1.0 - t) * row_a[k] + t * row_b[k]) * F
         zr[k] = bf * coef[C_QR, k]
@@ -317,8 +254,7 @@ def _preload(coef, row_a, row_b, t, F, zr, zi):
 
 @compiled(nogil=True, inline="always")
 def _take_update(iv, fv, y):
-    """Take the game's newest update (swap the front buffer with a fresh middle one),
-    anchoring its segment at the centre's path coordinate now."""
+    """Take the game's newest update, anchoring its segment at the centre's path now."""
     if (iv[I_MIDDLE] & FRESH) != 0:
         old = _xchg(iv, I_MIDDLE, iv[I_FRONT])
         iv[I_FRONT] = old & 3
@@ -327,9 +263,8 @@ def _take_update(iv, fv, y):
 
 @compiled(nogil=True, inline="always")
 def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
-    """The touching point's distance along the segment (m) in the middle of each period,
-    into the centre's row: the centre there, plus the envelope's contact offset
-    (interpolated linearly between its samples, as
+    """The touching point's distance along the segment (m) mid-period, into the centre's row:
+    the centre plus the envelope's contact offset (as
     :meth:`synth.physics.rolling.Roller.contact_coordinates`), less the anchor."""
     centre = buf[W_CENTRE]
     last = offsets.shape[0] - 1
@@ -348,8 +283,7 @@ def _contact_coordinates(buf, n, speed, fs, offsets, dx, anchor):
 
 @compiled(nogil=True, inline="always")
 def _start_fade(cv, t0, length, why):
-    """The voice's fade starts at frame ``t0`` (the block's first), ``length`` frames long,
-    ended ``why`` (END_*)."""
+    """The voice fades from frame ``t0`` over ``length`` frames, ended ``why`` (END_*)."""
     cv[I_FADE_FROM] = t0
     cv[I_FADE_LEN] = max(length, 1)
     cv[I_ENDED] = why
@@ -365,11 +299,9 @@ def _hold_still(cf, y, buf, n):
 
 @compiled(nogil=True)
 def _roll_contact(n, t0, cv, cf, y, buf, speed):
-    """Roll a voice's contact (its contact slot's ``cv``, ``cf``, state ``y``, work buffer
-    ``buf``) over the block of ``n`` frames from frame ``t0`` at ``speed`` (m/s, the
-    update taken; module docstring, step 1): the force into ``buf[W_FORCE]``, the touching
-    point's coordinate into ``buf[W_CENTRE]``; its fade started if it was stopped, would
-    leave the envelope or failed."""
+    """Roll a voice's contact (``cv``, ``cf``, state ``y``, work ``buf``) over ``n`` frames
+    from ``t0`` at ``speed`` (m/s): force and touching point into ``buf``; its fade started
+    if it was stopped, would leave the envelope or failed."""
     cv[I_BLOCK] = t0
     cf[F_BEFORE] = cf[F_PREVIOUS]
     if cv[I_STOP] >= 0 and cv[I_FADE_FROM] < 0:
@@ -385,7 +317,7 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
         speeds = buf[W_SPEED]
         for j in range(n):
             speeds[j] = speed
-        env = _carray2(cv[I_ENV], cv[I_ENV_N], 4)
+        env = numba.carray(pointer_to(cv[I_ENV]), (cv[I_ENV_N], 4), np.float64)
         status, steps, _, _, h = roll(
             y, cf[F_H], env, cf[F_DX], speeds[:n], cf[F_M], cf[F_K], cf[F_N], cf[F_MU],
             cf[F_B], cf[F_BETA], cf[F_G], fs, cf[F_RTOL], cf[F_DREF], cf[F_HMAX],
@@ -409,9 +341,8 @@ def _roll_contact(n, t0, cv, cf, y, buf, speed):
 
 @compiled(nogil=True)
 def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, frames):
-    """One block of ``n`` frames from frame ``t0`` of one live slot at one ear (module
-    docstring): its voice's contact rolled if no ear rolled it this block, then the ear's
-    modes driven by its force. ``frames``: the work buffers' length."""
+    """One block of one live slot at one ear: its contact rolled (once a block for every
+    ear), then the ear's modes driven. ``frames``: the work buffers' length."""
     cv = numba.carray(pointer_to(iv[I_C_INTS]), N_INTS, np.int64)
     cf = numba.carray(pointer_to(iv[I_C_FLOATS]), N_FLOATS, np.float64)
     buf = numba.carray(pointer_to(iv[I_C_BUF]), (N_BUF, frames), np.float64)
@@ -448,8 +379,7 @@ def _roll_slot(out, n, t0, iv, fv, z, coef, tables, meta, heard, seq, events, fr
 
 @compiled(nogil=True, inline="always")
 def _reach_heard(coef):
-    """The listener's target reached at a ramp's end: the slot hears through it from the
-    next block."""
+    """The listener's target reached at a ramp's end."""
     for k in range(coef.shape[1]):
         coef[C_LR, k] = coef[C_TR, k]
         coef[C_LI, k] = coef[C_TI, k]
@@ -476,8 +406,7 @@ def any_live(ints):
 
 @compiled(nogil=True)
 def mix_rolls(out, n, t0, form, events):
-    """Add every live rolling slot's block of ``n`` frames from frame ``t0`` into ``out``
-    (the body's mix, before its gain); returns whether one rang."""
+    """Add every live rolling slot's block into ``out`` (the body's mix); whether one rang."""
     ints, floats, _, bufs, zs, coefs, tables, metas, heard, seq = form
     rang = False
     for r in range(ints.shape[0]):
@@ -492,12 +421,8 @@ def mix_rolls(out, n, t0, form, events):
 
 @compiled(nogil=True)
 def silence_rolls(ints, events):
-    """End every rolling slot now (the engine stops, or ``stop_all``): free it and post its
-    voice's end."""
+    """End every rolling slot now (the engine stops, or ``stop_all``)."""
     for r in range(ints.shape[0]):
         if ints[r, I_STATE] == LIVE:
-            vid = ints[r, I_ID]
             ints[r, I_ENDED] = END_STOPPED
-            fence()
-            ints[r, I_STATE] = FREE
-            post_event(events, vid * EVENT_EARS + ints[r, I_EARS])
+            _end_slot(ints[r], events)

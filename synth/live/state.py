@@ -1,12 +1,7 @@
-"""The engine's state: the arrays the audio thread works on, their layout and their memory.
-
-Preallocated numpy arrays the audio thread reaches through their addresses, so its callback
-touches no Python object: ``ctl`` (int64, :data:`N_CTL`: clock, stop fade, body count,
-counters, the other arrays' addresses); ``times`` (float64, :data:`N_TIMES`: the clock's
-anchor, callback costs, master gain, pause level, meter); a directory of body records
-(:data:`BODY_FIELDS`; :func:`body_form` makes the kernel's views); the voice-ended event
-ring. :class:`EngineState` allocates them once, pages touched (:func:`touch`), and
-publishes bodies (:func:`body_arrays`).
+"""The engine's state: the preallocated arrays the audio thread reaches through their
+addresses (its callback touches no Python object), their layout and their memory: ``ctl``
+(int64), ``times`` (float64), a directory of body records (:data:`BODY_FIELDS`;
+:func:`body_form` makes the kernel's views) and the voice-ended event ring.
 """
 
 from __future__ import annotations
@@ -26,85 +21,44 @@ from synth.live import kernel, limiter, rolling_block
 from synth.live.atomics import pointer_to as pointer_to
 from synth.live.heard import N_HEARD_ROWS, heard_arrays
 
-#: ``ctl`` fields (int64).
+#: ``ctl`` fields (int64): the next frame to mix; the stop fade's position (-1 none), length
+#: (frames) and first frame (-1 before); the bodies mixed (counted after their record) and
+#: the directory's length; channels; the scratch buffers' frames; callbacks, and those
+#: PortAudio flagged output underflow and overflow; samples that reached full scale before
+#: the clipper; the anchor's sequence number (odd while written); the recording's frames
+#: and those recorded; the addresses of ``times``, the body directory, the master mix
+#: (float64, CHANNELS + 1 rows of MIX_CAP: every channel's bus, then each channel's own),
+#: the scratch (a body's mix and a voice's, 2 x MIX_CAP), the recording (float32,
+#: RECORD_FRAMES x CHANNELS); 1: soft-clip; the event ring's address and length (header
+#: included); 1: pause asked; 1: limit; the limiter's arrays' addresses
+#: (:meth:`~synth.live.limiter.LimiterState.arrays`); the most pulses a callback
+#: transformed, a callback's budget, pulses left waiting, the body the next share serves
+#: first, the address of the shares (int64, MAX_BODIES); the rolling block's address (0:
+#: none).
 (
-    FRAME,  # next frame to mix, on the engine's clock
-    FADE_AT,  # position in the stop fade, -1 without one
-    FADE_LENGTH,  # frames
-    FADE_FRAME,  # frame where the last stop fade began, -1 before
-    N_BODIES,  # bodies the callback mixes (published after their record)
-    MAX_BODIES,  # the directory's length
-    CHANNELS,
-    MIX_CAP,  # frames of the mixing scratch buffers
-    CALLBACKS,  # blocks mixed by a stream's callback
-    UNDERFLOWS,  # callbacks PortAudio flagged output underflow
-    OVERFLOWS,  # callbacks flagged output overflow (PortAudio's paOutputOverflow)
-    CLIPPED,  # output samples that reached full scale (before the clipper)
-    SEQ,  # the anchor's sequence number: odd while the callback writes it
-    RECORD_FRAMES,  # frames of the recording buffer
-    RECORDED,  # frames recorded so far
-    TIMES,  # address of ``times``
-    DIRECTORY,  # address of the body directory
-    MIX,  # address of the master mix (float64, CHANNELS + 1 rows of MIX_CAP: every channel's
-    # bus, then each channel's own)
-    SCRATCH,  # address of one body's mix and one voice's (float64, 2 x MIX_CAP)
-    RECORD,  # address of the recording (float32, RECORD_FRAMES x CHANNELS)
-    CLIP,  # 1: soft-clip the master bus (see :func:`soft_clip`), 0: pass it as is
-    EVENTS,  # address of the voice-ended event ring (int64, see synth.live.kernel.E_WRITTEN)
-    N_EVENTS,  # its length (header included)
-    PAUSE,  # 1: pause asked (fade out, then hold the clock and write silence), 0: play
-    LIMIT,  # 1: the master bus runs through the true-peak limiter (synth.live.limiter)
-    LIM_INTS,  # addresses of the limiter's arrays (see synth.live.limiter.LimiterState)
-    LIM_FLOATS,
-    LIM_TAPS,
-    LIM_X,
-    LIM_R,
-    LIM_M,
-    TRANSFORMS_MAX,  # the most pulses one callback transformed (over every body)
-    TRANSFORM_BUDGET,  # the most pulses a stream's callback transforms, over every body
-    TRANSFORMS_DEFERRED,  # pulses a callback left waiting for a later one (each time left)
-    SHARE_FROM,  # the body served first by the next callback's share of the budget
-    ALLOW,  # address of each body's share of a callback's budget (int64, MAX_BODIES)
-    ROLLER,  # address of the rolling voices' compiled block (synth.live.native), 0: none
-    N_CTL,
-) = range(38)
+    FRAME, FADE_AT, FADE_LENGTH, FADE_FRAME, N_BODIES, MAX_BODIES, CHANNELS, MIX_CAP,
+    CALLBACKS, UNDERFLOWS, OVERFLOWS, CLIPPED, SEQ, RECORD_FRAMES, RECORDED, TIMES, DIRECTORY,
+    MIX, SCRATCH, RECORD, CLIP, EVENTS, N_EVENTS, PAUSE, LIMIT, LIM_INTS, LIM_FLOATS,
+    LIM_TAPS, LIM_X, LIM_R, LIM_M, TRANSFORMS_MAX, TRANSFORM_BUDGET, TRANSFORMS_DEFERRED,
+    SHARE_FROM, ALLOW, ROLLER, N_CTL,
+) = range(38)  # fmt: skip
 
-#: ``times`` fields (float64).
+#: ``times`` fields (float64): the sample rate (Hz); the stream's nominal latency and the
+#: last callback's ``outputBufferDacTime - currentTime`` (s); the anchor: the last
+#: callback's first frame and the monotonic time (s) it leaves the device; the monotonic
+#: time at the last callback's end and the frame after its block; the sum, largest and last
+#: callback run time (a fraction of its block); the master gain's target and its value at
+#: the last block's end (linear); the largest ``|sample|`` of the bus before the clipper and
+#: at the device since the last reset; the last callback's entry (s, 0 before) and the
+#: longest gap between entries (blocks); the pause level (1 playing, 0 paused, ramped over
+#: FADE_LENGTH); the limiter's look-ahead (s; the bus leaves that much later).
 (
-    SAMPLERATE,  # Hz
-    NOMINAL_LATENCY,  # the stream's output latency as PortAudio opened it, s
-    LEAD,  # the last callback's outputBufferDacTime - currentTime, s
-    ANCHOR_FRAME,  # the last callback's first frame
-    ANCHOR_DAC,  # the monotonic time (s) at which that frame leaves the device
-    END_TIME,  # monotonic time (s) at the end of the last callback
-    END_FRAME,  # the frame after the last callback's block
-    COST_SUM,  # sum over callbacks of (run time / block duration)
-    COST_MAX,
-    COST_LAST,
-    MASTER_GAIN,  # the master bus' target gain (linear)
-    MASTER_NOW,  # its value at the end of the last block (ramped towards the target)
-    PEAK,  # largest |sample| of the master bus (before the clipper) since the last reset
-    OUT_PEAK,  # largest |sample| sent to the device since the last reset
-    LAST_ENTRY,  # monotonic time (s) of the last callback's entry, 0 before the first
-    GAP_MAX,  # longest time between two callbacks' entries, in blocks
-    PAUSE_LEVEL,  # 1 playing, 0 paused; ramped by 1 / FADE_LENGTH a sample between them
-    LIMIT_DELAY,  # the limiter's look-ahead, s (0 without it): the bus leaves that much later
-    N_TIMES,
-) = range(19)
+    SAMPLERATE, NOMINAL_LATENCY, LEAD, ANCHOR_FRAME, ANCHOR_DAC, END_TIME, END_FRAME,
+    COST_SUM, COST_MAX, COST_LAST, MASTER_GAIN, MASTER_NOW, PEAK, OUT_PEAK, LAST_ENTRY,
+    GAP_MAX, PAUSE_LEVEL, LIMIT_DELAY, N_TIMES,
+) = range(19)  # fmt: skip
 
 #: A body record (int64): addresses, then sizes.
-BODY_FIELDS = (
-    "table", "poles", "zr", "zi", "active", "debt", "debt_at", "thresholds", "thr2",
-    "level", "state", "inject", "first", "length", "amplitudes", "response", "reference",
-    "counters", "pole_re", "pole_im", "step_re", "step_im", "work", "coefficients",
-    "samples", "points", "pulse", "transformed", "scalars",
-    "voice", "voices", "voice_gain", "voice_slots", "slot_gain", "tail",
-    "modes", "slots", "contact", "pulse_samples", "work_rows", "table_cols", "channel",
-    "n_records", "n_voice_slots", "tail_frames",
-    "park_r", "park_i", "park_at", "heard", "heard_seq", "heard_coef", "heard_amps",
-    "roll_ints", "roll_floats", "roll_y", "roll_buf", "roll_z", "roll_coef",
-    "roll_tables", "roll_meta", "n_rolls", "roll_rows", "roll_frames",
-)  # fmt: skip
 (
     B_TABLE, B_POLES, B_ZR, B_ZI, B_ACTIVE, B_DEBT, B_DEBT_AT, B_THRESHOLDS, B_THR2,
     B_LEVEL, B_STATE, B_INJECT, B_FIRST, B_LENGTH, B_AMPLITUDES, B_RESPONSE, B_REFERENCE,
@@ -112,18 +66,19 @@ BODY_FIELDS = (
     B_SAMPLES, B_POINTS, B_PULSE, B_TRANSFORMED, B_SCALARS,
     B_VOICE, B_VOICES, B_VOICE_GAIN, B_VOICE_SLOTS, B_SLOT_GAIN, B_TAIL,
     B_MODES, B_SLOTS, B_CONTACT, B_PULSE_SAMPLES, B_WORK_ROWS, B_TABLE_COLS, B_CHANNEL,
-    B_RECORDS, B_VOICE_SLOT_COUNT, B_TAIL_FRAMES,
+    B_N_RECORDS, B_N_VOICE_SLOTS, B_TAIL_FRAMES,
     B_PARK_R, B_PARK_I, B_PARK_AT, B_HEARD, B_HEARD_SEQ, B_HEARD_COEF, B_HEARD_AMPS,
     B_ROLL_INTS, B_ROLL_FLOATS, B_ROLL_Y, B_ROLL_BUF, B_ROLL_Z, B_ROLL_COEF,
-    B_ROLL_TABLES, B_ROLL_META, B_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES,
-) = range(len(BODY_FIELDS))  # fmt: skip
-N_BODY = len(BODY_FIELDS)
+    B_ROLL_TABLES, B_ROLL_META, B_N_ROLLS, B_ROLL_ROWS, B_ROLL_FRAMES, N_BODY,
+) = range(64)  # fmt: skip
+#: The record's field names, as :func:`body_arrays` keys them: ``B_TABLE`` is "table".
+BODY_FIELDS = tuple(name[2:].lower() for name in sorted(
+    (n for n in vars() if n.startswith("B_")), key=vars().get))  # fmt: skip
 
 #: A body's scalars (float64): sample rate (Hz), omission floor (fraction), the largest
 #: decay rate (1/s), the sample period (s), its gain's target and its value now (linear),
 #: its pan's target and its value now (in [-1, 1], NaN unpanned; see :func:`pan_gains`).
-S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW = range(8)
-N_SCALARS = 8
+S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW, N_SCALARS = range(9)
 
 #: The clock the callback reads (and the trigger threads, in Python).
 CLOCK = time.CLOCK_MONOTONIC if hasattr(time, "CLOCK_MONOTONIC") else -1
@@ -182,15 +137,14 @@ def i64_at(address, n):
 
 @compiled(nogil=True)
 def body_form(record):
-    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body`
-    takes them: the bank (power table, poles, sample rate, the listener's gains and their
-    sequence numbers), the voice slots' modal states (with their parked modes), the
-    pending ring, the PULSE form's transform and pulses, the voices."""
+    """Views of a body's arrays from its ``record``, grouped as :func:`kernel.mix_body` takes
+    them: the bank (power table, poles, rate, the listener's gains and their sequence), the
+    slots' modal states, the pending ring, the pulses' transform and PULSE form, the voices."""
     K = record[B_MODES]
     R = record[B_SLOTS]
     C = record[B_CONTACT]
     P = record[B_PULSE_SAMPLES]
-    V = record[B_VOICE_SLOT_COUNT]
+    V = record[B_N_VOICE_SLOTS]
     scalars = f64_at(record[B_SCALARS], N_SCALARS)
     bank = (
         numba.carray(pointer_to(record[B_TABLE]), (K, 2, record[B_TABLE_COLS]), np.float64),
@@ -239,7 +193,7 @@ def body_form(record):
         i64_at(record[B_POINTS], R),
         numba.carray(pointer_to(record[B_PULSE]), (R, kernel.N_PULSE_FIELDS), np.float64),
     )
-    N = record[B_RECORDS]
+    N = record[B_N_RECORDS]
     voice_form = (
         numba.carray(pointer_to(record[B_VOICES]), (N, kernel.N_VOICE_FIELDS), np.int64),
         f64_at(record[B_VOICE_GAIN], N),
@@ -252,10 +206,9 @@ def body_form(record):
 
 @compiled(nogil=True, inline="always")
 def rolling_form(record):
-    """Views of a body's rolling slots' arrays (:func:`synth.live.rolling_block.rolling_arrays`)
-    and of its listener's gains (``heard``, ``heard_seq``) from its ``record``, as
+    """Views of a body's rolling slots and listener's gains, as
     :func:`synth.live.rolling_block.mix_rolls` takes them."""
-    R = record[B_ROLLS]
+    R = record[B_N_ROLLS]
     K = record[B_MODES]
     P = record[B_ROLL_ROWS]
     N = rolling_block.N_STATE
@@ -283,11 +236,9 @@ def event_ring(ctl):
 
 
 def touch(a: np.ndarray) -> np.ndarray:
-    """Map every page of the C-contiguous array ``a`` into memory now, on the calling
-    thread, so that the audio thread never takes a page fault on it: a fresh allocation's
-    pages (numpy's zeros are calloc's) are only mapped at their first access, a zero page
-    only copied at its first write. One byte of each page (and the last byte) is written
-    with its own value; a read-only array is read instead. Returns ``a``."""
+    """Map every page of the C-contiguous array ``a`` now (calloc'd pages are mapped at their
+    first access, a zero page copied at its first write), so the audio thread never takes a
+    page fault on it: a byte of each page is rewritten (read, if read-only). Returns ``a``."""
     b = a.reshape(-1).view(np.uint8)
     if b.size == 0:
         return a
@@ -300,10 +251,9 @@ def touch(a: np.ndarray) -> np.ndarray:
 
 
 class EngineState:
-    """The arrays the audio thread works on, allocated once: ``samplerate`` Hz, ``channels``,
-    ``max_bodies``, mixing scratch of ``mix_frames``, a recording of ``record_frames``, a ring
-    of ``events``, the limiter's state (``limit`` or None), ``transforms_per_block`` and the
-    rolling block's address (``roller``, 0: none)."""
+    """The arrays the audio thread works on, allocated once (``samplerate`` Hz, scratch of
+    ``mix_frames``, ``limit`` the limiter's state or None, ``roller`` the rolling block's
+    address or 0)."""
 
     def __init__(
         self,
@@ -329,40 +279,21 @@ class EngineState:
         # the voice-ended events: the kernel's header, then a ring of ``events``
         self.events = np.zeros(kernel.N_EVENT_HEADER + events, dtype=np.int64)
         self.recording = np.zeros((record_frames, channels), dtype=np.float32)
-        for a in (self.directory, self.allow, self.mix, self.scratch, self.events,
-                  self.recording):  # fmt: skip
-            touch(a)
         self.records: list = []  # the bodies' records and arrays, kept alive here
-        c, t = self.ctl, self.times
-        c[FADE_AT] = -1
-        c[FADE_LENGTH] = fade_frames
-        c[FADE_FRAME] = -1
-        c[MAX_BODIES] = max_bodies
-        c[CHANNELS] = channels
-        c[MIX_CAP] = mix_frames
-        c[RECORD_FRAMES] = record_frames
-        c[TIMES] = t.ctypes.data
-        c[DIRECTORY] = self.directory.ctypes.data
-        c[ALLOW] = self.allow.ctypes.data
-        c[TRANSFORM_BUDGET] = transforms_per_block
-        c[MIX] = self.mix.ctypes.data
-        c[SCRATCH] = self.scratch.ctypes.data
-        c[RECORD] = self.recording.ctypes.data
-        c[CLIP] = int(bool(clip))
-        c[ROLLER] = roller
         self.limiter = limit
+        c, t = self.ctl, self.times
+        arrays = (self.directory, self.allow, self.mix, self.scratch, self.events, self.recording)
+        c[[DIRECTORY, ALLOW, MIX, SCRATCH, EVENTS, RECORD]] = [touch(a).ctypes.data for a in arrays]
+        sizes = (self.events.shape[0], max_bodies, channels, mix_frames, record_frames)
+        c[[N_EVENTS, MAX_BODIES, CHANNELS, MIX_CAP, RECORD_FRAMES]] = sizes
+        c[[TIMES, TRANSFORM_BUDGET, CLIP]] = (t.ctypes.data, transforms_per_block, clip)
+        c[[FADE_AT, FADE_LENGTH, FADE_FRAME, ROLLER]] = (-1, fade_frames, -1, roller)
         if limit is not None:
             c[LIMIT] = 1
-            for field, a in zip(
-                (LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M), limit.arrays()
-            ):
-                c[field] = a.ctypes.data
+            lim = [a.ctypes.data for a in limit.arrays()]
+            c[[LIM_INTS, LIM_FLOATS, LIM_TAPS, LIM_X, LIM_R, LIM_M]] = lim
             t[LIMIT_DELAY] = limit.delay / samplerate
-        c[EVENTS] = self.events.ctypes.data
-        c[N_EVENTS] = self.events.shape[0]
-        t[SAMPLERATE] = samplerate
-        t[MASTER_GAIN] = t[MASTER_NOW] = 1.0
-        t[PAUSE_LEVEL] = 1.0
+        t[[SAMPLERATE, MASTER_GAIN, MASTER_NOW, PAUSE_LEVEL]] = (samplerate, 1.0, 1.0, 1.0)
         # the record a removed body's directory entry points to: a body with no voice
         # slot and no pending slot, asleep for good (the callback returns at once)
         self._vacant_arrays = dict(
@@ -383,8 +314,8 @@ class EngineState:
         return self.ctl.ctypes.data
 
     def add_body(self, arrays: dict) -> np.ndarray:
-        """Publish a body (its arrays by :data:`BODY_FIELDS` name, sizes as ints) to the
-        audio thread: its record is written, then counted. Returns the record."""
+        """Publish a body (arrays and sizes by :data:`BODY_FIELDS` name) to the audio thread:
+        its record is written, then counted. Returns the record."""
         n = int(self.ctl[N_BODIES])
         free = [i for i, r in enumerate(self.records) if r is None]
         if not free and n >= self.directory.shape[0]:
@@ -413,27 +344,23 @@ class EngineState:
         return sum(1 for r in self.records if r is not None)
 
     def vacate(self, index: int) -> tuple[int, int]:
-        """Take body ``index`` out of the mixing: its directory entry points to the vacant
-        record from now on (one atomic word). Returns the mixing's progress then (the next
-        frame, the callbacks), for :meth:`left`."""
+        """Point body ``index``'s directory entry at the vacant record (one atomic word);
+        returns the mixing's progress (next frame, callbacks) for :meth:`left`."""
         progress = int(self.ctl[FRAME]), int(self.ctl[CALLBACKS])
         self.directory[index] = self.vacant.ctypes.data
         return progress
 
     def left(self, progress: tuple[int, int]) -> bool:
-        """Whether every block that may have read a directory entry before :meth:`vacate`
-        returned ``progress`` has ended (a piece mixed since, or a callback returned)."""
+        """Whether every block that may have read the entry :meth:`vacate` changed has ended."""
         return int(self.ctl[FRAME]) > progress[0] or int(self.ctl[CALLBACKS]) > progress[1]
 
     def release(self, index: int) -> None:
-        """Let go of body ``index``'s arrays (vacated, and left by the mixing); its entry
-        is taken again by the next :meth:`add_body`."""
+        """Let go of body ``index``'s arrays (vacated and left); its entry is free again."""
         self.records[index] = None
 
     def anchor(self) -> tuple[int, float, float]:
-        """The last callback's first frame, the monotonic time (s) at which it leaves the
-        device and the callbacks so far (0: none yet): a consistent reading (the callback
-        writes them between two increments of a sequence number)."""
+        """The last callback's first frame, the monotonic time (s) it leaves the device and the
+        callbacks so far, read consistently under the callback's sequence number."""
         c, t = self.ctl, self.times
         while True:
             seq = int(c[SEQ])
@@ -458,19 +385,17 @@ def body_arrays(
     pan: float = math.nan,
     rolls: dict | None = None,
 ) -> dict:
-    """A body's arrays and sizes by :data:`BODY_FIELDS` name, for :meth:`EngineState.add_body`:
-    ``coefficients`` (:class:`~synth.sound.modal_bank.BankCoefficients`), power ``table``,
-    voice slots' states (:func:`synth.live.kernel.body_state`), pending ``ring``
-    (:class:`synth.live.queue.PendingRing`), omission ``floor``, ``gain``, output ``channel``
-    (-1: all), ``steal_frames`` (samples, at most ``mix_frames``), ``ears``, the listener's
-    complex ``gains`` (K,), ``pan`` (NaN: unpanned) and ``rolls`` (None: none)."""
+    """A body's arrays and sizes by :data:`BODY_FIELDS` name for :meth:`EngineState.add_body`,
+    from its bank ``coefficients``, power ``table``, slots' states
+    (:func:`synth.live.kernel.body_state`), pending ``ring``, omission ``floor``, output
+    ``channel`` (-1: all), steal fade (samples), the listener's complex ``gains`` (K,),
+    ``pan`` (NaN: unpanned) and rolling slots (None: none)."""
     from synth.sound.modal_bank import transform_workspace
 
     c = coefficients
     fs = float(c.samplerate)
     K = c.poles.size
-    zr, zi, active, debt, debt_at, thresholds, thr2, level, park_r, park_i, park_at = modal_state
-    V = zr.shape[0]
+    V = modal_state["zr"].shape[0]
     heard, heard_seq = heard_arrays(np.asarray(gains, dtype=complex))
     voice_slots = np.zeros((V, kernel.N_SLOT_FIELDS), dtype=np.int64)
     voice_slots[:, kernel.SL_OWNER] = -1
@@ -479,22 +404,16 @@ def body_arrays(
     counters[kernel.STEAL_FRAMES] = steal_frames
     tail = np.zeros(mix_frames + steal_frames)
     scalars = np.zeros(N_SCALARS)
-    scalars[S_FS] = fs
-    scalars[S_FLOOR] = floor
-    scalars[S_SIGMA_MAX] = c.sigma_max
-    scalars[S_PERIOD] = 1.0 / fs
-    scalars[S_GAIN] = scalars[S_GAIN_NOW] = gain
-    scalars[S_PAN] = scalars[S_PAN_NOW] = pan
+    fields = [S_FS, S_FLOOR, S_SIGMA_MAX, S_PERIOD, S_GAIN, S_GAIN_NOW, S_PAN, S_PAN_NOW]
+    scalars[fields] = (fs, floor, c.sigma_max, 1.0 / fs, gain, gain, pan, pan)
     work = transform_workspace(K)
     if rolls is None:
         rolls = rolling_block.rolling_arrays(0, K, 2, 1)
-    return rolls | dict(
+    return rolls | modal_state | dict(
         table=np.ascontiguousarray(table),
-        poles=np.ascontiguousarray(c.poles, dtype=np.complex128),
-        zr=zr, zi=zi, active=active, debt=debt, debt_at=debt_at, thresholds=thresholds,
-        thr2=thr2, level=level, state=ring.state, inject=ring.inject, first=ring.first,
-        length=ring.length, amplitudes=ring.amplitudes, response=ring.response,
-        reference=ring.reference, counters=counters,
+        poles=np.ascontiguousarray(c.poles, dtype=np.complex128), state=ring.state,
+        inject=ring.inject, first=ring.first, length=ring.length, amplitudes=ring.amplitudes,
+        response=ring.response, reference=ring.reference, counters=counters,
         pole_re=np.ascontiguousarray(c.pole_re), pole_im=np.ascontiguousarray(c.pole_im),
         step_re=np.ascontiguousarray(c.step_re), step_im=np.ascontiguousarray(c.step_im),
         work=work, coefficients=ring.coefficients, samples=ring.samples, points=ring.points,
@@ -504,6 +423,6 @@ def body_arrays(
         channel=channel, voice=ring.voice, voices=ring.voices, voice_gain=ring.voice_gain,
         voice_slots=voice_slots, slot_gain=np.ones((V, 2)), tail=tail,
         n_records=ring.voices.shape[0], n_voice_slots=V, tail_frames=tail.shape[0],
-        park_r=park_r, park_i=park_i, park_at=park_at, heard=heard, heard_seq=heard_seq,
+        heard=heard, heard_seq=heard_seq,
         heard_coef=np.zeros((2, K)), heard_amps=np.zeros(K, dtype=complex),
     )  # fmt: skip

@@ -1,6 +1,5 @@
-"""The PortAudio output stream of a live engine: opening it with the compiled callback (or
-the Python fallback), and closing it within a bounded time even when the audio server is
-gone."""
+"""The PortAudio output stream of a live engine: opened with the compiled callback (or the
+Python fallback), closed within a bounded time even when the audio server is gone."""
 
 from __future__ import annotations
 
@@ -13,9 +12,8 @@ from synth.live import native
 
 
 def check_device(sd, device, channels: int, samplerate: int) -> dict:
-    """PortAudio's description of the output ``device`` (None: the default one), checked
-    to take ``channels`` float32 channels at ``samplerate`` Hz; a SynthError says which
-    device is missing or which rate it offers instead."""
+    """PortAudio's description of the output ``device`` (None: the default), checked to take
+    ``channels`` float32 channels at ``samplerate`` Hz (else SynthError)."""
     try:
         info = sd.query_devices(device, kind="output")
     except (ValueError, sd.PortAudioError) as exc:
@@ -37,24 +35,20 @@ def check_device(sd, device, channels: int, samplerate: int) -> dict:
     return info
 
 
-def open_stream(sd, state: native.EngineState, callback: str, **settings):
-    """A PortAudio float32 output stream (``settings``: samplerate, blocksize, device,
-    channels, latency) whose callback mixes the engine of ``state``: the compiled
-    :func:`synth.live.native.stream_callback` with ``state``'s address as its user data
-    (``callback="native"``), or the Python fallback (``"python"``, :func:`python_callback`)."""
+def open_stream(sd, state, callback: str, **settings):
+    """A PortAudio float32 output stream of ``settings`` whose callback mixes the engine of
+    ``state``: the compiled one with ``state``'s address as its user data, or the Python
+    fallback (``callback="python"``)."""
     if callback == "python":
         return sd.OutputStream(callback=python_callback(state.ctl), dtype="float32", **settings)
     import cffi
 
     ffi = cffi.FFI()
     return sd._StreamBase(
-        kind="output",
-        wrap_callback=None,
+        kind="output", wrap_callback=None, dtype="float32",
         callback=ffi.cast("void *", native.stream_callback().address),
-        userdata=ffi.cast("void *", state.address),
-        dtype="float32",
-        **settings,
-    )
+        userdata=ffi.cast("void *", state.address), **settings,
+    )  # fmt: skip
 
 
 #: Seconds the finaliser of a collected running engine waits for its stream to close.
@@ -65,9 +59,9 @@ ABANDONED: list = []
 
 
 def close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
-    """Stop (or abort) and close ``stream`` on a helper thread, waiting at most
-    ``timeout`` s (PortAudio's calls can hang when the server is gone). True if it closed;
-    if not, the stream and its ``state`` are kept for the life of the process."""
+    """Stop (or abort) and close ``stream`` on a helper thread within ``timeout`` s
+    (PortAudio can hang when the server is gone); if it did not, keep it and its ``state``
+    for the life of the process. Returns whether it closed."""
 
     def close():
         try:
@@ -85,9 +79,8 @@ def close_stream(stream, state, timeout: float, abort: bool = True) -> bool:
 
 
 def python_callback(ctl):
-    """The fallback stream callback: a Python function (it needs the GIL each block) that
-    runs the compiled block (:func:`synth.live.native.run_block`); it holds the engine's
-    arrays, not the engine."""
+    """The fallback stream callback, a Python function (holding the engine's arrays, not the
+    engine) that runs the compiled block (:func:`synth.live.native.run_block`)."""
     time_info = np.zeros(3)  # adc, current and dac time, s
 
     def callback(outdata, frames, info, status):

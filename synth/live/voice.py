@@ -5,8 +5,7 @@ from __future__ import annotations
 import threading
 from typing import TYPE_CHECKING
 
-from synth import checks
-from synth.live.hits import MAX_GAIN, check_int
+from synth.live.hits import MAX_GAIN, check_int, closed
 
 if TYPE_CHECKING:
     from synth.live.body import Body
@@ -25,21 +24,26 @@ MAX_PRIORITY = 255
 
 
 def check_priority(priority) -> int:
-    """A hit's or a drop's ``priority``, checked: an integer in [0, MAX_PRIORITY]."""
     return check_int("priority", priority, 0, MAX_PRIORITY, "higher plays first")
 
 
-class Voice:
-    """A handle on one sound of a body: a hit or a whole drop (:meth:`Body.hit`,
-    :meth:`Body.drop`); every method may be called from any thread.
+def check_gain(gain) -> float:
+    """A voice's gain (linear), checked: in [0, MAX_GAIN]."""
+    return closed("gain", gain, 0.0, MAX_GAIN, "dimensionless")
 
-    ``id``: unique in its engine (reported by :meth:`Engine.ended`); ``onset``: the stream
-    time its first tick starts, s (``onsets``: every tick's). ``priority`` in [0,
-    MAX_PRIORITY], higher kept longer: a voice takes one of its body's slots when its first
-    impact joins; when all ring it steals the lowest priority's, of those the oldest (faded
-    over ``STEAL_FADE``), or is refused if every one ranks higher (``stats.voices_refused``);
-    ``max_total_voices`` caps all bodies alike (:class:`VoiceLimit`). A voice ends when every
-    mode is below its share of ``floor_db`` relative to its peak, or its stop fade ends."""
+
+def stop_frames(engine, fade: float | None) -> int:
+    """A stop fade of ``fade`` s (None: the engine's ``fade``), checked, in frames (>= 1)."""
+    f = closed("fade", engine._fade if fade is None else fade, MIN_STOP_FADE, MAX_STOP_FADE, "s")
+    return max(1, int(round(f * engine.samplerate)))
+
+
+class Voice:
+    """A handle on one sound of a body, a hit or a whole drop, usable from any thread: ``id``
+    (reported by :meth:`Engine.ended`), ``onsets`` (s), ``priority`` in [0, MAX_PRIORITY]
+    (when all slots ring, a new voice steals the lowest priority's, of those the oldest, or
+    is refused). It ends when every mode is below its share of ``floor_db`` relative to its
+    peak, or its stop fade ends."""
 
     __slots__ = ("body", "id", "onsets", "priority", "_records", "_gain")
 
@@ -61,58 +65,47 @@ class Voice:
 
     @property
     def playing(self) -> bool:
-        """Whether the voice is pending or ringing: read from the audio thread's state
-        without a lock (True from the call that made it until it has ended)."""
+        """Whether the voice is pending or ringing (read without a lock)."""
         if self.body._freed:
             return False
         return any(
             ear._ring.voice_alive(r, self.id) for ear, r in zip(self.body._ears, self._records)
         )
 
+    def _control(self, **request) -> None:
+        if not self.body._freed:
+            for ear, r in zip(self.body._ears, self._records):
+                ear._ring.control_voice(r, self.id, **request)
+
     @property
     def gain(self) -> float:
-        """The voice's gain (linear, in [0, MAX_GAIN], default 1), on top of the hit's and
-        the body's; settable while it plays: the change is ramped linearly over the next
-        block (no click). Setting it on an ended voice does nothing."""
+        """The voice's gain (linear, in [0, MAX_GAIN], default 1) on top of the hit's and the
+        body's; a change is ramped over the next block."""
         return self._gain
 
     @gain.setter
     def gain(self, value: float) -> None:
-        g = checks.in_range("gain", value, 0.0, MAX_GAIN, "dimensionless", lo_open=False,
-                            hi_open=False)  # fmt: skip
-        self._gain = g
-        if self.body._freed:
-            return
-        for ear, r in zip(self.body._ears, self._records):
-            ear._ring.control_voice(r, self.id, gain=g)
+        self._gain = check_gain(value)
+        self._control(gain=self._gain)
 
     def stop(self, fade: float | None = None) -> None:
-        """Fade the voice out from the next block: a raised cosine over ``fade`` s (in
-        [0.001, 10]; default the engine's ``fade``), then it ends; impacts of it not yet
-        played are dropped. Does nothing on an ended voice; a second stop keeps the first
-        fade."""
-        f = self.body._engine._fade if fade is None else fade
-        f = checks.in_range("fade", f, MIN_STOP_FADE, MAX_STOP_FADE, "s", lo_open=False,
-                            hi_open=False)  # fmt: skip
-        frames = max(1, int(round(f * self.body._engine.samplerate)))
-        if self.body._freed:
-            return
-        for ear, r in zip(self.body._ears, self._records):
-            ear._ring.control_voice(r, self.id, stop=frames)
+        """Fade the voice out from the next block over ``fade`` s (in [0.001, 10]; default the
+        engine's ``fade``), dropping its impacts not yet played; a second stop keeps the
+        first fade."""
+        self._control(stop=stop_frames(self.body._engine, fade))
 
 
 def stop_records(ears, records, vid) -> None:
-    """Drop voice ``vid`` at the ears that took it (``records``: their voice records) before
-    it plays: a hit refused at one ear is refused at every ear."""
+    """Drop voice ``vid`` at the ears that took it (``records``) before it plays: a hit
+    refused at one ear is refused at every ear."""
     for ear, r in zip(ears, records):
         ear._ring.control_voice(r, vid, stop=0)
 
 
 class VoiceLimit:
-    """The engine-wide voice cap (``Engine(max_total_voices=n)``), kept on the threads that make
-    voices: a voice counts from its call until it ends; beyond the cap the lowest priority's,
-    of those the oldest, is stopped with a ``STEAL_FADE`` fade (``stolen``), or the new one
-    refused (``refused``), as a body's slots do. ``limit`` None: no cap."""
+    """The engine-wide voice cap (``Engine(max_total_voices=n)``, ``limit`` None: none), kept
+    on the threads that make voices: beyond it the lowest priority's, of those the oldest, is
+    stopped over ``STEAL_FADE`` (``stolen``) or the new one refused (``refused``)."""
 
     def __init__(self, limit: int | None):
         self.limit = limit
