@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from synth.errors import ParameterError
-from synth.io import audio as audio_io
+from synth.store import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset_with_options
 from synth.sound.render import OPTIONS, RenderOptions
 
