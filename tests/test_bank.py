@@ -1216,8 +1216,8 @@ def test_manifest_columns_and_a_row_rendered_again_from_its_scene(serial):
     import soundfile
 
     from synth.io.presets import scene_from_dict
-    from synth.store.reproducible import decoded_sha256
     from synth.sound.render import render
+    from synth.store.reproducible import decoded_sha256
 
     _, ref = serial
     rows = mf.read_rows(ref)

@@ -18,7 +18,7 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.store.atomic import write_atomically
-from synth.store.audio import PHYSICAL_FULL_SCALE, output_path
+from synth.store.audio import PHYSICAL_FULL_SCALE, check_output_path
 
 if TYPE_CHECKING:
     from synth.sound.render import Render
@@ -132,7 +132,7 @@ def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MA
     -------
     pathlib.Path
         The path written."""
-    p, _ = output_path(path, {".png": "PNG"}, "picture", error=ParameterError)
+    p = check_output_path(path, "path", (".png",))
     if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
         raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")
     audio = checks.audio_array("render.audio", _attr(render, "audio"))

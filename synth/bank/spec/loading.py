@@ -22,6 +22,8 @@ from synth.bank.spec.model import (
     ListAxis,
     RangeAxis,
     spec_error,
+    spec_integer,
+    spec_number,
 )
 from synth.bank.spec.naming import check_template
 from synth.bank.spec.sampling import MIN_DISTANCE_MAX_ROWS, SAMPLINGS, grid_axis
@@ -85,11 +87,9 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         raise BankSpecError("preset is required: a preset name or a .toml file")
     preset_path, preset_name = _preset(data["preset"], base_dir)
     count = data.get("count")
-    if count is not None and (isinstance(count, bool) or not isinstance(count, int) or count < 1):
-        raise spec_error("count", count, "must be an integer >= 1 (or left out for the full grid)")
-    seed = data.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise spec_error("seed", seed, "must be an integer >= 0")
+    if count is not None:
+        spec_integer("count", count, 1, "must be an integer >= 1 (or left out for the full grid)")
+    seed = spec_integer("seed", data.get("seed", 0), 0, "must be an integer >= 0")
     fmt = data.get("format", "flac")
     if fmt not in FORMATS:
         raise spec_error("format", fmt, f"must be one of {', '.join(map(repr, FORMATS))}")
@@ -176,21 +176,14 @@ def _trim(value) -> dict | None:
                 f"trim.{k}", value[k], f"is not a key; allowed: {', '.join(TRIM_DEFAULTS)}"
             )
     out = dict(TRIM_DEFAULTS, **value)
-
-    def number(key):
-        v = out[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise spec_error(f"trim.{key}", v, "must be a finite number")
-        return float(v)
-
-    out["below_db"] = number("below_db")
+    for key in ("below_db", "fade", "max_length"):
+        if out[key] is not None or key != "max_length":
+            out[key] = spec_number(f"trim.{key}", out[key])
     if not out["below_db"] < 0.0:
         raise spec_error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
-    out["fade"] = number("fade")
     if not 0.0 <= out["fade"] <= 1.0:
         raise spec_error("trim.fade", out["fade"], "must be in [0, 1] (s)")
     if out["max_length"] is not None:
-        out["max_length"] = number("max_length")
         if not out["max_length"] > out["fade"]:
             raise spec_error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
     return out
@@ -283,8 +276,8 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
         if k not in ("min", "max", "log", "steps"):
             raise spec_error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log, steps")
     steps = value.get("steps")
-    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 2):
-        raise spec_error(f"{where}.steps", steps, "must be an integer >= 2 (values of the grid)")
+    if steps is not None:
+        spec_integer(f"{where}.steps", steps, 2, "must be an integer >= 2 (values of the grid)")
     if "min" not in value or "max" not in value:
         raise spec_error(where, value, "needs both min and max")
     log = value.get("log", False)
@@ -306,16 +299,13 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
 
 
 def _bound(where: str, v):
-    def number(x):
-        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-            raise spec_error(where, v, "must be a finite number or a list of them")
-        return float(x)
-
-    if isinstance(v, list):
-        if not v:
-            raise spec_error(where, v, "is an empty list")
-        return tuple(number(x) for x in v)
-    return number(v)
+    if isinstance(v, list) and not v:
+        raise spec_error(where, v, "is an empty list")
+    try:
+        xs = [spec_number(where, x) for x in (v if isinstance(v, list) else [v])]
+    except BankSpecError:
+        raise spec_error(where, v, "must be a finite number or a list of them") from None
+    return tuple(xs) if isinstance(v, list) else xs[0]
 
 
 def _min_distance(value, count, sampling, axes) -> float | None:

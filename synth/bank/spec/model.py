@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,23 +32,19 @@ TOP_LEVEL = (
     "tags",
 )
 
-
 #: Keys of a stored spec that do not change any sound (they name the files or describe
 #: them): left out when a spec is compared with the one a bank was made by.
 NOT_AUDIO = ("preset", "name", "labels", "tags")
-
 
 #: Key of a stored spec naming the engine that renders the bank (``synth.__version__``):
 #: compared on its own, not with the spec (:func:`synth.bank.run.engine_problem`), since
 #: another engine may make other bytes of the same spec.
 ENGINE = "engine"
 
-
 #: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
 #: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
 #: there, and at ``max_length`` s at most (None: no bound).
 TRIM_DEFAULTS = {"below_db": -60.0, "fade": 0.01, "max_length": None}
-
 
 #: File formats: suffix and soundfile format name, and the default subtype of each.
 FORMATS = {
@@ -56,14 +53,11 @@ FORMATS = {
     "ogg": ("ogg", "OGG", "VORBIS"),
 }
 
-
 #: The axis key of the perception stimuli's restitution scaling.
 RESTITUTION_SCALE = "restitution_scale"
 
-
 #: The bank's level default: one calibration for every file (see synth.store.audio).
 DEFAULT_NORMALIZE = "physical"
-
 
 #: The bank's impact limit (``[render] max_impacts``; a plain render's is
 #: :data:`synth.physics.bounces.DEFAULT_MAX_IMPACTS`): a stated stop rule for a ball that
@@ -76,16 +70,13 @@ DEFAULT_NORMALIZE = "physical"
 #: ``stop_reason`` "max-impacts".
 BANK_MAX_IMPACTS = 64
 
-
 #: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
 RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
-
 
 #: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
 #: scene is built and checked before the bank starts, and a bank of this many sounds of
 #: about 0.1 s of rendering each is already a day of one core's work.
 MAX_ROWS = 100_000
-
 
 #: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
 #: is another bank): 2 drew each list axis without replacement block by block, 3 draws
@@ -252,3 +243,17 @@ def _jsonable(v):
 
 def spec_error(key: str, value, allowed: str) -> BankSpecError:
     return BankSpecError(f"{key}={value!r} {allowed}")
+
+
+def spec_number(key: str, value, allowed: str = "must be a finite number") -> float:
+    """``value`` as a float if it is a finite number (not a bool), else :func:`spec_error`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise spec_error(key, value, allowed)
+    return float(value)
+
+
+def spec_integer(key: str, value, least: int, allowed: str) -> int:
+    """``value`` if it is an integer (not a bool) ``>= least``, else :func:`spec_error`."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < least:
+        raise spec_error(key, value, allowed)
+    return value

@@ -15,29 +15,22 @@ from synth.bank.spec.model import BankSpec, ListAxis, RangeAxis, spec_error
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
 
-
 #: Largest ``count`` with ``min_distance`` (each row is compared with every earlier one).
 MIN_DISTANCE_MAX_ROWS = 20_000
-
 
 #: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
 #: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
 #: geometrically).
 SAMPLINGS = ("random", "lhs", "grid")
 
-
 #: Rows of one Latin-hypercube block (``sampling = "lhs"``): within each block of this
 #: many consecutive rows every range axis has one row in each of as many equal strata.
 LHS_BLOCK = 32
-
 
 #: Most combinations of the list axes drawn as whole permutations, block by block
 #: (:class:`_ListDraws`); not below :data:`MAX_ROWS`, so that beyond it a count never
 #: fills a block. Part of the plan's rules (:data:`PLAN_VERSION`).
 PERMUTED_COMBINATIONS = 100_000
-
-
-# ----------------------------------------------------------------------------- the plan
 
 
 def grid_axis(axis):
