@@ -199,11 +199,15 @@ def group_of(kernel: str) -> str:
 
 @dataclass
 class Compile:
-    """One compile by numba: the kernel (``module.qualname``), the CPU time (s) of the
-    compile itself (without the kernels it compiled on the way), and its group."""
+    """One compile by numba: the kernel (``module.qualname``), its argument types, the CPU
+    time (s) of the compile itself and with the kernels it compiled on the way, how deep it
+    was nested in another compile (0: called from Python), and its group."""
 
     kernel: str
+    signature: str
     own_seconds: float
+    total_seconds: float
+    depth: int
     group: str
 
 
@@ -234,7 +238,10 @@ class CompileLog:
                 took = time.process_time() - start
                 if log._open:
                     log._open[-1][1] += took
-                log.compiles.append(Compile(name, took - nested, group))
+                signature = ", ".join(str(a) for a in ev.data["args"])
+                log.compiles.append(
+                    Compile(name, signature, took - nested, took, len(log._open), group)
+                )
 
         return event.install_listener("numba:compile", _Listener())
 

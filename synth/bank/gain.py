@@ -146,13 +146,7 @@ def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
     if spec is None:
         raise BankRunError(f"bank_dir={str(bank_dir)!r} holds no bank ({mf.SPEC} missing)")
     rows = mf.read_rows(bank_dir)
-    bad = [
-        r["index"]
-        for r in rows
-        if r.get("status") != "ok"
-        or not (bank_dir / r["file"]).is_file()
-        or mf.sha256_file(bank_dir / r["file"]) != r.get("sha256")
-    ]
+    bad = [r["index"] for r in rows if r.get("status") != "ok" or not mf.intact(bank_dir, r)]
     if bad or not rows:
         raise BankRunError(
             f"bank_dir={str(bank_dir)!r} is not a finished bank ({len(bad)} rows not ok or "
@@ -210,14 +204,8 @@ def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
     """The rows of ``out``'s manifest whose scaled file is complete, moved to the source's
     names (a renamed source row keeps its scaled file), and how many were moved."""
     source = {r["index"]: r for r in rows}
-    complete = {
-        r["index"]: r
-        for r in mf.read_rows(out)
-        if r.get("index") in source
-        and isinstance(r.get("file"), str)
-        and (out / r["file"]).is_file()
-        and mf.sha256_file(out / r["file"]) == r.get("sha256")
-    }
+    rows_there = mf.read_rows(out)
+    complete = {r["index"]: r for r in rows_there if r["index"] in source and mf.intact(out, r)}
     moves = {i: (r["file"], source[i]["file"]) for i, r in complete.items()}
     moved = move_files(out, fmt, moves)
     kept = []

@@ -25,28 +25,10 @@ SPEC = "bank.json"
 LOCK = ".bank.lock"
 
 #: Columns after the varied keys.
-RESULT_COLUMNS = (
-    "labels",
-    "tags",
-    "seed",
-    "status",
-    "error",
-    "duration",
-    "audible_duration",
-    "stop_reason",
-    "length_reason",
-    "ticks",
-    "first_restitution",
-    "first_speed",
-    "first_contact_time",
-    "first_peak_force",
-    "peak_dbfs",
-    "true_peak_dbtp",
-    "loudness_lufs",
-    "spectral_centroid",
-    "sha256",
-    "audio_sha256",
-    "scene",
+RESULT_COLUMNS = tuple(
+    "labels tags seed status error duration audible_duration stop_reason length_reason ticks "
+    "first_restitution first_speed first_contact_time first_peak_force peak_dbfs "
+    "true_peak_dbtp loudness_lufs spectral_centroid sha256 audio_sha256 scene".split()
 )
 
 #: Temporary files of :mod:`synth.store.atomic` beside their targets: hidden, 12 hex digits,
@@ -98,20 +80,43 @@ def remove_files(folder: Path, names) -> int:
     """Delete the files ``names`` in ``folder`` and the subfolders they leave empty; how many."""
     n = 0
     for name in names:
-        path = folder / name
         try:
-            path.unlink()
+            (folder / name).unlink()
         except FileNotFoundError:
             continue
         n += 1
-        parent = path.parent
-        while parent != folder and parent.is_relative_to(folder):
-            try:
-                parent.rmdir()
-            except OSError:  # not empty
-                break
-            parent = parent.parent
+        remove_empty_folders(folder, (folder / name).parent)
     return n
+
+
+def remove_empty_folders(folder: Path, sub: Path) -> None:
+    """Remove ``sub`` and its parents below ``folder`` while empty."""
+    while inside(folder, sub):
+        try:
+            sub.rmdir()
+        except OSError:  # not empty
+            return
+        sub = sub.parent
+
+
+def inside(folder: Path, path: Path) -> bool:
+    """True if ``path`` lies below ``folder`` (a manifest's file name is trusted no further)."""
+    try:
+        where, top = path.resolve(), folder.resolve()
+        return where.is_relative_to(top) and where != top
+    except OSError:
+        return False
+
+
+def intact(folder: Path, row: dict) -> bool:
+    """True if ``row``'s file lies below ``folder`` with the SHA-256 the row records."""
+    path = folder / str(row.get("file"))
+    return (
+        isinstance(row.get("file"), str)
+        and inside(folder, path)
+        and path.is_file()
+        and sha256_file(path) == row.get("sha256")
+    )
 
 
 def orphans_note(names: list[str], removed: bool) -> str:

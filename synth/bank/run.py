@@ -1,12 +1,7 @@
-"""Running a bank: the sounds of a plan rendered by long-lived workers, each file written
-atomically, each finished row appended to the manifest; a rerun resumes (docs/banks.md).
-
-Workers: ``jobs`` processes that warm the engine once and render rows until the plan is
-done (forked on Linux after this process warmed it, else spawned; ``jobs=1`` renders
-here), or a Dask cluster (``scheduler``; the optional extra ``dask``) that sees the bank's
-folder. The parent alone writes the manifest (:mod:`synth.bank.manifest`). A row that
-cannot be rendered is recorded ``failed`` and the others go on; a file that cannot be
-written stops the bank cleanly, and running it again completes it.
+"""Running a bank: the rows of a plan rendered by long-lived workers (:mod:`.executors`),
+each file written atomically, each finished row appended to the manifest by this process;
+a rerun resumes (docs/banks.md). A row that cannot be rendered is recorded ``failed`` and
+the others go on; a file that cannot be written stops the bank cleanly.
 """
 
 from __future__ import annotations
@@ -22,16 +17,10 @@ import numpy as np
 
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.executors import (
-    BankRunError,
-    Dask,
-    Pool,
-    Serial,
-    connect,
-    hold_lock,
-)
+from synth.bank.executors import BankRunError, Dask, Pool, Serial, connect, hold_lock
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
+from synth.bank.spec.model import spec_integer
 from synth.store.reproducible import reproducible
 
 #: Rows a dry run times (spread over the plan): at least this many and the square root of
@@ -249,7 +238,7 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
             raise BankSpecError(problem)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
-            if _inside(out_dir, f) and f.is_file():
+            if mf.inside(out_dir, f) and f.is_file():
                 f.unlink()
         for name in (mf.JSONL, mf.CSV):
             (out_dir / name).unlink(missing_ok=True)
@@ -259,15 +248,11 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
 def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
     """The complete rows: ``ok``, in the plan, their file in the folder with the recorded
     SHA-256 (``failed`` and ``planned`` rows are redone)."""
-    out = []
-    for row in rows:
-        item = plan.get(row.get("index"))
-        if item is None or row.get("status") != "ok" or not isinstance(row.get("file"), str):
-            continue
-        path = out_dir / row["file"]
-        if _inside(out_dir, path) and path.is_file() and mf.sha256_file(path) == row.get("sha256"):
-            out.append(row)
-    return out
+    return [
+        r
+        for r in rows
+        if r.get("index") in plan and r.get("status") == "ok" and mf.intact(out_dir, r)
+    ]
 
 
 def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
@@ -297,7 +282,7 @@ def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
         old = out_dir / old_name
         aside[index] = out_dir / temporary_name(old.suffix)
         os.replace(old, aside[index])
-        _remove_empty_folders(out_dir, old.parent)
+        mf.remove_empty_folders(out_dir, old.parent)
     moved = {}
     for index, temporary in aside.items():
         new_name = moves[index][1]
@@ -310,38 +295,15 @@ def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
     return moved
 
 
-def _remove_empty_folders(out_dir: Path, folder: Path) -> None:
-    """Remove ``folder`` and its parents below ``out_dir`` while empty."""
-    while _inside(out_dir, folder):
-        try:
-            folder.rmdir()
-        except OSError:  # not empty
-            return
-        folder = folder.parent
-
-
-def _inside(folder: Path, path: Path) -> bool:
-    """True if ``path`` lies below ``folder`` (a manifest's file name is trusted no further)."""
-    try:
-        return (
-            path.resolve().is_relative_to(folder.resolve()) and path.resolve() != folder.resolve()
-        )
-    except OSError:
-        return False
-
-
 def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
     """The rows whose record holds (every ``ok`` file hashed again); one that does not is
     dropped from the manifest, redone by the next run, and the bank is not complete."""
     kept, bad = [], []
     for row in rows:
-        path = out_dir / str(row.get("file", ""))
-        if row.get("status") == "ok" and not (
-            path.is_file() and mf.sha256_file(path) == row.get("sha256")
-        ):
+        if row.get("status") == "ok" and not mf.intact(out_dir, row):
             bad.append(row["index"])
-            continue
-        kept.append(row)
+        else:
+            kept.append(row)
     if bad:
         now = sum(1 for i in bad if i in recorded)  # rendered in this run, else skipped
         result.done -= now
@@ -408,9 +370,7 @@ def _executor(spec, out_dir: Path, jobs: int, connection):
 def _jobs(jobs) -> int:
     if jobs is None:
         return os.cpu_count() or 1
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise BankSpecError(f"jobs={jobs!r} must be an integer >= 1 (worker processes)")
-    return jobs
+    return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
 
 
 def run(
@@ -427,25 +387,14 @@ def run(
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``
     (created if needed), resuming what an earlier run left.
 
-    Parameters
-    ----------
-    jobs : int >= 1, optional
-        Worker processes (default: ``os.cpu_count()``); 1 renders in this process.
-    scheduler : str or dask.distributed.Client, optional
-        A Dask scheduler's address (``"tcp://host:8786"``) or a client.
-    dry_run : bool
-        Change nothing; report the rows that would be rendered (``result.planned_rows``) and
-        an estimate of the time (``result.estimated``), from a few rows run in a scratch folder.
-    force : bool
-        Start over in a folder made by another spec (its files and manifest deleted).
-    redo : str or set of int, optional
-        Rows to render again although complete (``"17,40-45"``).
-    prune : bool
-        Delete audio files in neither the manifest nor the plan (``result.orphans``);
-        without it they are only reported.
-
-    A bad spec raises :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable
-    scheduler a :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."""
+    ``jobs``: worker processes (default: the cores; 1 renders here); ``scheduler``: a Dask
+    scheduler's address (``"tcp://host:8786"``) or client; ``dry_run``: change nothing,
+    report the rows to render and an estimate of the time from a few rows run in a scratch
+    folder; ``force``: start over in a folder of another spec (its files deleted); ``redo``:
+    rows to render again (``"17,40-45"``); ``prune``: delete audio files in neither the
+    manifest nor the plan (else only reported). A bad spec raises
+    :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable scheduler a
+    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."""
     t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
@@ -498,19 +447,23 @@ def _dry_run(
     problem = _resume_problem(out, spec)
     if problem is not None and not force:
         raise BankSpecError(problem)
-    other = problem is not None
-    kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
-    kept = [r for r in kept if r["index"] not in again]
-    done_ids = {r["index"] for r in kept}
-    todo = [item for item in items if item.index not in done_ids]
+    here = problem is None and out.is_dir()
+    verified = _verified(out, mf.read_rows(out), plan) if here else []
+    kept = [r for r in verified if r["index"] not in again]
+    todo = _todo(items, kept)
     result = BankResult(out, len(items), skipped=len(kept))
     result.planned_rows = [base_row(spec, item, "planned") for item in todo]
-    if out.is_dir() and not other:
-        recorded = [r["file"] for r in _verified(out, mf.read_rows(out), plan)]
+    if here:
+        recorded = [r["file"] for r in verified]
         result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
     result.estimated = _estimate(spec, todo, jobs, before=time.perf_counter() - t0)
     result.elapsed = time.perf_counter() - t0
     return result
+
+
+def _todo(items, kept: list[dict]) -> list:
+    done = {r["index"] for r in kept}
+    return [item for item in items if item.index not in done]
 
 
 def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
@@ -533,8 +486,7 @@ def _run(
     kept = [r for r in _renamed(out, spec, verified, plan) if r["index"] not in again]
     result = BankResult(out, len(items), skipped=len(kept))
     result.renamed = sum(1 for r in verified if r["file"] != plan[r["index"]].file)
-    done_ids = {r["index"] for r in kept}
-    todo = [item for item in items if item.index not in done_ids]
+    todo = _todo(items, kept)
     book.rewrite(kept)
     for item in todo:  # a killed run's or a damaged file: published again, once
         (out / item.file).unlink(missing_ok=True)

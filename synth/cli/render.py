@@ -130,7 +130,7 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
     return 0
 
 
-def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
+def render_options(scene_render: dict, args) -> tuple[dict, str | None]:
     """Render keywords from a preset's [render] section and the command line (which wins),
     and the output file's subtype."""
     opts = dict(scene_render)
@@ -159,7 +159,7 @@ def _report(rendered, data, preset) -> dict:
 
 
 def _cmd_render(args):
-    from synth.io.presets import find, load_preset_with_options
+    from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
 
@@ -168,7 +168,7 @@ def _cmd_render(args):
         {"output": audio_io.FORMATS, "plot": (".png",)},
     )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
-    opts, subtype = render_options(render_section, args, str(find(args.preset)))
+    opts, subtype = render_options(render_section, args)
     if args.timing_from is not None or args.restitution_scale is not None:
         from synth.sound.options import RenderOptions
         from synth.stimuli import sequences as stimuli
@@ -307,7 +307,7 @@ def _cmd_gallery(args):
     from pathlib import Path
 
     from synth.io.plot import plot_render
-    from synth.io.presets import find, load_preset_with_options
+    from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
 
@@ -317,7 +317,7 @@ def _cmd_gallery(args):
     names = args.names or GALLERY
     for name in names:
         scene, section, data = load_preset_with_options(name)
-        opts, subtype = render_options(section, args, str(find(name)))
+        opts, subtype = render_options(section, args)
         rendered = render(scene, **opts)
         audio_io.write_audio(
             out / f"{name}.wav", rendered.audio, rendered.samplerate, subtype=subtype

@@ -1,6 +1,5 @@
-"""Reading a spec: the example specs installed with the package, a TOML file or a dict
-checked key by key into a :class:`~synth.bank.spec.model.BankSpec`.
-"""
+"""Reading a spec (an installed example, a TOML file or a dict) checked key by key into a
+:class:`~synth.bank.spec.model.BankSpec`."""
 
 from __future__ import annotations
 
@@ -55,8 +54,7 @@ def find(path_or_name) -> Path:
 
 
 def load(path) -> BankSpec:
-    """Read and check the spec file ``path`` (TOML), or the installed example of that
-    name (:func:`available`)."""
+    """Read and check the spec file ``path`` (TOML) or the installed example of that name."""
     p = find(path)
     try:
         with open(p, "rb") as fh:
@@ -130,8 +128,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
 
 
 def _axes(vary, sampling, count, base_raw: dict) -> tuple:
-    """The checked axes of the ``[vary]`` table over the preset dict ``base_raw``, made
-    grids with ``sampling = "grid"``."""
+    """The checked axes of ``[vary]`` (grids with ``sampling = "grid"``)."""
     if not isinstance(vary, dict):
         raise spec_error("vary", vary, "must be a table of axes")
     if sampling not in SAMPLINGS:
@@ -147,8 +144,8 @@ def _axes(vary, sampling, count, base_raw: dict) -> tuple:
 
 
 def _base(base_raw: dict, render_section, preset_path) -> tuple[dict, dict]:
-    """The preset dict with the spec's ``[render]`` table over the preset's (and the bank's
-    defaults under both), and its checked render options (with ``subtype`` if named)."""
+    """The preset dict with the spec's ``[render]`` over the preset's over the bank's
+    defaults, and its checked render options."""
     if not isinstance(render_section, dict):
         raise spec_error("render", render_section, "must be a table of render options")
     base = dict(base_raw)
@@ -198,8 +195,7 @@ def _tag_value(where: str, value) -> None:
 
 
 def _tags(value) -> list | dict | None:
-    """The checked ``tags``: a list of keywords (non-empty texts) or a table of
-    name = text, number or boolean; None if left out."""
+    """The checked ``tags``: a list of keywords or a table of name = text, number or bool."""
     if value is None:
         return None
     if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
@@ -309,9 +305,7 @@ def _bound(where: str, v):
 
 
 def _min_distance(value, count, sampling, axes) -> float | None:
-    """The checked ``min_distance``: the least distance between two rows' range values,
-    each component scaled to [0, 1] over its range (log ranges in log), with ``count``
-    and random sampling."""
+    """The checked ``min_distance`` between rows' range values in the unit cube."""
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
@@ -328,8 +322,7 @@ def _min_distance(value, count, sampling, axes) -> float | None:
 
 
 def _labels(value, axes) -> dict:
-    """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
-    and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
+    """The checked ``[labels]``: per varied key, ``{ "0.004" = "small" }``."""
     if not isinstance(value, dict):
         raise spec_error("labels", value, "must be a table of varied keys")
     keys = {a.key for a in axes}

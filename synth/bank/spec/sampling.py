@@ -34,8 +34,7 @@ PERMUTED_COMBINATIONS = 100_000
 
 
 def grid_axis(axis):
-    """With ``sampling = "grid"``: a range as the list of its ``steps`` values (both
-    ends included, evenly or, with log, geometrically spaced, per component)."""
+    """A range as the list of its ``steps`` values, ends included (``sampling = "grid"``)."""
     if isinstance(axis, ListAxis):
         return axis
     if axis.steps is None:
@@ -186,11 +185,8 @@ class RepeatedRowsWarning(UserWarning):
 
 
 def warn_repeated_rows(spec: BankSpec) -> None:
-    """Warn when ``count`` asks for more rows than the spec has distinct ones: without a
-    range axis a row is one of the list axes' combinations, so rows beyond them repeat
-    earlier ones (each combination once in every block of them, a randomised block
-    design; identical sounds under other names). Not refused: repeated stimuli are a
-    valid design, a container of game sounds wants the count lowered."""
+    """Warn when ``count`` passes the distinct rows of a spec without a range axis: rows
+    repeat (a randomised block design, valid for stimuli, not for a game's container)."""
     distinct = _combinations(spec)
     if spec.count is None or spec.count <= distinct:
         return
