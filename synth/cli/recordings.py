@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 import numpy as np
 
+from synth.cli.common import print_json
 from synth.errors import SynthError
 
 
@@ -28,8 +28,7 @@ def _cmd_analyze(args):
     for warning in result.warnings:
         print(f"synth: warning: {warning}", file=sys.stderr)
     if args.json:
-        json.dump(analysis.to_dict(result), sys.stdout, indent=1, default=float)
-        print()
+        print_json(analysis.to_dict(result))
     elif args.csv:
         sys.stdout.write(analysis.to_csv(result))
     else:

@@ -3,10 +3,7 @@ plot and report, all or none) and ``gallery`` (the reference renders)."""
 
 from __future__ import annotations
 
-import json
-import sys
-
-from synth.cli.common import add_preset_args
+from synth.cli.common import add_preset_args, print_json
 from synth.errors import SynthError
 from synth.sound.options import OPTIONS, PRESET_SAMPLERATE, declaration, default, describe
 
@@ -23,20 +20,11 @@ def _cmd_info(args):
     rows = seq.table()
     ending = {} if path is None else _path_ending(path)
     if args.json:
-        json.dump(
-            dict(
-                preset=args.preset,
-                description=data.get("description", ""),
-                stop_reason=seq.stop_reason,
-                duration=seq.duration,
-                impacts=rows,
-                **ending,
-            ),
-            sys.stdout,
-            indent=1,
+        description = data.get("description", "")
+        return print_json(
+            dict(preset=args.preset, description=description, stop_reason=seq.stop_reason)
+            | dict(duration=seq.duration, impacts=rows, **ending)
         )
-        print()
-        return 0
     if data.get("description"):
         print(data["description"])
     print(
@@ -110,11 +98,7 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
     estimate = cost.estimate_render(scene, section, budget)  # the section sets samplerate
     too_big = estimate.excess(budget)
     if as_json:
-        json.dump(
-            dict(asdict(estimate), budget=asdict(budget), refused=too_big), sys.stdout, indent=1
-        )
-        print()
-        return 0
+        return print_json(dict(asdict(estimate), budget=asdict(budget), refused=too_big))
     for name, value in estimate.rows():
         print(f"{name:<28} {value}")
     print(

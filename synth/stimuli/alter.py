@@ -121,11 +121,8 @@ class AlterOptions:
         if not isinstance(self.scale_amplitude, (bool, np.bool_)):
             raise ParameterError(f"scale_amplitude={self.scale_amplitude!r} must be True or False")
         seed = self.seed
-        if (
-            isinstance(seed, (bool, np.bool_))
-            or not isinstance(seed, (int, np.integer))
-            or seed < 0
-        ):
+        integer = isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_))
+        if not integer or seed < 0:
             raise ParameterError(f"seed={seed!r} must be an integer >= 0")
 
 

@@ -102,10 +102,6 @@ def _file_size_limit() -> int | None:
     return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
-def _check_units(units) -> str:
-    return checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
-
-
 def _peak(a: np.ndarray) -> float:
     return float(np.max(np.abs(a)))
 
@@ -325,7 +321,7 @@ def normalize(
     mode = checks.choice("mode", mode, NORMALIZE_MODES)
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
-    u = _check_units(units)
+    u = checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
     target_peak_db = checks.real("peak_db", peak_db, "dBFS")
     if target_peak_db > 0.0:
         raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
