@@ -1,13 +1,11 @@
 """Physically based synthesis of bouncing and impact sounds.
 
-A ball is dropped on a plate; every impact is computed from the materials and
-sizes (Hertz contact against the plate's mechanical impedance, with gravity),
-strung together by a bounce scheduler, and heard through a modal model of the
-finite plate. SI units throughout.
+A ball is dropped on a plate; every impact is computed from the materials and sizes
+(Hertz contact against the plate's mechanical impedance, with gravity), strung together by
+a bounce scheduler, and heard through a modal model of the finite plate. SI units.
 
-Every public name is imported on first use (PEP 562 module ``__getattr__``): ``import
-synth`` loads no numerical library, and a render loads neither the analysis, the live
-engine nor the sound banks.
+Every public name is imported on first use (PEP 562): ``import synth`` loads no numerical
+library, and a render loads neither the analysis, the live engine nor the sound banks.
 """
 
 from synth import jitcache  # noqa: F401  (first: picks numba's cache folder before numba loads)

@@ -1,14 +1,11 @@
 """Validation helpers shared by every public constructor and function, and the options
-declared once that are built on them.
+declared once on them.
 
-Each helper takes the dotted field name used in messages (``plate.thickness``), the value
-and the unit, and returns the value as a Python ``float``; nothing is clamped: a value
-outside the range raises ``ParameterError`` such as ``plate.thickness=-0.002 must be > 0
-(metres)``. Options declared once (the render's, the analysis'): a frozen dataclass's
-fields with type, default, unit, values allowed, doc and check (:class:`Option`), from
-which front ends read signatures, docstrings (:func:`keyword_parameters`,
-:func:`parameters_doc`) and flags; constructing it is the one check (:func:`check_fields`),
-and a misspelt name is a ``TypeError`` naming the nearest option (:func:`check_names`).
+A helper takes the dotted name used in messages, the value and the unit, and returns the
+value converted; nothing is clamped: ``plate.thickness=-0.002 must be > 0 (metres)``. An
+option (:class:`Option`) is a frozen dataclass's field with its unit, values allowed, doc
+and check, from which front ends read signatures, docstrings and flags; constructing the
+dataclass is the one check, and a misspelt name a ``TypeError`` naming the nearest option.
 """
 
 from __future__ import annotations
@@ -32,11 +29,8 @@ def _unit(unit: str) -> str:
 
 
 def real(name: str, value: object, unit: str = "", allowed: str = "") -> float:
-    """Return ``value`` as a finite float, or raise ``ParameterError``.
-
-    ``allowed`` (such as ``"> 0"``) is the range the caller will check next; it is
-    named in the message for a value that is not even a finite number.
-    """
+    """``value`` as a finite float, else ``ParameterError`` naming ``allowed`` (such as
+    ``"> 0"``, the range the caller checks next)."""
     if type(value) is float:  # fast path for the common case
         if math.isfinite(value):
             return value
@@ -111,9 +105,7 @@ def choice(name: str, value: object, allowed: Iterable[str]) -> str:
 
 
 def did_you_mean(name: str, allowed: Iterable[str], n: int = 1, cutoff: float = 0.6) -> str:
-    """`` (did you mean 'x'?)`` naming the ``n`` allowed words nearest to a misspelt
-    ``name`` (by :func:`difflib.get_close_matches` with ``cutoff``), or ``""`` when none is
-    near: the hint of an unknown key's or name's message."""
+    """`` (did you mean 'x'?)`` naming the ``n`` allowed words nearest to ``name``, or ``""``."""
     near = difflib.get_close_matches(str(name), list(allowed), n=n, cutoff=cutoff)
     return f" (did you mean {', '.join(map(repr, near))}?)" if near else ""
 
@@ -138,9 +130,8 @@ def point(name: str, value: object, dims: int, unit: str = "metres") -> tuple[fl
 
 
 def audio_array(name: str, audio: object) -> np.ndarray:
-    """A non-empty, finite, floating-point array of shape ``(frames,)`` or
-    ``(frames, channels)`` (samples in full-scale or physical units); returned as an
-    ndarray without copying where possible."""
+    """A non-empty, finite float array ``(frames,)`` or ``(frames, channels)``, not copied
+    where possible."""
     if audio is None or isinstance(audio, (str, bytes)):
         raise ParameterError(
             f"{name}={audio!r} must be a float array (frames,) or (frames, channels)"
@@ -177,9 +168,8 @@ def samplerate(value: object, name: str = "samplerate") -> int:
 
 
 def environment_integer(name: str, default: int, least: int = 0, unit: str = "") -> int:
-    """The integer environment variable ``name`` (``>= least``), or ``default`` when it is
-    unset or empty: the one parser of the engine's numeric environment variables, raising
-    ``ParameterError`` naming the variable, its text and what is allowed."""
+    """The integer environment variable ``name`` (``>= least``), or ``default`` when unset
+    or empty; else ``ParameterError`` naming the variable and its text."""
     import os
 
     text = os.environ.get(name)
@@ -195,10 +185,9 @@ def environment_integer(name: str, default: int, least: int = 0, unit: str = "")
 
 
 def environment_directory(name: str):
-    """The folder named by the environment variable ``name`` (a :class:`pathlib.Path`,
-    ``~`` expanded; it need not exist yet), or None when it is unset or empty: raises
-    ``ParameterError`` naming the variable and its text when the path exists and is not
-    a folder (a file there would otherwise turn the folder's use off without a word)."""
+    """The folder (``~`` expanded, perhaps not made yet) named by the environment variable
+    ``name``, or None when unset or empty; ``ParameterError`` when it is a file (which
+    would otherwise turn the folder's use off without a word)."""
     import os
     from pathlib import Path
 
@@ -216,15 +205,11 @@ def environment_directory(name: str):
 
 @dataclass(frozen=True)
 class Option:
-    """The declaration of one option (a field's metadata).
-
-    unit: SI unit or level scale ("" for a count or a name); allowed: the values allowed,
-    as the error and the docs state them; doc: what it does; metavar: the command line's
-    name of its value; check: ``check(name, value, checked)`` returns the value converted
-    (float, int) or raises ``ParameterError``; ``checked`` holds the options checked before
-    it; choices: the allowed names of a choice; parse: the value from its command-line text
-    (``bool`` for a flag that is on or off).
-    """
+    """The declaration of one option (a field's metadata): its SI ``unit`` ("" for a count
+    or a name), the values ``allowed`` as messages and docs state them, ``doc``, the command
+    line's ``metavar``, ``check(name, value, checked)`` (the value converted, given the
+    options checked before it), the ``choices`` of a choice, and ``parse`` from the command
+    line's text (``bool``: a switch)."""
 
     unit: str
     allowed: str
@@ -236,15 +221,13 @@ class Option:
 
 
 def option(default, **declaration):
-    """A dataclass field declaring an option (:class:`Option`'s fields as keywords);
-    ``dataclasses.MISSING`` for an option without a default."""
+    """A dataclass field declaring an option (:class:`Option`'s fields as keywords)."""
     kwargs = {} if default is dataclasses.MISSING else {"default": default}
     return field(metadata={"option": Option(**declaration)}, **kwargs)
 
 
 def check_fields(instance) -> None:
-    """Check and convert every field of the frozen ``instance`` in order (its
-    ``__post_init__``)."""
+    """Check and convert every field of the frozen ``instance`` in order."""
     checked: dict = {}
     for f in dataclasses.fields(instance):
         checked[f.name] = f.metadata["option"].check(f.name, getattr(instance, f.name), checked)
@@ -257,8 +240,7 @@ def names(cls) -> tuple[str, ...]:
 
 
 def check_names(cls, given, what: str) -> None:
-    """Raise ``TypeError`` naming the nearest option for a name of ``given`` that is not an
-    option of ``cls`` (``what``: "a render option", "an analysis option")."""
+    """``TypeError`` naming the nearest option for a name of ``given`` not an option of ``cls``."""
     known = names(cls)
     for name in given:
         if name not in known:

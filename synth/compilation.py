@@ -1,12 +1,8 @@
-"""First use of the compiled kernels: what compiles, how long it takes, and a note first.
-
-numba compiles a kernel on its first call and keeps the machine code in its disk cache
-(folder chosen by :mod:`synth.jitcache`). This module records every compile numba makes
-with its own CPU time (:class:`CompileLog`, for ``synth warmup`` and ``synth bench cold``),
-names the groups whose compile takes seconds (:data:`GROUPS`) and says once per process,
-only when a group is missing from the cache, that it is about to compile (:func:`announce`,
-with the time ``synth warmup --record`` keeps), and holds the options every kernel is
-compiled with (:func:`compiled`, :data:`FASTMATH`).
+"""First use of the compiled kernels: the options every kernel is compiled with
+(:func:`compiled`), the groups whose compile takes seconds (:data:`GROUPS`), a note once
+per process before a group missing from numba's disk cache compiles (:func:`announce`),
+and the log of every compile with its CPU time (:class:`CompileLog`, for ``synth warmup``
+and ``synth bench cold``).
 """
 
 from __future__ import annotations
@@ -44,10 +40,9 @@ FAST_SUMS = frozenset({"reassoc", "nsz", "arcp"})
 
 
 def compiled(*, sums: bool = False, **options):
-    """``numba.njit`` with the package's options and ``options`` (``nogil``, ``inline``,
-    ``parallel``): the fast-math flags :data:`FASTMATH` (:data:`FAST_SUMS` with ``sums=True``),
-    ``cache=True`` and no C-callable wrapper (``no_cfunc_wrapper=True``: no kernel here is
-    passed as a first-class function, and the wrapper only adds to the first compile)."""
+    """``numba.njit`` with the package's fast-math flags (:data:`FAST_SUMS` with
+    ``sums=True``), ``cache=True`` and no C-callable wrapper (no kernel is passed as a
+    first-class function; the wrapper only adds to the first compile)."""
     if "fastmath" in options:
         raise TypeError("compiled(): the fast-math flags are the package's (sums=True or not)")
     fastmath = set(FAST_SUMS) if sums else FASTMATH
@@ -60,13 +55,10 @@ COMPILE_TIMES = Path(__file__).with_name("compile_times.json")
 
 @dataclass(frozen=True)
 class KernelGroup:
-    """Kernels compiled together on their first use.
-
-    ``title`` names them in the note; ``probe`` is ``(module, kernel)``, the kernel whose
-    disk cache tells whether the group has been compiled: the outermost one, compiled
-    last, so that its presence means the whole group is there. ``modules`` are prefixes
-    of the ``module.qualname`` of the kernels that start the group's compiles (the
-    longest matching prefix wins)."""
+    """Kernels compiled together on their first use: ``title`` names them in the note;
+    ``probe`` (module, kernel) is the outermost kernel, compiled last, whose disk cache
+    says the group is there; ``modules`` are prefixes of the ``module.qualname`` of the
+    kernels that start the group's compiles (the longest wins)."""
 
     name: str
     title: str
@@ -126,9 +118,8 @@ _announced: set[str] = set()
 
 
 def announce(name: str, stream=None) -> None:
-    """Before the first use of the kernel group ``name`` in this process: one line on
-    ``stream`` (stderr) if the group is not in numba's disk cache, so that a first run
-    does not compile in silence. Nothing on a warm cache; nothing the second time."""
+    """Before the first use of the kernel group ``name``: one line on ``stream`` (stderr)
+    if it is not in numba's disk cache, once per process."""
     if name in _announced:
         return
     _announced.add(name)
@@ -145,11 +136,9 @@ def announce(name: str, stream=None) -> None:
 
 
 def is_cached(group: KernelGroup) -> bool:
-    """True if the group's probe kernel (a dispatcher, or the Python function of a
-    ``cfunc``) is compiled in this process or has an entry in numba's disk cache for this
-    source (numba drops an index whose source changed).
-    Where numba's cache cannot be read (caching off, another numba), True: no note is
-    better than a wrong one."""
+    """True if the group's probe kernel is compiled in this process or in numba's disk
+    cache for this source; True too where the cache cannot be read (no note is better
+    than a wrong one)."""
     module, kernel = group.probe
     function = getattr(importlib.import_module(module), kernel)
     if isinstance(function, numba.core.dispatcher.Dispatcher) and function.overloads:
@@ -158,9 +147,8 @@ def is_cached(group: KernelGroup) -> bool:
 
 
 def in_disk_cache(function) -> bool:
-    """True if the dispatcher ``function`` (or the Python function of a ``cfunc``) has an
-    entry in numba's disk cache for this source; True as well where the cache cannot be
-    read (see :func:`is_cached`)."""
+    """True if the dispatcher ``function`` (or a ``cfunc``'s Python function) has an entry
+    in numba's disk cache for this source, or where the cache cannot be read."""
     try:
         if isinstance(function, numba.core.dispatcher.Dispatcher):
             cache = function._cache
@@ -176,8 +164,7 @@ def in_disk_cache(function) -> bool:
 @contextmanager
 def cfunc_compiling(function, signature):
     """numba's ``numba:compile`` event around the compile of a ``cfunc`` of ``function``
-    (numba signals the compiles of dispatchers only), so that :class:`CompileLog` counts
-    it; nothing when the cfunc is in the disk cache (it is loaded, not compiled)."""
+    (numba signals a dispatcher's only), for :class:`CompileLog`; nothing when cached."""
     if in_disk_cache(function):
         yield
         return
@@ -201,8 +188,7 @@ def recorded_seconds() -> dict[str, float]:
 
 
 def group_of(kernel: str) -> str:
-    """The :data:`GROUPS` name of the kernel ``module.qualname`` (the group naming the
-    longest prefix of it), or "other"."""
+    """The :data:`GROUPS` name of the kernel ``module.qualname`` (longest prefix), or "other"."""
     best, length = "other", 0
     for g in GROUPS.values():
         for prefix in g.modules:
@@ -214,8 +200,8 @@ def group_of(kernel: str) -> str:
 @dataclass
 class Compile:
     """One compile by numba: the kernel (``module.qualname``), its argument types, the CPU
-    time (s) of the compile itself and with the kernels it compiled on the way, and how
-    deep it was nested in another compile (0: called from Python), and its group."""
+    time (s) of the compile itself and with the kernels it compiled on the way, how deep it
+    was nested in another compile (0: called from Python), and its group."""
 
     kernel: str
     signature: str
@@ -227,10 +213,9 @@ class Compile:
 
 @dataclass
 class CompileLog:
-    """The compiles numba makes while :meth:`recording` (CPU time: ``time.process_time``;
-    numba compiles under a global lock, one at a time). A compile counts in the group of
-    the outermost compile it was part of (the kernel called from Python): the time a
-    group takes to compile includes the kernels and numba's helpers it needed."""
+    """The compiles numba makes while :meth:`recording` (CPU time; numba compiles one at a
+    time, under a lock). A compile counts in the group of the outermost compile it was
+    part of: a group's time includes the kernels and helpers it needed."""
 
     compiles: list[Compile] = field(default_factory=list)
     _open: list[list] = field(default_factory=list)

@@ -1,10 +1,7 @@
 """Physical constants shared by the physics and the sound (SI units), and the defaults of
-the bounce series and the pulse grid that the physics, the synthesis and the render options
-(:class:`synth.sound.options.RenderOptions`) share.
-
-Air is taken at 20 degC and 101.325 kPa, dry, the conditions of the thesis
-(docs/physics.md, References) measurements and of ISO 9613-1's reference
-atmosphere.
+the bounce series and the pulse grid shared with the render options. Air is dry, at 20 degC
+and 101.325 kPa: the thesis' measurements (docs/physics.md, References) and ISO 9613-1's
+reference atmosphere.
 """
 
 from __future__ import annotations

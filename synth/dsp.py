@@ -23,9 +23,6 @@ NOISE_SPREAD_DB = 3.0
 WHITE_NOISE_CORRECTION = 1e-9
 
 
-# --------------------------------------------------------------------------- linear prediction
-
-
 def white_noise_corrected(r: np.ndarray) -> np.ndarray:
     """A copy of the autocorrelation ``r`` with its zero lag raised by
     :data:`WHITE_NOISE_CORRECTION` (white noise -90 dB under the signal added)."""
@@ -149,9 +146,6 @@ def _step_down(c):  # pragma: no cover - compiled
             new[i] = (c[i] - k * c[m - i]) / d
         c[:m] = new
     return True
-
-
-# --------------------------------------------------------------------------- noise floor
 
 
 def noise_frames(x: np.ndarray, samplerate: float, least: int = 1) -> np.ndarray:

@@ -1,10 +1,8 @@
 """The engine's exception tree.
 
-``SynthError`` is the root. ``ParameterError`` is raised for bad input (a field
-with a value outside what the physics allows); it is also a ``ValueError`` so
-that generic callers can catch it as one. Numerical trouble inside a solver is
-never raised: it is reported in the solver's result (``success``, ``status``,
-``message``), in the manner of scipy's ``solve_ivp``.
+``ParameterError`` (bad input) is also a ``ValueError``. Numerical trouble inside a solver
+is never raised: it is reported in the solver's result (``success``, ``status``,
+``message``), as scipy's ``solve_ivp`` does.
 """
 
 

@@ -1,10 +1,8 @@
 """Where numba keeps the compiled kernels (``cache=True``), chosen before numba loads.
 
-numba caches beside the source or in the user's cache folder and, with neither writable
-(an installed package, a read-only home), refuses to compile a cached function. Then the
-cache goes to a folder of this user in the system's temporary directory
-(``NUMBA_CACHE_DIR``, with a note on stderr), or caching is turned off if nothing is
-writable. A ``NUMBA_CACHE_DIR`` set by the user is always kept.
+With neither the package's ``__pycache__`` nor the user's cache folder writable (numba then
+refuses to compile a cached function), the cache goes to a folder of this user in the
+system's temporary directory, or caching is turned off; a user's ``NUMBA_CACHE_DIR`` stays.
 """
 
 from __future__ import annotations
@@ -28,8 +26,7 @@ def _writable(folder: Path) -> bool:
 
 
 def _source_dirs() -> list[Path]:
-    """The package's folders (``synth`` and every subpackage): numba caches each kernel
-    in the ``__pycache__`` beside its own source."""
+    """The package's folders: numba caches a kernel in the ``__pycache__`` beside it."""
     root = Path(__file__).resolve().parent
     return [root] + sorted(p.parent for p in root.rglob("*/__init__.py"))
 
@@ -42,9 +39,8 @@ def _user_cache_dir(environ) -> Path | None:
 
 
 def configure(environ=None, source_dirs=None, stream=None) -> str | None:
-    """Set ``NUMBA_CACHE_DIR`` (in ``environ``, default ``os.environ``) when numba would
-    find no writable cache folder; return the folder chosen, or None if numba's own
-    choice works. Must run before numba is imported."""
+    """Set ``NUMBA_CACHE_DIR`` in ``environ`` when numba would find no writable cache
+    folder; the folder chosen, or None. Must run before numba is imported."""
     environ = os.environ if environ is None else environ
     stream = sys.stderr if stream is None else stream
     if environ.get("NUMBA_CACHE_DIR") or environ.get("NUMBA_DISABLE_JIT") == "1":
@@ -74,9 +70,8 @@ def configure(environ=None, source_dirs=None, stream=None) -> str | None:
 
 
 def package_digest(root: Path | None = None) -> str:
-    """SHA-256 (hex) of the package's Python sources under ``root`` (default: this
-    package's folder): each file's path relative to ``root`` and its bytes, in path
-    order."""
+    """SHA-256 (hex) of the Python sources under ``root`` (default: this package): each
+    file's relative path and bytes, in path order."""
     root = Path(__file__).resolve().parent if root is None else Path(root)
     digest = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
@@ -86,10 +81,9 @@ def package_digest(root: Path | None = None) -> str:
 
 
 def stamp_with_the_package() -> None:
-    """Make numba's cache entry of every kernel defined in this package valid for the
-    package's sources as a whole (:func:`package_digest`), not for the kernel's own file:
-    a change anywhere in the package recompiles every kernel once. Must run before the
-    first kernel is defined; other packages' kernels keep numba's own stamp."""
+    """Make every kernel of this package's numba cache entry valid for the package's sources
+    as a whole (:func:`package_digest`): a change anywhere recompiles every kernel once.
+    Must run before the first kernel is defined; other packages keep numba's stamp."""
     from numba.core import caching
 
     mixin = caching._SourceFileBackedLocatorMixin

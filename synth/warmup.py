@@ -1,10 +1,8 @@
 """``synth warmup``: compile every kernel ahead of time (for images and installers).
 
-numba compiles for the argument types of a kernel's first call, so the kernels are compiled
-by running what calls them on real inputs: the presets' renders, the live engine's first
-block (the README's example, offline) and a rolling voice, the analysis of a render and the
-change of its restitution. Each step's compiles are recorded (:mod:`synth.compilation`) and
-printed with their CPU time; on a warm cache nothing compiles and every step says so.
+numba compiles for the argument types of a kernel's first call, so the warm-up runs what
+calls the kernels on real inputs (the presets' renders, the live engine offline, a rolling
+voice, an analysis), recording each step's compiles and their CPU time.
 """
 
 from __future__ import annotations
@@ -21,8 +19,7 @@ SAMPLERATE = 48000
 
 @dataclass
 class Step:
-    """One warm-up step: its name, what it runs, and (after :func:`run`) the compiles it
-    caused and its CPU time (s)."""
+    """One warm-up step: its name, action, and (after :func:`run`) its compiles and CPU s."""
 
     name: str
     action: Callable[[], object]
@@ -56,9 +53,8 @@ def live_table(samplerate: float = SAMPLERATE):
 
 
 def _live():
-    """The README's live example offline (its first 4800 samples), then its table silenced
-    without a stream (``stop_all``, whose kernel the engine compiles on its first use, not at
-    its start)."""
+    """The README's live example offline (4800 samples), then its table silenced
+    (``stop_all``'s kernel compiles on its first use)."""
     engine, table = live_table()
     audio = engine.process(4800)
     table.stop_all()
@@ -66,11 +62,10 @@ def _live():
 
 
 def _live_rolling():
-    """A ball rolled for a tenth of a second on the README's live table by an engine with
-    a rolling slot (``max_rolls=1``), offline: the rolling voices' block, compiled apart
-    from the callback, and what :meth:`synth.live.Body.roll` runs on the calling thread.
-    The surface is the docs' example roughness (RMS 1 um, correlation length 0.2 mm,
-    Hurst 0.8; the caller's value, docs/rolling.md)."""
+    """A ball rolled for 0.1 s on the README's live table (``max_rolls=1``), offline: the
+    rolling voices' block and what :meth:`synth.live.Body.roll` runs on the calling
+    thread, on the docs' example roughness (RMS 1 um, correlation length 0.2 mm, Hurst
+    0.8; the caller's value, docs/rolling.md)."""
     import synth
     from synth.physics import surface
 
@@ -119,12 +114,10 @@ def run(selected: list[Step] | None = None) -> list[Step]:
 
 
 def format_steps(done: list[Step]) -> str:
-    """What each step compiled (kernel, number of specialisations, CPU s), the longest
-    first, and the totals."""
+    """What each step compiled (kernel, specialisations, CPU s), the longest first, and the
+    totals."""
     lines = []
-    total = CompileLog()
     for step in done:
-        total.compiles.extend(step.log.compiles)
         rows = step.log.by_kernel()
         lines.append(
             f"{step.name}: {len(step.log.compiles)} compiles, "
@@ -133,6 +126,7 @@ def format_steps(done: list[Step]) -> str:
         )
         for kernel, count, seconds in rows:
             lines.append(f"  {seconds:7.2f} s  {kernel}" + (f" (x{count})" if count > 1 else ""))
+    total = _total(done)
     groups = ", ".join(f"{g} {s:.1f} s" for g, s in sorted(total.by_group().items()))
     lines.append(
         f"total: {len(total.compiles)} compiles, {total.seconds:.1f} s CPU"
@@ -142,14 +136,15 @@ def format_steps(done: list[Step]) -> str:
 
 
 def record(done: list[Step]) -> str:
-    """Write the compile time of each kernel group (CPU s) to the file that the
-    first-use note reads (:data:`synth.compilation.COMPILE_TIMES`); returns its path.
-    Only from a warm-up that compiled everything (an empty cache)."""
+    """Write each kernel group's compile time (CPU s) for the first-use note
+    (:data:`synth.compilation.COMPILE_TIMES`), from a warm-up on an empty cache; its path."""
     import json
 
-    total = CompileLog()
-    for step in done:
-        total.compiles.extend(step.log.compiles)
-    times = {g: round(s, 1) for g, s in sorted(total.by_group().items()) if g != "other"}
+    by_group = _total(done).by_group()
+    times = {g: round(s, 1) for g, s in sorted(by_group.items()) if g != "other"}
     COMPILE_TIMES.write_text(json.dumps(times, indent=1) + "\n")
     return str(COMPILE_TIMES)
+
+
+def _total(done: list[Step]) -> CompileLog:
+    return CompileLog([c for step in done for c in step.log.compiles])

@@ -23,10 +23,10 @@ from synth.analysis.options import AnalysisOptions
 from synth.cli import build_parser
 from synth.constants import GRAVITY
 from synth.io import presets
-from synth.io.audio import DEFAULT_SUBTYPE
 from synth.physics.scene import Scene
 from synth.sound import options as render_options
 from synth.sound.options import OPTIONS, RenderOptions
+from synth.store.audio import DEFAULT_SUBTYPE
 
 #: Parameters of render() that are not options (the scene, the options as one object, a
 #: precomputed sequence, and the budget of work, which is not a property of the sound).

@@ -9,7 +9,7 @@ import pytest
 import soundfile
 
 from synth.errors import ParameterError, SynthError
-from synth.io.audio import (
+from synth.store.audio import (
     PHYSICAL_FULL_SCALE,
     AudioFileError,
     apply_fade_out,

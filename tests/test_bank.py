@@ -71,7 +71,7 @@ def cache_dir():
     """The disk cache the suite shares (``$SYNTH_CACHE_DIR``): the default plate's modes,
     solved once for the suite, are read from it; the bank's workers share it too (the
     cache's own tests, tests/test_cache.py, use private ones)."""
-    from synth.io.cache import cache_dir as shared
+    from synth.store.cache import cache_dir as shared
 
     return shared()
 
@@ -1188,7 +1188,7 @@ def test_two_runs_write_the_same_bytes(tmp_path, cache_dir, fmt, subtype):
     # spec write the same bytes; the manifest records the hash of the decoded samples too.
     import struct
 
-    from synth.io.reproducible import decoded_sha256, ogg_serial_for
+    from synth.store.reproducible import decoded_sha256, ogg_serial_for
 
     spec = _write_spec(
         tmp_path / "spec",
@@ -1216,8 +1216,8 @@ def test_manifest_columns_and_a_row_rendered_again_from_its_scene(serial):
     import soundfile
 
     from synth.io.presets import scene_from_dict
-    from synth.io.reproducible import decoded_sha256
     from synth.sound.render import render
+    from synth.store.reproducible import decoded_sha256
 
     _, ref = serial
     rows = mf.read_rows(ref)
@@ -1969,7 +1969,7 @@ def test_the_next_run_cleans_what_a_killed_run_left(tmp_path, cache_dir):
     # the temporaries of the files being written (in subfolders too): the next run,
     # resumed or dry, takes the lock; the run (not the dry run) removes them all, and the
     # finished folder holds neither.
-    from synth.io.atomic import temporary_name
+    from synth.store.atomic import temporary_name
 
     spec = _write_spec(tmp_path / "spec", count=2, extra="")
     spec.write_text(

@@ -1,4 +1,4 @@
-"""Tests of synth.io.cache: the disk cache shared by many processes (atomic entries,
+"""Tests of synth.store.cache: the disk cache shared by many processes (atomic entries,
 stored digests, a least-recently-used size bound) and `synth cache info|clear`."""
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ import pytest
 
 from synth.cli import main
 from synth.errors import ParameterError
-from synth.io import cache
 from synth.physics.scene import Plate
 from synth.sound import modes as P
 from synth.sound import radiation as R
+from synth.store import cache
 
 
 @pytest.fixture(autouse=True)
@@ -193,7 +193,7 @@ def test_cli_cache_info_and_clear(capsys):
 
 def test_leftovers_of_killed_writers_are_cleaned_on_the_next_run():
     """A kill during a cache write leaves ``plate-modes-*.tmp`` (older versions' naming) or
-    ``.synth-<pid>-<hex>.part.npz`` (synth.io.atomic): the next run that writes an entry
+    ``.synth-<pid>-<hex>.part.npz`` (synth.store.atomic): the next run that writes an entry
     removes the first once it is older than ``STALE_TEMPORARY_AGE`` (a writer may still be
     at work on a younger one) and the second at once when its process is gone; a live
     process's temporary and every other file stay."""

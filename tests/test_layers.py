@@ -193,10 +193,6 @@ MOVED = {
     "synth.sound.modes.cache": "synth.physics.modes.cache",
     "synth.sound.asymptotic_modes": "synth.physics.asymptotic_modes",
     "synth.sound.asymptotic_modes.roots": "synth.physics.asymptotic_modes.roots",
-    "synth.io.cache": "synth.store.cache",
-    "synth.io.atomic": "synth.store.atomic",
-    "synth.io.audio": "synth.store.audio",
-    "synth.io.reproducible": "synth.store.reproducible",
 }
 
 

@@ -20,8 +20,8 @@ from synth.analysis.report import Tick
 from synth.analysis.validity import AFTER_GROWN, GROWN_BOUNCE, MISSED_BOUNCE, missed_bounces
 from synth.analysis.whitening import lead_in_noise, whitening_predictor
 from synth.errors import ParameterError
-from synth.io.audio import TruncatedAudioWarning, read_audio
 from synth.stimuli.alter import alter_restitution
+from synth.store.audio import TruncatedAudioWarning, read_audio
 
 FS = 44100
 #: (frequency Hz, decay time s, gain) of the resonator every tick excites.

@@ -34,7 +34,7 @@ import pytest
 
 from synth.analysis import analyze, analyze_file
 from synth.analysis.report import GROWN_BOUNCE
-from synth.io.audio import read_audio
+from synth.store.audio import read_audio
 
 DATA = Path(__file__).parent / "data" / "sdt"
 NAMES = sorted(p.stem for p in DATA.glob("*.json"))

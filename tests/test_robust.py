@@ -16,13 +16,13 @@ import synth
 from synth import jitcache
 from synth.cli import main
 from synth.errors import ParameterError, SynthError
-from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset, scene_from_dict
 from synth.physics.bounces import simulate_scene
 from synth.physics.contact import ENERGY_IMBALANCE, solve_contact
 from synth.sound import modal_bank
 from synth.sound.modal_bank import pulse
 from synth.sound.render import modal_model, render
+from synth.store import audio as audio_io
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -441,7 +441,7 @@ def test_an_interrupt_just_after_the_temporary_is_created_leaves_nothing(
 ):
     # a signal handler's exception can come between two bytecodes: here right after
     # os.open created the temporary, before the code that wrote it could note it
-    from synth.io import atomic
+    from synth.store import atomic
 
     real_open = os.open
 

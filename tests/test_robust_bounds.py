@@ -13,7 +13,7 @@ import soundfile
 
 from synth.cli import main
 from synth.errors import ParameterError
-from synth.io import cache
+from synth.store import cache
 
 REPO_PRESETS = Path(__file__).resolve().parent.parent / "synth" / "presets"
 

@@ -11,9 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from synth.errors import ParameterError
-from synth.io import audio as audio_io
 from synth.io.presets import PresetError, apply_overrides, load_preset_with_options
 from synth.sound.render import OPTIONS, RenderOptions
+from synth.store import audio as audio_io
 
 BOUNDED = settings(
     max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]

@@ -1,7 +1,5 @@
-"""Where a bank's rows render: in this process, in a pool of long-lived worker processes
-that die with their parent, or on a Dask cluster; each returns the rows'
-:class:`~synth.bank.row.RowResult` to the parent, which alone writes the manifest
-(:mod:`synth.bank.run`)."""
+"""Where a bank's rows render: in this process, in a pool of long-lived workers that die
+with their parent, or on a Dask cluster; the parent alone writes the manifest."""
 
 from __future__ import annotations
 
@@ -30,15 +28,11 @@ _WORKER_THREADS = {
 _WORKER_SPEC: BankSpec | None = None
 _WORKER_DIR: str | None = None
 
-
-#: The bank folder's lock file held by this process (:func:`hold_lock`); a forked worker
-#: closes its copy so that only the parent holds the lock.
+#: The bank folder's lock file this process holds: a forked worker closes its copy.
 _HELD_LOCK = None
 
 
 def hold_lock(lock) -> None:
-    """Remember the bank folder's lock file this process holds (an open file; None once
-    released), for the workers it forks to close their copies."""
     global _HELD_LOCK
     _HELD_LOCK = lock
 
@@ -48,11 +42,8 @@ PARENT_WATCH_PERIOD = 0.5
 
 
 def _die_with_parent(parent: int) -> None:
-    """Make this worker end when the process ``parent`` does (killed with -9 too), so a
-    killed bank leaves no worker behind (nor its hold on the folder's lock): on Linux the
-    kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``, prctl(2));
-    everywhere a daemon thread checks every :data:`PARENT_WATCH_PERIOD` s that the
-    parent is still this process's parent, and kills this process otherwise."""
+    """End this worker when ``parent`` ends (killed with -9 too): on Linux the kernel's
+    ``prctl(PR_SET_PDEATHSIG)``, everywhere a daemon thread watching the parent."""
     import signal
     import threading
 
@@ -77,12 +68,9 @@ def _die_with_parent(parent: int) -> None:
 
 
 def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
-    """A worker's start: it dies with its parent (:func:`_die_with_parent`), drops its
-    copy of the folder's lock, and SIGTERM takes its default action (the pool stops its
-    workers with SIGTERM when one dies; a forked worker would otherwise inherit the
-    command line's handler, which raises inside whatever library callback is running,
-    where it is swallowed and printed). A temporary left by a stopped worker is removed
-    by the next write in that folder (:func:`synth.store.atomic.remove_stale_temporaries`)."""
+    """A worker's start: it dies with its parent, drops its copy of the folder's lock, and
+    SIGTERM takes its default action (the pool stops workers with it; the command line's
+    handler would raise inside a library callback, where it is swallowed)."""
     import signal
 
     global _WORKER_SPEC, _WORKER_DIR
@@ -95,7 +83,7 @@ def _pool_init(spec: BankSpec, out_dir: str, parent: int) -> None:
 
 
 def _pool_ready() -> int:
-    """A no-op task: its result tells that a worker has started and warmed the engine."""
+    """A no-op task: its result tells that a worker is warm."""
     return os.getpid()
 
 
@@ -117,9 +105,8 @@ class Serial:
 
 
 def _start_method() -> str:
-    """``fork`` where it is safe and available (Linux, no other thread in this process
-    that could hold a lock across the fork): the workers then start with the engine this
-    process has imported and warmed. Else ``spawn``: each worker imports and warms it."""
+    """``fork`` on Linux with no other thread (that could hold a lock across the fork): the
+    workers start with this process's warm engine. Else ``spawn``."""
     import threading
 
     if sys.platform.startswith("linux") and threading.active_count() == 1:
@@ -128,10 +115,8 @@ def _start_method() -> str:
 
 
 class Pool:
-    """Long-lived worker processes, one thread of numerics each; returns once every
-    worker has warmed the engine. A worker that dies (killed, crashed) stops the run with
-    a :class:`BankRunError` instead of waiting for its row forever: the rows done are in
-    the manifest, and running the same bank again resumes."""
+    """Long-lived worker processes, one thread of numerics each, ready once all are warm. A
+    worker that dies stops the run with a :class:`BankRunError` (a rerun resumes)."""
 
     def __init__(self, spec, out_dir, jobs):
         import multiprocessing
@@ -150,7 +135,6 @@ class Pool:
                 initializer=_pool_init,
                 initargs=(spec, out_dir, os.getpid()),
             )
-            # one no-op per worker: each submit starts a worker, each result is a warm one
             for ready in [self.executor.submit(_pool_ready) for _ in range(jobs)]:
                 self._result(ready)
         finally:
@@ -187,7 +171,7 @@ CONNECT_TIMEOUT = 5.0
 
 @dataclass
 class Connection:
-    """A Dask client for the run, and whether the run made it (and so closes it)."""
+    """A Dask client, and whether the run made it (and closes it)."""
 
     client: object
     own: bool
@@ -198,8 +182,7 @@ class Connection:
 
 
 def connect(scheduler) -> Connection:
-    """A client of the Dask scheduler ``scheduler`` (an address or a Client), reached
-    within :data:`CONNECT_TIMEOUT` s, before the bank's folder is touched."""
+    """A client of ``scheduler`` (an address or a Client), within :data:`CONNECT_TIMEOUT` s."""
     try:
         from dask.distributed import Client
     except ImportError:
@@ -227,9 +210,8 @@ class Dask:
         self.client.run(warm, spec)
 
     def results(self, items):
-        """Each row's result as it finishes. A result read is released at once: the
-        scheduler then has no reason to recompute a finished task when the worker that
-        holds it is lost (only the rows still running or queued there are redone)."""
+        """Each row's result as it finishes, released at once: a lost worker's finished
+        tasks are then not recomputed."""
         from dask.distributed import as_completed
 
         spec = self.client.scatter(self.spec, broadcast=True)

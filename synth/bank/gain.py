@@ -31,20 +31,17 @@ TARGETS = {"true_peak": -1.0, "loudness": -23.0}
 #: File stored beside the scaled bank's manifest: the gain, its target and the source.
 GAIN_FILE = "gain.json"
 
-#: Gains tried by :func:`loudness_gain`; and how close the median loudness of the scaled
-#: sounds must come to the level, LU (a thousandth of the smallest step of loudness
-#: anyone hears, about 1 LU).
+#: Gains tried by :func:`loudness_gain`, and how close the scaled median loudness must come
+#: to the level, LU (a thousandth of the smallest step anyone hears, about 1 LU).
 LOUDNESS_TRIALS = 8
 LOUDNESS_TOLERANCE = 1e-3
 
 
 @dataclass
 class GainResult:
-    """The outcome of :func:`apply_gain`: the gain (dB), ``done`` files scaled now,
-    ``skipped`` found complete (of which ``renamed`` moved to the source's new names),
-    ``orphans`` (audio files in ``out_dir`` its manifest does not name; deleted if
-    ``pruned``), the pass' ``elapsed`` time (s), and the level ``reached``: the loudest
-    true peak (dBTP) or the median loudness (LUFS) of the scaled files."""
+    """The outcome of :func:`apply_gain`: the gain (dB), files ``done`` now, ``skipped``
+    (complete; ``renamed`` of them), ``orphans`` (deleted if ``pruned``), ``elapsed`` (s),
+    and the level ``reached`` (dBTP or LUFS, :func:`_reached`)."""
 
     out_dir: Path
     gain_db: float
@@ -60,7 +57,6 @@ class GainResult:
 
     @property
     def rate(self) -> float:
-        """Files scaled per second of the pass."""
         return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     def summary(self) -> str:
@@ -74,26 +70,22 @@ class GainResult:
 
 
 def bank_gain(rows: list[dict], target: str, level: float) -> float:
-    """The bank's gain, dB, from its manifest rows: ``level`` less the loudest true
-    peak (``target = "true_peak"``), or less the median loudness (``"loudness"``: the
-    first estimate of :func:`loudness_gain`)."""
+    """The bank's gain, dB, from its manifest rows: ``level`` less their :func:`_reached`
+    level (for ``"loudness"`` the first estimate of :func:`loudness_gain`)."""
+    reached = _reached(rows, target)
+    if reached is not None:
+        return level - reached
     if target == "true_peak":
-        peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
-        if not peaks:
-            raise BankSpecError("target='true_peak': no row has a true peak (silent bank)")
-        return level - max(peaks)
-    values = [r["loudness_lufs"] for r in rows if r.get("loudness_lufs") is not None]
-    if not values:
-        raise BankSpecError(
-            "target='loudness': no row has a loudness (pyloudnorm missing: pip install "
-            "'impact-synth[loudness]', or every row below the -70 LUFS gate)"
-        )
-    return level - statistics.median(values)
+        raise BankSpecError("target='true_peak': no row has a true peak (silent bank)")
+    raise BankSpecError(
+        "target='loudness': no row has a loudness (pyloudnorm missing: pip install "
+        "'impact-synth[loudness]', or every row below the -70 LUFS gate)"
+    )
 
 
 def _median_loudness(bank_dir: Path, rows: list[dict], gain_db: float) -> float | None:
-    """The median integrated loudness, LUFS, of the files of ``rows`` in ``bank_dir``
-    scaled by ``gain_db`` (those below the -70 LUFS gate left out; None if all are)."""
+    """The median integrated loudness, LUFS, of the files of ``rows`` scaled by ``gain_db``
+    (those below the -70 LUFS gate left out; None if all are)."""
     import soundfile
 
     values = []
@@ -106,11 +98,10 @@ def _median_loudness(bank_dir: Path, rows: list[dict], gain_db: float) -> float 
 
 
 def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
-    """The gain, dB, that brings the median loudness of the bank's files (``rows`` in
-    ``bank_dir``) to ``level`` LUFS once scaled. BS.1770's gates make loudness not homogeneous
-    in the gain, so from the manifest's estimate (:func:`bank_gain`) each trial measures the
-    scaled files and moves the gain by the median's miss, until below
-    :data:`LOUDNESS_TOLERANCE`; after :data:`LOUDNESS_TRIALS` the closest (``reached``)."""
+    """The gain, dB, that brings the median loudness of the scaled files to ``level`` LUFS.
+    BS.1770's gates make loudness not homogeneous in the gain: each trial measures the
+    scaled files and moves the gain by the median's miss (the closest of
+    :data:`LOUDNESS_TRIALS`, or the first within :data:`LOUDNESS_TOLERANCE`)."""
     gain = bank_gain(rows, "loudness", level)
     best = None
     for _ in range(LOUDNESS_TRIALS):
@@ -127,8 +118,8 @@ def loudness_gain(bank_dir: Path, rows: list[dict], level: float) -> float:
 
 
 def _reached(rows: list[dict], target: str) -> float | None:
-    """The level the scaled ``rows`` reach: their loudest true peak (dBTP) or their
-    median loudness (LUFS); None if none has one."""
+    """The loudest true peak (dBTP) or the median loudness (LUFS) of ``rows``; None if none
+    has one."""
     if target == "true_peak":
         peaks = [r["true_peak_dbtp"] for r in rows if r.get("true_peak_dbtp") is not None]
         return max(peaks) if peaks else None
@@ -150,19 +141,12 @@ def _check_target(target: str, level) -> float:
 
 
 def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
-    """The stored spec and the rows of a complete bank (every planned row ok, its file
-    with the recorded hash), else a BankRunError saying what is missing."""
+    """The stored spec and the rows of a complete bank, else a BankRunError."""
     spec = mf.read_spec(bank_dir)
     if spec is None:
         raise BankRunError(f"bank_dir={str(bank_dir)!r} holds no bank ({mf.SPEC} missing)")
     rows = mf.read_rows(bank_dir)
-    bad = [
-        r["index"]
-        for r in rows
-        if r.get("status") != "ok"
-        or not (bank_dir / r["file"]).is_file()
-        or mf.sha256_file(bank_dir / r["file"]) != r.get("sha256")
-    ]
+    bad = [r["index"] for r in rows if r.get("status") != "ok" or not mf.intact(bank_dir, r)]
     if bad or not rows:
         raise BankRunError(
             f"bank_dir={str(bank_dir)!r} is not a finished bank ({len(bad)} rows not ok or "
@@ -172,9 +156,8 @@ def _finished_rows(bank_dir: Path) -> tuple[dict, list[dict]]:
 
 
 def _scaled_row(row: dict, scaled: Scaled, gain_db: float) -> dict:
-    """The manifest row of a scaled file: the source's ``row`` with ``gain_db``, its
-    peak and true peak moved by the gain (both scale with the samples exactly), its
-    loudness measured (it does not, :func:`loudness_gain`) and its hashes."""
+    """The manifest row of a scaled file: peaks moved by the gain (they scale exactly),
+    loudness measured (it does not)."""
     new = dict(row)
     new["gain_db"] = gain_db
     for key in ("peak_dbfs", "true_peak_dbtp"):
@@ -187,18 +170,15 @@ def _scaled_row(row: dict, scaled: Scaled, gain_db: float) -> dict:
 
 @dataclass
 class Scaled:
-    """A scaled file: its bytes and the integrated loudness of its samples (LUFS, None
-    below the gate or without pyloudnorm), measured before quantization as a render's
-    manifest measures it."""
+    """A scaled file's bytes and its samples' loudness (LUFS), measured before quantization
+    as a render's manifest measures it."""
 
     data: bytes
     loudness_lufs: float | None
 
 
 def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> Scaled:
-    """The file ``source`` decoded, scaled by ``gain_db`` and encoded again as the
-    bank's format and subtype (:func:`synth.bank.row.encode`); PCM that would clip is
-    refused."""
+    """``source`` scaled by ``gain_db`` and encoded again (:func:`synth.bank.row.encode`)."""
     import soundfile
 
     audio, samplerate = soundfile.read(source, dtype="float64")
@@ -209,14 +189,11 @@ def _scale_file(source: Path, spec: dict, gain_db: float, name: str) -> Scaled:
 
 
 def _compared(record: dict) -> dict:
-    """The part of a ``gain.json`` record that makes the scaled sounds: the source, the
-    target, level and gain, and the part of its bank's spec that makes the sounds
-    (:func:`synth.bank.spec.compared_form`: a renamed preset, an edited label, name
-    template or tag do not count; earlier versions stored the spec as written) with the
-    engine that rendered the source; not the engine of the pass
-    (:func:`synth.bank.run.engine_problem` checks it)."""
+    """The part of a ``gain.json`` record that makes the scaled sounds: the source, target,
+    level, gain, the spec's :func:`~synth.bank.spec.compared_form` and the source's engine
+    (the pass' engine is checked on its own, :func:`~synth.bank.run.engine_problem`)."""
     out = dict(record)
-    out.pop(bank_spec.ENGINE, None)  # the pass' engine: checked on its own
+    out.pop(bank_spec.ENGINE, None)
     if isinstance(out.get("spec"), dict):
         out["source_engine"] = out["spec"].get(bank_spec.ENGINE)
         out["spec"] = bank_spec.compared_form(out["spec"])
@@ -224,19 +201,11 @@ def _compared(record: dict) -> dict:
 
 
 def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
-    """The source ``rows`` whose scaled file in ``out`` is complete (recorded in its
-    manifest with the file's hash), as rows of ``out``'s manifest, and how many of them
-    were moved to the source's name (:func:`synth.bank.run.move_files`): a renamed
-    source row keeps its scaled file."""
+    """The rows of ``out``'s manifest whose scaled file is complete, moved to the source's
+    names (a renamed source row keeps its scaled file), and how many were moved."""
     source = {r["index"]: r for r in rows}
-    complete = {
-        r["index"]: r
-        for r in mf.read_rows(out)
-        if r.get("index") in source
-        and isinstance(r.get("file"), str)
-        and (out / r["file"]).is_file()
-        and mf.sha256_file(out / r["file"]) == r.get("sha256")
-    }
+    rows_there = mf.read_rows(out)
+    complete = {r["index"]: r for r in rows_there if r["index"] in source and mf.intact(out, r)}
     moves = {i: (r["file"], source[i]["file"]) for i, r in complete.items()}
     moved = move_files(out, fmt, moves)
     kept = []
@@ -250,8 +219,7 @@ def _done_rows(out: Path, rows: list[dict], fmt: str) -> tuple[list[dict], int]:
 
 
 def _described(source_row: dict, row: dict, hashes: dict) -> dict:
-    """A row of the scaled manifest: the source's row (its name, values, labels and
-    tags as they are now) with the scaled file's levels, gain and ``hashes``."""
+    """The source's row as it is now, with the scaled file's levels, gain and ``hashes``."""
     new = dict(source_row)
     for key in ("gain_db", "peak_dbfs", "true_peak_dbtp", "loudness_lufs"):
         new[key] = row.get(key)
@@ -260,8 +228,7 @@ def _described(source_row: dict, row: dict, hashes: dict) -> dict:
 
 
 def _check_scaled_before(out: Path, record: dict) -> None:
-    """Refuse an ``out`` that holds a bank scaled otherwise (another source, spec, target,
-    level or gain, its :data:`GAIN_FILE` differs) or by another engine."""
+    """Refuse an ``out`` scaled otherwise (its :data:`GAIN_FILE` differs) or by another engine."""
     stored = out / GAIN_FILE
     previous = json.loads(stored.read_text()) if stored.is_file() else None
     problem = engine_problem(
@@ -279,9 +246,7 @@ def _check_scaled_before(out: Path, record: dict) -> None:
 
 
 def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> dict:
-    """Scale the file of ``row`` from ``src`` into ``out`` by ``gain_db`` (dB), written
-    once (a file an earlier run wrote whole is read back, not written again); its new
-    manifest row."""
+    """Scale ``row``'s file into ``out`` by ``gain_db`` (dB), written once; its new row."""
     target_file = out / row["file"]
     target_file.parent.mkdir(parents=True, exist_ok=True)  # the name's subfolders
     target_file.unlink(missing_ok=True)  # stale: not recorded with its hash
@@ -294,10 +259,9 @@ def _scale_row(src: Path, out: Path, row: dict, spec: dict, gain_db: float) -> d
 def apply_gain(
     bank_dir, out_dir, *, target: str = "true_peak", level=None, prune: bool = False
 ) -> GainResult:
-    """Scale the finished bank in ``bank_dir`` by one gain into ``out_dir`` (see the
-    module docstring). ``target``: "true_peak" (``level`` dBTP, default -1) or
-    "loudness" (``level`` LUFS, default -23); ``prune``: delete the audio files in
-    ``out_dir`` that its manifest does not name (else only reported)."""
+    """Scale the finished bank in ``bank_dir`` by one gain into ``out_dir``. ``target``:
+    "true_peak" (``level`` dBTP, default -1) or "loudness" (``level`` LUFS, default -23);
+    ``prune``: delete the audio files its manifest does not name."""
     level = _check_target(target, level)
     if not isinstance(prune, bool):
         raise BankSpecError(f"prune={prune!r} must be True or False")

@@ -1,10 +1,9 @@
-"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv``, one row per sound, and the
-stored spec (``bank.json``); columns: docs/banks.md, "Manifest".
+"""The manifest of a bank: ``manifest.jsonl`` and ``manifest.csv``, one row per sound
+(docs/banks.md, "Manifest"), and the stored spec (``bank.json``).
 
-Rows are appended by the bank's parent alone, each line whole, flushed and fsynced after
-its file is in place, so a ``kill -9`` leaves every finished row with its file; at a run's
-start and end both files are rewritten atomically from the rows that hold (a cut line is
-dropped and its sound redone).
+The parent alone appends rows, each line whole and fsynced after its file is in place, so
+a ``kill -9`` leaves every finished row with its file; at a run's start and end both files
+are rewritten atomically from the rows that hold (a cut line's sound is redone).
 """
 
 from __future__ import annotations
@@ -26,28 +25,10 @@ SPEC = "bank.json"
 LOCK = ".bank.lock"
 
 #: Columns after the varied keys.
-RESULT_COLUMNS = (
-    "labels",
-    "tags",
-    "seed",
-    "status",
-    "error",
-    "duration",
-    "audible_duration",
-    "stop_reason",
-    "length_reason",
-    "ticks",
-    "first_restitution",
-    "first_speed",
-    "first_contact_time",
-    "first_peak_force",
-    "peak_dbfs",
-    "true_peak_dbtp",
-    "loudness_lufs",
-    "spectral_centroid",
-    "sha256",
-    "audio_sha256",
-    "scene",
+RESULT_COLUMNS = tuple(
+    "labels tags seed status error duration audible_duration stop_reason length_reason ticks "
+    "first_restitution first_speed first_contact_time first_peak_force peak_dbfs "
+    "true_peak_dbtp loudness_lufs spectral_centroid sha256 audio_sha256 scene".split()
 )
 
 #: Temporary files of :mod:`synth.store.atomic` beside their targets: hidden, 12 hex digits,
@@ -56,21 +37,16 @@ TEMPORARY = re.compile(r"^\..+[.-][0-9a-f]{12}\.part(\.[A-Za-z0-9]+)?$")
 
 
 def columns(keys) -> list[str]:
-    """The manifest's columns for the varied ``keys``."""
     return ["index", "file", *keys, *RESULT_COLUMNS]
 
 
 def write_atomic(target: Path, data: bytes) -> None:
-    """Write ``data`` to ``target`` atomically (:func:`synth.store.atomic.write_atomically`:
-    a temporary sibling ``.{stem}.{12 hex}.part{suffix}``, fsynced, renamed), so
-    ``target`` is either as it was or complete; an OSError (a full disk ...) leaves no
-    temporary file behind."""
+    """Write ``data`` to ``target`` atomically (:func:`synth.store.atomic.write_atomically`)."""
     write_atomically(target, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def clean_temporaries(folder: Path) -> int:
-    """Delete the temporary files of this package's naming in ``folder`` and its
-    subfolders (left by a run that was killed). Returns how many."""
+    """Delete the temporaries a killed run left in ``folder`` and below; how many."""
     n = 0
     for p in folder.rglob(".*"):
         if TEMPORARY.match(p.name) and p.is_file():
@@ -82,16 +58,14 @@ def clean_temporaries(folder: Path) -> int:
     return n
 
 
-#: Suffixes of the audio files a bank writes (its formats): the files
-#: :func:`orphans` looks for.
+#: Suffixes of the audio files a bank writes: the files :func:`orphans` looks for.
 AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
 
 
 def orphans(folder: Path, kept_names) -> list[str]:
-    """The audio files (:data:`AUDIO_SUFFIXES`) in ``folder`` and its subfolders whose
-    names (relative, with ``/``) are not in ``kept_names`` (the manifest's files and the
-    plan's): left by an earlier name template, a run stopped before recording them, or
-    put there by hand. Sorted; temporaries (:data:`TEMPORARY`) are not counted."""
+    """The audio files below ``folder`` (relative names, sorted) not in ``kept_names`` (the
+    manifest's and the plan's): an earlier name template's, a stopped run's, or put there
+    by hand; temporaries not counted."""
     kept = set(kept_names)
     out = []
     for p in folder.rglob("*"):
@@ -103,29 +77,50 @@ def orphans(folder: Path, kept_names) -> list[str]:
 
 
 def remove_files(folder: Path, names) -> int:
-    """Delete the files ``names`` (relative to ``folder``) and the subfolders they leave
-    empty; returns how many files were deleted."""
+    """Delete the files ``names`` in ``folder`` and the subfolders they leave empty; how many."""
     n = 0
     for name in names:
-        path = folder / name
         try:
-            path.unlink()
+            (folder / name).unlink()
         except FileNotFoundError:
             continue
         n += 1
-        parent = path.parent
-        while parent != folder and parent.is_relative_to(folder):
-            try:
-                parent.rmdir()
-            except OSError:  # not empty
-                break
-            parent = parent.parent
+        remove_empty_folders(folder, (folder / name).parent)
     return n
 
 
+def remove_empty_folders(folder: Path, sub: Path) -> None:
+    """Remove ``sub`` and its parents below ``folder`` while empty."""
+    while inside(folder, sub):
+        try:
+            sub.rmdir()
+        except OSError:  # not empty
+            return
+        sub = sub.parent
+
+
+def inside(folder: Path, path: Path) -> bool:
+    """True if ``path`` lies below ``folder`` (a manifest's file name is trusted no further)."""
+    try:
+        where, top = path.resolve(), folder.resolve()
+        return where.is_relative_to(top) and where != top
+    except OSError:
+        return False
+
+
+def intact(folder: Path, row: dict) -> bool:
+    """True if ``row``'s file lies below ``folder`` with the SHA-256 the row records."""
+    path = folder / str(row.get("file"))
+    return (
+        isinstance(row.get("file"), str)
+        and inside(folder, path)
+        and path.is_file()
+        and sha256_file(path) == row.get("sha256")
+    )
+
+
 def orphans_note(names: list[str], removed: bool) -> str:
-    """The summary line of :func:`orphans`: removed (``--prune``), or left with what
-    removes them."""
+    """The summary line of :func:`orphans`, removed (``--prune``) or left."""
     shown = ", ".join(names[:5]) + (f" ... ({len(names) - 5} more)" if len(names) > 5 else "")
     if removed:
         return f"{len(names)} files not in the manifest removed (--prune): {shown}"
@@ -136,9 +131,7 @@ def orphans_note(names: list[str], removed: bool) -> str:
 
 
 def files_note(renamed: int, orphans: list[str], removed: bool) -> str:
-    """The summary's lines on the folder's files: how many were renamed (same sounds,
-    new names) and the :func:`orphans_note`; each line starts with a newline ("" if
-    there is nothing to say)."""
+    """The summary's lines on files renamed and :func:`orphans_note`, each after a newline."""
     text = f"\n  {renamed} files renamed (same sounds, new names)" if renamed else ""
     if orphans:
         text += "\n  " + orphans_note(orphans, removed=removed)
@@ -146,7 +139,6 @@ def files_note(renamed: int, orphans: list[str], removed: bool) -> str:
 
 
 def sha256_file(path: Path) -> str:
-    """SHA-256 (hex) of a file's bytes."""
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -155,15 +147,14 @@ def sha256_file(path: Path) -> str:
 
 
 def file_hashes(data: bytes) -> dict:
-    """The hash columns of a row whose file holds ``data``: ``sha256`` of the bytes and
-    ``audio_sha256`` of the decoded samples (:func:`synth.store.reproducible.decoded_sha256`)."""
+    """``sha256`` of ``data`` and ``audio_sha256`` of its decoded samples."""
     from synth.store.reproducible import decoded_sha256
 
     return {"sha256": hashlib.sha256(data).hexdigest(), "audio_sha256": decoded_sha256(data)}
 
 
 def _csv_value(v):
-    """A CSV cell: lists and tables (vectors, tags, the scene) as JSON text."""
+    """A CSV cell: lists and tables as JSON text."""
     if v is None:
         return ""
     if isinstance(v, (list, tuple, dict)):
@@ -182,8 +173,8 @@ def _json_line(row: dict, cols) -> str:
 
 
 def read_rows(folder: Path) -> list[dict]:
-    """The rows of ``folder``'s JSON Lines manifest (none if absent), the last one kept
-    for each index; a line that is not a whole JSON object (cut by a crash) is skipped."""
+    """The rows of ``folder``'s JSON Lines manifest, the last of each index; a line that is
+    not a whole JSON object (cut by a crash) is skipped."""
     path = folder / JSONL
     if not path.is_file():
         return []
@@ -200,7 +191,7 @@ def read_rows(folder: Path) -> list[dict]:
 
 
 class Manifest:
-    """The two manifest files of a bank's ``folder``, with the columns ``cols``."""
+    """The two manifest files of a bank's ``folder``."""
 
     def __init__(self, folder: Path, cols: list[str]):
         self.folder = Path(folder)
@@ -208,7 +199,7 @@ class Manifest:
         self._files = None
 
     def rewrite(self, rows) -> None:
-        """Replace both files, atomically, by ``rows`` (sorted by index)."""
+        """Replace both files, atomically, by ``rows``."""
         self.close()
         rows = sorted(rows, key=lambda r: r["index"])
         header = _csv_line({c: c for c in self.cols}, self.cols)
@@ -219,8 +210,7 @@ class Manifest:
 
     def append(self, row: dict) -> None:
         """Add one row to both files, each line written whole, flushed and fsynced."""
-        if self._files is None:
-            # held open for the run (closed by close()): one open per run, not per row
+        if self._files is None:  # held open for the run
             self._files = [
                 open(self.folder / JSONL, "a", encoding="utf-8"),  # noqa: SIM115
                 open(self.folder / CSV, "a", encoding="utf-8", newline=""),
@@ -241,7 +231,6 @@ class Manifest:
 
 
 def read_spec(folder: Path) -> dict | None:
-    """The spec stored in ``folder`` (None if none)."""
     path = folder / SPEC
     if not path.is_file():
         return None
@@ -250,5 +239,4 @@ def read_spec(folder: Path) -> dict | None:
 
 
 def write_spec(folder: Path, spec: dict) -> None:
-    """Store ``spec`` (JSON) in ``folder``, atomically."""
     write_atomic(folder / SPEC, (json.dumps(spec, indent=1, sort_keys=True) + "\n").encode())

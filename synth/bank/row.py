@@ -1,6 +1,5 @@
 """One row of a bank: its scene rendered, trimmed and encoded, its file written atomically
-and its manifest row measured (level, loudness, centroid, duration, hash), in whichever
-process renders it (:mod:`synth.bank.executors`)."""
+and its manifest row measured (level, loudness, centroid, duration, hash)."""
 
 from __future__ import annotations
 
@@ -21,8 +20,8 @@ from synth.store.reproducible import reproducible
 
 @dataclass
 class RowResult:
-    """What a worker returns for a row: the manifest ``row``, or ``fatal`` (a file that
-    could not be written; the row is not recorded), and the worker's peak memory."""
+    """A worker's answer: the manifest ``row``, or ``fatal`` (a file that could not be
+    written), and its peak memory, bytes."""
 
     row: dict | None
     fatal: str | None = None
@@ -59,13 +58,9 @@ CLIP_ADVICE = "use render.normalize = 'peak', or format = 'wav' with render.subt
 def encode(
     audio: np.ndarray, samplerate: int, fmt: str, subtype: str, identity: str, advice: str
 ) -> bytes:
-    """The bytes of a bank's file: ``audio`` (``samplerate`` Hz) in format ``fmt`` (a key
-    of :data:`synth.bank.spec.FORMATS`) and ``subtype``, a function of the samples and
-    ``identity`` (the file's name in the bank) alone
-    (:func:`synth.store.reproducible.reproducible`: an Ogg stream's serial, a float WAV's
-    PEAK timestamp). PCM that would clip is refused, naming the file, its peak (dBFS)
-    and ``advice`` (what to change); the files of a render and of the bank-gain pass
-    are made here alike."""
+    """The bytes of a bank's file (``samplerate`` Hz), a function of the samples and
+    ``identity`` (its name) alone (:func:`synth.store.reproducible.reproducible`); PCM
+    that would clip is refused with ``advice``."""
     import soundfile
 
     from synth.store.audio import FLOAT_SUBTYPES
@@ -102,7 +97,7 @@ def render_scene(spec: BankSpec, item: PlanItem):
         "duration": audio.shape[0] / rendered.samplerate,
         "stop_reason": rendered.impacts.stop_reason,
         "length_reason": length_reason,
-        "audible_duration": _audible_duration(audio, rendered.samplerate),
+        "audible_duration": _last_above(audio, AUDIBLE_BELOW_DB) / rendered.samplerate,
         "ticks": len(rendered.impacts),
         "first_restitution": first.restitution if first is not None else None,
         "first_speed": first.speed if first is not None else None,
@@ -117,14 +112,12 @@ def render_scene(spec: BankSpec, item: PlanItem):
     return rendered, data, figures
 
 
-#: Level below the peak that ends the audible part of a sound (the manifest's
-#: ``audible_duration``), dB.
+#: Level below the peak that ends a sound's ``audible_duration``, dB.
 AUDIBLE_BELOW_DB = -60.0
 
 
 def _last_above(audio: np.ndarray, below_db: float) -> int:
-    """Index after the last sample whose magnitude reaches ``below_db`` dB re the peak
-    (0 for silence)."""
+    """Index after the last sample within ``below_db`` dB of the peak (0 for silence)."""
     mag = np.abs(audio) if audio.ndim == 1 else np.max(np.abs(audio), axis=1)
     peak = float(mag.max()) if mag.size else 0.0
     if not peak > 0:
@@ -133,16 +126,10 @@ def _last_above(audio: np.ndarray, below_db: float) -> int:
     return int(above[-1]) + 1
 
 
-def _audible_duration(audio: np.ndarray, samplerate: int) -> float:
-    """Time to the last sample within :data:`AUDIBLE_BELOW_DB` of the peak, s."""
-    return _last_above(audio, AUDIBLE_BELOW_DB) / samplerate
-
-
 def trim_tail(audio: np.ndarray, samplerate: int, trim: dict | None):
-    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak
-    (and at ``trim["max_length"]`` s), its last ``trim["fade"]`` s faded out with a
-    raised cosine; with the reason: "tail-cut", "max-length", or "whole" (nothing cut,
-    also without ``trim``)."""
+    """``audio`` cut after its last sample within ``trim["below_db"]`` dB of its peak (at
+    most ``trim["max_length"]`` s), the last ``trim["fade"]`` s faded by a raised cosine;
+    and why: "tail-cut", "max-length" or "whole"."""
     if trim is None:
         return audio, "whole"
     n = audio.shape[0]
@@ -164,9 +151,8 @@ TRUE_PEAK_OVERSAMPLING = 4
 
 
 def _true_peak_db(audio: np.ndarray) -> float | None:
-    """True peak, dBTP: the largest magnitude of ``audio`` upsampled
-    :data:`TRUE_PEAK_OVERSAMPLING` times (polyphase windowed-sinc interpolation,
-    scipy.signal.resample_poly), as ITU-R BS.1770-4 Annex 2 estimates it."""
+    """True peak, dBTP: the peak of ``audio`` upsampled by polyphase interpolation, as
+    ITU-R BS.1770-4 Annex 2 estimates it."""
     from scipy.signal import resample_poly
 
     x = np.asarray(audio, dtype=np.float64)
@@ -178,10 +164,8 @@ def _true_peak_db(audio: np.ndarray) -> float | None:
 
 
 def _spectral_centroid(audio: np.ndarray, samplerate: int) -> float | None:
-    """Spectral centroid of the whole sound, Hz: the mean frequency of its power
-    spectrum, sum f |X(f)|^2 / sum |X(f)|^2 (channels summed; the sound zero-padded to
-    a length the FFT factors well, scipy.fft.next_fast_len, which samples the same
-    spectrum more finely)."""
+    """Spectral centroid, Hz: sum f |X(f)|^2 / sum |X(f)|^2 of the channels' sum, padded
+    to a fast FFT length."""
     from scipy import fft
 
     x = np.asarray(audio, dtype=np.float64)
@@ -204,17 +188,14 @@ def base_row(spec: BankSpec, item: PlanItem, status: str) -> dict:
 
 
 def described(spec: BankSpec, item: PlanItem, row: dict) -> dict:
-    """``row`` with the columns that describe its sound without changing it, as the
-    spec gives them now: its values' labels and the spec's tags."""
+    """``row`` with its labels and tags as the spec gives them now."""
     return dict(row, labels=bank_spec.row_labels(spec, item.values), tags=spec.tags)
 
 
 def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
-    """Render row ``item`` of ``spec`` and publish its file in ``out_dir`` once
-    (:func:`synth.store.atomic.write_once`: atomically, never over a file already
-    there; the run removes the stale files of the rows it renders before it starts):
-    the task function of every worker (pool or Dask). A scene that fails gives a
-    ``failed`` row with its error; a file that cannot be written gives ``fatal``."""
+    """Every worker's task: render row ``item`` and publish its file in ``out_dir`` once
+    (:func:`synth.store.atomic.write_once`). A scene that fails gives a ``failed`` row, a
+    file that cannot be written ``fatal``."""
     try:
         _, data, figures = render_scene(spec, item)
     except Exception as exc:  # noqa: BLE001 - any error of one scene is recorded, the rest go on
@@ -224,10 +205,7 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
     target = Path(out_dir) / item.file
     try:
         target.parent.mkdir(parents=True, exist_ok=True)  # a subfolder of the template
-        if not mf.write_once(target, data):
-            # A file already there was published by another attempt of this row in this
-            # run (a Dask task recomputed after its worker was lost): it is kept, never
-            # rewritten, and the row records its bytes.
+        if not mf.write_once(target, data):  # another attempt's (a recomputed Dask task)
             data = target.read_bytes()
     except OSError as exc:
         return RowResult(None, fatal=f"cannot write {item.file!r}: {exc}", max_rss=_max_rss())
@@ -237,8 +215,8 @@ def render_item(spec: BankSpec, item: PlanItem, out_dir: str) -> RowResult:
 
 
 def warm(spec: BankSpec) -> None:
-    """Load the engine in this process: render the base scene once (compiled kernels,
-    plate modes and radiation gains into the caches). Errors are left to the rows."""
+    """Render the base scene once (kernels, modes and gains into the caches); errors are
+    left to the rows."""
     try:
         render_scene(spec, PlanItem(-1, "warm", {}))
     except Exception:  # noqa: BLE001, S110 - a base scene that fails is reported by its rows

@@ -1,12 +1,7 @@
-"""Running a bank: the sounds of a plan rendered by long-lived workers, each file written
-atomically, each finished row appended to the manifest; a rerun resumes (docs/banks.md).
-
-Workers: ``jobs`` processes that warm the engine once and render rows until the plan is
-done (forked on Linux after this process warmed it, else spawned; ``jobs=1`` renders
-here), or a Dask cluster (``scheduler``; the optional extra ``dask``) that sees the bank's
-folder. The parent alone writes the manifest (:mod:`synth.bank.manifest`). A row that
-cannot be rendered is recorded ``failed`` and the others go on; a file that cannot be
-written stops the bank cleanly, and running it again completes it.
+"""Running a bank: the rows of a plan rendered by long-lived workers (:mod:`.executors`),
+each file written atomically, each finished row appended to the manifest by this process;
+a rerun resumes (docs/banks.md). A row that cannot be rendered is recorded ``failed`` and
+the others go on; a file that cannot be written stops the bank cleanly.
 """
 
 from __future__ import annotations
@@ -22,37 +17,25 @@ import numpy as np
 
 from synth.bank import manifest as mf
 from synth.bank import spec as bank_spec
-from synth.bank.executors import (
-    BankRunError,
-    Dask,
-    Pool,
-    Serial,
-    connect,
-    hold_lock,
-)
+from synth.bank.executors import BankRunError, Dask, Pool, Serial, connect, hold_lock
 from synth.bank.row import base_row, described
 from synth.bank.spec import BankSpec, BankSpecError
+from synth.bank.spec.model import spec_integer
 from synth.store.reproducible import reproducible
 
-#: Rows a dry run runs to time the bank (rows spread over the plan): at least this many,
-#: and at least the square root of the rows (rows differ in cost, by ten times and more
-#: between impact points: the sampled mean's relative error falls as one over the root of
-#: the sample, while the dry run stays about one over the root of the bank's time), and at
-#: least :data:`ESTIMATE_ROWS_PER_WORKER` per worker, a whole number per worker.
+#: Rows a dry run times (spread over the plan): at least this many and the square root of
+#: the rows (rows differ in cost tenfold: the sampled mean's relative error falls as one
+#: over the root of the sample, the dry run stays about one over the root of the bank's
+#: time), and a whole number per worker, at least :data:`ESTIMATE_ROWS_PER_WORKER`.
 ESTIMATE_RENDERS = 5
-
-#: Least rows each worker runs when a dry run times the bank (:func:`_estimate`).
 ESTIMATE_ROWS_PER_WORKER = 2
 
 
 @dataclass(frozen=True)
 class Estimate:
-    """The time a run of ``rows`` rows on ``jobs`` workers would take, s, from a dry run
-    (:func:`_estimate`): ``before`` the plan and checks, ``startup`` starting and warming the
-    workers, ``per_row`` wall time per row as ``jobs`` workers render and publish and this
-    process appends the manifest (timed on ``sampled`` rows in a scratch folder in
-    ``scratch_in``, the machine's real speed-up), ``finish`` the run's end (files hashed
-    again, manifests rewritten)."""
+    """A dry run's estimate of a run of ``rows`` rows on ``jobs`` workers, s: ``before`` the
+    plan and checks, ``startup`` of the workers, ``per_row`` wall time per row (timed on
+    ``sampled`` rows in a scratch folder in ``scratch_in``), ``finish`` the final check."""
 
     rows: int
     jobs: int
@@ -65,11 +48,9 @@ class Estimate:
 
     @property
     def seconds(self) -> float:
-        """The estimated wall time of the run, s."""
         return self.before + self.startup + self.rows * self.per_row + self.finish
 
     def describe(self) -> str:
-        """What the estimate is made of, for the dry run's summary."""
         workers = "this process" if self.jobs == 1 else f"{self.jobs} workers"
         return (
             f"{self.before:.1f} s plan and checks + {self.startup:.1f} s start-up of "
@@ -82,12 +63,10 @@ class Estimate:
 
 @dataclass
 class BankResult:
-    """The outcome of :func:`run`: ``planned`` rows; ``done`` rendered now, ``skipped`` found
-    complete, ``failed`` with their errors (``failures``), ``renamed`` moved to a new name,
-    ``orphans`` audio files in neither the manifest nor the plan (removed if ``pruned``);
-    ``stopped`` why it stopped early (or None); ``elapsed``, ``startup``, ``rendering`` and
-    ``finishing``, s; ``peak_worker_rss``, bytes; for a dry run ``estimated``
-    (:class:`Estimate`; ``estimate`` its seconds) and ``planned_rows``."""
+    """The outcome of :func:`run`: rows ``done`` now, ``skipped`` (complete), ``failed``
+    (``failures``), ``renamed``; ``orphans`` (audio files in neither the manifest nor the
+    plan, removed if ``pruned``); ``stopped`` why it stopped early; times in s, memory in
+    bytes; for a dry run ``estimated`` and ``planned_rows``."""
 
     out_dir: Path
     planned: int
@@ -109,12 +88,10 @@ class BankResult:
 
     @property
     def estimate(self) -> float | None:
-        """For a dry run, the estimated time of the run, s (:class:`Estimate`)."""
         return None if self.estimated is None else self.estimated.seconds
 
     @property
     def rate(self) -> float:
-        """Sounds rendered per second of the run."""
         return self.done / self.elapsed if self.elapsed > 0 else 0.0
 
     @property
@@ -128,7 +105,6 @@ class BankResult:
         return self.failed == 0 and self.stopped is None
 
     def summary(self) -> str:
-        """The summary printed at the end of ``synth bank``."""
         if self.estimate is not None:
             text = (
                 f"{self.out_dir}: dry run, nothing written: {len(self.planned_rows)} of "
@@ -155,14 +131,9 @@ class BankResult:
         return text
 
 
-# ------------------------------------------------------------------------ the run
-
-
 def _lock(out_dir: Path):
-    """Hold the folder's lock file for the run (another run into it is refused). The
-    lock is the ``flock`` on the open file, so a run that was killed holds nothing; the
-    file is removed by :func:`_unlock`. A lock taken on a file that was removed meanwhile
-    (by the run that held it) is taken again on the new file."""
+    """Hold the folder's lock file (``flock``: a killed run holds nothing) for the run; a
+    lock taken on a file removed meanwhile by the run that held it is taken again."""
     try:
         import fcntl
     except ImportError:  # no advisory locks on this platform
@@ -187,8 +158,7 @@ def _lock(out_dir: Path):
 
 
 def _unlock(out_dir: Path, fh) -> None:
-    """Remove the lock file (still holding its lock, so no other run holds it) and
-    release it: a finished bank's folder holds only its files and manifests."""
+    """Remove the lock file while holding its lock, then release it."""
     if fh is None:
         return
     try:
@@ -208,53 +178,14 @@ def _as_spec(spec) -> BankSpec:
     raise BankSpecError(f"spec={spec!r} must be a spec file, a dict or a BankSpec")
 
 
-def _grows(stored: dict, new: dict) -> bool:
-    """True if ``new`` is the stored spec with a larger ``count`` (both in the compared
-    form, :func:`synth.bank.spec.compared_form`): rows are drawn per
-    index (:func:`synth.bank.spec.sampling.variations`), so the rows done stay and the new ones
-    are added."""
-    old_count, new_count = stored.get("count"), new.get("count")
-    return (
-        isinstance(old_count, int)
-        and isinstance(new_count, int)
-        and new_count > old_count
-        and bank_spec.differences(stored, new) == ["count"]
-    )
-
-
-def _refuse_other_spec(out_dir: Path, stored: dict, new: dict) -> None:
-    diff = bank_spec.differences(stored, new)
-    rules = (
-        f"; the folder's rows were drawn by the drawing rules of plan {stored.get('plan')}, "
-        f"this version's are those of plan {new.get('plan')}"
-        if "plan" in diff
-        else ""
-    )
-    raise BankSpecError(
-        f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
-        f"{', '.join(diff)}{rules}): use the same spec to resume, another folder, or "
-        f"--force to start over"
-    )
-
-
-def made_by_another_engine(recorded: dict | None) -> bool:
-    """True if a folder's stored record ``recorded`` (a ``bank.json`` or a ``gain.json``;
-    None: no record, a new folder) names another :data:`synth.bank.spec.ENGINE` than
-    ``synth.__version__``, or none (an engine that did not record its version): another
-    engine may make other bytes of the same spec, so resuming would mix two engines'
-    files."""
-    import synth
-
-    return recorded is not None and recorded.get(bank_spec.ENGINE) != synth.__version__
-
-
 def engine_problem(what: str, recorded: dict | None, advice: str) -> str | None:
-    """The error of ``what`` (a folder's record ``recorded``) made by another engine
-    (:func:`made_by_another_engine`), naming both versions, with ``advice`` (what to do
-    instead); None if this engine made it."""
+    """The error of ``what`` (a folder's ``bank.json`` or ``gain.json``, ``recorded``; None:
+    a new folder) made by another :data:`synth.bank.spec.ENGINE` than this one, or by one
+    that recorded none, with ``advice``; None if this engine made it. Another engine may
+    make other bytes of the same spec, so resuming would mix two engines' files."""
     import synth
 
-    if not made_by_another_engine(recorded):
+    if recorded is None or recorded.get(bank_spec.ENGINE) == synth.__version__:
         return None
     made_by = recorded.get(bank_spec.ENGINE)
     by = f"synth {made_by}" if isinstance(made_by, str) else "a synth that recorded no version"
@@ -264,56 +195,50 @@ def engine_problem(what: str, recorded: dict | None, advice: str) -> str | None:
     )
 
 
-def _stored(out_dir: Path) -> tuple[dict | None, dict | None]:
-    """The spec stored in the folder as it is (None if none) and the part of it that
-    makes its sounds: :func:`synth.bank.spec.compared_form`, in which a canonical form of
-    an earlier version compares as the same spec, and a renamed preset, an edited
-    label, name template or tag do not count."""
-    stored = mf.read_spec(out_dir) if out_dir.is_dir() else None
-    return stored, None if stored is None else bank_spec.compared_form(stored)
-
-
-def _of_another_spec(stored: dict | None, new: dict) -> bool:
-    """True if the folder's stored spec makes other sounds than ``new`` (both in the
-    compared form) and ``new`` does not just grow it."""
-    return stored is not None and stored != new and not _grows(stored, new)
-
-
-def _refuse_to_resume(out_dir: Path, spec: BankSpec) -> bool:
-    """True if the folder holds a bank this run cannot resume: another engine made it
-    (:func:`engine_problem`) or another spec (:func:`_of_another_spec`); without
-    ``force`` the caller refuses it (:func:`_refuse`)."""
-    raw, stored = _stored(out_dir)
-    return made_by_another_engine(raw) or _of_another_spec(
-        stored, bank_spec.compared_form(spec.stored_form())
-    )
-
-
-def _refuse(out_dir: Path, spec: BankSpec) -> None:
-    """Raise the error of a folder this run cannot resume (:func:`_refuse_to_resume`),
-    naming the two engines or the keys that differ."""
-    raw, stored = _stored(out_dir)
+def _resume_problem(out_dir: Path, spec: BankSpec) -> str | None:
+    """Why this run cannot resume the bank in ``out_dir`` (None if it can): another engine
+    made it, or another spec (in :func:`synth.bank.spec.compared_form`, where a renamed
+    preset, an edited label, name template or tag do not count), unless only ``count``
+    grew (rows are drawn per index, so the rows done stay)."""
+    raw = mf.read_spec(out_dir) if out_dir.is_dir() else None
     problem = engine_problem(
         f"out_dir={str(out_dir)!r} ({mf.SPEC})",
         raw,
         "use --force (force=True) to start over and render the bank again with this "
         "engine, or another folder",
     )
-    if problem is not None:
-        raise BankSpecError(problem)
-    _refuse_other_spec(out_dir, stored, bank_spec.compared_form(spec.stored_form()))
+    if problem is not None or raw is None:
+        return problem
+    stored = bank_spec.compared_form(raw)
+    new = bank_spec.compared_form(spec.stored_form())
+    diff = bank_spec.differences(stored, new)
+    old_count, new_count = stored.get("count"), new.get("count")
+    grows = diff == ["count"] and isinstance(old_count, int) and isinstance(new_count, int)
+    if stored == new or (grows and new_count > old_count):
+        return None
+    rules = (
+        f"; the folder's rows were drawn by the drawing rules of plan {stored.get('plan')}, "
+        f"this version's are those of plan {new.get('plan')}"
+        if "plan" in diff
+        else ""
+    )
+    return (
+        f"out_dir={str(out_dir)!r} holds a bank of another spec (differing keys: "
+        f"{', '.join(diff)}{rules}): use the same spec to resume, another folder, or "
+        f"--force to start over"
+    )
 
 
 def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
-    """Refuse a folder made by another engine or another spec (naming the engines or
-    the keys that differ), or with ``force`` delete its files and manifest to start
-    over."""
-    if _refuse_to_resume(out_dir, spec):
+    """Refuse a folder this run cannot resume (:func:`_resume_problem`), or with ``force``
+    delete its files and manifest to start over."""
+    problem = _resume_problem(out_dir, spec)
+    if problem is not None:
         if not force:
-            _refuse(out_dir, spec)
+            raise BankSpecError(problem)
         for row in mf.read_rows(out_dir):
             f = out_dir / str(row.get("file", ""))
-            if _inside(out_dir, f) and f.is_file():
+            if mf.inside(out_dir, f) and f.is_file():
                 f.unlink()
         for name in (mf.JSONL, mf.CSV):
             (out_dir / name).unlink(missing_ok=True)
@@ -321,25 +246,18 @@ def _check_stored(out_dir: Path, spec: BankSpec, force: bool) -> None:
 
 
 def _verified(out_dir: Path, rows: list[dict], plan: dict) -> list[dict]:
-    """The rows that are complete: ``ok``, in the plan, and their file (in the folder,
-    under the name recorded, which :func:`_renamed` moves to the plan's) present with
-    the recorded SHA-256; their labels and tags as the spec gives them now
-    (:func:`described`). ``failed`` and ``planned`` rows are redone."""
-    out = []
-    for row in rows:
-        item = plan.get(row.get("index"))
-        if item is None or row.get("status") != "ok" or not isinstance(row.get("file"), str):
-            continue
-        path = out_dir / row["file"]
-        if _inside(out_dir, path) and path.is_file() and mf.sha256_file(path) == row.get("sha256"):
-            out.append(row)
-    return out
+    """The complete rows: ``ok``, in the plan, their file in the folder with the recorded
+    SHA-256 (``failed`` and ``planned`` rows are redone)."""
+    return [
+        r
+        for r in rows
+        if r.get("index") in plan and r.get("status") == "ok" and mf.intact(out_dir, r)
+    ]
 
 
 def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> list[dict]:
-    """``rows`` (complete) with their files moved to the plan's names where these changed (the
-    sounds are the same) and their labels and tags as the spec gives them now (:func:`move_files`;
-    a run killed meanwhile leaves rows whose file is missing, redone)."""
+    """``rows`` (complete) with their files moved to the plan's names and their labels and
+    tags as the spec gives them now."""
     moves = {r["index"]: (r["file"], plan[r["index"]].file) for r in rows}
     moved = move_files(out_dir, spec.format, moves)
     out = []
@@ -352,10 +270,9 @@ def _renamed(out_dir: Path, spec: BankSpec, rows: list[dict], plan: dict) -> lis
 
 
 def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
-    """Move the files ``moves`` (index: (old name, new name), relative to ``out_dir``) through
-    temporaries (a new name may be another's old one), each published as the bytes a render
-    would give under that name (:func:`synth.store.reproducible.reproducible`). Returns
-    index: the moved file's bytes."""
+    """Move the files ``moves`` (index: (old name, new name) in ``out_dir``) through
+    temporaries (a new name may be another's old one), each as the bytes a render gives
+    under its new name (:func:`synth.store.reproducible.reproducible`); index: bytes."""
     from synth.store.atomic import temporary_name
 
     aside = {}
@@ -365,7 +282,7 @@ def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
         old = out_dir / old_name
         aside[index] = out_dir / temporary_name(old.suffix)
         os.replace(old, aside[index])
-        _remove_empty_folders(out_dir, old.parent)
+        mf.remove_empty_folders(out_dir, old.parent)
     moved = {}
     for index, temporary in aside.items():
         new_name = moves[index][1]
@@ -378,49 +295,15 @@ def move_files(out_dir: Path, fmt: str, moves: dict) -> dict:
     return moved
 
 
-def _remove_empty_folders(out_dir: Path, folder: Path) -> None:
-    """Remove ``folder`` and its parents up to ``out_dir`` (excluded) while empty (a
-    subfolder of an earlier name template)."""
-    while _inside(out_dir, folder):
-        try:
-            folder.rmdir()
-        except OSError:  # not empty
-            return
-        folder = folder.parent
-
-
-def _inside(folder: Path, path: Path) -> bool:
-    """True if ``path`` lies in ``folder`` or one of its subfolders (a manifest's file
-    name is trusted no further than that)."""
-    try:
-        return (
-            path.resolve().is_relative_to(folder.resolve()) and path.resolve() != folder.resolve()
-        )
-    except OSError:
-        return False
-
-
-def _remove_stale_files(out_dir: Path, todo) -> None:
-    """Delete the files of the rows about to be rendered (left by a run that was killed
-    before recording them, or damaged since): a row's file is then published once, by
-    the first attempt that finishes (:func:`render_item`)."""
-    for item in todo:
-        (out_dir / item.file).unlink(missing_ok=True)
-
-
 def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: set) -> list[dict]:
-    """The rows whose record holds: every ``ok`` row's file hashed again against its
-    recorded SHA-256. A row that does not match is dropped from the manifest (the next
-    run redoes it) and the bank is not reported complete."""
+    """The rows whose record holds (every ``ok`` file hashed again); one that does not is
+    dropped from the manifest, redone by the next run, and the bank is not complete."""
     kept, bad = [], []
     for row in rows:
-        path = out_dir / str(row.get("file", ""))
-        if row.get("status") == "ok" and not (
-            path.is_file() and mf.sha256_file(path) == row.get("sha256")
-        ):
+        if row.get("status") == "ok" and not mf.intact(out_dir, row):
             bad.append(row["index"])
-            continue
-        kept.append(row)
+        else:
+            kept.append(row)
     if bad:
         now = sum(1 for i in bad if i in recorded)  # rendered in this run, else skipped
         result.done -= now
@@ -434,9 +317,8 @@ def _final_check(out_dir: Path, rows: list[dict], result: BankResult, recorded: 
 
 
 def _estimate_sample(items, jobs: int) -> list:
-    """The rows a dry run runs: :data:`ESTIMATE_RENDERS` or the square root of the rows,
-    whichever is more, a whole number per worker (:data:`ESTIMATE_ROWS_PER_WORKER` at
-    least), spread over ``items`` (the first rows may all be alike: one grid corner)."""
+    """The rows a dry run times (:data:`ESTIMATE_RENDERS`), spread over ``items`` (the first
+    rows may all be alike: one grid corner)."""
     renders = max(ESTIMATE_RENDERS, math.ceil(math.sqrt(len(items))))
     per_worker = max(ESTIMATE_ROWS_PER_WORKER, math.ceil(renders / jobs))
     n = min(len(items), per_worker * jobs)
@@ -445,9 +327,8 @@ def _estimate_sample(items, jobs: int) -> list:
 
 
 def _estimate(spec: BankSpec, items, jobs: int, before: float) -> Estimate:
-    """The time a run of ``items`` on ``jobs`` workers would take (:class:`Estimate`), ``before``
-    s gone to the plan and checks: a sample of rows (:func:`_estimate_sample`) run as the run
-    runs them, in a scratch folder removed after; the bank's folder is not touched."""
+    """The :class:`Estimate` of a run of ``items``: a sample of rows run as the run runs them,
+    in a scratch folder; the bank's folder is not touched."""
     import tempfile
 
     scratch_in = tempfile.gettempdir()
@@ -489,9 +370,7 @@ def _executor(spec, out_dir: Path, jobs: int, connection):
 def _jobs(jobs) -> int:
     if jobs is None:
         return os.cpu_count() or 1
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise BankSpecError(f"jobs={jobs!r} must be an integer >= 1 (worker processes)")
-    return jobs
+    return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
 
 
 def run(
@@ -508,26 +387,14 @@ def run(
     """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``
     (created if needed), resuming what an earlier run left.
 
-    Parameters
-    ----------
-    jobs : int >= 1, optional
-        Worker processes (default: ``os.cpu_count()``); 1 renders in this process.
-    scheduler : str or dask.distributed.Client, optional
-        A Dask scheduler's address (``"tcp://host:8786"``) or a client.
-    dry_run : bool
-        Change nothing; report the rows that would be rendered (``result.planned_rows``) and
-        an estimate of the time (``result.estimated``), from a few rows run in a scratch folder.
-    force : bool
-        Start over in a folder made by another spec (its files and manifest deleted).
-    redo : str or set of int, optional
-        Rows to render again although complete (``"17,40-45"``).
-    prune : bool
-        Delete audio files in neither the manifest nor the plan (``result.orphans``);
-        without it they are only reported.
-
-    Returns the :class:`BankResult` (complete when ``result.ok``). A bad spec raises
+    ``jobs``: worker processes (default: the cores; 1 renders here); ``scheduler``: a Dask
+    scheduler's address (``"tcp://host:8786"``) or client; ``dry_run``: change nothing,
+    report the rows to render and an estimate of the time from a few rows run in a scratch
+    folder; ``force``: start over in a folder of another spec (its files deleted); ``redo``:
+    rows to render again (``"17,40-45"``); ``prune``: delete audio files in neither the
+    manifest nor the plan (else only reported). A bad spec raises
     :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable scheduler a
-    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s; neither writes anything."""
+    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."""
     t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
@@ -549,7 +416,6 @@ def run(
 def _run_in(
     spec, items, out: Path, n_jobs: int, connection, force: bool, again, prune: bool
 ) -> BankResult:
-    """:func:`run` once the plan is checked and the cluster (if any) reached."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -574,33 +440,34 @@ def _run_in(
 def _dry_run(
     spec, items, out: Path, jobs: int, force: bool, again=frozenset(), t0: float | None = None
 ) -> BankResult:
-    """What a run would do, without writing or deleting anything in ``out``: the rows it
-    would render (``result.planned_rows``, status ``planned``), the rows already
-    complete, and an estimate of the time (:func:`_estimate`; ``t0``: when the call
-    began, :func:`time.perf_counter`). A folder of another spec is refused as a run
-    refuses it; with ``force`` every row counts as to be rendered."""
+    """What a run would do, writing nothing: the rows to render (status ``planned``), the
+    rows complete and the :class:`Estimate`; with ``force`` every row is to render."""
     t0 = time.perf_counter() if t0 is None else t0
     plan = {item.index: item for item in items}
-    other = _refuse_to_resume(out, spec)
-    if other and not force:
-        _refuse(out, spec)
-    kept = [] if other or not out.is_dir() else _verified(out, mf.read_rows(out), plan)
-    kept = [r for r in kept if r["index"] not in again]
-    done_ids = {r["index"] for r in kept}
-    todo = [item for item in items if item.index not in done_ids]
+    problem = _resume_problem(out, spec)
+    if problem is not None and not force:
+        raise BankSpecError(problem)
+    here = problem is None and out.is_dir()
+    verified = _verified(out, mf.read_rows(out), plan) if here else []
+    kept = [r for r in verified if r["index"] not in again]
+    todo = _todo(items, kept)
     result = BankResult(out, len(items), skipped=len(kept))
     result.planned_rows = [base_row(spec, item, "planned") for item in todo]
-    if out.is_dir() and not other:
-        recorded = [r["file"] for r in _verified(out, mf.read_rows(out), plan)]
+    if here:
+        recorded = [r["file"] for r in verified]
         result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
     result.estimated = _estimate(spec, todo, jobs, before=time.perf_counter() - t0)
     result.elapsed = time.perf_counter() - t0
     return result
 
 
+def _todo(items, kept: list[dict]) -> list:
+    done = {r["index"] for r in kept}
+    return [item for item in items if item.index not in done]
+
+
 def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
-    """``result.orphans``: the audio files in ``out`` in neither the manifest nor the
-    plan; deleted if ``prune`` (``result.pruned``)."""
+    """``result.orphans``, deleted if ``prune``."""
     recorded = [str(r.get("file")) for r in mf.read_rows(out)]
     result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
     if prune and result.orphans:
@@ -619,10 +486,10 @@ def _run(
     kept = [r for r in _renamed(out, spec, verified, plan) if r["index"] not in again]
     result = BankResult(out, len(items), skipped=len(kept))
     result.renamed = sum(1 for r in verified if r["file"] != plan[r["index"]].file)
-    done_ids = {r["index"] for r in kept}
-    todo = [item for item in items if item.index not in done_ids]
+    todo = _todo(items, kept)
     book.rewrite(kept)
-    _remove_stale_files(out, todo)
+    for item in todo:  # a killed run's or a damaged file: published again, once
+        (out / item.file).unlink(missing_ok=True)
     rows = list(kept)
     recorded = set()
     t_start = time.perf_counter()
@@ -661,9 +528,8 @@ def _run(
 
 
 def _record(row: dict, book, rows: list, result: BankResult) -> bool:
-    """Append a finished ``row`` to the manifest ``book``, to ``rows`` and to the counts of
-    ``result``; False when the manifest cannot take it (``result.stopped`` says why: the
-    run stops, the rows finished before are kept)."""
+    """Append a finished ``row`` to the manifest, ``rows`` and ``result``; False when the
+    manifest cannot take it (``result.stopped`` says why)."""
     try:
         book.append(row)
     except OSError as exc:

@@ -1,11 +1,6 @@
-"""The command line: ``synth SUBCOMMAND ...`` (argparse; docs/cli.md). Input errors are one
-line on stderr with exit status 2.
-
-This module holds the parser and :func:`main` (exit statuses, SIGTERM, warnings as one
-line); each subcommand lives in the module of its area: :mod:`~.render` (info, render,
-gallery), :mod:`~.recordings` (analyze, alter), :mod:`~.catalog` (presets, materials,
-cache), :mod:`~.bank` (bank, bank-gain), :mod:`~.play`, :mod:`~.bench` (bench, warmup),
-:mod:`~.common` (shared arguments).
+"""The command line: ``synth SUBCOMMAND ...`` (argparse; docs/cli.md): the parser and
+:func:`main` (exit statuses, SIGTERM, warnings as one line; an input error is one line on
+stderr, status 2); the subcommands live in the modules of their areas.
 """
 
 from __future__ import annotations
@@ -44,8 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C (SIGINT): every
-    temporary file is removed on the way out."""
+    """SIGTERM, raised in the main thread to unwind like Ctrl-C (temporaries removed)."""
 
 
 def _on_sigterm(signum, frame):
@@ -53,8 +47,7 @@ def _on_sigterm(signum, frame):
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """A warning as one line of the command's own (``synth: warning: ...``), never a
-    Python source line: a user cannot act on the engine's file and line number."""
+    """A warning as one line of the command's own, without the engine's source line."""
     print(f"synth: warning: {message}", file=sys.stderr if file is None else file)
 
 

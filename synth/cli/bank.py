@@ -1,6 +1,5 @@
-"""The sound bank subcommands: ``bank`` (render a spec's rows, resumable, with its contact
-sheet and preview) and ``bank-gain`` (scale a finished bank by one gain).
-"""
+"""The sound bank subcommands: ``bank`` (render, resumable; contact sheet, preview) and
+``bank-gain`` (a finished bank scaled by one gain)."""
 
 from __future__ import annotations
 
@@ -65,7 +64,6 @@ def _cmd_bank_gain(args):
 
 
 def add_bank_parser(sub) -> None:
-    """Add the bank subcommand: a sound bank rendered."""
     p = sub.add_parser(
         "bank", help="render a sound bank: many variations of a preset, resumable, with a manifest"
     )
@@ -121,7 +119,6 @@ def add_bank_parser(sub) -> None:
 
 
 def add_bank_gain_parser(sub) -> None:
-    """Add the bank-gain subcommand: a finished bank scaled by one gain."""
     p = sub.add_parser(
         "bank-gain",
         help="scale a finished bank by one gain (its loudest true peak or median loudness "

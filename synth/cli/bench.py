@@ -1,11 +1,7 @@
-"""The subcommands timing the engine: ``bench`` (the benchmarks and validation studies that
-print the figures of docs/, run from a source checkout) and ``warmup`` (every kernel compiled
-ahead of time).
-
-The benchmarks are not installed with the package: they live in the ``benchmarks`` and
-``validation`` packages beside ``synth/`` in the source repository. ``synth bench`` finds that
-checkout from the current folder (:func:`find_checkout`), puts it last on ``sys.path`` (so
-``synth`` stays the installed package) and hands the rest of its command line to
+"""The subcommands timing the engine: ``warmup`` (every kernel compiled ahead of time) and
+``bench``: the benchmarks and validation studies that print the figures of docs/, not
+installed but found in the source checkout around the current folder (last on
+``sys.path``, so ``synth`` stays the installed package), its command line handed to
 ``benchmarks.cli.main``.
 """
 
@@ -45,7 +41,6 @@ def _cmd_warmup(args):
 
 
 def add_warmup_parser(sub) -> None:
-    """Add the warmup subcommand: every kernel compiled ahead of time."""
     p = sub.add_parser(
         "warmup",
         help="compile every kernel ahead of time (images, installers); print what "
@@ -80,9 +75,8 @@ def names_project(pyproject: Path) -> bool:
 
 
 def find_checkout(start: Path) -> Path | None:
-    """The source checkout holding the folder ``start``: the nearest of it and its parents
-    with a ``benchmarks`` package and a ``pyproject.toml`` naming this project; None if
-    there is none."""
+    """The nearest of ``start`` and its parents with a ``benchmarks`` package and a
+    ``pyproject.toml`` naming this project, or None."""
     start = start.resolve()
     for folder in (start, *start.parents):
         if (folder / "benchmarks" / "__init__.py").is_file() and names_project(
@@ -93,9 +87,8 @@ def find_checkout(start: Path) -> Path | None:
 
 
 def checkout_benchmarks(root: Path):
-    """The command-line module of the checkout ``root``'s benchmarks (``benchmarks.cli``),
-    imported with ``root`` last on ``sys.path``: after the installed packages, so that
-    ``synth`` remains the installed package the benchmarks measure."""
+    """``benchmarks.cli`` of the checkout ``root``, imported with ``root`` last on
+    ``sys.path`` (``synth`` stays the installed package the benchmarks measure)."""
     import importlib
 
     if str(root) not in sys.path:
@@ -118,9 +111,7 @@ def _cmd_bench(args) -> int:
 
 
 def add_bench_parser(sub) -> None:
-    """Add the bench subcommand; its own options are those of the checkout's benchmarks
-    (``synth bench --help`` in a checkout lists them), so the rest of the command line is
-    theirs (:func:`bench_arguments`)."""
+    """The bench subcommand: the rest of the command line is the benchmarks' own."""
     p = sub.add_parser(
         "bench",
         add_help=False,
@@ -131,7 +122,6 @@ def add_bench_parser(sub) -> None:
 
 
 def bench_arguments(argv: list[str]):
-    """The parsed command line of ``synth bench ...`` (``argv`` after ``bench``): all of it
-    for the benchmarks' own parser, options first included (argparse's remainder would take
-    none before the benchmark's name)."""
+    """``synth bench ARGV``: all of ``argv`` for the benchmarks' parser (argparse's remainder
+    would take no option before the benchmark's name)."""
     return argparse.Namespace(command="bench", argv=list(argv), func=_cmd_bench)

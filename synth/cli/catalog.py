@@ -1,6 +1,4 @@
-"""The subcommands listing what is installed and kept: ``presets``, ``materials`` and
-``cache`` (the disk cache's entries, or clearing it).
-"""
+"""The subcommands listing what is installed and kept: ``presets``, ``materials``, ``cache``."""
 
 from __future__ import annotations
 
@@ -48,19 +46,16 @@ def _cmd_cache(args):
 
 
 def add_presets_parser(sub) -> None:
-    """Add the presets subcommand."""
     p = sub.add_parser("presets", help="list the presets")
     p.set_defaults(func=_cmd_presets)
 
 
 def add_materials_parser(sub) -> None:
-    """Add the materials subcommand."""
     p = sub.add_parser("materials", help="list the built-in materials")
     p.set_defaults(func=_cmd_materials)
 
 
 def add_cache_parser(sub) -> None:
-    """Add the cache subcommand."""
     p = sub.add_parser("cache", help="the disk cache of plate modes and radiation gains")
     p.add_argument(
         "action",

@@ -1,6 +1,16 @@
-"""The arguments several subcommands share: a preset and its overrides."""
+"""What several subcommands share: a preset and its overrides, JSON output."""
 
 from __future__ import annotations
+
+import json
+import sys
+
+
+def print_json(obj) -> int:
+    """``obj`` as indented JSON on stdout (other numbers as floats); exit status 0."""
+    json.dump(obj, sys.stdout, indent=1, default=float)
+    print()
+    return 0
 
 
 def add_preset_args(p):

@@ -58,7 +58,6 @@ def _cmd_play(args):
 
 
 def add_play_parser(sub) -> None:
-    """Add the play subcommand: a preset through the live engine."""
     p = sub.add_parser("play", help="play a preset's scene through the live engine (Ctrl-C stops)")
     add_preset_args(p)
     p.add_argument(

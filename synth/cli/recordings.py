@@ -1,14 +1,12 @@
-"""The subcommands on a recording: ``analyze`` (detect and measure its ticks) and ``alter``
-(change its restitution).
-"""
+"""The subcommands on a recording: ``analyze`` (its ticks) and ``alter`` (its restitution)."""
 
 from __future__ import annotations
 
-import json
 import sys
 
 import numpy as np
 
+from synth.cli.common import print_json
 from synth.errors import SynthError
 
 
@@ -30,8 +28,7 @@ def _cmd_analyze(args):
     for warning in result.warnings:
         print(f"synth: warning: {warning}", file=sys.stderr)
     if args.json:
-        json.dump(analysis.to_dict(result), sys.stdout, indent=1, default=float)
-        print()
+        print_json(analysis.to_dict(result))
     elif args.csv:
         sys.stdout.write(analysis.to_csv(result))
     else:
@@ -54,8 +51,7 @@ def _read_warned(reader, path):
 
 
 def _analysis_options(args):
-    """The analysis options of the command's flags (:func:`add_analysis_flags`); the unset
-    ones keep their defaults."""
+    """The analysis options of the command's flags; unset ones keep their defaults."""
     from synth.analysis.options import OPTIONS, from_text
 
     return from_text(
@@ -110,7 +106,6 @@ def _cmd_alter(args):
 
 
 def add_analyze_parser(sub) -> None:
-    """Add the analyze subcommand: the ticks of a recording."""
     p = sub.add_parser(
         "analyze", help="detect and measure the ticks of a recording (WAV, FLAC, ...)"
     )
@@ -128,7 +123,6 @@ def add_analyze_parser(sub) -> None:
 
 
 def add_alter_parser(sub) -> None:
-    """Add the alter subcommand: a recording's restitution changed."""
     p = sub.add_parser("alter", help="change the restitution of a recording: 1 - e' = K (1 - e)")
     p.add_argument("file")
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
@@ -157,9 +151,8 @@ def add_alter_parser(sub) -> None:
 
 
 def add_analysis_flags(p) -> None:
-    """Add a flag for each analysis option (:class:`synth.analysis.AnalysisOptions`: its
-    doc, unit, values allowed and default); a switch on by default is turned off by
-    ``--no-NAME``. Unset, the option keeps its default."""
+    """A flag for each analysis option from its declaration
+    (:class:`synth.analysis.AnalysisOptions`); a switch on by default is ``--no-NAME``."""
     from synth.analysis import options
 
     for name in options.OPTIONS:

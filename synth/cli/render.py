@@ -1,14 +1,9 @@
-"""The subcommands on a preset's scene: ``info`` (its impact table, its cost against the
-budget), ``render`` (to a WAV or FLAC file, with the plot and report written with it, all or
-none) and ``gallery`` (the reference renders).
-"""
+"""The subcommands on a preset's scene: ``info`` (impact table, cost), ``render`` (audio,
+plot and report, all or none) and ``gallery`` (the reference renders)."""
 
 from __future__ import annotations
 
-import json
-import sys
-
-from synth.cli.common import add_preset_args
+from synth.cli.common import add_preset_args, print_json
 from synth.errors import SynthError
 from synth.sound.options import OPTIONS, PRESET_SAMPLERATE, declaration, default, describe
 
@@ -25,20 +20,11 @@ def _cmd_info(args):
     rows = seq.table()
     ending = {} if path is None else _path_ending(path)
     if args.json:
-        json.dump(
-            dict(
-                preset=args.preset,
-                description=data.get("description", ""),
-                stop_reason=seq.stop_reason,
-                duration=seq.duration,
-                impacts=rows,
-                **ending,
-            ),
-            sys.stdout,
-            indent=1,
+        description = data.get("description", "")
+        return print_json(
+            dict(preset=args.preset, description=description, stop_reason=seq.stop_reason)
+            | dict(duration=seq.duration, impacts=rows, **ending)
         )
-        print()
-        return 0
     if data.get("description"):
         print(data["description"])
     print(
@@ -63,8 +49,7 @@ def _cmd_info(args):
 
 
 def _path_of(scene, section: dict):
-    """The :class:`synth.physics.path.BallPath` of a scene with a velocity, on the sample
-    grid of the preset's render section."""
+    """The :class:`synth.physics.path.BallPath` of a moving scene on its render's grid."""
     import math
 
     from synth.io.presets import render_options_of
@@ -91,10 +76,8 @@ def _path_ending(path) -> dict:
 
 
 def _budget_seconds(budget) -> str:
-    """`` (about N s and M s of radiation at the measured rates)``: the time budgets in
-    seconds (:class:`synth.cost.Rates`; the radiation budget's rectangle-term equivalents
-    at the rectangle rule's rate, the same time for every rule), or nothing without
-    measured rates."""
+    """The time budgets in seconds at the measured :class:`synth.cost.Rates` (radiation at
+    the rectangle rule's rate), or "" without them."""
     from synth import cost
 
     rates = cost.Rates.load()
@@ -106,9 +89,7 @@ def _budget_seconds(budget) -> str:
 
 
 def _print_cost(scene, section: dict, as_json: bool) -> int:
-    """``synth info --cost``: the render's :func:`synth.cost.estimate` with the preset's
-    render options, and what a render would refuse (nothing is solved but the first
-    contact)."""
+    """``synth info --cost``: the render's cost estimate and what a render would refuse."""
     from dataclasses import asdict
 
     from synth import cost
@@ -117,11 +98,7 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
     estimate = cost.estimate_render(scene, section, budget)  # the section sets samplerate
     too_big = estimate.excess(budget)
     if as_json:
-        json.dump(
-            dict(asdict(estimate), budget=asdict(budget), refused=too_big), sys.stdout, indent=1
-        )
-        print()
-        return 0
+        return print_json(dict(asdict(estimate), budget=asdict(budget), refused=too_big))
     for name, value in estimate.rows():
         print(f"{name:<28} {value}")
     print(
@@ -137,9 +114,9 @@ def _print_cost(scene, section: dict, as_json: bool) -> int:
     return 0
 
 
-def render_options(scene_render: dict, args, source: str) -> tuple[dict, str | None]:
-    """Render keywords from a preset's [render] section (checked when the preset was
-    read) and the command line (which wins), and the output file's subtype."""
+def render_options(scene_render: dict, args) -> tuple[dict, str | None]:
+    """Render keywords from a preset's [render] section and the command line (which wins),
+    and the output file's subtype."""
     opts = dict(scene_render)
     for key in OPTIONS + ("subtype",):
         value = getattr(args, key, None)
@@ -166,7 +143,7 @@ def _report(rendered, data, preset) -> dict:
 
 
 def _cmd_render(args):
-    from synth.io.presets import find, load_preset_with_options
+    from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
 
@@ -175,7 +152,7 @@ def _cmd_render(args):
         {"output": audio_io.FORMATS, "plot": (".png",)},
     )
     scene, render_section, data = load_preset_with_options(args.preset, args.overrides)
-    opts, subtype = render_options(render_section, args, str(find(args.preset)))
+    opts, subtype = render_options(render_section, args)
     if args.timing_from is not None or args.restitution_scale is not None:
         from synth.sound.options import RenderOptions
         from synth.stimuli import sequences as stimuli
@@ -210,14 +187,9 @@ def _cmd_render(args):
 
 
 class Outputs:
-    """The output files of one command, written all or none.
-
-    Each path is checked when the command starts (before any work): not a directory, in
-    an existing folder where a file can be created. Inside ``with outputs:`` every file
-    is written to a temporary name beside its target (:meth:`staged`); they are renamed
-    onto their targets only when the block ends without an error, else removed, so a
-    failure (or SIGTERM, SIGINT) leaves every existing output as it was.
-    """
+    """The output files of one command, written all or none: each path checked before any
+    work; inside ``with outputs:`` each file is written to a temporary beside its target
+    (:meth:`staged`), renamed onto it only when the block ends without an error."""
 
     def __init__(self, paths: dict, suffixes: dict | None = None):
         from pathlib import Path
@@ -231,7 +203,6 @@ class Outputs:
         self.temporaries: dict = {}
 
     def staged(self, field: str):
-        """The temporary path to write ``field``'s file to (same folder and suffix)."""
         from synth.store.atomic import temporary_name
 
         target = self.paths[field]
@@ -258,11 +229,8 @@ class Outputs:
         return False
 
     def _name_the_targets(self, exc: BaseException) -> None:
-        """Put the user's paths where ``exc`` names a hidden temporary (a clip refusal,
-        a full disk): the temporary is removed on the way out and means nothing to the
-        user. A writer may stage its file once more beside the staged one (its own atomic
-        write): any engine temporary (:func:`synth.store.atomic.temporary_name`) in a
-        target's folder with its suffix is that target's."""
+        """Put the user's paths where ``exc`` names a temporary (any engine temporary in a
+        target's folder with its suffix: a writer may stage its own beside ours)."""
         import functools
         import re
 
@@ -282,9 +250,8 @@ class Outputs:
 
 
 def _refuse_shared_paths(paths: dict) -> None:
-    """Two outputs of one command on one file would leave only the last one written (the
-    audio replaced by the report, say): refused before any work. Paths are compared
-    resolved (``./a.wav``, ``a.wav`` and a symbolic link to it are one file)."""
+    """Refuse two outputs on one file (compared resolved) before any work: only the last
+    written would be left."""
     seen: dict = {}
     for field, path in paths.items():
         key = path.resolve()
@@ -324,7 +291,7 @@ def _cmd_gallery(args):
     from pathlib import Path
 
     from synth.io.plot import plot_render
-    from synth.io.presets import find, load_preset_with_options
+    from synth.io.presets import load_preset_with_options
     from synth.sound.render import render
     from synth.store import audio as audio_io
 
@@ -334,9 +301,8 @@ def _cmd_gallery(args):
     names = args.names or GALLERY
     for name in names:
         scene, section, data = load_preset_with_options(name)
-        opts, subtype = render_options(section, args, str(find(name)))
+        opts, subtype = render_options(section, args)
         rendered = render(scene, **opts)
-        # the file synth render writes (same options, same subtype)
         audio_io.write_audio(
             out / f"{name}.wav", rendered.audio, rendered.samplerate, subtype=subtype
         )
@@ -350,7 +316,6 @@ def _cmd_gallery(args):
 
 
 def add_info_parser(sub) -> None:
-    """Add the info subcommand: a preset's impact table and cost."""
     p = sub.add_parser("info", help="print the impact table of a preset's scene")
     add_preset_args(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -364,9 +329,8 @@ def add_info_parser(sub) -> None:
 
 
 def add_option_flags(p, names) -> None:
-    """Add a flag for each render option of ``names``
-    (:class:`synth.sound.options.RenderOptions`: its doc, unit, values allowed and default;
-    unset, the preset's value holds)."""
+    """A flag for each render option of ``names`` from its declaration
+    (:class:`synth.sound.options.RenderOptions`); unset, the preset's value holds."""
     for name in names:
         d = declaration(name)
         value = default(name)
@@ -386,7 +350,6 @@ OPTION_TYPES = {"samplerate": int, "normalize": str, "pulse_points": int, "max_i
 
 
 def add_render_parser(sub) -> None:
-    """Add the render subcommand: a preset to an audio file."""
     p = sub.add_parser("render", help="render a preset to a WAV or FLAC file")
     add_preset_args(p)
     p.add_argument("-o", "--output", required=True, help="output file (.wav or .flac)")
@@ -410,7 +373,6 @@ def add_render_parser(sub) -> None:
 
 
 def add_gallery_parser(sub) -> None:
-    """Add the gallery subcommand: the reference renders."""
     p = sub.add_parser(
         "gallery", help="regenerate the reference renders (WAV, PNG, JSON) in renders/"
     )

@@ -1,8 +1,5 @@
-"""Live playback through ``sounddevice`` (imported only here, only when playing).
-
-``sounddevice`` loads the PortAudio C library when it is imported; on a machine without it
-the import fails with an ``OSError``. :func:`play` turns that into a :class:`SynthError`
-that says what to install.
+"""Playback through ``sounddevice``, imported only when playing: without the PortAudio C
+library its import fails, and the :class:`SynthError` says what to install.
 """
 
 from __future__ import annotations
@@ -34,11 +31,8 @@ def sounddevice_module():
 
 
 def play(audio, samplerate: float | None = None, *, blocking: bool = True) -> None:
-    """Play ``audio``: a :class:`~synth.sound.render.Render`, or an array with ``samplerate``
-    in Hz.
-
-    ``blocking=False`` returns at once (``sounddevice.wait()`` or :func:`stop` later).
-    """
+    """Play a :class:`~synth.sound.render.Render`, or an array at ``samplerate`` Hz;
+    ``blocking=False`` returns at once (:func:`stop` ends it)."""
     if hasattr(audio, "audio") and hasattr(audio, "samplerate"):
         audio, samplerate = audio.audio, audio.samplerate if samplerate is None else samplerate
     if samplerate is None:

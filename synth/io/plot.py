@@ -18,7 +18,7 @@ import numpy as np
 from synth import checks
 from synth.errors import ParameterError, SynthError
 from synth.store.atomic import write_atomically
-from synth.store.audio import PHYSICAL_FULL_SCALE, output_path
+from synth.store.audio import PHYSICAL_FULL_SCALE, check_output_path
 
 if TYPE_CHECKING:
     from synth.sound.render import Render
@@ -112,27 +112,13 @@ def _draw_waveform(ax, t, x, labels):
 
 
 def plot_render(render: Render, path: str | os.PathLike, *, max_pulses: int = MAX_PULSES) -> Path:
-    """Draw a render into one PNG: (a) the waveform in physical units with each impact marked,
-    (b) the spectrogram of the first channel (PSD, dB re 1 unit^2/Hz, to Nyquist), (c) the
-    force of the first ``max_pulses`` impacts against time from first touch (with speed, m/s,
-    restitution and contact time, s). Written to a temporary file and renamed.
-
-    Parameters
-    ----------
-    render : Render or any object with the same attributes
-        ``audio`` (full scale), ``samplerate`` (Hz), ``impacts`` (``speed`` m/s, ``result``
-        with ``time`` s, ``force`` N, ``restitution``, ``contact_time`` s), ``onsets`` (s),
-        ``settings``, ``units`` ("Pa" or "m/s^2") and ``gain`` (> 0).
-    path : str or os.PathLike
-        Output PNG (suffix ``.png``); its directory must exist.
-    max_pulses : int >= 0
-        Force pulses drawn, at most.
-
-    Returns
-    -------
-    pathlib.Path
-        The path written."""
-    p, _ = output_path(path, {".png": "PNG"}, "picture", error=ParameterError)
+    """Draw a render into the PNG ``path`` (written atomically; returned): (a) the waveform in
+    physical units with each impact marked, (b) the spectrogram of the first channel (PSD,
+    dB re 1 unit^2/Hz, to Nyquist), (c) the force (N) of the first ``max_pulses`` impacts
+    against time from first touch (s), with speed (m/s), restitution and contact time (s).
+    ``render``: a :class:`~synth.sound.render.Render` or any object with its ``audio``,
+    ``samplerate`` (Hz), ``impacts``, ``onsets`` (s), ``settings``, ``units``, ``gain``."""
+    p = check_output_path(path, "path", (".png",))
     if isinstance(max_pulses, bool) or not isinstance(max_pulses, int) or max_pulses < 0:
         raise ParameterError(f"max_pulses={max_pulses!r} must be an integer >= 0")
     audio = checks.audio_array("render.audio", _attr(render, "audio"))

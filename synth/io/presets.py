@@ -1,11 +1,9 @@
-"""Presets: scenes described in TOML files (every key with its unit, and the inline
-materials: docs/cli.md, "Preset files").
+"""Presets: scenes described in TOML files (docs/cli.md, "Preset files").
 
-The keys of ``[ball]``, ``[plate]`` and ``[contact]`` are the fields of
-:class:`~synth.physics.scene.Ball`, :class:`~synth.physics.scene.Plate` and
-:class:`~synth.physics.scene.Contact`, those of ``[render]`` the options of
-:func:`synth.render` (:class:`synth.sound.options.RenderOptions`): one declaration each,
-so field, key and ``--set`` option cannot drift apart. An unknown key, a wrong type or an
+The keys of ``[ball]``, ``[plate]``, ``[contact]`` and ``[render]`` are the fields of
+:class:`~synth.physics.scene.Ball`, :class:`~synth.physics.scene.Plate`,
+:class:`~synth.physics.scene.Contact` and :class:`synth.sound.options.RenderOptions`, so
+field, key and ``--set`` option cannot drift apart. An unknown key, a wrong type or an
 impossible scene is a :class:`PresetError` naming the file, key and value.
 """
 
@@ -45,10 +43,8 @@ class PresetError(ParameterError):
     """A preset file (or a ``--set`` override) that cannot describe a scene."""
 
 
-#: Keys allowed in each section. Ball, plate and contact keys are the dataclass fields.
-#: The kinds of ball a preset's ``ball.kind`` names: a solid sphere (the default) or a
-#: hollow one (a thin shell with gas inside, :class:`~synth.physics.scene.HollowBall`, whose
-#: keys ``thickness``, ``pressure``, ``cover_thickness`` and ``cover_mass`` apply to it only).
+#: The kinds of ball ``ball.kind`` names (a hollow ball's own keys apply to it only), and
+#: the keys allowed in each section.
 BALL_KINDS = {"solid": Ball, "hollow": HollowBall}
 SECTIONS = {
     "ball": checks.names(HollowBall) + ("kind",),
@@ -71,8 +67,8 @@ PACKAGE_PRESETS = Path(__file__).resolve().parents[1] / "presets"
 
 
 def preset_dirs() -> list[Path]:
-    """Folders searched for a preset given by name, in order: ``$SYNTH_PRESETS``,
-    ``./presets`` and the presets installed with the package (``synth/presets``)."""
+    """Folders searched for a preset name, in order: ``$SYNTH_PRESETS``, ``./presets``, the
+    package's."""
     dirs = []
     if os.environ.get("SYNTH_PRESETS"):
         dirs.append(Path(os.environ["SYNTH_PRESETS"]))
@@ -139,8 +135,7 @@ def read(path) -> dict:
 
 
 def _override_list(overrides) -> list[str]:
-    """``overrides`` checked to be a list (or tuple) of ``key=value`` strings: a single
-    string would otherwise be read character by character."""
+    """``overrides`` checked to be a list of ``key=value`` strings (not one string)."""
     if overrides is None:
         return []
     if isinstance(overrides, (str, bytes)) or not isinstance(overrides, (list, tuple)):
@@ -180,10 +175,8 @@ def apply_overrides(data: dict, overrides, source="--set") -> dict:
 
 
 def set_key(data: dict, key: str, value, source="--set") -> None:
-    """Set the dotted ``key`` (``"gravity"`` or ``"section.key"``) of the preset dict
-    ``data`` to ``value`` in place (a tuple as a list, as TOML gives vectors), as
-    ``--set`` and a bank's axes set it; the section's table is copied first, so a dict
-    that shares it with another is not changed through it."""
+    """Set the dotted ``key`` of the preset dict ``data`` to ``value`` (a tuple as a list)
+    in place, as ``--set`` and a bank's axes do; the section's table is copied, not shared."""
     value = list(value) if isinstance(value, tuple) else value
     parts = key.split(".")
     if len(parts) == 1:
@@ -239,9 +232,8 @@ def _material(value, where):
 
 
 def _damping(damping, where: str):
-    """The damping law of a material's ``damping`` key: a built-in material's law as it
-    is, ``{eta=...}`` a :class:`LossFactor`, ``{alpha=..., beta=...}`` a
-    :class:`Rayleigh`; None when not given."""
+    """The damping law of ``damping``: a law as it is, ``{eta}`` a :class:`LossFactor`,
+    ``{alpha, beta}`` a :class:`Rayleigh`, or None."""
     if damping is None or isinstance(damping, LossFactor | Rayleigh):
         return damping
     law = None
@@ -260,7 +252,6 @@ def _damping(damping, where: str):
 
 
 def _require(section: dict, keys, where: str) -> None:
-    """Name the first of ``keys`` missing from ``section`` (a ``PresetError``)."""
     for k in keys:
         if k not in section:
             raise PresetError(f"{where}.{k} is missing (required keys: {', '.join(keys)})")
@@ -315,7 +306,6 @@ def _scene_from_dict(data, source):
 
 
 def _check_keys(section: str, table: dict, allowed, source: str) -> None:
-    """Refuse a key of ``[section]`` not in ``allowed``, naming the nearest allowed one."""
     for k in table:
         if k not in allowed:
             raise PresetError(
@@ -326,8 +316,7 @@ def _check_keys(section: str, table: dict, allowed, source: str) -> None:
 
 
 def _check_sections(data: dict, source: str) -> None:
-    """Refuse an unknown section, top-level key or key of a section, and a missing
-    ``[ball]``, ``[plate]`` or ``[drop]``."""
+    """Refuse an unknown section or key, and a missing ``[ball]``, ``[plate]`` or ``[drop]``."""
     for key, value in data.items():
         if key in SECTIONS:
             if not isinstance(value, dict):
@@ -345,7 +334,6 @@ def _check_sections(data: dict, source: str) -> None:
 
 
 def _bodies(data: dict, source: str):
-    """The ball and the plate of ``[ball]`` and ``[plate]``."""
     b = dict(data["ball"])
     p = dict(data["plate"])
     if "material" not in b or "material" not in p:
@@ -363,8 +351,7 @@ def _bodies(data: dict, source: str):
 
 
 def _drop(drop: dict, source: str):
-    """``(height, position, velocity)`` of ``[drop]``: m, m from a corner (or None), m/s
-    (or None)."""
+    """``(height, position, velocity)`` of ``[drop]``: m, m from a corner, m/s."""
     if "height" not in drop:
         raise PresetError(f"{source}: drop.height is required (metres)")
     position = drop.get("position")
@@ -381,7 +368,6 @@ def _drop(drop: dict, source: str):
 
 
 def _listener(section: dict, source: str):
-    """The microphone or accelerometer of ``[listener]``."""
     kind = section.get("type", DEFAULT_LISTENER)
     if kind not in ("microphone", "accelerometer"):
         raise PresetError(
@@ -396,8 +382,8 @@ def _listener(section: dict, source: str):
 
 
 def _ball_class(section: dict, source: str):
-    """The ball's class named by ``section["kind"]`` (:data:`BALL_KINDS`; removed from
-    ``section``), or ``PresetError``; the hollow ball's keys refused on a solid one."""
+    """The ball's class named by ``section["kind"]`` (popped); a hollow ball's keys are
+    refused on a solid one."""
     kind = section.pop("kind", "solid")
     if kind not in BALL_KINDS:
         raise PresetError(
@@ -417,8 +403,7 @@ def _is_hollow(data: dict) -> bool:
 
 
 def _contact_section(data: dict) -> dict:
-    """The ``[contact]`` section with a hollow ball's law, "shell", where it names none (a
-    hollow ball has that law only, :class:`~synth.physics.scene.Scene`)."""
+    """The ``[contact]`` section, with "shell" the law of a hollow ball (its only one)."""
     section = dict(data["contact"])
     if _is_hollow(data):
         section.setdefault("law", "shell")
@@ -426,9 +411,7 @@ def _contact_section(data: dict) -> dict:
 
 
 def _render_section(section: dict, source: str) -> dict:
-    """The ``[render]`` section, checked: its keys are fields of
-    :class:`~synth.sound.options.RenderOptions` and ``subtype`` (a soundfile subtype name
-    such as "PCM_24" or "FLOAT")."""
+    """The ``[render]`` section checked: render options and a soundfile ``subtype``."""
     from synth.sound.options import OPTIONS
 
     _check_keys("render", section, OPTIONS + ("subtype",), source)
@@ -450,9 +433,8 @@ def _render_section(section: dict, source: str) -> dict:
 
 
 def render_options_of(section: dict):
-    """The :class:`~synth.sound.options.RenderOptions` of a ``[render]`` section (the rate
-    :data:`PRESET_SAMPLERATE` if it names none); its ``subtype`` is the file's, not a
-    render option."""
+    """The :class:`~synth.sound.options.RenderOptions` of a ``[render]`` section (default
+    rate :data:`PRESET_SAMPLERATE`; ``subtype`` is the file's, left out)."""
     from synth.sound.options import RenderOptions
 
     section = {"samplerate": PRESET_SAMPLERATE, **section}
@@ -460,8 +442,7 @@ def render_options_of(section: dict):
 
 
 def _fixed_defaults(cls) -> dict:
-    """The fields of the dataclass ``cls`` whose default is a fixed value (not None: a
-    None default is derived from other keys, as a ball's mass from its radius)."""
+    """The fields of ``cls`` with a fixed default (None is derived from other keys)."""
     return {
         f.name: f.default
         for f in dataclasses.fields(cls)
@@ -470,12 +451,9 @@ def _fixed_defaults(cls) -> dict:
 
 
 def with_defaults(data: dict, *, varied=()) -> dict:
-    """The preset dict ``data`` with every fixed default spelled out (``gravity``, the fixed
-    defaults of ``[ball]``, ``[plate]``, ``[contact]`` and its model's keys,
-    ``listener.type``, every ``[render]`` option but ``subtype``), so two dicts of one scene
-    compare equal. Defaults derived from other keys, or from a key of ``varied`` (a bank's
-    axes), are left out so setting those keys later still moves them. ``data`` must be a
-    valid preset."""
+    """The valid preset dict ``data`` with every fixed default spelled out, so two dicts of
+    one scene compare equal; defaults derived from other keys or from a key of ``varied``
+    (a bank's axes) are left out, so setting those keys later still moves them."""
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
     out.setdefault("gravity", Scene.__dataclass_fields__["gravity"].default)
     hollow = _is_hollow(data)
@@ -500,10 +478,9 @@ def with_defaults(data: dict, *, varied=()) -> dict:
 
 
 def canonical(data: dict, *, varied=()) -> dict:
-    """The canonical form of the preset dict ``data`` whose dotted keys ``varied`` are
-    set later (a bank's axes), in which two presets that give the same sounds are
-    equal: :func:`with_defaults`, without the description and without the values of
-    the ``varied`` keys (replaced by each row's). ``data`` must be a valid preset."""
+    """The form of the valid preset ``data`` in which two presets of the same sounds are
+    equal: :func:`with_defaults` without the description and the ``varied`` keys (a
+    bank's axes, set by each row)."""
     out = with_defaults(data, varied=varied)
     out.pop("description", None)
     for key in varied:
@@ -521,22 +498,14 @@ def load_preset_with_options(name_or_path, overrides=()) -> tuple[Scene, dict, d
 
 
 def load_preset(name_or_path, overrides=()) -> Scene:
-    """The :class:`Scene` of a preset, given by file path or by name (``"default"``).
-
-    ``overrides`` are ``"section.key=value"`` strings applied before validation. The
-    ``[render]`` section is checked too; its options are used by :func:`render_preset`
-    and ``synth render``.
-    """
+    """The :class:`Scene` of a preset (a file or a name such as ``"default"``), with
+    ``"section.key=value"`` ``overrides``; its ``[render]`` section is checked too."""
     return load_preset_with_options(name_or_path, overrides)[0]
 
 
 def render_preset(name_or_path, *, overrides=(), **options) -> Render:
-    """Render a preset with the options of its ``[render]`` section, which ``options``
-    (keywords of :func:`synth.render`, ``samplerate`` in Hz ...) override.
-
-    Returns the :class:`synth.sound.render.Render`. The section's ``subtype`` (the output
-    file's) is not a render option and is left out here.
-    """
+    """Render a preset with its ``[render]`` options, overridden by ``options`` (keywords
+    of :func:`synth.render`, ``samplerate`` in Hz ...)."""
     from synth.sound.render import render
 
     scene, section, _ = load_preset_with_options(name_or_path, overrides)

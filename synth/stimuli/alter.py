@@ -2,11 +2,10 @@
 
 Every restitution is changed by ``1 - e'_n = k (1 - e_n)``, the new bounce times
 ``T'_n = e'_n T'_(n-1)``. Each tick's own sound (what an all-pole continuation of the
-recording from just before it does not explain) is re-laid at its new onset; lengthened
-bounces are filled with the decaying continuation plus the recording's background noise.
-The method, constants and limits: docs/analysis.md, "Altering a recording". The prediction
-models are in :mod:`synth.stimuli.prediction`, a channel's splicing in
-:mod:`synth.stimuli.splice`.
+recording from just before it does not explain, :mod:`synth.stimuli.prediction`) is
+re-laid at its new onset (:mod:`synth.stimuli.splice`); lengthened bounces are filled with
+the decaying continuation and the recording's background noise (docs/analysis.md,
+"Altering a recording").
 """
 
 from __future__ import annotations
@@ -28,13 +27,11 @@ from synth.stimuli.splice import SplicedChannel, TickLayout
 GUARD = 0.0005
 LEAD = 0.0001
 
-
 #: Samples after an onset left out of the fits (under the contact), s; at most half the
 #: bounce. The analysis' default ``min_separation``, which must exceed the contact time.
 EXCITATION = 0.001
 #: The last FADE s of the output are faded out.
 FADE = 0.005
-
 
 #: Output levels.
 NORMALIZE_MODES = ("none", "peak")
@@ -124,11 +121,8 @@ class AlterOptions:
         if not isinstance(self.scale_amplitude, (bool, np.bool_)):
             raise ParameterError(f"scale_amplitude={self.scale_amplitude!r} must be True or False")
         seed = self.seed
-        if (
-            isinstance(seed, (bool, np.bool_))
-            or not isinstance(seed, (int, np.integer))
-            or seed < 0
-        ):
+        integer = isinstance(seed, (int, np.integer)) and not isinstance(seed, (bool, np.bool_))
+        if not integer or seed < 0:
             raise ParameterError(f"seed={seed!r} must be an integer >= 0")
 
 
@@ -159,36 +153,13 @@ def alter_restitution(
     """Change the restitution of a recorded bouncing sound by ``1 - e' = k (1 - e)``
     (module docstring).
 
-    Parameters
-    ----------
-    audio : ndarray, (frames,) or (frames, channels)
-        The recording (any units; the output is in the same units).
-    samplerate : float > 0
-        Hz.
-    restitution_scale : float >= 0
-        ``k``, dimensionless.
-    onsets : array of float, optional
-        Tick onsets, s, at least 3, increasing, at least 2 samples apart, of one bounce
-        series (every bounce time shorter than the one before: ``e_n < 1``); default:
-        detected by :func:`synth.analysis.analyze`.
-    gravity : float > 0
-        m/s^2, for the detection (impact speeds), when ``onsets`` is None.
-    channel : int or None
-        Detect the ticks on this channel (None: their mean); every channel is altered.
-    options : AlterOptions, optional
-        How the ticks are re-laid and the output's level; ``overrides`` (its fields by
-        name: ``scale_amplitude``, ``min_bounce``, ``normalize``, ``peak_db``, ``seed``)
-        change them.
-
-    Returns
-    -------
-    Alteration
-
-    Raises
-    ------
-    ParameterError
-        Bad input, onsets that are not one bounce series (a bounce time that grows: a
-        missed tick or several drops), or an alteration that leaves fewer than 3 ticks.
+    ``audio`` (frames,) or (frames, channels), any units (kept), at ``samplerate`` Hz;
+    ``restitution_scale`` ``k >= 0``; ``onsets`` (s): at least 3 ticks of one bounce series,
+    at least 2 samples apart (default: detected by :func:`synth.analysis.analyze` with
+    ``gravity``, m/s^2, on ``channel``, None: the mean; every channel is altered);
+    ``options`` (:class:`AlterOptions`) and ``overrides`` of its fields by name. Raises
+    ``ParameterError`` for bad input, onsets that are not one series (a bounce time that
+    grows) or an alteration that leaves fewer than 3 ticks.
     """
     o = dataclasses.replace(options or AlterOptions(), **overrides)
     x, fs, k = _checked_arguments(audio, samplerate, restitution_scale)
@@ -232,8 +203,8 @@ def _checked_arguments(audio, samplerate, restitution_scale):
 
 
 def _checked_onsets(x, fs, onsets, gravity, channel, frames):
-    """The tick onsets, s (given, or detected by :func:`synth.analysis.analyze` on ``x``),
-    checked to be one bounce series inside the audio's ``frames`` samples."""
+    """The tick onsets, s (given, or detected by :func:`synth.analysis.analyze`), checked
+    to be one bounce series inside the audio."""
     if onsets is None:
         from synth.analysis import analyze
 
@@ -251,8 +222,7 @@ def _checked_onsets(x, fs, onsets, gravity, channel, frames):
 
 
 def _checked_min_bounce(min_bounce, t, fs) -> float:
-    """The shortest new bounce time, s: ``min_bounce`` checked, or the recording's
-    shortest bounce."""
+    """``min_bounce`` checked (s), or the recording's shortest bounce."""
     if min_bounce is None:
         return float(np.min(np.diff(t)))
     min_b = float(min_bounce)  # positive: checked by AlterOptions
@@ -265,9 +235,8 @@ def _checked_min_bounce(min_bounce, t, fs) -> float:
 
 
 def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:
-    """The places of the ticks at onsets ``t`` (s), laid anew at ``t_new`` with their
-    ``gain`` (:class:`~synth.stimuli.splice.TickLayout`); ``T``: the recorded bounces, s;
-    ``min_b``: the shortest new bounce, s."""
+    """The ticks at onsets ``t`` (s) laid anew at ``t_new`` with their ``gain``; ``T``:
+    the recorded bounces, ``min_b``: the shortest new bounce, s."""
     M = gain.size
     guard = min(GUARD, 0.5 * min_b, 0.5 * float(np.min(T)))
     lead = min(LEAD, guard)
@@ -287,14 +256,14 @@ def _layout(fs, t, t_new, T, gain, min_b) -> TickLayout:
 
 def _under_contacts(start, onsets, fs) -> list[tuple[int, int]]:
     """The samples under each contact, left out of the fits: from ``start`` to EXCITATION
-    after the onset (``onsets`` in samples), at most half the bounce."""
+    after the onset (samples), at most half the bounce."""
     reach = np.minimum(EXCITATION * fs, 0.5 * np.r_[np.diff(onsets), np.inf])
     return [(int(c), int(math.ceil(o + r))) for c, o, r in zip(start, onsets, reach)]
 
 
 def _joined(parts, X, fs):
-    """The spliced channels as one array, ending together and faded out over FADE s; a copy
-    of ``X`` when nothing changed (``k = 1``)."""
+    """The spliced channels, ending together, faded out over FADE s (``X`` copied when
+    nothing changed, ``k = 1``)."""
     if all(part.unchanged for part in parts):
         return X.copy()  # nothing changed (k = 1)
     n_out = max(part.end for part in parts)  # the channels end together

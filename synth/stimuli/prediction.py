@@ -28,9 +28,6 @@ NOISE_ORDER = 0.001
 SMOOTHING = 0.001
 
 
-# --------------------------------------------------------------------------- prediction
-
-
 @compiled(sums=True)
 def _cholesky_solve(A, b):  # pragma: no cover - compiled
     """Solve ``A x = b`` for symmetric positive definite ``A`` (Cholesky, ``A = L L^T``,
@@ -152,9 +149,6 @@ def fit_model(z, end, fs, excluded=(), context=CONTEXT, order=ORDER):
     if not phi[0, 0] > 0.0:
         return None, False
     return _stable_fit(phi, fs), clean
-
-
-# --------------------------------------------------------------------------- noise floor
 
 
 class NoiseModel:

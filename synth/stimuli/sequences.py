@@ -20,14 +20,8 @@ from synth.physics.scene import Scene
 @dataclass(frozen=True)
 class RestitutionScaling:
     """The rebound rule ``1 - e' = k (1 - e)`` of the thesis (section 5.2.2) for
-    :func:`synth.physics.bounces.simulate_bounces`: ``k = 1`` is physical, ``k < 1``
-    bouncier, ``k > 1`` deader; where ``e' <= 0`` the ball stays on the plate.
-
-    Attributes
-    ----------
-    scale : float >= 0
-        ``k``, dimensionless.
-    """
+    :func:`synth.physics.bounces.simulate_bounces`: ``scale`` ``k >= 0`` (dimensionless),
+    1 physical, < 1 bouncier, > 1 deader; where ``e' <= 0`` the ball stays on the plate."""
 
     scale: float
 
@@ -48,11 +42,8 @@ def _rebound_rule(restitution_scale: float) -> RestitutionScaling | None:
 
 
 def scaled_sequence(scene: Scene, restitution_scale: float, **options) -> BounceSequence:
-    """The bounce sequence of ``scene`` with ``1 - e' = k (1 - e)`` for every tick.
-
-    ``restitution_scale`` is ``k >= 0`` (dimensionless, see
-    :class:`RestitutionScaling`); ``options`` as in :func:`synth.simulate_bounces`.
-    """
+    """The bounce sequence of ``scene`` with ``1 - e' = k (1 - e)`` for every tick
+    (:class:`RestitutionScaling`); ``options`` as in :func:`synth.simulate_bounces`."""
     return simulate_scene(scene, rebound=_rebound_rule(restitution_scale), **options)
 
 

@@ -1,10 +1,6 @@
-"""Atomic file writing: a file is either left as it was or replaced by a complete one.
-
-The content is written to a temporary sibling (same directory, so the rename stays on
-one file system), flushed to disk with ``fsync`` and renamed onto the target with
-``os.replace``, which POSIX and Windows make atomic. A reader therefore never sees a
-partial file, and a crash or an exception during the write leaves the target
-untouched. The temporary file gets the usual permissions (``0o666`` less the umask).
+"""Atomic file writing: content written to a temporary sibling (one file system), fsynced
+and renamed onto the target (``os.replace``, atomic on POSIX and Windows), so a reader
+never sees a partial file and a failure leaves the target untouched.
 """
 
 from __future__ import annotations
@@ -25,11 +21,8 @@ __all__ = [
     "write_once",
 ]
 
-
-#: Prefix of the engine's temporary files: ``.synth-<pid>-<hex>.part<suffix>``. The name
-#: does not grow with the target's (a 255-byte output name still has a temporary name),
-#: and it carries the writer's process id, so that a temporary left by a killed process
-#: is recognised and removed (:func:`remove_stale_temporaries`).
+#: Prefix of the engine's temporaries, ``.synth-<pid>-<hex>.part<suffix>``: the name does
+#: not grow with the target's, and the writer's pid lets a dead writer's be removed.
 TEMPORARY_PREFIX = ".synth-"
 
 
@@ -49,9 +42,8 @@ def _process_alive(pid: int) -> bool:
 
 
 def remove_stale_temporaries(folder) -> list[Path]:
-    """Remove the temporaries (:func:`temporary_name`) in ``folder`` whose writer process
-    no longer runs (it was killed mid-write); return the paths removed. A live process's
-    temporaries, and every other file, are left alone."""
+    """Remove the temporaries in ``folder`` whose writer process no longer runs; the paths
+    removed."""
     removed = []
     try:
         entries = list(Path(folder).glob(f"{TEMPORARY_PREFIX}*.part*"))
@@ -76,12 +68,9 @@ def temporary_sibling(
     field: str = "path",
     suffix: str | None = None,
 ) -> Iterator[Path]:
-    """Create (exclusively) an empty hidden file beside ``path`` and yield its path; on leaving,
-    remove it unless it was renamed away, on every way out (the name carries this process's id
-    and a random part, :func:`temporary_name`). It keeps ``path``'s suffix (or ``suffix``) for
-    writers that choose the format by suffix; stale temporaries of killed writers there are
-    removed first. ``error``, naming ``field`` and ``path``, is raised when no file can be
-    created there."""
+    """Create (exclusively) an empty temporary beside ``path`` with its suffix (or
+    ``suffix``: writers choose the format by it) and yield it; it is removed on every way
+    out unless renamed away. ``error``, naming ``field``, when no file can be created."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(folder)
@@ -122,14 +111,9 @@ def _fsync(path: Path) -> None:
 def write_atomically(
     path: str | os.PathLike, write: Callable[[Path], None], *, error: type[Exception] = OSError
 ) -> Path:
-    """Call ``write(tmp)`` on a temporary sibling of ``path``, then move it onto ``path``.
-
-    ``write`` receives the temporary file's path (it exists, empty) and must write the
-    whole content there. On any failure (an exception, or a signal's at any point) the
-    temporary file is removed and the exception re-raised. ``error`` is the exception
-    class for a temporary file that cannot be created. Returns ``path`` as a
-    :class:`~pathlib.Path`.
-    """
+    """Call ``write(tmp)`` on a temporary sibling of ``path`` (existing, empty), then move it
+    onto ``path``; on any failure the temporary is removed and the error raised again
+    (``error`` when no temporary can be created)."""
     path = Path(path)
     with temporary_sibling(path, error) as tmp:
         write(tmp)
@@ -139,12 +123,10 @@ def write_atomically(
 
 
 def write_once(path: str | os.PathLike, data: bytes) -> bool:
-    """Publish ``data`` as ``path`` unless ``path`` exists: written whole to a temporary
-    sibling, fsynced, then hard-linked onto ``path`` (``os.link`` fails when the target
-    exists, atomically, so of several writers racing for one name exactly one wins and
-    the file is never rewritten). Returns True if this call wrote the file, False if it
-    was there already. Where hard links are not supported, ``os.replace`` is used when no
-    file is there (a check and a rename: atomic for the reader, racy between writers)."""
+    """Publish ``data`` as ``path`` unless it exists; True if this call wrote it. The
+    temporary is hard-linked onto ``path`` (``os.link`` fails atomically when the target
+    exists: of racing writers exactly one wins); without hard links, a check and
+    ``os.replace`` (atomic for the reader, racy between writers)."""
     path = Path(path)
     with temporary_sibling(path) as tmp:
         tmp.write_bytes(data)
@@ -163,8 +145,7 @@ def write_once(path: str | os.PathLike, data: bytes) -> bool:
 def write_json_atomically(
     path: str | os.PathLike, obj, *, error: type[Exception] = OSError
 ) -> Path:
-    """Write ``obj`` as JSON (numbers that are not JSON types as floats) plus a newline,
-    atomically (see :func:`write_atomically`)."""
+    """Write ``obj`` as JSON (other numbers as floats) atomically."""
 
     def write(tmp: Path) -> None:
         with open(tmp, "w", encoding="utf-8") as fh:

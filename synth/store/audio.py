@@ -1,11 +1,6 @@
-"""The output stage: levels, fades and audio files (WAV, FLAC) via soundfile.
-
-Audio arrays are ``(frames,)`` or ``(frames, channels)`` floats; ``samplerate`` is always
-explicit, Hz. :func:`normalize` maps the physical signal (Pa or m/s^2) to full scale by
-"peak", "loudness" (ITU-R BS.1770, optional ``pyloudnorm``), "physical" (one fixed
-calibration, :data:`PHYSICAL_FULL_SCALE`, keeping true level relations) or "none".
-:func:`write_audio` writes a temporary file and renames it into place, and refuses to let
-a PCM subtype clip.
+"""The output stage: levels (:func:`normalize`: "peak", "loudness" by ITU-R BS.1770,
+"physical" by one fixed calibration, or "none"), fades and audio files (WAV, FLAC) written
+atomically, with a PCM subtype never allowed to clip.
 """
 
 from __future__ import annotations
@@ -54,17 +49,12 @@ LOUDNESS_MAX_CHANNELS = 5
 
 
 class AudioFileError(ParameterError):
-    """An audio file that cannot be read or written: missing, corrupt, unsupported
-    format, or a directory that does not exist. The message names the path."""
-
-
-# --------------------------------------------------------------------------- checks
+    """An audio file that cannot be read or written; the message names the path."""
 
 
 #: Highest sample rate of a written file, Hz (libsndfile stores the rate as a 32-bit int;
 #: the engine renders at most 384 kHz, and no converter exceeds 768 kHz).
 MAX_FILE_SAMPLERATE = 768_000
-
 
 #: Quantisation step of the integer subtypes, in units of full scale.
 PCM_STEP = {
@@ -77,9 +67,8 @@ PCM_STEP = {
 
 
 def _system_reason(path: Path, reason: str, nbytes: int = 0, reading: bool = False) -> str:
-    """libsndfile's bare "System error" made specific: the operating system's own reason
-    (permission denied, no space left on device, ...), found by doing the same access
-    with Python."""
+    """libsndfile's bare "System error" made specific: the system's own reason, found by
+    doing the same access with Python."""
     if "system error" not in reason.lower():
         return reason
     import shutil
@@ -113,47 +102,15 @@ def _file_size_limit() -> int | None:
     return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
-def _check_units(units) -> str:
-    return checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
-
-
 def _peak(a: np.ndarray) -> float:
     return float(np.max(np.abs(a)))
 
 
-def output_path(path, kinds: dict, what: str, error=None) -> tuple[Path, str]:
-    """Validate an output path: a known suffix and an existing directory.
-
-    ``kinds`` maps lower-case suffixes to format names; ``error`` is the exception
-    class for a missing directory (default :class:`AudioFileError`).
-    """
-    error = AudioFileError if error is None else error
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
-    p = Path(path)
-    suffix = p.suffix.lower()
-    if suffix not in kinds:
-        raise ParameterError(
-            f"path={str(p)!r}: suffix {p.suffix!r} is not a {what} format; use one of "
-            f"{', '.join(map(repr, kinds))}"
-        )
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise error(
-            f"path={str(p)!r}: directory {str(parent)!r} does not exist (it is not "
-            f"created automatically)"
-        )
-    if p.is_dir():
-        raise error(f"path={str(p)!r} is a directory, not a file")
-    return p, kinds[suffix]
-
-
 def check_output_path(path, field: str = "path", suffixes=None) -> Path:
-    """Check, before any work, that a file can be written at ``path``: its suffix is one
-    of ``suffixes`` (if given, e.g. :data:`FORMATS`), it is not a directory, its folder
-    exists and a file can be created there (tried: this catches a read-only folder or
-    file system). Stale temporaries there are removed. Returns the path; raises
-    :class:`AudioFileError` (or ``ParameterError`` for the suffix) naming ``field``."""
+    """Check before any work that a file can be written at ``path``: a suffix of
+    ``suffixes`` (if given), not a directory, in an existing folder where a file can be
+    created (tried: a read-only file system is caught). Raises :class:`AudioFileError`
+    (``ParameterError`` for the suffix) naming ``field``."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"{field}={path!r} must be a file path (str or os.PathLike)")
     p = Path(path)
@@ -175,37 +132,28 @@ def check_output_path(path, field: str = "path", suffixes=None) -> Path:
     return p
 
 
-# --------------------------------------------------------------------------- files
-
-
 def write_audio(
     path: str | os.PathLike, audio: np.ndarray, samplerate: int, subtype: str | None = None
 ) -> Path:
-    """Write audio to a WAV or FLAC file, chosen by the file suffix, through a temporary
-    file renamed onto ``path`` (a failure leaves no partial file and ``path`` untouched).
+    """Write audio to a WAV or FLAC file (by the suffix) through a temporary renamed onto
+    ``path``: a failure leaves no partial file and ``path`` untouched.
 
     Parameters
     ----------
     path : str or os.PathLike
-        Output file; its suffix (``.wav`` or ``.flac``, any case) sets the format.
-        Its directory must exist.
+        ``.wav`` or ``.flac`` (any case), in an existing directory.
     audio : ndarray of float, shape (frames,) or (frames, channels)
         Samples in units of digital full scale (1.0 = 0 dBFS), finite, not empty.
     samplerate : int > 0
         Sample rate, Hz.
     subtype : str, optional
-        A soundfile subtype the format supports (``soundfile.available_subtypes``):
-        e.g. ``"PCM_16"``, ``"PCM_24"``, ``"FLOAT"`` (WAV only). Default
-        ``"PCM_24"`` for WAV and FLAC alike. Any subtype but ``"FLOAT"`` and
-        ``"DOUBLE"`` stores integers: samples beyond +-1.0 would clip, so they are
-        refused (``ParameterError``) rather than clipped.
+        A soundfile subtype of the format (default ``"PCM_24"``); any but ``"FLOAT"`` and
+        ``"DOUBLE"`` stores integers, so samples beyond +-1.0 are refused, never clipped.
 
-    Returns
-    -------
-    pathlib.Path
-        The path written.
+    Returns the path written (:class:`pathlib.Path`).
     """
-    p, fmt = output_path(path, FORMATS, "sound file")
+    p = check_output_path(path, "path", FORMATS)
+    fmt = FORMATS[p.suffix.lower()]
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
     if sr > MAX_FILE_SAMPLERATE:
@@ -258,17 +206,13 @@ def write_audio(
 
 
 class TruncatedAudioWarning(UserWarning):
-    """A sound file holds fewer samples than its header declares (a cut-off copy or an
-    interrupted write): what is read is only the part that is there."""
+    """A sound file holds fewer samples than its header declares: only those were read."""
 
 
 def wav_shortfall(path: str | os.PathLike) -> str | None:
-    """Why a RIFF/WAVE file's ``data`` chunk is shorter than its header says, or None.
-
-    The header's ``data`` size (bytes) over the ``fmt`` block alignment gives the frames
-    declared; soundfile reads only the frames the file holds, without a word, so a
-    truncated file would pass for a shorter recording. Files that are not RIFF/WAVE, and
-    headers that leave the size open (0 or 0xFFFFFFFF, as streaming writers do), give None.
+    """Why a RIFF/WAVE file's ``data`` chunk is shorter than its header says, or None
+    (soundfile reads the frames there without a word). Not RIFF/WAVE, or a size left open
+    (0 or 0xFFFFFFFF, as streaming writers do): None.
     """
     try:
         with open(path, "rb") as f:
@@ -305,37 +249,10 @@ def wav_shortfall(path: str | os.PathLike) -> str | None:
 def read_audio(
     path: str | os.PathLike, *, channel: int | str | None = None
 ) -> tuple[np.ndarray, int]:
-    """Read an audio file (WAV, FLAC or any format soundfile reads).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file.
-    channel : None, int or "mix"
-        ``None`` keeps every channel (shape ``(frames,)`` for a mono file,
-        ``(frames, channels)`` otherwise); an int ``0 <= channel < channels``
-        returns that channel, shape ``(frames,)``; ``"mix"`` returns the mean of
-        the channels, shape ``(frames,)``.
-
-    Returns
-    -------
-    audio : ndarray of float64
-        Samples in units of full scale (as stored for float files).
-    samplerate : int
-        Sample rate, Hz.
-
-    Warns
-    -----
-    TruncatedAudioWarning
-        A WAV file holds fewer frames than its header declares (:func:`wav_shortfall`).
-
-    Raises
-    ------
-    AudioFileError
-        The file is missing, not a file, corrupt or in a format soundfile cannot read.
-    ParameterError
-        ``channel`` is not None, "mix" or a channel index of the file.
-    """
+    """Read an audio file (any format soundfile reads): samples (float64, full scale) and
+    the sample rate, Hz. ``channel``: None keeps every channel (``(frames,)`` for mono), an
+    index that channel, ``"mix"`` their mean. A missing, corrupt or unreadable file is an
+    :class:`AudioFileError`; a truncated WAV warns (:class:`TruncatedAudioWarning`)."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path={path!r} must be a file path (str or os.PathLike)")
     if not (
@@ -380,9 +297,6 @@ def read_audio(
     return np.ascontiguousarray(out), int(sr)
 
 
-# --------------------------------------------------------------------------- levels
-
-
 def normalize(
     audio: np.ndarray,
     mode: str,
@@ -393,51 +307,21 @@ def normalize(
     loudness_lufs: float = -23.0,
     max_peak: float | None = 1.0,
 ) -> tuple[np.ndarray, float]:
-    """Scale a physical signal to digital full scale.
+    """Scale ``audio`` (``samplerate`` Hz, in ``units``: "Pa" or "m/s^2") to digital full
+    scale: ``(audio * gain, gain)``, gain in full scale per unit, same shape and dtype.
 
-    Parameters
-    ----------
-    audio : ndarray of float, shape (frames,) or (frames, channels)
-        The listener's signal in physical units (``units``), finite, not empty.
-    mode : {"peak", "loudness", "physical", "none"}
-        ``"peak"``: the largest ``|sample|`` becomes ``10^(peak_db/20)`` (sample
-        peak, not true peak). All-zero audio is returned with gain 1.
-        ``"loudness"``: the integrated loudness of ITU-R BS.1770-4 (K-weighted,
-        gated, via the optional ``pyloudnorm``) becomes ``loudness_lufs``. BS.1770
-        needs at least one 400 ms gating block: shorter audio is padded with zeros
-        for the measurement only, so a short tick's loudness is its energy spread
-        over 400 ms. Because the -70 LUFS absolute gate is not scale invariant,
-        the gain is refined by measuring the scaled audio again until it is within
-        0.001 LU of the target. All-zero audio is returned with gain 1.
-        ``"physical"``: gain ``1 / PHYSICAL_FULL_SCALE[units]`` whatever the
-        audio, so different scenes keep their true level relation; samples above
-        full scale are kept as they are (write them with a float subtype).
-        ``"none"``: gain 1, the physical units.
-    samplerate : int > 0
-        Sample rate, Hz.
-    units : {"Pa", "m/s^2"}
-        Units of ``audio``: sound pressure (microphone) or acceleration
-        (accelerometer).
-    peak_db : float <= 0
-        Target sample peak of ``"peak"``, dBFS.
-    loudness_lufs : float <= 0
-        Target integrated loudness of ``"loudness"``, LUFS (EBU R128: -23).
-    max_peak : float > 0 or None
-        Largest ``|sample|`` allowed after ``"loudness"`` scaling, full scale
-        units; beyond it a ``ParameterError`` is raised (the audio is never
-        clipped). ``None`` lifts the limit, for float output files.
-
-    Returns
-    -------
-    scaled : ndarray
-        ``audio * gain``, same shape and float dtype as ``audio``.
-    gain : float
-        Full-scale units per physical unit (per Pa or per m/s^2).
+    ``mode``: "peak" puts the sample peak at ``peak_db`` dBFS; "loudness" the integrated
+    loudness of ITU-R BS.1770-4 (optional ``pyloudnorm``; a sound shorter than one 400 ms
+    gating block is zero-padded for the measurement; the -70 LUFS gate is not scale
+    invariant, so the gain is refined to 0.001 LU) at ``loudness_lufs`` LUFS, refused if
+    the sample peak then passes ``max_peak`` (None: no limit, for float files); "physical"
+    divides by :data:`PHYSICAL_FULL_SCALE` whatever the audio, so scenes keep their true
+    level relation; "none" keeps the units. All-zero audio keeps gain 1.
     """
     mode = checks.choice("mode", mode, NORMALIZE_MODES)
     a = checks.audio_array("audio", audio)
     sr = checks.samplerate(samplerate)
-    u = _check_units(units)
+    u = checks.choice("units", units, tuple(PHYSICAL_FULL_SCALE))
     target_peak_db = checks.real("peak_db", peak_db, "dBFS")
     if target_peak_db > 0.0:
         raise ParameterError(f"peak_db={peak_db!r} must be <= 0 (dBFS)")
@@ -519,15 +403,13 @@ def _loudness_gain(x: np.ndarray, sr: int, target: float) -> float:
 
 
 def fade_out_window(frames: int) -> np.ndarray:
-    """The raised-cosine fade-out ``w[k] = (1 + cos(pi (k + 1) / frames)) / 2``,
-    ``k = 0 .. frames-1``: the falling half of a Hann window, continuing smoothly from
-    1 on the frame before it to exactly 0 on its last frame."""
+    """The falling half of a Hann window, ``w[k] = (1 + cos(pi (k + 1) / frames)) / 2``:
+    from 1 on the frame before it to exactly 0 on its last frame."""
     return 0.5 * (1.0 + np.cos(np.linspace(0.0, np.pi, frames + 1)[1:]))
 
 
 def apply_fade_out(audio: np.ndarray, frames: int) -> None:
-    """Multiply the last ``frames`` frames of ``audio`` (axis 0) by
-    :func:`fade_out_window`, in place. 0 frames: nothing changes."""
+    """Multiply the last ``frames`` frames of ``audio`` (axis 0) by :func:`fade_out_window`."""
     if frames <= 0:
         return
     w = fade_out_window(frames)

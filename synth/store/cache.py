@@ -1,14 +1,10 @@
 """Caches of expensive results (plate modes, radiation gains): in memory and on disk.
 
-:class:`MemoryCache` holds results under a key (canonical JSON of everything that
-determines them), least recently used dropped first; thread-safe. On disk, ``.npz`` files
-in :func:`cache_dir` named by the key's digest, shared by every process of the machine:
-written atomically (:func:`savez_atomic`), each with the SHA-256 of its arrays checked by
-:func:`load_npz` (a damaged file is recomputed), the total bounded by :func:`max_bytes`
-(``$SYNTH_CACHE_MAX_BYTES``), evicting by modification time; a process rescans the
-directory only past the bound or after :data:`RESCAN_SECONDS`, so a write costs the same
-in any cache. :func:`disk_info` and :func:`clear_disk` are ``synth cache info`` and
-``synth cache clear``.
+:class:`MemoryCache`: results under a key (canonical JSON of everything that determines
+them), least recently used dropped first; thread-safe. On disk: ``.npz`` files in
+:func:`cache_dir` named by the key's digest, shared by every process, written atomically
+with the SHA-256 of their arrays (a damaged file is recomputed), their total bounded by
+:func:`max_bytes`, evicting by modification time.
 """
 
 from __future__ import annotations
@@ -44,11 +40,8 @@ RESCAN_SECONDS = 30.0
 
 
 def cache_dir() -> Path:
-    """Directory of the disk cache: ``$SYNTH_CACHE_DIR`` if set, else the platform's
-    user cache directory (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux,
-    ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%`` on Windows) + ``synth``. Raises
-    ``ParameterError`` for a ``$SYNTH_CACHE_DIR`` that is a file, as ``synth cache info``
-    does: never a silent "off"."""
+    """``$SYNTH_CACHE_DIR`` if set (a file there raises ``ParameterError``), else the
+    platform's user cache directory + ``synth``."""
     env = checks.environment_directory("SYNTH_CACHE_DIR")
     if env is not None:
         return env
@@ -64,20 +57,18 @@ def cache_dir() -> Path:
 
 def check_environment() -> None:
     """Raise ``ParameterError`` for a bad ``$SYNTH_CACHE_DIR`` or ``$SYNTH_CACHE_MAX_BYTES``
-    (before any work: a render would otherwise find it at its first write)."""
+    before any work."""
     checks.environment_directory("SYNTH_CACHE_DIR")
     max_bytes()
 
 
 def max_bytes() -> int:
-    """Bound of the disk cache's total size, bytes: ``$SYNTH_CACHE_MAX_BYTES`` (an
-    integer >= 0; 0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
+    """``$SYNTH_CACHE_MAX_BYTES`` (0 keeps nothing on disk) or :data:`DEFAULT_MAX_BYTES`."""
     return checks.environment_integer("SYNTH_CACHE_MAX_BYTES", DEFAULT_MAX_BYTES, 0, "bytes")
 
 
 def cache_path(prefix: str, key: str) -> Path:
-    """The file of ``key`` in :func:`cache_dir`: ``{prefix}-{digest}.npz``. Raises
-    RuntimeError where there is no home directory."""
+    """The file of ``key`` in :func:`cache_dir`: ``{prefix}-{digest}.npz``."""
     digest = hashlib.sha256(key.encode()).hexdigest()[:24]
     return cache_dir() / f"{prefix}-{digest}.npz"
 
@@ -95,12 +86,9 @@ def arrays_digest(arrays: dict) -> str:
 
 
 def savez_atomic(path: Path, arrays: dict) -> bool:
-    """Write ``arrays`` and their digest to ``path`` (``.npz``): a temporary file of a
-    unique name in the same directory, then an atomic rename, so that a reader never
-    sees a partial file and concurrent writers of one entry all succeed. Then evict the
-    least recently used entries beyond :func:`max_bytes`. Returns False, having written
-    nothing, if the file cannot be written (a cache is then skipped); raises
-    ``ParameterError`` for a bad ``$SYNTH_CACHE_MAX_BYTES``, as ``synth cache info`` does."""
+    """Write ``arrays`` and their digest to ``path`` atomically (concurrent writers of one
+    entry all succeed), then evict beyond :func:`max_bytes`. False, having written nothing,
+    if the file cannot be written (the cache is then skipped)."""
     digest = np.array(arrays_digest(arrays))
     limit = max_bytes()  # a bad $SYNTH_CACHE_MAX_BYTES is the user's error, never a silent "off"
     try:
@@ -113,10 +101,9 @@ def savez_atomic(path: Path, arrays: dict) -> bool:
 
 
 class _SizeCount:
-    """This process's count of the disk cache's total size (bytes): the total found by the
-    last scan of the directory plus the sizes written since. A write within the bound and
-    within :data:`RESCAN_SECONDS` of the scan only adds to it; otherwise the directory is
-    scanned and evicted (:func:`_evict`) and the count restarts from what is left."""
+    """This process's count of the disk cache's total size, bytes: the last scan's total
+    plus the sizes written since; past the bound or :data:`RESCAN_SECONDS` the directory is
+    scanned and evicted again (other processes write too)."""
 
     def __init__(self):
         self._lock = threading.Lock()
@@ -134,7 +121,7 @@ class _SizeCount:
             if self._directory == path.parent and recent and self._total + size <= limit:
                 self._total += size
                 return
-        remaining = _evict(limit, keep=path).remaining
+        remaining = _evict(limit, keep=path)
         with self._lock:
             self._directory, self._total, self._scanned = path.parent, remaining, time.monotonic()
 
@@ -147,8 +134,7 @@ class CacheEntryError(ValueError):
 
 
 class VerifiedArrays(dict):
-    """The arrays of a cache entry whose digest matched: a dict, usable in ``with`` and
-    with ``files`` (the names), as the ``NpzFile`` of ``numpy.load``."""
+    """The arrays of a cache entry whose digest matched, usable as numpy's ``NpzFile``."""
 
     @property
     def files(self) -> list[str]:
@@ -162,11 +148,9 @@ class VerifiedArrays(dict):
 
 
 def load_npz(path: Path) -> VerifiedArrays:
-    """The arrays of the cache entry ``path``, checked against its stored digest, and
-    the entry marked as used (its modification time set to now) for the eviction order.
-
-    Raises OSError (missing, unreadable), ValueError (not an npz file) or
-    :class:`CacheEntryError` (digest missing or wrong): the caller recomputes."""
+    """The arrays of the cache entry ``path``, checked against its digest, and the entry
+    marked as used (mtime now). Raises OSError, ValueError or :class:`CacheEntryError`:
+    the caller recomputes."""
     with np.load(path, allow_pickle=False) as z:
         arrays = {name: z[name] for name in z.files}
     stored = arrays.pop(DIGEST_ARRAY, None)
@@ -181,8 +165,7 @@ def load_npz(path: Path) -> VerifiedArrays:
 
 @dataclass(frozen=True)
 class DiskEntry:
-    """A file of the disk cache: ``path``, ``size`` (bytes) and ``used`` (Unix time of
-    the last write or read, s)."""
+    """A file of the disk cache: ``size`` bytes, ``used`` at (Unix time, s)."""
 
     path: Path
     size: int
@@ -190,8 +173,7 @@ class DiskEntry:
 
 
 def _is_temporary(p: Path) -> bool:
-    """A file being written (or left by a writer that died): ``.name.<hex>.part.npz``
-    (:mod:`synth.store.atomic`), or ``*.tmp`` of earlier versions."""
+    """A file being written, or left by a writer that died (:mod:`synth.store.atomic`)."""
     return p.name.startswith(".") or p.suffix == ".tmp"
 
 
@@ -221,36 +203,26 @@ def _stale_temporaries(directory: Path, now: float) -> list[Path]:
     return out
 
 
-@dataclass(frozen=True)
-class Eviction:
-    """What one :func:`_evict` did: entries ``deleted`` and the bytes ``remaining``."""
-
-    deleted: int
-    remaining: int
-
-
-def _evict(limit: int, *, keep: Path | None = None) -> Eviction:
-    """Delete the least recently used entries of :func:`cache_dir` until their total
-    size is at most ``limit`` bytes (``keep``, the entry just written, goes last), and
-    temporary files left by dead writers. Safe against other processes doing the same."""
+def _evict(limit: int, *, keep: Path | None = None) -> int:
+    """Delete the least recently used entries until their total is at most ``limit``
+    bytes (``keep``, the entry just written, last), and dead writers' temporaries; the
+    bytes remaining."""
     try:
         directory = cache_dir()
         if not directory.is_dir():
-            return Eviction(0, 0)
+            return 0
         for p in _stale_temporaries(directory, time.time()):
             _unlink(p)
         entries = sorted(_entries(directory), key=lambda e: (e.path == keep, e.used))
     except (OSError, RuntimeError):
-        return Eviction(0, 0)
+        return 0
     total = sum(e.size for e in entries)
-    deleted = 0
     for e in entries:
         if total <= limit:
             break
-        if _unlink(e.path):
-            deleted += 1
+        _unlink(e.path)
         total -= e.size
-    return Eviction(deleted, total)
+    return total
 
 
 def _unlink(p: Path) -> bool:
@@ -263,8 +235,8 @@ def _unlink(p: Path) -> bool:
 
 @dataclass(frozen=True)
 class DiskInfo:
-    """The disk cache: ``directory``, ``entries`` (files), ``bytes`` (their total),
-    ``max_bytes`` (the bound), and ``by_kind`` (entries and bytes per file prefix)."""
+    """The disk cache: its ``entries``, their ``bytes``, the bound ``max_bytes`` and
+    ``by_kind`` (entries and bytes per file prefix)."""
 
     directory: Path
     entries: int
@@ -292,8 +264,7 @@ def disk_info() -> DiskInfo:
 
 
 def clear_disk() -> tuple[int, int]:
-    """Delete every entry (and temporary file) of the disk cache (``synth cache clear``).
-    Returns (files deleted, bytes freed)."""
+    """Delete every entry and temporary of the disk cache: (files deleted, bytes freed)."""
     directory = cache_dir()
     if not directory.is_dir():
         return 0, 0
@@ -310,10 +281,9 @@ def clear_disk() -> tuple[int, int]:
 
 
 class MemoryCache:
-    """Results held in memory under their keys, least recently used dropped first beyond
-    ``max_entries`` or ``max_bytes`` (by ``value.nbytes``; the newest is always kept).
-    ``computed`` names the counter of results computed (``"solves"``, ``"computations"``);
-    :meth:`info` gives it, ``memory_hits``, ``disk_hits``, ``disk_writes`` and ``entries``."""
+    """Results held in memory, least recently used dropped beyond ``max_entries`` or
+    ``max_bytes`` (``value.nbytes``; the newest is kept); ``computed`` names the counter
+    of results computed that :meth:`info` gives with the hits and writes."""
 
     def __init__(
         self, computed: str, *, max_entries: int | None = None, max_bytes: int | None = None
@@ -343,8 +313,7 @@ class MemoryCache:
             self._stats[self._computed if name == "computed" else name] += 1
 
     def get(self, key: str, usable=None):
-        """The result held for ``key`` (counted as a memory hit) if there is one and
-        ``usable(result)`` is true (default: always), else None."""
+        """The result held for ``key`` if ``usable(result)`` (counted as a memory hit)."""
         with self._lock:
             value = self._items.get(key)
             if value is None or (usable is not None and not usable(value)):
@@ -354,8 +323,7 @@ class MemoryCache:
             return value
 
     def put(self, key: str, value, *, source: str) -> None:
-        """Hold ``value`` for ``key``, obtained from ``source`` (``"computed"`` or
-        ``"disk"``, counted); then drop the least recently used beyond the limits."""
+        """Hold ``value`` for ``key`` from ``source`` ("computed" or "disk", counted)."""
         with self._lock:
             self._stats[self._computed if source == "computed" else "disk_hits"] += 1
             self._items[key] = value

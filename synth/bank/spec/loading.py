@@ -1,6 +1,5 @@
-"""Reading a spec: the example specs installed with the package, a TOML file or a dict
-checked key by key into a :class:`~synth.bank.spec.model.BankSpec`.
-"""
+"""Reading a spec (an installed example, a TOML file or a dict) checked key by key into a
+:class:`~synth.bank.spec.model.BankSpec`."""
 
 from __future__ import annotations
 
@@ -22,6 +21,8 @@ from synth.bank.spec.model import (
     ListAxis,
     RangeAxis,
     spec_error,
+    spec_integer,
+    spec_number,
 )
 from synth.bank.spec.naming import check_template
 from synth.bank.spec.sampling import MIN_DISTANCE_MAX_ROWS, SAMPLINGS, grid_axis
@@ -53,8 +54,7 @@ def find(path_or_name) -> Path:
 
 
 def load(path) -> BankSpec:
-    """Read and check the spec file ``path`` (TOML), or the installed example of that
-    name (:func:`available`)."""
+    """Read and check the spec file ``path`` (TOML) or the installed example of that name."""
     p = find(path)
     try:
         with open(p, "rb") as fh:
@@ -85,11 +85,9 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
         raise BankSpecError("preset is required: a preset name or a .toml file")
     preset_path, preset_name = _preset(data["preset"], base_dir)
     count = data.get("count")
-    if count is not None and (isinstance(count, bool) or not isinstance(count, int) or count < 1):
-        raise spec_error("count", count, "must be an integer >= 1 (or left out for the full grid)")
-    seed = data.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise spec_error("seed", seed, "must be an integer >= 0")
+    if count is not None:
+        spec_integer("count", count, 1, "must be an integer >= 1 (or left out for the full grid)")
+    seed = spec_integer("seed", data.get("seed", 0), 0, "must be an integer >= 0")
     fmt = data.get("format", "flac")
     if fmt not in FORMATS:
         raise spec_error("format", fmt, f"must be one of {', '.join(map(repr, FORMATS))}")
@@ -130,8 +128,7 @@ def _from_dict(data: dict, base_dir: Path) -> BankSpec:
 
 
 def _axes(vary, sampling, count, base_raw: dict) -> tuple:
-    """The checked axes of the ``[vary]`` table over the preset dict ``base_raw``, made
-    grids with ``sampling = "grid"``."""
+    """The checked axes of ``[vary]`` (grids with ``sampling = "grid"``)."""
     if not isinstance(vary, dict):
         raise spec_error("vary", vary, "must be a table of axes")
     if sampling not in SAMPLINGS:
@@ -147,8 +144,8 @@ def _axes(vary, sampling, count, base_raw: dict) -> tuple:
 
 
 def _base(base_raw: dict, render_section, preset_path) -> tuple[dict, dict]:
-    """The preset dict with the spec's ``[render]`` table over the preset's (and the bank's
-    defaults under both), and its checked render options (with ``subtype`` if named)."""
+    """The preset dict with the spec's ``[render]`` over the preset's over the bank's
+    defaults, and its checked render options."""
     if not isinstance(render_section, dict):
         raise spec_error("render", render_section, "must be a table of render options")
     base = dict(base_raw)
@@ -176,21 +173,14 @@ def _trim(value) -> dict | None:
                 f"trim.{k}", value[k], f"is not a key; allowed: {', '.join(TRIM_DEFAULTS)}"
             )
     out = dict(TRIM_DEFAULTS, **value)
-
-    def number(key):
-        v = out[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise spec_error(f"trim.{key}", v, "must be a finite number")
-        return float(v)
-
-    out["below_db"] = number("below_db")
+    for key in ("below_db", "fade", "max_length"):
+        if out[key] is not None or key != "max_length":
+            out[key] = spec_number(f"trim.{key}", out[key])
     if not out["below_db"] < 0.0:
         raise spec_error("trim.below_db", out["below_db"], "must be < 0 (dB below the peak)")
-    out["fade"] = number("fade")
     if not 0.0 <= out["fade"] <= 1.0:
         raise spec_error("trim.fade", out["fade"], "must be in [0, 1] (s)")
     if out["max_length"] is not None:
-        out["max_length"] = number("max_length")
         if not out["max_length"] > out["fade"]:
             raise spec_error("trim.max_length", out["max_length"], "must be > trim.fade (s)")
     return out
@@ -205,8 +195,7 @@ def _tag_value(where: str, value) -> None:
 
 
 def _tags(value) -> list | dict | None:
-    """The checked ``tags``: a list of keywords (non-empty texts) or a table of
-    name = text, number or boolean; None if left out."""
+    """The checked ``tags``: a list of keywords or a table of name = text, number or bool."""
     if value is None:
         return None
     if isinstance(value, list) and all(isinstance(v, str) and v for v in value):
@@ -283,8 +272,8 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
         if k not in ("min", "max", "log", "steps"):
             raise spec_error(f"{where}.{k}", v, "is not a range key; allowed: min, max, log, steps")
     steps = value.get("steps")
-    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 2):
-        raise spec_error(f"{where}.steps", steps, "must be an integer >= 2 (values of the grid)")
+    if steps is not None:
+        spec_integer(f"{where}.steps", steps, 2, "must be an integer >= 2 (values of the grid)")
     if "min" not in value or "max" not in value:
         raise spec_error(where, value, "needs both min and max")
     log = value.get("log", False)
@@ -306,22 +295,17 @@ def _range_axis(where: str, key: str, value: dict) -> RangeAxis:
 
 
 def _bound(where: str, v):
-    def number(x):
-        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-            raise spec_error(where, v, "must be a finite number or a list of them")
-        return float(x)
-
-    if isinstance(v, list):
-        if not v:
-            raise spec_error(where, v, "is an empty list")
-        return tuple(number(x) for x in v)
-    return number(v)
+    if isinstance(v, list) and not v:
+        raise spec_error(where, v, "is an empty list")
+    try:
+        xs = [spec_number(where, x) for x in (v if isinstance(v, list) else [v])]
+    except BankSpecError:
+        raise spec_error(where, v, "must be a finite number or a list of them") from None
+    return tuple(xs) if isinstance(v, list) else xs[0]
 
 
 def _min_distance(value, count, sampling, axes) -> float | None:
-    """The checked ``min_distance``: the least distance between two rows' range values,
-    each component scaled to [0, 1] over its range (log ranges in log), with ``count``
-    and random sampling."""
+    """The checked ``min_distance`` between rows' range values in the unit cube."""
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
@@ -338,8 +322,7 @@ def _min_distance(value, count, sampling, axes) -> float | None:
 
 
 def _labels(value, axes) -> dict:
-    """The checked ``[labels]`` table: for a varied key, a table of its values (as text)
-    and their labels (``{ "0.004" = "small" }``), used by ``{key:label}`` in ``name``."""
+    """The checked ``[labels]``: per varied key, ``{ "0.004" = "small" }``."""
     if not isinstance(value, dict):
         raise spec_error("labels", value, "must be a table of varied keys")
     keys = {a.key for a in axes}

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,39 +16,22 @@ from synth.errors import ParameterError
 from synth.io import presets
 
 #: Top-level keys of a spec.
-TOP_LEVEL = (
-    "preset",
-    "description",
-    "count",
-    "seed",
-    "name",
-    "format",
-    "vary",
-    "render",
-    "trim",
-    "sampling",
-    "labels",
-    "min_distance",
-    "tags",
+TOP_LEVEL = tuple(
+    "preset description count seed name format vary render trim sampling labels min_distance "
+    "tags".split()
 )
 
-
-#: Keys of a stored spec that do not change any sound (they name the files or describe
-#: them): left out when a spec is compared with the one a bank was made by.
+#: Keys of a stored spec that change no sound: left out when specs are compared.
 NOT_AUDIO = ("preset", "name", "labels", "tags")
 
-
-#: Key of a stored spec naming the engine that renders the bank (``synth.__version__``):
-#: compared on its own, not with the spec (:func:`synth.bank.run.engine_problem`), since
-#: another engine may make other bytes of the same spec.
+#: Key of a stored spec naming the engine that rendered the bank (``synth.__version__``),
+#: compared on its own (:func:`synth.bank.run.engine_problem`).
 ENGINE = "engine"
-
 
 #: Keys of ``[trim]`` and their defaults: the tail is cut where the sound stays below
 #: ``below_db`` (dB re its peak, < 0), with a raised-cosine fade of ``fade`` s ending
 #: there, and at ``max_length`` s at most (None: no bound).
 TRIM_DEFAULTS = {"below_db": -60.0, "fade": 0.01, "max_length": None}
-
 
 #: File formats: suffix and soundfile format name, and the default subtype of each.
 FORMATS = {
@@ -56,42 +40,29 @@ FORMATS = {
     "ogg": ("ogg", "OGG", "VORBIS"),
 }
 
-
 #: The axis key of the perception stimuli's restitution scaling.
 RESTITUTION_SCALE = "restitution_scale"
-
 
 #: The bank's level default: one calibration for every file (see synth.store.audio).
 DEFAULT_NORMALIZE = "physical"
 
-
-#: The bank's impact limit (``[render] max_impacts``; a plain render's is
-#: :data:`synth.physics.bounces.DEFAULT_MAX_IMPACTS`): a stated stop rule for a ball that
-#: loses little per bounce (rubber or ABS with the lossless Hertz contact, e near 0.99,
-#: which would bounce to ``max_duration``), not a change of its restitution. Kinetic energy
-#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so a ball with e <= 0.89 is
-#: 20 * 63 * log10(1 / 0.89) = 64 dB below its first impact by impact 64, past the
-#: series' level rule (``bounce_floor_db``, -60 dB) that ends it by itself; a ball that
-#: keeps more (near-elastic, or a glass marble on a wooden floor) stops here, its
-#: ``stop_reason`` "max-impacts".
+#: The bank's impact limit (``[render] max_impacts``): a stated stop rule for a ball that
+#: loses little per bounce (e near 0.99 would bounce to ``max_duration``). Kinetic energy
+#: falls by e^2 per bounce (docs/physics.md, "Bounces"), so with e <= 0.89 impact 64 is
+#: 20 * 63 * log10(1 / 0.89) = 64 dB down, past the -60 dB level rule that ends the series
+#: by itself; a livelier ball stops here ("max-impacts").
 BANK_MAX_IMPACTS = 64
-
 
 #: What a bank's ``[render]`` takes when neither the spec nor the preset sets it.
 RENDER_DEFAULTS = {"normalize": DEFAULT_NORMALIZE, "max_impacts": BANK_MAX_IMPACTS}
 
-
-#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row's
-#: scene is built and checked before the bank starts, and a bank of this many sounds of
-#: about 0.1 s of rendering each is already a day of one core's work.
+#: Largest plan accepted (rows), a guard against a mistyped count or grid: every row is
+#: checked before the bank starts, and this many rows is already about a day of one core.
 MAX_ROWS = 100_000
 
-
-#: Version of the plan's drawing rules, stored with a bank (a bank drawn by other rules
-#: is another bank): 2 drew each list axis without replacement block by block, 3 draws
-#: the combinations of the list axes without replacement (:class:`_ListDraws`), which
-#: makes the rows of 2 for a spec with fewer than two list axes or without ``count``
-#: (a bank of 2 of such a spec resumes, :func:`canonical`).
+#: Version of the plan's drawing rules, stored with a bank (other rules, another bank): 3
+#: draws the combinations of the list axes without replacement, 2 each list axis (the same
+#: rows with fewer than two list axes or without ``count``: :func:`_plan_rules`).
 PLAN_VERSION = 3
 
 
@@ -136,11 +107,8 @@ class RangeAxis:
 
 @dataclass(frozen=True)
 class BankSpec:
-    """A checked bank spec (see the module docstring for the keys).
-
-    ``base`` is the preset's raw dict with the spec's ``[render]`` applied, ``render``
-    the render options (``normalize`` defaulted to "physical"), ``subtype`` the files'.
-    """
+    """A checked bank spec: ``base`` the preset's dict with the spec's ``[render]``,
+    ``render`` the render options, ``subtype`` the files'."""
 
     preset: str
     preset_name: str
@@ -169,8 +137,7 @@ class BankSpec:
         return FORMATS[self.format][0]
 
     def as_dict(self) -> dict:
-        """Everything that determines the bank's files, as JSON-able data (stored with
-        the bank to refuse a changed spec)."""
+        """Everything that determines the bank's files, as JSON-able data."""
         axes = {}
         for a in self.axes:
             if isinstance(a, ListAxis):
@@ -199,22 +166,15 @@ class BankSpec:
         }
 
     def stored_form(self) -> dict:
-        """:meth:`as_dict` in its canonical form (:func:`canonical`): what is stored with
-        the bank and compared with the spec of a later run."""
+        """:meth:`as_dict` in its :func:`canonical` form, stored with the bank."""
         return canonical(self.as_dict())
 
 
 def canonical(data: dict) -> dict:
-    """The canonical form of a stored spec ``data`` (:meth:`BankSpec.as_dict`, or this
-    form itself: the function is idempotent), in which two specs that make the same
-    files are equal: the base preset with every fixed default spelled out
-    (:func:`synth.io.presets.canonical`: render options, gravity, plate boundary,
-    contact model ...; not those derived from a varied key; without the preset's
-    description and the base values of the varied keys, which every row sets), its
-    ``render.subtype`` the files' subtype, its ``plan`` the rules that draw its rows
-    (:func:`_plan_rules`). A value that changes the
-    files still differs, under its dotted key (:func:`differences`). A ``data`` that is
-    no valid spec is returned as it is (it then differs from any valid one)."""
+    """The form (idempotent) of a stored spec ``data`` in which two specs that make the
+    same files are equal: the base preset's :func:`synth.io.presets.canonical` form, the
+    files' subtype, the plan's rules (:func:`_plan_rules`). A ``data`` that is no valid
+    spec is returned as it is."""
     try:
         base = presets.canonical(data["preset_data"], varied=tuple(data["vary"]))
         plan_rules = _plan_rules(data)
@@ -227,10 +187,8 @@ def canonical(data: dict) -> dict:
 
 
 def _plan_rules(data: dict):
-    """The plan version a stored spec ``data`` is compared by: its own, except that one
-    of plan 2 whose rows plan 3 draws alike (without ``count``, or with fewer than two
-    list axes: 3 changed only how the combinations of several lists are drawn) counts as
-    :data:`PLAN_VERSION`, so its bank resumes."""
+    """The plan version ``data`` is compared by: plan 2 counts as 3 where 3 draws its rows
+    alike (without ``count`` or with fewer than two list axes), so its bank resumes."""
     version = data.get("plan")
     lists = [v for v in data["vary"].values() if isinstance(v, list)]
     if version == 2 and (data.get("count") is None or len(lists) < 2):
@@ -239,10 +197,8 @@ def _plan_rules(data: dict):
 
 
 def compared_form(data: dict) -> dict:
-    """The part of a stored spec ``data`` that makes the sounds: its :func:`canonical`
-    form without :data:`NOT_AUDIO` (the preset's name, the name template, the labels
-    and the tags), so that a bank resumes across a change of them, and without the
-    :data:`ENGINE` that rendered it (checked on its own)."""
+    """The part of a stored spec that makes the sounds: :func:`canonical` without
+    :data:`NOT_AUDIO` and :data:`ENGINE`."""
     return {k: v for k, v in canonical(data).items() if k not in NOT_AUDIO + (ENGINE,)}
 
 
@@ -252,3 +208,17 @@ def _jsonable(v):
 
 def spec_error(key: str, value, allowed: str) -> BankSpecError:
     return BankSpecError(f"{key}={value!r} {allowed}")
+
+
+def spec_number(key: str, value, allowed: str = "must be a finite number") -> float:
+    """``value`` as a float if it is a finite number (not a bool), else :func:`spec_error`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise spec_error(key, value, allowed)
+    return float(value)
+
+
+def spec_integer(key: str, value, least: int, allowed: str) -> int:
+    """``value`` if it is an integer (not a bool) ``>= least``, else :func:`spec_error`."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < least:
+        raise spec_error(key, value, allowed)
+    return value

@@ -18,8 +18,7 @@ from synth.io import presets
 
 @dataclass(frozen=True)
 class PlanItem:
-    """One sound of the bank: ``index``, ``file`` (relative to the bank's folder) and
-    ``values`` (the varied keys and their values)."""
+    """One sound of the bank: ``index``, ``file`` (in the bank's folder), varied ``values``."""
 
     index: int
     file: str
@@ -27,10 +26,8 @@ class PlanItem:
 
 
 def plan(spec: BankSpec, *, check_scenes: bool = True) -> tuple[PlanItem, ...]:
-    """Every row of the bank, checked: the file names are distinct and short enough,
-    and (``check_scenes``) every row's scene and render options are valid
-    (:func:`check_rows`), so that a bank either starts clean or is refused; a plan whose
-    rows repeat (:func:`warn_repeated_rows`) is warned of."""
+    """Every row of the bank, checked (distinct portable names; with ``check_scenes`` every
+    row's scene, :func:`check_rows`), so a bank starts clean or is refused."""
     n = row_count(spec)
     if n > MAX_ROWS:
         raise spec_error(
@@ -62,12 +59,9 @@ ROWS_NAMED = 5
 
 
 def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = None) -> str | None:
-    """Why row ``item``'s scene cannot be rendered (None if it can): its preset dict and
-    render options are built and checked as a render checks them, and its render's cost
-    estimate (:func:`synth.cost.estimate_render`: modes, longest contact, pulse grid, mode
-    solver, radiation, memory) held to ``budget`` (default: the environment's) as the
-    render will hold it, without solving anything but the first contact by the impedance
-    model (milliseconds; no modes)."""
+    """Why row ``item``'s scene cannot be rendered (None if it can): checked as a render
+    checks it, its cost estimate held to ``budget`` (solving only the first contact by
+    the impedance model: milliseconds)."""
     k = item.values.get(RESTITUTION_SCALE)
     if k is not None and (
         isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0
@@ -85,8 +79,7 @@ def row_problem(spec: BankSpec, item: PlanItem, budget: cost.Budget | None = Non
 
 
 def check_rows(spec: BankSpec, items) -> None:
-    """Refuse the plan if a row's scene cannot be rendered (:func:`row_problem`), naming
-    the rows, their varied values and what is wrong."""
+    """Refuse the plan if a row cannot be rendered, naming the rows, values and problems."""
     bad = []
     budget = cost.Budget.from_environment()
     for item in items:
@@ -106,9 +99,8 @@ def check_rows(spec: BankSpec, items) -> None:
 
 
 def scene_data(spec: BankSpec, values: dict) -> dict:
-    """The preset dict of a row: the base with the row's values set under their dotted
-    keys, as ``synth render --set`` sets them (the restitution scale is not a preset key
-    and is left out)."""
+    """The preset dict of a row: the base with its values set as ``--set`` sets them (but
+    the restitution scale, no preset key)."""
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in spec.base.items()}
     for key, value in values.items():
         if key != RESTITUTION_SCALE:
@@ -130,8 +122,7 @@ def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
 
 
 def parse_rows(text, planned: int) -> frozenset[int]:
-    """The row indices of ``text`` (``"17,40-45"``: indices and inclusive ranges, as
-    ``--redo`` takes them), each in ``0 .. planned - 1``."""
+    """The row indices of ``text`` (``"17,40-45"``), each in ``0 .. planned - 1``."""
     if isinstance(text, (set, frozenset, list, tuple)):
         parts = [str(v) for v in text]
     elif isinstance(text, str):

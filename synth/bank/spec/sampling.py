@@ -15,21 +15,17 @@ from synth.bank.spec.model import BankSpec, ListAxis, RangeAxis, spec_error
 #: Draws tried for a row before a ``min_distance`` is declared too large.
 MIN_DISTANCE_ATTEMPTS = 1000
 
-
 #: Largest ``count`` with ``min_distance`` (each row is compared with every earlier one).
 MIN_DISTANCE_MAX_ROWS = 20_000
-
 
 #: How ranges are drawn with ``count`` ("random", "lhs": Latin hypercube block by block)
 #: or set without it ("grid": ``steps`` values per range, spaced evenly or, with log,
 #: geometrically).
 SAMPLINGS = ("random", "lhs", "grid")
 
-
 #: Rows of one Latin-hypercube block (``sampling = "lhs"``): within each block of this
 #: many consecutive rows every range axis has one row in each of as many equal strata.
 LHS_BLOCK = 32
-
 
 #: Most combinations of the list axes drawn as whole permutations, block by block
 #: (:class:`_ListDraws`); not below :data:`MAX_ROWS`, so that beyond it a count never
@@ -37,12 +33,8 @@ LHS_BLOCK = 32
 PERMUTED_COMBINATIONS = 100_000
 
 
-# ----------------------------------------------------------------------------- the plan
-
-
 def grid_axis(axis):
-    """With ``sampling = "grid"``: a range as the list of its ``steps`` values (both
-    ends included, evenly or, with log, geometrically spaced, per component)."""
+    """A range as the list of its ``steps`` values, ends included (``sampling = "grid"``)."""
     if isinstance(axis, ListAxis):
         return axis
     if axis.steps is None:
@@ -193,11 +185,8 @@ class RepeatedRowsWarning(UserWarning):
 
 
 def warn_repeated_rows(spec: BankSpec) -> None:
-    """Warn when ``count`` asks for more rows than the spec has distinct ones: without a
-    range axis a row is one of the list axes' combinations, so rows beyond them repeat
-    earlier ones (each combination once in every block of them, a randomised block
-    design; identical sounds under other names). Not refused: repeated stimuli are a
-    valid design, a container of game sounds wants the count lowered."""
+    """Warn when ``count`` passes the distinct rows of a spec without a range axis: rows
+    repeat (a randomised block design, valid for stimuli, not for a game's container)."""
     distinct = _combinations(spec)
     if spec.count is None or spec.count <= distinct:
         return
