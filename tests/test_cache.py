@@ -12,8 +12,8 @@ import pytest
 from synth.cli import main
 from synth.errors import ParameterError
 from synth.io import cache
+from synth.physics import modes as P
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
 
 

@@ -107,8 +107,9 @@ SCENES = {
 
 
 def _clear_memory_caches() -> None:
+    from synth.physics import modes
     from synth.physics.modal_contact import point
-    from synth.sound import modes, radiation
+    from synth.sound import radiation
 
     modes.clear_memory_cache()
     radiation.clear_memory_cache()
@@ -169,7 +170,7 @@ def test_memory_parts_follow_the_code_sizes():
     # The radiation part is there for a microphone only and is at most the chunks the
     # sums hold; the solver's part is SOLVER_SQUARES dense squares of its largest main
     # basis (a simply supported plate has none: closed-form modes).
-    from synth.sound.modes import solver_sizes
+    from synth.physics.modes import solver_sizes
     from synth.sound.radiation.common import CHUNK_BYTES
 
     for name, data in SCENES.items():
@@ -467,7 +468,7 @@ def test_a_rectangle_rules_cut_is_that_of_its_terms():
     # The rectangle rule weighs 1: the long strip's cut (the most rules whose summed terms
     # fit the default budget, the refinement stopped at the last one's points) is that of
     # its unweighted counts.
-    from synth.sound.modes import shape_terms
+    from synth.physics.modes import shape_terms
     from synth.sound.radiation.common import MAX_RULES
 
     scene, options = scene_from_dict(STRIP, "strip")

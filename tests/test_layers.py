@@ -188,11 +188,6 @@ def test_the_package_imports_nothing_beside_it():
 
 #: Modules that moved down a layer, and the old names kept for existing imports.
 MOVED = {
-    "synth.sound.modes": "synth.physics.modes",
-    "synth.sound.modes.ritz": "synth.physics.modes.ritz",
-    "synth.sound.modes.cache": "synth.physics.modes.cache",
-    "synth.sound.asymptotic_modes": "synth.physics.asymptotic_modes",
-    "synth.sound.asymptotic_modes.roots": "synth.physics.asymptotic_modes.roots",
     "synth.io.cache": "synth.store.cache",
     "synth.io.atomic": "synth.store.atomic",
     "synth.io.audio": "synth.store.audio",

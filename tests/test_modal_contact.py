@@ -254,7 +254,7 @@ def test_corner_preset_series_is_independent_of_the_mode_cache(empty_caches, tmp
     # not change the bounces, which amplify any difference (to 1-3 % of full scale).
     from synth.io.cache import cache_dir
     from synth.io.presets import load_preset
-    from synth.sound import modes
+    from synth.physics import modes
 
     scene = load_preset("thesis-steel10-mdf18-corner")
     cold = _series_fingerprint(simulate_scene(scene))

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material
+from synth.physics.modes import ritz
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
-from synth.sound.modes import ritz
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 

@@ -148,7 +148,7 @@ class ModalModel:
 
     Attributes
     ----------
-    modes : synth.sound.modes.Modes
+    modes : synth.physics.modes.Modes
         The plate's modes below ``max_frequency``.
     poles : complex ndarray (K,)
         ``p_k = -sigma_k + i omega_dk``, rad/s, of the ringing modes below Nyquist.
