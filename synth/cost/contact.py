@@ -27,11 +27,10 @@ def hertz_contact_time(ball, plate, speed: float) -> float:
 
 
 def series_longest(first_contact: float, speed: float, gravity: float) -> float:
-    """The longest contact of a bouncing series whose first contact at ``speed`` (m/s)
-    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact,
-    where the series ends: the flight ``2 v / g`` as short as the contact, or the kinetic
-    energy ``floor_db`` below the first impact's (:func:`simulate_bounces`' rules), s."""
-
+    """The longest contact (s) of a bouncing series whose first contact at ``speed`` (m/s)
+    lasts ``first_contact`` (s): ``tau ~ v^(-1/5)`` (Hertz) down to the slowest impact, where
+    the series ends (the flight ``2 v / g`` as short as the contact, or the kinetic energy
+    ``floor_db`` below the first impact's)."""
     slowest = _slowest_speed(first_contact, speed, gravity)
     return first_contact * max(1.0, (speed / slowest) ** 0.2)
 
@@ -46,10 +45,9 @@ def _slowest_speed(first_contact: float, speed: float, gravity: float) -> float:
 
 
 def impact_count(first: FirstContact, speed: float, gravity: float, max_duration: float) -> int:
-    """Impacts of the series: speeds ``v e^n`` of the first impact's restitution ``e``
-    down to the slowest (:func:`_slowest_speed`), or, for ``e`` near 1, as many as the
-    flights ``2 v / g`` fit in ``max_duration``; at most the bounce simulation's
-    ``max_impacts``."""
+    """Impacts of the series: speeds ``v e^n`` (``e`` the first impact's restitution) down
+    to the slowest, or, for ``e`` near 1, as many flights ``2 v / g`` as fit in
+    ``max_duration`` (s); at most the bounce simulation's ``max_impacts``."""
     from synth.physics.bounces import DEFAULT_MAX_IMPACTS as most
 
     if first.settled:

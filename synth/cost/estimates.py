@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 
-from synth.cost.budget import Budget
 from synth.cost.contact import (
     hertz_contact_time,
     impact_count,
@@ -21,6 +20,7 @@ from synth.cost.records import (
     AUDIO_BYTES_PER_SAMPLE,
     MODE_VALUES,
     BodyCost,
+    Budget,
     CostEstimate,
     MemoryParts,
 )

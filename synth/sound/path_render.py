@@ -25,15 +25,15 @@ import numpy as np
 
 from synth.physics.path import BallPath, simulate_path
 from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
+from synth.sound.result import PathInfo
 from synth.sound.rolling import ModeState, audible_modes, drive_modes, path_excitation
 
 
 def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
     """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
-    through ``model`` (:class:`synth.sound.listener.ModalModel`) with the render options
-    ``o`` (:class:`synth.sound.options.RenderOptions`); its path and its figures: those of
-    :class:`synth.sound.result.PathInfo` and the synthesis' of
-    :class:`synth.sound.result.RenderInfo`."""
+    through ``model`` (a :class:`synth.sound.listener.ModalModel`) with the render options
+    ``o``, its path, and the figures of its :class:`~synth.sound.result.RenderInfo` (its
+    :class:`~synth.sound.result.PathInfo` the ``path``)."""
     fs = o.samplerate
     floor = 10.0 ** (o.floor_db / 20.0)
     pre, delay = o.preroll, model.delay
@@ -57,7 +57,7 @@ def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
             bounces, rolling, path, model, fs, floor, origin_time, o
         )
         info.update(tail, n_modes_rendered=max(info["n_modes_rendered"], driven))
-    figures = dict(
+    path_info = PathInfo(
         path_end=path.end,
         path_end_time=path.end_time,
         path_end_point=tuple(path.end_point),
@@ -66,16 +66,14 @@ def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
         rolling_seconds=0.0 if rolling is None else rolling.duration,
         rolling_flights=0 if rolling is None else rolling.flights,
         contact_plate="impedance",
-        delay=delay,
-        audio_start=first_touch + delay - pre,
-        **info,
+        rolling_mode_samples=info.pop("rolling_mode_samples", None),
     )
+    figures = dict(delay=delay, audio_start=first_touch + delay - pre, path=path_info, **info)
     return audio, path, figures
 
 
 def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
-    """The bounces' part of the signal, from the audio's first sample, and the modal bank's
-    figures (:func:`synth.sound.modal_bank.synthesize`)."""
+    """The bounces' part of the signal from the audio's first sample, and the bank's figures."""
     impacts = path.impacts
     excitation = model.excitations(path.impact_points)
     direct = None if model.listener.shape is None else model.listener.shape * excitation
@@ -124,13 +122,10 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
 
 def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:
     """The listener's signal after the rolling, whether ``max_tail`` (s) cut it and the bound
-    of what rings on after its end (the signal's units): the
-    force the rolling leaves (``rolling.final_force``) held at its last point, so each mode
-    rings from the rolling's end state towards its static deflection under that force,
-    ``zeta_k(t) = zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal
-    bank's ringing (:func:`synth.sound.modal_bank.ring_bank`, each mode until it falls below
-    its share of ``floor``, the amplitude the signal may leave out) plus the static
-    deflection's constant part (as :func:`synth.sound.rolling.drive_modes` hears it)."""
+    of what rings on after its end (the signal's units). The force the rolling leaves is
+    held at its last point, so each mode rings towards its static deflection, ``zeta_k(t) =
+    zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal bank's ringing
+    (each mode until within its share of ``floor``) plus the deflection's constant part."""
     p = model.poles
     end = float(rolling.contact_coordinate[-1])
     point = (path.origin[0] + path.direction[0] * end, path.origin[1] + path.direction[1] * end)

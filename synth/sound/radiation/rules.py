@@ -21,9 +21,8 @@ import numpy as np
 
 from synth.sound.radiation import work
 from synth.sound.radiation.common import RadiationResult
-from synth.sound.radiation.polar import separable_gains
+from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
-from synth.sound.radiation.summed import summed_gains
 
 #: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic) of the fastest and the
 #: slowest edge effect mode of one band of :class:`BandedRule`. The rectangle rule's points
@@ -32,8 +31,8 @@ from synth.sound.radiation.summed import summed_gains
 BAND_RATIO = 1.1
 
 #: Bands of frequency, equal in ratio, in which :class:`BandedRule`'s estimate counts the edge
-#: effect modes, each band on the grid of its top (:func:`edge_split`): known before any mode
-#: is solved, an upper bound of the rule's own bands of :data:`BAND_RATIO`.
+#: effect modes, each on the grid of its top (:func:`edge_split`): an upper bound of the
+#: rule's own bands of :data:`BAND_RATIO`, known before any mode is solved.
 EDGE_BANDS = 6
 
 
@@ -48,10 +47,9 @@ class EdgeBand:
 
 @dataclass(frozen=True)
 class EdgeSplit:
-    """The Ritz modes ``0 <= k < ritz_modes`` and the dynamic edge effect modes above of a
-    free or clamped plate past the Ritz crossover: ``ritz_kappa`` the Ritz modes' largest
-    wavenumber (bending plus acoustic, rad/m) and ``bands`` the edge effect modes in bands
-    of wavenumber (:class:`EdgeBand`)."""
+    """The Ritz modes ``0 <= k < ritz_modes`` of a plate past the Ritz crossover, of largest
+    wavenumber ``ritz_kappa`` (bending plus acoustic, rad/m), and its edge effect modes above
+    in ``bands`` (:class:`EdgeBand`)."""
 
     ritz_modes: int
     ritz_kappa: float
@@ -65,10 +63,9 @@ class Problem:
     ``size`` (a, b) and ``listener`` (x, y, z), metres; ``modes`` the number of modes;
     ``kb`` the highest mode's bending wavenumber and ``qa`` the largest acoustic one
     (``max |s| / c``), rad/m; ``shapes`` "separable" (products ``X_i(x) Y_j(y)``), "summed"
-    (sums of such products, the Ritz modes of free and clamped plates), "edge" (Ritz modes
-    and dynamic edge effect modes, :class:`EdgeSplit` ``edge``) or "any"; ``terms`` the terms of one
-    shape value, ``factors`` (n_x, n_y) the factors of the polar rules and ``basis`` the
-    Ritz coefficients per mode; ``tol`` and ``max_points`` those of the rules."""
+    (sums of such products), "edge" (Ritz and dynamic edge effect modes, split by ``edge``)
+    or "any"; ``terms`` the terms of one shape value, ``factors`` (n_x, n_y) the factors of
+    the polar rules and ``basis`` the Ritz coefficients per mode."""
 
     size: tuple
     listener: tuple
@@ -91,11 +88,9 @@ class Problem:
 
 @dataclass(frozen=True)
 class Estimate:
-    """What one rule takes on one :class:`Problem`, its panels counted once: ``counts``
-    (:class:`~.work.RuleWork`), ``fits`` whether its check rule (the first rule refined
-    once, the least the convergence test needs) holds at most ``max_points`` points, and
-    ``cost``, rectangle-term equivalents of the first rule and its check rule and of the
-    work outside the refinement (:func:`~.work.weighted_counts`); ``tol`` the problem's."""
+    """What one rule takes on one :class:`Problem`: its ``counts``, ``fits`` whether its
+    check rule (the first rule refined once) holds at most ``max_points`` points, and
+    ``cost`` in rectangle-term equivalents (:func:`~.work.weighted_counts`)."""
 
     rule: Rule
     counts: work.RuleWork
@@ -105,21 +100,19 @@ class Estimate:
 
     @property
     def error_bound(self) -> float:
-        """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
-        convergence test holds: ``tol`` where the check rule fits, else none (inf)."""
+        """The bound of each gain's relative error the convergence test holds: ``tol``
+        where the check rule fits, else none (inf)."""
         return self.tol if self.fits else math.inf
 
 
 class Rule(abc.ABC):
-    """One rule of the Rayleigh integral: which shapes it takes (``shapes``), its counts
-    (:meth:`counts`, terms and points of each refinement) and, from them,
-    :meth:`estimate`: its error bound and its cost."""
+    """One rule of the Rayleigh integral: the shapes it takes, its counts (:meth:`counts`)
+    and from them its error bound and cost (:meth:`estimate`), and its :meth:`gains`."""
 
     name = ""
     shapes: tuple = ()
 
     def applies(self, problem: Problem) -> bool:
-        """Whether the rule takes ``problem``'s shapes."""
         return problem.shapes in self.shapes and problem.modes > 0
 
     @abc.abstractmethod
@@ -127,7 +120,6 @@ class Rule(abc.ABC):
         """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
 
     def estimate(self, problem: Problem) -> Estimate:
-        """The rule's :class:`Estimate` on ``problem`` (its panels counted once)."""
         counts = self.counts(problem)
         weighted = work.weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
@@ -135,22 +127,19 @@ class Rule(abc.ABC):
 
     @abc.abstractmethod
     def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
-        """The gains of ``modes`` (a :class:`synth.physics.modes.Modes`) at ``listener``
-        for the poles ``s`` (rad/s), ``settings`` the keywords of
-        :func:`~.rectangle.rayleigh_gains` (``max_wavenumber``, air, ``tol``...)."""
+        """The gains of ``modes`` (:class:`synth.physics.modes.Modes`) at ``listener`` for
+        the poles ``s`` (rad/s), ``settings`` the keywords of :func:`~.rectangle.rayleigh_gains`."""
 
 
 class RectangleRule(Rule):
-    """Tensor Gauss-Legendre panels along x and y (:func:`~.rectangle.rayleigh_gains`):
-    any shapes; each point costs per mode an exponential and a shape value."""
+    """Tensor Gauss-Legendre panels (:func:`~.rectangle.rayleigh_gains`): any shapes; each
+    point costs per mode an exponential and a shape value."""
 
     name = "rectangle"
     shapes = ("separable", "summed", "any")
 
-    def counts(self, problem):
-        p = problem
-        kappa = p.kb + p.qa
-        return work.rectangle_work(p.size, p.listener, kappa, p.modes, p.terms, p.tol_panel)
+    def counts(self, p):
+        return work.rectangle_work(p.size, p.listener, p.kb + p.qa, p.modes, p.terms, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         size = (modes.plate.length, modes.plate.width)
@@ -165,55 +154,45 @@ class PolarRule(Rule):
     name = "polar"
     shapes = ("separable",)
 
-    def counts(self, problem):
-        p = problem
-        n_x, n_y = p.factors
-        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.tol_panel)
+    def counts(self, p):
+        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
 
 
 class SummedRule(Rule):
-    """The polar rule for sums of products (:func:`~.summed.summed_gains`): per radius and
+    """The polar rule for sums of products (:func:`~.polar.summed_gains`): per radius and
     mode the combination of its Ritz coefficients."""
 
     name = "summed"
     shapes = ("summed",)
 
-    def counts(self, problem):
-        p = problem
-        n_x, n_y = p.factors
-        return work.summed_work(
-            p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.basis, p.terms, p.tol_panel
-        )
+    def counts(self, p):
+        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel,
+                               p.basis, p.terms)  # fmt: skip
 
     def gains(self, modes, listener, s, settings):
         return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
 
 
-def _ritz_work(problem: Problem) -> work.RuleWork:
-    """The rectangle rule of the Ritz modes below the edge effect modes."""
-    p, e = problem, problem.edge
-    return work.rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms, p.tol_panel)
-
-
 class BandedRule(Rule):
     """Edge effect modes by the rectangle rule band by band of wavenumber
-    (:data:`BAND_RATIO`), their shapes formed from factor tables (two products at most,
-    :func:`~.rectangle.product_gains`), the Ritz modes by the rectangle rule; its rate is
-    measured on the whole (``synth bench cost``), so the Ritz modes' terms count in its
-    refinement at the same weight."""
+    (:data:`BAND_RATIO`), their shapes formed from factor tables
+    (:func:`~.rectangle.product_gains`), the Ritz modes below by the rectangle rule; its rate
+    is measured on the whole (``synth bench cost``), so the Ritz modes' terms count at the
+    same weight."""
 
     name = "banded"
     shapes = ("edge",)
 
-    def counts(self, problem):
-        p = problem
-        ritz = _ritz_work(p)
-        points = list(ritz.points if p.edge.ritz_modes else [0] * len(ritz.points))
+    def counts(self, p):
+        e = p.edge
+        ritz = work.rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms,
+                                   p.tol_panel)  # fmt: skip
+        points = list(ritz.points if e.ritz_modes else [0] * len(ritz.points))
         terms = list(ritz.work)
-        for band in p.edge.bands:
+        for band in e.bands:
             if band.modes == 0:
                 continue
             rule = work.rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
@@ -222,8 +201,6 @@ class BandedRule(Rule):
         return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
-        """The Ritz modes below the edge effect part's ``first_mode`` by the rectangle rule
-        (for their own largest wavenumber), the edge effect modes band by band."""
         n_low = modes.edge_effect().first_mode
         high = _banded_rectangle(modes, n_low, listener, s, settings)
         if n_low == 0:
@@ -233,7 +210,7 @@ class BandedRule(Rule):
             f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
             f"{len(modes) - 1} (banded rule): {high.message}"
         )
-        return combined((low, high), "banded", message)
+        return combined((low, high), message)
 
 
 #: The rules :func:`choose_rule` chooses among.
@@ -241,17 +218,15 @@ RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule())
 
 
 def choose_rule(problem: Problem) -> Estimate:
-    """The rule for ``problem``, as its :class:`Estimate`. Criterion: a rule that takes the
-    shapes and whose check rule fits ``max_points`` holds the error bound ``tol`` (the same
-    convergence test for every rule); among those, the one of least cost. If none fits, the
-    one with the fewest points in its check rule (it stops at ``max_points`` and says so)."""
+    """The rule for ``problem``, as its :class:`Estimate`: among the rules that take the
+    shapes and whose check rule fits ``max_points`` (they hold the error bound ``tol``), the
+    one of least cost; if none fits, the one with the fewest points in its check rule (it
+    stops at ``max_points`` and says so)."""
     return _cheapest(problem, RULES)
 
 
-@functools.lru_cache(maxsize=256)
+@functools.lru_cache(maxsize=256)  # warm renders choose again for every cached gain
 def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
-    """:func:`choose_rule` among ``candidates``, kept for the process (the warm renders and
-    the live engine choose again for every cached gain)."""
     estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
     holding = [e for e in estimates if e.error_bound <= problem.tol]
     if holding:
@@ -284,9 +259,7 @@ def mode_bands(omega: np.ndarray, kb: float, qa: np.ndarray) -> list:
 def _band_rectangle(modes, start, stop, listener, s, settings):
     """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
     wavenumber among them (``max_wavenumber`` scaled by the square root of their highest
-    frequency's ratio to the highest mode's, as for a plate's bending waves). Edge effect
-    modes (all of them at or past ``modes.edge_effect().first_mode``) take it with their
-    factor tables (:func:`~synth.sound.radiation.rectangle.product_gains`)."""
+    frequency's over the highest mode's); edge effect modes with their factor tables."""
     omega = modes.angular_frequencies
     index = np.arange(start, stop)
     size = (modes.plate.length, modes.plate.width)
@@ -299,51 +272,43 @@ def _band_rectangle(modes, start, stop, listener, s, settings):
             return ProductFactors(*edge.product_factors(x, y, size[0], size[1], index))
 
         return product_gains(factors, size, listener, s[start:stop], **settings)
-    return rayleigh_gains(
-        lambda points: modes.shapes(points, index=index),
-        size,
-        listener,
-        s[start:stop],
-        full_output=True,
-        **settings,
-    )
+    shapes = lambda points: modes.shapes(points, index=index)  # noqa: E731
+    return rayleigh_gains(shapes, size, listener, s[start:stop], full_output=True, **settings)
 
 
 def _banded_rectangle(modes, n_low, listener, s, settings):
     """The rectangle rule of the edge effect modes ``n_low`` onwards, band by band of
-    wavenumber (:data:`BAND_RATIO`): each band's rule follows its own fastest mode's
-    wavelength. Each mode passes the same convergence test as on one rule for every mode."""
+    wavenumber (:data:`BAND_RATIO`), each band's rule for its own fastest mode; each mode
+    passes the same convergence test as on one rule for every mode."""
     omega = modes.angular_frequencies[n_low:]
     qa = np.abs(s[n_low:]) / settings["sound_speed"]
     parts = [
         _band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
         for lo, hi in mode_bands(omega, settings["max_wavenumber"], qa)
     ]
-    largest = max(parts, key=lambda p: p.n_points)
     failed = sum(not p.success for p in parts)
+    largest = max(parts, key=lambda p: p.n_points)
     message = (
         f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
         f"{largest.message}"
     )
-    return combined(parts, "banded", message)
+    return combined(parts, message)
 
 
-def combined(parts, rule: str, message: str) -> RadiationResult:
-    """One :class:`RadiationResult` of consecutive blocks of modes ``parts`` (``n_points``,
-    ``panels`` those of the block with the most points)."""
+def combined(parts, message: str) -> RadiationResult:
+    """One "banded" :class:`RadiationResult` of consecutive blocks of modes ``parts``
+    (``n_points``, ``panels`` those of the block with the most points)."""
     status = max(p.status for p in parts)
     largest = max(parts, key=lambda p: p.n_points)
     return RadiationResult(
-        gains=np.concatenate([p.gains for p in parts]),
-        error=np.concatenate([p.error for p in parts]),
-        coherent=np.concatenate([p.coherent for p in parts]),
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in ("gains", "error", "coherent")),
         n_points=largest.n_points,
         refinements=max(p.refinements for p in parts),
         panels=largest.panels,
         success=status == 0,
         status=status,
         message=message,
-        rule=rule,
+        rule="banded",
     )
 
 

@@ -2,19 +2,16 @@
 mode is solved, and its weight from the shipped rates (for
 :func:`~synth.sound.radiation.rules.choose_rule` and :func:`synth.cost.radiation_work`).
 
-Each count is per rule of the refinement (:mod:`~synth.sound.radiation.refinement`), from
-the panels and orders the rule itself builds for the band's largest bending wavenumber
-``kb`` and acoustic one ``qa = omega_max / c`` (rad/m), so the counts follow the code. The
+Each count is per rule of the refinement (:mod:`~synth.sound.radiation.refinement`), for the
+band's largest bending wavenumber ``kb`` and acoustic one ``qa = omega_max / c`` (rad/m). The
 unit is a *term*: a multiply-add, or one exponential, Bessel value or shape factor value.
 Rectangle: per grid point and mode an exponential and a shape value's ``terms``. Polar and
 summed: per angular point the factor values and angular products, per radius and mode an
 exponential and a ``J_0`` (or the Ritz coefficients' combination), once the in-phase
-bounds' rule. A rule's *points* are what its ``max_points`` counts. The counts bound the
-work from above (selective refinements sum only the modes still failing).
-
-A term of each rule takes its own time: :func:`weighted_counts` turns terms into
-rectangle-term equivalents by the rates ``synth bench cost --record`` measured and ships
-(:data:`RATES`), so the choice and the budget's cut do not depend on the machine.
+bounds' rule. The counts bound the work from above (selective refinements sum only the
+modes still failing). :func:`weighted_counts` turns terms into rectangle-term equivalents
+by the rates ``synth bench cost --record`` measured and ships (:data:`RATES`), so the choice
+and the budget's cut do not depend on the machine.
 """
 
 from __future__ import annotations
@@ -39,9 +36,8 @@ RATES = Path(__file__).parents[2] / "cost_rates.json"
 
 @dataclass(frozen=True)
 class RuleWork:
-    """One rule's counts: ``points`` and ``work`` (terms) of each of its ``MAX_RULES``
-    rules, ``fixed`` terms outside the refinement (the in-phase bounds) and ``unit``, what
-    its points count."""
+    """One rule's counts: ``points`` (``unit`` says what they count) and ``work`` (terms) of
+    each of its ``MAX_RULES`` rules, ``fixed`` terms outside the refinement."""
 
     rule: str
     points: tuple
@@ -53,9 +49,8 @@ class RuleWork:
 @functools.cache
 def rule_weights() -> dict[str, float]:
     """Rectangle-term equivalents of one term of each radiation rule, by name: the
-    rectangle rule's terms per second over the rule's, in :data:`RATES` (a constant of the
-    package, not measured where it runs; recording new rates changes it). The rectangle
-    rule's weight is 1."""
+    rectangle rule's terms per second over the rule's, in :data:`RATES` (shipped, not
+    measured where it runs)."""
     try:
         rates = json.loads(RATES.read_text())["radiation_terms_per_second"]
     except FileNotFoundError:
@@ -67,8 +62,7 @@ def rule_weights() -> dict[str, float]:
 
 
 def weighted_counts(counts: RuleWork) -> RuleWork:
-    """``counts`` (terms) in rectangle-term equivalents: its work inside and outside the
-    refinement times its rule's :func:`rule_weights`."""
+    """``counts`` (terms) in rectangle-term equivalents (times its :func:`rule_weights`)."""
     weight = rule_weights()[counts.rule]
     return dataclasses.replace(
         counts,
@@ -98,8 +92,13 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
     panels); at each radius the arcs on the plate (the summed rule's
     :func:`angular_rule`), or with ``shorter`` the shorter of those on and off it (the
     separable rule's :func:`_circle_points`)."""
-    from synth.sound.radiation.angular import arc_panels, circle_arcs
-    from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels
+    from synth.sound.radiation.angular import (
+        arc_panels,
+        circle_arcs,
+        radial_nodes,
+        radial_orders,
+        radial_panels,
+    )
 
     a, b = size
     xl, yl, _ = listener
@@ -122,34 +121,28 @@ def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[
 
 
 def _in_phase_points(size, listener, kb, tol_panel) -> tuple[int, int]:
-    """Points along x and y of the polar rules' in-phase rectangle rule (``2 kb``,
-    refined once)."""
-    from synth.sound.radiation.rectangle import first_rule
+    """Points along x and y of the in-phase rule (:func:`~.rectangle.in_phase_grid`)."""
+    from synth.sound.radiation.rectangle import in_phase_grid
 
-    _, _, px, py = first_rule(size[0], size[1], listener, 2.0 * kb, tol_panel)
-    return int(np.ceil(px * REFINE).sum()), int(np.ceil(py * REFINE).sum())
+    xs, _, ys, _ = in_phase_grid(size, listener, kb, tol_panel)
+    return xs.size, ys.size
 
 
-def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel) -> RuleWork:
-    """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors."""
-    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=True)
+def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel, basis=None, terms=0):
+    """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors;
+    with ``basis`` the summed rule's (Ritz modes of ``basis`` coefficients, shape values of
+    ``terms`` terms)."""
+    summed = basis is not None
+    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=not summed)
+    radial = basis + 1 if summed else POLAR_RADIAL_TERMS
     work = [
-        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * POLAR_RADIAL_TERMS
+        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
         for radii, angular in grid
     ]
     xs, ys = _in_phase_points(size, listener, kb, tol_panel)
-    fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
-    return RuleWork("polar", tuple(a for _, a in grid), tuple(work), fixed, "angular points")
-
-
-def summed_work(size, listener, kb, qa, modes, n_x, n_y, basis, terms, tol_panel) -> RuleWork:
-    """The summed polar rule's work for ``modes`` Ritz modes (``n_x``, ``n_y`` factors,
-    ``basis`` coefficients per mode, shape values of ``terms`` terms)."""
-    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=False)
-    work = [
-        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * (basis + 1)
-        for radii, angular in grid
-    ]
-    xs, ys = _in_phase_points(size, listener, kb, tol_panel)
-    fixed = float(xs * ys) * modes * (1 + terms)
-    return RuleWork("summed", tuple(a for _, a in grid), tuple(work), fixed, "angular points")
+    if summed:
+        fixed = float(xs * ys) * modes * (1 + terms)
+    else:
+        fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
+    name = "summed" if summed else "polar"
+    return RuleWork(name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
