@@ -19,8 +19,7 @@ import pytest
 from benchmarks.cost import rule_counts
 from synth import cost
 from synth.io.presets import find, read, scene_from_dict
-from synth.sound.radiation.rules import PolarRule, SummedRule
-from synth.sound.radiation.work import rule_weights, weighted_counts
+from synth.sound.radiation.rules import PolarRule, SummedRule, rule_weights, weighted_counts
 from synth.sound.render import render
 
 #: How far above the traced peak the estimate may lie: it counts every chunk the
@@ -294,11 +293,11 @@ WORK_FACTOR = 3.0
 
 def _counted_rules(name, monkeypatch) -> list:
     """Per rule the render applies, from now on: [points, work] counted from the rule's
-    own arguments with the term weights of synth.sound.radiation.work."""
+    own arguments with the term weights of synth.sound.radiation.rules."""
     import numpy as np
 
     from synth.sound.radiation import polar, summed
-    from synth.sound.radiation import work as w
+    from synth.sound.radiation import rules as w
 
     levels = []
     module, attr = (polar, "_apply_separable_rule") if name == "polar" else (

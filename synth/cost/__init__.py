@@ -7,7 +7,7 @@ computed, so work beyond the budget is refused before it starts: the modes
 sqrt(rho h / D)``, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118,
 and the solver's flops by LAPACK's counts, Golub & Van Loan, *Matrix Computations*, 4th
 ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.contact`); the radiation
-rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.work`
+rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.rules`
 and weighed by the shipped rates, so a cut does not depend on the machine); and memory
 (:class:`MemoryParts`, an upper estimate of the traced peak).
 

@@ -9,7 +9,7 @@ import math
 from synth.constants import SOUND_SPEED
 from synth.cost.modal import bending_wavenumber, modal_count
 from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, Budget, RadiationWork
-from synth.sound.radiation.work import weighted_counts
+from synth.sound.radiation.rules import weighted_counts
 
 
 def _acoustic(f_max: float) -> float:

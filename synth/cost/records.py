@@ -3,7 +3,7 @@ environment variables), the memory a render holds (:class:`MemoryParts`), the ra
 stage's work (:class:`RadiationWork`), a render's whole estimate (:class:`CostEstimate`), a
 live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), what of them is
 beyond a budget with what to change, and the measured rates (:class:`Rates`, from the file
-shipped with the package, :data:`~synth.sound.radiation.work.RATES`) that turn them into
+shipped with the package, :data:`~synth.sound.radiation.rules.RATES`) that turn them into
 seconds.
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 from synth import checks
 from synth.errors import ParameterError
-from synth.sound.radiation.work import RATES
+from synth.sound.radiation.rules import RATES
 
 #: Default budget: modes of the plate below the highest rendered frequency (each costs
 #: its shape, its radiation gain and its share of every impact's transform).
@@ -37,7 +37,7 @@ DEFAULT_MAX_SOLVER_FLOPS = 10**12
 #: Default budget: rectangle-term equivalents of the radiation stage's sums
 #: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
 #: or an exponential, weighted to the rectangle rule's time by
-#: :func:`synth.sound.radiation.work.rule_weights`). Every shipped preset's first four rules
+#: :func:`synth.sound.radiation.rules.rule_weights`). Every shipped preset's first four rules
 #: fit at 48 kHz (tests/test_cost.py).
 DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
 
@@ -206,7 +206,7 @@ class MemoryParts:
 
 @dataclass(frozen=True)
 class RadiationWork:
-    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.work`):
+    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.rules`):
     ``rule`` the engine takes ("rectangle", "polar", "summed", "banded"; "none" for an
     accelerometer), ``unit`` what its points count, ``first_points`` the first rule's;
     ``rules`` the rules the refinement may take within the budget, ``points`` their points

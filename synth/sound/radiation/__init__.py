@@ -10,8 +10,8 @@ The rules: :func:`rayleigh_gains` (:mod:`~.rectangle`, any shapes), :func:`separ
 and :func:`summed_gains` (:mod:`~.polar`, products ``X_i(x) Y_j(y)`` and sums of them), and
 for the dynamic edge effect modes the rectangle rule band by band; :mod:`~.rules` takes the
 cheapest one that holds the convergence test's bound (:mod:`~.refinement`), its cost counted
-by :mod:`~.work`. :func:`plate_gains` computes a :class:`synth.physics.modes.Modes`' gains by
-the chosen rule, kept in memory and on disk (:mod:`~.cache`).
+before any mode is solved. :func:`plate_gains` computes a :class:`synth.physics.modes.Modes`'
+gains by the chosen rule, kept in memory and on disk (:mod:`~.cache`).
 """
 
 from __future__ import annotations

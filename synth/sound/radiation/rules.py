@@ -1,28 +1,50 @@
-"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, and the
-choice among them (:func:`choose_rule`).
+"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, their work,
+and the choice among them (:func:`choose_rule`).
 
 Every rule ends with the same convergence test (:mod:`~synth.sound.radiation.refinement`),
 so each holds the same error bound while its check rule fits ``max_points``; they differ
-in cost, counted before any mode is solved from their own panel builders
-(:mod:`~synth.sound.radiation.work`) and weighed by the shipped rates
-(:func:`~synth.sound.radiation.work.rule_weights`). :func:`choose_rule` takes the cheapest
-rule that applies and fits; ``synth bench rules`` prints each rule's cost and choice on the
-presets, the scale ladder, its random scenes and the high rates.
+in cost, counted before any mode is solved from their own panel builders, per rule of the
+refinement, for the band's largest bending wavenumber ``kb`` and acoustic one ``qa =
+omega_max / c`` (rad/m). The unit is a *term*: a multiply-add, or one exponential, Bessel
+value or shape factor value. Rectangle: per grid point and mode an exponential and a shape
+value's ``terms``. Polar and summed: per angular point the factor values and angular
+products, per radius and mode an exponential and a ``J_0`` (or the Ritz coefficients'
+combination), once the in-phase bounds' rule. The counts bound the work from above
+(selective refinements sum only the modes still failing). :func:`weighted_counts` turns
+terms into rectangle-term equivalents by the rates ``synth bench cost --record`` measured
+and ships (:data:`RATES`), so the choice and the budget's cut (:func:`synth.cost.radiation_work`)
+do not depend on the machine; :func:`choose_rule` takes the cheapest rule that applies and
+fits. ``synth bench rules`` prints each rule's cost and choice.
 """
 
 from __future__ import annotations
 
 import abc
+import dataclasses
 import functools
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from synth.sound.radiation import work
-from synth.sound.radiation.common import RadiationResult
+from synth.sound.radiation.angular import (
+    arc_panels,
+    circle_arcs,
+    radial_nodes,
+    radial_orders,
+    radial_panels,
+)
+from synth.sound.radiation.common import MAX_ORDER, MAX_RULES, REFINE, RadiationResult, half_phase
 from synth.sound.radiation.polar import separable_gains, summed_gains
-from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
+from synth.sound.radiation.rectangle import (
+    ProductFactors,
+    first_rule,
+    in_phase_grid,
+    product_gains,
+    rayleigh_gains,
+)
 
 #: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic) of the fastest and the
 #: slowest edge effect mode of one band of :class:`BandedRule`. The rectangle rule's points
@@ -34,6 +56,114 @@ BAND_RATIO = 1.1
 #: effect modes, each on the grid of its top (:func:`edge_split`): an upper bound of the
 #: rule's own bands of :data:`BAND_RATIO`, known before any mode is solved.
 EDGE_BANDS = 6
+
+
+#: Terms per radius and mode of the polar rule's radial sums: the exponential and ``J_0``.
+POLAR_RADIAL_TERMS = 2
+#: The rates of the estimate's work, measured by ``synth bench cost --record`` on the machine
+#: named in it and shipped with the package: the mode solver's and each radiation rule's
+#: (terms per second, by the rule's name).
+RATES = Path(__file__).parents[2] / "cost_rates.json"
+
+
+@dataclass(frozen=True)
+class RuleWork:
+    """One rule's counts: ``points`` (``unit`` says what they count) and ``work`` (terms) of
+    each of its ``MAX_RULES`` rules, ``fixed`` terms outside the refinement."""
+
+    rule: str
+    points: tuple
+    work: tuple
+    fixed: float
+    unit: str
+
+
+@functools.cache
+def rule_weights() -> dict[str, float]:
+    """Rectangle-term equivalents of one term of each radiation rule, by name: the
+    rectangle rule's terms per second over the rule's, in :data:`RATES` (shipped, not
+    measured where it runs)."""
+    try:
+        rates = json.loads(RATES.read_text())["radiation_terms_per_second"]
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"{RATES} is missing: the radiation rules are weighed by their rates "
+            f"(synth bench cost --record)"
+        ) from None
+    return {rule: rates["rectangle"] / rate for rule, rate in rates.items()}
+
+
+def weighted_counts(counts: RuleWork) -> RuleWork:
+    """``counts`` (terms) in rectangle-term equivalents (times its :func:`rule_weights`)."""
+    weight = rule_weights()[counts.rule]
+    return dataclasses.replace(
+        counts,
+        work=tuple(weight * float(w) for w in counts.work),
+        fixed=weight * float(counts.fixed),
+    )
+
+
+def _levels():
+    return [REFINE**level for level in range(MAX_RULES)]
+
+
+def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
+    """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
+    whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
+    ``REFINE^l`` times the first rule's."""
+    _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
+    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in _levels()]
+    work = [float(n) * modes * (1 + terms) for n in points]
+    return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
+
+
+def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[int, int]]:
+    """Per rule: (radii, angular points) of the polar rules; at each radius the arcs on the
+    plate (the summed rule), or with ``shorter`` the shorter of those on and off it."""
+    a, b = size
+    xl, yl, _ = listener
+    kappa = kb + qa
+    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa
+    panels, orders = radial_orders(
+        radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
+    )
+    out = []
+    for f in _levels():
+        radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
+        angular = 0
+        for r in radii:
+            on, off = circle_arcs(float(r), a, b, xl, yl)
+            if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
+                on = off
+            angular += sum(n * p for _, _, n, p in arc_panels(float(r), kb, tol_panel, f, on))
+        out.append((radii.size, angular))
+    return out
+
+
+def _in_phase_points(size, listener, kb, tol_panel) -> tuple[int, int]:
+    """Points along x and y of the in-phase rule (:func:`~.rectangle.in_phase_grid`)."""
+    xs, _, ys, _ = in_phase_grid(size, listener, kb, tol_panel)
+    return xs.size, ys.size
+
+
+def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel, basis=None, terms=0):
+    """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors;
+    with ``basis`` the summed rule's (Ritz modes of ``basis`` coefficients, shape values of
+    ``terms`` terms)."""
+    summed = basis is not None
+    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=not summed)
+    radial = basis + 1 if summed else POLAR_RADIAL_TERMS
+    work = [
+        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
+        for radii, angular in grid
+    ]
+    xs, ys = _in_phase_points(size, listener, kb, tol_panel)
+    if summed:
+        fixed = float(xs * ys) * modes * (1 + terms)
+    else:
+        fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
+    name = "summed" if summed else "polar"
+    return RuleWork(name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
 
 
 @dataclass(frozen=True)
@@ -90,10 +220,10 @@ class Problem:
 class Estimate:
     """What one rule takes on one :class:`Problem`: its ``counts``, ``fits`` whether its
     check rule (the first rule refined once) holds at most ``max_points`` points, and
-    ``cost`` in rectangle-term equivalents (:func:`~.work.weighted_counts`)."""
+    ``cost`` in rectangle-term equivalents (:func:`~.weighted_counts`)."""
 
     rule: Rule
-    counts: work.RuleWork
+    counts: RuleWork
     fits: bool
     cost: float
     tol: float
@@ -116,12 +246,12 @@ class Rule(abc.ABC):
         return problem.shapes in self.shapes and problem.modes > 0
 
     @abc.abstractmethod
-    def counts(self, problem: Problem) -> work.RuleWork:
-        """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
+    def counts(self, problem: Problem) -> RuleWork:
+        """Points and terms of each of the rule's refinements."""
 
     def estimate(self, problem: Problem) -> Estimate:
         counts = self.counts(problem)
-        weighted = work.weighted_counts(counts)
+        weighted = weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
         return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
 
@@ -139,7 +269,7 @@ class RectangleRule(Rule):
     shapes = ("separable", "summed", "any")
 
     def counts(self, p):
-        return work.rectangle_work(p.size, p.listener, p.kb + p.qa, p.modes, p.terms, p.tol_panel)
+        return rectangle_work(p.size, p.listener, p.kb + p.qa, p.modes, p.terms, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         size = (modes.plate.length, modes.plate.width)
@@ -155,7 +285,7 @@ class PolarRule(Rule):
     shapes = ("separable",)
 
     def counts(self, p):
-        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel)
+        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
@@ -169,7 +299,7 @@ class SummedRule(Rule):
     shapes = ("summed",)
 
     def counts(self, p):
-        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel,
+        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel,
                                p.basis, p.terms)  # fmt: skip
 
     def gains(self, modes, listener, s, settings):
@@ -188,17 +318,17 @@ class BandedRule(Rule):
 
     def counts(self, p):
         e = p.edge
-        ritz = work.rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms,
+        ritz = rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms,
                                    p.tol_panel)  # fmt: skip
         points = list(ritz.points if e.ritz_modes else [0] * len(ritz.points))
         terms = list(ritz.work)
         for band in e.bands:
             if band.modes == 0:
                 continue
-            rule = work.rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
+            rule = rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
             points = [max(a, b) for a, b in zip(points, rule.points)]
             terms = [a + b for a, b in zip(terms, rule.work)]
-        return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
+        return RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
         n_low = modes.edge_effect().first_mode
