@@ -152,6 +152,15 @@ def nearest_distance(size, listener) -> float:
     return math.sqrt(dx * dx + dy * dy + z * z)
 
 
+def check_finite(values, what: str, modes=None) -> None:
+    """A ParameterError ``what`` naming the first mode (index in ``modes``) whose sum is not
+    finite."""
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0] if modes is None else modes[bad[0]])
+        raise ParameterError(f"{what} for mode {k}")
+
+
 def check_poles(s, n_modes: int | None = None) -> np.ndarray:
     """``s`` as a 1-D complex array of finite poles (rad/s), one per mode where
     ``n_modes`` is given."""

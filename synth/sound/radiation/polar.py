@@ -50,13 +50,14 @@ from synth.sound.radiation.common import (
     RadiationResult,
     Settings,
     add_sums,
+    check_finite,
     check_listener,
     check_poles,
     check_settings,
     exp_halvings,
     half_phase,
 )
-from synth.sound.radiation.rectangle import _check_finite, apply_rule, in_phase_grid
+from synth.sound.radiation.rectangle import apply_rule, in_phase_grid
 from synth.sound.radiation.refinement import refine, warn_unconverged
 
 #: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
@@ -225,7 +226,7 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
             n_points = sum(pool.map(worker, range(workers)))
     acc_re, acc_im, _ = acc.sum(axis=0)
     total = acc_re + 1j * acc_im
-    _check_finite(total, "separable shapes gave NaN or infinite values", active)
+    check_finite(total, "separable shapes gave NaN or infinite values", active)
     return total, n_points
 
 
@@ -245,7 +246,7 @@ def _separable_in_phase(sep, setup):
     sums = np.empty((abs_x.shape[1], abs_y.shape[1]))
     single_thread_product(np.ascontiguousarray(abs_x.T), inner, sums)
     mag = sums[sep.x_index, sep.y_index]
-    _check_finite(mag, "separable shapes gave NaN or infinite values")
+    check_finite(mag, "separable shapes gave NaN or infinite values")
     return mag
 
 

@@ -30,6 +30,7 @@ from synth.sound.radiation.common import (
     RadiationResult,
     accumulate,
     add_sums,
+    check_finite,
     check_listener,
     check_poles,
     check_settings,
@@ -141,17 +142,8 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
         for job in running:
             job.result()
     acc_re, acc_im, mag = acc.sum(axis=0)
-    _check_finite(mag, "shape_fn returned NaN or infinite (or overflowing) values")
+    check_finite(mag, "shape_fn returned NaN or infinite (or overflowing) values")
     return acc_re + 1j * acc_im, mag
-
-
-def _check_finite(values, what: str, modes=None) -> None:
-    """A ParameterError ``what`` naming the first mode (index in ``modes``) whose sum is not
-    finite."""
-    bad = np.flatnonzero(~np.isfinite(values))
-    if bad.size:
-        k = int(bad[0] if modes is None else modes[bad[0]])
-        raise ParameterError(f"{what} for mode {k}")
 
 
 @dataclass(frozen=True)
@@ -244,7 +236,7 @@ def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
         for job in jobs:
             job.result()
     acc_re, acc_im, mag = acc.sum(axis=0)
-    _check_finite(mag, "factor_fn returned NaN or infinite values")
+    check_finite(mag, "factor_fn returned NaN or infinite values")
     return acc_re + 1j * acc_im, mag
 
 
