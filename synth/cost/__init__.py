@@ -6,7 +6,7 @@ computed, so work beyond the budget is refused before it starts: the modes
 (:mod:`~synth.cost.modal`: the asymptotic modal density ``N(omega) = S omega / (4 pi)
 sqrt(rho h / D)``, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118,
 and the solver's flops by LAPACK's counts, Golub & Van Loan, *Matrix Computations*, 4th
-ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.contact`); the radiation
+ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.estimates`); the radiation
 rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.rules`
 and weighed by the shipped rates, so a cut does not depend on the machine); and memory
 (:class:`MemoryParts`, an upper estimate of the traced peak).
@@ -21,8 +21,15 @@ measured rates, :mod:`~.estimates` the estimates.
 
 from __future__ import annotations
 
-from synth.cost.contact import FirstContact, hertz_contact_time
-from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
+from synth.cost.estimates import (
+    RENDER_OPTIONS,
+    FirstContact,
+    body_cost,
+    check_body,
+    estimate,
+    estimate_render,
+    hertz_contact_time,
+)
 from synth.cost.modal import modal_count, solver_cost
 from synth.cost.radiation import radiation_work
 from synth.cost.records import (
