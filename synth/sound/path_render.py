@@ -1,20 +1,12 @@
 """Render a ball released with a horizontal velocity: its bounces and its rolling mixed in one
 signal through one modal bank and one listener (docs/rolling.md, "Rendering a path").
 
-The plate is linear, so the listener's signal is the sum of its responses to the bounces'
-pulses and to the rolling's force (superposition):
-
-* the bounces: :func:`synth.sound.modal_bank.synthesize` (each pulse's exact transform), each
-  impact exciting the modes at its own point (``b_k = phi_k(x_i) / M_k``);
-* the rolling: :func:`synth.sound.rolling.drive_modes`, the force held over each sample
-  period at the moving touching point, from its first sample on the same grid (plate at rest
-  for this part: the bounces' part carries what they left ringing), on the modes that may
-  exceed their share of the floor under the bounces' peak
-  (:func:`synth.sound.rolling.audible_modes`: those left out add at most ``floor`` times
-  that peak, and so times the render's reference, at every sample);
-* after the rolling: the force it leaves (the weight of a ball at rest, nothing after a ball
-  that left the plate) held at the last point, until every mode has decayed below the floor
-  (or ``max_tail``).
+The plate is linear, so the signal is the sum of its responses (superposition) to the
+bounces' pulses (:func:`synth.sound.modal_bank.synthesize`, each impact exciting the modes at
+its own point), to the rolling's force (:func:`synth.sound.rolling.drive_modes` from the
+plate at rest, on the modes that may exceed their share of the floor under the bounces'
+peak) and, after the rolling, to the force it leaves (a ball at rest's weight) held at its
+last point until every mode is below the floor (or ``max_tail``).
 """
 
 from __future__ import annotations

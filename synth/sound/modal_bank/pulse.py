@@ -23,11 +23,9 @@ from synth.sound.modal_bank.transform_kernels import (
     long_impact_transform,
 )
 
-#: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
-#: for :func:`impact_transform`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and
-#: ``|e^(p d)|^2`` reaches ``e^(-2 sigma tau)``: both stay inside float64 (about
-#: ``e^(+-708)``) with a margin. Longer contacts (a heavy ball resting on a damped
-#: plate) go to :func:`long_impact_transform`.
+#: Largest ``sigma_max tau`` (nepers) for :func:`impact_transform`, whose factors reach
+#: ``e^(+-2 sigma tau)``: inside float64 (``e^(+-708)``) with a margin; longer contacts go
+#: to :func:`long_impact_transform`.
 LONG_CONTACT_NEPERS = 300.0
 
 
@@ -69,10 +67,9 @@ def transform_pulse(
     pr, pi, cr, ci, ur, ui, sigma_max, period, h, forces, slopes, d0, offset_forces,
     offset_slopes, weight, tau, order, amps, resp, work,
 ):  # fmt: skip
-    """One impact's mode amplitudes and in-contact response: :func:`impact_transform` (its
-    arguments, its result), or :func:`long_impact_transform` when the contact of ``tau`` s lasts
-    more than ``LONG_CONTACT_NEPERS`` time constants of the fastest-decaying mode
-    (``sigma_max``, 1/s). Compiled, so that the live engine's audio thread calls it too."""
+    """:func:`impact_transform` (its arguments, its result), or
+    :func:`long_impact_transform` for a :func:`long_contact`; compiled, so that the live
+    engine's audio thread calls it too."""
     if long_contact(sigma_max, tau):
         return long_impact_transform(
             pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
