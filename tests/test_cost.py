@@ -296,13 +296,12 @@ def _counted_rules(name, monkeypatch) -> list:
     own arguments with the term weights of synth.sound.radiation.rules."""
     import numpy as np
 
-    from synth.sound.radiation import polar, summed
+    from synth.sound.radiation import polar
     from synth.sound.radiation import rules as w
 
     levels = []
-    module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
-        summed, "_apply_summed_rule")  # fmt: skip
-    original = getattr(module, attr)
+    attr = "_apply_separable_rule" if name == "polar" else "_apply_summed_rule"
+    original = getattr(polar, attr)
 
     def counted(shapes, setup, radii, *rest):
         active = rest[-1]
@@ -318,7 +317,7 @@ def _counted_rules(name, monkeypatch) -> list:
         levels.append([angular, float(terms)])
         return total, angular
 
-    monkeypatch.setattr(module, attr, counted)
+    monkeypatch.setattr(polar, attr, counted)
     return levels
 
 
