@@ -2,11 +2,11 @@
 
 The cost estimate (:mod:`synth.cost`) counts work in machine-independent units: the mode
 solver's floating-point operations and each radiation rule's terms
-(:mod:`synth.sound.radiation.work`). This benchmark times, once, a cold mode solve and each
+(:mod:`synth.sound.radiation.rules`). This benchmark times, once, a cold mode solve and each
 radiation rule applied alone (memory caches off) on a scene of its own, and divides the
 estimate's count of that work (of the rules the refinement took) by the wall time: the
 rates ``synth info --cost`` turns the estimate into seconds with, and whose ratios weigh
-each radiation rule's terms in the budget (:func:`synth.sound.radiation.work.rule_weights`;
+each radiation rule's terms in the budget (:func:`synth.sound.radiation.rules.rule_weights`;
 the counts timed here are the rules' own terms, unweighted). ``--record`` writes them to
 :data:`synth.cost.RATES` with the date, the machine and its load (the figures are those of
 one run; a loaded machine gives lower rates), which changes the package's weights.
@@ -95,7 +95,7 @@ def _rule_call(rule, m, listener, s, kb):
 
 
 def rule_counts(rule: str, plate, listener, modes: int, f_max: float):
-    """The counts (:class:`synth.sound.radiation.work.RuleWork`) of ``rule`` ("rectangle",
+    """The counts (:class:`synth.sound.radiation.rules.RuleWork`) of ``rule`` ("rectangle",
     "polar", "summed" or "banded", :mod:`synth.sound.radiation.rules`) for
     ``listener`` (a Microphone) hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz),
     whichever rule the engine would take."""

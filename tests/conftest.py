@@ -105,7 +105,8 @@ def damage_cache_file():
 def empty_caches(tmp_path, monkeypatch):
     """A private, empty disk cache and empty memory caches of plate modes and radiation
     gains (a render then starts from a fresh mode solve)."""
-    from synth.sound import modes, radiation
+    from synth.physics import modes
+    from synth.sound import radiation
 
     monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
     modes.clear_memory_cache()
@@ -166,7 +167,8 @@ def preset_run_from_empty_caches(name: str, overrides: tuple[str, ...] = ()) -> 
     tests/data/record_preset_renders.py records) and the round trip (tests/test_roundtrip.py)
     read the same run."""
     import synth
-    from synth.sound import modes, radiation
+    from synth.physics import modes
+    from synth.sound import radiation
 
     old = os.environ.get("SYNTH_CACHE_DIR")
     try:

@@ -1,5 +1,5 @@
-"""Tests of synth.sound.asymptotic_modes (the dynamic edge effect method) and of the
-crossover in synth.sound.modes that hands large free and clamped bands to it."""
+"""Tests of synth.physics.asymptotic_modes (the dynamic edge effect method) and of the
+crossover in synth.physics.modes that hands large free and clamped bands to it."""
 
 from __future__ import annotations
 
@@ -11,13 +11,13 @@ from numpy.polynomial.legendre import leggauss
 from reference import ritz_frequencies
 
 from synth.errors import ParameterError
+from synth.physics import modes as P
+from synth.physics.asymptotic_modes import ritz as edge_ritz
+from synth.physics.asymptotic_modes import roots
 from synth.physics.materials import LossFactor, Material
+from synth.physics.modes import crossover, ritz
 from synth.physics.scene import Plate
 from synth.sound import asymptotic_modes as AM
-from synth.sound import modes as P
-from synth.sound.asymptotic_modes import ritz as edge_ritz
-from synth.sound.asymptotic_modes import roots
-from synth.sound.modes import crossover, ritz
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 

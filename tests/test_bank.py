@@ -1071,8 +1071,9 @@ HISTORY_FORMATS = {"wav": "FLOAT", "flac": "PCM_24", "ogg": "VORBIS"}
 
 
 def _clear_memory_caches() -> None:
+    from synth.physics import modes
     from synth.physics.modal_contact import point
-    from synth.sound import modes, radiation
+    from synth.sound import radiation
 
     modes.clear_memory_cache()
     radiation.clear_memory_cache()
@@ -1089,7 +1090,7 @@ def test_plate_modes_depend_only_on_the_plate_and_band(tmp_path, monkeypatch):
     from threadpoolctl import threadpool_limits
 
     from synth.io.presets import scene_from_dict
-    from synth.sound import modes
+    from synth.physics import modes
 
     monkeypatch.setenv("SYNTH_CACHE_DIR", str(tmp_path / "cache"))
     _clear_memory_caches()

@@ -11,8 +11,8 @@ import pytest
 
 from synth.cli import main
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.store import cache
 

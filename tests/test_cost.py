@@ -19,8 +19,7 @@ import pytest
 from benchmarks.cost import rule_counts
 from synth import cost
 from synth.io.presets import find, read, scene_from_dict
-from synth.sound.radiation.rules import PolarRule, SummedRule
-from synth.sound.radiation.work import rule_weights, weighted_counts
+from synth.sound.radiation.rules import PolarRule, SummedRule, rule_weights, weighted_counts
 from synth.sound.render import render
 
 #: How far above the traced peak the estimate may lie: it counts every chunk the
@@ -107,8 +106,9 @@ SCENES = {
 
 
 def _clear_memory_caches() -> None:
+    from synth.physics import modes
     from synth.physics.modal_contact import point
-    from synth.sound import modes, radiation
+    from synth.sound import radiation
 
     modes.clear_memory_cache()
     radiation.clear_memory_cache()
@@ -169,7 +169,7 @@ def test_memory_parts_follow_the_code_sizes():
     # The radiation part is there for a microphone only and is at most the chunks the
     # sums hold; the solver's part is SOLVER_SQUARES dense squares of its largest main
     # basis (a simply supported plate has none: closed-form modes).
-    from synth.sound.modes import solver_sizes
+    from synth.physics.modes import solver_sizes
     from synth.sound.radiation.common import CHUNK_BYTES
 
     for name, data in SCENES.items():
@@ -293,16 +293,15 @@ WORK_FACTOR = 3.0
 
 def _counted_rules(name, monkeypatch) -> list:
     """Per rule the render applies, from now on: [points, work] counted from the rule's
-    own arguments with the term weights of synth.sound.radiation.work."""
+    own arguments with the term weights of synth.sound.radiation.rules."""
     import numpy as np
 
-    from synth.sound.radiation import polar, summed
-    from synth.sound.radiation import work as w
+    from synth.sound.radiation import polar
+    from synth.sound.radiation import rules as w
 
     levels = []
-    module, attr = (polar, "_apply_separable_rule") if name == "polar" else (
-        summed, "_apply_summed_rule")  # fmt: skip
-    original = getattr(module, attr)
+    attr = "_apply_separable_rule" if name == "polar" else "_apply_summed_rule"
+    original = getattr(polar, attr)
 
     def counted(shapes, setup, radii, *rest):
         active = rest[-1]
@@ -318,7 +317,7 @@ def _counted_rules(name, monkeypatch) -> list:
         levels.append([angular, float(terms)])
         return total, angular
 
-    monkeypatch.setattr(module, attr, counted)
+    monkeypatch.setattr(polar, attr, counted)
     return levels
 
 
@@ -467,7 +466,7 @@ def test_a_rectangle_rules_cut_is_that_of_its_terms():
     # The rectangle rule weighs 1: the long strip's cut (the most rules whose summed terms
     # fit the default budget, the refinement stopped at the last one's points) is that of
     # its unweighted counts.
-    from synth.sound.modes import shape_terms
+    from synth.physics.modes import shape_terms
     from synth.sound.radiation.common import MAX_RULES
 
     scene, options = scene_from_dict(STRIP, "strip")

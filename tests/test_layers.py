@@ -184,22 +184,3 @@ def test_the_package_imports_nothing_beside_it():
         if i.target.split(".")[0] in BESIDE
     ]
     assert beside == []
-
-
-#: Modules that moved down a layer, and the old names kept for existing imports.
-MOVED = {
-    "synth.sound.modes": "synth.physics.modes",
-    "synth.sound.modes.ritz": "synth.physics.modes.ritz",
-    "synth.sound.modes.cache": "synth.physics.modes.cache",
-    "synth.sound.asymptotic_modes": "synth.physics.asymptotic_modes",
-    "synth.sound.asymptotic_modes.roots": "synth.physics.asymptotic_modes.roots",
-}
-
-
-def test_old_module_paths_are_the_moved_modules():
-    # The same module object under both names: one copy of each kernel and cache, and a
-    # monkeypatch through either name reaches the code.
-    import importlib
-
-    for old, new in MOVED.items():
-        assert importlib.import_module(old) is importlib.import_module(new), old

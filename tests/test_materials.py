@@ -263,8 +263,8 @@ def test_material_rejects_poisson_outside_range(bad):
 def test_material_without_damping_is_for_contacts_only():
     # A ball's material needs no damping law, nor a plate's for a contact; computing the
     # plate's modes does (they decay by it): the error names the missing law there.
+    from synth.physics.modes import modes
     from synth.physics.scene import Ball, Plate
-    from synth.sound.modes import modes
 
     m = Material("m", 1000.0, 1e9, 0.3)
     assert m.damping is None and Ball(m, 0.01).material is m

@@ -253,7 +253,7 @@ def test_corner_preset_series_is_independent_of_the_mode_cache(empty_caches, tmp
     # solution in the mode cache (equal within the solver's tolerance, not bit-equal) must
     # not change the bounces, which amplify any difference (to 1-3 % of full scale).
     from synth.io.presets import load_preset
-    from synth.sound import modes
+    from synth.physics import modes
     from synth.store.cache import cache_dir
 
     scene = load_preset("thesis-steel10-mdf18-corner")

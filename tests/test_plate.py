@@ -1,4 +1,5 @@
-"""Tests of synth.sound.modes: the finite plate's bending modes (docs/physics.md, "Plate modes")."""
+"""Tests of synth.physics.modes: the finite plate's bending modes (docs/physics.md,
+"Plate modes")."""
 
 from __future__ import annotations
 
@@ -12,11 +13,11 @@ from numpy.polynomial.legendre import leggauss
 from reference import ritz_frequencies
 
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material, Rayleigh
+from synth.physics.modes import cache as modes_cache
+from synth.physics.modes import ritz
 from synth.physics.scene import Plate
-from synth.sound import modes as P
-from synth.sound.modes import cache as modes_cache
-from synth.sound.modes import ritz
 
 # A steel-like material with nu = 0.3, the Poisson ratio of the published tables.
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
@@ -204,7 +205,7 @@ def test_basis_normalisation_log_factorials_are_scipys_gammaln_to_the_bit():
     # the renders, do not change with the module that computes it
     from scipy.special import gammaln
 
-    from synth.sound.modes.basis import _log_factorial
+    from synth.physics.modes.basis import _log_factorial
 
     for k in range(12):
         assert _log_factorial(k) == gammaln(k + 1.0), k

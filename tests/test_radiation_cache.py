@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.radiation import cache as radiation_cache
 from synth.sound.radiation import rectangle

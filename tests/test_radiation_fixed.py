@@ -9,11 +9,11 @@ import pytest
 
 import synth
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material
+from synth.physics.modes import crossover
 from synth.physics.scene import Microphone, Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
-from synth.sound.modes import crossover
 from synth.sound.radiation import rules
 from synth.sound.radiation.common import COHERENT_FLOOR
 from synth.sound.radiation.fixed import NEAR_FIELD_HEIGHT, GridTooLarge, ListenerGrid

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from synth.errors import ParameterError
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
 from synth.sound.radiation import angular
-from synth.sound.radiation.refinement import refine_selective
+from synth.sound.radiation.refinement import refine
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
@@ -131,7 +131,7 @@ def test_separable_gains_bad_input():
 
 
 def test_selective_refinement_refines_only_the_failing_modes():
-    """refine_selective on a rule whose integrals converge as ``1 + c_k 16^-level`` (mode
+    """refine(selective=True) on a rule whose integrals converge as ``1 + c_k 16^-level`` (mode
     ``k`` with its own ``c_k``): every mode ends within tol of the limit 1 by its own
     test, each rule after the first check is applied to the modes still failing alone,
     and a mode that passed keeps the gain of the rule where it passed."""
@@ -143,9 +143,7 @@ def test_selective_refinement_refines_only_the_failing_modes():
         return 1.0 + c[active] * 16.0**-level, np.ones(active.size)
 
     tol = 1e-6
-    res = refine_selective(
-        rule, lambda level: 100 * level, np.ones(5), np.ones(5), tol, 10**9, (1, 0)
-    )
+    res = refine(rule, lambda level: 100 * level, np.ones(5), np.ones(5), tol, 10**9, (1, 0), True)
     assert res.success and res.status == 0
     assert np.all(np.abs(res.gains - 1.0) <= 2 * tol)  # the true error: within the test's
     assert np.all(res.error <= tol * np.maximum(np.abs(res.gains), 1e-4))

@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from synth.physics import modes as P
 from synth.physics.materials import LossFactor, Material
+from synth.physics.modes import crossover
 from synth.physics.scene import Plate
-from synth.sound import modes as P
 from synth.sound import radiation as R
-from synth.sound.modes import crossover
 from synth.sound.radiation import rules
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))

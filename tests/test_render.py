@@ -9,8 +9,8 @@ from reference import pulse_transforms
 
 import synth
 from synth.errors import ParameterError
+from synth.physics import modes as plate_modes
 from synth.physics.scene import Accelerometer, Microphone, Scene
-from synth.sound import modes as plate_modes
 from synth.sound.modal_bank import synthesize
 from synth.sound.render import render
 

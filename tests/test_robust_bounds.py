@@ -241,7 +241,7 @@ def test_modal_count_is_the_wavenumber_lattice():
 
     import synth
     from synth import cost
-    from synth.sound import modes as plate_modes
+    from synth.physics import modes as plate_modes
 
     free = synth.load_preset("default").plate
     supported = dataclasses.replace(free, boundary="simply-supported")
@@ -273,7 +273,7 @@ def test_a_free_plates_mode_count_is_the_solvers(name):
     # the count is an estimate for the budgets, made before any mode is solved: within
     # 10 % of the Rayleigh-Ritz count below 24 kHz, so never low by more than that
     from synth import cost
-    from synth.sound import modes as plate_modes
+    from synth.physics import modes as plate_modes
 
     plate = _free_plates()[name]
     solved = plate_modes.modes(plate, max_frequency=24000.0 * (1.0 - 1e-9)).angular_frequencies

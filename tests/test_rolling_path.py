@@ -348,7 +348,8 @@ def test_a_rolling_render_depends_on_its_inputs_alone(tmp_path):
     # the now warm cache, and once more from another empty cache, gives the same bytes. A
     # rolling render amplifies the last bit of its path (micro-bounces on a rough surface),
     # so anything a render inherits from the process or the cache shows here.
-    from synth.sound import modes, radiation
+    from synth.physics import modes
+    from synth.sound import radiation
 
     name = "marble-rolling-on-wooden-floor"
     modes.clear_memory_cache()

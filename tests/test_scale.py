@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from synth.io import presets
-from synth.sound import modes as P
+from synth.physics import modes as P
 from synth.sound import radiation as R
 from synth.sound.render import render
 

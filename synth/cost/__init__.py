@@ -6,8 +6,8 @@ computed, so work beyond the budget is refused before it starts: the modes
 (:mod:`~synth.cost.modal`: the asymptotic modal density ``N(omega) = S omega / (4 pi)
 sqrt(rho h / D)``, Cremer, Heckl & Petersson, *Structure-Borne Sound*, 3rd ed., eq. 5.118,
 and the solver's flops by LAPACK's counts, Golub & Van Loan, *Matrix Computations*, 4th
-ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.contact`); the radiation
-rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.work`
+ed., 8.3); the longest contact and the audio (:mod:`~synth.cost.estimates`); the radiation
+rule's terms (:mod:`~synth.cost.radiation`, counted by :mod:`synth.sound.radiation.rules`
 and weighed by the shipped rates, so a cut does not depend on the machine); and memory
 (:class:`MemoryParts`, an upper estimate of the traced peak).
 
@@ -15,78 +15,57 @@ and weighed by the shipped rates, so a cut does not depend on the machine); and 
 give the whole estimate; :class:`Budget` bounds it (``$SYNTH_MAX_MODES``,
 ``$SYNTH_MAX_PULSE_POINTS``, ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS``,
 ``$SYNTH_MAX_RADIATION_WORK`` or :func:`synth.render`'s keywords) with a message naming
-what is too big and what to change. :mod:`~.records` holds the records, :mod:`~.rates` the
+what is too big and what to change. :mod:`~.records` holds the records, the budget and the
 measured rates, :mod:`~.estimates` the estimates.
 """
 
 from __future__ import annotations
 
-from synth.cost.budget import (
+from synth.cost.estimates import (
+    RENDER_OPTIONS,
+    FirstContact,
+    body_cost,
+    check_body,
+    estimate,
+    estimate_render,
+    hertz_contact_time,
+)
+from synth.cost.modal import modal_count, solver_cost
+from synth.cost.radiation import radiation_work
+from synth.cost.records import (
+    AUDIO_BYTES_PER_SAMPLE,
+    BODY_MEMORY_ADVICE,
+    CHECK_SQUARES,
     DEFAULT_MAX_MEMORY_BYTES,
     DEFAULT_MAX_MODES,
     DEFAULT_MAX_PULSE_POINTS,
     DEFAULT_MAX_RADIATION_WORK,
     DEFAULT_MAX_SOLVER_FLOPS,
     ENVIRONMENT,
-    Budget,
-    modes_excess,
-)
-from synth.cost.contact import FirstContact, hertz_contact_time
-from synth.cost.estimates import RENDER_OPTIONS, body_cost, check_body, estimate, estimate_render
-from synth.cost.modal import modal_count, solver_cost
-from synth.cost.radiation import radiation_work
-from synth.cost.rates import RATES, Rates, time_row
-from synth.cost.records import (
-    AUDIO_BYTES_PER_SAMPLE,
-    BODY_MEMORY_ADVICE,
-    CHECK_SQUARES,
     MODE_VALUES,
     RADIATION_CHUNKS,
     RADIATION_TOL,
+    RATES,
     RENDER_MEMORY_ADVICE,
     REST,
     SOLVER_SQUARES,
     BodyCost,
+    Budget,
     CostEstimate,
     MemoryParts,
     RadiationWork,
+    Rates,
     SolverCost,
+    modes_excess,
+    time_row,
 )
 
 __all__ = [
-    "AUDIO_BYTES_PER_SAMPLE",
-    "BODY_MEMORY_ADVICE",
-    "BodyCost",
-    "Budget",
-    "CHECK_SQUARES",
-    "CostEstimate",
-    "DEFAULT_MAX_MEMORY_BYTES",
-    "DEFAULT_MAX_MODES",
-    "DEFAULT_MAX_PULSE_POINTS",
-    "DEFAULT_MAX_RADIATION_WORK",
-    "DEFAULT_MAX_SOLVER_FLOPS",
-    "ENVIRONMENT",
-    "FirstContact",
-    "MODE_VALUES",
-    "MemoryParts",
-    "RADIATION_CHUNKS",
-    "RADIATION_TOL",
-    "RATES",
-    "RENDER_MEMORY_ADVICE",
-    "RENDER_OPTIONS",
-    "REST",
-    "RadiationWork",
-    "Rates",
-    "SOLVER_SQUARES",
-    "SolverCost",
-    "body_cost",
-    "check_body",
-    "estimate",
-    "estimate_render",
-    "hertz_contact_time",
-    "modal_count",
-    "modes_excess",
-    "radiation_work",
-    "solver_cost",
-    "time_row",
-]
+    "AUDIO_BYTES_PER_SAMPLE", "BODY_MEMORY_ADVICE", "BodyCost", "Budget", "CHECK_SQUARES",
+    "CostEstimate", "DEFAULT_MAX_MEMORY_BYTES", "DEFAULT_MAX_MODES", "DEFAULT_MAX_PULSE_POINTS",
+    "DEFAULT_MAX_RADIATION_WORK", "DEFAULT_MAX_SOLVER_FLOPS", "ENVIRONMENT", "FirstContact",
+    "MODE_VALUES", "MemoryParts", "RADIATION_CHUNKS", "RADIATION_TOL", "RATES",
+    "RENDER_MEMORY_ADVICE", "RENDER_OPTIONS", "REST", "RadiationWork", "Rates", "SOLVER_SQUARES",
+    "SolverCost", "body_cost", "check_body", "estimate", "estimate_render", "hertz_contact_time",
+    "modal_count", "modes_excess", "radiation_work", "solver_cost", "time_row",
+]  # fmt: skip

@@ -6,23 +6,15 @@ from __future__ import annotations
 
 import math
 
-from synth.cost.budget import Budget
+from synth.constants import SOUND_SPEED
 from synth.cost.modal import bending_wavenumber, modal_count
-from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, RadiationWork
-from synth.sound.radiation.work import weighted_counts
+from synth.cost.records import RADIATION_CHUNKS, RADIATION_TOL, Budget, RadiationWork
+from synth.sound.radiation.rules import weighted_counts
 
 
 def _acoustic(f_max: float) -> float:
     """The acoustic wavenumber at ``f_max`` (Hz), rad/m."""
-    from synth.constants import SOUND_SPEED
-
     return 2.0 * math.pi * f_max / SOUND_SPEED
-
-
-def _kappa(plate, f_max: float) -> float:
-    """The rectangle rule's wavenumber at ``f_max`` (Hz): bending plus acoustic, rad/m
-    (the highest mode's, which lies at or below ``f_max``)."""
-    return bending_wavenumber(plate, f_max) + _acoustic(f_max)
 
 
 def _crossed(plate, f_max: float) -> bool:
@@ -40,9 +32,8 @@ def _crossed(plate, f_max: float) -> bool:
 def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None):
     """The :class:`synth.sound.radiation.rules.Problem` of ``listener`` (a Microphone)
     hearing ``plate``'s ``modes`` modes up to ``f_max`` (Hz) with ``max_points`` (default:
-    the sums' own), before any mode is solved: the wavenumbers of ``f_max``, and for a plate
-    past the Ritz crossover its Ritz low band and edge effect modes (:func:`modal_count`)."""
-    from synth.constants import SOUND_SPEED
+    the sums' own), before any mode is solved (past the Ritz crossover, its Ritz low band
+    and edge effect modes counted by :func:`modal_count`)."""
     from synth.sound import radiation as rad
     from synth.sound.radiation.rules import edge_split, plate_problem
 
@@ -68,7 +59,7 @@ def radiation_problem(plate, listener, modes: int, f_max: float, max_points=None
 
 def _rules_taken(points, max_points: int | None) -> int:
     """Rules a refinement takes with ``max_points`` (None: no cut): after its first two it
-    stops before a rule of more points (:mod:`synth.sound.radiation.refinement`)."""
+    stops before a rule of more points."""
     from synth.sound.radiation.common import MAX_RULES
 
     taken = 2
@@ -78,11 +69,9 @@ def _rules_taken(points, max_points: int | None) -> int:
 
 
 def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
-    """The :class:`RadiationWork` of the counts ``rule``
-    (:class:`synth.sound.radiation.work.RuleWork`, terms) with the most rules whose summed
-    work, in rectangle-term equivalents (:func:`weighted_counts`), fits ``budget``: the
-    ``max_points`` that stops the refinement there and the rules it then takes; one rule
-    (refused) if not even two fit."""
+    """The :class:`RadiationWork` of the counts ``rule`` with the most rules whose summed
+    work (rectangle-term equivalents) fits ``budget``: the ``max_points`` that stops the
+    refinement there and the rules it then takes; one rule (refused) if not even two fit."""
     from synth.sound.radiation.common import MAX_RULES
 
     rule = weighted_counts(rule)
@@ -104,10 +93,8 @@ def _fitted(rule, modes: int, terms: int, budget: Budget) -> RadiationWork:
 
 def radiation_work(plate, listener, modes: int, f_max: float, budget: Budget) -> RadiationWork:
     """The :class:`RadiationWork` of ``listener`` hearing ``plate``'s ``modes`` modes up to
-    ``f_max`` (Hz), before any mode is solved, for the rule the render takes
-    (:func:`synth.sound.radiation.rules.choose_rule`; the budget's cut, at least that rule's
-    check rule, keeps it), with the rules whose summed work fits ``budget`` (at least the
-    first; see the module docstring and :mod:`synth.sound.radiation.work`)."""
+    ``f_max`` (Hz), before any mode is solved, for the rule the render takes, with the rules
+    whose summed work fits ``budget`` (at least the first)."""
     from synth.physics.modes import shape_terms
     from synth.physics.scene import Microphone
     from synth.sound.radiation.rules import choose_rule
@@ -129,10 +116,8 @@ def _ritz_band_frequency(plate, f_max: float) -> float:
 
 def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     """Bytes of the chunks of shape values a microphone's Rayleigh sums hold
-    (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule (the
-    first rule refined once, ``REFINE^2`` its points, :func:`rectangle_points` at the
-    bending plus acoustic wavenumber of ``f_max``), at most ``CHUNK_BYTES`` (the polar
-    rules' blocks of radii are held to it too)."""
+    (:data:`RADIATION_CHUNKS`): each ``modes`` times the points of the check rule at the
+    bending plus acoustic wavenumber of ``f_max`` (Hz), at most ``CHUNK_BYTES``."""
     from synth.physics.scene import Microphone
     from synth.sound.radiation import rectangle_points
     from synth.sound.radiation.common import CHUNK_BYTES, REFINE
@@ -140,6 +125,7 @@ def radiation_bytes(plate, listener, modes: int, f_max: float) -> int:
     if not isinstance(listener, Microphone) or modes == 0:
         return 0
     size = (plate.length, plate.width)
-    points = rectangle_points(size, _kappa(plate, f_max), RADIATION_TOL) * REFINE**2
+    kappa = bending_wavenumber(plate, f_max) + _acoustic(f_max)
+    points = rectangle_points(size, kappa, RADIATION_TOL) * REFINE**2
     chunk = min(float(CHUNK_BYTES), 8.0 * modes * points)
     return int(RADIATION_CHUNKS * chunk)

@@ -1,21 +1,156 @@
-"""The estimates' records: the memory a render holds (:class:`MemoryParts`), the radiation
+"""The estimates' records: the budget they must fit (:class:`Budget`, its defaults and
+environment variables), the memory a render holds (:class:`MemoryParts`), the radiation
 stage's work (:class:`RadiationWork`), a render's whole estimate (:class:`CostEstimate`), a
-live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), and what of
-them is beyond a budget with what to change.
+live body's (:class:`BodyCost`), the cold mode solve's (:class:`SolverCost`), what of them is
+beyond a budget with what to change, and the measured rates (:class:`Rates`, from the file
+shipped with the package, :data:`~synth.sound.radiation.rules.RATES`) that turn them into
+seconds.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
+from pathlib import Path
 
-from synth.cost.budget import Budget, modes_excess
-from synth.cost.rates import Rates, time_row
+from synth import checks
 from synth.errors import ParameterError
+from synth.sound.radiation.rules import RATES
+
+#: Default budget: modes of the plate below the highest rendered frequency (each costs
+#: its shape, its radiation gain and its share of every impact's transform).
+DEFAULT_MAX_MODES = 100_000
+
+#: Default budget: points of the longest force pulse's grid (``4 omega_max tau / pi``:
+#: about 10 s of contact at 24 kHz).
+DEFAULT_MAX_PULSE_POINTS = 2_000_000
+
+#: Default budget: memory of the arrays the estimate sizes, bytes.
+DEFAULT_MAX_MEMORY_BYTES = 2 * 1024**3
+
+#: Default budget: floating-point operations of a cold mode solve (the budget of time in
+#: machine-independent units: a dense symmetric eigensolver runs at a few GFLOP/s on one
+#: core, so minutes; about four times the costliest shipped preset's solve).
+DEFAULT_MAX_SOLVER_FLOPS = 10**12
+
+#: Default budget: rectangle-term equivalents of the radiation stage's sums
+#: (:class:`RadiationWork`: each rule's shape terms and Rayleigh terms, each a multiply-add
+#: or an exponential, weighted to the rectangle rule's time by
+#: :func:`synth.sound.radiation.rules.rule_weights`). Every shipped preset's first four rules
+#: fit at 48 kHz (tests/test_cost.py).
+DEFAULT_MAX_RADIATION_WORK = 2 * 10**11
+
+#: The environment variables of :meth:`Budget.from_environment`, with their defaults.
+ENVIRONMENT = {
+    "SYNTH_MAX_MODES": DEFAULT_MAX_MODES,
+    "SYNTH_MAX_PULSE_POINTS": DEFAULT_MAX_PULSE_POINTS,
+    "SYNTH_MAX_MEMORY_BYTES": DEFAULT_MAX_MEMORY_BYTES,
+    "SYNTH_MAX_SOLVER_FLOPS": DEFAULT_MAX_SOLVER_FLOPS,
+    "SYNTH_MAX_RADIATION_WORK": DEFAULT_MAX_RADIATION_WORK,
+}
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The most work a render may take on: ``max_modes`` (plate modes),
+    ``max_pulse_points`` (points of one force pulse's grid), ``max_memory_bytes`` (bytes
+    of the arrays :class:`CostEstimate` sizes) and ``max_solver_flops`` (floating-point
+    operations of a cold mode solve: its time, in units that do not depend on the
+    machine) and ``max_radiation_work`` (rectangle-term equivalents of a microphone's
+    Rayleigh sums, :class:`RadiationWork`: the radiation stage's time in the same way,
+    whichever rule it takes)."""
+
+    max_modes: int = DEFAULT_MAX_MODES
+    max_pulse_points: int = DEFAULT_MAX_PULSE_POINTS
+    max_memory_bytes: int = DEFAULT_MAX_MEMORY_BYTES
+    max_solver_flops: int = DEFAULT_MAX_SOLVER_FLOPS
+    max_radiation_work: int = DEFAULT_MAX_RADIATION_WORK
+
+    def __post_init__(self):
+        for name in (f.name for f in dataclasses.fields(self)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"budget.{name}={value!r} must be an integer >= 1")
+
+    @classmethod
+    def from_environment(cls) -> Budget:
+        """The budget of ``$SYNTH_MAX_MODES``, ``$SYNTH_MAX_PULSE_POINTS``,
+        ``$SYNTH_MAX_MEMORY_BYTES``, ``$SYNTH_MAX_SOLVER_FLOPS`` and
+        ``$SYNTH_MAX_RADIATION_WORK`` (each defaulting to this module's constant)."""
+        values = [
+            checks.environment_integer(name, default, 1) for name, default in ENVIRONMENT.items()
+        ]
+        return cls(*values)
+
+
+def modes_excess(modes: int, max_frequency: float, budget: Budget) -> str | None:
+    """Why ``modes`` plate modes below ``max_frequency`` (Hz) are beyond ``budget`` and what
+    to change, or None if they fit."""
+    if modes <= budget.max_modes:
+        return None
+    f_fit = max_frequency * budget.max_modes / modes
+    return (
+        f"the plate has about {modes} modes below {max_frequency:.6g} Hz, more than the "
+        f"budget of {budget.max_modes} (SYNTH_MAX_MODES); lower max_frequency to "
+        f"{f_fit:.4g} Hz or the samplerate, or use a smaller or thicker plate"
+    )
+
+
+@dataclass(frozen=True)
+class Rates:
+    """Measured rates of the estimate's work: ``solver`` (floating-point operations per
+    second of a cold mode solve), ``radiation`` (terms per second of each rule, by name),
+    and ``measured`` (the command, date, machine and load that measured them)."""
+
+    solver: float
+    radiation: dict
+    measured: str
+
+    @classmethod
+    def load(cls, path: Path = RATES) -> Rates | None:
+        """The rates in ``path`` (default :data:`RATES`), or None if none were measured."""
+        try:
+            data = json.loads(path.read_text())
+        except FileNotFoundError:
+            return None
+        return cls(
+            float(data["solver_flops_per_second"]),
+            {k: float(v) for k, v in data["radiation_terms_per_second"].items()},
+            str(data["measured"]),
+        )
+
+    def seconds(self, cost) -> tuple[float, float, float]:
+        """Estimated wall seconds of the cold mode solve and of the radiation stage of
+        ``cost`` (a :class:`CostEstimate` or :class:`BodyCost`), their work over these
+        rates (the synthesis is not included): the solve, the radiation's first rule and
+        one refinement (the fewest the convergence test takes) and every rule the budget
+        holds (the most)."""
+        r = cost.radiation
+        if r.rule == "none":
+            return cost.solver_flops / self.solver, 0.0, 0.0
+        rate = self.radiation["rectangle"]  # the work is in rectangle-term equivalents
+        fewest = r.work_of(min(2, r.rules))
+        return cost.solver_flops / self.solver, fewest / rate, r.work / rate
+
+
+def time_row(cost, rates: Rates | None) -> tuple[str, str]:
+    """The ``synth info --cost`` row of the estimated time of ``cost``'s mode solve and
+    radiation stage (:class:`Rates`)."""
+    name = "time, cold (estimated)"
+    if rates is None:
+        return name, "rates not measured (synth bench cost --record)"
+    solver, fewest, most = rates.seconds(cost)
+    return name, (
+        f"{solver + fewest:.3g} to {solver + most:.3g} s: mode solver {solver:.3g} s, "
+        f"radiation {fewest:.3g} s (two rules) to {most:.3g} s ({cost.radiation.rules} rules; "
+        f"without the synthesis; rates of {rates.measured})"
+    )
+
 
 #: Bytes per audio sample held at once: the synthesis' float64 buffer, the scaled copy
 #: the level makes (:func:`synth.store.audio.normalize`) and the float32 :class:`Render`.
 AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
-
 
 #: Complex values per mode that the modal model and the synthesis hold besides the
 #: transform's workspace: the poles, their one-sample step and the response
@@ -24,18 +159,15 @@ AUDIO_BYTES_PER_SAMPLE = 8 + 8 + 4
 #: frequencies, decay rates and masses, the ring bank's state and masks.
 MODE_VALUES = 20
 
-
 #: Dense n x n float64 arrays alive in a Rayleigh-Ritz solve with vectors
 #: (:func:`synth.physics.modes.basis.solve_class`): the stiffness matrix, the Fortran-ordered
 #: copy LAPACK's dpotrf/dpotri factor and invert in place, the eigenvectors, and dsyevd's
 #: workspace of ``1 + 6 n + 2 n^2`` doubles (LAPACK Users' Guide, 3rd ed., DSYEVD).
 SOLVER_SQUARES = 5
 
-
 #: The same for the check basis, eigenvalues only: the matrix and its copy (the
 #: workspace is ``1 + 2 n``).
 CHECK_SQUARES = 2
-
 
 #: Chunks of shape values (points x modes, float64, at most ``CHUNK_BYTES`` each, see
 #: :mod:`synth.sound.radiation.common`) alive at once while a microphone's gains are
@@ -44,7 +176,6 @@ CHECK_SQUARES = 2
 #: evaluation's temporaries of the same size (the two factor tables taken at the modes'
 #: indices and their product, :mod:`synth.physics.modes.closed_form`).
 RADIATION_CHUNKS = 5
-
 
 #: Tolerance of the microphone's gains (:func:`synth.sound.radiation.plate_gains`'
 #: default, which a render uses).
@@ -75,19 +206,14 @@ class MemoryParts:
 
 @dataclass(frozen=True)
 class RadiationWork:
-    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.work`).
-
-    ``rule``: the rule the engine takes ("rectangle", "polar", "summed" or "banded"; "none"
-    for an accelerometer); ``unit``: what its points count (grid "points" or "angular
-    points"); ``first_points``: the first rule's points;
-    ``rules``: the rules the refinement may take within the budget (at most ``MAX_RULES``),
-    ``points`` their points summed and ``max_points`` the last one's when the budget stops the
-    refinement early (else None); ``rule_points`` and ``rule_work`` each of the ``MAX_RULES``
-    rules' points and work (rectangle-term equivalents,
-    :func:`~synth.sound.radiation.work.rule_weights`); ``fixed_work`` the work outside the
-    refinement (the polar rules' in-phase bounds); ``shape_terms`` the terms of one shape
-    value per mode
-    (:func:`synth.physics.modes.shape_terms`); ``evaluations`` ``points`` times the modes."""
+    """The radiation stage's work for a microphone (:mod:`synth.sound.radiation.rules`):
+    ``rule`` the engine takes ("rectangle", "polar", "summed", "banded"; "none" for an
+    accelerometer), ``unit`` what its points count, ``first_points`` the first rule's;
+    ``rules`` the rules the refinement may take within the budget, ``points`` their points
+    summed, ``max_points`` the last one's when the budget stops the refinement early (else
+    None); ``rule_points`` and ``rule_work`` each rule's points and work (rectangle-term
+    equivalents), ``fixed_work`` the work outside the refinement; ``shape_terms`` the terms
+    of one shape value per mode; ``evaluations`` ``points`` times the modes."""
 
     rule: str = "none"
     first_points: int = 0
@@ -144,8 +270,19 @@ class RadiationWork:
         )
 
 
+class _Checked:
+    """What :class:`CostEstimate` and :class:`BodyCost` share: :meth:`check` of the messages
+    their ``excess(budget)`` gives."""
+
+    def check(self, budget: Budget) -> None:
+        """Raise ``ParameterError`` naming everything ``excess`` finds."""
+        too_big = self.excess(budget)
+        if too_big:
+            raise ParameterError("refused before any work: " + "; ".join(too_big))
+
+
 @dataclass(frozen=True)
-class CostEstimate:
+class CostEstimate(_Checked):
     """The sizes of one render's work (see the module docstring for each estimate):
     ``max_frequency`` (Hz) and the plate ``modes`` below it (:func:`modal_count`);
     ``impact_speed`` (m/s), ``hertz_contact`` (Hertz' contact time on a rigid plate, or a hollow
@@ -198,12 +335,6 @@ class CostEstimate:
         out += _stage_excess(self, budget, RENDER_MEMORY_ADVICE)
         return out
 
-    def check(self, budget: Budget) -> None:
-        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
-        too_big = self.excess(budget)
-        if too_big:
-            raise ParameterError("refused before any work: " + "; ".join(too_big))
-
     def rows(self) -> list[tuple[str, str]]:
         """(name, value with unit) rows, for ``synth info --cost``."""
         return [
@@ -230,15 +361,13 @@ class CostEstimate:
 #: What to change when a render's arrays are beyond the memory budget.
 RENDER_MEMORY_ADVICE = "lower max_tail, max_duration, max_frequency or the samplerate"
 
-
 #: The same for a live body's.
 BODY_MEMORY_ADVICE = "lower the engine's max_frequency or samplerate, or max_voices"
 
 
 def _stage_excess(cost, budget: Budget, memory_advice: str) -> list[str]:
     """What of the mode solver, the radiation stage and the memory of ``cost`` (a
-    :class:`CostEstimate` or a :class:`BodyCost`) is beyond ``budget``, each with what
-    to change: one message for a render and a live body."""
+    :class:`CostEstimate` or a :class:`BodyCost`) is beyond ``budget``, with what to change."""
     out = []
     if cost.solver_flops > budget.max_solver_flops:
         out.append(
@@ -286,7 +415,7 @@ class SolverCost:
 
 
 @dataclass(frozen=True)
-class BodyCost:
+class BodyCost(_Checked):
     """What preparing a live body costs (:meth:`synth.Engine.add`: its modes, their cold solve, a
     microphone's gains, its voices' modal states), as :class:`CostEstimate` for what a body has
     of a render: ``max_frequency`` (Hz), ``modes``, ``solver_unknowns``, ``solver_flops``,
@@ -311,9 +440,3 @@ class BodyCost:
         if too_many:
             out.append(too_many)
         return out + _stage_excess(self, budget, BODY_MEMORY_ADVICE)
-
-    def check(self, budget: Budget) -> None:
-        """Raise ``ParameterError`` naming everything :meth:`excess` finds."""
-        too_big = self.excess(budget)
-        if too_big:
-            raise ParameterError("refused before any work: " + "; ".join(too_big))

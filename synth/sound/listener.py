@@ -20,13 +20,11 @@ from synth.physics.scene import Accelerometer, Microphone
 
 
 def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
-    """Pressure per unit modal velocity (Pa s/m) of every mode at the scene's microphone, for the
-    ringing ``exp(p_k t)`` that starts :func:`_delay` after each impact: the least-squares fit
-    of the causal pressure from the first arrival ``R0 / c`` on, the Rayleigh gain at the
-    mirror pole ``G_k = H_k(s'_k) p_k / s'_k``, ``s'_k = -conj(p_k)`` (docs/physics.md,
-    "Radiation"), which weights every element by ``exp(-sigma_k (R - R0) / c) <= 1`` instead
-    of the exact pole gain's anti-causal growth. Cached (:func:`synth.sound.radiation.plate_gains`).
-    """
+    """Pressure per unit modal velocity (Pa s/m) of every mode at the microphone, for the
+    ringing ``exp(p_k t)`` from the first arrival ``R0 / c`` on: the least-squares fit of the
+    causal pressure, the Rayleigh gain at the mirror pole ``G_k = H_k(s'_k) p_k / s'_k``,
+    ``s'_k = -conj(p_k)`` (docs/physics.md, "Radiation"), which weights every element by
+    ``exp(-sigma_k (R - R0) / c) <= 1`` instead of the exact pole gain's anti-causal growth."""
     from synth.sound.radiation import plate_gains
 
     mirror = -np.conj(poles)
@@ -41,21 +39,20 @@ def _microphone_gains(modes, plate, microphone, poles, k_max, max_points=None):
         reference_distance=nearest_distance(plate, microphone),
     )
     if max_points is None:
-        return np.asarray(gains()) * poles / mirror
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        h = gains(max_points=max_points)
-    for w in caught:
-        warnings.warn_explicit(
-            _budget_named(w.message, max_points), w.category, w.filename, w.lineno
-        )
+        h = gains()
+    else:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            h = gains(max_points=max_points)
+        for w in caught:
+            message = _budget_named(w.message, max_points)
+            warnings.warn_explicit(message, w.category, w.filename, w.lineno)
     return np.asarray(h) * poles / mirror
 
 
 def _budget_named(message, max_points):
-    """A warning of the sums stopped at ``max_points`` (the render's radiation budget's
-    cut, :attr:`synth.cost.RadiationWork.max_points`) reworded to name the setting the
-    user can change, ``SYNTH_MAX_RADIATION_WORK``; any other warning as it is."""
+    """A warning of the sums stopped at ``max_points`` (the radiation budget's cut) reworded
+    to name the setting to change, ``SYNTH_MAX_RADIATION_WORK``; any other as it is."""
     internal = f"the next rule would exceed max_points={max_points}"
     text = str(message)
     if internal not in text:
@@ -78,14 +75,11 @@ def nearest_distance(plate, microphone) -> float:
 
 @dataclass(frozen=True, eq=False)
 class ListenerOutput:
-    """How a listener hears the plate's modes.
-
-    output: complex (K,), listener gain per unit modal displacement ``q_k`` at the pole
-    (``phi_k(xp) p_k^2`` for acceleration, m/s^2 per m; ``G_k p_k`` for a microphone, Pa
-    per m); shape: ``phi_k(xp)`` for the accelerometer's direct term inside contacts, or
-    None; delay: the sound's travel time to the listener from the nearest point of the
-    plate, s; units: "m/s^2" or "Pa".
-    """
+    """How a listener hears the plate's modes: ``output`` (K,) complex, the gain per unit
+    modal displacement at the pole (``phi_k(xp) p_k^2``, m/s^2 per m, for an accelerometer;
+    ``G_k p_k``, Pa per m, for a microphone); ``shape``, ``phi_k(xp)`` for the
+    accelerometer's direct term (else None); ``delay``, the travel time from the plate's
+    nearest point, s; ``units`` "m/s^2" or "Pa"."""
 
     output: np.ndarray
     shape: np.ndarray | None
@@ -93,26 +87,24 @@ class ListenerOutput:
     units: str
 
 
-def _accelerometer_output(
-    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
-) -> ListenerOutput:
-    phip = modes.shapes(np.array([listener.position]))[0][ok]
-    return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
-
-
-def _microphone_output(
-    modes, plate, listener, poles, ok, sigma, omega, wd, max_points=None
-) -> ListenerOutput:
-    k_max = _max_wavenumber(plate, omega[ok])
+def _listener_output(modes, listener, poles, ok, max_points=None) -> ListenerOutput:
+    """The :class:`ListenerOutput` of ``listener`` hearing the modes ``ok`` of ``modes``
+    (``poles``, rad/s): an accelerometer the acceleration at its point, a microphone the
+    Rayleigh radiation of the baffled plate (``max_points``: the most points of one rule)."""
+    if isinstance(listener, Accelerometer):
+        phip = modes.shapes(np.array([listener.position]))[0][ok]
+        return ListenerOutput(phip * poles**2, phip, 0.0, LISTENER_UNITS[Accelerometer])
+    sigma, omega, wd = _mode_rates(modes)
+    k_max = _max_wavenumber(modes.plate, omega[ok])
     s = _sum_poles(sigma, omega, wd, ok)
-    all_gains = _microphone_gains(modes, plate, listener, s, k_max, max_points)
-    return _pressure_output(all_gains, poles, ok, plate, listener)
+    all_gains = _microphone_gains(modes, modes.plate, listener, s, k_max, max_points)
+    return _pressure_output(all_gains, poles, ok, modes.plate, listener)
 
 
 def _sum_poles(sigma, omega, wd, ok):
     """The poles ``s_k`` (rad/s) the radiation sums take for every mode: a mode left out
-    (``ok`` False, e.g. overdamped) takes ``-omega_k``, its gain unused: its own
-    ``-sigma_k`` can be of any size, and the sums' panels follow the largest ``|s|``."""
+    (``ok`` False) takes ``-omega_k`` (its gain unused; its own ``-sigma_k`` can be of any
+    size, and the sums' panels follow the largest ``|s|``)."""
     return np.where(ok, -sigma + 1j * wd, -omega + 0j)
 
 
@@ -134,34 +126,17 @@ def _pressure_output(all_gains, poles, ok, plate, microphone) -> ListenerOutput:
     )
 
 
-#: Each kind of listener's output gains (Accelerometer: acceleration at a point of the
-#: plate; Microphone: Rayleigh radiation of the baffled plate).
-LISTENER_OUTPUTS = {Accelerometer: _accelerometer_output, Microphone: _microphone_output}
 #: The units each kind of listener hears in.
 LISTENER_UNITS = {Accelerometer: "m/s^2", Microphone: "Pa"}
 
 
 @dataclass(frozen=True, eq=False)
 class ModalModel:
-    """A plate's modes as one listener hears them: what :func:`render` and the live engine
-    (:mod:`synth.live`) build once per plate and listener.
-
-    Attributes
-    ----------
-    modes : synth.sound.modes.Modes
-        The plate's modes below ``max_frequency``.
-    poles : complex ndarray (K,)
-        ``p_k = -sigma_k + i omega_dk``, rad/s, of the ringing modes below Nyquist.
-    rendered : bool ndarray
-        Which of ``modes`` the poles are (overdamped modes and modes whose damped
-        frequency reaches Nyquist are left out).
-    listener : ListenerOutput
-        The listener's gains, direct-term shape, delay (s) and units.
-    n_overdamped : int
-        Modes left out as overdamped (``sigma >= omega``: they do not ring).
-    samplerate : int
-        Hz.
-    """
+    """A plate's modes as one listener hears them, built once per plate and listener:
+    ``modes`` (:class:`synth.physics.modes.Modes`) below ``max_frequency``; ``poles`` (K,),
+    ``p_k = -sigma_k + i omega_dk`` (rad/s) of the ringing modes below Nyquist, which of
+    ``modes`` they are (``rendered``); the ``listener``'s :class:`ListenerOutput`;
+    ``n_overdamped`` modes left out (``sigma >= omega``); ``samplerate``, Hz."""
 
     modes: object
     poles: np.ndarray
@@ -196,19 +171,15 @@ class ModalModel:
         """The same modes heard by another ``listener`` of the same plate, as :func:`modal_model`
         computes them; with ``grid`` (:func:`listener_grid`) a microphone it serves takes its
         gains from the grid's sums (:mod:`synth.sound.radiation.fixed`)."""
-        modes = self.modes
-        plate = modes.plate
-        sigma, omega, wd = _mode_rates(modes)
-        ok = self.rendered
+        plate, ok = self.modes.plate, self.rendered
         microphone = isinstance(listener, Microphone)
         if microphone and grid is not None and grid.serves(listener.position):
+            sigma, _, wd = _mode_rates(self.modes)
             poles = -sigma + 1j * wd
             h = grid.gains(listener.position, nearest_distance(plate, listener))
             output = _pressure_output(h * poles / -np.conj(poles), self.poles, ok, plate, listener)
         else:
-            output = LISTENER_OUTPUTS[type(listener)](
-                modes, plate, listener, self.poles, ok, sigma, omega, wd
-            )
+            output = _listener_output(self.modes, listener, self.poles, ok)
         return dataclasses.replace(self, listener=output)
 
     def direct(self, excitation) -> np.ndarray | None:
@@ -217,16 +188,14 @@ class ModalModel:
         return None if self.listener.shape is None else self.listener.shape * excitation
 
 
-#: The modes' shapes at single points, by ``(Modes.shape_key, x, y)``: a drop's excitation,
-#: which every render of a scene takes at the same point (at most :data:`POINT_SHAPES_KEPT`).
+#: The modes' shapes at single points, by ``(Modes.shape_key, x, y)`` (a drop's excitation).
 _POINT_SHAPES: dict = {}
 POINT_SHAPES_KEPT = 64
 
 
 def _shapes_at(modes, position) -> np.ndarray:
-    """``phi_k`` (dimensionless) of every mode of ``modes`` at ``position`` ((x, y), m), read
-    only; kept by the shapes' key (:attr:`~synth.physics.modes.Modes.shape_key`: equal keys,
-    equal shapes), the oldest point forgotten first."""
+    """``phi_k`` (dimensionless, read only) of every mode at ``position`` ((x, y), m), kept
+    by the shapes' key (equal keys, equal shapes), the oldest point forgotten first."""
     try:
         x, y = (float(v) for v in position)
     except (TypeError, ValueError):  # not a point: Modes.shapes names what is wrong
@@ -251,10 +220,9 @@ def modal_model(
     radiation_max_points: int | None = None,
 ) -> ModalModel:
     """The :class:`ModalModel` of ``plate`` heard by ``listener`` (an Accelerometer or a
-    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist),
-    from the caches when present. Overdamped modes (sigma >= omega) do not ring: left out and
-    counted. ``radiation_max_points``: the most points of one rule of a microphone's sums
-    (where the budget stops the refinement; None: the sums' default)."""
+    Microphone) at ``samplerate`` Hz, modes up to ``max_frequency`` Hz (default Nyquist).
+    ``radiation_max_points``: the most points of one rule of a microphone's sums (where the
+    budget stops the refinement; None: the sums' default)."""
     fs = samplerate
     f_max = 0.5 * fs if max_frequency is None else max_frequency
     modes = plate_modes.modes(plate, max_frequency=f_max * (1.0 - 1e-9))
@@ -262,9 +230,7 @@ def modal_model(
     under = sigma < omega
     ok = under & (wd < math.pi * fs)
     poles = (-sigma + 1j * wd)[ok]
-    gains = LISTENER_OUTPUTS[type(listener)](
-        modes, plate, listener, poles, ok, sigma, omega, wd, radiation_max_points
-    )
+    gains = _listener_output(modes, listener, poles, ok, radiation_max_points)
     return ModalModel(modes, poles, ok, gains, int(np.sum(~under)), int(fs))
 
 
@@ -282,8 +248,7 @@ def _mode_rates(modes):
 def listener_grid(model: ModalModel, max_bytes: int | None = None):
     """The :class:`~synth.sound.radiation.fixed.ListenerGrid` of ``model``'s plate: microphone
     gains at any point at least ``NEAR_FIELD_HEIGHT`` above the plate at the cost of the sums
-    alone; :class:`~synth.sound.radiation.fixed.GridTooLarge` beyond ``max_bytes`` (bytes,
-    default :data:`~synth.sound.radiation.fixed.MAX_GRID_BYTES`)."""
+    alone (:class:`~synth.sound.radiation.fixed.GridTooLarge` beyond ``max_bytes``)."""
     from synth.sound.radiation.fixed import ListenerGrid
 
     sigma, omega, wd = _mode_rates(model.modes)

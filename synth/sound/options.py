@@ -10,13 +10,12 @@ made from them; constructing a ``RenderOptions`` is the one check, a bad value a
 from __future__ import annotations
 
 import dataclasses
-import inspect
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from synth import checks
-from synth.checks import Option
 from synth.constants import DEFAULT_FLOOR_DB, DEFAULT_MAX_IMPACTS, PULSE_POINTS
 from synth.errors import ParameterError
 
@@ -246,24 +245,14 @@ class RenderOptions:
 OPTIONS = checks.names(RenderOptions)
 
 
-def declaration(name: str) -> Option:
-    """The :class:`~synth.checks.Option` of the render option ``name``."""
-    return checks.declaration(RenderOptions, name)
-
-
-def default(name: str):
-    """The default of the render option ``name`` (``inspect.Parameter.empty`` for none)."""
-    return checks.default(RenderOptions, name)
-
-
-def describe(name: str) -> str:
-    """``doc (unit; allowed)`` of the render option ``name``."""
-    return checks.describe(RenderOptions, name)
-
-
-def parameters_doc(indent: str = "    ") -> str:
-    """The render options as a numpydoc parameter list (name, type, default, doc)."""
-    return checks.parameters_doc(RenderOptions, indent)
+#: The :class:`~synth.checks.Option` of a render option by name, its default
+#: (``inspect.Parameter.empty`` for none) and its ``doc (unit; allowed)``; the options as a
+#: numpydoc parameter list and as keyword-only parameters (for a generated signature).
+declaration = functools.partial(checks.declaration, RenderOptions)
+default = functools.partial(checks.default, RenderOptions)
+describe = functools.partial(checks.describe, RenderOptions)
+parameters_doc = functools.partial(checks.parameters_doc, RenderOptions)
+keyword_parameters = functools.partial(checks.keyword_parameters, RenderOptions)
 
 
 def flag_rows() -> str:
@@ -278,11 +267,6 @@ def flag_rows() -> str:
         text = describe(name).replace("|", "/")
         rows.append(f"| `--{name.replace('_', '-')} {d.metavar}` | {text}; default {shown} |")
     return "\n".join(rows)
-
-
-def keyword_parameters() -> list[inspect.Parameter]:
-    """The render options as keyword-only parameters (for a generated signature)."""
-    return checks.keyword_parameters(RenderOptions)
 
 
 if RenderOptions.__doc__:  # None under python -OO

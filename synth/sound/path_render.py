@@ -1,20 +1,12 @@
 """Render a ball released with a horizontal velocity: its bounces and its rolling mixed in one
 signal through one modal bank and one listener (docs/rolling.md, "Rendering a path").
 
-The plate is linear, so the listener's signal is the sum of its responses to the bounces'
-pulses and to the rolling's force (superposition):
-
-* the bounces: :func:`synth.sound.modal_bank.synthesize` (each pulse's exact transform), each
-  impact exciting the modes at its own point (``b_k = phi_k(x_i) / M_k``);
-* the rolling: :func:`synth.sound.rolling.drive_modes`, the force held over each sample
-  period at the moving touching point, from its first sample on the same grid (plate at rest
-  for this part: the bounces' part carries what they left ringing), on the modes that may
-  exceed their share of the floor under the bounces' peak
-  (:func:`synth.sound.rolling.audible_modes`: those left out add at most ``floor`` times
-  that peak, and so times the render's reference, at every sample);
-* after the rolling: the force it leaves (the weight of a ball at rest, nothing after a ball
-  that left the plate) held at the last point, until every mode has decayed below the floor
-  (or ``max_tail``).
+The plate is linear, so the signal is the sum of its responses (superposition) to the
+bounces' pulses (:func:`synth.sound.modal_bank.synthesize`, each impact exciting the modes at
+its own point), to the rolling's force (:func:`synth.sound.rolling.drive_modes` from the
+plate at rest, on the modes that may exceed their share of the floor under the bounces'
+peak) and, after the rolling, to the force it leaves (a ball at rest's weight) held at its
+last point until every mode is below the floor (or ``max_tail``).
 """
 
 from __future__ import annotations
@@ -25,15 +17,15 @@ import numpy as np
 
 from synth.physics.path import BallPath, simulate_path
 from synth.sound.modal_bank import bank_coefficients, ring_bank, synthesize
+from synth.sound.result import PathInfo
 from synth.sound.rolling import ModeState, audible_modes, drive_modes, path_excitation
 
 
 def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
     """The physical signal (Pa or m/s^2, float64) of ``scene`` (with a velocity) heard
-    through ``model`` (:class:`synth.sound.listener.ModalModel`) with the render options
-    ``o`` (:class:`synth.sound.options.RenderOptions`); its path and its figures: those of
-    :class:`synth.sound.result.PathInfo` and the synthesis' of
-    :class:`synth.sound.result.RenderInfo`."""
+    through ``model`` (a :class:`synth.sound.listener.ModalModel`) with the render options
+    ``o``, its path, and the figures of its :class:`~synth.sound.result.RenderInfo` (its
+    :class:`~synth.sound.result.PathInfo` the ``path``)."""
     fs = o.samplerate
     floor = 10.0 ** (o.floor_db / 20.0)
     pre, delay = o.preroll, model.delay
@@ -57,7 +49,7 @@ def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
             bounces, rolling, path, model, fs, floor, origin_time, o
         )
         info.update(tail, n_modes_rendered=max(info["n_modes_rendered"], driven))
-    figures = dict(
+    path_info = PathInfo(
         path_end=path.end,
         path_end_time=path.end_time,
         path_end_point=tuple(path.end_point),
@@ -66,16 +58,14 @@ def render_path_audio(scene, model, o) -> tuple[np.ndarray, BallPath, dict]:
         rolling_seconds=0.0 if rolling is None else rolling.duration,
         rolling_flights=0 if rolling is None else rolling.flights,
         contact_plate="impedance",
-        delay=delay,
-        audio_start=first_touch + delay - pre,
-        **info,
+        rolling_mode_samples=info.pop("rolling_mode_samples", None),
     )
+    figures = dict(delay=delay, audio_start=first_touch + delay - pre, path=path_info, **info)
     return audio, path, figures
 
 
 def _bounces(path, model, fs, floor, origin_time, o) -> tuple[np.ndarray, dict]:
-    """The bounces' part of the signal, from the audio's first sample, and the modal bank's
-    figures (:func:`synth.sound.modal_bank.synthesize`)."""
+    """The bounces' part of the signal from the audio's first sample, and the bank's figures."""
     impacts = path.impacts
     excitation = model.excitations(path.impact_points)
     direct = None if model.listener.shape is None else model.listener.shape * excitation
@@ -124,13 +114,10 @@ def _with_rolling(bounces, rolling, path, model, fs, floor, origin_time, o):
 
 def _tail(state, rolling, path, model, fs, floor, max_tail) -> tuple[np.ndarray, bool, float]:
     """The listener's signal after the rolling, whether ``max_tail`` (s) cut it and the bound
-    of what rings on after its end (the signal's units): the
-    force the rolling leaves (``rolling.final_force``) held at its last point, so each mode
-    rings from the rolling's end state towards its static deflection under that force,
-    ``zeta_k(t) = zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal
-    bank's ringing (:func:`synth.sound.modal_bank.ring_bank`, each mode until it falls below
-    its share of ``floor``, the amplitude the signal may leave out) plus the static
-    deflection's constant part (as :func:`synth.sound.rolling.drive_modes` hears it)."""
+    of what rings on after its end (the signal's units). The force the rolling leaves is
+    held at its last point, so each mode rings towards its static deflection, ``zeta_k(t) =
+    zs_k + (zeta_k - zs_k) e^(p_k t)``, ``zs_k = -b_k F / p_k``: the modal bank's ringing
+    (each mode until within its share of ``floor``) plus the deflection's constant part."""
     p = model.poles
     end = float(rolling.contact_coordinate[-1])
     point = (path.origin[0] + path.direction[0] * end, path.origin[1] + path.direction[1] * end)

@@ -9,7 +9,6 @@ pressure (Pa) for a Microphone above the baffled plate, scaled by ``normalize``.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import inspect
 import math
@@ -22,9 +21,7 @@ from synth.errors import ParameterError, SynthError
 from synth.physics.bounces import BounceSequence, simulate_scene
 from synth.physics.scene import Scene
 from synth.sound.listener import (
-    LISTENER_OUTPUTS,
     LISTENER_UNITS,
-    ListenerOutput,
     ModalModel,
     listener_grid,
     modal_model,
@@ -32,38 +29,26 @@ from synth.sound.listener import (
 )
 from synth.sound.modal_bank import synthesize
 from synth.sound.options import (
-    MAX_DURATION,
-    MAX_IMPACTS,
-    MAX_PREROLL,
-    MAX_PULSE_POINTS,
     MAX_SAMPLERATE,
-    MIN_LEVEL_DB,
-    MIN_SAMPLERATE,
-    NORMALIZE,
     OPTIONS,
     RenderOptions,
     keyword_parameters,
     parameters_doc,
 )
-from synth.sound.result import PathInfo, Render, RenderInfo
-from synth.sound.sequence_check import SEQUENCE_RTOL, check_sequence
+from synth.sound.result import Render, RenderInfo
 from synth.store import cache as disk_cache
 
-#: The names this module has always offered (the render's pieces live in the modules
-#: above; these are their old paths).
+#: Names other modules import from here (their homes are the modules above).
 __all__ = [
-    "LISTENER_OUTPUTS", "LISTENER_UNITS", "MAX_DURATION", "MAX_IMPACTS", "MAX_PREROLL",
-    "MAX_PULSE_POINTS", "MAX_SAMPLERATE", "MIN_LEVEL_DB", "MIN_SAMPLERATE", "NORMALIZE",
-    "OPTIONS", "SEQUENCE_RTOL", "ListenerOutput", "ModalModel", "Render", "RenderInfo",
-    "RenderOptions", "check_sequence", "listener_grid", "modal_model", "nearest_distance",
-    "render",
+    "LISTENER_UNITS", "OPTIONS", "ModalModel", "Render", "RenderOptions", "check_sequence",
+    "listener_grid", "modal_model", "nearest_distance", "render",
 ]  # fmt: skip
 
 
 def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> Render:
     """Render ``scene`` with the render options: ``options`` (a
     :class:`~synth.sound.options.RenderOptions`), or its fields as keywords (``samplerate``
-    required: there is no default or global rate), or both (the keywords win).
+    required: there is no default rate), or both (the keywords win).
 
     Parameters
     ----------
@@ -73,7 +58,7 @@ def render(scene, *, options=None, sequence=None, budget=None, **overrides) -> R
     OPTIONS_DOC
     sequence : BounceSequence, optional
         Precomputed impacts of this scene (default: computed here); not empty, and its
-        contacts must be this scene's (see :func:`~synth.sound.sequence_check.check_sequence`).
+        contacts must be this scene's (see :func:`check_sequence`).
     budget : synth.cost.Budget, optional
         The most work the render may take on (default: ``Budget.from_environment()``):
         the scene's :func:`synth.cost.estimate` beyond it, or a contact longer than
@@ -115,8 +100,8 @@ render.__signature__ = inspect.Signature(
 
 
 def _checked_options(scene, options, overrides) -> RenderOptions:
-    """The scene and the options checked, before any work: the plate's damping law (the
-    modes will need it), the cache's environment and every option."""
+    """The scene, the plate's damping law, the cache's environment and every option
+    checked, before any work."""
     if not isinstance(scene, Scene):
         raise ParameterError(f"scene={scene!r} must be a Scene")
     scene.plate.damping_law()
@@ -126,7 +111,7 @@ def _checked_options(scene, options, overrides) -> RenderOptions:
 
 def _checked_work(scene, o: RenderOptions, sequence, budget) -> cost.CostEstimate:
     """The render's cost estimate, refused beyond ``budget`` (default: the environment's),
-    and a first impact later than ``max_duration`` refused."""
+    as is a first impact later than ``max_duration``."""
     if sequence is None:
         first_touch = math.sqrt(2.0 * scene.drop_height / scene.gravity)
         if first_touch > o.max_duration:
@@ -138,11 +123,7 @@ def _checked_work(scene, o: RenderOptions, sequence, budget) -> cost.CostEstimat
         budget = cost.Budget.from_environment()
     elif not isinstance(budget, cost.Budget):
         raise ParameterError(f"budget={budget!r} must be a synth.cost.Budget")
-    options = dict(
-        samplerate=o.samplerate, max_frequency=o.top_frequency, preroll=o.preroll,
-        max_duration=o.max_duration, max_tail=o.max_tail, pulse_points=o.pulse_points,
-        floor_db=o.floor_db,
-    )  # fmt: skip
+    options = {name: getattr(o, name) for name in cost.RENDER_OPTIONS}
     try:
         hash(scene)
     except TypeError:  # a field given as a list: not kept
@@ -155,15 +136,13 @@ def _checked_work(scene, o: RenderOptions, sequence, budget) -> cost.CostEstimat
 
 @functools.lru_cache(maxsize=64)
 def _estimate(scene, budget, **options) -> cost.CostEstimate:
-    """:func:`synth.cost.estimate` of ``scene`` under ``budget`` with the render ``options``,
-    kept for the scene (a function of its arguments alone: every render of one scene asks
-    for the same)."""
+    """:func:`synth.cost.estimate`, kept (every render of one scene asks for the same)."""
     return cost.estimate(scene, budget=budget, **options)
 
 
 def _impacts(scene, o: RenderOptions, sequence) -> BounceSequence:
-    """The drop's impacts: ``sequence`` checked against the scene, or the scene's bounce
-    series under the options' rules; an impact the solver could not solve is refused."""
+    """The drop's impacts (``sequence`` checked, or the scene's bounce series); an impact
+    the solver could not solve is refused."""
     if sequence is None:
         sequence = simulate_scene(scene, **o.bounces())
     else:
@@ -178,8 +157,8 @@ def _impacts(scene, o: RenderOptions, sequence) -> BounceSequence:
 
 
 def _heard_modes(scene, o: RenderOptions, radiation_max_points=None) -> ModalModel:
-    """The plate's modes heard by the scene's listener; a plate without a ringing mode
-    in the band is refused (the render would be silent)."""
+    """The plate's modes heard by the scene's listener; none ringing in the band (a silent
+    render) is refused."""
     fs, f_max = o.samplerate, o.top_frequency
     model = modal_model(
         scene.plate,
@@ -236,22 +215,17 @@ def _render_drop(
 
 
 def _render_moving(scene, o: RenderOptions) -> Render:
-    """:func:`render` of a scene with a horizontal velocity: its bounces and rolling
-    (:mod:`synth.sound.path_render`), faded and levelled as every render."""
+    """:func:`render` of a scene with a horizontal velocity (:mod:`synth.sound.path_render`)."""
     from synth.sound.path_render import render_path_audio
 
     model = _heard_modes(scene, o)
     audio, path, figures = render_path_audio(scene, model, o)
-    path_names = {f.name for f in dataclasses.fields(PathInfo)}
-    path_info = PathInfo(**{k: v for k, v in figures.items() if k in path_names})
-    rest = {k: v for k, v in figures.items() if k not in path_names}
-    info = _info(scene, o, model, path.impacts, path=path_info, **rest)
+    info = _info(scene, o, model, path.impacts, **figures)
     return _levelled(audio, o, model.units, path.impacts, info)
 
 
 def _info(scene, o: RenderOptions, model: ModalModel, impacts, **figures) -> RenderInfo:
-    """The :class:`RenderInfo` of a render: its options (``max_frequency`` the highest
-    frequency rendered), listener, impacts and modes, and the synthesis' ``figures``."""
+    """The :class:`RenderInfo` of a render, with the synthesis' ``figures``."""
     return RenderInfo(
         options=o.replace(max_frequency=o.top_frequency),
         listener=type(scene.listener).__name__.lower(),
@@ -265,8 +239,7 @@ def _info(scene, o: RenderOptions, model: ModalModel, impacts, **figures) -> Ren
 
 
 def _levelled(audio, o: RenderOptions, units: str, impacts, info: RenderInfo) -> Render:
-    """The :class:`Render` of the physical signal ``audio`` (``units``), faded at its end
-    and scaled by the level stage."""
+    """The :class:`Render` of the physical signal ``audio`` (``units``), faded and levelled."""
     from synth.store import audio as audio_io
 
     _fade(audio, o.fade, o.samplerate)
@@ -280,8 +253,7 @@ def _levelled(audio, o: RenderOptions, units: str, impacts, info: RenderInfo) ->
 
 
 def _fade(audio, fade_s, fs) -> None:
-    """A raised-cosine fade of ``fade_s`` s at the end of ``audio`` (in place); refused if
-    longer than the audio."""
+    """A raised-cosine fade of ``fade_s`` s at the end of ``audio`` (in place)."""
     from synth.store import audio as audio_io
 
     if fade_s > audio.size / fs:
@@ -296,9 +268,7 @@ def _fade(audio, fade_s, fs) -> None:
 
 
 def _silent_plate_message(f_max: float, samplerate: int, plate=None, overdamped: int = 0) -> str:
-    """Why a plate without a mode below ``f_max`` (Hz) is refused, and what can change:
-    the damping law when every mode there is ``overdamped`` (they do not ring; ``plate``
-    names it), else ``max_frequency`` only while it is below the Nyquist frequency."""
+    """Why a plate without a ringing mode below ``f_max`` (Hz) is refused, and what to change."""
     if overdamped:
         return (
             f"plate.material.damping={plate.material.damping!r} damps all {overdamped} modes "
@@ -315,3 +285,74 @@ def _silent_plate_message(f_max: float, samplerate: int, plate=None, overdamped:
         f"{samplerate / 2:g} Hz, so the render would be silent; raise the samplerate (at "
         f"most {MAX_SAMPLERATE}) or use a larger, thinner or less stiff plate"
     )
+
+
+#: Relative agreement of a passed sequence's first contact with the scene's own (the
+#: solver's tolerance is far tighter; another ball or plate differs by percents).
+SEQUENCE_RTOL = 1e-4
+
+
+def check_sequence(scene, sequence) -> BounceSequence:
+    """``sequence`` as the impacts of ``scene``: a non-empty :class:`BounceSequence` whose
+    first impact, solved again with the scene's ball, plate, point and contact law at the
+    same speed, gives the same contact time and peak force within ``SEQUENCE_RTOL`` (the
+    times and speeds may come from another scene). With the modal plate in the contact an
+    impact depends on the ringing before it, so there the first impact's contact law is
+    what is checked."""
+    from synth.physics import contact
+
+    if not isinstance(sequence, BounceSequence):
+        raise ParameterError(f"sequence={sequence!r} must be a BounceSequence")
+    if not len(sequence):
+        raise ParameterError("sequence has no impacts: there is nothing to render")
+    first = sequence[0]
+    from synth.physics.plate_choice import scene_plate
+
+    c = scene.contact
+    if scene_plate(scene).plate == "modal":
+        return _check_modal_sequence(scene, sequence)
+    own = contact.solve_impact(
+        scene.ball,
+        scene.plate,
+        first.speed,
+        position=scene.position,
+        gravity=scene.gravity,
+        contact=c.law,
+        rtol=c.rtol,
+        **c.options(),
+    )
+    for name in ("contact_time", "peak_force"):
+        got, want = getattr(first.result, name), getattr(own, name)
+        if not abs(got - want) <= SEQUENCE_RTOL * abs(want):
+            raise ParameterError(
+                f"sequence: its first impact's {name} {got:.6g} is not this scene's "
+                f"({want:.6g} at {first.speed:.6g} m/s): the sequence belongs to another ball, "
+                f"plate or contact law; pass the scene it was computed for"
+            )
+    return sequence
+
+
+def _check_modal_sequence(scene, sequence) -> BounceSequence:
+    """:func:`check_sequence` with the modal plate in the contact: the first impact is a
+    :class:`~synth.physics.modal_contact.ModalImpactResult` of the scene's contact law."""
+    from synth.physics.contact_law import contact_parameters
+    from synth.physics.modal_contact import ModalImpactResult
+
+    c = scene.contact
+    result = sequence[0].result
+    law = contact_parameters(scene.ball, scene.plate, c.law, **c.options())
+    want = (law.stiffness, law.exponent, law.dissipation, law.viscous_time)
+    fields = ("stiffness", "exponent", "dissipation", "viscous_time")
+    got = None
+    if isinstance(result, ModalImpactResult):
+        got = tuple(getattr(result, f"law_{name}") for name in fields)
+    if got is None or not all(
+        abs(a - b) <= SEQUENCE_RTOL * abs(b) for a, b in zip(got, want, strict=True)
+    ):
+        K, n, mu, A = want
+        raise ParameterError(
+            "sequence: its first impact is not one of this scene's modal contact (contact law "
+            f"K, n, mu, A = {K:.6g}, {n:g}, {mu:g}, {A:g}): the sequence belongs to another "
+            "ball, plate or contact law; pass the scene it was computed for"
+        )
+    return sequence

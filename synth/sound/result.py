@@ -25,29 +25,11 @@ _BOUNCE_OPTIONS = ("bounce_floor_db", "max_impacts")
 @dataclass(frozen=True)
 class PathInfo:
     """How the path of a ball released with a horizontal velocity rolled and ended
-    (:mod:`synth.physics.path`, :mod:`synth.sound.path_render`).
-
-    Attributes
-    ----------
-    path_end : str
-        Why the path ended (:attr:`synth.physics.path.BallPath.end`).
-    path_end_time : float
-        When, s from release.
-    path_end_point : tuple of 2 floats
-        Where, m from the plate's corner.
-    rolling_speed : float
-        Speed at the rolling's start, m/s.
-    rolling_start : float or None
-        When the rolling started, s from release (None: it did not roll).
-    rolling_seconds : float
-        How long it rolled, s.
-    rolling_flights : int
-        Flights (the ball off the surface) during the rolling.
-    contact_plate : str
-        The plate model of the path's contacts ("impedance").
-    rolling_mode_samples : int or None
-        Modes times samples of the rolling's drive (None: it did not roll).
-    """
+    (:mod:`synth.physics.path`): why (``path_end``, :attr:`synth.physics.path.BallPath.end`),
+    when (s from release) and where (m from the plate's corner) it ended; the speed at the
+    rolling's start (m/s), its start (s from release, None: it did not roll), duration (s)
+    and flights (the ball off the surface); the plate model of the path's contacts
+    ("impedance"); the modes times samples of the rolling's drive (None: it did not roll)."""
 
     path_end: str
     path_end_time: float
@@ -71,48 +53,20 @@ class PathInfo:
 class RenderInfo:
     """The options a render used and what it did.
 
-    Attributes
-    ----------
-    options : RenderOptions
-        The options, checked, with ``max_frequency`` the highest frequency rendered, Hz.
-    listener : str
-        "microphone" or "accelerometer".
-    listener_position : tuple of floats
-        Its position, m (x, y on the plate; z above it for a microphone).
-    delay : float
-        The sound's travel time from the plate's nearest point to the listener, s (0 for
-        an accelerometer).
-    audio_start : float
-        Time of the first sample, s from the release of the ball.
-    n_impacts : int
-        Impacts rendered.
-    stop_reason : str
-        Why the bounce series ended (:attr:`synth.physics.bounces.BounceSequence.stop_reason`).
-    n_modes : int
-        Modes rendered (ringing, below ``max_frequency`` and the Nyquist frequency).
-    n_modes_rendered : int
-        Modes heard in at least one impact's ringing (the others stay below the floor).
-    mode_samples : int
-        Modes times samples the modal bank computed (its work).
-    n_modes_overdamped : int
-        Modes left out as overdamped (they do not ring).
-    tail_cut : bool
-        Whether ``max_tail`` cut a tail still above the floor.
-    left_at_end : float
-        Bound of what rings on after the end, relative to the reference amplitude
-        (dimensionless).
-    bank_seconds : float
-        Wall time of the modal bank, s (the one figure that is not a function of the
-        inputs).
-    reference_amplitude : float
-        The bound on the loudest tick's peak (Pa or m/s^2) that ``floor_db`` is relative to.
-    path : PathInfo or None
-        A path's rolling and end (a scene with ``drop.velocity``), else None.
-    contact_seconds : float
-        Wall time of the drop's contacts (its bounce series), s; 0 for a path. Like
-        ``bank_seconds`` not a function of the inputs; neither takes part in equality.
-    transform_seconds : float
-        Wall time of the pulses' transforms (the modes' excitation by every impact), s.
+    ``options``: the options, checked, ``max_frequency`` the highest frequency rendered (Hz);
+    ``listener``: "microphone" or "accelerometer", at ``listener_position`` (m; x, y on the
+    plate, z above it); ``delay``: the sound's travel time from the plate's nearest point
+    (s, 0 for an accelerometer); ``audio_start``: the first sample's time from the release
+    (s); ``n_impacts`` rendered and why the series stopped (``stop_reason``); ``n_modes``
+    rendered (ringing, below ``max_frequency`` and Nyquist), ``n_modes_rendered`` heard in
+    at least one impact's ringing, ``mode_samples`` (modes times samples: the bank's work),
+    ``n_modes_overdamped`` left out; ``tail_cut``: whether ``max_tail`` cut a tail above the
+    floor, ``left_at_end`` the bound of what rings on after the end relative to
+    ``reference_amplitude`` (the bound on the loudest tick's peak, Pa or m/s^2, that
+    ``floor_db`` is relative to); ``path``: a path's :class:`PathInfo` (None for a drop).
+    The wall times ``bank_seconds``, ``contact_seconds`` (the drop's contacts) and
+    ``transform_seconds`` (the pulses' transforms), s, are not functions of the inputs;
+    the last two take no part in equality.
     """
 
     options: RenderOptions
@@ -150,24 +104,10 @@ class RenderInfo:
 
 @dataclass(frozen=True, eq=False)
 class Render:
-    """A rendered scene.
-
-    Attributes
-    ----------
-    audio : ndarray, float32, (frames,)
-        The signal, scaled by ``gain`` from its physical units.
-    samplerate : int
-        Hz.
-    impacts : BounceSequence
-        The impacts rendered; ``Impact.time`` is s from the release of the ball, as
-        everywhere (their ticks' places in the audio are :attr:`onsets`).
-    units : str
-        Physical units of ``audio / gain``: "Pa" or "m/s^2".
-    gain : float
-        ``audio = physical signal * gain``.
-    info : RenderInfo
-        The options used, and what the engine did and left out.
-    """
+    """A rendered scene: ``audio`` (float32, frames) at ``samplerate`` (Hz), the physical
+    signal (``units`` "Pa" or "m/s^2") times ``gain``; the ``impacts`` rendered
+    (``Impact.time`` s from the release; their ticks in the audio are :attr:`onsets`); and
+    ``info``, the options used and what the engine did and left out."""
 
     audio: np.ndarray = field(repr=False)
     samplerate: int
@@ -194,8 +134,7 @@ class Render:
 
     @property
     def onsets(self) -> np.ndarray:
-        """Onset of each impact's tick in the audio, s from the first sample: the
-        impact's time plus the sound's travel time ``info.delay`` (0 for an
-        accelerometer) less :attr:`audio_start`."""
+        """Onset of each impact's tick in the audio, s from the first sample (the sound's
+        travel time ``info.delay`` included)."""
         times = np.array([imp.time for imp in self.impacts])
         return times + self.info.delay - self.info.audio_start

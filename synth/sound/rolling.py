@@ -47,18 +47,10 @@ POINTS_PER_WAVELENGTH = 32
 
 @dataclass(frozen=True, eq=False)
 class PathExcitation:
-    """The modes' excitation along a straight path on the plate.
-
-    Attributes
-    ----------
-    start, step : float
-        Path coordinate of the first row and the distance between rows, m.
-    excitation : ndarray (P, K)
-        ``b_k = phi_k / M_k`` (1/kg) at the path coordinates ``start + i step``.
-    direct : ndarray (P, K) or None
-        An accelerometer's direct term ``phi_k(xp) b_k`` (m/s^2 per N) there; None for a
-        microphone.
-    """
+    """The modes' excitation along a straight path on the plate: ``excitation`` (P, K),
+    ``b_k = phi_k / M_k`` (1/kg) at the path coordinates ``start + i step`` (m), and
+    ``direct`` (P, K), an accelerometer's direct term ``phi_k(xp) b_k`` (m/s^2 per N) there
+    (None for a microphone)."""
 
     start: float
     step: float
@@ -116,16 +108,9 @@ def path_excitation(
 
 @dataclass(eq=False)
 class ModeState:
-    """The modes' state between two calls of :func:`drive_modes` (updated in place by it).
-
-    Attributes
-    ----------
-    zeta : complex ndarray (K,)
-        ``zeta_k`` (module docstring), m/s (``Im(zeta_k) / omega_dk`` is the mode, m).
-    previous : float
-        The force of the last period driven, N (an accelerometer's direct term at the next
-        sample takes the mean of it and the next period's force).
-    """
+    """The modes' state between two calls of :func:`drive_modes` (updated in place by it):
+    ``zeta`` (K,) complex, m/s (module docstring), and ``previous``, the force of the last
+    period driven, N (an accelerometer's direct term takes the mean of it and the next)."""
 
     zeta: np.ndarray
     previous: float = 0.0
@@ -147,37 +132,14 @@ def drive_modes(
     preload: float = 0.0,
     state: ModeState | None = None,
 ) -> np.ndarray:
-    """What a listener hears of the modes driven by ``force`` at ``coordinate``.
-
-    Parameters
-    ----------
-    force : ndarray (N,)
-        Mean force over each sample period, N (module docstring).
-    coordinate : ndarray (N,)
-        The force's path coordinate in each period, m (within the path's table).
-    path : PathExcitation
-        ``b_k`` along the path (K modes).
-    poles : complex ndarray (K,)
-        ``p_k``, rad/s, below Nyquist.
-    output : complex ndarray (K,)
-        The listener's gain per unit modal displacement at the pole (as
-        :func:`synth.sound.modal_bank.synthesize`).
-    samplerate : int
-        Hz.
-    preload : float
-        The force already on the plate at the first coordinate before the first period,
-        N: the modes start in their static deflection under it, ``zeta_k = -b_k F / p_k``
-        (0: the plate at rest, unloaded).
-    state : ModeState, optional
-        Start from the modes' state where an earlier call left it, instead of the
-        ``preload``'s (which must then be 0), and leave the end's state in it: consecutive
-        calls give the signal of one call.
-
-    Returns
-    -------
-    ndarray (N,)
-        The listener's signal at the sample times ``j / samplerate`` (Pa or m/s^2).
-    """
+    """The listener's signal (N,) at the sample times ``j / samplerate`` (Pa or m/s^2) of
+    the modes of poles ``poles`` (K,) (rad/s, below Nyquist) and listener gains ``output``
+    (K,) (as :func:`synth.sound.modal_bank.synthesize`) driven by ``force`` (N,), the mean
+    over each sample period (N), at the path coordinates ``coordinate`` (N,) (m, within
+    ``path``'s table). ``preload``: the force on the plate before the first period (N; the
+    modes start in their static deflection ``zeta_k = -b_k F / p_k``). ``state``: start
+    where an earlier call left the modes instead (``preload`` then 0) and leave the end's
+    state in it, so that consecutive calls give the signal of one call."""
     fs = checks.samplerate(samplerate)
     F = np.ascontiguousarray(force, dtype=float)
     c = np.ascontiguousarray(coordinate, dtype=float)
@@ -248,9 +210,8 @@ def drive_modes(
 @dataclass
 class _Heard:
     """Modes as a listener hears them, for :func:`_drive` (complex (K,) each): one
-    sample's ``ringing`` ``e_k``, the ``gain`` ``g_k`` of a unit drive ``b_k F`` (the
-    listener's response times the hold's gain) and the ``state`` ``w_k`` (each mode's
-    part of the signal is ``Re w_k``)."""
+    sample's ``ringing`` ``e_k``, the ``gain`` ``g_k`` of a unit drive ``b_k F`` and the
+    ``state`` ``w_k`` (each mode's part of the signal is ``Re w_k``)."""
 
     ringing: np.ndarray
     gain: np.ndarray
@@ -258,9 +219,8 @@ class _Heard:
 
 
 def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
-    """:func:`_drive` of ``modes``, ``table`` the path's ``b_k`` of these modes, ``direct``
-    the direct term's sum over the modes at each row or None: writes what the listener
-    hears into ``out``; returns the modes' final ``w_k``."""
+    """:func:`_drive` of ``modes`` (``table`` their ``b_k`` along the path) into ``out``;
+    returns the modes' final ``w_k``."""
     wr = np.ascontiguousarray(modes.state.real)
     wi = np.ascontiguousarray(modes.state.imag)
     e, g = modes.ringing, modes.gain
@@ -275,15 +235,11 @@ def _ring(force, coordinate, path, table, direct, modes: _Heard, previous, out):
 
 def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
                 preload: float = 0.0, state: ModeState | None = None) -> np.ndarray:  # fmt: skip
-    """A bound of each mode's part of :func:`drive_modes`' signal at every sample (the
-    signal's units, (K,)), for the same arguments.
-
-    With ``G_k`` the largest ``|b_k|`` of the path's table (the interpolation between two
-    rows stays within them) times the largest ``|F|``, the recursion of the module
-    docstring gives ``|zeta_k(t_j)| <= |zeta_k(0)| + |h_k| G_k / (1 - |e_k|)`` (``e_k =
-    e^(p_k / fs)``, ``h_k`` the hold's gain: a geometric series), and the listener hears
-    at most ``|l_k|`` times that (``l_k`` its response per unit state), plus for an
-    accelerometer the direct term's largest ``|F| |phi_k(xp) b_k|``."""
+    """A bound (K,) of each mode's part of :func:`drive_modes`' signal at every sample (its
+    units), for the same arguments: with ``G_k`` the largest ``|b_k|`` of the table times
+    the largest ``|F|``, the recursion gives ``|zeta_k(t_j)| <= |zeta_k(0)| + |h_k| G_k /
+    (1 - |e_k|)`` (a geometric series; ``e_k = e^(p_k / fs)``, ``h_k`` the hold's gain),
+    heard at most ``|l_k|`` times, plus an accelerometer's largest ``|F| |phi_k(xp) b_k|``."""
     fs = checks.samplerate(samplerate)
     p = np.asarray(poles, dtype=complex)
     F = np.asarray(force, dtype=float)
@@ -307,12 +263,10 @@ def mode_bounds(force, path: PathExcitation, poles, output, samplerate, *,
 
 def audible_modes(force, path: PathExcitation, poles, output, samplerate, *, floor: float,
                   reference: float, preload: float = 0.0) -> np.ndarray:  # fmt: skip
-    """The mask (K,) of the modes whose part of :func:`drive_modes`' signal (from the
-    ``preload``'s state) may exceed their share of the omission budget ``floor *
-    reference`` (``floor`` a fraction, ``reference`` an amplitude in the signal's units),
-    by their :func:`mode_bounds` and
-    the modal bank's rule (:func:`synth.sound.modal_bank.kept_modes`): the modes left
-    out add up to at most ``floor * reference`` at every sample."""
+    """The mask (K,) of the modes whose :func:`mode_bounds` may exceed their share of the
+    omission budget ``floor * reference`` (a fraction, an amplitude in the signal's units)
+    by the modal bank's rule (:func:`synth.sound.modal_bank.kept_modes`): the modes left out
+    add up to at most ``floor * reference`` at every sample."""
     f = checks.nonnegative("floor", floor, "dimensionless")
     ref = checks.nonnegative("reference", reference, "the signal's units")
     bounds = mode_bounds(force, path, poles, output, samplerate, preload=preload)
@@ -342,11 +296,9 @@ def _row(coordinate, start, step, rows):  # pragma: no cover - compiled
 
 @compiled(inline="always", sums=True, nogil=True)
 def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
-    """One sample period of every mode ``zr + i zi`` (updated in place), driven by the force
-    held over it at the shape ``wa row_a + wb row_b`` (the table's rows weighted by the
-    force, N): returns what the listener hears at the period's start (the response
-    ``lr + i li`` of the state), then rings (``er + i ei``) and adds the hold's gain
-    ``hr + i hi`` times the drive. The recursion of the module docstring, one sample."""
+    """One sample of the recursion of the module docstring for every mode ``zr + i zi`` (in
+    place), driven by the held force at the shape ``wa row_a + wb row_b`` (N): returns what
+    the listener (response ``lr + i li``) hears at the period's start."""
     acc = 0.0
     for k in range(er.shape[0]):
         acc += lr[k] * zr[k] - li[k] * zi[k]
@@ -359,16 +311,14 @@ def drive_sample(wa, wb, row_a, row_b, er, ei, lr, li, hr, hi, zr, zi):
 
 @compiled(inline="always")
 def _direct_at(direct, i, t, F, previous):  # pragma: no cover - compiled
-    """An accelerometer's direct term at a sample in the table's interval ``i`` at the
-    fraction ``t``: the mean of the held forces ``previous`` and ``F`` (N) before and after
-    it times the modes' summed ``direct`` row, interpolated."""
+    """An accelerometer's direct term at the fraction ``t`` of the table's interval ``i``:
+    the mean of the held forces ``previous`` and ``F`` (N) times the summed ``direct`` row."""
     return 0.5 * (F + previous) * ((1.0 - t) * direct[i] + t * direct[i + 1])
 
 
 @compiled(inline="always")
 def _interval_gains(row_a, row_b, gr, gi, ar, ai, br, bi):  # pragma: no cover - compiled
-    """The gains ``g_k b_k`` (``gr + i gi`` times each row's ``b_k``) of the table's two
-    rows of an interval, into ``ar + i ai`` and ``br + i bi``."""
+    """The gains ``g_k b_k`` of the interval's two rows, into ``ar + i ai`` and ``br + i bi``."""
     for k in range(gr.shape[0]):
         ar[k] = gr[k] * row_a[k]
         ai[k] = gi[k] * row_a[k]
@@ -378,9 +328,9 @@ def _interval_gains(row_a, row_b, gr, gi, ar, ai, br, bi):  # pragma: no cover -
 
 @compiled(inline="always")
 def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
-    """One sample period of the heard modes ``wr + i wi`` (updated in place), driven by
-    the parts ``fa`` and ``fb`` (N) of the held force on the interval's two rows (gains
-    ``ar + i ai``, ``br + i bi``): returns what the listener hears at its start."""
+    """One sample period of the heard modes ``wr + i wi`` (in place), driven by the parts
+    ``fa`` and ``fb`` (N) of the held force on the interval's two rows: returns the signal
+    at its start."""
     acc = 0.0
     for k in range(er.shape[0]):
         xr, xi = wr[k], wi[k]
@@ -392,9 +342,8 @@ def _ring_one(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - com
 
 @compiled(inline="always")
 def _ring_four(fa, fb, er, ei, ar, ai, br, bi, wr, wi):  # pragma: no cover - compiled
-    """:func:`_ring_one` for the four consecutive sample periods of ``fa[0:4]`` and
-    ``fb[0:4]`` in one interval, each mode's state and gains loaded once for all four:
-    returns what the listener hears at their starts."""
+    """:func:`_ring_one` for four consecutive sample periods in one interval, each mode's
+    state and gains loaded once for all four."""
     a0, a1, a2, a3 = fa[0], fa[1], fa[2], fa[3]
     b0, b1, b2, b3 = fb[0], fb[1], fb[2], fb[3]
     s0 = s1 = s2 = s3 = 0.0
@@ -450,19 +399,14 @@ def _drive(
     force, coordinate, start, step, table, direct, has_direct, er, ei, gr, gi, wr, wi,
     previous, out,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """The recursion of the module docstring for the modes as the listener hears them,
-    ``w_k = l_k zeta_k`` (``wr + i wi``, updated in place; the signal is ``sum_k Re
-    w_k``): ``w_k <- e_k w_k + g_k b_k F`` with one sample's ringing ``e_k = er + i ei``
-    and ``g_k = l_k h_k`` (``gr + i gi``: the listener's response times the hold's gain),
-    ``b_k`` interpolated linearly in ``table``; writes the signal into ``out``. ``previous``
-    is the force before the first period, N; ``direct`` the direct term summed over the
-    modes at each row of the table (an accelerometer's, ``has_direct``).
-
-    Within an interval of the table (many samples' travel) ``g_k b_k F`` is ``F (1 - t)``
-    times the first row's gains plus ``F t`` times the second's, both worked out once per
-    interval; four consecutive samples there are rung in one pass over the modes, without
-    the drive's operations where the four have no force (the ball in flight). The
-    operations on each sample are those of a single sample's pass."""
+    """The recursion of the module docstring for the heard modes ``w_k = l_k zeta_k``
+    (``wr + i wi``, in place; the signal ``sum_k Re w_k`` into ``out``): ``w_k <- e_k w_k
+    + g_k b_k F``, ``e_k = er + i ei``, ``g_k = l_k h_k = gr + i gi``, ``b_k`` interpolated
+    in ``table``; ``previous`` the force before the first period (N), ``direct`` the direct
+    term summed over the modes per row (``has_direct``). In an interval of the table the
+    gains of its two rows are worked out once, and four samples rung in one pass over the
+    modes (without the drive where the ball is in flight); each sample's operations are
+    those of a single sample's pass."""
     K = er.shape[0]
     rows = table.shape[0]
     n = force.shape[0]
@@ -504,13 +448,11 @@ def _drive(
 
 
 def rolling_sound(rolling, model, *, floor: float = 0.0, reference: float = 0.0) -> np.ndarray:
-    """What ``model``'s listener (a :class:`synth.sound.render.ModalModel`, at the rolling's
-    samplerate) hears of a :class:`synth.physics.rolling.RollingContact`: its force driving
-    the plate's modes at its moving contact point (without the listener's propagation
-    delay; ``model.delay`` s gives it). The rolling starts as a ball already rolling there
-    (:func:`synth.physics.rolling.roll`), so the plate starts loaded with its first
-    period's force (``preload``): no step at the start. The modes within their share of
-    ``floor * reference`` (a fraction and an amplitude in the signal's units, Pa or
+    """What ``model``'s listener (a :class:`synth.sound.render.ModalModel` at the rolling's
+    samplerate) hears of a :class:`synth.physics.rolling.RollingContact` driving the modes
+    at its moving contact point (without the propagation delay ``model.delay``, s). The
+    plate starts loaded with the first period's force (a ball already rolling: no step).
+    Modes within their share of ``floor * reference`` (a fraction, an amplitude in Pa or
     m/s^2: :func:`audible_modes`) are left out (with the defaults, none is)."""
     if int(model.samplerate) != int(rolling.samplerate):
         raise ParameterError(

@@ -83,19 +83,13 @@ def ring_modes(
     out, offset, a, b, table, zr, zi, active, debt, debt_at, thresholds, thr2, poles, fs
 ):
     """Advance every ringing mode from sample ``a`` to ``b`` (no injection in between),
-    adding ``Re[z_k r_k^j]`` into ``out[s - offset]`` for ``s`` in ``[a, b)``.
-
-    The bank's state, per mode ``k``: ``zr, zi`` its complex amplitude at the current
-    sample, ``active`` whether it rings, ``debt`` a bound of what it has left out so far as
-    of sample ``debt_at``, ``thresholds`` its share of the omission budget (``thr2`` its
-    square). table: :func:`power_table`; poles (K,) complex, rad/s; fs: Hz.
-
-    A mode writes from the table ``SUB`` samples at a time, then advances its state by
-    ``r^SUB`` (one complex product; the inner loop, two multiply-adds a sample,
-    vectorises); there its state is checked against its share: it stops if ``|z| + debt
-    <= threshold``. Returns (mode-samples computed, end of the last sample written,
-    absolute).
-    """
+    adding ``Re[z_k r_k^j]`` into ``out[s - offset]``. The bank's state per mode: ``zr, zi``
+    its complex amplitude, ``active`` whether it rings, ``debt`` a bound of what it has left
+    out as of sample ``debt_at``, ``thresholds`` its share of the omission budget (``thr2``
+    squared); ``table`` the :func:`power_table` of the ``poles`` (rad/s) at ``fs`` Hz. A mode
+    writes ``SUB`` samples from the table (the inner loop vectorises), advances by ``r^SUB``
+    and stops once ``|z| + debt <= threshold``. Returns (mode-samples computed, end of the
+    last sample written)."""
     K = zr.shape[0]
     work = 0
     last = 0
@@ -147,14 +141,11 @@ def remainder(zr, zi, active, debt, debt_at, poles, fs, at):
 
 @compiled(sums=True)
 def ring_bank(out, fs, poles, amps, inject, thresholds):
-    """The modal bank: every mode's ringing after every injection, added into ``out``.
-
-    out (S,) float64; fs: Hz; poles (K,) complex, rad/s; amps (I, K) complex amplitudes joining
-    the state at samples inject (I,) int64, ascending; thresholds (K,): each mode's share of
-    the omission budget (:mod:`synth.sound.modal_bank`). Each mode keeps ``debt``, a bound on
-    what it has left out, and stops while ``|z| + debt <= threshold``, so at every sample what
-    it leaves out is at most its threshold. The output is taken in L1/L2-sized tiles of
-    ``TILE`` samples, every segment one :func:`ring_modes` (the live engine's step too).
+    """The modal bank: every mode's ringing after every injection, added into ``out`` (S,),
+    at ``fs`` Hz: ``poles`` (K,) rad/s, ``amps`` (I, K) joining the state at the ascending
+    samples ``inject`` (I,), ``thresholds`` (K,) each mode's share of the omission budget
+    (what a mode leaves out stays within it at every sample). The output is taken in tiles
+    of ``TILE`` samples, every segment one :func:`ring_modes` (the live engine's step too).
     Returns (mode-samples computed, end of the last sample written, the modes' ``|z|`` plus
     debts left at the end)."""
     S = out.shape[0]

@@ -10,9 +10,8 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class BankCoefficients:
-    """What every impact on one plate, heard by one listener, shares (see
-    :func:`~synth.sound.modal_bank.synthesize`):
-    the poles ``p_k`` (rad/s), the listener response per unit pulse transform
+    """What every impact on one plate, heard by one listener, shares: the poles ``p_k``
+    (rad/s), the listener response per unit pulse transform
     ``-i b_k output_k / omega_dk`` and the ringing over one sample ``e^(p_k / fs)``, as
     contiguous real and imaginary parts; ``samplerate`` in Hz; ``omega_max`` and
     ``sigma_max`` the largest ``|Im p_k|`` and ``-Re p_k`` (rad/s, 1/s)."""
@@ -53,15 +52,5 @@ def bank_coefficients(poles, excitation, output, samplerate) -> BankCoefficients
     sigma_max = float(np.max(-poles.real)) if poles.size else 0.0
     coef = response_per_transform(poles, excitation, output)
     step = np.exp(poles * (1.0 / fs))  # one sample's ringing
-    return BankCoefficients(
-        poles,
-        fs,
-        omega_max,
-        sigma_max,
-        np.ascontiguousarray(poles.real),
-        np.ascontiguousarray(poles.imag),
-        np.ascontiguousarray(coef.real),
-        np.ascontiguousarray(coef.imag),
-        np.ascontiguousarray(step.real),
-        np.ascontiguousarray(step.imag),
-    )
+    parts = (np.ascontiguousarray(v) for z in (poles, coef, step) for v in (z.real, z.imag))
+    return BankCoefficients(poles, fs, omega_max, sigma_max, *parts)

@@ -23,11 +23,9 @@ from synth.sound.modal_bank.transform_kernels import (
     long_impact_transform,
 )
 
-#: Largest ``sigma_max tau`` (the most damped mode's decay over one contact, in nepers)
-#: for :func:`impact_transform`, whose ``e^(-p u)`` factors reach ``e^(sigma tau)`` and
-#: ``|e^(p d)|^2`` reaches ``e^(-2 sigma tau)``: both stay inside float64 (about
-#: ``e^(+-708)``) with a margin. Longer contacts (a heavy ball resting on a damped
-#: plate) go to :func:`long_impact_transform`.
+#: Largest ``sigma_max tau`` (nepers) for :func:`impact_transform`, whose factors reach
+#: ``e^(+-2 sigma tau)``: inside float64 (``e^(+-708)``) with a margin; longer contacts go
+#: to :func:`long_impact_transform`.
 LONG_CONTACT_NEPERS = 300.0
 
 
@@ -66,31 +64,12 @@ def long_contact(sigma_max, tau):
 
 @compiled(inline="always")
 def transform_pulse(
-    pr,
-    pi,
-    cr,
-    ci,
-    ur,
-    ui,
-    sigma_max,
-    period,
-    h,
-    forces,
-    slopes,
-    d0,
-    offset_forces,
-    offset_slopes,
-    weight,
-    tau,
-    order,
-    amps,
-    resp,
-    work,
-):
-    """One impact's mode amplitudes and in-contact response: :func:`impact_transform` (its
-    arguments, its result), or :func:`long_impact_transform` when the contact of ``tau`` s lasts
-    more than ``LONG_CONTACT_NEPERS`` time constants of the fastest-decaying mode
-    (``sigma_max``, 1/s). Compiled, so that the live engine's audio thread calls it too."""
+    pr, pi, cr, ci, ur, ui, sigma_max, period, h, forces, slopes, d0, offset_forces,
+    offset_slopes, weight, tau, order, amps, resp, work,
+):  # fmt: skip
+    """:func:`impact_transform` (its arguments, its result), or
+    :func:`long_impact_transform` for a :func:`long_contact`; compiled, so that the live
+    engine's audio thread calls it too."""
     if long_contact(sigma_max, tau):
         return long_impact_transform(
             pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0,
@@ -153,14 +132,10 @@ def impact_excitation(
 ) -> ImpactExcitation:
     """The excitation of the modes by the contact ``result`` (an ImpactResult) whose first
     touch is at ``onset`` s from sample 0 (sub-sample exact): its amplitudes at the first
-    sample after the contact and its exact response inside it (see ``impact_transform``).
-
-    weight: ``m g`` (N) left on the plate after a settled contact, else 0; pulse_points:
-    fewest points of the pulse grid; amplitudes: an optional (K,) complex array to write
-    the amplitudes into; response: an optional float array to write the in-contact
-    response into (at least :func:`samples_in_contact` long); work: an optional
-    :func:`transform_workspace` of the K modes.
-    """
+    sample after the contact and its exact response inside it. ``weight``: ``m g`` (N) left
+    on a settled contact's plate; ``amplitudes``, ``response`` (at least
+    :func:`samples_in_contact` long) and ``work`` (:func:`transform_workspace`): optional
+    arrays to write into."""
     c = coefficients
     fs = c.samplerate
     tau = result.separation_time
@@ -181,26 +156,11 @@ def impact_excitation(
     # transform_pulse's choice, made here: a render compiles only the transform it uses
     transform = long_impact_transform if long_contact(c.sigma_max, tau) else impact_transform
     magnitude = transform(
-        c.pole_re,
-        c.pole_im,
-        c.coef_re,
-        c.coef_im,
-        c.step_re,
-        c.step_im,
-        1.0 / fs,
-        lay.step,
-        forces[:n],
-        slopes[:n],
-        lay.offset,
-        forces[n:],
-        slopes[n:],
-        float(weight),
-        tau,
-        result.pulse_order,
-        amps,
-        resp,
+        c.pole_re, c.pole_im, c.coef_re, c.coef_im, c.step_re, c.step_im, 1.0 / fs, lay.step,
+        forces[:n], slopes[:n], lay.offset, forces[n:], slopes[n:], float(weight), tau,
+        result.pulse_order, amps, resp,
         transform_workspace(c.poles.size) if work is None else work,
-    )
+    )  # fmt: skip
     return ImpactExcitation(amps, lay.inject, lay.first, resp, forces[n:], magnitude)
 
 

@@ -29,38 +29,18 @@ def synthesize(
     max_samples=None,
     pulse_points=PULSE_POINTS,
 ):
-    """Mix the ringing of every mode after every impact.
-
-    Parameters
-    ----------
-    impacts : sequence of ImpactResult
-        The contacts, in time order.
-    onsets : ndarray (I,)
-        Each contact's start on the audio timeline, s (sub-sample).
-    poles : complex ndarray (K,)
-        ``p_k = -sigma_k + i omega_dk``, rad/s (all below Nyquist).
-    excitation : ndarray (K,) or (I, K)
-        ``b_k = phi_k(x0) / M_k``, 1/kg: one row for all impacts, or one per impact.
-    output : complex ndarray (K,)
-        Listener gain per unit modal displacement at the pole: ``phi_k(xp) p_k^2``
-        (acceleration) or ``G_k p_k`` (microphone).
-    samplerate : float
-        Hz.
-    floor : float
-        Omission floor, a fraction of the reference amplitude (:mod:`synth.sound.modal_bank`).
-    settled_weight : sequence of float or None
-        For a settled impact the weight ``m g`` (N) left on the plate after its contact.
-    direct : ndarray (K,) or (I, K) or None
-        For acceleration, ``phi_k(xp) b_k`` of the direct term ``b_k F(t)`` inside contacts.
-    max_samples : int
-        Length cap of the output.
-    pulse_points : int >= 5
-        Fewest points of each pulse's grid for the transforms (an odd number is used).
-
-    Returns
-    -------
-    (audio float64 (S,), info dict: n_modes_rendered, mode_samples, reference, length,
-    bank_seconds and transform_seconds, s)"""
+    """Mix the ringing of every mode after every impact: the contacts ``impacts`` (time
+    order) starting at ``onsets`` (I,) (s on the audio timeline, sub-sample); the modes'
+    ``poles`` (K,) ``p_k = -sigma_k + i omega_dk`` (rad/s, below Nyquist), ``excitation``
+    ``b_k = phi_k(x0) / M_k`` (1/kg; (K,) or one row per impact) and listener gains
+    ``output`` (K,) (``phi_k(xp) p_k^2`` for acceleration, ``G_k p_k`` for a microphone) at
+    ``samplerate`` Hz; ``floor`` the omission floor (a fraction of the reference
+    amplitude); ``settled_weight`` the weight ``m g`` (N) a settled impact leaves on the
+    plate; ``direct`` an accelerometer's ``phi_k(xp) b_k`` of the direct term inside
+    contacts; ``max_samples`` the output's length cap; ``pulse_points`` (>= 5) the fewest
+    points of each pulse's grid. Returns the audio (float64) and a dict of figures
+    (``n_modes_rendered``, ``mode_samples``, ``reference``, ``length``, ``bank_seconds``
+    and ``transform_seconds`` in s, ...)."""
     fs = float(samplerate)
     onsets = np.asarray(onsets, dtype=float)
     if onsets.size and not np.min(onsets) >= 0.0:
@@ -155,12 +135,10 @@ def synthesize(
 
 
 def kept_modes(bounds, reference, floor) -> tuple[np.ndarray, float]:
-    """The modes worth rendering under the omission budget ``floor * reference`` (module
-    docstring of :mod:`synth.sound.modal_bank`, "Leaving out"): each of the ``K`` modes
-    gets the share ``floor * reference / K``, and a mode whose contribution to any sample
-    is bounded by ``bounds[k]`` (the signal's units) within its share is left out, so the
-    modes left out add up to at most ``floor * reference`` at every sample. Returns the
-    mask of the modes kept (K,) and the share."""
+    """The mask (K,) of the modes worth rendering under the omission budget ``floor *
+    reference``, and each mode's share ``floor * reference / K``: a mode whose contribution
+    to any sample is bounded by ``bounds[k]`` (the signal's units) within its share is left
+    out, so those left out add up to at most ``floor * reference`` at every sample."""
     bounds = np.asarray(bounds, dtype=float)
     share = floor * reference / max(bounds.size, 1)
     return bounds > share, share

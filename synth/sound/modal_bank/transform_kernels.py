@@ -92,41 +92,20 @@ def _in_contact(
 
 @compiled(sums=True)
 def impact_transform(
-    pr,
-    pi,
-    cr,
-    ci,
-    ur,
-    ui,
-    period,
-    h,
-    forces,
-    slopes,
-    d0,
-    offset_forces,
-    offset_slopes,
-    weight,
-    tau,
-    order,
-    amps,
-    resp,
-    work,
-):
-    """One impact's contribution, vectorised over the K modes (docs/physics.md, "Modal synthesis").
-
-    pr, pi: poles, rad/s; cr, ci: listener response per unit transform
-    (``-i b_k output_k / omega_dk``); ur, ui: ``e^(p_k period)``; period: ``1 / fs``, s; h,
-    forces, slopes: the pulse on the grid ``u_j = j h`` (s, N, N/s); d0: time from first touch
-    to the first audio sample at or after it, s; offset_forces, offset_slopes (M,): force (N)
-    and slope (N/s) at the audio samples inside the contact; weight: ``m g`` (N) left after a
-    settled contact, else 0; tau: contact time, s; order: the exponent ``q = n + 1`` of the
-    trapezoid rule's leading error, for one Richardson step (0: none); work: a
-    (``WORK_ROWS``, K) workspace from the caller, so the audio thread allocates nothing.
-
-    Writes amps (K,), the ringing injected at the first sample after the contact, and resp
-    (M,), the exact response inside it (partial transforms with Euler-Maclaurin end
-    corrections, exact for cubics). Returns ``sum_k |amps_k|``. Per mode two complex
-    exponentials by :mod:`synth.vecmath`, the rest by products, so every loop vectorises."""
+    pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces, offset_slopes,
+    weight, tau, order, amps, resp, work,
+):  # fmt: skip
+    """One impact's contribution, vectorised over the K modes (docs/physics.md, "Modal
+    synthesis"): poles ``pr + i pi`` (rad/s), listener response per unit transform ``cr + i
+    ci``, ``ur + i ui = e^(p_k period)`` (``period = 1 / fs``, s); the pulse on the grid ``u_j
+    = j h`` (``forces`` N, ``slopes`` N/s); ``d0`` (s) from first touch to the first audio
+    sample, ``offset_forces`` and ``offset_slopes`` (M,) at the audio samples inside the
+    contact; ``weight`` ``m g`` (N) left after a settled contact; ``tau`` the contact time,
+    s; ``order`` the trapezoid rule's error exponent for one Richardson step (0: none);
+    ``work`` a (``WORK_ROWS``, K) workspace (the audio thread allocates nothing). Writes
+    ``amps`` (K,), the ringing injected at the first sample after the contact, and ``resp``
+    (M,), the exact response inside it (Euler-Maclaurin end corrections, exact for cubics);
+    returns ``sum_k |amps_k|``. Two complex exponentials per mode, the rest by products."""
     K = pr.shape[0]
     N = forces.shape[0]
     M = offset_forces.shape[0]
@@ -255,26 +234,9 @@ def impact_transform(
 
 @compiled(sums=True)
 def long_impact_transform(
-    pr,
-    pi,
-    cr,
-    ci,
-    ur,
-    ui,
-    period,
-    h,
-    forces,
-    slopes,
-    d0,
-    offset_forces,
-    offset_slopes,
-    weight,
-    tau,
-    order,
-    amps,
-    resp,
-    work,
-):
+    pr, pi, cr, ci, ur, ui, period, h, forces, slopes, d0, offset_forces, offset_slopes,
+    weight, tau, order, amps, resp, work,
+):  # fmt: skip
     """:func:`impact_transform` (same arguments, same result) for contacts so long that the
     factors ``e^(-p u)`` over the contact leave float64.
 

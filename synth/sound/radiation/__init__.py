@@ -6,14 +6,12 @@ velocity ``phi_k exp(s t)`` gives the pressure ``H_k(s) exp(s t)``, Pa per m/s, 
 ``H_k(s) = (rho s / (2 pi)) Int phi_k exp(-s R / c) / R dA`` for any complex ``s``. A
 reference delay ``R0 / c`` may be factored out (:func:`distance`, :func:`delay`).
 
-Rules (:mod:`~.rules`, which takes the cheapest one that holds the convergence test's bound,
-:mod:`~.refinement`, its cost counted by :mod:`~.work`): :func:`rayleigh_gains`
-(:mod:`~.rectangle`, any shapes); :func:`separable_gains` (:mod:`~.polar`, products
-``X_i(x) Y_j(y)``); :func:`summed_gains` (:mod:`~.summed`, sums of products); and for the
-dynamic edge effect modes the rectangle rule band by band (:func:`~.rectangle.product_gains`).
-:mod:`~.common` holds the result, checks and
-kernel, :mod:`~.cache` the gains kept in memory and on disk; :func:`plate_gains` computes a
-:class:`synth.physics.modes.Modes`' gains by the chosen rule, cached.
+The rules: :func:`rayleigh_gains` (:mod:`~.rectangle`, any shapes), :func:`separable_gains`
+and :func:`summed_gains` (:mod:`~.polar`, products ``X_i(x) Y_j(y)`` and sums of them), and
+for the dynamic edge effect modes the rectangle rule band by band; :mod:`~.rules` takes the
+cheapest one that holds the convergence test's bound (:mod:`~.refinement`), its cost counted
+before any mode is solved. :func:`plate_gains` computes a :class:`synth.physics.modes.Modes`'
+gains by the chosen rule, kept in memory and on disk (:mod:`~.cache`).
 """
 
 from __future__ import annotations
@@ -43,23 +41,15 @@ from synth.sound.radiation.common import (
     check_settings,
     half_phase,
 )
-from synth.sound.radiation.polar import separable_gains
+from synth.sound.radiation.polar import separable_gains, summed_gains
 from synth.sound.radiation.rectangle import rayleigh_gains
 from synth.sound.radiation.refinement import warn_unconverged
 from synth.sound.radiation.rules import choose_rule, edge_split, plate_problem
-from synth.sound.radiation.summed import summed_gains
 
 __all__ = [
-    "RadiationResult",
-    "rayleigh_gains",
-    "separable_gains",
-    "summed_gains",
-    "plate_gains",
-    "delay",
-    "distance",
-    "cache_info",
-    "clear_memory_cache",
-]
+    "RadiationResult", "rayleigh_gains", "separable_gains", "summed_gains", "plate_gains", "delay",
+    "distance", "cache_info", "clear_memory_cache",
+]  # fmt: skip
 
 #: Most points of one rule of :func:`plate_gains` unless the caller gives ``max_points``.
 DEFAULT_MAX_POINTS = 4_000_000
@@ -68,8 +58,7 @@ DEFAULT_MAX_POINTS = 4_000_000
 def rectangle_points(size, kappa: float, tol: float = 1e-6) -> float:
     """Points of the rectangle rule's first rule on a plate of ``size`` (a, b), metres,
     for the wavenumber ``kappa`` (bending plus acoustic, rad/m) and tolerance ``tol``,
-    estimated from its longest panels (24 points each, ``2 w24 / kappa`` long); known
-    before any mode is solved (:func:`synth.cost.estimate` sizes the sums' chunks by it)."""
+    estimated from its longest panels (24 points each, ``2 w24 / kappa`` long)."""
     per_metre = MAX_ORDER * kappa / (2.0 * half_phase(MAX_ORDER, 0.1 * tol))
     return (size[0] * per_metre + 1.0) * (size[1] * per_metre + 1.0)
 
@@ -79,37 +68,20 @@ def _problem(modes, listener, q_s, kb, c, tol, max_points):
     for the poles ``q_s`` (rad/s) with the bending wavenumber ``kb`` (rad/m)."""
     frequencies = np.asarray(modes.angular_frequencies) / (2.0 * math.pi)
     f_max = float(frequencies[-1]) if frequencies.size else 0.0
-    edge = modes.edge_effect()
-    split = None
+    edge, split = modes.edge_effect(), None
     if edge is not None:
         n_low = edge.first_mode
         f_low = float(frequencies[n_low - 1]) if n_low else 0.999 * float(frequencies[0])
-        split = edge_split(
-            kb,
-            f_low,
-            f_max,
-            n_low,
-            lambda f: np.searchsorted(frequencies, f, side="right"),
-            c,
-        )
-    qa = float(np.max(np.abs(q_s))) / c if q_s.size else 0.0
-    shapes = "edge" if edge is not None else None
-    if shapes is None:
-        shapes = "separable" if modes.separable() is not None else None
-    if shapes is None:
+        count = lambda f: np.searchsorted(frequencies, f, side="right")  # noqa: E731
+        split = edge_split(kb, f_low, f_max, n_low, count, c)
+        shapes = "edge"
+    elif modes.separable() is not None:
+        shapes = "separable"
+    else:
         shapes = "summed" if modes.summed() is not None else "any"
-    return plate_problem(
-        modes.plate,
-        listener,
-        len(modes),
-        f_max,
-        kb=kb,
-        qa=qa,
-        tol=tol,
-        max_points=max_points,
-        edge=split,
-        shapes=shapes,
-    )
+    qa = float(np.max(np.abs(q_s))) / c if q_s.size else 0.0
+    return plate_problem(modes.plate, listener, len(modes), f_max, kb=kb, qa=qa, tol=tol,
+                         max_points=max_points, edge=split, shapes=shapes)  # fmt: skip
 
 
 def plate_gains(
@@ -126,57 +98,26 @@ def plate_gains(
     full_output=False,
     cache=True,
 ):
-    """:func:`rayleigh_gains` of a plate's modes by the chosen rule, cached in memory and on disk.
-
-    Parameters
-    ----------
-    modes : synth.physics.modes.Modes
-        The plate's modes (normal-velocity shapes; the plate's length and width the size).
-    listener_position, s, max_wavenumber, air_density, sound_speed, reference_distance, tol,
-    max_points, full_output
-        As for :func:`rayleigh_gains` (``s`` one complex frequency per mode, rad/s).
-    cache : bool
-        Reuse and store the result; False computes afresh and stores nothing.
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity (read-only); or a
-        :class:`RadiationResult` if ``full_output``.
-
-    Raises
-    ------
-    ParameterError
-        If ``modes`` is not a :class:`~synth.physics.modes.Modes`, ``s`` does not have one
-        entry per mode, ``cache`` is not a bool, or as :func:`rayleigh_gains`.
-
-    Notes
-    -----
-    The key holds everything that determines the result (the modes' ``shape_key``, listener,
-    poles' exact bytes, wavenumber, air, reference distance, ``tol``, ``max_points``, the
-    quadrature's settings); files ``radiation-gains-*.npz`` beside the mode cache are written
-    atomically, and an unreadable one is ignored and rewritten."""
+    """:func:`rayleigh_gains` (its arguments and result, read-only; ``s`` one complex
+    frequency per mode, rad/s) of a :class:`~synth.physics.modes.Modes` by the chosen rule,
+    kept in memory and on disk (``cache`` False: computed afresh, nothing stored). The key
+    holds everything that determines the result; files ``radiation-gains-*.npz`` beside the
+    mode cache are written atomically, and an unreadable one is rewritten."""
     if not isinstance(modes, Modes):
         raise ParameterError(f"modes={modes!r} must be a synth.physics.modes.Modes")
     if not isinstance(cache, bool):
         raise ParameterError(f"cache={cache!r} must be True or False")
     listener = check_listener(listener_position)
     q_s = check_poles(s, len(modes))
-    kb, rho, c, r0, tol = check_settings(
+    checked = check_settings(
         max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points
     )
-
+    kb, c, tol = checked.kb, checked.c, checked.tol
     rule = None
     if q_s.size:
         rule = choose_rule(_problem(modes, listener, q_s, kb, c, tol, max_points)).rule
-    settings = dict(
-        max_wavenumber=kb,
-        air_density=rho,
-        sound_speed=c,
-        reference_distance=r0,
-        tol=tol,
-        max_points=max_points,
-    )
+    settings = dict(max_wavenumber=kb, air_density=checked.rho, sound_speed=c,
+                    reference_distance=checked.r0, tol=tol, max_points=max_points)  # fmt: skip
 
     def compute():
         if rule is None:
@@ -190,8 +131,9 @@ def plate_gains(
         result = compute()
         CACHE.count("computed")
     else:
-        name = "rectangle" if rule is None else type(rule).__name__
-        key = gains_key(modes, listener, q_s, kb, rho, c, r0, tol, max_points, name)
+        key = gains_key(
+            modes, listener, q_s, checked, "rectangle" if rule is None else type(rule).__name__
+        )
         result = CACHE.get(key)
         if result is None:
             result = load_gains(key, q_s.size)
@@ -209,42 +151,17 @@ def plate_gains(
 
 
 def distance(listener_position, reference_point) -> float:
-    """Distance from the microphone to a point of the plate, metres.
-
-    Parameters
-    ----------
-    listener_position : (float, float, float)
-        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
-    reference_point : (float, float)
-        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
-
-    Returns
-    -------
-    float
-        ``|xL - xr|``, metres (the ``reference_distance`` of :func:`rayleigh_gains`).
-    """
+    """Distance from the microphone ``listener_position`` ((x, y, z), metres, ``z > 0``) to a
+    point ``reference_point`` ((x, y), metres) of the plate's plane, metres: the
+    ``reference_distance`` of :func:`rayleigh_gains`."""
     xl, yl, zl = check_listener(listener_position)
     xr, yr = checks.point("reference_point", reference_point, 2)
     return math.sqrt((xl - xr) ** 2 + (yl - yr) ** 2 + zl * zl)
 
 
 def delay(listener_position, reference_point, sound_speed=SOUND_SPEED) -> float:
-    """Propagation delay from a point of the plate to the microphone, seconds.
-
-    Parameters
-    ----------
-    listener_position : (float, float, float)
-        ``(x, y, z)`` of the microphone, metres, ``z > 0``.
-    reference_point : (float, float)
-        ``(x, y)`` of a point in the plate's plane (``z = 0``), metres.
-    sound_speed : float > 0
-        Speed of sound in air, m/s.
-
-    Returns
-    -------
-    float
-        ``|xL - xr| / c``, seconds: the delay to apply to gains computed with
-        ``reference_distance = distance(listener_position, reference_point)``.
-    """
+    """Propagation delay from a point of the plate to the microphone, seconds: the
+    :func:`distance` (metres) over ``sound_speed`` (m/s), the delay to apply to gains
+    computed with ``reference_distance = distance(listener_position, reference_point)``."""
     c = checks.positive("sound_speed", sound_speed, "m/s")
     return distance(listener_position, reference_point) / c

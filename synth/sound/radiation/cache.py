@@ -37,9 +37,11 @@ cache_info = CACHE.info
 clear_memory_cache = CACHE.clear
 
 
-def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, rule) -> str:
+def gains_key(modes, listener, s, settings, rule) -> str:
     """Everything that determines the gains of :func:`plate_gains`, as canonical JSON
-    (``rule``: the name of the rule's class, :mod:`~synth.sound.radiation.rules`)."""
+    (``settings`` the checked :class:`~.common.Settings`, ``rule`` the name of the rule's
+    class, :mod:`~synth.sound.radiation.rules`)."""
+    kb, rho, c, r0 = settings.kb, settings.rho, settings.c, settings.r0
     return json.dumps(
         {
             "rule": rule,
@@ -55,8 +57,8 @@ def gains_key(modes, listener, s, kb, rho, c, r0, tol, max_points, rule) -> str:
             "air_density": float(rho).hex(),
             "sound_speed": float(c).hex(),
             "reference_distance": None if r0 is None else float(r0).hex(),
-            "tol": float(tol).hex(),
-            "max_points": int(max_points),
+            "tol": float(settings.tol).hex(),
+            "max_points": int(settings.max_points),
             "quadrature": [MAX_ORDER, REFINE, MAX_RULES, GRADING, NEAR_RHO, COHERENT_FLOOR],
         },
         sort_keys=True,
@@ -67,20 +69,13 @@ def _gains_path(key: str) -> Path:
     return cache_path("radiation-gains", key)
 
 
+_FIELDS = ("gains", "error", "coherent", "n_points", "refinements", "panels", "status",
+           "message", "rule")  # fmt: skip
+
+
 def save_gains(result: RadiationResult, key: str) -> None:
     """Write ``result`` to the disk cache (atomically); skipped if impossible."""
-    arrays = {
-        "key": np.array(key),
-        "gains": result.gains,
-        "error": result.error,
-        "coherent": result.coherent,
-        "n_points": np.array(result.n_points),
-        "refinements": np.array(result.refinements),
-        "panels": np.array(result.panels),
-        "status": np.array(result.status),
-        "message": np.array(result.message),
-        "rule": np.array(result.rule),
-    }
+    arrays = {"key": np.array(key), **{f: np.array(getattr(result, f)) for f in _FIELDS}}
     try:
         path = _gains_path(key)
     except RuntimeError:  # no home directory
@@ -99,19 +94,19 @@ def load_gains(key: str, m: int):
         with load_npz(path) as z:
             if str(z["key"][()]) != key:
                 return None
-            gains, error, coherent = z["gains"], z["error"], z["coherent"]
-            n_points, refinements = int(z["n_points"][()]), int(z["refinements"][()])
-            panels, status, message = z["panels"], int(z["status"][()]), str(z["message"][()])
+            gains, error, coherent, panels = (
+                z[f] for f in ("gains", "error", "coherent", "panels")
+            )
+            n_points, refinements, status = (
+                int(z[f][()]) for f in ("n_points", "refinements", "status")
+            )
+            message = str(z["message"][()])
             rule = str(z["rule"][()]) if "rule" in z.files else "rectangle"
+        sums = (gains, error, coherent)
         ok = (
             gains.dtype == np.complex128
-            and gains.shape == (m,)
-            and error.shape == (m,)
-            and coherent.shape == (m,)
+            and all(v.shape == (m,) and np.all(np.isfinite(v)) for v in sums)
             and panels.shape == (2,)
-            and np.all(np.isfinite(gains))
-            and np.all(np.isfinite(error))
-            and np.all(np.isfinite(coherent))
             and status in (0, 1, 2)
             and n_points >= 0
             and refinements >= 0
@@ -119,20 +114,11 @@ def load_gains(key: str, m: int):
         )
         if not ok:
             return None
+        panels = (int(panels[0]), int(panels[1]))
         return frozen(
-            RadiationResult(
-                gains,
-                error.astype(float),
-                coherent.astype(float),
-                n_points,
-                refinements,
-                (int(panels[0]), int(panels[1])),
-                status == 0,
-                status,
-                message,
-                rule,
-            )
-        )
+            RadiationResult(gains, error.astype(float), coherent.astype(float), n_points,
+                            refinements, panels, status == 0, status, message, rule)
+        )  # fmt: skip
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed and rewritten
         return None
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from synth import checks
 from synth.compilation import announce, compiled
+from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.vecmath import cis, exp_small
 
@@ -59,8 +60,52 @@ class RadiationResult:
         return cls(empty.astype(complex), empty, empty, 0, 0, (0, 0), True, 0, "no modes")
 
 
-# ----------------------------------------------------------------------------------------
-# Validation helpers
+@dataclass(frozen=True)
+class Settings:
+    """The checked settings every rule takes: ``kb`` the largest bending wavenumber (rad/m),
+    air density ``rho`` (kg/m^3) and sound speed ``c`` (m/s), reference distance ``r0`` (m or
+    None), ``tol`` and ``max_points``."""
+
+    kb: float
+    rho: float
+    c: float
+    r0: float | None
+    tol: float
+    max_points: int
+
+    def factors(self, q_s, r_mid):
+        """Per mode of poles ``q_s`` (rad/s): the gain's factor ``rho s / (2 pi) exp(-s (r_mid
+        - R0) / c)`` of the sums about ``r_mid`` (m), and the in-phase bound's ``rho |s| /
+        (2 pi)``."""
+        shift = r_mid - (0.0 if self.r0 is None else self.r0)
+        factor = self.rho * q_s / (2.0 * math.pi) * np.exp(-(q_s / self.c) * shift)
+        return factor, self.rho * np.abs(q_s) / (2.0 * math.pi)
+
+
+def check_settings(
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+) -> Settings:
+    """The keywords of :func:`~.rectangle.rayleigh_gains` shared by every rule, checked."""
+    r0 = reference_distance
+    if (
+        isinstance(max_points, bool)
+        or not isinstance(max_points, (int, np.integer))
+        or max_points <= 0
+    ):
+        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
+    return Settings(
+        kb=checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m"),
+        rho=checks.positive("air_density", air_density, "kg/m^3"),
+        c=checks.positive("sound_speed", sound_speed, "m/s"),
+        r0=None if r0 is None else checks.nonnegative("reference_distance", r0, "metres"),
+        tol=checks.in_range("tol", tol, *_TOL_RANGE, lo_open=False, hi_open=False),
+        max_points=max_points,
+    )
 
 
 def check_listener(listener_position) -> tuple[float, float, float]:
@@ -76,7 +121,7 @@ def check_size(size) -> tuple[float, float]:
     try:
         items = tuple(size)
     except TypeError:
-        raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)") from None
+        items = ()
     if len(items) != 2:
         raise ParameterError(f"size={size!r} must be a pair (a, b) of lengths (metres)")
     return (
@@ -107,6 +152,15 @@ def nearest_distance(size, listener) -> float:
     return math.sqrt(dx * dx + dy * dy + z * z)
 
 
+def check_finite(values, what: str, modes=None) -> None:
+    """A ParameterError ``what`` naming the first mode (index in ``modes``) whose sum is not
+    finite."""
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0] if modes is None else modes[bad[0]])
+        raise ParameterError(f"{what} for mode {k}")
+
+
 def check_poles(s, n_modes: int | None = None) -> np.ndarray:
     """``s`` as a 1-D complex array of finite poles (rad/s), one per mode where
     ``n_modes`` is given."""
@@ -130,10 +184,6 @@ def check_poles(s, n_modes: int | None = None) -> np.ndarray:
             f"per mode is needed"
         )
     return arr
-
-
-# ----------------------------------------------------------------------------------------
-# Gauss-Legendre rules and panels
 
 
 @functools.cache
@@ -162,14 +212,20 @@ def half_phase(p: int, tol: float) -> float:
     return float(omega[0])
 
 
-def min_order(tol: float) -> int:
-    """Points per axis that resolve the 1/R peak on a graded panel to ``tol``.
+def fewest_points(phase: float, tol: float, p_min: int) -> int:
+    """Fewest Gauss-Legendre points (at least ``p_min``, at most ``MAX_ORDER``) that
+    integrate ``exp(i w t)``, ``|w| <= phase``, on ``[-1, 1]`` to ``tol``."""
+    p = p_min
+    while p < MAX_ORDER and half_phase(p, tol) < phase:
+        p += 1
+    return p
 
-    The worst graded panel, ``[0, 2 z]`` from the projection, has the complex
-    singularity of ``1/R`` at ``-1 +- i`` in its own coordinate ``t in [-1, 1]``:
-    the Bernstein ellipse through it has ``rho = 2.89``, and Gauss-Legendre's error
-    decays as ``rho^(-2 p)``.
-    """
+
+def min_order(tol: float) -> int:
+    """Points per axis that resolve the 1/R peak on a graded panel to ``tol``: the worst
+    graded panel, ``[0, 2 z]`` from the projection, has the singularity of ``1/R`` at
+    ``-1 +- i`` in its coordinate ``t in [-1, 1]``, on the Bernstein ellipse ``rho = 2.89``;
+    Gauss-Legendre's error decays as ``rho^(-2 p)``."""
     p = math.ceil(math.log(1.0 / tol) / (2.0 * math.log(NEAR_RHO)))
     return min(max(p, 6), MAX_ORDER)
 
@@ -189,10 +245,9 @@ def min_order(tol: float) -> int:
 
 @compiled(inline="always")
 def _exp_scaled(u, halvings):
-    """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6,
-    the squarings as selects rather than a loop: a loop of variable length inside the
-    loop over modes stops it from vectorising (``halvings`` squarings of
-    :func:`synth.vecmath.exp_small`)."""
+    """exp(u 2^halvings) as exp(u)^(2^halvings) for |u| <= 1 and 0 <= halvings <= 6, the
+    squarings as selects: a loop of variable length would stop the loop over modes from
+    vectorising."""
     e = exp_small(u)
     e = e * e if halvings >= 1 else e
     e = e * e if halvings >= 2 else e
@@ -205,17 +260,12 @@ def _exp_scaled(u, halvings):
 
 @compiled(nogil=True)
 def _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
-    """Rayleigh sums over points ``j0 <= j < j1``.
-
-    dist : (n,) R_j - Rm, metres; wr : (n,) w_j / R_j, metres; phi : (n, m) shapes;
-    qr : (m,) Re(s_k / c) / 2^halvings, 1/m; qi : (m,) Im(s_k / c), 1/m; halvings : int
-    in [0, 6]; acc_re, acc_im, mag : (m,) accumulators. Requires |qr_k dist_j| <= 1 and
-    |qi_k dist_j| < 2^19 pi. exp(u) = exp(u / 2^J)^(2^J) (relative error <= 2^J ulp-ish).
-
-    Points are taken four at a time (four independent evaluations per mode keep
-    the vector units busy), their terms added to each accumulator in point order:
-    the same sums, term by term, as one point at a time.
-    """
+    """Rayleigh sums over points ``j0 <= j < j1``: ``dist`` (n,) ``R_j - Rm`` and ``wr``
+    (n,) ``w_j / R_j``, m; ``phi`` (n, m) shapes; ``qr`` ``Re(s_k / c) / 2^halvings`` and
+    ``qi`` ``Im(s_k / c)``, 1/m, with ``|qr_k dist_j| <= 1`` and ``|qi_k dist_j| < 2^19 pi``;
+    into the accumulators ``acc_re``, ``acc_im``, ``mag`` (m,). Points are taken four at a
+    time (to keep the vector units busy), their terms added in point order: the same sums,
+    term by term, as one point at a time."""
     m = phi.shape[1]
     j = j0
     while j + 4 <= j1:
@@ -280,10 +330,8 @@ def accumulate(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
 
 
 def add_sums(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag):
-    """:func:`accumulate` for callers in Python: the kernel is chosen here, so that only
-    the one the sums need compiles (the compiled ``accumulate``, for compiled callers,
-    holds both). The fast kernel's first compile is noted on stderr (the libm kernel's
-    takes a fraction of a second). Runs without the GIL."""
+    """:func:`accumulate` for callers in Python, choosing the kernel here so that only the
+    one the sums need compiles (its first compile noted on stderr)."""
     if halvings >= 0:
         announce("radiation")
         _rows_fast(j0, j1, dist, wr, phi, qr, qi, halvings, acc_re, acc_im, mag)
@@ -300,25 +348,3 @@ def exp_halvings(q: np.ndarray, spread: float) -> int:
     if halvings > 6 or float(np.max(np.abs(q.imag))) * spread >= 2.0**18:
         halvings = -1
     return halvings
-
-
-def check_settings(max_wavenumber, air_density, sound_speed, reference_distance, tol, max_points):
-    """The settings shared by :func:`rayleigh_gains` and :func:`plate_gains`, checked:
-    ``(kb rad/m, rho kg/m^3, c m/s, R0 m or None, tol)``; ``max_points`` must be a positive
-    integer."""
-    kb = checks.nonnegative("max_wavenumber", max_wavenumber, "rad/m")
-    rho = checks.positive("air_density", air_density, "kg/m^3")
-    c = checks.positive("sound_speed", sound_speed, "m/s")
-    r0 = (
-        None
-        if reference_distance is None
-        else checks.nonnegative("reference_distance", reference_distance, "metres")
-    )
-    tol = checks.in_range("tol", tol, _TOL_RANGE[0], _TOL_RANGE[1], lo_open=False, hi_open=False)
-    if (
-        isinstance(max_points, bool)
-        or not isinstance(max_points, (int, np.integer))
-        or max_points <= 0
-    ):
-        raise ParameterError(f"max_points={max_points!r} must be a positive integer")
-    return kb, rho, c, r0, tol

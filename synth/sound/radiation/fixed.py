@@ -35,18 +35,13 @@ from synth.sound.radiation.common import (
 from synth.sound.radiation.rectangle import panel_nodes, panel_orders
 
 #: Lowest microphone (m above the plate's plane) the fixed grids serve: their panels are at
-#: most this long (see the module's docstring). A game's listener (a head) is rarely closer
-#: to a surface; a lower one takes :func:`~synth.sound.radiation.plate_gains`.
+#: most this long. A game's listener (a head) is rarely closer to a surface.
 NEAR_FIELD_HEIGHT = 0.1
 #: Microphones whose gains a grid keeps (the latest): the bodies of one plate moved to one
-#: listener (``Engine.move_listener``) compute its gains once.
+#: listener compute its gains once.
 KEPT_MICROPHONES = 8
-
-
-#: Most memory (bytes) the fixed grids of one plate take by default: the shapes of every mode
-#: on its band's grid (8 bytes a value). A plate whose grids would take more (a large plate,
-#: or a high sample rate: the points grow as the square of the highest wavenumber) keeps the
-#: exact rule for every listener.
+#: Most memory (bytes) the fixed grids of one plate take by default (8 bytes per mode and
+#: point); a plate whose grids would take more keeps the exact rule for every listener.
 MAX_GRID_BYTES = 256 * 2**20
 
 
@@ -69,14 +64,10 @@ class _Band:
 
 class ListenerGrid:
     """The Rayleigh gains of a plate's ``modes`` at any microphone at least ``height`` m
-    above the plate (:meth:`gains`), from shapes evaluated once on fixed grids.
-
-    ``s``: the complex frequency of each mode (rad/s), as for
-    :func:`~synth.sound.radiation.plate_gains`; ``max_wavenumber``: the largest bending
-    wavenumber of the modes (rad/m); ``tol``: the rectangle rule's (dimensionless);
-    ``max_bytes``: the most memory the grids may take, bytes (default
-    :data:`MAX_GRID_BYTES`; :class:`GridTooLarge` beyond, before any shape is evaluated).
-    """
+    above the plate (:meth:`gains`), from shapes evaluated once on fixed grids: ``s`` the
+    modes' complex frequencies (rad/s), ``max_wavenumber`` their largest bending wavenumber
+    (rad/m), ``tol`` the rectangle rule's; :class:`GridTooLarge` beyond ``max_bytes``
+    (default :data:`MAX_GRID_BYTES`), before any shape is evaluated."""
 
     def __init__(
         self,
@@ -125,10 +116,10 @@ class ListenerGrid:
         return float(listener_position[2]) >= self.height
 
     def gains(self, listener_position, reference_distance: float | None = None) -> np.ndarray:
-        """``H_k(s_k)`` (times ``exp(s_k R0 / c)`` with ``R0 = reference_distance``, m), Pa
-        per (m/s) of modal velocity, of every mode at the microphone ``listener_position``
-        ((x, y, z), m, z >= :attr:`height`), as :func:`~synth.sound.radiation.plate_gains`
-        computes them (read-only; kept for the last :data:`KEPT_MICROPHONES` microphones)."""
+        """``H_k(s_k)`` (times ``exp(s_k R0 / c)``, ``R0 = reference_distance`` m), Pa per
+        (m/s) of modal velocity, of every mode at the microphone ``listener_position`` ((x,
+        y, z), m, z >= :attr:`height`), as :func:`~synth.sound.radiation.plate_gains` does
+        (read-only; kept for the last :data:`KEPT_MICROPHONES` microphones)."""
         xl, yl, zl = check_listener(listener_position)
         key = (xl, yl, zl, reference_distance)
         kept = self._kept.get(key)
@@ -173,9 +164,9 @@ class ListenerGrid:
 
 
 def _shares(bands, workers: int) -> list:
-    """The bands split in at most ``workers`` shares of about equal work (modes times
-    points; the largest band first to the least loaded share). Each band's sums are its
-    own modes', so the gains do not depend on the split or on the threads' timing."""
+    """The bands split in at most ``workers`` shares of about equal work (the largest band
+    first to the least loaded share); each band's sums are its own modes', so the gains do
+    not depend on the split or the timing."""
     shares = [[] for _ in range(min(workers, max(1, len(bands))))]
     load = [0] * len(shares)
     for band in sorted(bands, key=lambda b: -b.w.size * (b.stop - b.start)):
@@ -197,14 +188,7 @@ def _band_axes(modes, q, kb, size, height, tol) -> list:
     out = []
     for start, stop in mode_bands(omega, kb, np.abs(q)):
         band_kappa = float(np.max(kappa[start:stop]))
-        out.append(
-            (
-                start,
-                stop,
-                _axis(size[0], band_kappa, height, tol),
-                _axis(size[1], band_kappa, height, tol),
-            )
-        )
+        out.append((start, stop, *(_axis(side, band_kappa, height, tol) for side in size)))
     return out
 
 
@@ -225,8 +209,7 @@ def _bands(axes, modes) -> tuple[_Band, ...]:
 
 def _axis(length: float, kappa: float, height: float, tol: float):
     """Nodes and weights along one side (``length`` m) of a band's grid: equal panels at
-    most ``min(2 w24 / kappa, height)`` long, each with the rectangle rule's first-rule
-    points for its length."""
+    most ``min(2 w24 / kappa, height)`` long with the rectangle rule's first-rule orders."""
     tol_panel = 0.1 * tol
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
     n = max(1, math.ceil(length / min(h, height)))

@@ -1,23 +1,20 @@
-"""The polar rule of the Rayleigh integral for separable shapes (:func:`separable_gains`),
-and the sums it shares with :mod:`synth.sound.radiation.summed` (docs/physics.md,
-"Radiation").
+"""The polar rules of the Rayleigh integral: for separable shapes ``X_i(x) Y_j(y)``
+(:func:`separable_gains`) and for sums of them, the Ritz shapes of free and clamped plates
+(:func:`summed_gains`) (docs/physics.md, "Radiation").
 
 About the microphone's projection ``R = sqrt(r^2 + z^2)`` does not depend on ``theta``, so
 ``Int phi_k exp(-s R / c) / R dA = Int (r / R) exp(-s R / c) Phi_k(r) dr`` with
 ``Phi_k(r)`` the integral of the shape over the arcs at radius ``r`` on the plate. For
 shapes ``X_i(x) Y_j(y)`` the angular sums of every mode are one matrix product at each
 radius; a whole circle is ``2 pi phi_k(xl, yl) J_0(k_k r)`` (mean value theorem of the
-Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate.
-Angular points: Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol``
-(Jacobi-Anger). Radial panels: as in the rectangle rule, with breakpoints where the arcs
-change (the ``sqrt(r - d)`` behaviour removed by ``r = d + L u^2``). Convergence as in
-:mod:`~.refinement`, each mode refined alone. Cost about ``N_theta I J + N_r n_modes`` per
-rule instead of ``N n_modes`` exponentials. Blocks of radii run on numba's threads, their
-sums added in a fixed order.
-
-Here: the rule and the shared sums (:func:`polar_setup`, :func:`polar_gains`); the radial
-panels in :mod:`~.radial`, the angular rule in :mod:`~.angular`, ``J_0`` in
-:mod:`~.bessel_j0`.
+Helmholtz equation), so each radius sums the shorter of the arcs on or off the plate. For
+``phi_k = sum_ij C_kij X_i Y_j`` the angular sums ``A_ij`` serve every mode and ``Phi_k =
+sum_ij C_kij A_ij`` (:meth:`synth.physics.modes.SummedShapes.combine`). Angular points:
+Gauss-Legendre for the degree beyond which ``|J_n(k_b r)| <= tol`` (Jacobi-Anger,
+:mod:`~.angular`); radial panels with breakpoints where the arcs change (:mod:`~.radial`).
+Each mode is refined alone (:mod:`~.refinement`). The in-phase bounds ``S_k`` come from a
+rectangle rule that resolves the shapes but not the acoustic phase. Blocks of radii run on
+numba's threads, their sums added in a fixed order.
 """
 
 from __future__ import annotations
@@ -34,24 +31,34 @@ from synth.compilation import compiled
 from synth.constants import AIR_DENSITY, SOUND_SPEED
 from synth.errors import ParameterError
 from synth.physics.modes import single_thread_product
-from synth.sound.radiation.angular import POLAR_PANEL_TOL, arc_panels, circle_arcs, panels_points
-from synth.sound.radiation.angular import angular_rule as angular_rule
+from synth.sound.radiation.angular import (
+    POLAR_PANEL_TOL,
+    angular_rule,
+    arc_panels,
+    circle_arcs,
+    panels_points,
+    radial_nodes,
+    radial_orders,
+    radial_panels,
+    radial_segments,
+)
 from synth.sound.radiation.bessel_j0 import HANKEL_FROM, j0_cephes, j0_hankel
 from synth.sound.radiation.common import (
     CHUNK_BYTES,
     MAX_ORDER,
     REFINE,
     RadiationResult,
+    Settings,
     add_sums,
+    check_finite,
     check_listener,
     check_poles,
     check_settings,
     exp_halvings,
     half_phase,
 )
-from synth.sound.radiation.radial import radial_nodes, radial_orders, radial_panels, radial_segments
-from synth.sound.radiation.rectangle import first_rule, panel_nodes
-from synth.sound.radiation.refinement import refine_selective, warn_unconverged
+from synth.sound.radiation.rectangle import apply_rule, in_phase_grid
+from synth.sound.radiation.refinement import refine, warn_unconverged
 
 #: Revision of the polar rules' algorithm (part of the gain cache's key: a result of an
 #: earlier revision is recomputed).
@@ -141,12 +148,11 @@ def _circle_points(radii, size, listener, kb, tol, refine):
 def _apply_separable_rule(sep, setup, radii, wr, refine, active):
     """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` of the separable shapes ``k``
     in ``active`` (indices), and the number of points, by the polar rule of ``setup``
-    (:class:`_PolarSetup`) refined by ``refine`` (radii ``radii`` with weights ``wr``).
-    At each radius the angular sums are over the arcs on
-    the plate, or, when those off the plate are shorter, the whole circle in closed form
-    minus the arcs off the plate (see the comment above :data:`HANKEL_FROM`). Only the
-    factors those modes use enter the angular products."""
-    size, listener, kb, tol = setup.size, setup.listener, setup.kb, setup.tol_panel
+    refined by ``refine`` (radii ``radii``, m, with weights ``wr``). At each radius the
+    angular sums are over the arcs on the plate, or, when those off the plate are shorter,
+    the whole circle in closed form minus the arcs off it; only the factors those modes use
+    enter the angular products."""
+    size, listener, kb, tol = setup.size, setup.listener, setup.settings.kb, setup.tol_panel
     q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
     a, b = size
     xl, yl, zl = listener
@@ -220,22 +226,16 @@ def _apply_separable_rule(sep, setup, radii, wr, refine, active):
             n_points = sum(pool.map(worker, range(workers)))
     acc_re, acc_im, _ = acc.sum(axis=0)
     total = acc_re + 1j * acc_im
-    if not np.isfinite(total).all():
-        k = int(active[np.flatnonzero(~np.isfinite(total))[0]])
-        raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
+    check_finite(total, "separable shapes gave NaN or infinite values", active)
     return total, n_points
 
 
-def _separable_in_phase(sep, size, listener, kb, tol):
-    """``Int |phi_k| / R dA`` of separable shapes on the refined rectangle rule of
-    wavenumber ``2 kb`` (as :mod:`synth.sound.radiation.summed`): with ``|phi_k| = |X_i| |Y_j|``
-    one matrix product for every mode, ``|X|^T W |Y|``, ``W`` the grid's weights over
-    ``R``."""
-    a, b = size
-    xl, yl, zl = listener
-    ex, ey, px0, py0 = first_rule(a, b, listener, 2.0 * kb, tol)
-    xs, wx = panel_nodes(ex, np.ceil(px0 * REFINE).astype(np.int64))
-    ys, wy = panel_nodes(ey, np.ceil(py0 * REFINE).astype(np.int64))
+def _separable_in_phase(sep, setup):
+    """``Int |phi_k| / R dA`` of separable shapes on :func:`~.rectangle.in_phase_grid`: with
+    ``|phi_k| = |X_i| |Y_j|`` one matrix product for every mode, ``|X|^T W |Y|``, ``W`` the
+    grid's weights over ``R``."""
+    xl, yl, zl = setup.listener
+    xs, wx, ys, wy = in_phase_grid(setup.size, setup.listener, setup.settings.kb, setup.tol_panel)
     weights = (wx[:, None] * wy[None, :]) / np.sqrt(
         (xs[:, None] - xl) ** 2 + (ys[None, :] - yl) ** 2 + zl * zl
     )
@@ -246,121 +246,128 @@ def _separable_in_phase(sep, size, listener, kb, tol):
     sums = np.empty((abs_x.shape[1], abs_y.shape[1]))
     single_thread_product(np.ascontiguousarray(abs_x.T), inner, sums)
     mag = sums[sep.x_index, sep.y_index]
-    if not np.isfinite(mag).all():
-        k = int(np.flatnonzero(~np.isfinite(mag))[0])
-        raise ParameterError(f"separable shapes gave NaN or infinite values for mode {k}")
+    check_finite(mag, "separable shapes gave NaN or infinite values")
     return mag
+
+
+def _apply_summed_rule(shapes, setup, radii, wr, refine, active):
+    """As :func:`_apply_separable_rule` for summed shapes: the angular sums ``A`` serve
+    every mode; only the modes ``active`` are combined from them and take exponentials."""
+    listener, kb, tol = setup.listener, setup.settings.kb, setup.tol_panel
+    q, r_mid, halvings = setup.q, setup.r_mid, setup.halvings
+    a, b = setup.size
+    xl, yl, zl = listener
+    m = active.size
+    q = q[active]
+    every = m == shapes.n_modes
+    acc_re, acc_im, unused = np.zeros(m), np.zeros(m), np.zeros(m)
+    qr = np.ascontiguousarray(q.real) * 2.0 ** -max(halvings, 0)
+    qi = np.ascontiguousarray(q.imag)
+    rows = max(1, int(CHUNK_BYTES // (8 * max(m, shapes.n_x * shapes.n_y))))
+    n_points = 0
+    for start in range(0, radii.size, rows):
+        rr = radii[start : start + rows]
+        sums = np.zeros((rr.size, shapes.n_x, shapes.n_y))
+        for i, r in enumerate(rr):
+            theta, w = angular_rule(float(r), a, b, listener, kb, tol, refine)
+            n_points += theta.size
+            if theta.size:
+                fx = shapes.x_values(np.clip(xl + r * np.cos(theta), 0.0, a))
+                fy = shapes.y_values(np.clip(yl + r * np.sin(theta), 0.0, b))
+                single_thread_product(np.ascontiguousarray((fx * w[:, None]).T), fy, sums[i])
+        phi = shapes.combine(sums, None if every else active)
+        big_r = np.sqrt(rr * rr + zl * zl)
+        weight = wr[start : start + rows] * rr / big_r
+        add_sums(0, rr.size, big_r - r_mid, weight, phi, qr, qi, halvings, acc_re, acc_im, unused)
+    return acc_re + 1j * acc_im, n_points
+
+
+def _summed_in_phase(shapes, setup):
+    """``Int |phi_k| / R dA`` of summed shapes on :func:`~.rectangle.in_phase_grid`."""
+    m = shapes.n_modes
+    xs, wx, ys, wy = in_phase_grid(setup.size, setup.listener, setup.settings.kb, setup.tol_panel)
+    chunk = max(1, int(CHUNK_BYTES // (8 * max(m, 1))))
+    zero = np.zeros(m, complex)
+    return apply_rule(shapes.values, xs, wx, ys, wy, setup.listener, zero, setup.r_mid, 0, chunk)[1]
 
 
 @dataclass(frozen=True)
 class _PolarSetup:
-    """What a polar rule about the microphone needs (see :func:`separable_gains`): the
-    plate's size (m), the listener (m), the settings as :func:`check_settings` returns
-    them, ``q = s / c`` (1/m), the panel tolerance, the radial panels and their first
-    orders, the middle distance ``r_mid`` (m) and the exponentials' halvings."""
+    """What a polar rule about the microphone needs: the plate's ``size`` and the
+    ``listener`` (m), the poles ``q_s`` (rad/s) and ``q = s / c`` (1/m), the checked
+    ``settings``, the panel tolerance, the radial panels and their first orders, the middle
+    distance ``r_mid`` (m) and the exponentials' halvings."""
 
     size: tuple
     listener: tuple
     q_s: np.ndarray
-    kb: float
-    rho: float
-    c: float
-    r0: float | None
-    tol: float
-    max_points: int
+    settings: Settings
     q: np.ndarray
     tol_panel: float
     panels: list
-    orders: np.ndarray
+    orders: np.ndarray | None
     r_mid: float
     halvings: int
 
 
-def polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarSetup:
+def _polar_setup(size, n_modes, listener_position, s, settings: dict) -> _PolarSetup:
     """The arguments of a polar rule checked (a ParameterError names the field), and its
-    radial panels about the listener (none without modes); ``settings`` the keywords of
-    :func:`check_settings`."""
-    a, b = size
+    radial panels about the listener (none without modes)."""
     listener = check_listener(listener_position)
     q_s = check_poles(s, n_modes)
-    kb, rho, c, r0, tol = check_settings(**settings)
-    max_points = settings["max_points"]
-    q = q_s / c
-    tol_panel = POLAR_PANEL_TOL * tol
+    checked = check_settings(**settings)
+    q = q_s / checked.c
+    tol_panel = POLAR_PANEL_TOL * checked.tol
     if q.size == 0:
-        return _PolarSetup(
-            size, listener, q_s, kb, rho, c, r0, tol, max_points, q, tol_panel, [], None, 0.0, 0
-        )
+        return _PolarSetup(size, listener, q_s, checked, q, tol_panel, [], None, 0.0, 0)
+    kb = checked.kb
     kappa = kb + float(np.max(np.abs(q)))
     h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
-    xl, yl, zl = listener
-    panels, orders0 = radial_orders(
+    (a, b), (xl, yl, zl) = size, listener
+    panels, orders = radial_orders(
         radial_panels(a, b, listener, h), (a, b), listener, kb, kappa - kb, tol_panel
     )
     r_min, r_max, _, _ = radial_segments(a, b, xl, yl)
     big_min, big_max = math.hypot(r_min, zl), math.hypot(r_max, zl)
-    r_mid = 0.5 * (big_min + big_max)
-    halvings = exp_halvings(q, 0.5 * (big_max - big_min))
-    return _PolarSetup(
-        size,
-        listener,
-        q_s,
-        kb,
-        rho,
-        c,
-        r0,
-        tol,
-        max_points,
-        q,
-        tol_panel,
-        panels,
-        orders0,
-        r_mid,
-        halvings,
-    )
+    r_mid, halvings = 0.5 * (big_min + big_max), exp_halvings(q, 0.5 * (big_max - big_min))
+    return _PolarSetup(size, listener, q_s, checked, q, tol_panel, panels, orders, r_mid, halvings)
 
 
-def polar_gains(setup: _PolarSetup, rule, caller: str, full_output: bool):
-    """The gains of a polar rule, each mode refined until converged
-    (:func:`refine_selective`): ``rule(level, active)`` applies the rule refined ``level``
-    times to the modes ``active`` and returns their integrals, their in-phase bounds and
-    its number of points."""
+def _polar_gains(shapes, n_modes, listener_position, s, settings, in_phase, apply, caller):
+    """The gains (a :class:`RadiationResult` if ``settings["full_output"]``) of ``shapes`` by
+    the polar rule whose sums are ``apply`` (as :func:`_apply_separable_rule`), each mode
+    refined alone; ``in_phase(shapes, setup)`` the modes' in-phase integrals."""
+    full_output = settings.pop("full_output")
+    size = (shapes.length, shapes.width)
+    setup = _polar_setup(size, n_modes, listener_position, s, settings)
+    checked = setup.settings
     if setup.q.size == 0:
-        res = RadiationResult.no_modes()
-        return res if full_output else res.gains
-    counts = {}
+        result = RadiationResult.no_modes()
+    else:
+        mag = in_phase(shapes, setup)
+        counts = {}
 
-    def counted(level, active):
-        total, mag, points = rule(level, active)
-        counts.setdefault(level, points)
-        return total, mag
+        def rule(level, active):
+            f = REFINE**level
+            radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
+            total, n = apply(shapes, setup, radii, wr, f, active)
+            counts.setdefault(level, n)
+            return total, mag[active]
 
-    def npoints(level):
-        if level in counts:
-            return counts[level]
-        known = max(counts)  # not yet applied: points grow as 1.25^2 per level
-        return int(counts[known] * REFINE ** (2 * (level - known)))
+        def npoints(level):
+            if level in counts:
+                return counts[level]
+            known = max(counts)  # not yet applied: points grow as 1.25^2 per level
+            return int(counts[known] * REFINE ** (2 * (level - known)))
 
-    q_s, q, rho = setup.q_s, setup.q, setup.rho
-    shift = setup.r_mid - (0.0 if setup.r0 is None else setup.r0)
-    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
-    scale = rho * np.abs(q_s) / (2.0 * math.pi)
-    result = dataclasses.replace(
-        refine_selective(
-            counted,
-            npoints,
-            factor,
-            scale,
-            setup.tol,
-            setup.max_points,
-            (len(setup.panels), 0),
-        ),
-        rule="polar",
-    )
+        factor, scale = checked.factors(setup.q_s, setup.r_mid)
+        panels = (len(setup.panels), 0)
+        result = refine(rule, npoints, factor, scale, checked.tol, checked.max_points, panels, True)
+        result = dataclasses.replace(result, rule="polar")
     if full_output:
         return result
     if not result.success:
-        warn_unconverged(caller, result, setup.tol)
+        warn_unconverged(caller, result, checked.tol)
     return result.gains
 
 
@@ -381,39 +388,40 @@ def separable_gains(
     :class:`synth.physics.modes.SeparableShapes` with the plate's size), in polar coordinates
     about the microphone: the same integral, arguments (``max_wavenumber`` bounding every
     shape's, rad/m; ``max_points`` the points of one rule), tolerance, convergence test and
-    result (``panels``: the radial panels and 0)."""
+    result (``rule`` "polar", ``panels``: the radial panels and 0)."""
     from synth.physics.modes import SeparableShapes
 
     if not isinstance(shapes, SeparableShapes):
         raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SeparableShapes")
     settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
                     sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
-                    max_points=max_points)  # fmt: skip
-    setup = polar_setup(
-        (shapes.length, shapes.width), shapes.x_index.size, listener_position, s, settings
-    )
-    return polar_rule_gains(
-        setup,
-        shapes,
-        lambda: _separable_in_phase(shapes, setup.size, setup.listener, setup.kb, setup.tol_panel),
-        _apply_separable_rule,
-        "separable_gains",
-        full_output,
-    )
+                    max_points=max_points, full_output=full_output)  # fmt: skip
+    return _polar_gains(shapes, shapes.x_index.size, listener_position, s, settings,
+                        _separable_in_phase, _apply_separable_rule, "separable_gains")  # fmt: skip
 
 
-def polar_rule_gains(setup: _PolarSetup, shapes, in_phase, apply, caller, full_output):
-    """:func:`polar_gains` of ``shapes`` by the polar rule whose sums are ``apply`` (as
-    :func:`_apply_separable_rule`) on ``setup``'s radial panels, each refined
-    rule on its radial nodes; ``in_phase()`` the modes' in-phase integrals."""
-    if setup.q.size == 0:
-        return polar_gains(setup, None, caller, full_output)
-    mag = in_phase()
+def summed_gains(
+    shapes,
+    listener_position,
+    s,
+    *,
+    max_wavenumber,
+    air_density=AIR_DENSITY,
+    sound_speed=SOUND_SPEED,
+    reference_distance=None,
+    tol=1e-6,
+    max_points=4_000_000,
+    full_output=False,
+):
+    """:func:`separable_gains` of shapes ``sum_ij C_kij X_i(x) Y_j(y)`` (``shapes``, a
+    :class:`synth.physics.modes.SummedShapes` with the plate's size): about ``N_theta n_x n_y
+    + N_r n_basis n_modes / 4`` multiply-adds and ``N_r n_modes`` exponentials per rule."""
+    from synth.physics.modes import SummedShapes
 
-    def rule(level, active):
-        f = REFINE**level
-        radii, wr = radial_nodes(setup.panels, np.ceil(setup.orders * f).astype(np.int64))
-        total, n = apply(shapes, setup, radii, wr, f, active)
-        return total, mag[active], n
-
-    return polar_gains(setup, rule, caller, full_output)
+    if not isinstance(shapes, SummedShapes):
+        raise ParameterError(f"shapes={shapes!r} must be a synth.physics.modes.SummedShapes")
+    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
+                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
+                    max_points=max_points, full_output=full_output)  # fmt: skip
+    return _polar_gains(shapes, shapes.n_modes, listener_position, s, settings,
+                        _summed_in_phase, _apply_summed_rule, "summed_gains")  # fmt: skip

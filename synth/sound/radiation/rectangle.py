@@ -30,49 +30,44 @@ from synth.sound.radiation.common import (
     RadiationResult,
     accumulate,
     add_sums,
+    check_finite,
     check_listener,
     check_poles,
     check_settings,
     check_size,
     distance_range,
     exp_halvings,
+    fewest_points,
     gauss,
     half_phase,
     min_order,
 )
-from synth.sound.radiation.refinement import refine, refine_selective, warn_unconverged
+from synth.sound.radiation.refinement import refine, warn_unconverged
 
 #: Shortest panel, relative to the plate's side: a shorter one is a rounding artefact of
-#: the stepping (dropped), and the near-field grading never steps by less, so that a
-#: microphone closer to the plate than this (1e-300 m) still gets a finite set of panels
-#: (a step below the float spacing at ``t`` would leave ``t`` where it is, forever).
+#: the stepping (dropped); the grading never steps by less, so that a microphone on the plate
+#: (1e-300 m above it) still gets a finite set of panels.
 PANEL_RESOLUTION = 1e-12
 
 
 def _breakpoints(length: float, centre: float, height: float, h: float) -> np.ndarray:
-    """Panel ends on ``[0, length]``: at most ``h`` long, and at most ``2 max(height, d)``
-    long where ``d`` is the distance from ``centre`` (the microphone's projection on this
-    axis) to the panel's near end, but never shorter than ``PANEL_RESOLUTION * length``
-    (the steps then grow geometrically from there: about 30 panels to reach ``length``)."""
+    """Panel ends on ``[0, length]`` (m): at most ``h`` long, and at most ``2 max(height,
+    d)`` long, ``d`` the distance from ``centre`` (the microphone's projection) to the
+    panel's near end, never shorter than ``PANEL_RESOLUTION * length``."""
     c = min(max(centre, 0.0), length)
     shortest = PANEL_RESOLUTION * length
-    right = [c]
-    t = c
-    while t < length:
-        d = abs(t - centre)
-        t = min(t + min(h, GRADING * max(height, d, shortest)), length)
-        right.append(t)
-    left = []
-    t = c
-    while t > 0.0:
-        d = abs(centre - t)
-        t = max(t - min(h, GRADING * max(height, d, shortest)), 0.0)
-        left.append(t)
-    ends = np.array(left[::-1] + right)
-    keep = np.concatenate(([True], np.diff(ends) > shortest))
-    ends = ends[keep]
-    ends[-1] = length
-    ends[0] = 0.0
+
+    def side(stop, sign):
+        out, t = [], c
+        while (t - stop) * sign < 0.0:
+            t += sign * min(h, GRADING * max(height, abs(t - centre), shortest))
+            t = min(t, stop) if sign > 0.0 else max(t, stop)
+            out.append(t)
+        return out
+
+    ends = np.array(side(0.0, -1.0)[::-1] + [c] + side(length, 1.0))
+    ends = ends[np.concatenate(([True], np.diff(ends) > shortest))]
+    ends[0], ends[-1] = 0.0, length
     return ends
 
 
@@ -82,17 +77,14 @@ def panel_orders(ends: np.ndarray, kappa, tol: float) -> np.ndarray:
     lengths = np.diff(ends)
     kappas = np.broadcast_to(np.asarray(kappa, dtype=float), lengths.shape)
     p_min = min_order(tol)
-    orders = np.full(lengths.size, p_min, dtype=np.int64)
-    for i, length in enumerate(lengths):
-        w = 0.5 * kappas[i] * length
-        p = p_min
-        while p < MAX_ORDER and half_phase(p, tol) < w:
-            p += 1
-        orders[i] = p
-    return orders
+    return np.array(
+        [fewest_points(0.5 * k * n, tol, p_min) for k, n in zip(kappas, lengths)],
+        dtype=np.int64,
+    )
 
 
 def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes (m) and weights of the panels ``ends`` with ``orders`` points."""
     xs, ws = [], []
     for lo, hi, p in zip(ends[:-1], ends[1:], orders):
         t, w = gauss(int(p))
@@ -102,27 +94,29 @@ def panel_nodes(ends: np.ndarray, orders: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.concatenate(xs), np.concatenate(ws)
 
 
-# ----------------------------------------------------------------------------------------
-# One rule
+def in_phase_grid(size, listener, kb: float, tol: float):
+    """Nodes and weights ``(xs, wx, ys, wy)`` of the polar rules' in-phase bounds: the
+    rectangle rule of wavenumber ``2 kb`` (rad/m) refined once, which resolves the shapes
+    and the ``1 / R`` peak but not the acoustic phase."""
+    ex, ey, px0, py0 = first_rule(size[0], size[1], listener, 2.0 * kb, tol)
+    xs, wx = panel_nodes(ex, np.ceil(px0 * REFINE).astype(np.int64))
+    ys, wy = panel_nodes(ey, np.ceil(py0 * REFINE).astype(np.int64))
+    return xs, wx, ys, wy
 
 
 def _workers() -> int:
-    """Threads that run the Rayleigh sums: one less than numba's thread count (at
-    least one); the calling thread meanwhile evaluates the next chunk's shapes."""
+    """Threads of the Rayleigh sums: one less than numba's (at least one)."""
     return max(1, numba.get_num_threads() - 1)
 
 
 def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
-    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA``.
-
-    Pipelined: while the worker threads add up one chunk of points (GIL released),
-    the calling thread evaluates ``shape_fn`` on the next. Each worker owns its
-    accumulators and always takes the same share of every chunk, so the result does
-    not depend on the timing.
-    """
+    """Integrals ``Int phi_k exp(-q_k (R - r_mid)) / R dA`` and ``Int |phi_k| / R dA`` on
+    the grid ``xs`` x ``ys`` (m), ``chunk`` points at a time. While the worker threads (one
+    less than numba's) add up one chunk without the GIL, this thread evaluates ``shape_fn``
+    on the next; each worker owns its accumulators and a fixed share of every chunk, so the
+    result does not depend on the timing."""
     xl, yl, zl = listener
-    m = q.size
-    ny = ys.size
+    m, ny = q.size, ys.size
     n_total = xs.size * ny
     workers = _workers()
     acc = np.zeros((workers, 3, m))  # per worker: real, imaginary, magnitude
@@ -131,42 +125,24 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
     with ThreadPoolExecutor(max_workers=workers) as pool:
         running = []
         for start in range(0, n_total, chunk):
-            idx = np.arange(start, min(start + chunk, n_total))
-            ix, iy = np.divmod(idx, ny)
-            pts = np.empty((idx.size, 2))
-            pts[:, 0] = xs[ix]
-            pts[:, 1] = ys[iy]
-            phi = shape_fn(pts)
-            phi = _check_shapes(phi, idx.size, m)
+            ix, iy = np.divmod(np.arange(start, min(start + chunk, n_total)), ny)
+            n = ix.size
+            pts = np.column_stack((xs[ix], ys[iy]))
+            phi = _check_shapes(shape_fn(pts), n, m)
             r = np.sqrt((pts[:, 0] - xl) ** 2 + (pts[:, 1] - yl) ** 2 + zl * zl)
             wr = wx[ix] * wy[iy] / r
             dist = r - r_mid
             for job in running:
                 job.result()
-            n = idx.size
             running = [
-                pool.submit(
-                    add_sums,
-                    w * n // workers,
-                    (w + 1) * n // workers,
-                    dist,
-                    wr,
-                    phi,
-                    qr,
-                    qi,
-                    halvings,
-                    *acc[w],
-                )
+                pool.submit(add_sums, w * n // workers, (w + 1) * n // workers, dist, wr, phi,
+                            qr, qi, halvings, *acc[w])
                 for w in range(workers)
-            ]
+            ]  # fmt: skip
         for job in running:
             job.result()
     acc_re, acc_im, mag = acc.sum(axis=0)
-    if not np.isfinite(mag).all():  # NaN or inf anywhere in phi propagates here
-        k = int(np.flatnonzero(~np.isfinite(mag))[0])
-        raise ParameterError(
-            f"shape_fn returned NaN or infinite (or overflowing) values for mode {k}"
-        )
+    check_finite(mag, "shape_fn returned NaN or infinite (or overflowing) values")
     return acc_re + 1j * acc_im, mag
 
 
@@ -174,8 +150,8 @@ def apply_rule(shape_fn, xs, wx, ys, wy, listener, q, r_mid, halvings, chunk):
 class ProductFactors:
     """Mode shapes on a tensor grid as at most two products of one factor per axis:
     ``phi_k(x_a, y_b) = x_own[a, k] y_own[b, k] + x_other[a, k] y_other[b, k]``
-    (dimensionless; ``x_other`` and ``y_other`` None: the first product alone), as the
-    dynamic edge effect modes are (:mod:`synth.physics.asymptotic_modes`)."""
+    (dimensionless; the others None: the first product alone), as the dynamic edge effect
+    modes are (:mod:`synth.physics.asymptotic_modes`)."""
 
     x_own: np.ndarray
     y_own: np.ndarray
@@ -184,13 +160,8 @@ class ProductFactors:
 
     def columns(self, modes: np.ndarray) -> ProductFactors:
         """The factors of the modes ``modes`` (column indices) alone."""
-        paired = self.x_other is not None
-        return ProductFactors(
-            self.x_own[:, modes],
-            self.y_own[:, modes],
-            self.x_other[:, modes] if paired else None,
-            self.y_other[:, modes] if paired else None,
-        )
+        tables = (self.x_own, self.y_own, self.x_other, self.y_other)
+        return ProductFactors(*(None if t is None else t[:, modes] for t in tables))
 
 
 # Grid points whose shape values one call of the sums kernel holds (a few hundred kB for
@@ -239,11 +210,10 @@ def _product_sums(
 
 
 def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
-    """As :func:`apply_rule` for shapes given as factor tables: ``factor_fn(xs, ys)`` returns
-    the :class:`ProductFactors` of every mode on the grid, whose shape values are formed
-    in the sums kernel a block of points at a time (never all at once). The grid's rows
-    are split into one fixed share per numba thread, each with its own accumulators, so
-    the result does not depend on the timing."""
+    """As :func:`apply_rule` for shapes given as factor tables (``factor_fn(xs, ys)`` ->
+    :class:`ProductFactors`), formed in the sums kernel a block of points at a time. The
+    grid's rows are split into one fixed share per numba thread, each with its own
+    accumulators, so the result does not depend on the timing."""
     f = factor_fn(xs, ys)
     m = q.size
     fx = _factor_table(f.x_own, xs.size, m)
@@ -266,9 +236,7 @@ def apply_product_rule(factor_fn, xs, wx, ys, wy, listener, q, r_mid, halvings):
         for job in jobs:
             job.result()
     acc_re, acc_im, mag = acc.sum(axis=0)
-    if not np.isfinite(mag).all():
-        k = int(np.flatnonzero(~np.isfinite(mag))[0])
-        raise ParameterError(f"factor_fn returned NaN or infinite values for mode {k}")
+    check_finite(mag, "factor_fn returned NaN or infinite values")
     return acc_re + 1j * acc_im, mag
 
 
@@ -314,49 +282,22 @@ def rayleigh_gains(
     max_points=4_000_000,
     full_output=False,
 ):
-    """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral).
+    """Pressure per unit modal velocity at a microphone, for each mode (Rayleigh integral):
+    ``H_k(s_k)``, Pa per (m/s) of modal velocity, (n_modes,) complex; with ``full_output`` a
+    :class:`RadiationResult`, else the gains alone with a ``RuntimeWarning`` if the
+    convergence test failed.
 
-    Parameters
-    ----------
-    shape_fn : callable
-        ``shape_fn(points) -> values``: ``points`` ``(n, 2)`` plate positions ``(x, y)``, m
-        from the corner; ``values`` ``(n, n_modes)`` normal-velocity shapes ``phi_k``
-        (dimensionless). Called on chunks; the returned array must not be reused by the next
-        call.
-    size : (float > 0, float > 0)
-        ``(a, b)``: the plate's extent along x and y, m.
-    listener_position : (float, float, float)
-        ``(x, y, z)`` of the microphone, m; ``z > 0`` the height above the baffled plate.
-    s : array of complex, shape (n_modes,)
-        Each mode's complex frequency, rad/s (``i omega``, or a pole ``-sigma_k + i omega_dk``).
-    max_wavenumber : float >= 0
-        Largest bending wavenumber of the modes, rad/m (0 for a rigid piston).
-    air_density : float > 0
-        Density of air, kg/m^3.
-    sound_speed : float > 0
-        Speed of sound in air, m/s.
-    reference_distance : float >= 0 or None
-        ``R0``, m: if given the gains are ``H_k(s_k) exp(+s_k R0 / c)`` (the delay ``R0 / c``
-        taken out; for a damped pole this keeps the growth ``exp(sigma R / c)`` bounded).
-    tol : float in [1e-9, 0.1]
-        Relative accuracy of each gain: ``|error| <= tol * max(|H_k|, 1e-4 S_k)``
-        (:mod:`synth.sound.radiation.refinement`).
-    max_points : int > 0
-        Most quadrature points one rule may use; refinement stops there.
-    full_output : bool
-        True: return a :class:`RadiationResult`; False: the gains alone, with a
-        ``RuntimeWarning`` if the convergence test failed.
-
-    Returns
-    -------
-    gains : ndarray of complex, shape (n_modes,)
-        ``H_k(s_k)``, Pa per (m/s) of modal velocity; or a :class:`RadiationResult`.
-
-    Raises
-    ------
-    ParameterError
-        For an input outside the ranges above (naming the field), NaN or infinite shape
-        values, or a plate needing more than ``max_points`` points for the first two rules."""
+    ``shape_fn(points)``: the normal-velocity shapes ``phi_k`` (dimensionless, (n, n_modes))
+    at plate positions ``points`` ((n, 2), m from the corner), called on chunks (the array
+    returned must not be reused by the next call); ``size`` ``(a, b)`` > 0, m;
+    ``listener_position`` ``(x, y, z)``, m, ``z > 0`` above the baffled plate; ``s`` each
+    mode's complex frequency, rad/s; ``max_wavenumber`` >= 0 the modes' largest bending
+    wavenumber, rad/m; ``air_density`` > 0, kg/m^3; ``sound_speed`` > 0, m/s;
+    ``reference_distance`` ``R0`` >= 0, m, or None: the gains times ``exp(s_k R0 / c)`` (the
+    delay taken out, which keeps a damped pole's growth bounded); ``tol`` in [1e-9, 0.1]:
+    ``|error| <= tol * max(|H_k|, 1e-4 S_k)`` (:mod:`~.refinement`); ``max_points`` > 0 the
+    most points of one rule. A ParameterError names a field out of range, NaN or infinite
+    shape values, or ``max_points`` too small for the first two rules."""
     if not callable(shape_fn):
         raise ParameterError(f"shape_fn={shape_fn!r} must be callable (points -> shape values)")
 
@@ -375,67 +316,42 @@ def rayleigh_gains(
     return result.gains
 
 
-def product_gains(
-    factor_fn,
-    size,
-    listener_position,
-    s,
-    *,
-    max_wavenumber,
-    air_density=AIR_DENSITY,
-    sound_speed=SOUND_SPEED,
-    reference_distance=None,
-    tol=1e-6,
-    max_points=4_000_000,
-) -> RadiationResult:
-    """:func:`rayleigh_gains` (``full_output``) of shapes that are at most two products of one
-    factor per axis (the dynamic edge effect modes): the shape values formed from factor
-    tables inside the sums (:func:`apply_product_rule`), each panel's orders for its own bound
-    of the acoustic phase's rate (:func:`first_rule`), each mode refined alone
-    (:func:`~synth.sound.radiation.refinement.refine_selective`). ``factor_fn(x, y) ->
-    ProductFactors``: the factors at the grid's nodes (m); other arguments as for
-    :func:`rayleigh_gains`."""
+def product_gains(factor_fn, size, listener_position, s, **settings) -> RadiationResult:
+    """:func:`rayleigh_gains` (``full_output``, the same keywords ``settings``) of shapes of
+    at most two products of one factor per axis (the dynamic edge effect modes):
+    ``factor_fn(x, y) -> ProductFactors`` at the grid's nodes (m), each panel's orders for its
+    own bound of the acoustic phase's rate (:func:`first_rule`), each mode refined alone."""
     if not callable(factor_fn):
         raise ParameterError(f"factor_fn={factor_fn!r} must be callable (x, y -> factors)")
 
     def evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active):
         def factors(x, y):
-            f = factor_fn(x, y)
-            return f if active is None else f.columns(active)
+            return factor_fn(x, y).columns(active)
 
         return apply_product_rule(factors, xs, wx, ys, wy, listener, q, r_mid, halvings)
 
-    settings = dict(max_wavenumber=max_wavenumber, air_density=air_density,
-                    sound_speed=sound_speed, reference_distance=reference_distance, tol=tol,
-                    max_points=max_points)  # fmt: skip
     return _rule_result(evaluate, size, listener_position, s, settings, local_phase=True)
 
 
 def _rule_result(evaluate, size, listener_position, s, settings: dict, local_phase=False):
-    """The :class:`RadiationResult` of the rectangle rule of :func:`rayleigh_gains`
-    (arguments checked here) whose sums ``evaluate(xs, wx, ys, wy, listener, q, r_mid,
-    halvings)`` computes, as :func:`apply_rule` does, on the tensor grid of nodes ``xs`` x
-    ``ys`` (weights ``wx``, ``wy``; ``active`` the modes to sum, increasing indices, or
-    None for every mode). ``local_phase``: each panel's orders for its own bound of the
-    acoustic phase's rate (:func:`first_rule`), and each mode refined alone
-    (:func:`~synth.sound.radiation.refinement.refine_selective`); ``settings`` the
-    keywords of :func:`~.common.check_settings`."""
+    """The :class:`RadiationResult` of the rectangle rule (arguments checked here) whose sums
+    ``evaluate(xs, wx, ys, wy, listener, q, r_mid, halvings, active)`` computes as
+    :func:`apply_rule` does for the modes ``active`` (indices). ``local_phase``: each panel's
+    orders for its own bound of the acoustic phase's rate (:func:`first_rule`), and each mode
+    refined alone; ``settings`` the keywords of :func:`~.common.check_settings`."""
     a, b = check_size(size)
     listener = check_listener(listener_position)
     q_s = check_poles(s)
-    kb, rho, c, r0, tol = check_settings(**settings)
-    max_points = settings["max_points"]
-    m = q_s.size
-    if m == 0:
+    settings = check_settings(**settings)
+    kb, tol, max_points = settings.kb, settings.tol, settings.max_points
+    if q_s.size == 0:
         return RadiationResult.no_modes()
 
-    q = q_s / c
+    q = q_s / settings.c
     kappa = kb + float(np.max(np.abs(q)))
-    xl, yl, zl = listener
-    # Panels: oscillation (kappa) and the near-field peak under the microphone.
+    zl = listener[2]
     tol_panel = 0.1 * tol
-    w_half = half_phase(MAX_ORDER, tol_panel)
-    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
+    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
     p_min = min_order(tol_panel)
     if (a / h) * (b / h) * p_min * p_min > max_points:  # before building the panels
         raise ParameterError(
@@ -447,14 +363,10 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
         a, b, listener, kappa, tol_panel, kappa - kb if local_phase else None
     )
     panels = (ex.size - 1, ey.size - 1)
-
-    # Range of R over the plate: the middle is factored out of the exponentials.
+    # the middle of the range of R over the plate is factored out of the exponentials
     r_min, r_max = distance_range((a, b), listener)
     r_mid = 0.5 * (r_max + r_min)
-    spread = 0.5 * (r_max - r_min)
-    # exp(-Re(q) dR) with |Re(q) dR| <= u_max by Taylor on [-1, 1] and `halvings`
-    # squarings; libm beyond 2^6 (or for phases beyond the Cody-Waite range).
-    halvings = exp_halvings(q, spread)
+    halvings = exp_halvings(q, 0.5 * (r_max - r_min))
 
     def orders(level):
         f = REFINE**level
@@ -472,20 +384,14 @@ def _rule_result(evaluate, size, listener_position, s, settings: dict, local_pha
             f"convergence check"
         )
 
-    def rule(level, active=None):
+    def rule(level, active):
         ox, oy = orders(level)
         xs, wx = panel_nodes(ex, ox)
         ys, wy = panel_nodes(ey, oy)
-        q_active = q if active is None else q[active]
-        return evaluate(xs, wx, ys, wy, listener, q_active, r_mid, halvings, active)
+        return evaluate(xs, wx, ys, wy, listener, q[active], r_mid, halvings, active)
 
-    # Per-mode factor rho s / (2 pi) exp(-s (Rm - R0) / c).
-    shift = r_mid - (0.0 if r0 is None else r0)
-    factor = rho * q_s / (2.0 * math.pi) * np.exp(-q * shift)
-    scale = rho * np.abs(q_s) / (2.0 * math.pi)
-
-    how = refine_selective if local_phase else refine
-    return how(rule, npoints, factor, scale, tol, max_points, panels)
+    factor, scale = settings.factors(q_s, r_mid)
+    return refine(rule, npoints, factor, scale, tol, max_points, panels, local_phase)
 
 
 def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
@@ -498,23 +404,14 @@ def first_rule(a, b, listener, kappa, tol_panel, acoustic=None):
     ``d`` the distance from the microphone's projection to the panel's far end (the same
     along y). The panels themselves are those of ``kappa``."""
     xl, yl, zl = listener
-    w_half = half_phase(MAX_ORDER, tol_panel)
-    h = 2.0 * w_half / kappa if kappa > 0 else math.inf
-    ex = _breakpoints(a, xl, zl, h)
-    ey = _breakpoints(b, yl, zl, h)
-    if acoustic is None:
-        return ex, ey, panel_orders(ex, kappa, tol_panel), panel_orders(ey, kappa, tol_panel)
-    return (
-        ex,
-        ey,
-        panel_orders(ex, _local_kappa(ex, xl, zl, kappa, acoustic), tol_panel),
-        panel_orders(ey, _local_kappa(ey, yl, zl, kappa, acoustic), tol_panel),
-    )
-
-
-def _local_kappa(ends, centre, height, kappa, acoustic):
-    """Per panel of ``ends``: ``kappa`` with its acoustic part ``acoustic`` (rad/m) scaled by
-    the largest ``|dR/dt| = d / sqrt(d^2 + height^2)`` on the panel (see :func:`first_rule`)."""
-    far = np.maximum(np.abs(ends[:-1] - centre), np.abs(ends[1:] - centre))
-    slope = far / np.sqrt(far * far + height * height)
-    return kappa - acoustic * (1.0 - slope)
+    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa if kappa > 0 else math.inf
+    out = []
+    for length, centre in ((a, xl), (b, yl)):
+        ends = _breakpoints(length, centre, zl, h)
+        rate = kappa
+        if acoustic is not None:
+            far = np.maximum(np.abs(ends[:-1] - centre), np.abs(ends[1:] - centre))
+            rate = kappa - acoustic * (1.0 - far / np.sqrt(far * far + zl * zl))
+        out.append((ends, panel_orders(ends, rate, tol_panel)))
+    (ex, px), (ey, py) = out
+    return ex, ey, px, py

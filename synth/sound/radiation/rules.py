@@ -1,29 +1,50 @@
-"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, and the
-choice among them (:func:`choose_rule`).
+"""The rules of :func:`~synth.sound.radiation.plate_gains` behind one interface, their work,
+and the choice among them (:func:`choose_rule`).
 
 Every rule ends with the same convergence test (:mod:`~synth.sound.radiation.refinement`),
 so each holds the same error bound while its check rule fits ``max_points``; they differ
-in cost, counted before any mode is solved from their own panel builders
-(:mod:`~synth.sound.radiation.work`) and weighed by the shipped rates
-(:func:`~synth.sound.radiation.work.rule_weights`). :func:`choose_rule` takes the cheapest
-rule that applies and fits; ``synth bench rules`` prints each rule's cost and choice on the
-presets, the scale ladder, its random scenes and the high rates.
+in cost, counted before any mode is solved from their own panel builders, per rule of the
+refinement, for the band's largest bending wavenumber ``kb`` and acoustic one ``qa =
+omega_max / c`` (rad/m). The unit is a *term*: a multiply-add, or one exponential, Bessel
+value or shape factor value. Rectangle: per grid point and mode an exponential and a shape
+value's ``terms``. Polar and summed: per angular point the factor values and angular
+products, per radius and mode an exponential and a ``J_0`` (or the Ritz coefficients'
+combination), once the in-phase bounds' rule. The counts bound the work from above
+(selective refinements sum only the modes still failing). :func:`weighted_counts` turns
+terms into rectangle-term equivalents by the rates ``synth bench cost --record`` measured
+and ships (:data:`RATES`), so the choice and the budget's cut (:func:`synth.cost.radiation_work`)
+do not depend on the machine; :func:`choose_rule` takes the cheapest rule that applies and
+fits. ``synth bench rules`` prints each rule's cost and choice.
 """
 
 from __future__ import annotations
 
 import abc
+import dataclasses
 import functools
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from synth.sound.radiation import work
-from synth.sound.radiation.common import RadiationResult
-from synth.sound.radiation.polar import separable_gains
-from synth.sound.radiation.rectangle import ProductFactors, product_gains, rayleigh_gains
-from synth.sound.radiation.summed import summed_gains
+from synth.sound.radiation.angular import (
+    arc_panels,
+    circle_arcs,
+    radial_nodes,
+    radial_orders,
+    radial_panels,
+)
+from synth.sound.radiation.common import MAX_ORDER, MAX_RULES, REFINE, RadiationResult, half_phase
+from synth.sound.radiation.polar import separable_gains, summed_gains
+from synth.sound.radiation.rectangle import (
+    ProductFactors,
+    first_rule,
+    in_phase_grid,
+    product_gains,
+    rayleigh_gains,
+)
 
 #: Largest ratio of the wavenumbers ``kappa`` (bending plus acoustic) of the fastest and the
 #: slowest edge effect mode of one band of :class:`BandedRule`. The rectangle rule's points
@@ -32,9 +53,117 @@ from synth.sound.radiation.summed import summed_gains
 BAND_RATIO = 1.1
 
 #: Bands of frequency, equal in ratio, in which :class:`BandedRule`'s estimate counts the edge
-#: effect modes, each band on the grid of its top (:func:`edge_split`): known before any mode
-#: is solved, an upper bound of the rule's own bands of :data:`BAND_RATIO`.
+#: effect modes, each on the grid of its top (:func:`edge_split`): an upper bound of the
+#: rule's own bands of :data:`BAND_RATIO`, known before any mode is solved.
 EDGE_BANDS = 6
+
+
+#: Terms per radius and mode of the polar rule's radial sums: the exponential and ``J_0``.
+POLAR_RADIAL_TERMS = 2
+#: The rates of the estimate's work, measured by ``synth bench cost --record`` on the machine
+#: named in it and shipped with the package: the mode solver's and each radiation rule's
+#: (terms per second, by the rule's name).
+RATES = Path(__file__).parents[2] / "cost_rates.json"
+
+
+@dataclass(frozen=True)
+class RuleWork:
+    """One rule's counts: ``points`` (``unit`` says what they count) and ``work`` (terms) of
+    each of its ``MAX_RULES`` rules, ``fixed`` terms outside the refinement."""
+
+    rule: str
+    points: tuple
+    work: tuple
+    fixed: float
+    unit: str
+
+
+@functools.cache
+def rule_weights() -> dict[str, float]:
+    """Rectangle-term equivalents of one term of each radiation rule, by name: the
+    rectangle rule's terms per second over the rule's, in :data:`RATES` (shipped, not
+    measured where it runs)."""
+    try:
+        rates = json.loads(RATES.read_text())["radiation_terms_per_second"]
+    except FileNotFoundError:
+        raise FileNotFoundError(
+            f"{RATES} is missing: the radiation rules are weighed by their rates "
+            f"(synth bench cost --record)"
+        ) from None
+    return {rule: rates["rectangle"] / rate for rule, rate in rates.items()}
+
+
+def weighted_counts(counts: RuleWork) -> RuleWork:
+    """``counts`` (terms) in rectangle-term equivalents (times its :func:`rule_weights`)."""
+    weight = rule_weights()[counts.rule]
+    return dataclasses.replace(
+        counts,
+        work=tuple(weight * float(w) for w in counts.work),
+        fixed=weight * float(counts.fixed),
+    )
+
+
+def _levels():
+    return [REFINE**level for level in range(MAX_RULES)]
+
+
+def rectangle_work(size, listener, kappa, modes, terms, tol_panel) -> RuleWork:
+    """The rectangle rule's work at the wavenumber ``kappa`` (rad/m) for ``modes`` modes
+    whose shape values cost ``terms``: the points of its tensor grid, each rule's orders
+    ``REFINE^l`` times the first rule's."""
+    _, _, px, py = first_rule(size[0], size[1], listener, kappa, tol_panel)
+    points = [int(np.ceil(px * f).sum()) * int(np.ceil(py * f).sum()) for f in _levels()]
+    work = [float(n) * modes * (1 + terms) for n in points]
+    return RuleWork("rectangle", tuple(points), tuple(work), 0.0, "points")
+
+
+def _polar_grid(size, listener, kb, qa, tol_panel, shorter: bool) -> list[tuple[int, int]]:
+    """Per rule: (radii, angular points) of the polar rules; at each radius the arcs on the
+    plate (the summed rule), or with ``shorter`` the shorter of those on and off it."""
+    a, b = size
+    xl, yl, _ = listener
+    kappa = kb + qa
+    h = 2.0 * half_phase(MAX_ORDER, tol_panel) / kappa
+    panels, orders = radial_orders(
+        radial_panels(a, b, listener, h), size, listener, kb, qa, tol_panel
+    )
+    out = []
+    for f in _levels():
+        radii, _ = radial_nodes(panels, np.ceil(orders * f).astype(np.int64))
+        angular = 0
+        for r in radii:
+            on, off = circle_arcs(float(r), a, b, xl, yl)
+            if shorter and sum(v - u for u, v in off) < sum(v - u for u, v in on):
+                on = off
+            angular += sum(n * p for _, _, n, p in arc_panels(float(r), kb, tol_panel, f, on))
+        out.append((radii.size, angular))
+    return out
+
+
+def _in_phase_points(size, listener, kb, tol_panel) -> tuple[int, int]:
+    """Points along x and y of the in-phase rule (:func:`~.rectangle.in_phase_grid`)."""
+    xs, _, ys, _ = in_phase_grid(size, listener, kb, tol_panel)
+    return xs.size, ys.size
+
+
+def polar_work(size, listener, kb, qa, modes, n_x, n_y, tol_panel, basis=None, terms=0):
+    """The polar rule's work for ``modes`` separable modes of ``n_x`` and ``n_y`` factors;
+    with ``basis`` the summed rule's (Ritz modes of ``basis`` coefficients, shape values of
+    ``terms`` terms)."""
+    summed = basis is not None
+    grid = _polar_grid(size, listener, kb, qa, tol_panel, shorter=not summed)
+    radial = basis + 1 if summed else POLAR_RADIAL_TERMS
+    work = [
+        float(angular) * (n_x + n_y + n_x * n_y) + float(radii) * modes * radial
+        for radii, angular in grid
+    ]
+    xs, ys = _in_phase_points(size, listener, kb, tol_panel)
+    if summed:
+        fixed = float(xs * ys) * modes * (1 + terms)
+    else:
+        fixed = float(xs * n_x + ys * n_y + xs * ys * n_y + xs * n_x * n_y)
+    name = "summed" if summed else "polar"
+    return RuleWork(name, tuple(a for _, a in grid), tuple(work), fixed, "angular points")
 
 
 @dataclass(frozen=True)
@@ -48,10 +177,9 @@ class EdgeBand:
 
 @dataclass(frozen=True)
 class EdgeSplit:
-    """The Ritz modes ``0 <= k < ritz_modes`` and the dynamic edge effect modes above of a
-    free or clamped plate past the Ritz crossover: ``ritz_kappa`` the Ritz modes' largest
-    wavenumber (bending plus acoustic, rad/m) and ``bands`` the edge effect modes in bands
-    of wavenumber (:class:`EdgeBand`)."""
+    """The Ritz modes ``0 <= k < ritz_modes`` of a plate past the Ritz crossover, of largest
+    wavenumber ``ritz_kappa`` (bending plus acoustic, rad/m), and its edge effect modes above
+    in ``bands`` (:class:`EdgeBand`)."""
 
     ritz_modes: int
     ritz_kappa: float
@@ -65,10 +193,9 @@ class Problem:
     ``size`` (a, b) and ``listener`` (x, y, z), metres; ``modes`` the number of modes;
     ``kb`` the highest mode's bending wavenumber and ``qa`` the largest acoustic one
     (``max |s| / c``), rad/m; ``shapes`` "separable" (products ``X_i(x) Y_j(y)``), "summed"
-    (sums of such products, the Ritz modes of free and clamped plates), "edge" (Ritz modes
-    and dynamic edge effect modes, :class:`EdgeSplit` ``edge``) or "any"; ``terms`` the terms of one
-    shape value, ``factors`` (n_x, n_y) the factors of the polar rules and ``basis`` the
-    Ritz coefficients per mode; ``tol`` and ``max_points`` those of the rules."""
+    (sums of such products), "edge" (Ritz and dynamic edge effect modes, split by ``edge``)
+    or "any"; ``terms`` the terms of one shape value, ``factors`` (n_x, n_y) the factors of
+    the polar rules and ``basis`` the Ritz coefficients per mode."""
 
     size: tuple
     listener: tuple
@@ -91,66 +218,58 @@ class Problem:
 
 @dataclass(frozen=True)
 class Estimate:
-    """What one rule takes on one :class:`Problem`, its panels counted once: ``counts``
-    (:class:`~.work.RuleWork`), ``fits`` whether its check rule (the first rule refined
-    once, the least the convergence test needs) holds at most ``max_points`` points, and
-    ``cost``, rectangle-term equivalents of the first rule and its check rule and of the
-    work outside the refinement (:func:`~.work.weighted_counts`); ``tol`` the problem's."""
+    """What one rule takes on one :class:`Problem`: its ``counts``, ``fits`` whether its
+    check rule (the first rule refined once) holds at most ``max_points`` points, and
+    ``cost`` in rectangle-term equivalents (:func:`~.weighted_counts`)."""
 
     rule: Rule
-    counts: work.RuleWork
+    counts: RuleWork
     fits: bool
     cost: float
     tol: float
 
     @property
     def error_bound(self) -> float:
-        """The bound of each gain's error relative to ``max(|H_k|, 1e-4 S_k)`` the rule's
-        convergence test holds: ``tol`` where the check rule fits, else none (inf)."""
+        """The bound of each gain's relative error the convergence test holds: ``tol``
+        where the check rule fits, else none (inf)."""
         return self.tol if self.fits else math.inf
 
 
 class Rule(abc.ABC):
-    """One rule of the Rayleigh integral: which shapes it takes (``shapes``), its counts
-    (:meth:`counts`, terms and points of each refinement) and, from them,
-    :meth:`estimate`: its error bound and its cost."""
+    """One rule of the Rayleigh integral: the shapes it takes, its counts (:meth:`counts`)
+    and from them its error bound and cost (:meth:`estimate`), and its :meth:`gains`."""
 
     name = ""
     shapes: tuple = ()
 
     def applies(self, problem: Problem) -> bool:
-        """Whether the rule takes ``problem``'s shapes."""
         return problem.shapes in self.shapes and problem.modes > 0
 
     @abc.abstractmethod
-    def counts(self, problem: Problem) -> work.RuleWork:
-        """Points and terms of each of the rule's refinements (:mod:`~.work`)."""
+    def counts(self, problem: Problem) -> RuleWork:
+        """Points and terms of each of the rule's refinements."""
 
     def estimate(self, problem: Problem) -> Estimate:
-        """The rule's :class:`Estimate` on ``problem`` (its panels counted once)."""
         counts = self.counts(problem)
-        weighted = work.weighted_counts(counts)
+        weighted = weighted_counts(counts)
         cost = weighted.fixed + sum(weighted.work[:2])
         return Estimate(self, counts, counts.points[1] <= problem.max_points, cost, problem.tol)
 
     @abc.abstractmethod
     def gains(self, modes, listener, s, settings: dict) -> RadiationResult:
-        """The gains of ``modes`` (a :class:`synth.physics.modes.Modes`) at ``listener``
-        for the poles ``s`` (rad/s), ``settings`` the keywords of
-        :func:`~.rectangle.rayleigh_gains` (``max_wavenumber``, air, ``tol``...)."""
+        """The gains of ``modes`` (:class:`synth.physics.modes.Modes`) at ``listener`` for
+        the poles ``s`` (rad/s), ``settings`` the keywords of :func:`~.rectangle.rayleigh_gains`."""
 
 
 class RectangleRule(Rule):
-    """Tensor Gauss-Legendre panels along x and y (:func:`~.rectangle.rayleigh_gains`):
-    any shapes; each point costs per mode an exponential and a shape value."""
+    """Tensor Gauss-Legendre panels (:func:`~.rectangle.rayleigh_gains`): any shapes; each
+    point costs per mode an exponential and a shape value."""
 
     name = "rectangle"
     shapes = ("separable", "summed", "any")
 
-    def counts(self, problem):
-        p = problem
-        kappa = p.kb + p.qa
-        return work.rectangle_work(p.size, p.listener, kappa, p.modes, p.terms, p.tol_panel)
+    def counts(self, p):
+        return rectangle_work(p.size, p.listener, p.kb + p.qa, p.modes, p.terms, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         size = (modes.plate.length, modes.plate.width)
@@ -165,65 +284,53 @@ class PolarRule(Rule):
     name = "polar"
     shapes = ("separable",)
 
-    def counts(self, problem):
-        p = problem
-        n_x, n_y = p.factors
-        return work.polar_work(p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.tol_panel)
+    def counts(self, p):
+        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel)
 
     def gains(self, modes, listener, s, settings):
         return separable_gains(modes.separable(), listener, s, full_output=True, **settings)
 
 
 class SummedRule(Rule):
-    """The polar rule for sums of products (:func:`~.summed.summed_gains`): per radius and
+    """The polar rule for sums of products (:func:`~.polar.summed_gains`): per radius and
     mode the combination of its Ritz coefficients."""
 
     name = "summed"
     shapes = ("summed",)
 
-    def counts(self, problem):
-        p = problem
-        n_x, n_y = p.factors
-        return work.summed_work(
-            p.size, p.listener, p.kb, p.qa, p.modes, n_x, n_y, p.basis, p.terms, p.tol_panel
-        )
+    def counts(self, p):
+        return polar_work(p.size, p.listener, p.kb, p.qa, p.modes, *p.factors, p.tol_panel,
+                               p.basis, p.terms)  # fmt: skip
 
     def gains(self, modes, listener, s, settings):
         return summed_gains(modes.summed(), listener, s, full_output=True, **settings)
 
 
-def _ritz_work(problem: Problem) -> work.RuleWork:
-    """The rectangle rule of the Ritz modes below the edge effect modes."""
-    p, e = problem, problem.edge
-    return work.rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms, p.tol_panel)
-
-
 class BandedRule(Rule):
     """Edge effect modes by the rectangle rule band by band of wavenumber
-    (:data:`BAND_RATIO`), their shapes formed from factor tables (two products at most,
-    :func:`~.rectangle.product_gains`), the Ritz modes by the rectangle rule; its rate is
-    measured on the whole (``synth bench cost``), so the Ritz modes' terms count in its
-    refinement at the same weight."""
+    (:data:`BAND_RATIO`), their shapes formed from factor tables
+    (:func:`~.rectangle.product_gains`), the Ritz modes below by the rectangle rule; its rate
+    is measured on the whole (``synth bench cost``), so the Ritz modes' terms count at the
+    same weight."""
 
     name = "banded"
     shapes = ("edge",)
 
-    def counts(self, problem):
-        p = problem
-        ritz = _ritz_work(p)
-        points = list(ritz.points if p.edge.ritz_modes else [0] * len(ritz.points))
+    def counts(self, p):
+        e = p.edge
+        ritz = rectangle_work(p.size, p.listener, e.ritz_kappa, e.ritz_modes, p.terms,
+                                   p.tol_panel)  # fmt: skip
+        points = list(ritz.points if e.ritz_modes else [0] * len(ritz.points))
         terms = list(ritz.work)
-        for band in p.edge.bands:
+        for band in e.bands:
             if band.modes == 0:
                 continue
-            rule = work.rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
+            rule = rectangle_work(p.size, p.listener, band.kappa, band.modes, 2, p.tol_panel)
             points = [max(a, b) for a, b in zip(points, rule.points)]
             terms = [a + b for a, b in zip(terms, rule.work)]
-        return work.RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
+        return RuleWork("banded", tuple(points), tuple(terms), 0.0, "points")
 
     def gains(self, modes, listener, s, settings):
-        """The Ritz modes below the edge effect part's ``first_mode`` by the rectangle rule
-        (for their own largest wavenumber), the edge effect modes band by band."""
         n_low = modes.edge_effect().first_mode
         high = _banded_rectangle(modes, n_low, listener, s, settings)
         if n_low == 0:
@@ -233,7 +340,7 @@ class BandedRule(Rule):
             f"Ritz modes 0-{n_low - 1}: {low.message}; edge effect modes {n_low}-"
             f"{len(modes) - 1} (banded rule): {high.message}"
         )
-        return combined((low, high), "banded", message)
+        return combined((low, high), message)
 
 
 #: The rules :func:`choose_rule` chooses among.
@@ -241,17 +348,15 @@ RULES = (RectangleRule(), PolarRule(), SummedRule(), BandedRule())
 
 
 def choose_rule(problem: Problem) -> Estimate:
-    """The rule for ``problem``, as its :class:`Estimate`. Criterion: a rule that takes the
-    shapes and whose check rule fits ``max_points`` holds the error bound ``tol`` (the same
-    convergence test for every rule); among those, the one of least cost. If none fits, the
-    one with the fewest points in its check rule (it stops at ``max_points`` and says so)."""
+    """The rule for ``problem``, as its :class:`Estimate`: among the rules that take the
+    shapes and whose check rule fits ``max_points`` (they hold the error bound ``tol``), the
+    one of least cost; if none fits, the one with the fewest points in its check rule (it
+    stops at ``max_points`` and says so)."""
     return _cheapest(problem, RULES)
 
 
-@functools.lru_cache(maxsize=256)
+@functools.lru_cache(maxsize=256)  # warm renders choose again for every cached gain
 def _cheapest(problem: Problem, candidates: tuple) -> Estimate:
-    """:func:`choose_rule` among ``candidates``, kept for the process (the warm renders and
-    the live engine choose again for every cached gain)."""
     estimates = [rule.estimate(problem) for rule in candidates if rule.applies(problem)]
     holding = [e for e in estimates if e.error_bound <= problem.tol]
     if holding:
@@ -284,9 +389,7 @@ def mode_bands(omega: np.ndarray, kb: float, qa: np.ndarray) -> list:
 def _band_rectangle(modes, start, stop, listener, s, settings):
     """The rectangle rule of modes ``start <= k < stop`` alone, for the largest bending
     wavenumber among them (``max_wavenumber`` scaled by the square root of their highest
-    frequency's ratio to the highest mode's, as for a plate's bending waves). Edge effect
-    modes (all of them at or past ``modes.edge_effect().first_mode``) take it with their
-    factor tables (:func:`~synth.sound.radiation.rectangle.product_gains`)."""
+    frequency's over the highest mode's); edge effect modes with their factor tables."""
     omega = modes.angular_frequencies
     index = np.arange(start, stop)
     size = (modes.plate.length, modes.plate.width)
@@ -299,51 +402,43 @@ def _band_rectangle(modes, start, stop, listener, s, settings):
             return ProductFactors(*edge.product_factors(x, y, size[0], size[1], index))
 
         return product_gains(factors, size, listener, s[start:stop], **settings)
-    return rayleigh_gains(
-        lambda points: modes.shapes(points, index=index),
-        size,
-        listener,
-        s[start:stop],
-        full_output=True,
-        **settings,
-    )
+    shapes = lambda points: modes.shapes(points, index=index)  # noqa: E731
+    return rayleigh_gains(shapes, size, listener, s[start:stop], full_output=True, **settings)
 
 
 def _banded_rectangle(modes, n_low, listener, s, settings):
     """The rectangle rule of the edge effect modes ``n_low`` onwards, band by band of
-    wavenumber (:data:`BAND_RATIO`): each band's rule follows its own fastest mode's
-    wavelength. Each mode passes the same convergence test as on one rule for every mode."""
+    wavenumber (:data:`BAND_RATIO`), each band's rule for its own fastest mode; each mode
+    passes the same convergence test as on one rule for every mode."""
     omega = modes.angular_frequencies[n_low:]
     qa = np.abs(s[n_low:]) / settings["sound_speed"]
     parts = [
         _band_rectangle(modes, n_low + lo, n_low + hi, listener, s, settings)
         for lo, hi in mode_bands(omega, settings["max_wavenumber"], qa)
     ]
-    largest = max(parts, key=lambda p: p.n_points)
     failed = sum(not p.success for p in parts)
+    largest = max(parts, key=lambda p: p.n_points)
     message = (
         f"{len(parts)} bands of wavenumber, {failed} not converged; the largest rule "
         f"{largest.message}"
     )
-    return combined(parts, "banded", message)
+    return combined(parts, message)
 
 
-def combined(parts, rule: str, message: str) -> RadiationResult:
-    """One :class:`RadiationResult` of consecutive blocks of modes ``parts`` (``n_points``,
-    ``panels`` those of the block with the most points)."""
+def combined(parts, message: str) -> RadiationResult:
+    """One "banded" :class:`RadiationResult` of consecutive blocks of modes ``parts``
+    (``n_points``, ``panels`` those of the block with the most points)."""
     status = max(p.status for p in parts)
     largest = max(parts, key=lambda p: p.n_points)
     return RadiationResult(
-        gains=np.concatenate([p.gains for p in parts]),
-        error=np.concatenate([p.error for p in parts]),
-        coherent=np.concatenate([p.coherent for p in parts]),
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in ("gains", "error", "coherent")),
         n_points=largest.n_points,
         refinements=max(p.refinements for p in parts),
         panels=largest.panels,
         success=status == 0,
         status=status,
         message=message,
-        rule=rule,
+        rule="banded",
     )
 
 
