@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.analysis.clipping import runs
 from synth.analysis.series import ANCHOR_DB, bounce_series
 from synth.analysis.settings import AnalysisError, Settings
 from synth.compilation import compiled
@@ -514,7 +515,7 @@ def standing_out(
     )
     onsets, strengths = [], []
     known = np.sort(np.asarray(known, dtype=float))
-    for lo, hi in _runs(passing):
+    for lo, hi in runs(passing):
         if np.any(np.abs(known - lo * hop) < settings.min_separation + span):
             continue
         peak = lo + int(np.argmax(energy[lo:hi]))
@@ -671,9 +672,3 @@ def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         out[k] = np.where(mean_after > 0.0, mean_after / mean_before, 0.0)
     return out
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``[lo, hi)`` of each run of true values of ``mask``."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]))
