@@ -401,17 +401,16 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
     Raises
     ------
     AnalysisError
-        No candidate clears the threshold.
+        No candidate clears the threshold (or none is kept by :func:`_separate`).
     """
     found = detect(r, settings, background)
-    peaks = found.peaks
-    if peaks.size == 0:
+    onsets = _candidate_onsets(r, found, settings)
+    kept = _separate(onsets, settings.min_separation)
+    if not kept:
         raise AnalysisError(
             "no tick detected: nothing rises above the background (is this a recording of impacts?)"
         )
-    onsets = _candidate_onsets(r, found, settings)
-    kept = _separate(onsets, settings.min_separation)
-    peaks, onsets = peaks[kept], onsets[kept]
+    peaks, onsets = found.peaks[kept], onsets[kept]
     strength = 10.0 * np.log10(found.d[peaks] / found.threshold[peaks])
     anchors, anchor_strength = onsets[:1], strength[:1]
     if peaks.size > 1:
@@ -447,23 +446,13 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
 def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
     """Indices of the onsets kept: a candidate whose onset walks back to within ``min_sep``
     of the previous tick's is part of that tick's burst, and one at the first sample is the
-    recording's cut.
-
-    Raises
-    ------
-    AnalysisError
-        None is kept.
-    """
+    recording's cut."""
     kept = []
     for i in range(onsets.size):
         if onsets[i] == 0.0:
             continue
         if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
             kept.append(i)
-    if not kept:
-        raise AnalysisError(
-            "no tick detected: nothing rises above the background (is this a recording of impacts?)"
-        )
     return kept
 
 

@@ -103,33 +103,23 @@ def _parzen(p: int) -> np.ndarray:
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
     """The prediction error of ``x`` under ``predictor`` (``[1, a1, ..., ap]``), the signal
     taken as silent before its first sample; as long as ``x``, and 0 over its digital
-    silences (:func:`digital_silence`): a stretch of exact zeros holds no excitation, and
-    the error there is only the predictor's continuation of a sound cut off (a render's
-    ringing stopped under its omission floor, a recorder's gate), a burst that no impact
-    made."""
+    silences (runs of exact zeros at least as long as ``predictor``, which no noise rests
+    at): the error there is the predictor's continuation of a sound cut off (a render's
+    modes stopped under its omission floor, a gate), a burst no impact made."""
     from scipy.signal import oaconvolve
 
     r = oaconvolve(x, predictor)[: x.size]
-    r[digital_silence(x, predictor.size)] = 0.0
+    r[long_runs(x == 0.0, predictor.size)] = 0.0
     return r
 
 
-def digital_silence(x: np.ndarray, least: int) -> np.ndarray:
-    """Mask of the samples of ``x`` in runs of at least ``least`` exact zeros: no noise of a
-    recording (or of its rounding) rests at exact zero that long; a sound stopped there."""
-    return long_runs(x == 0.0, least)
-
-
 def silence_floor(r: np.ndarray, frame: int, span: int) -> float:
-    """The level (RMS over ``frame`` samples, units of ``r``) under which the whitened signal
-    ``r`` holds nothing an impact can be told from, where its recording falls to digital
-    silence (:func:`digital_silence`, runs of at least ``frame`` zeros); 0 where it does not.
-
-    A sound that stops at exact zero was cut under a level (a render leaves out each mode
-    once all it could add lies under its share of an omission floor, a gate closes): its
-    last ``span`` samples before the silence hold the steps by which it stopped, bursts of
-    the whitened signal that no impact made. The median over the silences of the largest
-    frame energy there is the recording's resolution in place of a noise floor."""
+    """The level (RMS over ``frame`` samples) under which the whitened signal ``r`` holds
+    nothing an impact can be told from where it falls to digital silence (runs of at least
+    ``frame`` zeros; 0 where it never does): the median over the silences of the largest
+    frame energy over the ``span`` samples before each, which hold the steps by which the
+    sound stopped (a render leaves out each mode once all it could add lies under its share
+    of an omission floor): the recording's resolution in place of a noise floor."""
     levels = [
         float(np.convolve(r[a - span : a] ** 2, np.ones(frame), "valid").max())
         for a, b in runs(r == 0.0)
