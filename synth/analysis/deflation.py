@@ -425,10 +425,8 @@ class DeflationSearch:
         self.first = first
         self.s1 = max(int(math.floor(first.onset)) - WINDOW_GUARD, 0)
         template = r[self.s1 : max(first.end, self.s1 + 1)].copy()
-        noise = max(
-            dsp.noise_floor(r, settings.samplerate),
-            silence_floor(r, self.w, int(round(settings.background * settings.samplerate))),
-        )
+        span = int(round(settings.background * settings.samplerate))
+        noise = max(dsp.noise_floor(r, settings.samplerate), silence_floor(r, self.w, span))
         e_t = frame_energies(template, self.hop, self.w)
         self.ringing_left = (
             float(np.median(e_t[e_t.size // 2 :]) / e_t.max())
