@@ -1413,3 +1413,29 @@ def test_ringing_explains_beating_not_an_impact():
     hit *= np.abs(ringing).max() / np.abs(hit).max()
     assert not explained(ringing + 0.1 * hit)
     assert explained(ringing + 10.0 ** (-70.0 / 20.0) * hit)
+
+
+def test_digital_silence_holds_no_burst():
+    # a ringing cut to exact zero 20 ms after its start (a render stops its modes under an
+    # omission floor, a gate closes) and a tick 30 ms later: the prediction error over the
+    # silence is the predictor's continuation of the sound cut off (nonzero for its order),
+    # no excitation, and whitens to exactly 0; the largest frame energy of the whitened
+    # signal over the stretch before the cut is the level under which nothing can be told
+    # from the steps by which a sound stops (the median over the silences: one here)
+    from scipy.signal import oaconvolve
+
+    from synth.analysis.whitening import silence_floor, whiten, whitening_predictor
+
+    fs, frame, span = 48000, 12, 960
+    t = np.arange(int(0.02 * fs)) / fs
+    ring = np.exp(-t / 0.01) * np.sin(2.0 * np.pi * 1000.0 * t + 0.3)
+    silence = np.zeros(int(0.03 * fs))
+    x = np.concatenate([ring, silence, ring])
+    a = whitening_predictor(x, 64, fs, None)
+    cut, back = ring.size, ring.size + silence.size
+    assert np.abs(oaconvolve(x, a)[cut : cut + a.size - 1]).max() > 0.0
+    r = whiten(x, a)
+    assert not r[cut:back].any()
+    assert r[back] != 0.0
+    e = np.convolve(r[cut - span : cut] ** 2, np.ones(frame), "valid").max()
+    assert silence_floor(r, frame, span) == pytest.approx(math.sqrt(e / frame), rel=1e-12)

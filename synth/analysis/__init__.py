@@ -63,36 +63,7 @@ _LAZY = {
     "to_dict": "report",
 }
 
-__all__ = [
-    "AGREEMENT",
-    "ANCHOR_DB",
-    "BOUNCE_GROWTH",
-    "CLEAN_GUARD",
-    "DECAY_MIN_FALL",
-    "DECAY_NOISE_MARGIN_DB",
-    "DOUBTFUL_DB",
-    "DYNAMIC_RANGE_DB",
-    "MAX_EXCESS_DB",
-    "MIN_FRAME",
-    "MISSED_GROWTH",
-    "RESONATOR_GAIN_DB",
-    "RESTITUTION_STEP",
-    "SERIES_HORIZON",
-    "WINDOW_GUARD",
-    "Analysis",
-    "AnalysisError",
-    "AnalysisOptions",
-    "Series",
-    "Tick",
-    "analyze",
-    "analyze_file",
-    "check_plot_path",
-    "format_table",
-    "plot_analysis",
-    "read_recording",
-    "to_csv",
-    "to_dict",
-]
+__all__ = list(_LAZY)
 
 
 def __getattr__(name):

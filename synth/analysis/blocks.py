@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import dsp
-from synth.analysis.clipping import flat_tops
+from synth.analysis.clipping import long_runs
 from synth.analysis.settings import AnalysisError
 from synth.errors import ParameterError
 
@@ -163,8 +163,8 @@ def survey(source: Source, channel: int | None) -> Survey:
     for _, piece in source.pieces():  # the flat tops at the extremes, now known
         used = piece[:, cols]
         for c in range(n_ch):
-            high_tops[c] += np.count_nonzero(flat_tops(used[:, c] == highs[c])) if highs[c] else 0
-            low_tops[c] += np.count_nonzero(flat_tops(used[:, c] == lows[c])) if lows[c] else 0
+            high_tops[c] += np.count_nonzero(long_runs(used[:, c] == highs[c])) if highs[c] else 0
+            low_tops[c] += np.count_nonzero(long_runs(used[:, c] == lows[c])) if lows[c] else 0
     ms = np.concatenate(powers)
     floor = float(np.sqrt(ms[dsp.quiet_frames(ms)].mean())) if ms.size else 0.0
     return Survey(highs, lows, high_tops, low_tops, any_sample, any_mix, floor)

@@ -49,7 +49,7 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
             if level == 0.0:
                 continue
             at = col == level
-            if np.count_nonzero(flat_tops(at)) >= min_count:
+            if np.count_nonzero(long_runs(at)) >= min_count:
                 mask[:, c] |= at
         count = int(np.count_nonzero(mask[:, c]))
         if count and (worst is None or count > worst[1]):
@@ -71,15 +71,18 @@ def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
     )
 
 
-def flat_tops(at: np.ndarray) -> np.ndarray:
-    """The samples of the boolean ``at`` that lie in runs of at least :data:`FLAT_TOP`
-    consecutive True values."""
-    padded = np.r_[False, at, False].astype(np.int8)
-    edges = np.diff(padded)
-    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-    out = np.zeros(at.size, dtype=bool)
-    for a, b in zip(starts, stops):
-        if b - a >= FLAT_TOP:
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """``[lo, hi)`` of each run of True values of the boolean ``mask``."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]))
+
+
+def long_runs(mask: np.ndarray, least: int = FLAT_TOP) -> np.ndarray:
+    """The samples of the boolean ``mask`` that lie in runs of at least ``least`` consecutive
+    True values (default :data:`FLAT_TOP`: a clipped flat top)."""
+    out = np.zeros(mask.size, dtype=bool)
+    for a, b in runs(mask):
+        if b - a >= least:
             out[a:b] = True
     return out
 

@@ -28,6 +28,7 @@ from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.series import DOUBTFUL_DB, separation, too_strong
 from synth.analysis.settings import Settings
 from synth.analysis.validity import MISSED_GROWTH
+from synth.analysis.whitening import silence_floor
 from synth.compilation import compiled
 
 #: Lags of the FIR filter that shapes the first tick's whitened response into a later
@@ -424,7 +425,8 @@ class DeflationSearch:
         self.first = first
         self.s1 = max(int(math.floor(first.onset)) - WINDOW_GUARD, 0)
         template = r[self.s1 : max(first.end, self.s1 + 1)].copy()
-        noise = dsp.noise_floor(r, settings.samplerate)
+        span = int(round(settings.background * settings.samplerate))
+        noise = max(dsp.noise_floor(r, settings.samplerate), silence_floor(r, self.w, span))
         e_t = frame_energies(template, self.hop, self.w)
         self.ringing_left = (
             float(np.median(e_t[e_t.size // 2 :]) / e_t.max())

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.analysis.clipping import runs
 from synth.analysis.series import ANCHOR_DB, bounce_series
 from synth.analysis.settings import AnalysisError, Settings
 from synth.compilation import compiled
@@ -400,17 +401,16 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
     Raises
     ------
     AnalysisError
-        No candidate clears the threshold.
+        No candidate clears the threshold (or none is kept by :func:`_separate`).
     """
     found = detect(r, settings, background)
-    peaks = found.peaks
-    if peaks.size == 0:
+    onsets = _candidate_onsets(r, found, settings)
+    kept = _separate(onsets, settings.min_separation)
+    if not kept:
         raise AnalysisError(
             "no tick detected: nothing rises above the background (is this a recording of impacts?)"
         )
-    onsets = _candidate_onsets(r, found, settings)
-    kept = _separate(onsets, settings.min_separation)
-    peaks, onsets = peaks[kept], onsets[kept]
+    peaks, onsets = found.peaks[kept], onsets[kept]
     strength = 10.0 * np.log10(found.d[peaks] / found.threshold[peaks])
     anchors, anchor_strength = onsets[:1], strength[:1]
     if peaks.size > 1:
@@ -446,23 +446,13 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
 def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
     """Indices of the onsets kept: a candidate whose onset walks back to within ``min_sep``
     of the previous tick's is part of that tick's burst, and one at the first sample is the
-    recording's cut.
-
-    Raises
-    ------
-    AnalysisError
-        None is kept.
-    """
+    recording's cut."""
     kept = []
     for i in range(onsets.size):
         if onsets[i] == 0.0:
             continue
         if not kept or onsets[i] - onsets[kept[-1]] >= min_sep:
             kept.append(i)
-    if not kept:
-        raise AnalysisError(
-            "no tick detected: nothing rises above the background (is this a recording of impacts?)"
-        )
     return kept
 
 
@@ -514,7 +504,7 @@ def standing_out(
     )
     onsets, strengths = [], []
     known = np.sort(np.asarray(known, dtype=float))
-    for lo, hi in _runs(passing):
+    for lo, hi in runs(passing):
         if np.any(np.abs(known - lo * hop) < settings.min_separation + span):
             continue
         peak = lo + int(np.argmax(energy[lo:hi]))
@@ -671,9 +661,3 @@ def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         out[k] = np.where(mean_after > 0.0, mean_after / mean_before, 0.0)
     return out
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """``[lo, hi)`` of each run of true values of ``mask``."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]))

@@ -117,8 +117,7 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
     used = chans if settings.channel is None else chans[:, [settings.channel]]
     clipping = _checked_signal(used, settings)
     x = mix_of(used)
-    if not np.any(x):
-        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
+    _refuse_silence(True, bool(np.any(x)))
     if clipping is not None:
         x = declipped_mix(used, clipping.mask, settings.whitening_order)
     found = _drops(x, settings, clipping is not None)
@@ -149,10 +148,7 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
     extremes (clipping), silence and noise floor, then the bounce series of each block
     (:func:`_block_drops`)."""
     sv = survey(source, settings.channel)
-    if not sv.any_sample:
-        raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
-    if not sv.any_mix:
-        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
+    _refuse_silence(sv.any_sample, sv.any_mix)
     levels = _clip_levels(sv, settings.clip_samples)
     warning = None
     if levels:
@@ -483,14 +479,21 @@ def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
             f"audio has {used.shape[0]} frames: too short for a whitening predictor of order "
             f"{order} (needs more than {2 * order})"
         )
-    if not np.any(used):
-        raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
+    _refuse_silence(bool(np.any(used)), True)
     clipping = find_clipping(used, settings.clip_samples)
     if clipping is not None:
         _refuse_clipped_throughout(int(np.count_nonzero(clipping.mask)), used.size)
     if clipping is not None and settings.on_clipping == "raise":
         raise AnalysisError(clipping.warning)
     return clipping
+
+
+def _refuse_silence(any_sample: bool, any_mix: bool) -> None:
+    """Raise ``AnalysisError`` where every sample analysed is 0, or the mix of the channels."""
+    if not any_sample:
+        raise AnalysisError("the audio is silent: every sample of the analysed signal is 0")
+    if not any_mix:
+        raise AnalysisError("the audio is silent: the mean of the channels is 0 everywhere")
 
 
 def _refuse_clipped_throughout(tops: int, size: int) -> None:

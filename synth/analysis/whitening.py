@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth import dsp
+from synth.analysis.clipping import long_runs, runs
 from synth.analysis.options import MAX_ORDER
 from synth.compilation import compiled
 
@@ -101,10 +102,30 @@ def _parzen(p: int) -> np.ndarray:
 
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
     """The prediction error of ``x`` under ``predictor`` (``[1, a1, ..., ap]``), the signal
-    taken as silent before its first sample; as long as ``x``."""
+    taken as silent before its first sample; as long as ``x``, and 0 over its digital
+    silences (runs of exact zeros at least as long as ``predictor``, which no noise rests
+    at): the error there is the predictor's continuation of a sound cut off (a render's
+    modes stopped under its omission floor, a gate), a burst no impact made."""
     from scipy.signal import oaconvolve
 
-    return oaconvolve(x, predictor)[: x.size]
+    r = oaconvolve(x, predictor)[: x.size]
+    r[long_runs(x == 0.0, predictor.size)] = 0.0
+    return r
+
+
+def silence_floor(r: np.ndarray, frame: int, span: int) -> float:
+    """The level (RMS over ``frame`` samples) under which the whitened signal ``r`` holds
+    nothing an impact can be told from where it falls to digital silence (runs of at least
+    ``frame`` zeros; 0 where it never does): the median over the silences of the largest
+    frame energy over the ``span`` samples before each, which hold the steps by which the
+    sound stopped (a render leaves out each mode once all it could add lies under its share
+    of an omission floor): the recording's resolution in place of a noise floor."""
+    levels = [
+        float(np.convolve(r[a - span : a] ** 2, np.ones(frame), "valid").max())
+        for a, b in runs(r == 0.0)
+        if b - a >= frame and a >= span
+    ]
+    return math.sqrt(float(np.median(levels)) / frame) if levels else 0.0
 
 
 @dataclass(frozen=True)
