@@ -197,7 +197,7 @@ def one_blas_thread():
     per recording; the triangular solutions of the resonator's predictor). The helper threads
     of a multithreaded BLAS, waiting for cores that other work keeps busy, made them three to
     ten times as costly on two shared cores (as the Ritz modes' eigen-solutions, see
-    :mod:`synth.sound.modes`). Only the outermost of nested contexts sets the limit (an
+    :mod:`synth.physics.modes`). Only the outermost of nested contexts sets the limit (an
     inner one would change nothing), through one controller of the BLAS libraries the
     process loaded (:func:`_blas_controller`): a scan of those libraries takes tens of
     milliseconds, and the analysis enters such a context hundreds of times."""
