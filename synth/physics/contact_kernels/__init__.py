@@ -424,7 +424,7 @@ def impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol):
 
 @compiled(inline="always")
 def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
-    """The result array of ``impact`` from ``solve``'s result ``out`` and the scales
+    """The result array of ``impact`` from :func:`finish`'s result ``out`` and the scales
     (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields;
     a yielded contact's on its unloading branch from the peak penetration)."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
@@ -442,7 +442,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
 
 @compiled()
 def pulse(hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces):
-    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b, xy) at
+    """The pulse of :func:`finish`'s dense output ``hist`` (same lam, G, n, c, b, xy) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
     S = new_series(b)
@@ -522,7 +522,7 @@ def _rates(x, w, f, lam, n, xy, xm):
 @compiled()
 def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of ``solve`` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
+    output ``hist`` of :func:`finish` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
     ``out``; its rate of change ``df/ds`` into ``slope``.
 
     ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,
