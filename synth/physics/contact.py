@@ -18,7 +18,7 @@ return an :class:`ImpactResult`, numerical trouble reported in ``success``, ``st
 Numerics (:mod:`synth.physics.contact_kernels`): the equations are scaled by Zener's time
 ``theta = (m / (K v0^(n-1)))^(1/(n+1))`` and length ``theta v0`` and integrated by DOP853,
 or Radau IIA (order 5) where the contact is stiff (``beta m / theta`` above
-:data:`STIFF_LAMBDA`); the end of contact is located on the dense output. The local
+``contact_kernels.STIFF_LAMBDA``); the end of contact is located on the dense output. The local
 tolerance is ``rtol *`` :data:`TOLERANCE_SAFETY`, chosen with ``synth bench contact`` so the
 global errors of restitution and contact time stay below ``rtol`` (absolute for ``e``
 below about ``rtol``).
@@ -37,6 +37,7 @@ from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
 from synth.physics import impedance
+from synth.physics.contact_kernels import outcome as _o
 from synth.physics.contact_law import ShellLaw, check_yield_penetration, contact_parameters
 from synth.physics.contact_result import ENERGY_IMBALANCE as ENERGY_IMBALANCE
 from synth.physics.contact_result import ENERGY_RESIDUAL_LIMIT as ENERGY_RESIDUAL_LIMIT
@@ -46,18 +47,10 @@ from synth.physics.contact_result import (
     result_from_row,
     with_message,
 )
-from synth.physics.contact_shell import ShellDense as ShellDense
 from synth.physics.contact_shell import ShellImpactResult as ShellImpactResult
 from synth.physics.contact_shell import solve_shell
 from synth.physics.scene import Ball, Plate
 
-#: Zener's inelasticity above which the contact is integrated by the implicit Radau IIA
-#: method; the absolute tolerance relative to the local one; the step limits of DOP853
-#: and of the implicit method (constants of the compiled kernel, see contact_kernels).
-STIFF_LAMBDA = _k.STIFF_LAMBDA
-ABSOLUTE_FACTOR = _k.ABSOLUTE_FACTOR
-EXPLICIT_STEP_LIMIT = _k.EXPLICIT_STEP_LIMIT
-IMPLICIT_STEP_LIMIT = _k.IMPLICIT_STEP_LIMIT
 #: Local tolerance of the integrators relative to the requested ``rtol``.
 TOLERANCE_SAFETY = 0.2
 #: Fewest samples of a force pulse over the contact.
@@ -121,77 +114,78 @@ def solve_contact(
     -------
     ImpactResult
     """
-    # Plain floats inside their ranges (the usual call) pass at once; anything else goes
-    # through the checks, which convert it or name the field, its value and the range.
-    if not (
-        type(mass) is float
-        and type(stiffness) is float
-        and type(admittance) is float
-        and type(speed) is float
-        and type(gravity) is float
-        and type(exponent) is float
-        and type(dissipation) is float
-        and type(viscous_time) is float
-        and type(plate_velocity) is float
-        and type(rtol) is float
+    # Plain floats inside their ranges (the usual call) skip the checks, which convert
+    # anything else or name the field, its value and the range.
+    values = dict(
+        mass=mass, stiffness=stiffness, exponent=exponent, dissipation=dissipation,
+        gravity=gravity, rtol=rtol, n_points=n_points, method=method, viscous_time=viscous_time,
+    )  # fmt: skip
+    if (
+        all(type(values[k]) is float for k in _FLOAT_FIELDS)
         and type(n_points) is int
+        and type(admittance) is float
         and 0.0 < mass < _INF
         and 0.0 < stiffness < _INF
         and 0.0 <= admittance < _INF
-        and 0.0 < speed < _INF
         and 0.0 <= gravity < _INF
         and 1.0 < exponent <= 4.0
         and 0.0 <= dissipation < _INF
         and 0.0 <= viscous_time < _INF
         and (viscous_time == 0.0 or exponent == 1.5)
-        and -_INF < plate_velocity < _INF
         and 1e-12 <= rtol <= 0.1
         and n_points >= MIN_POINTS
         and type(method) is str
         and method in _METHODS
     ):
-        mass = checks.positive("mass", mass, "kg")
-        stiffness = checks.positive("stiffness", stiffness, "N/m^n")
+        solver = ContactSolver._unchecked(**values)
+    else:
+        solver = ContactSolver(**values)
         admittance = checks.nonnegative("admittance", admittance, "m/(N s)")
+    speed, plate_velocity = _approach(speed, plate_velocity, "plate_velocity")
+    return solver._solve_beta(admittance, speed, plate_velocity)
+
+
+_FLOAT_FIELDS = ("mass", "stiffness", "exponent", "dissipation", "gravity", "rtol", "viscous_time")
+
+
+def _approach(speed, v_free, field: str) -> tuple[float, float]:
+    """``speed`` (m/s, > 0) and the surface's velocity ``v_free`` (m/s, named ``field``) as
+    floats whose sum, the approach speed, is > 0; else ``ParameterError``."""
+    if not (type(speed) is float and 0.0 < speed < _INF):
         speed = checks.positive("speed", speed, "m/s")
-        gravity = checks.nonnegative("gravity", gravity, "m/s^2")
-        exponent = checks.in_range("exponent", exponent, 1.0, 4.0, "dimensionless", hi_open=False)
-        dissipation = checks.nonnegative("dissipation", dissipation, "s/m")
-        viscous_time = _check_viscous_time(viscous_time, exponent)
-        plate_velocity = checks.real("plate_velocity", plate_velocity, "m/s")
-        rtol = checks.in_range(
-            "rtol", rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
-        )
-        n_points = _check_points(n_points)
-        checks.choice("method", method, _METHODS)
-    if not speed + plate_velocity > 0.0:
+    if not (type(v_free) is float and -_INF < v_free < _INF):
+        v_free = checks.real(field, v_free, "m/s")
+    if not speed + v_free > 0.0:
         raise ParameterError(
-            f"speed={speed!r} with plate_velocity={plate_velocity!r}: the approach speed "
-            f"speed + plate_velocity must be > 0 (m/s) for the ball to hit the plate"
+            f"speed={speed!r} with {field}={v_free!r}: the approach speed speed + {field} "
+            f"must be > 0 (m/s) for the ball to hit the plate"
         )
-    return _solve(
-        mass,
-        stiffness,
-        admittance,
-        speed,
-        gravity,
-        exponent,
-        dissipation,
-        viscous_time,
-        plate_velocity,
-        rtol,
-        n_points,
-        method,
+    return speed, v_free
+
+
+def check_law_fields(law) -> dict:
+    """The checked ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``dissipation`` (s/m),
+    ``gravity`` (m/s^2), ``viscous_time`` (s) and ``yield_penetration`` (m) of a power law's
+    solver (:class:`ContactSolver`, :class:`~synth.physics.modal_contact.ModalContact`)."""
+    n = checks.in_range("exponent", law.exponent, 1.0, 4.0, "dimensionless", hi_open=False)
+    return dict(
+        mass=checks.positive("mass", law.mass, "kg"),
+        stiffness=checks.positive("stiffness", law.stiffness, "N/m^n"),
+        exponent=n,
+        dissipation=checks.nonnegative("dissipation", law.dissipation, "s/m"),
+        gravity=checks.nonnegative("gravity", law.gravity, "m/s^2"),
+        viscous_time=_check_viscous_time(law.viscous_time, n),
+        yield_penetration=check_yield_penetration(law.yield_penetration, n),
     )
 
 
-def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_time") -> float:
+def _check_viscous_time(viscous_time, exponent: float) -> float:
     """``viscous_time`` (s) as a float >= 0 that applies to ``exponent``, or
     ``ParameterError``: the viscoelastic loss is that of the Hertz law (n = 1.5)."""
-    A = checks.nonnegative(field, viscous_time, "s")
+    A = checks.nonnegative("viscous_time", viscous_time, "s")
     if A > 0.0 and exponent != 1.5:
         raise ParameterError(
-            f"{field}={viscous_time!r} with exponent={exponent!r}: the viscoelastic loss "
+            f"viscous_time={viscous_time!r} with exponent={exponent!r}: the viscoelastic loss "
             f"applies to the Hertz exponent 1.5 only"
         )
     return A
@@ -199,9 +193,8 @@ def _check_viscous_time(viscous_time, exponent: float, field: str = "viscous_tim
 
 def _kernel_yield(delta_y: float, m, K, g, beta, v0: float) -> float | None:
     """The yield penetration ``delta_y`` (m) for the kernels, or None where no impact
-    approached at ``v0`` (m/s) or slower can reach it
-    (:func:`~synth.physics.contact_kernels.yield_reachable`): numba then runs the kernels
-    compiled without the yield, the elastic law's own code."""
+    approached at ``v0`` (m/s) or slower can reach it (``contact_kernels.yield_reachable``):
+    numba then runs the kernels compiled without the yield."""
     if delta_y == _INF or not _k.yield_reachable(delta_y, K, m, g, beta, v0):
         return None
     return delta_y
@@ -221,49 +214,15 @@ def _check_points(n_points) -> int:
     return int(n_points)
 
 
-def _solve(m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, method, shell=None, delta_y=_INF):
-    """``solve_contact`` on checked values (floats; ``n_points`` an int, ``method`` a name);
-    with a :class:`~synth.physics.contact_law.ShellLaw` ``shell``, its thin-shell contact
-    (``K, n, mu, A`` and ``method`` are then its own and unused); ``delta_y``: the yield
-    penetration, m (:attr:`~synth.physics.contact_law.ContactLaw.yield_penetration`)."""
-    delta_y = _kernel_yield(delta_y, m, K, g, beta, v_in + v_free)
-    if shell is not None:
-        return solve_shell(m, shell, beta, v_in, g, v_free, tol * TOLERANCE_SAFETY, n_points)
-    r, hist = _k.impact(
-        m,
-        K,
-        beta,
-        v_in,
-        g,
-        n,
-        mu,
-        A,
-        delta_y,
-        v_free,
-        tol * TOLERANCE_SAFETY,
-        _METHODS[method],
-    )
-    return _result(r.tolist(), hist, n, n_points)
-
-
 def _result(r: list, hist, n: float, n_points: int) -> ImpactResult:
-    """The :class:`ImpactResult` of a power law's contact kernel's result ``r`` (a list of
-    Python floats, read once each; fields ``R_*``) and dense output ``hist``."""
-    stiff = bool(r[_k.R_STIFF])
+    """The :class:`ImpactResult` of a power law's kernel result ``r`` (a list of floats,
+    fields ``R_*``) and dense output ``hist``."""
+    stiff = bool(r[_o.R_STIFF])
     dense = DenseOutput(
-        hist,
-        stiff,
-        r[_k.R_INELASTICITY],
-        r[_k.R_G],
-        n,
-        r[_k.R_C],
-        r[_k.R_B],
-        r[_k.R_S_CONTACT],
-        r[_k.R_THETA],
-        r[_k.R_F_SCALE],
-        n_points,
-        None if r[_k.R_XY] == _INF else r[_k.R_XY],
-    )
+        hist, stiff, r[_o.R_INELASTICITY], r[_o.R_G], n, r[_o.R_C], r[_o.R_B],
+        r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE], n_points,
+        None if r[_o.R_XY] == _INF else r[_o.R_XY],
+    )  # fmt: skip
     return result_from_row(ImpactResult, r, "Radau" if stiff else "DOP853", dense)
 
 
@@ -301,14 +260,9 @@ def solve_impact(
     gravity : float >= 0
         m/s^2.
     contact : str or None
-        Contact law: "hertz", "elastic-foundation", "hunt-crossley", "viscoelastic",
-        "power-law" or "shell"; None: the ball's own, "shell" for a
-        :class:`~synth.physics.scene.HollowBall`, else "hertz". Its parameters:
-        ``dissipation``, ``viscous_time``, ``exponent``, ``stiffness``, ``layer_depth`` (see
-        :func:`contact_parameters`).
-    surface : {"ideal", "fitted", "auto"}
-        The plate's side of the contact (see :func:`contact_parameters`; "auto": the fitted
-        surface where the material has one, the measured model).
+        Contact law (None: the ball's own), its parameters ``dissipation``, ``viscous_time``,
+        ``exponent``, ``stiffness``, ``layer_depth`` and the plate's ``surface``: see
+        :func:`~synth.physics.contact_law.contact_parameters`.
     rtol : float
         Relative accuracy of restitution and contact time.
     plate_velocity : float
@@ -320,147 +274,17 @@ def solve_impact(
     -------
     ImpactResult
     """
-    if not isinstance(ball, Ball):
-        raise ParameterError(f"ball={ball!r} must be a Ball")
-    if not isinstance(plate, Plate):
-        raise ParameterError(f"plate={plate!r} must be a Plate")
-    law = contact_parameters(
-        ball,
-        plate,
-        contact,
-        dissipation=dissipation,
-        viscous_time=viscous_time,
-        exponent=exponent,
-        stiffness=stiffness,
-        layer_depth=layer_depth,
-        surface=surface,
-    )
-    K, n, mu, A = law.stiffness, law.exponent, law.dissipation, law.viscous_time
-    beta = 1.0 / impedance.infinite_plate_impedance(plate)
-    if law.yield_penetration != _INF:
-        solver = ContactSolver.for_pair(
-            ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
-            surface=surface,
-        )  # fmt: skip
-        return solver.solve(speed, position=position, free_velocity=plate_velocity)
-    if law.shell is not None:
-        solver = ContactSolver(
-            ball.mass, K, n, 0.0, gravity, rtol, n_points, plate, "auto", A, shell=law.shell
-        )
-        return solver.solve(speed, position=position, free_velocity=plate_velocity)
-    kwargs = dict(
-        mass=ball.mass,
-        stiffness=K,
-        speed=speed,
-        gravity=gravity,
-        exponent=n,
-        dissipation=mu,
-        viscous_time=A,
-        plate_velocity=plate_velocity,
-        rtol=rtol,
-        n_points=n_points,
-    )
-    result = solve_contact(admittance=beta, **kwargs)
-    if position is None:
-        return result
-    x, y = plate.check_position(position, "position")
-    return _solve_at(
-        plate,
-        x,
-        y,
-        ball.mass,
-        K,
-        float(speed),
-        float(gravity),
-        n,
-        mu,
-        A,
-        float(plate_velocity),
-        float(rtol),
-        int(n_points),
-        first=result,
-    )
+    solver = ContactSolver.for_pair(
+        ball, plate, gravity=gravity, law=contact, rtol=rtol, n_points=n_points,
+        dissipation=dissipation, viscous_time=viscous_time, exponent=exponent,
+        stiffness=stiffness, layer_depth=layer_depth, surface=surface,
+    )  # fmt: skip
+    speed, plate_velocity = _approach(speed, plate_velocity, "plate_velocity")
+    return solver.solve(speed, position=position, free_velocity=plate_velocity)
 
 
 #: Most contact solutions spent on the admittance near an edge (fixed point and bisection).
 EDGE_ITERATIONS = 80
-
-
-def _solve_at(
-    plate, x, y, m, K, v_in, g, n, mu, A, v_free, tol, n_points, first=None, beta_inf=None,
-    shell=None, delta_y=_INF,
-):  # fmt: skip
-    """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
-    :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
-    (``A`` the edge blend, ``tau`` the contact time), at once far from the edges, else by
-    fixed-point iteration kept inside a bracket and replaced by bisection when it leaves it or
-    stalls, until ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is reported."""
-    if beta_inf is None:
-        beta_inf = 1.0 / impedance.infinite_plate_impedance(plate)
-    result = (
-        first
-        if first is not None
-        else _solve(
-            m, K, beta_inf, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell, delta_y
-        )
-    )
-    if plate.boundary != "free" or not result.success:
-        return result
-    if impedance.critical_distance(plate, result.contact_time) <= min(
-        x, plate.length - x, y, plate.width - y
-    ):
-        return result
-    lo = beta_inf
-    hi = beta_inf / impedance.CORNER_RATIO
-    settled_lo = settled_hi = False
-    beta = beta_inf
-    target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
-    best = (abs(target - beta), result, beta)
-    for it in range(EDGE_ITERATIONS):
-        resid = target - beta
-        if abs(resid) <= 0.1 * tol * beta:
-            return result
-        if resid > 0.0:
-            lo, settled_lo = beta, result.settled
-        else:
-            hi, settled_hi = beta, result.settled
-        if hi - lo <= 0.1 * tol * hi:
-            err, res_b, beta_b = best
-            if settled_lo and settled_hi:
-                # e = 0 on both sides: only the landing transient depends on beta there
-                why = (
-                    "the ball settles on both sides, and the contact time of a settled "
-                    "contact (when settling was proven) does not fix the distance at "
-                    "which the edge is felt"
-                )
-            else:
-                why = "the contact switches between settling and separating there"
-            return with_message(
-                res_b,
-                (
-                    f"{res_b.message} The edge admittance has no consistent value: "
-                    f"A(tau(beta)) jumps across beta = {beta_b:.6g} m/(N s) ({why}); the "
-                    f"solution there is reported (|A - beta| = {err:.3g} m/(N s))."
-                ),
-            )
-        # fixed-point step while it stays inside the bracket and contracts; else bisect
-        beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
-        result = _solve(
-            m, K, beta, v_in, g, n, mu, A, v_free, tol, n_points, "auto", shell, delta_y
-        )
-        if not result.success:
-            return result
-        target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
-        if abs(target - beta) < best[0]:
-            best = (abs(target - beta), result, beta)
-    err, res_b, beta_b = best
-    return with_message(
-        res_b,
-        (
-            f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
-            f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."
-        ),
-    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -484,33 +308,12 @@ class ContactSolver:
     """Impacts of one ball on one plate under one contact law, at any speed: built once (the
     law's parameters, the plate's impedance and every setting checked and derived here), then
     asked for impacts by :meth:`solve`; the bounce scheduler and the stimuli solve through it.
-
-    Attributes
-    ----------
-    mass : float
-        Ball mass ``m``, kg.
-    stiffness, exponent : float
-        ``K`` (N/m^n) and ``n`` of ``F = K delta^n``.
-    dissipation : float
-        Hunt-Crossley damping ``mu``, s/m (0: elastic contact).
-    viscous_time : float
-        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none; n = 1.5 only).
-    gravity : float
-        m/s^2.
-    rtol : float
-        Relative accuracy of restitution and contact time.
-    n_points : int
-        Samples of each force pulse.
-    plate : Plate or None
-        The plate (its admittance, also near edges); None for lumped parameters.
-    method : {"auto", "DOP853", "Radau"}
-        Integrator.
-    shell : ShellLaw or None
-        A hollow ball's thin-shell law (:func:`synth.physics.contact_law.shell_law`), which
-        then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1).
-    yield_penetration : float
-        The penetration (m, > 0; inf: none) past which the Hertz contact yields
-        (:attr:`synth.physics.contact_law.ContactLaw.yield_penetration`; exponent 1.5)."""
+    ``mass`` (kg), ``stiffness`` (N/m^n), ``exponent``, ``dissipation`` (s/m),
+    ``viscous_time`` (s), ``gravity`` (m/s^2), ``rtol``, ``n_points`` and ``method`` as in
+    :func:`solve_contact`; ``plate``: its admittance, also near edges (None: lumped
+    parameters); ``shell``: a hollow ball's :class:`~synth.physics.contact_law.ShellLaw`,
+    which then sets the contact (``stiffness`` its ``k0``, N/m, ``exponent`` 1);
+    ``yield_penetration`` (m; inf: none): :attr:`~.contact_law.ContactLaw.yield_penetration`."""
 
     mass: float
     stiffness: float
@@ -526,27 +329,32 @@ class ContactSolver:
     yield_penetration: float = _INF
 
     def __post_init__(self):
-        if self.shell is not None:
-            self._check_shell()
-            return
         checked = dict(
-            mass=checks.positive("mass", self.mass, "kg"),
-            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
-            exponent=checks.in_range(
-                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
-            ),
-            dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
-            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
             rtol=checks.in_range(
                 "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
             ),
             n_points=_check_points(self.n_points),
-            method=checks.choice("method", self.method, _METHODS),
         )
-        checked["viscous_time"] = _check_viscous_time(self.viscous_time, checked["exponent"])
-        checked["yield_penetration"] = check_yield_penetration(
-            self.yield_penetration, checked["exponent"]
-        )
+        law = self.shell
+        if law is None:
+            checked.update(check_law_fields(self))
+            checked["method"] = checks.choice("method", self.method, _METHODS)
+        elif not isinstance(law, ShellLaw):
+            raise ParameterError(f"shell={law!r} must be a ShellLaw or None")
+        elif (self.stiffness, self.exponent, self.dissipation, self.viscous_time) != (
+            law.stiffness, 1.0, 0.0, law.viscous_time,
+        ):  # fmt: skip
+            raise ParameterError(
+                f"stiffness={self.stiffness!r}, exponent={self.exponent!r}, dissipation="
+                f"{self.dissipation!r}, viscous_time={self.viscous_time!r}: with a shell law they "
+                f"are its own ({law.stiffness!r}, 1.0, 0.0, {law.viscous_time!r})"
+            )
+        else:
+            checked.update(
+                mass=checks.positive("mass", self.mass, "kg"),
+                gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
+                method=checks.choice("method", self.method, ("auto",)),
+            )
         if self.plate is not None and not isinstance(self.plate, Plate):
             raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
         for key, value in checked.items():
@@ -556,36 +364,15 @@ class ContactSolver:
         )
         object.__setattr__(self, "_beta_inf", beta_inf)
 
-    def _check_shell(self) -> None:
-        """``__post_init__`` of a thin-shell solver: its law's constants are the law's."""
-        law = self.shell
-        if not isinstance(law, ShellLaw):
-            raise ParameterError(f"shell={law!r} must be a ShellLaw or None")
-        if (self.stiffness, self.exponent, self.dissipation, self.viscous_time) != (
-            law.stiffness, 1.0, 0.0, law.viscous_time,
-        ):  # fmt: skip
-            raise ParameterError(
-                f"stiffness={self.stiffness!r}, exponent={self.exponent!r}, dissipation="
-                f"{self.dissipation!r}, viscous_time={self.viscous_time!r}: with a shell law they "
-                f"are its own ({law.stiffness!r}, 1.0, 0.0, {law.viscous_time!r})"
-            )
-        checked = dict(
-            mass=checks.positive("mass", self.mass, "kg"),
-            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
-            rtol=checks.in_range(
-                "rtol", self.rtol, 1e-12, 0.1, "dimensionless", lo_open=False, hi_open=False
-            ),
-            n_points=_check_points(self.n_points),
-            method=checks.choice("method", self.method, ("auto",)),
+    @classmethod
+    def _unchecked(cls, **fields) -> ContactSolver:
+        """A solver without a plate of values already checked (:func:`solve_contact`'s):
+        building one by ``__init__`` would take a good part of the time an impact takes."""
+        solver = object.__new__(cls)
+        solver.__dict__.update(
+            plate=None, shell=None, yield_penetration=_INF, _beta_inf=None, **fields
         )
-        if self.plate is not None and not isinstance(self.plate, Plate):
-            raise ParameterError(f"plate={self.plate!r} must be a Plate or None")
-        for key, value in checked.items():
-            object.__setattr__(self, key, value)
-        beta_inf = (
-            None if self.plate is None else 1.0 / impedance.infinite_plate_impedance(self.plate)
-        )
-        object.__setattr__(self, "_beta_inf", beta_inf)
+        return solver
 
     @classmethod
     def for_pair(
@@ -609,19 +396,9 @@ class ContactSolver:
             raise ParameterError(f"plate={plate!r} must be a Plate")
         c = contact_parameters(ball, plate, law, **contact_options)
         return cls(
-            ball.mass,
-            c.stiffness,
-            c.exponent,
-            c.dissipation,
-            gravity,
-            rtol,
-            n_points,
-            plate,
-            method,
-            c.viscous_time,
-            c.shell,
-            c.yield_penetration,
-        )
+            ball.mass, c.stiffness, c.exponent, c.dissipation, gravity, rtol, n_points, plate,
+            method, c.viscous_time, c.shell, c.yield_penetration,
+        )  # fmt: skip
 
     def solve_drop(
         self, speed: float, start: float, *, position, energy_floor: float, max_duration: float,
@@ -687,76 +464,95 @@ class ContactSolver:
         given; else, with ``position`` (m from a corner), the one near free edges
         (:func:`synth.physics.impedance.point_admittance`); else the infinite plate's.
         ``free_velocity``: the surface's velocity before the impact, m/s, positive upward."""
-        v = (
-            speed
-            if type(speed) is float and 0.0 < speed < _INF
-            else checks.positive("speed", speed, "m/s")
-        )
-        v_free = (
-            free_velocity
-            if type(free_velocity) is float and -_INF < free_velocity < _INF
-            else checks.real("free_velocity", free_velocity, "m/s")
-        )
-        if not v + v_free > 0.0:
-            raise ParameterError(
-                f"speed={speed!r} with free_velocity={free_velocity!r}: the approach speed "
-                f"speed + free_velocity must be > 0 (m/s) for the ball to hit the plate"
-            )
+        v, v_free = _approach(speed, free_velocity, "free_velocity")
         if admittance is not None:
             if position is not None:
                 raise ParameterError("give admittance or position, not both")
             beta = checks.nonnegative("admittance", admittance, "m/(N s)")
-            return _solve(
-                self.mass,
-                self.stiffness,
-                beta,
-                v,
-                self.gravity,
-                self.exponent,
-                self.dissipation,
-                self.viscous_time,
-                v_free,
-                self.rtol,
-                self.n_points,
-                self.method,
-                self.shell,
-                self.yield_penetration,
-            )
+            return self._solve_beta(beta, v, v_free)
         if self.plate is None:
             raise ParameterError("a ContactSolver without a plate needs admittance (m/(N s))")
         if position is None:
-            return _solve(
-                self.mass,
-                self.stiffness,
-                self._beta_inf,
-                v,
-                self.gravity,
-                self.exponent,
-                self.dissipation,
-                self.viscous_time,
-                v_free,
-                self.rtol,
-                self.n_points,
-                self.method,
-                self.shell,
-                self.yield_penetration,
-            )
+            return self._solve_beta(self._beta_inf, v, v_free)
         x, y = self.plate.check_position(position, "position")
-        return _solve_at(
-            self.plate,
-            x,
-            y,
-            self.mass,
-            self.stiffness,
-            v,
-            self.gravity,
-            self.exponent,
-            self.dissipation,
-            self.viscous_time,
-            v_free,
-            self.rtol,
-            self.n_points,
-            beta_inf=self._beta_inf,
-            shell=self.shell,
-            delta_y=self.yield_penetration,
+        return self._solve_at(x, y, v, v_free)
+
+    def _solve_beta(self, beta: float, v_in: float, v_free: float, method=None):
+        """:meth:`solve` on checked floats: the admittance ``beta`` (m/(N s)), the speed
+        ``v_in`` and the surface's velocity ``v_free`` (m/s); ``method`` (None: the solver's)
+        is unused by a shell law, whose integrator is its own."""
+        m, K, g = self.mass, self.stiffness, self.gravity
+        tol = self.rtol * TOLERANCE_SAFETY
+        delta_y = _kernel_yield(self.yield_penetration, m, K, g, beta, v_in + v_free)
+        if self.shell is not None:
+            return solve_shell(m, self.shell, beta, v_in, g, v_free, tol, self.n_points)
+        r, hist = _k.impact(
+            m, K, beta, v_in, g, self.exponent, self.dissipation, self.viscous_time, delta_y,
+            v_free, tol, _METHODS[method or self.method],
+        )  # fmt: skip
+        return _result(r.tolist(), hist, self.exponent, self.n_points)
+
+    def _solve_at(self, x: float, y: float, v_in: float, v_free: float) -> ImpactResult:
+        """The impact at ``(x, y)`` (m, checked) with the position-dependent admittance of
+        :func:`synth.physics.impedance.point_admittance`: the root of ``A(tau(beta)) = beta``
+        (``A`` the edge blend, ``tau`` the contact time), at once far from the edges, else by
+        fixed-point iteration kept inside a bracket and replaced by bisection when it leaves
+        it or stalls, until ``|r| <= rtol beta / 10``; a jump of ``A(tau(beta))`` is
+        reported."""
+        plate, beta_inf, tol = self.plate, self._beta_inf, self.rtol
+        result = self._solve_beta(beta_inf, v_in, v_free, "auto")
+        if plate.boundary != "free" or not result.success:
+            return result
+        if impedance.critical_distance(plate, result.contact_time) <= min(
+            x, plate.length - x, y, plate.width - y
+        ):
+            return result
+        lo = beta_inf
+        hi = beta_inf / impedance.CORNER_RATIO
+        settled_lo = settled_hi = False
+        beta = beta_inf
+        target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
+        best = (abs(target - beta), result, beta)
+        for it in range(EDGE_ITERATIONS):
+            resid = target - beta
+            if abs(resid) <= 0.1 * tol * beta:
+                return result
+            if resid > 0.0:
+                lo, settled_lo = beta, result.settled
+            else:
+                hi, settled_hi = beta, result.settled
+            if hi - lo <= 0.1 * tol * hi:
+                err, res_b, beta_b = best
+                if settled_lo and settled_hi:
+                    # e = 0 on both sides: only the landing transient depends on beta there
+                    why = (
+                        "the ball settles on both sides, and the contact time of a settled "
+                        "contact (when settling was proven) does not fix the distance at "
+                        "which the edge is felt"
+                    )
+                else:
+                    why = "the contact switches between settling and separating there"
+                return with_message(
+                    res_b,
+                    (
+                        f"{res_b.message} The edge admittance has no consistent value: "
+                        f"A(tau(beta)) jumps across beta = {beta_b:.6g} m/(N s) ({why}); the "
+                        f"solution there is reported (|A - beta| = {err:.3g} m/(N s))."
+                    ),
+                )
+            # fixed-point step while it stays inside the bracket and contracts; else bisect
+            beta = target if (lo < target < hi and it < 12) else 0.5 * (lo + hi)
+            result = self._solve_beta(beta, v_in, v_free, "auto")
+            if not result.success:
+                return result
+            target = impedance.admittance_at(plate, x, y, result.contact_time, beta_inf)
+            if abs(target - beta) < best[0]:
+                best = (abs(target - beta), result, beta)
+        err, res_b, beta_b = best
+        return with_message(
+            res_b,
+            (
+                f"{res_b.message} The edge admittance did not converge in {EDGE_ITERATIONS} "
+                f"contact solutions (|A - beta| = {err:.3g} m/(N s) at beta = {beta_b:.6g})."
+            ),
         )

@@ -34,41 +34,26 @@ def hertz_stiffness(ball: Ball, plate: Plate, transverse_ratio: float = 1.0) -> 
 
 
 def foundation_stiffness(ball: Ball, plate: Plate, depth: float | None = None) -> float:
-    """Elastic-foundation constant ``K = pi E'_plate R / h`` (thesis 4.3.2), N/m^2.
-
-    ``depth`` is the Winkler layer's depth ``h`` in metres (default: the plate thickness).
-    """
+    """Elastic-foundation constant ``K = pi E'_plate R / h`` (thesis 4.3.2), N/m^2; ``depth``
+    the Winkler layer's ``h``, m (default: the plate thickness)."""
     h = plate.thickness if depth is None else checks.positive("layer_depth", depth, "metres")
     return math.pi * plate.material.effective_modulus * ball.radius / h
 
 
 def settled_penetration(ball: Ball, plate: Plate, gravity: float = GRAVITY) -> float:
-    """Static penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis 2.48), m.
-
-    ``gravity`` in m/s^2; Hertz contact.
-    """
+    """Static Hertz penetration of a ball resting on the plate, ``(m g / K)^(2/3)`` (thesis
+    2.48), m; ``gravity`` in m/s^2."""
     g = checks.positive("gravity", gravity, "m/s^2")
     return (ball.mass * g / hertz_stiffness(ball, plate)) ** (2.0 / 3.0)
 
 
 @dataclass(frozen=True)
 class ContactLaw:
-    """The constants of a contact law (docs/physics.md, "Hertz contact" and "Contact losses").
-
-    Attributes
-    ----------
-    stiffness : float
-        ``K`` of ``F = K delta^n``, N/m^n.
-    exponent : float
-        ``n``, dimensionless.
-    dissipation : float
-        Hunt-Crossley ``mu``, s/m (0: none).
-    viscous_time : float
-        The viscoelastic Hertz contact's dissipative time ``A``, s (0: none).
-    yield_penetration : float
-        The penetration ``delta_y`` (m) past which the Hertz contact flows plastically
-        (:func:`yield_penetration`; inf: elastic at every speed).
-    """
+    """The constants of a contact law (docs/physics.md, "Hertz contact" and "Contact losses"):
+    ``stiffness`` ``K`` (N/m^n) and ``exponent`` ``n`` of ``F = K delta^n``, Hunt-Crossley's
+    ``dissipation`` ``mu`` (s/m), the viscoelastic ``viscous_time`` ``A`` (s), a hollow
+    ball's ``shell`` law, and the ``yield_penetration`` ``delta_y`` (m; inf: none) past which
+    the Hertz contact flows plastically (:func:`yield_penetration`)."""
 
     stiffness: float
     exponent: float
@@ -89,21 +74,10 @@ POGORELOV_CONSTANT = 3.56
 class ShellLaw:
     """The thin-shell contact of a :class:`~synth.physics.scene.HollowBall` on a flat
     (docs/physics.md, "Hollow balls"): ``F = min(k_R delta, C_P delta^(1/2)) + k_g delta``
-    with the shell's Kelvin-Voigt loss ``A k_s d(delta)/dt``.
-
-    Attributes
-    ----------
-    reissner_stiffness : float
-        ``k_R = 4 E h^2 / (R sqrt(3 (1 - nu^2)))``, N/m: the shell's local stiffness at
-        small deflection (Reissner's point load on a spherical shell).
-    pogorelov_constant : float
-        ``C_P = 3.56 E h^(5/2) / (R (1 - nu^2)^(3/4))``, N/m^(1/2) (Pogorelov).
-    gas_stiffness : float
-        ``k_g = 2 pi R p``, N/m: the gauge pressure ``p`` on the flat contact area
-        ``pi (2 R delta)``.
-    viscous_time : float
-        The shell's dissipative time ``A = eta / omega_c``, s (0: none).
-    """
+    with the shell's Kelvin-Voigt loss ``A k_s d(delta)/dt``: ``reissner_stiffness``
+    ``k_R`` (N/m, :func:`reissner_stiffness`), ``pogorelov_constant`` ``C_P`` (N/m^(1/2),
+    :func:`pogorelov_constant`), ``gas_stiffness`` ``k_g = 2 pi R p`` (N/m, the gauge
+    pressure on the flat contact area ``pi (2 R delta)``) and ``viscous_time`` ``A`` (s)."""
 
     reissner_stiffness: float
     pogorelov_constant: float
@@ -143,13 +117,11 @@ def pogorelov_constant(ball: HollowBall) -> float:
 
 
 def shell_law(ball: HollowBall) -> ShellLaw:
-    """The :class:`ShellLaw` of ``ball`` on a rigid or impedance flat: the plate's own
-    indentation is left out (the flattened shell spreads its force over a disc of radius
-    ``sqrt(2 R delta)``, where the plate is orders of magnitude stiffer than the shell),
-    and so is the gas' compression (its volume change ~ ``pi R delta^2`` is second order).
-    The shell's loss: a Kelvin-Voigt shell whose loss factor at the contact's angular
-    frequency ``omega_c = sqrt(k0 / m)`` (the small-deflection contact's, ``pi / tau``) is
-    the material's ``eta`` (:func:`material_loss_factor`): ``A = eta / omega_c``."""
+    """The :class:`ShellLaw` of ``ball`` on a flat. Left out: the plate's indentation (the
+    flattened shell spreads its force over a disc of radius ``sqrt(2 R delta)``, where the
+    plate is far stiffer) and the gas' compression (volume change ~ ``pi R delta^2``, second
+    order). Loss: a Kelvin-Voigt shell of the material's ``eta`` at ``omega_c = sqrt(k0 /
+    m)``, ``A = eta / omega_c``."""
     kR = reissner_stiffness(ball)
     cP = pogorelov_constant(ball)
     kg = 2.0 * math.pi * ball.shell_radius * ball.pressure
@@ -165,12 +137,10 @@ def own_law(ball: Ball) -> str:
 
 
 def resolved_surface(plate: Plate, law: str, surface: str) -> str:
-    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``:
-    "auto" is, for the Hertz law, "fitted" on a material with a fitted surface
-    (:func:`synth.physics.materials.contact_surface`, fitted to measurements) and
-    "material" elsewhere (each body's published loss factor,
-    :func:`material_viscous_time`); for the other laws (which carry their own loss or none)
-    "ideal". "ideal", "material" and "fitted" name themselves."""
+    """The plate's side of the contact that ``surface`` names for ``law`` on ``plate``: "auto"
+    is, for the Hertz law, "fitted" on a material with a fitted surface
+    (:func:`synth.physics.materials.contact_surface`) else "material" (the published loss
+    factors, :func:`material_viscous_time`); "ideal" for the other laws."""
     if surface != "auto":
         return surface
     if law != "hertz":
@@ -188,10 +158,9 @@ HERTZ_TIME_FACTOR = 2.9433
 
 
 def material_loss_factor(material, omega: float) -> float:
-    """The loss factor ``eta`` (dimensionless) of ``material``'s damping law at the angular
-    frequency ``omega`` (rad/s): a :class:`~synth.physics.materials.LossFactor`'s ``eta``;
-    a :class:`~synth.physics.materials.Rayleigh` law's ``2 sigma / omega = alpha / omega +
-    beta omega``; 0 for a material without a damping law (an elastic ball)."""
+    """The loss factor ``eta`` (dimensionless) of ``material``'s damping law at ``omega``
+    (rad/s): a ``LossFactor``'s ``eta``, a ``Rayleigh`` law's ``alpha / omega + beta omega``,
+    0 without a damping law."""
     d = material.damping
     if d is None:
         return 0.0
@@ -212,22 +181,11 @@ def material_viscous_time(
     ball: Ball, plate: Plate, transverse_ratio: float = 1.0, plate_share: float | None = None
 ) -> float:
     """The dissipative time ``A`` (s) of the viscoelastic Hertz contact of ``ball`` on
-    ``plate`` from the two materials' loss factors (docs/physics.md, "Contact losses").
-
-    Each body is taken as a Kelvin-Voigt solid, modulus ``E'_i (1 + A_i s)``, whose loss
-    factor at the contact's angular frequency ``omega_c = pi / tau_c`` is its table loss
-    factor ``eta_i`` (:func:`material_loss_factor`): ``A_i = eta_i / omega_c``, with
-    ``tau_c`` the elastic Hertz contact time on a rigid flat at
-    :data:`LOSS_REFERENCE_SPEED` (:func:`hertz_contact_time`; the half-sine pulse's
-    fundamental is ``pi / tau_c``). The two bodies' compliances add, ``1 / E*(s) = sum
-    1 / (E'_i (1 + A_i s))``, so to first order in ``A_i s`` the contact's
-    ``A = E* sum_i A_i / E'_i``: each body's loss weighted by its share of the
-    indentation.
-
-    ``transverse_ratio`` scales the plate's modulus (its fitted surface's
-    ``E_t / E``); ``plate_share`` replaces the plate's term ``E* A_p / E'_p`` by a given
-    dissipative time (s), the fitted surface's own (None: the plate material's loss factor).
-    """
+    ``plate`` from the materials' loss factors (docs/physics.md, "Contact losses"): each body
+    a Kelvin-Voigt solid with ``A_i = eta_i / omega_c``, ``omega_c = pi / tau_c`` of the
+    elastic contact at :data:`LOSS_REFERENCE_SPEED`; the compliances add, so to first order
+    ``A = E* sum_i A_i / E'_i``. ``transverse_ratio`` scales the plate's modulus;
+    ``plate_share`` (s) replaces the plate's term ``E* A_p / E'_p`` (None: its material's)."""
     K = hertz_stiffness(ball, plate, transverse_ratio)
     tau_c = hertz_contact_time(ball.mass, K, LOSS_REFERENCE_SPEED)
     omega_c = math.pi / tau_c
@@ -243,13 +201,9 @@ def material_viscous_time(
 
 
 def _contact_loss_factor(body, name: str, omega: float) -> float:
-    """:func:`material_loss_factor` of ``body``'s material at the contact's angular
-    frequency ``omega`` (rad/s), or ``ParameterError`` naming ``name.material.damping``
-    when it is not below 1: a solid's loss factor is below 1 (the bound of
-    :class:`~synth.physics.materials.LossFactor`), and the Kelvin-Voigt loss of
-    :func:`material_viscous_time` holds to first order in it. A Rayleigh law's ``alpha /
-    omega + beta omega`` can exceed it at the contact's frequency although the modes it
-    damps are in range."""
+    """:func:`material_loss_factor` of ``body`` at ``omega`` (rad/s), or ``ParameterError``
+    naming ``name.material.damping`` when not below 1 (a solid's bound; a Rayleigh law can
+    exceed it at the contact's frequency)."""
     eta = material_loss_factor(body.material, omega)
     if not eta < 1.0:
         raise ParameterError(
@@ -261,15 +215,10 @@ def _contact_loss_factor(body, name: str, omega: float) -> float:
 
 
 def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
-    """The dissipative time ``A`` (s) of ``ball`` on ``plate`` with its fitted
-    :class:`~synth.physics.materials.ContactSurface` (viscoelastic).
-
-    The surface's ``viscous_time`` is the whole contact's, fitted with a steel ball (the
-    table's ``steel``): the board's term of :func:`material_viscous_time` for that ball's
-    share of the indentation, ``E'_p / (E'_p + E'_steel)``, plus the steel's own term. For
-    another ball the board's term scales with its share ``E* / E'_p`` (``E'_p`` the
-    surface's through-thickness modulus), and the ball's own term replaces the steel's; a
-    steel ball gets the fitted value itself."""
+    """The dissipative time ``A`` (s) of ``ball`` on ``plate`` with its fitted viscoelastic
+    ``surface``, fitted with a steel ball: the board's term scales with the ball's share of
+    the indentation and the ball's own term replaces the steel's (a steel ball gets the
+    fitted value)."""
     steel = replace(ball, material=get_material("steel"), mass=ball.mass)
     plate_modulus = surface.transverse_ratio * plate.material.effective_modulus
     ball_modulus = ball.material.effective_modulus
@@ -281,9 +230,13 @@ def fitted_viscous_time(ball: Ball, plate: Plate, surface) -> float:
     return surface.viscous_time * (share / share_fit) + (own - steel_own)
 
 
-def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> None:
-    """Refuse a law other than Hertz, or any law argument in ``given``, beside a surface
-    that sets the whole contact law itself (``why``: what the surface is)."""
+def _check_surface_alone(surface: str, contact: str, given: dict) -> None:
+    """Refuse a law other than Hertz, or any law argument in ``given``, beside a measured
+    surface, which sets the whole contact law itself."""
+    why = {
+        "fitted": "the fit is of a Hertz contact with its own loss",
+        "material": "the materials' loss is a viscoelastic Hertz contact's",
+    }[surface]
     if contact != "hertz":
         raise ParameterError(
             f"surface={surface!r} applies to contact='hertz' only, not {contact!r} ({why})"
@@ -291,6 +244,22 @@ def _check_surface_alone(surface: str, contact: str, given: dict, why: str) -> N
     for key, value in given.items():
         if value is not None:
             raise ParameterError(f"{key}={value!r} does not apply to surface={surface!r}")
+
+
+def _measured_law(ball: Ball, plate: Plate, surface: str) -> ContactLaw:
+    """The Hertz law of a measured ``surface`` ("fitted" or "material") with its loss and
+    the materials' yield."""
+    if surface == "material":
+        K = hertz_stiffness(ball, plate)
+        mu, A = 0.0, material_viscous_time(ball, plate)
+    else:
+        fit = contact_surface(plate.material)
+        K = hertz_stiffness(ball, plate, fit.transverse_ratio)
+        if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
+            mu, A = fit.dissipation, 0.0
+        else:
+            mu, A = 0.0, fitted_viscous_time(ball, plate, fit)
+    return ContactLaw(K, 1.5, mu, A, yield_penetration=yield_penetration(ball, plate, K))
 
 
 def contact_parameters(
@@ -346,30 +315,9 @@ def contact_parameters(
         "stiffness": stiffness,
         "layer_depth": layer_depth,
     }
-    if surface == "fitted":
-        _check_surface_alone(
-            surface, contact, given, "the fit is of a Hertz contact with its own loss"
-        )
-        fit = contact_surface(plate.material)
-        if fit.viscous_time == 0.0:  # a Hunt-Crossley surface: its loss alone
-            K = hertz_stiffness(ball, plate, fit.transverse_ratio)
-            return ContactLaw(
-                K, 1.5, fit.dissipation, yield_penetration=yield_penetration(ball, plate, K)
-            )
-        A = fitted_viscous_time(ball, plate, fit)
-        K = hertz_stiffness(ball, plate, fit.transverse_ratio)
-        return ContactLaw(
-            K, 1.5, viscous_time=A, yield_penetration=yield_penetration(ball, plate, K)
-        )
-    if surface == "material":
-        _check_surface_alone(
-            surface, contact, given, "the materials' loss is a viscoelastic Hertz contact's"
-        )
-        K = hertz_stiffness(ball, plate)
-        return ContactLaw(
-            K, 1.5, viscous_time=material_viscous_time(ball, plate),
-            yield_penetration=yield_penetration(ball, plate, K),
-        )  # fmt: skip
+    if surface in ("fitted", "material"):
+        _check_surface_alone(surface, contact, given)
+        return _measured_law(ball, plate, surface)
     allowed = {
         "hertz": (),
         "hunt-crossley": ("dissipation",),
@@ -431,11 +379,8 @@ def _shell_parameters(ball, contact, surface, *given) -> ContactLaw:
 def contact_law(
     ball: Ball, plate: Plate, contact: str = "hertz", **options
 ) -> tuple[float, float, float]:
-    """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law: the
-    :func:`contact_parameters` of the laws those three constants describe (all but
-    "viscoelastic", whose viscous time has no place among them: ``ParameterError``; the
-    finite plate's contact, :mod:`synth.physics.modal_contact`, reads all of
-    :func:`contact_parameters`)."""
+    """``(K, n, mu)`` (N/m^n, dimensionless, s/m) of a named contact law
+    (:func:`contact_parameters`); ``ParameterError`` for a law with a viscous time."""
     law = contact_parameters(ball, plate, contact, **options)
     if law.viscous_time != 0.0:
         raise ParameterError(
@@ -453,11 +398,8 @@ TABOR_CONSTRAINT = 2.8
 
 def yield_pressure(ball: Ball, plate: Plate) -> float | None:
     """The limiting contact pressure ``p_y`` (Pa) of ``ball`` on ``plate``: the hardness
-    ``2.8 Y`` (:data:`TABOR_CONSTRAINT`) of the softer body (the smaller yield stress
-    ``Y`` of the two materials), the pressure a fully plastic contact holds; None when
-    neither material has a yield stress
-    (:attr:`~synth.physics.materials.Material.yield_stress`: brittle or without a
-    published value), the contact then elastic at every speed."""
+    ``2.8 Y`` (:data:`TABOR_CONSTRAINT`) of the smaller yield stress ``Y`` of the two
+    materials; None when neither has one (the contact elastic at every speed)."""
     stresses = [
         m.yield_stress for m in (ball.material, plate.material) if m.yield_stress is not None
     ]
@@ -470,8 +412,7 @@ def yield_speed(ball: Ball, plate: Plate) -> float | None:
     ``V_y = (pi / (2 E*))^2 (8 pi R^3 p_y^5 / (15 m))^(1/2)`` (C. Thornton, "Coefficient of
     restitution for collinear collisions of elastic-perfectly plastic spheres", J. Appl.
     Mech. 64 (1997) 383; for a solid sphere ``1.56 (p_y^5 / (E*^4 rho))^(1/2)``).
-    None without a yield stress (:func:`yield_pressure`); a hollow ball's shell law has
-    no such contact: ``ParameterError``."""
+    None without a yield stress; ``ParameterError`` for a hollow ball (its shell law)."""
     if isinstance(ball, HollowBall):
         raise ParameterError(
             f"ball={ball!r}: a HollowBall's contact is the thin-shell law, which has no "
@@ -510,11 +451,8 @@ def plastic_restitution(speed: float, v_yield: float | None) -> float:
 def yield_penetration(ball: Ball, plate: Plate, stiffness: float) -> float:
     """The penetration ``delta_y = R (pi p_y / (2 E*))^2`` (m) at which the peak pressure
     ``p_0 = 2 E* a / (pi R)`` of the Hertz contact of stiffness ``K = 4/3 E* R^(1/2)``
-    (``stiffness``, N/m^1.5, the law's own ``E*``) reaches :func:`yield_pressure`, ``a =
-    (R delta)^(1/2)`` (C. Thornton, J. Appl. Mech. 64 (1997) 383): the elastic impact on a
-    rigid flat reaches it at :func:`yield_speed`. Past it the contact kernels load and
-    unload by Thornton's elastic-perfectly plastic law
-    (``synth.physics.contact_kernels.equations.yield_law``). inf without a yield stress."""
+    (``stiffness``, N/m^1.5) reaches :func:`yield_pressure`, ``a = (R delta)^(1/2)`` (C.
+    Thornton, J. Appl. Mech. 64 (1997) 383); inf without a yield stress."""
     p_y = yield_pressure(ball, plate)
     if p_y is None:
         return math.inf
@@ -539,15 +477,10 @@ def check_yield_penetration(value, exponent: float) -> float:
 
 
 def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -> float | None:
-    """The yield speed ``V_y`` (m/s, :func:`yield_speed`) of the impacts of ``ball`` on
-    ``plate`` under ``law`` (None: the ball's own, :func:`own_law`) and ``surface``
-    (:data:`~synth.physics.scene.SURFACE_MODELS`): the measured surfaces ("material",
-    "fitted", "auto") of the Hertz law carry the materials' yield in their law
-    (:attr:`ContactLaw.yield_penetration`) as they carry their loss factors; the thesis'
-    lossless half-spaces ("ideal"), the other laws and a hollow ball's shell do not (None).
-    The speed is that of the law's own Hertz contact on a rigid flat, ``1/2 m V_y^2 = (2/5) K
-    delta_y^(5/2)``: :func:`yield_speed` on a surface of the plate's material, higher on a
-    fitted surface softer than it (a lower pressure at the same force)."""
+    """The yield speed ``V_y`` (m/s) of ``ball`` on ``plate`` under ``law`` (None: the ball's
+    own) and ``surface``: ``1/2 m V_y^2 = (2/5) K delta_y^(5/2)`` of the law's own Hertz
+    contact on a rigid flat. Only the measured surfaces ("material", "fitted", "auto") of the
+    Hertz law carry a yield; None for the others."""
     checks.choice("surface", surface, SURFACE_MODELS)
     if isinstance(ball, HollowBall) or surface == "ideal":
         return None
@@ -560,23 +493,11 @@ def model_yield_speed(ball: Ball, plate: Plate, law: str | None, surface: str) -
 
 
 def yield_rebound(ball: Ball, plate: Plate):
-    """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``)
-    that adds the plastic loss of the elastic-perfectly plastic contact to each solved
-    impact: ``e' = e(v) plastic_restitution(v, V_y)``, ``e(v)`` the contact solver's
-    restitution and ``V_y`` :func:`yield_speed` of the pair. The two losses are taken
-    as independent (their energy ratios multiply); the force pulse stays the solver's
-    elastic one. The measured contact models carry the yield in their law instead
-    (:attr:`ContactLaw.yield_penetration`); the rule gives a restitution factor to another
-    surface, e.g. the thesis' "ideal" one."""
-    return plastic_rebound(yield_speed(ball, plate))
-
-
-def plastic_rebound(v_yield: float | None):
-    """The rebound rule ``e' = e(v) plastic_restitution(v, v_yield)`` of a pair whose yield
-    speed is ``v_yield`` (m/s, None: elastic), ``e(v)`` the contact solver's restitution
-    (:func:`yield_rebound`)."""
-    if v_yield is not None:
-        checks.positive("v_yield", v_yield, "m/s")
+    """A rebound rule of :func:`synth.physics.bounces.simulate_bounces` (``rebound=``): ``e'
+    = e(v) plastic_restitution(v, V_y)``, the solver's restitution times Thornton's at the
+    pair's :func:`yield_speed` (the losses taken as independent; the pulse stays elastic),
+    for a surface whose law carries no yield, e.g. "ideal"."""
+    v_yield = yield_speed(ball, plate)
 
     def rebound(result, speed: float) -> float:
         return result.restitution * plastic_restitution(speed, v_yield)

@@ -1,12 +1,6 @@
-"""The outcome of one impact: :class:`ImpactResult` and the one builder that fills it.
-
-An impact's contact kernel (``synth/physics/contact_kernels/``: the power laws' and the
-thin shell's) returns an array of results (fields ``R_*`` of its ``outcome.py``) and a
-dense output; :func:`result_from_row` turns them into the result of the law's class
-(:class:`ImpactResult`, or :class:`~synth.physics.contact_shell.ShellImpactResult` for a
-hollow ball), whose pulse is sampled from the dense output on first access. Numerical
-trouble is reported in ``success``, ``status`` and ``message``.
-"""
+"""The outcome of one impact: :class:`ImpactResult`, built by :func:`result_from_row` from
+a contact kernel's result array (``contact_kernels/outcome.py``) and dense output, from
+which the pulse is sampled on first access."""
 
 from __future__ import annotations
 
@@ -18,12 +12,14 @@ import numpy as np
 
 from synth.errors import ParameterError
 from synth.physics import contact_kernels as _k
+from synth.physics.contact_kernels import equations as _eq
+from synth.physics.contact_kernels import outcome as _o
 
 _MESSAGES = {
-    _k.SEPARATED: "The ball separated from the plate.",
-    _k.SETTLED: "The ball settled: its energy fell below what a separation needs.",
-    _k.MAX_STEPS: "The step limit was reached before the contact ended.",
-    _k.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
+    _eq.SEPARATED: "The ball separated from the plate.",
+    _eq.SETTLED: "The ball settled: its energy fell below what a separation needs.",
+    _eq.MAX_STEPS: "The step limit was reached before the contact ended.",
+    _eq.STEP_TOO_SMALL: "The step size fell below the resolution of the time axis.",
 }
 _TINY_REBOUND = (
     "The ball separated with a rebound speed below the solver's resolution; "
@@ -46,12 +42,10 @@ def _energy_message(residual: float) -> str:
 
 
 class DenseOutput(NamedTuple):
-    """The solver's dense output of one contact, for sampling the pulse afterwards:
-    the step history of the kernels, the integrator (``radau``), the dimensionless
-    parameters (``lam``, ``G``, ``n``, the losses ``c`` and ``b``, end of contact
-    ``s_contact``) and the
-    scales back to SI units (``theta``, s; ``f_scale``, N); ``xy`` the yield penetration
-    over ``theta v0`` (None: an elastic contact; ``contact_kernels.equations.force``)."""
+    """The solver's dense output of one contact, for sampling the pulse afterwards: the
+    kernels' step history, the integrator (``radau``), the dimensionless parameters (``lam``,
+    ``G``, ``n``, losses ``c`` and ``b``, end of contact ``s_contact``, yield penetration
+    ``xy``, None: elastic) and the scales (``theta``, s; ``f_scale``, N)."""
 
     hist: np.ndarray
     radau: bool
@@ -76,16 +70,12 @@ class ImpactResult:
     restitution : float
         ``e = v_out / v_in``, dimensionless; 0 when the ball settled.
     contact_time : float
-        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), the
-        quantity a force transducer measures and the thesis reports (docs/validation.md).
-        For a settled ball: the time at which the ball was proven unable to separate.
+        Duration of the contact ``tau``, s: the force pulse's length (the force > 0), what a
+        force transducer measures; for a settled ball, when it was proven unable to separate.
     separation_time : float
-        Time from first touch to separation, s: the penetration's return to 0, where the
-        ball's free flight starts (the bounce scheduler's clock). Equal to ``contact_time``
-        for an elastic law; with a loss the force falls to 0 first, while the ball still
-        moves apart from the indented surface (about ``(3/2) A`` later with the
-        viscoelastic loss, docs/physics.md, "Contact losses"). For a settled ball: as
-        ``contact_time``.
+        Time from first touch to separation (the penetration's return to 0), s: the bounce
+        scheduler's clock; with a loss later than ``contact_time`` (docs/physics.md,
+        "Contact losses"), else equal to it.
     max_penetration : float
         Largest local deformation ``delta_max``, m.
     peak_force : float
@@ -100,15 +90,12 @@ class ImpactResult:
         Relative speed of separation ``v_out = v_s(tau) - v_free``, m/s (0 if settled).
     plate_energy : float
         Energy carried into the plate, ``beta * Int(F^2 dt)``, J.
-    time : ndarray
-        Times of the pulse samples from first touch to separation, s (uniform,
-        ``n_points``); sampled from the dense output on first access, like ``force``.
-    force : ndarray
-        Contact force at those times, N.
+    time, force : ndarray
+        Uniform samples of the pulse from first touch to separation: times (s) and forces
+        (N), sampled from the dense output on first access.
     energy_residual : float
-        Error of the energy balance (docs/physics.md, "Hertz contact"; with the
-        contact's loss), relative to the energy exchanged: the impact's kinetic energy, or
-        the work of gravity or the energy carried into the plate where larger.
+        Error of the energy balance (docs/physics.md, "Hertz contact") relative to the
+        energy exchanged (the larger of the impact's, gravity's work, the plate's share).
     success : bool
         True if the contact was integrated to its end.
     status : int
@@ -159,37 +146,22 @@ class ImpactResult:
 
     @property
     def pulse_order(self) -> float:
-        """Exponent ``q`` of the trapezoid rule's leading error ``C h^q`` on the force pulse
-        (dimensionless; the modal bank extrapolates with it): ``n + 1`` for a pulse that rises
-        like ``t^n`` and falls like ``(tau - t)^n``; ``3/2`` with the viscoelastic loss, whose
-        force rises like ``t^(1/2)`` (and switches off with a kink before separation: ``h^2``)."""
+        """Exponent ``q`` of the trapezoid rule's error ``C h^q`` on the pulse (the modal bank
+        extrapolates with it): ``n + 1``; ``3/2`` with the viscoelastic loss (``t^(1/2)``)."""
         d = self._dense
         if d is not None and d.b != 0.0:
             return 1.5
         return self.exponent + 1.0
 
     def _sample_pulse(self):
-        # Both arrays at once, cached beside each other (most uses of an impact, such as
-        # rendering, need only force_at).
+        # both arrays at once, cached on first use (rendering needs only force_at)
         d = self._dense
         times = np.empty(d.n_points)
         forces = np.empty(d.n_points)
         _k.pulse(
-            d.hist,
-            d.radau,
-            d.lam,
-            d.G,
-            d.n,
-            d.c,
-            d.b,
-            d.xy,
-            d.s_contact,
-            self.status == _k.SEPARATED,
-            d.theta,
-            d.f_scale,
-            times,
-            forces,
-        )
+            d.hist, d.radau, d.lam, d.G, d.n, d.c, d.b, d.xy, d.s_contact,
+            self.status == _eq.SEPARATED, d.theta, d.f_scale, times, forces,
+        )  # fmt: skip
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
@@ -202,12 +174,9 @@ class ImpactResult:
     def pulse_samples(
         self, step: float, points: int, offset: float, period: float, samples: int, out=None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Force (N) and its rate of change (N/s) on a uniform grid ``j step`` (s, ``j <
-        points``) and then at ``offset + m period`` (s, ``m < samples``), times from first
-        touch: :meth:`force_and_slope_at` of those times, in one call (the modal bank's
-        pulse grid and in-contact audio samples). ``out``: an optional (2, L) float array,
-        ``L >= points + samples``, whose rows take the forces and the slopes (the live
-        engine writes them straight into a slot); returns views of its rows then."""
+        """Force (N) and its rate (N/s) at ``j step`` (s, ``j < points``) and then at ``offset +
+        m period`` (s, ``m < samples``) from first touch, in one call. ``out``: an optional
+        (2, >= points + samples) float array whose rows take them (returned as views)."""
         points, samples = int(points), int(samples)
         total = points + samples
         if out is None:
@@ -249,33 +218,30 @@ class ImpactResult:
 
 
 def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> ImpactResult:
-    """The :class:`ImpactResult` of class ``cls`` of a contact kernel's result ``r`` (its
-    array as a list of Python floats, fields ``R_*``), integrated by ``method``, with the
-    dense output ``dense`` of its pulse. A contact integrated to its end whose energy
-    balance is off by more than :data:`ENERGY_RESIDUAL_LIMIT` is reported as a failure
-    (``ENERGY_IMBALANCE``)."""
-    status = int(r[_k.R_STATUS])
-    residual = r[_k.R_ENERGY_RESIDUAL]
+    """The ``cls`` of a contact kernel's result ``r`` (a list of floats, fields ``R_*``),
+    integrated by ``method``, with the dense output ``dense``; an energy residual above
+    :data:`ENERGY_RESIDUAL_LIMIT` makes it a failure (``ENERGY_IMBALANCE``)."""
+    status = int(r[_o.R_STATUS])
+    residual = r[_o.R_ENERGY_RESIDUAL]
     energy_failed = status >= 0 and not residual <= ENERGY_RESIDUAL_LIMIT
     if energy_failed:
         status = ENERGY_IMBALANCE
     obj = object.__new__(cls)
-    # The solver's own values need no checks: fill the frozen instance directly (the
-    # generated __init__ would take a good part of the time an impact takes).
+    # the solver's own values need no checks (__init__ would cost much of an impact's time)
     object.__setattr__(
         obj,
         "__dict__",
         {
-            "restitution": r[_k.R_RESTITUTION],
-            "contact_time": r[_k.R_CONTACT_TIME],
-            "separation_time": r[_k.R_SEPARATION_TIME],
-            "max_penetration": r[_k.R_MAX_PENETRATION],
-            "peak_force": r[_k.R_PEAK_FORCE],
-            "impulse": r[_k.R_IMPULSE],
-            "inelasticity": r[_k.R_INELASTICITY],
-            "settled": status == _k.SETTLED,
-            "rebound_speed": r[_k.R_REBOUND_SPEED],
-            "plate_energy": r[_k.R_PLATE_ENERGY],
+            "restitution": r[_o.R_RESTITUTION],
+            "contact_time": r[_o.R_CONTACT_TIME],
+            "separation_time": r[_o.R_SEPARATION_TIME],
+            "max_penetration": r[_o.R_MAX_PENETRATION],
+            "peak_force": r[_o.R_PEAK_FORCE],
+            "impulse": r[_o.R_IMPULSE],
+            "inelasticity": r[_o.R_INELASTICITY],
+            "settled": status == _eq.SETTLED,
+            "rebound_speed": r[_o.R_REBOUND_SPEED],
+            "plate_energy": r[_o.R_PLATE_ENERGY],
             "energy_residual": residual,
             "success": status >= 0,
             "status": status,
@@ -283,10 +249,10 @@ def result_from_row(cls: type[ImpactResult], r: list, method: str, dense) -> Imp
                 _energy_message(residual)
                 if energy_failed
                 else _TINY_REBOUND
-                if r[_k.R_TINY_REBOUND]
+                if r[_o.R_TINY_REBOUND]
                 else _MESSAGES.get(status, "Unknown status.")
             ),
-            "n_steps": int(r[_k.R_N_STEPS]),
+            "n_steps": int(r[_o.R_N_STEPS]),
             "method": method,
             "_dense": dense,
         },

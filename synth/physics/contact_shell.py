@@ -12,7 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from synth.physics import contact_kernels as _k
+from synth.physics.contact_kernels import equations as _eq
+from synth.physics.contact_kernels import outcome as _o
 from synth.physics.contact_kernels import shell as _shell
 from synth.physics.contact_law import ShellLaw
 from synth.physics.contact_result import ImpactResult, result_from_row
@@ -61,7 +62,7 @@ class ShellImpactResult(ImpactResult):
         _shell.shell_force_slope(
             d.hist, d.lam, d.G, d.rR, d.xt, d.rg, d.a, d.s_contact, s, forces, slopes
         )
-        if self.status != _k.SEPARATED:
+        if self.status != _eq.SEPARATED:
             forces[-1] = _shell_force_at_end(d)
         times = s * d.theta
         forces *= d.f_scale
@@ -105,16 +106,8 @@ def solve_shell(m, law: ShellLaw, beta, v_in, g, v_free, local_tol, n_points) ->
     )
     r = r.tolist()
     dense = ShellDense(
-        hist,
-        r[_k.R_INELASTICITY],
-        r[_k.R_G],
-        rR,
-        r[_k.R_XT],
-        1.0 - rR,
-        law.viscous_time / r[_k.R_THETA],
-        r[_k.R_S_CONTACT],
-        r[_k.R_THETA],
-        r[_k.R_F_SCALE],
+        hist, r[_o.R_INELASTICITY], r[_o.R_G], rR, r[_o.R_XT], 1.0 - rR,
+        law.viscous_time / r[_o.R_THETA], r[_o.R_S_CONTACT], r[_o.R_THETA], r[_o.R_F_SCALE],
         n_points,
-    )
+    )  # fmt: skip
     return result_from_row(ShellImpactResult, r, "DOPRI5", dense)

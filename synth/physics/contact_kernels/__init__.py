@@ -1,11 +1,9 @@
-"""numba kernels of the contact solver (private to synth.physics.contact), by stage, for the
-dimensionless equations of docs/physics.md, "Hertz contact": ``equations`` (the equations,
-Jacobian, settling test, status codes); ``series`` (the start of contact as a series in s
-and s^n); ``dop853`` (DOP853, Hairer, Norsett & Wanner, "Solving ODEs I", II.10, non-stiff);
-``radau`` (Radau IIA of order 5, Hairer & Wanner, "Solving ODEs II", IV.8, stiff);
-``dense`` (the steps' dense output: end of contact, peaks, the sampled pulse); ``outcome``
-(one impact's result array ``R_*``); here the drivers: ``impact``, ``impacts_explicit``
-(a drop's impacts in one compiled loop), ``pulse`` and ``force_slope_at``.
+"""numba kernels of the contact solver (private to synth.physics.contact) for the equations
+of docs/physics.md, "Hertz contact": ``equations``; ``series`` (the start of contact);
+``dop853`` (Hairer, Norsett & Wanner, "Solving ODEs I", II.10); ``radau`` (Radau IIA,
+Hairer & Wanner, "Solving ODEs II", IV.8, stiff); ``dense`` (dense output and events);
+``outcome`` (the result array ``R_*``); here the drivers ``impact``, ``impacts_explicit``,
+``pulse`` and ``force_slope_at``.
 
 numba's cache keys a kernel on its own file: after editing one of these modules, clear the
 ``__pycache__`` folders so that its callers compile again.
@@ -42,7 +40,6 @@ from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
     SEPARATED,
     SETTLED,
-    STEP_TOO_SMALL,
     elastic_part,
     force,
     penetration_rate,
@@ -56,77 +53,19 @@ from synth.physics.contact_kernels.outcome import (
     R_C,
     R_CONTACT_TIME,
     R_ENERGY_RESIDUAL,
-    R_F_SCALE,
-    R_G,
-    R_IMPULSE,
-    R_INELASTICITY,
-    R_MAX_PENETRATION,
-    R_N_STEPS,
-    R_PEAK_FORCE,
-    R_PLATE_ENERGY,
     R_REBOUND_SPEED,
     R_RESTITUTION,
-    R_S_CONTACT,
     R_SEPARATION_TIME,
     R_STATUS,
     R_STIFF,
-    R_THETA,
-    R_TINY_REBOUND,
-    R_XT,
     R_XY,
     impact_row,
 )
 from synth.physics.contact_kernels.radau import integrate_radau
 from synth.physics.contact_kernels.series import new_series, series_coefficients, series_start
 
-__all__ = [
-    "ABSOLUTE_FACTOR",
-    "AUTO",
-    "DOP853",
-    "EXPLICIT_STEP_LIMIT",
-    "IMPLICIT_STEP_LIMIT",
-    "MAX_STEPS",
-    "N_RESULT",
-    "RADAU",
-    "R_B",
-    "R_C",
-    "R_CONTACT_TIME",
-    "R_ENERGY_RESIDUAL",
-    "R_F_SCALE",
-    "R_G",
-    "R_IMPULSE",
-    "R_INELASTICITY",
-    "R_MAX_PENETRATION",
-    "R_N_STEPS",
-    "R_PEAK_FORCE",
-    "R_PLATE_ENERGY",
-    "R_REBOUND_SPEED",
-    "R_RESTITUTION",
-    "R_STATUS",
-    "R_STIFF",
-    "R_SEPARATION_TIME",
-    "R_S_CONTACT",
-    "R_THETA",
-    "R_TINY_REBOUND",
-    "R_XT",
-    "R_XY",
-    "SEPARATED",
-    "SETTLED",
-    "STEP_TOO_SMALL",
-    "STIFF_LAMBDA",
-    "BOUNCE_ENDS",
-    "NO_END",
-    "bounce_end",
-    "force_slope_at",
-    "impact",
-    "impacts_explicit",
-    "pulse",
-    "solve",
-    "yield_reachable",
-]
-
-# The solver's settings, constants of the compiled ``impact`` rather than arguments: each
-# argument of a numba function costs its dispatch ~0.05 us per call (of ~15 us an impact).
+# The solver's settings: constants of the compiled ``impact``, not arguments (each costs
+# its dispatch time).
 #: Zener's inelasticity above which the contact is integrated by the implicit
 #: Radau IIA method instead of DOP853 (stiffness grows like lam^(5/3)).
 STIFF_LAMBDA = 20.0
@@ -165,53 +104,39 @@ def start(lam, G, n, c, b, xy, rtol):
 
 @compiled(inline="always")
 def solve_explicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
-    """``solve`` by DOP853 (its result)."""
+    """One contact by DOP853: its :func:`finish`."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
     # The series' validity ends at s1 like a step's: the next step is of the same length.
-    status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
+    st, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_dop853(
         lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
     return finish(
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b,
-        xy,
-    )  # fmt: skip
+        st, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, DOP853_STEPS, lam, G, n, c, b, xy
+    )
 
 
 @compiled(inline="always")
 def solve_implicit(lam, G, n, c, b, xy, rtol, atol, max_steps):
-    """``solve`` by Radau IIA (its result)."""
+    """One contact by Radau IIA: its :func:`finish`."""
     S, s1, x1, w1, i2, loss, hist = start(lam, G, n, c, b, xy, rtol)
-    status, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
+    st, s_end, x_end, w_end, i2, loss, nh, nrej, hist = integrate_radau(
         lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s1, x1, w1, i2, loss, s1
     )
     return finish(
-        status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b,
-        xy,
-    )  # fmt: skip
-
-
-def solve(lam, G, n, c, b, xy, rtol, atol, max_steps, stiff):
-    """Integrate one contact and find its peak: by Radau IIA if ``stiff``, else by DOP853
-    (two kernels, so that a scene compiles only the integrator it uses).
-
-    Returns (status, s_contact, s_force, s_end, w_end, x_end, I2, loss, x_max, f_max,
-    n_steps, n_rejected, hist), all dimensionless: ``s_contact`` is the contact's duration
-    to separation (the penetration's return to 0), or to the moment the ball was proven
-    unable to separate; ``s_force`` the force pulse's (``force_end``), ``s_end,
-    w_end, x_end, I2, loss`` the state where the energy balance is taken, ``n_steps``
-    the integrator's accepted steps after the series start, and ``hist`` the dense
-    output (row 0: the series, whose coefficients ``pulse`` and ``force_slope_at``
-    recompute).
-    """
-    integrate = solve_implicit if stiff else solve_explicit
-    return integrate(lam, G, n, c, b, xy, rtol, atol, max_steps)
+        st, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, RADAU_STEPS, lam, G, n, c, b, xy
+    )
 
 
 @compiled(inline="always")
 def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam, G, n, c, b, xy):
     """The end of contact, peak penetration and force of an integrated contact (``hist``
     its dense output of ``nh`` rows, by Radau IIA if ``radau``; ``xy`` the yield
-    penetration): the result of ``solve``."""
+    penetration). Returns (status, s_contact, s_force, s_end, w_end, x_end, I2, loss, x_max,
+    f_max, n_steps, n_rejected, hist), dimensionless: ``s_contact`` the time to separation
+    (or to the proof that the ball cannot separate), ``s_force`` the force pulse's end
+    (:func:`force_end`), ``s_end, w_end, x_end, I2, loss`` the state of the energy
+    balance, ``n_steps`` the accepted steps after the series start, ``hist`` the dense
+    output (row 0: the series, whose coefficients ``pulse`` recomputes)."""
     s_contact = s_end
     if status == SEPARATED:
         # f = 0 for x <= 0, so I2 and the loss need no correction past the root.
@@ -245,15 +170,8 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
         g0 = penetration_rate(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, xm)
         xe, we = dense_state(hist, S, k, hist[k, H_T0] + hist[k, H_H], radau, n, b)
         if g0 > 0.0 and penetration_rate(xe, we, lam, n, c, b, xy, xm) <= 0.0:
-            xr, _ = dense_state(
-                hist,
-                S,
-                k,
-                event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, xy, 0.0),
-                radau,
-                n,
-                b,
-            )
+            sr = event_root(hist, S, k, radau, PEAK_PENETRATION, lam, G, n, c, b, xy, 0.0)
+            xr, _ = dense_state(hist, S, k, sr, radau, n, b)
             x_max = max(x_max, xr)
     if c == 0.0 and b == 0.0:
         f_max = elastic_part(x_max, n, xy, 0.0)[0] if x_max > 0.0 else 0.0
@@ -278,13 +196,10 @@ def finish(status, s_end, x_end, w_end, i2, loss, nh, nrej, hist, S, radau, lam,
 
 @compiled()
 def force_end(hist, S, nh, radau, lam, G, n, c, b, xy):
-    """The end of a lossy contact's force pulse (dimensionless): the last time the force
-    falls to 0. A loss holds the force at 0 (``equations.force``) while the penetration,
-    and with it the contact, lasts a little longer: the ball moves apart from a surface
-    still indented. Located on the dense output in the last step that starts with a
-    positive force (``event_root``, event ``FORCE_END``), row 0 (the series) if none does.
-    One call with a step index typed int64: a constant index would reach ``event_root``
-    as a literal and compile it (and ``dense_state``) once more."""
+    """The end of a lossy contact's force pulse (dimensionless): the last time the force falls
+    to 0, before the penetration does (the ball moves apart from a surface still indented);
+    located in the last step that starts with a positive force (row 0 if none). The step
+    index is an int64, not a literal, so that ``event_root`` compiles once."""
     k = nh - 1
     while k > 0:
         f, _ = force(hist[k, H_X0], hist[k, H_W0], lam, n, c, b, xy, hist[k, H_XM])
@@ -320,14 +235,11 @@ END_HANDED_OVER = 6
 
 @compiled()
 def bounce_end(t, v1, g, success, settled, restitution, v_out, separation, energy_floor, t_max):
-    """What follows an impact that started at ``t`` (s from release), the bounce scheduler's
-    rules (:mod:`synth.physics.bounces`): ``(end, t_next)``, ``end`` an index of
-    :data:`BOUNCE_ENDS` where the series ends, else :data:`NO_END` and ``t_next`` the next
-    impact's start (s). ``v1``: the first impact's speed, m/s; ``g``: m/s^2; ``success``,
-    ``settled``: the contact's; ``restitution``: the one that sets the flight; ``v_out``:
-    the take-off speed (m/s); ``separation``: the contact's duration to separation (s);
-    ``energy_floor``: the lowest ratio of an impact's kinetic energy to the first's;
-    ``t_max``: the latest start of an impact, s."""
+    """The bounce scheduler's rules (:mod:`synth.physics.bounces`) after an impact started at
+    ``t`` (s): ``(end, t_next)``, ``end`` an index of :data:`BOUNCE_ENDS` or :data:`NO_END`
+    and ``t_next`` the next impact's start (s). ``v1``, ``v_out``: the first impact's and the
+    take-off speed (m/s); ``g``: m/s^2; ``separation``: the time to separation (s);
+    ``energy_floor``: the lowest kinetic energy relative to the first; ``t_max``: s."""
     if not success:
         return END_SOLVER_FAILURE, t
     if settled or restitution <= 0.0:
@@ -374,17 +286,14 @@ def impacts_explicit(
     m, K, beta, g, n, mu, A, delta_y, v_free, rtol, auto, v1, t1, energy_floor, t_max,
     max_impacts, tau_edge, residual_limit,
 ):  # fmt: skip
-    """The impacts of a drop on the plate's impedance by DOP853, strung together by
-    :func:`bounce_end` in one compiled call (``max_impacts = 1``: ``impact``'s explicit path).
-
-    The first impact at ``v1`` (m/s) starts at ``t1`` (s); ``m`` (kg), ``K``, ``n``, ``mu``,
-    ``A``, ``beta``, ``v_free``, ``rtol``, ``auto`` as in ``impact``; ``energy_floor``,
-    ``t_max`` as in :func:`bounce_end`. The series is handed over (``END_HANDED_OVER``) before
-    an impact Radau IIA must solve or whose contact time reaches ``tau_edge`` (s); an energy
-    residual above ``residual_limit`` is a failure. Returns ``(count, end, t, v, results,
-    times, speeds, hists, rows)``: impacts solved, the :data:`BOUNCE_ENDS` index, start (s) and
-    speed (m/s) of the impact handed over, result arrays ``(count, N_RESULT)``, starts (s),
-    speeds (m/s), and the dense outputs, impact ``i``'s in ``hists[rows[i]:rows[i + 1]]``."""
+    """The impacts of a drop by DOP853, strung together by :func:`bounce_end` in one compiled
+    call (``max_impacts = 1``: ``impact``'s explicit path). The first at ``v1`` (m/s) starts
+    at ``t1`` (s); the other arguments as in ``impact`` and :func:`bounce_end`. Handed over
+    (``END_HANDED_OVER``) before an impact for Radau IIA or whose contact time reaches
+    ``tau_edge`` (s); a residual above ``residual_limit`` is a failure. Returns ``(count, end,
+    t, v, results, times, speeds, hists, rows)``: the :data:`BOUNCE_ENDS` index, start (s)
+    and speed (m/s) of the impact handed over, the results, starts and speeds, and the dense
+    outputs, impact ``i``'s in ``hists[rows[i]:rows[i + 1]]``."""
     # grown by doubling up to max_impacts: a drop's impacts are not known in advance, and
     # arrays of max_impacts rows would hold megabytes for a series of a few impacts
     capacity = min(max_impacts, 64)
@@ -449,15 +358,13 @@ def impacts_explicit(
 
 
 def impact(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol, method):
-    """One impact from lumped parameters (SI units, checked by the caller): the equations scaled
-    by Zener's time ``theta`` and length ``theta v0`` (``v0 = v_in + v_free``), integrated by
-    DOP853 or Radau IIA (``method``: AUTO takes Radau above ``STIFF_LAMBDA`` or after
-    ``EXPLICIT_STEP_LIMIT`` explicit steps), with the energy balance. ``rtol`` is the local
-    tolerance, ``ABSOLUTE_FACTOR`` times it the absolute one. Returns ``(result, hist)``: the
-    ``N_RESULT`` fields ``R_*`` and the dense output ``pulse`` and ``force_slope_at`` read. The
-    two methods are two kernels so a scene compiles only the one it uses. ``delta_y``: the
-    penetration (m) at which the contact yields (``equations.yield_law``), or None: the
-    elastic law, compiled without the yield (``equations.force``)."""
+    """One impact from lumped parameters (SI units, checked): the equations scaled by Zener's
+    time ``theta`` and length ``theta v0`` (``v0 = v_in + v_free``), integrated by DOP853 or
+    Radau IIA (``method``: AUTO takes Radau above ``STIFF_LAMBDA`` or after
+    ``EXPLICIT_STEP_LIMIT`` explicit steps; two kernels, so a scene compiles only the one it
+    uses) to the local tolerance ``rtol``. ``delta_y``: the yield penetration (m), or None:
+    the elastic law, compiled without the yield. Returns ``(result, hist)``: the fields
+    ``R_*`` and the dense output."""
     if method != RADAU:
         announce("contact")
         count, _, _, _, results, _, _, hists, _ = impacts_explicit(
@@ -496,13 +403,10 @@ def scaled_yield(delta_y, K, m, g, beta, v0, theta):
 
 @compiled()
 def yield_reachable(delta_y, K, m, g, beta, v0):
-    """Whether a Hertz contact of stiffness ``K`` (N/m^1.5) of a ball of mass ``m`` (kg)
-    under gravity ``g`` (m/s^2), on a plate of admittance ``beta`` (m/(N s)), approached at
-    ``v0`` (m/s), can reach the penetration ``delta_y`` (m): the settling function ``W =
-    u^2 / 2 + x^(5/2) / (5/2) - G x`` (``equations.py``) never increases from ``(lam G -
-    1)^2 / 2``, in SI units ``(2/5) K delta^(5/2) - m g delta <= m (v0 - beta m g)^2 / 2``,
-    which bounds the penetration past the static one ``(m g / K)^(2/3)``, where the left
-    side grows."""
+    """Whether a Hertz contact (``K``, N/m^1.5; ball ``m``, kg; ``g``, m/s^2; admittance
+    ``beta``, m/(N s)) approached at ``v0`` (m/s) can reach the penetration ``delta_y`` (m):
+    the settling function never increases (``equations.py``), so ``(2/5) K delta^(5/2) - m g
+    delta <= m (v0 - beta m g)^2 / 2`` past the static penetration ``(m g / K)^(2/3)``."""
     if not delta_y > (m * g / K) ** (2.0 / 3.0):
         return True
     left = 0.4 * K * delta_y * delta_y * math.sqrt(delta_y) - m * g * delta_y
@@ -520,7 +424,7 @@ def impact_implicit(m, K, beta, v_in, g, n, mu, A, delta_y, v_free, rtol):
 
 @compiled(inline="always")
 def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
-    """The result array of ``impact`` from ``solve``'s result ``out`` and the scales
+    """The result array of ``impact`` from :func:`finish`'s result ``out`` and the scales
     (:func:`~.outcome.impact_row`, with the power law's elastic energy and its own fields;
     a yielded contact's on its unloading branch from the peak penetration)."""
     status, s_contact, s_force, s_end, w_end, x_end, i2, loss, x_max, f_max, nst, _, hist = out
@@ -538,7 +442,7 @@ def result(out, stiff, m, v_in, v0, theta, lam, G, n, c, b, xy, f_scale):
 
 @compiled()
 def pulse(hist, radau, lam, G, n, c, b, xy, s_contact, separated, t_scale, f_scale, times, forces):
-    """The pulse of ``solve``'s dense output ``hist`` (same lam, G, n, c, b, xy) at
+    """The pulse of :func:`finish`'s dense output ``hist`` (same lam, G, n, c, b, xy) at
     ``len(times)`` uniform times over [0, s_contact], scaled by ``t_scale`` and
     ``f_scale``, into ``times`` and ``forces``; the ends of a separated contact are 0."""
     S = new_series(b)
@@ -556,11 +460,9 @@ def pulse_force_slope(
     hist, radau, lam, G, n, c, b, xy, s_contact, theta, f_scale, step, points, offset, period,
     samples, out,
 ):  # fmt: skip
-    """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` (their first
-    ``points + samples`` entries) at the times ``j step`` (s, ``j < points``) and then
-    ``offset + m period`` (s, ``m < samples``) from first touch: :func:`force_slope_at` at
-    those times over ``theta`` (s), scaled by ``f_scale`` (N) and ``f_scale / theta``
-    (N/s). One call for what would take a handful of array temporaries."""
+    """Force (N) and its rate (N/s) into ``out[0]`` and ``out[1]`` at the times ``j step`` (s,
+    ``j < points``) and then ``offset + m period`` (s, ``m < samples``): :func:`force_slope_at`
+    scaled by ``theta`` (s) and ``f_scale`` (N), in one call without temporaries."""
     total = points + samples
     s = np.empty(total)
     for j in range(points):
@@ -620,7 +522,7 @@ def _rates(x, w, f, lam, n, xy, xm):
 @compiled()
 def force_slope_at(hist, radau, lam, G, n, c, b, xy, s_contact, s, out, slope):
     """Dimensionless force at dimensionless times ``s`` (sorted or not) from the dense
-    output ``hist`` of ``solve`` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
+    output ``hist`` of :func:`finish` (same lam, G, n, c, b, xy), 0 outside ``[0, s_contact]``, into
     ``out``; its rate of change ``df/ds`` into ``slope``.
 
     ``x' = w - lam f`` and ``w' = G - f`` (``equations.py``); with ``a = x^n``,

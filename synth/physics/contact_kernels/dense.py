@@ -1,14 +1,10 @@
 """The history of a contact's steps, its dense output and the events located on it (numba).
 
-Both integrators keep a dense output of every accepted step, one row of the history
-each (row 0: the series start, ``series.py``): DOP853's continuous extension of order 7
-(Hairer, Norsett & Wanner, "Solving ODEs I", II.6; the form of scipy's
-Dop853DenseOutput) and Radau IIA's collocation polynomial (Hairer & Wanner, "Solving
-ODEs II", IV.8; as scipy's RadauDenseOutput). On it the end of contact, the peak
-penetration and the settling time are located (``event_root``: the Illinois method,
-Dowell & Jarratt, BIT 11, 1971), the peak force is found (``golden_max``) and the pulse
-is sampled (``sample_pulse``). Also the cubic Hermite tests the steppers use to see the
-end of contact inside a step (``hermite_dips``, ``hermite_root``).
+A row per accepted step (row 0: the series start): DOP853's continuous extension of order 7
+(Hairer, Norsett & Wanner, "Solving ODEs I", II.6, as scipy's Dop853DenseOutput) or Radau
+IIA's collocation polynomial (as scipy's RadauDenseOutput). On it the events are located
+(``event_root``: the Illinois method, Dowell & Jarratt, BIT 11, 1971), the peak force found
+and the pulse sampled; also the cubic Hermite tests that see the end of contact in a step.
 """
 
 from __future__ import annotations
@@ -52,12 +48,9 @@ def grow_history(hist, k):
 
 @compiled()
 def hermite_dips(x0, x1, d0, d1):
-    """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1
-    the derivatives times the step) reaches 0 inside it: the ball left the plate and came
-    back within one step (a flight of length 2 |w| / G, short where gravity dominates).
-    Such a step hides the end of contact from a test on its end points. A flight is a
-    parabola, which the cubic reproduces exactly; the test looks only where x' turns
-    from negative to positive, at the interpolant's minimum (a root of its derivative)."""
+    """True if the cubic Hermite interpolant of x over a step (values x0, x1 > 0; d0, d1 the
+    derivatives times the step) reaches 0 inside it, at its minimum: the ball left and came
+    back within one step (a flight, a parabola the cubic reproduces exactly)."""
     if not (d0 < 0.0 < d1):
         return False
     a = 2.0 * x0 + d0 - 2.0 * x1 + d1  # x(t) = a t^3 + b t^2 + d0 t + x0, t in [0, 1]
@@ -201,10 +194,8 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, xy, which):
     tb = hi
     x1 = tb - g * (tb - ta)
     x2 = ta + g * (tb - ta)
-    p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)
-    v1 = p[which]
-    p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)
-    v2 = p[which]
+    v1 = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)[which]
+    v2 = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)[which]
     # The peak is quadratic: locating it to 1e-8 of its bracket gives the value to ~1e-16.
     for _ in range(80):
         if tb - ta <= 1e-8 * (hi - lo):
@@ -214,15 +205,13 @@ def golden_max(hist, S, nst, lo, hi, radau, lam, n, c, b, xy, which):
             x1 = x2
             v1 = v2
             x2 = ta + g * (tb - ta)
-            p = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)
-            v2 = p[which]
+            v2 = penetration_and_force(hist, S, nst, x2, radau, lam, n, c, b, xy)[which]
         else:
             tb = x2
             x2 = x1
             v2 = v1
             x1 = tb - g * (tb - ta)
-            p = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)
-            v1 = p[which]
+            v1 = penetration_and_force(hist, S, nst, x1, radau, lam, n, c, b, xy)[which]
     return max(v1, v2)
 
 

@@ -138,6 +138,27 @@ def _landing_factor(n):
     return e5 * e5 / math.sqrt(3.0 * (e5 * e5 + 0.01 * e3 * e3))
 
 
+@compiled(inline="always")
+def _weighted(weights, K, m, q):
+    """``sum_{i < m} weights[i] K[i, q]``, summed in order of ``i``."""
+    acc = weights[0] * K[0, q]
+    for i in range(1, m):
+        acc += weights[i] * K[i, q]
+    return acc
+
+
+@compiled(inline="always")
+def _stage(A, row, K, i, x, w, h, lam, G, n, c, b, xy, xm):
+    """Stage ``i`` of a step from ``(x, w)`` (its coefficients ``A[row]``) into ``K[i]``:
+    only x and w enter the right-hand side (I2 and the loss are quadratures)."""
+    a0 = 0.0
+    a1 = 0.0
+    for j in range(i):
+        a0 += A[row, j] * K[j, 0]
+        a1 += A[row, j] * K[j, 1]
+    K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm)
+
+
 @compiled()
 def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q2, q3, h):
     """DOP853 on (x, w, I2, L) from time s with state (x, w, q2, q3) and first step h, row 0
@@ -170,56 +191,21 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             return MAX_STEPS, s, x, w, q2, q3, nst, nrej, hist
         if not (h >= 1e-14 * s and h >= 1e-300):
             return STEP_TOO_SMALL, s, x, w, q2, q3, nst, nrej, hist
-        # one DOP853 step; the solution (B) and error (E5, E3) sums gather each stage as it
-        # comes, in the shadow of the next stage's evaluation
-        b0 = _B[0] * K[0, 0]
-        b1 = _B[0] * K[0, 1]
-        b2 = _B[0] * K[0, 2]
-        b3 = _B[0] * K[0, 3]
-        e5x = _E5[0] * K[0, 0]
-        e5w = _E5[0] * K[0, 1]
-        e5q = _E5[0] * K[0, 2]
-        e3x = _E3[0] * K[0, 0]
-        e3w = _E3[0] * K[0, 1]
-        e3q = _E3[0] * K[0, 2]
+        # one DOP853 step
         for i in range(1, _NS):
-            # only x and w enter the right-hand side; I2 and the loss are quadratures
-            a0 = 0.0
-            a1 = 0.0
-            for j in range(i):
-                a0 += _A[i, j] * K[j, 0]
-                a1 += _A[i, j] * K[j, 1]
-            k0, k1, k2, k3 = rhs(x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm)
-            K[i, 0] = k0
-            K[i, 1] = k1
-            K[i, 2] = k2
-            K[i, 3] = k3
-            b0 += _B[i] * k0
-            b1 += _B[i] * k1
-            b2 += _B[i] * k2
-            b3 += _B[i] * k3
-            e5x += _E5[i] * k0
-            e5w += _E5[i] * k1
-            e5q += _E5[i] * k2
-            e3x += _E3[i] * k0
-            e3w += _E3[i] * k1
-            e3q += _E3[i] * k2
-        xn = x + h * b0
-        wn = w + h * b1
-        q2n = q2 + h * b2
-        q3n = q3 + h * b3
-        k0, k1, k2, k3 = rhs(xn, wn, lam, G, n, c, b, xy, xm)
-        K[_NS, 0] = k0
-        K[_NS, 1] = k1
-        K[_NS, 2] = k2
-        K[_NS, 3] = k3
+            _stage(_A, i, K, i, x, w, h, lam, G, n, c, b, xy, xm)
+        xn = x + h * _weighted(_B, K, _NS, 0)
+        wn = w + h * _weighted(_B, K, _NS, 1)
+        q2n = q2 + h * _weighted(_B, K, _NS, 2)
+        q3n = q3 + h * _weighted(_B, K, _NS, 3)
+        K[_NS, 0], K[_NS, 1], K[_NS, 2], K[_NS, 3] = rhs(xn, wn, lam, G, n, c, b, xy, xm)
         # error estimate (scipy's DOP853 norm) on x, w and I2 (and the loss, see below)
-        e5x += _E5[_NS] * k0
-        e5w += _E5[_NS] * k1
-        e5q += _E5[_NS] * k2
-        e3x += _E3[_NS] * k0
-        e3w += _E3[_NS] * k1
-        e3q += _E3[_NS] * k2
+        e5x = _weighted(_E5, K, _NS + 1, 0)
+        e5w = _weighted(_E5, K, _NS + 1, 1)
+        e5q = _weighted(_E5, K, _NS + 1, 2)
+        e3x = _weighted(_E3, K, _NS + 1, 0)
+        e3w = _weighted(_E3, K, _NS + 1, 1)
+        e3q = _weighted(_E3, K, _NS + 1, 2)
         scx = atol + rtol * max(x_top, abs(xn))
         scw = atol + rtol * max(abs(w), abs(wn))
         scq = atol + rtol * max(abs(q2), abs(q2n))
@@ -230,11 +216,8 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
             # The viscoelastic force falls to 0 before the end of contact, but the loss
             # there, L' = -x^n x', ends like (tau - s)^n: its quadrature's error joins the
             # norm, so that the landing steps are sized for it too.
-            e5l = 0.0
-            e3l = 0.0
-            for i in range(_NS + 1):
-                e5l += _E5[i] * K[i, 3]
-                e3l += _E3[i] * K[i, 3]
+            e5l = _weighted(_E5, K, _NS + 1, 3)
+            e3l = _weighted(_E3, K, _NS + 1, 3)
             scl = atol + rtol * max(abs(q3), abs(q3n))
             e5 += (e5l / scl) ** 2
             e3 += (e3l / scl) ** 2
@@ -299,15 +282,7 @@ def integrate_dop853(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, 
         # accepted: dense output coefficients for x and w
         hist = grow_history(hist, nst)
         for i in range(_NS + 1, 16):
-            ii = i - _NS - 1
-            a0 = 0.0
-            a1 = 0.0
-            for j in range(i):
-                a0 += _A_EXTRA[ii, j] * K[j, 0]
-                a1 += _A_EXTRA[ii, j] * K[j, 1]
-            K[i, 0], K[i, 1], K[i, 2], K[i, 3] = rhs(
-                x + h * a0, w + h * a1, lam, G, n, c, b, xy, xm
-            )
+            _stage(_A_EXTRA, i - _NS - 1, K, i, x, w, h, lam, G, n, c, b, xy, xm)
         hist[nst, H_T0] = s
         hist[nst, H_XM] = xm
         hist[nst, H_H] = h

@@ -1,10 +1,6 @@
-"""The result array of one impact: its fields' order and the one kernel that fills it.
-
-Both drivers, the power laws' ``impact`` (``__init__.py``) and the thin shell's
-``shell.shell_impact``, end a contact with its dimensionless end state and its scales;
-:func:`impact_row` turns them into the SI results and the energy balance (docs/physics.md,
-"Hertz contact", in the plate's frame), so that both laws report alike.
-"""
+"""The result array of one impact: its fields' order and :func:`impact_row`, which fills it
+for both the power laws' and the thin shell's drivers (SI results and the energy balance of
+docs/physics.md, "Hertz contact")."""
 
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """The implicit stepper of the contact: the 3-stage Radau IIA method of order 5 (numba).
 
-Radau IIA (Hairer & Wanner, "Solving ODEs II", IV.8, following scipy's implementation,
-scipy.integrate.Radau) integrates the stiff range (lam >> 1, where the penetration
-relaxes much faster than the ball slows down). Its Newton iteration solves the
-transformed real and complex 2x2 systems in closed form; I2 and the loss are
-integrated by its collocation quadrature.
+Radau IIA (Hairer & Wanner, "Solving ODEs II", IV.8, as scipy.integrate.Radau) integrates
+the stiff range (lam >> 1); its Newton iteration solves the transformed real and complex 2x2
+systems in closed form.
 """
 
 from __future__ import annotations
@@ -71,6 +69,25 @@ _RP = np.array(
 # Quadrature weights of the Radau IIA collocation (last row of its A matrix).
 _RB = np.array([(16.0 - _S6) / 36.0, (16.0 + _S6) / 36.0, 1.0 / 9.0])
 _NEWTON_MAXITER = 6
+
+
+@compiled(inline="always")
+def _solve2(a, b, c, d, det, u0, u1):
+    """``z`` of ``[[a, b], [c, d]] z = u`` by Cramer's rule (``det = a d - b c``)."""
+    return (d * u0 - b * u1) / det, (a * u1 - c * u0) / det
+
+
+@compiled(inline="always")
+def _newton_rhs(F, Wt, q, mr, mc):
+    """Component ``q`` of the real and complex transformed Newton systems' ``T^-1 F - mu W``."""
+    fr = _RTI[0, 0] * F[0, q] + _RTI[0, 1] * F[1, q] + _RTI[0, 2] * F[2, q] - mr * Wt[0, q]
+    fc = (
+        complex(_RTI[1, 0], _RTI[2, 0]) * F[0, q]
+        + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, q]
+        + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, q]
+        - mc * complex(Wt[1, q], Wt[2, q])
+    )
+    return fr, fc
 
 
 @compiled()
@@ -145,25 +162,11 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
                     ok = False
             if not ok:
                 break
-            fr0 = _RTI[0, 0] * F[0, 0] + _RTI[0, 1] * F[1, 0] + _RTI[0, 2] * F[2, 0] - mr * Wt[0, 0]
-            fr1 = _RTI[0, 0] * F[0, 1] + _RTI[0, 1] * F[1, 1] + _RTI[0, 2] * F[2, 1] - mr * Wt[0, 1]
             mcx = complex(mc_re, mc_im)
-            fc0 = (
-                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 0]
-                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 0]
-                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 0]
-                - mcx * complex(Wt[1, 0], Wt[2, 0])
-            )
-            fc1 = (
-                complex(_RTI[1, 0], _RTI[2, 0]) * F[0, 1]
-                + complex(_RTI[1, 1], _RTI[2, 1]) * F[1, 1]
-                + complex(_RTI[1, 2], _RTI[2, 2]) * F[2, 1]
-                - mcx * complex(Wt[1, 1], Wt[2, 1])
-            )
-            d0 = (rd * fr0 - rb * fr1) / rdet
-            d1 = (ra * fr1 - rc_ * fr0) / rdet
-            z0 = (cd * fc0 - cb * fc1) / cdet
-            z1 = (ca * fc1 - cc * fc0) / cdet
+            fr0, fc0 = _newton_rhs(F, Wt, 0, mr, mcx)
+            fr1, fc1 = _newton_rhs(F, Wt, 1, mr, mcx)
+            d0, d1 = _solve2(ra, rb, rc_, rd, rdet, fr0, fr1)
+            z0, z1 = _solve2(ca, cb, cc, cd, cdet, fc0, fc1)
             dn = (
                 (d0 / sc0) ** 2
                 + (d1 / sc1) ** 2
@@ -203,19 +206,13 @@ def integrate_radau(lam, G, n, c, b, xy, rtol, atol, max_steps, hist, s, x, w, q
         wn = y[1] + Z[2, 1]
         ze0 = (_RE[0] * Z[0, 0] + _RE[1] * Z[1, 0] + _RE[2] * Z[2, 0]) / h
         ze1 = (_RE[0] * Z[0, 1] + _RE[1] * Z[1, 1] + _RE[2] * Z[2, 1]) / h
-        b0 = f0[0] + ze0
-        b1 = f0[1] + ze1
-        e0 = (rd * b0 - rb * b1) / rdet
-        e1 = (ra * b1 - rc_ * b0) / rdet
+        e0, e1 = _solve2(ra, rb, rc_, rd, rdet, f0[0] + ze0, f0[1] + ze1)
         s0 = atol + rtol * max(abs(y[0]), abs(xn))
         s1 = atol + rtol * max(abs(y[1]), abs(wn))
         err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         if rejected and err > 1.0:
             r0, r1, _, _ = rhs(y[0] + e0, y[1] + e1, lam, G, n, c, b, xy, xm)
-            b0 = r0 + ze0
-            b1 = r1 + ze1
-            e0 = (rd * b0 - rb * b1) / rdet
-            e1 = (ra * b1 - rc_ * b0) / rdet
+            e0, e1 = _solve2(ra, rb, rc_, rd, rdet, r0 + ze0, r1 + ze1)
             err = math.sqrt(((e0 / s0) ** 2 + (e1 / s1) ** 2) / 2.0)
         safety = 0.9 * (2 * _NEWTON_MAXITER + 1) / (2 * _NEWTON_MAXITER + n_iter)
         if err > 1.0 or not math.isfinite(err):

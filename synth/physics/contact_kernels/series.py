@@ -37,10 +37,8 @@ HALF_SERIES_BAND = 5
 
 @compiled()
 def new_series(b):
-    """An array for the coefficients of the start series that the viscoelastic loss ``b``
-    chooses: (7, SERIES_SIZE, SERIES_SIZE) for the series in s and s^n (b = 0), with
-    ``SERIES_COLS`` columns for the series in s^(1/2) (b > 0). The smaller array for b = 0
-    halves what ``series_coefficients`` zeroes on every impact (Hertz, Hunt-Crossley)."""
+    """An array for the start series' coefficients: ``SERIES_COLS`` columns for the series in
+    s^(1/2) (``b > 0``), else ``SERIES_SIZE`` (half of what every impact zeroes)."""
     return np.empty((7, SERIES_SIZE, SERIES_COLS if b != 0.0 else SERIES_SIZE))
 
 
@@ -72,10 +70,8 @@ def half_series_coefficients(lam, G, c, b, S):
         W[k] = 2 (G [k = 2] - F[k-2]) / k  (W[0] = 1, W[1] = 0),   P[k] = W[k] - lam F[k],
         Y[k] = 2 P[k] / (k + 2),   R[k] = (Y[k] - sum_{0<i<k} R[i] R[k-i]) / 2  (R[0] = 1),
 
-    each from coefficients of lower degree (F[k] needs degree k - 1 and below), so one pass
-    in k gives them all, exactly, up to ``HALF_SERIES_DEGREE``.
-
-    Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
+    each from lower degrees, so one pass in k gives them all, exactly, up to
+    ``HALF_SERIES_DEGREE``. Fills ``S[q, 0, k]`` for q = Y, W, A, F, P, R, Q.
     """
     S[:] = 0.0
     Y = S[0, 0]
@@ -194,12 +190,9 @@ def series_coefficients(lam, G, n, c, b, S):
         A[i, j] = 1/d sum_{(a,b) != 0} X[a, b] A[i-a, j-b] ((n+1) (a + b n) - d).
 
     Hertz and power laws: F = A. Hunt-Crossley: F = A (1 + c W) R with
-    R = 1 / (1 + c lam b A). Each coefficient needs only coefficients of lower
-    degree, so one pass in order of j, then i, gives them all, exactly: X and W up
-    to ``SERIES_DEGREE``, A and F up to ``SERIES_DEGREE - n`` (all X and W need).
-
-    Fills ``S`` (``new_series(b)``): X, W, A, F, then X (n+1) (i + j n), and for
-    Hunt-Crossley R and A (1 + c W).
+    R = 1 / (1 + c lam b A). Each coefficient needs only lower degrees, so one pass in
+    order of j, then i, gives them all, exactly. Fills ``S``: X, W, A, F, X (n+1) (i + j n),
+    and for Hunt-Crossley R and A (1 + c W).
     """
     if b != 0.0:
         half_series_coefficients(lam, G, c, b, S)
@@ -278,21 +271,12 @@ def series_eval(S, s, n, b):
 
 @compiled()
 def series_start(lam, G, n, c, b, rtol, S, s_max):
-    """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over.
-
-    The truncation error is estimated by the terms of the last ``n + 1`` degrees
-    kept (each integration of the equations raises the degree by at most n + 1, so
-    that band holds the leading terms of every chain, even when lam or G is 0):
-
-        e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)
-
-    (x / s and w are of order one there). The series is used up to the time ``s1``
-    where e = ``rtol``, at most up to ``SERIES_MAX_TIME``: e is convex in log s, so
-    Newton's method in log s from above reaches s1 without overshooting.
-
-    Returns (s1, x, w, I2, L) at s1, ``s1`` at most ``s_max`` (the end of the elastic law,
-    before a yield); the quadratures are integrated term by term. With the viscoelastic
-    loss (b > 0): ``half_series_start``.
+    """Fill ``S`` by ``series_coefficients`` and choose where the integrators take over: at
+    ``s1`` where the truncation error ``e(s) = sum_band (|X[i, j]| + |W[i, j]|) s^(i + j n)``
+    (the terms of the last ``n + 1`` degrees, which hold every chain's leading term) reaches
+    ``rtol``, by Newton's method in log s from above (e is convex there), at most
+    ``SERIES_MAX_TIME`` and ``s_max`` (before a yield). Returns (s1, x, w, I2, L) at s1, the
+    quadratures term by term. With the viscoelastic loss: ``half_series_start``.
     """
     series_coefficients(lam, G, n, c, b, S)
     if b != 0.0:

@@ -1,30 +1,16 @@
 """numba kernels of the thin-shell contact of a hollow ball (private to synth.physics.contact).
 
-The law of docs/physics.md, "Hollow balls": the shell's local stiffness (Reissner) up to the
-deflection ``delta_t`` where Pogorelov's law of the flattened shell with its inverted cap
-takes over, plus the gas' gauge pressure times the flat contact area, with the shell
-material's loss as a Kelvin-Voigt term on the shell's tangent stiffness:
-
-    F_s = k_R delta                       (delta <= delta_t)
-        = k_R sqrt(delta_t delta)         (delta >= delta_t; = C_P delta^(1/2))
-    F_e = F_s + k_g delta                 (k_g = 2 pi R p)
-    F   = max(0, F_e + A k_s(delta) d(delta)/dt),   k_s = dF_s / d(delta)
-
-Scaled like the power laws (``equations.py``) by ``theta = sqrt(m / k0)``, ``k0 = k_R +
-k_g`` (the law's stiffness at small deflection) and the length ``theta v0``:
+The law of docs/physics.md, "Hollow balls", scaled like the power laws (``equations.py``) by
+``theta = sqrt(m / k0)``, ``k0 = k_R + k_g``, and the length ``theta v0``:
 
     x' = w - lam f,   w' = G - f,   f = max(0, (f_e + a k_s w) / (1 + a k_s lam))
     f_e = r_R min(x, sqrt(x_t x)) + r_g x,   r_R = k_R / k0,  r_g = k_g / k0,  a = A / theta
 
-with the energy-balance quadratures ``I2' = f^2`` and ``L' = (f - f_e) x'`` and the exact
-settling test of ``equations.py`` on ``W = u^2 / 2 + U(x) - G x`` (``U`` the potential of
-``f_e``). The law is smooth at first touch (``f_e`` is linear there), so the contact needs
-no series start: an embedded Runge-Kutta pair of orders 5(4) (Dormand & Prince, J. Comput.
-Appl. Math. 6, 1980; Hairer, Norsett & Wanner, "Solving ODEs I", II.5) integrates it from
-``x = 0, w = 1``, with a cubic Hermite dense output per step on which the end of contact,
-the end of the force, the peaks and the pulse are found.
-
-A row of the history: ``s0, h, x0, w0, x0', w0', x1, w1, x1', w1'``.
+with the quadratures ``I2' = f^2``, ``L' = (f - f_e) x'`` and the settling test of
+``equations.py``. Smooth at first touch, it needs no series start: Dormand & Prince's 5(4)
+pair (J. Comput. Appl. Math. 6, 1980) integrates it from ``x = 0, w = 1``, with a cubic
+Hermite dense output per step. A row of the history: ``s0, h, x0, w0, x0', w0', x1, w1,
+x1', w1'``.
 """
 
 from __future__ import annotations
@@ -34,7 +20,7 @@ import math
 import numpy as np
 
 from synth.compilation import compiled
-from synth.physics.contact_kernels.dense import grow_history
+from synth.physics.contact_kernels.dense import find_step, grow_history
 from synth.physics.contact_kernels.equations import (
     MAX_STEPS,
     SEPARATED,
@@ -129,19 +115,6 @@ def hermite(hist, k, s):
 
 
 @compiled()
-def find_row(hist, nh, s):
-    """The row whose step holds ``s`` (bisection on the step starts)."""
-    lo, hi = 0, nh - 1
-    while lo < hi:
-        mid = (lo + hi + 1) // 2
-        if hist[mid, S_T0] <= s:
-            lo = mid
-        else:
-            hi = mid - 1
-    return lo
-
-
-@compiled()
 def _root_in_row(hist, k, lam, rR, xt, rg, a, which):
     """The time in row ``k`` where, from positive at its start, the penetration
     (``which`` 0) or the force's numerator ``f_e + a k_s w`` (``which`` 1) first reaches 0:
@@ -204,7 +177,7 @@ def _golden_max(hist, nh, lo, hi, lam, rR, xt, rg, a, which):
 
 @compiled()
 def _value(hist, nh, s, lam, rR, xt, rg, a, which):
-    x, w = hermite(hist, find_row(hist, nh, s), s)
+    x, w = hermite(hist, find_step(hist, nh, s), s)
     if which == 0:
         return x
     f, _ = shell_force(x, w, lam, rR, xt, rg, a)
@@ -217,7 +190,7 @@ def dp5_step(x, w, q2, q3, k1x, k1w, k1q, k1l, h, lam, G, rR, xt, rg, a):
     ``k1`` there: the new state, its slopes (FSAL) and the error estimates of the four."""
     x2 = x + h * _A21 * k1x
     w2 = w + h * _A21 * k1w
-    k2x, k2w, k2q, k2l = shell_rhs(x2, w2, lam, G, rR, xt, rg, a)
+    k2x, k2w, _, _ = shell_rhs(x2, w2, lam, G, rR, xt, rg, a)  # B2 = 0: k2 enters no sum
     x3 = x + h * (_A31 * k1x + _A32 * k2x)
     w3 = w + h * (_A31 * k1w + _A32 * k2w)
     k3x, k3w, k3q, k3l = shell_rhs(x3, w3, lam, G, rR, xt, rg, a)
@@ -235,8 +208,6 @@ def dp5_step(x, w, q2, q3, k1x, k1w, k1q, k1l, h, lam, G, rR, xt, rg, a):
     qn = q2 + h * (_B1 * k1q + _B3 * k3q + _B4 * k4q + _B5 * k5q + _B6 * k6q)
     ln = q3 + h * (_B1 * k1l + _B3 * k3l + _B4 * k4l + _B5 * k5l + _B6 * k6l)
     k7x, k7w, k7q, k7l = shell_rhs(xn, wn, lam, G, rR, xt, rg, a)
-    ex = h * (_E1 * k1x + _E3 * k3x + _E4 * k4x + _E5 * k5x + _E6 * k6x + _E7 * k7x)
-    ew = h * (_E1 * k1w + _E3 * k3w + _E4 * k4w + _E5 * k5w + _E6 * k6w + _E7 * k7w)
     ex = h * (_E1 * k1x + _E3 * k3x + _E4 * k4x + _E5 * k5x + _E6 * k6x + _E7 * k7x)
     ew = h * (_E1 * k1w + _E3 * k3w + _E4 * k4w + _E5 * k5w + _E6 * k6w + _E7 * k7w)
     eq = h * (_E1 * k1q + _E3 * k3q + _E4 * k4q + _E5 * k5q + _E6 * k6q + _E7 * k7q)
@@ -276,9 +247,8 @@ def integrate(lam, G, rR, xt, rg, a, rtol, atol):
             # step's length), so that no step straddles it and the order is kept
             hk = h * (xt - x) / (xn - x)
             for _ in range(4):
-                xk, wk, qk, lk, dxk, dwk, dqk, dlk, ex, ew, eq, el = dp5_step(
-                    x, w, q2, q3, k1x, k1w, k1q, k1l, hk, lam, G, rR, xt, rg, a
-                )
+                trial = dp5_step(x, w, q2, q3, k1x, k1w, k1q, k1l, hk, lam, G, rR, xt, rg, a)
+                xk, dxk = trial[0], trial[4]
                 if dxk == 0.0:
                     break
                 hk = min(max(hk - (xk - xt) / dxk, 0.0), h)
@@ -399,7 +369,7 @@ def shell_force_slope(hist, lam, G, rR, xt, rg, a, s_contact, s, out, slope):
             out[i] = 0.0
             slope[i] = 0.0
             continue
-        x, w = hermite(hist, find_row(hist, nh, si), si)
+        x, w = hermite(hist, find_step(hist, nh, si), si)
         f, _ = shell_force(x, w, lam, rR, xt, rg, a)
         out[i] = f
         if x <= 0.0 or f <= 0.0:

@@ -15,9 +15,9 @@ from synth.compilation import announce
 from synth.constants import GRAVITY
 from synth.errors import ParameterError
 from synth.physics import impedance
-from synth.physics.contact import ImpactResult, solve_contact
+from synth.physics.contact import ImpactResult, check_law_fields, solve_contact
 from synth.physics.contact_kernels.equations import yield_law, yield_law_arrays
-from synth.physics.contact_law import check_yield_penetration, contact_parameters
+from synth.physics.contact_law import contact_parameters
 from synth.physics.modal_contact.kernels import (
     R_CONTACT_LOSS,
     R_DAMPING_LOSS,
@@ -48,11 +48,6 @@ STEPS_PER_CONTACT = 512
 #: A contact still going after this many impedance-model contact times is reported as
 #: settled (the ball rests on the plate).
 SETTLE_FACTOR = 40.0
-
-
-# --------------------------------------------------------------------------------------
-# Impacts
-# --------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,11 +132,6 @@ class ModalImpactResult(ImpactResult):
         self.__dict__.update(time=times, force=forces)
         return times, forces
 
-    def force_at(self, t):
-        """Contact force (N) at times ``t`` (s from first touch); 0 outside the contact."""
-        out = self.force_and_slope_at(np.atleast_1d(np.asarray(t, dtype=float)))[0]
-        return out.reshape(np.shape(t)) if np.ndim(t) else float(out[0])
-
     def force_and_slope_at(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Contact force (N) and its rate of change (N/s) at times ``t`` (s from first touch,
         a 1-D array); both 0 outside the contact."""
@@ -150,27 +140,17 @@ class ModalImpactResult(ImpactResult):
         i = np.clip(np.searchsorted(ts, tt, side="right") - 1, 0, ts.size - 2)
         h = ts[i + 1] - ts[i]
         u = (tt - ts[i]) / h
-        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
-        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
-        u2, u3 = u * u, u * u * u
-        delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
-            u3 - u2
-        ) * r1
-        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
-        rate += (3 * u2 - 2 * u) * r1 / h
+        delta, rate, accel = _hermite(u, h, self.step_gaps, self.step_rates, i)
         inside = (tt >= 0.0) & (tt <= self.separation_time) & (delta > 0.0)
         dpos = np.where(inside, delta, 1.0)
         n, K, mu = self.law_exponent, self.law_stiffness, self.law_dissipation
         b = 1.5 * self.law_viscous_time
         if self.law_yield_penetration != math.inf:
-            return self._yield_force_and_slope(i, inside, dpos, rate, u, h)
+            return self._yield_force_and_slope(i, inside, dpos, rate, accel)
         elastic = K * dpos**n
         elastic_slope = n * K * dpos ** (n - 1.0) * rate
         if mu == 0.0 and b == 0.0:
             return np.where(inside, elastic, 0.0), np.where(inside, elastic_slope, 0.0)
-        accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
-            h * h
-        )
         if b == 0.0:
             # Hunt-Crossley: F = K delta^n (1 + mu delta'), F >= 0
             lossy = inside & (1.0 + mu * rate > 0.0)
@@ -186,17 +166,12 @@ class ModalImpactResult(ImpactResult):
         slope = root_slope * (dpos + c * rate) + root * (rate + mu * rate * rate + c * accel)
         return force, np.where(lossy, slope, 0.0)
 
-    def _yield_force_and_slope(self, i, inside, delta, rate, u, h):
+    def _yield_force_and_slope(self, i, inside, delta, rate, accel):
         """:meth:`force_and_slope_at` of Thornton's law (``yield_law``, in metres) at the
-        penetrations ``delta`` (m) and rates ``rate`` (m/s) inside steps ``i`` (the fraction
-        ``u`` of their length ``h``, s), the largest penetration before each step its state:
+        penetrations ``delta`` (m), rates ``rate`` (m/s) and accelerations ``accel`` (m/s^2)
+        inside steps ``i``, the largest penetration before each step its state:
         ``F = K (a + c delta')``, ``c = mu a + b r``, ``F >= 0``."""
         K, mu, b = self.law_stiffness, self.law_dissipation, 1.5 * self.law_viscous_time
-        d0, d1 = self.step_gaps[i], self.step_gaps[i + 1]
-        r0, r1 = self.step_rates[i] * h, self.step_rates[i + 1] * h
-        accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (
-            h * h
-        )
         dm = np.ascontiguousarray(np.maximum.accumulate(self.step_gaps)[i], dtype=float)
         a, r, da, dr = (np.empty_like(delta) for _ in range(4))
         yield_law_arrays(np.ascontiguousarray(delta), self.law_yield_penetration, dm, a, r, da, dr)
@@ -218,32 +193,12 @@ class ModalImpactResult(ImpactResult):
 @dataclass(frozen=True, eq=False)
 class ModalContact:
     """Impacts of one ball on a finite plate at one point, the plate modelled by its modes
-    (:class:`ModalPoint`) in the contact.
-
-    Build with :meth:`for_pair`; :meth:`solve` gives one impact (from a plate at rest or
-    ringing), :meth:`ring` the plate's free ringing between impacts.
-
-    Attributes
-    ----------
-    point : ModalPoint
-    mass, stiffness, exponent : float
-        Ball mass ``m`` (kg), contact law ``F = K delta^n`` (``K`` in N/m^n, ``n``).
-    gravity : float
-        m/s^2.
-    steps_per_contact : int
-        Fixed steps over one impedance-model contact time.
-    dissipation : float
-        Hunt-Crossley loss ``mu`` of ``F = K delta^n (1 + mu delta')``, ``F >= 0``, s/m
-        (0: none).
-    viscous_time : float
-        The viscoelastic Hertz contact's dissipative time ``A`` of
-        ``F = K (delta^(3/2) + (3/2) A delta^(1/2) delta')``, ``F >= 0``, s (0: none;
-        exponent 1.5 only). With both losses the force is
-        ``K delta^(n-1) (delta + (mu delta + 3/2 A) delta')``.
-    yield_penetration : float
-        The penetration (m; inf: none) past which the Hertz contact yields by Thornton's
-        law (:attr:`synth.physics.contact_law.ContactLaw.yield_penetration`).
-    """
+    (:class:`ModalPoint`): built by :meth:`for_pair`; :meth:`solve` gives one impact,
+    :meth:`ring` the plate's free ringing between impacts. ``mass`` (kg), ``stiffness``
+    (N/m^n), ``exponent``, ``gravity`` (m/s^2), ``dissipation`` (s/m), ``viscous_time`` (s)
+    and ``yield_penetration`` (m) as :class:`~synth.physics.contact.ContactSolver`'s; with
+    both losses the force is ``K delta^(n-1) (delta + (mu delta + 3/2 A) delta')``, ``F >=
+    0``. ``steps_per_contact``: fixed steps over one impedance-model contact time."""
 
     point: ModalPoint
     mass: float
@@ -258,24 +213,7 @@ class ModalContact:
     def __post_init__(self):
         if not isinstance(self.point, ModalPoint):
             raise ParameterError(f"point={self.point!r} must be a ModalPoint")
-        checked = dict(
-            mass=checks.positive("mass", self.mass, "kg"),
-            stiffness=checks.positive("stiffness", self.stiffness, "N/m^n"),
-            exponent=checks.in_range(
-                "exponent", self.exponent, 1.0, 4.0, "dimensionless", hi_open=False
-            ),
-            gravity=checks.nonnegative("gravity", self.gravity, "m/s^2"),
-            dissipation=checks.nonnegative("dissipation", self.dissipation, "s/m"),
-            viscous_time=checks.nonnegative("viscous_time", self.viscous_time, "s"),
-        )
-        checked["yield_penetration"] = check_yield_penetration(
-            self.yield_penetration, checked["exponent"]
-        )
-        if checked["viscous_time"] != 0.0 and checked["exponent"] != 1.5:
-            raise ParameterError(
-                f"viscous_time={self.viscous_time!r} with exponent={self.exponent!r}: the "
-                f"viscoelastic loss is that of the Hertz law (exponent 1.5)"
-            )
+        checked = check_law_fields(self)
         steps = self.steps_per_contact
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 16:
             raise ParameterError(
@@ -377,14 +315,9 @@ class ModalContact:
                 f"than the ball; the ball cannot hit it"
             )
         ref = _impedance_contact(
-            self.mass,
-            self.stiffness,
-            self.exponent,
-            p.plate,
-            v_approach,
-            self.dissipation,
+            self.mass, self.stiffness, self.exponent, p.plate, v_approach, self.dissipation,
             self.viscous_time,
-        )
+        )  # fmt: skip
         h = ref.separation_time / self.steps_per_contact
         max_steps = int(SETTLE_FACTOR * self.steps_per_contact)
         q, v = _joined(state.q, state.q_res), _joined(state.v, state.v_res)
@@ -398,30 +331,12 @@ class ModalContact:
         w0 = state.displacement
         announce("modal-contact")
         r = contact_kernel(
-            omega,
-            sigma,
-            coupling,
-            p.rigid_coupling,
-            p.residual_admittance,
-            p.residual_rate,
-            q,
-            v,
-            x,
-            self.mass,
-            self.stiffness,
-            self.exponent,
-            self.dissipation,
+            omega, sigma, coupling, p.rigid_coupling, p.residual_admittance, p.residual_rate,
+            q, v, x, self.mass, self.stiffness, self.exponent, self.dissipation,
             1.5 * self.viscous_time,
             None if self.yield_penetration == math.inf else self.yield_penetration,
-            self.gravity,
-            v_in,
-            h,
-            max_steps,
-            forces,
-            times,
-            gaps,
-            rates,
-        )
+            self.gravity, v_in, h, max_steps, forces, times, gaps, rates,
+        )  # fmt: skip
         pulse = _Pulse(times, forces, gaps, rates, int(r[R_STEPS]))
         return self._result(r, q, v, float(x[0]), v_in, e0, w0, pulse, ref, n_points)
 
@@ -497,9 +412,7 @@ def next_touch(
 ) -> tuple[float, PlateRinging]:
     """The ball's next landing on the ringing plate: the first time ``s`` (s, from now) at which
     the ball, at ``height`` (m above the plate's rest position) moving up at ``speed`` (m/s),
-    meets the surface ringing from ``state``, and the plate's state then. The search runs
-    where the ball is within the surface's largest excursion, in steps of an eighth of the
-    shortest period, and closes the first sign change to double precision
+    meets the surface ringing from ``state``, and the plate's state then
     (:func:`~synth.physics.modal_contact.kernels.first_touch`)."""
     p = contact.point
     g = contact.gravity
@@ -524,13 +437,10 @@ def next_touch(
 
 
 def _force_end(pulse: _Pulse, mu: float, b: float, dy: float) -> float:
-    """The end of a lossy contact's force pulse (s from first touch): the last time the force
-    ``K delta^(n-1) (delta + (mu delta + b) delta')`` falls to 0 (Hunt-Crossley, ``b = 0``:
-    where ``1 + mu delta'`` does), on the cubic Hermite interpolant of the penetrations
-    between the solver's steps (as :meth:`ModalImpactResult.force_and_slope_at`), by Illinois'
-    false position to the time resolution of double precision. The ball separates later, when
-    the penetration returns to 0. With a yield (``dy``, m) the force is Thornton's
-    (:func:`_yield_sign`), 0 below the residual penetration."""
+    """The end of a lossy contact's force pulse (s from first touch), before the penetration's:
+    the last time the force ``K delta^(n-1) (delta + (mu delta + b) delta')`` (Thornton's
+    with a yield ``dy``, m) falls to 0 on the steps' cubic Hermite interpolant, by Illinois'
+    false position to double precision."""
     positive = np.flatnonzero(pulse.forces > 0.0)
     if positive.size == 0:
         return float(pulse.times[-1])
@@ -539,17 +449,11 @@ def _force_end(pulse: _Pulse, mu: float, b: float, dy: float) -> float:
         return float(pulse.times[-1])
     t0, t1 = float(pulse.times[i]), float(pulse.times[i + 1])
     h = t1 - t0
-    d0, d1 = float(pulse.gaps[i]), float(pulse.gaps[i + 1])
     dm = float(np.max(pulse.gaps[: i + 1]))
-    r0, r1 = float(pulse.rates[i]) * h, float(pulse.rates[i + 1]) * h
+    gaps, rates = pulse.gaps.tolist(), pulse.rates.tolist()
 
     def sign(u):  # the sign of the force before its clip at 0, at the fraction u of the step
-        u2 = u * u
-        u3 = u2 * u
-        d = (2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (3 * u2 - 2 * u3) * d1
-        d += (u3 - u2) * r1
-        rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
-        rate += (3 * u2 - 2 * u) * r1 / h
+        d, rate, _ = _hermite(u, h, gaps, rates, i)
         if d <= 0.0:
             return d
         if dy != math.inf:
@@ -591,6 +495,22 @@ def _yield_sign(d, rate, mu, b, dy, dm) -> float:
     return a + (mu * a + b * r) * rate
 
 
+def _hermite(u, h, gaps, rates, i):
+    """The cubic Hermite interpolant of the penetrations ``gaps`` (m) and their rates
+    ``rates`` (m/s) at the fraction ``u`` of the steps ``i`` of length ``h`` (s): the
+    penetration (m), its rate (m/s) and its acceleration (m/s^2)."""
+    d0, d1 = gaps[i], gaps[i + 1]
+    r0, r1 = rates[i] * h, rates[i + 1] * h
+    u2, u3 = u * u, u * u * u
+    delta = ((2 * u3 - 3 * u2 + 1) * d0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * d1) + (
+        u3 - u2
+    ) * r1
+    rate = ((6 * u2 - 6 * u) * d0 + (3 * u2 - 4 * u + 1) * r0 + (6 * u - 6 * u2) * d1) / h
+    rate += (3 * u2 - 2 * u) * r1 / h
+    accel = ((12 * u - 6) * d0 + (6 * u - 4) * r0 + (6 - 12 * u) * d1 + (6 * u - 2) * r1) / (h * h)
+    return delta, rate, accel
+
+
 def _joined(band: np.ndarray, lumped: np.ndarray) -> np.ndarray:
     """A fresh float array of the band's modes' values followed by the lumped modes'."""
     return np.concatenate((np.asarray(band, dtype=float), np.asarray(lumped, dtype=float)))
@@ -600,26 +520,18 @@ def _impedance_contact(m, K, n, plate, v, mu, A) -> ImpactResult:
     """The impedance model's impact (the infinite plate; Hunt-Crossley loss ``mu``, s/m, and
     viscoelastic ``A``, s), for the time scale of the modal one."""
     return solve_contact(
-        mass=float(m),
-        stiffness=float(K),
-        admittance=1.0 / impedance.infinite_plate_impedance(plate),
-        speed=float(v),
-        gravity=0.0,
-        exponent=float(n),
-        dissipation=float(mu),
-        viscous_time=float(A),
-        rtol=1e-6,
-    )
+        mass=float(m), stiffness=float(K),
+        admittance=1.0 / impedance.infinite_plate_impedance(plate), speed=float(v), gravity=0.0,
+        exponent=float(n), dissipation=float(mu), viscous_time=float(A), rtol=1e-6,
+    )  # fmt: skip
 
 
 def impedance_contact_time(
     ball: Ball, plate: Plate, speed: float, *, law: str = "hertz", **contact_options
 ) -> float:
-    """The impedance model's time from first touch to separation (s; its
-    ``ImpactResult.separation_time``) of ``ball`` on ``plate`` at ``speed`` (m/s), without
-    gravity, under the contact ``law`` and its options: the time scale from which
-    :meth:`ModalContact.for_pair` sets its band (``BAND_FACTOR / tau``) and
-    :meth:`ModalContact.solve` its steps."""
+    """The impedance model's time to separation (s) of ``ball`` on ``plate`` at ``speed``
+    (m/s), without gravity, under the contact ``law`` and its options: the time scale of
+    :meth:`ModalContact.for_pair`'s band and :meth:`ModalContact.solve`'s steps."""
     c = contact_parameters(ball, plate, law, **contact_options)
     v = checks.positive("speed", speed, "m/s")
     return _impedance_contact(

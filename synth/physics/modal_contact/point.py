@@ -155,7 +155,8 @@ def modal_point(
         raise ParameterError(f"theory={theory!r} must be one of {PLATE_THEORIES}")
     omega_band = 2.0 * math.pi * fmax
     if theory == "mindlin":
-        thin_band = _thin_frequency(plate, impedance.mindlin_wavenumbers(plate, omega_band)[0])
+        s_band = impedance.mindlin_wavenumbers(plate, omega_band)[0]
+        thin_band = _mode_frequency(plate, s_band, "kirchhoff")[()]
         omega, coupling = _point_modes(plate, (x, y), thin_band / (2.0 * math.pi))
         s = omega * math.sqrt(plate.surface_density / plate.flexural_rigidity)
         omega = impedance.mindlin_angular_frequency(plate, s)
@@ -177,20 +178,9 @@ def modal_point(
     else:
         rigid = 0.0
     return ModalPoint(
-        plate=plate,
-        position=(x, y),
-        max_frequency=fmax,
-        omega=omega,
-        sigma=sigma,
-        coupling=coupling,
-        rigid_coupling=rigid,
-        residual_admittance=lumped.tail_admittance,
-        residual_rate=lumped.tail_rate,
-        theory=theory,
-        residual_omega=lumped.omega,
-        residual_sigma=lumped_sigma,
-        residual_coupling=lumped.coupling,
-    )
+        plate, (x, y), fmax, omega, sigma, coupling, rigid, lumped.tail_admittance,
+        lumped.tail_rate, theory, lumped.omega, lumped_sigma, lumped.coupling,
+    )  # fmt: skip
 
 
 def _band_edge_loss(plate: Plate, omega_band: float, fmax: float) -> float:
@@ -282,11 +272,6 @@ def _lumped_residual(plate: Plate, omega_band: float, theory: str) -> _LumpedRes
     else:
         tail = 1.0 / impedance.infinite_plate_impedance(plate)
     return _LumpedResidual(np.array(omega), np.array(coupling), tail, 0.5 * math.pi * top)
-
-
-def _thin_frequency(plate: Plate, wavenumber_squared: float) -> float:
-    """Kirchhoff's angular frequency (rad/s) of a wave of ``k^2`` (rad^2/m^2)."""
-    return wavenumber_squared * math.sqrt(plate.flexural_rigidity / plate.surface_density)
 
 
 # Eigen-solutions of exactly the contact's bands, held in memory (a few plates), and each
