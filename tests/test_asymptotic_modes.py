@@ -11,13 +11,13 @@ from numpy.polynomial.legendre import leggauss
 from reference import ritz_frequencies
 
 from synth.errors import ParameterError
+from synth.physics import asymptotic_modes as AM
 from synth.physics import modes as P
 from synth.physics.asymptotic_modes import ritz as edge_ritz
 from synth.physics.asymptotic_modes import roots
 from synth.physics.materials import LossFactor, Material
 from synth.physics.modes import crossover, ritz
 from synth.physics.scene import Plate
-from synth.sound import asymptotic_modes as AM
 
 STEEL = Material("test-steel", 7800.0, 2.0e11, 0.3, LossFactor(1e-3))
 
