@@ -1,10 +1,6 @@
-"""Steps 2-4 of the tick detection (docs/analysis.md, Method): the detection function of the
-whitened signal, its adaptive threshold, the candidates, and each burst's sub-sample onset; and
-the delay of one whitened response behind another (the timing of step 7).
-
-All positions and lengths are in samples; energies are sums of squares per frame of the
-whitened signal.
-"""
+"""Steps 2-4 of the tick detection (docs/analysis.md, Method): detection function, adaptive
+threshold, candidates, sub-sample onsets; and the delay of one whitened response behind another
+(step 7). Positions in samples; energies are sums of squares per frame of the whitened signal."""
 
 from __future__ import annotations
 
@@ -50,10 +46,8 @@ LOCAL_ORDER = 16
 
 
 def frame_energies(z: np.ndarray, hop: int, w: int) -> np.ndarray:
-    """Energy of ``z`` over frames ``[k hop, k hop + w)`` (the detection function): each the
-    sum of its squares in the order of numpy's pairwise summation, so the same to the last
-    bit as ``sum`` over each frame (the search calls this thousands of times per recording,
-    on a few hundred frames each)."""
+    """Energy of ``z`` over frames ``[k hop, k hop + w)`` (the detection function), summed in
+    numpy's pairwise order: bit-equal to ``sum`` per frame, at compiled speed."""
     if z.size < w:
         return np.zeros(0)
     return _frame_energies(np.ascontiguousarray(z, dtype=np.float64), int(hop), int(w))
@@ -70,8 +64,7 @@ def _frame_energies(z, hop, w):  # pragma: no cover - compiled
 
 @compiled(nogil=True)
 def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
-    """``sum(z[start:start+n]**2)`` as numpy's pairwise summation adds it: a plain sum under
-    8 terms, eight running sums combined pairwise up to 128, halves (multiples of 8) beyond."""
+    """``sum(z[start:start+n]**2)`` in numpy's pairwise summation order."""
     if n < 8:
         res = 0.0
         for i in range(start, start + n):
@@ -108,8 +101,8 @@ def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
 
 @dataclass(frozen=True)
 class Detection:
-    """The candidates of steps 2-3: their frames (``peaks``), the detection function ``d``,
-    each frame's ``threshold`` and local ``background`` (energies per frame)."""
+    """Candidates of steps 2-3: their frames, the detection function ``d``, each frame's
+    ``threshold`` and local ``background`` (energies per frame)."""
 
     peaks: np.ndarray
     d: np.ndarray
@@ -118,10 +111,9 @@ class Detection:
 
 
 def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
-    """Candidate ticks in the whitened signal ``r`` (steps 2 and 3): the local maxima of the
-    detection function over its threshold, one per cluster closer than ``min_separation``,
-    none more than ``max_drop_db`` under the previous one. ``background``: the running
-    median's length, s."""
+    """Candidate ticks in the whitened signal ``r`` (steps 2-3): local maxima of the detection
+    function over its threshold, one per cluster closer than ``min_separation``, none more than
+    ``max_drop_db`` under the previous. ``background``: the running median's length, s."""
     from scipy.ndimage import median_filter
 
     hop = settings.hop
@@ -139,13 +131,10 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
 
 
 def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -> np.ndarray:
-    """The background each frame of ``d`` must rise from: the running median ``med`` (centred,
-    ``size`` frames), except up to the first burst's peak, which rises from the lead-in before
-    it (the median of up to ``size`` frames under the dynamic range's floor), where lower: a
-    centred median there holds the first tick's own ringing, which the whitening of a lightly
-    damped plate leaves nearly as loud as its burst. A lead-in shorter than
-    :data:`STANDS_OUT_BEFORE` (the stretch step 8 weighs a tick against) is no background:
-    the noise of a recording cut just before a tick crosses the floor within it."""
+    """The background each frame of ``d`` must rise from: the centred running median ``med``, except
+    up to the first burst's peak, where the lead-in's median is used where lower (a centred
+    median there holds the first tick's own ringing). A lead-in shorter than
+    :data:`STANDS_OUT_BEFORE` is no background."""
     k0 = int(np.argmax(d >= d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)))
     if k0 * settings.hop < STANDS_OUT_BEFORE * settings.samplerate:
         return med
@@ -156,9 +145,8 @@ def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -
 
 
 def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:
-    """Memory of the frames ``j <= k - 2`` (frame ``k - 1`` may hold the start of the same
-    burst), fading by ``release`` dB per ms: ``max_j d_j 10^(-a (k - j))``, computed in
-    log10 units as ``max_j (log d_j + a j) - a k``."""
+    """Memory of frames ``j <= k - 2`` fading by ``release`` dB per ms: ``max_j d_j 10^(-a (k -
+    j))``, in log10 units."""
     a = settings.release * 1000.0 * hop / settings.samplerate / 10.0
     aj = np.arange(d.size) * a
     with np.errstate(divide="ignore"):
@@ -169,9 +157,8 @@ def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:
 
 
 def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.ndarray:
-    """Frames of the local maxima of ``d`` at or over ``threshold``, taken in time order: the
-    first of a cluster closer than ``min_separation``, and none more than ``max_drop_db``
-    under the previous one (its burst may straddle two frames)."""
+    """Frames of the local maxima of ``d`` at or over ``threshold``, in time order: the first of a
+    cluster closer than ``min_separation``, none more than ``max_drop_db`` under the previous."""
     from scipy.signal import find_peaks
 
     q = np.where(d >= threshold, d, 0.0)
@@ -191,23 +178,10 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
 
 @dataclass(frozen=True)
 class OnsetWalk:
-    """How step 4 walks back from a burst's largest ``|r|`` to its onset.
-
-    Attributes
-    ----------
-    fraction : float
-        The walk's level over the burst's largest ``|r|`` (dimensionless).
-    gap : int
-        The longest run under the level the walk bridges (samples).
-    noise : float
-        The noise's level in ``|r|``: the walk's level is at least this (or the peak).
-    strict : bool
-        An anti-aliasing filter's pre-ringing counts only where its samples stand above
-        ``noise``.
-    weak_gap : int or None
-        For a doubtful candidate of the deflation (steps 5 and 7): the gap bridged in a weak
-        burst, whose level is the noise's (:meth:`walk_gap`).
-    """
+    """How step 4 walks back from a burst's largest ``|r|`` to its onset: the level ``fraction`` of
+    that peak (at least ``noise``), the longest run under it bridged (``gap``, samples), whether
+    pre-ringing must stand above ``noise`` (``strict``), and the gap bridged in a weak burst
+    (``weak_gap``, samples; :meth:`walk_gap`)."""
 
     fraction: float
     gap: int
@@ -216,27 +190,19 @@ class OnsetWalk:
     weak_gap: int | None = None
 
     def walk_gap(self, peak: float) -> int:
-        """The longest gap (samples) bridged in a burst whose largest ``|r|`` is ``peak``:
-        ``gap`` (the zero crossings of a burst), or ``weak_gap`` where the noise sets the
-        walk's level (``fraction`` of the peak under ``noise``). Whitened, a contact of many
-        sample periods is the transients at its two ends (above its force spectrum's first
-        zero the whitening lifts the high frequencies those carry); in a weak burst its body
-        between them lies under the noise's level, and its start is the earlier transient, up
-        to a contact length before the later, stronger one."""
+        """The longest gap (samples) bridged in a burst of largest ``|r|`` ``peak``: ``weak_gap``
+        where the noise sets the walk's level, else ``gap``. Whitened, a slow contact is the
+        transients at its two ends; in a weak burst its body lies under the noise."""
         if self.weak_gap is not None and min(self.noise, peak) > self.fraction * peak:
             return max(self.gap, self.weak_gap)
         return self.gap
 
 
 def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
-    """Sub-sample onset (samples) of the burst of the whitened signal ``r`` peaking in
-    ``[lo, hi)`` (step 4): the crossing of the level (``walk.fraction`` of the burst's largest
-    ``|r|``, at least ``walk.noise``) before the earliest sample reached by walking back over
-    samples at or above it, bridging :meth:`OnsetWalk.walk_gap`; or, after a linear-phase
-    anti-aliasing filter's pre-ringing, the centre of the burst's sampled sinc. With
-    ``walk.strict`` the pre-ringing's samples must stand above the noise. A weak burst (a
-    doubtful candidate given ``walk.weak_gap``) shows only the transients at a slow contact's
-    two ends under the noise's level (:meth:`OnsetWalk.walk_gap`)."""
+    """Sub-sample onset (samples) of the burst of ``r`` peaking in ``[lo, hi)`` (step 4): the level
+    crossing before the earliest sample reached walking back over samples at or above the level,
+    bridging :meth:`OnsetWalk.walk_gap`; or, after an anti-aliasing filter's pre-ringing, the
+    centre of the burst's sampled sinc."""
     # the walk looks back from the burst only: |r| over a stretch before it, longer only
     # where the walk comes near the stretch's start (the same onset as over the whole of r)
     span = max(64, 8 * max(walk.gap, walk.weak_gap or 0))
@@ -252,12 +218,9 @@ def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
 def _refined(
     r: np.ndarray, lo: int, hi: int, walk: OnsetWalk, offset: int
 ) -> tuple[int, float] | None:
-    """:func:`refine_onset` over the stretch ``r`` (``lo``, ``hi`` into it) that starts at
-    sample ``offset`` of the whole, as a sample of the stretch and the fraction of a sample
-    past it (added to the sample of the whole: the onset to the last bit); None when the
-    walk back comes within the gap it bridges (or :data:`PRE_RINGING_RUN`) samples of the
-    stretch's start and ``offset`` is not 0 (the walk, or the pre-ringing's run, may go on
-    before it)."""
+    """:func:`refine_onset` over the stretch ``r`` starting at sample ``offset`` of the whole, as
+    (sample of the stretch, fraction past it); None when the walk nears the stretch's start and
+    ``offset`` is not 0."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(walk.fraction * mag[k], min(walk.noise, mag[k]))
@@ -274,8 +237,8 @@ def _refined(
 
 
 def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
-    """The earliest sample at or above ``level`` reached from ``k`` through gaps of at most
-    ``gap`` samples."""
+    """The earliest sample at or above ``level`` reached from ``k`` through gaps of at most ``gap``
+    samples."""
     i = k
     while True:
         j0 = max(0, i - gap)
@@ -288,13 +251,10 @@ def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
 def _sinc_centre(
     r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float
 ) -> tuple[int, float] | None:
-    """The centre of a burst recorded through a linear-phase anti-aliasing filter, or None.
-
-    A run of at least :data:`PRE_RINGING_RUN` samples alternating in sign and growing
-    towards the burst (each at least ``floor``) is the filter's pre-ringing: the burst is a
-    sampled sinc ``A sinc(t - m - f)``, whose two central samples give
-    ``r[m+1] / r[m] = f / (1 - f)``: ``(m, f)``.
-    """
+    """The centre ``(m, f)`` of a burst recorded through a linear-phase anti-aliasing filter, or
+    None: a run of at least :data:`PRE_RINGING_RUN` samples alternating in sign and growing (each
+    at least ``floor``) is pre-ringing of ``A sinc(t - m - f)``, and ``r[m+1] / r[m] = f / (1 -
+    f)``."""
     m = i
     while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
         m += 1
@@ -308,20 +268,11 @@ def _sinc_centre(
 
 
 def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | None:
-    """Sub-sample delay (samples, within ``[lo, hi]``) of ``y`` behind ``template``: the
-    peak of their cross-correlation with the phase transform (each frequency's cross
-    spectrum ``Y T*`` taken at unit magnitude; Knapp and Carter 1976, IEEE Trans. ASSP
-    24, 320), interpolated band-limited. None when the correlation has no peak inside
-    ``(lo, hi)``: its largest value there at either end, rising beyond it, says the delay lies
-    outside the lags allowed (a weak, slow contact whose pulse spectrum changes sign within
-    the band against the template's), not where.
-
-    For ``y = h * template`` it is the delay ``d`` whose linear phase best fits the phase of
-    the filter ``h`` over the band, ``max sum_f cos(arg H(f) - 2 pi f d)``: every frequency
-    counts once, so the band where the whitened responses carry most of their energy (near
-    the Nyquist frequency) sets no lobes two samples apart, and a ratio of pulse shapes of
-    zero phase that keeps its sign over the band moves the delay by its centre alone.
-    """
+    """Sub-sample delay (samples, within ``[lo, hi]``) of ``y`` behind ``template``: the peak of
+    their phase-transform cross-correlation (Knapp and Carter 1976, IEEE Trans. ASSP 24, 320),
+    interpolated band-limited. None when the peak lies at either end (the delay is outside the
+    lags allowed). Every frequency counts once, so the loud band near Nyquist sets no spurious
+    lobes."""
     n = 1 << int(math.ceil(math.log2(y.size + template.size)))
     C = np.fft.rfft(y, n) * np.conj(np.fft.rfft(template, n))
     mag = np.abs(C)
@@ -346,11 +297,9 @@ def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | 
 
 
 def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
-    """Samples ``k0 .. k1`` (any integers; periodic) of ``irfft(C, n)``, ``C`` the bins ``0 ..
-    m`` of a spectrum zero-padded to ``n``: ``(C_0 + 2 Re sum_(f>=1) C_f e^(2 pi i f k / n)) /
-    n`` by the chirp z-transform (Bluestein's convolution; Rabiner, Schafer and Rader 1969,
-    IEEE Trans. Audio Electroacoust. 17, 86): transforms of about ``m + k1 - k0`` points,
-    not ``n`` (:func:`_chirps`)."""
+    """Samples ``k0 .. k1`` (periodic) of ``irfft(C, n)`` by the chirp z-transform (Rabiner, Schafer
+    and Rader 1969, IEEE Trans. Audio Electroacoust. 17, 86): transforms of about ``m + k1 - k0``
+    points, not ``n``."""
     from scipy import fft
 
     pre, kernel, post = _chirps(n, k0, C.size, k1 - k0 + 1)
@@ -360,12 +309,9 @@ def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The chirps of :func:`_fine_correlation` for ``m`` bins, ``count`` lags from ``k0``, a
-    transform of ``n``: with ``f k = (f^2 + k^2 - (k - f)^2) / 2``, the factor of each bin
-    ``e^(i pi (f^2 + 2 k0 f) / n)``, the transform of the convolution kernel ``e^(-i pi j^2 /
-    n)`` (``j = 1 - m .. count - 1``) and the factor of each lag ``e^(i pi k^2 / n)``; each
-    phase from its exact integer numerator modulo ``2 n``. The same for every tick timed
-    against one template (the resonator's search), so computed once."""
+    """The chirps of :func:`_fine_correlation` (bin factors, kernel transform, lag factors), each
+    phase from its exact integer numerator modulo ``2 n``; cached, as every tick timed against
+    one template shares them."""
     from scipy import fft
 
     size = fft.next_fast_len(m + count - 1)
@@ -381,10 +327,9 @@ def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray
 
 @dataclass(frozen=True)
 class FirstTicks:
-    """Steps 2-4 on a whitened signal: the candidate frames from the first tick on (the first
-    tick's own response before the second tick left out), their onsets (samples) and
-    strengths (dB), the detection function ``d``, and the sure ticks of the bounce series
-    (``anchors``, onsets, and their strengths)."""
+    """Steps 2-4 on a whitened signal: candidate frames from the first tick on, their onsets
+    (samples) and strengths (dB), the detection function ``d``, and the sure ticks of the bounce
+    series (``anchors``, samples, and their strengths, dB)."""
 
     peaks: np.ndarray
     onsets: np.ndarray
@@ -395,14 +340,8 @@ class FirstTicks:
 
 
 def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTicks:
-    """Steps 2-4 on the whitened signal ``r`` (``background``: the running median's length,
-    s).
-
-    Raises
-    ------
-    AnalysisError
-        No candidate clears the threshold (or none is kept by :func:`_separate`).
-    """
+    """Steps 2-4 on the whitened signal ``r`` (``background``: the running median's length, s).
+    Raises AnalysisError when no candidate is kept."""
     found = detect(r, settings, background)
     onsets = _candidate_onsets(r, found, settings)
     kept = _separate(onsets, settings.min_separation)
@@ -426,8 +365,7 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
 
 def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np.ndarray:
     """Each candidate's onset (step 4), its level at least :data:`ONSET_NOISE_SIGMAS` standard
-    deviations of the local background (an energy per frame), searched over its frame and a
-    hop either side."""
+    deviations of the local background, searched over its frame and a hop either side."""
     hop, w = settings.hop, settings.frame
     sigma = ONSET_NOISE_SIGMAS * np.sqrt(found.background[found.peaks] / w)
     return np.array(
@@ -444,9 +382,8 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
 
 
 def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
-    """Indices of the onsets kept: a candidate whose onset walks back to within ``min_sep``
-    of the previous tick's is part of that tick's burst, and one at the first sample is the
-    recording's cut."""
+    """Indices of the onsets kept: not within ``min_sep`` of the previous kept (its own burst), nor
+    at the first sample (the recording's cut)."""
     kept = []
     for i in range(onsets.size):
         if onsets[i] == 0.0:
@@ -458,8 +395,8 @@ def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
 
 @dataclass(frozen=True)
 class StandingOut:
-    """Ticks of step 8: their onsets (samples) and strengths (dB: the smaller of the margins
-    by which they clear the test on the recording and the test on the prediction error)."""
+    """Ticks of step 8: onsets (samples) and strengths (dB: the smaller margin of the test on the
+    recording and on the prediction error)."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -468,26 +405,15 @@ class StandingOut:
 def standing_out(
     x: np.ndarray, r: np.ndarray, known: np.ndarray, settings: Settings
 ) -> StandingOut:
-    """The ticks that clearly stand out of the recording ``x`` but are not among the onsets
-    ``known`` (samples; none closer than ``min_separation`` to one), from its whitened signal
-    ``r`` (step 8, docs/analysis.md).
+    """The ticks that clearly stand out of the recording ``x`` but are not among ``known``
+    (samples), from its whitened signal ``r`` (step 8, docs/analysis.md).
 
-    A tick stands out at its onset when the recording's energy over the next
-    :data:`STANDS_OUT_SPAN` is at least :data:`STANDS_OUT_DB` over its mean over the
-    :data:`STANDS_OUT_BEFORE` before (per unit time): a clearly audible tick (docs/analysis.md,
-    step 8). The recording alone does not tell a tick from the beating of a few strong modes,
-    which the whitening predicts; so the whitened signal must rise too, by more than white
-    noise's scatter allows (the ratio of the mean squares of ``L`` and ``B`` samples of white
-    Gaussian noise follows Fisher's F distribution with ``(L, B)`` degrees of freedom: its
-    quantile of :data:`STANDS_OUT_FALSE_ALARM`), and lie within ``dynamic_range_db`` of its
-    strongest stretch (the floor of steps 1-6, under which the whitening's remainders of the
-    ringing lie). Each run of positions (frames of ``hop``) where all three hold, away from the
-    ticks ``known``, is a candidate, timed in what the recording's past does not predict
-    (:func:`_local_onset`), and kept when, at that onset, the recording's criterion holds and
-    that prediction error rises by the F quantile (the recording's noise, whatever its level and
-    spectrum, judged by its own statistics), and its whitened energy lies within ``max_drop_db``
-    of the tick before it (:func:`_dropped`).
-    """
+    A tick stands out when the recording's energy over :data:`STANDS_OUT_SPAN` is
+    :data:`STANDS_OUT_DB` over its mean over the :data:`STANDS_OUT_BEFORE` before (per unit
+    time); the whitened signal must rise too, beyond white noise's scatter (Fisher's F quantile
+    of :data:`STANDS_OUT_FALSE_ALARM`), within ``dynamic_range_db`` of its strongest stretch.
+    Each run of such positions is timed in what the past does not predict (:func:`_local_onset`)
+    and kept when both tests hold at that onset and it is not dropped (:func:`_dropped`)."""
     hop, fs = settings.hop, settings.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
     blocks = max(1, int(round(STANDS_OUT_BEFORE * fs / hop)))
@@ -529,10 +455,9 @@ def standing_out(
 
 
 def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings: Settings) -> bool:
-    """Whether the whitened energy of ``r`` over ``span`` samples from ``on`` lies more than
-    ``max_drop_db`` under that of the latest tick ``earlier`` (onsets, samples) before it: no
-    bounce (as in step 3: a tick's energy goes as its impact speed squared), but what the
-    whitening leaves of the ringing."""
+    """Whether the whitened energy over ``span`` samples from ``on`` lies more than ``max_drop_db``
+    under that of the latest earlier tick: the whitening's remainder of the ringing, not a
+    bounce."""
     if earlier.size == 0:
         return False
     prev = int(earlier.max())
@@ -543,8 +468,8 @@ def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings:
 
 
 def noise_rise(m: int, n: int) -> float:
-    """The ratio of the mean squares of ``m`` and ``n`` samples of white Gaussian noise
-    exceeded with probability :data:`STANDS_OUT_FALSE_ALARM` (Fisher's F distribution)."""
+    """Ratio of the mean squares of ``m`` and ``n`` samples of white Gaussian noise exceeded with
+    probability :data:`STANDS_OUT_FALSE_ALARM` (Fisher's F distribution)."""
     from scipy.stats import f as fisher
 
     return float(fisher.isf(STANDS_OUT_FALSE_ALARM, m, n))
@@ -552,8 +477,8 @@ def noise_rise(m: int, n: int) -> float:
 
 @dataclass(frozen=True)
 class LocalOnset:
-    """A candidate's onset (sample of the recording) and the prediction error it was found in,
-    from sample ``start`` of the recording."""
+    """A candidate's onset (sample of the recording) and the prediction error it was found in, from
+    sample ``start`` of the recording."""
 
     onset: float
     error: np.ndarray
@@ -563,15 +488,11 @@ class LocalOnset:
 def _local_onset(
     x: np.ndarray, first: int, span: int, before: int, settings: Settings
 ) -> LocalOnset | None:
-    """Onset of a tick whose rise shows from sample ``first`` on, in the prediction error of
-    the predictor of the recording's last :data:`~synth.analysis.settings.WHITENING_SPAN`
-    before the rise (its noise and ringing, fitted by
-    :func:`~synth.analysis.whitening.resonator_predictor`): what the past does not predict.
-    The onset is where that error's variance steps (:func:`_cusum_start`, refined by
-    :func:`_change_point` within :data:`STANDS_OUT_SPAN` of it), if the error over the
-    :data:`STANDS_OUT_BEFORE` before it is the past's noise, by the F test of
-    :func:`standing_out` (else the tick began earlier, more slowly than it stands out: a
-    ramp, whose start no step marks). None where there is too little past or no onset."""
+    """Onset of a tick rising from sample ``first``, in the error of a predictor of the recording's
+    past (:func:`~synth.analysis.whitening.resonator_predictor`): where the error's variance
+    steps (:func:`_cusum_start`, refined by :func:`_change_point`), if the error before it is the
+    past's noise by the F test (else a slow ramp with no marked start). None without enough past
+    or onset."""
     from scipy.signal import lfilter
 
     from synth.analysis.whitening import resonator_predictor
@@ -606,10 +527,9 @@ def _local_onset(
 
 
 def _cusum_start(z: np.ndarray, variance: float) -> int:
-    """Where the variance of ``z`` steps from ``variance`` to :data:`STANDS_OUT_DB` over it:
-    the last sample at which Page's CUSUM of the log-likelihood ratio of the two (Gaussian,
-    zero mean) is zero before its largest value (Page 1954, Biometrika 41, 100; Basseville and
-    Nikiforov 1993, "Detection of abrupt changes", section 2.2)."""
+    """Where the variance of ``z`` steps from ``variance`` to :data:`STANDS_OUT_DB` over it: the
+    last zero of Page's CUSUM before its maximum (Page 1954, Biometrika 41, 100; Basseville and
+    Nikiforov 1993, section 2.2)."""
     g = 10.0 ** (STANDS_OUT_DB / 10.0)
     step = 0.5 * z * z / variance * (1.0 - 1.0 / g) - 0.5 * math.log(g)
     c = np.empty(z.size)
@@ -623,8 +543,8 @@ def _cusum_start(z: np.ndarray, variance: float) -> int:
 
 
 def _change_point(z: np.ndarray) -> int:
-    """Where the variance of ``z`` steps: the maximum-likelihood split into two stretches of
-    zero-mean Gaussian noise of different variances (Hinkley 1971, Biometrika 58, 509)."""
+    """Maximum-likelihood split of ``z`` into two zero-mean Gaussian stretches of different
+    variances (Hinkley 1971, Biometrika 58, 509)."""
     n = z.size
     c = np.cumsum(z * z)
     tau = np.arange(2, n - 1)
@@ -644,10 +564,8 @@ def rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
 
 
 def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
-    """At each position ``k hop`` (from ``blocks hop`` on; 0 before), the mean square of ``z``
-    over the next ``span`` samples over that of the ``blocks hop`` samples before (sums of
-    positive terms only, so exact to rounding however quiet a stretch after a loud one);
-    infinite after silence."""
+    """At each position ``k hop`` (from ``blocks hop`` on; 0 before), the mean square of ``z`` over
+    the next ``span`` samples over that of the ``blocks hop`` before; infinite after silence."""
     e_hop = frame_energies(z, hop, hop)
     after = frame_energies(z, hop, span)
     n = min(after.size, e_hop.size + 1)

@@ -1,14 +1,10 @@
-"""What a bouncing ball can and cannot do, checked on the ticks found: where one bounce series
-(one drop) ends and the next begins, and which measurements are physically impossible.
+"""What a bouncing ball can and cannot do, checked on the ticks found: where one bounce series (one
+drop) ends and the next begins, and which measurements are physically impossible.
 
-A ball loses energy at every impact, so along one series its bounce times shrink (``e_n =
-t_n / t_(n-1) < 1``) and its ticks weaken (a tick's energy goes as its impact speed squared,
-the bounce time squared: the thesis, see docs/physics.md, References, section 3.1). A bounce
-time that grows is therefore never a restitution: either ticks were missed in between (one
-missed tick makes the bounce ``e (1 + e)`` times the one before, two ``e (1 + e + e^2)``:
-at most :data:`MISSED_GROWTH`) or a new drop began. A new drop shows as a tick louder than
-the one before after a grown bounce, or as a silence longer than missed ticks explain.
-"""
+Along one series bounce times shrink (``e_n = t_n / t_(n-1) < 1``) and ticks weaken (energy as
+the impact speed squared: the thesis, docs/physics.md, References, section 3.1). A grown bounce
+is missed ticks (one makes it ``e (1 + e)`` times the one before: at most :data:`MISSED_GROWTH`)
+or a new drop: a louder tick after a grown bounce, or a longer silence."""
 
 from __future__ import annotations
 
@@ -73,9 +69,8 @@ INDEPENDENT_BINS = 2
 
 @dataclass(frozen=True)
 class RiseTest:
-    """What :func:`adds_sound` weighs a tick against: the analysed signal ``read(start,
-    stop)``, its sample rate ``fs`` (Hz), the dynamic range (dB) and the noise's RMS (signal
-    units)."""
+    """What :func:`adds_sound` weighs a tick against: the signal ``read(start, stop)``, its sample
+    rate ``fs`` (Hz), the dynamic range (dB) and the noise's RMS (signal units)."""
 
     read: object
     fs: float
@@ -86,17 +81,16 @@ class RiseTest:
 def spectral_rise_db(
     before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
 ) -> float:
-    """The median over frequencies of the power of ``after`` over that of ``before`` (two
-    stretches of one length, Hann-windowed), dB, over the frequencies whose summed power lies
-    within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over the
-    noise's (white, RMS ``noise_rms``); +inf where there is none or ``before`` is silent."""
+    """Median over frequencies of the power of ``after`` over ``before`` (equal Hann-windowed
+    stretches), dB, over the frequencies within ``dynamic_range_db`` of the largest and
+    :data:`SPECTRAL_NOISE_MARGIN_DB` over the white noise of RMS ``noise_rms``; +inf where there
+    is none or ``before`` is silent."""
     ratios = rise_ratios_db(before, after, dynamic_range_db, noise_rms)
     return float(np.median(ratios)) if ratios.size else math.inf
 
 
 def rise_chance(ratios_db: np.ndarray) -> float:
-    """The chance that stationary ringing gives a median of ``ratios_db`` (the per-frequency
-    rises of :func:`rise_ratios_db`, dB) at least as large as theirs
+    """Chance that stationary ringing gives a median of ``ratios_db`` (dB) at least as large
     (:func:`median_rise_chance`); 1 without a frequency."""
     if not ratios_db.size:
         return 1.0
@@ -104,15 +98,10 @@ def rise_chance(ratios_db: np.ndarray) -> float:
 
 
 def median_rise_chance(median_db: float, count: int) -> float:
-    """The chance that stationary ringing gives a median rise of ``median_db`` (dB) or more
-    over ``count`` frequencies.
-
-    Over two stretches of one stationary random signal, each frequency's power is an
-    exponential variable of the same mean on both sides, so its ratio ``r`` after over before
-    exceeds ``q`` with probability ``1 / (1 + q)`` (an F(2, 2) variable). Taking every
-    :data:`INDEPENDENT_BINS`-th frequency as independent, the median of ``k`` of them
-    reaches ``q`` when at least half exceed it: a binomial tail. Ringing that decays between
-    the stretches only lowers the chance of a rise."""
+    """Chance that stationary ringing gives a median rise of ``median_db`` (dB) or more over
+    ``count`` frequencies: each frequency's power ratio is F(2, 2), exceeding ``q`` with
+    probability ``1 / (1 + q)``; over every :data:`INDEPENDENT_BINS`-th frequency the median's
+    tail is binomial. Decay between the stretches only lowers the chance."""
     if median_db == math.inf:
         return 0.0
     p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
@@ -124,9 +113,8 @@ def median_rise_chance(median_db: float, count: int) -> float:
 def rise_ratios_db(
     before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
 ) -> np.ndarray:
-    """The power of ``after`` over that of ``before`` (two stretches of one length,
-    Hann-windowed) at each frequency that holds sound (:func:`spectral_rise_db`), dB; +inf
-    where ``before`` is silent there."""
+    """Power of ``after`` over ``before`` (equal Hann-windowed stretches) at each frequency that
+    holds sound (:func:`spectral_rise_db`), dB; +inf where ``before`` is silent."""
     w = np.hanning(before.size)
     pb = np.abs(np.fft.rfft(before * w)) ** 2
     pa = np.abs(np.fft.rfft(after * w)) ** 2
@@ -150,10 +138,9 @@ SILENT_MIN_LINES = 3
 
 @dataclass(frozen=True)
 class RiseVerdict:
-    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), and
-    whether it could have said so (``decisive``): over as many frequencies, a rise of
-    :data:`SPECTRAL_RISE_DB` would have been significant (:data:`RISE_FALSE_ALARM`), and over
-    how many frequencies it was weighed."""
+    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), whether a
+    rise of :data:`SPECTRAL_RISE_DB` over as many frequencies would have been significant
+    (``decisive``), and over how many frequencies it was weighed."""
 
     adds: bool
     decisive: bool
@@ -161,15 +148,11 @@ class RiseVerdict:
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
-    """Whether the recording's spectrum rises at ``tick_time`` (s) by
-    :data:`SPECTRAL_RISE_DB` at least (:func:`spectral_rise_db`) over ``span`` (s) on each
-    side, as an impact's does, so far that stationary ringing would do so with a chance of
-    :data:`RISE_FALSE_ALARM` at most (:func:`rise_chance`) where the frequencies are enough
-    for that to be told; over fewer, the median's rise alone speaks, without a decision (a
-    real impact's short stretch before the next tick may hold a few tens of frequencies, over
-    which no rise is significant). It adds sound, without a decision, where the span is
-    under :data:`SPECTRAL_RISE_MIN_SPAN`, the recording has no room for it before the onset,
-    or no frequency holds sound."""
+    """Whether the spectrum rises at ``tick_time`` (s) by :data:`SPECTRAL_RISE_DB` over ``span`` (s)
+    each side, beyond what stationary ringing gives with chance :data:`RISE_FALSE_ALARM` where
+    enough frequencies tell it; over fewer, the median alone speaks, undecided. Adds sound,
+    undecided, where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, there is no room before
+    the onset, or no frequency holds sound."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
@@ -192,17 +175,15 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
 
 
 def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
-    """Whether the spectrum rises at ``tick_time`` (s) as an impact's does
-    (:func:`rise_verdict`, over ``span``, s); True where it cannot be measured."""
+    """Whether the spectrum rises at ``tick_time`` (s) as an impact's does over ``span`` (s)
+    (:func:`rise_verdict`); True where it cannot be measured."""
     return rise_verdict(test, tick_time, span).adds
 
 
 def impact_series(found: list[list], test: RiseTest) -> list[list]:
-    """The bounce series of ``found`` (tick lists, one per series) that start with an impact:
-    a drop starts with its fastest impact, whose sound the recording's spectrum shows rising
-    (:func:`adds_sound`, over the stretch up to its series' second tick); a series whose first
-    tick adds no sound is the whitened ringing of a plate once the ball is at rest, and all of
-    its ticks, weaker still, go with it."""
+    """The bounce series of ``found`` that start with an impact: a drop's first tick is its fastest,
+    whose sound must rise (:func:`adds_sound`); a series whose first tick adds none is whitened
+    ringing of a plate at rest and goes whole."""
     out = []
     for ticks in found:
         if not ticks:
@@ -214,12 +195,9 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
-    """Indices of the ticks after the first of one search (``ticks``, in time order) whose
-    bounce times do not show them to be a ball's bounces: a bounce that grew (``e_n >= 1``)
-    or the one after it, a restitution over a missed bounce (:func:`missed_bounces`), or the
-    second tick unless the two bounces after it confirm it (:func:`_confirmed_second`). A tick
-    without a decay of its own sound is not doubtful for that alone: the last ticks of a fast
-    series, each within milliseconds of the next, leave no window for a decay."""
+    """Indices of the ticks after the first whose bounce times do not show a ball's bounces: a grown
+    bounce or the one after it, a restitution over a missed bounce (:func:`missed_bounces`), or
+    the second tick unless confirmed (:func:`_confirmed_second`)."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
@@ -233,13 +211,10 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
 
 
 def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
-    """Whether the bounces after the second tick of ``ticks`` (which has no restitution of
-    its own to compare) show it a ball's bounce: the next restitution, ``e_2 = T_2 / T_1``,
-    below 1 over no missed bounce and, where a fourth tick follows, ``e_3`` too, apart from
-    ``e_2`` by a relative :data:`~synth.analysis.series.RESTITUTION_STEP` at most (a ball's
-    change from one bounce to the next). A burst within a flight parts it into two whose
-    ratios to the flights around agree only by chance. Masked ticks, which add no sound the
-    spectrum could show, are kept by their bounce times alone."""
+    """Whether the bounces after the second tick show it a ball's: ``e_2 < 1`` over no missed bounce
+    and, where a fourth tick follows, ``e_3`` too, within a relative
+    :data:`~synth.analysis.series.RESTITUTION_STEP` of ``e_2``. A burst within a flight parts it
+    into two whose ratios agree only by chance."""
     following = ticks[2:4]
     if not following or missed & {2, 3}:
         return False
@@ -251,16 +226,11 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks (:func:`doubtful_ticks`) that no impact made: the
-    whitening's bursts in a ringing it cannot follow (a lightly damped plate's beating modes,
-    a clipped run's interpolation). An impact adds sound, so the spectrum over the stretch
-    that parts the tick from both neighbours must rise (:func:`rise_verdict`). A doubtful
-    tick is dropped where it does not and the frequencies are enough to tell (a plate of a
-    few modes: an impact on a ringing mode may as well lower it, as its phase falls), and,
-    however few they are, where its own sound does not decay either and they span
-    :data:`SILENT_MIN_LINES` lines at least: then nothing of an impact shows in it. A tick
-    whose bounce times follow a ball's series is not tested (masked ticks add no sound the
-    spectrum could show), nor one too close to its neighbours to weigh."""
+    """Indices of the doubtful ticks (:func:`doubtful_ticks`) no impact made (bursts the whitening
+    leaves in beating modes or a clipped run's interpolation): dropped where the spectrum between
+    its neighbours does not rise (:func:`rise_verdict`) and enough frequencies tell, or, however
+    few, where its sound does not decay either over at least :data:`SILENT_MIN_LINES` lines.
+    Ticks following a ball's series, or too close to weigh, are not tested."""
     out = []
     for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
@@ -282,19 +252,9 @@ RINGING_SMOOTHING = 0.05
 
 @dataclass(frozen=True)
 class Series:
-    """One bounce series (one drop) of a recording (SI units).
-
-    Attributes
-    ----------
-    ticks : list of Tick
-        Its ticks, in time order (``index`` counts over the whole recording).
-    first : float
-        Onset of its first tick, s.
-    last : float
-        Onset of its last tick, s.
-    mean_restitution : float or None
-        Mean of its restitutions that are not flagged, dimensionless; None without one.
-    """
+    """One bounce series (one drop) of a recording: its ``ticks`` in time order, the onsets of its
+    ``first`` and ``last`` tick (s), and the mean of its unflagged restitutions
+    (``mean_restitution``, dimensionless; None without one)."""
 
     ticks: list[Tick]
     first: float
@@ -303,15 +263,10 @@ class Series:
 
 
 def new_series_at(ticks: list[Tick]) -> int | None:
-    """Index of the first tick (after the first) that starts a new bounce series, or None.
-
-    Tick ``i`` does when its bounce is over :data:`~synth.analysis.series.BOUNCE_GROWTH`
-    times the one before and either it is louder than the tick before by more than
-    :data:`~synth.analysis.series.MAX_EXCESS_DB` (a ball's ticks weaken along a series,
-    the more so across missed ticks; the margin is the measurement's own scatter) or the
-    bounce is over :data:`MISSED_GROWTH` times the one before (a silence). The second tick
-    has no bounce before it to compare with and never starts one.
-    """
+    """Index of the first tick (after the second) that starts a new bounce series, or None: its
+    bounce over :data:`~synth.analysis.series.BOUNCE_GROWTH` times the one before and either
+    louder than the tick before by :data:`~synth.analysis.series.MAX_EXCESS_DB` or the bounce
+    over :data:`MISSED_GROWTH` times the one before (a silence)."""
     times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
         ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
@@ -329,22 +284,17 @@ def as_series_start(tick: Tick) -> Tick:
 
 
 def flag_series(ticks: list[Tick]) -> list[Tick]:
-    """The ticks of one series with the impossible restitutions flagged and withheld
-    (:func:`without_flagged_restitutions`): :data:`GROWN_BOUNCE` where ``e_n >= 1``,
-    :data:`AFTER_GROWN` on the tick after one (its restitution is measured against the
-    grown bounce, so it is too low by as much), :data:`MISSED_BOUNCE` where a restitution
-    below 1 spans a missed bounce (:func:`missed_bounces`), and :data:`NO_DECAY` where the
-    tick's own sound has no decay time (an impact excites a ringing that decays)."""
+    """The ticks of one series with impossible restitutions flagged and withheld
+    (:func:`without_flagged_restitutions`): :data:`GROWN_BOUNCE` (``e_n >= 1``),
+    :data:`AFTER_GROWN` (measured against a grown bounce), :data:`MISSED_BOUNCE`
+    (:func:`missed_bounces`) and :data:`NO_DECAY` (no decay time of its own sound)."""
     return without_flagged_restitutions(_flagged(ticks))
 
 
 def without_flagged_restitutions(ticks: list[Tick]) -> list[Tick]:
-    """``ticks`` with no restitution where a flag of :data:`RESTITUTION_FLAGS` says it is no
-    ratio of two successive flights of a ball (a tick missed or taken in between pairs the
-    wrong onsets): the tick stays, with its onset, bounce time and measurements, and the flag
-    gives the reason; a value the analysis itself finds impossible is never reported. Where
-    the tick's own bounce grew (:data:`GROWN_BOUNCE`), that bounce is no single flight
-    either, and the impact speed ``g t_n / 2`` it gives is withheld too."""
+    """``ticks`` with no restitution where a flag of :data:`RESTITUTION_FLAGS` says it is no ratio
+    of two successive flights; the tick stays and the flag gives the reason. Where its own bounce
+    grew (:data:`GROWN_BOUNCE`) the impact speed ``g t_n / 2`` is withheld too."""
     return [
         replace(t, restitution=None, speed=None if GROWN_BOUNCE in t.flags else t.speed)
         if set(t.flags) & set(RESTITUTION_FLAGS)
@@ -378,29 +328,16 @@ def _with_missed_bounces(ticks: list[Tick]) -> list[Tick]:
 
 
 def missed_bounces(ticks: list[Tick]) -> set[int]:
-    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce.
+    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce, shown
+    two ways:
 
-    A missed tick merges two bounces, ``t_n + t_(n+1) = (1 + e) t_n``, and the next tick
-    found comes after the shorter flight ``e t_n``. Its bounce times show it two ways:
+    * restitution changes by at most :data:`~synth.analysis.series.RESTITUTION_STEP` per bounce: a
+      tick differing by more from both neighbours' is flagged;
+    * energy goes as ``e_n^2`` per bounce (the thesis, section 3.1): over a missed tick it comes out
+      at least :data:`MISSED_ENERGY_DB` under what the restitution allows.
 
-    * A ball's restitution changes slowly along a series, with its impact speed: by at most
-      :data:`~synth.analysis.series.RESTITUTION_STEP` from one bounce to the next. The
-      merged bounce gives the pair ``e (1 + e)`` (impossible from ``e = 0.618`` on, flagged
-      then as a grown bounce) and ``e^2 / (1 + e)``, each departing from the series'
-      restitution on both sides: a tick whose restitution differs by more than that from
-      both its neighbours' is flagged (one without a neighbour's restitution on either side
-      is not: a single step is a change of the series).
-    * A tick's energy goes as its impact speed squared, and the impact speed as the flight
-      before it (the thesis, section 3.1, see docs/physics.md, References): from one tick
-      to the next the energy goes as ``e_n^2``. Over a missed tick the bounce time says
-      ``e (1 + e)`` while the speed fell by ``e^2``: the energy comes out ``(1 + e)^2 /
-      e^2``, at least 4 (:data:`MISSED_ENERGY_DB`, 6 dB), under what the restitution
-      allows, and more over more missed ticks. A tick that much weaker than ``e_n^2``
-      times the tick before is flagged: its restitution is no ratio of two flights.
-
-    A series that misses every other tick from its start is a geometric series of
-    restitution ``e^2`` in its bounce times and energies alike, and is not told from a ball
-    of that restitution."""
+    A series missing every other tick from its start is not told from a ball of restitution
+    ``e^2``."""
     rest = {i: t.restitution for i, t in enumerate(ticks) if _restitution_below_one(t)}
     out = set()
     for i, e in rest.items():
@@ -423,16 +360,10 @@ def valid_restitution(tick: Tick) -> bool:
 
 
 def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
-    """Raise AnalysisError when nothing found is followed by a decaying response: the input
-    holds no impact (a square or sawtooth wave's edges whiten to bursts like ticks, but
-    nothing rings down after them).
-
-    A lightly damped plate (loss factor 1e-3 or less) hardly decays over a tick's
-    measurement window, so where no tick has a decay time of its own the recording from the
-    first tick on, ``ringing`` (sample rate ``fs``, Hz; a long file's first block), is fitted
-    instead, over an envelope smoothed by :data:`RINGING_SMOOTHING` and down to whatever
-    floor it reaches (the quietest frames of a clean recording of a ringing plate are
-    ringing, not noise): an impact's ringing decays there, a periodic wave's edges do not."""
+    """Raise AnalysisError when nothing found is followed by a decaying response (a square wave's
+    edges whiten to bursts, but nothing rings down). Where no tick has a decay time of its own (a
+    lightly damped plate), ``ringing`` (sample rate ``fs``, Hz) is fitted instead, over an
+    envelope smoothed by :data:`RINGING_SMOOTHING`."""
     if not ticks or not all(NO_DECAY in t.flags for t in ticks):
         return
     if decay_time(ringing, fs, max(3, int(round(RINGING_SMOOTHING * fs))), 0.0) is not None:
@@ -445,31 +376,24 @@ def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
 
 
 def _continues_series(ticks: list[Tick]) -> bool:
-    """Whether the last of ``ticks`` may continue the bounce series: the second tick (no
-    bounce before it to compare with), or a later one whose bounce shrank (restitution
-    below 1)."""
+    """Whether the last of ``ticks`` may continue the series: the second tick, or one whose bounce
+    shrank."""
     e = ticks[-1].restitution
     return len(ticks) == 2 or (e is not None and e < 1.0)
 
 
 def _after_rest(ticks: list[Tick]) -> bool:
-    """Whether the last of ``ticks`` came after a silence no missed ticks explain: its bounce
-    over :data:`MISSED_GROWTH` times the one before (the ball was at rest)."""
+    """Whether the last of ``ticks`` came after a silence no missed ticks explain (bounce over
+    :data:`MISSED_GROWTH` times the one before)."""
     e = ticks[-1].restitution
     return len(ticks) > 2 and (e is None or e > MISSED_GROWTH)
 
 
 def without_spurious_end(ticks: list[Tick], duration: float, window: float) -> list[Tick]:
-    """``ticks`` (one search, in time order) without the bursts after the last impact.
-
-    An impact excites a ringing that decays; once the ball is at rest the whitening still
-    leaves bursts in the plate's ringing, and a step where the recording is cut or faded out
-    while the plate rings (as it leaves one at the first sample: docs/analysis.md, step 4);
-    their own sound shows no decay. So trailing ticks whose sound shows no decay are dropped
-    (trailing only: the bounce times of the others stay as measured) where some tick's sound
-    decays and the burst came after a silence no missed ticks explain, or where its
-    measurement window (``window``, s) runs past the end (``duration``, s) and its bounce
-    did not shrink. The last tick of a series cut short by the end keeps its place."""
+    """``ticks`` (one search, in time order) without the trailing bursts after the last impact whose
+    sound shows no decay (the whitening's bursts in the ringing, a cut or fade): dropped where
+    some tick decays and the burst came after a rest, or where its window (``window``, s) runs
+    past the end (``duration``, s) and its bounce did not shrink."""
     out = list(ticks)
     decays = any(t.decay_time is not None for t in out)
     while (
