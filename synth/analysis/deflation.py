@@ -1,14 +1,11 @@
-"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, found one
-by one on the whitened signal with the earlier ticks taken out.
+"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, found one by
+one on the whitened signal with the earlier ticks taken out.
 
-Every tick goes through the same path (impact point, plate, room, pickup) and differs from the
-others only by its contact force, so in the whitened signal ``r`` a later tick is the first
-tick's whitened response ``T`` through a short filter. :class:`Residual` holds ``q = r - (what
-the earlier ticks explain)`` and fits those filters; :class:`DeflationSearch` walks the series.
-The resonator's search of step 7 (:mod:`synth.analysis.resonator`) subclasses both.
-
-Positions are in samples, energies are sums of squares per frame of ``r``, strengths in dB.
-"""
+Every tick takes the same path (impact point, plate, room, pickup) and differs only by its
+contact force, so in the whitened signal ``r`` a later tick is the first tick's whitened response
+``T`` through a short filter. :class:`Residual` holds ``q = r - (what the earlier ticks
+explain)``; :class:`DeflationSearch` walks the series. Step 7 (:mod:`synth.analysis.resonator`)
+subclasses both. Positions in samples, energies per frame of ``r``, strengths in dB."""
 
 from __future__ import annotations
 
@@ -61,10 +58,9 @@ LOCATE_TICKS = 6
 
 @dataclass(frozen=True)
 class Candidate:
-    """The first tick in the residual after a given sample: the start of its strongest frame
-    (the local maximum from the first frame that cleared the threshold), that frame's energy,
-    the threshold its first frame cleared, the local background there (energies per frame),
-    and the start of that first frame."""
+    """The first tick in the residual after a given sample: the start of its strongest frame, that
+    frame's energy, the threshold and local background where its first frame cleared (energies
+    per frame), and the start of that first frame."""
 
     start: int
     energy: float
@@ -106,12 +102,10 @@ class FirstTick:
 
 @dataclass(frozen=True)
 class SearchOutcome:
-    """The ticks of a deflating search: onsets (samples), strengths (dB), the residual ``q``
-    (the whitened signal with every tick's model taken out), each tick's whitened model from
-    its window's start, what the whitening leaves of the first tick's ringing in the second
-    half of the first bounce (its median frame energy over its largest: a power ratio), and
-    in step 7 the onsets timed against the first tick's template (samples; else None), and
-    whether a locating search stopped before the signal's end."""
+    """The ticks of a deflating search: onsets (samples), strengths (dB), the residual ``q``, each
+    tick's whitened model, the first tick's ringing left by the whitening (median over largest
+    frame energy of the first bounce's second half), the onsets timed against the template in
+    step 7 (samples; else None), and whether a locating search stopped early."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -123,11 +117,9 @@ class SearchOutcome:
 
 
 def running_median(d: np.ndarray, size: int) -> np.ndarray:
-    """The median of ``d`` over windows of ``size`` values, each ``d[i - size // 2 : i - size
-    // 2 + size]`` with the ends extended by their first and last value, the value of rank
-    ``size // 2`` (as ``scipy.ndimage.median_filter(d, size, mode="nearest")``, the same
-    values): a sorted window updated by one value each step, for the few hundred frames of a
-    candidate search, thousands of times per recording."""
+    """Median of ``d`` over windows of ``size`` values, ends extended (the same values as
+    ``scipy.ndimage.median_filter(d, size, mode="nearest")``), by a sorted window updated one
+    value a step: cheap for the thousands of short searches per recording."""
     if d.size == 0:
         return np.zeros(0)
     return _running_median(np.ascontiguousarray(d, dtype=np.float64), int(size))
@@ -169,9 +161,8 @@ def _running_median(d, size):  # pragma: no cover - compiled
 
 
 def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``G^-1 b`` by LU with partial pivoting (LAPACK ``dgesv``, as ``numpy.linalg.solve``,
-    without its checks' cost: thousands of systems of a few dozen unknowns per recording);
-    ``G`` is overwritten. Raises ``numpy.linalg.LinAlgError`` when ``G`` is singular."""
+    """``G^-1 b`` by LAPACK ``dgesv`` (as ``numpy.linalg.solve`` without its checks' cost); ``G`` is
+    overwritten. Raises ``numpy.linalg.LinAlgError`` when ``G`` is singular."""
     from scipy.linalg import lapack
 
     _, _, h, info = lapack.dgesv(G, b, overwrite_a=True, overwrite_b=False)
@@ -182,20 +173,15 @@ def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @compiled(nogil=True)
 def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pragma: no cover
-    """The rules a frame ``k >= first`` of the detection function ``d`` must clear (one pass,
-    for the thousands of candidate searches of a recording): its threshold, the largest of
+    """The frames ``k >= first`` of ``d`` that clear the rules, their thresholds and backgrounds.
+    The threshold is the largest of:
 
-    * the local background of the past, the median of frames ``k-2-bg .. k-3`` (frame
-      ``k-1`` may hold the start of this burst; the running median is taken over the frames
-      those medians span only), never under the noise floor ``noise``, times ``thr``; none
-      (and an infinite background) where the past is too short and before ``first``;
-    * the fading memory of the frames ``j <= k - 2`` raised by ``rise`` (as in step 3:
-      ``max_j (log10 d_j + fade j) - fade k + rise``, in log10 units);
-    * the floor ``floor``, and ``kappa`` times ``sub``, what was taken out of the frame;
+    * the past's local background (median of frames ``k-2-bg .. k-3``, at least ``noise``) times
+      ``thr``; none before ``first`` or where the past is too short;
+    * the fading memory of frames ``j <= k - 2`` raised by ``rise`` (log10 units, as step 3);
+    * ``floor``, and ``kappa`` times ``sub``, what was taken out of the frame;
 
-    and, summed over the frames ``k-1 .. k+span-2``, more energy than ``kappa`` times what was
-    taken out there. Returns the frames that clear them, the thresholds and the
-    backgrounds."""
+    and the frames ``k-1 .. k+span-2`` must carry more than ``kappa`` times what was taken out."""
     n = d.size
     a = max(0, first - bg - 3)
     med = _running_median(d[a:], bg) if a < n else np.zeros(0)
@@ -235,9 +221,9 @@ def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pr
 
 
 class Residual:
-    """The whitened signal ``r`` less the whitened responses of the ticks found so far, each
-    the first tick's response ``T`` through an FIR filter of lags ``-pre .. post`` fitted by
-    least squares; ``r - q`` is what was taken out, against which a candidate is weighed."""
+    """The whitened signal ``r`` less the ticks found so far, each the first tick's response ``T``
+    through a least-squares FIR filter of lags ``-pre .. post``; ``r - q`` is what was taken out,
+    against which a candidate is weighed."""
 
     def __init__(
         self,
@@ -280,18 +266,14 @@ class Residual:
         self.q[snap.start : snap.start + snap.q.size] = snap.q
 
     def taken_out(self, lo: int, hi: int) -> np.ndarray:
-        """What a candidate's frames over ``[lo, hi)`` are weighed against (energy per frame):
-        all that the earlier ticks' models took out there."""
+        """Energy per frame over ``[lo, hi)`` of all that the earlier ticks' models took out."""
         return frame_energies(self.r[lo:hi] - self.q[lo:hi], self.hop, self.w)
 
     def candidate(self, after: int, within: int | None = None) -> Candidate | None:
-        """The first tick in ``q`` starting at or after sample ``after``, or None: the first
-        frame over its threshold (the local background of the past, the fading memory of
-        the earlier frames, the floor, and what was taken out there) that also carries more
-        energy than was taken out over :data:`REMAINDER_SPAN` around it. With ``within``,
-        None also when that frame starts after sample ``within``: then only the frames that
-        decide whether one starts up to there are formed (the search for the end of a fit
-        window needs no tick beyond it), not the frames up to the next tick however far."""
+        """The first tick in ``q`` at or after sample ``after``, or None: the first frame over its
+        threshold (:func:`_rules`). With ``within``, None also when it starts after sample
+        ``within``, forming only the frames that decide that. A short look first, kept only where
+        no later frame could change it."""
         hop, bg = self.hop, self.bg
         lo = max(0, after - (4 * bg + 2) * hop)
         first = -(-(after - lo) // hop)
@@ -320,10 +302,8 @@ class Residual:
             chunk *= 2
 
     def _clears_by(self, lo: int, first: int, within: int) -> bool:
-        """Whether a frame from ``first`` on (frame 0 at sample ``lo``) clears the rules and
-        starts by sample ``within``: the frames up to there and the :data:`REMAINDER_SPAN`
-        after decide it (the background and the memory look back only), as in the longer
-        look of :meth:`candidate`."""
+        """Whether a frame from ``first`` on (frame 0 at sample ``lo``) clears the rules and starts
+        by sample ``within``."""
         last = (within - lo) // self.hop
         if last < first:
             return False
@@ -335,9 +315,8 @@ class Residual:
     def _hits(
         self, d: np.ndarray, sub: np.ndarray, first: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The frames from ``first`` on of the detection function ``d`` that clear the rules
-        against ``sub`` taken out per frame, their thresholds and local backgrounds
-        (:func:`_rules`)."""
+        """The frames of ``d`` from ``first`` on that clear the rules against ``sub``, their
+        thresholds and backgrounds (:func:`_rules`)."""
         return _rules(
             np.ascontiguousarray(d, dtype=np.float64),
             np.ascontiguousarray(sub, dtype=np.float64),
@@ -355,11 +334,9 @@ class Residual:
     def _first_clearing(
         self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
     ) -> Candidate | None:
-        """The first frame from ``first`` on of the detection function ``d`` (its frame 0 at
-        sample ``lo``) that clears the rules, against ``sub`` taken out per frame. With
-        ``settled``, None unless the frames after ``d``'s last could not change the answer
-        (the sums over :data:`REMAINDER_SPAN` from it and the climb to its local maximum end
-        within ``d``)."""
+        """The first frame from ``first`` on of ``d`` (frame 0 at sample ``lo``) that clears the
+        rules, climbed to its local maximum. With ``settled``, None unless frames after ``d``'s
+        last could not change the answer."""
         hit, threshold, past_med = self._hits(d, sub, first)
         if not hit.size or (settled and hit[0] + self.span - 2 >= d.size):
             return None
@@ -378,9 +355,9 @@ class Residual:
         )
 
     def remove(self, s: int, end: int, alone: int | None = None) -> np.ndarray:
-        """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap if the window is shorter
-        than two per lag), take the fit out of ``q`` from ``s`` on and return it (from ``s``
-        on). ``alone`` is used by step 7 only."""
+        """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap if the window is shorter than
+        two per lag), take the fit out of ``q`` from ``s`` on and return it. ``alone``: step 7
+        only."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -404,9 +381,9 @@ class Residual:
 
 
 class DeflationSearch:
-    """Step 5: the ticks after the first, one by one on the residual. ``anchors`` (onsets and
-    strengths) are the sure ticks of step 3's bounce series, none of which is passed over;
-    ``floor`` (energy per frame) the floor of the dynamic range."""
+    """Step 5: the ticks after the first, one by one on the residual. ``anchors`` (onsets,
+    strengths) are step 3's sure ticks, none passed over; ``floor`` (energy per frame) the
+    dynamic range's floor."""
 
     def __init__(
         self,
@@ -490,8 +467,8 @@ class DeflationSearch:
         return c.start
 
     def _refit(self, e2: int, e: int) -> bool:
-        """Whether the fit is redone over ``e2`` instead of ``e``: when the next tick was this
-        tick's own remainder (it lies further on once this one is out)."""
+        """Whether the fit is redone over ``e2`` instead of ``e``: the next tick was this one's own
+        remainder."""
         return e2 > e
 
     def _uncover(self, s: int, new: NewTick, e: int, snap: Snapshot) -> tuple[int, bool]:
@@ -514,9 +491,8 @@ class DeflationSearch:
     # -- the search
 
     def run(self, locate: bool = False) -> SearchOutcome:
-        """Find the ticks after the first, in time order; with ``locate``, stop
-        :data:`LOCATE_TICKS` ticks after a silence that starts a new series (the ticks found
-        up to there are those of the whole search)."""
+        """Find the ticks after the first, in time order; with ``locate``, stop :data:`LOCATE_TICKS`
+        ticks after a silence that starts a new series."""
         self._lower_floor(self.energies[-1])
         silence = None  # index of the first tick after such a silence
         stopped = False
@@ -564,8 +540,7 @@ class DeflationSearch:
         return None
 
     def _burst(self, on: float) -> np.ndarray:
-        """Frame energies of ``q`` around the onset ``on``: the frames holding its first
-        samples."""
+        """Frame energies of ``q`` over the frames holding the first samples from onset ``on``."""
         i0 = int(math.floor(on))
         w, hop = self.w, self.hop
         return frame_energies(self.residual.q[max(0, i0 - w + 1) : i0 + w + 2 * hop], hop, w)
@@ -576,11 +551,9 @@ class DeflationSearch:
         return NewTick(on, strength, float(burst.max()) if burst.size else 0.0)
 
     def _candidate_tick(self, c: Candidate) -> NewTick | None:
-        """The candidate's onset by the walk of step 4 on ``q`` and its energy (the largest
-        frame holding its first samples: the candidate frame may be an earlier one on its
-        rising edge); None when the bounce series rejects it: too soon after the previous
-        tick, or stronger than its bounce time allows (unless a sure tick of step 3 lies
-        there)."""
+        """The candidate's onset (step 4's walk on ``q``) and energy, or None when the series
+        rejects it (too soon, or stronger than its bounce time allows) and no sure tick of step 3
+        lies there."""
         s = self.settings
         lo = self._onset_walk_start(c)
         hi = min(self.r.size, c.start + self.w + 2 * self.hop)
@@ -615,8 +588,7 @@ class DeflationSearch:
         return NewTick(on, strength, energy)
 
     def _fit_end(self, s: int) -> int:
-        """The end of a fit window from ``s``: where the next tick shows, at most the
-        template's length."""
+        """End of a fit window from ``s``: where the next tick shows, at most the template."""
         nxt = self.residual.candidate(self.after, within=s + self.L + self.hop)
         if nxt is None:
             return s + self.L
@@ -638,8 +610,8 @@ class DeflationSearch:
         self._record(s, model, float(on))
 
     def _model(self, s: int, new: NewTick) -> np.ndarray:
-        """Fit the tick's model over its own stretch, up to the next tick, and take it out; if
-        that removes what looked like the next tick (its own remainder), fit again longer."""
+        """Fit the tick's model up to the next tick and take it out; if that removed what looked
+        like the next tick (its own remainder), fit again longer."""
         e = self._fit_end(s)
         snap = self.residual.snapshot(s, self.L + self.residual.longest_lag + 1)
         e, uncovered = self._uncover(s, new, e, snap)

@@ -1,14 +1,10 @@
 """Step 7 of the tick detection (docs/analysis.md, Method): the resonator's search.
 
-On a lightly damped resonator with many modes the 20 ms whitening predictor leaves the first
-tick ringing over the whole first bounce, and the later ticks stay under what is left. Then the
-ringing itself is cancelled by the resonator's own predictor
-(:func:`synth.analysis.whitening.resonator_predictor`), a tick's whitened response ends, and
-the deflation of step 5 runs again with every earlier tick modelled over its whole response:
-:class:`ResonatorResidual` (models on several templates, their expected remainders) and
-:class:`ResonatorSearch` (fit windows, templates, joint refits, one more tick by description
-length, timing against the first tick's template).
-"""
+On a lightly damped resonator the 20 ms whitening predictor leaves the first tick ringing over
+the whole first bounce, hiding the later ticks. The resonator's own predictor
+(:func:`synth.analysis.whitening.resonator_predictor`) cancels that ringing, and the deflation of
+step 5 runs again with every tick modelled over its whole response: :class:`ResonatorResidual`
+and :class:`ResonatorSearch`."""
 
 from __future__ import annotations
 
@@ -79,9 +75,8 @@ class ModelChoice:
 
 class ResonatorResidual(Residual):
     """The residual of step 7: each tick modelled through a filter on each of up to
-    :data:`MAX_TEMPLATES` templates, and ``expect``, what each model is expected to leave
-    (energy per sample), against which a candidate is weighed instead of all that was taken
-    out."""
+    :data:`MAX_TEMPLATES` templates, and ``expect``, what each model is expected to leave (energy
+    per sample), against which a candidate is weighed."""
 
     def __init__(
         self,
@@ -112,12 +107,10 @@ class ResonatorResidual(Residual):
         return frame_energies(np.sqrt(self.expect[lo:hi]), self.hop, self.w)
 
     def remove(self, s: int, end: int, alone: int | None = None, joint=()) -> np.ndarray:
-        """Fit the model of :meth:`choose` to ``q[s:end]``, take it out of ``q`` from ``s`` on
-        and return it (from ``s`` on). The model is expected to leave, outside the window, its
-        relative error in the window raised by :data:`REMAINDER_MARGIN_DB`, counted up to
-        ``alone`` (the soonest next bounce the series allows: beyond, the window may hold a
-        later tick that no model there explains). ``joint``: the starts of later ticks in the
-        window, fitted with this one, whose models are not taken out."""
+        """Fit the model of :meth:`choose` to ``q[s:end]``, take it out of ``q`` from ``s`` on and
+        return it. Outside the window the model is expected to leave its relative error raised by
+        :data:`REMAINDER_MARGIN_DB`, up to ``alone`` (the soonest next bounce). ``joint``: starts
+        of later ticks in the window, fitted with this one but not taken out."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -146,13 +139,11 @@ class ResonatorResidual(Residual):
         return contrib
 
     def choose(self, y: np.ndarray, offsets=(0,)) -> ModelChoice:
-        """The models of ticks started at ``offsets`` (samples into ``y``) fitted to ``y``: of
-        the templates (all, or the first few) and lags (``-pre .. post_long``, ``-pre ..
-        post`` or ``-1 .. 2`` samples) with at least :data:`FIT_SAMPLES_PER_TAP` samples per
-        unknown, the one of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983,
-        Ann. Stat. 11, 416); one tap per template, on as many as the window allows, when no
-        filter fits it. The choices' normal equations are blocks of one Gram matrix, that of
-        the most templates and the widest lags among them."""
+        """The models of ticks started at ``offsets`` (samples into ``y``) fitted to ``y``: of the
+        template counts and lags with at least :data:`FIT_SAMPLES_PER_TAP` samples per unknown,
+        the one of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983, Ann. Stat. 11,
+        416); one tap per template when no filter fits. All choices are blocks of one Gram
+        matrix."""
         W = y.size
         K = len(offsets)
         choices = [
@@ -200,14 +191,12 @@ class ResonatorResidual(Residual):
 
     @staticmethod
     def _fit(Ts, y, pre, post, offsets=(0,)):
-        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts``, started at
-        each of ``offsets`` (samples into ``y``), fitting ``y``: the taps (offset by offset,
-        template by template) and the residual."""
+        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts`` started at
+        ``offsets`` fitting ``y``: the taps and the residual."""
         return _NormalEquations(Ts, y, pre, post, offsets).solve(len(Ts), pre, post)
 
     def take(self, s: int, n: int) -> np.ndarray:
-        """Take ``q[s:s+n]`` as a new template (a tick alone over its whole whitened
-        response): out of ``q``, and returned."""
+        """Take ``q[s:s+n]`` out of ``q`` as a new template and return it."""
         T = self.q[s : s + n].copy()
         self.q[s : s + n] = 0.0
         self.T.append(T)
@@ -215,15 +204,10 @@ class ResonatorResidual(Residual):
 
 
 class _NormalEquations:
-    """The least-squares fit of filters (lags ``-pre .. post``) of the templates ``Ts``,
-    started at each of ``offsets`` (samples into ``y``), to ``y``: the design matrix ``M``
-    (``M[i, j] = T[i - o - l_j]``; columns offset by offset, template by template, lags
-    ``l_j = post - j``), its Gram matrix and ``M^T y``, from which :meth:`solve` takes the
-    fit on the first templates and narrower lags. Only the rows where a template can be
-    non-zero (``o - pre`` to ``o + post`` plus its length, for each offset ``o``) are formed,
-    :data:`FIT_ROWS` at a time: a window that spans a long silence (a tick after another
-    drop's) costs the templates' length, not its own, and the other rows of ``M`` are 0
-    (the residual there is ``y``)."""
+    """Least-squares fit of filters (lags ``-pre .. post``) of the templates ``Ts`` started at
+    ``offsets`` to ``y``: the design matrix ``M[i, j] = T[i - o - l_j]``, its Gram matrix and
+    ``M^T y``, formed only on the rows where a template can be non-zero, :data:`FIT_ROWS` at a
+    time (a window across a long silence costs the templates' length)."""
 
     def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
         W = y.size
@@ -255,8 +239,7 @@ class _NormalEquations:
         return _design_rows(self.templates, self.lengths, self.offsets, self.pre, self.post, lo, hi)
 
     def solve(self, n_t: int, pre: int, post: int) -> tuple[np.ndarray, np.ndarray]:
-        """The taps and the residual of the fit on the first ``n_t`` templates, lags ``-pre ..
-        post`` (within those of the matrix)."""
+        """Taps and residual of the fit on the first ``n_t`` templates, lags ``-pre .. post``."""
         idx = _columns(self.n_offsets, self.n_templates, self.pre, self.post, n_t, pre, post)
         whole = idx is None
         G = self.G.copy() if whole else self.G.take(idx, axis=0).take(idx, axis=1)
@@ -274,12 +257,10 @@ class _NormalEquations:
 def _least_description(
     G, b, y, M, lo, choices, n_offsets, n_templates, pre_all, post_all
 ):  # pragma: no cover - compiled
-    """:meth:`ResonatorResidual.choose` over the rows ``M`` (from row ``lo``) of the design
-    matrix, its Gram matrix ``G`` and ``b = M^T y``, in one pass: for each of ``choices``
-    (``n_t, pre, post``, in order) the fit of :meth:`_NormalEquations.solve` (the same
-    columns, ridge, LAPACK solution and BLAS products) and its description length
-    ``W ln(RSS) + P ln W``; returns the first of the least: its index, length, taps and
-    residual."""
+    """:meth:`ResonatorResidual.choose` in one pass over the rows ``M`` (from row ``lo``), the Gram
+    matrix ``G`` and ``b = M^T y``: for each of ``choices`` the fit of
+    :meth:`_NormalEquations.solve` (same columns, ridge and solution) and its description length;
+    returns the first least: its index, length, taps and residual."""
     W = y.size
     ntap_all = pre_all + post_all + 1
     floor = 1e-300 * np.dot(y, y) + 1e-300
@@ -321,10 +302,8 @@ def _least_description(
 
 @compiled(nogil=True)
 def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
-    """``sum(a[start:start+n])`` as numpy's pairwise summation adds it (``numpy.trace`` too):
-    a plain sum under 8 terms, eight running sums combined pairwise up to 128, halves
-    (multiples of 8) beyond, the left half first; walked with a stack of its own (a cached
-    kernel that recurses fails to load from numba's cache when another calls it)."""
+    """``sum(a[start:start+n])`` in numpy's pairwise order (as ``numpy.trace``), with a stack of its
+    own: a cached recursive kernel fails to load from numba's cache when called by another."""
     starts = np.empty(64, dtype=np.int64)
     sizes = np.empty(64, dtype=np.int64)
     phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
@@ -384,9 +363,8 @@ def _pairwise_leaf(a, start, n):  # pragma: no cover - compiled
 
 @compiled(nogil=True)
 def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no cover - compiled
-    """Rows ``lo .. hi - 1`` of the design matrix of :class:`_NormalEquations`: ``M[i, c] =
-    T_t[i - o_k - post + j]`` (0 outside ``T_t``) in column ``c = (k n_t + t) ntap + j``, for
-    the templates ``templates[t, :lengths[t]]`` and offsets ``o_k``."""
+    """Rows ``lo .. hi - 1`` of the design matrix of :class:`_NormalEquations`: ``M[i, (k n_t + t)
+    ntap + j] = T_t[i - o_k - post + j]`` (0 outside ``T_t``)."""
     ntap = pre + post + 1
     n_t = templates.shape[0]
     M = np.zeros((hi - lo, offsets.size * n_t * ntap))
@@ -405,9 +383,8 @@ def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no 
 def _columns(
     n_offsets: int, n_templates: int, pre_all: int, post_all: int, n_t: int, pre: int, post: int
 ) -> np.ndarray | None:
-    """The columns of the fit on the first ``n_t`` templates, lags ``-pre .. post``, in a
-    design matrix of ``n_offsets`` offsets of ``n_templates`` templates, lags ``-pre_all ..
-    post_all``; None when that is every column."""
+    """Columns of the fit on the first ``n_t`` templates, lags ``-pre .. post``, in the full design
+    matrix; None when that is every column."""
     ntap_all = pre_all + post_all + 1
     lags = np.arange(post_all - post, post_all + pre + 1)
     idx = np.concatenate(
@@ -420,8 +397,8 @@ def _columns(
 
 
 def _row_chunks(spans, rows: int) -> list[tuple[int, int]]:
-    """The union of the half-open intervals ``spans`` within ``0 .. rows``, as disjoint
-    intervals in order of at most :data:`FIT_ROWS` rows each."""
+    """The union of the half-open ``spans`` within ``0 .. rows`` as disjoint ordered intervals of at
+    most :data:`FIT_ROWS` rows."""
     merged: list[list[int]] = []
     for lo, hi in sorted((max(0, lo), min(rows, hi)) for lo, hi in spans):
         if lo >= hi:
@@ -440,14 +417,11 @@ def _rss(res: np.ndarray, y: np.ndarray) -> float:
 
 class ResonatorSearch(DeflationSearch):
     """The deflation of step 5 on the resonator's whitening, with the rules of step 7
-    (docs/analysis.md): templates from the sure ticks, each tick's fit window found where the next
-    tick shows, each model refitted jointly with the next tick's, the shortest bounce the
-    series allows, one more tick tried by description length, and every tick timed against
-    the first tick's template. ``floor`` None: no fixed floor under the strongest frame (the
-    whitened noise raised by ``threshold_db`` and ``e_min^2`` times the last tick's energy,
-    never under :data:`PREDICTION_FLOOR` of ``strongest``). ``known``: the onsets of the
-    first search, which decide whether the second tick is a template and confirm a tick
-    sooner than the series allows."""
+    (docs/analysis.md): templates from the sure ticks, fit windows up to the next tick, joint
+    refits, the shortest bounce the series allows, one more tick by description length, and
+    timing against the first tick's template. ``floor`` None: the floor follows the whitened
+    noise and ``e_min^2`` times the last tick's energy, never under :data:`PREDICTION_FLOOR` of
+    ``strongest``. ``known``: the first search's onsets."""
 
     strict_onsets = True
 
@@ -478,13 +452,9 @@ class ResonatorSearch(DeflationSearch):
         return soonest(onsets, strengths, self.min_sep)
 
     def _confirmed(self, on):
-        """Whether the first search (steps 2-6, on the 20 ms predictor's whitening) found a
-        tick within :data:`AGREEMENT` of ``on``. The soonest bounce the series allows keeps
-        the remainders of the previous tick's own response out; a burst found at the same
-        place, to two sample periods, on another whitening, whose remainders lie elsewhere,
-        is a tick, not one of them, and the restitution may change faster than
-        :data:`RESTITUTION_STEP` there (a slow ball on a ringing board: the surface's velocity
-        at the touch, not small against the ball's, changes its rebound)."""
+        """Whether the first search found a tick within :data:`AGREEMENT` of ``on``: a burst at the
+        same place on another whitening, whose remainders lie elsewhere, is a tick even sooner
+        than the series allows."""
         if self.known.size == 0:
             return False
         return bool(np.abs(self.known - on).min() <= AGREEMENT * self.settings.samplerate)
@@ -496,8 +466,8 @@ class ResonatorSearch(DeflationSearch):
             self.residual.floor = max(self.floor, e_min * e_min * energy)
 
     def _onset_walk_start(self, c):
-        """Not more than a frame before the first frame that cleared the threshold: further
-        back lie the earlier ticks' remainders, not this burst."""
+        """At most a frame before the first frame that cleared the threshold: further back lie
+        earlier ticks' remainders."""
         return max(super()._onset_walk_start(c), c.first - self.w)
 
     def _next_start(self, c):
@@ -507,11 +477,9 @@ class ResonatorSearch(DeflationSearch):
         return e2 != e
 
     def _timing(self, start: int, model: np.ndarray, level_crossing: float) -> float:
-        """The onset of a tick whose window starts at ``start``: its level crossing delayed by
-        its model's delay behind the first tick's template (within the lags of its filters)
-        from the template's own onset; a model of nothing, or one
-        whose correlation with the template has no peak within those lags, keeps the level
-        crossing (:func:`~synth.analysis.detection.delay`)."""
+        """Onset of the tick whose window starts at ``start``: its model's delay behind the first
+        tick's template (:func:`~synth.analysis.detection.delay`) from the template's onset; else
+        the ``level_crossing``."""
         if not np.any(model):
             return level_crossing
         res = self.residual
@@ -521,10 +489,9 @@ class ResonatorSearch(DeflationSearch):
         return self.first.onset + (start - self.s1) + lag
 
     def _uncover(self, s, new, e, snap):
-        """While this tick is in ``q`` it may hide the next one, which the series puts between
-        ``(1 - RESTITUTION_STEP)`` and ``BOUNCE_GROWTH`` times the last restitution times this
-        bounce after it: windows ending from the soonest on, each 10 % longer, until one
-        uncovers a tick at its end."""
+        """This tick may hide the next, which the series puts between ``(1 - RESTITUTION_STEP)`` and
+        ``BOUNCE_GROWTH`` times the last restitution times this bounce on: windows from the
+        soonest on, each 10 % longer, until one uncovers a tick at its end."""
         if not (len(self.onsets) >= 2 and new.strength >= DOUBTFUL_DB):
             return e, False
         on = new.onset
@@ -542,10 +509,8 @@ class ResonatorSearch(DeflationSearch):
         return e, False
 
     def _clear_span(self, s: int, on: float) -> float:
-        """How long the tick rings alone from ``s``: up to the soonest next bounce the series
-        allows; for the second tick, up to the next tick the first search found (one it
-        missed between would be stronger than that one: the ticks of a series only
-        weaken)."""
+        """How long the tick rings alone from ``s``: up to the soonest next bounce; for the second
+        tick, up to the first search's next tick."""
         if len(self.onsets) >= 2:
             t_last = on - self.onsets[-1]
             return (1.0 - RESTITUTION_STEP) * t_last * t_last / (self.onsets[-1] - self.onsets[-2])
@@ -553,10 +518,9 @@ class ResonatorSearch(DeflationSearch):
         return later[0] - s if later.size else 0.0
 
     def _finish(self, s, new, e, model, snap):
-        """A sure tick alone over its whole whitened response becomes a template; else the
-        previous tick's model, fitted up to where this tick shows while its response goes on
-        under this one, is fitted again jointly with this tick's over this tick's window, and
-        this tick's alone again with the previous one's new model out."""
+        """A sure tick alone over its whole response becomes a template; else the previous tick's
+        model is refitted jointly with this one's over this window, and this one's alone again
+        with the previous one's out."""
         res = self.residual
         if (
             len(res.T) < MAX_TEMPLATES
@@ -586,14 +550,11 @@ class ResonatorSearch(DeflationSearch):
         return np.array(self.timed)
 
     def _hypothesis(self):
-        """No candidate clears the rules: one more tick of the series, where the series allows
-        the next bounce, against none, by description length over a window holding the last
-        tick's response (its model not taken out) and the new tick's: the last tick's model
-        alone, or jointly with the new one's. Only the places where the residual clears the
-        floor are tried (a tick elsewhere would be refused whatever its description length),
-        every :data:`HYPOTHESIS_STEP` samples; the place costs ``2 ln M`` for one of ``M``.
-        Its strength is the fall of the description length per sample, in dB of residual
-        energy."""
+        """No candidate clears the rules: one more tick where the series allows the next bounce,
+        against none, by description length over a window holding the last tick's response and
+        the new one's, tried every :data:`HYPOTHESIS_STEP` samples where the residual clears the
+        floor (the place costs ``2 ln M``). Its strength is the fall of the description length
+        per sample, in dB."""
         if self.prev is None or len(self.onsets) < 3:
             return None
         onsets, res = self.onsets, self.residual
