@@ -1,7 +1,6 @@
-"""The analysis of a recording, stage by stage: checked inputs, clipping, whitening (step 1),
-the first search (steps 2-6), the resonator's search where the first tick rings on (step 7),
-and the measurements of every tick (docs/analysis.md, Method); a long recording block by
-block (docs/analysis.md, Long recordings)."""
+"""The analysis of a recording, stage by stage (docs/analysis.md, Method): checked inputs, clipping,
+whitening (step 1), the first search (steps 2-6), the resonator's search (step 7) and the
+measurements; a long recording block by block (docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
@@ -105,8 +104,8 @@ def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
 
 
 def _analyze_source(source: Source, settings: Settings) -> Analysis:
-    """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else
-    block by block (:mod:`synth.analysis.blocks`)."""
+    """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else block by
+    block."""
     if source.frames <= whole_frames(settings.samplerate):
         return _analyze_whole(source.read(0, source.frames), settings)
     return _analyze_blocks(source, settings)
@@ -128,8 +127,8 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
 
 
 def _result(series: list, frames: int, noise: float, clipping: str | None, settings) -> Analysis:
-    """The :class:`Analysis` of the bounce ``series`` found in ``frames`` frames (``noise``:
-    their noise floor; ``clipping``: its warning, None where nothing was clipped)."""
+    """The :class:`Analysis` of the bounce ``series`` in ``frames`` frames (``noise``: their noise
+    floor; ``clipping``: its warning or None)."""
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
@@ -144,9 +143,8 @@ def _result(series: list, frames: int, noise: float, clipping: str | None, setti
 
 
 def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
-    """The analysis of a recording longer than a block, block by block: one pass for its
-    extremes (clipping), silence and noise floor, then the bounce series of each block
-    (:func:`_block_drops`)."""
+    """A recording longer than a block, block by block: one pass for its extremes, silence and noise
+    floor, then the series of each block (:func:`_block_drops`)."""
     sv = survey(source, settings.channel)
     _refuse_silence(sv.any_sample, sv.any_mix)
     levels = _clip_levels(sv, settings.clip_samples)
@@ -188,11 +186,10 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
 
 
 def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
-    """The numbered :class:`Series` of the tick lists ``found`` that start with an impact
-    (:func:`~synth.analysis.validity.impact_series`). Input whose bursts are followed by no
-    decaying ringing (:func:`~synth.analysis.validity.check_impulsive`, over
-    ``ringing_from(first sample)``) or of which no series starts with an impact is refused
-    (``AnalysisError``): it holds no impact."""
+    """The numbered :class:`Series` of ``found`` that start with an impact
+    (:func:`~synth.analysis.validity.impact_series`); ``AnalysisError`` where nothing rings down
+    after the bursts (:func:`~synth.analysis.validity.check_impulsive`) or no series starts with
+    an impact."""
     ticks = [t for s in _numbered(found) for t in s.ticks]
     check_impulsive(ticks, ringing_from(_first_sample(ticks, settings)), test.fs)
     kept = impact_series(found, test)
@@ -210,8 +207,8 @@ def _first_sample(ticks: list, settings: Settings) -> int:
 
 
 def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
-    """The clipped extremes of the analysed channels, ``(channel, level)``: those held in flat
-    tops by ``min_count`` samples or more (as :func:`~synth.analysis.clipping.find_clipping`)."""
+    """The clipped extremes ``(channel, level)`` of the analysed channels: held in flat tops of
+    ``min_count`` samples or more."""
     out = []
     for c in range(sv.highs.size):
         for level, tops in ((sv.highs[c], sv.high_tops[c]), (sv.lows[c], sv.low_tops[c])):
@@ -221,23 +218,15 @@ def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
 
 
 def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list[list]:
-    """The bounce series of a recording of ``frames`` frames whose analysed signal
-    ``signal(start, stop)`` gives, block by block (:mod:`synth.analysis.blocks`). Steps 1-6
-    over a block show where its series start (:func:`new_series_at`). When a new series
-    follows the block's first, the first is searched on its own (steps 1-7), from the block's
-    start to the local background's length before the next drop, and the next block starts
-    there: at the next drop, less the local
-    background. Else the block is searched whole (steps 1-7); its one series is kept once the
-    block goes on past where the series allows its next bounce, and the next block starts at
-    that series if it started later than the block (an ended series sets the floor of the
-    dynamic range over its own ringing, as in the whole recording), else :data:`OVERLAP`
-    before the block's end. A series longer than a block doubles the block. So each drop is
-    searched once by steps 1-6 with the block that holds it and once whole on its own,
-    whatever the number of drops.
+    """The bounce series of a recording of ``frames`` frames read by ``signal(start, stop)``, block
+    by block (:mod:`synth.analysis.blocks`). Steps 1-6 over a block show where its series start;
+    a first series followed by a new one is searched on its own (steps 1-7) and the next block
+    starts at the next drop less the local background; else the block is searched whole and its
+    series kept once the block passes its next bounce. Each drop is searched once with its block
+    and once on its own, whatever the number of drops.
 
-    Every block runs on one BLAS thread (:func:`one_blas_thread`): a second thread, spinning
-    while it waits for a core that other work keeps busy, made the small products and
-    solutions several times as costly."""
+    One BLAS thread per block (:func:`one_blas_thread`): a second one, spinning for a busy core,
+    made the small products several times as costly."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
@@ -283,12 +272,9 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
 
 
 def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, lead: int):
-    """The ticks of the block ``x`` (times from its start) of which those after ``kept`` (s)
-    are new: its first series on its own (steps 1-7) followed by the ticks of steps 1-6 from
-    the next drop on, when steps 1-6 show a new series after a first one that is new; else
-    the whole block by steps 1-7 (none when steps 1-6 find no new tick). Steps 1-6 stop a few
-    ticks into the next drop (:data:`~synth.analysis.deflation.LOCATE_TICKS`), and are
-    carried on over the whole block only where that shows no new series."""
+    """The ticks of block ``x`` (times from its start), those after ``kept`` (s) new: its first
+    series on its own (steps 1-7) then steps 1-6's ticks from the next drop, when steps 1-6 show
+    a new series after a new first one; else the whole block by steps 1-7."""
     fs = settings.samplerate
     parts: dict = {}  # the whitening predictors' autocorrelation terms, x's and its start's
     loc = _located(x, settings, clipped, locate=True, parts=parts)
@@ -314,8 +300,8 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
 
 @dataclass(frozen=True)
 class Located:
-    """The ticks of steps 1-6 over a block (:class:`LazyTick`), and whether the search
-    stopped a few ticks past the start of a new series."""
+    """The ticks of steps 1-6 over a block (:class:`LazyTick`), and whether the search stopped a few
+    ticks past a new series' start."""
 
     ticks: list
     stopped: bool
@@ -324,9 +310,8 @@ class Located:
 def _located(
     x: np.ndarray, settings: Settings, clipped: bool, locate: bool, parts=None
 ) -> Located | None:
-    """Steps 1-6 over the block ``x`` (with ``locate``, stopped a few ticks past the start of
-    a new series), each tick measured when asked (:class:`LazyTick`), or None where it has
-    no tick (silence, no tick, too short). ``parts``: as for :func:`first_search`."""
+    """Steps 1-6 over block ``x`` (with ``locate``, stopped past a new series' start), or None where
+    it has no tick. ``parts``: as for :func:`first_search`."""
     try:
         first = first_search(x, settings, locate, parts)
         meter = tick_meter(x, first, settings, clipped, resonator=False)
@@ -342,8 +327,8 @@ def _located(
 def _searched(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
 ) -> list:
-    """The ticks of ``x`` (:func:`_ticks`), none where it has none (silence, no tick, too
-    short). ``parts``: as for :func:`first_search`."""
+    """The ticks of ``x`` (:func:`_ticks`), none where it has none. ``parts``: as for
+    :func:`first_search`."""
     try:
         return _ticks(x, settings, clipped, resonator, parts)[0]
     except (AnalysisError, ParameterError):
@@ -351,25 +336,17 @@ def _searched(
 
 
 def _series_ended(ticks: list, end: float, lead: float) -> bool:
-    """Whether a series can have no tick after ``end`` (s): the block goes on past its next
-    bounce, at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last one (and
-    :data:`OVERLAP` at least), and the local background before that tick."""
+    """Whether a series can have no tick after ``end`` (s): the block goes on past its next bounce
+    (at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last, at least
+    :data:`OVERLAP`) and the local background before it."""
     bounce = ticks[-1].bounce_time or 0.0
     return end - ticks[-1].time >= max(OVERLAP, BOUNCE_GROWTH * bounce) + lead
 
 
 def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
-    """The ticks of each bounce series of ``x``, each series found and measured on its own.
-
-    Steps 1-7 over the whole signal give its ticks when they make one series. When they show
-    a new series, the recording holds several drops, and that search's ticks after the
-    first drop are no guide: its first tick's model and resonator do not fit a later drop's
-    ringing, and what they leave of it whitens to bursts taken for ticks (hundreds over a
-    few drops), whose bounce times then show drop starts where there are none. So the
-    recording is then searched as a long one is (:func:`_block_drops`): steps 1-6 over a
-    block show where its series start, and each drop is searched on its own up to the
-    next, whatever the whole search found after its first series; step 9 weighs each drop's
-    ticks against the whole recording's strongest impact (``Settings.innovation``)."""
+    """The ticks of each bounce series of ``x``, each found and measured on its own: steps 1-7 over
+    the whole when they make one series; else as a long recording (:func:`_block_drops`), since
+    the first drop's template and resonator do not fit a later drop's ringing."""
     ticks, innovation = _ticks(x, settings, clipped)
     if new_series_at(ticks) is None:
         return [ticks]
@@ -378,9 +355,8 @@ def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
 
 
 def _numbered(found: list[list]) -> list[Series]:
-    """The series of the tick lists ``found``: ticks numbered over the recording, a later
-    series' first tick without a bounce time and its second without a restitution (their
-    bounces would span two drops), impossible values flagged."""
+    """The series of ``found``: ticks numbered over the recording, a later series' first tick
+    without a bounce time and its second without a restitution, impossible values flagged."""
     out: list[Series] = []
     index = 0
     for k, ticks in enumerate(t for t in found if t):
@@ -397,10 +373,9 @@ def _numbered(found: list[list]) -> list[Series]:
 def _ticks(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
 ) -> tuple[list, float]:
-    """The ticks of ``x`` found by steps 1-7 and measured (times from the start of ``x``);
-    without ``resonator``, by steps 1-6 only (where a block's series start, see
-    :func:`_block_drops`); and the largest magnitude of its whitened signal (its strongest
-    impact's, ``Settings.innovation``). ``parts``: as for :func:`first_search`."""
+    """The ticks of ``x`` by steps 1-7 (without ``resonator``, steps 1-6), measured, and the largest
+    magnitude of its whitened signal (``Settings.innovation``). ``parts``: as for
+    :func:`first_search`."""
     search = first_search(x, settings, parts=parts)
     ticks = measured_ticks(x, search, settings, clipped, resonator)
     return ticks, whitened_peak(search)
@@ -451,9 +426,8 @@ def analyze_file(path, *, options=None, **overrides) -> Analysis:
 
 
 def _generated_signature(function, *leading: str) -> None:
-    """Give ``function`` (``leading`` positional parameters, ``options`` and the analysis
-    options as keywords) its signature and its docstring's list of the options, from the
-    fields of :class:`AnalysisOptions`."""
+    """Give ``function`` (``leading`` positional parameters, then ``options`` and the options as
+    keywords) its signature and its docstring's list of options."""
     if function.__doc__:  # None under python -OO
         function.__doc__ = function.__doc__.replace("    OPTIONS_DOC", parameters_doc())
     function.__signature__ = inspect.Signature(
@@ -471,8 +445,8 @@ _generated_signature(analyze_file, "path")
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
-    """Check that the analysed channels are long enough for the whitening and not silent,
-    and find their clipping (raised with ``on_clipping="raise"``)."""
+    """Check that the analysed channels are long enough and not silent, and find their clipping
+    (raised with ``on_clipping="raise"``)."""
     order = settings.whitening_order
     if used.shape[0] <= 2 * order:
         raise ParameterError(
@@ -497,8 +471,8 @@ def _refuse_silence(any_sample: bool, any_mix: bool) -> None:
 
 
 def _refuse_clipped_throughout(tops: int, size: int) -> None:
-    """Raise ``AnalysisError`` where more than :data:`CLIPPED_AT_MOST` of the ``size``
-    samples sit in flat tops at the extremes (``tops`` of them)."""
+    """Raise ``AnalysisError`` where more than :data:`CLIPPED_AT_MOST` of the ``size`` samples sit
+    in flat tops (``tops`` of them)."""
     if tops > CLIPPED_AT_MOST * size:
         raise AnalysisError(
             f"{tops} of {size} samples sit in flat tops at the extremes: not a recording of "
