@@ -1,11 +1,7 @@
-"""The rules of a bounce series that tell a bounce's tick from what rings on after one.
-
-A ball loses energy at every impact, so its flights shrink and its ticks weaken: every bounce
-time lies between ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, a tick's energy goes
-as its impact speed squared (the flight time squared), and the restitution changes slowly along
-a series (the thesis, see docs/physics.md, References: section 3.1). Onsets are in samples,
-strengths in dB over the threshold a tick cleared.
-"""
+"""The rules of a bounce series that tell a bounce's tick from what rings on after one: bounce times
+lie between ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, a tick's energy goes as the
+flight time squared, and the restitution changes slowly (the thesis, docs/physics.md, References:
+section 3.1). Onsets in samples, strengths in dB over the threshold cleared."""
 
 from __future__ import annotations
 
@@ -50,9 +46,8 @@ def separation(onsets, strengths, min_sep: int, e_min: float) -> int:
 
 
 def soonest(onsets, strengths, min_sep: int) -> int:
-    """Shortest plausible bounce after the last of ``onsets`` in the resonator's search (step
-    7): ``(1 - RESTITUTION_STEP)`` times the last restitution times the last bounce, after a
-    tick that is not doubtful; else ``min_sep``."""
+    """Shortest plausible bounce after the last of ``onsets`` in step 7: ``(1 - RESTITUTION_STEP)``
+    times the last restitution times the last bounce after a trusted tick; else ``min_sep``."""
     if len(onsets) < 3 or strengths[-1] < DOUBTFUL_DB:
         return min_sep
     t = onsets[-1] - onsets[-2]
@@ -60,9 +55,9 @@ def soonest(onsets, strengths, min_sep: int) -> int:
 
 
 def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
-    """Whether a candidate at ``on`` with whitened frame energy ``energy`` is stronger than
-    its bounce time allows (step 5): more than :data:`MAX_EXCESS_DB` above ``(t_n /
-    t_(n-1))^2`` times the last tick's energy, that tick being trusted (not doubtful)."""
+    """Whether a candidate at ``on`` of whitened energy ``energy`` is more than
+    :data:`MAX_EXCESS_DB` above ``(t_n / t_(n-1))^2`` times the last trusted tick's energy (step
+    5)."""
     if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
         return False
     ratio = (on - onsets[-1]) / (onsets[-1] - onsets[-2])
@@ -76,17 +71,11 @@ def bounce_series(
     horizon: int = SERIES_HORIZON,
     sure: np.ndarray | None = None,
 ) -> list[int]:
-    """Indices in ``onsets`` of the longest bounce series that starts at the first tick
-    (step 3).
-
-    A series is a subsequence of the candidates whose every bounce time lies between
-    ``e_min`` and ``growth`` times the one before; the longest is found by dynamic
-    programming over the first ``horizon`` candidates (of equally long ones, the one whose
-    second tick comes first). The candidates it passes over before its second tick are
-    taken for the first tick's own response; ``sure`` (a mask of the candidates) bounds
-    that: its second tick comes no later than the first bounce that a sure candidate makes
-    with the first tick and that the next sure candidate continues (:func:`last_second`).
-    """
+    """Indices in ``onsets`` of the longest bounce series from the first tick (step 3): every bounce
+    within ``e_min`` and ``growth`` times the one before, by dynamic programming over the first
+    ``horizon`` candidates (ties: the earliest second tick). The candidates passed over before
+    its second tick are the first tick's own response; ``sure`` bounds that
+    (:func:`last_second`)."""
     t = np.asarray(onsets[:horizon], dtype=float)
     n = t.size
     if n < 3:
@@ -109,9 +98,9 @@ def bounce_series(
 
 @compiled(nogil=True)
 def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
-    """The tables of :func:`bounce_series`' dynamic programme over the onsets ``t``:
-    ``best[i, j]``, most ticks in a series from tick 0 ending ..., t_i, t_j; ``second[i,
-    j]``, its second tick; ``back[i, j]``, the tick before t_i (-1: none)."""
+    """Tables of :func:`bounce_series`' dynamic programme: ``best[i, j]``, most ticks in a series
+    ending t_i, t_j; ``second[i, j]``, its second tick; ``back[i, j]``, the tick before t_i (-1:
+    none)."""
     n = t.size
     best = np.zeros((n, n), dtype=np.int64)
     second = np.zeros((n, n), dtype=np.int64)
@@ -141,17 +130,9 @@ def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
 
 
 def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) -> int:
-    """The latest candidate that can be the second tick of the series from the first of the
-    onsets ``t``: the first sure candidate (``sure``, a mask) after the first tick that the
-    next sure one follows within ``e_min`` to ``growth`` times their bounce from the first
-    tick (the last candidate when none does).
-
-    The candidates before the second tick are the first tick's own response: the end of a
-    long contact (as strong as the tick, and sure) and its reflections (weaker, not sure).
-    Three sure ticks in bounce order are a bounce series, not a tick and its response; a
-    series passing over them (a recording of several drops, where a first bounce seconds
-    long, into a later drop, starts a longer series than the first drop's own) would take
-    a whole series for one tick's response."""
+    """The latest candidate that can be the second tick: the first sure candidate after the first
+    that the next sure one follows in bounce order (the last candidate when none does). Three
+    sure ticks in bounce order are a series, not one tick's response."""
     idx = np.nonzero(sure)[0]
     idx = idx[idx > 0]
     for c, d in zip(idx[:-1], idx[1:]):
@@ -162,8 +143,8 @@ def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) ->
 
 
 def _in_order(on, kept, e_min, growth) -> bool:
-    """Whether the last bounce of the ticks ``kept`` lies within ``e_min`` and ``growth``
-    times the one before (true when there is no bounce before)."""
+    """Whether the last bounce of ``kept`` lies within ``e_min`` and ``growth`` times the one before
+    (true without one)."""
     if len(kept) < 3:
         return True
     before = on[kept[-2]] - on[kept[-3]]
@@ -173,13 +154,8 @@ def _in_order(on, kept, e_min, growth) -> bool:
 def bounce_order(
     onsets: np.ndarray, strengths: np.ndarray, e_min: float, growth: float = BOUNCE_GROWTH
 ) -> np.ndarray:
-    """Indices of the ticks that keep the order of a bounce series (step 6).
-
-    Taken in time order after the first two: a tick too soon for a bounce is dropped
-    (:func:`_too_soon`); where a bounce is over ``growth`` times the one before, a weaker
-    tick split a bounce in two (:func:`_split_bounce`); last, the ticks that split a
-    bounce of the series' restitution are dropped (:func:`_drop_splits`).
-    """
+    """Indices of the ticks that keep the order of a bounce series (step 6), in time order after the
+    first two: :func:`_too_soon`, :func:`_split_bounce`, then :func:`_drop_splits`."""
     on = onsets
     kept = list(range(min(2, on.size)))
     for i in range(2, on.size):
@@ -196,9 +172,9 @@ def bounce_order(
 
 
 def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) -> None:
-    """Tick ``i`` comes sooner than ``e_min`` times the last bounce: part of the last tick's
-    response, unless the last tick is a doubtful remainder just before this stronger one,
-    which then takes its place in ``kept``."""
+    """Tick ``i`` comes sooner than ``e_min`` times the last bounce: the last tick's response,
+    unless the last tick is a doubtful remainder just before this stronger one, which then
+    replaces it in ``kept``."""
     if (
         strengths[kept[-1]] < DOUBTFUL_DB
         and strengths[i] > strengths[kept[-1]]
@@ -208,12 +184,10 @@ def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) ->
 
 
 def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float) -> bool:
-    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop from ``kept`` the
-    weaker of the two ticks of the short bounce whose removal restores the order (it split
-    a bounce in two), or else the last few ticks, all weaker than this one and not sure,
-    when that restores it. Returns whether tick ``i`` is kept: it is unless nothing was
-    dropped and it is doubtful (a late remainder); a sure one is a missed tick or a second
-    drop."""
+    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop from ``kept`` the weaker
+    tick of the short bounce whose removal restores the order, or else the last few weaker,
+    unsure ticks when that restores it. Returns whether tick ``i`` is kept (not when nothing was
+    dropped and it is doubtful)."""
     options = [
         j
         for j in (len(kept) - 1, len(kept) - 2)
@@ -239,10 +213,8 @@ def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float
 
 
 def _drop_splits(on, strengths, kept: list) -> None:
-    """Drop from ``kept`` each tick that is not sure, between two others, when the bounce
-    across it continues the series' restitution (within :data:`RESTITUTION_STEP`) and the
-    two bounces it makes do not (a restitution changes slowly along a series, with the
-    impact speed: docs/physics.md)."""
+    """Drop from ``kept`` each unsure tick between two others when the bounce across it continues
+    the series' restitution (within :data:`RESTITUTION_STEP`) and its two bounces do not."""
     k = 3
     while k + 1 < len(kept):
         t = on[kept[k - 3 : k + 2]]

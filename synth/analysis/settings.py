@@ -39,15 +39,11 @@ class AnalysisError(SynthError, ValueError):
 
 @dataclass(frozen=True)
 class Settings:
-    """The options of an analysis (:class:`AnalysisOptions`) for one recording: its rate
-    and channel checked, durations in samples, the defaults that depend on the rate set.
-
-    ``dynamic_range_db`` is the floor of steps 1-6 (:data:`DYNAMIC_RANGE_DB` unless given);
-    ``fixed_range`` says whether the caller gave it (then it holds in step 7 too).
-    ``innovation``: the largest magnitude of the whole recording's whitened signal, where its
-    drops are searched one by one (step 9 weighs each drop's ticks against the recording's
-    strongest impact); None: that of the signal searched.
-    """
+    """The options of an analysis (:class:`AnalysisOptions`) for one recording: rate and channel
+    checked, durations in samples, rate-dependent defaults set. ``fixed_range``: the caller gave
+    ``dynamic_range_db`` (then it holds in step 7 too). ``innovation``: the largest magnitude of
+    the whole recording's whitened signal where drops are searched one by one; None: that of the
+    signal searched."""
 
     samplerate: float  # Hz
     gravity: float  # m/s^2
@@ -94,15 +90,8 @@ class Settings:
 
 
 def make_settings(channels: int, samplerate, options: AnalysisOptions) -> Settings:
-    """The :class:`Settings` of ``options`` for audio of ``channels`` channels at
-    ``samplerate`` Hz.
-
-    Raises
-    ------
-    ParameterError
-        A bad rate, a channel the audio does not have, or a duration shorter than the
-        samples it needs; the message names it, its value and what is allowed.
-    """
+    """The :class:`Settings` of ``options`` for audio of ``channels`` channels at ``samplerate`` Hz.
+    Raises ParameterError for a bad rate, channel or too short a duration."""
     fs = checks.positive_at_most("samplerate", samplerate, MAX_SAMPLERATE, "Hz")
     o = options
     lpc_order = o.lpc_order
