@@ -1,22 +1,9 @@
-"""Long recordings in blocks: linear time and bounded memory (docs/analysis.md, Long recordings).
-
-The search of one bounce series (steps 1-7 of docs/analysis.md, Method) needs the samples of
-that series only, from a background's length before its first tick to its last tick's
-response. A recording longer than :data:`WHOLE` is therefore analysed in blocks of
-:data:`BLOCK`: a pass
-over its blocks finds its extremes (clipping), whether it is silent and its noise floor; then
-steps 1-6 over each block show where its series start, the block's first series is searched
-on its own up to the next drop (steps 1-7), and the next block starts at that drop, so that no
-series is cut; a block holding one series is searched whole and keeps it once it has ended
-(``_block_drops`` in :mod:`synth.analysis.pipeline`); after a block without a series, the next
-block overlaps it by :data:`OVERLAP` (a drop that starts at a block's end is found whole in
-the next). Every sample is read about twice and each drop searched whole once, whatever the
-recording's length and the number of drops in it, and no more than a block (twice one, for a
-series longer than a block) is in memory.
-
-A :class:`Source` is the recording: an array in memory (:class:`ArraySource`) or a file read
-in blocks through soundfile (:class:`FileSource`).
-"""
+"""Long recordings in blocks: linear time and bounded memory (docs/analysis.md, Long recordings). A
+recording longer than :data:`WHOLE` is analysed in blocks of :data:`BLOCK`: one pass for
+extremes, silence and noise floor; then each block's series are located and searched on their own
+(``_block_drops`` in :mod:`synth.analysis.pipeline`), blocks overlapping by :data:`OVERLAP`, so
+no series is cut and each is searched whole once. A :class:`Source` is an array
+(:class:`ArraySource`) or a file read in blocks (:class:`FileSource`)."""
 
 from __future__ import annotations
 
@@ -85,8 +72,8 @@ class ArraySource(Source):
 
 
 class FileSource(Source):
-    """A sound file read in blocks through soundfile (seek and read: the file is never in
-    memory whole). Non-finite samples raise ``ParameterError`` as for an array."""
+    """A sound file read in blocks through soundfile, never whole; non-finite samples raise
+    ``ParameterError``."""
 
     def __init__(self, path):
         import soundfile
@@ -128,9 +115,9 @@ def file_frames(path) -> int | None:
 
 @dataclass(frozen=True)
 class Survey:
-    """What one pass over a recording finds: the analysed channels' largest and smallest
-    values and the samples in flat tops at them (clipping), whether any analysed sample and
-    any sample of the mix is not 0, and the noise floor of the mix (signal units)."""
+    """One pass over a recording: the analysed channels' extremes and their flat-top samples,
+    whether the analysed channels and the mix are non-zero, and the mix's noise floor (signal
+    units)."""
 
     highs: np.ndarray
     lows: np.ndarray
@@ -142,9 +129,8 @@ class Survey:
 
 
 def survey(source: Source, channel: int | None) -> Survey:
-    """One pass over ``source`` in pieces: its extremes, silence and noise floor
-    (:func:`synth.dsp.noise_floor` over the frames of every piece: pieces hold whole
-    :data:`synth.dsp.NOISE_FRAME` frames but for the last)."""
+    """One pass over ``source`` in pieces: extremes, silence and noise floor
+    (:func:`synth.dsp.noise_floor` over whole :data:`synth.dsp.NOISE_FRAME` frames)."""
     cols = slice(None) if channel is None else slice(channel, channel + 1)
     n_ch = source.channels if channel is None else 1
     highs, lows = np.full(n_ch, -np.inf), np.full(n_ch, np.inf)

@@ -1,11 +1,7 @@
-"""Clipped samples: found, and interpolated before the ticks are sought.
-
-A clipped run is a kink the resonator cannot make, which the whitening turns into bursts that
-pass for ticks; so the clipped samples are treated as missing and interpolated by least squares
-under a linear predictor fitted to the unclipped ringing (Janssen, Veldhuis and Vries 1986,
-"Adaptive interpolation of discrete-time signals that can be modeled as autoregressive
-processes", IEEE Trans. ASSP 34, 317), each kept at least at its clipped magnitude.
-"""
+"""Clipped samples: found, and interpolated before the ticks are sought (a clipped run whitens into
+bursts that pass for ticks): least squares under a linear predictor of the unclipped ringing
+(Janssen, Veldhuis and Vries 1986, IEEE Trans. ASSP 34, 317), each kept at least at its clipped
+magnitude."""
 
 from __future__ import annotations
 
@@ -31,16 +27,10 @@ class Clipping:
 
 
 def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
-    """The clipped samples of ``chans`` (frames, channels), or None.
-
-    A channel is clipped at its positive (negative) extreme when ``min_count`` or more of
-    its samples sit at exactly its largest (smallest) value in flat tops: runs of at least
-    :data:`FLAT_TOP` consecutive samples. A converter or a gain stage that clips holds the
-    signal at its limit while the waveform would go on beyond it; a waveform that merely
-    peaks there (a peak-normalised file whose ticks repeat, or a quantised one) meets its
-    extreme at isolated samples, one per peak, and is not clipped. In a clipped channel
-    every sample at the clip level is clipped, a lone one (a peak one sample wide) too.
-    """
+    """The clipped samples of ``chans`` (frames, channels), or None: a channel is clipped at an
+    extreme when ``min_count`` or more samples sit exactly there in flat tops of at least
+    :data:`FLAT_TOP` samples (a waveform that merely peaks there meets it at isolated samples);
+    then every sample at that level is clipped."""
     mask = np.zeros(chans.shape, dtype=bool)
     worst = None
     for c in range(chans.shape[1]):
@@ -61,8 +51,8 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
 
 
 def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
-    """The warning for ``total`` clipped samples, ``count`` of them in the worst channel
-    ``channel``, whose largest magnitude is ``peak`` (signal units)."""
+    """The warning for ``total`` clipped samples, ``count`` in the worst ``channel``, whose largest
+    magnitude is ``peak`` (signal units)."""
     return (
         f"clipping: {total} samples sit at a channel's extreme ({count} in channel {channel}, "
         f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
@@ -78,8 +68,7 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def long_runs(mask: np.ndarray, least: int = FLAT_TOP) -> np.ndarray:
-    """The samples of the boolean ``mask`` that lie in runs of at least ``least`` consecutive
-    True values (default :data:`FLAT_TOP`: a clipped flat top)."""
+    """The samples of ``mask`` in runs of at least ``least`` True values."""
     out = np.zeros(mask.size, dtype=bool)
     for a, b in runs(mask):
         if b - a >= least:
@@ -88,12 +77,9 @@ def long_runs(mask: np.ndarray, least: int = FLAT_TOP) -> np.ndarray:
 
 
 def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """``x`` with the samples at ``missing`` replaced by their least-squares estimate under
-    the prediction-error filter ``a``: minimise ``sum (a * x)^2`` over the missing samples
-    (Janssen et al. 1986). Each clipped sample keeps at least its clipped magnitude (its
-    sign and level are known): a sample whose estimate falls short is fixed there and the
-    rest are solved again.
-    """
+    """``x`` with the samples at ``missing`` replaced by their least-squares estimate under the
+    prediction-error filter ``a`` (Janssen et al. 1986); a sample whose estimate falls short of
+    its clipped magnitude is fixed there and the rest solved again."""
     from scipy.signal import correlate, oaconvolve
 
     p = a.size - 1
@@ -122,8 +108,8 @@ def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndar
 
 
 def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve ``G v = b`` with ``G_ij = ra(|free_i - free_j|)``, zero beyond lag ``p`` (banded
-    in index order), the diagonal raised by 1e-9 for conditioning."""
+    """Solve ``G v = b``, ``G_ij = ra(|free_i - free_j|)`` (banded, zero beyond lag ``p``), the
+    diagonal raised by 1e-9."""
     from scipy.linalg import solveh_banded
 
     p = ra.size - 1
@@ -138,13 +124,10 @@ def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.nd
 
 
 def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray:
-    """The mix (mean) of ``chans`` with each channel's clipped samples interpolated.
-
-    The interpolating predictor is fitted to the channel after its last clipped sample when
-    that holds at least ``4 order`` samples (the unclipped ringing of the same resonator),
-    else to the whole channel; its order is 3 times the longest clipped run (Janssen et
-    al. recommend at least that), at least 1/20 of ``order`` and 8, at most ``order``.
-    """
+    """Mean of ``chans`` with each channel's clipped samples interpolated, by a predictor of order 3
+    times the longest clipped run (Janssen et al.), within 8 or ``order / 20`` and ``order``,
+    fitted after the last clipped sample when that holds ``4 order`` samples, else over the whole
+    channel."""
     out = np.empty_like(chans)
     for c in range(chans.shape[1]):
         col, m = chans[:, c], mask[:, c]

@@ -1,12 +1,7 @@
-"""The measurements of every tick (docs/analysis.md, Tick measurements): bounce time,
-restitution and impact speed from the onsets, and energy, peak, spectral centroid and spread
-and decay time of the tick's own sound.
-
-A tick's own sound is its excitation (its model in the whitened signal, and what no tick
-explains up to the next one) through the resonator's all-pole model ``1/A``, over the same
-``window`` from each onset: so a series of identical ticks gives the same spectrum and decay
-for every tick, whatever the bounce times.
-"""
+"""The measurements of every tick (docs/analysis.md, Tick measurements): bounce time, restitution
+and impact speed from the onsets, and energy, peak, spectral moments and decay time of the tick's
+own sound: its excitation through the all-pole model ``1/A``, over the same ``window`` from each
+onset, so identical ticks measure alike whatever the bounce times."""
 
 from __future__ import annotations
 
@@ -30,9 +25,8 @@ DECAY_MIN_FALL = 0.1
 
 @dataclass(frozen=True)
 class Whitening:
-    """One whitening of the recording: the prediction-error filter ``A`` (``A[0] = 1``), the
-    whitened signal ``r = A * x`` and, after a deflating search, its residual ``q`` (``r``
-    with every tick's model taken out; None without deflation)."""
+    """One whitening: the prediction-error filter ``A`` (``A[0] = 1``), ``r = A * x`` and the
+    residual ``q`` after a deflating search (None without one)."""
 
     predictor: np.ndarray
     whitened: np.ndarray
@@ -41,10 +35,8 @@ class Whitening:
 
 @dataclass(frozen=True)
 class FoundTick:
-    """A tick the search kept: its onset (samples), strength (dB), whitened model (from its
-    window's start; None without deflation), the whitening it was found in (index into the
-    list of :class:`Whitening`), and the onset it was detected at (its level crossing,
-    samples: where its model and its window start)."""
+    """A tick kept: onset (samples), strength (dB), whitened model (None without deflation), index
+    of its :class:`Whitening`, and its level-crossing onset (samples: where its window starts)."""
 
     onset: float
     strength: float
@@ -56,10 +48,8 @@ class FoundTick:
 def with_standing_out(
     x: np.ndarray, found: list[FoundTick], whitening: Whitening, settings: Settings
 ) -> list[FoundTick]:
-    """``found`` with the ticks of the recording ``x`` that clearly stand out but were not
-    found (step 8, :func:`~synth.analysis.detection.standing_out`), in time order, each
-    measured from the whitened signal of ``whitening`` (the first search's), which no model
-    of step 5 holds it in."""
+    """``found`` with the ticks of ``x`` that clearly stand out but were not found (step 8), in time
+    order, measured from ``whitening``'s whitened signal."""
     extra = standing_out(x, whitening.whitened, np.array([f.onset for f in found]), settings)
     if extra.onsets.size == 0:
         return found
@@ -68,9 +58,8 @@ def with_standing_out(
 
 
 class TickMeter:
-    """The measurements of the ticks ``found`` in the recording ``x``, one tick at a time
-    (:meth:`tick`): each depends on its own model and window, the next tick's window start
-    and the onsets before it only, so a tick can be measured without the others."""
+    """The measurements of the ticks ``found`` in ``x``, one at a time (:meth:`tick`): each depends
+    only on its own model and window, the next window's start and the earlier onsets."""
 
     def __init__(
         self,
@@ -129,9 +118,8 @@ class TickMeter:
 
 
 def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) -> np.ndarray:
-    """The tick's own sound over ``[s, e)``: its excitation through ``1/A``. With a model,
-    the model plus what no tick explains up to ``stop`` (the next tick's window: beyond, that
-    is the later ticks' remainders); without one, the whitened signal up to ``stop``."""
+    """The tick's own sound over ``[s, e)``: its model plus what no tick explains up to ``stop``
+    (the whitened signal, without a model), through ``1/A``."""
     from scipy.signal import lfilter
 
     exc = np.zeros(e - s)
@@ -146,11 +134,10 @@ def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) 
 
 
 def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
-    """Time for the amplitude envelope of ``y`` to fall to 1/e, s: ``-1/slope`` of a
-    least-squares line through the log of the envelope (root of ``y^2`` smoothed by a Hann
-    window of ``n`` samples) from its peak to the end, or to where it comes within
-    :data:`DECAY_NOISE_MARGIN_DB` of the noise floor ``floor``. None when that span is
-    shorter than the smoothing or falls by less than :data:`DECAY_MIN_FALL`."""
+    """Time for the amplitude envelope of ``y`` (sample rate ``fs``, Hz) to fall to 1/e, s:
+    ``-1/slope`` of a line fitted to the log envelope (Hann-smoothed over ``n`` samples) from its
+    peak to within :data:`DECAY_NOISE_MARGIN_DB` of ``floor``; None when too short or falling by
+    less than :data:`DECAY_MIN_FALL`."""
     if y.size < 2 * n:
         return None
     w = np.hanning(n + 2)[1:-1]
@@ -170,8 +157,8 @@ def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
 
 
 def spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
-    """Power-weighted mean and standard deviation of frequency, Hz, of ``y`` tapered by the
-    falling half of a Hann window (the onset kept, the cut at the window's end smoothed)."""
+    """Power-weighted mean and standard deviation of frequency, Hz, of ``y`` (sample rate ``fs``,
+    Hz) under the falling half of a Hann window."""
     n = y.size
     taper = np.cos(0.5 * np.pi * np.arange(n) / n) ** 2
     nfft = 1 << max(12, int(math.ceil(math.log2(2 * n))))

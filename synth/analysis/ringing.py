@@ -1,23 +1,12 @@
-"""The plate's ringing before a tick, modelled from the recording itself (docs/analysis.md,
-Method, step 9): a burst that the ringing explains is no impact.
+"""The plate's ringing before a tick, modelled from the recording (docs/analysis.md, step 9): a
+burst the ringing explains is no impact.
 
-Between two impacts the recording is the free ringing of the plate, a sum of exponentially
-decaying modes. The linear predictor of that stretch by the covariance method (least squares,
-no window) is the model of those modes: its poles are their frequencies and dampings, the
-stretch's own samples their amplitudes and phases (Prony's method as linear prediction,
-Kumaresan and Tufts 1982, IEEE Trans. ASSP 30, 833). Run over the next samples, its prediction
-error is what the ringing does not explain. An impact adds a broadband contact force that no
-past ringing predicts, and its error rises at its onset; a burst of beating modes, which a
-20 ms predictor of the whole recording cannot follow, is the ringing itself and leaves no more
-error than the ringing just before it. The decision weighs that error's mean square over the
-tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN` against that over the
-:data:`~synth.analysis.detection.STANDS_OUT_BEFORE` held out before the onset, both predicted
-by the model fitted before them: a tick must rise over it by more than white noise's
-scatter allows, the F quantile of step 8 (:func:`~synth.analysis.detection.standing_out`).
-A weak impact late in a series rises over the ringing by a few dB only, so no larger margin
-is asked; the modes a short stretch cannot resolve leave some bursts of a plate of
-thousands of modes unexplained.
-"""
+Between impacts the recording is free ringing, a sum of decaying modes; its covariance-method
+predictor models them (Prony's method as linear prediction, Kumaresan and Tufts 1982, IEEE Trans.
+ASSP 30, 833). An impact adds a broadband force no past ringing predicts, so the prediction error
+rises at its onset; beating modes do not. The error's mean square over
+:data:`~synth.analysis.detection.STANDS_OUT_SPAN` must rise over that of the held-out
+:data:`~synth.analysis.detection.STANDS_OUT_BEFORE` by the F quantile of step 8."""
 
 from __future__ import annotations
 
@@ -50,28 +39,14 @@ RIDGE = 1e-12
 def ringing_explained(
     x: np.ndarray, free: int, onset: float, s: Settings, innovation: float
 ) -> bool:
-    """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing before it,
-    free from sample ``free`` on (past the previous contact): the decaying modes fitted to
-    the last :data:`RINGING_FIT` of ``x`` up to
-    :data:`~synth.analysis.detection.STANDS_OUT_BEFORE` and
-    :data:`~synth.analysis.measures.WINDOW_GUARD` before ``onset``, predicted over the
-    held-out stretch before the onset and the tick's first
-    :data:`~synth.analysis.detection.STANDS_OUT_SPAN`; explained when the prediction error
-    does not rise from the one to the other by more than white noise's scatter allows (the
-    F quantile of step 8), or where that error peaks more than ``dynamic_range_db`` under
-    ``innovation``, the largest magnitude of the recording's whitened signal (step 1: the
-    strongest impact's contact force, as it shows in a prediction error): what the tick adds
-    to the ringing lies outside the dynamic range of the recording's impacts (a rise of the
-    error of a prediction good to the recording's rounding is none of an impact).
-    Where less than :data:`RINGING_FIT` of free ringing precedes the held-out stretch (a fast
-    chatter), the fit takes what there is, the predictor's order a third of it, and explains
-    a burst only where it models the ringing (:func:`_predicts`): a fit of a few modes over a
-    plate of many leaves an error that a fast chatter's true contacts rise over no more than
-    the ringing's bursts. False (not
-    explained) where that stretch is shorter than the tick's first
-    :data:`~synth.analysis.detection.STANDS_OUT_SPAN` it predicts, or silent: nothing is
-    dropped that cannot be judged.
-    """
+    """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing free from sample
+    ``free``: the modes fitted to the last :data:`RINGING_FIT` before the held-out stretch,
+    predicted over it and the tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN`;
+    explained when the error does not rise by the F quantile of step 8, or peaks more than
+    ``dynamic_range_db`` under ``innovation`` (the recording's largest whitened magnitude). With
+    less free ringing, the fit takes what there is and explains only where it models the ringing
+    (:func:`_predicts`). False where the stretch is too short or silent: nothing unjudged is
+    dropped."""
     from scipy.signal import lfilter
 
     fs = s.samplerate
@@ -95,10 +70,8 @@ def ringing_explained(
 
 
 def _predicts(held: np.ndarray, error: np.ndarray) -> bool:
-    """Whether a fit over a short free stretch models the ringing: its error over the
-    held-out stretch ``held`` leaves at least
-    :data:`~synth.analysis.search.RESONATOR_GAIN_DB` less than the ringing itself, the gain
-    by which step 7 takes a predictor for a model of the ringing."""
+    """Whether a short fit models the ringing: its error over ``held`` is at least
+    :data:`~synth.analysis.search.RESONATOR_GAIN_DB` under the ringing itself."""
     from synth.analysis.search import RESONATOR_GAIN_DB
 
     gain = 10.0 ** (RESONATOR_GAIN_DB / 10.0)
@@ -106,13 +79,9 @@ def _predicts(held: np.ndarray, error: np.ndarray) -> bool:
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:
-    """The prediction-error filter ``[1, a1, ..., ap]`` of the free ringing ``seg`` by the
-    covariance method, of order a third of its samples (two equations per unknown, at
-    least): as many modes as the stretch can resolve. Its one-step prediction error is
-    formed, never its impulse response, so neither its stability nor an order criterion
-    matters: an order too high for the noise raises the error alike over the stretches it
-    compares. The normal equations carry a ridge of :data:`RIDGE` of their mean diagonal
-    (a stretch of fewer modes than the order). None where the stretch is silent."""
+    """Prediction-error filter ``[1, a1, ..., ap]`` of ``seg`` by the covariance method, of order a
+    third of its samples, with a ridge of :data:`RIDGE` of the mean diagonal; only its one-step
+    error is used, so stability does not matter. None where ``seg`` is silent."""
     from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
     p = (seg.size - 1) // 3

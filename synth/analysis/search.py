@@ -1,8 +1,6 @@
-"""Steps 1-9 of the analysis over one signal (docs/analysis.md, Method): the whitening and
-the first search (steps 1-5), the bounce order (step 6), the resonator's search where the
-first tick rings on (step 7), the ticks the ringing before them explains dropped (step 9),
-and the meter that measures the ticks found.
-"""
+"""Steps 1-9 of the analysis over one signal (docs/analysis.md, Method): whitening and first search
+(1-5), bounce order (6), the resonator's search (7), the ticks the ringing explains dropped (9),
+and the meter of the ticks found."""
 
 from __future__ import annotations
 
@@ -61,10 +59,9 @@ class FirstSearch:
 def first_search(
     x: np.ndarray, settings: Settings, locate: bool = False, parts: dict | None = None
 ) -> FirstSearch:
-    """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past the start of a new
-    series (:meth:`~synth.analysis.deflation.DeflationSearch.run`). ``parts``: the
-    autocorrelation's terms shared with the searches of a signal that ``x`` starts or of its
-    start (:func:`~synth.analysis.whitening.whitening_predictor`)."""
+    """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past a new series' start.
+    ``parts``: autocorrelation terms shared with overlapping searches
+    (:func:`~synth.analysis.whitening.whitening_predictor`)."""
     A = whitening_predictor(x, settings.whitening_order, settings.samplerate, parts)
     with one_blas_thread():
         return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
@@ -73,9 +70,9 @@ def first_search(
 def measured_ticks(
     x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
 ) -> list:
-    """The ticks of ``x`` from steps 1-5 (``search``): their bounce order (step 6), the
-    resonator's search (step 7, with ``resonator``), the measurements, and those that the
-    ringing before them explains (step 9) or that add no sound dropped."""
+    """The ticks of ``x`` from ``search``: bounce order (step 6), the resonator's search (step 7,
+    with ``resonator``), measured, with those the ringing explains (step 9) or that add no sound
+    dropped."""
     meter = tick_meter(x, search, settings, clipped, resonator)
     with one_blas_thread():
         ticks = [meter.tick(i) for i in range(len(meter.found))]
@@ -98,10 +95,8 @@ def measured_ticks(
 def tick_meter(
     x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
 ) -> TickMeter:
-    """The ticks of ``x`` kept from steps 1-5 (``search``) by the bounce order (step 6) and,
-    with ``resonator``, the resonator's search (step 7), with those that stand out (step 8),
-    ready to be measured: step 8 with step 7 only, since the searches that locate where series
-    start (steps 1-6, :func:`_located`) do not need the weak ticks it adds."""
+    """The ticks of ``x`` kept from ``search`` by step 6 and, with ``resonator``, step 7 with step
+    8's, ready to be measured (locating searches need no weak ticks)."""
     first = search.result
     found = [
         FoundTick(
@@ -129,8 +124,8 @@ def tick_meter(
 
 
 def whitened_peak(search) -> float:
-    """The largest magnitude of ``search``'s whitened signal (step 1): its strongest
-    impact's, as a prediction error shows it (``Settings.innovation``)."""
+    """Largest magnitude of ``search``'s whitened signal: its strongest impact's
+    (``Settings.innovation``)."""
     return float(np.max(np.abs(search.result.whitened)))
 
 
@@ -138,14 +133,9 @@ def ringing_ticks(
     x: np.ndarray, ticks: list, found: list[FoundTick], settings: Settings, innovation: float
 ) -> list[int]:
     """Indices of the ``ticks`` of ``x`` after the first whose burst the ringing before them
-    explains (:func:`~synth.analysis.ringing.ringing_explained`, ``innovation``: the largest
-    magnitude of the whitened recording): no impact (step 9). The
-    ringing is free from :data:`CLEAN_GUARD` after the onset of the tick before, whether
-    kept or not: a fit or a held-out stretch that held a contact (a fast chatter's, taken
-    for ringing) would explain the next contact by it. A tick of the resonator's search
-    (step 7, ``found``) is not tested: its whitening, fitted over the whole first bounce
-    with up to 4096 poles, already models the ringing more finely than the few milliseconds
-    before a tick can, and shows ticks tens of dB under it."""
+    explains (:func:`~synth.analysis.ringing.ringing_explained`): no impact (step 9). The ringing
+    is free from :data:`CLEAN_GUARD` after the previous onset. Ticks of step 7 (``found``) are
+    not tested: its whitening already models the ringing more finely."""
     fs = settings.samplerate
     guard = int(round(CLEAN_GUARD * fs))
     return [
@@ -163,11 +153,8 @@ def ringing_ticks(
 
 
 class LazyTick:
-    """A tick of steps 1-6 over a block (:func:`_located`), measured only when a
-    measurement other than its time is asked for: where a block's series start needs the
-    energies of the ticks around a long bounce and the decay of a few only
-    (:func:`~synth.analysis.validity.new_series_at`,
-    :func:`~synth.analysis.validity.without_spurious_end`)."""
+    """A tick of steps 1-6 over a block, measured only when a measurement other than its time is
+    asked for."""
 
     def __init__(self, meter: TickMeter, i: int):
         self._meter, self._i, self._tick = meter, i, None
@@ -191,10 +178,9 @@ class LazyTick:
 
 @dataclass(frozen=True)
 class SearchResult:
-    """The ticks one search found in one whitening: onsets (samples) and strengths (dB) in
-    time order, the residual and each tick's model (None without deflation), what the
-    whitening leaves of the first tick's ringing (None without a second tick), the candidate
-    frames of steps 2-4, and the onsets timed against the first tick's template (step 7)."""
+    """The ticks of one search: onsets (samples) and strengths (dB), the residual and models (None
+    without deflation), the first tick's ringing left (None without a second tick), the candidate
+    frames, and the onsets timed against the template (step 7)."""
 
     whitened: np.ndarray
     onsets: np.ndarray
@@ -210,11 +196,10 @@ class SearchResult:
 def _search(
     r: np.ndarray, settings: Settings, order: int | None = None, known=(), locate: bool = False
 ) -> SearchResult:
-    """Steps 2-5 on the whitened signal ``r``; with ``order`` (the resonator's predictor's),
-    the rules of step 7: the local background of step 3 over :data:`BACKGROUND_SPAN` times
-    the order (a tick's whitened response lasts about that), the first bounce ending where
-    the second tick's burst begins, and no fixed floor unless ``dynamic_range_db`` was
-    given. ``known``: the onsets of the first search (samples)."""
+    """Steps 2-5 on ``r``; with ``order`` (the resonator predictor's), step 7's rules: the
+    background over :data:`BACKGROUND_SPAN` times the order, the first bounce ending at the
+    second tick's burst, no fixed floor unless ``dynamic_range_db`` was given. ``known``: the
+    first search's onsets (samples)."""
     fs, hop = settings.samplerate, settings.hop
     background = (
         settings.background
@@ -264,14 +249,10 @@ def _resonator_stage(
     found: list[FoundTick],
     whitenings: list[Whitening],
 ) -> list[FoundTick]:
-    """Step 7: the first tick rings on above the floor up to the second under the whitening;
-    the resonator's own predictor, from the free ringing of the first bounce, and the search
-    again. Kept when it leaves :data:`RESONATOR_GAIN_DB` less of the first tick's ringing and
-    finds the first search's ticks, from the first on (at least two), within
-    :data:`AGREEMENT`: then it continues their series where the two part, and its onsets
-    (timed against the first tick's template) replace the first search's for the ticks they
-    share: one estimator for every bounce time. Its whitening is appended to
-    ``whitenings``."""
+    """Step 7: the resonator's predictor from the first bounce's free ringing, and the search again;
+    kept when it leaves :data:`RESONATOR_GAIN_DB` less ringing and finds the first search's ticks
+    (at least two) within :data:`AGREEMENT`; its onsets then replace the first search's where
+    they share ticks. Its whitening is appended to ``whitenings``."""
     fs = settings.samplerate
     lo = int(math.floor(first.onsets[0])) + int(round(CLEAN_GUARD * fs))
     hi = (first.peaks[1] - 1) * settings.hop
