@@ -1,33 +1,25 @@
 """Analysis of bouncing sounds: find the ticks in a recording and measure them.
 
-The measurements are the perceptual parameters of the thesis (see docs/physics.md,
-References), Chapter 5 and section 3.1: per tick the onset, the bounce time since the previous
-tick, the restitution ``e_n = t_n / t_(n-1)`` and the impact speed ``v_n = g t_n / 2`` that
-follow from the bounce times, the tick's energy and peak, its spectral centroid and spread,
-and its decay time. docs/analysis.md describes the method step by step and its measured
-accuracy.
+The measurements are the perceptual parameters of the thesis (docs/physics.md, References),
+Chapter 5 and section 3.1: per tick the onset, bounce time, restitution ``e_n = t_n / t_(n-1)``,
+impact speed ``v_n = g t_n / 2``, energy, peak, spectral centroid and spread, and decay time.
+docs/analysis.md describes the method step by step and its measured accuracy.
 
 The stages, one module each:
 
-* :mod:`~synth.analysis.options`: the options, declared once (:class:`AnalysisOptions`);
-* :mod:`~synth.analysis.settings`: the options for one recording, in samples, and reading a
-  file;
+* :mod:`~synth.analysis.options` and :mod:`~synth.analysis.settings`: the options, declared once,
+  and for one recording in samples;
 * :mod:`~synth.analysis.clipping`: clipped samples found and interpolated;
-* :mod:`~synth.analysis.whitening`: step 1, and the resonator's own predictor of step 7;
-* :mod:`~synth.analysis.detection`: steps 2-4 (detection function, threshold, onsets) and the
-  delay that times a tick against a template;
+* :mod:`~synth.analysis.whitening`: step 1, and the resonator's predictor of step 7;
+* :mod:`~synth.analysis.detection`: steps 2-4 and the delay against a template;
 * :mod:`~synth.analysis.series`: the rules of a bounce series (steps 3 and 6);
-* :mod:`~synth.analysis.deflation`: step 5, the ticks found one by one with the earlier ones
-  taken out; :mod:`~synth.analysis.resonator`: step 7, its variant on the resonator's
-  whitening; :mod:`~synth.analysis.ringing`: step 9, a tick's burst against the ringing
-  modelled before it;
+* :mod:`~synth.analysis.deflation`: step 5; :mod:`~synth.analysis.resonator`: step 7;
+  :mod:`~synth.analysis.ringing`: step 9;
 * :mod:`~synth.analysis.measures`: each tick's measurements;
-* :mod:`~synth.analysis.validity`: the bounce series (drops) of a recording, the
-  physically impossible restitutions flagged, input that holds no impact refused;
+* :mod:`~synth.analysis.validity`: the drops of a recording, impossible restitutions flagged;
 * :mod:`~synth.analysis.pipeline`: :func:`analyze`, the stages in order;
-* :mod:`~synth.analysis.report` and :mod:`~synth.analysis.plotting`: the results and their
-  presentation.
-"""
+* :mod:`~synth.analysis.report` and :mod:`~synth.analysis.plotting`: results and
+  presentation."""
 
 #: Where each public name lives: imported from there on first use (PEP 562), so that the
 #: command line reads the options' declaration (:mod:`~synth.analysis.options`) without

@@ -1,14 +1,8 @@
-"""The analysis options, declared once: :class:`AnalysisOptions`.
-
-Each option is a field of the frozen dataclass with its type, default, unit (SI: durations
-in s), the values allowed and its doc (:class:`~synth.checks.Option`). The front ends read
-them from here: :func:`synth.analysis.analyze` and :func:`~synth.analysis.analyze_file`
-take them as keywords (their signatures and the options' part of their docstrings are
-generated from the fields), and ``synth analyze`` and ``synth alter`` have a flag for each.
-Constructing an ``AnalysisOptions`` checks every value that does not depend on the
-recording; what does (a duration of at least a few samples, a channel the audio has) is
-checked when the options meet the recording (:func:`~synth.analysis.settings.make_settings`).
-"""
+"""The analysis options, declared once: :class:`AnalysisOptions`, each field with its type, default,
+SI unit, values allowed and doc (:class:`~synth.checks.Option`). ``analyze``, ``analyze_file``
+(signatures and docstrings generated from the fields) and the command line's flags read them from
+here. Values that depend on the recording are checked by
+:func:`~synth.analysis.settings.make_settings`."""
 
 from __future__ import annotations
 

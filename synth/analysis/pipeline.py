@@ -67,10 +67,9 @@ CLIPPED_AT_MOST = 0.5
 
 def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
     """Detect the ticks of a bouncing sound and measure them (docs/analysis.md, Method), with
-    the analysis options: ``options`` (an :class:`~synth.analysis.options.AnalysisOptions`),
-    or its fields as keywords, or both (the keywords win). A recording longer than
-    :data:`~synth.analysis.blocks.WHOLE` is analysed block by block, in time linear in its
-    length (docs/analysis.md, Long recordings).
+    ``options`` (an :class:`~synth.analysis.options.AnalysisOptions`) and/or its fields as
+    keywords (the keywords win). A recording longer than :data:`~synth.analysis.blocks.WHOLE` is
+    analysed block by block, in linear time.
 
     Parameters
     ----------
@@ -82,21 +81,14 @@ def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
         The options; a keyword below changes one of them.
     OPTIONS_DOC
 
-    Returns
-    -------
-    Analysis
-
     Raises
     ------
     ParameterError
-        Bad input (each option's range is given above, checked before any work); the
-        message names the field, its value and what is allowed.
+        Bad input, checked before any work; the message names the field, value and what is allowed.
     TypeError
         A keyword that is not an option (the message names the nearest).
     AnalysisError
-        A silent recording, one without a detectable tick, or a clipped one with
-        ``on_clipping="raise"``.
-    """
+        A silent recording, no detectable tick, or clipping with ``on_clipping="raise"``."""
     o = AnalysisOptions.of(options, **overrides)
     chans = audio_array(audio)
     settings = make_settings(chans.shape[1], samplerate, o)
@@ -382,10 +374,10 @@ def _ticks(
 
 
 def analyze_file(path, *, options=None, **overrides) -> Analysis:
-    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a
-    file longer than :data:`~synth.analysis.blocks.WHOLE` is read block by block,
-    never whole (:mod:`synth.analysis.blocks`). The options are checked before any sample is
-    read.
+    """Read a sound file (any format and rate soundfile reads) and :func:`analyze` it; a file longer
+    than :data:`~synth.analysis.blocks.WHOLE` is read block by block, never whole. The options
+    are checked before any sample is read. A WAV file holding fewer frames than its header
+    declares is analysed as far as it goes, with a warning (``TruncatedAudioWarning``).
 
     Parameters
     ----------
@@ -395,9 +387,6 @@ def analyze_file(path, *, options=None, **overrides) -> Analysis:
         The options; a keyword below changes one of them.
     OPTIONS_DOC
 
-    A WAV file that holds fewer frames than its header declares is analysed as far as it
-    goes, with a warning in :attr:`Analysis.warnings` (and a ``TruncatedAudioWarning``).
-
     Raises
     ------
     ParameterError
@@ -405,9 +394,7 @@ def analyze_file(path, *, options=None, **overrides) -> Analysis:
     TypeError
         A keyword that is not an option (the message names the nearest).
     AnalysisError
-        An unreadable file (corrupt header, unknown format) and the cases of
-        :func:`analyze`.
-    """
+        An unreadable file and the cases of :func:`analyze`."""
     o = AnalysisOptions.of(options, **overrides)
     check_recording_path(path)
     frames = file_frames(path)

@@ -14,19 +14,9 @@ from synth.store.atomic import write_atomically
 
 
 def check_plot_path(path) -> str:
-    """Check that an image can be written to ``path`` before any work is done.
-
-    The directory must exist and be writable, and the suffix must name an image format
-    matplotlib writes (.png, .pdf, .svg, ...). Returns the format (the suffix, lower
-    case).
-
-    Raises
-    ------
-    ParameterError
-        A bad path or format; the message names ``path``.
-    SynthError
-        matplotlib is not installed (``pip install matplotlib``).
-    """
+    """Check that an image can be written to ``path`` before any work: an existing writable
+    directory and a suffix naming a format matplotlib writes. Returns the format (the lower-case
+    suffix). Raises ParameterError (naming ``path``), or SynthError without matplotlib."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path={path!r} must be a file name, not {type(path).__name__}")
     path = os.fspath(path)

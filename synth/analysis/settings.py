@@ -1,9 +1,5 @@
-"""The checked inputs of :func:`synth.analysis.analyze`: the audio, and its options for it in
-samples (:class:`Settings`).
-
-Every bad argument raises :class:`~synth.errors.ParameterError` naming the field, its value and
-what is allowed; nothing is clamped.
-"""
+"""The checked inputs of :func:`synth.analysis.analyze`: the audio, and its options in samples
+(:class:`Settings`); bad input raises :class:`~synth.errors.ParameterError`, nothing is clamped."""
 
 from __future__ import annotations
 
