@@ -22,9 +22,8 @@ from synth.errors import ParameterError
 #: Recordings up to this long are analysed whole, s: every preset's render (up to 61 s of a
 #: steel sheet's or an aluminium plate's ringing).
 WHOLE = 64.0
-#: Length of a block of a longer recording, s: a whole bounce series of any drop up to 1.2 m
-#: with a restitution up to 0.9 (first bounce 1 s, ``1 / (1 - e)`` = 10 bounces' worth in
-#: all) and its ringing; a longer series doubles its block. At 48 kHz, 0.96 million samples.
+#: Length of a block, s: a whole series of a drop up to 1.2 m with restitution up to 0.9 (first
+#: bounce 1 s, 10 bounces' worth in all) and its ringing; a longer series doubles its block.
 BLOCK = 20.0
 #: The next block starts this far before the end of one whose last series has ended, s: a drop
 #: that starts there is searched whole in the next block.

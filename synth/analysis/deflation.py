@@ -35,24 +35,19 @@ DEFLATION_POST = 0.00017
 #: A candidate must carry at least this much more energy than what the deflation took
 #: out of its frame, dB (else it is a remainder of an earlier tick).
 DEFLATION_KAPPA_DB = 0.0
-#: A candidate must also carry more energy than was taken out over the frames spanning
-#: this from the frame before its own, s: a model a fraction of a sample off leaves its
-#: remainder spread over the frames around a burst.
+#: A candidate must carry more energy than was taken out over the frames spanning this from the
+#: frame before its own, s (a model a fraction of a sample off spreads its remainder).
 REMAINDER_SPAN = 0.001
 #: The template ends at its last frame this far above the whitened noise floor, dB.
 TEMPLATE_NOISE_DB = 6.0
 #: Fits of a tick's filter at most, each over a longer stretch.
 DEFLATION_REFITS = 3
-#: The search for the next candidate looks first this many local backgrounds (at least 4096
-#: samples) past its start, then, if that decides nothing, eight (doubled until one does);
-#: 0: the longer look only. Both give the same answer; the shorter costs half as much.
+#: The candidate search looks first this many local backgrounds (at least 4096 samples) ahead, then
+#: eight (doubled until decided); 0: the longer look only. Same answer, half the cost.
 SHORT_LOOK = 2
-#: A search that only locates where a new bounce series starts (a long recording's blocks,
-#: docs/analysis.md, Long recordings) stops this many ticks after a bounce over
-#: :data:`~synth.analysis.validity.MISSED_GROWTH` times the one before (a silence that starts
-#: a new series whatever the levels): enough for the measurements of the ticks up to the new
-#: series' second (one tick on) and the bounce-order rules (step 6: two ticks on, but for a run
-#: of weak ticks that a later, stronger one drops).
+#: A search that only locates new series (long recordings' blocks) stops this many ticks after a
+#: bounce over :data:`~synth.analysis.validity.MISSED_GROWTH` times the one before: enough for the
+#: new series' second tick and the bounce-order rules of step 6.
 LOCATE_TICKS = 6
 
 

@@ -18,27 +18,22 @@ from synth.compilation import compiled
 #: Level of the onset walk relative to the whitened background, standard deviations (a
 #: Gaussian sample exceeds 4 sigma with probability 6e-5).
 ONSET_NOISE_SIGMAS = 4.0
-#: Samples alternating in sign and growing towards a burst, at least, that are taken for
-#: an anti-aliasing filter's pre-ringing rather than the start of the contact (ending on
-#: a sample at least a quarter of the burst's largest).
+#: Least samples alternating in sign and growing towards a burst (ending at a quarter of its peak)
+#: taken for an anti-aliasing filter's pre-ringing.
 PRE_RINGING_RUN = 3
-#: The cross-correlation that times a tick against the first tick's template is interpolated
-#: on a grid this many times finer than the sample period (band-limited), then by a parabola
-#: through its peak (off by well under 1e-3 sample periods at that spacing for a main lobe
-#: about a sample period wide).
+#: The cross-correlation timing a tick is interpolated band-limited on a grid this many times finer
+#: than the sample period, then by a parabola (error well under 1e-3 sample).
 DELAY_UPSAMPLING = 16
-#: A tick clearly stands out of a recording when its energy over its first
-#: :data:`STANDS_OUT_SPAN` is this much over the mean over the :data:`STANDS_OUT_BEFORE`
-#: before it (per unit time), dB: the criterion a listener's "clearly audible tick" is
-#: checked by (docs/analysis.md, step 8).
+#: A tick clearly stands out (is clearly audible) when its energy over :data:`STANDS_OUT_SPAN` is
+#: this much over the mean over :data:`STANDS_OUT_BEFORE` before it (per unit time), dB
+#: (docs/analysis.md, step 8).
 STANDS_OUT_DB = 6.0
 #: The tick's first stretch, s ...
 STANDS_OUT_SPAN = 0.001
 #: ... and the stretch before it, s.
 STANDS_OUT_BEFORE = 0.003
-#: Probability that white Gaussian noise alone passes the whitened test of step 8 at one
-#: position: that of a sample beyond :data:`ONSET_NOISE_SIGMAS` standard deviations (6e-5),
-#: the level below which the onset walk of step 4 takes a sample for noise.
+#: Probability that white Gaussian noise passes the whitened test of step 8 at one position: a
+#: sample beyond :data:`ONSET_NOISE_SIGMAS` (6e-5), as step 4.
 STANDS_OUT_FALSE_ALARM = math.erfc(ONSET_NOISE_SIGMAS / math.sqrt(2.0))
 #: The predictor of what precedes a tick of step 8 is sought from this order up (doubled
 #: while a higher one describes the stretch better).

@@ -18,10 +18,8 @@ AFTER_GROWN = "after-restitution>=1"
 #: Flag of a tick whose own sound does not decay over its window: not the response of a
 #: resonator to an impact (a step, an edge of a periodic wave).
 NO_DECAY = "no-decay"
-#: Flag of a tick whose restitution the bounce times show to span a missed bounce: it departs
-#: from the series' restitution on either side more than a ball's restitution changes from one
-#: bounce to the next, or the series stops where its restitution says the ball bounces on,
-#: loud enough to be found.
+#: Flag of a tick whose restitution spans a missed bounce
+#: (:func:`~synth.analysis.validity.missed_bounces`).
 MISSED_BOUNCE = "missed-bounce"
 #: The flags that make a tick's restitution impossible or unsupported (left out of every
 #: mean).

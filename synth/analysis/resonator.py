@@ -28,29 +28,25 @@ from synth.analysis.settings import Settings
 from synth.analysis.whitening import PREDICTION_FLOOR
 from synth.compilation import compiled
 
-#: The resonator's search must find the first search's ticks within this, s (two sample
-#: periods at 48 kHz), to continue their series; a candidate within it of a tick of the first
-#: search is no remainder of the previous tick (:meth:`ResonatorSearch._confirmed`).
+#: The resonator's search must find the first search's ticks within this, s (two sample periods at
+#: 48 kHz) (:meth:`ResonatorSearch._confirmed`).
 AGREEMENT = 0.00004
 #: The longest lag after of a tick's filter, s: a contact up to 0.5 ms longer than the first
 #: tick's (a slow ball's on a soft board).
 RESONATOR_POST = 0.0005
 #: Least samples of the fit window per unknown filter tap.
 FIT_SAMPLES_PER_TAP = 2
-#: Ticks whose whitened response is taken whole as a template, at most: the first tick's and
-#: the next sure ones alone over their whole response (their sub-sample onsets differ; two or
-#: three such span the sampled responses of the others).
+#: Most ticks taken whole as templates: the first and the next sure ones alone (two or three
+#: sub-sample onsets span the others).
 MAX_TEMPLATES = 3
 #: What a tick's model leaves outside its fit window is expected at its relative error in the
 #: window raised by this, dB (at most all of it).
 REMAINDER_MARGIN_DB = 10.0
-#: The template ends where it sinks under the noise or this far under the floor of the
-#: dynamic range, dB (its whitened response ends: beyond, what it leaves raises no frame to
-#: the floor).
+#: The template ends where it sinks under the noise or this far under the floor of the dynamic
+#: range, dB.
 TEMPLATE_FLOOR_DB = 10.0
-#: The spacing of the places where one more tick of the series is tried when no candidate
-#: clears the rules, samples: the span of the shortest filters' lags (-1 to +2 samples), so
-#: that an onset lies within those lags of one of the places.
+#: Spacing of the places one more tick is tried (:meth:`_hypothesis`), samples: the span of the
+#: shortest filters' lags (-1 to +2).
 HYPOTHESIS_STEP = 4
 #: Rows of a fit's design matrix formed at once (1.4 s at 48 kHz; a longer window, across a
 #: silence, is summed in pieces of this many rows).

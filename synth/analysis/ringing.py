@@ -25,14 +25,11 @@ from synth.analysis.measures import WINDOW_GUARD
 from synth.analysis.settings import Settings
 from synth.analysis.whitening import one_blas_thread
 
-#: The ringing is fitted over at most this much of the stretch before a tick, s: the
-#: covariance method resolves as many modes as a sixth of its samples (a predictor of a
-#: third of them, two poles per mode; two equations per unknown, at least), 80 over 10 ms
-#: at 48 kHz, at a cost of the cube of that order per tick.
+#: The ringing is fitted over at most this much before a tick, s: a predictor of a third of its
+#: samples resolves 80 modes over 10 ms at 48 kHz, at a cost cubic in the order.
 RINGING_FIT = 0.01
-#: The ridge on the normal equations of the ringing's predictor, relative to their mean
-#: diagonal: 120 dB of prediction gain (as the resonator's predictor's floor,
-#: :data:`~synth.analysis.whitening.PREDICTION_FLOOR`); below, rounding.
+#: Ridge on the ringing predictor's normal equations, relative to their mean diagonal: 120 dB of
+#: prediction gain (as :data:`~synth.analysis.whitening.PREDICTION_FLOOR`).
 RIDGE = 1e-12
 
 

@@ -11,27 +11,21 @@ import numpy as np
 
 from synth.compilation import compiled
 
-#: A bounce time more than this many times the previous one breaks a bounce series (a
-#: restitution above 1.5: room for the contact time, which grows as the ball slows, and for a
-#: tick missed in between).
+#: A bounce over this many times the previous one breaks a series (room for the contact time,
+#: growing as the ball slows, and a missed tick).
 BOUNCE_GROWTH = 1.5
 #: Candidates over which the longest bounce series from the first tick is sought when
 #: choosing the second tick.
 SERIES_HORIZON = 64
-#: A candidate more than this above the energy its bounce time allows, ``(t_n / t_(n-1))^2``
-#: times the last tick's (the impact speed goes as the flight time), is not a bounce,
-#: dB: 3 dB for a remainder of the earlier ticks as large as the tick itself (the most
-#: the deflation's remainder test lets through), 0.4 dB for a background 10 dB under
-#: the threshold, rounded up.
+#: A candidate more than this above the energy its bounce time allows (``(t_n / t_(n-1))^2`` times
+#: the last tick's) is no bounce, dB: 3 dB for a remainder as large as the tick, 0.4 dB for a
+#: background 10 dB under the threshold, rounded up.
 MAX_EXCESS_DB = 6.0
-#: Ticks at least this far above their threshold are sure, dB: no bounce-order rule
-#: drops them for a weaker one, and the deflation passes over none of step 3's series
-#: (100 times the threshold in energy, well above what a remainder of an earlier tick or a
-#: reflection clears).
+#: Ticks this far above their threshold are sure, dB (100 times in energy, well above a remainder or
+#: a reflection): no bounce-order rule drops them.
 ANCHOR_DB = 20.0
-#: Largest relative change of the restitution from one bounce to the next in a series: it
-#: changes most where the contact time grows to a sizeable part of the bounce time (a steel
-#: ball on a thin board), and this leaves room for that.
+#: Largest relative change of the restitution from one bounce to the next (largest where the contact
+#: time is a sizeable part of the bounce, a steel ball on a thin board).
 RESTITUTION_STEP = 0.25
 #: Ticks weaker than this (``strength``, dB) are doubtful.
 DOUBTFUL_DB = 6.0

@@ -12,16 +12,14 @@ from synth import checks
 from synth.analysis.options import DYNAMIC_RANGE_DB, AnalysisOptions
 from synth.errors import ParameterError, SynthError
 
-#: Fewest samples summed in a frame of the detection function: at low rates the frames
-#: overlap, so that a frame of noise is never a sum of only a few squares, whose scatter
-#: would pass for a tick.
+#: Fewest samples in a frame of the detection function: at low rates the frames overlap, so that
+#: noise's scatter over a few squares passes for no tick.
 MIN_FRAME = 12
 #: Longest gap bridged by the onset walk inside one burst (the zero crossings of a burst), s.
 ONSET_GAP = 0.00025
-#: Longest gap bridged by the onset walk inside the weak burst of a doubtful candidate of the
-#: deflation (its walk level the noise's), s: the longest contact of a bounce series' ticks,
-#: whose whitened burst is the transients at its two ends (a slow ball's on a soft board
-#: lasts about half a millisecond).
+#: Longest gap bridged by the onset walk in a doubtful candidate's weak burst, s: the longest
+#: contact of a series (a slow ball on a soft board, about 0.5 ms), whose whitened burst is its two
+#: end transients.
 WEAK_ONSET_GAP = 0.0005
 #: Length of the default whitening predictor, s (at least 8 samples).
 WHITENING_SPAN = 0.02

@@ -25,42 +25,31 @@ from synth.analysis.report import (
 from synth.analysis.series import BOUNCE_GROWTH, MAX_EXCESS_DB, RESTITUTION_STEP
 from synth.analysis.settings import AnalysisError
 
-#: A bounce time more than this many times the previous one is a silence no missed ticks
-#: explain, whatever the tick's level: two missed ticks make at most ``e (1 + e + e^2) < 3``
-#: times the previous bounce.
+#: A bounce over this many times the previous one is a silence no missed ticks explain: two missed
+#: ticks make at most ``e (1 + e + e^2) < 3`` times.
 MISSED_GROWTH = 3.0
-#: Least shortfall of a tick's energy under ``e_n^2`` times the tick before's that a missed
-#: tick makes, dB: ``(1 + e)^2 / e^2 >= 4`` for any restitution ``e <= 1``
-#: (:func:`missed_bounces`).
+#: Least shortfall of a tick's energy under ``e_n^2`` times the tick before's that a missed tick
+#: makes, dB: ``(1 + e)^2 / e^2 >= 4`` for ``e <= 1``.
 MISSED_ENERGY_DB = 10.0 * math.log10(4.0)
-#: Least rise of the recording's spectrum at an impact, dB: the median over the frequencies
-#: that hold sound (within the dynamic range) of the power just after the onset over the
-#: power just before. An impact whose own sound is at least as loud as the ringing it falls
-#: into (the audibility of a tick among the ringing of the earlier ones) at least doubles the
-#: power where its broad contact spectrum lies: 3 dB. A burst that the whitening leaves in the
-#: free ringing of a lightly damped plate (beating modes the predictor cannot follow) moves
-#: power between a few frequencies and adds none.
+#: Least rise of the spectrum at an impact, dB (median over the frequencies holding sound of the
+#: power after the onset over before): an impact at least as loud as the ringing it falls into
+#: doubles the power over its broad contact spectrum; beating modes move power between frequencies
+#: and add none.
 SPECTRAL_RISE_DB = 3.0
-#: Longest stretch before and after an onset over which that rise is measured, s: the
-#: frequency resolution (100 Hz) that parts a plate's ringing from an impact's broad spectrum;
-#: shorter where the neighbouring ticks are nearer.
+#: Longest stretch each side of an onset for that rise, s: a 100 Hz resolution parts a plate's
+#: ringing from an impact's broad spectrum.
 SPECTRAL_RISE_SPAN = 0.01
 #: Shortest such stretch, s: over fewer than a few hundred microseconds the spectrum has too
 #: few frequencies to judge, and the tick is kept.
 SPECTRAL_RISE_MIN_SPAN = 0.001
 
 
-#: A frequency holds sound, not noise, where the power before and after an onset together
-#: exceed the noise's there by this much, dB (the noise's power at one frequency scatters
-#: as an exponential variable: 10 dB over its mean has probability 5e-5).
+#: A frequency holds sound where the power before and after exceeds the noise's by this, dB
+#: (exponential scatter: 10 dB over the mean has probability 5e-5).
 SPECTRAL_NOISE_MARGIN_DB = 10.0
-#: Largest chance that stationary ringing shows a rise as large as the one measured, over as
-#: many frequencies, for the rise to be an impact's: a significance level of 0.1 %. The
-#: whitening leaves a few bursts per second in a lightly damped plate's ringing; each one
-#: taken for a drop's start is a series of false ticks, so at most one in a thousand may pass
-#: (:func:`rise_chance`). A median over a handful of frequencies swings by 10 dB in such
-#: ringing and decides nothing; over the tens of frequencies an impact's broad spectrum
-#: raises, a 3 dB rise is far beyond that chance.
+#: Largest chance that stationary ringing shows the rise measured over as many frequencies
+#: (significance 0.1 %): each burst of a ringing plate taken for a drop's start is a series of false
+#: ticks (:func:`rise_chance`).
 RISE_FALSE_ALARM = 1e-3
 #: Frequencies of a Hann-windowed spectrum this far apart are nearly independent: the powers
 #: of neighbouring bins of a random signal correlate by 4/9, of bins two apart by 1/36.
@@ -130,9 +119,8 @@ def rise_ratios_db(
 #: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
 #: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
 HANN_LINE_BINS = 4
-#: A tick that neither decays nor raises the spectrum is dropped where the frequencies that
-#: hold sound span this many lines at least (:func:`not_impacts`): their median then falls
-#: only where most lines fall, which an impact on one line's phase does not make.
+#: A tick that neither decays nor raises the spectrum is dropped where the frequencies holding sound
+#: span this many lines (:func:`not_impacts`).
 SILENT_MIN_LINES = 3
 
 
@@ -244,9 +232,8 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     return out
 
 
-#: Smoothing of the envelope over which a whole recording's ringing is seen to decay, s: many
-#: periods of a plate's lowest modes and of a periodic wave down to 20 Hz, so that neither
-#: leaves a ripple the fit could take for a decay.
+#: Smoothing of the envelope of a whole recording's ringing, s: many periods of a plate's lowest
+#: modes and of a periodic wave down to 20 Hz.
 RINGING_SMOOTHING = 0.05
 
 
