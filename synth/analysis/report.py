@@ -37,50 +37,32 @@ class Tick:
     time : float
         Onset, s from the start of the recording.
     bounce_time : float or None
-        Time since the previous tick's onset ``t_n``, s (the flight plus the
-        previous contact); ``None`` for the first tick.
+        ``t_n``, time since the previous onset, s (flight plus previous contact).
     restitution : float or None
-        ``e_n = t_n / t_(n-1)``, dimensionless: the restitution of the previous
-        tick's impact as the thesis (see docs/physics.md, References) defines it from
-        bounce times (section 3.1).
-        Bounce times hold the contact times, so it exceeds the impact's physical
-        restitution (rebound over impact speed) by ``(tau_n / e_n - tau_(n-1)) /
-        t_(n-1)`` (docs/analysis.md): of the order of contact time over bounce time.
-        ``None`` for the first two ticks, and where a flag below says it is no ratio of
-        two successive flights (the value is withheld, the flag gives the reason).
+        ``e_n = t_n / t_(n-1)`` (the thesis, docs/physics.md, References, section 3.1); above
+        the physical restitution by about contact time over bounce time (docs/analysis.md).
+        ``None`` for the first two ticks and where a flag withholds it.
     speed : float or None
-        Impact speed ``v_n = g t_n / 2``, m/s (the flight alone gives ``g (t_n -
-        tau) / 2``: this exceeds it by ``g tau / 2``); ``None`` for the first tick, and
-        where the flag ``"restitution>=1"`` says its bounce is no single flight.
+        Impact speed ``v_n = g t_n / 2``, m/s (``g tau / 2`` over the flight's alone); ``None``
+        for the first tick and where ``"restitution>=1"`` withholds it.
     energy : float
-        Sum of squares of the tick's own signal (without the other ticks) over its
-        window divided by the sample rate, signal units^2 s.
+        Sum of squares of the tick's own signal over its window over the rate, units^2 s.
     peak : float
         Largest magnitude of the tick's own signal, signal units.
-    centroid : float
-        Spectral centroid (power-weighted mean frequency), Hz.
-    spread : float
-        Spectral spread (power-weighted standard deviation of frequency), Hz.
+    centroid, spread : float
+        Power-weighted mean and standard deviation of frequency, Hz.
     decay_time : float or None
-        Time for the amplitude envelope to fall to 1/e of its peak, s; ``None``
-        when the window is too short to fit it.
+        Time for the envelope to fall to 1/e of its peak, s; ``None`` when it cannot be fitted.
     window : float
-        Length of the measurement window, s: ``window`` of :func:`analyze` for every
-        tick, shorter only where the recording ends.
+        Measurement window, s: the option ``window``, shorter only at the recording's end.
     strength : float
-        How far the tick's whitened energy stands above the threshold it had to
-        clear, dB; for a tick that step 7 found by description length (no threshold
-        cleared), how far that fell with it, in dB of residual energy per sample.
+        Margin of the whitened energy over its threshold, dB (step 7's description-length
+        ticks: the fall of the description length, dB of residual energy per sample).
     flags : tuple of str
-        Why the tick's measurements are physically impossible or doubtful (empty when
-        none): ``"restitution>=1"``, its bounce time did not shrink (a tick was missed
-        before it); ``"after-restitution>=1"``, its restitution is measured against such a
-        bounce; ``"missed-bounce"``, its bounce times show a bounce missed in its
-        restitution (it departs from the series' on either side by more than a ball's
-        restitution changes from one bounce to the next, or the series stops where that
-        restitution says the ball bounces on, loud enough to be found); ``"no-decay"``, its
-        own sound does not ring down as an impact's does (:mod:`~synth.analysis.validity`).
-        The first three withhold the tick's restitution (``None``).
+        Why measurements are impossible or doubtful: ``"restitution>=1"`` (bounce did not
+        shrink), ``"after-restitution>=1"`` (measured against such a bounce),
+        ``"missed-bounce"`` (spans a missed bounce), ``"no-decay"`` (its sound does not ring
+        down; :mod:`~synth.analysis.validity`). The first three withhold the restitution.
     """
 
     index: int
