@@ -321,7 +321,7 @@ def test_candidate_rules_are_the_array_formulation():
     (``numpy.convolve``): the thresholds and backgrounds within 1e-14 (a few units in the last
     place: numpy's vectorised ``log10`` and power may round differently from the compiled
     code's libm), the candidates exactly."""
-    from synth.analysis.deflation import _rules, running_median
+    from synth.analysis.deflation import Rules, _rules, running_median
 
     def arrays(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):
         k = np.arange(d.size)
@@ -367,7 +367,7 @@ def test_candidate_rules_are_the_array_formulation():
             1.0,
             int(rng.integers(2, 6)),
         )
-        got, want = _rules(d, sub, *args), arrays(d, sub, *args)
+        got, want = _rules(d, sub, args[0], Rules(*args[1:])), arrays(d, sub, *args)
         np.testing.assert_allclose(got[1], want[1], rtol=1e-14, atol=0, err_msg=str(trial))
         np.testing.assert_allclose(got[2], want[2], rtol=1e-14, atol=0, err_msg=str(trial))
         assert np.array_equal(got[0], want[0]), trial

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -166,8 +167,25 @@ def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return h
 
 
+class Rules(NamedTuple):
+    """The parameters of :func:`_rules`: the local background's length ``bg`` (frames), the
+    whitened noise ``noise`` (energy per frame), the margin ``thr`` over the background (a power
+    ratio), the memory's fading ``fade`` per frame and margin ``rise`` (log10 units), the
+    ``floor`` (energy per frame), the margin ``kappa`` over what was taken out (a power ratio)
+    and the frames ``span`` of the remainder test."""
+
+    bg: int
+    noise: float
+    thr: float
+    fade: float
+    rise: float
+    floor: float
+    kappa: float
+    span: int
+
+
 @compiled(nogil=True)
-def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pragma: no cover
+def _rules(d, sub, first, rules):  # pragma: no cover - compiled
     """The frames ``k >= first`` of ``d`` that clear the rules, their thresholds and backgrounds.
     The threshold is the largest of:
 
@@ -176,7 +194,9 @@ def _rules(d, sub, first, bg, noise, thr, fade, rise, floor, kappa, span):  # pr
     * the fading memory of frames ``j <= k - 2`` raised by ``rise`` (log10 units, as step 3);
     * ``floor``, and ``kappa`` times ``sub``, what was taken out of the frame;
 
-    and the frames ``k-1 .. k+span-2`` must carry more than ``kappa`` times what was taken out."""
+    and the frames ``k-1 .. k+span-2`` must carry more than ``kappa`` times what was taken out
+    (``rules``: a :class:`Rules`)."""
+    bg, noise, thr, fade, rise, floor, kappa, span = rules
     n = d.size
     a = max(0, first - bg - 3)
     med = _running_median(d[a:], bg) if a < n else np.zeros(0)
@@ -312,19 +332,10 @@ class Residual:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The frames of ``d`` from ``first`` on that clear the rules against ``sub``, their
         thresholds and backgrounds (:func:`_rules`)."""
-        return _rules(
-            np.ascontiguousarray(d, dtype=np.float64),
-            np.ascontiguousarray(sub, dtype=np.float64),
-            int(first),
-            self.bg,
-            float(self.noise),
-            float(self.thr),
-            float(self.fade),
-            float(self.rise),
-            float(self.floor),
-            float(self.kappa),
-            self.span,
-        )
+        scalars = (self.noise, self.thr, self.fade, self.rise, self.floor, self.kappa)
+        rules = Rules(self.bg, *map(float, scalars), self.span)
+        d, sub = (np.ascontiguousarray(a, dtype=np.float64) for a in (d, sub))
+        return _rules(d, sub, int(first), rules)
 
     def _first_clearing(
         self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False

@@ -169,10 +169,7 @@ class ResonatorResidual(Residual):
                 normal.kept,
                 normal.chunks[0][0],
                 np.array(choices, dtype=np.int64),
-                K,
-                normal.n_templates,
-                normal.pre,
-                normal.post,
+                (K, normal.n_templates, normal.pre, normal.post),
             )
             n_t, pre, post = choices[k]
             return ModelChoice(crit, self.T[:n_t], pre, post, h, res)
@@ -250,13 +247,13 @@ class _NormalEquations:
 
 
 @compiled()
-def _least_description(
-    G, b, y, M, lo, choices, n_offsets, n_templates, pre_all, post_all
-):  # pragma: no cover - compiled
+def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - compiled
     """:meth:`ResonatorResidual.choose` in one pass over the rows ``M`` (from row ``lo``), the Gram
     matrix ``G`` and ``b = M^T y``: for each of ``choices`` the fit of
     :meth:`_NormalEquations.solve` (same columns, ridge and solution) and its description length;
-    returns the first least: its index, length, taps and residual."""
+    returns the first least: its index, length, taps and residual. ``layout``: the design
+    matrix's offsets, templates and lags before and after (``K, n_templates, pre, post``)."""
+    n_offsets, n_templates, pre_all, post_all = layout
     W = y.size
     ntap_all = pre_all + post_all + 1
     floor = 1e-300 * np.dot(y, y) + 1e-300
