@@ -41,38 +41,29 @@ def check_plot_path(path) -> str:
 
 
 def plot_analysis(analysis, audio, samplerate, path):
-    """Draw the analysis to an image file (format from the suffix: .png, .pdf, .svg ...).
-
-    Four panels: the analysed signal with the detected onsets; bounce time (ms)
-    and restitution per bounce; tick energy on a log scale against bounce
-    number, with the line ``E_1 ebar^(2 (n - 1))`` through the first tick
-    (``ebar`` the mean restitution); centroid (Hz) and decay time (ms) per
-    bounce. Written whole or not at all (:func:`synth.store.atomic.write_atomically`).
+    """Draw the analysis to an image file (format from the suffix), written whole or not at all
+    (:func:`synth.store.atomic.write_atomically`); returns the matplotlib Figure. Four panels:
+    the analysed signal with the onsets; bounce time (ms) and restitution per bounce; tick energy
+    (log) against bounce number with ``E_1 ebar^(2 (n - 1))`` (``ebar`` the mean restitution);
+    centroid (Hz) and decay time (ms) per bounce.
 
     Parameters
     ----------
     analysis : Analysis
         From :func:`~synth.analysis.analyze` of the same audio.
     audio : array of float, (frames,) or (frames, channels)
-        The recording that was analysed, with all its channels (the analysis says
-        which channel, or the mix, it used).
+        The recording analysed, with all its channels.
     samplerate : float > 0
         Its sample rate, Hz; must be the analysis' rate.
     path : str or path-like
         The image file to write (:func:`check_plot_path`).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure drawn (four panels, titled as above).
 
     Raises
     ------
     ParameterError
         Bad input.
     SynthError
-        matplotlib is not installed (``pip install matplotlib``).
-    """
+        matplotlib is not installed (``pip install matplotlib``)."""
     an = checked_analysis("analysis", analysis)
     x = _analysed_signal(an, audio, samplerate)
     fmt = check_plot_path(path)
@@ -94,8 +85,8 @@ def plot_analysis(analysis, audio, samplerate, path):
 
 
 def _analysed_signal(an: Analysis, audio, samplerate) -> np.ndarray:
-    """The signal the analysis used (its channel, or the mix) from the recording, checked
-    against the analysis' rate, channels and length."""
+    """The signal the analysis used (its channel, or the mix), checked against its rate, channels
+    and length."""
     chans = audio_array(audio)
     fs = checks.positive("samplerate", samplerate, "Hz")
     if fs != an.samplerate:

@@ -88,25 +88,21 @@ class Analysis:
     ----------
     ticks : list of Tick
         In time order.
-    samplerate : float
-        Sample rate, Hz.
-    duration : float
-        Length of the recording, s.
+    samplerate, duration : float
+        Sample rate, Hz, and length of the recording, s.
     noise_floor : float
         RMS of the noise estimate, signal units.
     gravity : float
         Gravity used for the speeds, m/s^2.
     channel : int or None
-        The channel analysed; ``None`` when the channels were mixed (mean).
+        The channel analysed; ``None`` for the mix (mean).
     clipped : bool
         True when the recording looks clipped.
     warnings : tuple of str
-        What the measurements should be read with (clipping, impossible restitutions,
-        several drops, not a bouncing sound, a truncated file).
+        What the measurements should be read with (clipping, impossible restitutions, several
+        drops, not a bouncing sound, a truncated file).
     series : list of Series
-        The bounce series (drops) of the recording, in time order, each with its ticks and
-        mean restitution (:mod:`~synth.analysis.validity`); one for a single drop.
-    """
+        The bounce series (drops), in time order (:mod:`~synth.analysis.validity`)."""
 
     ticks: list[Tick]
     samplerate: float
@@ -157,14 +153,9 @@ _COLUMNS = (
 
 
 def format_table(analysis, *, warnings=True) -> str:
-    """A terminal table of the ticks, one line each, with a summary header.
-
-    Columns: n, time (s), bounce time (ms), e, speed (m/s), energy (signal
-    units^2 s), peak (signal units), centroid (Hz), spread (Hz), decay (ms),
-    strength (dB). Undefined values print as ``-``. With ``warnings`` (default) the
-    analysis' warnings follow the header, one line each (the command line prints
-    them to stderr instead).
-    """
+    """A terminal table of the ticks, one line each, under a summary header and, with ``warnings``,
+    the analysis' warnings (the command line prints them to stderr instead); columns as
+    :data:`_COLUMNS`, undefined values as ``-``."""
     an = checked_analysis("analysis", analysis)
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")
@@ -232,10 +223,8 @@ def to_dict(analysis) -> dict:
 
 
 def to_csv(analysis) -> str:
-    """The ticks as CSV: a header of the :class:`Tick` field names, SI units, one row each.
-
-    Undefined values are empty cells; a tick's flags are joined by ``;``.
-    """
+    """The ticks as CSV: a header of the :class:`Tick` field names, one row each in SI units;
+    undefined values empty, flags joined by ``;``."""
     an = checked_analysis("analysis", analysis)
     names = [f.name for f in fields(Tick)]
     buf = io.StringIO()

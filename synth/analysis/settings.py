@@ -163,32 +163,11 @@ def check_recording_path(path) -> None:
 
 
 def read_recording(path) -> tuple[np.ndarray, float]:
-    """Read a sound file for :func:`synth.analysis.analyze`: every channel, as it is stored.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The file (WAV, FLAC, OGG, AIFF, ... at any sample rate, any number of channels).
-
-    Returns
-    -------
-    audio : ndarray of float64, (frames, channels)
-        The samples, in units of full scale.
-    samplerate : float
-        Sample rate, Hz.
-
-    Warns
-    -----
-    TruncatedAudioWarning
-        A WAV file holds fewer frames than its header declares.
-
-    Raises
-    ------
-    ParameterError
-        ``path`` is not a file name, or no such file.
-    AnalysisError
-        An unreadable file (corrupt header, unknown format) or one without samples.
-    """
+    """Read a sound file (WAV, FLAC, OGG, AIFF, ..., any rate and channels) for
+    :func:`synth.analysis.analyze`: ``(audio, samplerate)``, the samples as float64 ``(frames,
+    channels)`` in units of full scale and the rate in Hz. Warns ``TruncatedAudioWarning`` where
+    a WAV file holds fewer frames than its header declares. Raises ParameterError for a bad or
+    missing ``path``, AnalysisError for an unreadable file or one without samples."""
     check_recording_path(path)
     from synth.store.audio import AudioFileError, read_audio
 
