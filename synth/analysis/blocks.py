@@ -1,9 +1,6 @@
-"""Long recordings in blocks: linear time and bounded memory (docs/analysis.md, Long recordings). A
-recording longer than :data:`WHOLE` is analysed in blocks of :data:`BLOCK`: one pass for
-extremes, silence and noise floor; then each block's series are located and searched on their own
-(``_block_drops`` in :mod:`synth.analysis.pipeline`), blocks overlapping by :data:`OVERLAP`, so
-no series is cut and each is searched whole once. A :class:`Source` is an array
-(:class:`ArraySource`) or a file read in blocks (:class:`FileSource`)."""
+"""Long recordings in blocks of :data:`BLOCK` (docs/analysis.md, Long recordings): linear time and
+bounded memory. A :class:`Source` is an array (:class:`ArraySource`) or a file read in blocks
+(:class:`FileSource`)."""
 
 from __future__ import annotations
 

@@ -1,11 +1,8 @@
-"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, found one by
-one on the whitened signal with the earlier ticks taken out.
-
-Every tick takes the same path (impact point, plate, room, pickup) and differs only by its
-contact force, so in the whitened signal ``r`` a later tick is the first tick's whitened response
-``T`` through a short filter. :class:`Residual` holds ``q = r - (what the earlier ticks
-explain)``; :class:`DeflationSearch` walks the series. Step 7 (:mod:`synth.analysis.resonator`)
-subclasses both. Positions in samples, energies per frame of ``r``, strengths in dB."""
+"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, one by one on
+the whitened signal ``r`` with the earlier ticks taken out. Every tick takes the same path and
+differs only by its contact force, so a later tick is the first tick's whitened response through
+a short filter. :class:`Residual` holds what is left, :class:`DeflationSearch` walks the series;
+step 7 (:mod:`synth.analysis.resonator`) subclasses both."""
 
 from __future__ import annotations
 
@@ -54,9 +51,8 @@ LOCATE_TICKS = 6
 
 @dataclass(frozen=True)
 class Candidate:
-    """The first tick in the residual after a given sample: the start of its strongest frame, that
-    frame's energy, the threshold and local background where its first frame cleared (energies
-    per frame), and the start of that first frame."""
+    """The first tick after a sample: its strongest frame's start and energy, the threshold and
+    background where it cleared, and its first frame's start."""
 
     start: int
     energy: float
@@ -98,10 +94,9 @@ class FirstTick:
 
 @dataclass(frozen=True)
 class SearchOutcome:
-    """The ticks of a deflating search: onsets (samples), strengths (dB), the residual ``q``, each
-    tick's whitened model, the first tick's ringing left by the whitening (median over largest
-    frame energy of the first bounce's second half), the onsets timed against the template in
-    step 7 (samples; else None), and whether a locating search stopped early."""
+    """The ticks of a deflating search: onsets (samples), strengths (dB), residual, models, the
+    first tick's ringing left (a power ratio), step 7's template-timed onsets (or None), and
+    whether a locating search stopped early."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -113,9 +108,8 @@ class SearchOutcome:
 
 
 def running_median(d: np.ndarray, size: int) -> np.ndarray:
-    """Median of ``d`` over windows of ``size`` values, ends extended (the same values as
-    ``scipy.ndimage.median_filter(d, size, mode="nearest")``), by a sorted window updated one
-    value a step: cheap for the thousands of short searches per recording."""
+    """Running median of ``d`` over ``size`` values, ends extended (as
+    ``scipy.ndimage.median_filter(d, size, mode="nearest")``), by a sorted window."""
     if d.size == 0:
         return np.zeros(0)
     return _running_median(np.ascontiguousarray(d, dtype=np.float64), int(size))
@@ -168,11 +162,9 @@ def solve_general(G: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class Rules(NamedTuple):
-    """The parameters of :func:`_rules`: the local background's length ``bg`` (frames), the
-    whitened noise ``noise`` (energy per frame), the margin ``thr`` over the background (a power
-    ratio), the memory's fading ``fade`` per frame and margin ``rise`` (log10 units), the
-    ``floor`` (energy per frame), the margin ``kappa`` over what was taken out (a power ratio)
-    and the frames ``span`` of the remainder test."""
+    """Parameters of :func:`_rules`: background length ``bg`` (frames), whitened ``noise`` and
+    ``floor`` (energies per frame), margins ``thr`` and ``kappa`` (power ratios), memory ``fade``
+    per frame and ``rise`` (log10 units), and remainder frames ``span``."""
 
     bg: int
     noise: float
@@ -186,16 +178,11 @@ class Rules(NamedTuple):
 
 @compiled(nogil=True)
 def _rules(d, sub, first, rules):  # pragma: no cover - compiled
-    """The frames ``k >= first`` of ``d`` that clear the rules, their thresholds and backgrounds.
-    The threshold is the largest of:
-
-    * the past's local background (median of frames ``k-2-bg .. k-3``, at least ``noise``) times
-      ``thr``; none before ``first`` or where the past is too short;
-    * the fading memory of frames ``j <= k - 2`` raised by ``rise`` (log10 units, as step 3);
-    * ``floor``, and ``kappa`` times ``sub``, what was taken out of the frame;
-
-    and the frames ``k-1 .. k+span-2`` must carry more than ``kappa`` times what was taken out
-    (``rules``: a :class:`Rules`)."""
+    """The frames ``k >= first`` of ``d`` that clear the rules (``rules``: a :class:`Rules`), their
+    thresholds and backgrounds: over the largest of the past's median (frames ``k-2-bg .. k-3``,
+    at least ``noise``) times ``thr``, the fading memory of frames ``j <= k - 2`` raised by
+    ``rise``, ``floor`` and ``kappa`` times ``sub``; and the frames ``k-1 .. k+span-2`` over
+    ``kappa`` times what was taken out."""
     bg, noise, thr, fade, rise, floor, kappa, span = rules
     n = d.size
     a = max(0, first - bg - 3)
@@ -236,9 +223,8 @@ def _rules(d, sub, first, rules):  # pragma: no cover - compiled
 
 
 class Residual:
-    """The whitened signal ``r`` less the ticks found so far, each the first tick's response ``T``
-    through a least-squares FIR filter of lags ``-pre .. post``; ``r - q`` is what was taken out,
-    against which a candidate is weighed."""
+    """The whitened signal ``r`` less the ticks found so far (the template ``T`` through
+    least-squares FIR filters); ``r - q`` is what was taken out."""
 
     def __init__(
         self,
@@ -285,10 +271,8 @@ class Residual:
         return frame_energies(self.r[lo:hi] - self.q[lo:hi], self.hop, self.w)
 
     def candidate(self, after: int, within: int | None = None) -> Candidate | None:
-        """The first tick in ``q`` at or after sample ``after``, or None: the first frame over its
-        threshold (:func:`_rules`). With ``within``, None also when it starts after sample
-        ``within``, forming only the frames that decide that. A short look first, kept only where
-        no later frame could change it."""
+        """The first tick in ``q`` at or after sample ``after``, or None (also when it starts after
+        ``within``); a short look first, kept where no later frame changes it."""
         hop, bg = self.hop, self.bg
         lo = max(0, after - (4 * bg + 2) * hop)
         first = -(-(after - lo) // hop)
@@ -340,9 +324,8 @@ class Residual:
     def _first_clearing(
         self, d: np.ndarray, sub: np.ndarray, first: int, lo: int, settled: bool = False
     ) -> Candidate | None:
-        """The first frame from ``first`` on of ``d`` (frame 0 at sample ``lo``) that clears the
-        rules, climbed to its local maximum. With ``settled``, None unless frames after ``d``'s
-        last could not change the answer."""
+        """The first frame from ``first`` of ``d`` (frame 0 at ``lo``) that clears the rules, at its
+        local maximum; with ``settled``, None unless later frames cannot change it."""
         hit, threshold, past_med = self._hits(d, sub, first)
         if not hit.size or (settled and hit[0] + self.span - 2 >= d.size):
             return None
@@ -361,9 +344,8 @@ class Residual:
         )
 
     def remove(self, s: int, end: int, alone: int | None = None) -> np.ndarray:
-        """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap if the window is shorter than
-        two per lag), take the fit out of ``q`` from ``s`` on and return it. ``alone``: step 7
-        only."""
+        """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap in a short window), take it out
+        of ``q`` and return it. ``alone``: step 7 only."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -387,9 +369,8 @@ class Residual:
 
 
 class DeflationSearch:
-    """Step 5: the ticks after the first, one by one on the residual. ``anchors`` (onsets,
-    strengths) are step 3's sure ticks, none passed over; ``floor`` (energy per frame) the
-    dynamic range's floor."""
+    """Step 5, tick by tick on the residual; ``anchors`` (onsets, strengths): step 3's sure ticks,
+    none passed over; ``floor``: the dynamic range's (energy per frame)."""
 
     def __init__(
         self,
@@ -557,9 +538,8 @@ class DeflationSearch:
         return NewTick(on, strength, float(burst.max()) if burst.size else 0.0)
 
     def _candidate_tick(self, c: Candidate) -> NewTick | None:
-        """The candidate's onset (step 4's walk on ``q``) and energy, or None when the series
-        rejects it (too soon, or stronger than its bounce time allows) and no sure tick of step 3
-        lies there."""
+        """The candidate's onset and energy, or None when the series rejects it (too soon or too
+        strong) and no sure tick lies there."""
         s = self.settings
         lo = self._onset_walk_start(c)
         hi = min(self.r.size, c.start + self.w + 2 * self.hop)

@@ -96,8 +96,8 @@ def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
 
 @dataclass(frozen=True)
 class Detection:
-    """Candidates of steps 2-3: their frames, the detection function ``d``, each frame's
-    ``threshold`` and local ``background`` (energies per frame)."""
+    """Candidate frames of steps 2-3, the detection function ``d``, and each frame's ``threshold``
+    and ``background`` (energies per frame)."""
 
     peaks: np.ndarray
     d: np.ndarray
@@ -106,9 +106,8 @@ class Detection:
 
 
 def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
-    """Candidate ticks in the whitened signal ``r`` (steps 2-3): local maxima of the detection
-    function over its threshold, one per cluster closer than ``min_separation``, none more than
-    ``max_drop_db`` under the previous. ``background``: the running median's length, s."""
+    """Candidate ticks of the whitened ``r`` (steps 2-3): local maxima of the detection function
+    over its threshold (:func:`_candidates`); ``background``: the running median's length, s."""
     from scipy.ndimage import median_filter
 
     hop = settings.hop
@@ -126,10 +125,9 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
 
 
 def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -> np.ndarray:
-    """The background each frame of ``d`` must rise from: the centred running median ``med``, except
-    up to the first burst's peak, where the lead-in's median is used where lower (a centred
-    median there holds the first tick's own ringing). A lead-in shorter than
-    :data:`STANDS_OUT_BEFORE` is no background."""
+    """The background each frame of ``d`` rises from: the centred median ``med``, but up to the
+    first burst's peak the lead-in's median where lower (a centred one holds the first tick's
+    ringing) when the lead-in spans :data:`STANDS_OUT_BEFORE`."""
     k0 = int(np.argmax(d >= d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)))
     if k0 * settings.hop < STANDS_OUT_BEFORE * settings.samplerate:
         return med
@@ -152,8 +150,8 @@ def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:
 
 
 def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.ndarray:
-    """Frames of the local maxima of ``d`` at or over ``threshold``, in time order: the first of a
-    cluster closer than ``min_separation``, none more than ``max_drop_db`` under the previous."""
+    """Local maxima of ``d`` at or over ``threshold``: the first of a cluster within
+    ``min_separation``, none ``max_drop_db`` under the previous."""
     from scipy.signal import find_peaks
 
     q = np.where(d >= threshold, d, 0.0)
@@ -173,10 +171,9 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
 
 @dataclass(frozen=True)
 class OnsetWalk:
-    """How step 4 walks back from a burst's largest ``|r|`` to its onset: the level ``fraction`` of
-    that peak (at least ``noise``), the longest run under it bridged (``gap``, samples), whether
-    pre-ringing must stand above ``noise`` (``strict``), and the gap bridged in a weak burst
-    (``weak_gap``, samples; :meth:`walk_gap`)."""
+    """Step 4's walk back from a burst's largest ``|r|``: level ``fraction`` of the peak (at least
+    ``noise``), gap bridged (``gap``, samples), pre-ringing above ``noise`` only (``strict``),
+    and the gap in a weak burst (``weak_gap``, samples)."""
 
     fraction: float
     gap: int
@@ -185,9 +182,8 @@ class OnsetWalk:
     weak_gap: int | None = None
 
     def walk_gap(self, peak: float) -> int:
-        """The longest gap (samples) bridged in a burst of largest ``|r|`` ``peak``: ``weak_gap``
-        where the noise sets the walk's level, else ``gap``. Whitened, a slow contact is the
-        transients at its two ends; in a weak burst its body lies under the noise."""
+        """The gap (samples) bridged in a burst of peak ``peak``: ``weak_gap`` where the noise sets
+        the level (a slow contact shows only its two end transients), else ``gap``."""
         if self.weak_gap is not None and min(self.noise, peak) > self.fraction * peak:
             return max(self.gap, self.weak_gap)
         return self.gap
@@ -195,9 +191,8 @@ class OnsetWalk:
 
 def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
     """Sub-sample onset (samples) of the burst of ``r`` peaking in ``[lo, hi)`` (step 4): the level
-    crossing before the earliest sample reached walking back over samples at or above the level,
-    bridging :meth:`OnsetWalk.walk_gap`; or, after an anti-aliasing filter's pre-ringing, the
-    centre of the burst's sampled sinc."""
+    crossing walking back bridging :meth:`OnsetWalk.walk_gap`, or the centre of an anti-aliasing
+    filter's sampled sinc (:func:`_sinc_centre`)."""
     # the walk looks back from the burst only: |r| over a stretch before it, longer only
     # where the walk comes near the stretch's start (the same onset as over the whole of r)
     span = max(64, 8 * max(walk.gap, walk.weak_gap or 0))
@@ -213,9 +208,8 @@ def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
 def _refined(
     r: np.ndarray, lo: int, hi: int, walk: OnsetWalk, offset: int
 ) -> tuple[int, float] | None:
-    """:func:`refine_onset` over the stretch ``r`` starting at sample ``offset`` of the whole, as
-    (sample of the stretch, fraction past it); None when the walk nears the stretch's start and
-    ``offset`` is not 0."""
+    """:func:`refine_onset` over a stretch starting at sample ``offset``: (sample, fraction past
+    it); None when the walk nears a stretch start that is not the signal's."""
     mag = np.abs(r)
     k = lo + int(np.argmax(mag[lo:hi]))
     level = max(walk.fraction * mag[k], min(walk.noise, mag[k]))
@@ -246,10 +240,9 @@ def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
 def _sinc_centre(
     r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float
 ) -> tuple[int, float] | None:
-    """The centre ``(m, f)`` of a burst recorded through a linear-phase anti-aliasing filter, or
-    None: a run of at least :data:`PRE_RINGING_RUN` samples alternating in sign and growing (each
-    at least ``floor``) is pre-ringing of ``A sinc(t - m - f)``, and ``r[m+1] / r[m] = f / (1 -
-    f)``."""
+    """Centre ``(m, f)`` of a burst behind a linear-phase anti-aliasing filter, or None: after
+    :data:`PRE_RINGING_RUN` alternating growing samples (at least ``floor``), ``r[m+1] / r[m] = f
+    / (1 - f)``."""
     m = i
     while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
         m += 1
@@ -265,9 +258,7 @@ def _sinc_centre(
 def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | None:
     """Sub-sample delay (samples, within ``[lo, hi]``) of ``y`` behind ``template``: the peak of
     their phase-transform cross-correlation (Knapp and Carter 1976, IEEE Trans. ASSP 24, 320),
-    interpolated band-limited. None when the peak lies at either end (the delay is outside the
-    lags allowed). Every frequency counts once, so the loud band near Nyquist sets no spurious
-    lobes."""
+    interpolated band-limited; None when the peak lies at an end of the lags allowed."""
     n = 1 << int(math.ceil(math.log2(y.size + template.size)))
     C = np.fft.rfft(y, n) * np.conj(np.fft.rfft(template, n))
     mag = np.abs(C)
@@ -292,9 +283,9 @@ def delay(y: np.ndarray, template: np.ndarray, lo: float, hi: float) -> float | 
 
 
 def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
-    """Samples ``k0 .. k1`` (periodic) of ``irfft(C, n)`` by the chirp z-transform (Rabiner, Schafer
-    and Rader 1969, IEEE Trans. Audio Electroacoust. 17, 86): transforms of about ``m + k1 - k0``
-    points, not ``n``."""
+    """Samples ``k0 .. k1`` of ``irfft(C, n)`` by the chirp z-transform (Rabiner, Schafer and Rader
+    1969, IEEE Trans. Audio Electroacoust. 17, 86): transforms of ``m + k1 - k0`` points, not
+    ``n``."""
     from scipy import fft
 
     pre, kernel, post = _chirps(n, k0, C.size, k1 - k0 + 1)
@@ -304,9 +295,8 @@ def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The chirps of :func:`_fine_correlation` (bin factors, kernel transform, lag factors), each
-    phase from its exact integer numerator modulo ``2 n``; cached, as every tick timed against
-    one template shares them."""
+    """The chirps of :func:`_fine_correlation`, phases from exact integers modulo ``2 n``; cached
+    (shared by every tick timed against one template)."""
     from scipy import fft
 
     size = fft.next_fast_len(m + count - 1)
@@ -322,9 +312,8 @@ def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray
 
 @dataclass(frozen=True)
 class FirstTicks:
-    """Steps 2-4 on a whitened signal: candidate frames from the first tick on, their onsets
-    (samples) and strengths (dB), the detection function ``d``, and the sure ticks of the bounce
-    series (``anchors``, samples, and their strengths, dB)."""
+    """Steps 2-4 on a whitened signal: candidate frames, onsets (samples), strengths (dB), the
+    detection function ``d``, and the bounce series' sure ticks and their strengths."""
 
     peaks: np.ndarray
     onsets: np.ndarray
@@ -359,8 +348,8 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
 
 
 def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np.ndarray:
-    """Each candidate's onset (step 4), its level at least :data:`ONSET_NOISE_SIGMAS` standard
-    deviations of the local background, searched over its frame and a hop either side."""
+    """Each candidate's onset (step 4) at a level of at least :data:`ONSET_NOISE_SIGMAS` background
+    deviations, over its frame and a hop either side."""
     hop, w = settings.hop, settings.frame
     sigma = ONSET_NOISE_SIGMAS * np.sqrt(found.background[found.peaks] / w)
     return np.array(
@@ -401,14 +390,11 @@ def standing_out(
     x: np.ndarray, r: np.ndarray, known: np.ndarray, settings: Settings
 ) -> StandingOut:
     """The ticks that clearly stand out of the recording ``x`` but are not among ``known``
-    (samples), from its whitened signal ``r`` (step 8, docs/analysis.md).
-
-    A tick stands out when the recording's energy over :data:`STANDS_OUT_SPAN` is
-    :data:`STANDS_OUT_DB` over its mean over the :data:`STANDS_OUT_BEFORE` before (per unit
-    time); the whitened signal must rise too, beyond white noise's scatter (Fisher's F quantile
-    of :data:`STANDS_OUT_FALSE_ALARM`), within ``dynamic_range_db`` of its strongest stretch.
-    Each run of such positions is timed in what the past does not predict (:func:`_local_onset`)
-    and kept when both tests hold at that onset and it is not dropped (:func:`_dropped`)."""
+    (samples), from its whitened signal ``r`` (step 8, docs/analysis.md): the recording rises
+    :data:`STANDS_OUT_DB` over :data:`STANDS_OUT_SPAN` against :data:`STANDS_OUT_BEFORE`, the
+    whitened signal beyond noise's F quantile (:data:`STANDS_OUT_FALSE_ALARM`) within the dynamic
+    range; each run timed by :func:`_local_onset`, kept when both tests hold there and not
+    :func:`_dropped`."""
     hop, fs = settings.hop, settings.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
     blocks = max(1, int(round(STANDS_OUT_BEFORE * fs / hop)))
@@ -450,9 +436,8 @@ def standing_out(
 
 
 def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings: Settings) -> bool:
-    """Whether the whitened energy over ``span`` samples from ``on`` lies more than ``max_drop_db``
-    under that of the latest earlier tick: the whitening's remainder of the ringing, not a
-    bounce."""
+    """Whether the whitened energy over ``span`` from ``on`` is ``max_drop_db`` under the latest
+    earlier tick's: ringing's remainder, not a bounce."""
     if earlier.size == 0:
         return False
     prev = int(earlier.max())
@@ -483,11 +468,10 @@ class LocalOnset:
 def _local_onset(
     x: np.ndarray, first: int, span: int, before: int, settings: Settings
 ) -> LocalOnset | None:
-    """Onset of a tick rising from sample ``first``, in the error of a predictor of the recording's
-    past (:func:`~synth.analysis.whitening.resonator_predictor`): where the error's variance
-    steps (:func:`_cusum_start`, refined by :func:`_change_point`), if the error before it is the
-    past's noise by the F test (else a slow ramp with no marked start). None without enough past
-    or onset."""
+    """Onset of a tick rising from sample ``first``: where the error of a predictor of the past
+    (:func:`~synth.analysis.whitening.resonator_predictor`) steps in variance
+    (:func:`_cusum_start`, :func:`_change_point`), if the error before it passes the F test as
+    the past's noise; else None."""
     from scipy.signal import lfilter
 
     from synth.analysis.whitening import resonator_predictor
@@ -522,9 +506,8 @@ def _local_onset(
 
 
 def _cusum_start(z: np.ndarray, variance: float) -> int:
-    """Where the variance of ``z`` steps from ``variance`` to :data:`STANDS_OUT_DB` over it: the
-    last zero of Page's CUSUM before its maximum (Page 1954, Biometrika 41, 100; Basseville and
-    Nikiforov 1993, section 2.2)."""
+    """Where the variance of ``z`` steps up by :data:`STANDS_OUT_DB`: the last zero of Page's CUSUM
+    before its peak (Page 1954, Biometrika 41, 100)."""
     g = 10.0 ** (STANDS_OUT_DB / 10.0)
     step = 0.5 * z * z / variance * (1.0 - 1.0 / g) - 0.5 * math.log(g)
     c = np.empty(z.size)
@@ -559,8 +542,8 @@ def rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
 
 
 def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
-    """At each position ``k hop`` (from ``blocks hop`` on; 0 before), the mean square of ``z`` over
-    the next ``span`` samples over that of the ``blocks hop`` before; infinite after silence."""
+    """Mean square of ``z`` over ``span`` after each ``k hop`` over that of ``blocks hop`` before (0
+    before ``blocks``; infinite after silence)."""
     e_hop = frame_energies(z, hop, hop)
     after = frame_energies(z, hop, span)
     n = min(after.size, e_hop.size + 1)

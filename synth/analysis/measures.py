@@ -1,7 +1,5 @@
-"""The measurements of every tick (docs/analysis.md, Tick measurements): bounce time, restitution
-and impact speed from the onsets, and energy, peak, spectral moments and decay time of the tick's
-own sound: its excitation through the all-pole model ``1/A``, over the same ``window`` from each
-onset, so identical ticks measure alike whatever the bounce times."""
+"""The measurements of every tick (docs/analysis.md, Tick measurements), on its own sound: its
+excitation through the all-pole ``1/A`` over ``window`` from its onset."""
 
 from __future__ import annotations
 
@@ -134,10 +132,9 @@ def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) 
 
 
 def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
-    """Time for the amplitude envelope of ``y`` (sample rate ``fs``, Hz) to fall to 1/e, s:
-    ``-1/slope`` of a line fitted to the log envelope (Hann-smoothed over ``n`` samples) from its
-    peak to within :data:`DECAY_NOISE_MARGIN_DB` of ``floor``; None when too short or falling by
-    less than :data:`DECAY_MIN_FALL`."""
+    """Time for the envelope of ``y`` (rate ``fs``, Hz; Hann-smoothed over ``n`` samples) to fall to
+    1/e, s, from a log-linear fit above :data:`DECAY_NOISE_MARGIN_DB` over ``floor``; None when
+    too short or flat."""
     if y.size < 2 * n:
         return None
     w = np.hanning(n + 2)[1:-1]

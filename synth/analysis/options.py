@@ -105,12 +105,8 @@ _option = checks.option
 
 @dataclass(frozen=True, kw_only=True)
 class AnalysisOptions:
-    """The options of an analysis (:func:`synth.analysis.analyze`): checked and converted
-    when made, immutable after; every one has a default.
-
-    ``AnalysisOptions(window=0.05)``; :meth:`replace` makes a changed copy, checked again.
-    The fields, each with its unit and the values allowed:
-    """
+    """The options of an analysis (:func:`synth.analysis.analyze`), checked when made:
+    ``AnalysisOptions(window=0.05)``; :meth:`replace` makes a checked copy. The fields:"""
 
     gravity: float = _option(
         GRAVITY, unit="m/s^2", metavar="G", check=_at_most(MAX_GRAVITY, "m/s^2"),

@@ -178,10 +178,8 @@ def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
 
 
 def _impact_series(found: list[list], test: RiseTest, ringing_from, settings: Settings):
-    """The numbered :class:`Series` of ``found`` that start with an impact
-    (:func:`~synth.analysis.validity.impact_series`); ``AnalysisError`` where nothing rings down
-    after the bursts (:func:`~synth.analysis.validity.check_impulsive`) or no series starts with
-    an impact."""
+    """The numbered series of ``found`` starting with an impact; AnalysisError where nothing rings
+    down (:func:`~synth.analysis.validity.check_impulsive`) or none starts with one."""
     ticks = [t for s in _numbered(found) for t in s.ticks]
     check_impulsive(ticks, ringing_from(_first_sample(ticks, settings)), test.fs)
     kept = impact_series(found, test)
@@ -211,14 +209,9 @@ def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
 
 def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list[list]:
     """The bounce series of a recording of ``frames`` frames read by ``signal(start, stop)``, block
-    by block (:mod:`synth.analysis.blocks`). Steps 1-6 over a block show where its series start;
-    a first series followed by a new one is searched on its own (steps 1-7) and the next block
-    starts at the next drop less the local background; else the block is searched whole and its
-    series kept once the block passes its next bounce. Each drop is searched once with its block
-    and once on its own, whatever the number of drops.
-
-    One BLAS thread per block (:func:`one_blas_thread`): a second one, spinning for a busy core,
-    made the small products several times as costly."""
+    by block (:mod:`synth.analysis.blocks`): steps 1-6 locate a block's series, each drop is
+    searched on its own (steps 1-7), and the next block starts at the next drop. One BLAS thread
+    per block (:func:`one_blas_thread`)."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD

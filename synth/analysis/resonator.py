@@ -1,10 +1,7 @@
-"""Step 7 of the tick detection (docs/analysis.md, Method): the resonator's search.
-
-On a lightly damped resonator the 20 ms whitening predictor leaves the first tick ringing over
-the whole first bounce, hiding the later ticks. The resonator's own predictor
-(:func:`synth.analysis.whitening.resonator_predictor`) cancels that ringing, and the deflation of
-step 5 runs again with every tick modelled over its whole response: :class:`ResonatorResidual`
-and :class:`ResonatorSearch`."""
+"""Step 7 of the tick detection (docs/analysis.md, Method): on a lightly damped resonator the first
+tick rings over the whole first bounce under the 20 ms whitening; the resonator's own predictor
+(:func:`synth.analysis.whitening.resonator_predictor`) cancels it, and step 5 runs again with
+each tick modelled over its whole response."""
 
 from __future__ import annotations
 
@@ -70,9 +67,8 @@ class ModelChoice:
 
 
 class ResonatorResidual(Residual):
-    """The residual of step 7: each tick modelled through a filter on each of up to
-    :data:`MAX_TEMPLATES` templates, and ``expect``, what each model is expected to leave (energy
-    per sample), against which a candidate is weighed."""
+    """Step 7's residual: ticks modelled on up to :data:`MAX_TEMPLATES` templates, and ``expect``,
+    what each model should leave (energy per sample)."""
 
     def __init__(
         self,
@@ -103,10 +99,9 @@ class ResonatorResidual(Residual):
         return frame_energies(np.sqrt(self.expect[lo:hi]), self.hop, self.w)
 
     def remove(self, s: int, end: int, alone: int | None = None, joint=()) -> np.ndarray:
-        """Fit the model of :meth:`choose` to ``q[s:end]``, take it out of ``q`` from ``s`` on and
-        return it. Outside the window the model is expected to leave its relative error raised by
-        :data:`REMAINDER_MARGIN_DB`, up to ``alone`` (the soonest next bounce). ``joint``: starts
-        of later ticks in the window, fitted with this one but not taken out."""
+        """Fit :meth:`choose` to ``q[s:end]``, take it out and return it; outside the window it is
+        expected to leave its relative error raised by :data:`REMAINDER_MARGIN_DB`, up to
+        ``alone``. ``joint``: later ticks fitted along."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -135,11 +130,9 @@ class ResonatorResidual(Residual):
         return contrib
 
     def choose(self, y: np.ndarray, offsets=(0,)) -> ModelChoice:
-        """The models of ticks started at ``offsets`` (samples into ``y``) fitted to ``y``: of the
-        template counts and lags with at least :data:`FIT_SAMPLES_PER_TAP` samples per unknown,
-        the one of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983, Ann. Stat. 11,
-        416); one tap per template when no filter fits. All choices are blocks of one Gram
-        matrix."""
+        """The model of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983, Ann. Stat.
+        11, 416) of ticks at ``offsets`` in ``y`` over template counts and lags with
+        :data:`FIT_SAMPLES_PER_TAP` samples per unknown (one tap each where none fits)."""
         W = y.size
         K = len(offsets)
         choices = [
@@ -197,10 +190,8 @@ class ResonatorResidual(Residual):
 
 
 class _NormalEquations:
-    """Least-squares fit of filters (lags ``-pre .. post``) of the templates ``Ts`` started at
-    ``offsets`` to ``y``: the design matrix ``M[i, j] = T[i - o - l_j]``, its Gram matrix and
-    ``M^T y``, formed only on the rows where a template can be non-zero, :data:`FIT_ROWS` at a
-    time (a window across a long silence costs the templates' length)."""
+    """Normal equations of the filters (lags ``-pre .. post``) of templates ``Ts`` at ``offsets``
+    fitting ``y``, formed on the rows a template reaches only, :data:`FIT_ROWS` at a time."""
 
     def __init__(self, Ts, y: np.ndarray, pre: int, post: int, offsets=(0,)):
         W = y.size
@@ -248,11 +239,10 @@ class _NormalEquations:
 
 @compiled()
 def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - compiled
-    """:meth:`ResonatorResidual.choose` in one pass over the rows ``M`` (from row ``lo``), the Gram
-    matrix ``G`` and ``b = M^T y``: for each of ``choices`` the fit of
-    :meth:`_NormalEquations.solve` (same columns, ridge and solution) and its description length;
-    returns the first least: its index, length, taps and residual. ``layout``: the design
-    matrix's offsets, templates and lags before and after (``K, n_templates, pre, post``)."""
+    """:meth:`ResonatorResidual.choose` in one compiled pass (same columns, ridge and solution as
+    :meth:`_NormalEquations.solve`) over ``M`` from row ``lo``, ``G`` and ``b``: index,
+    description length, taps and residual of the first least of ``choices``. ``layout``:
+    ``(offsets, templates, pre, post)`` of the design matrix."""
     n_offsets, n_templates, pre_all, post_all = layout
     W = y.size
     ntap_all = pre_all + post_all + 1
@@ -295,8 +285,8 @@ def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - c
 
 @compiled(nogil=True)
 def _pairwise_sum(a, start, n):  # pragma: no cover - compiled
-    """``sum(a[start:start+n])`` in numpy's pairwise order (as ``numpy.trace``), with a stack of its
-    own: a cached recursive kernel fails to load from numba's cache when called by another."""
+    """numpy's pairwise ``sum(a[start:start+n])`` (as ``numpy.trace``) on a stack: a cached
+    recursive kernel fails to load when called by another."""
     starts = np.empty(64, dtype=np.int64)
     sizes = np.empty(64, dtype=np.int64)
     phase = np.zeros(64, dtype=np.int64)  # 0: new, 1: waiting for its left half, 2: right
@@ -409,12 +399,11 @@ def _rss(res: np.ndarray, y: np.ndarray) -> float:
 
 
 class ResonatorSearch(DeflationSearch):
-    """The deflation of step 5 on the resonator's whitening, with the rules of step 7
-    (docs/analysis.md): templates from the sure ticks, fit windows up to the next tick, joint
-    refits, the shortest bounce the series allows, one more tick by description length, and
-    timing against the first tick's template. ``floor`` None: the floor follows the whitened
-    noise and ``e_min^2`` times the last tick's energy, never under :data:`PREDICTION_FLOOR` of
-    ``strongest``. ``known``: the first search's onsets."""
+    """Step 5 on the resonator's whitening with step 7's rules (docs/analysis.md): templates from
+    sure ticks, fit windows to the next tick, joint refits, the soonest bounce the series allows,
+    one more tick by description length, timing against the template. ``floor`` None: the
+    whitened noise and ``e_min^2`` times the last tick's energy, at least
+    :data:`PREDICTION_FLOOR` of ``strongest``; ``known``: the first search's onsets."""
 
     strict_onsets = True
 
@@ -445,9 +434,8 @@ class ResonatorSearch(DeflationSearch):
         return soonest(onsets, strengths, self.min_sep)
 
     def _confirmed(self, on):
-        """Whether the first search found a tick within :data:`AGREEMENT` of ``on``: a burst at the
-        same place on another whitening, whose remainders lie elsewhere, is a tick even sooner
-        than the series allows."""
+        """Whether the first search found a tick within :data:`AGREEMENT` of ``on`` (a tick even
+        sooner than the series allows)."""
         if self.known.size == 0:
             return False
         return bool(np.abs(self.known - on).min() <= AGREEMENT * self.settings.samplerate)
@@ -470,9 +458,8 @@ class ResonatorSearch(DeflationSearch):
         return e2 != e
 
     def _timing(self, start: int, model: np.ndarray, level_crossing: float) -> float:
-        """Onset of the tick whose window starts at ``start``: its model's delay behind the first
-        tick's template (:func:`~synth.analysis.detection.delay`) from the template's onset; else
-        the ``level_crossing``."""
+        """The onset: the model's delay behind the template
+        (:func:`~synth.analysis.detection.delay`) from its onset, else ``level_crossing``."""
         if not np.any(model):
             return level_crossing
         res = self.residual
@@ -482,9 +469,8 @@ class ResonatorSearch(DeflationSearch):
         return self.first.onset + (start - self.s1) + lag
 
     def _uncover(self, s, new, e, snap):
-        """This tick may hide the next, which the series puts between ``(1 - RESTITUTION_STEP)`` and
-        ``BOUNCE_GROWTH`` times the last restitution times this bounce on: windows from the
-        soonest on, each 10 % longer, until one uncovers a tick at its end."""
+        """Windows from the soonest next bounce on, each 10 % longer, until one uncovers the tick
+        this one may hide."""
         if not (len(self.onsets) >= 2 and new.strength >= DOUBTFUL_DB):
             return e, False
         on = new.onset
@@ -511,9 +497,8 @@ class ResonatorSearch(DeflationSearch):
         return later[0] - s if later.size else 0.0
 
     def _finish(self, s, new, e, model, snap):
-        """A sure tick alone over its whole response becomes a template; else the previous tick's
-        model is refitted jointly with this one's over this window, and this one's alone again
-        with the previous one's out."""
+        """A sure tick alone becomes a template; else the previous model is refitted jointly with
+        this one, and this one alone again."""
         res = self.residual
         if (
             len(res.T) < MAX_TEMPLATES
@@ -543,11 +528,9 @@ class ResonatorSearch(DeflationSearch):
         return np.array(self.timed)
 
     def _hypothesis(self):
-        """No candidate clears the rules: one more tick where the series allows the next bounce,
-        against none, by description length over a window holding the last tick's response and
-        the new one's, tried every :data:`HYPOTHESIS_STEP` samples where the residual clears the
-        floor (the place costs ``2 ln M``). Its strength is the fall of the description length
-        per sample, in dB."""
+        """One more tick where the series allows the next bounce, against none, by description
+        length, tried every :data:`HYPOTHESIS_STEP` samples where the residual clears the floor
+        (the place costs ``2 ln M``); strength: the fall per sample, dB."""
         if self.prev is None or len(self.onsets) < 3:
             return None
         onsets, res = self.onsets, self.residual

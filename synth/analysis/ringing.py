@@ -1,12 +1,7 @@
-"""The plate's ringing before a tick, modelled from the recording (docs/analysis.md, step 9): a
-burst the ringing explains is no impact.
-
-Between impacts the recording is free ringing, a sum of decaying modes; its covariance-method
-predictor models them (Prony's method as linear prediction, Kumaresan and Tufts 1982, IEEE Trans.
-ASSP 30, 833). An impact adds a broadband force no past ringing predicts, so the prediction error
-rises at its onset; beating modes do not. The error's mean square over
-:data:`~synth.analysis.detection.STANDS_OUT_SPAN` must rise over that of the held-out
-:data:`~synth.analysis.detection.STANDS_OUT_BEFORE` by the F quantile of step 8."""
+"""Step 9 (docs/analysis.md): a burst the ringing before it explains is no impact. The free
+ringing's covariance-method predictor models its modes (Prony's method, Kumaresan and Tufts 1982,
+IEEE Trans. ASSP 30, 833); an impact's broadband force raises its prediction error, beating modes
+do not."""
 
 from __future__ import annotations
 
@@ -36,14 +31,10 @@ RIDGE = 1e-12
 def ringing_explained(
     x: np.ndarray, free: int, onset: float, s: Settings, innovation: float
 ) -> bool:
-    """Whether the burst at ``onset`` (sample of ``x``) is explained by the ringing free from sample
-    ``free``: the modes fitted to the last :data:`RINGING_FIT` before the held-out stretch,
-    predicted over it and the tick's first :data:`~synth.analysis.detection.STANDS_OUT_SPAN`;
-    explained when the error does not rise by the F quantile of step 8, or peaks more than
-    ``dynamic_range_db`` under ``innovation`` (the recording's largest whitened magnitude). With
-    less free ringing, the fit takes what there is and explains only where it models the ringing
-    (:func:`_predicts`). False where the stretch is too short or silent: nothing unjudged is
-    dropped."""
+    """Whether the burst at ``onset`` is explained by the ringing free from ``free``: the error of
+    modes fitted over :data:`RINGING_FIT` does not rise from the held-out stretch to the tick by
+    step 8's F quantile, or peaks ``dynamic_range_db`` under ``innovation``. A short fit explains
+    only where it models the ringing (:func:`_predicts`); False where too short or silent."""
     from scipy.signal import lfilter
 
     fs = s.samplerate

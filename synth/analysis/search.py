@@ -132,10 +132,9 @@ def whitened_peak(search) -> float:
 def ringing_ticks(
     x: np.ndarray, ticks: list, found: list[FoundTick], settings: Settings, innovation: float
 ) -> list[int]:
-    """Indices of the ``ticks`` of ``x`` after the first whose burst the ringing before them
-    explains (:func:`~synth.analysis.ringing.ringing_explained`): no impact (step 9). The ringing
-    is free from :data:`CLEAN_GUARD` after the previous onset. Ticks of step 7 (``found``) are
-    not tested: its whitening already models the ringing more finely."""
+    """Indices of the ``ticks`` after the first whose burst the ringing explains
+    (:func:`~synth.analysis.ringing.ringing_explained`, step 9), the ringing free from
+    :data:`CLEAN_GUARD` after the previous onset; step 7's ticks (``found``) are not tested."""
     fs = settings.samplerate
     guard = int(round(CLEAN_GUARD * fs))
     return [
@@ -196,10 +195,8 @@ class SearchResult:
 def _search(
     r: np.ndarray, settings: Settings, order: int | None = None, known=(), locate: bool = False
 ) -> SearchResult:
-    """Steps 2-5 on ``r``; with ``order`` (the resonator predictor's), step 7's rules: the
-    background over :data:`BACKGROUND_SPAN` times the order, the first bounce ending at the
-    second tick's burst, no fixed floor unless ``dynamic_range_db`` was given. ``known``: the
-    first search's onsets (samples)."""
+    """Steps 2-5 on ``r``; with ``order``, step 7's rules (background over :data:`BACKGROUND_SPAN`
+    times the order, no fixed floor unless given). ``known``: the first search's onsets."""
     fs, hop = settings.samplerate, settings.hop
     background = (
         settings.background
@@ -249,10 +246,9 @@ def _resonator_stage(
     found: list[FoundTick],
     whitenings: list[Whitening],
 ) -> list[FoundTick]:
-    """Step 7: the resonator's predictor from the first bounce's free ringing, and the search again;
-    kept when it leaves :data:`RESONATOR_GAIN_DB` less ringing and finds the first search's ticks
-    (at least two) within :data:`AGREEMENT`; its onsets then replace the first search's where
-    they share ticks. Its whitening is appended to ``whitenings``."""
+    """Step 7 from the first bounce's free ringing, kept when it leaves :data:`RESONATOR_GAIN_DB`
+    less ringing and finds the first search's ticks within :data:`AGREEMENT`; its whitening is
+    appended to ``whitenings``."""
     fs = settings.samplerate
     lo = int(math.floor(first.onsets[0])) + int(round(CLEAN_GUARD * fs))
     hi = (first.peaks[1] - 1) * settings.hop

@@ -1,7 +1,6 @@
-"""The rules of a bounce series that tell a bounce's tick from what rings on after one: bounce times
-lie between ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, a tick's energy goes as the
-flight time squared, and the restitution changes slowly (the thesis, docs/physics.md, References:
-section 3.1). Onsets in samples, strengths in dB over the threshold cleared."""
+"""The rules of a bounce series (the thesis, docs/physics.md, References, section 3.1): bounces
+within ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, energy as the flight squared.
+Onsets in samples, strengths in dB."""
 
 from __future__ import annotations
 
@@ -65,10 +64,8 @@ def bounce_series(
     horizon: int = SERIES_HORIZON,
     sure: np.ndarray | None = None,
 ) -> list[int]:
-    """Indices in ``onsets`` of the longest bounce series from the first tick (step 3): every bounce
-    within ``e_min`` and ``growth`` times the one before, by dynamic programming over the first
-    ``horizon`` candidates (ties: the earliest second tick). The candidates passed over before
-    its second tick are the first tick's own response; ``sure`` bounds that
+    """Indices in ``onsets`` of the longest bounce series from the first tick (step 3), by dynamic
+    programming over ``horizon`` candidates; ``sure`` bounds its second tick
     (:func:`last_second`)."""
     t = np.asarray(onsets[:horizon], dtype=float)
     n = t.size
@@ -178,10 +175,8 @@ def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) ->
 
 
 def _split_bounce(on, strengths, kept: list, i: int, e_min: float, growth: float) -> bool:
-    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop from ``kept`` the weaker
-    tick of the short bounce whose removal restores the order, or else the last few weaker,
-    unsure ticks when that restores it. Returns whether tick ``i`` is kept (not when nothing was
-    dropped and it is doubtful)."""
+    """Tick ``i`` ends a bounce over ``growth`` times the one before: drop the tick that split a
+    bounce, or the weaker unsure ticks before; returns whether ``i`` is kept."""
     options = [
         j
         for j in (len(kept) - 1, len(kept) - 2)

@@ -33,11 +33,9 @@ class AnalysisError(SynthError, ValueError):
 
 @dataclass(frozen=True)
 class Settings:
-    """The options of an analysis (:class:`AnalysisOptions`) for one recording: rate and channel
-    checked, durations in samples, rate-dependent defaults set. ``fixed_range``: the caller gave
-    ``dynamic_range_db`` (then it holds in step 7 too). ``innovation``: the largest magnitude of
-    the whole recording's whitened signal where drops are searched one by one; None: that of the
-    signal searched."""
+    """The options for one recording: rate and channel checked, durations in samples.
+    ``fixed_range``: ``dynamic_range_db`` given (also in step 7); ``innovation``: the whole
+    recording's largest whitened magnitude when drops are searched apart."""
 
     samplerate: float  # Hz
     gravity: float  # m/s^2

@@ -1,10 +1,7 @@
-"""What a bouncing ball can and cannot do, checked on the ticks found: where one bounce series (one
-drop) ends and the next begins, and which measurements are physically impossible.
-
-Along one series bounce times shrink (``e_n = t_n / t_(n-1) < 1``) and ticks weaken (energy as
-the impact speed squared: the thesis, docs/physics.md, References, section 3.1). A grown bounce
-is missed ticks (one makes it ``e (1 + e)`` times the one before: at most :data:`MISSED_GROWTH`)
-or a new drop: a louder tick after a grown bounce, or a longer silence."""
+"""What a bouncing ball can and cannot do, checked on the ticks found: where one drop's series ends
+and the next begins, and which measurements are impossible. Along a series bounces shrink and
+ticks weaken (the thesis, docs/physics.md, References, section 3.1); a grown bounce is missed
+ticks (at most :data:`MISSED_GROWTH` times) or a new drop."""
 
 from __future__ import annotations
 
@@ -70,10 +67,7 @@ class RiseTest:
 def spectral_rise_db(
     before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
 ) -> float:
-    """Median over frequencies of the power of ``after`` over ``before`` (equal Hann-windowed
-    stretches), dB, over the frequencies within ``dynamic_range_db`` of the largest and
-    :data:`SPECTRAL_NOISE_MARGIN_DB` over the white noise of RMS ``noise_rms``; +inf where there
-    is none or ``before`` is silent."""
+    """Median of :func:`rise_ratios_db`, dB; +inf where no frequency holds sound."""
     ratios = rise_ratios_db(before, after, dynamic_range_db, noise_rms)
     return float(np.median(ratios)) if ratios.size else math.inf
 
@@ -87,10 +81,9 @@ def rise_chance(ratios_db: np.ndarray) -> float:
 
 
 def median_rise_chance(median_db: float, count: int) -> float:
-    """Chance that stationary ringing gives a median rise of ``median_db`` (dB) or more over
-    ``count`` frequencies: each frequency's power ratio is F(2, 2), exceeding ``q`` with
-    probability ``1 / (1 + q)``; over every :data:`INDEPENDENT_BINS`-th frequency the median's
-    tail is binomial. Decay between the stretches only lowers the chance."""
+    """Chance that stationary ringing gives a median rise of ``median_db`` (dB) over ``count``
+    frequencies: each ratio is F(2, 2) (exceeds ``q`` with probability ``1 / (1 + q)``), the
+    median of every :data:`INDEPENDENT_BINS`-th frequency a binomial tail."""
     if median_db == math.inf:
         return 0.0
     p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
@@ -102,8 +95,9 @@ def median_rise_chance(median_db: float, count: int) -> float:
 def rise_ratios_db(
     before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
 ) -> np.ndarray:
-    """Power of ``after`` over ``before`` (equal Hann-windowed stretches) at each frequency that
-    holds sound (:func:`spectral_rise_db`), dB; +inf where ``before`` is silent."""
+    """Power of ``after`` over ``before`` (equal Hann-windowed stretches), dB, at the frequencies
+    within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over white
+    noise of RMS ``noise_rms``; +inf where ``before`` is silent."""
     w = np.hanning(before.size)
     pb = np.abs(np.fft.rfft(before * w)) ** 2
     pa = np.abs(np.fft.rfft(after * w)) ** 2
@@ -126,9 +120,8 @@ SILENT_MIN_LINES = 3
 
 @dataclass(frozen=True)
 class RiseVerdict:
-    """What the spectrum says of a tick: whether it rises as an impact's does (``adds``), whether a
-    rise of :data:`SPECTRAL_RISE_DB` over as many frequencies would have been significant
-    (``decisive``), and over how many frequencies it was weighed."""
+    """Whether the spectrum rises as an impact's (``adds``), whether that could be decided over as
+    many frequencies (``decisive``), and how many."""
 
     adds: bool
     decisive: bool
@@ -137,10 +130,8 @@ class RiseVerdict:
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
     """Whether the spectrum rises at ``tick_time`` (s) by :data:`SPECTRAL_RISE_DB` over ``span`` (s)
-    each side, beyond what stationary ringing gives with chance :data:`RISE_FALSE_ALARM` where
-    enough frequencies tell it; over fewer, the median alone speaks, undecided. Adds sound,
-    undecided, where the span is under :data:`SPECTRAL_RISE_MIN_SPAN`, there is no room before
-    the onset, or no frequency holds sound."""
+    each side beyond chance :data:`RISE_FALSE_ALARM` for stationary ringing (undecided over too
+    few frequencies, too short a span or no room before the onset)."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
@@ -169,9 +160,8 @@ def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
 
 
 def impact_series(found: list[list], test: RiseTest) -> list[list]:
-    """The bounce series of ``found`` that start with an impact: a drop's first tick is its fastest,
-    whose sound must rise (:func:`adds_sound`); a series whose first tick adds none is whitened
-    ringing of a plate at rest and goes whole."""
+    """The series of ``found`` whose first tick adds sound (:func:`adds_sound`): a series that
+    starts with none is whitened ringing of a plate at rest."""
     out = []
     for ticks in found:
         if not ticks:
@@ -183,9 +173,8 @@ def impact_series(found: list[list], test: RiseTest) -> list[list]:
 
 
 def doubtful_ticks(ticks: list[Tick]) -> list[int]:
-    """Indices of the ticks after the first whose bounce times do not show a ball's bounces: a grown
-    bounce or the one after it, a restitution over a missed bounce (:func:`missed_bounces`), or
-    the second tick unless confirmed (:func:`_confirmed_second`)."""
+    """Indices of the ticks after the first whose bounce times show no ball's bounce: grown, after a
+    grown one, over a missed one, or an unconfirmed second tick."""
     missed = missed_bounces(ticks)
     out = []
     for i in range(1, len(ticks)):
@@ -199,10 +188,9 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
 
 
 def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
-    """Whether the bounces after the second tick show it a ball's: ``e_2 < 1`` over no missed bounce
-    and, where a fourth tick follows, ``e_3`` too, within a relative
-    :data:`~synth.analysis.series.RESTITUTION_STEP` of ``e_2``. A burst within a flight parts it
-    into two whose ratios agree only by chance."""
+    """Whether the bounces after the second tick show it a ball's: ``e_2 < 1`` over no missed
+    bounce, and ``e_3`` within :data:`~synth.analysis.series.RESTITUTION_STEP` of it where a
+    fourth tick follows."""
     following = ticks[2:4]
     if not following or missed & {2, 3}:
         return False
@@ -214,11 +202,9 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks (:func:`doubtful_ticks`) no impact made (bursts the whitening
-    leaves in beating modes or a clipped run's interpolation): dropped where the spectrum between
-    its neighbours does not rise (:func:`rise_verdict`) and enough frequencies tell, or, however
-    few, where its sound does not decay either over at least :data:`SILENT_MIN_LINES` lines.
-    Ticks following a ball's series, or too close to weigh, are not tested."""
+    """Indices of the doubtful ticks no impact made (bursts of beating modes, a clipped run's
+    interpolation): the spectrum does not rise (:func:`rise_verdict`) where enough frequencies
+    decide, or, over :data:`SILENT_MIN_LINES` lines, neither does its sound decay."""
     out = []
     for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
@@ -250,10 +236,10 @@ class Series:
 
 
 def new_series_at(ticks: list[Tick]) -> int | None:
-    """Index of the first tick (after the second) that starts a new bounce series, or None: its
-    bounce over :data:`~synth.analysis.series.BOUNCE_GROWTH` times the one before and either
-    louder than the tick before by :data:`~synth.analysis.series.MAX_EXCESS_DB` or the bounce
-    over :data:`MISSED_GROWTH` times the one before (a silence)."""
+    """Index of the first tick (after the second) that starts a new series, or None: its bounce over
+    :data:`~synth.analysis.series.BOUNCE_GROWTH` times the one before and either
+    :data:`~synth.analysis.series.MAX_EXCESS_DB` louder or after a silence
+    (:data:`MISSED_GROWTH`)."""
     times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
         ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
@@ -271,17 +257,14 @@ def as_series_start(tick: Tick) -> Tick:
 
 
 def flag_series(ticks: list[Tick]) -> list[Tick]:
-    """The ticks of one series with impossible restitutions flagged and withheld
-    (:func:`without_flagged_restitutions`): :data:`GROWN_BOUNCE` (``e_n >= 1``),
-    :data:`AFTER_GROWN` (measured against a grown bounce), :data:`MISSED_BOUNCE`
-    (:func:`missed_bounces`) and :data:`NO_DECAY` (no decay time of its own sound)."""
+    """The ticks of one series with :data:`GROWN_BOUNCE`, :data:`AFTER_GROWN`, :data:`MISSED_BOUNCE`
+    and :data:`NO_DECAY` flagged, restitutions withheld (:func:`without_flagged_restitutions`)."""
     return without_flagged_restitutions(_flagged(ticks))
 
 
 def without_flagged_restitutions(ticks: list[Tick]) -> list[Tick]:
-    """``ticks`` with no restitution where a flag of :data:`RESTITUTION_FLAGS` says it is no ratio
-    of two successive flights; the tick stays and the flag gives the reason. Where its own bounce
-    grew (:data:`GROWN_BOUNCE`) the impact speed ``g t_n / 2`` is withheld too."""
+    """``ticks`` with the restitution withheld where a flag of :data:`RESTITUTION_FLAGS` says it is
+    no ratio of two flights, and the speed too where the bounce grew."""
     return [
         replace(t, restitution=None, speed=None if GROWN_BOUNCE in t.flags else t.speed)
         if set(t.flags) & set(RESTITUTION_FLAGS)
@@ -315,16 +298,11 @@ def _with_missed_bounces(ticks: list[Tick]) -> list[Tick]:
 
 
 def missed_bounces(ticks: list[Tick]) -> set[int]:
-    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce, shown
-    two ways:
-
-    * restitution changes by at most :data:`~synth.analysis.series.RESTITUTION_STEP` per bounce: a
-      tick differing by more from both neighbours' is flagged;
-    * energy goes as ``e_n^2`` per bounce (the thesis, section 3.1): over a missed tick it comes out
-      at least :data:`MISSED_ENERGY_DB` under what the restitution allows.
-
-    A series missing every other tick from its start is not told from a ball of restitution
-    ``e^2``."""
+    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce: it
+    departs by more than :data:`~synth.analysis.series.RESTITUTION_STEP` from both neighbours',
+    or its energy lies :data:`MISSED_ENERGY_DB` under ``e_n^2`` times the tick before's (energy
+    goes as the impact speed squared: the thesis, section 3.1). A series missing every other tick
+    is not told from a ball of restitution ``e^2``."""
     rest = {i: t.restitution for i, t in enumerate(ticks) if _restitution_below_one(t)}
     out = set()
     for i, e in rest.items():
@@ -347,10 +325,9 @@ def valid_restitution(tick: Tick) -> bool:
 
 
 def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
-    """Raise AnalysisError when nothing found is followed by a decaying response (a square wave's
-    edges whiten to bursts, but nothing rings down). Where no tick has a decay time of its own (a
-    lightly damped plate), ``ringing`` (sample rate ``fs``, Hz) is fitted instead, over an
-    envelope smoothed by :data:`RINGING_SMOOTHING`."""
+    """Raise AnalysisError when no tick is followed by a decaying response (a square wave's edges
+    whiten to bursts but nothing rings down); without a tick's own decay time, ``ringing``
+    (sample rate ``fs``, Hz) is fitted over an envelope smoothed by :data:`RINGING_SMOOTHING`."""
     if not ticks or not all(NO_DECAY in t.flags for t in ticks):
         return
     if decay_time(ringing, fs, max(3, int(round(RINGING_SMOOTHING * fs))), 0.0) is not None:
@@ -377,10 +354,9 @@ def _after_rest(ticks: list[Tick]) -> bool:
 
 
 def without_spurious_end(ticks: list[Tick], duration: float, window: float) -> list[Tick]:
-    """``ticks`` (one search, in time order) without the trailing bursts after the last impact whose
-    sound shows no decay (the whitening's bursts in the ringing, a cut or fade): dropped where
-    some tick decays and the burst came after a rest, or where its window (``window``, s) runs
-    past the end (``duration``, s) and its bounce did not shrink."""
+    """``ticks`` without the trailing undecaying bursts after the last impact: after a rest where
+    some tick decays, or where the ``window`` (s) runs past ``duration`` (s) and the bounce did
+    not shrink."""
     out = list(ticks)
     decays = any(t.decay_time is not None for t in out)
     while (

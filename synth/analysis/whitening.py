@@ -1,7 +1,6 @@
-"""Step 1 of the tick detection (docs/analysis.md, Method): the whitening of the recording by a
-linear predictor, and the resonator's own predictor of step 7. The prediction error ``r = A(z)
-x`` (Makhoul 1975, Proc. IEEE 63, 561), as an onset detector's whitening (Stowell and Plumbley
-2007, ICMC), cancels a tick's predictable ringing and leaves one short burst per contact."""
+"""Step 1 of the tick detection (docs/analysis.md, Method): whitening by a linear predictor (Makhoul
+1975, Proc. IEEE 63, 561; as in Stowell and Plumbley 2007, ICMC), leaving one short burst per
+contact, and step 7's resonator predictor."""
 
 from __future__ import annotations
 
@@ -30,12 +29,9 @@ ERROR_BATCH = 16
 def whitening_predictor(
     x: np.ndarray, order: int, samplerate: float, parts: dict | None = None
 ) -> np.ndarray:
-    """Step 1's prediction-error filter ``[1, a1, ..., ap]`` of ``x`` (sample rate ``samplerate``,
-    Hz) by the autocorrelation method (:func:`synth.dsp.autocorrelation`), loaded so that no band
-    is lifted beyond the recording's noise floor (:func:`noise_floor_loading`,
-    :func:`lead_in_noise`): an empty band (above a lowpass) would otherwise be lifted up to 90 dB
-    and whiten a cut into a burst. ``parts``: shared autocorrelation terms
-    (:func:`synth.dsp.autocorrelation`)."""
+    """Step 1's prediction-error filter of ``x`` (rate ``samplerate``, Hz) by the autocorrelation
+    method, loaded so no band is lifted past the noise floor (:func:`noise_floor_loading`,
+    :func:`lead_in_noise`). ``parts``: shared autocorrelation terms."""
     r = dsp.white_noise_corrected(dsp.autocorrelation(x, order, parts))
     return dsp.levinson_predictor(r + noise_floor_loading(r, lead_in_noise(x, samplerate), x.size))
 
@@ -53,10 +49,8 @@ def lead_in_noise(x: np.ndarray, samplerate: float) -> float:
 
 
 def noise_floor_loading(r: np.ndarray, noise: float, n: int) -> np.ndarray:
-    """What to add to the autocorrelation ``r`` (lags ``0..p``, summed over ``n`` samples) so that
-    its power spectral density is nowhere under ``noise^2`` (``noise``: RMS, signal units): white
-    noise filtered to the bands under it. The spectrum is the Blackman-Tukey estimate under a
-    Parzen lag window (non-negative, leakage falling as the fourth power)."""
+    """What to add to the autocorrelation ``r`` (lags ``0..p``, ``n`` samples) so that its spectrum
+    (Blackman-Tukey, Parzen window) is nowhere under ``noise^2`` (RMS, signal units)."""
     from scipy.fft import irfft, next_fast_len, rfft
 
     p = r.size - 1
@@ -115,15 +109,10 @@ class _OrderCriterion:
 
 
 def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
-    """Prediction-error filter of the free ringing ``seg`` (sample rate ``fs``, Hz) by the
-    covariance method (no window to bias slowly decaying poles), of the stable order of least
-    description length (Rissanen 1983, Ann. Stat. 11, 416); None when too short or no order is
-    stable (step 7).
-
-    Orders start at ``start`` and double while the best is in the top quarter, up to a third of
-    the stretch and :data:`MAX_ORDER`, all from one Cholesky factorisation
-    (:func:`_loaded_cholesky`). The chosen order is solved again with the least error energy as a
-    ridge, so no band the ringing leaves empty is lifted far over the noise."""
+    """Prediction-error filter of the free ringing ``seg`` (rate ``fs``, Hz) by the covariance
+    method, of the stable order of least description length (Rissanen 1983, Ann. Stat. 11, 416),
+    orders from ``start`` doubled up to :data:`MAX_ORDER`, all from one Cholesky factor; solved
+    again with the least error energy as ridge. None when too short or unstable."""
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
         return None
@@ -158,10 +147,8 @@ _BLAS_DEPTH = [0]
 
 @contextlib.contextmanager
 def one_blas_thread():
-    """A context in which BLAS and LAPACK run on one thread, for the analysis' thousands of small
-    products and solutions: helper threads waiting for busy cores made them several times as
-    costly on two shared cores. Only the outermost nested context sets the limit, through one
-    cached controller (:func:`_blas_controller`)."""
+    """A context running BLAS on one thread (helper threads on busy shared cores made the small
+    solutions several times as costly); the outermost one sets it."""
     _BLAS_DEPTH[0] += 1
     try:
         if _BLAS_DEPTH[0] > 1:
@@ -183,10 +170,8 @@ def _blas_controller():
 
 
 def _loaded_cholesky(G: np.ndarray, seg: np.ndarray, load: float) -> np.ndarray | None:
-    """Lower Cholesky factor of ``G`` (:func:`resonator_predictor`'s normal matrix) with ``load`` on
-    its diagonal, raised a hundredfold up to three times while not positive definite; None if it
-    stays so. From the displacement structure (:func:`_schur_cholesky`, O(p^2)), or LAPACK
-    (O(p^3)) where that breaks down."""
+    """Cholesky factor of ``G`` plus ``load`` (raised up to three times), by :func:`_schur_cholesky`
+    (O(p^2)) or LAPACK; None if not positive definite."""
     from scipy.linalg import LinAlgError, cholesky
 
     n = G.shape[0]
@@ -223,11 +208,9 @@ def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray |
 
 @compiled()
 def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
-    """Generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297) for the symmetric
-    ``R`` of first row ``row`` (plus ``load`` on the diagonal) and displacement ``R[k+1, l+1] -
-    R[k, l] = a_k a_l - b_k b_l``, with the mixed hyperbolic rotation of Bojanczyk, Brent, de
-    Hoog and Sweet 1995 (SIAM J. Matrix Anal. Appl. 16, 40). Writes the factor's transpose into
-    ``U`` (zeros on entry); False where a rotation breaks down."""
+    """Generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297) with mixed hyperbolic
+    rotations (Bojanczyk et al. 1995, SIAM J. Matrix Anal. Appl. 16, 40): the Cholesky factor's
+    transpose into ``U``; False where a rotation breaks down."""
     p = row.size
     d = row[0] + load
     if not d > 0.0:
