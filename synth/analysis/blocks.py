@@ -30,8 +30,7 @@ READ_FRAMES = 1 << 20
 
 
 class Source(abc.ABC):
-    """A recording, read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz) and
-    :meth:`read` (:class:`ArraySource`, :class:`FileSource`)."""
+    """A recording read in pieces: ``frames``, ``channels``, ``samplerate`` (Hz), :meth:`read`."""
 
     frames: int
     channels: int
@@ -42,8 +41,7 @@ class Source(abc.ABC):
         """Frames ``start .. stop - 1``, float64, shape ``(n, channels)``."""
 
     def pieces(self):
-        """The whole recording in consecutive pieces of at most :data:`READ_FRAMES` frames:
-        ``(start, samples)``."""
+        """The recording as ``(start, samples)`` of at most :data:`READ_FRAMES` frames."""
         for start in range(0, self.frames, READ_FRAMES):
             yield start, self.read(start, min(self.frames, start + READ_FRAMES))
 
@@ -68,8 +66,7 @@ class ArraySource(Source):
 
 
 class FileSource(Source):
-    """A sound file read in blocks through soundfile, never whole; non-finite samples raise
-    ``ParameterError``."""
+    """A sound file read in blocks, never whole; non-finite samples raise."""
 
     def __init__(self, path):
         import soundfile
@@ -111,9 +108,8 @@ def file_frames(path) -> int | None:
 
 @dataclass(frozen=True)
 class Survey:
-    """One pass over a recording: the analysed channels' extremes and their flat-top samples,
-    whether the analysed channels and the mix are non-zero, and the mix's noise floor (signal
-    units)."""
+    """One pass's findings: the analysed channels' extremes and flat tops, whether channels and mix
+    are non-zero, and the mix's noise floor (signal units)."""
 
     highs: np.ndarray
     lows: np.ndarray
@@ -125,8 +121,7 @@ class Survey:
 
 
 def survey(source: Source, channel: int | None) -> Survey:
-    """One pass over ``source`` in pieces: extremes, silence and noise floor
-    (:func:`synth.dsp.noise_floor` over whole :data:`synth.dsp.NOISE_FRAME` frames)."""
+    """One pass over ``source`` in pieces: extremes, silence and noise floor."""
     cols = slice(None) if channel is None else slice(channel, channel + 1)
     n_ch = source.channels if channel is None else 1
     highs, lows = np.full(n_ch, -np.inf), np.full(n_ch, np.inf)

@@ -19,8 +19,7 @@ FLAT_TOP = 2
 
 @dataclass(frozen=True)
 class Clipping:
-    """The clipped samples of each channel (``mask``, shaped as the audio) and the warning
-    that goes with them."""
+    """Each channel's clipped samples (``mask``, shaped as the audio) and the warning."""
 
     mask: np.ndarray
     warning: str
@@ -51,8 +50,7 @@ def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
 
 
 def clipping_warning(total: int, channel: int, count: int, peak: float) -> str:
-    """The warning for ``total`` clipped samples, ``count`` in the worst ``channel``, whose largest
-    magnitude is ``peak`` (signal units)."""
+    """The warning for ``total`` clipped samples, ``count`` in ``channel`` (peak ``peak``)."""
     return (
         f"clipping: {total} samples sit at a channel's extreme ({count} in channel {channel}, "
         f"magnitude {peak:.6g}); they were interpolated from the signal's linear predictor "
@@ -108,8 +106,7 @@ def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndar
 
 
 def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve ``G v = b``, ``G_ij = ra(|free_i - free_j|)`` (banded, zero beyond lag ``p``), the
-    diagonal raised by 1e-9."""
+    """Solve ``G v = b``, ``G_ij = ra(|free_i - free_j|)`` (banded), ridge 1e-9."""
     from scipy.linalg import solveh_banded
 
     p = ra.size - 1

@@ -63,8 +63,7 @@ class Candidate:
 
 @dataclass(frozen=True)
 class NewTick:
-    """A tick accepted by the search: onset (samples), strength (dB) and whitened energy of
-    its burst (per frame)."""
+    """A tick accepted: onset (samples), strength (dB), whitened burst energy (per frame)."""
 
     onset: float
     strength: float
@@ -73,8 +72,7 @@ class NewTick:
 
 @dataclass(frozen=True)
 class Snapshot:
-    """The residual (and, in step 7, the expected remainders) from ``start`` on, saved before
-    a tick's model is taken out."""
+    """The residual (and step 7's expected remainders) from ``start``, saved."""
 
     start: int
     q: np.ndarray
@@ -83,8 +81,8 @@ class Snapshot:
 
 @dataclass(frozen=True)
 class FirstTick:
-    """The first tick as step 3 found it: onset (samples), strength (dB), whitened energy of its
-    burst, and the end of its whitened response that serves as the template (samples)."""
+    """Step 3's first tick: onset (samples), strength (dB), whitened burst energy, and the end of
+    its response, the template (samples)."""
 
     onset: float
     strength: float
@@ -301,8 +299,7 @@ class Residual:
             chunk *= 2
 
     def _clears_by(self, lo: int, first: int, within: int) -> bool:
-        """Whether a frame from ``first`` on (frame 0 at sample ``lo``) clears the rules and starts
-        by sample ``within``."""
+        """Whether a frame from ``first`` (0 at ``lo``) clears the rules by ``within``."""
         last = (within - lo) // self.hop
         if last < first:
             return False
@@ -314,8 +311,7 @@ class Residual:
     def _hits(
         self, d: np.ndarray, sub: np.ndarray, first: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The frames of ``d`` from ``first`` on that clear the rules against ``sub``, their
-        thresholds and backgrounds (:func:`_rules`)."""
+        """The frames of ``d`` clearing the rules, their thresholds and backgrounds."""
         scalars = (self.noise, self.thr, self.fade, self.rise, self.floor, self.kappa)
         rules = Rules(self.bg, *map(float, scalars), self.span)
         d, sub = (np.ascontiguousarray(a, dtype=np.float64) for a in (d, sub))
@@ -345,7 +341,7 @@ class Residual:
 
     def remove(self, s: int, end: int, alone: int | None = None) -> np.ndarray:
         """Fit ``q[s:end] ~ h * T`` (lags ``-pre .. post``; one tap in a short window), take it out
-        of ``q`` and return it. ``alone``: step 7 only."""
+        of ``q`` from ``s`` on and return it. ``alone``: step 7 only."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -432,8 +428,7 @@ class DeflationSearch:
         return separation(onsets, strengths, self.min_sep, self.settings.e_min)
 
     def _confirmed(self, on: float) -> bool:
-        """Whether a tick at ``on`` is confirmed by an earlier search, so that no bounce too
-        soon for the series refuses it (step 7 only)."""
+        """Whether an earlier search confirms a tick at ``on`` (step 7 only)."""
         return False
 
     def _lower_floor(self, energy: float) -> None:
@@ -454,8 +449,7 @@ class DeflationSearch:
         return c.start
 
     def _refit(self, e2: int, e: int) -> bool:
-        """Whether the fit is redone over ``e2`` instead of ``e``: the next tick was this one's own
-        remainder."""
+        """Whether to refit over ``e2``: the next tick was this one's remainder."""
         return e2 > e
 
     def _uncover(self, s: int, new: NewTick, e: int, snap: Snapshot) -> tuple[int, bool]:
@@ -478,8 +472,8 @@ class DeflationSearch:
     # -- the search
 
     def run(self, locate: bool = False) -> SearchOutcome:
-        """Find the ticks after the first, in time order; with ``locate``, stop :data:`LOCATE_TICKS`
-        ticks after a silence that starts a new series."""
+        """The ticks after the first; with ``locate``, stop :data:`LOCATE_TICKS` ticks into a new
+        series."""
         self._lower_floor(self.energies[-1])
         silence = None  # index of the first tick after such a silence
         stopped = False

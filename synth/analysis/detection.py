@@ -96,8 +96,7 @@ def _pairwise_squares(z, start, n):  # pragma: no cover - compiled
 
 @dataclass(frozen=True)
 class Detection:
-    """Candidate frames of steps 2-3, the detection function ``d``, and each frame's ``threshold``
-    and ``background`` (energies per frame)."""
+    """Steps 2-3's candidate frames, ``d``, and each frame's threshold and background."""
 
     peaks: np.ndarray
     d: np.ndarray
@@ -138,8 +137,7 @@ def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -
 
 
 def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:
-    """Memory of frames ``j <= k - 2`` fading by ``release`` dB per ms: ``max_j d_j 10^(-a (k -
-    j))``, in log10 units."""
+    """``max_(j <= k-2) d_j 10^(-a (k - j))``: memory fading by ``release`` dB/ms."""
     a = settings.release * 1000.0 * hop / settings.samplerate / 10.0
     aj = np.arange(d.size) * a
     with np.errstate(divide="ignore"):
@@ -150,8 +148,7 @@ def _fading_memory(d: np.ndarray, hop: int, settings: Settings) -> np.ndarray:
 
 
 def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.ndarray:
-    """Local maxima of ``d`` at or over ``threshold``: the first of a cluster within
-    ``min_separation``, none ``max_drop_db`` under the previous."""
+    """Local maxima of ``d`` over ``threshold``, one per ``min_separation``, no big drop."""
     from scipy.signal import find_peaks
 
     q = np.where(d >= threshold, d, 0.0)
@@ -226,8 +223,7 @@ def _refined(
 
 
 def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
-    """The earliest sample at or above ``level`` reached from ``k`` through gaps of at most ``gap``
-    samples."""
+    """Earliest sample at or above ``level`` from ``k`` through gaps of at most ``gap``."""
     i = k
     while True:
         j0 = max(0, i - gap)
@@ -295,8 +291,7 @@ def _fine_correlation(C: np.ndarray, n: int, k0: int, k1: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _chirps(n: int, k0: int, m: int, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The chirps of :func:`_fine_correlation`, phases from exact integers modulo ``2 n``; cached
-    (shared by every tick timed against one template)."""
+    """The chirps of :func:`_fine_correlation` (exact integer phases), cached per template."""
     from scipy import fft
 
     size = fft.next_fast_len(m + count - 1)
@@ -324,8 +319,8 @@ class FirstTicks:
 
 
 def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTicks:
-    """Steps 2-4 on the whitened signal ``r`` (``background``: the running median's length, s).
-    Raises AnalysisError when no candidate is kept."""
+    """Steps 2-4 on ``r`` (``background``: the running median's length, s); raises AnalysisError
+    when no candidate is kept."""
     found = detect(r, settings, background)
     onsets = _candidate_onsets(r, found, settings)
     kept = _separate(onsets, settings.min_separation)
@@ -348,8 +343,7 @@ def first_ticks(r: np.ndarray, settings: Settings, background: float) -> FirstTi
 
 
 def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np.ndarray:
-    """Each candidate's onset (step 4) at a level of at least :data:`ONSET_NOISE_SIGMAS` background
-    deviations, over its frame and a hop either side."""
+    """Each candidate's onset (step 4), level at least :data:`ONSET_NOISE_SIGMAS`."""
     hop, w = settings.hop, settings.frame
     sigma = ONSET_NOISE_SIGMAS * np.sqrt(found.background[found.peaks] / w)
     return np.array(
@@ -366,8 +360,7 @@ def _candidate_onsets(r: np.ndarray, found: Detection, settings: Settings) -> np
 
 
 def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
-    """Indices of the onsets kept: not within ``min_sep`` of the previous kept (its own burst), nor
-    at the first sample (the recording's cut)."""
+    """Indices of onsets kept: not within ``min_sep`` of the last kept nor at sample 0."""
     kept = []
     for i in range(onsets.size):
         if onsets[i] == 0.0:
@@ -379,8 +372,7 @@ def _separate(onsets: np.ndarray, min_sep: int) -> list[int]:
 
 @dataclass(frozen=True)
 class StandingOut:
-    """Ticks of step 8: onsets (samples) and strengths (dB: the smaller margin of the test on the
-    recording and on the prediction error)."""
+    """Step 8's ticks: onsets (samples), strengths (dB, the smaller of its two tests)."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -436,8 +428,7 @@ def standing_out(
 
 
 def _dropped(r: np.ndarray, on: float, earlier: np.ndarray, span: int, settings: Settings) -> bool:
-    """Whether the whitened energy over ``span`` from ``on`` is ``max_drop_db`` under the latest
-    earlier tick's: ringing's remainder, not a bounce."""
+    """Whether the energy from ``on`` is ``max_drop_db`` under the last earlier tick's."""
     if earlier.size == 0:
         return False
     prev = int(earlier.max())
@@ -457,8 +448,7 @@ def noise_rise(m: int, n: int) -> float:
 
 @dataclass(frozen=True)
 class LocalOnset:
-    """A candidate's onset (sample of the recording) and the prediction error it was found in, from
-    sample ``start`` of the recording."""
+    """An onset (sample), the prediction error it was found in, and its start sample."""
 
     onset: float
     error: np.ndarray
@@ -521,8 +511,8 @@ def _cusum_start(z: np.ndarray, variance: float) -> int:
 
 
 def _change_point(z: np.ndarray) -> int:
-    """Maximum-likelihood split of ``z`` into two zero-mean Gaussian stretches of different
-    variances (Hinkley 1971, Biometrika 58, 509)."""
+    """Maximum-likelihood split of ``z`` into two zero-mean Gaussian stretches (Hinkley 1971,
+    Biometrika 58, 509)."""
     n = z.size
     c = np.cumsum(z * z)
     tau = np.arange(2, n - 1)
@@ -542,8 +532,7 @@ def rise_at(z: np.ndarray, k: int, span: int, before: int) -> float:
 
 
 def _rise(z: np.ndarray, hop: int, span: int, blocks: int) -> np.ndarray:
-    """Mean square of ``z`` over ``span`` after each ``k hop`` over that of ``blocks hop`` before (0
-    before ``blocks``; infinite after silence)."""
+    """Mean square over ``span`` after each ``k hop`` over the ``blocks hop`` before."""
     e_hop = frame_energies(z, hop, hop)
     after = frame_energies(z, hop, span)
     n = min(after.size, e_hop.size + 1)

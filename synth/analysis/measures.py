@@ -23,8 +23,7 @@ DECAY_MIN_FALL = 0.1
 
 @dataclass(frozen=True)
 class Whitening:
-    """One whitening: the prediction-error filter ``A`` (``A[0] = 1``), ``r = A * x`` and the
-    residual ``q`` after a deflating search (None without one)."""
+    """One whitening: filter ``A``, ``r = A * x`` and the residual ``q`` (or None)."""
 
     predictor: np.ndarray
     whitened: np.ndarray
@@ -33,8 +32,8 @@ class Whitening:
 
 @dataclass(frozen=True)
 class FoundTick:
-    """A tick kept: onset (samples), strength (dB), whitened model (None without deflation), index
-    of its :class:`Whitening`, and its level-crossing onset (samples: where its window starts)."""
+    """A tick kept: onset (samples), strength (dB), whitened model (or None), its whitening's index,
+    and its level-crossing onset (samples, where its window starts)."""
 
     onset: float
     strength: float
@@ -46,8 +45,7 @@ class FoundTick:
 def with_standing_out(
     x: np.ndarray, found: list[FoundTick], whitening: Whitening, settings: Settings
 ) -> list[FoundTick]:
-    """``found`` with the ticks of ``x`` that clearly stand out but were not found (step 8), in time
-    order, measured from ``whitening``'s whitened signal."""
+    """``found`` with step 8's ticks of ``x`` added, in time order."""
     extra = standing_out(x, whitening.whitened, np.array([f.onset for f in found]), settings)
     if extra.onsets.size == 0:
         return found
@@ -116,8 +114,7 @@ class TickMeter:
 
 
 def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) -> np.ndarray:
-    """The tick's own sound over ``[s, e)``: its model plus what no tick explains up to ``stop``
-    (the whitened signal, without a model), through ``1/A``."""
+    """The tick's model plus what no tick explains up to ``stop``, through ``1/A``."""
     from scipy.signal import lfilter
 
     exc = np.zeros(e - s)
@@ -154,8 +151,7 @@ def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
 
 
 def spectral_moments(y: np.ndarray, fs: float) -> tuple[float, float]:
-    """Power-weighted mean and standard deviation of frequency, Hz, of ``y`` (sample rate ``fs``,
-    Hz) under the falling half of a Hann window."""
+    """Power-weighted mean and spread of frequency of ``y`` (rate ``fs``), Hz."""
     n = y.size
     taper = np.cos(0.5 * np.pi * np.arange(n) / n) ** 2
     nfft = 1 << max(12, int(math.ceil(math.log2(2 * n))))

@@ -248,8 +248,7 @@ def parameters_doc(indent: str = "    ") -> str:
 
 
 def flag(name: str) -> str:
-    """The command line's flag of the analysis option ``name`` (``--no-NAME`` for a switch
-    that is on by default)."""
+    """The command line's flag of option ``name`` (``--no-NAME`` for a switch on by default)."""
     d = declaration(name)
     dashed = name.replace("_", "-")
     if d.parse is bool:
@@ -258,8 +257,7 @@ def flag(name: str) -> str:
 
 
 def flag_help(name: str) -> str:
-    """The help of the flag of the analysis option ``name``: its doc, unit, values allowed
-    and default."""
+    """The help of option ``name``'s flag: doc, unit, values allowed and default."""
     value = checks.default(AnalysisOptions, name)
     if declaration(name).parse is bool:
         return f"{name}={not value} (default {value}: {declaration(name).doc})"
@@ -275,8 +273,7 @@ def flag_rows() -> str:
 
 
 def from_text(given: dict) -> AnalysisOptions:
-    """The options from the command line's text of some of them (a switch's value already
-    True or False): each text parsed as its declaration says, then checked."""
+    """The options from their command-line text, parsed as declared, then checked."""
     values = {}
     for name, text in given.items():
         parse = declaration(name).parse

@@ -96,8 +96,7 @@ def analyze(audio, samplerate, *, options=None, **overrides) -> Analysis:
 
 
 def _analyze_source(source: Source, settings: Settings) -> Analysis:
-    """The analysis of ``source``: whole up to :data:`~synth.analysis.blocks.WHOLE`, else block by
-    block."""
+    """``source`` analysed whole up to :data:`~synth.analysis.blocks.WHOLE`."""
     if source.frames <= whole_frames(settings.samplerate):
         return _analyze_whole(source.read(0, source.frames), settings)
     return _analyze_blocks(source, settings)
@@ -119,8 +118,7 @@ def _analyze_whole(chans: np.ndarray, settings: Settings) -> Analysis:
 
 
 def _result(series: list, frames: int, noise: float, clipping: str | None, settings) -> Analysis:
-    """The :class:`Analysis` of the bounce ``series`` in ``frames`` frames (``noise``: their noise
-    floor; ``clipping``: its warning or None)."""
+    """The :class:`Analysis` of ``series`` in ``frames`` frames, noise and clipping."""
     return Analysis(
         ticks=[t for s in series for t in s.ticks],
         samplerate=settings.samplerate,
@@ -135,8 +133,7 @@ def _result(series: list, frames: int, noise: float, clipping: str | None, setti
 
 
 def _analyze_blocks(source: Source, settings: Settings) -> Analysis:
-    """A recording longer than a block, block by block: one pass for its extremes, silence and noise
-    floor, then the series of each block (:func:`_block_drops`)."""
+    """A long recording: one survey pass, then :func:`_block_drops`."""
     sv = survey(source, settings.channel)
     _refuse_silence(sv.any_sample, sv.any_mix)
     levels = _clip_levels(sv, settings.clip_samples)
@@ -197,8 +194,7 @@ def _first_sample(ticks: list, settings: Settings) -> int:
 
 
 def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
-    """The clipped extremes ``(channel, level)`` of the analysed channels: held in flat tops of
-    ``min_count`` samples or more."""
+    """The clipped extremes ``(channel, level)``: ``min_count`` flat-top samples."""
     out = []
     for c in range(sv.highs.size):
         for level, tops in ((sv.highs[c], sv.high_tops[c]), (sv.lows[c], sv.low_tops[c])):
@@ -285,8 +281,7 @@ def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, 
 
 @dataclass(frozen=True)
 class Located:
-    """The ticks of steps 1-6 over a block (:class:`LazyTick`), and whether the search stopped a few
-    ticks past a new series' start."""
+    """Steps 1-6's ticks over a block, and whether the search stopped early."""
 
     ticks: list
     stopped: bool
@@ -295,8 +290,7 @@ class Located:
 def _located(
     x: np.ndarray, settings: Settings, clipped: bool, locate: bool, parts=None
 ) -> Located | None:
-    """Steps 1-6 over block ``x`` (with ``locate``, stopped past a new series' start), or None where
-    it has no tick. ``parts``: as for :func:`first_search`."""
+    """Steps 1-6 over block ``x`` (a :class:`Located`), or None without a tick."""
     try:
         first = first_search(x, settings, locate, parts)
         meter = tick_meter(x, first, settings, clipped, resonator=False)
@@ -312,8 +306,7 @@ def _located(
 def _searched(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
 ) -> list:
-    """The ticks of ``x`` (:func:`_ticks`), none where it has none. ``parts``: as for
-    :func:`first_search`."""
+    """The ticks of ``x`` (:func:`_ticks`), none where it has none."""
     try:
         return _ticks(x, settings, clipped, resonator, parts)[0]
     except (AnalysisError, ParameterError):
@@ -340,8 +333,8 @@ def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
 
 
 def _numbered(found: list[list]) -> list[Series]:
-    """The series of ``found``: ticks numbered over the recording, a later series' first tick
-    without a bounce time and its second without a restitution, impossible values flagged."""
+    """The series of ``found``, ticks numbered over the recording, bounces across drops left out,
+    impossible values flagged."""
     out: list[Series] = []
     index = 0
     for k, ticks in enumerate(t for t in found if t):
@@ -406,8 +399,7 @@ def analyze_file(path, *, options=None, **overrides) -> Analysis:
 
 
 def _generated_signature(function, *leading: str) -> None:
-    """Give ``function`` (``leading`` positional parameters, then ``options`` and the options as
-    keywords) its signature and its docstring's list of options."""
+    """Give ``function`` the options as keyword parameters and docs."""
     if function.__doc__:  # None under python -OO
         function.__doc__ = function.__doc__.replace("    OPTIONS_DOC", parameters_doc())
     function.__signature__ = inspect.Signature(
@@ -425,8 +417,7 @@ _generated_signature(analyze_file, "path")
 
 
 def _checked_signal(used: np.ndarray, settings: Settings) -> Clipping | None:
-    """Check that the analysed channels are long enough and not silent, and find their clipping
-    (raised with ``on_clipping="raise"``)."""
+    """Check the analysed channels (long enough, not silent); find clipping."""
     order = settings.whitening_order
     if used.shape[0] <= 2 * order:
         raise ParameterError(
@@ -451,8 +442,7 @@ def _refuse_silence(any_sample: bool, any_mix: bool) -> None:
 
 
 def _refuse_clipped_throughout(tops: int, size: int) -> None:
-    """Raise ``AnalysisError`` where more than :data:`CLIPPED_AT_MOST` of the ``size`` samples sit
-    in flat tops (``tops`` of them)."""
+    """Raise AnalysisError past :data:`CLIPPED_AT_MOST` in flat tops."""
     if tops > CLIPPED_AT_MOST * size:
         raise AnalysisError(
             f"{tops} of {size} samples sit in flat tops at the extremes: not a recording of "

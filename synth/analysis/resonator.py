@@ -177,8 +177,7 @@ class ResonatorResidual(Residual):
 
     @staticmethod
     def _fit(Ts, y, pre, post, offsets=(0,)):
-        """Least-squares filters (lags ``-pre .. post``) of the templates ``Ts`` started at
-        ``offsets`` fitting ``y``: the taps and the residual."""
+        """Least-squares filters of ``Ts`` at ``offsets`` fitting ``y``: taps, residual."""
         return _NormalEquations(Ts, y, pre, post, offsets).solve(len(Ts), pre, post)
 
     def take(self, s: int, n: int) -> np.ndarray:
@@ -366,8 +365,7 @@ def _design_rows(templates, lengths, offsets, pre, post, lo, hi):  # pragma: no 
 def _columns(
     n_offsets: int, n_templates: int, pre_all: int, post_all: int, n_t: int, pre: int, post: int
 ) -> np.ndarray | None:
-    """Columns of the fit on the first ``n_t`` templates, lags ``-pre .. post``, in the full design
-    matrix; None when that is every column."""
+    """Columns of the fit on ``n_t`` templates, lags ``-pre .. post``; None for all."""
     ntap_all = pre_all + post_all + 1
     lags = np.arange(post_all - post, post_all + pre + 1)
     idx = np.concatenate(
@@ -380,8 +378,7 @@ def _columns(
 
 
 def _row_chunks(spans, rows: int) -> list[tuple[int, int]]:
-    """The union of the half-open ``spans`` within ``0 .. rows`` as disjoint ordered intervals of at
-    most :data:`FIT_ROWS` rows."""
+    """The union of ``spans`` in ``0 .. rows`` as ordered chunks of :data:`FIT_ROWS`."""
     merged: list[list[int]] = []
     for lo, hi in sorted((max(0, lo), min(rows, hi)) for lo, hi in spans):
         if lo >= hi:
@@ -447,8 +444,7 @@ class ResonatorSearch(DeflationSearch):
             self.residual.floor = max(self.floor, e_min * e_min * energy)
 
     def _onset_walk_start(self, c):
-        """At most a frame before the first frame that cleared the threshold: further back lie
-        earlier ticks' remainders."""
+        """A frame before the first frame that cleared: not earlier remainders."""
         return max(super()._onset_walk_start(c), c.first - self.w)
 
     def _next_start(self, c):
@@ -469,8 +465,7 @@ class ResonatorSearch(DeflationSearch):
         return self.first.onset + (start - self.s1) + lag
 
     def _uncover(self, s, new, e, snap):
-        """Windows from the soonest next bounce on, each 10 % longer, until one uncovers the tick
-        this one may hide."""
+        """Windows from the soonest next bounce, 10 % longer each, uncover the next."""
         if not (len(self.onsets) >= 2 and new.strength >= DOUBTFUL_DB):
             return e, False
         on = new.onset
@@ -488,8 +483,7 @@ class ResonatorSearch(DeflationSearch):
         return e, False
 
     def _clear_span(self, s: int, on: float) -> float:
-        """How long the tick rings alone from ``s``: up to the soonest next bounce; for the second
-        tick, up to the first search's next tick."""
+        """How long the tick rings alone from ``s``: to the soonest next bounce."""
         if len(self.onsets) >= 2:
             t_last = on - self.onsets[-1]
             return (1.0 - RESTITUTION_STEP) * t_last * t_last / (self.onsets[-1] - self.onsets[-2])
@@ -497,8 +491,7 @@ class ResonatorSearch(DeflationSearch):
         return later[0] - s if later.size else 0.0
 
     def _finish(self, s, new, e, model, snap):
-        """A sure tick alone becomes a template; else the previous model is refitted jointly with
-        this one, and this one alone again."""
+        """A sure tick becomes a template; else joint refit with the previous."""
         res = self.residual
         if (
             len(res.T) < MAX_TEMPLATES

@@ -124,8 +124,7 @@ def tick_meter(
 
 
 def whitened_peak(search) -> float:
-    """Largest magnitude of ``search``'s whitened signal: its strongest impact's
-    (``Settings.innovation``)."""
+    """Largest magnitude of ``search``'s whitened signal (``Settings.innovation``)."""
     return float(np.max(np.abs(search.result.whitened)))
 
 
@@ -152,8 +151,7 @@ def ringing_ticks(
 
 
 class LazyTick:
-    """A tick of steps 1-6 over a block, measured only when a measurement other than its time is
-    asked for."""
+    """A tick of steps 1-6, measured only when more than its time is asked for."""
 
     def __init__(self, meter: TickMeter, i: int):
         self._meter, self._i, self._tick = meter, i, None

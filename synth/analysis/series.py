@@ -31,8 +31,7 @@ DOUBTFUL_DB = 6.0
 
 
 def separation(onsets, strengths, min_sep: int, e_min: float) -> int:
-    """Shortest plausible bounce after the last of ``onsets`` (step 5): ``min_sep``, and
-    ``e_min`` times the last bounce time unless the last tick is doubtful."""
+    """Shortest plausible bounce (step 5): ``min_sep``, or ``e_min`` times the last."""
     if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
         return min_sep
     return max(min_sep, int(math.ceil(e_min * (onsets[-1] - onsets[-2]))))
@@ -134,8 +133,7 @@ def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) ->
 
 
 def _in_order(on, kept, e_min, growth) -> bool:
-    """Whether the last bounce of ``kept`` lies within ``e_min`` and ``growth`` times the one before
-    (true without one)."""
+    """Whether the last bounce of ``kept`` is within ``e_min`` .. ``growth`` of the one before."""
     if len(kept) < 3:
         return True
     before = on[kept[-2]] - on[kept[-3]]

@@ -82,8 +82,8 @@ class Settings:
 
 
 def make_settings(channels: int, samplerate, options: AnalysisOptions) -> Settings:
-    """The :class:`Settings` of ``options`` for audio of ``channels`` channels at ``samplerate`` Hz.
-    Raises ParameterError for a bad rate, channel or too short a duration."""
+    """The :class:`Settings` of ``options`` for ``channels`` channels at ``samplerate`` Hz;
+    ParameterError for a bad rate, channel or duration."""
     fs = checks.positive_at_most("samplerate", samplerate, MAX_SAMPLERATE, "Hz")
     o = options
     lpc_order = o.lpc_order

@@ -55,8 +55,7 @@ INDEPENDENT_BINS = 2
 
 @dataclass(frozen=True)
 class RiseTest:
-    """What :func:`adds_sound` weighs a tick against: the signal ``read(start, stop)``, its sample
-    rate ``fs`` (Hz), the dynamic range (dB) and the noise's RMS (signal units)."""
+    """What :func:`adds_sound` weighs: ``read``, ``fs`` (Hz), range (dB), noise (RMS)."""
 
     read: object
     fs: float
@@ -73,8 +72,7 @@ def spectral_rise_db(
 
 
 def rise_chance(ratios_db: np.ndarray) -> float:
-    """Chance that stationary ringing gives a median of ``ratios_db`` (dB) at least as large
-    (:func:`median_rise_chance`); 1 without a frequency."""
+    """Chance stationary ringing gives this median rise (1 without frequencies)."""
     if not ratios_db.size:
         return 1.0
     return median_rise_chance(float(np.median(ratios_db)), ratios_db.size)
@@ -120,8 +118,7 @@ SILENT_MIN_LINES = 3
 
 @dataclass(frozen=True)
 class RiseVerdict:
-    """Whether the spectrum rises as an impact's (``adds``), whether that could be decided over as
-    many frequencies (``decisive``), and how many."""
+    """Whether the spectrum rises, whether that is decisive, over how many frequencies."""
 
     adds: bool
     decisive: bool
@@ -154,8 +151,7 @@ def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
 
 
 def adds_sound(test: RiseTest, tick_time: float, span: float) -> bool:
-    """Whether the spectrum rises at ``tick_time`` (s) as an impact's does over ``span`` (s)
-    (:func:`rise_verdict`); True where it cannot be measured."""
+    """Whether the spectrum rises at ``tick_time`` (s) (:func:`rise_verdict`)."""
     return rise_verdict(test, tick_time, span).adds
 
 
@@ -340,15 +336,13 @@ def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
 
 
 def _continues_series(ticks: list[Tick]) -> bool:
-    """Whether the last of ``ticks`` may continue the series: the second tick, or one whose bounce
-    shrank."""
+    """Whether the last tick may continue the series (second, or shrunk bounce)."""
     e = ticks[-1].restitution
     return len(ticks) == 2 or (e is not None and e < 1.0)
 
 
 def _after_rest(ticks: list[Tick]) -> bool:
-    """Whether the last of ``ticks`` came after a silence no missed ticks explain (bounce over
-    :data:`MISSED_GROWTH` times the one before)."""
+    """Whether the last tick came after a silence (:data:`MISSED_GROWTH`)."""
     e = ticks[-1].restitution
     return len(ticks) > 2 and (e is None or e > MISSED_GROWTH)
 

@@ -147,8 +147,8 @@ _BLAS_DEPTH = [0]
 
 @contextlib.contextmanager
 def one_blas_thread():
-    """A context running BLAS on one thread (helper threads on busy shared cores made the small
-    solutions several times as costly); the outermost one sets it."""
+    """A context running BLAS on one thread: helper threads on busy cores made the many small
+    solutions several times as costly. The outermost one sets it."""
     _BLAS_DEPTH[0] += 1
     try:
         if _BLAS_DEPTH[0] > 1:
@@ -170,8 +170,7 @@ def _blas_controller():
 
 
 def _loaded_cholesky(G: np.ndarray, seg: np.ndarray, load: float) -> np.ndarray | None:
-    """Cholesky factor of ``G`` plus ``load`` (raised up to three times), by :func:`_schur_cholesky`
-    (O(p^2)) or LAPACK; None if not positive definite."""
+    """Cholesky factor of ``G`` plus ``load`` (Schur or LAPACK), or None."""
     from scipy.linalg import LinAlgError, cholesky
 
     n = G.shape[0]
@@ -198,8 +197,7 @@ def _displacement_columns(seg: np.ndarray, p: int) -> tuple[np.ndarray, np.ndarr
 
 
 def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray | None:
-    """Lower Cholesky factor of ``G + load I`` from its generator (:func:`_schur_kernel`), or None
-    where not positive definite to rounding."""
+    """Cholesky factor of ``G + load I`` by :func:`_schur_kernel`, or None."""
     a, b = columns
     U = np.zeros((first_row.size, first_row.size))
     ok = _schur_kernel(np.ascontiguousarray(first_row, dtype=float), a, b, float(load), U)
@@ -264,14 +262,12 @@ def _givens(x, y, k):  # pragma: no cover - compiled
 
 
 def _predictor(Lc: np.ndarray, y: np.ndarray, order: int) -> np.ndarray:
-    """Prediction-error filter of ``order`` from the leading block of ``Lc`` (back substitution of
-    ``y``)."""
+    """Prediction-error filter of ``order`` from the leading block of ``Lc``."""
     return _predictors(Lc, y, np.array([order]))[0]
 
 
 def _predictors(Lc: np.ndarray, y: np.ndarray, orders: np.ndarray) -> list[np.ndarray]:
-    """Prediction-error filters of each of ``orders`` from the leading blocks of ``Lc``, in one
-    compiled pass."""
+    """Prediction-error filters of each of ``orders``, in one compiled pass."""
     U = Lc.T if Lc.T.flags.c_contiguous else np.ascontiguousarray(Lc.T)
     orders = np.asarray(orders, dtype=np.int64)
     out = np.zeros((orders.size, int(orders.max()) + 1))
@@ -293,8 +289,7 @@ def _back_substitutions(U, y, orders, out):  # pragma: no cover - compiled
 
 
 def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCriterion:
-    """Description length of the predictors on a geometric grid of orders, each error counted over
-    the samples the largest predicts."""
+    """Description lengths of the predictors on a geometric grid of orders."""
     from scipy.linalg import solve_triangular
 
     p = Lc.shape[0]
@@ -307,8 +302,7 @@ def _order_criterion(seg: np.ndarray, Lc: np.ndarray, C: np.ndarray) -> _OrderCr
 
 
 def _error_energies(seg: np.ndarray, predictors: list, p: int) -> np.ndarray:
-    """Prediction error energy of ``seg`` under each of ``predictors`` (at most ``p + 1`` taps) over
-    samples ``p ..``, by FFT convolution, :data:`ERROR_BATCH` at a time."""
+    """Error energies of ``seg`` under ``predictors`` by FFT, in batches."""
     from scipy import fft
 
     nfft = fft.next_fast_len(seg.size + p, real=True)
