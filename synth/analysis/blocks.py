@@ -22,8 +22,7 @@ WHOLE = 64.0
 #: Length of a block, s: a whole series of a drop up to 1.2 m with restitution up to 0.9 (first
 #: bounce 1 s, 10 bounces' worth in all) and its ringing; a longer series doubles its block.
 BLOCK = 20.0
-#: The next block starts this far before the end of one whose last series has ended, s: a drop
-#: that starts there is searched whole in the next block.
+#: Overlap of a block after one whose series ended, s: a drop there is searched whole.
 OVERLAP = 2.0
 #: Frames read at once in a pass over a file (bounded memory), at most.
 READ_FRAMES = 1 << 20

@@ -30,8 +30,7 @@ from synth.compilation import compiled
 #: tick's, s: before (onset error) and after (a longer contact than the first).
 DEFLATION_PRE = 0.00006
 DEFLATION_POST = 0.00017
-#: A candidate must carry at least this much more energy than what the deflation took
-#: out of its frame, dB (else it is a remainder of an earlier tick).
+#: A candidate's least energy over what was taken out of its frame, dB.
 DEFLATION_KAPPA_DB = 0.0
 #: A candidate must carry more energy than was taken out over the frames spanning this from the
 #: frame before its own, s (a model a fraction of a sample off spreads its remainder).

@@ -15,8 +15,7 @@ from synth.analysis.series import ANCHOR_DB, bounce_series
 from synth.analysis.settings import AnalysisError, Settings
 from synth.compilation import compiled
 
-#: Level of the onset walk relative to the whitened background, standard deviations (a
-#: Gaussian sample exceeds 4 sigma with probability 6e-5).
+#: Onset walk's least level, whitened background sigmas (P(>4 sigma) = 6e-5).
 ONSET_NOISE_SIGMAS = 4.0
 #: Least samples alternating in sign and growing towards a burst (ending at a quarter of its peak)
 #: taken for an anti-aliasing filter's pre-ringing.
@@ -35,8 +34,7 @@ STANDS_OUT_BEFORE = 0.003
 #: Probability that white Gaussian noise passes the whitened test of step 8 at one position: a
 #: sample beyond :data:`ONSET_NOISE_SIGMAS` (6e-5), as step 4.
 STANDS_OUT_FALSE_ALARM = math.erfc(ONSET_NOISE_SIGMAS / math.sqrt(2.0))
-#: The predictor of what precedes a tick of step 8 is sought from this order up (doubled
-#: while a higher one describes the stretch better).
+#: Least order of step 8's predictor of the stretch before a tick (doubled while better).
 LOCAL_ORDER = 16
 
 

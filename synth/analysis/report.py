@@ -15,14 +15,11 @@ from synth.errors import ParameterError
 GROWN_BOUNCE = "restitution>=1"
 #: Flag of a tick whose restitution divides by a bounce that had grown (a missed tick).
 AFTER_GROWN = "after-restitution>=1"
-#: Flag of a tick whose own sound does not decay over its window: not the response of a
-#: resonator to an impact (a step, an edge of a periodic wave).
+#: Flag of a tick whose own sound does not decay (a step or edge, not an impact).
 NO_DECAY = "no-decay"
-#: Flag of a tick whose restitution spans a missed bounce
-#: (:func:`~synth.analysis.validity.missed_bounces`).
+#: Flag of a tick whose restitution spans a missed bounce.
 MISSED_BOUNCE = "missed-bounce"
-#: The flags that make a tick's restitution impossible or unsupported (left out of every
-#: mean).
+#: The flags that withhold a tick's restitution (and keep it out of means).
 RESTITUTION_FLAGS = (GROWN_BOUNCE, AFTER_GROWN, MISSED_BOUNCE)
 
 

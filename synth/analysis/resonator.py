@@ -25,11 +25,9 @@ from synth.analysis.settings import Settings
 from synth.analysis.whitening import PREDICTION_FLOOR
 from synth.compilation import compiled
 
-#: The resonator's search must find the first search's ticks within this, s (two sample periods at
-#: 48 kHz) (:meth:`ResonatorSearch._confirmed`).
+#: Agreement with the first search's ticks, s (two sample periods at 48 kHz).
 AGREEMENT = 0.00004
-#: The longest lag after of a tick's filter, s: a contact up to 0.5 ms longer than the first
-#: tick's (a slow ball's on a soft board).
+#: Longest lag after of a tick's filter, s: a contact up to 0.5 ms longer.
 RESONATOR_POST = 0.0005
 #: Least samples of the fit window per unknown filter tap.
 FIT_SAMPLES_PER_TAP = 2
@@ -39,17 +37,13 @@ MAX_TEMPLATES = 3
 #: What a tick's model leaves outside its fit window is expected at its relative error in the
 #: window raised by this, dB (at most all of it).
 REMAINDER_MARGIN_DB = 10.0
-#: The template ends where it sinks under the noise or this far under the floor of the dynamic
-#: range, dB.
+#: The template ends under the noise or this far under the range's floor, dB.
 TEMPLATE_FLOOR_DB = 10.0
-#: Spacing of the places one more tick is tried (:meth:`_hypothesis`), samples: the span of the
-#: shortest filters' lags (-1 to +2).
+#: Spacing of hypothesised ticks, samples: the shortest filters' lags (-1 .. +2).
 HYPOTHESIS_STEP = 4
-#: Rows of a fit's design matrix formed at once (1.4 s at 48 kHz; a longer window, across a
-#: silence, is summed in pieces of this many rows).
+#: Design matrix rows formed at once (1.4 s at 48 kHz).
 FIT_ROWS = 1 << 16
-#: The local background of step 3 is the running median over this many times the
-#: predictor's order (the length of a tick's whitened response), at least ``background``.
+#: Step 7's local background in predictor orders (a whitened response's length).
 BACKGROUND_SPAN = 4
 
 

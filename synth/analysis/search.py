@@ -38,13 +38,11 @@ from synth.analysis.whitening import (
     whitening_predictor,
 )
 
-#: The resonator's search (step 7) is kept when its predictor leaves at least this much
-#: less of the first tick's ringing than the first search's, dB.
+#: Least gain in the first tick's ringing left for step 7 to be kept, dB.
 RESONATOR_GAIN_DB = 20.0
 
 
-#: The free ringing of the first bounce is taken from this long after the first onset (past
-#: the contact), s.
+#: The first bounce's free ringing starts this long after the first onset, s.
 CLEAN_GUARD = 0.002
 
 

@@ -13,8 +13,7 @@ from synth.compilation import compiled
 #: A bounce over this many times the previous one breaks a series (room for the contact time,
 #: growing as the ball slows, and a missed tick).
 BOUNCE_GROWTH = 1.5
-#: Candidates over which the longest bounce series from the first tick is sought when
-#: choosing the second tick.
+#: Candidates searched for the longest bounce series from the first tick.
 SERIES_HORIZON = 64
 #: A candidate more than this above the energy its bounce time allows (``(t_n / t_(n-1))^2`` times
 #: the last tick's) is no bounce, dB: 3 dB for a remainder as large as the tick, 0.4 dB for a

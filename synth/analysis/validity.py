@@ -36,8 +36,7 @@ SPECTRAL_RISE_DB = 3.0
 #: Longest stretch each side of an onset for that rise, s: a 100 Hz resolution parts a plate's
 #: ringing from an impact's broad spectrum.
 SPECTRAL_RISE_SPAN = 0.01
-#: Shortest such stretch, s: over fewer than a few hundred microseconds the spectrum has too
-#: few frequencies to judge, and the tick is kept.
+#: Shortest such stretch, s: shorter has too few frequencies; the tick is kept.
 SPECTRAL_RISE_MIN_SPAN = 0.001
 
 
@@ -111,8 +110,7 @@ def rise_ratios_db(
 #: Frequencies (bins) one spectral line covers in :func:`rise_ratios_db`: the main lobe of
 #: the Hann window, four bins wide (Harris 1978, Proc. IEEE 66, 51, table 1).
 HANN_LINE_BINS = 4
-#: A tick that neither decays nor raises the spectrum is dropped where the frequencies holding sound
-#: span this many lines (:func:`not_impacts`).
+#: Least lines of sound for :func:`not_impacts` to drop a silent tick.
 SILENT_MIN_LINES = 3
 
 
@@ -214,8 +212,7 @@ def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
     return out
 
 
-#: Smoothing of the envelope of a whole recording's ringing, s: many periods of a plate's lowest
-#: modes and of a periodic wave down to 20 Hz.
+#: Envelope smoothing for a whole recording's decay, s (periods down to 20 Hz).
 RINGING_SMOOTHING = 0.05
 
 

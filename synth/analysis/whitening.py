@@ -21,8 +21,7 @@ from synth.compilation import compiled
 PREDICTION_FLOOR = 1e-12
 #: Orders on the geometric grid over which the resonator's order criterion is evaluated.
 ORDER_GRID = 96
-#: Predictors whose prediction errors are formed at once by the order criterion (memory:
-#: this many transforms of the stretch).
+#: Predictors whose errors are formed at once (memory: as many transforms).
 ERROR_BATCH = 16
 
 
