@@ -5,25 +5,12 @@ Chapter 5 and section 3.1: per tick the onset, bounce time, restitution ``e_n = 
 impact speed ``v_n = g t_n / 2``, energy, peak, spectral centroid and spread, and decay time.
 docs/analysis.md describes the method step by step and its measured accuracy.
 
-The stages, one module each:
+Stages, one module each: options and settings, clipping, whitening (step 1), detection (steps
+2-4), series (3, 6), deflation (5), resonator (7), ringing (9), measures, validity, pipeline
+(:func:`analyze`), report and plotting."""
 
-* :mod:`~synth.analysis.options` and :mod:`~synth.analysis.settings`: the options, declared once,
-  and for one recording in samples;
-* :mod:`~synth.analysis.clipping`: clipped samples found and interpolated;
-* :mod:`~synth.analysis.whitening`: step 1, and the resonator's predictor of step 7;
-* :mod:`~synth.analysis.detection`: steps 2-4 and the delay against a template;
-* :mod:`~synth.analysis.series`: the rules of a bounce series (steps 3 and 6);
-* :mod:`~synth.analysis.deflation`: step 5; :mod:`~synth.analysis.resonator`: step 7;
-  :mod:`~synth.analysis.ringing`: step 9;
-* :mod:`~synth.analysis.measures`: each tick's measurements;
-* :mod:`~synth.analysis.validity`: the drops of a recording, impossible restitutions flagged;
-* :mod:`~synth.analysis.pipeline`: :func:`analyze`, the stages in order;
-* :mod:`~synth.analysis.report` and :mod:`~synth.analysis.plotting`: results and
-  presentation."""
-
-#: Where each public name lives: imported from there on first use (PEP 562), so that the
-#: command line reads the options' declaration (:mod:`~synth.analysis.options`) without
-#: loading the analysis.
+#: Where each public name lives, imported on first use (PEP 562): the command line reads the
+#: options' declaration without loading the analysis.
 _LAZY = {
     "AGREEMENT": "resonator",
     "ANCHOR_DB": "series",
