@@ -1,6 +1,5 @@
-"""Long recordings in blocks of :data:`BLOCK` (docs/analysis.md, Long recordings): linear time and
-bounded memory. A :class:`Source` is an array (:class:`ArraySource`) or a file read in blocks
-(:class:`FileSource`)."""
+"""Long recordings in blocks of :data:`BLOCK` (docs/analysis.md, Long recordings): linear time,
+bounded memory; a :class:`Source` is an array or a file."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
-"""Clipped samples: found, and interpolated before the ticks are sought (a clipped run whitens into
-bursts that pass for ticks): least squares under a linear predictor of the unclipped ringing
-(Janssen, Veldhuis and Vries 1986, IEEE Trans. ASSP 34, 317), each kept at least at its clipped
-magnitude."""
+"""Clipped samples found and interpolated (a clipped run whitens into false ticks): least squares
+under a linear predictor (Janssen, Veldhuis and Vries 1986, IEEE Trans. ASSP 34, 317), each kept
+at least at its clipped magnitude."""
 
 from __future__ import annotations
 
@@ -26,10 +25,8 @@ class Clipping:
 
 
 def find_clipping(chans: np.ndarray, min_count: int) -> Clipping | None:
-    """The clipped samples of ``chans`` (frames, channels), or None: a channel is clipped at an
-    extreme when ``min_count`` or more samples sit exactly there in flat tops of at least
-    :data:`FLAT_TOP` samples (a waveform that merely peaks there meets it at isolated samples);
-    then every sample at that level is clipped."""
+    """The clipped samples of ``chans`` (frames, channels), or None: ``min_count`` samples at an
+    extreme in flat tops of :data:`FLAT_TOP` (a mere peak meets it once)."""
     mask = np.zeros(chans.shape, dtype=bool)
     worst = None
     for c in range(chans.shape[1]):
@@ -75,9 +72,8 @@ def long_runs(mask: np.ndarray, least: int = FLAT_TOP) -> np.ndarray:
 
 
 def ar_interpolate(x: np.ndarray, missing: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """``x`` with the samples at ``missing`` replaced by their least-squares estimate under the
-    prediction-error filter ``a`` (Janssen et al. 1986); a sample whose estimate falls short of
-    its clipped magnitude is fixed there and the rest solved again."""
+    """``x`` with ``missing`` samples estimated by least squares under the filter ``a`` (Janssen et
+    al. 1986), none under its clipped magnitude."""
     from scipy.signal import correlate, oaconvolve
 
     p = a.size - 1
@@ -121,10 +117,8 @@ def _solve_banded_gram(free: np.ndarray, ra: np.ndarray, b: np.ndarray) -> np.nd
 
 
 def declipped_mix(chans: np.ndarray, mask: np.ndarray, order: int) -> np.ndarray:
-    """Mean of ``chans`` with each channel's clipped samples interpolated, by a predictor of order 3
-    times the longest clipped run (Janssen et al.), within 8 or ``order / 20`` and ``order``,
-    fitted after the last clipped sample when that holds ``4 order`` samples, else over the whole
-    channel."""
+    """Mean of ``chans`` with clipped samples interpolated by a predictor of 3 times the longest
+    clipped run (Janssen et al.), within 8 or ``order / 20`` and ``order``."""
     out = np.empty_like(chans)
     for c in range(chans.shape[1]):
         col, m = chans[:, c], mask[:, c]

@@ -1,8 +1,7 @@
-"""Step 5 of the tick detection (docs/analysis.md, Method): the ticks after the first, one by one on
-the whitened signal ``r`` with the earlier ticks taken out. Every tick takes the same path and
-differs only by its contact force, so a later tick is the first tick's whitened response through
-a short filter. :class:`Residual` holds what is left, :class:`DeflationSearch` walks the series;
-step 7 (:mod:`synth.analysis.resonator`) subclasses both."""
+"""Step 5 (docs/analysis.md, Method): ticks after the first, one by one with the earlier ones taken
+out of the whitened ``r``: a later tick is the first one's whitened response through a short
+filter (same path, other contact force). Step 7 subclasses :class:`Residual` and
+:class:`DeflationSearch`."""
 
 from __future__ import annotations
 
@@ -91,9 +90,8 @@ class FirstTick:
 
 @dataclass(frozen=True)
 class SearchOutcome:
-    """The ticks of a deflating search: onsets (samples), strengths (dB), residual, models, the
-    first tick's ringing left (a power ratio), step 7's template-timed onsets (or None), and
-    whether a locating search stopped early."""
+    """A deflating search's onsets (samples), strengths (dB), residual, models, ringing left (power
+    ratio), step 7's timed onsets (or None) and whether it stopped early."""
 
     onsets: np.ndarray
     strengths: np.ndarray
@@ -175,11 +173,10 @@ class Rules(NamedTuple):
 
 @compiled(nogil=True)
 def _rules(d, sub, first, rules):  # pragma: no cover - compiled
-    """The frames ``k >= first`` of ``d`` that clear the rules (``rules``: a :class:`Rules`), their
-    thresholds and backgrounds: over the largest of the past's median (frames ``k-2-bg .. k-3``,
-    at least ``noise``) times ``thr``, the fading memory of frames ``j <= k - 2`` raised by
-    ``rise``, ``floor`` and ``kappa`` times ``sub``; and the frames ``k-1 .. k+span-2`` over
-    ``kappa`` times what was taken out."""
+    """Frames ``k >= first`` of ``d`` over the largest of: the past's median (frames ``k-2-bg ..
+    k-3``, at least ``noise``) times ``thr``, the fading memory raised by ``rise``, ``floor``,
+    ``kappa`` times ``sub``; carrying over ``kappa`` times what was taken out over ``k-1 ..
+    k+span-2``. Returns them, the thresholds and backgrounds."""
     bg, noise, thr, fade, rise, floor, kappa, span = rules
     n = d.size
     a = max(0, first - bg - 3)

@@ -1,6 +1,5 @@
-"""Steps 2-4 of the tick detection (docs/analysis.md, Method): detection function, adaptive
-threshold, candidates, sub-sample onsets; and the delay of one whitened response behind another
-(step 7). Positions in samples; energies are sums of squares per frame of the whitened signal."""
+"""Steps 2-4 (docs/analysis.md, Method): detection function, threshold, candidates and sub-sample
+onsets; the delay of a whitened response (step 7); step 8. Positions in samples."""
 
 from __future__ import annotations
 
@@ -122,9 +121,8 @@ def detect(r: np.ndarray, settings: Settings, background: float) -> Detection:
 
 
 def _rises_from(d: np.ndarray, med: np.ndarray, size: int, settings: Settings) -> np.ndarray:
-    """The background each frame of ``d`` rises from: the centred median ``med``, but up to the
-    first burst's peak the lead-in's median where lower (a centred one holds the first tick's
-    ringing) when the lead-in spans :data:`STANDS_OUT_BEFORE`."""
+    """The background each frame of ``d`` rises from: ``med``, but the lead-in's median where lower
+    up to the first peak (a centred median holds the first tick's ringing)."""
     k0 = int(np.argmax(d >= d.max() * 10.0 ** (-settings.dynamic_range_db / 10.0)))
     if k0 * settings.hop < STANDS_OUT_BEFORE * settings.samplerate:
         return med
@@ -166,9 +164,8 @@ def _candidates(d: np.ndarray, threshold: np.ndarray, settings: Settings) -> np.
 
 @dataclass(frozen=True)
 class OnsetWalk:
-    """Step 4's walk back from a burst's largest ``|r|``: level ``fraction`` of the peak (at least
-    ``noise``), gap bridged (``gap``, samples), pre-ringing above ``noise`` only (``strict``),
-    and the gap in a weak burst (``weak_gap``, samples)."""
+    """Step 4's walk back: level ``fraction`` of the peak (at least ``noise``), ``gap`` bridged
+    (samples), ``strict`` pre-ringing, and ``weak_gap`` (samples) in a weak burst."""
 
     fraction: float
     gap: int
@@ -186,8 +183,7 @@ class OnsetWalk:
 
 def refine_onset(r: np.ndarray, lo: int, hi: int, walk: OnsetWalk) -> float:
     """Sub-sample onset (samples) of the burst of ``r`` peaking in ``[lo, hi)`` (step 4): the level
-    crossing walking back bridging :meth:`OnsetWalk.walk_gap`, or the centre of an anti-aliasing
-    filter's sampled sinc (:func:`_sinc_centre`)."""
+    crossing walking back (:meth:`OnsetWalk.walk_gap`), or a sinc's centre."""
     # the walk looks back from the burst only: |r| over a stretch before it, longer only
     # where the walk comes near the stretch's start (the same onset as over the whole of r)
     span = max(64, 8 * max(walk.gap, walk.weak_gap or 0))
@@ -234,9 +230,8 @@ def _walk_back(mag: np.ndarray, k: int, level: float, gap: int) -> int:
 def _sinc_centre(
     r: np.ndarray, mag: np.ndarray, i: int, k: int, floor: float
 ) -> tuple[int, float] | None:
-    """Centre ``(m, f)`` of a burst behind a linear-phase anti-aliasing filter, or None: after
-    :data:`PRE_RINGING_RUN` alternating growing samples (at least ``floor``), ``r[m+1] / r[m] = f
-    / (1 - f)``."""
+    """Centre ``(m, f)`` of a burst after :data:`PRE_RINGING_RUN` samples of anti-aliasing
+    pre-ringing, ``r[m+1] / r[m] = f / (1 - f)``; else None."""
     m = i
     while m < k and r[m] * r[m + 1] < 0.0 and mag[m] < mag[m + 1]:
         m += 1
@@ -379,12 +374,10 @@ class StandingOut:
 def standing_out(
     x: np.ndarray, r: np.ndarray, known: np.ndarray, settings: Settings
 ) -> StandingOut:
-    """The ticks that clearly stand out of the recording ``x`` but are not among ``known``
-    (samples), from its whitened signal ``r`` (step 8, docs/analysis.md): the recording rises
-    :data:`STANDS_OUT_DB` over :data:`STANDS_OUT_SPAN` against :data:`STANDS_OUT_BEFORE`, the
-    whitened signal beyond noise's F quantile (:data:`STANDS_OUT_FALSE_ALARM`) within the dynamic
-    range; each run timed by :func:`_local_onset`, kept when both tests hold there and not
-    :func:`_dropped`."""
+    """Step 8 (docs/analysis.md): ticks of ``x`` not among ``known`` (samples) that clearly stand
+    out (:data:`STANDS_OUT_DB`) and whose whitened ``r`` rises beyond noise's F quantile within
+    the dynamic range; each timed by :func:`_local_onset`, kept when both tests hold there and it
+    is not :func:`_dropped`."""
     hop, fs = settings.hop, settings.samplerate
     span = max(1, int(round(STANDS_OUT_SPAN * fs)))
     blocks = max(1, int(round(STANDS_OUT_BEFORE * fs / hop)))
@@ -456,10 +449,9 @@ class LocalOnset:
 def _local_onset(
     x: np.ndarray, first: int, span: int, before: int, settings: Settings
 ) -> LocalOnset | None:
-    """Onset of a tick rising from sample ``first``: where the error of a predictor of the past
-    (:func:`~synth.analysis.whitening.resonator_predictor`) steps in variance
-    (:func:`_cusum_start`, :func:`_change_point`), if the error before it passes the F test as
-    the past's noise; else None."""
+    """Onset of a tick rising from ``first``: where the error of a predictor of the past steps in
+    variance (:func:`_cusum_start`, :func:`_change_point`), if the error before it is the past's
+    noise by the F test; else None."""
     from scipy.signal import lfilter
 
     from synth.analysis.whitening import resonator_predictor

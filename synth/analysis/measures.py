@@ -129,9 +129,8 @@ def own_sound(tick: FoundTick, whitening: Whitening, s: int, e: int, stop: int) 
 
 
 def decay_time(y: np.ndarray, fs: float, n: int, floor: float) -> float | None:
-    """Time for the envelope of ``y`` (rate ``fs``, Hz; Hann-smoothed over ``n`` samples) to fall to
-    1/e, s, from a log-linear fit above :data:`DECAY_NOISE_MARGIN_DB` over ``floor``; None when
-    too short or flat."""
+    """Time for the envelope of ``y`` (rate ``fs``, Hz; Hann over ``n``) to fall to 1/e, s, fitted
+    above ``floor``; None when too short or flat."""
     if y.size < 2 * n:
         return None
     w = np.hanning(n + 2)[1:-1]

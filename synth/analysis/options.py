@@ -1,8 +1,6 @@
-"""The analysis options, declared once: :class:`AnalysisOptions`, each field with its type, default,
-SI unit, values allowed and doc (:class:`~synth.checks.Option`). ``analyze``, ``analyze_file``
-(signatures and docstrings generated from the fields) and the command line's flags read them from
-here. Values that depend on the recording are checked by
-:func:`~synth.analysis.settings.make_settings`."""
+"""The analysis options, declared once (:class:`AnalysisOptions`, fields of
+:class:`~synth.checks.Option`): ``analyze``, ``analyze_file`` and the command line read them
+here; recording-dependent checks are :func:`~synth.analysis.settings.make_settings`'."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""The analysis of a recording, stage by stage (docs/analysis.md, Method): checked inputs, clipping,
-whitening (step 1), the first search (steps 2-6), the resonator's search (step 7) and the
-measurements; a long recording block by block (docs/analysis.md, Long recordings)."""
+"""The analysis of a recording stage by stage (docs/analysis.md, Method), a long one block by block
+(docs/analysis.md, Long recordings)."""
 
 from __future__ import annotations
 
@@ -204,10 +203,8 @@ def _clip_levels(sv: Survey, min_count: int) -> list[tuple[int, float]]:
 
 
 def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list[list]:
-    """The bounce series of a recording of ``frames`` frames read by ``signal(start, stop)``, block
-    by block (:mod:`synth.analysis.blocks`): steps 1-6 locate a block's series, each drop is
-    searched on its own (steps 1-7), and the next block starts at the next drop. One BLAS thread
-    per block (:func:`one_blas_thread`)."""
+    """The series of a recording of ``frames`` frames read by ``signal``, block by block: steps 1-6
+    locate series, each drop is searched on its own (steps 1-7), one BLAS thread."""
     fs = settings.samplerate
     base = block_frames(fs)
     lead = int(math.ceil(settings.background * fs)) + WINDOW_GUARD
@@ -253,9 +250,8 @@ def _block_drops(frames: int, signal, settings: Settings, clipped: bool) -> list
 
 
 def _block_ticks(x: np.ndarray, settings: Settings, clipped: bool, kept: float, lead: int):
-    """The ticks of block ``x`` (times from its start), those after ``kept`` (s) new: its first
-    series on its own (steps 1-7) then steps 1-6's ticks from the next drop, when steps 1-6 show
-    a new series after a new first one; else the whole block by steps 1-7."""
+    """The ticks of block ``x`` (new after ``kept``, s): its first series alone, then steps 1-6's
+    from the next drop; else the whole block by steps 1-7."""
     fs = settings.samplerate
     parts: dict = {}  # the whitening predictors' autocorrelation terms, x's and its start's
     loc = _located(x, settings, clipped, locate=True, parts=parts)
@@ -314,17 +310,15 @@ def _searched(
 
 
 def _series_ended(ticks: list, end: float, lead: float) -> bool:
-    """Whether a series can have no tick after ``end`` (s): the block goes on past its next bounce
-    (at most :data:`~synth.analysis.series.BOUNCE_GROWTH` times its last, at least
-    :data:`OVERLAP`) and the local background before it."""
+    """Whether the block goes on past the series' next bounce (and the local background), so that it
+    can have no tick after ``end`` (s)."""
     bounce = ticks[-1].bounce_time or 0.0
     return end - ticks[-1].time >= max(OVERLAP, BOUNCE_GROWTH * bounce) + lead
 
 
 def _drops(x: np.ndarray, settings: Settings, clipped: bool) -> list[list]:
-    """The ticks of each bounce series of ``x``, each found and measured on its own: steps 1-7 over
-    the whole when they make one series; else as a long recording (:func:`_block_drops`), since
-    the first drop's template and resonator do not fit a later drop's ringing."""
+    """The ticks of each series of ``x``: steps 1-7 over the whole for one series; else as a long
+    recording (:func:`_block_drops`): one drop's template fits no other's ringing."""
     ticks, innovation = _ticks(x, settings, clipped)
     if new_series_at(ticks) is None:
         return [ticks]
@@ -351,9 +345,8 @@ def _numbered(found: list[list]) -> list[Series]:
 def _ticks(
     x: np.ndarray, settings: Settings, clipped: bool, resonator: bool = True, parts=None
 ) -> tuple[list, float]:
-    """The ticks of ``x`` by steps 1-7 (without ``resonator``, steps 1-6), measured, and the largest
-    magnitude of its whitened signal (``Settings.innovation``). ``parts``: as for
-    :func:`first_search`."""
+    """The measured ticks of ``x`` by steps 1-7 (1-6 without ``resonator``), and its largest
+    whitened magnitude. ``parts``: as for :func:`first_search`."""
     search = first_search(x, settings, parts=parts)
     ticks = measured_ticks(x, search, settings, clipped, resonator)
     return ticks, whitened_peak(search)

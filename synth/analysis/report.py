@@ -150,9 +150,8 @@ _COLUMNS = (
 
 
 def format_table(analysis, *, warnings=True) -> str:
-    """A terminal table of the ticks, one line each, under a summary header and, with ``warnings``,
-    the analysis' warnings (the command line prints them to stderr instead); columns as
-    :data:`_COLUMNS`, undefined values as ``-``."""
+    """A terminal table of the ticks under a summary header and, with ``warnings``, the warnings;
+    columns :data:`_COLUMNS`, undefined values ``-``."""
     an = checked_analysis("analysis", analysis)
     if not isinstance(warnings, (bool, np.bool_)):
         raise ParameterError(f"warnings={warnings!r} must be True or False")

@@ -1,7 +1,6 @@
-"""Step 7 of the tick detection (docs/analysis.md, Method): on a lightly damped resonator the first
-tick rings over the whole first bounce under the 20 ms whitening; the resonator's own predictor
-(:func:`synth.analysis.whitening.resonator_predictor`) cancels it, and step 5 runs again with
-each tick modelled over its whole response."""
+"""Step 7 (docs/analysis.md, Method): the resonator's own predictor
+(:func:`synth.analysis.whitening.resonator_predictor`) cancels the first tick's ringing, and step
+5 runs again with each tick modelled over its whole response."""
 
 from __future__ import annotations
 
@@ -93,9 +92,8 @@ class ResonatorResidual(Residual):
         return frame_energies(np.sqrt(self.expect[lo:hi]), self.hop, self.w)
 
     def remove(self, s: int, end: int, alone: int | None = None, joint=()) -> np.ndarray:
-        """Fit :meth:`choose` to ``q[s:end]``, take it out and return it; outside the window it is
-        expected to leave its relative error raised by :data:`REMAINDER_MARGIN_DB`, up to
-        ``alone``. ``joint``: later ticks fitted along."""
+        """Fit :meth:`choose` to ``q[s:end]``, take it out and return it; ``expect`` gets its error
+        raised by :data:`REMAINDER_MARGIN_DB` up to ``alone``."""
         q = self.q
         W = min(end, q.size) - s
         if W <= 0:
@@ -124,9 +122,8 @@ class ResonatorResidual(Residual):
         return contrib
 
     def choose(self, y: np.ndarray, offsets=(0,)) -> ModelChoice:
-        """The model of least description length ``W ln(RSS) + P ln W`` (Rissanen 1983, Ann. Stat.
-        11, 416) of ticks at ``offsets`` in ``y`` over template counts and lags with
-        :data:`FIT_SAMPLES_PER_TAP` samples per unknown (one tap each where none fits)."""
+        """The model of least description length (Rissanen 1983, Ann. Stat. 11, 416) of ticks at
+        ``offsets`` in ``y``, over template counts and lags."""
         W = y.size
         K = len(offsets)
         choices = [
@@ -232,10 +229,9 @@ class _NormalEquations:
 
 @compiled()
 def _least_description(G, b, y, M, lo, choices, layout):  # pragma: no cover - compiled
-    """:meth:`ResonatorResidual.choose` in one compiled pass (same columns, ridge and solution as
-    :meth:`_NormalEquations.solve`) over ``M`` from row ``lo``, ``G`` and ``b``: index,
-    description length, taps and residual of the first least of ``choices``. ``layout``:
-    ``(offsets, templates, pre, post)`` of the design matrix."""
+    """:meth:`ResonatorResidual.choose` in one compiled pass (as :meth:`_NormalEquations.solve`):
+    index, length, taps and residual of the first least of ``choices``; ``layout``: ``(offsets,
+    templates, pre, post)``."""
     n_offsets, n_templates, pre_all, post_all = layout
     W = y.size
     ntap_all = pre_all + post_all + 1
@@ -390,11 +386,9 @@ def _rss(res: np.ndarray, y: np.ndarray) -> float:
 
 
 class ResonatorSearch(DeflationSearch):
-    """Step 5 on the resonator's whitening with step 7's rules (docs/analysis.md): templates from
-    sure ticks, fit windows to the next tick, joint refits, the soonest bounce the series allows,
-    one more tick by description length, timing against the template. ``floor`` None: the
-    whitened noise and ``e_min^2`` times the last tick's energy, at least
-    :data:`PREDICTION_FLOOR` of ``strongest``; ``known``: the first search's onsets."""
+    """Step 5 on the resonator's whitening with step 7's rules (docs/analysis.md): templates, joint
+    refits, the soonest bounce, one more tick by description length, template timing. ``floor``
+    None: from noise and the last tick; ``known``: the first search's onsets."""
 
     strict_onsets = True
 
@@ -515,9 +509,8 @@ class ResonatorSearch(DeflationSearch):
         return np.array(self.timed)
 
     def _hypothesis(self):
-        """One more tick where the series allows the next bounce, against none, by description
-        length, tried every :data:`HYPOTHESIS_STEP` samples where the residual clears the floor
-        (the place costs ``2 ln M``); strength: the fall per sample, dB."""
+        """One more tick against none by description length, tried every :data:`HYPOTHESIS_STEP`
+        samples where the series and floor allow; strength in dB."""
         if self.prev is None or len(self.onsets) < 3:
             return None
         onsets, res = self.onsets, self.residual

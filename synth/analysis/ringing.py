@@ -1,7 +1,6 @@
-"""Step 9 (docs/analysis.md): a burst the ringing before it explains is no impact. The free
-ringing's covariance-method predictor models its modes (Prony's method, Kumaresan and Tufts 1982,
-IEEE Trans. ASSP 30, 833); an impact's broadband force raises its prediction error, beating modes
-do not."""
+"""Step 9 (docs/analysis.md): a burst the ringing explains is no impact. The ringing's predictor
+models its modes (Prony's method, Kumaresan and Tufts 1982, IEEE Trans. ASSP 30, 833): an impact
+raises its error, beating modes do not."""
 
 from __future__ import annotations
 
@@ -31,10 +30,9 @@ RIDGE = 1e-12
 def ringing_explained(
     x: np.ndarray, free: int, onset: float, s: Settings, innovation: float
 ) -> bool:
-    """Whether the burst at ``onset`` is explained by the ringing free from ``free``: the error of
-    modes fitted over :data:`RINGING_FIT` does not rise from the held-out stretch to the tick by
-    step 8's F quantile, or peaks ``dynamic_range_db`` under ``innovation``. A short fit explains
-    only where it models the ringing (:func:`_predicts`); False where too short or silent."""
+    """Whether the burst at ``onset`` is explained by the ringing free from ``free``: modes fitted
+    over :data:`RINGING_FIT` predict it within step 8's F quantile, or it peaks
+    ``dynamic_range_db`` under ``innovation``. False where it cannot be judged."""
     from scipy.signal import lfilter
 
     fs = s.samplerate
@@ -67,9 +65,8 @@ def _predicts(held: np.ndarray, error: np.ndarray) -> bool:
 
 
 def ringing_predictor(seg: np.ndarray) -> np.ndarray | None:
-    """Prediction-error filter ``[1, a1, ..., ap]`` of ``seg`` by the covariance method, of order a
-    third of its samples, with a ridge of :data:`RIDGE` of the mean diagonal; only its one-step
-    error is used, so stability does not matter. None where ``seg`` is silent."""
+    """Covariance-method prediction-error filter of ``seg``, order a third of its samples, ridge
+    :data:`RIDGE`; None where silent."""
     from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
     p = (seg.size - 1) // 3

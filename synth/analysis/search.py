@@ -1,6 +1,4 @@
-"""Steps 1-9 of the analysis over one signal (docs/analysis.md, Method): whitening and first search
-(1-5), bounce order (6), the resonator's search (7), the ticks the ringing explains dropped (9),
-and the meter of the ticks found."""
+"""Steps 1-9 over one signal (docs/analysis.md, Method), and the meter of the ticks found."""
 
 from __future__ import annotations
 
@@ -57,9 +55,8 @@ class FirstSearch:
 def first_search(
     x: np.ndarray, settings: Settings, locate: bool = False, parts: dict | None = None
 ) -> FirstSearch:
-    """Steps 1-5 over ``x``; with ``locate``, stopped a few ticks past a new series' start.
-    ``parts``: autocorrelation terms shared with overlapping searches
-    (:func:`~synth.analysis.whitening.whitening_predictor`)."""
+    """Steps 1-5 over ``x`` (with ``locate``, stopped past a new series' start); ``parts``: shared
+    autocorrelation terms."""
     A = whitening_predictor(x, settings.whitening_order, settings.samplerate, parts)
     with one_blas_thread():
         return FirstSearch(A, _search(whiten(x, A), settings, locate=locate))
@@ -68,9 +65,8 @@ def first_search(
 def measured_ticks(
     x: np.ndarray, search: FirstSearch, settings: Settings, clipped: bool, resonator: bool
 ) -> list:
-    """The ticks of ``x`` from ``search``: bounce order (step 6), the resonator's search (step 7,
-    with ``resonator``), measured, with those the ringing explains (step 9) or that add no sound
-    dropped."""
+    """The measured ticks of ``x`` from ``search`` after steps 6, 7 (with ``resonator``) and 9, and
+    those adding no sound dropped."""
     meter = tick_meter(x, search, settings, clipped, resonator)
     with one_blas_thread():
         ticks = [meter.tick(i) for i in range(len(meter.found))]
@@ -129,9 +125,8 @@ def whitened_peak(search) -> float:
 def ringing_ticks(
     x: np.ndarray, ticks: list, found: list[FoundTick], settings: Settings, innovation: float
 ) -> list[int]:
-    """Indices of the ``ticks`` after the first whose burst the ringing explains
-    (:func:`~synth.analysis.ringing.ringing_explained`, step 9), the ringing free from
-    :data:`CLEAN_GUARD` after the previous onset; step 7's ticks (``found``) are not tested."""
+    """Indices of the ``ticks`` whose burst the ringing explains (step 9), except step 7's
+    (``found``)."""
     fs = settings.samplerate
     guard = int(round(CLEAN_GUARD * fs))
     return [
@@ -173,9 +168,8 @@ class LazyTick:
 
 @dataclass(frozen=True)
 class SearchResult:
-    """The ticks of one search: onsets (samples) and strengths (dB), the residual and models (None
-    without deflation), the first tick's ringing left (None without a second tick), the candidate
-    frames, and the onsets timed against the template (step 7)."""
+    """One search: onsets (samples), strengths (dB), residual and models (or None), the ringing
+    left, the candidate frames, and step 7's timed onsets."""
 
     whitened: np.ndarray
     onsets: np.ndarray
@@ -242,9 +236,8 @@ def _resonator_stage(
     found: list[FoundTick],
     whitenings: list[Whitening],
 ) -> list[FoundTick]:
-    """Step 7 from the first bounce's free ringing, kept when it leaves :data:`RESONATOR_GAIN_DB`
-    less ringing and finds the first search's ticks within :data:`AGREEMENT`; its whitening is
-    appended to ``whitenings``."""
+    """Step 7, kept when it leaves :data:`RESONATOR_GAIN_DB` less ringing and agrees with the first
+    search (:data:`AGREEMENT`); appends its whitening."""
     fs = settings.samplerate
     lo = int(math.floor(first.onsets[0])) + int(round(CLEAN_GUARD * fs))
     hi = (first.peaks[1] - 1) * settings.hop

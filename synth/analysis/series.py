@@ -1,6 +1,5 @@
-"""The rules of a bounce series (the thesis, docs/physics.md, References, section 3.1): bounces
-within ``e_min`` and :data:`BOUNCE_GROWTH` times the one before, energy as the flight squared.
-Onsets in samples, strengths in dB."""
+"""The rules of a bounce series (the thesis, docs/physics.md, References, section 3.1). Onsets in
+samples, strengths in dB."""
 
 from __future__ import annotations
 
@@ -46,9 +45,8 @@ def soonest(onsets, strengths, min_sep: int) -> int:
 
 
 def too_strong(onsets, strengths, energies, on: float, energy: float) -> bool:
-    """Whether a candidate at ``on`` of whitened energy ``energy`` is more than
-    :data:`MAX_EXCESS_DB` above ``(t_n / t_(n-1))^2`` times the last trusted tick's energy (step
-    5)."""
+    """Whether a candidate at ``on`` (energy ``energy``) is :data:`MAX_EXCESS_DB` over ``(t_n /
+    t_(n-1))^2`` times the last trusted tick's energy."""
     if len(onsets) < 2 or strengths[-1] < DOUBTFUL_DB:
         return False
     ratio = (on - onsets[-1]) / (onsets[-1] - onsets[-2])
@@ -62,9 +60,8 @@ def bounce_series(
     horizon: int = SERIES_HORIZON,
     sure: np.ndarray | None = None,
 ) -> list[int]:
-    """Indices in ``onsets`` of the longest bounce series from the first tick (step 3), by dynamic
-    programming over ``horizon`` candidates; ``sure`` bounds its second tick
-    (:func:`last_second`)."""
+    """Indices of the longest bounce series from the first tick (step 3), by dynamic programming;
+    ``sure`` bounds its second tick (:func:`last_second`)."""
     t = np.asarray(onsets[:horizon], dtype=float)
     n = t.size
     if n < 3:
@@ -87,9 +84,8 @@ def bounce_series(
 
 @compiled(nogil=True)
 def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
-    """Tables of :func:`bounce_series`' dynamic programme: ``best[i, j]``, most ticks in a series
-    ending t_i, t_j; ``second[i, j]``, its second tick; ``back[i, j]``, the tick before t_i (-1:
-    none)."""
+    """:func:`bounce_series`' tables: ``best[i, j]`` (ticks ending t_i, t_j), ``second[i, j]`` and
+    ``back[i, j]`` (-1: none)."""
     n = t.size
     best = np.zeros((n, n), dtype=np.int64)
     second = np.zeros((n, n), dtype=np.int64)
@@ -119,9 +115,8 @@ def _series_tables(t, latest, e_min, growth):  # pragma: no cover - compiled
 
 
 def last_second(t: np.ndarray, sure: np.ndarray, e_min: float, growth: float) -> int:
-    """The latest candidate that can be the second tick: the first sure candidate after the first
-    that the next sure one follows in bounce order (the last candidate when none does). Three
-    sure ticks in bounce order are a series, not one tick's response."""
+    """Latest possible second tick: the first sure one that the next sure one follows in bounce
+    order (three are a series, not a response); else the last."""
     idx = np.nonzero(sure)[0]
     idx = idx[idx > 0]
     for c, d in zip(idx[:-1], idx[1:]):
@@ -160,9 +155,8 @@ def bounce_order(
 
 
 def _too_soon(on, strengths, kept: list, i: int, e_min: float, growth: float) -> None:
-    """Tick ``i`` comes sooner than ``e_min`` times the last bounce: the last tick's response,
-    unless the last tick is a doubtful remainder just before this stronger one, which then
-    replaces it in ``kept``."""
+    """Tick ``i`` is too soon after the last: dropped, unless the last is a doubtful remainder just
+    before it, which it replaces in ``kept``."""
     if (
         strengths[kept[-1]] < DOUBTFUL_DB
         and strengths[i] > strengths[kept[-1]]

@@ -33,9 +33,8 @@ class AnalysisError(SynthError, ValueError):
 
 @dataclass(frozen=True)
 class Settings:
-    """The options for one recording: rate and channel checked, durations in samples.
-    ``fixed_range``: ``dynamic_range_db`` given (also in step 7); ``innovation``: the whole
-    recording's largest whitened magnitude when drops are searched apart."""
+    """The options for one recording, durations in samples; ``fixed_range``: range given;
+    ``innovation``: the recording's largest whitened magnitude."""
 
     samplerate: float  # Hz
     gravity: float  # m/s^2

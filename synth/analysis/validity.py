@@ -1,7 +1,5 @@
-"""What a bouncing ball can and cannot do, checked on the ticks found: where one drop's series ends
-and the next begins, and which measurements are impossible. Along a series bounces shrink and
-ticks weaken (the thesis, docs/physics.md, References, section 3.1); a grown bounce is missed
-ticks (at most :data:`MISSED_GROWTH` times) or a new drop."""
+"""What a bouncing ball can and cannot do (the thesis, docs/physics.md, References, section 3.1):
+where drops begin, and which measurements are impossible."""
 
 from __future__ import annotations
 
@@ -79,8 +77,7 @@ def rise_chance(ratios_db: np.ndarray) -> float:
 
 def median_rise_chance(median_db: float, count: int) -> float:
     """Chance that stationary ringing gives a median rise of ``median_db`` (dB) over ``count``
-    frequencies: each ratio is F(2, 2) (exceeds ``q`` with probability ``1 / (1 + q)``), the
-    median of every :data:`INDEPENDENT_BINS`-th frequency a binomial tail."""
+    frequencies: F(2, 2) ratios, binomial median over independent bins."""
     if median_db == math.inf:
         return 0.0
     p = 1.0 / (1.0 + 10.0 ** (median_db / 10.0))
@@ -92,9 +89,8 @@ def median_rise_chance(median_db: float, count: int) -> float:
 def rise_ratios_db(
     before: np.ndarray, after: np.ndarray, dynamic_range_db: float, noise_rms: float = 0.0
 ) -> np.ndarray:
-    """Power of ``after`` over ``before`` (equal Hann-windowed stretches), dB, at the frequencies
-    within ``dynamic_range_db`` of the largest and :data:`SPECTRAL_NOISE_MARGIN_DB` over white
-    noise of RMS ``noise_rms``; +inf where ``before`` is silent."""
+    """Power of ``after`` over ``before`` (Hann-windowed), dB, at the frequencies holding sound
+    (within the range, over the noise ``noise_rms``)."""
     w = np.hanning(before.size)
     pb = np.abs(np.fft.rfft(before * w)) ** 2
     pa = np.abs(np.fft.rfft(after * w)) ** 2
@@ -124,9 +120,8 @@ class RiseVerdict:
 
 
 def rise_verdict(test: RiseTest, tick_time: float, span: float) -> RiseVerdict:
-    """Whether the spectrum rises at ``tick_time`` (s) by :data:`SPECTRAL_RISE_DB` over ``span`` (s)
-    each side beyond chance :data:`RISE_FALSE_ALARM` for stationary ringing (undecided over too
-    few frequencies, too short a span or no room before the onset)."""
+    """Whether the spectrum rises at ``tick_time`` (s) by :data:`SPECTRAL_RISE_DB` over ``span``
+    (s), beyond :data:`RISE_FALSE_ALARM`, where decidable."""
     fs = test.fs
     n = int(round(min(span, SPECTRAL_RISE_SPAN) * fs))
     i = int(round(tick_time * fs))
@@ -182,9 +177,8 @@ def doubtful_ticks(ticks: list[Tick]) -> list[int]:
 
 
 def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
-    """Whether the bounces after the second tick show it a ball's: ``e_2 < 1`` over no missed
-    bounce, and ``e_3`` within :data:`~synth.analysis.series.RESTITUTION_STEP` of it where a
-    fourth tick follows."""
+    """Whether ``e_2 < 1`` over no missed bounce, and ``e_3`` within
+    :data:`~synth.analysis.series.RESTITUTION_STEP` of it, confirm the second tick."""
     following = ticks[2:4]
     if not following or missed & {2, 3}:
         return False
@@ -196,9 +190,8 @@ def _confirmed_second(ticks: list[Tick], missed: set[int]) -> bool:
 
 
 def not_impacts(ticks: list[Tick], test: RiseTest) -> list[int]:
-    """Indices of the doubtful ticks no impact made (bursts of beating modes, a clipped run's
-    interpolation): the spectrum does not rise (:func:`rise_verdict`) where enough frequencies
-    decide, or, over :data:`SILENT_MIN_LINES` lines, neither does its sound decay."""
+    """Indices of the doubtful ticks no impact made: no spectral rise where decided, or no rise and
+    no decay over :data:`SILENT_MIN_LINES` lines."""
     out = []
     for i in doubtful_ticks(ticks):
         gaps = [ticks[i].time - ticks[i - 1].time]
@@ -218,9 +211,8 @@ RINGING_SMOOTHING = 0.05
 
 @dataclass(frozen=True)
 class Series:
-    """One bounce series (one drop) of a recording: its ``ticks`` in time order, the onsets of its
-    ``first`` and ``last`` tick (s), and the mean of its unflagged restitutions
-    (``mean_restitution``, dimensionless; None without one)."""
+    """One drop's series: ``ticks``, ``first`` and ``last`` onsets (s), and ``mean_restitution`` of
+    the unflagged (None without one)."""
 
     ticks: list[Tick]
     first: float
@@ -229,10 +221,8 @@ class Series:
 
 
 def new_series_at(ticks: list[Tick]) -> int | None:
-    """Index of the first tick (after the second) that starts a new series, or None: its bounce over
-    :data:`~synth.analysis.series.BOUNCE_GROWTH` times the one before and either
-    :data:`~synth.analysis.series.MAX_EXCESS_DB` louder or after a silence
-    (:data:`MISSED_GROWTH`)."""
+    """Index of the first tick that starts a new series (a grown bounce, louder or after a silence),
+    or None."""
     times = [t.time for t in ticks]
     for i in range(2, len(ticks)):
         ratio = (times[i] - times[i - 1]) / (times[i - 1] - times[i - 2])
@@ -291,11 +281,9 @@ def _with_missed_bounces(ticks: list[Tick]) -> list[Tick]:
 
 
 def missed_bounces(ticks: list[Tick]) -> set[int]:
-    """Indices of the ticks of one series whose restitution (below 1) spans a missed bounce: it
-    departs by more than :data:`~synth.analysis.series.RESTITUTION_STEP` from both neighbours',
-    or its energy lies :data:`MISSED_ENERGY_DB` under ``e_n^2`` times the tick before's (energy
-    goes as the impact speed squared: the thesis, section 3.1). A series missing every other tick
-    is not told from a ball of restitution ``e^2``."""
+    """Indices of the ticks whose restitution spans a missed bounce: off both neighbours' by
+    :data:`~synth.analysis.series.RESTITUTION_STEP`, or :data:`MISSED_ENERGY_DB` under ``e_n^2``
+    times the tick before's energy (the thesis, section 3.1)."""
     rest = {i: t.restitution for i, t in enumerate(ticks) if _restitution_below_one(t)}
     out = set()
     for i, e in rest.items():
@@ -318,9 +306,8 @@ def valid_restitution(tick: Tick) -> bool:
 
 
 def check_impulsive(ticks: list[Tick], ringing: np.ndarray, fs: float) -> None:
-    """Raise AnalysisError when no tick is followed by a decaying response (a square wave's edges
-    whiten to bursts but nothing rings down); without a tick's own decay time, ``ringing``
-    (sample rate ``fs``, Hz) is fitted over an envelope smoothed by :data:`RINGING_SMOOTHING`."""
+    """Raise AnalysisError when nothing found rings down after it (a square wave's edges);
+    ``ringing`` (rate ``fs``, Hz) is fitted where no tick has a decay."""
     if not ticks or not all(NO_DECAY in t.flags for t in ticks):
         return
     if decay_time(ringing, fs, max(3, int(round(RINGING_SMOOTHING * fs))), 0.0) is not None:
@@ -345,9 +332,8 @@ def _after_rest(ticks: list[Tick]) -> bool:
 
 
 def without_spurious_end(ticks: list[Tick], duration: float, window: float) -> list[Tick]:
-    """``ticks`` without the trailing undecaying bursts after the last impact: after a rest where
-    some tick decays, or where the ``window`` (s) runs past ``duration`` (s) and the bounce did
-    not shrink."""
+    """``ticks`` without the trailing undecaying bursts after the last impact (after a rest, or past
+    the end with ``window`` and ``duration``, s)."""
     out = list(ticks)
     decays = any(t.decay_time is not None for t in out)
     while (

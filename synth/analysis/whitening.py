@@ -1,6 +1,5 @@
-"""Step 1 of the tick detection (docs/analysis.md, Method): whitening by a linear predictor (Makhoul
-1975, Proc. IEEE 63, 561; as in Stowell and Plumbley 2007, ICMC), leaving one short burst per
-contact, and step 7's resonator predictor."""
+"""Step 1 (docs/analysis.md, Method): whitening by a linear predictor (Makhoul 1975, Proc. IEEE 63,
+561; Stowell and Plumbley 2007, ICMC), and step 7's resonator predictor."""
 
 from __future__ import annotations
 
@@ -28,17 +27,15 @@ ERROR_BATCH = 16
 def whitening_predictor(
     x: np.ndarray, order: int, samplerate: float, parts: dict | None = None
 ) -> np.ndarray:
-    """Step 1's prediction-error filter of ``x`` (rate ``samplerate``, Hz) by the autocorrelation
-    method, loaded so no band is lifted past the noise floor (:func:`noise_floor_loading`,
-    :func:`lead_in_noise`). ``parts``: shared autocorrelation terms."""
+    """Step 1's prediction-error filter of ``x`` (rate ``samplerate``, Hz), loaded so no band is
+    lifted past the noise floor; ``parts``: shared terms."""
     r = dsp.white_noise_corrected(dsp.autocorrelation(x, order, parts))
     return dsp.levinson_predictor(r + noise_floor_loading(r, lead_in_noise(x, samplerate), x.size))
 
 
 def lead_in_noise(x: np.ndarray, samplerate: float) -> float:
-    """Noise floor of ``x`` (sample rate ``samplerate``, Hz; signal units) where ``x`` starts in it
-    (its first frame among the quietest), else 0: a render's quietest frames are the ringing's
-    end, not noise."""
+    """Noise floor of ``x`` (rate ``samplerate``, Hz) where it starts in noise, else 0 (a render's
+    quietest frames are ringing)."""
     fr = dsp.noise_frames(x, samplerate)
     if fr.shape[0] < 2:
         return 0.0
@@ -73,9 +70,8 @@ def _parzen(p: int) -> np.ndarray:
 
 
 def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
-    """Prediction error of ``x`` under ``predictor``, silent before its first sample; 0 over digital
-    silences (zero runs at least as long as ``predictor``), where the error would be the
-    continuation of a sound cut off, a burst no impact made."""
+    """Prediction error of ``x`` under ``predictor``; 0 over digital silences, where it would be a
+    cut-off sound's continuation."""
     from scipy.signal import oaconvolve
 
     r = oaconvolve(x, predictor)[: x.size]
@@ -84,9 +80,8 @@ def whiten(x: np.ndarray, predictor: np.ndarray) -> np.ndarray:
 
 
 def silence_floor(r: np.ndarray, frame: int, span: int) -> float:
-    """Level (RMS over ``frame`` samples) under which ``r`` holds nothing an impact can be told from
-    where it falls to digital silence (runs of ``frame`` zeros; 0 where none): the median over
-    the silences of the largest frame energy over the ``span`` samples before each."""
+    """Level (RMS over ``frame``) of the whitened ``r`` before its digital silences: the median of
+    the largest frame energy over ``span`` before each (0 without)."""
     levels = [
         float(np.convolve(r[a - span : a] ** 2, np.ones(frame), "valid").max())
         for a, b in runs(r == 0.0)
@@ -97,9 +92,8 @@ def silence_floor(r: np.ndarray, frame: int, span: int) -> float:
 
 @dataclass(frozen=True)
 class _OrderCriterion:
-    """Description lengths of the predictors of the orders ``grid``: their error energies (at least
-    :data:`PREDICTION_FLOOR` of the stretch's), ``N ln(E_m / N) + m ln N``, and the
-    forward-substituted ``y`` giving each order's predictor."""
+    """Description lengths ``N ln(E_m / N) + m ln N`` of the orders ``grid``, their error energies,
+    and ``y`` giving each predictor."""
 
     grid: np.ndarray
     energy: np.ndarray
@@ -108,10 +102,9 @@ class _OrderCriterion:
 
 
 def resonator_predictor(seg: np.ndarray, fs: float, start: int) -> np.ndarray | None:
-    """Prediction-error filter of the free ringing ``seg`` (rate ``fs``, Hz) by the covariance
-    method, of the stable order of least description length (Rissanen 1983, Ann. Stat. 11, 416),
-    orders from ``start`` doubled up to :data:`MAX_ORDER`, all from one Cholesky factor; solved
-    again with the least error energy as ridge. None when too short or unstable."""
+    """Covariance-method predictor of the free ringing ``seg`` (rate ``fs``, Hz) of the stable order
+    of least description length (Rissanen 1983, Ann. Stat. 11, 416), solved with the least error
+    as ridge; None when too short or unstable."""
     cap = min(MAX_ORDER, (seg.size - 1) // 3)
     if cap < 2 or not np.any(seg):
         return None
@@ -205,9 +198,8 @@ def _schur_cholesky(first_row: np.ndarray, columns, load: float) -> np.ndarray |
 
 @compiled()
 def _schur_kernel(row, a, b, load, U):  # pragma: no cover - compiled
-    """Generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297) with mixed hyperbolic
-    rotations (Bojanczyk et al. 1995, SIAM J. Matrix Anal. Appl. 16, 40): the Cholesky factor's
-    transpose into ``U``; False where a rotation breaks down."""
+    """Generalized Schur algorithm (Kailath and Sayed 1995, SIAM Rev. 37, 297; Bojanczyk et al.
+    1995, SIAM J. Matrix Anal. Appl. 16, 40) into ``U``; False on breakdown."""
     p = row.size
     d = row[0] + load
     if not d > 0.0:
