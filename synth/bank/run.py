@@ -373,6 +373,36 @@ def _jobs(jobs) -> int:
     return spec_integer("jobs", jobs, 1, "must be an integer >= 1 (worker processes)")
 
 
+#: The options of :func:`run`, also the flags of ``synth bank``: name: (argparse keywords,
+#: what it does).
+OPTIONS = {
+    "jobs": (
+        {"type": int, "metavar": "N"},
+        "worker processes (default: the cores; 1 renders here)",
+    ),
+    "scheduler": (
+        {"metavar": "ADDRESS"},
+        "run on a Dask cluster (a scheduler's address tcp://host:8786, or a client) instead "
+        "of local workers",
+    ),
+    "dry_run": (
+        {"action": "store_true"},
+        "change nothing: list the rows to render (JSON lines) and estimate the time from a "
+        "few rows run in a scratch folder",
+    ),
+    "force": (
+        {"action": "store_true"},
+        "start over in a folder made by another spec (deletes its files)",
+    ),
+    "redo": ({"metavar": "ROWS"}, "render these rows again although complete (e.g. 17,40-45)"),
+    "prune": (
+        {"action": "store_true"},
+        "delete the audio files in the folder that are in neither the manifest nor the plan "
+        "(without it they are only reported)",
+    ),
+}
+
+
 def run(
     spec,
     out_dir,
@@ -384,17 +414,6 @@ def run(
     redo=None,
     prune: bool = False,
 ) -> BankResult:
-    """Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``
-    (created if needed), resuming what an earlier run left.
-
-    ``jobs``: worker processes (default: the cores; 1 renders here); ``scheduler``: a Dask
-    scheduler's address (``"tcp://host:8786"``) or client; ``dry_run``: change nothing,
-    report the rows to render and an estimate of the time from a few rows run in a scratch
-    folder; ``force``: start over in a folder of another spec (its files deleted); ``redo``:
-    rows to render again (``"17,40-45"``); ``prune``: delete audio files in neither the
-    manifest nor the plan (else only reported). A bad spec raises
-    :class:`~synth.bank.spec.BankSpecError` before any work, an unreachable scheduler a
-    :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."""
     t0 = time.perf_counter()
     spec = _as_spec(spec)
     n_jobs = _jobs(jobs)
@@ -411,6 +430,15 @@ def run(
     finally:
         if connection is not None:
             connection.close()
+
+
+run.__doc__ = (
+    "Render the bank ``spec`` (a spec file, a dict, or a :class:`BankSpec`) into ``out_dir``\n"
+    "(created if needed), resuming what an earlier run left.\n\n"
+    + "\n".join(f"``{name}``: {text}." for name, (_, text) in OPTIONS.items())
+    + "\n\nA bad spec raises :class:`~synth.bank.spec.BankSpecError` before any work, an\n"
+    "unreachable scheduler a :class:`BankRunError` within :data:`CONNECT_TIMEOUT` s."
+)
 
 
 def _run_in(
