@@ -453,7 +453,9 @@ def _run_in(
         hold_lock(lock)
         try:
             result = _run(spec, items, out, n_jobs, connection, force, again)
-            _find_orphans(out, items, result, prune)
+            recorded = [str(r.get("file")) for r in mf.read_rows(out)]
+            result.orphans = mf.orphans(out, [item.file for item in items] + recorded, prune)
+            result.pruned = prune and bool(result.orphans)
             return result
         finally:
             hold_lock(None)
@@ -492,15 +494,6 @@ def _dry_run(
 def _todo(items, kept: list[dict]) -> list:
     done = {r["index"] for r in kept}
     return [item for item in items if item.index not in done]
-
-
-def _find_orphans(out: Path, items, result: BankResult, prune: bool) -> None:
-    """``result.orphans``, deleted if ``prune``."""
-    recorded = [str(r.get("file")) for r in mf.read_rows(out)]
-    result.orphans = mf.orphans(out, [item.file for item in items] + recorded)
-    if prune and result.orphans:
-        mf.remove_files(out, result.orphans)
-        result.pruned = True
 
 
 def _run(
