@@ -467,12 +467,9 @@ def _run_in(
         ) from None
 
 
-def _dry_run(
-    spec, items, out: Path, jobs: int, force: bool, again=frozenset(), t0: float | None = None
-) -> BankResult:
+def _dry_run(spec, items, out: Path, jobs: int, force: bool, again, t0: float) -> BankResult:
     """What a run would do, writing nothing: the rows to render (status ``planned``), the
     rows complete and the :class:`Estimate`; with ``force`` every row is to render."""
-    t0 = time.perf_counter() if t0 is None else t0
     plan = {item.index: item for item in items}
     problem = _resume_problem(out, spec)
     if problem is not None and not force:
